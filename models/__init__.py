@@ -1,0 +1,32 @@
+"""Fidelities of vibeam: the SDOF impact oscillator and (later) the FE beam.
+
+Solvers are built by :func:`make_solver` from a model, a method name and its
+settings; every solver has ``point(Omega, state0, n_transient, n_record,
+samples_per_period)`` so that the one sweep engine drives them all.
+"""
+from __future__ import annotations
+
+from .sdof import SDOF, EventSolver, linear_amplitude
+
+METHODS = {
+    ("sdof", "event"): EventSolver,
+}
+
+
+def make_solver(model, method: str, **settings):
+    """Solver for ``model`` by ``method`` (e.g. ``"event"``) with its settings.
+
+    Raises
+    ------
+    ValueError
+        If the method does not exist for the model's fidelity.
+    """
+    key = (model.fidelity, method)
+    if key not in METHODS:
+        allowed = sorted(m for f, m in METHODS if f == model.fidelity)
+        raise ValueError(f"method {method!r} is not available for fidelity {model.fidelity!r}; "
+                         f"allowed: {', '.join(allowed)}")
+    return METHODS[key](model, **settings)
+
+
+__all__ = ["SDOF", "EventSolver", "linear_amplitude", "make_solver", "METHODS"]

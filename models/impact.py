@@ -1,0 +1,79 @@
+"""Impact laws, kept apart from the contact relation (Siconos style).
+
+An impact law maps the normal relative velocity before impact, ``U_minus``,
+to the normal relative velocity after impact.  The contact relation (which
+generalised velocities make up ``U`` and how the impulse is distributed over
+the degrees of freedom) belongs to the model.  One law therefore serves the
+SDOF oscillator (``U = q'``) and the multi-DOF beam (``U = w^T u'``) alike.
+
+Sign convention: ``U > 0`` means the contact point approaches the stop
+(paper Eq. 2 and Eq. 41, where the stop lies at ``q = Delta`` above the mass).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def newton_restitution(U_minus, R):
+    """Newton's kinematic impact law, paper Eq. 2: ``U+ = -R U-``.
+
+    Parameters
+    ----------
+    U_minus : float
+        Normal relative velocity just before impact (nondimensional or SI; the
+        law is unit free).  Positive when approaching the stop.
+    R : float
+        Coefficient of restitution, ``0 <= R <= 1``.
+
+    Returns
+    -------
+    float
+        Normal relative velocity just after impact, ``-R U_minus``.
+    """
+    return -R * U_minus
+
+
+@njit(cache=True)
+def restitution_impulse(U_minus, R, m_eff):
+    """Normal impulse that realises Newton's law on a contact of effective mass ``m_eff``.
+
+    For a multi-DOF system with mass matrix ``M`` and contact row ``w``
+    (``U = w^T u'``), the impulse ``P`` applied along ``w`` changes the
+    velocities by ``M^-1 w P``.  Choosing ``P = -(1 + R) m_eff U-`` with
+    ``m_eff = 1 / (w^T M^-1 w)`` gives ``U+ = -R U-`` exactly and dissipates
+    ``(1 - R^2) m_eff U-^2 / 2`` (Moreau's / Siconos' Newton impact law).
+
+    Parameters
+    ----------
+    U_minus : float
+        Normal relative velocity before impact (positive when approaching).
+    R : float
+        Coefficient of restitution in [0, 1].
+    m_eff : float
+        Effective mass of the contact, ``1 / (w^T M^-1 w)`` (kg or nondimensional).
+
+    Returns
+    -------
+    float
+        The impulse ``P`` (negative: it pushes away from the stop).
+    """
+    U_plus = newton_restitution(U_minus, R)
+    return m_eff * (U_plus - U_minus)
+
+
+def energy_loss(U_minus, R, m_eff=1.0):
+    """Kinetic energy removed by one Newton impact, ``(1 - R^2) m_eff U-^2 / 2``.
+
+    Parameters
+    ----------
+    U_minus : float or ndarray
+        Pre-impact normal velocity.
+    R : float
+        Coefficient of restitution.
+    m_eff : float, optional
+        Effective contact mass (1 for the nondimensional SDOF model).
+    """
+    U_minus = np.asarray(U_minus, dtype=float)
+    return 0.5 * (1.0 - R * R) * m_eff * U_minus * U_minus

@@ -1,0 +1,379 @@
+"""Exact event-driven solver of the SDOF coefficient-of-restitution oscillator.
+
+Model (nondimensional, paper Eqs. 1-2 and 43, 47)::
+
+    q'' + 2 beta q' + q = Omega^2 B sin(Omega t)      while q < Delta
+    q(t+) = q(t-),  q'(t+) = -R q'(t-)                  at q = Delta
+
+Between impacts the motion is the closed-form linear flow (paper Eq. 28,
+:mod:`vibeam.models.sdof_flow`); the solver only finds event times.
+
+Guaranteed impact detection
+    Time advances on a grid aligned with the forcing phase.  On each interval
+    the sign of ``g'' = q''`` is *certified* from bounds on the third and fourth
+    derivatives (``|q'''| <= A + C Omega^3``, ``|q''''| <= A + C Omega^4`` with
+    ``A`` the homogeneous envelope and ``C`` the forced amplitude).  With
+    ``g''`` of one sign the velocity is monotone, so ``g = q - Delta`` has at
+    most one maximum (or minimum) inside; its apex is located by a bracketed
+    root of ``q'`` and checked against the stop.  An uncertified interval is
+    halved.  No crossing where ``g`` rises above zero and falls back inside a
+    step can be missed (grazing included).  Impact times are refined by
+    safeguarded Newton iteration on a sign-changing bracket to a few ulps.
+
+Chatter (Zeno) and sticking
+    After an impact with small rebound speed ``u`` into a region where the
+    free-flight acceleration pushes the mass on the stop (``a > 0``), the
+    remaining impacts form a geometric sequence (velocities ``R^k u``, flight
+    times ``2 R^k u / a``) that accumulates after ``2 u / (a (1 - R))``
+    (Budd & Dux 1994; Nordmark & Piiroinen 2009).  When the local estimate of
+    the relative error of that constant-acceleration sum is below
+    ``chatter_tol``, the solver jumps to the accumulation point and switches to
+    sticking.  While stuck, ``q = Delta`` and ``q' = 0``; the mass is released
+    exactly when the contact force ``Omega^2 B sin(Omega t) - Delta`` turns
+    negative (closed form).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .impact import newton_restitution
+from .sdof_flow import homogeneous_amplitude, particular_coefficients, propagate
+
+TWO_PI = 2.0 * math.pi
+EPS = 2.220446049250313e-16
+
+STATUS_OK = 0
+STATUS_CHATTER = 1
+STATUS_STICKING = 2
+STATUS_FAILED = 3
+STATUS_NAMES = ("ok", "chatter", "sticking", "failed")
+
+
+@njit(cache=True)
+def _root(kind, lo, hi, phi0, q0, v0, beta, a, b, Omega, Delta):
+    """Safeguarded Newton (rtsafe) on a bracket with f(lo) < 0 <= f(hi).
+
+    kind 0: f = q - Delta (impact);  kind 1: f = -q' (apex of q, q' falling);
+    kind 2: f = q' (minimum of q, q' rising).  Returns the end of the final
+    bracket on which f >= 0, so an impact time is never before the crossing.
+    """
+    dxold = hi - lo
+    dx = dxold
+    s = 0.5 * (lo + hi)
+    for _ in range(200):
+        g, v, g2, g3, g4 = propagate(s, phi0, q0, v0, beta, a, b, Omega, Delta)
+        if kind == 0:
+            f = g
+            df = v
+        elif kind == 1:
+            f = -v
+            df = -g2
+        else:
+            f = v
+            df = g2
+        if f == 0.0:
+            return s
+        if f < 0.0:
+            lo = s
+        else:
+            hi = s
+        if hi - lo <= 4.0 * EPS * max(abs(hi), 1e-300):
+            break
+        # Newton step if it stays inside the bracket and shrinks fast enough
+        if df != 0.0:
+            sn = s - f / df
+            if lo < sn < hi and abs(2.0 * f) <= abs(dxold * df):
+                dxold = dx
+                dx = sn - s
+                s = sn
+                continue
+        dxold = dx
+        dx = 0.5 * (hi - lo)
+        s = lo + dx
+    return hi
+
+
+@njit(cache=True)
+def _certify(g20, g30, g21, g31, M3, M4, h, tol):
+    """Certified sign of q'' on [0, h]: +1 convex, -1 concave, 0 unknown.
+
+    ``g2x``/``g3x`` are the 2nd/3rd derivatives of q at the two ends,
+    ``M3``/``M4`` bounds of the 3rd/4th derivatives, ``tol`` the round-off
+    level of q''.
+    """
+    # first-order test with the 3rd-derivative bound (the lower envelope of
+    # |q''| over the interval is V-shaped)
+    if g20 >= -tol and g21 >= -tol and g20 + g21 > M3 * h:
+        return 1
+    if g20 <= tol and g21 <= tol and g20 + g21 < -M3 * h:
+        return -1
+    # second-order tests with the 4th-derivative bound, anchored at either
+    # end; they certify intervals that start at a release or grazing point
+    # where q'' = 0
+    c = 0.5 * M4 * h * h
+    if g20 <= tol and g20 + g30 * h + c <= tol:
+        return -1
+    if g21 <= tol and g21 - g31 * h + c <= tol:
+        return -1
+    if g20 >= -tol and g20 + g30 * h - c >= -tol:
+        return 1
+    if g21 >= -tol and g21 - g31 * h - c >= -tol:
+        return 1
+    return 0
+
+
+@njit(cache=True)
+def _release_delay(phi, F, Delta, Omega):
+    """Time until a mass stuck on the stop is released (inf: never).
+
+    The contact force per unit mass is ``a(phi) = F sin(phi) - Delta``; the
+    mass stays while ``a >= 0`` and leaves when ``a`` turns negative.
+    """
+    a_now = F * math.sin(phi) - Delta
+    da = F * Omega * math.cos(phi)
+    if a_now < 0.0 or (a_now == 0.0 and da < 0.0):
+        return 0.0
+    if F <= 0.0:
+        return np.inf  # unforced: a = -Delta >= 0 stays
+    r = Delta / F
+    if r <= -1.0:
+        return np.inf
+    if r >= 1.0:
+        return 0.0
+    phid = math.pi - math.asin(r)  # downward zero crossing of a
+    dphi = (phid - phi) % TWO_PI
+    return dphi / Omega
+
+
+@njit(cache=True)
+def event_kernel(beta, B, R, Delta, Omega, q_init, v_init, stuck_init,
+                 n_transient, n_record, ns_transient, ns_record,
+                 max_impacts, chatter_tol,
+                 samples, imp_t, imp_v):
+    """Simulate whole forcing periods exactly; the numba core of method ``event``.
+
+    Time starts at forcing phase 0.  ``samples`` (shape (n_record *
+    ns_record, 2)) receives ``(q, q')`` at the phase grid of the recorded
+    periods; ``imp_t``/``imp_v`` receive the times (from the start of the
+    recording) and pre-impact velocities of the first ``len(imp_t)`` recorded
+    impacts.
+
+    Returns
+    -------
+    tuple
+        ``(status, n_imp_record, q_min, q_max, n_chatter, stuck_time,
+        q_end, v_end, stuck_end, n_imp_total)``.
+    """
+    F = Omega * Omega * B
+    a, b = particular_coefficients(beta, F, Omega)
+    C = math.sqrt(a * a + b * b)
+    T = TWO_PI / Omega
+    W2 = C * Omega ** 2
+    W3 = C * Omega ** 3
+    W4 = C * Omega ** 4
+    q = q_init
+    v = v_init
+    stuck = stuck_init
+    if q > Delta:
+        q = Delta
+    n_imp_total = 0
+    n_imp_rec = 0
+    n_chatter = 0
+    stuck_time = 0.0
+    q_min = np.inf
+    q_max = -np.inf
+    cap = imp_t.shape[0]
+    status = STATUS_OK
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, stuck, 0)
+    n_total = n_transient + n_record
+    k_sample = 0
+    for p in range(n_total):
+        recording = p >= n_transient
+        ns = ns_record if recording else ns_transient
+        # keep steps below 1/16 of the natural period as well (efficiency)
+        sub = max(1, int(math.ceil((T / ns) / (TWO_PI / 16.0))))
+        h_grid = T / ns
+        t_period0 = (p - n_transient) * T
+        for j in range(ns):
+            phi = TWO_PI * j / ns
+            if recording:
+                samples[k_sample, 0] = q
+                samples[k_sample, 1] = v
+                k_sample += 1
+                if q < q_min:
+                    q_min = q
+                if q > q_max:
+                    q_max = q
+            for isub in range(sub):
+                rem = h_grid / sub
+                t_loc = j * h_grid + isub * h_grid / sub  # time within period
+                while rem > 0.0:
+                    if stuck:
+                        s_r = _release_delay(phi, F, Delta, Omega)
+                        if s_r >= rem:
+                            if recording:
+                                stuck_time += rem
+                            phi = (phi + Omega * rem) % TWO_PI
+                            t_loc += rem
+                            rem = 0.0
+                            break
+                        if recording:
+                            stuck_time += s_r
+                        phi = (phi + Omega * s_r) % TWO_PI
+                        t_loc += s_r
+                        rem -= s_r
+                        stuck = False
+                        q = Delta
+                        v = 0.0
+                        continue
+                    # ---- free flight from (phi, q, v) for at most rem ----
+                    if q >= Delta and v >= 0.0:
+                        # on the stop and not leaving: an impact if approaching,
+                        # otherwise sticking if the contact force presses it on
+                        q = Delta
+                        if v > 0.0:
+                            v_minus = v
+                            v = newton_restitution(v_minus, R)
+                            n_imp_total += 1
+                            if recording:
+                                if n_imp_rec < cap:
+                                    imp_t[n_imp_rec] = t_period0 + t_loc
+                                    imp_v[n_imp_rec] = v_minus
+                                n_imp_rec += 1
+                            continue
+                        if _release_delay(phi, F, Delta, Omega) > 0.0:
+                            stuck = True
+                            continue
+                    A = homogeneous_amplitude(phi, q, v, beta, a, b, Omega)
+                    M3 = (A + W3) * (1.0 + 1e-9) + 1e-300
+                    M4 = (A + W4) * (1.0 + 1e-9) + 1e-300
+                    g0, v0, g20, g30, g40 = propagate(0.0, phi, q, v, beta, a, b, Omega, Delta)
+                    M2 = (A + W2) * (1.0 + 1e-9) + 1e-300
+                    tol2 = 1e-13 * M2  # q'' within round-off of zero counts as zero
+                    h = rem
+                    h_min = 1e-13 * T
+                    while True:
+                        g1, v1, g21, g31, g41 = propagate(h, phi, q, v, beta, a, b, Omega, Delta)
+                        # far from the stop: linear interpolation error <= M2 h^2 / 8
+                        if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
+                            cert = 2
+                            break
+                        cert = _certify(g20, g30, g21, g31, M3, M4, h, tol2)
+                        if cert != 0 or h < h_min:
+                            break
+                        h *= 0.5
+                    if cert == 0:
+                        cert = 1 if g20 + g21 > 0.0 else -1
+                    s_imp = -1.0
+                    if cert == 2:
+                        # no impact possible; only the extrema of a recorded window
+                        if recording:
+                            if v0 < 0.0 < v1:
+                                sm = _root(2, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                                gm = propagate(sm, phi, q, v, beta, a, b, Omega, Delta)[0]
+                                if Delta + gm < q_min:
+                                    q_min = Delta + gm
+                            elif v0 > 0.0 > v1:
+                                sa = _root(1, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                                ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
+                                if Delta + ga > q_max:
+                                    q_max = Delta + ga
+                    elif cert < 0:
+                        # concave: v non-increasing
+                        if v0 > 0.0:
+                            if v1 >= 0.0:
+                                if g1 >= 0.0:
+                                    s_imp = _root(0, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                            else:
+                                # tangent lines bound a concave function from above
+                                bound = g0 + v0 * (g1 - g0 - v1 * h) / (v0 - v1) if v0 - v1 > 0.0 else g0
+                                if bound >= 0.0 or recording:
+                                    sa = _root(1, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                                    ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
+                                    if ga >= 0.0:
+                                        s_imp = _root(0, 0.0, sa, phi, q, v, beta, a, b, Omega, Delta) if g0 < 0.0 else sa
+                                    elif recording and Delta + ga > q_max:
+                                        q_max = Delta + ga
+                    else:
+                        # convex: v non-decreasing
+                        if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
+                            if v0 < 0.0:
+                                # minimum of q: root of q' on [0, h] (q' increasing)
+                                sm = _root(2, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                                if recording:
+                                    gm = propagate(sm, phi, q, v, beta, a, b, Omega, Delta)[0]
+                                    if Delta + gm < q_min:
+                                        q_min = Delta + gm
+                                if g1 >= 0.0:
+                                    s_imp = _root(0, sm, h, phi, q, v, beta, a, b, Omega, Delta)
+                            elif g1 >= 0.0:
+                                s_imp = _root(0, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                    if s_imp >= 0.0:
+                        gi, vi, g2i, g3i, g4i = propagate(s_imp, phi, q, v, beta, a, b, Omega, Delta)
+                        phi = (phi + Omega * s_imp) % TWO_PI
+                        t_loc += s_imp
+                        rem -= s_imp
+                        if rem < 0.0:
+                            rem = 0.0
+                        q = Delta
+                        v_minus = vi if vi > 0.0 else 0.0
+                        v = newton_restitution(v_minus, R)
+                        n_imp_total += 1
+                        if recording:
+                            q_max = Delta
+                            if n_imp_rec < cap:
+                                imp_t[n_imp_rec] = t_period0 + t_loc
+                                imp_v[n_imp_rec] = v_minus
+                            n_imp_rec += 1
+                        if n_imp_total > max_impacts:
+                            return (STATUS_FAILED, n_imp_rec, q_min, q_max, n_chatter,
+                                    stuck_time, q, v, stuck, n_imp_total)
+                        # contact acceleration with the rebound velocity
+                        u = -v
+                        acc = F * math.sin(phi) + 2.0 * beta * u - Delta
+                        if u <= 0.0:
+                            # no rebound (R = 0 or grazing contact): stick if pushed on the stop
+                            if _release_delay(phi, F, Delta, Omega) > 0.0:
+                                stuck = True
+                                v = 0.0
+                        elif acc > 0.0 and R < 1.0:
+                            D = 2.0 * u / (acc * (1.0 - R))
+                            jerk = abs(F * Omega * math.cos(phi))
+                            err = D * (jerk / acc + 2.0 * beta + D)
+                            if err < chatter_tol:
+                                n_chatter += 1 if recording else 0
+                                if D < rem:
+                                    phi = (phi + Omega * D) % TWO_PI
+                                    t_loc += D
+                                    rem -= D
+                                stuck = True
+                                v = 0.0
+                        continue
+                    # no event in [0, h]: move to its end
+                    if recording:
+                        qe = Delta + g1
+                        if qe < q_min:
+                            q_min = qe
+                        if qe > q_max:
+                            q_max = qe
+                    q = Delta + g1
+                    if q > Delta:
+                        q = Delta
+                    v = v1
+                    phi = (phi + Omega * h) % TWO_PI
+                    t_loc += h
+                    rem -= h
+                    if rem < 1e-15 * T:
+                        rem = 0.0
+    if n_record > 0:
+        if n_chatter > 0:
+            status = STATUS_CHATTER
+        elif stuck_time > 0.0:
+            status = STATUS_STICKING
+    return (status, n_imp_rec, q_min, q_max, n_chatter, stuck_time, q, v, stuck, n_imp_total)
+
+

@@ -1,0 +1,1 @@
+"""Reductions from the finite-element beam to lower fidelities (paper Eqs. 42-46)."""

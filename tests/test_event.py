@@ -1,0 +1,209 @@
+"""The exact event-driven solver against closed forms, an independent fixed-point
+computation and conservation laws."""
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+from scipy.linalg import expm
+from scipy.optimize import fsolve
+
+from vibeam.models import SDOF, EventSolver, linear_amplitude
+from vibeam.records import summarize
+
+
+def _run(model, Omega, n_transient, n_record, state0=None, ns=64, **kw):
+    return EventSolver(model, **kw).point(Omega, state0, n_transient, n_record, ns)
+
+
+# --------------------------------------------------------------------------- linear limit
+@pytest.mark.parametrize("Omega", [0.5, 1.0, 1.7, 2.0, 3.3])
+def test_far_from_stop_equals_linear_steady_state(Omega):
+    """With the stop out of reach the FRC is the linear resonance curve.
+
+    Q = Delta - min q = Delta + C exactly in steady state; after 600 periods the
+    homogeneous part has decayed by exp(-0.05 * 600 * 2 pi / Omega) < 1e-24
+    (worst case Omega = 3.3), so only round-off remains: rtol 1e-10.
+    """
+    m = SDOF(beta=0.05, B=0.01, R=0.8, Delta=100.0)
+    tr = _run(m, Omega, 600, 8)
+    out = summarize(tr, m.Delta)
+    C = linear_amplitude(m.beta, m.B, Omega)
+    assert out["period"] == -1  # no impact
+    assert out["amplitude"] - m.Delta == pytest.approx(C, rel=1e-10)
+    assert out["q_max"] == pytest.approx(C, rel=1e-10)
+    # the harmonic analysis sees only the fundamental; the others are at the
+    # round-off of q = Delta + (q - Delta), i.e. ~eps * |Delta|
+    assert out["harmonics"][1] == pytest.approx(C, rel=1e-10)
+    assert np.all(out["harmonics"][[0, 2, 3, 4, 5]] < 100 * np.finfo(float).eps * (m.Delta + C))
+
+
+# --------------------------------------------------------------------------- period-1 orbit
+def _augmented(beta, F, Omega):
+    """Linear system for (q, q', sin(Omega t), cos(Omega t)); propagated with expm."""
+    return np.array([[0, 1, 0, 0],
+                     [-1, -2 * beta, F, 0],
+                     [0, 0, 0, Omega],
+                     [0, 0, -Omega, 0]], dtype=float)
+
+
+def _shaw_holmes_fixed_point(beta, B, R, Delta, Omega, guess):
+    """Period-1 one-impact orbit (Shaw & Holmes 1983) from the matrix exponential.
+
+    Unknowns: impact phase psi and pre-impact velocity v.  Starting on the stop
+    at phase psi with velocity -R v, after one forcing period the orbit must be
+    back on the stop with velocity v.  Independent of vibeam's closed form.
+    """
+    F = Omega**2 * B
+    T = 2 * math.pi / Omega
+    E = expm(_augmented(beta, F, Omega) * T)
+
+    def res(x):
+        psi, v = x
+        y = E @ np.array([Delta, -R * v, math.sin(psi), math.cos(psi)])
+        return [y[0] - Delta, y[1] - v]
+
+    sol, info, ier, msg = fsolve(res, guess, full_output=True, xtol=1e-14)
+    assert ier == 1, msg
+    return sol
+
+
+@pytest.mark.parametrize("Omega", [1.9, 2.0, 2.1])
+def test_period_one_orbit_matches_independent_fixed_point(Omega):
+    """Steady impact velocity and phase equal the fixed point of the impact map to 1e-8."""
+    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    tr = _run(m, Omega, 1500, 4)
+    assert summarize(tr, m.Delta)["period"] == 1
+    assert tr.n_impacts == 4
+    T = 2 * math.pi / Omega
+    phase = (Omega * tr.impact_times[-1]) % (2 * math.pi)
+    v = tr.impact_velocities[-1]
+    psi, v_fp = _shaw_holmes_fixed_point(m.beta, m.B, m.R, m.Delta, Omega, [phase, v])
+    assert v == pytest.approx(v_fp, rel=1e-8)
+    dpsi = (phase - psi + math.pi) % (2 * math.pi) - math.pi
+    assert abs(dpsi) < 1e-8
+    # impacts are exactly one forcing period apart
+    assert np.allclose(np.diff(tr.impact_times), T, rtol=0, atol=1e-9)
+
+
+# --------------------------------------------------------------------------- energy
+def test_energy_conserved_with_elastic_impacts():
+    """R = 1, beta = 0, B = 0: E = (q^2 + q'^2) / 2 is constant through many impacts."""
+    m = SDOF(beta=0.0, B=0.0, R=1.0, Delta=0.3)
+    state0 = np.array([0.0, 1.0, 0.0])
+    tr = _run(m, 1.3, 0, 200, state0=state0)
+    E = 0.5 * (tr.samples[:, 0] ** 2 + tr.samples[:, 1] ** 2)
+    assert tr.n_impacts > 150
+    assert np.max(np.abs(E - 0.5)) < 1e-12
+
+
+def test_each_impact_removes_restitution_energy():
+    """beta = 0, B = 0: between impacts E is constant; impact i removes (1 - R^2) v_i^2 / 2."""
+    R = 0.7
+    m = SDOF(beta=0.0, B=0.0, R=R, Delta=0.2)
+    state0 = np.array([0.0, 1.0, 0.0])
+    tr = _run(m, 1.0, 0, 30, state0=state0, ns=256)
+    t = np.arange(tr.samples.shape[0]) * (2 * math.pi / 1.0) / 256
+    E = 0.5 * (tr.samples[:, 0] ** 2 + tr.samples[:, 1] ** 2)
+    dE = 0.5 * (1 - R**2) * tr.impact_velocities**2
+    n_before = np.searchsorted(tr.impact_times, t, side="left")
+    expected = 0.5 - np.concatenate([[0.0], np.cumsum(dE)])[n_before]
+    assert tr.n_impacts >= 5
+    assert np.max(np.abs(E - expected)) < 1e-12
+    # and the velocities follow the geometric law of a free oscillator,
+    # v_{i+1} = R v_i, up to the conditioning of a near-grazing impact: a
+    # round-off dg ~ eps |q| in the gap function moves the impact by dg / v
+    # and the velocity by Delta dg / v, i.e. a relative error ~ eps (Delta / v)^2
+    v = tr.impact_velocities
+    rel = np.abs(v[1:] / v[:-1] / R - 1)
+    assert np.all(rel < 1e-13 + 32 * np.finfo(float).eps * (m.Delta / v[1:]) ** 2)
+
+
+# --------------------------------------------------------------------------- chatter
+@pytest.mark.parametrize("R", [0.5, 0.8, 0.9])
+def test_chatter_accumulation_time_equals_sum_of_flight_times(R):
+    """B = 0, beta = 0, Delta < 0: launched from the stop with speed u0 the k-th
+    flight lasts 2 atan(R^k u0 / |Delta|) (closed form of q = Delta cos s - u sin s
+    returning to Delta); the sequence accumulates at their sum, then the mass
+    sticks for good (the spring presses it on the stop).  The solver jumps to the
+    accumulation point once the neglected terms are below chatter_tol, so the
+    time agrees to ~1e-9 relative."""
+    Delta, u0 = -0.5, 0.3
+    m = SDOF(beta=0.0, B=0.0, R=R, Delta=Delta)
+    Omega = 1.0
+    n_rec = 4
+    tr = _run(m, Omega, 0, n_rec, state0=np.array([Delta, -u0, 0.0]))
+    k = np.arange(4000)
+    t_acc = np.sum(2 * np.arctan(R**k * u0 / abs(Delta)))
+    window = n_rec * 2 * math.pi / Omega
+    t_stick = window * (1 - tr.extra["stuck_fraction"])
+    assert tr.status == "chatter"
+    assert t_stick == pytest.approx(t_acc, rel=1e-9)
+    assert np.all(tr.impact_times < t_stick)
+    assert tr.final_state[2] == 1.0 and tr.final_state[0] == Delta and tr.final_state[1] == 0.0
+
+
+def test_sticking_with_zero_restitution_releases_when_force_pulls_away():
+    """R = 0: the mass sticks at each impact and leaves when Omega^2 B sin - Delta < 0.
+
+    Release phases satisfy sin(phi) = Delta / F with the force decreasing, i.e.
+    phi = pi - asin(Delta / F) (closed form); the q = Delta samples run up to it.
+    """
+    B, Omega, Delta = 0.2, 1.5, 0.05
+    m = SDOF(beta=0.05, B=B, R=0.0, Delta=Delta)
+    tr = _run(m, Omega, 100, 4, ns=512)
+    F = Omega**2 * B
+    phi_rel = math.pi - math.asin(Delta / F)
+    assert tr.status == "sticking"
+    phases = 2 * math.pi * np.arange(512) / 512
+    q = tr.samples[:512, 0]
+    on = q == Delta
+    stuck_phases = phases[on]
+    assert stuck_phases.size > 0
+    # no sample after the release phase (within this period's stuck interval) is on the stop
+    assert np.max(stuck_phases[stuck_phases < phi_rel + 1e-12]) <= phi_rel
+    assert not np.any(on & (phases > phi_rel) & (phases < phi_rel + 0.5))
+
+
+def test_prestressed_stop_without_enough_forcing_stays_stuck():
+    """Delta < -F: the contact force never changes sign; the run ends stuck, not hanging."""
+    m = SDOF(beta=0.02, B=0.01, R=0.8, Delta=-0.2)
+    tr = _run(m, 2.0, 10, 4)
+    assert tr.status == "sticking"
+    assert np.all(tr.samples[:, 0] == m.Delta)
+    assert tr.extra["stuck_fraction"] == pytest.approx(1.0)
+
+
+# --------------------------------------------------------------------------- grazing
+@pytest.mark.parametrize("delta", [1e-8, 1e-6, 1e-3])
+def test_grazing_orbit_is_detected(delta):
+    """A linear steady orbit whose peak lies a relative ``delta`` beyond the stop
+    must be seen impacting within one period; one whose peak stays ``delta``
+    short of it must not."""
+    beta, B, Omega = 0.02, 0.01, 1.6
+    F = Omega**2 * B
+    k, c = 1 - Omega**2, 2 * beta * Omega
+    a, b = F * k / (k * k + c * c), -F * c / (k * k + c * c)
+    C = math.hypot(a, b)
+    state0 = np.array([b, Omega * a, 0.0])  # exactly on the steady orbit at phase 0
+    hit = _run(SDOF(beta, B, 0.9, C * (1 - delta)), Omega, 0, 1, state0=state0)
+    miss = _run(SDOF(beta, B, 0.9, C * (1 + delta)), Omega, 0, 1, state0=state0)
+    assert hit.n_impacts >= 1
+    assert miss.n_impacts == 0
+
+
+# --------------------------------------------------------------------------- constraint
+@settings(max_examples=25, deadline=None)
+@given(beta=st.floats(0.0, 0.3), B=st.floats(1e-4, 0.2), R=st.floats(0.0, 1.0),
+       Delta=st.floats(-0.05, 0.05), Omega=st.floats(0.3, 4.5))
+def test_no_sample_beyond_the_stop(beta, B, R, Delta, Omega):
+    """No recorded state, nor the exact maximum, lies beyond the stop by more than round-off."""
+    if beta == 0.0 and abs(Omega - 1.0) < 1e-3:
+        Omega = 1.01  # undamped exact resonance has no steady state
+    m = SDOF(beta, B, R, Delta)
+    tr = _run(m, Omega, 30, 4, max_impacts_per_period=2000)
+    if tr.status == "failed":
+        return  # recorded as data; not a constraint violation
+    scale = 1.0 + abs(Delta) + Omega**2 * B
+    assert np.max(tr.samples[:, 0]) <= Delta + 1e-13 * scale
+    assert tr.q_max <= Delta + 1e-13 * scale

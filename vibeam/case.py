@@ -1,0 +1,333 @@
+"""Case files: a scene (model, sweep, runs to compare) read from TOML and validated.
+
+A case file names its model with the paper's symbols, e.g.::
+
+    name = "paper-fig7"
+    [model]
+    fidelity = "sdof"
+    beta = 0.015
+    B = 0.5e-3
+    R = 0.9
+    Delta = 0.0
+    [sweep]
+    Omega = [1.5, 2.5, 101]   # start, stop, number of points
+    direction = "up"          # up | down | both
+    transient_periods = 400
+    record_periods = 64
+    [[run]]
+    name = "exact"
+    method = "event"
+
+or, for a physical scene of the paper's rig (Eqs. 43-46), ``natural_frequency_hz``,
+``damping_ratio``, ``R``, ``gap_mm``, ``length_mm``, ``gain``, ``voltage`` with
+``[sweep] frequency_hz = [start, stop, n]``.  A run may override model keys in
+a ``[run.model]`` table.  Every key is checked: unknown keys, wrong types and
+out-of-range values raise :class:`CaseError` with one message that names the
+key, the value and what is allowed.
+"""
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Annotated, Literal, Union
+
+import numpy as np
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
+                      model_validator)
+
+
+class CaseError(ValueError):
+    """A case file that cannot be used; the message names key, value and what is allowed."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+
+
+# ----------------------------------------------------------------------------- model
+class SDOFModelSpec(_Strict):
+    """``[model]`` of an SDOF scene: nondimensional (paper Eqs. 1-2) or physical (Eqs. 43-46)."""
+
+    fidelity: Literal["sdof"]
+    beta: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
+    B: Annotated[float, Field(ge=0.0)] | None = None
+    R: Annotated[float, Field(ge=0.0, le=1.0)]
+    Delta: float | None = None
+    natural_frequency_hz: Annotated[float, Field(gt=0.0)] | None = None
+    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
+    gap_mm: float | None = None
+    length_mm: Annotated[float, Field(gt=0.0)] | None = None
+    gain: Annotated[float, Field(ge=0.0)] | None = None
+    voltage: Annotated[float, Field(ge=0.0)] | None = None
+
+    @model_validator(mode="after")
+    def _one_parameter_set(self):
+        nondim = {"beta": self.beta, "B": self.B, "Delta": self.Delta}
+        phys = {"natural_frequency_hz": self.natural_frequency_hz, "damping_ratio": self.damping_ratio,
+                "gap_mm": self.gap_mm, "length_mm": self.length_mm, "gain": self.gain,
+                "voltage": self.voltage}
+        given_n = [k for k, v in nondim.items() if v is not None]
+        given_p = [k for k, v in phys.items() if v is not None]
+        if given_n and given_p:
+            raise ValueError(f"give either the nondimensional keys {sorted(nondim)} or the physical keys "
+                             f"{sorted(phys)}, not both (got {given_n + given_p})")
+        if given_p:
+            missing = [k for k in phys if phys[k] is None]
+            if missing:
+                raise ValueError(f"physical SDOF scene is missing {missing}")
+        else:
+            missing = [k for k in nondim if nondim[k] is None]
+            if missing:
+                raise ValueError(f"nondimensional SDOF scene is missing {missing}")
+        return self
+
+    @property
+    def physical(self) -> bool:
+        return self.natural_frequency_hz is not None
+
+    def build(self):
+        """The :class:`vibeam.models.SDOF` this table describes."""
+        from vibeam.models import SDOF
+
+        if self.physical:
+            return SDOF.from_physical(self.natural_frequency_hz, self.damping_ratio, self.R, self.gap_mm,
+                                      self.length_mm, self.gain, self.voltage)
+        return SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
+
+
+ModelSpec = SDOFModelSpec
+MODEL_SPECS = {"sdof": SDOFModelSpec}
+
+
+# ----------------------------------------------------------------------------- sweep
+class SweepSpec(_Strict):
+    """``[sweep]``: the frequency grid and how each point is simulated."""
+
+    Omega: list[float] | None = None
+    frequency_hz: list[float] | None = None
+    direction: Literal["up", "down", "both"] = "up"
+    transient_periods: Annotated[int, Field(ge=0)] = 400
+    record_periods: Annotated[int, Field(ge=1)] = 64
+    samples_per_period: Annotated[int, Field(ge=16, le=4096)] = 64
+    continuation: bool = True
+    period_rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = 1e-5
+
+    @field_validator("Omega", "frequency_hz")
+    @classmethod
+    def _grid(cls, v):
+        if v is None:
+            return v
+        if len(v) != 3:
+            raise ValueError("must be [start, stop, number of points]")
+        start, stop, n = v
+        if not (start > 0 and stop > 0):
+            raise ValueError("start and stop must be positive")
+        if n != int(n) or n < 1:
+            raise ValueError("the number of points must be a whole number >= 1")
+        if n == 1 and start != stop:
+            raise ValueError("a single-point sweep needs start == stop")
+        return v
+
+    @model_validator(mode="after")
+    def _exactly_one_grid(self):
+        if (self.Omega is None) == (self.frequency_hz is None):
+            raise ValueError("give exactly one of 'Omega' (nondimensional) or 'frequency_hz'")
+        return self
+
+    def grid(self, natural_frequency_hz=None) -> np.ndarray:
+        """Forcing frequencies Omega (nondimensional), shape (n,)."""
+        if self.Omega is not None:
+            start, stop, n = self.Omega
+            return np.linspace(start, stop, int(n))
+        start, stop, n = self.frequency_hz
+        return np.linspace(start, stop, int(n)) / natural_frequency_hz
+
+
+# ----------------------------------------------------------------------------- runs
+class _RunBase(_Strict):
+    name: Annotated[str, Field(min_length=1, pattern=r"^[^/]+$")]
+    model: dict = Field(default_factory=dict)
+
+
+class EventRun(_RunBase):
+    """Method ``event``: the exact event-driven solver."""
+
+    method: Literal["event"]
+    transient_samples: Annotated[int, Field(ge=4, le=1024)] = 16
+    chatter_tol: Annotated[float, Field(gt=0.0, lt=1.0)] = 1e-7
+    max_impacts_per_period: Annotated[int, Field(ge=1)] = 20000
+
+
+class ODERun(_RunBase):
+    """Methods ``direct``, ``zhuravlev``, ``ivanov`` (scipy ``solve_ivp``)."""
+
+    method: Literal["direct", "zhuravlev", "ivanov"]
+    solver: Literal["RK23", "RK45", "DOP853", "Radau", "LSODA"] = "RK23"
+    rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = 1e-4
+    atol: Annotated[float, Field(gt=0.0)] = 1e-8
+    max_step: Annotated[float, Field(gt=0.0)] | None = None
+
+
+class AveragingRun(_RunBase):
+    """Method ``averaging`` (paper Eqs. 18-27) for the resonance Omega ~ 2k."""
+
+    method: Literal["averaging"]
+    k: Literal[1, 2, 3] = 1
+
+
+class MappingRun(_RunBase):
+    """Method ``mapping``: pointwise mapping (paper Sec. 4.2)."""
+
+    method: Literal["mapping"]
+    n: Annotated[int, Field(ge=1, le=4)] = 1
+    form: Literal["full", "simplified"] = "full"
+
+
+RunSpec = Annotated[Union[EventRun, ODERun, AveragingRun, MappingRun], Field(discriminator="method")]
+
+
+class Case(_Strict):
+    """A whole scene."""
+
+    name: Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.+-]+$")]
+    description: str = ""
+    model: dict
+    sweep: SweepSpec
+    run: Annotated[list[RunSpec], Field(min_length=1)]
+
+    @field_validator("run")
+    @classmethod
+    def _unique_names(cls, runs):
+        names = [r.name for r in runs]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"run names must be unique; repeated: {dup}")
+        return runs
+
+    # the model table is validated by its fidelity's spec (below)
+    def model_spec(self, overrides: dict | None = None):
+        data = dict(self.model)
+        data.update(overrides or {})
+        return _validate_model(data, prefix="model" if not overrides else "run.model")
+
+    def run_settings(self, run) -> dict:
+        """Method settings of a run (everything but name, method and model overrides)."""
+        return run.model_dump(exclude={"name", "method", "model"})
+
+
+def _validate_model(data: dict, prefix: str = "model"):
+    fid = data.get("fidelity")
+    if fid not in MODEL_SPECS:
+        raise CaseError(f"[{prefix}] fidelity = {fid!r} is not allowed; allowed: "
+                        f"{', '.join(repr(k) for k in MODEL_SPECS)}")
+    try:
+        return MODEL_SPECS[fid].model_validate(data)
+    except ValidationError as e:
+        raise CaseError(_format(e, prefix, MODEL_SPECS[fid])) from None
+
+
+_RUN_BY_METHOD = {m: c for c in (EventRun, ODERun, AveragingRun, MappingRun)
+                  for m in c.model_fields["method"].annotation.__args__}
+
+
+def _allowed_keys(model_cls, loc) -> list[str]:
+    """Keys allowed at ``loc`` (a pydantic error location) inside ``model_cls``."""
+    cls = model_cls
+    for part in loc[:-1]:
+        if isinstance(part, int):
+            continue
+        if part in _RUN_BY_METHOD and cls is Case:
+            cls = _RUN_BY_METHOD[part]
+            continue
+        f = getattr(cls, "model_fields", {}).get(part)
+        if f is None:
+            continue
+        if part == "run":
+            continue  # the discriminator tag that follows picks the class
+        ann = f.annotation
+        for cand in getattr(ann, "__args__", (ann,)):
+            if isinstance(cand, type) and issubclass(cand, BaseModel):
+                cls = cand
+                break
+    return sorted(getattr(cls, "model_fields", {}))
+
+
+def _format(err: ValidationError, prefix: str, root_cls) -> str:
+    lines = []
+    for e in err.errors():
+        loc = [p for p in e["loc"] if p not in _RUN_BY_METHOD]
+        key = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in loc).replace(".[", "[")
+        where = f"{prefix}.{key}" if prefix and key else (prefix or key)
+        if e["type"] == "extra_forbidden":
+            allowed = _allowed_keys(root_cls, e["loc"])
+            lines.append(f"unknown key '{where}' (value {e['input']!r}); allowed keys: {', '.join(allowed)}")
+        elif e["type"] == "missing":
+            lines.append(f"missing key '{where}'")
+        else:
+            msg = e["msg"].removeprefix("Value error, ")
+            val = e.get("input")
+            if isinstance(val, dict):
+                lines.append(f"'{where}': {msg}")
+            else:
+                lines.append(f"'{where}' = {val!r}: {msg}")
+    return "\n".join(lines)
+
+
+def parse_case(text: str, source: str = "<case>") -> Case:
+    """Parse and validate the text of a case file.
+
+    Parameters
+    ----------
+    text : str
+        TOML text.
+    source : str
+        Name used in error messages.
+
+    Returns
+    -------
+    Case
+
+    Raises
+    ------
+    CaseError
+        On a TOML syntax error, an unknown key, a wrong type or a value out of
+        range; the message names the key, the value and what is allowed.
+    """
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise CaseError(f"{source}: not valid TOML: {e}") from None
+    try:
+        case = Case.model_validate(data)
+    except ValidationError as e:
+        raise CaseError(f"{source}: " + _format(e, "", Case).replace("\n", f"\n{source}: ")) from None
+    try:
+        spec = case.model_spec()
+        for i, r in enumerate(case.run):
+            if r.model:
+                if "fidelity" in r.model and r.model["fidelity"] != case.model.get("fidelity"):
+                    raise CaseError(f"'run[{i}].model.fidelity' = {r.model['fidelity']!r}: a run cannot "
+                                    f"change the fidelity; put it in another case")
+                case.model_spec(r.model)
+        if case.sweep.frequency_hz is not None and not getattr(spec, "physical", False):
+            raise CaseError("'sweep.frequency_hz' needs a physical model (natural_frequency_hz, ...); "
+                            "use 'sweep.Omega' for a nondimensional one")
+    except CaseError as e:
+        raise CaseError(f"{source}: {e}") from None
+    return case
+
+
+def load_case(path) -> tuple[Case, str]:
+    """Read and validate a case file; returns the case and its text.
+
+    Raises
+    ------
+    CaseError
+        If the file cannot be read or is invalid (see :func:`parse_case`).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise CaseError(f"{path}: cannot read case file: {e.strerror}") from None
+    return parse_case(text, str(path)), text

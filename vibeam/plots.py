@@ -1,0 +1,105 @@
+"""Plots a person wants to look at after a sweep (matplotlib, Agg backend).
+
+* ``frc.png``: the FRC of every run overlaid, period-1 as dots, period-2 as
+  triangles, higher periods as squares, non-periodic as crosses and no-impact
+  points as small grey dots.
+* ``bifurcation.png``: stroboscopic displacement q against the forcing
+  frequency, one panel per time-domain run.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .sweep import SweepResult
+
+MARKERS = {1: ("o", "period 1"), 2: ("^", "period 2"), 0: ("x", "not periodic (n > 8)"),
+           -1: (".", "no impact")}
+
+
+def _mm(r: SweepResult) -> float:
+    """Factor from nondimensional displacement to mm (1 for nondimensional scenes)."""
+    L = r.attrs.get("length_m")
+    return L * 1e3 if L and "amplitude_mm" in r.data else 1.0
+
+
+def _axes_data(r: SweepResult):
+    d = r.data
+    if "frequency_hz" in d and "amplitude_mm" in d:
+        return d["frequency_hz"], d["amplitude_mm"], "forcing frequency (Hz)", "amplitude at sensor (mm)"
+    return d["Omega"], d["amplitude"], r"$\Omega$", r"$Q = \Delta - \min q$"
+
+
+def plot_frc(runs: list[SweepResult], path, title: str = "") -> Path:
+    """Overlay the FRCs of ``runs`` with period-n markers; returns the PNG path."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    seen = set()
+    for i, r in enumerate(runs):
+        x, y, xl, yl = _axes_data(r)
+        c = colors[i % len(colors)]
+        period = r.data.get("period", np.ones(len(x), dtype=int))
+        dirs = r.data.get("direction", np.array(["up"] * len(x), dtype=object))
+        for dname in ("up", "down"):
+            sel = np.array([str(v) == dname for v in dirs])
+            if not sel.any():
+                continue
+            order = np.argsort(x[sel])
+            ls = "-" if dname == "up" else "--"
+            ax.plot(x[sel][order], y[sel][order], ls, color=c, lw=1,
+                    label=f"{r.name} ({r.method}, {dname})" if sel.any() else None)
+        for p in np.unique(period):
+            mk, lab = MARKERS.get(int(p), ("s", "period > 2"))
+            sel = period == p
+            lab_key = (mk, lab)
+            ax.plot(x[sel], y[sel], mk, color=c if p != -1 else "0.6", ms=4 if p != -1 else 3,
+                    mfc="none" if mk in "^s" else c, linestyle="none",
+                    label=lab if lab_key not in seen else None)
+            seen.add(lab_key)
+        if "amplitude_lower" in r.data:
+            ax.plot(x, r.data["amplitude_lower"] * _mm(r),
+                    ":", color=c, lw=1, label=f"{r.name} lower branch")
+    ax.set_xlabel(xl)
+    ax.set_ylabel(yl)
+    ax.set_title(title or "frequency response curves")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_bifurcation(runs: list[SweepResult], path, title: str = "") -> Path | None:
+    """Stroboscopic q against frequency for each run that has strobe samples."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = [r for r in runs if "strobe" in r.data and np.isfinite(r.data["strobe"]).any()]
+    if not runs:
+        return None
+    fig, axes = plt.subplots(len(runs), 1, figsize=(8, 2.6 * len(runs) + 0.6), squeeze=False, sharex=True)
+    for ax, r in zip(axes[:, 0], runs):
+        x, _, xl, _ = _axes_data(r)
+        s = r.data["strobe"][:, :, 0]
+        scale = _mm(r)
+        xs = np.repeat(x[:, None], s.shape[1], axis=1)
+        ax.plot(xs.ravel(), (s * scale).ravel(), ",k", alpha=0.6)
+        ax.plot(xs.ravel(), (s * scale).ravel(), ".", color="k", ms=1)
+        ax.set_ylabel("strobe q (mm)" if "amplitude_mm" in r.data else "strobe q")
+        ax.set_title(f"{r.name} ({r.method})", fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel(xl)
+    fig.suptitle(title or "bifurcation diagram (stroboscopic map)")
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

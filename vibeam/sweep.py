@@ -1,0 +1,247 @@
+"""The one sweep engine: every fidelity and method goes through :func:`run_sweep`.
+
+A sweep steps a solver over a grid of forcing frequencies.  With
+``continuation`` (the default, as in a laboratory sweep) the state at the end
+of one frequency starts the next, so ``up`` and ``down`` sweeps can land on
+different branches of a multistable FRC; ``both`` runs the two directions as
+independent chains.  Without continuation every point starts from the model's
+initial state and all points are independent.  Independent chains or points
+are submitted to a :class:`concurrent.futures.Executor` (a local process pool
+by default; any executor with ``submit``, e.g. a dask.distributed client's,
+can be dropped in).
+"""
+from __future__ import annotations
+
+import os
+import time
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .records import HARMONICS, summarize
+
+# units of the per-point datasets (written as HDF5 attributes)
+UNITS = {
+    "Omega": "1 (forcing frequency / natural frequency)",
+    "amplitude": "1 (Q = Delta - min q, paper Sec. 4.1)",
+    "amplitude_lower": "1 (lower branch of P(Q) = 0)",
+    "q_max": "1", "q_min": "1",
+    "period": "period-n of the stroboscopic map (0 = not periodic within 8, -1 = no impact)",
+    "impacts_per_period": "1/forcing period",
+    "impact_velocity": "1 (mean pre-impact velocity)",
+    "strobe": "1 ((q, q') at forcing phase 0 of each recorded period)",
+    "harmonics": "1 (amplitudes of 0, 1, ..., 5 Omega)",
+    "frequency_hz": "Hz", "amplitude_mm": "mm (at the sensor)",
+    "wall_time_s": "s",
+}
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """How to sweep.
+
+    Attributes
+    ----------
+    Omega : ndarray, shape (n,)
+        Forcing frequencies (nondimensional), in increasing or any order; an
+        ``up`` sweep visits them in increasing order, ``down`` in decreasing.
+    direction : {'up', 'down', 'both'}
+    transient_periods, record_periods : int
+        Forcing periods discarded, then recorded, per point.
+    samples_per_period : int
+        Recorded samples per forcing period.
+    continuation : bool
+        Start each point from the previous point's final state.
+    period_rtol : float
+        Relative tolerance of the period-n test on the stroboscopic map.
+    """
+
+    Omega: np.ndarray
+    direction: str = "up"
+    transient_periods: int = 400
+    record_periods: int = 64
+    samples_per_period: int = 64
+    continuation: bool = True
+    period_rtol: float = 1e-5
+
+
+@dataclass
+class SweepResult:
+    """Per-point outputs of one run; ``data`` maps dataset names to arrays of length n_points."""
+
+    name: str
+    fidelity: str
+    method: str
+    settings: dict
+    data: dict
+    wall_time_s: float
+    attrs: dict = field(default_factory=dict)
+
+    @property
+    def n_points(self) -> int:
+        return len(self.data["Omega"])
+
+
+class InlineExecutor(Executor):
+    """Runs each submitted call at once in this process (``--jobs 1``)."""
+
+    def submit(self, fn, /, *args, **kwargs):
+        fut = Future()
+        try:
+            fut.set_result(fn(*args, **kwargs))
+        except BaseException as e:  # pragma: no cover - forwarded to the caller
+            fut.set_exception(e)
+        return fut
+
+
+def _point(solver, Omega, state, sweep: Sweep, Delta: float):
+    """Simulate one point; dynamical outcomes and solver errors become a status."""
+    t0 = time.perf_counter()
+    try:
+        if solver.time_domain:
+            traj = solver.point(Omega, state, sweep.transient_periods, sweep.record_periods,
+                                sweep.samples_per_period)
+            out = summarize(traj, Delta, sweep.period_rtol)
+            out.update(traj.extra)
+            new_state = traj.final_state
+        else:
+            out = dict(solver.point(Omega, state, sweep.transient_periods, sweep.record_periods,
+                                    sweep.samples_per_period))
+            new_state = out.pop("final_state", None)
+    except Exception as e:  # a solver failure is recorded, never fatal to the sweep
+        out = dict(status="failed", message=f"{type(e).__name__}: {e}")
+        new_state = None
+    out["Omega"] = float(Omega)
+    out["wall_time_s"] = time.perf_counter() - t0
+    return out, new_state
+
+
+def _chain(solver, Omegas, sweep: Sweep, Delta: float, direction: str):
+    """A continuation chain (runs inside a worker): points in order, state handed on."""
+    state = None
+    rows = []
+    for W in Omegas:
+        out, new_state = _point(solver, W, state, sweep, Delta)
+        out["direction"] = direction
+        rows.append(out)
+        if new_state is not None and out.get("status") != "failed":
+            state = new_state
+    return rows
+
+
+def _plan(sweep: Sweep):
+    """Independent tasks as (direction, ordered Omegas)."""
+    up = np.sort(np.asarray(sweep.Omega, dtype=float))
+    dirs = ["up", "down"] if sweep.direction == "both" else [sweep.direction]
+    tasks = []
+    for d in dirs:
+        grid = up if d == "up" else up[::-1]
+        if sweep.continuation:
+            tasks.append((d, grid))
+        else:
+            tasks.extend((d, grid[i:i + 1]) for i in range(len(grid)))
+    return tasks
+
+
+def default_executor(jobs: int | None, n_tasks: int) -> Executor:
+    """Inline for one job or one task, else a local process pool of ``jobs`` workers."""
+    if jobs is None:
+        jobs = os.cpu_count() or 1
+    if jobs <= 1 or n_tasks <= 1:
+        return InlineExecutor()
+    return ProcessPoolExecutor(max_workers=min(jobs, n_tasks))
+
+
+def run_sweep(solver, sweep: Sweep, name: str = "run", executor: Executor | None = None,
+              jobs: int | None = 1, progress: bool = False) -> SweepResult:
+    """Sweep ``solver`` over ``sweep.Omega``.
+
+    Parameters
+    ----------
+    solver : object
+        A solver from :func:`vibeam.models.make_solver` (has ``point``,
+        ``time_domain``, ``name``, ``settings()`` and ``model``).
+    sweep : Sweep
+        Grid, direction and windows.
+    name : str
+        Run name stored with the result.
+    executor : concurrent.futures.Executor, optional
+        Where independent chains/points run; default from ``jobs``.
+    jobs : int or None
+        Workers of the default executor (None: all cores; 1: inline).
+    progress : bool
+        Show a tqdm progress bar (per completed task).
+
+    Returns
+    -------
+    SweepResult
+        Datasets ``Omega``, ``amplitude``, ``q_max``, ``q_min``, ``period``,
+        ``impacts_per_period``, ``impact_velocity``, ``strobe`` (n, n_record,
+        2), ``harmonics`` (n, 6), ``direction``, ``status``, ``message``,
+        ``wall_time_s``, plus ``frequency_hz`` and ``amplitude_mm`` for
+        physical scenes and any method-specific outputs.  Points are ordered
+        as visited: the up branch, then the down branch.
+    """
+    model = solver.model
+    Delta = float(model.Delta)
+    tasks = _plan(sweep)
+    own = executor is None
+    ex = default_executor(jobs, len(tasks)) if own else executor
+    t0 = time.perf_counter()
+    try:
+        futs = [ex.submit(_chain, solver, grid, sweep, Delta, d) for d, grid in tasks]
+        bar = None
+        if progress and len(futs) > 1:
+            from tqdm import tqdm
+            bar = tqdm(total=len(futs), desc=name, unit="task", leave=False)
+        results = []
+        for f in futs:
+            results.append(f.result())
+            if bar is not None:
+                bar.update(1)
+        if bar is not None:
+            bar.close()
+    finally:
+        if own:
+            ex.shutdown()
+    wall = time.perf_counter() - t0
+    rows = [r for rs in results for r in rs]
+    data = _stack(rows, sweep)
+    fn = getattr(model, "natural_frequency_hz", None)
+    L = getattr(model, "length_m", None)
+    attrs = {}
+    if fn:
+        data["frequency_hz"] = data["Omega"] * fn
+        attrs["natural_frequency_hz"] = fn
+    if L:
+        data["amplitude_mm"] = data["amplitude"] * L * 1e3
+        attrs["length_m"] = L
+    return SweepResult(name=name, fidelity=model.fidelity, method=solver.name, settings=solver.settings(),
+                       data=data, wall_time_s=wall, attrs=attrs)
+
+
+def _stack(rows: list[dict], sweep: Sweep) -> dict:
+    """Stack per-point dicts into arrays; missing entries become NaN (or '' for text)."""
+    n_rec = sweep.record_periods
+    defaults = {"strobe": np.full((n_rec, 2), np.nan), "harmonics": np.full(HARMONICS, np.nan)}
+    keys = []
+    for r in rows:
+        for k in r:
+            if k not in keys:
+                keys.append(k)
+    data = {}
+    for k in keys:
+        vals = [r.get(k) for r in rows]
+        if all(isinstance(v, str) or v is None for v in vals):
+            data[k] = np.array(["" if v is None else v for v in vals], dtype=object)
+            continue
+        proto = next(v for v in vals if v is not None)
+        shape = np.shape(proto)
+        fill = defaults.get(k, np.full(shape, np.nan) if shape else np.nan)
+        arr = [np.asarray(v) if v is not None else fill for v in vals]
+        dtype = np.result_type(*[a.dtype if hasattr(a, "dtype") else type(a) for a in arr])
+        data[k] = np.array(arr, dtype=dtype)
+    if "period" in data:
+        data["period"] = np.nan_to_num(data["period"].astype(float), nan=0).astype(np.int64)
+    return data
