@@ -8,8 +8,13 @@ from __future__ import annotations
 
 from .sdof import SDOF, EventSolver, linear_amplitude
 
+from .sdof_averaging import AveragingSolver
+from .sdof_mapping import MappingSolver
+
 METHODS = {
     ("sdof", "event"): EventSolver,
+    ("sdof", "averaging"): AveragingSolver,
+    ("sdof", "mapping"): MappingSolver,
 }
 
 

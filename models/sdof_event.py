@@ -231,89 +231,82 @@ def event_kernel(beta, B, R, Delta, Omega, q_init, v_init, stuck_init,
                         v = 0.0
                         continue
                     # ---- free flight from (phi, q, v) for at most rem ----
+                    s_imp = -1.0
                     if q >= Delta and v >= 0.0:
-                        # on the stop and not leaving: an impact if approaching,
+                        # on the stop and not leaving: an impact now if approaching,
                         # otherwise sticking if the contact force presses it on
                         q = Delta
                         if v > 0.0:
-                            v_minus = v
-                            v = newton_restitution(v_minus, R)
-                            n_imp_total += 1
-                            if recording:
-                                if n_imp_rec < cap:
-                                    imp_t[n_imp_rec] = t_period0 + t_loc
-                                    imp_v[n_imp_rec] = v_minus
-                                n_imp_rec += 1
-                            continue
-                        if _release_delay(phi, F, Delta, Omega) > 0.0:
+                            s_imp = 0.0
+                        elif _release_delay(phi, F, Delta, Omega) > 0.0:
                             stuck = True
                             continue
-                    A = homogeneous_amplitude(phi, q, v, beta, a, b, Omega)
-                    M3 = (A + W3) * (1.0 + 1e-9) + 1e-300
-                    M4 = (A + W4) * (1.0 + 1e-9) + 1e-300
-                    g0, v0, g20, g30, g40 = propagate(0.0, phi, q, v, beta, a, b, Omega, Delta)
-                    M2 = (A + W2) * (1.0 + 1e-9) + 1e-300
-                    tol2 = 1e-13 * M2  # q'' within round-off of zero counts as zero
-                    h = rem
-                    h_min = 1e-13 * T
-                    while True:
-                        g1, v1, g21, g31, g41 = propagate(h, phi, q, v, beta, a, b, Omega, Delta)
-                        # far from the stop: linear interpolation error <= M2 h^2 / 8
-                        if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
-                            cert = 2
-                            break
-                        cert = _certify(g20, g30, g21, g31, M3, M4, h, tol2)
-                        if cert != 0 or h < h_min:
-                            break
-                        h *= 0.5
-                    if cert == 0:
-                        cert = 1 if g20 + g21 > 0.0 else -1
-                    s_imp = -1.0
-                    if cert == 2:
-                        # no impact possible; only the extrema of a recorded window
-                        if recording:
-                            if v0 < 0.0 < v1:
-                                sm = _root(2, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
-                                gm = propagate(sm, phi, q, v, beta, a, b, Omega, Delta)[0]
-                                if Delta + gm < q_min:
-                                    q_min = Delta + gm
-                            elif v0 > 0.0 > v1:
-                                sa = _root(1, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
-                                ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
-                                if Delta + ga > q_max:
-                                    q_max = Delta + ga
-                    elif cert < 0:
-                        # concave: v non-increasing
-                        if v0 > 0.0:
-                            if v1 >= 0.0:
-                                if g1 >= 0.0:
-                                    s_imp = _root(0, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
-                            else:
-                                # tangent lines bound a concave function from above
-                                bound = g0 + v0 * (g1 - g0 - v1 * h) / (v0 - v1) if v0 - v1 > 0.0 else g0
-                                if bound >= 0.0 or recording:
-                                    sa = _root(1, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
-                                    ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
-                                    if ga >= 0.0:
-                                        s_imp = _root(0, 0.0, sa, phi, q, v, beta, a, b, Omega, Delta) if g0 < 0.0 else sa
-                                    elif recording and Delta + ga > q_max:
-                                        q_max = Delta + ga
-                    else:
-                        # convex: v non-decreasing
-                        if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
-                            if v0 < 0.0:
-                                # minimum of q: root of q' on [0, h] (q' increasing)
-                                sm = _root(2, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
-                                if recording:
+                    if s_imp < 0.0:
+                        A = homogeneous_amplitude(phi, q, v, beta, a, b, Omega)
+                        M3 = (A + W3) * (1.0 + 1e-9) + 1e-300
+                        M4 = (A + W4) * (1.0 + 1e-9) + 1e-300
+                        g0, v0, g20, g30, g40 = propagate(0.0, phi, q, v, beta, a, b, Omega, Delta)
+                        M2 = (A + W2) * (1.0 + 1e-9) + 1e-300
+                        tol2 = 1e-13 * M2  # q'' within round-off of zero counts as zero
+                        h = rem
+                        h_min = 1e-13 * T
+                        while True:
+                            g1, v1, g21, g31, g41 = propagate(h, phi, q, v, beta, a, b, Omega, Delta)
+                            # far from the stop: linear interpolation error <= M2 h^2 / 8
+                            if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
+                                cert = 2
+                                break
+                            cert = _certify(g20, g30, g21, g31, M3, M4, h, tol2)
+                            if cert != 0 or h < h_min:
+                                break
+                            h *= 0.5
+                        if cert == 0:
+                            cert = 1 if g20 + g21 > 0.0 else -1
+                        if cert == 2:
+                            # no impact possible; only the extrema of a recorded window
+                            if recording:
+                                if v0 < 0.0 < v1:
+                                    sm = _root(2, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
                                     gm = propagate(sm, phi, q, v, beta, a, b, Omega, Delta)[0]
                                     if Delta + gm < q_min:
                                         q_min = Delta + gm
-                                if g1 >= 0.0:
-                                    s_imp = _root(0, sm, h, phi, q, v, beta, a, b, Omega, Delta)
-                            elif g1 >= 0.0:
-                                s_imp = _root(0, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                                elif v0 > 0.0 > v1:
+                                    sa = _root(1, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                                    ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
+                                    if Delta + ga > q_max:
+                                        q_max = Delta + ga
+                        elif cert < 0:
+                            # concave: v non-increasing
+                            if v0 > 0.0:
+                                if v1 >= 0.0:
+                                    if g1 >= 0.0:
+                                        s_imp = _root(0, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                                else:
+                                    # tangent lines bound a concave function from above
+                                    bound = g0 + v0 * (g1 - g0 - v1 * h) / (v0 - v1) if v0 - v1 > 0.0 else g0
+                                    if bound >= 0.0 or recording:
+                                        sa = _root(1, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                                        ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
+                                        if ga >= 0.0:
+                                            s_imp = _root(0, 0.0, sa, phi, q, v, beta, a, b, Omega, Delta) if g0 < 0.0 else sa
+                                        elif recording and Delta + ga > q_max:
+                                            q_max = Delta + ga
+                        else:
+                            # convex: v non-decreasing
+                            if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
+                                if v0 < 0.0:
+                                    # minimum of q: root of q' on [0, h] (q' increasing)
+                                    sm = _root(2, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                                    if recording:
+                                        gm = propagate(sm, phi, q, v, beta, a, b, Omega, Delta)[0]
+                                        if Delta + gm < q_min:
+                                            q_min = Delta + gm
+                                    if g1 >= 0.0:
+                                        s_imp = _root(0, sm, h, phi, q, v, beta, a, b, Omega, Delta)
+                                elif g1 >= 0.0:
+                                    s_imp = _root(0, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
                     if s_imp >= 0.0:
-                        gi, vi, g2i, g3i, g4i = propagate(s_imp, phi, q, v, beta, a, b, Omega, Delta)
+                        vi = propagate(s_imp, phi, q, v, beta, a, b, Omega, Delta)[1] if s_imp > 0.0 else v
                         phi = (phi + Omega * s_imp) % TWO_PI
                         t_loc += s_imp
                         rem -= s_imp
