@@ -88,6 +88,13 @@ def main(argv=None) -> int:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp (JSON)")
+    p.add_argument("--points", type=int, default=101)
+    p.add_argument("--periods", type=int, default=500)
+    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--direct-points", type=int, default=None,
+                   help="time solve_ivp on this many points only and scale (quick look)")
+    p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
     from .case import CaseError
 
