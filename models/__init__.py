@@ -10,11 +10,15 @@ from .sdof import SDOF, EventSolver, linear_amplitude
 
 from .sdof_averaging import AveragingSolver
 from .sdof_mapping import MappingSolver
+from .sdof_ode import DirectSolver, IvanovSolver, ZhuravlevSolver
 
 METHODS = {
     ("sdof", "event"): EventSolver,
     ("sdof", "averaging"): AveragingSolver,
     ("sdof", "mapping"): MappingSolver,
+    ("sdof", "direct"): DirectSolver,
+    ("sdof", "zhuravlev"): ZhuravlevSolver,
+    ("sdof", "ivanov"): IvanovSolver,
 }
 
 
