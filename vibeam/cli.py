@@ -74,6 +74,114 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_cost(args) -> int:
+    from .case import load_case
+
+    case, text = load_case(args.case)
+    from .cost import cost_tables, plot_work_precision, print_cost, run_cost
+    from .results import write_results
+
+    out_dir = Path(args.out) if args.out else Path("results") / case.name
+    out_dir.mkdir(parents=True, exist_ok=True)
+    res = run_cost(case, ladder=args.ladder, repeats=args.repeats,
+                   log=lambda m: print(m, file=sys.stderr))
+    print_cost(res)
+    h5 = write_results(out_dir / "cost.h5", [], case.name, text, extra={"cost": cost_tables(res)})
+    png = plot_work_precision(res, out_dir / "work_precision.png", title=f"{case.name}: work-precision")
+    print(f"\ncost table -> {h5} (/cost), plot -> {png}")
+    return 0
+
+
+def _beam_spec(case, command):
+    from .case import CaseError
+
+    spec = case.model_spec()
+    if spec.fidelity != "beam":
+        raise CaseError(f"'model.fidelity' = {spec.fidelity!r}: `vibeam {command}` needs a beam scene "
+                        f"(fidelity = \"beam\")")
+    return spec
+
+
+def cmd_derive(args) -> int:
+    from .case import load_case
+
+    case, _ = load_case(args.case)
+    spec = _beam_spec(case, "derive")
+    from .beamscene import derive, sdof_case_text
+
+    d = derive(spec)
+    print(f"SDOF parameters of {case.name} by the assumed static mode (paper Eqs. 42-46)\n")
+    print(f"{'parameter':<20}{'value':>14}  {'unit':<8}source")
+    for name, val, unit, src in d["rows"]:
+        print(f"{name:<20}{val:>14.6g}  {unit:<8}{src}")
+    if args.write:
+        text = sdof_case_text(case, spec, d["reduction"], d["scene"])
+        Path(args.write).write_text(text)
+        print(f"\nSDOF case written to {args.write}")
+    return 0
+
+
+def cmd_modes(args) -> int:
+    from .case import load_case
+
+    case, _ = load_case(args.case)
+    spec = _beam_spec(case, "modes")
+    import numpy as np
+
+    from .beamscene import modes_report
+    from .models.beam import write_modes
+
+    rep = modes_report(spec, n=args.n)
+    md, cm = rep["modes"], rep["contact"]
+    tot = rep["total_mass_kg"]
+    print(f"modes of {case.name} (FE, {rep['fe'].ndof} DOFs); base excitation, total mass {tot:.4g} kg\n")
+    print(f"{'mode':>4}{'f (Hz)':>12}{'m at sensor (kg)':>18}{'Gamma (kg^.5)':>15}{'m_eff (kg)':>12}"
+          f"{'m_eff %':>9}{'cum. %':>8}")
+    cum = 0.0
+    for i, f in enumerate(md.frequencies_hz):
+        me = md.effective_mass_kg[i]
+        cum += me
+        print(f"{i + 1:>4}{f:>12.4f}{rep['sensor_modal_mass_kg'][i]:>18.4g}{md.participation[i]:>15.4g}"
+              f"{me:>12.4g}{100 * me / tot:>9.2f}{100 * cum / tot:>8.2f}")
+    print("\ncontact modes (beam held at the stop, w(L_m) = 0): " +
+          ", ".join(f"{f:.2f}" for f in cm.frequencies_hz[: args.n]) + " Hz")
+    out = Path(args.out) if args.out else Path("results") / case.name
+    out.mkdir(parents=True, exist_ok=True)
+    vtu = write_modes(out / "modes.vtu", rep["fe"], n=min(args.n, len(md.frequencies_hz)))
+    png = _plot_modes(rep, out / "modes.png", case.name)
+    print(f"mode shapes -> {vtu} (ParaView), {png}")
+    return 0
+
+
+def _plot_modes(rep, path, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    fe, md, cm = rep["fe"], rep["modes"], rep["contact"]
+    L = fe.geometry.length_m
+    x = np.linspace(0, L, 361)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
+    for ax, m, lab in ((axes[0], md, "free"), (axes[1], cm, "contact (held at the stop)")):
+        for i in range(min(4, m.shapes.shape[1])):
+            w = fe.deflection(m.shapes[:, i], x)
+            ax.plot(x * 1e3, w / np.max(np.abs(w)), label=f"{m.frequencies_hz[i]:.2f} Hz")
+        for xp, nm in ((fe.geometry.sensor_position_m, "L_S"), (fe.geometry.mass_position_m, "L_m")):
+            ax.axvline(xp * 1e3, color="0.6", ls=":")
+            ax.text(xp * 1e3, 1.02, nm, ha="center", fontsize=8)
+        ax.set_title(f"{lab} modes")
+        ax.set_xlabel("x (mm)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0].set_ylabel("normalised deflection")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
 def main(argv=None) -> int:
     from . import __version__
 
@@ -88,6 +196,21 @@ def main(argv=None) -> int:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("cost", help="accuracy against time of every run (work-precision table and plot)")
+    p.add_argument("case", help="case file (TOML)")
+    p.add_argument("--out", help="output folder (default results/<case name>/)")
+    p.add_argument("--ladder", action="store_true", help="also a ladder of tolerances per ODE method")
+    p.add_argument("--repeats", type=int, default=3, help="timed repetitions (median reported)")
+    p.set_defaults(func=cmd_cost)
+    p = sub.add_parser("derive", help="SDOF parameters of a beam scene by the assumed static mode")
+    p.add_argument("case", help="beam case file (TOML)")
+    p.add_argument("--write", metavar="FILE", help="write the SDOF case file of the same scene")
+    p.set_defaults(func=cmd_derive)
+    p = sub.add_parser("modes", help="natural frequencies, participation, effective and contact modes")
+    p.add_argument("case", help="beam case file (TOML)")
+    p.add_argument("--out", help="output folder (default results/<case name>/)")
+    p.add_argument("-n", type=int, default=6, help="number of modes (default 6)")
+    p.set_defaults(func=cmd_modes)
     p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp (JSON)")
     p.add_argument("--points", type=int, default=101)
     p.add_argument("--periods", type=int, default=500)
