@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import tomllib
 from pathlib import Path
-from typing import Annotated, Literal, Union
+from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
@@ -95,8 +95,93 @@ class SDOFModelSpec(_Strict):
         return SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
 
 
-ModelSpec = SDOFModelSpec
-MODEL_SPECS = {"sdof": SDOFModelSpec}
+class DiscsSpec(_Strict):
+    """``[model.discs]``: the attached mass as a stack of discs (paper Sec. 5: 4 steel discs)."""
+
+    count: Annotated[int, Field(ge=1)]
+    thickness_mm: Annotated[float, Field(gt=0.0)]
+    diameter_mm: Annotated[float, Field(gt=0.0)]
+    density_kg_m3: Annotated[float, Field(gt=0.0)] = 7850.0
+    mass_kg: Annotated[float, Field(gt=0.0)] | None = None  # measured mass overrides the discs'
+
+
+class CalibrateSpec(_Strict):
+    """``[model.calibrate]``: fit EI (and J) to measured bending frequencies (paper Sec. 5)."""
+
+    f1_hz: Annotated[float, Field(gt=0.0)]
+    f2_hz: Annotated[float, Field(gt=0.0)] | None = None
+
+
+class BeamModelSpec(_Strict):
+    """``[model]`` of a finite-element beam scene (paper Eqs. 39-41, Fig. 15).
+
+    Lengths in mm, masses in kg; section either ``width_mm``/``thickness_mm``
+    (+ ``youngs_modulus_gpa``, ``density_kg_m3``) or ``EI_n_m2``/``rhoA_kg_m``;
+    attached mass either ``mass_kg`` (+ ``rotary_inertia_kg_m2``) or
+    ``[model.discs]``; gap either ``gap_mm`` (grazing gap seen at the sensor,
+    Delta_G, as for the SDOF rig scenes) or ``contact_gap_mm`` (Delta_C at the
+    stop); excitation ``gain`` (the paper's normalised gamma, 1/V) and
+    ``voltage``; damping ``damping_ratio`` (of the first mode, giving the
+    stiffness-proportional D of Eq. 39) and optional ``rayleigh_alpha_1_s``.
+    """
+
+    fidelity: Literal["beam"]
+    length_mm: Annotated[float, Field(gt=0.0)]
+    sensor_position_mm: Annotated[float, Field(gt=0.0)]
+    mass_position_mm: Annotated[float, Field(gt=0.0)]
+    width_mm: Annotated[float, Field(gt=0.0)] | None = None
+    thickness_mm: Annotated[float, Field(gt=0.0)] | None = None
+    youngs_modulus_gpa: Annotated[float, Field(gt=0.0)] = 200.0
+    density_kg_m3: Annotated[float, Field(gt=0.0)] = 7850.0
+    EI_n_m2: Annotated[float, Field(gt=0.0)] | None = None
+    rhoA_kg_m: Annotated[float, Field(gt=0.0)] | None = None
+    mass_kg: Annotated[float, Field(ge=0.0)] | None = None
+    rotary_inertia_kg_m2: Annotated[float, Field(ge=0.0)] = 0.0
+    discs: DiscsSpec | None = None
+    calibrate: CalibrateSpec | None = None
+    R: Annotated[float, Field(ge=0.0, le=1.0)]
+    gap_mm: float | None = None
+    contact_gap_mm: float | None = None
+    gain: Annotated[float, Field(ge=0.0)]
+    voltage: Annotated[float, Field(ge=0.0)]
+    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
+    rayleigh_alpha_1_s: Annotated[float, Field(ge=0.0)] = 0.0
+    n_modes: Annotated[int, Field(ge=1)] | Literal["all"] = 4
+    n_elements: Annotated[int, Field(ge=2, le=2000)] = 36
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        sec = self.width_mm is not None or self.thickness_mm is not None
+        direct = self.EI_n_m2 is not None or self.rhoA_kg_m is not None
+        if sec == direct:
+            raise ValueError("give the section either as width_mm and thickness_mm or as EI_n_m2 and "
+                             "rhoA_kg_m")
+        if sec and (self.width_mm is None or self.thickness_mm is None):
+            raise ValueError("the section needs both width_mm and thickness_mm")
+        if direct and (self.EI_n_m2 is None or self.rhoA_kg_m is None):
+            raise ValueError("the section needs both EI_n_m2 and rhoA_kg_m")
+        if (self.mass_kg is None) == (self.discs is None):
+            raise ValueError("give the attached mass either as mass_kg or as a [model.discs] table")
+        if (self.gap_mm is None) == (self.contact_gap_mm is None):
+            raise ValueError("give exactly one of gap_mm (at the sensor) or contact_gap_mm (at the stop)")
+        for k in ("sensor_position_mm", "mass_position_mm"):
+            if getattr(self, k) > self.length_mm:
+                raise ValueError(f"{k} = {getattr(self, k)} lies beyond length_mm = {self.length_mm}")
+        if self.calibrate and self.calibrate.f2_hz is not None and self.calibrate.f2_hz <= self.calibrate.f1_hz:
+            raise ValueError("calibrate.f2_hz must exceed calibrate.f1_hz")
+        return self
+
+    physical: ClassVar[bool] = True
+
+    def build(self):
+        """The :class:`vibeam.models.beam_dynamics.BeamImpactModel` of this scene."""
+        from vibeam.beamscene import build_beam_model
+
+        return build_beam_model(self)
+
+
+ModelSpec = Union[SDOFModelSpec, BeamModelSpec]
+MODEL_SPECS = {"sdof": SDOFModelSpec, "beam": BeamModelSpec}
 
 
 # ----------------------------------------------------------------------------- sweep
@@ -238,6 +323,9 @@ def _allowed_keys(model_cls, loc) -> list[str]:
             continue
         if part in _RUN_BY_METHOD and cls is Case:
             cls = _RUN_BY_METHOD[part]
+            continue
+        if part in ("discs", "calibrate") and cls is BeamModelSpec:
+            cls = DiscsSpec if part == "discs" else CalibrateSpec
             continue
         f = getattr(cls, "model_fields", {}).get(part)
         if f is None:

@@ -1,0 +1,179 @@
+"""Beam scenes: from a ``fidelity = "beam"`` case table to the FE model, its
+static-mode SDOF reduction (``vibeam derive``) and its modes (``vibeam modes``).
+
+Conversions (paper Secs. 5-6):
+
+* gain: the case gives the paper's normalised gamma (1/V, Eq. 46); the base
+  displacement per volt is ``gamma~ = gamma phi(x_m) L`` (m/V), so the base
+  motion is ``b = gamma~ V sin(Omega~ t~)`` (Eq. 38);
+* damping: ``damping_ratio`` is the ratio of the first FE mode; the
+  stiffness-proportional coefficient of Eq. 39 is ``D = 2 beta / omega_1``
+  (so mode i has ``zeta_i = D omega_i / 2``);
+* gap: ``gap_mm`` is the grazing gap at the sensor ``Delta_G``, the gap at the
+  stop is ``Delta_C = phi(x_m) Delta_G`` (Eq. 45 and Fig. 16).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class BeamScene:
+    """Everything derived from a beam case table (SI units)."""
+
+    geometry: object          # vibeam.models.beam.BeamGeometry (calibrated if asked)
+    calibration: object       # vibeam.models.beam.Calibration or None
+    damping_D_s: float
+    f1_hz: float              # first FE bending frequency of the (calibrated) model
+    phi_at_mass: float
+    Delta_G_m: float
+    Delta_C_m: float
+    gamma_tilde_m_per_V: float
+    base_amplitude_m: float
+
+
+def geometry_of(spec):
+    """BeamGeometry of a :class:`vibeam.case.BeamModelSpec` before calibration."""
+    from vibeam.models.beam import BeamGeometry
+
+    kw = dict(length_m=spec.length_mm * 1e-3, mass_position_m=spec.mass_position_mm * 1e-3,
+              sensor_position_m=spec.sensor_position_mm * 1e-3)
+    if spec.EI_n_m2 is not None:
+        kw.update(EI_n_m2=spec.EI_n_m2, rhoA_kg_m=spec.rhoA_kg_m)
+    else:
+        b, t = spec.width_mm * 1e-3, spec.thickness_mm * 1e-3
+        kw.update(EI_n_m2=spec.youngs_modulus_gpa * 1e9 * b * t**3 / 12.0,
+                  rhoA_kg_m=spec.density_kg_m3 * b * t)
+    if spec.discs is not None:
+        d = spec.discs
+        return BeamGeometry.with_discs(d.count, d.thickness_mm * 1e-3, d.diameter_mm * 1e-3,
+                                       d.density_kg_m3, mass_kg=d.mass_kg, **kw)
+    return BeamGeometry(mass_kg=spec.mass_kg, rotary_inertia_kg_m2=spec.rotary_inertia_kg_m2, **kw)
+
+
+def scene_of(spec) -> BeamScene:
+    """Calibrate (if asked), damping, gap and gain of a beam case table."""
+    from vibeam.models.beam import BeamFE
+    from vibeam.reductions.static_mode import static_mode_shape
+
+    g = geometry_of(spec)
+    cal = None
+    if spec.calibrate is not None:
+        cal = BeamFE(g, n_elements=spec.n_elements).calibrate(spec.calibrate.f1_hz, spec.calibrate.f2_hz)
+        g = cal.geometry
+    f1 = float(BeamFE(g, n_elements=spec.n_elements).modes(1).frequencies_hz[0])
+    D = 2.0 * spec.damping_ratio / (2 * math.pi * f1)
+    L = g.length_m
+    phim = float(static_mode_shape(g.mass_position_m / L, g.mass_position_m / L, g.sensor_position_m / L))
+    if spec.gap_mm is not None:
+        DG = spec.gap_mm * 1e-3
+        DC = DG * phim
+    else:
+        DC = spec.contact_gap_mm * 1e-3
+        DG = DC / phim
+    gt = spec.gain * phim * L
+    return BeamScene(geometry=g, calibration=cal, damping_D_s=D, f1_hz=f1, phi_at_mass=phim,
+                     Delta_G_m=DG, Delta_C_m=DC, gamma_tilde_m_per_V=gt, base_amplitude_m=gt * spec.voltage)
+
+
+def build_beam_model(spec):
+    """The FE impact model of a beam case table (see :mod:`vibeam.models.beam_dynamics`)."""
+    from vibeam.models.beam_dynamics import BeamImpactModel
+
+    sc = scene_of(spec)
+    return BeamImpactModel.from_scene(sc, spec)
+
+
+def derive(spec) -> dict:
+    """SDOF parameters of a beam scene by the assumed static mode (paper Eqs. 42-46).
+
+    Returns
+    -------
+    dict
+        ``scene`` (:class:`BeamScene`), ``reduction`` (StaticModeReduction,
+        beam mass excluded as in the paper), ``with_beam_mass`` (the same with
+        the beam's modal mass) and ``rows``: (name, value, unit, source).
+    """
+    from vibeam.reductions.static_mode import reduce_static_mode
+
+    sc = scene_of(spec)
+    red = reduce_static_mode(sc.geometry, damping_D_s=sc.damping_D_s, gap_contact_m=sc.Delta_C_m,
+                             gamma_tilde_m_per_V=sc.gamma_tilde_m_per_V)
+    red_b = reduce_static_mode(sc.geometry, damping_D_s=sc.damping_D_s, gap_contact_m=sc.Delta_C_m,
+                               gamma_tilde_m_per_V=sc.gamma_tilde_m_per_V, include_beam_mass=True)
+    g = sc.geometry
+    rows = [
+        ("EI", g.EI_n_m2, "N m^2", "calibrated (Sec. 5)" if sc.calibration else "case"),
+        ("rho A", g.rhoA_kg_m, "kg/m", "case"),
+        ("m", g.mass_kg, "kg", "case"),
+        ("J", g.rotary_inertia_kg_m2, "kg m^2", "calibrated (Sec. 5)" if sc.calibration else "case"),
+        ("phi(x_m)", red.phi_at_mass, "1", "static mode, phi(x_S) = 1 (Eq. 42)"),
+        ("M_S", red.M_S_kg, "kg", "m phi(x_m)^2 (Eq. 45)"),
+        ("K_S", red.K_S_n_m, "N/m", "EI/L^3 int phi''^2 dx (Eq. 46)"),
+        ("omega_n", red.omega_n_rad_s, "rad/s", "sqrt(K_S / M_S) (Eq. 45)"),
+        ("f_n", red.f_n_hz, "Hz", "omega_n / 2 pi"),
+        ("D", sc.damping_D_s, "s", "2 beta_1 / omega_1 of the FE model (Eq. 39)"),
+        ("beta_S", red.beta_S, "1", "D omega_n / 2 (Eq. 44)"),
+        ("gamma~", sc.gamma_tilde_m_per_V, "m/V", "gamma phi(x_m) L (Eq. 46 inverted)"),
+        ("gamma", red.gamma_per_V, "1/V", "gamma~ / (phi(x_m) L) (Eq. 46)"),
+        ("B", red.gamma_per_V * spec.voltage, "1", "gamma V (Eq. 43)"),
+        ("Delta_C", sc.Delta_C_m * 1e3, "mm", "gap at the stop"),
+        ("Delta_G", red.Delta_G_m * 1e3, "mm", "Delta_C / phi(x_m), gap at the sensor"),
+        ("Delta", red.Delta, "1", "Delta_G / L (Eq. 45)"),
+        ("f_1 (FE)", sc.f1_hz, "Hz", "first bending mode of the FE model"),
+        ("f_n - f_1", red.f_n_hz - sc.f1_hz, "Hz",
+         f"{(red.f_n_hz / sc.f1_hz - 1) * 100:+.2f} % (static mode neglects the beam's mass)"),
+        ("f_n with beam mass", red_b.f_n_hz, "Hz", f"{(red_b.f_n_hz / sc.f1_hz - 1) * 100:+.2f} % vs FE"),
+    ]
+    return {"scene": sc, "reduction": red, "with_beam_mass": red_b, "rows": rows}
+
+
+def sdof_case_text(case, spec, red, sc) -> str:
+    """TOML of the SDOF scene that the static-mode reduction gives for ``case``."""
+    sw = case.sweep
+    grid = (f"frequency_hz = [{sw.frequency_hz[0]}, {sw.frequency_hz[1]}, {int(sw.frequency_hz[2])}]"
+            if sw.frequency_hz is not None else
+            f"frequency_hz = [{sw.Omega[0] * sc.f1_hz:.6g}, {sw.Omega[1] * sc.f1_hz:.6g}, {int(sw.Omega[2])}]")
+    return f"""# SDOF scene derived by `vibeam derive` from {case.name} (assumed static mode, paper Eqs. 42-46)
+name = "{case.name}-sdof"
+description = "static-mode SDOF reduction of {case.name}"
+
+[model]
+fidelity = "sdof"
+natural_frequency_hz = {red.f_n_hz:.10g}
+damping_ratio = {red.beta_S:.10g}
+R = {spec.R}
+gap_mm = {red.Delta_G_m * 1e3:.10g}
+length_mm = {red.length_m * 1e3:.10g}
+gain = {red.gamma_per_V:.10g}
+voltage = {spec.voltage}
+
+[sweep]
+{grid}
+direction = "{sw.direction}"
+transient_periods = {sw.transient_periods}
+record_periods = {sw.record_periods}
+
+[[run]]
+name = "sdof"
+method = "event"
+"""
+
+
+def modes_report(spec, n: int = 8) -> dict:
+    """Modes, participation and effective masses for base excitation, and contact modes."""
+    from vibeam.models.beam import BeamFE
+
+    sc = scene_of(spec)
+    fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
+                rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
+    n = min(n, fe.ndof)
+    md = fe.modes(n)
+    cm = fe.contact_modes(min(n, fe.ndof - 1))
+    total = sc.geometry.mass_kg + sc.geometry.beam_mass_kg
+    s_phi = fe.sensor_row @ md.shapes
+    return {"fe": fe, "scene": sc, "modes": md, "contact": cm, "total_mass_kg": total,
+            "sensor_modal_mass_kg": 1.0 / np.maximum(s_phi**2, 1e-300)}
