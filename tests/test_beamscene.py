@@ -1,0 +1,116 @@
+"""Beam scenes: validation, `vibeam derive` (static-mode SDOF, Eqs. 42-46) and `vibeam modes`."""
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vibeam.beamscene import derive, modes_report, scene_of
+from vibeam.case import CaseError, parse_case
+from vibeam.cli import main
+
+RIG = """
+name = "rig-fe"
+[model]
+fidelity = "beam"
+length_mm = 180.0
+sensor_position_mm = 100.0
+mass_position_mm = 132.0
+EI_n_m2 = 0.38465
+rhoA_kg_m = 0.157
+mass_kg = 0.2
+rotary_inertia_kg_m2 = 2.103e-5
+R = 0.72
+gap_mm = 0.1
+gain = 5.16e-4
+voltage = 0.6
+damping_ratio = 0.017
+n_modes = 2
+n_elements = 24
+[sweep]
+frequency_hz = [14.0, 17.0, 4]
+[[run]]
+name = "fe"
+method = "event"
+"""
+
+
+def test_derive_matches_closed_forms():
+    """omega_n^2 = 3 EI / (m L_m^3) (static stiffness at the mass over m); the gap
+    at the stop is phi(x_m) times the gap at the sensor, phi(x_m) from the
+    cantilever point-load deflection y(x) = x^2 (3 x_m - x) / 6 (x <= x_m),
+    y(x) = x_m^2 (3 x - x_m) / 6 (x >= x_m); gamma round-trips (Eq. 46)."""
+    spec = parse_case(RIG).model_spec()
+    d = derive(spec)
+    red, sc = d["reduction"], d["scene"]
+    EI, m, Lm, L, Ls = 0.38465, 0.2, 0.132, 0.18, 0.100
+    assert red.omega_n_rad_s == pytest.approx(math.sqrt(3 * EI / (m * Lm**3)), rel=1e-12)
+    xm, xs = Lm / L, Ls / L
+    phim = (xm**3 / 3) / (xs**2 * (3 * xm - xs) / 6)
+    assert red.phi_at_mass == pytest.approx(phim, rel=1e-12)
+    assert sc.Delta_C_m == pytest.approx(phim * 0.1e-3, rel=1e-12)
+    assert red.Delta == pytest.approx(0.1e-3 / L, rel=1e-12)
+    assert red.gamma_per_V == pytest.approx(5.16e-4, rel=1e-12)
+    # beta_S = D omega_n / 2 with D = 2 beta_1 / omega_1 (FE)
+    assert red.beta_S == pytest.approx(0.017 * red.omega_n_rad_s / (2 * math.pi * sc.f1_hz), rel=1e-12)
+    # the static mode neglects the beam mass: its frequency is above the FE one,
+    # and adding the beam's modal mass brings it within 1 %
+    assert red.f_n_hz > sc.f1_hz
+    assert abs(d["with_beam_mass"].f_n_hz / sc.f1_hz - 1) < 0.01
+
+
+def test_derive_write_emits_a_valid_sdof_case(tmp_path):
+    path = tmp_path / "rig.toml"
+    path.write_text(RIG)
+    out = tmp_path / "sdof.toml"
+    assert main(["derive", str(path), "--write", str(out)]) == 0
+    case = parse_case(out.read_text(), str(out))
+    m = case.model_spec().build()
+    red = derive(parse_case(RIG).model_spec())["reduction"]
+    assert m.natural_frequency_hz == pytest.approx(red.f_n_hz, rel=1e-9)
+    assert m.Delta == pytest.approx(red.Delta, rel=1e-9)
+    assert m.B == pytest.approx(red.gamma_per_V * 0.6, rel=1e-9)
+
+
+def test_calibration_in_a_case_reaches_the_targets():
+    spec = parse_case(RIG.replace("n_elements = 24", "n_elements = 24\n[model.calibrate]\nf1_hz = 7.6\nf2_hz = 98.75")
+                      ).model_spec()
+    sc = scene_of(spec)
+    assert sc.calibration is not None
+    assert sc.calibration.frequencies_hz[:2] == pytest.approx([7.6, 98.75], rel=1e-8)
+    assert sc.f1_hz == pytest.approx(7.6, rel=1e-8)
+
+
+def test_modes_effective_masses_and_contact_modes(tmp_path):
+    spec = parse_case(RIG).model_spec()
+    rep = modes_report(spec, n=6)
+    md, cm = rep["modes"], rep["contact"]
+    # effective masses are positive and never exceed the total mass
+    assert np.all(md.effective_mass_kg > 0)
+    assert md.effective_mass_kg.sum() < rep["total_mass_kg"]
+    # holding the beam at the stop removes the first mode: contact modes interlace
+    assert np.all(cm.frequencies_hz[:4] > md.frequencies_hz[:4])
+    assert np.all(cm.frequencies_hz[:4] < md.frequencies_hz[1:5])
+    path = tmp_path / "rig.toml"
+    path.write_text(RIG)
+    assert main(["modes", str(path), "--out", str(tmp_path), "-n", "4"]) == 0
+    assert (tmp_path / "modes.vtu").exists() and (tmp_path / "modes.png").exists()
+
+
+@pytest.mark.parametrize("old,new,needle", [
+    ("mass_kg = 0.2\n", "", "mass_kg or as a [model.discs]"),
+    ("gap_mm = 0.1", "gap_mm = 0.1\ncontact_gap_mm = 0.1", "exactly one of gap_mm"),
+    ("mass_position_mm = 132.0", "mass_position_mm = 232.0", "beyond length_mm"),
+    ("n_modes = 2", "n_modes = \"some\"", "model.n_modes"),
+    ("n_elements = 24", "n_elements = 24\n[model.discs]\ncount = 4\nthick_mm = 7", "unknown key 'model.discs.thick_mm'"),
+])
+def test_bad_beam_case(old, new, needle):
+    with pytest.raises(CaseError) as e:
+        parse_case(RIG.replace(old, new), "b.toml")
+    assert needle in str(e.value), str(e.value)
+
+
+def test_derive_on_an_sdof_case_is_a_clear_error(tmp_path, capsys):
+    p = Path(__file__).parent.parent / "cases" / "paper-fig7.toml"
+    assert main(["derive", str(p)]) == 2
+    assert "needs a beam scene" in capsys.readouterr().err
