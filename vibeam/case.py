@@ -271,6 +271,14 @@ class MappingRun(_RunBase):
 RunSpec = Annotated[Union[EventRun, ODERun, AveragingRun, MappingRun], Field(discriminator="method")]
 
 
+class RegressSpec(_Strict):
+    """``[regress]``: tolerances of ``vibeam regress`` (amplitude in the FRC's own units)."""
+
+    amplitude_atol: Annotated[float, Field(ge=0.0)] = 0.0
+    amplitude_rtol: Annotated[float, Field(ge=0.0)] = 1e-6
+    period: bool = True
+
+
 class Case(_Strict):
     """A whole scene."""
 
@@ -279,6 +287,7 @@ class Case(_Strict):
     model: dict
     sweep: SweepSpec
     run: Annotated[list[RunSpec], Field(min_length=1)]
+    regress: RegressSpec = Field(default_factory=RegressSpec)
 
     @field_validator("run")
     @classmethod

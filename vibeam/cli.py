@@ -34,16 +34,14 @@ def _print_table(runs) -> None:
         print(f"{r.name:<22}{r.method:<12}{r.n_points:>7}{r.wall_time_s:>15.3f}{diff:>30}{extra}")
 
 
-def cmd_run(args) -> int:
-    from .case import load_case
-
-    case, text = load_case(args.case)
+def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True):
+    """Run every sweep of a case; results.h5 is rewritten after each run. Returns the runs."""
     from .models import make_solver
     from .plots import plot_bifurcation, plot_frc
     from .results import write_results
     from .sweep import Sweep, run_sweep
 
-    out_dir = Path(args.out) if args.out else Path("results") / case.name
+    out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     h5 = out_dir / "results.h5"
     base = case.model_spec()
@@ -61,17 +59,48 @@ def cmd_run(args) -> int:
         solver = make_solver(model, r.method, **case.run_settings(r))
         print(f"[{case.name}] run '{r.name}': method {r.method}, {len(Omega)} points, "
               f"direction {sw.direction}", file=sys.stderr)
-        res = run_sweep(solver, sw, name=r.name, jobs=args.jobs, progress=not args.quiet)
+        res = run_sweep(solver, sw, name=r.name, jobs=jobs, progress=not quiet)
         res.attrs["model"] = spec.model_dump()
         runs.append(res)
         write_results(h5, runs, case.name, text)  # after every run: nothing computed is lost
     print(f"\ncase {case.name}: {len(runs)} run(s) in {time.perf_counter() - t_all:.2f} s -> {h5}")
     _print_table(runs)
-    if not args.no_plots:
+    if plots:
         p1 = plot_frc(runs, out_dir / "frc.png", title=case.name)
         p2 = plot_bifurcation(runs, out_dir / "bifurcation.png", title=case.name)
         print(f"plots: {p1}" + (f", {p2}" if p2 else ""))
+    return runs
+
+
+def cmd_run(args) -> int:
+    from .case import load_case
+
+    case, text = load_case(args.case)
+    out_dir = Path(args.out) if args.out else Path("results") / case.name
+    run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots)
     return 0
+
+
+def cmd_regress(args) -> int:
+    from .case import load_case
+
+    case, text = load_case(args.case)
+    from .regress import compare, print_rows
+    from .results import read_results
+
+    if args.results:
+        new = read_results(args.results)
+    else:
+        out_dir = Path(args.out) if args.out else Path("results") / case.name
+        run_case(case, text, out_dir, jobs=args.jobs, quiet=True, plots=False)
+        new = read_results(out_dir / "results.h5")
+    tol = case.regress
+    atol = tol.amplitude_atol if args.atol is None else args.atol
+    rtol = tol.amplitude_rtol if args.rtol is None else args.rtol
+    rows = compare(new, args.reference, atol=atol, rtol=rtol, period=tol.period)
+    print(f"\nregression of {case.name} against {args.reference}")
+    print_rows(rows, atol, rtol)
+    return 0 if rows and all(r.ok for r in rows) else 1
 
 
 def cmd_cost(args) -> int:
@@ -196,6 +225,15 @@ def main(argv=None) -> int:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("regress", help="compare a case's FRCs with reference FRCs (HDF5 or CSV)")
+    p.add_argument("case", help="case file (TOML)")
+    p.add_argument("--reference", required=True, help="reference results.h5 or CSV")
+    p.add_argument("--results", help="compare this results file instead of rerunning the case")
+    p.add_argument("--out", help="output folder of the rerun (default results/<case name>/)")
+    p.add_argument("--jobs", type=int, default=None)
+    p.add_argument("--atol", type=float, default=None, help="override [regress] amplitude_atol")
+    p.add_argument("--rtol", type=float, default=None, help="override [regress] amplitude_rtol")
+    p.set_defaults(func=cmd_regress)
     p = sub.add_parser("cost", help="accuracy against time of every run (work-precision table and plot)")
     p.add_argument("case", help="case file (TOML)")
     p.add_argument("--out", help="output folder (default results/<case name>/)")

@@ -1,0 +1,135 @@
+"""``vibeam regress``: compare new FRCs with reference FRCs, point by point.
+
+A reference is either a vibeam results file (HDF5; runs compared by name, points
+by direction and forcing frequency) or a CSV of measured/digitised points with a
+header naming its columns: ``frequency_hz,amplitude_mm`` (physical) or
+``Omega,amplitude`` (nondimensional); the new FRC of each run (its ``up``
+branch) is then interpolated linearly at the CSV frequencies.
+
+A point passes when ``|A - A_ref| <= atol + rtol |A_ref|`` and, for HDF5
+references with ``period = true``, the period-n classifications agree.
+Tolerances come from the case's ``[regress]`` table (defaults: atol 0,
+rtol 1e-6, period true).
+"""
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass
+class RegressRow:
+    run: str
+    points: int
+    failures: int
+    max_abs: float
+    max_rel: float
+    period_mismatch: int
+    note: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.failures == 0 and self.points > 0
+
+
+def read_csv_reference(path) -> tuple[str, np.ndarray, np.ndarray]:
+    """Read ``(x_name, x, amplitude)`` from a CSV reference.
+
+    Raises
+    ------
+    ValueError
+        If the header is not ``frequency_hz,amplitude_mm`` or ``Omega,amplitude``
+        or a value is not a number.
+    """
+    with open(path, newline="") as f:
+        rows = [r for r in csv.reader(f) if r and not r[0].lstrip().startswith("#")]
+    head = [h.strip() for h in rows[0]]
+    if head[:2] not in (["frequency_hz", "amplitude_mm"], ["Omega", "amplitude"]):
+        raise ValueError(f"{path}: header {head!r} not allowed; use 'frequency_hz,amplitude_mm' or "
+                         f"'Omega,amplitude'")
+    try:
+        data = np.array([[float(v) for v in r[:2]] for r in rows[1:]])
+    except ValueError as e:
+        raise ValueError(f"{path}: {e}") from None
+    order = np.argsort(data[:, 0])
+    return head[0], data[order, 0], data[order, 1]
+
+
+def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: bool = True) -> list[RegressRow]:
+    """Compare ``new`` (``read_results`` layout: ``{"runs": {name: datasets}}``) with a reference.
+
+    Returns one :class:`RegressRow` per compared run (or per new run for CSV).
+    """
+    from .results import read_results
+
+    ref_path = Path(ref_path)
+    rows = []
+    if ref_path.suffix.lower() == ".csv":
+        xname, x, a = read_csv_reference(ref_path)
+        yname = "amplitude_mm" if xname == "frequency_hz" else "amplitude"
+        for name, run in new["runs"].items():
+            if xname not in run or yname not in run:
+                rows.append(RegressRow(name, 0, 0, np.nan, np.nan, 0, f"run has no {xname}/{yname}"))
+                continue
+            sel = np.array([str(d) == "up" for d in run["direction"]]) if "direction" in run else \
+                np.ones(len(run[xname]), bool)
+            if not sel.any():
+                sel[:] = True
+            xs, ys = run[xname][sel], run[yname][sel]
+            o = np.argsort(xs)
+            inside = (x >= xs[o][0]) & (x <= xs[o][-1])
+            y_new = np.interp(x[inside], xs[o], ys[o])
+            rows.append(_row(name, y_new, a[inside], atol, rtol, None, None,
+                             note=f"{int(inside.sum())} of {len(x)} CSV points inside the sweep"))
+        return rows
+    ref = read_results(ref_path)
+    for name, r in ref["runs"].items():
+        if name not in new["runs"]:
+            rows.append(RegressRow(name, 0, 1, np.nan, np.nan, 0, "run missing from the new results"))
+            continue
+        n = new["runs"][name]
+        key_r = {(str(d), round(float(w), 12)): i for i, (d, w) in enumerate(zip(r["direction"], r["Omega"]))}
+        idx_n, idx_r = [], []
+        for i, (d, w) in enumerate(zip(n["direction"], n["Omega"])):
+            j = key_r.get((str(d), round(float(w), 12)))
+            if j is not None:
+                idx_n.append(i)
+                idx_r.append(j)
+        if not idx_n:
+            rows.append(RegressRow(name, 0, 1, np.nan, np.nan, 0, "no common frequency points"))
+            continue
+        pn = n["period"][idx_n] if period and "period" in n and "period" in r else None
+        pr = r["period"][idx_r] if pn is not None else None
+        rows.append(_row(name, n["amplitude"][idx_n], r["amplitude"][idx_r], atol, rtol, pn, pr))
+    return rows
+
+
+def _row(name, a, a_ref, atol, rtol, p, p_ref, note=""):
+    a, a_ref = np.asarray(a, float), np.asarray(a_ref, float)
+    d = np.abs(a - a_ref)
+    both_nan = np.isnan(a) & np.isnan(a_ref)
+    bad = ~((d <= atol + rtol * np.abs(a_ref)) | both_nan)
+    pm = 0
+    if p is not None:
+        mism = np.asarray(p) != np.asarray(p_ref)
+        pm = int(mism.sum())
+        bad |= mism
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = d / np.abs(a_ref)
+    return RegressRow(name, len(a), int(bad.sum()),
+                      float(np.nanmax(d)) if np.isfinite(d).any() else np.nan,
+                      float(np.nanmax(rel)) if np.isfinite(rel).any() else np.nan, pm, note)
+
+
+def print_rows(rows, atol, rtol) -> None:
+    print(f"tolerance: |A - A_ref| <= {atol:g} + {rtol:g} |A_ref|")
+    head = f"{'run':<24}{'points':>7}{'failed':>8}{'max |dA|':>12}{'max rel':>11}{'period diff':>12}  verdict"
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        verdict = "ok" if r.ok else "REGRESSION"
+        print(f"{r.run:<24}{r.points:>7}{r.failures:>8}{r.max_abs:>12.3e}{r.max_rel:>11.3e}"
+              f"{r.period_mismatch:>12}  {verdict}" + (f"  ({r.note})" if r.note else ""))
