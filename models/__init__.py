@@ -10,9 +10,12 @@ from .sdof import SDOF, EventSolver, linear_amplitude
 
 from .sdof_averaging import AveragingSolver
 from .sdof_mapping import MappingSolver
+from .beam_dynamics import BeamEventSolver, BeamImpactModel, BeamODESolver
 from .sdof_ode import DirectSolver, IvanovSolver, ZhuravlevSolver
 
 METHODS = {
+    ("beam", "event"): BeamEventSolver,
+    ("beam", "direct"): BeamODESolver,
     ("sdof", "event"): EventSolver,
     ("sdof", "averaging"): AveragingSolver,
     ("sdof", "mapping"): MappingSolver,

@@ -39,6 +39,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .roots import rtsafe_update, select
 from .impact import newton_restitution
 from .sdof_flow import (homogeneous_amplitude, particular_coefficients, propagate,
                         propagate_tabulated, transition)
@@ -66,34 +67,10 @@ def _root(kind, lo, hi, phi0, q0, v0, beta, a, b, Omega, Delta):
     s = 0.5 * (lo + hi)
     for _ in range(200):
         g, v, g2, g3, g4 = propagate(s, phi0, q0, v0, beta, a, b, Omega, Delta)
-        if kind == 0:
-            f = g
-            df = v
-        elif kind == 1:
-            f = -v
-            df = -g2
-        else:
-            f = v
-            df = g2
-        if f == 0.0:
+        F, dF = select(kind, g, v, g2)
+        s, lo, hi, dx, dxold, done = rtsafe_update(F, dF, s, lo, hi, dx, dxold)
+        if done:
             return s
-        if f < 0.0:
-            lo = s
-        else:
-            hi = s
-        if hi - lo <= 4.0 * EPS * max(abs(hi), 1e-300):
-            break
-        # Newton step if it stays inside the bracket and shrinks fast enough
-        if df != 0.0:
-            sn = s - f / df
-            if lo < sn < hi and abs(2.0 * f) <= abs(dxold * df):
-                dxold = dx
-                dx = sn - s
-                s = sn
-                continue
-        dxold = dx
-        dx = 0.5 * (hi - lo)
-        s = lo + dx
     return hi
 
 

@@ -1,0 +1,1157 @@
+"""Vibro-impact dynamics of the FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41).
+
+Model
+    ``M u'' + C u' + K u = -M r b''(t)``, ``b = Y sin(Omega~ t~)`` (base displacement
+    amplitude ``Y = gamma~ V``, m), while the contact displacement ``U = w^T u`` (relative to
+    the base, at ``L_m``) stays below the stop ``Delta_C``; Newton's impact law (Eq. 41) on
+    ``U``.  With the ``N`` retained mass-normalised modes ``u = Phi eta`` each modal
+    coordinate obeys::
+
+        eta_i'' + c_i eta_i' + omega_i^2 eta_i = Gamma_i Omega~^2 Y sin(Omega~ t~),
+        c_i = alpha + D omega_i^2       (Rayleigh; alpha = 0 is Eq. 39's D EI U'''')
+
+    and ``U = sum_i w_i eta_i``, sensor ``U(L_S) = sum_i s_i eta_i``.
+
+Units of the kernel
+    Time is the nondimensional ``t = omega_ref t~`` with ``omega_ref = 2 pi f_ref``, so the
+    sweep's ``Omega = f / f_ref`` is the forcing frequency; modal coordinates keep their SI
+    units (sqrt(kg) m), modal frequencies/damping are divided by ``omega_ref``.  Outputs
+    are ``q = U(L_S) / L`` and ``q' = dq/dt`` (same measure as the SDOF model when
+    ``f_ref = f_n``).
+
+Exact flow
+    Between events every modal coordinate follows its closed-form damped forced response
+    (underdamped, critically damped or overdamped: stiffness-proportional damping makes
+    the high modes overdamped), written as increments ``Phi(s) - I`` free of cancellation.
+
+Guaranteed impact detection
+    As :mod:`vibeam.models.sdof_event`: on each step the cheap interpolation bound
+    ``max(g0, g1) + M2 h^2 / 8 < 0`` clears intervals far from the stop; otherwise the
+    sign of ``g''`` is certified with :func:`vibeam.models.sdof_event._certify` from bounds
+    ``M3, M4`` that sum, over every retained mode, the homogeneous bound of its k-th
+    derivative (underdamped: ``A_i omega_i^k``; overdamped: ``|c1| |l1|^k + |c2| |l2|^k``;
+    critical: a universal bound) plus the forced amplitude times ``Omega^k``.  Steps are
+    halved only where needed (and the last accepted step is remembered), so the step
+    scales with the highest mode only where that mode is excited near the stop.
+
+Impact law (Moreau / Siconos)
+    ``m_eff = 1 / sum_i w_i^2``; ``P = restitution_impulse(U-, R, m_eff)``;
+    ``eta_i' += w_i P`` (``U+ = -R U-``, energy loss ``(1 - R^2) m_eff U-^2 / 2``).
+
+Sticking and chatter
+    On the stop the beam is the constrained linear system ``w^T eta = Delta_C``: with an
+    orthonormal basis ``T`` of ``null(w^T)`` and ``T^T K T = V diag(nu^2) V^T``,
+    ``eta = eta_c + Psi zeta`` (``Psi = T V``, ``eta_c = w Delta_C / |w|^2``) and each
+    ``zeta_j`` again is a proportionally damped forced oscillator (constant + harmonic
+    load), integrated in closed form.  The contact force (positive pulling the beam
+    away from the stop; the beam is held while ``lambda <= 0``) is
+    ``lambda = -m_eff w^T (Gamma F sin - C eta' - K eta)``; release at its first upward
+    zero crossing, found with the same certified scan.  Entering contact removes the
+    normal velocity with the plastic (R = 0) impulse.  Chatter: after an impact with a
+    small rebound speed ``u`` into a free contact acceleration ``a > 0``, if the
+    constant-acceleration estimate of the accumulation time ``2 u / (a (1 - R))`` is
+    accurate to ``chatter_tol`` the solver sticks at once and holds the beam on the stop
+    (constrained flow, no release check) for that accumulation time, then continues as
+    stuck: with one mode this is exactly the SDOF kernel's jump (state frozen on the
+    stop for the accumulation time); with several modes the other modes keep moving
+    during the chatter as in the constrained system (an O(u) approximation).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.linalg
+from numba import njit
+
+from vibeam.records import Trajectory
+
+from .roots import rtsafe_update, select
+from .impact import newton_restitution, restitution_impulse
+from .sdof_event import STATUS_NAMES, _certify
+
+TWO_PI = 2.0 * math.pi
+EPS = 2.220446049250313e-16
+ST_OK, ST_CHATTER, ST_STICKING, ST_FAILED = 0, 1, 2, 3
+
+__all__ = ["BeamImpactModel", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
+
+
+# ============================================================================ mode algebra
+def mode_table(c, k):
+    """Per-mode flow parameters ``[sig, k, typ, q, l1, l2]`` for ``x'' + c x' + k x = 0``.
+
+    ``sig = c/2``; ``typ`` 0 underdamped (``q = omega_D``), 1 critical, 2 overdamped
+    (``q = mu = sqrt(sig^2 - k)``, roots ``l1 = -k/(sig+mu)`` (slow), ``l2 = -(sig+mu)``).
+    """
+    c = np.asarray(c, dtype=float)
+    k = np.asarray(k, dtype=float)
+    out = np.zeros((c.size, 6))
+    for i in range(c.size):
+        sig = 0.5 * c[i]
+        d = sig * sig - k[i]
+        out[i, 0], out[i, 1] = sig, k[i]
+        if d < 0:
+            out[i, 2], out[i, 3] = 0, math.sqrt(-d)
+        elif d == 0:
+            out[i, 2], out[i, 3] = 1, 0.0
+            out[i, 4] = out[i, 5] = -sig
+        else:
+            mu = math.sqrt(d)
+            out[i, 2], out[i, 3] = 2, mu
+            out[i, 4], out[i, 5] = -k[i] / (sig + mu), -(sig + mu)
+    return out
+
+
+def particular(c, k, G, F, Omega):
+    """Steady response ``a sin + b cos`` of ``x'' + c x' + k x = G F sin(Omega t)``."""
+    z = G * F / (k - Omega**2 + 1j * c * Omega)   # response to G F e^{i Omega t}
+    return z.real, z.imag  # Im(z e^{i phi}) = Re z sin + Im z cos
+
+
+@njit(cache=True)
+def _trans(s, sig, k, typ, q, l1, l2):
+    """``Phi(s) - I`` of ``x'' + 2 sig x' + k x = 0`` (entries 11, 12, 21, 22)."""
+    if typ == 0:
+        E = math.exp(-sig * s)
+        c = math.cos(q * s)
+        hs = math.sin(0.5 * q * s)
+        cm1 = math.expm1(-sig * s) * c - 2.0 * hs * hs
+        S = E * math.sin(q * s) / q
+    elif typ == 2:
+        cm1 = 0.5 * (math.expm1(l1 * s) + math.expm1(l2 * s))
+        S = -math.exp(l1 * s) * math.expm1(-2.0 * q * s) / (2.0 * q)
+    else:
+        E = math.exp(-sig * s)
+        cm1 = math.expm1(-sig * s)
+        S = s * E
+    return cm1 + sig * S, S, -k * S, cm1 - sig * S
+
+
+@njit(cache=True)
+def _hb(x0, y0, sig, k, typ, q, l1, l2, out):
+    """Bounds ``out[m] >= sup_{s>=0} |x^(m)(s)|``, m = 0..5, of a homogeneous solution."""
+    if typ == 0:
+        w = (y0 + sig * x0) / q
+        A = math.sqrt(x0 * x0 + w * w)
+        om = math.sqrt(k)
+        p = A
+        for m in range(6):
+            out[m] = p
+            p *= om
+    elif typ == 2:
+        c1 = (y0 - l2 * x0) / (l1 - l2)
+        c2 = (l1 * x0 - y0) / (l1 - l2)
+        a1 = abs(c1)
+        a2 = abs(c2)
+        for m in range(6):
+            out[m] = a1 + a2
+            a1 *= -l1
+            a2 *= -l2
+    else:
+        d = np.empty(7)
+        d[0] = x0
+        d[1] = y0
+        for m in range(5):
+            d[m + 2] = -2.0 * sig * d[m + 1] - k * d[m]
+        for m in range(6):
+            out[m] = abs(d[m]) + abs(d[m + 1] + sig * d[m]) / (math.e * sig)
+    for m in range(6):
+        out[m] = out[m] * (1.0 + 1e-9) + 1e-300
+
+
+@njit(cache=True)
+def _sig(s, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0):
+    """Signal ``f = sum_j p_j x_j + r_j x_j' + Sa sin + Sb cos (+ const)`` at local time ``s``.
+
+    ``x_j`` are homogeneous modal responses starting at ``(x0_j, y0_j)``; ``f0, fp0`` are
+    the signal value and slope at ``s = 0`` (the value is returned as ``f0`` plus an
+    increment computed without cancellation).  Returns ``(f, f', f'', f''', f'''')``.
+    """
+    f = f0
+    f1 = fp0
+    f2 = 0.0
+    f3 = 0.0
+    f4 = 0.0
+    for j in range(x0.shape[0]):
+        sig = mp[j, 0]
+        k = mp[j, 1]
+        a11, a12, a21, a22 = _trans(s, sig, k, int(mp[j, 2]), mp[j, 3], mp[j, 4], mp[j, 5])
+        dx = a11 * x0[j] + a12 * y0[j]
+        dy = a21 * x0[j] + a22 * y0[j]
+        x = x0[j] + dx
+        y = y0[j] + dy
+        dx2 = -2.0 * sig * dy - k * dx
+        x2 = -2.0 * sig * y - k * x
+        x3 = -2.0 * sig * x2 - k * y
+        x4 = -2.0 * sig * x3 - k * x2
+        x5 = -2.0 * sig * x4 - k * x3
+        f += p[j] * dx + r[j] * dy
+        f1 += p[j] * dy + r[j] * dx2
+        f2 += p[j] * x2 + r[j] * x3
+        f3 += p[j] * x3 + r[j] * x4
+        f4 += p[j] * x4 + r[j] * x5
+    half = 0.5 * Om * s
+    sh = math.sin(half)
+    ph = phi0 + half
+    sph = math.sin(ph)
+    cph = math.cos(ph)
+    f += 2.0 * sh * (Sa * cph - Sb * sph)
+    f1 += Om * (-2.0 * sh) * (Sa * sph + Sb * cph)
+    phi = phi0 + Om * s
+    S = Sa * math.sin(phi) + Sb * math.cos(phi)
+    Sd = Om * (Sa * math.cos(phi) - Sb * math.sin(phi))
+    W2 = Om * Om
+    f2 -= W2 * S
+    f3 -= W2 * Sd
+    f4 += W2 * W2 * S
+    return f, f1, f2, f3, f4
+
+
+@njit(cache=True)
+def _start(phi0, Om, x0, y0, mp, p, r, Sa, Sb, const):
+    """Value and slope of the signal at ``s = 0`` computed from the state."""
+    f = const + Sa * math.sin(phi0) + Sb * math.cos(phi0)
+    fp = Om * (Sa * math.cos(phi0) - Sb * math.sin(phi0))
+    for j in range(x0.shape[0]):
+        x2 = -2.0 * mp[j, 0] * y0[j] - mp[j, 1] * x0[j]
+        f += p[j] * x0[j] + r[j] * y0[j]
+        fp += p[j] * y0[j] + r[j] * x2
+    return f, fp
+
+
+@njit(cache=True)
+def _bounds(x0, y0, mp, p, r, Csin, Om):
+    """Bounds ``M2, M3, M4`` of the 2nd-4th derivatives of the signal over ``s >= 0``."""
+    M2 = Csin * Om ** 2
+    M3 = Csin * Om ** 3
+    M4 = Csin * Om ** 4
+    hb = np.empty(6)
+    for j in range(x0.shape[0]):
+        _hb(x0[j], y0[j], mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3], mp[j, 4], mp[j, 5], hb)
+        ap = abs(p[j])
+        ar = abs(r[j])
+        M2 += ap * hb[2] + ar * hb[3]
+        M3 += ap * hb[3] + ar * hb[4]
+        M4 += ap * hb[4] + ar * hb[5]
+    f = 1.0 + 1e-9
+    return M2 * f + 1e-300, M3 * f + 1e-300, M4 * f + 1e-300
+
+
+@njit(cache=True)
+def _root(kind, lo, hi, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0):
+    """Safeguarded Newton on a bracket with F(lo) < 0 <= F(hi); returns the bracket end
+    where F >= 0.  kind 0: F = f; 1: F = -f'; 2: F = f'."""
+    dxold = hi - lo
+    dx = dxold
+    s = 0.5 * (lo + hi)
+    for _ in range(200):
+        g, v, g2, g3, g4 = _sig(s, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
+        F, dF = select(kind, g, v, g2)
+        s, lo, hi, dx, dxold, done = rtsafe_update(F, dF, s, lo, hi, dx, dxold)
+        if done:
+            return s
+    return hi
+
+
+@njit(cache=True)
+def _scan(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4):
+    """One certified step of at most ``h``: first time the signal reaches 0 from below.
+
+    Returns ``(s_event, h_used)``; ``s_event = -1`` when the signal stays negative on
+    ``[0, h_used]`` (guaranteed unless the step fell below ``h_min``).
+    """
+    g0, v0, g20, g30, _ = _sig(0.0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
+    tol2 = 1e-13 * M2
+    while True:
+        g1, v1, g21, g31, _ = _sig(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
+        if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
+            return -1.0, h
+        cert = _certify(g20, g30, g21, g31, M3, M4, h, tol2)
+        if cert != 0 or h < h_min:
+            break
+        h *= 0.5
+    if cert == 0:
+        cert = 1 if g20 + g21 > 0.0 else -1
+    if cert < 0:
+        if v0 > 0.0:
+            if v1 >= 0.0:
+                if g1 >= 0.0:
+                    return _root(0, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0), h
+            else:
+                bound = g0 + v0 * (g1 - g0 - v1 * h) / (v0 - v1) if v0 - v1 > 0.0 else g0
+                if bound >= 0.0:
+                    sa = _root(1, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
+                    ga = _sig(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)[0]
+                    if ga >= 0.0:
+                        if g0 < 0.0:
+                            return _root(0, 0.0, sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0), h
+                        return sa, h
+    else:
+        if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
+            if v0 < 0.0:
+                if g1 >= 0.0:
+                    sm = _root(2, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
+                    return _root(0, sm, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0), h
+            elif g1 >= 0.0:
+                return _root(0, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0), h
+    return -1.0, h
+
+
+@njit(cache=True)
+def _extremes(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, vstart, vend, ext):
+    """Update ``ext = [min, max]`` of a signal with the apex/minimum inside ``[0, h]``
+    when its slope changes sign between the ends."""
+    if vstart < 0.0 < vend:
+        sm = _root(2, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
+        v = _sig(sm, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)[0]
+        if v < ext[0]:
+            ext[0] = v
+    elif vstart > 0.0 > vend:
+        sa = _root(1, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
+        v = _sig(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)[0]
+        if v > ext[1]:
+            ext[1] = v
+
+
+@njit(cache=True)
+def _advance(s, phi0, Om, z, zd, mp, a, b, e):
+    """Move modal coordinates ``z`` (with offsets ``e`` and harmonic particular ``a, b``)
+    by ``s`` in closed form, in place."""
+    half = 0.5 * Om * s
+    sh = math.sin(half)
+    ph = phi0 + half
+    sph = math.sin(ph)
+    cph = math.cos(ph)
+    sp0 = math.sin(phi0)
+    cp0 = math.cos(phi0)
+    for j in range(z.shape[0]):
+        x0 = z[j] - e[j] - (a[j] * sp0 + b[j] * cp0)
+        y0 = zd[j] - Om * (a[j] * cp0 - b[j] * sp0)
+        a11, a12, a21, a22 = _trans(s, mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3], mp[j, 4], mp[j, 5])
+        z[j] += a11 * x0 + a12 * y0 + 2.0 * sh * (a[j] * cph - b[j] * sph)
+        zd[j] += a21 * x0 + a22 * y0 - 2.0 * Om * sh * (a[j] * sph + b[j] * cph)
+
+
+@njit(cache=True)
+def _homog(phi0, Om, z, zd, a, b, e, x0, y0):
+    sp0 = math.sin(phi0)
+    cp0 = math.cos(phi0)
+    for j in range(z.shape[0]):
+        x0[j] = z[j] - e[j] - (a[j] * sp0 + b[j] * cp0)
+        y0[j] = zd[j] - Om * (a[j] * cp0 - b[j] * sp0)
+
+
+@njit(cache=True)
+def _contact_acc(phi, eta, etad, w, cF, kF, GF):
+    """Free acceleration of the contact point ``w^T (Gamma F sin - C eta' - K eta)``."""
+    s = math.sin(phi)
+    acc = 0.0
+    jerk = 0.0
+    for i in range(eta.shape[0]):
+        ai = GF[i] * s - cF[i] * etad[i] - kF[i] * eta[i]
+        acc += w[i] * ai
+        jerk += w[i] * (-cF[i] * ai - kF[i] * etad[i])
+    return acc, jerk
+
+
+@njit(cache=True)
+def apply_impact(etad, w, U_minus, R, m_eff):
+    """Newton impact on the contact ``U = w^T eta`` (Moreau / Siconos): impulse
+    ``P = restitution_impulse(U-, R, m_eff)`` along ``w``, ``eta' += w P`` in place.
+    Returns ``U+ = -R U-`` (the exact law value, used as the contact velocity)."""
+    P = restitution_impulse(U_minus, R, m_eff)
+    for i in range(etad.shape[0]):
+        etad[i] += w[i] * P
+    return newton_restitution(U_minus, R)
+
+
+@njit(cache=True)
+def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R,
+                mpC, aC, bC, eC, Psi, eta_c, pL, rL, SaL, SbL, cL, pS, SaS, SbS, cS,
+                eta, etad, stuck_init,
+                n_transient, n_record, ns_transient, ns_record, h_cap,
+                max_impacts, max_steps, chatter_tol,
+                samples, imp_t, imp_v, modamp, msamp):
+    """Exact event-driven simulation of whole forcing periods (numba core).
+
+    ``eta, etad`` (N,) hold the initial modal state and receive the final one.
+    ``samples`` (n_record * ns_record, 2) receive ``(s^T eta, s^T eta')``; ``modamp``
+    (N,) the max ``|eta_i|`` over the samples; ``msamp`` (same rows or 0 rows, 2N) the
+    modal state ``(eta, eta')`` at the samples.  Returns ``(status, n_imp_rec, smin, smax,
+    n_chatter, stuck_time, stuck_end, n_imp_total, gmax, n_steps)``.
+    """
+    N = eta.shape[0]
+    Nc = eC.shape[0]
+    T = TWO_PI / Om
+    zeroN = np.zeros(N)
+    zeroC = np.zeros(Nc)
+    x0 = np.empty(N)
+    y0 = np.empty(N)
+    xc = np.empty(Nc)
+    yc = np.empty(Nc)
+    zeta = np.empty(Nc)
+    zetad = np.empty(Nc)
+    SaF = 0.0
+    SbF = 0.0
+    SaSF = 0.0
+    SbSF = 0.0
+    for i in range(N):
+        SaF += w[i] * aF[i]
+        SbF += w[i] * bF[i]
+        SaSF += sv[i] * aF[i]
+        SbSF += sv[i] * bF[i]
+    CsF = math.sqrt(SaF * SaF + SbF * SbF)
+    CsL = math.sqrt(SaL * SaL + SbL * SbL)
+    w2 = 0.0
+    for i in range(N):
+        w2 += w[i] * w[i]
+    ext = np.array([np.inf, -np.inf])
+    stuck = stuck_init
+    g = 0.0
+    v = 0.0
+    for i in range(N):
+        g += w[i] * eta[i]
+        v += w[i] * etad[i]
+    g -= Delta_C
+    scale = abs(Delta_C) + math.sqrt(w2) * math.sqrt(np.sum(eta * eta)) + 1e-300
+    if stuck or g > -1e-13 * scale:
+        corr = g / w2
+        for i in range(N):
+            eta[i] -= w[i] * corr
+        g = 0.0
+        if stuck:
+            v = 0.0
+    gmax = -np.inf
+    n_imp_total = 0
+    n_imp_rec = 0
+    n_chatter = 0
+    n_steps = 0
+    stuck_time = 0.0
+    cap = imp_t.shape[0]
+    for i in range(N):
+        modamp[i] = 0.0
+    just_released = False
+    just_stuck = False
+    hold = 0.0
+    h_last = h_cap
+    k_sample = 0
+    n_total = n_transient + n_record
+    for pp in range(n_total):
+        recording = pp >= n_transient
+        ns = ns_record if recording else ns_transient
+        h_grid = T / ns
+        t_period0 = (pp - n_transient) * T
+        for jg in range(ns):
+            phi = TWO_PI * jg / ns
+            t_loc = jg * h_grid
+            if recording:
+                qs = 0.0
+                qd = 0.0
+                for i in range(N):
+                    qs += sv[i] * eta[i]
+                    qd += sv[i] * etad[i]
+                    if abs(eta[i]) > modamp[i]:
+                        modamp[i] = abs(eta[i])
+                samples[k_sample, 0] = qs
+                samples[k_sample, 1] = qd
+                if msamp.shape[0] > 0:
+                    for i in range(N):
+                        msamp[k_sample, i] = eta[i]
+                        msamp[k_sample, N + i] = etad[i]
+                k_sample += 1
+                if qs < ext[0]:
+                    ext[0] = qs
+                if qs > ext[1]:
+                    ext[1] = qs
+            rem = h_grid
+            while rem > 0.0:
+                n_steps += 1
+                if n_steps > max_steps:
+                    return (ST_FAILED, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time,
+                            stuck, n_imp_total, gmax, n_steps)
+                h_try = min(rem, h_cap, 2.0 * h_last)
+                if stuck:
+                    # ---- constrained motion on the stop; scan the contact force ----
+                    for j in range(Nc):
+                        zz = 0.0
+                        zd = 0.0
+                        for i in range(N):
+                            zz += Psi[i, j] * (eta[i] - eta_c[i])
+                            zd += Psi[i, j] * etad[i]
+                        zeta[j] = zz
+                        zetad[j] = zd
+                    _homog(phi, Om, zeta, zetad, aC, bC, eC, xc, yc)
+                    const = cL
+                    for j in range(Nc):
+                        const += pL[j] * eC[j]
+                    lam0, lamp0 = _start(phi, Om, xc, yc, mpC, pL, rL, SaL, SbL, const)
+                    if (lam0 > 0.0 or (lam0 == 0.0 and lamp0 > 0.0)) and not just_stuck and hold <= 0.0:
+                        stuck = False
+                        just_released = True
+                        g = 0.0
+                        v = 0.0
+                        continue
+                    if lam0 > 0.0:
+                        lam0 = 0.0
+                    if hold > 0.0:
+                        # held through the chatter accumulation time: no release check
+                        s_ev = -1.0
+                        h = min(h_try, hold)
+                        hold -= h
+                        if hold < 1e-15 * T:
+                            hold = 0.0
+                    else:
+                        M2, M3, M4 = _bounds(xc, yc, mpC, pL, rL, CsL, Om)
+                        s_ev, h = _scan(h_try, 1e-13 * T, phi, Om, xc, yc, mpC, pL, rL, SaL, SbL,
+                                        lam0, lamp0, M2, M3, M4)
+                        if s_ev < 0.0:
+                            h_last = h
+                    s_mv = s_ev if s_ev >= 0.0 else h
+                    if recording:
+                        # sensor extremes while stuck
+                        constS = cS
+                        for j in range(Nc):
+                            constS += pS[j] * eC[j]
+                        q0s, qp0s = _start(phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, constS)
+                        q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s)
+                        _extremes(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s, qp0s, qp1s, ext)
+                        stuck_time += s_mv
+                    _advance(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eC)
+                    for i in range(N):
+                        zz = eta_c[i]
+                        zd = 0.0
+                        for j in range(Nc):
+                            zz += Psi[i, j] * zeta[j]
+                            zd += Psi[i, j] * zetad[j]
+                        eta[i] = zz
+                        etad[i] = zd
+                    phi = (phi + Om * s_mv) % TWO_PI
+                    t_loc += s_mv
+                    rem -= s_mv
+                    if rem < 1e-15 * T:
+                        rem = 0.0
+                    if s_mv > 0.0:
+                        just_stuck = False
+                        just_released = False
+                    if s_ev >= 0.0:
+                        stuck = False
+                        just_released = True
+                        g = 0.0
+                        v = 0.0
+                    continue
+                # ---- free flight ----
+                s_imp = -1.0
+                if g >= 0.0 and v >= 0.0:
+                    g = 0.0
+                    if v > 0.0:
+                        s_imp = 0.0
+                    elif not just_released:
+                        acc, jerk = _contact_acc(phi, eta, etad, w, cF, kF, GF)
+                        if acc > 0.0:
+                            stuck = True
+                            just_stuck = True
+                            corr = v / w2
+                            for i in range(N):
+                                etad[i] -= w[i] * corr
+                            continue
+                if s_imp < 0.0:
+                    _homog(phi, Om, eta, etad, aF, bF, zeroN, x0, y0)
+                    M2, M3, M4 = _bounds(x0, y0, mpF, w, zeroN, CsF, Om)
+                    s_ev, h = _scan(h_try, 1e-13 * T, phi, Om, x0, y0, mpF, w, zeroN, SaF, SbF,
+                                    g, v, M2, M3, M4)
+                    s_mv = s_ev if s_ev >= 0.0 else h
+                    if s_ev < 0.0:
+                        h_last = h
+                    g1, v1, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, w, zeroN, SaF, SbF, g, v)
+                    if recording:
+                        q0s, qp0s = _start(phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, 0.0)
+                        q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s)
+                        _extremes(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s, qp0s, qp1s, ext)
+                        if q1s < ext[0]:
+                            ext[0] = q1s
+                        if q1s > ext[1]:
+                            ext[1] = q1s
+                    _advance(s_mv, phi, Om, eta, etad, mpF, aF, bF, zeroN)
+                    phi = (phi + Om * s_mv) % TWO_PI
+                    t_loc += s_mv
+                    rem -= s_mv
+                    if rem < 1e-15 * T:
+                        rem = 0.0
+                    if s_mv > 0.0:
+                        just_stuck = False
+                        just_released = False
+                    if g1 > gmax:
+                        gmax = g1
+                    if s_ev < 0.0:
+                        g = g1 if g1 < 0.0 else 0.0
+                        v = v1
+                        continue
+                    v = v1
+                    s_imp = s_ev
+                # ---- impact at the current time ----
+                g = 0.0
+                Um = v if v > 0.0 else 0.0
+                v = apply_impact(etad, w, Um, R, m_eff)
+                n_imp_total += 1
+                if recording:
+                    if n_imp_rec < cap:
+                        imp_t[n_imp_rec] = t_period0 + t_loc
+                        imp_v[n_imp_rec] = Um
+                    n_imp_rec += 1
+                if n_imp_total > max_impacts:
+                    return (ST_FAILED, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time,
+                            stuck, n_imp_total, gmax, n_steps)
+                u = -v
+                acc, jerk = _contact_acc(phi, eta, etad, w, cF, kF, GF)
+                stick_now = False
+                if u <= 0.0:
+                    stick_now = acc > 0.0
+                elif acc > 0.0 and R < 1.0:
+                    D = 2.0 * u / (acc * (1.0 - R))
+                    ceff = 0.0
+                    for i in range(N):
+                        ceff += w[i] * w[i] * cF[i]
+                    ceff *= m_eff
+                    err = D * (abs(jerk) / acc + ceff + D)
+                    if err < chatter_tol:
+                        stick_now = True
+                        hold = D
+                        if recording:
+                            n_chatter += 1
+                if stick_now:
+                    corr = v / w2
+                    for i in range(N):
+                        etad[i] -= w[i] * corr
+                    v = 0.0
+                    stuck = True
+                    just_stuck = True
+    status = ST_OK
+    if n_record > 0:
+        if n_chatter > 0:
+            status = ST_CHATTER
+        elif stuck_time > 0.0:
+            status = ST_STICKING
+    return (status, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time, stuck, n_imp_total,
+            gmax, n_steps)
+
+
+# ============================================================================ model
+class BeamImpactModel:
+    """Impacting cantilever in ``N`` modal coordinates (fidelity ``"beam"``).
+
+    Build it with :meth:`from_fe` (FE modes) or :meth:`static_mode` (the paper's single
+    static assumed mode, beam mass excluded), or directly from modal data.
+
+    Parameters
+    ----------
+    omega_rad_s, participation, contact_row, sensor_row : array_like, shape (N,)
+        Modal frequencies ``omega_i``, ``Gamma_i = phi_i^T M r`` (sqrt(kg)), ``w_i = w^T
+        phi_i`` and ``s_i = s^T phi_i`` (1/sqrt(kg)) of mass-normalised shapes.
+    R : float
+        Coefficient of restitution.
+    gap_contact_m : float
+        ``Delta_C`` (m; negative = pre-stressed stop).
+    base_amplitude_m : float
+        ``Y = gamma~ V`` (m).
+    f_ref_hz : float
+        Reference frequency: ``Omega = f / f_ref``, ``t = 2 pi f_ref t~``.
+    length_m : float
+        ``L``.
+    phi_at_mass : float
+        Static-mode ratio ``phi(x_m)`` (``phi(x_S) = 1``), giving
+        ``Delta = Delta_C / (phi(x_m) L)`` as in the SDOF model.
+    damping_D_s, rayleigh_alpha_1_s : float
+        ``C = alpha M + D K`` so that ``c_i = alpha + D omega_i^2``.
+    """
+
+    fidelity = "beam"
+
+    def __init__(self, omega_rad_s, participation, contact_row, sensor_row, R, gap_contact_m,
+                 base_amplitude_m, f_ref_hz, length_m, phi_at_mass, damping_D_s=0.0,
+                 rayleigh_alpha_1_s=0.0, label=""):
+        self.omega_rad_s = np.asarray(omega_rad_s, dtype=float).copy()
+        self.participation = np.asarray(participation, dtype=float).copy()
+        self.contact_row = np.asarray(contact_row, dtype=float).copy()
+        self.sensor_row = np.asarray(sensor_row, dtype=float).copy()
+        n = self.omega_rad_s.size
+        if not (self.participation.size == self.contact_row.size == self.sensor_row.size == n and n >= 1):
+            raise ValueError("modal arrays must have the same length >= 1")
+        if not np.all(self.omega_rad_s > 0):
+            raise ValueError("modal frequencies must be positive")
+        if not 0.0 <= R <= 1.0:
+            raise ValueError("R must lie in [0, 1]")
+        if damping_D_s < 0 or rayleigh_alpha_1_s < 0:
+            raise ValueError("damping coefficients must be >= 0")
+        if not np.any(self.contact_row != 0):
+            raise ValueError("no retained mode moves the contact point")
+        self.R = float(R)
+        self.gap_contact_m = float(gap_contact_m)
+        self.base_amplitude_m = float(base_amplitude_m)
+        self.f_ref_hz = float(f_ref_hz)
+        self.length_m = float(length_m)
+        self.phi_at_mass = float(phi_at_mass)
+        self.damping_D_s = float(damping_D_s)
+        self.rayleigh_alpha_1_s = float(rayleigh_alpha_1_s)
+        self.label = label
+        self._constrained()
+
+    # ---------------------------------------------------------------- constructors
+    @classmethod
+    def from_fe(cls, fe, n_modes=2, R=0.72, gap_contact_m=0.0, base_amplitude_m=0.0,
+                f_ref_hz=None, damping_D_s=None, rayleigh_alpha_1_s=None):
+        """Modal truncation of a :class:`vibeam.models.beam.BeamFE` to ``n_modes`` (int or
+        ``"all"``).  Damping defaults to the FE model's; ``f_ref`` to its ``f_1``."""
+        from vibeam.reductions.modal import modal_reduction
+        from vibeam.reductions.static_mode import static_mode_shape
+
+        red = modal_reduction(fe, n_modes)
+        md = fe.modes(red.n_modes)
+        g = fe.geometry
+        L = g.length_m
+        phim = float(static_mode_shape(g.mass_position_m / L, g.mass_position_m / L,
+                                       g.sensor_position_m / L))
+        return cls(red.omega_rad_s, md.participation, red.contact_row, red.sensor_row, R,
+                   gap_contact_m, base_amplitude_m,
+                   md.frequencies_hz[0] if f_ref_hz is None else f_ref_hz, L, phim,
+                   fe.damping_D_s if damping_D_s is None else damping_D_s,
+                   fe.rayleigh_alpha_1_s if rayleigh_alpha_1_s is None else rayleigh_alpha_1_s,
+                   label=f"FE {red.n_modes} modes")
+
+    @classmethod
+    def static_mode(cls, geometry, R=0.72, gap_contact_m=0.0, base_amplitude_m=0.0,
+                    damping_D_s=0.0, f_ref_hz=None):
+        """One assumed shape, the static mode ``phi`` (paper Eqs. 42-47, beam mass
+        excluded): mass ``M_S = m phi(x_m)^2``, stiffness ``K_S``, load ``m phi(x_m)``.
+
+        The mass-normalised shape is ``phi / sqrt(M_S)`` in ``U = L phi q``, i.e. the
+        modal coordinate is ``eta = L sqrt(M_S) q``, so ``w = phi(x_m) / sqrt(M_S)``,
+        ``s = 1 / sqrt(M_S)``, ``Gamma = m phi(x_m) / sqrt(M_S)`` and ``m_eff = m``.
+        """
+        from vibeam.reductions.static_mode import reduce_static_mode
+
+        red = reduce_static_mode(geometry, damping_D_s=damping_D_s, gap_contact_m=gap_contact_m)
+        sq = math.sqrt(red.M_S_kg)
+        phim = red.phi_at_mass
+        return cls([red.omega_n_rad_s], [geometry.mass_kg * phim / sq], [phim / sq], [1.0 / sq],
+                   R, gap_contact_m, base_amplitude_m,
+                   red.f_n_hz if f_ref_hz is None else f_ref_hz, geometry.length_m, phim,
+                   damping_D_s, 0.0, label="static mode")
+
+    # ---------------------------------------------------------------- derived data
+    @property
+    def n_modes(self) -> int:
+        return self.omega_rad_s.size
+
+    @property
+    def omega_ref(self) -> float:
+        return TWO_PI * self.f_ref_hz
+
+    @property
+    def natural_frequency_hz(self) -> float:
+        return self.f_ref_hz
+
+    @property
+    def Delta_G_m(self) -> float:
+        return self.gap_contact_m / self.phi_at_mass
+
+    @property
+    def Delta(self) -> float:
+        """``Delta_G / L`` with ``Delta_G = Delta_C / phi(x_m)``."""
+        return self.Delta_G_m / self.length_m
+
+    @property
+    def m_eff(self) -> float:
+        return float(1.0 / np.sum(self.contact_row ** 2))
+
+    @property
+    def k_nd(self) -> np.ndarray:
+        """``(omega_i / omega_ref)^2``."""
+        return (self.omega_rad_s / self.omega_ref) ** 2
+
+    @property
+    def c_nd(self) -> np.ndarray:
+        """``(alpha + D omega_i^2) / omega_ref``."""
+        return (self.rayleigh_alpha_1_s + self.damping_D_s * self.omega_rad_s ** 2) / self.omega_ref
+
+    def _constrained(self):
+        """Null-space basis, constrained modes and contact-force coefficients."""
+        w = self.contact_row
+        N = w.size
+        w2 = float(w @ w)
+        self.eta_c = w * self.gap_contact_m / w2
+        Q, _ = np.linalg.qr(np.column_stack([w, np.eye(N)]))
+        Tn = Q[:, 1:N]
+        K = np.diag(self.k_nd)
+        if N > 1:
+            nu2, V = scipy.linalg.eigh(Tn.T @ K @ Tn)
+            Psi = Tn @ V
+        else:
+            nu2, Psi = np.zeros(0), np.zeros((1, 0))
+        self.Psi = np.ascontiguousarray(Psi)
+        self.nu2 = nu2
+        aD = self.rayleigh_alpha_1_s / self.omega_ref
+        DD = self.damping_D_s * self.omega_ref
+        self.cC = aD + DD * nu2
+        self.GC = Psi.T @ self.participation
+        self.eC = -(Psi.T @ (K @ self.eta_c)) / np.where(nu2 > 0, nu2, 1.0)
+        me = 1.0 / w2
+        C = np.diag(self.c_nd)
+        self.pL = me * (w @ K @ Psi)
+        self.rL = me * (w @ C @ Psi)
+        self.lam_const = me * float(w @ K @ self.eta_c)
+        self.pS = self.sensor_row @ Psi
+        self.sens_const = float(self.sensor_row @ self.eta_c)
+
+    def initial_state(self) -> np.ndarray:
+        """``(eta, eta', stuck)``: rest at the origin, or on a pre-stressed stop at the
+        static constrained equilibrium ``eta_c + Psi e``."""
+        N = self.n_modes
+        s = np.zeros(2 * N + 1)
+        if self.gap_contact_m < 0:
+            s[:N] = self.eta_c + self.Psi @ self.eC
+        return s
+
+    def linear_sensor_amplitude_m(self, Omega):
+        """Steady-state sensor amplitude without the stop (m), from the modal sum."""
+        W = Omega * self.omega_ref
+        H = self.participation * W**2 * self.base_amplitude_m / (
+            self.omega_rad_s**2 - W**2 + 1j * W * (self.rayleigh_alpha_1_s + self.damping_D_s * self.omega_rad_s**2))
+        return float(abs(self.sensor_row @ H))
+
+
+# ============================================================================ solvers
+class BeamEventSolver:
+    """Method ``event`` for the beam: exact event-driven modal solver (numba core).
+
+    Parameters
+    ----------
+    model : BeamImpactModel
+    transient_samples : int
+        Grid points per forcing period in the transient (efficiency only).
+    chatter_tol : float
+        Accuracy required of the chatter accumulation estimate before sticking.
+    max_impacts_per_period : int
+        Guard against non-accumulating chatter (status ``failed``).
+    max_steps_per_period : int
+        Guard against step-size collapse (status ``failed``; never hangs).
+    steps_per_fundamental : int
+        Largest step is ``1 / steps_per_fundamental`` of the first modal period.
+    impact_buffer : int
+        Most impacts stored per point.
+    """
+
+    name = "event"
+    time_domain = True
+
+    def __init__(self, model: BeamImpactModel, transient_samples: int = 16, chatter_tol: float = 1e-7,
+                 max_impacts_per_period: int = 20000, max_steps_per_period: int = 20000,
+                 steps_per_fundamental: int = 16, impact_buffer: int = 4096,
+                 record_modal_states: bool = False):
+        self.model = model
+        self.transient_samples = int(transient_samples)
+        self.chatter_tol = float(chatter_tol)
+        self.max_impacts_per_period = int(max_impacts_per_period)
+        self.max_steps_per_period = int(max_steps_per_period)
+        self.steps_per_fundamental = int(steps_per_fundamental)
+        self.impact_buffer = int(impact_buffer)
+        self.record_modal_states = bool(record_modal_states)
+
+    def settings(self) -> dict:
+        return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
+                    max_impacts_per_period=self.max_impacts_per_period,
+                    max_steps_per_period=self.max_steps_per_period,
+                    steps_per_fundamental=self.steps_per_fundamental,
+                    n_modes=self.model.n_modes)
+
+    def point(self, Omega: float, state0, n_transient: int, n_record: int,
+              samples_per_period: int = 64) -> Trajectory:
+        """Simulate one forcing frequency ``Omega = f / f_ref`` from ``state0`` (phase 0).
+
+        ``state0``: ``(eta (N), eta' (N), stuck)`` or None (:meth:`BeamImpactModel.initial_state`).
+        """
+        m = self.model
+        N = m.n_modes
+        Om = float(Omega)
+        s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
+        if s0.shape != (2 * N + 1,):
+            raise ValueError(f"state0 must have shape ({2 * N + 1},), got {s0.shape}")
+        eta = s0[:N].copy()
+        etad = s0[N:2 * N].copy()
+        F = Om**2 * m.base_amplitude_m
+        k, c = m.k_nd, m.c_nd
+        mpF = mode_table(c, k)
+        aF, bF = particular(c, k, m.participation, F, Om)
+        GF = m.participation * F
+        mpC = mode_table(m.cC, m.nu2) if m.nu2.size else np.zeros((0, 6))
+        aC, bC = particular(m.cC, m.nu2, m.GC, F, Om)
+        me = m.m_eff
+        lamF = -me * float(m.contact_row @ m.participation) * F
+        SaL = lamF + float(m.pL @ aC - Om * (m.rL @ bC))
+        SbL = float(m.pL @ bC + Om * (m.rL @ aC))
+        SaS = float(m.pS @ aC)
+        SbS = float(m.pS @ bC)
+        samples = np.zeros((n_record * samples_per_period, 2))
+        imp_t = np.zeros(self.impact_buffer)
+        imp_v = np.zeros(self.impact_buffer)
+        modamp = np.zeros(N)
+        msamp = np.zeros((samples.shape[0] if self.record_modal_states else 0, 2 * N))
+        n_per = n_transient + n_record
+        h_cap = TWO_PI / np.sqrt(k[0]) / self.steps_per_fundamental
+        out = beam_kernel(Om, mpF, aF, bF, m.contact_row, m.sensor_row, c, k, GF,
+                          m.gap_contact_m, me, m.R,
+                          mpC, aC, bC, m.eC, m.Psi, m.eta_c, m.pL, m.rL, SaL, SbL, m.lam_const,
+                          m.pS, SaS, SbS, m.sens_const,
+                          eta, etad, bool(s0[2 * N] > 0.5),
+                          int(n_transient), int(n_record), self.transient_samples,
+                          int(samples_per_period), float(h_cap),
+                          self.max_impacts_per_period * n_per, self.max_steps_per_period * n_per,
+                          self.chatter_tol, samples, imp_t, imp_v, modamp, msamp)
+        status, n_imp, smin, smax, n_chat, stuck_time, stuck_end, n_tot, gmax, n_steps = out
+        L = m.length_m
+        if stuck_time > 0.0 or stuck_end:
+            gmax = max(gmax, 0.0)  # on the stop U = Delta_C exactly
+        samples /= L
+        kk = min(n_imp, self.impact_buffer)
+        T = TWO_PI / Om
+        message = ""
+        if status == ST_FAILED:
+            message = (f"gave up after {n_tot} impacts / {n_steps} steps in {n_per} periods "
+                       f"(non-accumulating chatter or step collapse)")
+        elif status == ST_CHATTER:
+            message = f"{n_chat} chatter sequence(s) ending in sticking; stuck {stuck_time:.4g} of the window"
+        elif status == ST_STICKING:
+            message = f"stuck on the stop {stuck_time:.4g} of {n_record * T:.4g} time units"
+        iv = imp_v[:kk] / L
+        traj = Trajectory(
+            Omega=Om, samples=samples, samples_per_period=samples_per_period,
+            impact_times=imp_t[:kk].copy(), impact_velocities=iv,
+            n_impacts=int(n_imp), q_min=float(smin / L), q_max=float(smax / L),
+            status=STATUS_NAMES[status], message=message,
+            final_state=np.concatenate([eta, etad, [1.0 if stuck_end else 0.0]]),
+            extra={"mode_amplitudes": modamp,
+                   "mode_contact_amplitudes": np.abs(m.contact_row) * modamp / L,
+                   "stuck_fraction": float(stuck_time / (n_record * T)) if n_record else 0.0,
+                   "contact_gap_max": float(gmax / L),
+                   "impact_velocity_m_s": float(np.mean(iv) * L * m.omega_ref) if kk else np.nan,
+                   "steps_per_period": float(n_steps / max(n_per, 1))})
+        if self.record_modal_states:
+            traj.extra["modal_states"] = msamp
+        return traj
+
+
+class BeamODESolver:
+    """Method ``direct`` for the beam: the same modal system integrated with
+    :func:`scipy.integrate.solve_ivp` (reference solver).
+
+    Free flight: a terminal event at the contact (``U = Delta_C`` upward) and the same
+    impact law (:func:`apply_impact` / ``restitution_impulse``).  Sticking: the
+    constrained system in the coordinates ``zeta`` (``eta = eta_c + Psi zeta``) is
+    integrated too, with a terminal event on the contact force ``lambda`` turning
+    positive.  An impact with ``U- < chatter_velocity`` times the first impact speed into
+    a pressing contact acceleration is treated as the end of a chatter (plastic
+    projection, then sticking): a crude chatter model, fine for a reference of
+    impacting/sticking orbits, not for resolving chatter.
+
+    The state is scaled by ``1 / (L sqrt(m_eff))`` so that it is of the order of ``U / L``.
+    ``q_min/q_max`` use the sensor-velocity zero crossings (events) and the samples.
+    Steps are capped at ``T / 16`` so that sign changes of the event functions are not
+    stepped over (solve_ivp only checks signs at step ends: detection is not guaranteed).
+    """
+
+    name = "direct"
+    time_domain = True
+
+    def __init__(self, model: BeamImpactModel, solver: str = "DOP853", rtol: float = 1e-9,
+                 atol: float = 1e-12, max_impacts_per_period: int = 200,
+                 chatter_velocity: float = 1e-6, max_step: float | None = None):
+        self.model = model
+        self.max_step = max_step
+        self.solver = solver
+        self.rtol = float(rtol)
+        self.atol = float(atol)
+        self.max_impacts_per_period = int(max_impacts_per_period)
+        self.chatter_velocity = float(chatter_velocity)
+
+    def settings(self) -> dict:
+        return dict(solver=self.solver, rtol=self.rtol, atol=self.atol, n_modes=self.model.n_modes,
+                    chatter_velocity=self.chatter_velocity)
+
+    def point(self, Omega, state0, n_transient, n_record, samples_per_period=64) -> Trajectory:
+        from scipy.integrate import solve_ivp
+
+        m = self.model
+        N = m.n_modes
+        Om = float(Omega)
+        L = m.length_m
+        sc = L * math.sqrt(m.m_eff)
+        s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
+        y = s0[:2 * N] / sc
+        stuck = bool(s0[2 * N] > 0.5)
+        k, c = m.k_nd, m.c_nd
+        F = Om**2 * m.base_amplitude_m
+        GF = m.participation * F / sc
+        w, sv = m.contact_row, m.sensor_row
+        w2 = float(w @ w)
+        me = m.m_eff
+        DC = m.gap_contact_m / sc
+        etac = m.eta_c / sc
+        Psi = m.Psi
+        Nc = Psi.shape[1]
+        nc = max(Nc, 1)   # a dummy coordinate when nothing moves on the stop (N = 1)
+        cC, nu2, GC = m.cC, m.nu2, m.GC * F / sc
+        gconst = -(Psi.T @ (k * etac))
+        lam_sin = -me * float(w @ m.participation) * F / sc
+        lam_const = me * float(w @ (k * etac))
+        T = TWO_PI / Om
+
+        def rhs(t, z):
+            return np.concatenate([z[N:], GF * math.sin(Om * t) - c * z[N:] - k * z[:N]])
+
+        def rhs_c(t, z):
+            if Nc == 0:
+                return np.zeros(2)
+            return np.concatenate([z[Nc:], GC * math.sin(Om * t) - cC * z[Nc:] - nu2 * z[:Nc] + gconst])
+
+        def lam(t, z):  # contact force / m_eff-scaled units; the beam is held while <= 0
+            if Nc == 0:
+                return lam_const + lam_sin * math.sin(Om * t)
+            return (lam_const + lam_sin * math.sin(Om * t) + m.pL @ z[:Nc] + m.rL @ z[Nc:])
+        lam.terminal = True
+        lam.direction = 1.0
+
+        def ev_contact(t, z):
+            return w @ z[:N] - DC
+        ev_contact.terminal = True
+        ev_contact.direction = 1.0
+
+        def ev_sens(t, z):
+            return sv @ z[N:]
+
+        def ev_sens_c(t, z):
+            return sv @ (Psi @ z[Nc:2 * Nc]) if Nc else 1.0
+
+        def acc_U(t, z):
+            return float(w @ (GF * math.sin(Om * t) - c * z[N:] - k * z[:N]))
+
+        def full(zc):  # constrained -> full state, columns
+            if Nc == 0:
+                return np.concatenate([np.repeat(etac[:, None], zc.shape[1], 1), np.zeros((N, zc.shape[1]))])
+            return np.concatenate([etac[:, None] + Psi @ zc[:Nc], Psi @ zc[Nc:2 * Nc]])
+
+        def stick(y):
+            y = y.copy()
+            y[:N] -= w * (w @ y[:N] - DC) / w2
+            y[N:] -= w * (w @ y[N:]) / w2
+            return y
+
+        t = 0.0
+        t_end = (n_transient + n_record) * T
+        t_rec = n_transient * T
+        ts = t_rec + np.arange(n_record * samples_per_period) * (T / samples_per_period)
+        samples = np.zeros((ts.size, 2))
+        filled = np.zeros(ts.size, bool)
+        ext = [np.inf, -np.inf]
+        imp_t, imp_v = [], []
+        n_imp = 0
+        n_chat = 0
+        stuck_time = 0.0
+        max_imp = self.max_impacts_per_period * (n_transient + n_record)
+        vscale = None
+        modamp = np.zeros(N)
+        if not stuck and w @ y[:N] - DC >= -1e-13 * (abs(DC) + np.abs(w) @ np.abs(y[:N])) and w @ y[N:] <= 0:
+            y = stick(y)   # at rest on the stop: held if the contact force presses
+            stuck = True
+        guard = 0
+        while t < t_end:
+            guard += 1
+            if guard > 10 * max_imp + 100:
+                return self._failed(Om, s0, n_record, samples_per_period, "no progress")
+            if stuck:
+                zc = np.concatenate([Psi.T @ (y[:N] - etac), Psi.T @ y[N:]]) if Nc else np.zeros(2)
+                l0 = lam(t, zc)
+                eps_t = 1e-9 * T
+                if l0 > 0 or (l0 == 0 and lam(t + eps_t, zc) > 0):
+                    stuck = False
+                    continue
+                sol = solve_ivp(rhs_c, (t, t_end), zc, method=self.solver, rtol=self.rtol,
+                                atol=self.atol, events=[lam, ev_sens_c], dense_output=True,
+                                max_step=min(T / 16, self.max_step or np.inf))
+                if sol.status < 0:
+                    return self._failed(Om, s0, n_record, samples_per_period, sol.message)
+                t1 = sol.t[-1]
+                Zf = lambda tt: full(np.atleast_2d(sol.sol(tt).T).T)
+                if t1 > t_rec:
+                    stuck_time += t1 - max(t, t_rec)
+                y = Zf(np.array([t1]))[:, 0]
+                released = sol.status == 1 and sol.t_events[0].size > 0
+                ev_ext = sol.t_events[1]
+            else:
+                sol = solve_ivp(rhs, (t, t_end), y, method=self.solver, rtol=self.rtol, atol=self.atol,
+                                events=[ev_contact, ev_sens], dense_output=True,
+                                max_step=min(T / 16, self.max_step or np.inf))
+                if sol.status < 0:
+                    return self._failed(Om, s0, n_record, samples_per_period, sol.message)
+                t1 = sol.t[-1]
+                Zf = sol.sol
+                y = sol.y[:, -1].copy()
+                released = False
+                ev_ext = sol.t_events[1]
+            sel = (ts >= t - 1e-12 * T) & (ts <= t1) & ~filled
+            if np.any(sel):
+                Z = Zf(ts[sel])
+                samples[sel, 0] = sv @ Z[:N] * sc / L
+                samples[sel, 1] = sv @ Z[N:] * sc / L
+                filled[sel] = True
+                modamp = np.maximum(modamp, np.max(np.abs(Z[:N]), axis=1) * sc)
+            for te in ev_ext:
+                if te >= t_rec:
+                    qv = float(sv @ Zf(np.array([te]))[:N, 0]) * sc / L
+                    ext[0] = min(ext[0], qv)
+                    ext[1] = max(ext[1], qv)
+            t_prev, t = t, t1
+            if stuck:
+                if released:
+                    stuck = False
+                continue
+            if sol.status == 1 and sol.t_events[0].size:
+                Um = float(w @ y[N:])
+                if vscale is None:
+                    vscale = max(abs(Um), 1e-300)
+                n_imp += 1
+                if n_imp > max_imp:
+                    return self._failed(Om, s0, n_record, samples_per_period, "too many impacts")
+                if t >= t_rec:
+                    imp_t.append(t - t_rec)
+                    imp_v.append(max(Um, 0.0) * sc / L)
+                    ext[1] = max(ext[1], float(sv @ y[:N]) * sc / L)
+                if Um <= self.chatter_velocity * vscale:
+                    y = stick(y)
+                    if acc_U(t, y) > 0:
+                        stuck = True
+                        n_chat += t >= t_rec
+                    continue
+                ydot = y[N:].copy()
+                apply_impact(ydot, w, Um, m.R, me)
+                y[N:] = ydot
+                if m.R == 0.0 and acc_U(t, y) > 0:   # plastic impact into a pressing contact
+                    y = stick(y)
+                    stuck = True
+        q = samples[:, 0]
+        status = "chatter" if n_chat else ("sticking" if stuck_time > 0 else "ok")
+        return Trajectory(
+            Omega=Om, samples=samples, samples_per_period=samples_per_period,
+            impact_times=np.array(imp_t), impact_velocities=np.array(imp_v), n_impacts=len(imp_t),
+            q_min=float(min(ext[0], q.min())), q_max=float(max(ext[1], q.max())),
+            status=status, message="" if status == "ok" else f"stuck {stuck_time:.4g} of the window",
+            final_state=np.concatenate([y * sc, [1.0 if stuck else 0.0]]),
+            extra={"mode_amplitudes": modamp,
+                   "stuck_fraction": float(stuck_time / (n_record * T)) if n_record else 0.0})
+
+    def _failed(self, Om, s0, n_record, spp, msg):
+        return Trajectory(Omega=Om, samples=np.full((n_record * spp, 2), np.nan), samples_per_period=spp,
+                          impact_times=np.zeros(0), impact_velocities=np.zeros(0), n_impacts=0,
+                          q_min=np.nan, q_max=np.nan, status="failed", message=msg,
+                          final_state=np.asarray(s0, float).copy(),
+                          extra={"mode_amplitudes": np.full(self.model.n_modes, np.nan),
+                                 "stuck_fraction": np.nan})

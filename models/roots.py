@@ -1,0 +1,65 @@
+"""Root bracketing shared by the exact event kernels (numba).
+
+Both the SDOF and the FE kernels locate impacts, apexes and minima of a gap
+signal ``g(s)`` on a bracket ``[lo, hi]`` with ``F(lo) < 0 <= F(hi)``, where
+``F`` is ``g``, ``-g'`` or ``g'``.  Each kernel evaluates its own signal; the
+iteration itself (safeguarded Newton, "rtsafe": Press et al., *Numerical
+Recipes*, 3rd ed., Sec. 9.4) lives here once.
+"""
+from __future__ import annotations
+
+from numba import njit
+
+EPS = 2.220446049250313e-16
+
+
+@njit(cache=True)
+def select(kind, g, v, g2):
+    """``(F, F')`` of the three bracketed problems from ``g, g', g''``.
+
+    kind 0: ``F = g`` (crossing); 1: ``F = -g'`` (apex, g' falling);
+    2: ``F = g'`` (minimum, g' rising).
+    """
+    if kind == 0:
+        return g, v
+    if kind == 1:
+        return -v, -g2
+    return v, g2
+
+
+@njit(cache=True)
+def rtsafe_update(F, dF, s, lo, hi, dx, dxold):
+    """One step of safeguarded Newton on a sign-changing bracket.
+
+    Parameters
+    ----------
+    F, dF : float
+        Function value and derivative at ``s``.
+    s, lo, hi : float
+        Current iterate and bracket (``F(lo) < 0 <= F(hi)``).
+    dx, dxold : float
+        Last two step lengths (the Newton step is accepted only if it stays in
+        the bracket and at least halves the step before last).
+
+    Returns
+    -------
+    s, lo, hi, dx, dxold, done
+        Next iterate and bracket; ``done`` when ``F(s) == 0`` (then ``s`` is the
+        root) or the bracket is a few ulps wide (then ``s = hi``, the side with
+        ``F >= 0``, so an impact is never placed before the crossing).
+    """
+    if F == 0.0:
+        return s, lo, hi, dx, dxold, True
+    if F < 0.0:
+        lo = s
+    else:
+        hi = s
+    if hi - lo <= 4.0 * EPS * max(abs(hi), 1e-300):
+        return hi, lo, hi, dx, dxold, True
+    if dF != 0.0:
+        sn = s - F / dF
+        if lo < sn < hi and abs(2.0 * F) <= abs(dxold * dF):
+            return sn, lo, hi, sn - s, dx, False
+    dxold = dx
+    dx = 0.5 * (hi - lo)
+    return lo + dx, lo, hi, dx, dxold, False
