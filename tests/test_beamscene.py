@@ -114,3 +114,44 @@ def test_derive_on_an_sdof_case_is_a_clear_error(tmp_path, capsys):
     p = Path(__file__).parent.parent / "cases" / "paper-fig7.toml"
     assert main(["derive", str(p)]) == 2
     assert "needs a beam scene" in capsys.readouterr().err
+
+
+def test_beam_case_runs_the_fidelity_ladder_and_costs_it(tmp_path):
+    """`vibeam run` and `vibeam cost` on a small beam scene: static mode, 1 and 2 modes.
+
+    The static-mode run is the paper's SDOF model (Eqs. 42-47): its FRC must equal
+    the SDOF event solver's on the derived parameters (beam mass excluded) to 1e-9.
+    """
+    from vibeam.case import parse_case as pc
+    from vibeam.cost import run_cost
+    from vibeam.models import SDOF, make_solver
+    from vibeam.records import summarize
+    from vibeam.results import read_results
+
+    text = RIG.replace("[14.0, 17.0, 4]", "[15.0, 16.0, 3]").replace("n_elements = 24", "n_elements = 8") \
+        .replace('[[run]]\nname = "fe"\nmethod = "event"\n',
+                 '[[run]]\nname = "static"\nmethod = "event"\n[run.model]\nn_modes = "static"\n'
+                 '[[run]]\nname = "fe1"\nmethod = "event"\n[run.model]\nn_modes = 1\n'
+                 '[[run]]\nname = "fe2"\nmethod = "event"\n[run.model]\nn_modes = 2\n') \
+        .replace("[sweep]", "[sweep]\ntransient_periods = 150\nrecord_periods = 8\ncontinuation = false")
+    path = tmp_path / "ladder.toml"
+    path.write_text(text)
+    assert main(["run", str(path), "--out", str(tmp_path), "--jobs", "1", "--quiet", "--no-plots"]) == 0
+    r = read_results(tmp_path / "results.h5")
+    assert set(r["runs"]) == {"static", "fe1", "fe2"}
+    assert all(r["runs"][k]["attrs"]["fidelity"] == "beam" for k in r["runs"])
+    assert r["runs"]["fe2"]["mode_amplitudes"].shape == (3, 2)
+    # static mode == SDOF model with the derived parameters
+    red = derive(pc(text).model_spec())["reduction"]
+    sc = scene_of(pc(text).model_spec())
+    sdof = SDOF(beta=red.beta_S, B=red.gamma_per_V * 0.6, R=0.72, Delta=red.Delta)
+    for i, f in enumerate(r["runs"]["static"]["frequency_hz"]):
+        tr = make_solver(sdof, "event").point(f / red.f_n_hz, None, 150, 8)
+        A = summarize(tr, sdof.Delta)["amplitude"]
+        assert r["runs"]["static"]["amplitude"][i] == pytest.approx(A, rel=1e-9)
+    # cost: errors of each rung against the finest FE model (all modes, 2x mesh)
+    res = run_cost(pc(text), repeats=1, log=lambda m: None)
+    errs = {row.run: row.err_max for row in res["rows"]}
+    assert set(errs) == {"static", "fe1", "fe2"}
+    assert all(np.isfinite(e) and e > 0 for e in errs.values())
+    assert res["claims"] == []

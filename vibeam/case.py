@@ -122,7 +122,9 @@ class BeamModelSpec(_Strict):
     Delta_G, as for the SDOF rig scenes) or ``contact_gap_mm`` (Delta_C at the
     stop); excitation ``gain`` (the paper's normalised gamma, 1/V) and
     ``voltage``; damping ``damping_ratio`` (of the first mode, giving the
-    stiffness-proportional D of Eq. 39) and optional ``rayleigh_alpha_1_s``.
+    stiffness-proportional D of Eq. 39) and optional ``rayleigh_alpha_1_s``;
+    ``n_modes`` retained modes (an integer, ``"all"``, or ``"static"`` for the
+    paper's single assumed static mode, i.e. the SDOF model of Eqs. 42-47).
     """
 
     fidelity: Literal["beam"]
@@ -146,7 +148,7 @@ class BeamModelSpec(_Strict):
     voltage: Annotated[float, Field(ge=0.0)]
     damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
     rayleigh_alpha_1_s: Annotated[float, Field(ge=0.0)] = 0.0
-    n_modes: Annotated[int, Field(ge=1)] | Literal["all"] = 4
+    n_modes: Annotated[int, Field(ge=1)] | Literal["all", "static"] = 4
     n_elements: Annotated[int, Field(ge=2, le=2000)] = 36
 
     @model_validator(mode="after")
@@ -181,6 +183,9 @@ class BeamModelSpec(_Strict):
 
 
 ModelSpec = Union[SDOFModelSpec, BeamModelSpec]
+# methods per fidelity (kept here so that validating a case imports no solver)
+FIDELITY_METHODS = {"sdof": ("event", "direct", "zhuravlev", "ivanov", "averaging", "mapping"),
+                    "beam": ("event", "direct")}
 MODEL_SPECS = {"sdof": SDOFModelSpec, "beam": BeamModelSpec}
 
 
@@ -305,8 +310,10 @@ class Case(_Strict):
         return _validate_model(data, prefix="model" if not overrides else "run.model")
 
     def run_settings(self, run) -> dict:
-        """Method settings of a run (everything but name, method and model overrides)."""
-        return run.model_dump(exclude={"name", "method", "model"})
+        """Method settings of a run (everything but name, method and model overrides; unset
+        optional settings are left to the solver's defaults)."""
+        return {k: v for k, v in run.model_dump(exclude={"name", "method", "model"}).items()
+                if v is not None}
 
 
 def _validate_model(data: dict, prefix: str = "model"):
@@ -401,6 +408,10 @@ def parse_case(text: str, source: str = "<case>") -> Case:
     try:
         spec = case.model_spec()
         for i, r in enumerate(case.run):
+            allowed = FIDELITY_METHODS[spec.fidelity]
+            if r.method not in allowed:
+                raise CaseError(f"'run[{i}].method' = {r.method!r} is not available for fidelity "
+                                f"{spec.fidelity!r}; allowed: {', '.join(allowed)}")
             if r.model:
                 if "fidelity" in r.model and r.model["fidelity"] != case.model.get("fidelity"):
                     raise CaseError(f"'run[{i}].model.fidelity' = {r.model['fidelity']!r}: a run cannot "
