@@ -141,6 +141,8 @@ def test_beam_case_runs_the_fidelity_ladder_and_costs_it(tmp_path):
     assert set(r["runs"]) == {"static", "fe1", "fe2"}
     assert all(r["runs"][k]["attrs"]["fidelity"] == "beam" for k in r["runs"])
     assert r["runs"]["fe2"]["mode_amplitudes"].shape == (3, 2)
+    assert r["runs"]["fe1"]["attrs"]["EI_n_m2"] == pytest.approx(0.38465)
+    assert r["runs"]["fe1"]["attrs"]["f1_fe_hz"] > 0
     # static mode == SDOF model with the derived parameters
     red = derive(pc(text).model_spec())["reduction"]
     sc = scene_of(pc(text).model_spec())

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+
+import numpy as np
 import time
 from pathlib import Path
 
@@ -61,6 +63,8 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True):
               f"direction {sw.direction}", file=sys.stderr)
         res = run_sweep(solver, sw, name=r.name, jobs=jobs, progress=not quiet)
         res.attrs["model"] = spec.model_dump()
+        if spec.fidelity == "beam":
+            res.attrs.update(_beam_attrs(spec))
         runs.append(res)
         write_results(h5, runs, case.name, text)  # after every run: nothing computed is lost
     print(f"\ncase {case.name}: {len(runs)} run(s) in {time.perf_counter() - t_all:.2f} s -> {h5}")
@@ -70,6 +74,21 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True):
         p2 = plot_bifurcation(runs, out_dir / "bifurcation.png", title=case.name)
         print(f"plots: {p1}" + (f", {p2}" if p2 else ""))
     return runs
+
+
+def _beam_attrs(spec) -> dict:
+    """Calibrated and derived values of a beam scene, stored with its results."""
+    from .beamscene import scene_of
+
+    sc = scene_of(spec)
+    g = sc.geometry
+    out = {"EI_n_m2": g.EI_n_m2, "rotary_inertia_kg_m2": g.rotary_inertia_kg_m2,
+           "rhoA_kg_m": g.rhoA_kg_m, "mass_kg": g.mass_kg, "f1_fe_hz": sc.f1_hz,
+           "damping_D_s": sc.damping_D_s, "Delta_C_m": sc.Delta_C_m, "Delta_G_m": sc.Delta_G_m,
+           "gamma_tilde_m_per_V": sc.gamma_tilde_m_per_V, "calibrated": sc.calibration is not None}
+    if sc.calibration is not None:
+        out["calibrated_frequencies_hz"] = np.asarray(sc.calibration.frequencies_hz)
+    return out
 
 
 def cmd_run(args) -> int:
