@@ -237,6 +237,7 @@ class SweepSpec(_Strict):
 class _RunBase(_Strict):
     name: Annotated[str, Field(min_length=1, pattern=r"^[^/]+$")]
     model: dict = Field(default_factory=dict)
+    effects: dict = Field(default_factory=dict)
 
 
 class EventRun(_RunBase):
@@ -276,6 +277,123 @@ class MappingRun(_RunBase):
 RunSpec = Annotated[Union[EventRun, ODERun, AveragingRun, MappingRun], Field(discriminator="method")]
 
 
+# ----------------------------------------------------------------------------- effects
+_Pair = Annotated[list[float], Field(min_length=2, max_length=2)]
+
+
+class PlatformSpec(_Strict):
+    """``[effects.platform]``: the shaker drives a platform that carries the clamp (paper Sec. 5.2).
+
+    ``level = "filter"``: the base displacement is the platform's second-order
+    transfer function times ``gamma~ V``, normalised to 1 at
+    ``reference_frequency_hz`` (where ``gain`` was identified; default the
+    scene's natural frequency), with ``frequency_hz``/``damping_ratio`` of the
+    platform mode (3.25 Hz in the paper) or identified from two measured
+    ``gains = [[f1_hz, g1], [f2_hz, g2]]``.  ``level = "coupled"``: the
+    platform is a DOF of mass ``mass_kg`` (beam fidelity) loaded by the beam's
+    reaction.
+    """
+
+    level: Literal["filter", "coupled"] = "filter"
+    frequency_hz: Annotated[float, Field(gt=0.0)] = 3.25
+    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.05
+    reference_frequency_hz: Annotated[float, Field(gt=0.0)] | None = None
+    gains: Annotated[list[_Pair], Field(min_length=2, max_length=2)] | None = None
+    mass_kg: Annotated[float, Field(gt=0.0)] | None = None
+
+
+class EccentricImpactSpec(_Strict):
+    """``[effects.eccentric_impact]``: contact point ``offset_mm`` from the mass centre along
+    the beam, so each impact also applies a moment to the attached mass (paper Sec. 5)."""
+
+    offset_mm: float
+
+
+class GapDriftSpec(_Strict):
+    """``[effects.gap_drift]``: the gap changes during a sweep (paper Fig. 21).
+
+    Either a prescribed ``table = [[frequency_hz, gap_mm], ...]`` (linear
+    interpolation, constant outside), or ``law = "sliding"``: after each
+    frequency point the stop slides away by ``slide_mm_per_impulse`` times the
+    normalised impulse delivered in that point, at most ``max_drift_mm``.
+    """
+
+    table: Annotated[list[_Pair], Field(min_length=1)] | None = None
+    law: Literal["sliding"] | None = None
+    slide_mm_per_impulse: Annotated[float, Field(ge=0.0)] = 0.0
+    max_drift_mm: Annotated[float, Field(ge=0.0)] = 0.1
+
+    @model_validator(mode="after")
+    def _one(self):
+        if (self.table is None) == (self.law is None):
+            raise ValueError("give either a 'table' of [frequency_hz, gap_mm] or law = \"sliding\"")
+        return self
+
+
+class RestitutionLawSpec(_Strict):
+    """``[effects.restitution_law]``: R as a piecewise linear function of the pre-impact
+    velocity at the sensor (paper Fig. 26), constant beyond the table's ends."""
+
+    velocity_mm_s: Annotated[list[float], Field(min_length=2)]
+    R: Annotated[list[Annotated[float, Field(ge=0.0, le=1.0)]], Field(min_length=2)]
+
+    @model_validator(mode="after")
+    def _table(self):
+        if len(self.velocity_mm_s) != len(self.R):
+            raise ValueError("velocity_mm_s and R must have the same length")
+        if any(b <= a for a, b in zip(self.velocity_mm_s, self.velocity_mm_s[1:])):
+            raise ValueError("velocity_mm_s must increase")
+        return self
+
+
+class SensorSpec(_Strict):
+    """``[effects.sensor]``: the displacement sensor at L_S sampled at ``sampling_hz`` (5 kHz in
+    the paper) with Gaussian ``noise_mm``; velocity by central differences; the paper's CoR
+    identification R = -U'+/U'- (Sec. 5.1) run on the simulated record."""
+
+    sampling_hz: Annotated[float, Field(gt=0.0)] = 5000.0
+    noise_mm: Annotated[float, Field(ge=0.0)] = 0.0
+    seed: int = 0
+    identify_R: bool = True
+
+
+class EffectsSpec(_Strict):
+    """``[effects]``: each effect is off unless its table is present."""
+
+    platform: PlatformSpec | None = None
+    eccentric_impact: EccentricImpactSpec | None = None
+    gap_drift: GapDriftSpec | None = None
+    restitution_law: RestitutionLawSpec | None = None
+    sensor: SensorSpec | None = None
+
+    def active(self) -> list[str]:
+        return [k for k in type(self).model_fields if getattr(self, k) is not None]
+
+
+class AssessSpec(_Strict):
+    """``[assess]``: assessments written by ``vibeam run`` when asked.
+
+    ``spectra``: windowed FFT of the sensor displacement and velocity per point,
+    with the peaks that are not harmonics of the forcing listed (and, for the
+    FE fidelity, the mode each belongs to); ``participation``: share of each
+    mode in the sensor displacement and energy along the sweep;
+    ``time_series``: frequencies (Hz for physical scenes, Omega otherwise) at
+    which time series and phase portraits of every run are plotted overlaid.
+    """
+
+    spectra: bool = False
+    participation: bool = False
+    time_series: list[Annotated[float, Field(gt=0.0)]] = Field(default_factory=list)
+
+
+class QuickSpec(_Strict):
+    """``[quick]``: the quick variant of a case (``vibeam run --quick``; regressed by the tests)."""
+
+    points: Annotated[int, Field(ge=1)] = 11
+    transient_periods: Annotated[int, Field(ge=0)] | None = None
+    record_periods: Annotated[int, Field(ge=1)] | None = None
+
+
 class RegressSpec(_Strict):
     """``[regress]``: tolerances of ``vibeam regress`` (amplitude in the FRC's own units)."""
 
@@ -293,6 +411,9 @@ class Case(_Strict):
     sweep: SweepSpec
     run: Annotated[list[RunSpec], Field(min_length=1)]
     regress: RegressSpec = Field(default_factory=RegressSpec)
+    effects: EffectsSpec = Field(default_factory=EffectsSpec)
+    assess: AssessSpec = Field(default_factory=AssessSpec)
+    quick: QuickSpec = Field(default_factory=QuickSpec)
 
     @field_validator("run")
     @classmethod
@@ -309,10 +430,23 @@ class Case(_Strict):
         data.update(overrides or {})
         return _validate_model(data, prefix="model" if not overrides else "run.model")
 
+    def effects_for(self, run) -> EffectsSpec:
+        """Effects of a run: the case's ``[effects]`` with the run's ``[run.effects]`` tables
+        replacing or adding whole effects (``effect = {}`` cannot switch one off; use a
+        case without it)."""
+        if not run.effects:
+            return self.effects
+        data = self.effects.model_dump(exclude_none=True)
+        data.update(run.effects)
+        try:
+            return EffectsSpec.model_validate(data)
+        except ValidationError as e:
+            raise CaseError(_format(e, f"run '{run.name}'.effects", EffectsSpec)) from None
+
     def run_settings(self, run) -> dict:
         """Method settings of a run (everything but name, method and model overrides; unset
         optional settings are left to the solver's defaults)."""
-        return {k: v for k, v in run.model_dump(exclude={"name", "method", "model"}).items()
+        return {k: v for k, v in run.model_dump(exclude={"name", "method", "model", "effects"}).items()
                 if v is not None}
 
 
@@ -343,12 +477,19 @@ def _allowed_keys(model_cls, loc) -> list[str]:
         if part in ("discs", "calibrate") and cls is BeamModelSpec:
             cls = DiscsSpec if part == "discs" else CalibrateSpec
             continue
+        if cls is EffectsSpec and part in EffectsSpec.model_fields:
+            ann = EffectsSpec.model_fields[part].annotation
+            cls = next(c for c in ann.__args__ if isinstance(c, type) and issubclass(c, BaseModel))
+            continue
         f = getattr(cls, "model_fields", {}).get(part)
         if f is None:
             continue
         if part == "run":
             continue  # the discriminator tag that follows picks the class
         ann = f.annotation
+        if isinstance(ann, type) and issubclass(ann, BaseModel):
+            cls = ann
+            continue
         for cand in getattr(ann, "__args__", (ann,)):
             if isinstance(cand, type) and issubclass(cand, BaseModel):
                 cls = cand
@@ -417,6 +558,8 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                     raise CaseError(f"'run[{i}].model.fidelity' = {r.model['fidelity']!r}: a run cannot "
                                     f"change the fidelity; put it in another case")
                 case.model_spec(r.model)
+            if r.effects:
+                case.effects_for(r)
         if case.sweep.frequency_hz is not None and not getattr(spec, "physical", False):
             raise CaseError("'sweep.frequency_hz' needs a physical model (natural_frequency_hz, ...); "
                             "use 'sweep.Omega' for a nondimensional one")
