@@ -36,8 +36,12 @@ def _print_table(runs) -> None:
         print(f"{r.name:<22}{r.method:<12}{r.n_points:>7}{r.wall_time_s:>15.3f}{diff:>30}{extra}")
 
 
-def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True):
-    """Run every sweep of a case; results.h5 is rewritten after each run. Returns the runs."""
+def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=False):
+    """Run every sweep of a case; results.h5 is rewritten after each run. Returns the runs.
+
+    ``quick`` runs the case's quick variant (``[quick]``)."""
+    from . import assess
+    from .effects import wrap_solver
     from .models import make_solver
     from .plots import plot_bifurcation, plot_frc
     from .results import write_results
@@ -57,8 +61,11 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True):
                    transient_periods=case.sweep.transient_periods,
                    record_periods=case.sweep.record_periods,
                    samples_per_period=case.sweep.samples_per_period,
-                   continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol)
-        solver = make_solver(model, r.method, **case.run_settings(r))
+                   continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol,
+                   assess=assess.hooks(case, spec, r, model))
+        settings = case.run_settings(r)
+        solver = wrap_solver(make_solver(model, r.method, **settings), model, spec, case.effects_for(r),
+                             settings)
         print(f"[{case.name}] run '{r.name}': method {r.method}, {len(Omega)} points, "
               f"direction {sw.direction}", file=sys.stderr)
         res = run_sweep(solver, sw, name=r.name, jobs=jobs, progress=not quiet)
@@ -70,6 +77,7 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True):
     print(f"\ncase {case.name}: {len(runs)} run(s) in {time.perf_counter() - t_all:.2f} s -> {h5}")
     _print_table(runs)
     if plots:
+        assess.finish(case, runs, out_dir)
         p1 = plot_frc(runs, out_dir / "frc.png", title=case.name)
         p2 = plot_bifurcation(runs, out_dir / "bifurcation.png", title=case.name)
         print(f"plots: {p1}" + (f", {p2}" if p2 else ""))

@@ -55,6 +55,10 @@ class Sweep:
         Start each point from the previous point's final state.
     period_rtol : float
         Relative tolerance of the period-n test on the stroboscopic map.
+    assess : tuple of callables
+        Per-point assessments ``f(traj) -> dict`` applied to each recorded
+        trajectory of a time-domain method (picklable: module-level functions
+        or ``functools.partial``); their outputs join the point's datasets.
     """
 
     Omega: np.ndarray
@@ -64,6 +68,7 @@ class Sweep:
     samples_per_period: int = 64
     continuation: bool = True
     period_rtol: float = 1e-5
+    assess: tuple = ()
 
 
 @dataclass
@@ -104,6 +109,8 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
                                 sweep.samples_per_period)
             out = summarize(traj, Delta, sweep.period_rtol)
             out.update(traj.extra)
+            for fn in sweep.assess:
+                out.update(fn(traj))
             new_state = traj.final_state
         else:
             out = dict(solver.point(Omega, state, sweep.transient_periods, sweep.record_periods,
