@@ -215,14 +215,14 @@ def print_cost(result: dict) -> None:
     rows = result["rows"]
     print(f"\nreference: event with {result['reference_periods']} transient periods "
           f"(errors: |Q - Q_ref| / max Q_ref over points where the reference is periodic)")
-    head = (f"{'run':<18}{'method':<11}{'settings':<34}{'time (s)':>10}{'x event':>9}"
+    head = (f"{'run':<22}{'method':<11}{'settings':<34}{'time (s)':>10}{'x event':>9}"
             f"{'max err':>11}{'rms err':>11}{'period diff':>12}")
     print(head)
     print("-" * len(head))
     for r in rows:
         st = ", ".join(f"{k}={v}" for k, v in r.settings.items()
                        if k in ("solver", "rtol", "atol", "k", "n", "form"))
-        print(f"{r.run:<18}{r.method:<11}{st[:33]:<34}{r.time_s:>10.3f}{r.time_rel_event:>9.1f}"
+        print(f"{r.run[:21]:<22}{r.method:<11}{st[:33]:<34}{r.time_s:>10.3f}{r.time_rel_event:>9.1f}"
               f"{r.err_max:>11.2e}{r.err_rms:>11.2e}{r.n_period_diff:>8d}/{r.n_points - r.n_nonperiodic_ref}")
     if result["claims"]:
         print("\nthe paper's claims beside this implementation:")
