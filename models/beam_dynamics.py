@@ -67,7 +67,7 @@ from numba import njit
 from vibeam.records import Trajectory
 
 from .roots import rtsafe_update, select
-from .impact import newton_restitution, restitution_impulse
+from .impact import newton_restitution, restitution_coefficient, restitution_impulse
 from .sdof_event import STATUS_NAMES, _certify
 
 TWO_PI = 2.0 * math.pi
@@ -367,7 +367,7 @@ def apply_impact(etad, w, U_minus, R, m_eff):
 
 
 @njit(cache=True)
-def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R,
+def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U, R_table_R,
                 mpC, aC, bC, eC, Psi, eta_c, pL, rL, SaL, SbL, cL, pS, SaS, SbS, cS,
                 eta, etad, stuck_init,
                 n_transient, n_record, ns_transient, ns_record, h_cap,
@@ -378,7 +378,9 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R,
     ``eta, etad`` (N,) hold the initial modal state and receive the final one.
     ``samples`` (n_record * ns_record, 2) receive ``(s^T eta, s^T eta')``; ``modamp``
     (N,) the max ``|eta_i|`` over the samples; ``msamp`` (same rows or 0 rows, 2N) the
-    modal state ``(eta, eta')`` at the samples.  Returns ``(status, n_imp_rec, smin, smax,
+    modal state ``(eta, eta')`` at the samples.  ``R_table_U``/``R_table_R`` tabulate R
+    against the pre-impact contact velocity (kernel units; empty = constant ``R``,
+    :func:`vibeam.models.impact.restitution_coefficient`).  Returns ``(status, n_imp_rec, smin, smax,
     n_chatter, stuck_time, stuck_end, n_imp_total, gmax, n_steps)``.
     """
     N = eta.shape[0]
@@ -592,7 +594,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R,
                 # ---- impact at the current time ----
                 g = 0.0
                 Um = v if v > 0.0 else 0.0
-                v = apply_impact(etad, w, Um, R, m_eff)
+                Rc = restitution_coefficient(Um, R, R_table_U, R_table_R)
+                v = apply_impact(etad, w, Um, Rc, m_eff)
                 n_imp_total += 1
                 if recording:
                     if n_imp_rec < cap:
@@ -607,8 +610,9 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R,
                 stick_now = False
                 if u <= 0.0:
                     stick_now = acc > 0.0
-                elif acc > 0.0 and R < 1.0:
-                    D = 2.0 * u / (acc * (1.0 - R))
+                elif acc > 0.0 and Rc < 1.0:
+                    # chatter estimate with R at the current impact velocity
+                    D = 2.0 * u / (acc * (1.0 - Rc))
                     ceff = 0.0
                     for i in range(N):
                         ceff += w[i] * w[i] * cF[i]
@@ -663,13 +667,20 @@ class BeamImpactModel:
         ``Delta = Delta_C / (phi(x_m) L)`` as in the SDOF model.
     damping_D_s, rayleigh_alpha_1_s : float
         ``C = alpha M + D K`` so that ``c_i = alpha + D omega_i^2``.
+    modal_damping_1_s : array_like, shape (N,), optional
+        Per-mode damping ``c_i`` (1/s) replacing the Rayleigh law (used by the coupled
+        platform of :mod:`vibeam.effects`); the constrained modes then get the diagonal of
+        ``Psi^T diag(c) Psi`` (modal damping kept modal, off-diagonal terms dropped).
+    restitution_table : (array_like, array_like), optional
+        ``(U-, R)`` nodes of a velocity-dependent R with ``U-`` the pre-impact contact
+        velocity in kernel units (m per nondimensional time); None = constant ``R``.
     """
 
     fidelity = "beam"
 
     def __init__(self, omega_rad_s, participation, contact_row, sensor_row, R, gap_contact_m,
                  base_amplitude_m, f_ref_hz, length_m, phi_at_mass, damping_D_s=0.0,
-                 rayleigh_alpha_1_s=0.0, label=""):
+                 rayleigh_alpha_1_s=0.0, label="", modal_damping_1_s=None, restitution_table=None):
         self.omega_rad_s = np.asarray(omega_rad_s, dtype=float).copy()
         self.participation = np.asarray(participation, dtype=float).copy()
         self.contact_row = np.asarray(contact_row, dtype=float).copy()
@@ -693,6 +704,16 @@ class BeamImpactModel:
         self.phi_at_mass = float(phi_at_mass)
         self.damping_D_s = float(damping_D_s)
         self.rayleigh_alpha_1_s = float(rayleigh_alpha_1_s)
+        self.modal_damping_1_s = (None if modal_damping_1_s is None
+                                  else np.asarray(modal_damping_1_s, dtype=float).copy())
+        if self.modal_damping_1_s is not None and self.modal_damping_1_s.shape != (n,):
+            raise ValueError("modal_damping_1_s must have one entry per mode")
+        if restitution_table is None:
+            self.R_table_U = np.zeros(0)
+            self.R_table_R = np.zeros(0)
+        else:
+            self.R_table_U = np.ascontiguousarray(restitution_table[0], dtype=float)
+            self.R_table_R = np.ascontiguousarray(restitution_table[1], dtype=float)
         self.label = label
         self._constrained()
 
@@ -771,8 +792,15 @@ class BeamImpactModel:
 
     @property
     def c_nd(self) -> np.ndarray:
-        """``(alpha + D omega_i^2) / omega_ref``."""
-        return (self.rayleigh_alpha_1_s + self.damping_D_s * self.omega_rad_s ** 2) / self.omega_ref
+        """``(alpha + D omega_i^2) / omega_ref`` (or ``modal_damping_1_s / omega_ref``)."""
+        return self.c_phys / self.omega_ref
+
+    @property
+    def c_phys(self) -> np.ndarray:
+        """Modal damping ``c_i`` (1/s)."""
+        if getattr(self, "modal_damping_1_s", None) is not None:
+            return self.modal_damping_1_s
+        return self.rayleigh_alpha_1_s + self.damping_D_s * self.omega_rad_s ** 2
 
     def _constrained(self):
         """Null-space basis, constrained modes and contact-force coefficients."""
@@ -793,6 +821,8 @@ class BeamImpactModel:
         aD = self.rayleigh_alpha_1_s / self.omega_ref
         DD = self.damping_D_s * self.omega_ref
         self.cC = aD + DD * nu2
+        if self.modal_damping_1_s is not None:
+            self.cC = np.einsum("ij,i,ij->j", Psi, self.c_nd, Psi)
         self.GC = Psi.T @ self.participation
         self.eC = -(Psi.T @ (K @ self.eta_c)) / np.where(nu2 > 0, nu2, 1.0)
         me = 1.0 / w2
@@ -816,7 +846,7 @@ class BeamImpactModel:
         """Steady-state sensor amplitude without the stop (m), from the modal sum."""
         W = Omega * self.omega_ref
         H = self.participation * W**2 * self.base_amplitude_m / (
-            self.omega_rad_s**2 - W**2 + 1j * W * (self.rayleigh_alpha_1_s + self.damping_D_s * self.omega_rad_s**2))
+            self.omega_rad_s**2 - W**2 + 1j * W * self.c_phys)
         return float(abs(self.sensor_row @ H))
 
 
@@ -899,7 +929,7 @@ class BeamEventSolver:
         n_per = n_transient + n_record
         h_cap = TWO_PI / np.sqrt(k[0]) / self.steps_per_fundamental
         out = beam_kernel(Om, mpF, aF, bF, m.contact_row, m.sensor_row, c, k, GF,
-                          m.gap_contact_m, me, m.R,
+                          m.gap_contact_m, me, m.R, m.R_table_U, m.R_table_R,
                           mpC, aC, bC, m.eC, m.Psi, m.eta_c, m.pL, m.rL, SaL, SbL, m.lam_const,
                           m.pS, SaS, SbS, m.sens_const,
                           eta, etad, bool(s0[2 * N] > 0.5),
@@ -1132,7 +1162,8 @@ class BeamODESolver:
                         n_chat += t >= t_rec
                     continue
                 ydot = y[N:].copy()
-                apply_impact(ydot, w, Um, m.R, me)
+                apply_impact(ydot, w, Um, restitution_coefficient(Um * sc, m.R, m.R_table_U, m.R_table_R),
+                             me)
                 y[N:] = ydot
                 if m.R == 0.0 and acc_U(t, y) > 0:   # plastic impact into a pressing contact
                     y = stick(y)

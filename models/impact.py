@@ -36,6 +36,42 @@ def newton_restitution(U_minus, R):
 
 
 @njit(cache=True)
+def restitution_coefficient(U_minus, R, table_U, table_R):
+    """Coefficient of restitution at the pre-impact velocity ``U_minus`` (paper Fig. 26).
+
+    ``R(U-)`` is piecewise linear through ``(table_U[k], table_R[k])`` (``table_U``
+    increasing, in the caller's velocity units) and constant beyond the ends.  An empty
+    table is the constant law: ``R`` is returned at once (one length test, nothing else).
+
+    Parameters
+    ----------
+    U_minus : float
+        Pre-impact normal velocity (positive approaching), same units as ``table_U``.
+    R : float
+        Constant coefficient used when the table is empty.
+    table_U, table_R : ndarray, shape (n,)
+        Velocity nodes (increasing) and R at them; ``n = 0`` for the constant law.
+    """
+    n = table_U.shape[0]
+    if n == 0:
+        return R
+    if U_minus <= table_U[0]:
+        return table_R[0]
+    if U_minus >= table_U[n - 1]:
+        return table_R[n - 1]
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if table_U[mid] <= U_minus:
+            lo = mid
+        else:
+            hi = mid
+    t = (U_minus - table_U[lo]) / (table_U[hi] - table_U[lo])
+    return table_R[lo] + t * (table_R[hi] - table_R[lo])
+
+
+@njit(cache=True)
 def restitution_impulse(U_minus, R, m_eff):
     """Normal impulse that realises Newton's law on a contact of effective mass ``m_eff``.
 

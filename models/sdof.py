@@ -20,6 +20,8 @@ from vibeam.records import Trajectory
 
 from .sdof_event import STATUS_NAMES, event_kernel
 
+_EMPTY = np.zeros(0)
+
 
 @dataclass(frozen=True)
 class SDOF:
@@ -39,6 +41,9 @@ class SDOF:
         ``f_n`` of a physical scene (for ``frequency_hz`` outputs).
     length_m : float or None
         Normalising length ``L`` of a physical scene (for ``amplitude_mm``).
+    R_table : tuple of (float, float) pairs, optional
+        R against the pre-impact velocity q'- (effect ``restitution_law``; only the
+        ``event`` method uses it); empty = constant ``R``.
     """
 
     beta: float
@@ -47,8 +52,18 @@ class SDOF:
     Delta: float
     natural_frequency_hz: float | None = None
     length_m: float | None = None
+    R_table: tuple = ()
 
     fidelity = "sdof"
+
+    def restitution_table(self):
+        """``(velocity, R)`` arrays of a velocity-dependent R (``R_table = ((q'-, R), ...)``,
+        nondimensional q'-, increasing; :func:`vibeam.models.impact.restitution_coefficient`);
+        empty arrays for the constant ``R`` (the plain model)."""
+        if not self.R_table:
+            return _EMPTY, _EMPTY
+        t = np.asarray(self.R_table, dtype=float)
+        return np.ascontiguousarray(t[:, 0]), np.ascontiguousarray(t[:, 1])
 
     def initial_state(self) -> np.ndarray:
         """Rest at the unloaded equilibrium, or on the stop if it is pre-stressed.
@@ -143,7 +158,8 @@ class EventSolver:
         imp_t = np.zeros(self.impact_buffer)
         imp_v = np.zeros(self.impact_buffer)
         max_imp = self.max_impacts_per_period * (n_transient + n_record)
-        out = event_kernel(m.beta, m.B, m.R, m.Delta, float(Omega), float(s0[0]), float(s0[1]),
+        tv, tR = m.restitution_table()
+        out = event_kernel(m.beta, m.B, m.R, tv, tR, m.Delta, float(Omega), float(s0[0]), float(s0[1]),
                            bool(s0[2] > 0.5) if s0.shape[0] > 2 else False,
                            int(n_transient), int(n_record), self.transient_samples,
                            int(samples_per_period), max_imp, self.chatter_tol,

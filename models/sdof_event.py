@@ -40,7 +40,7 @@ import numpy as np
 from numba import njit
 
 from .roots import rtsafe_update, select
-from .impact import newton_restitution
+from .impact import newton_restitution, restitution_coefficient
 from .sdof_flow import (homogeneous_amplitude, particular_coefficients, propagate,
                         propagate_tabulated, transition)
 
@@ -127,7 +127,7 @@ def _release_delay(phi, F, Delta, Omega):
 
 
 @njit(cache=True)
-def event_kernel(beta, B, R, Delta, Omega, q_init, v_init, stuck_init,
+def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init, stuck_init,
                  n_transient, n_record, ns_transient, ns_record,
                  max_impacts, chatter_tol,
                  samples, imp_t, imp_v):
@@ -137,7 +137,9 @@ def event_kernel(beta, B, R, Delta, Omega, q_init, v_init, stuck_init,
     ns_record, 2)) receives ``(q, q')`` at the phase grid of the recorded
     periods; ``imp_t``/``imp_v`` receive the times (from the start of the
     recording) and pre-impact velocities of the first ``len(imp_t)`` recorded
-    impacts.
+    impacts.  ``R_table_v``/``R_table_R`` tabulate R against the pre-impact velocity
+    q'- (nondimensional; :func:`vibeam.models.impact.restitution_coefficient`); empty
+    arrays give the constant ``R``.
 
     Returns
     -------
@@ -332,7 +334,8 @@ def event_kernel(beta, B, R, Delta, Omega, q_init, v_init, stuck_init,
                             rem = 0.0
                         q = Delta
                         v_minus = vi if vi > 0.0 else 0.0
-                        v = newton_restitution(v_minus, R)
+                        Rc = restitution_coefficient(v_minus, R, R_table_v, R_table_R)
+                        v = newton_restitution(v_minus, Rc)
                         n_imp_total += 1
                         if recording:
                             q_max = Delta
@@ -351,8 +354,9 @@ def event_kernel(beta, B, R, Delta, Omega, q_init, v_init, stuck_init,
                             if _release_delay(phi, F, Delta, Omega) > 0.0:
                                 stuck = True
                                 v = 0.0
-                        elif acc > 0.0 and R < 1.0:
-                            D = 2.0 * u / (acc * (1.0 - R))
+                        elif acc > 0.0 and Rc < 1.0:
+                            # chatter estimate with R at the current impact velocity
+                            D = 2.0 * u / (acc * (1.0 - Rc))
                             jerk = abs(F * Omega * math.cos(phi))
                             err = D * (jerk / acc + 2.0 * beta + D)
                             if err < chatter_tol:

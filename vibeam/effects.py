@@ -2,11 +2,433 @@
 
 :func:`wrap_solver` is the single place where effects enter a run: with no
 active effect it returns the plain solver unchanged (same model, same DOFs,
-same kernel), so a plain scene never pays for an effect.
+same kernel), so a plain scene never pays for an effect.  Otherwise it returns
+an :class:`EffectSolver` that the one sweep engine drives like any solver.
+
+Effects (paper Secs. 5-7)
+-------------------------
+``platform``, ``level = "filter"`` (both fidelities)
+    The shaker drives the platform with a force; the platform is a second-order
+    system, so the base displacement per volt is
+    ``gamma(f) = gamma_ref |H(f)| / |H(f_ref)|`` with
+    ``H(f) = 1 / (1 - (f/f_p)^2 + 2 i zeta_p f/f_p)``, normalised at
+    ``reference_frequency_hz`` (default: the scene's natural frequency, where the
+    paper identified gamma = 1.5e-3 /V, Sec. 6.1) with ``gamma_ref`` the scene's
+    ``gain``.  Each frequency point is simulated with its own forcing amplitude
+    (the phase of H is dropped: the steady state does not depend on it); the
+    per-point dataset ``effective_gain`` is that gamma (1/V).
+    With ``gains = [[f1, g1], [f2, g2]]`` the filter is identified from two
+    measured gains instead: gamma(f) = g1 |H(f)| / |H(f1)| passes through both
+    points (the scene's ``gain`` is then not used).  Two gains fix the level and
+    *one* filter parameter (the force-to-displacement gain of the platform is
+    unknown, so only g2/g1 constrains H): vibeam solves f_p on the branch below
+    both frequencies with zeta_p = ``damping_ratio``; if g2/g1 is out of that
+    branch's reach ((f1/f2)^2 at most for light damping) it solves zeta_p with
+    f_p = ``frequency_hz``; if neither works it raises a CaseError naming the key.
+``platform``, ``level = "coupled"`` (beam fidelity only)
+    A platform DOF ``z_p`` of mass ``mass_kg`` carries the clamp and the stop;
+    the beam (in its N retained fixed-base modes ``eta``, relative to the
+    platform) loads it by its reaction.  Coupled system::
+
+        [ I      Gamma       ] [eta'']   [c_i  0 ] [eta']   [w_i^2 0  ] [eta]   [0     ]
+        [ Gamma' M_p + m_tot ] [z_p'' ] + [0   c_p] [z_p' ] + [0     k_p] [z_p ] = [F_s sin]
+
+    with ``m_tot`` the beam's and the attached mass's total mass, ``k_p`` and
+    ``c_p`` the suspension of the whole assembly at ``frequency_hz`` /
+    ``damping_ratio``.  Its N + 1 mass-normalised modes feed the same closed-form
+    modal kernel (:class:`vibeam.models.beam_dynamics.BeamImpactModel` with
+    arbitrary modal data).  Approximation: damping stays modal -- the diagonal
+    of ``V^T C V`` is kept, its (small) off-diagonal coupling is dropped.  The
+    shaker force ``F_s`` is calibrated so that the assembly taken as rigid would
+    move ``gamma~ V`` at the reference frequency; ``effective_gain`` is the
+    linear platform amplitude of the coupled system (impacts aside) in the
+    paper's gamma units.  Contact and sensor are relative to the platform.
+``eccentric_impact`` (beam fidelity only)
+    The contact point lies ``offset_mm`` from the mass centre along the beam:
+    contact row ``w_c = w(L_m) + e w'(L_m)`` (the FE rotation DOF of the mass
+    node), so every impulse also applies a moment ``e P`` to the mass (and
+    ``m_eff = 1 / |w_c|^2`` changes).  The gap is measured at the contact point:
+    ``Delta_C = phi_c Delta_G`` with ``phi_c = phi(x_m) (1 + 3 e / (2 L_m))`` the
+    static mode at the contact point (load at L_m).  With ``n_modes = "static"``
+    the single static shape's contact row is scaled by ``phi_c / phi(x_m)``.
+``gap_drift`` (both fidelities, physical scenes)
+    ``table``: the grazing gap at the sensor (as ``gap_mm`` of the scene) at each
+    frequency point, linearly interpolated, constant beyond the ends.
+    ``law = "sliding"``: after each point the stop slides away by
+    ``slide_mm_per_impulse`` times the normalised impulse of that point, capped
+    at ``max_drift_mm`` in all.  The normalised impulse is the impulse per
+    forcing period in the units of the SDOF model, ``sum (1 + R) U-`` over the
+    recorded impacts (sensor velocity, nondimensional) divided by the recorded
+    periods (so it does not depend on the record window).  The drift is state:
+    it travels with the continuation chain (appended to the state handed from
+    point to point), so each chain (up, down) starts at the scene's gap; without
+    continuation every point starts at the scene's gap.  Needs a time-domain
+    method.  Per-point dataset ``gap_mm`` (the gap used at that point).
+``restitution_law`` (SDOF ``event``; beam ``event`` and ``direct``)
+    R piecewise linear in the pre-impact velocity at the sensor (mm/s, paper
+    Fig. 26), constant beyond the ends, evaluated by
+    :func:`vibeam.models.impact.restitution_coefficient` inside the kernels at
+    every impact (the chatter test uses R at the current velocity).  Velocity
+    conversion: SDOF ``U(L_S)' = q' L omega_n``; beam: the kernel sees the
+    contact velocity, converted with the static-mode factor,
+    ``U(L_S)' ~ U_c' / phi_c`` (exact for one static mode; an approximation when
+    several modes move the sensor and the contact differently).
 """
 from __future__ import annotations
 
+import copy
+import dataclasses
+import math
 
+import numpy as np
+
+#: effects handled here (``sensor`` belongs to :mod:`vibeam.sensor` / the assessments)
+HANDLED = ("platform", "eccentric_impact", "gap_drift", "restitution_law")
+#: gamma identified at 2 f_n in Sec. 7 over the 1.5e-3 /V near f_n of Sec. 6.1 (tight, neutral, loose)
+PAPER_GAIN_RATIOS = (3.78e-4 / 1.5e-3, 5.16e-4 / 1.5e-3, 7.66e-4 / 1.5e-3)
+
+
+def _err(msg):
+    from .case import CaseError
+
+    return CaseError(msg)
+
+
+# ============================================================================ platform filter
+def platform_H(f, f_p, zeta_p):
+    """``H(f) = 1 / (1 - (f/f_p)^2 + 2 i zeta_p f/f_p)``: force-driven platform displacement."""
+    r = np.asarray(f, dtype=float) / f_p
+    return 1.0 / (1.0 - r * r + 2j * zeta_p * r)
+
+
+def identify_platform(gains, zeta_p: float, f_p_default: float):
+    """``(f_p, zeta_p)`` from two measured gains ``[[f1, g1], [f2, g2]]`` (see module doc).
+
+    Raises CaseError if g2/g1 cannot be reproduced.
+    """
+    from scipy.optimize import brentq
+
+    (f1, g1), (f2, g2) = sorted((tuple(p) for p in gains), key=lambda p: p[0])
+    if not (f1 > 0 and f2 > f1 and g1 > 0 and g2 > 0):
+        raise _err(f"effects.platform.gains = {gains!r}: need two distinct positive frequencies "
+                   f"and positive gains")
+    rho = g2 / g1
+
+    def ratio(fp, z):
+        return abs(platform_H(f2, fp, z)) / abs(platform_H(f1, fp, z))
+
+    # f_p on the branch below both frequencies, zeta fixed
+    lo, hi = 1e-6 * f1, f1 * (1 - 1e-9)
+    xs = np.geomspace(lo, hi, 400)
+    F = np.array([ratio(x, zeta_p) - rho for x in xs])
+    for i in range(len(xs) - 1):
+        if F[i] == 0.0:
+            return float(xs[i]), float(zeta_p)
+        if F[i] * F[i + 1] < 0:
+            return float(brentq(lambda x: ratio(x, zeta_p) - rho, xs[i], xs[i + 1], xtol=1e-14)), float(zeta_p)
+    # zeta with f_p fixed
+    zs = np.concatenate([[0.0], np.geomspace(1e-4, 100.0, 400)])
+    G = np.array([ratio(f_p_default, z) - rho for z in zs])
+    for i in range(len(zs) - 1):
+        if G[i] * G[i + 1] < 0:
+            return float(f_p_default), float(brentq(lambda z: ratio(f_p_default, z) - rho, zs[i], zs[i + 1],
+                                                    xtol=1e-14))
+    raise _err(f"effects.platform.gains = {gains!r}: the ratio g2/g1 = {rho:.4g} is out of reach of a "
+               f"second-order platform (f_p below {f1:g} Hz with damping_ratio = {zeta_p:g} gives at most "
+               f"{F.max() + rho:.4g}; f_p = {f_p_default:g} Hz with any damping gives {G.min() + rho:.4g} to "
+               f"{G.max() + rho:.4g})")
+
+
+# ============================================================================ beam models
+def contact_factor(spec, offset_m: float) -> float:
+    """Static-mode value at the contact point over phi(x_S): ``phi(x_m) (1 + 3 e / (2 L_m))``."""
+    from .beamscene import scene_of
+
+    sc = scene_of(spec)
+    return sc.phi_at_mass * (1.0 + 1.5 * offset_m / sc.geometry.mass_position_m)
+
+
+def eccentric_contact_row(fe, shapes, offset_m: float) -> np.ndarray:
+    """Modal contact row ``w(L_m) + e w'(L_m)`` of mass-normalised ``shapes`` (ndof, N)."""
+    return fe.contact_row @ shapes + offset_m * shapes[fe.mass_dof_slope, :]
+
+
+def build_beam_model(spec, effects, base_model=None):
+    """BeamImpactModel of a beam scene with its structural effects (eccentric contact,
+    coupled platform, R table); ``base_model`` is reused when none changes the structure."""
+    from .beamscene import scene_of
+    from .models.beam import BeamFE
+    from .models.beam_dynamics import BeamImpactModel
+    from .reductions.modal import modal_reduction
+
+    ecc = effects.eccentric_impact
+    plat = effects.platform
+    coupled = plat is not None and plat.level == "coupled"
+    e = ecc.offset_mm * 1e-3 if ecc is not None else 0.0
+    sc = scene_of(spec)
+    phic = contact_factor(spec, e) if ecc is not None else sc.phi_at_mass
+    DC = sc.Delta_C_m if spec.gap_mm is None else (spec.gap_mm * 1e-3) * phic
+    if not (ecc or coupled):
+        m = base_model if base_model is not None else spec.build()
+        if effects.restitution_law is None:
+            return m
+        m = copy.copy(m)
+    elif spec.n_modes == "static":
+        if coupled:
+            raise _err("effects.platform: level = \"coupled\" needs FE modes (n_modes an integer or "
+                       "\"all\"), not the static mode")
+        m0 = base_model if base_model is not None else spec.build()
+        m = BeamImpactModel(m0.omega_rad_s, m0.participation, m0.contact_row * (phic / sc.phi_at_mass),
+                            m0.sensor_row, m0.R, DC, m0.base_amplitude_m, m0.f_ref_hz, m0.length_m, phic,
+                            m0.damping_D_s, m0.rayleigh_alpha_1_s, label="static mode, eccentric contact")
+    else:
+        fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
+                    rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
+        red = modal_reduction(fe, spec.n_modes)
+        md = fe.modes(red.n_modes)
+        P = red.shapes
+        w = eccentric_contact_row(fe, P, e) if ecc is not None else red.contact_row
+        s = red.sensor_row
+        G = md.participation
+        om = red.omega_rad_s
+        c = fe.rayleigh_alpha_1_s + fe.damping_D_s * om ** 2
+        if not coupled:
+            m = BeamImpactModel(om, G, w, s, spec.R, DC, sc.base_amplitude_m, sc.f1_hz, fe.geometry.length_m,
+                                phic, fe.damping_D_s, fe.rayleigh_alpha_1_s,
+                                label=f"FE {red.n_modes} modes" + (", eccentric contact" if ecc else ""))
+        else:
+            m = _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic)
+    if effects.restitution_law is not None:
+        t = effects.restitution_law
+        # sensor velocity (mm/s) -> contact velocity in kernel units (m per nondimensional time)
+        m.R_table_U = np.asarray(t.velocity_mm_s, float) * 1e-3 * phic / m.omega_ref
+        m.R_table_R = np.asarray(t.R, float)
+    return m
+
+
+def _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic):
+    """Beam + platform DOF as one modal model (module doc)."""
+    import scipy.linalg
+
+    from .models.beam_dynamics import BeamImpactModel
+
+    if plat.mass_kg is None:
+        raise _err("effects.platform.mass_kg is required for level = \"coupled\" (the platform's mass, kg)")
+    g = sc.geometry
+    N = om.size
+    m_tot = g.mass_kg + g.beam_mass_kg
+    Mtot = plat.mass_kg + m_tot
+    wp = 2 * math.pi * plat.frequency_hz
+    kp = Mtot * wp ** 2
+    cp = 2 * plat.damping_ratio * wp * Mtot
+    Mc = np.eye(N + 1)
+    Mc[:N, N] = Mc[N, :N] = G
+    Mc[N, N] = Mtot
+    Kc = np.diag(np.concatenate([om ** 2, [kp]]))
+    Cc = np.diag(np.concatenate([c, [cp]]))
+    lam, V = scipy.linalg.eigh(Kc, Mc)
+    V = V / np.sqrt(np.einsum("ij,ik,kj->j", V, Mc, V))
+    V = V * np.where(V[N] < 0, -1.0, 1.0)
+    f_ref = plat.reference_frequency_hz or sc.f1_hz
+    W = 2 * math.pi * f_ref
+    Y = sc.base_amplitude_m
+    F_s = Y * abs(kp - Mtot * W ** 2 + 1j * cp * W)
+    m = BeamImpactModel(np.sqrt(lam), V[N], np.concatenate([w, [0.0]]) @ V, np.concatenate([s, [0.0]]) @ V,
+                        spec.R, DC, 0.0, sc.f1_hz, g.length_m, phic,
+                        modal_damping_1_s=np.einsum("ij,i,ij->j", V, np.diag(Cc), V),
+                        label=f"FE {N} modes + platform DOF")
+    m.platform_force_n = F_s        # per-point base_amplitude_m = F_s / Omega~^2
+    m.platform_row = V[N].copy()    # z_p = platform_row @ xi
+    return m
+
+
+# ============================================================================ the wrapper
+class EffectSolver:
+    """A solver with scene effects: per point it builds the point's model (forcing
+    amplitude, gap) and runs the plain solver of that model; adds the effects' per-point
+    outputs.  Picklable (runs in worker processes)."""
+
+    time_domain = True
+
+    def __init__(self, inner, spec, effects, settings, active, f_n_hz):
+        self.inner = inner
+        self.model = inner.model
+        self.name = inner.name
+        self.time_domain = inner.time_domain
+        self.spec = spec
+        self.effects = effects
+        self._settings = dict(settings or {})
+        self.active = list(active)
+        self.f_n_hz = float(f_n_hz)
+        self.run_attrs = {"effects": ", ".join(self.active)}
+        plat = effects.platform
+        L_mm = spec.length_mm
+        self._L_mm = L_mm
+        self._fid = spec.fidelity
+        if self._fid == "beam":
+            self._phic = float(self.model.phi_at_mass)
+        if plat is not None:
+            self._setup_platform(plat)
+        gd = effects.gap_drift
+        if gd is not None:
+            self.run_attrs["gap_drift"] = "table" if gd.table is not None else gd.law
+            if gd.table is not None:
+                t = np.array(sorted(gd.table, key=lambda p: p[0]), dtype=float)
+                self._gap_f, self._gap_v = t[:, 0], t[:, 1]
+            else:
+                self.run_attrs["gap_slide_mm_per_impulse"] = gd.slide_mm_per_impulse
+                self.run_attrs["gap_max_drift_mm"] = gd.max_drift_mm
+        if effects.eccentric_impact is not None:
+            self.run_attrs["eccentric_offset_mm"] = effects.eccentric_impact.offset_mm
+            self.run_attrs["contact_static_factor"] = self._phic
+            self.run_attrs["contact_effective_mass_kg"] = float(self.model.m_eff)
+        if effects.restitution_law is not None:
+            self.run_attrs["restitution_velocity_mm_s"] = np.asarray(effects.restitution_law.velocity_mm_s)
+            self.run_attrs["restitution_R"] = np.asarray(effects.restitution_law.R)
+
+    # ------------------------------------------------------------------ platform
+    def _setup_platform(self, plat):
+        a = self.run_attrs
+        a["platform_level"] = plat.level
+        gain = float(self.spec.gain)
+        if plat.level == "filter":
+            fp, zp = plat.frequency_hz, plat.damping_ratio
+            if plat.gains is not None:
+                fp, zp = identify_platform(plat.gains, zp, fp)
+                (f1, g1), _ = sorted((tuple(p) for p in plat.gains), key=lambda p: p[0])
+                f_ref, g_ref = f1, g1
+            else:
+                f_ref = plat.reference_frequency_hz or self.f_n_hz
+                g_ref = gain
+            if gain <= 0:
+                raise _err("effects.platform needs the scene's gain > 0 (it scales the forcing)")
+            H_ref = abs(platform_H(f_ref, fp, zp))
+            self._filter = (fp, zp, f_ref, g_ref, H_ref)
+            a.update(platform_frequency_hz=fp, platform_damping_ratio=zp, platform_reference_frequency_hz=f_ref,
+                     platform_reference_gain_per_V=g_ref)
+        else:
+            m = self.model
+            self._coupled_fs = m.platform_force_n
+            a.update(platform_frequency_hz=plat.frequency_hz, platform_damping_ratio=plat.damping_ratio,
+                     platform_mass_kg=plat.mass_kg, platform_force_n=m.platform_force_n,
+                     coupled_frequencies_hz=m.omega_rad_s / (2 * math.pi))
+        fn = self.f_n_hz
+        a["gain_ratio_2fn_to_fn"] = float(self.effective_gain(2 * fn) / self.effective_gain(fn))
+        a["paper_gain_ratios_2fn_to_fn"] = np.array(PAPER_GAIN_RATIOS)
+
+    def effective_gain(self, f_hz):
+        """The paper's gamma (1/V) at ``f_hz`` as the platform model predicts it."""
+        plat = self.effects.platform
+        if plat.level == "filter":
+            fp, zp, f_ref, g_ref, H_ref = self._filter
+            return g_ref * abs(platform_H(f_hz, fp, zp)) / H_ref
+        m = self.model
+        W = 2 * math.pi * np.asarray(f_hz, float)
+        z = np.sum(m.platform_row ** 2 / (m.omega_rad_s ** 2 - W ** 2 + 1j * W * m.c_phys)) * self._coupled_fs
+        V = self.spec.voltage
+        return abs(z) / (V * self._phim() * self.spec.length_mm * 1e-3) if V > 0 else 0.0
+
+    def _phim(self):
+        from .beamscene import scene_of
+
+        if not hasattr(self, "_phim_v"):
+            self._phim_v = scene_of(self.spec).phi_at_mass
+        return self._phim_v
+
+    # ------------------------------------------------------------------ solver interface
+    def settings(self) -> dict:
+        return dict(self.inner.settings(), effects=list(self.active))
+
+    def _gap_mm(self, f_hz, drift):
+        gd = self.effects.gap_drift
+        if gd is None:
+            return None
+        if gd.table is not None:
+            return float(np.interp(f_hz, self._gap_f, self._gap_v))
+        return self.spec.gap_mm + drift if self.spec.gap_mm is not None else (
+            self.spec.contact_gap_mm / self._phic + drift)
+
+    def point_model(self, Omega, drift=0.0):
+        """The model of one point (and the extras it implies)."""
+        m = self.inner.model
+        f = float(Omega) * self.f_n_hz
+        extra = {}
+        plat = self.effects.platform
+        gap = self._gap_mm(f, drift)
+        if self._fid == "sdof":
+            ch = {}
+            if plat is not None:
+                g = float(self.effective_gain(f))
+                ch["B"] = g * self.spec.voltage
+                extra["effective_gain"] = g
+            if gap is not None:
+                ch["Delta"] = gap / self._L_mm
+                extra["gap_mm"] = gap
+            return (dataclasses.replace(m, **ch) if ch else m), extra
+        pm = copy.copy(m)
+        if plat is not None:
+            g = float(self.effective_gain(f))
+            extra["effective_gain"] = g
+            if plat.level == "filter":
+                pm.base_amplitude_m = m.base_amplitude_m * (g / float(self.spec.gain))
+            else:
+                W = 2 * math.pi * f
+                pm.base_amplitude_m = self._coupled_fs / (W * W)
+        if gap is not None:
+            pm.gap_contact_m = (gap * 1e-3) * self._phic
+            pm._constrained()
+            extra["gap_mm"] = gap
+        return pm, extra
+
+    def point(self, Omega, state0, n_transient, n_record, samples_per_period=64):
+        sliding = self.effects.gap_drift is not None and self.effects.gap_drift.law == "sliding"
+        drift = 0.0
+        if sliding and state0 is not None:
+            state0 = np.asarray(state0, dtype=float)
+            state0, drift = state0[:-1], float(state0[-1])
+        pm, extra = self.point_model(Omega, drift)
+        solver = self.inner if pm is self.inner.model else _rebuild(self.inner, pm, self._settings)
+        out = solver.point(Omega, state0, n_transient, n_record, samples_per_period)
+        if not self.time_domain:
+            out = dict(out)
+            out.update(extra)
+            return out
+        out.extra.update(extra)
+        if "gap_mm" in extra and out.status != "failed":
+            out.extra["amplitude"] = float(pm.Delta - out.q_min)   # Q against this point's gap
+        if sliding:
+            gd = self.effects.gap_drift
+            imp = self._impulse_per_period(out, pm, n_record)
+            out.extra["gap_drift_mm"] = drift
+            out.extra["impulse_per_period"] = imp
+            new = min(drift + gd.slide_mm_per_impulse * imp, gd.max_drift_mm)
+            out.final_state = np.concatenate([np.asarray(out.final_state, float), [new]])
+        return out
+
+    def _impulse_per_period(self, traj, pm, n_record):
+        """Normalised impulse per forcing period, ``sum (1 + R(U-)) U-`` / periods (sensor units)."""
+        from .models.impact import restitution_coefficient
+
+        v = np.asarray(traj.impact_velocities, float)   # q'- (SDOF) or contact velocity / L (beam)
+        if v.size == 0 or n_record <= 0 or traj.status == "failed":
+            return 0.0
+        if self._fid == "sdof":
+            tv, tR = pm.restitution_table()
+            Rs = np.array([restitution_coefficient(x, pm.R, tv, tR) for x in v])
+            vs = v
+        else:
+            Rs = np.array([restitution_coefficient(x * pm.length_m, pm.R, pm.R_table_U, pm.R_table_R) for x in v])
+            vs = v / self._phic
+        tot = float(np.sum((1.0 + Rs) * vs)) * (traj.n_impacts / v.size)
+        return tot / n_record
+
+
+def _rebuild(inner, model, settings):
+    """The plain solver of ``inner``'s kind for another model (same settings)."""
+    return type(inner)(model, **settings)
+
+
+# ============================================================================ entry point
 def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
     """Solver of a run with its effects applied (the plain solver when none is active).
 
@@ -20,14 +442,50 @@ def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
         The validated model table.
     effects : vibeam.case.EffectsSpec
         Active effects of the run.
+    run_settings : dict, optional
+        The run's method settings (to build the solver of a changed model).
 
     Raises
     ------
     vibeam.case.CaseError
         If an effect does not make sense for the fidelity or method.
     """
-    if not effects.active():
+    active = [k for k in effects.active() if k in HANDLED]
+    if not active:
         return solver
-    from .case import CaseError
+    fid = spec.fidelity
+    method = solver.name
+    settings = dict(run_settings or {})
+    if fid == "sdof":
+        if effects.eccentric_impact is not None:
+            raise _err("effects.eccentric_impact: the SDOF model has no rotation of the attached mass "
+                       "(a point mass on one assumed shape); use a beam scene (fidelity = \"beam\")")
+        if not spec.physical:
+            raise _err(f"effects.{active[0]}: needs a physical SDOF scene (natural_frequency_hz, gap_mm, "
+                       f"length_mm, gain, voltage), not the nondimensional keys")
+        if effects.platform is not None and effects.platform.level == "coupled":
+            raise _err("effects.platform.level = \"coupled\" is implemented for beam scenes only; "
+                       "use level = \"filter\" with an SDOF scene")
+        if effects.restitution_law is not None and method != "event":
+            raise _err(f"effects.restitution_law: method {method!r} does not support a velocity-dependent R; "
+                       f"use method = \"event\"")
+    if effects.gap_drift is not None and effects.gap_drift.law == "sliding" and not solver.time_domain:
+        raise _err(f"effects.gap_drift: law = \"sliding\" needs impacts, i.e. a time-domain method "
+                   f"(not {method!r})")
+    if fid == "sdof":
+        new = model
+        if effects.restitution_law is not None:
+            t = effects.restitution_law
+            scale = 1e-3 / (model.length_m * 2 * math.pi * model.natural_frequency_hz)  # mm/s -> q'
+            new = dataclasses.replace(model, R_table=tuple((v * scale, R) for v, R in zip(t.velocity_mm_s, t.R)))
+        f_n = model.natural_frequency_hz
+    else:
+        new = build_beam_model(spec, effects, base_model=model)
+        f_n = model.f_ref_hz
+    inner = solver if new is model else _rebuild(solver, new, settings)
+    return EffectSolver(inner, spec, effects, settings, active, f_n)
 
-    raise CaseError(f"effects {effects.active()} are not implemented yet")
+
+def run_attrs(solver) -> dict:
+    """Run attributes naming the active effects and their parameters ({} for a plain solver)."""
+    return dict(getattr(solver, "run_attrs", {}) or {})
