@@ -1,18 +1,663 @@
-"""Assessments (``[assess]`` of a case): spectra, modal participation, time series.
+"""Assessments (``[assess]`` of a case) and the ``sensor`` effect's identification.
 
 :func:`hooks` returns the per-point assessment callables that the sweep applies
 to each recorded :class:`vibeam.records.Trajectory` (empty when the case asks
-for none); :func:`finish` writes what needs the whole case (plots overlaying
-runs).
+for none: nothing extra is computed or stored); :func:`collect` moves what is not
+a per-point quantity (time series) out of the per-point table after a run;
+:func:`finish` writes what needs the whole case (plots overlaying runs, the
+identified-R-versus-noise table).
+
+Per-point outputs (HDF5 ``/runs/<run>/``):
+
+``[assess] spectra = true``
+    ``peaks_frequency`` (n, P: Hz for physical scenes, Omega units otherwise; NaN-padded),
+    ``peaks_displacement`` (mm), ``peaks_velocity`` (mm/s): the P largest peaks of the
+    Hann-windowed spectrum of the sensor velocity that are neither harmonics nor
+    subharmonics ``k/n Omega`` (``n <= subharmonic_order``) of the forcing;
+    ``peaks_mode`` (1-based index of the nearest mode within ``mode_tolerance``, 0 none)
+    and ``peaks_family`` (1 free mode, 2 contact mode (beam held at the stop), 0 none);
+    ``spectrum_velocity`` (n, 400): the velocity spectrum max-pooled on the fixed axis of
+    the run attribute ``spectrum_frequency``; ``hfc_*`` (beam fidelity, event method):
+    the high-frequency component of the sensor signal, i.e. the part carried by modes
+    ``>= 2`` (``sum_{i>=2} s_i eta_i``): ``hfc_velocity_mm_s`` (mean over impacts of the
+    peak velocity after the impact, the paper's "mean peak velocity amplitude"),
+    ``hfc_displacement_mm`` (the same for the displacement), ``hfc_frequency`` (its
+    dominant spectral line) and ``band_velocity_mm_s`` (largest line of the total sensor
+    velocity in ``hfc_band``: what the rig's spectrum shows near 100 Hz).
+``[assess] participation = true``
+    ``participation_displacement`` (n, N): RMS of ``s_i eta_i`` over the record over the
+    sum of those RMS; ``participation_energy`` (n, N): mean modal energy
+    ``(eta_i-dot^2 + omega_i^2 eta_i^2) / 2`` over its sum.  Both sum to 1.
+``[assess] time_series = [f, ...]``
+    group ``time_series/<f>/<direction>`` (m, 3): time, displacement, velocity of the last
+    ``time_series_periods`` recorded periods at the grid point nearest to ``f``.
+``[effects.sensor]``
+    see :class:`vibeam.sensor.SensorHook`.
 """
 from __future__ import annotations
+
+import math
+
+import numpy as np
+
+N_MAP = 400                      # bins of the stored spectrum map
+TS_MAX_PER_PERIOD = 256          # time series: at most this many samples per period
+
+
+# ============================================================================ helpers
+def _scales(model):
+    """(f_ref in Hz or None, L in m or None, physical?)."""
+    fn = getattr(model, "natural_frequency_hz", None)
+    L = getattr(model, "length_m", None)
+    return fn, L, bool(fn and L)
+
+
+def _units(model):
+    """Frequency unit factor (Omega -> output), displacement and velocity factors."""
+    fn, L, phys = _scales(model)
+    if phys:
+        return fn, L * 1e3, L * 1e3 * 2 * math.pi * fn
+    return 1.0, 1.0, 1.0
+
+
+def _mode_freqs(model):
+    """Free and contact modal frequencies in output units (empty for the SDOF model)."""
+    fu, _, _ = _units(model)
+    fn = getattr(model, "natural_frequency_hz", None) or 1.0
+    if getattr(model, "fidelity", "") == "beam":
+        free = np.asarray(model.omega_rad_s) / (2 * math.pi) / fn * fu
+        nu2 = np.asarray(getattr(model, "nu2", np.zeros(0)))
+        contact = np.sqrt(np.maximum(nu2, 0.0)) * fu
+        return free, contact
+    return np.array([fu]), np.zeros(0)  # SDOF: its natural frequency
+
+
+def hann_spectrum(y, fs):
+    """Single-sided amplitude spectrum of ``y`` with a Hann window.
+
+    Returns ``(f, A)`` with ``A`` scaled so that a sinusoid of amplitude ``a`` centred on a
+    bin reads ``a`` (divide by the window's coherent gain ``sum(w)/2``)."""
+    n = y.size
+    w = np.hanning(n + 1)[:-1]        # periodic Hann: harmonics on bins leak into 3 bins only
+    X = np.fft.rfft((y - y.mean()) * w)
+    return np.fft.rfftfreq(n, 1.0 / fs), 2.0 * np.abs(X) / w.sum()
+
+
+def interpolate_peak(A, k):
+    """Frequency offset (bins) and amplitude of a Hann-windowed sinusoid from bins k-1, k, k+1.
+
+    With ``alpha`` the larger neighbour over the peak bin, the offset is
+    ``delta = (2 alpha - 1) / (alpha + 1)`` and the amplitude ``A_k / |W(delta)|``,
+    ``W(d) = sinc(d) / (1 - d^2)`` (Hann kernel, ``W(0) = 1``)."""
+    if k <= 0 or k >= A.size - 1:
+        return 0.0, A[k]
+    l, c, r = A[k - 1], A[k], A[k + 1]
+    if c <= 0:
+        return 0.0, c
+    if r >= l:
+        a = r / c
+        d = (2 * a - 1) / (a + 1)
+    else:
+        a = l / c
+        d = -(2 * a - 1) / (a + 1)
+    d = float(np.clip(d, -0.5, 0.5))
+    W = np.sinc(d) / (1 - d * d) if abs(d) < 1 else 0.5
+    return d, c / W
+
+
+def is_harmonic(f, f_force, max_order=8, tol=0.0):
+    """True if ``f`` lies within ``tol`` of ``k/n f_force`` for some ``n <= max_order``."""
+    for n in range(1, max_order + 1):
+        k = round(f * n / f_force)
+        if abs(f - k * f_force / n) <= tol:
+            return True
+    return False
+
+
+def nonharmonic_peaks(x, v, fs, f_force, n_peaks=5, max_order=8, rel_floor=1e-4):
+    """Largest peaks of the velocity spectrum that are not (sub)harmonics of ``f_force``.
+
+    A peak is a local maximum over +-2 bins, above ``rel_floor`` times the spectrum's
+    maximum and above the spectrum 4 bins away on both sides (Hann side lobes of nearby
+    lines fail this); it is a (sub)harmonic when its interpolated frequency lies within
+    0.3 bins of ``k/n f_force``.  Returns (freq, displacement amp, velocity amp), each
+    (n_peaks,), NaN-padded, sorted by decreasing velocity amplitude.
+    """
+    f, Av = hann_spectrum(v, fs)
+    _, Ax = hann_spectrum(x, fs)
+    df = f[1] - f[0]
+    top = Av.max() if Av.size else 0.0
+    cand = []
+    for k in range(4, Av.size - 4):
+        a = Av[k]
+        if a <= rel_floor * top or a < Av[k - 2:k + 3].max():
+            continue
+        if not (a > Av[k - 4] and a > Av[k + 4]):
+            continue
+        d, amp = interpolate_peak(Av, k)
+        fk = (k + d) * df
+        if is_harmonic(fk, f_force, max_order, 0.3 * df):
+            continue
+        _, ampx = interpolate_peak(Ax, k)
+        cand.append((amp, fk, ampx))
+    cand.sort(reverse=True)
+    out = np.full((3, n_peaks), np.nan)
+    for i, (amp, fk, ampx) in enumerate(cand[:n_peaks]):
+        out[:, i] = fk, ampx, amp
+    return out[0], out[1], out[2]
+
+
+def assign_modes(freqs, free, contact, rtol):
+    """Nearest modal frequency within ``rtol`` (relative): (mode index 1-based, family)."""
+    idx = np.zeros(len(freqs), dtype=np.int64)
+    fam = np.zeros(len(freqs), dtype=np.int64)
+    for i, fp in enumerate(freqs):
+        if not np.isfinite(fp):
+            continue
+        best = (np.inf, 0, 0)
+        for family, fs in ((1, free), (2, contact)):
+            for j, fm in enumerate(fs):
+                e = abs(fp - fm) / fm
+                if e < best[0]:
+                    best = (e, j + 1, family)
+        if best[0] <= rtol:
+            idx[i], fam[i] = best[1], best[2]
+    return idx, fam
+
+
+def participation_shares(modal_states, sensor_row, k_nd):
+    """Shares of each mode in the sensor displacement and in the energy.
+
+    ``modal_states`` (m, 2N) of ``(eta, eta')`` at the samples (nondimensional time);
+    displacement share ``rms(s_i eta_i) / sum_j rms(s_j eta_j)``, energy share
+    ``mean(eta_i'^2 + k_i eta_i^2) / sum`` (``k_i = (omega_i / omega_ref)^2``; the common
+    factor ``omega_ref^2 / 2`` cancels)."""
+    N = sensor_row.size
+    eta, etad = modal_states[:, :N], modal_states[:, N:2 * N]
+    rms = np.sqrt(np.mean((eta * sensor_row) ** 2, axis=0))
+    en = np.mean(etad ** 2 + k_nd * eta ** 2, axis=0)
+    sd = rms.sum()
+    se = en.sum()
+    return (rms / sd if sd > 0 else np.full(N, np.nan)), (en / se if se > 0 else np.full(N, np.nan))
+
+
+# ============================================================================ hooks
+class SpectraHook:
+    """Per-point spectra, non-harmonic peaks and the high-frequency component (picklable)."""
+
+    def __init__(self, assess, model):
+        self.a = assess
+        self.fu, self.xu, self.vu = _units(model)
+        self.free, self.contact = _mode_freqs(model)
+        fn, _, phys = _scales(model)
+        self.phys = phys
+        self.fmax = assess.spectrum_max or (250.0 if phys else 30.0)
+        band = assess.hfc_band or ((50.0, 500.0) if phys else (6.0, 60.0))
+        self.band = (float(band[0]), float(band[1]))
+        self.beam = getattr(model, "fidelity", "") == "beam"
+        self.sensor_row = np.asarray(getattr(model, "sensor_row", [1.0]), float)
+        self.L = getattr(model, "length_m", None) or 1.0
+
+    def __call__(self, traj) -> dict:
+        P = self.a.peaks
+        nan = float("nan")
+        out = dict(peaks_frequency=np.full(P, nan), peaks_displacement=np.full(P, nan),
+                   peaks_velocity=np.full(P, nan), peaks_mode=np.zeros(P, np.int64),
+                   peaks_family=np.zeros(P, np.int64), spectrum_velocity=np.full(N_MAP, nan),
+                   band_velocity_mm_s=nan, band_frequency=nan)
+        if self.beam:
+            out.update(hfc_velocity_mm_s=nan, hfc_displacement_mm=nan, hfc_frequency=nan)
+        if traj.status == "failed" or not np.isfinite(traj.samples).all():
+            return out
+        f_force = traj.Omega * self.fu
+        fs = f_force * traj.samples_per_period
+        x = traj.samples[:, 0] * self.xu
+        v = traj.samples[:, 1] * self.vu
+        pf, px, pv = nonharmonic_peaks(x, v, fs, f_force, P, self.a.subharmonic_order)
+        idx, fam = assign_modes(pf, self.free, self.contact, self.a.mode_tolerance)
+        out.update(peaks_frequency=pf, peaks_displacement=px, peaks_velocity=pv, peaks_mode=idx,
+                   peaks_family=fam)
+        f, Av = hann_spectrum(v, fs)
+        edges = np.linspace(0.0, self.fmax, N_MAP + 1)
+        b = np.searchsorted(edges, f, side="right") - 1
+        ok = (b >= 0) & (b < N_MAP)
+        m = np.full(N_MAP, nan)
+        np.fmax.at(m, b[ok], Av[ok])
+        m[edges[1:] > fs / 2] = nan
+        out["spectrum_velocity"] = m
+        inb = (f >= self.band[0]) & (f <= self.band[1])
+        if inb.any():
+            k = int(np.nonzero(inb)[0][np.argmax(Av[inb])])
+            d, amp = interpolate_peak(Av, k)
+            out.update(band_velocity_mm_s=float(amp), band_frequency=float((k + d) * (f[1] - f[0])))
+        ms = traj.extra.get("modal_states")
+        if self.beam and ms is not None and ms.shape[0] == traj.samples.shape[0]:
+            N = self.sensor_row.size
+            if N >= 2:
+                xh = ms[:, 1:N] @ self.sensor_row[1:] / self.L * self.xu
+                vh = ms[:, N + 1:2 * N] @ self.sensor_row[1:] / self.L * self.vu
+                spp = traj.samples_per_period
+                # impact positions in samples; the peak after each impact until the next one
+                it = np.asarray(traj.impact_times, float) * traj.Omega / (2 * math.pi) * spp
+                starts = np.unique(np.ceil(it).astype(int))
+                starts = starts[(starts >= 0) & (starts < vh.size)]
+                if starts.size:
+                    ends = np.append(starts[1:], vh.size)
+                    pv_ = [np.abs(vh[s:e]).max() for s, e in zip(starts, ends) if e > s]
+                    px_ = [np.abs(xh[s:e]).max() for s, e in zip(starts, ends) if e > s]
+                    out["hfc_velocity_mm_s"] = float(np.mean(pv_))
+                    out["hfc_displacement_mm"] = float(np.mean(px_))
+                else:
+                    out["hfc_velocity_mm_s"] = float(np.abs(vh).max())
+                    out["hfc_displacement_mm"] = float(np.abs(xh).max())
+                fh, Ah = hann_spectrum(vh, fs)
+                sel = fh > 1.5 * self.free[0]
+                if sel.any() and Ah[sel].max() > 0:
+                    k = int(np.nonzero(sel)[0][np.argmax(Ah[sel])])
+                    d, _ = interpolate_peak(Ah, k)
+                    out["hfc_frequency"] = float((k + d) * (fh[1] - fh[0]))
+            else:
+                out.update(hfc_velocity_mm_s=0.0, hfc_displacement_mm=0.0)
+        return out
+
+
+class ParticipationHook:
+    """Per-point modal shares in the sensor displacement and the energy (picklable)."""
+
+    def __init__(self, model):
+        self.beam = getattr(model, "fidelity", "") == "beam"
+        self.N = int(getattr(model, "n_modes", 1)) if self.beam else 1
+        self.sensor_row = np.asarray(getattr(model, "sensor_row", [1.0]), float)
+        self.k_nd = np.asarray(getattr(model, "k_nd", [1.0]), float)
+
+    def __call__(self, traj) -> dict:
+        if not self.beam:
+            return dict(participation_displacement=np.ones(1), participation_energy=np.ones(1))
+        ms = traj.extra.get("modal_states")
+        if ms is None or traj.status == "failed" or ms.shape[1] != 2 * self.N:
+            nan = np.full(self.N, np.nan)
+            return dict(participation_displacement=nan, participation_energy=nan.copy())
+        d, e = participation_shares(ms, self.sensor_row, self.k_nd)
+        return dict(participation_displacement=d, participation_energy=e)
+
+
+class TimeSeriesHook:
+    """Keeps the last periods of the grid points nearest to the requested frequencies (picklable)."""
+
+    def __init__(self, targets, grid, model, periods):
+        self.fu, self.xu, self.vu = _units(model)
+        grid = np.asarray(grid, float)
+        self.keep = []
+        for i, f in enumerate(targets):
+            W = grid[int(np.argmin(np.abs(grid * self.fu - f)))]
+            self.keep.append((i, float(W)))
+        self.periods = int(periods)
+
+    def __call__(self, traj) -> dict:
+        out = {}
+        for i, W in self.keep:
+            if not np.isclose(traj.Omega, W, rtol=1e-12, atol=0):
+                continue
+            spp = traj.samples_per_period
+            P = min(self.periods, traj.n_record)
+            step = max(1, int(math.ceil(spp / TS_MAX_PER_PERIOD)))
+            s = traj.samples[-P * spp:][::step]
+            T = 2 * math.pi / traj.Omega / (2 * math.pi * self.fu) if self.fu != 1.0 else 2 * math.pi / traj.Omega
+            t = np.arange(s.shape[0]) * (T * step / spp)
+            out[f"_ts_{i}"] = np.column_stack([t, s[:, 0] * self.xu, s[:, 1] * self.vu])
+        return out
+
+
+def _sensor_hook(case, spec, run, model):
+    from .case import CaseError
+    from .sensor import SensorHook
+
+    eff = case.effects_for(run)
+    sp = eff.sensor
+    fn, L, phys = _scales(model)
+    if not phys:
+        raise CaseError(f"run '{run.name}': [effects.sensor] needs a physical scene (frequency_hz, "
+                        f"length_mm), the sensor samples in Hz and its noise is in mm")
+    vf = 1.0 / float(model.phi_at_mass) if getattr(model, "fidelity", "") == "beam" else 1.0
+    return SensorHook(sp, fn, L, float(model.R), eff.restitution_law, velocity_factor=vf)
 
 
 def hooks(case, spec, run, model) -> tuple:
     """Per-point assessment callables for one run (empty: nothing extra is computed)."""
-    return ()
+    a = case.assess
+    out = []
+    if a.spectra:
+        out.append(SpectraHook(a, model))
+    if a.participation:
+        out.append(ParticipationHook(model))
+    if a.time_series:
+        grid = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
+        out.append(TimeSeriesHook(a.time_series, grid, model, a.time_series_periods))
+    sp = case.effects_for(run).sensor
+    if sp is not None and sp.identify_R:
+        out.append(_sensor_hook(case, spec, run, model))
+    if solver_options(case, run, model):
+        out.append(_drop_modal_states)   # recorded for the hooks only: not stored per point
+    return tuple(out)
 
 
+def _drop_modal_states(traj) -> dict:
+    """Last hook: the modal states asked for by the assessments are not a per-point output."""
+    return {"modal_states": None}
+
+
+def samples_per_period(case, run, model, Omega) -> int:
+    """Recorded samples per period the run needs (the sweep's unless the sensor needs more)."""
+    n = case.sweep.samples_per_period
+    sp = case.effects_for(run).sensor
+    fn = getattr(model, "natural_frequency_hz", None)
+    if sp is not None and fn:
+        from .sensor import required_samples_per_period
+
+        n = max(n, required_samples_per_period(sp.sampling_hz, float(np.min(Omega)) * fn, sp.oversample))
+    return n
+
+
+class _Fid:
+    def __init__(self, fidelity, method):
+        self.fidelity = fidelity
+
+
+def solver_options(case, run, model) -> dict:
+    """Extra solver settings the assessments need (modal states of the beam event solver)."""
+    a = case.assess
+    if (a.spectra or a.participation) and getattr(model, "fidelity", "") == "beam" and run.method == "event":
+        return {"record_modal_states": True}
+    return {}
+
+
+def solver_effects(effects):
+    """The run's effects that act on the solver: the sensor is a post-processing effect."""
+    if getattr(effects, "sensor", None) is None:
+        return effects
+    return effects.model_copy(update={"sensor": None})
+
+
+def collect(case, run, res) -> None:
+    """After a run: move time series out of the per-point table into ``time_series/...``
+    datasets, add the axes of the per-point assessments as run attributes."""
+    a = case.assess
+    d = res.data
+    if solver_options(case, run, _Fid(res.fidelity, run.method)):
+        d.pop("modal_states", None)
+    for i, f in enumerate(a.time_series):
+        key = f"_ts_{i}"
+        arr = d.pop(key, None)
+        if arr is None:
+            continue
+        label = f"{f:g}"
+        for j in range(arr.shape[0]):
+            if np.isfinite(arr[j]).all():
+                dname = str(d["direction"][j]) if "direction" in d else "up"
+                d[f"time_series/{label}/{dname}"] = arr[j]
+                d[f"time_series/{label}/{dname}_Omega"] = np.float64(d["Omega"][j])
+    if a.spectra:
+        fmax = a.spectrum_max or (250.0 if "frequency_hz" in d else 30.0)
+        e = np.linspace(0, fmax, N_MAP + 1)
+        res.attrs["spectrum_frequency"] = 0.5 * (e[1:] + e[:-1])
+        res.attrs["peaks_family_codes"] = "0 none, 1 free mode, 2 contact mode"
+    sp = case.effects_for(run).sensor
+    if sp is not None and sp.identify_R:
+        from .sensor import DEFAULT_LADDER_MM
+
+        res.attrs["noise_ladder_mm"] = np.asarray(sp.noise_ladder_mm if sp.noise_ladder_mm is not None
+                                                  else DEFAULT_LADDER_MM, float)
+        res.attrs["sensor"] = sp.model_dump()
+
+
+# ============================================================================ finish
 def finish(case, runs, out_dir) -> list:
-    """Case-level assessment outputs (plots); returns the written paths."""
-    return []
+    """Case-level assessment outputs (plots, tables); returns the written paths."""
+    from pathlib import Path
+
+    out_dir = Path(out_dir)
+    paths = []
+    a = case.assess
+    if a.spectra:
+        paths.append(plot_spectra(runs, out_dir / "spectra.png", case.name))
+        print_hfc(runs)
+    if a.participation:
+        p = plot_participation(runs, out_dir / "participation.png", case.name)
+        if p:
+            paths.append(p)
+    for i, f in enumerate(a.time_series):
+        p = plot_time_series(runs, f, out_dir / f"time_series_{f:g}.png", case.name)
+        if p:
+            paths.append(p)
+    if any("R_identified_ladder" in r.data for r in runs):
+        rows = sensor_table(runs)
+        print_sensor_table(rows)
+        csv = out_dir / "sensor_R_vs_noise.csv"
+        with open(csv, "w") as fh:
+            fh.write("run,noise_mm,points,identified,median_abs_error,max_abs_error,rms_error,mean_R_identified,"
+                     "mean_R_model,mean_R_sensor_exact\n")
+            for r in rows:
+                fh.write(",".join(str(x) for x in r) + "\n")
+        paths += [csv, plot_sensor(rows, out_dir / "sensor_R_vs_noise.png", case.name)]
+    if paths:
+        print("assessments: " + ", ".join(str(p) for p in paths))
+    return paths
+
+
+def _x(r):
+    d = r.data
+    return (d["frequency_hz"], "forcing frequency (Hz)") if "frequency_hz" in d else (d["Omega"], r"$\Omega$")
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def sensor_table(runs):
+    """Rows (run, noise, points, identified, median |dR|, max |dR|, rms dR) over period-1
+    points (all points when none is period-1)."""
+    rows = []
+    for r in runs:
+        d = r.data
+        if "R_identified_ladder" not in d:
+            continue
+        lad = np.asarray(r.attrs.get("noise_ladder_mm", []), float)
+        per = np.asarray(d.get("period", np.ones(r.n_points)))
+        sel = per == 1
+        if not sel.any():
+            sel = np.ones(r.n_points, bool)
+        Rse = np.asarray(d.get("R_sensor_exact", np.full(r.n_points, np.nan)))[sel]
+        Rse = float(np.nanmean(Rse)) if np.isfinite(Rse).any() else np.nan
+        Rid = d["R_identified_ladder"][sel]
+        Rtr = d["R_true_ladder"][sel]
+        for j, s in enumerate(lad):
+            err = Rid[:, j] - Rtr[:, j]
+            ok = np.isfinite(err)
+            e = np.abs(err[ok])
+            rows.append((r.name, float(s), int(sel.sum()), int(ok.sum()),
+                         float(np.median(e)) if e.size else np.nan, float(e.max()) if e.size else np.nan,
+                         float(np.sqrt(np.mean(e**2))) if e.size else np.nan,
+                         float(np.nanmean(Rid[:, j])) if ok.any() else np.nan,
+                         float(np.nanmean(Rtr[:, j])) if ok.any() else np.nan, Rse))
+    return rows
+
+
+def print_sensor_table(rows):
+    print("\nCoR identified from the simulated sensor (Sec. 5.1 method) against the model's R")
+    print("(period-1 points; R at sensor: -v+/v- of the exact sensor velocity at the impact)")
+    head = (f"{'run':<30}{'noise (mm)':>11}{'points':>7}{'found':>6}{'median|dR|':>11}{'max|dR|':>9}"
+            f"{'rms dR':>9}{'mean R_id':>10}{'R model':>8}{'R at sensor':>12}")
+    print(head)
+    print("-" * len(head))
+    for name, s, n, k, med, mx, rms, rid, rtr, rse in rows:
+        print(f"{name[:29]:<30}{s:>11.4g}{n:>7}{k:>6}{med:>11.4g}{mx:>9.4g}{rms:>9.4g}{rid:>10.4g}{rtr:>8.4g}"
+              f"{rse:>12.4g}")
+
+
+def plot_sensor(rows, path, title=""):
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    names = list(dict.fromkeys(r[0] for r in rows))
+    for nm in names:
+        rr = [r for r in rows if r[0] == nm]
+        s = np.array([r[1] for r in rr])
+        med = np.array([r[4] for r in rr])
+        mx = np.array([r[5] for r in rr])
+        x = np.where(s > 0, s, np.nan)
+        l, = ax.loglog(x, med, "o-", label=f"{nm}: median")
+        ax.loglog(x, mx, "^--", color=l.get_color(), mfc="none", label=f"{nm}: max")
+        if s.size and s[0] == 0 and np.isfinite(med[0]):
+            ax.axhline(med[0], color=l.get_color(), lw=0.7, ls=":")
+    ax.set_xlabel("sensor noise (mm, standard deviation)")
+    ax.set_ylabel(r"$|R_{identified} - R|$")
+    ax.set_title((title + ": " if title else "") + "identified R vs noise (dotted: noise-free)", fontsize=9)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_spectra(runs, path, title=""):
+    """Per run: velocity spectrum (colour, log) against forcing frequency, modes as lines,
+    non-harmonic peaks as circles."""
+    plt = _plt()
+    runs = [r for r in runs if "spectrum_velocity" in r.data]
+    fig, axes = plt.subplots(len(runs), 1, figsize=(8, 3.0 * len(runs) + 0.6), squeeze=False)
+    for ax, r in zip(axes[:, 0], runs):
+        d = r.data
+        x, xl = _x(r)
+        up = np.array([str(s) != "down" for s in d.get("direction", ["up"] * r.n_points)])
+        if not up.any():
+            up[:] = True
+        o = np.argsort(x[up])
+        xs = x[up][o]
+        S = d["spectrum_velocity"][up][o]
+        fy = np.asarray(r.attrs.get("spectrum_frequency"))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            Z = np.log10(np.where(S > 0, S, np.nan)).T
+        if xs.size > 1:
+            im = ax.pcolormesh(xs, fy, Z, shading="nearest", cmap="viridis",
+                               vmin=np.nanmax(Z) - 4 if np.isfinite(Z).any() else None)
+            fig.colorbar(im, ax=ax, label="log10 velocity amplitude")
+        else:
+            ax.semilogx(S[0], fy)
+        pf = d["peaks_frequency"][up][o]
+        xx = np.repeat(xs[:, None], pf.shape[1], axis=1)
+        ax.plot(xx.ravel(), pf.ravel(), "o", mfc="none", mec="r", ms=4, label="non-harmonic peaks")
+        ax.set_ylabel("frequency (Hz)" if "frequency_hz" in d else "frequency / f_n")
+        ax.set_xlabel(xl)
+        ax.set_title(f"{r.name}: sensor velocity spectrum (up branch)", fontsize=9)
+        ax.set_ylim(0, fy[-1] if fy.size else None)
+        ax.legend(fontsize=7, loc="upper right")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def print_hfc(runs):
+    """Table of the high-frequency component per run (ranges over the points)."""
+    rows = [r for r in runs if "band_velocity_mm_s" in r.data]
+    if not rows:
+        return
+    print("\nhigh-frequency component at the sensor (min .. max over the points)")
+    head = (f"{'run':<26}{'band line (Hz)':>16}{'band line (mm/s)':>18}{'HFC f (Hz)':>14}"
+            f"{'HFC peak v (mm/s)':>19}{'HFC peak x (mm)':>17}{'peaks':>7}")
+    print(head)
+    print("-" * len(head))
+
+    def rng(a, fmt):
+        a = np.asarray(a, float)
+        a = a[np.isfinite(a)]
+        return "-" if not a.size else (f"{a.min():{fmt}}" if np.isclose(a.min(), a.max()) else
+                                       f"{a.min():{fmt}}..{a.max():{fmt}}")
+    for r in rows:
+        d = r.data
+        npk = int(np.isfinite(d["peaks_frequency"]).sum())
+        print(f"{r.name:<26}{rng(d['band_frequency'], '.1f'):>16}{rng(d['band_velocity_mm_s'], '.2f'):>18}"
+              f"{rng(d.get('hfc_frequency', []), '.1f'):>14}{rng(d.get('hfc_velocity_mm_s', []), '.2f'):>19}"
+              f"{rng(d.get('hfc_displacement_mm', []), '.4f'):>17}{npk:>7}")
+
+
+def plot_participation(runs, path, title=""):
+    """Stacked shares of the modes against the forcing frequency (up branch), per run."""
+    plt = _plt()
+    runs = [r for r in runs if "participation_displacement" in r.data
+            and r.data["participation_displacement"].shape[1] > 1]
+    if not runs:
+        return None
+    fig, axes = plt.subplots(len(runs), 2, figsize=(10, 2.8 * len(runs) + 0.6), squeeze=False)
+    for (a1, a2), r in zip(axes, runs):
+        d = r.data
+        x, xl = _x(r)
+        up = np.array([str(s) != "down" for s in d.get("direction", ["up"] * r.n_points)])
+        if not up.any():
+            up[:] = True
+        o = np.argsort(x[up])
+        for ax, key, lab in ((a1, "participation_displacement", "share of sensor displacement (RMS)"),
+                             (a2, "participation_energy", "share of energy")):
+            P = np.nan_to_num(d[key][up][o])
+            ax.stackplot(x[up][o], P.T, labels=[f"mode {i + 1}" for i in range(P.shape[1])])
+            if key == "participation_energy" or P.shape[1] > 1:
+                ax.set_yscale("linear")
+            ax.set_ylim(0, 1)
+            ax.set_title(f"{r.name}: {lab}", fontsize=9)
+            ax.set_xlabel(xl)
+            # shares of the higher modes, as text (they are small)
+            hi = 1.0 - P[:, 0]
+            ax.text(0.04, 0.06, f"modes >= 2: {hi.min():.2e} .. {hi.max():.2e}", transform=ax.transAxes,
+                    fontsize=7, bbox=dict(facecolor="w", alpha=0.8, lw=0))
+        a2.legend(fontsize=7, loc="center right")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_time_series(runs, f, path, title=""):
+    """Time series (displacement, velocity) and phase portrait of every run at ``f``."""
+    plt = _plt()
+    label = f"{f:g}"
+    items = []
+    for r in runs:
+        for dname in ("up", "down"):
+            k = f"time_series/{label}/{dname}"
+            if k in r.data:
+                items.append((r, dname, r.data[k], float(r.data[k + "_Omega"])))
+    if not items:
+        return None
+    phys = "frequency_hz" in runs[0].data
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
+    for r, dname, a, W in items:
+        fn = r.attrs.get("natural_frequency_hz", 1.0) if phys else 1.0
+        lab = f"{r.name} ({dname}, {W * fn:.3f}{' Hz' if phys else ''})"
+        T = 1.0 / (W * fn) if phys else 2 * math.pi / W
+        z = a[:, 0] >= a[-1, 0] - 2 * T          # time panels: the last two periods
+        axes[0].plot(a[z, 0], a[z, 1], lw=0.9, label=lab)
+        axes[1].plot(a[z, 0], a[z, 2], lw=0.9)
+        axes[2].plot(a[:, 1], a[:, 2], lw=0.7)
+    tu = "t (s)" if phys else "t"
+    axes[0].set_xlabel(tu)
+    axes[0].set_ylabel("U(L_S) (mm)" if phys else "q")
+    axes[1].set_xlabel(tu)
+    axes[1].set_ylabel("U'(L_S) (mm/s)" if phys else "q'")
+    axes[2].set_xlabel("U(L_S) (mm)" if phys else "q")
+    axes[2].set_ylabel("U'(L_S) (mm/s)" if phys else "q'")
+    axes[0].set_title("displacement (last 2 periods)", fontsize=9)
+    axes[1].set_title("velocity (last 2 periods)", fontsize=9)
+    axes[2].set_title("phase portrait (all stored periods)", fontsize=9)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=6)
+    fig.suptitle(f"{title}: {label}{' Hz' if phys else ''}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

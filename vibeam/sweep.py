@@ -34,6 +34,10 @@ UNITS = {
     "harmonics": "1 (amplitudes of 0, 1, ..., 5 Omega)",
     "frequency_hz": "Hz", "amplitude_mm": "mm (at the sensor)",
     "wall_time_s": "s",
+    "effective_gain": "1/V (gamma at this frequency, platform filter)",
+    "gap_mm": "mm (grazing gap at the sensor at this point, gap drift)",
+    "gap_drift_mm": "mm", "impulse_per_period": "1 (sum of (1 + R) U- per forcing period)",
+    "stuck_fraction": "1 (share of the recorded window on the stop)",
 }
 
 

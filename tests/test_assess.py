@@ -1,0 +1,157 @@
+"""Assessments: spectra (non-harmonic peaks), modal participation, time series, no extra work."""
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+from vibeam import assess
+from vibeam.case import parse_case
+from vibeam.records import Trajectory
+
+F = 15.0          # forcing (Hz)
+N_REC, SPP = 64, 64
+
+
+def _periodic_record(extra_hz=None, extra_amp_mm_s=0.0):
+    """Sensor (x mm, v mm/s) of a periodic impact-like orbit: many harmonics of F, plus an
+    optional sinusoid of the velocity at ``extra_hz``."""
+    fs = F * SPP
+    t = np.arange(N_REC * SPP) / fs
+    ph = 2 * math.pi * F * t
+    v = 30 * np.cos(ph) + sum(8 / k * np.sin(k * ph + 0.3 * k) for k in range(2, 12))
+    x = 30 / (2 * math.pi * F) * np.sin(ph)
+    if extra_hz:
+        w = 2 * math.pi * extra_hz
+        v = v + extra_amp_mm_s * np.cos(w * t)
+        x = x + extra_amp_mm_s / w * np.sin(w * t)
+    return x, v, fs
+
+
+def test_harmonics_are_not_peaks_but_an_injected_103_hz_line_is():
+    x, v, fs = _periodic_record()
+    f, px, pv = assess.nonharmonic_peaks(x, v, fs, F)
+    assert np.isnan(f).all()                   # a periodic record has only harmonics
+    x, v, fs = _periodic_record(103.0, 2.0)
+    f, px, pv = assess.nonharmonic_peaks(x, v, fs, F)
+    df = F / N_REC
+    assert f[0] == pytest.approx(103.0, abs=0.1 * df)
+    # Hann window with the kernel interpolation: amplitude to ~1 % off-bin
+    assert pv[0] == pytest.approx(2.0, rel=0.02)
+    assert px[0] == pytest.approx(2.0 / (2 * math.pi * 103.0), rel=0.02)
+    assert np.isnan(f[1:]).all()
+
+
+def test_subharmonics_are_not_peaks():
+    x, v, fs = _periodic_record()
+    t = np.arange(x.size) / fs
+    v2 = v + 3.0 * np.cos(2 * math.pi * F * 3.5 * t)     # 7/2 F: a period-2 line
+    f, _, _ = assess.nonharmonic_peaks(x, v2, fs, F)
+    assert np.isnan(f).all()
+    f, _, _ = assess.nonharmonic_peaks(x, v2, fs, F, max_order=1)   # only integer harmonics
+    assert f[0] == pytest.approx(3.5 * F, abs=0.05)
+
+
+def test_mode_assignment():
+    idx, fam = assess.assign_modes([103.0, 331.0, 200.0, np.nan], free=np.array([7.6, 98.75, 335.5]),
+                                   contact=np.array([97.7, 330.6]), rtol=0.1)
+    assert list(idx) == [2, 2, 0, 0] and list(fam) == [1, 2, 0, 0]   # 103: free 98.75 is nearer
+    idx, fam = assess.assign_modes([99.0], free=np.array([7.6, 98.75]), contact=np.array([90.0]), rtol=0.1)
+    assert idx[0] == 2 and fam[0] == 1
+
+
+def test_participation_shares():
+    rng = np.random.default_rng(1)
+    N = 4
+    ms = rng.standard_normal((500, 2 * N)) * np.array([1, 0.1, 0.01, 0.001] * 2)
+    s = np.array([1.0, -0.5, 0.3, 0.2])
+    k = np.array([1.0, 169.0, 1900.0, 3300.0])
+    d, e = assess.participation_shares(ms, s, k)
+    assert d.sum() == pytest.approx(1.0) and e.sum() == pytest.approx(1.0)
+    assert d[0] > d[1] > d[2] > d[3] >= 0
+    d1, e1 = assess.participation_shares(ms[:, [0, N]], s[:1], k[:1])
+    assert d1 == pytest.approx([1.0]) and e1 == pytest.approx([1.0])
+
+
+def test_participation_of_a_one_mode_model_is_one():
+    from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel
+
+    m = BeamImpactModel([2 * math.pi * 7.6], [0.4], [1.5], [2.0], 0.7, 0.0, 2e-4, 7.6, 0.18, 1.0, 1e-3)
+    tr = BeamEventSolver(m, record_modal_states=True).point(2.0, None, 50, 4, 64)
+    out = assess.ParticipationHook(m)(tr)
+    assert out["participation_displacement"] == pytest.approx([1.0])
+    assert out["participation_energy"] == pytest.approx([1.0])
+
+
+PLAIN = '''
+name = "plain"
+[model]
+fidelity = "sdof"
+natural_frequency_hz = 7.6
+damping_ratio = 0.017
+R = 0.72
+gap_mm = 0.0
+length_mm = 180.0
+gain = 5.16e-4
+voltage = 0.6
+[sweep]
+frequency_hz = [14.8, 15.2, 3]
+transient_periods = 100
+record_periods = 8
+[[run]]
+name = "exact"
+method = "event"
+'''
+EXTRA_KEYS = ("peaks_frequency", "spectrum_velocity", "participation_displacement", "R_identified",
+              "time_series", "band_velocity_mm_s")
+
+
+def test_plain_case_has_no_hooks_and_no_extra_datasets(tmp_path):
+    from vibeam.cli import run_case
+
+    case = parse_case(PLAIN)
+    spec = case.model_spec()
+    model = spec.build()
+    assert assess.hooks(case, spec, case.run[0], model) == ()
+    assert assess.solver_options(case, case.run[0], model) == {}
+    assert assess.samples_per_period(case, case.run[0], model, np.array([1.9])) == case.sweep.samples_per_period
+    run_case(case, PLAIN, tmp_path, jobs=1, quiet=True, plots=False)
+    with h5py.File(tmp_path / "results.h5") as f:
+        keys = set(f["runs/exact"].keys())
+    assert not keys & set(EXTRA_KEYS)
+
+
+def test_case_with_assessments_and_sensor(tmp_path):
+    from vibeam.cli import run_case
+
+    text = PLAIN + '''
+[effects.sensor]
+noise_ladder_mm = [0.0, 0.001]
+[assess]
+spectra = true
+participation = true
+time_series = [15.0]
+'''
+    case = parse_case(text)
+    spec = case.model_spec()
+    model = spec.build()
+    assert len(assess.hooks(case, spec, case.run[0], model)) == 4
+    spp = assess.samples_per_period(case, case.run[0], model, case.sweep.grid(7.6))
+    assert spp >= 2 * 5000 / 14.8
+    runs = run_case(case, text, tmp_path, jobs=1, quiet=True, plots=True)
+    d = runs[0].data
+    assert d["peaks_frequency"].shape == (3, 5) and d["spectrum_velocity"].shape == (3, assess.N_MAP)
+    assert d["participation_energy"] == pytest.approx(np.ones((3, 1)))
+    assert d["R_identified_ladder"].shape == (3, 2)
+    assert np.all(np.abs(d["R_identified"] - 0.72) < 0.03)
+    with h5py.File(tmp_path / "results.h5") as f:
+        g = f["runs/exact"]
+        ts = g["time_series/15/up"][()]
+        step = math.ceil(spp / 256)
+        assert ts.shape == (len(range(0, 8 * spp, step)), 3)
+        assert g["time_series/15/up_Omega"][()] * 7.6 == pytest.approx(15.0)
+        assert "modal_states" not in g
+    assert not (tmp_path / "participation.png").exists()   # one mode: nothing to stack
+    for name in ("spectra.png", "time_series_15.png", "sensor_R_vs_noise.png",
+                 "sensor_R_vs_noise.csv"):
+        assert (tmp_path / name).exists(), name
