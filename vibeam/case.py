@@ -355,6 +355,10 @@ class SensorSpec(_Strict):
     noise_mm: Annotated[float, Field(ge=0.0)] = 0.0
     seed: int = 0
     identify_R: bool = True
+    # the identification repeated at each noise level (same draw, scaled): R error vs noise
+    noise_ladder_mm: list[Annotated[float, Field(ge=0.0)]] | None = None  # None: 0 ... 0.01 mm
+    impacts: Literal["first3", "all"] = "first3"   # impacts used per point (paper: first three)
+    oversample: Annotated[int, Field(ge=1, le=16)] = 2  # recorded samples per sensor sample
 
 
 class EffectsSpec(_Strict):
@@ -384,6 +388,12 @@ class AssessSpec(_Strict):
     spectra: bool = False
     participation: bool = False
     time_series: list[Annotated[float, Field(gt=0.0)]] = Field(default_factory=list)
+    peaks: Annotated[int, Field(ge=1, le=50)] = 5             # non-harmonic peaks listed per point
+    subharmonic_order: Annotated[int, Field(ge=1, le=16)] = 8  # k/n Omega with n <= this are harmonics
+    mode_tolerance: Annotated[float, Field(gt=0.0, lt=1.0)] = 0.1  # relative, peak -> mode
+    hfc_band: _Pair | None = None   # band of the high-frequency component (Hz / Omega units)
+    spectrum_max: Annotated[float, Field(gt=0.0)] | None = None  # top of the stored map
+    time_series_periods: Annotated[int, Field(ge=1)] = 8
 
 
 class QuickSpec(_Strict):
@@ -448,6 +458,28 @@ class Case(_Strict):
         optional settings are left to the solver's defaults)."""
         return {k: v for k, v in run.model_dump(exclude={"name", "method", "model", "effects"}).items()
                 if v is not None}
+
+    def quick_variant(self) -> "Case":
+        """The quick variant of this case (``vibeam run --quick``; regressed by the tests).
+
+        The sweep grid becomes ``[quick] points`` frequencies spread evenly over
+        the case's grid, both ends included (the case's own grid if it has no
+        more points than that; one point: the start), and ``[quick]
+        transient_periods`` / ``record_periods`` replace the sweep's where given.
+        Name, model, runs, effects, assessments and tolerances are unchanged.
+        """
+        q, sw = self.quick, self.sweep
+        key = "Omega" if sw.Omega is not None else "frequency_hz"
+        start, stop, n = getattr(sw, key)
+        points = min(int(q.points), int(n))
+        sweep = {key: [start, stop if points > 1 else start, points]}
+        if q.transient_periods is not None:
+            sweep["transient_periods"] = q.transient_periods
+        if q.record_periods is not None:
+            sweep["record_periods"] = q.record_periods
+        data = self.model_dump()
+        data["sweep"] = dict(data["sweep"], **sweep)
+        return Case.model_validate(data)
 
 
 def _validate_model(data: dict, prefix: str = "model"):

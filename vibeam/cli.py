@@ -47,6 +47,8 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     from .results import write_results
     from .sweep import Sweep, run_sweep
 
+    if quick:
+        case = case.quick_variant()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     h5 = out_dir / "results.h5"
@@ -60,16 +62,18 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
         sw = Sweep(Omega=Omega, direction=case.sweep.direction,
                    transient_periods=case.sweep.transient_periods,
                    record_periods=case.sweep.record_periods,
-                   samples_per_period=case.sweep.samples_per_period,
+                   samples_per_period=assess.samples_per_period(case, r, model, Omega),
                    continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol,
                    assess=assess.hooks(case, spec, r, model))
-        settings = case.run_settings(r)
-        solver = wrap_solver(make_solver(model, r.method, **settings), model, spec, case.effects_for(r),
-                             settings)
+        settings = dict(case.run_settings(r), **assess.solver_options(case, r, model))
+        solver = wrap_solver(make_solver(model, r.method, **settings), model, spec,
+                             assess.solver_effects(case.effects_for(r)), settings)
         print(f"[{case.name}] run '{r.name}': method {r.method}, {len(Omega)} points, "
               f"direction {sw.direction}", file=sys.stderr)
         res = run_sweep(solver, sw, name=r.name, jobs=jobs, progress=not quiet)
         res.attrs["model"] = spec.model_dump()
+        assess.collect(case, r, res)
+        res.attrs.update(getattr(solver, "run_attrs", {}))   # active scene effects (vibeam.effects)
         if spec.fidelity == "beam":
             res.attrs.update(_beam_attrs(spec))
         runs.append(res)
@@ -103,8 +107,9 @@ def cmd_run(args) -> int:
     from .case import load_case
 
     case, text = load_case(args.case)
-    out_dir = Path(args.out) if args.out else Path("results") / case.name
-    run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots)
+    out_dir = Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick else ""))
+    run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
+             quick=args.quick)
     return 0
 
 
@@ -118,8 +123,8 @@ def cmd_regress(args) -> int:
     if args.results:
         new = read_results(args.results)
     else:
-        out_dir = Path(args.out) if args.out else Path("results") / case.name
-        run_case(case, text, out_dir, jobs=args.jobs, quiet=True, plots=False)
+        out_dir = Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick else ""))
+        run_case(case, text, out_dir, jobs=args.jobs, quiet=True, plots=False, quick=args.quick)
         new = read_results(out_dir / "results.h5")
     tol = case.regress
     atol = tol.amplitude_atol if args.atol is None else args.atol
@@ -251,6 +256,8 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores; 1: inline)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quick", action="store_true",
+                   help="run the case's quick variant ([quick]: fewer points and periods)")
     p.set_defaults(func=cmd_run)
     p = sub.add_parser("regress", help="compare a case's FRCs with reference FRCs (HDF5 or CSV)")
     p.add_argument("case", help="case file (TOML)")
@@ -260,6 +267,8 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=int, default=None)
     p.add_argument("--atol", type=float, default=None, help="override [regress] amplitude_atol")
     p.add_argument("--rtol", type=float, default=None, help="override [regress] amplitude_rtol")
+    p.add_argument("--quick", action="store_true",
+                   help="rerun the case's quick variant (as the references in tests/references/)")
     p.set_defaults(func=cmd_regress)
     p = sub.add_parser("cost", help="accuracy against time of every run (work-precision table and plot)")
     p.add_argument("case", help="case file (TOML)")
@@ -282,6 +291,8 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--direct-points", type=int, default=None,
                    help="time solve_ivp on this many points only and scale (quick look)")
+    p.add_argument("--effects", action="store_true",
+                   help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
     from .case import CaseError
