@@ -1,0 +1,158 @@
+"""Every shipped case's quick variant regressed against its converged reference FRC.
+
+The references in ``tests/references/<case name>.h5`` are made (and checked
+against the analytic oracles: impact-map fixed points, the linear steady state,
+averaging, the static-mode SDOF) by ``tests/references/make_references.py``.
+Two checks per case:
+
+1. ``vibeam regress CASE --reference tests/references/<name>.h5 --quick``
+   with the case's ``[regress]`` tolerances on every point (``atol`` absorbs
+   the spread of non-periodic attractors, ``period`` is off where the
+   classification is fragile);
+2. on the points where quick run and reference have the same period (1..8, or
+   no impact) the amplitude agrees to ``amplitude_rtol`` alone: there the only
+   difference is the remaining transient (or the ODE tolerance).
+"""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from vibeam.case import load_case, parse_case
+from vibeam.cli import main
+from vibeam.results import read_results
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = sorted((ROOT / "cases").glob("*.toml"))
+REFS = ROOT / "tests" / "references"
+
+
+def reference_for(case_path) -> Path:
+    """The reference FRC of a case file; fails loudly when there is none."""
+    case, _ = load_case(case_path)
+    ref = REFS / f"{case.name}.h5"
+    if not ref.is_file():
+        pytest.fail(f"case {case_path} ('{case.name}') has no reference FRC {ref}: make it with "
+                    f"`python tests/references/make_references.py {case_path}` (it checks the reference "
+                    f"against the analytic oracles) and commit it", pytrace=False)
+    return ref
+
+
+@pytest.mark.parametrize("path", CASES, ids=[p.stem for p in CASES])
+def test_quick_variant_regresses_against_its_reference(path, tmp_path, capsys):
+    ref = reference_for(path)
+    rc = main(["regress", str(path), "--reference", str(ref), "--quick", "--out", str(tmp_path),
+               "--jobs", "1"])
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    # periodic points with the same period: the amplitude to amplitude_rtol alone
+    case, _ = load_case(path)
+    rtol = case.regress.amplitude_rtol
+    new, old = read_results(tmp_path / "results.h5"), read_results(ref)
+    assert set(new["runs"]) == set(old["runs"])
+    for name, r in old["runs"].items():
+        n = new["runs"][name]
+        assert np.array_equal(n["Omega"], r["Omega"]) and list(n["direction"]) == list(r["direction"])
+        same = (n["period"] == r["period"]) & ((r["period"] >= 1) | (r["period"] == -1))
+        same &= np.array([str(a) == "ok" and str(b) == "ok" for a, b in zip(n["status"], r["status"])])
+        a, a_ref = n["amplitude"][same], r["amplitude"][same]
+        bad = np.abs(a - a_ref) > rtol * np.abs(a_ref)
+        assert not bad.any(), (f"run '{name}': periodic points off by more than rtol {rtol:g} at Omega "
+                               f"{n['Omega'][same][bad]} ({a[bad]} vs {a_ref[bad]})")
+
+
+def test_every_case_has_a_reference_and_every_reference_a_case():
+    names = {load_case(p)[0].name for p in CASES}
+    missing = sorted(n for n in names if not (REFS / f"{n}.h5").is_file())
+    stale = sorted(p.stem for p in REFS.glob("*.h5") if p.stem not in names)
+    assert not missing, (f"cases without a reference FRC in {REFS}: {missing}; run "
+                         f"`python tests/references/make_references.py` and commit the files")
+    assert not stale, f"references without a case in cases/: {stale}"
+
+
+def test_a_case_without_reference_fails_loudly(tmp_path):
+    case = tmp_path / "new.toml"
+    case.write_text((ROOT / "cases" / "paper-fig7.toml").read_text()
+                    .replace('name = "paper-fig7"', 'name = "a-new-case-without-reference"'))
+    with pytest.raises(pytest.fail.Exception, match="make_references.py"):
+        reference_for(case)
+
+
+def test_references_passed_their_oracle_checks():
+    for ref in sorted(REFS.glob("*.h5")):
+        with h5py.File(ref, "r") as f:
+            # 1000 (FE) or 3000 (SDOF); see REFERENCE_TRANSIENT_OVERRIDE in make_references.py
+            assert int(f["reference/transient_periods"][()]) >= (200 if ref.stem == "rig-fe-tight" else 1000)
+            checks = [json.loads(s) for s in f["reference/checks"].asstr()[()]]
+            case = parse_case(f.attrs["case_text"])
+        assert all(c["failures"] == 0 and c["max_rel_error"] <= c["tolerance"] for c in checks), ref
+        # the oracles apply to event runs without an effect on the dynamics, at periodic points
+        plain = [r.name for r in case.run
+                 if r.method == "event" and not set(case.effects_for(r).active()) - {"sensor"}
+                 and (case.model["fidelity"] == "sdof" or r.model.get("n_modes") == "static")]
+        runs = read_results(ref)["runs"]
+        if any(np.isin(runs[n]["period"], (1, -1)).any() for n in plain):
+            assert any("Newton" in c["oracle"] or "static mode" in c["oracle"] for c in checks), ref
+
+
+def test_perturbed_reference_fails(tmp_path, capsys):
+    case = ROOT / "cases" / "paper-fig7.toml"
+    ref = reference_for(case)
+    out = tmp_path / "run"
+    assert main(["run", str(case), "--quick", "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 0
+    res = out / "results.h5"
+    assert main(["regress", str(case), "--reference", str(ref), "--results", str(res)]) == 0
+    tol = load_case(case)[0].regress
+    bad = tmp_path / "bad.h5"
+    shutil.copy(ref, bad)
+    with h5py.File(bad, "r+") as f:
+        a = f["runs/exact/amplitude"]
+        v = a[()]
+        v[3] *= 1 + 10 * tol.amplitude_rtol + 1e-9  # ten tolerances off at one point
+        a[...] = v
+    capsys.readouterr()
+    assert main(["regress", str(case), "--reference", str(bad), "--results", str(res)]) == 1
+    assert "REGRESSION" in capsys.readouterr().out
+    # a changed period classification fails too (period = true for this case)
+    assert tol.period
+    shutil.copy(ref, bad)
+    with h5py.File(bad, "r+") as f:
+        p = f["runs/exact/period"]
+        v = p[()]
+        v[5] = 2
+        p[...] = v
+    assert main(["regress", str(case), "--reference", str(bad), "--results", str(res)]) == 1
+
+
+def test_quick_variant_grid_and_overrides():
+    case = parse_case("""
+name = "q"
+[model]
+fidelity = "sdof"
+beta = 0.05
+B = 0.01
+R = 0.8
+Delta = 0.0
+[sweep]
+Omega = [1.0, 3.0, 101]
+transient_periods = 300
+record_periods = 32
+[quick]
+points = 5
+transient_periods = 50
+[[run]]
+name = "exact"
+method = "event"
+""")
+    q = case.quick_variant()
+    np.testing.assert_allclose(q.sweep.grid(), [1.0, 1.5, 2.0, 2.5, 3.0])
+    assert (q.sweep.transient_periods, q.sweep.record_periods) == (50, 32)
+    assert q.run == case.run and q.name == case.name and q.quick == case.quick
+    # a grid with fewer points than [quick] points is kept
+    few = case.model_copy(update={"quick": case.quick.model_copy(update={"points": 500})}).quick_variant()
+    np.testing.assert_allclose(few.sweep.grid(), case.sweep.grid())
