@@ -87,7 +87,7 @@ def test_references_passed_their_oracle_checks():
     for ref in sorted(REFS.glob("*.h5")):
         with h5py.File(ref, "r") as f:
             # 1000 (FE) or 3000 (SDOF); see REFERENCE_TRANSIENT_OVERRIDE in make_references.py
-            assert int(f["reference/transient_periods"][()]) >= (200 if ref.stem == "rig-fe-tight" else 1000)
+            assert int(f["reference/transient_periods"][()]) >= 1000
             checks = [json.loads(s) for s in f["reference/checks"].asstr()[()]]
             case = parse_case(f.attrs["case_text"])
         assert all(c["failures"] == 0 and c["max_rel_error"] <= c["tolerance"] for c in checks), ref

@@ -64,12 +64,7 @@ CASES = ROOT / "cases"
 # SDOF (beta >= 0.015, Omega <= 2.5): exp(-0.015 * 3000 * 2 pi / 2.5) < 1e-49; beam (beta_1 =
 # 0.017, Omega <= 2.3, higher modes damped more by Eq. 39): exp(-0.017 * 1000 * 2 pi / 2.3) < 1e-20
 REFERENCE_TRANSIENT = {"sdof": 3000, "beam": 1000}
-# Temporary exception: on the pre-stressed FE rig the 'FE all modes' run stalls (minutes per point
-# instead of ~1 s) at 17 Hz after 300-1000 transient periods, depending on the state it starts
-# from (models/beam_dynamics.py, chatter with all modes); 200 periods do not reach the stall.
-# With an impact every period 100 periods already converge periodic points to ~1e-12, so 200 is
-# still a reference for them; restore 1000 once the stall is fixed.
-REFERENCE_TRANSIENT_OVERRIDE = {"rig-fe-tight": 200}
+REFERENCE_TRANSIENT_OVERRIDE: dict[str, int] = {}  # per-case exceptions (none needed)
 TIME_DOMAIN = ("event", "direct", "zhuravlev", "ivanov")
 TOL_MAPPING = 1e-8
 TOL_LINEAR = 1e-8
