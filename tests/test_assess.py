@@ -151,6 +151,8 @@ time_series = [15.0]
         assert ts.shape == (len(range(0, 8 * spp, step)), 3)
         assert g["time_series/15/up_Omega"][()] * 7.6 == pytest.approx(15.0)
         assert "modal_states" not in g
+    from vibeam.results import read_results
+    assert np.array_equal(read_results(tmp_path / "results.h5")["runs"]["exact"]["time_series"]["15"]["up"], ts)
     assert not (tmp_path / "participation.png").exists()   # one mode: nothing to stack
     for name in ("spectra.png", "time_series_15.png", "sensor_R_vs_noise.png",
                  "sensor_R_vs_noise.csv"):

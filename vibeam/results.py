@@ -102,18 +102,28 @@ def _write_dataset(g, name, v):
 def read_results(path) -> dict:
     """Read a results file into ``{"attrs": {...}, "runs": {name: {"attrs": {...}, dataset: array}}}``.
 
-    String datasets come back as arrays of Python ``str``.
+    String datasets come back as arrays of Python ``str``; subgroups of a run (time
+    series) as nested dicts.
     """
     out = {"attrs": {}, "runs": {}}
     with h5py.File(path, "r") as f:
         out["attrs"] = dict(f.attrs)
         for name, g in f.get("runs", {}).items():
-            run = {"attrs": dict(g.attrs)}
-            for k, d in g.items():
-                if isinstance(d, h5py.Dataset):
-                    if d.dtype.kind == "O" or h5py.check_string_dtype(d.dtype):
-                        run[k] = d.asstr()[()]
-                    else:
-                        run[k] = d[()]
+            run = _read_group(g)
+            run["attrs"] = dict(g.attrs)
             out["runs"][name] = run
+    return out
+
+
+def _read_group(g) -> dict:
+    """Datasets of a group; subgroups (e.g. ``time_series/<f>/<direction>``) as nested dicts."""
+    out = {}
+    for k, d in g.items():
+        if isinstance(d, h5py.Dataset):
+            if d.dtype.kind == "O" or h5py.check_string_dtype(d.dtype):
+                out[k] = d.asstr()[()]
+            else:
+                out[k] = d[()]
+        elif isinstance(d, h5py.Group):
+            out[k] = _read_group(d)
     return out
