@@ -114,6 +114,15 @@ def particular(c, k, G, F, Omega):
 BURST_DT = 1e-3
 BURST_MAX = 200
 
+
+@njit(cache=True)
+def _clock(phi, t_loc, rem, s, Om, T):
+    """Advance forcing phase, time within the period and the rest of the step by ``s``."""
+    rem -= s
+    if rem < 1e-15 * T:
+        rem = 0.0
+    return (phi + Om * s) % TWO_PI, t_loc + s, rem
+
 @njit(cache=True)
 def _trans(s, sig, k, typ, q, l1, l2):
     """``Phi(s) - I`` of ``x'' + 2 sig x' + k x = 0`` (entries 11, 12, 21, 22)."""
@@ -541,11 +550,7 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                             zd += Psi[i, j] * zetad[j]
                         eta[i] = zz
                         etad[i] = zd
-                    phi = (phi + Om * s_mv) % TWO_PI
-                    t_loc += s_mv
-                    rem -= s_mv
-                    if rem < 1e-15 * T:
-                        rem = 0.0
+                    phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
                     if s_mv > 0.0:
                         just_stuck = False
                         just_released = False
@@ -588,11 +593,7 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         if q1s > ext[1]:
                             ext[1] = q1s
                     _advance(s_mv, phi, Om, eta, etad, mpF, aF, bF, zeroN)
-                    phi = (phi + Om * s_mv) % TWO_PI
-                    t_loc += s_mv
-                    rem -= s_mv
-                    if rem < 1e-15 * T:
-                        rem = 0.0
+                    phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
                     if s_mv > 0.0:
                         just_stuck = False
                         just_released = False
