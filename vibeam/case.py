@@ -190,6 +190,22 @@ MODEL_SPECS = {"sdof": SDOFModelSpec, "beam": BeamModelSpec}
 
 
 # ----------------------------------------------------------------------------- sweep
+def _check_grid(v, positive: bool):
+    """``[start, stop, number of points]`` (``None`` passes)."""
+    if v is None:
+        return v
+    if len(v) != 3:
+        raise ValueError("must be [start, stop, number of points]")
+    start, stop, n = v
+    if positive and not (start > 0 and stop > 0):
+        raise ValueError("start and stop must be positive")
+    if n != int(n) or n < 1:
+        raise ValueError("the number of points must be a whole number >= 1")
+    if n == 1 and start != stop:
+        raise ValueError("a single-point grid needs start == stop")
+    return v
+
+
 class SweepSpec(_Strict):
     """``[sweep]``: the frequency grid and how each point is simulated."""
 
@@ -205,18 +221,7 @@ class SweepSpec(_Strict):
     @field_validator("Omega", "frequency_hz")
     @classmethod
     def _grid(cls, v):
-        if v is None:
-            return v
-        if len(v) != 3:
-            raise ValueError("must be [start, stop, number of points]")
-        start, stop, n = v
-        if not (start > 0 and stop > 0):
-            raise ValueError("start and stop must be positive")
-        if n != int(n) or n < 1:
-            raise ValueError("the number of points must be a whole number >= 1")
-        if n == 1 and start != stop:
-            raise ValueError("a single-point sweep needs start == stop")
-        return v
+        return _check_grid(v, positive=True)
 
     @model_validator(mode="after")
     def _exactly_one_grid(self):
@@ -396,10 +401,36 @@ class AssessSpec(_Strict):
     time_series_periods: Annotated[int, Field(ge=1)] = 8
 
 
+class MapSpec(_Strict):
+    """``[map]``: a parameter map (paper Fig. 18) over the sweep's frequency grid and one model
+    parameter.
+
+    ``parameter`` is a numeric key of the ``[model]`` table (e.g. ``voltage``,
+    ``gap_mm``, ``R`` for a rig scene; ``B``, ``Delta``, ``R``, ``beta`` for a
+    nondimensional one) and ``values = [start, stop, number of points]`` its
+    grid.  Every value gives one up and/or down sweep line along the frequency
+    axis (``[sweep] direction``), so hysteresis shows.
+    """
+
+    parameter: Annotated[str, Field(min_length=1)]
+    values: list[float]
+
+    @field_validator("values")
+    @classmethod
+    def _grid(cls, v):
+        return _check_grid(v, positive=False)
+
+    def grid(self) -> np.ndarray:
+        """The parameter values, shape (n,)."""
+        start, stop, n = self.values
+        return np.linspace(start, stop, int(n))
+
+
 class QuickSpec(_Strict):
     """``[quick]``: the quick variant of a case (``vibeam run --quick``; regressed by the tests)."""
 
     points: Annotated[int, Field(ge=1)] = 11
+    map_values: Annotated[int, Field(ge=1)] = 3   # parameter values of a [map] kept
     transient_periods: Annotated[int, Field(ge=0)] | None = None
     record_periods: Annotated[int, Field(ge=1)] | None = None
 
@@ -424,6 +455,7 @@ class Case(_Strict):
     effects: EffectsSpec = Field(default_factory=EffectsSpec)
     assess: AssessSpec = Field(default_factory=AssessSpec)
     quick: QuickSpec = Field(default_factory=QuickSpec)
+    map: MapSpec | None = None
 
     @field_validator("run")
     @classmethod
@@ -479,7 +511,17 @@ class Case(_Strict):
             sweep["record_periods"] = q.record_periods
         data = self.model_dump()
         data["sweep"] = dict(data["sweep"], **sweep)
+        if self.map is not None:
+            m0, m1, mn = self.map.values
+            k = min(int(q.map_values), int(mn))
+            data["map"] = dict(data["map"], values=[m0, m1 if k > 1 else m0, k])
         return Case.model_validate(data)
+
+    def map_parameters(self) -> list[str]:
+        """Model keys a ``[map]`` may vary: the numeric (float) keys set in ``[model]``."""
+        spec = self.model_spec()
+        return sorted(k for k, v in spec.model_dump().items()
+                      if isinstance(v, float) and not isinstance(v, bool))
 
 
 def _validate_model(data: dict, prefix: str = "model"):
@@ -592,12 +634,34 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                 case.model_spec(r.model)
             if r.effects:
                 case.effects_for(r)
+        if case.map is not None:
+            _check_map(case)
         if case.sweep.frequency_hz is not None and not getattr(spec, "physical", False):
             raise CaseError("'sweep.frequency_hz' needs a physical model (natural_frequency_hz, ...); "
                             "use 'sweep.Omega' for a nondimensional one")
     except CaseError as e:
         raise CaseError(f"{source}: {e}") from None
     return case
+
+
+def _check_map(case: Case) -> None:
+    """A ``[map]`` names a numeric model key, no run overrides it, and every value is valid."""
+    m = case.map
+    allowed = case.map_parameters()
+    if m.parameter not in allowed:
+        raise CaseError(f"'map.parameter' = {m.parameter!r} is not a numeric key of [model]; "
+                        f"allowed: {', '.join(allowed)}")
+    for i, r in enumerate(case.run):
+        if m.parameter in r.model:
+            raise CaseError(f"'run[{i}].model.{m.parameter}' overrides the mapped parameter; "
+                            f"remove it or map another parameter")
+    for v in m.grid():
+        for r in case.run:
+            try:
+                case.model_spec(dict(r.model, **{m.parameter: float(v)}))
+            except CaseError as e:
+                raise CaseError(f"'map.values' = {m.values!r}: {m.parameter} = {v:g} is not allowed "
+                                f"({e})") from None
 
 
 def load_case(path) -> tuple[Case, str]:
