@@ -518,6 +518,10 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         continue
                     if lam0 > 0.0:
                         lam0 = 0.0
+                    # the hold is the rest of a chatter sequence (impacts accumulating), not
+                    # sticking: it is not counted in stuck_time, as in the SDOF kernel, whose
+                    # chatter jump advances the clock to the accumulation point unstuck
+                    held = hold > 0.0
                     if hold > 0.0:
                         # held through the chatter accumulation time: no release check
                         s_ev = -1.0
@@ -540,7 +544,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         q0s, qp0s = _start(phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, constS)
                         q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s)
                         _extremes(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s, qp0s, qp1s, ext)
-                        stuck_time += s_mv
+                        if not held:
+                            stuck_time += s_mv
                     _advance(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eC)
                     for i in range(N):
                         zz = eta_c[i]

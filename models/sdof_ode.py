@@ -182,7 +182,10 @@ def integrate_piecewise(rhs, event, jump, to_q, y0, mode0, t0, period, n_transie
             if sol.status == -1:
                 return fail(f"{method} failed near t = {t:.6g}: {sol.message}")
             if record:
-                n_new = sol.t.shape[0]
+                # solve_ivp leaves ``t`` as an empty *list* when a terminal event comes
+                # before the first requested sample (two impacts within one sample
+                # interval of the record, e.g. chatter): np.asarray, not .shape
+                n_new = np.asarray(sol.t).shape[0]
                 if n_new:
                     q, v = to_q(sol.y, mode)
                     samples[k:k + n_new, 0] = q

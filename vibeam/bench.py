@@ -12,6 +12,11 @@ both inline in one process, and measures each one's amplitude error against a
 converged reference: ``event`` with ``reference_periods`` transient periods
 (the transient decays as exp(-beta t); 3000 periods leave < 1e-60 of it, so
 the reference is exact to round-off).  It prints ratios, never asserts them.
+
+``--effects`` instead times each scene effect (:func:`run_effects_bench`);
+``--scaling`` instead measures how the cost of a sweep grows with the periods
+simulated and with the retained modes of the FE beam, with fitted exponents
+(:func:`run_scaling_bench`).
 """
 from __future__ import annotations
 
@@ -153,6 +158,9 @@ def run_effects_bench(points: int = 61, transient: int = 400, record: int = 64, 
 
 
 def main_bench(args) -> int:
+    if getattr(args, "scaling", False):
+        print(json.dumps(run_scaling_bench(repeats=getattr(args, "repeats", 3)), indent=2))
+        return 0
     if getattr(args, "effects", False):
         print(json.dumps(run_effects_bench(), indent=2))
         return 0
@@ -160,3 +168,208 @@ def main_bench(args) -> int:
                     direct_points=args.direct_points)
     print(json.dumps(out, indent=2))
     return 0
+
+
+# ----------------------------------------------------------------------------- scaling
+def _loglog_fit(x, t) -> dict:
+    """Least-squares fit of log t = log c + p log x; returns p, c, R^2 and the local slopes."""
+    lx, lt = np.log(np.asarray(x, float)), np.log(np.asarray(t, float))
+    p, lc = np.polyfit(lx, lt, 1)
+    resid = lt - (p * lx + lc)
+    ss = float(np.sum((lt - lt.mean()) ** 2))
+    r2 = 1.0 - float(np.sum(resid ** 2)) / ss if ss > 0 else float("nan")
+    local = np.diff(lt) / np.diff(lx)
+    return {"exponent": float(p), "prefactor_s": float(np.exp(lc)), "r2_loglog": r2,
+            "local_exponents": [float(v) for v in local]}
+
+
+def _smooth(x: float) -> int:
+    """The 5-smooth integer (prime factors 2, 3, 5 only) nearest to ``x`` (>= 1).
+
+    Recorded periods are rounded to such counts: the harmonics of a record come from an
+    FFT of all its samples (:func:`vibeam.records.harmonic_amplitudes`), and numpy's FFT
+    of a length with a large prime factor is an order of magnitude slower (64 x 883
+    samples: 18 ms against 3 ms for 64 x 882), which would show as a jump in the ladder.
+    """
+    def smooth(n):
+        for p in (2, 3, 5):
+            while n % p == 0:
+                n //= p
+        return n == 1
+
+    lo = hi = max(1, int(round(x)))
+    while not smooth(lo) and lo > 1:
+        lo -= 1
+    while not smooth(hi):
+        hi += 1
+    return lo if x - lo <= hi - x else hi
+
+
+def _scene(fname: str, over: dict | None):
+    """Case, spec, model, solver settings and sweep settings of a shipped case, built as
+    ``vibeam run`` builds them (:func:`vibeam.cli.run_case`)."""
+    from pathlib import Path
+
+    from .case import load_case
+
+    root = Path(__file__).resolve().parent.parent / "cases"
+    case, _ = load_case(root / fname)
+    run = next((r for r in case.run if r.method == "event"), case.run[0])
+    spec = case.model_spec(over)
+    spec.build()                  # first build: imports (scikit-fem, ...) and caches
+    t0 = time.perf_counter()
+    model = spec.build()
+    t_build = time.perf_counter() - t0
+    return case, model, case.run_settings(run), t_build
+
+
+def _time_sweep(case, model, settings, points: int, n_periods: int, repeats: int,
+                record_fraction: float | None = None, record: int | None = None) -> tuple[float, dict]:
+    """Median wall time of an inline (jobs=1) event sweep of ``points`` frequencies spread
+    over the case's grid with ``n_periods`` = transient + record periods per point, after
+    a warm-up; the case's direction, continuation, samples per period and period rtol."""
+    from .models import make_solver
+    from .sweep import Sweep, run_sweep
+
+    cs = case.sweep
+    fn = getattr(model, "natural_frequency_hz", None)
+    full = cs.grid(fn)
+    grid = np.linspace(full[0], full[-1], points)
+    if record is None:
+        record = _smooth(n_periods * record_fraction)
+    transient = n_periods - record
+    solver = make_solver(model, "event", **settings)
+    kw = dict(direction=cs.direction, continuation=cs.continuation,
+              samples_per_period=cs.samples_per_period, period_rtol=cs.period_rtol)
+    run_sweep(solver, Sweep(Omega=grid[:2], transient_periods=2, record_periods=2, **kw), jobs=1)  # warm-up
+    sw = Sweep(Omega=grid, transient_periods=transient, record_periods=record, **kw)
+    ts, cs_ = [], []
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), time.process_time()
+        res = run_sweep(solver, sw, jobs=1)
+        ts.append(time.perf_counter() - t0)
+        cs_.append(time.process_time() - c0)
+    n_solves = len(res.data["Omega"])
+    return statistics.median(ts), {"cpu_s": statistics.median(cs_), "transient": transient, "record": record,
+                                   "point_solves": n_solves,
+                                   "impacts_per_period_mean": float(np.mean(res.data["impacts_per_period"]))}
+
+
+def run_scaling_bench(points: int = 11,
+                      sdof_periods=(50, 100, 200, 400, 800, 1600, 3200, 6400, 12800),
+                      beam_periods=(25, 50, 100, 200, 400, 800, 1600, 3200), beam_modes_for_periods: int = 2,
+                      mode_points: int = 11, mode_periods: int = 200,
+                      modes=(1, 2, 4, 8, 16, 32, "all"), repeats: int = 3,
+                      mode_budget_s: float = 60.0) -> dict:
+    """How the cost of an inline event sweep grows with periods simulated and with retained
+    modes; returns a JSON-ready dict.
+
+    * Periods: ``points`` frequencies of the rig SDOF scene (``cases/rig-neutral.toml``)
+      at ``sdof_periods`` and of the FE rig (``cases/rig-fe-neutral.toml``) with
+      ``beam_modes_for_periods`` modes at ``beam_periods`` forcing periods per point
+      (transient + record, the record share as in the case, 64 of 464, rounded to a
+      5-smooth count, see :func:`_smooth`); the exponent p
+      of time ~ N^p is fitted by least squares on log-log, and the cost per period and
+      point solve with p fixed at 1 (geometric mean of t / (N * solves)), besides a
+      linear fit t = t0 + b N (t0: the per-sweep overhead).
+    * Modes: ``mode_points`` frequencies, ``mode_periods`` periods per point of the FE
+      rig with ``modes`` retained modes ("all": every mode of the mesh), the fit of
+      time ~ n_modes^p, and the static-mode SDOF (``n_modes = "static"``) beside it.
+      The ladder stops early once a rung took more than ``mode_budget_s``.
+
+    Timings (wall ``time_s``, fitted; process CPU ``cpu_time_s`` beside it, less sensitive
+    to other load on the machine) are the median of ``repeats`` after a warm-up sweep (numba compilation and
+    cache loading excluded); model construction (FE assembly and eigensolution) is timed
+    apart.  The case's sweep direction ("both": each frequency is solved twice),
+    continuation, samples per period and period rtol are used.
+    """
+    t_all = time.perf_counter()
+    out: dict = {"repeats": repeats, "jobs": 1, "method": "event", "periods": {}, "modes": {}}
+
+    def periods_study(label, fname, over, ladder):
+        case, model, settings, t_build = _scene(fname, over)
+        frac = case.sweep.record_periods / (case.sweep.transient_periods + case.sweep.record_periods)
+        ts, infos = [], []
+        for N in ladder:
+            t, info = _time_sweep(case, model, settings, points, int(N), repeats, record_fraction=frac)
+            ts.append(t)
+            infos.append(info)
+        N = np.asarray(ladder, float)
+        solves = infos[0]["point_solves"]
+        fit = _loglog_fit(N, ts)
+        cpu = [i["cpu_s"] for i in infos]
+        b, t0 = np.polyfit(N, ts, 1)
+        c1 = float(np.exp(np.mean(np.log(np.asarray(ts) / (N * solves)))))
+        out["periods"][label] = {
+            "case": fname + (f" (n_modes = {over['n_modes']})" if over else ""),
+            "points": points, "direction": case.sweep.direction, "point_solves": solves,
+            "N": [int(n) for n in ladder],
+            "record_periods": [i["record"] for i in infos],
+            "time_s": ts,
+            "exponent": fit["exponent"],
+            "prefactor_s": fit["prefactor_s"],
+            "s_per_period_per_point": c1,
+            "s_per_period_per_point_note": "time / (N * point_solves), geometric mean (p fixed at 1); "
+                                           "time ~ prefactor_s * N^exponent for the whole sweep",
+            "r2_loglog": fit["r2_loglog"],
+            "local_exponents": fit["local_exponents"],
+            "linear_fit": {"overhead_s": float(t0), "s_per_period": float(b),
+                           "s_per_period_per_point": float(b) / solves},
+            "cpu_time_s": cpu,
+            "exponent_cpu": _loglog_fit(N, cpu)["exponent"],
+            "s_per_period_per_point_cpu": float(np.exp(np.mean(np.log(np.asarray(cpu) / (N * solves))))),
+            "impacts_per_period_mean": [i["impacts_per_period_mean"] for i in infos],
+            "model_build_s": t_build,
+        }
+
+    periods_study("sdof", "rig-neutral.toml", None, sdof_periods)
+    periods_study(f"beam_{beam_modes_for_periods}_modes", "rig-fe-neutral.toml",
+                  {"n_modes": beam_modes_for_periods}, beam_periods)
+
+    # ---- modes
+    fname = "rig-fe-neutral.toml"
+    case, model, settings, t_build = _scene(fname, {"n_modes": "static"})
+    t_static, info = _time_sweep(case, model, settings, mode_points, mode_periods, repeats, record_fraction=
+                                 case.sweep.record_periods / (case.sweep.transient_periods
+                                                              + case.sweep.record_periods))
+    n_list, ts, cpu, builds, labels, skipped = [], [], [], [], [], []
+    stop = False
+    for m in modes:
+        if stop:
+            skipped.append(m)
+            continue
+        case, model, settings, t_build = _scene(fname, {"n_modes": m})
+        n = int(getattr(model, "n_modes", 0) or len(getattr(model, "omega", [])) or 0)
+        if n in n_list:   # e.g. "all" equal to the last integer rung
+            continue
+        t, inf = _time_sweep(case, model, settings, mode_points, mode_periods, repeats,
+                             record=info["record"])
+        n_list.append(n)
+        cpu.append(inf["cpu_s"])
+        labels.append(m)
+        ts.append(t)
+        builds.append(t_build)
+        if t * repeats > mode_budget_s:
+            stop = True
+    fit = _loglog_fit(n_list, ts)
+    upper = [i for i, n in enumerate(n_list) if n >= 4]
+    fit_up = _loglog_fit([n_list[i] for i in upper], [ts[i] for i in upper]) if len(upper) >= 2 else None
+    out["modes"] = {
+        "case": fname, "points": mode_points, "direction": case.sweep.direction,
+        "point_solves": info["point_solves"], "periods_per_point": mode_periods,
+        "record_periods": info["record"],
+        "n_modes_requested": [str(m) for m in labels],
+        "n_modes": n_list, "time_s": ts,
+        "exponent": fit["exponent"], "prefactor_s": fit["prefactor_s"], "r2_loglog": fit["r2_loglog"],
+        "local_exponents": fit["local_exponents"],
+        "exponent_n_modes_ge_4": fit_up["exponent"] if fit_up else None,
+        "cpu_time_s": cpu,
+        "exponent_cpu": _loglog_fit(n_list, cpu)["exponent"],
+        "model_build_s": builds,
+        "static_mode_sdof_time_s": t_static,
+        "static_mode_sdof_cpu_s": info["cpu_s"],
+        "ratio_to_static_mode": [t / t_static for t in ts],
+        "skipped_over_budget": [str(m) for m in skipped],
+    }
+    out["total_time_s"] = time.perf_counter() - t_all
+    return out

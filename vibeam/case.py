@@ -27,6 +27,7 @@ key, the value and what is allowed.
 """
 from __future__ import annotations
 
+import math
 import tomllib
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal, Union
@@ -41,7 +42,8 @@ class CaseError(ValueError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+    # NaN and infinities make no sense anywhere in a scene (grids, physical parameters, tolerances)
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True, allow_inf_nan=False)
 
 
 # ----------------------------------------------------------------------------- model
@@ -190,17 +192,24 @@ MODEL_SPECS = {"sdof": SDOFModelSpec, "beam": BeamModelSpec}
 
 
 # ----------------------------------------------------------------------------- sweep
-def _check_grid(v, positive: bool):
-    """``[start, stop, number of points]`` (``None`` passes)."""
+MAX_GRID_POINTS = 1_000_000   # points of a [sweep] grid
+MAX_MAP_VALUES = 10_000       # values of a [map] parameter (each one is a whole sweep)
+
+
+def _check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS):
+    """``[start, stop, number of points]`` (``None`` passes): finite ends, a whole number of
+    points from 1 to ``max_n``."""
     if v is None:
         return v
     if len(v) != 3:
         raise ValueError("must be [start, stop, number of points]")
-    start, stop, n = v
+    start, stop, n = (float(x) for x in v)
+    if not (math.isfinite(start) and math.isfinite(stop)):
+        raise ValueError("start and stop must be finite numbers")
     if positive and not (start > 0 and stop > 0):
         raise ValueError("start and stop must be positive")
-    if n != int(n) or n < 1:
-        raise ValueError("the number of points must be a whole number >= 1")
+    if not (math.isfinite(n) and n == int(n) and 1 <= n <= max_n):
+        raise ValueError(f"the number of points must be a whole number >= 1 and <= {max_n}")
     if n == 1 and start != stop:
         raise ValueError("a single-point grid needs start == stop")
     return v
@@ -418,7 +427,7 @@ class MapSpec(_Strict):
     @field_validator("values")
     @classmethod
     def _grid(cls, v):
-        return _check_grid(v, positive=False)
+        return _check_grid(v, positive=False, max_n=MAX_MAP_VALUES)
 
     def grid(self) -> np.ndarray:
         """The parameter values, shape (n,)."""
@@ -525,10 +534,14 @@ class Case(_Strict):
 
 
 def _validate_model(data: dict, prefix: str = "model"):
-    fid = data.get("fidelity")
-    if fid not in MODEL_SPECS:
-        raise CaseError(f"[{prefix}] fidelity = {fid!r} is not allowed; allowed: "
-                        f"{', '.join(repr(k) for k in MODEL_SPECS)}")
+    allowed = ", ".join(repr(k) for k in MODEL_SPECS)
+    if not isinstance(data, dict):
+        raise CaseError(f"'{prefix}' = {_value(data)}: must be a table with fidelity = {allowed}")
+    if "fidelity" not in data:
+        raise CaseError(f"missing key '{prefix}.fidelity'; allowed: {allowed}")
+    fid = data["fidelity"]
+    if not isinstance(fid, str) or fid not in MODEL_SPECS:
+        raise CaseError(f"'{prefix}.fidelity' = {_value(fid)} is not allowed; allowed: {allowed}")
     try:
         return MODEL_SPECS[fid].model_validate(data)
     except ValidationError as e:
@@ -571,25 +584,91 @@ def _allowed_keys(model_cls, loc) -> list[str]:
     return sorted(getattr(cls, "model_fields", {}))
 
 
+_MAX_VALUE_CHARS = 80
+
+
+def _one_line(text: str) -> str:
+    """``text`` on one line: line breaks and other unprintable characters escaped."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
+
+
+def _value(v) -> str:
+    """A value as quoted in messages: its repr, on one line, shortened."""
+    try:
+        r = repr(v)
+    except Exception:  # pragma: no cover - TOML values always have a repr
+        r = f"<{type(v).__name__}>"
+    if len(r) > _MAX_VALUE_CHARS:
+        r = r[: _MAX_VALUE_CHARS - 3] + "..."
+    return _one_line(r)
+
+
+def _key(loc, tags: bool = True) -> str:
+    """Dotted key of a pydantic error location, e.g. ``run[0].chatter_tol`` (with ``tags``, the
+    method tag that pydantic inserts after a run's index is left out)."""
+    parts = []
+    for i, p in enumerate(loc):
+        if isinstance(p, int):
+            parts.append(f"[{p}]")
+        elif tags and i >= 2 and loc[i - 2] == "run" and isinstance(loc[i - 1], int) and p in _RUN_BY_METHOD:
+            continue
+        else:
+            parts.append(("." if parts else "") + _one_line(str(p)))
+    return "".join(parts)
+
+
+_MAX_DEPTH = 32
+
+
+def _check_ints(data, loc=()) -> None:
+    """TOML integers are 64-bit (tomllib reads any size): a larger one is an error, not a
+    silent overflow in a solver; no scene nests tables or arrays more than a few levels."""
+    if len(loc) > _MAX_DEPTH:
+        raise CaseError(f"'{_key(loc[:_MAX_DEPTH], tags=False)}': tables or arrays nested more than "
+                        f"{_MAX_DEPTH} levels deep")
+    if isinstance(data, dict):
+        for k, v in data.items():
+            _check_ints(v, (*loc, k))
+    elif isinstance(data, list):
+        for i, v in enumerate(data):
+            _check_ints(v, (*loc, i))
+    elif isinstance(data, int) and not isinstance(data, bool) and not -2**63 <= data < 2**63:
+        raise CaseError(f"'{_key(loc, tags=False)}' = {_value(data)}: an integer must fit in 64 bits "
+                        f"(-2**63 ... 2**63 - 1)")
+
+
+_METHODS = ", ".join(repr(m) for m in _RUN_BY_METHOD)
+
+
 def _format(err: ValidationError, prefix: str, root_cls) -> str:
-    lines = []
+    """One line naming, for every error, the key, the value and what is allowed."""
+    msgs = []
     for e in err.errors():
-        loc = [p for p in e["loc"] if p not in _RUN_BY_METHOD]
-        key = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in loc).replace(".[", "[")
-        where = f"{prefix}.{key}" if prefix and key else (prefix or key)
+        key = _key(e["loc"])
+        if prefix and key:
+            where = prefix + ("" if key.startswith("[") else ".") + key
+        else:
+            where = prefix or key
+        val = e.get("input")
         if e["type"] == "extra_forbidden":
             allowed = _allowed_keys(root_cls, e["loc"])
-            lines.append(f"unknown key '{where}' (value {e['input']!r}); allowed keys: {', '.join(allowed)}")
+            msgs.append(f"unknown key '{where}' (value {_value(val)}); allowed keys: {', '.join(allowed)}")
         elif e["type"] == "missing":
-            lines.append(f"missing key '{where}'")
+            msgs.append(f"missing key '{where}'")
+        elif e["type"] == "union_tag_invalid":     # a run's method
+            tag = val.get("method") if isinstance(val, dict) else e.get("ctx", {}).get("tag")
+            msgs.append(f"'{where}.method' = {_value(tag)} is not a method; allowed: {_METHODS}")
+        elif e["type"] == "union_tag_not_found":
+            msgs.append(f"missing key '{where}.method'; allowed: {_METHODS}")
         else:
-            msg = e["msg"].removeprefix("Value error, ")
-            val = e.get("input")
+            msg = _one_line(e["msg"].removeprefix("Value error, "))
             if isinstance(val, dict):
-                lines.append(f"'{where}': {msg}")
+                msgs.append(f"'{where}': {msg}")
             else:
-                lines.append(f"'{where}' = {val!r}: {msg}")
-    return "\n".join(lines)
+                msgs.append(f"'{where}' = {_value(val)}: {msg}")
+    return "; ".join(msgs)
 
 
 def parse_case(text: str, source: str = "<case>") -> Case:
@@ -615,12 +694,15 @@ def parse_case(text: str, source: str = "<case>") -> Case:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
-        raise CaseError(f"{source}: not valid TOML: {e}") from None
+        raise CaseError(_one_line(f"{source}: not valid TOML: {e}")) from None
+    except RecursionError:
+        raise CaseError(_one_line(f"{source}: not valid TOML: arrays or tables nested too deeply")) from None
     try:
-        case = Case.model_validate(data)
-    except ValidationError as e:
-        raise CaseError(f"{source}: " + _format(e, "", Case).replace("\n", f"\n{source}: ")) from None
-    try:
+        _check_ints(data)
+        try:
+            case = Case.model_validate(data)
+        except ValidationError as e:
+            raise CaseError(_format(e, "", Case)) from None
         spec = case.model_spec()
         for i, r in enumerate(case.run):
             allowed = FIDELITY_METHODS[spec.fidelity]
@@ -629,9 +711,9 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                                 f"{spec.fidelity!r}; allowed: {', '.join(allowed)}")
             if r.model:
                 if "fidelity" in r.model and r.model["fidelity"] != case.model.get("fidelity"):
-                    raise CaseError(f"'run[{i}].model.fidelity' = {r.model['fidelity']!r}: a run cannot "
-                                    f"change the fidelity; put it in another case")
-                case.model_spec(r.model)
+                    raise CaseError(f"'run[{i}].model.fidelity' = {_value(r.model['fidelity'])}: a run "
+                                    f"cannot change the fidelity; put it in another case")
+                _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
             if r.effects:
                 case.effects_for(r)
         if case.map is not None:
@@ -640,7 +722,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
             raise CaseError("'sweep.frequency_hz' needs a physical model (natural_frequency_hz, ...); "
                             "use 'sweep.Omega' for a nondimensional one")
     except CaseError as e:
-        raise CaseError(f"{source}: {e}") from None
+        raise CaseError(_one_line(f"{source}: {e}")) from None
     return case
 
 
@@ -649,19 +731,26 @@ def _check_map(case: Case) -> None:
     m = case.map
     allowed = case.map_parameters()
     if m.parameter not in allowed:
-        raise CaseError(f"'map.parameter' = {m.parameter!r} is not a numeric key of [model]; "
+        raise CaseError(f"'map.parameter' = {_value(m.parameter)} is not a numeric key of [model]; "
                         f"allowed: {', '.join(allowed)}")
     for i, r in enumerate(case.run):
         if m.parameter in r.model:
             raise CaseError(f"'run[{i}].model.{m.parameter}' overrides the mapped parameter; "
                             f"remove it or map another parameter")
-    for v in m.grid():
-        for r in case.run:
+    grid = m.grid()
+    values = [grid[0], grid[-1], *grid[1:-1]]     # the ends first: most bad ranges fail there
+    overrides = []                                # one model per distinct [run.model]
+    for i, r in enumerate(case.run):
+        if r.model not in [o for _, o in overrides]:
+            overrides.append((i, r.model))
+    for v in values:
+        for i, o in overrides:
+            data = dict(case.model, **o, **{m.parameter: float(v)})
             try:
-                case.model_spec(dict(r.model, **{m.parameter: float(v)}))
+                _validate_model(data, prefix=f"run[{i}].model" if o else "model")
             except CaseError as e:
-                raise CaseError(f"'map.values' = {m.values!r}: {m.parameter} = {v:g} is not allowed "
-                                f"({e})") from None
+                raise CaseError(f"'map.values' = {_value(m.values)}: {m.parameter} = {v:g} is not "
+                                f"allowed ({e})") from None
 
 
 def load_case(path) -> tuple[Case, str]:
@@ -674,7 +763,10 @@ def load_case(path) -> tuple[Case, str]:
     """
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_bytes().decode("utf-8-sig")
     except OSError as e:
-        raise CaseError(f"{path}: cannot read case file: {e.strerror}") from None
+        raise CaseError(_one_line(f"{path}: cannot read case file: {e.strerror or e}")) from None
+    except UnicodeDecodeError as e:
+        raise CaseError(_one_line(f"{path}: cannot read case file: not UTF-8 text ({e.reason} at byte "
+                                  f"{e.start})")) from None
     return parse_case(text, str(path)), text

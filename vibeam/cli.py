@@ -13,103 +13,34 @@ import time
 from pathlib import Path
 
 
-def _print_table(runs) -> None:
-    import numpy as np
-
-    ref = runs[0]
-    key = "amplitude_mm" if "amplitude_mm" in ref.data else "amplitude"
-    unit = " (mm)" if key == "amplitude_mm" else ""
-    head = f"{'run':<22}{'method':<12}{'points':>7}{'wall time (s)':>15}{'max |dA| vs ' + ref.name + unit:>30}"
-    print(head)
-    print("-" * len(head))
-    for r in runs:
-        if r is ref:
-            diff = "reference"
-        elif key in r.data and len(r.data[key]) == len(ref.data[key]) and \
-                np.allclose(r.data["Omega"], ref.data["Omega"]):
-            d = np.abs(np.asarray(r.data[key], float) - np.asarray(ref.data[key], float))
-            diff = f"{np.nanmax(d):.3e}" if np.isfinite(d).any() else "n/a"
-        else:
-            diff = "n/a (different grid)"
-        n_bad = int(sum(1 for s in r.data.get("status", []) if s != "ok"))
-        extra = f"  [{n_bad} point(s) not ok]" if n_bad else ""
-        print(f"{r.name:<22}{r.method:<12}{r.n_points:>7}{r.wall_time_s:>15.3f}{diff:>30}{extra}")
+from .runner import run_case  # noqa: E402,F401  (the case runner; re-exported)
 
 
-def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=False):
-    """Run every sweep of a case; results.h5 is rewritten after each run. Returns the runs.
+def _executor(args):
+    from .runner import open_executor
 
-    ``quick`` runs the case's quick variant (``[quick]``)."""
-    from . import assess
-    from .effects import wrap_solver
-    from .models import make_solver
-    from .plots import plot_bifurcation, plot_frc
-    from .results import write_results
-    from .sweep import Sweep, run_sweep
-
-    if quick:
-        case = case.quick_variant()
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    h5 = out_dir / "results.h5"
-    base = case.model_spec()
-    runs = []
-    t_all = time.perf_counter()
-    for r in case.run:
-        spec = case.model_spec(r.model) if r.model else base
-        model = spec.build()
-        Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
-        sw = Sweep(Omega=Omega, direction=case.sweep.direction,
-                   transient_periods=case.sweep.transient_periods,
-                   record_periods=case.sweep.record_periods,
-                   samples_per_period=assess.samples_per_period(case, r, model, Omega),
-                   continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol,
-                   assess=assess.hooks(case, spec, r, model))
-        settings = dict(case.run_settings(r), **assess.solver_options(case, r, model))
-        solver = wrap_solver(make_solver(model, r.method, **settings), model, spec,
-                             assess.solver_effects(case.effects_for(r)), settings)
-        print(f"[{case.name}] run '{r.name}': method {r.method}, {len(Omega)} points, "
-              f"direction {sw.direction}", file=sys.stderr)
-        res = run_sweep(solver, sw, name=r.name, jobs=jobs, progress=not quiet)
-        res.attrs["model"] = spec.model_dump()
-        assess.collect(case, r, res)
-        res.attrs.update(getattr(solver, "run_attrs", {}))   # active scene effects (vibeam.effects)
-        if spec.fidelity == "beam":
-            res.attrs.update(_beam_attrs(spec))
-        runs.append(res)
-        write_results(h5, runs, case.name, text)  # after every run: nothing computed is lost
-    print(f"\ncase {case.name}: {len(runs)} run(s) in {time.perf_counter() - t_all:.2f} s -> {h5}")
-    _print_table(runs)
-    if plots:
-        assess.finish(case, runs, out_dir)
-        p1 = plot_frc(runs, out_dir / "frc.png", title=case.name)
-        p2 = plot_bifurcation(runs, out_dir / "bifurcation.png", title=case.name)
-        print(f"plots: {p1}" + (f", {p2}" if p2 else ""))
-    return runs
+    return open_executor(getattr(args, "scheduler", None))
 
 
-def _beam_attrs(spec) -> dict:
-    """Calibrated and derived values of a beam scene, stored with its results."""
-    from .beamscene import scene_of
-
-    sc = scene_of(spec)
-    g = sc.geometry
-    out = {"EI_n_m2": g.EI_n_m2, "rotary_inertia_kg_m2": g.rotary_inertia_kg_m2,
-           "rhoA_kg_m": g.rhoA_kg_m, "mass_kg": g.mass_kg, "f1_fe_hz": sc.f1_hz,
-           "damping_D_s": sc.damping_D_s, "Delta_C_m": sc.Delta_C_m, "Delta_G_m": sc.Delta_G_m,
-           "gamma_tilde_m_per_V": sc.gamma_tilde_m_per_V, "calibrated": sc.calibration is not None}
-    if sc.calibration is not None:
-        out["calibrated_frequencies_hz"] = np.asarray(sc.calibration.frequencies_hz)
-    return out
-
-
-def cmd_run(args) -> int:
-    from .case import load_case
+def cmd_run(args, need_map=False) -> int:
+    from .case import CaseError, load_case
 
     case, text = load_case(args.case)
+    if need_map and case.map is None:
+        raise CaseError(f"{args.case}: `vibeam map` needs a [map] table (parameter, values); "
+                        f"use `vibeam run` for a plain sweep")
     out_dir = Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick else ""))
-    run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
-             quick=args.quick)
+    ex, client = _executor(args)
+    try:
+        run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
+                 quick=args.quick, resume=args.resume, executor=ex)
+    except KeyboardInterrupt:
+        print(f"\nvibeam: interrupted; finished sweep lines are kept in {out_dir / 'results.h5'}; "
+              f"rerun with --resume to compute only the rest", file=sys.stderr)
+        return 130
+    finally:
+        if client is not None:
+            client.close()
     return 0
 
 
@@ -124,7 +55,13 @@ def cmd_regress(args) -> int:
         new = read_results(args.results)
     else:
         out_dir = Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick else ""))
-        run_case(case, text, out_dir, jobs=args.jobs, quiet=True, plots=False, quick=args.quick)
+        ex, client = _executor(args)
+        try:
+            run_case(case, text, out_dir, jobs=args.jobs, quiet=True, plots=False, quick=args.quick,
+                     executor=ex)
+        finally:
+            if client is not None:
+                client.close()
         new = read_results(out_dir / "results.h5")
     tol = case.regress
     atol = tol.amplitude_atol if args.atol is None else args.atol
@@ -250,15 +187,27 @@ def main(argv=None) -> int:
                                  "impacting cantilever beam (multi-fidelity).")
     ap.add_argument("--version", action="version", version=f"vibeam {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("run", help="run the sweeps of a case file; write results.h5, plots and a table")
-    p.add_argument("case", help="case file (TOML)")
-    p.add_argument("--out", help="output folder (default results/<case name>/)")
-    p.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores; 1: inline)")
-    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--quick", action="store_true",
-                   help="run the case's quick variant ([quick]: fewer points and periods)")
+    def run_args(p):
+        p.add_argument("case", help="case file (TOML)")
+        p.add_argument("--out", help="output folder (default results/<case name>/)")
+        p.add_argument("--jobs", type=int, default=None,
+                       help="worker processes of the local pool (default: all cores; 1: inline)")
+        p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+        p.add_argument("--quiet", action="store_true", help="no progress bar")
+        p.add_argument("--quick", action="store_true",
+                       help="run the case's quick variant ([quick]: fewer points, periods and map values)")
+        p.add_argument("--resume", action="store_true",
+                       help="continue an interrupted run: keep the sweep lines already in results.h5")
+        p.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run the sweep lines on a dask.distributed scheduler (e.g. tcp://host:8786)")
+
+    p = sub.add_parser("run", help="run the sweeps (or the [map]) of a case file; write results.h5, plots "
+                       "and a table")
+    run_args(p)
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("map", help="parameter map of a case with [map] (period-n regions, paper Fig. 18)")
+    run_args(p)
+    p.set_defaults(func=lambda a: cmd_run(a, need_map=True))
     p = sub.add_parser("regress", help="compare a case's FRCs with reference FRCs (HDF5 or CSV)")
     p.add_argument("case", help="case file (TOML)")
     p.add_argument("--reference", required=True, help="reference results.h5 or CSV")

@@ -2,14 +2,19 @@
 
 Layout of ``results.h5``::
 
-    /                attrs: vibeam_version, case_name, case_text, created
+    /                attrs: vibeam_version, case_name, case_text, case_json, created, complete
     /runs/<run>/     attrs: fidelity, method, settings (JSON), wall_time_s, run attrs
         <dataset>    one entry per frequency point; attrs: units
+    /maps/<run>/     a parameter map (``[map]``): attrs as a run, plus parameter
+        <dataset>    shape (n_direction, n_values, n_frequency, ...)
+    /lines/<run>/<line>/   the checkpoint: each finished sweep line's per-point datasets
 
-The file is always written whole to a temporary file in the same folder and
-moved over the old one (:func:`os.replace` is atomic), so an interrupted run
-leaves either the previous complete file or the new complete file, never a
-corrupt one; runs already finished are never lost.
+Every write goes to a temporary file in the same folder that is then moved
+over the old one (:func:`os.replace` is atomic): the whole file at the end of
+a case, and one copy-and-append per batch of finished lines while it runs
+(:func:`append_lines`).  An interrupted or killed run therefore leaves either
+the previous complete file or the next one, never a corrupt one, and
+``--resume`` recomputes only the lines missing from ``/lines``.
 """
 from __future__ import annotations
 
@@ -34,8 +39,81 @@ def _json_default(o):
     return str(o)
 
 
+def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
+    """Write ``path`` through a temporary file: ``fill(h5file)`` then :func:`os.replace`."""
+    import shutil
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=".results-", suffix=".h5.tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        if copy_from is not None:
+            shutil.copyfile(copy_from, tmp)
+        with h5py.File(tmp, "a" if copy_from is not None else "w") as f:
+            fill(f)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def _root_attrs(f, case_name, case_text, case_json="", complete=True):
+    f.attrs["vibeam_version"] = __version__
+    f.attrs["case_name"] = case_name
+    f.attrs["case_text"] = case_text
+    f.attrs["case_json"] = case_json
+    f.attrs["created"] = datetime.now(timezone.utc).isoformat()
+    f.attrs["complete"] = complete
+
+
+def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", case_json: str = "") -> Path:
+    """Add finished sweep lines to the checkpoint ``/lines`` of ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        Results file; created (marked ``complete = False``) if missing.
+    lines : dict
+        ``{"<run>/<line key>": {dataset: array of length n_points}}``.
+    case_name, case_text, case_json : str
+        Root attributes of a new file (the case identifies what may be resumed).
+
+    Returns
+    -------
+    Path
+    """
+    path = Path(path)
+
+    def fill(f):
+        if "case_text" not in f.attrs:
+            _root_attrs(f, case_name, case_text, case_json, complete=False)
+        f.attrs["complete"] = False
+        g = f.require_group("lines")
+        for key, data in lines.items():
+            if key in g:
+                del g[key]
+            gl = g.create_group(key)
+            for k, v in data.items():
+                _write_dataset(gl, k, v)
+
+    return _atomic(path, fill, copy_from=path if path.exists() else None)
+
+
+def read_lines(path) -> tuple[dict, dict]:
+    """The checkpoint of a results file: ``(root attrs, {run: {line key: {dataset: array}}})``."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        attrs = dict(f.attrs)
+        for run, g in f.get("lines", {}).items():
+            out[run] = {key: _read_group(gl) for key, gl in g.items()}
+    return attrs, out
+
+
 def write_results(path, runs: list[SweepResult], case_name: str = "", case_text: str = "",
-                  extra: dict | None = None) -> Path:
+                  extra: dict | None = None, maps: list | None = None, lines: dict | None = None,
+                  case_json: str = "") -> Path:
     """Write all runs to ``path`` atomically.
 
     Parameters
@@ -49,43 +127,38 @@ def write_results(path, runs: list[SweepResult], case_name: str = "", case_text:
     extra : dict, optional
         Additional groups: ``{group_path: {dataset: array}}`` (e.g. tables of
         ``vibeam cost``).
+    maps : list of vibeam.maps.MapResult, optional
+        Parameter maps, written to ``/maps/<name>``.
+    lines : dict, optional
+        The checkpoint ``{"<run>/<line key>": {dataset: array}}`` kept in ``/lines``.
+    case_json : str
+        The validated case (as run, e.g. its quick variant) as JSON; ``--resume``
+        only continues a file whose ``case_json`` matches.
 
     Returns
     -------
     Path
         The written file.
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".results-", suffix=".h5.tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["vibeam_version"] = __version__
-            f.attrs["case_name"] = case_name
-            f.attrs["case_text"] = case_text
-            f.attrs["created"] = datetime.now(timezone.utc).isoformat()
-            g_runs = f.create_group("runs")
-            for r in runs:
-                g = g_runs.create_group(r.name)
-                g.attrs["fidelity"] = r.fidelity
-                g.attrs["method"] = r.method
-                g.attrs["settings"] = json.dumps(r.settings, default=_json_default)
-                g.attrs["wall_time_s"] = r.wall_time_s
-                for k, v in r.attrs.items():
-                    g.attrs[k] = v if not isinstance(v, dict) else json.dumps(v, default=_json_default)
-                for k, v in r.data.items():
-                    _write_dataset(g, k, v)
-            for gpath, table in (extra or {}).items():
-                g = f.require_group(gpath)
-                for k, v in table.items():
-                    _write_dataset(g, k, v)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    def fill(f):
+        _root_attrs(f, case_name, case_text, case_json, complete=True)
+        f.create_group("runs")
+        for kind, r in [("runs", r) for r in runs] + [("maps", m) for m in (maps or [])]:
+            g = f.require_group(kind).create_group(r.name)
+            g.attrs["fidelity"] = r.fidelity
+            g.attrs["method"] = r.method
+            g.attrs["settings"] = json.dumps(r.settings, default=_json_default)
+            g.attrs["wall_time_s"] = r.wall_time_s
+            for k, v in r.attrs.items():
+                g.attrs[k] = v if not isinstance(v, dict) else json.dumps(v, default=_json_default)
+            for k, v in r.data.items():
+                _write_dataset(g, k, v)
+        for gpath, table in list((extra or {}).items()) + [(f"lines/{k}", v) for k, v in (lines or {}).items()]:
+            g = f.require_group(gpath)
+            for k, v in table.items():
+                _write_dataset(g, k, v)
+
+    return _atomic(Path(path), fill)
 
 
 def _write_dataset(g, name, v):
@@ -100,18 +173,20 @@ def _write_dataset(g, name, v):
 
 
 def read_results(path) -> dict:
-    """Read a results file into ``{"attrs": {...}, "runs": {name: {"attrs": {...}, dataset: array}}}``.
+    """Read a results file into ``{"attrs": {...}, "runs": {name: {"attrs": {...}, dataset: array}},
+    "maps": {name: {...}}}`` (the checkpoint ``/lines`` is read by :func:`read_lines`).
 
     String datasets come back as arrays of Python ``str``; subgroups of a run (time
     series) as nested dicts.
     """
-    out = {"attrs": {}, "runs": {}}
+    out = {"attrs": {}, "runs": {}, "maps": {}}
     with h5py.File(path, "r") as f:
         out["attrs"] = dict(f.attrs)
-        for name, g in f.get("runs", {}).items():
-            run = _read_group(g)
-            run["attrs"] = dict(g.attrs)
-            out["runs"][name] = run
+        for kind in ("runs", "maps"):
+            for name, g in f.get(kind, {}).items():
+                run = _read_group(g)
+                run["attrs"] = dict(g.attrs)
+                out[kind][name] = run
     return out
 
 

@@ -99,7 +99,7 @@ class InlineExecutor(Executor):
         fut = Future()
         try:
             fut.set_result(fn(*args, **kwargs))
-        except BaseException as e:  # pragma: no cover - forwarded to the caller
+        except Exception as e:  # pragma: no cover - forwarded to the caller
             fut.set_exception(e)
         return fut
 
@@ -141,18 +141,180 @@ def _chain(solver, Omegas, sweep: Sweep, Delta: float, direction: str):
     return rows
 
 
+@dataclass(frozen=True)
+class Line:
+    """One independent unit of work: a sweep line along the frequency axis.
+
+    With continuation a line is a whole up or down sweep; without it, one
+    point.  Lines are what executors run, what is retried when a worker is
+    lost, and what a checkpoint stores.
+
+    Attributes
+    ----------
+    key : str
+        Stable identifier, unique within a run (e.g. ``"up"``, ``"0003-down"``).
+    solver : object
+        The solver (pickled to the worker).
+    Omega : ndarray, shape (n,)
+        Forcing frequencies (nondimensional) in visiting order.
+    direction : {'up', 'down'}
+    sweep : Sweep
+        Windows and tolerances.
+    Delta : float
+        Gap (nondimensional), for the amplitude of Sec. 4.1.
+    run : str
+        Name of the run the line belongs to.
+    """
+
+    key: str
+    solver: object
+    Omega: np.ndarray
+    direction: str
+    sweep: Sweep
+    Delta: float
+    run: str = "run"
+
+    @property
+    def n_points(self) -> int:
+        return len(self.Omega)
+
+
+def run_line(line: Line) -> list[dict]:
+    """Compute one line (in a worker); numerical failures are rows with ``status = 'failed'``."""
+    return _chain(line.solver, line.Omega, line.sweep, line.Delta, line.direction)
+
+
+def _lost_rows(line: Line, err: BaseException, attempts: int) -> list[dict]:
+    msg = f"worker lost {attempts} time(s): {type(err).__name__}: {err}"
+    return [dict(Omega=float(W), direction=line.direction, status="failed", message=msg, wall_time_s=0.0)
+            for W in line.Omega]
+
+
+def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_line=None,
+              progress: bool = False, desc: str = "", max_attempts: int = 3) -> dict:
+    """Run independent lines on an executor: the one engine under every sweep and map.
+
+    Parameters
+    ----------
+    lines : sequence of Line
+        Work; keys ``(line.run, line.key)`` must be unique.
+    executor : concurrent.futures.Executor, optional
+        Any executor with ``submit`` returning :class:`concurrent.futures.Future`
+        (a local process pool, ``dask.distributed.Client.get_executor()``).
+        Default: a local pool of ``jobs`` workers, rebuilt if a worker dies.
+    jobs : int or None
+        Workers of the default executor (None: all cores; 1: inline).
+    on_line : callable, optional
+        ``on_line(line, rows)`` in this process as each line finishes (e.g. a
+        checkpoint writer); lines finish in any order.
+    progress : bool
+        A tqdm bar of points done, with rate and time left.
+    max_attempts : int
+        Times a line is submitted when its worker is lost (a killed process,
+        a broken pool, a lost dask worker); after that its points are recorded
+        with ``status = 'failed'`` and the reason, and the rest goes on.
+
+    Returns
+    -------
+    dict
+        ``{(run, key): rows}``, rows being the per-point dicts in visiting order.
+    """
+    from concurrent.futures import FIRST_COMPLETED, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    lines = list(lines)
+    own = executor is None
+    ex = default_executor(jobs, len(lines)) if own else executor
+    attempts: dict = {}
+    pending: dict = {}
+    results: dict = {}
+    bar = None
+    if progress and lines:
+        from tqdm import tqdm
+        bar = tqdm(total=sum(l.n_points for l in lines), desc=desc or "sweep", unit="pt", leave=False,
+                   smoothing=0.1)
+
+    def submit(line):
+        ident = (line.run, line.key)
+        attempts[ident] = attempts.get(ident, 0) + 1
+        try:
+            pending[ex.submit(run_line, line)] = line
+        except Exception as e:  # the executor refuses work (e.g. broken): treat as a lost worker
+            f = Future()
+            f.set_exception(e)
+            pending[f] = line
+
+    def finish(line, rows):
+        results[(line.run, line.key)] = rows
+        if on_line is not None:
+            on_line(line, rows)
+        if bar is not None:
+            bar.update(len(rows))
+
+    try:
+        if isinstance(ex, InlineExecutor):  # in order, each line reported as soon as it is done
+            for line in lines:
+                finish(line, run_line(line))
+        for line in ([] if isinstance(ex, InlineExecutor) else lines):
+            submit(line)
+        while pending:
+            done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
+            retry, broken = [], False
+            for f in done:
+                line = pending.pop(f)
+                try:
+                    rows = f.result()
+                except Exception as e:  # infrastructure failure (the line itself never raises)
+                    broken |= isinstance(e, BrokenProcessPool)
+                    n = attempts[(line.run, line.key)]
+                    if n < max_attempts:
+                        retry.append(line)
+                    else:
+                        finish(line, _lost_rows(line, e, n))
+                    continue
+                finish(line, rows)
+            if broken and own:
+                # every line still queued on the broken pool fails too: collect them, then rebuild
+                for f in list(pending):
+                    line = pending.pop(f)
+                    try:
+                        finish(line, f.result())
+                    except Exception as e:
+                        n = attempts[(line.run, line.key)]
+                        if n < max_attempts:
+                            retry.append(line)
+                        else:
+                            finish(line, _lost_rows(line, e, n))
+                ex.shutdown(wait=False, cancel_futures=True)
+                ex = default_executor(jobs, len(retry))
+            for line in retry:
+                submit(line)
+    finally:
+        if bar is not None:
+            bar.close()
+        if own:
+            ex.shutdown(wait=not pending, cancel_futures=True)
+    return results
+
+
 def _plan(sweep: Sweep):
-    """Independent tasks as (direction, ordered Omegas)."""
+    """Independent tasks as (key, direction, ordered Omegas)."""
     up = np.sort(np.asarray(sweep.Omega, dtype=float))
     dirs = ["up", "down"] if sweep.direction == "both" else [sweep.direction]
     tasks = []
     for d in dirs:
         grid = up if d == "up" else up[::-1]
         if sweep.continuation:
-            tasks.append((d, grid))
+            tasks.append((d, d, grid))
         else:
-            tasks.extend((d, grid[i:i + 1]) for i in range(len(grid)))
+            tasks.extend((f"{d}-{i:05d}", d, grid[i:i + 1]) for i in range(len(grid)))
     return tasks
+
+
+def plan_lines(solver, sweep: Sweep, run: str = "run") -> list[Line]:
+    """The lines of one sweep, in the order their points are reported (up, then down)."""
+    Delta = float(solver.model.Delta)
+    return [Line(key, solver, grid, d, sweep, Delta, run) for key, d, grid in _plan(sweep)]
 
 
 def default_executor(jobs: int | None, n_tasks: int) -> Executor:
@@ -182,7 +344,7 @@ def run_sweep(solver, sweep: Sweep, name: str = "run", executor: Executor | None
     jobs : int or None
         Workers of the default executor (None: all cores; 1: inline).
     progress : bool
-        Show a tqdm progress bar (per completed task).
+        Show a tqdm progress bar (points done, rate, time left).
 
     Returns
     -------
@@ -194,31 +356,18 @@ def run_sweep(solver, sweep: Sweep, name: str = "run", executor: Executor | None
         physical scenes and any method-specific outputs.  Points are ordered
         as visited: the up branch, then the down branch.
     """
-    model = solver.model
-    Delta = float(model.Delta)
-    tasks = _plan(sweep)
-    own = executor is None
-    ex = default_executor(jobs, len(tasks)) if own else executor
+    lines = plan_lines(solver, sweep, name)
     t0 = time.perf_counter()
-    try:
-        futs = [ex.submit(_chain, solver, grid, sweep, Delta, d) for d, grid in tasks]
-        bar = None
-        if progress and len(futs) > 1:
-            from tqdm import tqdm
-            bar = tqdm(total=len(futs), desc=name, unit="task", leave=False)
-        results = []
-        for f in futs:
-            results.append(f.result())
-            if bar is not None:
-                bar.update(1)
-        if bar is not None:
-            bar.close()
-    finally:
-        if own:
-            ex.shutdown()
+    done = run_lines(lines, executor=executor, jobs=jobs, progress=progress and len(lines) > 1, desc=name)
     wall = time.perf_counter() - t0
-    rows = [r for rs in results for r in rs]
-    data = _stack(rows, sweep)
+    return assemble(solver, sweep, name, [done[(l.run, l.key)] for l in lines], wall)
+
+
+def assemble(solver, sweep: Sweep, name: str, line_rows: list, wall_time_s: float) -> SweepResult:
+    """The :class:`SweepResult` of a run from its lines' rows (in plan order)."""
+    model = solver.model
+    rows = [r for rs in line_rows for r in rs]
+    data = stack(rows, sweep)
     fn = getattr(model, "natural_frequency_hz", None)
     L = getattr(model, "length_m", None)
     attrs = {}
@@ -229,10 +378,17 @@ def run_sweep(solver, sweep: Sweep, name: str = "run", executor: Executor | None
         data["amplitude_mm"] = data["amplitude"] * L * 1e3
         attrs["length_m"] = L
     return SweepResult(name=name, fidelity=model.fidelity, method=solver.name, settings=solver.settings(),
-                       data=data, wall_time_s=wall, attrs=attrs)
+                       data=data, wall_time_s=wall_time_s, attrs=attrs)
 
 
-def _stack(rows: list[dict], sweep: Sweep) -> dict:
+def unstack(data: dict) -> list[dict]:
+    """Inverse of the stacking of per-point dicts: rows from stacked arrays (a checkpointed line)."""
+    n = len(data["Omega"])
+    return [{k: (v[i].item() if isinstance(v[i], np.generic) else v[i]) for k, v in data.items()}
+            for i in range(n)]
+
+
+def stack(rows: list[dict], sweep: Sweep) -> dict:
     """Stack per-point dicts into arrays; missing entries become NaN (or '' for text)."""
     n_rec = sweep.record_periods
     defaults = {"strobe": np.full((n_rec, 2), np.nan), "harmonics": np.full(HARMONICS, np.nan)}

@@ -1,0 +1,445 @@
+"""Fuzzed case files: bad input always gives one line naming the key and exit code 2.
+
+The shipped case files (``cases/*.toml``) are the seeds.  Hypothesis mutates them at the
+data level (unknown keys in any table, wrong types, NaN/inf/huge/negative numbers, deleted
+keys, ``model``/``run`` replaced by something else, a ``[map]`` table with good and bad
+parameters and grids) and at the text level (truncation, garbage bytes and unicode).  For
+every mutant :func:`vibeam.case.parse_case` either accepts it (then it is a usable case) or
+raises :class:`vibeam.case.CaseError` with a single line that names the key (or says "not
+valid TOML"); any other exception fails the test.  A few invalid mutants go through
+``vibeam run`` in-process and as a subprocess: exit code 2, ``vibeam: error: ...`` on one
+line, no traceback, nothing written to the output folder.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import re
+import subprocess
+import sys
+import tempfile
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, event, given, settings
+from hypothesis import strategies as st
+
+from vibeam.case import MAX_GRID_POINTS, MAX_MAP_VALUES, CaseError, load_case, parse_case
+from vibeam.cli import main
+
+CASES = sorted((Path(__file__).resolve().parent.parent / "cases").glob("*.toml"))
+SEED_TEXT = {p.stem: p.read_text() for p in CASES}
+SEED_DATA = {k: tomllib.loads(t) for k, t in SEED_TEXT.items()}
+SOURCE = "fuzz.toml"
+
+FUZZ = settings(derandomize=True, deadline=None, database=None, max_examples=150,
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
+                                       HealthCheck.filter_too_much])
+
+
+def test_seeds_are_all_the_shipped_cases_and_valid():
+    assert len(CASES) >= 13          # 13 when written; more are being added (paper-fig18 maps)
+    for name, text in SEED_TEXT.items():
+        parse_case(text, name)
+
+
+# ----------------------------------------------------------------------------- TOML writer
+def _toml_key(k: str) -> str:
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_str(k)
+
+
+def _toml_str(s: str) -> str:
+    # JSON escapes are TOML basic-string escapes; DEL must be escaped in TOML as well
+    return json.dumps(s, ensure_ascii=False).replace("\x7f", "\\u007f")
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return _toml_str(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(type(v))
+
+
+def to_toml(data: dict) -> str:
+    """TOML text of ``data`` (every table inline, one top-level key per line)."""
+    return "".join(f"{_toml_key(k)} = {_toml_value(v)}\n" for k, v in data.items())
+
+
+def test_toml_writer_round_trips_the_seeds():
+    for data in SEED_DATA.values():
+        assert tomllib.loads(to_toml(data)) == data
+
+
+# ----------------------------------------------------------------------------- strategies
+KEY_WORDS = ["R", "B", "beta", "Delta", "gap_mm", "voltage", "gain", "fidelity", "Omega", "frequency_hz",
+             "method", "name", "model", "run", "map", "values", "parameter", "effects", "discs", "count",
+             "n_modes", "n", "k", "form", "event", "direct", "sweep", "quick", "points", "direction"]
+keys = st.one_of(st.sampled_from(KEY_WORDS).map(lambda k: k + "_x"),          # near misses
+                 st.sampled_from(KEY_WORDS),                                   # right name, wrong place
+                 st.text(min_size=1, max_size=12))                            # anything, unicode too
+
+numbers = st.one_of(
+    st.sampled_from([0, -1, 1, 2, 3, 0.0, -0.0, -1e-300, 1e-300, 0.5, 1.0, 1.5, 2.5, 1e6, -1e6, 1e300,
+                     -1e300, 1.7976931348623157e308, math.nan, math.inf, -math.inf, 2**31, 2**53 + 1,
+                     2**63 - 1, -2**63, 2**63, 10**30, -10**30, 4096, 4097, 2000, 2001, 15, 16]),
+    st.integers(min_value=-10**6, max_value=10**6),
+    st.floats(allow_nan=True, allow_infinity=True))
+scalars = st.one_of(numbers, st.booleans(), st.text(max_size=10),
+                    st.sampled_from(["sdof", "beam", "event", "mapping", "all", "static", "up", "both",
+                                     "", "nan", "inf", "1.0", "R", "voltage", "a/b"]))
+values = st.recursive(scalars, lambda inner: st.one_of(st.lists(inner, max_size=4),
+                                                       st.dictionaries(keys, inner, max_size=3)),
+                      max_leaves=8)
+grids = st.one_of(
+    st.lists(numbers, min_size=3, max_size=3),
+    st.tuples(st.floats(-10, 10), st.floats(-10, 10), st.integers(-2, 6)).map(list),
+    st.just([1.0, 1.0, 1]), st.just([0.5, 0.6, 3]),
+    st.lists(numbers, max_size=5), values)
+
+
+def _tables(data, path=()):
+    """Paths of every table (dict) in ``data``, arrays of tables included."""
+    out = [path]
+    for k, v in data.items():
+        if isinstance(v, dict):
+            out += _tables(v, (*path, k))
+        elif isinstance(v, list):
+            out += [t for i, x in enumerate(v) if isinstance(x, dict) for t in _tables(x, (*path, k, i))]
+    return out
+
+
+def _get(data, path):
+    for p in path:
+        data = data[p]
+    return data
+
+
+def _numeric_model_keys(data):
+    return sorted(k for k, v in data.get("model", {}).items()
+                  if isinstance(v, (int, float)) and not isinstance(v, bool))
+
+
+@st.composite
+def map_tables(draw, data):
+    numeric = _numeric_model_keys(data) or ["R"]
+    param = draw(st.one_of(st.sampled_from(numeric), st.sampled_from(numeric),
+                           st.sampled_from(["fidelity", "n_modes", "name", "discs", "Omega", ""]),
+                           values))
+    x = data.get("model", {}).get(param) if isinstance(param, str) and isinstance(data.get("model"), dict) \
+        else None
+    plausible = st.nothing()
+    if isinstance(x, (int, float)) and not isinstance(x, bool):     # around the scene's own value
+        plausible = st.one_of(st.just([x, x, 1]),
+                              st.tuples(st.floats(0.8, 1.0), st.floats(1.0, 1.1), st.integers(2, 4))
+                              .map(lambda t: [x * t[0], x * t[1], t[2]]))
+    table = {"parameter": param, "values": draw(st.one_of(plausible, plausible, grids))}
+    if draw(st.booleans()):
+        del table[draw(st.sampled_from(["parameter", "values"]))]
+    if draw(st.integers(0, 4)) == 0:
+        table[draw(keys)] = draw(values)
+    return table
+
+
+@st.composite
+def mutants(draw, with_map=False):
+    """(mutated case data, the top-level keys under which it was mutated)."""
+    name = draw(st.sampled_from(sorted(SEED_DATA)))
+    data = json.loads(json.dumps(SEED_DATA[name]))           # deep copy
+    touched = set()
+    if with_map:
+        data["map"] = draw(map_tables(data))
+        touched.add("map")
+    n = draw(st.integers(0 if with_map else 1, 3))
+    for _ in range(n):
+        tables = _tables(data)
+        path = draw(st.sampled_from(tables))
+        table = _get(data, path)
+        kind = draw(st.sampled_from(["unknown key", "wrong value", "wrong value", "delete", "scale",
+                                     "top-level"]))
+        if kind == "top-level":                      # model / run / sweep / map replaced wholesale
+            key = draw(st.sampled_from(["model", "run", "sweep", "map", "effects", "name", "quick"]))
+            data[key] = draw(st.one_of(values, st.lists(values, max_size=3),
+                                       st.lists(st.dictionaries(keys, values, max_size=2), max_size=2)))
+            path, key = (), key
+        elif kind == "unknown key" or not table:
+            key = draw(keys)
+            assume(key not in table)
+            table[key] = draw(values)
+        else:
+            key = draw(st.sampled_from(sorted(table)))
+            if kind == "delete":
+                del table[key]
+            elif kind == "scale" and isinstance(table[key], (int, float)) and not isinstance(table[key], bool):
+                f = draw(st.sampled_from([-1, 0, 1e9, -1e9, 1e-9, 2**40, math.inf, math.nan]))
+                table[key] = table[key] * f if isinstance(f, float) or f else 0
+            else:
+                table[key] = draw(values)
+        touched.add(path[0] if path else key)
+    return data, touched
+
+
+@st.composite
+def mangled_text(draw):
+    """A seed's text truncated, with garbage inserted, or a slice replaced."""
+    text = SEED_TEXT[draw(st.sampled_from(sorted(SEED_TEXT)))]
+    i = draw(st.integers(0, len(text)))
+    how = draw(st.sampled_from(["truncate", "insert", "replace"]))
+    if how == "truncate":
+        return text[:i]
+    junk = draw(st.one_of(st.text(max_size=8),
+                          st.sampled_from(["[", "]", "[[", "=", '"', "'''", "\n[model]\n", "\n[[run]]\n",
+                                           "\x00", "\r", "\ufeff", "\u2028", "= nan", "inf", "{", "}",
+                                           "\n[sweep]\nOmega = 3\n", "\n[map]\nparameter = 1\n"])))
+    j = i if how == "insert" else min(len(text), i + draw(st.integers(1, 40)))
+    return text[:i] + junk + text[j:]
+
+
+# ----------------------------------------------------------------------------- the contract
+def _one_line_error(msg: str) -> None:
+    assert "\n" not in msg and "\r" not in msg and len(msg.splitlines()) == 1, repr(msg)
+    assert msg.isprintable(), repr(msg)
+
+
+def check(text: str, touched=None) -> str:
+    """Parse ``text``: a valid case, or a CaseError of one line naming the key (one of the
+    top-level keys ``touched`` where it was mutated, when given).  Returns ``"ok"`` or
+    ``"error"``; any other exception propagates (and fails the test)."""
+    try:
+        case = parse_case(text, SOURCE)
+    except CaseError as e:
+        msg = str(e)
+        _one_line_error(msg)
+        assert msg.startswith(SOURCE + ": "), msg
+        body = msg[len(SOURCE) + 2:]
+        assert body.startswith("not valid TOML") or re.search(r"'[^']+'", body), msg
+        if touched and all(t.isprintable() and t.isidentifier() for t in touched):
+            assert any(t in body for t in touched), (touched, msg)
+        event("error: not valid TOML" if body.startswith("not valid TOML") else "error: names a key")
+        return "error"
+    # accepted: a usable case
+    spec = case.model_spec()
+    for r in case.run:
+        if r.model:
+            case.model_spec(r.model)
+        case.effects_for(r)
+    fn = getattr(spec, "natural_frequency_hz", None)
+    if case.sweep.frequency_hz is not None:
+        fn = fn or 1.0
+    Omega = case.sweep.grid(fn)
+    assert 1 <= Omega.size <= MAX_GRID_POINTS and np.all(np.isfinite(Omega)) and np.all(Omega > 0)
+    if case.map is not None:
+        v = case.map.grid()
+        assert 1 <= v.size <= MAX_MAP_VALUES and np.all(np.isfinite(v))
+        assert case.map.parameter in case.map_parameters()
+    case.quick_variant()
+    if spec.fidelity == "sdof":
+        spec.build()
+    event("accepted" + (" with a [map]" if case.map is not None else ""))
+    return "ok"
+
+
+@settings(FUZZ, max_examples=300)
+@given(mutants())
+def test_mutated_cases_are_valid_or_one_line_errors(m):
+    data, touched = m
+    check(to_toml(data), touched)
+
+
+@settings(FUZZ, max_examples=250)
+@given(mutants(with_map=True))
+def test_map_tables_are_valid_or_one_line_errors(m):
+    data, touched = m
+    check(to_toml(data), touched)
+
+
+@settings(FUZZ, max_examples=60)
+@given(st.sampled_from(sorted(SEED_DATA)), st.data())
+def test_good_maps_are_accepted_and_bad_values_name_map_values(name, draw):
+    """A map over a numeric model key: accepted inside the key's range, rejected outside
+    with 'map.values' (or the run that overrides the key) in the message."""
+    data = json.loads(json.dumps(SEED_DATA[name]))
+    data.pop("map", None)
+    param = draw.draw(st.sampled_from(_numeric_model_keys(data)))
+    x = data["model"][param]
+    mappable = param in parse_case(to_toml(data)).map_parameters()     # float keys, not n_modes
+    good = [x, x, 1] if draw.draw(st.booleans()) else [0.9 * x, 1.1 * x, draw.draw(st.integers(2, 4))]
+    data["map"] = {"parameter": param, "values": good}
+    overridden = any(param in r.get("model", {}) for r in data["run"])
+    text = to_toml(data)
+    if mappable and not overridden:
+        assert check(text) == "ok"
+    else:
+        assert check(text, {"map"} if not mappable else {"run"}) == "error"
+    data["map"]["values"] = [x, draw.draw(st.sampled_from([-1e9, 1e9, -1.0, 2.0])), 3]
+    check(to_toml(data))
+
+
+@settings(FUZZ, max_examples=300)
+@given(mangled_text())
+def test_mangled_text_is_valid_or_one_line_errors(text):
+    check(text)
+
+
+@settings(FUZZ, max_examples=60)
+@given(st.sampled_from(sorted(SEED_TEXT)), st.data())
+def test_truncated_seeds(name, draw):
+    text = SEED_TEXT[name]
+    i = draw.draw(st.integers(0, len(text) - 1))
+    check(text[:i])
+
+
+@settings(FUZZ, max_examples=60)
+@given(st.one_of(st.text(max_size=200), st.binary(max_size=200).map(lambda b: b.decode("latin-1"))))
+def test_random_text(text):
+    check(text)
+
+
+# a few inputs the fuzzer found (all crashed or gave several lines before the fix)
+KNOWN = [
+    ("Omega = [1.5, 2.5, 101]", "Omega = [1.5, 2.5, inf]", "sweep.Omega"),       # OverflowError
+    ("Omega = [1.5, 2.5, 101]", "Omega = [1.5, 2.5, nan]", "sweep.Omega"),       # 'cannot convert NaN'
+    ("Omega = [1.5, 2.5, 101]", "Omega = [1.5, 2.5, 1e300]", "sweep.Omega"),     # accepted, MemoryError later
+    ("Omega = [1.5, 2.5, 101]", "Omega = [nan, 2.5, 101]", "sweep.Omega"),
+    ("Delta = 0.0", "Delta = inf", "model.Delta"),                                # accepted
+    ("B = 0.5e-3", "B = nan", "model.B"),                                         # accepted
+    ('fidelity = "sdof"', "fidelity = [1]", "model.fidelity"),                    # TypeError unhashable
+    ('fidelity = "sdof"', "fidelity = {a = 1}", "model.fidelity"),                # TypeError unhashable
+    ('fidelity = "sdof"', "", "model.fidelity"),
+    ("[model]", 'model = "x"\n[modelx]', "model"),                                # two lines
+    ('method = "event"', "method = 3", "run[0].method"),
+    ('method = "event"', "", "run[0].method"),
+    ("[sweep]", "[sweep]\ndirect = 1", "sweep.direct"),                           # named 'sweep' only
+    ("[sweep]", '[sweep]\n"a\\nb" = 1', "sweep.a\\nb"),                          # line break in the key
+    ('method = "event"', 'method = "a\\u2028b"', "run[0].method"),                # U+2028 in the message
+    ("transient_periods = 400", "transient_periods = 123456789012345678901234567890",
+     "sweep.transient_periods"),                                                  # accepted (int > 64 bit)
+    ("[[run]]", "[[run]]\nmodel = {x = " + "[" * 2000 + "]" * 2000 + "}", "not valid TOML"),  # RecursionError
+    ("[[run]]", "[[run]]\nmodel = {x = " + "[" * 100 + "]" * 100 + "}", "run[0].model.x"),
+    ("[[run]]", '[[run]]\nmodel = {fidelity = "sdof", R = {a = 1}}', "run[0].model.R"),
+    ('name = "exact"\nmethod = "event"', 'name = "exact"\nmethod = "event"\n[map]\nparameter = "R"\n'
+     'values = [0.0, 1.0, inf]', "map.values"),                                  # OverflowError
+    ('name = "exact"\nmethod = "event"', 'name = "exact"\nmethod = "event"\n[map]\nparameter = "R"\n'
+     'values = [0.0, 1.0, 1e12]', "map.values"),                                 # MemoryError
+    ('name = "exact"\nmethod = "event"', 'name = "exact"\nmethod = "event"\n[map]\nparameter = "Delta"\n'
+     'values = [0.0, inf, 3]', "map.values"),                                    # accepted
+    ('name = "exact"\nmethod = "event"', 'name = "exact"\nmethod = "event"\n[map]\nparameter = 3\n'
+     'values = [0.0, 1.0, 3]', "map.parameter"),
+    ('name = "exact"\nmethod = "event"', 'name = "exact"\nmethod = "event"\n[map]\nparameter = "R"\n'
+     'values = [0.5, 2.0, 3]', "map.values"),
+]
+
+
+@pytest.mark.parametrize("old,new,key", KNOWN)
+def test_known_bad_inputs(old, new, key):
+    text = SEED_TEXT["paper-fig7"]
+    assert re.search("^" + re.escape(old), text, flags=re.M)
+    with pytest.raises(CaseError) as e:
+        parse_case(re.sub("^" + re.escape(old), lambda _: new, text, count=1, flags=re.M), SOURCE)
+    msg = str(e.value)
+    _one_line_error(msg)
+    assert key in msg, msg
+
+
+def test_several_errors_are_one_line():
+    text = SEED_TEXT["paper-fig7"].replace('fidelity = "sdof"', 'fidelity = "beam"')
+    with pytest.raises(CaseError) as e:
+        parse_case(text, SOURCE)
+    msg = str(e.value)
+    _one_line_error(msg)
+    assert msg.count(SOURCE) == 1 and "missing key 'model.length_mm'" in msg and "; " in msg
+
+
+def test_unreadable_and_non_utf8_files(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_bytes(SEED_TEXT["paper-fig7"].encode()[:50] + b"\xff\xfe garbage")
+    with pytest.raises(CaseError, match="not UTF-8") as e:
+        load_case(bad)
+    _one_line_error(str(e.value))
+    with pytest.raises(CaseError, match="cannot read") as e:
+        load_case(tmp_path / "missing.toml")
+    _one_line_error(str(e.value))
+    with pytest.raises(CaseError, match="cannot read"):
+        load_case(tmp_path)
+
+
+# ----------------------------------------------------------------------------- the CLI
+def _cli_in_process(content: str | bytes) -> None:
+    with tempfile.TemporaryDirectory() as d:
+        d = Path(d)
+        case = d / "case.toml"
+        case.write_bytes(content if isinstance(content, bytes) else content.encode())
+        out = d / "out"
+        err, so = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(so):
+            rc = main(["run", str(case), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"])
+        lines = err.getvalue().splitlines()
+        assert rc == 2, err.getvalue()
+        assert len(lines) == 1 and lines[0].startswith("vibeam: error: "), err.getvalue()
+        assert "Traceback" not in err.getvalue()
+        assert sorted(p.name for p in d.iterdir()) == ["case.toml"]      # no out/, no results.h5, no temp
+
+
+def _invalid(content) -> bool:
+    with tempfile.TemporaryDirectory() as d:
+        p = Path(d) / "case.toml"
+        p.write_bytes(content if isinstance(content, bytes) else content.encode())
+        try:
+            load_case(p)
+        except CaseError:
+            return True
+    return False
+
+
+@settings(FUZZ, max_examples=12)
+@given(st.one_of(mutants().map(lambda m: to_toml(m[0])), mutants(with_map=True).map(lambda m: to_toml(m[0])),
+                 mangled_text(),
+                 st.tuples(st.sampled_from(sorted(SEED_TEXT)), st.binary(min_size=1, max_size=16))
+                 .map(lambda t: SEED_TEXT[t[0]].encode()[:100] + t[1] + SEED_TEXT[t[0]].encode()[100:])))
+def test_cli_in_process_on_invalid_mutants(content):
+    assume(_invalid(content))
+    _cli_in_process(content)
+
+
+def _vibeam_commands():
+    cmds = [[sys.executable, "-m", "vibeam.cli"]]
+    exe = Path(sys.executable).parent / "vibeam"
+    if exe.exists():
+        cmds.append([str(exe)])
+    return cmds
+
+
+@pytest.mark.parametrize("cmd", _vibeam_commands(), ids=lambda c: Path(c[-1]).name)
+def test_cli_subprocess_no_traceback(tmp_path, cmd):
+    fig7 = SEED_TEXT["paper-fig7"]
+    bad = {"truncated.toml": fig7[: fig7.index("[[run]]") + 5],
+           "nan.toml": fig7.replace("Omega = [1.5, 2.5, 101]", "Omega = [1.5, 2.5, nan]"),
+           "binary.toml": fig7.encode()[:40] + b"\x80\xff\x00",
+           "map.toml": fig7 + '\n[map]\nparameter = ["R"]\nvalues = [0, 1, 3]\n'}
+    for name, content in bad.items():
+        case = tmp_path / name
+        case.write_bytes(content if isinstance(content, bytes) else content.encode())
+        out = tmp_path / ("out-" + name)
+        p = subprocess.run([*cmd, "run", str(case), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"],
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 2, (name, p.stderr)
+        assert "Traceback" not in p.stderr, p.stderr
+        lines = p.stderr.splitlines()
+        assert len(lines) == 1 and lines[0].startswith("vibeam: error: ") and name in lines[0], p.stderr
+        assert not out.exists()

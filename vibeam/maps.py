@@ -1,0 +1,209 @@
+"""Parameter maps (paper Fig. 18): the period-n classification, amplitude and impacts per
+period over the frequency grid of ``[sweep]`` and one model parameter of ``[map]``.
+
+A map is made of sweep lines (:class:`vibeam.sweep.Line`): for every value of
+the mapped parameter one up and/or one down continuation sweep along the
+frequency axis, so that hysteresis (coexisting orbits reached from below or
+from above) shows as a difference between the up and down maps.  The lines
+run through the one sweep engine (:func:`vibeam.sweep.run_lines`); this module
+only assembles their rows into arrays and plots them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .sweep import Sweep, stack
+
+# classification codes of a map point (dataset ``classification``)
+NO_IMPACT, PERIOD_1, PERIOD_2, PERIOD_N, NON_PERIODIC, FAILED, HELD = range(7)
+CLASSES = {NO_IMPACT: "no impact", PERIOD_1: "period-1", PERIOD_2: "period-2",
+           PERIOD_N: "period-n (3 <= n <= 8)", NON_PERIODIC: "non-periodic", FAILED: "failed",
+           HELD: "held on the stop"}
+CLASS_COLOURS = ("#d9d9d9", "#2166ac", "#d6604d", "#fdb863", "#ffffff", "#000000", "#878787")
+
+
+def classify(period, status) -> np.ndarray:
+    """Map-point classes from the period-n test and the solver status.
+
+    Parameters
+    ----------
+    period : array_like of int
+        Period of the stroboscopic map (``-1`` no impact, ``0`` not periodic
+        within 8 forcing periods, else n), as in :func:`vibeam.records.summarize`.
+    status : array_like of str, same shape
+        ``ok``, ``chatter``, ``sticking`` or ``failed``.
+
+    Returns
+    -------
+    ndarray of int8, same shape
+        Codes :data:`NO_IMPACT`, :data:`PERIOD_1`, :data:`PERIOD_2`,
+        :data:`PERIOD_N`, :data:`NON_PERIODIC`, :data:`FAILED` and :data:`HELD`
+        (no impact because the mass stays on a pre-stressed stop; paper Fig.
+        18(a), "no imp." at low voltage) -- names in :data:`CLASSES`.  Chatter
+        and sticking orbits keep their period class; their status is stored
+        beside it.
+    """
+    p = np.asarray(period)
+    st = np.asarray(status, dtype=object)
+    c = np.full(p.shape, NON_PERIODIC, dtype=np.int8)
+    c[p == -1] = NO_IMPACT
+    c[p == 1] = PERIOD_1
+    c[p == 2] = PERIOD_2
+    c[p >= 3] = PERIOD_N
+    c[(p == -1) & (st == "sticking")] = HELD
+    c[st == "failed"] = FAILED
+    return c
+
+
+@dataclass
+class MapResult:
+    """One run of a parameter map.
+
+    Attributes
+    ----------
+    name, fidelity, method : str
+    settings : dict
+        Method settings.
+    parameter : str
+        The mapped model key (e.g. ``voltage``, V; ``gap_mm``, mm).
+    data : dict
+        ``values`` (n_values,), ``direction`` (n_directions,), and per-point
+        datasets of shape ``(n_directions, n_values, n_frequencies, ...)`` in
+        increasing frequency: ``Omega``, ``classification``, ``period``,
+        ``amplitude``, ``impacts_per_period``, ``status``, ``message``, and
+        ``frequency_hz``/``amplitude_mm`` for physical scenes.
+    wall_time_s : float
+        Compute time summed over the map's points (s).
+    attrs : dict
+    """
+
+    name: str
+    fidelity: str
+    method: str
+    settings: dict
+    parameter: str
+    data: dict
+    wall_time_s: float
+    attrs: dict = field(default_factory=dict)
+
+    @property
+    def shape(self) -> tuple:
+        return self.data["classification"].shape
+
+
+def assemble_map(name: str, solvers: list, sweep: Sweep, parameter: str, values, directions,
+                 line_rows: dict) -> MapResult:
+    """A :class:`MapResult` from the rows of its lines.
+
+    Parameters
+    ----------
+    name : str
+        Run name.
+    solvers : list, length n_values
+        The solver of each parameter value (its model gives the scales).
+    sweep : Sweep
+        The sweep of every line.
+    parameter : str
+        Mapped key.
+    values : ndarray, shape (n_values,)
+    directions : list of str
+        ``['up']``, ``['down']`` or ``['up', 'down']``.
+    line_rows : dict
+        ``{(j, direction): rows in visiting order}``.
+    """
+    rows = []
+    for d in directions:
+        for j in range(len(values)):
+            rs = line_rows[(j, d)]
+            rows.extend(rs if d == "up" else rs[::-1])
+    flat = stack(rows, sweep)
+    n_d, n_v = len(directions), len(values)
+    data = {k: v.reshape((n_d, n_v, -1) + v.shape[1:]) for k, v in flat.items() if k != "direction"}
+    data["classification"] = classify(data["period"], data["status"]) if "status" in data else \
+        classify(data["period"], np.full(data["period"].shape, "ok", dtype=object))
+    models = [s.model for s in solvers]
+    fn = [getattr(m, "natural_frequency_hz", None) for m in models]
+    L = [getattr(m, "length_m", None) for m in models]
+    if all(fn):
+        data["frequency_hz"] = data["Omega"] * np.asarray(fn)[None, :, None]
+    if all(L):
+        data["amplitude_mm"] = data["amplitude"] * np.asarray(L)[None, :, None] * 1e3
+    data["values"] = np.asarray(values, float)
+    data["direction"] = np.array(directions, dtype=object)
+    wall = float(np.nansum(flat.get("wall_time_s", 0.0)))
+    s0 = solvers[0]
+    attrs = {"parameter": parameter, "classes": "; ".join(f"{k} {v}" for k, v in CLASSES.items())}
+    return MapResult(name=name, fidelity=s0.model.fidelity, method=s0.name, settings=s0.settings(),
+                     parameter=parameter, data=data, wall_time_s=wall, attrs=attrs)
+
+
+def hysteresis(m: MapResult, rtol: float = 1e-3) -> np.ndarray | None:
+    """Points where the up and down sweeps end on different orbits, shape (n_values, n_frequencies).
+
+    Different class, or amplitudes differing by more than ``rtol`` of the
+    larger; None for a one-direction map.
+    """
+    d = list(m.data["direction"])
+    if len(d) < 2:
+        return None
+    c, a = m.data["classification"], np.asarray(m.data["amplitude"], float)
+    scale = np.maximum(np.abs(a[0]), np.abs(a[1]))
+    with np.errstate(invalid="ignore"):
+        return (c[0] != c[1]) | (np.abs(a[0] - a[1]) > rtol * scale)
+
+
+def plot_map(m: MapResult, path, title: str = ""):
+    """Fig. 18-style plot: class of every point over (frequency, parameter), one panel per
+    direction and one of the hysteresis; returns the path."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
+
+    d = m.data
+    phys = "frequency_hz" in d
+    x = (d["frequency_hz"] if phys else d["Omega"])[0]
+    y = d["values"]
+    dirs = list(d["direction"])
+    hyst = hysteresis(m)
+    n_pan = len(dirs) + (hyst is not None)
+    fig, axes = plt.subplots(1, n_pan, figsize=(4.2 * n_pan, 3.8), sharey=True, squeeze=False)
+    cmap = ListedColormap(CLASS_COLOURS)
+    norm = BoundaryNorm(np.arange(-0.5, len(CLASSES) + 0.5), cmap.N)
+    yy = np.repeat(y[:, None], x.shape[1], axis=1)
+    for ax, k in zip(axes[0], range(len(dirs))):
+        ax.pcolormesh(x, yy, d["classification"][k], cmap=cmap, norm=norm, shading="nearest")
+        ax.set_title(f"{dirs[k]} sweep")
+    if hyst is not None:
+        ax = axes[0][-1]
+        ax.pcolormesh(x, yy, hyst.astype(float), cmap=ListedColormap(["white", "#762a83"]), vmin=0, vmax=1,
+                      shading="nearest")
+        ax.set_title("hysteresis (up != down)")
+    for ax in axes[0]:
+        ax.set_xlabel("forcing frequency (Hz)" if phys else r"$\Omega$")
+    unit = {"voltage": "V", "gain": "1/V", "natural_frequency_hz": "Hz", "length_mm": "mm"}.get(
+        m.parameter, "mm" if m.parameter.endswith("_mm") else "")
+    axes[0][0].set_ylabel(f"{m.parameter} ({unit})" if unit else m.parameter)
+    fig.legend(handles=[Patch(facecolor=c, edgecolor="0.5", label=CLASSES[i])
+                        for i, c in enumerate(CLASS_COLOURS)], loc="lower center", ncol=4,
+               fontsize=8, frameon=False)
+    fig.suptitle(f"{title}: {m.name} ({m.method})" if title else m.name)
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def print_map(m: MapResult) -> None:
+    """Counts of each class per direction, and the number of hysteresis points."""
+    d = m.data
+    for k, dname in enumerate(d["direction"]):
+        c = d["classification"][k]
+        counts = ", ".join(f"{CLASSES[i]} {int((c == i).sum())}" for i in CLASSES if (c == i).any())
+        print(f"  {m.name} {dname}: {c.size} points: {counts}")
+    h = hysteresis(m)
+    if h is not None:
+        print(f"  {m.name}: up and down sweeps differ at {int(h.sum())} of {h.size} points")
