@@ -224,7 +224,8 @@ def _scene(fname: str, over: dict | None):
 
 
 def _time_sweep(case, model, settings, points: int, n_periods: int, repeats: int,
-                record_fraction: float | None = None, record: int | None = None) -> tuple[float, dict]:
+                record_fraction: float | None = None, record: int | None = None,
+                min_total_s: float = 0.25, max_repeats: int = 25) -> tuple[float, dict]:
     """Median wall time of an inline (jobs=1) event sweep of ``points`` frequencies spread
     over the case's grid with ``n_periods`` = transient + record periods per point, after
     a warm-up; the case's direction, continuation, samples per period and period rtol."""
@@ -244,14 +245,16 @@ def _time_sweep(case, model, settings, points: int, n_periods: int, repeats: int
     run_sweep(solver, Sweep(Omega=grid[:2], transient_periods=2, record_periods=2, **kw), jobs=1)  # warm-up
     sw = Sweep(Omega=grid, transient_periods=transient, record_periods=record, **kw)
     ts, cs_ = [], []
-    for _ in range(repeats):
+    # at least ``repeats`` runs, more for cheap sweeps (until min_total_s is spent, at most
+    # max_repeats): a median of ms-long runs is otherwise at the mercy of timer and OS noise
+    while len(ts) < repeats or (sum(ts) < min_total_s and len(ts) < max_repeats):
         t0, c0 = time.perf_counter(), time.process_time()
         res = run_sweep(solver, sw, jobs=1)
         ts.append(time.perf_counter() - t0)
         cs_.append(time.process_time() - c0)
     n_solves = len(res.data["Omega"])
     return statistics.median(ts), {"cpu_s": statistics.median(cs_), "transient": transient, "record": record,
-                                   "point_solves": n_solves,
+                                   "point_solves": n_solves, "repeats": len(ts),
                                    "impacts_per_period_mean": float(np.mean(res.data["impacts_per_period"]))}
 
 
@@ -268,20 +271,22 @@ def run_scaling_bench(points: int = 11,
       at ``sdof_periods`` and of the FE rig (``cases/rig-fe-neutral.toml``) with
       ``beam_modes_for_periods`` modes at ``beam_periods`` forcing periods per point
       (transient + record, the record share as in the case, 64 of 464, rounded to a
-      5-smooth count, see :func:`_smooth`); the exponent p
-      of time ~ N^p is fitted by least squares on log-log, and the cost per period and
-      point solve with p fixed at 1 (geometric mean of t / (N * solves)), besides a
-      linear fit t = t0 + b N (t0: the per-sweep overhead).
+      5-smooth count, see :func:`_smooth`); the exponent p of time ~ N^p is fitted by
+      least squares on log-log, and the cost per period and point solve with p fixed at
+      1 (geometric mean of t / (N * solves)), besides a linear fit t = t0 + b N (t0: the
+      per-sweep overhead).
     * Modes: ``mode_points`` frequencies, ``mode_periods`` periods per point of the FE
       rig with ``modes`` retained modes ("all": every mode of the mesh), the fit of
       time ~ n_modes^p, and the static-mode SDOF (``n_modes = "static"``) beside it.
       The ladder stops early once a rung took more than ``mode_budget_s``.
 
     Timings (wall ``time_s``, fitted; process CPU ``cpu_time_s`` beside it, less sensitive
-    to other load on the machine) are the median of ``repeats`` after a warm-up sweep (numba compilation and
-    cache loading excluded); model construction (FE assembly and eigensolution) is timed
-    apart.  The case's sweep direction ("both": each frequency is solved twice),
-    continuation, samples per period and period rtol are used.
+    to other load on the machine) are the median of ``repeats`` (more, up to 25, for
+    sweeps under 0.25 s in all) after a warm-up sweep (numba compilation and cache loading
+    excluded); model construction (FE assembly and eigensolution) is timed apart.  The
+    case's sweep direction ("both": each frequency is solved twice), continuation,
+    samples per period and period rtol are used.  ``total_time_s`` is about 70 s with
+    ``repeats = 5`` on the 2-core development machine.
     """
     t_all = time.perf_counter()
     out: dict = {"repeats": repeats, "jobs": 1, "method": "event", "periods": {}, "modes": {}}
@@ -306,6 +311,7 @@ def run_scaling_bench(points: int = 11,
             "N": [int(n) for n in ladder],
             "record_periods": [i["record"] for i in infos],
             "time_s": ts,
+            "repeats": [i["repeats"] for i in infos],
             "exponent": fit["exponent"],
             "prefactor_s": fit["prefactor_s"],
             "s_per_period_per_point": c1,
@@ -329,21 +335,22 @@ def run_scaling_bench(points: int = 11,
     # ---- modes
     fname = "rig-fe-neutral.toml"
     case, model, settings, t_build = _scene(fname, {"n_modes": "static"})
-    t_static, info = _time_sweep(case, model, settings, mode_points, mode_periods, repeats, record_fraction=
-                                 case.sweep.record_periods / (case.sweep.transient_periods
-                                                              + case.sweep.record_periods))
-    n_list, ts, cpu, builds, labels, skipped = [], [], [], [], [], []
+    frac = case.sweep.record_periods / (case.sweep.transient_periods + case.sweep.record_periods)
+    t_static, info = _time_sweep(case, model, settings, mode_points, mode_periods, repeats,
+                                 record_fraction=frac)
+    n_list, ts, cpu, reps, builds, labels, skipped = [], [], [], [], [], [], []
     stop = False
     for m in modes:
         if stop:
             skipped.append(m)
             continue
         case, model, settings, t_build = _scene(fname, {"n_modes": m})
-        n = int(getattr(model, "n_modes", 0) or len(getattr(model, "omega", [])) or 0)
+        n = int(model.n_modes)
         if n in n_list:   # e.g. "all" equal to the last integer rung
             continue
         t, inf = _time_sweep(case, model, settings, mode_points, mode_periods, repeats,
                              record=info["record"])
+        reps.append(inf["repeats"])
         n_list.append(n)
         cpu.append(inf["cpu_s"])
         labels.append(m)
@@ -359,7 +366,7 @@ def run_scaling_bench(points: int = 11,
         "point_solves": info["point_solves"], "periods_per_point": mode_periods,
         "record_periods": info["record"],
         "n_modes_requested": [str(m) for m in labels],
-        "n_modes": n_list, "time_s": ts,
+        "n_modes": n_list, "time_s": ts, "repeats": reps,
         "exponent": fit["exponent"], "prefactor_s": fit["prefactor_s"], "r2_loglog": fit["r2_loglog"],
         "local_exponents": fit["local_exponents"],
         "exponent_n_modes_ge_4": fit_up["exponent"] if fit_up else None,
@@ -369,7 +376,14 @@ def run_scaling_bench(points: int = 11,
         "static_mode_sdof_time_s": t_static,
         "static_mode_sdof_cpu_s": info["cpu_s"],
         "ratio_to_static_mode": [t / t_static for t in ts],
+        "s_per_period_per_point": [t / (mode_periods * info["point_solves"]) for t in ts],
         "skipped_over_budget": [str(m) for m in skipped],
+    }
+    out["summary"] = {
+        "exponent_periods": {k: v["exponent"] for k, v in out["periods"].items()},
+        "s_per_period_per_point": {k: v["s_per_period_per_point"] for k, v in out["periods"].items()},
+        "exponent_modes": out["modes"]["exponent"],
+        "exponent_modes_n_ge_4": out["modes"]["exponent_n_modes_ge_4"],
     }
     out["total_time_s"] = time.perf_counter() - t_all
     return out

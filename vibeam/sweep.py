@@ -201,7 +201,8 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
     executor : concurrent.futures.Executor, optional
         Any executor with ``submit`` returning :class:`concurrent.futures.Future`
         (a local process pool, ``dask.distributed.Client.get_executor()``).
-        Default: a local pool of ``jobs`` workers, rebuilt if a worker dies.
+        Default: a local pool of ``jobs`` workers, rebuilt if a worker dies
+        (with ``jobs = 1`` lines run inline, in this process, with no isolation).
     jobs : int or None
         Workers of the default executor (None: all cores; 1: inline).
     on_line : callable, optional
@@ -286,7 +287,7 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
                         else:
                             finish(line, _lost_rows(line, e, n))
                 ex.shutdown(wait=False, cancel_futures=True)
-                ex = default_executor(jobs, len(retry))
+                ex = ProcessPoolExecutor(max_workers=max(1, min(jobs or os.cpu_count() or 1, len(retry))))
             for line in retry:
                 submit(line)
     finally:

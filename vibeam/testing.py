@@ -35,17 +35,19 @@ class CrashingSolver(_Wrapped):
         The solver to wrap.
     Omegas : sequence of float
         Forcing frequencies (nondimensional) at which to crash.
-    marker : str or Path
-        A file created just before the crash (must not exist beforehand).
+    marker : str or Path or None
+        A file created just before the crash (must not exist beforehand);
+        None: crash at every attempt.
     """
 
-    def __init__(self, solver, Omegas, marker):
+    def __init__(self, solver, Omegas, marker=None):
         super().__init__(solver, Omegas)
-        self.marker = str(marker)
+        self.marker = None if marker is None else str(marker)
 
     def point(self, Omega, *args, **kwargs):
-        if self._hit(Omega) and not Path(self.marker).exists():
-            Path(self.marker).write_text(f"crashed at Omega = {Omega!r} in pid {os.getpid()}\n")
+        if self._hit(Omega) and (self.marker is None or not Path(self.marker).exists()):
+            if self.marker is not None:
+                Path(self.marker).write_text(f"crashed at Omega = {Omega!r} in pid {os.getpid()}\n")
             os._exit(17)
         return self.solver.point(Omega, *args, **kwargs)
 
