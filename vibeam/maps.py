@@ -207,3 +207,31 @@ def print_map(m: MapResult) -> None:
     h = hysteresis(m)
     if h is not None:
         print(f"  {m.name}: up and down sweeps differ at {int(h.sum())} of {h.size} points")
+
+
+def map_lines(results: dict) -> dict:
+    """The maps of a results file (:func:`vibeam.results.read_results`) as one run-like dict
+    per parameter value, named ``<run>@<parameter>=<value>``: 1-D per-point datasets
+    (``direction``, ``Omega``, ``amplitude``, ``period``, ...), the up line then the down line,
+    each in increasing frequency -- the layout of ``/runs``, so FRC tools (regression,
+    plots) treat a map's lines like runs."""
+    out = {}
+    for name, m in results.get("maps", {}).items():
+        dirs = [str(d) for d in m["direction"]]
+        par = m["attrs"].get("parameter", "value") if "attrs" in m else "value"
+        for j, v in enumerate(m["values"]):
+            run = {"attrs": dict(m.get("attrs", {}), map_value=float(v))}
+            nf = m["classification"].shape[2]
+            for k, arr in m.items():
+                if k in ("attrs", "values", "direction") or not isinstance(arr, np.ndarray) \
+                        or arr.ndim < 3 or arr.shape[:2] != (len(dirs), len(m["values"])):
+                    continue
+                run[k] = np.concatenate([arr[i, j] for i in range(len(dirs))])
+            run["direction"] = np.repeat(np.array(dirs, dtype=object), nf)
+            out[f"{name}@{par}={float(v):.6g}"] = run
+    return out
+
+
+def all_runs(results: dict) -> dict:
+    """``/runs`` and the lines of ``/maps`` (:func:`map_lines`) of a results dict together."""
+    return {**results.get("runs", {}), **map_lines(results)}

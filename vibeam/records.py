@@ -119,13 +119,15 @@ def harmonic_amplitudes(q: np.ndarray, samples_per_period: int, n_harmonics: int
         Mean value (k = 0) and single-sided amplitudes ``2 |X_k| / N`` (k >= 1),
         in the units of ``q``.
     """
-    N = q.shape[0]
-    n_rec = N // samples_per_period
-    X = np.fft.rfft(q) / N
-    out = np.empty(n_harmonics)
-    for k in range(n_harmonics):
-        idx = k * n_rec
-        out[k] = abs(X[idx]) * (1.0 if k == 0 else 2.0) if idx < X.shape[0] else np.nan
+    # bin k n_rec of the record's DFT equals bin k of the DFT of the period-averaged record
+    # (exp(-2 pi i k n / spp) depends on n mod spp only), so one FFT of length spp suffices
+    # whatever the number of periods (an FFT of a length with a large prime factor is slow)
+    spp = samples_per_period
+    n_rec = q.shape[0] // spp
+    X = np.fft.rfft(q[: n_rec * spp].reshape(n_rec, spp).mean(axis=0)) / spp
+    out = np.full(n_harmonics, np.nan)
+    k = min(n_harmonics, X.shape[0])
+    out[:k] = np.abs(X[:k]) * np.r_[1.0, np.full(k - 1, 2.0)]
     return out
 
 

@@ -61,11 +61,14 @@ def read_csv_reference(path) -> tuple[str, np.ndarray, np.ndarray]:
 def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: bool = True) -> list[RegressRow]:
     """Compare ``new`` (``read_results`` layout: ``{"runs": {name: datasets}}``) with a reference.
 
-    Returns one :class:`RegressRow` per compared run (or per new run for CSV).
+    Parameter maps are compared line by line (:func:`vibeam.maps.map_lines`).
+    Returns one :class:`RegressRow` per compared run or map line (or per new run for CSV).
     """
+    from .maps import all_runs
     from .results import read_results
 
     ref_path = Path(ref_path)
+    new = dict(new, runs=all_runs(new))
     rows = []
     if ref_path.suffix.lower() == ".csv":
         xname, x, a = read_csv_reference(ref_path)
@@ -86,7 +89,7 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
                              note=f"{int(inside.sum())} of {len(x)} CSV points inside the sweep"))
         return rows
     ref = read_results(ref_path)
-    for name, r in ref["runs"].items():
+    for name, r in all_runs(ref).items():
         if name not in new["runs"]:
             rows.append(RegressRow(name, 0, 1, np.nan, np.nan, 0, "run missing from the new results"))
             continue

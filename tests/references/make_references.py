@@ -79,6 +79,9 @@ KEPT = ("Omega", "amplitude", "q_max", "q_min", "period", "impacts_per_period", 
         "frequency_hz", "amplitude_mm", "amplitude_lower", "stable")
 
 
+MAP_KEPT = ("classification", "values")
+
+
 def reference_case(case):
     """The converged counterpart of ``case.quick_variant()`` (same grid and run names)."""
     from vibeam.case import Case
@@ -192,8 +195,43 @@ def _beam_checks(name, spec, model, d, sweep):
     return out
 
 
+def _held_check(name, model, d):
+    """Pre-stressed stop: a point is 'held on the stop' iff Omega^2 B <= |Delta| (the forcing
+    cannot make q'' = Omega^2 B sin(Omega t) - Delta negative on the stop)."""
+    from vibeam.maps import HELD, classify
+
+    c = Check(name, "held on a pre-stressed stop iff Omega^2 B <= |Delta|", 0.0)
+    if model.Delta >= 0:
+        return c
+    cls = classify(d["period"], d["status"])
+    for i, W in enumerate(d["Omega"]):
+        held = float(cls[i] == HELD)
+        c.add(float(W), str(d["direction"][i]), held, float(float(W) ** 2 * model.B <= -model.Delta))
+    return c
+
+
+def check_map(ref_case, maps) -> list[Check]:
+    """The oracles of a parameter map, line by line (one model per parameter value)."""
+    from vibeam.maps import map_lines
+
+    checks = []
+    par = ref_case.map.parameter
+    for r, m in zip(ref_case.run, maps):
+        lines = map_lines({"maps": {m.name: dict(m.data, attrs=m.attrs)}})
+        for (lname, d), v in zip(lines.items(), ref_case.map.grid()):
+            spec = ref_case.model_spec(dict(r.model, **{par: float(v)}))
+            if r.method != "event" or spec.fidelity != "sdof" or \
+                    set(ref_case.effects_for(r).active()) - PASSIVE_EFFECTS:
+                continue
+            model = spec.build()
+            checks += _sdof_checks(lname, model, d) + [_held_check(lname, model, d)]
+    return checks
+
+
 def check_reference(case, ref_case, runs) -> list[Check]:
     """Every oracle that applies to the reference ``runs`` of ``ref_case``."""
+    if ref_case.map is not None:
+        return check_map(ref_case, runs)
     from vibeam.sweep import Sweep
 
     checks = []
@@ -248,15 +286,16 @@ def make_reference(path, out_dir=HERE, jobs=None, write=True, log=print) -> tupl
         log(f"[{case.name}] oracle check FAILED: reference not written")
         return False, checks
     if write:
-        dropped = sorted({k for res in runs for k in res.data if k not in KEPT})
-        for res in runs:
-            res.data = {k: v for k, v in res.data.items() if k in KEPT}
+        maps, runs = (runs, []) if ref_case.map is not None else ([], runs)
+        dropped = sorted({k for res in runs + maps for k in res.data if k not in KEPT + MAP_KEPT})
+        for res in runs + maps:
+            res.data = {k: v for k, v in res.data.items() if k in KEPT + MAP_KEPT}
         extra = {"reference": {
             "dropped_datasets": np.array(dropped, dtype=object),
             "transient_periods": np.array(ref_case.sweep.transient_periods),
             "methods": np.array([f"{r.name}: {r.method}" for r in ref_case.run], dtype=object),
             "checks": np.array([json.dumps(c.as_dict()) for c in checks if c.n], dtype=object)}}
-        out = write_results(Path(out_dir) / f"{case.name}.h5", runs, case.name, text, extra=extra)
+        out = write_results(Path(out_dir) / f"{case.name}.h5", runs, case.name, text, extra=extra, maps=maps)
         log(f"[{case.name}] -> {out} ({out.stat().st_size / 1024:.0f} kB)")
     return True, checks
 
