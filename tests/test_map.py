@@ -174,9 +174,15 @@ def test_dask_localcluster_equals_local_pool(tmp_path):
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         remote = run_case(case, text, tmp_path / "dask", quiet=True, plots=False,
                           executor=client.get_executor())[0]
+        # the command line: `vibeam map CASE --scheduler ADDRESS`
+        (tmp_path / "case.toml").write_text(text)
+        from vibeam.cli import main
+        assert main(["map", str(tmp_path / "case.toml"), "--scheduler", cluster.scheduler_address,
+                     "--out", str(tmp_path / "cli"), "--quiet", "--no-plots"]) == 0
     _same(local.data, remote.data)
-    _same(read_results(tmp_path / "pool" / "results.h5")["maps"],
-          read_results(tmp_path / "dask" / "results.h5")["maps"])
+    for out in ("dask", "cli"):
+        _same(read_results(tmp_path / "pool" / "results.h5")["maps"],
+              read_results(tmp_path / out / "results.h5")["maps"])
 
 
 def _vibeam(*args):

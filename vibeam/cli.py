@@ -240,6 +240,9 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--direct-points", type=int, default=None,
                    help="time solve_ivp on this many points only and scale (quick look)")
+    p.add_argument("--map", action="store_true",
+                   help="instead: parameter-map points per second on 1 and 2 workers and the cost of the "
+                        "line checkpoint (JSON)")
     p.add_argument("--scaling", action="store_true",
                    help="instead: how the cost of a sweep grows with periods simulated and with retained modes, "
                         "fitted exponents (JSON)")
