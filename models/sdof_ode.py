@@ -179,6 +179,12 @@ def integrate_piecewise(rhs, event, jump, to_q, y0, mode0, t0, period, n_transie
             except _Budget:
                 return fail(f"more than {max_nfev_per_period} right-hand side evaluations in "
                             f"forcing period {p} (t = {t:.6g}): stalled or sliding integration")
+            except ValueError as exc:
+                # scipy's dense output (OdeSolution) raises on a segment whose step times
+                # are not strictly increasing, as in chatter where impacts come within
+                # round-off of each other: a dynamical outcome, reported, not raised
+                return fail(f"{method} failed near t = {t:.6g} (impacts within round-off, "
+                            f"chatter the event solver cannot pass): {exc}")
             if sol.status == -1:
                 return fail(f"{method} failed near t = {t:.6g}: {sol.message}")
             if record:
