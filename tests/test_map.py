@@ -164,25 +164,53 @@ def test_line_lost_too_often_is_recorded_failed(tmp_path):
         assert out[("run", lines[k].key)][0].get("status") != "failed"
 
 
-def test_dask_localcluster_equals_local_pool(tmp_path):
+@pytest.fixture(scope="module")
+def cluster():
+    """A real dask.distributed LocalCluster on loopback: 2 worker processes (with nannies,
+    which restart a killed worker)."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as c:
+        yield c
+
+
+def test_dask_localcluster_equals_local_pool(tmp_path, cluster):
     """The same map on a dask.distributed LocalCluster (loopback, 2 worker processes) and on the
     local process pool: every dataset equal bit for bit (same code, same inputs)."""
-    distributed = pytest.importorskip("distributed")
+    import distributed
+
     case, text = rig(-0.1, nf=5, nv=3, tp=150)
     local = run_case(case, text, tmp_path / "pool", jobs=2, quiet=True, plots=False)[0]
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+    with distributed.Client(cluster) as client:
         remote = run_case(case, text, tmp_path / "dask", quiet=True, plots=False,
                           executor=client.get_executor())[0]
-        # the command line: `vibeam map CASE --scheduler ADDRESS`
-        (tmp_path / "case.toml").write_text(text)
-        from vibeam.cli import main
-        assert main(["map", str(tmp_path / "case.toml"), "--scheduler", cluster.scheduler_address,
-                     "--out", str(tmp_path / "cli"), "--quiet", "--no-plots"]) == 0
+    # the command line: `vibeam map CASE --scheduler ADDRESS`
+    (tmp_path / "case.toml").write_text(text)
+    from vibeam.cli import main
+    assert main(["map", str(tmp_path / "case.toml"), "--scheduler", cluster.scheduler_address,
+                 "--out", str(tmp_path / "cli"), "--quiet", "--no-plots"]) == 0
     _same(local.data, remote.data)
     for out in ("dask", "cli"):
         _same(read_results(tmp_path / "pool" / "results.h5")["maps"],
               read_results(tmp_path / out / "results.h5")["maps"])
+
+
+def test_dask_killed_worker_line_is_retried(tmp_path, cluster):
+    """A dask worker process killed in the middle of a line: the line runs again (on a
+    restarted or the other worker) and the sweep equals an undisturbed one exactly."""
+    import distributed
+
+    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    Om = np.linspace(1.8, 2.2, 6)
+    sw = Sweep(Omega=Om, direction="both", transient_periods=100, record_periods=8)
+    good = run_sweep(make_solver(m, "event"), sw, jobs=1)
+    marker = tmp_path / "crashed"
+    with distributed.Client(cluster) as client:
+        again = run_sweep(CrashingSolver(make_solver(m, "event"), [Om[3]], marker), sw,
+                          executor=client.get_executor())
+    assert marker.exists()
+    for k in ("amplitude", "period", "impacts_per_period", "strobe", "status"):
+        np.testing.assert_array_equal(again.data[k], good.data[k])
 
 
 def _vibeam(*args):
