@@ -359,12 +359,14 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                             D = 2.0 * u / (acc * (1.0 - Rc))
                             jerk = abs(F * Omega * math.cos(phi))
                             err = D * (jerk / acc + 2.0 * beta + D)
-                            if err < chatter_tol:
+                            # jump only to an accumulation point inside this sub-step; beyond
+                            # it the bounces are resolved one by one until the next sub-step
+                            # (whose full length then contains the remaining D R^k)
+                            if err < chatter_tol and D < rem:
                                 n_chatter += 1 if recording else 0
-                                if D < rem:
-                                    phi = (phi + Omega * D) % TWO_PI
-                                    t_loc += D
-                                    rem -= D
+                                phi = (phi + Omega * D) % TWO_PI
+                                t_loc += D
+                                rem -= D
                                 stuck = True
                                 v = 0.0
                         continue
