@@ -267,9 +267,9 @@ def test_ctrl_c_keeps_finished_lines(tmp_path):
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
-    assert "--resume" in err and "Traceback" not in err
+    assert "--resume" in err and "Traceback" not in err, err
     attrs, lines = read_lines(h5)
-    assert not attrs["complete"] and sum(len(v) for v in lines.values()) >= 1
+    assert not attrs["complete"] and sum(len(v) for v in lines.values()) >= 1, (dict(attrs), err)
 
 
 def test_resume_refuses_another_case(tmp_path):

@@ -257,6 +257,9 @@ def main(argv=None) -> int:
     except CaseError as e:
         print(f"vibeam: error: {e}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("\nvibeam: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover
