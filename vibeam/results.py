@@ -18,6 +18,7 @@ the previous complete file or the next one, never a corrupt one, and
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import tempfile
@@ -46,17 +47,36 @@ def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=".results-", suffix=".h5.tmp", dir=path.parent)
     os.close(fd)
-    try:
-        if copy_from is not None:
-            shutil.copyfile(copy_from, tmp)
-        with h5py.File(tmp, "a" if copy_from is not None else "w") as f:
-            fill(f)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with _signals_deferred():
+        try:
+            if copy_from is not None:
+                shutil.copyfile(copy_from, tmp)
+            with h5py.File(tmp, "a" if copy_from is not None else "w") as f:
+                fill(f)
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
     return path
+
+
+@contextlib.contextmanager
+def _signals_deferred():
+    """Hold SIGINT/SIGTERM back while a file is written (delivered right after), so Ctrl-C
+    never interrupts HDF5 in the middle of a call; a no-op off the main thread or on Windows."""
+    import signal
+    import threading
+
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    sigs = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _root_attrs(f, case_name, case_text, case_json="", complete=True):
