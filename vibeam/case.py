@@ -249,9 +249,17 @@ class SweepSpec(_Strict):
 
 # ----------------------------------------------------------------------------- runs
 class _RunBase(_Strict):
-    name: Annotated[str, Field(min_length=1, pattern=r"^[^/]+$")]
+    # an HDF5 group name: no '/', no control characters, not '.' or '..'
+    name: Annotated[str, Field(min_length=1, max_length=200, pattern=r"^[^/\x00-\x1f\x7f]+$")]
     model: dict = Field(default_factory=dict)
     effects: dict = Field(default_factory=dict)
+
+    @field_validator("name")
+    @classmethod
+    def _not_dots(cls, v):
+        if v.strip(".") == "" or v != v.strip():
+            raise ValueError("a run name cannot be only dots or start or end with a space")
+        return v
 
 
 class EventRun(_RunBase):
