@@ -142,16 +142,20 @@ def assemble_map(name: str, solvers: list, sweep: Sweep, parameter: str, values,
 def hysteresis(m: MapResult, rtol: float = 1e-3) -> np.ndarray | None:
     """Points where the up and down sweeps end on different orbits, shape (n_values, n_frequencies).
 
-    Different class, or amplitudes differing by more than ``rtol`` of the
-    larger; None for a one-direction map.
+    Different class, or the same periodic (or no-impact, held) class with
+    amplitudes differing by more than ``rtol`` of the larger; None for a
+    one-direction map.
     """
     d = list(m.data["direction"])
     if len(d) < 2:
         return None
     c, a = m.data["classification"], np.asarray(m.data["amplitude"], float)
     scale = np.maximum(np.abs(a[0]), np.abs(a[1]))
+    # two samples of non-periodic motion differ anyway: only orbits (periodic, no impact, held)
+    # are compared by amplitude
+    orbit = (c[0] != NON_PERIODIC) & (c[0] != FAILED)
     with np.errstate(invalid="ignore"):
-        return (c[0] != c[1]) | (np.abs(a[0] - a[1]) > rtol * scale)
+        return (c[0] != c[1]) | (orbit & (np.abs(a[0] - a[1]) > rtol * scale))
 
 
 def plot_map(m: MapResult, path, title: str = ""):
@@ -192,6 +196,48 @@ def plot_map(m: MapResult, path, title: str = ""):
                fontsize=8, frameon=False)
     fig.suptitle(f"{title}: {m.name} ({m.method})" if title else m.name)
     fig.tight_layout(rect=(0, 0.12, 1, 1))
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def class_agreement(a: MapResult, b: MapResult) -> np.ndarray | None:
+    """Where two maps of the same grid (e.g. two fidelities) give the same class, shape
+    (n_directions, n_values, n_frequencies) of bool; None if the grids differ."""
+    ca, cb = a.data["classification"], b.data["classification"]
+    if ca.shape != cb.shape or not np.allclose(a.data["values"], b.data["values"]):
+        return None
+    return ca == cb
+
+
+def plot_agreement(maps: list, path, title: str = ""):
+    """Class of every map against the first one's: one panel per other map (up sweep), grey
+    where both agree, the other map's class colour where they differ; None if fewer than two
+    maps share a grid."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+
+    ref = maps[0]
+    others = [m for m in maps[1:] if class_agreement(ref, m) is not None]
+    if not others:
+        return None
+    d = ref.data
+    x = (d["frequency_hz"] if "frequency_hz" in d else d["Omega"])[0]
+    yy = np.repeat(d["values"][:, None], x.shape[1], axis=1)
+    cmap = ListedColormap(CLASS_COLOURS + ("#f0f0f0",))
+    norm = BoundaryNorm(np.arange(-0.5, len(CLASSES) + 1.5), cmap.N)
+    fig, axes = plt.subplots(1, len(others), figsize=(4.6 * len(others), 3.8), squeeze=False)
+    for ax, m in zip(axes[0], others):
+        same = class_agreement(ref, m)[0]
+        show = np.where(same, len(CLASSES), m.data["classification"][0])
+        ax.pcolormesh(x, yy, show, cmap=cmap, norm=norm, shading="nearest")
+        ax.set_title(f"{m.name} vs {ref.name}: {int((~same).sum())} of {same.size} differ", fontsize=9)
+        ax.set_xlabel("forcing frequency (Hz)" if "frequency_hz" in d else r"$\Omega$")
+    axes[0][0].set_ylabel(ref.parameter)
+    fig.suptitle(f"{title}\nclasses that differ from '{ref.name}' (up sweep; light grey: same)", fontsize=10)
+    fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path

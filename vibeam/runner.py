@@ -7,6 +7,7 @@ the final file holds the same data as an uninterrupted run.
 """
 from __future__ import annotations
 
+import re
 import sys
 import time
 from dataclasses import dataclass
@@ -221,13 +222,22 @@ def _assemble(case, jobs_, rows_of):
 
 def _plots(case, runs, maps, out_dir):
     from . import assess
-    from .maps import plot_map, print_map
+    from .maps import class_agreement, plot_agreement, plot_map, print_map
     from .plots import plot_bifurcation, plot_frc
 
     for m in maps:
         print_map(m)
-        p = plot_map(m, out_dir / f"map_{m.name}.png", title=case.name)
+        safe = re.sub(r"[^A-Za-z0-9_.+-]+", "_", m.name)
+        p = plot_map(m, out_dir / f"map_{safe}.png", title=case.name)
         print(f"map plot: {p}")
+    if len(maps) > 1:
+        for m in maps[1:]:
+            same = class_agreement(maps[0], m)
+            if same is not None:
+                print(f"  {m.name} vs {maps[0].name}: classes differ at {int((~same).sum())} of {same.size} points")
+        p = plot_agreement(maps, out_dir / "map_agreement.png", title=case.name)
+        if p:
+            print(f"map agreement plot: {p}")
     if runs:
         assess.finish(case, runs, out_dir)
         p1 = plot_frc(runs, out_dir / "frc.png", title=case.name)
