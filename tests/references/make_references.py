@@ -33,6 +33,10 @@ apply, and nothing is written if one fails:
   Eqs. 42-46) on the same frequencies in Hz, ``1e-8`` relative, where both are
   periodic with the same period (elsewhere chaos amplifies round-off).
 
+* parameter maps (``[map]``) are checked line by line, each parameter value
+  with its own model, by the oracles above, plus, for SDOF maps on a
+  pre-stressed stop, the closed-form lift-off: a point is "held on the stop"
+  iff ``Omega^2 B <= |Delta|``.
 Runs with an effect that changes the dynamics (every effect but the sensor) and
 closed-form runs are not oracle-checked.  The observed errors are printed and
 stored in the file's ``/reference`` group (``checks``: one JSON line per oracle
