@@ -93,7 +93,7 @@ def open_executor(scheduler: str | None):
 
 
 def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=False, resume=False,
-             executor=None, checkpoint=True):
+             executor=None, checkpoint=True, checkpoint_interval_s=0.5):
     """Run a case: its runs, or its parameter map; write ``results.h5``, plots and a table.
 
     Parameters
@@ -117,7 +117,12 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
         Where lines run (e.g. ``dask.distributed.Client(...).get_executor()``);
         default a local pool of ``jobs`` workers.
     checkpoint : bool
-        Append each finished line to ``results.h5`` as it finishes.
+        Append finished lines to ``results.h5`` as they finish.
+    checkpoint_interval_s : float
+        Lines finishing within this time of the last append are appended
+        together (each line whole) at the next append, on an interrupt, or at
+        the end -- so maps of many short lines do not rewrite the file per
+        line; a killed process loses at most this much finished work.
 
     Returns
     -------
@@ -164,17 +169,29 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
           + (f"; resuming: {len(all_lines) - len(todo)} lines done" if resume and stored else ""),
           file=sys.stderr)
     fresh = [not (resume and h5.exists())]
+    buffer: dict = {}
+    last_flush = [time.perf_counter()]
+
+    def flush():
+        if checkpoint and buffer:
+            if fresh[0] and h5.exists():
+                h5.unlink()          # a new run replaces an old file (use --resume to keep it)
+            fresh[0] = False
+            append_lines(h5, dict(buffer), case.name, text, case_json)
+            buffer.clear()
+        last_flush[0] = time.perf_counter()
 
     def on_line(line, rows):
         data = stack(rows, sweep_of[(line.run, line.key)])
         line_data[f"{line.run}/{line.key}"] = data
-        if checkpoint:
-            if fresh[0] and h5.exists():
-                h5.unlink()          # a new run replaces an old file (use --resume to keep it)
-            fresh[0] = False
-            append_lines(h5, {f"{line.run}/{line.key}": data}, case.name, text, case_json)
+        buffer[f"{line.run}/{line.key}"] = data
+        if time.perf_counter() - last_flush[0] >= checkpoint_interval_s:
+            flush()
 
-    run_lines(todo, executor=executor, jobs=jobs, on_line=on_line, progress=not quiet, desc=case.name)
+    try:
+        run_lines(todo, executor=executor, jobs=jobs, on_line=on_line, progress=not quiet, desc=case.name)
+    finally:
+        flush()              # on an interrupt too: every finished line is kept
 
     rows_of = {k: unstack(v) for k, v in line_data.items()}
     runs, maps = _assemble(case, jobs_, rows_of)
