@@ -53,12 +53,19 @@ def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
                 shutil.copyfile(copy_from, tmp)
             with h5py.File(tmp, "a" if copy_from is not None else "w") as f:
                 fill(f)
+            os.chmod(tmp, 0o666 & ~_umask())   # mkstemp makes 0600; a results file is shared
             os.replace(tmp, path)
         except BaseException:
             if os.path.exists(tmp):
                 os.unlink(tmp)
             raise
     return path
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 @contextlib.contextmanager
