@@ -1079,7 +1079,6 @@ class BeamODESolver:
         etac = m.eta_c / sc
         Psi = m.Psi
         Nc = Psi.shape[1]
-        nc = max(Nc, 1)   # a dummy coordinate when nothing moves on the stop (N = 1)
         cC, nu2, GC = m.cC, m.nu2, m.GC * F / sc
         gconst = -(Psi.T @ (k * etac))
         lam_sin = -me * float(w @ m.participation) * F / sc
@@ -1190,7 +1189,7 @@ class BeamODESolver:
                     qv = float(sv @ Zf(np.array([te]))[:N, 0]) * sc / L
                     ext[0] = min(ext[0], qv)
                     ext[1] = max(ext[1], qv)
-            t_prev, t = t, t1
+            t = t1
             if stuck:
                 if released:
                     stuck = False

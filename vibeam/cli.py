@@ -7,13 +7,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-
-import numpy as np
-import time
 from pathlib import Path
 
 
-from .runner import run_case  # noqa: E402,F401  (the case runner; re-exported)
+def run_case(*args, **kwargs):
+    """:func:`vibeam.runner.run_case` (imported when called, so ``vibeam --help`` stays instant)."""
+    from .runner import run_case as run
+
+    return run(*args, **kwargs)
 
 
 def _executor(args):
@@ -124,8 +125,6 @@ def cmd_modes(args) -> int:
 
     case, _ = load_case(args.case)
     spec = _beam_spec(case, "modes")
-    import numpy as np
-
     from .beamscene import modes_report
     from .models.beam import write_modes
 
