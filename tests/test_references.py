@@ -26,6 +26,7 @@ import pytest
 from vibeam.case import load_case, parse_case
 from vibeam.cli import main
 from vibeam.maps import all_runs
+from vibeam.regress import match_points
 from vibeam.results import read_results
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -58,7 +59,11 @@ def test_quick_variant_regresses_against_its_reference(path, tmp_path, capsys):
     assert set(new) == set(old) and new
     for name, r in old.items():
         n = new[name]
-        assert np.array_equal(n["Omega"], r["Omega"]) and list(n["direction"]) == list(r["direction"])
+        # the same grid point by point (physical grids in Hz; Omega = f / f_n of a calibrated FE
+        # model carries ~1e-11 of library-dependent round-off, see vibeam.regress.match_points)
+        i_n, i_r = match_points(n, r)
+        assert i_n == list(range(len(n["Omega"]))) and i_r == list(range(len(r["Omega"])))
+        np.testing.assert_allclose(n["Omega"], r["Omega"], rtol=1e-9)
         same = (n["period"] == r["period"]) & ((r["period"] >= 1) | (r["period"] == -1))
         same &= np.array([str(a) == "ok" and str(b) == "ok" for a, b in zip(n["status"], r["status"])])
         a, a_ref = n["amplitude"][same], r["amplitude"][same]

@@ -94,13 +94,7 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
             rows.append(RegressRow(name, 0, 1, np.nan, np.nan, 0, "run missing from the new results"))
             continue
         n = new["runs"][name]
-        key_r = {(str(d), round(float(w), 12)): i for i, (d, w) in enumerate(zip(r["direction"], r["Omega"]))}
-        idx_n, idx_r = [], []
-        for i, (d, w) in enumerate(zip(n["direction"], n["Omega"])):
-            j = key_r.get((str(d), round(float(w), 12)))
-            if j is not None:
-                idx_n.append(i)
-                idx_r.append(j)
+        idx_n, idx_r = match_points(n, r)
         if not idx_n:
             rows.append(RegressRow(name, 0, 1, np.nan, np.nan, 0, "no common frequency points"))
             continue
@@ -108,6 +102,39 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
         pr = r["period"][idx_r] if pn is not None else None
         rows.append(_row(name, n["amplitude"][idx_n], r["amplitude"][idx_r], atol, rtol, pn, pr))
     return rows
+
+
+def match_points(new: dict, ref: dict, rel: float = 1e-6) -> tuple[list, list]:
+    """Indices ``(i_new, i_ref)`` of the points common to two runs.
+
+    Points are matched by direction and by the grid's own coordinate:
+    ``frequency_hz`` when both runs have it (a physical grid is given in Hz;
+    its ``Omega = f / f_n`` carries the round-off of the model's ``f_n``, which
+    for a calibrated FE model differs between library versions at ~1e-11),
+    otherwise ``Omega``.  Two points match when they differ by less than
+    ``rel`` times the smallest grid spacing (or ``rel`` times the value for a
+    one-point grid), so a different grid never matches by accident.
+    """
+    key = "frequency_hz" if "frequency_hz" in new and "frequency_hz" in ref else "Omega"
+    xn = np.asarray(new[key], float)
+    xr = np.asarray(ref[key], float)
+    dn = np.asarray([str(d) for d in new["direction"]])
+    dr = np.asarray([str(d) for d in ref["direction"]])
+    grid = np.unique(np.concatenate([xn, xr]))
+    steps = np.diff(grid)
+    steps = steps[steps > 1e-9 * max(np.max(np.abs(grid)), 1e-300)] if steps.size else steps
+    tol = rel * (np.min(steps) if steps.size else max(np.max(np.abs(grid)), 1e-300))
+    idx_n, idx_r = [], []
+    used = set()
+    for i in range(xn.size):
+        cand = np.flatnonzero((dr == dn[i]) & (np.abs(xr - xn[i]) <= tol))
+        cand = [j for j in cand if j not in used]
+        if cand:
+            j = min(cand, key=lambda j: abs(xr[j] - xn[i]))
+            used.add(j)
+            idx_n.append(i)
+            idx_r.append(j)
+    return idx_n, idx_r
 
 
 def _row(name, a, a_ref, atol, rtol, p, p_ref, note=""):
