@@ -46,7 +46,10 @@ def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
     import shutil
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".results-", suffix=".h5.tmp", dir=path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".results-", suffix=".h5.tmp", dir=path.parent)
+    except OSError as e:
+        raise OSError(e.errno, e.strerror, str(path)) from e
     os.close(fd)
     with _signals_deferred():
         try:
@@ -56,9 +59,12 @@ def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
                 fill(f)
             os.chmod(tmp, 0o666 & ~_umask())   # mkstemp makes 0600; a results file is shared
             os.replace(tmp, path)
-        except BaseException:
+        except BaseException as e:
             if os.path.exists(tmp):
                 os.unlink(tmp)
+            if isinstance(e, OSError) and not isinstance(e, BrokenPipeError) and e.filename != str(path):
+                # name the results file (not the temporary one) in the one-line error
+                raise OSError(e.errno, e.strerror or str(e).splitlines()[0], str(path)) from e
             raise
     return path
 

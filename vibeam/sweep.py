@@ -303,11 +303,14 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
             if f.done() and not f.cancelled() and f.exception() is None and (line.run, line.key) not in results:
                 pending.pop(f)
                 finish(line, f.result())
-        for f in pending:
-            f.cancel()
         if own:
+            # the pool cancels what is queued and the killed workers' futures fail (cancelling
+            # them here as well trips Python 3.11's pool manager: InvalidStateError)
             _terminate(ex)
             pending[Future()] = None      # shut the pool down below without waiting for it
+        else:
+            for f in pending:
+                f.cancel()
         raise
     finally:
         if bar is not None:
@@ -318,11 +321,13 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
 
 
 def _terminate(ex) -> None:
-    """End the worker processes of a local pool now (their lines are abandoned)."""
-    procs = list((getattr(ex, "_processes", None) or {}).values())
+    """Shut a local pool down now: queued lines cancelled, workers killed (their lines are
+    abandoned), without waiting for anything they run."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())   # shutdown() forgets them
+    ex.shutdown(wait=False, cancel_futures=True)
     for p in procs:
         try:
-            p.terminate()
+            p.kill()         # SIGKILL: a worker inside a numba kernel runs no Python signal handler
         except Exception:  # pragma: no cover - already gone
             pass
     for p in procs:
@@ -345,6 +350,7 @@ def _worker_init(parent_pid: int) -> None:
     import threading
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)     # not the parent's handler (inherited by fork)
     try:
         import ctypes
 
