@@ -6,6 +6,10 @@ samples_per_period)`` so that the one sweep engine drives them all.
 """
 from __future__ import annotations
 
+from . import _cache
+
+_cache.install()   # before any kernel module: the cache key covers the whole package
+
 from .sdof import SDOF, EventSolver, linear_amplitude
 
 from .sdof_averaging import AveragingSolver

@@ -121,7 +121,7 @@ def test_plain_case_has_no_hooks_and_no_extra_datasets(tmp_path):
     assert not keys & set(EXTRA_KEYS)
 
 
-def test_case_with_assessments_and_sensor(tmp_path):
+def test_case_with_assessments_and_sensor(tmp_path, capsys):
     from vibeam.cli import run_case
 
     text = PLAIN + '''
@@ -135,13 +135,16 @@ time_series = [15.0]
     case = parse_case(text)
     spec = case.model_spec()
     model = spec.build()
-    assert len(assess.hooks(case, spec, case.run[0], model)) == 4
+    # spectra, time series, sensor; participation does not apply to an SDOF scene
+    assert len(assess.hooks(case, spec, case.run[0], model)) == 3
     spp = assess.samples_per_period(case, case.run[0], model, case.sweep.grid(7.6))
     assert spp >= 2 * 5000 / 14.8
     runs = run_case(case, text, tmp_path, jobs=1, quiet=True, plots=True)
     d = runs[0].data
     assert d["peaks_frequency"].shape == (3, 5) and d["spectrum_velocity"].shape == (3, assess.N_MAP)
-    assert d["participation_energy"] == pytest.approx(np.ones((3, 1)))
+    assert "participation_energy" not in d and "participation_displacement" not in d
+    notes = [l for l in capsys.readouterr().err.splitlines() if "participation" in l]
+    assert len(notes) == 1 and "does not apply to run 'exact'" in notes[0], notes
     assert d["R_identified_ladder"].shape == (3, 2)
     assert np.all(np.abs(d["R_identified"] - 0.72) < 0.03)
     with h5py.File(tmp_path / "results.h5") as f:

@@ -29,8 +29,11 @@ Per-point outputs (HDF5 ``/runs/<run>/``):
     sum of those RMS; ``participation_energy`` (n, N): mean modal energy
     ``(eta_i-dot^2 + omega_i^2 eta_i^2) / 2`` over its sum.  Both sum to 1.
 ``[assess] time_series = [f, ...]``
-    group ``time_series/<f>/<direction>`` (m, 3): time, displacement, velocity of the last
-    ``time_series_periods`` recorded periods at the grid point nearest to ``f``.
+    group ``time_series/<label>/<direction>`` (m, 3): time, displacement, velocity of the last
+    ``time_series_periods`` recorded periods at the grid point nearest to ``f``; ``<label>`` is
+    that grid point's frequency (:func:`ts_label`), never a requested value off the grid
+    (a request outside the grid, or two on one grid point, is a case error:
+    :func:`vibeam.case.check_time_series`).
 ``[effects.sensor]``
     see :class:`vibeam.sensor.SensorHook`.
 """
@@ -181,6 +184,33 @@ def participation_shares(modal_states, sensor_row, k_nd):
     return (rms / sd if sd > 0 else np.full(N, np.nan)), (en / se if se > 0 else np.full(N, np.nan))
 
 
+def ts_label(x: float) -> str:
+    """Label (group and file name part) of a time series at the grid frequency ``x``."""
+    return f"{float(x):.10g}"
+
+
+def not_applicable(case, run, model, time_domain: bool = True) -> list[str]:
+    """Messages for the ``[assess]`` items a run asks for that do not apply to it (one line
+    each; the runner prints them once and those items are not computed for the run)."""
+    a = case.assess
+    out = []
+    what = f"run '{run.name}' ({getattr(model, 'fidelity', '?')}, {run.method})"
+    if not time_domain:
+        for k in ("spectra", "participation", "time_series"):
+            if getattr(a, k):
+                out.append(f"[assess] {k} does not apply to {what}: the method computes no time history")
+        return out
+    if a.participation and not _participation_applies(model, run.method):
+        why = ("a single degree of freedom has no modes to share" if getattr(model, "fidelity", "") != "beam"
+               else "only the beam's event method records the modal states")
+        out.append(f"[assess] participation does not apply to {what}: {why}")
+    return out
+
+
+def _participation_applies(model, method) -> bool:
+    return getattr(model, "fidelity", "") == "beam" and method == "event"
+
+
 # ============================================================================ hooks
 class SpectraHook:
     """Per-point spectra, non-harmonic peaks and the high-frequency component (picklable)."""
@@ -271,8 +301,6 @@ class ParticipationHook:
         self.k_nd = np.asarray(getattr(model, "k_nd", [1.0]), float)
 
     def __call__(self, traj) -> dict:
-        if not self.beam:
-            return dict(participation_displacement=np.ones(1), participation_energy=np.ones(1))
         ms = traj.extra.get("modal_states")
         if ms is None or traj.status == "failed" or ms.shape[1] != 2 * self.N:
             nan = np.full(self.N, np.nan)
@@ -328,7 +356,7 @@ def hooks(case, spec, run, model) -> tuple:
     out = []
     if a.spectra:
         out.append(SpectraHook(a, model))
-    if a.participation:
+    if a.participation and _participation_applies(model, run.method):
         out.append(ParticipationHook(model))
     if a.time_series:
         grid = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
@@ -390,9 +418,9 @@ def collect(case, run, res) -> None:
         arr = d.pop(key, None)
         if arr is None:
             continue
-        label = f"{f:g}"
         for j in range(arr.shape[0]):
             if np.isfinite(arr[j]).all():
+                label = ts_label(d["frequency_hz"][j] if "frequency_hz" in d else d["Omega"][j])
                 dname = str(d["direction"][j]) if "direction" in d else "up"
                 d[f"time_series/{label}/{dname}"] = arr[j]
                 d[f"time_series/{label}/{dname}_Omega"] = np.float64(d["Omega"][j])
@@ -425,8 +453,15 @@ def finish(case, runs, out_dir) -> list:
         p = plot_participation(runs, out_dir / "participation.png", case.name)
         if p:
             paths.append(p)
-    for i, f in enumerate(a.time_series):
-        p = plot_time_series(runs, f, out_dir / f"time_series_{f:g}.png", case.name)
+    labels = []
+    for r in runs:
+        for k in r.data:
+            if k.startswith("time_series/") and k.count("/") == 2 and not k.endswith("_Omega"):
+                lab = k.split("/")[1]
+                if lab not in labels:
+                    labels.append(lab)
+    for lab in labels:
+        p = plot_time_series(runs, lab, out_dir / f"time_series_{lab}.png", case.name)
         if p:
             paths.append(p)
     if any("R_identified_ladder" in r.data for r in runs):
@@ -517,7 +552,9 @@ def plot_sensor(rows, path, title=""):
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from .plots import save_figure
+
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -556,7 +593,9 @@ def plot_spectra(runs, path, title=""):
         ax.legend(fontsize=7, loc="upper right")
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from .plots import save_figure
+
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -567,8 +606,10 @@ def print_hfc(runs):
     if not rows:
         return
     print("\nhigh-frequency component at the sensor (min .. max over the points)")
-    head = (f"{'run':<26}{'band line (Hz)':>16}{'band line (mm/s)':>18}{'HFC f (Hz)':>14}"
-            f"{'HFC peak v (mm/s)':>19}{'HFC peak x (mm)':>17}{'peaks':>7}")
+    phys = all("frequency_hz" in r.data for r in rows)
+    hz, v, x = (" (Hz)", " (mm/s)", " (mm)") if phys else (" (/f_n)", "", "")
+    head = (f"{'run':<26}{'band line' + hz:>16}{'band line' + v:>18}{'HFC f' + hz:>14}"
+            f"{'HFC peak v' + v:>19}{'HFC peak x' + x:>17}{'peaks':>7}")
     print(head)
     print("-" * len(head))
 
@@ -616,15 +657,18 @@ def plot_participation(runs, path, title=""):
         a2.legend(fontsize=7, loc="center right")
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from .plots import save_figure
+
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
 
-def plot_time_series(runs, f, path, title=""):
-    """Time series (displacement, velocity) and phase portrait of every run at ``f``."""
+def plot_time_series(runs, label, path, title=""):
+    """Time series (displacement, velocity) and phase portrait of every run at the grid
+    frequency ``label`` (:func:`ts_label`)."""
     plt = _plt()
-    label = f"{f:g}"
+    label = label if isinstance(label, str) else ts_label(label)
     items = []
     for r in runs:
         for dname in ("up", "down"):
@@ -658,6 +702,8 @@ def plot_time_series(runs, f, path, title=""):
     axes[0].legend(fontsize=6)
     fig.suptitle(f"{title}: {label}{' Hz' if phys else ''}")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from .plots import save_figure
+
+    save_figure(fig, path)
     plt.close(fig)
     return path

@@ -28,6 +28,7 @@ key, the value and what is allowed.
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal, Union
@@ -39,6 +40,12 @@ from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_valid
 
 class CaseError(ValueError):
     """A case file that cannot be used; the message names key, value and what is allowed."""
+
+
+class InputError(CaseError):
+    """Other input that cannot be used (a file or folder, a command-line value); the message
+    names the file, option or key and what is allowed.  The command line reports it like a
+    :class:`CaseError`: one line ``vibeam: error: ...`` and exit code 2."""
 
 
 class _Strict(BaseModel):
@@ -481,6 +488,15 @@ class Case(_Strict):
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"run names must be unique; repeated: {dup}")
+        # file names made from run names (map_<run>.png) must differ too, also on a file
+        # system that ignores case: "a b" and "a_b", or "Up" and "up", would overwrite each other
+        stems: dict = {}
+        for n in names:
+            stem = re.sub(r"[^A-Za-z0-9_.+-]+", "_", n).casefold()
+            if stem in stems:
+                raise ValueError(f"run names {stems[stem]!r} and {n!r} give the same file name "
+                                 f"(map_{stem}.png); rename one")
+            stems[stem] = n
         return runs
 
     # the model table is validated by its fidelity's spec (below)
@@ -551,9 +567,23 @@ def _validate_model(data: dict, prefix: str = "model"):
     if not isinstance(fid, str) or fid not in MODEL_SPECS:
         raise CaseError(f"'{prefix}.fidelity' = {_value(fid)} is not allowed; allowed: {allowed}")
     try:
-        return MODEL_SPECS[fid].model_validate(data)
+        spec = MODEL_SPECS[fid].model_validate(data)
     except ValidationError as e:
         raise CaseError(_format(e, prefix, MODEL_SPECS[fid])) from None
+    if isinstance(spec, BeamModelSpec):
+        _check_modes(spec, prefix)
+    return spec
+
+
+def _check_modes(spec, prefix: str) -> None:
+    """``n_modes`` of a beam scene: at most the mesh's free DOFs (2 per element: deflection
+    and slope of each node but the clamped one)."""
+    n = spec.n_modes
+    dofs = 2 * int(spec.n_elements)
+    if isinstance(n, int) and n > dofs:
+        raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
+                        f"('{prefix}.n_elements' = {spec.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
+                        f"\"static\"")
 
 
 _RUN_BY_METHOD = {m: c for c in (EventRun, ODERun, AveragingRun, MappingRun)
@@ -726,12 +756,67 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                 case.effects_for(r)
         if case.map is not None:
             _check_map(case)
+        check_time_series(case, hz_per_omega=getattr(spec, "natural_frequency_hz", None))
         if case.sweep.frequency_hz is not None and not getattr(spec, "physical", False):
             raise CaseError("'sweep.frequency_hz' needs a physical model (natural_frequency_hz, ...); "
                             "use 'sweep.Omega' for a nondimensional one")
     except CaseError as e:
         raise CaseError(_one_line(f"{source}: {e}")) from None
     return case
+
+
+def check_time_series(case: Case, source: str = "", hz_per_omega: float | None = None) -> None:
+    """``[assess] time_series`` frequencies lie within the sweep's grid and on distinct grid points.
+
+    Each requested frequency is recorded at the nearest grid point and labelled with that
+    point's frequency; a request outside the grid, or two requests that share a grid point
+    (closer than the grid spacing), would record something else than asked under the asked
+    label, so both are errors.
+
+    Parameters
+    ----------
+    case : Case
+        The case as run (e.g. its quick variant).
+    source : str
+        File name for messages.
+    hz_per_omega : float, optional
+        The scene's natural frequency (Hz) when the grid is given as ``sweep.Omega`` but the
+        scene is physical (time series in Hz); without it such a case is not checked here
+        (the runner checks it with the built model).
+
+    Raises
+    ------
+    CaseError
+        Naming ``assess.time_series[i]``, its value and the allowed range or the clash.
+    """
+    ts = case.assess.time_series
+    if not ts:
+        return
+    sw = case.sweep
+    key = "Omega" if sw.Omega is not None else "frequency_hz"
+    start, stop, n = getattr(sw, key)
+    grid = np.linspace(start, stop, int(n))
+    physical = bool(getattr(case.model_spec(), "physical", False))
+    if key == "Omega" and physical:
+        if hz_per_omega is None:
+            return
+        grid = grid * hz_per_omega
+    unit = " Hz" if physical else ""
+    lo, hi = float(grid.min()), float(grid.max())
+    tol = 1e-9 * max(abs(lo), abs(hi))
+    spacing = float(np.min(np.diff(np.sort(grid)))) if grid.size > 1 else 0.0
+    where = f"{source}: " if source else ""
+    seen: dict = {}
+    for i, f in enumerate(ts):
+        if not lo - tol <= f <= hi + tol:
+            raise CaseError(f"{where}'assess.time_series[{i}]' = {f:g}: outside the sweep's grid; allowed: "
+                            f"{lo:g} ... {hi:g}{unit} ('sweep.{key}')")
+        j = int(np.argmin(np.abs(grid - f)))
+        if j in seen:
+            raise CaseError(f"{where}'assess.time_series[{i}]' = {f:g}: on the same grid point ({grid[j]:.10g}{unit}) "
+                            f"as 'assess.time_series[{seen[j]}]' = {ts[seen[j]]:g}; the grid spacing is "
+                            f"{spacing:g}{unit}: give frequencies on distinct grid points")
+        seen[j] = i
 
 
 def _check_map(case: Case) -> None:

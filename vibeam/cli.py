@@ -2,12 +2,99 @@
 
 Heavy modules (numba kernels, h5py, matplotlib) are imported only by the
 command that needs them, so ``vibeam --help`` and case errors are instant.
+
+Exit codes (:data:`EXIT_CODES`): 0 done; 1 ``regress`` found a regression;
+2 bad input (case file, option, file or folder: one line ``vibeam: error:
+...``, nothing computed is lost and no partial file is left); 3 the run
+finished but every point failed (the results file and plots show the
+failures); 130 interrupted by Ctrl-C (SIGINT), 143 by SIGTERM (finished
+sweep lines are kept: ``--resume``).  Output piped into a program that stops
+reading (``vibeam cost ... | head``) is dropped quietly and the command
+finishes its files.
 """
 from __future__ import annotations
 
 import argparse
+import errno
+import os
+import signal
 import sys
 from pathlib import Path
+
+EXIT_CODES = {0: "done", 1: "regression found (regress)", 2: "bad input", 3: "every point failed",
+              130: "interrupted (SIGINT, Ctrl-C)", 143: "terminated (SIGTERM)"}
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that the same clean-up runs (exit code 143)."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
+def _interrupt_code(e: BaseException) -> int:
+    return 143 if isinstance(e, Terminated) else 130
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with errors on one line: ``vibeam: error: <message> (vibeam <cmd> --help)``."""
+
+    def error(self, message):
+        from .case import _one_line
+
+        self.exit(2, f"vibeam: error: {_one_line(message)} (see `{self.prog} --help`)\n")
+
+
+def _int_at_least(lo: int, name: str = ""):
+    def conv(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        if v < lo:
+            raise argparse.ArgumentTypeError(f"{v} is not allowed; allowed: a whole number >= {lo}")
+        return v
+    conv.__name__ = name or f"integer >= {lo}"
+    return conv
+
+
+class _QuietPipe:
+    """stdout that, once its reader has gone (``| head``), drops further output instead of
+    raising BrokenPipeError, so the command still finishes its files."""
+
+    def __init__(self, stream):
+        self._s = stream
+        self.broken = False
+
+    def _gone(self):
+        self.broken = True
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self._s.fileno())
+            os.close(devnull)
+        except (OSError, ValueError, AttributeError):
+            pass
+
+    def write(self, text):
+        if self.broken:
+            return len(text)
+        try:
+            return self._s.write(text)
+        except BrokenPipeError:
+            self._gone()
+            return len(text)
+
+    def flush(self):
+        if self.broken:
+            return
+        try:
+            self._s.flush()
+        except BrokenPipeError:
+            self._gone()
+
+    def __getattr__(self, name):
+        return getattr(self._s, name)
 
 
 def run_case(*args, **kwargs):
@@ -23,25 +110,37 @@ def _executor(args):
     return open_executor(getattr(args, "scheduler", None))
 
 
+def _out_dir(args, case) -> Path:
+    return Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick else ""))
+
+
 def cmd_run(args, need_map=False) -> int:
     from .case import CaseError, load_case
+    from .outdir import check_folder
+    from .runner import failure_summary
 
     case, text = load_case(args.case)
     if need_map and case.map is None:
         raise CaseError(f"{args.case}: `vibeam map` needs a [map] table (parameter, values); "
                         f"use `vibeam run` for a plain sweep")
-    out_dir = Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick else ""))
+    out_dir = check_folder(_out_dir(args, case))
     ex, client = _executor(args)
     try:
-        run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
-                 quick=args.quick, resume=args.resume, executor=ex)
-    except KeyboardInterrupt:
-        print(f"\nvibeam: interrupted; finished sweep lines are kept in {out_dir / 'results.h5'}; "
+        res = run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
+                       quick=args.quick, resume=args.resume, executor=ex, force=args.force, source=args.case)
+    except KeyboardInterrupt as e:
+        sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
+        print(f"vibeam: interrupted ({sig}); finished sweep lines are kept in {out_dir / 'results.h5'}; "
               f"rerun with --resume to compute only the rest", file=sys.stderr)
-        return 130
+        return _interrupt_code(e)
     finally:
         if client is not None:
             client.close()
+    bad = failure_summary(res)
+    if bad:
+        print(f"vibeam: error: {args.case}: {bad}; the results file and plots in {out_dir} show them",
+              file=sys.stderr)
+        return 3
     return 0
 
 
@@ -49,21 +148,23 @@ def cmd_regress(args) -> int:
     from .case import load_case
 
     case, text = load_case(args.case)
-    from .regress import compare, print_rows
-    from .results import read_results
+    from .regress import compare, load_results, print_rows, read_reference
 
+    read_reference(args.reference)          # a bad reference is refused before anything runs
     if args.results:
-        new = read_results(args.results)
+        new = load_results(args.results, "--results")
     else:
-        out_dir = Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick else ""))
+        from .outdir import check_folder
+
+        out_dir = check_folder(_out_dir(args, case))
         ex, client = _executor(args)
         try:
             run_case(case, text, out_dir, jobs=args.jobs, quiet=True, plots=False, quick=args.quick,
-                     executor=ex)
+                     executor=ex, force=args.force, source=args.case)
         finally:
             if client is not None:
                 client.close()
-        new = read_results(out_dir / "results.h5")
+        new = load_results(out_dir / "results.h5", "results")
     tol = case.regress
     atol = tol.amplitude_atol if args.atol is None else args.atol
     rtol = tol.amplitude_rtol if args.rtol is None else args.rtol
@@ -77,16 +178,18 @@ def cmd_cost(args) -> int:
     from .case import load_case
 
     case, text = load_case(args.case)
-    from .cost import cost_tables, plot_work_precision, print_cost, run_cost
+    from .cost import check_cost_work, cost_tables, plot_work_precision, print_cost, run_cost
+    from .outdir import OutputLock, check_folder
     from .results import write_results
 
-    out_dir = Path(args.out) if args.out else Path("results") / case.name
-    out_dir.mkdir(parents=True, exist_ok=True)
-    res = run_cost(case, ladder=args.ladder, repeats=args.repeats,
-                   log=lambda m: print(m, file=sys.stderr))
+    out_dir = check_folder(Path(args.out) if args.out else Path("results") / case.name)
+    check_cost_work(case, force=args.force, source=args.case)
+    with OutputLock(out_dir):
+        res = run_cost(case, ladder=args.ladder, repeats=args.repeats,
+                       log=lambda m: print(m, file=sys.stderr))
+        h5 = write_results(out_dir / "cost.h5", [], case.name, text, extra={"cost": cost_tables(res)})
+        png = plot_work_precision(res, out_dir / "work_precision.png", title=f"{case.name}: work-precision")
     print_cost(res)
-    h5 = write_results(out_dir / "cost.h5", [], case.name, text, extra={"cost": cost_tables(res)})
-    png = plot_work_precision(res, out_dir / "work_precision.png", title=f"{case.name}: work-precision")
     print(f"\ncost table -> {h5} (/cost), plot -> {png}")
     return 0
 
@@ -115,9 +218,36 @@ def cmd_derive(args) -> int:
         print(f"{name:<20}{val:>14.6g}  {unit:<8}{src}")
     if args.write:
         text = sdof_case_text(case, spec, d["reduction"], d["scene"])
-        Path(args.write).write_text(text)
+        _write_text(Path(args.write), text, "--write")
         print(f"\nSDOF case written to {args.write}")
     return 0
+
+
+def _write_text(path: Path, text: str, option: str) -> None:
+    """Write a text file atomically; a missing folder or a folder in the way is an InputError."""
+    import tempfile
+
+    from .case import InputError
+
+    if path.is_dir():
+        raise InputError(f"{option} {path}: is a folder; give a file name")
+    if not path.parent.is_dir():
+        raise InputError(f"{option} {path}: the folder {path.parent} does not exist")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}-", suffix=".tmp", dir=path.parent)
+    except OSError as e:
+        raise InputError(f"{option} {path}: cannot write in {path.parent}: {e.strerror or e}") from None
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 def cmd_modes(args) -> int:
@@ -125,6 +255,9 @@ def cmd_modes(args) -> int:
 
     case, _ = load_case(args.case)
     spec = _beam_spec(case, "modes")
+    from .outdir import check_folder
+
+    out = check_folder(Path(args.out) if args.out else Path("results") / case.name)
     from .beamscene import modes_report
     from .models.beam import write_modes
 
@@ -142,12 +275,29 @@ def cmd_modes(args) -> int:
               f"{me:>12.4g}{100 * me / tot:>9.2f}{100 * cum / tot:>8.2f}")
     print("\ncontact modes (beam held at the stop, w(L_m) = 0): " +
           ", ".join(f"{f:.2f}" for f in cm.frequencies_hz[: args.n]) + " Hz")
-    out = Path(args.out) if args.out else Path("results") / case.name
-    out.mkdir(parents=True, exist_ok=True)
-    vtu = write_modes(out / "modes.vtu", rep["fe"], n=min(args.n, len(md.frequencies_hz)))
+    vtu = _atomic_file(out / "modes.vtu", lambda p: write_modes(p, rep["fe"], n=min(args.n, len(md.frequencies_hz))))
     png = _plot_modes(rep, out / "modes.png", case.name)
     print(f"mode shapes -> {vtu} (ParaView), {png}")
     return 0
+
+
+def _atomic_file(path: Path, write) -> Path:
+    """``write(tmp_path)`` then rename over ``path``; the temporary file is removed on error."""
+    import tempfile
+
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
 
 
 def _plot_modes(rep, path, title):
@@ -174,7 +324,9 @@ def _plot_modes(rep, path, title):
     axes[0].set_ylabel("normalised deflection")
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from .plots import save_figure
+
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -182,14 +334,18 @@ def _plot_modes(rep, path, title):
 def main(argv=None) -> int:
     from . import __version__
 
-    ap = argparse.ArgumentParser(prog="vibeam", description="Vibro-impact structural dynamics of an "
-                                 "impacting cantilever beam (multi-fidelity).")
+    ap = _Parser(prog="vibeam", description="Vibro-impact structural dynamics of an "
+                 "impacting cantilever beam (multi-fidelity).",
+                 epilog="exit codes: " + "; ".join(f"{k} {v}" for k, v in EXIT_CODES.items()))
     ap.add_argument("--version", action="version", version=f"vibeam {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
+    force_help = ("run even if the estimated work is above the limit (vibeam.runner.MAX_WORK_STEPS: "
+                  "Omega near 0, huge transient_periods, ...)")
+
     def run_args(p):
         p.add_argument("case", help="case file (TOML)")
         p.add_argument("--out", help="output folder (default results/<case name>/)")
-        p.add_argument("--jobs", type=int, default=None,
+        p.add_argument("--jobs", type=_int_at_least(1), default=None,
                        help="worker processes of the local pool (default: all cores; 1: inline)")
         p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -199,6 +355,7 @@ def main(argv=None) -> int:
                        help="continue an interrupted run: keep the sweep lines already in results.h5")
         p.add_argument("--scheduler", metavar="ADDRESS",
                        help="run the sweep lines on a dask.distributed scheduler (e.g. tcp://host:8786)")
+        p.add_argument("--force", action="store_true", help=force_help)
 
     p = sub.add_parser("run", help="run the sweeps (or the [map]) of a case file; write results.h5, plots "
                        "and a table")
@@ -207,22 +364,25 @@ def main(argv=None) -> int:
     p = sub.add_parser("map", help="parameter map of a case with [map] (period-n regions, paper Fig. 18)")
     run_args(p)
     p.set_defaults(func=lambda a: cmd_run(a, need_map=True))
-    p = sub.add_parser("regress", help="compare a case's FRCs with reference FRCs (HDF5 or CSV)")
+    p = sub.add_parser("regress", help="compare a case's FRCs with reference FRCs (HDF5 or CSV); exit 1 on a "
+                       "regression, 2 on bad input")
     p.add_argument("case", help="case file (TOML)")
     p.add_argument("--reference", required=True, help="reference results.h5 or CSV")
     p.add_argument("--results", help="compare this results file instead of rerunning the case")
     p.add_argument("--out", help="output folder of the rerun (default results/<case name>/)")
-    p.add_argument("--jobs", type=int, default=None)
+    p.add_argument("--jobs", type=_int_at_least(1), default=None)
     p.add_argument("--atol", type=float, default=None, help="override [regress] amplitude_atol")
     p.add_argument("--rtol", type=float, default=None, help="override [regress] amplitude_rtol")
     p.add_argument("--quick", action="store_true",
                    help="rerun the case's quick variant (as the references in tests/references/)")
+    p.add_argument("--force", action="store_true", help=force_help)
     p.set_defaults(func=cmd_regress)
     p = sub.add_parser("cost", help="accuracy against time of every run (work-precision table and plot)")
     p.add_argument("case", help="case file (TOML)")
     p.add_argument("--out", help="output folder (default results/<case name>/)")
     p.add_argument("--ladder", action="store_true", help="also a ladder of tolerances per ODE method")
-    p.add_argument("--repeats", type=int, default=3, help="timed repetitions (median reported)")
+    p.add_argument("--repeats", type=_int_at_least(1), default=3, help="timed repetitions (median reported)")
+    p.add_argument("--force", action="store_true", help=force_help)
     p.set_defaults(func=cmd_cost)
     p = sub.add_parser("derive", help="SDOF parameters of a beam scene by the assumed static mode")
     p.add_argument("case", help="beam case file (TOML)")
@@ -231,13 +391,14 @@ def main(argv=None) -> int:
     p = sub.add_parser("modes", help="natural frequencies, participation, effective and contact modes")
     p.add_argument("case", help="beam case file (TOML)")
     p.add_argument("--out", help="output folder (default results/<case name>/)")
-    p.add_argument("-n", type=int, default=6, help="number of modes (default 6)")
+    p.add_argument("-n", type=_int_at_least(1), default=6, help="number of modes (default 6)")
     p.set_defaults(func=cmd_modes)
     p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp (JSON)")
-    p.add_argument("--points", type=int, default=101)
-    p.add_argument("--periods", type=int, default=500)
-    p.add_argument("--repeats", type=int, default=5)
-    p.add_argument("--direct-points", type=int, default=None,
+    p.add_argument("--points", type=_int_at_least(1), default=101)
+    p.add_argument("--periods", type=_int_at_least(65), default=500,
+                   help="forcing periods per point, transient + the 64 recorded ones (> 64)")
+    p.add_argument("--repeats", type=_int_at_least(1), default=5)
+    p.add_argument("--direct-points", type=_int_at_least(1), default=None,
                    help="time solve_ivp on this many points only and scale (quick look)")
     p.add_argument("--map", action="store_true",
                    help="instead: parameter-map points per second on 1 and 2 workers and the cost of the "
@@ -249,16 +410,47 @@ def main(argv=None) -> int:
                    help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
-    from .case import CaseError
+    return _dispatch(args)
 
+
+def _dispatch(args) -> int:
+    """Run a parsed command: errors as one line and exit 2, interrupts as 130/143."""
+    from .case import CaseError, _one_line
+
+    stdout = sys.stdout
+    sys.stdout = _QuietPipe(stdout)
+    old_term = None
+    try:
+        old_term = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:        # not the main thread (an embedding program): leave SIGTERM alone
+        pass
     try:
         return args.func(args)
     except CaseError as e:
-        print(f"vibeam: error: {e}", file=sys.stderr)
+        print(f"vibeam: error: {_one_line(str(e))}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("\nvibeam: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as e:
+        print(f"vibeam: interrupted ({'SIGTERM' if isinstance(e, Terminated) else 'Ctrl-C'})", file=sys.stderr)
+        return _interrupt_code(e)
+    except OSError as e:
+        # a file system error (full disk, permissions, a folder where a file should be): one line
+        # naming the file; nothing written is partial (every writer goes through a temporary file)
+        if isinstance(e, BrokenPipeError):
+            return 0
+        what = e.filename or ""
+        why = e.strerror or str(e)
+        if e.errno == errno.ENOSPC:
+            why = "no space left on the device"
+        print(f"vibeam: error: {_one_line(f'{what}: {why}' if what else why)}", file=sys.stderr)
+        return 2
+    finally:
+        try:
+            sys.stdout.flush()
+        except Exception:
+            pass
+        sys.stdout = stdout
+        if old_term is not None:
+            signal.signal(signal.SIGTERM, old_term)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -102,6 +102,18 @@ def reference_model(case, run_model: dict):
     return case.model_spec(fine).build(), json.dumps(fine, sort_keys=True)
 
 
+def check_cost_work(case, force: bool = False, source: str = "") -> dict:
+    """Refuse unbounded work before timing (:func:`vibeam.runner.check_work`): the case as
+    given, and its converged reference with max(4 x transient, 2000) transient periods."""
+    from .runner import check_work
+
+    w = check_work(case, force=force, source=source)
+    data = case.model_dump()
+    data["sweep"] = dict(data["sweep"], transient_periods=max(4 * case.sweep.transient_periods, 2000))
+    check_work(type(case).model_validate(data), force=force, source=source)
+    return w
+
+
 def run_cost(case, ladder: bool = False, repeats: int = 3, log=print) -> dict:
     """Time and error of every run (and ladder rung) of ``case``.
 
@@ -268,6 +280,8 @@ def plot_work_precision(result: dict, path, title: str = ""):
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from .plots import save_figure
+
+    save_figure(fig, path)
     plt.close(fig)
     return path

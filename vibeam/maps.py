@@ -196,7 +196,9 @@ def plot_map(m: MapResult, path, title: str = ""):
                fontsize=8, frameon=False)
     fig.suptitle(f"{title}: {m.name} ({m.method})" if title else m.name)
     fig.tight_layout(rect=(0, 0.12, 1, 1))
-    fig.savefig(path, dpi=120)
+    from .plots import save_figure
+
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -238,7 +240,9 @@ def plot_agreement(maps: list, path, title: str = ""):
     axes[0][0].set_ylabel(ref.parameter)
     fig.suptitle(f"{title}\nclasses that differ from '{ref.name}' (up sweep; light grey: same)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from .plots import save_figure
+
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -260,7 +264,8 @@ def map_lines(results: dict) -> dict:
     per parameter value, named ``<run>@<parameter>=<value>``: 1-D per-point datasets
     (``direction``, ``Omega``, ``amplitude``, ``period``, ...), the up line then the down line,
     each in increasing frequency -- the layout of ``/runs``, so FRC tools (regression,
-    plots) treat a map's lines like runs."""
+    plots) treat a map's lines like runs.  Values that agree to 6 digits get their full
+    ``repr`` instead, so no line replaces another."""
     out = {}
     for name, m in results.get("maps", {}).items():
         dirs = [str(d) for d in m["direction"]]
@@ -274,7 +279,10 @@ def map_lines(results: dict) -> dict:
                     continue
                 run[k] = np.concatenate([arr[i, j] for i in range(len(dirs))])
             run["direction"] = np.repeat(np.array(dirs, dtype=object), nf)
-            out[f"{name}@{par}={float(v):.6g}"] = run
+            key = f"{name}@{par}={float(v):.6g}"
+            if key in out:                       # values closer than 6 digits: never overwrite
+                key = f"{name}@{par}={float(v)!r}"
+            out[key] = run
     return out
 
 

@@ -2,7 +2,11 @@
 
 * ``frc.png``: the FRC of every run overlaid, period-1 as dots, period-2 as
   triangles, higher periods as squares, non-periodic as crosses and no-impact
-  points as small grey dots.
+  points as small grey dots; failed points (no amplitude) as red crosses along
+  the bottom of the axes.
+
+Every figure is written through :func:`save_figure` (a temporary file renamed
+into place), so a failed or interrupted write never leaves a partial PNG.
 * ``bifurcation.png``: stroboscopic displacement q against the forcing
   frequency, one panel per time-domain run.
 """
@@ -16,6 +20,34 @@ from .sweep import SweepResult
 
 MARKERS = {1: ("o", "period 1"), 2: ("^", "period 2"), 0: ("x", "not periodic (n > 8)"),
            -1: (".", "no impact")}
+
+
+def save_figure(fig, path, dpi: int = 120) -> Path:
+    """Save a matplotlib figure atomically: to a temporary file beside ``path``, then
+    :func:`os.replace`; on any error the temporary file is removed and the error raised."""
+    import os
+    import tempfile
+
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix + ".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def _umask() -> int:
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def _mm(r: SweepResult) -> float:
@@ -61,6 +93,12 @@ def plot_frc(runs: list[SweepResult], path, title: str = "") -> Path:
                     mfc="none" if mk in "^s" else c, linestyle="none",
                     label=lab if lab_key not in seen else None)
             seen.add(lab_key)
+        st = np.asarray([str(v) for v in r.data.get("status", [])])
+        bad = st == "failed" if st.size == len(x) else np.zeros(len(x), bool)
+        if bad.any():   # failed points have no amplitude: marked along the bottom of the axes
+            ax.plot(np.asarray(x, float)[bad], np.full(int(bad.sum()), 0.02), "x", color="r", ms=6,
+                    transform=ax.get_xaxis_transform(), linestyle="none",
+                    label=f"{r.name}: failed ({int(bad.sum())} points)")
         if "amplitude_lower" in r.data:
             ax.plot(x, r.data["amplitude_lower"] * _mm(r),
                     ":", color=c, lw=1, label=f"{r.name} lower branch")
@@ -70,9 +108,10 @@ def plot_frc(runs: list[SweepResult], path, title: str = "") -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        path = save_figure(fig, path)
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -99,7 +138,8 @@ def plot_bifurcation(runs: list[SweepResult], path, title: str = "") -> Path | N
     axes[-1, 0].set_xlabel(xl)
     fig.suptitle(title or "bifurcation diagram (stroboscopic map)")
     fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        path = save_figure(fig, path)
+    finally:
+        plt.close(fig)
     return path

@@ -40,22 +40,81 @@ def read_csv_reference(path) -> tuple[str, np.ndarray, np.ndarray]:
 
     Raises
     ------
-    ValueError
-        If the header is not ``frequency_hz,amplitude_mm`` or ``Omega,amplitude``
-        or a value is not a number.
+    InputError
+        If the file cannot be read, is empty, its header is not
+        ``frequency_hz,amplitude_mm`` or ``Omega,amplitude``, or a value is not a
+        finite number.
     """
-    with open(path, newline="") as f:
-        rows = [r for r in csv.reader(f) if r and not r[0].lstrip().startswith("#")]
+    from .case import InputError
+
+    try:
+        with open(path, newline="") as f:
+            rows = [r for r in csv.reader(f) if r and not r[0].lstrip().startswith("#")]
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise InputError(f"--reference {path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
+    if not rows:
+        raise InputError(f"--reference {path}: empty CSV; it needs the header 'frequency_hz,amplitude_mm' or "
+                         f"'Omega,amplitude' and one row per point")
     head = [h.strip() for h in rows[0]]
     if head[:2] not in (["frequency_hz", "amplitude_mm"], ["Omega", "amplitude"]):
-        raise ValueError(f"{path}: header {head!r} not allowed; use 'frequency_hz,amplitude_mm' or "
-                         f"'Omega,amplitude'")
+        raise InputError(f"--reference {path}: header {','.join(head)[:80]!r} not allowed; use "
+                         f"'frequency_hz,amplitude_mm' or 'Omega,amplitude'")
+    if len(rows) < 2:
+        raise InputError(f"--reference {path}: no data rows below the header")
     try:
         data = np.array([[float(v) for v in r[:2]] for r in rows[1:]])
     except ValueError as e:
-        raise ValueError(f"{path}: {e}") from None
+        raise InputError(f"--reference {path}: {e}") from None
+    if data.ndim != 2 or data.shape[1] != 2 or not np.isfinite(data).all():
+        raise InputError(f"--reference {path}: every row needs two finite numbers")
     order = np.argsort(data[:, 0])
     return head[0], data[order, 0], data[order, 1]
+
+
+def load_results(path, option: str = "--results") -> dict:
+    """:func:`vibeam.results.read_results` of a file that must be a vibeam results file.
+
+    Raises
+    ------
+    InputError
+        If the file is missing, empty, truncated, not HDF5, or holds no runs or maps
+        with amplitudes.
+    """
+    from .case import InputError
+    from .results import read_results
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{option} {path}: " + ("is not a file" if path.exists() else "no such file"))
+    try:
+        res = read_results(path)
+    except (OSError, KeyError, ValueError) as e:
+        why = getattr(e, "strerror", None) or (str(e).splitlines()[0] if str(e) else type(e).__name__)
+        raise InputError(f"{option} {path}: not a readable results file ({why})") from None
+    from .maps import all_runs
+
+    runs = all_runs(res)
+    if not runs:
+        raise InputError(f"{option} {path}: holds no runs or maps (an interrupted run? finish it with --resume)")
+    for name, r in runs.items():
+        for k in ("amplitude", "direction", "Omega"):
+            if k not in r:
+                raise InputError(f"{option} {path}: run {name!r} has no {k!r} dataset")
+    return res
+
+
+def read_reference(path):
+    """Check a reference (CSV or results file) before anything runs; returns it read.
+
+    Raises
+    ------
+    InputError
+        If it is missing or unreadable (see :func:`read_csv_reference`, :func:`load_results`).
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".csv":
+        return read_csv_reference(path)
+    return load_results(path, "--reference")
 
 
 def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: bool = True) -> list[RegressRow]:
@@ -88,7 +147,7 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
             rows.append(_row(name, y_new, a[inside], atol, rtol, None, None,
                              note=f"{int(inside.sum())} of {len(x)} CSV points inside the sweep"))
         return rows
-    ref = read_results(ref_path)
+    ref = load_results(ref_path, "--reference")
     for name, r in all_runs(ref).items():
         if name not in new["runs"]:
             rows.append(RegressRow(name, 0, 1, np.nan, np.nan, 0, "run missing from the new results"))

@@ -7,7 +7,8 @@ Layout of ``results.h5``::
         <dataset>    one entry per frequency point; attrs: units
     /maps/<run>/     a parameter map (``[map]``): attrs as a run, plus parameter
         <dataset>    shape (n_direction, n_values, n_frequency, ...)
-    /lines/<run>/<line>/   the checkpoint: each finished sweep line's per-point datasets
+    /lines/<run>/<line>/   the checkpoint: each finished sweep line's per-point datasets;
+                     attrs: case_hash (:func:`case_hash` of the case as run)
 
 Every write goes to a temporary file in the same folder that is then moved
 over the old one (:func:`os.replace` is atomic): the whole file at the end of
@@ -45,7 +46,10 @@ def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
     import shutil
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".results-", suffix=".h5.tmp", dir=path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".results-", suffix=".h5.tmp", dir=path.parent)
+    except OSError as e:
+        raise OSError(e.errno, e.strerror, str(path)) from e
     os.close(fd)
     with _signals_deferred():
         try:
@@ -55,9 +59,12 @@ def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
                 fill(f)
             os.chmod(tmp, 0o666 & ~_umask())   # mkstemp makes 0600; a results file is shared
             os.replace(tmp, path)
-        except BaseException:
+        except BaseException as e:
             if os.path.exists(tmp):
                 os.unlink(tmp)
+            if isinstance(e, OSError) and not isinstance(e, BrokenPipeError) and e.filename != str(path):
+                # name the results file (not the temporary one) in the one-line error
+                raise OSError(e.errno, e.strerror or str(e).splitlines()[0], str(path)) from e
             raise
     return path
 
@@ -95,6 +102,20 @@ def _root_attrs(f, case_name, case_text, case_json="", complete=True):
     f.attrs["complete"] = complete
 
 
+def case_hash(case_json: str) -> str:
+    """Identity of a case as run (its validated JSON): SHA-256, 16 hex digits.
+
+    Every checkpointed line carries it (attribute ``case_hash``), so a resume
+    keeps only lines computed for the same case and variant."""
+    import hashlib
+
+    return hashlib.sha256(case_json.encode()).hexdigest()[:16]
+
+
+class ForeignFileError(ValueError):
+    """A results file that belongs to another case (written by another process meanwhile)."""
+
+
 def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", case_json: str = "") -> Path:
     """Add finished sweep lines to the checkpoint ``/lines`` of ``path`` atomically.
 
@@ -110,31 +131,51 @@ def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", ca
     Returns
     -------
     Path
+
+    Raises
+    ------
+    ForeignFileError
+        If ``path`` holds the checkpoint of another case (``case_json``
+        differs): lines of two cases are never mixed in one file.
     """
     path = Path(path)
+    ident = case_hash(case_json)
 
     def fill(f):
         if "case_text" not in f.attrs:
             _root_attrs(f, case_name, case_text, case_json, complete=False)
+        elif str(f.attrs.get("case_json", "")) != case_json:
+            raise ForeignFileError(f"{path} now holds the results of another case "
+                                   f"({f.attrs.get('case_name', '?')!s}): another process wrote it")
         f.attrs["complete"] = False
         g = f.require_group("lines")
         for key, data in lines.items():
             if key in g:
                 del g[key]
             gl = g.create_group(key)
+            gl.attrs["case_hash"] = ident
             for k, v in data.items():
                 _write_dataset(gl, k, v)
 
     return _atomic(path, fill, copy_from=path if path.exists() else None)
 
 
-def read_lines(path) -> tuple[dict, dict]:
-    """The checkpoint of a results file: ``(root attrs, {run: {line key: {dataset: array}}})``."""
+def read_lines(path, case_json: str | None = None) -> tuple[dict, dict]:
+    """The checkpoint of a results file: ``(root attrs, {run: {line key: {dataset: array}}})``.
+
+    With ``case_json``, only the lines whose ``case_hash`` attribute is that of
+    ``case_json`` (:func:`case_hash`) are returned: a line of another case, or
+    one without the attribute, is never kept.
+    """
     out = {}
+    ident = None if case_json is None else case_hash(case_json)
     with h5py.File(path, "r") as f:
         attrs = dict(f.attrs)
         for run, g in f.get("lines", {}).items():
-            out[run] = {key: _read_group(gl) for key, gl in g.items()}
+            got = {key: _read_group(gl) for key, gl in g.items()
+                   if ident is None or str(gl.attrs.get("case_hash", "")) == ident}
+            if got:
+                out[run] = got
     return attrs, out
 
 
@@ -182,6 +223,8 @@ def write_results(path, runs: list[SweepResult], case_name: str = "", case_text:
                 _write_dataset(g, k, v)
         for gpath, table in list((extra or {}).items()) + [(f"lines/{k}", v) for k, v in (lines or {}).items()]:
             g = f.require_group(gpath)
+            if gpath.startswith("lines/"):
+                g.attrs["case_hash"] = case_hash(case_json)
             for k, v in table.items():
                 _write_dataset(g, k, v)
 

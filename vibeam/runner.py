@@ -60,6 +60,24 @@ def _jobs(case) -> list[_Job]:
     return out
 
 
+def _notes(case, jobs_) -> None:
+    """One line per ``[assess]`` item that does not apply to a run (printed once)."""
+    from . import assess
+
+    seen = []
+    for job in jobs_:
+        for msg in assess.not_applicable(case, job.run, job.solver.model, job.solver.time_domain):
+            if msg not in seen:
+                seen.append(msg)
+                print(f"vibeam: note: {msg}; skipped", file=sys.stderr)
+
+
+def file_stem(name: str) -> str:
+    """A run name as part of a file name (``map_<stem>.png``): characters other than letters,
+    digits and ``_.+-`` become ``_``.  Case validation refuses two runs with the same stem."""
+    return re.sub(r"[^A-Za-z0-9_.+-]+", "_", name)
+
+
 def _lines(job: _Job):
     from .sweep import plan_lines
 
@@ -69,6 +87,133 @@ def _lines(job: _Job):
     from dataclasses import replace
 
     return [replace(l, key=f"{job.j:04d}-{l.key}") for l in lines]
+
+
+# ----------------------------------------------------------------------------- work limit
+MAX_WORK_STEPS = 1e11
+"""Refuse a case whose estimated work exceeds this many event-kernel steps (``--force``
+overrides).  One step of the SDOF event kernel costs about 0.1 us on one core of the
+development machine (2.5 us per forcing period of 400 + 64 periods at 16 + 64 steps), so
+the limit is a few hours on one core; the largest shipped case (``rig-map-gap``) needs
+8e7 steps."""
+MAX_POINT_VALUES = 1e8
+"""Refuse a case whose one point would record more than this many floats (0.8 GB)."""
+ODE_STEP_COST = 1000.0
+"""Cost of a period of the ``solve_ivp`` methods over one of ``event`` (measured ~700x,
+``vibeam bench``), applied per step of the event grid."""
+_STEPS_PER_NATURAL_PERIOD = 16     # the event kernels' sub-steps: below 1/16 of a natural period
+
+
+def _dofs(spec) -> int:
+    """Degrees of freedom simulated by a model spec (1 for the SDOF and the static mode)."""
+    n = getattr(spec, "n_modes", None)
+    if spec.fidelity != "beam" or n == "static":
+        return 1
+    return 2 * int(spec.n_elements) if n == "all" else int(n)
+
+
+def estimate_work(case, jobs_=None) -> dict:
+    """Estimate what a case costs before running it.
+
+    Per point of a time-domain run, the event kernels step a fixed grid:
+    ``max(samples, 16 / Omega)`` steps per forcing period (``samples`` =
+    ``transient_samples`` in the transient, ``samples_per_period`` in the record;
+    the kernel sub-steps below 1/16 of the natural period 2 pi, so a forcing
+    period at small Omega costs 16 / Omega steps).  The work is the sum over
+    points, directions, runs and map values of ``transient x steps + record x
+    steps``, times the retained modes for the FE beam and :data:`ODE_STEP_COST`
+    for the ``solve_ivp`` methods (``averaging`` and ``mapping`` count one step
+    per point).  It is a lower bound: chatter, impacts and high modes add to it.
+
+    Parameters
+    ----------
+    case : vibeam.case.Case
+        The case as run (e.g. its quick variant).
+    jobs_ : list, optional
+        Its jobs (:func:`_jobs`), to reuse their grids; built if not given.
+
+    Returns
+    -------
+    dict
+        ``steps`` (float), ``point_values`` (most floats recorded by one point),
+        and ``culprit`` ``(key, value)``: the case key that contributes most
+        beyond a usual case (101 points, 400 + 64 periods, 64 samples, Omega >= 1,
+        one mode, the event method, one map value).
+    """
+    jobs_ = _jobs(case) if jobs_ is None else jobs_
+    sw = case.sweep
+    grid_key = "sweep.Omega" if sw.Omega is not None else "sweep.frequency_hz"
+    n_dir = 2 if sw.direction == "both" else 1
+    steps = 0.0
+    point_values = 0.0
+    w_min = np.inf
+    worst_modes, worst_cost = (None, 1), (None, 1.0)
+    for job in jobs_:
+        r = job.run
+        Om = np.abs(np.asarray(job.sweep.Omega, float))
+        Om = Om[Om > 0] if (Om > 0).any() else np.array([1e-300])
+        w_min = min(w_min, float(Om.min()))
+        dofs = _dofs(job.spec)
+        if r.method in ("averaging", "mapping"):
+            steps += n_dir * Om.size
+            continue
+        ts = getattr(r, "transient_samples", 16)
+        spp = job.sweep.samples_per_period
+        sub = _STEPS_PER_NATURAL_PERIOD / Om
+        per = (job.sweep.transient_periods * np.maximum(ts, sub) + job.sweep.record_periods * np.maximum(spp, sub))
+        cost = ODE_STEP_COST if r.method in ("direct", "zhuravlev", "ivanov") else 1.0
+        steps += n_dir * float(per.sum()) * dofs * cost
+        point_values = max(point_values, job.sweep.record_periods * spp * 2.0 * (1 + dofs))
+        i = case.run.index(r)
+        if dofs > worst_modes[1]:
+            worst_modes = (f"run[{i}].model.n_modes" if "n_modes" in r.model else "model.n_modes", dofs)
+        if cost > worst_cost[1]:
+            worst_cost = (f"run[{i}].method", cost)
+    n_pts = len(sw.grid(1.0))
+    periods = sw.transient_periods + sw.record_periods
+    cands = [
+        (("sweep.transient_periods" if sw.transient_periods >= sw.record_periods else "sweep.record_periods"),
+         (sw.transient_periods if sw.transient_periods >= sw.record_periods else sw.record_periods),
+         periods / 464),
+        (grid_key, getattr(sw, grid_key.split(".")[1]), max(n_pts / 101, 1.0 / max(w_min, 1e-300))),
+        ("sweep.samples_per_period", sw.samples_per_period, sw.samples_per_period / 64),
+        ("map.values", case.map.values if case.map else None, len(case.map.grid()) if case.map else 0),
+        (worst_modes[0], worst_modes[1], worst_modes[1]),
+        (worst_cost[0], None, worst_cost[1]),
+    ]
+    key, val, _ = max((c for c in cands if c[0]), key=lambda c: c[2])
+    if key.endswith(".method"):
+        val = case.run[int(key[4:key.index("]")])].method
+    return {"steps": steps, "point_values": point_values, "culprit": (key, val)}
+
+
+def check_work(case, jobs_=None, force: bool = False, source: str = "") -> dict:
+    """Refuse a case whose work (:func:`estimate_work`) exceeds :data:`MAX_WORK_STEPS` or whose
+    one point records more than :data:`MAX_POINT_VALUES` floats, unless ``force``.
+
+    Raises
+    ------
+    InputError
+        Naming the key that contributes most, its value, the estimate and the limit.
+    """
+    from .case import InputError, _value
+
+    w = estimate_work(case, jobs_)
+    if force:
+        return w
+    where = f"{source}: " if source else ""
+    if w["point_values"] > MAX_POINT_VALUES:
+        sw = case.sweep
+        raise InputError(f"{where}'sweep.record_periods' = {sw.record_periods}: one point would record "
+                         f"{w['point_values']:.3g} values (limit {MAX_POINT_VALUES:.0e}, "
+                         f"{MAX_POINT_VALUES * 8 / 1e9:.1f} GB); record fewer periods or samples, or pass --force")
+    if w["steps"] > MAX_WORK_STEPS:
+        key, val = w["culprit"]
+        hours = w["steps"] * 1e-7 / 3600
+        raise InputError(f"{where}'{key}' = {_value(val)}: the case needs about {w['steps']:.2g} solver steps "
+                         f"(~{hours:.3g} h on one core), above the limit of {MAX_WORK_STEPS:.0e}; "
+                         f"reduce it, or pass --force to run anyway")
+    return w
 
 
 def open_executor(scheduler: str | None):
@@ -87,13 +232,16 @@ def open_executor(scheduler: str | None):
         raise CaseError("--scheduler needs dask.distributed: pip install 'vibeam[dask]'") from None
     try:
         client = Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError) as e:
-        raise CaseError(f"--scheduler {scheduler!r}: cannot connect ({e})") from None
+    except Exception as e:   # OSError, TimeoutError, ValueError (not an address), ...
+        from .case import _one_line
+
+        raise CaseError(_one_line(f"--scheduler {scheduler!r}: cannot connect: {e}; give the address "
+                                  f"of a dask scheduler, e.g. tcp://host:8786")) from None
     return client.get_executor(), client
 
 
 def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=False, resume=False,
-             executor=None, checkpoint=True, checkpoint_interval_s=0.5):
+             executor=None, checkpoint=True, checkpoint_interval_s=0.5, force=False, source=""):
     """Run a case: its runs, or its parameter map; write ``results.h5``, plots and a table.
 
     Parameters
@@ -102,7 +250,9 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     text : str
         The case file's text (stored in the results).
     out_dir : str or Path
-        Output folder.
+        Output folder.  Held by this process for the whole run
+        (:class:`vibeam.outdir.OutputLock`); temporary files of killed writes
+        found there are removed.
     jobs : int or None
         Workers of the local process pool (None: all cores; 1: inline).
     quiet : bool
@@ -112,7 +262,8 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     quick : bool
         Run the case's quick variant (``[quick]``).
     resume : bool
-        Continue an interrupted run: the lines already in ``results.h5`` are kept.
+        Continue an interrupted run: the lines already in ``results.h5`` that
+        were computed for this case (same ``case_hash``) are kept.
     executor : concurrent.futures.Executor, optional
         Where lines run (e.g. ``dask.distributed.Client(...).get_executor()``);
         default a local pool of ``jobs`` workers.
@@ -123,6 +274,10 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
         together (each line whole) at the next append, on an interrupt, or at
         the end -- so maps of many short lines do not rewrite the file per
         line; a killed process loses at most this much finished work.
+    force : bool
+        Run even if the estimated work is above the limit (:func:`check_work`).
+    source : str
+        Name of the case file, for messages.
 
     Returns
     -------
@@ -132,29 +287,47 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
 
     Raises
     ------
-    CaseError
-        If ``resume`` finds a results file written by another case or variant.
+    InputError
+        If the output folder is used by another running process or cannot be
+        written, ``results.h5`` is not a file, ``resume`` finds a results file
+        written by another case or variant, or the work is above the limit.
     """
-    from .results import append_lines, read_lines, write_results
-    from .sweep import run_lines, stack, unstack
+    from .outdir import OutputLock
+
+    from .case import check_time_series
 
     if quick:
         case = case.quick_variant()
+    jobs_ = _jobs(case)
+    for fn in {getattr(j.solver.model, "natural_frequency_hz", None) for j in jobs_}:
+        check_time_series(case, source, fn)
+    _notes(case, jobs_)
+    check_work(case, jobs_, force=force, source=source)
+    with OutputLock(out_dir):
+        return _run_locked(case, text, Path(out_dir), jobs_, jobs, quiet, plots, resume, executor, checkpoint,
+                           checkpoint_interval_s)
+
+
+def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor, checkpoint,
+                checkpoint_interval_s):
+    from .case import InputError
+    from .results import ForeignFileError, append_lines, read_lines, write_results
+    from .sweep import run_lines, stack, unstack
+
     case_json = case.model_dump_json()
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     h5 = out_dir / "results.h5"
+    if h5.exists() and not h5.is_file():
+        raise InputError(f"{h5} is not a file (a folder?); remove it or use another --out")
     stored = {}
     if resume and h5.exists():
         try:
-            attrs, stored = read_lines(h5)
+            attrs, stored = read_lines(h5, case_json=case_json)
         except OSError as e:
-            raise CaseError(f"--resume: cannot read {h5}: {e}") from None
+            raise InputError(f"--resume: cannot read {h5}: {e}") from None
         if attrs.get("case_json") != case_json:
-            raise CaseError(f"--resume: {h5} was written by another case or variant; run without "
-                            f"--resume to start afresh, or use another --out")
+            raise InputError(f"--resume: {h5} was written by another case or variant; run without "
+                             f"--resume to start afresh, or use another --out")
     t_all = time.perf_counter()
-    jobs_ = _jobs(case)
     all_lines = [(job, l) for job in jobs_ for l in _lines(job)]
     line_data = {}          # "<run>/<key>" -> stacked datasets (the checkpoint)
     for job, l in all_lines:
@@ -177,7 +350,10 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
             if fresh[0] and h5.exists():
                 h5.unlink()          # a new run replaces an old file (use --resume to keep it)
             fresh[0] = False
-            append_lines(h5, dict(buffer), case.name, text, case_json)
+            try:
+                append_lines(h5, dict(buffer), case.name, text, case_json)
+            except ForeignFileError as e:
+                raise InputError(str(e)) from None
             buffer.clear()
         last_flush[0] = time.perf_counter()
 
@@ -202,6 +378,22 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     if plots:
         _plots(case, runs, maps, out_dir)
     return maps if case.map else runs
+
+
+def failure_summary(results) -> str | None:
+    """A one-line summary when every point of every run (or map) failed, else None."""
+    n = 0
+    msgs = []
+    for r in results or []:
+        st = np.asarray(r.data.get("status", []), dtype=object).ravel()
+        if st.size == 0 or not (st == "failed").all():
+            return None
+        n += st.size
+        msgs += [str(m) for m in np.asarray(r.data.get("message", []), dtype=object).ravel() if str(m)]
+    if not n:
+        return None
+    common = max(set(msgs), key=msgs.count) if msgs else "no message"
+    return f"every point failed ({n} points); most common reason: {common}"
 
 
 def _assemble(case, jobs_, rows_of):
@@ -244,15 +436,15 @@ def _plots(case, runs, maps, out_dir):
 
     for m in maps:
         print_map(m)
-        safe = re.sub(r"[^A-Za-z0-9_.+-]+", "_", m.name)
-        p = plot_map(m, out_dir / f"map_{safe}.png", title=case.name)
+        p = plot_map(m, out_dir / f"map_{file_stem(m.name)}.png", title=case.name)
         print(f"map plot: {p}")
     if len(maps) > 1:
         for m in maps[1:]:
             same = class_agreement(maps[0], m)
             if same is not None:
                 print(f"  {m.name} vs {maps[0].name}: classes differ at {int((~same).sum())} of {same.size} points")
-        p = plot_agreement(maps, out_dir / "map_agreement.png", title=case.name)
+        # "maps_" never begins a per-run plot ("map_<run>.png"), so no run name can collide with it
+        p = plot_agreement(maps, out_dir / "maps_agreement.png", title=case.name)
         if p:
             print(f"map agreement plot: {p}")
     if runs:

@@ -215,6 +215,12 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
         a broken pool, a lost dask worker); after that its points are recorded
         with ``status = 'failed'`` and the reason, and the rest goes on.
 
+    An interrupt (``KeyboardInterrupt``, or SIGTERM turned into one by the
+    command line) first hands every line that has already finished to
+    ``on_line``, then cancels the queued lines, terminates the workers of the
+    default pool and re-raises: it returns within about a second whatever the
+    workers are doing (an inline line stops at its kernel's next return).
+
     Returns
     -------
     dict
@@ -287,15 +293,87 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
                         else:
                             finish(line, _lost_rows(line, e, n))
                 ex.shutdown(wait=False, cancel_futures=True)
-                ex = ProcessPoolExecutor(max_workers=max(1, min(jobs or os.cpu_count() or 1, len(retry))))
+                ex = _pool(max(1, min(jobs or os.cpu_count() or 1, len(retry))))
             for line in retry:
                 submit(line)
+    except BaseException:
+        # interrupted (Ctrl-C, SIGTERM) or failing: report every line that has finished, then
+        # stop the rest at once -- queued lines cancelled, the own pool's workers terminated
+        for f, line in list(pending.items()):
+            if f.done() and not f.cancelled() and f.exception() is None and (line.run, line.key) not in results:
+                pending.pop(f)
+                finish(line, f.result())
+        if own:
+            # the pool cancels what is queued and the killed workers' futures fail (cancelling
+            # them here as well trips Python 3.11's pool manager: InvalidStateError)
+            _terminate(ex)
+            pending[Future()] = None      # shut the pool down below without waiting for it
+        else:
+            for f in pending:
+                f.cancel()
+        raise
     finally:
         if bar is not None:
             bar.close()
         if own:
             ex.shutdown(wait=not pending, cancel_futures=True)
     return results
+
+
+def _terminate(ex) -> None:
+    """Shut a local pool down now: queued lines cancelled, workers killed (their lines are
+    abandoned), without waiting for anything they run."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())   # shutdown() forgets them
+    ex.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        try:
+            p.kill()         # SIGKILL: a worker inside a numba kernel runs no Python signal handler
+        except Exception:  # pragma: no cover - already gone
+            pass
+    for p in procs:
+        try:
+            p.join(timeout=1.0)
+        except Exception:  # pragma: no cover
+            pass
+
+
+def _worker_init(parent_pid: int) -> None:
+    """Initializer of the local pool's workers.
+
+    * Ctrl-C is the parent's business: the worker ignores SIGINT (a terminal sends it to the
+      whole process group); the parent terminates its workers when it stops.
+    * A worker never outlives its parent, even after ``kill -9`` of the parent: on Linux the
+      kernel sends it SIGKILL when the parent ends (``prctl(PR_SET_PDEATHSIG)``), and a daemon
+      thread exits the worker when its parent pid changes (elsewhere, and as a second guard).
+    """
+    import signal
+    import threading
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)     # not the parent's handler (inherited by fork)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1
+        libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except Exception:  # pragma: no cover - not Linux
+        pass
+    if os.getppid() != parent_pid:    # the parent ended before prctl took effect
+        os._exit(1)
+
+    def watch():
+        while True:
+            time.sleep(0.5)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="vibeam-parent-watch", daemon=True).start()
+
+
+def _pool(workers: int) -> ProcessPoolExecutor:
+    """A local process pool whose workers ignore Ctrl-C and die with their parent."""
+    return ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),))
 
 
 def _plan(sweep: Sweep):
@@ -319,12 +397,13 @@ def plan_lines(solver, sweep: Sweep, run: str = "run") -> list[Line]:
 
 
 def default_executor(jobs: int | None, n_tasks: int) -> Executor:
-    """Inline for one job or one task, else a local process pool of ``jobs`` workers."""
+    """Inline for one job or one task, else a local process pool of ``jobs`` workers (which
+    ignore Ctrl-C, and end when this process ends, however it ends: :func:`_worker_init`)."""
     if jobs is None:
         jobs = os.cpu_count() or 1
     if jobs <= 1 or n_tasks <= 1:
         return InlineExecutor()
-    return ProcessPoolExecutor(max_workers=min(jobs, n_tasks))
+    return _pool(min(jobs, n_tasks))
 
 
 def run_sweep(solver, sweep: Sweep, name: str = "run", executor: Executor | None = None,
@@ -410,6 +489,15 @@ def stack(rows: list[dict], sweep: Sweep) -> dict:
         arr = [np.asarray(v) if v is not None else fill for v in vals]
         dtype = np.result_type(*[a.dtype if hasattr(a, "dtype") else type(a) for a in arr])
         data[k] = np.array(arr, dtype=dtype)
+    for k in CORE_OUTPUTS:              # points that all failed still give every core dataset
+        if k not in data and rows:
+            data[k] = np.full(len(rows), np.nan) if k not in ("status", "message") else \
+                np.array(["failed" if k == "status" else "" for _ in rows], dtype=object)
     if "period" in data:
         data["period"] = np.nan_to_num(data["period"].astype(float), nan=0).astype(np.int64)
     return data
+
+
+# datasets every run has, even when every point failed (NaN, status 'failed')
+CORE_OUTPUTS = ("amplitude", "q_max", "q_min", "period", "impacts_per_period", "impact_velocity", "status",
+                "message")

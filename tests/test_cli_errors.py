@@ -1,0 +1,212 @@
+"""Bad input on the command line: one line ``vibeam: error: ...``, exit 2, no traceback, no
+partial file -- for files and folders, full disks, options and case keys (issue 11).
+
+Every case runs ``vibeam`` in a subprocess, as a user would.  Before this, each of them
+ended in a traceback (or, for bench, in a JSON holding Infinity); "regression found" keeps
+its own exit code 1.
+"""
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SDOF = """
+name = "tiny"
+[model]
+fidelity = "sdof"
+natural_frequency_hz = 7.6
+damping_ratio = 0.017
+R = 0.72
+gap_mm = 0.0
+length_mm = 180.0
+gain = 5.16e-4
+voltage = 0.6
+[sweep]
+frequency_hz = [14.0, 17.0, 3]
+direction = "both"
+transient_periods = 30
+record_periods = 8
+[[run]]
+name = "exact"
+method = "event"
+"""
+
+BEAM = """
+name = "tinybeam"
+[model]
+fidelity = "beam"
+length_mm = 180
+sensor_position_mm = 100
+mass_position_mm = 132
+width_mm = 20
+thickness_mm = 1
+mass_kg = 0.1
+R = 0.7
+gap_mm = 0.0
+gain = 5e-4
+voltage = 0.6
+n_modes = 2
+n_elements = 4
+[sweep]
+frequency_hz = [14.0, 15.0, 2]
+transient_periods = 10
+record_periods = 4
+[[run]]
+name = "e"
+method = "event"
+"""
+
+
+class _Dir(type(Path())):
+    readonly_ok = True
+
+
+def _vibeam(*args):
+    return [sys.executable, "-m", "vibeam.cli", *args]
+
+
+@pytest.fixture(scope="module")
+def ws():
+    """A work folder with the case files, a valid, a truncated and an empty results file, a
+    read-only folder (immutable when running as root), a file and a folder in the way."""
+    d = _Dir(tempfile.mkdtemp(prefix="vibeam-cli-errors-"))
+    (d / "tiny.toml").write_text(SDOF)
+    (d / "beam.toml").write_text(BEAM)
+    (d / "modes.toml").write_text(BEAM.replace("n_modes = 2", "n_modes = 100"))
+    r = subprocess.run(_vibeam("run", str(d / "tiny.toml"), "--out", str(d / "good"), "--jobs", "1", "--quiet",
+                               "--no-plots"), capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    data = (d / "good" / "results.h5").read_bytes()
+    (d / "truncated.h5").write_bytes(data[: len(data) // 3])
+    (d / "empty.h5").write_bytes(b"")
+    (d / "bad.csv").write_text("freq,amp\n14,0.1\n")
+    (d / "empty.csv").write_text("")
+    (d / "a_file").write_text("not a folder\n")
+    (d / "h5dir" / "results.h5").mkdir(parents=True)
+    ro = d / "readonly"
+    ro.mkdir()
+    os.chmod(ro, 0o555)
+    immutable = False
+    if os.geteuid() == 0:       # root writes into a 0555 folder; an immutable one stops root too
+        immutable = subprocess.run(["chattr", "+i", str(ro)], capture_output=True).returncode == 0 \
+            if shutil.which("chattr") else False
+    d.readonly_ok = os.geteuid() != 0 or immutable
+    yield d
+    if immutable:
+        subprocess.run(["chattr", "-i", str(ro)], capture_output=True)
+    shutil.rmtree(d, ignore_errors=True)
+
+
+ENOSPC = ("import errno, sys; import vibeam.results as r\n"
+          "def full(*a, **k): raise OSError(errno.ENOSPC, 'No space left on device')\n"
+          "r._write_dataset = full\n"
+          "from vibeam.cli import main; sys.exit(main(sys.argv[1:]))")
+
+CASES = {
+    # id: (argv after `vibeam`, needles in the message); {d} is the work folder
+    "out-readonly": (["run", "{d}/tiny.toml", "--out", "{d}/readonly", "--quiet"], ["readonly", "cannot"]),
+    "out-is-a-file": (["run", "{d}/tiny.toml", "--out", "{d}/a_file", "--quiet"], ["a_file", "not a folder"]),
+    "results.h5-is-a-folder": (["run", "{d}/tiny.toml", "--out", "{d}/h5dir", "--quiet"],
+                               ["results.h5", "not a file"]),
+    "disk-full": (["run", "{d}/tiny.toml", "--out", "{d}/full", "--quiet", "--jobs", "1"],
+                  ["results.h5", "no space left"]),
+    "derive-write-missing-folder": (["derive", "{d}/beam.toml", "--write", "{d}/nowhere/sdof.toml"],
+                                    ["--write", "nowhere", "does not exist"]),
+    "modes-out-file": (["modes", "{d}/beam.toml", "--out", "{d}/a_file"], ["a_file", "not a folder"]),
+    "cost-out-file": (["cost", "{d}/tiny.toml", "--out", "{d}/a_file"], ["a_file", "not a folder"]),
+    "regress-missing-results": (["regress", "{d}/tiny.toml", "--reference", "{d}/good/results.h5",
+                                 "--results", "{d}/missing.h5"], ["--results", "missing.h5", "no such file"]),
+    "regress-truncated-results": (["regress", "{d}/tiny.toml", "--reference", "{d}/good/results.h5",
+                                   "--results", "{d}/truncated.h5"], ["truncated.h5", "not a readable"]),
+    "regress-empty-results": (["regress", "{d}/tiny.toml", "--reference", "{d}/good/results.h5",
+                               "--results", "{d}/empty.h5"], ["empty.h5", "not a readable"]),
+    "regress-missing-reference": (["regress", "{d}/tiny.toml", "--reference", "{d}/missing.h5",
+                                   "--results", "{d}/good/results.h5"], ["--reference", "missing.h5"]),
+    "regress-csv-bad-header": (["regress", "{d}/tiny.toml", "--reference", "{d}/bad.csv",
+                                "--results", "{d}/good/results.h5"], ["bad.csv", "header", "frequency_hz"]),
+    "regress-csv-empty": (["regress", "{d}/tiny.toml", "--reference", "{d}/empty.csv",
+                           "--results", "{d}/good/results.h5"], ["empty.csv", "empty"]),
+    "n_modes-above-dofs": (["run", "{d}/modes.toml", "--out", "{d}/nm", "--quiet"],
+                           ["model.n_modes", "100", "1 ... 8"]),
+    "modes-n-0": (["modes", "{d}/beam.toml", "-n", "0"], ["-n", "0", ">= 1"]),
+    "scheduler-not-an-address": (["run", "{d}/tiny.toml", "--out", "{d}/sched", "--scheduler", "notanaddress"],
+                                 ["--scheduler", "notanaddress"]),
+    "bench-points-0": (["bench", "--points", "0"], ["--points", ">= 1"]),
+    "bench-direct-points-0": (["bench", "--direct-points", "0"], ["--direct-points", ">= 1"]),
+    "bench-periods-0": (["bench", "--periods", "0"], ["--periods", ">= 65"]),
+    "jobs-0": (["run", "{d}/tiny.toml", "--jobs", "0"], ["--jobs", ">= 1"]),
+}
+
+
+def _snapshot(d: Path) -> dict:
+    return {str(p.relative_to(d)): p.stat().st_size for p in d.rglob("*") if p.is_file()}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_one_line_error_exit_2_no_partial_file(ws, name):
+    argv, needles = CASES[name]
+    argv = [a.format(d=ws) for a in argv]
+    before = _snapshot(ws)
+    if name == "out-readonly" and not ws.readonly_ok:
+        pytest.skip("running as root without chattr: no folder is read-only")
+    cmd = [sys.executable, "-c", ENOSPC, *argv] if name == "disk-full" else _vibeam(*argv)
+    p = subprocess.run(cmd, capture_output=True, text=True, cwd=ws, timeout=300)
+    lines = [l for l in p.stderr.splitlines() if not l.startswith("[tiny]")]   # the run's header line
+    assert p.returncode == 2, (p.returncode, p.stderr)
+    assert "Traceback" not in p.stderr, p.stderr
+    assert len(lines) == 1 and lines[0].startswith("vibeam: error: "), p.stderr
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+    after = _snapshot(ws)
+    new = sorted(set(after) - set(before))
+    assert not new, f"new files left behind: {new}"
+    assert after == before
+
+
+def test_regression_found_is_exit_1_not_2(ws, tmp_path):
+    """A real regression (the reference's amplitudes changed) keeps exit code 1."""
+    import h5py
+
+    ref = tmp_path / "ref.h5"
+    shutil.copy(ws / "good" / "results.h5", ref)
+    with h5py.File(ref, "a") as f:
+        a = f["runs/exact/amplitude"]
+        a[...] = a[()] * 1.5
+    p = subprocess.run(_vibeam("regress", str(ws / "tiny.toml"), "--reference", str(ref), "--results",
+                               str(ws / "good" / "results.h5")), capture_output=True, text=True)
+    assert p.returncode == 1, p.stderr
+    assert "REGRESSION" in p.stdout
+
+
+def test_output_into_a_closed_pipe_is_dropped_quietly(tmp_path):
+    """`vibeam cost ... | head -1`: the reader goes away after one line; vibeam drops the rest of
+    its output without a BrokenPipeError and still writes its files."""
+    case = tmp_path / "tiny.toml"
+    case.write_text(SDOF)
+    out = tmp_path / "out"
+    p = subprocess.Popen(_vibeam("cost", str(case), "--out", str(out), "--repeats", "1"), stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE)
+    first = p.stdout.readline()
+    p.stdout.close()                         # as `head -1` does
+    err = p.stderr.read().decode()
+    p.wait(timeout=300)
+    assert first
+    assert "Traceback" not in err and "BrokenPipe" not in err, err
+    assert p.returncode == 0, err
+    assert (out / "cost.h5").exists() and (out / "work_precision.png").stat().st_size > 1000
+
+
+def test_bench_json_is_finite_for_small_counts():
+    """The smallest allowed bench counts give finite JSON (no Infinity / NaN tokens)."""
+    p = subprocess.run(_vibeam("bench", "--points", "2", "--periods", "66", "--repeats", "1",
+                               "--direct-points", "1"), capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    import json
+
+    data = json.loads(p.stdout, parse_constant=lambda c: pytest.fail(f"non-finite JSON value {c}"))
+    assert np.isfinite(data["speedup_event_vs_direct"])

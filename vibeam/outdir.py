@@ -1,0 +1,236 @@
+"""The output folder of a run: one vibeam process at a time, and no leftovers of killed writes.
+
+:class:`OutputLock` holds the lock file ``<out>/.vibeam.lock`` for as long as a
+run (or ``vibeam cost``) writes into the folder.  The file holds the process
+id, host, start time and command line of its holder (JSON), and the holder
+keeps an exclusive ``flock`` on it, which the kernel drops when the process
+ends in any way, ``kill -9`` included.  A second process refuses the folder
+with one message naming it and the running process; a lock left by a process
+that is gone (a *stale* lock) is taken over.  On a file system without
+``flock`` the holder's pid (and its start time, against pid reuse) decides.
+
+While it holds the lock, the process removes the temporary files
+``.results-*.h5.tmp`` that a killed write leaves behind
+(:func:`vibeam.results` writes through them).
+"""
+from __future__ import annotations
+
+import errno
+import json
+import os
+import socket
+import sys
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+from .case import InputError
+
+LOCK_NAME = ".vibeam.lock"
+TMP_PATTERN = ".results-*.h5.tmp"
+
+_held_fds: set[int] = set()
+
+
+def _close_in_child() -> None:
+    # a forked child (a pool worker) must not keep the parent's lock alive after the parent ends
+    for fd in list(_held_fds):
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+    _held_fds.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_close_in_child)
+
+
+def _proc_start(pid: int) -> str | None:
+    """Start time of a process (clock ticks since boot, Linux ``/proc``), None if unknown."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return None
+
+
+def _alive(info: dict) -> bool:
+    """Whether the process recorded in a lock may still run (True when it cannot be told)."""
+    try:
+        pid = int(info.get("pid"))
+    except (TypeError, ValueError):
+        return False
+    if info.get("host") != socket.gethostname():
+        return True                        # another machine: cannot tell, assume it runs
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass
+    start = info.get("pid_start")
+    return start is None or _proc_start(pid) in (None, start)
+
+
+def describe(info: dict) -> str:
+    """The holder of a lock in words: ``pid 123 on host, started ..., command ...``."""
+    if not info:
+        return "a process that left no details"
+    cmd = info.get("command") or "?"
+    if len(cmd) > 160:
+        cmd = cmd[:157] + "..."
+    return f"pid {info.get('pid', '?')} on {info.get('host', '?')}, started {info.get('started', '?')}: {cmd}"
+
+
+def check_folder(folder) -> Path:
+    """``folder`` exists (created if needed) and is a writable folder.
+
+    Raises
+    ------
+    InputError
+        If it names a file, cannot be created or cannot be written.
+    """
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"--out {folder}: is a file, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"--out {folder}: cannot create the folder: {e.strerror or e}") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"--out {folder}: cannot write in the folder: permission denied")
+    return folder
+
+
+class OutputLock:
+    """Exclusive use of an output folder by this process (a context manager).
+
+    Parameters
+    ----------
+    folder : str or Path
+        The output folder (created if needed).
+    command : str, optional
+        What runs (stored in the lock; default the command line).
+
+    Attributes
+    ----------
+    stale : dict or None
+        The lock taken over from a process that is gone, if any.
+    removed_tmp : list of Path
+        Temporary files of killed writes removed on acquiring.
+
+    Raises
+    ------
+    InputError
+        On entering: the folder is used by another running process (the
+        message names the folder and that process), or cannot be created or
+        written.
+    """
+
+    def __init__(self, folder, command: str | None = None):
+        self.folder = Path(folder)
+        self.path = self.folder / LOCK_NAME
+        self.command = command if command is not None else " ".join([Path(sys.argv[0]).name, *sys.argv[1:]])
+        self.fd: int | None = None
+        self.stale: dict | None = None
+        self.removed_tmp: list[Path] = []
+
+    # ------------------------------------------------------------------ acquire
+    def _read(self, fd) -> dict:
+        try:
+            os.lseek(fd, 0, os.SEEK_SET)
+            raw = b""
+            while chunk := os.read(fd, 65536):
+                raw += chunk
+            return json.loads(raw.decode("utf-8", "replace")) if raw.strip() else {}
+        except (OSError, ValueError):
+            return {}
+
+    def _refuse(self, info):
+        raise InputError(f"--out {self.folder} is in use by another vibeam process ({describe(info)}); "
+                         f"wait for it to end or use another --out (lock file {self.path})")
+
+    def acquire(self) -> "OutputLock":
+        import fcntl
+
+        check_folder(self.folder)
+        deadline = time.monotonic() + 2.0
+        while True:
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as e:
+                raise InputError(f"--out {self.folder}: cannot write the lock file {self.path}: "
+                                 f"{e.strerror or e}") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                flocked = True
+            except BlockingIOError:
+                info = self._read(fd)
+                os.close(fd)
+                if not _alive(info) and time.monotonic() < deadline:
+                    time.sleep(0.1)        # its orphaned workers are exiting: the lock drops soon
+                    continue
+                self._refuse(info)
+            except OSError as e:           # no flock on this file system: decide by the pid
+                if e.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EINVAL):
+                    os.close(fd)
+                    raise
+                flocked = False
+            # the file may have been removed (released) between open and flock: lock the real one
+            try:
+                same = os.fstat(fd).st_ino == os.stat(self.path).st_ino
+            except FileNotFoundError:
+                same = False
+            if not same:
+                os.close(fd)
+                continue
+            break
+        prev = self._read(fd)
+        if prev and prev.get("pid") != os.getpid():
+            if not flocked and _alive(prev):
+                os.close(fd)
+                self._refuse(prev)
+            self.stale = prev
+        info = {"pid": os.getpid(), "host": socket.gethostname(), "pid_start": _proc_start(os.getpid()),
+                "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                "command": self.command}
+        os.ftruncate(fd, 0)
+        os.lseek(fd, 0, os.SEEK_SET)
+        os.write(fd, (json.dumps(info) + "\n").encode())
+        self.fd = fd
+        _held_fds.add(fd)
+        for p in self.folder.glob(TMP_PATTERN):       # leftovers of killed writes
+            try:
+                p.unlink()
+                self.removed_tmp.append(p)
+            except OSError:
+                pass
+        return self
+
+    def release(self) -> None:
+        """Remove the lock file and drop the lock (idempotent)."""
+        if self.fd is None:
+            return
+        try:
+            if os.path.exists(self.path) and os.stat(self.path).st_ino == os.fstat(self.fd).st_ino:
+                os.unlink(self.path)
+        except OSError:
+            pass
+        _held_fds.discard(self.fd)
+        try:
+            os.close(self.fd)
+        except OSError:
+            pass
+        self.fd = None
+
+    def __enter__(self):
+        self.acquire()
+        if self.stale:
+            print(f"vibeam: note: took over the stale lock of {self.folder} ({describe(self.stale)}; "
+                  f"that process is gone)", file=sys.stderr)
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+        return False
