@@ -42,6 +42,8 @@ def _job(case, r, overrides: dict, j=None) -> _Job:
                record_periods=case.sweep.record_periods,
                samples_per_period=assess.samples_per_period(case, r, model, Omega),
                continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol,
+               max_transient_periods=case.sweep.max_transient_periods,
+               point_time_limit_s=case.sweep.point_time_limit_s,
                assess=assess.hooks(case, spec, r, model))
     settings = dict(case.run_settings(r), **assess.solver_options(case, r, model))
     solver = wrap_solver(make_solver(model, r.method, **settings), model, spec,
