@@ -1,8 +1,10 @@
 """Plots a person wants to look at after a sweep (matplotlib, Agg backend).
 
 * ``frc.png``: the FRC of every run overlaid, period-1 as dots, period-2 as
-  triangles, higher periods as squares, non-periodic as crosses and no-impact
-  points as small grey dots.
+  triangles, higher periods as squares, non-periodic as crosses with a bar over
+  the range of the per-period amplitude (min..max of Q_k over the record: one
+  sample of an attractor is not one number) and no-impact points as small grey
+  dots.
 * ``bifurcation.png``: stroboscopic displacement q against the forcing
   frequency, one panel per time-domain run.
 """
@@ -61,6 +63,15 @@ def plot_frc(runs: list[SweepResult], path, title: str = "") -> Path:
                     mfc="none" if mk in "^s" else c, linestyle="none",
                     label=lab if lab_key not in seen else None)
             seen.add(lab_key)
+        if "amplitude_min" in r.data and "amplitude_max" in r.data:
+            lo = np.asarray(r.data["amplitude_min"], float) * _mm(r)
+            hi = np.asarray(r.data["amplitude_max"], float) * _mm(r)
+            sel = (np.asarray(period) == 0) & np.isfinite(lo) & np.isfinite(hi)
+            if sel.any():
+                lab = "range of $Q_k$ (not periodic)"
+                ax.vlines(x[sel], lo[sel], hi[sel], color=c, lw=1.5, alpha=0.6,
+                          label=lab if lab not in seen else None)
+                seen.add(lab)
         if "amplitude_lower" in r.data:
             ax.plot(x, r.data["amplitude_lower"] * _mm(r),
                     ":", color=c, lw=1, label=f"{r.name} lower branch")
