@@ -968,6 +968,10 @@ class BeamEventSolver:
         self.steps_per_fundamental = int(steps_per_fundamental)
         self.impact_buffer = int(impact_buffer)
         self.record_modal_states = bool(record_modal_states)
+        # periods per call of the sweep engine (vibeam.sweep._simulate): the cost per period grows
+        # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
+        # so a call lasts well under a second
+        self.chunk_periods = max(16, 2000 // model.n_modes)
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
@@ -975,13 +979,6 @@ class BeamEventSolver:
                     max_steps_per_period=self.max_steps_per_period,
                     steps_per_fundamental=self.steps_per_fundamental,
                     n_modes=self.model.n_modes)
-
-    @property
-    def chunk_periods(self) -> int:
-        """Periods per call of the sweep engine (:func:`vibeam.sweep._simulate`): the cost per
-        period grows with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when
-        it chatters), so a call lasts well under a second."""
-        return max(16, 2000 // self.model.n_modes)
 
     def point(self, Omega: float, state0, n_transient: int, n_record: int,
               samples_per_period: int = 64) -> Trajectory:

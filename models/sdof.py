@@ -155,7 +155,9 @@ class EventSolver:
         Trajectory
             With ``final_state`` ``(q, q', stuck)`` at the end of the record and
             ``period_min``, the exact minimum of ``q`` over each recorded period,
-            and ``chatter_times``, the accumulation points of the chatter sequences.
+            ``chatter_times``, the accumulation points of the chatter sequences,
+            and ``extra["contact_gap_max"]``, the largest unclamped gap ``q - Delta``
+            at the end of an event-free step over the whole run (<= round-off).
         """
         m = self.model
         s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
@@ -171,7 +173,7 @@ class EventSolver:
                            int(n_transient), int(n_record), self.transient_samples,
                            int(samples_per_period), max_imp, self.chatter_tol,
                            samples, imp_t, imp_v, pmin, chat_t)
-        status, n_imp, q_min, q_max, n_chat, stuck_time, q_end, v_end, stuck_end, n_tot = out
+        status, n_imp, q_min, q_max, n_chat, stuck_time, q_end, v_end, stuck_end, n_tot, gmax = out
         k = min(n_imp, self.impact_buffer)
         message = ""
         if status == 3:
@@ -188,7 +190,8 @@ class EventSolver:
                           status=STATUS_NAMES[status], message=message,
                           final_state=np.array([q_end, v_end, 1.0 if stuck_end else 0.0]),
                           extra={"stuck_fraction": stuck_time / (n_record * 2 * math.pi / Omega)
-                                 if n_record else 0.0})
+                                 if n_record else 0.0,
+                                 "contact_gap_max": float(gmax)})
 
 
 def linear_amplitude(beta: float, B: float, Omega):

@@ -148,7 +148,10 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     -------
     tuple
         ``(status, n_imp_record, q_min, q_max, n_chatter, stuck_time,
-        q_end, v_end, stuck_end, n_imp_total)``.
+        q_end, v_end, stuck_end, n_imp_total, gmax)``; ``gmax`` is the largest
+        gap ``q - Delta`` at the end of a step without an event, before ``q`` is
+        put back on the stop (a certificate: positive beyond round-off only if
+        a crossing had been stepped over).
     """
     F = Omega * Omega * B
     a, b = particular_coefficients(beta, F, Omega)
@@ -168,10 +171,11 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     stuck_time = 0.0
     q_min = np.inf
     q_max = -np.inf
+    gmax = -np.inf
     cap = imp_t.shape[0]
     status = STATUS_OK
     if not (math.isfinite(a) and math.isfinite(b)):
-        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, stuck, 0)
+        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, stuck, 0, -np.inf)
     n_total = n_transient + n_record
     k_sample = 0
     # derivatives at the start of the next interval are carried over from the
@@ -358,7 +362,7 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                             n_imp_rec += 1
                         if n_imp_total > max_impacts:
                             return (STATUS_FAILED, n_imp_rec, q_min, q_max, n_chatter,
-                                    stuck_time, q, v, stuck, n_imp_total)
+                                    stuck_time, q, v, stuck, n_imp_total, gmax)
                         # contact acceleration with the rebound velocity
                         u = -v
                         acc = F * math.sin(phi) + 2.0 * beta * u - Delta
@@ -386,7 +390,10 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                                 if recording and n_chatter <= chat_t.shape[0]:
                                     chat_t[n_chatter - 1] = t_period0 + t_loc
                         continue
-                    # no event in [0, h]: move to its end
+                    # no event in [0, h]: move to its end (the unclamped gap is kept: a crossing
+                    # stepped over would show as g1 > 0)
+                    if g1 > gmax:
+                        gmax = g1
                     if recording:
                         qe = Delta + g1
                         if qe < q_min:
@@ -415,6 +422,6 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
             status = STATUS_CHATTER
         elif stuck_time > 0.0:
             status = STATUS_STICKING
-    return (status, n_imp_rec, q_min, q_max, n_chatter, stuck_time, q, v, stuck, n_imp_total)
+    return (status, n_imp_rec, q_min, q_max, n_chatter, stuck_time, q, v, stuck, n_imp_total, gmax)
 
 
