@@ -649,12 +649,15 @@ def _key(loc, tags: bool = True) -> str:
             parts.append(f"[{p}]")
         elif tags and i >= 2 and loc[i - 2] == "run" and isinstance(loc[i - 1], int) and p in _RUN_BY_METHOD:
             continue
+        elif tags and isinstance(p, str) and (p.startswith("literal[") or p in _UNION_MEMBERS):
+            continue   # the member of a scalar union (e.g. transient_periods: int or "auto")
         else:
             parts.append(("." if parts else "") + _one_line(str(p)))
     return "".join(parts)
 
 
 _MAX_DEPTH = 32
+_UNION_MEMBERS = {"constrained-int", "constrained-float", "int", "float", "str", "bool", "none"}
 
 
 def _check_ints(data, loc=()) -> None:
@@ -701,6 +704,8 @@ def _format(err: ValidationError, prefix: str, root_cls) -> str:
             msg = _one_line(e["msg"].removeprefix("Value error, "))
             if isinstance(val, dict):
                 msgs.append(f"'{where}': {msg}")
+            elif msgs and msgs[-1].startswith(f"'{where}' = {_value(val)}: "):
+                msgs[-1] += f", or {msg[:1].lower()}{msg[1:]}"   # another member of a union
             else:
                 msgs.append(f"'{where}' = {_value(val)}: {msg}")
     return "; ".join(msgs)

@@ -139,43 +139,58 @@ CHUNK_PERIODS = 1000
 AUTO_FIRST_STAGE = 100
 
 
-class PointTimeLimit(Exception):
-    """A point ran past ``[sweep] point_time_limit_s``."""
+class _Clock:
+    """Wall time of one point for ``point_time_limit_s``, started when the first solver call
+    returns (so a kernel's compilation or loading in a fresh worker does not count)."""
+
+    def __init__(self):
+        self.t0 = None
+
+    def tick(self):
+        if self.t0 is None:
+            self.t0 = time.perf_counter()
+
+    def over(self, limit) -> bool:
+        return limit is not None and self.t0 is not None and time.perf_counter() - self.t0 > limit
 
 
-def _simulate(solver, Omega, state, n_transient: int, sweep: Sweep, t0: float):
+def _simulate(solver, Omega, state, n_transient: int, sweep: Sweep, clock: _Clock | None = None):
     """Trajectory of ``n_transient`` discarded and ``sweep.record_periods`` recorded periods.
 
     The one place where a time-domain solver is called: the transient is cut
     into calls of ``solver.chunk_periods`` periods, each started from the last
     state (the last chunk runs together with the record, so a transient of at
     most one chunk is one call, as before chunking), and the wall-time limit is
-    checked between calls.  A chunk that fails ends the point: its failed
-    trajectory is returned with the record's shapes (NaN samples).
-
-    Raises
-    ------
-    PointTimeLimit
-        When ``sweep.point_time_limit_s`` has passed since ``t0``.
+    checked between calls.  A chunk that fails, or the wall-time limit
+    ``sweep.point_time_limit_s`` passing (:class:`_Clock`), ends the point: a failed
+    trajectory with the record's shapes (NaN samples) and the reason is returned.
     """
     chunk = max(1, int(getattr(solver, "chunk_periods", CHUNK_PERIODS) or CHUNK_PERIODS))
+    clock = clock if clock is not None else _Clock()
     spp = sweep.samples_per_period
     limit = sweep.point_time_limit_s
     left = int(n_transient)
     while left > chunk:
         traj = solver.point(Omega, state, chunk, 0, spp)
+        clock.tick()
         if traj.status == "failed":
             return _failed_record(traj, sweep, int(n_transient) - left)
         state = traj.final_state
         left -= chunk
-        if limit is not None and time.perf_counter() - t0 > limit:
-            raise PointTimeLimit(f"point_time_limit_s = {limit:g} s passed after "
-                                 f"{int(n_transient) - left} of {int(n_transient)} transient periods")
-    return solver.point(Omega, state, left, sweep.record_periods, spp)
+        if clock.over(limit):
+            from dataclasses import replace
+
+            msg = (f"point_time_limit_s = {limit:g} s passed after {int(n_transient) - left} of "
+                   f"{int(n_transient)} transient periods")
+            return _failed_record(replace(traj, status="failed", message=msg), sweep, None)
+    traj = solver.point(Omega, state, left, sweep.record_periods, spp)
+    clock.tick()
+    return traj
 
 
 def _failed_record(traj, sweep: Sweep, done: int):
-    """A transient chunk's failed trajectory with the shapes of a record (NaN samples)."""
+    """A failed trajectory with the shapes of a record (NaN samples); ``done``: the transient
+    periods before the failing chunk (None: the message is kept as it is)."""
     from dataclasses import replace
 
     n_s = sweep.record_periods * sweep.samples_per_period
@@ -183,13 +198,13 @@ def _failed_record(traj, sweep: Sweep, done: int):
     extra = {k: (np.full((n_s,) + v.shape[1:], np.nan)
                  if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[0] == n0 else v)
              for k, v in traj.extra.items()}
+    msg = traj.message if done is None else f"{traj.message} (in the transient chunk after {done} periods)"
     return replace(traj, samples=np.full((n_s, 2), np.nan), impact_times=np.zeros(0),
                    impact_velocities=np.zeros(0), n_impacts=0, q_min=np.nan, q_max=np.nan,
-                   period_min=None, extra=extra,
-                   message=f"{traj.message} (in the transient chunk after {done} periods)")
+                   period_min=None, chatter_times=None, extra=extra, message=msg)
 
 
-def _settle(solver, Omega, state, sweep: Sweep, Delta: float, t0: float):
+def _settle(solver, Omega, state, sweep: Sweep, Delta: float, clock: _Clock):
     """``transient_periods = "auto"``: extend the transient until the stroboscopic map settles.
 
     Stages of transient periods, the first :data:`AUTO_FIRST_STAGE` long and
@@ -225,7 +240,7 @@ def _settle(solver, Omega, state, sweep: Sweep, Delta: float, t0: float):
     used = 0
     prev = None
     while True:
-        traj = _simulate(solver, Omega, state, stage, sweep, t0)
+        traj = _simulate(solver, Omega, state, stage, sweep, clock)
         used += stage
         if traj.status == "failed":
             return traj, used, ""
@@ -245,6 +260,13 @@ def _settle(solver, Omega, state, sweep: Sweep, Delta: float, t0: float):
                                     f"max_transient_periods = {max_tr} (mean {prev['amplitude_mean']:.6g} "
                                     f"then {spread['amplitude_mean']:.6g})")
             return traj, used, ""
+        limit = sweep.point_time_limit_s
+        if clock.over(limit):
+            from dataclasses import replace
+
+            msg = (f"point_time_limit_s = {limit:g} s passed after {used} transient periods "
+                   f"(transient_periods = \"auto\")")
+            return _failed_record(replace(traj, status="failed", message=msg), sweep, None), used, ""
         prev = spread
         state = traj.final_state
         used += n_rec
@@ -258,10 +280,10 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
         if solver.time_domain:
             why = ""
             if sweep.auto:
-                traj, used, why = _settle(solver, Omega, state, sweep, Delta, t0)
+                traj, used, why = _settle(solver, Omega, state, sweep, Delta, _Clock())
             else:
                 used = int(sweep.transient_periods)
-                traj = _simulate(solver, Omega, state, used, sweep, t0)
+                traj = _simulate(solver, Omega, state, used, sweep, _Clock())
             out = summarize(traj, Delta, sweep.period_rtol)
             if why and out["status"] not in ("failed", "unsettled"):
                 out["message"] = f"unsettled: {why}" + (f"; {out['status']}: {out['message']}"
@@ -276,9 +298,6 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
             n_tr = 0 if sweep.auto else sweep.transient_periods
             out = dict(solver.point(Omega, state, n_tr, sweep.record_periods, sweep.samples_per_period))
             new_state = out.pop("final_state", None)
-    except PointTimeLimit as e:
-        out = dict(status="failed", message=str(e))
-        new_state = None
     except Exception as e:  # a solver failure is recorded, never fatal to the sweep
         out = dict(status="failed", message=f"{type(e).__name__}: {e}")
         new_state = None
