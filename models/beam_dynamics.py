@@ -50,7 +50,10 @@ Sticking and chatter
     normal velocity with the plastic (R = 0) impulse.  Chatter: after an impact with a
     small rebound speed ``u`` into a free contact acceleration ``a > 0``, if the
     constant-acceleration estimate of the accumulation time ``2 u / (a (1 - R))`` is
-    accurate to ``chatter_tol`` the solver sticks at once and holds the beam on the stop
+    accurate to ``chatter_tol`` (the policy shared with the SDOF kernel,
+    :func:`vibeam.models.contact_policy.chatter_jump`: the jerk includes the forcing
+    term; the accumulation point must lie in the current step) the solver sticks at
+    once and holds the beam on the stop
     (constrained flow, no release check) for that accumulation time, then continues as
     stuck: with one mode this is exactly the SDOF kernel's jump (state frozen on the
     stop for the accumulation time); with several modes the other modes keep moving

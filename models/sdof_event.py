@@ -28,7 +28,8 @@ Chatter (Zeno) and sticking
     (Budd & Dux 1994; Nordmark & Piiroinen 2009).  When the local estimate of
     the relative error of that constant-acceleration sum is below
     ``chatter_tol``, the solver jumps to the accumulation point and switches to
-    sticking.  While stuck, ``q = Delta`` and ``q' = 0``; the mass is released
+    sticking; the decision is the policy shared with the beam kernel,
+    :func:`vibeam.models.contact_policy.chatter_jump`.  While stuck, ``q = Delta`` and ``q' = 0``; the mass is released
     exactly when the contact force ``Omega^2 B sin(Omega t) - Delta`` turns
     negative (closed form).
 """
