@@ -50,7 +50,10 @@ Sticking and chatter
     normal velocity with the plastic (R = 0) impulse.  Chatter: after an impact with a
     small rebound speed ``u`` into a free contact acceleration ``a > 0``, if the
     constant-acceleration estimate of the accumulation time ``2 u / (a (1 - R))`` is
-    accurate to ``chatter_tol`` the solver sticks at once and holds the beam on the stop
+    accurate to ``chatter_tol`` (the policy shared with the SDOF kernel,
+    :func:`vibeam.models.contact_policy.chatter_jump`: the jerk includes the forcing
+    term; the accumulation point must lie in the current step) the solver sticks at
+    once and holds the beam on the stop
     (constrained flow, no release check) for that accumulation time, then continues as
     stuck: with one mode this is exactly the SDOF kernel's jump (state frozen on the
     stop for the accumulation time); with several modes the other modes keep moving
@@ -66,6 +69,7 @@ from numba import njit
 
 from vibeam.records import Trajectory
 
+from .contact_policy import chatter_jump
 from .roots import rtsafe_update, select
 from .impact import newton_restitution, restitution_coefficient, restitution_impulse
 from .sdof_event import STATUS_NAMES, _certify
@@ -357,15 +361,17 @@ def _homog(phi0, Om, z, zd, a, b, e, x0, y0):
 
 
 @njit(cache=True)
-def _contact_acc(phi, eta, etad, w, cF, kF, GF):
-    """Free acceleration of the contact point ``w^T (Gamma F sin - C eta' - K eta)``."""
+def _contact_acc(phi, Om, eta, etad, w, cF, kF, GF):
+    """Free acceleration of the contact point ``a = w^T (Gamma F sin - C eta' - K eta)`` and
+    its time derivative ``w^T (Gamma F Omega cos - C eta'' - K eta')`` (forcing term included)."""
     s = math.sin(phi)
+    c = Om * math.cos(phi)
     acc = 0.0
     jerk = 0.0
     for i in range(eta.shape[0]):
         ai = GF[i] * s - cF[i] * etad[i] - kF[i] * eta[i]
         acc += w[i] * ai
-        jerk += w[i] * (-cF[i] * ai - kF[i] * etad[i])
+        jerk += w[i] * (GF[i] * c - cF[i] * ai - kF[i] * etad[i])
     return acc, jerk
 
 
@@ -386,13 +392,15 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                 eta, etad, stuck_init,
                 n_transient, n_record, ns_transient, ns_record, h_cap,
                 max_impacts, max_steps, chatter_tol,
-                samples, imp_t, imp_v, modamp, msamp):
+                samples, imp_t, imp_v, modamp, msamp, pmin, chat_t):
     """Exact event-driven simulation of whole forcing periods (numba core).
 
     ``eta, etad`` (N,) hold the initial modal state and receive the final one.
     ``samples`` (n_record * ns_record, 2) receive ``(s^T eta, s^T eta')``; ``modamp``
     (N,) the max ``|eta_i|`` over the samples; ``msamp`` (same rows or 0 rows, 2N) the
-    modal state ``(eta, eta')`` at the samples.  ``R_table_U``/``R_table_R`` tabulate R
+    modal state ``(eta, eta')`` at the samples; ``pmin`` (n_record,) the minimum of the sensor
+    signal ``s^T eta`` over each recorded period (root-found like ``smin``); ``chat_t`` the
+    times of the first ``len(chat_t)`` chatter accumulation points of the record.  ``R_table_U``/``R_table_R`` tabulate R
     against the pre-impact contact velocity (kernel units; empty = constant ``R``,
     :func:`vibeam.models.impact.restitution_coefficient`).  Returns ``(status, n_imp_rec, smin, smax,
     n_chatter, stuck_time, stuck_end, n_imp_total, gmax, n_steps)``.
@@ -422,7 +430,19 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
     w2 = 0.0
     for i in range(N):
         w2 += w[i] * w[i]
+    # damping rate and stiffness per unit mass of the contact coordinate (chatter policy)
+    c_eff = 0.0
+    k_eff = 0.0
+    for i in range(N):
+        c_eff += w[i] * w[i] * cF[i]
+        k_eff += w[i] * w[i] * kF[i]
+    c_eff *= m_eff
+    k_eff *= m_eff
     ext = np.array([np.inf, -np.inf])
+    # extremes of the current recorded period, folded into ``ext`` at its end
+    pext = np.array([np.inf, -np.inf])
+    for i in range(pmin.shape[0]):
+        pmin[i] = np.inf
     stuck = stuck_init
     g = 0.0
     v = 0.0
@@ -466,6 +486,13 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
         ns = ns_record if recording else ns_transient
         h_grid = T / ns
         t_period0 = (pp - n_transient) * T
+        if pp > n_transient:
+            # fold the extremes of the period just finished
+            pmin[pp - n_transient - 1] = pext[0]
+            ext[0] = min(ext[0], pext[0])
+            ext[1] = max(ext[1], pext[1])
+            pext[0] = np.inf
+            pext[1] = -np.inf
         for jg in range(ns):
             phi = TWO_PI * jg / ns
             t_loc = jg * h_grid
@@ -484,15 +511,15 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         msamp[k_sample, i] = eta[i]
                         msamp[k_sample, N + i] = etad[i]
                 k_sample += 1
-                if qs < ext[0]:
-                    ext[0] = qs
-                if qs > ext[1]:
-                    ext[1] = qs
+                if qs < pext[0]:
+                    pext[0] = qs
+                if qs > pext[1]:
+                    pext[1] = qs
             rem = h_grid
             while rem > 0.0:
                 n_steps += 1
                 if n_steps > max_steps:
-                    return (ST_FAILED, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time,
+                    return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
                             stuck, n_imp_total, gmax, n_steps)
                 h_try = min(rem, h_cap, 2.0 * h_last)
                 if stuck:
@@ -543,7 +570,7 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                             constS += pS[j] * eC[j]
                         q0s, qp0s = _start(phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, constS)
                         q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s)
-                        _extremes(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s, qp0s, qp1s, ext)
+                        _extremes(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s, qp0s, qp1s, pext)
                         if not held:
                             stuck_time += s_mv
                     _advance(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eC)
@@ -572,7 +599,7 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     if v > 0.0:
                         s_imp = 0.0
                     elif not just_released:
-                        acc, jerk = _contact_acc(phi, eta, etad, w, cF, kF, GF)
+                        acc, jerk = _contact_acc(phi, Om, eta, etad, w, cF, kF, GF)
                         if acc > 0.0:
                             stuck = True
                             just_stuck = True
@@ -592,11 +619,11 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     if recording:
                         q0s, qp0s = _start(phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, 0.0)
                         q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s)
-                        _extremes(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s, qp0s, qp1s, ext)
-                        if q1s < ext[0]:
-                            ext[0] = q1s
-                        if q1s > ext[1]:
-                            ext[1] = q1s
+                        _extremes(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s, qp0s, qp1s, pext)
+                        if q1s < pext[0]:
+                            pext[0] = q1s
+                        if q1s > pext[1]:
+                            pext[1] = q1s
                     _advance(s_mv, phi, Om, eta, etad, mpF, aF, bF, zeroN)
                     phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
                     if s_mv > 0.0:
@@ -641,10 +668,10 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         imp_v[n_imp_rec] = Um
                     n_imp_rec += 1
                 if n_imp_total > max_impacts:
-                    return (ST_FAILED, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time,
+                    return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
                             stuck, n_imp_total, gmax, n_steps)
                 u = -v
-                acc, jerk = _contact_acc(phi, eta, etad, w, cF, kF, GF)
+                acc, jerk = _contact_acc(phi, Om, eta, etad, w, cF, kF, GF)
                 stick_now = False
                 if u <= 0.0:
                     stick_now = acc > 0.0
@@ -661,19 +688,22 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     burst = 0
                     if recording:
                         n_chatter += 1
-                elif acc > 0.0 and Rc < 1.0:
-                    # chatter estimate with R at the current impact velocity
-                    D = 2.0 * u / (acc * (1.0 - Rc))
-                    ceff = 0.0
-                    for i in range(N):
-                        ceff += w[i] * w[i] * cF[i]
-                    ceff *= m_eff
-                    err = D * (abs(jerk) / acc + ceff + D)
-                    if err < chatter_tol:
+                        if n_chatter <= chat_t.shape[0]:
+                            chat_t[n_chatter - 1] = t_imp
+                else:
+                    # the shared chatter policy (vibeam.models.contact_policy), R at the current
+                    # impact velocity: the jerk beyond the one-DOF flow part -c_eff a + k_eff u is
+                    # the forcing term plus the modal remainder (zero for one mode), and the jump
+                    # is taken only to an accumulation point inside the current grid step
+                    D = chatter_jump(u, acc, jerk + c_eff * acc - k_eff * u, c_eff, k_eff, Rc,
+                                     chatter_tol, rem)
+                    if D >= 0.0:
                         stick_now = True
                         hold = D
                         if recording:
                             n_chatter += 1
+                            if n_chatter <= chat_t.shape[0]:
+                                chat_t[n_chatter - 1] = t_imp + D
                 if stick_now:
                     corr = v / w2
                     for i in range(N):
@@ -681,6 +711,10 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     v = 0.0
                     stuck = True
                     just_stuck = True
+    if n_record > 0:
+        pmin[n_record - 1] = pext[0]
+        ext[0] = min(ext[0], pext[0])
+        ext[1] = max(ext[1], pext[1])
     status = ST_OK
     if n_record > 0:
         if n_chatter > 0:
@@ -937,6 +971,10 @@ class BeamEventSolver:
         self.steps_per_fundamental = int(steps_per_fundamental)
         self.impact_buffer = int(impact_buffer)
         self.record_modal_states = bool(record_modal_states)
+        # periods per call of the sweep engine (vibeam.sweep._simulate): the cost per period grows
+        # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
+        # so a call lasts well under a second
+        self.chunk_periods = max(16, 2000 // model.n_modes)
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
@@ -977,6 +1015,8 @@ class BeamEventSolver:
         imp_v = np.zeros(self.impact_buffer)
         modamp = np.zeros(N)
         msamp = np.zeros((samples.shape[0] if self.record_modal_states else 0, 2 * N))
+        pmin = np.zeros(n_record)
+        chat_t = np.zeros(self.impact_buffer)
         n_per = n_transient + n_record
         h_cap = TWO_PI / np.sqrt(k[0]) / self.steps_per_fundamental
         out = beam_kernel(Om, mpF, aF, bF, m.contact_row, m.sensor_row, c, k, GF,
@@ -987,7 +1027,7 @@ class BeamEventSolver:
                           int(n_transient), int(n_record), self.transient_samples,
                           int(samples_per_period), float(h_cap),
                           self.max_impacts_per_period * n_per, self.max_steps_per_period * n_per,
-                          self.chatter_tol, samples, imp_t, imp_v, modamp, msamp)
+                          self.chatter_tol, samples, imp_t, imp_v, modamp, msamp, pmin, chat_t)
         status, n_imp, smin, smax, n_chat, stuck_time, stuck_end, n_tot, gmax, n_steps = out
         L = m.length_m
         if stuck_time > 0.0 or stuck_end:
@@ -1008,6 +1048,7 @@ class BeamEventSolver:
             Omega=Om, samples=samples, samples_per_period=samples_per_period,
             impact_times=imp_t[:kk].copy(), impact_velocities=iv,
             n_impacts=int(n_imp), q_min=float(smin / L), q_max=float(smax / L),
+            period_min=pmin / L, chatter_times=chat_t[:min(n_chat, self.impact_buffer)].copy(),
             status=STATUS_NAMES[status], message=message,
             final_state=np.concatenate([eta, etad, [1.0 if stuck_end else 0.0]]),
             extra={"mode_amplitudes": modamp,
@@ -1042,6 +1083,7 @@ class BeamODESolver:
 
     name = "direct"
     time_domain = True
+    chunk_periods = 200   # a restart of solve_ivp changes the result at the level of rtol
 
     def __init__(self, model: BeamImpactModel, solver: str = "DOP853", rtol: float = 1e-9,
                  atol: float = 1e-12, max_impacts_per_period: int = 200,
@@ -1132,6 +1174,7 @@ class BeamODESolver:
         samples = np.zeros((ts.size, 2))
         filled = np.zeros(ts.size, bool)
         ext = [np.inf, -np.inf]
+        ev_min = []   # (t, q) of sensor extremes located by events in the record
         imp_t, imp_v = [], []
         n_imp = 0
         n_chat = 0
@@ -1187,6 +1230,7 @@ class BeamODESolver:
             for te in ev_ext:
                 if te >= t_rec:
                     qv = float(sv @ Zf(np.array([te]))[:N, 0]) * sc / L
+                    ev_min.append((te, qv))
                     ext[0] = min(ext[0], qv)
                     ext[1] = max(ext[1], qv)
             t = t1
@@ -1219,11 +1263,16 @@ class BeamODESolver:
                     y = stick(y)
                     stuck = True
         q = samples[:, 0]
+        pmin = q.reshape(n_record, samples_per_period).min(axis=1) if q.size else np.zeros(n_record)
+        for te, qv in (ev_min if n_record else []):
+            kp = min(max(int((te - t_rec) // T), 0), n_record - 1)
+            pmin[kp] = min(pmin[kp], qv)
         status = "chatter" if n_chat else ("sticking" if stuck_time > 0 else "ok")
         return Trajectory(
             Omega=Om, samples=samples, samples_per_period=samples_per_period,
             impact_times=np.array(imp_t), impact_velocities=np.array(imp_v), n_impacts=len(imp_t),
-            q_min=float(min(ext[0], q.min())), q_max=float(max(ext[1], q.max())),
+            q_min=float(min(ext[0], q.min())) if q.size else float(ext[0]),
+            q_max=float(max(ext[1], q.max())) if q.size else float(ext[1]), period_min=pmin,
             status=status, message="" if status == "ok" else f"stuck {stuck_time:.4g} of the window",
             final_state=np.concatenate([y * sc, [1.0 if stuck else 0.0]]),
             extra={"mode_amplitudes": modamp,

@@ -223,16 +223,31 @@ def _check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS):
 
 
 class SweepSpec(_Strict):
-    """``[sweep]``: the frequency grid and how each point is simulated."""
+    """``[sweep]``: the frequency grid and how each point is simulated.
+
+    ``transient_periods = "auto"`` extends each point's transient until the
+    stroboscopic map settles, up to ``max_transient_periods`` (default 10000;
+    :func:`vibeam.sweep._settle`); ``point_time_limit_s`` ends a point that runs
+    longer as ``failed`` (default: no limit).
+    """
 
     Omega: list[float] | None = None
     frequency_hz: list[float] | None = None
     direction: Literal["up", "down", "both"] = "up"
-    transient_periods: Annotated[int, Field(ge=0)] = 400
+    transient_periods: Annotated[int, Field(ge=0)] | Literal["auto"] = 400
+    max_transient_periods: Annotated[int, Field(ge=1)] = 10000
     record_periods: Annotated[int, Field(ge=1)] = 64
     samples_per_period: Annotated[int, Field(ge=16, le=4096)] = 64
     continuation: bool = True
     period_rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = 1e-5
+    point_time_limit_s: Annotated[float, Field(gt=0.0)] | None = None
+
+    def engine_options(self) -> dict:
+        """The :class:`vibeam.sweep.Sweep` settings of this table (all but the grid)."""
+        return dict(direction=self.direction, transient_periods=self.transient_periods,
+                    max_transient_periods=self.max_transient_periods, record_periods=self.record_periods,
+                    samples_per_period=self.samples_per_period, continuation=self.continuation,
+                    period_rtol=self.period_rtol, point_time_limit_s=self.point_time_limit_s)
 
     @field_validator("Omega", "frequency_hz")
     @classmethod
@@ -455,16 +470,25 @@ class QuickSpec(_Strict):
 
     points: Annotated[int, Field(ge=1)] = 11
     map_values: Annotated[int, Field(ge=1)] = 3   # parameter values of a [map] kept
-    transient_periods: Annotated[int, Field(ge=0)] | None = None
+    transient_periods: Annotated[int, Field(ge=0)] | Literal["auto"] | None = None
+    max_transient_periods: Annotated[int, Field(ge=1)] | None = None
     record_periods: Annotated[int, Field(ge=1)] | None = None
 
 
 class RegressSpec(_Strict):
-    """``[regress]``: tolerances of ``vibeam regress`` (amplitude in the FRC's own units)."""
+    """``[regress]``: tolerances of ``vibeam regress`` (amplitude in the FRC's own units).
+
+    ``spread_sigmas`` and ``spread_range`` are the tolerances of the points compared by
+    the spread of their per-period amplitude (non-periodic, unsettled or of another
+    period; :mod:`vibeam.regress`): the means within ``spread_sigmas`` standard errors,
+    the smallest and largest per-period amplitude within ``spread_range`` of the range.
+    """
 
     amplitude_atol: Annotated[float, Field(ge=0.0)] = 0.0
     amplitude_rtol: Annotated[float, Field(ge=0.0)] = 1e-6
     period: bool = True
+    spread_sigmas: Annotated[float, Field(gt=0.0)] = 4.0
+    spread_range: Annotated[float, Field(ge=0.0)] = 0.5
 
 
 class Case(_Strict):
@@ -530,7 +554,8 @@ class Case(_Strict):
         The sweep grid becomes ``[quick] points`` frequencies spread evenly over
         the case's grid, both ends included (the case's own grid if it has no
         more points than that; one point: the start), and ``[quick]
-        transient_periods`` / ``record_periods`` replace the sweep's where given.
+        transient_periods`` / ``max_transient_periods`` / ``record_periods`` replace the
+        sweep's where given.
         Name, model, runs, effects, assessments and tolerances are unchanged.
         """
         q, sw = self.quick, self.sweep
@@ -542,6 +567,8 @@ class Case(_Strict):
             sweep["transient_periods"] = q.transient_periods
         if q.record_periods is not None:
             sweep["record_periods"] = q.record_periods
+        if q.max_transient_periods is not None:
+            sweep["max_transient_periods"] = q.max_transient_periods
         data = self.model_dump()
         data["sweep"] = dict(data["sweep"], **sweep)
         if self.map is not None:
@@ -652,12 +679,15 @@ def _key(loc, tags: bool = True) -> str:
             parts.append(f"[{p}]")
         elif tags and i >= 2 and loc[i - 2] == "run" and isinstance(loc[i - 1], int) and p in _RUN_BY_METHOD:
             continue
+        elif tags and isinstance(p, str) and (p.startswith("literal[") or p in _UNION_MEMBERS):
+            continue   # the member of a scalar union (e.g. transient_periods: int or "auto")
         else:
             parts.append(("." if parts else "") + _one_line(str(p)))
     return "".join(parts)
 
 
 _MAX_DEPTH = 32
+_UNION_MEMBERS = {"constrained-int", "constrained-float", "int", "float", "str", "bool", "none"}
 
 
 def _check_ints(data, loc=()) -> None:
@@ -704,6 +734,8 @@ def _format(err: ValidationError, prefix: str, root_cls) -> str:
             msg = _one_line(e["msg"].removeprefix("Value error, "))
             if isinstance(val, dict):
                 msgs.append(f"'{where}': {msg}")
+            elif msgs and msgs[-1].startswith(f"'{where}' = {_value(val)}: "):
+                msgs[-1] += f", or {msg[:1].lower()}{msg[1:]}"   # another member of a union
             else:
                 msgs.append(f"'{where}' = {_value(val)}: {msg}")
     return "; ".join(msgs)

@@ -54,9 +54,7 @@ def _sweep_for(case, run_model: dict):
     spec = case.model_spec(run_model) if run_model else case.model_spec()
     model = spec.build()
     Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
-    sw = Sweep(Omega=Omega, direction=case.sweep.direction, transient_periods=case.sweep.transient_periods,
-               record_periods=case.sweep.record_periods, samples_per_period=case.sweep.samples_per_period,
-               continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol)
+    sw = Sweep(Omega=Omega, **case.sweep.engine_options())
     return model, sw
 
 
@@ -75,13 +73,15 @@ def _timed(solver, sw, repeats):
 
 
 def reference_sweep(model, sw):
-    """Converged reference: ``event`` with max(4 x transient, 2000) transient periods."""
+    """Converged reference: ``event`` with max(4 x transient, 2000) transient periods (with
+    ``transient_periods = "auto"``: 4 x max_transient_periods)."""
     from dataclasses import replace
 
     from .models import make_solver
     from .sweep import run_sweep
 
-    ref_sw = replace(sw, transient_periods=max(4 * sw.transient_periods, 2000))
+    n = 4 * sw.max_transient_periods if sw.auto else max(4 * sw.transient_periods, 2000)
+    ref_sw = replace(sw, transient_periods=n)
     return run_sweep(make_solver(model, "event"), ref_sw, jobs=1), ref_sw.transient_periods
 
 
@@ -109,7 +109,9 @@ def check_cost_work(case, force: bool = False, source: str = "") -> dict:
 
     w = check_work(case, force=force, source=source)
     data = case.model_dump()
-    data["sweep"] = dict(data["sweep"], transient_periods=max(4 * case.sweep.transient_periods, 2000))
+    sw = case.sweep
+    n_ref = 4 * sw.max_transient_periods if sw.transient_periods == "auto" else max(4 * sw.transient_periods, 2000)
+    data["sweep"] = dict(data["sweep"], transient_periods=n_ref)
     check_work(type(case).model_validate(data), force=force, source=source)
     return w
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .sweep import Sweep, stack
+from .sweep import MM_KEYS, Sweep, stack
 
 # classification codes of a map point (dataset ``classification``)
 NO_IMPACT, PERIOD_1, PERIOD_2, PERIOD_N, NON_PERIODIC, FAILED, HELD = range(7)
@@ -129,7 +129,9 @@ def assemble_map(name: str, solvers: list, sweep: Sweep, parameter: str, values,
     if all(fn):
         data["frequency_hz"] = data["Omega"] * np.asarray(fn)[None, :, None]
     if all(L):
-        data["amplitude_mm"] = data["amplitude"] * np.asarray(L)[None, :, None] * 1e3
+        for k in MM_KEYS:
+            if k in data:
+                data[k + "_mm"] = data[k] * np.asarray(L)[None, :, None] * 1e3
     data["values"] = np.asarray(values, float)
     data["direction"] = np.array(directions, dtype=object)
     wall = float(np.nansum(flat.get("wall_time_s", 0.0)))

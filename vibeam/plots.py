@@ -1,14 +1,15 @@
 """Plots a person wants to look at after a sweep (matplotlib, Agg backend).
 
 * ``frc.png``: the FRC of every run overlaid, period-1 as dots, period-2 as
-  triangles, higher periods as squares, non-periodic as crosses and no-impact
-  points as small grey dots; failed points (no amplitude) as red crosses along
-  the bottom of the axes.
+  triangles, higher periods as squares, non-periodic as crosses with a bar over
+  the range of the per-period amplitude (min..max of Q_k over the record: one
+  sample of an attractor is not one number), no-impact points as small grey
+  dots; failed points (no amplitude) as red crosses along the bottom of the axes.
+* ``bifurcation.png``: stroboscopic displacement q against the forcing
+  frequency, one panel per time-domain run.
 
 Every figure is written through :func:`save_figure` (a temporary file renamed
 into place), so a failed or interrupted write never leaves a partial PNG.
-* ``bifurcation.png``: stroboscopic displacement q against the forcing
-  frequency, one panel per time-domain run.
 """
 from __future__ import annotations
 
@@ -93,6 +94,15 @@ def plot_frc(runs: list[SweepResult], path, title: str = "") -> Path:
                     mfc="none" if mk in "^s" else c, linestyle="none",
                     label=lab if lab_key not in seen else None)
             seen.add(lab_key)
+        if "amplitude_min" in r.data and "amplitude_max" in r.data:
+            lo = np.asarray(r.data["amplitude_min"], float) * _mm(r)
+            hi = np.asarray(r.data["amplitude_max"], float) * _mm(r)
+            sel = (np.asarray(period) == 0) & np.isfinite(lo) & np.isfinite(hi)
+            if sel.any():
+                lab = "range of $Q_k$ (not periodic)"
+                ax.vlines(x[sel], lo[sel], hi[sel], color=c, lw=1.5, alpha=0.6,
+                          label=lab if lab not in seen else None)
+                seen.add(lab)
         st = np.asarray([str(v) for v in r.data.get("status", [])])
         bad = st == "failed" if st.size == len(x) else np.zeros(len(x), bool)
         if bad.any():   # failed points have no amplitude: marked along the bottom of the axes

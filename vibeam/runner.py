@@ -42,6 +42,8 @@ def _job(case, r, overrides: dict, j=None) -> _Job:
                record_periods=case.sweep.record_periods,
                samples_per_period=assess.samples_per_period(case, r, model, Omega),
                continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol,
+               max_transient_periods=case.sweep.max_transient_periods,
+               point_time_limit_s=case.sweep.point_time_limit_s,
                assess=assess.hooks(case, spec, r, model))
     settings = dict(case.run_settings(r), **assess.solver_options(case, r, model))
     solver = wrap_solver(make_solver(model, r.method, **settings), model, spec,
@@ -160,7 +162,8 @@ def estimate_work(case, jobs_=None) -> dict:
         ts = getattr(r, "transient_samples", 16)
         spp = job.sweep.samples_per_period
         sub = _STEPS_PER_NATURAL_PERIOD / Om
-        per = (job.sweep.transient_periods * np.maximum(ts, sub) + job.sweep.record_periods * np.maximum(spp, sub))
+        n_tr = job.sweep.max_transient_periods if job.sweep.auto else job.sweep.transient_periods
+        per = (n_tr * np.maximum(ts, sub) + job.sweep.record_periods * np.maximum(spp, sub))
         cost = ODE_STEP_COST if r.method in ("direct", "zhuravlev", "ivanov") else 1.0
         steps += n_dir * float(per.sum()) * dofs * cost
         point_values = max(point_values, job.sweep.record_periods * spp * 2.0 * (1 + dofs))
@@ -170,10 +173,13 @@ def estimate_work(case, jobs_=None) -> dict:
         if cost > worst_cost[1]:
             worst_cost = (f"run[{i}].method", cost)
     n_pts = len(sw.grid(1.0))
-    periods = sw.transient_periods + sw.record_periods
+    auto = sw.transient_periods == "auto"
+    n_tr = sw.max_transient_periods if auto else sw.transient_periods
+    tr_key = "sweep.max_transient_periods" if auto else "sweep.transient_periods"
+    periods = n_tr + sw.record_periods
     cands = [
-        (("sweep.transient_periods" if sw.transient_periods >= sw.record_periods else "sweep.record_periods"),
-         (sw.transient_periods if sw.transient_periods >= sw.record_periods else sw.record_periods),
+        ((tr_key if n_tr >= sw.record_periods else "sweep.record_periods"),
+         (n_tr if n_tr >= sw.record_periods else sw.record_periods),
          periods / 464),
         (grid_key, getattr(sw, grid_key.split(".")[1]), max(n_pts / 101, 1.0 / max(w_min, 1e-300))),
         ("sweep.samples_per_period", sw.samples_per_period, sw.samples_per_period / 64),
