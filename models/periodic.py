@@ -68,6 +68,14 @@ class Shot:
         ``"ok"`` or the reason the orbit cannot be represented (``"failed"``, ``"chatter"``).
     message : str
         Detail when not ok.
+    Omega : float
+        Forcing frequency of the shot (nondimensional; NaN if the problem does not say):
+        impact phases are ``Omega t mod 2 pi``.
+    gap : float
+        ``Delta`` of the output coordinate at the shot's parameter, so that the amplitude is
+        ``Q = gap - q_min`` (NaN if the problem does not say).
+    impact_accelerations : ndarray, shape (m,) or None
+        Pre-impact accelerations of the contact gap (``g''(t-)``), if known.
     extra : dict
         Fidelity-specific values (e.g. the state at each impact).
     """
@@ -83,6 +91,9 @@ class Shot:
     stuck_time: float = 0.0
     status: str = "ok"
     message: str = ""
+    Omega: float = float("nan")
+    gap: float = float("nan")
+    impact_accelerations: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
 
     @property
@@ -94,6 +105,11 @@ class Shot:
         """Smallest pre-impact velocity (its zero is a grazing of an existing impact); inf
         without impacts."""
         return float(np.min(self.impact_velocities)) if self.impact_velocities.size else np.inf
+
+    @property
+    def amplitude(self) -> float:
+        """``Q = gap - q_min`` (paper Sec. 4.1); NaN if ``gap`` is unknown."""
+        return self.gap - self.q_min
 
     def multipliers(self) -> np.ndarray:
         """Floquet multipliers (eigenvalues of ``M``), complex, ordered by decreasing modulus."""
