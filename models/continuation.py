@@ -48,7 +48,8 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from numba import njit
+
+from .continuation_kernels import _newton_step, _spectrum, _tangent
 
 FOLD = "fold"
 PERIOD_DOUBLING = "period_doubling"
@@ -122,7 +123,13 @@ class Point:
 
     @property
     def signature(self) -> tuple:
-        return (self.shot.n_impacts, self.shot.stuck_time > 0.0)
+        """``(impacts per orbit, sticks)``; a sticking orbit counts no impacts: the number of
+        bounces resolved before a chatter accumulation is a numerical choice (the event
+        policy's ``chatter_tol``), not a property of the orbit, and the orbit does not depend
+        on them (the state after the sticking phase is fixed)."""
+        if self.shot.stuck_time > 0.0:
+            return (0, True)
+        return (self.shot.n_impacts, False)
 
 
 @dataclass
@@ -231,74 +238,6 @@ def _stable(mu) -> bool:
 
 def _multipliers(M) -> np.ndarray:
     return _spectrum(np.ascontiguousarray(M, dtype=float))[0]
-
-
-@njit(cache=True)
-def _newton_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
-    """One bordered Newton step of the corrector in scaled variables.
-
-    Returns ``(|r|_inf, du)`` with ``r = (P^n(x) - x) / s_x``; ``du`` solves
-    ``[[M - I, x_p s_p / s_x], [t^T]] du = -[r, t . (u - u_pred)]`` (NaN if singular)."""
-    d = x.shape[0]
-    A = np.empty((d + 1, d + 1))
-    rhs = np.empty(d + 1)
-    nr = 0.0
-    for i in range(d):
-        ri = (x_new[i] - x[i]) / sx
-        if abs(ri) > nr or ri != ri:
-            nr = abs(ri)
-        rhs[i] = -ri
-        for j in range(d):
-            A[i, j] = M[i, j]
-        A[i, i] -= 1.0
-        A[i, d] = xp[i] * (sp / sx)
-    g = 0.0
-    for j in range(d + 1):
-        A[d, j] = t[j]
-        g += t[j] * (u[j] - u_pred[j])
-    rhs[d] = -g
-    if not np.isfinite(A).all():
-        return np.inf, np.full(d + 1, np.nan)
-    return nr, np.linalg.solve(A, rhs)
-
-
-@njit(cache=True)
-def _tangent(M, xp, sx, sp, t_ref):
-    """Unit null vector of ``[M - I, x_p s_p / s_x]`` oriented along ``t_ref`` (bordered solve)."""
-    d = M.shape[0]
-    A = np.empty((d + 1, d + 1))
-    for i in range(d):
-        for j in range(d):
-            A[i, j] = M[i, j]
-        A[i, i] -= 1.0
-        A[i, d] = xp[i] * (sp / sx)
-    for j in range(d + 1):
-        A[d, j] = t_ref[j]
-    rhs = np.zeros(d + 1)
-    rhs[d] = 1.0
-    t = np.linalg.solve(A, rhs)
-    return t / np.sqrt(np.sum(t * t))
-
-
-@njit(cache=True)
-def _spectrum(M):
-    """Floquet multipliers by decreasing modulus, ``det(M + I)`` and ``max |mu| - 1`` over the
-    complex ones (NaN if none)."""
-    d = M.shape[0]
-    mu = np.linalg.eigvals(M.astype(np.complex128))
-    order = np.argsort(-np.abs(mu))
-    mu = mu[order]
-    A = M.copy()
-    for i in range(d):
-        A[i, i] += 1.0
-    pd = np.linalg.det(A)
-    ns = np.nan
-    for k in range(d):
-        a = abs(mu[k])
-        if abs(mu[k].imag) > 1e-9 * max(a, 1e-300):
-            if ns != ns or a - 1.0 > ns:
-                ns = a - 1.0
-    return mu, pd, ns
 
 
 class ContinuationError(ValueError):
@@ -681,7 +620,7 @@ def _graze_detail(a, b) -> tuple:
     """Type and description of a signature change ``a -> b``."""
     (ma, sa), (mb, sb) = a, b
     if sa != sb:
-        return STICKING, ("onset of sticking" if sb else "end of sticking") + f" ({ma} -> {mb} impacts per orbit)"
+        return STICKING, "onset of sticking" if sb else "end of sticking"
     return GRAZING, f"{ma} -> {mb} impacts per orbit (" + ("a new impact is born" if mb > ma else
                                                            "an impact velocity vanishes") + ")"
 
@@ -772,6 +711,10 @@ class _Tracer:
                 reason = why
                 ds *= S.shrink
                 if ds < S.ds_min:
+                    if self.resect(br, a, n):
+                        a = br.points[-1]
+                        ds = S.ds
+                        continue
                     if self.graze_end(br, bi, a, n, reason):
                         a = br.points[-1]
                         ds = S.ds
@@ -828,6 +771,45 @@ class _Tracer:
                 return
             ds = min(ds * S.grow, S.ds_max) if pt.its <= S.fast else ds
             a = pt
+
+    def resect(self, br, a, n) -> bool:
+        """An impact of the orbit at ``a`` coincides with the section: continue from the same
+        orbit seen on the other side of it (``prob.resect``, optional).  True if continued."""
+        eng = self.eng
+        f = getattr(eng.prob, "resect", None)
+        if f is None or not a.shot.n_impacts:
+            return False
+        try:
+            x1 = f(a.x, a.p, n)
+        except Exception:
+            return False
+        if x1 is None:
+            return False
+        # the other representation exists just beyond the crossing: natural-parameter Newton
+        # from it at small steps of the parameter in the direction of travel
+        sgn = 1.0 if a.t[eng.d] >= 0 else -1.0
+        pt = None
+        for delta in (1e-10, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4):
+            p = a.p + sgn * delta * eng.sp
+            if not self.inside(p):
+                break
+            q, _ = eng.newton_fixed(np.asarray(x1, float), p, n)
+            if q is not None and np.linalg.norm(q.u - a.u) > 1e3 * delta + 1e-6:
+                pt = q
+                break
+        if pt is None:
+            return False
+        t = eng.tangent(eng.jac(pt.shot), None, 1.0)
+        # same direction of travel: the parameter component keeps its sign (or, at a
+        # vertical tangent, the state follows the old one)
+        if abs(a.t[eng.d]) > 1e-3:
+            t = t if t[eng.d] * a.t[eng.d] > 0 else -t
+        elif t[:eng.d] @ a.t[:eng.d] < 0:
+            t = -t
+        pt.t = t
+        br.points.append(pt)
+        br.resections = getattr(br, "resections", 0) + 1
+        return True
 
     def partner(self, g, u_g, n):
         """A point of another impact signature next to the grazing point ``u_g`` reached along
@@ -899,6 +881,8 @@ class _Tracer:
         True if the branch continues."""
         eng = self.eng
         s = a.shot
+        if a.signature[1]:
+            return False     # a sticking orbit: its chatter impacts are not grazing ones
         size = max(abs(s.q_max - s.q_min), float(np.max(np.abs(a.x))), 1e-300)
         vmin = s.min_impact_velocity
         v_scale = max(float(np.max(s.impact_velocities)) if s.n_impacts else 0.0, float(np.max(np.abs(a.x))))
@@ -986,10 +970,10 @@ def trace(prob, x0, p0, n, lo, hi, direction: int = 1, settings: Settings = Sett
     x0 = np.asarray(x0, float)
     if x0.shape != (int(prob.dim),) or not np.all(np.isfinite(x0)):
         raise ContinuationError(f"the starting state must be {int(prob.dim)} finite numbers, got {x0!r}")
-    if not lo <= p0 <= hi:
-        raise ContinuationError(f"the start {p0!r} lies outside the range [{lo}, {hi}]")
     sx = s_x if s_x is not None else max(float(np.max(np.abs(x0))), 1e-12)
     eng = _Engine(prob, lo, hi, settings, sx)
+    if not lo <= p0 <= hi:
+        raise ContinuationError(f"the start {p0!r} lies outside the range [{lo}, {hi}]")
     eng.prob_name = _prob_name(prob)
     tr = _Tracer(eng)
     br = Branch(n=int(n))
@@ -1073,7 +1057,7 @@ def switch_period_doubling(eng, tr, bf, parent, bi) -> Branch:
     why = ""
     for eps in (1e-3, 3e-3, 1e-2, 3e-2, 1e-1):
         for sgn in (1.0, -1.0):
-            pt, why = eng.correct(u0 + sgn * eps * t0, sgn * t0, n2, radius=eps)
+            pt, why = eng.correct(u0 + sgn * eps * t0, sgn * t0, n2, radius=10 * eps)
             if pt is None:
                 continue
             half = eng.shot(pt.x, pt.p, bf.n)

@@ -447,6 +447,37 @@ class SDOFShooting:
                     Omega=Omega, gap=Delta, impact_accelerations=imp[:, 2],
                     extra={"x_all_p": XP, "stuck_end": out[20] > 0.5})
 
+    def resect(self, x0, p, n):
+        """The same orbit seen on the other side of an impact that coincides with the section.
+
+        When an impact of the orbit through ``x0`` approaches forcing phase 0 (the first one
+        at ``t -> 0+``, or the last one at ``t -> n T-``), the state at the section jumps
+        between the pre- and post-impact states: the stroboscopic fixed point is
+        discontinuous although the orbit is not.  Returns the state at phase 0 with that
+        impact moved to the other side of the section -- the post-impact state carried back to
+        ``t = 0`` by the free flow, or the pre-impact state carried on to ``t = n T`` -- or None
+        if no impact lies within ``1e-6 T`` of the section.
+        """
+        from .sdof_flow import propagate
+        s = self.shot(x0, p, n)
+        if s.status != "ok" or not s.n_impacts:
+            return None
+        beta, B, R, Delta, Omega = self.params(p)
+        T = TWO_PI / Omega
+        a, b = particular_coefficients(beta, Omega * Omega * B, Omega)
+        t1, tm = float(s.impact_times[0]), float(s.impact_times[-1])
+        if t1 < 1e-6 * T:
+            v = -R * float(s.impact_velocities[0])
+            phi = (Omega * t1) % TWO_PI
+            g, w, _, _, _ = propagate(-t1, phi, Delta, v, beta, a, b, Omega, Delta)
+            return np.array([Delta + g, w])
+        if tm > n * T - 1e-6 * T:
+            phi = (Omega * tm) % TWO_PI
+            g, w, _, _, _ = propagate(n * T - tm, phi, Delta, float(s.impact_velocities[-1]),
+                                      beta, a, b, Omega, Delta)
+            return np.array([Delta + g, w])
+        return None
+
     # ------------------------------------------------------------------ starting orbits
     starts = ("linear", "averaging")
 
