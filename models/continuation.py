@@ -916,6 +916,47 @@ class _Tracer:
         return False
 
 
+class ScaledParameter:
+    """A shooting problem continued in a key that is affine in its native parameter,
+    ``native = offset + factor * value`` (e.g. a rig's voltage: ``B = gamma V``, paper Eq. 44):
+    ``d x / d value = factor * d x / d native`` (chain rule).  Other attributes (``start``,
+    ``resect``, ``starts``, ``model``, ...) are the wrapped problem's, with values converted."""
+
+    def __init__(self, prob, parameter: str, factor: float, offset: float = 0.0):
+        if not (math.isfinite(factor) and factor != 0.0):
+            raise ContinuationError(f"the factor of {parameter!r} must be finite and non-zero, got {factor}")
+        self.prob = prob
+        self.parameter = parameter
+        self.factor = float(factor)
+        self.offset = float(offset)
+        self.dim = prob.dim
+        self.value = (float(getattr(prob, "value", math.nan)) - self.offset) / self.factor
+
+    def native(self, p):
+        return self.offset + self.factor * float(p)
+
+    def shot(self, x0, p, n):
+        s = self.prob.shot(x0, self.native(p), n)
+        s.x_p = s.x_p * self.factor
+        return s
+
+    @property
+    def starts(self):
+        return getattr(self.prob, "starts", ())
+
+    def start(self, kind, p, n=1):
+        return self.prob.start(kind, self.native(p), n)
+
+    def resect(self, x0, p, n):
+        f = getattr(self.prob, "resect", None)
+        return None if f is None else f(x0, self.native(p), n)
+
+    def __getattr__(self, name):
+        if name == "prob":
+            raise AttributeError(name)
+        return getattr(self.prob, name)
+
+
 def _prob_name(prob) -> str:
     return str(getattr(prob, "parameter", "p"))
 
@@ -1078,5 +1119,196 @@ def switch_period_doubling(eng, tr, bf, parent, bi) -> Branch:
     return child
 
 
-__all__ = ["Settings", "Point", "Bifurcation", "Branch", "trace", "start_point", "TYPES",
+# ============================================================================ two parameters
+@dataclass
+class Curve:
+    """A two-parameter curve of one bifurcation type: ``p1`` (the first parameter, e.g. the
+    frequency), ``p2`` (the second, e.g. a voltage or gap), states ``x`` at the section, the
+    period ``n``; ``status`` ``box`` (left the parameter box at both ends), ``max_points``,
+    ``lost`` (the bifurcation could not be relocated, with the reason in ``message``)."""
+
+    type: str
+    n: int
+    p1: list = field(default_factory=list)
+    p2: list = field(default_factory=list)
+    x: list = field(default_factory=list)
+    status: str = ""
+    message: str = ""
+
+
+def _relocate(factory, kind, n, free, fixed, x_guess, p_guess, box, width, settings):
+    """The bifurcation ``kind`` of period ``n`` nearest to ``p_guess`` in the free parameter at
+    the fixed value of the other one: a short continuation in a window around ``p_guess``
+    (every detection and location of :func:`trace` applies), started from ``x_guess``.
+
+    Returns ``(p, x)`` or None."""
+    prob = factory(free, fixed)
+    lo, hi = max(box[0], p_guess - width), min(box[1], p_guess + width)
+    if not hi > lo:
+        return None
+    p0 = min(max(p_guess, lo), hi)
+    st = replace(settings, switch=False, max_points=80, ds=0.02, ds_max=0.1)
+    sx = max(float(np.max(np.abs(x_guess))), 1e-12)
+    eng = _Engine(prob, lo, hi, st, sx)
+    eng.prob_name = _prob_name(prob)
+    start = None
+    for delta in (0.0, 0.05, 0.15, 0.3, 0.5):
+        for sgn in ((1.0,) if delta == 0.0 else (1.0, -1.0)):
+            p = p0 + sgn * delta * (hi - lo)
+            if not lo <= p <= hi:
+                continue
+            pt, _ = eng.newton_fixed(x_guess, p, n)
+            if pt is not None:
+                start = p
+                break
+        if start is not None:
+            break
+    if start is None:
+        return None
+    try:
+        brs = trace(prob, x_guess, start, n, lo, hi, 0, st, s_x=sx)
+    except ContinuationError:
+        return None
+    cands = [bf for bf in brs[0].bifurcations if bf.type == kind and bf.n == n]
+    if not cands:
+        return None
+    bf = min(cands, key=lambda b: abs(b.parameter - p_guess))
+    return bf.parameter, bf.x
+
+
+def trace_curve(factory, bif, p2, box1, box2, settings: Settings = Settings(), max_points: int = 200,
+                h0: float = 0.02, h_min: float = 2e-4, h_max: float = 0.05) -> Curve:
+    """Continue the bifurcation ``bif`` (located at ``p2`` of the second parameter) in two
+    parameters: a secant predictor in the scaled plane ``(p1 / w1, p2 / w2)``, and a corrector
+    that relocates the bifurcation in one parameter at a fixed value of the other
+    (:func:`_relocate`: the slice is the parameter the curve moves least in, so the slice
+    switches where the curve turns); the step adapts (grow on success, halve on failure).
+
+    Parameters
+    ----------
+    factory : callable
+        ``factory("p1", value_of_p2)`` -> shooting problem continued in the first parameter at
+        that value of the second; ``factory("p2", value_of_p1)`` -> in the second at that
+        value of the first.
+    bif : Bifurcation
+        A fold, period doubling or grazing located in the first parameter.
+    p2 : float
+        The value of the second parameter there.
+    box1, box2 : (float, float)
+        Ranges of the two parameters.
+    settings : Settings
+        Settings of the one-parameter relocations (step, tolerances).
+    max_points : int
+        Most curve points.
+    h0, h_min, h_max : float
+        First, smallest and largest step in the scaled plane.
+
+    Returns
+    -------
+    Curve
+    """
+    w1, w2 = box1[1] - box1[0], box2[1] - box2[0]
+    kind, n = bif.type, bif.n
+    halves, reasons = [], []
+    for sgn in (1.0, -1.0):
+        pts = [(bif.parameter, p2, np.asarray(bif.x, float))]
+        h = h0
+        why = "left the parameter box"
+        while len(pts) < max_points // 2:
+            q1, q2, xq = pts[-1]
+            if len(pts) >= 2:
+                d1 = (q1 - pts[-2][0]) / w1
+                d2 = (q2 - pts[-2][1]) / w2
+                nrm = math.hypot(d1, d2)
+                trials = [(d1 / nrm, d2 / nrm)] if nrm > 0 else [(0.0, sgn)]
+                wide = 1.0
+            else:
+                # first step, direction unknown: slice at the next p2, else at the next p1, in
+                # wide windows
+                trials = [(0.0, sgn), (sgn, 0.0)]
+                wide = 3.0
+            nxt = None
+            for d1, d2 in trials:
+                g1, g2 = q1 + h * d1 * w1, q2 + h * d2 * w2
+                if abs(d2) >= abs(d1):       # the curve moves in p2 more than in p1: fix p2, find p1
+                    if not box2[0] <= g2 <= box2[1]:
+                        continue
+                    r = _relocate(factory, kind, n, "p1", g2, xq, g1, box1,
+                                  wide * max(4 * h * w1, 0.02 * w1), settings)
+                    nxt = None if r is None else (r[0], g2, r[1])
+                else:                         # fix p1, find p2
+                    if not box1[0] <= g1 <= box1[1]:
+                        continue
+                    r = _relocate(factory, kind, n, "p2", g1, xq, g2, box2,
+                                  wide * max(4 * h * w2, 0.02 * w2), settings)
+                    nxt = None if r is None else (g1, r[0], r[1])
+                if nxt is not None and math.hypot((nxt[0] - q1) / w1, (nxt[1] - q2) / w2) <= 3 * wide * h:
+                    break
+                nxt = None
+            if nxt is None:
+                g1, g2 = q1 + h * trials[0][0] * w1, q2 + h * trials[0][1] * w2
+                if len(pts) >= 2 and not (box1[0] <= g1 <= box1[1] and box2[0] <= g2 <= box2[1]):
+                    break                     # the predictor left the box
+                h *= 0.5
+                if h < h_min:
+                    why = f"the {kind} was lost at ({q1:.8g}, {q2:.8g}) (step below {h_min})"
+                    break
+                continue
+            pts.append(nxt)
+            h = min(1.5 * h, h_max)
+        else:
+            why = "max_points"
+        halves.append(pts)
+        reasons.append(why)
+    both = halves[1][:0:-1] + halves[0]
+    c = Curve(type=kind, n=n, p1=[q[0] for q in both], p2=[q[1] for q in both], x=[q[2] for q in both])
+    if all(r == "left the parameter box" for r in reasons):
+        c.status, c.message = "box", ""
+    elif any(r == "max_points" for r in reasons):
+        c.status, c.message = "max_points", f"{max_points} points"
+    else:
+        c.status = "lost"
+        c.message = "; ".join(r for r in reasons if r != "left the parameter box")
+    return c
+
+
+def _on_curve(c: Curve, p1, p2, w1, w2, tol=5e-3) -> bool:
+    """Whether ``(p1, p2)`` lies within ``tol`` (scaled plane) of the polyline of ``c``."""
+    P = np.column_stack([np.asarray(c.p1) / w1, np.asarray(c.p2) / w2])
+    q = np.array([p1 / w1, p2 / w2])
+    if len(P) == 1:
+        return float(np.linalg.norm(P[0] - q)) < tol
+    a, b = P[:-1], P[1:]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", q - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
+    d = np.linalg.norm(a + t[:, None] * ab - q, axis=1)
+    return bool(np.min(d) < tol)
+
+
+def trace_curves(factory, seeds, box1, box2, slices=(), settings: Settings = Settings(), max_points=200,
+                 base_value=None, seed_slice=None, types=(FOLD, PERIOD_DOUBLING, GRAZING)) -> list:
+    """Two-parameter curves of the bifurcations ``seeds`` (pairs ``(Bifurcation, p2)``) and of
+    those ``seed_slice(v)`` finds at each value ``v`` of ``slices`` (one-parameter branches
+    at other values of the second parameter: curves that do not cross the first slice); a
+    seed lying on a curve already traced is skipped.  Returns a list of :class:`Curve`."""
+    w1, w2 = box1[1] - box1[0], box2[1] - box2[0]
+    curves = []
+
+    def covered(bf, v):
+        return any(c.type == bf.type and c.n == bf.n and _on_curve(c, bf.parameter, v, w1, w2) for c in curves)
+
+    def run(pairs):
+        for bf, v in pairs:
+            if bf.type in types and not covered(bf, v):
+                curves.append(trace_curve(factory, bf, v, box1, box2, settings, max_points))
+
+    run(seeds)
+    for v in slices:
+        if seed_slice is not None:
+            run([(bf, v) for bf in seed_slice(v)])
+    return curves
+
+
+__all__ = ["Settings", "Point", "Bifurcation", "Branch", "trace", "start_point", "TYPES", "ScaledParameter",
+           "Curve", "trace_curve", "trace_curves",
            "FOLD", "PERIOD_DOUBLING", "NEIMARK_SACKER", "GRAZING", "STICKING", "ContinuationError"]

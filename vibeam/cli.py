@@ -23,7 +23,7 @@ def _executor(args):
     return open_executor(getattr(args, "scheduler", None))
 
 
-def cmd_run(args, need_map=False) -> int:
+def cmd_run(args, need_map=False, continuation_only=False) -> int:
     from .case import CaseError, load_case
 
     case, text = load_case(args.case)
@@ -34,7 +34,8 @@ def cmd_run(args, need_map=False) -> int:
     ex, client = _executor(args)
     try:
         run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
-                 quick=args.quick, resume=args.resume, executor=ex)
+                 quick=args.quick, resume=getattr(args, "resume", False), executor=ex,
+                 continuation_only=continuation_only)
     except KeyboardInterrupt:
         print(f"\nvibeam: interrupted; finished sweep lines are kept in {out_dir / 'results.h5'}; "
               f"rerun with --resume to compute only the rest", file=sys.stderr)
@@ -204,6 +205,19 @@ def main(argv=None) -> int:
                        "and a table")
     run_args(p)
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("continue", help="run the continuation runs of a case (method = \"continuation\"): "
+                       "branches of periodic orbits with stability and bifurcations")
+    p.add_argument("case", help="case file (TOML)")
+    p.add_argument("--out", help="output folder (default results/<case name>/; a results.h5 of the same "
+                   "case there keeps its sweeps, only /branches is replaced)")
+    p.add_argument("--jobs", type=int, default=None,
+                   help="worker processes of the local pool (default: all cores; 1: inline)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quick", action="store_true", help="the case's quick variant")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on a dask.distributed scheduler (e.g. tcp://host:8786)")
+    p.set_defaults(func=lambda a: cmd_run(a, continuation_only=True))
     p = sub.add_parser("map", help="parameter map of a case with [map] (period-n regions, paper Fig. 18)")
     run_args(p)
     p.set_defaults(func=lambda a: cmd_run(a, need_map=True))
