@@ -1147,7 +1147,7 @@ def _relocate(factory, kind, n, free, fixed, x_guess, p_guess, box, width, setti
     if not hi > lo:
         return None
     p0 = min(max(p_guess, lo), hi)
-    st = replace(settings, switch=False, max_points=80, ds=0.02, ds_max=0.1)
+    st = replace(settings, switch=False, max_points=40, ds=0.03, ds_max=0.15)
     sx = max(float(np.max(np.abs(x_guess))), 1e-12)
     eng = _Engine(prob, lo, hi, st, sx)
     eng.prob_name = _prob_name(prob)
@@ -1248,7 +1248,11 @@ def trace_curve(factory, bif, p2, box1, box2, settings: Settings = Settings(), m
             if nxt is None:
                 g1, g2 = q1 + h * trials[0][0] * w1, q2 + h * trials[0][1] * w2
                 if len(pts) >= 2 and not (box1[0] <= g1 <= box1[1] and box2[0] <= g2 <= box2[1]):
-                    break                     # the predictor left the box
+                    # the predictor left the box: end the curve on its edge
+                    e = _edge_point(factory, kind, n, pts[-1], (g1, g2), box1, box2, w1, w2, h, settings)
+                    if e is not None:
+                        pts.append(e)
+                    break
                 h *= 0.5
                 if h < h_min:
                     why = f"the {kind} was lost at ({q1:.8g}, {q2:.8g}) (step below {h_min})"
@@ -1260,6 +1264,10 @@ def trace_curve(factory, bif, p2, box1, box2, settings: Settings = Settings(), m
             why = "max_points"
         halves.append(pts)
         reasons.append(why)
+    if len(halves[1]) > 1 and len(halves[0]) > 1:
+        probe = Curve(type=kind, n=n, p1=[q[0] for q in halves[0]], p2=[q[1] for q in halves[0]])
+        if _on_curve(probe, halves[1][1][0], halves[1][1][1], w1, w2, tol=0.25 * h0):
+            halves[1] = halves[1][:1]        # the second half retraced the first
     both = halves[1][:0:-1] + halves[0]
     c = Curve(type=kind, n=n, p1=[q[0] for q in both], p2=[q[1] for q in both], x=[q[2] for q in both])
     if all(r == "left the parameter box" for r in reasons):
@@ -1272,7 +1280,22 @@ def trace_curve(factory, bif, p2, box1, box2, settings: Settings = Settings(), m
     return c
 
 
-def _on_curve(c: Curve, p1, p2, w1, w2, tol=5e-3) -> bool:
+def _edge_point(factory, kind, n, last, pred, box1, box2, w1, w2, h, settings):
+    """The curve's point on the edge of the box that the predictor ``pred`` crossed."""
+    q1, q2, xq = last
+    g1, g2 = pred
+    if not box2[0] <= g2 <= box2[1]:
+        e2 = box2[1] if g2 > box2[1] else box2[0]
+        t = (e2 - q2) / (g2 - q2) if g2 != q2 else 1.0
+        r = _relocate(factory, kind, n, "p1", e2, xq, q1 + t * (g1 - q1), box1, max(4 * h * w1, 0.02 * w1), settings)
+        return None if r is None else (r[0], e2, r[1])
+    e1 = box1[1] if g1 > box1[1] else box1[0]
+    t = (e1 - q1) / (g1 - q1) if g1 != q1 else 1.0
+    r = _relocate(factory, kind, n, "p2", e1, xq, q2 + t * (g2 - q2), box2, max(4 * h * w2, 0.02 * w2), settings)
+    return None if r is None else (e1, r[0], r[1])
+
+
+def _on_curve(c: Curve, p1, p2, w1, w2, tol=2e-2) -> bool:
     """Whether ``(p1, p2)`` lies within ``tol`` (scaled plane) of the polyline of ``c``."""
     P = np.column_stack([np.asarray(c.p1) / w1, np.asarray(c.p2) / w2])
     q = np.array([p1 / w1, p2 / w2])
@@ -1286,11 +1309,13 @@ def _on_curve(c: Curve, p1, p2, w1, w2, tol=5e-3) -> bool:
 
 
 def trace_curves(factory, seeds, box1, box2, slices=(), settings: Settings = Settings(), max_points=200,
-                 base_value=None, seed_slice=None, types=(FOLD, PERIOD_DOUBLING, GRAZING)) -> list:
+                 base_value=None, seed_slice=None, types=(FOLD, PERIOD_DOUBLING, GRAZING),
+                 max_period: int = 2) -> list:
     """Two-parameter curves of the bifurcations ``seeds`` (pairs ``(Bifurcation, p2)``) and of
     those ``seed_slice(v)`` finds at each value ``v`` of ``slices`` (one-parameter branches
     at other values of the second parameter: curves that do not cross the first slice); a
-    seed lying on a curve already traced is skipped.  Returns a list of :class:`Curve`."""
+    seed lying on a curve already traced is skipped, and so are orbits of period above
+    ``max_period``.  Returns a list of :class:`Curve`."""
     w1, w2 = box1[1] - box1[0], box2[1] - box2[0]
     curves = []
 
@@ -1299,7 +1324,7 @@ def trace_curves(factory, seeds, box1, box2, slices=(), settings: Settings = Set
 
     def run(pairs):
         for bf, v in pairs:
-            if bf.type in types and not covered(bf, v):
+            if bf.type in types and bf.n <= max_period and not covered(bf, v):
                 curves.append(trace_curve(factory, bf, v, box1, box2, settings, max_points))
 
     run(seeds)

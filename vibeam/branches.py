@@ -306,10 +306,13 @@ def _curves(task, spec, branches, settings) -> list:
         for bf in b.bifurcations:
             if bf.type in (FOLD, PERIOD_DOUBLING, GRAZING):
                 seeds.append((bf, v0))
-    slices = [v for v in np.linspace(lo2, hi2, st.get("slices", 3)) if abs(v - v0) > 1e-12 * max(1, abs(v0))]
+    # interior slices of the map range (seeds on the edges give curves that end at once)
+    slices = [v for v in np.linspace(lo2, hi2, st.get("slices", 3) + 2)[1:-1]
+              if abs(v - v0) > 1e-3 * (hi2 - lo2)]
     curves = trace_curves(factory, seeds, (task.lo, task.hi), (lo2, hi2), slices, settings,
                           max_points=st.get("curve_points", 200), base_value=v0,
-                          seed_slice=lambda v: _slice_bifurcations(task, spec, v, settings))
+                          seed_slice=lambda v: _slice_bifurcations(task, spec, v, settings),
+                          max_period=st.get("curve_max_period", 2))
     return [dict(type=c.type, p1=np.asarray(c.p1), p2=np.asarray(c.p2), n=c.n, status=c.status,
                  message=c.message) for c in curves]
 
@@ -334,9 +337,11 @@ def _slice_bifurcations(task, spec, v, settings):
                 break
         if x0 is None:
             continue
+        if n > task.settings.get("curve_max_period", 2):
+            continue
         try:
             got = trace(prob, x0, value, n, task.lo, task.hi, direction,
-                        dc_replace(settings, max_branches=2))
+                        dc_replace(settings, max_branches=2, max_period=task.settings.get("curve_max_period", 2)))
         except Exception:
             continue
         for b in got:

@@ -328,7 +328,9 @@ class ContinuationRun(_RunBase):
     ``high``, ``both`` ends of the range or a value; ``n``: period of a linear or averaging start;
     step controls ``ds``, ``ds_min``, ``ds_max``, ``max_points``; ``max_period`` bounds the
     period-doubling branch switching; ``curves``: two-parameter curves of folds, period
-    doublings and grazings in a ``[map]`` case, seeded at ``slices`` values of the map parameter.
+    doublings and grazings in a ``[map]`` case (of orbits up to period ``curve_max_period``),
+    seeded by the branches at the scene's value of the map key and at ``slices`` values
+    inside the map range; ``curve_points`` bounds each curve.
     """
 
     method: Literal["continuation"]
@@ -345,8 +347,9 @@ class ContinuationRun(_RunBase):
     max_period: Annotated[int, Field(ge=1, le=64)] = 8
     switch: bool = True
     curves: bool = True
-    slices: Annotated[int, Field(ge=1, le=50)] = 3
+    slices: Annotated[int, Field(ge=0, le=50)] = 3
     curve_points: Annotated[int, Field(ge=2, le=10_000)] = 200
+    curve_max_period: Annotated[int, Field(ge=1, le=64)] = 2
 
     @model_validator(mode="after")
     def _steps(self):
