@@ -1255,7 +1255,9 @@ def trace_curve(factory, bif, p2, box1, box2, settings: Settings = Settings(), m
                     break
                 h *= 0.5
                 if h < h_min:
-                    why = f"the {kind} was lost at ({q1:.8g}, {q2:.8g}) (step below {h_min})"
+                    why = (f"the {kind} could not be relocated beyond ({q1:.8g}, {q2:.8g}) (step below "
+                           f"{h_min}): the curve ends there (a cusp, a meeting with a grazing curve) or "
+                           f"its orbit changes type")
                     break
                 continue
             pts.append(nxt)

@@ -489,8 +489,10 @@ class SDOFShooting:
         kind : {"linear", "averaging"}
             ``linear``: the non-impacting steady state ``P(0) = (b, Omega a)`` (paper Eq. 28,
             particular part); ``averaging``: the upper averaging branch (paper Eqs. 18-23,
-            ``k = 1``) turned into the post-impact state at its impact phase and carried by
-            the closed-form flow to the next phase 0.
+            ``k = 1``: impact phase and velocity ~ Q) refined, where it converges to an
+            admissible orbit, by Newton on the impact map (Eqs. 33-34,
+            :func:`vibeam.models.sdof_mapping.newton_fixed_point`), turned into the
+            post-impact state and carried by the closed-form flow to the next phase 0.
         p : float
             Value of the continuation parameter.
         n : int
@@ -515,15 +517,23 @@ class SDOFShooting:
         if kind == "averaging":
             if n != 1:
                 return None, "the averaging start gives period-1 orbits only (k = 1)"
+            from dataclasses import replace
             from .sdof_averaging import solve
+            from .sdof_mapping import is_admissible, newton_fixed_point
             r = solve(Omega, beta, B, R, Delta, 1)
             Q = float(r["amplitude"])
             if not np.isfinite(Q):
                 return None, f"averaging has no real amplitude at {self.parameter} = {p:.6g}"
-            phi = float(r["impact_phase"])
+            phi, v = float(r["impact_phase"]), Q
+            # refine on the impact map (Newton on the closed form, paper Eqs. 33-34): averaging is
+            # a first-order guess, poor for R well below 1
+            m = replace(self.model, beta=beta, B=B, R=R, Delta=Delta)
+            fp = newton_fixed_point(m, Omega, (phi, v), 1)
+            if fp is not None and is_admissible(m, Omega, fp, 1)[0]:
+                phi, v = float(fp[0]), float(fp[1])
             s = ((TWO_PI - phi) % TWO_PI) / Omega
-            g, v, _, _, _ = propagate(s, phi, Delta, -R * Q, beta, a, b, Omega, Delta)
-            return np.array([Delta + g, v]), ""
+            g, w, _, _, _ = propagate(s, phi, Delta, -R * v, beta, a, b, Omega, Delta)
+            return np.array([Delta + g, w]), ""
         raise ValueError(f"unknown start {kind!r}; allowed: {', '.join(self.starts)}")
 
 
