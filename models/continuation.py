@@ -49,7 +49,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .continuation_kernels import _newton_step, _spectrum, _tangent
+from .continuation_kernels import _corrector_step, _spectrum, _tangent
 
 FOLD = "fold"
 PERIOD_DOUBLING = "period_doubling"
@@ -393,28 +393,29 @@ class _Engine:
         Returns (Point or None, reason).  ``radius``: largest accepted distance from ``u_pred``.
         """
         d, S = self.d, self.S
-        u = u_pred.copy()
+        u = u_pred
         sx, sp = self.sx, self.sp
-        nr = np.inf
+        nr, dist, ndu = np.inf, 0.0, np.inf
+        tol = S.tol
         for it in range(S.max_newton + 1):
             x = u[:d] * sx
             p = u[d] * sp
             s = self.shot(x, p, n)
             if s.status != "ok":
                 return None, s.message or s.status
-            nr, du = _newton_step(s.M, s.x_p, s.x, x, u, u_pred, t, sx, sp)
+            nr, ndu_new, un, dist_new = _corrector_step(s.M, s.x_p, s.x, x, u, u_pred, t, sx, sp)
             # converged: residual at tolerance, or (near a grazing, where the impact time is
             # ill-conditioned and the residual has a round-off floor) a negligible Newton step
-            if nr <= S.tol or (nr <= 1e3 * S.tol and it > 0 and np.max(np.abs(du)) <= S.tol):
-                if radius is not None and np.linalg.norm(u - u_pred) > radius:
+            if nr <= tol or (nr <= 1e3 * tol and it > 0 and ndu_new <= tol):
+                if radius is not None and dist > radius:
                     return None, "the corrector left the neighbourhood of the predictor"
                 return self.make_point(x, p, s, its=it, u=u), ""
             if it == S.max_newton:
                 break
-            if not (math.isfinite(nr) and np.isfinite(du).all()):
+            if not (nr < np.inf and ndu_new < np.inf):
                 return None, "non-finite residual or Newton step (singular bordered Jacobian)"
-            u = u + du
-            if radius is not None and np.linalg.norm(u - u_pred) > 2.0 * radius:
+            u, dist = un, dist_new
+            if radius is not None and dist > 2.0 * radius:
                 return None, "the corrector left the neighbourhood of the predictor"
         return None, f"no convergence in {S.max_newton} corrector iterations (residual {nr:.2e})"
 
@@ -694,11 +695,17 @@ class _Tracer:
         a = first
         start_u = br.points[0].u
         reason = ""
+        curv = None          # curvature estimate (change of the tangent per arclength)
         while True:
             if len(br.points) >= S.max_points:
                 br.status, br.message = "max_points", f"{S.max_points} points"
                 return
-            pt, why = eng.correct(a.u + ds * a.t, a.t, n, radius=0.5 * ds + 1e-12)
+            # second-order predictor along the branch (tangent and the curvature of the last
+            # step), corrected in the hyperplane normal to the tangent
+            u_pred = a.u + ds * a.t
+            if curv is not None:
+                u_pred = u_pred + (0.5 * ds * ds) * curv
+            pt, why = eng.correct(u_pred, a.t, n, radius=0.5 * ds + 1e-12)
             ok = pt is not None
             if ok:
                 if pt.signature == a.signature:
@@ -713,11 +720,11 @@ class _Tracer:
                 if ds < S.ds_min:
                     if self.resect(br, a, n):
                         a = br.points[-1]
-                        ds = S.ds
+                        ds, curv = S.ds, None
                         continue
                     if self.graze_end(br, bi, a, n, reason):
                         a = br.points[-1]
-                        ds = S.ds
+                        ds, curv = S.ds, None
                         continue
                     br.status = "no_convergence"
                     br.message = (f"step below ds_min = {S.ds_min:g} at {eng.prob_name} = {a.p:.10g}: "
@@ -731,7 +738,7 @@ class _Tracer:
                     g_hi = None
                 kind, detail = _graze_detail(a.signature, pt.signature)
                 nxt = g_hi if g_hi is not None else pt
-                eng.finish(nxt, None, away=u_g)
+                self.orient_away(nxt, u_g, n)
                 u_g = self.refine_graze(nxt, u_g, a.signature, n)
                 if g_lo is not a:
                     br.points.append(g_lo)
@@ -739,7 +746,7 @@ class _Tracer:
                 br.bifurcations.append(_bif(kind, g_lo, n, bi, len(br.points), detail,
                                             at=(u_g[:eng.d] * eng.sx, u_g[eng.d] * eng.sp)))
                 # continue on the new signature, turned away from the grazing point
-                eng.finish(nxt, None, away=u_g)
+                self.orient_away(nxt, u_g, n)
                 if not self.inside(nxt.p):
                     br.status, br.message = "range_end", "left the parameter range"
                     return
@@ -752,6 +759,7 @@ class _Tracer:
                         nxt = pt
                 a = nxt
                 ds = max(min(ds, S.ds), S.ds_min * 10)
+                curv = None
                 continue
             if not self.inside(pt.p):
                 c = self.boundary_point(a, pt, n)
@@ -762,6 +770,8 @@ class _Tracer:
                 return
             self.detect(br, bi, a, pt, n)
             br.points.append(pt)
+            step = float(np.linalg.norm(pt.u - a.u))
+            curv = (pt.t - a.t) / step if step > 0 else None
             if self.closed(br, pt, start_u, ds):
                 br.status, br.message = "closed", "the branch came back to its first point (an isola)"
                 return
@@ -845,7 +855,27 @@ class _Tracer:
                 break
         if best is None:
             return None
-        return eng.finish(best, None, away=u_g)
+        return self.orient_away(best, u_g, n)
+
+    def orient_away(self, pt, u_g, n):
+        """Give ``pt`` (just beyond a grazing at ``u_g``, on the new impact signature) the
+        tangent that leads away from the grazing: probe a short step each way and keep the side
+        that stays on the new signature and moves away (the other crosses back or fails); if
+        the probes cannot tell, the side pointing away from ``u_g``."""
+        eng = self.eng
+        t = eng.tangent(eng.jac(pt.shot), None, 1.0)
+        dist = float(np.linalg.norm(pt.u - u_g))
+        h = min(max(4.0 * dist, 1e-7), 1e-2)
+        ok = []
+        for sgn in (1.0, -1.0):
+            q, _ = eng.correct(pt.u + sgn * h * t, sgn * t, n, radius=h)
+            if q is not None and q.signature == pt.signature and np.linalg.norm(q.u - u_g) > dist:
+                ok.append(sgn)
+        if len(ok) == 1:
+            pt.t = ok[0] * t
+        else:
+            pt.t = t if t @ (pt.u - u_g) >= 0 else -t
+        return pt
 
     def refine_graze(self, b, u_g, sig_old, n):
         """A grazing located from the side with fewer impacts is better conditioned (the
@@ -896,7 +926,7 @@ class _Tracer:
         if g is not a:
             self.detect(br, bi, a, g, n)
             br.points.append(g)
-        cands = [g_hi] if g_hi is not None and self.inside(g_hi.p) else []
+        cands = [self.orient_away(g_hi, u_g, n)] if g_hi is not None and self.inside(g_hi.p) else []
         if not cands:
             pt = self.partner(g, u_g, n)
             if pt is not None:

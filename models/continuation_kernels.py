@@ -38,6 +38,25 @@ def _newton_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
 
 
 @njit(cache=True)
+def _corrector_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
+    """:func:`_newton_step` and its update in one call: returns ``(|r|_inf, |du|_inf, u + du,
+    |u + du - u_pred|_2)`` (``|du| = inf`` if the step is not finite)."""
+    nr, du = _newton_step(M, xp, x_new, x, u, u_pred, t, sx, sp)
+    un = u + du
+    ndu = 0.0
+    dist = 0.0
+    for j in range(u.shape[0]):
+        a = abs(du[j])
+        if not a < np.inf:
+            return nr, np.inf, un, np.inf
+        if a > ndu:
+            ndu = a
+        e = un[j] - u_pred[j]
+        dist += e * e
+    return nr, ndu, un, np.sqrt(dist)
+
+
+@njit(cache=True)
 def _tangent(M, xp, sx, sp, t_ref):
     """Unit null vector of ``[M - I, x_p s_p / s_x]`` oriented along ``t_ref`` (bordered solve)."""
     d = M.shape[0]
