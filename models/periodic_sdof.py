@@ -257,7 +257,7 @@ def assemble_derivatives(ev_log, n_events, q0, v0, q_end, v_end, stuck_end, t_en
 
 
 @njit(cache=True)
-def shoot(par, n, ns, max_impacts, samples, imp_buf, ev_log, ev_count, out, imp):
+def shoot(par, n, ns, max_impacts, samples, imp_buf, ev_log, ev_count, out, imp, index):
     """One shot: ``n`` periods of the event kernel from ``(q0, q0')`` at phase 0, then the
     derivatives from its event log, all in compiled code (no Python per event, no array
     returned: one call from Python costs a few microseconds beyond the kernel).
@@ -270,11 +270,13 @@ def shoot(par, n, ns, max_impacts, samples, imp_buf, ev_log, ev_count, out, imp)
         Periods, grid points per period, impact limit.
     samples, imp_buf, ev_log, ev_count : ndarray
         Work buffers of the kernel (``ev_log`` shape (cap, 5)).
-    out : ndarray, shape (21,)
-        Receives ``x_end (2), M (4, row-major), XP (10, row-major (2, 5)), apex_max, q_min,
-        q_max, stuck_time, stuck_end``.
+    out : ndarray, shape (23,)
+        Receives ``x_end (2), M (4, row-major), x_p (2, column index of XP), XP (10,
+        row-major (2, 5)), apex_max, q_min, q_max, stuck_time, stuck_end``.
     imp : ndarray, shape (cap, 3)
         Receives ``(t, q'-, q''-)`` of each impact.
+    index : int
+        Column of the continuation parameter in ``PARAMETERS``.
 
     Returns
     -------
@@ -319,15 +321,16 @@ def shoot(par, n, ns, max_impacts, samples, imp_buf, ev_log, ev_count, out, imp)
             out[2 + 2 * i + k] = M[i, k]
             if code == 0 and not math.isfinite(M[i, k]):
                 code = 3
+        out[6 + i] = XP[i, index]
         for k in range(5):
-            out[6 + 5 * i + k] = XP[i, k]
+            out[8 + 5 * i + k] = XP[i, k]
             if code == 0 and not math.isfinite(XP[i, k]):
                 code = 3
-    out[16] = apex
-    out[17] = q_min
-    out[18] = q_max
-    out[19] = stuck_time
-    out[20] = 1.0 if stuck_end else 0.0
+    out[18] = apex
+    out[19] = q_min
+    out[20] = q_max
+    out[21] = stuck_time
+    out[22] = 1.0 if stuck_end else 0.0
     return code, m
 
 
@@ -384,13 +387,15 @@ class SDOFShooting:
         self._par = np.zeros(8)
         self._par[7] = self.chatter_tol
         self._samples = {}
+        # (beta, B, R, Delta, Omega) of the model and the slot of the continuation parameter
+        self._base = [float(model.beta), float(model.B), float(model.R), float(model.Delta), self.Omega]
+        self._slot = _ORDER[self.index]
 
     def params(self, p: float):
         """``(beta, B, R, Delta, Omega)`` with the continuation parameter set to ``p``."""
-        m = self.model
-        v = [m.beta, m.B, m.R, m.Delta, self.Omega]
-        v[_ORDER[self.index]] = p
-        return float(v[0]), float(v[1]), float(v[2]), float(v[3]), v[4]
+        v = self._base.copy()
+        v[self._slot] = float(p)
+        return tuple(v)
 
     def shot(self, x0, p, n) -> Shot:
         """``P^n(x0; p)`` with monodromy and ``d/dp`` (see the module docstring).
@@ -410,7 +415,9 @@ class SDOFShooting:
             ``extra["x_all_p"]`` holds ``d x / d(Omega, B, Delta, R, beta)`` (shape (2, 5));
             ``extra["stuck_end"]`` whether the mass is on the stop at the end.
         """
-        beta, B, R, Delta, Omega = self.params(p)
+        v = self._base.copy()
+        v[self._slot] = p
+        beta, B, R, Delta, Omega = v
         n = int(n)
         q0, v0 = float(x0[0]), float(x0[1])
         if not (0.0 <= beta < 1.0 and 0.0 <= R <= 1.0 and Omega is not None and Omega > 0.0
@@ -425,27 +432,23 @@ class SDOFShooting:
             smp = self._samples[n] = np.zeros((n * self.ns, 2))
         par = self._par
         par[0], par[1], par[2], par[3], par[4], par[5], par[6] = beta, B, R, Delta, Omega, q0, v0
-        out = np.empty(21)
+        out = np.empty(23)
         imp = self._impacts
-        max_imp = 20000 * n
-        code, m = shoot(par, n, self.ns, max_imp, smp, self._imp, self._log, self._count, out, imp)
+        code, m = shoot(par, n, self.ns, 20000 * n, smp, self._imp, self._log, self._count, out, imp,
+                        self.index)
         if m > imp.shape[0]:     # more impacts than the buffer: grow it and shoot again
             self._impacts = np.empty((2 * m, 3))
             return self.shot(x0, p, n)
-        imp = imp[:m].copy()
-        x = out[0:2]
-        M = out[2:6].reshape(2, 2)
-        XP = out[6:16].reshape(2, 5)
         if code:
-            msg = _MESSAGES[code].format(cap=self._log.shape[0], imp=max_imp, n=n)
+            msg = _MESSAGES[code].format(cap=self._log.shape[0], imp=20000 * n, n=n)
             if code < 3:
                 return _failed(msg)
-        return Shot(x=x, M=M, x_p=XP[:, self.index], impact_times=imp[:, 0],
-                    impact_velocities=imp[:, 1], q_min=out[17], q_max=out[18], apex_gap=out[16],
-                    stuck_time=out[19], status="failed" if code else "ok",
-                    message=_MESSAGES[code].format(cap=0, imp=0, n=n) if code else "",
+        imp = imp[:m].copy()
+        return Shot(x=out[0:2], M=out[2:6].reshape(2, 2), x_p=out[6:8], impact_times=imp[:, 0],
+                    impact_velocities=imp[:, 1], q_min=out[19], q_max=out[20], apex_gap=out[18],
+                    stuck_time=out[21], status="failed" if code else "ok", message=msg if code else "",
                     Omega=Omega, gap=Delta, impact_accelerations=imp[:, 2],
-                    extra={"x_all_p": XP, "stuck_end": out[20] > 0.5})
+                    extra={"x_all_p": out[8:18].reshape(2, 5), "stuck_end": out[22] > 0.5})
 
     def resect(self, x0, p, n):
         """The same orbit seen on the other side of an impact that coincides with the section.
