@@ -29,6 +29,21 @@ the continuation parameter in the problem's native units, ``n`` the number of fo
 periods.  ``shot`` never raises for a dynamical outcome: an orbit the problem cannot
 represent (more events than its buffer, a non-accumulating chatter, an unsupported
 configuration) comes back with ``status != "ok"`` and a ``message``.
+
+Construction and registration: the framework builds a problem as ``cls(model, parameter,
+Omega=Omega)`` from ``vibeam.models.SHOOTING[fidelity]`` (``parameter`` a native key;
+``Omega`` the forcing frequency of a continuation in another key, None for ``"Omega"``); the
+model spec's ``native_parameter(key) -> (native key, factor)`` maps physical keys.
+
+Optional capabilities (duck-typed; used when present):
+
+* ``Shot.gap`` and ``Shot.Omega`` (amplitude ``Q = gap - q_min`` and impact phases) and
+  ``Shot.impact_accelerations``;
+* ``prob.starts`` (tuple of start names besides ``"sweep"``, e.g. ``("linear",
+  "averaging")``) and ``prob.start(kind, p, n) -> (x0 or None, reason)``;
+* ``prob.resect(x0, p, n) -> x1 or None``: the same orbit seen on the other side of an
+  impact that coincides with the section (the stroboscopic state jumps there); without it a
+  branch whose impact crosses forcing phase 0 ends with a status.
 """
 from __future__ import annotations
 
