@@ -316,7 +316,7 @@ class _Engine:
                 return self.make_point(x, p, s, its=it), ""
             try:
                 dx = np.linalg.solve(s.M - self.I, -r)
-            except np.linalg.LinAlgError:
+            except (np.linalg.LinAlgError, ValueError):
                 return None, "singular monodromy - I (a fold or a branch point?)"
             # damping: halve while the residual does not decrease
             lam = 1.0
@@ -403,7 +403,10 @@ class _Engine:
             s = self.shot(x, p, n)
             if s.status != "ok":
                 return None, s.message or s.status
-            nr, ndu_new, un, dist_new = _corrector_step(s.M, s.x_p, s.x, x, u, u_pred, t, sx, sp)
+            try:
+                nr, ndu_new, un, dist_new = _corrector_step(s.M, s.x_p, s.x, x, u, u_pred, t, sx, sp)
+            except Exception:       # numba's solve raises on an exactly singular matrix
+                return None, "singular bordered Jacobian"
             # converged: residual at tolerance, or (near a grazing, where the impact time is
             # ill-conditioned and the residual has a round-off floor) a negligible Newton step
             if nr <= tol or (nr <= 1e3 * tol and it > 0 and ndu_new <= tol):
@@ -1086,7 +1089,12 @@ def trace(prob, x0, p0, n, lo, hi, direction: int = 1, settings: Settings = Sett
                 break
             if _already_switched(branches, bf, eng):
                 continue
-            child = switch_period_doubling(eng, tr, bf, parent, bi)
+            try:
+                child = switch_period_doubling(eng, tr, bf, parent, bi)
+            except Exception as e:   # never lose the branches already traced
+                child = Branch(n=2 * parent.n, origin=f"period doubling of branch {bi} at "
+                               f"{eng.prob_name} = {bf.parameter:.10g}", status="failed_start",
+                               message=f"branch switching failed: {type(e).__name__}: {e}")
             child.index = len(branches)
             for b2 in child.bifurcations:
                 b2.branch = child.index

@@ -128,12 +128,17 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
             raise CaseError(f"'run[{i}].parameter' = {r.parameter!r}: fidelity {fid!r} can be continued in "
                             f"'Omega' only")
     fn = _natural_frequency(spec)
+    hz = case.sweep.frequency_hz is not None      # frequencies of the case in Hz
+    settings = case.run_settings(r)
     if r.parameter == "Omega":
+        # range and start_at in the units of [sweep] (Hz for physical scenes)
         if r.range is not None:
-            lo, hi = r.range
+            lo, hi = (v / fn for v in r.range) if hz else r.range
         else:
             grid = case.sweep.grid(fn)
             lo, hi = float(np.min(grid)), float(np.max(grid))
+        if not isinstance(r.start_at, str) and hz:
+            settings["start_at"] = r.start_at / fn
         at = None
     else:
         if r.range is not None:
@@ -141,8 +146,7 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
         else:
             v = case.map.grid()
             lo, hi = float(np.min(v)), float(np.max(v))
-        at = r.at / fn if case.sweep.frequency_hz is not None else r.at
-    settings = case.run_settings(r)
+        at = r.at / fn if hz else r.at
     curve_key = curve_range = None
     if case.map is not None and r.curves:
         curve_key = case.map.parameter
@@ -262,6 +266,9 @@ def run_continuation(task: BranchTask) -> dict:
             except ContinuationError as e:
                 info.update(status="failed_start", message=str(e))
                 continue
+            except Exception as e:       # an unforeseen numerical failure: this start only
+                info.update(status="failed", message=f"{type(e).__name__}: {e}")
+                continue
             if not got[0].points:
                 info.update(status=got[0].status, message=got[0].message)
                 continue
@@ -355,16 +362,37 @@ def branch_arrays(b, spec, task) -> dict:
     d = b.arrays() if b.points else {}
     fn = _natural_frequency(spec)
     L = _length_m(spec)
+    gap = _gap_fallback(spec, task)
+    if d and gap is not None and np.isnan(d["amplitude"]).all():
+        d["amplitude"] = gap - d["q_min"]          # a problem that does not fill Shot.gap
     if d:
         if fn and task.parameter == "Omega":
             d["frequency_hz"] = d["parameter"] * fn
         if L:
             d["amplitude_mm"] = d["amplitude"] * L * 1e3
     bifs = [dict(type=f.type, parameter=f.parameter, branch=f.branch, index=f.index, n=f.n,
-                 amplitude=f.amplitude, detail=f.detail, state=np.asarray(f.x), multipliers=np.asarray(f.multipliers))
+                 amplitude=f.amplitude if math.isfinite(f.amplitude) or gap is None else _bif_amplitude(b, f, gap),
+                 detail=f.detail, state=np.asarray(f.x), multipliers=np.asarray(f.multipliers))
             for f in b.bifurcations]
     return dict(index=b.index, n=b.n, status=b.status, message=b.message, origin=b.origin, data=d,
                 bifurcations=bifs)
+
+
+def _gap_fallback(spec, task):
+    """``Delta`` of the output coordinate when the parameter does not change it (for shooting
+    problems that leave ``Shot.gap`` unset), else None."""
+    if task.parameter != "Omega":
+        return None
+    try:
+        return float(spec.build().Delta)
+    except Exception:
+        return None
+
+
+def _bif_amplitude(b, f, gap):
+    """``Q`` at a bifurcation from the branch point next to it (problems without ``Shot.gap``)."""
+    k = min(max(f.index, 0), len(b.points) - 1)
+    return gap - b.points[k].shot.q_min if b.points else math.nan
 
 
 def _length_m(spec):

@@ -319,13 +319,14 @@ class ContinuationRun(_RunBase):
 
     ``parameter``: ``Omega`` (the forcing frequency, default) or a numeric model key (``B``,
     ``Delta``, ``R``, ``beta``; physical scenes ``voltage``, ``gain``, ``gap_mm``,
-    ``damping_ratio``, ``R``); ``range = [low, high]`` in the parameter's units (default: the
-    ``[sweep]`` range for the frequency, the ``[map]`` values for the mapped key; required
-    otherwise); ``at``: the forcing frequency of a continuation in another key (Hz for physical
-    scenes, Omega otherwise); ``start``: ``sweep`` (the settled state of an event run and its
+    ``damping_ratio``, ``R``); ``range = [low, high]`` in the parameter's units -- for the
+    frequency in those of ``[sweep]`` (Hz for physical scenes) -- (default: the ``[sweep]``
+    range for the frequency, the ``[map]`` values for the mapped key; required otherwise);
+    ``at``: the forcing frequency of a continuation in another key (Hz for physical scenes,
+    Omega otherwise); ``start``: ``sweep`` (the settled state of an event run and its
     detected period), ``averaging`` (paper Eqs. 18-23), ``linear`` (the non-impacting orbit) or
-    ``auto`` (linear if it exists there, else sweep, else averaging); ``start_at``: ``low``,
-    ``high``, ``both`` ends of the range or a value; ``n``: period of a linear or averaging start;
+    ``auto`` (every one that exists there; duplicates dropped); ``start_at``: ``low``,
+    ``high``, ``both`` ends of the range or a value (units as ``range``); ``n``: period of a linear or averaging start;
     step controls ``ds``, ``ds_min``, ``ds_max``, ``max_points``; ``max_period`` bounds the
     period-doubling branch switching; ``curves``: two-parameter curves of folds, period
     doublings and grazings in a ``[map]`` case (of orbits up to period ``curve_max_period``),
@@ -824,11 +825,17 @@ def _check_continuation(case: Case, i: int, r) -> None:
     if case.map is not None and r.parameter != "Omega":
         raise CaseError(f"'run[{i}].parameter' = {_value(r.parameter)}: in a [map] case a continuation runs "
                         f"in the frequency ('Omega') and draws curves over (frequency, {case.map.parameter})")
-    if not isinstance(r.start_at, str) and r.parameter == "Omega" and r.range is None:
-        start, stop, _ = case.sweep.Omega or case.sweep.frequency_hz
-        if not min(start, stop) <= r.start_at <= max(start, stop):
-            raise CaseError(f"'run[{i}].start_at' = {_value(r.start_at)} lies outside the [sweep] range "
-                            f"[{min(start, stop)}, {max(start, stop)}]")
+    if not isinstance(r.start_at, str):
+        if r.range is not None:
+            lo, hi = r.range
+        elif r.parameter == "Omega":
+            start, stop, _ = case.sweep.Omega or case.sweep.frequency_hz
+            lo, hi = min(start, stop), max(start, stop)
+        else:
+            v = case.map.grid() if case.map is not None else [r.start_at]
+            lo, hi = min(v), max(v)
+        if not lo <= r.start_at <= hi:
+            raise CaseError(f"'run[{i}].start_at' = {_value(r.start_at)} lies outside the range [{lo}, {hi}]")
 
 
 def _check_map(case: Case) -> None:

@@ -247,7 +247,8 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="output folder (default results/<case name>/)")
     p.add_argument("-n", type=int, default=6, help="number of modes (default 6)")
     p.set_defaults(func=cmd_modes)
-    p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp (JSON)")
+    p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp, or of the "
+                       "continuation (--continuation) (JSON)")
     p.add_argument("--points", type=int, default=101)
     p.add_argument("--periods", type=int, default=500)
     p.add_argument("--repeats", type=int, default=5)
@@ -261,6 +262,9 @@ def main(argv=None) -> int:
                         "fitted exponents (JSON)")
     p.add_argument("--effects", action="store_true",
                    help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect")
+    p.add_argument("--continuation", action="store_true",
+                   help="instead: the continuation of an SDOF period-1 branch through its fold (~500 points, "
+                        "goal < 0.1 s) and its cost per FRC point against a sweep of equal accuracy (JSON)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
     from .case import CaseError
