@@ -261,3 +261,39 @@ def test_no_continuation_run_and_a_branch_that_cannot_start(tmp_path, capsys):
     with h5py.File(out / "results.h5", "r") as f:
         g = f["branches/branches"]
         assert g.attrs["status"] == "failed" and "no branch could start" in g.attrs["message"]
+
+
+def test_physical_keys_in_a_case_file(tmp_path):
+    """Continuation in the voltage at a frequency in Hz, and in the frequency from a start given
+    in Hz (the units of [sweep]); the parameter is stored with its unit."""
+    text = RIG.replace('frequency_hz = [16.0, 17.0, 5]', 'frequency_hz = [16.0, 17.5, 4]').split(
+        "[[run]]\nname = \"period-1\"")[0] + """
+[[run]]
+name = "voltage"
+method = "continuation"
+parameter = "voltage"
+at = 16.5
+range = [0.4, 1.0]
+start_at = 0.6
+max_period = 1
+[[run]]
+name = "from 16.6 Hz"
+method = "continuation"
+start_at = 16.6
+"""
+    case = _write(tmp_path, text)
+    out = tmp_path / "out"
+    assert main(["continue", str(case), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 0
+    with h5py.File(out / "results.h5", "r") as f:
+        g = f["branches/voltage"]
+        b = g["00-period1"]
+        assert b["parameter"].attrs["units"] == "V"
+        V = b["parameter"][()]
+        assert V.min() >= 0.4 - 1e-12 and V.max() <= 1.0 + 1e-12 and np.any(np.isclose(V, 0.6))
+        assert g.attrs["frequency_hz"] == pytest.approx(16.5)
+        h = f["branches/from 16.6 Hz"]
+        fb = h["bifurcations/frequency_hz"][()]
+        assert len(fb) == 1 and fb[0] == pytest.approx(16.257819, abs=1e-6)
+    bad = _write(tmp_path, text.replace("start_at = 16.6", "start_at = 18.0"), "bad.toml")
+    with pytest.raises(CaseError, match=r"'run\[2\]\.start_at' = 18\.0 lies outside the range \[16\.0, 17\.5\]"):
+        parse_case(bad.read_text())
