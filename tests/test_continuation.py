@@ -345,3 +345,28 @@ def test_bad_requests():
     # a start the problem cannot represent is a status, not an exception (R > 1)
     (b,) = trace(SDOFShooting(FIG8, "R", Omega=2.0), np.array([0.0, 0.0]), 1.2, 1, 0.5, 1.5)
     assert b.status == "failed_start" and "out of range" in b.message
+
+
+def test_two_parameter_period_doubling_curve(fig13_branches):
+    """The period doubling of Fig. 13 continued in (Omega, Delta): a point of the curve is the
+    period doubling of a one-parameter continuation at that Delta (to 1e-8)."""
+    from dataclasses import replace as dc_replace
+    from vibeam.models.continuation import trace_curve
+
+    def factory(free, fixed):
+        if free == "p1":
+            return SDOFShooting(dc_replace(FIG13, Delta=fixed), "Omega")
+        return SDOFShooting(FIG13, "Delta", Omega=fixed)
+
+    bf = [f for f in fig13_branches[0].bifurcations if f.type == "period_doubling"][0]
+    c = trace_curve(factory, bf, FIG13.Delta, (1.5, 2.5), (0.4e-3, 0.6e-3), max_points=16)
+    assert c.type == "period_doubling" and len(c.p1) >= 5
+    assert min(c.p2) < 0.45e-3 and max(c.p2) > 0.55e-3          # both halves went somewhere
+    k = int(np.argmax(np.abs(np.asarray(c.p2) - FIG13.Delta)))
+    m = dc_replace(FIG13, Delta=c.p2[k])
+    pr = SDOFShooting(m)
+    pt, why = start_point(pr, c.x[k], c.p1[k] - 0.01, 1, 1.5, 2.5)
+    assert pt is not None, why
+    (b,) = trace(pr, pt.x, c.p1[k] - 0.01, 1, 1.5, c.p1[k] + 0.01, +1, Settings(switch=False))
+    pd = [f.parameter for f in b.bifurcations if f.type == "period_doubling"]
+    assert pd and abs(pd[0] - c.p1[k]) < 1e-8
