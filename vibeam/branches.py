@@ -159,6 +159,7 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
 
 
 def _natural_frequency(spec):
+    """``f_n`` of a physical scene's model (as the sweeps use it), None otherwise."""
     fn = getattr(spec, "natural_frequency_hz", None)
     if fn is None and getattr(spec, "physical", False):
         fn = getattr(spec.build(), "natural_frequency_hz", None)
@@ -396,8 +397,10 @@ def _bif_amplitude(b, f, gap):
 
 
 def _length_m(spec):
-    L = getattr(spec, "length_mm", None)
-    return L * 1e-3 if L and getattr(spec, "physical", False) else None
+    """``L`` of a physical scene's model (``amplitude_mm = Q L``, as the sweeps), None otherwise."""
+    if not getattr(spec, "physical", False):
+        return None
+    return getattr(spec.build(), "length_m", None)
 
 
 # ----------------------------------------------------------------------------- results
