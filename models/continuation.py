@@ -773,7 +773,8 @@ class _Tracer:
                 return
             self.detect(br, bi, a, pt, n)
             br.points.append(pt)
-            step = float(np.linalg.norm(pt.u - a.u))
+            du_ = pt.u - a.u
+            step = math.sqrt(float(du_ @ du_))
             curv = (pt.t - a.t) / step if step > 0 else None
             if self.closed(br, pt, start_u, ds):
                 br.status, br.message = "closed", "the branch came back to its first point (an isola)"
@@ -898,8 +899,10 @@ class _Tracer:
         return u2 if np.linalg.norm(u2 - u_g) < 10 * dist + 1e-9 else u_g
 
     def closed(self, br, pt, start_u, ds):
-        return len(br.points) > 10 and np.linalg.norm(pt.u - start_u) < 0.5 * ds and \
-            br.points[0].t is not None and pt.t @ br.points[0].t > 0.9
+        if len(br.points) <= 10:
+            return False
+        e = pt.u - start_u
+        return float(e @ e) < 0.25 * ds * ds and br.points[0].t is not None and pt.t @ br.points[0].t > 0.9
 
     def merged(self, br, pt):
         """A period-2n branch point that is a period-n orbit (back on its parent branch)."""
