@@ -189,6 +189,7 @@ class Branch:
     message: str = ""
     origin: str = "start"
     index: int = 0
+    resections: int = 0      # impacts that crossed the section (the state representation jumped)
 
     def __len__(self):
         return len(self.points)
@@ -822,7 +823,7 @@ class _Tracer:
             t = -t
         pt.t = t
         br.points.append(pt)
-        br.resections = getattr(br, "resections", 0) + 1
+        br.resections += 1
         return True
 
     def partner(self, g, u_g, n):
