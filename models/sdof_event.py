@@ -55,6 +55,13 @@ STATUS_STICKING = 2
 STATUS_FAILED = 3
 STATUS_NAMES = ("ok", "chatter", "sticking", "failed")
 
+# kinds of the optional event log of :func:`event_kernel` (column 0 of ``ev_log``)
+EV_IMPACT = 0
+EV_STICK = 1
+EV_RELEASE = 2
+EV_APEX = 3
+EV_NAMES = ("impact", "stick", "release", "apex")
+
 
 @njit(cache=True)
 def _root(kind, lo, hi, phi0, q0, v0, beta, a, b, Omega, Delta):
@@ -129,10 +136,23 @@ def _release_delay(phi, F, Delta, Omega):
 
 
 @njit(cache=True)
+def _log_event(ev_log, ev_count, kind, t, q, v, a):
+    """Append one row ``(kind, t, q, q', q'')`` to the event log (counted even when full)."""
+    k = ev_count[0]
+    if k < ev_log.shape[0]:
+        ev_log[k, 0] = kind
+        ev_log[k, 1] = t
+        ev_log[k, 2] = q
+        ev_log[k, 3] = v
+        ev_log[k, 4] = a
+    ev_count[0] = k + 1
+
+
+@njit(cache=True)
 def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init, stuck_init,
                  n_transient, n_record, ns_transient, ns_record,
                  max_impacts, chatter_tol,
-                 samples, imp_t, imp_v, pmin, chat_t):
+                 samples, imp_t, imp_v, pmin, chat_t, ev_log=None, ev_count=None):
     """Simulate whole forcing periods exactly; the numba core of method ``event``.
 
     Time starts at forcing phase 0.  ``samples`` (shape (n_record *
@@ -144,6 +164,15 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     the start of the recording) of the first ``len(chat_t)`` chatter accumulation points.  ``R_table_v``/``R_table_R`` tabulate R against the pre-impact velocity
     q'- (nondimensional; :func:`vibeam.models.impact.restitution_coefficient`); empty
     arrays give the constant ``R``.
+
+    Optional event log (used by the shooting problem of :mod:`vibeam.models.periodic_sdof`):
+    ``ev_log`` (shape (cap, 5)) receives one row ``(kind, t, q, q', q'')`` per event in
+    time order -- kind :data:`EV_IMPACT` (pre-impact state and acceleration),
+    :data:`EV_STICK` (onset of sticking, after a chatter accumulation or a contact without
+    rebound), :data:`EV_RELEASE` (lift-off from the stop) and :data:`EV_APEX` (an interior
+    maximum of a free flight below the stop, located in recorded periods), with ``t``
+    measured from the start of the call -- and ``ev_count[0]`` the number of events (it
+    keeps counting beyond ``cap``).  Omitted (None), nothing is logged.
 
     Returns
     -------
@@ -254,6 +283,8 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                         stuck = False
                         q = Delta
                         v = 0.0
+                        if ev_log is not None:
+                            _log_event(ev_log, ev_count, EV_RELEASE, p * T + t_loc, Delta, 0.0, 0.0)
                         continue
                     # ---- free flight from (phi, q, v) for at most rem ----
                     s_imp = -1.0
@@ -265,6 +296,9 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                             s_imp = 0.0
                         elif _release_delay(phi, F, Delta, Omega) > 0.0:
                             stuck = True
+                            if ev_log is not None:
+                                _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
+                                           F * math.sin(phi) - Delta)
                             continue
                     if s_imp < 0.0:
                         if fresh:
@@ -309,6 +343,9 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                                     ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
                                     if Delta + ga > q_max:
                                         q_max = Delta + ga
+                                    if ev_log is not None:
+                                        _log_event(ev_log, ev_count, EV_APEX, p * T + t_loc + sa,
+                                                   Delta + ga, 0.0, 0.0)
                         elif cert < 0:
                             # concave: v non-increasing
                             if v0 > 0.0:
@@ -323,8 +360,12 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                                         ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
                                         if ga >= 0.0:
                                             s_imp = _root(0, 0.0, sa, phi, q, v, beta, a, b, Omega, Delta) if g0 < 0.0 else sa
-                                        elif recording and Delta + ga > q_max:
-                                            q_max = Delta + ga
+                                        else:
+                                            if recording and Delta + ga > q_max:
+                                                q_max = Delta + ga
+                                            if ev_log is not None and recording:
+                                                _log_event(ev_log, ev_count, EV_APEX, p * T + t_loc + sa,
+                                                           Delta + ga, 0.0, 0.0)
                         else:
                             # convex: v non-decreasing
                             if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
@@ -352,6 +393,9 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                             rem = 0.0
                         q = Delta
                         v_minus = vi if vi > 0.0 else 0.0
+                        if ev_log is not None:
+                            _log_event(ev_log, ev_count, EV_IMPACT, p * T + t_loc, Delta, v_minus,
+                                       F * math.sin(phi) - 2.0 * beta * v_minus - Delta)
                         Rc = restitution_coefficient(v_minus, R, R_table_v, R_table_R)
                         v = newton_restitution(v_minus, Rc)
                         n_imp_total += 1
@@ -372,6 +416,9 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                             if _release_delay(phi, F, Delta, Omega) > 0.0:
                                 stuck = True
                                 v = 0.0
+                                if ev_log is not None:
+                                    _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
+                                               F * math.sin(phi) - Delta)
                         else:
                             # the shared chatter policy (vibeam.models.contact_policy), R at the
                             # current impact velocity; one DOF: the jerk beyond the flow part is
@@ -390,6 +437,9 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                                 v = 0.0
                                 if recording and n_chatter <= chat_t.shape[0]:
                                     chat_t[n_chatter - 1] = t_period0 + t_loc
+                                if ev_log is not None:
+                                    _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
+                                               F * math.sin(phi) - Delta)
                         continue
                     # no event in [0, h]: move to its end (the unclamped gap is kept: a crossing
                     # stepped over would show as g1 > 0)

@@ -15,6 +15,9 @@ the reference is exact to round-off).  It prints ratios, never asserts them.
 
 ``--map`` instead measures map throughput on 1 and 2 workers and the cost of the
 line checkpoint (:func:`run_map_bench`); ``--effects`` instead times each scene effect (:func:`run_effects_bench`);
+``--continuation`` instead times the continuation of a period-1 branch through its fold and
+grazing and compares its cost per FRC point with a sweep of equal accuracy
+(:func:`run_continuation_bench`);
 ``--scaling`` instead measures how the cost of a sweep grows with the periods
 simulated and with the retained modes of the FE beam, with fitted exponents
 (:func:`run_scaling_bench`).
@@ -162,7 +165,119 @@ def run_effects_bench(points: int = 61, transient: int = 400, record: int = 64, 
     return out
 
 
+CONTINUATION_GOAL_S = 0.1   # issue 10: ~500-point SDOF branch with stability, after warm-up
+
+
+def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_error: float = 1e-8,
+                           log=None) -> dict:
+    """Speed of the continuation against its goal and against the sweep it replaces.
+
+    Scene: paper Fig. 8 (beta 0.015, B 0.5e-3, R 0.9, Delta 0.7e-3), Omega 1.5 .. 2.5: the
+    period-1 branch from the impacting orbit at 1.5 up to its fold (1.985), back on its
+    unstable part to the grazing (1.870) and on the non-impacting orbit to 2.5, with Floquet
+    multipliers at every point and the fold and grazing located.  Timed inline after a warm-up,
+    median of ``repeats``; the verdict compares it with :data:`CONTINUATION_GOAL_S` (a number,
+    not an assertion).
+
+    Equal accuracy: the stable impacting part (Omega 1.5 .. 1.98) is swept by the ``event``
+    solver as a laboratory sweep (``sweep_points`` frequencies, continuation from point to
+    point) with more and more transient periods until every amplitude agrees with the
+    branch to ``target_error`` (relative; the branch points are exact to that, see
+    ``tests/test_continuation.py``); the cost per point of that sweep is set against the cost
+    per point of the continuation.  The unstable part has no sweep counterpart at any cost.
+    """
+    from .models import SDOF, EventSolver
+    from .models.continuation import Settings, trace
+    from .models.periodic_sdof import SDOFShooting
+
+    log = log or (lambda m: None)
+    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
+    prob = SDOFShooting(m)
+    x0 = EventSolver(m).point(1.5, None, 400, 4, 8).final_state[:2]
+    st = Settings()
+    trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st)  # warm-up (compiled kernels, cache load)
+    calls = [0]
+    shot = prob.shot
+
+    def counted(x, p, n):
+        calls[0] += 1
+        return shot(x, p, n)
+
+    times, cpu = [], []
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), time.process_time()
+        branches = trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st)
+        times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    t = statistics.median(times)
+    prob.shot = counted
+    trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st)
+    prob.shot = shot
+    b = branches[0]
+    a = b.arrays()
+    n_pts = len(b)
+    bifs = {f.type: f.parameter for f in b.bifurcations}
+    log(f"continuation: {n_pts} points in {t:.4f} s")
+    # the sweep it replaces, at equal accuracy, on the stable impacting part
+    upper = np.flatnonzero(a["stable"] & (a["impacts"] == 1) & (a["parameter"] <= 1.98))
+    W_b, Q_b = a["parameter"][upper], a["amplitude"][upper]
+    grid = np.linspace(1.5, 1.98, sweep_points)
+    # exact branch values on the grid: correct at each grid frequency (natural-parameter Newton)
+    from .models.continuation import start_point
+    Q_ref = np.empty_like(grid)
+    for i, W in enumerate(grid):
+        k = int(np.argmin(np.abs(W_b - W)))
+        pt, _ = start_point(prob, a["state"][upper][k], W, 1, 1.5, 2.5)
+        Q_ref[i] = pt.shot.gap - pt.shot.q_min
+    solver = EventSolver(m)
+    rows = []
+    for n_tr in (50, 100, 200, 400, 800, 1600, 3200):
+        t0 = time.perf_counter()
+        state = None
+        Q = np.empty_like(grid)
+        for i, W in enumerate(grid):
+            tr = solver.point(W, state, n_tr, 1, 8)
+            state = tr.final_state
+            Q[i] = m.Delta - tr.q_min
+        ts = time.perf_counter() - t0
+        err = float(np.max(np.abs(Q - Q_ref) / Q_ref))
+        rows.append(dict(transient_periods=n_tr, time_s=ts, time_per_point_s=ts / len(grid), max_rel_error=err))
+        log(f"sweep with {n_tr} transient periods: max rel. error {err:.2e}, {ts:.3f} s")
+        if err <= target_error:
+            break
+    equal = next((r for r in rows if r["max_rel_error"] <= target_error), None)
+    per_point = t / n_pts
+    return {
+        "scene": "paper Fig. 8 (beta 0.015, B 0.5e-3, R 0.9, Delta 0.7e-3), Omega 1.5 .. 2.5, period-1 branch",
+        "continuation": {
+            "points": n_pts, "time_s": t, "times_s": times, "time_per_point_s": per_point,
+            "cpu_time_s": statistics.median(cpu),
+            "shots": calls[0], "stable_points": int(a["stable"].sum()), "unstable_points": int((~a["stable"]).sum()),
+            "bifurcations": bifs, "status": b.status},
+        "goal": {"points": "~500", "time_s": CONTINUATION_GOAL_S,
+                 "verdict": "pass" if t < CONTINUATION_GOAL_S else "fail",
+                 "ratio_to_goal": t / CONTINUATION_GOAL_S,
+                 "cpu_verdict": "pass" if statistics.median(cpu) < CONTINUATION_GOAL_S else "fail",
+                 "note": "time_s is wall-clock (it includes waiting for a core on a shared machine); "
+                         "cpu_time_s is the time this process ran"},
+        "sweep_at_equal_accuracy": {
+            "grid": f"{sweep_points} frequencies on the stable impacting part, Omega 1.5 .. 1.98 (up, continuation)",
+            "target_max_rel_error": target_error, "ladder": rows,
+            "transient_periods": equal["transient_periods"] if equal else None,
+            "time_per_point_s": equal["time_per_point_s"] if equal else None,
+            "cost_ratio_sweep_to_continuation_per_point":
+                (equal["time_per_point_s"] / per_point) if equal else None,
+            "note": "the unstable part of the branch (between the fold and the grazing) has no sweep counterpart",
+        },
+        "load_average": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
+    }
+
+
 def main_bench(args) -> int:
+    if getattr(args, "continuation", False):
+        print(json.dumps(run_continuation_bench(repeats=getattr(args, "repeats", 5),
+                                                log=lambda m: print(m, file=sys.stderr)), indent=2))
+        return 0
     if getattr(args, "scaling", False):
         print(json.dumps(run_scaling_bench(repeats=getattr(args, "repeats", 3)), indent=2))
         return 0

@@ -94,6 +94,21 @@ class SDOFModelSpec(_Strict):
     def physical(self) -> bool:
         return self.natural_frequency_hz is not None
 
+    # continuation parameters: key -> (native key of the SDOF model, factor d native / d key)
+    def native_parameter(self, key: str):
+        """``(native key, factor)`` of a continuation parameter (paper Eqs. 43-46: ``B = gamma
+        V``, ``Delta = gap / L``, ``beta = damping ratio``, ``Omega = f / f_n``): the native value
+        is ``factor * value``.  Raises ValueError naming the allowed keys."""
+        if self.physical:
+            table = {"Omega": ("Omega", 1.0), "voltage": ("B", self.gain), "gain": ("B", self.voltage),
+                     "gap_mm": ("Delta", 1.0 / self.length_mm), "damping_ratio": ("beta", 1.0),
+                     "R": ("R", 1.0)}
+        else:
+            table = {k: (k, 1.0) for k in ("Omega", "B", "Delta", "R", "beta")}
+        if key not in table:
+            raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(table)}")
+        return table[key]
+
     def build(self):
         """The :class:`vibeam.models.SDOF` this table describes."""
         from vibeam.models import SDOF
@@ -192,9 +207,11 @@ class BeamModelSpec(_Strict):
 
 
 ModelSpec = Union[SDOFModelSpec, BeamModelSpec]
-# methods per fidelity (kept here so that validating a case imports no solver)
-FIDELITY_METHODS = {"sdof": ("event", "direct", "zhuravlev", "ivanov", "averaging", "mapping"),
-                    "beam": ("event", "direct")}
+# methods per fidelity (kept here so that validating a case imports no solver); the method
+# "continuation" is open to every fidelity here and checked against the shooting problems
+# registered in vibeam.models.SHOOTING when the run is planned
+FIDELITY_METHODS = {"sdof": ("event", "direct", "zhuravlev", "ivanov", "averaging", "mapping", "continuation"),
+                    "beam": ("event", "direct", "continuation")}
 MODEL_SPECS = {"sdof": SDOFModelSpec, "beam": BeamModelSpec}
 
 
@@ -318,7 +335,56 @@ class MappingRun(_RunBase):
     form: Literal["full", "simplified"] = "full"
 
 
-RunSpec = Annotated[Union[EventRun, ODERun, AveragingRun, MappingRun], Field(discriminator="method")]
+class ContinuationRun(_RunBase):
+    """Method ``continuation``: pseudo-arclength continuation of periodic orbits with stability
+    and bifurcations (:mod:`vibeam.models.continuation`) over the ``[sweep]`` range.
+
+    ``parameter``: ``Omega`` (the forcing frequency, default) or a numeric model key (``B``,
+    ``Delta``, ``R``, ``beta``; physical scenes ``voltage``, ``gain``, ``gap_mm``,
+    ``damping_ratio``, ``R``); ``range = [low, high]`` in the parameter's units -- for the
+    frequency in those of ``[sweep]`` (Hz for physical scenes) -- (default: the ``[sweep]``
+    range for the frequency, the ``[map]`` values for the mapped key; required otherwise);
+    ``at``: the forcing frequency of a continuation in another key (Hz for physical scenes,
+    Omega otherwise); ``start``: ``sweep`` (the settled state of an event run and its
+    detected period), ``averaging`` (paper Eqs. 18-23), ``linear`` (the non-impacting orbit) or
+    ``auto`` (every one that exists there; duplicates dropped); ``start_at``: ``low``,
+    ``high``, ``both`` ends of the range or a value (units as ``range``); ``n``: period of a linear or averaging start;
+    step controls ``ds``, ``ds_min``, ``ds_max``, ``max_points``; ``max_period`` bounds the
+    period-doubling branch switching; ``curves``: two-parameter curves of folds, period
+    doublings and grazings in a ``[map]`` case (of orbits up to period ``curve_max_period``),
+    seeded by the branches at the scene's value of the map key and at ``slices`` values
+    inside the map range; ``curve_points`` bounds each curve.
+    """
+
+    method: Literal["continuation"]
+    parameter: Annotated[str, Field(min_length=1)] = "Omega"
+    range: Annotated[list[float], Field(min_length=2, max_length=2)] | None = None
+    at: Annotated[float, Field(gt=0.0)] | None = None
+    start: Literal["sweep", "averaging", "linear", "auto"] = "auto"
+    start_at: Literal["low", "high", "both"] | float = "both"
+    n: Annotated[int, Field(ge=1, le=64)] = 1
+    ds: Annotated[float, Field(gt=0.0, le=1.0)] = 0.01
+    ds_min: Annotated[float, Field(gt=0.0, le=1.0)] = 1e-9
+    ds_max: Annotated[float, Field(gt=0.0, le=1.0)] = 0.05
+    max_points: Annotated[int, Field(ge=2, le=100_000)] = 2000
+    max_period: Annotated[int, Field(ge=1, le=64)] = 8
+    switch: bool = True
+    curves: bool = True
+    slices: Annotated[int, Field(ge=0, le=50)] = 3
+    curve_points: Annotated[int, Field(ge=2, le=10_000)] = 200
+    curve_max_period: Annotated[int, Field(ge=1, le=64)] = 2
+
+    @model_validator(mode="after")
+    def _steps(self):
+        if not self.ds_min <= self.ds <= self.ds_max:
+            raise ValueError(f"need ds_min <= ds <= ds_max (got {self.ds_min}, {self.ds}, {self.ds_max})")
+        if self.range is not None and not (math.isfinite(self.range[0]) and self.range[1] > self.range[0]):
+            raise ValueError(f"range = {self.range} must be [low, high] with low < high")
+        return self
+
+
+RunSpec = Annotated[Union[EventRun, ODERun, AveragingRun, MappingRun, ContinuationRun],
+                    Field(discriminator="method")]
 
 
 # ----------------------------------------------------------------------------- effects
@@ -613,7 +679,7 @@ def _check_modes(spec, prefix: str) -> None:
                         f"\"static\"")
 
 
-_RUN_BY_METHOD = {m: c for c in (EventRun, ODERun, AveragingRun, MappingRun)
+_RUN_BY_METHOD = {m: c for c in (EventRun, ODERun, AveragingRun, MappingRun, ContinuationRun)
                   for m in c.model_fields["method"].annotation.__args__}
 
 
@@ -786,6 +852,8 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                 _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
             if r.effects:
                 case.effects_for(r)
+            if r.method == "continuation":
+                _check_continuation(case, i, r)
         if case.map is not None:
             _check_map(case)
         check_time_series(case, hz_per_omega=getattr(spec, "natural_frequency_hz", None))
@@ -849,6 +917,42 @@ def check_time_series(case: Case, source: str = "", hz_per_omega: float | None =
                             f"as 'assess.time_series[{seen[j]}]' = {ts[seen[j]]:g}; the grid spacing is "
                             f"{spacing:g}{unit}: give frequencies on distinct grid points")
         seen[j] = i
+
+
+def _check_continuation(case: Case, i: int, r) -> None:
+    """A continuation run names a parameter its scene can continue, with a range and a
+    frequency where they are needed, and no scene effects."""
+    spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
+    if case.effects_for(r).active():
+        raise CaseError(f"'run[{i}]' (continuation) cannot use [effects] ({', '.join(case.effects_for(r).active())}); "
+                        f"continue the plain scene")
+    native = getattr(spec, "native_parameter", None)
+    if native is not None:
+        try:
+            native(r.parameter)
+        except ValueError as e:
+            raise CaseError(f"'run[{i}].parameter' = {_value(r.parameter)} {e}") from None
+    if r.parameter != "Omega":
+        if r.at is None:
+            unit = "Hz" if case.sweep.frequency_hz is not None else "Omega"
+            raise CaseError(f"'run[{i}].at' is missing: continuation in {r.parameter!r} needs the forcing "
+                            f"frequency at which it runs ({unit})")
+        if r.range is None and not (case.map is not None and case.map.parameter == r.parameter):
+            raise CaseError(f"'run[{i}].range' is missing: give [low, high] of {r.parameter!r}")
+    if case.map is not None and r.parameter != "Omega":
+        raise CaseError(f"'run[{i}].parameter' = {_value(r.parameter)}: in a [map] case a continuation runs "
+                        f"in the frequency ('Omega') and draws curves over (frequency, {case.map.parameter})")
+    if not isinstance(r.start_at, str):
+        if r.range is not None:
+            lo, hi = r.range
+        elif r.parameter == "Omega":
+            start, stop, _ = case.sweep.Omega or case.sweep.frequency_hz
+            lo, hi = min(start, stop), max(start, stop)
+        else:
+            v = case.map.grid() if case.map is not None else [r.start_at]
+            lo, hi = min(v), max(v)
+        if not lo <= r.start_at <= hi:
+            raise CaseError(f"'run[{i}].start_at' = {_value(r.start_at)} lies outside the range [{lo}, {hi}]")
 
 
 def _check_map(case: Case) -> None:

@@ -114,7 +114,7 @@ def _out_dir(args, case) -> Path:
     return Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick else ""))
 
 
-def cmd_run(args, need_map=False) -> int:
+def cmd_run(args, need_map=False, continuation_only=False) -> int:
     from .case import CaseError, load_case
     from .outdir import check_folder
     from .runner import failure_summary
@@ -127,7 +127,8 @@ def cmd_run(args, need_map=False) -> int:
     ex, client = _executor(args)
     try:
         res = run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
-                       quick=args.quick, resume=args.resume, executor=ex, force=args.force, source=args.case)
+                       quick=args.quick, resume=getattr(args, "resume", False), executor=ex,
+                       force=args.force, source=args.case, continuation_only=continuation_only)
     except KeyboardInterrupt as e:
         sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
         print(f"vibeam: interrupted ({sig}); finished sweep lines are kept in {out_dir / 'results.h5'}; "
@@ -362,6 +363,20 @@ def main(argv=None) -> int:
                        "and a table")
     run_args(p)
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("continue", help="run the continuation runs of a case (method = \"continuation\"): "
+                       "branches of periodic orbits with stability and bifurcations")
+    p.add_argument("case", help="case file (TOML)")
+    p.add_argument("--out", help="output folder (default results/<case name>/; a results.h5 of the same "
+                   "case there keeps its sweeps, only /branches is replaced)")
+    p.add_argument("--jobs", type=_int_at_least(1), default=None,
+                   help="worker processes of the local pool (default: all cores; 1: inline)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quick", action="store_true", help="the case's quick variant")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on a dask.distributed scheduler (e.g. tcp://host:8786)")
+    p.add_argument("--force", action="store_true", help=force_help)
+    p.set_defaults(func=lambda a: cmd_run(a, continuation_only=True))
     p = sub.add_parser("map", help="parameter map of a case with [map] (period-n regions, paper Fig. 18)")
     run_args(p)
     p.set_defaults(func=lambda a: cmd_run(a, need_map=True))
@@ -394,7 +409,8 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="output folder (default results/<case name>/)")
     p.add_argument("-n", type=_int_at_least(1), default=6, help="number of modes (default 6)")
     p.set_defaults(func=cmd_modes)
-    p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp (JSON)")
+    p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp, or of the "
+                       "continuation (--continuation) (JSON)")
     p.add_argument("--points", type=_int_at_least(1), default=101)
     p.add_argument("--periods", type=_int_at_least(65), default=500,
                    help="forcing periods per point, transient + the 64 recorded ones (> 64)")
@@ -409,6 +425,9 @@ def main(argv=None) -> int:
                         "fitted exponents (JSON)")
     p.add_argument("--effects", action="store_true",
                    help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect")
+    p.add_argument("--continuation", action="store_true",
+                   help="instead: the continuation of an SDOF period-1 branch through its fold (~500 points, "
+                        "goal < 0.1 s) and its cost per FRC point against a sweep of equal accuracy (JSON)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
     return _dispatch(args)

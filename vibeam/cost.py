@@ -132,6 +132,9 @@ def run_cost(case, ladder: bool = False, repeats: int = 3, log=print) -> dict:
     event_time = {}
     ref_periods = None
     for r in case.run:
+        if r.method == "continuation":
+            log(f"run '{r.name}' (continuation) is not a sweep: timed by `vibeam bench --continuation`")
+            continue
         model, sw = _sweep_for(case, r.model)
         ref_model, key = reference_model(case, r.model)
         if key not in refs:

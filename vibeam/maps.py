@@ -160,9 +160,11 @@ def hysteresis(m: MapResult, rtol: float = 1e-3) -> np.ndarray | None:
         return (c[0] != c[1]) | (orbit & (np.abs(a[0] - a[1]) > rtol * scale))
 
 
-def plot_map(m: MapResult, path, title: str = ""):
+def plot_map(m: MapResult, path, title: str = "", curves=()):
     """Fig. 18-style plot: class of every point over (frequency, parameter), one panel per
-    direction and one of the hysteresis; returns the path."""
+    direction and one of the hysteresis, with the two-parameter bifurcation curves of the
+    continuation runs ``curves`` (:class:`vibeam.branches.ContinuationResult`) overlaid;
+    returns the path."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -188,6 +190,14 @@ def plot_map(m: MapResult, path, title: str = ""):
         ax.pcolormesh(x, yy, hyst.astype(float), cmap=ListedColormap(["white", "#762a83"]), vmin=0, vmax=1,
                       shading="nearest")
         ax.set_title("hysteresis (up != down)")
+    if curves:
+        from .branches import plot_curves_on
+        xl = [ax.get_xlim() for ax in axes[0]]
+        yl = [ax.get_ylim() for ax in axes[0]]
+        for ax, a, b in zip(axes[0], xl, yl):
+            plot_curves_on(ax, [c for c in curves if c.attrs.get("curve_parameter") == m.parameter], phys)
+            ax.set_xlim(a)
+            ax.set_ylim(b)
     for ax in axes[0]:
         ax.set_xlabel("forcing frequency (Hz)" if phys else r"$\Omega$")
     unit = {"voltage": "V", "gain": "1/V", "natural_frequency_hz": "Hz", "length_mm": "mm"}.get(

@@ -181,7 +181,7 @@ def read_lines(path, case_json: str | None = None) -> tuple[dict, dict]:
 
 def write_results(path, runs: list[SweepResult], case_name: str = "", case_text: str = "",
                   extra: dict | None = None, maps: list | None = None, lines: dict | None = None,
-                  case_json: str = "") -> Path:
+                  case_json: str = "", branches: list | None = None) -> Path:
     """Write all runs to ``path`` atomically.
 
     Parameters
@@ -202,6 +202,8 @@ def write_results(path, runs: list[SweepResult], case_name: str = "", case_text:
     case_json : str
         The validated case (as run, e.g. its quick variant) as JSON; ``--resume``
         only continues a file whose ``case_json`` matches.
+    branches : list of vibeam.branches.ContinuationResult, optional
+        Continuation runs, written to ``/branches/<run>/`` (:func:`vibeam.branches.write_branches`).
 
     Returns
     -------
@@ -227,8 +229,23 @@ def write_results(path, runs: list[SweepResult], case_name: str = "", case_text:
                 g.attrs["case_hash"] = case_hash(case_json)
             for k, v in table.items():
                 _write_dataset(g, k, v)
+        if branches:
+            from .branches import write_branches
+            write_branches(f, branches)
 
     return _atomic(Path(path), fill)
+
+
+def replace_branches(path, branches: list) -> Path:
+    """Replace the ``/branches`` of an existing results file (atomically, everything else kept)."""
+    from .branches import write_branches
+
+    def fill(f):
+        if "branches" in f:
+            del f["branches"]
+        write_branches(f, branches)
+
+    return _atomic(Path(path), fill, copy_from=Path(path))
 
 
 def _write_dataset(g, name, v):
@@ -244,24 +261,26 @@ def _write_dataset(g, name, v):
 
 def read_results(path) -> dict:
     """Read a results file into ``{"attrs": {...}, "runs": {name: {"attrs": {...}, dataset: array}},
-    "maps": {name: {...}}}`` (the checkpoint ``/lines`` is read by :func:`read_lines`).
+    "maps": {name: {...}}, "branches": {run: {"attrs": ..., branch: {...}, "bifurcations": {...}}}}``
+    (the checkpoint ``/lines`` is read by :func:`read_lines`).
 
     String datasets come back as arrays of Python ``str``; subgroups of a run (time
     series) as nested dicts.
     """
-    out = {"attrs": {}, "runs": {}, "maps": {}}
+    out = {"attrs": {}, "runs": {}, "maps": {}, "branches": {}}
     with h5py.File(path, "r") as f:
         out["attrs"] = dict(f.attrs)
-        for kind in ("runs", "maps"):
+        for kind in ("runs", "maps", "branches"):
             for name, g in f.get(kind, {}).items():
-                run = _read_group(g)
+                run = _read_group(g, attrs=kind == "branches")
                 run["attrs"] = dict(g.attrs)
                 out[kind][name] = run
     return out
 
 
-def _read_group(g) -> dict:
-    """Datasets of a group; subgroups (e.g. ``time_series/<f>/<direction>``) as nested dicts."""
+def _read_group(g, attrs: bool = False) -> dict:
+    """Datasets of a group; subgroups (e.g. ``time_series/<f>/<direction>``) as nested dicts
+    (with ``attrs``: each subgroup's attributes under ``"attrs"``, as for ``/branches``)."""
     out = {}
     for k, d in g.items():
         if isinstance(d, h5py.Dataset):
@@ -270,5 +289,7 @@ def _read_group(g) -> dict:
             else:
                 out[k] = d[()]
         elif isinstance(d, h5py.Group):
-            out[k] = _read_group(d)
+            out[k] = _read_group(d, attrs)
+            if attrs:
+                out[k]["attrs"] = dict(d.attrs)
     return out

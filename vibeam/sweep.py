@@ -358,11 +358,19 @@ class Line:
 
 
 def run_line(line: Line) -> list[dict]:
-    """Compute one line (in a worker); numerical failures are rows with ``status = 'failed'``."""
+    """Compute one line (in a worker); numerical failures are rows with ``status = 'failed'``.
+
+    Any other unit of work with ``key``, ``run``, ``n_points`` and a ``compute()`` returning
+    its rows (e.g. a continuation run, :class:`vibeam.branches.BranchTask`) runs through the
+    same executor, retries and progress bar."""
+    if hasattr(line, "compute"):
+        return line.compute()
     return _chain(line.solver, line.Omega, line.sweep, line.Delta, line.direction)
 
 
 def _lost_rows(line: Line, err: BaseException, attempts: int) -> list[dict]:
+    if hasattr(line, "lost_rows"):
+        return line.lost_rows(err, attempts)
     msg = f"worker lost {attempts} time(s): {type(err).__name__}: {err}"
     return [dict(Omega=float(W), direction=line.direction, status="failed", message=msg, wall_time_s=0.0)
             for W in line.Omega]

@@ -15,7 +15,9 @@ run names as ``vibeam run --quick``) computed with converged settings:
   wherever the orbit is an attractor the reference holds it to round-off
   (where the motion is not periodic, the reference is one sample of the
   attractor, and regressions compare the spread of its per-period amplitude);
-* ``averaging`` and ``mapping`` runs are closed-form/Newton and run as they are.
+* ``averaging`` and ``mapping`` runs are closed-form/Newton and run as they are;
+* ``continuation`` runs are left out: the regression compares FRCs of sweeps (their branches
+  are regressed by ``tests/test_continuation*.py`` against the oracles there).
 
 Before a reference is written it is checked against the independent oracles
 that apply, and nothing is written if one fails (:func:`check_runs`):
@@ -130,6 +132,8 @@ def reference_case(case):
         data["sweep"]["transient_periods"] = max(n, int(tp))
     runs = []
     for r in data["run"]:
+        if r["method"] == "continuation":
+            continue
         if r["method"] in TIME_DOMAIN and r["method"] != "event":
             r = dict(name=r["name"], method="event", model=r["model"], effects=r["effects"])
         runs.append(r)
