@@ -32,7 +32,9 @@ How a shot is computed
     * entry into sticking (plastic projection along ``w``, ``eta' -> P_w eta'``): the
       same formula with ``G_x = diag(I, P_w)`` and ``f+`` the constrained field; its jump
       is ``O(U-)`` (the constrained acceleration of a Rayleigh-damped beam is the
-      projected free one), so the entry saltation stays bounded as ``U- -> 0``;
+      projected free one), so the entry saltation stays bounded as ``U- -> 0``; with
+      per-mode damping (``modal_damping_1_s``) the kernel's constrained damping
+      ``diag(Psi^T C Psi)`` adds ``Psi (Psi^T C Psi - diag) Psi^T eta' / U-``;
     * release (``lambda = 0``): ``dt_r = -(lambda_x dx + lambda_p dp) / lambda_dot`` and
       ``S = I + (f+ - f-) lambda_x / lambda_dot``.  The two fields differ by the contact
       force, which vanishes at the release, so ``S = I`` up to the root accuracy; the
@@ -68,7 +70,9 @@ Chatter
 Section on the stop
     When ``x0`` lies on the stop with zero normal velocity (within ``1e-9`` of the state
     scale) the orbit is taken as stuck at the section: the kernel starts held, and the
-    Jacobian includes the projection onto the constraint (two zero multipliers).
+    Jacobian includes the projection onto the constraint (two zero multipliers); it is
+    the derivative along the constraint (off it ``P^n`` is only one-sided smooth), and
+    ``d x / d Delta_C`` moves ``x0`` with the stop.
 
 Parameters and conversions
     Native parameters: ``Omega``, ``base_amplitude_m``, ``gap_contact_m``, ``R``,
@@ -742,14 +746,15 @@ class BeamShooting:
             dcF = np.full(N, 1.0 / m.omega_ref)
             dcC = np.full(Nc, 1.0 / m.omega_ref)
 
-        def dpart(cc, kk, GG):
+        def dpart(cc, kk, GG, dc):
+            """d(a + i b)/dp of z = G F / (k - Omega^2 + i c Omega) (see ``particular``)."""
             den = kk - Om ** 2 + 1j * cc * Om
-            dz = GG * (dF / den - dOm * F * (-2.0 * Om + 1j * cc) / den ** 2)
-            dz = dz - GG * F * 1j * Om * (dcF if cc is c else dcC) / den ** 2
+            dz = GG * (dF / den - dOm * F * (-2.0 * Om + 1j * cc) / den ** 2
+                       - F * 1j * Om * dc / den ** 2)
             return np.ascontiguousarray(dz.real), np.ascontiguousarray(dz.imag)
 
-        daF, dbF = dpart(c, k, G)
-        daC, dbC = dpart(m.cC, m.nu2, m.GC) if Nc else (zC, zC)
+        daF, dbF = dpart(c, k, G, dcF)
+        daC, dbC = dpart(m.cC, m.nu2, m.GC, dcC) if Nc else (zC, zC)
         deC, deta_c = zC.copy(), zN.copy()
         if pid == 2:
             deta_c = w / w2
