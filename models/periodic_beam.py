@@ -774,6 +774,15 @@ class BeamShooting:
             dR=1.0 if pid == 3 else 0.0, dDelta=1.0 if pid == 2 else 0.0)
         return self._cache
 
+    def linear_orbit(self, p: float | None = None) -> np.ndarray:
+        """Start of the contact-free branch: ``(eta, eta')`` at forcing phase 0 of the
+        harmonic steady state without the stop (``eta_i = a_i sin + b_i cos``), shape (2N,).
+
+        It is a fixed point of ``P`` while ``apex_gap < 0``; ``apex_gap = 0`` is its grazing.
+        """
+        D = self._data(self.value if p is None else p)
+        return np.concatenate([D["bF"], D["Om"] * D["aF"]])
+
     @staticmethod
     def _invalid(p, name):
         if name == "R" and not 0.0 <= p <= 1.0:

@@ -321,6 +321,7 @@ def test_apex_gap_of_the_linear_orbit(n_modes):
     W = 14.0 / m0.f_ref_hz
     x0, a, b = linear_orbit(m0, W)
     amp = abs(m0.contact_row @ (a + 1j * b))
+    np.testing.assert_allclose(BeamShooting(m0, W).linear_orbit(), x0, rtol=1e-15)
     for frac in (1.5, 1.01):
         prob = BeamShooting(m0, W, "gap_contact_m")
         s = prob.shot(x0, frac * amp, 1)
