@@ -380,7 +380,6 @@ def apply_impact(etad, w, U_minus, R, m_eff):
     return newton_restitution(U_minus, R)
 
 
-
 # Optional event log of ``beam_kernel`` (used by the periodic-orbit shooting of
 # :mod:`vibeam.models.periodic_beam`): one row ``[kind, t, aux, eta (N), eta' (N)]`` per
 # event, ``t`` from the call start.  Kinds and ``aux``:
