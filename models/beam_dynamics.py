@@ -386,13 +386,58 @@ def apply_impact(etad, w, U_minus, R, m_eff):
     return newton_restitution(U_minus, R)
 
 
+# Optional event log of ``beam_kernel`` (used by the periodic-orbit shooting of
+# :mod:`vibeam.models.periodic_beam`): one row ``[kind, t, aux, eta (N), eta' (N)]`` per
+# event, ``t`` from the call start.  Kinds and ``aux``:
+#   EV_START    the initial state was put on the stop (aux 1: held, 0: position only);
+#               the state logged is the one after the projection;
+#   EV_IMPACT   an impact; state just before it (on the stop, pre-impact velocity), aux U-;
+#   EV_STICK    sticking entered without an impact (v = 0 at the stop, pressed); state
+#               before the velocity projection;
+#   EV_STICK_IMPACT  the impact logged just before ends in sticking (plastic entry, chatter
+#               or R = 0); aux = chatter hold time (0 if none);
+#   EV_RELEASE  release from the stop; state at the release, aux = contact force at
+#               the release (0 at a located zero crossing, > 0 when released at a step start).
+# ``nlog[0]`` counts events, ``nlog[1]`` apexes (rows beyond the capacity are counted,
+# not stored); ``aplog[j] = (t, g)`` holds the interior free-flight apexes of the contact
+# gap ``g = w^T eta - Delta_C`` located on steps where ``g'`` falls through zero.
+EV_START, EV_IMPACT, EV_STICK, EV_STICK_IMPACT, EV_RELEASE = 0, 1, 2, 3, 4
+
+
+@njit(cache=True)
+def _log_event(evlog, nlog, kind, t, aux, eta, etad):
+    k = nlog[0]
+    if k < evlog.shape[0]:
+        N = eta.shape[0]
+        evlog[k, 0] = kind
+        evlog[k, 1] = t
+        evlog[k, 2] = aux
+        for i in range(N):
+            evlog[k, 3 + i] = eta[i]
+            evlog[k, 3 + N + i] = etad[i]
+    nlog[0] = k + 1
+
+
+@njit(cache=True)
+def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, Sa, Sb, f0, fp0):
+    """Locate the apex of the contact gap inside ``[0, h]`` (slope + at 0, <= 0 at h) and log it."""
+    zero = np.zeros(x0.shape[0])
+    sa = _root(1, 0.0, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0)
+    ga = _sig(sa, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0)[0]
+    k = nlog[1]
+    if k < aplog.shape[0]:
+        aplog[k, 0] = t + sa
+        aplog[k, 1] = ga
+    nlog[1] = k + 1
+
+
 @njit(cache=True)
 def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U, R_table_R,
                 mpC, aC, bC, eC, Psi, eta_c, pL, rL, SaL, SbL, cL, pS, SaS, SbS, cS,
                 eta, etad, stuck_init,
                 n_transient, n_record, ns_transient, ns_record, h_cap,
                 max_impacts, max_steps, chatter_tol,
-                samples, imp_t, imp_v, modamp, msamp, pmin, chat_t):
+                samples, imp_t, imp_v, modamp, msamp, pmin, chat_t, evlog=None, aplog=None, nlog=None):
     """Exact event-driven simulation of whole forcing periods (numba core).
 
     ``eta, etad`` (N,) hold the initial modal state and receive the final one.
@@ -404,6 +449,10 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
     against the pre-impact contact velocity (kernel units; empty = constant ``R``,
     :func:`vibeam.models.impact.restitution_coefficient`).  Returns ``(status, n_imp_rec, smin, smax,
     n_chatter, stuck_time, stuck_end, n_imp_total, gmax, n_steps)``.
+
+    ``evlog`` (cap, 3 + 2N), ``aplog`` (cap_a, 2), ``nlog`` (2,) int64: optional event
+    and apex log (see ``EV_START``); omitted in sweeps, where the logging branches are
+    compiled out.
     """
     N = eta.shape[0]
     Nc = eC.shape[0]
@@ -458,6 +507,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
         g = 0.0
         if stuck:
             v = 0.0
+        if evlog is not None:
+            _log_event(evlog, nlog, EV_START, 0.0, 1.0 if stuck else 0.0, eta, etad)
     gmax = -np.inf
     n_imp_total = 0
     n_imp_rec = 0
@@ -538,6 +589,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         const += pL[j] * eC[j]
                     lam0, lamp0 = _start(phi, Om, xc, yc, mpC, pL, rL, SaL, SbL, const)
                     if (lam0 > 0.0 or (lam0 == 0.0 and lamp0 > 0.0)) and not just_stuck and hold <= 0.0:
+                        if evlog is not None:
+                            _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, lam0, eta, etad)
                         stuck = False
                         just_released = True
                         g = 0.0
@@ -587,6 +640,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         just_stuck = False
                         just_released = False
                     if s_ev >= 0.0:
+                        if evlog is not None:
+                            _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, 0.0, eta, etad)
                         stuck = False
                         just_released = True
                         g = 0.0
@@ -601,6 +656,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     elif not just_released:
                         acc, jerk = _contact_acc(phi, Om, eta, etad, w, cF, kF, GF)
                         if acc > 0.0:
+                            if evlog is not None:
+                                _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, eta, etad)
                             stuck = True
                             just_stuck = True
                             corr = v / w2
@@ -616,6 +673,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     if s_ev < 0.0:
                         h_last = h
                     g1, v1, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, w, zeroN, SaF, SbF, g, v)
+                    if aplog is not None and s_ev < 0.0 and v > 0.0 and v1 <= 0.0:
+                        _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, x0, y0, mpF, w, SaF, SbF, g, v)
                     if recording:
                         q0s, qp0s = _start(phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, 0.0)
                         q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s)
@@ -659,6 +718,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     eta[i] -= w[i] * gs
                     etad[i] -= w[i] * vs
                 Um = v if v > 0.0 else 0.0
+                if evlog is not None:
+                    _log_event(evlog, nlog, EV_IMPACT, pp * T + t_loc, Um, eta, etad)
                 Rc = restitution_coefficient(Um, R, R_table_U, R_table_R)
                 v = apply_impact(etad, w, Um, Rc, m_eff)
                 n_imp_total += 1
@@ -705,6 +766,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                             if n_chatter <= chat_t.shape[0]:
                                 chat_t[n_chatter - 1] = t_imp + D
                 if stick_now:
+                    if evlog is not None:
+                        _log_event(evlog, nlog, EV_STICK_IMPACT, pp * T + t_loc, hold, eta, etad)
                     corr = v / w2
                     for i in range(N):
                         etad[i] -= w[i] * corr

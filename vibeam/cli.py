@@ -423,6 +423,9 @@ def main(argv=None) -> int:
     p.add_argument("--scaling", action="store_true",
                    help="instead: how the cost of a sweep grows with periods simulated and with retained modes, "
                         "fitted exponents (JSON)")
+    p.add_argument("--shooting", action="store_true",
+                   help="instead: cost of the beam's periodic-orbit shots (with and without the monodromy) "
+                        "and of Newton solves against the event solver (JSON)")
     p.add_argument("--effects", action="store_true",
                    help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect")
     p.add_argument("--continuation", action="store_true",
