@@ -140,7 +140,7 @@ def read_lines(path) -> tuple[dict, dict]:
 
 def write_results(path, runs: list[SweepResult], case_name: str = "", case_text: str = "",
                   extra: dict | None = None, maps: list | None = None, lines: dict | None = None,
-                  case_json: str = "") -> Path:
+                  case_json: str = "", extra_attrs: dict | None = None) -> Path:
     """Write all runs to ``path`` atomically.
 
     Parameters
@@ -161,6 +161,9 @@ def write_results(path, runs: list[SweepResult], case_name: str = "", case_text:
     case_json : str
         The validated case (as run, e.g. its quick variant) as JSON; ``--resume``
         only continues a file whose ``case_json`` matches.
+    extra_attrs : dict, optional
+        Attributes set last on groups or datasets of the file, ``{path: {name: value}}``
+        (e.g. ``{"fit/residuals": {"units": "mm"}}``); a missing path becomes a group.
 
     Returns
     -------
@@ -184,6 +187,10 @@ def write_results(path, runs: list[SweepResult], case_name: str = "", case_text:
             g = f.require_group(gpath)
             for k, v in table.items():
                 _write_dataset(g, k, v)
+        for apath, attrs in (extra_attrs or {}).items():
+            obj = f[apath] if apath in f else f.require_group(apath)
+            for k, v in attrs.items():
+                obj.attrs[k] = v if not isinstance(v, dict) else json.dumps(v, default=_json_default)
 
     return _atomic(Path(path), fill)
 
