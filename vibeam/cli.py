@@ -233,6 +233,29 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="output folder (default results/<case name>/)")
     p.add_argument("-n", type=int, default=6, help="number of modes (default 6)")
     p.set_defaults(func=cmd_modes)
+    # ---- vibeam fit (vibeam.fit, vibeam.identify): identification from measurements, paper Secs. 6-7
+    p = sub.add_parser("fit", help="fit model parameters to a measured FRC (with standard errors), or the "
+                       "linear steps: Eq. 43 around f_n (--linear), beta_S from a free decay (--decay)")
+    p.add_argument("case", help="case file (TOML); its [model] values start the fit")
+    p.add_argument("--reference", help="measured FRC: CSV 'frequency_hz,amplitude_mm' (or 'Omega,amplitude'), "
+                   "optional columns 'direction' (up/down) and 'sigma'; or a results.h5")
+    p.add_argument("--reference-run", help="run of an HDF5 reference with several runs")
+    p.add_argument("--params", help="comma-separated numeric [model] keys to fit (default gain,R; with "
+                   "--linear natural_frequency_hz,damping_ratio,gain)")
+    p.add_argument("--run", help="fit this run only (default: every run of the case, one by one)")
+    p.add_argument("--out", help="output folder (default results/<case name>-fit/)")
+    p.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores; 1: inline)")
+    p.add_argument("--quick", action="store_true", help="sweep with the case's quick variant's periods")
+    p.add_argument("--loss", choices=["linear", "soft_l1", "huber", "cauchy", "arctan"], default=None,
+                   help="least_squares loss (default soft_l1; --linear: linear)")
+    p.add_argument("--f-scale", type=float, default=3.0,
+                   help="scale of the robust loss in units of sigma (default 3)")
+    p.add_argument("--max-evaluations", type=int, default=60, help="max residual evaluations (sweeps)")
+    p.add_argument("--linear", action="store_true", help="fit Eq. 43 without the stop to an FRC around f_n")
+    p.add_argument("--decay", metavar="DECAY.csv", help="identify beta_S from a free decay 't_s,U_mm'")
+    p.add_argument("--no-plots", action="store_true", help="skip fit.png")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    p.set_defaults(func=lambda a: __import__("vibeam.fit", fromlist=["main_fit"]).main_fit(a))
     p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp (JSON)")
     p.add_argument("--points", type=int, default=101)
     p.add_argument("--periods", type=int, default=500)
@@ -247,6 +270,9 @@ def main(argv=None) -> int:
                         "fitted exponents (JSON)")
     p.add_argument("--effects", action="store_true",
                    help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect")
+    p.add_argument("--fit", action="store_true",
+                   help="instead: time `vibeam fit` (2-parameter SDOF fit on 30 points, goal < 10 s; FE 2 modes)")
+    p.add_argument("--jobs", type=int, default=None, help="workers of --fit (default 2)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
     from .case import CaseError
