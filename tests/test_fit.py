@@ -324,27 +324,35 @@ def test_platform_ratio_recovered_from_fits_at_fn_and_2fn():
 
 # ----------------------------------------------------------------------------- every fidelity
 def test_fit_runs_of_a_ladder_prints_the_apparent_R(tmp_path, capsys):
-    """Two rungs fitted one by one against the static-mode FRC: the static mode gets its own R
-    back (exact data, to 1e-6), the FE one-mode beam an apparent R of its own; the table names
-    both, each run has its fit.h5."""
+    """The rig ladder: the static-mode rung fitted to its own FRC gets its R back (to 1e-6);
+    the FE rungs fitted to the paper's SDOF FRC at the FE's f_1 = 7.6 Hz (R 0.72) need an
+    apparent R of their own, higher with more modes (each impact also feeds the higher,
+    strongly damped modes; measured 0.725 and 0.764 on 122 points)."""
+    from vibeam.fit import fidelity_table
+
     case, _ = load_case(CASES / "rig-fe-neutral.toml")
     d_text = _with_sweep(case, transient=150, record=16, direction="up")
     (tmp_path / "ladder.toml").write_text(d_text)
     case = parse_case(d_text)
     f = np.linspace(14.0, 17.0, 16)
-    ref = synthetic_reference(case, f, {}, run="static mode (SDOF)")
+    own = synthetic_reference(case, f, {}, run="static mode (SDOF)")
     csv = tmp_path / "static.csv"
-    csv.write_text("frequency_hz,amplitude_mm\n" + "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in zip(ref.x, ref.y)))
+    csv.write_text("frequency_hz,amplitude_mm\n" + "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in zip(own.x, own.y)))
     out = tmp_path / "out"
     assert main(["fit", str(tmp_path / "ladder.toml"), "--reference", str(csv), "--params", "R",
                  "--run", "static mode (SDOF)", "--out", str(out / "one"), "--jobs", "1", "--quiet"]) == 0
-    results = fit_runs(case, read_reference(csv), ["R"], runs=["static mode (SDOF)", "FE 1 mode"],
-                       out_dir=out / "two", jobs=1)
-    assert results[0].estimate[0] == pytest.approx(0.72, abs=1e-6)
-    assert abs(results[1].estimate[0] - 0.72) > 2 * results[1].standard_error[0]   # measured 0.649 +- 0.026
-    assert (out / "two" / "FE_1_mode" / "fit.h5").exists()
-    assert (out / "one" / "fit.h5").exists()
-    capsys.readouterr()
+    assert "R from the sensor's time series" in capsys.readouterr().out
+    with h5py.File(out / "one" / "fit.h5", "r") as h:
+        assert h["fit/estimate"][0] == pytest.approx(0.72, abs=1e-6)
+    paper = synthetic_reference(_rig().model_copy(update={"model": dict(_rig().model, R=0.72, gap_mm=0.0,
+                                                                         gain=5.16e-4)}), f, {})
+    results = fit_runs(case, paper, ["R"], runs=["FE 1 mode", "FE 2 modes"], out_dir=out / "two", jobs=1)
+    (r1, se1), (r2, se2) = [(r.estimate[0], r.standard_error[0]) for r in results]
+    assert all(r.reliable for r in results), [r.notes for r in results]
+    assert r1 > 0.72 + 4 * se1 and r2 > r1 + 4 * math.hypot(se1, se2), (r1, se1, r2, se2)
+    table = fidelity_table(results)
+    assert "FE 1 mode" in table and "FE 2 modes" in table and "R +- s.e." in table
+    assert (out / "two" / "FE_1_mode" / "fit.h5").exists() and (out / "two" / "FE_2_modes" / "fit.png").exists()
 
 
 def test_rank_deficient_pair_is_reported_unreliable():

@@ -39,14 +39,16 @@ What a vibro-impact FRC does to least squares, and what is done about it
     * *Non-periodic points.*  The model's amplitude at a point that is not periodic
       (period 0) is one sample of an attractor, not a function of the parameters.  Its
       residual is divided by ``sqrt(sigma^2 + spread^2)`` with ``spread`` the standard
-      deviation of the per-period amplitude over the recorded window (down-weighted by the
-      model's own uncertainty), and its Jacobian row is zero (it carries no information
-      on the parameters into the covariance).
+      deviation of the per-period amplitude over the recorded window (the model's own
+      uncertainty there), and its Jacobian row is zero (it carries no information on the
+      parameters into the covariance).
     * *Failed points* (a numerical failure, a lost worker): the model explains nothing
       there, so the residual is the data over sigma (the optimizer is never rewarded for a
       failure); the point is left out of the variance and covariance.
     All three are counted in the report, with the reasons the standard errors may be
-    unreliable (rank deficiency, a bound reached, many one-sided or zero derivatives).
+    unreliable (rank deficiency, a bound reached, more than a quarter of the derivatives
+    one-sided or zero, more than a quarter of the points down-weighted by the loss, i.e.
+    a model that misses the data).
 
 Weights and loss
     Residuals ``r_i = (A_model - A_data) / sigma_i`` with ``sigma_i`` from the data's
@@ -703,7 +705,7 @@ class FitResult:
     def summary(self) -> str:
         """The report printed by ``vibeam fit``."""
         xl = "f (Hz)" if self.x_name == "frequency_hz" else "Omega"
-        yu = "mm" if self.y_name == "amplitude_mm" else "1"
+        yu = "mm" if self.y_name == "amplitude_mm" else ""
         dirs = ", ".join(f"{int(np.sum(self.direction == d))} {d}" for d in ("up", "down")
                          if np.any(self.direction == d))
         out = [f"fit of {self.case_name}, run '{self.run}', against {self.reference}",
@@ -768,7 +770,7 @@ class FitResult:
                      "jacobian_zeroed": self.jacobian_info.get("zeroed", 0),
                      "sigma_given": self.sigma_given,
                      "cor_identification": "R from the sensor's time series (paper Sec. 5.1): [effects.sensor] "
-                                           "identify_R, vibeam.sensor"}}
+                                           "identify_R, vibeam.sensor (README 'Sensor and assessments')"}}
         for k in ("initial", "estimate", "standard_error", "lower_bound", "upper_bound", "step"):
             a[f"fit/{k}"] = {"units": per_param}
         a["fit/covariance"] = {"units": "product of the two parameters' units"}
@@ -928,6 +930,11 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
             reliable = False
             notes.append(f"{bad_d} of {live} derivatives one-sided or zero (jumps or period changes within "
                          f"one step): the FRC is not smooth in the parameters here")
+        if n_dw > 0.25 * max(int(used.sum()), 1):
+            reliable = False
+            notes.append(f"{n_dw} of {int(used.sum())} points down-weighted by the loss (weight < 0.5; soft_l1: "
+                         f"|r| > 1.7 f_scale): the model misses much of the data (a shifted resonance, another "
+                         f"branch); the estimate is a compromise")
         if used.sum() - n_np < len(params):
             reliable = False
             notes.append("fewer periodic points than parameters")
@@ -938,6 +945,9 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
             notes.append(f"optimizer stopped: {res.message}")
         if ref.sigma is None:
             notes.append("no sigma column: standard errors from the residual scatter")
+        elif unc.s2 > 4.0:
+            notes.append(f"residuals exceed sigma (s^2 = {unc.s2:.3g}): the model does not describe the data "
+                         f"within their scatter; s^2 scales the standard errors")
         final = None
         if ev.line_rows is not None:
             final = assemble(ev.job.solver, ev.sweeps[0][2], r.name, ev.line_rows,
@@ -1126,10 +1136,11 @@ def plot_fit(res: FitResult, path, title: str = "") -> Path:
 
 # ============================================================================ several runs
 def fit_runs(case, reference, params=None, runs=None, out_dir=None, case_text: str = "", plots: bool = True,
-             log=None, **kw) -> list[FitResult]:
+             log=None, on_result=None, **kw) -> list[FitResult]:
     """Fit each run of ``runs`` (default: all runs of the case) one by one against the same
     reference, writing each one's files into ``out_dir/<run>/`` (or ``out_dir`` for a single
-    run); returns the results in order."""
+    run; ``on_result(res)`` as each finishes); returns the results in order.  Keyword
+    arguments go to :func:`fit_case`."""
     names = runs or [r.name for r in case.run]
     out = []
     for name in names:
@@ -1137,6 +1148,8 @@ def fit_runs(case, reference, params=None, runs=None, out_dir=None, case_text: s
         if out_dir is not None:
             d = Path(out_dir) if len(names) == 1 else Path(out_dir) / _safe(name)
             res.paths = res.write(d, case_text, plots=plots)
+        if on_result is not None:
+            on_result(res)
         out.append(res)
     return out
 
@@ -1191,19 +1204,20 @@ def main_fit(args) -> int:
         runs = [args.run] if args.run else None
         if args.run:
             _pick_run(case, args.run, args.case)
+        def show(res):
+            print(res.summary())
+            print("  -> " + ", ".join(str(p) for p in res.paths.values()))
+            print("  R from the sensor's time series (paper Sec. 5.1, Table 1): [effects.sensor] identify_R "
+                  "(vibeam.sensor; README 'Sensor and assessments')\n", flush=True)
+
         ex = default_executor(args.jobs, 2)
         try:
             results = fit_runs(case, ref, params, runs=runs, out_dir=out_dir, case_text=text,
-                               plots=not args.no_plots, log=log, executor=ex, loss=args.loss or DEFAULT_LOSS,
-                               f_scale=args.f_scale, max_evaluations=args.max_evaluations, source=args.case)
+                               plots=not args.no_plots, log=log, on_result=show, executor=ex,
+                               loss=args.loss or DEFAULT_LOSS, f_scale=args.f_scale,
+                               max_evaluations=args.max_evaluations, source=args.case)
         finally:
             ex.shutdown(wait=True, cancel_futures=True)
-        for res in results:
-            print(res.summary())
-            paths = getattr(res, "paths", {})
-            print("  -> " + ", ".join(str(p) for p in paths.values()))
-            print("  R from the sensor's time series (paper Sec. 5.1, Table 1): [effects.sensor] identify_R "
-                  "(vibeam.sensor; README 'Scene effects')\n")
         if len(results) > 1:
             print(f"apparent parameters per run (fidelity) of {case.name}, against {ref.source}:")
             tab = fidelity_table(results)
