@@ -1182,6 +1182,13 @@ def main_fit(args) -> int:
     if not args.reference and not args.decay:
         raise _error(f"{args.case}: `vibeam fit` needs --reference DATA (an FRC) or --decay DECAY.csv "
                      f"(a free decay)")
+    if not (math.isfinite(args.f_scale) and args.f_scale > 0):
+        raise _error(f"'--f-scale' = {args.f_scale!r}: must be a finite positive number (units of sigma)")
+    if args.max_evaluations < 1:
+        raise _error(f"'--max-evaluations' = {args.max_evaluations!r}: must be at least 1")
+    if args.params is not None and not [p for p in args.params.split(",") if p.strip()]:
+        raise _error(f"{args.case}: '--params' = {args.params!r} names no parameter; allowed: "
+                     f"{', '.join(case.map_parameters())}")
     out_dir = Path(args.out) if args.out else Path("results") / f"{case.name}-fit"
     if args.decay:
         from .identify import report_decay
@@ -1190,7 +1197,7 @@ def main_fit(args) -> int:
     if args.reference and args.linear:
         from .identify import report_linear
 
-        params = [p.strip() for p in args.params.split(",")] if args.params else None
+        params = [p.strip() for p in args.params.split(",") if p.strip()] if args.params else None
         report_linear(case, text, args.reference, out_dir, params=params, loss=args.loss or "linear",
                       f_scale=args.f_scale, source=args.case)
     elif args.reference:
