@@ -226,30 +226,9 @@ def cmd_derive(args) -> int:
 
 
 def _write_text(path: Path, text: str, option: str) -> None:
-    """Write a text file atomically; a missing folder or a folder in the way is an InputError."""
-    import tempfile
+    from .outdir import write_text_file
 
-    from .case import InputError
-
-    if path.is_dir():
-        raise InputError(f"{option} {path}: is a folder; give a file name")
-    if not path.parent.is_dir():
-        raise InputError(f"{option} {path}: the folder {path.parent} does not exist")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}-", suffix=".tmp", dir=path.parent)
-    except OSError as e:
-        raise InputError(f"{option} {path}: cannot write in {path.parent}: {e.strerror or e}") from None
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_text_file(path, text, option)
 
 
 def cmd_modes(args) -> int:
@@ -409,8 +388,31 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="output folder (default results/<case name>/)")
     p.add_argument("-n", type=_int_at_least(1), default=6, help="number of modes (default 6)")
     p.set_defaults(func=cmd_modes)
+    # ---- vibeam fit (vibeam.fit, vibeam.identify): identification from measurements, paper Secs. 6-7
+    p = sub.add_parser("fit", help="fit model parameters to a measured FRC (with standard errors), or the "
+                       "linear steps: Eq. 43 around f_n (--linear), beta_S from a free decay (--decay)")
+    p.add_argument("case", help="case file (TOML); its [model] values start the fit")
+    p.add_argument("--reference", help="measured FRC: CSV 'frequency_hz,amplitude_mm' (or 'Omega,amplitude'), "
+                   "optional columns 'direction' (up/down) and 'sigma'; or a results.h5")
+    p.add_argument("--reference-run", help="run of an HDF5 reference with several runs")
+    p.add_argument("--params", help="comma-separated numeric [model] keys to fit (default gain,R; with "
+                   "--linear natural_frequency_hz,damping_ratio,gain)")
+    p.add_argument("--run", help="fit this run only (default: every run of the case, one by one)")
+    p.add_argument("--out", help="output folder (default results/<case name>-fit/)")
+    p.add_argument("--jobs", type=_int_at_least(1), default=None, help="worker processes (default: all cores; 1: inline)")
+    p.add_argument("--quick", action="store_true", help="sweep with the case's quick variant's periods")
+    p.add_argument("--loss", choices=["linear", "soft_l1", "huber", "cauchy", "arctan"], default=None,
+                   help="least_squares loss (default soft_l1; --linear: linear)")
+    p.add_argument("--f-scale", type=float, default=3.0,
+                   help="scale of the robust loss in units of sigma (default 3)")
+    p.add_argument("--max-evaluations", type=_int_at_least(1), default=60, help="max residual evaluations (sweeps)")
+    p.add_argument("--linear", action="store_true", help="fit Eq. 43 without the stop to an FRC around f_n")
+    p.add_argument("--decay", metavar="DECAY.csv", help="identify beta_S from a free decay 't_s,U_mm'")
+    p.add_argument("--no-plots", action="store_true", help="skip fit.png")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    p.set_defaults(func=lambda a: __import__("vibeam.fit", fromlist=["main_fit"]).main_fit(a))
     p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp, or of the "
-                       "continuation (--continuation) (JSON)")
+                       "continuation (--continuation) or of `vibeam fit` (--fit) (JSON)")
     p.add_argument("--points", type=_int_at_least(1), default=101)
     p.add_argument("--periods", type=_int_at_least(65), default=500,
                    help="forcing periods per point, transient + the 64 recorded ones (> 64)")
@@ -431,6 +433,9 @@ def main(argv=None) -> int:
     p.add_argument("--continuation", action="store_true",
                    help="instead: the continuation of an SDOF period-1 branch through its fold (~500 points, "
                         "goal < 0.1 s) and its cost per FRC point against a sweep of equal accuracy (JSON)")
+    p.add_argument("--fit", action="store_true",
+                   help="instead: time `vibeam fit` (2-parameter SDOF fit on 30 points, goal < 10 s; FE 2 modes)")
+    p.add_argument("--jobs", type=_int_at_least(1), default=None, help="workers of --fit (default 2)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
     return _dispatch(args)

@@ -181,7 +181,7 @@ def read_lines(path, case_json: str | None = None) -> tuple[dict, dict]:
 
 def write_results(path, runs: list[SweepResult], case_name: str = "", case_text: str = "",
                   extra: dict | None = None, maps: list | None = None, lines: dict | None = None,
-                  case_json: str = "", branches: list | None = None) -> Path:
+                  case_json: str = "", branches: list | None = None, extra_attrs: dict | None = None) -> Path:
     """Write all runs to ``path`` atomically.
 
     Parameters
@@ -204,6 +204,9 @@ def write_results(path, runs: list[SweepResult], case_name: str = "", case_text:
         only continues a file whose ``case_json`` matches.
     branches : list of vibeam.branches.ContinuationResult, optional
         Continuation runs, written to ``/branches/<run>/`` (:func:`vibeam.branches.write_branches`).
+    extra_attrs : dict, optional
+        Attributes set last on groups or datasets of the file, ``{path: {name: value}}``
+        (e.g. ``{"fit/residuals": {"units": "mm"}}``); a missing path becomes a group.
 
     Returns
     -------
@@ -232,6 +235,10 @@ def write_results(path, runs: list[SweepResult], case_name: str = "", case_text:
         if branches:
             from .branches import write_branches
             write_branches(f, branches)
+        for apath, attrs in (extra_attrs or {}).items():
+            obj = f[apath] if apath in f else f.require_group(apath)
+            for k, v in attrs.items():
+                obj.attrs[k] = v if not isinstance(v, dict) else json.dumps(v, default=_json_default)
 
     return _atomic(Path(path), fill)
 
