@@ -828,9 +828,11 @@ class _Tracer:
 
     def partner(self, g, u_g, n):
         """A point of another impact signature next to the grazing point ``u_g`` reached along
-        the branch of ``g``: at ``p_g +- delta`` the branch of ``g`` is solved first, then
-        deflated Newton from perturbations of it finds the other solutions; the nearest one of
-        another signature is returned (tangent turned away from ``u_g``), or None."""
+        the branch of ``g``: at ``p_g +- delta`` the branch of ``g`` is solved first (where
+        Newton from the grazing state lands on another signature, that orbit is a candidate:
+        the branch passes the grazing with a corner), then deflated Newton from perturbations
+        of it finds the other solutions; the nearest one of another signature is returned
+        (tangent turned away from ``u_g``), or None."""
         eng = self.eng
         d = eng.d
         x_g, p_g = u_g[:d] * eng.sx, u_g[d] * eng.sp
@@ -846,7 +848,14 @@ class _Tracer:
                 if not self.inside(p):
                     continue
                 old, _ = eng.newton_fixed(x_g, p, n)
-                if old is None or old.signature != g.signature:
+                if old is None:
+                    continue
+                if old.signature != g.signature:
+                    # beyond the grazing only an orbit of another signature exists next to it:
+                    # the branch goes on through the grazing (a corner, not a non-smooth fold)
+                    dist = float(np.linalg.norm(old.u - u_g))
+                    if dist < best_dist and dist < 0.25:
+                        best, best_dist = old, dist
                     continue
                 for v in dirs:
                     for e in (1e-3, -1e-3):
@@ -941,7 +950,10 @@ class _Tracer:
         if cands:
             pt = cands[0]
             kind, detail = _graze_detail(g.signature, pt.signature)
-            br.bifurcations.append(_bif(kind, g, n, bi, len(br.points), detail + "; non-smooth fold", at=at))
+            d = eng.d
+            turn = ("non-smooth fold" if g.t is None or pt.t[d] * g.t[d] <= 0.0 else
+                    "the branch goes on through it with a corner")
+            br.bifurcations.append(_bif(kind, g, n, bi, len(br.points), f"{detail}; {turn}", at=at))
             br.points.append(pt)
             return True
         kind, detail = _graze_detail(g.signature, sig_new)
