@@ -826,11 +826,11 @@ class _Tracer:
         br.resections += 1
         return True
 
-    def partner(self, g, u_g, n):
+    def partner(self, g, u_g, n, expect=None):
         """A point of another impact signature next to the grazing point ``u_g`` reached along
         the branch of ``g``: at ``p_g +- delta`` the branch of ``g`` is solved first (where
-        Newton from the grazing state lands on another signature, that orbit is a candidate:
-        the branch passes the grazing with a corner), then deflated Newton from perturbations
+        Newton from the grazing state lands on the signature ``expect`` that the grazing gives,
+        that orbit is a candidate: the branch passes the grazing with a corner), then deflated Newton from perturbations
         of it finds the other solutions; the nearest one of another signature is returned
         (tangent turned away from ``u_g``), or None."""
         eng = self.eng
@@ -852,7 +852,11 @@ class _Tracer:
                     continue
                 if old.signature != g.signature:
                     # beyond the grazing only an orbit of another signature exists next to it:
-                    # the branch goes on through the grazing (a corner, not a non-smooth fold)
+                    # the branch goes on through the grazing (a corner, not a non-smooth fold) --
+                    # if it has the signature the grazing gives (not an orbit of another branch
+                    # that Newton fell onto, e.g. the one before the previous signature change)
+                    if old.signature != expect:
+                        continue
                     dist = float(np.linalg.norm(old.u - u_g))
                     if dist < best_dist and dist < 0.25:
                         best, best_dist = old, dist
@@ -944,7 +948,7 @@ class _Tracer:
             br.points.append(g)
         cands = [self.orient_away(g_hi, u_g, n)] if g_hi is not None and self.inside(g_hi.p) else []
         if not cands:
-            pt = self.partner(g, u_g, n)
+            pt = self.partner(g, u_g, n, expect=sig_new)
             if pt is not None:
                 cands.append(pt)
         if cands:
