@@ -49,7 +49,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .continuation_kernels import _corrector_step, _spectrum, _tangent
+from .continuation_kernels import SMALL_SPECTRUM, _corrector_step, _spectrum, _spectrum_small, _tangent
 
 FOLD = "fold"
 PERIOD_DOUBLING = "period_doubling"
@@ -262,6 +262,8 @@ class _Engine:
         self.sx = float(s_x)
         self.I = np.eye(self.d)
         self.n_shots = 0
+        # the spectrum: compiled for small d (no Python dispatch per point), LAPACK beyond
+        self.spectrum = _spectrum_small if self.d <= SMALL_SPECTRUM else _spectrum
 
     # ------------------------------------------------------------------ basic evaluations
     def shot(self, x, p, n):
@@ -299,7 +301,7 @@ class _Engine:
         return t if t[d] * direction >= 0 else -t
 
     def make_point(self, x, p, s, t=None, its=0, u=None):
-        mu, pd, ns = _spectrum(np.ascontiguousarray(s.M, dtype=float))
+        mu, pd, ns = self.spectrum(np.ascontiguousarray(s.M, dtype=float))
         return Point(x=np.asarray(x, float).copy(), p=float(p), u=self.u_of(x, p) if u is None else u,
                      t=t, shot=s, mu=mu, its=its, pd=pd, ns=ns)
 
