@@ -17,6 +17,7 @@ from .sdof_mapping import MappingSolver
 from .beam_dynamics import BeamEventSolver, BeamImpactModel, BeamODESolver
 from .sdof_ode import DirectSolver, IvanovSolver, ZhuravlevSolver
 from .periodic_sdof import SDOFShooting
+from .periodic_beam import BeamContinuation
 
 METHODS = {
     ("beam", "event"): BeamEventSolver,
@@ -34,6 +35,7 @@ METHODS = {
 # fidelity; a fidelity that registers one here can be continued (`method = "continuation"`)
 SHOOTING = {
     "sdof": SDOFShooting,
+    "beam": BeamContinuation,
 }
 
 
@@ -71,4 +73,4 @@ def make_solver(model, method: str, **settings):
 
 
 __all__ = ["SDOF", "EventSolver", "linear_amplitude", "make_solver", "METHODS", "SHOOTING",
-           "shooting_problem", "SDOFShooting"]
+           "shooting_problem", "SDOFShooting", "BeamContinuation"]

@@ -49,7 +49,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .continuation_kernels import _corrector_step, _spectrum, _tangent
+from .continuation_kernels import SMALL_SPECTRUM, _corrector_step, _spectrum, _spectrum_small, _tangent
 
 FOLD = "fold"
 PERIOD_DOUBLING = "period_doubling"
@@ -262,6 +262,8 @@ class _Engine:
         self.sx = float(s_x)
         self.I = np.eye(self.d)
         self.n_shots = 0
+        # the spectrum: compiled for small d (no Python dispatch per point), LAPACK beyond
+        self.spectrum = _spectrum_small if self.d <= SMALL_SPECTRUM else _spectrum
 
     # ------------------------------------------------------------------ basic evaluations
     def shot(self, x, p, n):
@@ -299,7 +301,7 @@ class _Engine:
         return t if t[d] * direction >= 0 else -t
 
     def make_point(self, x, p, s, t=None, its=0, u=None):
-        mu, pd, ns = _spectrum(np.ascontiguousarray(s.M, dtype=float))
+        mu, pd, ns = self.spectrum(np.ascontiguousarray(s.M, dtype=float))
         return Point(x=np.asarray(x, float).copy(), p=float(p), u=self.u_of(x, p) if u is None else u,
                      t=t, shot=s, mu=mu, its=its, pd=pd, ns=ns)
 
@@ -826,11 +828,13 @@ class _Tracer:
         br.resections += 1
         return True
 
-    def partner(self, g, u_g, n):
+    def partner(self, g, u_g, n, expect=None):
         """A point of another impact signature next to the grazing point ``u_g`` reached along
-        the branch of ``g``: at ``p_g +- delta`` the branch of ``g`` is solved first, then
-        deflated Newton from perturbations of it finds the other solutions; the nearest one of
-        another signature is returned (tangent turned away from ``u_g``), or None."""
+        the branch of ``g``: at ``p_g +- delta`` the branch of ``g`` is solved first (where
+        Newton from the grazing state lands on the signature ``expect`` that the grazing gives,
+        that orbit is a candidate: the branch passes the grazing with a corner), then deflated Newton from perturbations
+        of it finds the other solutions; the nearest one of another signature is returned
+        (tangent turned away from ``u_g``), or None."""
         eng = self.eng
         d = eng.d
         x_g, p_g = u_g[:d] * eng.sx, u_g[d] * eng.sp
@@ -846,7 +850,18 @@ class _Tracer:
                 if not self.inside(p):
                     continue
                 old, _ = eng.newton_fixed(x_g, p, n)
-                if old is None or old.signature != g.signature:
+                if old is None:
+                    continue
+                if old.signature != g.signature:
+                    # beyond the grazing only an orbit of another signature exists next to it:
+                    # the branch goes on through the grazing (a corner, not a non-smooth fold) --
+                    # if it has the signature the grazing gives (not an orbit of another branch
+                    # that Newton fell onto, e.g. the one before the previous signature change)
+                    if old.signature != expect:
+                        continue
+                    dist = float(np.linalg.norm(old.u - u_g))
+                    if dist < best_dist and dist < 0.25:
+                        best, best_dist = old, dist
                     continue
                 for v in dirs:
                     for e in (1e-3, -1e-3):
@@ -935,13 +950,16 @@ class _Tracer:
             br.points.append(g)
         cands = [self.orient_away(g_hi, u_g, n)] if g_hi is not None and self.inside(g_hi.p) else []
         if not cands:
-            pt = self.partner(g, u_g, n)
+            pt = self.partner(g, u_g, n, expect=sig_new)
             if pt is not None:
                 cands.append(pt)
         if cands:
             pt = cands[0]
             kind, detail = _graze_detail(g.signature, pt.signature)
-            br.bifurcations.append(_bif(kind, g, n, bi, len(br.points), detail + "; non-smooth fold", at=at))
+            d = eng.d
+            turn = ("non-smooth fold" if g.t is None or pt.t[d] * g.t[d] <= 0.0 else
+                    "the branch goes on through it with a corner")
+            br.bifurcations.append(_bif(kind, g, n, bi, len(br.points), f"{detail}; {turn}", at=at))
             br.points.append(pt)
             return True
         kind, detail = _graze_detail(g.signature, sig_new)

@@ -101,7 +101,7 @@ from .beam_dynamics import (EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_
 from .impact import restitution_coefficient
 from .periodic import Shot
 
-__all__ = ["BeamShooting", "conversions", "assemble_derivatives", "NATIVE_PARAMETERS",
+__all__ = ["BeamShooting", "BeamContinuation", "conversions", "assemble_derivatives", "NATIVE_PARAMETERS",
            "REBUILD_KEYS"]
 
 #: native continuation parameters of the beam and the model attribute each one sets
@@ -693,6 +693,7 @@ class BeamShooting:
         self.max_steps_per_period = int(max_steps_per_period)
         self._cache_key = None
         self._cache = None
+        self._tables = None
         self._cap = 64
         self._capa = 64
 
@@ -720,11 +721,16 @@ class BeamShooting:
         G = m.participation
         w = m.contact_row
         w2 = float(w @ w)
-        mpF = mode_table(c, k)
+        Nc = m.nu2.size
+        if self.parameter in ("damping_D_s", "rayleigh_alpha_1_s") or self._tables is None:
+            tables = (mode_table(c, k), mode_table(m.cC, m.nu2) if Nc else np.zeros((0, 6)))
+            if self.parameter not in ("damping_D_s", "rayleigh_alpha_1_s"):
+                self._tables = tables     # the mode tables depend on the damping only
+        else:
+            tables = self._tables
+        mpF, mpC = tables
         aF, bF = particular(c, k, G, F, Om)
         GF = G * F
-        Nc = m.nu2.size
-        mpC = mode_table(m.cC, m.nu2) if Nc else np.zeros((0, 6))
         aC, bC = particular(m.cC, m.nu2, m.GC, F, Om)
         me = m.m_eff
         lamF = -me * float(w @ G) * F
@@ -767,7 +773,7 @@ class BeamShooting:
             Emis = np.zeros((0, 0))
         self._cache_key = key
         self._cache = dict(
-            m=m, Om=Om, F=F, mpF=mpF, aF=aF, bF=bF, GF=GF, c=c, k=k, mpC=mpC, aC=aC, bC=bC,
+            m=m, me=me, Om=Om, F=F, mpF=mpF, aF=aF, bF=bF, GF=GF, c=c, k=k, mpC=mpC, aC=aC, bC=bC,
             SaL=SaL, SbL=SbL, SaS=SaS, SbS=SbS, GCF=m.GC * F, Emis=np.ascontiguousarray(Emis),
             dOm=dOm, dF=dF, daF=daF, dbF=dbF, dsF=0.5 * dcF, dcF=dcF, daC=daC, dbC=dbC,
             deC=np.ascontiguousarray(deC), dsC=0.5 * dcC, deta_c=np.ascontiguousarray(deta_c),
@@ -819,8 +825,11 @@ class BeamShooting:
             as the sweep's output), ``q_min``/``q_max`` of ``q = U(L_S) / L`` (exact
             extremes located by the kernel), ``apex_gap`` (m, ``w^T eta - Delta_C`` at the
             largest located interior free-flight apex), ``stuck_time`` (nondimensional),
-            ``status`` (``ok``, ``chatter``, ``failed``) and ``extra``: ``event_kinds``,
-            ``event_times``, ``release_times``, ``release_time_derivatives`` (n_rel, 2N+1),
+            ``status`` (``ok``, ``chatter``, ``failed``), ``Omega`` (the forcing frequency),
+            ``gap`` (``Delta = Delta_C / (phi(x_m) L)`` at ``p``: the stop of the output
+            coordinate, so that ``Q = gap - q_min`` is the sweep's amplitude) and ``extra``:
+            ``event_kinds``, ``event_times``, ``event_states`` (n_ev, 2N: the state logged with
+            each event, before an impact), ``release_times``, ``release_time_derivatives`` (n_rel, 2N+1),
             ``apexes`` (k, 2: time, gap), ``n_chatter``, ``stuck_start``, ``stuck_end``,
             ``n_inexact``.
         """
@@ -865,7 +874,7 @@ class BeamShooting:
             imp_t = np.zeros(imp_cap)
             imp_v = np.zeros(imp_cap)
             out = beam_kernel(Om, D["mpF"], D["aF"], D["bF"], w, m.sensor_row, D["c"], D["k"], D["GF"],
-                              m.gap_contact_m, m.m_eff, m.R, m.R_table_U, m.R_table_R,
+                              m.gap_contact_m, D["me"], m.R, m.R_table_U, m.R_table_R,
                               D["mpC"], D["aC"], D["bC"], m.eC, m.Psi, m.eta_c, m.pL, m.rL,
                               D["SaL"], D["SbL"], m.lam_const, m.pS, D["SaS"], D["SbS"], m.sens_const,
                               e, ed, stuck, 0, n, 1, 1, float(h_cap),
@@ -882,12 +891,13 @@ class BeamShooting:
         n_ev, n_ap = int(nlog[0]), int(nlog[1])
         x = np.concatenate([e, ed])
         extra = dict(event_kinds=evlog[:n_ev, 0].astype(int), event_times=evlog[:n_ev, 1].copy(),
+                     event_states=evlog[:n_ev, 3:].copy(),
                      apexes=aplog[:n_ap].copy(), n_chatter=int(n_chat), stuck_start=bool(stuck),
                      stuck_end=bool(stuck_end), n_steps=int(n_steps))
         if status == ST_FAILED:
             return Shot(x=x, M=nanM, x_p=nanv, impact_times=imp_t[:n_imp].copy(),
                         impact_velocities=imp_v[:n_imp] / L, q_min=smin / L, q_max=smax / L,
-                        stuck_time=float(stuck_time), status="failed",
+                        stuck_time=float(stuck_time), status="failed", Omega=Om, gap=m.Delta,
                         message=f"event kernel gave up after {n_tot} impacts / {n_steps} steps in "
                                 f"{n} periods (non-accumulating chatter or step collapse)",
                         extra=extra)
@@ -895,7 +905,7 @@ class BeamShooting:
         n_inexact = 0
         if derivatives:
             J, rel, n_rel, n_inexact = assemble_derivatives(
-                evlog, n_ev, x_start, x, bool(stuck_end), n * T, Om, w, m.m_eff, D["GF"],
+                evlog, n_ev, x_start, x, bool(stuck_end), n * T, Om, w, D["me"], D["GF"],
                 m.participation, D["c"], D["k"], D["mpF"], D["aF"], D["bF"], m.R, m.R_table_U,
                 m.R_table_R, D["mpC"], D["aC"], D["bC"], m.eC, m.Psi, m.eta_c, D["GCF"], m.cC,
                 m.nu2, D["Emis"], D["dOm"], D["dF"], D["F"], D["daF"], D["dbF"], D["dsF"],
@@ -913,4 +923,153 @@ class BeamShooting:
                    f"of a chatter hold, or entry into sticking at zero velocity)")
         return Shot(x=x, M=M, x_p=xp, impact_times=imp_t[:n_imp].copy(),
                     impact_velocities=imp_v[:n_imp] / L, q_min=float(smin / L), q_max=float(smax / L),
-                    apex_gap=apex, stuck_time=float(stuck_time), status=st, message=msg, extra=extra)
+                    apex_gap=apex, stuck_time=float(stuck_time), status=st, message=msg, extra=extra,
+                    Omega=Om, gap=m.Delta)
+
+    # ------------------------------------------------------------------ starting orbits
+    #: starts this problem offers besides the framework's ``sweep`` (no averaging for the beam:
+    #: paper Eqs. 18-27 are the SDOF's)
+    starts = ("linear",)
+
+    def linear_amplitude(self, p: float) -> float:
+        """Amplitude ``|w^T (a + i b)|`` (m) of the contact displacement of the contact-free
+        harmonic steady state at ``p`` (closed form; its grazing is where it equals
+        ``Delta_C``)."""
+        D = self._data(p)
+        w = D["m"].contact_row
+        return float(abs(w @ (D["aF"] + 1j * D["bF"])))
+
+    def start(self, kind: str, p: float, n: int = 1):
+        """Initial state of a closed-form orbit at ``p`` (contract of
+        :mod:`vibeam.models.periodic`).
+
+        Parameters
+        ----------
+        kind : {"linear"}
+            The contact-free harmonic steady state (:meth:`linear_orbit`), where its contact
+            amplitude stays below ``Delta_C``.
+        p : float
+            Value of the parameter (native units).
+        n : int, optional
+            Period (any: the orbit has period 1).
+
+        Returns
+        -------
+        x0 : ndarray, shape (2N,) or None
+        reason : str
+            Empty when the orbit exists, else why not.
+
+        Raises
+        ------
+        ValueError
+            For a start the beam does not offer (``averaging``: the averaging solution of paper
+            Eqs. 18-27 is the SDOF model's).
+        """
+        if kind != "linear":
+            raise ValueError(f"start {kind!r} is not available for the beam; allowed: "
+                             f"{', '.join(self.starts)} (and 'sweep')")
+        bad = self._invalid(float(p), self.parameter)
+        if bad:
+            return None, bad
+        A = self.linear_amplitude(p)
+        DC = self._data(p)["m"].gap_contact_m
+        if not A < DC:
+            return None, (f"the non-impacting orbit does not exist: its contact amplitude {A:.6g} m "
+                          f"reaches the stop Delta_C = {DC:.6g} m at {self.parameter} = {p:.6g}")
+        return self.linear_orbit(p), ""
+
+    # ------------------------------------------------------------------ section crossing
+    def resect(self, x0, p: float, n: int = 1):
+        """The same orbit seen on the other side of an impact that coincides with the section.
+
+        When an impact of the orbit through ``x0`` approaches forcing phase 0 (the first one
+        at ``t -> 0+`` or the last one at ``t -> n T-``), the state at the section jumps
+        between the pre- and post-impact states although the orbit does not.  Returns the
+        state at phase 0 with that impact moved to the other side of the section, to first
+        order in its distance ``t_c < 1e-6 T`` from the section (the engine corrects it by
+        Newton beyond the crossing): the post-impact state of the first impact (Newton impulse
+        through the mass matrix, paper Eq. 41), or the pre-impact state of the last one; None if
+        no impact lies within ``1e-6 T`` of the section (a sticking orbit held at the section is
+        represented already, see the class docstring).
+
+        The states are not carried across ``t_c`` by the free flow, as the SDOF's are: with the
+        stiff, overdamped high modes of a fine mesh the impulse sets off damping forces of
+        order ``c_i U`` (``c_i = D omega_i^2``), so the post-impact state carried back to phase
+        0 is a virtual state whose contact velocity may point into the stop (measured with all
+        46 modes of the rig: a spurious impact 1e-10 T after the section).
+        """
+        s = self.shot(x0, p, n, derivatives=False)
+        if s.status != "ok" or not s.n_impacts:
+            return None
+        kinds = s.extra["event_kinds"]
+        D = self._data(p)
+        m, Om = D["m"], D["Om"]
+        T = TWO_PI / Om
+        N = m.n_modes
+        w = m.contact_row
+        rows = np.flatnonzero((kinds == EV_IMPACT) | (kinds == EV_STICK_IMPACT))
+        if not rows.size:
+            return None
+        times, states = s.extra["event_times"], s.extra["event_states"]
+        i, j = rows[0], rows[-1]
+        if times[i] < 1e-6 * T and kinds[i] == EV_IMPACT:
+            eta, etad = states[i, :N].copy(), states[i, N:].copy()
+            U = float(w @ etad)
+            Rc = restitution_coefficient(U, m.R, m.R_table_U, m.R_table_R)
+            etad -= w * (1.0 + Rc) * U / float(w @ w)
+            return np.concatenate([eta, etad])
+        if times[j] > n * T - 1e-6 * T and kinds[j] == EV_IMPACT:
+            return states[j].copy()
+        return None
+
+    @staticmethod
+    def _free_flow(eta, etad, ta, tb, D):
+        """``(eta, eta')`` at ``tb`` from the state at ``ta`` by the closed-form free modal
+        flow (either direction in time; per mode ``z(tb) = Phi(tb - ta) (z(ta) - z_p(ta)) +
+        z_p(tb)``, :func:`_phi`)."""
+        Om, mp, a, b = D["Om"], D["mpF"], D["aF"], D["bF"]
+        s = tb - ta
+        zp = lambda t: (a * math.sin(Om * t) + b * math.cos(Om * t),
+                        Om * (a * math.cos(Om * t) - b * math.sin(Om * t)))
+        pa, va = zp(ta)
+        pb, vb = zp(tb)
+        N = eta.size
+        out = np.empty(2 * N)
+        for i in range(N):
+            t11, t12, t21, t22 = _phi(s, mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
+            u, v = eta[i] - pa[i], etad[i] - va[i]
+            out[i] = t11 * u + t12 * v + pb[i]
+            out[N + i] = t21 * u + t22 * v + vb[i]
+        return out
+
+
+class BeamContinuation(BeamShooting):
+    """:class:`BeamShooting` built the way the continuation framework builds every shooting
+    problem, ``cls(model, parameter, Omega=Omega)`` (registered as
+    ``vibeam.models.SHOOTING["beam"]``).
+
+    Parameters
+    ----------
+    model : BeamImpactModel
+    parameter : str, optional
+        Native parameter (:data:`NATIVE_PARAMETERS`).
+    Omega : float, optional
+        The fixed forcing frequency of a continuation in another parameter (required then);
+        for ``"Omega"`` only the reported ``value``.
+    **settings
+        Event settings of :class:`BeamShooting`.
+
+    Raises
+    ------
+    ValueError
+        As :class:`BeamShooting`; or a missing ``Omega`` for another parameter.
+    """
+
+    def __init__(self, model: BeamImpactModel, parameter: str = "Omega", Omega: float | None = None,
+                 **settings):
+        if parameter != "Omega" and Omega is None:
+            _check_parameter(parameter)
+            raise ValueError(f"continuation in {parameter!r} needs the forcing frequency Omega")
+        super().__init__(model, 1.0 if Omega is None else Omega, parameter, **settings)
+        if parameter == "Omega" and Omega is None:
+            self.value = math.nan

@@ -17,7 +17,8 @@ the reference is exact to round-off).  It prints ratios, never asserts them.
 line checkpoint (:func:`run_map_bench`); ``--effects`` instead times each scene effect (:func:`run_effects_bench`);
 ``--continuation`` instead times the continuation of a period-1 branch through its fold and
 grazing and compares its cost per FRC point with a sweep of equal accuracy
-(:func:`run_continuation_bench`);
+(:func:`run_continuation_bench`, JSON key ``sdof``), and the same for the beam with all modes
+of the shipped rig (:func:`run_beam_continuation_bench`, key ``beam``);
 ``--shooting`` instead measures the beam's periodic-orbit shots and Newton solves against
 the event solver (:func:`run_shooting_bench`); ``--scaling`` instead measures how the cost of a sweep grows with the periods
 simulated and with the retained modes of the FE beam, with fitted exponents
@@ -313,6 +314,145 @@ def run_fit_bench(points: int = 30, jobs: int = 2, sigma_mm: float = 0.01, seed:
     return out
 
 
+BEAM_CONTINUATION_GOAL_S = 10.0   # issue 10: all-modes branch of the 24-element rig over 14-17 Hz
+
+
+def _timed_trace(prob, x0, p0, lo, hi, direction, settings, repeats):
+    """Median wall and CPU time of :func:`trace` (after a warm-up call), shots per run, the
+    branches of the last run."""
+    from .models.continuation import trace
+
+    trace(prob, x0, p0, 1, lo, hi, direction, settings)          # warm-up: kernels, cache load
+    times, cpu = [], []
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), time.process_time()
+        brs = trace(prob, x0, p0, 1, lo, hi, direction, settings)
+        times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    calls = [0]
+    shot = prob.shot
+
+    def counted(*a, **k):
+        calls[0] += 1
+        return shot(*a, **k)
+
+    prob.shot = counted
+    try:
+        trace(prob, x0, p0, 1, lo, hi, direction, settings)
+    finally:
+        del prob.shot
+    return statistics.median(times), statistics.median(cpu), times, calls[0], brs
+
+
+def run_beam_continuation_bench(repeats: int = 3, sweep_points: int = 16, target_error: float = 1e-8,
+                                log=None) -> dict:
+    """Speed of the beam's continuation with all modes of the shipped 24-element rig (46 modes,
+    d = 92) against the goal :data:`BEAM_CONTINUATION_GOAL_S` and against the sweep it replaces.
+
+    * ``neutral``: cases/rig-fe-neutral.toml, 14-17 Hz, the period-1 branch from the orbit an
+      event run from rest reaches at 14 Hz (400 periods, timed apart: ``start_s``); the verdict
+      compares the branch's median time (after a warm-up) with the goal.  Equal accuracy: a
+      laboratory sweep of the event solver over ``sweep_points`` frequencies (state carried
+      from point to point) with more and more transient periods until every amplitude agrees
+      with the exact branch values (Newton at the grid frequencies) to ``target_error``; its
+      cost per point is set against the branch's.
+    * ``tight``: cases/rig-fe-tight.toml (pre-stressed stop, chatter): over 14-17 Hz from the
+      orbit the event run reaches at 14 Hz (~110 impacts per period ending in sticking; its
+      branch ends where the sticking does and a 20-impact orbit grazes, at 14.375 Hz), and the
+      shipped ladder's all-modes branch (cases/rig-fe-tight-continuation.toml: 14-21 Hz from
+      18 Hz, through its folds, non-smooth folds and period doublings), each timed once (the
+      second is the case's, not the goal's).
+    """
+    from .models import shooting_problem
+    from .models.beam_dynamics import BeamEventSolver
+    from .models.continuation import Settings, start_point, trace
+
+    log = log or (lambda m: None)
+    out: dict = {}
+    st = Settings()
+    case, model, _, _ = _scene("rig-fe-neutral.toml", {"n_modes": "all"})
+    f_ref = model.f_ref_hz
+    lo, hi = 14.0 / f_ref, 17.0 / f_ref
+    t0 = time.perf_counter()
+    x0 = BeamEventSolver(model).point(lo, None, 400, 1, 1).final_state[:-1]
+    t_start = time.perf_counter() - t0
+    prob = shooting_problem(model, "Omega")
+    t, c, times, shots, brs = _timed_trace(prob, x0, lo, lo, hi, +1, st, repeats)
+    b = brs[0]
+    a = b.arrays()
+    n_pts = len(b)
+    log(f"beam continuation (neutral, all modes): {n_pts} points in {t:.3f} s")
+    # the sweep it replaces at equal accuracy (every point of this branch is stable)
+    grid = np.linspace(lo, hi, sweep_points)
+    Q_ref = np.empty_like(grid)
+    for i, W in enumerate(grid):
+        k = int(np.argmin(np.abs(a["parameter"] - W)))
+        pt, _ = start_point(prob, a["state"][k], W, 1, lo, hi)
+        Q_ref[i] = pt.shot.amplitude
+    solver = BeamEventSolver(model)
+    rows = []
+    for n_tr in (25, 50, 100, 200, 400, 800):
+        t1 = time.perf_counter()
+        state = None
+        Q = np.empty_like(grid)
+        for i, W in enumerate(grid):
+            tr = solver.point(W, state, n_tr, 1, 8)
+            state = tr.final_state
+            Q[i] = model.Delta - tr.q_min
+        ts = time.perf_counter() - t1
+        err = float(np.max(np.abs(Q - Q_ref) / Q_ref))
+        rows.append(dict(transient_periods=n_tr, time_s=ts, time_per_point_s=ts / len(grid), max_rel_error=err))
+        log(f"  all-modes sweep with {n_tr} transient periods: max rel. error {err:.2e}, {ts:.2f} s")
+        if err <= target_error:
+            break
+    equal = next((r for r in rows if r["max_rel_error"] <= target_error), None)
+    per_point = t / n_pts
+    out["neutral"] = {
+        "scene": "cases/rig-fe-neutral.toml, all 46 modes (d = 92), 14-17 Hz, period-1 branch from the event orbit at 14 Hz",
+        "points": n_pts, "status": b.status, "time_s": t, "times_s": times, "cpu_time_s": c,
+        "time_per_point_s": per_point, "shots": shots, "shots_per_point": shots / n_pts,
+        "start_s": t_start, "stable_points": int(a["stable"].sum()),
+        "bifurcations": [(f.type, f.parameter * f_ref) for f in b.bifurcations],
+        "goal": {"time_s": BEAM_CONTINUATION_GOAL_S,
+                 "verdict": "pass" if t < BEAM_CONTINUATION_GOAL_S else "fail",
+                 "verdict_with_start": "pass" if t + t_start < BEAM_CONTINUATION_GOAL_S else "fail",
+                 "ratio_to_goal": t / BEAM_CONTINUATION_GOAL_S},
+        "sweep_at_equal_accuracy": {
+            "grid": f"{sweep_points} frequencies over 14-17 Hz (up, state carried on)",
+            "target_max_rel_error": target_error, "ladder": rows,
+            "transient_periods": equal["transient_periods"] if equal else None,
+            "time_per_point_s": equal["time_per_point_s"] if equal else None,
+            "cost_ratio_sweep_to_continuation_per_point": (equal["time_per_point_s"] / per_point) if equal else None},
+    }
+    # the pre-stressed stop: chatter orbits, ~40 ms per shot with M
+    case, model, _, _ = _scene("rig-fe-tight.toml", {"n_modes": "all"})
+    f_ref = model.f_ref_hz
+    lo, hi = 14.0 / f_ref, 17.0 / f_ref
+    x0 = BeamEventSolver(model).point(lo, None, 400, 1, 1).final_state[:-1]
+    prob = shooting_problem(model, "Omega")
+    trace(prob, x0, lo, 1, lo, hi, +1, Settings(switch=False, max_points=3))      # warm-up
+    rows = {}
+    for label, (x, p0, lo_, hi_, direction) in {
+            "14-17 Hz from the event orbit at 14 Hz": (x0, lo, lo, hi, +1),
+            "ladder 14-21 Hz from 18 Hz (cases/rig-fe-tight-continuation.toml)":
+                (BeamEventSolver(model).point(18.0 / f_ref, None, 400, 1, 1).final_state[:-1], 18.0 / f_ref,
+                 lo, 21.0 / f_ref, 0)}.items():
+        t0, c0 = time.perf_counter(), time.process_time()
+        (b, *_) = trace(prob, x, p0, 1, lo_, hi_, direction, Settings(switch=False))
+        tt, cc = time.perf_counter() - t0, time.process_time() - c0
+        a = b.arrays()
+        rows[label] = {"points": len(b), "status": b.status, "message": b.message, "time_s": tt, "cpu_time_s": cc,
+                       "time_per_point_s": tt / max(len(b), 1),
+                       "impacts_per_orbit_max": int(a["impacts"].max()) if len(b) else 0,
+                       "bifurcations": [(f.type, f.parameter * f_ref) for f in b.bifurcations]}
+        log(f"beam continuation (tight, all modes, {label}): {len(b)} points in {tt:.2f} s, {b.status}")
+    out["tight"] = rows
+    out["tight"]["goal_verdict_14_17_Hz"] = ("pass" if rows["14-17 Hz from the event orbit at 14 Hz"]["time_s"]
+                                             < BEAM_CONTINUATION_GOAL_S else "fail")
+    out["load_average"] = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    return out
+
+
 def main_bench(args) -> int:
     if getattr(args, "fit", False):
         out = run_fit_bench(jobs=getattr(args, "jobs", None) or 2)
@@ -321,8 +461,10 @@ def main_bench(args) -> int:
               f"against the goal of {out['goal_s']:g} s)", file=sys.stderr)
         return 0
     if getattr(args, "continuation", False):
-        print(json.dumps(run_continuation_bench(repeats=getattr(args, "repeats", 5),
-                                                log=lambda m: print(m, file=sys.stderr)), indent=2))
+        log = lambda m: print(m, file=sys.stderr)
+        out = run_continuation_bench(repeats=getattr(args, "repeats", 5), log=log)
+        out = {"sdof": out, "beam": run_beam_continuation_bench(repeats=min(3, getattr(args, "repeats", 3)), log=log)}
+        print(json.dumps(out, indent=2))
         return 0
     if getattr(args, "scaling", False):
         print(json.dumps(run_scaling_bench(repeats=getattr(args, "repeats", 3)), indent=2))

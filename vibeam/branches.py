@@ -562,24 +562,40 @@ def print_results(results: list) -> None:
 
 
 def _print_rungs(results: list) -> None:
+    """Fold and period-doubling frequencies of the period-1 branches of every run side by side.
+
+    A rung may have several of each (e.g. the fold where a down sweep jumps and folds of a
+    small chatter orbit): they are numbered by decreasing amplitude ``Q``, which pairs the
+    same bifurcation of topologically equal branches across rungs whose frequencies shift
+    (numbering by frequency would pair different ones); each cell gives the frequency and
+    ``Q`` there."""
     fn_all = all(r.attrs.get("natural_frequency_hz") for r in results)
     unit = "Hz" if fn_all else "Omega"
+    L_all = all(r.attrs.get("length_m") for r in results)
     rows = {}
     for r in results:
         fn = r.attrs.get("natural_frequency_hz") if fn_all else 1.0
+        L = r.attrs.get("length_m") if L_all else None
         for kind in ("fold", "period_doubling"):
-            vals = sorted({round(bf["parameter"] * fn, 9) for bf in r.bifurcations
-                           if bf["type"] == kind and bf["n"] == 1})
-            for j, v in enumerate(vals):
-                rows.setdefault((kind, j), {})[r.name] = v
+            seen = {}
+            for bf in r.bifurcations:
+                if bf["type"] == kind and bf["n"] == 1:
+                    Q = bf["amplitude"] * L * 1e3 if L else bf["amplitude"]
+                    seen.setdefault(round(bf["parameter"] * fn, 9), Q)
+            vals = sorted(seen.items(), key=lambda fq: -fq[1] if math.isfinite(fq[1]) else math.inf)
+            for j, fq in enumerate(vals):
+                rows.setdefault((kind, j), {})[r.name] = fq
     if not rows:
         return
-    print(f"\nfold and period-doubling frequencies of the period-1 branches ({unit}), run by run:")
-    head = f"{'':<22}" + "".join(f"{r.name[:18]:>20}" for r in results)
+    qu = "Q mm" if L_all else "Q"
+    print(f"\nfold and period-doubling frequencies of the period-1 branches ({unit}; {qu} in brackets; "
+          f"numbered by decreasing Q), run by run:")
+    head = f"{'':<20}" + "".join(f"{r.name[:22]:>24}" for r in results)
     print(head)
     for (kind, j), vals in sorted(rows.items()):
-        print(f"{kind + ' ' + str(j + 1):<22}" + "".join(
-            f"{vals[r.name]:>20.6f}" if r.name in vals else f"{'-':>20}" for r in results))
+        print(f"{kind + ' ' + str(j + 1):<20}" + "".join(
+            f"{vals[r.name][0]:>13.6f} ({vals[r.name][1]:7.4g})" if r.name in vals else f"{'-':>24}"
+            for r in results))
 
 
 # ----------------------------------------------------------------------------- plots

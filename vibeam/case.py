@@ -199,6 +199,41 @@ class BeamModelSpec(_Strict):
 
     physical: ClassVar[bool] = True
 
+    # continuation parameters besides the frequency (Omega, with its range in Hz): keys that
+    # act on the modal model without changing its modes (vibeam.models.periodic_beam.conversions)
+    _CONTINUABLE: ClassVar[tuple] = ("voltage", "gain", "gap_mm", "contact_gap_mm", "damping_ratio", "R",
+                                     "rayleigh_alpha_1_s")
+
+    def native_parameter(self, key: str):
+        """``(native key, factor)`` of a continuation parameter of the beam's shooting problem
+        (:func:`vibeam.models.periodic_beam.conversions`: ``base_amplitude_m = gamma~ V`` with
+        ``gamma~ = gain phi(x_m) L``, ``gap_contact_m = phi(x_m) gap_mm 1e-3`` (Eq. 45),
+        ``damping_D_s = 2 beta / omega_1`` (Eq. 39), ``R``): the native value is ``factor *
+        value``.
+
+        Raises
+        ------
+        ValueError
+            Naming the key and what is allowed: a key that changes the FE model (its modes and
+            shapes, e.g. ``length_mm``, ``n_modes``), the gap key the scene does not use, or a
+            key that is not a model key.
+        """
+        from vibeam.models.periodic_beam import REBUILD_KEYS, conversions
+
+        gap_key = "gap_mm" if self.gap_mm is not None else "contact_gap_mm"
+        allowed = ("Omega",) + tuple(k for k in self._CONTINUABLE
+                                     if k == gap_key or k not in ("gap_mm", "contact_gap_mm"))
+        if key in REBUILD_KEYS:
+            raise ValueError(f"changes the FE model (its modes and shapes): a beam scene cannot be continued "
+                             f"in it; allowed: {', '.join(allowed)}")
+        if key == "frequency_hz":
+            raise ValueError(f"is continued as 'Omega' (range and start_at in Hz); allowed: {', '.join(allowed)}")
+        if key not in allowed:
+            raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(allowed)}")
+        if key == "Omega":
+            return "Omega", 1.0
+        return conversions(self.build(), gain_per_V=self.gain, voltage=self.voltage)[key]
+
     def build(self):
         """The :class:`vibeam.models.beam_dynamics.BeamImpactModel` of this scene."""
         from vibeam.beamscene import build_beam_model

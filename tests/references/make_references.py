@@ -17,7 +17,8 @@ run names as ``vibeam run --quick``) computed with converged settings:
   attractor, and regressions compare the spread of its per-period amplitude);
 * ``averaging`` and ``mapping`` runs are closed-form/Newton and run as they are;
 * ``continuation`` runs are left out: the regression compares FRCs of sweeps (their branches
-  are regressed by ``tests/test_continuation*.py`` against the oracles there).
+  are regressed by ``tests/test_continuation*.py`` against the oracles there); a case with
+  continuation runs only gets no reference (``BRANCH_REGRESSED`` in ``tests/test_references.py``).
 
 Before a reference is written it is checked against the independent oracles
 that apply, and nothing is written if one fails (:func:`check_runs`):
@@ -468,7 +469,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     paths = [Path(p) for p in args.cases] or sorted(CASES.glob("*.toml"))
     failed = []
+    from vibeam.case import load_case
     for p in paths:
+        if all(r.method == "continuation" for r in load_case(p)[0].run):
+            print(f"[{p}] continuation runs only: no reference FRC (its branches are regressed by "
+                  f"tests/test_references.py:BRANCH_REGRESSED)")
+            continue
         ok, _ = make_reference(p, args.out, jobs=args.jobs, write=not args.check_only)
         if not ok:
             failed.append(str(p))
