@@ -28,6 +28,7 @@ from vibeam.cli import main
 from vibeam.maps import all_runs
 from vibeam.regress import match_points
 from vibeam.results import read_results
+from vibeam.testing import check_labelled
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = sorted((ROOT / "cases").glob("*.toml"))
@@ -52,6 +53,8 @@ def test_quick_variant_regresses_against_its_reference(path, tmp_path, capsys):
                "--jobs", "1"])
     out = capsys.readouterr().out
     assert rc == 0, out
+    # the results are labelled data: xarray sees named dimensions, coordinates, units, str
+    check_labelled(tmp_path / "results.h5")
     # periodic points with the same period: the amplitude to amplitude_rtol alone
     case, _ = load_case(path)
     rtol = case.regress.amplitude_rtol
@@ -89,6 +92,17 @@ def test_a_case_without_reference_fails_loudly(tmp_path):
         reference_for(case)
 
 
+@pytest.mark.parametrize("ref", sorted(REFS.glob("*.h5")), ids=lambda p: p.stem)
+def test_references_are_labelled_data(ref):
+    """The shipped references are in the netCDF layout (converted once by convert_layout.py,
+    numbers unchanged) and open with xarray like any results file."""
+    import xarray as xr
+
+    check_labelled(ref)
+    with xr.open_dataset(ref, group="reference", engine="h5netcdf") as ds:
+        assert int(ds["transient_periods"]) >= 1000 and ds["checks"].dims == ("check",)
+
+
 def test_references_passed_their_oracle_checks():
     for ref in sorted(REFS.glob("*.h5")):
         with h5py.File(ref, "r") as f:
@@ -119,8 +133,8 @@ def test_perturbed_reference_fails(tmp_path, capsys):
     shutil.copy(ref, bad)
     with h5py.File(bad, "r+") as f:
         a = f["runs/exact/amplitude"]
-        v = a[()]
-        v[3] *= 1 + 10 * tol.amplitude_rtol + 1e-9  # ten tolerances off at one point
+        v = a[()]                                   # (direction, Omega)
+        v[0, 3] *= 1 + 10 * tol.amplitude_rtol + 1e-9  # ten tolerances off at one point
         a[...] = v
     capsys.readouterr()
     assert main(["regress", str(case), "--reference", str(bad), "--results", str(res)]) == 1
@@ -131,7 +145,7 @@ def test_perturbed_reference_fails(tmp_path, capsys):
     with h5py.File(bad, "r+") as f:
         p = f["runs/exact/period"]
         v = p[()]
-        v[5] = 2
+        v[0, 5] = 2
         p[...] = v
     assert main(["regress", str(case), "--reference", str(bad), "--results", str(res)]) == 1
 

@@ -35,9 +35,9 @@ def test_regress_hdf5_self_passes_and_perturbed_fails(tmp_path, capsys):
     bad = tmp_path / "bad.h5"
     bad.write_bytes(ref.read_bytes())
     with h5py.File(bad, "r+") as f:
-        a = f["runs/exact/amplitude"]
+        a = f["runs/exact/amplitude"]      # (direction, Omega)
         v = a[()]
-        v[100] *= 1.01  # 1 % off at one point, above rtol 1e-3
+        v[0, 100] *= 1.01  # 1 % off at one point, above rtol 1e-3
         a[...] = v
     capsys.readouterr()
     assert main(["regress", str(case), "--reference", str(bad), "--results", str(ref)]) == 1

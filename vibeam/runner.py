@@ -327,6 +327,8 @@ def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor
         if attrs.get("case_json") != case_json:
             raise InputError(f"--resume: {h5} was written by another case or variant; run without "
                              f"--resume to start afresh, or use another --out")
+        if attrs.get("complete") and not stored:
+            return _finished(case, h5, out_dir, plots)
     t_all = time.perf_counter()
     all_lines = [(job, l) for job in jobs_ for l in _lines(job)]
     line_data = {}          # "<run>/<key>" -> stacked datasets (the checkpoint)
@@ -371,12 +373,40 @@ def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor
 
     rows_of = {k: unstack(v) for k, v in line_data.items()}
     runs, maps = _assemble(case, jobs_, rows_of)
-    write_results(h5, runs, case.name, text, maps=maps, lines=line_data, case_json=case_json)
+    # the checkpoint lines are compacted: the finished file holds every point once (/runs, /maps)
+    write_results(h5, runs, case.name, text, maps=maps, case_json=case_json)
     print(f"\ncase {case.name}: {len(runs) + len(maps)} run(s) in {time.perf_counter() - t_all:.2f} s -> {h5}")
+    _report(case, runs, maps, out_dir, plots)
+    return maps if case.map else runs
+
+
+def _report(case, runs, maps, out_dir, plots) -> None:
+    """The tables (and the plots) of finished runs and maps."""
     if runs:
         _print_table(runs)
+    from .maps import class_agreement, print_map
+
+    for m in maps:
+        print_map(m)
+    for m in maps[1:]:
+        same = class_agreement(maps[0], m)
+        if same is not None:
+            print(f"  {m.name} vs {maps[0].name}: classes differ at {int((~same).sum())} of {same.size} points")
     if plots:
         _plots(case, runs, maps, out_dir)
+
+
+def _finished(case, h5, out_dir, plots):
+    """``--resume`` of a complete file: nothing is recomputed; its runs are read back."""
+    from .results import load_results
+
+    runs, maps, _ = load_results(h5)
+    order = {r.name: i for i, r in enumerate(case.run)}
+    runs.sort(key=lambda r: order.get(r.name, len(order)))
+    maps.sort(key=lambda m: order.get(m.name, len(order)))
+    print(f"[{case.name}] {h5} is complete; resuming recomputes nothing", file=sys.stderr)
+    print(f"\ncase {case.name}: {len(runs) + len(maps)} run(s) read from {h5}")
+    _report(case, runs, maps, out_dir, plots)
     return maps if case.map else runs
 
 
@@ -431,18 +461,13 @@ def _assemble(case, jobs_, rows_of):
 
 def _plots(case, runs, maps, out_dir):
     from . import assess
-    from .maps import class_agreement, plot_agreement, plot_map, print_map
+    from .maps import plot_agreement, plot_map
     from .plots import plot_bifurcation, plot_frc
 
     for m in maps:
-        print_map(m)
         p = plot_map(m, out_dir / f"map_{file_stem(m.name)}.png", title=case.name)
         print(f"map plot: {p}")
     if len(maps) > 1:
-        for m in maps[1:]:
-            same = class_agreement(maps[0], m)
-            if same is not None:
-                print(f"  {m.name} vs {maps[0].name}: classes differ at {int((~same).sum())} of {same.size} points")
         # "maps_" never begins a per-run plot ("map_<run>.png"), so no run name can collide with it
         p = plot_agreement(maps, out_dir / "maps_agreement.png", title=case.name)
         if p:
