@@ -47,10 +47,14 @@ def reference_for(case_path) -> Path:
 
 
 @pytest.mark.parametrize("path", CASES, ids=[p.stem for p in CASES])
-def test_quick_variant_regresses_against_its_reference(path, tmp_path, capsys):
+def test_quick_variant_regresses_against_its_reference(path, quick_results, capsys):
+    """``vibeam run CASE --quick`` (the session's quick results, also read by test_plots)
+    regressed by ``vibeam regress CASE --reference REF --results``; its results file opens
+    with xarray as labelled data."""
     ref = reference_for(path)
-    rc = main(["regress", str(path), "--reference", str(ref), "--quick", "--out", str(tmp_path),
-               "--jobs", "1"])
+    tmp_path = quick_results(path)
+    capsys.readouterr()
+    rc = main(["regress", str(path), "--reference", str(ref), "--results", str(tmp_path / "results.h5")])
     out = capsys.readouterr().out
     assert rc == 0, out
     # the results are labelled data: xarray sees named dimensions, coordinates, units, str

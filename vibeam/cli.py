@@ -301,33 +301,33 @@ def _atomic_file(path: Path, write) -> Path:
 
 
 def _plot_modes(rep, path, title):
-    import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
+
+    from . import style
+    from .plots import save_figure
 
     fe, md, cm = rep["fe"], rep["modes"], rep["contact"]
     L = fe.geometry.length_m
     x = np.linspace(0, L, 361)
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
-    for ax, m, lab in ((axes[0], md, "free"), (axes[1], cm, "contact (held at the stop)")):
-        for i in range(min(4, m.shapes.shape[1])):
-            w = fe.deflection(m.shapes[:, i], x)
-            ax.plot(x * 1e3, w / np.max(np.abs(w)), label=f"{m.frequencies_hz[i]:.2f} Hz")
-        for xp, nm in ((fe.geometry.sensor_position_m, "L_S"), (fe.geometry.mass_position_m, "L_m")):
-            ax.axvline(xp * 1e3, color="0.6", ls=":")
-            ax.text(xp * 1e3, 1.02, nm, ha="center", fontsize=8)
-        ax.set_title(f"{lab} modes")
-        ax.set_xlabel("x (mm)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    axes[0].set_ylabel("normalised deflection")
-    fig.suptitle(title)
-    fig.tight_layout()
-    from .plots import save_figure
-
-    save_figure(fig, path)
-    plt.close(fig)
+    with style.context():
+        fig, axes = plt.subplots(1, 2, figsize=(10, 4.4), sharey=True)
+        for ax, m, lab in ((axes[0], md, "free"), (axes[1], cm, "contact (held at the stop)")):
+            for i in range(min(4, m.shapes.shape[1])):
+                w = fe.deflection(m.shapes[:, i], x)
+                ax.plot(x * 1e3, w / np.max(np.abs(w)), label=f"{m.frequencies_hz[i]:.2f} Hz")
+            for xp, nm in ((fe.geometry.sensor_position_m, "L_S"), (fe.geometry.mass_position_m, "L_m")):
+                ax.axvline(xp * 1e3, color="0.6", ls=":")
+                ax.text(xp * 1e3, 1.02, nm, ha="center", fontsize=8)
+            ax.set_title(f"{lab} modes", loc="left")
+            ax.set_xlabel(style.label("position along the beam x", "mm"))
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=4, title="mode")
+        axes[0].set_ylabel(style.label("normalised deflection", None))
+        style.titles(fig, title, "mode shapes of the FE beam")
+    try:
+        save_figure(fig, path)
+    finally:
+        plt.close(fig)
     return path
 
 

@@ -1133,6 +1133,9 @@ def load_results(path) -> tuple[list, list, dict]:
     from .sweep import SweepResult
 
     res = read_results(path)
+    order = _run_order(res["attrs"])
+    for kind in ("runs", "maps"):             # the case's order (HDF5 lists groups by name)
+        res[kind] = dict(sorted(res[kind].items(), key=lambda kv: order.get(kv[0], len(order))))
     runs, maps = [], []
     for kind, items in (("runs", res["runs"]), ("maps", res["maps"])):
         for name, d in items.items():
@@ -1150,6 +1153,17 @@ def load_results(path) -> tuple[list, list, dict]:
             else:
                 maps.append(MapResult(parameter=str(a.get("parameter", "value")), attrs=a, **common))
     return runs, maps, res["attrs"]
+
+
+def _run_order(attrs: dict) -> dict:
+    """Run name -> position in the case of a results file (empty if its text does not parse)."""
+    import tomllib
+
+    try:
+        runs = tomllib.loads(str(attrs.get("case_text", ""))).get("run", [])
+        return {r["name"]: i for i, r in enumerate(runs)}
+    except Exception:
+        return {}
 
 
 def _decode_attrs(a: dict) -> dict:

@@ -465,17 +465,17 @@ def _plots(case, runs, maps, out_dir):
     from .plots import plot_bifurcation, plot_frc
 
     for m in maps:
-        p = plot_map(m, out_dir / f"map_{file_stem(m.name)}.png", title=case.name)
+        p = plot_map(m, out_dir / f"map_{file_stem(m.name)}.png", title=case.name, case=case)
         print(f"map plot: {p}")
     if len(maps) > 1:
         # "maps_" never begins a per-run plot ("map_<run>.png"), so no run name can collide with it
-        p = plot_agreement(maps, out_dir / "maps_agreement.png", title=case.name)
+        p = plot_agreement(maps, out_dir / "maps_agreement.png", title=case.name, case=case)
         if p:
             print(f"map agreement plot: {p}")
     if runs:
         assess.finish(case, runs, out_dir)
-        p1 = plot_frc(runs, out_dir / "frc.png", title=case.name)
-        p2 = plot_bifurcation(runs, out_dir / "bifurcation.png", title=case.name)
+        p1 = plot_frc(runs, out_dir / "frc.png", title=case.name, case=case)
+        p2 = plot_bifurcation(runs, out_dir / "bifurcation.png", title=case.name, case=case)
         print(f"plots: {p1}" + (f", {p2}" if p2 else ""))
 
 
