@@ -393,21 +393,31 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="output folder (default results/<case name>/)")
     p.add_argument("-n", type=_int_at_least(1), default=6, help="number of modes (default 6)")
     p.set_defaults(func=cmd_modes)
-    p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp (JSON)")
-    p.add_argument("--points", type=_int_at_least(1), default=101)
+    p = sub.add_parser("bench", help="speed and accuracy against the stated goals: JSON on stdout, a PASS/FAIL "
+                       "line per goal on stderr",
+                       description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
+                       "atol 1e-8) on the Fig. 7 scene, inline, with the goals: event sweep under 1 s, >= 300x "
+                       "faster, >= 1000x smaller error.  The other modes replace it.")
+    p.add_argument("--points", type=_int_at_least(1), default=101,
+                   help="frequencies of the Fig. 7 sweep (default 101)")
     p.add_argument("--periods", type=_int_at_least(65), default=500,
-                   help="forcing periods per point, transient + the 64 recorded ones (> 64)")
-    p.add_argument("--repeats", type=_int_at_least(1), default=5)
+                   help="forcing periods per point, transient + the 64 recorded ones (> 64; default 500)")
+    p.add_argument("--repeats", type=_int_at_least(1), default=5,
+                   help="timed repetitions, the median is reported (default 5; --cli: runs of the command)")
     p.add_argument("--direct-points", type=_int_at_least(1), default=None,
-                   help="time solve_ivp on this many points only and scale (quick look)")
+                   help="time solve_ivp on this many points only and scale (quick look; --cli default 11)")
+    p.add_argument("--cli", action="store_true",
+                   help="instead: `vibeam run cases/paper-fig7.toml` in fresh processes, its own reported run time "
+                        "per point against direct RK23 per point (goal >= 300x)")
     p.add_argument("--map", action="store_true",
                    help="instead: parameter-map points per second on 1 and 2 workers and the cost of the "
-                        "line checkpoint (JSON)")
+                        "line checkpoint (goals: checkpoint <= 10 %%, 2 workers >= 1.6x, same maps)")
     p.add_argument("--scaling", action="store_true",
                    help="instead: how the cost of a sweep grows with periods simulated and with retained modes, "
-                        "fitted exponents (JSON)")
+                        "fitted exponents (goals: linear in periods, at most linear in modes)")
     p.add_argument("--effects", action="store_true",
-                   help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect")
+                   help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect "
+                        "(goal: no effect more than doubles the sweep)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
     return _dispatch(args)

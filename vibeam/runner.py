@@ -366,17 +366,38 @@ def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor
         if time.perf_counter() - last_flush[0] >= checkpoint_interval_s:
             flush()
 
+    timing = {"kernel_load_s": 0.0, "pool_startup_s": 0.0, "executor": "inline"}
     try:
-        run_lines(todo, executor=executor, jobs=jobs, on_line=on_line, progress=not quiet, desc=case.name)
+        if todo and executor is None:
+            # numba kernels loaded (or compiled) once, here: a forked worker inherits them
+            timing["kernel_load_s"] = load_kernels(todo)
+        n_workers, why = plan_execution(case, jobs_, todo, jobs, executor)
+        t_run = last_flush[0] = time.perf_counter()
+        run_lines(todo, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet, desc=case.name,
+                  stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
+        timing["run_s"] = time.perf_counter() - t_run
+        timing["why"] = why
     finally:
         flush()              # on an interrupt too: every finished line is kept
 
     rows_of = {k: unstack(v) for k, v in line_data.items()}
     runs, maps = _assemble(case, jobs_, rows_of)
     # the checkpoint lines are compacted: the finished file holds every point once (/runs, /maps)
+    t_w = time.perf_counter()
     write_results(h5, runs, case.name, text, maps=maps, case_json=case_json)
+    timing["write_s"] = time.perf_counter() - t_w
+    n_done = sum(l.n_points for l in todo)
     print(f"\ncase {case.name}: {len(runs) + len(maps)} run(s) in {time.perf_counter() - t_all:.2f} s -> {h5}")
+    if todo:
+        run_s = timing["run_s"]
+        print(f"run time {run_s:.3f} s for {n_done} points: {1e3 * run_s / max(n_done, 1):.3g} ms per point "
+              f"({timing['executor']}{': ' + timing['why'] if timing.get('why') else ''}; "
+              f"pool start-up {timing['pool_startup_s']:.3f} s)\n"
+              f"not in the run time: kernel load {timing['kernel_load_s']:.3f} s (numba cache or compilation, "
+              f"once per process), results written in {timing['write_s']:.3f} s")
     _report(case, runs, maps, out_dir, plots)
+    for r in list(runs) + list(maps):
+        r.attrs.setdefault("_timing", timing)
     return maps if case.map else runs
 
 
@@ -408,6 +429,68 @@ def _finished(case, h5, out_dir, plots):
     print(f"\ncase {case.name}: {len(runs) + len(maps)} run(s) read from {h5}")
     _report(case, runs, maps, out_dir, plots)
     return maps if case.map else runs
+
+
+# ----------------------------------------------------------------------------- execution
+STEP_SECONDS = 1.1e-7
+"""Wall time of one event-kernel step on one core of the development machine (2.5 us per
+forcing period of 400 + 64 periods at 16 + 64 steps, ``vibeam bench``): turns
+:func:`estimate_work` into seconds."""
+POOL_STARTUP_S = 0.15
+"""What starting the local pool costs (fork and initialise the workers, hand out the
+lines, collect the rows): measured 0.05-0.15 s for 2 workers on the development machine
+(``pool start-up`` in the run's report)."""
+
+
+def load_kernels(lines) -> float:
+    """Load (or compile) the numba kernels of the lines' solvers in this process, once per
+    solver class: one short call each (two forcing periods, at the line's first frequency).
+    Returns the seconds it took.  Forked pool workers inherit the loaded kernels, so a
+    sweep's run time holds neither a cache load per worker nor a compilation per worker.
+    A call that fails is ignored (the sweep records the failure where it happens)."""
+    t0 = time.perf_counter()
+    seen = set()
+    for l in lines:
+        s = getattr(l, "solver", None)
+        if s is None:
+            continue
+        inner = getattr(s, "solver", None)
+        key = (type(s), type(inner), getattr(s, "name", ""), getattr(getattr(s, "model", None), "fidelity", ""))
+        if key in seen:
+            continue
+        seen.add(key)
+        try:
+            s.point(float(l.Omega[0]), None, 1, 1, 16)
+        except Exception:
+            pass
+    return time.perf_counter() - t0
+
+
+def plan_execution(case, jobs_, todo, jobs, executor) -> tuple:
+    """Workers for the lines ``todo``: ``(n, why)``; ``why`` is set when the lines are to run
+    inline first.
+
+    A given executor is used as it is.  Otherwise the local pool (``jobs`` workers, None: all
+    cores) is used only when it is faster: with ``n`` workers the serial time ``t``
+    (:func:`estimate_work` x :data:`STEP_SECONDS`, for the points still to do) becomes
+    about ``POOL_STARTUP_S + t / n``, so a sweep with ``t < POOL_STARTUP_S n / (n - 1)``
+    runs inline (e.g. the Fig. 7 case: 2e6 steps, ~0.2 s).  The estimate is a lower bound
+    (chatter and impacts add work), so such a sweep starts inline and hands the lines left
+    to the pool once it has run ``2 POOL_STARTUP_S`` (:func:`vibeam.sweep.run_lines`,
+    ``inline_first_s``)."""
+    import os
+
+    if executor is not None:
+        return jobs, ""
+    n = min(jobs or os.cpu_count() or 1, len(todo))
+    if n <= 1:
+        return 1, ""
+    total = sum(l.n_points for j in jobs_ for l in _lines(j)) or 1
+    frac = sum(l.n_points for l in todo) / total
+    t = estimate_work(case, jobs_)["steps"] * STEP_SECONDS * frac
+    if t < POOL_STARTUP_S * n / (n - 1):
+        return n, f"small sweep, ~{t:.2g} s on one core: inline first"
+    return n, ""
 
 
 def failure_summary(results) -> str | None:
