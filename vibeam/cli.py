@@ -182,13 +182,17 @@ def cmd_cost(args) -> int:
     from .outdir import OutputLock, check_folder
     from .results import write_results
 
-    out_dir = check_folder(Path(args.out) if args.out else Path("results") / case.name)
+    if args.quick:
+        case = case.quick_variant()
+    out_dir = check_folder(Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick
+                                                                                         else "")))
     check_cost_work(case, force=args.force, source=args.case)
     with OutputLock(out_dir):
-        res = run_cost(case, ladder=args.ladder, repeats=args.repeats,
+        res = run_cost(case, ladder=args.ladder, repeats=args.repeats, jobs=args.jobs,
                        log=lambda m: print(m, file=sys.stderr))
-        h5 = write_results(out_dir / "cost.h5", [], case.name, text, extra={"cost": cost_tables(res)})
-        png = plot_work_precision(res, out_dir / "work_precision.png", title=f"{case.name}: work-precision")
+        h5 = write_results(out_dir / "cost.h5", [], case.name, text, extra={"cost": cost_tables(res)},
+                           case_json=case.model_dump_json())
+        png = plot_work_precision(res, out_dir / "work_precision.png", title=case.name, case=case)
     print_cost(res)
     print(f"\ncost table -> {h5} (/cost), plot -> {png}")
     return 0
@@ -382,6 +386,11 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="output folder (default results/<case name>/)")
     p.add_argument("--ladder", action="store_true", help="also a ladder of tolerances per ODE method")
     p.add_argument("--repeats", type=_int_at_least(1), default=3, help="timed repetitions (median reported)")
+    p.add_argument("--quick", action="store_true",
+                   help="the case's quick variant ([quick]: fewer points and periods)")
+    p.add_argument("--jobs", type=_int_at_least(1), default=None,
+                   help="worker processes for the converged references (default: all cores); the timed "
+                        "sweeps always run inline, one at a time")
     p.add_argument("--force", action="store_true", help=force_help)
     p.set_defaults(func=cmd_cost)
     p = sub.add_parser("derive", help="SDOF parameters of a beam scene by the assumed static mode")
