@@ -125,3 +125,44 @@ method = "event"
     assert main(["run", str(case), "--out", str(tmp_path / "o"), "--quiet", "--no-plots"]) == 0
     out = capsys.readouterr().out
     assert "run time " in out and "for 10 points" in out and "kernel load" in out and "pool start-up" in out
+
+
+def test_tables_fit_long_run_names(tmp_path, capsys):
+    """`vibeam run` and `vibeam regress` tables: a long run name is printed whole and the
+    columns stay aligned (the method column starts where its header does)."""
+    from vibeam.cli import main
+
+    long = "exact event solver with a very long descriptive run name"
+    case = tmp_path / "c.toml"
+    case.write_text(f"""
+name = "c"
+[model]
+fidelity = "sdof"
+beta = 0.015
+B = 0.5e-3
+R = 0.9
+Delta = 0.0
+[sweep]
+Omega = [1.8, 2.2, 3]
+transient_periods = 30
+record_periods = 8
+[[run]]
+name = "{long}"
+method = "event"
+[[run]]
+name = "short"
+method = "event"
+transient_samples = 32
+""")
+    assert main(["run", str(case), "--out", str(tmp_path / "o"), "--quiet", "--no-plots"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    head = next(l for l in out if l.startswith("run ") and "method" in l)
+    col = head.index("method")
+    rows = [l for l in out if l.startswith(long) or l.startswith("short ")]
+    assert len(rows) == 2 and all(l[col:col + 5] == "event" for l in rows), (head, rows)
+    assert main(["regress", str(case), "--reference", str(tmp_path / "o" / "results.h5"),
+                 "--results", str(tmp_path / "o" / "results.h5")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    head = next(l for l in out if l.startswith("run ") and "points" in l)
+    row = next(l for l in out if l.startswith(long))
+    assert row.index(" 3 ") <= head.index("points") + len("points") and row.split()[-1] == "ok"

@@ -534,12 +534,13 @@ def sensor_table(runs):
 def print_sensor_table(rows):
     print("\nCoR identified from the simulated sensor (Sec. 5.1 method) against the model's R")
     print("(period-1 points; R at sensor: -v+/v- of the exact sensor velocity at the impact)")
-    head = (f"{'run':<30}{'noise (mm)':>11}{'points':>7}{'found':>6}{'median|dR|':>11}{'max|dR|':>9}"
+    w = max([30] + [len(r[0]) + 2 for r in rows])        # as wide as the longest run name
+    head = (f"{'run':<{w}}{'noise (mm)':>11}{'points':>7}{'found':>6}{'median|dR|':>11}{'max|dR|':>9}"
             f"{'rms dR':>9}{'mean R_id':>10}{'R model':>8}{'R at sensor':>12}")
     print(head)
     print("-" * len(head))
     for name, s, n, k, med, mx, rms, rid, rtr, rse in rows:
-        print(f"{name[:29]:<30}{s:>11.4g}{n:>7}{k:>6}{med:>11.4g}{mx:>9.4g}{rms:>9.4g}{rid:>10.4g}{rtr:>8.4g}"
+        print(f"{name:<{w}}{s:>11.4g}{n:>7}{k:>6}{med:>11.4g}{mx:>9.4g}{rms:>9.4g}{rid:>10.4g}{rtr:>8.4g}"
               f"{rse:>12.4g}")
 
 
@@ -662,7 +663,8 @@ def print_hfc(runs):
     print("\nhigh-frequency component at the sensor (min .. max over the points)")
     phys = all("frequency_hz" in r.data for r in rows)
     hz, v, x = (" (Hz)", " (mm/s)", " (mm)") if phys else (" (/f_n)", "", "")
-    head = (f"{'run':<26}{'band line' + hz:>16}{'band line' + v:>18}{'HFC f' + hz:>14}"
+    w = max([26] + [len(r.name) + 2 for r in rows])      # as wide as the longest run name
+    head = (f"{'run':<{w}}{'band line' + hz:>16}{'band line' + v:>18}{'HFC f' + hz:>14}"
             f"{'HFC peak v' + v:>19}{'HFC peak x' + x:>17}{'peaks':>7}")
     print(head)
     print("-" * len(head))
@@ -675,7 +677,7 @@ def print_hfc(runs):
     for r in rows:
         d = r.data
         npk = int(np.isfinite(d["peaks_frequency"]).sum())
-        print(f"{r.name:<26}{rng(d['band_frequency'], '.1f'):>16}{rng(d['band_velocity_mm_s'], '.2f'):>18}"
+        print(f"{r.name:<{w}}{rng(d['band_frequency'], '.1f'):>16}{rng(d['band_velocity_mm_s'], '.2f'):>18}"
               f"{rng(d.get('hfc_frequency', []), '.1f'):>14}{rng(d.get('hfc_velocity_mm_s', []), '.2f'):>19}"
               f"{rng(d.get('hfc_displacement_mm', []), '.4f'):>17}{npk:>7}")
 

@@ -215,10 +215,11 @@ def _row(name, a, a_ref, atol, rtol, p, p_ref, note=""):
 
 def print_rows(rows, atol, rtol) -> None:
     print(f"tolerance: |A - A_ref| <= {atol:g} + {rtol:g} |A_ref|")
-    head = f"{'run':<24}{'points':>7}{'failed':>8}{'max |dA|':>12}{'max rel':>11}{'period diff':>12}  verdict"
+    w = max([24] + [len(r.run) + 2 for r in rows])       # as wide as the longest run name
+    head = f"{'run':<{w}}{'points':>7}{'failed':>8}{'max |dA|':>12}{'max rel':>11}{'period diff':>12}  verdict"
     print(head)
     print("-" * len(head))
     for r in rows:
         verdict = "ok" if r.ok else "REGRESSION"
-        print(f"{r.run:<24}{r.points:>7}{r.failures:>8}{r.max_abs:>12.3e}{r.max_rel:>11.3e}"
+        print(f"{r.run:<{w}}{r.points:>7}{r.failures:>8}{r.max_abs:>12.3e}{r.max_rel:>11.3e}"
               f"{r.period_mismatch:>12}  {verdict}" + (f"  ({r.note})" if r.note else ""))

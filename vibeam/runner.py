@@ -566,7 +566,10 @@ def _print_table(runs) -> None:
     ref = runs[0]
     key = "amplitude_mm" if "amplitude_mm" in ref.data else "amplitude"
     unit = " (mm)" if key == "amplitude_mm" else ""
-    head = f"{'run':<22}{'method':<12}{'points':>7}{'compute (s)':>13}{'max |dA| vs ' + ref.name + unit:>30}"
+    wn = max([22] + [len(r.name) + 2 for r in runs])          # columns as wide as the longest name
+    wm = max([12] + [len(r.method) + 2 for r in runs])
+    wd = max(30, len('max |dA| vs ' + ref.name + unit) + 2)
+    head = f"{'run':<{wn}}{'method':<{wm}}{'points':>7}{'compute (s)':>13}{'max |dA| vs ' + ref.name + unit:>{wd}}"
     print(head)
     print("-" * len(head))
     for r in runs:
@@ -580,7 +583,7 @@ def _print_table(runs) -> None:
             diff = "n/a (different grid)"
         n_bad = int(sum(1 for s in r.data.get("status", []) if s != "ok"))
         extra = f"  [{n_bad} point(s) not ok]" if n_bad else ""
-        print(f"{r.name:<22}{r.method:<12}{r.n_points:>7}{r.wall_time_s:>13.3f}{diff:>30}{extra}")
+        print(f"{r.name:<{wn}}{r.method:<{wm}}{r.n_points:>7}{r.wall_time_s:>13.3f}{diff:>{wd}}{extra}")
 
 
 def _beam_attrs(spec) -> dict:
