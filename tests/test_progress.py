@@ -166,3 +166,36 @@ transient_samples = 32
     head = next(l for l in out if l.startswith("run ") and "points" in l)
     row = next(l for l in out if l.startswith(long))
     assert row.index(" 3 ") <= head.index("points") + len("points") and row.split()[-1] == "ok"
+
+
+def test_map_without_plots_prints_the_class_summary(tmp_path, capsys):
+    from vibeam.cli import main
+
+    case = tmp_path / "m.toml"
+    case.write_text("""
+name = "m"
+[model]
+fidelity = "sdof"
+natural_frequency_hz = 7.6
+damping_ratio = 0.017
+R = 0.72
+gap_mm = -0.1
+length_mm = 180.0
+gain = 5.16e-4
+voltage = 0.6
+[sweep]
+frequency_hz = [14.0, 17.0, 3]
+direction = "both"
+transient_periods = 50
+record_periods = 8
+[map]
+parameter = "voltage"
+values = [0.2, 0.7, 2]
+[[run]]
+name = "exact"
+method = "event"
+""")
+    assert main(["map", str(case), "--out", str(tmp_path / "o"), "--quiet", "--no-plots"]) == 0
+    out = capsys.readouterr().out
+    assert "exact up: 6 points:" in out and "exact down: 6 points:" in out and "up and down sweeps differ" in out
+    assert not list((tmp_path / "o").glob("*.png"))

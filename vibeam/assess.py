@@ -29,11 +29,13 @@ Per-point outputs (HDF5 ``/runs/<run>/``):
     sum of those RMS; ``participation_energy`` (n, N): mean modal energy
     ``(eta_i-dot^2 + omega_i^2 eta_i^2) / 2`` over its sum.  Both sum to 1.
 ``[assess] time_series = [f, ...]``
-    group ``time_series/<label>/<direction>`` (m, 3): time, displacement, velocity of the last
+    ``time_series/<label>/<direction>`` (m, 3) in the run's data: time, displacement, velocity
+    of the last
     ``time_series_periods`` recorded periods at the grid point nearest to ``f``; ``<label>`` is
     that grid point's frequency (:func:`ts_label`), never a requested value off the grid
     (a request outside the grid, or two on one grid point, is a case error:
-    :func:`vibeam.case.check_time_series`).
+    :func:`vibeam.case.check_time_series`); stored as the group ``time_series/<label>``
+    (:mod:`vibeam.results`).
 ``[effects.sensor]``
     see :class:`vibeam.sensor.SensorHook`.
 """

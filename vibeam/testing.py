@@ -80,7 +80,8 @@ def check_labelled(path) -> dict:
     import xarray as xr
 
     out = {}
-    tree = xr.open_datatree(path, engine="h5netcdf")
+    with xr.open_datatree(path, engine="h5netcdf", phony_dims="sort") as tree:
+        tree.load()
     for node in tree.subtree:
         ds = node.to_dataset(inherit=False)
         where = f"{path}:{node.path}"
