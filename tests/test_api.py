@@ -217,3 +217,36 @@ def test_files_of_the_first_layout_are_read_and_not_labelled(tmp_path):
         del f["runs/exact/amplitude"].attrs["units"]
     with pytest.raises(AssertionError, match="amplitude: no units"):
         check_labelled(tmp_path / "new" / "results.h5")
+
+
+def test_write_group_writes_any_labelled_group(tmp_path):
+    """The generic writer (for groups other than runs and maps, e.g. continuation branches):
+    named dimensions, a dimension coordinate, an auxiliary 2-D coordinate, units, strings, a
+    subgroup sharing its parent's dimension; a shape that does not match its dims is refused."""
+    import h5py
+    import xarray as xr
+
+    from vibeam.results import var, write_group
+
+    n_b, n_p = 3, 4
+    variables = {
+        "branch": var(("branch",), np.arange(n_b), "1", "branch index"),
+        "Omega": var(("branch", "point"), np.linspace(1, 2, n_b * n_p).reshape(n_b, n_p), "1",
+                     "forcing frequency over natural frequency", aux=True),
+        "amplitude": var(("branch", "point"), np.ones((n_b, n_p)), "1", "amplitude Q"),
+        "stable": var(("branch", "point"), np.zeros((n_b, n_p), bool), "1", "stable orbit"),
+        "branch_status": var(("branch",), np.array(["ok", "fold", "ok"], dtype=object), None, "how it ended"),
+    }
+    sub = {"bifurcations": ({"branch_of": var(("branch",), np.array([0, 0, 1]), "1", "parent branch")}, {})}
+    with h5py.File(tmp_path / "g.h5", "w") as f:
+        write_group(f, "branches/cont", variables, {"method": "continuation", "settings": {"ds": 0.01}}, sub)
+        with pytest.raises(ValueError, match="dims"):
+            write_group(f, "bad", {"x": var(("a",), np.ones((2, 2)), "1", "x")})
+    ds = xr.open_dataset(tmp_path / "g.h5", group="branches/cont", engine="h5netcdf")
+    assert ds["amplitude"].dims == ("branch", "point") and "Omega" in ds.coords
+    assert ds["stable"].dtype == bool and ds["branch_status"].values.tolist() == ["ok", "fold", "ok"]
+    assert ds["amplitude"].attrs["units"] == "1" and ds.attrs["json_attrs"] == "settings"
+    tree = xr.open_datatree(tmp_path / "g.h5", engine="h5netcdf")
+    assert tree["branches/cont/bifurcations"]["branch_of"].dims == ("branch",)
+    tree.close()
+    ds.close()

@@ -80,9 +80,6 @@ def axes_data(r):
             style.label(r"amplitude $Q = \Delta - \min q$", None))
 
 
-_axes_data = axes_data      # the old private name (kept for callers)
-
-
 def _directions(r, n):
     return np.asarray([str(v) for v in r.data.get("direction", ["up"] * n)])
 

@@ -183,7 +183,6 @@ VARIABLES = {
     "point_Omega": ("1", "Omega of the grid point of the time series"),
     "point": ("1", "index of the point along the line, in visiting order"),
 }
-_AXIS_UNITS = {"peaks_frequency", "band_frequency", "hfc_frequency", "spectrum_frequency", "time"}
 _SCALED = {"peaks_displacement", "peaks_velocity", "spectrum_velocity", "band_velocity_mm_s",
            "hfc_velocity_mm_s", "hfc_displacement_mm", "displacement", "velocity"}
 
@@ -407,7 +406,6 @@ def write_group(parent, name: str, variables: dict, attrs: dict | None = None, g
     same but costs ~13 ms per variable, too slow for a checkpoint of many lines.
     """
     ids = _ids or _DimIds()
-    g = parent.require_group(name.strip("/")) if name else parent
     sizes: dict = {}
     for k, v in variables.items():
         shape = np.shape(v.data)
@@ -416,6 +414,7 @@ def write_group(parent, name: str, variables: dict, attrs: dict | None = None, g
         for d, n in zip(v.dims, shape):
             if sizes.setdefault(d, n) != n:
                 raise ValueError(f"dimension {d!r} has sizes {sizes[d]} and {n} (variable {k!r})")
+    g = parent.require_group(name.strip("/")) if name else parent
     scales, dimid = {}, {}
     for d, n in sizes.items():
         coord = variables.get(d)
@@ -488,6 +487,13 @@ def table_variables(table: dict) -> dict:
         out[k] = var(tuple(f"{k}_dim{i}" for i in range(a.ndim)), a,
                      None if a.dtype == object or a.dtype.kind in "US" else u, ln)
     return out
+
+
+def _write_dataset(g, name, v):
+    """One array into the open group ``g`` as a netCDF variable with dimensions ``<name>_dim<i>``
+    and the units of :func:`describe` (the writer of the first layout took plain datasets;
+    new groups should use :func:`write_group` with named dimensions)."""
+    write_group(g, "", table_variables({name: v}))
 
 
 # ============================================================================ runs and maps as variables
