@@ -363,7 +363,8 @@ def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor
         data = stack(rows, sweep_of[(line.run, line.key)])
         line_data[f"{line.run}/{line.key}"] = data
         buffer[f"{line.run}/{line.key}"] = data
-        if time.perf_counter() - last_flush[0] >= checkpoint_interval_s:
+        # the last line is checkpointed right after the sweeps (below), not inside the run time
+        if time.perf_counter() - last_flush[0] >= checkpoint_interval_s and len(line_data) < len(all_lines):
             flush()
 
     timing = {"kernel_load_s": 0.0, "pool_startup_s": 0.0, "executor": "inline"}
