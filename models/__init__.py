@@ -16,6 +16,7 @@ from .sdof_averaging import AveragingSolver
 from .sdof_mapping import MappingSolver
 from .beam_dynamics import BeamEventSolver, BeamImpactModel, BeamODESolver
 from .sdof_ode import DirectSolver, IvanovSolver, ZhuravlevSolver
+from .periodic_sdof import SDOFShooting
 
 METHODS = {
     ("beam", "event"): BeamEventSolver,
@@ -27,6 +28,30 @@ METHODS = {
     ("sdof", "zhuravlev"): ZhuravlevSolver,
     ("sdof", "ivanov"): IvanovSolver,
 }
+
+
+# shooting problems of the periodic-orbit continuation (contract: vibeam.models.periodic), by
+# fidelity; a fidelity that registers one here can be continued (`method = "continuation"`)
+SHOOTING = {
+    "sdof": SDOFShooting,
+}
+
+
+def shooting_problem(model, parameter: str, Omega: float | None = None):
+    """The shooting problem of ``model`` in the native ``parameter`` (``Omega``: forcing
+    frequency of a continuation in another parameter).
+
+    Raises
+    ------
+    ValueError
+        If no shooting problem is registered for the model's fidelity, or the parameter is not
+        one of the problem's.
+    """
+    cls = SHOOTING.get(model.fidelity)
+    if cls is None:
+        raise ValueError(f"continuation is not available for fidelity {model.fidelity!r} (no shooting "
+                         f"problem registered); available: {', '.join(sorted(SHOOTING))}")
+    return cls(model, parameter, Omega=Omega)
 
 
 def make_solver(model, method: str, **settings):
@@ -45,4 +70,5 @@ def make_solver(model, method: str, **settings):
     return METHODS[key](model, **settings)
 
 
-__all__ = ["SDOF", "EventSolver", "linear_amplitude", "make_solver", "METHODS"]
+__all__ = ["SDOF", "EventSolver", "linear_amplitude", "make_solver", "METHODS", "SHOOTING",
+           "shooting_problem", "SDOFShooting"]

@@ -50,7 +50,10 @@ Sticking and chatter
     normal velocity with the plastic (R = 0) impulse.  Chatter: after an impact with a
     small rebound speed ``u`` into a free contact acceleration ``a > 0``, if the
     constant-acceleration estimate of the accumulation time ``2 u / (a (1 - R))`` is
-    accurate to ``chatter_tol`` the solver sticks at once and holds the beam on the stop
+    accurate to ``chatter_tol`` (the policy shared with the SDOF kernel,
+    :func:`vibeam.models.contact_policy.chatter_jump`: the jerk includes the forcing
+    term; the accumulation point must lie in the current step) the solver sticks at
+    once and holds the beam on the stop
     (constrained flow, no release check) for that accumulation time, then continues as
     stuck: with one mode this is exactly the SDOF kernel's jump (state frozen on the
     stop for the accumulation time); with several modes the other modes keep moving
@@ -66,6 +69,7 @@ from numba import njit
 
 from vibeam.records import Trajectory
 
+from .contact_policy import chatter_jump
 from .roots import rtsafe_update, select
 from .impact import newton_restitution, restitution_coefficient, restitution_impulse
 from .sdof_event import STATUS_NAMES, _certify
@@ -357,15 +361,17 @@ def _homog(phi0, Om, z, zd, a, b, e, x0, y0):
 
 
 @njit(cache=True)
-def _contact_acc(phi, eta, etad, w, cF, kF, GF):
-    """Free acceleration of the contact point ``w^T (Gamma F sin - C eta' - K eta)``."""
+def _contact_acc(phi, Om, eta, etad, w, cF, kF, GF):
+    """Free acceleration of the contact point ``a = w^T (Gamma F sin - C eta' - K eta)`` and
+    its time derivative ``w^T (Gamma F Omega cos - C eta'' - K eta')`` (forcing term included)."""
     s = math.sin(phi)
+    c = Om * math.cos(phi)
     acc = 0.0
     jerk = 0.0
     for i in range(eta.shape[0]):
         ai = GF[i] * s - cF[i] * etad[i] - kF[i] * eta[i]
         acc += w[i] * ai
-        jerk += w[i] * (-cF[i] * ai - kF[i] * etad[i])
+        jerk += w[i] * (GF[i] * c - cF[i] * ai - kF[i] * etad[i])
     return acc, jerk
 
 
@@ -380,22 +386,73 @@ def apply_impact(etad, w, U_minus, R, m_eff):
     return newton_restitution(U_minus, R)
 
 
+# Optional event log of ``beam_kernel`` (used by the periodic-orbit shooting of
+# :mod:`vibeam.models.periodic_beam`): one row ``[kind, t, aux, eta (N), eta' (N)]`` per
+# event, ``t`` from the call start.  Kinds and ``aux``:
+#   EV_START    the initial state was put on the stop (aux 1: held, 0: position only);
+#               the state logged is the one after the projection;
+#   EV_IMPACT   an impact; state just before it (on the stop, pre-impact velocity), aux U-;
+#   EV_STICK    sticking entered without an impact (v = 0 at the stop, pressed); state
+#               before the velocity projection;
+#   EV_STICK_IMPACT  the impact logged just before ends in sticking (plastic entry, chatter
+#               or R = 0); aux = chatter hold time (0 if none);
+#   EV_RELEASE  release from the stop; state at the release, aux = contact force at
+#               the release (0 at a located zero crossing, > 0 when released at a step start).
+# ``nlog[0]`` counts events, ``nlog[1]`` apexes (rows beyond the capacity are counted,
+# not stored); ``aplog[j] = (t, g)`` holds the interior free-flight apexes of the contact
+# gap ``g = w^T eta - Delta_C`` located on steps where ``g'`` falls through zero.
+EV_START, EV_IMPACT, EV_STICK, EV_STICK_IMPACT, EV_RELEASE = 0, 1, 2, 3, 4
+
+
+@njit(cache=True)
+def _log_event(evlog, nlog, kind, t, aux, eta, etad):
+    k = nlog[0]
+    if k < evlog.shape[0]:
+        N = eta.shape[0]
+        evlog[k, 0] = kind
+        evlog[k, 1] = t
+        evlog[k, 2] = aux
+        for i in range(N):
+            evlog[k, 3 + i] = eta[i]
+            evlog[k, 3 + N + i] = etad[i]
+    nlog[0] = k + 1
+
+
+@njit(cache=True)
+def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, Sa, Sb, f0, fp0):
+    """Locate the apex of the contact gap inside ``[0, h]`` (slope + at 0, <= 0 at h) and log it."""
+    zero = np.zeros(x0.shape[0])
+    sa = _root(1, 0.0, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0)
+    ga = _sig(sa, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0)[0]
+    k = nlog[1]
+    if k < aplog.shape[0]:
+        aplog[k, 0] = t + sa
+        aplog[k, 1] = ga
+    nlog[1] = k + 1
+
+
 @njit(cache=True)
 def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U, R_table_R,
                 mpC, aC, bC, eC, Psi, eta_c, pL, rL, SaL, SbL, cL, pS, SaS, SbS, cS,
                 eta, etad, stuck_init,
                 n_transient, n_record, ns_transient, ns_record, h_cap,
                 max_impacts, max_steps, chatter_tol,
-                samples, imp_t, imp_v, modamp, msamp):
+                samples, imp_t, imp_v, modamp, msamp, pmin, chat_t, evlog=None, aplog=None, nlog=None):
     """Exact event-driven simulation of whole forcing periods (numba core).
 
     ``eta, etad`` (N,) hold the initial modal state and receive the final one.
     ``samples`` (n_record * ns_record, 2) receive ``(s^T eta, s^T eta')``; ``modamp``
     (N,) the max ``|eta_i|`` over the samples; ``msamp`` (same rows or 0 rows, 2N) the
-    modal state ``(eta, eta')`` at the samples.  ``R_table_U``/``R_table_R`` tabulate R
+    modal state ``(eta, eta')`` at the samples; ``pmin`` (n_record,) the minimum of the sensor
+    signal ``s^T eta`` over each recorded period (root-found like ``smin``); ``chat_t`` the
+    times of the first ``len(chat_t)`` chatter accumulation points of the record.  ``R_table_U``/``R_table_R`` tabulate R
     against the pre-impact contact velocity (kernel units; empty = constant ``R``,
     :func:`vibeam.models.impact.restitution_coefficient`).  Returns ``(status, n_imp_rec, smin, smax,
     n_chatter, stuck_time, stuck_end, n_imp_total, gmax, n_steps)``.
+
+    ``evlog`` (cap, 3 + 2N), ``aplog`` (cap_a, 2), ``nlog`` (2,) int64: optional event
+    and apex log (see ``EV_START``); omitted in sweeps, where the logging branches are
+    compiled out.
     """
     N = eta.shape[0]
     Nc = eC.shape[0]
@@ -422,7 +479,19 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
     w2 = 0.0
     for i in range(N):
         w2 += w[i] * w[i]
+    # damping rate and stiffness per unit mass of the contact coordinate (chatter policy)
+    c_eff = 0.0
+    k_eff = 0.0
+    for i in range(N):
+        c_eff += w[i] * w[i] * cF[i]
+        k_eff += w[i] * w[i] * kF[i]
+    c_eff *= m_eff
+    k_eff *= m_eff
     ext = np.array([np.inf, -np.inf])
+    # extremes of the current recorded period, folded into ``ext`` at its end
+    pext = np.array([np.inf, -np.inf])
+    for i in range(pmin.shape[0]):
+        pmin[i] = np.inf
     stuck = stuck_init
     g = 0.0
     v = 0.0
@@ -438,6 +507,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
         g = 0.0
         if stuck:
             v = 0.0
+        if evlog is not None:
+            _log_event(evlog, nlog, EV_START, 0.0, 1.0 if stuck else 0.0, eta, etad)
     gmax = -np.inf
     n_imp_total = 0
     n_imp_rec = 0
@@ -466,6 +537,13 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
         ns = ns_record if recording else ns_transient
         h_grid = T / ns
         t_period0 = (pp - n_transient) * T
+        if pp > n_transient:
+            # fold the extremes of the period just finished
+            pmin[pp - n_transient - 1] = pext[0]
+            ext[0] = min(ext[0], pext[0])
+            ext[1] = max(ext[1], pext[1])
+            pext[0] = np.inf
+            pext[1] = -np.inf
         for jg in range(ns):
             phi = TWO_PI * jg / ns
             t_loc = jg * h_grid
@@ -484,15 +562,15 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         msamp[k_sample, i] = eta[i]
                         msamp[k_sample, N + i] = etad[i]
                 k_sample += 1
-                if qs < ext[0]:
-                    ext[0] = qs
-                if qs > ext[1]:
-                    ext[1] = qs
+                if qs < pext[0]:
+                    pext[0] = qs
+                if qs > pext[1]:
+                    pext[1] = qs
             rem = h_grid
             while rem > 0.0:
                 n_steps += 1
                 if n_steps > max_steps:
-                    return (ST_FAILED, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time,
+                    return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
                             stuck, n_imp_total, gmax, n_steps)
                 h_try = min(rem, h_cap, 2.0 * h_last)
                 if stuck:
@@ -511,6 +589,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         const += pL[j] * eC[j]
                     lam0, lamp0 = _start(phi, Om, xc, yc, mpC, pL, rL, SaL, SbL, const)
                     if (lam0 > 0.0 or (lam0 == 0.0 and lamp0 > 0.0)) and not just_stuck and hold <= 0.0:
+                        if evlog is not None:
+                            _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, lam0, eta, etad)
                         stuck = False
                         just_released = True
                         g = 0.0
@@ -543,7 +623,7 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                             constS += pS[j] * eC[j]
                         q0s, qp0s = _start(phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, constS)
                         q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s)
-                        _extremes(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s, qp0s, qp1s, ext)
+                        _extremes(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s, qp0s, qp1s, pext)
                         if not held:
                             stuck_time += s_mv
                     _advance(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eC)
@@ -560,6 +640,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         just_stuck = False
                         just_released = False
                     if s_ev >= 0.0:
+                        if evlog is not None:
+                            _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, 0.0, eta, etad)
                         stuck = False
                         just_released = True
                         g = 0.0
@@ -572,8 +654,10 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     if v > 0.0:
                         s_imp = 0.0
                     elif not just_released:
-                        acc, jerk = _contact_acc(phi, eta, etad, w, cF, kF, GF)
+                        acc, jerk = _contact_acc(phi, Om, eta, etad, w, cF, kF, GF)
                         if acc > 0.0:
+                            if evlog is not None:
+                                _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, eta, etad)
                             stuck = True
                             just_stuck = True
                             corr = v / w2
@@ -589,14 +673,16 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     if s_ev < 0.0:
                         h_last = h
                     g1, v1, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, w, zeroN, SaF, SbF, g, v)
+                    if aplog is not None and s_ev < 0.0 and v > 0.0 and v1 <= 0.0:
+                        _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, x0, y0, mpF, w, SaF, SbF, g, v)
                     if recording:
                         q0s, qp0s = _start(phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, 0.0)
                         q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s)
-                        _extremes(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s, qp0s, qp1s, ext)
-                        if q1s < ext[0]:
-                            ext[0] = q1s
-                        if q1s > ext[1]:
-                            ext[1] = q1s
+                        _extremes(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s, qp0s, qp1s, pext)
+                        if q1s < pext[0]:
+                            pext[0] = q1s
+                        if q1s > pext[1]:
+                            pext[1] = q1s
                     _advance(s_mv, phi, Om, eta, etad, mpF, aF, bF, zeroN)
                     phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
                     if s_mv > 0.0:
@@ -632,6 +718,8 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     eta[i] -= w[i] * gs
                     etad[i] -= w[i] * vs
                 Um = v if v > 0.0 else 0.0
+                if evlog is not None:
+                    _log_event(evlog, nlog, EV_IMPACT, pp * T + t_loc, Um, eta, etad)
                 Rc = restitution_coefficient(Um, R, R_table_U, R_table_R)
                 v = apply_impact(etad, w, Um, Rc, m_eff)
                 n_imp_total += 1
@@ -641,10 +729,10 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         imp_v[n_imp_rec] = Um
                     n_imp_rec += 1
                 if n_imp_total > max_impacts:
-                    return (ST_FAILED, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time,
+                    return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
                             stuck, n_imp_total, gmax, n_steps)
                 u = -v
-                acc, jerk = _contact_acc(phi, eta, etad, w, cF, kF, GF)
+                acc, jerk = _contact_acc(phi, Om, eta, etad, w, cF, kF, GF)
                 stick_now = False
                 if u <= 0.0:
                     stick_now = acc > 0.0
@@ -661,26 +749,35 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                     burst = 0
                     if recording:
                         n_chatter += 1
-                elif acc > 0.0 and Rc < 1.0:
-                    # chatter estimate with R at the current impact velocity
-                    D = 2.0 * u / (acc * (1.0 - Rc))
-                    ceff = 0.0
-                    for i in range(N):
-                        ceff += w[i] * w[i] * cF[i]
-                    ceff *= m_eff
-                    err = D * (abs(jerk) / acc + ceff + D)
-                    if err < chatter_tol:
+                        if n_chatter <= chat_t.shape[0]:
+                            chat_t[n_chatter - 1] = t_imp
+                else:
+                    # the shared chatter policy (vibeam.models.contact_policy), R at the current
+                    # impact velocity: the jerk beyond the one-DOF flow part -c_eff a + k_eff u is
+                    # the forcing term plus the modal remainder (zero for one mode), and the jump
+                    # is taken only to an accumulation point inside the current grid step
+                    D = chatter_jump(u, acc, jerk + c_eff * acc - k_eff * u, c_eff, k_eff, Rc,
+                                     chatter_tol, rem)
+                    if D >= 0.0:
                         stick_now = True
                         hold = D
                         if recording:
                             n_chatter += 1
+                            if n_chatter <= chat_t.shape[0]:
+                                chat_t[n_chatter - 1] = t_imp + D
                 if stick_now:
+                    if evlog is not None:
+                        _log_event(evlog, nlog, EV_STICK_IMPACT, pp * T + t_loc, hold, eta, etad)
                     corr = v / w2
                     for i in range(N):
                         etad[i] -= w[i] * corr
                     v = 0.0
                     stuck = True
                     just_stuck = True
+    if n_record > 0:
+        pmin[n_record - 1] = pext[0]
+        ext[0] = min(ext[0], pext[0])
+        ext[1] = max(ext[1], pext[1])
     status = ST_OK
     if n_record > 0:
         if n_chatter > 0:
@@ -937,6 +1034,10 @@ class BeamEventSolver:
         self.steps_per_fundamental = int(steps_per_fundamental)
         self.impact_buffer = int(impact_buffer)
         self.record_modal_states = bool(record_modal_states)
+        # periods per call of the sweep engine (vibeam.sweep._simulate): the cost per period grows
+        # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
+        # so a call lasts well under a second
+        self.chunk_periods = max(16, 2000 // model.n_modes)
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
@@ -977,6 +1078,8 @@ class BeamEventSolver:
         imp_v = np.zeros(self.impact_buffer)
         modamp = np.zeros(N)
         msamp = np.zeros((samples.shape[0] if self.record_modal_states else 0, 2 * N))
+        pmin = np.zeros(n_record)
+        chat_t = np.zeros(self.impact_buffer)
         n_per = n_transient + n_record
         h_cap = TWO_PI / np.sqrt(k[0]) / self.steps_per_fundamental
         out = beam_kernel(Om, mpF, aF, bF, m.contact_row, m.sensor_row, c, k, GF,
@@ -987,7 +1090,7 @@ class BeamEventSolver:
                           int(n_transient), int(n_record), self.transient_samples,
                           int(samples_per_period), float(h_cap),
                           self.max_impacts_per_period * n_per, self.max_steps_per_period * n_per,
-                          self.chatter_tol, samples, imp_t, imp_v, modamp, msamp)
+                          self.chatter_tol, samples, imp_t, imp_v, modamp, msamp, pmin, chat_t)
         status, n_imp, smin, smax, n_chat, stuck_time, stuck_end, n_tot, gmax, n_steps = out
         L = m.length_m
         if stuck_time > 0.0 or stuck_end:
@@ -1008,6 +1111,7 @@ class BeamEventSolver:
             Omega=Om, samples=samples, samples_per_period=samples_per_period,
             impact_times=imp_t[:kk].copy(), impact_velocities=iv,
             n_impacts=int(n_imp), q_min=float(smin / L), q_max=float(smax / L),
+            period_min=pmin / L, chatter_times=chat_t[:min(n_chat, self.impact_buffer)].copy(),
             status=STATUS_NAMES[status], message=message,
             final_state=np.concatenate([eta, etad, [1.0 if stuck_end else 0.0]]),
             extra={"mode_amplitudes": modamp,
@@ -1042,6 +1146,7 @@ class BeamODESolver:
 
     name = "direct"
     time_domain = True
+    chunk_periods = 200   # a restart of solve_ivp changes the result at the level of rtol
 
     def __init__(self, model: BeamImpactModel, solver: str = "DOP853", rtol: float = 1e-9,
                  atol: float = 1e-12, max_impacts_per_period: int = 200,
@@ -1132,6 +1237,7 @@ class BeamODESolver:
         samples = np.zeros((ts.size, 2))
         filled = np.zeros(ts.size, bool)
         ext = [np.inf, -np.inf]
+        ev_min = []   # (t, q) of sensor extremes located by events in the record
         imp_t, imp_v = [], []
         n_imp = 0
         n_chat = 0
@@ -1187,6 +1293,7 @@ class BeamODESolver:
             for te in ev_ext:
                 if te >= t_rec:
                     qv = float(sv @ Zf(np.array([te]))[:N, 0]) * sc / L
+                    ev_min.append((te, qv))
                     ext[0] = min(ext[0], qv)
                     ext[1] = max(ext[1], qv)
             t = t1
@@ -1219,11 +1326,16 @@ class BeamODESolver:
                     y = stick(y)
                     stuck = True
         q = samples[:, 0]
+        pmin = q.reshape(n_record, samples_per_period).min(axis=1) if q.size else np.zeros(n_record)
+        for te, qv in (ev_min if n_record else []):
+            kp = min(max(int((te - t_rec) // T), 0), n_record - 1)
+            pmin[kp] = min(pmin[kp], qv)
         status = "chatter" if n_chat else ("sticking" if stuck_time > 0 else "ok")
         return Trajectory(
             Omega=Om, samples=samples, samples_per_period=samples_per_period,
             impact_times=np.array(imp_t), impact_velocities=np.array(imp_v), n_impacts=len(imp_t),
-            q_min=float(min(ext[0], q.min())), q_max=float(max(ext[1], q.max())),
+            q_min=float(min(ext[0], q.min())) if q.size else float(ext[0]),
+            q_max=float(max(ext[1], q.max())) if q.size else float(ext[1]), period_min=pmin,
             status=status, message="" if status == "ok" else f"stuck {stuck_time:.4g} of the window",
             final_state=np.concatenate([y * sc, [1.0 if stuck else 0.0]]),
             extra={"mode_amplitudes": modamp,

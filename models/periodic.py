@@ -29,6 +29,21 @@ the continuation parameter in the problem's native units, ``n`` the number of fo
 periods.  ``shot`` never raises for a dynamical outcome: an orbit the problem cannot
 represent (more events than its buffer, a non-accumulating chatter, an unsupported
 configuration) comes back with ``status != "ok"`` and a ``message``.
+
+Construction and registration: the framework builds a problem as ``cls(model, parameter,
+Omega=Omega)`` from ``vibeam.models.SHOOTING[fidelity]`` (``parameter`` a native key;
+``Omega`` the forcing frequency of a continuation in another key, None for ``"Omega"``); the
+model spec's ``native_parameter(key) -> (native key, factor)`` maps physical keys.
+
+Optional capabilities (duck-typed; used when present):
+
+* ``Shot.gap`` and ``Shot.Omega`` (amplitude ``Q = gap - q_min`` and impact phases) and
+  ``Shot.impact_accelerations``;
+* ``prob.starts`` (tuple of start names besides ``"sweep"``, e.g. ``("linear",
+  "averaging")``) and ``prob.start(kind, p, n) -> (x0 or None, reason)``;
+* ``prob.resect(x0, p, n) -> x1 or None``: the same orbit seen on the other side of an
+  impact that coincides with the section (the stroboscopic state jumps there); without it a
+  branch whose impact crosses forcing phase 0 ends with a status.
 """
 from __future__ import annotations
 
@@ -68,6 +83,14 @@ class Shot:
         ``"ok"`` or the reason the orbit cannot be represented (``"failed"``, ``"chatter"``).
     message : str
         Detail when not ok.
+    Omega : float
+        Forcing frequency of the shot (nondimensional; NaN if the problem does not say):
+        impact phases are ``Omega t mod 2 pi``.
+    gap : float
+        ``Delta`` of the output coordinate at the shot's parameter, so that the amplitude is
+        ``Q = gap - q_min`` (NaN if the problem does not say).
+    impact_accelerations : ndarray, shape (m,) or None
+        Pre-impact accelerations of the contact gap (``g''(t-)``), if known.
     extra : dict
         Fidelity-specific values (e.g. the state at each impact).
     """
@@ -83,6 +106,9 @@ class Shot:
     stuck_time: float = 0.0
     status: str = "ok"
     message: str = ""
+    Omega: float = float("nan")
+    gap: float = float("nan")
+    impact_accelerations: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
 
     @property
@@ -94,6 +120,11 @@ class Shot:
         """Smallest pre-impact velocity (its zero is a grazing of an existing impact); inf
         without impacts."""
         return float(np.min(self.impact_velocities)) if self.impact_velocities.size else np.inf
+
+    @property
+    def amplitude(self) -> float:
+        """``Q = gap - q_min`` (paper Sec. 4.1); NaN if ``gap`` is unknown."""
+        return self.gap - self.q_min
 
     def multipliers(self) -> np.ndarray:
         """Floquet multipliers (eigenvalues of ``M``), complex, ordered by decreasing modulus."""

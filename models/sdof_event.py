@@ -28,7 +28,8 @@ Chatter (Zeno) and sticking
     (Budd & Dux 1994; Nordmark & Piiroinen 2009).  When the local estimate of
     the relative error of that constant-acceleration sum is below
     ``chatter_tol``, the solver jumps to the accumulation point and switches to
-    sticking.  While stuck, ``q = Delta`` and ``q' = 0``; the mass is released
+    sticking; the decision is the policy shared with the beam kernel,
+    :func:`vibeam.models.contact_policy.chatter_jump`.  While stuck, ``q = Delta`` and ``q' = 0``; the mass is released
     exactly when the contact force ``Omega^2 B sin(Omega t) - Delta`` turns
     negative (closed form).
 """
@@ -39,6 +40,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .contact_policy import chatter_jump
 from .roots import rtsafe_update, select
 from .impact import newton_restitution, restitution_coefficient
 from .sdof_flow import (homogeneous_amplitude, particular_coefficients, propagate,
@@ -52,6 +54,13 @@ STATUS_CHATTER = 1
 STATUS_STICKING = 2
 STATUS_FAILED = 3
 STATUS_NAMES = ("ok", "chatter", "sticking", "failed")
+
+# kinds of the optional event log of :func:`event_kernel` (column 0 of ``ev_log``)
+EV_IMPACT = 0
+EV_STICK = 1
+EV_RELEASE = 2
+EV_APEX = 3
+EV_NAMES = ("impact", "stick", "release", "apex")
 
 
 @njit(cache=True)
@@ -127,25 +136,52 @@ def _release_delay(phi, F, Delta, Omega):
 
 
 @njit(cache=True)
+def _log_event(ev_log, ev_count, kind, t, q, v, a):
+    """Append one row ``(kind, t, q, q', q'')`` to the event log (counted even when full)."""
+    k = ev_count[0]
+    if k < ev_log.shape[0]:
+        ev_log[k, 0] = kind
+        ev_log[k, 1] = t
+        ev_log[k, 2] = q
+        ev_log[k, 3] = v
+        ev_log[k, 4] = a
+    ev_count[0] = k + 1
+
+
+@njit(cache=True)
 def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init, stuck_init,
                  n_transient, n_record, ns_transient, ns_record,
                  max_impacts, chatter_tol,
-                 samples, imp_t, imp_v):
+                 samples, imp_t, imp_v, pmin, chat_t, ev_log=None, ev_count=None):
     """Simulate whole forcing periods exactly; the numba core of method ``event``.
 
     Time starts at forcing phase 0.  ``samples`` (shape (n_record *
     ns_record, 2)) receives ``(q, q')`` at the phase grid of the recorded
     periods; ``imp_t``/``imp_v`` receive the times (from the start of the
     recording) and pre-impact velocities of the first ``len(imp_t)`` recorded
-    impacts.  ``R_table_v``/``R_table_R`` tabulate R against the pre-impact velocity
+    impacts; ``pmin`` (shape (n_record,)) the exact minimum of ``q`` over each
+    recorded period (the same root-found minima as ``q_min``); ``chat_t`` the times (from
+    the start of the recording) of the first ``len(chat_t)`` chatter accumulation points.  ``R_table_v``/``R_table_R`` tabulate R against the pre-impact velocity
     q'- (nondimensional; :func:`vibeam.models.impact.restitution_coefficient`); empty
     arrays give the constant ``R``.
+
+    Optional event log (used by the shooting problem of :mod:`vibeam.models.periodic_sdof`):
+    ``ev_log`` (shape (cap, 5)) receives one row ``(kind, t, q, q', q'')`` per event in
+    time order -- kind :data:`EV_IMPACT` (pre-impact state and acceleration),
+    :data:`EV_STICK` (onset of sticking, after a chatter accumulation or a contact without
+    rebound), :data:`EV_RELEASE` (lift-off from the stop) and :data:`EV_APEX` (an interior
+    maximum of a free flight below the stop, located in recorded periods), with ``t``
+    measured from the start of the call -- and ``ev_count[0]`` the number of events (it
+    keeps counting beyond ``cap``).  Omitted (None), nothing is logged.
 
     Returns
     -------
     tuple
         ``(status, n_imp_record, q_min, q_max, n_chatter, stuck_time,
-        q_end, v_end, stuck_end, n_imp_total)``.
+        q_end, v_end, stuck_end, n_imp_total, gmax)``; ``gmax`` is the largest
+        gap ``q - Delta`` at the end of a step without an event, before ``q`` is
+        put back on the stop (a certificate: positive beyond round-off only if
+        a crossing had been stepped over).
     """
     F = Omega * Omega * B
     a, b = particular_coefficients(beta, F, Omega)
@@ -165,10 +201,11 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     stuck_time = 0.0
     q_min = np.inf
     q_max = -np.inf
+    gmax = -np.inf
     cap = imp_t.shape[0]
     status = STATUS_OK
     if not (math.isfinite(a) and math.isfinite(b)):
-        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, stuck, 0)
+        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, stuck, 0, -np.inf)
     n_total = n_transient + n_record
     k_sample = 0
     # derivatives at the start of the next interval are carried over from the
@@ -197,8 +234,12 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     for k in range(nt_r + 1):
         tab_r[k, 0] = math.sin(TWO_PI * k / nt_r)
         tab_r[k, 1] = math.cos(TWO_PI * k / nt_r)
+    for k in range(pmin.shape[0]):
+        pmin[k] = np.inf
+    kp = 0
     for p in range(n_total):
         recording = p >= n_transient
+        kp = p - n_transient
         ns = ns_record if recording else ns_transient
         sub = sub_r if recording else sub_t
         P = P_r if recording else P_t
@@ -213,6 +254,8 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                 k_sample += 1
                 if q < q_min:
                     q_min = q
+                if q < pmin[kp]:
+                    pmin[kp] = q
                 if q > q_max:
                     q_max = q
             for isub in range(sub):
@@ -240,6 +283,8 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                         stuck = False
                         q = Delta
                         v = 0.0
+                        if ev_log is not None:
+                            _log_event(ev_log, ev_count, EV_RELEASE, p * T + t_loc, Delta, 0.0, 0.0)
                         continue
                     # ---- free flight from (phi, q, v) for at most rem ----
                     s_imp = -1.0
@@ -251,6 +296,9 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                             s_imp = 0.0
                         elif _release_delay(phi, F, Delta, Omega) > 0.0:
                             stuck = True
+                            if ev_log is not None:
+                                _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
+                                           F * math.sin(phi) - Delta)
                             continue
                     if s_imp < 0.0:
                         if fresh:
@@ -288,11 +336,16 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                                     gm = propagate(sm, phi, q, v, beta, a, b, Omega, Delta)[0]
                                     if Delta + gm < q_min:
                                         q_min = Delta + gm
+                                    if Delta + gm < pmin[kp]:
+                                        pmin[kp] = Delta + gm
                                 elif v0 > 0.0 > v1:
                                     sa = _root(1, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
                                     ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
                                     if Delta + ga > q_max:
                                         q_max = Delta + ga
+                                    if ev_log is not None:
+                                        _log_event(ev_log, ev_count, EV_APEX, p * T + t_loc + sa,
+                                                   Delta + ga, 0.0, 0.0)
                         elif cert < 0:
                             # concave: v non-increasing
                             if v0 > 0.0:
@@ -307,8 +360,12 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                                         ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
                                         if ga >= 0.0:
                                             s_imp = _root(0, 0.0, sa, phi, q, v, beta, a, b, Omega, Delta) if g0 < 0.0 else sa
-                                        elif recording and Delta + ga > q_max:
-                                            q_max = Delta + ga
+                                        else:
+                                            if recording and Delta + ga > q_max:
+                                                q_max = Delta + ga
+                                            if ev_log is not None and recording:
+                                                _log_event(ev_log, ev_count, EV_APEX, p * T + t_loc + sa,
+                                                           Delta + ga, 0.0, 0.0)
                         else:
                             # convex: v non-decreasing
                             if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
@@ -319,6 +376,8 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                                         gm = propagate(sm, phi, q, v, beta, a, b, Omega, Delta)[0]
                                         if Delta + gm < q_min:
                                             q_min = Delta + gm
+                                        if Delta + gm < pmin[kp]:
+                                            pmin[kp] = Delta + gm
                                     if g1 >= 0.0:
                                         s_imp = _root(0, sm, h, phi, q, v, beta, a, b, Omega, Delta)
                                 elif g1 >= 0.0:
@@ -334,6 +393,9 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                             rem = 0.0
                         q = Delta
                         v_minus = vi if vi > 0.0 else 0.0
+                        if ev_log is not None:
+                            _log_event(ev_log, ev_count, EV_IMPACT, p * T + t_loc, Delta, v_minus,
+                                       F * math.sin(phi) - 2.0 * beta * v_minus - Delta)
                         Rc = restitution_coefficient(v_minus, R, R_table_v, R_table_R)
                         v = newton_restitution(v_minus, Rc)
                         n_imp_total += 1
@@ -345,7 +407,7 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                             n_imp_rec += 1
                         if n_imp_total > max_impacts:
                             return (STATUS_FAILED, n_imp_rec, q_min, q_max, n_chatter,
-                                    stuck_time, q, v, stuck, n_imp_total)
+                                    stuck_time, q, v, stuck, n_imp_total, gmax)
                         # contact acceleration with the rebound velocity
                         u = -v
                         acc = F * math.sin(phi) + 2.0 * beta * u - Delta
@@ -354,27 +416,41 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                             if _release_delay(phi, F, Delta, Omega) > 0.0:
                                 stuck = True
                                 v = 0.0
-                        elif acc > 0.0 and Rc < 1.0:
-                            # chatter estimate with R at the current impact velocity
-                            D = 2.0 * u / (acc * (1.0 - Rc))
-                            jerk = abs(F * Omega * math.cos(phi))
-                            err = D * (jerk / acc + 2.0 * beta + D)
-                            # jump only to an accumulation point inside this sub-step; beyond
-                            # it the bounces are resolved one by one until the next sub-step
-                            # (whose full length then contains the remaining D R^k)
-                            if err < chatter_tol and D < rem:
+                                if ev_log is not None:
+                                    _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
+                                               F * math.sin(phi) - Delta)
+                        else:
+                            # the shared chatter policy (vibeam.models.contact_policy), R at the
+                            # current impact velocity; one DOF: the jerk beyond the flow part is
+                            # the forcing term exactly, c_eff = 2 beta, k_eff = 1.  It jumps only to
+                            # an accumulation point inside this sub-step; beyond it the bounces
+                            # are resolved one by one until the next sub-step (whose full length
+                            # then contains the remaining D R^k)
+                            D = chatter_jump(u, acc, F * Omega * math.cos(phi), 2.0 * beta, 1.0, Rc,
+                                             chatter_tol, rem)
+                            if D >= 0.0:
                                 n_chatter += 1 if recording else 0
                                 phi = (phi + Omega * D) % TWO_PI
                                 t_loc += D
                                 rem -= D
                                 stuck = True
                                 v = 0.0
+                                if recording and n_chatter <= chat_t.shape[0]:
+                                    chat_t[n_chatter - 1] = t_period0 + t_loc
+                                if ev_log is not None:
+                                    _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
+                                               F * math.sin(phi) - Delta)
                         continue
-                    # no event in [0, h]: move to its end
+                    # no event in [0, h]: move to its end (the unclamped gap is kept: a crossing
+                    # stepped over would show as g1 > 0)
+                    if g1 > gmax:
+                        gmax = g1
                     if recording:
                         qe = Delta + g1
                         if qe < q_min:
                             q_min = qe
+                        if qe < pmin[kp]:
+                            pmin[kp] = qe
                         if qe > q_max:
                             q_max = qe
                     q = Delta + g1
@@ -397,6 +473,6 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
             status = STATUS_CHATTER
         elif stuck_time > 0.0:
             status = STATUS_STICKING
-    return (status, n_imp_rec, q_min, q_max, n_chatter, stuck_time, q, v, stuck, n_imp_total)
+    return (status, n_imp_rec, q_min, q_max, n_chatter, stuck_time, q, v, stuck, n_imp_total, gmax)
 
 

@@ -232,12 +232,14 @@ def integrate_piecewise(rhs, event, jump, to_q, y0, mode0, t0, period, n_transie
     return run
 
 
-def _refine_extremes(segments, to_q, t_lo, t_hi):
+def _refine_extremes(segments, to_q, t_lo, t_hi, minima=None):
     """Local extremes of ``q`` on the dense record segments.
 
     For every integrator step of every segment on which ``q'`` changes sign,
     the root of ``q'`` is located by :func:`scipy.optimize.brentq` on the
     dense interpolant and ``q`` evaluated there.
+
+    ``minima``, a list, receives ``(t, q)`` of every local minimum found.
 
     Returns
     -------
@@ -261,6 +263,8 @@ def _refine_extremes(segments, to_q, t_lo, t_hi):
             qr = float(to_q(sol(tr), mode)[0])
             if v[i] < 0.0:
                 q_min = min(q_min, qr)
+                if minima is not None:
+                    minima.append((tr, qr))
             else:
                 q_max = max(q_max, qr)
     return q_min, q_max
@@ -298,6 +302,10 @@ class _ScipyMethod:
 
     name = "scipy"
     time_domain = True
+    # periods per call of the sweep engine (vibeam.sweep._simulate); a restart of solve_ivp changes
+    # the result at the level of its tolerance, so chunks are long (Python code is interruptible
+    # anyway; the chunk only sets how often the wall-time limit is checked)
+    chunk_periods = 1000
 
     def __init__(self, model, solver: str = "RK23", rtol: float = 1e-4, atol: float = 1e-8,
                  max_step=None, max_events_per_period: int = 20000,
@@ -446,7 +454,13 @@ class _ScipyMethod:
         order = np.argsort(imp_t, kind="stable")
         imp_t = np.asarray(imp_t, dtype=float)[order]
         imp_v = np.asarray(imp_v, dtype=float)[order]
-        r_min, r_max = _refine_extremes(run.segments, to_q, t_record, t_end)
+        minima = []
+        r_min, r_max = _refine_extremes(run.segments, to_q, t_record, t_end, minima)
+        # per-period minima: the samples of each period and the refined minima inside it
+        pmin = samples[:, 0].reshape(n_record, spp).min(axis=1) if n_s else np.zeros(0)
+        for tm, qm in (minima if n_record else []):
+            kp = min(max(int((tm - t_record) // T), 0), n_record - 1)
+            pmin[kp] = min(pmin[kp], qm)
         q_min = float(min(np.min(samples[:, 0]), r_min)) if n_s else r_min
         q_max = float(max(np.max(samples[:, 0]), r_max)) if n_s else r_max
         if imp_t.size:
@@ -454,7 +468,7 @@ class _ScipyMethod:
         q_end, v_end = to_q(run.y_end, run.mode_end)
         return Trajectory(Omega=Omega, samples=samples, samples_per_period=spp,
                           impact_times=imp_t, impact_velocities=imp_v, n_impacts=int(imp_t.size),
-                          q_min=q_min, q_max=q_max, status=status, message=message,
+                          q_min=q_min, q_max=q_max, period_min=pmin, status=status, message=message,
                           final_state=np.array([float(q_end), float(v_end), 0.0]),
                           extra=dict(nfev=run.nfev))
 

@@ -239,3 +239,32 @@ def test_a_figure_without_units_fails_the_check():
             check_figure(fig)
     finally:
         plt.close(fig)
+
+
+@pytest.mark.parametrize("name", ["paper-fig13-continuation", "rig-map-gap-continuation"])
+def test_continuation_figures_are_labelled(name, tmp_path, monkeypatch):
+    """The continuation FRC (stable solid, unstable dashed, bifurcations) and the two-parameter
+    curves, drawn by `vibeam run --quick` of the shipped continuation cases: the same checks."""
+    from vibeam import branches
+    from vibeam.cli import main
+
+    figs = []
+    for fname in ("continuation_figure", "curves_figure"):
+        orig = getattr(branches, fname)
+
+        def keep(*a, _orig=orig, **k):
+            fig = _orig(*a, **k)
+            figs.append(fig)
+            return fig
+        monkeypatch.setattr(branches, fname, keep)
+    monkeypatch.setattr(plt, "close", lambda *a, **k: None)      # keep them for the checks
+    assert main(["run", str(ROOT / "cases" / f"{name}.toml"), "--quick", "--out", str(tmp_path), "--quiet",
+                 "--jobs", "1"]) == 0
+    try:
+        assert figs
+        for fig in figs:
+            check_figure(fig, f"{name}: {fig._suptitle.get_text()[:40]}")
+    finally:
+        monkeypatch.undo()
+        for fig in figs:
+            plt.close(fig)

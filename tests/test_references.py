@@ -2,20 +2,21 @@
 
 The references in ``tests/references/<case name>.h5`` are made (and checked
 against the analytic oracles: impact-map fixed points, the linear steady state,
-averaging, the static-mode SDOF) by ``tests/references/make_references.py``.
-Two checks per case:
+averaging, the static-mode SDOF, the direct FE solver) by
+``tests/references/make_references.py``; the cheap oracles are recomputed here
+from the stored data.  Two checks per case:
 
 1. ``vibeam regress CASE --reference tests/references/<name>.h5 --quick``
-   with the case's ``[regress]`` tolerances on every point (``atol`` absorbs
-   the spread of non-periodic attractors, ``period`` is off where the
-   classification is fragile);
+   with the case's ``[regress]`` tolerances on every point (non-periodic or
+   unsettled points by the spread of their per-period amplitude, ``period`` is
+   off where the classification is fragile);
 2. on the points where quick run and reference have the same period (1..8, or
    no impact) the amplitude agrees to ``amplitude_rtol`` alone: there the only
    difference is the remaining transient (or the ODE tolerance).
 """
 from __future__ import annotations
 
-import json
+import importlib.util
 import shutil
 from pathlib import Path
 
@@ -104,25 +105,71 @@ def test_references_are_labelled_data(ref):
 
     check_labelled(ref)
     with xr.open_dataset(ref, group="reference", engine="h5netcdf") as ds:
-        assert int(ds["transient_periods"]) >= 1000 and ds["checks"].dims == ("check",)
+        assert ds["checks"].dims == ("check",) and ds["transient_periods"].dims == ()
 
 
-def test_references_passed_their_oracle_checks():
-    for ref in sorted(REFS.glob("*.h5")):
-        with h5py.File(ref, "r") as f:
-            # 1000 (FE) or 3000 (SDOF); see REFERENCE_TRANSIENT_OVERRIDE in make_references.py
-            assert int(f["reference/transient_periods"][()]) >= 1000
-            checks = [json.loads(s) for s in f["reference/checks"].asstr()[()]]
-            case = parse_case(f.attrs["case_text"])
-        assert all(c["failures"] == 0 and c["max_rel_error"] <= c["tolerance"] for c in checks), ref
-        # the oracles apply to event runs without an effect on the dynamics, at periodic points
-        plain = [r.name for r in case.run
-                 if r.method == "event" and not set(case.effects_for(r).active()) - {"sensor"}
-                 and (case.model["fidelity"] == "sdof" or r.model.get("n_modes") == "static")]
-        runs = all_runs(read_results(ref))
-        plain = [n for n in runs if n.split("@")[0] in plain]
-        if any(np.isin(runs[n]["period"], (1, -1)).any() for n in plain):
-            assert any("Newton" in c["oracle"] or "static mode" in c["oracle"] for c in checks), ref
+def _generator():
+    """tests/references/make_references.py as a module (its oracles)."""
+    spec = importlib.util.spec_from_file_location("make_references", REFS / "make_references.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+POINT_ORACLES = ("Newton", "k-fold", "linear", "static mode")
+
+
+@pytest.mark.parametrize("ref", sorted(REFS.glob("*.h5")), ids=[p.stem for p in sorted(REFS.glob("*.h5"))])
+def test_reference_passes_its_oracles_recomputed(ref):
+    """The oracles are recomputed here from the stored datasets and case text (Newton and
+    k-fold impact-map fixed points, linear steady states, the static mode's SDOF, the held
+    lift-off), not read back from the generator's verdict; only the direct FE solver is left
+    to the generator and to a slow test.  A reference whose plain event runs have periodic or
+    no-impact points must have had some of them checked."""
+    with h5py.File(ref, "r") as f:
+        # 1000 (FE) or 3000 (SDOF), "auto" where the quick variant has it, the quick variant's own
+        # for the exceptions; see REFERENCE_TRANSIENT in make_references.py
+        tp = f["reference/transient_periods"].asstr()[()]
+        case = parse_case(f.attrs["case_text"])
+    quick = case.quick_variant().sweep.transient_periods
+    assert tp == "auto" if quick == "auto" else int(tp) >= quick
+    checks = _generator().check_stored(ref, expensive=False)
+    failures = [f"{c.run}: {c.oracle}: {m}" for c in checks for m in c.failures]
+    assert not failures, failures[:10]
+    plain = [r.name for r in case.run
+             if r.method == "event" and not set(case.effects_for(r).active()) - {"sensor"}
+             and (case.model["fidelity"] == "sdof" or r.model.get("n_modes") == "static")]
+    runs = all_runs(read_results(ref))
+    plain = [n for n in runs if n.split("@")[0] in plain]
+    ok = [(np.isin(runs[n]["period"], (1, -1)) & (runs[n]["status"] == "ok")).any() for n in plain]
+    if any(ok):
+        assert sum(c.n for c in checks if any(o in c.oracle for o in POINT_ORACLES)) > 0
+
+
+def test_a_tampered_reference_fails_its_oracles(tmp_path):
+    """The recomputed oracles catch a reference changed by 1e-7 at one period-1 point (the
+    tolerance is 1e-8) or a period-3 point changed by 1e-6."""
+    mr = _generator()
+    for name, period, rel in (("paper-fig7", 1, 1e-7), ("paper-fig13", 3, 1e-6)):
+        bad = tmp_path / f"{name}.h5"
+        shutil.copy(REFS / f"{name}.h5", bad)
+        with h5py.File(bad, "r+") as f:
+            a = f["runs/exact/amplitude"]
+            v = a[()]                                   # (direction, Omega)
+            i = int(np.flatnonzero(f["runs/exact/period"][()] == period)[0])
+            v.flat[i] *= 1 + rel
+            a[...] = v
+        failed = [c for c in mr.check_stored(bad) if c.failures]
+        assert failed and all(c.run == "exact" for c in failed), name
+
+
+@pytest.mark.slow
+def test_fe_reference_against_the_direct_solver():
+    """The FE rungs (1, 2, 4 modes) of the neutral rig against solve_ivp (DOP853, rtol 1e-10)
+    started on the event solver's orbit: amplitude to 1e-7 (measured 2e-11)."""
+    checks = _generator().check_stored(REFS / "rig-fe-neutral.h5", expensive=True)
+    direct = [c for c in checks if "direct" in c.oracle]
+    assert len(direct) == 3 and all(c.n == 2 and not c.failures for c in direct)
 
 
 def test_perturbed_reference_fails(tmp_path, capsys):

@@ -164,7 +164,8 @@ voltage = {spec.voltage}
 [sweep]
 {grid}
 direction = "{sw.direction}"
-transient_periods = {sw.transient_periods}
+transient_periods = {sw.transient_periods!r}
+max_transient_periods = {sw.max_transient_periods}
 record_periods = {sw.record_periods}
 
 [[run]]

@@ -15,9 +15,14 @@ the reference is exact to round-off).  It prints ratios, never asserts them.
 
 ``--map`` instead measures map throughput on 1 and 2 workers and the cost of the
 line checkpoint (:func:`run_map_bench`); ``--effects`` instead times each scene effect (:func:`run_effects_bench`);
-``--scaling`` instead measures how the cost of a sweep grows with the periods
+``--continuation`` instead times the continuation of a period-1 branch through its fold and
+grazing and compares its cost per FRC point with a sweep of equal accuracy
+(:func:`run_continuation_bench`);
+``--shooting`` instead measures the beam's periodic-orbit shots and Newton solves against
+the event solver (:func:`run_shooting_bench`); ``--scaling`` instead measures how the cost of a sweep grows with the periods
 simulated and with the retained modes of the FE beam, with fitted exponents
-(:func:`run_scaling_bench`).
+(:func:`run_scaling_bench`); ``--fit`` instead times ``vibeam fit`` against its goal
+(:func:`run_fit_bench`).
 """
 from __future__ import annotations
 
@@ -272,15 +277,174 @@ def run_cli_bench(case: str | None = None, repeats: int = 3, direct_points: int 
     return out
 
 
+CONTINUATION_GOAL_S = 0.1   # issue 10: ~500-point SDOF branch with stability, after warm-up
+
+
+def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_error: float = 1e-8,
+                           log=None) -> dict:
+    """Speed of the continuation against its goal and against the sweep it replaces.
+
+    Scene: paper Fig. 8 (beta 0.015, B 0.5e-3, R 0.9, Delta 0.7e-3), Omega 1.5 .. 2.5: the
+    period-1 branch from the impacting orbit at 1.5 up to its fold (1.985), back on its
+    unstable part to the grazing (1.870) and on the non-impacting orbit to 2.5, with Floquet
+    multipliers at every point and the fold and grazing located.  Timed inline after a warm-up,
+    median of ``repeats``; the verdict compares it with :data:`CONTINUATION_GOAL_S` (a number,
+    not an assertion).
+
+    Equal accuracy: the stable impacting part (Omega 1.5 .. 1.98) is swept by the ``event``
+    solver as a laboratory sweep (``sweep_points`` frequencies, continuation from point to
+    point) with more and more transient periods until every amplitude agrees with the
+    branch to ``target_error`` (relative; the branch points are exact to that, see
+    ``tests/test_continuation.py``); the cost per point of that sweep is set against the cost
+    per point of the continuation.  The unstable part has no sweep counterpart at any cost.
+    """
+    from .models import SDOF, EventSolver
+    from .models.continuation import Settings, trace
+    from .models.periodic_sdof import SDOFShooting
+
+    log = log or (lambda m: None)
+    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
+    prob = SDOFShooting(m)
+    x0 = EventSolver(m).point(1.5, None, 400, 4, 8).final_state[:2]
+    st = Settings()
+    trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st)  # warm-up (compiled kernels, cache load)
+    calls = [0]
+    shot = prob.shot
+
+    def counted(x, p, n):
+        calls[0] += 1
+        return shot(x, p, n)
+
+    times, cpu = [], []
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), time.process_time()
+        branches = trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st)
+        times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    t = statistics.median(times)
+    prob.shot = counted
+    trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st)
+    prob.shot = shot
+    b = branches[0]
+    a = b.arrays()
+    n_pts = len(b)
+    bifs = {f.type: f.parameter for f in b.bifurcations}
+    log(f"continuation: {n_pts} points in {t:.4f} s")
+    # the sweep it replaces, at equal accuracy, on the stable impacting part
+    upper = np.flatnonzero(a["stable"] & (a["impacts"] == 1) & (a["parameter"] <= 1.98))
+    W_b, Q_b = a["parameter"][upper], a["amplitude"][upper]
+    grid = np.linspace(1.5, 1.98, sweep_points)
+    # exact branch values on the grid: correct at each grid frequency (natural-parameter Newton)
+    from .models.continuation import start_point
+    Q_ref = np.empty_like(grid)
+    for i, W in enumerate(grid):
+        k = int(np.argmin(np.abs(W_b - W)))
+        pt, _ = start_point(prob, a["state"][upper][k], W, 1, 1.5, 2.5)
+        Q_ref[i] = pt.shot.gap - pt.shot.q_min
+    solver = EventSolver(m)
+    rows = []
+    for n_tr in (50, 100, 200, 400, 800, 1600, 3200):
+        t0 = time.perf_counter()
+        state = None
+        Q = np.empty_like(grid)
+        for i, W in enumerate(grid):
+            tr = solver.point(W, state, n_tr, 1, 8)
+            state = tr.final_state
+            Q[i] = m.Delta - tr.q_min
+        ts = time.perf_counter() - t0
+        err = float(np.max(np.abs(Q - Q_ref) / Q_ref))
+        rows.append(dict(transient_periods=n_tr, time_s=ts, time_per_point_s=ts / len(grid), max_rel_error=err))
+        log(f"sweep with {n_tr} transient periods: max rel. error {err:.2e}, {ts:.3f} s")
+        if err <= target_error:
+            break
+    equal = next((r for r in rows if r["max_rel_error"] <= target_error), None)
+    per_point = t / n_pts
+    return {
+        "scene": "paper Fig. 8 (beta 0.015, B 0.5e-3, R 0.9, Delta 0.7e-3), Omega 1.5 .. 2.5, period-1 branch",
+        "continuation": {
+            "points": n_pts, "time_s": t, "times_s": times, "time_per_point_s": per_point,
+            "cpu_time_s": statistics.median(cpu),
+            "shots": calls[0], "stable_points": int(a["stable"].sum()), "unstable_points": int((~a["stable"]).sum()),
+            "bifurcations": bifs, "status": b.status},
+        "goal": {"points": "~500", "time_s": CONTINUATION_GOAL_S,
+                 "verdict": "pass" if t < CONTINUATION_GOAL_S else "fail",
+                 "ratio_to_goal": t / CONTINUATION_GOAL_S,
+                 "cpu_verdict": "pass" if statistics.median(cpu) < CONTINUATION_GOAL_S else "fail",
+                 "note": "time_s is wall-clock (it includes waiting for a core on a shared machine); "
+                         "cpu_time_s is the time this process ran"},
+        "sweep_at_equal_accuracy": {
+            "grid": f"{sweep_points} frequencies on the stable impacting part, Omega 1.5 .. 1.98 (up, continuation)",
+            "target_max_rel_error": target_error, "ladder": rows,
+            "transient_periods": equal["transient_periods"] if equal else None,
+            "time_per_point_s": equal["time_per_point_s"] if equal else None,
+            "cost_ratio_sweep_to_continuation_per_point":
+                (equal["time_per_point_s"] / per_point) if equal else None,
+            "note": "the unstable part of the branch (between the fold and the grazing) has no sweep counterpart",
+        },
+        "load_average": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
+    }
+
+
+def run_fit_bench(points: int = 30, jobs: int = 2, sigma_mm: float = 0.01, seed: int = 1,
+                  goal_s: float = 10.0) -> dict:
+    """Cost of ``vibeam fit`` (:func:`vibeam.fit.fit_case`): a two-parameter (gain, R) fit of the
+    SDOF rig scene (``rig-neutral``, 400 + 64 periods) to ``points`` synthetic points (14-17 Hz,
+    up, Gaussian noise ``sigma_mm``) from a start 10 % off, on a local pool of ``jobs`` workers
+    (its start-up included), against the goal; and the same for R alone on the FE beam with
+    2 modes (``rig-fe-neutral``).  Returns a JSON-ready dict; prints no assertion."""
+    from pathlib import Path
+
+    from .case import load_case
+    from .fit import fit_case, synthetic_reference
+
+    root = Path(__file__).resolve().parent.parent / "cases"
+    f = np.linspace(14.0, 17.0, points)
+    out = {"points": points, "jobs": jobs, "noise_mm": sigma_mm, "goal_s": goal_s, "fits": {}}
+    scenes = (("sdof gain,R", "rig-neutral.toml", None, {"gain": 5.16e-4, "R": 0.72}, {"gain": 4.64e-4, "R": 0.65}),
+              ("FE 2 modes R", "rig-fe-neutral.toml", "FE 2 modes", {"R": 0.72}, {"R": 0.65}))
+    for label, fname, run, truth, start in scenes:
+        case, _ = load_case(root / fname)
+        ref = synthetic_reference(case, f, truth, run=run, sigma=sigma_mm, seed=seed)
+        t0 = time.perf_counter()
+        res = fit_case(case, ref, list(truth), run=run, jobs=jobs, x0=start)
+        t = time.perf_counter() - t0
+        out["fits"][label] = {
+            "case": fname, "run": res.run, "time_s": t, "evaluations_sweeps": res.evaluations,
+            "nfev": res.nfev, "njev": res.njev, "truth": truth, "start": start,
+            "estimate": dict(zip(res.parameters, map(float, res.estimate))),
+            "standard_error": dict(zip(res.parameters, map(float, res.standard_error))),
+            "within_2se": bool(np.all(np.abs(res.estimate - np.array(list(truth.values())))
+                                      <= 2 * res.standard_error)),
+            "time_per_sweep_s": t / max(res.evaluations, 1)}
+    t_sdof = out["fits"]["sdof gain,R"]["time_s"]
+    out["goal"] = f"two-parameter SDOF fit on {points} points in under {goal_s:g} s on {jobs} cores"
+    out["ratio_to_goal"] = t_sdof / goal_s
+    out["pass"] = bool(t_sdof < goal_s)
+    return out
+
+
 def main_bench(args) -> int:
     """``vibeam bench``: one benchmark as JSON on stdout, a PASS/FAIL line per stated goal on stderr."""
     log = (lambda m: print(m, file=sys.stderr))
-    if getattr(args, "scaling", False):
+    if getattr(args, "fit", False):
+        out, mode = run_fit_bench(jobs=getattr(args, "jobs", None) or 2), "--fit"
+        out["goals"] = [goal(out["goal"], f"{out['fits']['sdof gain,R']['time_s']:.2f} s", out["pass"])]
+    elif getattr(args, "continuation", False):
+        out, mode = run_continuation_bench(repeats=getattr(args, "repeats", 5), log=log), "--continuation"
+        g = out["goal"]
+        out["goals"] = [goal(f"~500-point SDOF branch with stability in under {g['time_s']:g} s (wall)",
+                             f"{out['continuation']['time_s']:.4f} s", g["verdict"] == "pass"),
+                        goal(f"the same in CPU time (a shared machine)", f"{out['continuation']['cpu_time_s']:.4f} s",
+                             g["cpu_verdict"] == "pass")]
+    elif getattr(args, "scaling", False):
         out, mode = run_scaling_bench(repeats=getattr(args, "repeats", 3)), "--scaling"
         out["goals"] = scaling_goals(out)
     elif getattr(args, "map", False):
         out, mode = run_map_bench(log=log), "--map"
         out["goals"] = map_goals(out)
+    elif getattr(args, "shooting", False):
+        out, mode = run_shooting_bench(repeats=getattr(args, "repeats", 5)), "--shooting"
+        out["goals"] = shooting_goals(out)
     elif getattr(args, "effects", False):
         out, mode = run_effects_bench(), "--effects"
         out["goals"] = effects_goals(out)
@@ -616,3 +780,131 @@ def effects_goals(out: dict) -> list:
     (each changes the forcing, the gap, R or adds one DOF)."""
     return [goal(f"{fid}: '{name}' at most 2x the plain sweep", f"{r:.2f}x", r <= 2.0)
             for fid, row in out["scenes"].items() for name, r in row["ratio_to_plain"].items()]
+
+
+# ----------------------------------------------------------------------------- shooting
+def _median_time(f, repeats: int = 5, min_total_s: float = 0.2, max_repeats: int = 200) -> float:
+    ts = []
+    while len(ts) < repeats or (sum(ts) < min_total_s and len(ts) < max_repeats):
+        t0 = time.perf_counter()
+        f()
+        ts.append(time.perf_counter() - t0)
+    return statistics.median(ts)
+
+
+def _newton(prob, x, p, n=1, tol=1e-12, max_iter=30):
+    """Plain Newton on P^n(x) = x with the shot's monodromy (bench only, not an engine)."""
+    for it in range(max_iter):
+        s = prob.shot(x, p, n)
+        if s.status != "ok":
+            return None, s, it
+        r = s.x - x
+        if np.max(np.abs(r)) <= tol * np.max(np.abs(x)):
+            return x, s, it
+        x = x - np.linalg.solve(s.M - np.eye(prob.dim), r)
+    return None, s, max_iter
+
+
+def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int = 31) -> dict:
+    """Cost of the beam's periodic-orbit shooting (:class:`vibeam.models.periodic_beam.BeamShooting`).
+
+    * ``shot``: one ``P^1`` with and without the monodromy and ``d x / d Omega``, for the
+      period-1 one-impact orbit of ``rig-fe-neutral`` at 15.5 Hz and the period-1 chatter +
+      sticking orbit of ``rig-fe-tight`` at 13 Hz, with ``modes`` retained modes (median
+      wall time, after a warm-up).
+    * ``newton_vs_event``: the neutral orbit by Newton with the shot's M from the
+      contact-free linear orbit, against the event solver from rest: the periods it needs
+      to come within 1e-10 of the fixed point and their wall time.
+    * ``frc``: ``frc_points`` frequencies over the case's 14-17 Hz with all modes, each
+      Newton solve started from the previous point's orbit (what a continuation step
+      costs, without the engine), against the case's sweep (transient + record periods per
+      point, timed on 3 points and scaled).
+    """
+    from .models.beam_dynamics import BeamEventSolver, particular
+    from .models.periodic_beam import BeamShooting
+
+    out: dict = {"shot": {}, "newton_vs_event": {}, "frc": {}}
+    t_all = time.perf_counter()
+    built: dict = {}
+
+    def scene(fname, nm):
+        if (fname, nm) not in built:
+            built[fname, nm] = _scene(fname, {"n_modes": nm})
+        return built[fname, nm]
+
+    scenes = {"rig-fe-neutral 15.5 Hz": ("rig-fe-neutral.toml", 15.5),
+              "rig-fe-tight 13 Hz": ("rig-fe-tight.toml", 13.0)}
+    for label, (fname, f_hz) in scenes.items():
+        row = {}
+        for nm in modes:
+            case, model, settings, _ = scene(fname, nm)
+            W = f_hz / model.f_ref_hz
+            x0 = BeamEventSolver(model).point(W, None, 300, 1, 1).final_state[:-1]
+            prob = BeamShooting(model, W)
+            s = prob.shot(x0, W, 1)
+            prob.shot(x0, W, 1, derivatives=False)
+            t_no = _median_time(lambda: prob.shot(x0, W, 1, derivatives=False), repeats)
+            t_m = _median_time(lambda: prob.shot(x0, W, 1), repeats)
+            row[str(nm)] = {"dim": prob.dim, "impacts": s.n_impacts, "stuck_time": s.stuck_time,
+                            "events": int(s.extra["event_kinds"].size),
+                            "shot_ms": 1e3 * t_no, "shot_with_M_ms": 1e3 * t_m,
+                            "M_share": (t_m - t_no) / t_m}
+        out["shot"][label] = row
+    for nm in modes:
+        case, model, settings, _ = scene("rig-fe-neutral.toml", nm)
+        W = 15.5 / model.f_ref_hz
+        a, b = particular(model.c_nd, model.k_nd, model.participation, W**2 * model.base_amplitude_m, W)
+        prob = BeamShooting(model, W)
+        t0 = time.perf_counter()
+        x, s, it = _newton(prob, np.concatenate([b, W * a]), W)
+        t_newton = time.perf_counter() - t0
+        K = 400
+        sol = BeamEventSolver(model, record_modal_states=True)
+        t0 = time.perf_counter()
+        tr = sol.point(W, None, 0, K, 1)
+        t_ev = time.perf_counter() - t0
+        err = np.max(np.abs(tr.extra["modal_states"] - x), axis=1) / np.max(np.abs(x))
+        k = int(np.argmax(err < 1e-10)) if np.any(err < 1e-10) else -1
+        out["newton_vs_event"][str(nm)] = {
+            "newton_iterations": it, "newton_s": t_newton,
+            "multiplier_modulus": float(np.max(np.abs(s.multipliers()))),
+            "event_periods_to_1e-10": k, "event_s_to_1e-10": t_ev * k / K if k > 0 else None,
+            "ratio_event_to_newton": (t_ev * k / K) / t_newton if k > 0 else None}
+    case, model, settings, _ = scene("rig-fe-neutral.toml", "all")
+    grid = np.linspace(14.0, 17.0, frc_points) / model.f_ref_hz
+    prob = BeamShooting(model, grid[0])
+    x = BeamEventSolver(model).point(grid[0], None, 300, 1, 1).final_state[:-1]
+    its, ok, stable = [], 0, 0
+    t0 = time.perf_counter()
+    for W in grid:
+        xn, s, it = _newton(prob, x, W)
+        its.append(it)
+        if xn is not None:
+            x = xn
+            ok += 1
+            stable += bool(np.max(np.abs(s.multipliers())) < 1)
+    t_frc = time.perf_counter() - t0
+    cs = case.sweep
+    sol = BeamEventSolver(model, **settings)
+    sol.point(grid[0], None, 2, 2, cs.samples_per_period)
+    t0 = time.perf_counter()
+    for W in grid[:3]:
+        sol.point(W, None, cs.transient_periods, cs.record_periods, cs.samples_per_period)
+    t_pt = (time.perf_counter() - t0) / 3
+    out["frc"] = {"points": frc_points, "converged": ok, "stable": stable,
+                  "newton_iterations_mean": float(np.mean(its)), "time_s": t_frc,
+                  "time_per_point_s": t_frc / frc_points,
+                  "sweep_point_s": t_pt, "sweep_periods_per_point": cs.transient_periods + cs.record_periods,
+                  "ratio_sweep_to_newton_per_point": t_pt / (t_frc / frc_points)}
+    out["total_time_s"] = time.perf_counter() - t_all
+    return out
+
+
+def shooting_goals(out: dict) -> list:
+    """Goals of :func:`run_shooting_bench`: Newton on the shot converges at every FRC point and
+    a point costs less by Newton than by the sweep's transient."""
+    f = out["frc"]
+    return [goal("Newton on the beam's shot converges at every FRC point (all modes)",
+                 f"{f['converged']} of {f['points']}", f["converged"] == f["points"]),
+            goal("an FRC point by Newton costs less than the sweep's point (transient + record)",
+                 f"{f['ratio_sweep_to_newton_per_point']:.2f}x", f["ratio_sweep_to_newton_per_point"] > 1)]

@@ -94,6 +94,21 @@ class SDOFModelSpec(_Strict):
     def physical(self) -> bool:
         return self.natural_frequency_hz is not None
 
+    # continuation parameters: key -> (native key of the SDOF model, factor d native / d key)
+    def native_parameter(self, key: str):
+        """``(native key, factor)`` of a continuation parameter (paper Eqs. 43-46: ``B = gamma
+        V``, ``Delta = gap / L``, ``beta = damping ratio``, ``Omega = f / f_n``): the native value
+        is ``factor * value``.  Raises ValueError naming the allowed keys."""
+        if self.physical:
+            table = {"Omega": ("Omega", 1.0), "voltage": ("B", self.gain), "gain": ("B", self.voltage),
+                     "gap_mm": ("Delta", 1.0 / self.length_mm), "damping_ratio": ("beta", 1.0),
+                     "R": ("R", 1.0)}
+        else:
+            table = {k: (k, 1.0) for k in ("Omega", "B", "Delta", "R", "beta")}
+        if key not in table:
+            raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(table)}")
+        return table[key]
+
     def build(self):
         """The :class:`vibeam.models.SDOF` this table describes."""
         from vibeam.models import SDOF
@@ -192,9 +207,11 @@ class BeamModelSpec(_Strict):
 
 
 ModelSpec = Union[SDOFModelSpec, BeamModelSpec]
-# methods per fidelity (kept here so that validating a case imports no solver)
-FIDELITY_METHODS = {"sdof": ("event", "direct", "zhuravlev", "ivanov", "averaging", "mapping"),
-                    "beam": ("event", "direct")}
+# methods per fidelity (kept here so that validating a case imports no solver); the method
+# "continuation" is open to every fidelity here and checked against the shooting problems
+# registered in vibeam.models.SHOOTING when the run is planned
+FIDELITY_METHODS = {"sdof": ("event", "direct", "zhuravlev", "ivanov", "averaging", "mapping", "continuation"),
+                    "beam": ("event", "direct", "continuation")}
 MODEL_SPECS = {"sdof": SDOFModelSpec, "beam": BeamModelSpec}
 
 
@@ -223,16 +240,31 @@ def _check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS):
 
 
 class SweepSpec(_Strict):
-    """``[sweep]``: the frequency grid and how each point is simulated."""
+    """``[sweep]``: the frequency grid and how each point is simulated.
+
+    ``transient_periods = "auto"`` extends each point's transient until the
+    stroboscopic map settles, up to ``max_transient_periods`` (default 10000;
+    :func:`vibeam.sweep._settle`); ``point_time_limit_s`` ends a point that runs
+    longer as ``failed`` (default: no limit).
+    """
 
     Omega: list[float] | None = None
     frequency_hz: list[float] | None = None
     direction: Literal["up", "down", "both"] = "up"
-    transient_periods: Annotated[int, Field(ge=0)] = 400
+    transient_periods: Annotated[int, Field(ge=0)] | Literal["auto"] = 400
+    max_transient_periods: Annotated[int, Field(ge=1)] = 10000
     record_periods: Annotated[int, Field(ge=1)] = 64
     samples_per_period: Annotated[int, Field(ge=16, le=4096)] = 64
     continuation: bool = True
     period_rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = 1e-5
+    point_time_limit_s: Annotated[float, Field(gt=0.0)] | None = None
+
+    def engine_options(self) -> dict:
+        """The :class:`vibeam.sweep.Sweep` settings of this table (all but the grid)."""
+        return dict(direction=self.direction, transient_periods=self.transient_periods,
+                    max_transient_periods=self.max_transient_periods, record_periods=self.record_periods,
+                    samples_per_period=self.samples_per_period, continuation=self.continuation,
+                    period_rtol=self.period_rtol, point_time_limit_s=self.point_time_limit_s)
 
     @field_validator("Omega", "frequency_hz")
     @classmethod
@@ -303,7 +335,56 @@ class MappingRun(_RunBase):
     form: Literal["full", "simplified"] = "full"
 
 
-RunSpec = Annotated[Union[EventRun, ODERun, AveragingRun, MappingRun], Field(discriminator="method")]
+class ContinuationRun(_RunBase):
+    """Method ``continuation``: pseudo-arclength continuation of periodic orbits with stability
+    and bifurcations (:mod:`vibeam.models.continuation`) over the ``[sweep]`` range.
+
+    ``parameter``: ``Omega`` (the forcing frequency, default) or a numeric model key (``B``,
+    ``Delta``, ``R``, ``beta``; physical scenes ``voltage``, ``gain``, ``gap_mm``,
+    ``damping_ratio``, ``R``); ``range = [low, high]`` in the parameter's units -- for the
+    frequency in those of ``[sweep]`` (Hz for physical scenes) -- (default: the ``[sweep]``
+    range for the frequency, the ``[map]`` values for the mapped key; required otherwise);
+    ``at``: the forcing frequency of a continuation in another key (Hz for physical scenes,
+    Omega otherwise); ``start``: ``sweep`` (the settled state of an event run and its
+    detected period), ``averaging`` (paper Eqs. 18-23), ``linear`` (the non-impacting orbit) or
+    ``auto`` (every one that exists there; duplicates dropped); ``start_at``: ``low``,
+    ``high``, ``both`` ends of the range or a value (units as ``range``); ``n``: period of a linear or averaging start;
+    step controls ``ds``, ``ds_min``, ``ds_max``, ``max_points``; ``max_period`` bounds the
+    period-doubling branch switching; ``curves``: two-parameter curves of folds, period
+    doublings and grazings in a ``[map]`` case (of orbits up to period ``curve_max_period``),
+    seeded by the branches at the scene's value of the map key and at ``slices`` values
+    inside the map range; ``curve_points`` bounds each curve.
+    """
+
+    method: Literal["continuation"]
+    parameter: Annotated[str, Field(min_length=1)] = "Omega"
+    range: Annotated[list[float], Field(min_length=2, max_length=2)] | None = None
+    at: Annotated[float, Field(gt=0.0)] | None = None
+    start: Literal["sweep", "averaging", "linear", "auto"] = "auto"
+    start_at: Literal["low", "high", "both"] | float = "both"
+    n: Annotated[int, Field(ge=1, le=64)] = 1
+    ds: Annotated[float, Field(gt=0.0, le=1.0)] = 0.01
+    ds_min: Annotated[float, Field(gt=0.0, le=1.0)] = 1e-9
+    ds_max: Annotated[float, Field(gt=0.0, le=1.0)] = 0.05
+    max_points: Annotated[int, Field(ge=2, le=100_000)] = 2000
+    max_period: Annotated[int, Field(ge=1, le=64)] = 8
+    switch: bool = True
+    curves: bool = True
+    slices: Annotated[int, Field(ge=0, le=50)] = 3
+    curve_points: Annotated[int, Field(ge=2, le=10_000)] = 200
+    curve_max_period: Annotated[int, Field(ge=1, le=64)] = 2
+
+    @model_validator(mode="after")
+    def _steps(self):
+        if not self.ds_min <= self.ds <= self.ds_max:
+            raise ValueError(f"need ds_min <= ds <= ds_max (got {self.ds_min}, {self.ds}, {self.ds_max})")
+        if self.range is not None and not (math.isfinite(self.range[0]) and self.range[1] > self.range[0]):
+            raise ValueError(f"range = {self.range} must be [low, high] with low < high")
+        return self
+
+
+RunSpec = Annotated[Union[EventRun, ODERun, AveragingRun, MappingRun, ContinuationRun],
+                    Field(discriminator="method")]
 
 
 # ----------------------------------------------------------------------------- effects
@@ -455,16 +536,25 @@ class QuickSpec(_Strict):
 
     points: Annotated[int, Field(ge=1)] = 11
     map_values: Annotated[int, Field(ge=1)] = 3   # parameter values of a [map] kept
-    transient_periods: Annotated[int, Field(ge=0)] | None = None
+    transient_periods: Annotated[int, Field(ge=0)] | Literal["auto"] | None = None
+    max_transient_periods: Annotated[int, Field(ge=1)] | None = None
     record_periods: Annotated[int, Field(ge=1)] | None = None
 
 
 class RegressSpec(_Strict):
-    """``[regress]``: tolerances of ``vibeam regress`` (amplitude in the FRC's own units)."""
+    """``[regress]``: tolerances of ``vibeam regress`` (amplitude in the FRC's own units).
+
+    ``spread_sigmas`` and ``spread_range`` are the tolerances of the points compared by
+    the spread of their per-period amplitude (non-periodic, unsettled or of another
+    period; :mod:`vibeam.regress`): the means within ``spread_sigmas`` standard errors,
+    the smallest and largest per-period amplitude within ``spread_range`` of the range.
+    """
 
     amplitude_atol: Annotated[float, Field(ge=0.0)] = 0.0
     amplitude_rtol: Annotated[float, Field(ge=0.0)] = 1e-6
     period: bool = True
+    spread_sigmas: Annotated[float, Field(gt=0.0)] = 4.0
+    spread_range: Annotated[float, Field(ge=0.0)] = 0.5
 
 
 class Case(_Strict):
@@ -530,7 +620,8 @@ class Case(_Strict):
         The sweep grid becomes ``[quick] points`` frequencies spread evenly over
         the case's grid, both ends included (the case's own grid if it has no
         more points than that; one point: the start), and ``[quick]
-        transient_periods`` / ``record_periods`` replace the sweep's where given.
+        transient_periods`` / ``max_transient_periods`` / ``record_periods`` replace the
+        sweep's where given.
         Name, model, runs, effects, assessments and tolerances are unchanged.
         """
         q, sw = self.quick, self.sweep
@@ -542,6 +633,8 @@ class Case(_Strict):
             sweep["transient_periods"] = q.transient_periods
         if q.record_periods is not None:
             sweep["record_periods"] = q.record_periods
+        if q.max_transient_periods is not None:
+            sweep["max_transient_periods"] = q.max_transient_periods
         data = self.model_dump()
         data["sweep"] = dict(data["sweep"], **sweep)
         if self.map is not None:
@@ -586,7 +679,7 @@ def _check_modes(spec, prefix: str) -> None:
                         f"\"static\"")
 
 
-_RUN_BY_METHOD = {m: c for c in (EventRun, ODERun, AveragingRun, MappingRun)
+_RUN_BY_METHOD = {m: c for c in (EventRun, ODERun, AveragingRun, MappingRun, ContinuationRun)
                   for m in c.model_fields["method"].annotation.__args__}
 
 
@@ -652,12 +745,15 @@ def _key(loc, tags: bool = True) -> str:
             parts.append(f"[{p}]")
         elif tags and i >= 2 and loc[i - 2] == "run" and isinstance(loc[i - 1], int) and p in _RUN_BY_METHOD:
             continue
+        elif tags and isinstance(p, str) and (p.startswith("literal[") or p in _UNION_MEMBERS):
+            continue   # the member of a scalar union (e.g. transient_periods: int or "auto")
         else:
             parts.append(("." if parts else "") + _one_line(str(p)))
     return "".join(parts)
 
 
 _MAX_DEPTH = 32
+_UNION_MEMBERS = {"constrained-int", "constrained-float", "int", "float", "str", "bool", "none"}
 
 
 def _check_ints(data, loc=()) -> None:
@@ -704,6 +800,8 @@ def _format(err: ValidationError, prefix: str, root_cls) -> str:
             msg = _one_line(e["msg"].removeprefix("Value error, "))
             if isinstance(val, dict):
                 msgs.append(f"'{where}': {msg}")
+            elif msgs and msgs[-1].startswith(f"'{where}' = {_value(val)}: "):
+                msgs[-1] += f", or {msg[:1].lower()}{msg[1:]}"   # another member of a union
             else:
                 msgs.append(f"'{where}' = {_value(val)}: {msg}")
     return "; ".join(msgs)
@@ -754,6 +852,8 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                 _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
             if r.effects:
                 case.effects_for(r)
+            if r.method == "continuation":
+                _check_continuation(case, i, r)
         if case.map is not None:
             _check_map(case)
         check_time_series(case, hz_per_omega=getattr(spec, "natural_frequency_hz", None))
@@ -817,6 +917,42 @@ def check_time_series(case: Case, source: str = "", hz_per_omega: float | None =
                             f"as 'assess.time_series[{seen[j]}]' = {ts[seen[j]]:g}; the grid spacing is "
                             f"{spacing:g}{unit}: give frequencies on distinct grid points")
         seen[j] = i
+
+
+def _check_continuation(case: Case, i: int, r) -> None:
+    """A continuation run names a parameter its scene can continue, with a range and a
+    frequency where they are needed, and no scene effects."""
+    spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
+    if case.effects_for(r).active():
+        raise CaseError(f"'run[{i}]' (continuation) cannot use [effects] ({', '.join(case.effects_for(r).active())}); "
+                        f"continue the plain scene")
+    native = getattr(spec, "native_parameter", None)
+    if native is not None:
+        try:
+            native(r.parameter)
+        except ValueError as e:
+            raise CaseError(f"'run[{i}].parameter' = {_value(r.parameter)} {e}") from None
+    if r.parameter != "Omega":
+        if r.at is None:
+            unit = "Hz" if case.sweep.frequency_hz is not None else "Omega"
+            raise CaseError(f"'run[{i}].at' is missing: continuation in {r.parameter!r} needs the forcing "
+                            f"frequency at which it runs ({unit})")
+        if r.range is None and not (case.map is not None and case.map.parameter == r.parameter):
+            raise CaseError(f"'run[{i}].range' is missing: give [low, high] of {r.parameter!r}")
+    if case.map is not None and r.parameter != "Omega":
+        raise CaseError(f"'run[{i}].parameter' = {_value(r.parameter)}: in a [map] case a continuation runs "
+                        f"in the frequency ('Omega') and draws curves over (frequency, {case.map.parameter})")
+    if not isinstance(r.start_at, str):
+        if r.range is not None:
+            lo, hi = r.range
+        elif r.parameter == "Omega":
+            start, stop, _ = case.sweep.Omega or case.sweep.frequency_hz
+            lo, hi = min(start, stop), max(start, stop)
+        else:
+            v = case.map.grid() if case.map is not None else [r.start_at]
+            lo, hi = min(v), max(v)
+        if not lo <= r.start_at <= hi:
+            raise CaseError(f"'run[{i}].start_at' = {_value(r.start_at)} lies outside the range [{lo}, {hi}]")
 
 
 def _check_map(case: Case) -> None:

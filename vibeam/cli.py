@@ -114,7 +114,7 @@ def _out_dir(args, case) -> Path:
     return Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick else ""))
 
 
-def cmd_run(args, need_map=False) -> int:
+def cmd_run(args, need_map=False, continuation_only=False) -> int:
     from .case import CaseError, load_case
     from .outdir import check_folder
     from .runner import failure_summary
@@ -127,7 +127,8 @@ def cmd_run(args, need_map=False) -> int:
     ex, client = _executor(args)
     try:
         res = run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
-                       quick=args.quick, resume=args.resume, executor=ex, force=args.force, source=args.case)
+                       quick=args.quick, resume=getattr(args, "resume", False), executor=ex,
+                       force=args.force, source=args.case, continuation_only=continuation_only)
     except KeyboardInterrupt as e:
         sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
         print(f"vibeam: interrupted ({sig}); finished sweep lines are kept in {out_dir / 'results.h5'}; "
@@ -168,9 +169,10 @@ def cmd_regress(args) -> int:
     tol = case.regress
     atol = tol.amplitude_atol if args.atol is None else args.atol
     rtol = tol.amplitude_rtol if args.rtol is None else args.rtol
-    rows = compare(new, args.reference, atol=atol, rtol=rtol, period=tol.period)
+    rows = compare(new, args.reference, atol=atol, rtol=rtol, period=tol.period,
+                   sigmas=tol.spread_sigmas, spread_range=tol.spread_range)
     print(f"\nregression of {case.name} against {args.reference}")
-    print_rows(rows, atol, rtol)
+    print_rows(rows, atol, rtol, tol.spread_sigmas, tol.spread_range)
     return 0 if rows and all(r.ok for r in rows) else 1
 
 
@@ -228,30 +230,9 @@ def cmd_derive(args) -> int:
 
 
 def _write_text(path: Path, text: str, option: str) -> None:
-    """Write a text file atomically; a missing folder or a folder in the way is an InputError."""
-    import tempfile
+    from .outdir import write_text_file
 
-    from .case import InputError
-
-    if path.is_dir():
-        raise InputError(f"{option} {path}: is a folder; give a file name")
-    if not path.parent.is_dir():
-        raise InputError(f"{option} {path}: the folder {path.parent} does not exist")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}-", suffix=".tmp", dir=path.parent)
-    except OSError as e:
-        raise InputError(f"{option} {path}: cannot write in {path.parent}: {e.strerror or e}") from None
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_text_file(path, text, option)
 
 
 def cmd_modes(args) -> int:
@@ -365,6 +346,20 @@ def main(argv=None) -> int:
                        "and a table")
     run_args(p)
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("continue", help="run the continuation runs of a case (method = \"continuation\"): "
+                       "branches of periodic orbits with stability and bifurcations")
+    p.add_argument("case", help="case file (TOML)")
+    p.add_argument("--out", help="output folder (default results/<case name>/; a results.h5 of the same "
+                   "case there keeps its sweeps, only /branches is replaced)")
+    p.add_argument("--jobs", type=_int_at_least(1), default=None,
+                   help="worker processes of the local pool (default: all cores; 1: inline)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quick", action="store_true", help="the case's quick variant")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on a dask.distributed scheduler (e.g. tcp://host:8786)")
+    p.add_argument("--force", action="store_true", help=force_help)
+    p.set_defaults(func=lambda a: cmd_run(a, continuation_only=True))
     p = sub.add_parser("map", help="parameter map of a case with [map] (period-n regions, paper Fig. 18)")
     run_args(p)
     p.set_defaults(func=lambda a: cmd_run(a, need_map=True))
@@ -402,11 +397,35 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="output folder (default results/<case name>/)")
     p.add_argument("-n", type=_int_at_least(1), default=6, help="number of modes (default 6)")
     p.set_defaults(func=cmd_modes)
+    # ---- vibeam fit (vibeam.fit, vibeam.identify): identification from measurements, paper Secs. 6-7
+    p = sub.add_parser("fit", help="fit model parameters to a measured FRC (with standard errors), or the "
+                       "linear steps: Eq. 43 around f_n (--linear), beta_S from a free decay (--decay)")
+    p.add_argument("case", help="case file (TOML); its [model] values start the fit")
+    p.add_argument("--reference", help="measured FRC: CSV 'frequency_hz,amplitude_mm' (or 'Omega,amplitude'), "
+                   "optional columns 'direction' (up/down) and 'sigma'; or a results.h5")
+    p.add_argument("--reference-run", help="run of an HDF5 reference with several runs")
+    p.add_argument("--params", help="comma-separated numeric [model] keys to fit (default gain,R; with "
+                   "--linear natural_frequency_hz,damping_ratio,gain)")
+    p.add_argument("--run", help="fit this run only (default: every run of the case, one by one)")
+    p.add_argument("--out", help="output folder (default results/<case name>-fit/)")
+    p.add_argument("--jobs", type=_int_at_least(1), default=None, help="worker processes (default: all cores; 1: inline)")
+    p.add_argument("--quick", action="store_true", help="sweep with the case's quick variant's periods")
+    p.add_argument("--loss", choices=["linear", "soft_l1", "huber", "cauchy", "arctan"], default=None,
+                   help="least_squares loss (default soft_l1; --linear: linear)")
+    p.add_argument("--f-scale", type=float, default=3.0,
+                   help="scale of the robust loss in units of sigma (default 3)")
+    p.add_argument("--max-evaluations", type=_int_at_least(1), default=60, help="max residual evaluations (sweeps)")
+    p.add_argument("--linear", action="store_true", help="fit Eq. 43 without the stop to an FRC around f_n")
+    p.add_argument("--decay", metavar="DECAY.csv", help="identify beta_S from a free decay 't_s,U_mm'")
+    p.add_argument("--no-plots", action="store_true", help="skip fit.png")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    p.set_defaults(func=lambda a: __import__("vibeam.fit", fromlist=["main_fit"]).main_fit(a))
     p = sub.add_parser("bench", help="speed and accuracy against the stated goals: JSON on stdout, a PASS/FAIL "
                        "line per goal on stderr",
                        description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
                        "atol 1e-8) on the Fig. 7 scene, inline, with the goals: event sweep under 1 s, >= 300x "
-                       "faster, >= 1000x smaller error.  The other modes replace it.")
+                       "faster, >= 1000x smaller error.  The other modes (--cli, --map, --scaling, --effects, "
+                       "--shooting, --continuation, --fit) replace it.")
     p.add_argument("--points", type=_int_at_least(1), default=101,
                    help="frequencies of the Fig. 7 sweep (default 101)")
     p.add_argument("--periods", type=_int_at_least(65), default=500,
@@ -424,9 +443,18 @@ def main(argv=None) -> int:
     p.add_argument("--scaling", action="store_true",
                    help="instead: how the cost of a sweep grows with periods simulated and with retained modes, "
                         "fitted exponents (goals: linear in periods, at most linear in modes)")
+    p.add_argument("--shooting", action="store_true",
+                   help="instead: cost of the beam's periodic-orbit shots (with and without the monodromy) "
+                        "and of Newton solves against the event solver")
     p.add_argument("--effects", action="store_true",
                    help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect "
                         "(goal: no effect more than doubles the sweep)")
+    p.add_argument("--continuation", action="store_true",
+                   help="instead: the continuation of an SDOF period-1 branch through its fold (~500 points, "
+                        "goal < 0.1 s) and its cost per FRC point against a sweep of equal accuracy")
+    p.add_argument("--fit", action="store_true",
+                   help="instead: time `vibeam fit` (2-parameter SDOF fit on 30 points, goal < 10 s; FE 2 modes)")
+    p.add_argument("--jobs", type=_int_at_least(1), default=None, help="workers of --fit (default 2)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
     return _dispatch(args)

@@ -117,9 +117,7 @@ def _sweep_for(case, run_model: dict):
     spec = case.model_spec(run_model) if run_model else case.model_spec()
     model = spec.build()
     Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
-    sw = Sweep(Omega=Omega, direction=case.sweep.direction, transient_periods=case.sweep.transient_periods,
-               record_periods=case.sweep.record_periods, samples_per_period=case.sweep.samples_per_period,
-               continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol)
+    sw = Sweep(Omega=Omega, **case.sweep.engine_options())
     return model, sw
 
 
@@ -138,10 +136,12 @@ def _timed(solver, sw, repeats):
 
 
 def converged_sweep(sw):
-    """The converged counterpart of a sweep: ``max(4 x transient, 2000)`` transient periods."""
+    """The converged counterpart of a sweep: ``max(4 x transient, 2000)`` transient periods
+    (with ``transient_periods = "auto"``: 4 x max_transient_periods)."""
     from dataclasses import replace
 
-    return replace(sw, transient_periods=max(4 * sw.transient_periods, 2000))
+    n = 4 * sw.max_transient_periods if sw.auto else max(4 * sw.transient_periods, 2000)
+    return replace(sw, transient_periods=n)
 
 
 def reference_sweep(model, sw, jobs: int | None = 1):
@@ -192,7 +192,9 @@ def check_cost_work(case, force: bool = False, source: str = "") -> dict:
 
     w = check_work(case, force=force, source=source)
     data = case.model_dump()
-    data["sweep"] = dict(data["sweep"], transient_periods=max(4 * case.sweep.transient_periods, 2000))
+    sw = case.sweep
+    n_ref = 4 * sw.max_transient_periods if sw.transient_periods == "auto" else max(4 * sw.transient_periods, 2000)
+    data["sweep"] = dict(data["sweep"], transient_periods=n_ref)
     check_work(type(case).model_validate(data), force=force, source=source)
     return w
 
@@ -285,7 +287,8 @@ def run_cost(case, ladder: bool = False, repeats: int = 3, log=print, jobs: int 
             rows += COST_METHODS[r.method](case, r, ctx)
             continue
         if r.method == "continuation":
-            log(f"run '{r.name}' (continuation) is not a sweep: no cost row (register_cost_method)")
+            log(f"run '{r.name}' (continuation) is not a sweep: no cost row (timed by `vibeam bench "
+                f"--continuation`; vibeam.cost.register_cost_method adds it as a method)")
             continue
         mkey = json.dumps(r.model, sort_keys=True)
         model, sw, rkey, first = plan[mkey]

@@ -255,6 +255,7 @@ class EffectSolver:
         self.model = inner.model
         self.name = inner.name
         self.time_domain = inner.time_domain
+        self.chunk_periods = getattr(inner, "chunk_periods", None)
         self.spec = spec
         self.effects = effects
         self._settings = dict(settings or {})
@@ -394,8 +395,8 @@ class EffectSolver:
             out.update(extra)
             return out
         out.extra.update(extra)
-        if "gap_mm" in extra and out.status != "failed":
-            out.extra["amplitude"] = float(pm.Delta - out.q_min)   # Q against this point's gap
+        if "gap_mm" in extra:
+            out.Delta = float(pm.Delta)   # Q (and its spread) against this point's gap
         if sliding:
             gd = self.effects.gap_drift
             imp = self._impulse_per_period(out, pm, n_record)

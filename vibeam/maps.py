@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .sweep import Sweep, stack
+from .sweep import MM_KEYS, Sweep, stack
 
 # classification codes of a map point (dataset ``classification``)
 NO_IMPACT, PERIOD_1, PERIOD_2, PERIOD_N, NON_PERIODIC, FAILED, HELD = range(7)
@@ -133,7 +133,9 @@ def assemble_map(name: str, solvers: list, sweep: Sweep, parameter: str, values,
     if all(fn):
         data["frequency_hz"] = data["Omega"] * np.asarray(fn)[None, :, None]
     if all(L):
-        data["amplitude_mm"] = data["amplitude"] * np.asarray(L)[None, :, None] * 1e3
+        for k in MM_KEYS:
+            if k in data:
+                data[k + "_mm"] = data[k] * np.asarray(L)[None, :, None] * 1e3
     data["values"] = np.asarray(values, float)
     data["direction"] = np.array(directions, dtype=object)
     wall = float(np.nansum(flat.get("wall_time_s", 0.0)))
@@ -244,9 +246,10 @@ def map_figure(m: MapResult, title: str = "", case=None, curves=()):
 
             for ax in axes[0]:
                 xl_, yl_ = ax.get_xlim(), ax.get_ylim()
-                plot_curves_on(ax, [c for c in curves if c.attrs.get("curve_parameter") == m.parameter], phys)
+                h = plot_curves_on(ax, [c for c in curves if c.attrs.get("curve_parameter") == m.parameter], phys)
                 ax.set_xlim(xl_)
                 ax.set_ylim(yl_)
+            handles += h
         for ax in axes[0]:
             ax.set_xlabel(xl)
             ax.grid(False)

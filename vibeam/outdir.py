@@ -234,3 +234,41 @@ class OutputLock:
     def __exit__(self, *exc):
         self.release()
         return False
+
+
+def write_text_file(path, text: str, option: str = "") -> Path:
+    """Write a text file atomically (temporary file + :func:`os.replace`).
+
+    Raises
+    ------
+    InputError
+        If ``path`` is a folder, its folder is missing or cannot be written; ``option`` (e.g.
+        ``--write``) prefixes the message.
+    """
+    import tempfile
+
+    path = Path(path)
+    option = f"{option} " if option else ""
+
+    from .case import InputError
+
+    if path.is_dir():
+        raise InputError(f"{option}{path}: is a folder; give a file name")
+    if not path.parent.is_dir():
+        raise InputError(f"{option}{path}: the folder {path.parent} does not exist")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}-", suffix=".tmp", dir=path.parent)
+    except OSError as e:
+        raise InputError(f"{option}{path}: cannot write in {path.parent}: {e.strerror or e}") from None
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
+        os.replace(tmp, path)
+        return path
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise

@@ -2,17 +2,26 @@
 the one place where it is turned into the per-point outputs of an FRC.
 
 Every time-domain method of every fidelity returns a :class:`Trajectory`;
-:func:`summarize` computes the amplitude (paper Sec. 4.1), period-n from the
-stroboscopic map, impacts per period, harmonics (paper Fig. 20), so that those
+:func:`summarize` computes the amplitude (paper Sec. 4.1) and its spread over
+the recorded periods, period-n from the stroboscopic map, whether the transient
+has settled, impacts per period, harmonics (paper Fig. 20), so that those
 definitions exist once.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-STATUSES = ("ok", "chatter", "sticking", "failed")
+STATUSES = ("ok", "chatter", "sticking", "unsettled", "failed")
+# the period-n test passes within period_rtol; between period_rtol and MARGINAL x period_rtol it is
+# marginal (a transient still converging).  ``transient_periods = "auto"`` asks for returns within
+# SETTLED_MARGIN x period_rtol (1e-8 of the orbit by default) before it stops: the distance to the
+# orbit is about returns / (1 - rho) for a Floquet multiplier rho (measured up to 6x the returns on
+# the Fig. 13 branch), so the amplitude is then settled to ~1e-7
+MARGINAL = 10.0
+SETTLED_MARGIN = 1e-3
 HARMONICS = 6  # 0 .. 5 Omega
 PERIOD_MAX = 8
 
@@ -40,8 +49,12 @@ class Trajectory:
     q_min, q_max : float
         Extremes of ``q`` over the recorded window (exact where the method can
         locate them, otherwise from the samples).
+    period_min : ndarray, shape (n_record,), optional
+        Minimum of ``q`` over each recorded period, exact where the method
+        locates the extremes (the event kernels); None: taken from the samples.
     status : str
-        One of ``ok``, ``chatter``, ``sticking``, ``failed``.
+        One of ``ok``, ``chatter``, ``sticking``, ``failed`` (``unsettled`` is
+        decided by :func:`summarize`).
     message : str
         Human-readable detail (empty when ok).
     final_state : ndarray, shape (n_state,)
@@ -50,6 +63,12 @@ class Trajectory:
     extra : dict
         Method-specific per-point outputs (e.g. per-mode amplitudes), each a
         float or an ndarray of fixed shape across points.
+    Delta : float, optional
+        Gap of this point when it differs from the scene's (an effect that
+        moves the stop); the amplitude is measured from it.
+    chatter_times : ndarray, shape (c,), optional
+        Accumulation points of the chatter sequences of the record (times from
+        its start; event kernels, :mod:`vibeam.models.contact_policy`).
     """
 
     Omega: float
@@ -64,6 +83,9 @@ class Trajectory:
     message: str = ""
     final_state: np.ndarray = field(default_factory=lambda: np.zeros(2))
     extra: dict = field(default_factory=dict)
+    period_min: np.ndarray | None = None
+    Delta: float | None = None
+    chatter_times: np.ndarray | None = None
 
     @property
     def n_record(self) -> int:
@@ -80,6 +102,30 @@ class Trajectory:
         ``impact_times``): ``j T / samples_per_period`` with ``T = 2 pi / Omega``, shape (n,),
         nondimensional (natural time: 2 pi = one natural period)."""
         return np.arange(self.samples.shape[0]) * (2.0 * np.pi / self.Omega / self.samples_per_period)
+
+
+def strobe_returns(strobe: np.ndarray, scale: float) -> np.ndarray:
+    """Largest distance of the period-n returns of the stroboscopic map, n = 1..8.
+
+    Parameters
+    ----------
+    strobe : ndarray, shape (m, 2)
+        Stroboscopic samples ``(q, q')``.
+    scale : float
+        Size of the orbit the distances are divided by.
+
+    Returns
+    -------
+    ndarray, shape (8,)
+        ``max_k |strobe[k + n] - strobe[k]| / scale`` (max norm over both
+        components); ``inf`` where the window is too short for that n.
+    """
+    m = strobe.shape[0]
+    out = np.full(PERIOD_MAX, np.inf)
+    sc = max(scale, 1e-300)
+    for n in range(1, min(PERIOD_MAX, m - 1) + 1):
+        out[n - 1] = np.max(np.abs(strobe[n:] - strobe[:-n])) / sc
+    return out
 
 
 def period_of_strobe(strobe: np.ndarray, scale: float, rtol: float = 1e-5) -> int:
@@ -99,15 +145,123 @@ def period_of_strobe(strobe: np.ndarray, scale: float, rtol: float = 1e-5) -> in
     int
         The period n, or 0 when no n <= 8 repeats (not periodic within 8).
     """
+    d = strobe_returns(strobe, scale)
+    ok = np.flatnonzero(d <= rtol)
+    return int(ok[0]) + 1 if ok.size else 0
+
+
+def converging(strobe: np.ndarray, n: int, scale: float, rtol: float) -> tuple[bool, float, float]:
+    """Are the period-n returns of the stroboscopic map still shrinking (a transient)?
+
+    The distances ``e_k = |strobe[k + n] - strobe[k]| / scale`` are split into
+    four consecutive quarters; the returns converge when the largest distance
+    of each quarter is smaller than that of the quarter before and the last is
+    below a quarter of the first, while still above ``rtol`` (a settled orbit
+    repeats to ``rtol``; a chaotic attractor's returns do not shrink steadily:
+    four decreasing quarter maxima with a factor 4 between the ends are
+    improbable for stationary motion).  Needs ``len(strobe) - n >= 8``.
+
+    Returns
+    -------
+    (bool, float, float)
+        The verdict and the largest distance of the first and last quarter.
+    """
     m = strobe.shape[0]
-    tol = rtol * max(scale, 1e-300)
+    if m - n < 8:
+        return False, np.nan, np.nan
+    e = np.max(np.abs(strobe[n:] - strobe[:-n]), axis=1) / max(scale, 1e-300)
+    qmax = np.array([np.max(c) for c in np.array_split(e, 4)])
+    conv = bool(np.all(np.diff(qmax) < 0.0) and qmax[-1] < 0.25 * qmax[0] and qmax[-1] > rtol)
+    return conv, float(qmax[0]), float(qmax[-1])
+
+
+def transient_verdict(strobe: np.ndarray, scale: float, rtol: float, no_impact: bool,
+                      margin: float = 1.0) -> tuple[int, str]:
+    """Period of the stroboscopic map and whether the transient has settled.
+
+    Parameters
+    ----------
+    strobe : ndarray, shape (m, 2)
+        Stroboscopic samples of the recorded window.
+    scale : float
+        Size of the orbit.
+    rtol : float
+        Tolerance of the period-n test (``[sweep] period_rtol``).
+    no_impact : bool
+        No impact in the window (period -1): the free motion of a linear
+        damped oscillator, which must repeat with period 1.
+    margin : float
+        Factor on ``rtol`` a periodic orbit must meet to count as settled (1 for
+        the recorded verdict; :data:`SETTLED_MARGIN` while ``transient_periods =
+        "auto"`` decides whether to go on).
+
+    Returns
+    -------
+    (int, str)
+        The period (1..8; 0 = not periodic within 8; -1 = no impact) and the
+        reason the transient is *not* settled ('' when it is):
+
+        * the period-n test is marginal: some n repeats within ``MARGINAL x rtol``
+          but not within ``margin x rtol``;
+        * the period-n returns still shrink steadily for some n = 1..8
+          (:func:`converging`);
+        * no impact, yet the free motion does not repeat within ``margin x rtol``
+          (a late impact's free decay not over).
+    """
+    d = strobe_returns(strobe, scale)
+    if no_impact:
+        if d[0] <= margin * rtol or not np.isfinite(d[0]):
+            return -1, ""
+        return -1, (f"no impact in the window, but the free motion does not repeat yet "
+                    f"(period-1 returns {d[0]:.2g} of the orbit > {margin * rtol:.2g})")
+    ok = np.flatnonzero(d <= rtol)
+    period = int(ok[0]) + 1 if ok.size else 0
+    tight = np.flatnonzero(d <= margin * rtol)
+    if tight.size and (period == 0 or tight[0] + 1 == period):
+        return period, ""
+    close = np.flatnonzero(d <= MARGINAL * rtol)
+    if close.size:
+        n = int(close[0]) + 1
+        return period, (f"period-{n} test marginal (returns {d[n - 1]:.2g} of the orbit, "
+                        f"> {margin * rtol:.2g})")
     for n in range(1, PERIOD_MAX + 1):
-        if m <= n:
-            break
-        d = np.max(np.abs(strobe[n:] - strobe[:-n]))
-        if d <= tol:
-            return n
-    return 0
+        conv, first, last = converging(strobe, n, scale, rtol)
+        if conv:
+            return period, (f"period-{n} returns still shrinking ({first:.2g} -> {last:.2g} of the "
+                            f"orbit over the window)")
+    return period, ""
+
+
+def amplitude_spread(period_amplitudes: np.ndarray) -> dict:
+    """Spread of the per-period amplitude ``Q_k = Delta - min q`` over period k (Sec. 4.1).
+
+    Returns ``amplitude_mean``, ``amplitude_std`` (sample standard deviation,
+    ``ddof = 1``; 0 for one period), ``amplitude_min``, ``amplitude_max`` (all
+    NaN for an empty or non-finite record) and ``record_periods``.
+    """
+    a = np.asarray(period_amplitudes, float)
+    n = a.size
+    if n == 0 or not np.all(np.isfinite(a)):
+        nan = np.nan
+        return dict(amplitude_mean=nan, amplitude_std=nan, amplitude_min=nan, amplitude_max=nan,
+                    record_periods=n)
+    return dict(amplitude_mean=float(np.mean(a)), amplitude_std=float(np.std(a, ddof=1)) if n > 1 else 0.0,
+                amplitude_min=float(np.min(a)), amplitude_max=float(np.max(a)), record_periods=n)
+
+
+def spread_agrees(a: dict, b: dict, sigmas: float = 4.0) -> bool:
+    """Are two samples of an attractor consistent in the mean of their per-period amplitude?
+
+    ``|mean_a - mean_b| <= sigmas sqrt(std_a^2 / n_a + std_b^2 / n_b)``, the
+    standard error of the difference of two independent means (per-period
+    amplitudes of a mixing attractor decorrelate within a few periods), with
+    a floor of ``1e-9`` of the mean for periodic samples (std 0).  ``a``, ``b``:
+    the outputs of :func:`amplitude_spread`.
+    """
+    ma, mb = a["amplitude_mean"], b["amplitude_mean"]
+    se = math.sqrt(a["amplitude_std"] ** 2 / max(a["record_periods"], 1)
+                   + b["amplitude_std"] ** 2 / max(b["record_periods"], 1))
+    return bool(abs(ma - mb) <= sigmas * se + 1e-9 * max(abs(ma), abs(mb)))
 
 
 def harmonic_amplitudes(q: np.ndarray, samples_per_period: int, n_harmonics: int = HARMONICS) -> np.ndarray:
@@ -138,30 +292,51 @@ def harmonic_amplitudes(q: np.ndarray, samples_per_period: int, n_harmonics: int
     return out
 
 
+def period_minima(traj: Trajectory) -> np.ndarray:
+    """Minimum of ``q`` over each recorded period, shape (n_record,): the method's exact
+    ``period_min`` where it has one, else the samples of each period."""
+    n_rec, spp = traj.n_record, traj.samples_per_period
+    if traj.period_min is not None and np.shape(traj.period_min) == (n_rec,):
+        return np.asarray(traj.period_min, float)
+    return traj.samples[: n_rec * spp, 0].reshape(n_rec, spp).min(axis=1)
+
+
 def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict:
     """Per-point FRC outputs of a trajectory (all nondimensional).
 
     Returns a dict with ``amplitude`` (``Q = Delta - min q``, paper Sec. 4.1),
-    ``q_max``, ``q_min``, ``period`` (1..8, 0 = not periodic within 8, -1 = no
-    impact in the window), ``impacts_per_period``, ``impact_velocity`` (mean
-    pre-impact velocity, NaN without impacts), ``strobe`` (n_record, 2),
-    ``harmonics`` (6,), ``status`` and ``message``.
+    its spread over the recorded periods (``amplitude_mean``, ``amplitude_std``,
+    ``amplitude_min``, ``amplitude_max`` of ``Q_k = Delta - min q`` over period
+    k, exact minima where the method locates them, and ``record_periods``:
+    :func:`amplitude_spread`), ``q_max``, ``q_min``, ``period`` (1..8, 0 = not
+    periodic within 8, -1 = no impact in the window), ``impacts_per_period``,
+    ``impact_velocity`` (mean pre-impact velocity, NaN without impacts),
+    ``strobe`` (n_record, 2), ``harmonics`` (6,), ``status`` and ``message``.
+    ``status`` is the trajectory's, or ``unsettled`` when the stroboscopic map
+    shows a transient that has not settled (:func:`transient_verdict`; the
+    message gives the reason, then the dynamic outcome it replaces).  ``Delta``
+    is the scene's gap; ``traj.Delta`` replaces it where an effect moved the stop.
     """
     n_rec = traj.n_record
+    if traj.Delta is not None:
+        Delta = traj.Delta
     if traj.status == "failed":
         nan = np.nan
-        return dict(amplitude=nan, q_max=nan, q_min=nan, period=0, impacts_per_period=nan,
-                    impact_velocity=nan, strobe=np.full((n_rec, 2), nan),
-                    harmonics=np.full(HARMONICS, nan), status=traj.status, message=traj.message)
+        return dict(amplitude=nan, **amplitude_spread(np.full(n_rec, nan)), q_max=nan, q_min=nan,
+                    period=0, impacts_per_period=nan, impact_velocity=nan,
+                    strobe=np.full((n_rec, 2), nan), harmonics=np.full(HARMONICS, nan),
+                    status=traj.status, message=traj.message)
     q = traj.samples[:, 0]
-    scale = max(traj.q_max - traj.q_min, np.max(np.abs(traj.samples[:, 1])), 1e-300)
-    if traj.n_impacts == 0:
-        period = -1
-    else:
-        period = period_of_strobe(traj.strobe, scale, period_rtol)
+    scale = max(traj.q_max - traj.q_min, np.max(np.abs(traj.samples[:, 1])) if q.size else 0.0, 1e-300)
+    period, why = transient_verdict(traj.strobe, scale, period_rtol, traj.n_impacts == 0)
+    status, message = traj.status, traj.message
+    if why:
+        message = f"unsettled: {why}" + (f"; {status}: {message}" if status != "ok" else "")
+        status = "unsettled"
     iv = traj.impact_velocities
     return dict(
         amplitude=Delta - traj.q_min,
+        **amplitude_spread(Delta - period_minima(traj)),
         q_max=traj.q_max,
         q_min=traj.q_min,
         period=period,
@@ -169,6 +344,6 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
         impact_velocity=float(np.mean(iv)) if iv.size else np.nan,
         strobe=traj.strobe.copy(),
         harmonics=harmonic_amplitudes(q, traj.samples_per_period),
-        status=traj.status,
-        message=traj.message,
+        status=status,
+        message=message,
     )

@@ -6,10 +6,24 @@ header naming its columns: ``frequency_hz,amplitude_mm`` (physical) or
 ``Omega,amplitude`` (nondimensional); the new FRC of each run (its ``up``
 branch) is then interpolated linearly at the CSV frequencies.
 
-A point passes when ``|A - A_ref| <= atol + rtol |A_ref|`` and, for HDF5
-references with ``period = true``, the period-n classifications agree.
-Tolerances come from the case's ``[regress]`` table (defaults: atol 0,
-rtol 1e-6, period true).
+A point that is the same orbit in both (the same period 1..8, or no impact, and
+settled) passes when ``|A - A_ref| <= atol + rtol |A_ref|``.  Any other point
+of an HDF5 reference (non-periodic, ``unsettled``, or of another period) is one
+sample of an attractor, and is compared by the spread of its per-period
+amplitude ``Q_k`` over the record (:func:`vibeam.records.amplitude_spread`):
+
+* the means agree within ``sigmas`` standard errors of their difference,
+  ``sigmas sqrt(std^2 / n + std_ref^2 / n_ref)`` (``n`` = record periods);
+* the smallest and the largest ``Q_k`` agree within ``spread_range`` times the
+  larger of the two ranges ``max - min`` (extremes of a short record are
+  noisy; a different attractor, e.g. the no-impact orbit against chaos, moves
+  them by the whole range);
+
+each plus ``atol + rtol |ref|``.  With ``period = true`` the period-n
+classifications must agree too.  Tolerances come from the case's ``[regress]``
+table (defaults: atol 0, rtol 1e-6, period true, spread_sigmas 4,
+spread_range 0.5).  A reference without the spread datasets is compared by the
+amplitude at every point.
 """
 from __future__ import annotations
 
@@ -29,6 +43,8 @@ class RegressRow:
     max_rel: float
     period_mismatch: int
     note: str = ""
+    spread_points: int = 0      # points compared by their spread (non-periodic, unsettled, ...)
+    spread_failures: int = 0
 
     @property
     def ok(self) -> bool:
@@ -117,11 +133,14 @@ def read_reference(path):
     return load_results(path, "--reference")
 
 
-def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: bool = True) -> list[RegressRow]:
+def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: bool = True, *,
+            sigmas: float = 4.0, spread_range: float = 0.5) -> list[RegressRow]:
     """Compare ``new`` (``read_results`` layout: ``{"runs": {name: datasets}}``) with a reference.
 
     Parameter maps are compared line by line (:func:`vibeam.maps.map_lines`).
-    Returns one :class:`RegressRow` per compared run or map line (or per new run for CSV).
+    ``sigmas`` and ``spread_range`` are the tolerances of the points compared by
+    their spread (module docstring).  Returns one :class:`RegressRow` per
+    compared run or map line (or per new run for CSV).
     """
     from .maps import all_runs
     from .results import read_results
@@ -159,8 +178,53 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
             continue
         pn = n["period"][idx_n] if period and "period" in n and "period" in r else None
         pr = r["period"][idx_r] if pn is not None else None
-        rows.append(_row(name, n["amplitude"][idx_n], r["amplitude"][idx_r], atol, rtol, pn, pr))
+        sampled = _sampled(n, r, idx_n, idx_r)
+        bad_spread = _spread_bad(n, r, idx_n, idx_r, sampled, atol, rtol, sigmas, spread_range)
+        row = _row(name, n["amplitude"][idx_n], r["amplitude"][idx_r], atol, rtol, pn, pr,
+                   mask=~sampled, extra_bad=bad_spread)
+        row.spread_points, row.spread_failures = int(sampled.sum()), int(bad_spread.sum())
+        rows.append(row)
     return rows
+
+
+SPREAD_KEYS = ("amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max", "record_periods")
+
+
+def _sampled(n: dict, r: dict, idx_n, idx_r) -> np.ndarray:
+    """Points that are samples of an attractor rather than the same orbit in both runs: not
+    the same period (1..8 or no impact), or not settled in one of them.  False everywhere when
+    a run lacks the spread datasets (then every point is compared by its amplitude)."""
+    if not all(k in n and k in r for k in SPREAD_KEYS) or "period" not in n or "period" not in r:
+        return np.zeros(len(idx_n), bool)
+    pn, pr = np.asarray(n["period"])[idx_n], np.asarray(r["period"])[idx_r]
+    orbit = (pn == pr) & ((pn >= 1) | (pn == -1))
+    if "status" in n and "status" in r:
+        sn = np.array([str(s) for s in np.asarray(n["status"])[idx_n]])
+        sr = np.array([str(s) for s in np.asarray(r["status"])[idx_r]])
+        orbit &= (sn != "unsettled") & (sr != "unsettled")
+    return ~orbit
+
+
+def _spread_bad(n: dict, r: dict, idx_n, idx_r, sel, atol, rtol, sigmas, spread_range) -> np.ndarray:
+    """Points of ``sel`` (samples of an attractor) whose spread disagrees with the reference's."""
+    bad = np.zeros(len(idx_n), bool)
+    if not sel.any():
+        return bad
+    g = {k: np.asarray(n[k], float)[idx_n][sel] for k in SPREAD_KEYS}
+    h = {k: np.asarray(r[k], float)[idx_r][sel] for k in SPREAD_KEYS}
+    se = np.sqrt(g["amplitude_std"] ** 2 / np.maximum(g["record_periods"], 1)
+                 + h["amplitude_std"] ** 2 / np.maximum(h["record_periods"], 1))
+    rng = np.maximum(g["amplitude_max"] - g["amplitude_min"], h["amplitude_max"] - h["amplitude_min"])
+
+    def within(a, b, tol):
+        with np.errstate(invalid="ignore"):
+            return (np.abs(a - b) <= tol + atol + rtol * np.abs(b)) | (np.isnan(a) & np.isnan(b))
+
+    ok = (within(g["amplitude_mean"], h["amplitude_mean"], sigmas * se)
+          & within(g["amplitude_min"], h["amplitude_min"], spread_range * rng)
+          & within(g["amplitude_max"], h["amplitude_max"], spread_range * rng))
+    bad[sel] = ~ok
+    return bad
 
 
 def match_points(new: dict, ref: dict, rel: float = 1e-6) -> tuple[list, list]:
@@ -196,11 +260,18 @@ def match_points(new: dict, ref: dict, rel: float = 1e-6) -> tuple[list, list]:
     return idx_n, idx_r
 
 
-def _row(name, a, a_ref, atol, rtol, p, p_ref, note=""):
+def _row(name, a, a_ref, atol, rtol, p, p_ref, note="", mask=None, extra_bad=None):
+    """Amplitude check (on the points of ``mask``, default all), period check (all points) and
+    any other failed points (``extra_bad``)."""
     a, a_ref = np.asarray(a, float), np.asarray(a_ref, float)
     d = np.abs(a - a_ref)
     both_nan = np.isnan(a) & np.isnan(a_ref)
     bad = ~((d <= atol + rtol * np.abs(a_ref)) | both_nan)
+    if mask is not None:
+        bad &= mask
+        d = np.where(mask, d, np.nan)
+    if extra_bad is not None:
+        bad |= extra_bad
     pm = 0
     if p is not None:
         mism = np.asarray(p) != np.asarray(p_ref)
@@ -213,13 +284,20 @@ def _row(name, a, a_ref, atol, rtol, p, p_ref, note=""):
                       float(np.nanmax(rel)) if np.isfinite(rel).any() else np.nan, pm, note)
 
 
-def print_rows(rows, atol, rtol) -> None:
+def print_rows(rows, atol, rtol, sigmas: float | None = None, spread_range: float | None = None) -> None:
     print(f"tolerance: |A - A_ref| <= {atol:g} + {rtol:g} |A_ref|")
+    if sigmas is not None and any(r.spread_points for r in rows):
+        print(f"non-periodic / unsettled / other-period points by their spread: mean within {sigmas:g} "
+              f"standard errors, min and max within {spread_range:g} of the range")
     w = max([24] + [len(r.run) + 2 for r in rows])       # as wide as the longest run name
     head = f"{'run':<{w}}{'points':>7}{'failed':>8}{'max |dA|':>12}{'max rel':>11}{'period diff':>12}  verdict"
     print(head)
     print("-" * len(head))
     for r in rows:
         verdict = "ok" if r.ok else "REGRESSION"
+        note = r.note
+        if r.spread_points:
+            note = (note + "; " if note else "") + (f"{r.spread_points} point(s) by spread, "
+                                                     f"{r.spread_failures} failed")
         print(f"{r.run:<{w}}{r.points:>7}{r.failures:>8}{r.max_abs:>12.3e}{r.max_rel:>11.3e}"
-              f"{r.period_mismatch:>12}  {verdict}" + (f"  ({r.note})" if r.note else ""))
+              f"{r.period_mismatch:>12}  {verdict}" + (f"  ({note})" if note else ""))

@@ -106,7 +106,7 @@ VARIABLES = {
     "impact_velocity": ("1", "mean pre-impact velocity q'-"),
     "strobe": ("1", "stroboscopic samples (q, q') at forcing phase 0 of each recorded period"),
     "harmonics": ("1", "amplitudes of the harmonics 0, Omega, ..., 5 Omega of q (paper Fig. 20)"),
-    "status": ("", "outcome of the point: ok, chatter, sticking, failed"),
+    "status": ("", "outcome of the point: ok, chatter, sticking, unsettled, failed"),
     "message": ("", "detail of the status (empty when ok)"),
     "wall_time_s": ("s", "compute time of the point"),
     "stuck_fraction": ("1", "share of the recorded window spent on the stop"),
@@ -852,7 +852,7 @@ def read_lines(path, case_json: str | None = None) -> tuple[dict, dict]:
 
 def write_results(path, runs: list, case_name: str = "", case_text: str = "",
                   extra: dict | None = None, maps: list | None = None, lines: dict | None = None,
-                  case_json: str = "", extra_attrs: dict | None = None) -> Path:
+                  case_json: str = "", branches: list | None = None, extra_attrs: dict | None = None) -> Path:
     """Write all runs to ``path`` atomically (the layout of the module docstring).
 
     Parameters
@@ -874,8 +874,11 @@ def write_results(path, runs: list, case_name: str = "", case_text: str = "",
     case_json : str
         The validated case (as run, e.g. its quick variant) as JSON; ``--resume``
         only continues a file whose ``case_json`` matches.
+    branches : list of vibeam.branches.ContinuationResult, optional
+        Continuation runs, written to ``/branches/<run>/`` (:func:`vibeam.branches.write_branches`).
     extra_attrs : dict, optional
-        Attributes set last on groups or variables, ``{path: {name: value}}``.
+        Attributes set last on groups or variables of the file, ``{path: {name: value}}``
+        (e.g. ``{"fit/residuals": {"units": "mm"}}``); a missing path becomes a group.
 
     Returns
     -------
@@ -895,11 +898,27 @@ def write_results(path, runs: list, case_name: str = "", case_text: str = "",
             write_group(f, gpath, table_variables(table), _ids=ids)
         for key, data in (lines or {}).items():
             write_group(f, f"lines/{key}", line_variables(data), {"case_hash": case_hash(case_json)}, _ids=ids)
+        if branches:
+            from .branches import write_branches
+
+            write_branches(f, branches)
         for apath, a in (extra_attrs or {}).items():
             obj = f[apath] if apath in f else f.require_group(apath)
             set_attrs(obj, a)
 
     return _atomic(Path(path), fill)
+
+
+def replace_branches(path, branches: list) -> Path:
+    """Replace the ``/branches`` of an existing results file (atomically, everything else kept)."""
+    from .branches import write_branches
+
+    def fill(f):
+        if "branches" in f:
+            del f["branches"]
+        write_branches(f, branches)
+
+    return _atomic(Path(path), fill, copy_from=Path(path))
 
 
 def _group_attrs(r, **more) -> dict:
@@ -956,13 +975,17 @@ def read_results(path) -> dict:
     """
     import h5py
 
-    out = {"attrs": {}, "runs": {}, "maps": {}}
+    out = {"attrs": {}, "runs": {}, "maps": {}, "branches": {}}
     with h5py.File(path, "r") as f:
         out["attrs"] = _attrs(f)
         v2 = int(out["attrs"].get("vibeam_layout", 1)) >= 2
-        for kind in ("runs", "maps"):
+        for kind in ("runs", "maps", "branches"):
             for name, g in f.get(kind, {}).items():
-                if not v2:
+                if kind == "branches":
+                    from .branches import read_branch_group
+
+                    run = read_branch_group(g)
+                elif not v2:
                     run = _read_plain(g)
                 elif kind == "runs":
                     run = _flat_run(g)
@@ -992,9 +1015,10 @@ def _value(d):
     return v
 
 
-def _read_plain(g) -> dict:
+def _read_plain(g, attrs: bool = False) -> dict:
     """Datasets of a group as they are; subgroups (e.g. ``time_series/<f>/<direction>``) as
-    nested dicts; netCDF dimension-only datasets left out."""
+    nested dicts (with ``attrs``: each subgroup's attributes under ``"attrs"``, as for
+    ``/branches``); netCDF dimension-only datasets left out."""
     import h5py
 
     out = {}
@@ -1003,7 +1027,9 @@ def _read_plain(g) -> dict:
             if not _is_dim_only(d):
                 out[k] = _value(d)
         elif isinstance(d, h5py.Group):
-            out[k] = _read_plain(d)
+            out[k] = _read_plain(d, attrs)
+            if attrs:
+                out[k]["attrs"] = _attrs(d)
     return out
 
 

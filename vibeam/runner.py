@@ -42,6 +42,8 @@ def _job(case, r, overrides: dict, j=None) -> _Job:
                record_periods=case.sweep.record_periods,
                samples_per_period=assess.samples_per_period(case, r, model, Omega),
                continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol,
+               max_transient_periods=case.sweep.max_transient_periods,
+               point_time_limit_s=case.sweep.point_time_limit_s,
                assess=assess.hooks(case, spec, r, model))
     settings = dict(case.run_settings(r), **assess.solver_options(case, r, model))
     solver = wrap_solver(make_solver(model, r.method, **settings), model, spec,
@@ -52,6 +54,8 @@ def _job(case, r, overrides: dict, j=None) -> _Job:
 def _jobs(case) -> list[_Job]:
     out = []
     for r in case.run:
+        if r.method == "continuation":
+            continue              # a BranchTask, see _tasks
         if case.map is None:
             out.append(_job(case, r, dict(r.model)))
         else:
@@ -76,6 +80,13 @@ def file_stem(name: str) -> str:
     """A run name as part of a file name (``map_<stem>.png``): characters other than letters,
     digits and ``_.+-`` become ``_``.  Case validation refuses two runs with the same stem."""
     return re.sub(r"[^A-Za-z0-9_.+-]+", "_", name)
+
+
+def _tasks(case) -> list:
+    """The continuation runs of a case as units of work (:class:`vibeam.branches.BranchTask`)."""
+    from .branches import plan
+
+    return [plan(case, r, key="continuation") for r in case.run if r.method == "continuation"]
 
 
 def _lines(job: _Job):
@@ -160,7 +171,8 @@ def estimate_work(case, jobs_=None) -> dict:
         ts = getattr(r, "transient_samples", 16)
         spp = job.sweep.samples_per_period
         sub = _STEPS_PER_NATURAL_PERIOD / Om
-        per = (job.sweep.transient_periods * np.maximum(ts, sub) + job.sweep.record_periods * np.maximum(spp, sub))
+        n_tr = job.sweep.max_transient_periods if job.sweep.auto else job.sweep.transient_periods
+        per = (n_tr * np.maximum(ts, sub) + job.sweep.record_periods * np.maximum(spp, sub))
         cost = ODE_STEP_COST if r.method in ("direct", "zhuravlev", "ivanov") else 1.0
         steps += n_dir * float(per.sum()) * dofs * cost
         point_values = max(point_values, job.sweep.record_periods * spp * 2.0 * (1 + dofs))
@@ -170,10 +182,13 @@ def estimate_work(case, jobs_=None) -> dict:
         if cost > worst_cost[1]:
             worst_cost = (f"run[{i}].method", cost)
     n_pts = len(sw.grid(1.0))
-    periods = sw.transient_periods + sw.record_periods
+    auto = sw.transient_periods == "auto"
+    n_tr = sw.max_transient_periods if auto else sw.transient_periods
+    tr_key = "sweep.max_transient_periods" if auto else "sweep.transient_periods"
+    periods = n_tr + sw.record_periods
     cands = [
-        (("sweep.transient_periods" if sw.transient_periods >= sw.record_periods else "sweep.record_periods"),
-         (sw.transient_periods if sw.transient_periods >= sw.record_periods else sw.record_periods),
+        ((tr_key if n_tr >= sw.record_periods else "sweep.record_periods"),
+         (n_tr if n_tr >= sw.record_periods else sw.record_periods),
          periods / 464),
         (grid_key, getattr(sw, grid_key.split(".")[1]), max(n_pts / 101, 1.0 / max(w_min, 1e-300))),
         ("sweep.samples_per_period", sw.samples_per_period, sw.samples_per_period / 64),
@@ -241,7 +256,8 @@ def open_executor(scheduler: str | None):
 
 
 def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=False, resume=False,
-             executor=None, checkpoint=True, checkpoint_interval_s=0.5, force=False, source=""):
+             executor=None, checkpoint=True, checkpoint_interval_s=0.5, force=False, source="",
+             continuation_only=False):
     """Run a case: its runs, or its parameter map; write ``results.h5``, plots and a table.
 
     Parameters
@@ -278,12 +294,20 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
         Run even if the estimated work is above the limit (:func:`check_work`).
     source : str
         Name of the case file, for messages.
+    continuation_only : bool
+        Run only the continuation runs (``vibeam continue``): an existing ``results.h5`` of the
+        same case keeps its sweeps and maps (and they are overlaid in the plots); only its
+        ``/branches`` are replaced.
+
+    Continuation runs (``method = "continuation"``) go to the same executor as the sweep
+    lines, one unit of work each; they are not checkpointed (``--resume`` computes them again).
 
     Returns
     -------
     list
         The :class:`vibeam.sweep.SweepResult` of each run, or the
-        :class:`vibeam.maps.MapResult` of each mapped run.
+        :class:`vibeam.maps.MapResult` of each mapped run (with ``continuation_only``, the
+        :class:`vibeam.branches.ContinuationResult` of each continuation run).
 
     Raises
     ------
@@ -303,13 +327,14 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
         check_time_series(case, source, fn)
     _notes(case, jobs_)
     check_work(case, jobs_, force=force, source=source)
+    tasks = _tasks(case)          # planned first: a continuation the scene cannot serve fails here
     with OutputLock(out_dir):
-        return _run_locked(case, text, Path(out_dir), jobs_, jobs, quiet, plots, resume, executor, checkpoint,
-                           checkpoint_interval_s)
+        return _run_locked(case, text, Path(out_dir), jobs_, tasks, jobs, quiet, plots, resume, executor,
+                           checkpoint, checkpoint_interval_s, continuation_only)
 
 
-def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor, checkpoint,
-                checkpoint_interval_s):
+def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, executor, checkpoint,
+                checkpoint_interval_s, continuation_only=False):
     from .case import InputError
     from .results import ForeignFileError, append_lines, read_lines, write_results
     from .sweep import run_lines, stack, unstack
@@ -318,6 +343,8 @@ def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor
     h5 = out_dir / "results.h5"
     if h5.exists() and not h5.is_file():
         raise InputError(f"{h5} is not a file (a folder?); remove it or use another --out")
+    if continuation_only:
+        return _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quiet, plots, executor)
     stored = {}
     if resume and h5.exists():
         try:
@@ -328,9 +355,12 @@ def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor
             raise InputError(f"--resume: {h5} was written by another case or variant; run without "
                              f"--resume to start afresh, or use another --out")
         if attrs.get("complete") and not stored:
+            if tasks:              # continuation runs are not checkpointed: computed again, sweeps kept
+                _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quiet, plots, executor)
             return _finished(case, h5, out_dir, plots)
     t_all = time.perf_counter()
     all_lines = [(job, l) for job in jobs_ for l in _lines(job)]
+    task_rows: dict = {}
     line_data = {}          # "<run>/<key>" -> stacked datasets (the checkpoint)
     for job, l in all_lines:
         got = stored.get(l.run, {}).get(l.key)
@@ -341,6 +371,7 @@ def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor
     n_pts = sum(l.n_points for _, l in all_lines)
     what = f"map of {case.map.parameter} x frequency, " if case.map else ""
     print(f"[{case.name}] {what}{len(case.run)} run(s), {len(all_lines)} sweep lines, {n_pts} points"
+          + (f", {len(tasks)} continuation run(s)" if tasks else "")
           + (f"; resuming: {len(all_lines) - len(todo)} lines done" if resume and stored else ""),
           file=sys.stderr)
     fresh = [not (resume and h5.exists())]
@@ -360,6 +391,9 @@ def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor
         last_flush[0] = time.perf_counter()
 
     def on_line(line, rows):
+        if hasattr(line, "compute"):      # a continuation run: kept in memory
+            task_rows[line.run] = rows[0]
+            return
         data = stack(rows, sweep_of[(line.run, line.key)])
         line_data[f"{line.run}/{line.key}"] = data
         buffer[f"{line.run}/{line.key}"] = data
@@ -372,10 +406,10 @@ def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor
         if todo and executor is None:
             # numba kernels loaded (or compiled) once, here: a forked worker inherits them
             timing["kernel_load_s"] = load_kernels(todo)
-        n_workers, why = plan_execution(case, jobs_, todo, jobs, executor)
+        n_workers, why = plan_execution(case, jobs_, todo, jobs, executor) if not tasks else (jobs, "")
         t_run = last_flush[0] = time.perf_counter()
-        run_lines(todo, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet, desc=case.name,
-                  stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
+        run_lines(todo + tasks, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet,
+                  desc=case.name, stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
         timing["run_s"] = time.perf_counter() - t_run
         timing["why"] = why
     finally:
@@ -383,27 +417,30 @@ def _run_locked(case, text, out_dir, jobs_, jobs, quiet, plots, resume, executor
 
     rows_of = {k: unstack(v) for k, v in line_data.items()}
     runs, maps = _assemble(case, jobs_, rows_of)
+    conts = _assemble_continuation(tasks, task_rows)
     # the checkpoint lines are compacted: the finished file holds every point once (/runs, /maps)
     t_w = time.perf_counter()
-    write_results(h5, runs, case.name, text, maps=maps, case_json=case_json)
+    write_results(h5, runs, case.name, text, maps=maps, case_json=case_json, branches=conts)
     timing["write_s"] = time.perf_counter() - t_w
     n_done = sum(l.n_points for l in todo)
-    print(f"\ncase {case.name}: {len(runs) + len(maps)} run(s) in {time.perf_counter() - t_all:.2f} s -> {h5}")
+    print(f"\ncase {case.name}: {len(runs) + len(maps) + len(conts)} run(s) in "
+          f"{time.perf_counter() - t_all:.2f} s -> {h5}")
     if todo:
         run_s = timing["run_s"]
-        print(f"run time {run_s:.3f} s for {n_done} points: {1e3 * run_s / max(n_done, 1):.3g} ms per point "
+        print(f"run time {run_s:.3f} s for {n_done} points{' and the continuation runs' if tasks else ''}: "
+              f"{1e3 * run_s / max(n_done, 1):.3g} ms per point "
               f"({timing['executor']}{': ' + timing['why'] if timing.get('why') else ''}; "
               f"pool start-up {timing['pool_startup_s']:.3f} s)\n"
               f"not in the run time: kernel load {timing['kernel_load_s']:.3f} s (numba cache or compilation, "
               f"once per process), results written in {timing['write_s']:.3f} s")
-    _report(case, runs, maps, out_dir, plots)
+    _report(case, runs, maps, out_dir, plots, conts)
     for r in list(runs) + list(maps):
         r.attrs.setdefault("_timing", timing)
     return maps if case.map else runs
 
 
-def _report(case, runs, maps, out_dir, plots) -> None:
-    """The tables (and the plots) of finished runs and maps."""
+def _report(case, runs, maps, out_dir, plots, conts=()) -> None:
+    """The tables (and the plots) of finished runs, maps and continuation runs."""
     if runs:
         _print_table(runs)
     from .maps import class_agreement, print_map
@@ -414,8 +451,12 @@ def _report(case, runs, maps, out_dir, plots) -> None:
         same = class_agreement(maps[0], m)
         if same is not None:
             print(f"  {m.name} vs {maps[0].name}: classes differ at {int((~same).sum())} of {same.size} points")
+    if conts:
+        from .branches import print_results
+
+        print_results(conts)
     if plots:
-        _plots(case, runs, maps, out_dir)
+        _plots(case, runs, maps, out_dir, conts)
 
 
 def _finished(case, h5, out_dir, plots):
@@ -499,6 +540,8 @@ def failure_summary(results) -> str | None:
     n = 0
     msgs = []
     for r in results or []:
+        if not hasattr(r, "data"):     # a continuation run: its branches carry their own statuses
+            return None
         st = np.asarray(r.data.get("status", []), dtype=object).ravel()
         if st.size == 0 or not (st == "failed").all():
             return None
@@ -510,6 +553,78 @@ def failure_summary(results) -> str | None:
     return f"every point failed ({n} points); most common reason: {common}"
 
 
+def _assemble_continuation(tasks, task_rows) -> list:
+    from .branches import assemble
+
+    return [assemble(t, task_rows.get(t.run, dict(status="failed", message="not computed")))
+            for t in tasks]
+
+
+def _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quiet, plots, executor):
+    """``vibeam continue``: the continuation runs alone; an existing results file of the same case
+    keeps its sweeps and maps (overlaid in the plots), its ``/branches`` are replaced."""
+    from .branches import print_results
+    from .results import read_results, replace_branches, write_results
+    from .sweep import run_lines
+
+    if not tasks:
+        raise CaseError(f"{case.name}: no run has method = \"continuation\"; add a [[run]] with "
+                        f"method = \"continuation\" (parameter, start, ...) or use `vibeam run`")
+    t_all = time.perf_counter()
+    print(f"[{case.name}] {len(tasks)} continuation run(s)", file=sys.stderr)
+    task_rows = {}
+    done = run_lines(tasks, executor=executor, jobs=jobs, progress=not quiet, desc=case.name)
+    for t in tasks:
+        task_rows[t.run] = done[(t.run, t.key)][0]
+    conts = _assemble_continuation(tasks, task_rows)
+    same = False
+    if h5.exists():
+        try:
+            same = read_results(h5)["attrs"].get("case_json") == case_json
+        except OSError:
+            same = False
+    if same:
+        replace_branches(h5, conts)
+    else:
+        write_results(h5, [], case.name, text, case_json=case_json, branches=conts)
+    print(f"\ncase {case.name}: {len(conts)} continuation run(s) in {time.perf_counter() - t_all:.2f} s -> {h5}"
+          + (" (sweeps and maps of the file kept)" if same else ""))
+    print_results(conts)
+    if plots:
+        sweeps = _stored_sweeps(h5) if same else []
+        _plot_continuation(case, conts, sweeps, out_dir)
+    return conts
+
+
+class _StoredRun:
+    """A sweep run read back from a results file, for the overlays (``name``, ``data``)."""
+
+    def __init__(self, name, data):
+        self.name = name
+        self.data = data
+
+
+def _stored_sweeps(h5) -> list:
+    from .results import read_results
+
+    res = read_results(h5)
+    return [_StoredRun(k, {kk: vv for kk, vv in v.items() if kk != "attrs"}) for k, v in res["runs"].items()]
+
+
+def _plot_continuation(case, conts, sweeps, out_dir, maps=()):
+    from .branches import plot_continuation, plot_curves
+
+    for r in conts:
+        safe = file_stem(r.name)
+        if r.branches:
+            p = plot_continuation(r, sweeps, out_dir / f"continuation_{safe}.png", title=f"{case.name}: {r.name}",
+                                  case=case)
+            print(f"continuation plot: {p}")
+        if r.curves:
+            p = plot_curves(r, out_dir / f"curves_{safe}.png", title=f"{case.name}: {r.name}", case=case)
+            print(f"two-parameter curves: {p}")
+
+
 def _assemble(case, jobs_, rows_of):
     from . import assess
     from .maps import assemble_map
@@ -517,6 +632,8 @@ def _assemble(case, jobs_, rows_of):
 
     runs, maps = [], []
     for r in case.run:
+        if r.method == "continuation":
+            continue
         js = [j for j in jobs_ if j.run is r]
         if case.map is None:
             job = js[0]
@@ -543,13 +660,14 @@ def _assemble(case, jobs_, rows_of):
     return runs, maps
 
 
-def _plots(case, runs, maps, out_dir):
+def _plots(case, runs, maps, out_dir, conts=()):
     from . import assess
     from .maps import plot_agreement, plot_map
     from .plots import plot_bifurcation, plot_frc
 
+    curves = [c for c in conts if c.curves]
     for m in maps:
-        p = plot_map(m, out_dir / f"map_{file_stem(m.name)}.png", title=case.name, case=case)
+        p = plot_map(m, out_dir / f"map_{file_stem(m.name)}.png", title=case.name, case=case, curves=curves)
         print(f"map plot: {p}")
     if len(maps) > 1:
         # "maps_" never begins a per-run plot ("map_<run>.png"), so no run name can collide with it
@@ -561,6 +679,8 @@ def _plots(case, runs, maps, out_dir):
         p1 = plot_frc(runs, out_dir / "frc.png", title=case.name, case=case)
         p2 = plot_bifurcation(runs, out_dir / "bifurcation.png", title=case.name, case=case)
         print(f"plots: {p1}" + (f", {p2}" if p2 else ""))
+    if conts:
+        _plot_continuation(case, conts, runs, out_dir)
 
 
 def _print_table(runs) -> None:

@@ -19,12 +19,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .records import HARMONICS, summarize
+from .records import (HARMONICS, SETTLED_MARGIN, amplitude_spread, period_minima, spread_agrees,
+                      summarize, transient_verdict)
 
 # units of the per-point datasets (written as HDF5 attributes)
 UNITS = {
     "Omega": "1 (forcing frequency / natural frequency)",
     "amplitude": "1 (Q = Delta - min q, paper Sec. 4.1)",
+    "amplitude_mean": "1 (mean over the recorded periods of Q_k = Delta - min q over period k)",
+    "amplitude_std": "1 (sample standard deviation of Q_k over the recorded periods)",
+    "amplitude_min": "1 (smallest Q_k of the recorded periods)",
+    "amplitude_max": "1 (largest Q_k of the recorded periods)",
+    "record_periods": "forcing periods recorded (the sample size of the Q_k)",
+    "transient_periods_used": "forcing periods simulated before the record",
     "amplitude_lower": "1 (lower branch of P(Q) = 0)",
     "q_max": "1", "q_min": "1",
     "period": "period-n of the stroboscopic map (0 = not periodic within 8, -1 = no impact)",
@@ -33,12 +40,18 @@ UNITS = {
     "strobe": "1 ((q, q') at forcing phase 0 of each recorded period)",
     "harmonics": "1 (amplitudes of 0, 1, ..., 5 Omega)",
     "frequency_hz": "Hz", "amplitude_mm": "mm (at the sensor)",
+    "amplitude_mean_mm": "mm (at the sensor)", "amplitude_std_mm": "mm (at the sensor)",
+    "amplitude_min_mm": "mm (at the sensor)", "amplitude_max_mm": "mm (at the sensor)",
     "wall_time_s": "s",
     "effective_gain": "1/V (gamma at this frequency, platform filter)",
     "gap_mm": "mm (grazing gap at the sensor at this point, gap drift)",
     "gap_drift_mm": "mm", "impulse_per_period": "1 (sum of (1 + R) U- per forcing period)",
     "stuck_fraction": "1 (share of the recorded window on the stop)",
 }
+
+
+# per-point displacements that physical scenes also store in mm at the sensor (``<key>_mm``)
+MM_KEYS = ("amplitude", "amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max")
 
 
 @dataclass(frozen=True)
@@ -51,8 +64,16 @@ class Sweep:
         Forcing frequencies (nondimensional), in increasing or any order; an
         ``up`` sweep visits them in increasing order, ``down`` in decreasing.
     direction : {'up', 'down', 'both'}
-    transient_periods, record_periods : int
-        Forcing periods discarded, then recorded, per point.
+    transient_periods : int or 'auto'
+        Forcing periods discarded per point; ``'auto'``: extended until the
+        stroboscopic map settles, up to ``max_transient_periods`` (:func:`_settle`).
+    record_periods : int
+        Forcing periods recorded per point.
+    max_transient_periods : int
+        Most transient periods of ``'auto'``.
+    point_time_limit_s : float or None
+        Wall time after which a point is ended as ``failed`` (checked between
+        the chunks of a time-domain point); None: no limit.
     samples_per_period : int
         Recorded samples per forcing period.
     continuation : bool
@@ -67,12 +88,18 @@ class Sweep:
 
     Omega: np.ndarray
     direction: str = "up"
-    transient_periods: int = 400
+    transient_periods: int | str = 400
     record_periods: int = 64
     samples_per_period: int = 64
     continuation: bool = True
     period_rtol: float = 1e-5
     assess: tuple = ()
+    max_transient_periods: int = 10000
+    point_time_limit_s: float | None = None
+
+    @property
+    def auto(self) -> bool:
+        return isinstance(self.transient_periods, str)
 
 
 @dataclass
@@ -104,21 +131,172 @@ class InlineExecutor(Executor):
         return fut
 
 
+# periods of a time-domain point simulated per solver call when the solver does not say
+# (``solver.chunk_periods``): a compiled kernel cannot be interrupted inside a call, so a long
+# point is cut into calls between which Ctrl-C and the wall-time limit take effect
+CHUNK_PERIODS = 1000
+# ``transient_periods = "auto"``: the first stage; each later stage is as long as everything before
+AUTO_FIRST_STAGE = 100
+
+
+class _Clock:
+    """Wall time of one point for ``point_time_limit_s``, started when the first solver call
+    returns (so a kernel's compilation or loading in a fresh worker does not count)."""
+
+    def __init__(self):
+        self.t0 = None
+
+    def tick(self):
+        if self.t0 is None:
+            self.t0 = time.perf_counter()
+
+    def over(self, limit) -> bool:
+        return limit is not None and self.t0 is not None and time.perf_counter() - self.t0 > limit
+
+
+def _simulate(solver, Omega, state, n_transient: int, sweep: Sweep, clock: _Clock | None = None):
+    """Trajectory of ``n_transient`` discarded and ``sweep.record_periods`` recorded periods.
+
+    The one place where a time-domain solver is called: the transient is cut
+    into calls of ``solver.chunk_periods`` periods, each started from the last
+    state (the last chunk runs together with the record, so a transient of at
+    most one chunk is one call, as before chunking), and the wall-time limit is
+    checked between calls.  A chunk that fails, or the wall-time limit
+    ``sweep.point_time_limit_s`` passing (:class:`_Clock`), ends the point: a failed
+    trajectory with the record's shapes (NaN samples) and the reason is returned.
+    """
+    chunk = max(1, int(getattr(solver, "chunk_periods", CHUNK_PERIODS) or CHUNK_PERIODS))
+    clock = clock if clock is not None else _Clock()
+    spp = sweep.samples_per_period
+    limit = sweep.point_time_limit_s
+    left = int(n_transient)
+    while left > chunk:
+        traj = solver.point(Omega, state, chunk, 0, spp)
+        clock.tick()
+        if traj.status == "failed":
+            return _failed_record(traj, sweep, int(n_transient) - left)
+        state = traj.final_state
+        left -= chunk
+        if clock.over(limit):
+            from dataclasses import replace
+
+            msg = (f"point_time_limit_s = {limit:g} s passed after {int(n_transient) - left} of "
+                   f"{int(n_transient)} transient periods")
+            return _failed_record(replace(traj, status="failed", message=msg), sweep, None)
+    traj = solver.point(Omega, state, left, sweep.record_periods, spp)
+    clock.tick()
+    return traj
+
+
+def _failed_record(traj, sweep: Sweep, done: int):
+    """A failed trajectory with the shapes of a record (NaN samples); ``done``: the transient
+    periods before the failing chunk (None: the message is kept as it is)."""
+    from dataclasses import replace
+
+    n_s = sweep.record_periods * sweep.samples_per_period
+    n0 = traj.samples.shape[0]
+    extra = {k: (np.full((n_s,) + v.shape[1:], np.nan)
+                 if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[0] == n0 else v)
+             for k, v in traj.extra.items()}
+    msg = traj.message if done is None else f"{traj.message} (in the transient chunk after {done} periods)"
+    return replace(traj, samples=np.full((n_s, 2), np.nan), impact_times=np.zeros(0),
+                   impact_velocities=np.zeros(0), n_impacts=0, q_min=np.nan, q_max=np.nan,
+                   period_min=None, chatter_times=None, extra=extra, message=msg)
+
+
+def _settle(solver, Omega, state, sweep: Sweep, Delta: float, clock: _Clock):
+    """``transient_periods = "auto"``: extend the transient until the stroboscopic map settles.
+
+    Stages of transient periods, the first :data:`AUTO_FIRST_STAGE` long and
+    each later one as long as all periods before it (so the work is at most
+    about twice what was needed), each followed by a probe window of
+    ``record_periods``.  The point has settled when the probe
+
+    * repeats with some period n (1..8, or no impact) within
+      ``SETTLED_MARGIN x period_rtol`` (:func:`vibeam.records.transient_verdict`
+      with a margin), or
+    * is not periodic, at least ``max_transient_periods / 2`` periods have
+      passed, and the spread of its per-period amplitude agrees with the
+      previous probe's (:func:`vibeam.records.spread_agrees`).  Transient chaos
+      cannot be told from a chaotic attractor by its statistics (Fig. 8,
+      Omega = 2.1 from rest: 2800 periods of chaos, then the no-impact orbit),
+      so a non-periodic point is only accepted after that long.
+
+    Otherwise the probe becomes transient and the next stage runs, up to
+    ``max_transient_periods``; the last probe is the record.  A non-periodic
+    record whose spread still disagrees with the previous probe's is marked
+    ``unsettled``.
+
+    Returns
+    -------
+    (Trajectory, int, str)
+        The record, the transient periods before it, and why it has not
+        settled ('' when it has, or when :func:`vibeam.records.summarize`
+        will say so itself).
+    """
+    max_tr = int(sweep.max_transient_periods)
+    n_rec = sweep.record_periods
+    stage = min(AUTO_FIRST_STAGE, max_tr)
+    used = 0
+    prev = None
+    while True:
+        traj = _simulate(solver, Omega, state, stage, sweep, clock)
+        used += stage
+        if traj.status == "failed":
+            return traj, used, ""
+        q = traj.samples[:, 0]
+        scale = max(traj.q_max - traj.q_min, np.max(np.abs(traj.samples[:, 1])) if q.size else 0.0, 1e-300)
+        period, why = transient_verdict(traj.strobe, scale, sweep.period_rtol, traj.n_impacts == 0,
+                                        margin=SETTLED_MARGIN)
+        spread = amplitude_spread((traj.Delta if traj.Delta is not None else Delta) - period_minima(traj))
+        if period != 0 and not why:
+            return traj, used, ""
+        agrees = prev is not None and spread_agrees(prev, spread)
+        if period == 0 and not why and agrees and used >= max_tr / 2:
+            return traj, used, ""
+        if used + n_rec >= max_tr:
+            if period == 0 and not why and prev is not None and not agrees:
+                return traj, used, (f"the spread of the per-period amplitude still changes after "
+                                    f"max_transient_periods = {max_tr} (mean {prev['amplitude_mean']:.6g} "
+                                    f"then {spread['amplitude_mean']:.6g})")
+            return traj, used, ""
+        limit = sweep.point_time_limit_s
+        if clock.over(limit):
+            from dataclasses import replace
+
+            msg = (f"point_time_limit_s = {limit:g} s passed after {used} transient periods "
+                   f"(transient_periods = \"auto\")")
+            return _failed_record(replace(traj, status="failed", message=msg), sweep, None), used, ""
+        prev = spread
+        state = traj.final_state
+        used += n_rec
+        stage = max(1, min(used, max_tr - used))
+
+
 def _point(solver, Omega, state, sweep: Sweep, Delta: float):
     """Simulate one point; dynamical outcomes and solver errors become a status."""
     t0 = time.perf_counter()
     try:
         if solver.time_domain:
-            traj = solver.point(Omega, state, sweep.transient_periods, sweep.record_periods,
-                                sweep.samples_per_period)
+            why = ""
+            if sweep.auto:
+                traj, used, why = _settle(solver, Omega, state, sweep, Delta, _Clock())
+            else:
+                used = int(sweep.transient_periods)
+                traj = _simulate(solver, Omega, state, used, sweep, _Clock())
             out = summarize(traj, Delta, sweep.period_rtol)
+            if why and out["status"] not in ("failed", "unsettled"):
+                out["message"] = f"unsettled: {why}" + (f"; {out['status']}: {out['message']}"
+                                                         if out["status"] != "ok" else "")
+                out["status"] = "unsettled"
+            out["transient_periods_used"] = used
             out.update(traj.extra)
             for fn in sweep.assess:
                 out.update(fn(traj))
             new_state = traj.final_state
         else:
-            out = dict(solver.point(Omega, state, sweep.transient_periods, sweep.record_periods,
-                                    sweep.samples_per_period))
+            n_tr = 0 if sweep.auto else sweep.transient_periods
+            out = dict(solver.point(Omega, state, n_tr, sweep.record_periods, sweep.samples_per_period))
             new_state = out.pop("final_state", None)
     except Exception as e:  # a solver failure is recorded, never fatal to the sweep
         out = dict(status="failed", message=f"{type(e).__name__}: {e}")
@@ -191,7 +369,13 @@ def run_line(line: Line, report=None) -> list[dict]:
     """Compute one line (in a worker); numerical failures are rows with ``status = 'failed'``.
 
     ``report()`` is called after each point; in a worker of the local pool each point is
-    reported to the parent through the pool's progress queue (:func:`_worker_init`)."""
+    reported to the parent through the pool's progress queue (:func:`_worker_init`).
+
+    Any other unit of work with ``key``, ``run``, ``n_points`` and a ``compute()`` returning
+    its rows (e.g. a continuation run, :class:`vibeam.branches.BranchTask`) runs through the
+    same executor, retries and progress bar (advancing when it finishes)."""
+    if hasattr(line, "compute"):
+        return line.compute()
     if report is None and _PROGRESS_QUEUE is not None:
         q, ident = _PROGRESS_QUEUE, (line.run, line.key)
 
@@ -204,6 +388,8 @@ def run_line(line: Line, report=None) -> list[dict]:
 
 
 def _lost_rows(line: Line, err: BaseException, attempts: int) -> list[dict]:
+    if hasattr(line, "lost_rows"):
+        return line.lost_rows(err, attempts)
     msg = f"worker lost {attempts} time(s): {type(err).__name__}: {err}"
     return [dict(Omega=float(W), direction=line.direction, status="failed", message=msg, wall_time_s=0.0)
             for W in line.Omega]
@@ -550,11 +736,13 @@ def run_sweep(solver, sweep: Sweep, name: str = "run", executor: Executor | None
     Returns
     -------
     SweepResult
-        Datasets ``Omega``, ``amplitude``, ``q_max``, ``q_min``, ``period``,
+        Datasets ``Omega``, ``amplitude``, ``amplitude_mean``, ``amplitude_std``,
+        ``amplitude_min``, ``amplitude_max``, ``record_periods``,
+        ``transient_periods_used``, ``q_max``, ``q_min``, ``period``,
         ``impacts_per_period``, ``impact_velocity``, ``strobe`` (n, n_record,
         2), ``harmonics`` (n, 6), ``direction``, ``status``, ``message``,
-        ``wall_time_s``, plus ``frequency_hz`` and ``amplitude_mm`` for
-        physical scenes and any method-specific outputs.  Points are ordered
+        ``wall_time_s``, plus ``frequency_hz`` and the ``*_mm`` displacements
+        (:data:`MM_KEYS`) for physical scenes and any method-specific outputs.  Points are ordered
         as visited: the up branch, then the down branch.
     """
     lines = plan_lines(solver, sweep, name)
@@ -576,7 +764,9 @@ def assemble(solver, sweep: Sweep, name: str, line_rows: list, wall_time_s: floa
         data["frequency_hz"] = data["Omega"] * fn
         attrs["natural_frequency_hz"] = fn
     if L:
-        data["amplitude_mm"] = data["amplitude"] * L * 1e3
+        for k in MM_KEYS:
+            if k in data:
+                data[k + "_mm"] = data[k] * L * 1e3
         attrs["length_m"] = L
     return SweepResult(name=name, fidelity=model.fidelity, method=solver.name, settings=solver.settings(),
                        data=data, wall_time_s=wall_time_s, attrs=attrs)

@@ -44,11 +44,14 @@ def convert(path: Path) -> bool:
         return False
     before = read_results(path)
     runs, maps, attrs = load_results(path)
-    known = ("dropped_datasets", "transient_periods", "methods", "checks")
+    known = ("dropped_datasets", "transient_periods", "methods", "checks", "max_transient_periods")
     with h5py.File(path, "r") as f:
         ref = f["reference"]
-        table = reference_table(ref["dropped_datasets"].asstr()[()], int(ref["transient_periods"][()]),
-                                ref["methods"].asstr()[()], ref["checks"].asstr()[()])
+        tp = ref["transient_periods"]
+        table = reference_table(ref["dropped_datasets"].asstr()[()],
+                                tp.asstr()[()] if h5py.check_string_dtype(tp.dtype) else int(tp[()]),
+                                ref["methods"].asstr()[()], ref["checks"].asstr()[()],
+                                int(ref["max_transient_periods"][()]) if "max_transient_periods" in ref else None)
         for k, d in ref.items():          # anything else in /reference is kept as it is
             if k not in known and isinstance(d, h5py.Dataset):
                 table[k] = d.asstr()[()] if h5py.check_string_dtype(d.dtype) else d[()]
@@ -63,9 +66,12 @@ def convert(path: Path) -> bool:
             _same(before[kind][name], after[kind][name], f"{path.name}:{kind}/{name}")
     with h5py.File(path, "r") as a, h5py.File(tmp, "r") as b:
         for k, d in a["reference"].items():
-            x, y = d[()], b["reference"][k][()]
+            x, y = d[()], b["reference"][k]
+            y = y.asstr()[()] if h5py.check_string_dtype(y.dtype) else y[()]
             if h5py.check_string_dtype(d.dtype):
-                x, y = d.asstr()[()], b["reference"][k].asstr()[()]
+                x = d.asstr()[()]
+            elif k == "transient_periods":
+                x = str(x)                   # a number of the first layout, text ("3000" or "auto") now
             np.testing.assert_array_equal(np.asarray(x), np.asarray(y), err_msg=f"{path}: /reference/{k}")
     tmp.replace(path)
     return True

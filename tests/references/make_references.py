@@ -7,21 +7,31 @@ run names as ``vibeam run --quick``) computed with converged settings:
 * every time-domain run (``event``, and the ODE methods ``direct``,
   ``zhuravlev``, ``ivanov``, whose reference is the exact ``event`` solver of
   the same model) uses the exact event-driven solver with 3000 (SDOF) or 1000
-  (FE beam) transient periods per point: the transient decays at least like
+  (FE beam) transient periods per point (where the quick variant uses
+  ``transient_periods = "auto"``: auto with 4 x its ``max_transient_periods``;
+  exceptions in ``REFERENCE_TRANSIENT_OVERRIDE``): the transient decays at least like
   ``exp(-beta t)``, i.e. by ``exp(-0.015 * 3000 * 2 pi / 2.5) < 1e-49`` for the
   SDOF scenes and ``exp(-0.017 * 1000 * 2 pi / 2.3) < 1e-20`` for the beam, so
   wherever the orbit is an attractor the reference holds it to round-off
   (where the motion is not periodic, the reference is one sample of the
-  attractor);
-* ``averaging`` and ``mapping`` runs are closed-form/Newton and run as they are.
+  attractor, and regressions compare the spread of its per-period amplitude);
+* ``averaging`` and ``mapping`` runs are closed-form/Newton and run as they are;
+* ``continuation`` runs are left out: the regression compares FRCs of sweeps (their branches
+  are regressed by ``tests/test_continuation*.py`` against the oracles there).
 
-Before a reference is written it is checked against the analytic oracles that
-apply, and nothing is written if one fails:
+Before a reference is written it is checked against the independent oracles
+that apply, and nothing is written if one fails (:func:`check_runs`):
 
 * period-1 one-impact points of SDOF event runs: the fixed point of the impact
-  map found by Newton on the closed-form flow (``MappingSolver``'s
-  ``newton_fixed_point``, started from the reference's own impact), admissible,
-  with its exact minimum: amplitude to ``1e-8`` relative;
+  map found by Newton on the closed-form flow (``newton_fixed_point``, started
+  from the reference's own impact), admissible, with its exact minimum:
+  amplitude to ``1e-8`` relative;
+* period-n points (n = 1..8) of SDOF event runs with k impacts per n periods
+  (all but the one-impact period-1 points): the fixed point of the k-fold impact map, each impact found by the
+  sampled root search of ``next_impact`` (not the event kernel's certified
+  stepping), solved by ``scipy.optimize.fsolve`` for ``(phase, velocity)`` with
+  the k flights summing to n periods; amplitude from the exact minima of the
+  k flights, ``1e-8`` relative;
 * points without impact (``period = -1``): the linear steady state
   ``Delta + C(Omega)`` (``linear_amplitude``; for beam runs the modal sum
   ``linear_sensor_amplitude_m``), ``1e-8`` relative;
@@ -31,20 +41,29 @@ apply, and nothing is written if one fails:
 * beam runs with ``n_modes = "static"``: the SDOF event solver of the derived
   parameters (``vibeam derive``: f_n, beta_S, B = gamma V, Delta; paper
   Eqs. 42-46) on the same frequencies in Hz, ``1e-8`` relative, where both are
-  periodic with the same period (elsewhere chaos amplifies round-off).
-
+  periodic with the same period (elsewhere chaos amplifies round-off); and their
+  periodic points against the impact-map oracles above on the derived SDOF;
+* FE beam runs (1 to 4 modes; more modes make the ODE stiff for an explicit
+  integrator): up to two periodic, impacting points per run against the
+  ``direct`` beam solver (``BeamODESolver``, solve_ivp DOP853 with rtol 1e-10,
+  terminal contact events, the same impact law), started on the event
+  solver's orbit and run 20 + 4 periods: amplitude to ``1e-7`` relative (the
+  ODE tolerance; an orbit that is not a solution would drift away);
 * parameter maps (``[map]``) are checked line by line, each parameter value
   with its own model, by the oracles above, plus, for SDOF maps on a
   pre-stressed stop, the closed-form lift-off: a point is "held on the stop"
   iff ``Omega^2 B <= |Delta|``.
+
 Runs with an effect that changes the dynamics (every effect but the sensor) and
 closed-form runs are not oracle-checked.  The observed errors are printed and
 stored in the file's ``/reference`` group (``checks``: one JSON line per oracle
-and run).  To keep the files small a reference keeps the per-point outputs of
-the README (amplitude, period, strobe, ...) and drops assessment extras
-(spectra, sensor identification; listed in ``/reference/dropped_datasets``).
-The FE references take a few minutes ('FE all modes' chatters on the tight
-rig).  Usage::
+and run).  ``tests/test_references.py`` recomputes the cheap oracles from the
+stored data (:func:`check_stored`), so a reference edited by hand or made by a
+broken generator fails there.  To keep the files small a reference keeps the
+per-point outputs of the README (amplitude and its spread, period, strobe,
+...) and drops assessment extras (spectra, sensor identification; listed in
+``/reference/dropped_datasets``).  The FE references take several minutes
+('FE all modes' chatters on the tight rig).  Usage::
 
     python tests/references/make_references.py            # every case in cases/
     python tests/references/make_references.py cases/paper-fig7.toml --check-only
@@ -68,19 +87,32 @@ CASES = ROOT / "cases"
 # SDOF (beta >= 0.015, Omega <= 2.5): exp(-0.015 * 3000 * 2 pi / 2.5) < 1e-49; beam (beta_1 =
 # 0.017, Omega <= 2.3, higher modes damped more by Eq. 39): exp(-0.017 * 1000 * 2 pi / 2.3) < 1e-20
 REFERENCE_TRANSIENT = {"sdof": 3000, "beam": 1000}
-REFERENCE_TRANSIENT_OVERRIDE: dict[str, int] = {}  # per-case exceptions (none needed)
+# per-case exceptions: "quick" = the quick variant's own transient.  The pre-stressed FE rig is
+# multistable on its down sweep (1.84-1.94 Hz: chaos, period-1, -2 and -6 coexist): a reference with
+# more transient periods than the quick run reaches other coexisting attractors there, so its
+# reference is the quick run itself (300 periods leave 2e-13 of the transient on its periodic
+# points, which the oracles check); regressions then detect changes of the code.
+REFERENCE_TRANSIENT_OVERRIDE: dict[str, int | str] = {"rig-fe-tight": "quick"}
+# quick variants with transient_periods = "auto": the reference runs "auto" too, with this many times
+# the quick variant's max_transient_periods (a non-periodic point is accepted after half of it)
+REFERENCE_AUTO_FACTOR = 4
 TIME_DOMAIN = ("event", "direct", "zhuravlev", "ivanov")
 TOL_MAPPING = 1e-8
 TOL_LINEAR = 1e-8
 TOL_AVERAGING = 0.03
 TOL_STATIC = 1e-8
+TOL_DIRECT = 1e-7
+DIRECT_MAX_MODES = 4      # more modes: stiff for DOP853 (the high modes are overdamped, Eq. 39)
+DIRECT_POINTS = 2         # FE points checked against the direct solver per run
 # effects that leave the dynamics alone (the oracles still apply)
 PASSIVE_EFFECTS = {"sensor"}
 # the per-point outputs a reference keeps (README, "Per-point outputs"); assessment and
 # method-specific extras (spectra, sensor records, ...) are left out to keep the files small
-KEPT = ("Omega", "amplitude", "q_max", "q_min", "period", "impacts_per_period", "impact_velocity",
-        "strobe", "harmonics", "direction", "status", "message", "wall_time_s", "stuck_fraction",
-        "frequency_hz", "amplitude_mm", "amplitude_lower", "stable")
+KEPT = ("Omega", "amplitude", "amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max",
+        "record_periods", "transient_periods_used", "q_max", "q_min", "period", "impacts_per_period",
+        "impact_velocity", "strobe", "harmonics", "direction", "status", "message", "wall_time_s",
+        "stuck_fraction", "frequency_hz", "amplitude_mm", "amplitude_mean_mm", "amplitude_std_mm",
+        "amplitude_min_mm", "amplitude_max_mm", "amplitude_lower", "stable")
 
 
 MAP_KEPT = ("classification", "values")
@@ -93,9 +125,15 @@ def reference_case(case):
     data = case.quick_variant().model_dump()
     fid = case.model_spec().fidelity
     n = REFERENCE_TRANSIENT_OVERRIDE.get(case.name, REFERENCE_TRANSIENT[fid])
-    data["sweep"]["transient_periods"] = max(n, int(data["sweep"]["transient_periods"]))
+    tp = data["sweep"]["transient_periods"]
+    if tp == "auto":
+        data["sweep"]["max_transient_periods"] *= REFERENCE_AUTO_FACTOR
+    elif n != "quick":
+        data["sweep"]["transient_periods"] = max(n, int(tp))
     runs = []
     for r in data["run"]:
+        if r["method"] == "continuation":
+            continue
         if r["method"] in TIME_DOMAIN and r["method"] != "event":
             r = dict(name=r["name"], method="event", model=r["model"], effects=r["effects"])
         runs.append(r)
@@ -126,15 +164,70 @@ class Check:
                     tolerance=self.tol, failures=len(self.failures))
 
 
+def _impacts_from_strobe(model, W, d, i, n):
+    """Impacts ``(phase, pre-impact velocity)`` of the n periods after the last strobe sample of
+    point i (event solver; only a starting guess for the oracles)."""
+    from vibeam.models import EventSolver
+
+    q0, v0 = d["strobe"][i][-1]
+    tr = EventSolver(model).point(W, np.array([q0, v0, 0.0]), 0, n, 8)
+    return tr, (W * tr.impact_times) % (2 * math.pi), tr.impact_velocities
+
+
+def k_fold_fixed_point(model, W, phi0, v0, k, n):
+    """Fixed point of the k-fold impact map whose k flights last n forcing periods together.
+
+    Each flight is found by :func:`vibeam.models.sdof_mapping.next_impact` (sampled root
+    search, independent of the event kernel); ``fsolve`` on ``(phase, velocity)``.
+    Returns ``(q_min of the orbit, (phi, v))`` or None.
+    """
+    from scipy.optimize import fsolve
+
+    from vibeam.models.sdof_mapping import _extrema, _Flow, next_impact
+
+    T = 2 * math.pi / W
+
+    def flights(x):
+        phi, v, out = x[0], x[1], []
+        for _ in range(k):
+            r = next_impact(model, W, phi, v, max_periods=n + 1.0)
+            if r is None:
+                return None
+            out.append((phi, v, r[0]))
+            phi, v = r[1], r[2]
+        return out, phi, v
+
+    def resid(x):
+        f = flights(x)
+        if f is None:
+            return np.array([1.0, 1.0])
+        fl, _, v = f
+        return np.array([(sum(t for _, _, t in fl) - n * T) / T, (v - x[1]) / max(abs(x[1]), 1e-300)])
+
+    x, info, ier, _ = fsolve(resid, np.array([phi0, v0]), full_output=True, xtol=1e-14)
+    # converged when the residual is at round-off (fsolve may report that xtol 1e-14 could not be
+    # met when it starts there)
+    if np.max(np.abs(resid(x))) > 1e-11:
+        return None
+    fl, _, _ = flights(x)
+    flow = _Flow(model, W)
+    q_min = np.inf
+    for phi, v, tau in fl:
+        _, g, _, smin = _extrema(flow, phi, v, tau, max(int(256 * tau / T), 8), "min")
+        q_min = min([q_min, g[0], g[-1]] + [flow.state(t, phi, v)[0] for t in smin])
+    return model.Delta + q_min, x
+
+
 def _sdof_checks(name, model, d):
-    from vibeam.models import EventSolver, linear_amplitude
+    from vibeam.models import linear_amplitude
     from vibeam.models.sdof_averaging import solve as averaging
     from vibeam.models.sdof_mapping import is_admissible, newton_fixed_point, orbit_extremes
 
     c_map = Check(name, "period-1 points vs impact-map fixed point (Newton)", TOL_MAPPING)
+    c_kn = Check(name, "period-n points, k impacts, vs k-fold impact-map fixed point (fsolve)",
+                 TOL_MAPPING)
     c_lin = Check(name, "no-impact points vs linear_amplitude", TOL_LINEAR)
     c_avg = Check(name, "R -> 1 near Omega = 2 vs averaging", TOL_AVERAGING)
-    ev = EventSolver(model)
     for i, W in enumerate(d["Omega"]):
         W = float(W)
         A, p, direc = float(d["amplitude"][i]), int(d["period"][i]), str(d["direction"][i])
@@ -143,29 +236,36 @@ def _sdof_checks(name, model, d):
         if p == -1:
             c_lin.add(W, direc, A, model.Delta + float(linear_amplitude(model.beta, model.B, W)))
             continue
-        if p != 1 or abs(float(d["impacts_per_period"][i]) - 1.0) > 1e-12:
-            continue
-        q0, v0 = d["strobe"][i][-1]
-        tr = ev.point(W, np.array([q0, v0, 0.0]), 0, 1, 8)
-        if tr.n_impacts != 1:
-            c_map.failures.append(f"Omega {W:.6g} ({direc}): {tr.n_impacts} impacts in the period after "
-                                  f"the last strobe sample")
-            continue
-        guess = np.array([(W * tr.impact_times[0]) % (2 * math.pi), tr.impact_velocities[0]])
-        x = newton_fixed_point(model, W, guess, 1)
-        ok, why = (False, "Newton did not converge") if x is None else is_admissible(model, W, x, 1)
-        if not ok:
-            c_map.failures.append(f"Omega {W:.6g} ({direc}): no admissible fixed point ({why})")
-            continue
-        q_min, _ = orbit_extremes(model, W, x, 1)
-        c_map.add(W, direc, A, model.Delta - q_min)
-        if model.R >= 0.99 and abs(W - 2.0) <= 0.1 + 1e-9:
-            avg = averaging(W, model.beta, model.B, model.R, model.Delta, 1)
-            c_avg.add(W, direc, A, float(avg["amplitude"]))
-    return [c_map, c_lin, c_avg]
+        if p == 1 and abs(float(d["impacts_per_period"][i]) - 1.0) <= 1e-12:
+            tr, ph, vv = _impacts_from_strobe(model, W, d, i, 1)
+            if tr.n_impacts != 1:
+                c_map.failures.append(f"Omega {W:.6g} ({direc}): {tr.n_impacts} impacts in the period "
+                                      f"after the last strobe sample")
+                continue
+            x = newton_fixed_point(model, W, np.array([ph[0], vv[0]]), 1)
+            ok, why = (False, "Newton did not converge") if x is None else is_admissible(model, W, x, 1)
+            if not ok:
+                c_map.failures.append(f"Omega {W:.6g} ({direc}): no admissible fixed point ({why})")
+                continue
+            q_min, _ = orbit_extremes(model, W, x, 1)
+            c_map.add(W, direc, A, model.Delta - q_min)
+            if model.R >= 0.99 and abs(W - 2.0) <= 0.1 + 1e-9:
+                avg = averaging(W, model.beta, model.B, model.R, model.Delta, 1)
+                c_avg.add(W, direc, A, float(avg["amplitude"]))
+        elif p >= 1:
+            tr, ph, vv = _impacts_from_strobe(model, W, d, i, p)
+            if tr.n_impacts < 1 or tr.n_impacts > 8 * p:
+                continue   # chatter-like orbits: not a finite impact map
+            r = k_fold_fixed_point(model, W, ph[0], vv[0], tr.n_impacts, p)
+            if r is None:
+                c_kn.failures.append(f"Omega {W:.6g} ({direc}): no fixed point of the {tr.n_impacts}-fold "
+                                     f"impact map over {p} periods")
+                continue
+            c_kn.add(W, direc, A, model.Delta - r[0])
+    return [c_map, c_kn, c_lin, c_avg]
 
 
-def _beam_checks(name, spec, model, d, sweep):
+def _beam_checks(name, spec, model, d, sweep, expensive=True):
     from dataclasses import replace
 
     from vibeam.beamscene import derive
@@ -199,7 +299,46 @@ def _beam_checks(name, spec, model, d, sweep):
             c_st.add(float(d["Omega"][i]), str(d["direction"][i]), float(d["amplitude"][i]),
                      float(res.data["amplitude"][j]))
         out.append(c_st)
+        # the same oracles as an SDOF run, on the derived SDOF (frequency and strobe velocity in
+        # its time unit 1 / omega_n; q = U(L_S) / L is the same coordinate)
+        r = red.f_n_hz / model.f_ref_hz
+        d2 = dict(d, Omega=np.asarray(d["Omega"], float) / r,
+                  strobe=np.asarray(d["strobe"], float) * np.array([1.0, 1.0 / r]))
+        out += [c for c in _sdof_checks(name, sdof, d2) if "averaging" not in c.oracle]
+    elif expensive and model.n_modes <= DIRECT_MAX_MODES:
+        out.append(_direct_check(name, model, d, sweep))
     return out
+
+
+def _direct_check(name, model, d, sweep):
+    """FE periodic impacting points against the ``direct`` beam solver (solve_ivp DOP853)."""
+    from vibeam.models.beam_dynamics import BeamEventSolver, BeamODESolver
+    from vibeam.records import summarize
+
+    c = Check(name, "FE periodic points vs direct solve_ivp DOP853 (rtol 1e-10)", TOL_DIRECT)
+    cand = [i for i in range(len(d["Omega"])) if int(d["period"][i]) == 1 and str(d["status"][i]) == "ok"
+            and float(d["impacts_per_period"][i]) == 1.0]
+    # spread the checked points over the grid
+    picks = [cand[j] for j in sorted(set(np.linspace(0, len(cand) - 1, min(len(cand), 2 * DIRECT_POINTS))
+                                         .round().astype(int)))] if cand else []
+    spp = sweep.samples_per_period
+    for i in picks:
+        if c.n >= DIRECT_POINTS:
+            break
+        W = float(d["Omega"][i])
+        n_tr = REFERENCE_TRANSIENT["beam"] if sweep.auto else max(int(sweep.transient_periods), 300)
+        ev = BeamEventSolver(model).point(W, None, n_tr, 2, spp)
+        a_ev = summarize(ev, model.Delta)
+        if a_ev["period"] != 1 or abs(a_ev["amplitude"] - float(d["amplitude"][i])) > 1e-9 * abs(a_ev["amplitude"]):
+            continue   # from rest this point lands on another orbit than the sweep: try another
+        di = BeamODESolver(model, solver="DOP853", rtol=1e-10, atol=1e-14).point(W, ev.final_state, 20, 4, spp)
+        a_di = summarize(di, model.Delta)
+        if a_di["period"] != 1:
+            c.failures.append(f"Omega {W:.6g}: the direct solver leaves the event solver's period-1 orbit "
+                              f"(period {a_di['period']}, {di.status})")
+            continue
+        c.add(W, str(d["direction"][i]), float(d["amplitude"][i]), float(a_di["amplitude"]))
+    return c
 
 
 def _held_check(name, model, d):
@@ -217,58 +356,55 @@ def _held_check(name, model, d):
     return c
 
 
-def check_map(ref_case, maps) -> list[Check]:
-    """The oracles of a parameter map, line by line (one model per parameter value)."""
-    from vibeam.maps import map_lines
+def check_runs(ref_case, data: dict, expensive: bool = True) -> list[Check]:
+    """Every oracle that applies to the reference datasets ``data`` of ``ref_case``.
+
+    ``data`` maps run names (map lines: ``<run>@<parameter>=<value>``, as
+    :func:`vibeam.maps.all_runs`) to per-point datasets.  ``expensive = False``
+    leaves out the direct FE solver (for the tests).
+    """
     from vibeam.sweep import Sweep
 
-    checks = []
-    par = ref_case.map.parameter
-    for r, m in zip(ref_case.run, maps):
-        lines = map_lines({"maps": {m.name: dict(m.data, attrs=m.attrs)}})
-        for (lname, d), v in zip(lines.items(), ref_case.map.grid()):
-            spec = ref_case.model_spec(dict(r.model, **{par: float(v)}))
-            if r.method != "event" or set(ref_case.effects_for(r).active()) - PASSIVE_EFFECTS:
-                continue
-            model = spec.build()
-            if spec.fidelity == "sdof":
-                checks += _sdof_checks(lname, model, d) + [_held_check(lname, model, d)]
-            else:
-                sw = ref_case.sweep
-                sweep = Sweep(Omega=np.zeros(1), direction=sw.direction, transient_periods=sw.transient_periods,
-                              record_periods=sw.record_periods, samples_per_period=sw.samples_per_period,
-                              continuation=sw.continuation, period_rtol=sw.period_rtol)
-                checks += _beam_checks(lname, spec, model, d, sweep)
-    return checks
-
-
-def check_reference(case, ref_case, runs) -> list[Check]:
-    """Every oracle that applies to the reference ``runs`` of ``ref_case``."""
-    if ref_case.map is not None:
-        return check_map(ref_case, runs)
-    from vibeam.sweep import Sweep
-
-    checks = []
     sw = ref_case.sweep
-    for r, res in zip(ref_case.run, runs):
-        spec = ref_case.model_spec(r.model) if r.model else ref_case.model_spec()
-        d = res.data
-        bad = [float(w) for w, s in zip(d["Omega"], d["status"]) if str(s) == "failed"]
+    sweep = Sweep(Omega=np.zeros(1), **sw.engine_options())
+    checks = []
+    if ref_case.map is not None:
+        par = ref_case.map.parameter
+        items = [(r, f"{r.name}@{par}={float(v):.6g}", dict(r.model, **{par: float(v)}))
+                 for r in ref_case.run for v in ref_case.map.grid()]
+    else:
+        items = [(r, r.name, dict(r.model)) for r in ref_case.run]
+    for r, name, overrides in items:
+        d = data[name]
+        bad = [float(w) for w, st in zip(d["Omega"], d["status"]) if str(st) == "failed"]
         if bad:
-            c = Check(r.name, "no failed points", 0.0)
+            c = Check(name, "no failed points", 0.0)
             c.failures.append(f"failed at Omega {bad}")
             checks.append(c)
         if r.method != "event" or set(ref_case.effects_for(r).active()) - PASSIVE_EFFECTS:
             continue  # closed-form runs are their own oracle; effects change the model
+        spec = ref_case.model_spec(overrides) if overrides else ref_case.model_spec()
         model = spec.build()
         if spec.fidelity == "sdof":
-            checks += _sdof_checks(r.name, model, d)
+            checks += _sdof_checks(name, model, d)
+            if ref_case.map is not None:
+                checks.append(_held_check(name, model, d))
         else:
-            sweep = Sweep(Omega=np.zeros(1), direction=sw.direction, transient_periods=sw.transient_periods,
-                          record_periods=sw.record_periods, samples_per_period=sw.samples_per_period,
-                          continuation=sw.continuation, period_rtol=sw.period_rtol)
-            checks += _beam_checks(r.name, spec, model, d, sweep)
+            checks += _beam_checks(name, spec, model, d, sweep, expensive)
     return checks
+
+
+def check_stored(path, expensive: bool = False) -> list[Check]:
+    """Recompute the oracles of a stored reference file from its own datasets and case text."""
+    import h5py
+
+    from vibeam.case import parse_case
+    from vibeam.maps import all_runs
+    from vibeam.results import read_results
+
+    with h5py.File(path, "r") as f:
+        case = parse_case(f.attrs["case_text"])
+    return check_runs(reference_case(case), all_runs(read_results(path)), expensive)
 
 
 # ----------------------------------------------------------------------------- main
@@ -276,6 +412,7 @@ def make_reference(path, out_dir=HERE, jobs=None, write=True, log=print) -> tupl
     """Compute, check and (if every check passes) write the reference of one case file."""
     from vibeam.case import load_case
     from vibeam.cli import run_case
+    from vibeam.maps import map_lines
     from vibeam.results import write_results
 
     case, text = load_case(path)
@@ -284,14 +421,21 @@ def make_reference(path, out_dir=HERE, jobs=None, write=True, log=print) -> tupl
     with tempfile.TemporaryDirectory() as tmp:
         runs = run_case(ref_case, text, tmp, jobs=jobs, quiet=True, plots=False)
     log(f"[{case.name}] reference computed in {time.perf_counter() - t0:.1f} s "
-        f"({ref_case.sweep.transient_periods} transient periods)")
-    checks = check_reference(case, ref_case, runs)
+        f"({ref_case.sweep.transient_periods} transient periods, at most "
+        f"{ref_case.sweep.max_transient_periods} with auto)")
+    if ref_case.map is not None:
+        data = map_lines({"maps": {m.name: dict(m.data, attrs=m.attrs) for m in runs}})
+    else:
+        data = {res.name: res.data for res in runs}
+    t0 = time.perf_counter()
+    checks = check_runs(ref_case, data)
+    log(f"  oracles in {time.perf_counter() - t0:.1f} s")
     ok = True
     for c in checks:
         if c.n == 0 and not c.failures:
             continue
         verdict = "ok" if not c.failures else "FAILED"
-        log(f"  {c.run:<22}{c.oracle:<58}{c.n:>4} pts  max rel. error {c.err:.2e}  "
+        log(f"  {c.run:<22}{c.oracle:<62}{c.n:>4} pts  max rel. error {c.err:.2e}  "
             f"(tol {c.tol:g})  {verdict}")
         for msg in c.failures[:5]:
             log(f"      {msg}")
@@ -306,25 +450,29 @@ def make_reference(path, out_dir=HERE, jobs=None, write=True, log=print) -> tupl
             res.data = {k: v for k, v in res.data.items() if k in KEPT + MAP_KEPT}
         extra = {"reference": reference_table(
             dropped, ref_case.sweep.transient_periods, [f"{r.name}: {r.method}" for r in ref_case.run],
-            [json.dumps(c.as_dict()) for c in checks if c.n])}
+            [json.dumps(c.as_dict()) for c in checks if c.n], ref_case.sweep.max_transient_periods)}
         out = write_results(Path(out_dir) / f"{case.name}.h5", runs, case.name, text, extra=extra, maps=maps)
         log(f"[{case.name}] -> {out} ({out.stat().st_size / 1024:.0f} kB)")
     return True, checks
 
 
-def reference_table(dropped, transient_periods, methods, checks) -> dict:
+def reference_table(dropped, transient_periods, methods, checks, max_transient_periods=None) -> dict:
     """The ``/reference`` group of a reference file (netCDF variables with units and names)."""
     from vibeam.results import var
 
-    return {
+    out = {
         "dropped_datasets": var(("dropped_dataset",), np.array(list(dropped), dtype=object), None,
                                 "per-point outputs of the runs not kept in the reference"),
-        "transient_periods": var((), np.array(int(transient_periods)), "1",
-                                 "transient forcing periods per point of the reference"),
+        "transient_periods": var((), np.array(str(transient_periods), dtype=object), None,
+                                 "transient forcing periods per point of the reference (a number or auto)"),
         "methods": var(("case_run",), np.array(list(methods), dtype=object), None,
                        "run: method of the case (time-domain runs are referenced by event)"),
         "checks": var(("check",), np.array(list(checks), dtype=object), None,
                       "oracle checks passed (JSON: run, oracle, points, max_rel_error, tolerance, failures)")}
+    if max_transient_periods is not None:
+        out["max_transient_periods"] = var((), np.array(int(max_transient_periods)), "1",
+                                           "most transient periods of transient_periods = auto")
+    return out
 
 
 def main(argv=None) -> int:
