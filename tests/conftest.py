@@ -11,9 +11,10 @@ CASES = sorted((ROOT / "cases").glob("*.toml"))
 
 @pytest.fixture(scope="session")
 def quick_results(tmp_path_factory):
-    """``quick_results(case_path) -> results folder`` of ``vibeam run CASE --quick`` (inline,
-    plots written), computed on the first request and shared by the tests that read it
-    (regression against the references, xarray layout, figures)."""
+    """``quick_results(case_path) -> results folder`` of ``vibeam run CASE --quick --no-plots``
+    (inline), computed on the first request and shared by the tests that read it (regression
+    against the references, xarray layout, figures: tests/test_plots.py builds every figure
+    from the file)."""
     from vibeam.cli import main
 
     done: dict = {}
@@ -22,7 +23,7 @@ def quick_results(tmp_path_factory):
         path = Path(path)
         if path not in done:
             out = tmp_path_factory.mktemp(path.stem)
-            rc = main(["run", str(path), "--quick", "--out", str(out), "--jobs", "1", "--quiet"])
+            rc = main(["run", str(path), "--quick", "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"])
             assert rc == 0, f"vibeam run {path} --quick exited {rc}"
             done[path] = out
         return done[path]
