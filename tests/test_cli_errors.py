@@ -104,7 +104,7 @@ def ws():
 
 ENOSPC = ("import errno, sys; import vibeam.results as r\n"
           "def full(*a, **k): raise OSError(errno.ENOSPC, 'No space left on device')\n"
-          "r._write_dataset = full\n"
+          "r._create = full\n"
           "from vibeam.cli import main; sys.exit(main(sys.argv[1:]))")
 
 CASES = {

@@ -75,18 +75,24 @@ def test_run_writes_branches_with_units(tmp_path, capsys):
     assert main(["run", str(case), "--out", str(out), "--jobs", "1", "--quiet"]) == 0
     text = capsys.readouterr().out
     assert "fold" in text and "grazing" in text and "continuation 'branches'" in text
-    with h5py.File(out / "results.h5", "r") as f:
-        g = f["branches/branches"]
-        b = g["00-period1"]
+    # labelled data: the branches on (branch, point), the bifurcations on (bifurcation), units
+    import xarray as xr
+
+    from vibeam.testing import check_labelled
+
+    check_labelled(out / "results.h5")
+    with xr.open_datatree(out / "results.h5", engine="h5netcdf") as t:
+        g = t["branches/branches"].to_dataset(inherit=False)
         for k in ("parameter", "amplitude", "impact_velocity", "multipliers", "stable", "period",
                   "impacts_per_period", "state"):
-            assert k in b and "units" in b[k].attrs, k
-        assert b["multipliers"].dtype == np.complex128 and b["state"].shape[1] == 2
-        assert b.attrs["status"] == "range_end"
-        bt = g["bifurcations"]
-        types = [t.decode() if isinstance(t, bytes) else t for t in bt["type"][()]]
-        assert types == ["fold", "grazing"]
-        assert bt["parameter"][0] == pytest.approx(1.98500220, abs=1e-7)
+            assert k in g and "units" in g[k].attrs, k
+        assert g["amplitude"].dims == ("branch", "point") and g["stable"].dtype == bool
+        assert g["multipliers"].dtype == np.complex128 and g.sizes["state_component"] == 2
+        assert str(g["branch_status"].values[0]) == "range_end"
+        bt = t["branches/branches/bifurcations"].to_dataset(inherit=False)
+        assert list(bt["type"].values) == ["fold", "grazing"] and bt["type"].dims == ("bifurcation",)
+        assert float(bt["parameter"][0]) == pytest.approx(1.98500220, abs=1e-7)
+    with h5py.File(out / "results.h5", "r") as f:
         assert "runs/exact" in f                                 # the sweep beside it
     assert (out / "continuation_branches.png").is_file()
     res = read_results(out / "results.h5")
@@ -97,14 +103,13 @@ def test_physical_scene_and_the_fold_of_the_tight_rig(tmp_path, capsys):
     case = _write(tmp_path, RIG)
     out = tmp_path / "out"
     assert main(["continue", str(case), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 0
-    with h5py.File(out / "results.h5", "r") as f:
-        g = f["branches/period-1"]
-        b = g["01-period1"] if "01-period1" in g else g["00-period1"]
-        assert "frequency_hz" in b and "amplitude_mm" in b
-        np.testing.assert_allclose(b["frequency_hz"][()], b["parameter"][()] * 7.6, rtol=1e-15)
-        np.testing.assert_allclose(b["amplitude_mm"][()], b["amplitude"][()] * 180.0, rtol=1e-12)
-        f_fold = g["bifurcations/frequency_hz"][()]
-        assert len(f_fold) == 1 and 16.25 < f_fold[0] < 16.27
+    g = read_results(out / "results.h5")["branches"]["period-1"]
+    b = g["01-period1"] if "01-period1" in g else g["00-period1"]
+    assert "frequency_hz" in b and "amplitude_mm" in b
+    np.testing.assert_allclose(b["frequency_hz"], b["parameter"] * 7.6, rtol=1e-15)
+    np.testing.assert_allclose(b["amplitude_mm"], b["amplitude"] * 180.0, rtol=1e-12)
+    f_fold = g["bifurcations"]["frequency_hz"]
+    assert len(f_fold) == 1 and 16.25 < f_fold[0] < 16.27
 
 
 def test_continue_keeps_the_sweeps_of_the_same_case(tmp_path):
@@ -286,11 +291,10 @@ start_at = 16.6
     assert main(["continue", str(case), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 0
     with h5py.File(out / "results.h5", "r") as f:
         g = f["branches/voltage"]
-        b = g["00-period1"]
-        assert b["parameter"].attrs["units"] == "V"
-        V = b["parameter"][()]
-        assert V.min() >= 0.4 - 1e-12 and V.max() <= 1.0 + 1e-12 and np.any(np.isclose(V, 0.6))
+        assert g["parameter"].attrs["units"] == "V"
         assert g.attrs["frequency_hz"] == pytest.approx(16.5)
+        V = read_results(out / "results.h5")["branches"]["voltage"]["00-period1"]["parameter"]
+        assert V.min() >= 0.4 - 1e-12 and V.max() <= 1.0 + 1e-12 and np.any(np.isclose(V, 0.6))
         h = f["branches/from 16.6 Hz"]
         fb = h["bifurcations/frequency_hz"][()]
         assert len(fb) == 1 and fb[0] == pytest.approx(16.257819, abs=1e-6)

@@ -3,6 +3,7 @@ import json
 
 import h5py
 import numpy as np
+import pytest
 
 from vibeam.case import parse_case
 from vibeam.cli import main
@@ -58,6 +59,49 @@ def test_cost_rows_errors_and_claims(tmp_path):
     assert any("R = 0.6" in c["claim"] for c in res["claims"])
 
 
+def test_cost_separates_the_method_error_from_the_transient_truncation():
+    """A short transient (20 periods: exp(-0.015 * 20 * 2 pi / 2.1) ~ 0.4 of the start is left)
+    makes the total error of every time-domain method about the same (the truncation), but
+    against event with the same transient the methods differ by orders of magnitude: direct at
+    rtol 1e-3 is far off, at rtol 1e-10 close; event itself is exact (0).  A slightly
+    pre-stressed stop (Delta = -5e-4): the mass starts held on the stop, which both methods
+    represent (at Delta = 0 it starts exactly at the stop, where the ODE methods cannot stick
+    and their transient differs from event's at 7e-4 whatever the tolerance)."""
+    text = CASE.replace("transient_periods = 150", "transient_periods = 20").replace(
+        "Delta = 0.0", "Delta = -0.0005").replace('method = "METHOD"', 'method = "direct"\nsolver = "DOP853"')
+    res = run_cost(parse_case(text), ladder=True, repeats=1, log=lambda m: None)
+    (src,) = res["models"].values()
+    assert src.transient_periods == 20 and src.transient_max > 1e-3      # the truncation is large...
+    by = {(r.run, r.settings.get("rtol")): r for r in res["rows"]}
+    ev, loose, tight = by[("exact", None)], by[("loose", 1e-3)], by[("loose", 1e-10)]
+    assert ev.err_method_max == 0.0 and ev.against == "event, same transient"
+    assert ev.err_max == pytest.approx(src.transient_max, rel=1e-12)     # ...and is all of event's total error
+    # total errors of loose and tight alike (both carry the truncation), method errors far apart
+    assert abs(np.log10(loose.err_max) - np.log10(tight.err_max)) < 1
+    assert tight.err_method_max < 1e-3 * loose.err_method_max
+    assert tight.err_method_max < 1e-2 * tight.err_max
+    avg = by[("avg", None)]
+    assert avg.against == "converged event" and avg.err_method_max == avg.err_max
+    # each claim once, from the run's own settings (not each rung of the ladder)
+    claims = [c["claim"] for c in res["claims"]]
+    assert len(claims) == len(set(claims))
+
+
+def test_cost_table_prints_full_settings_and_long_names(capsys):
+    from vibeam.cost import CostRow, print_cost
+
+    long = "a run name that is much longer than twenty-two characters"
+    row = CostRow(run=long, method="direct", settings={"solver": "RK23", "rtol": 1e-4, "atol": 1e-07},
+                  time_s=1.0, err_max=1e-3, err_rms=1e-4, n_period_diff=0, n_points=3, n_nonperiodic_ref=0,
+                  time_rel_event=500.0, err_method_max=1e-4, err_method_rms=1e-5, against="event, same transient")
+    print_cost({"rows": [row], "models": {}, "reference_periods": 2000, "transient_periods": 150,
+                "claims": [dict(claim="c", measured="m", reproduced=True, why="")]})
+    out = capsys.readouterr().out
+    line = next(l for l in out.splitlines() if l.startswith(long))
+    assert "solver=RK23, rtol=0.0001, atol=1e-07" in line and "atol=1.0" not in out
+    assert out.count("  - c\n") == 1
+
+
 def test_cost_cli_writes_table_and_plot(tmp_path):
     path = tmp_path / "c.toml"
     path.write_text(CASE.replace("METHOD", "ivanov"))
@@ -77,3 +121,27 @@ def test_cost_cli_writes_table_and_plot(tmp_path):
         claims = [json.loads(c) for c in f["cost/claims"].asstr()[()]]
         assert all({"claim", "measured", "reproduced", "why"} <= set(c) for c in claims)
     assert (tmp_path / "work_precision.png").stat().st_size > 1000
+    # --quick and --jobs; the work-precision figure is labelled
+    assert main(["cost", str(path), "--out", str(tmp_path / "q"), "--repeats", "1", "--quick", "--jobs", "2"]) == 0
+    import xarray as xr
+
+    with xr.open_dataset(tmp_path / "cost.h5", group="cost", engine="h5netcdf") as ds:
+        assert ds["error_method_max"].dims == ("row",) and ds["wall_time_s"].attrs["units"] == "s"
+
+
+def test_work_precision_figure_is_labelled():
+    import matplotlib.pyplot as plt
+
+    from test_plots import check_figure
+    from vibeam.cost import work_precision_figure
+
+    case = parse_case(CASE.replace("METHOD", "ivanov"))
+    res = run_cost(case, repeats=1, log=lambda m: None)
+    fig = work_precision_figure(res, "tiny", case)
+    try:
+        check_figure(fig, "work-precision")
+        labels = [t.get_text() for t in fig.legends[0].get_texts()]
+        assert any(l.startswith("loose (ivanov") for l in labels) and any("transient truncation" in l for l in labels)
+        assert any(l.startswith("avg (averaging; vs converged)") for l in labels)
+    finally:
+        plt.close(fig)

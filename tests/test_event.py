@@ -203,8 +203,10 @@ def test_no_state_beyond_the_stop(beta, B, R, Delta, Omega):
     the stop; independently, the exact flow (matrix exponential of the forced linear system,
     not vibeam's closed form) from every recorded sample over the next sample interval, where
     no impact was recorded, must not cross the stop either and must reach the next sample."""
-    if beta == 0.0 and abs(Omega - 1.0) < 1e-3:
-        Omega = 1.01  # undamped exact resonance has no steady state
+    if beta < 1e-6 and abs(Omega - 1.0) < 1e-3:
+        # (nearly) undamped exact resonance has no steady state; at beta ~ 1e-189 (found by
+        # hypothesis) (1 - Omega^2)^2 + (2 beta Omega)^2 underflows to 0 in the particular solution
+        Omega = 1.01
     m = SDOF(beta, B, R, Delta)
     ns = 64
     tr = _run(m, Omega, 30, 4, ns=ns, max_impacts_per_period=2000)

@@ -250,7 +250,7 @@ def test_kill_and_resume_gives_the_same_file(tmp_path):
     a, b = read_results(full / "results.h5"), read_results(h5)
     assert b["attrs"]["complete"]
     _same(a["maps"], b["maps"])
-    _same(read_lines(full / "results.h5")[1], read_lines(h5)[1])
+    assert read_lines(full / "results.h5")[1] == read_lines(h5)[1] == {}     # compacted
 
 
 def test_ctrl_c_keeps_finished_lines(tmp_path):
@@ -281,13 +281,26 @@ def test_resume_refuses_another_case(tmp_path):
         run_case(other, other_text, tmp_path, jobs=1, quiet=True, plots=False, resume=True)
 
 
-def test_resume_of_a_plain_run_recomputes_nothing(tmp_path):
+def test_resume_of_a_plain_run_recomputes_nothing(tmp_path, capsys):
     """A complete file resumed: nothing is recomputed -- even the per-point wall times, which
-    a recomputation would change, come back identical from the checkpoint."""
+    a recomputation would change, come back identical from the file.  The complete file holds
+    every point once: its checkpoint lines were compacted into /runs."""
     text = RIG.format(gap=0.0, nf=5, nv=2, tp=50).split("[map]")[0] + '[[run]]\nname = "exact"\nmethod = "event"\n'
     case = parse_case(text)
     first = run_case(case, text, tmp_path, jobs=1, quiet=True, plots=False)[0]
     with h5py.File(tmp_path / "results.h5") as f:
-        assert sorted(f["lines/exact"]) == ["down", "up"]
+        assert "lines" not in f and f["runs/exact/amplitude"].shape == (2, 5)
+    stamp = (tmp_path / "results.h5").stat().st_mtime_ns
     second = run_case(case, text, tmp_path, jobs=1, quiet=True, plots=False, resume=True)[0]
+    assert "recomputes nothing" in capsys.readouterr().err
+    assert (tmp_path / "results.h5").stat().st_mtime_ns == stamp      # not even rewritten
     _same(first.data, second.data, skip=())
+    assert second.attrs["model"] == first.attrs["model"]
+
+
+def test_resume_of_a_complete_map_recomputes_nothing(tmp_path):
+    case, text = rig(-0.1, nf=4, nv=3, tp=60)
+    (first,) = run_case(case, text, tmp_path, jobs=1, quiet=True, plots=False)
+    (second,) = run_case(case, text, tmp_path, jobs=1, quiet=True, plots=False, resume=True)
+    _same(first.data, second.data, skip=())
+    assert second.parameter == "voltage" and read_lines(tmp_path / "results.h5")[1] == {}

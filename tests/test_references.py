@@ -29,6 +29,7 @@ from vibeam.cli import main
 from vibeam.maps import all_runs
 from vibeam.regress import match_points
 from vibeam.results import read_results
+from vibeam.testing import check_labelled
 
 ROOT = Path(__file__).resolve().parents[1]
 ALL_CASES = sorted((ROOT / "cases").glob("*.toml"))
@@ -58,12 +59,18 @@ def reference_for(case_path) -> Path:
 
 
 @pytest.mark.parametrize("path", CASES, ids=[p.stem for p in CASES])
-def test_quick_variant_regresses_against_its_reference(path, tmp_path, capsys):
+def test_quick_variant_regresses_against_its_reference(path, quick_results, capsys):
+    """``vibeam run CASE --quick`` (the session's quick results, also read by test_plots)
+    regressed by ``vibeam regress CASE --reference REF --results``; its results file opens
+    with xarray as labelled data."""
     ref = reference_for(path)
-    rc = main(["regress", str(path), "--reference", str(ref), "--quick", "--out", str(tmp_path),
-               "--jobs", "1"])
+    tmp_path = quick_results(path)
+    capsys.readouterr()
+    rc = main(["regress", str(path), "--reference", str(ref), "--results", str(tmp_path / "results.h5")])
     out = capsys.readouterr().out
     assert rc == 0, out
+    # the results are labelled data: xarray sees named dimensions, coordinates, units, str
+    check_labelled(tmp_path / "results.h5")
     # periodic points with the same period: the amplitude to amplitude_rtol alone
     case, _ = load_case(path)
     rtol = case.regress.amplitude_rtol
@@ -105,6 +112,17 @@ def test_a_case_without_reference_fails_loudly(tmp_path):
                     .replace('name = "paper-fig7"', 'name = "a-new-case-without-reference"'))
     with pytest.raises(pytest.fail.Exception, match="make_references.py"):
         reference_for(case)
+
+
+@pytest.mark.parametrize("ref", sorted(REFS.glob("*.h5")), ids=lambda p: p.stem)
+def test_references_are_labelled_data(ref):
+    """The shipped references are in the netCDF layout (converted once by convert_layout.py,
+    numbers unchanged) and open with xarray like any results file."""
+    import xarray as xr
+
+    check_labelled(ref)
+    with xr.open_dataset(ref, group="reference", engine="h5netcdf") as ds:
+        assert ds["checks"].dims == ("check",) and ds["transient_periods"].dims == ()
 
 
 def _generator():
@@ -154,9 +172,9 @@ def test_a_tampered_reference_fails_its_oracles(tmp_path):
         shutil.copy(REFS / f"{name}.h5", bad)
         with h5py.File(bad, "r+") as f:
             a = f["runs/exact/amplitude"]
-            v = a[()]
+            v = a[()]                                   # (direction, Omega)
             i = int(np.flatnonzero(f["runs/exact/period"][()] == period)[0])
-            v[i] *= 1 + rel
+            v.flat[i] *= 1 + rel
             a[...] = v
         failed = [c for c in mr.check_stored(bad) if c.failures]
         assert failed and all(c.run == "exact" for c in failed), name
@@ -183,8 +201,8 @@ def test_perturbed_reference_fails(tmp_path, capsys):
     shutil.copy(ref, bad)
     with h5py.File(bad, "r+") as f:
         a = f["runs/exact/amplitude"]
-        v = a[()]
-        v[3] *= 1 + 10 * tol.amplitude_rtol + 1e-9  # ten tolerances off at one point
+        v = a[()]                                   # (direction, Omega)
+        v[0, 3] *= 1 + 10 * tol.amplitude_rtol + 1e-9  # ten tolerances off at one point
         a[...] = v
     capsys.readouterr()
     assert main(["regress", str(case), "--reference", str(bad), "--results", str(res)]) == 1
@@ -195,7 +213,7 @@ def test_perturbed_reference_fails(tmp_path, capsys):
     with h5py.File(bad, "r+") as f:
         p = f["runs/exact/period"]
         v = p[()]
-        v[5] = 2
+        v[0, 5] = 2
         p[...] = v
     assert main(["regress", str(case), "--reference", str(bad), "--results", str(res)]) == 1
 

@@ -47,10 +47,10 @@ def test_regress_hdf5_self_passes_and_a_perturbed_response_fails(tmp_path, capsy
     for i in (0, 100, 200):   # the smallest, the largest and an intermediate response
         bad.write_bytes(ref.read_bytes())
         with h5py.File(bad, "r+") as f:
-            a = f["runs/exact/amplitude"]
+            a = f["runs/exact/amplitude"]        # (direction, Omega)
             W = f["runs/exact/Omega"][i]
             v = a[()]
-            v[i] += 1e-3 * _response(W)   # 0.1 % of the response at one point
+            v[0, i] += 1e-3 * _response(W)   # 0.1 % of the response at one point
             a[...] = v
         capsys.readouterr()
         assert main(["regress", str(case), "--reference", str(bad), "--results", str(ref)]) == 1, i

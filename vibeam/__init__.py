@@ -1,6 +1,30 @@
 """vibeam: vibro-impact structural dynamics of an impacting cantilever beam.
 
 Fidelities live in :mod:`vibeam.models`, reductions in :mod:`vibeam.reductions`;
-the sweep engine, case files, results and plots in this package.
+the sweep engine, case files, results and plots in this package.  The Python API
+(:mod:`vibeam.api`)::
+
+    import vibeam
+    case = vibeam.load_case("cases/paper-fig7.toml")
+    res = vibeam.run(case)                   # Results: .runs, .to_xarray(), .plot_frc(), ...
+    sim = vibeam.simulate(case, Omega=2.0)   # one frequency: .t, .q, .dq, .impact_times, ...
+    tree = vibeam.open_results("results/paper-fig7/results.h5")   # xarray.DataTree
+
+Its names are imported on first use, so ``import vibeam`` stays fast.
 """
 __version__ = "0.1.0"
+
+_API = ("load_case", "run", "simulate", "open_results", "Results", "Simulation")
+__all__ = ["__version__", *_API]
+
+
+def __getattr__(name):
+    if name in _API:
+        from . import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'vibeam' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(list(globals()) + list(_API))

@@ -29,11 +29,13 @@ Per-point outputs (HDF5 ``/runs/<run>/``):
     sum of those RMS; ``participation_energy`` (n, N): mean modal energy
     ``(eta_i-dot^2 + omega_i^2 eta_i^2) / 2`` over its sum.  Both sum to 1.
 ``[assess] time_series = [f, ...]``
-    group ``time_series/<label>/<direction>`` (m, 3): time, displacement, velocity of the last
+    ``time_series/<label>/<direction>`` (m, 3) in the run's data: time, displacement, velocity
+    of the last
     ``time_series_periods`` recorded periods at the grid point nearest to ``f``; ``<label>`` is
     that grid point's frequency (:func:`ts_label`), never a requested value off the grid
     (a request outside the grid, or two on one grid point, is a case error:
-    :func:`vibeam.case.check_time_series`).
+    :func:`vibeam.case.check_time_series`); stored as the group ``time_series/<label>``
+    (:mod:`vibeam.results`).
 ``[effects.sensor]``
     see :class:`vibeam.sensor.SensorHook`.
 """
@@ -443,14 +445,19 @@ def finish(case, runs, out_dir) -> list:
     """Case-level assessment outputs (plots, tables); returns the written paths."""
     from pathlib import Path
 
+    from .style import colours, run_names
+
     out_dir = Path(out_dir)
     paths = []
     a = case.assess
+    col = colours(run_names(case, runs))
     if a.spectra:
-        paths.append(plot_spectra(runs, out_dir / "spectra.png", case.name))
+        p = plot_spectra(runs, out_dir / "spectra.png", case.name, case)
+        if p:
+            paths.append(p)
         print_hfc(runs)
     if a.participation:
-        p = plot_participation(runs, out_dir / "participation.png", case.name)
+        p = plot_participation(runs, out_dir / "participation.png", case.name, case)
         if p:
             paths.append(p)
     labels = []
@@ -461,7 +468,7 @@ def finish(case, runs, out_dir) -> list:
                 if lab not in labels:
                     labels.append(lab)
     for lab in labels:
-        p = plot_time_series(runs, lab, out_dir / f"time_series_{lab}.png", case.name)
+        p = plot_time_series(runs, lab, out_dir / f"time_series_{lab}.png", case.name, case, col)
         if p:
             paths.append(p)
     if any("R_identified_ladder" in r.data for r in runs):
@@ -473,15 +480,21 @@ def finish(case, runs, out_dir) -> list:
                      "mean_R_model,mean_R_sensor_exact\n")
             for r in rows:
                 fh.write(",".join(str(x) for x in r) + "\n")
-        paths += [csv, plot_sensor(rows, out_dir / "sensor_R_vs_noise.png", case.name)]
+        paths.append(csv)
+        p = plot_sensor(rows, out_dir / "sensor_R_vs_noise.png", case.name, case, col, runs)
+        if p:
+            paths.append(p)
     if paths:
         print("assessments: " + ", ".join(str(p) for p in paths))
     return paths
 
 
 def _x(r):
+    from .style import label
+
     d = r.data
-    return (d["frequency_hz"], "forcing frequency (Hz)") if "frequency_hz" in d else (d["Omega"], r"$\Omega$")
+    return ((np.asarray(d["frequency_hz"], float), label("forcing frequency f", "Hz")) if "frequency_hz" in d
+            else (np.asarray(d["Omega"], float), label(r"forcing frequency $\Omega = f/f_n$", None)))
 
 
 def _plt():
@@ -523,81 +536,125 @@ def sensor_table(runs):
 def print_sensor_table(rows):
     print("\nCoR identified from the simulated sensor (Sec. 5.1 method) against the model's R")
     print("(period-1 points; R at sensor: -v+/v- of the exact sensor velocity at the impact)")
-    head = (f"{'run':<30}{'noise (mm)':>11}{'points':>7}{'found':>6}{'median|dR|':>11}{'max|dR|':>9}"
+    w = max([30] + [len(r[0]) + 2 for r in rows])        # as wide as the longest run name
+    head = (f"{'run':<{w}}{'noise (mm)':>11}{'points':>7}{'found':>6}{'median|dR|':>11}{'max|dR|':>9}"
             f"{'rms dR':>9}{'mean R_id':>10}{'R model':>8}{'R at sensor':>12}")
     print(head)
     print("-" * len(head))
     for name, s, n, k, med, mx, rms, rid, rtr, rse in rows:
-        print(f"{name[:29]:<30}{s:>11.4g}{n:>7}{k:>6}{med:>11.4g}{mx:>9.4g}{rms:>9.4g}{rid:>10.4g}{rtr:>8.4g}"
+        print(f"{name:<{w}}{s:>11.4g}{n:>7}{k:>6}{med:>11.4g}{mx:>9.4g}{rms:>9.4g}{rid:>10.4g}{rtr:>8.4g}"
               f"{rse:>12.4g}")
 
 
-def plot_sensor(rows, path, title=""):
+def sensor_figure(rows, title="", case=None, colours=None, runs=()):
+    """Error of the identified R against the sensor noise, per run (median and max over the
+    period-1 points; the noise-free error as a marker at the left edge); a Figure, or None
+    when no row has a finite error."""
+    from . import style
+
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(7, 4.5))
     names = list(dict.fromkeys(r[0] for r in rows))
-    for nm in names:
-        rr = [r for r in rows if r[0] == nm]
-        s = np.array([r[1] for r in rr])
-        med = np.array([r[4] for r in rr])
-        mx = np.array([r[5] for r in rr])
-        x = np.where(s > 0, s, np.nan)
-        l, = ax.loglog(x, med, "o-", label=f"{nm}: median")
-        ax.loglog(x, mx, "^--", color=l.get_color(), mfc="none", label=f"{nm}: max")
-        if s.size and s[0] == 0 and np.isfinite(med[0]):
-            ax.axhline(med[0], color=l.get_color(), lw=0.7, ls=":")
-    ax.set_xlabel("sensor noise (mm, standard deviation)")
-    ax.set_ylabel(r"$|R_{identified} - R|$")
-    ax.set_title((title + ": " if title else "") + "identified R vs noise (dotted: noise-free)", fontsize=9)
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    from .plots import save_figure
+    col = colours or style.colours(style.run_names(case) + names)
+    with style.context():
+        fig, ax = plt.subplots(figsize=(7.5, 4.2))
+        handles = []
+        drawn = False
+        for nm in names:
+            rr = [r for r in rows if r[0] == nm]
+            s = np.array([r[1] for r in rr], float)
+            med = np.array([r[4] for r in rr], float)
+            mx = np.array([r[5] for r in rr], float)
+            c = col.get(nm, "0.3")
+            pos = (s > 0) & np.isfinite(med)
+            if pos.any():
+                ax.plot(s[pos], med[pos], "o-", color=c)
+                ax.plot(s[pos], mx[pos], "^--", color=c, mfc="none")
+                handles.append(style.proxy(c, ls="-", marker="o", label=f"{nm}"))
+                drawn = True
+            zero = (s == 0) & np.isfinite(med) & (med > 0)
+            if zero.any():
+                ax.axhline(med[zero][0], color=c, lw=0.8, ls=":")
+                drawn = True
+        if not drawn:
+            plt.close(fig)
+            return None
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        from matplotlib.ticker import FixedLocator, LogLocator, NullFormatter, NullLocator
 
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
+        # ticks at the noise levels of the ladder (labelled once each, no minor labels)
+        levels = sorted({float(r[1]) for r in rows if float(r[1]) > 0})
+        ax.xaxis.set_major_locator(FixedLocator(levels))
+        ax.xaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.xaxis.set_minor_locator(NullLocator())
+        ax.yaxis.set_major_locator(LogLocator(base=10, numticks=8))
+        ax.yaxis.set_minor_formatter(NullFormatter())
+        ax.set_xlabel(style.label("sensor noise, standard deviation", "mm"))
+        ax.set_ylabel(style.label(r"error of the identified CoR $|R_{id} - R|$", None))
+        handles += [style.proxy("0.25", ls="-", marker="o", label="median over period-1 points"),
+                    style.proxy("0.25", ls="--", marker="^", fill=False, label="largest"),
+                    style.proxy("0.25", ls=":", label="noise-free median")]
+        style.legend_outside(fig, handles)
+        style.titles(fig, (title + ": " if title else "") + "CoR identified from the sensor (Sec. 5.1) vs noise",
+                     style.subtitle(case, runs=runs))
+    return fig
 
 
-def plot_spectra(runs, path, title=""):
-    """Per run: velocity spectrum (colour, log) against forcing frequency, modes as lines,
-    non-harmonic peaks as circles."""
+def plot_sensor(rows, path, title="", case=None, colours=None, runs=()):
+    """:func:`sensor_figure` saved to ``path`` (``sensor_R_vs_noise.png``); None if empty."""
+    from .plots import _save_close
+
+    return _save_close(sensor_figure(rows, title, case, colours, runs), path)
+
+
+def spectra_figure(runs, title="", case=None):
+    """Per run: velocity spectrum (colour, log10 of mm/s) against the forcing frequency
+    (up branch), non-harmonic peaks as circles; a Figure, or None without spectra."""
+    from . import style
+
     plt = _plt()
     runs = [r for r in runs if "spectrum_velocity" in r.data]
-    fig, axes = plt.subplots(len(runs), 1, figsize=(8, 3.0 * len(runs) + 0.6), squeeze=False)
-    for ax, r in zip(axes[:, 0], runs):
-        d = r.data
-        x, xl = _x(r)
-        up = np.array([str(s) != "down" for s in d.get("direction", ["up"] * r.n_points)])
-        if not up.any():
-            up[:] = True
-        o = np.argsort(x[up])
-        xs = x[up][o]
-        S = d["spectrum_velocity"][up][o]
-        fy = np.asarray(r.attrs.get("spectrum_frequency"))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            Z = np.log10(np.where(S > 0, S, np.nan)).T
-        if xs.size > 1:
-            im = ax.pcolormesh(xs, fy, Z, shading="nearest", cmap="viridis",
-                               vmin=np.nanmax(Z) - 4 if np.isfinite(Z).any() else None)
-            fig.colorbar(im, ax=ax, label="log10 velocity amplitude")
-        else:
-            ax.semilogx(S[0], fy)
-        pf = d["peaks_frequency"][up][o]
-        xx = np.repeat(xs[:, None], pf.shape[1], axis=1)
-        ax.plot(xx.ravel(), pf.ravel(), "o", mfc="none", mec="r", ms=4, label="non-harmonic peaks")
-        ax.set_ylabel("frequency (Hz)" if "frequency_hz" in d else "frequency / f_n")
-        ax.set_xlabel(xl)
-        ax.set_title(f"{r.name}: sensor velocity spectrum (up branch)", fontsize=9)
-        ax.set_ylim(0, fy[-1] if fy.size else None)
-        ax.legend(fontsize=7, loc="upper right")
-    fig.suptitle(title)
-    fig.tight_layout()
-    from .plots import save_figure
+    if not runs:
+        return None
+    with style.context():
+        fig, axes = plt.subplots(len(runs), 1, figsize=(8.0, 2.7 * len(runs) + 1.0), squeeze=False, sharex=True)
+        for ax, r in zip(axes[:, 0], runs):
+            d = r.data
+            x, xl = _x(r)
+            phys = "frequency_hz" in d
+            up = np.array([str(s) != "down" for s in d.get("direction", ["up"] * r.n_points)])
+            if not up.any():
+                up[:] = True
+            o = np.argsort(x[up])
+            xs = x[up][o]
+            S = d["spectrum_velocity"][up][o]
+            fy = np.asarray(r.attrs.get("spectrum_frequency"), float)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                Z = np.log10(np.where(S > 0, S, np.nan)).T
+            from .maps import _edges
 
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
+            top = np.nanmax(Z) if np.isfinite(Z).any() else 0.0
+            im = ax.pcolormesh(_edges(xs), _edges(fy), Z, cmap="viridis", vmin=top - 4, vmax=top)
+            fig.colorbar(im, ax=ax, label=style.label(r"velocity amplitude, $\log_{10}$", "mm/s" if phys else None))
+            pf = d["peaks_frequency"][up][o]
+            xx = np.repeat(xs[:, None], pf.shape[1], axis=1)
+            ax.plot(xx.ravel(), pf.ravel(), ls="none", marker="o", mfc="none", mec="#D55E00", ms=4)
+            ax.set_ylabel(style.label("frequency", "Hz") if phys else style.label("frequency / f_n", None))
+            ax.set_title(f"{r.name}: sensor velocity spectrum (up branch)", loc="left")
+            ax.set_ylim(0, fy[-1] if fy.size else None)
+            ax.grid(False)
+        axes[-1, 0].set_xlabel(xl)
+        style.legend_outside(fig, [style.proxy("#D55E00", marker="o", fill=False, label="non-harmonic peaks")],
+                             loc="outside lower center")
+        style.titles(fig, title, style.subtitle(case, runs=runs))
+    return fig
+
+
+def plot_spectra(runs, path, title="", case=None):
+    """:func:`spectra_figure` saved to ``path`` (``spectra.png``)."""
+    from .plots import _save_close
+
+    return _save_close(spectra_figure(runs, title, case), path)
 
 
 def print_hfc(runs):
@@ -608,7 +665,8 @@ def print_hfc(runs):
     print("\nhigh-frequency component at the sensor (min .. max over the points)")
     phys = all("frequency_hz" in r.data for r in rows)
     hz, v, x = (" (Hz)", " (mm/s)", " (mm)") if phys else (" (/f_n)", "", "")
-    head = (f"{'run':<26}{'band line' + hz:>16}{'band line' + v:>18}{'HFC f' + hz:>14}"
+    w = max([26] + [len(r.name) + 2 for r in rows])      # as wide as the longest run name
+    head = (f"{'run':<{w}}{'band line' + hz:>16}{'band line' + v:>18}{'HFC f' + hz:>14}"
             f"{'HFC peak v' + v:>19}{'HFC peak x' + x:>17}{'peaks':>7}")
     print(head)
     print("-" * len(head))
@@ -621,52 +679,62 @@ def print_hfc(runs):
     for r in rows:
         d = r.data
         npk = int(np.isfinite(d["peaks_frequency"]).sum())
-        print(f"{r.name:<26}{rng(d['band_frequency'], '.1f'):>16}{rng(d['band_velocity_mm_s'], '.2f'):>18}"
+        print(f"{r.name:<{w}}{rng(d['band_frequency'], '.1f'):>16}{rng(d['band_velocity_mm_s'], '.2f'):>18}"
               f"{rng(d.get('hfc_frequency', []), '.1f'):>14}{rng(d.get('hfc_velocity_mm_s', []), '.2f'):>19}"
               f"{rng(d.get('hfc_displacement_mm', []), '.4f'):>17}{npk:>7}")
 
 
-def plot_participation(runs, path, title=""):
-    """Stacked shares of the modes against the forcing frequency (up branch), per run."""
+def participation_figure(runs, title="", case=None):
+    """Stacked shares of the modes against the forcing frequency (up branch), per run; a
+    Figure, or None when no run has more than one mode."""
+    from . import style
+
     plt = _plt()
     runs = [r for r in runs if "participation_displacement" in r.data
             and r.data["participation_displacement"].shape[1] > 1]
     if not runs:
         return None
-    fig, axes = plt.subplots(len(runs), 2, figsize=(10, 2.8 * len(runs) + 0.6), squeeze=False)
-    for (a1, a2), r in zip(axes, runs):
-        d = r.data
-        x, xl = _x(r)
-        up = np.array([str(s) != "down" for s in d.get("direction", ["up"] * r.n_points)])
-        if not up.any():
-            up[:] = True
-        o = np.argsort(x[up])
-        for ax, key, lab in ((a1, "participation_displacement", "share of sensor displacement (RMS)"),
-                             (a2, "participation_energy", "share of energy")):
-            P = np.nan_to_num(d[key][up][o])
-            ax.stackplot(x[up][o], P.T, labels=[f"mode {i + 1}" for i in range(P.shape[1])])
-            if key == "participation_energy" or P.shape[1] > 1:
-                ax.set_yscale("linear")
-            ax.set_ylim(0, 1)
-            ax.set_title(f"{r.name}: {lab}", fontsize=9)
-            ax.set_xlabel(xl)
-            # shares of the higher modes, as text (they are small)
-            hi = 1.0 - P[:, 0]
-            ax.text(0.04, 0.06, f"modes >= 2: {hi.min():.2e} .. {hi.max():.2e}", transform=ax.transAxes,
-                    fontsize=7, bbox=dict(facecolor="w", alpha=0.8, lw=0))
-        a2.legend(fontsize=7, loc="center right")
-    fig.suptitle(title)
-    fig.tight_layout()
-    from .plots import save_figure
+    with style.context():
+        fig, axes = plt.subplots(len(runs), 2, figsize=(10, 2.6 * len(runs) + 1.0), squeeze=False)
+        n_max = max(r.data["participation_displacement"].shape[1] for r in runs)
+        for (a1, a2), r in zip(axes, runs):
+            d = r.data
+            x, xl = _x(r)
+            up = np.array([str(s) != "down" for s in d.get("direction", ["up"] * r.n_points)])
+            if not up.any():
+                up[:] = True
+            o = np.argsort(x[up])
+            for ax, key, lab in ((a1, "participation_displacement", "share of the sensor displacement (RMS)"),
+                                 (a2, "participation_energy", "share of the modal energy")):
+                P = np.nan_to_num(d[key][up][o])
+                ax.stackplot(x[up][o], P.T, colors=[style.PALETTE[i % len(style.PALETTE)] for i in range(P.shape[1])])
+                ax.set_ylim(0, 1)
+                ax.set_title(f"{r.name}" if ax is a1 else "", loc="left")
+                ax.set_xlabel(xl)
+                ax.set_ylabel(style.label(lab, None))
+                hi = 1.0 - P[:, 0]
+                ax.text(0.03, 0.06, f"modes >= 2: {hi.min():.2e} .. {hi.max():.2e}", transform=ax.transAxes,
+                        fontsize=7, bbox=dict(facecolor="w", alpha=0.8, lw=0))
+        from matplotlib.patches import Patch
 
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
+        style.legend_outside(fig, [Patch(facecolor=style.PALETTE[i % len(style.PALETTE)], label=f"mode {i + 1}")
+                                   for i in range(n_max)])
+        style.titles(fig, title, style.subtitle(case, runs=runs))
+    return fig
 
 
-def plot_time_series(runs, label, path, title=""):
-    """Time series (displacement, velocity) and phase portrait of every run at the grid
-    frequency ``label`` (:func:`ts_label`)."""
+def plot_participation(runs, path, title="", case=None):
+    """:func:`participation_figure` saved to ``path`` (``participation.png``); None if nothing."""
+    from .plots import _save_close
+
+    return _save_close(participation_figure(runs, title, case), path)
+
+
+def time_series_figure(runs, label, title="", case=None, colours=None):
+    """Time series (displacement, velocity; last two periods) and phase portrait of every run
+    at the grid frequency ``label`` (:func:`ts_label`); a Figure, or None."""
+    from . import style
+
     plt = _plt()
     label = label if isinstance(label, str) else ts_label(label)
     items = []
@@ -678,32 +746,39 @@ def plot_time_series(runs, label, path, title=""):
     if not items:
         return None
     phys = "frequency_hz" in runs[0].data
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
-    for r, dname, a, W in items:
-        fn = r.attrs.get("natural_frequency_hz", 1.0) if phys else 1.0
-        lab = f"{r.name} ({dname}, {W * fn:.3f}{' Hz' if phys else ''})"
-        T = 1.0 / (W * fn) if phys else 2 * math.pi / W
-        z = a[:, 0] >= a[-1, 0] - 2 * T          # time panels: the last two periods
-        axes[0].plot(a[z, 0], a[z, 1], lw=0.9, label=lab)
-        axes[1].plot(a[z, 0], a[z, 2], lw=0.9)
-        axes[2].plot(a[:, 1], a[:, 2], lw=0.7)
-    tu = "t (s)" if phys else "t"
-    axes[0].set_xlabel(tu)
-    axes[0].set_ylabel("U(L_S) (mm)" if phys else "q")
-    axes[1].set_xlabel(tu)
-    axes[1].set_ylabel("U'(L_S) (mm/s)" if phys else "q'")
-    axes[2].set_xlabel("U(L_S) (mm)" if phys else "q")
-    axes[2].set_ylabel("U'(L_S) (mm/s)" if phys else "q'")
-    axes[0].set_title("displacement (last 2 periods)", fontsize=9)
-    axes[1].set_title("velocity (last 2 periods)", fontsize=9)
-    axes[2].set_title("phase portrait (all stored periods)", fontsize=9)
-    for ax in axes:
-        ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=6)
-    fig.suptitle(f"{title}: {label}{' Hz' if phys else ''}")
-    fig.tight_layout()
-    from .plots import save_figure
+    col = colours or style.colours(style.run_names(case, runs))
+    with style.context():
+        fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
+        handles = []
+        for r, dname, a, W in items:
+            fn = r.attrs.get("natural_frequency_hz", 1.0) if phys else 1.0
+            T = 1.0 / (W * fn) if phys else 2 * math.pi / W
+            z = a[:, 0] >= a[-1, 0] - 2 * T          # time panels: the last two periods
+            c = col.get(r.name, "0.3")
+            ls = style.DIRECTIONS[dname]["ls"]
+            axes[0].plot(a[z, 0], a[z, 1], color=c, ls=ls, lw=0.9)
+            axes[1].plot(a[z, 0], a[z, 2], color=c, ls=ls, lw=0.9)
+            axes[2].plot(a[:, 1], a[:, 2], color=c, ls=ls, lw=0.7)
+            handles.append(style.proxy(c, ls=ls, label=f"{r.name} ({dname} sweep)"))
+        tu = "s" if phys else None
+        xu, vu = ("mm", "mm/s") if phys else (None, None)
+        axes[0].set_xlabel(style.label("time t", tu))
+        axes[0].set_ylabel(style.label("U(L_S)" if phys else "q", xu))
+        axes[1].set_xlabel(style.label("time t", tu))
+        axes[1].set_ylabel(style.label("U'(L_S)" if phys else "q'", vu))
+        axes[2].set_xlabel(style.label("U(L_S)" if phys else "q", xu))
+        axes[2].set_ylabel(style.label("U'(L_S)" if phys else "q'", vu))
+        axes[0].set_title("displacement (last 2 periods)", loc="left")
+        axes[1].set_title("velocity (last 2 periods)", loc="left")
+        axes[2].set_title("phase portrait (all stored periods)", loc="left")
+        style.legend_outside(fig, handles)
+        style.titles(fig, f"{title + ': ' if title else ''}{label}{' Hz' if phys else ''}",
+                     style.subtitle(case, runs=[r for r, *_ in items]))
+    return fig
 
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
+
+def plot_time_series(runs, label, path, title="", case=None, colours=None):
+    """:func:`time_series_figure` saved to ``path`` (``time_series_<label>.png``); None if none."""
+    from .plots import _save_close
+
+    return _save_close(time_series_figure(runs, label, title, case, colours), path)

@@ -465,51 +465,178 @@ def assemble(task: BranchTask, row: dict) -> ContinuationResult:
                               wall_time_s=float(row.get("wall_time_s", 0.0)), attrs=attrs)
 
 
+def _cf(text: str) -> tuple:
+    """``(units, long_name)`` from a ``"unit (what)"`` text of :data:`BRANCH_UNITS` /
+    :data:`PARAMETER_UNITS` (UDUNITS: ``1/V`` is ``V-1``; flags and counts are ``1``)."""
+    head, _, rest = str(text).partition(" (")
+    rest = rest.rstrip(")")
+    if head in ("1/V",):
+        return "V-1", rest or "per volt"
+    if " " in head or head in ("bool", "1/forcing period") or "/" in head:
+        return "1", (rest or text) if head not in ("1/forcing period",) else "per forcing period"
+    return head or "1", rest
+
+
+# trailing axes of the per-point branch data
+_BRANCH_EXTRA = {"impact_velocity": "impact", "impact_phase": "impact", "multipliers": "multiplier",
+                 "state": "state_component"}
+
+
+def _padded(arrays: list, n_p: int, extra: tuple):
+    """The arrays of the branches padded along the point (and trailing) axes: NaN for floats,
+    False / 0 / '' for flags, integers and text (``n_points`` says what is data)."""
+    a0 = next((np.asarray(a) for a in arrays if np.asarray(a).size or np.asarray(a).ndim), np.zeros(0))
+    kind = a0.dtype.kind
+    if kind in "US" or a0.dtype == object:
+        out = np.full((len(arrays), n_p) + extra, "", dtype=object)
+    elif kind == "b":
+        out = np.zeros((len(arrays), n_p) + extra, bool)
+    elif kind in "iu":
+        out = np.zeros((len(arrays), n_p) + extra, a0.dtype)
+    else:
+        out = np.full((len(arrays), n_p) + extra, np.nan, dtype=np.result_type(a0.dtype, float))
+    for i, a in enumerate(arrays):
+        a = np.asarray(a)
+        if a.size:
+            out[(i,) + tuple(slice(0, s) for s in a.shape)] = a
+    return out
+
+
+def branch_variables(r) -> tuple:
+    """The variables of ``/branches/<run>/`` (:func:`vibeam.results.write_group`): every branch
+    on the dimensions (branch, point), the bifurcations on (bifurcation), the two-parameter
+    curves on (curve, curve_point).  Returns ``(variables, subgroups)``."""
+    from .results import var
+
+    B = r.branches
+    lens = [len(b["data"].get("parameter", ())) for b in B]
+    n_p = max(lens, default=0)
+    v = {"branch": var(("branch",), np.array([b["index"] for b in B], np.int64), "1",
+                       "branch index (the order the branches were traced)"),
+         "n_points": var(("branch",), np.array(lens, np.int64), "1",
+                         "points of the branch (the rest of the point dimension is padding)"),
+         "branch_period": var(("branch",), np.array([b["n"] for b in B], np.int64), "1",
+                              "period-n of the branch's orbits"),
+         "branch_status": var(("branch",), np.array([str(b["status"]) for b in B], dtype=object), None,
+                              "how the branch ended"),
+         "branch_message": var(("branch",), np.array([str(b["message"]) for b in B], dtype=object), None,
+                               "detail of the branch's status"),
+         "branch_origin": var(("branch",), np.array([str(b["origin"]) for b in B], dtype=object), None,
+                              "where the branch started (a start or a branch switch)")}
+    keys = list(dict.fromkeys(k for b in B for k in b["data"]))
+    for k in keys:
+        arrays = [np.asarray(b["data"].get(k, np.zeros(0))) for b in B]
+        nd = max(a.ndim for a in arrays)
+        extra = tuple(max((a.shape[i] if a.ndim > i else 0) for a in arrays) for i in range(1, nd))
+        dims = ("branch", "point") + tuple(_BRANCH_EXTRA.get(k, f"{k}_dim{i}") if i == 0 else f"{k}_dim{i}"
+                                           for i in range(len(extra)))
+        u, ln = _cf(PARAMETER_UNITS.get(r.parameter, "1") if k == "parameter" else BRANCH_UNITS.get(k, k))
+        if k == "parameter":
+            ln = f"continuation parameter {r.parameter}" + (f" ({ln})" if ln else "")
+        data = _padded(arrays, n_p, extra)
+        text = data.dtype == object
+        v[k] = var(dims, data, None if text else u, ln or k.replace("_", " "))
+    groups = {}
+    t = r.bifurcation_table()
+    bv = {}
+    for k, a in t.items():
+        a = np.asarray(a)
+        name = "bifurcation_branch" if k == "branch" else k      # "branch" is the parent's dimension
+        u, ln = _cf(PARAMETER_UNITS.get(r.parameter, "1") if k == "parameter" else
+                    {"type": "1 (fold, period_doubling, neimark_sacker, grazing, sticking)",
+                     "branch": "1 (index of the branch it lies on)", "period": "1 (period-n of that branch)",
+                     "detail": "1 (what was located)"}.get(k, BRANCH_UNITS.get(k, k)))
+        bv[name] = var(("bifurcation",), a, None if a.dtype == object or a.dtype.kind in "US" else u,
+                       ln or k.replace("_", " "), **({"vibeam_name": k} if name != k else {}))
+    groups["bifurcations"] = (bv, {"types": "fold, period_doubling, neimark_sacker, grazing, sticking"})
+    if r.curves:
+        C = r.curves
+        key2 = r.attrs.get("curve_parameter", "parameter2")
+        n_c = max(len(c["p1"]) for c in C)
+        fn = r.attrs.get("natural_frequency_hz") if r.parameter == "Omega" else None
+        cv = {"curve": var(("curve",), np.arange(len(C)), "1", "curve index"),
+              "n_curve_points": var(("curve",), np.array([len(c["p1"]) for c in C], np.int64), "1",
+                                    "points of the curve (the rest is padding)"),
+              "curve_type": var(("curve",), np.array([c["type"] for c in C], dtype=object), None,
+                                "bifurcation the curve follows"),
+              "curve_status": var(("curve",), np.array([str(c["status"]) for c in C], dtype=object), None,
+                                  "how the curve ended"),
+              "curve_message": var(("curve",), np.array([str(c["message"]) for c in C], dtype=object), None,
+                                   "detail of the curve's status"),
+              "curve_period": var(("curve",), np.array([c["n"] for c in C], np.int64), "1",
+                                  "period-n of the orbits along the curve")}
+        u1, _ = _cf(PARAMETER_UNITS.get(r.parameter, "1"))
+        cv["parameter"] = var(("curve", "curve_point"), _padded([c["p1"] for c in C], n_c, ()), u1,
+                              f"continuation parameter {r.parameter}")
+        from .results import parameter_units
+
+        cv[key2] = var(("curve", "curve_point"), _padded([c["p2"] for c in C], n_c, ()), parameter_units(key2),
+                       f"second parameter {key2}")
+        if fn:
+            cv["frequency_hz"] = var(("curve", "curve_point"),
+                                     _padded([np.asarray(c["p1"]) * fn for c in C], n_c, ()), "Hz",
+                                     "forcing frequency f")
+        groups["curves"] = (cv, {"curve_parameter": key2})
+    return v, groups
+
+
 def write_branches(f, results: list) -> None:
-    """``/branches/<run>/<branch>/``, ``/branches/<run>/bifurcations/`` and
-    ``/branches/<run>/curves/<curve>/`` into the open HDF5 file ``f``."""
+    """``/branches/<run>/`` of every continuation run into the open HDF5 file ``f`` through the
+    one labelled-data writer (:func:`vibeam.results.write_group`): the branches on
+    (branch, point), ``bifurcations/`` on (bifurcation), ``curves/`` on (curve, curve_point)."""
     import json
 
-    from .results import _json_default, _write_dataset
+    from .results import _json_default, write_group
 
-    root = f.require_group("branches")
     for r in results:
-        g = root.create_group(r.name)
-        g.attrs["fidelity"] = r.fidelity
-        g.attrs["method"] = "continuation"
-        g.attrs["settings"] = json.dumps(r.settings, default=_json_default)
-        g.attrs["wall_time_s"] = r.wall_time_s
-        g.attrs["status"] = r.status
-        g.attrs["message"] = r.message
-        g.attrs["starts"] = json.dumps(r.starts, default=_json_default)
-        for k, v in r.attrs.items():
-            g.attrs[k] = v if not isinstance(v, dict) else json.dumps(v, default=_json_default)
-        for b in r.branches:
-            gb = g.create_group(branch_name(b))
-            for k in ("index", "n", "status", "message", "origin"):
-                gb.attrs[k] = b[k]
-            for k, v in b["data"].items():
-                _write_dataset(gb, k, v)
-                gb[k].attrs["units"] = PARAMETER_UNITS.get(r.parameter, "") if k == "parameter" else \
-                    BRANCH_UNITS.get(k, gb[k].attrs.get("units", ""))
-        gt = g.create_group("bifurcations")
-        for k, v in r.bifurcation_table().items():
-            _write_dataset(gt, k, v)
-        gt["parameter"].attrs["units"] = PARAMETER_UNITS.get(r.parameter, "")
-        gt.attrs["types"] = "fold, period_doubling, neimark_sacker, grazing, sticking"
-        if r.curves:
-            gc = g.create_group("curves")
-            for i, c in enumerate(r.curves):
-                gi = gc.create_group(f"{i:02d}-{c['type']}")
-                gi.attrs["type"] = c["type"]
-                gi.attrs["status"] = c["status"]
-                gi.attrs["message"] = c["message"]
-                gi.attrs["period"] = c["n"]
-                _write_dataset(gi, "parameter", c["p1"])
-                gi["parameter"].attrs["units"] = PARAMETER_UNITS.get(r.parameter, "")
-                _write_dataset(gi, r.attrs.get("curve_parameter", "parameter2"), c["p2"])
-                if r.attrs.get("natural_frequency_hz") and r.parameter == "Omega":
-                    _write_dataset(gi, "frequency_hz", np.asarray(c["p1"]) * r.attrs["natural_frequency_hz"])
+        v, groups = branch_variables(r)
+        attrs = {"fidelity": r.fidelity, "method": "continuation",
+                 "settings": json.dumps(r.settings, default=_json_default), "wall_time_s": r.wall_time_s,
+                 "status": r.status, "message": r.message,
+                 "starts": json.dumps(r.starts, default=_json_default), **r.attrs}
+        write_group(f, f"branches/{r.name}", v, attrs, groups)
+
+
+def read_branch_group(g) -> dict:
+    """One ``/branches/<run>/`` group back as nested dicts, one per branch (the shape of the
+    first layout): ``{"<index>-period<n>": {dataset: array, "attrs": {index, n, status, message,
+    origin}}, "bifurcations": {...}, "curves": {"<i>-<type>": {...}}}``; padding removed."""
+    from .results import _attrs, _read_plain
+
+    flat = _read_plain(g, attrs=True)
+    if "n_points" not in flat:            # the first layout: one group per branch already
+        return flat
+    out = {}
+    n = flat.pop("n_points")
+    meta = {k: flat.pop(k) for k in ("branch", "branch_period", "branch_status", "branch_message", "branch_origin")}
+    subs = {k: flat.pop(k) for k in ("bifurcations", "curves") if k in flat}
+    for i in range(len(n)):
+        b = {"index": int(meta["branch"][i]), "n": int(meta["branch_period"][i])}
+        d = {k: a[i][: int(n[i])] for k, a in flat.items() if isinstance(a, np.ndarray) and a.ndim >= 2}
+        for k, a in d.items():
+            if a.ndim > 1:                  # trailing axes padded to the longest branch: as stored
+                d[k] = a
+        d["attrs"] = dict(b, status=str(meta["branch_status"][i]), message=str(meta["branch_message"][i]),
+                          origin=str(meta["branch_origin"][i]))
+        out[branch_name(b)] = d
+    if "bifurcations" in subs:
+        bt = subs["bifurcations"]
+        out["bifurcations"] = {("branch" if k == "bifurcation_branch" else k): v for k, v in bt.items()}
+    if "curves" in subs:
+        c = subs["curves"]
+        key2 = str(c["attrs"].get("curve_parameter", "parameter2"))
+        cs = {}
+        for i in range(len(c["n_curve_points"])):
+            m = int(c["n_curve_points"][i])
+            item = {"parameter": c["parameter"][i][:m], key2: c[key2][i][:m]}
+            if "frequency_hz" in c:
+                item["frequency_hz"] = c["frequency_hz"][i][:m]
+            item["attrs"] = {"type": str(c["curve_type"][i]), "status": str(c["curve_status"][i]),
+                             "message": str(c["curve_message"][i]), "period": int(c["curve_period"][i])}
+            cs[f"{i:02d}-{item['attrs']['type']}"] = item
+        cs["attrs"] = c.get("attrs", {})
+        out["curves"] = cs
+    return out
 
 
 def branch_name(b: dict) -> str:
@@ -604,102 +731,140 @@ MARKERS = {"fold": ("s", "C3", "fold"), "period_doubling": ("D", "C2", "period d
            "sticking": ("P", "C5", "sticking")}
 
 
-def plot_continuation(r: ContinuationResult, sweep_runs: list, path, title: str = ""):
-    """The FRC of a continuation run: stable branches solid, unstable dashed, bifurcations
-    marked (legend), and the case's sweep points overlaid; returns the path."""
-    import matplotlib
-    matplotlib.use("Agg")
+# line styles of the two-parameter curves (drawn black over the maps' class colours)
+CURVE_STYLES = {"grazing": "-", "fold": "--", "period_doubling": ":", "neimark_sacker": "-.",
+                "sticking": (0, (1, 3))}
+
+
+def _param_label(r, use_hz):
+    from .results import parameter_units
+    from .style import label
+
+    if use_hz:
+        return label("forcing frequency f", "Hz")
+    if r.parameter == "Omega":
+        return label(r"forcing frequency $\Omega = f/f_n$", None)
+    return label(r.parameter, parameter_units(r.parameter))
+
+
+def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = "", case=None):
+    """The FRC of a continuation run in the style of every vibeam figure (:mod:`vibeam.style`):
+    stable branches solid, unstable dashed (colour by period), bifurcations marked, and the
+    case's sweep points overlaid (up filled, down open, grey); a Figure."""
     import matplotlib.pyplot as plt
+
+    from . import style
 
     fn, L = r.attrs.get("natural_frequency_hz"), r.attrs.get("length_m")
     use_hz = bool(fn) and r.parameter == "Omega"
     xs = fn if use_hz else 1.0
     ys = L * 1e3 if L else 1.0
-    fig, ax = plt.subplots(figsize=(8, 5))
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    if r.parameter == "Omega":
-        for i, s in enumerate(sweep_runs):
-            d = s.data
-            x = d["frequency_hz"] if use_hz and "frequency_hz" in d else d["Omega"]
-            y = d["amplitude_mm"] if L and "amplitude_mm" in d else d["amplitude"]
-            dirs = d.get("direction", np.array(["up"] * len(x), dtype=object))
-            for dname, mk in (("up", "^"), ("down", "v")):
-                sel = np.array([str(v) == dname for v in dirs])
-                if sel.any():
-                    ax.plot(x[sel], y[sel], mk, ms=3.5, mfc="none", color="0.55", alpha=0.8,
-                            label=f"sweep '{s.name}' ({dname})")
-    seen = set()
-    for b in r.branches:
-        d = b["data"]
-        if not d:
-            continue
-        c = colors[int(np.log2(max(b["n"], 1))) % len(colors)]
-        x, y, st = d["parameter"] * xs, d["amplitude"] * ys, d["stable"]
-        # split into runs of equal stability, drawn solid / dashed (joined at the switches)
-        k0 = 0
-        for k in range(1, len(x) + 1):
-            if k == len(x) or st[k] != st[k0]:
-                seg = slice(k0, min(k + 1, len(x)))
-                lab = f"period {b['n']} {'stable' if st[k0] else 'unstable'}"
-                ax.plot(x[seg], y[seg], "-" if st[k0] else "--", color=c, lw=1.3,
-                        label=lab if lab not in seen else None)
+    with style.context():
+        fig, ax = plt.subplots(figsize=(8.0, 4.6))
+        handles = []
+        if r.parameter == "Omega":
+            for s in sweep_runs:
+                d = s.data
+                x = d["frequency_hz"] if use_hz and "frequency_hz" in d else d["Omega"]
+                y = d["amplitude_mm"] if L and "amplitude_mm" in d else d["amplitude"]
+                dirs = np.asarray([str(v) for v in d.get("direction", ["up"] * len(x))])
+                for dname in ("up", "down"):
+                    sel = dirs == dname
+                    if sel.any():
+                        fill = style.DIRECTIONS[dname]["fill"]
+                        ax.plot(np.asarray(x)[sel], np.asarray(y)[sel], ls="none", marker="o",
+                                ms=3.5 if fill else 6, mfc="0.6" if fill else "none", mec="0.6", zorder=1)
+                        handles.append(style.proxy("0.6", marker="o", fill=fill,
+                                                   label=f"sweep '{s.name}' ({dname})"))
+        seen = set()
+        for b in r.branches:
+            d = b["data"]
+            if not d:
+                continue
+            c = style.PALETTE[int(np.log2(max(b["n"], 1))) % len(style.PALETTE)]
+            x, y, st = d["parameter"] * xs, d["amplitude"] * ys, d["stable"]
+            k0 = 0
+            for k in range(1, len(x) + 1):      # runs of equal stability, solid / dashed
+                if k == len(x) or st[k] != st[k0]:
+                    seg = slice(k0, min(k + 1, len(x)))
+                    ax.plot(x[seg], y[seg], "-" if st[k0] else "--", color=c, lw=1.3, zorder=2)
+                    lab = f"period {b['n']}, {'stable' if st[k0] else 'unstable'}"
+                    if lab not in seen:
+                        seen.add(lab)
+                        handles.append(style.proxy(c, ls="-" if st[k0] else "--", label=lab))
+                    k0 = k
+        for bf in r.bifurcations:
+            mk, c, lab = MARKERS.get(bf["type"], ("o", "k", bf["type"]))
+            ax.plot(bf["parameter"] * xs, bf["amplitude"] * ys, ls="none", marker=mk, color=c, ms=7, mec="k",
+                    mew=0.6, zorder=5)
+            if lab not in seen:
                 seen.add(lab)
-                k0 = k
-    for bf in r.bifurcations:
-        mk, c, lab = MARKERS.get(bf["type"], ("o", "k", bf["type"]))
-        ax.plot(bf["parameter"] * xs, bf["amplitude"] * ys, mk, color=c, ms=7, mec="k", mew=0.6,
-                label=lab if lab not in seen else None, zorder=5)
-        seen.add(lab)
-    if use_hz:
-        ax.set_xlabel("forcing frequency (Hz)")
-    elif r.parameter == "Omega":
-        ax.set_xlabel(r"$\Omega$")
-    else:
-        ax.set_xlabel(f"{r.parameter} ({r.attrs.get('parameter_units', '')})")
-    ax.set_ylabel("amplitude at sensor (mm)" if L else r"$Q = \Delta - \min q$")
-    ax.set_title(title or f"continuation '{r.name}'")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+                handles.append(style.proxy(c, marker=mk, label=lab, ms=7))
+        ax.set_xlabel(_param_label(r, use_hz))
+        ax.set_ylabel(style.label("amplitude at the sensor, U(L_S)", "mm") if L else
+                      style.label(r"amplitude $Q = \Delta - \min q$", None))
+        style.legend_outside(fig, handles)
+        style.titles(fig, title or f"continuation '{r.name}'", style.subtitle(case, runs=[r]))
+    return fig
 
 
-def plot_curves_on(ax, results: list, frequency_hz: bool) -> None:
-    """Overlay the two-parameter curves of ``results`` on a map axis (x: frequency, y: the
-    map parameter)."""
-    seen = set()
+def plot_continuation(r: ContinuationResult, sweep_runs: list, path, title: str = "", case=None):
+    """:func:`continuation_figure` saved to ``path``; returns the path."""
+    from .plots import _save_close
+
+    return _save_close(continuation_figure(r, sweep_runs, title, case), path)
+
+
+def plot_curves_on(ax, results: list, frequency_hz: bool) -> list:
+    """Draw the two-parameter curves of ``results`` on a map axis (x: frequency, y: the map
+    parameter); returns one legend handle per kind of curve (the figure's legend takes them)."""
+    from matplotlib import patheffects
+
+    from .style import proxy
+
+    halo = [patheffects.withStroke(linewidth=3.2, foreground="white")]
+    seen, handles = set(), []
     for r in results:
         fn = r.attrs.get("natural_frequency_hz") if frequency_hz else 1.0
         for c in r.curves:
             if len(c["p1"]) < 2:
                 continue
             mk, col, lab = MARKERS.get(c["type"], ("o", "k", c["type"]))
-            lab = f"{lab} (period {c['n']})"
-            ax.plot(np.asarray(c["p1"]) * (fn or 1.0), c["p2"], "-", color=col, lw=1.6,
-                    label=lab if lab not in seen else None)
-            seen.add(lab)
-    if seen:
-        ax.legend(fontsize=7, loc="upper right")
+            ls = CURVE_STYLES.get(c["type"], "-")
+            lab = f"{lab} curve (period {c['n']})"
+            # black with a white halo: readable over every class colour of a map
+            ax.plot(np.asarray(c["p1"]) * (fn or 1.0), c["p2"], ls=ls, color="k", lw=1.5, path_effects=halo)
+            if lab not in seen:
+                seen.add(lab)
+                handles.append(proxy("k", ls=ls, label=lab, lw=1.5))
+    return handles
 
 
-def plot_curves(r: ContinuationResult, path, title: str = ""):
-    """The two-parameter curves of one run alone (frequency x map parameter)."""
-    import matplotlib
-    matplotlib.use("Agg")
+def curves_figure(r: ContinuationResult, title: str = "", case=None):
+    """The two-parameter curves of one run alone (frequency x the second parameter); a Figure."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 5))
+    from . import style
+    from .results import parameter_units
+
     fn = r.attrs.get("natural_frequency_hz")
-    plot_curves_on(ax, [r], bool(fn))
-    ax.set_xlabel("forcing frequency (Hz)" if fn else r"$\Omega$")
-    ax.set_ylabel(r.attrs.get("curve_parameter", ""))
-    lo, hi = r.attrs["range"]
-    ax.set_xlim(lo * (fn or 1.0), hi * (fn or 1.0))
-    ax.set_title(title or f"two-parameter curves of '{r.name}'")
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    with style.context():
+        fig, ax = plt.subplots(figsize=(7.5, 4.6))
+        handles = plot_curves_on(ax, [r], bool(fn))
+        key2 = r.attrs.get("curve_parameter", "")
+        ax.set_xlabel(style.label("forcing frequency f", "Hz") if fn else
+                      style.label(r"forcing frequency $\Omega = f/f_n$", None))
+        ax.set_ylabel(style.label(key2, parameter_units(key2)))
+        lo, hi = r.attrs["range"]
+        ax.set_xlim(lo * (fn or 1.0), hi * (fn or 1.0))
+        style.legend_outside(fig, handles)
+        style.titles(fig, title or f"two-parameter curves of '{r.name}'",
+                     style.subtitle(case, runs=[r], exclude=(key2,)))
+    return fig
+
+
+def plot_curves(r: ContinuationResult, path, title: str = "", case=None):
+    """:func:`curves_figure` saved to ``path``; returns the path."""
+    from .plots import _save_close
+
+    return _save_close(curves_figure(r, title, case), path)

@@ -184,13 +184,17 @@ def cmd_cost(args) -> int:
     from .outdir import OutputLock, check_folder
     from .results import write_results
 
-    out_dir = check_folder(Path(args.out) if args.out else Path("results") / case.name)
+    if args.quick:
+        case = case.quick_variant()
+    out_dir = check_folder(Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick
+                                                                                         else "")))
     check_cost_work(case, force=args.force, source=args.case)
     with OutputLock(out_dir):
-        res = run_cost(case, ladder=args.ladder, repeats=args.repeats,
+        res = run_cost(case, ladder=args.ladder, repeats=args.repeats, jobs=args.jobs,
                        log=lambda m: print(m, file=sys.stderr))
-        h5 = write_results(out_dir / "cost.h5", [], case.name, text, extra={"cost": cost_tables(res)})
-        png = plot_work_precision(res, out_dir / "work_precision.png", title=f"{case.name}: work-precision")
+        h5 = write_results(out_dir / "cost.h5", [], case.name, text, extra={"cost": cost_tables(res)},
+                           case_json=case.model_dump_json())
+        png = plot_work_precision(res, out_dir / "work_precision.png", title=case.name, case=case)
     print_cost(res)
     print(f"\ncost table -> {h5} (/cost), plot -> {png}")
     return 0
@@ -282,33 +286,33 @@ def _atomic_file(path: Path, write) -> Path:
 
 
 def _plot_modes(rep, path, title):
-    import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
+
+    from . import style
+    from .plots import save_figure
 
     fe, md, cm = rep["fe"], rep["modes"], rep["contact"]
     L = fe.geometry.length_m
     x = np.linspace(0, L, 361)
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
-    for ax, m, lab in ((axes[0], md, "free"), (axes[1], cm, "contact (held at the stop)")):
-        for i in range(min(4, m.shapes.shape[1])):
-            w = fe.deflection(m.shapes[:, i], x)
-            ax.plot(x * 1e3, w / np.max(np.abs(w)), label=f"{m.frequencies_hz[i]:.2f} Hz")
-        for xp, nm in ((fe.geometry.sensor_position_m, "L_S"), (fe.geometry.mass_position_m, "L_m")):
-            ax.axvline(xp * 1e3, color="0.6", ls=":")
-            ax.text(xp * 1e3, 1.02, nm, ha="center", fontsize=8)
-        ax.set_title(f"{lab} modes")
-        ax.set_xlabel("x (mm)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    axes[0].set_ylabel("normalised deflection")
-    fig.suptitle(title)
-    fig.tight_layout()
-    from .plots import save_figure
-
-    save_figure(fig, path)
-    plt.close(fig)
+    with style.context():
+        fig, axes = plt.subplots(1, 2, figsize=(10, 4.4), sharey=True)
+        for ax, m, lab in ((axes[0], md, "free"), (axes[1], cm, "contact (held at the stop)")):
+            for i in range(min(4, m.shapes.shape[1])):
+                w = fe.deflection(m.shapes[:, i], x)
+                ax.plot(x * 1e3, w / np.max(np.abs(w)), label=f"{m.frequencies_hz[i]:.2f} Hz")
+            for xp, nm in ((fe.geometry.sensor_position_m, "L_S"), (fe.geometry.mass_position_m, "L_m")):
+                ax.axvline(xp * 1e3, color="0.6", ls=":")
+                ax.text(xp * 1e3, 1.02, nm, ha="center", fontsize=8)
+            ax.set_title(f"{lab} modes", loc="left")
+            ax.set_xlabel(style.label("position along the beam x", "mm"))
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=4, title="mode")
+        axes[0].set_ylabel(style.label("normalised deflection", None))
+        style.titles(fig, title, "mode shapes of the FE beam")
+    try:
+        save_figure(fig, path)
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -377,6 +381,11 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="output folder (default results/<case name>/)")
     p.add_argument("--ladder", action="store_true", help="also a ladder of tolerances per ODE method")
     p.add_argument("--repeats", type=_int_at_least(1), default=3, help="timed repetitions (median reported)")
+    p.add_argument("--quick", action="store_true",
+                   help="the case's quick variant ([quick]: fewer points and periods)")
+    p.add_argument("--jobs", type=_int_at_least(1), default=None,
+                   help="worker processes for the converged references (default: all cores); the timed "
+                        "sweeps always run inline, one at a time")
     p.add_argument("--force", action="store_true", help=force_help)
     p.set_defaults(func=cmd_cost)
     p = sub.add_parser("derive", help="SDOF parameters of a beam scene by the assumed static mode")
@@ -411,28 +420,38 @@ def main(argv=None) -> int:
     p.add_argument("--no-plots", action="store_true", help="skip fit.png")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=lambda a: __import__("vibeam.fit", fromlist=["main_fit"]).main_fit(a))
-    p = sub.add_parser("bench", help="speed and accuracy of the exact solver against solve_ivp, or of the "
-                       "continuation (--continuation) or of `vibeam fit` (--fit) (JSON)")
-    p.add_argument("--points", type=_int_at_least(1), default=101)
+    p = sub.add_parser("bench", help="speed and accuracy against the stated goals: JSON on stdout, a PASS/FAIL "
+                       "line per goal on stderr",
+                       description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
+                       "atol 1e-8) on the Fig. 7 scene, inline, with the goals: event sweep under 1 s, >= 300x "
+                       "faster, >= 1000x smaller error.  The other modes (--cli, --map, --scaling, --effects, "
+                       "--shooting, --continuation, --fit) replace it.")
+    p.add_argument("--points", type=_int_at_least(1), default=101,
+                   help="frequencies of the Fig. 7 sweep (default 101)")
     p.add_argument("--periods", type=_int_at_least(65), default=500,
-                   help="forcing periods per point, transient + the 64 recorded ones (> 64)")
-    p.add_argument("--repeats", type=_int_at_least(1), default=5)
+                   help="forcing periods per point, transient + the 64 recorded ones (> 64; default 500)")
+    p.add_argument("--repeats", type=_int_at_least(1), default=5,
+                   help="timed repetitions, the median is reported (default 5; --cli: runs of the command)")
     p.add_argument("--direct-points", type=_int_at_least(1), default=None,
-                   help="time solve_ivp on this many points only and scale (quick look)")
+                   help="time solve_ivp on this many points only and scale (quick look; --cli default 11)")
+    p.add_argument("--cli", action="store_true",
+                   help="instead: `vibeam run cases/paper-fig7.toml` in fresh processes, its own reported run time "
+                        "per point against direct RK23 per point (goal >= 300x)")
     p.add_argument("--map", action="store_true",
                    help="instead: parameter-map points per second on 1 and 2 workers and the cost of the "
-                        "line checkpoint (JSON)")
+                        "line checkpoint (goals: checkpoint <= 10 %%, 2 workers >= 1.6x, same maps)")
     p.add_argument("--scaling", action="store_true",
                    help="instead: how the cost of a sweep grows with periods simulated and with retained modes, "
-                        "fitted exponents (JSON)")
+                        "fitted exponents (goals: linear in periods, at most linear in modes)")
     p.add_argument("--shooting", action="store_true",
                    help="instead: cost of the beam's periodic-orbit shots (with and without the monodromy) "
-                        "and of Newton solves against the event solver (JSON)")
+                        "and of Newton solves against the event solver")
     p.add_argument("--effects", action="store_true",
-                   help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect")
+                   help="instead: time a rig sweep (SDOF, FE 2 modes) plain and with each scene effect "
+                        "(goal: no effect more than doubles the sweep)")
     p.add_argument("--continuation", action="store_true",
                    help="instead: the continuation of an SDOF period-1 branch through its fold (~500 points, "
-                        "goal < 0.1 s) and its cost per FRC point against a sweep of equal accuracy (JSON)")
+                        "goal < 0.1 s) and its cost per FRC point against a sweep of equal accuracy")
     p.add_argument("--fit", action="store_true",
                    help="instead: time `vibeam fit` (2-parameter SDOF fit on 30 points, goal < 10 s; FE 2 modes)")
     p.add_argument("--jobs", type=_int_at_least(1), default=None, help="workers of --fit (default 2)")

@@ -1,27 +1,47 @@
-"""``vibeam cost``: what accuracy costs in time (a work-precision study).
+"""``vibeam cost``: what accuracy costs in time (a work-precision study), with the two sources
+of error kept apart.
 
-For every run of a case (and, with ``ladder``, for a ladder of tolerances of
-each ODE-based method) the sweep is timed in this process, inline, after a
-warm-up, as the median of ``repeats`` repetitions, and its amplitude error is
-measured against a converged reference: the exact ``event`` method on the same
-model and grid with ``max(4 x transient, 2000)`` transient periods.  The
-transient of the reference decays at least like exp(-beta t) and every impact
-removes a further share of it, so with beta >= 0.01 the reference holds less
-than exp(-0.01 * 2000 * 2 pi / Omega_max) < 1e-20 of its initial transient:
-the reference is exact to round-off wherever the orbit is an attractor.  For
-a beam scene the reference is the finest FE model of the scene (all modes,
-mesh twice as fine), so the table shows what each rung of the fidelity ladder
-(static-mode SDOF, FE with 1, 2, 4 ... modes) costs and how far it is off.  Where
-the dynamics are not periodic (chaos, long transients) no sweep converges to a
-point value and the error there measures the difference of two samples of the
-attractor; the table counts such points separately.
+For every run of a case (and, with ``ladder``, for a ladder of tolerances of each ODE-based
+method) the sweep is timed in this process, inline, after a warm-up, as the median of
+``repeats`` repetitions.  Its error is measured twice:
+
+* **the method's own error** (what the method costs): against the exact ``event`` solver
+  run on the same model with the *same* transient and record (same start, same periods,
+  same continuation).  Both follow the same trajectory, so what remains is the method's
+  integration error, whatever is left of the transient.  Methods without a transient
+  (``averaging``, ``mapping``: steady-state orbits directly) are measured against the
+  converged reference instead (their own approximation error).
+* **the transient truncation of the case's settings**, once per model: ``event`` with the
+  case's transient against a converged transient of ``max(4 x transient, 2000)`` periods
+  (the transient decays at least like exp(-beta t) and every impact removes a further
+  share: with beta >= 0.01 less than exp(-0.01 * 2000 * 2 pi / Omega_max) < 1e-20 of it
+  remains, so the reference is exact to round-off wherever the orbit is an attractor).
+  A short transient makes every time-domain method look equally inaccurate against the
+  converged reference (each inherits the same truncation); split this way, the diagram
+  shows what each method costs, and the truncation is a line of its own.
+
+For a beam scene a third quantity is the **model error** of each rung of the fidelity ladder
+(static-mode SDOF, FE with 1, 2, 4 ... modes): its converged FRC against the finest FE
+model of the scene (all modes, mesh twice as fine).  ``err_max`` / ``err_rms`` of a row keep
+the total error against the converged reference of the reference model.
+
+Errors are ``|Q - Q_against| / max Q_ref`` over the points where the converged reference
+holds an orbit (periodic or without impact): there the attractor is an orbit, so two
+trajectories from one start (the method's and event's) do not separate, settled or not;
+where the motion is not periodic no sweep converges to a point value and the difference is
+one of two samples of the attractor; those points are counted apart.
+
+Continuation runs (``method = "continuation"``) are not sweeps: a handler registered in
+:data:`COST_METHODS` (``register_cost_method``) turns such a run into rows of its own, so
+it appears in the table and the diagram as a method (by default such runs are skipped with
+a note).
 """
 from __future__ import annotations
 
 import json
 import statistics
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -34,7 +54,13 @@ LADDER_RTOL = (1e-3, 1e-4, 1e-6, 1e-8, 1e-10)
 
 @dataclass
 class CostRow:
-    """One line of the work-precision table."""
+    """One line of the work-precision table.
+
+    ``err_method_*``: against ``event`` with the same transient and record (``against =
+    "event, same transient"``) or, for methods without a transient, the converged
+    reference (``"converged event"``); ``err_*``: total, against the converged reference
+    of the reference model; ``case_settings``: the run's own settings (not a ladder rung).
+    """
 
     run: str
     method: str
@@ -46,6 +72,43 @@ class CostRow:
     n_points: int
     n_nonperiodic_ref: int
     time_rel_event: float = float("nan")
+    err_method_max: float = float("nan")
+    err_method_rms: float = float("nan")
+    against: str = ""
+    model_key: str = ""
+    case_settings: bool = True
+
+
+@dataclass
+class ModelSources:
+    """The error sources of one model of the case (one per distinct ``[run.model]``)."""
+
+    key: str
+    label: str
+    event_time_s: float
+    transient_periods: int
+    reference_periods: int
+    transient_max: float
+    transient_rms: float
+    n_compared: int
+    model_max: float = float("nan")     # beam: converged rung vs the finest FE model
+    model_rms: float = float("nan")
+    extra: dict = field(default_factory=dict)
+
+
+# method -> handler(case, run, context) -> list of CostRow; see register_cost_method
+COST_METHODS: dict = {}
+
+
+def register_cost_method(method: str, handler) -> None:
+    """Let runs of ``method`` appear in the work-precision table as a method of their own.
+
+    ``handler(case, run, ctx) -> list[CostRow]`` is called for each such run; ``ctx`` holds
+    ``reference(model_key)`` (the converged reference :class:`vibeam.sweep.SweepResult` of a
+    run's model, with ``model_key = json.dumps(run.model, sort_keys=True)``), ``repeats``,
+    ``jobs`` and ``log``.  Continuation runs are the intended user: their branches evaluated
+    on the case's grid, timed, and compared with the converged reference."""
+    COST_METHODS[method] = handler
 
 
 def _sweep_for(case, run_model: dict):
@@ -72,17 +135,37 @@ def _timed(solver, sw, repeats):
     return statistics.median(times), res
 
 
-def reference_sweep(model, sw):
-    """Converged reference: ``event`` with max(4 x transient, 2000) transient periods (with
-    ``transient_periods = "auto"``: 4 x max_transient_periods)."""
+def converged_sweep(sw):
+    """The converged counterpart of a sweep: ``max(4 x transient, 2000)`` transient periods
+    (with ``transient_periods = "auto"``: 4 x max_transient_periods)."""
     from dataclasses import replace
 
+    n = 4 * sw.max_transient_periods if sw.auto else max(4 * sw.transient_periods, 2000)
+    return replace(sw, transient_periods=n)
+
+
+def reference_sweep(model, sw, jobs: int | None = 1):
+    """Converged reference: ``event`` with max(4 x transient, 2000) transient periods."""
     from .models import make_solver
     from .sweep import run_sweep
 
-    n = 4 * sw.max_transient_periods if sw.auto else max(4 * sw.transient_periods, 2000)
-    ref_sw = replace(sw, transient_periods=n)
-    return run_sweep(make_solver(model, "event"), ref_sw, jobs=1), ref_sw.transient_periods
+    ref_sw = converged_sweep(sw)
+    return run_sweep(make_solver(model, "event"), ref_sw, jobs=jobs), ref_sw.transient_periods
+
+
+def _sweeps(tasks: dict, jobs) -> dict:
+    """Several untimed sweeps at once through the one engine: ``{key: (solver, sweep)}`` ->
+    ``{key: SweepResult}``; their lines share ``jobs`` workers."""
+    from .sweep import assemble, plan_lines, run_lines
+
+    plans = {k: plan_lines(s, sw, run=k) for k, (s, sw) in tasks.items()}
+    done = run_lines([l for ls in plans.values() for l in ls], jobs=jobs)
+    out = {}
+    for k, ls in plans.items():
+        rows = [done[(k, l.key)] for l in ls]
+        wall = float(sum(r.get("wall_time_s", 0.0) for rs in rows for r in rs))
+        out[k] = assemble(tasks[k][0], tasks[k][1], k, rows, wall)
+    return out
 
 
 def reference_model(case, run_model: dict):
@@ -116,68 +199,160 @@ def check_cost_work(case, force: bool = False, source: str = "") -> dict:
     return w
 
 
-def run_cost(case, ladder: bool = False, repeats: int = 3, log=print) -> dict:
-    """Time and error of every run (and ladder rung) of ``case``.
+def _orbit(res) -> np.ndarray:
+    """Points of a sweep that hold an orbit (periodic or without impact) and did not fail."""
+    per = np.asarray(res.data.get("period", np.zeros(res.n_points)))
+    st = np.asarray([str(s) for s in res.data.get("status", ["ok"] * res.n_points)])
+    return (per != 0) & (st != "failed")
+
+
+def _err(a, b, sel, scale):
+    """Largest and RMS of ``|a - b| / scale`` over ``sel`` (NaN when nothing is finite)."""
+    d = np.abs(np.asarray(a, float) - np.asarray(b, float))[sel] / scale
+    d = d[np.isfinite(d)]
+    if not d.size:
+        return np.nan, np.nan
+    return float(d.max()), float(np.sqrt(np.mean(d ** 2)))
+
+
+def run_cost(case, ladder: bool = False, repeats: int = 3, log=print, jobs: int | None = 1,
+             quick: bool = False) -> dict:
+    """Time and errors of every run (and ladder rung) of ``case``.
+
+    Parameters
+    ----------
+    case : vibeam.case.Case
+    ladder : bool
+        Also a ladder of tolerances (rtol 1e-3 ... 1e-10, atol = 1e-4 rtol) per ODE method.
+    repeats : int
+        Timed repetitions of each sweep (median), inline after a warm-up.
+    log : callable
+        Progress messages.
+    jobs : int or None
+        Workers for the untimed sweeps (converged references; None: all cores).  Timed
+        sweeps always run inline, one at a time.
+    quick : bool
+        The case's quick variant (``[quick]``).
 
     Returns
     -------
     dict
-        ``rows`` (list of :class:`CostRow`), ``reference_periods`` and the
-        ``claims`` comparison with the paper.
+        ``rows`` (list of :class:`CostRow`), ``models`` (``{key: ModelSources}``: the
+        transient truncation and, for a beam, the model error), ``reference_periods``,
+        ``transient_periods`` and the ``claims`` of the paper beside the measurements
+        (one per claim).
     """
     from .models import make_solver
 
+    if quick:
+        case = case.quick_variant()
     rows: list[CostRow] = []
-    refs = {}
-    event_time = {}
-    ref_periods = None
+    models: dict = {}
+    plan = {}                    # model key -> (model, sweep, reference key)
+    ref_models = {}
     for r in case.run:
-        if r.method == "continuation":
-            log(f"run '{r.name}' (continuation) is not a sweep: timed by `vibeam bench --continuation`")
+        if r.method in COST_METHODS or r.method == "continuation":
             continue
-        model, sw = _sweep_for(case, r.model)
-        ref_model, key = reference_model(case, r.model)
-        if key not in refs:
-            log(f"reference for run '{r.name}' (event, converged)...")
-            refs[key], ref_periods = reference_sweep(ref_model, sw)
         mkey = json.dumps(r.model, sort_keys=True)
-        if mkey not in event_time:
-            event_time[mkey], _ = _timed(make_solver(model, "event"), sw, repeats)
-        ref = refs[key]
+        if mkey not in plan:
+            model, sw = _sweep_for(case, r.model)
+            ref_model, rkey = reference_model(case, r.model)
+            plan[mkey] = (model, sw, rkey, r.name)
+            ref_models.setdefault(rkey, (ref_model, sw))
+    # converged sweeps (references of the reference models, and of each rung for a beam): untimed, on `jobs`
+    tasks = {}
+    for rkey, (ref_model, sw) in ref_models.items():
+        tasks[f"ref {len(tasks)}"] = (make_solver(ref_model, "event"), converged_sweep(sw))
+    ref_of = dict(zip(ref_models, tasks))
+    for mkey, (model, sw, rkey, _) in plan.items():
+        if mkey != rkey:                       # beam: the rung's own converged FRC (its transient error)
+            tasks[f"conv {len(tasks)}"] = (make_solver(model, "event"), converged_sweep(sw))
+    if tasks:
+        log(f"converged references ({len(tasks)} sweep(s) of event, "
+            f"{converged_sweep(next(iter(plan.values()))[1]).transient_periods} transient periods)...")
+    done = _sweeps(tasks, jobs) if tasks else {}
+    conv_of = {}
+    k = len(ref_models)
+    for mkey, (model, sw, rkey, _) in plan.items():
+        if mkey == rkey:
+            conv_of[mkey] = done[ref_of[rkey]]
+        else:
+            conv_of[mkey] = done[list(tasks)[k]]
+            k += 1
+    ctx = {"reference": lambda key: done[ref_of[plan[key][2]]] if key in plan else None,
+           "repeats": repeats, "jobs": jobs, "log": log}
+    event_same = {}
+    for r in case.run:
+        if r.method in COST_METHODS:
+            rows += COST_METHODS[r.method](case, r, ctx)
+            continue
+        if r.method == "continuation":
+            log(f"run '{r.name}' (continuation) is not a sweep: no cost row (timed by `vibeam bench "
+                f"--continuation`; vibeam.cost.register_cost_method adds it as a method)")
+            continue
+        mkey = json.dumps(r.model, sort_keys=True)
+        model, sw, rkey, first = plan[mkey]
+        ref = done[ref_of[rkey]]
+        conv = conv_of[mkey]
+        scale = np.nanmax(np.abs(np.asarray(ref.data["amplitude"], float)))
+        orbit_ref = _orbit(ref)
+        if mkey not in event_same:
+            log(f"timing event on the model of run '{r.name}'...")
+            t_ev, ev = _timed(make_solver(model, "event"), sw, repeats)
+            event_same[mkey] = (t_ev, ev)
+            sel = _orbit(conv)
+            tmax, trms = _err(ev.data["amplitude"], conv.data["amplitude"], sel, scale)
+            src = ModelSources(key=mkey, label=first if r.model else "case model", event_time_s=t_ev,
+                               transient_periods=sw.transient_periods,
+                               reference_periods=converged_sweep(sw).transient_periods,
+                               transient_max=tmax, transient_rms=trms, n_compared=int(sel.sum()))
+            if mkey != rkey:
+                src.model_max, src.model_rms = _err(conv.data["amplitude"], ref.data["amplitude"], orbit_ref, scale)
+            models[mkey] = src
+        t_ev, ev = event_same[mkey]
         settings = case.run_settings(r)
-        variants = [settings]
+        variants = [(settings, True)]
         if ladder and r.method in ODE_METHODS:
-            variants = [dict(settings, rtol=rt, atol=rt * 1e-4) for rt in LADDER_RTOL]
-        for st in variants:
-            log(f"timing run '{r.name}' ({r.method}, {st})...")
-            t, res = _timed(make_solver(model, r.method, **st), sw, repeats)
-            A, A_ref = np.asarray(res.data["amplitude"], float), ref.data["amplitude"]
-            scale = np.nanmax(np.abs(A_ref))
-            per_ref = ref.data["period"]
+            variants += [(dict(settings, rtol=rt, atol=rt * 1e-4), False) for rt in LADDER_RTOL
+                         if rt != settings.get("rtol")]
+        for st, own in variants:
+            solver = make_solver(model, r.method, **st)
+            if r.method == "event" and own:
+                t, res = t_ev, ev                     # already timed, the same sweep
+            else:
+                log(f"timing run '{r.name}' ({r.method}, {_settings_text(st) or 'defaults'})...")
+                t, res = _timed(solver, sw, repeats)
+            A = np.asarray(res.data["amplitude"], float)
+            # over the points whose attractor is an orbit (the converged FRC): there trajectories from
+            # one start do not depend sensitively on it, so event and the method follow one transient
+            against, B = (("event, same transient", ev.data["amplitude"]) if solver.time_domain
+                          else ("converged event", conv.data["amplitude"]))
+            sel = _orbit(conv)
+            mmax, mrms = _err(A, B, sel, scale)
+            emax, erms = _err(A, ref.data["amplitude"], orbit_ref, scale)
+            per = np.asarray(res.data.get("period", np.zeros(len(A))))
+            per_ref = np.asarray(ref.data["period"])
             periodic = per_ref > 0
-            d = np.abs(A - A_ref)[periodic] / scale
-            per = res.data.get("period", np.zeros_like(per_ref))
             rows.append(CostRow(
-                run=r.name, method=r.method, settings=st, time_s=t,
-                err_max=float(np.nanmax(d)) if d.size and np.isfinite(d).any() else np.nan,
-                err_rms=float(np.sqrt(np.nanmean(d**2))) if d.size and np.isfinite(d).any() else np.nan,
-                n_period_diff=int(np.sum(per[periodic] != per_ref[periodic])),
-                n_points=len(A), n_nonperiodic_ref=int(np.sum(~periodic)),
-                time_rel_event=t / event_time[mkey]))
-    claims = paper_claims(rows, case)
-    return {"rows": rows, "reference_periods": ref_periods, "claims": claims}
+                run=r.name, method=r.method, settings=st, time_s=t, err_max=emax, err_rms=erms,
+                n_period_diff=int(np.sum(per[periodic] != per_ref[periodic])), n_points=len(A),
+                n_nonperiodic_ref=int(np.sum(~periodic)), time_rel_event=t / t_ev, err_method_max=mmax,
+                err_method_rms=mrms, against=against, model_key=mkey, case_settings=own))
+    ref_periods = next((m.reference_periods for m in models.values()), None)
+    return {"rows": rows, "models": models, "reference_periods": ref_periods,
+            "transient_periods": case.sweep.transient_periods, "claims": paper_claims(rows, case)}
 
 
 def paper_claims(rows, case) -> list[dict]:
-    """The paper's figures beside the measured ones, with a verdict and a reason."""
+    """The paper's figures beside the measured ones, with a verdict and a reason: each claim
+    once, measured on the runs' own settings (not the ladder's rungs)."""
     out = []
-    base = {}
-    for row in rows:
-        if row.method == "direct" and row.run not in base:
-            base = {"time": row.time_s, "settings": row.settings}
-            break
-    for row in rows:
-        if row.method in PAPER_TIME_SAVED and base:
+    own = [r for r in rows if r.case_settings]
+    base = next(({"time": r.time_s, "settings": r.settings} for r in own if r.method == "direct"), None)
+    seen = set()
+    for row in own:
+        if row.method in PAPER_TIME_SAVED and base and row.method not in seen:
+            seen.add(row.method)
             saved = 1 - row.time_s / base["time"]
             claim = PAPER_TIME_SAVED[row.method]
             ok = abs(saved - claim) < 0.15
@@ -228,19 +403,44 @@ def _why(method, saved):
     return ""
 
 
+def _settings_text(st: dict) -> str:
+    """The settings that distinguish methods, in full (``atol=1e-07``, never truncated)."""
+    return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in st.items()
+                     if k in ("solver", "rtol", "atol", "k", "n", "form"))
+
+
 def print_cost(result: dict) -> None:
+    """The work-precision table (columns as wide as their longest entry), the error sources
+    per model, and each of the paper's claims once."""
     rows = result["rows"]
-    print(f"\nreference: event with {result['reference_periods']} transient periods "
-          f"(errors: |Q - Q_ref| / max Q_ref over points where the reference is periodic)")
-    head = (f"{'run':<22}{'method':<11}{'settings':<34}{'time (s)':>10}{'x event':>9}"
-            f"{'max err':>11}{'rms err':>11}{'period diff':>12}")
-    print(head)
+    models = result.get("models", {})
+    print(f"\nconverged reference: event with {result['reference_periods']} transient periods; the case runs "
+          f"{result.get('transient_periods')} transient periods")
+    print("errors are |Q - Q_against| / max Q_ref over the points that hold an orbit in the comparison")
+    if models:
+        print("\ntransient truncation of the case's settings (event, the case's transient vs converged)"
+              + (" and model error (converged, vs the finest FE model)" if any(np.isfinite(m.model_max)
+                                                                                 for m in models.values()) else ""))
+        w = max(len(m.label) for m in models.values()) + 2
+        for m in models.values():
+            line = (f"  {m.label:<{w}}transient {m.transient_periods} vs {m.reference_periods}: max "
+                    f"{m.transient_max:.2e}, rms {m.transient_rms:.2e} ({m.n_compared} points)")
+            if np.isfinite(m.model_max):
+                line += f"; model error max {m.model_max:.2e}, rms {m.model_rms:.2e}"
+            print(line)
+    st = [_settings_text(r.settings) for r in rows]
+    wr = max([len("run")] + [len(r.run) for r in rows]) + 2
+    wm = max([len("method")] + [len(r.method) for r in rows]) + 2
+    ws = max([len("settings")] + [len(s) for s in st]) + 2
+    wa = max([len("method error vs")] + [len(r.against) for r in rows]) + 2
+    head = (f"{'run':<{wr}}{'method':<{wm}}{'settings':<{ws}}{'time (s)':>10}{'x event':>9}"
+            f"{'method err':>12}{'(rms)':>10}  {'method error vs':<{wa}}{'total err':>11}{'period diff':>13}")
+    print("\n" + head)
     print("-" * len(head))
-    for r in rows:
-        st = ", ".join(f"{k}={v}" for k, v in r.settings.items()
-                       if k in ("solver", "rtol", "atol", "k", "n", "form"))
-        print(f"{r.run[:21]:<22}{r.method:<11}{st[:33]:<34}{r.time_s:>10.3f}{r.time_rel_event:>9.1f}"
-              f"{r.err_max:>11.2e}{r.err_rms:>11.2e}{r.n_period_diff:>8d}/{r.n_points - r.n_nonperiodic_ref}")
+    for r, s in zip(rows, st):
+        print(f"{r.run:<{wr}}{r.method:<{wm}}{s:<{ws}}{r.time_s:>10.3f}{r.time_rel_event:>9.1f}"
+              f"{r.err_method_max:>12.2e}{r.err_method_rms:>10.2e}  {r.against:<{wa}}{r.err_max:>11.2e}"
+              f"{r.n_period_diff:>9d}/{r.n_points - r.n_nonperiodic_ref}")
     if result["claims"]:
         print("\nthe paper's claims beside this implementation:")
         for c in result["claims"]:
@@ -250,43 +450,108 @@ def print_cost(result: dict) -> None:
 
 
 def cost_tables(result: dict) -> dict:
-    """Arrays for the HDF5 group ``/cost``."""
+    """Variables of the HDF5 group ``/cost`` (one row per line of the table; the error sources
+    of each model in ``model_*``)."""
+    from .results import var
+
     rows = result["rows"]
-    return {
-        "run": np.array([r.run for r in rows], dtype=object),
-        "method": np.array([r.method for r in rows], dtype=object),
-        "settings": np.array([json.dumps(r.settings) for r in rows], dtype=object),
-        "wall_time_s": np.array([r.time_s for r in rows]),
-        "time_relative_to_event": np.array([r.time_rel_event for r in rows]),
-        "error_max": np.array([r.err_max for r in rows]),
-        "error_rms": np.array([r.err_rms for r in rows]),
-        "period_differences": np.array([r.n_period_diff for r in rows]),
-        "claims": np.array([json.dumps(c) for c in result["claims"]], dtype=object),
+    ms = list(result.get("models", {}).values())
+    d = ("row",)
+    rel = "1"
+    out = {
+        "run": var(d, np.array([r.run for r in rows], dtype=object), None, "run of the case"),
+        "method": var(d, np.array([r.method for r in rows], dtype=object), None, "solution method"),
+        "settings": var(d, np.array([json.dumps(r.settings) for r in rows], dtype=object), None,
+                        "method settings (JSON)"),
+        "wall_time_s": var(d, np.array([r.time_s for r in rows]), "s", "wall time of the sweep (median, inline)"),
+        "time_relative_to_event": var(d, np.array([r.time_rel_event for r in rows]), rel,
+                                      "wall time over that of event on the same model"),
+        "error_method_max": var(d, np.array([r.err_method_max for r in rows]), rel,
+                                "method's own error: max |Q - Q_against| / max Q_ref"),
+        "error_method_rms": var(d, np.array([r.err_method_rms for r in rows]), rel, "method's own error, RMS"),
+        "error_against": var(d, np.array([r.against for r in rows], dtype=object), None,
+                             "what the method error is measured against"),
+        "error_max": var(d, np.array([r.err_max for r in rows]), rel,
+                         "total error against the converged reference, max"),
+        "error_rms": var(d, np.array([r.err_rms for r in rows]), rel, "total error, RMS"),
+        "period_differences": var(d, np.array([r.n_period_diff for r in rows]), "1",
+                                  "points whose period-n differs from the reference"),
+        "case_settings": var(d, np.array([r.case_settings for r in rows]), "1",
+                             "1: the run's own settings, 0: a rung of the tolerance ladder"),
+        "claims": var(("claim",), np.array([json.dumps(c) for c in result["claims"]], dtype=object), None,
+                      "the paper's claims beside the measurements (JSON)"),
     }
+    if ms:
+        m = ("model",)
+        out.update({
+            "model": var(m, np.array([x.label for x in ms], dtype=object), None, "model (first run using it)"),
+            "model_transient_error_max": var(m, np.array([x.transient_max for x in ms]), rel,
+                                             "transient truncation of the case's settings, max"),
+            "model_transient_error_rms": var(m, np.array([x.transient_rms for x in ms]), rel,
+                                             "transient truncation, RMS"),
+            "model_error_max": var(m, np.array([x.model_max for x in ms]), rel,
+                                   "converged model vs the finest FE model, max (beam)"),
+            "model_event_time_s": var(m, np.array([x.event_time_s for x in ms]), "s", "wall time of event")})
+    return out
 
 
-def plot_work_precision(result: dict, path, title: str = ""):
-    """Error against time on log axes, one marker series per method."""
-    import matplotlib
-    matplotlib.use("Agg")
+def work_precision_figure(result: dict, title: str = "", case=None):
+    """Method error against wall time (log-log), one series per run (a ladder joined by a
+    line), the transient truncation of the case's settings as a dashed line per model; a
+    Figure.  An exact method (error 0 to round-off) sits on the floor 1e-16."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 5))
-    by = {}
-    for r in result["rows"]:
-        by.setdefault((r.run, r.method), []).append(r)
-    for (run, method), rs in by.items():
-        t = [r.time_s for r in rs]
-        e = [max(r.err_max, 1e-17) for r in rs]
-        ax.loglog(t, e, "o-", label=f"{run} ({method})")
-    ax.set_xlabel("wall time of the sweep (s)")
-    ax.set_ylabel("max amplitude error / max amplitude")
-    ax.set_title(title or "work-precision diagram")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    from .plots import save_figure
+    from . import style
 
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
+    floor = 1e-16
+    rows = result["rows"]
+    with style.context():
+        fig, ax = plt.subplots(figsize=(8.0, 4.8))
+        col = style.colours(style.run_names(case) + [r.run for r in rows])
+        markers = {"event": "*", "direct": "o", "zhuravlev": "s", "ivanov": "^", "averaging": "D",
+                   "mapping": "P", "continuation": "X"}
+        by = {}
+        for r in rows:
+            by.setdefault(r.run, []).append(r)
+        handles = []
+        annotated = False                 # the ladder's rtol written next to the first ladder only
+        for run, rs in by.items():
+            rs = sorted(rs, key=lambda r: r.time_s)
+            t = [r.time_s for r in rs]
+            e = [max(r.err_method_max, floor) if np.isfinite(r.err_method_max) else np.nan for r in rs]
+            c = col.get(run, "0.3")
+            mk = markers.get(rs[0].method, "o")
+            ax.plot(t, e, ls="-" if len(rs) > 1 else "none", marker=mk, color=c, ms=7 if mk == "*" else 5)
+            if len(rs) > 1 and not annotated:
+                annotated = True
+                for r, ti, ei in zip(rs, t, e):
+                    if "rtol" in r.settings and np.isfinite(ei):
+                        ax.annotate(f"rtol {r.settings['rtol']:g}", (ti, ei), textcoords="offset points",
+                                    xytext=(-6, 0), ha="right", va="center", fontsize=7, color="0.3")
+            vs = "vs event, same transient" if rs[0].against.startswith("event") else "vs converged"
+            handles.append(style.proxy(c, ls="-" if len(rs) > 1 else "none", marker=mk,
+                                       label=f"{run} ({rs[0].method}; {vs})"))
+        for i, m in enumerate(result.get("models", {}).values()):
+            if np.isfinite(m.transient_max) and m.transient_max > 0:
+                c = "0.35" if len(result["models"]) == 1 else col.get(m.label, "0.35")
+                ax.axhline(m.transient_max, color=c, ls="--", lw=1.0)
+                handles.append(style.proxy(c, ls="--", label=f"transient truncation, {m.transient_periods} "
+                                                              f"periods ({m.label})"))
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(style.label("wall time of the sweep, one core", "s"))
+        ax.set_ylabel(style.label(r"method error, max $|Q - Q_{event}| / \max Q_{ref}$", None))
+        ax.axhline(floor, color="0.8", lw=0.6)
+        ax.text(0.99, 0.02, "1e-16: exact to round-off", transform=ax.transAxes, ha="right", fontsize=7,
+                color="0.5")
+        style.legend_outside(fig, handles)
+        style.titles(fig, (title + ": " if title else "") + "work-precision (what each method costs)",
+                     style.subtitle(case))
+    return fig
+
+
+def plot_work_precision(result: dict, path, title: str = "", case=None):
+    """:func:`work_precision_figure` saved to ``path`` (``work_precision.png``)."""
+    from .plots import _save_close
+
+    return _save_close(work_precision_figure(result, title, case), path)

@@ -21,7 +21,11 @@ NO_IMPACT, PERIOD_1, PERIOD_2, PERIOD_N, NON_PERIODIC, FAILED, HELD = range(7)
 CLASSES = {NO_IMPACT: "no impact", PERIOD_1: "period-1", PERIOD_2: "period-2",
            PERIOD_N: "period-n (3 <= n <= 8)", NON_PERIODIC: "non-periodic", FAILED: "failed",
            HELD: "held on the stop"}
-CLASS_COLOURS = ("#d9d9d9", "#2166ac", "#d6604d", "#fdb863", "#ffffff", "#000000", "#878787")
+# no impact light grey, period-1 blue, period-2 vermillion, period-n orange, non-periodic reddish purple
+# (never the white background), failed black, held on the stop dark grey (Okabe-Ito hues)
+CLASS_COLOURS = ("#DDDDDD", "#0072B2", "#D55E00", "#E69F00", "#CC79A7", "#000000", "#777777")
+HYSTERESIS_COLOUR = "#009E73"
+SAME_COLOUR = "#F4F4F4"
 
 
 def classify(period, status) -> np.ndarray:
@@ -160,59 +164,107 @@ def hysteresis(m: MapResult, rtol: float = 1e-3) -> np.ndarray | None:
         return (c[0] != c[1]) | (orbit & (np.abs(a[0] - a[1]) > rtol * scale))
 
 
-def plot_map(m: MapResult, path, title: str = "", curves=()):
-    """Fig. 18-style plot: class of every point over (frequency, parameter), one panel per
-    direction and one of the hysteresis, with the two-parameter bifurcation curves of the
-    continuation runs ``curves`` (:class:`vibeam.branches.ContinuationResult`) overlaid;
-    returns the path."""
-    import matplotlib
-    matplotlib.use("Agg")
+def _edges(c) -> np.ndarray:
+    """Cell edges around increasing centres ``c`` (n,) -> (n + 1,); one centre gets a cell of
+    +-5 % of its value (+-0.05 at 0), so a map with one value or one frequency is drawn."""
+    c = np.asarray(c, float)
+    if c.size == 1:
+        w = 0.05 * abs(c[0]) or 0.05
+        return np.array([c[0] - w, c[0] + w])
+    mid = 0.5 * (c[1:] + c[:-1])
+    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
+
+
+def _mesh(x, y):
+    """Corner arrays (n_values + 1, n_freq + 1) of a map whose frequency grid ``x``
+    (n_values, n_freq) may differ between the values ``y`` (n_values,)."""
+    xe = np.array([_edges(row) for row in np.atleast_2d(x)])
+    ye = _edges(y)
+    X = np.vstack([xe, xe[-1:]])
+    Y = np.repeat(ye[:, None], X.shape[1], axis=1)
+    return X, Y
+
+
+def _axes_labels(m):
+    from .results import parameter_units
+    from .style import label
+
+    phys = "frequency_hz" in m.data
+    xl = label("forcing frequency f", "Hz") if phys else label(r"forcing frequency $\Omega = f/f_n$", None)
+    names = {"voltage": "voltage V", "gap_mm": "gap at the sensor", "gain": r"gain $\gamma$", "R": "R",
+             "B": "B", "Delta": r"$\Delta$", "beta": r"$\beta$"}
+    yl = label(names.get(m.parameter, m.parameter), parameter_units(m.parameter))
+    return phys, xl, yl
+
+
+def _class_handles(present) -> list:
+    from matplotlib.patches import Patch
+
+    return [Patch(facecolor=CLASS_COLOURS[i], edgecolor="0.5", lw=0.5, label=CLASSES[i])
+            for i in sorted(present)]
+
+
+def map_figure(m: MapResult, title: str = "", case=None, curves=()):
+    """Fig. 18-style class map: one panel per direction and one of the hysteresis (points
+    where up and down end on different orbits), class legend outside; two-parameter
+    bifurcation curves of continuation runs (``curves``) overlaid.  A Figure."""
     import matplotlib.pyplot as plt
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
 
+    from . import style
+
     d = m.data
-    phys = "frequency_hz" in d
-    x = (d["frequency_hz"] if phys else d["Omega"])[0]
-    y = d["values"]
-    dirs = list(d["direction"])
+    phys, xl, yl = _axes_labels(m)
+    x = np.asarray((d["frequency_hz"] if phys else d["Omega"])[0], float)
+    y = np.asarray(d["values"], float)
+    dirs = [str(v) for v in d["direction"]]
     hyst = hysteresis(m)
     n_pan = len(dirs) + (hyst is not None)
-    fig, axes = plt.subplots(1, n_pan, figsize=(4.2 * n_pan, 3.8), sharey=True, squeeze=False)
-    cmap = ListedColormap(CLASS_COLOURS)
-    norm = BoundaryNorm(np.arange(-0.5, len(CLASSES) + 0.5), cmap.N)
-    yy = np.repeat(y[:, None], x.shape[1], axis=1)
-    for ax, k in zip(axes[0], range(len(dirs))):
-        ax.pcolormesh(x, yy, d["classification"][k], cmap=cmap, norm=norm, shading="nearest")
-        ax.set_title(f"{dirs[k]} sweep")
-    if hyst is not None:
-        ax = axes[0][-1]
-        ax.pcolormesh(x, yy, hyst.astype(float), cmap=ListedColormap(["white", "#762a83"]), vmin=0, vmax=1,
-                      shading="nearest")
-        ax.set_title("hysteresis (up != down)")
-    if curves:
-        from .branches import plot_curves_on
-        xl = [ax.get_xlim() for ax in axes[0]]
-        yl = [ax.get_ylim() for ax in axes[0]]
-        for ax, a, b in zip(axes[0], xl, yl):
-            plot_curves_on(ax, [c for c in curves if c.attrs.get("curve_parameter") == m.parameter], phys)
-            ax.set_xlim(a)
-            ax.set_ylim(b)
-    for ax in axes[0]:
-        ax.set_xlabel("forcing frequency (Hz)" if phys else r"$\Omega$")
-    unit = {"voltage": "V", "gain": "1/V", "natural_frequency_hz": "Hz", "length_mm": "mm"}.get(
-        m.parameter, "mm" if m.parameter.endswith("_mm") else "")
-    axes[0][0].set_ylabel(f"{m.parameter} ({unit})" if unit else m.parameter)
-    fig.legend(handles=[Patch(facecolor=c, edgecolor="0.5", label=CLASSES[i])
-                        for i, c in enumerate(CLASS_COLOURS)], loc="lower center", ncol=4,
-               fontsize=8, frameon=False)
-    fig.suptitle(f"{title}: {m.name} ({m.method})" if title else m.name)
-    fig.tight_layout(rect=(0, 0.12, 1, 1))
-    from .plots import save_figure
+    X, Y = _mesh(x, y)
+    with style.context():
+        fig, axes = plt.subplots(1, n_pan, figsize=(3.3 * n_pan + 2.2, 3.6), sharey=True, squeeze=False)
+        cmap = ListedColormap(CLASS_COLOURS)
+        norm = BoundaryNorm(np.arange(-0.5, len(CLASSES) + 0.5), cmap.N)
+        present = set()
+        for ax, k in zip(axes[0], range(len(dirs))):
+            c = np.asarray(d["classification"][k])
+            present |= set(np.unique(c).tolist())
+            ax.pcolormesh(X, Y, c, cmap=cmap, norm=norm, edgecolors="face", lw=0)
+            ax.set_title(f"{dirs[k]} sweep", loc="left")
+        handles = _class_handles(present)
+        if hyst is not None:
+            ax = axes[0][-1]
+            ax.pcolormesh(X, Y, hyst.astype(float), cmap=ListedColormap([SAME_COLOUR, HYSTERESIS_COLOUR]),
+                          vmin=0, vmax=1, edgecolors="face", lw=0)
+            ax.set_title("hysteresis", loc="left")
+            ax.legend(handles=[Patch(facecolor=HYSTERESIS_COLOUR, label=f"up ≠ down ({int(hyst.sum())})"),
+                               Patch(facecolor=SAME_COLOUR, edgecolor="0.6", lw=0.5, label="same orbit")],
+                      loc="upper left", bbox_to_anchor=(0.0, -0.2), fontsize=7)
+        if curves:
+            from .branches import plot_curves_on
 
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
+            for ax in axes[0]:
+                xl_, yl_ = ax.get_xlim(), ax.get_ylim()
+                h = plot_curves_on(ax, [c for c in curves if c.attrs.get("curve_parameter") == m.parameter], phys)
+                ax.set_xlim(xl_)
+                ax.set_ylim(yl_)
+            handles += h
+        for ax in axes[0]:
+            ax.set_xlabel(xl)
+            ax.grid(False)
+        axes[0][0].set_ylabel(yl)
+        style.legend_outside(fig, handles, title="class")
+        style.titles(fig, f"{title + ': ' if title else ''}{m.name} ({m.method})",
+                     style.subtitle(case, runs=[m], exclude=(m.parameter,)))
+    return fig
+
+
+def plot_map(m: MapResult, path, title: str = "", case=None, curves=()):
+    """:func:`map_figure` saved to ``path`` (``map_<run>.png``); returns the path."""
+    from .plots import _save_close
+
+    return _save_close(map_figure(m, title, case, curves), path)
 
 
 def class_agreement(a: MapResult, b: MapResult) -> np.ndarray | None:
@@ -224,39 +276,55 @@ def class_agreement(a: MapResult, b: MapResult) -> np.ndarray | None:
     return ca == cb
 
 
-def plot_agreement(maps: list, path, title: str = ""):
-    """Class of every map against the first one's: one panel per other map (up sweep), grey
-    where both agree, the other map's class colour where they differ; None if fewer than two
-    maps share a grid."""
-    import matplotlib
-    matplotlib.use("Agg")
+def agreement_figure(maps: list, title: str = "", case=None):
+    """Class of every map against the first one's: one panel per other map (up sweep), light
+    grey where both agree, the other map's class colour where they differ, with the
+    legend; None if fewer than two maps share a grid.  A Figure."""
     import matplotlib.pyplot as plt
     from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
 
+    from . import style
+
+    if not maps:
+        return None
     ref = maps[0]
     others = [m for m in maps[1:] if class_agreement(ref, m) is not None]
     if not others:
         return None
     d = ref.data
-    x = (d["frequency_hz"] if "frequency_hz" in d else d["Omega"])[0]
-    yy = np.repeat(d["values"][:, None], x.shape[1], axis=1)
-    cmap = ListedColormap(CLASS_COLOURS + ("#f0f0f0",))
+    phys, xl, yl = _axes_labels(ref)
+    x = np.asarray((d["frequency_hz"] if phys else d["Omega"])[0], float)
+    X, Y = _mesh(x, d["values"])
+    cmap = ListedColormap(CLASS_COLOURS + (SAME_COLOUR,))
     norm = BoundaryNorm(np.arange(-0.5, len(CLASSES) + 1.5), cmap.N)
-    fig, axes = plt.subplots(1, len(others), figsize=(4.6 * len(others), 3.8), squeeze=False)
-    for ax, m in zip(axes[0], others):
-        same = class_agreement(ref, m)[0]
-        show = np.where(same, len(CLASSES), m.data["classification"][0])
-        ax.pcolormesh(x, yy, show, cmap=cmap, norm=norm, shading="nearest")
-        ax.set_title(f"{m.name} vs {ref.name}: {int((~same).sum())} of {same.size} differ", fontsize=9)
-        ax.set_xlabel("forcing frequency (Hz)" if "frequency_hz" in d else r"$\Omega$")
-    axes[0][0].set_ylabel(ref.parameter)
-    fig.suptitle(f"{title}\nclasses that differ from '{ref.name}' (up sweep; light grey: same)", fontsize=10)
-    fig.tight_layout()
-    from .plots import save_figure
+    with style.context():
+        fig, axes = plt.subplots(1, len(others), figsize=(4.2 * len(others) + 2.4, 3.8), squeeze=False)
+        present = set()
+        for ax, m in zip(axes[0], others):
+            same = class_agreement(ref, m)[0]
+            show = np.where(same, len(CLASSES), m.data["classification"][0])
+            present |= set(np.unique(m.data["classification"][0][~same]).tolist())
+            ax.pcolormesh(X, Y, show, cmap=cmap, norm=norm, edgecolors="face", lw=0)
+            ax.set_title(f"'{m.name}' vs '{ref.name}': {int((~same).sum())} of {same.size} differ", loc="left")
+            ax.set_xlabel(xl)
+            ax.set_ylabel(yl)
+            ax.grid(False)
+        handles = [Patch(facecolor=SAME_COLOUR, edgecolor="0.6", lw=0.5, label=f"same class as '{ref.name}'")]
+        handles += [Patch(facecolor=CLASS_COLOURS[i], edgecolor="0.5", lw=0.5, label=f"differs: {CLASSES[i]}")
+                    for i in sorted(present)]
+        style.legend_outside(fig, handles, title="up sweep")
+        style.titles(fig, f"{title + ': ' if title else ''}classes that differ between the maps",
+                     style.subtitle(case, runs=maps, exclude=(ref.parameter,)))
+    return fig
 
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
+
+def plot_agreement(maps: list, path, title: str = "", case=None):
+    """:func:`agreement_figure` saved to ``path`` (``maps_agreement.png``); None if fewer than
+    two maps share a grid."""
+    from .plots import _save_close
+
+    return _save_close(agreement_figure(maps, title, case), path)
 
 
 def print_map(m: MapResult) -> None:

@@ -1,15 +1,19 @@
-"""Plots a person wants to look at after a sweep (matplotlib, Agg backend).
+"""Figures of a sweep (matplotlib, Agg backend, the style of :mod:`vibeam.style`).
 
-* ``frc.png``: the FRC of every run overlaid, period-1 as dots, period-2 as
-  triangles, higher periods as squares, non-periodic as crosses with a bar over
-  the range of the per-period amplitude (min..max of Q_k over the record: one
-  sample of an attractor is not one number), no-impact points as small grey
-  dots; failed points (no amplitude) as red crosses along the bottom of the axes.
-* ``bifurcation.png``: stroboscopic displacement q against the forcing
-  frequency, one panel per time-domain run.
+* ``frc.png`` (:func:`frc_figure`): the FRC of every run overlaid, one colour per run,
+  up sweeps solid with filled markers and down sweeps dashed with open markers; the
+  marker is the period class (circle period-1, triangle period-2, square period-n,
+  small dot no impact); non-periodic points are crosses with a bar over the range of
+  their per-period amplitude Q_k (``amplitude_min`` .. ``amplitude_max``, when the run
+  stored them: one sample of an attractor is not one number); failed points (no
+  amplitude) are red crosses along the bottom of the axes.
+* ``bifurcation.png`` (:func:`bifurcation_figure`): stroboscopic displacement against
+  the forcing frequency, one panel per time-domain run, up and down distinguished.
 
-Every figure is written through :func:`save_figure` (a temporary file renamed
-into place), so a failed or interrupted write never leaves a partial PNG.
+The ``*_figure`` functions return a :class:`matplotlib.figure.Figure` (for a notebook,
+or a test that inspects it); ``plot_*`` save it through :func:`save_figure` (a
+temporary file renamed into place, so a failed or interrupted write never leaves a
+partial PNG).
 """
 from __future__ import annotations
 
@@ -17,13 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .sweep import SweepResult
-
-MARKERS = {1: ("o", "period 1"), 2: ("^", "period 2"), 0: ("x", "not periodic (n > 8)"),
-           -1: (".", "no impact")}
+from . import style
 
 
-def save_figure(fig, path, dpi: int = 120) -> Path:
+def save_figure(fig, path, dpi: int = 150) -> Path:
     """Save a matplotlib figure atomically: to a temporary file beside ``path``, then
     :func:`os.replace`; on any error the temporary file is removed and the error raised."""
     import os
@@ -51,105 +52,213 @@ def _umask() -> int:
     return mask
 
 
-def _mm(r: SweepResult) -> float:
+def _save_close(fig, path):
+    import matplotlib.pyplot as plt
+
+    if fig is None:
+        return None
+    try:
+        return save_figure(fig, path)
+    finally:
+        plt.close(fig)
+
+
+def _mm(r) -> float:
     """Factor from nondimensional displacement to mm (1 for nondimensional scenes)."""
     L = r.attrs.get("length_m")
     return L * 1e3 if L and "amplitude_mm" in r.data else 1.0
 
 
-def _axes_data(r: SweepResult):
+def axes_data(r):
+    """(x, amplitude, x label, amplitude label) of a run, physical units where it has them."""
     d = r.data
     if "frequency_hz" in d and "amplitude_mm" in d:
-        return d["frequency_hz"], d["amplitude_mm"], "forcing frequency (Hz)", "amplitude at sensor (mm)"
-    return d["Omega"], d["amplitude"], r"$\Omega$", r"$Q = \Delta - \min q$"
+        return (np.asarray(d["frequency_hz"], float), np.asarray(d["amplitude_mm"], float),
+                style.label("forcing frequency f", "Hz"), style.label("amplitude at the sensor, U(L_S)", "mm"))
+    return (np.asarray(d["Omega"], float), np.asarray(d["amplitude"], float),
+            style.label(r"forcing frequency $\Omega = f/f_n$", None),
+            style.label(r"amplitude $Q = \Delta - \min q$", None))
 
 
-def plot_frc(runs: list[SweepResult], path, title: str = "") -> Path:
-    """Overlay the FRCs of ``runs`` with period-n markers; returns the PNG path."""
-    import matplotlib
-    matplotlib.use("Agg")
+def _directions(r, n):
+    return np.asarray([str(v) for v in r.data.get("direction", ["up"] * n)])
+
+
+def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
+    """The FRC of every run in one axes (see the module docstring); a Figure.
+
+    Parameters
+    ----------
+    runs : list of vibeam.sweep.SweepResult
+    title : str
+        Figure title (the case name); the case's parameters go in the subtitle.
+    case : vibeam.case.Case, optional
+        For the subtitle and the run colours (case order).
+    colours : dict, optional
+        Run name -> colour (default :func:`vibeam.style.colours` of the case's runs).
+    """
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 5))
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    seen = set()
-    for i, r in enumerate(runs):
-        x, y, xl, yl = _axes_data(r)
-        c = colors[i % len(colors)]
-        period = r.data.get("period", np.ones(len(x), dtype=int))
-        dirs = r.data.get("direction", np.array(["up"] * len(x), dtype=object))
-        for dname in ("up", "down"):
-            sel = np.array([str(v) == dname for v in dirs])
-            if not sel.any():
-                continue
-            order = np.argsort(x[sel])
-            ls = "-" if dname == "up" else "--"
-            ax.plot(x[sel][order], y[sel][order], ls, color=c, lw=1,
-                    label=f"{r.name} ({r.method}, {dname})" if sel.any() else None)
-        for p in np.unique(period):
-            mk, lab = MARKERS.get(int(p), ("s", "period > 2"))
-            sel = period == p
-            lab_key = (mk, lab)
-            ax.plot(x[sel], y[sel], mk, color=c if p != -1 else "0.6", ms=4 if p != -1 else 3,
-                    mfc="none" if mk in "^s" else c, linestyle="none",
-                    label=lab if lab_key not in seen else None)
-            seen.add(lab_key)
-        if "amplitude_min" in r.data and "amplitude_max" in r.data:
-            lo = np.asarray(r.data["amplitude_min"], float) * _mm(r)
-            hi = np.asarray(r.data["amplitude_max"], float) * _mm(r)
-            sel = (np.asarray(period) == 0) & np.isfinite(lo) & np.isfinite(hi)
-            if sel.any():
-                lab = "range of $Q_k$ (not periodic)"
-                ax.vlines(x[sel], lo[sel], hi[sel], color=c, lw=1.5, alpha=0.6,
-                          label=lab if lab not in seen else None)
-                seen.add(lab)
-        st = np.asarray([str(v) for v in r.data.get("status", [])])
-        bad = st == "failed" if st.size == len(x) else np.zeros(len(x), bool)
-        if bad.any():   # failed points have no amplitude: marked along the bottom of the axes
-            ax.plot(np.asarray(x, float)[bad], np.full(int(bad.sum()), 0.02), "x", color="r", ms=6,
-                    transform=ax.get_xaxis_transform(), linestyle="none",
-                    label=f"{r.name}: failed ({int(bad.sum())} points)")
-        if "amplitude_lower" in r.data:
-            ax.plot(x, r.data["amplitude_lower"] * _mm(r),
-                    ":", color=c, lw=1, label=f"{r.name} lower branch")
-    ax.set_xlabel(xl)
-    ax.set_ylabel(yl)
-    ax.set_title(title or "frequency response curves")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
-    fig.tight_layout()
-    try:
-        path = save_figure(fig, path)
-    finally:
-        plt.close(fig)
-    return path
+    with style.context():
+        fig, ax = plt.subplots(figsize=(8.0, 4.6))
+        col = colours or style.colours(style.run_names(case, runs))
+        classes, dirs_seen = {}, []
+        xl = yl = ""
+        for r in runs:
+            x, y, xl, yl = axes_data(r)
+            c = col.get(r.name, "0.3")
+            period = np.asarray(r.data.get("period", np.ones(len(x), dtype=int)))
+            direc = _directions(r, len(x))
+            st = np.asarray([str(v) for v in r.data.get("status", [])])
+            failed = st == "failed" if st.size == len(x) else np.zeros(len(x), bool)
+            lo = hi = None
+            if "amplitude_min" in r.data and "amplitude_max" in r.data:
+                lo = np.asarray(r.data["amplitude_min"], float) * _mm(r)
+                hi = np.asarray(r.data["amplitude_max"], float) * _mm(r)
+            for dname in ("up", "down"):
+                sel = direc == dname
+                if not sel.any():
+                    continue
+                ds = style.DIRECTIONS[dname]
+                if dname not in dirs_seen:
+                    dirs_seen.append(dname)
+                o = np.argsort(x[sel])
+                ax.plot(x[sel][o], y[sel][o], ls=ds["ls"], color=c, lw=1.0, zorder=2)
+                for p in np.unique(period[sel]):
+                    mk, lab = style.period_marker(p)
+                    s = sel & (period == p) & ~failed
+                    if not s.any():
+                        continue
+                    classes[lab] = mk
+                    if int(p) == -1:
+                        ax.plot(x[s], y[s], ls="none", marker=mk, color=c, ms=3, zorder=3)
+                        continue
+                    # up: filled markers; down: larger open rings drawn over them, so where the two
+                    # sweeps agree both stay visible (a dot in a ring)
+                    ax.plot(x[s], y[s], ls="none", marker=mk, color=c, mec=c, mfc=c if ds["fill"] else "none",
+                            ms=(4.0 if ds["fill"] else 7.0) if mk != "x" else 5, mew=1.0 if ds["fill"] else 0.9,
+                            zorder=3 if ds["fill"] else 4)
+                    if int(p) == 0 and lo is not None:
+                        b = s & np.isfinite(lo) & np.isfinite(hi)
+                        if b.any():
+                            ax.vlines(x[b], lo[b], hi[b], color=c, lw=1.6, alpha=0.55, zorder=2,
+                                      linestyles="solid" if ds["fill"] else "dashed")
+            if failed.any():   # no amplitude: marked along the bottom of the axes
+                ax.plot(x[failed], np.full(int(failed.sum()), 0.02), ls="none", marker="x",
+                        color=style.FAILED_COLOUR, ms=6, transform=ax.get_xaxis_transform(), clip_on=False)
+                classes[f"failed ({int(failed.sum())} points)"] = "failed"
+            if "amplitude_lower" in r.data:
+                ax.plot(x, np.asarray(r.data["amplitude_lower"], float) * _mm(r), ":", color=c, lw=1.0)
+                classes["lower branch of P(Q) = 0 (dotted)"] = "lower"
+        ax.set_xlabel(xl)
+        ax.set_ylabel(yl)
+        handles = [style.proxy(col[r.name], ls="-", label=f"{r.name} ({r.method})") for r in runs
+                   if r.name in col]
+        handles += [style.proxy("0.25", ls=style.DIRECTIONS[d]["ls"], marker="o", fill=style.DIRECTIONS[d]["fill"],
+                                label=style.DIRECTIONS[d]["label"]) for d in dirs_seen]
+        for lab, mk in classes.items():
+            if mk == "failed":
+                handles.append(style.proxy(style.FAILED_COLOUR, marker="x", label=lab))
+            elif mk == "lower":
+                handles.append(style.proxy("0.25", ls=":", label=lab))
+            else:
+                handles.append(style.proxy("0.25", marker=mk, label=lab, ms=3 if mk == "." else 5))
+        style.legend_outside(fig, handles)
+        style.titles(fig, title or "frequency response curves", style.subtitle(case, runs=runs))
+    return fig
 
 
-def plot_bifurcation(runs: list[SweepResult], path, title: str = "") -> Path | None:
-    """Stroboscopic q against frequency for each run that has strobe samples."""
-    import matplotlib
-    matplotlib.use("Agg")
+def plot_frc(runs, path, title: str = "", case=None, colours=None) -> Path:
+    """:func:`frc_figure` saved to ``path`` (``frc.png``); returns the path."""
+    return _save_close(frc_figure(runs, title, case, colours), path)
+
+
+def bifurcation_figure(runs, title: str = "", case=None, colours: dict | None = None):
+    """Stroboscopic displacement against frequency, one panel per run with strobe samples
+    (up: filled dots, down: open circles, in the run's colour); a Figure, or None."""
     import matplotlib.pyplot as plt
 
     runs = [r for r in runs if "strobe" in r.data and np.isfinite(r.data["strobe"]).any()]
     if not runs:
         return None
-    fig, axes = plt.subplots(len(runs), 1, figsize=(8, 2.6 * len(runs) + 0.6), squeeze=False, sharex=True)
-    for ax, r in zip(axes[:, 0], runs):
-        x, _, xl, _ = _axes_data(r)
-        s = r.data["strobe"][:, :, 0]
-        scale = _mm(r)
-        xs = np.repeat(x[:, None], s.shape[1], axis=1)
-        ax.plot(xs.ravel(), (s * scale).ravel(), ",k", alpha=0.6)
-        ax.plot(xs.ravel(), (s * scale).ravel(), ".", color="k", ms=1)
-        ax.set_ylabel("strobe q (mm)" if "amplitude_mm" in r.data else "strobe q")
-        ax.set_title(f"{r.name} ({r.method})", fontsize=9)
-        ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel(xl)
-    fig.suptitle(title or "bifurcation diagram (stroboscopic map)")
-    fig.tight_layout()
-    try:
-        path = save_figure(fig, path)
-    finally:
-        plt.close(fig)
-    return path
+    with style.context():
+        col = colours or style.colours(style.run_names(case, runs))
+        fig, axes = plt.subplots(len(runs), 1, figsize=(8.0, 2.3 * len(runs) + 1.0), squeeze=False, sharex=True)
+        dirs_seen = []
+        for ax, r in zip(axes[:, 0], runs):
+            x, _, xl, _ = axes_data(r)
+            s = np.asarray(r.data["strobe"], float)[:, :, 0] * _mm(r)
+            direc = _directions(r, len(x))
+            c = col.get(r.name, "0.3")
+            for dname in ("up", "down"):
+                sel = direc == dname
+                if not sel.any():
+                    continue
+                if dname not in dirs_seen:
+                    dirs_seen.append(dname)
+                xs = np.repeat(x[sel][:, None], s.shape[1], axis=1)
+                if dname == "up":
+                    ax.plot(xs.ravel(), s[sel].ravel(), ls="none", marker="o", ms=3.0, color=c, mew=0,
+                            alpha=0.9, zorder=3)
+                else:
+                    ax.plot(xs.ravel(), s[sel].ravel(), ls="none", marker="o", ms=6.0, mfc="none", mec=c,
+                            mew=0.8, alpha=0.8, zorder=2)
+            phys = "amplitude_mm" in r.data
+            ax.set_ylabel(style.label("U(L_S) at phase 0", "mm") if phys else style.label("q at phase 0", None))
+            ax.set_title(f"{r.name} ({r.method})", loc="left")
+            ax.set_xlabel(xl if ax is axes[-1, 0] else "")
+        axes[-1, 0].set_xlabel(xl)
+        handles = [style.proxy(col.get(r.name, "0.3"), marker="o", label=f"{r.name} ({r.method})") for r in runs]
+        if "up" in dirs_seen:
+            handles.append(style.proxy("0.25", marker="o", ms=3, label="up sweep (filled dots)"))
+        if "down" in dirs_seen:
+            handles.append(style.proxy("0.25", marker="o", fill=False, label="down sweep (open circles)"))
+        style.legend_outside(fig, handles)
+        style.titles(fig, (title + ": " if title else "") + "bifurcation diagram (stroboscopic map)",
+                     style.subtitle(case, runs=runs))
+    return fig
+
+
+def plot_bifurcation(runs, path, title: str = "", case=None, colours=None) -> Path | None:
+    """:func:`bifurcation_figure` saved to ``path`` (``bifurcation.png``); None without strobe data."""
+    return _save_close(bifurcation_figure(runs, title, case, colours), path)
+
+
+def simulation_figure(sim):
+    """Displacement and velocity of one frequency against time, with the impacts, and the
+    phase portrait (:func:`vibeam.simulate`); a Figure."""
+    import matplotlib.pyplot as plt
+
+    with style.context():
+        fig, axes = plt.subplots(1, 3, figsize=(11.0, 3.4))
+        phys = sim.physical
+        t = sim.time_s if phys else sim.t
+        x = sim.U_mm if phys else sim.q
+        v = sim.dU_mm_s if phys else sim.dq
+        ti = sim.impact_times_s if phys else sim.impact_times
+        tu, xu, vu = ("s", "mm", "mm/s") if phys else (None, None, None)
+        c = style.PALETTE[0]
+        axes[0].plot(t, x, color=c)
+        axes[1].plot(t, v, color=c)
+        axes[2].plot(x, v, color=c, lw=0.8)
+        if len(ti):
+            xi = np.interp(ti, t, x)
+            axes[0].plot(ti, xi, ls="none", marker="v", color=style.PALETTE[1], ms=5, label="impact")
+        axes[0].set_xlabel(style.label("time t", tu))
+        axes[1].set_xlabel(style.label("time t", tu))
+        axes[0].set_ylabel(style.label("U(L_S)" if phys else "q", xu))
+        axes[1].set_ylabel(style.label("U'(L_S)" if phys else "q'", vu))
+        axes[2].set_xlabel(style.label("U(L_S)" if phys else "q", xu))
+        axes[2].set_ylabel(style.label("U'(L_S)" if phys else "q'", vu))
+        axes[0].set_title("displacement", loc="left")
+        axes[1].set_title("velocity", loc="left")
+        axes[2].set_title("phase portrait", loc="left")
+        handles = [style.proxy(c, ls="-", label=f"{sim.status}")]
+        if len(ti):
+            handles.append(style.proxy(style.PALETTE[1], marker="v", label=f"impacts ({len(ti)})"))
+        style.legend_outside(fig, handles)
+        f = f"{sim.Omega * sim.natural_frequency_hz:.4g} Hz, " if phys else ""
+        style.titles(fig, f"one forcing frequency: {f}Omega = {sim.Omega:.6g}",
+                     f"period {sim.summary.get('period')}, {sim.summary.get('impacts_per_period', 0):.3g} impacts "
+                     f"per period")
+    return fig

@@ -96,6 +96,13 @@ class Trajectory:
         """Stroboscopic (Poincare) samples at phase 0, shape (n_record, 2)."""
         return self.samples[:: self.samples_per_period]
 
+    @property
+    def t(self) -> np.ndarray:
+        """Times of ``samples`` from the start of the recording (the time base of
+        ``impact_times``): ``j T / samples_per_period`` with ``T = 2 pi / Omega``, shape (n,),
+        nondimensional (natural time: 2 pi = one natural period)."""
+        return np.arange(self.samples.shape[0]) * (2.0 * np.pi / self.Omega / self.samples_per_period)
+
 
 def strobe_returns(strobe: np.ndarray, scale: float) -> np.ndarray:
     """Largest distance of the period-n returns of the stroboscopic map, n = 1..8.

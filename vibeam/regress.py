@@ -289,7 +289,8 @@ def print_rows(rows, atol, rtol, sigmas: float | None = None, spread_range: floa
     if sigmas is not None and any(r.spread_points for r in rows):
         print(f"non-periodic / unsettled / other-period points by their spread: mean within {sigmas:g} "
               f"standard errors, min and max within {spread_range:g} of the range")
-    head = f"{'run':<24}{'points':>7}{'failed':>8}{'max |dA|':>12}{'max rel':>11}{'period diff':>12}  verdict"
+    w = max([24] + [len(r.run) + 2 for r in rows])       # as wide as the longest run name
+    head = f"{'run':<{w}}{'points':>7}{'failed':>8}{'max |dA|':>12}{'max rel':>11}{'period diff':>12}  verdict"
     print(head)
     print("-" * len(head))
     for r in rows:
@@ -298,5 +299,5 @@ def print_rows(rows, atol, rtol, sigmas: float | None = None, spread_range: floa
         if r.spread_points:
             note = (note + "; " if note else "") + (f"{r.spread_points} point(s) by spread, "
                                                      f"{r.spread_failures} failed")
-        print(f"{r.run:<24}{r.points:>7}{r.failures:>8}{r.max_abs:>12.3e}{r.max_rel:>11.3e}"
+        print(f"{r.run:<{w}}{r.points:>7}{r.failures:>8}{r.max_abs:>12.3e}{r.max_rel:>11.3e}"
               f"{r.period_mismatch:>12}  {verdict}" + (f"  ({note})" if note else ""))

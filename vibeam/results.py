@@ -1,14 +1,55 @@
-"""The one results writer (HDF5, h5py) for every fidelity and method.
+"""The one results writer (netCDF4/CF in HDF5, h5py dimension scales) for every fidelity and method.
 
-Layout of ``results.h5``::
+``results.h5`` is a netCDF4 file: every array has named dimensions (HDF5
+dimension scales), coordinates, ``units`` and ``long_name`` (CF conventions),
+strings are UTF-8.  So it opens with plain h5py, with netCDF tools, and as
+labelled data::
 
-    /                attrs: vibeam_version, case_name, case_text, case_json, created, complete
-    /runs/<run>/     attrs: fidelity, method, settings (JSON), wall_time_s, run attrs
-        <dataset>    one entry per frequency point; attrs: units
-    /maps/<run>/     a parameter map (``[map]``): attrs as a run, plus parameter
-        <dataset>    shape (n_direction, n_values, n_frequency, ...)
-    /lines/<run>/<line>/   the checkpoint: each finished sweep line's per-point datasets;
-                     attrs: case_hash (:func:`case_hash` of the case as run)
+    import xarray as xr
+    ds = xr.open_dataset("results.h5", group="runs/exact", engine="h5netcdf")
+    ds.amplitude.sel(direction="up").plot()            # amplitude against Omega
+
+or all groups at once: ``vibeam.open_results(path)`` (an :class:`xarray.DataTree`).
+
+Layout (``vibeam_layout = 2``, root attribute)::
+
+    /                        attrs: vibeam_version, vibeam_layout, case_name, case_text, case_json,
+                             created, complete (1 = finished, 0 = only the checkpoint), Conventions
+    /runs/<run>/             one run (attrs: fidelity, method, settings (JSON), wall_time_s,
+                             run attrs; ``json_attrs`` names those stored as JSON)
+        direction (direction)            'up', 'down' (the sweep directions run)
+        Omega (Omega)                    forcing frequency / natural frequency, increasing
+        frequency_hz (Omega)             physical scenes: f = Omega f_n (auxiliary coordinate)
+        <per-point> (direction, Omega)   amplitude, period, status, message, wall_time_s, ...
+        strobe (direction, Omega, record_period, state)
+        harmonics (direction, Omega, harmonic)
+        mode_amplitudes, participation_* (direction, Omega, mode)      beam scenes
+        peaks_* (direction, Omega, peak); spectrum_velocity (direction, Omega, spectrum_frequency)
+        R_*_ladder (direction, Omega, noise_level)                      sensor effect
+        multipliers (…, multiplier); map_eigenvalues (…, eigenvalue)    mapping method
+        time_series/<f>/         [assess] time_series at grid frequency <f>:
+            time (time); displacement, velocity (direction, time); point_Omega (direction)
+    /maps/<run>/             a parameter map ([map]); attrs as a run, plus ``parameter``
+        direction (direction); <parameter> (<parameter>)   e.g. voltage (V), gap_mm (mm)
+        Omega (Omega) and frequency_hz (Omega)   when Omega is the same on every value line;
+            otherwise frequency_hz (frequency_hz) and Omega (<parameter>, frequency_hz)
+        <per-point> (direction, <parameter>, Omega|frequency_hz[, ...])   classification, ...
+    /lines/<run>/<line>/     the checkpoint of an unfinished run: each finished sweep line's
+                             per-point arrays along ``point`` (visiting order); attrs: case_hash
+    /<extra>/                tables of other commands (``cost``, ``reference``), e.g. (row)
+
+A run's points of every direction lie on one grid: ``up`` visits the ``Omega``
+coordinate in increasing order and ``down`` in decreasing order; both are stored
+along the increasing coordinate.  :func:`read_results` returns the old flat
+per-point table (points in visiting order: up, then down), which every FRC tool
+(regression, plots) reads, and also reads files of the first layout (no
+dimensions; ``tests/references`` were converted once by
+``tests/references/convert_layout.py``).
+
+When a run completes, its checkpoint ``/lines`` is dropped (compacted): the data
+is stored once, in ``/runs`` and ``/maps``.  ``--resume`` of a complete file
+recomputes nothing (the runs are read back: :func:`load_results`); an
+interrupted file still has its lines.
 
 Every write goes to a temporary file in the same folder that is then moved
 over the old one (:func:`os.replace` is atomic): the whole file at the end of
@@ -16,6 +57,10 @@ a case, and one copy-and-append per batch of finished lines while it runs
 (:func:`append_lines`).  An interrupted or killed run therefore leaves either
 the previous complete file or the next one, never a corrupt one, and
 ``--resume`` recomputes only the lines missing from ``/lines``.
+
+Any other group (continuation branches, fit tables) is written through
+:func:`write_group`: a dict of :class:`Variable` (dims, data, units, long_name)
+becomes one netCDF group with its dimensions and coordinates.
 """
 from __future__ import annotations
 
@@ -23,14 +68,16 @@ import contextlib
 import json
 import os
 import tempfile
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from . import __version__
-from .sweep import UNITS, SweepResult
+
+LAYOUT_VERSION = 2
+_DIM_ONLY = "This is a netCDF dimension but not a netCDF variable"
 
 
 def _json_default(o):
@@ -41,9 +88,636 @@ def _json_default(o):
     return str(o)
 
 
+# ============================================================================ what each variable is
+# (units, long_name) of the per-point outputs; units are UDUNITS strings ("1": dimensionless).
+# ``None`` units: the unit of the scene's axes (Hz / mm / mm s-1 for physical scenes, "1" otherwise),
+# resolved by :func:`describe`.  Names not listed fall back to vibeam.sweep.UNITS ("unit (text)").
+VARIABLES = {
+    "Omega": ("1", "forcing frequency over natural frequency, Omega = f / f_n"),
+    "frequency_hz": ("Hz", "forcing frequency f"),
+    "direction": ("", "sweep direction (up: increasing Omega, down: decreasing)"),
+    "amplitude": ("1", "amplitude Q = Delta - min q over the record (paper Sec. 4.1)"),
+    "amplitude_mm": ("mm", "amplitude at the sensor U(L_S) = Q L (paper Sec. 6)"),
+    "amplitude_lower": ("1", "lower (unstable) branch of P(Q) = 0, averaging (paper Eq. 21)"),
+    "q_max": ("1", "largest displacement q over the record"),
+    "q_min": ("1", "smallest displacement q over the record"),
+    "period": ("1", "period-n of the stroboscopic map (1..8; 0 not periodic within 8, -1 no impact)"),
+    "impacts_per_period": ("1", "impacts per forcing period"),
+    "impact_velocity": ("1", "mean pre-impact velocity q'-"),
+    "strobe": ("1", "stroboscopic samples (q, q') at forcing phase 0 of each recorded period"),
+    "harmonics": ("1", "amplitudes of the harmonics 0, Omega, ..., 5 Omega of q (paper Fig. 20)"),
+    "status": ("", "outcome of the point: ok, chatter, sticking, unsettled, failed"),
+    "message": ("", "detail of the status (empty when ok)"),
+    "wall_time_s": ("s", "compute time of the point"),
+    "stuck_fraction": ("1", "share of the recorded window spent on the stop"),
+    "effective_gain": ("V-1", "gamma at this frequency (platform filter)"),
+    "gap_mm": ("mm", "grazing gap at the sensor at this point (gap drift)"),
+    "gap_drift_mm": ("mm", "drift of the gap at the sensor"),
+    "impulse_per_period": ("1", "sum of (1 + R) U- per forcing period"),
+    # averaging (paper Sec. 4.1, Eqs. 18-27)
+    "theta": ("rad", "phase theta of the averaged solution (paper Eq. 23)"),
+    "impact_phase": ("rad", "forcing phase of the impact"),
+    "stable": ("1", "1 if the orbit is stable (Floquet multipliers; averaging: upper branch)"),
+    "Q_star": ("1", "amplitude Q* at the turning point of the averaged FRC (paper Eq. 25)"),
+    "Delta_max": ("1", "largest gap with impacting solutions near Omega = 2k (paper Eq. 26)"),
+    # mapping (paper Eqs. 28-37)
+    "stable_full": ("1", "1 if stable by the paper's full Jacobian (Eqs. 29-32)"),
+    "stable_simplified": ("1", "1 if stable by the paper's simplified Jacobian (Eqs. 35-37)"),
+    "stable_paper": ("1", "1 if stable by the paper's Jacobian of the run's form"),
+    "disagree_full": ("1", "1 if Eqs. 29-32 and the Floquet multipliers disagree on stability"),
+    "disagree_simplified": ("1", "1 if Eqs. 35-37 and the Floquet multipliers disagree on stability"),
+    "multipliers": ("1", "Floquet multipliers (monodromy with the saltation matrix)"),
+    "map_eigenvalues": ("1", "eigenvalues of the paper's impact-map Jacobian"),
+    "det_full": ("1", "determinant of the Jacobian of Eqs. 29-32"),
+    "tr_full": ("1", "trace of the Jacobian of Eqs. 29-32"),
+    "det_simplified": ("1", "determinant of the Jacobian of Eqs. 35-37"),
+    "tr_simplified": ("1", "trace of the Jacobian of Eqs. 35-37"),
+    "det_true": ("1", "determinant of the exact impact-map Jacobian"),
+    "tr_true": ("1", "trace of the exact impact-map Jacobian"),
+    "nfev": ("1", "Newton iterations (function evaluations) of the fixed point"),
+    # beam
+    "mode_amplitudes": ("m kg0.5", "largest |eta_i| of each mass-normalised modal coordinate"),
+    "mode_contact_amplitudes": ("1", "largest |w_i eta_i| / L of each mode at the contact"),
+    "contact_gap_max": ("1", "largest unclamped contact gap of an event-free step / L (certificate)"),
+    "impact_velocity_m_s": ("m s-1", "mean pre-impact contact velocity"),
+    "steps_per_period": ("1", "solver steps per forcing period"),
+    # assessments and the sensor
+    "peaks_frequency": (None, "frequencies of the largest non-harmonic spectral peaks"),
+    "peaks_displacement": ("mm", "displacement amplitude of the non-harmonic peaks"),
+    "peaks_velocity": ("mm s-1", "velocity amplitude of the non-harmonic peaks"),
+    "peaks_mode": ("1", "nearest mode of the peak (1-based; 0 none)"),
+    "peaks_family": ("1", "family of the peak's mode: 1 free mode, 2 contact mode, 0 none"),
+    "spectrum_velocity": ("mm s-1", "sensor velocity spectrum, max-pooled on spectrum_frequency"),
+    "band_velocity_mm_s": ("mm s-1", "largest line of the sensor velocity in hfc_band"),
+    "band_frequency": (None, "frequency of that line"),
+    "hfc_velocity_mm_s": ("mm s-1", "high-frequency component: mean peak velocity after the impacts"),
+    "hfc_displacement_mm": ("mm", "high-frequency component: mean peak displacement after the impacts"),
+    "hfc_frequency": (None, "dominant frequency of the high-frequency component"),
+    "participation_displacement": ("1", "share of each mode in the sensor displacement (RMS)"),
+    "participation_energy": ("1", "share of each mode in the mean modal energy"),
+    "R_identified": ("1", "CoR identified from the simulated sensor (paper Sec. 5.1)"),
+    "R_identified_std": ("1", "standard deviation of the identified CoR over the picked impacts"),
+    "R_true": ("1", "the model's R at the matched impacts"),
+    "R_sensor_exact": ("1", "-v(t+)/v(t-) of the exact sensor velocity at the impacts"),
+    "identified_velocity_mm_s": ("mm s-1", "mean picked pre-impact sensor velocity U'-"),
+    "true_velocity_mm_s": ("mm s-1", "mean true pre-impact sensor velocity"),
+    "R_n_identified": ("1", "impacts picked from the sensor signal"),
+    "R_n_false": ("1", "picks that match no true impact"),
+    "R_identified_ladder": ("1", "identified CoR at each sensor noise level"),
+    "R_true_ladder": ("1", "model R at the impacts matched at each noise level"),
+    # maps
+    "classification": ("1", "class of the point (flag_values, flag_meanings)"),
+    # coordinates of extra dimensions
+    "record_period": ("1", "recorded forcing period (0 = first)"),
+    "state": ("", "component of the state: q, q'"),
+    "harmonic": ("1", "harmonic order k (frequency k Omega)"),
+    "mode": ("1", "mode number (1 = first)"),
+    "peak": ("1", "rank of the peak (1 = largest)"),
+    "spectrum_frequency": (None, "frequency axis of spectrum_velocity (bin centres)"),
+    "noise_level": ("mm", "standard deviation of the sensor noise"),
+    "multiplier": ("1", "index of the Floquet multiplier"),
+    "eigenvalue": ("1", "index of the eigenvalue"),
+    "time": (None, "time from the start of the stored window"),
+    "displacement": ("mm", "sensor displacement U(L_S)"),
+    "velocity": ("mm s-1", "sensor velocity U'(L_S)"),
+    "point_Omega": ("1", "Omega of the grid point of the time series"),
+    "point": ("1", "index of the point along the line, in visiting order"),
+}
+_SCALED = {"peaks_displacement", "peaks_velocity", "spectrum_velocity", "band_velocity_mm_s",
+           "hfc_velocity_mm_s", "hfc_displacement_mm", "displacement", "velocity"}
+
+# extra dimensions of per-point arrays beyond (direction, Omega): name -> dims of the trailing axes
+EXTRA_DIMS = {
+    "strobe": ("record_period", "state"),
+    "harmonics": ("harmonic",),
+    "mode_amplitudes": ("mode",), "mode_contact_amplitudes": ("mode",),
+    "participation_displacement": ("mode",), "participation_energy": ("mode",),
+    "peaks_frequency": ("peak",), "peaks_displacement": ("peak",), "peaks_velocity": ("peak",),
+    "peaks_mode": ("peak",), "peaks_family": ("peak",),
+    "spectrum_velocity": ("spectrum_frequency",),
+    "R_identified_ladder": ("noise_level",), "R_true_ladder": ("noise_level",),
+    "multipliers": ("multiplier",), "map_eigenvalues": ("eigenvalue",),
+}
+# run attributes that are the coordinate of an extra dimension (stored once, as the coordinate)
+ATTR_COORDS = {"spectrum_frequency": "spectrum_frequency", "noise_level": "noise_ladder_mm"}
+
+# units of the parameters a map may vary (by name, then by suffix)
+PARAMETER_UNITS = {"voltage": "V", "gain": "V-1", "natural_frequency_hz": "Hz", "damping_ratio": "1",
+                   "R": "1", "B": "1", "beta": "1", "Delta": "1", "youngs_modulus_gpa": "GPa",
+                   "density_kg_m3": "kg m-3", "rhoA_kg_m": "kg m-1", "EI_n_m2": "N m2",
+                   "rotary_inertia_kg_m2": "kg m2"}
+_SUFFIX_UNITS = (("_mm", "mm"), ("_hz", "Hz"), ("_kg", "kg"), ("_s", "s"), ("_m", "m"))
+
+
+def parameter_units(name: str) -> str:
+    """UDUNITS string of a model key (``voltage`` V, ``gap_mm`` mm, ``R`` 1, ...)."""
+    if name in PARAMETER_UNITS:
+        return PARAMETER_UNITS[name]
+    for suf, u in _SUFFIX_UNITS:
+        if name.endswith(suf):
+            return u
+    return "1"
+
+
+def describe(name: str, physical: bool = False) -> tuple[str, str]:
+    """``(units, long_name)`` of a per-point output or coordinate.
+
+    Parameters
+    ----------
+    name : str
+        Dataset name (e.g. ``amplitude``, ``peaks_frequency``).
+    physical : bool
+        A physical scene (frequencies in Hz, displacements in mm at the sensor); the
+        spectral outputs of a nondimensional scene are in Omega units and q.
+
+    Names not in :data:`VARIABLES` take :data:`vibeam.sweep.UNITS` (``"unit (text)"``);
+    unknown names get units ``"1"`` and their name as long_name.
+    """
+    if name in VARIABLES:
+        u, ln = VARIABLES[name]
+        if u is None:
+            u = ("s" if name == "time" else "Hz") if physical else "1"
+        elif name in _SCALED and not physical:
+            u = "1"
+        return u, ln
+    from .sweep import UNITS
+
+    text = UNITS.get(name)
+    if text:
+        head, _, rest = text.partition(" (")
+        if rest and " " not in head:
+            return head, rest.rstrip(")")
+        return ("1", text) if " " in head or not rest else (head, text)
+    if name.endswith("_mm"):
+        return "mm", name.replace("_", " ")
+    return "1", name.replace("_", " ")
+
+
+# ============================================================================ the generic writer
+@dataclass
+class Variable:
+    """One netCDF variable: named dimensions, data and attributes.
+
+    Attributes
+    ----------
+    dims : tuple of str
+        One name per axis of ``data`` (``()`` for a scalar).
+    data : ndarray
+        Numbers, complex numbers, booleans (stored as int8 with ``dtype = "bool"``, as xarray
+        encodes them) or strings (UTF-8).
+    attrs : dict
+        ``units`` and ``long_name`` (CF), and any other attribute; dicts are stored as JSON.
+    """
+
+    dims: tuple
+    data: np.ndarray
+    attrs: dict = field(default_factory=dict)
+
+
+def var(dims, data, units: str | None = None, long_name: str | None = None, **attrs) -> Variable:
+    """A :class:`Variable` with ``units`` and ``long_name`` (omitted when None)."""
+    a = {}
+    if units is not None:
+        a["units"] = units
+    if long_name is not None:
+        a["long_name"] = long_name
+    a.update(attrs)
+    return Variable(tuple(dims), np.asarray(data), a)
+
+
+def _attr_value(v):
+    """An attribute value netCDF can hold: bools as int8, dicts (and ragged lists) as JSON."""
+    if isinstance(v, (bool, np.bool_)):
+        return np.int8(bool(v))
+    if isinstance(v, dict):
+        return json.dumps(v, default=_json_default)
+    if isinstance(v, (list, tuple)):
+        try:
+            a = np.asarray(v)
+        except ValueError:
+            return json.dumps(v, default=_json_default)
+        if a.dtype == object:
+            return json.dumps(v, default=_json_default)
+        v = a
+    if isinstance(v, np.ndarray):
+        if v.dtype == bool:
+            return v.astype(np.int8)
+        if v.dtype.kind in "US":
+            return [str(x) for x in v.ravel()]
+        if v.dtype == object:
+            return json.dumps(v.tolist(), default=_json_default)
+    return v
+
+
+def set_attrs(obj, attrs: dict) -> None:
+    """Set attributes on an HDF5 group or dataset (None values skipped; see :func:`_attr_value`)."""
+    for k, v in attrs.items():
+        if v is None:
+            continue
+        v = _attr_value(v)
+        if isinstance(v, list):
+            import h5py
+
+            v = np.array(v, dtype=h5py.string_dtype())
+        obj.attrs[k] = v
+
+
+def _next_dimid(f) -> int:
+    """One more than the largest netCDF dimension id (``_Netcdf4Dimid``) in the file."""
+    ids = [-1]
+
+    def visit(name, obj):
+        if obj.attrs.get("CLASS") == b"DIMENSION_SCALE" and "_Netcdf4Dimid" in obj.attrs:
+            ids.append(int(np.asarray(obj.attrs["_Netcdf4Dimid"]).ravel()[0]))
+
+    f.file.visititems(visit)
+    return max(ids) + 1
+
+
+def _find_scale(g, dim: str, size: int):
+    """The dimension scale ``dim`` of ``size`` in ``g`` or its parents (netCDF scoping), or None."""
+    import h5py
+
+    while True:
+        d = g.get(dim)
+        if isinstance(d, h5py.Dataset) and h5py.h5ds.is_scale(d.id) and d.shape == (size,):
+            return d
+        if g.name == "/":
+            return None
+        g = g.parent
+
+
+class _DimIds:
+    """The next free netCDF dimension id of an open file (found once, then counted)."""
+
+    def __init__(self):
+        self.next = None
+
+    def take(self, g) -> int:
+        if self.next is None:
+            self.next = _next_dimid(g)
+        self.next += 1
+        return self.next - 1
+
+
+def write_group(parent, name: str, variables: dict, attrs: dict | None = None, groups: dict | None = None,
+                _ids: _DimIds | None = None):
+    """Write one netCDF4 group with HDF5 dimension scales (h5py ``make_scale`` / ``attach_scale``).
+
+    Parameters
+    ----------
+    parent : h5py.File or h5py.Group
+        Where the group is created (``name`` may be a path, e.g. ``"runs/exact"``;
+        missing groups on the way are created).
+    name : str
+        Group name or path below ``parent``.
+    variables : dict
+        ``{name: Variable}``.  A 1-D variable named like its dimension is that
+        dimension's coordinate (the dimension scale holds its values); any other
+        dimension is a netCDF dimension without a variable.  Dimensions are declared
+        from the shapes; a dimension of a parent group with the same name and size is
+        reused (netCDF scoping), so a subgroup can share its parent's ``direction``.
+        A variable with ``aux = True`` in its attrs is an auxiliary coordinate: every
+        variable whose dimensions include its dimensions lists it in the CF
+        ``coordinates`` attribute.
+    attrs : dict, optional
+        Group attributes (dicts stored as JSON; their names listed in ``json_attrs``).
+    groups : dict, optional
+        Subgroups ``{name: (variables, attrs)}``, written the same way.
+
+    Returns
+    -------
+    h5py.Group
+
+    Raises
+    ------
+    ValueError
+        If a variable's dims do not match its shape, or two variables give one
+        dimension two sizes.
+
+    Notes
+    -----
+    The netCDF-4 conventions followed (as netCDF-C and h5netcdf write them): a
+    dimension without a variable is a float32 dataset of its length whose scale NAME
+    is ``"This is a netCDF dimension but not a netCDF variable." + "%10d" % size``;
+    every scale has the file-unique ``_Netcdf4Dimid``; every variable lists the ids
+    of its dimensions in ``_Netcdf4Coordinates``.  Strings are variable-length UTF-8;
+    booleans int8 with ``dtype = "bool"`` (decoded by xarray).  h5netcdf writes the
+    same but costs ~13 ms per variable, too slow for a checkpoint of many lines.
+    """
+    ids = _ids or _DimIds()
+    sizes: dict = {}
+    for k, v in variables.items():
+        shape = np.shape(v.data)
+        if len(shape) != len(v.dims):
+            raise ValueError(f"variable {k!r}: dims {v.dims} do not match shape {shape}")
+        for d, n in zip(v.dims, shape):
+            if sizes.setdefault(d, n) != n:
+                raise ValueError(f"dimension {d!r} has sizes {sizes[d]} and {n} (variable {k!r})")
+    g = parent.require_group(name.strip("/")) if name else parent
+    scales, dimid = {}, {}
+    for d, n in sizes.items():
+        coord = variables.get(d)
+        is_coord = coord is not None and coord.dims == (d,)
+        if not is_coord and g.name != "/" and d not in g:
+            sc = _find_scale(g.parent, d, n)
+            if sc is not None:            # the parent's dimension (netCDF scoping)
+                scales[d] = sc
+                dimid[d] = int(np.asarray(sc.attrs["_Netcdf4Dimid"]).ravel()[0])
+                continue
+        if is_coord:
+            sc = _create(g, d, coord)
+            sc.make_scale(d)
+        else:
+            sc = g.create_dataset(d, shape=(n,), dtype=">f4")
+            sc.make_scale(f"{_DIM_ONLY}.{n:10d}")
+        i = ids.take(g)
+        sc.attrs["_Netcdf4Dimid"] = np.int32(i)
+        if is_coord:
+            sc.attrs["_Netcdf4Coordinates"] = np.array([i], np.int32)
+        scales[d], dimid[d] = sc, i
+    aux = [k for k, v in variables.items() if v.attrs.get("aux")]
+    for k, v in variables.items():
+        a = {kk: vv for kk, vv in v.attrs.items() if kk != "aux"}
+        if np.asarray(v.data).dtype == bool:
+            a["dtype"] = "bool"
+        if k in sizes and v.dims == (k,):
+            ds = scales[k]
+        else:
+            ds = _create(g, k, v)
+            for i, d in enumerate(v.dims):
+                ds.dims[i].attach_scale(scales[d])
+            if v.dims:
+                ds.attrs["_Netcdf4Coordinates"] = np.array([dimid[d] for d in v.dims], np.int32)
+            cs = [c for c in aux if c != k and set(variables[c].dims) <= set(v.dims)]
+            if cs:
+                a["coordinates"] = " ".join(cs)
+        set_attrs(ds, a)
+    if attrs:
+        js = [k for k, v in attrs.items() if isinstance(v, dict)]
+        set_attrs(g, dict(attrs, **({"json_attrs": " ".join(js)} if js else {})))
+    for sub, (sv, sa) in (groups or {}).items():
+        write_group(g, sub, sv, sa, _ids=ids)
+    return g
+
+
+def _create(g, name, v: Variable):
+    """The HDF5 dataset of one variable (strings as UTF-8, bools as int8)."""
+    import h5py
+
+    data = np.asarray(v.data)
+    if data.dtype == bool:
+        return g.create_dataset(name, data=data.astype(np.int8))
+    if data.dtype == object or data.dtype.kind in "US":
+        txt = np.array([str(x) for x in data.ravel()], dtype=object).reshape(data.shape)
+        return g.create_dataset(name, data=txt, dtype=h5py.string_dtype())
+    return g.create_dataset(name, data=data)
+
+
+def table_variables(table: dict) -> dict:
+    """Variables of a plain table ``{name: array or Variable}`` (the ``extra`` groups): a
+    Variable is kept; an array gets dims ``<name>_dim<i>`` and units from :func:`describe`."""
+    out = {}
+    for k, v in table.items():
+        if isinstance(v, Variable):
+            out[k] = v
+            continue
+        a = np.asarray(v)
+        u, ln = describe(k)
+        out[k] = var(tuple(f"{k}_dim{i}" for i in range(a.ndim)), a,
+                     None if a.dtype == object or a.dtype.kind in "US" else u, ln)
+    return out
+
+
+def _write_dataset(g, name, v):
+    """One array into the open group ``g`` as a netCDF variable with dimensions ``<name>_dim<i>``
+    and the units of :func:`describe` (the writer of the first layout took plain datasets;
+    new groups should use :func:`write_group` with named dimensions)."""
+    write_group(g, "", table_variables({name: v}))
+
+
+# ============================================================================ runs and maps as variables
+def _physical(data: dict) -> bool:
+    return "frequency_hz" in data
+
+
+def _point_var(name, dims, data, physical) -> Variable:
+    u, ln = describe(name, physical)
+    a = np.asarray(data)
+    text = a.dtype == object or a.dtype.kind in "US"
+    return var(dims, a, None if text or not u else u, ln)
+
+
+def _extra_dims(name, shape, taken: dict) -> tuple:
+    """Names of the trailing axes of a per-point array (:data:`EXTRA_DIMS`), renamed when a
+    dimension of that name already has another size in the group."""
+    base = EXTRA_DIMS.get(name)
+    if base is None or len(base) != len(shape):
+        base = tuple(f"{name}_dim{i}" for i in range(len(shape)))
+    out = []
+    for d, n in zip(base, shape):
+        if taken.setdefault(d, n) != n:
+            d = f"{d}_{name}"
+            taken.setdefault(d, n)
+        out.append(d)
+    return tuple(out)
+
+
+def _extra_coords(taken: dict, attrs: dict, physical: bool) -> dict:
+    """Coordinates of the extra dimensions that have one."""
+    out = {}
+    for d, n in taken.items():
+        if d == "record_period" or d == "harmonic":
+            out[d] = _point_var(d, (d,), np.arange(n), physical)
+        elif d in ("mode", "peak", "multiplier", "eigenvalue"):
+            out[d] = _point_var(d, (d,), np.arange(1, n + 1), physical)
+        elif d == "state" and n == 2:
+            out[d] = _point_var(d, (d,), np.array(["q", "q'"], dtype=object), physical)
+        elif d in ATTR_COORDS and ATTR_COORDS[d] in attrs and np.size(attrs[ATTR_COORDS[d]]) == n:
+            out[d] = _point_var(d, (d,), np.asarray(attrs[ATTR_COORDS[d]], float), physical)
+    return out
+
+
+def _grid_order(d: dict):
+    """Per direction, the indices of its points along the increasing grid, or None when the
+    directions do not share one grid (then the flat point layout is written)."""
+    direc = np.asarray([str(x) for x in d["direction"]])
+    dirs = list(dict.fromkeys(direc.tolist()))
+    om = np.asarray(d["Omega"], float)
+    idx = {}
+    for k in dirs:
+        i = np.flatnonzero(direc == k)
+        idx[k] = i[::-1] if k == "down" else i
+    grid = om[idx[dirs[0]]]
+    if np.any(np.diff(grid) < 0) or any(not np.array_equal(om[i], grid) for i in idx.values()):
+        return None, dirs
+    return idx, dirs
+
+
+def run_variables(data: dict, attrs: dict | None = None) -> tuple[dict, dict]:
+    """The variables (and time-series subgroups) of one run, laid out on (direction, Omega).
+
+    Parameters
+    ----------
+    data : dict
+        Per-point arrays in visiting order (:attr:`vibeam.sweep.SweepResult.data`).
+    attrs : dict, optional
+        Run attributes (the spectrum and noise axes become coordinates).
+
+    Returns
+    -------
+    (variables, groups)
+        For :func:`write_group`.  If the directions' points are not on one increasing grid
+        (never for a sweep of :mod:`vibeam.sweep`), the flat layout along ``point`` is
+        returned instead, with ``direction`` and ``Omega`` per point.
+    """
+    attrs = attrs or {}
+    phys = _physical(data)
+    idx, dirs = _grid_order(data) if "direction" in data and len(data.get("Omega", ())) else (None, [])
+    taken: dict = {}
+    out: dict = {}
+    groups: dict = {}
+    if idx is None:
+        for k, v in data.items():
+            if "/" in k:
+                continue
+            a = np.asarray(v)
+            out[k] = _point_var(k, ("point",) + _extra_dims(k, a.shape[1:], taken), a, phys)
+        out.update(_extra_coords(taken, attrs, phys))
+        return out, groups
+    order = np.concatenate([idx[k] for k in dirs])
+    n_d, n_f = len(dirs), len(idx[dirs[0]])
+    out["direction"] = _point_var("direction", ("direction",), np.array(dirs, dtype=object), phys)
+    out["Omega"] = _point_var("Omega", ("Omega",), np.asarray(data["Omega"], float)[idx[dirs[0]]], phys)
+    if "frequency_hz" in data:
+        f = np.asarray(data["frequency_hz"], float)
+        if all(np.array_equal(f[i], f[idx[dirs[0]]]) for i in idx.values()):
+            v = _point_var("frequency_hz", ("Omega",), f[idx[dirs[0]]], phys)
+            v.attrs["aux"] = True
+            out["frequency_hz"] = v
+    for k, v in data.items():
+        if k in out or "/" in k:
+            continue
+        a = np.asarray(v)
+        a = a[order].reshape((n_d, n_f) + a.shape[1:])
+        out[k] = _point_var(k, ("direction", "Omega") + _extra_dims(k, a.shape[2:], taken), a, phys)
+    out.update(_extra_coords(taken, attrs, phys))
+    ts = sorted({k.split("/")[1] for k in data if k.startswith("time_series/") and k.count("/") == 2})
+    for label in ts:
+        groups[f"time_series/{label}"] = (_time_series_variables(data, label, dirs, phys), {"label": label})
+    return out, groups
+
+
+def _time_series_variables(data, label, dirs, phys) -> dict:
+    series = {d: np.asarray(data[f"time_series/{label}/{d}"], float) for d in dirs
+              if f"time_series/{label}/{d}" in data}
+    m = max(a.shape[0] for a in series.values())
+    disp = np.full((len(dirs), m), np.nan)
+    vel = np.full((len(dirs), m), np.nan)
+    om = np.full(len(dirs), np.nan)
+    t = None
+    same = True
+    for i, d in enumerate(dirs):
+        if d not in series:
+            continue
+        a = series[d]
+        disp[i, :a.shape[0]] = a[:, 1]
+        vel[i, :a.shape[0]] = a[:, 2]
+        om[i] = float(data[f"time_series/{label}/{d}_Omega"])
+        if t is None:
+            t = np.full(m, np.nan)
+            t[:a.shape[0]] = a[:, 0]
+        elif not np.array_equal(t[:a.shape[0]], a[:, 0]):
+            same = False
+    out = {}
+    if same:
+        out["time"] = _point_var("time", ("time",), t, phys)
+    else:
+        tt = np.full((len(dirs), m), np.nan)
+        for i, d in enumerate(dirs):
+            if d in series:
+                tt[i, :series[d].shape[0]] = series[d][:, 0]
+        out["t"] = _point_var("time", ("direction", "time"), tt, phys)
+    out["displacement"] = _point_var("displacement", ("direction", "time"), disp, phys)
+    out["velocity"] = _point_var("velocity", ("direction", "time"), vel, phys)
+    out["point_Omega"] = _point_var("point_Omega", ("direction",), om, phys)
+    if not phys:
+        out["displacement"].attrs["long_name"] = "displacement q"
+        out["velocity"].attrs["long_name"] = "velocity q'"
+    return out
+
+
+def map_variables(m) -> dict:
+    """The variables of a parameter map (:class:`vibeam.maps.MapResult`), on
+    (direction, <parameter>, Omega) -- or (direction, <parameter>, frequency_hz) when Omega
+    differs between the values (a mapped parameter that changes f_n)."""
+    d = m.data
+    phys = _physical(d)
+    par = m.parameter
+    dirs = [str(x) for x in d["direction"]]
+    vals = np.asarray(d["values"], float)
+    om = np.asarray(d["Omega"], float)
+    out = {"direction": _point_var("direction", ("direction",), np.array(dirs, dtype=object), phys)}
+    out[par] = var((par,), vals, parameter_units(par), f"mapped parameter {par}")
+    same_om = bool(np.all(om == om[:1, :1, :]))
+    fq = np.asarray(d["frequency_hz"], float) if "frequency_hz" in d else None
+    same_f = fq is not None and bool(np.all(fq == fq[:1, :1, :]))
+    if same_om:
+        fdim = "Omega"
+        out["Omega"] = _point_var("Omega", ("Omega",), om[0, 0], phys)
+        if fq is not None:
+            if same_f:
+                out["frequency_hz"] = _point_var("frequency_hz", ("Omega",), fq[0, 0], phys)
+            else:
+                out["frequency_hz"] = _point_var("frequency_hz", (par, "Omega"), fq[0], phys)
+            out["frequency_hz"].attrs["aux"] = True
+    elif same_f:
+        fdim = "frequency_hz"
+        out["frequency_hz"] = _point_var("frequency_hz", ("frequency_hz",), fq[0, 0], phys)
+        out["Omega"] = _point_var("Omega", (par, "frequency_hz"), om[0], phys)
+        out["Omega"].attrs["aux"] = True
+    else:
+        fdim = "frequency"
+        out["Omega"] = _point_var("Omega", (par, "frequency"), om[0], phys)
+        out["Omega"].attrs["aux"] = True
+        if fq is not None:
+            out["frequency_hz"] = _point_var("frequency_hz", (par, "frequency"), fq[0], phys)
+            out["frequency_hz"].attrs["aux"] = True
+    taken: dict = {}
+    for k, v in d.items():
+        if k in ("values", "direction", "Omega", "frequency_hz"):
+            continue
+        a = np.asarray(v)
+        name = k if k not in out else f"{k}_at_point"
+        x = _point_var(k, ("direction", par, fdim) + _extra_dims(k, a.shape[3:], taken), a, phys)
+        if name != k:
+            x.attrs["vibeam_name"] = k
+        if k == "classification":
+            from .maps import CLASSES
+
+            x.attrs["flag_values"] = np.arange(len(CLASSES), dtype=np.int8)
+            x.attrs["flag_meanings"] = " ".join(CLASSES[i].split(" (")[0].replace(" ", "_").replace("-", "_")
+                                                for i in range(len(CLASSES)))
+        out[name] = x
+    out.update(_extra_coords(taken, m.attrs, phys))
+    return out
+
+
+def line_variables(data: dict) -> dict:
+    """The checkpoint of one sweep line: per-point arrays along ``point`` (visiting order)."""
+    taken: dict = {}
+    phys = _physical(data)
+    return {k: _point_var(k, ("point",) + _extra_dims(k, np.shape(v)[1:], taken), v, phys)
+            for k, v in data.items()}
+
+
+# ============================================================================ files
 def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
-    """Write ``path`` through a temporary file: ``fill(h5file)`` then :func:`os.replace`."""
+    """Write ``path`` through a temporary file: ``fill(file)`` on an :class:`h5py.File`,
+    then :func:`os.replace` (with ``copy_from``, the file is copied first and appended to)."""
     import shutil
+
+    import h5py
 
     path.parent.mkdir(parents=True, exist_ok=True)
     try:
@@ -94,12 +768,9 @@ def _signals_deferred():
 
 
 def _root_attrs(f, case_name, case_text, case_json="", complete=True):
-    f.attrs["vibeam_version"] = __version__
-    f.attrs["case_name"] = case_name
-    f.attrs["case_text"] = case_text
-    f.attrs["case_json"] = case_json
-    f.attrs["created"] = datetime.now(timezone.utc).isoformat()
-    f.attrs["complete"] = complete
+    set_attrs(f, {"Conventions": "CF-1.10", "vibeam_version": __version__, "vibeam_layout": LAYOUT_VERSION,
+                  "case_name": case_name, "case_text": case_text, "case_json": case_json,
+                  "created": datetime.now(timezone.utc).isoformat(), "complete": bool(complete)})
 
 
 def case_hash(case_json: str) -> str:
@@ -122,7 +793,7 @@ def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", ca
     Parameters
     ----------
     path : str or Path
-        Results file; created (marked ``complete = False``) if missing.
+        Results file; created (marked ``complete = 0``) if missing.
     lines : dict
         ``{"<run>/<line key>": {dataset: array of length n_points}}``.
     case_name, case_text, case_json : str
@@ -147,15 +818,12 @@ def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", ca
         elif str(f.attrs.get("case_json", "")) != case_json:
             raise ForeignFileError(f"{path} now holds the results of another case "
                                    f"({f.attrs.get('case_name', '?')!s}): another process wrote it")
-        f.attrs["complete"] = False
-        g = f.require_group("lines")
+        f.attrs["complete"] = np.int8(0)
+        ids = _DimIds()
         for key, data in lines.items():
-            if key in g:
-                del g[key]
-            gl = g.create_group(key)
-            gl.attrs["case_hash"] = ident
-            for k, v in data.items():
-                _write_dataset(gl, k, v)
+            if f"lines/{key}" in f:
+                del f[f"lines/{key}"]
+            write_group(f, f"lines/{key}", line_variables(data), {"case_hash": ident}, _ids=ids)
 
     return _atomic(path, fill, copy_from=path if path.exists() else None)
 
@@ -165,47 +833,51 @@ def read_lines(path, case_json: str | None = None) -> tuple[dict, dict]:
 
     With ``case_json``, only the lines whose ``case_hash`` attribute is that of
     ``case_json`` (:func:`case_hash`) are returned: a line of another case, or
-    one without the attribute, is never kept.
+    one without the attribute, is never kept.  A complete file has no lines
+    (they were compacted into ``/runs`` and ``/maps``).
     """
+    import h5py
+
     out = {}
     ident = None if case_json is None else case_hash(case_json)
     with h5py.File(path, "r") as f:
-        attrs = dict(f.attrs)
+        attrs = _attrs(f)
         for run, g in f.get("lines", {}).items():
-            got = {key: _read_group(gl) for key, gl in g.items()
+            got = {key: _read_plain(gl) for key, gl in g.items()
                    if ident is None or str(gl.attrs.get("case_hash", "")) == ident}
             if got:
                 out[run] = got
     return attrs, out
 
 
-def write_results(path, runs: list[SweepResult], case_name: str = "", case_text: str = "",
+def write_results(path, runs: list, case_name: str = "", case_text: str = "",
                   extra: dict | None = None, maps: list | None = None, lines: dict | None = None,
                   case_json: str = "", branches: list | None = None, extra_attrs: dict | None = None) -> Path:
-    """Write all runs to ``path`` atomically.
+    """Write all runs to ``path`` atomically (the layout of the module docstring).
 
     Parameters
     ----------
     path : str or Path
-        Target HDF5 file; its folder is created if needed.
-    runs : list of SweepResult
-        Completed runs.
+        Target HDF5 (netCDF4) file; its folder is created if needed.
+    runs : list of vibeam.sweep.SweepResult
+        Completed runs, written to ``/runs/<name>`` (:func:`run_variables`).
     case_name, case_text : str
         Stored as root attributes (the case text makes the file reproducible).
     extra : dict, optional
-        Additional groups: ``{group_path: {dataset: array}}`` (e.g. tables of
-        ``vibeam cost``).
+        Additional groups: ``{group_path: {name: array or Variable}}`` (e.g. the table
+        of ``vibeam cost``; :func:`table_variables`).
     maps : list of vibeam.maps.MapResult, optional
-        Parameter maps, written to ``/maps/<name>``.
+        Parameter maps, written to ``/maps/<name>`` (:func:`map_variables`).
     lines : dict, optional
-        The checkpoint ``{"<run>/<line key>": {dataset: array}}`` kept in ``/lines``.
+        A checkpoint ``{"<run>/<line key>": {dataset: array}}`` to keep in ``/lines``
+        (a finished run passes none: its lines are compacted into ``/runs``).
     case_json : str
         The validated case (as run, e.g. its quick variant) as JSON; ``--resume``
         only continues a file whose ``case_json`` matches.
     branches : list of vibeam.branches.ContinuationResult, optional
         Continuation runs, written to ``/branches/<run>/`` (:func:`vibeam.branches.write_branches`).
     extra_attrs : dict, optional
-        Attributes set last on groups or datasets of the file, ``{path: {name: value}}``
+        Attributes set last on groups or variables of the file, ``{path: {name: value}}``
         (e.g. ``{"fit/residuals": {"units": "mm"}}``); a missing path becomes a group.
 
     Returns
@@ -215,30 +887,24 @@ def write_results(path, runs: list[SweepResult], case_name: str = "", case_text:
     """
     def fill(f):
         _root_attrs(f, case_name, case_text, case_json, complete=True)
+        ids = _DimIds()
         f.create_group("runs")
-        for kind, r in [("runs", r) for r in runs] + [("maps", m) for m in (maps or [])]:
-            g = f.require_group(kind).create_group(r.name)
-            g.attrs["fidelity"] = r.fidelity
-            g.attrs["method"] = r.method
-            g.attrs["settings"] = json.dumps(r.settings, default=_json_default)
-            g.attrs["wall_time_s"] = r.wall_time_s
-            for k, v in r.attrs.items():
-                g.attrs[k] = v if not isinstance(v, dict) else json.dumps(v, default=_json_default)
-            for k, v in r.data.items():
-                _write_dataset(g, k, v)
-        for gpath, table in list((extra or {}).items()) + [(f"lines/{k}", v) for k, v in (lines or {}).items()]:
-            g = f.require_group(gpath)
-            if gpath.startswith("lines/"):
-                g.attrs["case_hash"] = case_hash(case_json)
-            for k, v in table.items():
-                _write_dataset(g, k, v)
+        for r in runs:
+            v, groups = run_variables(r.data, r.attrs)
+            write_group(f, f"runs/{r.name}", v, _group_attrs(r), groups, _ids=ids)
+        for m in maps or []:
+            write_group(f, f"maps/{m.name}", map_variables(m), _group_attrs(m, parameter=m.parameter), _ids=ids)
+        for gpath, table in (extra or {}).items():
+            write_group(f, gpath, table_variables(table), _ids=ids)
+        for key, data in (lines or {}).items():
+            write_group(f, f"lines/{key}", line_variables(data), {"case_hash": case_hash(case_json)}, _ids=ids)
         if branches:
             from .branches import write_branches
+
             write_branches(f, branches)
-        for apath, attrs in (extra_attrs or {}).items():
+        for apath, a in (extra_attrs or {}).items():
             obj = f[apath] if apath in f else f.require_group(apath)
-            for k, v in attrs.items():
-                obj.attrs[k] = v if not isinstance(v, dict) else json.dumps(v, default=_json_default)
+            set_attrs(obj, a)
 
     return _atomic(Path(path), fill)
 
@@ -255,48 +921,313 @@ def replace_branches(path, branches: list) -> Path:
     return _atomic(Path(path), fill, copy_from=Path(path))
 
 
-def _write_dataset(g, name, v):
-    v = np.asarray(v)
-    if v.dtype == object or v.dtype.kind in "US":
-        d = g.create_dataset(name, data=np.array([str(x) for x in v.ravel()], dtype=h5py.string_dtype())
-                             .reshape(v.shape))
-    else:
-        d = g.create_dataset(name, data=v)
-    if name in UNITS:
-        d.attrs["units"] = UNITS[name]
+def _group_attrs(r, **more) -> dict:
+    a = {"fidelity": r.fidelity, "method": r.method, "settings": json.dumps(r.settings, default=_json_default),
+         "wall_time_s": r.wall_time_s}
+    for k, v in r.attrs.items():
+        if k in ATTR_COORDS.values():
+            continue                       # stored once, as the coordinate of its dimension
+        a[k] = v
+    a.update(more)
+    return a
+
+
+# ============================================================================ reading
+def _attrs(obj) -> dict:
+    """Attributes as Python values (netCDF bookkeeping left out)."""
+    out = {}
+    for k, v in obj.attrs.items():
+        if k in ("_NCProperties", "DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME", "_Netcdf4Dimid",
+                 "_Netcdf4Coordinates"):
+            continue
+        if isinstance(v, bytes):
+            v = v.decode()
+        if isinstance(v, np.ndarray) and v.shape == (1,) and v.dtype.kind in "biuf":
+            v = v[0]                       # netCDF stores a scalar attribute as a 1-element array
+        out[k] = v
+    return out
+
+
+def layout_of(path) -> int:
+    """``vibeam_layout`` of a results file: 2 (netCDF dimensions) or 1 (the first, flat layout)."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return int(_attrs(f).get("vibeam_layout", 1))
 
 
 def read_results(path) -> dict:
-    """Read a results file into ``{"attrs": {...}, "runs": {name: {"attrs": {...}, dataset: array}},
-    "maps": {name: {...}}, "branches": {run: {"attrs": ..., branch: {...}, "bifurcations": {...}}}}``
-    (the checkpoint ``/lines`` is read by :func:`read_lines`).
+    """Read a results file into the flat per-point table of every run and map.
 
-    String datasets come back as arrays of Python ``str``; subgroups of a run (time
-    series) as nested dicts.
+    Returns
+    -------
+    dict
+        ``{"attrs": {...}, "runs": {name: {"attrs": {...}, dataset: array}},
+        "maps": {name: {...}}}``.  Run datasets are 1-D per point (plus trailing axes),
+        in visiting order (the up sweep in increasing Omega, then the down sweep in
+        decreasing Omega), with ``direction`` and ``Omega`` (and ``frequency_hz``) per
+        point; map datasets have shape (n_directions, n_values, n_frequencies, ...)
+        with ``values`` and ``direction``; time series as
+        ``run["time_series"][label][direction]`` (m, 3: time, displacement, velocity).
+        Strings come back as arrays of ``str``, flags as ``bool``.  The checkpoint
+        ``/lines`` is read by :func:`read_lines`.  Files of the first layout
+        (no dimensions) are read as well.
     """
+    import h5py
+
     out = {"attrs": {}, "runs": {}, "maps": {}, "branches": {}}
     with h5py.File(path, "r") as f:
-        out["attrs"] = dict(f.attrs)
+        out["attrs"] = _attrs(f)
+        v2 = int(out["attrs"].get("vibeam_layout", 1)) >= 2
         for kind in ("runs", "maps", "branches"):
             for name, g in f.get(kind, {}).items():
-                run = _read_group(g, attrs=kind == "branches")
-                run["attrs"] = dict(g.attrs)
+                if kind == "branches":
+                    from .branches import read_branch_group
+
+                    run = read_branch_group(g)
+                elif not v2:
+                    run = _read_plain(g)
+                elif kind == "runs":
+                    run = _flat_run(g)
+                else:
+                    run = _flat_map(g)
+                run["attrs"] = dict(_attrs(g), **run.pop("_coord_attrs", {}))
                 out[kind][name] = run
     return out
 
 
-def _read_group(g, attrs: bool = False) -> dict:
-    """Datasets of a group; subgroups (e.g. ``time_series/<f>/<direction>``) as nested dicts
-    (with ``attrs``: each subgroup's attributes under ``"attrs"``, as for ``/branches``)."""
+def _is_dim_only(d) -> bool:
+    n = d.attrs.get("NAME")
+    if isinstance(n, bytes):
+        n = n.decode(errors="replace")
+    return isinstance(n, str) and n.startswith(_DIM_ONLY)
+
+
+def _value(d):
+    """A dataset's values: strings as ``str``, int8 flags written from bools as ``bool``."""
+    import h5py
+
+    if d.dtype.kind == "O" or h5py.check_string_dtype(d.dtype):
+        return d.asstr()[()]
+    v = d[()]
+    if str(d.attrs.get("dtype", "")) == "bool":
+        v = np.asarray(v).astype(bool)
+    return v
+
+
+def _read_plain(g, attrs: bool = False) -> dict:
+    """Datasets of a group as they are; subgroups (e.g. ``time_series/<f>/<direction>``) as
+    nested dicts (with ``attrs``: each subgroup's attributes under ``"attrs"``, as for
+    ``/branches``); netCDF dimension-only datasets left out."""
+    import h5py
+
     out = {}
     for k, d in g.items():
         if isinstance(d, h5py.Dataset):
-            if d.dtype.kind == "O" or h5py.check_string_dtype(d.dtype):
-                out[k] = d.asstr()[()]
-            else:
-                out[k] = d[()]
+            if not _is_dim_only(d):
+                out[k] = _value(d)
         elif isinstance(d, h5py.Group):
-            out[k] = _read_group(d, attrs)
+            out[k] = _read_plain(d, attrs)
             if attrs:
-                out[k]["attrs"] = dict(d.attrs)
+                out[k]["attrs"] = _attrs(d)
     return out
+
+
+def _dim_names(g) -> dict:
+    """netCDF dimension id -> name of the dimension scales visible in ``g`` (own and parents')."""
+    import h5py
+
+    out = {}
+    chain = [g]
+    while chain[-1].name != "/":
+        chain.append(chain[-1].parent)
+    for grp in reversed(chain):          # inner groups shadow outer ones
+        for k, d in grp.items():
+            if isinstance(d, h5py.Dataset) and "_Netcdf4Dimid" in d.attrs and d.attrs.get("CLASS") == b"DIMENSION_SCALE":
+                out[int(np.asarray(d.attrs["_Netcdf4Dimid"]).ravel()[0])] = k
+    return out
+
+
+def _dims(d, names: dict | None = None) -> tuple:
+    """Dimension names of a dataset: from ``_Netcdf4Coordinates`` and the scales' ids
+    (``names``: :func:`_dim_names` of its group), else from the attached scales."""
+    if names is not None and "_Netcdf4Coordinates" in d.attrs:
+        try:
+            return tuple(names[int(i)] for i in np.asarray(d.attrs["_Netcdf4Coordinates"]).ravel())
+        except KeyError:
+            pass
+    return tuple(dim[0].name.rsplit("/", 1)[-1] if len(dim) else "" for dim in d.dims)
+
+
+def _flat_run(g) -> dict:
+    """A run group of layout 2 back to the flat per-point table (visiting order)."""
+    import h5py
+
+    vals = {k: d for k, d in g.items() if isinstance(d, h5py.Dataset) and not _is_dim_only(d)}
+    names = _dim_names(g)
+    dims = {k: _dims(d, names) for k, d in vals.items()}
+    out = {}
+    if "direction" in vals and dims["direction"] == ("point",):
+        for k, d in vals.items():
+            if dims[k][:1] == ("point",):
+                out[str(d.attrs.get("vibeam_name", k))] = _value(d)
+        _restore_coords(out, vals, dims)
+        return out
+    dirs = [str(x) for x in _value(vals["direction"])]
+    n_f = vals["Omega"].shape[0]
+    # visiting order: up along the grid, down against it
+    flip = [d == "down" for d in dirs]
+
+    def flat(a):
+        parts = [a[i][::-1] if flip[i] else a[i] for i in range(len(dirs))]
+        return np.concatenate(parts) if parts else a.reshape((0,) + a.shape[2:])
+
+    for k, d in vals.items():
+        if dims[k][:2] == ("direction", "Omega"):
+            out[str(d.attrs.get("vibeam_name", k))] = flat(_value(d))
+    om = _value(vals["Omega"])
+    out["Omega"] = flat(np.broadcast_to(om, (len(dirs), n_f)))
+    out["direction"] = flat(np.broadcast_to(np.array(dirs, dtype=object)[:, None], (len(dirs), n_f)))
+    if "frequency_hz" in vals and dims["frequency_hz"] == ("Omega",):
+        out["frequency_hz"] = flat(np.broadcast_to(_value(vals["frequency_hz"]), (len(dirs), n_f)))
+    if "time_series" in g:
+        ts = {}
+        for label, gl in g["time_series"].items():
+            t = _value(gl["time"]) if "time" in gl and not _is_dim_only(gl["time"]) else None
+            disp, vel, om_p = _value(gl["displacement"]), _value(gl["velocity"]), _value(gl["point_Omega"])
+            tt = _value(gl["t"]) if "t" in gl else None
+            item = {}
+            for i, dname in enumerate(dirs):
+                x = disp[i]
+                keep = np.isfinite(x)
+                if not keep.any():
+                    continue
+                n = int(np.flatnonzero(keep)[-1]) + 1
+                ti = (t if tt is None else tt[i])[:n]
+                item[dname] = np.column_stack([ti, x[:n], vel[i][:n]])
+                item[dname + "_Omega"] = np.float64(om_p[i])
+            ts[label] = item
+        out["time_series"] = ts
+    _restore_coords(out, vals, dims)
+    return out
+
+
+def _restore_coords(out: dict, vals: dict, dims: dict) -> None:
+    """Coordinates that were run attributes (spectrum and noise axes) back into ``attrs``
+    of the run dict (``out["_coord_attrs"]``, merged by the readers)."""
+    extra = {}
+    for dim, attr in ATTR_COORDS.items():
+        if dim in vals and dims.get(dim) == (dim,):
+            extra[attr] = np.asarray(_value(vals[dim]), float)
+        out.pop(dim, None)
+    for dim in ("record_period", "state", "harmonic", "mode", "peak", "multiplier", "eigenvalue", "point"):
+        out.pop(dim, None)
+    if extra:
+        out["_coord_attrs"] = extra
+
+
+def _flat_map(g) -> dict:
+    """A map group of layout 2 back to the arrays (direction, value, frequency, ...)."""
+    import h5py
+
+    par = str(g.attrs.get("parameter", "value"))
+    vals = {k: d for k, d in g.items() if isinstance(d, h5py.Dataset) and not _is_dim_only(d)}
+    names = _dim_names(g)
+    dims = {k: _dims(d, names) for k, d in vals.items()}
+    dirs = [str(x) for x in _value(vals["direction"])]
+    values = np.asarray(_value(vals[par]), float)
+    out = {"values": values, "direction": np.array(dirs, dtype=object)}
+    per = [k for k in vals if dims[k][:2] == ("direction", par)]
+    if not per:
+        return out
+    n_f = vals[per[0]].shape[2]
+    shape = (len(dirs), len(values), n_f)
+    for k in per:
+        out[str(vals[k].attrs.get("vibeam_name", k))] = _value(vals[k])
+    for k in ("Omega", "frequency_hz"):
+        if k in vals:
+            a = np.asarray(_value(vals[k]), float)
+            out[k] = np.broadcast_to(a if a.ndim == 2 else a[None, :], shape[1:])[None].repeat(len(dirs), 0)
+    _restore_coords(out, vals, dims)
+    return out
+
+
+# ============================================================================ results objects back
+def load_results(path) -> tuple[list, list, dict]:
+    """The runs and maps of a results file as :class:`vibeam.sweep.SweepResult` and
+    :class:`vibeam.maps.MapResult` (as a run returned them), and the root attributes.
+
+    Dict attributes stored as JSON (``json_attrs``) and the spectrum and noise axes
+    (stored as coordinates) are restored, so plots and tables work on them as on a
+    fresh run.
+    """
+    from .maps import MapResult
+    from .sweep import SweepResult
+
+    res = read_results(path)
+    order = _run_order(res["attrs"])
+    for kind in ("runs", "maps"):             # the case's order (HDF5 lists groups by name)
+        res[kind] = dict(sorted(res[kind].items(), key=lambda kv: order.get(kv[0], len(order))))
+    runs, maps = [], []
+    for kind, items in (("runs", res["runs"]), ("maps", res["maps"])):
+        for name, d in items.items():
+            d = dict(d)
+            a = _decode_attrs(d.pop("attrs"))
+            ts = d.pop("time_series", {})
+            for label, item in ts.items():
+                for k, v in item.items():
+                    d[f"time_series/{label}/{k}"] = v
+            common = dict(name=name, fidelity=str(a.pop("fidelity", "")), method=str(a.pop("method", "")),
+                          settings=json.loads(a.pop("settings", "{}") or "{}"),
+                          wall_time_s=float(a.pop("wall_time_s", 0.0)), data=d)
+            if kind == "runs":
+                runs.append(SweepResult(attrs=a, **common))
+            else:
+                maps.append(MapResult(parameter=str(a.get("parameter", "value")), attrs=a, **common))
+    return runs, maps, res["attrs"]
+
+
+def _run_order(attrs: dict) -> dict:
+    """Run name -> position in the case of a results file (empty if its text does not parse)."""
+    import tomllib
+
+    try:
+        runs = tomllib.loads(str(attrs.get("case_text", ""))).get("run", [])
+        return {r["name"]: i for i, r in enumerate(runs)}
+    except Exception:
+        return {}
+
+
+def _decode_attrs(a: dict) -> dict:
+    a = dict(a)
+    for k in str(a.pop("json_attrs", "")).split():
+        if k in a:
+            try:
+                a[k] = json.loads(a[k])
+            except (TypeError, ValueError):
+                pass
+    for k, v in list(a.items()):
+        if isinstance(v, np.generic):
+            a[k] = v.item()
+    return a
+
+
+def open_results(path):
+    """A results file as labelled data: one :class:`xarray.DataTree` of every group.
+
+    ``tree["runs/exact"]`` is a run on (direction, Omega), ``tree["maps/<run>"]`` a map,
+    ``tree["runs/exact"].to_dataset()`` an :class:`xarray.Dataset`.  A file of the first
+    layout (before ``vibeam_layout = 2``) has no dimensions: convert it by reading it
+    (:func:`load_results`) and writing it again (:func:`write_results`).
+
+    Raises
+    ------
+    ValueError
+        If the file is of the first layout.
+    """
+    import xarray as xr
+
+    if layout_of(path) < LAYOUT_VERSION:
+        raise ValueError(f"{path}: a results file of the first layout (no dimensions); rewrite it with "
+                         f"vibeam.results.load_results and write_results")
+    return xr.open_datatree(path, engine="h5netcdf")

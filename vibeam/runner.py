@@ -354,6 +354,10 @@ def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, e
         if attrs.get("case_json") != case_json:
             raise InputError(f"--resume: {h5} was written by another case or variant; run without "
                              f"--resume to start afresh, or use another --out")
+        if attrs.get("complete") and not stored:
+            if tasks:              # continuation runs are not checkpointed: computed again, sweeps kept
+                _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quiet, plots, executor)
+            return _finished(case, h5, out_dir, plots)
     t_all = time.perf_counter()
     all_lines = [(job, l) for job in jobs_ for l in _lines(job)]
     task_rows: dict = {}
@@ -393,30 +397,142 @@ def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, e
         data = stack(rows, sweep_of[(line.run, line.key)])
         line_data[f"{line.run}/{line.key}"] = data
         buffer[f"{line.run}/{line.key}"] = data
-        if time.perf_counter() - last_flush[0] >= checkpoint_interval_s:
+        # the last line is checkpointed right after the sweeps (below), not inside the run time
+        if time.perf_counter() - last_flush[0] >= checkpoint_interval_s and len(line_data) < len(all_lines):
             flush()
 
+    timing = {"kernel_load_s": 0.0, "pool_startup_s": 0.0, "executor": "inline"}
     try:
-        run_lines(todo + tasks, executor=executor, jobs=jobs, on_line=on_line, progress=not quiet,
-                  desc=case.name)
+        if todo and executor is None:
+            # numba kernels loaded (or compiled) once, here: a forked worker inherits them
+            timing["kernel_load_s"] = load_kernels(todo)
+        n_workers, why = plan_execution(case, jobs_, todo, jobs, executor) if not tasks else (jobs, "")
+        t_run = last_flush[0] = time.perf_counter()
+        run_lines(todo + tasks, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet,
+                  desc=case.name, stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
+        timing["run_s"] = time.perf_counter() - t_run
+        timing["why"] = why
     finally:
         flush()              # on an interrupt too: every finished line is kept
 
     rows_of = {k: unstack(v) for k, v in line_data.items()}
     runs, maps = _assemble(case, jobs_, rows_of)
     conts = _assemble_continuation(tasks, task_rows)
-    write_results(h5, runs, case.name, text, maps=maps, lines=line_data, case_json=case_json,
-                  branches=conts)
+    # the checkpoint lines are compacted: the finished file holds every point once (/runs, /maps)
+    t_w = time.perf_counter()
+    write_results(h5, runs, case.name, text, maps=maps, case_json=case_json, branches=conts)
+    timing["write_s"] = time.perf_counter() - t_w
+    n_done = sum(l.n_points for l in todo)
     print(f"\ncase {case.name}: {len(runs) + len(maps) + len(conts)} run(s) in "
           f"{time.perf_counter() - t_all:.2f} s -> {h5}")
+    if todo:
+        run_s = timing["run_s"]
+        print(f"run time {run_s:.3f} s for {n_done} points{' and the continuation runs' if tasks else ''}: "
+              f"{1e3 * run_s / max(n_done, 1):.3g} ms per point "
+              f"({timing['executor']}{': ' + timing['why'] if timing.get('why') else ''}; "
+              f"pool start-up {timing['pool_startup_s']:.3f} s)\n"
+              f"not in the run time: kernel load {timing['kernel_load_s']:.3f} s (numba cache or compilation, "
+              f"once per process), results written in {timing['write_s']:.3f} s")
+    _report(case, runs, maps, out_dir, plots, conts)
+    for r in list(runs) + list(maps):
+        r.attrs.setdefault("_timing", timing)
+    return maps if case.map else runs
+
+
+def _report(case, runs, maps, out_dir, plots, conts=()) -> None:
+    """The tables (and the plots) of finished runs, maps and continuation runs."""
     if runs:
         _print_table(runs)
+    from .maps import class_agreement, print_map
+
+    for m in maps:
+        print_map(m)
+    for m in maps[1:]:
+        same = class_agreement(maps[0], m)
+        if same is not None:
+            print(f"  {m.name} vs {maps[0].name}: classes differ at {int((~same).sum())} of {same.size} points")
     if conts:
         from .branches import print_results
+
         print_results(conts)
     if plots:
         _plots(case, runs, maps, out_dir, conts)
+
+
+def _finished(case, h5, out_dir, plots):
+    """``--resume`` of a complete file: nothing is recomputed; its runs are read back."""
+    from .results import load_results
+
+    runs, maps, _ = load_results(h5)
+    order = {r.name: i for i, r in enumerate(case.run)}
+    runs.sort(key=lambda r: order.get(r.name, len(order)))
+    maps.sort(key=lambda m: order.get(m.name, len(order)))
+    print(f"[{case.name}] {h5} is complete; resuming recomputes nothing", file=sys.stderr)
+    print(f"\ncase {case.name}: {len(runs) + len(maps)} run(s) read from {h5}")
+    _report(case, runs, maps, out_dir, plots)
     return maps if case.map else runs
+
+
+# ----------------------------------------------------------------------------- execution
+STEP_SECONDS = 1.1e-7
+"""Wall time of one event-kernel step on one core of the development machine (2.5 us per
+forcing period of 400 + 64 periods at 16 + 64 steps, ``vibeam bench``): turns
+:func:`estimate_work` into seconds."""
+POOL_STARTUP_S = 0.15
+"""What starting the local pool costs (fork and initialise the workers, hand out the
+lines, collect the rows): measured 0.05-0.15 s for 2 workers on the development machine
+(``pool start-up`` in the run's report)."""
+
+
+def load_kernels(lines) -> float:
+    """Load (or compile) the numba kernels of the lines' solvers in this process, once per
+    solver class: one short call each (two forcing periods, at the line's first frequency).
+    Returns the seconds it took.  Forked pool workers inherit the loaded kernels, so a
+    sweep's run time holds neither a cache load per worker nor a compilation per worker.
+    A call that fails is ignored (the sweep records the failure where it happens)."""
+    t0 = time.perf_counter()
+    seen = set()
+    for l in lines:
+        s = getattr(l, "solver", None)
+        if s is None:
+            continue
+        inner = getattr(s, "solver", None)
+        key = (type(s), type(inner), getattr(s, "name", ""), getattr(getattr(s, "model", None), "fidelity", ""))
+        if key in seen:
+            continue
+        seen.add(key)
+        try:
+            s.point(float(l.Omega[0]), None, 1, 1, 16)
+        except Exception:
+            pass
+    return time.perf_counter() - t0
+
+
+def plan_execution(case, jobs_, todo, jobs, executor) -> tuple:
+    """Workers for the lines ``todo``: ``(n, why)``; ``why`` is set when the lines are to run
+    inline first.
+
+    A given executor is used as it is.  Otherwise the local pool (``jobs`` workers, None: all
+    cores) is used only when it is faster: with ``n`` workers the serial time ``t``
+    (:func:`estimate_work` x :data:`STEP_SECONDS`, for the points still to do) becomes
+    about ``POOL_STARTUP_S + t / n``, so a sweep with ``t < POOL_STARTUP_S n / (n - 1)``
+    runs inline (e.g. the Fig. 7 case: 2e6 steps, ~0.2 s).  The estimate is a lower bound
+    (chatter and impacts add work), so such a sweep starts inline and hands the lines left
+    to the pool once it has run ``2 POOL_STARTUP_S`` (:func:`vibeam.sweep.run_lines`,
+    ``inline_first_s``)."""
+    import os
+
+    if executor is not None:
+        return jobs, ""
+    n = min(jobs or os.cpu_count() or 1, len(todo))
+    if n <= 1:
+        return 1, ""
+    total = sum(l.n_points for j in jobs_ for l in _lines(j)) or 1
+    frac = sum(l.n_points for l in todo) / total
+    t = estimate_work(case, jobs_)["steps"] * STEP_SECONDS * frac
+    if t < POOL_STARTUP_S * n / (n - 1):
+        return n, f"small sweep, ~{t:.2g} s on one core: inline first"
+    return n, ""
 
 
 def failure_summary(results) -> str | None:
@@ -501,10 +617,11 @@ def _plot_continuation(case, conts, sweeps, out_dir, maps=()):
     for r in conts:
         safe = file_stem(r.name)
         if r.branches:
-            p = plot_continuation(r, sweeps, out_dir / f"continuation_{safe}.png", title=f"{case.name}: {r.name}")
+            p = plot_continuation(r, sweeps, out_dir / f"continuation_{safe}.png", title=f"{case.name}: {r.name}",
+                                  case=case)
             print(f"continuation plot: {p}")
         if r.curves:
-            p = plot_curves(r, out_dir / f"curves_{safe}.png", title=f"{case.name}: {r.name}")
+            p = plot_curves(r, out_dir / f"curves_{safe}.png", title=f"{case.name}: {r.name}", case=case)
             print(f"two-parameter curves: {p}")
 
 
@@ -545,27 +662,22 @@ def _assemble(case, jobs_, rows_of):
 
 def _plots(case, runs, maps, out_dir, conts=()):
     from . import assess
-    from .maps import class_agreement, plot_agreement, plot_map, print_map
+    from .maps import plot_agreement, plot_map
     from .plots import plot_bifurcation, plot_frc
 
     curves = [c for c in conts if c.curves]
     for m in maps:
-        print_map(m)
-        p = plot_map(m, out_dir / f"map_{file_stem(m.name)}.png", title=case.name, curves=curves)
+        p = plot_map(m, out_dir / f"map_{file_stem(m.name)}.png", title=case.name, case=case, curves=curves)
         print(f"map plot: {p}")
     if len(maps) > 1:
-        for m in maps[1:]:
-            same = class_agreement(maps[0], m)
-            if same is not None:
-                print(f"  {m.name} vs {maps[0].name}: classes differ at {int((~same).sum())} of {same.size} points")
         # "maps_" never begins a per-run plot ("map_<run>.png"), so no run name can collide with it
-        p = plot_agreement(maps, out_dir / "maps_agreement.png", title=case.name)
+        p = plot_agreement(maps, out_dir / "maps_agreement.png", title=case.name, case=case)
         if p:
             print(f"map agreement plot: {p}")
     if runs:
         assess.finish(case, runs, out_dir)
-        p1 = plot_frc(runs, out_dir / "frc.png", title=case.name)
-        p2 = plot_bifurcation(runs, out_dir / "bifurcation.png", title=case.name)
+        p1 = plot_frc(runs, out_dir / "frc.png", title=case.name, case=case)
+        p2 = plot_bifurcation(runs, out_dir / "bifurcation.png", title=case.name, case=case)
         print(f"plots: {p1}" + (f", {p2}" if p2 else ""))
     if conts:
         _plot_continuation(case, conts, runs, out_dir)
@@ -575,7 +687,10 @@ def _print_table(runs) -> None:
     ref = runs[0]
     key = "amplitude_mm" if "amplitude_mm" in ref.data else "amplitude"
     unit = " (mm)" if key == "amplitude_mm" else ""
-    head = f"{'run':<22}{'method':<12}{'points':>7}{'compute (s)':>13}{'max |dA| vs ' + ref.name + unit:>30}"
+    wn = max([22] + [len(r.name) + 2 for r in runs])          # columns as wide as the longest name
+    wm = max([12] + [len(r.method) + 2 for r in runs])
+    wd = max(30, len('max |dA| vs ' + ref.name + unit) + 2)
+    head = f"{'run':<{wn}}{'method':<{wm}}{'points':>7}{'compute (s)':>13}{'max |dA| vs ' + ref.name + unit:>{wd}}"
     print(head)
     print("-" * len(head))
     for r in runs:
@@ -589,7 +704,7 @@ def _print_table(runs) -> None:
             diff = "n/a (different grid)"
         n_bad = int(sum(1 for s in r.data.get("status", []) if s != "ok"))
         extra = f"  [{n_bad} point(s) not ok]" if n_bad else ""
-        print(f"{r.name:<22}{r.method:<12}{r.n_points:>7}{r.wall_time_s:>13.3f}{diff:>30}{extra}")
+        print(f"{r.name:<{wn}}{r.method:<{wm}}{r.n_points:>7}{r.wall_time_s:>13.3f}{diff:>{wd}}{extra}")
 
 
 def _beam_attrs(spec) -> dict:

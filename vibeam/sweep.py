@@ -306,8 +306,9 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
     return out, new_state
 
 
-def _chain(solver, Omegas, sweep: Sweep, Delta: float, direction: str):
-    """A continuation chain (runs inside a worker): points in order, state handed on."""
+def _chain(solver, Omegas, sweep: Sweep, Delta: float, direction: str, report=None):
+    """A continuation chain (runs inside a worker): points in order, state handed on;
+    ``report()`` is called after each point (the progress bar)."""
     state = None
     rows = []
     for W in Omegas:
@@ -316,6 +317,8 @@ def _chain(solver, Omegas, sweep: Sweep, Delta: float, direction: str):
         rows.append(out)
         if new_state is not None and out.get("status") != "failed":
             state = new_state
+        if report is not None:
+            report()
     return rows
 
 
@@ -357,15 +360,31 @@ class Line:
         return len(self.Omega)
 
 
-def run_line(line: Line) -> list[dict]:
+# the queue through which the workers of the local pool report finished points (set in each
+# worker by _worker_init; None elsewhere)
+_PROGRESS_QUEUE = None
+
+
+def run_line(line: Line, report=None) -> list[dict]:
     """Compute one line (in a worker); numerical failures are rows with ``status = 'failed'``.
+
+    ``report()`` is called after each point; in a worker of the local pool each point is
+    reported to the parent through the pool's progress queue (:func:`_worker_init`).
 
     Any other unit of work with ``key``, ``run``, ``n_points`` and a ``compute()`` returning
     its rows (e.g. a continuation run, :class:`vibeam.branches.BranchTask`) runs through the
-    same executor, retries and progress bar."""
+    same executor, retries and progress bar (advancing when it finishes)."""
     if hasattr(line, "compute"):
         return line.compute()
-    return _chain(line.solver, line.Omega, line.sweep, line.Delta, line.direction)
+    if report is None and _PROGRESS_QUEUE is not None:
+        q, ident = _PROGRESS_QUEUE, (line.run, line.key)
+
+        def report():
+            try:
+                q.put_nowait(ident)
+            except Exception:  # pragma: no cover - progress is informative only
+                pass
+    return _chain(line.solver, line.Omega, line.sweep, line.Delta, line.direction, report)
 
 
 def _lost_rows(line: Line, err: BaseException, attempts: int) -> list[dict]:
@@ -377,7 +396,8 @@ def _lost_rows(line: Line, err: BaseException, attempts: int) -> list[dict]:
 
 
 def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_line=None,
-              progress: bool = False, desc: str = "", max_attempts: int = 3) -> dict:
+              progress: bool = False, desc: str = "", max_attempts: int = 3, stats: dict | None = None,
+              inline_first_s: float | None = None) -> dict:
     """Run independent lines on an executor: the one engine under every sweep and map.
 
     Parameters
@@ -395,11 +415,21 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
         ``on_line(line, rows)`` in this process as each line finishes (e.g. a
         checkpoint writer); lines finish in any order.
     progress : bool
-        A tqdm bar of points done, with rate and time left.
+        A tqdm bar of points done, with rate and time left.  It advances per point: inline
+        directly, in the local pool through a queue the workers report each point to
+        (:data:`_PROGRESS_QUEUE`); on another executor (dask) per finished line.
     max_attempts : int
         Times a line is submitted when its worker is lost (a killed process,
         a broken pool, a lost dask worker); after that its points are recorded
         with ``status = 'failed'`` and the reason, and the rest goes on.
+    stats : dict, optional
+        Filled with ``executor`` ("inline", "pool of N workers" or the executor's type) and
+        ``pool_startup_s``: the time until the local pool's workers were running
+        (forked, initialised; 0 inline), measured before any line is submitted.
+    inline_first_s : float, optional
+        With the default executor and ``jobs > 1``: run the lines inline, in order, and
+        start the pool for the rest only when this much time has passed and at least two
+        lines are left (a small sweep never pays for the pool).
 
     An interrupt (``KeyboardInterrupt``, or SIGTERM turned into one by the
     command line) first hands every line that has already finished to
@@ -417,15 +447,57 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
 
     lines = list(lines)
     own = executor is None
-    ex = default_executor(jobs, len(lines)) if own else executor
+    queue = None
+    stats = stats if stats is not None else {}
+    n = _pool_size(jobs, len(lines))
+    inline_first = own and n > 1 and inline_first_s is not None
+
+    def start_pool(k):
+        nonlocal queue
+        t0 = time.perf_counter()
+        queue = _progress_queue() if progress else None
+        pool = _pool(k, queue)
+        _start_workers(pool, k)
+        stats["pool_startup_s"] = time.perf_counter() - t0
+        return pool
+
+    if own:
+        stats.update(executor="inline", pool_startup_s=0.0)
+        ex = InlineExecutor() if n <= 1 or inline_first else start_pool(n)
+        if not isinstance(ex, InlineExecutor):
+            stats["executor"] = f"pool of {n} workers"
+    else:
+        ex = executor
+        stats.update(executor=type(executor).__name__, pool_startup_s=0.0)
     attempts: dict = {}
     pending: dict = {}
     results: dict = {}
     bar = None
+    done_pts: dict = {}
+    size = {(l.run, l.key): l.n_points for l in lines}
     if progress and lines:
         from tqdm import tqdm
         bar = tqdm(total=sum(l.n_points for l in lines), desc=desc or "sweep", unit="pt", leave=False,
                    smoothing=0.1)
+
+    def advance(ident, k=1):
+        """The bar by ``k`` points of line ``ident`` (never beyond the line's points: a retried
+        line reports its points again)."""
+        if bar is None:
+            return
+        c = done_pts.get(ident, 0)
+        k = min(k, size.get(ident, 0) - c)
+        if k > 0:
+            done_pts[ident] = c + k
+            bar.update(k)
+
+    def drain():
+        while queue is not None:
+            try:
+                ident = queue.get_nowait()
+            except Exception:     # empty (or a message lost with a killed worker)
+                return
+            advance(ident)
 
     def submit(line):
         ident = (line.run, line.key)
@@ -438,20 +510,34 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
             pending[f] = line
 
     def finish(line, rows):
-        results[(line.run, line.key)] = rows
+        ident = (line.run, line.key)
+        results[ident] = rows
         if on_line is not None:
             on_line(line, rows)
-        if bar is not None:
-            bar.update(len(rows))
+        drain()
+        advance(ident, size[ident])
 
     try:
+        rest = lines
         if isinstance(ex, InlineExecutor):  # in order, each line reported as soon as it is done
-            for line in lines:
-                finish(line, run_line(line))
-        for line in ([] if isinstance(ex, InlineExecutor) else lines):
+            t_in = time.perf_counter()
+            rest = []
+            for i, line in enumerate(lines):
+                if inline_first and len(lines) - i >= 2 and time.perf_counter() - t_in > inline_first_s:
+                    rest = lines[i:]        # longer than it looked: the pool takes the rest
+                    break
+                ident = (line.run, line.key)
+                finish(line, run_line(line, report=lambda ident=ident: advance(ident)))
+            if rest:
+                k = min(n, len(rest))
+                ex = start_pool(k)
+                stats["executor"] = f"inline for {time.perf_counter() - t_in:.2f} s, then a pool of {k} workers"
+        for line in rest:
             submit(line)
         while pending:
-            done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
+            done, _ = wait(list(pending), timeout=0.2 if queue is not None else None,
+                           return_when=FIRST_COMPLETED)
+            drain()
             retry, broken = [], False
             for f in done:
                 line = pending.pop(f)
@@ -479,7 +565,8 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
                         else:
                             finish(line, _lost_rows(line, e, n))
                 ex.shutdown(wait=False, cancel_futures=True)
-                ex = _pool(max(1, min(jobs or os.cpu_count() or 1, len(retry))))
+                queue = _progress_queue() if queue is not None else None   # the old one may be damaged
+                ex = _pool(max(1, min(jobs or os.cpu_count() or 1, len(retry))), queue)
             for line in retry:
                 submit(line)
     except BaseException:
@@ -523,7 +610,7 @@ def _terminate(ex) -> None:
             pass
 
 
-def _worker_init(parent_pid: int) -> None:
+def _worker_init(parent_pid: int, progress_queue=None) -> None:
     """Initializer of the local pool's workers.
 
     * Ctrl-C is the parent's business: the worker ignores SIGINT (a terminal sends it to the
@@ -531,9 +618,16 @@ def _worker_init(parent_pid: int) -> None:
     * A worker never outlives its parent, even after ``kill -9`` of the parent: on Linux the
       kernel sends it SIGKILL when the parent ends (``prctl(PR_SET_PDEATHSIG)``), and a daemon
       thread exits the worker when its parent pid changes (elsewhere, and as a second guard).
+    * With ``progress_queue`` each finished point is reported to the parent
+      (:data:`_PROGRESS_QUEUE`); the worker never waits for the queue at exit.
     """
     import signal
     import threading
+
+    global _PROGRESS_QUEUE
+    if progress_queue is not None:
+        progress_queue.cancel_join_thread()
+    _PROGRESS_QUEUE = progress_queue
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)     # not the parent's handler (inherited by fork)
@@ -557,9 +651,39 @@ def _worker_init(parent_pid: int) -> None:
     threading.Thread(target=watch, name="vibeam-parent-watch", daemon=True).start()
 
 
-def _pool(workers: int) -> ProcessPoolExecutor:
-    """A local process pool whose workers ignore Ctrl-C and die with their parent."""
-    return ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),))
+def _pool(workers: int, progress_queue=None) -> ProcessPoolExecutor:
+    """A local process pool whose workers ignore Ctrl-C and die with their parent (and report
+    finished points to ``progress_queue``).
+
+    On Linux the workers are forked, so they inherit the parent's imported modules and the
+    numba kernels it has loaded (:func:`vibeam.runner.load_kernels`): nothing is compiled or
+    loaded from the cache again in a worker."""
+    return ProcessPoolExecutor(max_workers=workers, initializer=_worker_init,
+                               initargs=(os.getpid(), progress_queue))
+
+
+def _progress_queue():
+    import multiprocessing
+
+    return multiprocessing.get_context().Queue()
+
+
+def _ready() -> int:
+    return os.getpid()
+
+
+def _start_workers(ex, n: int) -> None:
+    """Start the pool's ``n`` workers now (a no-op task each), so that their start-up is
+    measured apart from the sweep."""
+    from concurrent.futures import wait as _wait
+
+    _wait([ex.submit(_ready) for _ in range(n)])
+
+
+def _pool_size(jobs: int | None, n_tasks: int) -> int:
+    if jobs is None:
+        jobs = os.cpu_count() or 1
+    return max(1, min(jobs, n_tasks))
 
 
 def _plan(sweep: Sweep):
@@ -585,11 +709,8 @@ def plan_lines(solver, sweep: Sweep, run: str = "run") -> list[Line]:
 def default_executor(jobs: int | None, n_tasks: int) -> Executor:
     """Inline for one job or one task, else a local process pool of ``jobs`` workers (which
     ignore Ctrl-C, and end when this process ends, however it ends: :func:`_worker_init`)."""
-    if jobs is None:
-        jobs = os.cpu_count() or 1
-    if jobs <= 1 or n_tasks <= 1:
-        return InlineExecutor()
-    return _pool(min(jobs, n_tasks))
+    n = _pool_size(jobs, n_tasks)
+    return InlineExecutor() if n <= 1 else _pool(n)
 
 
 def run_sweep(solver, sweep: Sweep, name: str = "run", executor: Executor | None = None,

@@ -449,15 +449,31 @@ def make_reference(path, out_dir=HERE, jobs=None, write=True, log=print) -> tupl
         dropped = sorted({k for res in runs + maps for k in res.data if k not in KEPT + MAP_KEPT})
         for res in runs + maps:
             res.data = {k: v for k, v in res.data.items() if k in KEPT + MAP_KEPT}
-        extra = {"reference": {
-            "dropped_datasets": np.array(dropped, dtype=object),
-            "transient_periods": np.array(str(ref_case.sweep.transient_periods), dtype=object),
-            "max_transient_periods": np.array(ref_case.sweep.max_transient_periods),
-            "methods": np.array([f"{r.name}: {r.method}" for r in ref_case.run], dtype=object),
-            "checks": np.array([json.dumps(c.as_dict()) for c in checks if c.n], dtype=object)}}
+        extra = {"reference": reference_table(
+            dropped, ref_case.sweep.transient_periods, [f"{r.name}: {r.method}" for r in ref_case.run],
+            [json.dumps(c.as_dict()) for c in checks if c.n], ref_case.sweep.max_transient_periods)}
         out = write_results(Path(out_dir) / f"{case.name}.h5", runs, case.name, text, extra=extra, maps=maps)
         log(f"[{case.name}] -> {out} ({out.stat().st_size / 1024:.0f} kB)")
     return True, checks
+
+
+def reference_table(dropped, transient_periods, methods, checks, max_transient_periods=None) -> dict:
+    """The ``/reference`` group of a reference file (netCDF variables with units and names)."""
+    from vibeam.results import var
+
+    out = {
+        "dropped_datasets": var(("dropped_dataset",), np.array(list(dropped), dtype=object), None,
+                                "per-point outputs of the runs not kept in the reference"),
+        "transient_periods": var((), np.array(str(transient_periods), dtype=object), None,
+                                 "transient forcing periods per point of the reference (a number or auto)"),
+        "methods": var(("case_run",), np.array(list(methods), dtype=object), None,
+                       "run: method of the case (time-domain runs are referenced by event)"),
+        "checks": var(("check",), np.array(list(checks), dtype=object), None,
+                      "oracle checks passed (JSON: run, oracle, points, max_rel_error, tolerance, failures)")}
+    if max_transient_periods is not None:
+        out["max_transient_periods"] = var((), np.array(int(max_transient_periods)), "1",
+                                           "most transient periods of transient_periods = auto")
+    return out
 
 
 def main(argv=None) -> int:

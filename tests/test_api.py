@@ -1,0 +1,252 @@
+"""The Python API (vibeam.load_case, run, simulate, open_results) and README's notebook example."""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vibeam
+from vibeam.case import CaseError
+
+ROOT = Path(__file__).resolve().parents[1]
+FIG7 = ROOT / "cases" / "paper-fig7.toml"
+SMALL = """
+name = "small"
+[model]
+fidelity = "sdof"
+beta = 0.015
+B = 0.5e-3
+R = 0.9
+Delta = 0.0
+[sweep]
+Omega = [1.8, 2.2, 5]
+direction = "both"
+transient_periods = 100
+record_periods = 8
+[[run]]
+name = "exact"
+method = "event"
+[[run]]
+name = "avg"
+method = "averaging"
+"""
+
+
+def test_import_is_lazy():
+    """``import vibeam`` loads none of the heavy modules; the API's names load on first use."""
+    code = ("import sys, vibeam; heavy = [m for m in ('numba', 'xarray', 'h5py', 'matplotlib', 'scipy', "
+            "'vibeam.api') if m in sys.modules]; assert not heavy, heavy; "
+            "assert callable(vibeam.run) and 'vibeam.api' in sys.modules")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_load_case_from_path_text_and_dict():
+    a = vibeam.load_case(FIG7)
+    b = vibeam.load_case(str(FIG7))
+    c = vibeam.load_case(FIG7.read_text())
+    d = vibeam.load_case(a.model_dump(exclude_none=True))
+    assert a == b == c == d
+    with pytest.raises(CaseError, match=r"'sweep.direction' = 'sideways'"):
+        vibeam.load_case(SMALL.replace('direction = "both"', 'direction = "sideways"'))
+    with pytest.raises(CaseError, match="cannot read case file"):
+        vibeam.load_case("no/such/case.toml")
+
+
+def test_run_returns_labelled_results_equal_to_the_command_line(tmp_path):
+    from vibeam.cli import main
+    from vibeam.results import read_results
+
+    res = vibeam.run(SMALL, jobs=1)
+    assert res.names == ["exact", "avg"] and res.path is None
+    ds = res.to_xarray("exact")
+    assert ds["amplitude"].dims == ("direction", "Omega") and list(ds["direction"].values) == ["up", "down"]
+    assert ds["amplitude"].attrs["units"] == "1" and "Q = Delta - min q" in ds["amplitude"].attrs["long_name"]
+    tree = res.to_xarray()
+    assert set(tree["runs"].children) == {"exact", "avg"}
+    # the same numbers as `vibeam run` (bit for bit: same code, same inputs)
+    case = tmp_path / "small.toml"
+    case.write_text(SMALL)
+    assert main(["run", str(case), "--out", str(tmp_path / "cli"), "--quiet", "--no-plots", "--jobs", "1"]) == 0
+    cli = read_results(tmp_path / "cli" / "results.h5")["runs"]["exact"]
+    np.testing.assert_array_equal(res["exact"].data["amplitude"], cli["amplitude"])
+    np.testing.assert_array_equal(ds["amplitude"].sel(direction="down").values, cli["amplitude"][5:][::-1])
+    fig = res.plot_frc()
+    assert fig.axes[0].get_xlabel().endswith("(–)")
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    # with an output folder: the results file, readable back as the same Results
+    kept = vibeam.run(SMALL, jobs=1, out=tmp_path / "api")
+    assert kept.path == tmp_path / "api" / "results.h5" and kept.path.is_file()
+    back = vibeam.Results.from_file(kept.path)
+    np.testing.assert_array_equal(back["exact"].data["amplitude"], res["exact"].data["amplitude"])
+    assert back.case == kept.case
+    tree = vibeam.open_results(kept.path)
+    np.testing.assert_array_equal(tree["runs/exact"]["amplitude"].values, ds["amplitude"].values)
+
+
+def test_simulate_time_base_against_the_linear_steady_state():
+    """Far from the stop (Delta = 10: no impact) after 3000 transient periods the record is the
+    linear steady state q_p(t) = Omega^2 B [(1 - Omega^2) sin Omega t - 2 beta Omega cos Omega t]
+    / ((1 - Omega^2)^2 + (2 beta Omega)^2) (Eq. 28, particular part), with t = 0 at forcing phase 0:
+    the time vector is in phase with the forcing to 1e-10 (the transient left: exp(-0.05 * 3000 *
+    2 pi / 1.3) < 1e-300)."""
+    from vibeam.models import SDOF
+
+    m = SDOF(beta=0.05, B=0.01, R=0.8, Delta=10.0)
+    W = 1.3
+    sim = vibeam.simulate(m, Omega=W, periods=3, transient=3000, samples_per_period=50)
+    assert sim.t.shape == (150,) and sim.t[1] == pytest.approx(2 * np.pi / W / 50, rel=1e-15)
+    den = (1 - W ** 2) ** 2 + (2 * 0.05 * W) ** 2
+    qp = W ** 2 * 0.01 * ((1 - W ** 2) * np.sin(W * sim.t) - 2 * 0.05 * W * np.cos(W * sim.t)) / den
+    dqp = W ** 3 * 0.01 * ((1 - W ** 2) * np.cos(W * sim.t) + 2 * 0.05 * W * np.sin(W * sim.t)) / den
+    np.testing.assert_allclose(sim.q, qp, atol=1e-10 * np.abs(qp).max())
+    np.testing.assert_allclose(sim.dq, dqp, atol=1e-10 * np.abs(dqp).max())
+    assert sim.impact_times.size == 0 and sim.summary["period"] == -1 and sim.status == "ok"
+
+
+def test_simulate_equals_the_sweep_point_and_lists_the_impacts():
+    """One frequency of a case: the same record as the sweep's point started from rest (a sweep
+    without continuation), its impacts inside the window with q' jumping by -R there."""
+    from vibeam.records import summarize
+    from vibeam.models import make_solver
+
+    case = vibeam.load_case(SMALL)
+    sim = vibeam.simulate(case, Omega=2.0)
+    tr = make_solver(case.model_spec().build(), "event").point(2.0, None, 100, 8, 64)
+    assert sim.summary["amplitude"] == summarize(tr, 0.0)["amplitude"]
+    np.testing.assert_array_equal(sim.q, tr.samples[:, 0])
+    assert sim.impact_times.size == sim.summary["impacts_per_period"] * 8
+    assert np.all((sim.impact_times >= 0) & (sim.impact_times <= sim.t[-1] + 2 * np.pi / 2.0 / 64))
+    assert np.all(sim.impact_velocities > 0)
+    # between samples around an impact, q' goes from +v to about -R v
+    k = np.searchsorted(sim.t, sim.impact_times[0])
+    assert sim.dq[k - 1] > 0 > sim.dq[k]
+    with pytest.raises(ValueError, match="computes no time history"):
+        vibeam.simulate(case, Omega=2.0, run="avg")
+
+
+def test_simulate_a_physical_scene_in_mm_and_seconds():
+    case = vibeam.load_case(ROOT / "cases" / "rig-neutral.toml")
+    sim = vibeam.simulate(case, frequency_hz=15.0, periods=2)
+    fn, L = 7.6, 0.18
+    assert sim.Omega == pytest.approx(15.0 / fn)
+    np.testing.assert_allclose(sim.U_mm, sim.q * L * 1e3)
+    np.testing.assert_allclose(sim.dU_mm_s, sim.dq * L * 1e3 * 2 * np.pi * fn)
+    np.testing.assert_allclose(sim.time_s[-1] + sim.time_s[1], 2 / 15.0, rtol=1e-12)   # two forcing periods
+    ds = sim.to_xarray()
+    assert ds["U"].attrs["units"] == "mm" and ds["time_s"].attrs["units"] == "s" and ds.attrs["frequency_hz"] == 15.0
+    with pytest.raises(ValueError, match="physical scene"):
+        vibeam.simulate(vibeam.load_case(SMALL), frequency_hz=15.0)
+
+
+def _python_blocks(text: str) -> list:
+    return re.findall(r"```python\n(.*?)```", text, flags=re.S)
+
+
+def test_readme_python_examples_run(monkeypatch, tmp_path):
+    """Every ```python block of README.md runs, in order, in one namespace (as a notebook),
+    from the repository's root (the paths of the examples)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    blocks = _python_blocks((ROOT / "README.md").read_text())
+    assert blocks, "README.md has no python example"
+    monkeypatch.chdir(ROOT)
+    ns: dict = {}
+    for code in blocks:
+        exec(compile(code, "README.md", "exec"), ns)
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+
+
+def _old_layout_file(path, new):
+    """A results file of the first layout (flat per-point datasets, no dimensions) holding the
+    runs of ``new`` (a read_results dict), as vibeam wrote them before netCDF."""
+    import h5py
+
+    with h5py.File(path, "w") as f:
+        for k in ("case_name", "case_text", "case_json"):
+            f.attrs[k] = new["attrs"][k]
+        f.attrs["complete"] = True
+        for name, run in new["runs"].items():
+            g = f.create_group(f"runs/{name}")
+            for k, v in run.items():
+                if k == "attrs" or isinstance(v, dict):
+                    continue
+                v = np.asarray(v)
+                g.create_dataset(k, data=np.array([str(x) for x in v], dtype=h5py.string_dtype())
+                                 if v.dtype.kind in "OU" else v)
+            for k, v in run["attrs"].items():
+                g.attrs[k] = v
+
+
+def test_files_of_the_first_layout_are_read_and_not_labelled(tmp_path):
+    """read_results (and so regress) reads the flat layout of older files; the labelled-data
+    check refuses it (no dimensions, no units), open_results says how to convert it."""
+    from vibeam.cli import main
+    from vibeam.results import layout_of, read_results
+    from vibeam.testing import check_labelled
+
+    case = tmp_path / "small.toml"
+    case.write_text(SMALL)
+    assert main(["run", str(case), "--out", str(tmp_path / "new"), "--quiet", "--no-plots", "--jobs", "1"]) == 0
+    new = read_results(tmp_path / "new" / "results.h5")
+    old = tmp_path / "old.h5"
+    _old_layout_file(old, new)
+    assert layout_of(old) == 1 and layout_of(tmp_path / "new" / "results.h5") == 2
+    back = read_results(old)
+    for k in ("Omega", "amplitude", "strobe", "period"):
+        np.testing.assert_array_equal(back["runs"]["exact"][k], new["runs"]["exact"][k])
+    assert list(back["runs"]["exact"]["direction"]) == list(new["runs"]["exact"]["direction"])
+    assert main(["regress", str(case), "--reference", str(old), "--results", str(tmp_path / "new" / "results.h5")]) == 0
+    with pytest.raises(AssertionError):
+        check_labelled(old)
+    with pytest.raises(ValueError, match="first layout"):
+        vibeam.open_results(old)
+    check_labelled(tmp_path / "new" / "results.h5")
+    # a variable without units fails the check
+    import h5py
+
+    with h5py.File(tmp_path / "new" / "results.h5", "r+") as f:
+        del f["runs/exact/amplitude"].attrs["units"]
+    with pytest.raises(AssertionError, match="amplitude: no units"):
+        check_labelled(tmp_path / "new" / "results.h5")
+
+
+def test_write_group_writes_any_labelled_group(tmp_path):
+    """The generic writer (for groups other than runs and maps, e.g. continuation branches):
+    named dimensions, a dimension coordinate, an auxiliary 2-D coordinate, units, strings, a
+    subgroup sharing its parent's dimension; a shape that does not match its dims is refused."""
+    import h5py
+    import xarray as xr
+
+    from vibeam.results import var, write_group
+
+    n_b, n_p = 3, 4
+    variables = {
+        "branch": var(("branch",), np.arange(n_b), "1", "branch index"),
+        "Omega": var(("branch", "point"), np.linspace(1, 2, n_b * n_p).reshape(n_b, n_p), "1",
+                     "forcing frequency over natural frequency", aux=True),
+        "amplitude": var(("branch", "point"), np.ones((n_b, n_p)), "1", "amplitude Q"),
+        "stable": var(("branch", "point"), np.zeros((n_b, n_p), bool), "1", "stable orbit"),
+        "branch_status": var(("branch",), np.array(["ok", "fold", "ok"], dtype=object), None, "how it ended"),
+    }
+    sub = {"bifurcations": ({"branch_of": var(("branch",), np.array([0, 0, 1]), "1", "parent branch")}, {})}
+    with h5py.File(tmp_path / "g.h5", "w") as f:
+        write_group(f, "branches/cont", variables, {"method": "continuation", "settings": {"ds": 0.01}}, sub)
+        with pytest.raises(ValueError, match="dims"):
+            write_group(f, "bad", {"x": var(("a",), np.ones((2, 2)), "1", "x")})
+    ds = xr.open_dataset(tmp_path / "g.h5", group="branches/cont", engine="h5netcdf")
+    assert ds["amplitude"].dims == ("branch", "point") and "Omega" in ds.coords
+    assert ds["stable"].dtype == bool and ds["branch_status"].values.tolist() == ["ok", "fold", "ok"]
+    assert ds["amplitude"].attrs["units"] == "1" and ds.attrs["json_attrs"] == "settings"
+    tree = xr.open_datatree(tmp_path / "g.h5", engine="h5netcdf")
+    assert tree["branches/cont/bifurcations"]["branch_of"].dims == ("branch",)
+    tree.close()
+    ds.close()

@@ -1,0 +1,201 @@
+"""The run's execution: per-point progress, inline or pool, the timing the CLI reports."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from vibeam.models import SDOF, make_solver
+from vibeam.sweep import Sweep, plan_lines, run_lines
+
+
+class SlowSolver:
+    """An event solver that takes at least ``delay`` s per point (picklable), so a point's
+    report reaches the parent long before its line ends."""
+
+    def __init__(self, solver, delay):
+        self.solver, self.delay = solver, delay
+
+    def __getattr__(self, name):
+        if name == "solver":
+            raise AttributeError(name)
+        return getattr(self.solver, name)
+
+    def point(self, *a, **k):
+        time.sleep(self.delay)
+        return self.solver.point(*a, **k)
+
+
+class _Bar:
+    """Records tqdm's updates."""
+    made = []
+
+    def __init__(self, total=0, **kw):
+        self.total, self.updates = total, []
+        _Bar.made.append(self)
+
+    def update(self, k):
+        self.updates.append(k)
+
+    def close(self):
+        pass
+
+
+def _lines(n_points, delay=0.0, direction="both"):
+    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    s = make_solver(m, "event")
+    sw = Sweep(Omega=np.linspace(1.8, 2.2, n_points), direction=direction, transient_periods=20, record_periods=8)
+    return plan_lines(SlowSolver(s, delay) if delay else s, sw)
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_progress_advances_per_point(monkeypatch, jobs):
+    """Inline and in the local pool the bar advances point by point, not per line (2 lines of
+    6 points: per line would be two updates of 6); the total is exact."""
+    import tqdm
+
+    monkeypatch.setattr(tqdm, "tqdm", _Bar)
+    _Bar.made.clear()
+    stats = {}
+    run_lines(_lines(6, delay=0.15), jobs=jobs, progress=True, stats=stats)
+    (bar,) = _Bar.made
+    assert sum(bar.updates) == bar.total == 12
+    assert max(bar.updates) <= 2 and len(bar.updates) >= 8, bar.updates
+    assert stats["executor"] == ("inline" if jobs == 1 else "pool of 2 workers")
+    if jobs == 2:
+        assert 0 < stats["pool_startup_s"] < 5
+
+
+def test_small_sweep_runs_inline_and_hands_the_rest_to_the_pool():
+    """inline_first_s: lines run inline until that much time has passed, then the pool takes
+    the rest (at least two lines left); the results equal an inline run bit for bit."""
+    lines = _lines(3, delay=0.05, direction="up")
+    lines = lines + [l.__class__(**{**l.__dict__, "key": l.key + "-b"}) for l in lines] + \
+        [l.__class__(**{**l.__dict__, "key": l.key + "-c"}) for l in lines]
+    stats = {}
+    out = run_lines(lines, jobs=2, inline_first_s=0.0, stats=stats)
+    assert stats["executor"].startswith("inline for") and "then a pool of 2 workers" in stats["executor"]
+    ref = run_lines(lines, jobs=1)
+    for k in ref:
+        np.testing.assert_array_equal([r["amplitude"] for r in out[k]], [r["amplitude"] for r in ref[k]])
+    stats = {}
+    run_lines(lines, jobs=2, inline_first_s=60.0, stats=stats)
+    assert stats["executor"] == "inline"
+
+
+def test_plan_execution_inline_for_small_sweeps_pool_for_large():
+    from vibeam import runner
+    from vibeam.case import load_case
+
+    case, _ = load_case(runner.__file__.replace("vibeam/runner.py", "cases/paper-fig7.toml"))
+    jobs_ = runner._jobs(case)
+    todo = [l for j in jobs_ for l in runner._lines(j)]
+    n, why = runner.plan_execution(case, jobs_, todo, 2, None)
+    assert why.startswith("small sweep")                    # ~0.2 s on one core: inline first
+    big = type(case).model_validate({**case.model_dump(), "sweep": {**case.sweep.model_dump(),
+                                                                    "transient_periods": 20000}})
+    jb = runner._jobs(big)
+    n, why = runner.plan_execution(big, jb, [l for j in jb for l in runner._lines(j)], 2, None)
+    assert (n, why) == (2, "")
+    assert runner.plan_execution(case, jobs_, todo[:1], 2, None) == (1, "")    # one line
+
+
+def test_cli_reports_run_time_kernel_load_and_pool(tmp_path, capsys):
+    from vibeam.cli import main
+
+    case = tmp_path / "c.toml"
+    case.write_text("""
+name = "c"
+[model]
+fidelity = "sdof"
+beta = 0.015
+B = 0.5e-3
+R = 0.9
+Delta = 0.0
+[sweep]
+Omega = [1.8, 2.2, 5]
+direction = "both"
+transient_periods = 50
+record_periods = 8
+[[run]]
+name = "exact"
+method = "event"
+""")
+    assert main(["run", str(case), "--out", str(tmp_path / "o"), "--quiet", "--no-plots"]) == 0
+    out = capsys.readouterr().out
+    assert "run time " in out and "for 10 points" in out and "kernel load" in out and "pool start-up" in out
+
+
+def test_tables_fit_long_run_names(tmp_path, capsys):
+    """`vibeam run` and `vibeam regress` tables: a long run name is printed whole and the
+    columns stay aligned (the method column starts where its header does)."""
+    from vibeam.cli import main
+
+    long = "exact event solver with a very long descriptive run name"
+    case = tmp_path / "c.toml"
+    case.write_text(f"""
+name = "c"
+[model]
+fidelity = "sdof"
+beta = 0.015
+B = 0.5e-3
+R = 0.9
+Delta = 0.0
+[sweep]
+Omega = [1.8, 2.2, 3]
+transient_periods = 30
+record_periods = 8
+[[run]]
+name = "{long}"
+method = "event"
+[[run]]
+name = "short"
+method = "event"
+transient_samples = 32
+""")
+    assert main(["run", str(case), "--out", str(tmp_path / "o"), "--quiet", "--no-plots"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    head = next(l for l in out if l.startswith("run ") and "method" in l)
+    col = head.index("method")
+    rows = [l for l in out if l.startswith(long) or l.startswith("short ")]
+    assert len(rows) == 2 and all(l[col:col + 5] == "event" for l in rows), (head, rows)
+    assert main(["regress", str(case), "--reference", str(tmp_path / "o" / "results.h5"),
+                 "--results", str(tmp_path / "o" / "results.h5")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    head = next(l for l in out if l.startswith("run ") and "points" in l)
+    row = next(l for l in out if l.startswith(long))
+    assert row.index(" 3 ") <= head.index("points") + len("points") and "  ok" in row
+
+
+def test_map_without_plots_prints_the_class_summary(tmp_path, capsys):
+    from vibeam.cli import main
+
+    case = tmp_path / "m.toml"
+    case.write_text("""
+name = "m"
+[model]
+fidelity = "sdof"
+natural_frequency_hz = 7.6
+damping_ratio = 0.017
+R = 0.72
+gap_mm = -0.1
+length_mm = 180.0
+gain = 5.16e-4
+voltage = 0.6
+[sweep]
+frequency_hz = [14.0, 17.0, 3]
+direction = "both"
+transient_periods = 50
+record_periods = 8
+[map]
+parameter = "voltage"
+values = [0.2, 0.7, 2]
+[[run]]
+name = "exact"
+method = "event"
+""")
+    assert main(["map", str(case), "--out", str(tmp_path / "o"), "--quiet", "--no-plots"]) == 0
+    out = capsys.readouterr().out
+    assert "exact up: 6 points:" in out and "exact down: 6 points:" in out and "up and down sweeps differ" in out
+    assert not list((tmp_path / "o").glob("*.png"))

@@ -1,0 +1,506 @@
+"""The Python API: what the command line does, from a notebook.
+
+::
+
+    import vibeam
+    case = vibeam.load_case("cases/paper-fig7.toml")     # a path, TOML text or a dict
+    res = vibeam.run(case, jobs=2)                         # every run (or the [map]) of the case
+    ds = res.to_xarray("exact")                            # xarray.Dataset on (direction, Omega)
+    fig = res.plot_frc()                                   # matplotlib Figures, the CLI's plots
+    sim = vibeam.simulate(case, Omega=2.0, periods=4)      # one frequency: t, q, q', impacts
+
+Heavy modules (numba kernels, h5py, xarray, matplotlib) are imported when a function
+needs them, so ``import vibeam`` stays fast.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+
+# ============================================================================ cases
+def load_case(source):
+    """A validated case from a file, TOML text or a dict.
+
+    Parameters
+    ----------
+    source : str, Path, dict or vibeam.case.Case
+        A path to a case file (``.toml``); the TOML text of a case (any string with a
+        newline, or one that is not an existing file); a dict with the case's tables
+        (as ``tomllib`` would read them); or a Case (returned as it is).
+
+    Returns
+    -------
+    vibeam.case.Case
+        The case; its text (for the results file) is in ``case_text(case)``.
+
+    Raises
+    ------
+    vibeam.case.CaseError
+        If the file cannot be read or the case is invalid (one line naming the key,
+        the value and what is allowed).
+    """
+    from .case import Case, CaseError, _format, load_case as _load, parse_case
+
+    if isinstance(source, Case):
+        return source
+    if isinstance(source, dict):
+        import tomllib
+
+        from pydantic import ValidationError
+
+        text = _toml_text(source)
+        try:
+            tomllib.loads(text)
+        except tomllib.TOMLDecodeError:      # not writable as TOML: validate the dict as it is
+            try:
+                case = Case.model_validate(source)
+            except ValidationError as e:
+                raise CaseError(_format(e, "", Case)) from None
+            return _remember(case, "")
+        return _remember(parse_case(text, "<dict>"), text)
+    if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and Path(source).is_file()) \
+            or (isinstance(source, str) and source.endswith(".toml") and "\n" not in source):
+        case, text = _load(source)
+        return _remember(case, text)
+    return _remember(parse_case(str(source), "<text>"), str(source))
+
+
+_TEXT: dict = {}
+
+
+def _remember(case, text: str):
+    """Keep the text a case came from (for its results file) as long as the case lives."""
+    import weakref
+
+    _TEXT[id(case)] = text
+    weakref.finalize(case, _TEXT.pop, id(case), None)
+    return case
+
+
+def case_text(case) -> str:
+    """The TOML text a case was loaded from (by :func:`load_case`), else one written from it."""
+    return _TEXT.get(id(case)) or _toml_text(case.model_dump(exclude_none=True))
+
+
+def _toml_text(d: dict, prefix: str = "") -> str:
+    """TOML text of a case dict (tables and arrays of tables; strings, numbers, lists)."""
+    import json
+
+    def val(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return json.dumps(v)
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(val(x) for x in v) + "]"
+        if isinstance(v, dict):
+            return "{" + ", ".join(f"{json.dumps(k)} = {val(x)}" for k, x in v.items()) + "}"
+        return repr(float(v)) if isinstance(v, float) else str(v)
+
+    lines, tables = [], []
+    for k, v in d.items():
+        if isinstance(v, dict):
+            tables.append((k, v))
+        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            tables.append((k, v))
+        elif v is not None:
+            lines.append(f"{json.dumps(k) if not k.isidentifier() else k} = {val(v)}")
+    out = "\n".join(lines) + ("\n" if lines else "")
+    for k, v in tables:
+        name = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out += f"\n[{name}]\n" + _toml_text(v, name + ".")
+        else:
+            for item in v:
+                out += f"\n[[{name}]]\n" + _toml_text(item, name + ".")
+    return out
+
+
+# ============================================================================ runs
+@dataclass
+class Results:
+    """What :func:`run` (``vibeam run``) computed: runs, maps, the case and the results file.
+
+    Attributes
+    ----------
+    runs : list of vibeam.sweep.SweepResult
+        One per ``[[run]]`` (per-point arrays in ``.data``, visiting order).
+    maps : list of vibeam.maps.MapResult
+        One per run of a ``[map]`` case.
+    case : vibeam.case.Case or None
+    path : Path or None
+        The results file (None when the run kept nothing on disk).
+    """
+
+    runs: list = field(default_factory=list)
+    maps: list = field(default_factory=list)
+    case: object = None
+    path: Path | None = None
+
+    @classmethod
+    def from_file(cls, path) -> "Results":
+        """The runs and maps of a results file (``results.h5``)."""
+        from .results import load_results
+
+        from .case import Case
+
+        runs, maps, attrs = load_results(path)
+        case = None
+        try:                   # the case as run (e.g. its quick variant), else the case file's text
+            if attrs.get("case_json"):
+                case = _remember(Case.model_validate_json(str(attrs["case_json"])), str(attrs.get("case_text", "")))
+            elif attrs.get("case_text"):
+                case = load_case(str(attrs["case_text"]))
+        except Exception:      # a case of an older vibeam: the data are still readable
+            case = None
+        return cls(runs, maps, case, Path(path))
+
+    def __getitem__(self, name: str):
+        for r in self.runs + self.maps:
+            if r.name == name:
+                return r
+        raise KeyError(f"no run named {name!r}; runs: {[r.name for r in self.runs + self.maps]}")
+
+    @property
+    def names(self) -> list:
+        return [r.name for r in self.runs + self.maps]
+
+    def to_xarray(self, name: str | None = None):
+        """The results as labelled data (the layout of :mod:`vibeam.results`), loaded in memory.
+
+        Parameters
+        ----------
+        name : str, optional
+            One run or map: its :class:`xarray.Dataset` (on (direction, Omega), or
+            (direction, <parameter>, Omega) for a map).  Default: an
+            :class:`xarray.DataTree` of every run and map (``tree["runs/<name>"]``).
+        """
+        import xarray as xr
+
+        from .results import write_results
+
+        with tempfile.TemporaryDirectory() as tmp:
+            path = self.path
+            if path is None or not Path(path).is_file():
+                path = write_results(Path(tmp) / "results.h5", self.runs, getattr(self.case, "name", ""),
+                                     case_text(self.case) if self.case is not None else "", maps=self.maps)
+            tree = xr.open_datatree(path, engine="h5netcdf")
+            tree.load()
+            tree.close()
+        if name is None:
+            return tree
+        kind = "maps" if any(m.name == name for m in self.maps) else "runs"
+        return tree[f"{kind}/{name}"].to_dataset()
+
+    # ---------------------------------------------------------------- plots (matplotlib Figures)
+    def _title(self) -> str:
+        return getattr(self.case, "name", "") or ""
+
+    def plot_frc(self, path=None):
+        """FRC of every run (``frc.png``): a :class:`matplotlib.figure.Figure`, saved if ``path``."""
+        from .plots import frc_figure
+
+        return _saved(frc_figure(self.runs, title=self._title(), case=self.case), path)
+
+    def plot_bifurcation(self, path=None):
+        """Bifurcation diagram (stroboscopic samples) of the time-domain runs; None without any."""
+        from .plots import bifurcation_figure
+
+        return _saved(bifurcation_figure(self.runs, title=self._title(), case=self.case), path)
+
+    def plot_map(self, name: str | None = None, path=None):
+        """Class map of one map run (default the first; paper Fig. 18)."""
+        from .maps import map_figure
+
+        m = self[name] if name else self.maps[0]
+        return _saved(map_figure(m, title=self._title(), case=self.case), path)
+
+    def plot_agreement(self, path=None):
+        """Where the maps' classes differ from the first map's; None with fewer than two maps."""
+        from .maps import agreement_figure
+
+        return _saved(agreement_figure(self.maps, title=self._title(), case=self.case), path)
+
+    def plot_spectra(self, path=None):
+        """Sensor velocity spectra against the forcing frequency (``[assess] spectra``)."""
+        from .assess import spectra_figure
+
+        return _saved(spectra_figure(self.runs, self._title(), case=self.case), path)
+
+    def plot_time_series(self, label, path=None):
+        """Time series and phase portrait at the grid frequency ``label`` (``[assess] time_series``)."""
+        from .assess import time_series_figure
+
+        return _saved(time_series_figure(self.runs, label, self._title(), case=self.case), path)
+
+    def plot_participation(self, path=None):
+        """Modal shares in the sensor displacement and the energy (``[assess] participation``)."""
+        from .assess import participation_figure
+
+        return _saved(participation_figure(self.runs, self._title(), case=self.case), path)
+
+
+def _saved(fig, path):
+    if fig is not None and path is not None:
+        from .plots import save_figure
+
+        save_figure(fig, path)
+    return fig
+
+
+def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = False, progress: bool = False,
+        plots: bool = False, resume: bool = False, force: bool = False, verbose: bool = False) -> Results:
+    """Run a case (``vibeam run``): its runs, or its parameter map.
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        Anything :func:`load_case` takes.
+    jobs : int or None
+        Workers of the local process pool (None: all cores; 1: in this process).  Small
+        sweeps run in this process whatever ``jobs`` is (:func:`vibeam.runner.plan_execution`).
+    executor : concurrent.futures.Executor, optional
+        Where the sweep lines run, e.g. ``distributed.Client(...).get_executor()``.
+    out : str or Path, optional
+        Output folder: ``results.h5`` (checkpointed as lines finish) and, with ``plots``,
+        the PNGs.  Default: nothing is kept on disk (the results are in memory).
+    quick : bool
+        The case's quick variant (``[quick]``).
+    progress : bool
+        A progress bar of points.
+    plots, resume, force : bool
+        As the command line's ``--no-plots`` (inverted), ``--resume``, ``--force``.
+    verbose : bool
+        Print the tables the command line prints.
+
+    Returns
+    -------
+    Results
+
+    Raises
+    ------
+    vibeam.case.CaseError
+        Bad case or input (:class:`vibeam.case.InputError`: a folder in use, a work
+        estimate above the limit without ``force``, ...).
+    """
+    from .runner import run_case
+
+    c = load_case(case)
+    text = case_text(c)
+    ctx = contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO())
+    with ctx:
+        if out is None:
+            with tempfile.TemporaryDirectory() as tmp:
+                res = run_case(c, text, tmp, jobs=jobs, quiet=not progress, plots=False, quick=quick,
+                               executor=executor, checkpoint=False, force=force)
+            path = None
+        else:
+            res = run_case(c, text, out, jobs=jobs, quiet=not progress, plots=plots, quick=quick, resume=resume,
+                           executor=executor, force=force)
+            path = Path(out) / "results.h5"
+    from .maps import MapResult
+
+    maps = [r for r in res if isinstance(r, MapResult)]
+    runs = [r for r in res if not isinstance(r, MapResult)]
+    return Results(runs, maps, c.quick_variant() if quick else c, path)
+
+
+def open_results(path):
+    """A results file as an :class:`xarray.DataTree` (:func:`vibeam.results.open_results`):
+    ``tree["runs/<run>"]`` on (direction, Omega), ``tree["maps/<run>"]`` on
+    (direction, <parameter>, Omega)."""
+    from .results import open_results as _open
+
+    return _open(path)
+
+
+# ============================================================================ one frequency
+@dataclass
+class Simulation:
+    """The recorded window of one forcing frequency (:func:`simulate`).
+
+    Attributes
+    ----------
+    Omega : float
+        Forcing frequency over the natural frequency.
+    t : ndarray, shape (n,)
+        Time from the start of the recorded window (nondimensional: ``2 pi`` is one
+        natural period), ``n = periods x samples_per_period`` samples.
+    q, dq : ndarray, shape (n,)
+        Displacement ``q`` and velocity ``q'`` (nondimensional; for a beam, the sensor
+        displacement ``U(L_S) / L``).
+    impact_times, impact_velocities : ndarray, shape (k,)
+        Impacts in the window: times (as ``t``) and pre-impact velocities ``q'- >= 0``.
+    summary : dict
+        The per-point outputs of the sweep (:func:`vibeam.records.summarize`): amplitude,
+        period, impacts_per_period, ...
+    status, message : str
+        ``ok``, ``chatter``, ``sticking`` or ``failed``, and the detail.
+    final_state : ndarray
+        The state at the end (to continue from).
+    natural_frequency_hz, length_m : float or None
+        Scales of a physical scene (then ``time_s``, ``U_mm``, ``dU_mm_s`` are set).
+    """
+
+    Omega: float
+    t: np.ndarray
+    q: np.ndarray
+    dq: np.ndarray
+    impact_times: np.ndarray
+    impact_velocities: np.ndarray
+    summary: dict
+    status: str
+    message: str
+    final_state: np.ndarray
+    natural_frequency_hz: float | None = None
+    length_m: float | None = None
+    trajectory: object = None
+
+    @property
+    def physical(self) -> bool:
+        return bool(self.natural_frequency_hz and self.length_m)
+
+    @property
+    def time_s(self) -> np.ndarray | None:
+        """Time (s): ``t / (2 pi f_n)``; None for a nondimensional scene."""
+        return self.t / (2 * np.pi * self.natural_frequency_hz) if self.physical else None
+
+    @property
+    def U_mm(self) -> np.ndarray | None:
+        """Sensor displacement ``U(L_S) = q L`` (mm, paper Sec. 6)."""
+        return self.q * self.length_m * 1e3 if self.physical else None
+
+    @property
+    def dU_mm_s(self) -> np.ndarray | None:
+        """Sensor velocity ``U'(L_S) = q' L 2 pi f_n`` (mm/s)."""
+        return self.dq * self.length_m * 1e3 * 2 * np.pi * self.natural_frequency_hz if self.physical else None
+
+    @property
+    def impact_times_s(self) -> np.ndarray | None:
+        return self.impact_times / (2 * np.pi * self.natural_frequency_hz) if self.physical else None
+
+    @property
+    def impact_velocities_mm_s(self) -> np.ndarray | None:
+        return (self.impact_velocities * self.length_m * 1e3 * 2 * np.pi * self.natural_frequency_hz
+                if self.physical else None)
+
+    def to_xarray(self):
+        """An :class:`xarray.Dataset` on ``t`` (and ``impact``), with units."""
+        import xarray as xr
+
+        ds = xr.Dataset(
+            {"q": ("t", self.q, {"units": "1", "long_name": "displacement q"}),
+             "dq": ("t", self.dq, {"units": "1", "long_name": "velocity q'"}),
+             "impact_velocity": ("impact", self.impact_velocities,
+                                 {"units": "1", "long_name": "pre-impact velocity q'-"})},
+            coords={"t": ("t", self.t, {"units": "1", "long_name": "time from the start of the record"}),
+                    "impact_time": ("impact", self.impact_times, {"units": "1", "long_name": "impact time"})},
+            attrs={"Omega": self.Omega, "status": self.status, "message": self.message})
+        if self.physical:
+            ds["U"] = ("t", self.U_mm, {"units": "mm", "long_name": "sensor displacement U(L_S)"})
+            ds["dU"] = ("t", self.dU_mm_s, {"units": "mm s-1", "long_name": "sensor velocity U'(L_S)"})
+            ds = ds.assign_coords(time_s=("t", self.time_s, {"units": "s", "long_name": "time"}))
+            ds.attrs["frequency_hz"] = self.Omega * self.natural_frequency_hz
+        return ds
+
+    def plot(self, path=None):
+        """Displacement and velocity against time, and the phase portrait (a Figure)."""
+        from .plots import simulation_figure
+
+        return _saved(simulation_figure(self), path)
+
+
+def simulate(case_or_model, Omega: float | None = None, periods: int | None = None, transient: int | None = None,
+             frequency_hz: float | None = None, samples_per_period: int | None = None, run: str | int = 0,
+             method: str = "event", state=None, **settings) -> Simulation:
+    """Simulate one forcing frequency and return the recorded time series and impacts.
+
+    Parameters
+    ----------
+    case_or_model : Case, str, Path, dict, or a model
+        A case (anything :func:`load_case` takes; its run ``run`` with its method,
+        settings and effects), or a model (:class:`vibeam.models.SDOF`, a beam model)
+        simulated by ``method``.
+    Omega : float
+        Forcing frequency over the natural frequency (or give ``frequency_hz`` for a
+        physical scene).
+    periods : int, optional
+        Forcing periods recorded (default: the case's ``record_periods``, 16 for a model).
+    transient : int, optional
+        Forcing periods simulated first and discarded (default: the case's
+        ``transient_periods``, 0 for a model).
+    frequency_hz : float, optional
+        Forcing frequency (Hz) of a physical scene: ``Omega = f / f_n``.
+    samples_per_period : int, optional
+        Samples per forcing period (default: the case's, 64 for a model).
+    run : str or int
+        The case's run (name or index) whose method, settings, model overrides and
+        effects are used.
+    method : str
+        Method for a model (``event``, ``direct``, ...; time-domain methods only).
+    state : array_like, optional
+        Initial state at forcing phase 0 (default: the model's rest state).
+    **settings
+        Method settings for a model (e.g. ``rtol`` for ``direct``).
+
+    Returns
+    -------
+    Simulation
+
+    Raises
+    ------
+    ValueError
+        If neither ``Omega`` nor ``frequency_hz`` is given, ``frequency_hz`` is given for
+        a nondimensional scene, or the method computes no time history (averaging,
+        mapping).
+    """
+    from .case import Case
+    from .records import summarize
+
+    if isinstance(case_or_model, (Case, str, Path, dict)):
+        from .runner import _job
+
+        case = load_case(case_or_model)
+        runs = case.run
+        r = runs[run] if isinstance(run, int) else next((x for x in runs if x.name == run), None)
+        if r is None:
+            raise ValueError(f"no run named {run!r}; runs: {[x.name for x in runs]}")
+        job = _job(case, r, dict(r.model))
+        solver = job.solver
+        periods = case.sweep.record_periods if periods is None else periods
+        transient = case.sweep.transient_periods if transient is None else transient
+        spp = case.sweep.samples_per_period if samples_per_period is None else samples_per_period
+        period_rtol = case.sweep.period_rtol
+    else:
+        from .models import make_solver
+
+        solver = make_solver(case_or_model, method, **settings)
+        periods = 16 if periods is None else periods
+        transient = 0 if transient is None else transient
+        spp = 64 if samples_per_period is None else samples_per_period
+        period_rtol = 1e-5
+    model = solver.model
+    fn = getattr(model, "natural_frequency_hz", None)
+    L = getattr(model, "length_m", None)
+    if frequency_hz is not None:
+        if not fn:
+            raise ValueError("frequency_hz needs a physical scene (natural_frequency_hz); give Omega")
+        Omega = frequency_hz / fn
+    if Omega is None:
+        raise ValueError("give Omega (or frequency_hz for a physical scene)")
+    if not solver.time_domain:
+        raise ValueError(f"method {solver.name!r} computes no time history; use a time-domain method "
+                         f"(event, direct, zhuravlev, ivanov)")
+    traj = solver.point(float(Omega), None if state is None else np.asarray(state, float), int(transient),
+                        int(periods), int(spp))
+    summ = summarize(traj, float(model.Delta), period_rtol)
+    return Simulation(Omega=float(Omega), t=traj.t, q=traj.samples[:, 0].copy(), dq=traj.samples[:, 1].copy(),
+                      impact_times=np.asarray(traj.impact_times), impact_velocities=np.asarray(traj.impact_velocities),
+                      summary=summ, status=traj.status, message=traj.message, final_state=traj.final_state,
+                      natural_frequency_hz=fn, length_m=L, trajectory=traj)

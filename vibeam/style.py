@@ -1,0 +1,177 @@
+"""One style for every vibeam figure (matplotlib).
+
+Conventions (README, "Plots"):
+
+* every axis and colour bar has a quantity and its unit in parentheses, ``(–)``
+  for a nondimensional one (Omega, q, Q, shares);
+* the figure's title is the case, its subtitle the case's parameters
+  (:func:`subtitle`), legends sit outside the data (right of the axes);
+* a run has one colour in every figure of a case (:func:`colours`, the order of the
+  case's ``[[run]]`` tables; Okabe-Ito's colour-blind-safe palette);
+* up sweeps are solid lines with filled markers, down sweeps dashed lines with open
+  markers (:data:`DIRECTIONS`);
+* the period of a point is its marker shape (:data:`PERIOD_MARKERS`): circle
+  period-1, triangle period-2, square period-n (3..8), small dot no impact; a
+  non-periodic point is a cross with a bar over the range of its per-period
+  amplitude (when the run stored it: ``amplitude_min``, ``amplitude_max``);
+  failed points are red crosses along the bottom of the axes.
+
+Every figure is built inside :func:`context` and returned as a
+:class:`matplotlib.figure.Figure`; :func:`vibeam.plots.save_figure` writes it.
+"""
+from __future__ import annotations
+
+import contextlib
+
+# Okabe & Ito (2008), colour-blind safe; yellow last (poor on white)
+PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#F0E442")
+DIRECTIONS = {"up": {"ls": "-", "fill": True, "label": "up sweep (solid line, filled markers)"},
+              "down": {"ls": "--", "fill": False, "label": "down sweep (dashed line, open markers)"}}
+PERIOD_MARKERS = {1: ("o", "period-1"), 2: ("^", "period-2"), 3: ("s", "period-n (3..8)"),
+                  0: ("x", "non-periodic (bar: range of Q_k)"), -1: (".", "no impact")}
+FAILED_COLOUR = "#CC0000"
+NODIM = "–"          # the unit of a nondimensional quantity
+
+RC = {
+    "figure.dpi": 100, "savefig.dpi": 150, "figure.constrained_layout.use": True,
+    "font.size": 9, "axes.titlesize": 9, "axes.labelsize": 9, "xtick.labelsize": 8, "ytick.labelsize": 8,
+    "legend.fontsize": 8, "legend.frameon": False, "figure.titlesize": 10,
+    "axes.grid": True, "grid.alpha": 0.3, "grid.linewidth": 0.5, "axes.spines.top": False,
+    "axes.spines.right": False, "lines.linewidth": 1.2, "lines.markersize": 4.5,
+    "axes.prop_cycle": None,
+}
+
+
+@contextlib.contextmanager
+def context():
+    """matplotlib (Agg) with vibeam's style, for building one figure."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from cycler import cycler
+
+    rc = dict(RC, **{"axes.prop_cycle": cycler(color=list(PALETTE))})
+    with matplotlib.rc_context(rc):
+        yield
+
+
+def colours(names) -> dict:
+    """Colour of each run name, in the given order (the case's runs): the same in every figure.
+
+    Up to 8 runs: Okabe-Ito's palette; more: matplotlib's ``tab20`` (20 distinct hues), and
+    beyond that evenly spaced ``turbo`` colours, so no two runs share a colour."""
+    names = list(dict.fromkeys(names))
+    if len(names) <= len(PALETTE):
+        pal = list(PALETTE)
+    else:
+        import matplotlib
+
+        cmap = matplotlib.colormaps["tab20" if len(names) <= 20 else "turbo"]
+        pal = [matplotlib.colors.to_hex(cmap(i / max(len(names) - 1, 1) if len(names) > 20 else i))
+               for i in range(len(names))]
+    return {n: pal[i] for i, n in enumerate(names)}
+
+
+def run_names(case=None, runs=()) -> list:
+    """Names of the case's runs in case order (the colour order), then any other run's."""
+    names = [r.name for r in getattr(case, "run", [])] if case is not None else []
+    return names + [r.name for r in runs if r.name not in names]
+
+
+def period_marker(p: int) -> tuple:
+    """(marker, label) of a period-n class (1, 2, 3..8 as period-n, 0 non-periodic, -1 no impact)."""
+    p = int(p)
+    return PERIOD_MARKERS[3 if p >= 3 else p] if (p >= 3 or p in PERIOD_MARKERS) else PERIOD_MARKERS[0]
+
+
+def label(quantity: str, unit: str | None) -> str:
+    """An axis label ``quantity (unit)``; ``unit`` None or '1': ``(–)``."""
+    return f"{quantity} ({NODIM if unit in (None, '', '1') else unit})"
+
+
+_SYMBOLS = (  # model key -> (symbol, unit, format)
+    ("beta", "β", "", "{:g}"), ("B", "B", "", "{:g}"), ("R", "R", "", "{:g}"), ("Delta", "Δ", "", "{:g}"),
+    ("natural_frequency_hz", "f_n", " Hz", "{:g}"), ("damping_ratio", "ζ", "", "{:g}"),
+    ("gap_mm", "gap", " mm", "{:g}"), ("contact_gap_mm", "contact gap", " mm", "{:g}"),
+    ("gain", "γ", " /V", "{:.3g}"), ("voltage", "V", " V", "{:g}"), ("length_mm", "L", " mm", "{:g}"),
+    ("n_modes", "modes", "", "{}"), ("n_elements", "elements", "", "{}"),
+)
+
+
+def subtitle(case=None, model: dict | None = None, runs=(), exclude=()) -> str:
+    """The scene's parameters in one line (paper symbols and units), e.g.
+    ``SDOF: β = 0.015, B = 0.0005, R = 0.9, Δ = 0; 400 + 64 periods per point, up and down``.
+
+    Parameters
+    ----------
+    case : vibeam.case.Case, optional
+        Its ``[model]`` (and ``[sweep]``: periods and directions).
+    model : dict, optional
+        A model table (e.g. the ``attrs["model"]`` a run stored), used when there is no
+        case and no run.
+    runs : sequence, optional
+        The runs of the figure: with one run its own model (``attrs["model"]``) is shown;
+        with several, parameters that differ between them are left out (the legend names
+        the runs).
+    exclude : sequence of str
+        Keys left out (a map's parameter, which is an axis).
+    """
+    models = [getattr(r, "attrs", {}).get("model") for r in runs]
+    models = [x for x in models if isinstance(x, dict)]
+    if len(runs) == 1 and models:
+        m = dict(models[0])
+    elif case is not None:
+        m = dict(case.model)
+    elif model is not None:
+        m = dict(model)
+    elif models:
+        m = dict(models[0])
+    else:
+        return ""
+    for other in models if len(runs) > 1 else ():
+        for k in list(m):
+            if k in other and other[k] != m[k]:
+                m.pop(k)
+    for k in exclude:
+        m.pop(k, None)
+    fid = str(m.get("fidelity", "")).upper().replace("BEAM", "FE beam")
+    parts = []
+    for key, sym, unit, fmt in _SYMBOLS:
+        if key in m and m[key] is not None and not isinstance(m[key], dict):
+            v = m[key]
+            parts.append(f"{sym} = {fmt.format(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v}"
+                         f"{unit}")
+    out = (f"{fid}: " if fid else "") + ", ".join(parts)
+    if case is not None:
+        sw = case.sweep
+        d = {"both": "up and down", "up": "up", "down": "down"}[sw.direction]
+        out += f"; {sw.transient_periods} + {sw.record_periods} periods per point, {d}"
+    return out
+
+
+def titles(fig, title: str = "", sub: str = "") -> None:
+    """Figure title (the case) and below it the parameters, left-aligned and wrapped to the
+    figure's width (constrained layout keeps them clear of the axes)."""
+    import textwrap
+
+    width = max(40, int(fig.get_figwidth() * 13))
+    text = "\n".join(textwrap.wrap(title, width) + textwrap.wrap(sub, width)) if (title or sub) else ""
+    if text:
+        fig.suptitle(text, x=0.01, ha="left", fontsize=9)
+
+
+def legend_outside(fig, handles, loc: str = "outside right center", **kw):
+    """A figure legend outside the axes (constrained layout makes room for it); entries
+    without a label are dropped."""
+    handles = [h for h in handles if h is not None and h.get_label() and not h.get_label().startswith("_")]
+    if not handles:
+        return None
+    return fig.legend(handles=handles, loc=loc, **kw)
+
+
+def proxy(colour="0.3", ls="none", marker=None, fill=True, label="", ms=5, lw=1.2):
+    """A legend handle (a Line2D not drawn on any axes)."""
+    from matplotlib.lines import Line2D
+
+    return Line2D([], [], color=colour, ls=ls, marker=marker, ms=ms, lw=lw,
+                  mfc=colour if fill else "none", mec=colour, label=label)
