@@ -67,7 +67,7 @@ import numpy as np
 import scipy.linalg
 from numba import njit
 
-from vibeam.records import Trajectory
+from .trajectory import Trajectory
 
 from .contact_policy import chatter_jump
 from .roots import rtsafe_update, select

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vibeam.records import Trajectory
+from .trajectory import Trajectory
 
 from .sdof_event import STATUS_NAMES, event_kernel
 

@@ -39,7 +39,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from vibeam.records import Trajectory
+from .trajectory import Trajectory
 
 from .impact import newton_restitution
 from .sdof_event import _release_delay
