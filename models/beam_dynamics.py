@@ -61,6 +61,7 @@ Sticking and chatter
 """
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -980,6 +981,47 @@ class BeamImpactModel:
         self.lam_const = me * float(w @ K @ self.eta_c)
         self.pS = self.sensor_row @ Psi
         self.sens_const = float(self.sensor_row @ self.eta_c)
+
+    # ---- the model protocol of the fidelity registry (vibeam.models.registry)
+    @property
+    def phi_contact(self) -> float:
+        """Static-mode value at the contact point over the sensor's (``phi(x_m)``, or
+        ``phi_c`` of an eccentric contact): contact displacements over it are the sensor's."""
+        return self.phi_at_mass
+
+    def free_mode_frequencies(self) -> np.ndarray:
+        """Frequencies of the retained modes over the reference frequency, shape (N,)."""
+        return np.asarray(self.omega_rad_s) / (2 * math.pi) / self.f_ref_hz
+
+    def contact_mode_frequencies(self) -> np.ndarray:
+        """Frequencies of the modes of the beam held on the stop over the reference, (N - 1,)."""
+        return np.sqrt(np.maximum(np.asarray(self.nu2), 0.0))
+
+    def restitution_coefficients(self, velocities) -> np.ndarray:
+        """R of impacts with recorded pre-impact velocities ``U- / L`` (per nondimensional time,
+        the trajectory's unit), shape (k,): the law of the kernel, in its units."""
+        return np.array([restitution_coefficient(float(x) * self.length_m, self.R, self.R_table_U, self.R_table_R)
+                         for x in np.asarray(velocities, float)])
+
+    def with_gain(self, gain_per_V: float, scene_gain_per_V: float, voltage: float) -> "BeamImpactModel":
+        """The model at excitation gain ``gamma`` (1/V) instead of the scene's: the base
+        amplitude ``Y = gamma~ V`` scales with it (Eq. 46)."""
+        m = copy.copy(self)
+        m.base_amplitude_m = self.base_amplitude_m * (gain_per_V / scene_gain_per_V)
+        return m
+
+    def with_base_amplitude_m(self, Y: float) -> "BeamImpactModel":
+        """The model with base displacement amplitude ``Y`` (m)."""
+        m = copy.copy(self)
+        m.base_amplitude_m = float(Y)
+        return m
+
+    def with_sensor_gap_mm(self, gap_mm: float, length_mm: float) -> "BeamImpactModel":
+        """The model with the grazing gap ``gap_mm`` at the sensor: ``Delta_C = phi_c Delta_G``."""
+        m = copy.copy(self)
+        m.gap_contact_m = (gap_mm * 1e-3) * self.phi_contact
+        m._constrained()
+        return m
 
     def initial_state(self) -> np.ndarray:
         """``(eta, eta', stuck)``: rest at the origin, or on a pre-stressed stop at the

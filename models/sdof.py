@@ -12,7 +12,7 @@ displacement at the sensor is ``U(L_S) = q L``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -64,6 +64,26 @@ class SDOF:
             return _EMPTY, _EMPTY
         t = np.asarray(self.R_table, dtype=float)
         return np.ascontiguousarray(t[:, 0]), np.ascontiguousarray(t[:, 1])
+
+    # ---- the model protocol of the fidelity registry (vibeam.models.registry)
+    #: static-mode value at the contact point over the sensor's: 1, the coordinate is the sensor's
+    phi_contact = 1.0
+
+    def restitution_coefficients(self, velocities) -> np.ndarray:
+        """R of impacts with pre-impact velocities ``q'-`` (shape (k,)), the law of the kernel
+        (:func:`vibeam.models.impact.restitution_coefficient`)."""
+        from .impact import restitution_coefficient
+
+        tv, tR = self.restitution_table()
+        return np.array([restitution_coefficient(float(x), self.R, tv, tR) for x in np.asarray(velocities, float)])
+
+    def with_gain(self, gain_per_V: float, scene_gain_per_V: float, voltage: float) -> "SDOF":
+        """The model at excitation gain ``gamma`` (1/V): ``B = gamma V`` (paper Eq. 43)."""
+        return replace(self, B=gain_per_V * voltage)
+
+    def with_sensor_gap_mm(self, gap_mm: float, length_mm: float) -> "SDOF":
+        """The model with the grazing gap ``gap_mm`` at the sensor: ``Delta = Delta_G / L`` (Eq. 45)."""
+        return replace(self, Delta=gap_mm / length_mm)
 
     def initial_state(self) -> np.ndarray:
         """Rest at the unloaded equilibrium, or on the stop if it is pre-stressed.

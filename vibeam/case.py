@@ -54,6 +54,29 @@ class _Strict(BaseModel):
 
 
 # ----------------------------------------------------------------------------- model
+#: spec class of each fidelity's ``[model]`` table, by its name in the fidelity registry
+#: (:mod:`vibeam.models.registry`); filled by :func:`register_model_spec`
+MODEL_SPECS: dict = {}
+
+
+def register_model_spec(name: str):
+    """Class decorator: the spec class of the ``[model]`` table of fidelity ``name``.
+
+    A spec class validates the table (pydantic) and is the framework's one place for what
+    is specific to its fidelity: ``build()`` (the model), ``physical``, ``dofs()`` (degrees of
+    freedom, for the work estimate), ``result_attrs()`` (derived values stored with a run),
+    ``converged_reference(table)`` (the model table a cost table measures errors against),
+    ``effect_model(effects, model)`` (the model with the structural effects of a run),
+    ``case_update(key, value)`` (a fitted value written back as case keys) and
+    ``check(prefix)`` (checks beyond the table itself).
+    """
+    def deco(cls):
+        MODEL_SPECS[name] = cls
+        return cls
+    return deco
+
+
+@register_model_spec("sdof")
 class SDOFModelSpec(_Strict):
     """``[model]`` of an SDOF scene: nondimensional (paper Eqs. 1-2) or physical (Eqs. 43-46)."""
 
@@ -118,6 +141,38 @@ class SDOFModelSpec(_Strict):
                                       self.length_mm, self.gain, self.voltage)
         return SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
 
+    # ---- what is specific to this fidelity (see register_model_spec)
+    def dofs(self) -> int:
+        """Degrees of freedom simulated (work estimate)."""
+        return 1
+
+    def check(self, prefix: str) -> None:
+        """Checks beyond the table's validators: none."""
+
+    def result_attrs(self) -> dict:
+        """Derived values stored with a run's results: none."""
+        return {}
+
+    def converged_reference(self, table: dict, overrides: dict):
+        """Model table of the converged reference of a cost table; None: the run's own
+        model (the SDOF reference differs only in its transient)."""
+        return None
+
+    def effect_model(self, effects, model):
+        """``model`` with the structural effects of a run: a velocity-dependent R
+        (``restitution_law``, sensor velocity in mm/s to ``q'``: ``U(L_S)' = q' L omega_n``)."""
+        if effects.restitution_law is None:
+            return model
+        import dataclasses
+
+        t = effects.restitution_law
+        scale = 1e-3 / (model.length_m * 2 * math.pi * model.natural_frequency_hz)  # mm/s -> q'
+        return dataclasses.replace(model, R_table=tuple((v * scale, R) for v, R in zip(t.velocity_mm_s, t.R)))
+
+    def case_update(self, key: str, value: float) -> tuple[dict, list]:
+        """``[model]`` keys that set a fitted value (``vibeam fit --linear``), and notes."""
+        return {key: float(value)}, []
+
 
 class DiscsSpec(_Strict):
     """``[model.discs]``: the attached mass as a stack of discs (paper Sec. 5: 4 steel discs)."""
@@ -136,6 +191,7 @@ class CalibrateSpec(_Strict):
     f2_hz: Annotated[float, Field(gt=0.0)] | None = None
 
 
+@register_model_spec("beam")
 class BeamModelSpec(_Strict):
     """``[model]`` of a finite-element beam scene (paper Eqs. 39-41, Fig. 15).
 
@@ -205,14 +261,76 @@ class BeamModelSpec(_Strict):
 
         return build_beam_model(self)
 
+    # ---- what is specific to this fidelity (see register_model_spec)
+    def dofs(self) -> int:
+        """Degrees of freedom simulated (work estimate): the retained modes (1 for the static
+        mode, the mesh's ``2 n_elements`` for ``"all"``)."""
+        n = self.n_modes
+        if n == "static":
+            return 1
+        return 2 * int(self.n_elements) if n == "all" else int(n)
+
+    def check(self, prefix: str) -> None:
+        """``n_modes``: at most the mesh's free DOFs (2 per element: deflection and slope of
+        each node but the clamped one)."""
+        n = self.n_modes
+        dofs = 2 * int(self.n_elements)
+        if isinstance(n, int) and n > dofs:
+            raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
+                            f"('{prefix}.n_elements' = {self.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
+                            f"\"static\"")
+
+    def result_attrs(self) -> dict:
+        """Calibrated and derived values of the scene, stored with its results."""
+        from vibeam.beamscene import scene_of
+
+        sc = scene_of(self)
+        g = sc.geometry
+        out = {"EI_n_m2": g.EI_n_m2, "rotary_inertia_kg_m2": g.rotary_inertia_kg_m2,
+               "rhoA_kg_m": g.rhoA_kg_m, "mass_kg": g.mass_kg, "f1_fe_hz": sc.f1_hz,
+               "damping_D_s": sc.damping_D_s, "Delta_C_m": sc.Delta_C_m, "Delta_G_m": sc.Delta_G_m,
+               "gamma_tilde_m_per_V": sc.gamma_tilde_m_per_V, "calibrated": sc.calibration is not None}
+        if sc.calibration is not None:
+            out["calibrated_frequencies_hz"] = np.asarray(sc.calibration.frequencies_hz)
+        return out
+
+    def converged_reference(self, table: dict, overrides: dict):
+        """Model table of the converged reference of a cost table: the finest FE model of the
+        scene, all modes on a mesh twice as fine, so every rung of the fidelity ladder (static
+        mode, 1, 2, 4 ... modes, coarser meshes) is measured against the same thing."""
+        fine = dict(table)
+        fine.update({k: v for k, v in overrides.items() if k not in ("n_modes", "n_elements")})
+        fine.update(n_modes="all", n_elements=2 * int(fine.get("n_elements", 36)))
+        return fine
+
+    def effect_model(self, effects, model):
+        """``model`` with the structural effects of a run (eccentric contact, coupled
+        platform, R table): :func:`vibeam.effects.build_beam_model`."""
+        from vibeam.effects import build_beam_model
+
+        return build_beam_model(self, effects, base_model=model)
+
+    def case_update(self, key: str, value: float) -> tuple[dict, list]:
+        """``[model]`` keys that set a fitted value, and notes: f_n is ``calibrate.f1_hz`` of a
+        calibrated beam (an uncalibrated beam's f_n follows from EI: not written)."""
+        if key == "natural_frequency_hz":
+            if self.calibrate is not None:
+                return {"calibrate": dict(self.calibrate.model_dump(exclude_none=True), f1_hz=float(value))}, []
+            return {}, ["f_n not written: the beam has no [model.calibrate] (its f_n follows from EI)"]
+        return {key: float(value)}, []
+
 
 ModelSpec = Union[SDOFModelSpec, BeamModelSpec]
-# methods per fidelity (kept here so that validating a case imports no solver); the method
-# "continuation" is open to every fidelity here and checked against the shooting problems
-# registered in vibeam.models.SHOOTING when the run is planned
-FIDELITY_METHODS = {"sdof": ("event", "direct", "zhuravlev", "ivanov", "averaging", "mapping", "continuation"),
-                    "beam": ("event", "direct", "continuation")}
-MODEL_SPECS = {"sdof": SDOFModelSpec, "beam": BeamModelSpec}
+
+
+def fidelity_methods(name: str) -> tuple:
+    """Methods a case may ask for with fidelity ``name``, from the fidelity registry (pure
+    Python: validating a case loads no solver).  ``continuation`` is open to every fidelity
+    here and checked against the shooting problems registered in ``vibeam.models.SHOOTING``
+    when the run is planned."""
+    from vibeam.models.registry import fidelity
+
+    return fidelity(name).method_names
 
 
 # ----------------------------------------------------------------------------- sweep
@@ -663,20 +781,8 @@ def _validate_model(data: dict, prefix: str = "model"):
         spec = MODEL_SPECS[fid].model_validate(data)
     except ValidationError as e:
         raise CaseError(_format(e, prefix, MODEL_SPECS[fid])) from None
-    if isinstance(spec, BeamModelSpec):
-        _check_modes(spec, prefix)
+    spec.check(prefix)
     return spec
-
-
-def _check_modes(spec, prefix: str) -> None:
-    """``n_modes`` of a beam scene: at most the mesh's free DOFs (2 per element: deflection
-    and slope of each node but the clamped one)."""
-    n = spec.n_modes
-    dofs = 2 * int(spec.n_elements)
-    if isinstance(n, int) and n > dofs:
-        raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
-                        f"('{prefix}.n_elements' = {spec.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
-                        f"\"static\"")
 
 
 _RUN_BY_METHOD = {m: c for c in (EventRun, ODERun, AveragingRun, MappingRun, ContinuationRun)
@@ -841,7 +947,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
             raise CaseError(_format(e, "", Case)) from None
         spec = case.model_spec()
         for i, r in enumerate(case.run):
-            allowed = FIDELITY_METHODS[spec.fidelity]
+            allowed = fidelity_methods(spec.fidelity)
             if r.method not in allowed:
                 raise CaseError(f"'run[{i}].method' = {r.method!r} is not available for fidelity "
                                 f"{spec.fidelity!r}; allowed: {', '.join(allowed)}")

@@ -385,13 +385,26 @@ def check_runs(ref_case, data: dict, expensive: bool = True) -> list[Check]:
             continue  # closed-form runs are their own oracle; effects change the model
         spec = ref_case.model_spec(overrides) if overrides else ref_case.model_spec()
         model = spec.build()
-        if spec.fidelity == "sdof":
-            checks += _sdof_checks(name, model, d)
-            if ref_case.map is not None:
-                checks.append(_held_check(name, model, d))
-        else:
-            checks += _beam_checks(name, spec, model, d, sweep, expensive)
+        oracles = ORACLES.get(spec.fidelity)
+        if oracles is not None:
+            checks += oracles(name, spec, model, d, sweep, expensive, ref_case.map is not None)
     return checks
+
+
+def _sdof_oracles(name, spec, model, d, sweep, expensive, is_map):
+    out = _sdof_checks(name, model, d)
+    if is_map:
+        out.append(_held_check(name, model, d))
+    return out
+
+
+# the oracles of each fidelity's plain event runs (a fidelity without an entry gets the generic
+# checks only): (name, spec, model, datasets, sweep, expensive, is a map line) -> [Check]
+ORACLES = {
+    "sdof": _sdof_oracles,
+    "beam": lambda name, spec, model, d, sweep, expensive, is_map: _beam_checks(name, spec, model, d, sweep,
+                                                                                expensive),
+}
 
 
 def check_stored(path, expensive: bool = False) -> list[Check]:
