@@ -34,9 +34,13 @@ Guaranteed impact detection
     halved only where needed (and the last accepted step is remembered), so the step
     scales with the highest mode only where that mode is excited near the stop.
 
-Impact law (Moreau / Siconos)
-    ``m_eff = 1 / sum_i w_i^2``; ``P = restitution_impulse(U-, R, m_eff)``;
-    ``eta_i' += w_i P`` (``U+ = -R U-``, energy loss ``(1 - R^2) m_eff U-^2 / 2``).
+Contact relation and law (Moreau / Siconos; :mod:`vibeam.models.contact`)
+    Each stop is a relation (normal ``n = s w``, offset ``Delta``: gap ``n^T eta - Delta``,
+    normal velocity ``U = n^T eta'``, ``m_eff = 1 / sum_i w_i^2``) and a law.  At a contact
+    event the law gives ``U+`` (Newton: ``U+ = -R(U-) U-``) and the kernel applies the impulse
+    ``P = m_eff (U+ - U-)`` along ``n`` (:func:`apply_impulse`; energy loss ``(1 - R^2) m_eff
+    U-^2 / 2``); what follows (rebound, chatter, sticking) is the shared policy of
+    :mod:`vibeam.models.contact_policy`.
 
 Sticking and chatter
     On the stop the beam is the constrained linear system ``w^T eta = Delta_C``: with an
@@ -70,7 +74,10 @@ from numba import njit
 
 from .trajectory import Trajectory
 
-from .contact_policy import chatter_jump
+from .contact import OFFSET as _OFFSET
+from .contact import Relation, Restitution, Stop, impulsive_response, pack
+from .contact_policy import (BURST_DT, BURST_MAX, CHATTER, CHATTER_GUARD, REBOUND, STICK, impact_outcome,
+                             release_now, zeno_burst)
 from .roots import rtsafe_update, select
 from .impact import newton_restitution, restitution_coefficient, restitution_impulse
 from .sdof_event import STATUS_NAMES, _certify
@@ -112,12 +119,6 @@ def particular(c, k, G, F, Omega):
     """Steady response ``a sin + b cos`` of ``x'' + c x' + k x = G F sin(Omega t)``."""
     z = G * F / (k - Omega**2 + 1j * c * Omega)   # response to G F e^{i Omega t}
     return z.real, z.imag  # Im(z e^{i phi}) = Re z sin + Im z cos
-
-
-# Zeno guard of the beam kernel (see ``beam_event_kernel``): impacts closer than
-# BURST_DT forcing periods in a row, BURST_MAX of them, end a chatter sequence.
-BURST_DT = 1e-3
-BURST_MAX = 200
 
 
 @njit(cache=True)
@@ -377,6 +378,18 @@ def _contact_acc(phi, Om, eta, etad, w, cF, kF, GF):
 
 
 @njit(cache=True)
+def apply_impulse(etad, n, U_minus, U_plus, m_eff):
+    """Impulse of a contact law through the mass matrix (Moreau / Siconos): ``P = m_eff (U+ -
+    U-)`` along ``M^-1 n = n`` (mass-normalised modes), ``eta' += n P`` in place; returns ``U+``.
+
+    ``n`` is the stop's normal (``s w``, :class:`vibeam.models.contact.Relation`)."""
+    P = m_eff * (U_plus - U_minus)
+    for i in range(etad.shape[0]):
+        etad[i] += n[i] * P
+    return U_plus
+
+
+@njit(cache=True)
 def apply_impact(etad, w, U_minus, R, m_eff):
     """Newton impact on the contact ``U = w^T eta`` (Moreau / Siconos): impulse
     ``P = restitution_impulse(U-, R, m_eff)`` along ``w``, ``eta' += w P`` in place.
@@ -433,12 +446,13 @@ def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, Sa, Sb, f0, fp0):
 
 
 @njit(cache=True)
-def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U, R_table_R,
+def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, stops, tab_U, tab_R, normals, m_eff,
                 mpC, aC, bC, eC, Psi, eta_c, pL, rL, SaL, SbL, cL, pS, SaS, SbS, cS,
                 eta, etad, stuck_init,
                 n_transient, n_record, ns_transient, ns_record, h_cap,
                 max_impacts, max_steps, chatter_tol,
-                samples, imp_t, imp_v, modamp, msamp, pmin, chat_t, evlog=None, aplog=None, nlog=None):
+                samples, imp_t, imp_v, imp_k, n_imp_stop, modamp, msamp, pmin, chat_t,
+                evlog=None, aplog=None, nlog=None):
     """Exact event-driven simulation of whole forcing periods (numba core).
 
     ``eta, etad`` (N,) hold the initial modal state and receive the final one.
@@ -446,17 +460,26 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
     (N,) the max ``|eta_i|`` over the samples; ``msamp`` (same rows or 0 rows, 2N) the
     modal state ``(eta, eta')`` at the samples; ``pmin`` (n_record,) the minimum of the sensor
     signal ``s^T eta`` over each recorded period (root-found like ``smin``); ``chat_t`` the
-    times of the first ``len(chat_t)`` chatter accumulation points of the record.  ``R_table_U``/``R_table_R`` tabulate R
-    against the pre-impact contact velocity (kernel units; empty = constant ``R``,
-    :func:`vibeam.models.impact.restitution_coefficient`).  Returns ``(status, n_imp_rec, smin, smax,
-    n_chatter, stuck_time, stuck_end, n_imp_total, gmax, n_steps)``.
+    times of the first ``len(chat_t)`` chatter accumulation points of the record.
+
+    Stops (:mod:`vibeam.models.contact`): row k of ``stops`` (n_stops, NPAR) is the relation
+    (normal ``normals[k] = s_k w``, offset ``Delta_k``) and law of stop k, with its ``R(U-)``
+    table in ``tab_U``/``tab_R`` (contact velocity in kernel units); row 0 is the upper stop
+    at ``w^T eta = Delta_C``.  The constrained data of the beam held on stop k are the rows
+    ``eC[k]``, ``eta_c[k]``, ``pL[k]``, ``rL[k]``, ``SaL[k]``, ``SbL[k]``, ``cL[k]``, ``cS[k]``
+    (:meth:`BeamImpactModel.kernel_stops`).  ``imp_k`` receives the stop of each stored impact
+    and ``n_imp_stop`` (n_stops,) the recorded impacts per stop; ``stuck_init``: 0 free, 1 held
+    on the upper stop.  Returns ``(status, n_imp_rec, smin, smax, n_chatter, stuck_time,
+    stuck_end, n_imp_total, gmax, n_steps)`` with ``stuck_end`` as ``stuck_init``.
 
     ``evlog`` (cap, 3 + 2N), ``aplog`` (cap_a, 2), ``nlog`` (2,) int64: optional event
     and apex log (see ``EV_START``); omitted in sweeps, where the logging branches are
     compiled out.
     """
     N = eta.shape[0]
-    Nc = eC.shape[0]
+    Nc = eC.shape[1]
+    Delta_C = stops[0, _OFFSET]
+    side = 0     # the stop the beam is held on (when stuck)
     T = TWO_PI / Om
     zeroN = np.zeros(N)
     zeroC = np.zeros(Nc)
@@ -476,7 +499,11 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
         SaSF += sv[i] * aF[i]
         SbSF += sv[i] * bF[i]
     CsF = math.sqrt(SaF * SaF + SbF * SbF)
-    CsL = math.sqrt(SaL * SaL + SbL * SbL)
+    CsL = np.empty(SaL.shape[0])
+    for k in range(SaL.shape[0]):
+        CsL[k] = math.sqrt(SaL[k] * SaL[k] + SbL[k] * SbL[k])
+    for k in range(n_imp_stop.shape[0]):
+        n_imp_stop[k] = 0
     w2 = 0.0
     for i in range(N):
         w2 += w[i] * w[i]
@@ -493,7 +520,7 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
     pext = np.array([np.inf, -np.inf])
     for i in range(pmin.shape[0]):
         pmin[i] = np.inf
-    stuck = stuck_init
+    stuck = stuck_init != 0
     g = 0.0
     v = 0.0
     for i in range(N):
@@ -572,24 +599,29 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                 n_steps += 1
                 if n_steps > max_steps:
                     return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
-                            stuck, n_imp_total, gmax, n_steps)
+                            _side_code(stuck, side), n_imp_total, gmax, n_steps)
                 h_try = min(rem, h_cap, 2.0 * h_last)
                 if stuck:
-                    # ---- constrained motion on the stop; scan the contact force ----
+                    # ---- constrained motion on stop ``side``; scan the contact force ----
+                    eCk = eC[side]
+                    etck = eta_c[side]
+                    pLk = pL[side]
+                    rLk = rL[side]
                     for j in range(Nc):
                         zz = 0.0
                         zd = 0.0
                         for i in range(N):
-                            zz += Psi[i, j] * (eta[i] - eta_c[i])
+                            zz += Psi[i, j] * (eta[i] - etck[i])
                             zd += Psi[i, j] * etad[i]
                         zeta[j] = zz
                         zetad[j] = zd
-                    _homog(phi, Om, zeta, zetad, aC, bC, eC, xc, yc)
-                    const = cL
+                    _homog(phi, Om, zeta, zetad, aC, bC, eCk, xc, yc)
+                    const = cL[side]
                     for j in range(Nc):
-                        const += pL[j] * eC[j]
-                    lam0, lamp0 = _start(phi, Om, xc, yc, mpC, pL, rL, SaL, SbL, const)
-                    if (lam0 > 0.0 or (lam0 == 0.0 and lamp0 > 0.0)) and not just_stuck and hold <= 0.0:
+                        const += pLk[j] * eCk[j]
+                    lam0, lamp0 = _start(phi, Om, xc, yc, mpC, pLk, rLk, SaL[side], SbL[side], const)
+                    # the shared release rule: lambda > 0 pulls the beam away (-lambda presses)
+                    if release_now(-lam0, -lamp0) and not just_stuck and hold <= 0.0:
                         if evlog is not None:
                             _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, lam0, eta, etad)
                         stuck = False
@@ -611,25 +643,25 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         if hold < 1e-15 * T:
                             hold = 0.0
                     else:
-                        M2, M3, M4 = _bounds(xc, yc, mpC, pL, rL, CsL, Om)
-                        s_ev, h = _scan(h_try, 1e-13 * T, phi, Om, xc, yc, mpC, pL, rL, SaL, SbL,
+                        M2, M3, M4 = _bounds(xc, yc, mpC, pLk, rLk, CsL[side], Om)
+                        s_ev, h = _scan(h_try, 1e-13 * T, phi, Om, xc, yc, mpC, pLk, rLk, SaL[side], SbL[side],
                                         lam0, lamp0, M2, M3, M4)
                         if s_ev < 0.0:
                             h_last = h
                     s_mv = s_ev if s_ev >= 0.0 else h
                     if recording:
                         # sensor extremes while stuck
-                        constS = cS
+                        constS = cS[side]
                         for j in range(Nc):
-                            constS += pS[j] * eC[j]
+                            constS += pS[j] * eCk[j]
                         q0s, qp0s = _start(phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, constS)
                         q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s)
                         _extremes(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s, qp0s, qp1s, pext)
                         if not held:
                             stuck_time += s_mv
-                    _advance(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eC)
+                    _advance(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eCk)
                     for i in range(N):
-                        zz = eta_c[i]
+                        zz = etck[i]
                         zd = 0.0
                         for j in range(Nc):
                             zz += Psi[i, j] * zeta[j]
@@ -721,51 +753,46 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                 Um = v if v > 0.0 else 0.0
                 if evlog is not None:
                     _log_event(evlog, nlog, EV_IMPACT, pp * T + t_loc, Um, eta, etad)
-                Rc = restitution_coefficient(Um, R, R_table_U, R_table_R)
-                v = apply_impact(etad, w, Um, Rc, m_eff)
+                # CONTACT EVENT: the stop's law (an impulsive one; a compliant law would enter
+                # its contact phase here, see vibeam.models.contact), impulse along its normal
+                Up, Rc = impulsive_response(Um, stops[0], tab_U[0], tab_R[0])
+                v = apply_impulse(etad, normals[0], Um, Up, m_eff)
                 n_imp_total += 1
                 if recording:
                     if n_imp_rec < cap:
                         imp_t[n_imp_rec] = t_period0 + t_loc
                         imp_v[n_imp_rec] = Um
+                        imp_k[n_imp_rec] = 0
                     n_imp_rec += 1
+                    n_imp_stop[0] += 1
                 if n_imp_total > max_impacts:
                     return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
-                            stuck, n_imp_total, gmax, n_steps)
+                            _side_code(stuck, side), n_imp_total, gmax, n_steps)
+                # the shared policy (vibeam.models.contact_policy), R at the current impact
+                # velocity: the jerk beyond the one-DOF flow part -c_eff a + k_eff u is the
+                # forcing term plus the modal remainder (zero for one mode); a chatter jumps only
+                # to an accumulation point inside the current grid step; the Zeno guard is on
                 u = -v
                 acc, jerk = _contact_acc(phi, Om, eta, etad, w, cF, kF, GF)
-                stick_now = False
-                if u <= 0.0:
-                    stick_now = acc > 0.0
                 t_imp = t_period0 + t_loc
-                if t_imp - t_last_imp < BURST_DT * T:
-                    burst += 1
-                else:
-                    burst = 0
+                burst = zeno_burst(burst, t_imp, t_last_imp, BURST_DT * T)
                 t_last_imp = t_imp
-                if stick_now:
+                action, D = impact_outcome(u, acc > 0.0, acc, jerk + c_eff * acc - k_eff * u, c_eff, k_eff,
+                                           Rc, chatter_tol, rem, burst, BURST_MAX)
+                stick_now = action != REBOUND
+                if action == STICK or action == CHATTER_GUARD:
                     burst = 0
-                elif burst >= BURST_MAX and acc > 0.0:
-                    stick_now = True
-                    burst = 0
+                if action == CHATTER_GUARD:
                     if recording:
                         n_chatter += 1
                         if n_chatter <= chat_t.shape[0]:
                             chat_t[n_chatter - 1] = t_imp
-                else:
-                    # the shared chatter policy (vibeam.models.contact_policy), R at the current
-                    # impact velocity: the jerk beyond the one-DOF flow part -c_eff a + k_eff u is
-                    # the forcing term plus the modal remainder (zero for one mode), and the jump
-                    # is taken only to an accumulation point inside the current grid step
-                    D = chatter_jump(u, acc, jerk + c_eff * acc - k_eff * u, c_eff, k_eff, Rc,
-                                     chatter_tol, rem)
-                    if D >= 0.0:
-                        stick_now = True
-                        hold = D
-                        if recording:
-                            n_chatter += 1
-                            if n_chatter <= chat_t.shape[0]:
-                                chat_t[n_chatter - 1] = t_imp + D
+                elif action == CHATTER:
+                    hold = D
+                    if recording:
+                        n_chatter += 1
+                        if n_chatter <= chat_t.shape[0]:
+                            chat_t[n_chatter - 1] = t_imp + D
                 if stick_now:
                     if evlog is not None:
                         _log_event(evlog, nlog, EV_STICK_IMPACT, pp * T + t_loc, hold, eta, etad)
@@ -785,8 +812,16 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
             status = ST_CHATTER
         elif stuck_time > 0.0:
             status = ST_STICKING
-    return (status, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time, stuck, n_imp_total,
-            gmax, n_steps)
+    return (status, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time, _side_code(stuck, side),
+            n_imp_total, gmax, n_steps)
+
+
+@njit(cache=True)
+def _side_code(stuck, side):
+    """Held-state code of the kernels: 0 free, 1 on the upper stop, -1 on the lower one."""
+    if not stuck:
+        return 0
+    return 1 if side == 0 else -1
 
 
 # ============================================================================ model
@@ -951,12 +986,22 @@ class BeamImpactModel:
             return self.modal_damping_1_s
         return self.rayleigh_alpha_1_s + self.damping_D_s * self.omega_rad_s ** 2
 
+    def stops(self) -> tuple:
+        """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
+        ``w^T eta = Delta_C`` (normal ``w``) with Newton's law, ``R`` and ``R(U-)``."""
+        return (Stop(Relation(1.0, self.gap_contact_m),
+                     Restitution(self.R, tuple(self.R_table_U), tuple(self.R_table_R))),)
+
     def _constrained(self):
-        """Null-space basis, constrained modes and contact-force coefficients."""
+        """Null-space basis, constrained modes and contact-force coefficients.
+
+        The beam held on stop k (``s_k w^T eta = Delta_k``) moves in ``eta = eta_c,k + Psi
+        zeta``: ``Psi`` and the constrained modes are the same for every stop (the null space of
+        ``w``), the offsets ``eta_c,k``, ``eC_k`` and the contact-force coefficients differ; they
+        are the rows of :attr:`stop_rows` (``eta_c``, ``eC``, ... are the upper stop's)."""
         w = self.contact_row
         N = w.size
         w2 = float(w @ w)
-        self.eta_c = w * self.gap_contact_m / w2
         Q, _ = np.linalg.qr(np.column_stack([w, np.eye(N)]))
         Tn = Q[:, 1:N]
         K = np.diag(self.k_nd)
@@ -973,14 +1018,44 @@ class BeamImpactModel:
         if self.modal_damping_1_s is not None:
             self.cC = np.einsum("ij,i,ij->j", Psi, self.c_nd, Psi)
         self.GC = Psi.T @ self.participation
-        self.eC = -(Psi.T @ (K @ self.eta_c)) / np.where(nu2 > 0, nu2, 1.0)
         me = 1.0 / w2
         C = np.diag(self.c_nd)
-        self.pL = me * (w @ K @ Psi)
-        self.rL = me * (w @ C @ Psi)
-        self.lam_const = me * float(w @ K @ self.eta_c)
         self.pS = self.sensor_row @ Psi
-        self.sens_const = float(self.sensor_row @ self.eta_c)
+        rows = {k: [] for k in ("normals", "eta_c", "eC", "pL", "rL", "cL", "cS")}
+        for st in self.stops():
+            s, D = st.relation.sign, st.relation.offset
+            n = st.relation.normal(w)
+            eta_c = w * D / w2 if s > 0 else w * (-D) / w2
+            rows["normals"].append(n)
+            rows["eta_c"].append(eta_c)
+            rows["eC"].append(-(Psi.T @ (K @ eta_c)) / np.where(nu2 > 0, nu2, 1.0))
+            rows["pL"].append(me * (n @ K @ Psi))
+            rows["rL"].append(me * (n @ C @ Psi))
+            rows["cL"].append(me * float(n @ K @ eta_c))
+            rows["cS"].append(float(self.sensor_row @ eta_c))
+        #: per-stop kernel data (row k: stop k), see :func:`beam_kernel`
+        self.stop_rows = {k: np.ascontiguousarray(np.stack(v) if k not in ("cL", "cS") else np.array(v, dtype=float))
+                          for k, v in rows.items()}
+        r = self.stop_rows
+        self.eta_c = r["eta_c"][0].copy()
+        self.eC = r["eC"][0].copy()
+        self.pL = r["pL"][0].copy()
+        self.rL = r["rL"][0].copy()
+        self.lam_const = float(r["cL"][0])
+        self.sens_const = float(r["cS"][0])
+
+    def stop_forcing(self, aC, bC, F, Om):
+        """Harmonic coefficients ``(SaL, SbL)`` (n_stops,) of the contact force of the beam held
+        on each stop, for the constrained particular solution ``aC, bC`` at forcing ``F``, ``Om``."""
+        me = self.m_eff
+        r = self.stop_rows
+        SaL = np.empty(r["cL"].size)
+        SbL = np.empty(r["cL"].size)
+        for k in range(SaL.size):
+            lamF = -me * float(r["normals"][k] @ self.participation) * F
+            SaL[k] = lamF + float(r["pL"][k] @ aC - Om * (r["rL"][k] @ bC))
+            SbL[k] = float(r["pL"][k] @ bC + Om * (r["rL"][k] @ aC))
+        return SaL, SbL
 
     # ---- the model protocol of the fidelity registry (vibeam.models.registry)
     @property
@@ -1110,14 +1185,16 @@ class BeamEventSolver:
         mpC = mode_table(m.cC, m.nu2) if m.nu2.size else np.zeros((0, 6))
         aC, bC = particular(m.cC, m.nu2, m.GC, F, Om)
         me = m.m_eff
-        lamF = -me * float(m.contact_row @ m.participation) * F
-        SaL = lamF + float(m.pL @ aC - Om * (m.rL @ bC))
-        SbL = float(m.pL @ bC + Om * (m.rL @ aC))
+        SaL, SbL = m.stop_forcing(aC, bC, F, Om)
         SaS = float(m.pS @ aC)
         SbS = float(m.pS @ bC)
+        par, tU, tR = pack(m.stops())
+        r = m.stop_rows
         samples = np.zeros((n_record * samples_per_period, 2))
         imp_t = np.zeros(self.impact_buffer)
         imp_v = np.zeros(self.impact_buffer)
+        imp_k = np.zeros(self.impact_buffer, np.int64)
+        n_stop = np.zeros(par.shape[0], np.int64)
         modamp = np.zeros(N)
         msamp = np.zeros((samples.shape[0] if self.record_modal_states else 0, 2 * N))
         pmin = np.zeros(n_record)
@@ -1125,14 +1202,15 @@ class BeamEventSolver:
         n_per = n_transient + n_record
         h_cap = TWO_PI / np.sqrt(k[0]) / self.steps_per_fundamental
         out = beam_kernel(Om, mpF, aF, bF, m.contact_row, m.sensor_row, c, k, GF,
-                          m.gap_contact_m, me, m.R, m.R_table_U, m.R_table_R,
-                          mpC, aC, bC, m.eC, m.Psi, m.eta_c, m.pL, m.rL, SaL, SbL, m.lam_const,
-                          m.pS, SaS, SbS, m.sens_const,
-                          eta, etad, bool(s0[2 * N] > 0.5),
+                          par, tU, tR, r["normals"], me,
+                          mpC, aC, bC, r["eC"], m.Psi, r["eta_c"], r["pL"], r["rL"], SaL, SbL, r["cL"],
+                          m.pS, SaS, SbS, r["cS"],
+                          eta, etad, 1 if s0[2 * N] > 0.5 else 0,
                           int(n_transient), int(n_record), self.transient_samples,
                           int(samples_per_period), float(h_cap),
                           self.max_impacts_per_period * n_per, self.max_steps_per_period * n_per,
-                          self.chatter_tol, samples, imp_t, imp_v, modamp, msamp, pmin, chat_t)
+                          self.chatter_tol, samples, imp_t, imp_v, imp_k, n_stop, modamp, msamp, pmin,
+                          chat_t)
         status, n_imp, smin, smax, n_chat, stuck_time, stuck_end, n_tot, gmax, n_steps = out
         L = m.length_m
         if stuck_time > 0.0 or stuck_end:

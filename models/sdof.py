@@ -18,6 +18,7 @@ import numpy as np
 
 from .trajectory import Trajectory
 
+from .contact import Relation, Restitution, Stop, pack
 from .sdof_event import STATUS_NAMES, event_kernel
 
 _EMPTY = np.zeros(0)
@@ -55,6 +56,12 @@ class SDOF:
     R_table: tuple = ()
 
     fidelity = "sdof"
+
+    def stops(self) -> tuple:
+        """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
+        ``q = Delta`` (normal ``+1``) with Newton's law, ``R`` and ``R(q'-)``."""
+        tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())
+        return (Stop(Relation(1.0, self.Delta), Restitution(self.R, tuple(tv), tuple(tR))),)
 
     def restitution_table(self):
         """``(velocity, R)`` arrays of a velocity-dependent R (``R_table = ((q'-, R), ...)``,
@@ -150,6 +157,7 @@ class EventSolver:
         self.chatter_tol = float(chatter_tol)
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.impact_buffer = int(impact_buffer)
+        self._stops = pack(model.stops())   # kernel arrays of the relations and laws
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
@@ -184,15 +192,17 @@ class EventSolver:
         samples = np.zeros((n_record * samples_per_period, 2))
         imp_t = np.zeros(self.impact_buffer)
         imp_v = np.zeros(self.impact_buffer)
+        imp_k = np.zeros(self.impact_buffer, np.int64)
+        par, tU, tR = self._stops
+        n_stop = np.zeros(par.shape[0], np.int64)
         pmin = np.zeros(n_record)
         chat_t = np.zeros(self.impact_buffer)
         max_imp = self.max_impacts_per_period * (n_transient + n_record)
-        tv, tR = m.restitution_table()
-        out = event_kernel(m.beta, m.B, m.R, tv, tR, m.Delta, float(Omega), float(s0[0]), float(s0[1]),
-                           bool(s0[2] > 0.5) if s0.shape[0] > 2 else False,
+        out = event_kernel(m.beta, m.B, par, tU, tR, float(Omega), float(s0[0]), float(s0[1]),
+                           (1 if s0[2] > 0.5 else 0) if s0.shape[0] > 2 else 0,
                            int(n_transient), int(n_record), self.transient_samples,
                            int(samples_per_period), max_imp, self.chatter_tol,
-                           samples, imp_t, imp_v, pmin, chat_t)
+                           samples, imp_t, imp_v, imp_k, n_stop, pmin, chat_t)
         status, n_imp, q_min, q_max, n_chat, stuck_time, q_end, v_end, stuck_end, n_tot, gmax = out
         k = min(n_imp, self.impact_buffer)
         message = ""
@@ -208,7 +218,7 @@ class EventSolver:
                           n_impacts=int(n_imp), q_min=float(q_min), q_max=float(q_max),
                           period_min=pmin, chatter_times=chat_t[:min(n_chat, self.impact_buffer)].copy(),
                           status=STATUS_NAMES[status], message=message,
-                          final_state=np.array([q_end, v_end, 1.0 if stuck_end else 0.0]),
+                          final_state=np.array([q_end, v_end, float(stuck_end)]),
                           extra={"stuck_fraction": stuck_time / (n_record * 2 * math.pi / Omega)
                                  if n_record else 0.0,
                                  "contact_gap_max": float(gmax)})

@@ -6,7 +6,10 @@ Model (nondimensional, paper Eqs. 1-2 and 43, 47)::
     q(t+) = q(t-),  q'(t+) = -R q'(t-)                  at q = Delta
 
 Between impacts the motion is the closed-form linear flow (paper Eq. 28,
-:mod:`vibeam.models.sdof_flow`); the solver only finds event times.
+:mod:`vibeam.models.sdof_flow`); the solver only finds event times.  The stop is a contact
+relation with its law (:mod:`vibeam.models.contact`: gap ``q - Delta``, Newton's law with
+``R(q'-)``), and what follows an impact is the policy shared with the beam kernel
+(:mod:`vibeam.models.contact_policy`).
 
 Guaranteed impact detection
     Time advances on a grid aligned with the forcing phase.  On each interval
@@ -40,9 +43,10 @@ import math
 import numpy as np
 from numba import njit
 
-from .contact_policy import chatter_jump
+from .contact import OFFSET as _OFFSET
+from .contact import impulsive_response
+from .contact_policy import CHATTER, STICK, impact_outcome, release_now
 from .roots import rtsafe_update, select
-from .impact import newton_restitution, restitution_coefficient
 from .sdof_flow import (homogeneous_amplitude, particular_coefficients, propagate,
                         propagate_tabulated, transition)
 
@@ -121,7 +125,7 @@ def _release_delay(phi, F, Delta, Omega):
     """
     a_now = F * math.sin(phi) - Delta
     da = F * Omega * math.cos(phi)
-    if a_now < 0.0 or (a_now == 0.0 and da < 0.0):
+    if release_now(a_now, da):
         return 0.0
     if F <= 0.0:
         return np.inf  # unforced: a = -Delta >= 0 stays
@@ -149,10 +153,10 @@ def _log_event(ev_log, ev_count, kind, t, q, v, a):
 
 
 @njit(cache=True)
-def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init, stuck_init,
+def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init,
                  n_transient, n_record, ns_transient, ns_record,
                  max_impacts, chatter_tol,
-                 samples, imp_t, imp_v, pmin, chat_t, ev_log=None, ev_count=None):
+                 samples, imp_t, imp_v, imp_k, n_imp_stop, pmin, chat_t, ev_log=None, ev_count=None):
     """Simulate whole forcing periods exactly; the numba core of method ``event``.
 
     Time starts at forcing phase 0.  ``samples`` (shape (n_record *
@@ -161,9 +165,13 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     recording) and pre-impact velocities of the first ``len(imp_t)`` recorded
     impacts; ``pmin`` (shape (n_record,)) the exact minimum of ``q`` over each
     recorded period (the same root-found minima as ``q_min``); ``chat_t`` the times (from
-    the start of the recording) of the first ``len(chat_t)`` chatter accumulation points.  ``R_table_v``/``R_table_R`` tabulate R against the pre-impact velocity
-    q'- (nondimensional; :func:`vibeam.models.impact.restitution_coefficient`); empty
-    arrays give the constant ``R``.
+    the start of the recording) of the first ``len(chat_t)`` chatter accumulation points.
+
+    The stops are the rows of ``stops`` (shape (n_stops, NPAR)) with their ``R(U-)`` tables
+    ``tab_U``/``tab_R`` (:func:`vibeam.models.contact.pack`; row 0: the upper stop at
+    ``q = Delta``, Newton's law with ``R`` and ``R(q'-)``).  ``imp_k`` receives the stop of each
+    stored impact (0 upper) and ``n_imp_stop`` (n_stops,) the recorded impacts per stop.
+    ``stuck_init``: 0 free, 1 held on the upper stop.
 
     Optional event log (used by the shooting problem of :mod:`vibeam.models.periodic_sdof`):
     ``ev_log`` (shape (cap, 5)) receives one row ``(kind, t, q, q', q'')`` per event in
@@ -178,12 +186,16 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     -------
     tuple
         ``(status, n_imp_record, q_min, q_max, n_chatter, stuck_time,
-        q_end, v_end, stuck_end, n_imp_total, gmax)``; ``gmax`` is the largest
+        q_end, v_end, stuck_end, n_imp_total, gmax)``; ``stuck_end`` as ``stuck_init``;
+        ``gmax`` is the largest
         gap ``q - Delta`` at the end of a step without an event, before ``q`` is
         put back on the stop (a certificate: positive beyond round-off only if
         a crossing had been stepped over).
     """
     F = Omega * Omega * B
+    Delta = stops[0, _OFFSET]
+    tU0 = tab_U[0]
+    tR0 = tab_R[0]
     a, b = particular_coefficients(beta, F, Omega)
     C = math.sqrt(a * a + b * b)
     T = TWO_PI / Omega
@@ -192,9 +204,11 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     W4 = C * Omega ** 4
     q = q_init
     v = v_init
-    stuck = stuck_init
+    stuck = stuck_init != 0
     if q > Delta:
         q = Delta
+    for k in range(n_imp_stop.shape[0]):
+        n_imp_stop[k] = 0
     n_imp_total = 0
     n_imp_rec = 0
     n_chatter = 0
@@ -205,7 +219,7 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     cap = imp_t.shape[0]
     status = STATUS_OK
     if not (math.isfinite(a) and math.isfinite(b)):
-        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, stuck, 0, -np.inf)
+        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, 1 if stuck else 0, 0, -np.inf)
     n_total = n_transient + n_record
     k_sample = 0
     # derivatives at the start of the next interval are carried over from the
@@ -396,50 +410,51 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                         if ev_log is not None:
                             _log_event(ev_log, ev_count, EV_IMPACT, p * T + t_loc, Delta, v_minus,
                                        F * math.sin(phi) - 2.0 * beta * v_minus - Delta)
-                        Rc = restitution_coefficient(v_minus, R, R_table_v, R_table_R)
-                        v = newton_restitution(v_minus, Rc)
+                        # CONTACT EVENT: the stop's law (an impulsive one; a compliant law would
+                        # enter its contact phase here, see vibeam.models.contact)
+                        v, Rc = impulsive_response(v_minus, stops[0], tU0, tR0)
                         n_imp_total += 1
                         if recording:
                             q_max = Delta
                             if n_imp_rec < cap:
                                 imp_t[n_imp_rec] = t_period0 + t_loc
                                 imp_v[n_imp_rec] = v_minus
+                                imp_k[n_imp_rec] = 0
                             n_imp_rec += 1
+                            n_imp_stop[0] += 1
                         if n_imp_total > max_impacts:
                             return (STATUS_FAILED, n_imp_rec, q_min, q_max, n_chatter,
-                                    stuck_time, q, v, stuck, n_imp_total, gmax)
-                        # contact acceleration with the rebound velocity
+                                    stuck_time, q, v, 1 if stuck else 0, n_imp_total, gmax)
+                        # the shared policy (vibeam.models.contact_policy), R at the current impact
+                        # velocity: rebound speed u, contact acceleration with the rebound velocity;
+                        # one DOF: the jerk beyond the flow part is the forcing term exactly,
+                        # c_eff = 2 beta, k_eff = 1, no Zeno guard.  A chatter jumps only to an
+                        # accumulation point inside this sub-step; beyond it the bounces are resolved
+                        # one by one until the next sub-step (whose full length then contains the
+                        # remaining D R^k).  "pressed" (closed form) is needed only without rebound.
                         u = -v
                         acc = F * math.sin(phi) + 2.0 * beta * u - Delta
-                        if u <= 0.0:
-                            # no rebound (R = 0 or grazing contact): stick if pushed on the stop
-                            if _release_delay(phi, F, Delta, Omega) > 0.0:
-                                stuck = True
-                                v = 0.0
-                                if ev_log is not None:
-                                    _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
-                                               F * math.sin(phi) - Delta)
-                        else:
-                            # the shared chatter policy (vibeam.models.contact_policy), R at the
-                            # current impact velocity; one DOF: the jerk beyond the flow part is
-                            # the forcing term exactly, c_eff = 2 beta, k_eff = 1.  It jumps only to
-                            # an accumulation point inside this sub-step; beyond it the bounces
-                            # are resolved one by one until the next sub-step (whose full length
-                            # then contains the remaining D R^k)
-                            D = chatter_jump(u, acc, F * Omega * math.cos(phi), 2.0 * beta, 1.0, Rc,
-                                             chatter_tol, rem)
-                            if D >= 0.0:
-                                n_chatter += 1 if recording else 0
-                                phi = (phi + Omega * D) % TWO_PI
-                                t_loc += D
-                                rem -= D
-                                stuck = True
-                                v = 0.0
-                                if recording and n_chatter <= chat_t.shape[0]:
-                                    chat_t[n_chatter - 1] = t_period0 + t_loc
-                                if ev_log is not None:
-                                    _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
-                                               F * math.sin(phi) - Delta)
+                        pressed = u <= 0.0 and _release_delay(phi, F, Delta, Omega) > 0.0
+                        action, D = impact_outcome(u, pressed, acc, F * Omega * math.cos(phi), 2.0 * beta,
+                                                   1.0, Rc, chatter_tol, rem, 0, 0)
+                        if action == STICK:
+                            stuck = True
+                            v = 0.0
+                            if ev_log is not None:
+                                _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
+                                           F * math.sin(phi) - Delta)
+                        elif action == CHATTER:
+                            n_chatter += 1 if recording else 0
+                            phi = (phi + Omega * D) % TWO_PI
+                            t_loc += D
+                            rem -= D
+                            stuck = True
+                            v = 0.0
+                            if recording and n_chatter <= chat_t.shape[0]:
+                                chat_t[n_chatter - 1] = t_period0 + t_loc
+                            if ev_log is not None:
+                                _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
+                                           F * math.sin(phi) - Delta)
                         continue
                     # no event in [0, h]: move to its end (the unclamped gap is kept: a crossing
                     # stepped over would show as g1 > 0)
@@ -473,6 +488,7 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
             status = STATUS_CHATTER
         elif stuck_time > 0.0:
             status = STATUS_STICKING
-    return (status, n_imp_rec, q_min, q_max, n_chatter, stuck_time, q, v, stuck, n_imp_total, gmax)
+    return (status, n_imp_rec, q_min, q_max, n_chatter, stuck_time, q, v, 1 if stuck else 0,
+            n_imp_total, gmax)
 
 
