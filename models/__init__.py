@@ -65,8 +65,11 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
     ------
     ValueError
         If no shooting problem is registered for the model's fidelity, or the parameter is not
-        one of the problem's.
+        one of the problem's, or the model has a second stop (the shooting problems have one).
     """
+    if getattr(model, "two_sided", False):
+        raise ValueError("continuation cannot follow a scene with a second (lower) stop yet (the shooting "
+                         "problems have one stop)")
     shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
     cls = shooting.get(model.fidelity)
     if cls is None:
@@ -81,13 +84,17 @@ def make_solver(model, method: str, **settings):
     Raises
     ------
     ValueError
-        If the method does not exist for the model's fidelity.
+        If the method does not exist for the model's fidelity, or cannot simulate the
+        model's second stop (``two_sided_methods`` of the registry).
     """
     fid = fidelity(model)
     path = fid.methods.get(method)
     if path is None:
         raise ValueError(f"method {method!r} is not available for fidelity {fid.name!r}; "
                          f"allowed: {', '.join(sorted(fid.methods))}")
+    if getattr(model, "two_sided", False) and method not in fid.two_sided_methods:
+        raise ValueError(f"method {method!r} cannot simulate a second (lower) stop; allowed with two stops: "
+                         f"{', '.join(fid.two_sided_methods)}")
     return resolve(path)(model, **settings)
 
 

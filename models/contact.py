@@ -76,6 +76,7 @@ import numpy as np
 from numba import njit
 
 from .impact import newton_restitution, restitution_coefficient
+from .registry import IMPLEMENTED_LAWS
 
 # ---- layout of a stop row (kernel arrays)
 SIGN, OFFSET, LAW, R, STIFFNESS, DAMPING, EXPONENT, NODES = range(8)
@@ -88,9 +89,8 @@ LAW_HUNT_CROSSLEY = 2     # reserved: F = k delta^p (1 + c delta') (compliant)
 IMPULSIVE = 0
 COMPLIANT = 1
 
-#: law names of a case's ``[model.contact]`` table -> code; only "restitution" is implemented
+#: law names of a case's ``[model.contact]`` table (:data:`vibeam.models.registry.LAWS`) -> code
 LAW_CODES = {"restitution": LAW_RESTITUTION, "linear": LAW_LINEAR, "hunt_crossley": LAW_HUNT_CROSSLEY}
-IMPLEMENTED_LAWS = ("restitution",)
 
 
 @dataclass(frozen=True)

@@ -18,11 +18,12 @@ Every model has ``fidelity`` (its registry name), ``Delta`` (the gap of the ampl
 ``Q = Delta - min q``, paper Sec. 4.1), ``natural_frequency_hz`` and ``length_m`` (None for a
 nondimensional scene), ``phi_contact`` (static-mode value at the contact point over the
 sensor's: contact displacements and velocities over it are the sensor's; 1 for the SDOF
-model, whose coordinate is the sensor's), ``restitution_coefficients(velocities)``
+model, whose coordinate is the sensor's), ``restitution_coefficients(velocities, stops)``
 (R of each recorded impact, from its pre-impact velocity in the units of the trajectory),
 ``with_gain(gain, scene_gain, voltage)`` and ``with_sensor_gap_mm(gap_mm, length_mm)``
-(the model of one point of an effect: another excitation gain, another gap at the sensor)
-and ``initial_state()``.
+(the model of one point of an effect: another excitation gain, another gap at the sensor),
+``stops()`` (its contact relations and laws, :mod:`vibeam.models.contact`), ``two_sided`` and
+``initial_state()``.
 
 ``modes``
     Several modes: ``free_mode_frequencies()`` (ratios to the reference frequency) label
@@ -39,6 +40,9 @@ and ``initial_state()``.
     A finite-element model stands behind it (``vibeam derive``, ``vibeam modes``).
 ``restitution_law_methods``
     Methods that take a velocity-dependent R (effect ``restitution_law``).
+``two_sided_methods``
+    Methods that simulate a second (lower) stop (two contact relations with opposite
+    normals, :mod:`vibeam.models.contact`).
 ``shooting``
     Its periodic-orbit shooting problem (contract: :mod:`vibeam.models.periodic`), the
     class the continuation builds as ``cls(model, parameter, Omega=Omega)``; None: cannot
@@ -48,6 +52,17 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass, field
+
+
+#: contact laws of a stop (``[model.contact]`` / ``[model.contact_lower]`` key ``law``):
+#: name -> (kind, implemented, keys of the law's table besides ``law``).  The kernels' codes
+#: and the plan for the compliant laws are in :mod:`vibeam.models.contact`.
+LAWS = {
+    "restitution": ("impulsive", True, ("R",)),
+    "linear": ("compliant", False, ("stiffness", "stiffness_n_m", "damping_ratio")),
+    "hunt_crossley": ("compliant", False, ("stiffness", "stiffness_n_m", "damping_ratio", "exponent")),
+}
+IMPLEMENTED_LAWS = tuple(n for n, (_, done, _) in LAWS.items() if done)
 
 
 @dataclass(frozen=True)
@@ -77,6 +92,7 @@ class Fidelity:
     coupled_platform: bool = False
     fe_model: bool = False
     restitution_law_methods: tuple = ()
+    two_sided_methods: tuple = ()
     description: str = field(default="", compare=False)
 
     @property
@@ -103,6 +119,7 @@ register(Fidelity(
              "averaging": "sdof_averaging:AveragingSolver", "mapping": "sdof_mapping:MappingSolver"},
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
+    two_sided_methods=("event", "direct"),
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(
@@ -117,6 +134,7 @@ register(Fidelity(
     coupled_platform=True,
     fe_model=True,
     restitution_law_methods=("event", "direct"),
+    two_sided_methods=("event", "direct"),
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 

@@ -55,6 +55,12 @@ class Trajectory:
     chatter_times : ndarray, shape (c,), optional
         Accumulation points of the chatter sequences of the record (times from
         its start; event kernels, :mod:`vibeam.models.contact_policy`).
+    impact_stops : ndarray of int, shape (k,), optional
+        Two-sided scenes: the stop of each impact (0 the upper stop at ``q = Delta``, 1 the
+        lower one at ``q = -Delta_lower``); ``impact_velocities`` are then the normal
+        pre-impact speeds ``|q'(t-)|``.  None: one stop.
+    n_impacts_lower : int
+        Impacts on the lower stop in the recorded window (of ``n_impacts``).
     """
 
     Omega: float
@@ -72,6 +78,8 @@ class Trajectory:
     period_min: np.ndarray | None = None
     Delta: float | None = None
     chatter_times: np.ndarray | None = None
+    impact_stops: np.ndarray | None = None
+    n_impacts_lower: int = 0
 
     @property
     def n_record(self) -> int:
