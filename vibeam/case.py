@@ -54,6 +54,50 @@ class _Strict(BaseModel):
 
 
 # ----------------------------------------------------------------------------- model
+class ContactSpec(_Strict):
+    """``[model.contact]`` (the stop of the paper) or ``[model.contact_lower]`` (a second stop
+    below): the contact law of a stop (:mod:`vibeam.models.contact`).
+
+    ``law = "restitution"`` (Newton's law, paper Eq. 2; the default) is the one implemented:
+    the upper stop's R is ``[model] R``, a lower stop's is this table's ``R`` (default: the
+    upper stop's law).  The compliant laws ``"linear"`` (Kelvin-Voigt) and ``"hunt_crossley"``
+    and their keys ``stiffness`` (nondimensional scenes: ratio to the oscillator's stiffness),
+    ``stiffness_n_m`` (physical and beam scenes), ``damping_ratio`` and ``exponent`` are
+    reserved: a case that uses them is refused with a message saying so.
+    """
+
+    law: Literal["restitution", "linear", "hunt_crossley"] = "restitution"
+    R: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    stiffness: Annotated[float, Field(gt=0.0)] | None = None
+    stiffness_n_m: Annotated[float, Field(gt=0.0)] | None = None
+    damping_ratio: Annotated[float, Field(ge=0.0)] | None = None
+    exponent: Annotated[float, Field(gt=0.0)] | None = None
+
+    @model_validator(mode="after")
+    def _implemented(self):
+        from vibeam.models.registry import IMPLEMENTED_LAWS, LAWS
+
+        if self.law not in IMPLEMENTED_LAWS:
+            raise ValueError(f"law = {self.law!r} ({LAWS[self.law][0]}) is not implemented yet; implemented: "
+                             f"{', '.join(repr(n) for n in IMPLEMENTED_LAWS)}")
+        extra = [k for k in ("stiffness", "stiffness_n_m", "damping_ratio", "exponent") if getattr(self, k) is not None]
+        if extra:
+            raise ValueError(f"key(s) {', '.join(extra)} belong to a compliant law (law = 'linear' or "
+                             f"'hunt_crossley', not implemented yet); law = 'restitution' takes R only")
+        return self
+
+
+def _check_stops(spec, lower_keys: tuple, gap_key: str) -> None:
+    """The contact tables and the second stop of a model spec (ValueError naming the keys)."""
+    lower = [k for k in lower_keys if getattr(spec, k) is not None]
+    if len(lower) > 1:
+        raise ValueError(f"give the lower stop once: one of {list(lower_keys)} (got {lower})")
+    if spec.contact is not None and spec.contact.R is not None:
+        raise ValueError("'contact.R': the R of the first stop is [model] R")
+    if spec.contact_lower is not None and not lower:
+        raise ValueError(f"[model.contact_lower] needs a lower stop: give one of {list(lower_keys)}")
+
+
 #: spec class of each fidelity's ``[model]`` table, by its name in the fidelity registry
 #: (:mod:`vibeam.models.registry`); filled by :func:`register_model_spec`
 MODEL_SPECS: dict = {}
@@ -91,6 +135,10 @@ class SDOFModelSpec(_Strict):
     length_mm: Annotated[float, Field(gt=0.0)] | None = None
     gain: Annotated[float, Field(ge=0.0)] | None = None
     voltage: Annotated[float, Field(ge=0.0)] | None = None
+    Delta_lower: float | None = None
+    gap_lower_mm: float | None = None
+    contact: ContactSpec | None = None
+    contact_lower: ContactSpec | None = None
 
     @model_validator(mode="after")
     def _one_parameter_set(self):
@@ -100,6 +148,10 @@ class SDOFModelSpec(_Strict):
                 "voltage": self.voltage}
         given_n = [k for k, v in nondim.items() if v is not None]
         given_p = [k for k, v in phys.items() if v is not None]
+        if self.Delta_lower is not None:
+            given_n.append("Delta_lower")
+        if self.gap_lower_mm is not None:
+            given_p.append("gap_lower_mm")
         if given_n and given_p:
             raise ValueError(f"give either the nondimensional keys {sorted(nondim)} or the physical keys "
                              f"{sorted(phys)}, not both (got {given_n + given_p})")
@@ -111,11 +163,26 @@ class SDOFModelSpec(_Strict):
             missing = [k for k in nondim if nondim[k] is None]
             if missing:
                 raise ValueError(f"nondimensional SDOF scene is missing {missing}")
+        _check_stops(self, ("Delta_lower", "gap_lower_mm"), "Delta")
+        upper = self.gap_mm if given_p else self.Delta
+        lower = self.gap_lower_mm if given_p else self.Delta_lower
+        if lower is not None and not upper + lower > 0.0:
+            k = ("gap_mm", "gap_lower_mm") if given_p else ("Delta", "Delta_lower")
+            raise ValueError(f"the stops overlap: {k[0]} + {k[1]} = {upper + lower:g} must be > 0 (both are "
+                             f"distances from the static equilibrium, the lower one downwards)")
         return self
 
     @property
     def physical(self) -> bool:
         return self.natural_frequency_hz is not None
+
+    @property
+    def two_sided(self) -> bool:
+        """A second stop below (``Delta_lower`` or ``gap_lower_mm``)."""
+        return self.Delta_lower is not None or self.gap_lower_mm is not None
+
+    def _R_lower(self):
+        return None if self.contact_lower is None else self.contact_lower.R
 
     # continuation parameters: key -> (native key of the SDOF model, factor d native / d key)
     def native_parameter(self, key: str):
@@ -138,7 +205,11 @@ class SDOFModelSpec(_Strict):
 
         if self.physical:
             return SDOF.from_physical(self.natural_frequency_hz, self.damping_ratio, self.R, self.gap_mm,
-                                      self.length_mm, self.gain, self.voltage)
+                                      self.length_mm, self.gain, self.voltage, gap_lower_mm=self.gap_lower_mm,
+                                      R_lower=self._R_lower())
+        if self.two_sided:
+            return SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta, Delta_lower=self.Delta_lower,
+                        R_lower=self._R_lower())
         return SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
 
     # ---- what is specific to this fidelity (see register_model_spec)
@@ -224,6 +295,10 @@ class BeamModelSpec(_Strict):
     R: Annotated[float, Field(ge=0.0, le=1.0)]
     gap_mm: float | None = None
     contact_gap_mm: float | None = None
+    gap_lower_mm: float | None = None
+    contact_gap_lower_mm: float | None = None
+    contact: ContactSpec | None = None
+    contact_lower: ContactSpec | None = None
     gain: Annotated[float, Field(ge=0.0)]
     voltage: Annotated[float, Field(ge=0.0)]
     damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
@@ -246,6 +321,16 @@ class BeamModelSpec(_Strict):
             raise ValueError("give the attached mass either as mass_kg or as a [model.discs] table")
         if (self.gap_mm is None) == (self.contact_gap_mm is None):
             raise ValueError("give exactly one of gap_mm (at the sensor) or contact_gap_mm (at the stop)")
+        _check_stops(self, ("gap_lower_mm", "contact_gap_lower_mm"), "gap_mm")
+        if self.two_sided:
+            pair = ("gap_mm", "gap_lower_mm") if self.gap_mm is not None else ("contact_gap_mm", "contact_gap_lower_mm")
+            if getattr(self, pair[1]) is None:
+                raise ValueError(f"give the lower stop's gap where the upper one's is given: {pair[1]} (with "
+                                 f"{pair[0]})")
+            tot = getattr(self, pair[0]) + getattr(self, pair[1])
+            if not tot > 0.0:
+                raise ValueError(f"the stops overlap: {pair[0]} + {pair[1]} = {tot:g} must be > 0 (both are "
+                                 f"distances from the static equilibrium, the lower one downwards)")
         for k in ("sensor_position_mm", "mass_position_mm"):
             if getattr(self, k) > self.length_mm:
                 raise ValueError(f"{k} = {getattr(self, k)} lies beyond length_mm = {self.length_mm}")
@@ -254,6 +339,11 @@ class BeamModelSpec(_Strict):
         return self
 
     physical: ClassVar[bool] = True
+
+    @property
+    def two_sided(self) -> bool:
+        """A second stop below (``gap_lower_mm`` or ``contact_gap_lower_mm``)."""
+        return self.gap_lower_mm is not None or self.contact_gap_lower_mm is not None
 
     def build(self):
         """The :class:`vibeam.models.beam_dynamics.BeamImpactModel` of this scene."""
@@ -958,6 +1048,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                 _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
             if r.effects:
                 case.effects_for(r)
+            _check_two_sided(case, i, r)
             if r.method == "continuation":
                 _check_continuation(case, i, r)
         if case.map is not None:
@@ -1023,6 +1114,33 @@ def check_time_series(case: Case, source: str = "", hz_per_omega: float | None =
                             f"as 'assess.time_series[{seen[j]}]' = {ts[seen[j]]:g}; the grid spacing is "
                             f"{spacing:g}{unit}: give frequencies on distinct grid points")
         seen[j] = i
+
+
+def _check_two_sided(case: Case, i: int, r) -> None:
+    """A run of a two-sided scene (a lower stop) uses a method that simulates it (the fidelity's
+    ``two_sided_methods`` in :mod:`vibeam.models.registry`) and no effect that assumes one stop."""
+    from vibeam.models.registry import fidelity
+
+    spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
+    if not getattr(spec, "two_sided", False):
+        return
+    allowed = fidelity(spec.fidelity).two_sided_methods
+    if r.method not in allowed:
+        raise CaseError(f"'run[{i}].method' = {r.method!r} cannot simulate a second stop (the scene has a lower "
+                        f"stop: {_lower_key(spec)}); allowed with two stops: {', '.join(allowed)}")
+    eff = case.effects_for(r)
+    if eff.sensor is not None:
+        raise CaseError(f"'effects.sensor' (run[{i}]): the sensor's R identification assumes one stop (paper "
+                        f"Sec. 5.1); the scene has a lower stop ({_lower_key(spec)})")
+
+
+def _lower_key(spec) -> str:
+    """``key = value`` of a spec's lower stop (messages)."""
+    for k in ("Delta_lower", "gap_lower_mm", "contact_gap_lower_mm"):
+        v = getattr(spec, k, None)
+        if v is not None:
+            return f"{k} = {v:g}"
+    return "a lower stop"
 
 
 def _check_continuation(case: Case, i: int, r) -> None:

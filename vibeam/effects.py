@@ -155,7 +155,7 @@ def eccentric_contact_row(fe, shapes, offset_m: float) -> np.ndarray:
 def build_beam_model(spec, effects, base_model=None):
     """BeamImpactModel of a beam scene with its structural effects (eccentric contact,
     coupled platform, R table); ``base_model`` is reused when none changes the structure."""
-    from .beamscene import scene_of
+    from .beamscene import lower_stop, scene_of
     from .models.beam import BeamFE
     from .models.beam_dynamics import BeamImpactModel
     from .reductions.modal import modal_reduction
@@ -179,7 +179,8 @@ def build_beam_model(spec, effects, base_model=None):
         m0 = base_model if base_model is not None else spec.build()
         m = BeamImpactModel(m0.omega_rad_s, m0.participation, m0.contact_row * (phic / sc.phi_at_mass),
                             m0.sensor_row, m0.R, DC, m0.base_amplitude_m, m0.f_ref_hz, m0.length_m, phic,
-                            m0.damping_D_s, m0.rayleigh_alpha_1_s, label="static mode, eccentric contact")
+                            m0.damping_D_s, m0.rayleigh_alpha_1_s, label="static mode, eccentric contact",
+                            **lower_stop(spec, sc, phic))
     else:
         fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
                     rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
@@ -194,7 +195,8 @@ def build_beam_model(spec, effects, base_model=None):
         if not coupled:
             m = BeamImpactModel(om, G, w, s, spec.R, DC, sc.base_amplitude_m, sc.f1_hz, fe.geometry.length_m,
                                 phic, fe.damping_D_s, fe.rayleigh_alpha_1_s,
-                                label=f"FE {red.n_modes} modes" + (", eccentric contact" if ecc else ""))
+                                label=f"FE {red.n_modes} modes" + (", eccentric contact" if ecc else ""),
+                                **lower_stop(spec, sc, phic))
         else:
             m = _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic)
     if effects.restitution_law is not None:
@@ -208,6 +210,8 @@ def build_beam_model(spec, effects, base_model=None):
 def _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic):
     """Beam + platform DOF as one modal model (module doc)."""
     import scipy.linalg
+
+    from .beamscene import lower_stop
 
     from .models.beam_dynamics import BeamImpactModel
 
@@ -235,7 +239,7 @@ def _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic):
     m = BeamImpactModel(np.sqrt(lam), V[N], np.concatenate([w, [0.0]]) @ V, np.concatenate([s, [0.0]]) @ V,
                         spec.R, DC, 0.0, sc.f1_hz, g.length_m, phic,
                         modal_damping_1_s=np.einsum("ij,i,ij->j", V, np.diag(Cc), V),
-                        label=f"FE {N} modes + platform DOF")
+                        label=f"FE {N} modes + platform DOF", **lower_stop(spec, sc, phic))
     m.platform_force_n = F_s        # per-point base_amplitude_m = F_s / Omega~^2
     m.platform_row = V[N].copy()    # z_p = platform_row @ xi
     return m
@@ -400,9 +404,14 @@ class EffectSolver:
         v = np.asarray(traj.impact_velocities, float)   # q'- (SDOF) or contact velocity / L (beam)
         if v.size == 0 or n_record <= 0 or traj.status == "failed":
             return 0.0
+        k = traj.impact_stops
+        if k is not None:          # two stops: the drift of the upper stop follows its own impulse
+            v = v[k == 0]
+            if v.size == 0:
+                return 0.0
         Rs = pm.restitution_coefficients(v)
         vs = v / self._phic            # sensor velocity
-        tot = float(np.sum((1.0 + Rs) * vs)) * (traj.n_impacts / v.size)
+        tot = float(np.sum((1.0 + Rs) * vs)) * ((traj.n_impacts - traj.n_impacts_lower) / v.size)
         return tot / n_record
 
 

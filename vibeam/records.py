@@ -239,16 +239,25 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
     shows a transient that has not settled (:func:`transient_verdict`; the
     message gives the reason, then the dynamic outcome it replaces).  ``Delta``
     is the scene's gap; ``traj.Delta`` replaces it where an effect moved the stop.
+
+    Two stops (``traj.impact_stops`` set): ``amplitude`` keeps its meaning (the upper stop's
+    ``Delta - min q``), ``impacts_per_period`` and ``impact_velocity`` are the upper stop's,
+    and ``impacts_per_period_lower``, ``impact_velocity_lower`` (mean normal pre-impact speed
+    ``|q'-|``) the lower stop's; ``period`` is -1 only without impacts on either stop.
     """
     n_rec = traj.n_record
     if traj.Delta is not None:
         Delta = traj.Delta
+    two = traj.impact_stops is not None
     if traj.status == "failed":
         nan = np.nan
-        return dict(amplitude=nan, **amplitude_spread(np.full(n_rec, nan)), q_max=nan, q_min=nan,
-                    period=0, impacts_per_period=nan, impact_velocity=nan,
-                    strobe=np.full((n_rec, 2), nan), harmonics=np.full(HARMONICS, nan),
-                    status=traj.status, message=traj.message)
+        out = dict(amplitude=nan, **amplitude_spread(np.full(n_rec, nan)), q_max=nan, q_min=nan,
+                   period=0, impacts_per_period=nan, impact_velocity=nan,
+                   strobe=np.full((n_rec, 2), nan), harmonics=np.full(HARMONICS, nan),
+                   status=traj.status, message=traj.message)
+        if two:
+            out.update(impacts_per_period_lower=nan, impact_velocity_lower=nan)
+        return out
     q = traj.samples[:, 0]
     scale = max(traj.q_max - traj.q_min, np.max(np.abs(traj.samples[:, 1])) if q.size else 0.0, 1e-300)
     period, why = transient_verdict(traj.strobe, scale, period_rtol, traj.n_impacts == 0)
@@ -257,16 +266,24 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
         message = f"unsettled: {why}" + (f"; {status}: {message}" if status != "ok" else "")
         status = "unsettled"
     iv = traj.impact_velocities
-    return dict(
+    n_up = traj.n_impacts - traj.n_impacts_lower
+    if two:
+        lower = traj.impact_stops == 1
+        iv, iv_l = iv[~lower], iv[lower]
+    out = dict(
         amplitude=Delta - traj.q_min,
         **amplitude_spread(Delta - period_minima(traj)),
         q_max=traj.q_max,
         q_min=traj.q_min,
         period=period,
-        impacts_per_period=traj.n_impacts / n_rec if n_rec else np.nan,
+        impacts_per_period=n_up / n_rec if n_rec else np.nan,
         impact_velocity=float(np.mean(iv)) if iv.size else np.nan,
         strobe=traj.strobe.copy(),
         harmonics=harmonic_amplitudes(q, traj.samples_per_period),
         status=status,
         message=message,
     )
+    if two:
+        out.update(impacts_per_period_lower=traj.n_impacts_lower / n_rec if n_rec else np.nan,
+                   impact_velocity_lower=float(np.mean(iv_l)) if iv_l.size else np.nan)
+    return out
