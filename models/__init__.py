@@ -1,42 +1,60 @@
-"""Fidelities of vibeam: the SDOF impact oscillator and (later) the FE beam.
+"""Fidelities of vibeam: the SDOF impact oscillator and the modal FE beam.
 
-Solvers are built by :func:`make_solver` from a model, a method name and its
-settings; every solver has ``point(Omega, state0, n_transient, n_record,
-samples_per_period)`` so that the one sweep engine drives them all.
+What each fidelity is and can do is declared once, in :mod:`vibeam.models.registry`;
+:data:`METHODS` and :data:`SHOOTING` are views of it.  Solvers are built by
+:func:`make_solver` from a model, a method name and its settings; every time-domain solver
+has ``point(Omega, state0, n_transient, n_record, samples_per_period)`` returning a
+:class:`~vibeam.models.trajectory.Trajectory`, so that the one sweep engine drives them all.
+
+Submodules are imported on first use (``vibeam.models.SDOF`` loads :mod:`.sdof`), so that
+the case validator can read the registry without loading numba kernels or scipy.
 """
 from __future__ import annotations
+
+import importlib
 
 from . import _cache
 
 _cache.install()   # before any kernel module: the cache key covers the whole package
 
-from .sdof import SDOF, EventSolver, linear_amplitude
+from .registry import FIDELITIES, fidelity, resolve  # noqa: E402
 
-from .sdof_averaging import AveragingSolver
-from .sdof_mapping import MappingSolver
-from .beam_dynamics import BeamEventSolver, BeamImpactModel, BeamODESolver
-from .sdof_ode import DirectSolver, IvanovSolver, ZhuravlevSolver
-from .periodic_sdof import SDOFShooting
-from .periodic_beam import BeamContinuation
-
-METHODS = {
-    ("beam", "event"): BeamEventSolver,
-    ("beam", "direct"): BeamODESolver,
-    ("sdof", "event"): EventSolver,
-    ("sdof", "averaging"): AveragingSolver,
-    ("sdof", "mapping"): MappingSolver,
-    ("sdof", "direct"): DirectSolver,
-    ("sdof", "zhuravlev"): ZhuravlevSolver,
-    ("sdof", "ivanov"): IvanovSolver,
+# public names -> their module (imported on first access, PEP 562)
+_LAZY = {
+    "SDOF": "sdof", "EventSolver": "sdof", "linear_amplitude": "sdof",
+    "AveragingSolver": "sdof_averaging", "MappingSolver": "sdof_mapping",
+    "BeamEventSolver": "beam_dynamics", "BeamImpactModel": "beam_dynamics",
+    "BeamODESolver": "beam_dynamics",
+    "DirectSolver": "sdof_ode", "IvanovSolver": "sdof_ode", "ZhuravlevSolver": "sdof_ode",
+    "SDOFShooting": "periodic_sdof", "BeamContinuation": "periodic_beam", "Trajectory": "trajectory",
 }
 
 
-# shooting problems of the periodic-orbit continuation (contract: vibeam.models.periodic), by
-# fidelity; a fidelity that registers one here can be continued (`method = "continuation"`)
-SHOOTING = {
-    "sdof": SDOFShooting,
-    "beam": BeamContinuation,
-}
+def __getattr__(name):
+    if name == "METHODS":
+        # solver classes by (fidelity, method), from the registry (loads every solver module)
+        table = {(f.name, m): resolve(p) for f in FIDELITIES.values() for m, p in f.methods.items()}
+        globals()["METHODS"] = table
+        return table
+    if name == "SHOOTING":
+        # shooting problems of the periodic-orbit continuation (contract: vibeam.models.periodic), by
+        # fidelity, from the registry; a plain dict (tests may patch it), built once
+        table = {f.name: resolve(f.shooting) for f in FIDELITIES.values() if f.shooting}
+        globals()["SHOOTING"] = table
+        return table
+    mod = _LAZY.get(name)
+    if mod is not None:
+        value = getattr(importlib.import_module(f".{mod}", __name__), name)
+        globals()[name] = value
+        return value
+    try:
+        return importlib.import_module(f".{name}", __name__)
+    except ModuleNotFoundError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY) | {"SHOOTING", "METHODS"})
 
 
 def shooting_problem(model, parameter: str, Omega: float | None = None):
@@ -47,12 +65,16 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
     ------
     ValueError
         If no shooting problem is registered for the model's fidelity, or the parameter is not
-        one of the problem's.
+        one of the problem's, or the model has a second stop (the shooting problems have one).
     """
-    cls = SHOOTING.get(model.fidelity)
+    if getattr(model, "two_sided", False):
+        raise ValueError("continuation cannot follow a scene with a second (lower) stop yet (the shooting "
+                         "problems have one stop)")
+    shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
+    cls = shooting.get(model.fidelity)
     if cls is None:
         raise ValueError(f"continuation is not available for fidelity {model.fidelity!r} (no shooting "
-                         f"problem registered); available: {', '.join(sorted(SHOOTING))}")
+                         f"problem registered); available: {', '.join(sorted(shooting))}")
     return cls(model, parameter, Omega=Omega)
 
 
@@ -62,15 +84,19 @@ def make_solver(model, method: str, **settings):
     Raises
     ------
     ValueError
-        If the method does not exist for the model's fidelity.
+        If the method does not exist for the model's fidelity, or cannot simulate the
+        model's second stop (``two_sided_methods`` of the registry).
     """
-    key = (model.fidelity, method)
-    if key not in METHODS:
-        allowed = sorted(m for f, m in METHODS if f == model.fidelity)
-        raise ValueError(f"method {method!r} is not available for fidelity {model.fidelity!r}; "
-                         f"allowed: {', '.join(allowed)}")
-    return METHODS[key](model, **settings)
+    fid = fidelity(model)
+    path = fid.methods.get(method)
+    if path is None:
+        raise ValueError(f"method {method!r} is not available for fidelity {fid.name!r}; "
+                         f"allowed: {', '.join(sorted(fid.methods))}")
+    if getattr(model, "two_sided", False) and method not in fid.two_sided_methods:
+        raise ValueError(f"method {method!r} cannot simulate a second (lower) stop; allowed with two stops: "
+                         f"{', '.join(fid.two_sided_methods)}")
+    return resolve(path)(model, **settings)
 
 
 __all__ = ["SDOF", "EventSolver", "linear_amplitude", "make_solver", "METHODS", "SHOOTING",
-           "shooting_problem", "SDOFShooting", "BeamContinuation"]
+           "shooting_problem", "SDOFShooting", "BeamContinuation", "FIDELITIES", "fidelity", "Trajectory"]

@@ -34,9 +34,13 @@ Guaranteed impact detection
     halved only where needed (and the last accepted step is remembered), so the step
     scales with the highest mode only where that mode is excited near the stop.
 
-Impact law (Moreau / Siconos)
-    ``m_eff = 1 / sum_i w_i^2``; ``P = restitution_impulse(U-, R, m_eff)``;
-    ``eta_i' += w_i P`` (``U+ = -R U-``, energy loss ``(1 - R^2) m_eff U-^2 / 2``).
+Contact relation and law (Moreau / Siconos; :mod:`vibeam.models.contact`)
+    Each stop is a relation (normal ``n = s w``, offset ``Delta``: gap ``n^T eta - Delta``,
+    normal velocity ``U = n^T eta'``, ``m_eff = 1 / sum_i w_i^2``) and a law.  At a contact
+    event the law gives ``U+`` (Newton: ``U+ = -R(U-) U-``) and the kernel applies the impulse
+    ``P = m_eff (U+ - U-)`` along ``n`` (:func:`apply_impulse`; energy loss ``(1 - R^2) m_eff
+    U-^2 / 2``); what follows (rebound, chatter, sticking) is the shared policy of
+    :mod:`vibeam.models.contact_policy`.
 
 Sticking and chatter
     On the stop the beam is the constrained linear system ``w^T eta = Delta_C``: with an
@@ -61,15 +65,19 @@ Sticking and chatter
 """
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
 import scipy.linalg
 from numba import njit
 
-from vibeam.records import Trajectory
+from .trajectory import Trajectory
 
-from .contact_policy import chatter_jump
+from .contact import OFFSET as _OFFSET
+from .contact import Relation, Restitution, Stop, check_stops, impulsive_response, pack
+from .contact_policy import (BURST_DT, BURST_MAX, CHATTER, CHATTER_GUARD, REBOUND, STICK, impact_outcome,
+                             release_now, zeno_burst)
 from .roots import rtsafe_update, select
 from .impact import newton_restitution, restitution_coefficient, restitution_impulse
 from .sdof_event import STATUS_NAMES, _certify
@@ -111,12 +119,6 @@ def particular(c, k, G, F, Omega):
     """Steady response ``a sin + b cos`` of ``x'' + c x' + k x = G F sin(Omega t)``."""
     z = G * F / (k - Omega**2 + 1j * c * Omega)   # response to G F e^{i Omega t}
     return z.real, z.imag  # Im(z e^{i phi}) = Re z sin + Im z cos
-
-
-# Zeno guard of the beam kernel (see ``beam_event_kernel``): impacts closer than
-# BURST_DT forcing periods in a row, BURST_MAX of them, end a chatter sequence.
-BURST_DT = 1e-3
-BURST_MAX = 200
 
 
 @njit(cache=True)
@@ -376,6 +378,18 @@ def _contact_acc(phi, Om, eta, etad, w, cF, kF, GF):
 
 
 @njit(cache=True)
+def apply_impulse(etad, n, U_minus, U_plus, m_eff):
+    """Impulse of a contact law through the mass matrix (Moreau / Siconos): ``P = m_eff (U+ -
+    U-)`` along ``M^-1 n = n`` (mass-normalised modes), ``eta' += n P`` in place; returns ``U+``.
+
+    ``n`` is the stop's normal (``s w``, :class:`vibeam.models.contact.Relation`)."""
+    P = m_eff * (U_plus - U_minus)
+    for i in range(etad.shape[0]):
+        etad[i] += n[i] * P
+    return U_plus
+
+
+@njit(cache=True)
 def apply_impact(etad, w, U_minus, R, m_eff):
     """Newton impact on the contact ``U = w^T eta`` (Moreau / Siconos): impulse
     ``P = restitution_impulse(U-, R, m_eff)`` along ``w``, ``eta' += w P`` in place.
@@ -432,12 +446,13 @@ def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, Sa, Sb, f0, fp0):
 
 
 @njit(cache=True)
-def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U, R_table_R,
+def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, stops, tab_U, tab_R, normals, m_eff,
                 mpC, aC, bC, eC, Psi, eta_c, pL, rL, SaL, SbL, cL, pS, SaS, SbS, cS,
                 eta, etad, stuck_init,
                 n_transient, n_record, ns_transient, ns_record, h_cap,
                 max_impacts, max_steps, chatter_tol,
-                samples, imp_t, imp_v, modamp, msamp, pmin, chat_t, evlog=None, aplog=None, nlog=None):
+                samples, imp_t, imp_v, imp_k, n_imp_stop, modamp, msamp, pmin, chat_t,
+                evlog=None, aplog=None, nlog=None):
     """Exact event-driven simulation of whole forcing periods (numba core).
 
     ``eta, etad`` (N,) hold the initial modal state and receive the final one.
@@ -445,17 +460,31 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
     (N,) the max ``|eta_i|`` over the samples; ``msamp`` (same rows or 0 rows, 2N) the
     modal state ``(eta, eta')`` at the samples; ``pmin`` (n_record,) the minimum of the sensor
     signal ``s^T eta`` over each recorded period (root-found like ``smin``); ``chat_t`` the
-    times of the first ``len(chat_t)`` chatter accumulation points of the record.  ``R_table_U``/``R_table_R`` tabulate R
-    against the pre-impact contact velocity (kernel units; empty = constant ``R``,
-    :func:`vibeam.models.impact.restitution_coefficient`).  Returns ``(status, n_imp_rec, smin, smax,
-    n_chatter, stuck_time, stuck_end, n_imp_total, gmax, n_steps)``.
+    times of the first ``len(chat_t)`` chatter accumulation points of the record.
+
+    Stops (:mod:`vibeam.models.contact`): row k of ``stops`` (n_stops, NPAR) is the relation
+    (normal ``normals[k] = s_k w``, offset ``Delta_k``) and law of stop k, with its ``R(U-)``
+    table in ``tab_U``/``tab_R`` (contact velocity in kernel units); row 0 is the upper stop
+    at ``w^T eta = Delta_C``.  The constrained data of the beam held on stop k are the rows
+    ``eC[k]``, ``eta_c[k]``, ``pL[k]``, ``rL[k]``, ``SaL[k]``, ``SbL[k]``, ``cL[k]``, ``cS[k]``
+    (:meth:`BeamImpactModel.kernel_stops`).  ``imp_k`` receives the stop of each stored impact
+    and ``n_imp_stop`` (n_stops,) the recorded impacts per stop; ``stuck_init``: 0 free, 1 held
+    on the upper stop.  Returns ``(status, n_imp_rec, smin, smax, n_chatter, stuck_time,
+    stuck_end, n_imp_total, gmax, n_steps)`` with ``stuck_end`` as ``stuck_init``.
 
     ``evlog`` (cap, 3 + 2N), ``aplog`` (cap_a, 2), ``nlog`` (2,) int64: optional event
     and apex log (see ``EV_START``); omitted in sweeps, where the logging branches are
     compiled out.
     """
     N = eta.shape[0]
-    Nc = eC.shape[0]
+    Nc = eC.shape[1]
+    Delta_C = stops[0, _OFFSET]
+    # a second (lower) stop: normal -w at w^T eta = -Dl (vibeam.models.contact); its gap
+    # g_l = -w^T eta - Dl is carried beside g like g (value + accurate increments)
+    two = stops.shape[0] > 1
+    Dl = stops[1, _OFFSET] if two else np.inf
+    nl = normals[1] if two else normals[0]
+    side = 0 if stuck_init >= 0 else 1     # the stop the beam is held on (when stuck)
     T = TWO_PI / Om
     zeroN = np.zeros(N)
     zeroC = np.zeros(Nc)
@@ -475,7 +504,11 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
         SaSF += sv[i] * aF[i]
         SbSF += sv[i] * bF[i]
     CsF = math.sqrt(SaF * SaF + SbF * SbF)
-    CsL = math.sqrt(SaL * SaL + SbL * SbL)
+    CsL = np.empty(SaL.shape[0])
+    for k in range(SaL.shape[0]):
+        CsL[k] = math.sqrt(SaL[k] * SaL[k] + SbL[k] * SbL[k])
+    for k in range(n_imp_stop.shape[0]):
+        n_imp_stop[k] = 0
     w2 = 0.0
     for i in range(N):
         w2 += w[i] * w[i]
@@ -492,7 +525,7 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
     pext = np.array([np.inf, -np.inf])
     for i in range(pmin.shape[0]):
         pmin[i] = np.inf
-    stuck = stuck_init
+    stuck = stuck_init != 0
     g = 0.0
     v = 0.0
     for i in range(N):
@@ -500,15 +533,32 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
         v += w[i] * etad[i]
     g -= Delta_C
     scale = abs(Delta_C) + math.sqrt(w2) * math.sqrt(np.sum(eta * eta)) + 1e-300
-    if stuck or g > -1e-13 * scale:
+    gl = -np.inf
+    if two:
+        gl = -Dl
+        for i in range(N):
+            gl -= w[i] * eta[i]
+    if (stuck and side == 0) or g > -1e-13 * scale:
         corr = g / w2
         for i in range(N):
             eta[i] -= w[i] * corr
         g = 0.0
+        if two:
+            gl = -Delta_C - Dl
         if stuck:
             v = 0.0
         if evlog is not None:
             _log_event(evlog, nlog, EV_START, 0.0, 1.0 if stuck else 0.0, eta, etad)
+    elif two and ((stuck and side == 1) or gl > -1e-13 * (scale + abs(Dl))):
+        corr = gl / w2
+        for i in range(N):
+            eta[i] -= nl[i] * corr
+        gl = 0.0
+        g = -Dl - Delta_C
+        if stuck:
+            v = 0.0
+        if evlog is not None:
+            _log_event(evlog, nlog, EV_START, 0.0, -1.0 if stuck else 0.0, eta, etad)
     gmax = -np.inf
     n_imp_total = 0
     n_imp_rec = 0
@@ -571,29 +621,34 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                 n_steps += 1
                 if n_steps > max_steps:
                     return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
-                            stuck, n_imp_total, gmax, n_steps)
+                            _side_code(stuck, side), n_imp_total, gmax, n_steps)
                 h_try = min(rem, h_cap, 2.0 * h_last)
                 if stuck:
-                    # ---- constrained motion on the stop; scan the contact force ----
+                    # ---- constrained motion on stop ``side``; scan the contact force ----
+                    eCk = eC[side]
+                    etck = eta_c[side]
+                    pLk = pL[side]
+                    rLk = rL[side]
                     for j in range(Nc):
                         zz = 0.0
                         zd = 0.0
                         for i in range(N):
-                            zz += Psi[i, j] * (eta[i] - eta_c[i])
+                            zz += Psi[i, j] * (eta[i] - etck[i])
                             zd += Psi[i, j] * etad[i]
                         zeta[j] = zz
                         zetad[j] = zd
-                    _homog(phi, Om, zeta, zetad, aC, bC, eC, xc, yc)
-                    const = cL
+                    _homog(phi, Om, zeta, zetad, aC, bC, eCk, xc, yc)
+                    const = cL[side]
                     for j in range(Nc):
-                        const += pL[j] * eC[j]
-                    lam0, lamp0 = _start(phi, Om, xc, yc, mpC, pL, rL, SaL, SbL, const)
-                    if (lam0 > 0.0 or (lam0 == 0.0 and lamp0 > 0.0)) and not just_stuck and hold <= 0.0:
+                        const += pLk[j] * eCk[j]
+                    lam0, lamp0 = _start(phi, Om, xc, yc, mpC, pLk, rLk, SaL[side], SbL[side], const)
+                    # the shared release rule: lambda > 0 pulls the beam away (-lambda presses)
+                    if release_now(-lam0, -lamp0) and not just_stuck and hold <= 0.0:
                         if evlog is not None:
                             _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, lam0, eta, etad)
                         stuck = False
                         just_released = True
-                        g = 0.0
+                        g, gl = _on_stop(side, two, Delta_C, Dl)
                         v = 0.0
                         continue
                     if lam0 > 0.0:
@@ -610,25 +665,25 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         if hold < 1e-15 * T:
                             hold = 0.0
                     else:
-                        M2, M3, M4 = _bounds(xc, yc, mpC, pL, rL, CsL, Om)
-                        s_ev, h = _scan(h_try, 1e-13 * T, phi, Om, xc, yc, mpC, pL, rL, SaL, SbL,
+                        M2, M3, M4 = _bounds(xc, yc, mpC, pLk, rLk, CsL[side], Om)
+                        s_ev, h = _scan(h_try, 1e-13 * T, phi, Om, xc, yc, mpC, pLk, rLk, SaL[side], SbL[side],
                                         lam0, lamp0, M2, M3, M4)
                         if s_ev < 0.0:
                             h_last = h
                     s_mv = s_ev if s_ev >= 0.0 else h
                     if recording:
                         # sensor extremes while stuck
-                        constS = cS
+                        constS = cS[side]
                         for j in range(Nc):
-                            constS += pS[j] * eC[j]
+                            constS += pS[j] * eCk[j]
                         q0s, qp0s = _start(phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, constS)
                         q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s)
                         _extremes(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s, qp0s, qp1s, pext)
                         if not held:
                             stuck_time += s_mv
-                    _advance(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eC)
+                    _advance(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eCk)
                     for i in range(N):
-                        zz = eta_c[i]
+                        zz = etck[i]
                         zd = 0.0
                         for j in range(Nc):
                             zz += Psi[i, j] * zeta[j]
@@ -644,11 +699,12 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                             _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, 0.0, eta, etad)
                         stuck = False
                         just_released = True
-                        g = 0.0
+                        g, gl = _on_stop(side, two, Delta_C, Dl)
                         v = 0.0
                     continue
                 # ---- free flight ----
                 s_imp = -1.0
+                k_imp = 0
                 if g >= 0.0 and v >= 0.0:
                     g = 0.0
                     if v > 0.0:
@@ -659,20 +715,55 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                             if evlog is not None:
                                 _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, eta, etad)
                             stuck = True
+                            side = 0
                             just_stuck = True
                             corr = v / w2
                             for i in range(N):
                                 etad[i] -= w[i] * corr
+                            continue
+                elif two and gl >= 0.0 and v <= 0.0:
+                    # the same on the lower stop (normal -w, normal velocity -v)
+                    gl = 0.0
+                    if v < 0.0:
+                        s_imp = 0.0
+                        k_imp = 1
+                    elif not just_released:
+                        acc, jerk = _contact_acc(phi, Om, eta, etad, nl, cF, kF, GF)
+                        if acc > 0.0:
+                            if evlog is not None:
+                                _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, eta, etad)
+                            stuck = True
+                            side = 1
+                            just_stuck = True
+                            corr = -v / w2
+                            for i in range(N):
+                                etad[i] -= nl[i] * corr
                             continue
                 if s_imp < 0.0:
                     _homog(phi, Om, eta, etad, aF, bF, zeroN, x0, y0)
                     M2, M3, M4 = _bounds(x0, y0, mpF, w, zeroN, CsF, Om)
                     s_ev, h = _scan(h_try, 1e-13 * T, phi, Om, x0, y0, mpF, w, zeroN, SaF, SbF,
                                     g, v, M2, M3, M4)
+                    if two:
+                        # the lower gap on [0, first upper event or certified step]: the same
+                        # bounds (|-w| = |w|); the earlier event wins, a shorter certified step
+                        # of the lower scan shortens the step
+                        h_l = s_ev if s_ev >= 0.0 else h
+                        s_evl, h_l2 = _scan(h_l, 1e-13 * T, phi, Om, x0, y0, mpF, nl, zeroN, -SaF, -SbF,
+                                            gl, -v, M2, M3, M4)
+                        if s_evl >= 0.0:
+                            s_ev = s_evl
+                            k_imp = 1
+                        elif h_l2 < h_l:
+                            s_ev = -1.0
+                            h = h_l2
                     s_mv = s_ev if s_ev >= 0.0 else h
                     if s_ev < 0.0:
                         h_last = h
                     g1, v1, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, w, zeroN, SaF, SbF, g, v)
+                    gl1 = -np.inf
+                    if two:
+                        gl1 = _sig(s_mv, phi, Om, x0, y0, mpF, nl, zeroN, -SaF, -SbF, gl, -v)[0]
                     if aplog is not None and s_ev < 0.0 and v > 0.0 and v1 <= 0.0:
                         _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, x0, y0, mpF, w, SaF, SbF, g, v)
                     if recording:
@@ -690,14 +781,20 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                         just_released = False
                     if g1 > gmax:
                         gmax = g1
+                    if gl1 > gmax:
+                        gmax = gl1
                     if s_ev < 0.0:
                         g = g1 if g1 < 0.0 else 0.0
+                        if two:
+                            gl = gl1 if gl1 < 0.0 else 0.0
                         v = v1
                         continue
                     v = v1
                     s_imp = s_ev
-                # ---- impact at the current time ----
-                g = 0.0
+                # ---- impact at the current time on stop k_imp (normal n, offset Dk) ----
+                n = normals[k_imp]
+                vk = v if k_imp == 0 else -v
+                g, gl = _on_stop(k_imp, two, Delta_C, Dl)
                 # Re-sync the state with the carried contact signal: ``g, v`` are carried
                 # as value + increment (no cancellation), so they differ from the state's
                 # ``w^T eta - Delta_C, w^T eta'`` by round-off that nothing contracts (the
@@ -707,72 +804,69 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
                 # periods of one call (~1.6e-18 per period, 4e-13 in the state after 10^4
                 # periods of the one-mode beam).  Project the state onto the event
                 # (contact at gap 0 with velocity v) along w, as at a stick.
-                gs = -Delta_C
+                gs = -stops[k_imp, _OFFSET]
                 vs = 0.0
                 for i in range(N):
-                    gs += w[i] * eta[i]
-                    vs += w[i] * etad[i]
+                    gs += n[i] * eta[i]
+                    vs += n[i] * etad[i]
                 gs /= w2
-                vs = (vs - v) / w2
+                vs = (vs - vk) / w2
                 for i in range(N):
-                    eta[i] -= w[i] * gs
-                    etad[i] -= w[i] * vs
-                Um = v if v > 0.0 else 0.0
+                    eta[i] -= n[i] * gs
+                    etad[i] -= n[i] * vs
+                Um = vk if vk > 0.0 else 0.0
                 if evlog is not None:
                     _log_event(evlog, nlog, EV_IMPACT, pp * T + t_loc, Um, eta, etad)
-                Rc = restitution_coefficient(Um, R, R_table_U, R_table_R)
-                v = apply_impact(etad, w, Um, Rc, m_eff)
+                # CONTACT EVENT: the stop's law (an impulsive one; a compliant law would enter
+                # its contact phase here, see vibeam.models.contact), impulse along its normal
+                Up, Rc = impulsive_response(Um, stops[k_imp], tab_U[k_imp], tab_R[k_imp])
+                vk = apply_impulse(etad, n, Um, Up, m_eff)
+                v = vk if k_imp == 0 else -vk
                 n_imp_total += 1
                 if recording:
                     if n_imp_rec < cap:
                         imp_t[n_imp_rec] = t_period0 + t_loc
                         imp_v[n_imp_rec] = Um
+                        imp_k[n_imp_rec] = k_imp
                     n_imp_rec += 1
+                    n_imp_stop[k_imp] += 1
                 if n_imp_total > max_impacts:
                     return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
-                            stuck, n_imp_total, gmax, n_steps)
-                u = -v
-                acc, jerk = _contact_acc(phi, Om, eta, etad, w, cF, kF, GF)
-                stick_now = False
-                if u <= 0.0:
-                    stick_now = acc > 0.0
+                            _side_code(stuck, side), n_imp_total, gmax, n_steps)
+                # the shared policy (vibeam.models.contact_policy), R at the current impact
+                # velocity: the jerk beyond the one-DOF flow part -c_eff a + k_eff u is the
+                # forcing term plus the modal remainder (zero for one mode); a chatter jumps only
+                # to an accumulation point inside the current grid step; the Zeno guard is on
+                u = -vk
+                acc, jerk = _contact_acc(phi, Om, eta, etad, n, cF, kF, GF)
                 t_imp = t_period0 + t_loc
-                if t_imp - t_last_imp < BURST_DT * T:
-                    burst += 1
-                else:
-                    burst = 0
+                burst = zeno_burst(burst, t_imp, t_last_imp, BURST_DT * T)
                 t_last_imp = t_imp
-                if stick_now:
+                action, D = impact_outcome(u, acc > 0.0, acc, jerk + c_eff * acc - k_eff * u, c_eff, k_eff,
+                                           Rc, chatter_tol, rem, burst, BURST_MAX)
+                stick_now = action != REBOUND
+                if action == STICK or action == CHATTER_GUARD:
                     burst = 0
-                elif burst >= BURST_MAX and acc > 0.0:
-                    stick_now = True
-                    burst = 0
+                if action == CHATTER_GUARD:
                     if recording:
                         n_chatter += 1
                         if n_chatter <= chat_t.shape[0]:
                             chat_t[n_chatter - 1] = t_imp
-                else:
-                    # the shared chatter policy (vibeam.models.contact_policy), R at the current
-                    # impact velocity: the jerk beyond the one-DOF flow part -c_eff a + k_eff u is
-                    # the forcing term plus the modal remainder (zero for one mode), and the jump
-                    # is taken only to an accumulation point inside the current grid step
-                    D = chatter_jump(u, acc, jerk + c_eff * acc - k_eff * u, c_eff, k_eff, Rc,
-                                     chatter_tol, rem)
-                    if D >= 0.0:
-                        stick_now = True
-                        hold = D
-                        if recording:
-                            n_chatter += 1
-                            if n_chatter <= chat_t.shape[0]:
-                                chat_t[n_chatter - 1] = t_imp + D
+                elif action == CHATTER:
+                    hold = D
+                    if recording:
+                        n_chatter += 1
+                        if n_chatter <= chat_t.shape[0]:
+                            chat_t[n_chatter - 1] = t_imp + D
                 if stick_now:
                     if evlog is not None:
                         _log_event(evlog, nlog, EV_STICK_IMPACT, pp * T + t_loc, hold, eta, etad)
-                    corr = v / w2
+                    corr = vk / w2
                     for i in range(N):
-                        etad[i] -= w[i] * corr
+                        etad[i] -= n[i] * corr
                     v = 0.0
                     stuck = True
+                    side = k_imp
                     just_stuck = True
     if n_record > 0:
         pmin[n_record - 1] = pext[0]
@@ -784,8 +878,24 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, Delta_C, m_eff, R, R_table_U
             status = ST_CHATTER
         elif stuck_time > 0.0:
             status = ST_STICKING
-    return (status, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time, stuck, n_imp_total,
-            gmax, n_steps)
+    return (status, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time, _side_code(stuck, side),
+            n_imp_total, gmax, n_steps)
+
+
+@njit(cache=True)
+def _on_stop(k, two, Delta_C, Dl):
+    """Carried gaps ``(g, g_l)`` of the beam on stop k (0 upper, 1 lower)."""
+    if k == 0:
+        return 0.0, (-Delta_C - Dl if two else -np.inf)
+    return -Dl - Delta_C, 0.0
+
+
+@njit(cache=True)
+def _side_code(stuck, side):
+    """Held-state code of the kernels: 0 free, 1 on the upper stop, -1 on the lower one."""
+    if not stuck:
+        return 0
+    return 1 if side == 0 else -1
 
 
 # ============================================================================ model
@@ -822,13 +932,21 @@ class BeamImpactModel:
     restitution_table : (array_like, array_like), optional
         ``(U-, R)`` nodes of a velocity-dependent R with ``U-`` the pre-impact contact
         velocity in kernel units (m per nondimensional time); None = constant ``R``.
+    gap_contact_lower_m : float or None, optional
+        A second (lower) stop at ``w^T eta = -Delta_C,lower`` (m, distance from the static
+        equilibrium at the contact point, positive; ``Delta_C + Delta_C,lower > 0``); None: one
+        stop.
+    R_lower : float or None, optional
+        Coefficient of restitution of the lower stop; None: the upper stop's law (``R`` and
+        the table).
     """
 
     fidelity = "beam"
 
     def __init__(self, omega_rad_s, participation, contact_row, sensor_row, R, gap_contact_m,
                  base_amplitude_m, f_ref_hz, length_m, phi_at_mass, damping_D_s=0.0,
-                 rayleigh_alpha_1_s=0.0, label="", modal_damping_1_s=None, restitution_table=None):
+                 rayleigh_alpha_1_s=0.0, label="", modal_damping_1_s=None, restitution_table=None,
+                 gap_contact_lower_m=None, R_lower=None):
         self.omega_rad_s = np.asarray(omega_rad_s, dtype=float).copy()
         self.participation = np.asarray(participation, dtype=float).copy()
         self.contact_row = np.asarray(contact_row, dtype=float).copy()
@@ -862,13 +980,20 @@ class BeamImpactModel:
         else:
             self.R_table_U = np.ascontiguousarray(restitution_table[0], dtype=float)
             self.R_table_R = np.ascontiguousarray(restitution_table[1], dtype=float)
+        self.gap_contact_lower_m = None if gap_contact_lower_m is None else float(gap_contact_lower_m)
+        self.R_lower = None if R_lower is None else float(R_lower)
+        if self.R_lower is not None and not 0.0 <= self.R_lower <= 1.0:
+            raise ValueError("R_lower must lie in [0, 1]")
+        if self.gap_contact_lower_m is not None and not self.gap_contact_m + self.gap_contact_lower_m > 0.0:
+            raise ValueError("the stops overlap: gap_contact_m + gap_contact_lower_m must be > 0")
         self.label = label
         self._constrained()
 
     # ---------------------------------------------------------------- constructors
     @classmethod
     def from_fe(cls, fe, n_modes=2, R=0.72, gap_contact_m=0.0, base_amplitude_m=0.0,
-                f_ref_hz=None, damping_D_s=None, rayleigh_alpha_1_s=None):
+                f_ref_hz=None, damping_D_s=None, rayleigh_alpha_1_s=None, gap_contact_lower_m=None,
+                R_lower=None):
         """Modal truncation of a :class:`vibeam.models.beam.BeamFE` to ``n_modes`` (int or
         ``"all"``).  Damping defaults to the FE model's; ``f_ref`` to its ``f_1``."""
         from vibeam.reductions.modal import modal_reduction
@@ -885,11 +1010,11 @@ class BeamImpactModel:
                    md.frequencies_hz[0] if f_ref_hz is None else f_ref_hz, L, phim,
                    fe.damping_D_s if damping_D_s is None else damping_D_s,
                    fe.rayleigh_alpha_1_s if rayleigh_alpha_1_s is None else rayleigh_alpha_1_s,
-                   label=f"FE {red.n_modes} modes")
+                   label=f"FE {red.n_modes} modes", gap_contact_lower_m=gap_contact_lower_m, R_lower=R_lower)
 
     @classmethod
     def static_mode(cls, geometry, R=0.72, gap_contact_m=0.0, base_amplitude_m=0.0,
-                    damping_D_s=0.0, f_ref_hz=None):
+                    damping_D_s=0.0, f_ref_hz=None, gap_contact_lower_m=None, R_lower=None):
         """One assumed shape, the static mode ``phi`` (paper Eqs. 42-47, beam mass
         excluded): mass ``M_S = m phi(x_m)^2``, stiffness ``K_S``, load ``m phi(x_m)``.
 
@@ -905,7 +1030,8 @@ class BeamImpactModel:
         return cls([red.omega_n_rad_s], [geometry.mass_kg * phim / sq], [phim / sq], [1.0 / sq],
                    R, gap_contact_m, base_amplitude_m,
                    red.f_n_hz if f_ref_hz is None else f_ref_hz, geometry.length_m, phim,
-                   damping_D_s, 0.0, label="static mode")
+                   damping_D_s, 0.0, label="static mode", gap_contact_lower_m=gap_contact_lower_m,
+                   R_lower=R_lower)
 
     # ---------------------------------------------------------------- derived data
     @property
@@ -950,12 +1076,32 @@ class BeamImpactModel:
             return self.modal_damping_1_s
         return self.rayleigh_alpha_1_s + self.damping_D_s * self.omega_rad_s ** 2
 
+    @property
+    def two_sided(self) -> bool:
+        """A second stop below (``gap_contact_lower_m`` given)."""
+        return getattr(self, "gap_contact_lower_m", None) is not None
+
+    def stops(self) -> tuple:
+        """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
+        ``w^T eta = Delta_C`` (normal ``w``) with Newton's law, ``R`` and ``R(U-)``, and for a
+        two-sided scene the stop at ``w^T eta = -Delta_C,lower`` (normal ``-w``) with its law."""
+        upper = Restitution(self.R, tuple(self.R_table_U), tuple(self.R_table_R))
+        out = (Stop(Relation(1.0, self.gap_contact_m), upper),)
+        if self.two_sided:
+            law = upper if self.R_lower is None else Restitution(self.R_lower)
+            out += (Stop(Relation(-1.0, self.gap_contact_lower_m), law),)
+        return out
+
     def _constrained(self):
-        """Null-space basis, constrained modes and contact-force coefficients."""
+        """Null-space basis, constrained modes and contact-force coefficients.
+
+        The beam held on stop k (``s_k w^T eta = Delta_k``) moves in ``eta = eta_c,k + Psi
+        zeta``: ``Psi`` and the constrained modes are the same for every stop (the null space of
+        ``w``), the offsets ``eta_c,k``, ``eC_k`` and the contact-force coefficients differ; they
+        are the rows of :attr:`stop_rows` (``eta_c``, ``eC``, ... are the upper stop's)."""
         w = self.contact_row
         N = w.size
         w2 = float(w @ w)
-        self.eta_c = w * self.gap_contact_m / w2
         Q, _ = np.linalg.qr(np.column_stack([w, np.eye(N)]))
         Tn = Q[:, 1:N]
         K = np.diag(self.k_nd)
@@ -972,14 +1118,90 @@ class BeamImpactModel:
         if self.modal_damping_1_s is not None:
             self.cC = np.einsum("ij,i,ij->j", Psi, self.c_nd, Psi)
         self.GC = Psi.T @ self.participation
-        self.eC = -(Psi.T @ (K @ self.eta_c)) / np.where(nu2 > 0, nu2, 1.0)
         me = 1.0 / w2
         C = np.diag(self.c_nd)
-        self.pL = me * (w @ K @ Psi)
-        self.rL = me * (w @ C @ Psi)
-        self.lam_const = me * float(w @ K @ self.eta_c)
         self.pS = self.sensor_row @ Psi
-        self.sens_const = float(self.sensor_row @ self.eta_c)
+        rows = {k: [] for k in ("normals", "eta_c", "eC", "pL", "rL", "cL", "cS")}
+        for st in self.stops():
+            s, D = st.relation.sign, st.relation.offset
+            n = st.relation.normal(w)
+            eta_c = w * D / w2 if s > 0 else w * (-D) / w2
+            rows["normals"].append(n)
+            rows["eta_c"].append(eta_c)
+            rows["eC"].append(-(Psi.T @ (K @ eta_c)) / np.where(nu2 > 0, nu2, 1.0))
+            rows["pL"].append(me * (n @ K @ Psi))
+            rows["rL"].append(me * (n @ C @ Psi))
+            rows["cL"].append(me * float(n @ K @ eta_c))
+            rows["cS"].append(float(self.sensor_row @ eta_c))
+        #: per-stop kernel data (row k: stop k), see :func:`beam_kernel`
+        self.stop_rows = {k: np.ascontiguousarray(np.stack(v) if k not in ("cL", "cS") else np.array(v, dtype=float))
+                          for k, v in rows.items()}
+        r = self.stop_rows
+        self.eta_c = r["eta_c"][0].copy()
+        self.eC = r["eC"][0].copy()
+        self.pL = r["pL"][0].copy()
+        self.rL = r["rL"][0].copy()
+        self.lam_const = float(r["cL"][0])
+        self.sens_const = float(r["cS"][0])
+
+    def stop_forcing(self, aC, bC, F, Om):
+        """Harmonic coefficients ``(SaL, SbL)`` (n_stops,) of the contact force of the beam held
+        on each stop, for the constrained particular solution ``aC, bC`` at forcing ``F``, ``Om``."""
+        me = self.m_eff
+        r = self.stop_rows
+        SaL = np.empty(r["cL"].size)
+        SbL = np.empty(r["cL"].size)
+        for k in range(SaL.size):
+            lamF = -me * float(r["normals"][k] @ self.participation) * F
+            SaL[k] = lamF + float(r["pL"][k] @ aC - Om * (r["rL"][k] @ bC))
+            SbL[k] = float(r["pL"][k] @ bC + Om * (r["rL"][k] @ aC))
+        return SaL, SbL
+
+    # ---- the model protocol of the fidelity registry (vibeam.models.registry)
+    @property
+    def phi_contact(self) -> float:
+        """Static-mode value at the contact point over the sensor's (``phi(x_m)``, or
+        ``phi_c`` of an eccentric contact): contact displacements over it are the sensor's."""
+        return self.phi_at_mass
+
+    def free_mode_frequencies(self) -> np.ndarray:
+        """Frequencies of the retained modes over the reference frequency, shape (N,)."""
+        return np.asarray(self.omega_rad_s) / (2 * math.pi) / self.f_ref_hz
+
+    def contact_mode_frequencies(self) -> np.ndarray:
+        """Frequencies of the modes of the beam held on the stop over the reference, (N - 1,)."""
+        return np.sqrt(np.maximum(np.asarray(self.nu2), 0.0))
+
+    def restitution_coefficients(self, velocities, stops=None) -> np.ndarray:
+        """R of impacts with recorded pre-impact normal velocities ``U- / L`` (per
+        nondimensional time, the trajectory's unit), shape (k,), on the stops ``stops`` (k,)
+        (0 upper, 1 lower; None: all on the upper one): the law of the kernel, in its units."""
+        v = np.asarray(velocities, float)
+        if stops is None:
+            return np.array([restitution_coefficient(float(x) * self.length_m, self.R, self.R_table_U,
+                                                     self.R_table_R) for x in v])
+        laws = [s.law for s in self.stops()]
+        return np.array([laws[int(k)].coefficient(float(x) * self.length_m) for x, k in zip(v, stops)])
+
+    def with_gain(self, gain_per_V: float, scene_gain_per_V: float, voltage: float) -> "BeamImpactModel":
+        """The model at excitation gain ``gamma`` (1/V) instead of the scene's: the base
+        amplitude ``Y = gamma~ V`` scales with it (Eq. 46)."""
+        m = copy.copy(self)
+        m.base_amplitude_m = self.base_amplitude_m * (gain_per_V / scene_gain_per_V)
+        return m
+
+    def with_base_amplitude_m(self, Y: float) -> "BeamImpactModel":
+        """The model with base displacement amplitude ``Y`` (m)."""
+        m = copy.copy(self)
+        m.base_amplitude_m = float(Y)
+        return m
+
+    def with_sensor_gap_mm(self, gap_mm: float, length_mm: float) -> "BeamImpactModel":
+        """The model with the grazing gap ``gap_mm`` at the sensor: ``Delta_C = phi_c Delta_G``."""
+        m = copy.copy(self)
+        m.gap_contact_m = (gap_mm * 1e-3) * self.phi_contact
+        m._constrained()
+        return m
 
     def initial_state(self) -> np.ndarray:
         """``(eta, eta', stuck)``: rest at the origin, or on a pre-stressed stop at the
@@ -988,6 +1210,9 @@ class BeamImpactModel:
         s = np.zeros(2 * N + 1)
         if self.gap_contact_m < 0:
             s[:N] = self.eta_c + self.Psi @ self.eC
+        elif self.two_sided and self.gap_contact_lower_m < 0:
+            r = self.stop_rows
+            s[:N] = r["eta_c"][1] + self.Psi @ r["eC"][1]
         return s
 
     def linear_sensor_amplitude_m(self, Omega):
@@ -1034,6 +1259,7 @@ class BeamEventSolver:
         self.steps_per_fundamental = int(steps_per_fundamental)
         self.impact_buffer = int(impact_buffer)
         self.record_modal_states = bool(record_modal_states)
+        check_stops(model.stops())
         # periods per call of the sweep engine (vibeam.sweep._simulate): the cost per period grows
         # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
         # so a call lasts well under a second
@@ -1068,14 +1294,16 @@ class BeamEventSolver:
         mpC = mode_table(m.cC, m.nu2) if m.nu2.size else np.zeros((0, 6))
         aC, bC = particular(m.cC, m.nu2, m.GC, F, Om)
         me = m.m_eff
-        lamF = -me * float(m.contact_row @ m.participation) * F
-        SaL = lamF + float(m.pL @ aC - Om * (m.rL @ bC))
-        SbL = float(m.pL @ bC + Om * (m.rL @ aC))
+        SaL, SbL = m.stop_forcing(aC, bC, F, Om)
         SaS = float(m.pS @ aC)
         SbS = float(m.pS @ bC)
+        par, tU, tR = pack(m.stops())
+        r = m.stop_rows
         samples = np.zeros((n_record * samples_per_period, 2))
         imp_t = np.zeros(self.impact_buffer)
         imp_v = np.zeros(self.impact_buffer)
+        imp_k = np.zeros(self.impact_buffer, np.int64)
+        n_stop = np.zeros(par.shape[0], np.int64)
         modamp = np.zeros(N)
         msamp = np.zeros((samples.shape[0] if self.record_modal_states else 0, 2 * N))
         pmin = np.zeros(n_record)
@@ -1083,14 +1311,15 @@ class BeamEventSolver:
         n_per = n_transient + n_record
         h_cap = TWO_PI / np.sqrt(k[0]) / self.steps_per_fundamental
         out = beam_kernel(Om, mpF, aF, bF, m.contact_row, m.sensor_row, c, k, GF,
-                          m.gap_contact_m, me, m.R, m.R_table_U, m.R_table_R,
-                          mpC, aC, bC, m.eC, m.Psi, m.eta_c, m.pL, m.rL, SaL, SbL, m.lam_const,
-                          m.pS, SaS, SbS, m.sens_const,
-                          eta, etad, bool(s0[2 * N] > 0.5),
+                          par, tU, tR, r["normals"], me,
+                          mpC, aC, bC, r["eC"], m.Psi, r["eta_c"], r["pL"], r["rL"], SaL, SbL, r["cL"],
+                          m.pS, SaS, SbS, r["cS"],
+                          eta, etad, 1 if s0[2 * N] > 0.5 else (-1 if s0[2 * N] < -0.5 and par.shape[0] > 1 else 0),
                           int(n_transient), int(n_record), self.transient_samples,
                           int(samples_per_period), float(h_cap),
                           self.max_impacts_per_period * n_per, self.max_steps_per_period * n_per,
-                          self.chatter_tol, samples, imp_t, imp_v, modamp, msamp, pmin, chat_t)
+                          self.chatter_tol, samples, imp_t, imp_v, imp_k, n_stop, modamp, msamp, pmin,
+                          chat_t)
         status, n_imp, smin, smax, n_chat, stuck_time, stuck_end, n_tot, gmax, n_steps = out
         L = m.length_m
         if stuck_time > 0.0 or stuck_end:
@@ -1107,18 +1336,21 @@ class BeamEventSolver:
         elif status == ST_STICKING:
             message = f"stuck on the stop {stuck_time:.4g} of {n_record * T:.4g} time units"
         iv = imp_v[:kk] / L
+        two = par.shape[0] > 1
+        iv_up = iv[imp_k[:kk] == 0] if two else iv
         traj = Trajectory(
             Omega=Om, samples=samples, samples_per_period=samples_per_period,
             impact_times=imp_t[:kk].copy(), impact_velocities=iv,
+            impact_stops=imp_k[:kk].copy() if two else None, n_impacts_lower=int(n_stop[1]) if two else 0,
             n_impacts=int(n_imp), q_min=float(smin / L), q_max=float(smax / L),
             period_min=pmin / L, chatter_times=chat_t[:min(n_chat, self.impact_buffer)].copy(),
             status=STATUS_NAMES[status], message=message,
-            final_state=np.concatenate([eta, etad, [1.0 if stuck_end else 0.0]]),
+            final_state=np.concatenate([eta, etad, [float(stuck_end)]]),
             extra={"mode_amplitudes": modamp,
                    "mode_contact_amplitudes": np.abs(m.contact_row) * modamp / L,
                    "stuck_fraction": float(stuck_time / (n_record * T)) if n_record else 0.0,
                    "contact_gap_max": float(gmax / L),
-                   "impact_velocity_m_s": float(np.mean(iv) * L * m.omega_ref) if kk else np.nan,
+                   "impact_velocity_m_s": float(np.mean(iv_up) * L * m.omega_ref) if iv_up.size else np.nan,
                    "steps_per_period": float(n_steps / max(n_per, 1))})
         if self.record_modal_states:
             traj.extra["modal_states"] = msamp
@@ -1180,15 +1412,25 @@ class BeamODESolver:
         w, sv = m.contact_row, m.sensor_row
         w2 = float(w @ w)
         me = m.m_eff
-        DC = m.gap_contact_m / sc
-        etac = m.eta_c / sc
         Psi = m.Psi
         Nc = Psi.shape[1]
         cC, nu2, GC = m.cC, m.nu2, m.GC * F / sc
-        gconst = -(Psi.T @ (k * etac))
-        lam_sin = -me * float(w @ m.participation) * F / sc
-        lam_const = me * float(w @ (k * etac))
         T = TWO_PI / Om
+        # each stop (vibeam.models.contact): normal n = s w, offset, its law, and the data of the
+        # beam held on it (constrained offset eta_c, load of the constrained modes, contact force)
+        stops = m.stops()
+        two = len(stops) > 1
+        r = m.stop_rows
+        sides = []
+        for j, st in enumerate(stops):
+            n = r["normals"][j]
+            etac = r["eta_c"][j] / sc
+            sides.append(dict(n=n, D=st.relation.offset / sc, law=st.law, etac=etac,
+                              gconst=-(Psi.T @ (k * etac)), pL=r["pL"][j], rL=r["rL"][j],
+                              lam_sin=-me * float(n @ m.participation) * F / sc,
+                              lam_const=me * float(n @ (k * etac))))
+        side = 0 if s0[2 * N] > -0.5 or not two else 1
+        stuck = stuck or (two and s0[2 * N] < -0.5)
 
         def rhs(t, z):
             return np.concatenate([z[N:], GF * math.sin(Om * t) - c * z[N:] - k * z[:N]])
@@ -1196,38 +1438,56 @@ class BeamODESolver:
         def rhs_c(t, z):
             if Nc == 0:
                 return np.zeros(2)
-            return np.concatenate([z[Nc:], GC * math.sin(Om * t) - cC * z[Nc:] - nu2 * z[:Nc] + gconst])
+            return np.concatenate([z[Nc:], GC * math.sin(Om * t) - cC * z[Nc:] - nu2 * z[:Nc]
+                                   + sides[side]["gconst"]])
 
         def lam(t, z):  # contact force / m_eff-scaled units; the beam is held while <= 0
+            d = sides[side]
             if Nc == 0:
-                return lam_const + lam_sin * math.sin(Om * t)
-            return (lam_const + lam_sin * math.sin(Om * t) + m.pL @ z[:Nc] + m.rL @ z[Nc:])
+                return d["lam_const"] + d["lam_sin"] * math.sin(Om * t)
+            return (d["lam_const"] + d["lam_sin"] * math.sin(Om * t) + d["pL"] @ z[:Nc] + d["rL"] @ z[Nc:])
         lam.terminal = True
         lam.direction = 1.0
+
+        DC = sides[0]["D"]
 
         def ev_contact(t, z):
             return w @ z[:N] - DC
         ev_contact.terminal = True
         ev_contact.direction = 1.0
+        events_free = [ev_contact]
+
+        if two:
+            nl, Dlow = sides[1]["n"], sides[1]["D"]
+
+            def ev_lower(t, z):
+                return nl @ z[:N] - Dlow
+            ev_lower.terminal = True
+            ev_lower.direction = 1.0
 
         def ev_sens(t, z):
             return sv @ z[N:]
+        events_free.append(ev_sens)
+        if two:
+            events_free.append(ev_lower)
 
         def ev_sens_c(t, z):
             return sv @ (Psi @ z[Nc:2 * Nc]) if Nc else 1.0
 
-        def acc_U(t, z):
-            return float(w @ (GF * math.sin(Om * t) - c * z[N:] - k * z[:N]))
+        def acc_U(t, z, j=0):
+            return float(sides[j]["n"] @ (GF * math.sin(Om * t) - c * z[N:] - k * z[:N]))
 
         def full(zc):  # constrained -> full state, columns
+            etac = sides[side]["etac"]
             if Nc == 0:
                 return np.concatenate([np.repeat(etac[:, None], zc.shape[1], 1), np.zeros((N, zc.shape[1]))])
             return np.concatenate([etac[:, None] + Psi @ zc[:Nc], Psi @ zc[Nc:2 * Nc]])
 
-        def stick(y):
+        def stick(y, j=0):
+            n, D = sides[j]["n"], sides[j]["D"]
             y = y.copy()
-            y[:N] -= w * (w @ y[:N] - DC) / w2
-            y[N:] -= w * (w @ y[N:]) / w2
+            y[:N] -= n * (n @ y[:N] - D) / w2
+            y[N:] -= n * (n @ y[N:]) / w2
             return y
 
         t = 0.0
@@ -1238,22 +1498,28 @@ class BeamODESolver:
         filled = np.zeros(ts.size, bool)
         ext = [np.inf, -np.inf]
         ev_min = []   # (t, q) of sensor extremes located by events in the record
-        imp_t, imp_v = [], []
+        imp_t, imp_v, imp_k = [], [], []
         n_imp = 0
         n_chat = 0
         stuck_time = 0.0
         max_imp = self.max_impacts_per_period * (n_transient + n_record)
         vscale = None
         modamp = np.zeros(N)
-        if not stuck and w @ y[:N] - DC >= -1e-13 * (abs(DC) + np.abs(w) @ np.abs(y[:N])) and w @ y[N:] <= 0:
-            y = stick(y)   # at rest on the stop: held if the contact force presses
-            stuck = True
+        if not stuck:
+            for j, d in enumerate(sides):   # at rest on a stop: held if the contact force presses
+                n, D = d["n"], d["D"]
+                if n @ y[:N] - D >= -1e-13 * (abs(D) + np.abs(n) @ np.abs(y[:N])) and n @ y[N:] <= 0:
+                    y = stick(y, j)
+                    stuck = True
+                    side = j
+                    break
         guard = 0
         while t < t_end:
             guard += 1
             if guard > 10 * max_imp + 100:
                 return self._failed(Om, s0, n_record, samples_per_period, "no progress")
             if stuck:
+                etac = sides[side]["etac"]
                 zc = np.concatenate([Psi.T @ (y[:N] - etac), Psi.T @ y[N:]]) if Nc else np.zeros(2)
                 l0 = lam(t, zc)
                 eps_t = 1e-9 * T
@@ -1274,7 +1540,7 @@ class BeamODESolver:
                 ev_ext = sol.t_events[1]
             else:
                 sol = solve_ivp(rhs, (t, t_end), y, method=self.solver, rtol=self.rtol, atol=self.atol,
-                                events=[ev_contact, ev_sens], dense_output=True,
+                                events=events_free, dense_output=True,
                                 max_step=min(T / 16, self.max_step or np.inf))
                 if sol.status < 0:
                     return self._failed(Om, s0, n_record, samples_per_period, sol.message)
@@ -1301,8 +1567,14 @@ class BeamODESolver:
                 if released:
                     stuck = False
                 continue
+            hit = -1
             if sol.status == 1 and sol.t_events[0].size:
-                Um = float(w @ y[N:])
+                hit = 0
+            elif two and sol.status == 1 and sol.t_events[2].size:
+                hit = 1
+            if hit >= 0:
+                n = sides[hit]["n"]
+                Um = float(n @ y[N:])
                 if vscale is None:
                     vscale = max(abs(Um), 1e-300)
                 n_imp += 1
@@ -1311,20 +1583,28 @@ class BeamODESolver:
                 if t >= t_rec:
                     imp_t.append(t - t_rec)
                     imp_v.append(max(Um, 0.0) * sc / L)
-                    ext[1] = max(ext[1], float(sv @ y[:N]) * sc / L)
+                    imp_k.append(hit)
+                    qv = float(sv @ y[:N]) * sc / L
+                    if hit == 0:
+                        ext[1] = max(ext[1], qv)
+                    else:
+                        ext[0] = min(ext[0], qv)
                 if Um <= self.chatter_velocity * vscale:
-                    y = stick(y)
-                    if acc_U(t, y) > 0:
+                    y = stick(y, hit)
+                    if acc_U(t, y, hit) > 0:
                         stuck = True
+                        side = hit
                         n_chat += t >= t_rec
                     continue
                 ydot = y[N:].copy()
-                apply_impact(ydot, w, Um, restitution_coefficient(Um * sc, m.R, m.R_table_U, m.R_table_R),
-                             me)
+                law = sides[hit]["law"]
+                Up = newton_restitution(Um, law.coefficient(Um * sc))
+                apply_impulse(ydot, n, Um, Up, me)
                 y[N:] = ydot
-                if m.R == 0.0 and acc_U(t, y) > 0:   # plastic impact into a pressing contact
-                    y = stick(y)
+                if law.R == 0.0 and acc_U(t, y, hit) > 0:   # plastic impact into a pressing contact
+                    y = stick(y, hit)
                     stuck = True
+                    side = hit
         q = samples[:, 0]
         pmin = q.reshape(n_record, samples_per_period).min(axis=1) if q.size else np.zeros(n_record)
         for te, qv in (ev_min if n_record else []):
@@ -1334,10 +1614,12 @@ class BeamODESolver:
         return Trajectory(
             Omega=Om, samples=samples, samples_per_period=samples_per_period,
             impact_times=np.array(imp_t), impact_velocities=np.array(imp_v), n_impacts=len(imp_t),
+            impact_stops=np.array(imp_k, np.int64) if two else None,
+            n_impacts_lower=int(np.sum(np.array(imp_k) == 1)) if two else 0,
             q_min=float(min(ext[0], q.min())) if q.size else float(ext[0]),
             q_max=float(max(ext[1], q.max())) if q.size else float(ext[1]), period_min=pmin,
             status=status, message="" if status == "ok" else f"stuck {stuck_time:.4g} of the window",
-            final_state=np.concatenate([y * sc, [1.0 if stuck else 0.0]]),
+            final_state=np.concatenate([y * sc, [(1.0 if side == 0 else -1.0) if stuck else 0.0]]),
             extra={"mode_amplitudes": modamp,
                    "stuck_fraction": float(stuck_time / (n_record * T)) if n_record else 0.0})
 

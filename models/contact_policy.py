@@ -1,5 +1,33 @@
-"""The chatter policy shared by every event-driven kernel (SDOF and beam).
+"""The one event, chatter and sticking policy of every event-driven kernel (SDOF and beam).
 
+What happens at a contact of an *impulsive* law (:mod:`vibeam.models.contact`), in order:
+
+1. **Apply the law** to the relation's pre-impact normal velocity ``U-``:
+   ``U+ = -R(U-) U-`` (:func:`vibeam.models.contact.impulsive_response`); the kernel applies
+   the impulse along ``M^-1 n`` of the stop.
+2. **Decide what follows** (:func:`impact_outcome`), from the rebound speed ``u = -U+``, whether
+   the free contact acceleration presses the body onto the stop (``pressed``), and the
+   chatter estimate below:
+
+   * no rebound (``u <= 0``: ``R = 0``, or a grazing contact): **stick** if pressed, else fly on;
+   * a Zeno burst (``burst_max > 0`` impacts in a row, each within ``BURST_DT`` forcing periods of
+     the last, while pressed): **stick** and count a chatter (the beam kernel: with many modes
+     the contact acceleration is not smooth on the scale of the flights, so the geometric
+     estimate may never pass while impacts pile up; the SDOF kernel, whose one-DOF estimate
+     becomes exact as ``u -> 0``, passes ``burst_max = 0``);
+   * the chatter sequence accumulates within the current step with a small enough error
+     (:func:`chatter_jump`): **chatter**, jump to the accumulation point and stick;
+   * otherwise **rebound** (the next impact is resolved).
+3. **Release** a body held on a stop when the normal contact force (positive pressing onto
+   the stop) turns negative (:func:`release_now` at a step start; kernels locate the zero
+   crossing inside a step exactly: closed form for the SDOF, a certified scan for the beam).
+
+A two-sided scene applies the same rules at each stop with that stop's relation (its
+normal) and law.  A *compliant* law does not come here: its contact is a phase with its own
+flow, which ends where its contact force returns to zero (plan in :mod:`vibeam.models.contact`).
+
+The chatter estimate
+--------------------
 After an impact with a small rebound speed ``u`` into a contact acceleration
 ``a > 0`` that presses the body back onto the stop, the following impacts form
 a sequence whose speeds fall like ``R^k u`` and whose flight times, under a
@@ -33,6 +61,83 @@ until the next step, whose full length then contains the rest of the sequence.
 from __future__ import annotations
 
 from numba import njit
+
+#: outcomes of :func:`impact_outcome`
+REBOUND, STICK, CHATTER, CHATTER_GUARD = 0, 1, 2, 3
+#: the beam kernel's Zeno guard: impacts closer than BURST_DT forcing periods in a row,
+#: BURST_MAX of them, end a chatter sequence (0 disables the guard)
+BURST_DT = 1e-3
+BURST_MAX = 200
+
+
+@njit(cache=True)
+def release_now(force, dforce):
+    """Does a body held on a stop leave it now?
+
+    Parameters
+    ----------
+    force : float
+        Normal contact force (per unit mass or effective mass; positive pressing the body
+        onto the stop) needed to hold the body there.
+    dforce : float
+        Its time derivative.
+
+    Returns
+    -------
+    bool
+        ``force < 0``, or ``force == 0`` and falling.
+    """
+    return force < 0.0 or (force == 0.0 and dforce < 0.0)
+
+
+@njit(cache=True)
+def zeno_burst(burst, t_imp, t_last, window):
+    """Impacts in the current burst: ``burst + 1`` if this impact follows the last one within
+    ``window``, else 0."""
+    if t_imp - t_last < window:
+        return burst + 1
+    return 0
+
+
+@njit(cache=True)
+def impact_outcome(u, pressed, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon, burst, burst_max):
+    """What follows an impulsive impact (module docstring, step 2).
+
+    Parameters
+    ----------
+    u : float
+        Rebound speed ``-U+`` (``> 0`` leaving the stop).
+    pressed : bool
+        The free contact force would press the body onto the stop (held, it would stay).
+    acc : float
+        Free contact acceleration towards the stop just after the impact (rebound included).
+    jerk, c_eff, k_eff : float
+        As :func:`chatter_jump`.
+    R : float
+        Coefficient of restitution of this impact.
+    chatter_tol, horizon : float
+        As :func:`chatter_jump`.
+    burst, burst_max : int
+        Impacts of the current burst (:func:`zeno_burst`) and the guard's limit (0: none).
+
+    Returns
+    -------
+    action : int
+        :data:`REBOUND`, :data:`STICK`, :data:`CHATTER` (jump to the accumulation point
+        ``D`` ahead and stick) or :data:`CHATTER_GUARD` (stick now, a chatter cut by the guard).
+    D : float
+        Accumulation time of :data:`CHATTER` (0 otherwise).
+    """
+    if u <= 0.0:
+        if pressed:
+            return STICK, 0.0
+        return REBOUND, 0.0
+    if burst_max > 0 and burst >= burst_max and acc > 0.0:
+        return CHATTER_GUARD, 0.0
+    D = chatter_jump(u, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon)
+    if D >= 0.0:
+        return CHATTER, D
+    return REBOUND, 0.0
 
 
 @njit(cache=True)

@@ -98,6 +98,7 @@ from numba import njit
 from .beam_dynamics import (EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT,
                             ST_FAILED, TWO_PI, BeamImpactModel, beam_kernel,
                             mode_table, particular)
+from .contact import pack
 from .impact import restitution_coefficient
 from .periodic import Shot
 
@@ -771,9 +772,11 @@ class BeamShooting:
             Emis[np.diag_indices(Nc)] -= m.cC
         else:
             Emis = np.zeros((0, 0))
+        stops, tab_U, tab_R = pack(m.stops())
         self._cache_key = key
         self._cache = dict(
-            m=m, me=me, Om=Om, F=F, mpF=mpF, aF=aF, bF=bF, GF=GF, c=c, k=k, mpC=mpC, aC=aC, bC=bC,
+            stops=stops, tab_U=tab_U, tab_R=tab_R, m=m, me=me, Om=Om, F=F, mpF=mpF, aF=aF, bF=bF, GF=GF, c=c, k=k,
+            mpC=mpC, aC=aC, bC=bC,
             SaL=SaL, SbL=SbL, SaS=SaS, SbS=SbS, GCF=m.GC * F, Emis=np.ascontiguousarray(Emis),
             dOm=dOm, dF=dF, daF=daF, dbF=dbF, dsF=0.5 * dcF, dcF=dcF, daC=daC, dbC=dbC,
             deC=np.ascontiguousarray(deC), dsC=0.5 * dcC, deta_c=np.ascontiguousarray(deta_c),
@@ -873,13 +876,15 @@ class BeamShooting:
             samples = np.zeros((n, 2))
             imp_t = np.zeros(imp_cap)
             imp_v = np.zeros(imp_cap)
+            r = m.stop_rows
             out = beam_kernel(Om, D["mpF"], D["aF"], D["bF"], w, m.sensor_row, D["c"], D["k"], D["GF"],
-                              m.gap_contact_m, D["me"], m.R, m.R_table_U, m.R_table_R,
-                              D["mpC"], D["aC"], D["bC"], m.eC, m.Psi, m.eta_c, m.pL, m.rL,
-                              D["SaL"], D["SbL"], m.lam_const, m.pS, D["SaS"], D["SbS"], m.sens_const,
-                              e, ed, stuck, 0, n, 1, 1, float(h_cap),
+                              D["stops"], D["tab_U"], D["tab_R"], r["normals"], m.m_eff,
+                              D["mpC"], D["aC"], D["bC"], r["eC"], m.Psi, r["eta_c"], r["pL"], r["rL"],
+                              np.array([D["SaL"]]), np.array([D["SbL"]]), r["cL"], m.pS, D["SaS"], D["SbS"],
+                              r["cS"], e, ed, 1 if stuck else 0, 0, n, 1, 1, float(h_cap),
                               self.max_impacts_per_period * n, self.max_steps_per_period * n,
-                              self.chatter_tol, samples, imp_t, imp_v, np.zeros(N), np.zeros((0, d)),
+                              self.chatter_tol, samples, imp_t, imp_v, np.zeros(imp_cap, np.int64),
+                              np.zeros(1, np.int64), np.zeros(N), np.zeros((0, d)),
                               np.zeros(n), np.zeros(0), evlog, aplog, nlog)
             status, n_imp, smin, smax, n_chat, stuck_time, stuck_end, n_tot, gmax, n_steps = out
             if nlog[0] <= self._cap and nlog[1] <= self._capa and n_imp <= imp_cap:

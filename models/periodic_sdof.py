@@ -39,6 +39,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .contact import LAW, NPAR, OFFSET, R as _RCOL, SIGN
 from .periodic import Shot
 from .sdof_event import EV_APEX, EV_IMPACT, EV_RELEASE, EV_STICK, STATUS_FAILED, event_kernel
 from .sdof_flow import particular_coefficients, transition
@@ -48,7 +49,6 @@ TWO_PI = 2.0 * math.pi
 #: native continuation parameters of the SDOF model, in the column order of the kernel's d/dp
 PARAMETERS = ("Omega", "B", "Delta", "R", "beta")
 _ORDER = (4, 1, 3, 2, 0)   # position of each parameter in (beta, B, R, Delta, Omega)
-_EMPTY_NB = np.zeros(0)   # the constant-R restitution table of the kernel
 
 
 @njit(cache=True)
@@ -291,9 +291,18 @@ def shoot(par, n, ns, max_impacts, samples, imp_buf, ev_log, ev_count, out, imp,
     ev_count[0] = 0
     pmin = np.empty(n)       # per-period minima (not needed here; the kernel fills them)
     chat_t = np.empty(0)     # chatter accumulation times (not needed here)
-    res = event_kernel(beta, B, R, _EMPTY_NB, _EMPTY_NB, Delta, Omega, q0, v0, False,
-                       0, n, ns, ns, max_impacts, par[7], samples, imp_buf, imp_buf, pmin, chat_t,
-                       ev_log, ev_count)
+    # the one stop (vibeam.models.contact): normal +1 at q = Delta, Newton's law with constant R
+    stops = np.zeros((1, NPAR))
+    stops[0, SIGN] = 1.0
+    stops[0, OFFSET] = Delta
+    stops[0, LAW] = 0.0
+    stops[0, _RCOL] = R
+    tab = np.zeros((1, 1))
+    imp_k = np.zeros(imp_buf.shape[0], np.int64)
+    n_stop = np.zeros(1, np.int64)
+    res = event_kernel(beta, B, stops, tab, tab, Omega, q0, v0, 0,
+                       0, n, ns, ns, max_impacts, par[7], samples, imp_buf, imp_buf, imp_k, n_stop,
+                       pmin, chat_t, ev_log, ev_count)
     status, n_imp, q_min, q_max, n_chat, stuck_time, q_end, v_end, stuck_end, n_tot, gmax = res
     n_ev = ev_count[0]
     code = 0
@@ -302,7 +311,7 @@ def shoot(par, n, ns, max_impacts, samples, imp_buf, ev_log, ev_count, out, imp,
         n_ev = ev_log.shape[0]
     elif status == STATUS_FAILED:
         code = 2
-    M, XP = assemble_derivatives(ev_log, n_ev, q0, v0, q_end, v_end, stuck_end,
+    M, XP = assemble_derivatives(ev_log, n_ev, q0, v0, q_end, v_end, stuck_end != 0,
                                  n * TWO_PI / Omega, beta, B, R, Delta, Omega)
     m = 0
     apex = -np.inf

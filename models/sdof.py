@@ -12,12 +12,13 @@ displacement at the sensor is ``U(L_S) = q L``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from vibeam.records import Trajectory
+from .trajectory import Trajectory
 
+from .contact import Relation, Restitution, Stop, check_stops, pack
 from .sdof_event import STATUS_NAMES, event_kernel
 
 _EMPTY = np.zeros(0)
@@ -44,6 +45,12 @@ class SDOF:
     R_table : tuple of (float, float) pairs, optional
         R against the pre-impact velocity q'- (effect ``restitution_law``; only the
         ``event`` method uses it); empty = constant ``R``.
+    Delta_lower : float or None, optional
+        A second (lower) stop at ``q = -Delta_lower`` (distance from the static equilibrium,
+        positive; ``Delta + Delta_lower > 0``); None: the one stop of the paper.
+    R_lower : float or None, optional
+        Coefficient of restitution of the lower stop; None: the upper stop's law (``R`` and
+        ``R_table``).
     """
 
     beta: float
@@ -53,8 +60,27 @@ class SDOF:
     natural_frequency_hz: float | None = None
     length_m: float | None = None
     R_table: tuple = ()
+    Delta_lower: float | None = None
+    R_lower: float | None = None
 
     fidelity = "sdof"
+
+    @property
+    def two_sided(self) -> bool:
+        """A second stop below (``Delta_lower`` given)."""
+        return self.Delta_lower is not None
+
+    def stops(self) -> tuple:
+        """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
+        ``q = Delta`` (normal ``+1``) with Newton's law, ``R`` and ``R(q'-)``, and for a
+        two-sided scene the stop at ``q = -Delta_lower`` (normal ``-1``) with its own law."""
+        tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())
+        upper = Restitution(self.R, tuple(tv), tuple(tR))
+        out = (Stop(Relation(1.0, self.Delta), upper),)
+        if self.Delta_lower is not None:
+            law = upper if self.R_lower is None else Restitution(self.R_lower)
+            out += (Stop(Relation(-1.0, self.Delta_lower), law),)
+        return out
 
     def restitution_table(self):
         """``(velocity, R)`` arrays of a velocity-dependent R (``R_table = ((q'-, R), ...)``,
@@ -65,15 +91,46 @@ class SDOF:
         t = np.asarray(self.R_table, dtype=float)
         return np.ascontiguousarray(t[:, 0]), np.ascontiguousarray(t[:, 1])
 
+    # ---- the model protocol of the fidelity registry (vibeam.models.registry)
+    #: static-mode value at the contact point over the sensor's: 1, the coordinate is the sensor's
+    phi_contact = 1.0
+
+    def restitution_coefficients(self, velocities, stops=None) -> np.ndarray:
+        """R of impacts with pre-impact normal velocities ``|q'-|`` (shape (k,)) on the stops
+        ``stops`` (k,) (0 upper, 1 lower; None: all on the upper one), the kernel's law
+        (:func:`vibeam.models.impact.restitution_coefficient`)."""
+        from .impact import restitution_coefficient
+
+        v = np.asarray(velocities, float)
+        if stops is None:
+            tv, tR = self.restitution_table()
+            return np.array([restitution_coefficient(float(x), self.R, tv, tR) for x in v])
+        laws = [s.law for s in self.stops()]
+        return np.array([laws[int(k)].coefficient(x) for x, k in zip(v, stops)])
+
+    def with_gain(self, gain_per_V: float, scene_gain_per_V: float, voltage: float) -> "SDOF":
+        """The model at excitation gain ``gamma`` (1/V): ``B = gamma V`` (paper Eq. 43)."""
+        return replace(self, B=gain_per_V * voltage)
+
+    def with_sensor_gap_mm(self, gap_mm: float, length_mm: float) -> "SDOF":
+        """The model with the grazing gap ``gap_mm`` at the sensor: ``Delta = Delta_G / L`` (Eq. 45)."""
+        return replace(self, Delta=gap_mm / length_mm)
+
     def initial_state(self) -> np.ndarray:
         """Rest at the unloaded equilibrium, or on the stop if it is pre-stressed.
 
-        Returns ``(q, q', stuck)`` with ``stuck`` as 0.0/1.0.
+        Returns ``(q, q', stuck)`` with ``stuck`` as 0.0/1.0 (held on the upper stop) or
+        -1.0 (held on the lower one); a lower stop that is pre-stressed (``Delta_lower < 0``)
+        holds the mass at ``q = -Delta_lower``.
         """
-        return np.array([min(0.0, self.Delta), 0.0, 0.0])
+        q = min(0.0, self.Delta)
+        if self.Delta_lower is not None:
+            q = max(q, -self.Delta_lower)
+        return np.array([q, 0.0, 0.0])
 
     @classmethod
-    def from_physical(cls, natural_frequency_hz, damping_ratio, R, gap_mm, length_mm, gain, voltage):
+    def from_physical(cls, natural_frequency_hz, damping_ratio, R, gap_mm, length_mm, gain, voltage,
+                      gap_lower_mm=None, R_lower=None):
         """Build the nondimensional model of a rig scene (paper Eqs. 43-46).
 
         Parameters
@@ -92,9 +149,14 @@ class SDOF:
             Normalised unit conversion gain ``gamma`` (1/V).
         voltage : float
             Excitation voltage amplitude ``V`` (V).
+        gap_lower_mm : float or None
+            Gap to a second (lower) stop at the sensor (mm), ``Delta_lower = gap_lower_mm / L``.
+        R_lower : float or None
+            Its coefficient of restitution (None: ``R``).
         """
         return cls(beta=damping_ratio, B=gain * voltage, R=R, Delta=gap_mm / length_mm,
-                   natural_frequency_hz=natural_frequency_hz, length_m=length_mm * 1e-3)
+                   natural_frequency_hz=natural_frequency_hz, length_m=length_mm * 1e-3,
+                   Delta_lower=None if gap_lower_mm is None else gap_lower_mm / length_mm, R_lower=R_lower)
 
 
 class EventSolver:
@@ -130,6 +192,9 @@ class EventSolver:
         self.chatter_tol = float(chatter_tol)
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.impact_buffer = int(impact_buffer)
+        stops = model.stops()
+        check_stops(stops)
+        self._stops = pack(stops)   # kernel arrays of the relations and laws
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
@@ -164,15 +229,19 @@ class EventSolver:
         samples = np.zeros((n_record * samples_per_period, 2))
         imp_t = np.zeros(self.impact_buffer)
         imp_v = np.zeros(self.impact_buffer)
+        imp_k = np.zeros(self.impact_buffer, np.int64)
+        par, tU, tR = self._stops
+        n_stop = np.zeros(par.shape[0], np.int64)
         pmin = np.zeros(n_record)
         chat_t = np.zeros(self.impact_buffer)
         max_imp = self.max_impacts_per_period * (n_transient + n_record)
-        tv, tR = m.restitution_table()
-        out = event_kernel(m.beta, m.B, m.R, tv, tR, m.Delta, float(Omega), float(s0[0]), float(s0[1]),
-                           bool(s0[2] > 0.5) if s0.shape[0] > 2 else False,
+        held = 0
+        if s0.shape[0] > 2:
+            held = 1 if s0[2] > 0.5 else (-1 if s0[2] < -0.5 and par.shape[0] > 1 else 0)
+        out = event_kernel(m.beta, m.B, par, tU, tR, float(Omega), float(s0[0]), float(s0[1]), held,
                            int(n_transient), int(n_record), self.transient_samples,
                            int(samples_per_period), max_imp, self.chatter_tol,
-                           samples, imp_t, imp_v, pmin, chat_t)
+                           samples, imp_t, imp_v, imp_k, n_stop, pmin, chat_t)
         status, n_imp, q_min, q_max, n_chat, stuck_time, q_end, v_end, stuck_end, n_tot, gmax = out
         k = min(n_imp, self.impact_buffer)
         message = ""
@@ -183,12 +252,15 @@ class EventSolver:
             message = f"{n_chat} chatter sequence(s) ending in sticking; stuck {stuck_time:.4g} of the window"
         elif status == 2:
             message = f"stuck on the stop {stuck_time:.4g} of {n_record * 2 * math.pi / Omega:.4g} time units"
+        two = par.shape[0] > 1
         return Trajectory(Omega=float(Omega), samples=samples, samples_per_period=samples_per_period,
                           impact_times=imp_t[:k].copy(), impact_velocities=imp_v[:k].copy(),
+                          impact_stops=imp_k[:k].copy() if two else None,
+                          n_impacts_lower=int(n_stop[1]) if two else 0,
                           n_impacts=int(n_imp), q_min=float(q_min), q_max=float(q_max),
                           period_min=pmin, chatter_times=chat_t[:min(n_chat, self.impact_buffer)].copy(),
                           status=STATUS_NAMES[status], message=message,
-                          final_state=np.array([q_end, v_end, 1.0 if stuck_end else 0.0]),
+                          final_state=np.array([q_end, v_end, float(stuck_end)]),
                           extra={"stuck_fraction": stuck_time / (n_record * 2 * math.pi / Omega)
                                  if n_record else 0.0,
                                  "contact_gap_max": float(gmax)})

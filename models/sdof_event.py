@@ -6,7 +6,10 @@ Model (nondimensional, paper Eqs. 1-2 and 43, 47)::
     q(t+) = q(t-),  q'(t+) = -R q'(t-)                  at q = Delta
 
 Between impacts the motion is the closed-form linear flow (paper Eq. 28,
-:mod:`vibeam.models.sdof_flow`); the solver only finds event times.
+:mod:`vibeam.models.sdof_flow`); the solver only finds event times.  The stop is a contact
+relation with its law (:mod:`vibeam.models.contact`: gap ``q - Delta``, Newton's law with
+``R(q'-)``), and what follows an impact is the policy shared with the beam kernel
+(:mod:`vibeam.models.contact_policy`).
 
 Guaranteed impact detection
     Time advances on a grid aligned with the forcing phase.  On each interval
@@ -40,9 +43,10 @@ import math
 import numpy as np
 from numba import njit
 
-from .contact_policy import chatter_jump
+from .contact import OFFSET as _OFFSET
+from .contact import impulsive_response
+from .contact_policy import CHATTER, STICK, impact_outcome, release_now
 from .roots import rtsafe_update, select
-from .impact import newton_restitution, restitution_coefficient
 from .sdof_flow import (homogeneous_amplitude, particular_coefficients, propagate,
                         propagate_tabulated, transition)
 
@@ -77,6 +81,24 @@ def _root(kind, lo, hi, phi0, q0, v0, beta, a, b, Omega, Delta):
     for _ in range(200):
         g, v, g2, g3, g4 = propagate(s, phi0, q0, v0, beta, a, b, Omega, Delta)
         F, dF = select(kind, g, v, g2)
+        s, lo, hi, dx, dxold, done = rtsafe_update(F, dF, s, lo, hi, dx, dxold)
+        if done:
+            return s
+    return hi
+
+
+@njit(cache=True)
+def _root_lower(kind, lo, hi, phi0, q0, v0, beta, a, b, Omega, Dl):
+    """:func:`_root` on the lower stop's gap ``g_l = -q - Dl`` (normal ``-1``): kind 0:
+    ``g_l`` (impact on the lower stop), 1: ``-g_l'`` (minimum of q), 2: ``g_l'``.  The signal is
+    ``-(q + Dl)`` formed as ``(q0 + Dl)`` plus an accurate increment (:func:`propagate` about
+    ``-Dl``), so it keeps full precision near the lower stop."""
+    dxold = hi - lo
+    dx = dxold
+    s = 0.5 * (lo + hi)
+    for _ in range(200):
+        g, v, g2, g3, g4 = propagate(s, phi0, q0, v0, beta, a, b, Omega, -Dl)
+        F, dF = select(kind, -g, -v, -g2)
         s, lo, hi, dx, dxold, done = rtsafe_update(F, dF, s, lo, hi, dx, dxold)
         if done:
             return s
@@ -121,7 +143,7 @@ def _release_delay(phi, F, Delta, Omega):
     """
     a_now = F * math.sin(phi) - Delta
     da = F * Omega * math.cos(phi)
-    if a_now < 0.0 or (a_now == 0.0 and da < 0.0):
+    if release_now(a_now, da):
         return 0.0
     if F <= 0.0:
         return np.inf  # unforced: a = -Delta >= 0 stays
@@ -133,6 +155,46 @@ def _release_delay(phi, F, Delta, Omega):
     phid = math.pi - math.asin(r)  # downward zero crossing of a
     dphi = (phid - phi) % TWO_PI
     return dphi / Omega
+
+
+@njit(cache=True)
+def _release_delay_lower(phi, F, Dl, Omega):
+    """:func:`_release_delay` on the lower stop at ``q = -Dl`` (normal ``-1``).
+
+    The contact force per unit mass is ``a(phi) = -F sin(phi) - Dl``; it turns negative
+    (downward zero crossing, ``cos(phi) > 0``) at ``phi = -asin(Dl / F)``.  Written like the
+    upper stop's (no phase shift by pi, which would round), so that advancing the phase by
+    the returned delay lands on the crossing.
+    """
+    a_now = -F * math.sin(phi) - Dl
+    da = -F * Omega * math.cos(phi)
+    if release_now(a_now, da):
+        return 0.0
+    if F <= 0.0:
+        return np.inf  # unforced: a = -Dl >= 0 stays
+    r = Dl / F
+    if r <= -1.0:
+        return np.inf
+    if r >= 1.0:
+        return 0.0
+    phid = -math.asin(r)  # downward zero crossing of a
+    dphi = (phid - phi) % TWO_PI
+    return dphi / Omega
+
+
+@njit(cache=True)
+def _release_time(phi, F, D, Omega, side):
+    """Release delay on stop ``side`` (0: :func:`_release_delay`, 1: :func:`_release_delay_lower`),
+    0 when the crossing lies within round-off of the current phase (advancing the phase by
+    the delay would not change it: without this, a mass could stick and release forever at
+    one instant)."""
+    if side == 0:
+        s_r = _release_delay(phi, F, D, Omega)
+    else:
+        s_r = _release_delay_lower(phi, F, D, Omega)
+    if s_r > 0.0 and (phi + Omega * s_r) % TWO_PI == phi:
+        return 0.0
+    return s_r
 
 
 @njit(cache=True)
@@ -149,10 +211,10 @@ def _log_event(ev_log, ev_count, kind, t, q, v, a):
 
 
 @njit(cache=True)
-def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init, stuck_init,
+def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init,
                  n_transient, n_record, ns_transient, ns_record,
                  max_impacts, chatter_tol,
-                 samples, imp_t, imp_v, pmin, chat_t, ev_log=None, ev_count=None):
+                 samples, imp_t, imp_v, imp_k, n_imp_stop, pmin, chat_t, ev_log=None, ev_count=None):
     """Simulate whole forcing periods exactly; the numba core of method ``event``.
 
     Time starts at forcing phase 0.  ``samples`` (shape (n_record *
@@ -161,9 +223,13 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     recording) and pre-impact velocities of the first ``len(imp_t)`` recorded
     impacts; ``pmin`` (shape (n_record,)) the exact minimum of ``q`` over each
     recorded period (the same root-found minima as ``q_min``); ``chat_t`` the times (from
-    the start of the recording) of the first ``len(chat_t)`` chatter accumulation points.  ``R_table_v``/``R_table_R`` tabulate R against the pre-impact velocity
-    q'- (nondimensional; :func:`vibeam.models.impact.restitution_coefficient`); empty
-    arrays give the constant ``R``.
+    the start of the recording) of the first ``len(chat_t)`` chatter accumulation points.
+
+    The stops are the rows of ``stops`` (shape (n_stops, NPAR)) with their ``R(U-)`` tables
+    ``tab_U``/``tab_R`` (:func:`vibeam.models.contact.pack`; row 0: the upper stop at
+    ``q = Delta``, Newton's law with ``R`` and ``R(q'-)``).  ``imp_k`` receives the stop of each
+    stored impact (0 upper) and ``n_imp_stop`` (n_stops,) the recorded impacts per stop.
+    ``stuck_init``: 0 free, 1 held on the upper stop.
 
     Optional event log (used by the shooting problem of :mod:`vibeam.models.periodic_sdof`):
     ``ev_log`` (shape (cap, 5)) receives one row ``(kind, t, q, q', q'')`` per event in
@@ -178,12 +244,22 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     -------
     tuple
         ``(status, n_imp_record, q_min, q_max, n_chatter, stuck_time,
-        q_end, v_end, stuck_end, n_imp_total, gmax)``; ``gmax`` is the largest
+        q_end, v_end, stuck_end, n_imp_total, gmax)``; ``stuck_end`` as ``stuck_init``;
+        ``gmax`` is the largest
         gap ``q - Delta`` at the end of a step without an event, before ``q`` is
         put back on the stop (a certificate: positive beyond round-off only if
         a crossing had been stepped over).
     """
     F = Omega * Omega * B
+    Delta = stops[0, _OFFSET]
+    # a second (lower) stop at q = -Dl, normal -1 (vibeam.models.contact); DD: the distance between
+    # the stops, so that the lower gap is g_l = -q - Dl = -(q - Delta) - DD
+    two = stops.shape[0] > 1
+    Dl = stops[1, _OFFSET] if two else np.inf
+    DD = Delta + Dl
+    side = 0 if stuck_init >= 0 else 1     # the stop the mass is held on (when stuck)
+    tU0 = tab_U[0]
+    tR0 = tab_R[0]
     a, b = particular_coefficients(beta, F, Omega)
     C = math.sqrt(a * a + b * b)
     T = TWO_PI / Omega
@@ -192,9 +268,13 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     W4 = C * Omega ** 4
     q = q_init
     v = v_init
-    stuck = stuck_init
+    stuck = stuck_init != 0
     if q > Delta:
         q = Delta
+    if two and q < -Dl:
+        q = -Dl
+    for k in range(n_imp_stop.shape[0]):
+        n_imp_stop[k] = 0
     n_imp_total = 0
     n_imp_rec = 0
     n_chatter = 0
@@ -205,7 +285,7 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
     cap = imp_t.shape[0]
     status = STATUS_OK
     if not (math.isfinite(a) and math.isfinite(b)):
-        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, stuck, 0, -np.inf)
+        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, _held(stuck, side), 0, -np.inf)
     n_total = n_transient + n_record
     k_sample = 0
     # derivatives at the start of the next interval are carried over from the
@@ -267,7 +347,10 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                     if stuck:
                         fresh = True
                         at_grid = False
-                        s_r = _release_delay(phi, F, Delta, Omega)
+                        if side == 0:
+                            s_r = _release_time(phi, F, Delta, Omega, 0)
+                        else:
+                            s_r = _release_time(phi, F, Dl, Omega, 1)
                         if s_r >= rem:
                             if recording:
                                 stuck_time += rem
@@ -281,24 +364,39 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                         t_loc += s_r
                         rem -= s_r
                         stuck = False
-                        q = Delta
+                        q = Delta if side == 0 else -Dl
                         v = 0.0
                         if ev_log is not None:
-                            _log_event(ev_log, ev_count, EV_RELEASE, p * T + t_loc, Delta, 0.0, 0.0)
+                            _log_event(ev_log, ev_count, EV_RELEASE, p * T + t_loc, q, 0.0, 0.0)
                         continue
                     # ---- free flight from (phi, q, v) for at most rem ----
                     s_imp = -1.0
+                    k_imp = 0
                     if q >= Delta and v >= 0.0:
                         # on the stop and not leaving: an impact now if approaching,
                         # otherwise sticking if the contact force presses it on
                         q = Delta
                         if v > 0.0:
                             s_imp = 0.0
-                        elif _release_delay(phi, F, Delta, Omega) > 0.0:
+                        elif _release_time(phi, F, Delta, Omega, 0) > 0.0:
                             stuck = True
+                            side = 0
                             if ev_log is not None:
                                 _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
                                            F * math.sin(phi) - Delta)
+                            continue
+                    elif two and q <= -Dl and v <= 0.0:
+                        # the same on the lower stop (normal -1)
+                        q = -Dl
+                        if v < 0.0:
+                            s_imp = 0.0
+                            k_imp = 1
+                        elif _release_time(phi, F, Dl, Omega, 1) > 0.0:
+                            stuck = True
+                            side = 1
+                            if ev_log is not None:
+                                _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, -Dl, 0.0,
+                                           -F * math.sin(phi) - Dl)
                             continue
                     if s_imp < 0.0:
                         if fresh:
@@ -318,8 +416,11 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                                     q, v, beta, a, b, Omega, Delta)
                             else:
                                 g1, v1, g21, g31, g41 = propagate(h, phi, q, v, beta, a, b, Omega, Delta)
-                            # far from the stop: linear interpolation error <= M2 h^2 / 8
-                            if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
+                            # far from the stop: linear interpolation error <= M2 h^2 / 8; with a
+                            # lower stop, far from it too (g_l = -g - DD)
+                            c8 = 0.125 * M2 * h * h
+                            near_l = two and -min(g0, g1) - DD + c8 >= 0.0
+                            if max(g0, g1) + c8 < 0.0 and not near_l:
                                 cert = 2
                                 break
                             cert = _certify(g20, g30, g21, g31, M3, M4, h, tol2)
@@ -366,9 +467,24 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                                             if ev_log is not None and recording:
                                                 _log_event(ev_log, ev_count, EV_APEX, p * T + t_loc + sa,
                                                            Delta + ga, 0.0, 0.0)
+                            # lower stop (q concave: it can only fall through -Dl, after the apex if
+                            # q rises first, e.g. in a chatter on the lower stop)
+                            if near_l and s_imp < 0.0 and v1 < 0.0:
+                                if propagate(h, phi, q, v, beta, a, b, Omega, -Dl)[0] <= 0.0:
+                                    lo = _root(1, 0.0, h, phi, q, v, beta, a, b, Omega, Delta) if v0 > 0.0 else 0.0
+                                    s_imp = _root_lower(0, lo, h, phi, q, v, beta, a, b, Omega, Dl)
+                                    k_imp = 1
                         else:
-                            # convex: v non-decreasing
-                            if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
+                            # convex: v non-decreasing; a lower stop is met before the minimum of
+                            # q, the upper one after it
+                            if near_l and v0 < 0.0:
+                                sl = _root(2, 0.0, h, phi, q, v, beta, a, b, Omega, Delta) if v1 > 0.0 else h
+                                if propagate(sl, phi, q, v, beta, a, b, Omega, -Dl)[0] <= 0.0:
+                                    s_imp = _root_lower(0, 0.0, sl, phi, q, v, beta, a, b, Omega, Dl)
+                                    k_imp = 1
+                            if k_imp == 1:
+                                pass
+                            elif v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
                                 if v0 < 0.0:
                                     # minimum of q: root of q' on [0, h] (q' increasing)
                                     sm = _root(2, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
@@ -382,6 +498,57 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                                         s_imp = _root(0, sm, h, phi, q, v, beta, a, b, Omega, Delta)
                                 elif g1 >= 0.0:
                                     s_imp = _root(0, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
+                    if s_imp >= 0.0 and k_imp == 1:
+                        # ---- impact on the lower stop: the same law and policy along the normal -1
+                        fresh = True
+                        at_grid = False
+                        vi = propagate(s_imp, phi, q, v, beta, a, b, Omega, -Dl)[1] if s_imp > 0.0 else v
+                        phi = (phi + Omega * s_imp) % TWO_PI
+                        t_loc += s_imp
+                        rem -= s_imp
+                        if rem < 0.0:
+                            rem = 0.0
+                        q = -Dl
+                        U_minus = -vi if vi < 0.0 else 0.0
+                        if ev_log is not None:
+                            _log_event(ev_log, ev_count, EV_IMPACT, p * T + t_loc, -Dl, U_minus,
+                                       -F * math.sin(phi) - 2.0 * beta * U_minus - Dl)
+                        # CONTACT EVENT (lower stop)
+                        U_plus, Rc = impulsive_response(U_minus, stops[1], tab_U[1], tab_R[1])
+                        v = -U_plus
+                        n_imp_total += 1
+                        if recording:
+                            q_min = min(q_min, -Dl)
+                            pmin[kp] = min(pmin[kp], -Dl)
+                            if n_imp_rec < cap:
+                                imp_t[n_imp_rec] = t_period0 + t_loc
+                                imp_v[n_imp_rec] = U_minus
+                                imp_k[n_imp_rec] = 1
+                            n_imp_rec += 1
+                            n_imp_stop[1] += 1
+                        if n_imp_total > max_impacts:
+                            return (STATUS_FAILED, n_imp_rec, q_min, q_max, n_chatter,
+                                    stuck_time, q, v, _held(stuck, side), n_imp_total, gmax)
+                        u = -U_plus
+                        acc = -F * math.sin(phi) + 2.0 * beta * u - Dl
+                        pressed = u <= 0.0 and _release_time(phi, F, Dl, Omega, 1) > 0.0
+                        action, D = impact_outcome(u, pressed, acc, -F * Omega * math.cos(phi), 2.0 * beta,
+                                                   1.0, Rc, chatter_tol, rem, 0, 0)
+                        if action == STICK or action == CHATTER:
+                            if action == CHATTER:
+                                n_chatter += 1 if recording else 0
+                                phi = (phi + Omega * D) % TWO_PI
+                                t_loc += D
+                                rem -= D
+                                if recording and n_chatter <= chat_t.shape[0]:
+                                    chat_t[n_chatter - 1] = t_period0 + t_loc
+                            stuck = True
+                            side = 1
+                            v = 0.0
+                            if ev_log is not None:
+                                _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, -Dl, 0.0,
+                                           -F * math.sin(phi) - Dl)
+                        continue
                     if s_imp >= 0.0:
                         fresh = True
                         at_grid = False
@@ -396,55 +563,60 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                         if ev_log is not None:
                             _log_event(ev_log, ev_count, EV_IMPACT, p * T + t_loc, Delta, v_minus,
                                        F * math.sin(phi) - 2.0 * beta * v_minus - Delta)
-                        Rc = restitution_coefficient(v_minus, R, R_table_v, R_table_R)
-                        v = newton_restitution(v_minus, Rc)
+                        # CONTACT EVENT: the stop's law (an impulsive one; a compliant law would
+                        # enter its contact phase here, see vibeam.models.contact)
+                        v, Rc = impulsive_response(v_minus, stops[0], tU0, tR0)
                         n_imp_total += 1
                         if recording:
                             q_max = Delta
                             if n_imp_rec < cap:
                                 imp_t[n_imp_rec] = t_period0 + t_loc
                                 imp_v[n_imp_rec] = v_minus
+                                imp_k[n_imp_rec] = 0
                             n_imp_rec += 1
+                            n_imp_stop[0] += 1
                         if n_imp_total > max_impacts:
                             return (STATUS_FAILED, n_imp_rec, q_min, q_max, n_chatter,
-                                    stuck_time, q, v, stuck, n_imp_total, gmax)
-                        # contact acceleration with the rebound velocity
+                                    stuck_time, q, v, _held(stuck, side), n_imp_total, gmax)
+                        # the shared policy (vibeam.models.contact_policy), R at the current impact
+                        # velocity: rebound speed u, contact acceleration with the rebound velocity;
+                        # one DOF: the jerk beyond the flow part is the forcing term exactly,
+                        # c_eff = 2 beta, k_eff = 1, no Zeno guard.  A chatter jumps only to an
+                        # accumulation point inside this sub-step; beyond it the bounces are resolved
+                        # one by one until the next sub-step (whose full length then contains the
+                        # remaining D R^k).  "pressed" (closed form) is needed only without rebound.
                         u = -v
                         acc = F * math.sin(phi) + 2.0 * beta * u - Delta
-                        if u <= 0.0:
-                            # no rebound (R = 0 or grazing contact): stick if pushed on the stop
-                            if _release_delay(phi, F, Delta, Omega) > 0.0:
-                                stuck = True
-                                v = 0.0
-                                if ev_log is not None:
-                                    _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
-                                               F * math.sin(phi) - Delta)
-                        else:
-                            # the shared chatter policy (vibeam.models.contact_policy), R at the
-                            # current impact velocity; one DOF: the jerk beyond the flow part is
-                            # the forcing term exactly, c_eff = 2 beta, k_eff = 1.  It jumps only to
-                            # an accumulation point inside this sub-step; beyond it the bounces
-                            # are resolved one by one until the next sub-step (whose full length
-                            # then contains the remaining D R^k)
-                            D = chatter_jump(u, acc, F * Omega * math.cos(phi), 2.0 * beta, 1.0, Rc,
-                                             chatter_tol, rem)
-                            if D >= 0.0:
-                                n_chatter += 1 if recording else 0
-                                phi = (phi + Omega * D) % TWO_PI
-                                t_loc += D
-                                rem -= D
-                                stuck = True
-                                v = 0.0
-                                if recording and n_chatter <= chat_t.shape[0]:
-                                    chat_t[n_chatter - 1] = t_period0 + t_loc
-                                if ev_log is not None:
-                                    _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
-                                               F * math.sin(phi) - Delta)
+                        pressed = u <= 0.0 and _release_time(phi, F, Delta, Omega, 0) > 0.0
+                        action, D = impact_outcome(u, pressed, acc, F * Omega * math.cos(phi), 2.0 * beta,
+                                                   1.0, Rc, chatter_tol, rem, 0, 0)
+                        if action == STICK:
+                            stuck = True
+                            side = 0
+                            v = 0.0
+                            if ev_log is not None:
+                                _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
+                                           F * math.sin(phi) - Delta)
+                        elif action == CHATTER:
+                            n_chatter += 1 if recording else 0
+                            phi = (phi + Omega * D) % TWO_PI
+                            t_loc += D
+                            rem -= D
+                            stuck = True
+                            side = 0
+                            v = 0.0
+                            if recording and n_chatter <= chat_t.shape[0]:
+                                chat_t[n_chatter - 1] = t_period0 + t_loc
+                            if ev_log is not None:
+                                _log_event(ev_log, ev_count, EV_STICK, p * T + t_loc, Delta, 0.0,
+                                           F * math.sin(phi) - Delta)
                         continue
                     # no event in [0, h]: move to its end (the unclamped gap is kept: a crossing
                     # stepped over would show as g1 > 0)
                     if g1 > gmax:
                         gmax = g1
+                    if two and -g1 - DD > gmax:
+                        gmax = -g1 - DD
                     if recording:
                         qe = Delta + g1
                         if qe < q_min:
@@ -456,6 +628,8 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
                     q = Delta + g1
                     if q > Delta:
                         q = Delta
+                    if two and q < -Dl:
+                        q = -Dl
                     v = v1
                     g0 = g1 if g1 < 0.0 else 0.0
                     v0 = v1
@@ -473,6 +647,15 @@ def event_kernel(beta, B, R, R_table_v, R_table_R, Delta, Omega, q_init, v_init,
             status = STATUS_CHATTER
         elif stuck_time > 0.0:
             status = STATUS_STICKING
-    return (status, n_imp_rec, q_min, q_max, n_chatter, stuck_time, q, v, stuck, n_imp_total, gmax)
+    return (status, n_imp_rec, q_min, q_max, n_chatter, stuck_time, q, v, _held(stuck, side),
+            n_imp_total, gmax)
+
+
+@njit(cache=True)
+def _held(stuck, side):
+    """Held-state code: 0 free, 1 on the upper stop, -1 on the lower one."""
+    if not stuck:
+        return 0
+    return 1 if side == 0 else -1
 
 

@@ -39,10 +39,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from vibeam.records import Trajectory
+from .trajectory import Trajectory
 
 from .impact import newton_restitution
-from .sdof_event import _release_delay
+from .sdof_event import _release_delay, _release_delay_lower
 
 TWO_PI = 2.0 * math.pi
 EPS = 2.220446049250313e-16
@@ -62,6 +62,7 @@ class _Run:
     n_events: int = 0
     impact_times: list = field(default_factory=list)       # absolute times
     impact_velocities: list = field(default_factory=list)  # q'(t-) > 0
+    impact_stops: list = field(default_factory=list)       # event index (0 upper, 1 lower stop)
     segments: list = field(default_factory=list)           # (OdeSolution, mode) in the record
     y_end: np.ndarray | None = None
     mode_end: float = 0.0
@@ -87,10 +88,13 @@ def integrate_piecewise(rhs, event, jump, to_q, y0, mode0, t0, period, n_transie
         the internal coordinates, ``y`` of shape (2,).
     event : callable or None
         ``event(mode) -> g(t, y)`` with ``terminal`` and ``direction``
-        attributes (see ``solve_ivp``), or None for an event-free system.
+        attributes (see ``solve_ivp``), or a list of them (one per stop), or None for an
+        event-free system.
     jump : callable or None
         ``jump(t, y, mode) -> (y_plus, mode_plus, v_minus)``: the post-event
-        internal state, the new mode and the pre-impact velocity ``q'(t-)``.
+        internal state, the new mode and the pre-impact velocity ``q'(t-)``; with a list of
+        events ``jump(t, y, mode, j)``, ``j`` the index of the event that fired first
+        (recorded in ``impact_stops``).
     to_q : callable
         ``to_q(Y, mode) -> (q, q')`` for ``Y`` of shape (2,) or (2, n).
     y0 : ndarray, shape (2,)
@@ -205,13 +209,20 @@ def integrate_piecewise(rhs, event, jump, to_q, y0, mode0, t0, period, n_transie
                 else:
                     run.n_events += int(crossings(sol.t, sol.y))
             if sol.status == 1:  # terminal event: impact
-                t_ev = float(sol.t_events[0][0])
-                y_ev = sol.y_events[0][0]
-                y, mode, v_minus = jump(t_ev, y_ev, mode)
+                if isinstance(ev, (list, tuple)):   # several stops: the one that fired first
+                    j = min((i for i, te in enumerate(sol.t_events) if te.size),
+                            key=lambda i: sol.t_events[i][0])
+                    t_ev = float(sol.t_events[j][0])
+                    y, mode, v_minus = jump(t_ev, sol.y_events[j][0], mode, j)
+                else:
+                    j = 0
+                    t_ev = float(sol.t_events[0][0])
+                    y, mode, v_minus = jump(t_ev, sol.y_events[0][0], mode)
                 run.n_events += 1
                 if t_ev >= t_record:
                     run.impact_times.append(t_ev)
                     run.impact_velocities.append(float(v_minus))
+                    run.impact_stops.append(j)
                 stall = stall + 1 if t_ev - t <= 4.0 * EPS * max(1.0, abs(t_ev)) else 0
                 t = t_ev
                 if stall >= 8:
@@ -302,6 +313,8 @@ class _ScipyMethod:
 
     name = "scipy"
     time_domain = True
+    #: simulates a second (lower) stop (``SDOF.Delta_lower``); see ``two_sided_methods`` of the registry
+    two_sided = False
     # periods per call of the sweep engine (vibeam.sweep._simulate); a restart of solve_ivp changes
     # the result at the level of its tolerance, so chunks are long (Python code is interruptible
     # anyway; the chunk only sets how often the wall-time limit is checked)
@@ -318,6 +331,8 @@ class _ScipyMethod:
                 raise ValueError(f"setting {key}={val!r} must be a positive float")
         if max_step is not None and not (float(max_step) > 0.0):
             raise ValueError(f"setting max_step={max_step!r} must be positive or None")
+        if getattr(model, "two_sided", False) and not self.two_sided:
+            raise ValueError(f"method {self.name!r} cannot simulate a second (lower) stop")
         self.model = model
         self.solver = solver
         self.rtol = float(rtol)
@@ -404,30 +419,42 @@ class _ScipyMethod:
             s0 = m.initial_state()
         q0, v0 = float(s0[0]), float(s0[1])
         Delta, F = m.Delta, Omega * Omega * m.B
-        imp_t, imp_v = [], []
+        two = getattr(m, "two_sided", False) and self.two_sided
+        Dl = m.Delta_lower if two else math.inf
+        imp_t, imp_v, imp_k = [], [], []
         n_pre = 0
         t0 = 0.0
         status, message = "ok", ""
-        if q0 >= Delta:
-            q0 = Delta
-            if v0 > 0.0:  # impact at t = 0 (Eq. 2)
+        # a start on a stop (the upper one, or the lower one of a two-sided scene, normal -1)
+        side = 0 if q0 >= Delta else (1 if q0 <= -Dl else -1)
+        if side >= 0:
+            sg = 1.0 if side == 0 else -1.0
+            qs = Delta if side == 0 else -Dl
+            q0 = qs
+            U0 = sg * v0    # normal velocity, > 0 approaching
+            if U0 > 0.0:  # impact at t = 0 (Eq. 2)
                 n_pre = 1
                 if n_transient == 0:
                     imp_t.append(0.0)
-                    imp_v.append(v0)
-                v0 = float(newton_restitution(v0, m.R))
-            elif v0 == 0.0:  # resting on the stop: held until released
-                t0 = float(_release_delay(0.0, F, Delta, Omega))
+                    imp_v.append(U0)
+                    imp_k.append(side)
+                law = m.stops()[side].law if two else None
+                v0 = sg * float(newton_restitution(U0, m.R if law is None else law.R))
+            elif U0 == 0.0:  # resting on the stop: held until released
+                t0 = float(_release_delay(0.0, F, Delta, Omega) if side == 0 else
+                           _release_delay_lower(0.0, F, Dl, Omega))
                 held = t_samples < t0
-                samples[held] = (Delta, 0.0)
+                samples[held] = (qs, 0.0)
                 if t0 > t_record:
                     status = "sticking"
                     message = f"held on the stop from the start until t = {t0:.6g}"
                 if not t0 < t_end:
                     return Trajectory(Omega=Omega, samples=samples, samples_per_period=spp,
                                       impact_times=np.zeros(0), impact_velocities=np.zeros(0),
-                                      n_impacts=0, q_min=Delta, q_max=Delta, status=status,
-                                      message=message, final_state=np.array([Delta, 0.0, 0.0]),
+                                      impact_stops=np.zeros(0, np.int64) if two else None,
+                                      n_impacts=0, q_min=qs, q_max=qs, status=status,
+                                      message=message,
+                                      final_state=np.array([qs, 0.0, 1.0 if side == 0 else -1.0]),
                                       extra=dict(nfev=0))
         y0, mode0 = self._to_internal(q0, v0)
         to_q = self._to_q()
@@ -440,7 +467,7 @@ class _ScipyMethod:
         if run.status != "ok":
             # hand on the last state reached so that a continuation can go on
             q_f, v_f = to_q(run.y_end, run.mode_end)
-            final = np.array([min(float(q_f), Delta), float(v_f), 0.0])
+            final = np.array([max(min(float(q_f), Delta), -Dl), float(v_f), 0.0])
             if not np.all(np.isfinite(final)):
                 final = m.initial_state()
             return Trajectory(Omega=Omega, samples=samples, samples_per_period=spp,
@@ -451,9 +478,11 @@ class _ScipyMethod:
         it, iv = self._impacts_after(run, to_q, t_record, t_end)
         imp_t += [t - t_record for t in run.impact_times] + [t - t_record for t in it]
         imp_v += run.impact_velocities + list(iv)
+        imp_k += run.impact_stops + [0] * len(it)
         order = np.argsort(imp_t, kind="stable")
         imp_t = np.asarray(imp_t, dtype=float)[order]
         imp_v = np.asarray(imp_v, dtype=float)[order]
+        imp_k = np.asarray(imp_k, dtype=np.int64)[order]
         minima = []
         r_min, r_max = _refine_extremes(run.segments, to_q, t_record, t_end, minima)
         # per-period minima: the samples of each period and the refined minima inside it
@@ -463,11 +492,15 @@ class _ScipyMethod:
             pmin[kp] = min(pmin[kp], qm)
         q_min = float(min(np.min(samples[:, 0]), r_min)) if n_s else r_min
         q_max = float(max(np.max(samples[:, 0]), r_max)) if n_s else r_max
-        if imp_t.size:
+        if np.any(imp_k == 0):
             q_max = max(q_max, Delta)
+        if np.any(imp_k == 1):
+            q_min = min(q_min, -Dl)
         q_end, v_end = to_q(run.y_end, run.mode_end)
         return Trajectory(Omega=Omega, samples=samples, samples_per_period=spp,
                           impact_times=imp_t, impact_velocities=imp_v, n_impacts=int(imp_t.size),
+                          impact_stops=imp_k if two else None,
+                          n_impacts_lower=int(np.sum(imp_k == 1)) if two else 0,
                           q_min=q_min, q_max=q_max, period_min=pmin, status=status, message=message,
                           final_state=np.array([float(q_end), float(v_end), 0.0]),
                           extra=dict(nfev=run.nfev))
@@ -491,6 +524,7 @@ class DirectSolver(_ScipyMethod):
     """
 
     name = "direct"
+    two_sided = True
 
     def _to_internal(self, q, v):
         return np.array([q, v]), 0.0
@@ -505,12 +539,31 @@ class DirectSolver(_ScipyMethod):
         return lambda mode: f
 
     def _event(self):
-        Delta = self.model.Delta
+        m = self.model
+        Delta = m.Delta
         ev = _event_fn(lambda t, y: y[0] - Delta, 1.0)
+        if getattr(m, "two_sided", False):
+            # the lower stop's gap -q - Delta_lower, rising (vibeam.models.contact: normal -1)
+            Dl = m.Delta_lower
+            evs = [ev, _event_fn(lambda t, y: -y[0] - Dl, 1.0)]
+            return lambda mode: evs
         return lambda mode: ev
 
     def _jump(self):
-        Delta, R = self.model.Delta, self.model.R
+        m = self.model
+        Delta, R = m.Delta, m.R
+        if getattr(m, "two_sided", False):
+            laws = [s.law for s in m.stops()]
+            offsets = (Delta, -m.Delta_lower)
+
+            def jump2(t, y, mode, j):
+                # Newton's law of stop j on its normal velocity U = s q' (s = +1, -1)
+                sg = 1.0 if j == 0 else -1.0
+                U = sg * float(y[1])
+                Up = newton_restitution(U, laws[j].coefficient(U))
+                return np.array([offsets[j], sg * Up]), mode, U
+
+            return jump2
 
         def jump(t, y, mode):
             return np.array([Delta, newton_restitution(float(y[1]), R)]), mode, float(y[1])

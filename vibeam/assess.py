@@ -65,16 +65,23 @@ def _units(model):
     return 1.0, 1.0, 1.0
 
 
+def _caps(model):
+    """The fidelity registry's entry of a model (capabilities, :mod:`vibeam.models.registry`)."""
+    from .models.registry import fidelity
+
+    return fidelity(model)
+
+
 def _mode_freqs(model):
-    """Free and contact modal frequencies in output units (empty for the SDOF model)."""
+    """Free and contact modal frequencies in output units: the modes of a fidelity with
+    modes (capabilities ``modes``, ``contact_modes``), else its natural frequency alone."""
     fu, _, _ = _units(model)
-    fn = getattr(model, "natural_frequency_hz", None) or 1.0
-    if getattr(model, "fidelity", "") == "beam":
-        free = np.asarray(model.omega_rad_s) / (2 * math.pi) / fn * fu
-        nu2 = np.asarray(getattr(model, "nu2", np.zeros(0)))
-        contact = np.sqrt(np.maximum(nu2, 0.0)) * fu
+    caps = _caps(model)
+    if caps.modes:
+        free = np.asarray(model.free_mode_frequencies()) * fu
+        contact = np.asarray(model.contact_mode_frequencies()) * fu if caps.contact_modes else np.zeros(0)
         return free, contact
-    return np.array([fu]), np.zeros(0)  # SDOF: its natural frequency
+    return np.array([fu]), np.zeros(0)
 
 
 def hann_spectrum(y, fs):
@@ -203,14 +210,18 @@ def not_applicable(case, run, model, time_domain: bool = True) -> list[str]:
                 out.append(f"[assess] {k} does not apply to {what}: the method computes no time history")
         return out
     if a.participation and not _participation_applies(model, run.method):
-        why = ("a single degree of freedom has no modes to share" if getattr(model, "fidelity", "") != "beam"
-               else "only the beam's event method records the modal states")
+        caps = _caps(model)
+        ms = caps.modal_state_methods
+        why = ("a single degree of freedom has no modes to share" if not caps.modes else
+               f"only the {caps.name}'s {' and '.join(ms) or 'no'} method{'s' if len(ms) > 1 else ''} "
+               f"record{'' if len(ms) > 1 else 's'} the modal states")
         out.append(f"[assess] participation does not apply to {what}: {why}")
     return out
 
 
 def _participation_applies(model, method) -> bool:
-    return getattr(model, "fidelity", "") == "beam" and method == "event"
+    caps = _caps(model)
+    return caps.modes and method in caps.modal_state_methods
 
 
 # ============================================================================ hooks
@@ -226,7 +237,7 @@ class SpectraHook:
         self.fmax = assess.spectrum_max or (250.0 if phys else 30.0)
         band = assess.hfc_band or ((50.0, 500.0) if phys else (6.0, 60.0))
         self.band = (float(band[0]), float(band[1]))
-        self.beam = getattr(model, "fidelity", "") == "beam"
+        self.beam = _caps(model).modes   # the high-frequency component needs modes
         self.sensor_row = np.asarray(getattr(model, "sensor_row", [1.0]), float)
         self.L = getattr(model, "length_m", None) or 1.0
 
@@ -297,7 +308,7 @@ class ParticipationHook:
     """Per-point modal shares in the sensor displacement and the energy (picklable)."""
 
     def __init__(self, model):
-        self.beam = getattr(model, "fidelity", "") == "beam"
+        self.beam = _caps(model).modes
         self.N = int(getattr(model, "n_modes", 1)) if self.beam else 1
         self.sensor_row = np.asarray(getattr(model, "sensor_row", [1.0]), float)
         self.k_nd = np.asarray(getattr(model, "k_nd", [1.0]), float)
@@ -348,7 +359,7 @@ def _sensor_hook(case, spec, run, model):
     if not phys:
         raise CaseError(f"run '{run.name}': [effects.sensor] needs a physical scene (frequency_hz, "
                         f"length_mm), the sensor samples in Hz and its noise is in mm")
-    vf = 1.0 / float(model.phi_at_mass) if getattr(model, "fidelity", "") == "beam" else 1.0
+    vf = 1.0 / float(model.phi_contact)    # the kernel's contact velocity -> the sensor's
     return SensorHook(sp, fn, L, float(model.R), eff.restitution_law, velocity_factor=vf)
 
 
@@ -396,7 +407,7 @@ class _Fid:
 def solver_options(case, run, model) -> dict:
     """Extra solver settings the assessments need (modal states of the beam event solver)."""
     a = case.assess
-    if (a.spectra or a.participation) and getattr(model, "fidelity", "") == "beam" and run.method == "event":
+    if (a.spectra or a.participation) and run.method in _caps(model).modal_state_methods:
         return {"record_modal_states": True}
     return {}
 

@@ -33,6 +33,7 @@ class BeamScene:
     Delta_C_m: float
     gamma_tilde_m_per_V: float
     base_amplitude_m: float
+    Delta_C_lower_m: float | None = None    # a second stop below (at the contact point)
 
 
 def geometry_of(spec):
@@ -75,8 +76,14 @@ def scene_of(spec) -> BeamScene:
         DC = spec.contact_gap_mm * 1e-3
         DG = DC / phim
     gt = spec.gain * phim * L
+    DCl = None
+    if getattr(spec, "gap_lower_mm", None) is not None:
+        DCl = spec.gap_lower_mm * 1e-3 * phim
+    elif getattr(spec, "contact_gap_lower_mm", None) is not None:
+        DCl = spec.contact_gap_lower_mm * 1e-3
     return BeamScene(geometry=g, calibration=cal, damping_D_s=D, f1_hz=f1, phi_at_mass=phim,
-                     Delta_G_m=DG, Delta_C_m=DC, gamma_tilde_m_per_V=gt, base_amplitude_m=gt * spec.voltage)
+                     Delta_G_m=DG, Delta_C_m=DC, gamma_tilde_m_per_V=gt, base_amplitude_m=gt * spec.voltage,
+                     Delta_C_lower_m=DCl)
 
 
 def build_beam_model(spec):
@@ -90,11 +97,26 @@ def build_beam_model(spec):
         # the reference frequency stays the FE f_1 so both fidelities share one grid
         return BeamImpactModel.static_mode(sc.geometry, R=spec.R, gap_contact_m=sc.Delta_C_m,
                                            base_amplitude_m=sc.base_amplitude_m,
-                                           damping_D_s=sc.damping_D_s, f_ref_hz=sc.f1_hz)
+                                           damping_D_s=sc.damping_D_s, f_ref_hz=sc.f1_hz,
+                                           **lower_stop(spec, sc))
     fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
                 rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
     return BeamImpactModel.from_fe(fe, n_modes=spec.n_modes, R=spec.R, gap_contact_m=sc.Delta_C_m,
-                                   base_amplitude_m=sc.base_amplitude_m, f_ref_hz=sc.f1_hz)
+                                   base_amplitude_m=sc.base_amplitude_m, f_ref_hz=sc.f1_hz,
+                                   **lower_stop(spec, sc))
+
+
+def lower_stop(spec, sc, phi_c=None) -> dict:
+    """Keyword arguments of :class:`~vibeam.models.beam_dynamics.BeamImpactModel` for the scene's
+    second stop (``{}`` without one): its gap at the contact point (``gap_lower_mm`` at the
+    sensor times ``phi_c``, default ``phi(x_m)``) and R (``[model.contact_lower] R``)."""
+    if sc.Delta_C_lower_m is None:
+        return {}
+    DCl = sc.Delta_C_lower_m
+    if phi_c is not None and getattr(spec, "gap_lower_mm", None) is not None:
+        DCl = spec.gap_lower_mm * 1e-3 * phi_c
+    R_lower = spec.contact_lower.R if spec.contact_lower is not None else None
+    return dict(gap_contact_lower_m=DCl, R_lower=R_lower)
 
 
 def derive(spec) -> dict:

@@ -54,6 +54,73 @@ class _Strict(BaseModel):
 
 
 # ----------------------------------------------------------------------------- model
+class ContactSpec(_Strict):
+    """``[model.contact]`` (the stop of the paper) or ``[model.contact_lower]`` (a second stop
+    below): the contact law of a stop (:mod:`vibeam.models.contact`).
+
+    ``law = "restitution"`` (Newton's law, paper Eq. 2; the default) is the one implemented:
+    the upper stop's R is ``[model] R``, a lower stop's is this table's ``R`` (default: the
+    upper stop's law).  The compliant laws ``"linear"`` (Kelvin-Voigt) and ``"hunt_crossley"``
+    and their keys ``stiffness`` (nondimensional scenes: ratio to the oscillator's stiffness),
+    ``stiffness_n_m`` (physical and beam scenes), ``damping_ratio`` and ``exponent`` are
+    reserved: a case that uses them is refused with a message saying so.
+    """
+
+    law: Literal["restitution", "linear", "hunt_crossley"] = "restitution"
+    R: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    stiffness: Annotated[float, Field(gt=0.0)] | None = None
+    stiffness_n_m: Annotated[float, Field(gt=0.0)] | None = None
+    damping_ratio: Annotated[float, Field(ge=0.0)] | None = None
+    exponent: Annotated[float, Field(gt=0.0)] | None = None
+
+    @model_validator(mode="after")
+    def _implemented(self):
+        from vibeam.models.registry import IMPLEMENTED_LAWS, LAWS
+
+        if self.law not in IMPLEMENTED_LAWS:
+            raise ValueError(f"law = {self.law!r} ({LAWS[self.law][0]}) is not implemented yet; implemented: "
+                             f"{', '.join(repr(n) for n in IMPLEMENTED_LAWS)}")
+        extra = [k for k in ("stiffness", "stiffness_n_m", "damping_ratio", "exponent") if getattr(self, k) is not None]
+        if extra:
+            raise ValueError(f"key(s) {', '.join(extra)} belong to a compliant law (law = 'linear' or "
+                             f"'hunt_crossley', not implemented yet); law = 'restitution' takes R only")
+        return self
+
+
+def _check_stops(spec, lower_keys: tuple, gap_key: str) -> None:
+    """The contact tables and the second stop of a model spec (ValueError naming the keys)."""
+    lower = [k for k in lower_keys if getattr(spec, k) is not None]
+    if len(lower) > 1:
+        raise ValueError(f"give the lower stop once: one of {list(lower_keys)} (got {lower})")
+    if spec.contact is not None and spec.contact.R is not None:
+        raise ValueError("'contact.R': the R of the first stop is [model] R")
+    if spec.contact_lower is not None and not lower:
+        raise ValueError(f"[model.contact_lower] needs a lower stop: give one of {list(lower_keys)}")
+
+
+#: spec class of each fidelity's ``[model]`` table, by its name in the fidelity registry
+#: (:mod:`vibeam.models.registry`); filled by :func:`register_model_spec`
+MODEL_SPECS: dict = {}
+
+
+def register_model_spec(name: str):
+    """Class decorator: the spec class of the ``[model]`` table of fidelity ``name``.
+
+    A spec class validates the table (pydantic) and is the framework's one place for what
+    is specific to its fidelity: ``build()`` (the model), ``physical``, ``dofs()`` (degrees of
+    freedom, for the work estimate), ``result_attrs()`` (derived values stored with a run),
+    ``converged_reference(table)`` (the model table a cost table measures errors against),
+    ``effect_model(effects, model)`` (the model with the structural effects of a run),
+    ``case_update(key, value)`` (a fitted value written back as case keys) and
+    ``check(prefix)`` (checks beyond the table itself).
+    """
+    def deco(cls):
+        MODEL_SPECS[name] = cls
+        return cls
+    return deco
+
+
+@register_model_spec("sdof")
 class SDOFModelSpec(_Strict):
     """``[model]`` of an SDOF scene: nondimensional (paper Eqs. 1-2) or physical (Eqs. 43-46)."""
 
@@ -68,6 +135,10 @@ class SDOFModelSpec(_Strict):
     length_mm: Annotated[float, Field(gt=0.0)] | None = None
     gain: Annotated[float, Field(ge=0.0)] | None = None
     voltage: Annotated[float, Field(ge=0.0)] | None = None
+    Delta_lower: float | None = None
+    gap_lower_mm: float | None = None
+    contact: ContactSpec | None = None
+    contact_lower: ContactSpec | None = None
 
     @model_validator(mode="after")
     def _one_parameter_set(self):
@@ -77,6 +148,10 @@ class SDOFModelSpec(_Strict):
                 "voltage": self.voltage}
         given_n = [k for k, v in nondim.items() if v is not None]
         given_p = [k for k, v in phys.items() if v is not None]
+        if self.Delta_lower is not None:
+            given_n.append("Delta_lower")
+        if self.gap_lower_mm is not None:
+            given_p.append("gap_lower_mm")
         if given_n and given_p:
             raise ValueError(f"give either the nondimensional keys {sorted(nondim)} or the physical keys "
                              f"{sorted(phys)}, not both (got {given_n + given_p})")
@@ -88,11 +163,26 @@ class SDOFModelSpec(_Strict):
             missing = [k for k in nondim if nondim[k] is None]
             if missing:
                 raise ValueError(f"nondimensional SDOF scene is missing {missing}")
+        _check_stops(self, ("Delta_lower", "gap_lower_mm"), "Delta")
+        upper = self.gap_mm if given_p else self.Delta
+        lower = self.gap_lower_mm if given_p else self.Delta_lower
+        if lower is not None and not upper + lower > 0.0:
+            k = ("gap_mm", "gap_lower_mm") if given_p else ("Delta", "Delta_lower")
+            raise ValueError(f"the stops overlap: {k[0]} + {k[1]} = {upper + lower:g} must be > 0 (both are "
+                             f"distances from the static equilibrium, the lower one downwards)")
         return self
 
     @property
     def physical(self) -> bool:
         return self.natural_frequency_hz is not None
+
+    @property
+    def two_sided(self) -> bool:
+        """A second stop below (``Delta_lower`` or ``gap_lower_mm``)."""
+        return self.Delta_lower is not None or self.gap_lower_mm is not None
+
+    def _R_lower(self):
+        return None if self.contact_lower is None else self.contact_lower.R
 
     # continuation parameters: key -> (native key of the SDOF model, factor d native / d key)
     def native_parameter(self, key: str):
@@ -115,8 +205,44 @@ class SDOFModelSpec(_Strict):
 
         if self.physical:
             return SDOF.from_physical(self.natural_frequency_hz, self.damping_ratio, self.R, self.gap_mm,
-                                      self.length_mm, self.gain, self.voltage)
+                                      self.length_mm, self.gain, self.voltage, gap_lower_mm=self.gap_lower_mm,
+                                      R_lower=self._R_lower())
+        if self.two_sided:
+            return SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta, Delta_lower=self.Delta_lower,
+                        R_lower=self._R_lower())
         return SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
+
+    # ---- what is specific to this fidelity (see register_model_spec)
+    def dofs(self) -> int:
+        """Degrees of freedom simulated (work estimate)."""
+        return 1
+
+    def check(self, prefix: str) -> None:
+        """Checks beyond the table's validators: none."""
+
+    def result_attrs(self) -> dict:
+        """Derived values stored with a run's results: none."""
+        return {}
+
+    def converged_reference(self, table: dict, overrides: dict):
+        """Model table of the converged reference of a cost table; None: the run's own
+        model (the SDOF reference differs only in its transient)."""
+        return None
+
+    def effect_model(self, effects, model):
+        """``model`` with the structural effects of a run: a velocity-dependent R
+        (``restitution_law``, sensor velocity in mm/s to ``q'``: ``U(L_S)' = q' L omega_n``)."""
+        if effects.restitution_law is None:
+            return model
+        import dataclasses
+
+        t = effects.restitution_law
+        scale = 1e-3 / (model.length_m * 2 * math.pi * model.natural_frequency_hz)  # mm/s -> q'
+        return dataclasses.replace(model, R_table=tuple((v * scale, R) for v, R in zip(t.velocity_mm_s, t.R)))
+
+    def case_update(self, key: str, value: float) -> tuple[dict, list]:
+        """``[model]`` keys that set a fitted value (``vibeam fit --linear``), and notes."""
+        return {key: float(value)}, []
 
 
 class DiscsSpec(_Strict):
@@ -136,6 +262,7 @@ class CalibrateSpec(_Strict):
     f2_hz: Annotated[float, Field(gt=0.0)] | None = None
 
 
+@register_model_spec("beam")
 class BeamModelSpec(_Strict):
     """``[model]`` of a finite-element beam scene (paper Eqs. 39-41, Fig. 15).
 
@@ -168,6 +295,10 @@ class BeamModelSpec(_Strict):
     R: Annotated[float, Field(ge=0.0, le=1.0)]
     gap_mm: float | None = None
     contact_gap_mm: float | None = None
+    gap_lower_mm: float | None = None
+    contact_gap_lower_mm: float | None = None
+    contact: ContactSpec | None = None
+    contact_lower: ContactSpec | None = None
     gain: Annotated[float, Field(ge=0.0)]
     voltage: Annotated[float, Field(ge=0.0)]
     damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
@@ -190,6 +321,16 @@ class BeamModelSpec(_Strict):
             raise ValueError("give the attached mass either as mass_kg or as a [model.discs] table")
         if (self.gap_mm is None) == (self.contact_gap_mm is None):
             raise ValueError("give exactly one of gap_mm (at the sensor) or contact_gap_mm (at the stop)")
+        _check_stops(self, ("gap_lower_mm", "contact_gap_lower_mm"), "gap_mm")
+        if self.two_sided:
+            pair = ("gap_mm", "gap_lower_mm") if self.gap_mm is not None else ("contact_gap_mm", "contact_gap_lower_mm")
+            if getattr(self, pair[1]) is None:
+                raise ValueError(f"give the lower stop's gap where the upper one's is given: {pair[1]} (with "
+                                 f"{pair[0]})")
+            tot = getattr(self, pair[0]) + getattr(self, pair[1])
+            if not tot > 0.0:
+                raise ValueError(f"the stops overlap: {pair[0]} + {pair[1]} = {tot:g} must be > 0 (both are "
+                                 f"distances from the static equilibrium, the lower one downwards)")
         for k in ("sensor_position_mm", "mass_position_mm"):
             if getattr(self, k) > self.length_mm:
                 raise ValueError(f"{k} = {getattr(self, k)} lies beyond length_mm = {self.length_mm}")
@@ -234,20 +375,87 @@ class BeamModelSpec(_Strict):
             return "Omega", 1.0
         return conversions(self.build(), gain_per_V=self.gain, voltage=self.voltage)[key]
 
+    @property
+    def two_sided(self) -> bool:
+        """A second stop below (``gap_lower_mm`` or ``contact_gap_lower_mm``)."""
+        return self.gap_lower_mm is not None or self.contact_gap_lower_mm is not None
+
     def build(self):
         """The :class:`vibeam.models.beam_dynamics.BeamImpactModel` of this scene."""
         from vibeam.beamscene import build_beam_model
 
         return build_beam_model(self)
 
+    # ---- what is specific to this fidelity (see register_model_spec)
+    def dofs(self) -> int:
+        """Degrees of freedom simulated (work estimate): the retained modes (1 for the static
+        mode, the mesh's ``2 n_elements`` for ``"all"``)."""
+        n = self.n_modes
+        if n == "static":
+            return 1
+        return 2 * int(self.n_elements) if n == "all" else int(n)
+
+    def check(self, prefix: str) -> None:
+        """``n_modes``: at most the mesh's free DOFs (2 per element: deflection and slope of
+        each node but the clamped one)."""
+        n = self.n_modes
+        dofs = 2 * int(self.n_elements)
+        if isinstance(n, int) and n > dofs:
+            raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
+                            f"('{prefix}.n_elements' = {self.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
+                            f"\"static\"")
+
+    def result_attrs(self) -> dict:
+        """Calibrated and derived values of the scene, stored with its results."""
+        from vibeam.beamscene import scene_of
+
+        sc = scene_of(self)
+        g = sc.geometry
+        out = {"EI_n_m2": g.EI_n_m2, "rotary_inertia_kg_m2": g.rotary_inertia_kg_m2,
+               "rhoA_kg_m": g.rhoA_kg_m, "mass_kg": g.mass_kg, "f1_fe_hz": sc.f1_hz,
+               "damping_D_s": sc.damping_D_s, "Delta_C_m": sc.Delta_C_m, "Delta_G_m": sc.Delta_G_m,
+               "gamma_tilde_m_per_V": sc.gamma_tilde_m_per_V, "calibrated": sc.calibration is not None}
+        if sc.calibration is not None:
+            out["calibrated_frequencies_hz"] = np.asarray(sc.calibration.frequencies_hz)
+        return out
+
+    def converged_reference(self, table: dict, overrides: dict):
+        """Model table of the converged reference of a cost table: the finest FE model of the
+        scene, all modes on a mesh twice as fine, so every rung of the fidelity ladder (static
+        mode, 1, 2, 4 ... modes, coarser meshes) is measured against the same thing."""
+        fine = dict(table)
+        fine.update({k: v for k, v in overrides.items() if k not in ("n_modes", "n_elements")})
+        fine.update(n_modes="all", n_elements=2 * int(fine.get("n_elements", 36)))
+        return fine
+
+    def effect_model(self, effects, model):
+        """``model`` with the structural effects of a run (eccentric contact, coupled
+        platform, R table): :func:`vibeam.effects.build_beam_model`."""
+        from vibeam.effects import build_beam_model
+
+        return build_beam_model(self, effects, base_model=model)
+
+    def case_update(self, key: str, value: float) -> tuple[dict, list]:
+        """``[model]`` keys that set a fitted value, and notes: f_n is ``calibrate.f1_hz`` of a
+        calibrated beam (an uncalibrated beam's f_n follows from EI: not written)."""
+        if key == "natural_frequency_hz":
+            if self.calibrate is not None:
+                return {"calibrate": dict(self.calibrate.model_dump(exclude_none=True), f1_hz=float(value))}, []
+            return {}, ["f_n not written: the beam has no [model.calibrate] (its f_n follows from EI)"]
+        return {key: float(value)}, []
+
 
 ModelSpec = Union[SDOFModelSpec, BeamModelSpec]
-# methods per fidelity (kept here so that validating a case imports no solver); the method
-# "continuation" is open to every fidelity here and checked against the shooting problems
-# registered in vibeam.models.SHOOTING when the run is planned
-FIDELITY_METHODS = {"sdof": ("event", "direct", "zhuravlev", "ivanov", "averaging", "mapping", "continuation"),
-                    "beam": ("event", "direct", "continuation")}
-MODEL_SPECS = {"sdof": SDOFModelSpec, "beam": BeamModelSpec}
+
+
+def fidelity_methods(name: str) -> tuple:
+    """Methods a case may ask for with fidelity ``name``, from the fidelity registry (pure
+    Python: validating a case loads no solver).  ``continuation`` is open to every fidelity
+    here and checked against the shooting problems registered in ``vibeam.models.SHOOTING``
+    when the run is planned."""
+    from vibeam.models.registry import fidelity
+
+    return fidelity(name).method_names
 
 
 # ----------------------------------------------------------------------------- sweep
@@ -698,20 +906,8 @@ def _validate_model(data: dict, prefix: str = "model"):
         spec = MODEL_SPECS[fid].model_validate(data)
     except ValidationError as e:
         raise CaseError(_format(e, prefix, MODEL_SPECS[fid])) from None
-    if isinstance(spec, BeamModelSpec):
-        _check_modes(spec, prefix)
+    spec.check(prefix)
     return spec
-
-
-def _check_modes(spec, prefix: str) -> None:
-    """``n_modes`` of a beam scene: at most the mesh's free DOFs (2 per element: deflection
-    and slope of each node but the clamped one)."""
-    n = spec.n_modes
-    dofs = 2 * int(spec.n_elements)
-    if isinstance(n, int) and n > dofs:
-        raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
-                        f"('{prefix}.n_elements' = {spec.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
-                        f"\"static\"")
 
 
 _RUN_BY_METHOD = {m: c for c in (EventRun, ODERun, AveragingRun, MappingRun, ContinuationRun)
@@ -876,7 +1072,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
             raise CaseError(_format(e, "", Case)) from None
         spec = case.model_spec()
         for i, r in enumerate(case.run):
-            allowed = FIDELITY_METHODS[spec.fidelity]
+            allowed = fidelity_methods(spec.fidelity)
             if r.method not in allowed:
                 raise CaseError(f"'run[{i}].method' = {r.method!r} is not available for fidelity "
                                 f"{spec.fidelity!r}; allowed: {', '.join(allowed)}")
@@ -887,6 +1083,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                 _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
             if r.effects:
                 case.effects_for(r)
+            _check_two_sided(case, i, r)
             if r.method == "continuation":
                 _check_continuation(case, i, r)
         if case.map is not None:
@@ -952,6 +1149,33 @@ def check_time_series(case: Case, source: str = "", hz_per_omega: float | None =
                             f"as 'assess.time_series[{seen[j]}]' = {ts[seen[j]]:g}; the grid spacing is "
                             f"{spacing:g}{unit}: give frequencies on distinct grid points")
         seen[j] = i
+
+
+def _check_two_sided(case: Case, i: int, r) -> None:
+    """A run of a two-sided scene (a lower stop) uses a method that simulates it (the fidelity's
+    ``two_sided_methods`` in :mod:`vibeam.models.registry`) and no effect that assumes one stop."""
+    from vibeam.models.registry import fidelity
+
+    spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
+    if not getattr(spec, "two_sided", False):
+        return
+    allowed = fidelity(spec.fidelity).two_sided_methods
+    if r.method not in allowed:
+        raise CaseError(f"'run[{i}].method' = {r.method!r} cannot simulate a second stop (the scene has a lower "
+                        f"stop: {_lower_key(spec)}); allowed with two stops: {', '.join(allowed)}")
+    eff = case.effects_for(r)
+    if eff.sensor is not None:
+        raise CaseError(f"'effects.sensor' (run[{i}]): the sensor's R identification assumes one stop (paper "
+                        f"Sec. 5.1); the scene has a lower stop ({_lower_key(spec)})")
+
+
+def _lower_key(spec) -> str:
+    """``key = value`` of a spec's lower stop (messages)."""
+    for k in ("Delta_lower", "gap_lower_mm", "contact_gap_lower_mm"):
+        v = getattr(spec, k, None)
+        if v is not None:
+            return f"{k} = {v:g}"
+    return "a lower stop"
 
 
 def _check_continuation(case: Case, i: int, r) -> None:

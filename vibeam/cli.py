@@ -201,12 +201,15 @@ def cmd_cost(args) -> int:
 
 
 def _beam_spec(case, command):
+    """The model spec of a scene with a finite-element model (capability ``fe_model``)."""
     from .case import CaseError
+    from .models.registry import fidelity, with_capability
 
     spec = case.model_spec()
-    if spec.fidelity != "beam":
-        raise CaseError(f"'model.fidelity' = {spec.fidelity!r}: `vibeam {command}` needs a beam scene "
-                        f"(fidelity = \"beam\")")
+    if not fidelity(spec.fidelity).fe_model:
+        fe = " or ".join(f'fidelity = "{n}"' for n in with_capability("fe_model"))
+        raise CaseError(f"'model.fidelity' = {spec.fidelity!r}: `vibeam {command}` needs a beam scene, "
+                        f"one with a finite-element model ({fe})")
     return spec
 
 

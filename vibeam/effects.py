@@ -77,7 +77,6 @@ Effects (paper Secs. 5-7)
 from __future__ import annotations
 
 import copy
-import dataclasses
 import math
 
 import numpy as np
@@ -156,7 +155,7 @@ def eccentric_contact_row(fe, shapes, offset_m: float) -> np.ndarray:
 def build_beam_model(spec, effects, base_model=None):
     """BeamImpactModel of a beam scene with its structural effects (eccentric contact,
     coupled platform, R table); ``base_model`` is reused when none changes the structure."""
-    from .beamscene import scene_of
+    from .beamscene import lower_stop, scene_of
     from .models.beam import BeamFE
     from .models.beam_dynamics import BeamImpactModel
     from .reductions.modal import modal_reduction
@@ -180,7 +179,8 @@ def build_beam_model(spec, effects, base_model=None):
         m0 = base_model if base_model is not None else spec.build()
         m = BeamImpactModel(m0.omega_rad_s, m0.participation, m0.contact_row * (phic / sc.phi_at_mass),
                             m0.sensor_row, m0.R, DC, m0.base_amplitude_m, m0.f_ref_hz, m0.length_m, phic,
-                            m0.damping_D_s, m0.rayleigh_alpha_1_s, label="static mode, eccentric contact")
+                            m0.damping_D_s, m0.rayleigh_alpha_1_s, label="static mode, eccentric contact",
+                            **lower_stop(spec, sc, phic))
     else:
         fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
                     rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
@@ -195,7 +195,8 @@ def build_beam_model(spec, effects, base_model=None):
         if not coupled:
             m = BeamImpactModel(om, G, w, s, spec.R, DC, sc.base_amplitude_m, sc.f1_hz, fe.geometry.length_m,
                                 phic, fe.damping_D_s, fe.rayleigh_alpha_1_s,
-                                label=f"FE {red.n_modes} modes" + (", eccentric contact" if ecc else ""))
+                                label=f"FE {red.n_modes} modes" + (", eccentric contact" if ecc else ""),
+                                **lower_stop(spec, sc, phic))
         else:
             m = _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic)
     if effects.restitution_law is not None:
@@ -209,6 +210,8 @@ def build_beam_model(spec, effects, base_model=None):
 def _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic):
     """Beam + platform DOF as one modal model (module doc)."""
     import scipy.linalg
+
+    from .beamscene import lower_stop
 
     from .models.beam_dynamics import BeamImpactModel
 
@@ -236,7 +239,7 @@ def _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic):
     m = BeamImpactModel(np.sqrt(lam), V[N], np.concatenate([w, [0.0]]) @ V, np.concatenate([s, [0.0]]) @ V,
                         spec.R, DC, 0.0, sc.f1_hz, g.length_m, phic,
                         modal_damping_1_s=np.einsum("ij,i,ij->j", V, np.diag(Cc), V),
-                        label=f"FE {N} modes + platform DOF")
+                        label=f"FE {N} modes + platform DOF", **lower_stop(spec, sc, phic))
     m.platform_force_n = F_s        # per-point base_amplitude_m = F_s / Omega~^2
     m.platform_row = V[N].copy()    # z_p = platform_row @ xi
     return m
@@ -265,9 +268,8 @@ class EffectSolver:
         plat = effects.platform
         L_mm = spec.length_mm
         self._L_mm = L_mm
-        self._fid = spec.fidelity
-        if self._fid == "beam":
-            self._phic = float(self.model.phi_at_mass)
+        # static-mode value at the contact point over the sensor's (1 for the SDOF model)
+        self._phic = float(self.model.phi_contact)
         if plat is not None:
             self._setup_platform(plat)
         gd = effects.gap_drift
@@ -347,7 +349,7 @@ class EffectSolver:
         if gd.table is not None:
             return float(np.interp(f_hz, self._gap_f, self._gap_v))
         return self.spec.gap_mm + drift if self.spec.gap_mm is not None else (
-            self.spec.contact_gap_mm / self._phic + drift)
+            getattr(self.spec, "contact_gap_mm") / self._phic + drift)
 
     def point_model(self, Omega, drift=0.0):
         """The model of one point (and the extras it implies)."""
@@ -356,28 +358,17 @@ class EffectSolver:
         extra = {}
         plat = self.effects.platform
         gap = self._gap_mm(f, drift)
-        if self._fid == "sdof":
-            ch = {}
-            if plat is not None:
-                g = float(self.effective_gain(f))
-                ch["B"] = g * self.spec.voltage
-                extra["effective_gain"] = g
-            if gap is not None:
-                ch["Delta"] = gap / self._L_mm
-                extra["gap_mm"] = gap
-            return (dataclasses.replace(m, **ch) if ch else m), extra
-        pm = copy.copy(m)
+        pm = m
         if plat is not None:
             g = float(self.effective_gain(f))
             extra["effective_gain"] = g
             if plat.level == "filter":
-                pm.base_amplitude_m = m.base_amplitude_m * (g / float(self.spec.gain))
-            else:
+                pm = pm.with_gain(g, float(self.spec.gain), self.spec.voltage)
+            else:   # coupled (capability coupled_platform): the shaker force over Omega~^2
                 W = 2 * math.pi * f
-                pm.base_amplitude_m = self._coupled_fs / (W * W)
+                pm = pm.with_base_amplitude_m(self._coupled_fs / (W * W))
         if gap is not None:
-            pm.gap_contact_m = (gap * 1e-3) * self._phic
-            pm._constrained()
+            pm = pm.with_sensor_gap_mm(gap, self._L_mm)
             extra["gap_mm"] = gap
         return pm, extra
 
@@ -413,14 +404,14 @@ class EffectSolver:
         v = np.asarray(traj.impact_velocities, float)   # q'- (SDOF) or contact velocity / L (beam)
         if v.size == 0 or n_record <= 0 or traj.status == "failed":
             return 0.0
-        if self._fid == "sdof":
-            tv, tR = pm.restitution_table()
-            Rs = np.array([restitution_coefficient(x, pm.R, tv, tR) for x in v])
-            vs = v
-        else:
-            Rs = np.array([restitution_coefficient(x * pm.length_m, pm.R, pm.R_table_U, pm.R_table_R) for x in v])
-            vs = v / self._phic
-        tot = float(np.sum((1.0 + Rs) * vs)) * (traj.n_impacts / v.size)
+        k = traj.impact_stops
+        if k is not None:          # two stops: the drift of the upper stop follows its own impulse
+            v = v[k == 0]
+            if v.size == 0:
+                return 0.0
+        Rs = pm.restitution_coefficients(v)
+        vs = v / self._phic            # sensor velocity
+        tot = float(np.sum((1.0 + Rs) * vs)) * ((traj.n_impacts - traj.n_impacts_lower) / v.size)
         return tot / n_record
 
 
@@ -451,38 +442,36 @@ def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
     vibeam.case.CaseError
         If an effect does not make sense for the fidelity or method.
     """
+    from .models.registry import fidelity, with_capability
+
     active = [k for k in effects.active() if k in HANDLED]
     if not active:
         return solver
-    fid = spec.fidelity
+    caps = fidelity(spec.fidelity)
     method = solver.name
     settings = dict(run_settings or {})
-    if fid == "sdof":
-        if effects.eccentric_impact is not None:
-            raise _err("effects.eccentric_impact: the SDOF model has no rotation of the attached mass "
-                       "(a point mass on one assumed shape); use a beam scene (fidelity = \"beam\")")
-        if not spec.physical:
-            raise _err(f"effects.{active[0]}: needs a physical SDOF scene (natural_frequency_hz, gap_mm, "
-                       f"length_mm, gain, voltage), not the nondimensional keys")
-        if effects.platform is not None and effects.platform.level == "coupled":
-            raise _err("effects.platform.level = \"coupled\" is implemented for beam scenes only; "
-                       "use level = \"filter\" with an SDOF scene")
-        if effects.restitution_law is not None and method != "event":
-            raise _err(f"effects.restitution_law: method {method!r} does not support a velocity-dependent R; "
-                       f"use method = \"event\"")
+
+    def names(flag):
+        return " or ".join(f'fidelity = "{n}"' for n in with_capability(flag))
+
+    if effects.eccentric_impact is not None and not caps.eccentric_contact:
+        raise _err(f"effects.eccentric_impact: the {caps.name.upper()} model has no rotation of the attached mass "
+                   f"(a point mass on one assumed shape); use a beam scene ({names('eccentric_contact')})")
+    if not getattr(spec, "physical", False):
+        raise _err(f"effects.{active[0]}: needs a physical {caps.name.upper()} scene (natural_frequency_hz, "
+                   f"gap_mm, length_mm, gain, voltage), not the nondimensional keys")
+    if effects.platform is not None and effects.platform.level == "coupled" and not caps.coupled_platform:
+        raise _err(f"effects.platform.level = \"coupled\" is implemented for beam scenes only "
+                   f"({names('coupled_platform')}); use level = \"filter\" with this scene")
+    if effects.restitution_law is not None and method not in caps.restitution_law_methods:
+        allowed = " or ".join(f'"{m}"' for m in caps.restitution_law_methods)
+        raise _err(f"effects.restitution_law: method {method!r} does not support a velocity-dependent R; "
+                   f"use method = {allowed}")
     if effects.gap_drift is not None and effects.gap_drift.law == "sliding" and not solver.time_domain:
         raise _err(f"effects.gap_drift: law = \"sliding\" needs impacts, i.e. a time-domain method "
                    f"(not {method!r})")
-    if fid == "sdof":
-        new = model
-        if effects.restitution_law is not None:
-            t = effects.restitution_law
-            scale = 1e-3 / (model.length_m * 2 * math.pi * model.natural_frequency_hz)  # mm/s -> q'
-            new = dataclasses.replace(model, R_table=tuple((v * scale, R) for v, R in zip(t.velocity_mm_s, t.R)))
-        f_n = model.natural_frequency_hz
-    else:
-        new = build_beam_model(spec, effects, base_model=model)
-        f_n = model.f_ref_hz
+    new = spec.effect_model(effects, model)
+    f_n = model.natural_frequency_hz
     inner = solver if new is model else _rebuild(solver, new, settings)
     return EffectSolver(inner, spec, effects, settings, active, f_n)
 

@@ -795,13 +795,9 @@ def _case_updates(spec, values: dict) -> tuple[dict, list]:
     ``calibrate.f1_hz`` of a calibrated beam (an uncalibrated beam's f_n is not a key: noted)."""
     upd, notes = {}, []
     for k, v in values.items():
-        if k == "natural_frequency_hz" and spec.fidelity == "beam":
-            if spec.calibrate is not None:
-                upd["calibrate"] = dict(spec.calibrate.model_dump(exclude_none=True), f1_hz=float(v))
-            else:
-                notes.append("f_n not written: the beam has no [model.calibrate] (its f_n follows from EI)")
-            continue
-        upd[k] = float(v)
+        u, n = spec.case_update(k, v)
+        upd.update(u)
+        notes += n
     return upd, notes
 
 

@@ -10,9 +10,10 @@ definitions exist once.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
+
+from vibeam.models.trajectory import Trajectory  # noqa: F401  (re-exported)
 
 STATUSES = ("ok", "chatter", "sticking", "unsettled", "failed")
 # the period-n test passes within period_rtol; between period_rtol and MARGINAL x period_rtol it is
@@ -24,84 +25,6 @@ MARGINAL = 10.0
 SETTLED_MARGIN = 1e-3
 HARMONICS = 6  # 0 .. 5 Omega
 PERIOD_MAX = 8
-
-
-@dataclass
-class Trajectory:
-    """Recorded steady-state window of one frequency point (nondimensional).
-
-    Attributes
-    ----------
-    Omega : float
-        Forcing frequency over the natural frequency.
-    samples : ndarray, shape (n_record * samples_per_period, 2)
-        ``(q, q')`` at forcing phases ``2 pi j / samples_per_period`` of each
-        recorded period, starting at phase 0 of the first recorded period.
-    samples_per_period : int
-        Samples per forcing period.
-    impact_times : ndarray, shape (k,)
-        Impact instants measured from the start of the recording.
-    impact_velocities : ndarray, shape (k,)
-        Pre-impact velocities ``q'(t-) >= 0`` of those impacts.
-    n_impacts : int
-        Number of impacts in the recorded window (may exceed ``k`` when the
-        buffer was capped).
-    q_min, q_max : float
-        Extremes of ``q`` over the recorded window (exact where the method can
-        locate them, otherwise from the samples).
-    period_min : ndarray, shape (n_record,), optional
-        Minimum of ``q`` over each recorded period, exact where the method
-        locates the extremes (the event kernels); None: taken from the samples.
-    status : str
-        One of ``ok``, ``chatter``, ``sticking``, ``failed`` (``unsettled`` is
-        decided by :func:`summarize`).
-    message : str
-        Human-readable detail (empty when ok).
-    final_state : ndarray, shape (n_state,)
-        State at the end of the recording (phase 0), used to start the next
-        point of a continuation sweep.
-    extra : dict
-        Method-specific per-point outputs (e.g. per-mode amplitudes), each a
-        float or an ndarray of fixed shape across points.
-    Delta : float, optional
-        Gap of this point when it differs from the scene's (an effect that
-        moves the stop); the amplitude is measured from it.
-    chatter_times : ndarray, shape (c,), optional
-        Accumulation points of the chatter sequences of the record (times from
-        its start; event kernels, :mod:`vibeam.models.contact_policy`).
-    """
-
-    Omega: float
-    samples: np.ndarray
-    samples_per_period: int
-    impact_times: np.ndarray
-    impact_velocities: np.ndarray
-    n_impacts: int
-    q_min: float
-    q_max: float
-    status: str = "ok"
-    message: str = ""
-    final_state: np.ndarray = field(default_factory=lambda: np.zeros(2))
-    extra: dict = field(default_factory=dict)
-    period_min: np.ndarray | None = None
-    Delta: float | None = None
-    chatter_times: np.ndarray | None = None
-
-    @property
-    def n_record(self) -> int:
-        return self.samples.shape[0] // self.samples_per_period
-
-    @property
-    def strobe(self) -> np.ndarray:
-        """Stroboscopic (Poincare) samples at phase 0, shape (n_record, 2)."""
-        return self.samples[:: self.samples_per_period]
-
-    @property
-    def t(self) -> np.ndarray:
-        """Times of ``samples`` from the start of the recording (the time base of
-        ``impact_times``): ``j T / samples_per_period`` with ``T = 2 pi / Omega``, shape (n,),
-        nondimensional (natural time: 2 pi = one natural period)."""
-        return np.arange(self.samples.shape[0]) * (2.0 * np.pi / self.Omega / self.samples_per_period)
 
 
 def strobe_returns(strobe: np.ndarray, scale: float) -> np.ndarray:
@@ -316,16 +239,25 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
     shows a transient that has not settled (:func:`transient_verdict`; the
     message gives the reason, then the dynamic outcome it replaces).  ``Delta``
     is the scene's gap; ``traj.Delta`` replaces it where an effect moved the stop.
+
+    Two stops (``traj.impact_stops`` set): ``amplitude`` keeps its meaning (the upper stop's
+    ``Delta - min q``), ``impacts_per_period`` and ``impact_velocity`` are the upper stop's,
+    and ``impacts_per_period_lower``, ``impact_velocity_lower`` (mean normal pre-impact speed
+    ``|q'-|``) the lower stop's; ``period`` is -1 only without impacts on either stop.
     """
     n_rec = traj.n_record
     if traj.Delta is not None:
         Delta = traj.Delta
+    two = traj.impact_stops is not None
     if traj.status == "failed":
         nan = np.nan
-        return dict(amplitude=nan, **amplitude_spread(np.full(n_rec, nan)), q_max=nan, q_min=nan,
-                    period=0, impacts_per_period=nan, impact_velocity=nan,
-                    strobe=np.full((n_rec, 2), nan), harmonics=np.full(HARMONICS, nan),
-                    status=traj.status, message=traj.message)
+        out = dict(amplitude=nan, **amplitude_spread(np.full(n_rec, nan)), q_max=nan, q_min=nan,
+                   period=0, impacts_per_period=nan, impact_velocity=nan,
+                   strobe=np.full((n_rec, 2), nan), harmonics=np.full(HARMONICS, nan),
+                   status=traj.status, message=traj.message)
+        if two:
+            out.update(impacts_per_period_lower=nan, impact_velocity_lower=nan)
+        return out
     q = traj.samples[:, 0]
     scale = max(traj.q_max - traj.q_min, np.max(np.abs(traj.samples[:, 1])) if q.size else 0.0, 1e-300)
     period, why = transient_verdict(traj.strobe, scale, period_rtol, traj.n_impacts == 0)
@@ -334,16 +266,24 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
         message = f"unsettled: {why}" + (f"; {status}: {message}" if status != "ok" else "")
         status = "unsettled"
     iv = traj.impact_velocities
-    return dict(
+    n_up = traj.n_impacts - traj.n_impacts_lower
+    if two:
+        lower = traj.impact_stops == 1
+        iv, iv_l = iv[~lower], iv[lower]
+    out = dict(
         amplitude=Delta - traj.q_min,
         **amplitude_spread(Delta - period_minima(traj)),
         q_max=traj.q_max,
         q_min=traj.q_min,
         period=period,
-        impacts_per_period=traj.n_impacts / n_rec if n_rec else np.nan,
+        impacts_per_period=n_up / n_rec if n_rec else np.nan,
         impact_velocity=float(np.mean(iv)) if iv.size else np.nan,
         strobe=traj.strobe.copy(),
         harmonics=harmonic_amplitudes(q, traj.samples_per_period),
         status=status,
         message=message,
     )
+    if two:
+        out.update(impacts_per_period_lower=traj.n_impacts_lower / n_rec if n_rec else np.nan,
+                   impact_velocity_lower=float(np.mean(iv_l)) if iv_l.size else np.nan)
+    return out

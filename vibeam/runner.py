@@ -117,10 +117,7 @@ _STEPS_PER_NATURAL_PERIOD = 16     # the event kernels' sub-steps: below 1/16 of
 
 def _dofs(spec) -> int:
     """Degrees of freedom simulated by a model spec (1 for the SDOF and the static mode)."""
-    n = getattr(spec, "n_modes", None)
-    if spec.fidelity != "beam" or n == "static":
-        return 1
-    return 2 * int(spec.n_elements) if n == "all" else int(n)
+    return int(spec.dofs())
 
 
 def estimate_work(case, jobs_=None) -> dict:
@@ -644,8 +641,7 @@ def _assemble(case, jobs_, rows_of):
             res.attrs["model"] = job.spec.model_dump()
             assess.collect(case, r, res)
             res.attrs.update(getattr(job.solver, "run_attrs", {}))
-            if job.spec.fidelity == "beam":
-                res.attrs.update(_beam_attrs(job.spec))
+            res.attrs.update(job.spec.result_attrs())
             runs.append(res)
         else:
             dirs = ["up", "down"] if case.sweep.direction == "both" else [case.sweep.direction]
@@ -705,18 +701,3 @@ def _print_table(runs) -> None:
         n_bad = int(sum(1 for s in r.data.get("status", []) if s != "ok"))
         extra = f"  [{n_bad} point(s) not ok]" if n_bad else ""
         print(f"{r.name:<{wn}}{r.method:<{wm}}{r.n_points:>7}{r.wall_time_s:>13.3f}{diff:>{wd}}{extra}")
-
-
-def _beam_attrs(spec) -> dict:
-    """Calibrated and derived values of a beam scene, stored with its results."""
-    from .beamscene import scene_of
-
-    sc = scene_of(spec)
-    g = sc.geometry
-    out = {"EI_n_m2": g.EI_n_m2, "rotary_inertia_kg_m2": g.rotary_inertia_kg_m2,
-           "rhoA_kg_m": g.rhoA_kg_m, "mass_kg": g.mass_kg, "f1_fe_hz": sc.f1_hz,
-           "damping_D_s": sc.damping_D_s, "Delta_C_m": sc.Delta_C_m, "Delta_G_m": sc.Delta_G_m,
-           "gamma_tilde_m_per_V": sc.gamma_tilde_m_per_V, "calibrated": sc.calibration is not None}
-    if sc.calibration is not None:
-        out["calibrated_frequencies_hz"] = np.asarray(sc.calibration.frequencies_hz)
-    return out

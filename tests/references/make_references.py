@@ -103,6 +103,11 @@ TOL_LINEAR = 1e-8
 TOL_AVERAGING = 0.03
 TOL_STATIC = 1e-8
 TOL_DIRECT = 1e-7
+# two-sided SDOF points against two_sided_ode (DOP853, rtol 1e-12, 2 n periods from the stored
+# strobe state): its global error over 2 x 8 periods stays ~1e-11 relative; the stored state is
+# within 1e-3 period_rtol = 1e-8 of the orbit where the reference's transient is "auto" (measured:
+# amplitudes <= 5e-14, strobe returns <= 2.3e-9 next to the period doubling of paper-fig7-two-sided)
+TOL_TWO_SIDED = 1e-8
 DIRECT_MAX_MODES = 4      # more modes: stiff for DOP853 (the high modes are overdamped, Eq. 39)
 DIRECT_POINTS = 2         # FE points checked against the direct solver per run
 # effects that leave the dynamics alone (the oracles still apply)
@@ -113,7 +118,8 @@ KEPT = ("Omega", "amplitude", "amplitude_mean", "amplitude_std", "amplitude_min"
         "record_periods", "transient_periods_used", "q_max", "q_min", "period", "impacts_per_period",
         "impact_velocity", "strobe", "harmonics", "direction", "status", "message", "wall_time_s",
         "stuck_fraction", "frequency_hz", "amplitude_mm", "amplitude_mean_mm", "amplitude_std_mm",
-        "amplitude_min_mm", "amplitude_max_mm", "amplitude_lower", "stable")
+        "amplitude_min_mm", "amplitude_max_mm", "amplitude_lower", "stable", "impacts_per_period_lower",
+        "impact_velocity_lower")
 
 
 MAP_KEPT = ("classification", "values")
@@ -163,6 +169,167 @@ class Check:
     def as_dict(self):
         return dict(run=self.run, oracle=self.oracle, points=self.n, max_rel_error=self.err,
                     tolerance=self.tol, failures=len(self.failures))
+
+
+def two_sided_ode(model, Omega, x0, n_periods, rtol=1e-12, u_stick=1e-9, strobe=True):
+    """Independent reference of the SDOF oscillator between two stops (or one): scipy's
+    ``solve_ivp`` (DOP853) with terminal events, written without the event kernel's code.
+
+    Free flight integrates paper Eq. 1; the events are the stops ``q = Delta`` (rising) and
+    ``q = -Delta_lower`` (falling), each re-armed only after the mass has turned away from it
+    (an event on ``q' = 0``), and Newton's law (Eq. 2) with each stop's R maps the velocity.
+    An impact slower than ``u_stick`` times the largest impact speed so far, into a contact
+    force that presses the mass on (``F sin(Omega t) - Delta > 0`` above, ``-F sin(Omega t) -
+    Delta_lower > 0`` below), ends a chatter sequence: the mass is held on the stop (the rest
+    of the sequence, ``2 u / (a (1 - R)) ~ u_stick``, is neglected) until the contact force
+    turns negative, located by ``brentq`` on a sampled sign change (not the kernel's closed
+    form).  A held mass leaves the stop with the same state whenever it was put there, so
+    everything after a release is exact again.
+
+    Parameters
+    ----------
+    model : vibeam.models.SDOF
+        ``Delta_lower`` None: one stop.  Constant R only.
+    Omega : float
+    x0 : array_like, shape (2,) or (3,)
+        ``(q, q'[, held])`` at forcing phase 0 (``held``: 1 on the upper stop, -1 on the lower).
+    n_periods : int
+
+    Returns
+    -------
+    dict
+        ``impacts`` (k, 3): time, stop (0 upper, 1 lower), pre-impact speed ``|q'-|``;
+        ``sticks`` and ``releases`` (times, with their stop); ``q_min``, ``q_max`` over the
+        run (root-found on the dense output); ``period_min`` (n_periods,); ``strobe``
+        (n_periods + 1, 2) at the forcing periods; ``final`` ``(q, q', held)``.
+    """
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import brentq
+
+    beta, F = model.beta, Omega * Omega * model.B
+    D_up = model.Delta
+    two = model.Delta_lower is not None
+    D_lo = model.Delta_lower if two else math.inf
+    R_up = model.R
+    R_lo = model.R if (not two or model.R_lower is None) else model.R_lower
+    T = 2 * math.pi / Omega
+    t_end = n_periods * T
+    scale = max(abs(D_up), abs(D_lo) if two else 0.0, F, 1e-300)
+    atol = 1e-15 * scale
+
+    def rhs(t, y):
+        return [y[1], F * math.sin(Omega * t) - 2.0 * beta * y[1] - y[0]]
+
+    def force(t, side):   # contact force per unit mass holding the mass on a stop
+        return F * math.sin(Omega * t) - D_up if side == 0 else -F * math.sin(Omega * t) - D_lo
+
+    def release(t0, side):
+        if force(t0, side) < 0.0:
+            return t0
+        ts = t0 + np.arange(1, 4001) * (T / 2000.0)
+        f = np.array([force(t, side) for t in ts])
+        k = np.flatnonzero(f < 0.0)
+        if not k.size:
+            return math.inf
+        k = int(k[0])
+        lo = ts[k - 1] if k else t0
+        return brentq(lambda t: force(t, side), lo, ts[k], xtol=1e-15 * T, rtol=1e-15)
+
+    q, v = float(x0[0]), float(x0[1])
+    held = int(round(x0[2])) if len(x0) > 2 else 0
+    side = 0 if held >= 0 else 1
+    t = 0.0
+    arm = [True, two]
+    impacts, sticks, releases = [], [], []
+    extrema = []        # (t, q) of located extrema and contacts
+    strobe_t = np.arange(n_periods + 1) * T
+    strobe_x = np.full((n_periods + 1, 2), np.nan)
+    u_max = 0.0
+    if held:
+        # held at the start (as the kernel's state): until the contact force turns negative
+        tr = release(t, side)
+        qs = D_up if side == 0 else -D_lo
+        sel = (strobe_t >= t) & (strobe_t <= min(tr, t_end))
+        strobe_x[sel] = (qs, 0.0)
+        extrema += [(t, qs), (min(tr, t_end), qs)]
+        q, v, t = qs, 0.0, min(tr, t_end)
+        releases.append((t, side))
+        arm[side] = False
+    while t < t_end:
+        evs = []
+        if arm[0]:
+            e = lambda tt, y: y[0] - D_up
+            e.terminal, e.direction = True, 1.0
+            evs.append(("up", e))
+        if two and arm[1]:
+            e = lambda tt, y: -y[0] - D_lo
+            e.terminal, e.direction = True, 1.0
+            evs.append(("lo", e))
+        if not arm[0]:        # re-arm the upper stop at the next minimum of q
+            e = lambda tt, y: y[1]
+            e.terminal, e.direction = True, 1.0
+            evs.append(("min", e))
+        if two and not arm[1]:   # the lower one at the next maximum
+            e = lambda tt, y: y[1]
+            e.terminal, e.direction = True, -1.0
+            evs.append(("max", e))
+        ext = lambda tt, y: y[1]     # every extremum (not terminal)
+        sol = solve_ivp(rhs, (t, t_end), [q, v], method="DOP853", rtol=rtol, atol=atol,
+                        events=[e for _, e in evs] + [ext], dense_output=True, max_step=T / 16)
+        if sol.status < 0:
+            raise RuntimeError(sol.message)
+        for te in sol.t_events[-1]:
+            extrema.append((te, float(sol.sol(te)[0])))
+        t1 = float(sol.t[-1])
+        sel = (strobe_t >= t) & (strobe_t <= t1) & np.isnan(strobe_x[:, 0])
+        if sel.any():
+            strobe_x[sel] = sol.sol(strobe_t[sel]).T
+        q, v = (float(x) for x in sol.y[:, -1])
+        extrema.append((t1, q))
+        t = t1
+        if sol.status != 1:
+            break
+        fired = [name for (name, _), te in zip(evs, sol.t_events[:-1]) if te.size and te[-1] == t1]
+        name = fired[0]
+        if name == "min":
+            arm[0] = True
+            continue
+        if name == "max":
+            arm[1] = True
+            continue
+        k = 0 if name == "up" else 1
+        qs = D_up if k == 0 else -D_lo
+        U = abs(v)
+        impacts.append((t, k, U))
+        extrema.append((t, qs))
+        u_max = max(u_max, U)
+        arm[k] = False
+        arm[1 - k] = k == 1 or two    # the mass has left the other stop
+        if U <= u_stick * u_max and force(t, k) > 0.0:
+            sticks.append((t, k))
+            tr = release(t, k)
+            sel = (strobe_t > t) & (strobe_t <= min(tr, t_end))
+            strobe_x[sel] = (qs, 0.0)
+            extrema.append((min(tr, t_end), qs))
+            q, v, t = qs, 0.0, min(tr, t_end)
+            if tr < t_end:
+                releases.append((t, k))
+            else:
+                held = 1 if k == 0 else -1
+                break
+            continue
+        q = qs
+        v = -(R_up if k == 0 else R_lo) * v
+        held = 0
+    ok = np.isfinite(strobe_x[:, 0])
+    ex = np.array(extrema + list(zip(strobe_t[ok], strobe_x[ok, 0])))
+    pmin = np.full(n_periods, np.nan)
+    for i in range(n_periods):
+        s = (ex[:, 0] >= i * T - 1e-12 * T) & (ex[:, 0] <= (i + 1) * T + 1e-12 * T)
+        pmin[i] = ex[s, 1].min() if s.any() else np.nan
+    return dict(impacts=np.array(impacts).reshape(-1, 3), sticks=sticks, releases=releases,
+                q_min=float(ex[:, 1].min()), q_max=float(ex[:, 1].max()), period_min=pmin,
+                strobe=strobe_x, final=np.array([q, v, float(held if t >= t_end else 0)]))
 
 
 def _impacts_from_strobe(model, W, d, i, n):
@@ -281,7 +448,11 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
     out = [c_lin]
     if spec.n_modes == "static":
         red = derive(spec)["reduction"]
-        sdof = SDOF(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, R=spec.R, Delta=red.Delta)
+        lower = {}
+        if getattr(model, "two_sided", False):   # the lower stop at the sensor: Delta_C,lower / (phi L)
+            lower = dict(Delta_lower=model.gap_contact_lower_m / model.phi_at_mass / model.length_m,
+                         R_lower=model.R_lower)
+        sdof = SDOF(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, R=spec.R, Delta=red.Delta, **lower)
         f = np.asarray(d["frequency_hz"], float)
         up = np.unique(f)
         sw = replace(sweep, Omega=up / red.f_n_hz, assess=())
@@ -305,7 +476,10 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
         r = red.f_n_hz / model.f_ref_hz
         d2 = dict(d, Omega=np.asarray(d["Omega"], float) / r,
                   strobe=np.asarray(d["strobe"], float) * np.array([1.0, 1.0 / r]))
-        out += [c for c in _sdof_checks(name, sdof, d2) if "averaging" not in c.oracle]
+        if sdof.two_sided:
+            out += _two_sided_checks(name, sdof, d2)
+        else:
+            out += [c for c in _sdof_checks(name, sdof, d2) if "averaging" not in c.oracle]
     elif expensive and model.n_modes <= DIRECT_MAX_MODES:
         out.append(_direct_check(name, model, d, sweep))
     return out
@@ -386,13 +560,75 @@ def check_runs(ref_case, data: dict, expensive: bool = True) -> list[Check]:
             continue  # closed-form runs are their own oracle; effects change the model
         spec = ref_case.model_spec(overrides) if overrides else ref_case.model_spec()
         model = spec.build()
-        if spec.fidelity == "sdof":
-            checks += _sdof_checks(name, model, d)
-            if ref_case.map is not None:
-                checks.append(_held_check(name, model, d))
-        else:
-            checks += _beam_checks(name, spec, model, d, sweep, expensive)
+        oracles = ORACLES.get(spec.fidelity)
+        if oracles is not None:
+            checks += oracles(name, spec, model, d, sweep, expensive, ref_case.map is not None)
     return checks
+
+
+def _two_sided_checks(name, model, d):
+    """Periodic points of a two-sided SDOF run against :func:`two_sided_ode` started on the
+    stored orbit (the last strobe sample, phase 0): over ``2 n`` periods the oracle must return
+    to it after ``n`` and ``2 n`` periods (the orbit is a period-n solution of the independent
+    integration) and give the stored amplitude ``Delta - min q`` and impacts per period on each
+    stop.  No-impact points: the linear steady state, as one-sided."""
+    from vibeam.models import linear_amplitude
+
+    c_per = Check(name, "two-sided period-n points vs solve_ivp with events (DOP853)", TOL_TWO_SIDED)
+    # the stored strobe state against the oracle's after n and 2 n periods, relative to the orbit's
+    # size (|Delta| + its velocity scale: the largest strobe component)
+    c_ret = Check(name, "two-sided period-n strobe state vs solve_ivp after n, 2n periods", TOL_TWO_SIDED,
+                  floor=1.0)
+    c_lin = Check(name, "no-impact points vs linear_amplitude", TOL_LINEAR)
+    for i, W in enumerate(d["Omega"]):
+        W = float(W)
+        A, p, direc = float(d["amplitude"][i]), int(d["period"][i]), str(d["direction"][i])
+        if str(d["status"][i]) != "ok":
+            continue
+        if p == -1:
+            c_lin.add(W, direc, A, model.Delta + float(linear_amplitude(model.beta, model.B, W)))
+            continue
+        if p < 1:
+            continue
+        x0 = np.asarray(d["strobe"][i][-1], float)
+        o = two_sided_ode(model, W, x0, 2 * p)
+        scale = max(float(np.max(np.abs(x0))), abs(A), 1e-300)
+        back = max(float(np.max(np.abs(o["strobe"][p] - x0))), float(np.max(np.abs(o["strobe"][2 * p] - x0))))
+        c_ret.add(W, direc, back / scale, 0.0)
+        if not back <= TOL_TWO_SIDED * scale:
+            continue
+        k = o["impacts"][:, 1] if o["impacts"].size else np.zeros(0)
+        n_up, n_lo = float(np.sum(k == 0)) / (2 * p), float(np.sum(k == 1)) / (2 * p)
+        # the stored counts are over the record (n_rec periods, not a multiple of p in general):
+        # they may differ from the orbit's by the impacts of one orbit, spread over n_rec periods
+        n_rec = np.asarray(d["strobe"][i]).shape[0]
+        slack = (n_up + n_lo) * p / n_rec + 1e-12
+        if (abs(n_up - float(d["impacts_per_period"][i])) > slack
+                or abs(n_lo - float(d["impacts_per_period_lower"][i])) > slack):
+            c_per.failures.append(f"Omega {W:.6g} ({direc}): impacts per period (upper, lower) {n_up:g}, {n_lo:g} "
+                                  f"against stored {float(d['impacts_per_period'][i]):g}, "
+                                  f"{float(d['impacts_per_period_lower'][i]):g}")
+            continue
+        c_per.add(W, direc, A, model.Delta - o["q_min"])
+    return [c_per, c_ret, c_lin]
+
+
+def _sdof_oracles(name, spec, model, d, sweep, expensive, is_map):
+    if getattr(model, "two_sided", False):
+        return _two_sided_checks(name, model, d)
+    out = _sdof_checks(name, model, d)
+    if is_map:
+        out.append(_held_check(name, model, d))
+    return out
+
+
+# the oracles of each fidelity's plain event runs (a fidelity without an entry gets the generic
+# checks only): (name, spec, model, datasets, sweep, expensive, is a map line) -> [Check]
+ORACLES = {
+    "sdof": _sdof_oracles,
+    "beam": lambda name, spec, model, d, sweep, expensive, is_map: _beam_checks(name, spec, model, d, sweep,
+                                                                                expensive),
+}
 
 
 def check_stored(path, expensive: bool = False) -> list[Check]:

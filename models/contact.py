@@ -1,0 +1,243 @@
+"""Contact relations and contact laws, kept apart, and how both reach the event kernels.
+
+vibeam follows the split of the nonsmooth-dynamics codes (Siconos keeps a ``Relation``,
+e.g. ``LagrangianLinearTIR``, apart from a ``NonSmoothLaw``, e.g. ``NewtonImpactNSL``;
+Acary & Brogliato, *Numerical Methods for Nonsmooth Dynamical Systems*, Springer 2008,
+Ch. 3): *where* and *along what* bodies touch is the relation, *what happens* when they
+touch is the law.  One law therefore serves one DOF or many, and one relation any law.
+
+Relation of stop k (:class:`Relation`; geometry only, in the model's own coordinates)
+    gap        ``g_k = s_k w^T eta - Delta_k``   (free while ``g_k < 0``, contact at ``g_k = 0``)
+    velocity   ``U_k = s_k w^T eta'``            (approaching the stop while ``U_k > 0``)
+    impulse    along ``M^-1 n_k``, ``n_k = s_k w``, effective mass
+               ``m_eff = 1 / (n_k^T M^-1 n_k) = 1 / |w|^2`` (mass-normalised modes, ``M = I``)
+
+    ``w`` is the model's contact row (SDOF: ``w = 1``, ``eta = q``; beam: ``w_i`` of the
+    retained modes, paper Eq. 41).  The *upper* stop (paper Eq. 2, Sec. 6) has ``s = +1`` at
+    ``w^T eta = Delta``; a second, *lower* stop of a two-sided scene has ``s = -1`` at
+    ``w^T eta = -Delta_lower``: two relations with opposite normals, each with its own law.
+    Both distances are measured from the static equilibrium; ``Delta + Delta_lower > 0``.
+
+Law of stop k (unit free, acts on the relation's ``U``; :class:`Restitution`)
+    *impulsive*  a velocity map at the contact event, ``U+ = L(U-)``; the kernels apply the
+                 impulse ``P = m_eff (U+ - U-)`` along ``M^-1 n_k``.  Newton's law
+                 ``U+ = -R(U-) U-`` (paper Eq. 2 and Eq. 41; ``R(U-)`` tabulated, Fig. 26)
+                 is the one implemented: ``law = "restitution"``.
+    *compliant*  a contact *phase* with its own flow (the stop's force ``F(delta, delta')``,
+                 ``delta = g_k`` the penetration, added to the free flow) that ends at an
+                 exit event where the contact force returns to zero (not where ``delta``
+                 does).  Not implemented yet (``law = "linear"`` Kelvin-Voigt,
+                 ``law = "hunt_crossley"``); the plan is below.
+
+Kernel representation (numba: plain arrays, one row per stop; :func:`pack`)
+    ``stops``   float64 (n_stops, :data:`NPAR`): row k = ``[sign s_k, offset Delta_k, law code,
+                R, stiffness, damping, exponent, table nodes]`` (columns :data:`SIGN`,
+                :data:`OFFSET`, :data:`LAW`, :data:`R`, :data:`STIFFNESS`, :data:`DAMPING`,
+                :data:`EXPONENT`, :data:`NODES`); row 0 is the upper stop;
+    ``tab_U``, ``tab_R``  float64 (n_stops, n_nodes): the ``R(U-)`` table of each stop
+                (first ``NODES`` entries used; 0 nodes = constant R).
+    Kernels evaluate an impulsive law with :func:`impulsive_response` and decide what
+    follows with the one policy of :mod:`vibeam.models.contact_policy`.
+
+How a compliant law plugs in (the plan for ``law = "linear"`` and ``"hunt_crossley"``)
+    1. Here: a law class with ``kind = "compliant"``, its code (:data:`LAW_LINEAR`,
+       :data:`LAW_HUNT_CROSSLEY` are reserved) and parameters in the ``STIFFNESS``,
+       ``DAMPING``, ``EXPONENT`` columns (kernel units: stiffness per unit effective mass
+       relative to the model's, i.e. ``k_c / m_eff`` in the kernel's time unit; for a target
+       R, the damping that realises it is computed here, once, in :meth:`pack`);
+       :func:`law_kind` then returns :data:`COMPLIANT` for it.
+    2. In each kernel, at the place marked ``CONTACT EVENT`` (where the gap reaches zero with
+       ``U- > 0``): ``law_kind(stops[k, LAW]) == COMPLIANT`` enters a contact phase instead of
+       calling :func:`impulsive_response`.  The kernel's ``stuck`` state becomes a phase
+       (free / held on stop k / in compliant contact with stop k); the contact phase has its
+       own exact flow -- SDOF: the closed-form oscillator of stiffness ``1 + k_c`` and damping
+       ``2 beta + c_c`` about the shifted equilibrium (:mod:`vibeam.models.sdof_flow` with the
+       natural frequency and the offset as parameters); beam: the ``2N x 2N`` contact-phase
+       state matrix ``A_c = A - n n^T [k_c, c_c]`` (the stop couples the modes), exponentiated
+       once per point, or numerical integration for Hunt-Crossley -- and its exit event
+       ``F = k_c delta + c_c delta' = 0`` (Kelvin-Voigt) is located on the force signal with the
+       same certified scan (:func:`vibeam.models.sdof_event._certify`, ``rtsafe``).  The
+       impulsive chatter / sticking rules do not apply to a compliant stop (contact has a
+       finite duration; a body resting on it is a contact phase that never exits).
+    3. Per-point outputs: the kernels accumulate per stop the contact duration, peak force,
+       penetration and energy lost (work of the contact damping) in an output array beside
+       the per-stop impact counts; :func:`vibeam.records.summarize` and
+       ``vibeam.sweep.UNITS`` declare them (the one place of per-point outputs).
+    4. Mapping / continuation: the event log gets the contact entry and exit rows; the
+       Jacobian of a contact phase is its state-transition matrix composed with the
+       saltation matrices of entry and exit (Sec. 4.2 of the paper: the piecewise-linear map).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .impact import newton_restitution, restitution_coefficient
+from .registry import IMPLEMENTED_LAWS
+
+# ---- layout of a stop row (kernel arrays)
+SIGN, OFFSET, LAW, R, STIFFNESS, DAMPING, EXPONENT, NODES = range(8)
+NPAR = 8
+
+# ---- law codes and kinds
+LAW_RESTITUTION = 0       # Newton's impact law, U+ = -R(U-) U- (impulsive)
+LAW_LINEAR = 1            # reserved: Kelvin-Voigt spring-dashpot stop (compliant)
+LAW_HUNT_CROSSLEY = 2     # reserved: F = k delta^p (1 + c delta') (compliant)
+IMPULSIVE = 0
+COMPLIANT = 1
+
+#: law names of a case's ``[model.contact]`` table (:data:`vibeam.models.registry.LAWS`) -> code
+LAW_CODES = {"restitution": LAW_RESTITUTION, "linear": LAW_LINEAR, "hunt_crossley": LAW_HUNT_CROSSLEY}
+
+
+@dataclass(frozen=True)
+class Relation:
+    """Geometry of one stop: gap ``s w^T eta - offset``, velocity ``s w^T eta'``.
+
+    Attributes
+    ----------
+    sign : float
+        ``+1`` for the upper stop (at ``w^T eta = offset``), ``-1`` for a lower one (at
+        ``w^T eta = -offset``).
+    offset : float
+        Distance of the stop from the static equilibrium along its normal (model units;
+        negative = pre-stressed).
+    """
+
+    sign: float
+    offset: float
+
+    def gap(self, w, eta) -> float:
+        """``g = s w^T eta - offset`` (< 0 free)."""
+        return float(self.sign * (np.dot(w, eta)) - self.offset)
+
+    def velocity(self, w, etad) -> float:
+        """``U = s w^T eta'`` (> 0 approaching)."""
+        return float(self.sign * np.dot(w, etad))
+
+    def normal(self, w) -> np.ndarray:
+        """``n = s w``: the impulse direction ``M^-1 n`` in mass-normalised coordinates."""
+        return self.sign * np.atleast_1d(np.asarray(w, float))
+
+    @staticmethod
+    def effective_mass(w) -> float:
+        """``1 / (n^T M^-1 n) = 1 / |w|^2`` (mass-normalised coordinates, ``M = I``)."""
+        w = np.atleast_1d(np.asarray(w, float))
+        return float(1.0 / np.sum(w * w))
+
+
+@dataclass(frozen=True)
+class Restitution:
+    """Newton's impact law (impulsive): ``U+ = -R(U-) U-`` (paper Eq. 2, Eq. 41).
+
+    Attributes
+    ----------
+    R : float
+        Coefficient of restitution, ``0 <= R <= 1``.
+    table_U, table_R : tuple of float
+        ``R(U-)`` nodes (pre-impact normal velocity in the kernel's units, increasing),
+        piecewise linear, constant beyond the ends (paper Fig. 26); empty = constant ``R``.
+    """
+
+    R: float
+    table_U: tuple = ()
+    table_R: tuple = ()
+
+    kind = "impulsive"
+    code = LAW_RESTITUTION
+
+    def coefficient(self, U_minus) -> float:
+        """``R(U-)`` as the kernels evaluate it."""
+        return float(restitution_coefficient(float(U_minus), self.R, np.asarray(self.table_U, float),
+                                             np.asarray(self.table_R, float)))
+
+    def row(self) -> tuple:
+        """``(law code, R, stiffness, damping, exponent)`` of a kernel stop row."""
+        return (float(self.code), float(self.R), 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Stop:
+    """One stop: a relation and its law."""
+
+    relation: Relation
+    law: Restitution
+
+    @property
+    def name(self) -> str:
+        return "upper" if self.relation.sign > 0 else "lower"
+
+
+def pack(stops) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Kernel arrays of a sequence of :class:`Stop` (module docstring).
+
+    Returns
+    -------
+    par : ndarray, shape (n_stops, NPAR)
+    tab_U, tab_R : ndarray, shape (n_stops, max(1, n_nodes))
+    """
+    n = len(stops)
+    nodes = max([len(s.law.table_U) for s in stops] + [1])
+    par = np.zeros((n, NPAR))
+    tU = np.zeros((n, nodes))
+    tR = np.zeros((n, nodes))
+    for k, s in enumerate(stops):
+        par[k, SIGN] = s.relation.sign
+        par[k, OFFSET] = s.relation.offset
+        par[k, LAW:EXPONENT + 1] = s.law.row()
+        m = len(s.law.table_U)
+        par[k, NODES] = m
+        tU[k, :m] = s.law.table_U
+        tR[k, :m] = s.law.table_R
+    return par, tU, tR
+
+
+def check_stops(stops) -> None:
+    """Raise ValueError for stops the kernels cannot simulate (a law not implemented, an
+    R out of [0, 1], a lower stop overlapping the upper one)."""
+    for s in stops:
+        if getattr(s.law, "kind", "") != "impulsive" or s.law.code != LAW_RESTITUTION:
+            raise ValueError(f"contact law of the {s.name} stop is not implemented; implemented: "
+                             f"{', '.join(IMPLEMENTED_LAWS)}")
+        if not 0.0 <= s.law.R <= 1.0:
+            raise ValueError(f"R of the {s.name} stop must lie in [0, 1], got {s.law.R}")
+    if len(stops) == 2:
+        up, lo = stops[0].relation, stops[1].relation
+        if not up.offset + lo.offset > 0.0 or not math.isfinite(up.offset + lo.offset):
+            raise ValueError(f"the stops overlap: Delta + Delta_lower = {up.offset + lo.offset} must be > 0")
+
+
+# ---------------------------------------------------------------------------- kernels
+@njit(cache=True)
+def law_kind(code):
+    """:data:`IMPULSIVE` or :data:`COMPLIANT` for a law code (a stop row's ``LAW`` column)."""
+    c = int(code)
+    if c == LAW_LINEAR or c == LAW_HUNT_CROSSLEY:
+        return COMPLIANT
+    return IMPULSIVE
+
+
+@njit(cache=True)
+def impulsive_response(U_minus, row, tab_U, tab_R):
+    """Post-contact normal velocity of an impulsive law, and its coefficient of restitution.
+
+    Parameters
+    ----------
+    U_minus : float
+        Pre-impact normal velocity of the stop's relation (``>= 0``, approaching), kernel units.
+    row : ndarray, shape (NPAR,)
+        The stop's row of the kernel's ``stops`` array.
+    tab_U, tab_R : ndarray, shape (n_nodes,)
+        The stop's ``R(U-)`` table rows (the first ``row[NODES]`` entries are used).
+
+    Returns
+    -------
+    U_plus, R : float
+        ``U+ = -R(U-) U-`` and ``R(U-)`` (Newton's law, the only impulsive law).
+    """
+    m = int(row[NODES])
+    Rc = restitution_coefficient(U_minus, row[R], tab_U[:m], tab_R[:m])
+    return newton_restitution(U_minus, Rc), Rc

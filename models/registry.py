@@ -1,0 +1,164 @@
+"""The fidelity registry: what each fidelity of vibeam is and can do, in one table.
+
+The framework (sweeps, effects, assessments, cost, the command line, case validation) never
+branches on a fidelity's name; it asks this registry.  Adding a fidelity (e.g. a 2-DOF
+model) means writing its module(s) under ``models/`` -- the model class, its solvers and,
+optionally, its shooting problem -- plus one :class:`Fidelity` entry here, plus the spec
+class of its ``[model]`` table, registered in the framework under the same name
+(``vibeam.case.MODEL_SPECS``, by the decorator ``vibeam.case.model_spec``).
+
+This module is pure Python (no numba, numpy or scipy): the case validator imports it to
+check a run's method without loading any solver.  Classes are named by
+``"module:attribute"`` strings relative to ``vibeam.models`` and loaded on first use
+(:func:`resolve`).
+
+Capabilities (:class:`Fidelity` fields) and the protocol they imply for the model class
+--------------------------------------------------------------------------------------
+Every model has ``fidelity`` (its registry name), ``Delta`` (the gap of the amplitude
+``Q = Delta - min q``, paper Sec. 4.1), ``natural_frequency_hz`` and ``length_m`` (None for a
+nondimensional scene), ``phi_contact`` (static-mode value at the contact point over the
+sensor's: contact displacements and velocities over it are the sensor's; 1 for the SDOF
+model, whose coordinate is the sensor's), ``restitution_coefficients(velocities, stops)``
+(R of each recorded impact, from its pre-impact velocity in the units of the trajectory),
+``with_gain(gain, scene_gain, voltage)`` and ``with_sensor_gap_mm(gap_mm, length_mm)``
+(the model of one point of an effect: another excitation gain, another gap at the sensor),
+``stops()`` (its contact relations and laws, :mod:`vibeam.models.contact`), ``two_sided`` and
+``initial_state()``.
+
+``modes``
+    Several modes: ``free_mode_frequencies()`` (ratios to the reference frequency) label
+    spectral peaks; modal participation is defined.
+``contact_modes``
+    The constrained system on the stop has modes: ``contact_mode_frequencies()``.
+``modal_state_methods``
+    Methods whose solver records the modal states at the samples
+    (``record_modal_states = True``): participation shares and the high-frequency component.
+``eccentric_contact``, ``coupled_platform``
+    The effects ``eccentric_impact`` and ``platform`` with ``level = "coupled"`` can be
+    built for it (by its spec's ``effect_model``).
+``fe_model``
+    A finite-element model stands behind it (``vibeam derive``, ``vibeam modes``).
+``restitution_law_methods``
+    Methods that take a velocity-dependent R (effect ``restitution_law``).
+``two_sided_methods``
+    Methods that simulate a second (lower) stop (two contact relations with opposite
+    normals, :mod:`vibeam.models.contact`).
+``shooting``
+    Its periodic-orbit shooting problem (contract: :mod:`vibeam.models.periodic`), the
+    class the continuation builds as ``cls(model, parameter, Omega=Omega)``; None: cannot
+    be continued.
+"""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+
+
+#: contact laws of a stop (``[model.contact]`` / ``[model.contact_lower]`` key ``law``):
+#: name -> (kind, implemented, keys of the law's table besides ``law``).  The kernels' codes
+#: and the plan for the compliant laws are in :mod:`vibeam.models.contact`.
+LAWS = {
+    "restitution": ("impulsive", True, ("R",)),
+    "linear": ("compliant", False, ("stiffness", "stiffness_n_m", "damping_ratio")),
+    "hunt_crossley": ("compliant", False, ("stiffness", "stiffness_n_m", "damping_ratio", "exponent")),
+}
+IMPLEMENTED_LAWS = tuple(n for n, (_, done, _) in LAWS.items() if done)
+
+
+@dataclass(frozen=True)
+class Fidelity:
+    """One fidelity: its model, methods and capabilities (see the module docstring).
+
+    Attributes
+    ----------
+    name : str
+        Registry name, the ``fidelity`` key of a case's ``[model]`` table.
+    model : str
+        ``"module:Class"`` of the model (relative to ``vibeam.models``).
+    methods : dict
+        Method name -> ``"module:Class"`` of its solver (built as ``cls(model, **settings)``).
+    shooting : str or None
+        ``"module:Class"`` of the shooting problem, or None.
+    """
+
+    name: str
+    model: str
+    methods: dict
+    shooting: str | None = None
+    modes: bool = False
+    contact_modes: bool = False
+    modal_state_methods: tuple = ()
+    eccentric_contact: bool = False
+    coupled_platform: bool = False
+    fe_model: bool = False
+    restitution_law_methods: tuple = ()
+    two_sided_methods: tuple = ()
+    description: str = field(default="", compare=False)
+
+    @property
+    def method_names(self) -> tuple:
+        """Names of the methods a case may ask for (``continuation`` when it has a shooting
+        problem registered in :data:`vibeam.models.SHOOTING`, checked when planned)."""
+        return tuple(self.methods) + ("continuation",)
+
+
+FIDELITIES: dict[str, Fidelity] = {}
+
+
+def register(fid: Fidelity) -> Fidelity:
+    """Add (or replace) a fidelity in :data:`FIDELITIES`; returns it."""
+    FIDELITIES[fid.name] = fid
+    return fid
+
+
+register(Fidelity(
+    name="sdof",
+    model="sdof:SDOF",
+    methods={"event": "sdof:EventSolver", "direct": "sdof_ode:DirectSolver",
+             "zhuravlev": "sdof_ode:ZhuravlevSolver", "ivanov": "sdof_ode:IvanovSolver",
+             "averaging": "sdof_averaging:AveragingSolver", "mapping": "sdof_mapping:MappingSolver"},
+    shooting="periodic_sdof:SDOFShooting",
+    restitution_law_methods=("event",),
+    two_sided_methods=("event", "direct"),
+    description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
+
+register(Fidelity(
+    name="beam",
+    model="beam_dynamics:BeamImpactModel",
+    methods={"event": "beam_dynamics:BeamEventSolver", "direct": "beam_dynamics:BeamODESolver"},
+    shooting="periodic_beam:BeamContinuation",
+    modes=True,
+    contact_modes=True,
+    modal_state_methods=("event",),
+    eccentric_contact=True,
+    coupled_platform=True,
+    fe_model=True,
+    restitution_law_methods=("event", "direct"),
+    two_sided_methods=("event", "direct"),
+    description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
+
+
+def fidelity(name_or_model) -> Fidelity:
+    """The :class:`Fidelity` of a registry name, or of a model or spec (its ``fidelity``).
+
+    Raises
+    ------
+    ValueError
+        If the name is not registered (the message lists the registered ones).
+    """
+    name = name_or_model if isinstance(name_or_model, str) else getattr(name_or_model, "fidelity", None)
+    fid = FIDELITIES.get(name)
+    if fid is None:
+        raise ValueError(f"fidelity {name!r} is not registered; registered: {', '.join(sorted(FIDELITIES))}")
+    return fid
+
+
+def with_capability(flag: str) -> list[str]:
+    """Names of the fidelities whose capability ``flag`` is true (or non-empty)."""
+    return [n for n, f in FIDELITIES.items() if getattr(f, flag)]
+
+
+def resolve(path: str):
+    """The object named by ``"module:attribute"`` (module relative to ``vibeam.models``)."""
+    mod, _, attr = path.partition(":")
+    return getattr(importlib.import_module(f"vibeam.models.{mod}"), attr)
