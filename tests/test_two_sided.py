@@ -368,3 +368,15 @@ def test_two_sided_case_builds_both_stops():
                         "length_mm = 180.0\ngain = 5.16e-4\nvoltage = 0.6\n")
     m = parse_case(phys.format(model="gap_lower_mm = 0.36", method="event")).model_spec().build()
     assert m.Delta_lower == pytest.approx(0.36 / 180.0, rel=1e-15)
+
+
+def test_sensor_effect_refuses_two_stops():
+    """The sensor's R identification (paper Sec. 5.1) assumes one stop: a two-sided physical scene
+    with [effects.sensor] is a one-line case error."""
+    phys = BASE.replace("beta = 0.015\nB = 0.5e-3\nR = 0.9\nDelta = 0.0\n",
+                        "natural_frequency_hz = 7.6\ndamping_ratio = 0.017\nR = 0.72\ngap_mm = 0.0\n"
+                        "length_mm = 180.0\ngain = 5.16e-4\nvoltage = 0.6\n")
+    text = phys.format(model="gap_lower_mm = 0.3", method="event") + "[effects.sensor]\nsampling_hz = 5000.0\n"
+    with pytest.raises(CaseError, match="'effects.sensor'.*assumes one stop") as e:
+        parse_case(text, "x.toml")
+    assert "\n" not in str(e.value)
