@@ -380,3 +380,22 @@ def test_sensor_effect_refuses_two_stops():
     with pytest.raises(CaseError, match="'effects.sensor'.*assumes one stop") as e:
         parse_case(text, "x.toml")
     assert "\n" not in str(e.value)
+
+
+def test_derive_carries_the_lower_stop_to_the_sdof_case():
+    """`vibeam derive --write` of a two-sided beam scene writes the lower stop of the static-mode
+    SDOF: gap_lower_mm at the sensor = Delta_C,lower / phi(x_m) (the same conversion as the
+    upper gap, paper Eq. 45), and its law; the written case builds the same two stops."""
+    from vibeam.beamscene import derive, scene_of, sdof_case_text
+
+    text = (Path(__file__).resolve().parents[1] / "cases" / "rig-fe-neutral.toml").read_text()
+    text = text.replace("gap_mm = 0.0\n", "gap_mm = 0.0\ngap_lower_mm = 0.3\n", 1)
+    text = text.replace("\n[model.discs]", "\n[model.contact_lower]\nR = 0.5\n\n[model.discs]", 1)
+    case = parse_case(text)
+    spec = case.model_spec()
+    d = derive(spec)
+    sd = parse_case(sdof_case_text(case, spec, d["reduction"], scene_of(spec))).model_spec().build()
+    assert sd.Delta_lower == pytest.approx(0.3 / 180.0, rel=1e-12)
+    assert sd.stops()[1].law.R == 0.5
+    beam = spec.build()
+    assert beam.gap_contact_lower_m == pytest.approx(0.3e-3 * d["reduction"].phi_at_mass, rel=1e-12)
