@@ -399,3 +399,29 @@ def test_derive_carries_the_lower_stop_to_the_sdof_case():
     assert sd.stops()[1].law.R == 0.5
     beam = spec.build()
     assert beam.gap_contact_lower_m == pytest.approx(0.3e-3 * d["reduction"].phi_at_mass, rel=1e-12)
+
+
+def test_shipped_two_sided_case_runs_and_plots_impacts_per_stop(tmp_path):
+    """`vibeam run --quick` of cases/paper-fig7-two-sided.toml: per-stop datasets with units, and
+    impacts.png (speeds and impacts per period on each stop: the amplitude saturates at
+    Delta + Delta_lower once the lower stop is hit); a one-sided run gets no impacts.png."""
+    import h5py
+
+    from vibeam.cli import main
+    from vibeam.plots import plot_impacts
+
+    case = Path(__file__).resolve().parents[1] / "cases" / "paper-fig7-two-sided.toml"
+    assert main(["run", str(case), "--quick", "--out", str(tmp_path), "--jobs", "1", "--quiet"]) == 0
+    assert (tmp_path / "impacts.png").stat().st_size > 0
+    with h5py.File(tmp_path / "results.h5") as f:
+        r = f["runs"]["symmetric stops at 2e-3"]
+        assert "lower stop" in r["impacts_per_period_lower"].attrs["units"]
+        up = np.asarray(r["direction"][:]).astype(str) == "up"
+        np.testing.assert_allclose(r["impact_velocity"][up], r["impact_velocity_lower"][up], rtol=1e-12)
+    from vibeam.results import read_results
+    from vibeam.sweep import SweepResult
+
+    one = SweepResult(name="x", fidelity="sdof", method="event", settings={},
+                      data={"Omega": np.ones(2), "amplitude": np.ones(2)}, wall_time_s=0.0)
+    assert plot_impacts([one], tmp_path / "none.png") is None
+    assert read_results(tmp_path / "results.h5")["runs"]

@@ -125,6 +125,49 @@ def plot_frc(runs: list[SweepResult], path, title: str = "") -> Path:
     return path
 
 
+def plot_impacts(runs: list[SweepResult], path, title: str = "") -> Path | None:
+    """Impacts of two-sided runs per stop against frequency: mean pre-impact speed (top) and
+    impacts per period (bottom), upper stop solid, lower stop dotted.  Where the lower stop is
+    hit the amplitude ``Delta - min q`` saturates at ``Delta + Delta_lower``; these carry the
+    information.  None when no run has a lower stop (``impacts_per_period_lower``)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = [r for r in runs if "impacts_per_period_lower" in r.data]
+    if not runs:
+        return None
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, r in enumerate(runs):
+        x, _, xl, _ = _axes_data(r)
+        c = colors[i % len(colors)]
+        dirs = np.asarray([str(v) for v in r.data.get("direction", ["up"] * len(x))])
+        for dname, mk in (("up", "o"), ("down", "x")):
+            sel = dirs == dname
+            if not sel.any():
+                continue
+            for key_v, key_n, ls, stop in (("impact_velocity", "impacts_per_period", "-", "upper"),
+                                           ("impact_velocity_lower", "impacts_per_period_lower", ":", "lower")):
+                lab = f"{r.name}, {stop} stop ({dname})"
+                ax1.plot(x[sel], np.asarray(r.data[key_v], float)[sel], ls, marker=mk, ms=3, color=c,
+                         lw=1, label=lab)
+                ax2.plot(x[sel], np.asarray(r.data[key_n], float)[sel], ls, marker=mk, ms=3, color=c, lw=1)
+    ax1.set_ylabel("mean pre-impact speed |q'-|")
+    ax2.set_ylabel("impacts per period")
+    ax2.set_xlabel(xl)
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3)
+    ax1.legend(fontsize=7, loc="best")
+    fig.suptitle(title or "impacts on each stop")
+    fig.tight_layout()
+    try:
+        path = save_figure(fig, path)
+    finally:
+        plt.close(fig)
+    return path
+
+
 def plot_bifurcation(runs: list[SweepResult], path, title: str = "") -> Path | None:
     """Stroboscopic q against frequency for each run that has strobe samples."""
     import matplotlib
