@@ -425,3 +425,18 @@ def test_shipped_two_sided_case_runs_and_plots_impacts_per_stop(tmp_path):
                       data={"Omega": np.ones(2), "amplitude": np.ones(2)}, wall_time_s=0.0)
     assert plot_impacts([one], tmp_path / "none.png") is None
     assert read_results(tmp_path / "results.h5")["runs"]
+
+
+def test_gap_drift_table_must_not_pass_the_lower_stop():
+    """[effects.gap_drift] moves the upper stop; a table gap that overlaps the lower stop is a
+    one-line case error (the sliding law only moves the stop away)."""
+    phys = BASE.replace("beta = 0.015\nB = 0.5e-3\nR = 0.9\nDelta = 0.0\n",
+                        "natural_frequency_hz = 7.6\ndamping_ratio = 0.017\nR = 0.72\ngap_mm = 0.0\n"
+                        "length_mm = 180.0\ngain = 5.16e-4\nvoltage = 0.6\n")
+    text = phys.format(model="gap_lower_mm = 0.1", method="event")
+    ok = text + "[effects.gap_drift]\ntable = [[14.0, 0.0], [17.0, -0.05]]\n"
+    parse_case(ok, "x.toml")
+    bad = text + "[effects.gap_drift]\ntable = [[14.0, 0.0], [17.0, -0.2]]\n"
+    with pytest.raises(CaseError, match="gap_drift.table\\[1\\].*overlap the lower one") as e:
+        parse_case(bad, "x.toml")
+    assert "\n" not in str(e.value)
