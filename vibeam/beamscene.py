@@ -160,6 +160,11 @@ def derive(spec) -> dict:
          f"{(red.f_n_hz / sc.f1_hz - 1) * 100:+.2f} % (static mode neglects the beam's mass)"),
         ("f_n with beam mass", red_b.f_n_hz, "Hz", f"{(red_b.f_n_hz / sc.f1_hz - 1) * 100:+.2f} % vs FE"),
     ]
+    if sc.Delta_C_lower_m is not None:   # a second stop below: the same static-mode conversion
+        DGl = sc.Delta_C_lower_m / red.phi_at_mass
+        rows += [("Delta_C,lower", sc.Delta_C_lower_m * 1e3, "mm", "lower stop's gap at the stop"),
+                 ("Delta_G,lower", DGl * 1e3, "mm", "Delta_C,lower / phi(x_m), at the sensor"),
+                 ("Delta_lower", DGl / red.length_m, "1", "Delta_G,lower / L (Eq. 45)")]
     return {"scene": sc, "reduction": red, "with_beam_mass": red_b, "rows": rows}
 
 
@@ -182,7 +187,7 @@ gap_mm = {red.Delta_G_m * 1e3:.10g}
 length_mm = {red.length_m * 1e3:.10g}
 gain = {red.gamma_per_V:.10g}
 voltage = {spec.voltage}
-
+{_lower_stop_text(spec, red, sc)}
 [sweep]
 {grid}
 direction = "{sw.direction}"
@@ -194,6 +199,16 @@ record_periods = {sw.record_periods}
 name = "sdof"
 method = "event"
 """
+
+
+def _lower_stop_text(spec, red, sc) -> str:
+    """``gap_lower_mm`` and ``[model.contact_lower]`` lines of a derived SDOF case ('' for one stop)."""
+    if sc.Delta_C_lower_m is None:
+        return ""
+    text = f"gap_lower_mm = {sc.Delta_C_lower_m / red.phi_at_mass * 1e3:.10g}\n"
+    if spec.contact_lower is not None and spec.contact_lower.R is not None:
+        text += f"\n[model.contact_lower]\nR = {spec.contact_lower.R}\n"
+    return text
 
 
 def modes_report(spec, n: int = 8) -> dict:

@@ -1167,6 +1167,13 @@ def _check_two_sided(case: Case, i: int, r) -> None:
     if eff.sensor is not None:
         raise CaseError(f"'effects.sensor' (run[{i}]): the sensor's R identification assumes one stop (paper "
                         f"Sec. 5.1); the scene has a lower stop ({_lower_key(spec)})")
+    low = getattr(spec, "gap_lower_mm", None)
+    if eff.gap_drift is not None and eff.gap_drift.table is not None and low is not None:
+        # the drift moves the upper stop (gap at the sensor); it must not pass the lower one
+        for j, (f, g) in enumerate(eff.gap_drift.table):
+            if not g + low > 0.0:
+                raise CaseError(f"'effects.gap_drift.table[{j}]' = [{f:g}, {g:g}] (run[{i}]): the upper stop would "
+                                f"overlap the lower one (gap_lower_mm = {low:g}); gap_mm + gap_lower_mm must be > 0")
 
 
 def _lower_key(spec) -> str:

@@ -168,6 +168,57 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
     return fig
 
 
+def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None):
+    """Impacts of two-sided runs per stop against frequency: mean pre-impact speed (top) and
+    impacts per period (bottom), upper stop solid, lower stop dotted, up filled and down open
+    markers.  Where the lower stop is hit the amplitude ``Delta - min q`` saturates at
+    ``Delta + Delta_lower``; these carry the information.  A Figure, or None when no run has a
+    lower stop (``impacts_per_period_lower``)."""
+    import matplotlib.pyplot as plt
+
+    runs = [r for r in runs if "impacts_per_period_lower" in r.data]
+    if not runs:
+        return None
+    with style.context():
+        col = colours or style.colours(style.run_names(case, runs))
+        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8.0, 5.6), sharex=True)
+        xl, dirs_seen = "", []
+        for r in runs:
+            x, _, xl, _ = axes_data(r)
+            c = col.get(r.name, "0.3")
+            direc = _directions(r, len(x))
+            for dname in ("up", "down"):
+                sel = direc == dname
+                if not sel.any():
+                    continue
+                if dname not in dirs_seen:
+                    dirs_seen.append(dname)
+                fill = style.DIRECTIONS[dname]["fill"]
+                o = np.argsort(x[sel])
+                for key_v, key_n, ls in (("impact_velocity", "impacts_per_period", "-"),
+                                         ("impact_velocity_lower", "impacts_per_period_lower", ":")):
+                    for ax, key in ((ax1, key_v), (ax2, key_n)):
+                        ax.plot(x[sel][o], np.asarray(r.data[key], float)[sel][o], ls=ls, marker="o",
+                                ms=3.5, color=c, mec=c, mfc=c if fill else "none", lw=1.0)
+        ax1.set_ylabel(style.label("mean pre-impact speed |q'-|", None))
+        ax2.set_ylabel(style.label("impacts per period", None))
+        ax2.set_xlabel(xl)
+        handles = [style.proxy(col.get(r.name, "0.3"), ls="-", label=f"{r.name} ({r.method})") for r in runs]
+        handles += [style.proxy("0.25", ls="-", label="upper stop (solid)"),
+                    style.proxy("0.25", ls=":", label="lower stop (dotted)")]
+        handles += [style.proxy("0.25", marker="o", fill=style.DIRECTIONS[d]["fill"],
+                                label=style.DIRECTIONS[d]["label"]) for d in dirs_seen]
+        style.legend_outside(fig, handles)
+        style.titles(fig, (title + ": " if title else "") + "impacts on each stop",
+                     style.subtitle(case, runs=runs))
+    return fig
+
+
+def plot_impacts(runs, path, title: str = "", case=None, colours=None) -> Path | None:
+    """:func:`impacts_figure` saved to ``path`` (``impacts.png``); None without a two-sided run."""
+    return _save_close(impacts_figure(runs, title, case, colours), path)
+
+
 def plot_frc(runs, path, title: str = "", case=None, colours=None) -> Path:
     """:func:`frc_figure` saved to ``path`` (``frc.png``); returns the path."""
     return _save_close(frc_figure(runs, title, case, colours), path)

@@ -659,7 +659,7 @@ def _assemble(case, jobs_, rows_of):
 def _plots(case, runs, maps, out_dir, conts=()):
     from . import assess
     from .maps import plot_agreement, plot_map
-    from .plots import plot_bifurcation, plot_frc
+    from .plots import plot_bifurcation, plot_frc, plot_impacts
 
     curves = [c for c in conts if c.curves]
     for m in maps:
@@ -674,7 +674,8 @@ def _plots(case, runs, maps, out_dir, conts=()):
         assess.finish(case, runs, out_dir)
         p1 = plot_frc(runs, out_dir / "frc.png", title=case.name, case=case)
         p2 = plot_bifurcation(runs, out_dir / "bifurcation.png", title=case.name, case=case)
-        print(f"plots: {p1}" + (f", {p2}" if p2 else ""))
+        p3 = plot_impacts(runs, out_dir / "impacts.png", title=case.name, case=case)   # two-sided runs only
+        print(f"plots: {p1}" + (f", {p2}" if p2 else "") + (f", {p3}" if p3 else ""))
     if conts:
         _plot_continuation(case, conts, runs, out_dir)
 
