@@ -90,7 +90,7 @@ COMPLIANT = 1
 
 #: law names of a case's ``[model.contact]`` table -> code; only "restitution" is implemented
 LAW_CODES = {"restitution": LAW_RESTITUTION, "linear": LAW_LINEAR, "hunt_crossley": LAW_HUNT_CROSSLEY}
-IMPLEMENTED_LAWS = ("restitution",)
+IMPLEMENTED_LAWS = ("restitution", "linear")   # linear: SDOF (vibeam.models.sdof_compliant)
 
 
 @dataclass(frozen=True)
@@ -199,6 +199,11 @@ def check_stops(stops) -> None:
     """Raise ValueError for stops the kernels cannot simulate (a law not implemented, an
     R out of [0, 1], a lower stop overlapping the upper one)."""
     for s in stops:
+        if getattr(s.law, "kind", "") == "compliant" and s.law.code == LAW_LINEAR:
+            if not (s.law.stiffness > 0.0 and 0.0 <= s.law.damping_ratio < 1.0):
+                raise ValueError(f"law \"linear\" of the {s.name} stop needs stiffness > 0 and "
+                                 f"0 <= damping_ratio < 1")
+            continue
         if getattr(s.law, "kind", "") != "impulsive" or s.law.code != LAW_RESTITUTION:
             raise ValueError(f"contact law of the {s.name} stop is not implemented; implemented: "
                              f"{', '.join(IMPLEMENTED_LAWS)}")

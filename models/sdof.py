@@ -45,6 +45,12 @@ class SDOF:
     R_table : tuple of (float, float) pairs, optional
         R against the pre-impact velocity q'- (effect ``restitution_law``; only the
         ``event`` method uses it); empty = constant ``R``.
+    contact : LinearContact or None, optional
+        A compliant law of the stop (:mod:`vibeam.models.compliant`, kernel units: stiffness
+        ratio ``k_c / k``); None = Newton's law with ``R`` (paper Eq. 2).
+    mass_kg : float or None, optional
+        Effective mass of a physical scene's oscillator at the contact (kg): contact forces
+        in N (``force_scale_n``); None: forces stay nondimensional.
     """
 
     beta: float
@@ -54,12 +60,29 @@ class SDOF:
     natural_frequency_hz: float | None = None
     length_m: float | None = None
     R_table: tuple = ()
+    contact: object = None
+    mass_kg: float | None = None
 
     fidelity = "sdof"
+
+    @property
+    def contact_law(self) -> str:
+        """Name of the stop's law (``"restitution"``, ``"linear"``, ...; the fidelity
+        registry's ``contact_laws`` key)."""
+        return "restitution" if self.contact is None else self.contact.name
+
+    @property
+    def force_scale_n(self) -> float | None:
+        """Newtons per unit nondimensional force, ``m omega_n^2 L`` (None without a mass)."""
+        if self.mass_kg is None or self.natural_frequency_hz is None or self.length_m is None:
+            return None
+        return self.mass_kg * (2 * math.pi * self.natural_frequency_hz) ** 2 * self.length_m
 
     def stops(self) -> tuple:
         """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
         ``q = Delta`` (normal ``+1``) with Newton's law, ``R`` and ``R(q'-)``."""
+        if self.contact is not None:
+            return (Stop(Relation(1.0, self.Delta), self.contact),)
         tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())
         return (Stop(Relation(1.0, self.Delta), Restitution(self.R, tuple(tv), tuple(tR))),)
 

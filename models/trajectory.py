@@ -55,6 +55,11 @@ class Trajectory:
     chatter_times : ndarray, shape (c,), optional
         Accumulation points of the chatter sequences of the record (times from
         its start; event kernels, :mod:`vibeam.models.contact_policy`).
+    contacts : ndarray, shape (k, 5), optional
+        One row per recorded contact of a compliant stop (nondimensional, per unit
+        effective mass): duration, peak contact force, largest penetration, energy
+        lost (work done on the stop), entry velocity
+        (:data:`vibeam.models.sdof_compliant.C_DURATION` ...); None for impulsive laws.
     """
 
     Omega: float
@@ -72,6 +77,7 @@ class Trajectory:
     period_min: np.ndarray | None = None
     Delta: float | None = None
     chatter_times: np.ndarray | None = None
+    contacts: np.ndarray | None = None
 
     @property
     def n_record(self) -> int:
