@@ -39,6 +39,12 @@ and ``initial_state()``.
     A finite-element model stands behind it (``vibeam derive``, ``vibeam modes``).
 ``restitution_law_methods``
     Methods that take a velocity-dependent R (effect ``restitution_law``).
+``contact_laws``
+    Compliant contact laws (:mod:`vibeam.models.compliant`) and, for each, the methods that
+    simulate it with their solvers (``{"linear": {"event": "module:Class", ...}}``); the
+    model then has ``contact_law`` (its stop's law name, ``"restitution"`` by default).  A
+    method not listed for a law is refused by :func:`vibeam.models.make_solver` (and by
+    case validation, :func:`contact_law_methods`); so is continuation.
 ``shooting``
     Its periodic-orbit shooting problem (contract: :mod:`vibeam.models.periodic`), the
     class the continuation builds as ``cls(model, parameter, Omega=Omega)``; None: cannot
@@ -77,6 +83,7 @@ class Fidelity:
     coupled_platform: bool = False
     fe_model: bool = False
     restitution_law_methods: tuple = ()
+    contact_laws: dict = field(default_factory=dict, compare=False)
     description: str = field(default="", compare=False)
 
     @property
@@ -103,6 +110,8 @@ register(Fidelity(
              "averaging": "sdof_averaging:AveragingSolver", "mapping": "sdof_mapping:MappingSolver"},
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
+    contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
+                             "direct": "sdof_compliant_ode:CompliantDirectSolver"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(
@@ -133,6 +142,15 @@ def fidelity(name_or_model) -> Fidelity:
     if fid is None:
         raise ValueError(f"fidelity {name!r} is not registered; registered: {', '.join(sorted(FIDELITIES))}")
     return fid
+
+
+def contact_law_methods(name: str, law: str) -> tuple:
+    """Methods of fidelity ``name`` that simulate contact law ``law`` (all of them for the
+    default ``"restitution"``; none for a law the fidelity does not register)."""
+    fid = fidelity(name)
+    if law == "restitution":
+        return fid.method_names
+    return tuple(fid.contact_laws.get(law, {}))
 
 
 def with_capability(flag: str) -> list[str]:

@@ -236,8 +236,14 @@ class EventSolver:
             message = f"{n_chat} chatter sequence(s) ending in sticking; stuck {stuck_time:.4g} of the window"
         elif status == 2:
             message = f"stuck on the stop {stuck_time:.4g} of {n_record * 2 * math.pi / Omega:.4g} time units"
+        # per impact (Newton's law): no duration, an impulse (no finite force), no penetration,
+        # energy lost (1 - R^2) U-^2 / 2 per unit mass
+        v_imp = imp_v[:k]
+        Rk = m.restitution_coefficients(v_imp) if m.R_table else np.full(k, m.R)
+        contacts = np.column_stack([np.zeros(k), np.full(k, np.nan), np.zeros(k),
+                                    0.5 * (1.0 - Rk ** 2) * v_imp ** 2, v_imp])
         return Trajectory(Omega=float(Omega), samples=samples, samples_per_period=samples_per_period,
-                          impact_times=imp_t[:k].copy(), impact_velocities=imp_v[:k].copy(),
+                          impact_times=imp_t[:k].copy(), impact_velocities=imp_v[:k].copy(), contacts=contacts,
                           n_impacts=int(n_imp), q_min=float(q_min), q_max=float(q_max),
                           period_min=pmin, chatter_times=chat_t[:min(n_chat, self.impact_buffer)].copy(),
                           status=STATUS_NAMES[status], message=message,

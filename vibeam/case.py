@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
+from vibeam.contact_spec import ContactSpec  # [model.contact] (issue 13)
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
 
@@ -91,6 +92,7 @@ class SDOFModelSpec(_Strict):
     length_mm: Annotated[float, Field(gt=0.0)] | None = None
     gain: Annotated[float, Field(ge=0.0)] | None = None
     voltage: Annotated[float, Field(ge=0.0)] | None = None
+    contact: ContactSpec | None = None
 
     @model_validator(mode="after")
     def _one_parameter_set(self):
@@ -136,10 +138,19 @@ class SDOFModelSpec(_Strict):
         """The :class:`vibeam.models.SDOF` this table describes."""
         from vibeam.models import SDOF
 
+        import dataclasses
+
+        from vibeam.contact_spec import sdof_law
+
         if self.physical:
-            return SDOF.from_physical(self.natural_frequency_hz, self.damping_ratio, self.R, self.gap_mm,
-                                      self.length_mm, self.gain, self.voltage)
-        return SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
+            m = SDOF.from_physical(self.natural_frequency_hz, self.damping_ratio, self.R, self.gap_mm,
+                                   self.length_mm, self.gain, self.voltage)
+        else:
+            m = SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
+        law = sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz)
+        if law is not None or (self.contact is not None and self.contact.mass_kg is not None):
+            m = dataclasses.replace(m, contact=law, mass_kg=self.contact.mass_kg)
+        return m
 
     # ---- what is specific to this fidelity (see register_model_spec)
     def dofs(self) -> int:
@@ -147,7 +158,13 @@ class SDOFModelSpec(_Strict):
         return 1
 
     def check(self, prefix: str) -> None:
-        """Checks beyond the table's validators: none."""
+        """Checks beyond the table's validators: the ``[model.contact]`` law can be built."""
+        from vibeam.contact_spec import sdof_law
+
+        try:
+            sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz)
+        except ValueError as e:
+            raise CaseError(f"'{prefix}.contact': {e}") from None
 
     def result_attrs(self) -> dict:
         """Derived values stored with a run's results: none."""
@@ -221,6 +238,7 @@ class BeamModelSpec(_Strict):
     rotary_inertia_kg_m2: Annotated[float, Field(ge=0.0)] = 0.0
     discs: DiscsSpec | None = None
     calibrate: CalibrateSpec | None = None
+    contact: ContactSpec | None = None
     R: Annotated[float, Field(ge=0.0, le=1.0)]
     gap_mm: float | None = None
     contact_gap_mm: float | None = None
@@ -275,6 +293,12 @@ class BeamModelSpec(_Strict):
         each node but the clamped one)."""
         n = self.n_modes
         dofs = 2 * int(self.n_elements)
+        if self.contact is not None and self.contact.law != "restitution":
+            from vibeam.models.registry import contact_law_methods
+
+            if not contact_law_methods("beam", self.contact.law):
+                raise CaseError(f"'{prefix}.contact.law' = \"{self.contact.law}\" is not implemented for the beam "
+                                f"yet (issue 13); allowed: \"restitution\"")
         if isinstance(n, int) and n > dofs:
             raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
                             f"('{prefix}.n_elements' = {self.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
@@ -951,11 +975,13 @@ def parse_case(text: str, source: str = "<case>") -> Case:
             if r.method not in allowed:
                 raise CaseError(f"'run[{i}].method' = {r.method!r} is not available for fidelity "
                                 f"{spec.fidelity!r}; allowed: {', '.join(allowed)}")
+            run_spec = spec
             if r.model:
                 if "fidelity" in r.model and r.model["fidelity"] != case.model.get("fidelity"):
                     raise CaseError(f"'run[{i}].model.fidelity' = {_value(r.model['fidelity'])}: a run "
                                     f"cannot change the fidelity; put it in another case")
-                _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
+                run_spec = _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
+            _check_contact_method(run_spec, i, r)
             if r.effects:
                 case.effects_for(r)
             if r.method == "continuation":
@@ -969,6 +995,20 @@ def parse_case(text: str, source: str = "<case>") -> Case:
     except CaseError as e:
         raise CaseError(_one_line(f"{source}: {e}")) from None
     return case
+
+
+def _check_contact_method(spec, i: int, r) -> None:
+    """The run's method simulates the scene's contact law (fidelity registry ``contact_laws``)."""
+    from vibeam.models.registry import contact_law_methods
+
+    contact = getattr(spec, "contact", None)
+    law = "restitution" if contact is None else contact.law
+    if law == "restitution":
+        return
+    allowed = contact_law_methods(spec.fidelity, law)
+    if r.method not in allowed:
+        raise CaseError(f"'run[{i}].method' = {r.method!r} does not simulate contact.law = \"{law}\" of fidelity "
+                        f"{spec.fidelity!r}; allowed: {', '.join(allowed) or 'none'}")
 
 
 def check_time_series(case: Case, source: str = "", hz_per_omega: float | None = None) -> None:
