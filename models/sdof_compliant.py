@@ -277,11 +277,18 @@ def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d):
     if phase == FREE:
         phase_eval(0.0, phi, q, v, pp, Omega, Delta, d)
         if d[0] >= 0.0:
-            f = kc * d[0] + cc * d[1]
-            df = kc * d[1] + cc * d[2]
-            if f > 0.0 or (f == 0.0 and df > 0.0):
-                return 0.0, EV_ENTRY
-        if d[0] > 0.0:
+            # at or inside the stop: contact now if the force would be positive just after
+            # (first non-zero of f, f', f'', f''' positive; e.g. at rest on the stop at
+            # Delta = 0, f = f' = 0 and f'' = c_c F Omega > 0)
+            # (values within round-off of their bound count as zero)
+            for n in range(4):
+                f = kc * d[n] + cc * d[n + 1]
+                tol = 1e-13 * _bound(kc, cc, 0.0, n, A, pp, Omega)
+                if f > tol:
+                    return 0.0, EV_ENTRY
+                if f < -tol:
+                    break
+        if d[0] >= 0.0:
             s_d = upcross(-1.0, 0.0, 0.0, 0.0, h, phi, q, v, pp, Omega, Delta, A, d)
             lim = s_d if s_d >= 0.0 else h
             s_e = upcross(kc, cc, 0.0, 0.0, lim, phi, q, v, pp, Omega, Delta, A, d)

@@ -96,19 +96,26 @@ class CompliantDirectSolver:
         s0 = m.initial_state() if state0 is None else np.asarray(state0, float)
         q, v = float(s0[0]), float(s0[1])
         mode = "contact" if (s0.shape[0] > 2 and s0[2] > 0.5) else "free"
+        entries, contacts = [], []
         v_in = max(v, 1e-12)
         if mode == "free" and q - Delta >= 0.0:
-            f = self._force(max(v, 1e-12))(q, v)
-            pressed = v == 0.0 and -b2 * v - q > 0.0     # at rest on the stop, pushed onto it at t = 0
-            if f > 0.0 or pressed:
+            # contact now if the force is positive just after t = 0: the first non-zero of
+            # f, f', f'' (free-flight derivatives at forcing phase 0)
+            k, c = m.contact.stiffness, getattr(m.contact, "damping", 0.0)
+            a2 = -b2 * v - q
+            a3 = Fa * Omega - b2 * a2 - v
+            fs = [k * (q - Delta) + c * v, k * v + c * a2, k * a2 + c * a3]
+            first = next((x for x in fs if x != 0.0), 0.0)
+            if first > 0.0:
                 mode, v_in = "contact", max(v, 1e-12)
+                if n_transient == 0:
+                    entries.append((0.0, v))
         y = np.array([q, v, 0.0])
         t = 0.0
-        entries, contacts = [], []
         segs = []
         cur = None   # open contact: [t_entry, v_in, E_entry, peak f, peak delta]
         if mode == "contact":
-            cur = [0.0, v_in, 0.0, -np.inf, -np.inf]
+            cur = [0.0, v_in, 0.0, self._force(v_in)(q, v), q - Delta]
         n_ev = 0
         max_ev = self.max_events_per_period * max(n_transient + n_record, 1)
         while t < t_end:
