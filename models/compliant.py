@@ -91,6 +91,14 @@ def restitution_of_damping_ratio(zeta: float) -> float:
     return math.exp(-z * th / s) * (z * math.sin(th) / s - math.cos(th))
 
 
+def contact_duration(zeta: float, omega: float) -> float:
+    """Duration ``(pi - psi) / (omega sqrt(1 - zeta^2))`` of an isolated Kelvin-Voigt contact
+    (force-zero exit; module docstring), ``omega = sqrt(k_c / m_eff)``; ``pi / omega`` undamped."""
+    z = float(zeta)
+    s = math.sqrt(1.0 - z * z)
+    return (math.pi - math.atan2(2.0 * z * s, 1.0 - 2.0 * z * z)) / (omega * s)
+
+
 def damping_ratio_for_restitution(R: float) -> float:
     """Damping ratio of a Kelvin-Voigt contact whose isolated impact has restitution ``R``.
 
