@@ -148,15 +148,17 @@ def _bound(c0, c1, c2, n, A, pp, Omega):
 
 
 @njit(cache=True)
-def _root(c0, c1, c2, order, sgn, lo, hi, phi, q, v, pp, Omega, Delta, d):
-    """Root of ``F = sgn f^(order)`` on ``[lo, hi]`` with ``F(lo) < 0 <= F(hi)`` (rtsafe);
-    returns the end of the final bracket with ``F >= 0``."""
+def _root(c0, c1, c2, coff, order, sgn, lo, hi, phi, q, v, pp, Omega, Delta, d):
+    """Root of ``F = sgn f^(order)`` (``f = c0 delta + c1 delta' + c2 delta'' + coff``) on
+    ``[lo, hi]`` with ``F(lo) < 0 <= F(hi)`` (rtsafe); returns the end of the final bracket
+    with ``F >= 0``."""
+    off = coff if order == 0 else 0.0
     dxold = hi - lo
     dx = dxold
     s = 0.5 * (lo + hi)
     for _ in range(200):
         phase_eval(s, phi, q, v, pp, Omega, Delta, d)
-        F = sgn * _fd(d, c0, c1, c2, order)
+        F = sgn * (_fd(d, c0, c1, c2, order) + off)
         dF = sgn * _fd(d, c0, c1, c2, order + 1)
         s, lo, hi, dx, dxold, done = rtsafe_update(F, dF, s, lo, hi, dx, dxold)
         if done:
@@ -165,8 +167,8 @@ def _root(c0, c1, c2, order, sgn, lo, hi, phi, q, v, pp, Omega, Delta, d):
 
 
 @njit(cache=True)
-def upcross(c0, c1, c2, lo, hi, phi, q, v, pp, Omega, Delta, A, d):
-    """First time in ``(lo, hi]`` where ``f = c0 delta + c1 delta' + c2 delta''`` crosses
+def upcross(c0, c1, c2, lo, hi, phi, q, v, pp, Omega, Delta, A, d, coff=0.0):
+    """First time in ``(lo, hi]`` where ``f = c0 delta + c1 delta' + c2 delta'' + coff`` crosses
     from ``< 0`` to ``>= 0`` along the phase from ``(phi, q, v)``; ``-1`` if none.
 
     Certified (module docstring): on each interval the sign of ``f''`` is certified or the
@@ -180,7 +182,7 @@ def upcross(c0, c1, c2, lo, hi, phi, q, v, pp, Omega, Delta, A, d):
     h_min = 1e-13 * (TWO_PI / pp[0])
     s = lo
     phase_eval(s, phi, q, v, pp, Omega, Delta, d)
-    f0 = _fd(d, c0, c1, c2, 0)
+    f0 = _fd(d, c0, c1, c2, 0) + coff
     f10 = _fd(d, c0, c1, c2, 1)
     f20 = _fd(d, c0, c1, c2, 2)
     f30 = _fd(d, c0, c1, c2, 3)
@@ -190,7 +192,7 @@ def upcross(c0, c1, c2, lo, hi, phi, q, v, pp, Omega, Delta, A, d):
         f1 = f11 = f21 = f31 = 0.0
         while True:
             phase_eval(s + h, phi, q, v, pp, Omega, Delta, d)
-            f1 = _fd(d, c0, c1, c2, 0)
+            f1 = _fd(d, c0, c1, c2, 0) + coff
             f11 = _fd(d, c0, c1, c2, 1)
             f21 = _fd(d, c0, c1, c2, 2)
             f31 = _fd(d, c0, c1, c2, 3)
@@ -204,19 +206,19 @@ def upcross(c0, c1, c2, lo, hi, phi, q, v, pp, Omega, Delta, A, d):
             h *= 0.5
         e = s + h
         if f0 < 0.0 and f1 >= 0.0:
-            return _root(c0, c1, c2, 0, 1.0, s, e, phi, q, v, pp, Omega, Delta, d)
+            return _root(c0, c1, c2, coff, 0, 1.0, s, e, phi, q, v, pp, Omega, Delta, d)
         if cert == 1 or cert == 0:
             if f0 >= 0.0 and f1 >= 0.0 and f10 < 0.0 < f11:
-                sm = _root(c0, c1, c2, 1, 1.0, s, e, phi, q, v, pp, Omega, Delta, d)
+                sm = _root(c0, c1, c2, coff, 1, 1.0, s, e, phi, q, v, pp, Omega, Delta, d)
                 phase_eval(sm, phi, q, v, pp, Omega, Delta, d)
-                if _fd(d, c0, c1, c2, 0) < 0.0:
-                    return _root(c0, c1, c2, 0, 1.0, sm, e, phi, q, v, pp, Omega, Delta, d)
+                if _fd(d, c0, c1, c2, 0) + coff < 0.0:
+                    return _root(c0, c1, c2, coff, 0, 1.0, sm, e, phi, q, v, pp, Omega, Delta, d)
         if cert == -1 or cert == 0:
             if f0 < 0.0 and f1 < 0.0 and f10 > 0.0 > f11:
-                sa = _root(c0, c1, c2, 1, -1.0, s, e, phi, q, v, pp, Omega, Delta, d)
+                sa = _root(c0, c1, c2, coff, 1, -1.0, s, e, phi, q, v, pp, Omega, Delta, d)
                 phase_eval(sa, phi, q, v, pp, Omega, Delta, d)
-                if _fd(d, c0, c1, c2, 0) >= 0.0:
-                    return _root(c0, c1, c2, 0, 1.0, s, sa, phi, q, v, pp, Omega, Delta, d)
+                if _fd(d, c0, c1, c2, 0) + coff >= 0.0:
+                    return _root(c0, c1, c2, coff, 0, 1.0, s, sa, phi, q, v, pp, Omega, Delta, d)
         s = e
         f0 = f1
         f10 = f11
@@ -245,7 +247,7 @@ def phase_params(beta, F, Omega, Delta, kc, cc):
 
 
 @njit(cache=True)
-def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d):
+def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d, r0, r1, roff):
     """One step of at most ``h`` in ``phase`` from ``(phi, q, v)``: the event it ends with.
 
     Parameters
@@ -255,7 +257,11 @@ def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d):
     pp : ndarray, shape (6,)
         The phase's parameters (:func:`phase_params`).
     kc, cc : float
-        Stiffness and damping of the stop (per unit mass).
+        Stiffness and damping of the stop (per unit mass; the contact phase of the linear law).
+    r0, r1, roff : float
+        The sign of the contact force while ``delta > 0`` in free flight (just after an exit)
+        is that of ``r0 delta + r1 delta' + roff``: linear ``(k_c, c_c, 0)``; Hunt-Crossley
+        ``(0, 1, v_in / chi)`` (the factor ``1 + chi delta' / v_in``).
     rec : bool
         Update the extremes ``ex = [q_min, q_max, q_min of this period]`` (shape (3,)).
     cs : ndarray, shape (4,)
@@ -277,13 +283,18 @@ def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d):
     if phase == FREE:
         phase_eval(0.0, phi, q, v, pp, Omega, Delta, d)
         if d[0] >= 0.0:
-            # at or inside the stop: contact now if the force would be positive just after
-            # (first non-zero of f, f', f'', f''' positive; e.g. at rest on the stop at
-            # Delta = 0, f = f' = 0 and f'' = c_c F Omega > 0)
-            # (values within round-off of their bound count as zero)
+            # at or inside the stop: contact now if the force would be positive just after.
+            # On the stop (delta = 0): the first non-zero of delta', ..., delta'''' positive
+            # (e.g. at rest on the stop at Delta = 0: delta''' = F Omega > 0); inside it (just
+            # after an exit): the first non-zero derivative of the force's sign function.
+            # Values within round-off of their bound count as zero.
             for n in range(4):
-                f = kc * d[n] + cc * d[n + 1]
-                tol = 1e-13 * _bound(kc, cc, 0.0, n, A, pp, Omega)
+                if d[0] == 0.0:
+                    f = d[n + 1]
+                    tol = 1e-13 * _bound(1.0, 0.0, 0.0, n + 1, A, pp, Omega)
+                else:
+                    f = r0 * d[n] + r1 * d[n + 1] + (roff if n == 0 else 0.0)
+                    tol = 1e-13 * (_bound(r0, r1, 0.0, n, A, pp, Omega) + (abs(roff) if n == 0 else 0.0))
                 if f > tol:
                     return 0.0, EV_ENTRY
                 if f < -tol:
@@ -291,7 +302,7 @@ def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d):
         if d[0] >= 0.0:
             s_d = upcross(-1.0, 0.0, 0.0, 0.0, h, phi, q, v, pp, Omega, Delta, A, d)
             lim = s_d if s_d >= 0.0 else h
-            s_e = upcross(kc, cc, 0.0, 0.0, lim, phi, q, v, pp, Omega, Delta, A, d)
+            s_e = upcross(r0, r1, 0.0, 0.0, lim, phi, q, v, pp, Omega, Delta, A, d, roff)
             if s_e >= 0.0:
                 s_adv, ev = s_e, EV_ENTRY
             elif s_d >= 0.0:
@@ -452,7 +463,7 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
             while rem > 0.0:
                 pp = P[phase]
                 h = min(rem, hmax[phase])
-                s, ev = advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, recording, ex, cs, d)
+                s, ev = advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, recording, ex, cs, d, kc, cc, 0.0)
                 phase_eval(s, phi, q, v, pp, Omega, Delta, d)
                 q = Delta + d[0]
                 v = d[1]
@@ -519,7 +530,7 @@ def isolated_contact(kc, cc, v_in, d):
     t = 0.0
     h = TWO_PI / P[0] / 16.0
     for _ in range(1000):
-        s, ev = advance(CONTACT, h, 0.0, q, v, P, kc, cc, 1.0, 0.0, False, ex, cs, d)
+        s, ev = advance(CONTACT, h, 0.0, q, v, P, kc, cc, 1.0, 0.0, False, ex, cs, d, kc, cc, 0.0)
         phase_eval(s, 0.0, q, v, P, 1.0, 0.0, d)
         q = d[0]
         v = d[1]
