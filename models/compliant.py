@@ -47,7 +47,9 @@ Hunt-Crossley damping from a target R
 ``chi`` is chosen by Flores, Machado, Silva & Martins, *Multibody Syst. Dyn.* 25 (2011)
 357: ``chi = 8 (1 - R) / (5 R)``; the damping factor of each contact is
 ``chi / v_in`` (``v_in`` its entry velocity), so the restitution is the same at every
-impact velocity.  Chosen because it is derived for the whole range of R; the Hunt &
+impact velocity; a contact entered at (near) rest takes ``v_in = max(v_in, 1e-2 Omega B)``,
+a hundredth of the base's velocity amplitude (the law is undefined at ``v_in = 0``).  Chosen
+because it is derived for the whole range of R; the Hunt &
 Crossley (``3 (1 - R) / 2``) and Lankarani & Nikravesh (``3 (1 - R^2) / 4``) relations follow
 from a first-order energy balance and hold only for ``1 - R << 1`` (they under-damp the rig's
 R = 0.72).  All three give, to first order in ``chi``, the same energy loss per contact,

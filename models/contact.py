@@ -90,7 +90,7 @@ COMPLIANT = 1
 
 #: law names of a case's ``[model.contact]`` table -> code; only "restitution" is implemented
 LAW_CODES = {"restitution": LAW_RESTITUTION, "linear": LAW_LINEAR, "hunt_crossley": LAW_HUNT_CROSSLEY}
-IMPLEMENTED_LAWS = ("restitution", "linear")   # linear: SDOF (vibeam.models.sdof_compliant)
+IMPLEMENTED_LAWS = ("restitution", "linear", "hunt_crossley")   # compliant: SDOF (vibeam.models.sdof_compliant)
 
 
 @dataclass(frozen=True)
@@ -203,6 +203,11 @@ def check_stops(stops) -> None:
             if not (s.law.stiffness > 0.0 and 0.0 <= s.law.damping_ratio < 1.0):
                 raise ValueError(f"law \"linear\" of the {s.name} stop needs stiffness > 0 and "
                                  f"0 <= damping_ratio < 1")
+            continue
+        if getattr(s.law, "kind", "") == "compliant" and s.law.code == LAW_HUNT_CROSSLEY:
+            if not (s.law.stiffness > 0.0 and s.law.exponent > 0.0 and 0.0 < s.law.R <= 1.0):
+                raise ValueError(f"law \"hunt_crossley\" of the {s.name} stop needs stiffness > 0, exponent > 0 "
+                                 f"and 0 < R <= 1")
             continue
         if getattr(s.law, "kind", "") != "impulsive" or s.law.code != LAW_RESTITUTION:
             raise ValueError(f"contact law of the {s.name} stop is not implemented; implemented: "

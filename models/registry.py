@@ -110,8 +110,9 @@ register(Fidelity(
              "averaging": "sdof_averaging:AveragingSolver", "mapping": "sdof_mapping:MappingSolver"},
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
-    contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
-                             "direct": "sdof_compliant_ode:CompliantDirectSolver"}},
+    contact_laws={law: {"event": "sdof_compliant:CompliantEventSolver",
+                        "direct": "sdof_compliant_ode:CompliantDirectSolver"}
+                  for law in ("linear", "hunt_crossley")},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(

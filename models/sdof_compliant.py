@@ -39,7 +39,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .contact import DAMPING, OFFSET, STIFFNESS
+from .contact import DAMPING, EXPONENT, LAW, LAW_HUNT_CROSSLEY, OFFSET, STIFFNESS
 from .roots import rtsafe_update
 from .sdof_event import _certify
 from .sdof_flow import particular_coefficients, transition
@@ -373,6 +373,184 @@ def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d, r0, r
     return s_adv, ev
 
 
+# ---------------------------------------------------------------- Hunt-Crossley contact phase
+# Dormand-Prince 5(4) (Dormand & Prince 1980; Hairer, Norsett & Wanner, Solving ODEs I, Sec. II.5)
+_DP_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
+_DP_A = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                  [1 / 5, 0.0, 0.0, 0.0, 0.0, 0.0],
+                  [3 / 40, 9 / 40, 0.0, 0.0, 0.0, 0.0],
+                  [44 / 45, -56 / 15, 32 / 9, 0.0, 0.0, 0.0],
+                  [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0.0, 0.0],
+                  [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0.0],
+                  [35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84]])
+_DP_E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
+#: Hunt-Crossley contact phase: relative tolerance of the DOPRI5 steps, and the absolute ones
+#: as fractions of the isolated contact's penetration and of the entry velocity
+HC_RTOL = 1e-11
+HC_ATOL = 1e-13
+#: entry velocities below ``HC_V_FLOOR`` times the base velocity amplitude ``Omega B`` are floored
+#: there (the damping chi / v_in of a contact entered at rest; vibeam.models.compliant)
+HC_V_FLOOR = 1e-2
+
+
+@njit(cache=True)
+def hc_force(dl, v, kc, p, chi, vr):
+    """Hunt-Crossley force ``k_c delta^p (1 + chi delta' / v_r)`` (0 for ``delta <= 0``)."""
+    if dl <= 0.0:
+        return 0.0
+    return kc * dl ** p * (1.0 + chi * v / vr)
+
+
+@njit(cache=True)
+def _hc_rhs(s, y, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, out):
+    """``y = (delta, delta', E)``: the contact phase of the SDOF with a Hunt-Crossley stop
+    (``ks``: the oscillator's stiffness, 1; 0 for the isolated contact)."""
+    f = hc_force(y[0], y[1], kc, p, chi, vr)
+    out[0] = y[1]
+    out[1] = F * math.sin(phi0 + Omega * s) - 2.0 * beta * y[1] - ks * (Delta + y[0]) - f
+    out[2] = f * y[1]
+
+
+@njit(cache=True)
+def _dp_step(hs, y0, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, K, y1):
+    """One DOPRI5 step of length ``hs`` from ``y0`` (s = 0); ``y1`` the 5th-order result,
+    returns the error estimate vector's (delta, delta') components."""
+    tmp = np.empty(3)
+    for i in range(7):
+        for c in range(3):
+            acc = y0[c]
+            for j in range(i):
+                acc += hs * _DP_A[i, j] * K[j, c]
+            tmp[c] = acc
+        _hc_rhs(_DP_C[i] * hs, tmp, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, K[i])
+        if i == 6:
+            break
+    for c in range(3):
+        acc = y0[c]
+        for j in range(6):
+            acc += hs * _DP_A[6, j] * K[j, c]
+        y1[c] = acc
+    _hc_rhs(hs, y1, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, K[6])
+    e0 = 0.0
+    e1 = 0.0
+    for j in range(7):
+        e0 += hs * _DP_E[j] * K[j, 0]
+        e1 += hs * _DP_E[j] * K[j, 1]
+    return e0, e1
+
+
+@njit(cache=True)
+def _hc_event(kind, y, s, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks):
+    """Event functions of the contact phase: 0 exit by ``delta`` (``-delta``), 1 exit by the
+    damping factor (``-(1 + chi delta' / v_r)``), 2 ``-delta'`` (largest penetration),
+    3 ``delta'`` (a minimum of q), 4 ``-dF/dt`` (peak force); each rises through 0."""
+    if kind == 0:
+        return -y[0]
+    if kind == 1:
+        return -(1.0 + chi * y[1] / vr)
+    if kind == 2:
+        return -y[1]
+    if kind == 3:
+        return y[1]
+    dl = y[0]
+    if dl <= 0.0:
+        return 0.0
+    acc = F * math.sin(phi0 + Omega * s) - 2.0 * beta * y[1] - ks * (Delta + dl) - hc_force(dl, y[1], kc, p, chi, vr)
+    g = kc * p * dl ** (p - 1.0) * y[1] * (1.0 + chi * y[1] / vr) + kc * dl ** p * chi * acc / vr
+    return -g
+
+
+@njit(cache=True)
+def _hc_locate(kind, hs, y0, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, K, y1):
+    """Root in ``(0, hs]`` of an event rising through 0 (negative at 0, >= 0 at ``hs``), by
+    bisection on single DOPRI5 steps from ``y0`` (each as accurate as the accepted step);
+    returns the end with the event ``>= 0`` and leaves its state in ``y1``."""
+    lo = 0.0
+    hi = hs
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if not (lo < mid < hi):
+            break
+        _dp_step(mid, y0, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, K, y1)
+        if _hc_event(kind, y1, mid, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks) >= 0.0:
+            hi = mid
+        else:
+            lo = mid
+    _dp_step(hi, y0, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, K, y1)
+    return hi
+
+
+@njit(cache=True)
+def hc_advance(h, phi, q, v, beta, F, Omega, Delta, kc, p, chi, vr, ks, rk, rec, ex, cs, y1):
+    """One accepted DOPRI5 step (at most ``h``) of a Hunt-Crossley contact from ``(phi, q, v)``.
+
+    ``rk`` (shape (2,)): the step-size estimate and the error scale of the penetration;
+    ``cs``, ``ex`` as :func:`advance`.  Returns ``(s, event)``: :data:`EV_EXIT` where the force
+    returns to zero (``delta`` back to 0, or the damping factor ``1 + chi delta' / v_r`` to 0)
+    or :data:`EV_NONE`; ``y1`` receives ``(delta, delta', E)`` at ``s``, ``s = -1``: the step
+    size underflowed (failed).
+    """
+    K = np.empty((7, 3))
+    y0 = np.empty(3)
+    y0[0] = q - Delta
+    y0[1] = v
+    y0[2] = 0.0
+    h_min = 1e-12 * rk[1] / vr
+    while True:
+        hs = min(rk[0], h)
+        e0, e1 = _dp_step(hs, y0, phi, beta, F, Omega, Delta, kc, p, chi, vr, ks, K, y1)
+        err = max(abs(e0) / (HC_ATOL * rk[1] + HC_RTOL * max(abs(y0[0]), abs(y1[0]))),
+                  abs(e1) / (HC_ATOL * vr + HC_RTOL * max(abs(y0[1]), abs(y1[1]))))
+        if err <= 1.0:
+            break
+        rk[0] = hs * max(0.1, 0.9 * err ** -0.2)
+        if rk[0] < h_min:
+            return -1.0, EV_NONE
+    if hs == rk[0]:
+        rk[0] = hs * min(5.0, 0.9 * err ** -0.2) if err > 0.0 else 5.0 * hs
+    s_adv = hs
+    ev = EV_NONE
+    for kind in (0, 1):
+        if _hc_event(kind, y1, hs, phi, beta, F, Omega, Delta, kc, p, chi, vr, ks) >= 0.0:
+            s_k = _hc_locate(kind, hs, y0, phi, beta, F, Omega, Delta, kc, p, chi, vr, ks, K, y1)
+            if s_k <= s_adv:
+                s_adv = s_k
+                ev = EV_EXIT
+    if ev == EV_EXIT:
+        # the step ends at the exit: the state there (y1 of the earlier root)
+        _dp_step(s_adv, y0, phi, beta, F, Omega, Delta, kc, p, chi, vr, ks, K, y1)
+    yt = np.empty(3)
+    # largest penetration, peak force and minima of q inside the step (sign changes of their
+    # event functions across it; located like the exit)
+    for kind in (2, 4, 3):
+        if kind == 3 and not rec:
+            continue
+        g0 = _hc_event(kind, y0, 0.0, phi, beta, F, Omega, Delta, kc, p, chi, vr, ks)
+        g1 = _hc_event(kind, y1, s_adv, phi, beta, F, Omega, Delta, kc, p, chi, vr, ks)
+        if g0 < 0.0 <= g1:
+            _hc_locate(kind, s_adv, y0, phi, beta, F, Omega, Delta, kc, p, chi, vr, ks, K, yt)
+            if kind == 2:
+                if yt[0] > cs[2]:
+                    cs[2] = yt[0]
+                if rec and Delta + yt[0] > ex[1]:
+                    ex[1] = Delta + yt[0]
+            elif kind == 4:
+                f = hc_force(yt[0], yt[1], kc, p, chi, vr)
+                if f > cs[1]:
+                    cs[1] = f
+            elif Delta + yt[0] < ex[0] or Delta + yt[0] < ex[2]:
+                ex[0] = min(ex[0], Delta + yt[0])
+                ex[2] = min(ex[2], Delta + yt[0])
+    _dp_step(s_adv, y0, phi, beta, F, Omega, Delta, kc, p, chi, vr, ks, K, y1)
+    f = hc_force(y1[0], y1[1], kc, p, chi, vr)
+    if f > cs[1]:
+        cs[1] = f
+    if y1[0] > cs[2]:
+        cs[2] = y1[0]
+    cs[3] += y1[2]
+    return s_adv, ev
+
+
 @njit(cache=True)
 def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transient, n_record,
                      ns_transient, ns_record, max_contacts, samples, pmin, imp_t, imp_v, con):
@@ -415,7 +593,19 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
     Delta = stops[0, OFFSET]
     kc = stops[0, STIFFNESS]
     cc = stops[0, DAMPING]
-    P = phase_params(beta, F, Omega, Delta, kc, cc)
+    hunt = int(stops[0, LAW]) == LAW_HUNT_CROSSLEY
+    pexp = stops[0, EXPONENT]
+    chi = cc if hunt else 0.0
+    if hunt:
+        cc = 0.0   # the contact phase is integrated (hc_advance); no linear contact phase
+        P = phase_params(beta, F, Omega, Delta, 0.0, 0.0)
+    else:
+        P = phase_params(beta, F, Omega, Delta, kc, cc)
+    rk = np.zeros(2)
+    y1 = np.zeros(3)
+    v_floor = HC_V_FLOOR * Omega * B if B > 0.0 else 1e-6
+    vr = v_floor
+    r0, r1, roff = kc, cc, 0.0
     q = q_init
     v = v_init
     phase = 1 if phase_init != 0 else 0
@@ -462,11 +652,20 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
             rem = h_grid
             while rem > 0.0:
                 pp = P[phase]
-                h = min(rem, hmax[phase])
-                s, ev = advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, recording, ex, cs, d, kc, cc, 0.0)
-                phase_eval(s, phi, q, v, pp, Omega, Delta, d)
-                q = Delta + d[0]
-                v = d[1]
+                if hunt and phase == CONTACT:
+                    s, ev = hc_advance(rem, phi, q, v, beta, F, Omega, Delta, kc, pexp, chi, vr, 1.0, rk, recording,
+                                       ex, cs, y1)
+                    if s < 0.0:
+                        return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact)
+                    q = Delta + y1[0]
+                    v = y1[1]
+                else:
+                    h = min(rem, hmax[phase])
+                    s, ev = advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, recording, ex, cs, d,
+                                    r0, r1, roff)
+                    phase_eval(s, phi, q, v, pp, Omega, Delta, d)
+                    q = Delta + d[0]
+                    v = d[1]
                 if phase == CONTACT and recording:
                     t_contact += s
                 phi = (phi + Omega * s) % TWO_PI
@@ -484,6 +683,14 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
                     cs[2] = d[0]
                     cs[3] = 0.0
                     v_in = v
+                    if hunt:
+                        # damping chi / v_r of this contact; DOPRI5 scales from the isolated
+                        # contact's penetration ((p + 1) v_r^2 / (2 k_c))^(1 / (p + 1))
+                        vr = max(v, v_floor)
+                        rk[1] = ((pexp + 1.0) * vr * vr / (2.0 * kc)) ** (1.0 / (pexp + 1.0))
+                        rk[0] = 1e-3 * rk[1] / vr
+                        cs[1] = hc_force(d[0], v, kc, pexp, chi, vr)
+                        r0, r1, roff = 0.0, 1.0, (vr / chi if chi > 0.0 else 1.0)
                     in_record_contact = recording
                     if recording:
                         if n_rec < imp_t.shape[0]:
@@ -572,8 +779,8 @@ class CompliantEventSolver:
         from .contact import LAW_LINEAR, pack
 
         stops = model.stops()
-        if len(stops) != 1 or stops[0].law.code != LAW_LINEAR:
-            raise ValueError("CompliantEventSolver needs one stop with law \"linear\"")
+        if len(stops) != 1 or stops[0].law.code not in (LAW_LINEAR, LAW_HUNT_CROSSLEY):
+            raise ValueError("CompliantEventSolver needs one stop with law \"linear\" or \"hunt_crossley\"")
         self.model = model
         self.transient_samples = int(transient_samples)
         self.max_impacts_per_period = int(max_impacts_per_period)
@@ -581,7 +788,7 @@ class CompliantEventSolver:
         self._stops = pack(stops)
         law = stops[0].law
         bc = (2.0 * model.beta + law.damping) / (2.0 * math.sqrt(1.0 + law.stiffness))
-        if not bc < 1.0:
+        if law.code == LAW_LINEAR and not bc < 1.0:
             raise ValueError(f"the contact phase is overdamped (damping ratio {bc:.4g} >= 1): lower "
                              f"[model.contact] damping_ratio or raise R")
 
@@ -635,3 +842,33 @@ class CompliantEventSolver:
                           extra={"contact_fraction": t_con / T_rec if n_record else 0.0},
                           contacts=con)
 
+
+
+@njit(cache=True)
+def isolated_contact_hc(kc, p, chi, v_in):
+    """One Hunt-Crossley contact of a unit mass on the stop alone, through the kernel's own
+    contact step (:func:`hc_advance`).
+
+    Returns
+    -------
+    R, duration, peak force, largest penetration, energy : float
+    """
+    rk = np.empty(2)
+    rk[1] = ((p + 1.0) * v_in * v_in / (2.0 * kc)) ** (1.0 / (p + 1.0))
+    rk[0] = 1e-3 * rk[1] / v_in
+    ex = np.empty(3)
+    cs = np.zeros(4)
+    y1 = np.zeros(3)
+    q = 0.0
+    v = v_in
+    t = 0.0
+    for _ in range(10 ** 6):
+        s, ev = hc_advance(np.inf, 0.0, q, v, 0.0, 0.0, 0.0, 0.0, kc, p, chi, v_in, 0.0, rk, False, ex, cs, y1)
+        if s < 0.0:
+            return np.nan, np.nan, np.nan, np.nan, np.nan
+        q = y1[0]
+        v = y1[1]
+        t += s
+        if ev == EV_EXIT:
+            break
+    return -v / v_in, t, cs[1], cs[2], cs[3]

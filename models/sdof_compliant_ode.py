@@ -97,7 +97,9 @@ class CompliantDirectSolver:
         q, v = float(s0[0]), float(s0[1])
         mode = "contact" if (s0.shape[0] > 2 and s0[2] > 0.5) else "free"
         entries, contacts = [], []
-        v_in = max(v, 1e-12)
+        # Hunt-Crossley: entry velocities floored at 1e-2 Omega B (vibeam.models.compliant)
+        v_floor = 1e-2 * Omega * m.B if m.B > 0.0 else 1e-6
+        v_in = max(v, v_floor)
         if mode == "free" and q - Delta >= 0.0:
             # contact now if the force is positive just after t = 0: the first non-zero of
             # f, f', f'' (free-flight derivatives at forcing phase 0)
@@ -107,7 +109,7 @@ class CompliantDirectSolver:
             fs = [k * (q - Delta) + c * v, k * v + c * a2, k * a2 + c * a3]
             first = next((x for x in fs if x != 0.0), 0.0)
             if first > 0.0:
-                mode, v_in = "contact", max(v, 1e-12)
+                mode, v_in = "contact", max(v, v_floor)
                 if n_transient == 0:
                     entries.append((0.0, v))
         y = np.array([q, v, 0.0])
@@ -124,12 +126,21 @@ class CompliantDirectSolver:
                 def rhs(tt, yy, force=force):
                     f = force(yy[0], yy[1])
                     return [yy[1], Fa * math.sin(Omega * tt) - b2 * yy[1] - yy[0] - f, f * yy[1]]
-                events = [_ev(lambda tt, yy, force=force: force(yy[0], yy[1]), -1.0)]
+                if m.contact.name == "linear":
+                    events = [_ev(lambda tt, yy, force=force: force(yy[0], yy[1]), -1.0)]
+                else:   # the force k delta^p (1 + chi delta' / v_in) returns to 0 with either factor
+                    cv = m.contact.chi / v_in
+                    events = [_ev(lambda tt, yy: yy[0] - Delta, -1.0),
+                              _ev(lambda tt, yy, cv=cv: 1.0 + cv * yy[1], -1.0)]
             else:
                 def rhs(tt, yy):
                     return [yy[1], Fa * math.sin(Omega * tt) - b2 * yy[1] - yy[0], 0.0]
                 if y[0] - Delta > 0.0:
-                    fk = self._force(1.0) if m.contact.name == "linear" else (lambda qq, vv: qq - Delta)
+                    if m.contact.name == "linear":
+                        fk = self._force(1.0)
+                    else:
+                        cv = m.contact.chi / v_in
+                        fk = lambda qq, vv, cv=cv: 1.0 + cv * vv   # noqa: E731
                     events = [_ev(lambda tt, yy, fk=fk: fk(yy[0], yy[1]), 1.0),
                               _ev(lambda tt, yy: yy[0] - Delta, -1.0)]
                 else:
@@ -138,7 +149,9 @@ class CompliantDirectSolver:
             if self.max_step is not None:
                 opts["max_step"] = self.max_step
             elif mode == "contact":
-                opts["max_step"] = 0.1 * TWO_PI / math.sqrt(1.0 + m.contact.stiffness)
+                opts["max_step"] = 0.1 * TWO_PI / math.sqrt(1.0 + m.contact.stiffness) if m.contact.name == "linear" \
+                    else 0.05 * ((m.contact.exponent + 1) * v_in ** 2 / (2 * m.contact.stiffness)) ** (
+                        1 / (m.contact.exponent + 1)) / v_in
             sol = solve_ivp(rhs, (t, t_end), y, events=events, **opts)
             if sol.status == -1:
                 return self._failed(Omega, samples, spp, f"{self.solver} failed near t = {t:.6g}: {sol.message}")
@@ -164,7 +177,7 @@ class CompliantDirectSolver:
                 # the event is located within the tolerance on either side of f = 0
             elif which == 0:
                 mode = "contact"
-                v_in = max(float(y[1]), 1e-12)
+                v_in = max(float(y[1]), v_floor)
                 f0 = self._force(v_in)(y[0], y[1])
                 cur = [t, v_in, y[2], f0, y[0] - Delta]
                 if t >= t_rec:

@@ -147,7 +147,8 @@ class SDOFModelSpec(_Strict):
                                    self.length_mm, self.gain, self.voltage)
         else:
             m = SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
-        law = sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz)
+        law = sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz,
+                       self.length_mm * 1e-3 if self.physical else None)
         if law is not None or (self.contact is not None and self.contact.mass_kg is not None):
             m = dataclasses.replace(m, contact=law, mass_kg=self.contact.mass_kg)
         return m
@@ -162,7 +163,8 @@ class SDOFModelSpec(_Strict):
         from vibeam.contact_spec import sdof_law
 
         try:
-            sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz)
+            sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz,
+                     self.length_mm * 1e-3 if self.physical else None)
         except ValueError as e:
             raise CaseError(f"'{prefix}.contact': {e}") from None
 

@@ -7,7 +7,8 @@
     [model.contact]
     law = "linear"               # "restitution" (default: Newton's law, paper Eq. 2) | "linear"
     stiffness = 1e4              # k_c / k of the oscillator (nondimensional scenes)
-    # stiffness_n_m = 2e5        # physical SDOF scenes: N/m, with mass_kg
+    # stiffness_n_m = 2e5        # physical SDOF scenes: N/m (hunt_crossley: N/m^p), with mass_kg
+    # exponent = 1.5             # hunt_crossley: F = k delta^p (1 + chi delta' / v_in)
     # damping_ratio = 0.05       # else the dashpot gives an isolated impact the model's R
     # mass_kg = 0.2              # physical SDOF: effective mass (forces in N, stiffness_n_m)
 
@@ -52,7 +53,8 @@ class ContactSpec(BaseModel):
         return self
 
 
-def sdof_law(contact: ContactSpec | None, R: float, physical: bool, natural_frequency_hz: float | None):
+def sdof_law(contact: ContactSpec | None, R: float, physical: bool, natural_frequency_hz: float | None,
+             length_m: float | None = None):
     """The compliant law of an SDOF scene in kernel units, or None for Newton's law.
 
     Raises
@@ -65,18 +67,23 @@ def sdof_law(contact: ContactSpec | None, R: float, physical: bool, natural_freq
         return None
     from vibeam.models.compliant import LinearContact
 
+    from vibeam.models.compliant import HuntCrossley
+
+    p = 1.0 if contact.law == "linear" else (1.5 if contact.exponent is None else contact.exponent)
     if contact.stiffness_n_m is not None:
         if not physical:
             raise ValueError("contact.stiffness_n_m needs a physical scene; use contact.stiffness (ratio) here")
-        if contact.mass_kg is None:
+        if contact.mass_kg is None or length_m is None:
             raise ValueError("contact.stiffness_n_m needs contact.mass_kg (the oscillator's effective mass) "
                              "to form the stiffness ratio; or give contact.stiffness")
-        k = contact.stiffness_n_m / (contact.mass_kg * (2 * math.pi * natural_frequency_hz) ** 2)
+        # F = k_phys x^p, x = q L  ->  per unit mass and k: k_phys L^(p-1) / (m omega_n^2) q^p
+        k = contact.stiffness_n_m * length_m ** (p - 1.0) / (contact.mass_kg * (2 * math.pi * natural_frequency_hz) ** 2)
     else:
         k = contact.stiffness
     if contact.law == "linear":
         if contact.damping_ratio is not None:
             return LinearContact.from_damping_ratio(k, contact.damping_ratio)
         return LinearContact.from_restitution(k, R)
-    raise ValueError(f"contact.law = \"{contact.law}\" is not implemented for the SDOF model yet; "
-                     f"implemented: \"restitution\", \"linear\"")
+    if not R > 0.0:
+        raise ValueError("law = \"hunt_crossley\" needs R > 0 (chi = 8 (1 - R) / (5 R), Flores et al. 2011)")
+    return HuntCrossley(k, float(R), p)
