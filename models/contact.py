@@ -26,8 +26,10 @@ Law of stop k (unit free, acts on the relation's ``U``; :class:`Restitution`)
     *compliant*  a contact *phase* with its own flow (the stop's force ``F(delta, delta')``,
                  ``delta = g_k`` the penetration, added to the free flow) that ends at an
                  exit event where the contact force returns to zero (not where ``delta``
-                 does).  Not implemented yet (``law = "linear"`` Kelvin-Voigt,
-                 ``law = "hunt_crossley"``); the plan is below.
+                 does).  ``law = "linear"`` (Kelvin-Voigt) and ``law = "hunt_crossley"``
+                 are implemented for the SDOF (:mod:`vibeam.models.compliant`, kernel
+                 :mod:`vibeam.models.sdof_compliant`, a kernel of its own beside the impulsive
+                 one); the beam's is the plan below.
 
 Kernel representation (numba: plain arrays, one row per stop; :func:`pack`)
     ``stops``   float64 (n_stops, :data:`NPAR`): row k = ``[sign s_k, offset Delta_k, law code,
@@ -83,12 +85,12 @@ NPAR = 8
 
 # ---- law codes and kinds
 LAW_RESTITUTION = 0       # Newton's impact law, U+ = -R(U-) U- (impulsive)
-LAW_LINEAR = 1            # reserved: Kelvin-Voigt spring-dashpot stop (compliant)
-LAW_HUNT_CROSSLEY = 2     # reserved: F = k delta^p (1 + c delta') (compliant)
+LAW_LINEAR = 1            # Kelvin-Voigt spring-dashpot stop (compliant; vibeam.models.compliant)
+LAW_HUNT_CROSSLEY = 2     # F = k delta^p (1 + chi delta' / v_in) (compliant)
 IMPULSIVE = 0
 COMPLIANT = 1
 
-#: law names of a case's ``[model.contact]`` table -> code; only "restitution" is implemented
+#: law names of a case's ``[model.contact]`` table -> code
 LAW_CODES = {"restitution": LAW_RESTITUTION, "linear": LAW_LINEAR, "hunt_crossley": LAW_HUNT_CROSSLEY}
 IMPLEMENTED_LAWS = ("restitution", "linear", "hunt_crossley")   # compliant: SDOF (vibeam.models.sdof_compliant)
 
