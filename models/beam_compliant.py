@@ -600,7 +600,7 @@ class CompliantBeamODESolver:
     chunk_periods = 1000
 
     def __init__(self, model, solver: str = "DOP853", rtol: float = 1e-11, atol: float = 1e-13,
-                 max_events_per_period: int = 200):
+                 max_events_per_period: int = 200, max_step=None):
         self.model = model
         self.solver = solver
         self.rtol = float(rtol)

@@ -127,6 +127,8 @@ register(Fidelity(
     coupled_platform=True,
     fe_model=True,
     restitution_law_methods=("event", "direct"),
+    contact_laws={"linear": {"event": "beam_compliant:CompliantBeamEventSolver",
+                             "direct": "beam_compliant:CompliantBeamODESolver"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 

@@ -278,8 +278,15 @@ class BeamModelSpec(_Strict):
     def build(self):
         """The :class:`vibeam.models.beam_dynamics.BeamImpactModel` of this scene."""
         from vibeam.beamscene import build_beam_model
+        from vibeam.contact_spec import beam_law
 
-        return build_beam_model(self)
+        m = build_beam_model(self)
+        law = beam_law(self.contact, self.R)
+        if law is not None:   # a compliant stop (issue 13): the model of vibeam.models.beam_compliant
+            from vibeam.models.beam_compliant import CompliantBeamModel
+
+            m = CompliantBeamModel.from_model(m, law)
+        return m
 
     # ---- what is specific to this fidelity (see register_model_spec)
     def dofs(self) -> int:
@@ -295,12 +302,12 @@ class BeamModelSpec(_Strict):
         each node but the clamped one)."""
         n = self.n_modes
         dofs = 2 * int(self.n_elements)
-        if self.contact is not None and self.contact.law != "restitution":
-            from vibeam.models.registry import contact_law_methods
+        from vibeam.contact_spec import beam_law
 
-            if not contact_law_methods("beam", self.contact.law):
-                raise CaseError(f"'{prefix}.contact.law' = \"{self.contact.law}\" is not implemented for the beam "
-                                f"yet (issue 13); allowed: \"restitution\"")
+        try:
+            beam_law(self.contact, self.R)
+        except ValueError as e:
+            raise CaseError(f"'{prefix}.contact': {e}") from None
         if isinstance(n, int) and n > dofs:
             raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
                             f"('{prefix}.n_elements' = {self.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
