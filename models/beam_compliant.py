@@ -236,7 +236,7 @@ def _modal(z, W, Z, ze, phi0, a):
 @njit(cache=True)
 def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS, gU, gS, kc, cc, DeltaC,
                           z0, phase0, n_transient, n_record, ns_transient, ns_record, hmax,
-                          max_contacts, max_steps, samples, pmin, imp_t, imp_v, con):
+                          max_contacts, max_steps, samples, pmin, imp_t, imp_v, con, msamp):
     """Simulate whole forcing periods; the numba core of :class:`CompliantBeamEventSolver`.
 
     Per phase ``p`` (0 free, 1 contact): ``lamA[p]`` (2N,) eigenvalues, ``VA[p]``/``WA[p]``
@@ -245,7 +245,7 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
     their forced coefficients, ``gU[p]``, ``gS[p]`` their constants; ``wrow``, ``srow`` (N,)
     the contact and sensor rows.  ``samples`` receives ``(s^T eta, s^T eta')``, ``con`` per contact: duration,
     peak force ``k g + c g'``, largest penetration ``g`` (m), work on the stop (kernel units),
-    entry velocity.
+    entry velocity; ``msamp`` (m, 2N) the modal state at each sample when ``m > 0``.
 
     Returns ``(status, n_rec, smin, smax, phase_end, n_con, t_contact, n_steps)``; ``z0`` is
     left at the end state.
@@ -286,6 +286,9 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                     svd += srow[i] * z[n2 // 2 + i]
                 samples[k_sample, 0] = sv
                 samples[k_sample, 1] = svd
+                if msamp.shape[0] > k_sample:
+                    for i in range(n2):
+                        msamp[k_sample, i] = z[i]
                 k_sample += 1
                 smin = min(smin, sv)
                 smax = max(smax, sv)
@@ -511,6 +514,7 @@ class CompliantBeamEventSolver:
         self.max_steps_per_period = int(max_steps_per_period)
         self.impact_buffer = int(impact_buffer)
         self.chunk_periods = max(16, 2000 // model.n_modes)
+        self.record_modal_states = bool(record_modal_states)
         _ensure_eig(model)
 
     def settings(self) -> dict:
@@ -534,6 +538,7 @@ class CompliantBeamEventSolver:
         imp_t = np.zeros(self.impact_buffer)
         imp_v = np.zeros(self.impact_buffer)
         con = np.full((self.impact_buffer, 5), np.nan)
+        msamp = np.zeros((samples.shape[0] if self.record_modal_states else 0, 2 * N))
         z = s0[:2 * N].copy()
         n_per = max(n_transient + n_record, 1)
         out = beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, m.contact_row, m.sensor_row, bU, bS, gU, gS,
@@ -541,7 +546,7 @@ class CompliantBeamEventSolver:
                                     m.gap_contact_m, z, 1 if s0[2 * N] > 0.5 else 0,
                                     int(n_transient), int(n_record), self.transient_samples,
                                     int(samples_per_period), hmax, self.max_impacts_per_period * n_per,
-                                    self.max_steps_per_period * n_per, samples, pmin, imp_t, imp_v, con)
+                                    self.max_steps_per_period * n_per, samples, pmin, imp_t, imp_v, con, msamp)
         status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = out
         L = m.length_m
         k = min(n_rec, self.impact_buffer)
@@ -556,14 +561,16 @@ class CompliantBeamEventSolver:
         c[:, 4] /= L
         T = TWO_PI / Om
         message = "" if status == 0 else f"gave up after {n_con} contacts / {n_steps} steps in {n_per} periods"
+        extra = {"contact_fraction": t_con / (n_record * T) if n_record else 0.0,
+                 "steps_per_period": float(n_steps / n_per)}
+        if self.record_modal_states:
+            extra["modal_states"] = msamp
         return Trajectory(Omega=Om, samples=samples / L, samples_per_period=samples_per_period,
                           impact_times=imp_t[:k].copy(), impact_velocities=imp_v[:k] / L, n_impacts=int(n_rec),
                           q_min=float(smin / L), q_max=float(smax / L), period_min=pmin / L,
                           status="ok" if status == 0 else "failed", message=message,
                           final_state=np.concatenate([z, [float(ph_end)]]),
-                          extra={"contact_fraction": t_con / (n_record * T) if n_record else 0.0,
-                                 "steps_per_period": float(n_steps / n_per)},
-                          contacts=c)
+                          extra=extra, contacts=c)
 
 
 def _ensure_eig(model):
