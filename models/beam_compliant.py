@@ -102,6 +102,8 @@ def _sig(s, al, lam, be, ga, phi0, Om, out):
     """Value and derivatives 1..3 at ``s`` of ``Re sum al_j e^{lam_j s} + Im(be e^{i phi}) + ga``."""
     r0 = r1 = r2 = r3 = 0.0
     for j in range(lam.shape[0]):
+        if al[j] == 0.0:
+            continue
         e = al[j] * np.exp(lam[j] * s)
         l = lam[j]
         r0 += e.real
@@ -127,7 +129,8 @@ def _sig(s, al, lam, be, ga, phi0, Om, out):
 def _bound(al, lam, be, Om, n):
     b = abs(be) * Om ** n
     for j in range(lam.shape[0]):
-        b += abs(al[j]) * abs(lam[j]) ** n
+        if al[j] != 0.0:
+            b += abs(al[j]) * abs(lam[j]) ** n
     return b * (1.0 + 1e-9) + 1e-300
 
 
@@ -269,6 +272,10 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
     in_rec = False
     k_sample = 0
     cap = con.shape[0]
+    # the modal coefficients of the homogeneous part are carried from step to step (a_j e^{lam_j s},
+    # exact; fast overdamped modes decay to exactly 0 and drop out of the sums) and recomputed
+    # from the state only at a change of phase
+    _modal(z, WA[phase], ZA[phase], zeA[phase], 0.0, a)
     for p in range(n_transient + n_record):
         recording = p >= n_transient
         ns = ns_record if recording else ns_transient
@@ -300,7 +307,6 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                     z0[:] = z
                     return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps)
                 lam = lamA[phase]
-                _modal(z, WA[phase], ZA[phase], zeA[phase], phi, a)
                 for j in range(n2):
                     al[j] = PU[phase, j] * a[j]
                 beU = bU[phase]
@@ -403,6 +409,9 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                             else:
                                 smax = max(smax, buf[0])
                 _state(s_adv, a, lam, VA[phase], ZA[phase], zeA[phase], phi, Om, z)
+                for j in range(n2):
+                    if a[j] != 0.0:
+                        a[j] = a[j] * np.exp(lam[j] * s_adv)
                 if phase == CONTACT and recording:
                     t_con += s_adv
                 phi = (phi + Om * s_adv) % TWO_PI
@@ -410,6 +419,8 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                 rem -= s_adv
                 if rem < 1e-15 * T:
                     rem = 0.0
+                if ev == EV_ENTRY or ev == EV_EXIT:
+                    _modal(z, WA[1 - phase], ZA[1 - phase], zeA[1 - phase], phi, a)
                 if ev == EV_ENTRY:
                     phase = CONTACT
                     n_con += 1
