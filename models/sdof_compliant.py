@@ -553,7 +553,7 @@ def hc_advance(h, phi, q, v, beta, F, Omega, Delta, kc, p, chi, vr, ks, rk, rec,
 
 @njit(cache=True)
 def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transient, n_record,
-                     ns_transient, ns_record, max_contacts, samples, pmin, imp_t, imp_v, con):
+                     ns_transient, ns_record, max_contacts, samples, pmin, imp_t, imp_v, con, max_steps=-1):
     """Simulate whole forcing periods exactly; the numba core of :class:`CompliantEventSolver`.
 
     Parameters
@@ -571,6 +571,9 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
         Periods discarded / recorded, grid points per period in each.
     max_contacts : int
         More contacts than this over the run: ``failed``.
+    max_steps : int
+        More steps than this over the run (a contact phase far stiffer than the forcing
+        resolves ~16 steps per contact period): ``failed`` (-1: no limit).
     samples : ndarray, shape (n_record * ns_record, 2)
         Receives ``(q, q')`` on the recorded phase grid.
     pmin : ndarray, shape (n_record,)
@@ -628,6 +631,7 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
     in_record_contact = False
     v_in = 0.0
     k_sample = 0
+    n_steps = 0
     phi = 0.0
     for p in range(n_total):
         recording = p >= n_transient
@@ -651,6 +655,9 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
                     ex[1] = q
             rem = h_grid
             while rem > 0.0:
+                n_steps += 1
+                if max_steps >= 0 and n_steps > max_steps:
+                    return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact)
                 pp = P[phase]
                 if hunt and phase == CONTACT:
                     s, ev = hc_advance(rem, phi, q, v, beta, F, Omega, Delta, kc, pexp, chi, vr, 1.0, rk, recording,
@@ -775,7 +782,8 @@ class CompliantEventSolver:
     chunk_periods = 500
 
     def __init__(self, model, transient_samples: int = 16, max_impacts_per_period: int = 2000,
-                 impact_buffer: int = 4096, chatter_tol: float | None = None):
+                 impact_buffer: int = 4096, chatter_tol: float | None = None,
+                 max_steps_per_period: int = 200_000):
         from .contact import LAW_LINEAR, pack
 
         stops = model.stops()
@@ -785,6 +793,7 @@ class CompliantEventSolver:
         self.transient_samples = int(transient_samples)
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.impact_buffer = int(impact_buffer)
+        self.max_steps_per_period = int(max_steps_per_period)
         self._stops = pack(stops)
         law = stops[0].law
         bc = (2.0 * model.beta + law.damping) / (2.0 * math.sqrt(1.0 + law.stiffness))
@@ -824,7 +833,8 @@ class CompliantEventSolver:
         ph0 = 1 if (s0.shape[0] > 2 and s0[2] > 0.5) else 0
         out = compliant_kernel(m.beta, m.B, par, float(Omega), float(s0[0]), float(s0[1]), ph0,
                                int(n_transient), int(n_record), self.transient_samples,
-                               int(samples_per_period), max_con, samples, pmin, imp_t, imp_v, con)
+                               int(samples_per_period), max_con, samples, pmin, imp_t, imp_v, con,
+                               self.max_steps_per_period * max(n_transient + n_record, 1))
         status, n_rec, q_min, q_max, q_end, v_end, ph_end, n_tot, t_con = out
         k = min(n_rec, self.impact_buffer)
         con = con[:k]
@@ -832,7 +842,9 @@ class CompliantEventSolver:
         message = ""
         if status == STATUS_FAILED:
             message = (f"more than {max_con} contacts in {n_transient + n_record} periods"
-                       if n_tot > max_con else "overdamped or resonant phase")
+                       if n_tot > max_con else
+                       f"more than {self.max_steps_per_period} steps per period (a contact far stiffer than "
+                       f"the forcing; lower [model.contact] stiffness) or a resonant phase")
         T_rec = n_record * TWO_PI / Omega
         return Trajectory(Omega=float(Omega), samples=samples, samples_per_period=samples_per_period,
                           impact_times=imp_t[:k].copy(), impact_velocities=imp_v[:k].copy(),
