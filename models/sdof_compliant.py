@@ -803,7 +803,8 @@ class CompliantEventSolver:
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples,
-                    max_impacts_per_period=self.max_impacts_per_period)
+                    max_impacts_per_period=self.max_impacts_per_period,
+                    max_steps_per_period=self.max_steps_per_period)
 
     def point(self, Omega: float, state0, n_transient: int, n_record: int,
               samples_per_period: int = 64):
