@@ -110,9 +110,11 @@ register(Fidelity(
              "averaging": "sdof_averaging:AveragingSolver", "mapping": "sdof_mapping:MappingSolver"},
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
-    contact_laws={law: {"event": "sdof_compliant:CompliantEventSolver",
-                        "direct": "sdof_compliant_ode:CompliantDirectSolver"}
-                  for law in ("linear", "hunt_crossley")},
+    contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
+                             "direct": "sdof_compliant_ode:CompliantDirectSolver",
+                             "mapping": "sdof_compliant_map:CompliantMappingSolver"},
+                  "hunt_crossley": {"event": "sdof_compliant:CompliantEventSolver",
+                                    "direct": "sdof_compliant_ode:CompliantDirectSolver"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(
