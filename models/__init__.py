@@ -72,6 +72,10 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
                          "problems have one stop)")
     shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
     cls = shooting.get(model.fidelity)
+    law = getattr(model, "contact_law", "restitution")
+    if law != "restitution":
+        raise ValueError(f"continuation is not available for contact law {law!r} (its shooting problem "
+                         f"with the contact-phase Jacobians is not implemented); use method = \"event\"")
     if cls is None:
         raise ValueError(f"continuation is not available for fidelity {model.fidelity!r} (no shooting "
                          f"problem registered); available: {', '.join(sorted(shooting))}")
@@ -84,10 +88,19 @@ def make_solver(model, method: str, **settings):
     Raises
     ------
     ValueError
-        If the method does not exist for the model's fidelity, or cannot simulate the
-        model's second stop (``two_sided_methods`` of the registry).
+        If the method does not exist for the model's fidelity, does not simulate the model's
+        contact law (registry ``contact_laws``), or cannot simulate the model's second stop
+        (``two_sided_methods`` of the registry).
     """
     fid = fidelity(model)
+    law = getattr(model, "contact_law", "restitution")
+    if law != "restitution":   # a compliant law: its own solvers (registry ``contact_laws``)
+        table = fid.contact_laws.get(law, {})
+        if method not in table:
+            allowed = ", ".join(table) or "none"
+            raise ValueError(f"method {method!r} does not simulate contact law {law!r} of fidelity "
+                             f"{fid.name!r}; allowed: {allowed}")
+        return resolve(table[method])(model, **settings)
     path = fid.methods.get(method)
     if path is None:
         raise ValueError(f"method {method!r} is not available for fidelity {fid.name!r}; "

@@ -26,8 +26,10 @@ Law of stop k (unit free, acts on the relation's ``U``; :class:`Restitution`)
     *compliant*  a contact *phase* with its own flow (the stop's force ``F(delta, delta')``,
                  ``delta = g_k`` the penetration, added to the free flow) that ends at an
                  exit event where the contact force returns to zero (not where ``delta``
-                 does).  Not implemented yet (``law = "linear"`` Kelvin-Voigt,
-                 ``law = "hunt_crossley"``); the plan is below.
+                 does).  ``law = "linear"`` (Kelvin-Voigt) and ``law = "hunt_crossley"``
+                 are implemented for the SDOF (:mod:`vibeam.models.compliant`, kernel
+                 :mod:`vibeam.models.sdof_compliant`, a kernel of its own beside the impulsive
+                 one); the beam's is the plan below.
 
 Kernel representation (numba: plain arrays, one row per stop; :func:`pack`)
     ``stops``   float64 (n_stops, :data:`NPAR`): row k = ``[sign s_k, offset Delta_k, law code,
@@ -66,6 +68,8 @@ How a compliant law plugs in (the plan for ``law = "linear"`` and ``"hunt_crossl
     4. Mapping / continuation: the event log gets the contact entry and exit rows; the
        Jacobian of a contact phase is its state-transition matrix composed with the
        saltation matrices of entry and exit (Sec. 4.2 of the paper: the piecewise-linear map).
+       Done for the SDOF's ``mapping`` (:mod:`vibeam.models.sdof_compliant_map`); the shooting
+       problem of the continuation is not.
 """
 from __future__ import annotations
 
@@ -84,8 +88,8 @@ NPAR = 8
 
 # ---- law codes and kinds
 LAW_RESTITUTION = 0       # Newton's impact law, U+ = -R(U-) U- (impulsive)
-LAW_LINEAR = 1            # reserved: Kelvin-Voigt spring-dashpot stop (compliant)
-LAW_HUNT_CROSSLEY = 2     # reserved: F = k delta^p (1 + c delta') (compliant)
+LAW_LINEAR = 1            # Kelvin-Voigt spring-dashpot stop (compliant; vibeam.models.compliant)
+LAW_HUNT_CROSSLEY = 2     # F = k delta^p (1 + chi delta' / v_in) (compliant)
 IMPULSIVE = 0
 COMPLIANT = 1
 
@@ -199,6 +203,16 @@ def check_stops(stops) -> None:
     """Raise ValueError for stops the kernels cannot simulate (a law not implemented, an
     R out of [0, 1], a lower stop overlapping the upper one)."""
     for s in stops:
+        if getattr(s.law, "kind", "") == "compliant" and s.law.code == LAW_LINEAR:
+            if not (s.law.stiffness > 0.0 and 0.0 <= s.law.damping_ratio < 1.0):
+                raise ValueError(f"law \"linear\" of the {s.name} stop needs stiffness > 0 and "
+                                 f"0 <= damping_ratio < 1")
+            continue
+        if getattr(s.law, "kind", "") == "compliant" and s.law.code == LAW_HUNT_CROSSLEY:
+            if not (s.law.stiffness > 0.0 and s.law.exponent > 0.0 and 0.0 < s.law.R <= 1.0):
+                raise ValueError(f"law \"hunt_crossley\" of the {s.name} stop needs stiffness > 0, exponent > 0 "
+                                 f"and 0 < R <= 1")
+            continue
         if getattr(s.law, "kind", "") != "impulsive" or s.law.code != LAW_RESTITUTION:
             raise ValueError(f"contact law of the {s.name} stop is not implemented; implemented: "
                              f"{', '.join(IMPLEMENTED_LAWS)}")

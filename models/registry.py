@@ -43,6 +43,12 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
 ``two_sided_methods``
     Methods that simulate a second (lower) stop (two contact relations with opposite
     normals, :mod:`vibeam.models.contact`).
+``contact_laws``
+    Compliant contact laws (:mod:`vibeam.models.compliant`) and, for each, the methods that
+    simulate it with their solvers (``{"linear": {"event": "module:Class", ...}}``); the
+    model then has ``contact_law`` (its stop's law name, ``"restitution"`` by default).  A
+    method not listed for a law is refused by :func:`vibeam.models.make_solver` (and by
+    case validation, :func:`contact_law_methods`); so is continuation.
 ``shooting``
     Its periodic-orbit shooting problem (contract: :mod:`vibeam.models.periodic`), the
     class the continuation builds as ``cls(model, parameter, Omega=Omega)``; None: cannot
@@ -59,8 +65,8 @@ from dataclasses import dataclass, field
 #: and the plan for the compliant laws are in :mod:`vibeam.models.contact`.
 LAWS = {
     "restitution": ("impulsive", True, ("R",)),
-    "linear": ("compliant", False, ("stiffness", "stiffness_n_m", "damping_ratio")),
-    "hunt_crossley": ("compliant", False, ("stiffness", "stiffness_n_m", "damping_ratio", "exponent")),
+    "linear": ("compliant", True, ("stiffness", "stiffness_n_m", "damping_ratio", "mass_kg")),
+    "hunt_crossley": ("compliant", True, ("stiffness", "stiffness_n_m", "exponent", "mass_kg")),
 }
 IMPLEMENTED_LAWS = tuple(n for n, (_, done, _) in LAWS.items() if done)
 
@@ -93,6 +99,7 @@ class Fidelity:
     fe_model: bool = False
     restitution_law_methods: tuple = ()
     two_sided_methods: tuple = ()
+    contact_laws: dict = field(default_factory=dict, compare=False)
     description: str = field(default="", compare=False)
 
     @property
@@ -120,6 +127,11 @@ register(Fidelity(
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
     two_sided_methods=("event", "direct"),
+    contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
+                             "direct": "sdof_compliant_ode:CompliantDirectSolver",
+                             "mapping": "sdof_compliant_map:CompliantMappingSolver"},
+                  "hunt_crossley": {"event": "sdof_compliant:CompliantEventSolver",
+                                    "direct": "sdof_compliant_ode:CompliantDirectSolver"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(
@@ -135,6 +147,8 @@ register(Fidelity(
     fe_model=True,
     restitution_law_methods=("event", "direct"),
     two_sided_methods=("event", "direct"),
+    contact_laws={"linear": {"event": "beam_compliant:CompliantBeamEventSolver",
+                             "direct": "beam_compliant:CompliantBeamODESolver"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 
@@ -151,6 +165,15 @@ def fidelity(name_or_model) -> Fidelity:
     if fid is None:
         raise ValueError(f"fidelity {name!r} is not registered; registered: {', '.join(sorted(FIDELITIES))}")
     return fid
+
+
+def contact_law_methods(name: str, law: str) -> tuple:
+    """Methods of fidelity ``name`` that simulate contact law ``law`` (all of them for the
+    default ``"restitution"``; none for a law the fidelity does not register)."""
+    fid = fidelity(name)
+    if law == "restitution":
+        return fid.method_names
+    return tuple(fid.contact_laws.get(law, {}))
 
 
 def with_capability(flag: str) -> list[str]:

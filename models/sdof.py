@@ -51,6 +51,12 @@ class SDOF:
     R_lower : float or None, optional
         Coefficient of restitution of the lower stop; None: the upper stop's law (``R`` and
         ``R_table``).
+    contact : LinearContact or None, optional
+        A compliant law of the stop (:mod:`vibeam.models.compliant`, kernel units: stiffness
+        ratio ``k_c / k``); None = Newton's law with ``R`` (paper Eq. 2).
+    mass_kg : float or None, optional
+        Effective mass of a physical scene's oscillator at the contact (kg): contact forces
+        in N (``force_scale_n``); None: forces stay nondimensional.
     """
 
     beta: float
@@ -62,6 +68,8 @@ class SDOF:
     R_table: tuple = ()
     Delta_lower: float | None = None
     R_lower: float | None = None
+    contact: object = None
+    mass_kg: float | None = None
 
     fidelity = "sdof"
 
@@ -70,10 +78,26 @@ class SDOF:
         """A second stop below (``Delta_lower`` given)."""
         return self.Delta_lower is not None
 
+    @property
+    def contact_law(self) -> str:
+        """Name of the stop's law (``"restitution"``, ``"linear"``, ...; the fidelity
+        registry's ``contact_laws`` key)."""
+        return "restitution" if self.contact is None else self.contact.name
+
+    @property
+    def force_scale_n(self) -> float | None:
+        """Newtons per unit nondimensional force, ``m omega_n^2 L`` (None without a mass)."""
+        if self.mass_kg is None or self.natural_frequency_hz is None or self.length_m is None:
+            return None
+        return self.mass_kg * (2 * math.pi * self.natural_frequency_hz) ** 2 * self.length_m
+
     def stops(self) -> tuple:
         """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
-        ``q = Delta`` (normal ``+1``) with Newton's law, ``R`` and ``R(q'-)``, and for a
-        two-sided scene the stop at ``q = -Delta_lower`` (normal ``-1``) with its own law."""
+        ``q = Delta`` (normal ``+1``) with Newton's law, ``R`` and ``R(q'-)``, or the compliant
+        law ``contact``; for a two-sided scene the stop at ``q = -Delta_lower`` (normal ``-1``)
+        with its own law."""
+        if self.contact is not None:
+            return (Stop(Relation(1.0, self.Delta), self.contact),)
         tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())
         upper = Restitution(self.R, tuple(tv), tuple(tR))
         out = (Stop(Relation(1.0, self.Delta), upper),)
@@ -253,8 +277,17 @@ class EventSolver:
         elif status == 2:
             message = f"stuck on the stop {stuck_time:.4g} of {n_record * 2 * math.pi / Omega:.4g} time units"
         two = par.shape[0] > 1
+        # per impact (Newton's law): no duration, an impulse (no finite force), no penetration,
+        # energy lost (1 - R^2) U-^2 / 2 per unit mass (U- the normal pre-impact speed)
+        v_imp = imp_v[:k]
+        if two:
+            Rk = m.restitution_coefficients(v_imp, imp_k[:k])
+        else:
+            Rk = m.restitution_coefficients(v_imp) if m.R_table else np.full(k, m.R)
+        contacts = np.column_stack([np.zeros(k), np.full(k, np.nan), np.zeros(k),
+                                    0.5 * (1.0 - Rk ** 2) * v_imp ** 2, v_imp])
         return Trajectory(Omega=float(Omega), samples=samples, samples_per_period=samples_per_period,
-                          impact_times=imp_t[:k].copy(), impact_velocities=imp_v[:k].copy(),
+                          impact_times=imp_t[:k].copy(), impact_velocities=imp_v[:k].copy(), contacts=contacts,
                           impact_stops=imp_k[:k].copy() if two else None,
                           n_impacts_lower=int(n_stop[1]) if two else 0,
                           n_impacts=int(n_imp), q_min=float(q_min), q_max=float(q_max),

@@ -61,6 +61,11 @@ class Trajectory:
         pre-impact speeds ``|q'(t-)|``.  None: one stop.
     n_impacts_lower : int
         Impacts on the lower stop in the recorded window (of ``n_impacts``).
+    contacts : ndarray, shape (k, 5), optional
+        One row per recorded contact of a compliant stop (nondimensional, per unit
+        effective mass): duration, peak contact force, largest penetration, energy
+        lost (work done on the stop), entry velocity
+        (:data:`vibeam.models.sdof_compliant.C_DURATION` ...); None for impulsive laws.
     """
 
     Omega: float
@@ -80,6 +85,7 @@ class Trajectory:
     chatter_times: np.ndarray | None = None
     impact_stops: np.ndarray | None = None
     n_impacts_lower: int = 0
+    contacts: np.ndarray | None = None
 
     @property
     def n_record(self) -> int:

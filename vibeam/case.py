@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
+from vibeam.contact_spec import ContactSpec  # [model.contact] (issue 13)
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
 
@@ -54,39 +55,6 @@ class _Strict(BaseModel):
 
 
 # ----------------------------------------------------------------------------- model
-class ContactSpec(_Strict):
-    """``[model.contact]`` (the stop of the paper) or ``[model.contact_lower]`` (a second stop
-    below): the contact law of a stop (:mod:`vibeam.models.contact`).
-
-    ``law = "restitution"`` (Newton's law, paper Eq. 2; the default) is the one implemented:
-    the upper stop's R is ``[model] R``, a lower stop's is this table's ``R`` (default: the
-    upper stop's law).  The compliant laws ``"linear"`` (Kelvin-Voigt) and ``"hunt_crossley"``
-    and their keys ``stiffness`` (nondimensional scenes: ratio to the oscillator's stiffness),
-    ``stiffness_n_m`` (physical and beam scenes), ``damping_ratio`` and ``exponent`` are
-    reserved: a case that uses them is refused with a message saying so.
-    """
-
-    law: Literal["restitution", "linear", "hunt_crossley"] = "restitution"
-    R: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
-    stiffness: Annotated[float, Field(gt=0.0)] | None = None
-    stiffness_n_m: Annotated[float, Field(gt=0.0)] | None = None
-    damping_ratio: Annotated[float, Field(ge=0.0)] | None = None
-    exponent: Annotated[float, Field(gt=0.0)] | None = None
-
-    @model_validator(mode="after")
-    def _implemented(self):
-        from vibeam.models.registry import IMPLEMENTED_LAWS, LAWS
-
-        if self.law not in IMPLEMENTED_LAWS:
-            raise ValueError(f"law = {self.law!r} ({LAWS[self.law][0]}) is not implemented yet; implemented: "
-                             f"{', '.join(repr(n) for n in IMPLEMENTED_LAWS)}")
-        extra = [k for k in ("stiffness", "stiffness_n_m", "damping_ratio", "exponent") if getattr(self, k) is not None]
-        if extra:
-            raise ValueError(f"key(s) {', '.join(extra)} belong to a compliant law (law = 'linear' or "
-                             f"'hunt_crossley', not implemented yet); law = 'restitution' takes R only")
-        return self
-
-
 def _check_stops(spec, lower_keys: tuple, gap_key: str) -> None:
     """The contact tables and the second stop of a model spec (ValueError naming the keys)."""
     lower = [k for k in lower_keys if getattr(spec, k) is not None]
@@ -96,6 +64,15 @@ def _check_stops(spec, lower_keys: tuple, gap_key: str) -> None:
         raise ValueError("'contact.R': the R of the first stop is [model] R")
     if spec.contact_lower is not None and not lower:
         raise ValueError(f"[model.contact_lower] needs a lower stop: give one of {list(lower_keys)}")
+    compliant = [k for k in ("contact", "contact_lower")
+                 if getattr(spec, k) is not None and getattr(spec, k).law != "restitution"]
+    if lower and compliant:
+        raise ValueError(f"a compliant law ([model.{compliant[0]}] law = {getattr(spec, compliant[0]).law!r}) with a "
+                         f"second stop is not implemented yet (the compliant kernels have one stop); two stops "
+                         f"take law = 'restitution'")
+    if compliant == ["contact_lower"]:
+        raise ValueError("[model.contact_lower]: a compliant law needs a compliant upper stop and one stop; "
+                         "two stops take law = 'restitution'")
 
 
 #: spec class of each fidelity's ``[model]`` table, by its name in the fidelity registry
@@ -201,16 +178,25 @@ class SDOFModelSpec(_Strict):
 
     def build(self):
         """The :class:`vibeam.models.SDOF` this table describes."""
+        import dataclasses
+
+        from vibeam.contact_spec import sdof_law
         from vibeam.models import SDOF
 
         if self.physical:
-            return SDOF.from_physical(self.natural_frequency_hz, self.damping_ratio, self.R, self.gap_mm,
-                                      self.length_mm, self.gain, self.voltage, gap_lower_mm=self.gap_lower_mm,
-                                      R_lower=self._R_lower())
-        if self.two_sided:
-            return SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta, Delta_lower=self.Delta_lower,
-                        R_lower=self._R_lower())
-        return SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
+            m = SDOF.from_physical(self.natural_frequency_hz, self.damping_ratio, self.R, self.gap_mm,
+                                   self.length_mm, self.gain, self.voltage, gap_lower_mm=self.gap_lower_mm,
+                                   R_lower=self._R_lower())
+        elif self.two_sided:
+            m = SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta, Delta_lower=self.Delta_lower,
+                     R_lower=self._R_lower())
+        else:
+            m = SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
+        law = sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz,
+                       self.length_mm * 1e-3 if self.physical else None)
+        if law is not None or (self.contact is not None and self.contact.mass_kg is not None):
+            m = dataclasses.replace(m, contact=law, mass_kg=self.contact.mass_kg)
+        return m
 
     # ---- what is specific to this fidelity (see register_model_spec)
     def dofs(self) -> int:
@@ -218,7 +204,14 @@ class SDOFModelSpec(_Strict):
         return 1
 
     def check(self, prefix: str) -> None:
-        """Checks beyond the table's validators: none."""
+        """Checks beyond the table's validators: the ``[model.contact]`` law can be built."""
+        from vibeam.contact_spec import sdof_law
+
+        try:
+            sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz,
+                     self.length_mm * 1e-3 if self.physical else None)
+        except ValueError as e:
+            raise CaseError(f"'{prefix}.contact': {e}") from None
 
     def result_attrs(self) -> dict:
         """Derived values stored with a run's results: none."""
@@ -383,8 +376,15 @@ class BeamModelSpec(_Strict):
     def build(self):
         """The :class:`vibeam.models.beam_dynamics.BeamImpactModel` of this scene."""
         from vibeam.beamscene import build_beam_model
+        from vibeam.contact_spec import beam_law
 
-        return build_beam_model(self)
+        m = build_beam_model(self)
+        law = beam_law(self.contact, self.R)
+        if law is not None:   # a compliant stop (issue 13): the model of vibeam.models.beam_compliant
+            from vibeam.models.beam_compliant import CompliantBeamModel
+
+            m = CompliantBeamModel.from_model(m, law)
+        return m
 
     # ---- what is specific to this fidelity (see register_model_spec)
     def dofs(self) -> int:
@@ -400,6 +400,12 @@ class BeamModelSpec(_Strict):
         each node but the clamped one)."""
         n = self.n_modes
         dofs = 2 * int(self.n_elements)
+        from vibeam.contact_spec import beam_law
+
+        try:
+            beam_law(self.contact, self.R)
+        except ValueError as e:
+            raise CaseError(f"'{prefix}.contact': {e}") from None
         if isinstance(n, int) and n > dofs:
             raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
                             f"('{prefix}.n_elements' = {self.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
@@ -1076,11 +1082,13 @@ def parse_case(text: str, source: str = "<case>") -> Case:
             if r.method not in allowed:
                 raise CaseError(f"'run[{i}].method' = {r.method!r} is not available for fidelity "
                                 f"{spec.fidelity!r}; allowed: {', '.join(allowed)}")
+            run_spec = spec
             if r.model:
                 if "fidelity" in r.model and r.model["fidelity"] != case.model.get("fidelity"):
                     raise CaseError(f"'run[{i}].model.fidelity' = {_value(r.model['fidelity'])}: a run "
                                     f"cannot change the fidelity; put it in another case")
-                _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
+                run_spec = _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
+            _check_contact_method(run_spec, i, r)
             if r.effects:
                 case.effects_for(r)
             _check_two_sided(case, i, r)
@@ -1095,6 +1103,20 @@ def parse_case(text: str, source: str = "<case>") -> Case:
     except CaseError as e:
         raise CaseError(_one_line(f"{source}: {e}")) from None
     return case
+
+
+def _check_contact_method(spec, i: int, r) -> None:
+    """The run's method simulates the scene's contact law (fidelity registry ``contact_laws``)."""
+    from vibeam.models.registry import contact_law_methods
+
+    contact = getattr(spec, "contact", None)
+    law = "restitution" if contact is None else contact.law
+    if law == "restitution":
+        return
+    allowed = contact_law_methods(spec.fidelity, law)
+    if r.method not in allowed:
+        raise CaseError(f"'run[{i}].method' = {r.method!r} does not simulate contact.law = \"{law}\" of fidelity "
+                        f"{spec.fidelity!r}; allowed: {', '.join(allowed) or 'none'}")
 
 
 def check_time_series(case: Case, source: str = "", hz_per_omega: float | None = None) -> None:

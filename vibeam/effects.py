@@ -447,6 +447,9 @@ def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
     active = [k for k in effects.active() if k in HANDLED]
     if not active:
         return solver
+    law = getattr(model, "contact_law", "restitution")
+    if law != "restitution":   # the effect models are built for Newton's law (issue 13: not yet)
+        raise _err(f"effects.{active[0]}: not available with contact.law = \"{law}\" yet; use law = \"restitution\"")
     caps = fidelity(spec.fidelity)
     method = solver.name
     settings = dict(run_settings or {})

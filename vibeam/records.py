@@ -224,6 +224,34 @@ def period_minima(traj: Trajectory) -> np.ndarray:
     return traj.samples[: n_rec * spp, 0].reshape(n_rec, spp).min(axis=1)
 
 
+#: per-point contact outputs (issue 13) and the column of ``Trajectory.contacts`` each is made of
+CONTACT_OUTPUTS = ("contact_duration", "contact_force_max", "penetration_max", "energy_per_impact")
+
+
+def contact_outputs(traj: Trajectory) -> dict:
+    """Per-point contact outputs (nondimensional, per unit effective mass of the stop).
+
+    From ``traj.contacts`` (one row per recorded contact: duration, peak force, largest
+    penetration, energy lost, entry velocity; :mod:`vibeam.models.sdof_compliant`):
+    ``contact_duration`` (mean over the record's contacts), ``contact_force_max`` (largest peak
+    force), ``penetration_max`` (largest penetration) and ``energy_per_impact`` (mean energy
+    lost per contact: the work done on the stop).  A trajectory without contact rows (an
+    impulsive law whose solver records none) gives duration and penetration 0 and force and
+    energy NaN when it has impacts; no impact: all NaN.
+    """
+    nan = np.nan
+    c = traj.contacts
+    if c is None or np.shape(c)[0] == 0:
+        zero = 0.0 if traj.n_impacts and c is None else nan
+        return dict(contact_duration=zero, contact_force_max=nan, penetration_max=zero, energy_per_impact=nan)
+    c = np.asarray(c, float)
+    force = c[:, 1]
+    return dict(contact_duration=float(np.mean(c[:, 0])),
+                contact_force_max=float(np.max(force)) if np.all(np.isfinite(force)) else nan,
+                penetration_max=float(np.max(c[:, 2])),
+                energy_per_impact=float(np.mean(c[:, 3])))
+
+
 def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict:
     """Per-point FRC outputs of a trajectory (all nondimensional).
 
@@ -234,7 +262,8 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
     :func:`amplitude_spread`), ``q_max``, ``q_min``, ``period`` (1..8, 0 = not
     periodic within 8, -1 = no impact in the window), ``impacts_per_period``,
     ``impact_velocity`` (mean pre-impact velocity, NaN without impacts),
-    ``strobe`` (n_record, 2), ``harmonics`` (6,), ``status`` and ``message``.
+    ``strobe`` (n_record, 2), ``harmonics`` (6,), the contact outputs of
+    :func:`contact_outputs` (:data:`CONTACT_OUTPUTS`), ``status`` and ``message``.
     ``status`` is the trajectory's, or ``unsettled`` when the stroboscopic map
     shows a transient that has not settled (:func:`transient_verdict`; the
     message gives the reason, then the dynamic outcome it replaces).  ``Delta``
@@ -254,7 +283,7 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
         out = dict(amplitude=nan, **amplitude_spread(np.full(n_rec, nan)), q_max=nan, q_min=nan,
                    period=0, impacts_per_period=nan, impact_velocity=nan,
                    strobe=np.full((n_rec, 2), nan), harmonics=np.full(HARMONICS, nan),
-                   status=traj.status, message=traj.message)
+                   **{k: nan for k in CONTACT_OUTPUTS}, status=traj.status, message=traj.message)
         if two:
             out.update(impacts_per_period_lower=nan, impact_velocity_lower=nan)
         return out
@@ -280,6 +309,7 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
         impact_velocity=float(np.mean(iv)) if iv.size else np.nan,
         strobe=traj.strobe.copy(),
         harmonics=harmonic_amplitudes(q, traj.samples_per_period),
+        **contact_outputs(traj),
         status=status,
         message=message,
     )

@@ -1,0 +1,241 @@
+"""Method ``direct`` of an SDOF scene with a compliant stop: the solve_ivp reference.
+
+The independent oracle of :mod:`vibeam.models.sdof_compliant` (shares none of its code):
+:func:`scipy.integrate.solve_ivp` integrates the piecewise-smooth system in the state
+``(q, q', E)``, ``E' = f delta'`` (the work done on the stop), with terminal events
+
+* free, ``delta < 0``: ``delta = 0`` rising -> contact;
+* free just after an exit, ``delta > 0``: ``f = 0`` rising -> contact, ``delta = 0`` falling ->
+  free flight below the stop;
+* contact: ``f = 0`` falling -> free (the force-zero separation),
+
+with ``delta = q - Delta`` and ``f = k_c delta + c_c delta'`` (``law = "linear"``) or
+``f = k_c delta^p (1 + chi delta' / v_in)`` (``law = "hunt_crossley"``, ``v_in`` the entry
+velocity).  Per contact the duration comes from the event times, the energy lost from
+``E``, the peak force and largest penetration from the dense output (maximised by
+:func:`scipy.optimize.minimize_scalar` around the best of 64 samples per integrator step).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq, minimize_scalar
+
+from .trajectory import Trajectory
+
+TWO_PI = 2.0 * math.pi
+
+
+def _ev(fn, direction):
+    fn.terminal = True
+    fn.direction = direction
+    return fn
+
+
+class CompliantDirectSolver:
+    """Method ``direct`` for a compliant stop (module docstring).
+
+    Parameters
+    ----------
+    model : vibeam.models.SDOF
+        With ``model.contact`` a compliant law.
+    solver : str
+        ``solve_ivp`` method (default ``DOP853``).
+    rtol, atol : float
+        Tolerances (default 1e-11, 1e-13: the reference of the tests).
+    max_events_per_period : int
+        More events per period on average: ``failed``.
+    """
+
+    name = "direct"
+    time_domain = True
+    chunk_periods = 1000
+
+    def __init__(self, model, solver: str = "DOP853", rtol: float = 1e-11, atol: float = 1e-13,
+                 max_events_per_period: int = 200, max_step=None):
+        law = model.contact
+        if law is None or getattr(law, "kind", "") != "compliant":
+            raise ValueError("CompliantDirectSolver needs a compliant [model.contact] law")
+        self.model = model
+        self.solver = solver
+        self.rtol = float(rtol)
+        self.atol = float(atol)
+        self.max_events_per_period = int(max_events_per_period)
+        self.max_step = max_step
+
+    def settings(self) -> dict:
+        return dict(solver=self.solver, rtol=self.rtol, atol=self.atol,
+                    max_events_per_period=self.max_events_per_period)
+
+    def _force(self, v_in):
+        law = self.model.contact
+        k, Delta = law.stiffness, self.model.Delta
+        if law.name == "linear":
+            c = law.damping
+            return lambda q, v: k * (q - Delta) + c * v
+        p, cv = law.exponent, law.chi / max(v_in, 1e-300)
+        return lambda q, v: k * max(q - Delta, 0.0) ** p * (1.0 + cv * v)
+
+    def point(self, Omega: float, state0, n_transient: int, n_record: int,
+              samples_per_period: int = 64) -> Trajectory:
+        """Simulate one forcing frequency from ``state0 = (q, q', phase)`` (phase 1: in contact;
+        its entry velocity is then taken as ``q'``)."""
+        m = self.model
+        Omega = float(Omega)
+        T = TWO_PI / Omega
+        Fa = Omega * Omega * m.B
+        b2 = 2.0 * m.beta
+        Delta = m.Delta
+        spp = int(samples_per_period)
+        t_rec = n_transient * T
+        t_end = (n_transient + n_record) * T
+        ts = t_rec + np.arange(n_record * spp) * (T / spp)
+        samples = np.full((ts.size, 2), np.nan)
+        s0 = m.initial_state() if state0 is None else np.asarray(state0, float)
+        q, v = float(s0[0]), float(s0[1])
+        mode = "contact" if (s0.shape[0] > 2 and s0[2] > 0.5) else "free"
+        entries, contacts = [], []
+        # Hunt-Crossley: entry velocities floored at 1e-2 Omega B (vibeam.models.compliant)
+        v_floor = 1e-2 * Omega * m.B if m.B > 0.0 else 1e-6
+        v_in = max(v, v_floor)
+        if mode == "free" and q - Delta >= 0.0:
+            # contact now if the force is positive just after t = 0: the first non-zero of
+            # f, f', f'' (free-flight derivatives at forcing phase 0)
+            k, c = m.contact.stiffness, getattr(m.contact, "damping", 0.0)
+            a2 = -b2 * v - q
+            a3 = Fa * Omega - b2 * a2 - v
+            fs = [k * (q - Delta) + c * v, k * v + c * a2, k * a2 + c * a3]
+            first = next((x for x in fs if x != 0.0), 0.0)
+            if first > 0.0:
+                mode, v_in = "contact", max(v, v_floor)
+                if n_transient == 0:
+                    entries.append((0.0, v))
+        y = np.array([q, v, 0.0])
+        t = 0.0
+        segs = []
+        cur = None   # open contact: [t_entry, v_in, E_entry, peak f, peak delta]
+        if mode == "contact":
+            cur = [0.0, v_in, 0.0, self._force(v_in)(q, v), q - Delta]
+        n_ev = 0
+        max_ev = self.max_events_per_period * max(n_transient + n_record, 1)
+        while t < t_end:
+            force = self._force(v_in)
+            if mode == "contact":
+                def rhs(tt, yy, force=force):
+                    f = force(yy[0], yy[1])
+                    return [yy[1], Fa * math.sin(Omega * tt) - b2 * yy[1] - yy[0] - f, f * yy[1]]
+                if m.contact.name == "linear":
+                    events = [_ev(lambda tt, yy, force=force: force(yy[0], yy[1]), -1.0)]
+                else:   # the force k delta^p (1 + chi delta' / v_in) returns to 0 with either factor
+                    cv = m.contact.chi / v_in
+                    events = [_ev(lambda tt, yy: yy[0] - Delta, -1.0),
+                              _ev(lambda tt, yy, cv=cv: 1.0 + cv * yy[1], -1.0)]
+            else:
+                def rhs(tt, yy):
+                    return [yy[1], Fa * math.sin(Omega * tt) - b2 * yy[1] - yy[0], 0.0]
+                if y[0] - Delta > 0.0:
+                    if m.contact.name == "linear":
+                        fk = self._force(1.0)
+                    else:
+                        cv = m.contact.chi / v_in
+                        fk = lambda qq, vv, cv=cv: 1.0 + cv * vv   # noqa: E731
+                    events = [_ev(lambda tt, yy, fk=fk: fk(yy[0], yy[1]), 1.0),
+                              _ev(lambda tt, yy: yy[0] - Delta, -1.0)]
+                else:
+                    events = [_ev(lambda tt, yy: yy[0] - Delta, 1.0)]
+            opts = dict(method=self.solver, rtol=self.rtol, atol=self.atol, dense_output=True)
+            if self.max_step is not None:
+                opts["max_step"] = self.max_step
+            elif mode == "contact":
+                opts["max_step"] = 0.1 * TWO_PI / math.sqrt(1.0 + m.contact.stiffness) if m.contact.name == "linear" \
+                    else 0.05 * ((m.contact.exponent + 1) * v_in ** 2 / (2 * m.contact.stiffness)) ** (
+                        1 / (m.contact.exponent + 1)) / v_in
+            sol = solve_ivp(rhs, (t, t_end), y, events=events, **opts)
+            if sol.status == -1:
+                return self._failed(Omega, samples, spp, f"{self.solver} failed near t = {t:.6g}: {sol.message}")
+            t_new = float(sol.t[-1])
+            if t_new > t_rec or mode == "contact":
+                segs.append((t, t_new, sol.sol, mode, force))
+            if cur is not None and mode == "contact":
+                self._peaks(cur, t, t_new, sol.sol, force, Delta)
+            y = np.asarray(sol.y[:, -1], float)
+            t = t_new
+            if sol.status != 1:
+                break
+            n_ev += 1
+            if n_ev > max_ev:
+                return self._failed(Omega, samples, spp, f"more than {max_ev} contact events")
+            which = 0 if sol.t_events[0].size else 1
+            if mode == "contact":
+                cur_row = cur
+                if cur_row[0] >= t_rec:
+                    contacts.append([t - cur_row[0], cur_row[3], cur_row[4], y[2] - cur_row[2], cur_row[1]])
+                cur = None
+                mode = "free"
+                # the event is located within the tolerance on either side of f = 0
+            elif which == 0:
+                mode = "contact"
+                v_in = max(float(y[1]), v_floor)
+                f0 = self._force(v_in)(y[0], y[1])
+                cur = [t, v_in, y[2], f0, y[0] - Delta]
+                if t >= t_rec:
+                    entries.append((t - t_rec, v_in))
+            else:
+                y[0] = min(y[0], Delta)
+        # samples and extremes from the dense segments
+        minima, q_min, q_max = [], np.inf, -np.inf
+        for (a, b, sol, md, force) in segs:
+            sel = (ts >= a) & (ts <= b)
+            if sel.any():
+                samples[sel] = sol(ts[sel])[:2].T
+            lo, hi = max(a, t_rec), b
+            if hi <= lo:
+                continue
+            grid = np.linspace(lo, hi, 65)
+            vv = sol(grid)[1]
+            for i in np.nonzero(np.sign(vv[:-1]) * np.sign(vv[1:]) < 0)[0]:
+                tr = brentq(lambda x: sol(x)[1], grid[i], grid[i + 1], xtol=1e-15)
+                qr = float(sol(tr)[0])
+                if vv[i] < 0:
+                    minima.append((tr, qr))
+                    q_min = min(q_min, qr)
+                else:
+                    q_max = max(q_max, qr)
+        pmin = samples[:, 0].reshape(n_record, spp).min(axis=1) if ts.size else np.zeros(0)
+        for tm, qm in minima:
+            kp = min(max(int((tm - t_rec) // T), 0), n_record - 1)
+            pmin[kp] = min(pmin[kp], qm)
+        q_min = min(q_min, float(np.min(samples[:, 0]))) if ts.size else q_min
+        q_max = max(q_max, float(np.max(samples[:, 0]))) if ts.size else q_max
+        it = np.array([e[0] for e in entries])
+        iv = np.array([e[1] for e in entries])
+        con = np.array(contacts, float).reshape(-1, 5)
+        return Trajectory(Omega=Omega, samples=samples, samples_per_period=spp, impact_times=it,
+                          impact_velocities=iv, n_impacts=int(it.size), q_min=q_min, q_max=q_max,
+                          period_min=pmin, final_state=np.array([y[0], y[1], 1.0 if mode == "contact" else 0.0]),
+                          contacts=con)
+
+    @staticmethod
+    def _peaks(cur, a, b, sol, force, Delta):
+        """Update the peak force ``cur[3]`` and the largest penetration ``cur[4]`` of the open
+        contact with the dense output on ``[a, b]``."""
+        grid = np.linspace(a, b, 64)
+        Y = sol(grid)
+        funs = ((3, lambda x: force(*sol(x)[:2])), (4, lambda x: sol(x)[0] - Delta))
+        for slot, fun in funs:
+            vals = np.array([fun(x) for x in grid])
+            i = int(np.argmax(vals))
+            best = vals[i]
+            if 0 < i < grid.size - 1:
+                r = minimize_scalar(lambda x: -fun(x), bounds=(grid[i - 1], grid[i + 1]), method="bounded",
+                                    options=dict(xatol=1e-14 * max(1.0, abs(b))))
+                best = max(best, -r.fun)
+            cur[slot] = max(cur[slot], best)
+        return cur
+
+    def _failed(self, Omega, samples, spp, msg):
+        return Trajectory(Omega=Omega, samples=samples, samples_per_period=spp, impact_times=np.zeros(0),
+                          impact_velocities=np.zeros(0), n_impacts=0, q_min=np.nan, q_max=np.nan,
+                          status="failed", message=msg, final_state=self.model.initial_state())

@@ -1,0 +1,119 @@
+"""``[model.contact]`` / ``[model.contact_lower]``: the contact law of a stop (issue 13).
+
+::
+
+    [model]
+    R = 0.9                      # the target restitution of a compliant law
+    [model.contact]
+    law = "linear"               # "restitution" (default: Newton's law, paper Eq. 2) | "linear"
+    stiffness = 1e4              # k_c / k of the oscillator (nondimensional scenes)
+    # stiffness_n_m = 2e5        # physical SDOF scenes: N/m (hunt_crossley: N/m^p), with mass_kg
+    # exponent = 1.5             # hunt_crossley: F = k delta^p (1 + chi delta' / v_in)
+    # damping_ratio = 0.05       # else the dashpot gives an isolated impact the model's R
+    # mass_kg = 0.2              # physical SDOF: effective mass (forces in N, stiffness_n_m)
+
+The law itself lives in :mod:`vibeam.models.compliant`; which fidelities and methods
+simulate it in the fidelity registry (``contact_laws``, :mod:`vibeam.models.registry`).
+"""
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+
+class ContactSpec(BaseModel):
+    """``[model.contact]`` (the stop of the paper) or ``[model.contact_lower]`` (a second stop
+    below; law ``restitution`` only, its own ``R``, default the upper stop's law): module
+    docstring."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True, allow_inf_nan=False)
+
+    law: Literal["restitution", "linear", "hunt_crossley"] = "restitution"
+    R: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    stiffness: Annotated[float, Field(gt=0.0)] | None = None
+    stiffness_n_m: Annotated[float, Field(gt=0.0)] | None = None
+    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
+    exponent: Annotated[float, Field(gt=0.0)] | None = None
+    mass_kg: Annotated[float, Field(gt=0.0)] | None = None
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if self.law == "restitution":
+            given = [k for k in ("stiffness", "stiffness_n_m", "damping_ratio", "exponent")
+                     if getattr(self, k) is not None]
+            if given:
+                raise ValueError(f"law = \"restitution\" takes no {', '.join(given)} (it uses [model] R)")
+            return self
+        if self.R is not None:
+            raise ValueError(f"R is a key of law = \"restitution\" (a lower stop's own R); law = \"{self.law}\" "
+                             f"takes its target restitution from [model] R")
+        if (self.stiffness is None) == (self.stiffness_n_m is None):
+            raise ValueError(f"law = \"{self.law}\" needs exactly one of stiffness (nondimensional, ratio to the "
+                             f"oscillator's) or stiffness_n_m (N/m, physical scenes)")
+        if self.exponent is not None and self.law != "hunt_crossley":
+            raise ValueError("exponent is a key of law = \"hunt_crossley\" only")
+        if self.damping_ratio is not None and self.law != "linear":
+            raise ValueError("damping_ratio is a key of law = \"linear\" only (hunt_crossley takes R)")
+        return self
+
+
+def sdof_law(contact: ContactSpec | None, R: float, physical: bool, natural_frequency_hz: float | None,
+             length_m: float | None = None):
+    """The compliant law of an SDOF scene in kernel units, or None for Newton's law.
+
+    Raises
+    ------
+    ValueError
+        Naming the key: ``stiffness_n_m`` without ``mass_kg`` or in a nondimensional scene,
+        ``stiffness`` with ... , a target R out of the law's range, a law not implemented.
+    """
+    if contact is None or contact.law == "restitution":
+        return None
+    from vibeam.models.compliant import LinearContact
+
+    from vibeam.models.compliant import HuntCrossley
+
+    p = 1.0 if contact.law == "linear" else (1.5 if contact.exponent is None else contact.exponent)
+    if contact.stiffness_n_m is not None:
+        if not physical:
+            raise ValueError("contact.stiffness_n_m needs a physical scene; use contact.stiffness (ratio) here")
+        if contact.mass_kg is None or length_m is None:
+            raise ValueError("contact.stiffness_n_m needs contact.mass_kg (the oscillator's effective mass) "
+                             "to form the stiffness ratio; or give contact.stiffness")
+        # F = k_phys x^p, x = q L  ->  per unit mass and k: k_phys L^(p-1) / (m omega_n^2) q^p
+        k = contact.stiffness_n_m * length_m ** (p - 1.0) / (contact.mass_kg * (2 * math.pi * natural_frequency_hz) ** 2)
+    else:
+        k = contact.stiffness
+    if contact.law == "linear":
+        if contact.damping_ratio is not None:
+            return LinearContact.from_damping_ratio(k, contact.damping_ratio)
+        return LinearContact.from_restitution(k, R)
+    if not R > 0.0:
+        raise ValueError("law = \"hunt_crossley\" needs R > 0 (chi = 8 (1 - R) / (5 R), Flores et al. 2011)")
+    return HuntCrossley(k, float(R), p)
+
+
+def beam_law(contact: ContactSpec | None, R: float):
+    """The compliant law of a beam scene (``stiffness_n_m``, N/m, at the contact point), or None.
+
+    Raises
+    ------
+    ValueError
+        ``stiffness`` (a ratio) given, a law the beam does not implement, a target R out of range.
+    """
+    if contact is None or contact.law == "restitution":
+        return None
+    from vibeam.models.compliant import LinearContact
+
+    if contact.law != "linear":
+        raise ValueError(f"contact.law = \"{contact.law}\" is not implemented for the beam yet; allowed: "
+                         f"\"restitution\", \"linear\"")
+    if contact.stiffness_n_m is None:
+        raise ValueError("beam scenes give the stop's stiffness as contact.stiffness_n_m (N/m at the contact point)")
+    if contact.mass_kg is not None:
+        raise ValueError("contact.mass_kg is for physical SDOF scenes; the beam's effective mass is 1 / |w|^2")
+    if contact.damping_ratio is not None:
+        return LinearContact.from_damping_ratio(contact.stiffness_n_m, contact.damping_ratio)
+    return LinearContact.from_restitution(contact.stiffness_n_m, R)
