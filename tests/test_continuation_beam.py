@@ -117,6 +117,7 @@ def _one_dof(m, name):
     return sd, fn, to_sdof, r
 
 
+@pytest.mark.slow   # the shipped ladder through the framework (~70 s with compilation): slow step
 @pytest.mark.parametrize("name, n_modes", [("static mode (SDOF)", "static"), ("FE 1 mode", 1)])
 def test_one_mode_rung_equals_its_sdof_branch(ladder, name, n_modes):
     """The one-mode rungs of the ladder (the paper's static-mode SDOF as a one-shape beam, and FE 1
@@ -165,7 +166,7 @@ def test_one_mode_rung_equals_its_sdof_branch(ladder, name, n_modes):
 
 
 # ------------------------------------------------------------------ grazing of the linear orbit
-@pytest.mark.parametrize("n_modes", [1, 2, 4, "all"])
+@pytest.mark.parametrize("n_modes", [1, 2, pytest.param(4, marks=pytest.mark.slow), "all"])
 def test_grazing_of_the_contact_free_orbit_is_the_closed_form(n_modes):
     """Loose rig (gap +0.1 mm): from the contact-free orbit at 23 Hz (the `linear` start) down in
     frequency.  The grazing is where the closed-form modal amplitude at the contact,
@@ -278,6 +279,7 @@ def neutral_all():
     return m, prob, b
 
 
+@pytest.mark.slow   # the shipped ladder through the framework (~70 s with compilation): slow step
 def test_stable_branch_points_equal_long_event_simulations(ladder, neutral_all):
     """Stable branch points stay put under 400 periods of the event solver from a state 1e-6 off
     (all modes of the neutral rig; the FE 2 modes loop of the tight rig, both its upper orbit and
@@ -307,6 +309,7 @@ def test_stable_branch_points_equal_long_event_simulations(ladder, neutral_all):
     assert np.max(np.abs(tr.final_state[:-1] - d2["state"][k])) > 1e-6 * np.max(np.abs(d2["state"][k]))
 
 
+@pytest.mark.slow   # the shipped ladder through the framework (~70 s with compilation): slow step
 def test_fe2_fold_lies_between_the_jumps_of_fine_up_and_down_sweeps(ladder):
     """Tight rig, FE 2 modes: bistable.  A down sweep (step 0.005 Hz, 600 transient periods per
     point, state carried on) from the upper period-1 orbit stays on it down to the fold and
@@ -426,6 +429,7 @@ def test_resect_moves_an_impact_across_the_section(n_modes):
     assert np.max(np.abs(nxt_b.x - nxt_a.x)) < 1e-7 * np.max(np.abs(nxt_a.x))
 
 
+@pytest.mark.slow   # the shipped ladder through the framework (~70 s with compilation): slow step
 # ------------------------------------------------------------------ the printed ladder and the file
 def test_ladder_table_and_results_in_physical_units(ladder):
     """The side-by-side table of a physical ladder is in Hz with Q in mm, one column per rung,

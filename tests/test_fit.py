@@ -53,6 +53,7 @@ def _covered(est, se, truth):
 
 
 # ----------------------------------------------------------------------------- recovery
+@pytest.mark.slow   # 20 fits (~20 s): slow step
 def test_recovery_sdof_gain_and_R_over_20_seeds():
     """Truth within 2 standard errors in >= 18 of 20 seeds, for each parameter.
 

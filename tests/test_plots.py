@@ -71,7 +71,12 @@ def figures(res: Results) -> dict:
     return out
 
 
-@pytest.mark.parametrize("path", CASES, ids=[p.stem for p in CASES])
+# the two tight FE ladders (~20-30 s each for their quick results) run in the slow step
+_SLOW_CASES = {"rig-fe-tight-continuation", "rig-fe-tight"}
+
+
+@pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.stem in _SLOW_CASES else p
+                                  for p in CASES], ids=[p.stem for p in CASES])
 def test_every_figure_of_every_quick_case(path, quick_results):
     out = quick_results(path)
     res = Results.from_file(out / "results.h5")
