@@ -81,6 +81,7 @@ def test_participation_shares_of_sinusoids():
     np.testing.assert_allclose(e, en / en.sum(), rtol=1e-12)
 
 
+@pytest.mark.slow   # a 24-element beam sweep with spectra (~18 s): slow step
 def test_participation_of_a_beam_far_from_the_stop_is_the_modal_frequency_response():
     """Three modes, stop out of reach: after the transient each eta_i is the harmonic response
     Gamma_i F / (k_i - Omega^2 + i c_i Omega) (closed form, independent of the kernel), so the

@@ -75,6 +75,8 @@ def test_far_from_stop_equals_fe_frequency_response(f_hz):
 
 
 # --------------------------------------------------------------------------- vs solve_ivp
+@pytest.mark.slow   # solve_ivp at tight tolerance (~12 s); the two-sided and compliant beams are checked against
+# solve_ivp in the default step (tests/test_two_sided.py, tests/test_compliant.py)
 def test_event_matches_solve_ivp_two_modes(fe):
     """2-mode rig, impacting period-1 orbit at 15.5 Hz.  Both start from the same state,
     so they must agree along the whole transient too.  DOP853 at rtol 1e-9 has a global
