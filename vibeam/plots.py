@@ -207,7 +207,8 @@ def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None
         handles += [style.proxy("0.25", ls="-", label="upper stop (solid)"),
                     style.proxy("0.25", ls=":", label="lower stop (dotted)")]
         handles += [style.proxy("0.25", marker="o", fill=style.DIRECTIONS[d]["fill"],
-                                label=style.DIRECTIONS[d]["label"]) for d in dirs_seen]
+                                label=f"{d} sweep ({'filled' if style.DIRECTIONS[d]['fill'] else 'open'} markers)")
+                    for d in dirs_seen]
         style.legend_outside(fig, handles)
         style.titles(fig, (title + ": " if title else "") + "impacts on each stop",
                      style.subtitle(case, runs=runs))
