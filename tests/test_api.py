@@ -56,6 +56,7 @@ def test_load_case_from_path_text_and_dict():
         vibeam.load_case("no/such/case.toml")
 
 
+@pytest.mark.slow   # two quick sweeps through the API and the CLI (~18 s): slow step
 def test_run_returns_labelled_results_equal_to_the_command_line(tmp_path):
     from vibeam.cli import main
     from vibeam.results import read_results

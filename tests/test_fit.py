@@ -324,6 +324,7 @@ def test_platform_ratio_recovered_from_fits_at_fn_and_2fn():
 
 
 # ----------------------------------------------------------------------------- every fidelity
+@pytest.mark.slow   # fits of the FE ladder (~8 s): slow step
 def test_fit_runs_of_a_ladder_prints_the_apparent_R(tmp_path, capsys):
     """The rig ladder: the static-mode rung fitted to its own FRC gets its R back (to 1e-6);
     the FE rungs fitted to the paper's SDOF FRC at the FE's f_1 = 7.6 Hz (R 0.72) need an

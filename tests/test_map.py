@@ -217,6 +217,7 @@ def _vibeam(*args):
     return [sys.executable, "-m", "vibeam.cli", *args]
 
 
+@pytest.mark.slow   # a map killed and resumed in subprocesses (~14 s); test_interrupts.py covers interrupts in the default step: slow step
 def test_kill_and_resume_gives_the_same_file(tmp_path):
     """Kill `vibeam map` (SIGKILL: no cleanup) once some lines are checkpointed; the results
     file must be readable at that moment (atomic line writes), `--resume` must compute only
