@@ -281,6 +281,30 @@ def run_cli_bench(case: str | None = None, repeats: int = 3, direct_points: int 
 CONTINUATION_GOAL_S = 0.1   # issue 10: ~500-point SDOF branch with stability, after warm-up
 
 
+def _sweep_at_equal_accuracy(solver, Delta, grid, Q_ref, transients, target_error, log):
+    """The laboratory sweep a continuation replaces: ``solver`` over ``grid`` (Omega, state
+    carried from point to point) with more and more transient periods until every amplitude
+    ``Delta - min q`` agrees with the exact branch values ``Q_ref`` (shape of ``grid``) to the
+    relative ``target_error``.  Returns the rows (one per transient) and the first row that
+    reaches the target (None if none does)."""
+    rows = []
+    for n_tr in transients:
+        t0 = time.perf_counter()
+        state = None
+        Q = np.empty_like(grid)
+        for i, W in enumerate(grid):
+            tr = solver.point(W, state, n_tr, 1, 8)
+            state = tr.final_state
+            Q[i] = Delta - tr.q_min
+        ts = time.perf_counter() - t0
+        err = float(np.max(np.abs(Q - Q_ref) / Q_ref))
+        rows.append(dict(transient_periods=n_tr, time_s=ts, time_per_point_s=ts / len(grid), max_rel_error=err))
+        log(f"sweep with {n_tr} transient periods: max rel. error {err:.2e}, {ts:.3f} s")
+        if err <= target_error:
+            break
+    return rows, next((r for r in rows if r["max_rel_error"] <= target_error), None)
+
+
 def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_error: float = 1e-8,
                            log=None) -> dict:
     """Speed of the continuation against its goal and against the sweep it replaces.
@@ -342,23 +366,9 @@ def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_erro
         k = int(np.argmin(np.abs(W_b - W)))
         pt, _ = start_point(prob, a["state"][upper][k], W, 1, 1.5, 2.5)
         Q_ref[i] = pt.shot.gap - pt.shot.q_min
-    solver = EventSolver(m)
-    rows = []
-    for n_tr in (50, 100, 200, 400, 800, 1600, 3200):
-        t0 = time.perf_counter()
-        state = None
-        Q = np.empty_like(grid)
-        for i, W in enumerate(grid):
-            tr = solver.point(W, state, n_tr, 1, 8)
-            state = tr.final_state
-            Q[i] = m.Delta - tr.q_min
-        ts = time.perf_counter() - t0
-        err = float(np.max(np.abs(Q - Q_ref) / Q_ref))
-        rows.append(dict(transient_periods=n_tr, time_s=ts, time_per_point_s=ts / len(grid), max_rel_error=err))
-        log(f"sweep with {n_tr} transient periods: max rel. error {err:.2e}, {ts:.3f} s")
-        if err <= target_error:
-            break
-    equal = next((r for r in rows if r["max_rel_error"] <= target_error), None)
+    rows, equal = _sweep_at_equal_accuracy(EventSolver(m), m.Delta, grid, Q_ref,
+                                           (50, 100, 200, 400, 800, 1600, 3200), target_error,
+                                           lambda msg: log(msg))
     per_point = t / n_pts
     return {
         "scene": "paper Fig. 8 (beta 0.015, B 0.5e-3, R 0.9, Delta 0.7e-3), Omega 1.5 .. 2.5, period-1 branch",
@@ -499,23 +509,9 @@ def run_beam_continuation_bench(repeats: int = 3, sweep_points: int = 16, target
         k = int(np.argmin(np.abs(a["parameter"] - W)))
         pt, _ = start_point(prob, a["state"][k], W, 1, lo, hi)
         Q_ref[i] = pt.shot.amplitude
-    solver = BeamEventSolver(model)
-    rows = []
-    for n_tr in (25, 50, 100, 200, 400, 800):
-        t1 = time.perf_counter()
-        state = None
-        Q = np.empty_like(grid)
-        for i, W in enumerate(grid):
-            tr = solver.point(W, state, n_tr, 1, 8)
-            state = tr.final_state
-            Q[i] = model.Delta - tr.q_min
-        ts = time.perf_counter() - t1
-        err = float(np.max(np.abs(Q - Q_ref) / Q_ref))
-        rows.append(dict(transient_periods=n_tr, time_s=ts, time_per_point_s=ts / len(grid), max_rel_error=err))
-        log(f"  all-modes sweep with {n_tr} transient periods: max rel. error {err:.2e}, {ts:.2f} s")
-        if err <= target_error:
-            break
-    equal = next((r for r in rows if r["max_rel_error"] <= target_error), None)
+    rows, equal = _sweep_at_equal_accuracy(BeamEventSolver(model), model.Delta, grid, Q_ref,
+                                           (25, 50, 100, 200, 400, 800), target_error,
+                                           lambda msg: log("  all-modes " + msg))
     per_point = t / n_pts
     out["neutral"] = {
         "scene": "cases/rig-fe-neutral.toml, all 46 modes (d = 92), 14-17 Hz, period-1 branch from the event orbit at 14 Hz",
