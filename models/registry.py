@@ -126,7 +126,7 @@ register(Fidelity(
              "averaging": "sdof_averaging:AveragingSolver", "mapping": "sdof_mapping:MappingSolver"},
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
-    two_sided_methods=("event", "direct"),
+    two_sided_methods=("event", "direct", "mapping"),
     contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver"},
