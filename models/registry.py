@@ -131,7 +131,8 @@ register(Fidelity(
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver"},
                   "hunt_crossley": {"event": "sdof_compliant:CompliantEventSolver",
-                                    "direct": "sdof_compliant_ode:CompliantDirectSolver"}},
+                                    "direct": "sdof_compliant_ode:CompliantDirectSolver",
+                                    "mapping": "sdof_hc_map:HuntCrossleyMappingSolver"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(
