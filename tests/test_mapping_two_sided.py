@@ -60,7 +60,6 @@ def test_two_sided_mapping_equals_the_event_kernel(D, Dl, Rl, W, q0):
     if q0 is None:
         out = s.point(W, None, 0, 0)
     else:   # the free orbit coexists: the guess is the event run's impact sequence
-        from vibeam.models.sdof_mapping_stops import event_sequence
         seq = np.column_stack([W * tr.impact_times[-2:], tr.impact_velocities[-2:], tr.impact_stops[-2:]]).ravel()
         out = s.point(W, seq, 0, 0)
     assert out["status"] == "ok", out["message"]
