@@ -1060,6 +1060,12 @@ class BeamImpactModel:
         return float(1.0 / np.sum(self.contact_row ** 2))
 
     @property
+    def force_scale_n(self) -> float:
+        """Newtons per unit of the nondimensional contact force ``F / (m_eff omega_ref^2 L)``
+        (joules per unit of the nondimensional energy: this times ``L``)."""
+        return self.m_eff * self.omega_ref ** 2 * self.length_m
+
+    @property
     def k_nd(self) -> np.ndarray:
         """``(omega_i / omega_ref)^2``."""
         return (self.omega_rad_s / self.omega_ref) ** 2
@@ -1224,6 +1230,36 @@ class BeamImpactModel:
 
 
 # ============================================================================ solvers
+def newton_contact_rows(model: BeamImpactModel, velocities, stops=None) -> np.ndarray:
+    """Contact rows (:attr:`vibeam.models.trajectory.Trajectory.contacts`) of Newton impacts.
+
+    An impact with normal pre-impact speed ``U-`` on the relation ``g = n^T eta - Delta`` of the
+    mass-normalised modal beam receives the impulse ``P = -m_eff (1 + R) U-`` along ``n``
+    (:func:`apply_impulse`, ``m_eff = 1 / |w|^2``), which removes the kinetic energy
+    ``(1 - R^2) m_eff U-^2 / 2`` of the modal state (``|eta'|^2 / 2``) and nothing else.  In
+    the units of the compliant beam's rows (:mod:`vibeam.models.beam_compliant`: work per
+    ``m_eff L^2``, time unit ``1 / omega_ref``) that is ``(1 - R^2) v^2 / 2`` with ``v = U- / L``,
+    the SDOF's expression (:class:`vibeam.models.sdof.EventSolver`).
+
+    Parameters
+    ----------
+    model : BeamImpactModel
+    velocities : ndarray, shape (k,)
+        Recorded pre-impact normal speeds ``U- / L`` (per nondimensional time).
+    stops : ndarray of int, shape (k,), or None
+        Stop of each impact (0 upper, 1 lower), each with its own law; None: one stop.
+
+    Returns
+    -------
+    ndarray, shape (k, 5)
+        Duration 0, peak force NaN (an impulse), penetration 0, energy lost, ``v``.
+    """
+    v = np.asarray(velocities, float)
+    k = v.shape[0]
+    Rk = model.restitution_coefficients(v, stops) if k else np.zeros(0)
+    return np.column_stack([np.zeros(k), np.full(k, np.nan), np.zeros(k), 0.5 * (1.0 - Rk ** 2) * v ** 2, v])
+
+
 class BeamEventSolver:
     """Method ``event`` for the beam: exact event-driven modal solver (numba core).
 
@@ -1341,6 +1377,7 @@ class BeamEventSolver:
         traj = Trajectory(
             Omega=Om, samples=samples, samples_per_period=samples_per_period,
             impact_times=imp_t[:kk].copy(), impact_velocities=iv,
+            contacts=newton_contact_rows(m, iv, imp_k[:kk] if two else None),
             impact_stops=imp_k[:kk].copy() if two else None, n_impacts_lower=int(n_stop[1]) if two else 0,
             n_impacts=int(n_imp), q_min=float(smin / L), q_max=float(smax / L),
             period_min=pmin / L, chatter_times=chat_t[:min(n_chat, self.impact_buffer)].copy(),
@@ -1498,7 +1535,7 @@ class BeamODESolver:
         filled = np.zeros(ts.size, bool)
         ext = [np.inf, -np.inf]
         ev_min = []   # (t, q) of sensor extremes located by events in the record
-        imp_t, imp_v, imp_k = [], [], []
+        imp_t, imp_v, imp_k, imp_e = [], [], [], []
         n_imp = 0
         n_chat = 0
         stuck_time = 0.0
@@ -1580,10 +1617,14 @@ class BeamODESolver:
                 n_imp += 1
                 if n_imp > max_imp:
                     return self._failed(Om, s0, n_record, samples_per_period, "too many impacts")
-                if t >= t_rec:
+                rec = t >= t_rec
+                if rec:
                     imp_t.append(t - t_rec)
                     imp_v.append(max(Um, 0.0) * sc / L)
                     imp_k.append(hit)
+                    # energy lost: the jump of the modal kinetic energy |eta'|^2 / 2 over the impact
+                    # (state scaled by 1 / (L sqrt(m_eff)): already per m_eff L^2)
+                    ke0 = 0.5 * float(y[N:] @ y[N:])
                     qv = float(sv @ y[:N]) * sc / L
                     if hit == 0:
                         ext[1] = max(ext[1], qv)
@@ -1591,6 +1632,8 @@ class BeamODESolver:
                         ext[0] = min(ext[0], qv)
                 if Um <= self.chatter_velocity * vscale:
                     y = stick(y, hit)
+                    if rec:
+                        imp_e.append(ke0 - 0.5 * float(y[N:] @ y[N:]))
                     if acc_U(t, y, hit) > 0:
                         stuck = True
                         side = hit
@@ -1601,6 +1644,8 @@ class BeamODESolver:
                 Up = newton_restitution(Um, law.coefficient(Um * sc))
                 apply_impulse(ydot, n, Um, Up, me)
                 y[N:] = ydot
+                if rec:
+                    imp_e.append(ke0 - 0.5 * float(ydot @ ydot))
                 if law.R == 0.0 and acc_U(t, y, hit) > 0:   # plastic impact into a pressing contact
                     y = stick(y, hit)
                     stuck = True
@@ -1614,6 +1659,8 @@ class BeamODESolver:
         return Trajectory(
             Omega=Om, samples=samples, samples_per_period=samples_per_period,
             impact_times=np.array(imp_t), impact_velocities=np.array(imp_v), n_impacts=len(imp_t),
+            contacts=np.column_stack([np.zeros(len(imp_e)), np.full(len(imp_e), np.nan), np.zeros(len(imp_e)),
+                                      np.array(imp_e, float), np.array(imp_v, float)]).reshape(-1, 5),
             impact_stops=np.array(imp_k, np.int64) if two else None,
             n_impacts_lower=int(np.sum(np.array(imp_k) == 1)) if two else 0,
             q_min=float(min(ext[0], q.min())) if q.size else float(ext[0]),

@@ -126,12 +126,13 @@ register(Fidelity(
              "averaging": "sdof_averaging:AveragingSolver", "mapping": "sdof_mapping:MappingSolver"},
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
-    two_sided_methods=("event", "direct"),
+    two_sided_methods=("event", "direct", "mapping"),
     contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver"},
                   "hunt_crossley": {"event": "sdof_compliant:CompliantEventSolver",
-                                    "direct": "sdof_compliant_ode:CompliantDirectSolver"}},
+                                    "direct": "sdof_compliant_ode:CompliantDirectSolver",
+                                    "mapping": "sdof_hc_map:HuntCrossleyMappingSolver"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(

@@ -615,32 +615,47 @@ class MappingSolver:
             ``det_full``, ``tr_full``, ``det_simplified``, ``tr_simplified``,
             ``det_true``, ``tr_true``, ``final_state`` (``(phi, v)``, shape (2,)),
             ``status`` ``"ok"``/``"failed"``, ``message``.  Failure is a
-            recorded status, never an exception.
+            recorded status, never an exception.  A two-sided model (``Delta_lower``) is
+            mapped by :func:`vibeam.models.sdof_mapping_stops.point_two_sided`: the same keys
+            plus ``impacts_per_period_lower`` and ``impact_velocity_lower``; orbits with
+            impacts on both stops have ``final_state`` ``(phi_j, v_j, k_j)`` flat (3m,).
         """
-        m = self.model
+        if getattr(self.model, "Delta_lower", None) is not None:
+            from .sdof_mapping_stops import point_two_sided
+            return point_two_sided(self, Omega, state0)
         Omega = float(Omega)
         reasons = []
         for g in self._guesses(Omega, state0):
-            x = newton_fixed_point(m, Omega, g, self.n, self.tol)
-            if x is None:
-                reasons.append(f"Newton did not converge from {np.array2string(np.asarray(g), precision=4)}")
-                continue
-            ok, why = is_admissible(m, Omega, x, self.n, self.samples)
-            if not ok:
-                reasons.append(why)
-                continue
-            an = fixed_point_analysis(m, Omega, x, self.n)
-            q_min, q_max = orbit_extremes(m, Omega, x, self.n, self.samples)
-            out = dict(amplitude=m.Delta - q_min, q_min=q_min, q_max=q_max, period=self.n,
-                       impacts_per_period=1.0 / self.n, impact_velocity=float(x[1]),
-                       impact_phase=float(x[0]), final_state=x.copy(),
-                       status="ok", message="")
-            for key in ("stable", "stable_full", "stable_simplified", "disagree_full",
-                        "disagree_simplified", "multipliers", "map_eigenvalues", "det_full",
-                        "tr_full", "det_simplified", "tr_simplified", "det_true", "tr_true"):
-                out[key] = an[key]
-            out["stable_paper"] = an["stable_" + self.form]
-            return out
+            out = self._one_impact(Omega, g)
+            if isinstance(out, dict):
+                return out
+            reasons.append(out)
+        return self._failed(reasons)
+
+    def _one_impact(self, Omega, g):
+        """The period-n one-impact orbit from the guess ``g = (phi, v)``: outputs, or the reason."""
+        m = self.model
+        x = newton_fixed_point(m, Omega, g, self.n, self.tol)
+        if x is None:
+            return f"Newton did not converge from {np.array2string(np.asarray(g), precision=4)}"
+        ok, why = is_admissible(m, Omega, x, self.n, self.samples)
+        if not ok:
+            return why
+        an = fixed_point_analysis(m, Omega, x, self.n)
+        q_min, q_max = orbit_extremes(m, Omega, x, self.n, self.samples)
+        out = dict(amplitude=m.Delta - q_min, q_min=q_min, q_max=q_max, period=self.n,
+                   impacts_per_period=1.0 / self.n, impact_velocity=float(x[1]),
+                   impact_phase=float(x[0]), final_state=x.copy(),
+                   status="ok", message="")
+        for key in ("stable", "stable_full", "stable_simplified", "disagree_full",
+                    "disagree_simplified", "multipliers", "map_eigenvalues", "det_full",
+                    "tr_full", "det_simplified", "tr_simplified", "det_true", "tr_true"):
+            out[key] = an[key]
+        out["stable_paper"] = an["stable_" + self.form]
+        return out
+
+    @staticmethod
+    def _failed(reasons) -> dict:
         nan = float("nan")
         return dict(amplitude=nan, q_min=nan, q_max=nan, period=0, impacts_per_period=nan,
                     impact_velocity=nan, impact_phase=nan, final_state=np.full(2, nan),

@@ -296,8 +296,8 @@ def test_hunt_crossley_case():
     assert isinstance(make_solver(m, "event"), CompliantEventSolver)
     with pytest.raises(CaseError, match="damping_ratio is a key of law = \"linear\" only"):
         parse_case(text.replace("exponent = 1.5", "damping_ratio = 0.1"))
-    with pytest.raises(CaseError, match="allowed: event, direct"):
-        parse_case(text.replace('method = "event"', 'method = "mapping"'))
+    with pytest.raises(CaseError, match="allowed: event, direct, mapping"):
+        parse_case(text.replace('method = "event"', 'method = "averaging"'))
 
 
 # ------------------------------------------------------------------ the modal beam
@@ -379,26 +379,34 @@ def test_beam_frc_converges_to_the_cor_frc_as_the_stiffness_grows():
 
 @pytest.mark.slow
 def test_fe_ladder_converges_with_a_compliant_stop():
-    """Rig FE ladder on a Kelvin-Voigt stop (1e6 N/m, R = 0.72) at 15.2 Hz, from rest, 300 + 8
-    periods: 4, 8 and all modes within 1 % of all modes (measured 0.8 %, 0.3 %; with Newton's
-    law 4 modes are 14 % off), and all modes within 1 % of the mesh twice as fine (measured
-    0.06 %).  ~3 min."""
-    W = 15.2 / 7.6
+    """Rig FE ladder on a Kelvin-Voigt stop (1e6 N/m, R = 0.72) at 14.8, 15.2 and 15.6 Hz, from
+    rest, 300 + 8 periods: the error against all modes, |A_n - A_all|, decreases strictly over
+    n = 1, 2, 4, 8 at every frequency (monotone convergence of the error; the signed amplitude is
+    not monotone: 4 modes undershoot all modes by ~0.8 %, README), 4 and 8 modes are within 1 %
+    of all modes, and all modes lie within 1 % of the mesh twice as fine at 15.2 Hz (measured
+    0.06 %).  Measured errors (mm, 14.8 / 15.2 / 15.6 Hz): 1 mode 0.094 / 0.086 / 0.055, 2 modes
+    0.017 / 0.016 / 0.011, 4 modes 0.0059 / 0.0054 / 0.0035, 8 modes 0.0026 / 0.0024 / 0.0016.
+    With Newton's law 4 modes are 14 % off.  ~4 min."""
     amps = {}
-    for nm in (1, 2, 4, 8, "all"):
-        m = _rig(nm, 1e6)
-        amps[nm] = summarize(make_solver(m, "event").point(W, None, 300, 8, 64), m.Delta)["amplitude"]
-    ref = amps["all"]
-    for nm in (4, 8):
-        assert abs(amps[nm] - ref) <= 0.01 * ref, amps
-    assert abs(amps[1] - ref) > 0.05 * ref       # the ladder does move: one mode is 13 % off
+    for f in (14.8, 15.2, 15.6):
+        W = f / 7.6
+        for nm in (1, 2, 4, 8, "all"):
+            m = _rig(nm, 1e6)
+            amps[f, nm] = summarize(make_solver(m, "event").point(W, None, 300, 8, 64), m.Delta)["amplitude"]
+        ref = amps[f, "all"]
+        err = [abs(amps[f, nm] - ref) for nm in (1, 2, 4, 8)]
+        assert all(a > b for a, b in zip(err, err[1:])), (f, err)
+        for nm in (4, 8):
+            assert abs(amps[f, nm] - ref) <= 0.01 * ref, amps
+        assert err[0] > 0.05 * ref       # the ladder does move: one mode is 9-14 % off
     from vibeam.case import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     fine = case.model_spec({"n_modes": "all", "n_elements": 48,
                             "contact": {"law": "linear", "stiffness_n_m": 1e6}}).build()
+    W = 15.2 / 7.6
     a_fine = summarize(make_solver(fine, "event").point(W, None, 300, 8, 64), fine.Delta)["amplitude"]
-    assert abs(ref - a_fine) <= 0.01 * a_fine
+    assert abs(amps[15.2, "all"] - a_fine) <= 0.01 * a_fine
 
 
 # ------------------------------------------------------------------ the piecewise-linear map
