@@ -40,6 +40,15 @@ How a shot is computed
       force, which vanishes at the release, so ``S = I`` up to the root accuracy; the
       release-time derivatives are returned (``extra["release_time_derivatives"]``).
 
+    A second (lower) stop (``gap_contact_lower_m``, normal ``-w`` at ``w^T eta =
+    -Delta_C,lower``, its own ``R_lower`` or the upper stop's law): its events are told apart by
+    the logged position and use the same formulas with ``w -> n = -w`` (``U = n^T eta'``, ``a_n
+    = n^T eta''``, ``C n``, ``P_w C n``); held on it, the beam moves about that stop's offsets
+    ``eta_c``, ``eC`` (:attr:`BeamImpactModel.stop_rows`), which no native parameter moves.  The
+    kernel also logs the interior minima of ``w^T eta`` as apexes of the lower gap, so
+    ``apex_gap`` watches the grazing of both stops; ``extra["impact_stops"]`` gives the stop of
+    each impact (0 upper, 1 lower).
+
     Parameter derivatives are analytic: Omega enters the forcing phase ``Omega t``, the
     particular solutions (``F = Omega^2 Y``) and the end time ``n T`` (``+ f(nT) d(nT) /
     d Omega``); ``Y`` (``base_amplitude_m``) the particular solutions; ``Delta_C``

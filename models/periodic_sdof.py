@@ -29,8 +29,15 @@ Pai 2000 for the parameter sensitivities).  With ``X = d x(t) / d(x0, p)`` at fi
   vanishes there (contact force zero, ``q' = 0``);
 * the end of the window ``t = n T`` moves with ``Omega``: ``x_Omega += f(x_end) d(nT)/dOmega``.
 
-Hence ``det M = R^(2m) exp(-2 beta n T)`` for ``m`` impacts and no sticking, ``M = 0`` with
-sticking.  All quantities nondimensional.
+A second (lower) stop at ``q = -Delta_lower`` (``model.Delta_lower``, normal ``-1``, its own
+constant ``R_lower`` or the upper stop's ``R``) enters the same way: an impact on it has the
+surface ``h = -q - Delta_lower`` (``h_p = 0``: none of :data:`PARAMETERS` moves it), the reset
+``q' -> -R_lower q'`` and so the same saltation formula with the signed pre-impact velocity; the
+mass held on it is at ``(-Delta_lower, 0)``.  Its grazing (a free-flight minimum touching
+``-Delta_lower``) is watched through the logged minima (``apex_gap`` is the nearer of the two
+stops' gaps at the interior extrema).  Hence ``det M = R^(2 m_up) R_lower^(2 m_low)
+exp(-2 beta n T)`` for ``m_up`` and ``m_low`` impacts on the two stops and no sticking, ``M = 0``
+with sticking.  All quantities nondimensional.
 """
 from __future__ import annotations
 
@@ -420,7 +427,9 @@ class SDOFShooting:
     Parameters
     ----------
     model : SDOF
-        The oscillator (constant ``R``; a velocity-dependent ``R_table`` is not supported).
+        The oscillator (constant ``R``; a velocity-dependent ``R_table`` is not supported), with
+        one stop or two (``Delta_lower``, ``R_lower``: a shot's ``extra["impact_stops"]`` gives
+        the stop of each impact, 0 upper, 1 lower).
     parameter : {"Omega", "B", "Delta", "R", "beta"}
         Continuation parameter (native, nondimensional).
     Omega : float, optional

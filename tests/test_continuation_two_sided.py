@@ -131,7 +131,7 @@ def test_multipliers_against_finite_differences_of_the_event_map(W):
     """Monodromy and Floquet multipliers of branch points with impacts on the upper stop only
     (1.6) and on both stops (1.9, and 2.3 past the period doubling), against central differences
     of the event solver's stroboscopic map (h = 1e-7 of the state: truncation ~h^2 times the
-    curvature of P, round-off ~1e-16 / h; measured <= 6e-9 relative): 1e-6."""
+    curvature of P, round-off ~1e-16 / h; measured <= 4.6e-9 relative): 1e-6."""
     b = low_branch()
     k = int(np.argmin([abs(pt.p - W) for pt in b.points]))
     pt = b.points[k]
@@ -145,7 +145,7 @@ def test_liouville_with_impact_contraction():
     """``det M = R^(2 m_up) R_low^(2 m_low) exp(-2 beta n T)`` (the flow's contraction and the
     saltation matrices' determinants R, d = 2): along the whole branch of LOW (same R), and for
     period-1/2 orbits of a scene whose lower stop has its own R_low = 0.6 (settled by the event
-    solver); 1e-10 relative (round-off of the products)."""
+    solver); 1e-10 relative (round-off of the products; measured <= 5.3e-12 on the branch)."""
     for pt in low_branch().points:
         st = pt.shot.extra["impact_stops"]
         expect = 0.9 ** (2 * st.size) * math.exp(-2 * LOW.beta * 2 * math.pi / pt.p)
@@ -248,8 +248,9 @@ def _beam1(Delta, Dl, R=0.9, R_lower=None, B=0.5e-3, beta=0.015):
 def test_one_mode_beam_equals_the_sdof_branch():
     """The branch of LOW followed by the beam's shooting problem (another kernel, another
     derivative assembly) on the one-mode beam of the same ODE: the same points (parameter and
-    state to 1e-10 of the state scale), impacts per stop and multipliers (1e-9), and the same
-    grazing and period doubling (1e-8 in Omega: the location tolerances)."""
+    state to 1e-10 of the state scale), impacts per stop and multipliers (1e-9 of the largest;
+    ~-120 next to the grazing), and the same grazing and period doubling (1e-8 in Omega: the
+    location tolerances).  Measured over all 66 points: 3.6e-12, 5e-9 (4e-11 relative), 4e-16."""
     sd = low_branch()
     (bm,) = trace(BeamContinuation(_beam1(0.0, 2e-3), "Omega"), sd.points[0].x, 1.5, 1, 1.5, 2.5, +1, NO_SWITCH)
     assert [f.type for f in bm.bifurcations] == [f.type for f in sd.bifurcations]
@@ -261,8 +262,8 @@ def test_one_mode_beam_equals_the_sdof_branch():
         s = pr.shot(pt.x, pt.p, 1)          # the beam's fixed point is the SDOF's
         assert np.max(np.abs(s.x - pt.x)) < 1e-10 * scale
         assert list(s.extra["impact_stops"]) == list(pt.shot.extra["impact_stops"])
-        mu = np.linalg.eigvals(s.M)
-        assert max(np.min(np.abs(pt.mu - z)) for z in mu) < 1e-9      # nearest: conjugate pairs
+        mu = np.linalg.eigvals(s.M)            # nearest: conjugate pairs may come in either order
+        assert max(np.min(np.abs(pt.mu - z)) for z in mu) < 1e-9 * max(1.0, np.max(np.abs(pt.mu)))
 
 
 def _beam2(Dl, R_lower, Y):
@@ -278,7 +279,7 @@ def test_two_mode_beam_derivatives_against_central_differences(Dl, R_lower, Y, W
     """A two-mode beam between two stops over two periods of a settled orbit: impacts on both stops
     (R_lower = 0.6), and plastic impacts with sticking and release on the lower stop (R_lower =
     0): the monodromy and d x / d(Omega, gap_contact_m, R) against central differences of the
-    shot (h = 1e-6 relative; measured <= 4e-9): 1e-6."""
+    shot (h = 1e-6 relative: truncation ~h^2 times the curvature; measured <= 1.6e-8): 1e-6."""
     m = _beam2(Dl, R_lower, Y)
     x0 = np.asarray(BeamEventSolver(m).point(W, None, 400, 8, 16).final_state[:4])
     for par, p in (("Omega", W), ("gap_contact_m", 0.0), ("R", 0.8)):
