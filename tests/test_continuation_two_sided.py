@@ -297,3 +297,62 @@ def test_two_mode_beam_derivatives_against_central_differences(Dl, R_lower, Y, W
         h = 1e-6 * max(abs(p), 1e-3)
         fd = (pr.shot(x0, p + h, 2).x - pr.shot(x0, p - h, 2).x) / (2 * h)
         assert np.max(np.abs(fd - s.x_p)) < 1e-6 * np.max(np.abs(s.x_p))
+
+
+@pytest.mark.slow   # an FE build and a beam continuation through the framework (2-3 s warm): the default step
+#                     keeps its margin under 10 min
+def test_fe_beam_scene_with_two_stops_through_the_framework(tmp_path):
+    """A physical FE scene (the rig, 2 modes, gap 0.1 mm, a lower stop 0.3 mm below) continued by
+    `vibeam continue`: the case validates, the branches carry the lower stop's impacts, and stable
+    points with impacts on both stops stay put under 400 periods of the beam's event solver
+    (state to 1e-8 of its scale: the corrector's residual amplified by 1 / (1 - max |mu|))."""
+    from vibeam.runner import run_case
+
+    text = """name = "fe-two-sided"
+[model]
+fidelity = "beam"
+length_mm = 180.0
+sensor_position_mm = 100.0
+mass_position_mm = 132.0
+width_mm = 20.0
+thickness_mm = 1.0
+R = 0.80
+gap_mm = 0.1
+gap_lower_mm = 0.3
+gain = 3.78e-4
+voltage = 0.6
+damping_ratio = 0.017
+n_modes = 2
+n_elements = 24
+[model.discs]
+count = 4
+thickness_mm = 7.0
+diameter_mm = 35.0
+mass_kg = 0.2
+[model.calibrate]
+f1_hz = 7.6
+f2_hz = 98.75
+[sweep]
+frequency_hz = [16.5, 20.0, 5]
+transient_periods = 2000
+[[run]]
+name = "branches"
+method = "continuation"
+start = "sweep"
+start_at = "high"
+switch = false
+"""
+    case = parse_case(text, "fe-two-sided.toml")
+    (r,) = run_case(case, text, tmp_path, jobs=1, quiet=True, plots=False, continuation_only=True)
+    assert r.status == "ok" and r.branches
+    model = case.model_spec().build()
+    checked = 0
+    for b in r.branches:
+        d = b["data"]
+        assert "impacts_lower" in d
+        for k in np.flatnonzero(d["stable"] & (d["impacts_lower"] > 0))[::10][:3]:
+            W, x = d["parameter"][k], d["state"][k]
+            tr = BeamEventSolver(model).point(W, np.r_[x, 0.0], 400, 2, 16)
+            assert np.max(np.abs(np.asarray(tr.final_state[:4]) - x)) < 1e-8 * np.max(np.abs(x))
+            checked += 1
+    assert checked
