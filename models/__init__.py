@@ -65,11 +65,9 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
     ------
     ValueError
         If no shooting problem is registered for the model's fidelity, or the parameter is not
-        one of the problem's, or the model has a second stop (the shooting problems have one).
+        one of the problem's, or the model's contact law is not the restitution law (a scene
+        with two stops is served: the shooting problems follow impacts on both).
     """
-    if getattr(model, "two_sided", False):
-        raise ValueError("continuation cannot follow a scene with a second (lower) stop yet (the shooting "
-                         "problems have one stop)")
     shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
     cls = shooting.get(model.fidelity)
     law = getattr(model, "contact_law", "restitution")

@@ -414,7 +414,8 @@ def apply_impact(etad, w, U_minus, R, m_eff):
 #               the release (0 at a located zero crossing, > 0 when released at a step start).
 # ``nlog[0]`` counts events, ``nlog[1]`` apexes (rows beyond the capacity are counted,
 # not stored); ``aplog[j] = (t, g)`` holds the interior free-flight apexes of the contact
-# gap ``g = w^T eta - Delta_C`` located on steps where ``g'`` falls through zero.
+# gap ``g = w^T eta - Delta_C`` located on steps where ``g'`` falls through zero and, with a
+# lower stop, those of its gap ``g_l = -w^T eta - Delta_C,lower`` (minima of ``w^T eta``).
 EV_START, EV_IMPACT, EV_STICK, EV_STICK_IMPACT, EV_RELEASE = 0, 1, 2, 3, 4
 
 
@@ -766,6 +767,9 @@ def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, stops, tab_U, tab_R, normals
                         gl1 = _sig(s_mv, phi, Om, x0, y0, mpF, nl, zeroN, -SaF, -SbF, gl, -v)[0]
                     if aplog is not None and s_ev < 0.0 and v > 0.0 and v1 <= 0.0:
                         _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, x0, y0, mpF, w, SaF, SbF, g, v)
+                    if aplog is not None and two and s_ev < 0.0 and v < 0.0 and v1 >= 0.0:
+                        # the lower stop's: an interior minimum of w^T eta, logged as its gap g_l
+                        _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, x0, y0, mpF, nl, -SaF, -SbF, gl, -v)
                     if recording:
                         q0s, qp0s = _start(phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, 0.0)
                         q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s)

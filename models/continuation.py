@@ -198,7 +198,9 @@ class Branch:
         """Per-point arrays: ``parameter`` (k,), ``state`` (k, d), ``amplitude``, ``q_min``,
         ``q_max``, ``impact_velocity`` (k, m_max; NaN padded), ``impact_phase`` (k, m_max, rad),
         ``multipliers`` (k, d) complex, ``stable`` (k,) bool, ``period`` (k,), ``impacts``
-        (per orbit), ``impacts_per_period`` (k,), ``stuck_time``, ``apex_gap``."""
+        (per orbit), ``impacts_per_period`` (k,), ``stuck_time``, ``apex_gap``; with two stops
+        (shots with ``extra["impact_stops"]``) also ``impacts_lower`` (per orbit) and
+        ``impacts_per_period_lower`` (the lower stop's share of ``impacts``)."""
         k = len(self.points)
         d = self.points[0].x.shape[0] if k else 0
         mmax = max([pt.shot.n_impacts for pt in self.points] + [1])
@@ -212,6 +214,11 @@ class Branch:
                 if np.isfinite(s.Omega):
                     ph[i, :m] = np.mod(s.Omega * s.impact_times, 2 * math.pi)
         amp = np.array([_amplitude(pt.shot) for pt in self.points])
+        lower = {}
+        if any("impact_stops" in pt.shot.extra for pt in self.points):
+            nl = np.array([int(np.sum(np.asarray(pt.shot.extra.get("impact_stops", ())) == 1))
+                           for pt in self.points], dtype=np.int64)
+            lower = dict(impacts_lower=nl, impacts_per_period_lower=nl / self.n)
         return dict(
             parameter=np.array([pt.p for pt in self.points]),
             state=np.array([pt.x for pt in self.points]).reshape(k, d),
@@ -226,6 +233,7 @@ class Branch:
             impacts_per_period=np.array([pt.shot.n_impacts / self.n for pt in self.points]),
             stuck_time=np.array([pt.shot.stuck_time for pt in self.points]),
             apex_gap=np.array([pt.shot.apex_gap for pt in self.points]),
+            **lower,
         )
 
 

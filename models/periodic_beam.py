@@ -40,6 +40,15 @@ How a shot is computed
       force, which vanishes at the release, so ``S = I`` up to the root accuracy; the
       release-time derivatives are returned (``extra["release_time_derivatives"]``).
 
+    A second (lower) stop (``gap_contact_lower_m``, normal ``-w`` at ``w^T eta =
+    -Delta_C,lower``, its own ``R_lower`` or the upper stop's law): its events are told apart by
+    the logged position and use the same formulas with ``w -> n = -w`` (``U = n^T eta'``, ``a_n
+    = n^T eta''``, ``C n``, ``P_w C n``); held on it, the beam moves about that stop's offsets
+    ``eta_c``, ``eC`` (:attr:`BeamImpactModel.stop_rows`), which no native parameter moves.  The
+    kernel also logs the interior minima of ``w^T eta`` as apexes of the lower gap, so
+    ``apex_gap`` watches the grazing of both stops; ``extra["impact_stops"]`` gives the stop of
+    each impact (0 upper, 1 lower).
+
     Parameter derivatives are analytic: Omega enters the forcing phase ``Omega t``, the
     particular solutions (``F = Omega^2 Y``) and the end time ``n T`` (``+ f(nT) d(nT) /
     d Omega``); ``Y`` (``base_amplitude_m``) the particular solutions; ``Delta_C``
@@ -400,7 +409,8 @@ def _acc_stuck(eta, etad, t, Om, Psi, eta_c, GCF, cC, nu2, eC, out):
 def assemble_derivatives(evlog, n_ev, x_start, x_end, stuck_end, T_end, Om, w, m_eff, GF, Gam, cF, kF,
                          mpF, aF, bF, R, R_table_U, R_table_R,
                          mpC, aC, bC, eC, Psi, eta_c, GCF, cC, nu2, Emis,
-                         dOm, dF, F, daF, dbF, dsF, dcF, daC, dbC, deC, dsC, deta_c, dR, dDelta):
+                         dOm, dF, F, daF, dbF, dsF, dcF, daC, dbC, deC, dsC, deta_c, dR, dDelta,
+                         Delta_C, Dl, R_l, R_table_U_l, R_table_R_l, dR_l, eC_l, eta_c_l):
     """Tangent ``J = d x(T_end) / d(x0, p)`` of one logged run of the beam kernel.
 
     Parameters
@@ -426,6 +436,13 @@ def assemble_derivatives(evlog, n_ev, x_start, x_end, stuck_end, T_end, Om, w, m
         Derivatives with respect to the parameter ``p``: 1 for Omega, ``dF/dp``, the
         particular solutions, ``d sig_i / dp`` and ``d c_i / dp`` of the free and
         constrained modes, ``d eC / dp``, ``d eta_c / dp``, 1 for R, 1 for ``Delta_C``.
+    Delta_C, Dl, R_l, R_table_U_l, R_table_R_l, dR_l, eC_l, eta_c_l :
+        A second (lower) stop at ``w^T eta = -Dl`` (``Dl = inf``: one stop; ``Delta_C``
+        tells the stops' events apart by the logged position): its law (``R_l`` and its
+        table), ``d R_l / dp`` and the offsets ``eC``, ``eta_c`` of the beam held on it.  Its
+        events use the upper stop's formulas with the normal ``n = -w`` (``U = n^T eta'``,
+        ``a_n = n^T eta''``, surface ``h = n^T eta - Dl``, no ``Delta_C`` dependence); no
+        native parameter moves it, so ``d eta_c / dp = d eC / dp = 0`` there.
 
     Returns
     -------
@@ -460,6 +477,14 @@ def assemble_derivatives(evlog, n_ev, x_start, x_end, stuck_end, T_end, Om, w, m
     etad = x_start[N:].copy()
     t_cur = 0.0
     stuck = False
+    # the stops' events are told apart by the logged position w^T eta (Delta_C or -Dl)
+    mid = 0.5 * (Delta_C - Dl)
+    nl = -w                    # normal of the lower stop
+    cwl = -cw
+    PcwCl = -PcwC
+    zC = np.zeros(eC.shape[0])
+    zN = np.zeros(N)
+    held_low = False           # the stop the beam is held on (when stuck)
     k = 0
     while k < n_ev:
         kind = int(evlog[k, 0])
@@ -467,6 +492,12 @@ def assemble_derivatives(evlog, n_ev, x_start, x_end, stuck_end, T_end, Om, w, m
         aux = evlog[k, 2]
         eta_e = evlog[k, 3:3 + N]
         etad_e = evlog[k, 3 + N:3 + 2 * N]
+        low = False
+        if Dl < np.inf:
+            r = 0.0
+            for i in range(N):
+                r += w[i] * eta_e[i]
+            low = r < mid
         if kind == EV_START:
             # the kernel put the initial state on the stop (position; velocity if held)
             for c in range(ncol):
@@ -475,67 +506,78 @@ def assemble_derivatives(evlog, n_ev, x_start, x_end, stuck_end, T_end, Om, w, m
                     r += w[i] * J[i, c]
                 for i in range(N):
                     J[i, c] -= w[i] * r / w2
-                if aux > 0.5:
+                if abs(aux) > 0.5:
                     r = 0.0
                     for i in range(N):
                         r += w[i] * J[N + i, c]
                     for i in range(N):
                         J[N + i, c] -= w[i] * r / w2
-            for i in range(N):
-                J[i, ip] += dDelta * w[i] / w2
-            stuck = aux > 0.5
+            if not low:
+                for i in range(N):
+                    J[i, ip] += dDelta * w[i] / w2
+            stuck = abs(aux) > 0.5
+            held_low = low
             eta[:] = eta_e
             etad[:] = etad_e
             k += 1
             continue
         # ---- flow up to the event
         if stuck:
-            _flow_stuck(J, t_cur, te, eta, etad, Om, mpC, aC, bC, eC, Psi, daC, dbC, deC, dsC,
-                        deta_c, eta_c, dOm)
+            if held_low:
+                _flow_stuck(J, t_cur, te, eta, etad, Om, mpC, aC, bC, eC_l, Psi, daC, dbC, zC, dsC,
+                            zN, eta_c_l, dOm)
+            else:
+                _flow_stuck(J, t_cur, te, eta, etad, Om, mpC, aC, bC, eC, Psi, daC, dbC, deC, dsC,
+                            deta_c, eta_c, dOm)
         else:
             _flow_free(J, t_cur, te, eta, etad, Om, mpF, aF, bF, daF, dbF, dsF, dOm)
         t_cur = te
-        # row h_x J + h_p e_p of the contact surface h = w^T eta - Delta_C
+        # the event's stop: normal, law, d/dp of its offset (upper: w, R, Delta_C)
+        if low:
+            nv, cwk, Pck, Rk, tUk, tRk, dRk, dDk = nl, cwl, PcwCl, R_l, R_table_U_l, R_table_R_l, dR_l, 0.0
+        else:
+            nv, cwk, Pck, Rk, tUk, tRk, dRk, dDk = w, cw, PcwC, R, R_table_U, R_table_R, dR, dDelta
+        # row h_x J + h_p e_p of the contact surface h = n^T eta - Delta_k
         hrow = np.zeros(ncol)
         if kind == EV_IMPACT or kind == EV_STICK:
             for c in range(ncol):
                 r = 0.0
                 for i in range(N):
-                    r += w[i] * J[i, c]
+                    r += nv[i] * J[i, c]
                 hrow[c] = r
-            hrow[ip] -= dDelta
+            hrow[ip] -= dDk
         if kind == EV_IMPACT and not (k + 1 < n_ev and int(evlog[k + 1, 0]) == EV_STICK_IMPACT):
             U = 0.0
             for i in range(N):
-                U += w[i] * etad_e[i]
-            Rc = restitution_coefficient(U, R, R_table_U, R_table_R)
-            Rp = _restitution_slope(U, R_table_U, R_table_R)
+                U += nv[i] * etad_e[i]
+            Rc = restitution_coefficient(U, Rk, tUk, tRk)
+            Rp = _restitution_slope(U, tUk, tRk)
             _acc_free(eta_e, etad_e, te, Om, GF, cF, kF, af)
             an = 0.0
             for i in range(N):
-                an += w[i] * af[i]
+                an += nv[i] * af[i]
             gv = (1.0 + Rc + Rp * U) / w2
-            # G_x: eta' -= w (1 + R + R'U) w^T eta' / |w|^2 ; G_R = -w U / |w|^2
+            # G_x: eta' -= n (1 + R + R'U) n^T eta' / |w|^2 ; G_R = -n U / |w|^2
             for c in range(ncol):
                 r = 0.0
                 for i in range(N):
-                    r += w[i] * J[N + i, c]
+                    r += nv[i] * J[N + i, c]
                 for i in range(N):
-                    J[N + i, c] -= w[i] * gv * r
+                    J[N + i, c] -= nv[i] * gv * r
             for i in range(N):
-                J[N + i, ip] -= dR * w[i] * U / w2
+                J[N + i, ip] -= dRk * nv[i] * U / w2
             # (f+ - G_x f-) / (h_x f-), in closed form
             if U > 0.0:
                 for c in range(ncol):
                     hc = hrow[c]
                     if hc != 0.0:
                         for i in range(N):
-                            J[i, c] -= (1.0 + Rc) * w[i] / w2 * hc
-                            J[N + i, c] += ((1.0 + Rc) * cw[i] + gv * w[i] * an / U) * hc
+                            J[i, c] -= (1.0 + Rc) * nv[i] / w2 * hc
+                            J[N + i, c] += ((1.0 + Rc) * cwk[i] + gv * nv[i] * an / U) * hc
             P = -(1.0 + Rc) * m_eff * U
             eta[:] = eta_e
             for i in range(N):
-                etad[i] = etad_e[i] + w[i] * P
+                etad[i] = etad_e[i] + nv[i] * P
             k += 1
             continue
         if kind == EV_IMPACT or kind == EV_STICK:
@@ -543,7 +585,7 @@ def assemble_derivatives(evlog, n_ev, x_start, x_end, stuck_end, T_end, Om, w, m
             # or a touch at zero velocity)
             U = 0.0
             for i in range(N):
-                U += w[i] * etad_e[i]
+                U += nv[i] * etad_e[i]
             zd = Psi.T @ etad_e
             corr = np.zeros(N)
             if Emis.shape[0] > 0 and U != 0.0:
@@ -551,22 +593,23 @@ def assemble_derivatives(evlog, n_ev, x_start, x_end, stuck_end, T_end, Om, w, m
             for c in range(ncol):
                 r = 0.0
                 for i in range(N):
-                    r += w[i] * J[N + i, c]
+                    r += nv[i] * J[N + i, c]
                 for i in range(N):
-                    J[N + i, c] -= w[i] * r / w2
+                    J[N + i, c] -= nv[i] * r / w2
             if U > 0.0:
                 for c in range(ncol):
                     hc = hrow[c]
                     if hc != 0.0:
                         for i in range(N):
-                            J[i, c] -= w[i] / w2 * hc
-                            J[N + i, c] += (PcwC[i] + corr[i]) * hc
+                            J[i, c] -= nv[i] / w2 * hc
+                            J[N + i, c] += (Pck[i] + corr[i]) * hc
             elif te > 0.0:
                 n_inexact += 1
             eta[:] = eta_e
             for i in range(N):
-                etad[i] = etad_e[i] - w[i] * U / w2
+                etad[i] = etad_e[i] - nv[i] * U / w2
             stuck = True
+            held_low = low
             if kind == EV_IMPACT:
                 k += 2
             else:
@@ -576,23 +619,26 @@ def assemble_derivatives(evlog, n_ev, x_start, x_end, stuck_end, T_end, Om, w, m
             eta[:] = eta_e
             etad[:] = etad_e
             _acc_free(eta, etad, te, Om, GF, cF, kF, af)
-            _acc_stuck(eta, etad, te, Om, Psi, eta_c, GCF, cC, nu2, eC, ac)
-            # lambda = -m_eff w^T a_free;  d lambda / dt along the constrained flow
+            if held_low:
+                _acc_stuck(eta, etad, te, Om, Psi, eta_c_l, GCF, cC, nu2, eC_l, ac)
+            else:
+                _acc_stuck(eta, etad, te, Om, Psi, eta_c, GCF, cC, nu2, eC, ac)
+            # lambda = -m_eff n^T a_free;  d lambda / dt along the constrained flow
             ldot = 0.0
             cs = math.cos(Om * te)
             sn = math.sin(Om * te)
             for i in range(N):
-                ldot += w[i] * (GF[i] * Om * cs - cF[i] * ac[i] - kF[i] * etad[i])
+                ldot += nv[i] * (GF[i] * Om * cs - cF[i] * ac[i] - kF[i] * etad[i])
             ldot *= -m_eff
             lrow = np.zeros(ncol)
             for c in range(ncol):
                 r = 0.0
                 for i in range(N):
-                    r += m_eff * w[i] * (kF[i] * J[i, c] + cF[i] * J[N + i, c])
+                    r += m_eff * nv[i] * (kF[i] * J[i, c] + cF[i] * J[N + i, c])
                 lrow[c] = r
             lp = 0.0
             for i in range(N):
-                lp -= m_eff * w[i] * (Gam[i] * (dF * sn + dOm * F * te * cs) - dcF[i] * etad[i])
+                lp -= m_eff * nv[i] * (Gam[i] * (dF * sn + dOm * F * te * cs) - dcF[i] * etad[i])
             lrow[ip] += lp
             rel[n_rel, 0] = te
             if ldot > 0.0 and aux <= 0.0:
@@ -609,15 +655,21 @@ def assemble_derivatives(evlog, n_ev, x_start, x_end, stuck_end, T_end, Om, w, m
         # EV_STICK_IMPACT without its impact cannot happen; skip defensively
         k += 1
     if stuck:
-        _flow_stuck(J, t_cur, T_end, eta, etad, Om, mpC, aC, bC, eC, Psi, daC, dbC, deC, dsC,
-                    deta_c, eta_c, dOm)
+        if held_low:
+            _flow_stuck(J, t_cur, T_end, eta, etad, Om, mpC, aC, bC, eC_l, Psi, daC, dbC, zC, dsC,
+                        zN, eta_c_l, dOm)
+        else:
+            _flow_stuck(J, t_cur, T_end, eta, etad, Om, mpC, aC, bC, eC, Psi, daC, dbC, deC, dsC,
+                        deta_c, eta_c, dOm)
     else:
         _flow_free(J, t_cur, T_end, eta, etad, Om, mpF, aF, bF, daF, dbF, dsF, dOm)
     if dOm != 0.0:
         # the end time n T = 2 pi n / Omega moves with Omega: + f(nT) d(nT)/dOmega
         xe = x_end[:N]
         xde = x_end[N:]
-        if stuck_end:
+        if stuck_end and held_low:
+            _acc_stuck(xe, xde, T_end, Om, Psi, eta_c_l, GCF, cC, nu2, eC_l, ac)
+        elif stuck_end:
             _acc_stuck(xe, xde, T_end, Om, Psi, eta_c, GCF, cC, nu2, eC, ac)
         else:
             _acc_free(xe, xde, T_end, Om, GF, cF, kF, ac)
@@ -773,6 +825,20 @@ class BeamShooting:
         else:
             Emis = np.zeros((0, 0))
         stops, tab_U, tab_R = pack(m.stops())
+        if m.two_sided:
+            # the contact force of the beam held on either stop (kernel rows), and the lower stop's
+            # law: its own R, or the upper stop's law (then R moves it too: d R_l / d R = 1)
+            SaLk, SbLk = m.stop_forcing(aC, bC, F, Om)
+            own = m.R_lower is not None
+            lower = dict(Dl=float(m.gap_contact_lower_m), R_l=float(m.R_lower) if own else float(m.R),
+                         tU_l=np.zeros(0) if own else m.R_table_U, tR_l=np.zeros(0) if own else m.R_table_R,
+                         dR_l=0.0 if own or pid != 3 else 1.0,
+                         eC_l=np.ascontiguousarray(m.stop_rows["eC"][1]),
+                         eta_c_l=np.ascontiguousarray(m.stop_rows["eta_c"][1]))
+        else:
+            SaLk, SbLk = np.array([SaL]), np.array([SbL])
+            lower = dict(Dl=np.inf, R_l=0.0, tU_l=m.R_table_U, tR_l=m.R_table_R, dR_l=0.0,
+                         eC_l=m.eC, eta_c_l=m.eta_c)
         self._cache_key = key
         self._cache = dict(
             stops=stops, tab_U=tab_U, tab_R=tab_R, m=m, me=me, Om=Om, F=F, mpF=mpF, aF=aF, bF=bF, GF=GF, c=c, k=k,
@@ -780,7 +846,8 @@ class BeamShooting:
             SaL=SaL, SbL=SbL, SaS=SaS, SbS=SbS, GCF=m.GC * F, Emis=np.ascontiguousarray(Emis),
             dOm=dOm, dF=dF, daF=daF, dbF=dbF, dsF=0.5 * dcF, dcF=dcF, daC=daC, dbC=dbC,
             deC=np.ascontiguousarray(deC), dsC=0.5 * dcC, deta_c=np.ascontiguousarray(deta_c),
-            dR=1.0 if pid == 3 else 0.0, dDelta=1.0 if pid == 2 else 0.0)
+            dR=1.0 if pid == 3 else 0.0, dDelta=1.0 if pid == 2 else 0.0,
+            SaLk=SaLk, SbLk=SbLk, lower=lower)
         return self._cache
 
     def linear_orbit(self, p: float | None = None) -> np.ndarray:
@@ -856,12 +923,25 @@ class BeamShooting:
         w2 = float(w @ w)
         eta = x0[:N].copy()
         etad = x0[N:].copy()
+        stuck_low = False
+        if m.two_sided and not m.gap_contact_m + m.gap_contact_lower_m > 0.0:
+            return Shot(x=nanv, M=nanM, x_p=nanv, impact_times=np.zeros(0),
+                        impact_velocities=np.zeros(0), q_min=np.nan, q_max=np.nan, status="failed",
+                        message=f"the stops overlap: gap_contact_m + gap_contact_lower_m = "
+                                f"{m.gap_contact_m + m.gap_contact_lower_m:.6g} must be > 0")
         if stuck is None:
             g0 = float(w @ eta) - m.gap_contact_m
             v0 = float(w @ etad)
             sg = abs(m.gap_contact_m) + math.sqrt(w2) * float(np.linalg.norm(eta)) + 1e-300
             sv = math.sqrt(w2) * (float(np.linalg.norm(etad)) + Om * float(np.linalg.norm(eta))) + 1e-300
             stuck = bool(g0 > -1e-9 * sg and abs(v0) <= 1e-9 * sv)
+            if not stuck and m.two_sided:
+                # held on the lower stop at the section
+                gl0 = -float(w @ eta) - m.gap_contact_lower_m
+                sgl = abs(m.gap_contact_lower_m) + math.sqrt(w2) * float(np.linalg.norm(eta)) + 1e-300
+                stuck = stuck_low = bool(gl0 > -1e-9 * sgl and abs(v0) <= 1e-9 * sv)
+        elif stuck and m.two_sided:
+            stuck_low = float(w @ eta) < 0.5 * (m.gap_contact_m - m.gap_contact_lower_m)
         if stuck:
             etad -= w * float(w @ etad) / w2
         x_start = np.concatenate([eta, etad])
@@ -876,15 +956,16 @@ class BeamShooting:
             samples = np.zeros((n, 2))
             imp_t = np.zeros(imp_cap)
             imp_v = np.zeros(imp_cap)
+            imp_k = np.zeros(imp_cap, np.int64)
             r = m.stop_rows
             out = beam_kernel(Om, D["mpF"], D["aF"], D["bF"], w, m.sensor_row, D["c"], D["k"], D["GF"],
                               D["stops"], D["tab_U"], D["tab_R"], r["normals"], m.m_eff,
                               D["mpC"], D["aC"], D["bC"], r["eC"], m.Psi, r["eta_c"], r["pL"], r["rL"],
-                              np.array([D["SaL"]]), np.array([D["SbL"]]), r["cL"], m.pS, D["SaS"], D["SbS"],
-                              r["cS"], e, ed, 1 if stuck else 0, 0, n, 1, 1, float(h_cap),
+                              D["SaLk"], D["SbLk"], r["cL"], m.pS, D["SaS"], D["SbS"],
+                              r["cS"], e, ed, (-1 if stuck_low else 1) if stuck else 0, 0, n, 1, 1, float(h_cap),
                               self.max_impacts_per_period * n, self.max_steps_per_period * n,
-                              self.chatter_tol, samples, imp_t, imp_v, np.zeros(imp_cap, np.int64),
-                              np.zeros(1, np.int64), np.zeros(N), np.zeros((0, d)),
+                              self.chatter_tol, samples, imp_t, imp_v, imp_k,
+                              np.zeros(len(m.stops()), np.int64), np.zeros(N), np.zeros((0, d)),
                               np.zeros(n), np.zeros(0), evlog, aplog, nlog)
             status, n_imp, smin, smax, n_chat, stuck_time, stuck_end, n_tot, gmax, n_steps = out
             if nlog[0] <= self._cap and nlog[1] <= self._capa and n_imp <= imp_cap:
@@ -899,6 +980,8 @@ class BeamShooting:
                      event_states=evlog[:n_ev, 3:].copy(),
                      apexes=aplog[:n_ap].copy(), n_chatter=int(n_chat), stuck_start=bool(stuck),
                      stuck_end=bool(stuck_end), n_steps=int(n_steps))
+        if m.two_sided:
+            extra["impact_stops"] = imp_k[:n_imp].copy()
         if status == ST_FAILED:
             return Shot(x=x, M=nanM, x_p=nanv, impact_times=imp_t[:n_imp].copy(),
                         impact_velocities=imp_v[:n_imp] / L, q_min=smin / L, q_max=smax / L,
@@ -909,12 +992,15 @@ class BeamShooting:
         M, xp = nanM, nanv
         n_inexact = 0
         if derivatives:
+            lo = D["lower"]
             J, rel, n_rel, n_inexact = assemble_derivatives(
                 evlog, n_ev, x_start, x, bool(stuck_end), n * T, Om, w, D["me"], D["GF"],
                 m.participation, D["c"], D["k"], D["mpF"], D["aF"], D["bF"], m.R, m.R_table_U,
                 m.R_table_R, D["mpC"], D["aC"], D["bC"], m.eC, m.Psi, m.eta_c, D["GCF"], m.cC,
                 m.nu2, D["Emis"], D["dOm"], D["dF"], D["F"], D["daF"], D["dbF"], D["dsF"],
-                D["dcF"], D["daC"], D["dbC"], D["deC"], D["dsC"], D["deta_c"], D["dR"], D["dDelta"])
+                D["dcF"], D["daC"], D["dbC"], D["deC"], D["dsC"], D["deta_c"], D["dR"], D["dDelta"],
+                m.gap_contact_m, lo["Dl"], lo["R_l"], lo["tU_l"], lo["tR_l"], lo["dR_l"], lo["eC_l"],
+                lo["eta_c_l"])
             M = J[:, :d].copy()
             xp = J[:, d].copy()
             extra["release_times"] = rel[:, 0].copy()
@@ -977,10 +1063,15 @@ class BeamShooting:
         if bad:
             return None, bad
         A = self.linear_amplitude(p)
-        DC = self._data(p)["m"].gap_contact_m
+        mp = self._data(p)["m"]
+        DC = mp.gap_contact_m
         if not A < DC:
             return None, (f"the non-impacting orbit does not exist: its contact amplitude {A:.6g} m "
                           f"reaches the stop Delta_C = {DC:.6g} m at {self.parameter} = {p:.6g}")
+        if mp.two_sided and not A < mp.gap_contact_lower_m:
+            return None, (f"the non-impacting orbit does not exist: its contact amplitude {A:.6g} m "
+                          f"reaches the lower stop Delta_C,lower = {mp.gap_contact_lower_m:.6g} m at "
+                          f"{self.parameter} = {p:.6g}")
         return self.linear_orbit(p), ""
 
     # ------------------------------------------------------------------ section crossing
@@ -1019,9 +1110,13 @@ class BeamShooting:
         i, j = rows[0], rows[-1]
         if times[i] < 1e-6 * T and kinds[i] == EV_IMPACT:
             eta, etad = states[i, :N].copy(), states[i, N:].copy()
-            U = float(w @ etad)
-            Rc = restitution_coefficient(U, m.R, m.R_table_U, m.R_table_R)
-            etad -= w * (1.0 + Rc) * U / float(w @ w)
+            nv, law = w, m.stops()[0].law
+            if m.two_sided and float(w @ eta) < 0.5 * (m.gap_contact_m - m.gap_contact_lower_m):
+                nv, law = -w, m.stops()[1].law        # an impact on the lower stop (normal -w)
+            U = float(nv @ etad)
+            Rc = restitution_coefficient(U, law.R, np.asarray(law.table_U, float), np.asarray(law.table_R, float)) \
+                if m.two_sided else restitution_coefficient(U, m.R, m.R_table_U, m.R_table_R)
+            etad -= nv * (1.0 + Rc) * U / float(w @ w)
             return np.concatenate([eta, etad])
         if times[j] > n * T - 1e-6 * T and kinds[j] == EV_IMPACT:
             return states[j].copy()

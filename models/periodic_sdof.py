@@ -29,8 +29,15 @@ Pai 2000 for the parameter sensitivities).  With ``X = d x(t) / d(x0, p)`` at fi
   vanishes there (contact force zero, ``q' = 0``);
 * the end of the window ``t = n T`` moves with ``Omega``: ``x_Omega += f(x_end) d(nT)/dOmega``.
 
-Hence ``det M = R^(2m) exp(-2 beta n T)`` for ``m`` impacts and no sticking, ``M = 0`` with
-sticking.  All quantities nondimensional.
+A second (lower) stop at ``q = -Delta_lower`` (``model.Delta_lower``, normal ``-1``, its own
+constant ``R_lower`` or the upper stop's ``R``) enters the same way: an impact on it has the
+surface ``h = -q - Delta_lower`` (``h_p = 0``: none of :data:`PARAMETERS` moves it), the reset
+``q' -> -R_lower q'`` and so the same saltation formula with the signed pre-impact velocity; the
+mass held on it is at ``(-Delta_lower, 0)``.  Its grazing (a free-flight minimum touching
+``-Delta_lower``) is watched through the logged minima (``apex_gap`` is the nearer of the two
+stops' gaps at the interior extrema).  Hence ``det M = R^(2 m_up) R_lower^(2 m_low)
+exp(-2 beta n T)`` for ``m_up`` and ``m_low`` impacts on the two stops and no sticking, ``M = 0``
+with sticking.  All quantities nondimensional.
 """
 from __future__ import annotations
 
@@ -41,7 +48,7 @@ from numba import njit
 
 from .contact import LAW, NPAR, OFFSET, R as _RCOL, SIGN
 from .periodic import Shot
-from .sdof_event import EV_APEX, EV_IMPACT, EV_RELEASE, EV_STICK, STATUS_FAILED, event_kernel
+from .sdof_event import EV_APEX, EV_IMPACT, EV_MIN, EV_RELEASE, EV_STICK, STATUS_FAILED, event_kernel
 from .sdof_flow import particular_coefficients, transition
 
 TWO_PI = 2.0 * math.pi
@@ -161,13 +168,15 @@ def _flight(X, XP, s, t_a, t_b, qa, va, beta, a, b, da, db, Omega):
 
 @njit(cache=True)
 def assemble_derivatives(ev_log, n_events, q0, v0, q_end, v_end, stuck_end, t_end,
-                         beta, B, R, Delta, Omega):
+                         beta, B, R, Delta, Omega, Dl=np.inf, R_low=0.0, dR_low=0.0):
     """Monodromy and parameter derivatives of ``P^n`` from the kernel's event log.
 
     Parameters
     ----------
     ev_log : ndarray, shape (cap, 5)
-        Rows ``(kind, t, q, q', q'')`` of :func:`vibeam.models.sdof_event.event_kernel`.
+        Rows ``(kind, t, q, q', q'')`` of :func:`vibeam.models.sdof_event.event_kernel`
+        (an impact on the lower stop is logged with its normal velocity and acceleration,
+        ``-q'-`` and ``-q''-``).
     n_events : int
         Rows used (``<= cap``).
     q0, v0 : float
@@ -175,11 +184,17 @@ def assemble_derivatives(ev_log, n_events, q0, v0, q_end, v_end, stuck_end, t_en
     q_end, v_end : float
         State at ``t_end``.
     stuck_end : bool
-        Whether the mass is stuck on the stop at ``t_end``.
+        Whether the mass is stuck on a stop at ``t_end``.
     t_end : float
         ``n T`` (nondimensional).
     beta, B, R, Delta, Omega : float
         Model parameters.
+    Dl, R_low : float, optional
+        A second (lower) stop at ``q = -Dl`` with coefficient of restitution ``R_low``
+        (``Dl = inf``: one stop).
+    dR_low : float, optional
+        ``d R_low / d R`` (1 when the lower stop follows the upper stop's law, 0 when it
+        has its own R).
 
     Returns
     -------
@@ -187,6 +202,14 @@ def assemble_derivatives(ev_log, n_events, q0, v0, q_end, v_end, stuck_end, t_en
         ``d x(t_end) / d x0``.
     XP : ndarray, shape (2, 5)
         ``d x(t_end) / d p`` for p = Omega, B, Delta, R, beta (columns).
+
+    Notes
+    -----
+    An impact on the lower stop (surface ``h = -q - Dl``, reset ``q' -> -R_low q'``) has the
+    event-time sensitivity ``dt = -X_q / q'-`` (``h_x f- = -q'-``, ``h_p = 0``: no native
+    parameter moves the lower stop) and the jump ``G_x f- - f+ = ((1 + R_low) q'-, -(R_low
+    q''- + q''+))`` of the upper stop's formula, with the physical (signed) velocities; the
+    mass held on it is at ``(-Dl, 0)`` whatever the parameters.
     """
     a, b, da, db = _particular_derivatives(beta, B, Omega)
     F = Omega * Omega * B
@@ -196,30 +219,58 @@ def assemble_derivatives(ev_log, n_events, q0, v0, q_end, v_end, stuck_end, t_en
     qa = q0
     va = v0
     stuck = False
+    mid = 0.5 * (Delta - Dl)      # rows logged at q < mid are on the lower stop (-inf: one stop)
     for k in range(n_events):
         kind = int(ev_log[k, 0])
         t = ev_log[k, 1]
-        if kind == EV_APEX:
+        if kind == EV_APEX or kind == EV_MIN:
             continue
+        lower = ev_log[k, 2] < mid
         if stuck:
             if kind == EV_RELEASE:
                 stuck = False
                 t_prev = t
-                qa = Delta
+                qa = -Dl if lower else Delta
                 va = 0.0
             continue
         if kind == EV_RELEASE:  # (not stuck by the log: cannot happen; be safe)
             t_prev = t
-            qa = Delta
+            qa = -Dl if lower else Delta
             va = 0.0
             continue
         _flight(X, XP, t - t_prev, t_prev, t, qa, va, beta, a, b, da, db, Omega)
         if kind == EV_STICK:
             X[:, :] = 0.0
             XP[:, :] = 0.0
-            XP[0, 2] = 1.0
+            if not lower:
+                XP[0, 2] = 1.0
             stuck = True
             t_prev = t
+            continue
+        if lower:
+            # impact on the lower stop: physical pre-impact velocity and acceleration
+            vm = -ev_log[k, 3]
+            am = -ev_log[k, 4]
+            Rl = R_low
+            ap = am + 2.0 * beta * (1.0 + Rl) * vm
+            w0 = (1.0 + Rl) * vm
+            w1 = -(Rl * am + ap)
+            inv = 1.0 / vm if vm < 0.0 else -np.inf
+            for j in range(2):
+                dt = -X[0, j] * inv
+                X[0, j] = X[0, j] + w0 * dt
+                X[1, j] = -Rl * X[1, j] + w1 * dt
+            for j in range(5):
+                dt = -XP[0, j] * inv
+                x0n = XP[0, j] + w0 * dt
+                x1n = -Rl * XP[1, j] + w1 * dt
+                if j == 3:
+                    x1n -= dR_low * vm
+                XP[0, j] = x0n
+                XP[1, j] = x1n
+            t_prev = t
+            qa = -Dl
+            va = -Rl * vm
             continue
         # impact: pre-impact velocity and acceleration
         vm = ev_log[k, 3]
@@ -264,17 +315,21 @@ def shoot(par, n, ns, max_impacts, samples, imp_buf, ev_log, ev_count, out, imp,
 
     Parameters
     ----------
-    par : ndarray, shape (8,)
-        ``(beta, B, R, Delta, Omega, q0, q0', chatter_tol)``.
+    par : ndarray, shape (8,) or (11,)
+        ``(beta, B, R, Delta, Omega, q0, q0', chatter_tol)`` and, for a two-sided scene,
+        ``(Delta_lower, R_lower, dR_lower/dR)`` (a second stop at ``q = -Delta_lower``).
     n, ns, max_impacts : int
         Periods, grid points per period, impact limit.
     samples, imp_buf, ev_log, ev_count : ndarray
         Work buffers of the kernel (``ev_log`` shape (cap, 5)).
     out : ndarray, shape (23,)
         Receives ``x_end (2), M (4, row-major), x_p (2, column index of XP), XP (10,
-        row-major (2, 5)), apex_max, q_min, q_max, stuck_time, stuck_end``.
-    imp : ndarray, shape (cap, 3)
-        Receives ``(t, q'-, q''-)`` of each impact.
+        row-major (2, 5)), apex_max, q_min, q_max, stuck_time, stuck_end``; ``apex_max`` is the
+        largest gap at an interior free-flight extremum: ``q - Delta`` at the maxima and, with
+        a lower stop, ``-q - Delta_lower`` at the minima (its zero is a grazing on either stop).
+    imp : ndarray, shape (cap, 4)
+        Receives ``(t, U-, g''-, stop)`` of each impact: time, normal pre-impact velocity and
+        acceleration of the stop's gap, stop (0 upper, 1 lower).
     index : int
         Column of the continuation parameter in ``PARAMETERS``.
 
@@ -288,18 +343,31 @@ def shoot(par, n, ns, max_impacts, samples, imp_buf, ev_log, ev_count, out, imp,
     """
     beta, B, R, Delta, Omega = par[0], par[1], par[2], par[3], par[4]
     q0, v0 = par[5], par[6]
+    two = par.shape[0] > 8
     ev_count[0] = 0
     pmin = np.empty(n)       # per-period minima (not needed here; the kernel fills them)
     chat_t = np.empty(0)     # chatter accumulation times (not needed here)
-    # the one stop (vibeam.models.contact): normal +1 at q = Delta, Newton's law with constant R
-    stops = np.zeros((1, NPAR))
+    # the stops (vibeam.models.contact): normal +1 at q = Delta, Newton's law with constant R; a
+    # lower one at q = -Delta_lower, normal -1, with its own constant R
+    stops = np.zeros((2 if two else 1, NPAR))
     stops[0, SIGN] = 1.0
     stops[0, OFFSET] = Delta
     stops[0, LAW] = 0.0
     stops[0, _RCOL] = R
-    tab = np.zeros((1, 1))
+    Dl = np.inf
+    R_low = 0.0
+    dR_low = 0.0
+    if two:
+        Dl = par[8]
+        R_low = par[9]
+        dR_low = par[10]
+        stops[1, SIGN] = -1.0
+        stops[1, OFFSET] = Dl
+        stops[1, LAW] = 0.0
+        stops[1, _RCOL] = R_low
+    tab = np.zeros((stops.shape[0], 1))
     imp_k = np.zeros(imp_buf.shape[0], np.int64)
-    n_stop = np.zeros(1, np.int64)
+    n_stop = np.zeros(stops.shape[0], np.int64)
     res = event_kernel(beta, B, stops, tab, tab, Omega, q0, v0, 0,
                        0, n, ns, ns, max_impacts, par[7], samples, imp_buf, imp_buf, imp_k, n_stop,
                        pmin, chat_t, ev_log, ev_count)
@@ -311,10 +379,15 @@ def shoot(par, n, ns, max_impacts, samples, imp_buf, ev_log, ev_count, out, imp,
         n_ev = ev_log.shape[0]
     elif status == STATUS_FAILED:
         code = 2
-    M, XP = assemble_derivatives(ev_log, n_ev, q0, v0, q_end, v_end, stuck_end != 0,
-                                 n * TWO_PI / Omega, beta, B, R, Delta, Omega)
+    if two:
+        M, XP = assemble_derivatives(ev_log, n_ev, q0, v0, q_end, v_end, stuck_end != 0,
+                                     n * TWO_PI / Omega, beta, B, R, Delta, Omega, Dl, R_low, dR_low)
+    else:
+        M, XP = assemble_derivatives(ev_log, n_ev, q0, v0, q_end, v_end, stuck_end != 0,
+                                     n * TWO_PI / Omega, beta, B, R, Delta, Omega)
     m = 0
     apex = -np.inf
+    mid = 0.5 * (Delta - Dl)
     for k in range(n_ev):
         kind = int(ev_log[k, 0])
         if kind == EV_IMPACT:
@@ -322,9 +395,12 @@ def shoot(par, n, ns, max_impacts, samples, imp_buf, ev_log, ev_count, out, imp,
                 imp[m, 0] = ev_log[k, 1]
                 imp[m, 1] = ev_log[k, 3]
                 imp[m, 2] = ev_log[k, 4]
+                imp[m, 3] = 1.0 if ev_log[k, 2] < mid else 0.0
             m += 1
         elif kind == EV_APEX and ev_log[k, 2] - Delta > apex:
             apex = ev_log[k, 2] - Delta
+        elif kind == EV_MIN and -ev_log[k, 2] - Dl > apex:
+            apex = -ev_log[k, 2] - Dl
     out[0] = q_end
     out[1] = v_end
     for i in range(2):
@@ -351,7 +427,9 @@ class SDOFShooting:
     Parameters
     ----------
     model : SDOF
-        The oscillator (constant ``R``; a velocity-dependent ``R_table`` is not supported).
+        The oscillator (constant ``R``; a velocity-dependent ``R_table`` is not supported), with
+        one stop or two (``Delta_lower``, ``R_lower``: a shot's ``extra["impact_stops"]`` gives
+        the stop of each impact, 0 upper, 1 lower).
     parameter : {"Omega", "B", "Delta", "R", "beta"}
         Continuation parameter (native, nondimensional).
     Omega : float, optional
@@ -394,9 +472,17 @@ class SDOFShooting:
         self._log = np.zeros((int(max_events), 5))
         self._count = np.zeros(1, dtype=np.int64)
         self._imp = np.zeros(1)
-        self._impacts = np.empty((64, 3))
-        self._par = np.zeros(8)
+        self._impacts = np.empty((64, 4))
+        # a second (lower) stop at q = -Delta_lower: its R (the upper stop's when R_lower is None,
+        # then d R_lower / d R = 1)
+        self.two_sided = bool(getattr(model, "two_sided", False))
+        self._par = np.zeros(11 if self.two_sided else 8)
         self._par[7] = self.chatter_tol
+        if self.two_sided:
+            own = getattr(model, "R_lower", None) is not None
+            self._par[8] = float(model.Delta_lower)
+            self._par[9] = float(model.R_lower) if own else float(model.R)
+            self._par[10] = 0.0 if own else 1.0
         self._samples = {}
         # (beta, B, R, Delta, Omega) of the model and the slot of the continuation parameter
         self._base = [float(model.beta), float(model.B), float(model.R), float(model.Delta), self.Omega]
@@ -443,23 +529,30 @@ class SDOFShooting:
             smp = self._samples[n] = np.zeros((n * self.ns, 2))
         par = self._par
         par[0], par[1], par[2], par[3], par[4], par[5], par[6] = beta, B, R, Delta, Omega, q0, v0
+        if self.two_sided:
+            if par[10] == 1.0:
+                par[9] = R                 # the lower stop follows the upper stop's law
+            if not Delta + par[8] > 0.0:
+                return _failed(f"the stops overlap: Delta + Delta_lower = {Delta + par[8]} must be > 0")
         out = np.empty(23)
         imp = self._impacts
         code, m = shoot(par, n, self.ns, 20000 * n, smp, self._imp, self._log, self._count, out, imp,
                         self.index)
         if m > imp.shape[0]:     # more impacts than the buffer: grow it and shoot again
-            self._impacts = np.empty((2 * m, 3))
+            self._impacts = np.empty((2 * m, 4))
             return self.shot(x0, p, n)
         if code:
             msg = _MESSAGES[code].format(cap=self._log.shape[0], imp=20000 * n, n=n)
             if code < 3:
                 return _failed(msg)
         imp = imp[:m].copy()
+        extra = {"x_all_p": out[8:18].reshape(2, 5), "stuck_end": out[22] > 0.5}
+        if self.two_sided:
+            extra["impact_stops"] = imp[:, 3].astype(np.int64)
         return Shot(x=out[0:2], M=out[2:6].reshape(2, 2), x_p=out[6:8], impact_times=imp[:, 0],
                     impact_velocities=imp[:, 1], q_min=out[19], q_max=out[20], apex_gap=out[18],
                     stuck_time=out[21], status="failed" if code else "ok", message=msg if code else "",
-                    Omega=Omega, gap=Delta, impact_accelerations=imp[:, 2],
-                    extra={"x_all_p": out[8:18].reshape(2, 5), "stuck_end": out[22] > 0.5})
+                    Omega=Omega, gap=Delta, impact_accelerations=imp[:, 2], extra=extra)
 
     def resect(self, x0, p, n):
         """The same orbit seen on the other side of an impact that coincides with the section.
@@ -480,14 +573,25 @@ class SDOFShooting:
         T = TWO_PI / Omega
         a, b = particular_coefficients(beta, Omega * Omega * B, Omega)
         t1, tm = float(s.impact_times[0]), float(s.impact_times[-1])
+        # the stop of each impact: position and sign of the physical velocity (+1 upper, -1 lower)
+        stops = s.extra.get("impact_stops", np.zeros(s.n_impacts, np.int64))
+        where = (Delta, 1.0, R) if not self.two_sided else None
+
+        def at(k):
+            if stops[k] == 0:
+                return Delta, 1.0, R
+            return -self._par[8], -1.0, (R if self._par[10] == 1.0 else self._par[9])
+
         if t1 < 1e-6 * T:
-            v = -R * float(s.impact_velocities[0])
+            qs, sg, Rk = at(0) if where is None else where
+            v = -Rk * sg * float(s.impact_velocities[0])
             phi = (Omega * t1) % TWO_PI
-            g, w, _, _, _ = propagate(-t1, phi, Delta, v, beta, a, b, Omega, Delta)
+            g, w, _, _, _ = propagate(-t1, phi, qs, v, beta, a, b, Omega, Delta)
             return np.array([Delta + g, w])
         if tm > n * T - 1e-6 * T:
+            qs, sg, Rk = at(s.n_impacts - 1) if where is None else where
             phi = (Omega * tm) % TWO_PI
-            g, w, _, _, _ = propagate(n * T - tm, phi, Delta, float(s.impact_velocities[-1]),
+            g, w, _, _, _ = propagate(n * T - tm, phi, qs, sg * float(s.impact_velocities[-1]),
                                       beta, a, b, Omega, Delta)
             return np.array([Delta + g, w])
         return None
@@ -527,6 +631,10 @@ class SDOFShooting:
             if not C < Delta:
                 return None, (f"the non-impacting orbit does not exist: its amplitude C = {C:.6g} "
                               f"reaches the stop Delta = {Delta:.6g} at {self.parameter} = {p:.6g}")
+            if self.two_sided and not C < self._par[8]:
+                return None, (f"the non-impacting orbit does not exist: its amplitude C = {C:.6g} "
+                              f"reaches the lower stop Delta_lower = {self._par[8]:.6g} at "
+                              f"{self.parameter} = {p:.6g}")
             return np.array([b, Omega * a]), ""
         if kind == "averaging":
             if n != 1:
@@ -547,7 +655,15 @@ class SDOFShooting:
                 phi, v = float(fp[0]), float(fp[1])
             s = ((TWO_PI - phi) % TWO_PI) / Omega
             g, w, _, _, _ = propagate(s, phi, Delta, -R * v, beta, a, b, Omega, Delta)
-            return np.array([Delta + g, w]), ""
+            x0 = np.array([Delta + g, w])
+            if self.two_sided:
+                # the averaged orbit is a one-stop orbit: admissible only if it stays above the
+                # lower stop (one impact per period on the upper stop, none below)
+                sh = self.shot(x0, p, 1)
+                if sh.status != "ok" or np.any(sh.extra["impact_stops"] == 1) or sh.q_min <= -self._par[8]:
+                    return None, (f"the averaging orbit reaches the lower stop Delta_lower = "
+                                  f"{self._par[8]:.6g} at {self.parameter} = {p:.6g}")
+            return x0, ""
         raise ValueError(f"unknown start {kind!r}; allowed: {', '.join(self.starts)}")
 
 

@@ -42,7 +42,8 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     Methods that take a velocity-dependent R (effect ``restitution_law``).
 ``two_sided_methods``
     Methods that simulate a second (lower) stop (two contact relations with opposite
-    normals, :mod:`vibeam.models.contact`).
+    normals, :mod:`vibeam.models.contact`); ``continuation`` when the shooting problem
+    follows orbits with impacts on both stops.
 ``contact_laws``
     Compliant contact laws (:mod:`vibeam.models.compliant`) and, for each, the methods that
     simulate it with their solvers (``{"linear": {"event": "module:Class", ...}}``); the
@@ -126,7 +127,7 @@ register(Fidelity(
              "averaging": "sdof_averaging:AveragingSolver", "mapping": "sdof_mapping:MappingSolver"},
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
-    two_sided_methods=("event", "direct", "mapping"),
+    two_sided_methods=("event", "direct", "mapping", "continuation"),
     contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver"},
@@ -147,7 +148,7 @@ register(Fidelity(
     coupled_platform=True,
     fe_model=True,
     restitution_law_methods=("event", "direct"),
-    two_sided_methods=("event", "direct"),
+    two_sided_methods=("event", "direct", "continuation"),
     contact_laws={"linear": {"event": "beam_compliant:CompliantBeamEventSolver",
                              "direct": "beam_compliant:CompliantBeamODESolver"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))

@@ -64,7 +64,8 @@ EV_IMPACT = 0
 EV_STICK = 1
 EV_RELEASE = 2
 EV_APEX = 3
-EV_NAMES = ("impact", "stick", "release", "apex")
+EV_MIN = 4
+EV_NAMES = ("impact", "stick", "release", "apex", "minimum")
 
 
 @njit(cache=True)
@@ -235,8 +236,10 @@ def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init
     ``ev_log`` (shape (cap, 5)) receives one row ``(kind, t, q, q', q'')`` per event in
     time order -- kind :data:`EV_IMPACT` (pre-impact state and acceleration),
     :data:`EV_STICK` (onset of sticking, after a chatter accumulation or a contact without
-    rebound), :data:`EV_RELEASE` (lift-off from the stop) and :data:`EV_APEX` (an interior
-    maximum of a free flight below the stop, located in recorded periods), with ``t``
+    rebound), :data:`EV_RELEASE` (lift-off from the stop), :data:`EV_APEX` (an interior
+    maximum of a free flight below the stop, located in recorded periods) and, with a second
+    stop, :data:`EV_MIN` (an interior minimum of a free flight, located in recorded periods: the
+    grazing test of the lower stop), with ``t``
     measured from the start of the call -- and ``ev_count[0]`` the number of events (it
     keeps counting beyond ``cap``).  Omitted (None), nothing is logged.
 
@@ -439,6 +442,9 @@ def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init
                                         q_min = Delta + gm
                                     if Delta + gm < pmin[kp]:
                                         pmin[kp] = Delta + gm
+                                    if ev_log is not None and two:
+                                        _log_event(ev_log, ev_count, EV_MIN, p * T + t_loc + sm,
+                                                   Delta + gm, 0.0, 0.0)
                                 elif v0 > 0.0 > v1:
                                     sa = _root(1, 0.0, h, phi, q, v, beta, a, b, Omega, Delta)
                                     ga = propagate(sa, phi, q, v, beta, a, b, Omega, Delta)[0]
@@ -494,6 +500,9 @@ def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init
                                             q_min = Delta + gm
                                         if Delta + gm < pmin[kp]:
                                             pmin[kp] = Delta + gm
+                                        if ev_log is not None and two:
+                                            _log_event(ev_log, ev_count, EV_MIN, p * T + t_loc + sm,
+                                                       Delta + gm, 0.0, 0.0)
                                     if g1 >= 0.0:
                                         s_imp = _root(0, sm, h, phi, q, v, beta, a, b, Omega, Delta)
                                 elif g1 >= 0.0:

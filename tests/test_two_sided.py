@@ -339,9 +339,8 @@ method = "{method}"
 
 @pytest.mark.parametrize("model, method, match", [
     ("Delta_lower = 1e-3", "averaging", "'run\\[0\\].method' = 'averaging' cannot simulate a second stop"),
-    ("Delta_lower = 1e-3", "ivanov", "allowed with two stops: event, direct, mapping"),
+    ("Delta_lower = 1e-3", "ivanov", "allowed with two stops: event, direct, mapping, continuation"),
     ("Delta_lower = 1e-3", "zhuravlev", "cannot simulate a second stop"),
-    ("Delta_lower = 1e-3", "continuation", "cannot simulate a second stop"),
     ("Delta_lower = -1e-3", "event", "the stops overlap: Delta \\+ Delta_lower = -0.001 must be > 0"),
     ("[model.contact_lower]\nR = 0.5", "event", "needs a lower stop"),
     ("Delta_lower = 1e-3\n[model.contact_lower]\nlaw = 'linear'\nstiffness = 1e4", "event", "not implemented yet"),

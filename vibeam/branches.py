@@ -35,10 +35,13 @@ BRANCH_UNITS = {
     "stable": "bool (all multipliers inside the unit circle)",
     "period": "forcing periods of the orbit",
     "impacts_per_period": "1/forcing period",
+    "impacts_lower": "1 (impacts on the lower stop per orbit, two stops)",
+    "impacts_per_period_lower": "1/forcing period (on the lower stop, two stops)",
     "state": "1 (state at forcing phase 0 of the fidelity's shooting problem)",
     "q_min": "1", "q_max": "1",
     "stuck_time": "1 (time on the stop per orbit, nondimensional)",
-    "apex_gap": "1 (highest interior free-flight apex minus the stop; 0 = grazing)",
+    "apex_gap": "1 (highest interior free-flight apex minus the stop, with two stops the nearer of that and the "
+                "lower stop's gap at the deepest minimum; 0 = grazing)",
 }
 
 
@@ -60,8 +63,9 @@ class BranchTask:
         Forcing frequency Omega of a continuation in another key.
     settings : dict
         The run's continuation settings (:class:`vibeam.case.ContinuationRun`).
-    sweep_periods : (int, int)
-        Transient and recorded periods of a ``sweep`` start.
+    sweep_periods : (int or "auto", int)
+        Transient and recorded periods of a ``sweep`` start (``"auto"``: settled as the
+        sweep settles its points, :func:`vibeam.sweep._settle`).
     curve_key : str or None
         The ``[map]`` parameter of a case with two-parameter curves.
     curve_range : (float, float) or None
@@ -197,13 +201,23 @@ def _sweep_start(task, spec, value):
         model, Omega = spec.build(), value
     else:
         model, Omega = _with(spec, **{task.parameter: value}).build(), task.at
-    tr = make_solver(model, "event").point(float(Omega), None, task.sweep_periods[0], task.sweep_periods[1], 16)
+    solver = make_solver(model, "event")
+    n_tr = task.sweep_periods[0]
+    if n_tr == "auto":
+        # the sweep's own settling (transient_periods = "auto", e.g. a [quick] variant's)
+        from .sweep import Sweep, _Clock, _settle
+
+        sw = Sweep(Omega=np.array([float(Omega)]), transient_periods="auto", record_periods=task.sweep_periods[1],
+                   samples_per_period=16)
+        tr, n_tr, _ = _settle(solver, float(Omega), None, sw, model.Delta, _Clock())
+    else:
+        tr = solver.point(float(Omega), None, n_tr, task.sweep_periods[1], 16)
     sm = summarize(tr, model.Delta)
     if tr.status == "failed":
         return None, 0, f"the event run failed: {tr.message}"
     n = int(sm["period"])
     if n == 0:
-        return None, 0, (f"the sweep point is not periodic within 8 periods after {task.sweep_periods[0]} transient "
+        return None, 0, (f"the sweep point is not periodic within 8 periods after {n_tr} transient "
                          f"periods (a sample of a non-periodic attractor)")
     return np.asarray(tr.final_state, float), max(n, 1), ""
 

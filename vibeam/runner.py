@@ -611,10 +611,13 @@ def _stored_sweeps(h5) -> list:
 def _plot_continuation(case, conts, sweeps, out_dir, maps=()):
     from .branches import plot_continuation, plot_curves
 
+    scene = {r.name: dict(r.model) for r in case.run}      # each run's [run.model] overrides
     for r in conts:
         safe = file_stem(r.name)
         if r.branches:
-            p = plot_continuation(r, sweeps, out_dir / f"continuation_{safe}.png", title=f"{case.name}: {r.name}",
+            # the sweeps of the same scene overlaid (all of them when none is of the same scene)
+            same = [s for s in sweeps if scene.get(s.name) == scene.get(r.name)] or sweeps
+            p = plot_continuation(r, same, out_dir / f"continuation_{safe}.png", title=f"{case.name}: {r.name}",
                                   case=case)
             print(f"continuation plot: {p}")
         if r.curves:
