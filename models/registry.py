@@ -48,7 +48,9 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     simulate it with their solvers (``{"linear": {"event": "module:Class", ...}}``); the
     model then has ``contact_law`` (its stop's law name, ``"restitution"`` by default).  A
     method not listed for a law is refused by :func:`vibeam.models.make_solver` (and by
-    case validation, :func:`contact_law_methods`); so is continuation.
+    case validation, :func:`contact_law_methods`).  The entry ``"continuation"`` names the
+    law's shooting problem (not a solver: :func:`vibeam.models.shooting_problem` builds it as
+    ``cls(model, parameter, Omega=Omega)``); without it the law cannot be continued.
 ``shooting``
     Its periodic-orbit shooting problem (contract: :mod:`vibeam.models.periodic`), the
     class the continuation builds as ``cls(model, parameter, Omega=Omega)``; None: cannot
@@ -129,7 +131,8 @@ register(Fidelity(
     two_sided_methods=("event", "direct"),
     contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
-                             "mapping": "sdof_compliant_map:CompliantMappingSolver"},
+                             "mapping": "sdof_compliant_map:CompliantMappingSolver",
+                             "continuation": "periodic_compliant:CompliantSDOFShooting"},
                   "hunt_crossley": {"event": "sdof_compliant:CompliantEventSolver",
                                     "direct": "sdof_compliant_ode:CompliantDirectSolver"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))

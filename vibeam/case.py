@@ -172,6 +172,10 @@ class SDOFModelSpec(_Strict):
                      "R": ("R", 1.0)}
         else:
             table = {k: (k, 1.0) for k in ("Omega", "B", "Delta", "R", "beta")}
+        if self.contact is not None and self.contact.law != "restitution":
+            # a compliant stop: R and beta set the contact phase's flow, which the law's shooting
+            # problem does not differentiate (vibeam.models.periodic_compliant)
+            table = {k: v for k, v in table.items() if v[0] in ("Omega", "B", "Delta")}
         if key not in table:
             raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(table)}")
         return table[key]
