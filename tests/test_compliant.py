@@ -182,8 +182,11 @@ def test_case_builds_the_law_and_refuses_other_methods():
     for method in ("averaging", "zhuravlev"):
         with pytest.raises(CaseError, match="allowed: event, direct, mapping"):
             parse_case(CASE.replace('method = "event"', f'method = "{method}"'))
-    with pytest.raises(CaseError, match="allowed: event, direct, mapping"):
-        parse_case(CASE.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"'))
+    # continuation is the law's shooting problem (vibeam.models.periodic_compliant), in Omega, B, Delta
+    parse_case(CASE.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"'))
+    with pytest.raises(CaseError, match="allowed: Omega, B, Delta"):
+        parse_case(CASE.replace('method = "event"', 'method = "continuation"\nparameter = "R"\nat = 2.0\n'
+                                                     'range = [0.8, 0.9]'))
     with pytest.raises(CaseError, match="model.contact"):
         parse_case(CASE.replace("R = 0.9", "R = 0.1"))
     with pytest.raises(CaseError, match="stiffness_n_m needs a physical scene"):
