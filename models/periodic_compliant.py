@@ -349,3 +349,359 @@ def _failed(message: str) -> Shot:
     nan2 = np.full(2, np.nan)
     return Shot(x=nan2, M=np.full((2, 2), np.nan), x_p=nan2.copy(), impact_times=np.zeros(0),
                 impact_velocities=np.zeros(0), q_min=np.nan, q_max=np.nan, status="failed", message=message)
+
+
+# ============================================================================ the modal beam
+#: continuation parameters of the compliant beam problem (they enter the forced response only)
+BEAM_PARAMETERS = ("Omega", "base_amplitude_m")
+
+
+class CompliantBeamShooting:
+    """Shooting problem ``P^n`` of the modal FE beam (any number of modes) on a Kelvin-Voigt
+    stop (contract: :mod:`vibeam.models.periodic`).
+
+    The shot is one run of the exact compliant beam kernel
+    (:func:`vibeam.models.beam_compliant.beam_compliant_kernel`: eigendecomposed ``2N x 2N``
+    phase flows, certified entry and exit) from ``x0`` over ``n`` periods, recording its
+    contact entries and durations; the derivatives are then composed along those events with
+    the same exact flows, as for the SDOF (module docstring):
+
+    * a phase ``p`` with state matrix ``A_p = V diag(lambda) V^-1`` flows as ``z(t_b) =
+      Phi_p (z(t_a) - z_p(t_a)) + z_p(t_b)``, ``Phi_p(s) = Re(V diag(e^{lambda s}) V^-1)``,
+      ``z_p(t) = Im(Z_p e^{i Omega t}) + z_e,p``, ``Z_p = (i Omega - A_p)^-1 b Omega^2 Y``;
+    * entry through ``g = w^T eta - Delta_C = 0``: the dashpot's force ``c w w^T eta'`` appears
+      at once, saltation ``S = I - c [[0, 0], [w w^T, 0]]`` (velocity-free, ``det S = 1``);
+    * exit and re-entry inside the stop (contact force zero): ``S = I``;
+    * ``d/dOmega`` of ``Z_p`` (``F = Omega^2 Y`` and the resolvent), of the phase ``Omega t`` and
+      of the end time ``n T``; ``d/dY`` of ``Z_p``.
+
+    ``det M = exp(trace(A_free) n T - c |w|^2 T_c)``.  The first exit of a contact already
+    open at the section is located by the kernel's certified scan
+    (:func:`~vibeam.models.beam_compliant.bupcross`) on the contact force.  ``apex_gap`` (m) is
+    the largest interior free-flight maximum of ``g`` below the stop (or of the force over
+    ``k_c`` inside it, or minus the force's interior minima in contact over ``k_c``), as for the
+    SDOF.
+
+    Parameters
+    ----------
+    model : vibeam.models.beam_compliant.CompliantBeamModel
+    parameter : {"Omega", "base_amplitude_m"}
+    Omega : float, optional
+        Forcing frequency ``f / f_ref``; required unless ``parameter == "Omega"``.
+    steps_per_fundamental : int, optional
+        As :class:`~vibeam.models.beam_compliant.CompliantBeamEventSolver`.
+    max_contacts : int, optional
+        Most contacts in one shot (beyond: ``status = "failed"``).
+
+    Raises
+    ------
+    ValueError
+        For another law, an unknown parameter or a missing ``Omega``.
+    """
+
+    fidelity = "beam"
+    starts = ("linear",)
+
+    def __init__(self, model, parameter: str = "Omega", Omega: float | None = None,
+                 steps_per_fundamental: int = 16, max_contacts: int = 4096):
+        from .beam_compliant import _ensure_eig
+
+        if getattr(model, "contact", None) is None or getattr(model.contact, "name", "") != "linear":
+            raise ValueError("CompliantBeamShooting needs a beam model with contact law \"linear\"")
+        if getattr(model, "two_sided", False):
+            raise ValueError("continuation with a compliant law follows one stop (no second stop)")
+        if parameter not in BEAM_PARAMETERS:
+            raise ValueError(f"parameter {parameter!r} cannot be continued with contact law \"linear\" on the "
+                             f"beam; allowed: {', '.join(BEAM_PARAMETERS)}")
+        if parameter != "Omega" and Omega is None:
+            raise ValueError(f"continuation in {parameter!r} needs the forcing frequency Omega")
+        _ensure_eig(model)
+        self.model = model
+        self.parameter = parameter
+        self.Omega = None if Omega is None else float(Omega)
+        self.value = (float(Omega) if Omega is not None else math.nan) if parameter == "Omega" \
+            else float(getattr(model, parameter))
+        self.dim = 2 * model.n_modes
+        self.state_scale = model.length_m * math.sqrt(model.m_eff)
+        self.steps_per_fundamental = int(steps_per_fundamental)
+        self.max_contacts = int(max_contacts)
+        self._key = None
+        self._data = None
+
+    def model_at(self, p: float):
+        if self.parameter == "Omega" or p == self.value:
+            return self.model
+        import copy
+        m = copy.copy(self.model)
+        setattr(m, self.parameter, float(p))
+        return m
+
+    def data(self, p: float) -> dict:
+        """Phase data at ``p`` (cached for the last ``p``): the kernel's arrays and the
+        forced-response derivatives."""
+        from .beam_compliant import _phase_data
+
+        if self._key == float(p):
+            return self._data
+        m = self.model_at(p)
+        Om = float(p) if self.parameter == "Omega" else self.Omega
+        A, b, b0, kc, cc = m.phase_matrices()
+        pd = _phase_data(m, Om)
+        n2 = self.dim
+        Y = m.base_amplitude_m
+        F = Om * Om * Y
+        dZ = np.empty((2, 2, n2), complex)        # [phase, (Omega, Y)]
+        for r in range(2):
+            Rinv = np.linalg.inv(1j * Om * np.eye(n2) - A[r])
+            Zu = Rinv @ b
+            dZ[r, 0] = 2.0 * Om * Y * Zu - 1j * F * (Rinv @ Zu)
+            dZ[r, 1] = Om * Om * Zu
+        lam, V, W = pd[0], pd[1], pd[2]
+        w = m.contact_row
+        hmax = np.array([TWO_PI / math.sqrt(m.k_nd[0]), TWO_PI / math.sqrt(kc * float(w @ w))]) \
+            / self.steps_per_fundamental
+        D = dict(m=m, Om=Om, A=A, b=b * F, b0=b0, kc=kc, cc=cc, pd=pd, dZ=dZ, lam=lam, V=V, W=W, hmax=hmax, F=F)
+        self._key, self._data = float(p), D
+        return D
+
+    @staticmethod
+    def _stm(D, r, s):
+        return ((D["V"][r] * np.exp(D["lam"][r] * s)) @ D["W"][r]).real
+
+    @staticmethod
+    def _zp(D, r, t):
+        Z, ze = D["pd"][3][r], D["pd"][4][r]
+        return (Z * complex(math.cos(D["Om"] * t), math.sin(D["Om"] * t))).imag + ze
+
+    def _dzp(self, D, r, t, j):
+        """``d z_p / d p_j`` at fixed ``t`` (j = 0 Omega, 1 Y)."""
+        Om = D["Om"]
+        e = complex(math.cos(Om * t), math.sin(Om * t))
+        if j == 0:
+            return ((D["dZ"][r, 0] + 1j * t * D["pd"][3][r]) * e).imag
+        return (D["dZ"][r, 1] * e).imag
+
+    def _field(self, D, r, z, t):
+        return D["A"][r] @ z + D["b"] * math.sin(D["Om"] * t) + D["b0"][r]
+
+    def shot(self, x0, p, n: int = 1) -> Shot:
+        """``P^n(x0; p)`` with monodromy and ``d/dp`` (class docstring).
+
+        Parameters
+        ----------
+        x0 : array_like, shape (2N,)
+            ``(eta, eta')`` at forcing phase 0 (in contact where ``g >= 0`` and the force
+            ``k g + c g' > 0``).
+        p : float
+            Parameter value (native units).
+        n : int
+            Forcing periods.
+
+        Returns
+        -------
+        Shot
+            ``impact_times``/``impact_velocities``: contact entries and their rates (``U' / L``
+            per unit nondimensional time); ``q_min``/``q_max`` of the sensor (``/ L``);
+            ``apex_gap`` in m; ``extra``: ``x_all_p`` (2N, 2) ``d x / d(Omega, Y)``,
+            ``contact_time``, ``contacts`` (k, 4) per contact of the window (kernel units).
+        """
+        from .beam_compliant import beam_compliant_kernel
+
+        n = int(n)
+        x0 = np.asarray(x0, float)
+        if not (np.all(np.isfinite(x0)) and math.isfinite(float(p)) and n >= 1) or \
+                (self.parameter == "Omega" and not p > 0.0):
+            return _failed_n(self.dim, f"parameters or state out of range ({self.parameter} = {p}, n = {n})")
+        D = self.data(p)
+        m, Om, kc, cc = D["m"], D["Om"], D["kc"], D["cc"]
+        lamA, VA, WA, ZA, zeA, PU, PS, bU, bS, gU, gS = D["pd"][:11]
+        N = m.n_modes
+        n2 = 2 * N
+        w = m.contact_row
+        DC = m.gap_contact_m
+        L = m.length_m
+        T = TWO_PI / Om
+        t_end = n * T
+        g0 = float(w @ x0[:N]) - DC
+        u0 = float(w @ x0[N:])
+        phase0 = CONTACT if (g0 >= 0.0 and kc * g0 + cc * u0 > 0.0) else FREE
+        ns = 4
+        cap = self.max_contacts
+        samples = np.zeros((n * ns, 2))
+        pmin = np.zeros(n)
+        imp_t = np.zeros(cap)
+        imp_v = np.zeros(cap)
+        con = np.full((cap, 5), np.nan)
+        msamp = np.zeros((0, n2))
+        z = x0.copy()
+        status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = beam_compliant_kernel(
+            Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, kc, cc, DC, z, phase0, 0, n,
+            1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t, imp_v, con, msamp)
+        if status != 0 or n_rec > cap:
+            return _failed_n(self.dim, f"the event kernel gave up after {n_con} contacts / {n_steps} steps in "
+                                       f"{n} period(s)")
+        # the phase sequence: [start phase, events (t, kind)], kind 1 entry, 2 exit
+        events = []
+        for r in range(n_rec):
+            events.append((float(imp_t[r]), 1))
+            if math.isfinite(con[r, 0]):
+                events.append((float(imp_t[r] + con[r, 0]), 2))
+        if phase0 == CONTACT:
+            t_first = events[0][0] if events else t_end
+            tx = self._first_exit(D, x0, t_first)
+            if tx is not None:
+                events.append((tx, 2))
+        events.sort()
+        # alternation check (entry after free, exit after contact)
+        ph = phase0
+        for _, kind in events:
+            if (kind == 1) != (ph == FREE):
+                return _failed_n(self.dim, "contact events do not alternate (inconsistent event record)")
+            ph = CONTACT if kind == 1 else FREE
+        if ph != int(ph_end):
+            return _failed_n(self.dim, "the event record does not end in the kernel's phase")
+        # compose the tangent along the phases (exact flows), with the state rebuilt on them
+        J = np.zeros((n2, n2 + 2))
+        J[:, :n2] = np.eye(n2)
+        zc = x0.copy()
+        ta = 0.0
+        ph = phase0
+        apex = -np.inf
+        rates, entries, contacts, t_c = [], [], [], 0.0
+        t_open = None
+        for (tb, kind) in events + [(t_end, 0)]:
+            Phi = self._stm(D, ph, tb - ta)
+            za = zc
+            zc = Phi @ (zc - self._zp(D, ph, ta)) + self._zp(D, ph, tb)
+            J = Phi @ J
+            for j in range(2):
+                J[:, n2 + j] += self._dzp(D, ph, tb, j) - Phi @ self._dzp(D, ph, ta, j)
+            apex = max(apex, self._extremes(D, ph, za, ta, tb))
+            if ph == CONTACT:
+                t_c += tb - ta
+            if kind == 1:
+                g = float(w @ zc[:N]) - DC
+                U = float(w @ zc[N:])
+                entries.append(tb)
+                if g <= 1e-9 * max(abs(DC), self.state_scale * 1e-3 / math.sqrt(m.m_eff)) and U > 0.0:
+                    J[N:, :] -= cc * np.outer(w, w @ J[:N, :])     # saltation of the dashpot's jump
+                    rates.append(U / L)
+                else:
+                    a_n = float(w @ self._field(D, FREE, zc, tb)[N:])
+                    rates.append((kc * U + cc * a_n) / kc / L)
+                t_open = tb
+                ph = CONTACT
+            elif kind == 2:
+                if t_open is not None:
+                    r = len(contacts)
+                    contacts.append(con[r if r < n_rec else 0, :4])
+                t_open = None
+                ph = FREE
+            ta = tb
+        J[:, n2] += self._field(D, ph, z, t_end) * (-t_end / Om)
+        jcol = n2 + BEAM_PARAMETERS.index(self.parameter)
+        M = J[:, :n2].copy()
+        if not np.all(np.isfinite(J)):
+            return _failed_n(self.dim, "non-finite derivatives")
+        return Shot(x=z.copy(), M=M, x_p=J[:, jcol].copy(), impact_times=np.array(entries, float),
+                    impact_velocities=np.array(rates, float), q_min=float(smin / L), q_max=float(smax / L),
+                    apex_gap=float(apex), stuck_time=0.0, status="ok", message="", Omega=Om, gap=m.Delta,
+                    extra={"x_all_p": J[:, n2:].copy(), "contact_time": t_c, "rebuilt_state": zc,
+                           "contacts": np.array(contacts, float).reshape(-1, 4), "in_contact_end": ph == CONTACT})
+
+    def _signal(self, D, r, z, ta, rowc):
+        """Coefficients ``(al, be, ga)`` of ``rowc . z(ta + s)`` in phase ``r`` from ``z`` at ``ta``."""
+        from .beam_compliant import _modal
+
+        phi = (D["Om"] * ta) % TWO_PI
+        a = np.empty(self.dim, np.complex128)
+        _modal(np.ascontiguousarray(z), D["W"][r], D["pd"][3][r], D["pd"][4][r], phi, a)
+        al = (rowc @ D["V"][r]) * a
+        return al, complex(rowc @ D["pd"][3][r]), float(rowc @ D["pd"][4][r]), phi
+
+    def _first_exit(self, D, z, t_max):
+        """Exit time of a contact open at the section: the force ``k g + c g'`` down through 0
+        (the kernel's certified scan, in its contact step lengths)."""
+        from .beam_compliant import _combo, bupcross
+
+        N = self.model.n_modes
+        rowU = np.concatenate([self.model.contact_row, np.zeros(N)])
+        al, be, ga, phi = self._signal(D, CONTACT, z, 0.0, rowU)
+        ga -= self.model.gap_contact_m
+        lam = D["lam"][CONTACT]
+        al2 = np.empty_like(al)
+        b2, g2 = _combo(-D["kc"], -D["cc"], 0.0, al, lam, be, ga, D["Om"], al2)
+        h = D["hmax"][CONTACT]
+        s = 0.0
+        while s < t_max:
+            e = min(s + h, t_max)
+            r = bupcross(al2, lam, b2, g2, phi, D["Om"], s, e, 1e-13 * TWO_PI / D["Om"])
+            if r >= 0.0:
+                return r
+            s = e
+        return None
+
+    def _extremes(self, D, r, z, ta, tb):
+        """Grazing indicator (m) inside the phase segment ``[ta, tb]`` (class docstring)."""
+        from .beam_compliant import _combo, _sig, bupcross
+
+        if tb <= ta:
+            return -np.inf
+        N = self.model.n_modes
+        rowU = np.concatenate([self.model.contact_row, np.zeros(N)])
+        al, be, ga, phi = self._signal(D, r, z, ta, rowU)
+        ga -= self.model.gap_contact_m
+        lam = D["lam"][r]
+        kc, cc, Om = D["kc"], D["cc"], D["Om"]
+        al2 = np.empty_like(al)
+        buf = np.empty(4)
+        h_min = 1e-13 * TWO_PI / Om
+        best = -np.inf
+        combos = ((0.0, -1.0, 0.0, 0), (0.0, -kc, -cc, 1)) if r == FREE else ((0.0, kc, cc, 2),)
+        h = D["hmax"][r]
+        for c0, c1, c2, kind in combos:
+            b2, g2 = _combo(c0, c1, c2, al, lam, be, ga, Om, al2)
+            s = 0.0
+            S = tb - ta
+            while s < S:
+                e = min(s + h, S)
+                u = bupcross(al2, lam, b2, g2, phi, Om, s, e, h_min)
+                if u < 0.0 or u >= S:
+                    s = e
+                    continue
+                _sig(u, al, lam, be, ga, phi, Om, buf)
+                f = kc * buf[0] + cc * buf[1]
+                if kind == 0 and buf[0] < 0.0:
+                    best = max(best, buf[0])
+                elif kind == 1 and buf[0] > 0.0:
+                    best = max(best, f / kc)
+                elif kind == 2:
+                    best = max(best, -f / kc)
+                s = u + 1e-12 * h
+        return best
+
+    def linear_orbit(self, p: float) -> np.ndarray:
+        """``(eta, eta')`` at forcing phase 0 of the contact-free harmonic steady state."""
+        D = self.data(p)
+        return self._zp(D, FREE, 0.0)
+
+    def start(self, kind: str, p: float, n: int = 1):
+        """``linear``: the contact-free steady state where its contact amplitude stays below
+        ``Delta_C``; returns ``(x0 or None, reason)``."""
+        if kind != "linear":
+            raise ValueError(f"start {kind!r} is not available for the beam; allowed: {', '.join(self.starts)} "
+                             f"(and 'sweep')")
+        D = self.data(p)
+        m = D["m"]
+        N = m.n_modes
+        A = abs(complex(m.contact_row @ D["pd"][3][FREE][:N]))
+        if not A < m.gap_contact_m:
+            return None, (f"the non-contacting orbit does not exist: its contact amplitude {A:.6g} m reaches the "
+                          f"stop Delta_C = {m.gap_contact_m:.6g} m at {self.parameter} = {p:.6g}")
+        return self.linear_orbit(p), ""
+
+
+def _failed_n(d: int, message: str) -> Shot:
+    nan = np.full(d, np.nan)
+    return Shot(x=nan, M=np.full((d, d), np.nan), x_p=nan.copy(), impact_times=np.zeros(0),
+                impact_velocities=np.zeros(0), q_min=np.nan, q_max=np.nan, status="failed", message=message)
