@@ -629,15 +629,19 @@ class CompliantBeamShooting:
         al, be, ga, phi = self._signal(D, CONTACT, z, 0.0, rowU)
         ga -= self.model.gap_contact_m
         lam = D["lam"][CONTACT]
+        kc, cc, Om = D["kc"], D["cc"], D["Om"]
         al2 = np.empty_like(al)
-        b2, g2 = _combo(-D["kc"], -D["cc"], 0.0, al, lam, be, ga, D["Om"], al2)
         h = D["hmax"][CONTACT]
         s = 0.0
         while s < t_max:
+            # the kernel's steps: the coefficients carried as a_j e^{lambda_j s} (decayed modes drop
+            # out of the derivative bounds), the scan restarted on each step
             e = min(s + h, t_max)
-            r = bupcross(al2, lam, b2, g2, phi, D["Om"], s, e, 1e-13 * TWO_PI / D["Om"])
+            als = al * np.exp(lam * s)
+            b2, g2 = _combo(-kc, -cc, 0.0, als, lam, be, ga, Om, al2)
+            r = bupcross(al2, lam, b2, g2, (phi + Om * s) % TWO_PI, Om, 0.0, e - s, 1e-13 * TWO_PI / Om)
             if r >= 0.0:
-                return r
+                return s + r
             s = e
         return None
 
@@ -659,25 +663,30 @@ class CompliantBeamShooting:
         best = -np.inf
         combos = ((0.0, -1.0, 0.0, 0), (0.0, -kc, -cc, 1)) if r == FREE else ((0.0, kc, cc, 2),)
         h = D["hmax"][r]
-        for c0, c1, c2, kind in combos:
-            b2, g2 = _combo(c0, c1, c2, al, lam, be, ga, Om, al2)
-            s = 0.0
-            S = tb - ta
-            while s < S:
-                e = min(s + h, S)
-                u = bupcross(al2, lam, b2, g2, phi, Om, s, e, h_min)
-                if u < 0.0 or u >= S:
-                    s = e
-                    continue
-                _sig(u, al, lam, be, ga, phi, Om, buf)
-                f = kc * buf[0] + cc * buf[1]
-                if kind == 0 and buf[0] < 0.0:
-                    best = max(best, buf[0])
-                elif kind == 1 and buf[0] > 0.0:
-                    best = max(best, f / kc)
-                elif kind == 2:
-                    best = max(best, -f / kc)
-                s = u + 1e-12 * h
+        S = tb - ta
+        s = 0.0
+        while s < S:
+            # the kernel's steps (see _first_exit): coefficients decayed to the step's start
+            e = min(s + h, S)
+            als = al * np.exp(lam * s)
+            ph = (phi + Om * s) % TWO_PI
+            for c0, c1, c2, kind in combos:
+                b2, g2 = _combo(c0, c1, c2, als, lam, be, ga, Om, al2)
+                u = 0.0
+                while True:
+                    u = bupcross(al2, lam, b2, g2, ph, Om, u, e - s, h_min)
+                    if u < 0.0 or s + u >= S:
+                        break
+                    _sig(u, als, lam, be, ga, ph, Om, buf)
+                    f = kc * buf[0] + cc * buf[1]
+                    if kind == 0 and buf[0] < 0.0:
+                        best = max(best, buf[0])
+                    elif kind == 1 and buf[0] > 0.0:
+                        best = max(best, f / kc)
+                    elif kind == 2:
+                        best = max(best, -f / kc)
+                    u = u + 1e-12 * h
+            s = e
         return best
 
     def linear_orbit(self, p: float) -> np.ndarray:
