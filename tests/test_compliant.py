@@ -354,8 +354,12 @@ def test_beam_isolated_contact_restitution_and_case_keys():
         parse_case(text.replace("stiffness_n_m = 1e6", "stiffness = 1e4"))
     with pytest.raises(CaseError, match="not implemented for the beam"):
         parse_case(text.replace('law = "linear"', 'law = "hunt_crossley"'))
-    with pytest.raises(CaseError, match="allowed: event, direct"):
-        parse_case(text.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"', 1))
+    # continuation: the law's shooting problem (vibeam.models.periodic_compliant), in the frequency and
+    # the excitation only
+    parse_case(text.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"', 1))
+    with pytest.raises(CaseError, match="allowed: Omega, voltage, gain"):
+        parse_case(text.replace('method = "event"', 'method = "continuation"\nparameter = "R"\nat = 15.0\n'
+                                                     'range = [0.7, 0.8]', 1))
 
 
 def test_beam_frc_converges_to_the_cor_frc_as_the_stiffness_grows():

@@ -212,3 +212,129 @@ def test_vibeam_continue_end_to_end(tmp_path):
     x = np.asarray(b["state"][i], float)
     _, sm = _settled(m, float(b["parameter"][i]), 1500, x0=x * 1.01)
     assert sm["amplitude"] == pytest.approx(float(b["amplitude"][i]), rel=1e-9)
+
+
+# ------------------------------------------------------------------ the modal beam
+def _rig(n_modes, k=1e5, gap_mm=0.0):
+    from vibeam.case import load_case
+
+    case, _ = load_case("cases/rig-fe-neutral.toml")
+    return case.model_spec({"n_modes": n_modes, "gap_mm": gap_mm,
+                            "contact": {"law": "linear", "stiffness_n_m": k}}).build()
+
+
+@pytest.mark.parametrize("n_modes", [1, 2, 4])
+def test_beam_shot_jacobian_liouville_and_state(n_modes):
+    """Rig FE beam on a Kelvin-Voigt stop at 16 Hz, from a state 0.1 % off its settled orbit:
+    * the end state equals the kernel's, rebuilt along the recorded phases by the exact flows
+      the Jacobian uses (1e-13 of the state; measured ~1e-15);
+    * M and d/d(Omega, Y) against central differences (step 1e-6; 1e-7 of the largest entry
+      of M for its columns (the stiff high modes' columns are ~1e-30 of it: absolute
+      comparison) and of the parameter column's own scale; measured <= 4e-10);
+    * Liouville: det M = exp(trace(A_free) T - c |w|^2 T_c) to 1e-9 (measured ~1e-15)."""
+    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.periodic_compliant import CompliantBeamShooting
+
+    m = _rig(n_modes)
+    W = 16.0 / m.f_ref_hz
+    x0 = CompliantBeamEventSolver(m).point(W, None, 200, 4, 16).final_state[:2 * n_modes] * 1.001
+    d = 2 * n_modes
+    sc = float(np.max(np.abs(x0)))
+    for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
+        prob = CompliantBeamShooting(m, par, Omega=W)
+        s = prob.shot(x0, p, 1)
+        assert s.status == "ok" and s.n_impacts == 1
+        assert np.max(np.abs(s.extra["rebuilt_state"] - s.x)) < 1e-13 * sc
+        J = np.empty((d, d + 1))
+        for c in range(d + 1):
+            if c < d:
+                e = np.zeros(d)
+                e[c] = h = 1e-6 * sc
+                J[:, c] = (prob.shot(x0 + e, p, 1).x - prob.shot(x0 - e, p, 1).x) / (2 * h)
+            else:
+                h = 1e-6 * p
+                J[:, c] = (prob.shot(x0, p + h, 1).x - prob.shot(x0, p - h, 1).x) / (2 * h)
+        assert np.max(np.abs(s.M - J[:, :d])) < 1e-7 * np.max(np.abs(s.M))
+        assert np.max(np.abs(s.x_p - J[:, d])) < 1e-7 * np.max(np.abs(s.x_p))
+        D = prob.data(p)
+        w = m.contact_row
+        det = math.exp(np.trace(D["A"][0]) * 2 * math.pi / W - D["cc"] * float(w @ w) * s.extra["contact_time"])
+        assert np.linalg.det(s.M) == pytest.approx(det, rel=1e-9, abs=1e-300)
+
+
+def _one_dof(m):
+    """The SDOF on a Kelvin-Voigt stop of a one-mode beam (as tests/test_continuation_beam.py's
+    map, paper Eqs. 1-2): ``q = w eta / (phi L)``, ``tau = sqrt(k) t``; the stop's stiffness
+    ratio is ``w^2 k_c / k`` and its damping ratio is the beam's (``c_c = 2 zeta sqrt(k_c m_eff)``,
+    ``m_eff = 1 / w^2``)."""
+    (k,), (c,) = m.k_nd, m.c_nd
+    (w,), (G,) = m.contact_row, m.participation
+    a = w / (m.phi_at_mass * m.length_m)
+    sk = math.sqrt(k)
+    kc = m.contact.stiffness / m.omega_ref ** 2
+    sd = SDOF(beta=c / (2 * sk), B=w * G * m.base_amplitude_m / (m.phi_at_mass * m.length_m), R=m.R,
+              Delta=a * m.gap_contact_m / w,
+              contact=LinearContact.from_damping_ratio(w * w * kc / k, m.contact.damping_ratio))
+    return sd, sk, (lambda x: np.array([a * x[0], a * x[1] / sk]))
+
+
+def test_one_mode_beam_branch_equals_its_sdof_branch():
+    """A one-mode beam on a Kelvin-Voigt stop is the SDOF on the mapped stop: every point of the
+    beam branch (13 Hz up through its fold, gap 0.1 mm), mapped to the SDOF's coordinates, is a
+    fixed point of the SDOF problem (another flow, another derivative assembly, other units) to
+    1e-9 of the state (measured 1e-11), with the same multipliers to 1e-9 (measured 1e-13) and
+    contact count; the SDOF branch has the same fold to 1e-10 in frequency (measured 1e-15)."""
+    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.continuation import Settings
+    from vibeam.models.periodic_compliant import CompliantBeamShooting
+
+    m = _rig(1, gap_mm=0.1)
+    sd, sk, to_sdof = _one_dof(m)
+    lo, hi = 13.0 / m.f_ref_hz, 19.0 / m.f_ref_hz
+    x0 = CompliantBeamEventSolver(m).point(lo, None, 600, 4, 16).final_state[:2]
+    bb = trace(CompliantBeamShooting(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
+    assert len(bb.points) > 10
+    prob = CompliantSDOFShooting(sd)
+    for pt in bb.points:
+        xs = to_sdof(pt.x)
+        s = prob.shot(xs, pt.p / sk, 1)
+        assert np.max(np.abs(s.x - xs)) < 1e-9 * np.max(np.abs(xs))
+        assert max(np.min(np.abs(pt.mu - z)) for z in s.multipliers()) < 1e-9
+        assert s.n_impacts == pt.shot.n_impacts
+    bs = trace(prob, to_sdof(x0), lo / sk, 1, lo / sk, hi / sk, +1, Settings(switch=False))[0]
+    fb = [f.parameter for f in bb.bifurcations if f.type == "fold"]
+    fs = [f.parameter * sk for f in bs.bifurcations if f.type == "fold"]
+    assert len(fb) == len(fs) == 1 and fb[0] == pytest.approx(fs[0], rel=1e-10)
+
+
+def test_beam_grazing_indicator_and_event_runs():
+    """The apex indicator of the contact-free orbit (2 modes, gap 0.1 mm, 19 Hz) is its closed-form
+    contact amplitude minus the gap (to 1e-12 m, located extremum of the exact flow); stable points
+    of the 2-mode contacting branch (12.5-16 Hz, neutral gap) are the attractors of long event runs
+    of the compliant beam kernel started 1 % off the orbit (amplitude to 1e-9 relative:
+    max|mu|^800 is negligible; measured ~1e-14)."""
+    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.periodic_compliant import CompliantBeamShooting
+
+    m = _rig(2, gap_mm=0.1)
+    prob = CompliantBeamShooting(m)
+    W = 19.0 / m.f_ref_hz
+    x, why = prob.start("linear", W)
+    s = prob.shot(x, W, 1)
+    assert s.n_impacts == 0 and np.max(np.abs(s.x - x)) < 1e-12 * np.max(np.abs(x))
+    Z = prob.data(W)["pd"][3][0][:2]
+    assert s.apex_gap == pytest.approx(abs(m.contact_row @ Z) - m.gap_contact_m, abs=1e-12)
+    m = _rig(2)
+    lo, hi = 12.5 / m.f_ref_hz, 16.0 / m.f_ref_hz
+    x0 = CompliantBeamEventSolver(m).point(lo, None, 400, 4, 16).final_state[:4]
+    b = trace(CompliantBeamShooting(m), x0, lo, 1, lo, hi, +1)[0]
+    assert b.status == "range_end"
+    A = b.arrays()
+    idx = np.flatnonzero(A["stable"])
+    assert idx.size > 10
+    for i in idx[[0, idx.size // 2, -1]]:
+        pt = b.points[i]
+        tr = CompliantBeamEventSolver(m).point(pt.p, np.concatenate([pt.x * 1.01, [0.0]]), 800, 4, 64)
+        sm = summarize(tr, m.Delta)
+        assert sm["period"] == 1
+        assert sm["amplitude"] == pytest.approx(A["amplitude"][i], rel=1e-9)
