@@ -58,6 +58,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from .periodic import Shot
 from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, FREE, advance, envelope, phase_eval, phase_params,
@@ -714,3 +715,233 @@ def _failed_n(d: int, message: str) -> Shot:
     nan = np.full(d, np.nan)
     return Shot(x=nan, M=np.full((d, d), np.nan), x_p=nan.copy(), impact_times=np.zeros(0),
                 impact_velocities=np.zeros(0), q_min=np.nan, q_max=np.nan, status="failed", message=message)
+
+
+# ============================================================================ Hunt-Crossley (SDOF)
+@njit(cache=True)
+def _hc_variational(t, y, vr, dvr, Delta, kc, chi, pe, beta, F, Omega, B):
+    """Right-hand side of the Hunt-Crossley contact phase with its variational equations:
+    ``y = (q, q', Y (2, 5) row-major)``, ``Y = d(q, q') / d(q0, q0', Omega, B, Delta)``; ``vr`` the
+    contact's reference velocity and ``dvr`` (5,) its sensitivity."""
+    dl = y[0] - Delta
+    dv = y[1]
+    dp = dl if dl > 0.0 else 0.0
+    fac = 1.0 + chi * dv / vr
+    f = kc * dp ** pe * fac
+    out = np.empty(12)
+    out[0] = dv
+    ph = Omega * t
+    out[1] = F * math.sin(ph) - 2.0 * beta * dv - y[0] - f
+    f_d = kc * pe * dp ** (pe - 1.0) * fac if dp > 0.0 else 0.0
+    f_v = kc * dp ** pe * chi / vr
+    f_vr = -kc * dp ** pe * chi * dv / (vr * vr)
+    a_q = -1.0 - f_d
+    a_v = -2.0 * beta - f_v
+    for j in range(5):
+        y0 = y[2 + j]
+        y1 = y[7 + j]
+        out[2 + j] = y1
+        out[7 + j] = a_q * y0 + a_v * y1 - f_vr * dvr[j]
+    out[9] += 2.0 * Omega * B * math.sin(ph) + F * t * math.cos(ph)
+    out[10] += Omega * Omega * math.sin(ph)
+    out[11] += f_d
+    return out
+
+
+class HuntCrossleySDOFShooting(CompliantSDOFShooting):
+    """Shooting problem ``P^n`` of the SDOF on a Hunt-Crossley stop (contract:
+    :mod:`vibeam.models.periodic`), ``f = k_c delta^p (1 + chi delta' / v_r)``
+    (:mod:`vibeam.models.compliant`).
+
+    Free flight is the exact flow of the event kernel (:func:`~vibeam.models.sdof_compliant.advance`,
+    certified entry); the contact phase is integrated *numerically* by
+    :func:`scipy.integrate.solve_ivp` (DOP853, ``rtol = 1e-12``) together with its variational
+    equations ``Y' = A(t) Y + d(acc)/dp + d(acc)/dv_r dv_r/d(x0, p)``, the exit located as the
+    zero of ``delta`` or of the damping factor ``1 + chi delta' / v_r``.  So ``P^n`` and its
+    derivatives are accurate to the integrator's tolerance, not exact: ``P^n`` is smooth only to
+    ~1e-12 of the state (the adaptive steps change with ``x0``), and the orbit differs from the
+    kernel's (its own Dormand-Prince 5(4) at ``rtol = 1e-11``) by ~1e-10.
+
+    Events: at entry through ``delta = 0`` the force is zero (``delta^p``), so the field is
+    continuous and ``S = I``; but the law depends on the entry velocity ``v_r = max(v_in,
+    v_floor)`` (Flores' damping per contact), whose sensitivity ``dv_in = Y_v + delta''_- dt``
+    (``dt = -(Y_q + h_p) / v_in``) enters the contact's variational equations.  At the exit the
+    force is zero again (``S = I``).  Not represented (``status = "failed"`` with the reason):
+    a section inside the stop (the contact depends on its ``v_r``, which is not part of the state
+    ``(q, q')``) and a re-entry inside the stop after a damping-factor exit (it depends on the
+    previous contact's ``v_r``).  Parameters ``Omega``, ``B``, ``Delta``.
+    """
+
+    def __init__(self, model, parameter: str = "Omega", Omega: float | None = None, max_events: int = 4096,
+                 rtol: float = 1e-12):
+        law = getattr(model, "contact", None)
+        if law is None or getattr(law, "name", "") != "hunt_crossley":
+            raise ValueError("HuntCrossleySDOFShooting needs a stop with contact law \"hunt_crossley\"")
+        if getattr(model, "two_sided", False):
+            raise ValueError("continuation with a compliant law follows one stop (no second stop)")
+        if parameter not in PARAMETERS:
+            raise ValueError(f"parameter {parameter!r} cannot be continued with contact law \"hunt_crossley\"; "
+                             f"allowed: {', '.join(PARAMETERS)}")
+        if parameter != "Omega" and Omega is None:
+            raise ValueError(f"continuation in {parameter!r} needs the forcing frequency Omega")
+        self.model = model
+        self.parameter = parameter
+        self.index = PARAMETERS.index(parameter)
+        self.Omega = None if Omega is None else float(Omega)
+        self.value = (float(Omega) if Omega is not None else math.nan) if parameter == "Omega" \
+            else float(getattr(model, parameter))
+        self.kc = float(law.stiffness)
+        self.chi = float(law.chi)
+        self.pexp = float(law.exponent)
+        self.cc = 0.0
+        self.max_events = int(max_events)
+        self.rtol = float(rtol)
+
+    def shot(self, x0, p, n) -> Shot:
+        """``P^n(x0; p)`` with monodromy and ``d/dp`` (class docstring); as
+        :meth:`CompliantSDOFShooting.shot`."""
+        from scipy.integrate import solve_ivp
+
+        from .sdof_compliant import HC_V_FLOOR
+
+        beta = float(self.model.beta)
+        B, Delta, Omega = self.params(p)
+        kc, chi, pe = self.kc, self.chi, self.pexp
+        n = int(n)
+        q, v = float(x0[0]), float(x0[1])
+        if not (Omega is not None and Omega > 0.0 and math.isfinite(q) and math.isfinite(v) and n >= 1):
+            return _failed(f"parameters or state out of range (Omega {Omega}, n {n}, x0 ({q}, {v}))")
+        if q - Delta >= 0.0:
+            return _failed("the section lies inside the stop: a Hunt-Crossley contact depends on its entry "
+                           "velocity, which is not part of the state (q, q')")
+        F = Omega * Omega * B
+        P = phase_params(beta, F, Omega, Delta, 0.0, 0.0)
+        T = TWO_PI / Omega
+        t_end = n * T
+        hf = TWO_PI / 16.0
+        X, dX = particular_sensitivities(P[0], F, B, Omega, 0.0, 0)
+        if B > 0.0:
+            v_floor, dfloor = HC_V_FLOOR * Omega * B, np.array([HC_V_FLOOR * B, HC_V_FLOOR * Omega, 0.0])
+        else:
+            v_floor, dfloor = 1e-6, np.zeros(3)
+
+        def carry(Y, ta, tb):
+            Phi = phase_stm(tb - ta, P[0])
+            Y = Phi @ Y
+            for k in range(3):
+                Y[:, 2 + k] += _dP(tb, X, dX, 0.0, Omega, k) - Phi @ _dP(ta, X, dX, 0.0, Omega, k)
+            return Y
+
+        def acc_free(q, v, t):
+            return F * math.sin(Omega * t) - 2.0 * beta * v - q
+
+        Y = np.zeros((2, 5))
+        Y[0, 0] = Y[1, 1] = 1.0
+        d = np.empty(6)
+        ex = np.array([q, q, np.inf])
+        cs = np.zeros(4)
+        t, phi, t_seg, t_con = 0.0, 0.0, 0.0, 0.0
+        apex = -np.inf
+        entries, rates, contacts = [], [], []
+        r0, r1, roff = kc, 0.0, 0.0
+        steps = 0
+        in_contact_end = False
+        while t_end - t > 1e-15 * T:
+            steps += 1
+            if steps > 400 * n + 64 * self.max_events:
+                return _failed(f"more than {steps - 1} steps in {n} period(s)")
+            below = q - Delta < 0.0
+            h = min(t_end - t, hf)
+            s, ev = advance(FREE, h, phi, q, v, P[0], kc, 0.0, Omega, Delta, True, ex, cs, d, r0, r1, roff)
+            if s > 0.0:
+                apex = max(apex, self._apex(s, phi, q, v, P[0], Omega, Delta))
+            phase_eval(s, phi, q, v, P[0], Omega, Delta, d)
+            q, v = Delta + d[0], d[1]
+            t += s
+            phi = (phi + Omega * s) % TWO_PI
+            if ev != EV_ENTRY:
+                continue
+            if not below:
+                return _failed("re-entry inside the stop after a damping-factor exit (depends on the previous "
+                               "contact's entry velocity): not represented")
+            if len(entries) >= self.max_events:
+                return _failed(f"more than {self.max_events} contacts in {n} period(s)")
+            Y = carry(Y, t_seg, t)
+            # entry through delta = 0: S = I (zero force); the law's v_r = max(v_in, v_floor) and its
+            # sensitivity (the entry time moves with x0 and p: dt = -(Y_q + h_p) / v, h_Delta = -1)
+            a_m = acc_free(q, v, t)
+            hp = np.array([0.0, 0.0, 0.0, 0.0, -1.0])
+            dt_e = -(Y[0] + hp) / v
+            if v > v_floor:
+                vr, dvr = v, Y[1] + a_m * dt_e
+            else:
+                vr, dvr = v_floor, np.concatenate([[0.0, 0.0], dfloor])
+            entries.append(t)
+            rates.append(v)
+            t0 = t
+
+            def ev_gap(tt, y, *args):
+                return y[0] - Delta
+            ev_gap.terminal, ev_gap.direction = True, -1.0
+
+            def ev_fac(tt, y, *args, vr=vr):
+                return 1.0 + chi * y[1] / vr
+            ev_fac.terminal, ev_fac.direction = True, -1.0
+            y0 = np.concatenate([[q, v], Y.ravel()])
+            # start a hair inside (delta = 0 is the gap event's zero); the first step is tiny anyway
+            sol = solve_ivp(_hc_variational, (t0, t_end), y0, method="DOP853", rtol=self.rtol,
+                            atol=np.concatenate([[1e-13 * max(abs(v) / Omega, abs(Delta), 1e-300), 1e-13 * abs(v)],
+                                                 np.full(10, 1e-13 * max(float(np.max(np.abs(Y))), 1.0))]),
+                            events=(ev_gap, ev_fac), args=(vr, dvr, Delta, kc, chi, pe, beta, F, Omega, B),
+                            first_step=1e-6 * T)
+            if sol.status < 0:
+                return _failed(f"the contact phase's integration failed: {sol.message}")
+            yend = sol.y[:, -1]
+            t_x = float(sol.t[-1])
+            q, v = float(yend[0]), float(yend[1])
+            Y = yend[2:].reshape(2, 5).copy()
+            t_con += t_x - t0
+            ex[0] = min(ex[0], float(np.min(sol.y[0])))
+            ex[1] = max(ex[1], float(np.max(sol.y[0])))
+            t = t_x
+            phi = (Omega * t) % TWO_PI
+            t_seg = t
+            if sol.status == 1:        # exit (the force is zero there: S = I)
+                contacts.append((t_x - t0, np.nan, float(np.max(sol.y[0])) - Delta, np.nan))
+                r0, r1, roff = 0.0, 1.0, vr / chi if chi > 0.0 else 1.0
+                if q - Delta > 0.0 and sol.t_events[0].size:
+                    q = Delta       # exit through delta = 0: on the stop, leaving it
+            else:
+                in_contact_end = True
+                break
+        if in_contact_end:
+            a_end = acc_free(q, v, t_end) - kc * max(q - Delta, 0.0) ** pe * (1.0 + chi * v / vr)
+        else:
+            Y = carry(Y, t_seg, t_end)
+            a_end = acc_free(q, v, t_end)
+        Y[:, 2] += np.array([v, a_end]) * (-t_end / Omega)
+        ex[0] = min(ex[0], q)
+        ex[1] = max(ex[1], q)
+        if not np.all(np.isfinite(Y)):
+            return _failed("non-finite derivatives")
+        return Shot(x=np.array([q, v]), M=Y[:, :2].copy(), x_p=Y[:, 2 + self.index].copy(),
+                    impact_times=np.array(entries, float), impact_velocities=np.array(rates, float),
+                    q_min=float(ex[0]), q_max=float(ex[1]), apex_gap=float(apex), stuck_time=0.0,
+                    status="ok", message="", Omega=Omega, gap=Delta,
+                    extra={"x_all_p": Y[:, 2:].copy(), "contact_time": t_con,
+                           "contacts": np.array(contacts, float).reshape(-1, 4), "in_contact_end": in_contact_end})
+
+    def _apex(self, s, phi, q, v, pp, Omega, Delta):
+        """Largest interior free-flight maximum of ``delta`` below the stop in a step."""
+        A = envelope(phi, q, v, pp, Omega)
+        d = np.empty(6)
+        best = -np.inf
+        u = 0.0
+        while True:
+            u = upcross(0.0, -1.0, 0.0, u, s, phi, q, v, pp, Omega, Delta, A, d)
+            if u < 0.0 or u >= s:
+                break
+            phase_eval(u, phi, q, v, pp, Omega, Delta, d)
+            if d[0] < 0.0:
+                best = max(best, d[0])
+        return best

@@ -134,7 +134,8 @@ register(Fidelity(
                              "mapping": "sdof_compliant_map:CompliantMappingSolver",
                              "continuation": "periodic_compliant:CompliantSDOFShooting"},
                   "hunt_crossley": {"event": "sdof_compliant:CompliantEventSolver",
-                                    "direct": "sdof_compliant_ode:CompliantDirectSolver"}},
+                                    "direct": "sdof_compliant_ode:CompliantDirectSolver",
+                                    "continuation": "periodic_compliant:HuntCrossleySDOFShooting"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(
