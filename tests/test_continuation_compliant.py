@@ -181,14 +181,21 @@ start_at = "low"
 '''
 
 
-def test_registry_dispatch_and_case_validation():
-    """shooting_problem takes the law's 'continuation' entry; laws without one are refused with
-    one line, at validation and when built; R and beta are not continuation keys here."""
+def test_registry_dispatch_and_case_validation(monkeypatch):
+    """shooting_problem takes the law's 'continuation' entry of the registry (no law branches); a
+    law without one is refused with one line; R and beta are not continuation keys here."""
+    from vibeam.models.periodic_compliant import HuntCrossleySDOFShooting
+    from vibeam.models.registry import FIDELITIES
+
     m = parse_case(CASE).model_spec().build()
     assert isinstance(shooting_problem(m, "Omega"), CompliantSDOFShooting)
     with pytest.raises(ValueError, match="allowed: Omega, B, Delta"):
         shooting_problem(m, "R", Omega=2.0)
     hc = CASE.replace('law = "linear"', 'law = "hunt_crossley"').replace("stiffness = 1e4", "stiffness = 1e6")
+    assert isinstance(shooting_problem(parse_case(hc).model_spec().build(), "Omega"), HuntCrossleySDOFShooting)
+    table = FIDELITIES["sdof"].contact_laws
+    monkeypatch.setitem(table, "hunt_crossley", {k: v for k, v in table["hunt_crossley"].items()
+                                                 if k != "continuation"})
     with pytest.raises(CaseError, match="allowed: event, direct$"):
         parse_case(hc)
     with pytest.raises(ValueError, match="no shooting problem registered"):
@@ -337,4 +344,63 @@ def test_beam_grazing_indicator_and_event_runs():
         tr = CompliantBeamEventSolver(m).point(pt.p, np.concatenate([pt.x * 1.01, [0.0]]), 800, 4, 64)
         sm = summarize(tr, m.Delta)
         assert sm["period"] == 1
+        assert sm["amplitude"] == pytest.approx(A["amplitude"][i], rel=1e-9)
+
+
+# ------------------------------------------------------------------ Hunt-Crossley (numerical contact phase)
+def test_hunt_crossley_shot_against_differences_and_the_kernel():
+    """The Hunt-Crossley problem integrates the contact phase and its variational equations
+    (DOP853, rtol 1e-12), so it is accurate to the integrator, not exact: at the settled orbit of
+    the event kernel (Fig. 8 gap, k_c = 1e6, Omega = 1.9) the shot returns the kernel's state to
+    1e-9 (the kernel's own DOPRI5 runs at rtol 1e-11; measured 3e-11), and M, d/d(Omega, B,
+    Delta) agree with central differences (step 1e-5, larger than the integrator's noise
+    1e-12 / 1e-5; tolerance 1e-6 of each column, measured ~1e-9)."""
+    from vibeam.models.periodic_compliant import HuntCrossleySDOFShooting
+
+    m = replace(FIG8, contact=HuntCrossley(1e6, 0.9))
+    W = 1.9
+    x0, sm = _settled(m, W, 1500)
+    assert sm["period"] == 1
+    assert isinstance(shooting_problem(m, "Omega"), HuntCrossleySDOFShooting)
+    for par in ("Omega", "B", "Delta"):
+        prob = HuntCrossleySDOFShooting(m, par, Omega=W)
+        p = W if par == "Omega" else float(getattr(m, par))
+        s = prob.shot(x0, p, 1)
+        assert s.status == "ok" and s.n_impacts == 1
+        assert np.max(np.abs(s.x - x0)) < 1e-9 * np.max(np.abs(x0))
+        A = np.column_stack([s.M, s.x_p])
+        for c in range(3):
+            if c < 2:
+                e = np.zeros(2)
+                e[c] = h = 1e-5 * np.max(np.abs(x0))
+                col = (prob.shot(x0 + e, p, 1).x - prob.shot(x0 - e, p, 1).x) / (2 * h)
+            else:
+                h = 1e-5 * abs(p)
+                col = (prob.shot(x0, p + h, 1).x - prob.shot(x0, p - h, 1).x) / (2 * h)
+            assert np.max(np.abs(A[:, c] - col)) < 1e-6 * np.max(np.abs(A[:, c]))
+    # a section inside the stop is not a state of this law: a status, not a crash
+    s = HuntCrossleySDOFShooting(m).shot(np.array([m.Delta + 1e-6, 0.01]), W, 1)
+    assert s.status == "failed" and "inside the stop" in s.message
+
+
+@pytest.mark.slow   # ~140 shots of ~80 ms (solve_ivp per contact): ~1-2 min
+def test_hunt_crossley_branch_fold_grazing_and_event_runs():
+    """The Hunt-Crossley branch of the Fig. 8 scene (k_c = 1e6, 1.8 .. 2.1) has a fold (multiplier
+    +1 to 1e-6) and the law-independent grazing of the contact-free orbit (1.870239215 to 1e-8);
+    its stable points are the long event runs' attractors to 1e-9 (the two integrators' tolerances;
+    measured ~1e-10)."""
+    from vibeam.models.continuation import Settings
+    from vibeam.models.periodic_compliant import HuntCrossleySDOFShooting
+
+    m = replace(FIG8, contact=HuntCrossley(1e6, 0.9))
+    x0, _ = _settled(m, 1.8, 1500)
+    b = trace(HuntCrossleySDOFShooting(m), x0, 1.8, 1, 1.8, 2.1, +1, Settings(switch=False))[0]
+    assert b.status == "range_end"
+    folds = [f for f in b.bifurcations if f.type == "fold" and f.amplitude > 3e-3]
+    assert len(folds) == 1 and np.min(np.abs(folds[0].multipliers - 1.0)) < 1e-6
+    assert [f for f in b.bifurcations if f.type == "grazing"][0].parameter == pytest.approx(1.870239215, abs=1e-8)
+    A = b.arrays()
+    for i in np.flatnonzero(A["stable"])[::20][:4]:
+        pt = b.points[i]
+        _, sm = _settled(m, pt.p, 1500, x0=pt.x * 1.01)
         assert sm["amplitude"] == pytest.approx(A["amplitude"][i], rel=1e-9)
