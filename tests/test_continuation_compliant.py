@@ -87,10 +87,10 @@ def test_shot_jacobian_equals_central_differences(name):
 
 def test_liouville_and_the_map_of_sec_4_2(fig8_kv):
     """Along the branch det M = exp(-2 beta T - c_c T_c) (the divergence of the free and the
-    contact flows; the entry saltation has det 1) to 1e-10 relative (measured ~1e-14), and at
+    contact flows; the entry saltation has det 1) to 1e-10 relative (measured <= 5e-13), and at
     stable one-contact points the multipliers equal those of the entry-to-entry map of Sec. 4.2
     (vibeam.models.sdof_compliant_map, another section of the same orbit) to 1e-9
-    (measured ~1e-13)."""
+    (measured <= 6e-12)."""
     from vibeam.models.sdof_compliant_map import CompliantMappingSolver
 
     m, brs = fig8_kv
@@ -122,7 +122,9 @@ def test_branch_fold_grazing_and_event_runs(fig8_kv):
     grazing 1.870239215 to 1e-8).  Stable points are the attractors of long event runs of the
     compliant kernel started 1 % off the orbit: after 1500 periods the distance has shrunk by
     max|mu|^1500 < 1e-30, so the amplitudes agree to round-off of the exact flows (1e-9
-    relative; measured ~1e-13)."""
+    relative; measured <= 1.2e-12).  Points on the sliver between the small fold next to the
+    grazing (1.8702386) and the grazing are stable too, but their basin is thinner than 1 %: the
+    runs start from the stable points away from it."""
     m, brs = fig8_kv
     b = brs[0]
     assert b.status == "range_end"
@@ -131,7 +133,7 @@ def test_branch_fold_grazing_and_event_runs(fig8_kv):
     graze = [f for f in b.bifurcations if f.type == "grazing"]
     assert graze and graze[0].parameter == pytest.approx(1.870239215, abs=1e-8)
     A = b.arrays()
-    stable = np.flatnonzero(A["stable"] & (A["impacts"] == 1))
+    stable = np.flatnonzero(A["stable"] & (A["impacts"] == 1) & (np.abs(A["parameter"] - 1.87024) > 1e-4))
     for i in stable[:: max(1, len(stable) // 4)]:
         pt = b.points[i]
         _, sm = _settled(m, pt.p, 1500, x0=pt.x * 1.01)
