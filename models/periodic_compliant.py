@@ -79,7 +79,7 @@ def phase_stm(s: float, pp) -> np.ndarray:
     return np.array([[1.0 + p11, p12 / w], [w * p21, 1.0 + p22]])
 
 
-def particular_sensitivities(pp, F, B, Omega, kc, phase):
+def particular_sensitivities(pp, F, B, Omega):
     """``(X, dX)`` of a phase's particular response ``q_e + Im(X e^{i Omega t})``:
     ``X = a + i b = F / (w^2 - Omega^2 + 2 i b_p w Omega)`` and ``dX`` (3,) its derivatives by
     ``(Omega, B, Delta)`` (``F = Omega^2 B``; ``Delta`` moves only ``q_e``)."""
@@ -202,7 +202,7 @@ class CompliantSDOFShooting:
         T = TWO_PI / Omega
         t_end = n * T
         hmax = (TWO_PI / P[0, 0] / 16.0, TWO_PI / P[1, 0] / 16.0)
-        part = [particular_sensitivities(P[r], F, B, Omega, kc, r) for r in (0, 1)]
+        part = [particular_sensitivities(P[r], F, B, Omega) for r in (0, 1)]
         dqe = (0.0, kc / (1.0 + kc))
         j = self.index
 
@@ -819,7 +819,7 @@ class HuntCrossleySDOFShooting(CompliantSDOFShooting):
         T = TWO_PI / Omega
         t_end = n * T
         hf = TWO_PI / 16.0
-        X, dX = particular_sensitivities(P[0], F, B, Omega, 0.0, 0)
+        X, dX = particular_sensitivities(P[0], F, B, Omega)
         if B > 0.0:
             v_floor, dfloor = HC_V_FLOOR * Omega * B, np.array([HC_V_FLOOR * B, HC_V_FLOOR * Omega, 0.0])
         else:
