@@ -120,8 +120,9 @@ def test_branch_fold_grazing_and_event_runs(fig8_kv):
     and, on the lower part, the grazing where the contact dies at the grazing frequency of the
     non-impacting orbit (a property of the linear orbit, law-independent: equal to the CoR
     grazing 1.870239215 to 1e-8).  Stable points are the attractors of long event runs of the
-    compliant kernel started 1 % off the orbit: after 1500 periods the distance has shrunk by
-    max|mu|^1500 < 1e-30, so the amplitudes agree to round-off of the exact flows (1e-9
+    compliant kernel started 1 % off the orbit: points with max|mu| < 0.97, so that after 1500
+    periods the distance has shrunk by max|mu|^1500 < 1e-19 (next to the fold the decay is too slow
+    for any fixed run), and the amplitudes agree to round-off of the exact flows (1e-9
     relative; measured <= 1.2e-12).  Points on the sliver between the small fold next to the
     grazing (1.8702386) and the grazing are stable too, but their basin is thinner than 1 %: the
     runs start from the stable points away from it."""
@@ -133,7 +134,8 @@ def test_branch_fold_grazing_and_event_runs(fig8_kv):
     graze = [f for f in b.bifurcations if f.type == "grazing"]
     assert graze and graze[0].parameter == pytest.approx(1.870239215, abs=1e-8)
     A = b.arrays()
-    stable = np.flatnonzero(A["stable"] & (A["impacts"] == 1) & (np.abs(A["parameter"] - 1.87024) > 1e-4))
+    rho = np.max(np.abs(A["multipliers"]), axis=1)
+    stable = np.flatnonzero((rho < 0.97) & (A["impacts"] == 1) & (np.abs(A["parameter"] - 1.87024) > 1e-4))
     for i in stable[:: max(1, len(stable) // 4)]:
         pt = b.points[i]
         _, sm = _settled(m, pt.p, 1500, x0=pt.x * 1.01)
