@@ -65,15 +65,24 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
     ------
     ValueError
         If no shooting problem is registered for the model's fidelity, or the parameter is not
-        one of the problem's, or the model's contact law is not the restitution law (a scene
-        with two stops is served: the shooting problems follow impacts on both).
+        one of the problem's. A scene with two stops is served (the restitution shooting problems
+        follow impacts on both). A model with a compliant stop gets its law's shooting problem
+        (registry ``contact_laws[law]["continuation"]``), or this error when the law has none or
+        the scene has two stops (the compliant shooting problems have one stop).
     """
-    shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
-    cls = shooting.get(model.fidelity)
     law = getattr(model, "contact_law", "restitution")
     if law != "restitution":
-        raise ValueError(f"continuation is not available for contact law {law!r} (its shooting problem "
-                         f"with the contact-phase Jacobians is not implemented); use method = \"event\"")
+        # a compliant law: its shooting problem is the law's "continuation" entry of the registry
+        path = fidelity(model).contact_laws.get(law, {}).get("continuation")
+        if path is None:
+            raise ValueError(f"continuation is not available for contact law {law!r} of fidelity "
+                             f"{model.fidelity!r} (no shooting problem registered); use method = \"event\"")
+        if getattr(model, "two_sided", False):
+            raise ValueError(f"continuation with contact law {law!r} and a second (lower) stop is not "
+                             f"implemented (the compliant shooting problems have one stop); use method = \"event\"")
+        return resolve(path)(model, parameter, Omega=Omega)
+    shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
+    cls = shooting.get(model.fidelity)
     if cls is None:
         raise ValueError(f"continuation is not available for fidelity {model.fidelity!r} (no shooting "
                          f"problem registered); available: {', '.join(sorted(shooting))}")
@@ -93,7 +102,7 @@ def make_solver(model, method: str, **settings):
     fid = fidelity(model)
     law = getattr(model, "contact_law", "restitution")
     if law != "restitution":   # a compliant law: its own solvers (registry ``contact_laws``)
-        table = fid.contact_laws.get(law, {})
+        table = {k: v for k, v in fid.contact_laws.get(law, {}).items() if k != "continuation"}
         if method not in table:
             allowed = ", ".join(table) or "none"
             raise ValueError(f"method {method!r} does not simulate contact law {law!r} of fidelity "

@@ -49,7 +49,9 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     simulate it with their solvers (``{"linear": {"event": "module:Class", ...}}``); the
     model then has ``contact_law`` (its stop's law name, ``"restitution"`` by default).  A
     method not listed for a law is refused by :func:`vibeam.models.make_solver` (and by
-    case validation, :func:`contact_law_methods`); so is continuation.
+    case validation, :func:`contact_law_methods`).  The entry ``"continuation"`` names the
+    law's shooting problem (not a solver: :func:`vibeam.models.shooting_problem` builds it as
+    ``cls(model, parameter, Omega=Omega)``); without it the law cannot be continued.
 ``shooting``
     Its periodic-orbit shooting problem (contract: :mod:`vibeam.models.periodic`), the
     class the continuation builds as ``cls(model, parameter, Omega=Omega)``; None: cannot
@@ -130,10 +132,12 @@ register(Fidelity(
     two_sided_methods=("event", "direct", "mapping", "continuation"),
     contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
-                             "mapping": "sdof_compliant_map:CompliantMappingSolver"},
+                             "mapping": "sdof_compliant_map:CompliantMappingSolver",
+                             "continuation": "periodic_compliant:CompliantSDOFShooting"},
                   "hunt_crossley": {"event": "sdof_compliant:CompliantEventSolver",
                                     "direct": "sdof_compliant_ode:CompliantDirectSolver",
-                                    "mapping": "sdof_hc_map:HuntCrossleyMappingSolver"}},
+                                    "mapping": "sdof_hc_map:HuntCrossleyMappingSolver",
+                                    "continuation": "periodic_compliant:HuntCrossleySDOFShooting"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(
@@ -150,7 +154,8 @@ register(Fidelity(
     restitution_law_methods=("event", "direct"),
     two_sided_methods=("event", "direct", "continuation"),
     contact_laws={"linear": {"event": "beam_compliant:CompliantBeamEventSolver",
-                             "direct": "beam_compliant:CompliantBeamODESolver"}},
+                             "direct": "beam_compliant:CompliantBeamODESolver",
+                             "continuation": "periodic_compliant:CompliantBeamShooting"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 

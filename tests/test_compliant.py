@@ -182,8 +182,11 @@ def test_case_builds_the_law_and_refuses_other_methods():
     for method in ("averaging", "zhuravlev"):
         with pytest.raises(CaseError, match="allowed: event, direct, mapping"):
             parse_case(CASE.replace('method = "event"', f'method = "{method}"'))
-    with pytest.raises(CaseError, match="allowed: event, direct, mapping"):
-        parse_case(CASE.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"'))
+    # continuation is the law's shooting problem (vibeam.models.periodic_compliant), in Omega, B, Delta
+    parse_case(CASE.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"'))
+    with pytest.raises(CaseError, match="allowed: Omega, B, Delta"):
+        parse_case(CASE.replace('method = "event"', 'method = "continuation"\nparameter = "R"\nat = 2.0\n'
+                                                     'range = [0.8, 0.9]'))
     with pytest.raises(CaseError, match="model.contact"):
         parse_case(CASE.replace("R = 0.9", "R = 0.1"))
     with pytest.raises(CaseError, match="stiffness_n_m needs a physical scene"):
@@ -351,8 +354,12 @@ def test_beam_isolated_contact_restitution_and_case_keys():
         parse_case(text.replace("stiffness_n_m = 1e6", "stiffness = 1e4"))
     with pytest.raises(CaseError, match="not implemented for the beam"):
         parse_case(text.replace('law = "linear"', 'law = "hunt_crossley"'))
-    with pytest.raises(CaseError, match="allowed: event, direct"):
-        parse_case(text.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"', 1))
+    # continuation: the law's shooting problem (vibeam.models.periodic_compliant), in the frequency and
+    # the excitation only
+    parse_case(text.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"', 1))
+    with pytest.raises(CaseError, match="allowed: Omega, voltage, gain"):
+        parse_case(text.replace('method = "event"', 'method = "continuation"\nparameter = "R"\nat = 15.0\n'
+                                                     'range = [0.7, 0.8]', 1))
 
 
 def test_beam_frc_converges_to_the_cor_frc_as_the_stiffness_grows():

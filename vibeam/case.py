@@ -172,6 +172,10 @@ class SDOFModelSpec(_Strict):
                      "R": ("R", 1.0)}
         else:
             table = {k: (k, 1.0) for k in ("Omega", "B", "Delta", "R", "beta")}
+        if self.contact is not None and self.contact.law != "restitution":
+            # a compliant stop: R and beta set the contact phase's flow, which the law's shooting
+            # problem does not differentiate (vibeam.models.periodic_compliant)
+            table = {k: v for k, v in table.items() if v[0] in ("Omega", "B", "Delta")}
         if key not in table:
             raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(table)}")
         return table[key]
@@ -357,6 +361,10 @@ class BeamModelSpec(_Strict):
         gap_key = "gap_mm" if self.gap_mm is not None else "contact_gap_mm"
         allowed = ("Omega",) + tuple(k for k in self._CONTINUABLE
                                      if k == gap_key or k not in ("gap_mm", "contact_gap_mm"))
+        if self.contact is not None and self.contact.law != "restitution":
+            # a compliant stop: the law's shooting problem differentiates the forced response only
+            # (Omega, base_amplitude_m; vibeam.models.periodic_compliant)
+            allowed = ("Omega", "voltage", "gain")
         if key in REBUILD_KEYS:
             raise ValueError(f"changes the FE model (its modes and shapes): a beam scene cannot be continued "
                              f"in it; allowed: {', '.join(allowed)}")
