@@ -200,7 +200,7 @@ def test_registry_dispatch_and_case_validation(monkeypatch):
     table = FIDELITIES["sdof"].contact_laws
     monkeypatch.setitem(table, "hunt_crossley", {k: v for k, v in table["hunt_crossley"].items()
                                                  if k != "continuation"})
-    with pytest.raises(CaseError, match="allowed: event, direct$"):
+    with pytest.raises(CaseError, match="allowed: event, direct, mapping$"):
         parse_case(hc)
     with pytest.raises(ValueError, match="no shooting problem registered"):
         shooting_problem(replace(m, contact=HuntCrossley(1e6, 0.9)), "Omega")
