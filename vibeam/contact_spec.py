@@ -25,8 +25,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 class ContactSpec(BaseModel):
     """``[model.contact]`` (the stop of the paper) or ``[model.contact_lower]`` (a second stop
-    below; law ``restitution`` only, its own ``R``, default the upper stop's law): module
-    docstring."""
+    below, default the upper stop's law: law ``restitution`` with its own ``R`` beside a
+    restitution upper stop, or a compliant law with its own stiffness beside a compliant one;
+    its target restitution is ``[model] R``): module docstring."""
 
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True, allow_inf_nan=False)
 
