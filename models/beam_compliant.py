@@ -303,9 +303,11 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
 
 
 @njit(cache=True)
-def _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2):
+def _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2, foff=0.0):
     """Contact entry of one stop in a free step of at most ``h``: the signal ``(al, lam, beU,
-    gaU)`` is the stop's gap ``g`` (< 0 free), ``kc g + cc g'`` its force.  Returns ``(s, event)``:
+    gaU)`` is the stop's gap ``g`` (< 0 free), ``kc g + cc g' + foff`` has the sign of its
+    force inside the stop (Kelvin-Voigt: the force; Hunt-Crossley after an exit by its damping
+    factor: ``g' + v_r / chi``, :mod:`vibeam.models.beam_hc`).  Returns ``(s, event)``:
     :data:`EV_ENTRY` (``s = 0`` when the body is on or inside the stop and the force is positive
     just after), :data:`EV_GAPDOWN` (inside it after an exit, ``g`` back to 0) or
     :data:`EV_NONE` (``s = h``)."""
@@ -328,6 +330,9 @@ def _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2):
             else:
                 f = kc * buf[n] + cc * buf[n + 1]
                 tol = 1e-13 * (kc * _bound(al, lam, beU, Om, n) + cc * _bound(al, lam, beU, Om, n + 1))
+                if n == 0 and foff != 0.0:
+                    f += foff
+                    tol += 1e-13 * abs(foff)
             if f > tol:
                 entered = True
                 break
@@ -343,6 +348,8 @@ def _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2):
         s_d = bupcross(al2, lam, b2, g2, phi, Om, 0.0, h, h_min)
         lim = s_d if s_d >= 0.0 else h
         b2, g2 = _combo(kc, cc, 0.0, al, lam, beU, gaU, Om, al2)
+        if foff != 0.0:
+            g2 += foff
         s_e = bupcross(al2, lam, b2, g2, phi, Om, 0.0, lim, h_min)
         if s_e >= 0.0:
             s_adv = s_e

@@ -148,7 +148,9 @@ register(Fidelity(
     restitution_law_methods=("event", "direct"),
     two_sided_methods=("event", "direct"),
     contact_laws={"linear": {"event": "beam_compliant:CompliantBeamEventSolver",
-                             "direct": "beam_compliant:CompliantBeamODESolver"}},
+                             "direct": "beam_compliant:CompliantBeamODESolver"},
+                  "hunt_crossley": {"event": "beam_hc:HuntCrossleyBeamEventSolver",
+                                    "direct": "beam_hc:HuntCrossleyBeamODESolver"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 
