@@ -129,11 +129,13 @@ def _event(kind, y, s, phi0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr)
 
 
 @njit(cache=True)
-def _locate(kind, hs, y0, phi0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr, K, tmp, y1):
-    """Root in ``(0, hs]`` of an event rising through 0, by bisection on single DOPRI5 steps
-    from ``y0``; returns the end with the event ``>= 0``, its state left in ``y1``."""
+def _locate(kind, hs, y0, phi0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr, K, tmp, y1, yhi):
+    """Root in ``(0, hs]`` of an event rising through 0 (negative at 0, >= 0 at ``hs``, where the
+    state is ``yhi``), by bisection on single DOPRI5 steps from ``y0``; returns the end with the
+    event ``>= 0`` and leaves its state in ``yhi`` (``y1``: work array)."""
     lo = 0.0
     hi = hs
+    n = y0.shape[0]
     for _ in range(200):
         mid = 0.5 * (lo + hi)
         if not (lo < mid < hi):
@@ -141,9 +143,10 @@ def _locate(kind, hs, y0, phi0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, 
         _dp_step(mid, y0, phi0, F, Om, knd, cnd, part, w, DC, kc, p, chi, vr, K, tmp, y1, 1.0, 1.0)
         if _event(kind, y1, mid, phi0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr) >= 0.0:
             hi = mid
+            for c in range(n):
+                yhi[c] = y1[c]
         else:
             lo = mid
-    _dp_step(hi, y0, phi0, F, Om, knd, cnd, part, w, DC, kc, p, chi, vr, K, tmp, y1, 1.0, 1.0)
     return hi
 
 
@@ -175,6 +178,9 @@ def hc_contact_step(h, phi, y0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, 
     N = knd.shape[0]
     K = np.empty((7, n))
     tmp = np.empty(n)
+    yt = np.empty(n)
+    ye = np.empty(n)
+    yw = np.empty(n)
     h_min = 1e-12 * rk[3]
     err = 0.0
     while True:
@@ -189,41 +195,49 @@ def hc_contact_step(h, phi, y0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, 
         rk[0] = hs * min(5.0, 0.9 * err ** -0.2) if err > 0.0 else 5.0 * hs
     s_adv = hs
     ev = EV_NONE
-    yt = np.empty(n)
-    hit0 = _event(0, y1, hs, phi, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr) >= 0.0
-    hit1 = _event(1, y1, hs, phi, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr) >= 0.0
-    for kind in (0, 1):
-        if (kind == 0 and hit0) or (kind == 1 and hit1):
-            s_k = _locate(kind, hs, y0, phi, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr, K, tmp, yt)
+    for c in range(n):
+        ye[c] = y1[c]
+    # events in order: the two exits (on the whole step; the earlier ends it), then on the
+    # step as taken the largest penetration, the peak force and the sensor's minima / maxima
+    for kind in range(6):
+        if not rec and kind >= 3 and kind != 4:
+            continue
+        if kind == 2:
+            for c in range(n):
+                y1[c] = ye[c]
+        g0 = _event(kind, y0, 0.0, phi, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr)
+        g1 = _event(kind, y1, s_adv, phi, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr)
+        if not (g1 >= 0.0 and (kind <= 1 or g0 < 0.0)):
+            continue
+        for c in range(n):
+            yt[c] = y1[c]
+        s_k = _locate(kind, s_adv if kind > 1 else hs, y0, phi, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi,
+                      vr, K, tmp, yw, yt)
+        if kind <= 1:
             if s_k <= s_adv:
                 s_adv = s_k
                 ev = EV_EXIT
-    if ev == EV_EXIT:
-        # the step ends at the exit: the state there
-        _dp_step(s_adv, y0, phi, F, Om, knd, cnd, part, w, DC, kc, p, chi, vr, K, tmp, y1, 1.0, 1.0)
-    for kind in (2, 4, 3, 5):
-        if (kind == 3 or kind == 5) and not rec:
+                for c in range(n):
+                    ye[c] = yt[c]
             continue
-        g0 = _event(kind, y0, 0.0, phi, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr)
-        g1 = _event(kind, y1, s_adv, phi, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr)
-        if g0 < 0.0 <= g1:
-            _locate(kind, s_adv, y0, phi, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, vr, K, tmp, yt)
-            g = -DC
-            gd = 0.0
-            sv = 0.0
-            for i in range(N):
-                g += w[i] * yt[i]
-                gd += w[i] * yt[N + i]
-                sv += srow[i] * yt[i]
-            if kind == 2:
-                cs[2] = max(cs[2], g)
-            elif kind == 4:
-                cs[1] = max(cs[1], _force(g, gd, kc, p, chi, vr))
-            elif kind == 3:
-                ext[0] = min(ext[0], sv)
-                ext[2] = min(ext[2], sv)
-            else:
-                ext[1] = max(ext[1], sv)
+        g = -DC
+        gd = 0.0
+        sv = 0.0
+        for i in range(N):
+            g += w[i] * yt[i]
+            gd += w[i] * yt[N + i]
+            sv += srow[i] * yt[i]
+        if kind == 2:
+            cs[2] = max(cs[2], g)
+        elif kind == 4:
+            cs[1] = max(cs[1], _force(g, gd, kc, p, chi, vr))
+        elif kind == 3:
+            ext[0] = min(ext[0], sv)
+            ext[2] = min(ext[2], sv)
+        else:
+            ext[1] = max(ext[1], sv)
+    for c in range(n):
+        y1[c] = ye[c]
     g = -DC
     gd = 0.0
     for i in range(N):
