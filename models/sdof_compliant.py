@@ -737,61 +737,79 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
                 n_steps += 1
                 if max_steps >= 0 and n_steps > max_steps:
                     return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
-                phim = 0.0
+                # one call site per step function (compile time): a free step of a two-sided
+                # scene calls advance twice, the lower stop's entry scan first (mirrored frame,
+                # nothing recorded), then the upper stop's scan up to it (which records the
+                # step's extremes); a contact step once, in the frame of the stop in contact
+                n_calls = 2 if (phase == FREE and nst > 1) else 1
+                h = min(rem, hmax[phase])
+                s = h
+                ev = EV_NONE
+                s_l = h
+                ev_l = EV_NONE
                 side = 0          # the stop whose frame the step's end state is evaluated in
-                if phase == 2:
-                    side = 1
-                    phim = (phi + math.pi) % TWO_PI
-                    _mirror_in(ex, exm)
-                    if huntl:
-                        s, ev = hc_advance(rem, phim, -q, -v, beta, F, Omega, DeltaL, kcl, pexpl, chil, vr, 1.0, rk,
-                                           recording, exm, cs, y1)
-                        if s < 0.0:
-                            return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
-                        q = -(DeltaL + y1[0])
-                        v = -y1[1]
+                phs = phi
+                qs = q
+                vs = v
+                pp = P[0]
+                Ds = Delta
+                for it in range(n_calls):
+                    sd = (1 if it == 0 else 0) if n_calls == 2 else (1 if phase == 2 else 0)
+                    pk = FREE if phase == FREE else CONTACT
+                    if sd == 1:
+                        phs = (phi + math.pi) % TWO_PI
+                        qs = -q
+                        vs = -v
+                        pp = PL[pk]
+                        Ds, ks, cks, r0s, r1s, rfs = DeltaL, kcl, ccl, r0l, r1l, roffl
+                        hs_, ps_, xs_ = huntl, pexpl, chil
                     else:
-                        h = min(rem, hmax[2])
-                        s, ev = advance(CONTACT, h, phim, -q, -v, PL[1], kcl, ccl, Omega, DeltaL, recording, exm,
-                                        cs, d, r0l, r1l, roffl)
-                        phase_eval(s, phim, -q, -v, PL[1], Omega, DeltaL, d)
-                        q = -(DeltaL + d[0])
-                        v = -d[1]
-                    if recording:
+                        phs = phi
+                        qs = q
+                        vs = v
+                        pp = P[pk]
+                        Ds, ks, cks, r0s, r1s, rfs = Delta, kc, cc, r0, r1, roff
+                        hs_, ps_, xs_ = hunt, pexp, chi
+                    rec_s = recording and not (n_calls == 2 and it == 0)
+                    if sd == 1 and rec_s:
+                        _mirror_in(ex, exm)
+                    exs = exm if sd == 1 else ex
+                    if pk == CONTACT and hs_:
+                        s, ev = hc_advance(rem, phs, qs, vs, beta, F, Omega, Ds, ks, ps_, xs_, vr, 1.0, rk, rec_s,
+                                           exs, cs, y1)
+                    else:
+                        s, ev = advance(pk, h, phs, qs, vs, pp, ks, cks, Omega, Ds, rec_s, exs, cs, d, r0s, r1s, rfs)
+                    if sd == 1 and rec_s:
                         _mirror_out(ex, exm)
-                elif hunt and phase == CONTACT:
-                    s, ev = hc_advance(rem, phi, q, v, beta, F, Omega, Delta, kc, pexp, chi, vr, 1.0, rk, recording,
-                                       ex, cs, y1)
-                    if s < 0.0:
-                        return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
-                    q = Delta + y1[0]
-                    v = y1[1]
-                else:
-                    pp = P[phase]
-                    h = min(rem, hmax[phase])
-                    if nst > 1 and phase == FREE:
-                        # the lower stop's entry first (mirrored frame, nothing recorded), then the
-                        # upper stop's scan up to it, which records the step's extremes
-                        phim = (phi + math.pi) % TWO_PI
-                        s_l, ev_l = advance(FREE, h, phim, -q, -v, P[0], kcl, ccl, Omega, DeltaL, False, exm, cs, d,
-                                            r0l, r1l, roffl)
+                    if n_calls == 2 and it == 0:
+                        s_l = s
+                        ev_l = ev
                         if ev_l != EV_NONE:
                             h = s_l
-                        s, ev = advance(FREE, h, phi, q, v, pp, kc, cc, Omega, Delta, recording, ex, cs, d,
-                                        r0, r1, roff)
-                        if ev == EV_NONE and ev_l != EV_NONE:
-                            s, ev, side = s_l, ev_l, 1
-                    else:
-                        s, ev = advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, recording, ex, cs, d,
-                                        r0, r1, roff)
-                    if side == 1:
-                        phase_eval(s, phim, -q, -v, pp, Omega, DeltaL, d)
-                        q = -(DeltaL + d[0])
-                        v = -d[1]
-                    else:
-                        phase_eval(s, phi, q, v, pp, Omega, Delta, d)
-                        q = Delta + d[0]
-                        v = d[1]
+                    side = sd
+                if n_calls == 2 and ev == EV_NONE and ev_l != EV_NONE:
+                    # the lower stop's event ends the step: its frame
+                    s, ev, side = s_l, ev_l, 1
+                    phs = (phi + math.pi) % TWO_PI
+                    qs = -q
+                    vs = -v
+                    pp = P[0]
+                    Ds = DeltaL
+                if s < 0.0:
+                    return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                if (phase == CONTACT and hunt) or (phase == 2 and huntl):
+                    qn = Ds + y1[0]
+                    vn_ = y1[1]
+                else:
+                    phase_eval(s, phs, qs, vs, pp, Omega, Ds, d)
+                    qn = Ds + d[0]
+                    vn_ = d[1]
+                if side == 1:
+                    q = -qn
+                    v = -vn_
+                else:
+                    q = qn
+                    v = vn_
                 if phase != FREE and recording:
                     t_contact += s
                 phi = (phi + Omega * s) % TWO_PI
