@@ -29,13 +29,14 @@ def _rig(n_modes, k=1e8, R=None):
     return case.model_spec(over).build()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n_modes,k", [(1, 1e8), (2, 1e8), (2, 1e9)])
 def test_beam_hc_event_agrees_with_the_direct_reference(n_modes, k):
     """Rig FE beam on a Hertzian Hunt-Crossley stop (N/m^1.5, chi from R = 0.72) from rest over
     8 periods: exact free flight + DOPRI5 contact (rtol 1e-11) against solve_ivp DOP853 (rtol
     1e-11) on the whole system: same contacts, samples to 1e-8 of the orbit (measured <= 1.5e-10),
     contact records (duration, peak force, penetration, work, entry velocity) to 1e-8 relative
-    (measured <= 1.4e-10)."""
+    (measured <= 1.4e-10).  Slow step: the kernel's first compilation takes ~20 s."""
     m = _rig(n_modes, k)
     assert m.contact_law == "hunt_crossley"
     assert isinstance(make_solver(m, "event"), HuntCrossleyBeamEventSolver)
@@ -49,8 +50,9 @@ def test_beam_hc_event_agrees_with_the_direct_reference(n_modes, k):
     np.testing.assert_allclose(a.contacts[:n], b.contacts[:n], rtol=1e-8)
 
 
-@pytest.mark.parametrize("n_modes", [1, 2, 4])
-@pytest.mark.parametrize("k,v", [(1e8, 0.01), (1e9, 0.003)])
+@pytest.mark.parametrize("n_modes,k,v", [(2, 1e8, 0.01),
+                                         pytest.param(1, 1e9, 0.003, marks=pytest.mark.slow),
+                                         pytest.param(4, 1e9, 0.003, marks=pytest.mark.slow)])
 def test_isolated_beam_contact_has_the_sdof_restitution_for_the_same_chi(n_modes, k, v):
     """Along the normal w the stop acts on m_eff = 1 / |w|^2: the beam kernel's isolated contact
     (free, unforced modes) gives the SDOF kernel's restitution and duration for stiffness
@@ -66,14 +68,15 @@ def test_isolated_beam_contact_has_the_sdof_restitution_for_the_same_chi(n_modes
     assert Rb == pytest.approx(R0, abs=1e-10) and abs(Rb - 0.72) < 0.03
 
 
+@pytest.mark.slow
 def test_one_mode_beam_is_the_sdof_hunt_crossley_scene():
     """A one-mode beam ``x'' + c x' + k x + w^2 k_c (x - D)^p (1 + chi x' / v_in) = w Gamma F
     sin`` (``x = w eta``) is the SDOF scene with ``tau = sqrt(k) t``, ``q = x / L_q``
     (``L_q = w L / s``: q is the sensor over L), ``beta = c / (2 sqrt(k))``, ``Omega =
     Om / sqrt(k)``, ``B = w Gamma Y / L_q``, ``Delta = D / L_q`` and stiffness ``w^2 k_c
     L_q^(p-1) / k``; the velocity floors coincide.  Same samples (velocities times sqrt(k)) to
-    1e-8 of the orbit (measured ~1e-10; both contact phases by DOPRI5 at rtol 1e-11, in different
-    variables), same contact times."""
+    1e-10 of the orbit (measured 5e-14: both contact phases by DOPRI5 at rtol 1e-11, in
+    different variables and error norms), same contact times (measured 1e-15 relative)."""
     m = _rig(1, 1e8)
     k1, c1, w1, s1, G1 = m.k_nd[0], m.c_nd[0], m.contact_row[0], m.sensor_row[0], m.participation[0]
     L, Y, D = m.length_m, m.base_amplitude_m, m.gap_contact_m
@@ -88,6 +91,6 @@ def test_one_mode_beam_is_the_sdof_hunt_crossley_scene():
     b = CompliantEventSolver(sd).point(W / sq, None, 20, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     scale = np.max(np.abs(a.samples[:, 0]))
-    assert np.max(np.abs(a.samples[:, 0] - b.samples[:, 0])) <= 1e-8 * scale
-    assert np.max(np.abs(a.samples[:, 1] - sq * b.samples[:, 1])) <= 1e-8 * np.max(np.abs(a.samples[:, 1]))
+    assert np.max(np.abs(a.samples[:, 0] - b.samples[:, 0])) <= 1e-10 * scale
+    assert np.max(np.abs(a.samples[:, 1] - sq * b.samples[:, 1])) <= 1e-10 * np.max(np.abs(a.samples[:, 1]))
     np.testing.assert_allclose(sq * a.impact_times, b.impact_times, rtol=1e-9)
