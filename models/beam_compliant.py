@@ -21,6 +21,10 @@ Omega^n`` (``Re lambda_j <= 0``).  With those bounds the certified scan of
 down through 0), the exact minima of the sensor displacement, the peak force and the largest
 penetration; the work done on the stop is integrated by Gauss-Legendre on the exact flow.
 
+A second (lower) stop at ``U = -Delta_l`` with its own Kelvin-Voigt law adds a third phase
+(its contact matrix ``A - w w^T [k_l, c_l]``, load ``-w k_l Delta_l``), diagonalised like the
+others (:func:`beam_compliant_kernel_stops`).
+
 Contact law and events are those of :mod:`vibeam.models.compliant` (force-zero separation;
 a target R gives the dashpot ``c_c = 2 zeta_c sqrt(k_c m_eff)`` with ``zeta_c`` from the
 isolated-impact relation and the relation's effective mass ``m_eff = 1 / |w|^2``).

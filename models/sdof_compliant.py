@@ -29,8 +29,13 @@ penetration.  The energy the body gives the stop, ``int f delta' dt`` over the c
 integrated by 8-point Gauss-Legendre on each step of the contact (exact flow at the nodes;
 steps of at most 1/16 of the contact's natural period: relative error ~1e-15).
 
+Two stops (:func:`compliant_kernel_stops`): the lower stop at ``q = -Delta_l`` is handled
+in the mirrored frame ``q~ = -q``, ``phi~ = phi + pi`` (the equation is odd in ``(q, sin
+phi)``), where it is an upper stop with its own law; a free step ends at the earlier of the
+two stops' entries.
+
 Not handled: overdamped phases (``b_p >= 1``; a target R above ``e^-2`` and moderate
-``beta`` keep the contact underdamped), two-sided stops, ``R(v)`` tables.
+``beta`` keep the contact underdamped), ``R(v)`` tables.
 """
 from __future__ import annotations
 
