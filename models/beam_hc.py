@@ -252,13 +252,14 @@ def hc_contact_step(h, phi, y0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, 
 @njit(cache=True)
 def beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, wrow, srow, knd, cnd, part, F, kc, p, chi, DC, v_floor,
                    z0, phase0, n_transient, n_record, ns_transient, ns_record, hmax, max_contacts, max_steps,
-                   samples, pmin, imp_t, imp_v, con):
+                   samples, pmin, imp_t, imp_v, con, msamp):
     """Simulate whole forcing periods; the numba core of :class:`HuntCrossleyBeamEventSolver`.
 
     ``lam`` (2N,), ``V``, ``W`` (2N, 2N), ``Z`` (2N,): eigen-data and forced response of the
     free phase; ``PU``, ``PS`` (2N,) the contact and sensor rows times ``V``, ``bU``, ``bS``
     their forced coefficients; ``knd``, ``cnd``, ``part`` (N,) modal stiffness, damping and
-    participation; ``F = Om^2 Y``; ``kc``, ``p``, ``chi`` the law; ``DC`` the gap (m).
+    participation; ``F = Om^2 Y``; ``kc``, ``p``, ``chi`` the law; ``DC`` the gap (m);
+    ``msamp`` (m, 2N) receives the modal state at each sample when ``m > 0``.
     Outputs as :func:`vibeam.models.beam_compliant.beam_compliant_kernel`.  Returns
     ``(status, n_rec, smin, smax, phase_end, n_con, t_contact, n_steps)``; ``z0`` is left at
     the end state.
@@ -323,6 +324,9 @@ def beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, wrow, srow, knd, cnd, part,
                     svd += srow[i] * z[N + i]
                 samples[k_sample, 0] = sv
                 samples[k_sample, 1] = svd
+                if msamp.shape[0] > k_sample:
+                    for i in range(n2):
+                        msamp[k_sample, i] = z[i]
                 k_sample += 1
                 ext[0] = min(ext[0], sv)
                 ext[1] = max(ext[1], sv)
@@ -505,6 +509,7 @@ class HuntCrossleyBeamEventSolver:
         self.max_steps_per_period = int(max_steps_per_period)
         self.impact_buffer = int(impact_buffer)
         self.chunk_periods = max(16, 2000 // model.n_modes)
+        self.record_modal_states = bool(record_modal_states)
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples, steps_per_fundamental=self.steps_per_fundamental,
@@ -528,16 +533,20 @@ class HuntCrossleyBeamEventSolver:
         imp_v = np.zeros(self.impact_buffer)
         con = np.full((self.impact_buffer, 5), np.nan)
         z = s0[:2 * N].copy()
+        msamp = np.zeros((samples.shape[0] if self.record_modal_states else 0, 2 * N))
         n_per = max(n_transient + n_record, 1)
         out = beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, m.contact_row, m.sensor_row, m.k_nd, m.c_nd,
                              m.participation, F, kc, float(law.exponent), float(law.chi), m.gap_contact_m,
                              velocity_floor(m, Om), z, 1 if s0[2 * N] > 0.5 else 0, int(n_transient), int(n_record),
                              self.transient_samples, int(samples_per_period), hmax,
                              self.max_impacts_per_period * n_per, self.max_steps_per_period * n_per, samples, pmin,
-                             imp_t, imp_v, con)
+                             imp_t, imp_v, con, msamp)
         status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = out
-        return _trajectory(m, Om, samples, samples_per_period, pmin, imp_t, imp_v, con, n_rec, smin, smax, z,
-                           ph_end, status, n_con, n_steps, n_per, t_con, n_record, self.impact_buffer)
+        tr = _trajectory(m, Om, samples, samples_per_period, pmin, imp_t, imp_v, con, n_rec, smin, smax, z,
+                         ph_end, status, n_con, n_steps, n_per, t_con, n_record, self.impact_buffer)
+        if self.record_modal_states:
+            tr.extra["modal_states"] = msamp
+        return tr
 
 
 def _trajectory(m, Om, samples, spp, pmin, imp_t, imp_v, con, n_rec, smin, smax, z, ph_end, status, n_con, n_steps,
