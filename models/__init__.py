@@ -107,6 +107,9 @@ def make_solver(model, method: str, **settings):
             allowed = ", ".join(table) or "none"
             raise ValueError(f"method {method!r} does not simulate contact law {law!r} of fidelity "
                              f"{fid.name!r}; allowed: {allowed}")
+        if getattr(model, "two_sided", False) and method not in fid.two_sided_law_methods.get(law, ()):
+            raise ValueError(f"method {method!r} cannot simulate contact law {law!r} on a second (lower) stop; "
+                             f"allowed with two stops: {', '.join(fid.two_sided_law_methods.get(law, ())) or 'none'}")
         return resolve(table[method])(model, **settings)
     path = fid.methods.get(method)
     if path is None:

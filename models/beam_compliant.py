@@ -21,6 +21,10 @@ Omega^n`` (``Re lambda_j <= 0``).  With those bounds the certified scan of
 down through 0), the exact minima of the sensor displacement, the peak force and the largest
 penetration; the work done on the stop is integrated by Gauss-Legendre on the exact flow.
 
+A second (lower) stop at ``U = -Delta_l`` with its own Kelvin-Voigt law adds a third phase
+(its contact matrix ``A - w w^T [k_l, c_l]``, load ``-w k_l Delta_l``), diagonalised like the
+others (:func:`beam_compliant_kernel_stops`).
+
 Contact law and events are those of :mod:`vibeam.models.compliant` (force-zero separation;
 a target R gives the dashpot ``c_c = 2 zeta_c sqrt(k_c m_eff)`` with ``zeta_c`` from the
 isolated-impact relation and the relation's effective mass ``m_eff = 1 / |w|^2``).
@@ -36,6 +40,7 @@ import numpy as np
 from numba import njit
 
 from .beam_dynamics import BeamImpactModel
+from .contact import Relation, Stop
 from .roots import rtsafe_update
 from .sdof_event import _certify
 from .trajectory import Trajectory
@@ -58,10 +63,13 @@ class CompliantBeamModel(BeamImpactModel):
     """
 
     @classmethod
-    def from_model(cls, base: BeamImpactModel, law) -> "CompliantBeamModel":
+    def from_model(cls, base: BeamImpactModel, law, law_lower=None) -> "CompliantBeamModel":
+        """The compliant model of ``base`` with the stop's law ``law``; a two-sided ``base``
+        (``gap_contact_lower_m``) gets ``law_lower`` at its lower stop (None: ``law``)."""
         m = cls.__new__(cls)
         m.__dict__.update(copy.copy(base.__dict__))
         m.contact = law
+        m.contact_lower = law_lower
         return m
 
     @property
@@ -69,30 +77,66 @@ class CompliantBeamModel(BeamImpactModel):
         return self.contact.name
 
     @property
+    def lower_law(self):
+        """The law of the lower stop of a two-sided scene (``contact_lower`` or ``contact``),
+        None with one stop."""
+        if not self.two_sided:
+            return None
+        lo = getattr(self, "contact_lower", None)
+        return self.contact if lo is None else lo
+
+    def stops(self) -> tuple:
+        """The contact relations and (compliant) laws: the stop at ``w^T eta = Delta_C`` and,
+        for a two-sided scene, the one at ``w^T eta = -Delta_C,lower``."""
+        out = (Stop(Relation(1.0, self.gap_contact_m), self.contact),)
+        if self.two_sided:
+            out += (Stop(Relation(-1.0, self.gap_contact_lower_m), self.lower_law),)
+        return out
+
+    def _damping(self, law) -> float:
+        return 2.0 * law.damping_ratio * math.sqrt(law.stiffness * self.m_eff)
+
+    @property
     def contact_damping_n_s_m(self) -> float:
         """``c_c = 2 zeta_c sqrt(k_c m_eff)`` (N s/m)."""
-        return 2.0 * self.contact.damping_ratio * math.sqrt(self.contact.stiffness * self.m_eff)
+        return self._damping(self.contact)
 
     @property
     def force_scale_n(self) -> float:
         """Newtons per unit of the nondimensional contact force ``F / (m_eff omega_ref^2 L)``."""
         return self.m_eff * self.omega_ref ** 2 * self.length_m
 
+    def lower_stop_params(self):
+        """``(k, c, Delta_l)`` of the lower stop in kernel units (``k_l / omega_ref^2``,
+        ``c_l / omega_ref``, gap at the contact point, m); zeros with one stop."""
+        lo = self.lower_law
+        if lo is None:
+            return 0.0, 0.0, 0.0
+        return lo.stiffness / self.omega_ref ** 2, self._damping(lo) / self.omega_ref, self.gap_contact_lower_m
+
     def phase_matrices(self):
-        """``A`` (2, 2N, 2N) of the free and contact phases, ``b`` (2N,) per unit forcing
-        ``F``, ``b0`` (2, 2N) constant loads."""
+        """``A`` (P, 2N, 2N) of the free and contact phases (P = 2; 3 with a lower stop: its
+        contact phase last), ``b`` (2N,) per unit forcing ``F``, ``b0`` (P, 2N) constant loads,
+        and the upper stop's ``kc``, ``cc`` (kernel units)."""
         N = self.n_modes
         k, c, w = self.k_nd, self.c_nd, self.contact_row
         kc = self.contact.stiffness / self.omega_ref ** 2
         cc = self.contact_damping_n_s_m / self.omega_ref
-        A = np.zeros((2, 2 * N, 2 * N))
-        for p in range(2):
+        kl, cl, Dl = self.lower_stop_params()
+        P = 3 if self.two_sided else 2
+        A = np.zeros((P, 2 * N, 2 * N))
+        ww = np.outer(w, w)
+        for p in range(P):
+            kp, cp = (0.0, kc, kl)[p], (0.0, cc, cl)[p]
             A[p, :N, N:] = np.eye(N)
-            A[p, N:, :N] = -np.diag(k) - (kc * np.outer(w, w) if p else 0.0)
-            A[p, N:, N:] = -np.diag(c) - (cc * np.outer(w, w) if p else 0.0)
+            A[p, N:, :N] = -np.diag(k) - (kp * ww if p else 0.0)
+            A[p, N:, N:] = -np.diag(c) - (cp * ww if p else 0.0)
         b = np.concatenate([np.zeros(N), self.participation])
-        b0 = np.zeros((2, 2 * N))
+        b0 = np.zeros((P, 2 * N))
         b0[1, N:] = w * kc * self.gap_contact_m
+        if P == 3:
+            # the lower stop's force k_l (-U - Delta_l) + c_l (-U') acts along its normal -w
+            b0[2, N:] = -w * kl * Dl
         return A, b, b0, kc, cc
 
 
@@ -240,7 +284,8 @@ def _modal(z, W, Z, ze, phi0, a):
 def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS, gU, gS, kc, cc, DeltaC,
                           z0, phase0, n_transient, n_record, ns_transient, ns_record, hmax,
                           max_contacts, max_steps, samples, pmin, imp_t, imp_v, con, msamp):
-    """Simulate whole forcing periods; the numba core of :class:`CompliantBeamEventSolver`.
+    """Simulate whole forcing periods on one stop; the numba core of
+    :class:`CompliantBeamEventSolver` (:func:`beam_compliant_kernel_stops` with one stop).
 
     Per phase ``p`` (0 free, 1 contact): ``lamA[p]`` (2N,) eigenvalues, ``VA[p]``/``WA[p]``
     eigenvectors and inverse, ``ZA[p]`` forced response (complex, 2N), ``zeA[p]`` equilibrium;
@@ -253,12 +298,102 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
     Returns ``(status, n_rec, smin, smax, phase_end, n_con, t_contact, n_steps)``; ``z0`` is
     left at the end state.
     """
+    imp_k = np.zeros(imp_t.shape[0], np.int64)
+    out = beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS, gU, gS, kc, cc,
+                                      DeltaC, 1, 0.0, 0.0, 0.0, z0, phase0, n_transient, n_record, ns_transient,
+                                      ns_record, hmax, max_contacts, max_steps, samples, pmin, imp_t, imp_v, con,
+                                      imp_k, msamp)
+    return out[:8]
+
+
+@njit(cache=True)
+def _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2, foff=0.0):
+    """Contact entry of one stop in a free step of at most ``h``: the signal ``(al, lam, beU,
+    gaU)`` is the stop's gap ``g`` (< 0 free), ``kc g + cc g' + foff`` has the sign of its
+    force inside the stop (Kelvin-Voigt: the force; Hunt-Crossley after an exit by its damping
+    factor: ``g' + v_r / chi``, :mod:`vibeam.models.beam_hc`).  Returns ``(s, event)``:
+    :data:`EV_ENTRY` (``s = 0`` when the body is on or inside the stop and the force is positive
+    just after), :data:`EV_GAPDOWN` (inside it after an exit, ``g`` back to 0) or
+    :data:`EV_NONE` (``s = h``)."""
+    ev = EV_NONE
+    s_adv = h
+    _sig(0.0, al, lam, beU, gaU, phi, Om, buf)
+    g0 = buf[0]
+    # the gap from the modal reconstruction carries round-off (1e-13 of its
+    # bound): within it the body is on the stop (g0 = 0)
+    tolg = 1e-13 * _bound(al, lam, beU, Om, 0)
+    on_stop = abs(g0) <= tolg
+    entered = False
+    if on_stop or g0 > 0.0:
+        # at or inside the stop: contact now if the force is positive just after
+        # (on it: the first non-zero of U', U'', U'''; inside: of the force k g + c g')
+        for n in range(3):
+            if on_stop:
+                f = buf[n + 1]
+                tol = 1e-13 * _bound(al, lam, beU, Om, n + 1)
+            else:
+                f = kc * buf[n] + cc * buf[n + 1]
+                tol = 1e-13 * (kc * _bound(al, lam, beU, Om, n) + cc * _bound(al, lam, beU, Om, n + 1))
+                if n == 0 and foff != 0.0:
+                    f += foff
+                    tol += 1e-13 * abs(foff)
+            if f > tol:
+                entered = True
+                break
+            if f < -tol:
+                break
+    if on_stop and not entered:
+        g0 = -1.0   # on the stop and leaving it: free flight below it
+    if entered:
+        s_adv = 0.0
+        ev = EV_ENTRY
+    elif g0 >= 0.0:
+        b2, g2 = _combo(-1.0, 0.0, 0.0, al, lam, beU, gaU, Om, al2)
+        s_d = bupcross(al2, lam, b2, g2, phi, Om, 0.0, h, h_min)
+        lim = s_d if s_d >= 0.0 else h
+        b2, g2 = _combo(kc, cc, 0.0, al, lam, beU, gaU, Om, al2)
+        if foff != 0.0:
+            g2 += foff
+        s_e = bupcross(al2, lam, b2, g2, phi, Om, 0.0, lim, h_min)
+        if s_e >= 0.0:
+            s_adv = s_e
+            ev = EV_ENTRY
+        elif s_d >= 0.0:
+            s_adv = s_d
+            ev = EV_GAPDOWN
+    else:
+        s_e = bupcross(al, lam, beU, gaU, phi, Om, 0.0, h, h_min)
+        if s_e >= 0.0:
+            s_adv = s_e
+            ev = EV_ENTRY
+    return s_adv, ev
+
+
+@njit(cache=True)
+def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS, gU, gS, kc, cc, DeltaC,
+                                nst, kcl, ccl, DeltaL, z0, phase0, n_transient, n_record, ns_transient, ns_record,
+                                hmax, max_contacts, max_steps, samples, pmin, imp_t, imp_v, con, imp_k, msamp):
+    """Simulate whole forcing periods on one or two Kelvin-Voigt stops; the numba core of
+    :class:`CompliantBeamEventSolver`.
+
+    Phases ``p``: 0 free, 1 in contact with the upper stop (gap ``g = U - Delta_C``, force
+    ``kc g + cc g'``), 2 (``nst = 2``) with the lower one (gap ``g_l = -U - Delta_l``, force
+    ``kcl g_l + ccl g_l'``); the arrays of :func:`beam_compliant_kernel` then have a third
+    row (the lower contact phase's eigen-data).  Every signal of the lower stop is the upper
+    gap's coefficients negated.  A free step ends at the earlier of the two stops' certified
+    entries.  With one stop the computation is :func:`beam_compliant_kernel`'s.
+
+    ``imp_k`` (cap,) receives the stop of each recorded contact (0 upper, 1 lower), ``imp_v``
+    the normal entry velocities.  Returns ``(status, n_rec, smin, smax, phase_end, n_con,
+    t_contact, n_steps, n_rec_lower)``.
+    """
     n2 = z0.shape[0]
     T = TWO_PI / Om
     z = z0.copy()
     a = np.empty(n2, np.complex128)
     al = np.empty(n2, np.complex128)
     al2 = np.empty(n2, np.complex128)
+    alL = np.empty(n2, np.complex128)
     buf = np.empty(4)
     phase = phase0
     smin = np.inf
@@ -267,6 +402,7 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
     cs = np.zeros(4)
     n_con = 0
     n_rec = 0
+    n_rec_l = 0
     n_steps = 0
     t_con = 0.0
     in_rec = False
@@ -305,7 +441,7 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                 n_steps += 1
                 if n_steps > max_steps:
                     z0[:] = z
-                    return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps)
+                    return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
                 lam = lamA[phase]
                 for j in range(n2):
                     al[j] = PU[phase, j] * a[j]
@@ -313,68 +449,50 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                 gaU = gU[phase] - DeltaC
                 h = min(rem, hmax[phase])
                 h_min = 1e-13 * T
-                ev = EV_NONE
-                s_adv = h
+                side = 0
                 if phase == FREE:
-                    _sig(0.0, al, lam, beU, gaU, phi, Om, buf)
-                    g0 = buf[0]
-                    # the gap from the modal reconstruction carries round-off (1e-13 of its
-                    # bound): within it the body is on the stop (g0 = 0)
-                    tolg = 1e-13 * _bound(al, lam, beU, Om, 0)
-                    on_stop = abs(g0) <= tolg
-                    entered = False
-                    if on_stop or g0 > 0.0:
-                        # at or inside the stop: contact now if the force is positive just after
-                        # (on it: the first non-zero of U', U'', U'''; inside: of the force k g + c g')
-                        for n in range(3):
-                            if on_stop:
-                                f = buf[n + 1]
-                                tol = 1e-13 * _bound(al, lam, beU, Om, n + 1)
-                            else:
-                                f = kc * buf[n] + cc * buf[n + 1]
-                                tol = 1e-13 * (kc * _bound(al, lam, beU, Om, n) + cc * _bound(al, lam, beU, Om, n + 1))
-                            if f > tol:
-                                entered = True
-                                break
-                            if f < -tol:
-                                break
-                    if on_stop and not entered:
-                        g0 = -1.0   # on the stop and leaving it: free flight below it
-                    if entered:
-                        s_adv = 0.0
-                        ev = EV_ENTRY
-                    elif g0 >= 0.0:
-                        b2, g2 = _combo(-1.0, 0.0, 0.0, al, lam, beU, gaU, Om, al2)
-                        s_d = bupcross(al2, lam, b2, g2, phi, Om, 0.0, h, h_min)
-                        lim = s_d if s_d >= 0.0 else h
-                        b2, g2 = _combo(kc, cc, 0.0, al, lam, beU, gaU, Om, al2)
-                        s_e = bupcross(al2, lam, b2, g2, phi, Om, 0.0, lim, h_min)
-                        if s_e >= 0.0:
-                            s_adv = s_e
-                            ev = EV_ENTRY
-                        elif s_d >= 0.0:
-                            s_adv = s_d
-                            ev = EV_GAPDOWN
+                    if nst > 1:
+                        # the lower stop's entry first, then the upper stop's scan up to it
+                        for j in range(n2):
+                            alL[j] = -al[j]
+                        s_l, ev_l = _free_scan(alL, lam, -beU, -gU[phase] - DeltaL, phi, Om, kcl, ccl, h, h_min,
+                                               buf, al2)
+                        if ev_l != EV_NONE:
+                            h = s_l
+                        s_adv, ev = _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2)
+                        if ev == EV_NONE and ev_l != EV_NONE:
+                            s_adv, ev, side = s_l, ev_l, 1
                     else:
-                        s_e = bupcross(al, lam, beU, gaU, phi, Om, 0.0, h, h_min)
-                        if s_e >= 0.0:
-                            s_adv = s_e
-                            ev = EV_ENTRY
+                        s_adv, ev = _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2)
                 else:
-                    b2, g2 = _combo(-kc, -cc, 0.0, al, lam, beU, gaU, Om, al2)
+                    # the signals of the stop in contact: its gap and force
+                    if phase == 2:
+                        side = 1
+                        for j in range(n2):
+                            al[j] = -al[j]
+                        beU = -beU
+                        gaU = -gU[phase] - DeltaL
+                        k_s = kcl
+                        c_s = ccl
+                    else:
+                        k_s = kc
+                        c_s = cc
+                    ev = EV_NONE
+                    s_adv = h
+                    b2, g2 = _combo(-k_s, -c_s, 0.0, al, lam, beU, gaU, Om, al2)
                     s_x = bupcross(al2, lam, b2, g2, phi, Om, 0.0, h, h_min)
                     if s_x >= 0.0:
                         s_adv = s_x
                         ev = EV_EXIT
                     # peak force (interior maxima), largest penetration, work on the stop
-                    b2, g2 = _combo(0.0, -kc, -cc, al, lam, beU, gaU, Om, al2)
+                    b2, g2 = _combo(0.0, -k_s, -c_s, al, lam, beU, gaU, Om, al2)
                     s = 0.0
                     while True:
                         s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
                         if s < 0.0:
                             break
                         _sig(s, al, lam, beU, gaU, phi, Om, buf)
-                        cs[1] = max(cs[1], kc * buf[0] + cc * buf[1])
+                        cs[1] = max(cs[1], k_s * buf[0] + c_s * buf[1])
                     b2, g2 = _combo(0.0, -1.0, 0.0, al, lam, beU, gaU, Om, al2)
                     s = 0.0
                     while True:
@@ -386,10 +504,10 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                     acc = 0.0
                     for i in range(GL_X.shape[0]):
                         _sig(GL_X[i] * s_adv, al, lam, beU, gaU, phi, Om, buf)
-                        acc += GL_W[i] * (kc * buf[0] + cc * buf[1]) * buf[1]
+                        acc += GL_W[i] * (k_s * buf[0] + c_s * buf[1]) * buf[1]
                     cs[3] += acc * s_adv
                     _sig(s_adv, al, lam, beU, gaU, phi, Om, buf)
-                    cs[1] = max(cs[1], kc * buf[0] + cc * buf[1])
+                    cs[1] = max(cs[1], k_s * buf[0] + c_s * buf[1])
                     cs[2] = max(cs[2], buf[0])
                 if recording and s_adv > 0.0:
                     # exact minima (and maxima) of the sensor displacement inside the step
@@ -412,7 +530,7 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                 for j in range(n2):
                     if a[j] != 0.0:
                         a[j] = a[j] * np.exp(lam[j] * s_adv)
-                if phase == CONTACT and recording:
+                if phase != FREE and recording:
                     t_con += s_adv
                 phi = (phi + Om * s_adv) % TWO_PI
                 t_loc += s_adv
@@ -420,20 +538,29 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                 if rem < 1e-15 * T:
                     rem = 0.0
                 if ev == EV_ENTRY or ev == EV_EXIT:
-                    _modal(z, WA[1 - phase], ZA[1 - phase], zeA[1 - phase], phi, a)
+                    nxt = FREE if ev == EV_EXIT else 1 + side
+                    _modal(z, WA[nxt], ZA[nxt], zeA[nxt], phi, a)
                 if ev == EV_ENTRY:
-                    phase = CONTACT
+                    phase = 1 + side
                     n_con += 1
                     if n_con > max_contacts:
                         z0[:] = z
-                        return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps)
+                        return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
                     gz = -DeltaC
                     uz = 0.0
                     for i in range(n2 // 2):
                         gz += wrow[i] * z[i]
                         uz += wrow[i] * z[n2 // 2 + i]
+                    if side == 1:
+                        gz = -DeltaL
+                        uz = 0.0
+                        for i in range(n2 // 2):
+                            gz -= wrow[i] * z[i]
+                            uz -= wrow[i] * z[n2 // 2 + i]
+                        cs[1] = kcl * gz + ccl * uz
+                    else:
+                        cs[1] = kc * gz + cc * uz
                     cs[0] = t0p + t_loc
-                    cs[1] = kc * gz + cc * uz
                     cs[2] = gz
                     cs[3] = 0.0
                     in_rec = recording
@@ -441,7 +568,9 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                         if n_rec < imp_t.shape[0]:
                             imp_t[n_rec] = t0p + t_loc
                             imp_v[n_rec] = uz
+                            imp_k[n_rec] = side
                         n_rec += 1
+                        n_rec_l += side
                 elif ev == EV_EXIT:
                     phase = FREE
                     if in_rec and n_rec - 1 < cap:
@@ -456,29 +585,31 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
             pmin[p - n_transient] = pm
     for i in range(n2):
         z0[i] = z[i]
-    return (0, n_rec, smin, smax, phase, n_con, t_con, n_steps)
+    return (0, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
 
 
 def _phase_data(model: CompliantBeamModel, Om: float):
-    """Eigen-data and signal rows of both phases at forcing ``Om`` (see the kernel)."""
+    """Eigen-data and signal rows of the phases (free, upper contact[, lower contact]) at forcing
+    ``Om`` (see the kernel)."""
     A, b, b0, kc, cc = model.phase_matrices()
     N = model.n_modes
     F = Om ** 2 * model.base_amplitude_m
     n2 = 2 * N
-    lamA = np.empty((2, n2), np.complex128)
-    VA = np.empty((2, n2, n2), np.complex128)
-    WA = np.empty((2, n2, n2), np.complex128)
-    ZA = np.empty((2, n2), np.complex128)
-    zeA = np.empty((2, n2))
+    P = A.shape[0]
+    lamA = np.empty((P, n2), np.complex128)
+    VA = np.empty((P, n2, n2), np.complex128)
+    WA = np.empty((P, n2, n2), np.complex128)
+    ZA = np.empty((P, n2), np.complex128)
+    zeA = np.empty((P, n2))
     rowU = np.concatenate([model.contact_row, np.zeros(N)])
     rowS = np.concatenate([model.sensor_row, np.zeros(N)])
-    PU = np.empty((2, n2), np.complex128)
-    PS = np.empty((2, n2), np.complex128)
-    bU = np.empty(2, np.complex128)
-    bS = np.empty(2, np.complex128)
-    gU = np.empty(2)
-    gS = np.empty(2)
-    for p in range(2):
+    PU = np.empty((P, n2), np.complex128)
+    PS = np.empty((P, n2), np.complex128)
+    bU = np.empty(P, np.complex128)
+    bS = np.empty(P, np.complex128)
+    gU = np.empty(P)
+    gS = np.empty(P)
+    for p in range(P):
         lam, V = model._eig[p]
         lamA[p], VA[p], WA[p] = lam, V, model._eiginv[p]
         ZA[p] = np.linalg.solve(1j * Om * np.eye(n2) - A[p], b * F)
@@ -496,7 +627,8 @@ class CompliantBeamEventSolver:
     """Method ``event`` of a beam scene with a Kelvin-Voigt stop (module docstring).
 
     Same interface as :class:`vibeam.models.beam_dynamics.BeamEventSolver`; the state is
-    ``(eta (N), eta' (N), phase)`` (phase 1: in contact).
+    ``(eta (N), eta' (N), phase)`` (phase 1: in contact with the upper stop, -1 with the
+    lower one of a two-sided scene, whose contacts the trajectory's ``impact_stops`` mark).
 
     Parameters
     ----------
@@ -516,7 +648,7 @@ class CompliantBeamEventSolver:
     def __init__(self, model: CompliantBeamModel, transient_samples: int = 16, steps_per_fundamental: int = 16,
                  max_impacts_per_period: int = 2000, max_steps_per_period: int = 200000,
                  impact_buffer: int = 4096, chatter_tol: float | None = None, record_modal_states: bool = False):
-        if getattr(model, "contact", None) is None or model.contact.name != "linear":
+        if getattr(model, "contact", None) is None or any(st.law.name != "linear" for st in model.stops()):
             raise ValueError("CompliantBeamEventSolver needs a beam model with law \"linear\"")
         self.model = model
         self.transient_samples = int(transient_samples)
@@ -542,23 +674,29 @@ class CompliantBeamEventSolver:
             s0 = m.initial_state()
         data = _phase_data(m, Om)
         lamA, VA, WA, ZA, zeA, PU, PS, bU, bS, gU, gS, kc, cc = data
-        hmax = np.array([TWO_PI / math.sqrt(m.k_nd[0]),
-                         TWO_PI / math.sqrt(kc * float(m.contact_row @ m.contact_row))]) / self.steps_per_fundamental
+        ww = float(m.contact_row @ m.contact_row)
+        kl, cl, Dl = m.lower_stop_params()
+        two = m.two_sided
+        hmax = np.array([TWO_PI / math.sqrt(m.k_nd[0]), TWO_PI / math.sqrt(kc * ww),
+                         TWO_PI / math.sqrt((kl if two else kc) * ww)]) / self.steps_per_fundamental
         samples = np.zeros((n_record * samples_per_period, 2))
         pmin = np.zeros(n_record)
         imp_t = np.zeros(self.impact_buffer)
         imp_v = np.zeros(self.impact_buffer)
+        imp_k = np.zeros(self.impact_buffer, np.int64)
         con = np.full((self.impact_buffer, 5), np.nan)
         msamp = np.zeros((samples.shape[0] if self.record_modal_states else 0, 2 * N))
         z = s0[:2 * N].copy()
         n_per = max(n_transient + n_record, 1)
-        out = beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, m.contact_row, m.sensor_row, bU, bS, gU, gS,
-                                    kc, cc,
-                                    m.gap_contact_m, z, 1 if s0[2 * N] > 0.5 else 0,
-                                    int(n_transient), int(n_record), self.transient_samples,
-                                    int(samples_per_period), hmax, self.max_impacts_per_period * n_per,
-                                    self.max_steps_per_period * n_per, samples, pmin, imp_t, imp_v, con, msamp)
-        status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = out
+        ph0 = 1 if s0[2 * N] > 0.5 else (2 if (s0[2 * N] < -0.5 and two) else 0)
+        out = beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, m.contact_row, m.sensor_row, bU, bS,
+                                          gU, gS, kc, cc, m.gap_contact_m, 2 if two else 1, kl, cl, Dl, z, ph0,
+                                          int(n_transient), int(n_record), self.transient_samples,
+                                          int(samples_per_period), hmax, self.max_impacts_per_period * n_per,
+                                          self.max_steps_per_period * n_per, samples, pmin, imp_t, imp_v, con, imp_k,
+                                          msamp)
+        status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps, n_low = out
+        ph_end = -1 if ph_end == 2 else ph_end
         L = m.length_m
         k = min(n_rec, self.impact_buffer)
         c = con[:k]
@@ -581,21 +719,23 @@ class CompliantBeamEventSolver:
                           q_min=float(smin / L), q_max=float(smax / L), period_min=pmin / L,
                           status="ok" if status == 0 else "failed", message=message,
                           final_state=np.concatenate([z, [float(ph_end)]]),
-                          extra=extra, contacts=c)
+                          extra=extra, contacts=c, impact_stops=imp_k[:k].copy() if two else None,
+                          n_impacts_lower=int(n_low) if two else 0)
 
 
 def _ensure_eig(model):
-    """Diagonalise both phase matrices once per model (cached on it)."""
-    if getattr(model, "_eig_key", None) == (model.contact, model.n_modes):
+    """Diagonalise the phase matrices once per model (cached on it)."""
+    key = (model.contact, model.n_modes, model.lower_law, getattr(model, "gap_contact_lower_m", None))
+    if getattr(model, "_eig_key", None) == key:
         return
     A, *_ = model.phase_matrices()
     model._eig = []
     model._eiginv = []
-    for p in range(2):
+    for p in range(A.shape[0]):
         lam, V = np.linalg.eig(A[p])
         model._eig.append((lam.astype(np.complex128), np.ascontiguousarray(V, dtype=np.complex128)))
         model._eiginv.append(np.ascontiguousarray(np.linalg.inv(V), dtype=np.complex128))
-    model._eig_key = (model.contact, model.n_modes)
+    model._eig_key = key
 
 
 class CompliantBeamODESolver:
@@ -645,7 +785,12 @@ class CompliantBeamODESolver:
         samples = np.full((ts.size, 2), np.nan)
         s0 = m.initial_state() if state0 is None else np.asarray(state0, float)
         y = np.concatenate([s0[:2 * N], [0.0]])
+        two = m.two_sided
+        kl, cl, DL = m.lower_stop_params()
         mode = "contact" if s0[2 * N] > 0.5 else "free"
+        ks = 0        # the stop in contact (0 upper, 1 lower)
+        if two and s0[2 * N] < -0.5:
+            mode, ks = "contact", 1
         atol = self.atol * max(abs(m.base_amplitude_m), 1e-12) / max(np.max(np.abs(w)), 1e-300)
 
         def gap(yy):
@@ -657,12 +802,25 @@ class CompliantBeamODESolver:
         def force(yy):
             return kc * gap(yy) + cc * vel(yy)
 
+        # the lower stop: gap -U - Delta_l, normal velocity -U', force along -w
+        def gap_l(yy):
+            return -float(w @ yy[:N]) - DL
+
+        def vel_l(yy):
+            return -float(w @ yy[N:2 * N])
+
+        def force_l(yy):
+            return kl * gap_l(yy) + cl * vel_l(yy)
+
+        stops = [(gap, vel, force, 1.0, kc), (gap_l, vel_l, force_l, -1.0, kl)][:2 if two else 1]
+
         def rhs_for(p):
             Ap, b0p = A[p], b0[p]
+            fp, vp = (None, force, force_l)[p], (None, vel, vel_l)[p]
 
             def rhs(t, yy):
                 dz = Ap @ yy[:2 * N] + b * (F * math.sin(Om * t)) + b0p
-                return np.concatenate([dz, [force(yy) * vel(yy) if p else 0.0]])
+                return np.concatenate([dz, [fp(yy) * vp(yy) if p else 0.0]])
             return rhs
 
         def ev(fn, direction):
@@ -670,33 +828,42 @@ class CompliantBeamODESolver:
             fn.direction = direction
             return fn
 
-        if mode == "free" and gap(y) >= 0.0:
+        for k, (g_k, v_k, f_k, sg, _) in enumerate(stops):
+            if mode != "free" or g_k(y) < 0.0:
+                continue
             # on or inside the stop at t = 0: contact if the first non-zero of the gap's
             # derivatives (on it) or the force (inside) is positive
             z0 = y[:2 * N]
             dz = A[0] @ z0 + b0[0]
             ddz = A[0] @ dz + b * (F * Om)
-            seq = [force(y)] if gap(y) > 0.0 else [vel(y), float(w @ dz[N:]), float(w @ ddz[N:])]
+            seq = [f_k(y)] if g_k(y) > 0.0 else [v_k(y), sg * float(w @ dz[N:]), sg * float(w @ ddz[N:])]
             scale = max(abs(x) for x in seq) if any(seq) else 1.0
             first = next((x for x in seq if abs(x) > 1e-12 * scale), 0.0)
             if first > 0.0:
-                mode = "contact"
+                mode, ks = "contact", k
         t = 0.0
         entries, contacts, segs = [], [], []
-        cur = [0.0, vel(y), 0.0, force(y), gap(y)] if mode == "contact" else None
+        g_k, v_k, f_k = stops[ks][:3]
+        cur = [0.0, v_k(y), 0.0, f_k(y), g_k(y)] if mode == "contact" else None
         n_ev, max_ev = 0, self.max_events_per_period * max(n_transient + n_record, 1)
-        below = False
+        below = -1    # the stop whose gap just fell back through 0 (free flight below it)
         while t < t_end:
-            p = 1 if mode == "contact" else 0
+            p = 1 + ks if mode == "contact" else 0
+            tags = []
             if p:
-                events = [ev(lambda tt, yy: force(yy), -1.0)]
-                max_step = 0.05 * TWO_PI / math.sqrt(kc * float(w @ w))
-            elif gap(y) > 0.0 and not below:
-                events = [ev(lambda tt, yy: force(yy), 1.0), ev(lambda tt, yy: gap(yy), -1.0)]
-                max_step = np.inf
+                f_p = stops[ks][2]
+                events = [ev(lambda tt, yy, f_p=f_p: f_p(yy), -1.0)]
+                max_step = 0.05 * TWO_PI / math.sqrt(stops[ks][4] * float(w @ w))
             else:
-                events = [ev(lambda tt, yy: gap(yy), 1.0)]
+                events = []
                 max_step = np.inf
+                for k, (g_k, v_k, f_k, sg, _) in enumerate(stops):
+                    if g_k(y) > 0.0 and below != k:
+                        events += [ev(lambda tt, yy, f_k=f_k: f_k(yy), 1.0), ev(lambda tt, yy, g_k=g_k: g_k(yy), -1.0)]
+                        tags += [(k, "entry"), (k, "down")]
+                    else:
+                        events += [ev(lambda tt, yy, g_k=g_k: g_k(yy), 1.0)]
+                        tags += [(k, "entry")]
             sol = solve_ivp(rhs_for(p), (t, t_end), y, method=self.solver, rtol=self.rtol,
                             atol=np.r_[np.full(2 * N, atol), 1e300], dense_output=True, events=events,
                             max_step=max_step)
@@ -707,7 +874,7 @@ class CompliantBeamODESolver:
             if cur is not None and p:
                 grid = np.linspace(t, t_new, 257)
                 Y = sol.sol(grid)
-                for slot, fun in ((3, force), (4, gap)):
+                for slot, fun in ((3, stops[ks][2]), (4, stops[ks][0])):
                     vals = np.array([fun(Y[:, i]) for i in range(grid.size)])
                     i = int(np.argmax(vals))
                     best = vals[i]
@@ -723,17 +890,18 @@ class CompliantBeamODESolver:
             n_ev += 1
             if n_ev > max_ev:
                 return _failed_traj(m, Om, samples, spp, "too many contact events")
-            first = 0 if sol.t_events[0].size else 1
-            below = (not p) and len(events) == 2 and first == 1   # back below the stop (gap falling)
+            first = next(i for i, te in enumerate(sol.t_events) if te.size)
+            below = tags[first][0] if (not p and tags[first][1] == "down") else -1   # back below the stop
             if p:
                 if cur[0] >= t_rec:
                     contacts.append([t - cur[0], cur[3], cur[4], y[2 * N] - cur[2], cur[1]])
                 cur, mode = None, "free"
-            elif first == 0:
-                mode = "contact"
-                cur = [t, vel(y), y[2 * N], force(y), gap(y)]
+            elif tags[first][1] == "entry":
+                mode, ks = "contact", tags[first][0]
+                g_k, v_k, f_k = stops[ks][:3]
+                cur = [t, v_k(y), y[2 * N], f_k(y), g_k(y)]
                 if t >= t_rec:
-                    entries.append((t - t_rec, vel(y)))
+                    entries.append((t - t_rec, v_k(y), ks))
         minima, smin, smax = [], np.inf, -np.inf
         for (a, bnd, sol) in segs:
             sel = (ts >= a) & (ts <= bnd)
@@ -768,11 +936,14 @@ class CompliantBeamODESolver:
         c[:, 4] /= L
         it = np.array([e[0] for e in entries])
         iv = np.array([e[1] for e in entries]) / L
+        ik = np.array([e[2] for e in entries], np.int64)
+        ph = 0.0 if mode != "contact" else (1.0 if ks == 0 else -1.0)
         return Trajectory(Omega=Om, samples=samples / L, samples_per_period=spp, impact_times=it,
                           impact_velocities=iv, n_impacts=int(it.size), q_min=smin / L, q_max=smax / L,
                           period_min=pmin / L,
-                          final_state=np.concatenate([y[:2 * N], [1.0 if mode == "contact" else 0.0]]),
-                          contacts=c)
+                          final_state=np.concatenate([y[:2 * N], [ph]]),
+                          contacts=c, impact_stops=ik if two else None,
+                          n_impacts_lower=int(np.sum(ik == 1)) if two else 0)
 
 
 def _failed_traj(m, Om, samples, spp, msg):

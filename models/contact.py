@@ -27,9 +27,10 @@ Law of stop k (unit free, acts on the relation's ``U``; :class:`Restitution`)
                  ``delta = g_k`` the penetration, added to the free flow) that ends at an
                  exit event where the contact force returns to zero (not where ``delta``
                  does).  ``law = "linear"`` (Kelvin-Voigt) and ``law = "hunt_crossley"``
-                 are implemented for the SDOF (:mod:`vibeam.models.compliant`, kernel
-                 :mod:`vibeam.models.sdof_compliant`, a kernel of its own beside the impulsive
-                 one); the beam's is the plan below.
+                 are implemented (:mod:`vibeam.models.compliant`; kernels
+                 :mod:`vibeam.models.sdof_compliant`, :mod:`vibeam.models.beam_compliant`,
+                 :mod:`vibeam.models.beam_hc`, beside the impulsive ones), on one stop or on
+                 two (each its own compliant law; not mixed with an impulsive stop).
 
 Kernel representation (numba: plain arrays, one row per stop; :func:`pack`)
     ``stops``   float64 (n_stops, :data:`NPAR`): row k = ``[sign s_k, offset Delta_k, law code,

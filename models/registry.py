@@ -43,7 +43,11 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
 ``two_sided_methods``
     Methods that simulate a second (lower) stop (two contact relations with opposite
     normals, :mod:`vibeam.models.contact`); ``continuation`` when the shooting problem
-    follows orbits with impacts on both stops.
+    follows orbits with impacts on both stops.  These are the restitution law's; a compliant
+    law's are ``two_sided_law_methods``.
+``two_sided_law_methods``
+    For each compliant law, the methods that simulate it on two stops
+    (``{"linear": ("event", "direct")}``); a law not listed serves one stop only.
 ``contact_laws``
     Compliant contact laws (:mod:`vibeam.models.compliant`) and, for each, the methods that
     simulate it with their solvers (``{"linear": {"event": "module:Class", ...}}``); the
@@ -102,6 +106,7 @@ class Fidelity:
     fe_model: bool = False
     restitution_law_methods: tuple = ()
     two_sided_methods: tuple = ()
+    two_sided_law_methods: dict = field(default_factory=dict, compare=False)
     contact_laws: dict = field(default_factory=dict, compare=False)
     description: str = field(default="", compare=False)
 
@@ -130,6 +135,7 @@ register(Fidelity(
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
     two_sided_methods=("event", "direct", "mapping", "continuation"),
+    two_sided_law_methods={"linear": ("event", "direct"), "hunt_crossley": ("event", "direct")},
     contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver",
@@ -153,9 +159,12 @@ register(Fidelity(
     fe_model=True,
     restitution_law_methods=("event", "direct"),
     two_sided_methods=("event", "direct", "continuation"),
+    two_sided_law_methods={"linear": ("event", "direct")},
     contact_laws={"linear": {"event": "beam_compliant:CompliantBeamEventSolver",
                              "direct": "beam_compliant:CompliantBeamODESolver",
-                             "continuation": "periodic_compliant:CompliantBeamShooting"}},
+                             "continuation": "periodic_compliant:CompliantBeamShooting"},
+                  "hunt_crossley": {"event": "beam_hc:HuntCrossleyBeamEventSolver",
+                                    "direct": "beam_hc:HuntCrossleyBeamODESolver"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 
@@ -181,6 +190,16 @@ def contact_law_methods(name: str, law: str) -> tuple:
     if law == "restitution":
         return fid.method_names
     return tuple(fid.contact_laws.get(law, {}))
+
+
+def two_sided_methods(name: str, law: str = "restitution") -> tuple:
+    """Methods of fidelity ``name`` that simulate a scene with two stops under contact law
+    ``law`` (``two_sided_methods`` for the restitution law, ``two_sided_law_methods[law]`` for a
+    compliant one; empty when the law serves one stop only)."""
+    fid = fidelity(name)
+    if law == "restitution":
+        return fid.two_sided_methods
+    return tuple(fid.two_sided_law_methods.get(law, ()))
 
 
 def with_capability(flag: str) -> list[str]:

@@ -57,6 +57,10 @@ class SDOF:
     mass_kg : float or None, optional
         Effective mass of a physical scene's oscillator at the contact (kg): contact forces
         in N (``force_scale_n``); None: forces stay nondimensional.
+    contact_lower : LinearContact or HuntCrossley or None, optional
+        The compliant law of the lower stop of a two-sided scene with a compliant upper stop;
+        None: ``contact`` (the upper stop's law).  A compliant stop beside a restitution stop
+        is not implemented (:meth:`stops` raises ValueError).
     """
 
     beta: float
@@ -70,6 +74,7 @@ class SDOF:
     R_lower: float | None = None
     contact: object = None
     mass_kg: float | None = None
+    contact_lower: object = None
 
     fidelity = "sdof"
 
@@ -96,8 +101,15 @@ class SDOF:
         ``q = Delta`` (normal ``+1``) with Newton's law, ``R`` and ``R(q'-)``, or the compliant
         law ``contact``; for a two-sided scene the stop at ``q = -Delta_lower`` (normal ``-1``)
         with its own law."""
-        if self.contact is not None:
-            return (Stop(Relation(1.0, self.Delta), self.contact),)
+        if self.contact is not None or self.contact_lower is not None:
+            if self.contact is None or (self.Delta_lower is not None and self.R_lower is not None):
+                raise ValueError("a compliant stop beside a restitution stop is not implemented: give both stops "
+                                 "a compliant law, or both law = \"restitution\"")
+            out = (Stop(Relation(1.0, self.Delta), self.contact),)
+            if self.Delta_lower is not None:
+                law = self.contact if self.contact_lower is None else self.contact_lower
+                out += (Stop(Relation(-1.0, self.Delta_lower), law),)
+            return out
         tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())
         upper = Restitution(self.R, tuple(tv), tuple(tR))
         out = (Stop(Relation(1.0, self.Delta), upper),)

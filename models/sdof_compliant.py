@@ -29,8 +29,13 @@ penetration.  The energy the body gives the stop, ``int f delta' dt`` over the c
 integrated by 8-point Gauss-Legendre on each step of the contact (exact flow at the nodes;
 steps of at most 1/16 of the contact's natural period: relative error ~1e-15).
 
+Two stops (:func:`compliant_kernel_stops`): the lower stop at ``q = -Delta_l`` is handled
+in the mirrored frame ``q~ = -q``, ``phi~ = phi + pi`` (the equation is odd in ``(q, sin
+phi)``), where it is an upper stop with its own law; a free step ends at the earlier of the
+two stops' entries.
+
 Not handled: overdamped phases (``b_p >= 1``; a target R above ``e^-2`` and moderate
-``beta`` keep the contact underdamped), two-sided stops, ``R(v)`` tables.
+``beta`` keep the contact underdamped), ``R(v)`` tables.
 """
 from __future__ import annotations
 
@@ -554,7 +559,9 @@ def hc_advance(h, phi, q, v, beta, F, Omega, Delta, kc, p, chi, vr, ks, rk, rec,
 @njit(cache=True)
 def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transient, n_record,
                      ns_transient, ns_record, max_contacts, samples, pmin, imp_t, imp_v, con, max_steps=-1):
-    """Simulate whole forcing periods exactly; the numba core of :class:`CompliantEventSolver`.
+    """Simulate whole forcing periods exactly with the one stop ``stops[0]``: the numba core of
+    :class:`CompliantEventSolver` for one stop (:func:`compliant_kernel_stops` with
+    ``stops[:1]``; same arguments and results, without the per-stop ones).
 
     Parameters
     ----------
@@ -592,7 +599,65 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
         n_contacts_total, contact_time)``; ``contact_time`` is the time in contact during
         the record.
     """
+    imp_k = np.zeros(imp_t.shape[0], np.int64)
+    out = compliant_kernel_stops(beta, B, stops[:1], Omega, q_init, v_init, phase_init, n_transient, n_record,
+                                 ns_transient, ns_record, max_contacts, samples, pmin, imp_t, imp_v, con, imp_k,
+                                 max_steps)
+    return out[:9]
+
+
+@njit(cache=True)
+def _mirror_in(ex, exm):
+    """Extremes of the lower stop's mirrored frame ``q~ = -q``: ``exm = [-max q, -min q of
+    this period, (unused)]`` (see :func:`compliant_kernel_stops`)."""
+    exm[0] = -ex[1]
+    exm[1] = -ex[2]
+    exm[2] = np.inf
+
+
+@njit(cache=True)
+def _mirror_out(ex, exm):
+    ex[1] = max(ex[1], -exm[0])
+    ex[2] = min(ex[2], -exm[1])
+    ex[0] = min(ex[0], ex[2])
+
+
+@njit(cache=True)
+def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_transient, n_record,
+                           ns_transient, ns_record, max_contacts, samples, pmin, imp_t, imp_v, con, imp_k,
+                           max_steps=-1):
+    """Simulate whole forcing periods exactly on one or two compliant stops; the numba core of
+    :class:`CompliantEventSolver`.
+
+    The lower stop (row 1, at ``q = -Delta_l``) is handled in the mirrored frame
+    ``q~ = -q``, ``phi~ = phi + pi``, in which the oscillator's equation is unchanged (it is
+    odd in ``(q, sin phi)``) and the lower stop is an upper one at ``q~ = Delta_l``: its
+    entry, contact phase and exit are the one-stop steps (:func:`advance`,
+    :func:`hc_advance`) with the lower stop's parameters, and the free step is the earlier
+    of the two stops' certified entry scans.  With one stop the computation is the
+    one-stop kernel's, operation for operation.
+
+    Parameters
+    ----------
+    stops : ndarray, shape (n_stops, NPAR)
+        ``n_stops`` 1 or 2 rows (:func:`vibeam.models.contact.pack`), each ``linear`` or
+        ``hunt_crossley``; row 1 the lower stop (``OFFSET`` = Delta_lower > -Delta).
+    phase_init : int
+        0 free, 1 in contact with the upper stop, 2 with the lower one.
+    imp_k : ndarray of int64, shape (cap,)
+        Receives the stop (0 upper, 1 lower) of each recorded contact; ``imp_v`` holds the
+        normal entry velocities (``q'`` upper, ``-q'`` lower).
+    (others)
+        As :func:`compliant_kernel`.
+
+    Returns
+    -------
+    tuple
+        ``(status, n_rec, q_min, q_max, q_end, v_end, phase_end, n_contacts_total,
+        contact_time, n_rec_lower)``; ``phase_end`` 0, 1 or 2.
+    """
     F = Omega * Omega * B
+    nst = stops.shape[0]
     Delta = stops[0, OFFSET]
     kc = stops[0, STIFFNESS]
     cc = stops[0, DAMPING]
@@ -604,29 +669,48 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
         P = phase_params(beta, F, Omega, Delta, 0.0, 0.0)
     else:
         P = phase_params(beta, F, Omega, Delta, kc, cc)
+    # the lower stop (row 1), in the mirrored frame; a placeholder with one stop
+    ls = 1 if nst > 1 else 0
+    DeltaL = stops[ls, OFFSET]
+    kcl = stops[ls, STIFFNESS]
+    ccl = stops[ls, DAMPING]
+    huntl = int(stops[ls, LAW]) == LAW_HUNT_CROSSLEY
+    pexpl = stops[ls, EXPONENT]
+    chil = ccl if huntl else 0.0
+    if huntl:
+        ccl = 0.0
+        PL = phase_params(beta, F, Omega, DeltaL, 0.0, 0.0)
+    else:
+        PL = phase_params(beta, F, Omega, DeltaL, kcl, ccl)
     rk = np.zeros(2)
     y1 = np.zeros(3)
     v_floor = HC_V_FLOOR * Omega * B if B > 0.0 else 1e-6
     vr = v_floor
     r0, r1, roff = kc, cc, 0.0
+    r0l, r1l, roffl = kcl, ccl, 0.0
     q = q_init
     v = v_init
-    phase = 1 if phase_init != 0 else 0
+    phase = 1 if phase_init == 1 else (2 if (phase_init == 2 and nst > 1) else 0)
     if not (P[1, 1] < 1.0 and math.isfinite(P[0, 3]) and math.isfinite(P[1, 3])):
-        return (STATUS_FAILED, 0, np.inf, -np.inf, q, v, phase, 0, 0.0)
+        return (STATUS_FAILED, 0, np.inf, -np.inf, q, v, phase, 0, 0.0, 0)
+    if nst > 1 and not (PL[1, 1] < 1.0 and math.isfinite(PL[1, 3])):
+        return (STATUS_FAILED, 0, np.inf, -np.inf, q, v, phase, 0, 0.0, 0)
     T = TWO_PI / Omega
-    hmax = np.empty(2)
+    hmax = np.empty(3)
     hmax[0] = TWO_PI / P[0, 0] / 16.0
     hmax[1] = TWO_PI / P[1, 0] / 16.0
+    hmax[2] = TWO_PI / PL[1, 0] / 16.0
     ex = np.empty(3)
     ex[0] = np.inf
     ex[1] = -np.inf
+    exm = np.empty(3)
     cs = np.zeros(4)
     d = np.empty(6)
     cap = con.shape[0]
     n_total = n_transient + n_record
     n_con = 0
     n_rec = 0
+    n_rec_l = 0
     t_contact = 0.0
     in_record_contact = False
     v_in = 0.0
@@ -657,23 +741,81 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
             while rem > 0.0:
                 n_steps += 1
                 if max_steps >= 0 and n_steps > max_steps:
-                    return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact)
-                pp = P[phase]
-                if hunt and phase == CONTACT:
-                    s, ev = hc_advance(rem, phi, q, v, beta, F, Omega, Delta, kc, pexp, chi, vr, 1.0, rk, recording,
-                                       ex, cs, y1)
-                    if s < 0.0:
-                        return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact)
-                    q = Delta + y1[0]
-                    v = y1[1]
+                    return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                # one call site per step function (compile time): a free step of a two-sided
+                # scene calls advance twice, the lower stop's entry scan first (mirrored frame,
+                # nothing recorded), then the upper stop's scan up to it (which records the
+                # step's extremes); a contact step once, in the frame of the stop in contact
+                n_calls = 2 if (phase == FREE and nst > 1) else 1
+                h = min(rem, hmax[phase])
+                s = h
+                ev = EV_NONE
+                s_l = h
+                ev_l = EV_NONE
+                side = 0          # the stop whose frame the step's end state is evaluated in
+                phs = phi
+                qs = q
+                vs = v
+                pp = P[0]
+                Ds = Delta
+                for it in range(n_calls):
+                    sd = (1 if it == 0 else 0) if n_calls == 2 else (1 if phase == 2 else 0)
+                    pk = FREE if phase == FREE else CONTACT
+                    if sd == 1:
+                        phs = (phi + math.pi) % TWO_PI
+                        qs = -q
+                        vs = -v
+                        pp = PL[pk]
+                        Ds, ks, cks, r0s, r1s, rfs = DeltaL, kcl, ccl, r0l, r1l, roffl
+                        hs_, ps_, xs_ = huntl, pexpl, chil
+                    else:
+                        phs = phi
+                        qs = q
+                        vs = v
+                        pp = P[pk]
+                        Ds, ks, cks, r0s, r1s, rfs = Delta, kc, cc, r0, r1, roff
+                        hs_, ps_, xs_ = hunt, pexp, chi
+                    rec_s = recording and not (n_calls == 2 and it == 0)
+                    if sd == 1 and rec_s:
+                        _mirror_in(ex, exm)
+                    exs = exm if sd == 1 else ex
+                    if pk == CONTACT and hs_:
+                        s, ev = hc_advance(rem, phs, qs, vs, beta, F, Omega, Ds, ks, ps_, xs_, vr, 1.0, rk, rec_s,
+                                           exs, cs, y1)
+                    else:
+                        s, ev = advance(pk, h, phs, qs, vs, pp, ks, cks, Omega, Ds, rec_s, exs, cs, d, r0s, r1s, rfs)
+                    if sd == 1 and rec_s:
+                        _mirror_out(ex, exm)
+                    if n_calls == 2 and it == 0:
+                        s_l = s
+                        ev_l = ev
+                        if ev_l != EV_NONE:
+                            h = s_l
+                    side = sd
+                if n_calls == 2 and ev == EV_NONE and ev_l != EV_NONE:
+                    # the lower stop's event ends the step: its frame
+                    s, ev, side = s_l, ev_l, 1
+                    phs = (phi + math.pi) % TWO_PI
+                    qs = -q
+                    vs = -v
+                    pp = P[0]
+                    Ds = DeltaL
+                if s < 0.0:
+                    return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                if (phase == CONTACT and hunt) or (phase == 2 and huntl):
+                    qn = Ds + y1[0]
+                    vn_ = y1[1]
                 else:
-                    h = min(rem, hmax[phase])
-                    s, ev = advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, recording, ex, cs, d,
-                                    r0, r1, roff)
-                    phase_eval(s, phi, q, v, pp, Omega, Delta, d)
-                    q = Delta + d[0]
-                    v = d[1]
-                if phase == CONTACT and recording:
+                    phase_eval(s, phs, qs, vs, pp, Omega, Ds, d)
+                    qn = Ds + d[0]
+                    vn_ = d[1]
+                if side == 1:
+                    q = -qn
+                    v = -vn_
+                else:
+                    q = qn
+                    v = vn_
+                if phase != FREE and recording:
                     t_contact += s
                 phi = (phi + Omega * s) % TWO_PI
                 t_loc += s
@@ -681,29 +823,40 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
                 if rem < 1e-15 * T:
                     rem = 0.0
                 if ev == EV_ENTRY:
-                    phase = CONTACT
+                    # d: the gap function of the entered stop and its derivatives (its own frame)
+                    phase = CONTACT if side == 0 else 2
                     n_con += 1
                     if n_con > max_contacts:
-                        return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact)
+                        return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                    kk = kc if side == 0 else kcl
+                    ck = cc if side == 0 else ccl
+                    vn = d[1]
                     cs[0] = t0p + t_loc
-                    cs[1] = kc * d[0] + cc * d[1]
+                    cs[1] = kk * d[0] + ck * d[1]
                     cs[2] = d[0]
                     cs[3] = 0.0
-                    v_in = v
-                    if hunt:
+                    v_in = vn
+                    if (hunt and side == 0) or (huntl and side == 1):
                         # damping chi / v_r of this contact; DOPRI5 scales from the isolated
                         # contact's penetration ((p + 1) v_r^2 / (2 k_c))^(1 / (p + 1))
-                        vr = max(v, v_floor)
-                        rk[1] = ((pexp + 1.0) * vr * vr / (2.0 * kc)) ** (1.0 / (pexp + 1.0))
+                        pk = pexp if side == 0 else pexpl
+                        xk = chi if side == 0 else chil
+                        vr = max(vn, v_floor)
+                        rk[1] = ((pk + 1.0) * vr * vr / (2.0 * kk)) ** (1.0 / (pk + 1.0))
                         rk[0] = 1e-3 * rk[1] / vr
-                        cs[1] = hc_force(d[0], v, kc, pexp, chi, vr)
-                        r0, r1, roff = 0.0, 1.0, (vr / chi if chi > 0.0 else 1.0)
+                        cs[1] = hc_force(d[0], vn, kk, pk, xk, vr)
+                        if side == 0:
+                            r0, r1, roff = 0.0, 1.0, (vr / chi if chi > 0.0 else 1.0)
+                        else:
+                            r0l, r1l, roffl = 0.0, 1.0, (vr / chil if chil > 0.0 else 1.0)
                     in_record_contact = recording
                     if recording:
                         if n_rec < imp_t.shape[0]:
                             imp_t[n_rec] = t0p + t_loc
-                            imp_v[n_rec] = v
+                            imp_v[n_rec] = vn
+                            imp_k[n_rec] = side
                         n_rec += 1
+                        n_rec_l += side
                 elif ev == EV_EXIT:
                     phase = FREE
                     if in_record_contact and n_rec - 1 < cap:
@@ -716,7 +869,7 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
                     in_record_contact = False
         if recording:
             pmin[p - n_transient] = ex[2]
-    return (STATUS_OK, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact)
+    return (STATUS_OK, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
 
 
 @njit(cache=True)
@@ -787,19 +940,21 @@ class CompliantEventSolver:
         from .contact import LAW_LINEAR, pack
 
         stops = model.stops()
-        if len(stops) != 1 or stops[0].law.code not in (LAW_LINEAR, LAW_HUNT_CROSSLEY):
-            raise ValueError("CompliantEventSolver needs one stop with law \"linear\" or \"hunt_crossley\"")
+        if not 1 <= len(stops) <= 2 or any(getattr(s.law, "code", -1) not in (LAW_LINEAR, LAW_HUNT_CROSSLEY)
+                                            for s in stops):
+            raise ValueError("CompliantEventSolver needs one or two stops with law \"linear\" or \"hunt_crossley\"")
         self.model = model
         self.transient_samples = int(transient_samples)
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.impact_buffer = int(impact_buffer)
         self.max_steps_per_period = int(max_steps_per_period)
         self._stops = pack(stops)
-        law = stops[0].law
-        bc = (2.0 * model.beta + law.damping) / (2.0 * math.sqrt(1.0 + law.stiffness))
-        if law.code == LAW_LINEAR and not bc < 1.0:
-            raise ValueError(f"the contact phase is overdamped (damping ratio {bc:.4g} >= 1): lower "
-                             f"[model.contact] damping_ratio or raise R")
+        for st, key in zip(stops, ("[model.contact]", "[model.contact_lower]")):
+            law = st.law
+            bc = (2.0 * model.beta + law.damping) / (2.0 * math.sqrt(1.0 + law.stiffness))
+            if law.code == LAW_LINEAR and not bc < 1.0:
+                raise ValueError(f"the contact phase is overdamped (damping ratio {bc:.4g} >= 1): lower "
+                                 f"{key} damping_ratio or raise R")
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples,
@@ -813,10 +968,12 @@ class CompliantEventSolver:
         Returns
         -------
         Trajectory
-            Contacts as impacts (entry times and velocities), ``period_min`` exact,
-            ``final_state`` ``(q, q', phase)`` (phase 1: in contact), ``contacts`` (k, 5)
-            per recorded contact (duration, peak force, largest penetration, energy lost,
-            entry velocity; :data:`C_DURATION` ...) and ``extra["contact_fraction"]``.
+            Contacts as impacts (entry times and normal entry velocities), ``period_min``
+            exact, ``final_state`` ``(q, q', phase)`` (phase 1: in contact with the upper
+            stop, -1 with the lower one), ``contacts`` (k, 5) per recorded contact (duration,
+            peak force, largest penetration, energy lost, entry velocity; :data:`C_DURATION`
+            ...) and ``extra["contact_fraction"]``; two stops: ``impact_stops`` (0 upper, 1
+            lower) and ``n_impacts_lower``.
         """
         from .trajectory import Trajectory
 
@@ -830,13 +987,18 @@ class CompliantEventSolver:
         imp_v = np.zeros(self.impact_buffer)
         con = np.full((self.impact_buffer, NCON), np.nan)
         par = self._stops[0]
+        two = par.shape[0] > 1
         max_con = self.max_impacts_per_period * max(n_transient + n_record, 1)
-        ph0 = 1 if (s0.shape[0] > 2 and s0[2] > 0.5) else 0
-        out = compliant_kernel(m.beta, m.B, par, float(Omega), float(s0[0]), float(s0[1]), ph0,
-                               int(n_transient), int(n_record), self.transient_samples,
-                               int(samples_per_period), max_con, samples, pmin, imp_t, imp_v, con,
-                               self.max_steps_per_period * max(n_transient + n_record, 1))
-        status, n_rec, q_min, q_max, q_end, v_end, ph_end, n_tot, t_con = out
+        ph0 = 0
+        if s0.shape[0] > 2:
+            ph0 = 1 if s0[2] > 0.5 else (2 if (s0[2] < -0.5 and two) else 0)
+        imp_k = np.zeros(self.impact_buffer, np.int64)
+        out = compliant_kernel_stops(m.beta, m.B, par, float(Omega), float(s0[0]), float(s0[1]), ph0,
+                                     int(n_transient), int(n_record), self.transient_samples,
+                                     int(samples_per_period), max_con, samples, pmin, imp_t, imp_v, con, imp_k,
+                                     self.max_steps_per_period * max(n_transient + n_record, 1))
+        status, n_rec, q_min, q_max, q_end, v_end, ph_end, n_tot, t_con, n_low = out
+        ph_end = -1 if ph_end == 2 else ph_end
         k = min(n_rec, self.impact_buffer)
         con = con[:k]
         con = con[np.isfinite(con[:, C_DURATION])]   # a contact still open at the end is not counted
@@ -853,7 +1015,8 @@ class CompliantEventSolver:
                           status=STATUS_NAMES[status], message=message,
                           final_state=np.array([q_end, v_end, float(ph_end)]),
                           extra={"contact_fraction": t_con / T_rec if n_record else 0.0},
-                          contacts=con)
+                          contacts=con, impact_stops=imp_k[:k].copy() if two else None,
+                          n_impacts_lower=int(n_low) if two else 0)
 
 
 

@@ -69,25 +69,38 @@ class CompliantDirectSolver:
         return dict(solver=self.solver, rtol=self.rtol, atol=self.atol,
                     max_events_per_period=self.max_events_per_period)
 
-    def _force(self, v_in):
-        law = self.model.contact
-        k, Delta = law.stiffness, self.model.Delta
+    def _laws(self):
+        """``[(sign, offset, law), ...]`` of the stops: the upper one at ``q = Delta``, and the
+        lower one at ``q = -Delta_lower`` of a two-sided scene (``contact_lower`` or ``contact``)."""
+        m = self.model
+        out = [(1.0, m.Delta, m.contact)]
+        if m.Delta_lower is not None:
+            out.append((-1.0, m.Delta_lower, m.contact if getattr(m, "contact_lower", None) is None
+                        else m.contact_lower))
+        return out
+
+    def _force(self, v_in, k=0):
+        """Force of stop ``k`` on ``(q, q')`` (penetration ``s q - D``, rate ``s q'``)."""
+        sg, D, law = self._laws()[k]
+        kc = law.stiffness
         if law.name == "linear":
             c = law.damping
-            return lambda q, v: k * (q - Delta) + c * v
+            return lambda q, v: kc * (sg * q - D) + c * (sg * v)
         p, cv = law.exponent, law.chi / max(v_in, 1e-300)
-        return lambda q, v: k * max(q - Delta, 0.0) ** p * (1.0 + cv * v)
+        return lambda q, v: kc * max(sg * q - D, 0.0) ** p * (1.0 + cv * (sg * v))
 
     def point(self, Omega: float, state0, n_transient: int, n_record: int,
               samples_per_period: int = 64) -> Trajectory:
-        """Simulate one forcing frequency from ``state0 = (q, q', phase)`` (phase 1: in contact;
-        its entry velocity is then taken as ``q'``)."""
+        """Simulate one forcing frequency from ``state0 = (q, q', phase)`` (phase 1: in contact
+        with the upper stop, -1 with the lower one; its entry velocity is then taken as the
+        normal velocity)."""
         m = self.model
+        laws = self._laws()
+        two = len(laws) > 1
         Omega = float(Omega)
         T = TWO_PI / Omega
         Fa = Omega * Omega * m.B
         b2 = 2.0 * m.beta
-        Delta = m.Delta
         spp = int(samples_per_period)
         t_rec = n_transient * T
         t_end = (n_transient + n_record) * T
@@ -95,63 +108,81 @@ class CompliantDirectSolver:
         samples = np.full((ts.size, 2), np.nan)
         s0 = m.initial_state() if state0 is None else np.asarray(state0, float)
         q, v = float(s0[0]), float(s0[1])
-        mode = "contact" if (s0.shape[0] > 2 and s0[2] > 0.5) else "free"
+        ks = 0        # the stop in contact (mode "contact")
+        mode = "free"
+        if s0.shape[0] > 2 and s0[2] > 0.5:
+            mode = "contact"
+        elif s0.shape[0] > 2 and s0[2] < -0.5 and two:
+            mode, ks = "contact", 1
         entries, contacts = [], []
         # Hunt-Crossley: entry velocities floored at 1e-2 Omega B (vibeam.models.compliant)
         v_floor = 1e-2 * Omega * m.B if m.B > 0.0 else 1e-6
-        v_in = max(v, v_floor)
-        if mode == "free" and q - Delta >= 0.0:
-            # contact now if the force is positive just after t = 0: the first non-zero of
-            # f, f', f'' (free-flight derivatives at forcing phase 0)
-            k, c = m.contact.stiffness, getattr(m.contact, "damping", 0.0)
-            a2 = -b2 * v - q
-            a3 = Fa * Omega - b2 * a2 - v
-            fs = [k * (q - Delta) + c * v, k * v + c * a2, k * a2 + c * a3]
-            first = next((x for x in fs if x != 0.0), 0.0)
-            if first > 0.0:
-                mode, v_in = "contact", max(v, v_floor)
-                if n_transient == 0:
-                    entries.append((0.0, v))
+        v_in = max(laws[ks][0] * v, v_floor)
+        if mode == "free":
+            for k, (sg, D, law) in enumerate(laws):
+                if sg * q - D < 0.0:
+                    continue
+                # contact now if the force is positive just after t = 0: the first non-zero of
+                # f, f', f'' (free-flight derivatives at forcing phase 0)
+                kc, c = law.stiffness, getattr(law, "damping", 0.0)
+                a2 = -b2 * v - q
+                a3 = Fa * Omega - b2 * a2 - v
+                fs = [kc * (sg * q - D) + c * (sg * v), kc * (sg * v) + c * (sg * a2), kc * (sg * a2) + c * (sg * a3)]
+                first = next((x for x in fs if x != 0.0), 0.0)
+                if first > 0.0:
+                    mode, ks, v_in = "contact", k, max(sg * v, v_floor)
+                    if n_transient == 0:
+                        entries.append((0.0, sg * v, k))
+                    break
         y = np.array([q, v, 0.0])
         t = 0.0
         segs = []
         cur = None   # open contact: [t_entry, v_in, E_entry, peak f, peak delta]
         if mode == "contact":
-            cur = [0.0, v_in, 0.0, self._force(v_in)(q, v), q - Delta]
+            sg, D, _ = laws[ks]
+            cur = [0.0, v_in, 0.0, self._force(v_in, ks)(q, v), sg * q - D]
         n_ev = 0
         max_ev = self.max_events_per_period * max(n_transient + n_record, 1)
         while t < t_end:
-            force = self._force(v_in)
+            force = self._force(v_in, ks)
+            tags = []
             if mode == "contact":
-                def rhs(tt, yy, force=force):
+                sg, D, law = laws[ks]
+
+                def rhs(tt, yy, force=force, sg=sg):
                     f = force(yy[0], yy[1])
-                    return [yy[1], Fa * math.sin(Omega * tt) - b2 * yy[1] - yy[0] - f, f * yy[1]]
-                if m.contact.name == "linear":
+                    return [yy[1], Fa * math.sin(Omega * tt) - b2 * yy[1] - yy[0] - sg * f, f * (sg * yy[1])]
+                if law.name == "linear":
                     events = [_ev(lambda tt, yy, force=force: force(yy[0], yy[1]), -1.0)]
                 else:   # the force k delta^p (1 + chi delta' / v_in) returns to 0 with either factor
-                    cv = m.contact.chi / v_in
-                    events = [_ev(lambda tt, yy: yy[0] - Delta, -1.0),
-                              _ev(lambda tt, yy, cv=cv: 1.0 + cv * yy[1], -1.0)]
+                    cv = law.chi / v_in
+                    events = [_ev(lambda tt, yy, sg=sg, D=D: sg * yy[0] - D, -1.0),
+                              _ev(lambda tt, yy, cv=cv, sg=sg: 1.0 + cv * (sg * yy[1]), -1.0)]
             else:
                 def rhs(tt, yy):
                     return [yy[1], Fa * math.sin(Omega * tt) - b2 * yy[1] - yy[0], 0.0]
-                if y[0] - Delta > 0.0:
-                    if m.contact.name == "linear":
-                        fk = self._force(1.0)
+                events = []
+                for k, (sg, D, law) in enumerate(laws):
+                    if sg * y[0] - D > 0.0:
+                        if law.name == "linear":
+                            fk = self._force(1.0, k)
+                        else:
+                            cv = law.chi / (v_in if k == ks else v_floor)
+                            fk = lambda qq, vv, cv=cv, sg=sg: 1.0 + cv * (sg * vv)   # noqa: E731
+                        events += [_ev(lambda tt, yy, fk=fk: fk(yy[0], yy[1]), 1.0),
+                                   _ev(lambda tt, yy, sg=sg, D=D: sg * yy[0] - D, -1.0)]
+                        tags += [(k, "entry"), (k, "down")]
                     else:
-                        cv = m.contact.chi / v_in
-                        fk = lambda qq, vv, cv=cv: 1.0 + cv * vv   # noqa: E731
-                    events = [_ev(lambda tt, yy, fk=fk: fk(yy[0], yy[1]), 1.0),
-                              _ev(lambda tt, yy: yy[0] - Delta, -1.0)]
-                else:
-                    events = [_ev(lambda tt, yy: yy[0] - Delta, 1.0)]
+                        events += [_ev(lambda tt, yy, sg=sg, D=D: sg * yy[0] - D, 1.0)]
+                        tags += [(k, "entry")]
             opts = dict(method=self.solver, rtol=self.rtol, atol=self.atol, dense_output=True)
             if self.max_step is not None:
                 opts["max_step"] = self.max_step
             elif mode == "contact":
-                opts["max_step"] = 0.1 * TWO_PI / math.sqrt(1.0 + m.contact.stiffness) if m.contact.name == "linear" \
-                    else 0.05 * ((m.contact.exponent + 1) * v_in ** 2 / (2 * m.contact.stiffness)) ** (
-                        1 / (m.contact.exponent + 1)) / v_in
+                law = laws[ks][2]
+                opts["max_step"] = 0.1 * TWO_PI / math.sqrt(1.0 + law.stiffness) if law.name == "linear" \
+                    else 0.05 * ((law.exponent + 1) * v_in ** 2 / (2 * law.stiffness)) ** (
+                        1 / (law.exponent + 1)) / v_in
             sol = solve_ivp(rhs, (t, t_end), y, events=events, **opts)
             if sol.status == -1:
                 return self._failed(Omega, samples, spp, f"{self.solver} failed near t = {t:.6g}: {sol.message}")
@@ -159,7 +190,8 @@ class CompliantDirectSolver:
             if t_new > t_rec or mode == "contact":
                 segs.append((t, t_new, sol.sol, mode, force))
             if cur is not None and mode == "contact":
-                self._peaks(cur, t, t_new, sol.sol, force, Delta)
+                sg, D, _ = laws[ks]
+                self._peaks(cur, t, t_new, sol.sol, force, D, sg)
             y = np.asarray(sol.y[:, -1], float)
             t = t_new
             if sol.status != 1:
@@ -167,7 +199,7 @@ class CompliantDirectSolver:
             n_ev += 1
             if n_ev > max_ev:
                 return self._failed(Omega, samples, spp, f"more than {max_ev} contact events")
-            which = 0 if sol.t_events[0].size else 1
+            which = next(i for i, te in enumerate(sol.t_events) if te.size)
             if mode == "contact":
                 cur_row = cur
                 if cur_row[0] >= t_rec:
@@ -175,15 +207,18 @@ class CompliantDirectSolver:
                 cur = None
                 mode = "free"
                 # the event is located within the tolerance on either side of f = 0
-            elif which == 0:
+            elif tags[which][1] == "entry":
                 mode = "contact"
-                v_in = max(float(y[1]), v_floor)
-                f0 = self._force(v_in)(y[0], y[1])
-                cur = [t, v_in, y[2], f0, y[0] - Delta]
+                ks = tags[which][0]
+                sg, D, _ = laws[ks]
+                v_in = max(float(sg * y[1]), v_floor)
+                f0 = self._force(v_in, ks)(y[0], y[1])
+                cur = [t, v_in, y[2], f0, sg * y[0] - D]
                 if t >= t_rec:
-                    entries.append((t - t_rec, v_in))
+                    entries.append((t - t_rec, v_in, ks))
             else:
-                y[0] = min(y[0], Delta)
+                k = tags[which][0]
+                y[0] = min(y[0], laws[0][1]) if k == 0 else max(y[0], -laws[1][1])
         # samples and extremes from the dense segments
         minima, q_min, q_max = [], np.inf, -np.inf
         for (a, b, sol, md, force) in segs:
@@ -211,19 +246,21 @@ class CompliantDirectSolver:
         q_max = max(q_max, float(np.max(samples[:, 0]))) if ts.size else q_max
         it = np.array([e[0] for e in entries])
         iv = np.array([e[1] for e in entries])
+        ik = np.array([e[2] for e in entries], np.int64)
         con = np.array(contacts, float).reshape(-1, 5)
+        ph = 0.0 if mode != "contact" else (1.0 if ks == 0 else -1.0)
         return Trajectory(Omega=Omega, samples=samples, samples_per_period=spp, impact_times=it,
                           impact_velocities=iv, n_impacts=int(it.size), q_min=q_min, q_max=q_max,
-                          period_min=pmin, final_state=np.array([y[0], y[1], 1.0 if mode == "contact" else 0.0]),
-                          contacts=con)
+                          period_min=pmin, final_state=np.array([y[0], y[1], ph]),
+                          contacts=con, impact_stops=ik if two else None,
+                          n_impacts_lower=int(np.sum(ik == 1)) if two else 0)
 
     @staticmethod
-    def _peaks(cur, a, b, sol, force, Delta):
-        """Update the peak force ``cur[3]`` and the largest penetration ``cur[4]`` of the open
-        contact with the dense output on ``[a, b]``."""
+    def _peaks(cur, a, b, sol, force, Delta, sg=1.0):
+        """Update the peak force ``cur[3]`` and the largest penetration ``cur[4]`` (``sg q -
+        Delta``) of the open contact with the dense output on ``[a, b]``."""
         grid = np.linspace(a, b, 64)
-        Y = sol(grid)
-        funs = ((3, lambda x: force(*sol(x)[:2])), (4, lambda x: sol(x)[0] - Delta))
+        funs = ((3, lambda x: force(*sol(x)[:2])), (4, lambda x: sg * sol(x)[0] - Delta))
         for slot, fun in funs:
             vals = np.array([fun(x) for x in grid])
             i = int(np.argmax(vals))

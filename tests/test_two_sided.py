@@ -343,9 +343,12 @@ method = "{method}"
     ("Delta_lower = 1e-3", "zhuravlev", "cannot simulate a second stop"),
     ("Delta_lower = -1e-3", "event", "the stops overlap: Delta \\+ Delta_lower = -0.001 must be > 0"),
     ("[model.contact_lower]\nR = 0.5", "event", "needs a lower stop"),
-    ("Delta_lower = 1e-3\n[model.contact_lower]\nlaw = 'linear'\nstiffness = 1e4", "event", "not implemented yet"),
-        ("Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4", "event",
-         "with a second stop is not implemented yet"),
+    ("Delta_lower = 1e-3\n[model.contact_lower]\nlaw = 'linear'\nstiffness = 1e4", "event",
+     "beside a restitution stop is not implemented"),
+    ("Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4\n[model.contact_lower]\nR = 0.5",
+     "event", "beside a restitution stop is not implemented"),
+    ("Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4", "mapping",
+     "allowed with two stops: event, direct"),
     ("Delta_lower = 1e-3\n[model.contact_lower]\nR = 1.5", "event", "contact_lower.R"),
 ])
 def test_two_sided_case_errors_are_one_line(model, method, match):

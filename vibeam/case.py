@@ -66,13 +66,21 @@ def _check_stops(spec, lower_keys: tuple, gap_key: str) -> None:
         raise ValueError(f"[model.contact_lower] needs a lower stop: give one of {list(lower_keys)}")
     compliant = [k for k in ("contact", "contact_lower")
                  if getattr(spec, k) is not None and getattr(spec, k).law != "restitution"]
-    if lower and compliant:
-        raise ValueError(f"a compliant law ([model.{compliant[0]}] law = {getattr(spec, compliant[0]).law!r}) with a "
-                         f"second stop is not implemented yet (the compliant kernels have one stop); two stops "
-                         f"take law = 'restitution'")
-    if compliant == ["contact_lower"]:
-        raise ValueError("[model.contact_lower]: a compliant law needs a compliant upper stop and one stop; "
-                         "two stops take law = 'restitution'")
+    if compliant and spec.contact_lower is not None and len(compliant) == 1:
+        raise ValueError(f"[model.{compliant[0]}] law = {getattr(spec, compliant[0]).law!r} beside a restitution stop "
+                         f"is not implemented: give both stops a compliant law (or omit [model.contact_lower]: "
+                         f"the upper stop's law), or both law = 'restitution'")
+
+
+def lower_law_spec(spec):
+    """``[model.contact_lower]`` of a compliant two-sided scene with the upper table's
+    ``mass_kg`` when it gives none (the oscillator's effective mass is one); None without it."""
+    lo = spec.contact_lower
+    if lo is None or lo.law == "restitution":
+        return None
+    if lo.mass_kg is None and spec.contact is not None and spec.contact.mass_kg is not None:
+        lo = lo.model_copy(update={"mass_kg": spec.contact.mass_kg})
+    return lo
 
 
 #: spec class of each fidelity's ``[model]`` table, by its name in the fidelity registry
@@ -200,6 +208,10 @@ class SDOFModelSpec(_Strict):
                        self.length_mm * 1e-3 if self.physical else None)
         if law is not None or (self.contact is not None and self.contact.mass_kg is not None):
             m = dataclasses.replace(m, contact=law, mass_kg=self.contact.mass_kg)
+        lo = lower_law_spec(self)
+        if lo is not None:   # a compliant lower stop with its own [model.contact_lower] table
+            m = dataclasses.replace(m, contact_lower=sdof_law(lo, self.R, self.physical, self.natural_frequency_hz,
+                                                              self.length_mm * 1e-3 if self.physical else None))
         return m
 
     # ---- what is specific to this fidelity (see register_model_spec)
@@ -211,11 +223,12 @@ class SDOFModelSpec(_Strict):
         """Checks beyond the table's validators: the ``[model.contact]`` law can be built."""
         from vibeam.contact_spec import sdof_law
 
-        try:
-            sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz,
-                     self.length_mm * 1e-3 if self.physical else None)
-        except ValueError as e:
-            raise CaseError(f"'{prefix}.contact': {e}") from None
+        for key, table in (("contact", self.contact), ("contact_lower", lower_law_spec(self))):
+            try:
+                sdof_law(table, self.R, self.physical, self.natural_frequency_hz,
+                         self.length_mm * 1e-3 if self.physical else None)
+            except ValueError as e:
+                raise CaseError(f"'{prefix}.{key}': {e}") from None
 
     def result_attrs(self) -> dict:
         """Derived values stored with a run's results: none."""
@@ -391,7 +404,7 @@ class BeamModelSpec(_Strict):
         if law is not None:   # a compliant stop (issue 13): the model of vibeam.models.beam_compliant
             from vibeam.models.beam_compliant import CompliantBeamModel
 
-            m = CompliantBeamModel.from_model(m, law)
+            m = CompliantBeamModel.from_model(m, law, beam_law(lower_law_spec(self), self.R))
         return m
 
     # ---- what is specific to this fidelity (see register_model_spec)
@@ -410,10 +423,14 @@ class BeamModelSpec(_Strict):
         dofs = 2 * int(self.n_elements)
         from vibeam.contact_spec import beam_law
 
-        try:
-            beam_law(self.contact, self.R)
-        except ValueError as e:
-            raise CaseError(f"'{prefix}.contact': {e}") from None
+        for key, table in (("contact", self.contact), ("contact_lower", lower_law_spec(self))):
+            try:
+                beam_law(table, self.R)
+            except ValueError as e:
+                raise CaseError(f"'{prefix}.{key}': {e}") from None
+            if table is not None and table.law == "hunt_crossley" and self.two_sided:
+                raise CaseError(f"'{prefix}.{key}.law' = \"hunt_crossley\": the beam takes it with one stop only "
+                                f"(two stops: law = \"linear\" or \"restitution\")")
         if isinstance(n, int) and n > dofs:
             raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
                             f"('{prefix}.n_elements' = {self.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
@@ -1184,15 +1201,18 @@ def check_time_series(case: Case, source: str = "", hz_per_omega: float | None =
 def _check_two_sided(case: Case, i: int, r) -> None:
     """A run of a two-sided scene (a lower stop) uses a method that simulates it (the fidelity's
     ``two_sided_methods`` in :mod:`vibeam.models.registry`) and no effect that assumes one stop."""
-    from vibeam.models.registry import fidelity
+    from vibeam.models.registry import two_sided_methods
 
     spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
     if not getattr(spec, "two_sided", False):
         return
-    allowed = fidelity(spec.fidelity).two_sided_methods
+    contact = getattr(spec, "contact", None)
+    law = "restitution" if contact is None else contact.law
+    allowed = two_sided_methods(spec.fidelity, law)
     if r.method not in allowed:
-        raise CaseError(f"'run[{i}].method' = {r.method!r} cannot simulate a second stop (the scene has a lower "
-                        f"stop: {_lower_key(spec)}); allowed with two stops: {', '.join(allowed)}")
+        what = "" if law == "restitution" else f" with contact.law = \"{law}\""
+        raise CaseError(f"'run[{i}].method' = {r.method!r} cannot simulate a second stop{what} (the scene has a "
+                        f"lower stop: {_lower_key(spec)}); allowed with two stops: {', '.join(allowed) or 'none'}")
     eff = case.effects_for(r)
     if eff.sensor is not None:
         raise CaseError(f"'effects.sensor' (run[{i}]): the sensor's R identification assumes one stop (paper "

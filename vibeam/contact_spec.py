@@ -25,8 +25,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 class ContactSpec(BaseModel):
     """``[model.contact]`` (the stop of the paper) or ``[model.contact_lower]`` (a second stop
-    below; law ``restitution`` only, its own ``R``, default the upper stop's law): module
-    docstring."""
+    below, default the upper stop's law: law ``restitution`` with its own ``R`` beside a
+    restitution upper stop, or a compliant law with its own stiffness beside a compliant one;
+    its target restitution is ``[model] R``): module docstring."""
 
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True, allow_inf_nan=False)
 
@@ -96,24 +97,27 @@ def sdof_law(contact: ContactSpec | None, R: float, physical: bool, natural_freq
 
 
 def beam_law(contact: ContactSpec | None, R: float):
-    """The compliant law of a beam scene (``stiffness_n_m``, N/m, at the contact point), or None.
+    """The compliant law of a beam scene (``stiffness_n_m`` at the contact point: N/m, N/m^p
+    for ``hunt_crossley``), or None.
 
     Raises
     ------
     ValueError
-        ``stiffness`` (a ratio) given, a law the beam does not implement, a target R out of range.
+        ``stiffness`` (a ratio) given, ``mass_kg`` given, a target R out of range.
     """
     if contact is None or contact.law == "restitution":
         return None
-    from vibeam.models.compliant import LinearContact
+    from vibeam.models.compliant import HuntCrossley, LinearContact
 
-    if contact.law != "linear":
-        raise ValueError(f"contact.law = \"{contact.law}\" is not implemented for the beam yet; allowed: "
-                         f"\"restitution\", \"linear\"")
     if contact.stiffness_n_m is None:
         raise ValueError("beam scenes give the stop's stiffness as contact.stiffness_n_m (N/m at the contact point)")
     if contact.mass_kg is not None:
         raise ValueError("contact.mass_kg is for physical SDOF scenes; the beam's effective mass is 1 / |w|^2")
+    if contact.law == "hunt_crossley":
+        # F = k_c delta^p (1 + chi delta' / v_in), k_c in N/m^p; chi from R (Flores et al. 2011)
+        if not R > 0.0:
+            raise ValueError("law = \"hunt_crossley\" needs R > 0 (chi = 8 (1 - R) / (5 R), Flores et al. 2011)")
+        return HuntCrossley(contact.stiffness_n_m, float(R), 1.5 if contact.exponent is None else contact.exponent)
     if contact.damping_ratio is not None:
         return LinearContact.from_damping_ratio(contact.stiffness_n_m, contact.damping_ratio)
     return LinearContact.from_restitution(contact.stiffness_n_m, R)
