@@ -166,7 +166,8 @@ def test_one_mode_rung_equals_its_sdof_branch(ladder, name, n_modes):
 
 
 # ------------------------------------------------------------------ grazing of the linear orbit
-@pytest.mark.parametrize("n_modes", [1, 2, pytest.param(4, marks=pytest.mark.slow), "all"])
+@pytest.mark.parametrize("n_modes", [1, 2, pytest.param(4, marks=pytest.mark.slow),
+                                     pytest.param("all", marks=pytest.mark.slow)])
 def test_grazing_of_the_contact_free_orbit_is_the_closed_form(n_modes):
     """Loose rig (gap +0.1 mm): from the contact-free orbit at 23 Hz (the `linear` start) down in
     frequency.  The grazing is where the closed-form modal amplitude at the contact,
