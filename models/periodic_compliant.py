@@ -50,8 +50,21 @@ a grazing (``S`` above is finite); the map's correction there is of order ``eps^
 (short contact of duration ``~ sqrt(eps)`` and force ``~ eps``), so branches pass it with a
 mild corner.
 
+Two stops.  A lower Kelvin-Voigt stop at ``q = -Delta_lower`` (its own ``k_l``, ``c_l``) is
+followed as the two-stop kernel (:func:`~vibeam.models.sdof_compliant.compliant_kernel_stops`)
+does it: its entry scan, contact phase and exit run in the mirrored frame ``q~ = -q``,
+``phi~ = phi + pi``, and a free step ends at the earlier of the two stops' entries.  The
+derivatives are carried in the physical frame over three phases (free, upper contact, lower
+contact ``q'' + (2 beta + c_l) q' + (1 + k_l) q + k_l Delta_l = F sin(Omega t)``).  At an entry
+into the lower stop (``h = -q - Delta_l``, ``h_x f- = -v > 0``, jump ``f+ - f- = (0, -c_l v)``)
+the signs of the normal cancel and the saltation is again ``S = [[1, 0], [-c_l, 1]]``;
+``h_p = 0`` (``Delta`` moves the upper stop only).  ``det M = exp(-2 beta n T - c_c T_up - c_l
+T_low)``.  ``apex_gap`` is the larger of the two stops' grazing indicators (each in its own
+frame), and ``extra["impact_stops"]`` gives the stop of each contact (0 upper, 1 lower).
+
 Not handled (a shot with ``status = "failed"`` and a message, never a crash): overdamped
-phases, more than ``max_events`` contacts in a shot, a two-sided scene (refused when built).
+phases, more than ``max_events`` contacts in a shot; a second stop with a law other than
+``linear`` (refused when built).
 """
 from __future__ import annotations
 
@@ -61,8 +74,8 @@ import numpy as np
 from numba import njit
 
 from .periodic import Shot
-from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, FREE, advance, envelope, phase_eval, phase_params,
-                             upcross)
+from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_NONE, FREE, _mirror_in, _mirror_out, advance, envelope,
+                             phase_eval, phase_params, upcross)
 from .sdof_flow import transition
 
 TWO_PI = 2.0 * math.pi
@@ -112,7 +125,8 @@ class CompliantSDOFShooting:
     Parameters
     ----------
     model : vibeam.models.SDOF
-        With ``contact`` a :class:`vibeam.models.compliant.LinearContact` (one stop).
+        With ``contact`` a :class:`vibeam.models.compliant.LinearContact`; optionally a second
+        (lower) stop, ``Delta_lower``, whose law (``contact_lower`` or ``contact``) is linear too.
     parameter : {"Omega", "B", "Delta"}
         Continuation parameter (native, nondimensional).
     Omega : float, optional
@@ -123,7 +137,7 @@ class CompliantSDOFShooting:
     Raises
     ------
     ValueError
-        For another law, a second stop, an unknown parameter, a missing ``Omega`` or an
+        For another law (on either stop), an unknown parameter, a missing ``Omega`` or an
         overdamped contact phase.
     """
 
@@ -134,8 +148,18 @@ class CompliantSDOFShooting:
         law = getattr(model, "contact", None)
         if law is None or getattr(law, "name", "") != "linear":
             raise ValueError("CompliantSDOFShooting needs a stop with contact law \"linear\"")
-        if getattr(model, "two_sided", False):
-            raise ValueError("continuation with a compliant law follows one stop (no second stop)")
+        self.two = bool(getattr(model, "two_sided", False))
+        if self.two:
+            low = model.stops()[1].law
+            if getattr(low, "name", "") != "linear":
+                raise ValueError("continuation with two stops needs contact law \"linear\" on the lower stop too "
+                                 f"([model.contact_lower] law = {getattr(low, 'name', '?')!r}); use method = \"event\"")
+            self.Dl = float(model.Delta_lower)
+            self.kcl = float(low.stiffness)
+            self.ccl = float(low.damping)
+            if not (2.0 * float(model.beta) + self.ccl) / (2.0 * math.sqrt(1.0 + self.kcl)) < 1.0:
+                raise ValueError("the lower stop's contact phase is overdamped: lower [model.contact_lower] "
+                                 "damping_ratio or raise R")
         if parameter not in PARAMETERS:
             raise ValueError(f"parameter {parameter!r} cannot be continued with contact law \"linear\"; "
                              f"allowed: {', '.join(PARAMETERS)}")
@@ -185,6 +209,8 @@ class CompliantSDOFShooting:
             inside the window, ``entry_kind`` (0 through ``delta = 0``, 1 re-entry inside the
             stop).
         """
+        if self.two:
+            return self._shot_two(x0, p, n)
         beta = float(self.model.beta)
         B, Delta, Omega = self.params(p)
         kc, cc = self.kc, self.cc
@@ -297,11 +323,173 @@ class CompliantSDOFShooting:
                     extra={"x_all_p": xp_all, "contact_time": t_con, "contacts": con,
                            "entry_kind": np.array(kinds, np.int64), "in_contact_end": phase == CONTACT})
 
-    def _extremes(self, phase, s, phi, q, v, pp, Omega, Delta):
+    def _shot_two(self, x0, p, n) -> Shot:
+        """``P^n`` with a second (lower) Kelvin-Voigt stop at ``q = -Delta_lower`` (module
+        docstring, "Two stops"): the steps of :func:`~vibeam.models.sdof_compliant.compliant_kernel_stops`
+        (the lower stop's entry scan, contact phase and exit in the mirrored frame ``q~ = -q``,
+        ``phi~ = phi + pi``) with the derivatives carried in the physical frame over three
+        phases (free, upper contact, lower contact)."""
+        beta = float(self.model.beta)
+        B, Delta, Omega = self.params(p)
+        kc, cc, kl, cl, Dl = self.kc, self.cc, self.kcl, self.ccl, self.Dl
+        n = int(n)
+        q, v = float(x0[0]), float(x0[1])
+        if not (Omega is not None and Omega > 0.0 and math.isfinite(q) and math.isfinite(v)
+                and math.isfinite(B) and math.isfinite(Delta) and n >= 1):
+            return _failed(f"parameters or state out of range (Omega {Omega}, n {n}, x0 ({q}, {v}))")
+        if not Delta + Dl > 0.0:
+            return _failed(f"the stops overlap: Delta + Delta_lower = {Delta + Dl} must be > 0")
+        if beta == 0.0 and Omega == 1.0:
+            return _failed("undamped exact resonance: no periodic particular solution")
+        F = Omega * Omega * B
+        P = phase_params(beta, F, Omega, Delta, kc, cc)
+        PL = phase_params(beta, F, Omega, Dl, kl, cl)       # the lower stop's mirrored frame
+        if not (P[1, 1] < 1.0 and PL[1, 1] < 1.0 and np.all(np.isfinite(P)) and np.all(np.isfinite(PL))):
+            return _failed("overdamped or resonant phase")
+        # physical-frame rows: free, upper contact, lower contact q'' + 2 b w q' + w^2 (q - q_e)
+        # = F sin(Omega t) with q_e = -k_l Delta_l / (1 + k_l) (the mirror of PL's contact row)
+        LOWER = 2
+        Po = np.vstack([P, PL[1:2]])
+        Po[2, 2] = -PL[1, 2]
+        T = TWO_PI / Omega
+        t_end = n * T
+        hmax = (TWO_PI / P[0, 0] / 16.0, TWO_PI / P[1, 0] / 16.0, TWO_PI / PL[1, 0] / 16.0)
+        part = [particular_sensitivities(Po[r], F, B, Omega) for r in range(3)]
+        dqe = (0.0, kc / (1.0 + kc), 0.0)     # Delta moves the upper stop only
+        j = self.index
+
+        def field(r, q, v, t):
+            w, b, qe = Po[r, 0], Po[r, 1], Po[r, 2]
+            return np.array([v, F * math.sin(Omega * t) - 2.0 * b * w * v - w * w * (q - qe)])
+
+        def carry(Y, r, ta, tb):
+            Phi = phase_stm(tb - ta, Po[r])
+            Y = Phi @ Y
+            X, dX = part[r]
+            for k in range(3):
+                Y[:, 2 + k] += _dP(tb, X, dX, dqe[r], Omega, k) - Phi @ _dP(ta, X, dX, dqe[r], Omega, k)
+            return Y
+
+        Y = np.zeros((2, 5))
+        Y[0, 0] = Y[1, 1] = 1.0
+        d = np.empty(6)
+        dl0, dll = q - Delta, -q - Dl
+        if dl0 >= 0.0 and kc * dl0 + cc * v > 0.0:
+            phase = CONTACT
+        elif dll >= 0.0 and kl * dll - cl * v > 0.0:
+            phase = LOWER
+        else:
+            phase = FREE
+        ex = np.array([q, q, np.inf])
+        exm = np.empty(3)
+        cs = np.zeros(4)
+        t = phi = t_seg = 0.0
+        t_con = [0.0, 0.0]
+        apex = -np.inf
+        entries, rates, kinds, sides, contacts = [], [], [], [], []
+        open_contact = None
+        steps = 0
+        max_steps = 200 * n * (1 + int(math.ceil(max(P[1, 0], PL[1, 0])))) + 64 * self.max_events
+        while t_end - t > 1e-15 * T:
+            steps += 1
+            if steps > max_steps:
+                return _failed(f"more than {max_steps} steps in {n} period(s)")
+            h = min(t_end - t, hmax[phase])
+            phl = (phi + math.pi) % TWO_PI
+            below = (q - Delta < 0.0, -q - Dl < 0.0)   # an entry from here is through the gap's zero
+            if phase == FREE:
+                # the lower stop's entry scan first (mirrored frame, nothing recorded), then the
+                # upper stop's up to it (records the extremes), as the two-stop kernel
+                s_l, ev_l = advance(FREE, h, phl, -q, -v, PL[0], kl, cl, Omega, Dl, False, ex, cs, d, kl, cl, 0.0)
+                s, ev = advance(FREE, s_l if ev_l != EV_NONE else h, phi, q, v, P[0], kc, cc, Omega, Delta, True,
+                                ex, cs, d, kc, cc, 0.0)
+                side = 0
+                if ev == EV_NONE and ev_l != EV_NONE:
+                    s, ev, side = s_l, ev_l, 1
+                if s > 0.0:
+                    apex = max(apex, self._extremes(FREE, s, phi, q, v, P[0], Omega, Delta),
+                               self._extremes(FREE, s, phl, -q, -v, PL[0], Omega, Dl, kl, cl))
+            elif phase == CONTACT:
+                side = 0
+                s, ev = advance(CONTACT, h, phi, q, v, P[1], kc, cc, Omega, Delta, True, ex, cs, d, kc, cc, 0.0)
+                if s > 0.0:
+                    apex = max(apex, self._extremes(CONTACT, s, phi, q, v, P[1], Omega, Delta))
+            else:
+                side = 1
+                _mirror_in(ex, exm)
+                s, ev = advance(CONTACT, h, phl, -q, -v, PL[1], kl, cl, Omega, Dl, True, exm, cs, d, kl, cl, 0.0)
+                _mirror_out(ex, exm)
+                if s > 0.0:
+                    apex = max(apex, self._extremes(CONTACT, s, phl, -q, -v, PL[1], Omega, Dl, kl, cl))
+            if s < 0.0:
+                return _failed("event location failed")
+            if side == 0:
+                phase_eval(s, phi, q, v, P[0] if phase == FREE else P[1], Omega, Delta, d)
+                q_new, v_new = Delta + d[0], d[1]
+            else:
+                phase_eval(s, phl, -q, -v, PL[0] if phase == FREE else PL[1], Omega, Dl, d)
+                q_new, v_new = -(Dl + d[0]), -d[1]
+            if phase != FREE:
+                t_con[phase - 1] += s
+            t += s
+            phi = (phi + Omega * s) % TWO_PI
+            q, v = q_new, v_new
+            if ev == EV_ENTRY:
+                if len(entries) >= self.max_events:
+                    return _failed(f"more than {self.max_events} contacts in {n} period(s)")
+                Y = carry(Y, FREE, t_seg, t)
+                t_seg = t
+                k_, c_ = (kc, cc) if side == 0 else (kl, cl)
+                if below[side]:
+                    # dashpot saltation S = [[1, 0], [-c, 1]] on either stop (the signs of the
+                    # lower stop's normal cancel); h_p = -1 for Delta on the upper stop only
+                    Y[1, :] -= c_ * Y[0, :]
+                    if side == 0:
+                        Y[1, 4] += cc
+                    kinds.append(0)
+                    rates.append(d[1])
+                else:
+                    kinds.append(1)
+                    rates.append((k_ * d[1] + c_ * d[2]) / k_)
+                entries.append(t)
+                sides.append(side)
+                cs[0] = t
+                cs[1] = k_ * d[0] + c_ * d[1]
+                cs[2] = d[0]
+                cs[3] = 0.0
+                open_contact = t
+                phase = CONTACT if side == 0 else LOWER
+            elif ev == EV_EXIT:
+                Y = carry(Y, phase, t_seg, t)
+                t_seg = t
+                if open_contact is not None:
+                    contacts.append((t - open_contact, cs[1], cs[2], cs[3]))
+                open_contact = None
+                phase = FREE
+        Y = carry(Y, phase, t_seg, t_end)
+        Y[:, 2] += field(phase, q, v, t_end) * (-t_end / Omega)
+        ex[0] = min(ex[0], q)
+        ex[1] = max(ex[1], q)
+        M = Y[:, :2].copy()
+        xp_all = Y[:, 2:].copy()
+        if not (np.all(np.isfinite(M)) and np.all(np.isfinite(xp_all))):
+            return _failed("non-finite derivatives")
+        con = np.array(contacts, float).reshape(-1, 4)
+        return Shot(x=np.array([q, v]), M=M, x_p=xp_all[:, j].copy(), impact_times=np.array(entries, float),
+                    impact_velocities=np.array(rates, float), q_min=float(ex[0]), q_max=float(ex[1]),
+                    apex_gap=float(apex), stuck_time=0.0, status="ok", message="", Omega=Omega, gap=Delta,
+                    extra={"x_all_p": xp_all, "contact_time": t_con[0] + t_con[1],
+                           "contact_time_upper": t_con[0], "contact_time_lower": t_con[1], "contacts": con,
+                           "entry_kind": np.array(kinds, np.int64), "impact_stops": np.array(sides, np.int64),
+                           "in_contact_end": phase != FREE, "contact_side_end": phase})
+
+    def _extremes(self, phase, s, phi, q, v, pp, Omega, Delta, kc=None, cc=None):
         """Largest grazing indicator inside a step (module docstring): free-flight maxima of
         ``delta`` below the stop, maxima of ``f / k_c`` inside it, and ``-f / k_c`` at the
-        interior minima of the force in contact; ``-inf`` if none."""
-        kc, cc = self.kc, self.cc
+        interior minima of the force in contact; ``-inf`` if none.  ``kc, cc``: the stop's law
+        (default the upper stop's; the lower stop's in its mirrored frame)."""
+        if kc is None:
+            kc, cc = self.kc, self.cc
         A = envelope(phi, q, v, pp, Omega)
         d = np.empty(6)
         best = -np.inf
@@ -343,6 +531,9 @@ class CompliantSDOFShooting:
         if not C < Delta:
             return None, (f"the non-contacting orbit does not exist: its amplitude C = {C:.6g} reaches the "
                           f"stop Delta = {Delta:.6g} at {self.parameter} = {p:.6g}")
+        if getattr(self, "two", False) and not C < self.Dl:
+            return None, (f"the non-contacting orbit does not exist: its amplitude C = {C:.6g} reaches the "
+                          f"lower stop Delta_lower = {self.Dl:.6g} at {self.parameter} = {p:.6g}")
         return np.array([b, Omega * a]), ""
 
 

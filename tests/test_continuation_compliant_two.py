@@ -1,0 +1,165 @@
+"""Continuation of periodic orbits with two Kelvin-Voigt stops (SDOF, law "linear"): the shooting
+problem of vibeam.models.periodic_compliant (CompliantSDOFShooting with a lower stop) against
+finite differences, Liouville's formula, the two-stop event kernel, the one-stop problem and
+the mirror symmetry of a symmetric scene."""
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from vibeam.models import shooting_problem
+from vibeam.models.compliant import HuntCrossley, LinearContact
+from vibeam.models.continuation import Settings, start_point, trace
+from vibeam.models.periodic_compliant import CompliantSDOFShooting
+from vibeam.models.sdof import SDOF
+from vibeam.models.sdof_compliant import CompliantEventSolver
+from vibeam.records import summarize
+
+FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8 scene
+
+
+def _kv(m, k, Delta_lower, R=0.9):
+    return replace(m, contact=LinearContact.from_restitution(k, R), Delta_lower=Delta_lower)
+
+
+TWO = _kv(FIG8, 1e4, 0.9e-3)                                   # contacts on both stops each period
+SOFT = _kv(SDOF(0.015, 0.5e-3, 0.9, 0.2e-3), 1e2, 0.3e-3)     # soft, long contacts, 2-3 per period
+
+
+def _settled(m, Omega, periods=1500, x0=None):
+    s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
+    tr = CompliantEventSolver(m).point(Omega, s0, periods, 16, 16)
+    return np.asarray(tr.final_state[:2], float), tr
+
+
+# ------------------------------------------------------------------ exact derivatives
+CASES = {
+    "both stops, stiff": (TWO, 1.9, 1, None),
+    "soft, three contacts": (SOFT, 2.0, 1, None),
+    "soft, period 2": (SOFT, 2.9, 2, None),
+    "in contact with the lower stop at the section": (SOFT, 2.9, 1, (-0.3e-3 - 2e-5, -1e-4)),
+}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_shot_jacobian_equals_central_differences(name):
+    """M = d P^n / d x0 and d P^n / d(Omega, B, Delta) against central differences of the shot,
+    from a state off the orbit (events at generic times), with contacts on both stops.  Step
+    1e-6 relative: truncation ~1e-12, round-off ~1e-10 of the entries; bound 1e-6 relative to
+    the largest entry (measured <= 5e-9)."""
+    m, W, n, x0 = CASES[name]
+    if x0 is None:
+        x, _ = _settled(m, W, 400)
+        x = x * (1.0 + 1e-3)
+    else:
+        x = np.array(x0)
+    for par in ("Omega", "B", "Delta"):
+        prob = CompliantSDOFShooting(m, par, Omega=W)
+        p = W if par == "Omega" else float(getattr(m, par))
+        s = prob.shot(x, p, n)
+        assert s.status == "ok", s.message
+        assert set(s.extra["impact_stops"]) == {0, 1}
+        scale = max(float(np.max(np.abs(x))), 1e-4)
+        J = np.empty((2, 3))
+        for c in range(3):
+            if c < 2:
+                e = np.zeros(2)
+                e[c] = 1e-6 * scale
+                a, b, h = prob.shot(x + e, p, n), prob.shot(x - e, p, n), e[c]
+            else:
+                h = 1e-6 * max(abs(p), 1e-3)
+                a, b = prob.shot(x, p + h, n), prob.shot(x, p - h, n)
+            assert a.n_impacts == b.n_impacts == s.n_impacts
+            J[:, c] = (a.x - b.x) / (2 * h)
+        A = np.column_stack([s.M, s.x_p])
+        assert np.max(np.abs(A - J)) <= 1e-6 * np.max(np.abs(A)), (par, A, J)
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_liouville(name):
+    """det M = exp(-2 beta n T - c_up T_up - c_low T_low) (the trace of each phase's state
+    matrix, det S = 1 at every entry); closed-form flows: agreement to round-off (1e-12)."""
+    m, W, n, x0 = CASES[name]
+    x = _settled(m, W, 400)[0] if x0 is None else np.array(x0)
+    prob = CompliantSDOFShooting(m)
+    s = prob.shot(x, W, n)
+    e = s.extra
+    assert e["contact_time_upper"] > 0.0 and e["contact_time_lower"] > 0.0
+    want = np.exp(-2 * m.beta * n * 2 * np.pi / W - prob.cc * e["contact_time_upper"]
+                  - prob.ccl * e["contact_time_lower"])
+    assert abs(np.linalg.det(s.M) / want - 1.0) < 1e-12
+
+
+# ------------------------------------------------------------------ branches
+@pytest.fixture(scope="module")
+def two_branch():
+    x0, _ = _settled(TWO, 1.6)
+    brs = trace(shooting_problem(TWO, "Omega"), x0, 1.6, 1, 1.5, 2.4, +1)
+    return brs
+
+
+def test_branch_points_equal_event_runs(two_branch):
+    """Stable branch points are fixed points of the two-stop event kernel: 1500 periods from the
+    branch state end on it (max|mu| <= 0.78 here: the transient decays below 1e-12 of the
+    state), with the same contacts per period on each stop."""
+    a = two_branch[0].arrays()
+    assert two_branch[0].status == "range_end" and a["parameter"][-1] == pytest.approx(2.4)
+    assert np.all(a["impacts_lower"] == 1) and np.all(a["impacts"] == 2)
+    idx = [i for i in range(len(a["parameter"])) if a["stable"][i]]
+    assert len(idx) >= 5
+    for i in idx[:: max(1, len(idx) // 3)]:
+        W, x = a["parameter"][i], a["state"][i]
+        y, tr = _settled(TWO, W, 1500, x)
+        assert np.max(np.abs(y - x)) < 1e-9 * np.max(np.abs(x)), (W, x, y)
+        rec = summarize(tr, TWO.Delta)
+        assert tr.n_impacts == 32 and np.sum(tr.impact_stops == 1) == 16
+        assert rec["q_max"] == pytest.approx(a["q_max"][i], rel=1e-9)
+
+
+def test_far_lower_stop_gives_the_one_stop_branch():
+    """A lower stop the orbit never reaches changes nothing: the two-stop problem's free steps
+    run the one-stop step up to the same step ends, so the branch agrees with the one-stop
+    branch to round-off (measured: bit for bit in states and multipliers)."""
+    one = replace(FIG8, contact=LinearContact.from_restitution(1e4, 0.9))
+    far = replace(one, Delta_lower=1.0)
+    x0, _ = _settled(one, 2.3)
+    b1 = trace(CompliantSDOFShooting(one), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
+    b2 = trace(CompliantSDOFShooting(far), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
+    assert len(b1["parameter"]) == len(b2["parameter"]) >= 5
+    assert np.all(b2["impacts_lower"] == 0)
+    np.testing.assert_allclose(b2["parameter"], b1["parameter"], rtol=1e-13, atol=0)
+    np.testing.assert_allclose(b2["state"], b1["state"], rtol=1e-11, atol=1e-18)
+    np.testing.assert_allclose(b2["multipliers"], b1["multipliers"], rtol=1e-10, atol=1e-14)
+
+
+def test_symmetric_stops_give_a_symmetric_orbit():
+    """Delta_lower = Delta and the same law: the period-1 orbit is invariant under (q, t) ->
+    (-q, t + T/2), so q_min = -q_max and the upper and lower contacts have the same entry
+    velocity, duration, peak force, penetration and energy (relative 1e-9: Newton tolerance)."""
+    m = _kv(FIG8, 1e4, FIG8.Delta)
+    x0, _ = _settled(m, 1.9)
+    prob = CompliantSDOFShooting(m)
+    pt, why = start_point(prob, x0, 1.9, 1, 1.5, 2.5)
+    assert pt is not None, why
+    s = prob.shot(pt.x, 1.9, 1)
+    assert np.max(np.abs(s.x - pt.x)) < 1e-12
+    assert s.q_min == pytest.approx(-s.q_max, rel=1e-9)
+    k = s.extra["impact_stops"]
+    assert list(sorted(k)) == [0, 1]
+    up, lo = k == 0, k == 1
+    assert s.impact_velocities[up][0] == pytest.approx(s.impact_velocities[lo][0], rel=1e-9)
+    assert s.extra["contact_time_upper"] == pytest.approx(s.extra["contact_time_lower"], rel=1e-9)
+    # the second half period is the mirror of the first: entries half a period apart
+    t = s.impact_times
+    assert abs(abs(t[1] - t[0]) - np.pi / 1.9) < 1e-9
+
+
+def test_refusals():
+    """Two stops with a Hunt-Crossley law (upper or lower) are still refused by the compliant
+    shooting problems, with a message."""
+    hc = replace(FIG8, contact=HuntCrossley(1e4, 0.9), Delta_lower=0.9e-3)
+    with pytest.raises(ValueError, match="second"):
+        shooting_problem(hc, "Omega")
+    mixed = replace(TWO, contact_lower=HuntCrossley(1e4, 0.9))
+    with pytest.raises(ValueError, match="lower stop"):
+        shooting_problem(mixed, "Omega")
