@@ -163,3 +163,44 @@ def test_refusals():
     mixed = replace(TWO, contact_lower=HuntCrossley(1e4, 0.9))
     with pytest.raises(ValueError, match="lower stop"):
         shooting_problem(mixed, "Omega")
+
+
+CASE = '''
+name = "kv2c"
+[model]
+fidelity = "sdof"
+beta = 0.015
+B = 0.5e-3
+R = 0.9
+Delta = 0.7e-3
+Delta_lower = 0.9e-3
+[model.contact]
+law = "linear"
+stiffness = 1e4
+[sweep]
+Omega = [1.6, 2.4, 5]
+transient_periods = 300
+record_periods = 16
+[[run]]
+name = "branches"
+method = "continuation"
+start_at = "low"
+'''
+
+
+def test_vibeam_continue_end_to_end(tmp_path):
+    """`vibeam continue` on a two-stop compliant scene writes the branch with the lower stop's
+    contact count; it is the branch traced directly (same start, same settings)."""
+    from vibeam.cli import main
+    from vibeam.results import read_results
+
+    (tmp_path / "kv2.toml").write_text(CASE)
+    assert main(["continue", str(tmp_path / "kv2.toml"), "--out", str(tmp_path / "out"), "--jobs", "1",
+                 "--no-plots", "--quiet"]) == 0
+    b = read_results(tmp_path / "out" / "results.h5")["branches"]["branches"]["00-period1"]
+    assert b["parameter"][0] == 1.6 and b["parameter"][-1] == pytest.approx(2.4)
+    assert np.all(np.asarray(b["impacts_lower"]) == 1) and np.all(np.asarray(b["impacts"]) == 2)
+    i = int(np.flatnonzero(np.asarray(b["stable"]))[-1])
+    x = np.asarray(b["state"][i], float)
+    y, _ = _settled(TWO, float(b["parameter"][i]), 1500, x * 1.01)
+    assert np.max(np.abs(y - x)) < 1e-9 * np.max(np.abs(x))
