@@ -574,6 +574,15 @@ class CompliantBeamShooting:
     ``k_c`` inside it, or minus the force's interior minima in contact over ``k_c``), as for the
     SDOF.
 
+    A second (lower) Kelvin-Voigt stop at ``U = -Delta_C,lower`` (``model.two_sided``, its law
+    ``model.lower_law``, linear too) adds the third phase of
+    :func:`~vibeam.models.beam_compliant.beam_compliant_kernel_stops` (state matrix with
+    ``- k_l w w^T``, ``- c_l w w^T``), which the shot runs instead; an entry into it (gap ``-U -
+    Delta_l``, normal velocity ``-U'``) has the same saltation ``I - c_l [[0, 0], [w w^T, 0]]``
+    (the normal's signs cancel in ``w w^T``), so ``det M = exp(trace(A_free) n T - |w|^2 (c
+    T_up + c_l T_low))``; ``apex_gap`` watches both stops and ``extra["impact_stops"]`` gives
+    the stop of each contact (0 upper, 1 lower).
+
     Parameters
     ----------
     model : vibeam.models.beam_compliant.CompliantBeamModel
@@ -588,7 +597,7 @@ class CompliantBeamShooting:
     Raises
     ------
     ValueError
-        For another law, an unknown parameter or a missing ``Omega``.
+        For another law (on either stop), an unknown parameter or a missing ``Omega``.
     """
 
     fidelity = "beam"
@@ -600,8 +609,11 @@ class CompliantBeamShooting:
 
         if getattr(model, "contact", None) is None or getattr(model.contact, "name", "") != "linear":
             raise ValueError("CompliantBeamShooting needs a beam model with contact law \"linear\"")
-        if getattr(model, "two_sided", False):
-            raise ValueError("continuation with a compliant law follows one stop (no second stop)")
+        self.two = bool(getattr(model, "two_sided", False))
+        if self.two and getattr(model.lower_law, "name", "") != "linear":
+            raise ValueError("continuation with two stops needs contact law \"linear\" on the lower stop too "
+                             f"([model.contact_lower] law = {getattr(model.lower_law, 'name', '?')!r}); "
+                             "use method = \"event\"")
         if parameter not in BEAM_PARAMETERS:
             raise ValueError(f"parameter {parameter!r} cannot be continued with contact law \"linear\" on the "
                              f"beam; allowed: {', '.join(BEAM_PARAMETERS)}")
@@ -642,8 +654,8 @@ class CompliantBeamShooting:
         n2 = self.dim
         Y = m.base_amplitude_m
         F = Om * Om * Y
-        dZ = np.empty((2, 2, n2), complex)        # [phase, (Omega, Y)]
-        for r in range(2):
+        dZ = np.empty((A.shape[0], 2, n2), complex)        # [phase, (Omega, Y)]
+        for r in range(A.shape[0]):
             Rinv = np.linalg.inv(1j * Om * np.eye(n2) - A[r])
             Zu = Rinv @ b
             dZ[r, 0] = 2.0 * Om * Y * Zu - 1j * F * (Rinv @ Zu)
@@ -652,7 +664,11 @@ class CompliantBeamShooting:
         w = m.contact_row
         hmax = np.array([TWO_PI / math.sqrt(m.k_nd[0]), TWO_PI / math.sqrt(kc * float(w @ w))]) \
             / self.steps_per_fundamental
-        D = dict(m=m, Om=Om, A=A, b=b * F, b0=b0, kc=kc, cc=cc, pd=pd, dZ=dZ, lam=lam, V=V, W=W, hmax=hmax, F=F)
+        kl, cl, Dl = m.lower_stop_params()
+        if self.two:    # the lower contact phase's steps (as CompliantBeamEventSolver)
+            hmax = np.append(hmax, TWO_PI / math.sqrt(kl * float(w @ w)) / self.steps_per_fundamental)
+        D = dict(m=m, Om=Om, A=A, b=b * F, b0=b0, kc=kc, cc=cc, pd=pd, dZ=dZ, lam=lam, V=V, W=W, hmax=hmax, F=F,
+                 kl=kl, cl=cl, Dl=Dl)
         self._key, self._data = float(p), D
         return D
 
@@ -697,7 +713,7 @@ class CompliantBeamShooting:
             ``apex_gap`` in m; ``extra``: ``x_all_p`` (2N, 2) ``d x / d(Omega, Y)``,
             ``contact_time``, ``contacts`` (k, 4) per contact of the window (kernel units).
         """
-        from .beam_compliant import beam_compliant_kernel
+        from .beam_compliant import beam_compliant_kernel, beam_compliant_kernel_stops
 
         n = int(n)
         x0 = np.asarray(x0, float)
@@ -717,6 +733,9 @@ class CompliantBeamShooting:
         g0 = float(w @ x0[:N]) - DC
         u0 = float(w @ x0[N:])
         phase0 = CONTACT if (g0 >= 0.0 and kc * g0 + cc * u0 > 0.0) else FREE
+        kl, cl, Dl = D["kl"], D["cl"], D["Dl"]
+        if self.two and phase0 == FREE and -g0 - DC - Dl >= 0.0 and kl * (-g0 - DC - Dl) - cl * u0 > 0.0:
+            phase0 = 2                 # in contact with the lower stop (gap -U - Delta_l)
         ns = 4
         cap = self.max_contacts
         samples = np.zeros((n * ns, 2))
@@ -726,30 +745,37 @@ class CompliantBeamShooting:
         con = np.full((cap, 5), np.nan)
         msamp = np.zeros((0, n2))
         z = x0.copy()
-        status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = beam_compliant_kernel(
-            Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, kc, cc, DC, z, phase0, 0, n,
-            1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t, imp_v, con, msamp)
+        imp_k = np.zeros(cap, np.int64)
+        if self.two:
+            status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps, _ = beam_compliant_kernel_stops(
+                Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, kc, cc, DC, 2, kl, cl, Dl, z,
+                phase0, 0, n, 1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t, imp_v, con, imp_k, msamp)
+        else:
+            status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = beam_compliant_kernel(
+                Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, kc, cc, DC, z, phase0, 0, n,
+                1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t, imp_v, con, msamp)
         if status != 0 or n_rec > cap:
             return _failed_n(self.dim, f"the event kernel gave up after {n_con} contacts / {n_steps} steps in "
                                        f"{n} period(s)")
         # the phase sequence: [start phase, events (t, kind)], kind 1 entry, 2 exit
+        # events (t, kind, stop): kind 1 entry, 2 exit; stop 0 upper, 1 lower
         events = []
         for r in range(n_rec):
-            events.append((float(imp_t[r]), 1))
+            events.append((float(imp_t[r]), 1, int(imp_k[r])))
             if math.isfinite(con[r, 0]):
-                events.append((float(imp_t[r] + con[r, 0]), 2))
-        if phase0 == CONTACT:
+                events.append((float(imp_t[r] + con[r, 0]), 2, int(imp_k[r])))
+        if phase0 != FREE:
             t_first = events[0][0] if events else t_end
-            tx = self._first_exit(D, x0, t_first)
+            tx = self._first_exit(D, x0, t_first, phase0 - 1)
             if tx is not None:
-                events.append((tx, 2))
+                events.append((tx, 2, phase0 - 1))
         events.sort()
         # alternation check (entry after free, exit after contact)
         ph = phase0
-        for _, kind in events:
+        for _, kind, _k in events:
             if (kind == 1) != (ph == FREE):
                 return _failed_n(self.dim, "contact events do not alternate (inconsistent event record)")
-            ph = CONTACT if kind == 1 else FREE
+            ph = 1 + _k if kind == 1 else FREE
         if ph != int(ph_end):
             return _failed_n(self.dim, "the event record does not end in the kernel's phase")
         # compose the tangent along the phases (exact flows), with the state rebuilt on them
@@ -759,9 +785,10 @@ class CompliantBeamShooting:
         ta = 0.0
         ph = phase0
         apex = -np.inf
-        rates, entries, contacts, t_c = [], [], [], 0.0
+        rates, entries, contacts, t_c, sides = [], [], [], 0.0, []
+        t_cs = [0.0, 0.0]
         t_open = None
-        for (tb, kind) in events + [(t_end, 0)]:
+        for (tb, kind, side) in events + [(t_end, 0, 0)]:
             Phi = self._stm(D, ph, tb - ta)
             za = zc
             zc = Phi @ (zc - self._zp(D, ph, ta)) + self._zp(D, ph, tb)
@@ -769,20 +796,26 @@ class CompliantBeamShooting:
             for j in range(2):
                 J[:, n2 + j] += self._dzp(D, ph, tb, j) - Phi @ self._dzp(D, ph, ta, j)
             apex = max(apex, self._extremes(D, ph, za, ta, tb))
-            if ph == CONTACT:
+            if ph != FREE:
                 t_c += tb - ta
+                t_cs[ph - 1] += tb - ta
             if kind == 1:
-                g = float(w @ zc[:N]) - DC
-                U = float(w @ zc[N:])
+                # the entered stop's gap, normal velocity and law (lower: gap -U - Delta_l)
+                sg, off, k_, c_ = (1.0, DC, kc, cc) if side == 0 else (-1.0, Dl, kl, cl)
+                g = sg * float(w @ zc[:N]) - off
+                U = sg * float(w @ zc[N:])
                 entries.append(tb)
-                if g <= 1e-9 * max(abs(DC), self.state_scale * 1e-3 / math.sqrt(m.m_eff)) and U > 0.0:
-                    J[N:, :] -= cc * np.outer(w, w @ J[:N, :])     # saltation of the dashpot's jump
+                sides.append(side)
+                if g <= 1e-9 * max(abs(off), self.state_scale * 1e-3 / math.sqrt(m.m_eff)) and U > 0.0:
+                    # saltation of the dashpot's jump; the same on the lower stop (the signs of
+                    # its normal -w cancel in w w^T)
+                    J[N:, :] -= c_ * np.outer(w, w @ J[:N, :])
                     rates.append(U / L)
                 else:
-                    a_n = float(w @ self._field(D, FREE, zc, tb)[N:])
-                    rates.append((kc * U + cc * a_n) / kc / L)
+                    a_n = sg * float(w @ self._field(D, FREE, zc, tb)[N:])
+                    rates.append((k_ * U + c_ * a_n) / k_ / L)
                 t_open = tb
-                ph = CONTACT
+                ph = 1 + side
             elif kind == 2:
                 if t_open is not None:
                     r = len(contacts)
@@ -795,11 +828,15 @@ class CompliantBeamShooting:
         M = J[:, :n2].copy()
         if not np.all(np.isfinite(J)):
             return _failed_n(self.dim, "non-finite derivatives")
+        extra = {"x_all_p": J[:, n2:].copy(), "contact_time": t_c, "rebuilt_state": zc,
+                 "contacts": np.array(contacts, float).reshape(-1, 4), "in_contact_end": ph != FREE}
+        if self.two:
+            extra.update(impact_stops=np.array(sides, np.int64), contact_time_upper=t_cs[0],
+                         contact_time_lower=t_cs[1], contact_side_end=ph)
         return Shot(x=z.copy(), M=M, x_p=J[:, jcol].copy(), impact_times=np.array(entries, float),
                     impact_velocities=np.array(rates, float), q_min=float(smin / L), q_max=float(smax / L),
                     apex_gap=float(apex), stuck_time=0.0, status="ok", message="", Omega=Om, gap=m.Delta,
-                    extra={"x_all_p": J[:, n2:].copy(), "contact_time": t_c, "rebuilt_state": zc,
-                           "contacts": np.array(contacts, float).reshape(-1, 4), "in_contact_end": ph == CONTACT})
+                    extra=extra)
 
     def _signal(self, D, r, z, ta, rowc):
         """Coefficients ``(al, be, ga)`` of ``rowc . z(ta + s)`` in phase ``r`` from ``z`` at ``ta``."""
@@ -811,19 +848,27 @@ class CompliantBeamShooting:
         al = (rowc @ D["V"][r]) * a
         return al, complex(rowc @ D["pd"][3][r]), float(rowc @ D["pd"][4][r]), phi
 
-    def _first_exit(self, D, z, t_max):
+    def _first_exit(self, D, z, t_max, side=0):
         """Exit time of a contact open at the section: the force ``k g + c g'`` down through 0
-        (the kernel's certified scan, in its contact step lengths)."""
+        (the kernel's certified scan, in its contact step lengths); ``side`` 1: the lower stop
+        (gap ``-U - Delta_l``, its law)."""
         from .beam_compliant import _combo, bupcross
 
         N = self.model.n_modes
         rowU = np.concatenate([self.model.contact_row, np.zeros(N)])
-        al, be, ga, phi = self._signal(D, CONTACT, z, 0.0, rowU)
-        ga -= self.model.gap_contact_m
-        lam = D["lam"][CONTACT]
-        kc, cc, Om = D["kc"], D["cc"], D["Om"]
+        r = CONTACT + side
+        if side == 0:
+            al, be, ga, phi = self._signal(D, r, z, 0.0, rowU)
+            ga -= self.model.gap_contact_m
+            kc, cc = D["kc"], D["cc"]
+        else:
+            al, be, ga, phi = self._signal(D, r, z, 0.0, -rowU)
+            ga -= D["Dl"]
+            kc, cc = D["kl"], D["cl"]
+        lam = D["lam"][r]
+        Om = D["Om"]
         al2 = np.empty_like(al)
-        h = D["hmax"][CONTACT]
+        h = D["hmax"][r]
         s = 0.0
         while s < t_max:
             # the kernel's steps: the coefficients carried as a_j e^{lambda_j s} (decayed modes drop
@@ -838,17 +883,33 @@ class CompliantBeamShooting:
         return None
 
     def _extremes(self, D, r, z, ta, tb):
-        """Grazing indicator (m) inside the phase segment ``[ta, tb]`` (class docstring)."""
-        from .beam_compliant import _combo, _sig, bupcross
-
+        """Grazing indicator (m) inside the phase segment ``[ta, tb]`` (class docstring): the
+        larger of the two stops' in free flight with a lower stop."""
         if tb <= ta:
             return -np.inf
         N = self.model.n_modes
         rowU = np.concatenate([self.model.contact_row, np.zeros(N)])
-        al, be, ga, phi = self._signal(D, r, z, ta, rowU)
-        ga -= self.model.gap_contact_m
+        best = -np.inf
+        # the stops watched in this phase: both in free flight, the one in contact otherwise
+        sides = ((0, 1) if self.two else (0,)) if r == FREE else (r - 1,)
+        for side in sides:
+            best = max(best, self._extremes_stop(D, r, z, ta, tb, rowU, side))
+        return best
+
+    def _extremes_stop(self, D, r, z, ta, tb, rowU, side):
+        """:meth:`_extremes` of one stop (``side`` 1: the lower one, gap ``-U - Delta_l``)."""
+        from .beam_compliant import _combo, _sig, bupcross
+
+        if side == 0:
+            al, be, ga, phi = self._signal(D, r, z, ta, rowU)
+            ga -= self.model.gap_contact_m
+            kc, cc = D["kc"], D["cc"]
+        else:
+            al, be, ga, phi = self._signal(D, r, z, ta, -rowU)
+            ga -= D["Dl"]
+            kc, cc = D["kl"], D["cl"]
         lam = D["lam"][r]
-        kc, cc, Om = D["kc"], D["cc"], D["Om"]
+        Om = D["Om"]
         al2 = np.empty_like(al)
         buf = np.empty(4)
         h_min = 1e-13 * TWO_PI / Om
@@ -899,6 +960,9 @@ class CompliantBeamShooting:
         if not A < m.gap_contact_m:
             return None, (f"the non-contacting orbit does not exist: its contact amplitude {A:.6g} m reaches the "
                           f"stop Delta_C = {m.gap_contact_m:.6g} m at {self.parameter} = {p:.6g}")
+        if self.two and not A < D["Dl"]:
+            return None, (f"the non-contacting orbit does not exist: its contact amplitude {A:.6g} m reaches the "
+                          f"lower stop Delta_C,lower = {D['Dl']:.6g} m at {self.parameter} = {p:.6g}")
         return self.linear_orbit(p), ""
 
 

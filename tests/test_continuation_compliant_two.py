@@ -204,3 +204,110 @@ def test_vibeam_continue_end_to_end(tmp_path):
     x = np.asarray(b["state"][i], float)
     y, _ = _settled(TWO, float(b["parameter"][i]), 1500, x * 1.01)
     assert np.max(np.abs(y - x)) < 1e-9 * np.max(np.abs(x))
+
+
+# ------------------------------------------------------------------ the modal beam
+def _rig2(n_modes, gap_lower_mm=0.3):
+    from vibeam.case import load_case
+
+    case, _ = load_case("cases/rig-fe-neutral.toml")
+    over = {"n_modes": n_modes, "contact": {"law": "linear", "stiffness_n_m": 1e5}}
+    if gap_lower_mm is not None:
+        over["gap_lower_mm"] = gap_lower_mm
+    return case.model_spec(over).build()
+
+
+def _beam_jacobian(prob, x, W):
+    """Central differences of the shot in (x0, Omega) (steps 1e-6 relative)."""
+    d = x.shape[0]
+    s = prob.shot(x, W, 1)
+    J = np.empty((d, d + 1))
+    for c in range(d + 1):
+        if c < d:
+            e = np.zeros(d)
+            e[c] = 1e-6 * np.max(np.abs(x))
+            a, b, h = prob.shot(x + e, W, 1), prob.shot(x - e, W, 1), e[c]
+        else:
+            h = 1e-6 * W
+            a, b = prob.shot(x, W + h, 1), prob.shot(x, W - h, 1)
+        assert a.n_impacts == b.n_impacts == s.n_impacts
+        J[:, c] = (a.x - b.x) / (2 * h)
+    return s, J
+
+
+@pytest.mark.parametrize("n_modes", [1, 2])
+def test_beam_shot_jacobian_and_liouville(n_modes):
+    """The two-stop beam shot (rig, neutral gap, 1e5 N/m on both stops, lower gap 0.3 mm) from
+    a state off the orbit and from one inside the lower stop: the Jacobian equals central
+    differences (bound 1e-7 relative; measured <= 1.3e-9) and det M = exp(trace(A_free) T -
+    |w|^2 (c T_up + c_l T_low)) to round-off (1e-12)."""
+    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.periodic_compliant import CompliantBeamShooting
+
+    m = _rig2(n_modes)
+    N = m.n_modes
+    W = 15.4 / 7.6
+    tr = CompliantBeamEventSolver(m, record_modal_states=True).point(W, None, 40, 1, 64)
+    prob = CompliantBeamShooting(m)
+    w = m.contact_row
+    kl, cl, Dl = m.lower_stop_params()
+    ms = tr.extra["modal_states"]
+    gl = -(ms[:, :N] @ w) - Dl
+    inside = np.flatnonzero((gl > 0) & (kl * gl - cl * (ms[:, N:] @ w) > 0))
+    assert inside.size
+    # near the 18 Hz orbit (one contact on each stop), and inside the lower stop at 15.4 Hz
+    x18 = CompliantBeamEventSolver(m).point(18.0 / 7.6, None, 100, 1, 4).final_state[:2 * N] * (1 + 1e-3)
+    for x, W in ((x18, 18.0 / 7.6), (ms[inside[inside.size // 2]], W)):
+        s, J = _beam_jacobian(prob, x, W)
+        assert s.status == "ok" and s.extra["contact_time_lower"] > 0 and s.extra["contact_time_upper"] > 0
+        A = np.column_stack([s.M, s.x_p])
+        assert np.max(np.abs(A - J)) <= 1e-7 * np.max(np.abs(A))
+        D = prob.data(W)
+        e = s.extra
+        want = np.exp(np.trace(D["A"][0]) * 2 * np.pi / W - float(w @ w) * (D["cc"] * e["contact_time_upper"]
+                                                                         + D["cl"] * e["contact_time_lower"]))
+        assert abs(np.linalg.det(s.M) / want - 1.0) < 1e-12
+
+
+def test_beam_two_stop_branch_period_doubling_and_event_runs():
+    """Two modes, 18 -> 17 Hz: the period-1 orbit with one contact on each stop loses stability
+    in a period doubling at 17.8443 Hz; its stable points and those of the period-2 branch are
+    fixed points of the two-stop beam kernel (400-period `event` runs from the branch state end
+    on it to 1e-9: the slowest multiplier used, 0.99, leaves 400 periods of decay ~1e-2 of a
+    1e-9 perturbation)."""
+    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models import shooting_problem
+
+    m = _rig2(2)
+    W = 18.0 / 7.6
+    tr = CompliantBeamEventSolver(m).point(W, None, 400, 4, 32)
+    brs = trace(shooting_problem(m, "Omega"), tr.final_state[:4], W, 1, 17.0 / 7.6, 19.0 / 7.6, -1)
+    assert [b.n for b in brs] == [1, 2]
+    pd = [f for f in brs[0].bifurcations if f.type == "period_doubling"]
+    assert len(pd) == 1 and pd[0].parameter * 7.6 == pytest.approx(17.8443, abs=1e-3)
+    for b in brs:
+        a = b.arrays()
+        assert np.all(a["impacts_lower"] == b.n) and np.all(a["impacts"] == 2 * b.n)
+        idx = [i for i in np.flatnonzero(a["stable"]) if np.abs(a["multipliers"][i]).max() < 0.99]
+        assert idx
+        for i in idx[:: max(1, len(idx) // 2)]:
+            x = a["state"][i]
+            t = CompliantBeamEventSolver(m).point(a["parameter"][i], np.concatenate([x, [0.0]]), 400, 4, 32)
+            assert np.max(np.abs(t.final_state[:4] - x)) < 1e-9 * np.max(np.abs(x))
+            assert t.n_impacts_lower == 4 and t.n_impacts == 8
+
+
+def test_beam_far_lower_stop_gives_the_one_stop_shot():
+    """A lower stop 100 mm away changes nothing the orbit sees: the two-stop shot equals the
+    one-stop shot (state, monodromy, d/dOmega) to round-off (measured: bit for bit)."""
+    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.periodic_compliant import CompliantBeamShooting
+
+    one, far = _rig2(2, None), _rig2(2, 100.0)
+    W = 15.4 / 7.6
+    x = CompliantBeamEventSolver(one).point(W, None, 40, 4, 32).final_state[:4]
+    a, b = CompliantBeamShooting(one).shot(x, W, 1), CompliantBeamShooting(far).shot(x, W, 1)
+    assert a.n_impacts >= 1 and list(b.extra["impact_stops"]) == [0] * a.n_impacts
+    np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-15 * np.max(np.abs(a.x)))
+    np.testing.assert_allclose(b.M, a.M, rtol=0, atol=1e-13 * np.max(np.abs(a.M)))
+    np.testing.assert_allclose(b.x_p, a.x_p, rtol=0, atol=1e-13 * np.max(np.abs(a.x_p)))
