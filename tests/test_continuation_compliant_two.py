@@ -311,3 +311,25 @@ def test_beam_far_lower_stop_gives_the_one_stop_shot():
     np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-15 * np.max(np.abs(a.x)))
     np.testing.assert_allclose(b.M, a.M, rtol=0, atol=1e-13 * np.max(np.abs(a.M)))
     np.testing.assert_allclose(b.x_p, a.x_p, rtol=0, atol=1e-13 * np.max(np.abs(a.x_p)))
+
+
+def test_vibeam_continue_beam_two_stops(tmp_path):
+    """`vibeam continue` on the rig with two Kelvin-Voigt stops (2 modes): the case validates
+    and the branch from 18 to 17.5 Hz records one contact per period on the lower stop."""
+    from vibeam.cli import main
+    from vibeam.results import read_results
+
+    text = open("cases/rig-fe-neutral.toml").read().split("# quick variant")[0]
+    text = text.replace("n_modes = 4", "n_modes = 2\ngap_lower_mm = 0.3")
+    text = text.replace("[model.discs]", '[model.contact]\nlaw = "linear"\nstiffness_n_m = 1e5\n\n[model.discs]')
+    text = text.replace("frequency_hz = [14.0, 17.0, 61]", "frequency_hz = [17.5, 18.0, 3]")
+    text = text.replace('direction = "both"\n', "")
+    text += '\n[[run]]\nname = "branches"\nmethod = "continuation"\nstart_at = "high"\n'
+    (tmp_path / "rig2.toml").write_text(text)
+    assert main(["continue", str(tmp_path / "rig2.toml"), "--out", str(tmp_path / "out"), "--jobs", "1",
+                 "--no-plots", "--quiet"]) == 0
+    g = read_results(tmp_path / "out" / "results.h5")["branches"]["branches"]
+    b = g[sorted(g)[0]]
+    assert np.all(np.asarray(b["impacts_per_period_lower"]) == 1)
+    # native Omega = f / f1 (f1 = 7.6 Hz)
+    assert float(b["parameter"][0]) * 7.6 == pytest.approx(18.0) and float(b["parameter"][-1]) * 7.6 == pytest.approx(17.5)
