@@ -38,6 +38,8 @@ CASES = {
     "soft, three contacts": (SOFT, 2.0, 1, None),
     "soft, period 2": (SOFT, 2.9, 2, None),
     "in contact with the lower stop at the section": (SOFT, 2.9, 1, (-0.3e-3 - 2e-5, -1e-4)),
+    "a lower stop with its own law": (replace(TWO, contact_lower=LinearContact.from_restitution(3e3, 0.7)), 1.9, 1,
+                                      None),
 }
 
 
