@@ -68,7 +68,7 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
         one of the problem's. A scene with two stops is served (the restitution shooting problems
         follow impacts on both). A model with a compliant stop gets its law's shooting problem
         (registry ``contact_laws[law]["continuation"]``), or this error when the law has none or
-        the scene has two stops (the compliant shooting problems have one stop).
+        the scene has two stops and the law's ``two_sided_law_methods`` lack ``"continuation"``.
     """
     law = getattr(model, "contact_law", "restitution")
     if law != "restitution":
@@ -77,9 +77,10 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
         if path is None:
             raise ValueError(f"continuation is not available for contact law {law!r} of fidelity "
                              f"{model.fidelity!r} (no shooting problem registered); use method = \"event\"")
-        if getattr(model, "two_sided", False):
+        if getattr(model, "two_sided", False) and \
+                "continuation" not in fidelity(model).two_sided_law_methods.get(law, ()):
             raise ValueError(f"continuation with contact law {law!r} and a second (lower) stop is not "
-                             f"implemented (the compliant shooting problems have one stop); use method = \"event\"")
+                             f"implemented for this law and fidelity; use method = \"event\"")
         return resolve(path)(model, parameter, Omega=Omega)
     shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
     cls = shooting.get(model.fidelity)

@@ -50,8 +50,21 @@ a grazing (``S`` above is finite); the map's correction there is of order ``eps^
 (short contact of duration ``~ sqrt(eps)`` and force ``~ eps``), so branches pass it with a
 mild corner.
 
+Two stops.  A lower Kelvin-Voigt stop at ``q = -Delta_lower`` (its own ``k_l``, ``c_l``) is
+followed as the two-stop kernel (:func:`~vibeam.models.sdof_compliant.compliant_kernel_stops`)
+does it: its entry scan, contact phase and exit run in the mirrored frame ``q~ = -q``,
+``phi~ = phi + pi``, and a free step ends at the earlier of the two stops' entries.  The
+derivatives are carried in the physical frame over three phases (free, upper contact, lower
+contact ``q'' + (2 beta + c_l) q' + (1 + k_l) q + k_l Delta_l = F sin(Omega t)``).  At an entry
+into the lower stop (``h = -q - Delta_l``, ``h_x f- = -v > 0``, jump ``f+ - f- = (0, -c_l v)``)
+the signs of the normal cancel and the saltation is again ``S = [[1, 0], [-c_l, 1]]``;
+``h_p = 0`` (``Delta`` moves the upper stop only).  ``det M = exp(-2 beta n T - c_c T_up - c_l
+T_low)``.  ``apex_gap`` is the larger of the two stops' grazing indicators (each in its own
+frame), and ``extra["impact_stops"]`` gives the stop of each contact (0 upper, 1 lower).
+
 Not handled (a shot with ``status = "failed"`` and a message, never a crash): overdamped
-phases, more than ``max_events`` contacts in a shot, a two-sided scene (refused when built).
+phases, more than ``max_events`` contacts in a shot; a second stop with a law other than
+``linear`` (refused when built).
 """
 from __future__ import annotations
 
@@ -61,8 +74,8 @@ import numpy as np
 from numba import njit
 
 from .periodic import Shot
-from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, FREE, advance, envelope, phase_eval, phase_params,
-                             upcross)
+from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_NONE, FREE, _mirror_in, _mirror_out, advance, envelope,
+                             phase_eval, phase_params, upcross)
 from .sdof_flow import transition
 
 TWO_PI = 2.0 * math.pi
@@ -112,7 +125,8 @@ class CompliantSDOFShooting:
     Parameters
     ----------
     model : vibeam.models.SDOF
-        With ``contact`` a :class:`vibeam.models.compliant.LinearContact` (one stop).
+        With ``contact`` a :class:`vibeam.models.compliant.LinearContact`; optionally a second
+        (lower) stop, ``Delta_lower``, whose law (``contact_lower`` or ``contact``) is linear too.
     parameter : {"Omega", "B", "Delta"}
         Continuation parameter (native, nondimensional).
     Omega : float, optional
@@ -123,7 +137,7 @@ class CompliantSDOFShooting:
     Raises
     ------
     ValueError
-        For another law, a second stop, an unknown parameter, a missing ``Omega`` or an
+        For another law (on either stop), an unknown parameter, a missing ``Omega`` or an
         overdamped contact phase.
     """
 
@@ -134,8 +148,18 @@ class CompliantSDOFShooting:
         law = getattr(model, "contact", None)
         if law is None or getattr(law, "name", "") != "linear":
             raise ValueError("CompliantSDOFShooting needs a stop with contact law \"linear\"")
-        if getattr(model, "two_sided", False):
-            raise ValueError("continuation with a compliant law follows one stop (no second stop)")
+        self.two = bool(getattr(model, "two_sided", False))
+        if self.two:
+            low = model.stops()[1].law
+            if getattr(low, "name", "") != "linear":
+                raise ValueError("continuation with two stops needs contact law \"linear\" on the lower stop too "
+                                 f"([model.contact_lower] law = {getattr(low, 'name', '?')!r}); use method = \"event\"")
+            self.Dl = float(model.Delta_lower)
+            self.kcl = float(low.stiffness)
+            self.ccl = float(low.damping)
+            if not (2.0 * float(model.beta) + self.ccl) / (2.0 * math.sqrt(1.0 + self.kcl)) < 1.0:
+                raise ValueError("the lower stop's contact phase is overdamped: lower [model.contact_lower] "
+                                 "damping_ratio or raise R")
         if parameter not in PARAMETERS:
             raise ValueError(f"parameter {parameter!r} cannot be continued with contact law \"linear\"; "
                              f"allowed: {', '.join(PARAMETERS)}")
@@ -185,6 +209,8 @@ class CompliantSDOFShooting:
             inside the window, ``entry_kind`` (0 through ``delta = 0``, 1 re-entry inside the
             stop).
         """
+        if self.two:
+            return self._shot_two(x0, p, n)
         beta = float(self.model.beta)
         B, Delta, Omega = self.params(p)
         kc, cc = self.kc, self.cc
@@ -297,11 +323,173 @@ class CompliantSDOFShooting:
                     extra={"x_all_p": xp_all, "contact_time": t_con, "contacts": con,
                            "entry_kind": np.array(kinds, np.int64), "in_contact_end": phase == CONTACT})
 
-    def _extremes(self, phase, s, phi, q, v, pp, Omega, Delta):
+    def _shot_two(self, x0, p, n) -> Shot:
+        """``P^n`` with a second (lower) Kelvin-Voigt stop at ``q = -Delta_lower`` (module
+        docstring, "Two stops"): the steps of :func:`~vibeam.models.sdof_compliant.compliant_kernel_stops`
+        (the lower stop's entry scan, contact phase and exit in the mirrored frame ``q~ = -q``,
+        ``phi~ = phi + pi``) with the derivatives carried in the physical frame over three
+        phases (free, upper contact, lower contact)."""
+        beta = float(self.model.beta)
+        B, Delta, Omega = self.params(p)
+        kc, cc, kl, cl, Dl = self.kc, self.cc, self.kcl, self.ccl, self.Dl
+        n = int(n)
+        q, v = float(x0[0]), float(x0[1])
+        if not (Omega is not None and Omega > 0.0 and math.isfinite(q) and math.isfinite(v)
+                and math.isfinite(B) and math.isfinite(Delta) and n >= 1):
+            return _failed(f"parameters or state out of range (Omega {Omega}, n {n}, x0 ({q}, {v}))")
+        if not Delta + Dl > 0.0:
+            return _failed(f"the stops overlap: Delta + Delta_lower = {Delta + Dl} must be > 0")
+        if beta == 0.0 and Omega == 1.0:
+            return _failed("undamped exact resonance: no periodic particular solution")
+        F = Omega * Omega * B
+        P = phase_params(beta, F, Omega, Delta, kc, cc)
+        PL = phase_params(beta, F, Omega, Dl, kl, cl)       # the lower stop's mirrored frame
+        if not (P[1, 1] < 1.0 and PL[1, 1] < 1.0 and np.all(np.isfinite(P)) and np.all(np.isfinite(PL))):
+            return _failed("overdamped or resonant phase")
+        # physical-frame rows: free, upper contact, lower contact q'' + 2 b w q' + w^2 (q - q_e)
+        # = F sin(Omega t) with q_e = -k_l Delta_l / (1 + k_l) (the mirror of PL's contact row)
+        LOWER = 2
+        Po = np.vstack([P, PL[1:2]])
+        Po[2, 2] = -PL[1, 2]
+        T = TWO_PI / Omega
+        t_end = n * T
+        hmax = (TWO_PI / P[0, 0] / 16.0, TWO_PI / P[1, 0] / 16.0, TWO_PI / PL[1, 0] / 16.0)
+        part = [particular_sensitivities(Po[r], F, B, Omega) for r in range(3)]
+        dqe = (0.0, kc / (1.0 + kc), 0.0)     # Delta moves the upper stop only
+        j = self.index
+
+        def field(r, q, v, t):
+            w, b, qe = Po[r, 0], Po[r, 1], Po[r, 2]
+            return np.array([v, F * math.sin(Omega * t) - 2.0 * b * w * v - w * w * (q - qe)])
+
+        def carry(Y, r, ta, tb):
+            Phi = phase_stm(tb - ta, Po[r])
+            Y = Phi @ Y
+            X, dX = part[r]
+            for k in range(3):
+                Y[:, 2 + k] += _dP(tb, X, dX, dqe[r], Omega, k) - Phi @ _dP(ta, X, dX, dqe[r], Omega, k)
+            return Y
+
+        Y = np.zeros((2, 5))
+        Y[0, 0] = Y[1, 1] = 1.0
+        d = np.empty(6)
+        dl0, dll = q - Delta, -q - Dl
+        if dl0 >= 0.0 and kc * dl0 + cc * v > 0.0:
+            phase = CONTACT
+        elif dll >= 0.0 and kl * dll - cl * v > 0.0:
+            phase = LOWER
+        else:
+            phase = FREE
+        ex = np.array([q, q, np.inf])
+        exm = np.empty(3)
+        cs = np.zeros(4)
+        t = phi = t_seg = 0.0
+        t_con = [0.0, 0.0]
+        apex = -np.inf
+        entries, rates, kinds, sides, contacts = [], [], [], [], []
+        open_contact = None
+        steps = 0
+        max_steps = 200 * n * (1 + int(math.ceil(max(P[1, 0], PL[1, 0])))) + 64 * self.max_events
+        while t_end - t > 1e-15 * T:
+            steps += 1
+            if steps > max_steps:
+                return _failed(f"more than {max_steps} steps in {n} period(s)")
+            h = min(t_end - t, hmax[phase])
+            phl = (phi + math.pi) % TWO_PI
+            below = (q - Delta < 0.0, -q - Dl < 0.0)   # an entry from here is through the gap's zero
+            if phase == FREE:
+                # the lower stop's entry scan first (mirrored frame, nothing recorded), then the
+                # upper stop's up to it (records the extremes), as the two-stop kernel
+                s_l, ev_l = advance(FREE, h, phl, -q, -v, PL[0], kl, cl, Omega, Dl, False, ex, cs, d, kl, cl, 0.0)
+                s, ev = advance(FREE, s_l if ev_l != EV_NONE else h, phi, q, v, P[0], kc, cc, Omega, Delta, True,
+                                ex, cs, d, kc, cc, 0.0)
+                side = 0
+                if ev == EV_NONE and ev_l != EV_NONE:
+                    s, ev, side = s_l, ev_l, 1
+                if s > 0.0:
+                    apex = max(apex, self._extremes(FREE, s, phi, q, v, P[0], Omega, Delta),
+                               self._extremes(FREE, s, phl, -q, -v, PL[0], Omega, Dl, kl, cl))
+            elif phase == CONTACT:
+                side = 0
+                s, ev = advance(CONTACT, h, phi, q, v, P[1], kc, cc, Omega, Delta, True, ex, cs, d, kc, cc, 0.0)
+                if s > 0.0:
+                    apex = max(apex, self._extremes(CONTACT, s, phi, q, v, P[1], Omega, Delta))
+            else:
+                side = 1
+                _mirror_in(ex, exm)
+                s, ev = advance(CONTACT, h, phl, -q, -v, PL[1], kl, cl, Omega, Dl, True, exm, cs, d, kl, cl, 0.0)
+                _mirror_out(ex, exm)
+                if s > 0.0:
+                    apex = max(apex, self._extremes(CONTACT, s, phl, -q, -v, PL[1], Omega, Dl, kl, cl))
+            if s < 0.0:
+                return _failed("event location failed")
+            if side == 0:
+                phase_eval(s, phi, q, v, P[0] if phase == FREE else P[1], Omega, Delta, d)
+                q_new, v_new = Delta + d[0], d[1]
+            else:
+                phase_eval(s, phl, -q, -v, PL[0] if phase == FREE else PL[1], Omega, Dl, d)
+                q_new, v_new = -(Dl + d[0]), -d[1]
+            if phase != FREE:
+                t_con[phase - 1] += s
+            t += s
+            phi = (phi + Omega * s) % TWO_PI
+            q, v = q_new, v_new
+            if ev == EV_ENTRY:
+                if len(entries) >= self.max_events:
+                    return _failed(f"more than {self.max_events} contacts in {n} period(s)")
+                Y = carry(Y, FREE, t_seg, t)
+                t_seg = t
+                k_, c_ = (kc, cc) if side == 0 else (kl, cl)
+                if below[side]:
+                    # dashpot saltation S = [[1, 0], [-c, 1]] on either stop (the signs of the
+                    # lower stop's normal cancel); h_p = -1 for Delta on the upper stop only
+                    Y[1, :] -= c_ * Y[0, :]
+                    if side == 0:
+                        Y[1, 4] += cc
+                    kinds.append(0)
+                    rates.append(d[1])
+                else:
+                    kinds.append(1)
+                    rates.append((k_ * d[1] + c_ * d[2]) / k_)
+                entries.append(t)
+                sides.append(side)
+                cs[0] = t
+                cs[1] = k_ * d[0] + c_ * d[1]
+                cs[2] = d[0]
+                cs[3] = 0.0
+                open_contact = t
+                phase = CONTACT if side == 0 else LOWER
+            elif ev == EV_EXIT:
+                Y = carry(Y, phase, t_seg, t)
+                t_seg = t
+                if open_contact is not None:
+                    contacts.append((t - open_contact, cs[1], cs[2], cs[3]))
+                open_contact = None
+                phase = FREE
+        Y = carry(Y, phase, t_seg, t_end)
+        Y[:, 2] += field(phase, q, v, t_end) * (-t_end / Omega)
+        ex[0] = min(ex[0], q)
+        ex[1] = max(ex[1], q)
+        M = Y[:, :2].copy()
+        xp_all = Y[:, 2:].copy()
+        if not (np.all(np.isfinite(M)) and np.all(np.isfinite(xp_all))):
+            return _failed("non-finite derivatives")
+        con = np.array(contacts, float).reshape(-1, 4)
+        return Shot(x=np.array([q, v]), M=M, x_p=xp_all[:, j].copy(), impact_times=np.array(entries, float),
+                    impact_velocities=np.array(rates, float), q_min=float(ex[0]), q_max=float(ex[1]),
+                    apex_gap=float(apex), stuck_time=0.0, status="ok", message="", Omega=Omega, gap=Delta,
+                    extra={"x_all_p": xp_all, "contact_time": t_con[0] + t_con[1],
+                           "contact_time_upper": t_con[0], "contact_time_lower": t_con[1], "contacts": con,
+                           "entry_kind": np.array(kinds, np.int64), "impact_stops": np.array(sides, np.int64),
+                           "in_contact_end": phase != FREE, "contact_side_end": phase})
+
+    def _extremes(self, phase, s, phi, q, v, pp, Omega, Delta, kc=None, cc=None):
         """Largest grazing indicator inside a step (module docstring): free-flight maxima of
         ``delta`` below the stop, maxima of ``f / k_c`` inside it, and ``-f / k_c`` at the
-        interior minima of the force in contact; ``-inf`` if none."""
-        kc, cc = self.kc, self.cc
+        interior minima of the force in contact; ``-inf`` if none.  ``kc, cc``: the stop's law
+        (default the upper stop's; the lower stop's in its mirrored frame)."""
+        if kc is None:
+            kc, cc = self.kc, self.cc
         A = envelope(phi, q, v, pp, Omega)
         d = np.empty(6)
         best = -np.inf
@@ -343,6 +531,9 @@ class CompliantSDOFShooting:
         if not C < Delta:
             return None, (f"the non-contacting orbit does not exist: its amplitude C = {C:.6g} reaches the "
                           f"stop Delta = {Delta:.6g} at {self.parameter} = {p:.6g}")
+        if getattr(self, "two", False) and not C < self.Dl:
+            return None, (f"the non-contacting orbit does not exist: its amplitude C = {C:.6g} reaches the "
+                          f"lower stop Delta_lower = {self.Dl:.6g} at {self.parameter} = {p:.6g}")
         return np.array([b, Omega * a]), ""
 
 
@@ -383,6 +574,15 @@ class CompliantBeamShooting:
     ``k_c`` inside it, or minus the force's interior minima in contact over ``k_c``), as for the
     SDOF.
 
+    A second (lower) Kelvin-Voigt stop at ``U = -Delta_C,lower`` (``model.two_sided``, its law
+    ``model.lower_law``, linear too) adds the third phase of
+    :func:`~vibeam.models.beam_compliant.beam_compliant_kernel_stops` (state matrix with
+    ``- k_l w w^T``, ``- c_l w w^T``), which the shot runs instead; an entry into it (gap ``-U -
+    Delta_l``, normal velocity ``-U'``) has the same saltation ``I - c_l [[0, 0], [w w^T, 0]]``
+    (the normal's signs cancel in ``w w^T``), so ``det M = exp(trace(A_free) n T - |w|^2 (c
+    T_up + c_l T_low))``; ``apex_gap`` watches both stops and ``extra["impact_stops"]`` gives
+    the stop of each contact (0 upper, 1 lower).
+
     Parameters
     ----------
     model : vibeam.models.beam_compliant.CompliantBeamModel
@@ -397,7 +597,7 @@ class CompliantBeamShooting:
     Raises
     ------
     ValueError
-        For another law, an unknown parameter or a missing ``Omega``.
+        For another law (on either stop), an unknown parameter or a missing ``Omega``.
     """
 
     fidelity = "beam"
@@ -409,8 +609,11 @@ class CompliantBeamShooting:
 
         if getattr(model, "contact", None) is None or getattr(model.contact, "name", "") != "linear":
             raise ValueError("CompliantBeamShooting needs a beam model with contact law \"linear\"")
-        if getattr(model, "two_sided", False):
-            raise ValueError("continuation with a compliant law follows one stop (no second stop)")
+        self.two = bool(getattr(model, "two_sided", False))
+        if self.two and getattr(model.lower_law, "name", "") != "linear":
+            raise ValueError("continuation with two stops needs contact law \"linear\" on the lower stop too "
+                             f"([model.contact_lower] law = {getattr(model.lower_law, 'name', '?')!r}); "
+                             "use method = \"event\"")
         if parameter not in BEAM_PARAMETERS:
             raise ValueError(f"parameter {parameter!r} cannot be continued with contact law \"linear\" on the "
                              f"beam; allowed: {', '.join(BEAM_PARAMETERS)}")
@@ -451,8 +654,8 @@ class CompliantBeamShooting:
         n2 = self.dim
         Y = m.base_amplitude_m
         F = Om * Om * Y
-        dZ = np.empty((2, 2, n2), complex)        # [phase, (Omega, Y)]
-        for r in range(2):
+        dZ = np.empty((A.shape[0], 2, n2), complex)        # [phase, (Omega, Y)]
+        for r in range(A.shape[0]):
             Rinv = np.linalg.inv(1j * Om * np.eye(n2) - A[r])
             Zu = Rinv @ b
             dZ[r, 0] = 2.0 * Om * Y * Zu - 1j * F * (Rinv @ Zu)
@@ -461,7 +664,11 @@ class CompliantBeamShooting:
         w = m.contact_row
         hmax = np.array([TWO_PI / math.sqrt(m.k_nd[0]), TWO_PI / math.sqrt(kc * float(w @ w))]) \
             / self.steps_per_fundamental
-        D = dict(m=m, Om=Om, A=A, b=b * F, b0=b0, kc=kc, cc=cc, pd=pd, dZ=dZ, lam=lam, V=V, W=W, hmax=hmax, F=F)
+        kl, cl, Dl = m.lower_stop_params()
+        if self.two:    # the lower contact phase's steps (as CompliantBeamEventSolver)
+            hmax = np.append(hmax, TWO_PI / math.sqrt(kl * float(w @ w)) / self.steps_per_fundamental)
+        D = dict(m=m, Om=Om, A=A, b=b * F, b0=b0, kc=kc, cc=cc, pd=pd, dZ=dZ, lam=lam, V=V, W=W, hmax=hmax, F=F,
+                 kl=kl, cl=cl, Dl=Dl)
         self._key, self._data = float(p), D
         return D
 
@@ -506,7 +713,7 @@ class CompliantBeamShooting:
             ``apex_gap`` in m; ``extra``: ``x_all_p`` (2N, 2) ``d x / d(Omega, Y)``,
             ``contact_time``, ``contacts`` (k, 4) per contact of the window (kernel units).
         """
-        from .beam_compliant import beam_compliant_kernel
+        from .beam_compliant import beam_compliant_kernel, beam_compliant_kernel_stops
 
         n = int(n)
         x0 = np.asarray(x0, float)
@@ -526,6 +733,9 @@ class CompliantBeamShooting:
         g0 = float(w @ x0[:N]) - DC
         u0 = float(w @ x0[N:])
         phase0 = CONTACT if (g0 >= 0.0 and kc * g0 + cc * u0 > 0.0) else FREE
+        kl, cl, Dl = D["kl"], D["cl"], D["Dl"]
+        if self.two and phase0 == FREE and -g0 - DC - Dl >= 0.0 and kl * (-g0 - DC - Dl) - cl * u0 > 0.0:
+            phase0 = 2                 # in contact with the lower stop (gap -U - Delta_l)
         ns = 4
         cap = self.max_contacts
         samples = np.zeros((n * ns, 2))
@@ -535,30 +745,37 @@ class CompliantBeamShooting:
         con = np.full((cap, 5), np.nan)
         msamp = np.zeros((0, n2))
         z = x0.copy()
-        status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = beam_compliant_kernel(
-            Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, kc, cc, DC, z, phase0, 0, n,
-            1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t, imp_v, con, msamp)
+        imp_k = np.zeros(cap, np.int64)
+        if self.two:
+            status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps, _ = beam_compliant_kernel_stops(
+                Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, kc, cc, DC, 2, kl, cl, Dl, z,
+                phase0, 0, n, 1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t, imp_v, con, imp_k, msamp)
+        else:
+            status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = beam_compliant_kernel(
+                Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, kc, cc, DC, z, phase0, 0, n,
+                1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t, imp_v, con, msamp)
         if status != 0 or n_rec > cap:
             return _failed_n(self.dim, f"the event kernel gave up after {n_con} contacts / {n_steps} steps in "
                                        f"{n} period(s)")
         # the phase sequence: [start phase, events (t, kind)], kind 1 entry, 2 exit
+        # events (t, kind, stop): kind 1 entry, 2 exit; stop 0 upper, 1 lower
         events = []
         for r in range(n_rec):
-            events.append((float(imp_t[r]), 1))
+            events.append((float(imp_t[r]), 1, int(imp_k[r])))
             if math.isfinite(con[r, 0]):
-                events.append((float(imp_t[r] + con[r, 0]), 2))
-        if phase0 == CONTACT:
+                events.append((float(imp_t[r] + con[r, 0]), 2, int(imp_k[r])))
+        if phase0 != FREE:
             t_first = events[0][0] if events else t_end
-            tx = self._first_exit(D, x0, t_first)
+            tx = self._first_exit(D, x0, t_first, phase0 - 1)
             if tx is not None:
-                events.append((tx, 2))
+                events.append((tx, 2, phase0 - 1))
         events.sort()
         # alternation check (entry after free, exit after contact)
         ph = phase0
-        for _, kind in events:
+        for _, kind, _k in events:
             if (kind == 1) != (ph == FREE):
                 return _failed_n(self.dim, "contact events do not alternate (inconsistent event record)")
-            ph = CONTACT if kind == 1 else FREE
+            ph = 1 + _k if kind == 1 else FREE
         if ph != int(ph_end):
             return _failed_n(self.dim, "the event record does not end in the kernel's phase")
         # compose the tangent along the phases (exact flows), with the state rebuilt on them
@@ -568,9 +785,10 @@ class CompliantBeamShooting:
         ta = 0.0
         ph = phase0
         apex = -np.inf
-        rates, entries, contacts, t_c = [], [], [], 0.0
+        rates, entries, contacts, t_c, sides = [], [], [], 0.0, []
+        t_cs = [0.0, 0.0]
         t_open = None
-        for (tb, kind) in events + [(t_end, 0)]:
+        for (tb, kind, side) in events + [(t_end, 0, 0)]:
             Phi = self._stm(D, ph, tb - ta)
             za = zc
             zc = Phi @ (zc - self._zp(D, ph, ta)) + self._zp(D, ph, tb)
@@ -578,20 +796,26 @@ class CompliantBeamShooting:
             for j in range(2):
                 J[:, n2 + j] += self._dzp(D, ph, tb, j) - Phi @ self._dzp(D, ph, ta, j)
             apex = max(apex, self._extremes(D, ph, za, ta, tb))
-            if ph == CONTACT:
+            if ph != FREE:
                 t_c += tb - ta
+                t_cs[ph - 1] += tb - ta
             if kind == 1:
-                g = float(w @ zc[:N]) - DC
-                U = float(w @ zc[N:])
+                # the entered stop's gap, normal velocity and law (lower: gap -U - Delta_l)
+                sg, off, k_, c_ = (1.0, DC, kc, cc) if side == 0 else (-1.0, Dl, kl, cl)
+                g = sg * float(w @ zc[:N]) - off
+                U = sg * float(w @ zc[N:])
                 entries.append(tb)
-                if g <= 1e-9 * max(abs(DC), self.state_scale * 1e-3 / math.sqrt(m.m_eff)) and U > 0.0:
-                    J[N:, :] -= cc * np.outer(w, w @ J[:N, :])     # saltation of the dashpot's jump
+                sides.append(side)
+                if g <= 1e-9 * max(abs(off), self.state_scale * 1e-3 / math.sqrt(m.m_eff)) and U > 0.0:
+                    # saltation of the dashpot's jump; the same on the lower stop (the signs of
+                    # its normal -w cancel in w w^T)
+                    J[N:, :] -= c_ * np.outer(w, w @ J[:N, :])
                     rates.append(U / L)
                 else:
-                    a_n = float(w @ self._field(D, FREE, zc, tb)[N:])
-                    rates.append((kc * U + cc * a_n) / kc / L)
+                    a_n = sg * float(w @ self._field(D, FREE, zc, tb)[N:])
+                    rates.append((k_ * U + c_ * a_n) / k_ / L)
                 t_open = tb
-                ph = CONTACT
+                ph = 1 + side
             elif kind == 2:
                 if t_open is not None:
                     r = len(contacts)
@@ -604,11 +828,15 @@ class CompliantBeamShooting:
         M = J[:, :n2].copy()
         if not np.all(np.isfinite(J)):
             return _failed_n(self.dim, "non-finite derivatives")
+        extra = {"x_all_p": J[:, n2:].copy(), "contact_time": t_c, "rebuilt_state": zc,
+                 "contacts": np.array(contacts, float).reshape(-1, 4), "in_contact_end": ph != FREE}
+        if self.two:
+            extra.update(impact_stops=np.array(sides, np.int64), contact_time_upper=t_cs[0],
+                         contact_time_lower=t_cs[1], contact_side_end=ph)
         return Shot(x=z.copy(), M=M, x_p=J[:, jcol].copy(), impact_times=np.array(entries, float),
                     impact_velocities=np.array(rates, float), q_min=float(smin / L), q_max=float(smax / L),
                     apex_gap=float(apex), stuck_time=0.0, status="ok", message="", Omega=Om, gap=m.Delta,
-                    extra={"x_all_p": J[:, n2:].copy(), "contact_time": t_c, "rebuilt_state": zc,
-                           "contacts": np.array(contacts, float).reshape(-1, 4), "in_contact_end": ph == CONTACT})
+                    extra=extra)
 
     def _signal(self, D, r, z, ta, rowc):
         """Coefficients ``(al, be, ga)`` of ``rowc . z(ta + s)`` in phase ``r`` from ``z`` at ``ta``."""
@@ -620,19 +848,27 @@ class CompliantBeamShooting:
         al = (rowc @ D["V"][r]) * a
         return al, complex(rowc @ D["pd"][3][r]), float(rowc @ D["pd"][4][r]), phi
 
-    def _first_exit(self, D, z, t_max):
+    def _first_exit(self, D, z, t_max, side=0):
         """Exit time of a contact open at the section: the force ``k g + c g'`` down through 0
-        (the kernel's certified scan, in its contact step lengths)."""
+        (the kernel's certified scan, in its contact step lengths); ``side`` 1: the lower stop
+        (gap ``-U - Delta_l``, its law)."""
         from .beam_compliant import _combo, bupcross
 
         N = self.model.n_modes
         rowU = np.concatenate([self.model.contact_row, np.zeros(N)])
-        al, be, ga, phi = self._signal(D, CONTACT, z, 0.0, rowU)
-        ga -= self.model.gap_contact_m
-        lam = D["lam"][CONTACT]
-        kc, cc, Om = D["kc"], D["cc"], D["Om"]
+        r = CONTACT + side
+        if side == 0:
+            al, be, ga, phi = self._signal(D, r, z, 0.0, rowU)
+            ga -= self.model.gap_contact_m
+            kc, cc = D["kc"], D["cc"]
+        else:
+            al, be, ga, phi = self._signal(D, r, z, 0.0, -rowU)
+            ga -= D["Dl"]
+            kc, cc = D["kl"], D["cl"]
+        lam = D["lam"][r]
+        Om = D["Om"]
         al2 = np.empty_like(al)
-        h = D["hmax"][CONTACT]
+        h = D["hmax"][r]
         s = 0.0
         while s < t_max:
             # the kernel's steps: the coefficients carried as a_j e^{lambda_j s} (decayed modes drop
@@ -647,17 +883,33 @@ class CompliantBeamShooting:
         return None
 
     def _extremes(self, D, r, z, ta, tb):
-        """Grazing indicator (m) inside the phase segment ``[ta, tb]`` (class docstring)."""
-        from .beam_compliant import _combo, _sig, bupcross
-
+        """Grazing indicator (m) inside the phase segment ``[ta, tb]`` (class docstring): the
+        larger of the two stops' in free flight with a lower stop."""
         if tb <= ta:
             return -np.inf
         N = self.model.n_modes
         rowU = np.concatenate([self.model.contact_row, np.zeros(N)])
-        al, be, ga, phi = self._signal(D, r, z, ta, rowU)
-        ga -= self.model.gap_contact_m
+        best = -np.inf
+        # the stops watched in this phase: both in free flight, the one in contact otherwise
+        sides = ((0, 1) if self.two else (0,)) if r == FREE else (r - 1,)
+        for side in sides:
+            best = max(best, self._extremes_stop(D, r, z, ta, tb, rowU, side))
+        return best
+
+    def _extremes_stop(self, D, r, z, ta, tb, rowU, side):
+        """:meth:`_extremes` of one stop (``side`` 1: the lower one, gap ``-U - Delta_l``)."""
+        from .beam_compliant import _combo, _sig, bupcross
+
+        if side == 0:
+            al, be, ga, phi = self._signal(D, r, z, ta, rowU)
+            ga -= self.model.gap_contact_m
+            kc, cc = D["kc"], D["cc"]
+        else:
+            al, be, ga, phi = self._signal(D, r, z, ta, -rowU)
+            ga -= D["Dl"]
+            kc, cc = D["kl"], D["cl"]
         lam = D["lam"][r]
-        kc, cc, Om = D["kc"], D["cc"], D["Om"]
+        Om = D["Om"]
         al2 = np.empty_like(al)
         buf = np.empty(4)
         h_min = 1e-13 * TWO_PI / Om
@@ -708,6 +960,9 @@ class CompliantBeamShooting:
         if not A < m.gap_contact_m:
             return None, (f"the non-contacting orbit does not exist: its contact amplitude {A:.6g} m reaches the "
                           f"stop Delta_C = {m.gap_contact_m:.6g} m at {self.parameter} = {p:.6g}")
+        if self.two and not A < D["Dl"]:
+            return None, (f"the non-contacting orbit does not exist: its contact amplitude {A:.6g} m reaches the "
+                          f"lower stop Delta_C,lower = {D['Dl']:.6g} m at {self.parameter} = {p:.6g}")
         return self.linear_orbit(p), ""
 
 

@@ -47,7 +47,8 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     law's are ``two_sided_law_methods``.
 ``two_sided_law_methods``
     For each compliant law, the methods that simulate it on two stops
-    (``{"linear": ("event", "direct")}``); a law not listed serves one stop only.
+    (``{"linear": ("event", "direct", "continuation")}``; ``"continuation"``: its shooting
+    problem follows both stops); a law not listed serves one stop only.
 ``contact_laws``
     Compliant contact laws (:mod:`vibeam.models.compliant`) and, for each, the methods that
     simulate it with their solvers (``{"linear": {"event": "module:Class", ...}}``); the
@@ -135,7 +136,7 @@ register(Fidelity(
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
     two_sided_methods=("event", "direct", "mapping", "continuation"),
-    two_sided_law_methods={"linear": ("event", "direct"), "hunt_crossley": ("event", "direct")},
+    two_sided_law_methods={"linear": ("event", "direct", "continuation"), "hunt_crossley": ("event", "direct")},
     contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver",
@@ -159,7 +160,7 @@ register(Fidelity(
     fe_model=True,
     restitution_law_methods=("event", "direct"),
     two_sided_methods=("event", "direct", "continuation"),
-    two_sided_law_methods={"linear": ("event", "direct")},
+    two_sided_law_methods={"linear": ("event", "direct", "continuation")},
     contact_laws={"linear": {"event": "beam_compliant:CompliantBeamEventSolver",
                              "direct": "beam_compliant:CompliantBeamODESolver",
                              "continuation": "periodic_compliant:CompliantBeamShooting"},

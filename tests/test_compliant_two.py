@@ -194,11 +194,14 @@ def test_case_builds_two_compliant_stops_and_records_contacts_per_stop():
     sm = summarize(CompliantEventSolver(m2).point(1.1, None, 100, 8, 32), m2.Delta)
     assert sm["status"] == "ok" and sm["impacts_per_period"] >= 1 and sm["impacts_per_period_lower"] >= 1
     # what simulates a compliant law on two stops is the registry's two_sided_law_methods: mapping
-    # and continuation (both one-stop for a compliant law) are refused at validation and by make_solver
-    for method in ("mapping", "continuation"):
-        with pytest.raises(CaseError, match="cannot simulate a second stop with contact.law = \"linear\".*"
-                                            "allowed with two stops: event, direct$"):
-            parse_case(CASE.replace('method = "event"', f'method = "{method}"'))
+    # (one-stop for a compliant law) is refused at validation and by make_solver; continuation
+    # serves two linear stops (tests/test_continuation_compliant_two.py), not a Hunt-Crossley one
+    with pytest.raises(CaseError, match="cannot simulate a second stop with contact.law = \"linear\".*"
+                                        "allowed with two stops: event, direct, continuation$"):
+        parse_case(CASE.replace('method = "event"', 'method = "mapping"'))
+    with pytest.raises(CaseError, match="cannot simulate a second stop with contact.law = \"linear\" and "
+                                        "contact_lower.law = \"hunt_crossley\".*allowed with two stops: event, direct$"):
+        parse_case(text.replace('method = "event"', 'method = "continuation"'))
     with pytest.raises(ValueError, match="cannot simulate contact law 'linear' on a second"):
         make_solver(m, "mapping")
     with pytest.raises(CaseError, match="beside a restitution stop is not implemented"):

@@ -1209,8 +1209,14 @@ def _check_two_sided(case: Case, i: int, r) -> None:
     contact = getattr(spec, "contact", None)
     law = "restitution" if contact is None else contact.law
     allowed = two_sided_methods(spec.fidelity, law)
+    what = "" if law == "restitution" else f" with contact.law = \"{law}\""
+    lo = lower_law_spec(spec) if contact is not None else None
+    if lo is not None and lo.law != law:
+        # a lower stop with another law: the methods that simulate both laws on two stops
+        low = two_sided_methods(spec.fidelity, lo.law)
+        allowed = tuple(m for m in allowed if m in low)
+        what += f" and contact_lower.law = \"{lo.law}\""
     if r.method not in allowed:
-        what = "" if law == "restitution" else f" with contact.law = \"{law}\""
         raise CaseError(f"'run[{i}].method' = {r.method!r} cannot simulate a second stop{what} (the scene has a "
                         f"lower stop: {_lower_key(spec)}); allowed with two stops: {', '.join(allowed) or 'none'}")
     eff = case.effects_for(r)
