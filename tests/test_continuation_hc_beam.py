@@ -102,3 +102,26 @@ def test_refusals():
     lin = case.model_spec({"n_modes": 1, "contact": {"law": "linear", "stiffness_n_m": 1e8}}).build()
     with pytest.raises(ValueError, match="hunt_crossley"):
         HuntCrossleyBeamShooting(lin)
+
+
+def _case_text(lo=16.5, hi=17.0):
+    """The 2-mode rig (neutral gap, R 0.72) on a Hertzian Hunt-Crossley stop, one continuation run."""
+    text = open("cases/rig-fe-neutral.toml").read().split("# quick variant")[0]
+    text = text.replace("n_modes = 4", "n_modes = 2")
+    text = text.replace("[model.discs]", '[model.contact]\nlaw = "hunt_crossley"\nstiffness_n_m = 1e8\n\n'
+                                         '[model.discs]')
+    text = text.replace("frequency_hz = [14.0, 17.0, 61]", f"frequency_hz = [{lo}, {hi}, 3]")
+    text = text.replace('direction = "both"\n', "")
+    return text + '\n[[run]]\nname = "branches"\nmethod = "continuation"\nstart_at = "high"\n'
+
+
+def test_registry_dispatch_and_case_validation():
+    """The beam's hunt_crossley table names the shooting problem; a case asking for
+    ``method = "continuation"`` on a beam Hunt-Crossley scene validates."""
+    from vibeam.case import parse_case
+    from vibeam.models import shooting_problem
+
+    case = parse_case(_case_text())
+    assert [r.method for r in case.run] == ["continuation"]
+    m = case.model_spec().build()
+    assert isinstance(shooting_problem(m, "Omega"), HuntCrossleyBeamShooting)
