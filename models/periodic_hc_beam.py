@@ -25,8 +25,10 @@ The derivatives are composed along the kernel's contacts on a rebuilt trajectory
 
 So ``P^n`` and its derivatives are accurate to the integrator, not exact: the kernel's contact
 phase is its own Dormand-Prince 5(4) at ``rtol = 1e-11`` and the derivatives' trajectory is
-DOP853's at ``rtol = 1e-12`` (they agree to ~1e-9 of the state); ``P^n`` is smooth only to that
-level (adaptive steps change with ``x0``), so Newton converges to ~1e-10, not to round-off.
+DOP853's at ``rtol = 1e-12`` (on the rig they agree to ~2e-11 of the state, as does the
+solve_ivp reference of method ``direct``); ``P^n`` is smooth only to about that level (adaptive
+steps change with ``x0``), so its difference quotients and Newton's residual stop there, not at
+round-off (central differences of the shot match the Jacobian to ~3e-9).
 
 Not represented (``status = "failed"`` with the reason, never a crash): a section inside the
 stop (the open contact depends on its ``v_r``, which is not part of the state), a re-entry

@@ -218,3 +218,19 @@ def test_vibeam_continue_end_to_end(tmp_path):
     b = g[sorted(g)[0]]
     assert len(b["parameter"]) > 5 and np.all(np.asarray(b["impacts_per_period"]) == 1)
     assert float(b["parameter"][0]) * 7.6 == pytest.approx(17.0) and float(b["parameter"][-1]) * 7.6 == pytest.approx(16.5)
+
+
+def test_grazing_indicator_of_the_contact_free_orbit():
+    """The apex indicator of the contact-free orbit (2 modes, gap 0.1 mm, 19 Hz) is its
+    closed-form contact amplitude minus the gap (to 1e-12 m: a located extremum of the exact
+    free flow), and the shot of that orbit returns it (no contact; 1e-12 of the state)."""
+    m = _rig(2, gap_mm=0.1)
+    prob = HuntCrossleyBeamShooting(m)
+    W = 19.0 / m.f_ref_hz
+    x, why = prob.start("linear", W)
+    assert x is not None, why
+    s = prob.shot(x, W, 1)
+    assert s.status == "ok" and s.n_impacts == 0 and np.max(np.abs(s.x - x)) < 1e-12 * np.max(np.abs(x))
+    Z = prob.data(W)["pd"][3][0][:2]
+    assert s.apex_gap < 0.0
+    assert s.apex_gap == pytest.approx(abs(m.contact_row @ Z) - m.gap_contact_m, abs=1e-12)
