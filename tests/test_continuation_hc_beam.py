@@ -234,3 +234,24 @@ def test_grazing_indicator_of_the_contact_free_orbit():
     Z = prob.data(W)["pd"][3][0][:2]
     assert s.apex_gap < 0.0
     assert s.apex_gap == pytest.approx(abs(m.contact_row @ Z) - m.gap_contact_m, abs=1e-12)
+
+
+def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
+    """The case key ``voltage`` is affine in ``base_amplitude_m`` (``Y = gamma~ V``): the framework's
+    problem in the voltage gives the same shot as the native one and ``d x / d V = gamma~ d x / d Y``
+    (1e-12: the same arithmetic up to the scaling)."""
+    from vibeam.branches import problem
+    from vibeam.case import load_case
+
+    case, _ = load_case("cases/rig-fe-neutral.toml")
+    spec = case.model_spec({"n_modes": 2, "contact": {"law": "hunt_crossley", "stiffness_n_m": 1e8}})
+    m = spec.build()
+    W = 16.0 / m.f_ref_hz
+    x = _settled(m, W) * 1.001
+    V = float(spec.voltage)
+    sv = problem(spec, "voltage", W).shot(x, V, 1)
+    sy = HuntCrossleyBeamShooting(m, "base_amplitude_m", Omega=W).shot(x, m.base_amplitude_m, 1)
+    g = spec.native_parameter("voltage")[1]
+    assert sv.status == sy.status == "ok" and sv.n_impacts == 1
+    np.testing.assert_allclose(sv.x, sy.x, rtol=0, atol=1e-14 * np.max(np.abs(x)))
+    np.testing.assert_allclose(sv.x_p, g * sy.x_p, rtol=1e-12)
