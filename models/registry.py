@@ -165,7 +165,8 @@ register(Fidelity(
                              "direct": "beam_compliant:CompliantBeamODESolver",
                              "continuation": "periodic_compliant:CompliantBeamShooting"},
                   "hunt_crossley": {"event": "beam_hc:HuntCrossleyBeamEventSolver",
-                                    "direct": "beam_hc:HuntCrossleyBeamODESolver"}},
+                                    "direct": "beam_hc:HuntCrossleyBeamODESolver",
+                                    "continuation": "periodic_hc_beam:HuntCrossleyBeamShooting"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 
