@@ -149,6 +149,7 @@ def _one_dof(m):
     return sd, sk, (lambda x: np.array([a * x[0], a * x[1] / sk]))
 
 
+@pytest.mark.slow
 def test_one_mode_beam_branch_equals_its_sdof_branch():
     """A one-mode beam on a Hunt-Crossley stop is the SDOF on the mapped stop: every point of the
     beam branch (neutral gap, 16.5-17 Hz), mapped to the SDOF's coordinates, is a fixed point of the
