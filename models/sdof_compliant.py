@@ -1001,7 +1001,8 @@ class CompliantEventSolver:
         ph_end = -1 if ph_end == 2 else ph_end
         k = min(n_rec, self.impact_buffer)
         con = con[:k]
-        con = con[np.isfinite(con[:, C_DURATION])]   # a contact still open at the end is not counted
+        closed = np.isfinite(con[:, C_DURATION])   # a contact still open at the end is not counted
+        con = con[closed]
         message = ""
         if status == STATUS_FAILED:
             message = (f"more than {max_con} contacts in {n_transient + n_record} periods"
@@ -1016,6 +1017,7 @@ class CompliantEventSolver:
                           final_state=np.array([q_end, v_end, float(ph_end)]),
                           extra={"contact_fraction": t_con / T_rec if n_record else 0.0},
                           contacts=con, impact_stops=imp_k[:k].copy() if two else None,
+                          contact_stops=imp_k[:k][closed].copy() if two else None,
                           n_impacts_lower=int(n_low) if two else 0)
 
 

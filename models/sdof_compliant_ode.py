@@ -114,7 +114,7 @@ class CompliantDirectSolver:
             mode = "contact"
         elif s0.shape[0] > 2 and s0[2] < -0.5 and two:
             mode, ks = "contact", 1
-        entries, contacts = [], []
+        entries, contacts, contact_k = [], [], []
         # Hunt-Crossley: entry velocities floored at 1e-2 Omega B (vibeam.models.compliant)
         v_floor = 1e-2 * Omega * m.B if m.B > 0.0 else 1e-6
         v_in = max(laws[ks][0] * v, v_floor)
@@ -204,6 +204,7 @@ class CompliantDirectSolver:
                 cur_row = cur
                 if cur_row[0] >= t_rec:
                     contacts.append([t - cur_row[0], cur_row[3], cur_row[4], y[2] - cur_row[2], cur_row[1]])
+                    contact_k.append(ks)
                 cur = None
                 mode = "free"
                 # the event is located within the tolerance on either side of f = 0
@@ -253,6 +254,7 @@ class CompliantDirectSolver:
                           impact_velocities=iv, n_impacts=int(it.size), q_min=q_min, q_max=q_max,
                           period_min=pmin, final_state=np.array([y[0], y[1], ph]),
                           contacts=con, impact_stops=ik if two else None,
+                          contact_stops=np.array(contact_k, np.int64) if two else None,
                           n_impacts_lower=int(np.sum(ik == 1)) if two else 0)
 
     @staticmethod
