@@ -34,6 +34,11 @@ def _ev(fn, direction):
     return fn
 
 
+def _impulsive(law) -> bool:
+    """Is ``law`` Newton's (a restitution stop beside a compliant one)?"""
+    return getattr(law, "kind", "") == "impulsive"
+
+
 class CompliantDirectSolver:
     """Method ``direct`` for a compliant stop (module docstring).
 
@@ -72,12 +77,7 @@ class CompliantDirectSolver:
     def _laws(self):
         """``[(sign, offset, law), ...]`` of the stops: the upper one at ``q = Delta``, and the
         lower one at ``q = -Delta_lower`` of a two-sided scene (``contact_lower`` or ``contact``)."""
-        m = self.model
-        out = [(1.0, m.Delta, m.contact)]
-        if m.Delta_lower is not None:
-            out.append((-1.0, m.Delta_lower, m.contact if getattr(m, "contact_lower", None) is None
-                        else m.contact_lower))
-        return out
+        return [(s.relation.sign, s.relation.offset, s.law) for s in self.model.stops()]
 
     def _force(self, v_in, k=0):
         """Force of stop ``k`` on ``(q, q')`` (penetration ``s q - D``, rate ``s q'``)."""
@@ -112,7 +112,7 @@ class CompliantDirectSolver:
         mode = "free"
         if s0.shape[0] > 2 and s0[2] > 0.5:
             mode = "contact"
-        elif s0.shape[0] > 2 and s0[2] < -0.5 and two:
+        elif s0.shape[0] > 2 and s0[2] < -0.5 and two and not _impulsive(laws[1][2]):
             mode, ks = "contact", 1
         entries, contacts, contact_k = [], [], []
         # Hunt-Crossley: entry velocities floored at 1e-2 Omega B (vibeam.models.compliant)
@@ -120,7 +120,7 @@ class CompliantDirectSolver:
         v_in = max(laws[ks][0] * v, v_floor)
         if mode == "free":
             for k, (sg, D, law) in enumerate(laws):
-                if sg * q - D < 0.0:
+                if sg * q - D < 0.0 or _impulsive(law):
                     continue
                 # contact now if the force is positive just after t = 0: the first non-zero of
                 # f, f', f'' (free-flight derivatives at forcing phase 0)
@@ -163,7 +163,7 @@ class CompliantDirectSolver:
                     return [yy[1], Fa * math.sin(Omega * tt) - b2 * yy[1] - yy[0], 0.0]
                 events = []
                 for k, (sg, D, law) in enumerate(laws):
-                    if sg * y[0] - D > 0.0:
+                    if sg * y[0] - D > 0.0 and not _impulsive(law):
                         if law.name == "linear":
                             fk = self._force(1.0, k)
                         else:
@@ -208,6 +208,18 @@ class CompliantDirectSolver:
                 cur = None
                 mode = "free"
                 # the event is located within the tolerance on either side of f = 0
+            elif tags[which][1] == "entry" and _impulsive(laws[tags[which][0]][2]):
+                # Newton's law (paper Eq. 2) on a restitution stop beside a compliant one
+                k = tags[which][0]
+                sg, D, law = laws[k]
+                vn = float(sg * y[1])
+                Rk = law.coefficient(vn)
+                y[0] = sg * D
+                y[1] = -sg * Rk * vn
+                if t >= t_rec:
+                    entries.append((t - t_rec, vn, k))
+                    contacts.append([0.0, np.nan, 0.0, 0.5 * (1.0 - Rk * Rk) * vn * vn, vn])
+                    contact_k.append(k)
             elif tags[which][1] == "entry":
                 mode = "contact"
                 ks = tags[which][0]
