@@ -115,6 +115,7 @@ class CompliantDirectSolver:
         elif s0.shape[0] > 2 and s0[2] < -0.5 and two and not _impulsive(laws[1][2]):
             mode, ks = "contact", 1
         entries, contacts, contact_k = [], [], []
+        impacts_at = []   # (t, q, sign) of the restitution impacts: extremes at the stop (no v = 0 there)
         # Hunt-Crossley: entry velocities floored at 1e-2 Omega B (vibeam.models.compliant)
         v_floor = 1e-2 * Omega * m.B if m.B > 0.0 else 1e-6
         v_in = max(laws[ks][0] * v, v_floor)
@@ -220,6 +221,7 @@ class CompliantDirectSolver:
                     entries.append((t - t_rec, vn, k))
                     contacts.append([0.0, np.nan, 0.0, 0.5 * (1.0 - Rk * Rk) * vn * vn, vn])
                     contact_k.append(k)
+                    impacts_at.append((t, sg * D, sg))
             elif tags[which][1] == "entry":
                 mode = "contact"
                 ks = tags[which][0]
@@ -234,6 +236,12 @@ class CompliantDirectSolver:
                 y[0] = min(y[0], laws[0][1]) if k == 0 else max(y[0], -laws[1][1])
         # samples and extremes from the dense segments
         minima, q_min, q_max = [], np.inf, -np.inf
+        for ti, qi, sgi in impacts_at:
+            if sgi < 0.0:   # a lower stop: a minimum of q
+                minima.append((ti, qi))
+                q_min = min(q_min, qi)
+            else:
+                q_max = max(q_max, qi)
         for (a, b, sol, md, force) in segs:
             sel = (ts >= a) & (ts <= b)
             if sel.any():
