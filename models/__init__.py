@@ -77,6 +77,9 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
         if path is None:
             raise ValueError(f"continuation is not available for contact law {law!r} of fidelity "
                              f"{model.fidelity!r} (no shooting problem registered); use method = \"event\"")
+        if getattr(model, "mixed_stops", False) and "continuation" not in fidelity(model).mixed_stop_methods:
+            raise ValueError("continuation with a restitution stop beside a compliant one is not implemented; "
+                             "use method = \"event\"")
         if getattr(model, "two_sided", False) and \
                 "continuation" not in fidelity(model).two_sided_law_methods.get(law, ()):
             raise ValueError(f"continuation with contact law {law!r} and a second (lower) stop is not "
@@ -103,6 +106,9 @@ def make_solver(model, method: str, **settings):
     fid = fidelity(model)
     law = getattr(model, "contact_law", "restitution")
     if law != "restitution":   # a compliant law: its own solvers (registry ``contact_laws``)
+        if getattr(model, "mixed_stops", False) and method not in fid.mixed_stop_methods:
+            raise ValueError(f"method {method!r} cannot simulate a restitution stop beside a compliant one; "
+                             f"allowed: {', '.join(fid.mixed_stop_methods) or 'none'}")
         table = {k: v for k, v in fid.contact_laws.get(law, {}).items() if k != "continuation"}
         if method not in table:
             allowed = ", ".join(table) or "none"

@@ -700,7 +700,8 @@ class CompliantBeamEventSolver:
         L = m.length_m
         k = min(n_rec, self.impact_buffer)
         c = con[:k]
-        c = c[np.isfinite(c[:, 0])].copy()
+        closed = np.isfinite(c[:, 0])   # a contact still open at the end is not counted
+        c = c[closed].copy()
         # nondimensional per unit effective mass (as the SDOF's): force / (m_eff L), penetration
         # / L, work / (m_eff L^2), velocities / L (time unit 1 / omega_ref)
         me = m.m_eff
@@ -720,6 +721,7 @@ class CompliantBeamEventSolver:
                           status="ok" if status == 0 else "failed", message=message,
                           final_state=np.concatenate([z, [float(ph_end)]]),
                           extra=extra, contacts=c, impact_stops=imp_k[:k].copy() if two else None,
+                          contact_stops=imp_k[:k][closed].copy() if two else None,
                           n_impacts_lower=int(n_low) if two else 0)
 
 
@@ -842,7 +844,7 @@ class CompliantBeamODESolver:
             if first > 0.0:
                 mode, ks = "contact", k
         t = 0.0
-        entries, contacts, segs = [], [], []
+        entries, contacts, segs, contact_k = [], [], [], []
         g_k, v_k, f_k = stops[ks][:3]
         cur = [0.0, v_k(y), 0.0, f_k(y), g_k(y)] if mode == "contact" else None
         n_ev, max_ev = 0, self.max_events_per_period * max(n_transient + n_record, 1)
@@ -895,6 +897,7 @@ class CompliantBeamODESolver:
             if p:
                 if cur[0] >= t_rec:
                     contacts.append([t - cur[0], cur[3], cur[4], y[2 * N] - cur[2], cur[1]])
+                    contact_k.append(ks)
                 cur, mode = None, "free"
             elif tags[first][1] == "entry":
                 mode, ks = "contact", tags[first][0]
@@ -943,6 +946,7 @@ class CompliantBeamODESolver:
                           period_min=pmin / L,
                           final_state=np.concatenate([y[:2 * N], [ph]]),
                           contacts=c, impact_stops=ik if two else None,
+                          contact_stops=np.array(contact_k, np.int64) if two else None,
                           n_impacts_lower=int(np.sum(ik == 1)) if two else 0)
 
 

@@ -49,6 +49,9 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     For each compliant law, the methods that simulate it on two stops
     (``{"linear": ("event", "direct", "continuation")}``; ``"continuation"``: its shooting
     problem follows both stops); a law not listed serves one stop only.
+``mixed_stop_methods``
+    Methods that simulate a compliant upper stop beside a restitution (Newton) lower stop
+    (the model's ``mixed_stops``); refused elsewhere by :func:`vibeam.models.make_solver`.
 ``contact_laws``
     Compliant contact laws (:mod:`vibeam.models.compliant`) and, for each, the methods that
     simulate it with their solvers (``{"linear": {"event": "module:Class", ...}}``); the
@@ -108,6 +111,7 @@ class Fidelity:
     restitution_law_methods: tuple = ()
     two_sided_methods: tuple = ()
     two_sided_law_methods: dict = field(default_factory=dict, compare=False)
+    mixed_stop_methods: tuple = ()
     contact_laws: dict = field(default_factory=dict, compare=False)
     description: str = field(default="", compare=False)
 
@@ -137,6 +141,7 @@ register(Fidelity(
     restitution_law_methods=("event",),
     two_sided_methods=("event", "direct", "mapping", "continuation"),
     two_sided_law_methods={"linear": ("event", "direct", "continuation"), "hunt_crossley": ("event", "direct")},
+    mixed_stop_methods=("event", "direct"),
     contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver",

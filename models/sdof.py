@@ -59,8 +59,10 @@ class SDOF:
         in N (``force_scale_n``); None: forces stay nondimensional.
     contact_lower : LinearContact or HuntCrossley or None, optional
         The compliant law of the lower stop of a two-sided scene with a compliant upper stop;
-        None: ``contact`` (the upper stop's law).  A compliant stop beside a restitution stop
-        is not implemented (:meth:`stops` raises ValueError).
+        None: ``contact`` (the upper stop's law), or Newton's law with ``R_lower`` when that is
+        given (a restitution stop beside the compliant one; ``event`` and ``direct`` only).  A
+        restitution upper stop beside a compliant lower one is not implemented (:meth:`stops`
+        raises ValueError).
     """
 
     beta: float
@@ -84,6 +86,11 @@ class SDOF:
         return self.Delta_lower is not None
 
     @property
+    def mixed_stops(self) -> bool:
+        """A compliant upper stop beside a restitution lower stop (``R_lower`` given)."""
+        return self.contact is not None and self.Delta_lower is not None and self.R_lower is not None
+
+    @property
     def contact_law(self) -> str:
         """Name of the stop's law (``"restitution"``, ``"linear"``, ...; the fidelity
         registry's ``contact_laws`` key)."""
@@ -102,12 +109,18 @@ class SDOF:
         law ``contact``; for a two-sided scene the stop at ``q = -Delta_lower`` (normal ``-1``)
         with its own law."""
         if self.contact is not None or self.contact_lower is not None:
-            if self.contact is None or (self.Delta_lower is not None and self.R_lower is not None):
-                raise ValueError("a compliant stop beside a restitution stop is not implemented: give both stops "
-                                 "a compliant law, or both law = \"restitution\"")
+            if self.contact is None:
+                raise ValueError("a restitution upper stop beside a compliant lower stop is not implemented: "
+                                 "give the upper stop the compliant law ([model.contact]) and the lower one "
+                                 "law = \"restitution\", or both stops a compliant law")
+            if self.contact_lower is not None and self.R_lower is not None:
+                raise ValueError("the lower stop takes one law: contact_lower (compliant) or R_lower (restitution)")
             out = (Stop(Relation(1.0, self.Delta), self.contact),)
             if self.Delta_lower is not None:
-                law = self.contact if self.contact_lower is None else self.contact_lower
+                if self.R_lower is not None:   # Newton's law below, beside the compliant upper stop
+                    law = Restitution(self.R_lower)
+                else:
+                    law = self.contact if self.contact_lower is None else self.contact_lower
                 out += (Stop(Relation(-1.0, self.Delta_lower), law),)
             return out
         tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())

@@ -44,7 +44,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .contact import DAMPING, EXPONENT, LAW, LAW_HUNT_CROSSLEY, OFFSET, STIFFNESS
+from .contact import DAMPING, EXPONENT, LAW, LAW_HUNT_CROSSLEY, LAW_RESTITUTION, OFFSET, R, STIFFNESS
+from .contact_policy import REBOUND, impact_outcome
 from .roots import rtsafe_update
 from .sdof_event import _certify
 from .sdof_flow import particular_coefficients, transition
@@ -52,7 +53,10 @@ from .sdof_flow import particular_coefficients, transition
 TWO_PI = 2.0 * math.pi
 FREE, CONTACT = 0, 1
 EV_NONE, EV_ENTRY, EV_EXIT, EV_GAPDOWN = 0, 1, 2, 3
-STATUS_OK, STATUS_FAILED = 0, 3
+STATUS_OK, STATUS_CHATTER, STATUS_FAILED = 0, 1, 3
+#: accepted relative error of the chatter estimate at a restitution stop beside a compliant one
+#: (:func:`vibeam.models.contact_policy.chatter_jump`; the default of :class:`vibeam.models.sdof.EventSolver`)
+CHATTER_TOL = 1e-7
 STATUS_NAMES = ("ok", "chatter", "sticking", "failed")
 #: columns of the per-contact record: duration, peak force, largest penetration, energy lost,
 #: entry velocity (all per unit effective mass, nondimensional)
@@ -688,9 +692,15 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
     vr = v_floor
     r0, r1, roff = kc, cc, 0.0
     r0l, r1l, roffl = kcl, ccl, 0.0
+    # a restitution (Newton) stop beside a compliant one: an impact, no contact phase; its free
+    # entry scan is the gap itself (r = (1, 0, 0)); the lower stop only (row 1)
+    rest_l = nst > 1 and int(stops[1, LAW]) == LAW_RESTITUTION
+    R_l = stops[ls, R] if rest_l else 0.0
+    if rest_l:
+        r0l, r1l, roffl = 1.0, 0.0, 0.0
     q = q_init
     v = v_init
-    phase = 1 if phase_init == 1 else (2 if (phase_init == 2 and nst > 1) else 0)
+    phase = 1 if phase_init == 1 else (2 if (phase_init == 2 and nst > 1 and not rest_l) else 0)
     if not (P[1, 1] < 1.0 and math.isfinite(P[0, 3]) and math.isfinite(P[1, 3])):
         return (STATUS_FAILED, 0, np.inf, -np.inf, q, v, phase, 0, 0.0, 0)
     if nst > 1 and not (PL[1, 1] < 1.0 and math.isfinite(PL[1, 3])):
@@ -822,7 +832,44 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
                 rem -= s
                 if rem < 1e-15 * T:
                     rem = 0.0
-                if ev == EV_ENTRY:
+                if ev == EV_ENTRY and side == 1 and rest_l:
+                    # Newton's law on the lower (restitution) stop, paper Eq. 2, in its frame:
+                    # delta'+ = -R delta'-; then the shared chatter/sticking policy
+                    vn = d[1]
+                    u = R_l * vn
+                    q = -DeltaL
+                    v = u
+                    n_con += 1
+                    if n_con > max_contacts:
+                        return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                    if recording:
+                        if q < ex[0]:
+                            ex[0] = q
+                        if q < ex[2]:
+                            ex[2] = q
+                        if n_rec < imp_t.shape[0]:
+                            imp_t[n_rec] = t0p + t_loc
+                            imp_v[n_rec] = vn
+                            imp_k[n_rec] = 1
+                        if n_rec < cap:
+                            con[n_rec, C_DURATION] = 0.0
+                            con[n_rec, C_FORCE] = np.nan
+                            con[n_rec, C_PENETRATION] = 0.0
+                            con[n_rec, C_ENERGY] = 0.5 * (1.0 - R_l * R_l) * vn * vn
+                            con[n_rec, C_VELOCITY] = vn
+                        n_rec += 1
+                        n_rec_l += 1
+                    # free contact acceleration towards the stop after the rebound (its frame:
+                    # delta'' = F sin phi~ - 2 beta delta' - q~ at q~ = Delta_l, delta' = -u)
+                    phl = (phi + math.pi) % TWO_PI
+                    acc = F * math.sin(phl) + 2.0 * beta * u - DeltaL
+                    pressed = acc - 2.0 * beta * u > 0.0
+                    act, _D = impact_outcome(u, pressed, acc, F * Omega * math.cos(phl), 2.0 * beta, 1.0, R_l,
+                                             CHATTER_TOL, rem, 0, 0)
+                    if act != REBOUND:
+                        # sticking on a restitution stop beside a compliant one is not implemented
+                        return (STATUS_CHATTER, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                elif ev == EV_ENTRY:
                     # d: the gap function of the entered stop and its derivatives (its own frame)
                     phase = CONTACT if side == 0 else 2
                     n_con += 1
@@ -940,9 +987,12 @@ class CompliantEventSolver:
         from .contact import LAW_LINEAR, pack
 
         stops = model.stops()
-        if not 1 <= len(stops) <= 2 or any(getattr(s.law, "code", -1) not in (LAW_LINEAR, LAW_HUNT_CROSSLEY)
-                                            for s in stops):
-            raise ValueError("CompliantEventSolver needs one or two stops with law \"linear\" or \"hunt_crossley\"")
+        compliant = (LAW_LINEAR, LAW_HUNT_CROSSLEY)
+        # the upper stop compliant; a lower stop compliant or Newton's (a restitution stop beside it)
+        if not 1 <= len(stops) <= 2 or getattr(stops[0].law, "code", -1) not in compliant or (
+                len(stops) == 2 and getattr(stops[1].law, "code", -1) not in compliant + (LAW_RESTITUTION,)):
+            raise ValueError("CompliantEventSolver needs an upper stop with law \"linear\" or \"hunt_crossley\" "
+                             "and a lower stop with one of those or \"restitution\"")
         self.model = model
         self.transient_samples = int(transient_samples)
         self.max_impacts_per_period = int(max_impacts_per_period)
@@ -951,6 +1001,8 @@ class CompliantEventSolver:
         self._stops = pack(stops)
         for st, key in zip(stops, ("[model.contact]", "[model.contact_lower]")):
             law = st.law
+            if law.code == LAW_RESTITUTION:
+                continue
             bc = (2.0 * model.beta + law.damping) / (2.0 * math.sqrt(1.0 + law.stiffness))
             if law.code == LAW_LINEAR and not bc < 1.0:
                 raise ValueError(f"the contact phase is overdamped (damping ratio {bc:.4g} >= 1): lower "
@@ -1001,9 +1053,17 @@ class CompliantEventSolver:
         ph_end = -1 if ph_end == 2 else ph_end
         k = min(n_rec, self.impact_buffer)
         con = con[:k]
-        con = con[np.isfinite(con[:, C_DURATION])]   # a contact still open at the end is not counted
+        closed = np.isfinite(con[:, C_DURATION])   # a contact still open at the end is not counted
+        con = con[closed]
         message = ""
-        if status == STATUS_FAILED:
+        if status == STATUS_CHATTER:
+            # the point ends at the chatter: no numbers from an unfinished record
+            message = ("chatter on the restitution lower stop (rebound too slow to resolve); sticking "
+                       "beside a compliant stop is not implemented")
+            samples[:] = np.nan
+            pmin[:] = np.nan
+            q_min = q_max = np.nan
+        elif status == STATUS_FAILED:
             message = (f"more than {max_con} contacts in {n_transient + n_record} periods"
                        if n_tot > max_con else
                        f"more than {self.max_steps_per_period} steps per period (a contact far stiffer than "
@@ -1016,6 +1076,7 @@ class CompliantEventSolver:
                           final_state=np.array([q_end, v_end, float(ph_end)]),
                           extra={"contact_fraction": t_con / T_rec if n_record else 0.0},
                           contacts=con, impact_stops=imp_k[:k].copy() if two else None,
+                          contact_stops=imp_k[:k][closed].copy() if two else None,
                           n_impacts_lower=int(n_low) if two else 0)
 
 

@@ -34,6 +34,11 @@ def _ev(fn, direction):
     return fn
 
 
+def _impulsive(law) -> bool:
+    """Is ``law`` Newton's (a restitution stop beside a compliant one)?"""
+    return getattr(law, "kind", "") == "impulsive"
+
+
 class CompliantDirectSolver:
     """Method ``direct`` for a compliant stop (module docstring).
 
@@ -72,12 +77,7 @@ class CompliantDirectSolver:
     def _laws(self):
         """``[(sign, offset, law), ...]`` of the stops: the upper one at ``q = Delta``, and the
         lower one at ``q = -Delta_lower`` of a two-sided scene (``contact_lower`` or ``contact``)."""
-        m = self.model
-        out = [(1.0, m.Delta, m.contact)]
-        if m.Delta_lower is not None:
-            out.append((-1.0, m.Delta_lower, m.contact if getattr(m, "contact_lower", None) is None
-                        else m.contact_lower))
-        return out
+        return [(s.relation.sign, s.relation.offset, s.law) for s in self.model.stops()]
 
     def _force(self, v_in, k=0):
         """Force of stop ``k`` on ``(q, q')`` (penetration ``s q - D``, rate ``s q'``)."""
@@ -112,15 +112,16 @@ class CompliantDirectSolver:
         mode = "free"
         if s0.shape[0] > 2 and s0[2] > 0.5:
             mode = "contact"
-        elif s0.shape[0] > 2 and s0[2] < -0.5 and two:
+        elif s0.shape[0] > 2 and s0[2] < -0.5 and two and not _impulsive(laws[1][2]):
             mode, ks = "contact", 1
-        entries, contacts = [], []
+        entries, contacts, contact_k = [], [], []
+        impacts_at = []   # (t, q, sign) of the restitution impacts: extremes at the stop (no v = 0 there)
         # Hunt-Crossley: entry velocities floored at 1e-2 Omega B (vibeam.models.compliant)
         v_floor = 1e-2 * Omega * m.B if m.B > 0.0 else 1e-6
         v_in = max(laws[ks][0] * v, v_floor)
         if mode == "free":
             for k, (sg, D, law) in enumerate(laws):
-                if sg * q - D < 0.0:
+                if sg * q - D < 0.0 or _impulsive(law):
                     continue
                 # contact now if the force is positive just after t = 0: the first non-zero of
                 # f, f', f'' (free-flight derivatives at forcing phase 0)
@@ -163,7 +164,7 @@ class CompliantDirectSolver:
                     return [yy[1], Fa * math.sin(Omega * tt) - b2 * yy[1] - yy[0], 0.0]
                 events = []
                 for k, (sg, D, law) in enumerate(laws):
-                    if sg * y[0] - D > 0.0:
+                    if sg * y[0] - D > 0.0 and not _impulsive(law):
                         if law.name == "linear":
                             fk = self._force(1.0, k)
                         else:
@@ -204,9 +205,23 @@ class CompliantDirectSolver:
                 cur_row = cur
                 if cur_row[0] >= t_rec:
                     contacts.append([t - cur_row[0], cur_row[3], cur_row[4], y[2] - cur_row[2], cur_row[1]])
+                    contact_k.append(ks)
                 cur = None
                 mode = "free"
                 # the event is located within the tolerance on either side of f = 0
+            elif tags[which][1] == "entry" and _impulsive(laws[tags[which][0]][2]):
+                # Newton's law (paper Eq. 2) on a restitution stop beside a compliant one
+                k = tags[which][0]
+                sg, D, law = laws[k]
+                vn = float(sg * y[1])
+                Rk = law.coefficient(vn)
+                y[0] = sg * D
+                y[1] = -sg * Rk * vn
+                if t >= t_rec:
+                    entries.append((t - t_rec, vn, k))
+                    contacts.append([0.0, np.nan, 0.0, 0.5 * (1.0 - Rk * Rk) * vn * vn, vn])
+                    contact_k.append(k)
+                    impacts_at.append((t, sg * D, sg))
             elif tags[which][1] == "entry":
                 mode = "contact"
                 ks = tags[which][0]
@@ -221,6 +236,12 @@ class CompliantDirectSolver:
                 y[0] = min(y[0], laws[0][1]) if k == 0 else max(y[0], -laws[1][1])
         # samples and extremes from the dense segments
         minima, q_min, q_max = [], np.inf, -np.inf
+        for ti, qi, sgi in impacts_at:
+            if sgi < 0.0:   # a lower stop: a minimum of q
+                minima.append((ti, qi))
+                q_min = min(q_min, qi)
+            else:
+                q_max = max(q_max, qi)
         for (a, b, sol, md, force) in segs:
             sel = (ts >= a) & (ts <= b)
             if sel.any():
@@ -253,6 +274,7 @@ class CompliantDirectSolver:
                           impact_velocities=iv, n_impacts=int(it.size), q_min=q_min, q_max=q_max,
                           period_min=pmin, final_state=np.array([y[0], y[1], ph]),
                           contacts=con, impact_stops=ik if two else None,
+                          contact_stops=np.array(contact_k, np.int64) if two else None,
                           n_impacts_lower=int(np.sum(ik == 1)) if two else 0)
 
     @staticmethod

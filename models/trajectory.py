@@ -66,6 +66,9 @@ class Trajectory:
         effective mass): duration, peak contact force, largest penetration, energy
         lost (work done on the stop), entry velocity
         (:data:`vibeam.models.sdof_compliant.C_DURATION` ...); None for impulsive laws.
+    contact_stops : ndarray of int, shape (k,), optional
+        Two-sided scenes: the stop of each row of ``contacts`` (0 upper, 1 lower).  None: one
+        stop, or rows in one-to-one order with ``impact_stops``.
     """
 
     Omega: float
@@ -86,6 +89,7 @@ class Trajectory:
     impact_stops: np.ndarray | None = None
     n_impacts_lower: int = 0
     contacts: np.ndarray | None = None
+    contact_stops: np.ndarray | None = None
 
     @property
     def n_record(self) -> int:

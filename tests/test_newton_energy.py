@@ -46,7 +46,8 @@ def test_beam_newton_energy_is_the_modal_kinetic_energy_jump(fe, gap, gap_lower,
     1e-12 relative (an identity of the impulse through the mass matrix: round-off only, measured
     <= 3e-15); the event kernel's rows (closed form) equal direct's impact by impact to 1e-7
     (both trajectories agree to 1e-8 in the impact speeds, tests/test_two_sided.py; measured
-    <= 6e-12); and summarize's ``energy_per_impact`` is their mean."""
+    <= 6e-12); and summarize's ``energy_per_impact`` is their mean (two stops: the upper stop's
+    rows, ``energy_per_impact_lower`` the lower stop's)."""
     m = BeamImpactModel.from_fe(fe, 2, R=0.72, gap_contact_m=gap, base_amplitude_m=Y,
                                 gap_contact_lower_m=gap_lower, R_lower=R_lower)
     s0 = np.zeros(5)
@@ -64,7 +65,12 @@ def test_beam_newton_energy_is_the_modal_kinetic_energy_jump(fe, gap, gap_lower,
     np.testing.assert_allclose(a.contacts[:, 3], b.contacts[:, 3], rtol=1e-7)
     np.testing.assert_allclose(a.contacts[:, 4], a.impact_velocities, rtol=0)
     out = summarize(a, m.Delta)
-    assert out["energy_per_impact"] == pytest.approx(np.mean(a.contacts[:, 3]), rel=1e-15)
+    if gap_lower is None:
+        assert out["energy_per_impact"] == pytest.approx(np.mean(a.contacts[:, 3]), rel=1e-15)
+    else:   # two stops: the unprefixed outputs are the upper stop's, *_lower the lower stop's
+        k = a.impact_stops
+        assert out["energy_per_impact"] == pytest.approx(np.mean(a.contacts[k == 0, 3]), rel=1e-15)
+        assert out["energy_per_impact_lower"] == pytest.approx(np.mean(a.contacts[k == 1, 3]), rel=1e-15)
     assert out["contact_duration"] == 0.0 and out["penetration_max"] == 0.0
     assert math.isnan(out["contact_force_max"])
 

@@ -55,8 +55,9 @@ class _Strict(BaseModel):
 
 
 # ----------------------------------------------------------------------------- model
-def _check_stops(spec, lower_keys: tuple, gap_key: str) -> None:
-    """The contact tables and the second stop of a model spec (ValueError naming the keys)."""
+def _check_stops(spec, lower_keys: tuple, gap_key: str, mixed: bool = False) -> None:
+    """The contact tables and the second stop of a model spec (ValueError naming the keys);
+    ``mixed``: the fidelity takes a compliant upper stop beside a restitution lower one."""
     lower = [k for k in lower_keys if getattr(spec, k) is not None]
     if len(lower) > 1:
         raise ValueError(f"give the lower stop once: one of {list(lower_keys)} (got {lower})")
@@ -66,7 +67,13 @@ def _check_stops(spec, lower_keys: tuple, gap_key: str) -> None:
         raise ValueError(f"[model.contact_lower] needs a lower stop: give one of {list(lower_keys)}")
     compliant = [k for k in ("contact", "contact_lower")
                  if getattr(spec, k) is not None and getattr(spec, k).law != "restitution"]
+    if mixed and compliant == ["contact"] and spec.contact_lower is not None:
+        return   # a compliant upper stop beside a restitution lower one (models.registry mixed_stop_methods)
     if compliant and spec.contact_lower is not None and len(compliant) == 1:
+        if mixed:
+            raise ValueError("[model.contact_lower] law = %r beside a restitution upper stop is not implemented: "
+                             "give the upper stop the compliant law ([model.contact]) and the lower one "
+                             "law = 'restitution', or both stops a compliant law" % spec.contact_lower.law)
         raise ValueError(f"[model.{compliant[0]}] law = {getattr(spec, compliant[0]).law!r} beside a restitution stop "
                          f"is not implemented: give both stops a compliant law (or omit [model.contact_lower]: "
                          f"the upper stop's law), or both law = 'restitution'")
@@ -148,7 +155,7 @@ class SDOFModelSpec(_Strict):
             missing = [k for k in nondim if nondim[k] is None]
             if missing:
                 raise ValueError(f"nondimensional SDOF scene is missing {missing}")
-        _check_stops(self, ("Delta_lower", "gap_lower_mm"), "Delta")
+        _check_stops(self, ("Delta_lower", "gap_lower_mm"), "Delta", mixed=True)
         upper = self.gap_mm if given_p else self.Delta
         lower = self.gap_lower_mm if given_p else self.Delta_lower
         if lower is not None and not upper + lower > 0.0:
@@ -167,7 +174,17 @@ class SDOFModelSpec(_Strict):
         return self.Delta_lower is not None or self.gap_lower_mm is not None
 
     def _R_lower(self):
-        return None if self.contact_lower is None else self.contact_lower.R
+        if self.contact_lower is None:
+            return None
+        if self.mixed_stops:   # Newton's law below a compliant upper stop: its R, else [model] R
+            return self.R if self.contact_lower.R is None else self.contact_lower.R
+        return self.contact_lower.R
+
+    @property
+    def mixed_stops(self) -> bool:
+        """A compliant ``[model.contact]`` beside a restitution ``[model.contact_lower]``."""
+        return (self.contact is not None and self.contact.law != "restitution"
+                and self.contact_lower is not None and self.contact_lower.law == "restitution")
 
     # continuation parameters: key -> (native key of the SDOF model, factor d native / d key)
     def native_parameter(self, key: str):
@@ -1211,6 +1228,11 @@ def _check_two_sided(case: Case, i: int, r) -> None:
     allowed = two_sided_methods(spec.fidelity, law)
     what = "" if law == "restitution" else f" with contact.law = \"{law}\""
     lo = lower_law_spec(spec) if contact is not None else None
+    if getattr(spec, "mixed_stops", False):
+        # a restitution stop beside a compliant one: the registry's mixed_stop_methods
+        from vibeam.models.registry import fidelity
+        allowed = tuple(m for m in allowed if m in fidelity(spec.fidelity).mixed_stop_methods)
+        what += " and contact_lower.law = \"restitution\""
     if lo is not None and lo.law != law:
         # a lower stop with another law: the methods that simulate both laws on two stops
         low = two_sided_methods(spec.fidelity, lo.law)

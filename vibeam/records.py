@@ -226,6 +226,38 @@ def period_minima(traj: Trajectory) -> np.ndarray:
 
 #: per-point contact outputs (issue 13) and the column of ``Trajectory.contacts`` each is made of
 CONTACT_OUTPUTS = ("contact_duration", "contact_force_max", "penetration_max", "energy_per_impact")
+#: the lower stop's contact outputs of a two-sided scene (the unprefixed ones are then the upper stop's)
+CONTACT_OUTPUTS_LOWER = tuple(k + "_lower" for k in CONTACT_OUTPUTS)
+
+
+def _contact_rows(c, n_impacts: int) -> dict:
+    """The :data:`CONTACT_OUTPUTS` of contact rows ``c`` (k, 5), or of none (``c`` None)."""
+    nan = np.nan
+    if c is None or np.shape(c)[0] == 0:
+        zero = 0.0 if n_impacts and c is None else nan
+        return dict(contact_duration=zero, contact_force_max=nan, penetration_max=zero, energy_per_impact=nan)
+    c = np.asarray(c, float)
+    force = c[:, 1]
+    return dict(contact_duration=float(np.mean(c[:, 0])),
+                contact_force_max=float(np.max(force)) if np.all(np.isfinite(force)) else nan,
+                penetration_max=float(np.max(c[:, 2])),
+                energy_per_impact=float(np.mean(c[:, 3])))
+
+
+def contact_stops(traj: Trajectory) -> np.ndarray | None:
+    """The stop of each row of ``traj.contacts`` (0 upper, 1 lower), shape (k,); None for a
+    one-stop trajectory or one whose rows cannot be assigned to a stop.
+
+    ``traj.contact_stops`` where the solver gives it, else ``traj.impact_stops`` when the rows
+    are one per impact (Newton's law: :func:`vibeam.models.beam_dynamics.newton_contact_rows`).
+    """
+    if traj.impact_stops is None or traj.contacts is None:
+        return None
+    n = np.shape(traj.contacts)[0]
+    for s in (traj.contact_stops, traj.impact_stops):
+        if s is not None and np.shape(s) == (n,):
+            return np.asarray(s, int)
+    return None
 
 
 def contact_outputs(traj: Trajectory) -> dict:
@@ -238,18 +270,26 @@ def contact_outputs(traj: Trajectory) -> dict:
     lost per contact: the work done on the stop).  A trajectory without contact rows (an
     impulsive law whose solver records none) gives duration and penetration 0 and force and
     energy NaN when it has impacts; no impact: all NaN.
+
+    Two stops (``traj.impact_stops`` set): the unprefixed outputs are the upper stop's
+    contacts only and :data:`CONTACT_OUTPUTS_LOWER` (``contact_duration_lower`` ...) the lower
+    stop's, rows assigned by :func:`contact_stops` (NaN for a stop without a recorded
+    contact; all NaN when the rows cannot be assigned).  One stop: unchanged.
     """
-    nan = np.nan
     c = traj.contacts
-    if c is None or np.shape(c)[0] == 0:
-        zero = 0.0 if traj.n_impacts and c is None else nan
-        return dict(contact_duration=zero, contact_force_max=nan, penetration_max=zero, energy_per_impact=nan)
-    c = np.asarray(c, float)
-    force = c[:, 1]
-    return dict(contact_duration=float(np.mean(c[:, 0])),
-                contact_force_max=float(np.max(force)) if np.all(np.isfinite(force)) else nan,
-                penetration_max=float(np.max(c[:, 2])),
-                energy_per_impact=float(np.mean(c[:, 3])))
+    if traj.impact_stops is None:
+        return _contact_rows(c, traj.n_impacts)
+    ks = contact_stops(traj)
+    if ks is None:
+        if c is None:   # an impulsive law without rows: per stop as for one stop
+            n_lo = traj.n_impacts_lower
+            up, lo = _contact_rows(None, traj.n_impacts - n_lo), _contact_rows(None, n_lo)
+        else:
+            up = lo = {k: np.nan for k in CONTACT_OUTPUTS}
+    else:
+        c = np.asarray(c, float)
+        up, lo = _contact_rows(c[ks == 0], 0), _contact_rows(c[ks == 1], 0)
+    return {**up, **{k + "_lower": v for k, v in lo.items()}}
 
 
 def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict:
@@ -272,7 +312,9 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
     Two stops (``traj.impact_stops`` set): ``amplitude`` keeps its meaning (the upper stop's
     ``Delta - min q``), ``impacts_per_period`` and ``impact_velocity`` are the upper stop's,
     and ``impacts_per_period_lower``, ``impact_velocity_lower`` (mean normal pre-impact speed
-    ``|q'-|``) the lower stop's; ``period`` is -1 only without impacts on either stop.
+    ``|q'-|``) the lower stop's; ``period`` is -1 only without impacts on either stop.  The
+    contact outputs likewise: unprefixed the upper stop's, ``*_lower`` the lower stop's
+    (:func:`contact_outputs`).
     """
     n_rec = traj.n_record
     if traj.Delta is not None:
@@ -285,7 +327,8 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
                    strobe=np.full((n_rec, 2), nan), harmonics=np.full(HARMONICS, nan),
                    **{k: nan for k in CONTACT_OUTPUTS}, status=traj.status, message=traj.message)
         if two:
-            out.update(impacts_per_period_lower=nan, impact_velocity_lower=nan)
+            out.update(impacts_per_period_lower=nan, impact_velocity_lower=nan,
+                       **{k: nan for k in CONTACT_OUTPUTS_LOWER})
         return out
     q = traj.samples[:, 0]
     scale = max(traj.q_max - traj.q_min, np.max(np.abs(traj.samples[:, 1])) if q.size else 0.0, 1e-300)

@@ -49,18 +49,28 @@ UNITS = {
     "gap_mm": "mm (grazing gap at the sensor at this point, gap drift)",
     "gap_drift_mm": "mm", "impulse_per_period": "1 (sum of (1 + R) U- per forcing period)",
     "stuck_fraction": "1 (share of the recorded window on the stop)",
-    "contact_duration": "1 (mean duration of a contact, time unit 1/omega_n; 0 for an impulsive law)",
-    "contact_force_max": "1 (largest contact force per unit effective mass, k L; NaN for an impulsive law)",
-    "penetration_max": "1 (largest penetration of the stop; 0 for an impulsive law)",
-    "energy_per_impact": "1 (mean energy lost per contact, k L^2 per unit effective mass)",
+    "contact_duration": "1 (mean duration of a contact, time unit 1/omega_n; 0 for an impulsive law; "
+                        "two stops: on the upper stop)",
+    "contact_force_max": "1 (largest contact force per unit effective mass, k L; NaN for an impulsive law; "
+                         "two stops: on the upper stop)",
+    "penetration_max": "1 (largest penetration of the stop; 0 for an impulsive law; two stops: the upper stop)",
+    "energy_per_impact": "1 (mean energy lost per contact, k L^2 per unit effective mass; "
+                         "two stops: on the upper stop)",
+    "contact_duration_lower": "1 (mean duration of a contact on the lower stop of a two-sided scene)",
+    "contact_force_max_lower": "1 (largest contact force on the lower stop of a two-sided scene, k L)",
+    "penetration_max_lower": "1 (largest penetration of the lower stop of a two-sided scene)",
+    "energy_per_impact_lower": "1 (mean energy lost per contact on the lower stop of a two-sided scene, k L^2)",
     "contact_fraction": "1 (share of the recorded window in contact with a compliant stop)",
     "contact_duration_s": "s", "contact_force_max_n": "N", "penetration_max_mm": "mm (at the sensor)",
     "energy_per_impact_j": "J",
+    "contact_duration_lower_s": "s", "contact_force_max_lower_n": "N",
+    "penetration_max_lower_mm": "mm (at the sensor)", "energy_per_impact_lower_j": "J",
 }
 
 
 # per-point displacements that physical scenes also store in mm at the sensor (``<key>_mm``)
-MM_KEYS = ("amplitude", "amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max", "penetration_max")
+MM_KEYS = ("amplitude", "amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max", "penetration_max",
+           "penetration_max_lower")
 
 
 @dataclass(frozen=True)
@@ -777,12 +787,13 @@ def assemble(solver, sweep: Sweep, name: str, line_rows: list, wall_time_s: floa
             if k in data:
                 data[k + "_mm"] = data[k] * L * 1e3
         attrs["length_m"] = L
-    if fn and "contact_duration" in data:
-        data["contact_duration_s"] = data["contact_duration"] / (2 * np.pi * fn)
     fs = getattr(model, "force_scale_n", None)      # N per nondimensional force (a known mass)
-    if fs and L:
-        data["contact_force_max_n"] = data["contact_force_max"] * fs
-        data["energy_per_impact_j"] = data["energy_per_impact"] * fs * L
+    for sfx in ("", "_lower"):                       # "_lower": the lower stop of a two-sided scene
+        if fn and "contact_duration" + sfx in data:
+            data["contact_duration" + sfx + "_s"] = data["contact_duration" + sfx] / (2 * np.pi * fn)
+        if fs and L and "contact_force_max" + sfx in data:
+            data["contact_force_max" + sfx + "_n"] = data["contact_force_max" + sfx] * fs
+            data["energy_per_impact" + sfx + "_j"] = data["energy_per_impact" + sfx] * fs * L
     return SweepResult(name=name, fidelity=model.fidelity, method=solver.name, settings=solver.settings(),
                        data=data, wall_time_s=wall_time_s, attrs=attrs)
 
