@@ -50,7 +50,7 @@ def test_beam_hc_event_agrees_with_the_direct_reference(n_modes, k):
     np.testing.assert_allclose(a.contacts[:n], b.contacts[:n], rtol=1e-8)
 
 
-@pytest.mark.parametrize("n_modes,k,v", [(2, 1e8, 0.01),
+@pytest.mark.parametrize("n_modes,k,v", [pytest.param(2, 1e8, 0.01, marks=pytest.mark.slow),
                                          pytest.param(1, 1e9, 0.003, marks=pytest.mark.slow),
                                          pytest.param(4, 1e9, 0.003, marks=pytest.mark.slow)])
 def test_isolated_beam_contact_has_the_sdof_restitution_for_the_same_chi(n_modes, k, v):

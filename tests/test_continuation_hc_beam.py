@@ -13,6 +13,10 @@ import math
 import numpy as np
 import pytest
 
+# the whole file runs in the slow step: the Hunt-Crossley beam kernels' first compile costs ~20 s,
+# which the default step's 10-minute budget cannot take (CI runs `pytest -m slow` second)
+pytestmark = pytest.mark.slow
+
 from vibeam.models.periodic_hc_beam import HuntCrossleyBeamShooting
 
 

@@ -59,6 +59,7 @@ def test_the_shooting_problem_serves_two_stops_and_the_case_allows_it():
     assert case.run[0].method == "continuation"
 
 
+@pytest.mark.slow   # default step budget (30-50 s on a cold numba cache); CI runs it in the slow step
 def test_branch_crosses_the_lower_grazing_and_doubles():
     """The branch of LOW: one impact per period on the upper stop below Omega = 1.6976, then one on
     each stop (a new impact is born on the lower stop: the grazing is located where the deepest
@@ -245,6 +246,7 @@ def _beam1(Delta, Dl, R=0.9, R_lower=None, B=0.5e-3, beta=0.015):
                            R_lower=R_lower)
 
 
+@pytest.mark.slow   # default step budget (30-50 s on a cold numba cache); CI runs it in the slow step
 def test_one_mode_beam_equals_the_sdof_branch():
     """The branch of LOW followed by the beam's shooting problem (another kernel, another
     derivative assembly) on the one-mode beam of the same ODE: the same points (parameter and
@@ -273,6 +275,7 @@ def _beam2(Dl, R_lower, Y):
                            R_lower=R_lower)
 
 
+@pytest.mark.slow   # default step budget (~33 s on a cold numba cache)
 @pytest.mark.parametrize("Dl, R_lower, Y, W, sticks", [(2e-3, 0.6, 0.5e-3, 1.8, False),
                                                        (1e-3, 0.0, 0.8e-3, 1.4, True)])
 def test_two_mode_beam_derivatives_against_central_differences(Dl, R_lower, Y, W, sticks):
