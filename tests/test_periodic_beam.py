@@ -140,14 +140,31 @@ def _scenario(kind, n_modes):
         W = 15.5 / m.f_ref_hz
         return m, W, transient(m, W, 200), 1
     if kind == "multi":         # pre-stressed rig, several impacts per period
+        # 3 periods from rest: the rig is chaotic at 15.5 Hz, and after 60 periods (the former
+        # start) the state, hence chatter or sticking, depended on the last ulp of the modal basis
+        # (BLAS core type); after 3 periods it is reproducible to ~1e-13 and the shot's event
+        # sequence has wide margins (asserted by _assert_certain)
         m = rig("rig-fe-tight", n_modes)
         W = 15.5 / m.f_ref_hz
-        return m, W, transient(m, W, 60), 2
+        return m, W, transient(m, W, 3), 2
     if kind == "stick":         # R = 0: plastic impact, sticking, release (free section)
         m = rig("rig-fe-tight", n_modes, R=0.0)
         W = 14.0 / m.f_ref_hz
         return m, W, transient(m, W, 40), 1
     raise ValueError(kind)
+
+
+def _assert_certain(s, m):
+    """The shot's event sequence is far from every threshold that could change it under a
+    perturbation of the start (finite differences, another machine's round-off): no chatter,
+    no sticking, every impact at least 5 % of the fastest (far from the grazing of an impact),
+    and every interior apex of the gap at least 1 % of the orbit's size below the stop (far
+    from the birth of an impact)."""
+    v = s.impact_velocities
+    assert s.extra["n_chatter"] == 0 and s.stuck_time == 0
+    assert v.size and v.min() >= 0.05 * v.max(), v
+    size = max(s.q_max - s.q_min, 1e-300) * m.length_m
+    assert not np.isfinite(s.apex_gap) or s.apex_gap <= -1e-2 * size, (s.apex_gap, size)
 
 
 # all modes with several impacts or sticking: 8-25 s each (1000+ shots with d = 92) -> slow
@@ -168,7 +185,8 @@ def test_monodromy_and_parameter_derivatives_against_finite_differences(kind, n_
     elif kind == "impact":
         assert list(kinds) == [1]
     elif kind == "multi":
-        assert s0.n_impacts >= 2 and s0.stuck_time == 0
+        assert s0.n_impacts >= 3 and s0.stuck_time == 0
+        _assert_certain(s0, m)
     else:
         assert list(kinds) == [1, 3, 4] and s0.stuck_time > 0
     for par in NATIVE_PARAMETERS:

@@ -140,9 +140,12 @@ POINT_ORACLES = ("Newton", "k-fold", "linear", "static mode")
 def test_reference_passes_its_oracles_recomputed(ref):
     """The oracles are recomputed here from the stored datasets and case text (Newton and
     k-fold impact-map fixed points, linear steady states, the static mode's SDOF, the held
-    lift-off), not read back from the generator's verdict; only the direct FE solver is left
-    to the generator and to a slow test.  A reference whose plain event runs have periodic or
-    no-impact points must have had some of them checked."""
+    lift-off, the platform filter's gain, the static-mode statistics of chaotic points, one
+    direct-solver point per compliant FE run), not read back from the generator's verdict; the
+    direct FE checks of restitution runs are left to the generator and to a slow test.  A
+    reference is never trusted vacuously: every reference must have had oracle checks, and one
+    whose plain event runs have periodic or no-impact points must have had some of those
+    checked."""
     with h5py.File(ref, "r") as f:
         # 1000 (FE) or 3000 (SDOF), "auto" where the quick variant has it, the quick variant's own
         # for the exceptions; see REFERENCE_TRANSIENT in make_references.py
@@ -153,6 +156,7 @@ def test_reference_passes_its_oracles_recomputed(ref):
     checks = _generator().check_stored(ref, expensive=False)
     failures = [f"{c.run}: {c.oracle}: {m}" for c in checks for m in c.failures]
     assert not failures, failures[:10]
+    assert sum(c.n for c in checks) > 0, f"{ref.name}: no oracle checked any point of this reference"
     plain = [r.name for r in case.run
              if r.method == "event" and not set(case.effects_for(r).active()) - {"sensor"}
              and (case.model["fidelity"] == "sdof" or r.model.get("n_modes") == "static")]

@@ -536,7 +536,10 @@ class SweepSpec(_Strict):
     ``transient_periods = "auto"`` extends each point's transient until the
     stroboscopic map settles, up to ``max_transient_periods`` (default 10000;
     :func:`vibeam.sweep._settle`); ``point_time_limit_s`` ends a point that runs
-    longer as ``failed`` (default: no limit).
+    longer as ``failed`` (default: no limit).  A point whose record is not periodic is
+    continued until its spread is measured over ``statistics_periods`` periods (default
+    256; 0 or at most ``record_periods``: the record alone), the sample its regression
+    statistics need (:func:`vibeam.records.batch_means`).
     """
 
     Omega: list[float] | None = None
@@ -545,6 +548,7 @@ class SweepSpec(_Strict):
     transient_periods: Annotated[int, Field(ge=0)] | Literal["auto"] = 400
     max_transient_periods: Annotated[int, Field(ge=1)] = 10000
     record_periods: Annotated[int, Field(ge=1)] = 64
+    statistics_periods: Annotated[int, Field(ge=0)] = 256
     samples_per_period: Annotated[int, Field(ge=16, le=4096)] = 64
     continuation: bool = True
     period_rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = 1e-5
@@ -554,6 +558,7 @@ class SweepSpec(_Strict):
         """The :class:`vibeam.sweep.Sweep` settings of this table (all but the grid)."""
         return dict(direction=self.direction, transient_periods=self.transient_periods,
                     max_transient_periods=self.max_transient_periods, record_periods=self.record_periods,
+                    statistics_periods=self.statistics_periods,
                     samples_per_period=self.samples_per_period, continuation=self.continuation,
                     period_rtol=self.period_rtol, point_time_limit_s=self.point_time_limit_s)
 
@@ -830,6 +835,7 @@ class QuickSpec(_Strict):
     transient_periods: Annotated[int, Field(ge=0)] | Literal["auto"] | None = None
     max_transient_periods: Annotated[int, Field(ge=1)] | None = None
     record_periods: Annotated[int, Field(ge=1)] | None = None
+    statistics_periods: Annotated[int, Field(ge=0)] | None = None
 
 
 class RegressSpec(_Strict):
@@ -911,7 +917,8 @@ class Case(_Strict):
         The sweep grid becomes ``[quick] points`` frequencies spread evenly over
         the case's grid, both ends included (the case's own grid if it has no
         more points than that; one point: the start), and ``[quick]
-        transient_periods`` / ``max_transient_periods`` / ``record_periods`` replace the
+        transient_periods`` / ``max_transient_periods`` / ``record_periods`` /
+        ``statistics_periods`` replace the
         sweep's where given.
         Name, model, runs, effects, assessments and tolerances are unchanged.
         """
@@ -924,6 +931,8 @@ class Case(_Strict):
             sweep["transient_periods"] = q.transient_periods
         if q.record_periods is not None:
             sweep["record_periods"] = q.record_periods
+        if q.statistics_periods is not None:
+            sweep["statistics_periods"] = q.statistics_periods
         if q.max_transient_periods is not None:
             sweep["max_transient_periods"] = q.max_transient_periods
         data = self.model_dump()

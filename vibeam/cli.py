@@ -170,7 +170,7 @@ def cmd_regress(args) -> int:
     atol = tol.amplitude_atol if args.atol is None else args.atol
     rtol = tol.amplitude_rtol if args.rtol is None else args.rtol
     rows = compare(new, args.reference, atol=atol, rtol=rtol, period=tol.period,
-                   sigmas=tol.spread_sigmas, spread_range=tol.spread_range)
+                   sigmas=tol.spread_sigmas, spread_range=tol.spread_range, continuation=case.sweep.continuation)
     print(f"\nregression of {case.name} against {args.reference}")
     print_rows(rows, atol, rtol, tol.spread_sigmas, tol.spread_range)
     return 0 if rows and all(r.ok for r in rows) else 1

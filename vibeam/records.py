@@ -155,36 +155,176 @@ def transient_verdict(strobe: np.ndarray, scale: float, rtol: float, no_impact: 
     return period, ""
 
 
+def batch_means(x: np.ndarray) -> tuple[float, int]:
+    """Standard error of the mean of a stationary, correlated series by non-overlapping batch means.
+
+    The series (the per-period amplitudes ``Q_k`` of a non-periodic attractor are
+    correlated over a few periods: integrated autocorrelation times of 0.1-2.5
+    periods were measured on the tight rig's chattering attractors) is cut into
+    ``a = n // b`` batches of ``b = floor(sqrt(n))`` consecutive values (the
+    oldest ``n - a b`` values are left out); the standard error of the mean is
+    ``std(batch means, ddof=1) / sqrt(a)``, an estimate with ``a - 1`` degrees
+    of freedom that stays honest when the batches are longer than the
+    correlation time (Flegal & Jones, Ann. Statist. 38, 2010: batch length
+    ``n^(1/2)``).  The i.i.d. ``std / sqrt(n)`` underestimates it by the square
+    root of the statistical inefficiency (``1 + 2 sum rho_k``).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        The series (any units).
+
+    Returns
+    -------
+    (float, int)
+        The standard error (the units of ``x``) and its degrees of freedom
+        ``a - 1``; ``(nan, 0)`` when there are fewer than 2 batches (n < 2) or a
+        value is not finite, ``(0.0, a - 1)`` for a constant series.
+    """
+    x = np.asarray(x, float)
+    n = x.size
+    b = max(1, math.isqrt(n))
+    a = n // b
+    if a < 2 or not np.all(np.isfinite(x)):
+        return math.nan, 0
+    means = x[n - a * b:].reshape(a, b).mean(axis=1)
+    return float(np.std(means, ddof=1) / math.sqrt(a)), a - 1
+
+
 def amplitude_spread(period_amplitudes: np.ndarray) -> dict:
     """Spread of the per-period amplitude ``Q_k = Delta - min q`` over period k (Sec. 4.1).
 
     Returns ``amplitude_mean``, ``amplitude_std`` (sample standard deviation,
     ``ddof = 1``; 0 for one period), ``amplitude_min``, ``amplitude_max`` (all
-    NaN for an empty or non-finite record) and ``record_periods``.
+    NaN for an empty or non-finite record), ``amplitude_sem`` and
+    ``amplitude_sem_dof`` (standard error of ``amplitude_mean`` and its degrees of
+    freedom by batch means, :func:`batch_means`; NaN and 0 for one period) and
+    ``record_periods`` (the number of ``Q_k``).
     """
     a = np.asarray(period_amplitudes, float)
     n = a.size
     if n == 0 or not np.all(np.isfinite(a)):
         nan = np.nan
         return dict(amplitude_mean=nan, amplitude_std=nan, amplitude_min=nan, amplitude_max=nan,
-                    record_periods=n)
+                    amplitude_sem=nan, amplitude_sem_dof=0, record_periods=n)
+    sem, dof = batch_means(a)
     return dict(amplitude_mean=float(np.mean(a)), amplitude_std=float(np.std(a, ddof=1)) if n > 1 else 0.0,
-                amplitude_min=float(np.min(a)), amplitude_max=float(np.max(a)), record_periods=n)
+                amplitude_min=float(np.min(a)), amplitude_max=float(np.max(a)), amplitude_sem=sem,
+                amplitude_sem_dof=dof, record_periods=n)
+
+
+def critical_value(sigmas, dof):
+    """Two-sided critical value of Student's t with ``dof`` degrees of freedom at the false-alarm
+    probability of ``sigmas`` normal standard deviations, ``p = 2 (1 - Phi(sigmas))``.
+
+    ``sigmas = 4`` gives ``p = 6.3e-5``: a critical value of 4.0 for many degrees of
+    freedom, 4.6 for 30, 5.5 for 15, 10 for 6.  Array arguments broadcast; ``dof <= 0``
+    gives NaN (no error estimate).
+    """
+    from scipy.stats import norm, t
+
+    dof = np.asarray(dof, float)
+    with np.errstate(invalid="ignore"):
+        out = t.isf(norm.sf(sigmas), np.where(dof > 0, dof, np.nan))
+    return out if out.ndim else float(out)
+
+
+def means_agree(mean_a, sem_a, dof_a, mean_b, sem_b, dof_b, sigmas: float = 4.0):
+    """Do two means of (correlated) samples of one attractor agree?  Welch's two-sample test.
+
+    ``|mean_a - mean_b| <= c sqrt(sem_a^2 + sem_b^2) + 1e-9 max(|mean_a|, |mean_b|)``
+    with ``c`` the :func:`critical_value` of ``sigmas`` at the Welch-Satterthwaite
+    degrees of freedom ``(sa^2 + sb^2)^2 / (sa^4 / dof_a + sb^4 / dof_b)``, so a short
+    record widens the bound instead of raising false alarms (the 1e-9 floor is for
+    periodic samples, std 0).  Two NaN means agree.  Arguments broadcast.
+
+    Parameters
+    ----------
+    mean_a, mean_b : float or ndarray
+        The means (same units).
+    sem_a, sem_b : float or ndarray
+        Their standard errors (:func:`batch_means`); NaN = unknown, then the means
+        agree only within the floor.
+    dof_a, dof_b : int or ndarray
+        Degrees of freedom of the standard errors.
+    sigmas : float
+        The false-alarm probability as normal standard deviations (:func:`critical_value`).
+
+    Returns
+    -------
+    bool or ndarray of bool
+    """
+    ma, mb = np.asarray(mean_a, float), np.asarray(mean_b, float)
+    sa2, sb2 = np.asarray(sem_a, float) ** 2, np.asarray(sem_b, float) ** 2
+    va, vb = np.asarray(dof_a, float), np.asarray(dof_b, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        se2 = sa2 + sb2
+        nu = se2 ** 2 / (np.where(sa2 > 0, sa2 ** 2 / va, 0.0) + np.where(sb2 > 0, sb2 ** 2 / vb, 0.0))
+        c = critical_value(sigmas, np.where((se2 > 0) & np.isfinite(nu), nu, 1e12))
+        bound = np.where(se2 > 0, c * np.sqrt(se2), 0.0)
+        ok = np.abs(ma - mb) <= np.nan_to_num(bound, nan=0.0) + 1e-9 * np.maximum(np.abs(ma), np.abs(mb))
+    ok = ok | (np.isnan(ma) & np.isnan(mb))
+    return ok if ok.ndim else bool(ok)
 
 
 def spread_agrees(a: dict, b: dict, sigmas: float = 4.0) -> bool:
     """Are two samples of an attractor consistent in the mean of their per-period amplitude?
 
-    ``|mean_a - mean_b| <= sigmas sqrt(std_a^2 / n_a + std_b^2 / n_b)``, the
-    standard error of the difference of two independent means (per-period
-    amplitudes of a mixing attractor decorrelate within a few periods), with
-    a floor of ``1e-9`` of the mean for periodic samples (std 0).  ``a``, ``b``:
-    the outputs of :func:`amplitude_spread`.
+    :func:`means_agree` of their ``amplitude_mean`` with the batch-means standard errors
+    ``amplitude_sem`` (:func:`batch_means`).  A sample without ``amplitude_sem`` (made before
+    it existed) is taken as independent values, ``std / sqrt(n)`` with ``n - 1`` degrees of
+    freedom.  ``a``, ``b``: the outputs of :func:`amplitude_spread`.
     """
-    ma, mb = a["amplitude_mean"], b["amplitude_mean"]
-    se = math.sqrt(a["amplitude_std"] ** 2 / max(a["record_periods"], 1)
-                   + b["amplitude_std"] ** 2 / max(b["record_periods"], 1))
-    return bool(abs(ma - mb) <= sigmas * se + 1e-9 * max(abs(ma), abs(mb)))
+    def se(s):
+        if "amplitude_sem" in s:
+            return s["amplitude_sem"], s.get("amplitude_sem_dof", 0)
+        n = max(int(s["record_periods"]), 1)
+        return s["amplitude_std"] / math.sqrt(n), n - 1
+
+    (sa, va), (sb, vb) = se(a), se(b)
+    return bool(means_agree(a["amplitude_mean"], sa, va, b["amplitude_mean"], sb, vb, sigmas))
+
+
+def window_verdict(Q: np.ndarray, tail_strobe: np.ndarray, scale: float, rtol: float,
+                   no_impact: bool = False) -> str:
+    """Is a long window of a non-periodic point a sample of one attractor?
+
+    Parameters
+    ----------
+    Q : ndarray, shape (n,)
+        Per-period amplitudes ``Q_k`` over the window (the statistics window of
+        ``[sweep] statistics_periods``).
+    tail_strobe : ndarray, shape (m, 2)
+        Stroboscopic samples of the window's last periods.
+    scale : float
+        Size of the orbit (as :func:`transient_verdict`).
+    rtol : float
+        Tolerance of the period-n test.
+    no_impact : bool
+        No impact in the window's continuation.
+
+    Returns
+    -------
+    str
+        Why not ('' when it is): the window ends on a periodic orbit (period
+        1..8 or the no-impact orbit within ``rtol``: a chaotic or slow transient
+        that settled inside the window), or the means of ``Q_k`` over its two
+        halves disagree (:func:`spread_agrees`, batch-means errors; checked for
+        windows of 32 periods or more).
+    """
+    Q = np.asarray(Q, float)
+    if tail_strobe.shape[0] >= 3:
+        period, _ = transient_verdict(tail_strobe, scale, rtol, no_impact)
+        if period != 0 and (period > 0 or strobe_returns(tail_strobe, scale)[0] <= rtol):
+            what = "the no-impact orbit" if period == -1 else f"a period-{period} orbit"
+            return f"the statistics window ends on {what} (a transient that settled inside it)"
+    if Q.size >= 32:
+        h = Q.size // 2
+        a, b = amplitude_spread(Q[:h]), amplitude_spread(Q[h:])
+        if not spread_agrees(a, b):
+            return (f"the mean of Q_k differs between the halves of the statistics window "
+                    f"({a['amplitude_mean']:.6g} then {b['amplitude_mean']:.6g})")
+    return ""
 
 
 def harmonic_amplitudes(q: np.ndarray, samples_per_period: int, n_harmonics: int = HARMONICS) -> np.ndarray:

@@ -9,21 +9,44 @@ branch) is then interpolated linearly at the CSV frequencies.
 A point that is the same orbit in both (the same period 1..8, or no impact, and
 settled) passes when ``|A - A_ref| <= atol + rtol |A_ref|``.  Any other point
 of an HDF5 reference (non-periodic, ``unsettled``, or of another period) is one
-sample of an attractor, and is compared by the spread of its per-period
-amplitude ``Q_k`` over the record (:func:`vibeam.records.amplitude_spread`):
+sample of an attractor, reproducible only in its statistics (a chaotic
+trajectory differs after a few hundred periods between CPUs, BLAS kernels and
+compilers), and is compared by the spread of its per-period amplitude ``Q_k``
+(:func:`vibeam.records.amplitude_spread`, measured over ``[sweep]
+statistics_periods`` periods for a non-periodic point):
 
-* the means agree within ``sigmas`` standard errors of their difference,
-  ``sigmas sqrt(std^2 / n + std_ref^2 / n_ref)`` (``n`` = record periods);
+* the means agree by Welch's two-sample test with batch-means standard errors
+  (:func:`vibeam.records.means_agree`: the ``Q_k`` of a chaotic attractor are
+  correlated over a few periods, so ``std / sqrt(n)`` would understate the
+  error; the critical value is Student's t at the false-alarm probability of
+  ``sigmas`` normal deviations, so a short record widens the bound rather than
+  raising false alarms);
 * the smallest and the largest ``Q_k`` agree within ``spread_range`` times the
-  larger of the two ranges ``max - min`` (extremes of a short record are
-  noisy; a different attractor, e.g. the no-impact orbit against chaos, moves
-  them by the whole range);
+  larger of the two ranges ``max - min`` (a different attractor, e.g. the
+  no-impact orbit against chaos, moves them by the whole range);
 
 each plus ``atol + rtol |ref|``.  With ``period = true`` the period-n
-classifications must agree too.  Tolerances come from the case's ``[regress]``
-table (defaults: atol 0, rtol 1e-6, period true, spread_sigmas 4,
-spread_range 0.5).  A reference without the spread datasets is compared by the
-amplitude at every point.
+classifications must agree too.
+
+Multistability: in a continuation sweep each point starts from the previous
+point's final state.  After a non-periodic point (or an unsettled one) that
+state is reproducible only in its statistics, so where several attractors
+coexist the next point may land on another one on another machine, or leave a
+chaotic transient at another time.  A point whose predecessor on its sweep line
+is non-periodic or unsettled in either file, and whose attractor differs
+(another period classification) or which is unsettled in either file, is
+therefore reported as *multistable* (another attractor, or a transient, reached
+from an irreproducible state), counted, and not a regression; every other
+point is compared as above.  The first point of each
+line and every point after a periodic one start from reproducible states and
+are compared strictly.
+
+Tolerances come from the case's ``[regress]`` table (defaults: atol 0, rtol
+1e-6, period true, spread_sigmas 4, spread_range 0.5).  A file without
+``amplitude_sem`` (made before it existed) takes the other file's ratio of
+batch-means to i.i.d. standard error for its own (the same attractor has the
+same correlation), or the i.i.d. one when neither has it.  A reference without
+the spread datasets is compared by the amplitude at every point.
 """
 from __future__ import annotations
 
@@ -32,6 +55,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from .records import means_agree
 
 
 @dataclass
@@ -45,6 +70,7 @@ class RegressRow:
     note: str = ""
     spread_points: int = 0      # points compared by their spread (non-periodic, unsettled, ...)
     spread_failures: int = 0
+    multistable: int = 0        # other attractor after a non-periodic predecessor (not a failure)
 
     @property
     def ok(self) -> bool:
@@ -134,13 +160,16 @@ def read_reference(path):
 
 
 def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: bool = True, *,
-            sigmas: float = 4.0, spread_range: float = 0.5) -> list[RegressRow]:
+            sigmas: float = 4.0, spread_range: float = 0.5, continuation: bool = True) -> list[RegressRow]:
     """Compare ``new`` (``read_results`` layout: ``{"runs": {name: datasets}}``) with a reference.
 
     Parameter maps are compared line by line (:func:`vibeam.maps.map_lines`).
     ``sigmas`` and ``spread_range`` are the tolerances of the points compared by
-    their spread (module docstring).  Returns one :class:`RegressRow` per
-    compared run or map line (or per new run for CSV).
+    their spread (module docstring).  ``continuation``: the sweeps handed each
+    point's final state to the next (``[sweep] continuation``), so a point after a
+    non-periodic one may land on another coexisting attractor (module docstring).
+    Returns one :class:`RegressRow` per compared run or map line (or per new run
+    for CSV).
     """
     from .maps import all_runs
     from .results import read_results
@@ -179,10 +208,12 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
         pn = n["period"][idx_n] if period and "period" in n and "period" in r else None
         pr = r["period"][idx_r] if pn is not None else None
         sampled = _sampled(n, r, idx_n, idx_r)
-        bad_spread = _spread_bad(n, r, idx_n, idx_r, sampled, atol, rtol, sigmas, spread_range)
+        other = _other_attractor(n, r, idx_n, idx_r) if continuation else np.zeros(len(idx_n), bool)
+        bad_spread = _spread_bad(n, r, idx_n, idx_r, sampled & ~other, atol, rtol, sigmas, spread_range)
         row = _row(name, n["amplitude"][idx_n], r["amplitude"][idx_r], atol, rtol, pn, pr,
-                   mask=~sampled, extra_bad=bad_spread)
-        row.spread_points, row.spread_failures = int(sampled.sum()), int(bad_spread.sum())
+                   mask=~sampled & ~other, extra_bad=bad_spread, excused=other)
+        row.spread_points, row.spread_failures = int((sampled & ~other).sum()), int(bad_spread.sum())
+        row.multistable = int(other.sum())
         rows.append(row)
     return rows
 
@@ -205,23 +236,95 @@ def _sampled(n: dict, r: dict, idx_n, idx_r) -> np.ndarray:
     return ~orbit
 
 
+def _line_predecessors(run: dict, idx) -> np.ndarray:
+    """For the points ``idx`` of a run, the index of the point visited just before each on its
+    sweep line (same direction; ``up`` in increasing, ``down`` in decreasing Omega), -1 for the
+    first point of a line."""
+    x = np.asarray(run["Omega"], float)
+    d = np.asarray([str(v) for v in run["direction"]])
+    out = np.full(len(idx), -1)
+    for k, i in enumerate(idx):
+        same = np.flatnonzero(d == d[i])
+        before = same[x[same] < x[i]] if d[i] != "down" else same[x[same] > x[i]]
+        if before.size:
+            out[k] = before[np.argmax(x[before])] if d[i] != "down" else before[np.argmin(x[before])]
+    return out
+
+
+def _irreproducible(run: dict, j: np.ndarray) -> np.ndarray:
+    """Were the points ``j`` (-1: none) non-periodic or unsettled, i.e. is their final state
+    reproducible only in its statistics?"""
+    j = np.asarray(j)
+    has = j >= 0
+    jj = np.where(has, j, 0)
+    p = np.asarray(run["period"])[jj] == 0
+    if "status" in run:
+        p |= np.array([str(s) == "unsettled" for s in np.asarray(run["status"])[jj]], bool)
+    return has & p
+
+
+def _other_attractor(n: dict, r: dict, idx_n, idx_r) -> np.ndarray:
+    """Points whose predecessor on the sweep line is non-periodic or unsettled in either run and
+    whose period classification differs, or which are unsettled in either: another attractor of
+    a multistable point, or a chaotic transient, reached from a state that no two machines share
+    (module docstring)."""
+    if "period" not in n or "period" not in r or "direction" not in n or "direction" not in r:
+        return np.zeros(len(idx_n), bool)
+    after = _irreproducible(n, _line_predecessors(n, idx_n)) | _irreproducible(r, _line_predecessors(r, idx_r))
+    differ = np.asarray(n["period"])[idx_n] != np.asarray(r["period"])[idx_r]
+    for run, idx in ((n, idx_n), (r, idx_r)):
+        if "status" in run:
+            differ |= np.array([str(x) == "unsettled" for x in np.asarray(run["status"])[idx]], bool)
+    return after & differ
+
+
+def _standard_errors(g: dict, h: dict) -> tuple:
+    """Batch-means standard errors and degrees of freedom of two spread samples ``g``, ``h``
+    (arrays); a side without ``amplitude_sem`` takes the other's inflation over the i.i.d.
+    error, or the i.i.d. error when neither has it (module docstring)."""
+    def iid(s):
+        n = np.maximum(np.asarray(s["record_periods"], float), 1.0)
+        return np.asarray(s["amplitude_std"], float) / np.sqrt(n), n - 1.0
+
+    def own(s):
+        if "amplitude_sem" not in s:
+            return None
+        return np.asarray(s["amplitude_sem"], float), np.asarray(s.get("amplitude_sem_dof", 0), float)
+
+    a, b = own(g), own(h)
+    if a is None and b is None:
+        return (*iid(g), *iid(h))
+    if a is None or b is None:
+        have, lack = (h, g) if a is None else (g, h)
+        sem, dof = own(have)
+        i_have, _ = iid(have)
+        i_lack, _ = iid(lack)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            infl = np.where(i_have > 0, np.maximum(sem / i_have, 1.0), 1.0)
+        est = (i_lack * infl, dof)
+        return (*est, sem, dof) if a is None else (sem, dof, *est)
+    return (*a, *b)
+
+
 def _spread_bad(n: dict, r: dict, idx_n, idx_r, sel, atol, rtol, sigmas, spread_range) -> np.ndarray:
     """Points of ``sel`` (samples of an attractor) whose spread disagrees with the reference's."""
     bad = np.zeros(len(idx_n), bool)
     if not sel.any():
         return bad
-    g = {k: np.asarray(n[k], float)[idx_n][sel] for k in SPREAD_KEYS}
-    h = {k: np.asarray(r[k], float)[idx_r][sel] for k in SPREAD_KEYS}
-    se = np.sqrt(g["amplitude_std"] ** 2 / np.maximum(g["record_periods"], 1)
-                 + h["amplitude_std"] ** 2 / np.maximum(h["record_periods"], 1))
+    opt = ("amplitude_sem", "amplitude_sem_dof")
+    g = {k: np.asarray(n[k], float)[idx_n][sel] for k in SPREAD_KEYS + opt if k in n}
+    h = {k: np.asarray(r[k], float)[idx_r][sel] for k in SPREAD_KEYS + opt if k in r}
+    sg, vg, sh, vh = _standard_errors(g, h)
     rng = np.maximum(g["amplitude_max"] - g["amplitude_min"], h["amplitude_max"] - h["amplitude_min"])
 
     def within(a, b, tol):
         with np.errstate(invalid="ignore"):
             return (np.abs(a - b) <= tol + atol + rtol * np.abs(b)) | (np.isnan(a) & np.isnan(b))
 
-    ok = (within(g["amplitude_mean"], h["amplitude_mean"], sigmas * se)
-          & within(g["amplitude_min"], h["amplitude_min"], spread_range * rng)
+    # the mean: Welch's test, widened by the amplitude tolerance atol + rtol |ref|
+    mean_ok = (within(g["amplitude_mean"], h["amplitude_mean"], 0.0)
+               | means_agree(g["amplitude_mean"], sg, vg, h["amplitude_mean"], sh, vh, sigmas))
+    ok = (mean_ok & within(g["amplitude_min"], h["amplitude_min"], spread_range * rng)
           & within(g["amplitude_max"], h["amplitude_max"], spread_range * rng))
     bad[sel] = ~ok
     return bad
@@ -260,9 +363,10 @@ def match_points(new: dict, ref: dict, rel: float = 1e-6) -> tuple[list, list]:
     return idx_n, idx_r
 
 
-def _row(name, a, a_ref, atol, rtol, p, p_ref, note="", mask=None, extra_bad=None):
-    """Amplitude check (on the points of ``mask``, default all), period check (all points) and
-    any other failed points (``extra_bad``)."""
+def _row(name, a, a_ref, atol, rtol, p, p_ref, note="", mask=None, extra_bad=None, excused=None):
+    """Amplitude check (on the points of ``mask``, default all), period check (all points but the
+    ``excused`` ones: another attractor of a multistable point) and any other failed points
+    (``extra_bad``)."""
     a, a_ref = np.asarray(a, float), np.asarray(a_ref, float)
     d = np.abs(a - a_ref)
     both_nan = np.isnan(a) & np.isnan(a_ref)
@@ -275,6 +379,8 @@ def _row(name, a, a_ref, atol, rtol, p, p_ref, note="", mask=None, extra_bad=Non
     pm = 0
     if p is not None:
         mism = np.asarray(p) != np.asarray(p_ref)
+        if excused is not None:
+            mism &= ~excused
         pm = int(mism.sum())
         bad |= mism
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -287,8 +393,11 @@ def _row(name, a, a_ref, atol, rtol, p, p_ref, note="", mask=None, extra_bad=Non
 def print_rows(rows, atol, rtol, sigmas: float | None = None, spread_range: float | None = None) -> None:
     print(f"tolerance: |A - A_ref| <= {atol:g} + {rtol:g} |A_ref|")
     if sigmas is not None and any(r.spread_points for r in rows):
-        print(f"non-periodic / unsettled / other-period points by their spread: mean within {sigmas:g} "
-              f"standard errors, min and max within {spread_range:g} of the range")
+        print(f"non-periodic / unsettled / other-period points by their spread: means by Welch's test at "
+              f"{sigmas:g} sigma (batch-means errors), min and max within {spread_range:g} of the range")
+    if any(r.multistable for r in rows):
+        print("multistable: another attractor reached after a non-periodic predecessor (its start state is "
+              "reproducible only in statistics); not a regression")
     w = max([24] + [len(r.run) + 2 for r in rows])       # as wide as the longest run name
     head = f"{'run':<{w}}{'points':>7}{'failed':>8}{'max |dA|':>12}{'max rel':>11}{'period diff':>12}  verdict"
     print(head)
@@ -299,5 +408,7 @@ def print_rows(rows, atol, rtol, sigmas: float | None = None, spread_range: floa
         if r.spread_points:
             note = (note + "; " if note else "") + (f"{r.spread_points} point(s) by spread, "
                                                      f"{r.spread_failures} failed")
+        if r.multistable:
+            note = (note + "; " if note else "") + f"{r.multistable} multistable"
         print(f"{r.run:<{w}}{r.points:>7}{r.failures:>8}{r.max_abs:>12.3e}{r.max_rel:>11.3e}"
               f"{r.period_mismatch:>12}  {verdict}" + (f"  ({note})" if note else ""))

@@ -39,7 +39,7 @@ def _job(case, r, overrides: dict, j=None) -> _Job:
     model = spec.build()
     Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
     sw = Sweep(Omega=Omega, direction=case.sweep.direction, transient_periods=case.sweep.transient_periods,
-               record_periods=case.sweep.record_periods,
+               record_periods=case.sweep.record_periods, statistics_periods=case.sweep.statistics_periods,
                samples_per_period=assess.samples_per_period(case, r, model, Omega),
                continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol,
                max_transient_periods=case.sweep.max_transient_periods,
@@ -152,7 +152,7 @@ def estimate_work(case, jobs_=None) -> dict:
     sw = case.sweep
     grid_key = "sweep.Omega" if sw.Omega is not None else "sweep.frequency_hz"
     n_dir = 2 if sw.direction == "both" else 1
-    steps = 0.0
+    steps = steps_min = 0.0
     point_values = 0.0
     w_min = np.inf
     worst_modes, worst_cost = (None, 1), (None, 1.0)
@@ -164,15 +164,19 @@ def estimate_work(case, jobs_=None) -> dict:
         dofs = _dofs(job.spec)
         if r.method in ("averaging", "mapping"):
             steps += n_dir * Om.size
+            steps_min += n_dir * Om.size
             continue
         ts = getattr(r, "transient_samples", 16)
         spp = job.sweep.samples_per_period
         sub = _STEPS_PER_NATURAL_PERIOD / Om
         n_tr = job.sweep.max_transient_periods if job.sweep.auto else job.sweep.transient_periods
-        per = (n_tr * np.maximum(ts, sub) + job.sweep.record_periods * np.maximum(spp, sub))
+        n_rec = max(job.sweep.record_periods, job.sweep.statistics_periods)   # a non-periodic point's window
+        per = (n_tr * np.maximum(ts, sub) + n_rec * np.maximum(spp, sub))
         cost = ODE_STEP_COST if r.method in ("direct", "zhuravlev", "ivanov") else 1.0
         steps += n_dir * float(per.sum()) * dofs * cost
-        point_values = max(point_values, job.sweep.record_periods * spp * 2.0 * (1 + dofs))
+        per_min = (n_tr * np.maximum(ts, sub) + job.sweep.record_periods * np.maximum(spp, sub))
+        steps_min += n_dir * float(per_min.sum()) * dofs * cost
+        point_values = max(point_values, n_rec * spp * 2.0 * (1 + dofs))
         i = case.run.index(r)
         if dofs > worst_modes[1]:
             worst_modes = (f"run[{i}].model.n_modes" if "n_modes" in r.model else "model.n_modes", dofs)
@@ -182,11 +186,11 @@ def estimate_work(case, jobs_=None) -> dict:
     auto = sw.transient_periods == "auto"
     n_tr = sw.max_transient_periods if auto else sw.transient_periods
     tr_key = "sweep.max_transient_periods" if auto else "sweep.transient_periods"
-    periods = n_tr + sw.record_periods
+    rec_key, n_rec = max(("sweep.record_periods", sw.record_periods),
+                         ("sweep.statistics_periods", sw.statistics_periods), key=lambda c: c[1])
+    periods = n_tr + n_rec
     cands = [
-        ((tr_key if n_tr >= sw.record_periods else "sweep.record_periods"),
-         (n_tr if n_tr >= sw.record_periods else sw.record_periods),
-         periods / 464),
+        ((tr_key if n_tr >= n_rec else rec_key), (n_tr if n_tr >= n_rec else n_rec), periods / 464),
         (grid_key, getattr(sw, grid_key.split(".")[1]), max(n_pts / 101, 1.0 / max(w_min, 1e-300))),
         ("sweep.samples_per_period", sw.samples_per_period, sw.samples_per_period / 64),
         ("map.values", case.map.values if case.map else None, len(case.map.grid()) if case.map else 0),
@@ -196,7 +200,7 @@ def estimate_work(case, jobs_=None) -> dict:
     key, val, _ = max((c for c in cands if c[0]), key=lambda c: c[2])
     if key.endswith(".method"):
         val = case.run[int(key[4:key.index("]")])].method
-    return {"steps": steps, "point_values": point_values, "culprit": (key, val)}
+    return {"steps": steps, "steps_min": steps_min, "point_values": point_values, "culprit": (key, val)}
 
 
 def check_work(case, jobs_=None, force: bool = False, source: str = "") -> dict:
@@ -216,7 +220,9 @@ def check_work(case, jobs_=None, force: bool = False, source: str = "") -> dict:
     where = f"{source}: " if source else ""
     if w["point_values"] > MAX_POINT_VALUES:
         sw = case.sweep
-        raise InputError(f"{where}'sweep.record_periods' = {sw.record_periods}: one point would record "
+        rec_key, n_rec = max(("record_periods", sw.record_periods), ("statistics_periods", sw.statistics_periods),
+                             key=lambda c: c[1])
+        raise InputError(f"{where}'sweep.{rec_key}' = {n_rec}: one point would record "
                          f"{w['point_values']:.3g} values (limit {MAX_POINT_VALUES:.0e}, "
                          f"{MAX_POINT_VALUES * 8 / 1e9:.1f} GB); record fewer periods or samples, or pass --force")
     if w["steps"] > MAX_WORK_STEPS:
@@ -526,7 +532,7 @@ def plan_execution(case, jobs_, todo, jobs, executor) -> tuple:
         return 1, ""
     total = sum(l.n_points for j in jobs_ for l in _lines(j)) or 1
     frac = sum(l.n_points for l in todo) / total
-    t = estimate_work(case, jobs_)["steps"] * STEP_SECONDS * frac
+    t = estimate_work(case, jobs_)["steps_min"] * STEP_SECONDS * frac
     if t < POOL_STARTUP_S * n / (n - 1):
         return n, f"small sweep, ~{t:.2g} s on one core: inline first"
     return n, ""

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .records import (HARMONICS, SETTLED_MARGIN, amplitude_spread, period_minima, spread_agrees,
-                      summarize, transient_verdict)
+                      summarize, transient_verdict, window_verdict)
 
 # units of the per-point datasets (written as HDF5 attributes)
 UNITS = {
@@ -30,7 +30,10 @@ UNITS = {
     "amplitude_std": "1 (sample standard deviation of Q_k over the recorded periods)",
     "amplitude_min": "1 (smallest Q_k of the recorded periods)",
     "amplitude_max": "1 (largest Q_k of the recorded periods)",
-    "record_periods": "forcing periods recorded (the sample size of the Q_k)",
+    "amplitude_sem": "1 (standard error of amplitude_mean by batch means of the Q_k)",
+    "amplitude_sem_dof": "degrees of freedom of amplitude_sem (batches - 1)",
+    "record_periods": "forcing periods recorded (the sample size of the Q_k; statistics_periods for a "
+                      "non-periodic point)",
     "transient_periods_used": "forcing periods simulated before the record",
     "amplitude_lower": "1 (lower branch of P(Q) = 0)",
     "q_max": "1", "q_min": "1",
@@ -44,6 +47,7 @@ UNITS = {
     "frequency_hz": "Hz", "amplitude_mm": "mm (at the sensor)",
     "amplitude_mean_mm": "mm (at the sensor)", "amplitude_std_mm": "mm (at the sensor)",
     "amplitude_min_mm": "mm (at the sensor)", "amplitude_max_mm": "mm (at the sensor)",
+    "amplitude_sem_mm": "mm (at the sensor)",
     "wall_time_s": "s",
     "effective_gain": "1/V (gamma at this frequency, platform filter)",
     "gap_mm": "mm (grazing gap at the sensor at this point, gap drift)",
@@ -69,7 +73,8 @@ UNITS = {
 
 
 # per-point displacements that physical scenes also store in mm at the sensor (``<key>_mm``)
-MM_KEYS = ("amplitude", "amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max", "penetration_max",
+MM_KEYS = ("amplitude", "amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max", "amplitude_sem",
+           "penetration_max",
            "penetration_max_lower")
 
 
@@ -88,6 +93,12 @@ class Sweep:
         stroboscopic map settles, up to ``max_transient_periods`` (:func:`_settle`).
     record_periods : int
         Forcing periods recorded per point.
+    statistics_periods : int
+        Forcing periods over which the spread of a non-periodic point (period 0) is
+        measured: its record is continued from its final state until the per-period
+        amplitudes ``Q_k`` number ``statistics_periods`` (:func:`_statistics`; a
+        look-ahead: the next point of a chain starts from the record's end).  At most
+        ``record_periods``: no extension.
     max_transient_periods : int
         Most transient periods of ``'auto'``.
     point_time_limit_s : float or None
@@ -110,6 +121,7 @@ class Sweep:
     transient_periods: int | str = 400
     record_periods: int = 64
     samples_per_period: int = 64
+    statistics_periods: int = 0
     continuation: bool = True
     period_rtol: float = 1e-5
     assess: tuple = ()
@@ -292,17 +304,63 @@ def _settle(solver, Omega, state, sweep: Sweep, Delta: float, clock: _Clock):
         stage = max(1, min(used, max_tr - used))
 
 
+def _statistics(solver, Omega, traj, out: dict, sweep: Sweep, Delta: float, clock: _Clock) -> None:
+    """Continue a non-periodic record until it holds ``sweep.statistics_periods`` per-period
+    amplitudes, and measure the spread over all of them.
+
+    A chaotic attractor is reproducible only in its statistics, and a mean over 16 or 64
+    correlated ``Q_k`` is a poor one (:func:`vibeam.records.batch_means`), so a point
+    whose record is not periodic (``period == 0``) is continued from the record's final
+    state by ``statistics_periods - record_periods`` periods (one more call of the
+    solver, skipped once the wall-time limit has passed).  ``amplitude_mean``,
+    ``amplitude_std``, ``amplitude_min``, ``amplitude_max``, ``amplitude_sem`` and
+    ``record_periods`` then cover the whole window, and so do ``amplitude`` (``Delta -
+    min q``), ``q_min`` and ``q_max``; the stroboscopic samples, harmonics, impacts and
+    contact outputs stay the record's.  The window is a look-ahead: the next point of a
+    continuation chain starts from the record's final state, as without it, so the
+    statistics never change which attractor a later point lands on (nor a state-carried
+    effect such as the sliding gap drift).  A continuation that fails leaves the
+    record's own spread.  ``out`` is updated in place.
+    """
+    extra = int(sweep.statistics_periods) - int(sweep.record_periods)
+    if extra <= 0 or out.get("period") != 0 or out.get("status") == "failed" or clock.over(sweep.point_time_limit_s):
+        return
+    ext = solver.point(Omega, traj.final_state, 0, extra, sweep.samples_per_period)
+    clock.tick()
+    if ext.status == "failed":
+        return
+    d0 = traj.Delta if traj.Delta is not None else Delta
+    d1 = ext.Delta if ext.Delta is not None else Delta
+    Q = np.concatenate([d0 - period_minima(traj), d1 - period_minima(ext)])
+    out.update(amplitude_spread(Q))
+    out["q_min"] = min(out["q_min"], ext.q_min)
+    out["q_max"] = max(out["q_max"], ext.q_max)
+    out["amplitude"] = max(out["amplitude"], d1 - ext.q_min)
+    n_tail = min(int(sweep.record_periods), ext.strobe.shape[0])
+    scale = max(ext.q_max - ext.q_min, float(np.max(np.abs(ext.samples[:, 1]))) if ext.samples.size else 0.0,
+                1e-300)
+    why = window_verdict(Q, ext.strobe[ext.strobe.shape[0] - n_tail:], scale, sweep.period_rtol,
+                         ext.n_impacts == 0)
+    if why:
+        why += f" (statistics_periods = {sweep.statistics_periods})"
+    if why and out["status"] != "unsettled":
+        out["message"] = f"unsettled: {why}" + (f"; {out['status']}: {out['message']}"
+                                                 if out["status"] != "ok" else "")
+        out["status"] = "unsettled"
+
+
 def _point(solver, Omega, state, sweep: Sweep, Delta: float):
     """Simulate one point; dynamical outcomes and solver errors become a status."""
     t0 = time.perf_counter()
     try:
         if solver.time_domain:
             why = ""
+            clock = _Clock()
             if sweep.auto:
-                traj, used, why = _settle(solver, Omega, state, sweep, Delta, _Clock())
+                traj, used, why = _settle(solver, Omega, state, sweep, Delta, clock)
             else:
                 used = int(sweep.transient_periods)
-                traj = _simulate(solver, Omega, state, used, sweep, _Clock())
+                traj = _simulate(solver, Omega, state, used, sweep, clock)
             out = summarize(traj, Delta, sweep.period_rtol)
             if why and out["status"] not in ("failed", "unsettled"):
                 out["message"] = f"unsettled: {why}" + (f"; {out['status']}: {out['message']}"
@@ -312,6 +370,7 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
             out.update(traj.extra)
             for fn in sweep.assess:
                 out.update(fn(traj))
+            _statistics(solver, Omega, traj, out, sweep, Delta, clock)
             new_state = traj.final_state
         else:
             n_tr = 0 if sweep.auto else sweep.transient_periods

@@ -115,7 +115,7 @@ PASSIVE_EFFECTS = {"sensor"}
 # the per-point outputs a reference keeps (README, "Per-point outputs"); assessment and
 # method-specific extras (spectra, sensor records, ...) are left out to keep the files small
 KEPT = ("Omega", "amplitude", "amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max",
-        "record_periods", "transient_periods_used", "q_max", "q_min", "period", "impacts_per_period",
+        "amplitude_sem", "amplitude_sem_dof", "amplitude_sem_mm", "record_periods", "effective_gain", "transient_periods_used", "q_max", "q_min", "period", "impacts_per_period",
         "impact_velocity", "strobe", "harmonics", "direction", "status", "message", "wall_time_s",
         "stuck_fraction", "frequency_hz", "amplitude_mm", "amplitude_mean_mm", "amplitude_std_mm",
         "amplitude_min_mm", "amplitude_max_mm", "amplitude_lower", "stable", "impacts_per_period_lower",
@@ -487,6 +487,7 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
             c_st.add(float(d["Omega"][i]), str(d["direction"][i]), float(d["amplitude"][i]),
                      float(res.data["amplitude"][j]))
         out.append(c_st)
+        out.append(_static_statistics_check(name, d, res.data, key))
         # the same oracles as an SDOF run, on the derived SDOF (frequency and strobe velocity in
         # its time unit 1 / omega_n; q = U(L_S) / L is the same coordinate)
         r = red.f_n_hz / model.f_ref_hz
@@ -496,12 +497,49 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
             out += _two_sided_checks(name, sdof, d2)
         else:
             out += [c for c in _sdof_checks(name, sdof, d2) if "averaging" not in c.oracle]
-    elif expensive and model.n_modes <= DIRECT_MAX_MODES:
-        out.append(_direct_check(name, model, d, sweep))
+    elif model.n_modes <= DIRECT_MAX_MODES and (expensive or getattr(model, "contact_law", "restitution")
+                                                 != "restitution"):
+        # every compliant FE run gets its direct check, one point in the default test step (the
+        # restitution FE runs have the static-mode, one-mode and shooting oracles of the tests)
+        out.append(_direct_check(name, model, d, sweep, DIRECT_POINTS if expensive else 1))
     return out
 
 
-def _direct_check(name, model, d, sweep):
+def _static_statistics_check(name, d, sdof_data, key):
+    """Non-periodic points of a static-mode beam run against the derived SDOF's (the same
+    equations; chaos tells their round-offs apart, so only the statistics can agree): the means
+    of Q_k by Welch's test on batch-means errors at 4 sigma (vibeam.records.means_agree).  Only
+    points that start from reproducible states in both sweeps: the first of each line, or after
+    a periodic point in both (after a chaotic one a multistable point may land elsewhere)."""
+    from vibeam.records import means_agree
+
+    c = Check(name, "static mode vs SDOF, non-periodic points: means of Q_k (Welch, batch means, 4 sigma)",
+              1.0, floor=1.0)
+    need = ("amplitude_mean", "amplitude_sem", "amplitude_sem_dof")
+    if not all(k in d and k in sdof_data for k in need):
+        return c
+    f = np.asarray(d["frequency_hz"], float)
+    dirs = np.array([str(x) for x in d["direction"]])
+    for i in range(f.size):
+        j = key[(dirs[i], round(float(f[i]), 9))]
+        if int(d["period"][i]) != 0 or int(sdof_data["period"][j]) != 0:
+            continue
+        same = np.flatnonzero(dirs == dirs[i])
+        before = same[f[same] < f[i]] if dirs[i] != "down" else same[f[same] > f[i]]
+        if before.size:
+            k = before[np.argmax(f[before])] if dirs[i] != "down" else before[np.argmin(f[before])]
+            kj = key[(dirs[k], round(float(f[k]), 9))]
+            if int(d["period"][k]) == 0 or int(sdof_data["period"][kj]) == 0:
+                continue
+        m1, m2 = float(d["amplitude_mean"][i]), float(sdof_data["amplitude_mean"][j])
+        ok = bool(means_agree(m1, float(d["amplitude_sem"][i]), int(d["amplitude_sem_dof"][i]),
+                              m2, float(sdof_data["amplitude_sem"][j]), int(sdof_data["amplitude_sem_dof"][j])))
+        # the check's "error": 0 when Welch's test passes, else the relative difference of the means
+        c.add(float(d["Omega"][i]), dirs[i], 0.0 if ok else 1.0 + abs(m1 - m2) / max(abs(m2), 1e-300), 0.0)
+    return c
+
+
+def _direct_check(name, model, d, sweep, n_points=DIRECT_POINTS):
     """FE periodic impacting points against the ``direct`` beam solver (solve_ivp DOP853)."""
     from vibeam.models import make_solver
     from vibeam.records import summarize
@@ -510,11 +548,11 @@ def _direct_check(name, model, d, sweep):
     cand = [i for i in range(len(d["Omega"])) if int(d["period"][i]) == 1 and str(d["status"][i]) == "ok"
             and float(d["impacts_per_period"][i]) == 1.0]
     # spread the checked points over the grid
-    picks = [cand[j] for j in sorted(set(np.linspace(0, len(cand) - 1, min(len(cand), 2 * DIRECT_POINTS))
+    picks = [cand[j] for j in sorted(set(np.linspace(0, len(cand) - 1, min(len(cand), 2 * n_points))
                                          .round().astype(int)))] if cand else []
     spp = sweep.samples_per_period
     for i in picks:
-        if c.n >= DIRECT_POINTS:
+        if c.n >= n_points:
             break
         W = float(d["Omega"][i])
         n_tr = REFERENCE_TRANSIENT["beam"] if sweep.auto else max(int(sweep.transient_periods), 300)
@@ -574,14 +612,60 @@ def check_runs(ref_case, data: dict, expensive: bool = True) -> list[Check]:
             c = Check(name, "no failed points", 0.0)
             c.failures.append(f"failed at Omega {bad}")
             checks.append(c)
-        if r.method != "event" or set(ref_case.effects_for(r).active()) - PASSIVE_EFFECTS:
-            continue  # closed-form runs are their own oracle; effects change the model
+        if r.method != "event":
+            continue  # closed-form runs are their own oracle
         spec = ref_case.model_spec(overrides) if overrides else ref_case.model_spec()
+        effects = ref_case.effects_for(r)
+        active = set(effects.active()) - PASSIVE_EFFECTS
+        platform = PLATFORM_ORACLES.get(spec.fidelity)
+        if active == {"platform"} and effects.platform.level == "filter" and effects.platform.gains is None \
+                and platform is not None:
+            checks += platform(name, spec, effects.platform, d)
+            continue
+        if active:
+            continue  # the other effects change the model point by point (tests/test_effects.py)
         model = spec.build()
         oracles = ORACLES.get(spec.fidelity)
         if oracles is not None:
             checks += oracles(name, spec, model, d, sweep, expensive, ref_case.map is not None)
     return checks
+
+
+def _platform_checks(name, spec, plat, d):
+    """A platform filter between shaker and clamp (Sec. 5.2, ``[effects.platform] level =
+    "filter"``): each point is the plain SDOF at the gain the filter predicts there.  The gain is
+    recomputed here from its definition, a force-driven second-order platform ``|1 / (1 - r^2 +
+    2 i zeta r)|``, ``r = f / f_p``, scaled to the scene's gain at the natural frequency (1e-12
+    against the stored ``effective_gain``); then the SDOF oracles (impact-map fixed points, the
+    linear steady state) on the model with ``B = gamma(f) V`` (Eq. 43) point by point."""
+    from vibeam.models import SDOF
+
+    f_ref = plat.reference_frequency_hz or spec.natural_frequency_hz
+
+    def H(f):
+        r = f / plat.frequency_hz
+        return 1.0 / abs(complex(1.0 - r * r, 2.0 * plat.damping_ratio * r))
+
+    c_gain = Check(name, "platform filter gain vs |H(f)| / |H(f_n)| of a second-order platform", 1e-12)
+    base = spec.build()
+    out = {}
+    for i, W in enumerate(d["Omega"]):
+        f = float(d["frequency_hz"][i])
+        g = spec.gain * H(f) / H(f_ref)
+        if "effective_gain" in d:
+            c_gain.add(float(W), str(d["direction"][i]), float(d["effective_gain"][i]), g)
+        m = SDOF(beta=base.beta, B=g * spec.voltage, R=base.R, Delta=base.Delta)
+        one = {k: np.asarray(v)[i:i + 1] for k, v in d.items() if k != "attrs" and np.ndim(v) >= 1
+               and len(v) == len(d["Omega"])}
+        for c in _sdof_checks(name, m, one):
+            if "averaging" in c.oracle:
+                continue
+            key = c.oracle + " (platform filter: B = gamma(f) V)"
+            acc = out.setdefault(key, Check(name, key, c.tol))
+            acc.n += c.n
+            acc.err = max(acc.err, c.err)
+            acc.failures += c.failures
+    return [c_gain, *out.values()]
 
 
 def _two_sided_checks(name, model, d):
@@ -649,6 +733,10 @@ ORACLES = {
     "beam": lambda name, spec, model, d, sweep, expensive, is_map: _beam_checks(name, spec, model, d, sweep,
                                                                                 expensive),
 }
+
+
+# the oracles of runs whose only effect is a platform filter (Sec. 5.2), per fidelity
+PLATFORM_ORACLES = {"sdof": _platform_checks}
 
 
 def check_stored(path, expensive: bool = False) -> list[Check]:
