@@ -143,7 +143,10 @@ def test_run_end_to_end_writes_results_plots_and_table(tmp_path, capsys):
     assert r["runs"]["looser"]["attrs"]["method"] == "event"
     with h5py.File(out / "results.h5") as f:
         assert f["runs/exact/frequency_hz"].attrs["units"] == "Hz"
-    assert (out / "frc.png").stat().st_size > 1000 and (out / "bifurcation.png").exists()
+    from test_plots import assert_png_shows_results      # the PNGs are the file's data, drawn
+
+    for kind in ("frc", "bifurcation"):
+        assert_png_shows_results(out / f"{kind}.png", out / "results.h5", kind)
     table = capsys.readouterr().out
     assert "exact" in table and "looser" in table and "reference" in table
 

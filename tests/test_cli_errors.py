@@ -198,7 +198,15 @@ def test_output_into_a_closed_pipe_is_dropped_quietly(tmp_path):
     assert first
     assert "Traceback" not in err and "BrokenPipe" not in err, err
     assert p.returncode == 0, err
-    assert (out / "cost.h5").exists() and (out / "work_precision.png").stat().st_size > 1000
+    import matplotlib.pyplot as plt
+    from test_plots import assert_png_image          # its data: test_cost.py::test_cost_cli_writes_table_and_plot
+
+    from vibeam.cost import work_precision_figure
+
+    empty = work_precision_figure({"rows": [], "models": {}})          # for its size
+    plt.close(empty)
+    assert (out / "cost.h5").exists()
+    assert_png_image(out / "work_precision.png", empty.get_size_inches())
 
 
 def test_bench_json_is_finite_for_small_counts():

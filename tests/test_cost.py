@@ -105,7 +105,10 @@ def test_cost_table_prints_full_settings_and_long_names(capsys):
 def test_cost_cli_writes_table_and_plot(tmp_path):
     path = tmp_path / "c.toml"
     path.write_text(CASE.replace("METHOD", "ivanov"))
-    assert main(["cost", str(path), "--out", str(tmp_path), "--repeats", "1"]) == 0
+    from test_plots import assert_png_shows, check_work_precision_data, written_figures
+
+    with written_figures() as figs:
+        assert main(["cost", str(path), "--out", str(tmp_path), "--repeats", "1"]) == 0
     with h5py.File(tmp_path / "cost.h5") as f:
         methods = [m.decode() if isinstance(m, bytes) else m for m in f["cost/method"][()]]
         assert methods == ["event", "ivanov", "averaging"]
@@ -120,7 +123,9 @@ def test_cost_cli_writes_table_and_plot(tmp_path):
         assert f["cost/error_max"][0] < 1e-3
         claims = [json.loads(c) for c in f["cost/claims"].asstr()[()]]
         assert all({"claim", "measured", "reproduced", "why"} <= set(c) for c in claims)
-    assert (tmp_path / "work_precision.png").stat().st_size > 1000
+    # the figure written plots cost.h5's times and errors, and the PNG is that figure
+    check_work_precision_data(figs["work_precision.png"], tmp_path / "cost.h5")
+    assert_png_shows(tmp_path / "work_precision.png", figs["work_precision.png"])
     # --quick and --jobs; the work-precision figure is labelled
     assert main(["cost", str(path), "--out", str(tmp_path / "q"), "--repeats", "1", "--quick", "--jobs", "2"]) == 0
     import xarray as xr

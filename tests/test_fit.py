@@ -129,8 +129,11 @@ def test_exact_data_from_the_runner_gives_the_truth(tmp_path, capsys):
     start = text.replace("gain = 7.66e-4", "gain = 7.0e-4").replace("R = 0.59", "R = 0.63")
     (tmp_path / "start.toml").write_text(start)
     out = tmp_path / "fit"
-    assert main(["fit", str(tmp_path / "start.toml"), "--reference", str(tmp_path / "run" / "results.h5"),
-                 "--params", "gain,R", "--loss", "linear", "--out", str(out), "--jobs", "1", "--quiet"]) == 0
+    from test_plots import assert_png_shows, check_fit_data, written_figures
+
+    with written_figures() as figs:
+        assert main(["fit", str(tmp_path / "start.toml"), "--reference", str(tmp_path / "run" / "results.h5"),
+                     "--params", "gain,R", "--loss", "linear", "--out", str(out), "--jobs", "1", "--quiet"]) == 0
     printed = capsys.readouterr().out
     assert "std. error" in printed and "evaluations" in printed
     with h5py.File(out / "fit.h5", "r") as f:
@@ -152,7 +155,8 @@ def test_exact_data_from_the_runner_gives_the_truth(tmp_path, capsys):
     tol = 2 * np.abs(np.linalg.pinv(jac)) @ (np.nan_to_num(acc) / sigma) + 10 * 1e-8 * np.array([7.66e-4, 0.59])
     assert np.all(np.abs(est - [7.66e-4, 0.59]) <= tol), (est, tol)
     assert np.all(se < 1e-6 * np.array([7.66e-4, 0.59]))    # exact data: no scatter left
-    assert (out / "fit.png").stat().st_size > 10_000
+    check_fit_data(figs["fit.png"], out / "fit.h5")            # data, fitted FRC and residuals drawn
+    assert_png_shows(out / "fit.png", figs["fit.png"])
     fitted, _ = load_case(out / "rigfit-fit.toml")
     assert fitted.model["gain"] == pytest.approx(est[0], rel=1e-15)
     assert fitted.model["R"] == pytest.approx(est[1], rel=1e-15)

@@ -87,7 +87,9 @@ def test_zero_gap_map_is_homogeneous_in_voltage(tmp_path):
     # amplitude at V scales as the linear FRC would at this frequency only below the stop:
     # here every point impacts (period-1 at the zero gap, 2 f_n inside the band)
     assert (d["classification"] == PERIOD_1).all()
-    assert (tmp_path / "map_exact.png").stat().st_size > 0
+    from test_plots import assert_png_shows_results      # the PNG is the file's classes, drawn
+
+    assert_png_shows_results(tmp_path / "map_exact.png", tmp_path / "results.h5", "map exact")
     f = read_results(tmp_path / "results.h5")
     assert f["attrs"]["complete"]
     assert f["maps"]["exact"]["attrs"]["parameter"] == "voltage"

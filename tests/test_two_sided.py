@@ -416,7 +416,9 @@ def test_shipped_two_sided_case_runs_and_plots_impacts_per_stop(tmp_path):
 
     case = Path(__file__).resolve().parents[1] / "cases" / "paper-fig7-two-sided.toml"
     assert main(["run", str(case), "--quick", "--out", str(tmp_path), "--jobs", "1", "--quiet"]) == 0
-    assert (tmp_path / "impacts.png").stat().st_size > 0
+    from test_plots import assert_png_shows_results      # speeds and impacts per stop, as in the file
+
+    assert_png_shows_results(tmp_path / "impacts.png", tmp_path / "results.h5", "impacts")
     with h5py.File(tmp_path / "results.h5") as f:
         r = f["runs"]["symmetric stops at 2e-3"]
         assert r["impacts_per_period_lower"].attrs["units"] == "1"
