@@ -118,6 +118,71 @@ def test_branch_points_equal_event_runs(two_branch):
         assert rec["q_max"] == pytest.approx(a["q_max"][i], rel=1e-9)
 
 
+#: a lower stop of its own law: softer (k_l = 3e3 against 1e4) and lossier (R_l = 0.7 against 0.9)
+OWN = replace(TWO, contact_lower=LinearContact.from_restitution(3e3, 0.7))
+
+
+def _event_map_jacobian(solver, W, x, phase=0.0, rel=1e-5):
+    """Central differences of the event kernel's stroboscopic map ``x -> x(T)`` (one forcing
+    period from forcing phase 0; ``solver.point(W, (x, phase), 0, 1)``), step ``rel |x_c|``."""
+    d = x.shape[0]
+    J = np.empty((d, d))
+    for c in range(d):
+        e = np.zeros(d)
+        e[c] = rel * max(abs(x[c]), 1e-3 * np.max(np.abs(x)))
+        a = solver.point(W, np.concatenate([x + e, [phase]]), 0, 1, 4)
+        b = solver.point(W, np.concatenate([x - e, [phase]]), 0, 1, 4)
+        assert a.final_state[d] == b.final_state[d] == phase and a.n_impacts == b.n_impacts
+        J[:, c] = (a.final_state[:d] - b.final_state[:d]) / (2 * e[c])
+    return J
+
+
+def _same_multipliers(mu, ev):
+    """Largest distance from a multiplier to the nearest eigenvalue, and back (a matching
+    of the two spectra up to order)."""
+    return max(max(np.min(np.abs(ev - m_)) for m_ in mu), max(np.min(np.abs(mu - e_)) for e_ in ev))
+
+
+@pytest.fixture(scope="module")
+def own_branch():
+    x0, _ = _settled(OWN, 1.6)
+    return trace(shooting_problem(OWN, "Omega"), x0, 1.6, 1, 1.5, 2.4, +1)
+
+
+def test_own_lower_law_branch_equals_event_runs_and_map_jacobian(own_branch):
+    """The lower stop's law is its own (``[model.contact_lower]``: k_l = 3e3, R_l = 0.7 beside
+    k = 1e4, R = 0.9), and the shooting problem must use it: the two-stop event kernel, which
+    takes both laws from ``model.stops()``, is the oracle.
+
+    * Scenario: one period-1 branch over 1.6..2.4, stable throughout (max|mu| 0.59..0.61), one
+      contact on each stop per period.
+    * Branch points are its fixed points: 1500 periods of the event kernel from the branch
+      state end on it (relative 1e-9; max|mu|^1500 < 1e-300, so the transient is round-off;
+      measured <= 6e-14) with 16 contacts on each stop in 16 recorded periods and the
+      same q_min (the lower stop's largest penetration depends on k_l).
+    * The Floquet multipliers are the eigenvalues of a central-difference Jacobian of the
+      event kernel's one-period map (step 1e-5 relative: truncation ~1e-10, round-off
+      ~1e-11; measured <= 1.7e-9 of max|mu|; bound 1e-6).
+    Both fail if the shooting problem's lower stop takes the upper law (the orbit of another
+    scene: event runs drift ~1e-1 away)."""
+    assert len(own_branch) == 1 and own_branch[0].status == "range_end"
+    a = own_branch[0].arrays()
+    assert a["parameter"][-1] == pytest.approx(2.4)
+    assert np.all(a["impacts_lower"] == 1) and np.all(a["impacts"] == 2) and np.all(a["stable"])
+    solver = CompliantEventSolver(OWN)
+    idx = range(0, len(a["parameter"]), 5)
+    assert len(idx) >= 4
+    for i in idx:
+        W, x = a["parameter"][i], a["state"][i]
+        y, tr = _settled(OWN, W, 1500, x)
+        assert np.max(np.abs(y - x)) < 1e-9 * np.max(np.abs(x)), (W, x, y)
+        assert tr.n_impacts == 32 and np.sum(tr.impact_stops == 1) == 16
+        assert tr.q_min == pytest.approx(a["q_min"][i], rel=1e-9)
+        mu = a["multipliers"][i]
+        ev = np.linalg.eigvals(_event_map_jacobian(solver, W, x))
+        assert _same_multipliers(mu, ev) < 1e-6 * np.max(np.abs(mu)), (W, mu, ev)
+
+
 def test_far_lower_stop_gives_the_one_stop_branch():
     """A lower stop the orbit never reaches changes nothing: the two-stop problem's free steps
     run the one-stop step up to the same step ends, so the branch agrees with the one-stop
@@ -209,13 +274,15 @@ def test_vibeam_continue_end_to_end(tmp_path):
 
 
 # ------------------------------------------------------------------ the modal beam
-def _rig2(n_modes, gap_lower_mm=0.3):
+def _rig2(n_modes, gap_lower_mm=0.3, lower=None):
     from vibeam.case import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     over = {"n_modes": n_modes, "contact": {"law": "linear", "stiffness_n_m": 1e5}}
     if gap_lower_mm is not None:
         over["gap_lower_mm"] = gap_lower_mm
+    if lower is not None:
+        over["contact_lower"] = lower
     return case.model_spec(over).build()
 
 
@@ -297,6 +364,45 @@ def test_beam_two_stop_branch_period_doubling_and_event_runs():
             t = CompliantBeamEventSolver(m).point(a["parameter"][i], np.concatenate([x, [0.0]]), 400, 4, 32)
             assert np.max(np.abs(t.final_state[:4] - x)) < 1e-9 * np.max(np.abs(x))
             assert t.n_impacts_lower == 4 and t.n_impacts == 8
+
+
+def test_beam_own_lower_law_branch_equals_event_runs_and_map_jacobian():
+    """Two modes, lower stop of its own law (``[model.contact_lower]`` 3e4 N/m, damping ratio
+    0.15, i.e. R_l = 0.65, beside 1e5 N/m, R = 0.72), 18 -> 17 Hz: the two-stop beam kernel
+    (laws from ``model.stops()``) is the oracle of the beam's shooting problem.
+
+    * Scenario: one period-1 branch, stable throughout (max|mu| 0.64..0.80), one contact on
+      each stop per period.
+    * Branch points are fixed points of the kernel: 400 periods from the branch state end on
+      it (relative 1e-9; 0.8^400 ~ 1e-39; measured <= 9e-15), 4 contacts on each stop in 4
+      recorded periods, the same q_min and q_max of the sensor (relative 1e-9).
+    * Floquet multipliers = eigenvalues of a central-difference Jacobian of the kernel's
+      one-period map (step 1e-5 relative; measured <= 1.2e-9 of max|mu|; bound 1e-6).
+    Both fail if the shooting problem's lower stop takes the upper law."""
+    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+
+    m = _rig2(2, lower={"law": "linear", "stiffness_n_m": 3e4, "damping_ratio": 0.15})
+    up, lo = (st.law for st in m.stops())
+    assert (lo.stiffness, lo.damping_ratio) == (3e4, 0.15) and up.stiffness == 1e5
+    solver = CompliantBeamEventSolver(m)
+    W = 18.0 / 7.6
+    tr = solver.point(W, None, 400, 4, 32)
+    brs = trace(shooting_problem(m, "Omega"), tr.final_state[:4], W, 1, 17.0 / 7.6, W, -1)
+    assert len(brs) == 1 and brs[0].status == "range_end"
+    a = brs[0].arrays()
+    assert a["parameter"][-1] * 7.6 == pytest.approx(17.0)
+    assert np.all(a["impacts_lower"] == 1) and np.all(a["impacts"] == 2) and np.all(a["stable"])
+    idx = range(0, len(a["parameter"]), 6)
+    assert len(idx) >= 3
+    for i in idx:
+        Wi, x = a["parameter"][i], a["state"][i]
+        t = solver.point(Wi, np.concatenate([x, [0.0]]), 400, 4, 32)
+        assert np.max(np.abs(t.final_state[:4] - x)) < 1e-9 * np.max(np.abs(x)), (Wi, x, t.final_state)
+        assert t.n_impacts_lower == 4 and t.n_impacts == 8
+        assert t.q_min == pytest.approx(a["q_min"][i], rel=1e-9) and t.q_max == pytest.approx(a["q_max"][i], rel=1e-9)
+        mu = a["multipliers"][i]
+        ev = np.linalg.eigvals(_event_map_jacobian(solver, Wi, x))
+        assert _same_multipliers(mu, ev) < 1e-6 * np.max(np.abs(mu)), (Wi, mu, ev)
 
 
 def test_beam_far_lower_stop_gives_the_one_stop_shot():
