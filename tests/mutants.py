@@ -36,6 +36,95 @@ class Mutant:
 
 
 MUTANTS: list[Mutant] = [
+    # --- laws and stops
+    Mutant("SDOF lower stop rebounds with the upper stop's R (Newton's law, event kernel)",
+           "models/sdof_event.py",
+           "U_plus, Rc = impulsive_response(U_minus, stops[1], tab_U[1], tab_R[1])",
+           "U_plus, Rc = impulsive_response(U_minus, stops[0], tab_U[0], tab_R[0])",
+           ("tests/test_contact_outputs_two.py", "tests/test_energy_balance.py")),
+    Mutant("mixed stops: the Newton lower stop takes the compliant upper stop's R",
+           "models/sdof_compliant.py", "u = R_l * vn", "u = stops[0, R] * vn",
+           ("tests/test_contact_outputs_two.py", "tests/test_energy_balance.py")),
+    Mutant("compliant SDOF shooting: the lower stop's stiffness and damping from the upper law",
+           "models/periodic_compliant.py",
+           "self.kcl = float(low.stiffness)\n            self.ccl = float(low.damping)",
+           "self.kcl = float(law.stiffness)\n            self.ccl = float(law.damping)",
+           ("tests/test_continuation_compliant_two.py",)),
+    Mutant("compliant beam shooting: the lower stop's stiffness and damping from the upper law",
+           "models/periodic_compliant.py", "kl, cl, Dl = m.lower_stop_params()",
+           "kl, cl, Dl = kc, cc, m.lower_stop_params()[2]", ("tests/test_continuation_compliant_two.py",)),
+    Mutant("Hunt-Crossley damping chi = 8 (1 - R) / (3 R) instead of / (5 R) (Flores et al. 2011)",
+           "models/compliant.py", "return 8.0 * (1.0 - self.R) / (5.0 * self.R)",
+           "return 8.0 * (1.0 - self.R) / (3.0 * self.R)", ("tests/test_compliant.py",)),
+    Mutant("Kelvin-Voigt restitution of a damping ratio: the phase of the force-zero exit off by sign",
+           "models/compliant.py", "th = math.pi - math.atan2(2.0 * z * s, 1.0 - 2.0 * z * z)",
+           "th = math.pi + math.atan2(2.0 * z * s, 1.0 - 2.0 * z * z)", ("tests/test_compliant.py",)),
+    # --- saltation matrices
+    Mutant("SDOF impact saltation: post-impact acceleration without the damping jump 2 beta (1 + R) v-",
+           "models/periodic_sdof.py", "ap = am + 2.0 * beta * (1.0 + R) * vm",
+           "ap = am + 2.0 * beta * R * vm", ("tests/test_continuation.py",)),
+    Mutant("SDOF impact saltation: displacement jump (1 + R) v- taken as R v-",
+           "models/periodic_sdof.py", "        w0 = (1.0 + R) * vm\n        w1 = -(R * am + ap)",
+           "        w0 = R * vm\n        w1 = -(R * am + ap)", ("tests/test_continuation.py",)),
+    Mutant("Kelvin-Voigt entry saltation S = [[1, 0], [-c_c, 1]] dropped (SDOF one stop)",
+           "models/periodic_compliant.py",
+           "                    Y[1, :] -= cc * Y[0, :]\n                    Y[1, 4] += cc          # h_Delta = -1",
+           "                    Y[1, 4] += cc          # h_Delta = -1",
+           ("tests/test_continuation_compliant.py",)),
+    Mutant("Kelvin-Voigt entry saltation of the beam: the dashpot's c w w^T term dropped",
+           "models/periodic_compliant.py", "                    J[N:, :] -= c_ * np.outer(w, w @ J[:N, :])\n",
+           "", ("tests/test_continuation_compliant.py",)),
+    # --- release and grazing
+    Mutant("release from a pre-stressed lower stop at the rising instead of the falling zero",
+           "models/sdof_event.py", "phid = -math.asin(r)  # downward zero crossing of a",
+           "phid = math.asin(r)  # downward zero crossing of a", ("tests/test_two_sided.py",)),
+    Mutant("release from the upper stop at the rising zero of the contact force",
+           "models/sdof_event.py", "phid = math.pi - math.asin(r)  # downward zero crossing of a",
+           "phid = math.asin(r)  # downward zero crossing of a", ("tests/test_event.py",)),
+    Mutant("grazing: the interpolation bound M2 h^2 / 8 taken ten times too small (missed impacts)",
+           "models/sdof_event.py", "c8 = 0.125 * M2 * h * h", "c8 = 0.0125 * M2 * h * h",
+           ("tests/test_hard_cases.py",)),
+    Mutant("chatter: accumulation time 2 u / (a (1 + R)) instead of (1 - R) (Budd & Dux 1994)",
+           "models/contact_policy.py", "D = 2.0 * u / (a * (1.0 - R))", "D = 2.0 * u / (a * (1.0 + R))",
+           ("tests/test_event.py",)),
+    # --- unit conversions
+    Mutant("SI contact force of the SDOF: force_scale_n 1.4 times too large",
+           "models/sdof.py", "return self.mass_kg * (2 * math.pi * self.natural_frequency_hz) ** 2 * self.length_m",
+           "return 1.4 * self.mass_kg * (2 * math.pi * self.natural_frequency_hz) ** 2 * self.length_m",
+           ("tests/test_compliant.py",)),
+    Mutant("SI contact force of the beam: force_scale_n 1.4 times too large",
+           "models/beam_compliant.py", "return self.m_eff * self.omega_ref ** 2 * self.length_m",
+           "return 1.4 * self.m_eff * self.omega_ref ** 2 * self.length_m", ("tests/test_compliant.py",)),
+    Mutant("contact duration in s without the 2 pi of omega_n",
+           "vibeam/sweep.py", "/ (2 * np.pi * fn)", "/ fn", ("tests/test_compliant.py",)),
+    Mutant("energy per impact in J without the length scale (N instead of J)",
+           "vibeam/sweep.py", 'data["energy_per_impact" + sfx] * fs * L', 'data["energy_per_impact" + sfx] * fs',
+           ("tests/test_compliant.py",)),
+    # --- energies
+    Mutant("beam Newton energy per impact (1 - R) v^2 / 2 instead of (1 - R^2) v^2 / 2",
+           "models/beam_dynamics.py", "0.5 * (1.0 - Rk ** 2) * v ** 2, v])", "0.5 * (1.0 - Rk) * v ** 2, v])",
+           ("tests/test_energy_balance.py",)),
+    Mutant("energy_per_impact: the largest contact loss instead of the mean",
+           "vibeam/records.py", "energy_per_impact=float(np.mean(c[:, 3])))",
+           "energy_per_impact=float(np.max(c[:, 3])))", ("tests/test_contact_outputs_two.py",)),
+    # --- statistics and regression
+    Mutant("batch means: standard error std(batch means) / a instead of / sqrt(a)",
+           "vibeam/records.py", "return float(np.std(means, ddof=1) / math.sqrt(a)), a - 1",
+           "return float(np.std(means, ddof=1) / a), a - 1", ("tests/test_statistics.py",)),
+    Mutant("regress excuses every change of period as multistable, not only after a chaotic point",
+           "vibeam/regress.py", "    return after & differ", "    return differ", ("tests/test_statistics.py",)),
+    # --- the results writer
+    Mutant("results writer: a failed write leaves its temporary file behind",
+           "vibeam/results.py", "            if os.path.exists(tmp):\n                os.unlink(tmp)\n",
+           "", ("tests/test_cli_errors.py",)),
+    Mutant("results writer: the mm datasets of a physical scene in units of 0.1 mm",
+           "vibeam/sweep.py", "data[k + \"_mm\"] = data[k] * L * 1e3", "data[k + \"_mm\"] = data[k] * L * 1e4",
+           ("tests/test_settle.py",)),
+    # --- the platform filter (effects)
+    Mutant("platform filter: damping term 1 i zeta r instead of 2 i zeta r",
+           "vibeam/effects.py", "return 1.0 / (1.0 - r * r + 2j * zeta_p * r)",
+           "return 1.0 / (1.0 - r * r + 1j * zeta_p * r)",
+           ("tests/test_references.py::test_reference_passes_its_oracles_recomputed[rig-effects]",)),
 ]
 
 
@@ -63,6 +152,10 @@ def run(m: Mutant, python: str = sys.executable) -> tuple[str, float]:
 
 
 def main(argv=None) -> int:
+    import signal
+
+    # SIGTERM as Ctrl-C, so that the mutated file is restored by run()'s finally
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     argv = sys.argv[1:] if argv is None else argv
     if "--list" in argv:
         for i, m in enumerate(MUTANTS, 1):
