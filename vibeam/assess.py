@@ -486,11 +486,11 @@ def finish(case, runs, out_dir) -> list:
         rows = sensor_table(runs)
         print_sensor_table(rows)
         csv = out_dir / "sensor_R_vs_noise.csv"
-        with open(csv, "w") as fh:
-            fh.write("run,noise_mm,points,identified,median_abs_error,max_abs_error,rms_error,mean_R_identified,"
-                     "mean_R_model,mean_R_sensor_exact\n")
-            for r in rows:
-                fh.write(",".join(str(x) for x in r) + "\n")
+        from .outdir import replace_file
+
+        replace_file(csv, "run,noise_mm,points,identified,median_abs_error,max_abs_error,rms_error,"
+                     "mean_R_identified,mean_R_model,mean_R_sensor_exact\n"
+                     + "".join(",".join(str(x) for x in r) + "\n" for r in rows))
         paths.append(csv)
         p = plot_sensor(rows, out_dir / "sensor_R_vs_noise.png", case.name, case, col, runs)
         if p:

@@ -248,6 +248,7 @@ def cmd_modes(args) -> int:
     out = check_folder(Path(args.out) if args.out else Path("results") / case.name)
     from .beamscene import modes_report
     from .models.beam import write_modes
+    from .outdir import replace_file
 
     rep = modes_report(spec, n=args.n)
     md, cm = rep["modes"], rep["contact"]
@@ -263,29 +264,10 @@ def cmd_modes(args) -> int:
               f"{me:>12.4g}{100 * me / tot:>9.2f}{100 * cum / tot:>8.2f}")
     print("\ncontact modes (beam held at the stop, w(L_m) = 0): " +
           ", ".join(f"{f:.2f}" for f in cm.frequencies_hz[: args.n]) + " Hz")
-    vtu = _atomic_file(out / "modes.vtu", lambda p: write_modes(p, rep["fe"], n=min(args.n, len(md.frequencies_hz))))
+    vtu = replace_file(out / "modes.vtu", lambda p: write_modes(p, rep["fe"], n=min(args.n, len(md.frequencies_hz))))
     png = _plot_modes(rep, out / "modes.png", case.name)
     print(f"mode shapes -> {vtu} (ParaView), {png}")
     return 0
-
-
-def _atomic_file(path: Path, write) -> Path:
-    """``write(tmp_path)`` then rename over ``path``; the temporary file is removed on error."""
-    import tempfile
-
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
 
 
 def _plot_modes(rep, path, title):
@@ -491,6 +473,10 @@ def _dispatch(args) -> int:
         why = e.strerror or str(e)
         if e.errno == errno.ENOSPC:
             why = "no space left on the device"
+        elif e.errno == errno.EFBIG:
+            why = "file too large (the file system's or the process's file-size limit, ulimit -f)"
+        elif e.errno == errno.EDQUOT:
+            why = "disk quota exceeded"
         print(f"vibeam: error: {_one_line(f'{what}: {why}' if what else why)}", file=sys.stderr)
         return 2
     finally:

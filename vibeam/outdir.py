@@ -9,9 +9,11 @@ with one message naming it and the running process; a lock left by a process
 that is gone (a *stale* lock) is taken over.  On a file system without
 ``flock`` the holder's pid (and its start time, against pid reuse) decides.
 
-While it holds the lock, the process removes the temporary files
-``.results-*.h5.tmp`` that a killed write leaves behind
-(:func:`vibeam.results` writes through them).
+Every file vibeam writes goes through :func:`replace_file`: a temporary file in the same
+folder (``.vibeam-tmp-*``), written in full, flushed to the disk (``fsync``) and only then
+renamed over the old file, so a failed write (a full disk, a file-size limit, a read-only
+folder, an interrupt) leaves the previous file byte for byte.  While it holds the lock, the
+process removes the temporary files that a killed write leaves behind (:data:`TMP_PATTERNS`).
 """
 from __future__ import annotations
 
@@ -27,7 +29,11 @@ from pathlib import Path
 from .case import InputError
 
 LOCK_NAME = ".vibeam.lock"
-TMP_PATTERN = ".results-*.h5.tmp"
+TMP_PREFIX = ".vibeam-tmp-"
+"""Start of the name of every temporary file :func:`replace_file` writes."""
+TMP_PATTERNS = (TMP_PREFIX + "*", ".results-*.h5.tmp")
+"""Leftovers of killed writes removed by the lock's holder (the second: earlier versions)."""
+TMP_PATTERN = TMP_PATTERNS[1]
 
 _held_fds: set[int] = set()
 
@@ -147,6 +153,10 @@ class OutputLock:
         except (OSError, ValueError):
             return {}
 
+    def _cannot(self, e: OSError):
+        raise InputError(f"--out {self.folder}: cannot write the lock file {self.path}: "
+                         f"{e.strerror or e}") from None
+
     def _refuse(self, info):
         raise InputError(f"--out {self.folder} is in use by another vibeam process ({describe(info)}); "
                          f"wait for it to end or use another --out (lock file {self.path})")
@@ -160,8 +170,7 @@ class OutputLock:
             try:
                 fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
             except OSError as e:
-                raise InputError(f"--out {self.folder}: cannot write the lock file {self.path}: "
-                                 f"{e.strerror or e}") from None
+                self._cannot(e)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
                 flocked = True
@@ -195,17 +204,23 @@ class OutputLock:
         info = {"pid": os.getpid(), "host": socket.gethostname(), "pid_start": _proc_start(os.getpid()),
                 "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                 "command": self.command}
-        os.ftruncate(fd, 0)
-        os.lseek(fd, 0, os.SEEK_SET)
-        os.write(fd, (json.dumps(info) + "\n").encode())
         self.fd = fd
         _held_fds.add(fd)
-        for p in self.folder.glob(TMP_PATTERN):       # leftovers of killed writes
-            try:
-                p.unlink()
-                self.removed_tmp.append(p)
-            except OSError:
-                pass
+        try:
+            os.ftruncate(fd, 0)
+            os.lseek(fd, 0, os.SEEK_SET)
+            os.write(fd, (json.dumps(info) + "\n").encode())
+        except OSError as e:               # a full disk: no lock is left behind
+            self.release()
+            self._cannot(e)
+        for pattern in TMP_PATTERNS:                   # leftovers of killed writes
+            for p in self.folder.glob(pattern):
+                try:
+                    if p.is_symlink() or p.is_file():
+                        p.unlink()
+                        self.removed_tmp.append(p)
+                except OSError:
+                    pass
         return self
 
     def release(self) -> None:
@@ -236,39 +251,110 @@ class OutputLock:
         return False
 
 
+def replace_file(path, content) -> Path:
+    """Replace ``path`` by a complete successor: the one way vibeam writes a file.
+
+    ``content`` goes to a temporary file in the same folder (``.vibeam-tmp-XXXXXXXX-<name>``,
+    so its suffix is that of ``path``), which is flushed to the disk (``fsync``), given the
+    mode ``0666 & ~umask`` and renamed over ``path`` (:func:`os.replace`, atomic); the folder
+    is then flushed too.  Until the rename ``path`` is untouched, byte for byte; a rename
+    replaces a symbolic link at ``path`` itself, never the file it points to.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write; its folder must exist.
+    content : bytes, bytearray, memoryview, str or callable
+        The new content (a str is written as UTF-8), or ``write(tmp_path)`` writing it.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OSError
+        If the file cannot be written in full (a full disk, a file-size limit, permissions);
+        its ``filename`` is ``path``, not the temporary file, and the temporary file is gone.
+        Any other error of ``write`` is raised as it is, after the same clean-up.
+    """
+    import tempfile
+
+    path = Path(path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=f"-{path.name}", dir=path.parent)
+    except OSError as e:
+        raise OSError(e.errno, e.strerror or str(e), str(path)) from None
+    try:
+        try:
+            if callable(content):
+                os.close(fd)
+                fd = -1
+                content(Path(tmp))
+                fd = os.open(tmp, os.O_RDONLY)
+            else:
+                data = content.encode("utf-8") if isinstance(content, str) else content
+                view = memoryview(data).cast("B")
+                while view:
+                    n = os.write(fd, view)
+                    view = view[n:]
+            os.fsync(fd)
+        finally:
+            if fd >= 0:
+                os.close(fd)
+        os.chmod(tmp, 0o666 & ~_umask())       # mkstemp makes 0600; results are shared
+        os.replace(tmp, path)
+    except BaseException as e:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        if isinstance(e, OSError) and not isinstance(e, BrokenPipeError) and e.filename != str(path):
+            # name the file being written (not the temporary one) in the one-line error
+            why = e.strerror or (str(e).splitlines()[0] if str(e) else type(e).__name__)
+            raise OSError(e.errno, why, str(path)) from e
+        raise
+    _sync_folder(path.parent)
+    return path
+
+
+def _sync_folder(folder) -> None:
+    """Flush a folder's entries (a rename) to the disk; a no-op where folders cannot be opened."""
+    try:
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def write_text_file(path, text: str, option: str = "") -> Path:
-    """Write a text file atomically (temporary file + :func:`os.replace`).
+    """Write a text file atomically (:func:`replace_file`).
 
     Raises
     ------
     InputError
         If ``path`` is a folder, its folder is missing or cannot be written; ``option`` (e.g.
         ``--write``) prefixes the message.
+    OSError
+        If the file cannot be written in full (a full disk); ``path`` is left as it was.
     """
-    import tempfile
-
     path = Path(path)
-    option = f"{option} " if option else ""
-
-    from .case import InputError
-
+    opt = f"{option} " if option else ""
     if path.is_dir():
-        raise InputError(f"{option}{path}: is a folder; give a file name")
+        raise InputError(f"{opt}{path}: is a folder; give a file name")
     if not path.parent.is_dir():
-        raise InputError(f"{option}{path}: the folder {path.parent} does not exist")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}-", suffix=".tmp", dir=path.parent)
-    except OSError as e:
-        raise InputError(f"{option}{path}: cannot write in {path.parent}: {e.strerror or e}") from None
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-        return path
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        raise InputError(f"{opt}{path}: the folder {path.parent} does not exist")
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise InputError(f"{opt}{path}: cannot write in {path.parent}: permission denied")
+    return replace_file(path, text)

@@ -25,31 +25,13 @@ from . import style
 
 
 def save_figure(fig, path, dpi: int = 150) -> Path:
-    """Save a matplotlib figure atomically: to a temporary file beside ``path``, then
-    :func:`os.replace`; on any error the temporary file is removed and the error raised."""
-    import os
-    import tempfile
+    """Save a matplotlib figure atomically (:func:`vibeam.outdir.replace_file`: a temporary
+    file beside ``path``, flushed, then renamed over it); on any error the temporary file is
+    removed, ``path`` is left as it was and the error raised."""
+    from .outdir import replace_file
 
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix + ".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
-
-
-def _umask() -> int:
-    import os
-
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+    return replace_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png"))
 
 
 def _save_close(fig, path):

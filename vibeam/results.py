@@ -51,12 +51,14 @@ is stored once, in ``/runs`` and ``/maps``.  ``--resume`` of a complete file
 recomputes nothing (the runs are read back: :func:`load_results`); an
 interrupted file still has its lines.
 
-Every write goes to a temporary file in the same folder that is then moved
-over the old one (:func:`os.replace` is atomic): the whole file at the end of
-a case, and one copy-and-append per batch of finished lines while it runs
-(:func:`append_lines`).  An interrupted or killed run therefore leaves either
-the previous complete file or the next one, never a corrupt one, and
-``--resume`` recomputes only the lines missing from ``/lines``.
+Every write builds the whole file in memory and hands it to
+:func:`vibeam.outdir.replace_file`: a temporary file in the same folder, flushed to
+the disk and then moved over the old one (:func:`os.replace` is atomic) -- the
+whole file at the end of a case, and one copy-and-append per batch of finished
+lines while it runs (:func:`append_lines`).  An interrupted or killed run, a full
+disk or a file-size limit therefore leaves either the previous complete file or
+the next one, never a corrupt one, and ``--resume`` recomputes only the lines
+missing from ``/lines``; HDF5 never meets a failing write.
 
 Any other group (continuation branches, fit tables) is written through
 :func:`write_group`: a dict of :class:`Variable` (dims, data, units, long_name)
@@ -67,7 +69,6 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import tempfile
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -715,40 +716,33 @@ def line_variables(data: dict) -> dict:
 
 # ============================================================================ files
 def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
-    """Write ``path`` through a temporary file: ``fill(file)`` on an :class:`h5py.File`,
-    then :func:`os.replace` (with ``copy_from``, the file is copied first and appended to)."""
-    import shutil
+    """Write ``path`` as a whole: ``fill(file)`` on an :class:`h5py.File` built in memory
+    (with ``copy_from``, a copy of that file's bytes appended to), then the image handed to
+    :func:`vibeam.outdir.replace_file` (temporary file, ``fsync``, rename).
+
+    HDF5 itself never writes to the disk: a full disk or a file-size limit fails in a plain
+    write of bytes (an :class:`OSError` naming ``path``), never inside the HDF5 library (where
+    such a failure crashed the process), and ``path`` keeps its previous content byte for byte
+    until the complete new file is renamed over it.
+    """
+    import io
 
     import h5py
 
+    from .outdir import replace_file
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=".results-", suffix=".h5.tmp", dir=path.parent)
-    except OSError as e:
-        raise OSError(e.errno, e.strerror, str(path)) from e
-    os.close(fd)
     with _signals_deferred():
         try:
-            if copy_from is not None:
-                shutil.copyfile(copy_from, tmp)
-            with h5py.File(tmp, "a" if copy_from is not None else "w") as f:
+            buf = io.BytesIO(Path(copy_from).read_bytes()) if copy_from is not None else io.BytesIO()
+            with h5py.File(buf, "r+" if copy_from is not None else "w") as f:
                 fill(f)
-            os.chmod(tmp, 0o666 & ~_umask())   # mkstemp makes 0600; a results file is shared
-            os.replace(tmp, path)
-        except BaseException as e:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            if isinstance(e, OSError) and not isinstance(e, BrokenPipeError) and e.filename != str(path):
-                # name the results file (not the temporary one) in the one-line error
-                raise OSError(e.errno, e.strerror or str(e).splitlines()[0], str(path)) from e
-            raise
-    return path
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+        except OSError as e:
+            if isinstance(e, BrokenPipeError) or e.filename == str(path):
+                raise
+            why = e.strerror or (str(e).splitlines()[0] if str(e) else type(e).__name__)
+            raise OSError(e.errno, why, str(path)) from e
+        return replace_file(path, buf.getbuffer())
 
 
 @contextlib.contextmanager
@@ -789,7 +783,8 @@ class ForeignFileError(ValueError):
     """A results file that belongs to another case (written by another process meanwhile)."""
 
 
-def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", case_json: str = "") -> Path:
+def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", case_json: str = "",
+                 fresh: bool = False) -> Path:
     """Add finished sweep lines to the checkpoint ``/lines`` of ``path`` atomically.
 
     Parameters
@@ -800,6 +795,10 @@ def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", ca
         ``{"<run>/<line key>": {dataset: array of length n_points}}``.
     case_name, case_text, case_json : str
         Root attributes of a new file (the case identifies what may be resumed).
+    fresh : bool
+        Start a new file holding only ``lines`` (the first checkpoint of a run that is not
+        resumed): an existing ``path`` is not read, and it stays as it was until the new
+        file is complete and renamed over it.
 
     Returns
     -------
@@ -827,7 +826,7 @@ def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", ca
                 del f[f"lines/{key}"]
             write_group(f, f"lines/{key}", line_variables(data), {"case_hash": ident}, _ids=ids)
 
-    return _atomic(path, fill, copy_from=path if path.exists() else None)
+    return _atomic(path, fill, copy_from=path if path.exists() and not fresh else None)
 
 
 def read_lines(path, case_json: str | None = None) -> tuple[dict, dict]:

@@ -383,13 +383,13 @@ def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, e
 
     def flush():
         if checkpoint and buffer:
-            if fresh[0] and h5.exists():
-                h5.unlink()          # a new run replaces an old file (use --resume to keep it)
-            fresh[0] = False
             try:
-                append_lines(h5, dict(buffer), case.name, text, case_json)
+                # the first checkpoint of a new run is a new file, renamed over an old one only
+                # once it is complete: a failed write leaves the old file as it was
+                append_lines(h5, dict(buffer), case.name, text, case_json, fresh=fresh[0])
             except ForeignFileError as e:
                 raise InputError(str(e)) from None
+            fresh[0] = False
             buffer.clear()
         last_flush[0] = time.perf_counter()
 

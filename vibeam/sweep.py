@@ -650,18 +650,21 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
     except BaseException:
         # interrupted (Ctrl-C, SIGTERM) or failing: report every line that has finished, then
         # stop the rest at once -- queued lines cancelled, the own pool's workers terminated
-        for f, line in list(pending.items()):
-            if f.done() and not f.cancelled() and f.exception() is None and (line.run, line.key) not in results:
-                pending.pop(f)
-                finish(line, f.result())
-        if own:
-            # the pool cancels what is queued and the killed workers' futures fail (cancelling
-            # them here as well trips Python 3.11's pool manager: InvalidStateError)
-            _terminate(ex)
-            pending[Future()] = None      # shut the pool down below without waiting for it
-        else:
-            for f in pending:
-                f.cancel()
+        try:
+            for f, line in list(pending.items()):
+                if f.done() and not f.cancelled() and f.exception() is None and \
+                        (line.run, line.key) not in results:
+                    pending.pop(f)
+                    finish(line, f.result())      # may fail again (a full disk): the rest still stops
+        finally:
+            if own:
+                # the pool cancels what is queued and the killed workers' futures fail (cancelling
+                # them here as well trips Python 3.11's pool manager: InvalidStateError)
+                _terminate(ex)
+                pending[Future()] = None      # shut the pool down below without waiting for it
+            else:
+                for f in pending:
+                    f.cancel()
         raise
     finally:
         if bar is not None:
