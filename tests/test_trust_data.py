@@ -121,6 +121,45 @@ def test_lock_of_a_killed_holder_is_stale_and_a_live_one_refuses(tmp_path):
     assert not (tmp_path / LOCK_NAME).exists()
 
 
+def _lock_refused(out, match, capsys, case_file):
+    """`vibeam run` into ``out`` stops at the lock with one line matching ``match``, exit 2."""
+    assert main(["run", str(case_file), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 2
+    err = [l for l in capsys.readouterr().err.splitlines() if l.strip()]
+    assert len(err) == 1 and err[0].startswith("vibeam: error: ") and match in err[0], err
+    assert not (out / "results.h5").exists()
+
+
+def test_the_lock_never_writes_through_a_link(tmp_path, capsys):
+    """Issue 19, item 2: ``<out>/.vibeam.lock`` a symbolic link to another file (or a dangling
+    one, or a hard link): the lock is refused with one line naming it, and the other file is
+    neither written nor created.  Before, the run opened the link and overwrote its target
+    with the lock's JSON (or created the target of a dangling link)."""
+    case_file = tmp_path / "a.toml"
+    case_file.write_text(CASE.format(name="a", gap=0.0, nf=3, tp=30))
+    out = tmp_path / "out"
+    out.mkdir()
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious\n")
+    (out / LOCK_NAME).symlink_to(victim)
+    with pytest.raises(InputError, match=r"lock file .*\.vibeam\.lock is a symbolic link \(to .*victim\.txt\)"):
+        OutputLock(out).acquire()
+    _lock_refused(out, "is a symbolic link", capsys, case_file)
+    assert victim.read_text() == "precious\n" and (out / LOCK_NAME).is_symlink()
+    (out / LOCK_NAME).unlink()
+    (out / LOCK_NAME).symlink_to(tmp_path / "elsewhere.txt")            # dangling
+    _lock_refused(out, "is a symbolic link", capsys, case_file)
+    assert not (tmp_path / "elsewhere.txt").exists()
+    (out / LOCK_NAME).unlink()
+    os.link(victim, out / LOCK_NAME)                                     # a second name of it
+    _lock_refused(out, "is a hard link", capsys, case_file)
+    assert victim.read_text() == "precious\n"
+    (out / LOCK_NAME).unlink()
+    with OutputLock(out) as lock:                                        # a plain folder: fine
+        assert (out / LOCK_NAME).is_file() and json.loads((out / LOCK_NAME).read_text())["pid"] == os.getpid()
+        assert not lock.stale
+    assert not (out / LOCK_NAME).exists()
+
+
 # ----------------------------------------------------------------------------- case identity
 def _line(case, text, key):
     """The stacked datasets of one line of a case (computed)."""

@@ -9,6 +9,11 @@ with one message naming it and the running process; a lock left by a process
 that is gone (a *stale* lock) is taken over.  On a file system without
 ``flock`` the holder's pid (and its start time, against pid reuse) decides.
 
+The lock file is created with ``O_CREAT | O_EXCL | O_NOFOLLOW`` and an existing one is
+opened with ``O_NOFOLLOW``: a lock path that is a symbolic link, a hard link to another
+file or not a regular file is refused, so the lock never writes through a link into a
+file it did not create.
+
 Every file vibeam writes goes through :func:`replace_file`: a temporary file in the same
 folder (``.vibeam-tmp-*``), written in full, flushed to the disk (``fsync``) and only then
 renamed over the old file, so a failed write (a full disk, a file-size limit, a read-only
@@ -153,6 +158,53 @@ class OutputLock:
         except (OSError, ValueError):
             return {}
 
+    def _open(self) -> int | None:
+        """The lock file, opened for reading and writing: a new one created exclusively, an
+        existing one opened without following a link; None if it vanished in between.
+
+        Raises
+        ------
+        InputError
+            If the lock path is a symbolic link, a hard link to another file or not a
+            regular file, or cannot be written.
+        """
+        flags = os.O_RDWR | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+        try:
+            return os.open(self.path, flags | os.O_CREAT | os.O_EXCL, 0o644)
+        except FileExistsError:
+            pass
+        except OSError as e:
+            self._cannot(e)
+        try:
+            # O_NONBLOCK: a FIFO in its place must not block the open (it is refused below)
+            fd = os.open(self.path, flags | getattr(os, "O_NONBLOCK", 0))
+        except FileNotFoundError:
+            return None
+        except OSError as e:
+            if e.errno == errno.ELOOP or os.path.islink(self.path):
+                self._not_ours("is a symbolic link" + self._target())
+            self._cannot(e)
+        st = os.fstat(fd)
+        import stat
+
+        if not stat.S_ISREG(st.st_mode) or st.st_nlink != 1:
+            os.close(fd)
+            self._not_ours("is not a regular file" if not stat.S_ISREG(st.st_mode)
+                           else f"is a hard link ({st.st_nlink} names for one file)")
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        return fd
+
+    def _target(self) -> str:
+        try:
+            return f" (to {os.readlink(self.path)})"
+        except OSError:
+            return ""
+
+    def _not_ours(self, what: str):
+        raise InputError(f"--out {self.folder}: the lock file {self.path} {what}; vibeam writes its lock "
+                         f"only into a plain file of its own: remove {self.path} or use another --out")
+
     def _cannot(self, e: OSError):
         raise InputError(f"--out {self.folder}: cannot write the lock file {self.path}: "
                          f"{e.strerror or e}") from None
@@ -167,10 +219,9 @@ class OutputLock:
         check_folder(self.folder)
         deadline = time.monotonic() + 2.0
         while True:
-            try:
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-            except OSError as e:
-                self._cannot(e)
+            fd = self._open()
+            if fd is None:
+                continue                   # removed between two looks: look again
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
                 flocked = True
@@ -188,7 +239,7 @@ class OutputLock:
                 flocked = False
             # the file may have been removed (released) between open and flock: lock the real one
             try:
-                same = os.fstat(fd).st_ino == os.stat(self.path).st_ino
+                same = os.fstat(fd).st_ino == os.lstat(self.path).st_ino
             except FileNotFoundError:
                 same = False
             if not same:
@@ -228,7 +279,7 @@ class OutputLock:
         if self.fd is None:
             return
         try:
-            if os.path.exists(self.path) and os.stat(self.path).st_ino == os.fstat(self.fd).st_ino:
+            if os.path.lexists(self.path) and os.lstat(self.path).st_ino == os.fstat(self.fd).st_ino:
                 os.unlink(self.path)
         except OSError:
             pass
