@@ -3,6 +3,7 @@ the case identity of checkpointed lines, leftovers of killed writes, the work li
 collisions, requests off the grid, and a run whose every point fails."""
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -247,6 +248,30 @@ def test_run_names_that_give_one_file_name_are_refused():
         with pytest.raises(CaseError, match="give the same file name"):
             parse_case(t, "x.toml")
     parse_case(two.format("agreement"))           # "agreement" is fine: see the next test
+
+
+@pytest.mark.parametrize("name", [".", "..", "..."])
+def test_a_case_name_never_leaves_the_results_folder(tmp_path, monkeypatch, capsys, name):
+    """Issue 19, item 3: the output folder is results/<name>; ``name = ".."`` wrote results.h5,
+    plots and the lock into the working folder (overwriting what was there) and ``"."`` into
+    results/ itself.  A name of dots only is refused in one line naming the key and the value,
+    and nothing is written; the folder derivation refuses such a name too (for a case built
+    without validation)."""
+    with pytest.raises(CaseError, match=rf"'name' = '{re.escape(name)}': a case name of dots only"):
+        parse_case(CASE.format(name=name, gap=0.0, nf=3, tp=30), "x.toml")
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "x.toml").write_text(CASE.format(name=name, gap=0.0, nf=3, tp=30))
+    monkeypatch.chdir(work)
+    assert main(["run", "x.toml", "--jobs", "1", "--quiet", "--no-plots"]) == 2
+    err = [l for l in capsys.readouterr().err.splitlines() if l.strip()]
+    assert len(err) == 1 and err[0].startswith("vibeam: error: x.toml: 'name'"), err
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["work", "x.toml"]
+    from vibeam.outdir import default_folder
+
+    with pytest.raises(InputError, match="outside results/"):
+        default_folder(name)
+    assert default_folder("a.b", "-quick") == Path("results") / "a.b-quick"
 
 
 def test_agreement_plot_never_collides_with_a_run(tmp_path):

@@ -868,6 +868,16 @@ class Case(_Strict):
     quick: QuickSpec = Field(default_factory=QuickSpec)
     map: MapSpec | None = None
 
+    @field_validator("name")
+    @classmethod
+    def _name_in_results(cls, v):
+        # the output folder is results/<name>: "." and ".." (any name of dots only) would write
+        # into results/ itself or outside it
+        if v.strip(".") == "":
+            raise ValueError("a case name of dots only would write into results/ itself or outside it "
+                             "(results/<name>); allowed: letters, digits, '_', '.', '+', '-', not only dots")
+        return v
+
     @field_validator("run")
     @classmethod
     def _unique_names(cls, runs):

@@ -111,7 +111,9 @@ def _executor(args):
 
 
 def _out_dir(args, case) -> Path:
-    return Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick else ""))
+    from .outdir import default_folder
+
+    return Path(args.out) if args.out else default_folder(case.name, "-quick" if args.quick else "")
 
 
 def cmd_run(args, need_map=False, continuation_only=False) -> int:
@@ -186,8 +188,7 @@ def cmd_cost(args) -> int:
 
     if args.quick:
         case = case.quick_variant()
-    out_dir = check_folder(Path(args.out) if args.out else Path("results") / (case.name + ("-quick" if args.quick
-                                                                                         else "")))
+    out_dir = check_folder(_out_dir(args, case))
     check_cost_work(case, force=args.force, source=args.case)
     with OutputLock(out_dir):
         res = run_cost(case, ladder=args.ladder, repeats=args.repeats, jobs=args.jobs,
@@ -243,9 +244,9 @@ def cmd_modes(args) -> int:
 
     case, _ = load_case(args.case)
     spec = _beam_spec(case, "modes")
-    from .outdir import check_folder
+    from .outdir import check_folder, default_folder
 
-    out = check_folder(Path(args.out) if args.out else Path("results") / case.name)
+    out = check_folder(Path(args.out) if args.out else default_folder(case.name))
     from .beamscene import modes_report
     from .models.beam import write_modes
     from .outdir import replace_file

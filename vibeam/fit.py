@@ -1191,9 +1191,9 @@ def main_fit(args) -> int:
     if args.params is not None and not [p for p in args.params.split(",") if p.strip()]:
         raise _error(f"{args.case}: '--params' = {args.params!r} names no parameter; allowed: "
                      f"{', '.join(case.map_parameters())}")
-    from .outdir import OutputLock, check_folder
+    from .outdir import OutputLock, check_folder, default_folder
 
-    out_dir = check_folder(Path(args.out) if args.out else Path("results") / f"{case.name}-fit")
+    out_dir = check_folder(Path(args.out) if args.out else default_folder(case.name, "-fit"))
     with OutputLock(out_dir):
         return _main_fit_locked(args, case, text, out_dir, log)
 

@@ -19,6 +19,9 @@ folder (``.vibeam-tmp-*``), written in full, flushed to the disk (``fsync``) and
 renamed over the old file, so a failed write (a full disk, a file-size limit, a read-only
 folder, an interrupt) leaves the previous file byte for byte.  While it holds the lock, the
 process removes the temporary files that a killed write leaves behind (:data:`TMP_PATTERNS`).
+
+:func:`default_folder` is where a command writes without ``--out``: ``results/<name>``,
+never outside ``results/``.
 """
 from __future__ import annotations
 
@@ -92,6 +95,24 @@ def describe(info: dict) -> str:
     if len(cmd) > 160:
         cmd = cmd[:157] + "..."
     return f"pid {info.get('pid', '?')} on {info.get('host', '?')}, started {info.get('started', '?')}: {cmd}"
+
+
+def default_folder(name: str, suffix: str = "", root="results") -> Path:
+    """The output folder of a command without ``--out``: ``results/<name><suffix>``.
+
+    Raises
+    ------
+    InputError
+        If the folder would not be a folder inside ``root`` (a name such as ``..`` or
+        ``.``, a separator): a case name never writes outside ``results/``.
+    """
+    leaf = f"{name}{suffix}"
+    if not leaf or leaf.strip(".") == "" or os.sep in leaf or (os.altsep and os.altsep in leaf) \
+            or Path(leaf).name != leaf or "\x00" in leaf:
+        raise InputError(f"name = {name!r}: the output folder results/{leaf} would lie outside "
+                         f"results/; allowed: a name that is not only dots, of letters, digits, "
+                         f"'_', '.', '+', '-'")
+    return Path(root) / leaf
 
 
 def check_folder(folder) -> Path:
