@@ -1,4 +1,4 @@
-"""A full disk, a file-size limit or a read-only folder under every writer (issue 19, items 1 and 5).
+"""A full disk, a file-size limit or a read-only folder under every writer (issue 19, items 1, 4, 5).
 
 The rule: whatever fails, the previous file stays in place byte for byte until its complete
 successor is renamed over it (``vibeam.outdir.replace_file``), the command ends with one line
@@ -308,3 +308,46 @@ def test_a_failed_checkpoint_of_a_pooled_map_is_one_line_and_keeps_the_old_file(
     time.sleep(0.5)
     assert not [w for w in seen if _alive(w)], "a worker outlived the failed map"
 
+
+# ----------------------------------------------------------------------------- regress (item 4)
+def test_regress_never_touches_the_results_of_a_run(tmp_path, monkeypatch, capsys):
+    """`vibeam regress CASE --reference REF` without --results reruns the case in a temporary
+    folder of its own: results/<case>/ of the user's `vibeam run` (a results file and a plot)
+    stays byte for byte, nothing else appears in the working folder, and the temporary folder
+    is gone afterwards.  The working folder is then made read-only (as an ordinary user): regress
+    still runs (it needs no results/ folder).  Before, the rerun rewrote results/<case>/results.h5
+    and left the old plots beside it."""
+    from vibeam.cli import main
+
+    (tmp_path / "tiny.toml").write_text(TINY)
+    work = tmp_path / "work"
+    (work / "results" / "tiny").mkdir(parents=True)
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    monkeypatch.setattr("tempfile.tempdir", str(tmp))
+    monkeypatch.chdir(work)
+    ref = tmp_path / "ref"
+    assert main(["run", str(tmp_path / "tiny.toml"), "--out", str(ref), "--jobs", "1", "--quiet",
+                 "--no-plots"]) == 0
+    shutil.copy(ref / "results.h5", work / "results" / "tiny" / "results.h5")
+    (work / "results" / "tiny" / "frc.png").write_bytes(b"the user's plot")
+    before = {p: p.read_bytes() for p in work.rglob("*") if p.is_file()}
+    capsys.readouterr()
+    rc = main(["regress", str(tmp_path / "tiny.toml"), "--reference", str(ref / "results.h5"), "--jobs", "1"])
+    out = capsys.readouterr().out
+    assert rc == 0, out                     # the rerun of the same case reproduces the reference
+    assert "regression of tiny" in out
+    assert {p: p.read_bytes() for p in work.rglob("*") if p.is_file()} == before
+    assert sorted(work.rglob("*")) == sorted([work / "results", work / "results" / "tiny", *before])
+    assert list(tmp.iterdir()) == []
+    for d in (work / "results" / "tiny", work / "results", work):
+        os.chmod(d, 0o555)
+    try:
+        if not _readonly_means_something(work):
+            return
+        assert main(["regress", str(tmp_path / "tiny.toml"), "--reference", str(ref / "results.h5"),
+                     "--jobs", "1"]) == 0
+        assert {p: p.read_bytes() for p in work.rglob("*") if p.is_file()} == before
+    finally:
+        for d in (work, work / "results", work / "results" / "tiny"):
+            os.chmod(d, 0o755)

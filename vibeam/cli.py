@@ -157,17 +157,22 @@ def cmd_regress(args) -> int:
     if args.results:
         new = load_results(args.results, "--results")
     else:
+        import tempfile
+
         from .outdir import check_folder
 
-        out_dir = check_folder(_out_dir(args, case))
-        ex, client = _executor(args)
-        try:
-            run_case(case, text, out_dir, jobs=args.jobs, quiet=True, plots=False, quick=args.quick,
-                     executor=ex, force=args.force, source=args.case)
-        finally:
-            if client is not None:
-                client.close()
-        new = load_results(out_dir / "results.h5", "results")
+        # the rerun goes to its own folder: --out, or a temporary one removed afterwards --
+        # never results/<case>/, where it would replace the results of the user's run
+        with tempfile.TemporaryDirectory(prefix=f"vibeam-regress-{case.name}-") as tmp:
+            out_dir = check_folder(Path(args.out) if args.out else Path(tmp))
+            ex, client = _executor(args)
+            try:
+                run_case(case, text, out_dir, jobs=args.jobs, quiet=True, plots=False, quick=args.quick,
+                         executor=ex, force=args.force, source=args.case)
+            finally:
+                if client is not None:
+                    client.close()
+            new = load_results(out_dir / "results.h5", "results")
     tol = case.regress
     atol = tol.amplitude_atol if args.atol is None else args.atol
     rtol = tol.amplitude_rtol if args.rtol is None else args.rtol
@@ -354,7 +359,8 @@ def main(argv=None) -> int:
     p.add_argument("case", help="case file (TOML)")
     p.add_argument("--reference", required=True, help="reference results.h5 or CSV")
     p.add_argument("--results", help="compare this results file instead of rerunning the case")
-    p.add_argument("--out", help="output folder of the rerun (default results/<case name>/)")
+    p.add_argument("--out", help="output folder of the rerun (default: a temporary folder, removed afterwards; "
+                   "the results of `vibeam run` in results/<case name>/ are never touched)")
     p.add_argument("--jobs", type=_int_at_least(1), default=None)
     p.add_argument("--atol", type=float, default=None, help="override [regress] amplitude_atol")
     p.add_argument("--rtol", type=float, default=None, help="override [regress] amplitude_rtol")
