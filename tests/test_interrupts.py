@@ -112,10 +112,71 @@ def test_interrupt_of_a_pool_stops_promptly_and_leaves_no_worker(tmp_path, sig, 
     assert p.returncode == code, err
     assert latency < BOUND_S, latency
     lines = [l for l in err.splitlines() if l.strip() and not l.startswith("[slow-map]")]
-    assert len(lines) == 1 and lines[0].startswith("vibeam: interrupted") and "--resume" in lines[0], err
+    assert len(lines) == 1 and lines[0].startswith("vibeam: interrupted"), err
+    _says_what_is_on_disk(lines[0], out)
     assert ("SIGTERM" in lines[0]) == (sig == signal.SIGTERM)
     time.sleep(0.5)
     assert not [w for w in workers if _alive(w)], "a pool worker outlived the interrupt"
+
+
+def _says_what_is_on_disk(line: str, out: Path) -> None:
+    """The interrupt's line tells what the folder holds: the number of finished lines kept
+    (and --resume) when the checkpoint exists, else that no results file was written."""
+    h5 = out / "results.h5"
+    if h5.exists():
+        n = sum(len(v) for v in read_lines(h5)[1].values())
+        assert f"{n} finished sweep line" in line and str(h5) in line and "--resume" in line, line
+    else:
+        assert "no results file was written" in line and "kept" not in line, line
+
+
+MAP_FAST = MAP.format(tp=20).replace("[14.0, 17.0, 6]", "[14.0, 17.0, 3]").replace("[0.5, 0.7, 6]", "[0.5, 0.7, 2]")
+
+
+@pytest.mark.parametrize("old,finished", [(False, 0), (True, 0), (False, 1)])
+def test_the_interrupt_message_says_what_is_on_disk(tmp_path, monkeypatch, capsys, old, finished):
+    """Issue 19, item 13: Ctrl-C before any line finished printed "finished sweep lines are kept
+    in DIR/results.h5" when no such file existed.  The line now says what is true: no results
+    file was written; an old file is as it was (byte for byte); or how many finished lines the
+    checkpoint keeps (and --resume).  The interrupt is injected deterministically: the sweep
+    engine runs ``finished`` lines of the map (2 values x 2 directions), hands them to the
+    checkpoint and raises KeyboardInterrupt, as Ctrl-C in the engine does."""
+    from vibeam import sweep
+    from vibeam.cli import main
+
+    real = sweep.run_lines
+
+    def interrupted(lines, on_line=None, **kw):
+        for line in list(lines)[:finished]:
+            for key, rows in real([line]).items():
+                on_line(line, rows)
+        raise KeyboardInterrupt
+
+    case = tmp_path / "map.toml"
+    case.write_text(MAP_FAST)
+    out = tmp_path / "out"
+    if old:
+        assert main(["map", str(case), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()} if old else {}
+    capsys.readouterr()
+    monkeypatch.setattr(sweep, "run_lines", interrupted)
+    assert main(["map", str(case), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 130
+    lines = [l for l in capsys.readouterr().err.splitlines() if l.strip() and not l.startswith("[")]
+    assert len(lines) == 1 and lines[0].startswith("vibeam: interrupted (Ctrl-C)"), lines
+    h5 = out / "results.h5"
+    if old:
+        assert lines[0].endswith(f"no sweep line had finished; {h5} is as it was"), lines[0]
+        assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    elif finished:
+        attrs, kept = read_lines(h5)
+        assert not attrs["complete"] and sum(len(v) for v in kept.values()) == finished
+        assert lines[0].endswith(f"{finished} finished sweep line is kept in {h5}; rerun with --resume to "
+                                 f"compute only the rest"), lines[0]
+    else:
+        assert lines[0].endswith("no sweep line had finished; no results file was written"), lines[0]
+        assert sorted(p.name for p in out.iterdir()) == []
+    if not old:
+        _says_what_is_on_disk(lines[0], out)
 
 
 def test_interrupt_of_an_inline_run_keeps_the_finished_lines(tmp_path):
@@ -132,6 +193,7 @@ def test_interrupt_of_an_inline_run_keeps_the_finished_lines(tmp_path):
     assert latency < BOUND_S, latency
     lines = [l for l in err.splitlines() if l.strip() and not l.startswith("[slow-map]")]
     assert len(lines) == 1 and lines[0].startswith("vibeam: interrupted"), err
+    _says_what_is_on_disk(lines[0], out)
     attrs, kept = read_lines(out / "results.h5")
     assert not attrs["complete"] and sum(len(v) for v in kept.values()) >= 1
     # (`--resume` then computes only the rest: tests/test_map.py::test_kill_and_resume_gives_the_same_file)

@@ -116,6 +116,36 @@ def _out_dir(args, case) -> Path:
     return Path(args.out) if args.out else default_folder(case.name, "-quick" if args.quick else "")
 
 
+def _file_state(path: Path):
+    """What identifies a file's version on the disk (inode, size, modification time), or None."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _interrupted_left(h5: Path, before) -> str:
+    """What an interrupted run left in its results file, as read from the disk afterwards
+    (``before``: :func:`_file_state` of the file when the run started)."""
+    now = _file_state(h5)
+    if now is None:
+        return "no sweep line had finished; no results file was written"
+    if now == before:
+        return f"no sweep line had finished; {h5} is as it was"
+    try:
+        from .results import read_lines
+
+        attrs, lines = read_lines(h5)
+    except Exception:
+        return f"see {h5}"
+    if attrs.get("complete"):
+        return f"the results are complete in {h5}"
+    n = sum(len(v) for v in lines.values())
+    return (f"{n} finished sweep line{'s are' if n != 1 else ' is'} kept in {h5}; "
+            f"rerun with --resume to compute only the rest")
+
+
 def cmd_run(args, need_map=False, continuation_only=False) -> int:
     from .case import CaseError, load_case
     from .outdir import check_folder
@@ -126,6 +156,8 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
         raise CaseError(f"{args.case}: `vibeam map` needs a [map] table (parameter, values); "
                         f"use `vibeam run` for a plain sweep")
     out_dir = check_folder(_out_dir(args, case))
+    h5 = out_dir / "results.h5"
+    before = _file_state(h5)
     ex, client = _executor(args)
     try:
         res = run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
@@ -133,8 +165,7 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
                        force=args.force, source=args.case, continuation_only=continuation_only)
     except KeyboardInterrupt as e:
         sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
-        print(f"vibeam: interrupted ({sig}); finished sweep lines are kept in {out_dir / 'results.h5'}; "
-              f"rerun with --resume to compute only the rest", file=sys.stderr)
+        print(f"vibeam: interrupted ({sig}); {_interrupted_left(h5, before)}", file=sys.stderr)
         return _interrupt_code(e)
     finally:
         if client is not None:
