@@ -161,6 +161,56 @@ def test_the_lock_never_writes_through_a_link(tmp_path, capsys):
     assert not (out / LOCK_NAME).exists()
 
 
+def test_modes_takes_the_output_lock(tmp_path, capsys):
+    """Issue 19, item 14: `vibeam modes` into a folder another vibeam process holds is refused
+    with one line naming the folder, like `run`, `fit` and `cost`, and writes nothing; before,
+    it wrote modes.vtu and modes.png into a folder held by a running map."""
+    beam = tmp_path / "beam.toml"
+    beam.write_text(BEAM)
+    out = tmp_path / "out"
+    code = ("import sys, time; from vibeam.outdir import OutputLock\n"
+            "l = OutputLock(sys.argv[1], command='vibeam map held.toml').acquire(); print('held', flush=True); "
+            "time.sleep(120)")
+    p = subprocess.Popen([sys.executable, "-c", code, str(out)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert p.stdout.readline().strip() == "held"
+        assert main(["modes", str(beam), "--out", str(out), "-n", "2"]) == 2
+        err = [l for l in capsys.readouterr().err.splitlines() if l.strip()]
+        assert len(err) == 1 and "is in use by another vibeam process" in err[0] and f"pid {p.pid}" in err[0], err
+        assert sorted(x.name for x in out.iterdir()) == [LOCK_NAME]
+    finally:
+        p.kill()
+        p.wait()
+    assert main(["modes", str(beam), "--out", str(out), "-n", "2"]) == 0      # once it is free
+    assert {x.name for x in out.iterdir()} == {"modes.vtu", "modes.png"}
+
+
+BEAM = """
+name = "tinybeam"
+[model]
+fidelity = "beam"
+length_mm = 180
+sensor_position_mm = 100
+mass_position_mm = 132
+width_mm = 20
+thickness_mm = 1
+mass_kg = 0.1
+R = 0.7
+gap_mm = 0.0
+gain = 5e-4
+voltage = 0.6
+n_modes = 2
+n_elements = 4
+[sweep]
+frequency_hz = [14.0, 15.0, 2]
+transient_periods = 10
+record_periods = 4
+[[run]]
+name = "e"
+method = "event"
+"""
+
+
 # ----------------------------------------------------------------------------- case identity
 def _line(case, text, key):
     """The stacked datasets of one line of a case (computed)."""

@@ -280,9 +280,14 @@ def cmd_modes(args) -> int:
 
     case, _ = load_case(args.case)
     spec = _beam_spec(case, "modes")
-    from .outdir import check_folder, default_folder
+    from .outdir import OutputLock, check_folder, default_folder
 
     out = check_folder(Path(args.out) if args.out else default_folder(case.name))
+    with OutputLock(out):       # like every writer: one vibeam process per folder
+        return _modes_locked(args, case, spec, out)
+
+
+def _modes_locked(args, case, spec, out) -> int:
     from .beamscene import modes_report
     from .models.beam import write_modes
     from .outdir import replace_file
