@@ -540,8 +540,11 @@ def check_figure_data(kind: str, fig, data: dict):
 
 def assert_png_shows(png, fig, dpi: int = 150):
     """The PNG file is ``fig`` rendered at ``dpi`` (vibeam.plots.save_figure's): a valid image of
-    the figure's size in pixels, pixel for pixel the same as rendering ``fig`` again (so the
-    figure whose artists were checked is the one written)."""
+    the figure's size in pixels, the same as rendering ``fig`` again (so the figure whose artists
+    were checked is the one written) but for anti-aliasing: two renderings of one figure were
+    measured to differ in a few edge pixels now and then (the work-precision figure, 5 of 10
+    times), so at most 0.1 % of the pixels may differ; another data set moves whole lines and
+    markers (thousands of pixels)."""
     import io
 
     import matplotlib.image as mpimg
@@ -553,7 +556,9 @@ def assert_png_shows(png, fig, dpi: int = 150):
     fig.savefig(buf, dpi=dpi, format="png")
     buf.seek(0)
     b = mpimg.imread(buf)
-    assert a.shape == b.shape and np.array_equal(a, b), f"{png} is not the figure checked"
+    assert a.shape == b.shape, f"{png} is not the figure checked"
+    differ = np.any(np.abs(a - b) > 1.5 / 255, axis=-1)
+    assert differ.mean() <= 1e-3, f"{png} is not the figure checked ({differ.sum()} pixels differ)"
 
 
 def assert_png_shows_results(png, results, kind: str):
