@@ -499,7 +499,10 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
     max_attempts : int
         Times a line is submitted when its worker is lost (a killed process,
         a broken pool, a lost dask worker); after that its points are recorded
-        with ``status = 'failed'`` and the reason, and the rest goes on.
+        with ``status = 'failed'`` and the reason, and the rest goes on.  A local
+        pool that breaks fails every line it held although one worker died; such a
+        shared loss counts against no line, and the rest of the run uses one worker,
+        so that a line that kills its worker is told apart from its neighbours.
     stats : dict, optional
         Filled with ``executor`` ("inline", "pool of N workers" or the executor's type) and
         ``pool_startup_s``: the time until the local pool's workers were running
@@ -548,6 +551,8 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
         ex = executor
         stats.update(executor=type(executor).__name__, pool_startup_s=0.0)
     attempts: dict = {}
+    isolated = False        # after a pool broke under several lines: one line in flight from then on
+    backlog: list = []      # lines waiting for their turn while isolated
     pending: dict = {}
     results: dict = {}
     bar = None
@@ -612,7 +617,9 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
                 stats["executor"] = f"inline for {time.perf_counter() - t_in:.2f} s, then a pool of {k} workers"
         for line in rest:
             submit(line)
-        while pending:
+        while pending or backlog:
+            if not pending:
+                submit(backlog.pop(0))
             done, _ = wait(list(pending), timeout=0.2 if queue is not None else None,
                            return_when=FIRST_COMPLETED)
             drain()
@@ -644,9 +651,27 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
                             finish(line, _lost_rows(line, e, n))
                 ex.shutdown(wait=False, cancel_futures=True)
                 queue = _progress_queue() if queue is not None else None   # the old one may be damaged
-                ex = _pool(max(1, min(jobs or os.cpu_count() or 1, len(retry))), queue)
-            for line in retry:
-                submit(line)
+                # a broken pool fails every line it held, but one worker died: when several lines
+                # were lost together, which one killed it is unknown, so the loss counts against
+                # none of them, and from then on one line at a time is in flight (a pool of one
+                # worker, nothing queued behind it), so that every later loss is that line's
+                shared = len(retry) > 1 and not isolated
+                if shared:
+                    for line in retry:
+                        attempts[(line.run, line.key)] -= 1
+                isolated = isolated or shared
+                ex = _pool(1 if isolated else max(1, min(jobs or os.cpu_count() or 1, len(retry))), queue)
+            if isolated:
+                backlog.extend(retry)
+                for f in list(pending):        # lines queued before the isolation: back in line
+                    if not f.running() and f.cancel():
+                        backlog.append(pending.pop(f))
+                        attempts[(backlog[-1].run, backlog[-1].key)] -= 1
+                if not pending and backlog:
+                    submit(backlog.pop(0))
+            else:
+                for line in retry:
+                    submit(line)
     except BaseException:
         # interrupted (Ctrl-C, SIGTERM) or failing: report every line that has finished, then
         # stop the rest at once -- queued lines cancelled, the own pool's workers terminated
