@@ -218,3 +218,34 @@ def test_bench_json_is_finite_for_small_counts():
 
     data = json.loads(p.stdout, parse_constant=lambda c: pytest.fail(f"non-finite JSON value {c}"))
     assert np.isfinite(data["speedup_event_vs_direct"])
+
+
+def test_bench_latency_runs_and_emits_its_json():
+    """``vibeam bench --latency`` (one repeat) runs and writes its figures: finite JSON with the
+    keys of each part, a PASS/FAIL line per goal on stderr.  Its seconds are figures, not
+    asserted here; what is asserted is behaviour the bench records along the way: the
+    interrupted runs exit with 130, the inline one begins no solver call after its SIGINT
+    handler ran, no worker outlives the pooled run, and every limited point fails naming
+    ``point_time_limit_s``."""
+    import json
+
+    p = subprocess.run(_vibeam("bench", "--latency", "--repeats", "1"), capture_output=True, text=True,
+                       timeout=600)
+    assert p.returncode == 0, p.stderr
+    data = json.loads(p.stdout, parse_constant=lambda c: pytest.fail(f"non-finite JSON value {c}"))
+    for k in ("inline", "pool_2_workers"):
+        d = data[k]
+        assert {"jobs", "sigint_to_exit_s", "sigint_to_handler_s", "exit_codes", "runs"} <= set(d), d
+        assert d["exit_codes"] == [130] and len(d["runs"]) == 1
+        r = d["runs"][0]
+        assert {"sigint_to_exit_s", "calls_after_handler", "median_call_s", "workers_alive_at_exit"} <= set(r), r
+        assert r["workers"] == (0 if k == "inline" else 2) and r["workers_alive_at_exit"] == 0
+    assert data["inline"]["runs"][0]["calls_after_handler"] == 0
+    assert len(data["time_limit"]) == 3
+    for name, r in data["time_limit"].items():
+        assert {"limit_s", "wall_time_s", "overshoot_s", "calls", "chunk_periods"} <= set(r), r
+        assert r["status"] == "failed" and "point_time_limit_s" in r["message"] and r["calls"] >= 2, r
+        assert r["overshoot_s"] == pytest.approx(r["wall_time_s"] - r["limit_s"])
+    assert len(data["goals"]) == 5 and all({"goal", "measured", "pass"} <= set(g) for g in data["goals"])
+    verdicts = [l for l in p.stderr.splitlines() if l.startswith("vibeam bench --latency: ")]
+    assert len(verdicts) == 5 and all(("PASS" in l) != ("FAIL" in l) for l in verdicts), p.stderr

@@ -13,11 +13,11 @@ import math
 import numpy as np
 import pytest
 
-# the whole file runs in the slow step: the Hunt-Crossley beam kernels' first compile costs ~20 s,
-# which the default step's 10-minute budget cannot take (CI runs `pytest -m slow` second)
-pytestmark = pytest.mark.slow
-
 from vibeam.models.periodic_hc_beam import HuntCrossleyBeamShooting
+
+# the file runs in the slow step (CI runs `pytest -m slow` second) but for one representative
+# check, test_two_mode_shot_jacobian_in_omega_against_central_differences: the Hunt-Crossley beam
+# kernels' first compile costs ~20 s, which the default step's 10-minute budget takes only once
 
 
 def _rig(n_modes, k=1e8, gap_mm=None):
@@ -38,6 +38,35 @@ def _settled(m, W, periods=100):
     return tr.final_state[:2 * m.n_modes]
 
 
+def test_two_mode_shot_jacobian_in_omega_against_central_differences():
+    """Default-step representative of the slow checks below (same scene, one parameter): the rig
+    FE beam with 2 modes on a Hertzian Hunt-Crossley stop (1e8 N/m^1.5) at 16 Hz, from a state
+    0.1 % off its settled orbit (one contact per period): the monodromy M and d x / d Omega of
+    the shot (variational equations integrated with the flow) against central differences of
+    the shot (step 1e-6 of the state / Omega).  The shot is smooth only to the integrators'
+    ~1e-12, i.e. ~1e-6 relative noise in a difference quotient at worst; measured 7.2e-10 (M)
+    and 7.8e-10 (d x / d Omega) of the largest entry, so 1e-6 is asserted.  ~0.4 s once the
+    kernels are compiled (their first compile ~20 s, once per machine: numba's cache)."""
+    m = _rig(2)
+    W = 16.0 / m.f_ref_hz
+    x0 = _settled(m, W) * 1.001
+    d = 4
+    sc = float(np.max(np.abs(x0)))
+    prob = HuntCrossleyBeamShooting(m, "Omega", Omega=W)
+    s = prob.shot(x0, W, 1)
+    assert s.status == "ok" and s.n_impacts == 1, s.message
+    J = np.empty((d, d + 1))
+    for c in range(d):
+        e = np.zeros(d)
+        e[c] = h = 1e-6 * sc
+        J[:, c] = (prob.shot(x0 + e, W, 1).x - prob.shot(x0 - e, W, 1).x) / (2 * h)
+    h = 1e-6 * W
+    J[:, d] = (prob.shot(x0, W + h, 1).x - prob.shot(x0, W - h, 1).x) / (2 * h)
+    assert np.max(np.abs(s.M - J[:, :d])) < 1e-6 * np.max(np.abs(s.M))
+    assert np.max(np.abs(s.x_p - J[:, d])) < 1e-6 * np.max(np.abs(s.x_p))
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("n_modes", [1, 2])
 def test_shot_jacobian_against_central_differences(n_modes):
     """Rig FE beam on a Hertzian Hunt-Crossley stop (1e8 N/m^1.5) at 16 Hz, from a state 0.1 %
@@ -67,6 +96,7 @@ def test_shot_jacobian_against_central_differences(n_modes):
         assert np.max(np.abs(s.x_p - J[:, d])) < 1e-6 * np.max(np.abs(s.x_p))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n_modes", [1, 2])
 def test_shot_end_state_is_the_event_kernels(n_modes):
     """The shot's value is the event kernel's end state: the solver of method ``event`` from the
@@ -90,6 +120,7 @@ def test_shot_end_state_is_the_event_kernels(n_modes):
     assert np.max(np.abs(s.extra["rebuilt_state"] - s.x)) < 1e-8 * sc
 
 
+@pytest.mark.slow
 def test_refusals():
     """A section inside the stop is a failed shot with its reason, not a crash; a linear-law or
     two-stop model and an unknown parameter are refused when built."""
@@ -119,6 +150,7 @@ def _case_text(lo=16.5, hi=17.0):
     return text + '\n[[run]]\nname = "branches"\nmethod = "continuation"\nstart_at = "high"\n'
 
 
+@pytest.mark.slow
 def test_registry_dispatch_and_case_validation():
     """The beam's hunt_crossley table names the shooting problem; a case asking for
     ``method = "continuation"`` on a beam Hunt-Crossley scene validates."""
@@ -225,6 +257,7 @@ def test_vibeam_continue_end_to_end(tmp_path):
     assert float(b["parameter"][0]) * 7.6 == pytest.approx(17.0) and float(b["parameter"][-1]) * 7.6 == pytest.approx(16.5)
 
 
+@pytest.mark.slow
 def test_grazing_indicator_of_the_contact_free_orbit():
     """The apex indicator of the contact-free orbit (2 modes, gap 0.1 mm, 19 Hz) is its
     closed-form contact amplitude minus the gap (to 1e-12 m: a located extremum of the exact
@@ -241,6 +274,7 @@ def test_grazing_indicator_of_the_contact_free_orbit():
     assert s.apex_gap == pytest.approx(abs(m.contact_row @ Z) - m.gap_contact_m, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     """The case key ``voltage`` is affine in ``base_amplitude_m`` (``Y = gamma~ V``): the framework's
     problem in the voltage gives the same shot as the native one and ``d x / d V = gamma~ d x / d Y``
@@ -262,6 +296,7 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     np.testing.assert_allclose(sv.x_p, g * sy.x_p, rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_jacobian_with_the_velocity_floor(monkeypatch):
     """With the velocity floor raised above the entry velocity (1e-2 -> 10 Omega Y |w^T Gamma|:
     the floor, 1.8e-3, exceeds the entry's 8e-4), v_r = v_floor depends on (Omega, Y) only: the

@@ -255,29 +255,75 @@ def test_chunked_calls_equal_one_call_on_a_periodic_point(fidelity):
     assert abs(one.q_min - chunked.q_min) <= 1e-12 * abs(one.q_min)
 
 
-def test_point_time_limit_ends_a_point_as_failed_and_the_sweep_goes_on():
-    """A point of 10^7 transient periods (~25 s) with a 0.2 s limit fails with the reason; the
-    next point of the chain, cheap, is computed from the last good state."""
+def test_point_time_limit_ends_a_point_as_failed_and_the_sweep_goes_on(monkeypatch):
+    """A point of 10^7 transient periods (~25 s) with a 0.2 s limit fails with the reason, and
+    the sweep returns its row instead of raising.  Deterministic: the engine's clock
+    (``vibeam.sweep.time.perf_counter``) is replaced by one that advances 1/16 s per solver call
+    (binary-exact, so no rounding decides a comparison), and the calls are counted.  The limit
+    is checked between calls and the clock starts when the first call returns (so a kernel's
+    compilation does not count): after call k the point has run (k - 1) / 16 s, first over 0.2 s
+    at k = 5 -- five calls of 2000 periods of the 5000 the point would need."""
+    import types
+
+    import vibeam.sweep as sweep_module
+
     solver = EventSolver(FIG13)
+    assert solver.chunk_periods == 2000
+    now = [0.0]
+    calls = []
+    inner = solver.point
+
+    def counting(*a):
+        calls.append(a[2])
+        now[0] += 1 / 16
+        return inner(*a)
+
+    solver.point = counting
+    fake = types.SimpleNamespace(**{k: getattr(time, k) for k in dir(time) if not k.startswith("_")})
+    fake.perf_counter = lambda: now[0]
+    monkeypatch.setattr(sweep_module, "time", fake)
     sw = Sweep(Omega=np.array([2.0]), transient_periods=10**7, record_periods=4, point_time_limit_s=0.2)
-    t0 = time.perf_counter()
     out = run_sweep(solver, sw).data
-    assert time.perf_counter() - t0 < 10.0
+    assert calls == [2000] * 5, calls
     assert out["status"][0] == "failed" and "point_time_limit_s = 0.2" in out["message"][0]
+    assert f"after {sum(calls)} of {10**7} transient periods" in out["message"][0], out["message"][0]
     assert np.isnan(out["amplitude"][0]) and out["strobe"].shape == (1, 4, 2)
 
 
+def _readline(proc, timeout=120.0) -> str:
+    """One line of the child's stdout; the timeout is a hang guard, never the property tested."""
+    import select
+
+    r, _, _ = select.select([proc.stdout], [], [], timeout)
+    if not r:
+        proc.kill()
+        raise AssertionError(f"hang guard: no line from the child within {timeout:g} s")
+    return proc.stdout.readline().decode()     # unbuffered (bufsize=0): reads no further than the line
+
+
 def test_ctrl_c_interrupts_a_long_inline_point_between_chunks(tmp_path):
-    """SIGINT during a single point of 10^7 periods (~25 s in one kernel call, which numba does not
-    interrupt) stops the process within a few seconds: KeyboardInterrupt lands between chunks
-    (chunks of 2000 SDOF periods last ~5 ms)."""
+    """SIGINT during a single point of 10^7 periods (~25 s; one kernel call, which numba does not
+    interrupt, would take all of it) stops the process between chunks: the child marks every
+    solver call (chunks of 2000 SDOF periods, ~5 ms) and its SIGINT handler (Python's default,
+    wrapped to mark when it runs); the signal is sent once the long point is inside its chunks,
+    and after the handler ran no call begins -- KeyboardInterrupt lands at the kernel's next
+    return and ends the point (5000 calls would finish it)."""
     script = tmp_path / "long.py"
     script.write_text(textwrap.dedent("""
-        import sys, numpy as np
+        import os, signal, sys, numpy as np
         from vibeam.models import SDOF, EventSolver
         from vibeam.sweep import Sweep, run_sweep
         s = EventSolver(SDOF(0.015, 0.5e-3, 0.9, 0.5e-3))
         run_sweep(s, Sweep(Omega=np.array([2.0]), transient_periods=2, record_periods=2))  # compile
+        inner = s.point
+        def point(*a):
+            os.write(1, f"call {a[2]} {a[3]}\\n".encode())
+            return inner(*a)
+        s.point = point
+        def on_int(signum, frame):
+            os.write(1, b"handler\\n")
+            signal.default_int_handler(signum, frame)
+        signal.signal(signal.SIGINT, on_int)
         print("ready", flush=True)
         try:
             run_sweep(s, Sweep(Omega=np.array([2.0]), transient_periods=10**7, record_periods=2))
@@ -286,15 +332,24 @@ def test_ctrl_c_interrupts_a_long_inline_point_between_chunks(tmp_path):
             sys.exit(7)
         print("finished", flush=True)
     """))
-    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
-    assert proc.stdout.readline().strip() == "ready"
-    time.sleep(0.5)
-    t0 = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, bufsize=0)
+    assert _readline(proc).strip() == "ready"
+    assert _readline(proc).split() == ["call", "2000", "0"]      # inside the long point's chunks
     proc.send_signal(signal.SIGINT)
-    out, _ = proc.communicate(timeout=60)
-    dt = time.perf_counter() - t0
+    try:
+        out, _ = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        raise AssertionError("hang guard: the process did not stop within 120 s of SIGINT") from None
+    out = out.decode()
     assert proc.returncode == 7 and "interrupted" in out, out
-    assert dt < 5.0, f"took {dt:.1f} s to stop"
+    rows = out.splitlines()
+    assert rows.count("handler") == 1 and "finished" not in rows, rows[-5:]
+    after = [r for r in rows[rows.index("handler"):] if r.startswith("call")]
+    n_before = 1 + sum(r.startswith("call") for r in rows[:rows.index("handler")])
+    print(f"SIGINT after {n_before} of 5000 calls; calls begun after the handler ran: {len(after)}")
+    assert not after, f"calls after the interrupt: {after}"
+    assert n_before < 5000
 
 
 # ----------------------------------------------------------------------------- case keys

@@ -453,7 +453,7 @@ def main(argv=None) -> int:
                        description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
                        "atol 1e-8) on the Fig. 7 scene, inline, with the goals: event sweep under 1 s, >= 300x "
                        "faster, >= 1000x smaller error.  The other modes (--cli, --map, --scaling, --effects, "
-                       "--shooting, --continuation, --fit) replace it.")
+                       "--shooting, --continuation, --fit, --latency) replace it.")
     p.add_argument("--points", type=_int_at_least(1), default=101,
                    help="frequencies of the Fig. 7 sweep (default 101)")
     p.add_argument("--periods", type=_int_at_least(65), default=500,
@@ -482,6 +482,9 @@ def main(argv=None) -> int:
                         "goal < 0.1 s) and its cost per FRC point against a sweep of equal accuracy")
     p.add_argument("--fit", action="store_true",
                    help="instead: time `vibeam fit` (2-parameter SDOF fit on 30 points, goal < 10 s; FE 2 modes)")
+    p.add_argument("--latency", action="store_true",
+                   help="instead: seconds from SIGINT to exit of an inline long point and of a --jobs 2 map, "
+                        "and the overshoot of point_time_limit_s (goal: each within 1 s)")
     p.add_argument("--jobs", type=_int_at_least(1), default=None, help="workers of --fit (default 2)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
