@@ -36,6 +36,7 @@ import pytest
 import vibeam
 from vibeam.case import CaseError
 from vibeam.models import SDOF, EventSolver
+from vibeam.models.sdof import linear_amplitude
 from vibeam.records import summarize
 from vibeam.sweep import Sweep, run_sweep
 
@@ -288,6 +289,32 @@ def test_the_work_estimate_counts_the_contact_stiffness():
     with pytest.raises(InputError, match=r"'model.contact.stiffness' = 1000000000000.0"):
         check_work(case(1e12))
     check_work(case(1e4))
+
+
+# ============================================================================ item 8: high Omega
+def test_an_undecayed_free_vibration_at_very_high_omega_is_unsettled():
+    """Fig. 7 scene, Omega = 5e5 and 1e6, 200 transient periods (1e-3 to 2.5e-3 natural time
+    units: exp(-beta t) = 0.99996, nothing has decayed): the motion is the free vibration of
+    size ~B Omega excited by starting from rest, and the point is unsettled (the base branch
+    reported ok, no impact, amplitude 100-2000 B).  With transient_periods = "auto" (up to
+    10000 periods, 0.06 time units at 1e6) it stays unsettled."""
+    for tr in (200, "auto"):
+        res = run_sweep(EventSolver(SDOF(**FIG7)),
+                        Sweep(Omega=np.array([5e5, 1e6]), transient_periods=tr, record_periods=64))
+        d = res.data
+        assert list(d["status"]) == ["unsettled", "unsettled"], (tr, d["status"], d["message"])
+        assert all("own time" in m for m in d["message"]), d["message"]
+
+
+def test_a_settled_no_impact_orbit_at_omega_10_stays_ok():
+    """Control for the natural-time verdict: the linear orbit below a far stop (Delta = 1) at
+    Omega = 10 after 3000 periods (1885 time units, exp(-beta t) = 5e-13) is ok, no impact, and
+    its amplitude is the linear steady state's (paper Eq. 28) to 1e-9."""
+    d = run_sweep(EventSolver(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=1.0)),
+                  Sweep(Omega=np.array([10.0]), transient_periods=3000, record_periods=16)).data
+    assert d["status"][0] == "ok" and d["period"][0] == -1, d["message"]
+    C = float(linear_amplitude(0.015, 0.5e-3, 10.0))
+    assert abs(-d["q_min"][0] - C) <= 1e-9 * C
 
 
 # ============================================================================ item 10: homogeneity

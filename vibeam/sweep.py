@@ -360,7 +360,7 @@ def _settle(solver, Omega, state, sweep: Sweep, Delta: float, clock: _Clock):
         q = traj.samples[:, 0]
         scale = max(traj.q_max - traj.q_min, np.max(np.abs(traj.samples[:, 1])) if q.size else 0.0, 1e-300)
         period, why = transient_verdict(traj.strobe, scale, sweep.period_rtol, traj.n_impacts == 0,
-                                        margin=SETTLED_MARGIN)
+                                        margin=SETTLED_MARGIN, Omega=float(Omega))
         spread = amplitude_spread((traj.Delta if traj.Delta is not None else Delta) - period_minima(traj))
         if period != 0 and not why:
             return traj, used, ""
@@ -424,7 +424,7 @@ def _statistics(solver, Omega, traj, out: dict, sweep: Sweep, Delta: float, cloc
     scale = max(ext.q_max - ext.q_min, float(np.max(np.abs(ext.samples[:, 1]))) if ext.samples.size else 0.0,
                 1e-300)
     why = window_verdict(Q, ext.strobe[ext.strobe.shape[0] - n_tail:], scale, sweep.period_rtol,
-                         ext.n_impacts == 0)
+                         ext.n_impacts == 0, Omega=float(Omega))
     if why:
         why += f" (statistics_periods = {sweep.statistics_periods})"
     if why and out["status"] != "unsettled":
