@@ -20,6 +20,7 @@ from .trajectory import Trajectory
 
 from .contact import Relation, Restitution, Stop, check_stops, pack
 from .sdof_event import STATUS_NAMES, event_kernel
+from .sdof_flow import undamped_resonance
 
 _EMPTY = np.zeros(0)
 
@@ -307,7 +308,8 @@ class EventSolver:
         message = ""
         incomplete = False
         if status == 3 and n_tot < 0:
-            message = f"the forced response is not finite (F = Omega^2 B = {Omega * Omega * m.B:g})"
+            message = (undamped_resonance(m.beta, Omega) or
+                       f"the forced response is not finite (F = Omega^2 B = {Omega * Omega * m.B:g})")
         elif status == 3 and n_tot <= max_imp:
             incomplete = True
             message = (f"more than max_steps_per_call = {self.max_steps_per_call} steps in "

@@ -25,6 +25,7 @@ missing budget setting; the homogeneity test inside the range passes there too (
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 import textwrap
@@ -34,8 +35,8 @@ import numpy as np
 import pytest
 
 import vibeam
-from vibeam.case import CaseError
-from vibeam.models import SDOF, EventSolver
+from vibeam.case import CaseError, parse_case
+from vibeam.models import SDOF, EventSolver, make_solver
 from vibeam.models.sdof import linear_amplitude
 from vibeam.records import summarize
 from vibeam.sweep import Sweep, run_sweep
@@ -315,6 +316,75 @@ def test_a_settled_no_impact_orbit_at_omega_10_stays_ok():
     assert d["status"][0] == "ok" and d["period"][0] == -1, d["message"]
     C = float(linear_amplitude(0.015, 0.5e-3, 10.0))
     assert abs(-d["q_min"][0] - C) <= 1e-9 * C
+
+
+# ============================================================================ item 9: degenerate scenes
+def test_mapping_of_the_undamped_elastic_resonance_fails_with_the_reason():
+    """beta = 0, R = 1 at Omega = 2: no dissipation at the impacting resonance, no bounded
+    orbit; the base branch's Newton drifted to an orbit of amplitude 2e22 and reported it ok."""
+    case = vibeam.load_case(_case(beta=0.0, R=1.0, Omega="[2.0, 2.0, 1]", method="mapping", transient=50))
+    d = vibeam.run(case, jobs=1).to_xarray("x")
+    st, msg = str(d["status"].values.ravel()[0]), str(d["message"].values.ravel()[0])
+    assert st == "failed" and "no bounded orbit" in msg, (st, msg)
+
+
+def test_averaging_of_the_undamped_elastic_resonance_fails_with_the_reason():
+    """The averaged polynomial degenerates (g2 = pi^2 (sigma^2 + beta_k^2) = 0): the base
+    branch reported amplitude NaN with status ok; a NaN from no real root (a scene far from
+    resonance) stays ok with period -1."""
+    m = SDOF(beta=0.0, B=0.5e-3, R=1.0, Delta=0.0)
+    out = make_solver(m, "averaging").point(2.0, None, 0, 1)
+    assert out["status"] == "failed" and "g2 = 0" in out["message"], out
+    far = make_solver(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.1), "averaging").point(2.0, None, 0, 1)
+    assert far["status"] == "ok" and far["period"] == -1 and math.isnan(far["amplitude"])
+
+
+def test_undamped_exact_resonance_is_refused_in_one_line(tmp_path):
+    """beta = 0 with Omega = 1 in the grid: the closed-form methods divide by zero there (the
+    base branch failed every point with ZeroDivisionError, exit 3); refused naming the key,
+    through the API and the command line (exit 2).  method = "direct" integrates the flow and
+    is accepted."""
+    text = _case(beta=0.0, Omega="[0.5, 1.5, 3]")
+    with pytest.raises(CaseError, match=r"'model.beta'.*Omega = 1"):
+        vibeam.load_case(text)
+    code, lines = _cli(tmp_path, text)
+    assert code == 2 and len(lines) == 1 and "'model.beta'" in lines[0], lines
+    vibeam.load_case(_case(beta=0.0, Omega="[0.5, 1.5, 3]", method="direct"))
+    vibeam.load_case(_case(beta=0.0, Omega="[0.5, 1.5, 4]"))           # Omega = 1 not on the grid
+
+
+def test_a_model_at_undamped_exact_resonance_fails_with_the_reason():
+    """Built past validation, the event and mapping methods fail the point with the reason
+    instead of raising ZeroDivisionError (the base branch)."""
+    m = SDOF(beta=0.0, B=0.5e-3, R=0.9, Delta=0.0)
+    tr = EventSolver(m).point(1.0, None, 10, 4, 16)
+    assert tr.status == "failed" and "undamped exact resonance" in tr.message, tr.message
+    out = make_solver(m, "mapping").point(1.0, None, 0, 1)
+    assert out["status"] == "failed" and "undamped exact resonance" in out["message"]
+
+
+class _Infinite:
+    """A non-time-domain solver that reports an infinite amplitude as ok (a faulty method)."""
+
+    name = "fake"
+    time_domain = False
+
+    def __init__(self):
+        self.model = SDOF(**FIG7)
+
+    def settings(self):
+        return {}
+
+    def point(self, Omega, state, n_tr, n_rec, spp=64):
+        return dict(amplitude=np.inf if Omega > 2.0 else 1.0, q_min=-1.0, q_max=0.0, period=1, status="ok",
+                    message="")
+
+
+def test_the_sweep_engine_never_reports_a_non_finite_number_as_ok():
+    """Whatever a method returns, an infinite amplitude (or a NaN one claiming an orbit) is
+    reported as failed with the reason; finite points are untouched."""
+    d = run_sweep(_Infinite(), Sweep(Omega=np.array([1.5, 2.5]), transient_periods=0, record_periods=1)).data
+    assert list(d["status"]) == ["ok", "failed"] and "no finite result" in d["message"][1], d["message"]
 
 
 # ============================================================================ item 10: homogeneity

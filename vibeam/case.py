@@ -298,6 +298,28 @@ class SDOFModelSpec(_Strict):
                 given = "stiffness" if table.stiffness is not None else "stiffness_n_m"
                 check_stiffness(law, f"'{prefix}.{key}.{given}' = {getattr(table, given):g}")
 
+    #: methods that integrate the equations of motion (no closed-form forced response) or do not
+    #: use the flow at Omega = 1 (averaging, near Omega = 2k): undamped resonance is theirs
+    RESONANCE_SAFE: ClassVar[tuple] = ("direct", "zhuravlev", "ivanov", "averaging")
+
+    def check_sweep(self, sweep, method: str, where: str, i: int) -> None:
+        """No damping (``beta`` or ``damping_ratio`` 0) with Omega = 1 on the grid: the
+        closed-form flow of ``event``, ``mapping`` and ``continuation`` divides by ``(1 -
+        Omega^2)^2 + (2 beta Omega)^2 = 0`` there (undamped resonance grows as ``t cos t``: no
+        periodic forced response), so such a run is refused in one line
+        (:func:`vibeam.models.sdof_flow.undamped_resonance` is the model's own guard)."""
+        key = "damping_ratio" if self.physical else "beta"
+        if method in self.RESONANCE_SAFE or getattr(self, key) != 0.0:
+            return
+        Om = sweep.grid(self.natural_frequency_hz)
+        if np.any(1.0 - Om * Om == 0.0):
+            grid = "sweep.Omega" if sweep.Omega is not None else "sweep.frequency_hz"
+            what = f"'{where}.{key}' = 0" if where != "map.values" else f"'map.values': {key} = 0"
+            raise CaseError(f"{what} with Omega = 1 in '{grid}' (run[{i}], method {method!r}): undamped exact "
+                            f"resonance has no periodic forced response (it grows as t cos t), which the "
+                            f"closed-form methods cannot compute; allowed: {key} > 0, a grid without Omega = 1, "
+                            f"or method 'direct'")
+
     def result_attrs(self) -> dict:
         """Derived values stored with a run's results: none."""
         return {}
@@ -1193,6 +1215,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                                     f"cannot change the fidelity; put it in another case")
                 run_spec = _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
             _check_contact_method(run_spec, i, r)
+            _check_resonance(case, i, r, run_spec, f"run[{i}].model" if r.model else "model")
             if r.effects:
                 case.effects_for(r)
             _check_two_sided(case, i, r)
@@ -1207,6 +1230,27 @@ def parse_case(text: str, source: str = "<case>") -> Case:
     except CaseError as e:
         raise CaseError(_one_line(f"{source}: {e}")) from None
     return case
+
+
+def _check_resonance(case, i: int, r, spec, prefix: str) -> None:
+    """The run's scene against its sweep grid (the spec's optional ``check_sweep``, e.g. the
+    SDOF's undamped exact resonance), for its own model and, with a ``[map]``, at every mapped
+    value."""
+    specs = [(spec, prefix)]
+    m = case.map
+    if (m is not None and getattr(spec, "check_sweep", None) is not None and m.parameter not in r.model
+            and m.parameter in case.map_parameters()):
+        specs = []
+        for v in m.grid():
+            try:
+                specs.append((_validate_model(dict(case.model, **r.model, **{m.parameter: float(v)}), prefix),
+                              "map.values"))
+            except CaseError:
+                pass            # _check_map names the value
+    for sp, where in specs:
+        check = getattr(sp, "check_sweep", None)
+        if check is not None:
+            check(case.sweep, r.method, where, i)
 
 
 def _check_contact_method(spec, i: int, r) -> None:

@@ -463,9 +463,31 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
     except Exception as e:  # a solver failure is recorded, never fatal to the sweep
         out = dict(status="failed", message=f"{type(e).__name__}: {e}")
         new_state = None
+    _not_finite(out)
     out["Omega"] = float(Omega)
     out["wall_time_s"] = time.perf_counter() - t0
     return out, new_state
+
+
+def _not_finite(out: dict) -> None:
+    """A point is never reported with a number its method could not compute: an infinite
+    amplitude or extreme, or a NaN amplitude of a point that claims an orbit (``period !=
+    -1``; NaN with period -1 is the averaging's "no impacting solution"), makes it ``failed``
+    with the reason (the method's own message kept).  ``out`` is changed in place."""
+    if out.get("status") == "failed":
+        return
+    bad = []
+    for k in ("amplitude", "q_min", "q_max"):
+        v = out.get(k)
+        if isinstance(v, (float, np.floating)) and np.isinf(v):
+            bad.append(f"{k} = {float(v):g}")
+    a = out.get("amplitude")
+    if isinstance(a, (float, np.floating)) and np.isnan(a) and out.get("period", -1) != -1:
+        bad.append(f"amplitude = nan with period {out.get('period')}")
+    if bad:
+        prev = f" ({out['status']}: {out['message']})" if out.get("message") else ""
+        out["message"] = "the method returned no finite result: " + ", ".join(bad) + prev
+        out["status"] = "failed"
 
 
 def _chain(solver, Omegas, sweep: Sweep, Delta: float, direction: str, report=None):
