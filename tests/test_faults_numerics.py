@@ -391,9 +391,9 @@ def test_the_sweep_engine_never_reports_a_non_finite_number_as_ok():
 def test_amplitude_over_B_does_not_depend_on_B_across_the_allowed_range():
     """At Delta = 0 the problem is exactly homogeneous in B (q / B obeys one equation), so
     amplitude / B, the period and the impact count are the same at B = 1e-100, 5e-4 and 1e100,
-    and energy_per_impact / B^2 too; measured agreement 4e-15, tolerance 1e-12 (round-off of the
-    scaled arithmetic).  No overflow warning (the base branch warned from B = 1e200 in the energy
-    per impact)."""
+    and energy_per_impact / B^2 too; measured agreement 1e-15 (amplitude) and 2.5e-15
+    (energy), tolerance 1e-12 (round-off of the scaled arithmetic).  No overflow warning (the
+    base branch warned from B = 1e200 in the energy per impact)."""
     ref = None
     for B in (1e-100, 5e-4, 1e100):
         with warnings.catch_warnings():
