@@ -43,7 +43,7 @@ from .beam_dynamics import BeamImpactModel
 from .contact import Relation, Stop
 from .roots import rtsafe_update
 from .sdof_event import _certify
-from .trajectory import Trajectory
+from .trajectory import Trajectory, call_budget
 
 TWO_PI = 2.0 * math.pi
 FREE, CONTACT = 0, 1
@@ -203,19 +203,38 @@ def _broot(al, lam, be, ga, phi0, Om, order, sgn, lo, hi, buf):
     return hi
 
 
+#: work budget of one kernel call of the compliant beam solvers, in steps x modes (their
+#: ``max_steps_per_call`` is this over the modes, at least one period's guard)
+MAX_STEP_MODES_PER_CALL = 4_000_000
+#: :func:`bupcross` could not scan (non-finite bounds, or too many intervals): the step fails
+STALL = -2.0
+#: most intervals of one :func:`bupcross` scan (a usual scan takes a few; a scan whose bounds
+#: certify nothing steps at ``h_min`` = 1e-13 T and would take ~1e12)
+MAX_SCAN = 100_000
+
+
 @njit(cache=True)
 def bupcross(al, lam, be, ga, phi0, Om, lo, hi, h_min):
     """First upward zero crossing of a signal in ``(lo, hi]`` (-1 if none); the certified
-    scan of :func:`vibeam.models.sdof_compliant.upcross` on a sum of exponentials."""
+    scan of :func:`vibeam.models.sdof_compliant.upcross` on a sum of exponentials.
+    :data:`STALL` (-2) when the scan cannot be done in double precision: bounds that are not
+    finite (a stop so stiff that ``|lambda|^4`` overflows), or more than :data:`MAX_SCAN`
+    intervals (each then as short as ``h_min``); the caller fails the step."""
     M2 = _bound(al, lam, be, Om, 2)
     M3 = _bound(al, lam, be, Om, 3)
     M4 = _bound(al, lam, be, Om, 4)
+    if not (M2 < np.inf and M3 < np.inf and M4 < np.inf):
+        return STALL
     tol = 1e-13 * M2
     b0 = np.empty(4)
     b1 = np.empty(4)
     s = lo
     _sig(s, al, lam, be, ga, phi0, Om, b0)
+    n_scan = 0
     while s < hi:
+        n_scan += 1
+        if n_scan > MAX_SCAN:
+            return STALL
         h = hi - s
         cert = 0
         while True:
@@ -225,10 +244,12 @@ def bupcross(al, lam, be, ga, phi0, Om, lo, hi, h_min):
                 cert = 2
                 break
             cert = _certify(b0[2], b0[3], b1[2], b1[3], M3, M4, h, tol)
-            if cert != 0 or h < h_min:
+            if cert != 0 or h < h_min or not h > 0.0:
                 break
             h *= 0.5
         e = s + h
+        if not e > s:
+            return STALL
         if b0[0] < 0.0 and b1[0] >= 0.0:
             return _broot(al, lam, be, ga, phi0, Om, 0, 1.0, s, e, b1)
         if cert == 1 or cert == 0:
@@ -350,11 +371,15 @@ def _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2, foff=0.0)
     elif g0 >= 0.0:
         b2, g2 = _combo(-1.0, 0.0, 0.0, al, lam, beU, gaU, Om, al2)
         s_d = bupcross(al2, lam, b2, g2, phi, Om, 0.0, h, h_min)
+        if s_d == STALL:
+            return -1.0, EV_NONE
         lim = s_d if s_d >= 0.0 else h
         b2, g2 = _combo(kc, cc, 0.0, al, lam, beU, gaU, Om, al2)
         if foff != 0.0:
             g2 += foff
         s_e = bupcross(al2, lam, b2, g2, phi, Om, 0.0, lim, h_min)
+        if s_e == STALL:
+            return -1.0, EV_NONE
         if s_e >= 0.0:
             s_adv = s_e
             ev = EV_ENTRY
@@ -363,6 +388,8 @@ def _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2, foff=0.0)
             ev = EV_GAPDOWN
     else:
         s_e = bupcross(al, lam, beU, gaU, phi, Om, 0.0, h, h_min)
+        if s_e == STALL:
+            return -1.0, EV_NONE
         if s_e >= 0.0:
             s_adv = s_e
             ev = EV_ENTRY
@@ -457,6 +484,9 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                             alL[j] = -al[j]
                         s_l, ev_l = _free_scan(alL, lam, -beU, -gU[phase] - DeltaL, phi, Om, kcl, ccl, h, h_min,
                                                buf, al2)
+                        if s_l < 0.0:
+                            z0[:] = z
+                            return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
                         if ev_l != EV_NONE:
                             h = s_l
                         s_adv, ev = _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2)
@@ -481,7 +511,9 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                     s_adv = h
                     b2, g2 = _combo(-k_s, -c_s, 0.0, al, lam, beU, gaU, Om, al2)
                     s_x = bupcross(al2, lam, b2, g2, phi, Om, 0.0, h, h_min)
-                    if s_x >= 0.0:
+                    if s_x == STALL:
+                        s_adv = -1.0
+                    elif s_x >= 0.0:
                         s_adv = s_x
                         ev = EV_EXIT
                     # peak force (interior maxima), largest penetration, work on the stop
@@ -489,6 +521,9 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                     s = 0.0
                     while True:
                         s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
+                        if s == STALL:
+                            s_adv = -1.0
+                            break
                         if s < 0.0:
                             break
                         _sig(s, al, lam, beU, gaU, phi, Om, buf)
@@ -497,6 +532,9 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                     s = 0.0
                     while True:
                         s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
+                        if s == STALL:
+                            s_adv = -1.0
+                            break
                         if s < 0.0:
                             break
                         _sig(s, al, lam, beU, gaU, phi, Om, buf)
@@ -518,6 +556,9 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                         s = 0.0
                         while True:
                             s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
+                            if s == STALL:
+                                s_adv = -1.0
+                                break
                             if s < 0.0:
                                 break
                             _sig(s, al, lam, bS[phase], gS[phase], phi, Om, buf)
@@ -526,6 +567,9 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                                 pm = min(pm, buf[0])
                             else:
                                 smax = max(smax, buf[0])
+                if s_adv < 0.0:     # a scan that could not be done in double precision (STALL)
+                    z0[:] = z
+                    return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
                 _state(s_adv, a, lam, VA[phase], ZA[phase], zeA[phase], phi, Om, z)
                 for j in range(n2):
                     if a[j] != 0.0:
@@ -657,6 +701,8 @@ class CompliantBeamEventSolver:
         self.max_steps_per_period = int(max_steps_per_period)
         self.impact_buffer = int(impact_buffer)
         self.chunk_periods = max(16, 2000 // model.n_modes)
+        # work budget of one kernel call (steps x modes; :class:`Trajectory` ``incomplete``)
+        self.max_steps_per_call = max(self.max_steps_per_period, MAX_STEP_MODES_PER_CALL // model.n_modes)
         self.record_modal_states = bool(record_modal_states)
         _ensure_eig(model)
 
@@ -689,13 +735,16 @@ class CompliantBeamEventSolver:
         z = s0[:2 * N].copy()
         n_per = max(n_transient + n_record, 1)
         ph0 = 1 if s0[2 * N] > 0.5 else (2 if (s0[2 * N] < -0.5 and two) else 0)
+        max_steps, budget = call_budget(self.max_steps_per_period, n_per, self.max_steps_per_call)
         out = beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, m.contact_row, m.sensor_row, bU, bS,
                                           gU, gS, kc, cc, m.gap_contact_m, 2 if two else 1, kl, cl, Dl, z, ph0,
                                           int(n_transient), int(n_record), self.transient_samples,
                                           int(samples_per_period), hmax, self.max_impacts_per_period * n_per,
-                                          self.max_steps_per_period * n_per, samples, pmin, imp_t, imp_v, con, imp_k,
+                                          max_steps, samples, pmin, imp_t, imp_v, con, imp_k,
                                           msamp)
         status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps, n_low = out
+        incomplete = (status != 0 and budget and n_steps > max_steps
+                      and n_con <= self.max_impacts_per_period * n_per)
         ph_end = -1 if ph_end == 2 else ph_end
         L = m.length_m
         k = min(n_rec, self.impact_buffer)
@@ -711,6 +760,8 @@ class CompliantBeamEventSolver:
         c[:, 4] /= L
         T = TWO_PI / Om
         message = "" if status == 0 else f"gave up after {n_con} contacts / {n_steps} steps in {n_per} periods"
+        if incomplete:
+            message = f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} period(s)"
         extra = {"contact_fraction": t_con / (n_record * T) if n_record else 0.0,
                  "steps_per_period": float(n_steps / n_per)}
         if self.record_modal_states:
@@ -722,7 +773,7 @@ class CompliantBeamEventSolver:
                           final_state=np.concatenate([z, [float(ph_end)]]),
                           extra=extra, contacts=c, impact_stops=imp_k[:k].copy() if two else None,
                           contact_stops=imp_k[:k][closed].copy() if two else None,
-                          n_impacts_lower=int(n_low) if two else 0)
+                          n_impacts_lower=int(n_low) if two else 0, incomplete=bool(incomplete))
 
 
 def _ensure_eig(model):

@@ -72,7 +72,7 @@ import numpy as np
 import scipy.linalg
 from numba import njit
 
-from .trajectory import Trajectory
+from .trajectory import Trajectory, call_budget
 
 from .contact import OFFSET as _OFFSET
 from .contact import Relation, Restitution, Stop, check_stops, impulsive_response, pack
@@ -288,7 +288,7 @@ def _scan(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4):
         if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
             return -1.0, h
         cert = _certify(g20, g30, g21, g31, M3, M4, h, tol2)
-        if cert != 0 or h < h_min:
+        if cert != 0 or h < h_min or not h > 0.0:
             break
         h *= 0.5
     if cert == 0:
@@ -1286,6 +1286,8 @@ class BeamEventSolver:
 
     name = "event"
     time_domain = True
+    #: work budget of one kernel call in steps x modes (``max_steps_per_call`` = this / n_modes)
+    MAX_STEP_MODES_PER_CALL = 20_000_000
 
     def __init__(self, model: BeamImpactModel, transient_samples: int = 16, chatter_tol: float = 1e-7,
                  max_impacts_per_period: int = 20000, max_steps_per_period: int = 20000,
@@ -1300,10 +1302,13 @@ class BeamEventSolver:
         self.impact_buffer = int(impact_buffer)
         self.record_modal_states = bool(record_modal_states)
         check_stops(model.stops())
-        # periods per call of the sweep engine (vibeam.sweep._simulate): the cost per period grows
+        # periods per call of the sweep engine (vibeam.sweep.simulate): the cost per period grows
         # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
         # so a call lasts well under a second
         self.chunk_periods = max(16, 2000 // model.n_modes)
+        # work budget of one kernel call (steps; a step costs more with more modes): beyond it the
+        # call is ``incomplete`` and the sweep engine repeats it in shorter calls
+        self.max_steps_per_call = max(100_000, self.MAX_STEP_MODES_PER_CALL // model.n_modes)
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
@@ -1350,6 +1355,7 @@ class BeamEventSolver:
         chat_t = np.zeros(self.impact_buffer)
         n_per = n_transient + n_record
         h_cap = TWO_PI / np.sqrt(k[0]) / self.steps_per_fundamental
+        max_steps, budget = call_budget(self.max_steps_per_period, n_per, self.max_steps_per_call)
         out = beam_kernel(Om, mpF, aF, bF, m.contact_row, m.sensor_row, c, k, GF,
                           par, tU, tR, r["normals"], me,
                           mpC, aC, bC, r["eC"], m.Psi, r["eta_c"], r["pL"], r["rL"], SaL, SbL, r["cL"],
@@ -1357,10 +1363,12 @@ class BeamEventSolver:
                           eta, etad, 1 if s0[2 * N] > 0.5 else (-1 if s0[2 * N] < -0.5 and par.shape[0] > 1 else 0),
                           int(n_transient), int(n_record), self.transient_samples,
                           int(samples_per_period), float(h_cap),
-                          self.max_impacts_per_period * n_per, self.max_steps_per_period * n_per,
+                          self.max_impacts_per_period * n_per, max_steps,
                           self.chatter_tol, samples, imp_t, imp_v, imp_k, n_stop, modamp, msamp, pmin,
                           chat_t)
         status, n_imp, smin, smax, n_chat, stuck_time, stuck_end, n_tot, gmax, n_steps = out
+        incomplete = (status == ST_FAILED and budget and n_steps > max_steps
+                      and n_tot <= self.max_impacts_per_period * n_per)
         L = m.length_m
         if stuck_time > 0.0 or stuck_end:
             gmax = max(gmax, 0.0)  # on the stop U = Delta_C exactly
@@ -1368,7 +1376,9 @@ class BeamEventSolver:
         kk = min(n_imp, self.impact_buffer)
         T = TWO_PI / Om
         message = ""
-        if status == ST_FAILED:
+        if incomplete:
+            message = f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} period(s)"
+        elif status == ST_FAILED:
             message = (f"gave up after {n_tot} impacts / {n_steps} steps in {n_per} periods "
                        f"(non-accumulating chatter or step collapse)")
         elif status == ST_CHATTER:
@@ -1392,7 +1402,7 @@ class BeamEventSolver:
                    "stuck_fraction": float(stuck_time / (n_record * T)) if n_record else 0.0,
                    "contact_gap_max": float(gmax / L),
                    "impact_velocity_m_s": float(np.mean(iv_up) * L * m.omega_ref) if iv_up.size else np.nan,
-                   "steps_per_period": float(n_steps / max(n_per, 1))})
+                   "steps_per_period": float(n_steps / max(n_per, 1))}, incomplete=bool(incomplete))
         if self.record_modal_states:
             traj.extra["modal_states"] = msamp
         return traj

@@ -35,9 +35,9 @@ import numpy as np
 from numba import njit
 
 from .beam_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_NONE, FREE, TWO_PI, _combo, _free_scan,
-                             _modal, _sig, _state, bupcross)
+                             _modal, _sig, _state, bupcross, STALL, MAX_STEP_MODES_PER_CALL)
 from .sdof_compliant import _DP_A, _DP_C, _DP_E, HC_ATOL, HC_RTOL, HC_V_FLOOR
-from .trajectory import Trajectory
+from .trajectory import Trajectory, call_budget
 
 
 @njit(cache=True)
@@ -189,7 +189,7 @@ def hc_contact_step(h, phi, y0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, 
         if err <= 1.0:
             break
         rk[0] = hs * max(0.1, 0.9 * err ** -0.2)
-        if rk[0] < h_min:
+        if rk[0] < h_min or not rk[0] > 0.0:
             return -1.0, EV_NONE
     if hs == rk[0]:
         rk[0] = hs * min(5.0, 0.9 * err ** -0.2) if err > 0.0 else 5.0 * hs
@@ -347,6 +347,9 @@ def beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, wrow, srow, knd, cnd, part,
                     # g' + v_r / chi rises through 0 (force sign), else where g does
                     s_adv, ev = _free_scan(al, lam, bU, -DC, phi, Om, 0.0 if kk else 1.0, kk, h, h_min, buf, al2,
                                            foff)
+                    if s_adv < 0.0:     # a scan that could not be done in double precision
+                        z0[:] = z
+                        return (3, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps)
                     if recording and s_adv > 0.0:
                         for j in range(n2):
                             al[j] = PS[j] * a[j]
@@ -355,6 +358,9 @@ def beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, wrow, srow, knd, cnd, part,
                             s = 0.0
                             while True:
                                 s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
+                                if s == STALL:
+                                    z0[:] = z
+                                    return (3, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps)
                                 if s < 0.0:
                                     break
                                 _sig(s, al, lam, bS, 0.0, phi, Om, buf)
@@ -509,6 +515,8 @@ class HuntCrossleyBeamEventSolver:
         self.max_steps_per_period = int(max_steps_per_period)
         self.impact_buffer = int(impact_buffer)
         self.chunk_periods = max(16, 2000 // model.n_modes)
+        # work budget of one kernel call (steps x modes; :class:`Trajectory` ``incomplete``)
+        self.max_steps_per_call = max(self.max_steps_per_period, MAX_STEP_MODES_PER_CALL // model.n_modes)
         self.record_modal_states = bool(record_modal_states)
 
     def settings(self) -> dict:
@@ -535,15 +543,19 @@ class HuntCrossleyBeamEventSolver:
         z = s0[:2 * N].copy()
         msamp = np.zeros((samples.shape[0] if self.record_modal_states else 0, 2 * N))
         n_per = max(n_transient + n_record, 1)
+        max_steps, budget = call_budget(self.max_steps_per_period, n_per, self.max_steps_per_call)
         out = beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, m.contact_row, m.sensor_row, m.k_nd, m.c_nd,
                              m.participation, F, kc, float(law.exponent), float(law.chi), m.gap_contact_m,
                              velocity_floor(m, Om), z, 1 if s0[2 * N] > 0.5 else 0, int(n_transient), int(n_record),
                              self.transient_samples, int(samples_per_period), hmax,
-                             self.max_impacts_per_period * n_per, self.max_steps_per_period * n_per, samples, pmin,
+                             self.max_impacts_per_period * n_per, max_steps, samples, pmin,
                              imp_t, imp_v, con, msamp)
         status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = out
         tr = _trajectory(m, Om, samples, samples_per_period, pmin, imp_t, imp_v, con, n_rec, smin, smax, z,
                          ph_end, status, n_con, n_steps, n_per, t_con, n_record, self.impact_buffer)
+        if status != 0 and budget and n_steps > max_steps and n_con <= self.max_impacts_per_period * n_per:
+            tr.incomplete = True
+            tr.message = f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} period(s)"
         if self.record_modal_states:
             tr.extra["modal_states"] = msamp
         return tr

@@ -20,6 +20,7 @@ from .trajectory import Trajectory
 
 from .contact import Relation, Restitution, Stop, check_stops, pack
 from .sdof_event import STATUS_NAMES, event_kernel
+from .sdof_flow import undamped_resonance
 
 _EMPTY = np.zeros(0)
 
@@ -226,17 +227,27 @@ class EventSolver:
         recorded as ``failed`` instead of looping.
     impact_buffer : int, optional
         Most impacts whose time and velocity are stored per point.
+    max_steps_per_call : int, optional
+        Work budget of one call of the kernel (its steps, :func:`event_kernel` ``max_steps``):
+        a call that needs more returns ``incomplete`` (:class:`Trajectory`), and the sweep
+        engine repeats it in shorter calls; one forcing period that needs more fails.
     """
 
     name = "event"
     time_domain = True
-    # periods per call of the sweep engine (vibeam.sweep._simulate): ~5 ms at 2.5 us per period,
+    # periods per call of the sweep engine (vibeam.sweep.simulate): ~5 ms at 2.5 us per period,
     # ~0.3 s on chatter-heavy points, so Ctrl-C and the wall-time limit act within a second
     chunk_periods = 2000
+    #: default work budget of one kernel call: 0.3-2.5 s at the measured 0.06-0.65 us per step
+    #: (the cost grows with the share of impacts); a usual period takes 25-80 steps, so a chunk
+    #: of 2000 periods uses 5e4-2e5 of it
+    MAX_STEPS_PER_CALL = 4_000_000
 
     def __init__(self, model: SDOF, transient_samples: int = 16, chatter_tol: float = 1e-7,
-                 max_impacts_per_period: int = 20000, impact_buffer: int = 4096):
+                 max_impacts_per_period: int = 20000, impact_buffer: int = 4096,
+                 max_steps_per_call: int | None = None):
         self.model = model
+        self.max_steps_per_call = int(self.MAX_STEPS_PER_CALL if max_steps_per_call is None else max_steps_per_call)
         self.transient_samples = int(transient_samples)
         self.chatter_tol = float(chatter_tol)
         self.max_impacts_per_period = int(max_impacts_per_period)
@@ -290,11 +301,21 @@ class EventSolver:
         out = event_kernel(m.beta, m.B, par, tU, tR, float(Omega), float(s0[0]), float(s0[1]), held,
                            int(n_transient), int(n_record), self.transient_samples,
                            int(samples_per_period), max_imp, self.chatter_tol,
-                           samples, imp_t, imp_v, imp_k, n_stop, pmin, chat_t)
+                           samples, imp_t, imp_v, imp_k, n_stop, pmin, chat_t, None, None,
+                           self.max_steps_per_call)
         status, n_imp, q_min, q_max, n_chat, stuck_time, q_end, v_end, stuck_end, n_tot, gmax = out
         k = min(n_imp, self.impact_buffer)
         message = ""
-        if status == 3:
+        incomplete = False
+        if status == 3 and n_tot < 0:
+            message = (undamped_resonance(m.beta, Omega) or
+                       f"the forced response is not finite (F = Omega^2 B = {Omega * Omega * m.B:g})")
+        elif status == 3 and n_tot <= max_imp:
+            incomplete = True
+            message = (f"more than max_steps_per_call = {self.max_steps_per_call} steps in "
+                       f"{n_transient + n_record} period(s) (no step could be certified at the "
+                       f"scale of the motion?)")
+        elif status == 3:
             message = (f"more than {max_imp} impacts in {n_transient + n_record} periods "
                        f"(chatter that does not accumulate?)")
         elif status == 1:
@@ -321,7 +342,7 @@ class EventSolver:
                           final_state=np.array([q_end, v_end, float(stuck_end)]),
                           extra={"stuck_fraction": stuck_time / (n_record * 2 * math.pi / Omega)
                                  if n_record else 0.0,
-                                 "contact_gap_max": float(gmax)})
+                                 "contact_gap_max": float(gmax)}, incomplete=incomplete)
 
 
 def linear_amplitude(beta: float, B: float, Omega):

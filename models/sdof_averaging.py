@@ -202,6 +202,27 @@ def solve(Omega, beta, B, R, Delta, k=1):
                 discriminant=discriminant(Omega, beta, B, R, Delta, k))
 
 
+def degenerate(Omega, beta, B, R, Delta, k=1) -> str:
+    """Why the averaged equations (Eqs. 18-21) say nothing at this point, or ''.
+
+    ``P(Q) = g2 Q^2 + g1 Q + g0`` with ``g2 = pi^2 (sigma_k^2 + beta_k^2)``: at
+    ``sigma_k = 0`` (``Omega = 2k``) with ``beta_k = 0`` (``beta = 0``, ``R = 1``: no damping
+    and no impact loss) ``g2 = 0`` and the stationary amplitude is unbounded -- the roots are
+    ``0/0`` (NaN), which is not the "no impacting solution" a NaN amplitude otherwise means.
+    Coefficients that are not finite (an overflow of ``(B_k Omega^2)^2`` or ``Delta^2``) say
+    nothing either.
+    """
+    g2, g1, g0 = polynomial_coefficients(Omega, beta, B, R, Delta, k)
+    if not (np.isfinite(g2) and np.isfinite(g1) and np.isfinite(g0)):
+        return (f"averaging: the coefficients of P(Q) are not finite at Omega = {Omega:g} (g2 = {float(g2):g}, "
+                f"g1 = {float(g1):g}, g0 = {float(g0):g})")
+    if g2 == 0.0:
+        beta_eff = beta + (1.0 - R) / math.pi
+        return (f"averaging: no bounded amplitude at Omega = {Omega:g} = 2k (k = {k}) with beta + (1 - R)/pi = "
+                f"{beta_eff:g}: without damping or impact loss P(Q) degenerates (g2 = 0; undamped resonance)")
+    return ""
+
+
 class AveragingSolver:
     """Method ``averaging``: first-order averaging near ``Omega ~ 2k`` (paper Sec. 4.1).
 
@@ -243,9 +264,15 @@ class AveragingSolver:
             ``Delta_max``, ``period`` (``k`` if a real solution exists, else
             -1: ``q = Delta - |Q sin(Omega t/(2k) + theta)|`` repeats after
             ``k`` forcing periods, so ``k = 1`` gives 1), ``status`` ``"ok"``,
-            ``message`` ``""``.
+            ``message`` ``""``; ``status`` ``"failed"`` with the reason where the averaged
+            equations are degenerate (:func:`degenerate`).
         """
         m = self.model
+        why = degenerate(float(Omega), m.beta, m.B, m.R, m.Delta, self.k)
+        if why:
+            nan = float("nan")
+            return dict(amplitude=nan, amplitude_lower=nan, theta=nan, impact_phase=nan, stable=False,
+                        Q_star=nan, Delta_max=nan, period=0, status="failed", message=why)
         r = solve(float(Omega), m.beta, m.B, m.R, m.Delta, self.k)
         up = float(r["amplitude"])
         return dict(amplitude=up, amplitude_lower=float(r["amplitude_lower"]),

@@ -49,9 +49,15 @@ from .contact_policy import REBOUND, impact_outcome
 from .roots import rtsafe_update
 from .sdof_event import _certify
 from .sdof_flow import particular_coefficients, transition
+from .trajectory import call_budget
 
 TWO_PI = 2.0 * math.pi
 FREE, CONTACT = 0, 1
+#: :func:`upcross` could not advance (a step below the time's resolution, or non-finite bounds)
+STALL = -2.0
+#: most intervals of one :func:`upcross` scan (a usual scan takes a few; one whose bounds certify
+#: nothing steps at ``h_min`` = 1e-13 of the phase's natural period and would take ~1e12)
+MAX_SCAN = 100_000
 EV_NONE, EV_ENTRY, EV_EXIT, EV_GAPDOWN = 0, 1, 2, 3
 STATUS_OK, STATUS_CHATTER, STATUS_FAILED = 0, 1, 3
 #: accepted relative error of the chatter estimate at a restitution stop beside a compliant one
@@ -178,7 +184,10 @@ def _root(c0, c1, c2, coff, order, sgn, lo, hi, phi, q, v, pp, Omega, Delta, d):
 @njit(cache=True)
 def upcross(c0, c1, c2, lo, hi, phi, q, v, pp, Omega, Delta, A, d, coff=0.0):
     """First time in ``(lo, hi]`` where ``f = c0 delta + c1 delta' + c2 delta'' + coff`` crosses
-    from ``< 0`` to ``>= 0`` along the phase from ``(phi, q, v)``; ``-1`` if none.
+    from ``< 0`` to ``>= 0`` along the phase from ``(phi, q, v)``; ``-1`` if none; :data:`STALL`
+    (-2) if the scan cannot advance: a step below the resolution of the time in double
+    precision, bounds that are not finite (e.g. a stop so stiff that ``k_c w_p^5`` overflows),
+    or more than :data:`MAX_SCAN` intervals -- the caller fails instead of looping for ever.
 
     Certified (module docstring): on each interval the sign of ``f''`` is certified or the
     interval halved; with ``f''`` of one sign ``f`` has at most one interior extremum, which
@@ -187,6 +196,8 @@ def upcross(c0, c1, c2, lo, hi, phi, q, v, pp, Omega, Delta, A, d, coff=0.0):
     M2 = _bound(c0, c1, c2, 2, A, pp, Omega)
     M3 = _bound(c0, c1, c2, 3, A, pp, Omega)
     M4 = _bound(c0, c1, c2, 4, A, pp, Omega)
+    if not (M2 < np.inf and M3 < np.inf and M4 < np.inf):
+        return STALL    # the bounds overflow: nothing can be certified
     tol = 1e-13 * M2
     h_min = 1e-13 * (TWO_PI / pp[0])
     s = lo
@@ -195,7 +206,11 @@ def upcross(c0, c1, c2, lo, hi, phi, q, v, pp, Omega, Delta, A, d, coff=0.0):
     f10 = _fd(d, c0, c1, c2, 1)
     f20 = _fd(d, c0, c1, c2, 2)
     f30 = _fd(d, c0, c1, c2, 3)
+    n_scan = 0
     while s < hi:
+        n_scan += 1
+        if n_scan > MAX_SCAN:
+            return STALL
         h = hi - s
         cert = 0
         f1 = f11 = f21 = f31 = 0.0
@@ -210,10 +225,12 @@ def upcross(c0, c1, c2, lo, hi, phi, q, v, pp, Omega, Delta, A, d, coff=0.0):
                 cert = 2
                 break
             cert = _certify(f20, f30, f21, f31, M3, M4, h, tol)
-            if cert != 0 or h < h_min:
+            if cert != 0 or h < h_min or not h > 0.0:
                 break
             h *= 0.5
         e = s + h
+        if not e > s:
+            return STALL    # time cannot advance in double precision (or not a number)
         if f0 < 0.0 and f1 >= 0.0:
             return _root(c0, c1, c2, coff, 0, 1.0, s, e, phi, q, v, pp, Omega, Delta, d)
         if cert == 1 or cert == 0:
@@ -310,24 +327,34 @@ def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d, r0, r
                     break
         if d[0] >= 0.0:
             s_d = upcross(-1.0, 0.0, 0.0, 0.0, h, phi, q, v, pp, Omega, Delta, A, d)
+            if s_d == STALL:
+                return -1.0, EV_NONE
             lim = s_d if s_d >= 0.0 else h
             s_e = upcross(r0, r1, 0.0, 0.0, lim, phi, q, v, pp, Omega, Delta, A, d, roff)
+            if s_e == STALL:
+                return -1.0, EV_NONE
             if s_e >= 0.0:
                 s_adv, ev = s_e, EV_ENTRY
             elif s_d >= 0.0:
                 s_adv, ev = s_d, EV_GAPDOWN
         else:
             s_e = upcross(1.0, 0.0, 0.0, 0.0, h, phi, q, v, pp, Omega, Delta, A, d)
+            if s_e == STALL:
+                return -1.0, EV_NONE
             if s_e >= 0.0:
                 s_adv, ev = s_e, EV_ENTRY
     else:
         s_x = upcross(-kc, -cc, 0.0, 0.0, h, phi, q, v, pp, Omega, Delta, A, d)
+        if s_x == STALL:
+            return -1.0, EV_NONE
         if s_x >= 0.0:
             s_adv, ev = s_x, EV_EXIT
         # peak force: entry value (cs[1] set at entry), interior maxima, step end
         s = 0.0
         while True:
             s = upcross(0.0, -kc, -cc, s, s_adv, phi, q, v, pp, Omega, Delta, A, d)
+            if s == STALL:
+                return -1.0, EV_NONE
             if s < 0.0:
                 break
             phase_eval(s, phi, q, v, pp, Omega, Delta, d)
@@ -338,6 +365,8 @@ def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d, r0, r
         s = 0.0
         while True:
             s = upcross(0.0, -1.0, 0.0, s, s_adv, phi, q, v, pp, Omega, Delta, A, d)
+            if s == STALL:
+                return -1.0, EV_NONE
             if s < 0.0:
                 break
             phase_eval(s, phi, q, v, pp, Omega, Delta, d)
@@ -362,6 +391,8 @@ def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d, r0, r
         s = 0.0
         while True:
             s = upcross(0.0, 1.0, 0.0, s, s_adv, phi, q, v, pp, Omega, Delta, A, d)
+            if s == STALL:
+                return -1.0, EV_NONE
             if s < 0.0:
                 break
             phase_eval(s, phi, q, v, pp, Omega, Delta, d)
@@ -374,6 +405,8 @@ def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d, r0, r
             s = 0.0
             while True:
                 s = upcross(0.0, -1.0, 0.0, s, s_adv, phi, q, v, pp, Omega, Delta, A, d)
+                if s == STALL:
+                    return -1.0, EV_NONE
                 if s < 0.0:
                     break
                 phase_eval(s, phi, q, v, pp, Omega, Delta, d)
@@ -513,7 +546,7 @@ def hc_advance(h, phi, q, v, beta, F, Omega, Delta, kc, p, chi, vr, ks, rk, rec,
         if err <= 1.0:
             break
         rk[0] = hs * max(0.1, 0.9 * err ** -0.2)
-        if rk[0] < h_min:
+        if rk[0] < h_min or not rk[0] > 0.0:     # (0 or NaN: the scales are not computable)
             return -1.0, EV_NONE
     if hs == rk[0]:
         rk[0] = hs * min(5.0, 0.9 * err ** -0.2) if err > 0.0 else 5.0 * hs
@@ -658,7 +691,8 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
     -------
     tuple
         ``(status, n_rec, q_min, q_max, q_end, v_end, phase_end, n_contacts_total,
-        contact_time, n_rec_lower)``; ``phase_end`` 0, 1 or 2.
+        contact_time, n_rec_lower, n_steps)``; ``phase_end`` 0, 1 or 2; ``n_steps`` the steps
+        taken (above ``max_steps``: the step guard ended the call).
     """
     F = Omega * Omega * B
     nst = stops.shape[0]
@@ -702,9 +736,9 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
     v = v_init
     phase = 1 if phase_init == 1 else (2 if (phase_init == 2 and nst > 1 and not rest_l) else 0)
     if not (P[1, 1] < 1.0 and math.isfinite(P[0, 3]) and math.isfinite(P[1, 3])):
-        return (STATUS_FAILED, 0, np.inf, -np.inf, q, v, phase, 0, 0.0, 0)
+        return (STATUS_FAILED, 0, np.inf, -np.inf, q, v, phase, 0, 0.0, 0, 0)
     if nst > 1 and not (PL[1, 1] < 1.0 and math.isfinite(PL[1, 3])):
-        return (STATUS_FAILED, 0, np.inf, -np.inf, q, v, phase, 0, 0.0, 0)
+        return (STATUS_FAILED, 0, np.inf, -np.inf, q, v, phase, 0, 0.0, 0, 0)
     T = TWO_PI / Omega
     hmax = np.empty(3)
     hmax[0] = TWO_PI / P[0, 0] / 16.0
@@ -751,7 +785,7 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
             while rem > 0.0:
                 n_steps += 1
                 if max_steps >= 0 and n_steps > max_steps:
-                    return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                    return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l, n_steps)
                 # one call site per step function (compile time): a free step of a two-sided
                 # scene calls advance twice, the lower stop's entry scan first (mirrored frame,
                 # nothing recorded), then the upper stop's scan up to it (which records the
@@ -802,7 +836,9 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
                         if ev_l != EV_NONE:
                             h = s_l
                     side = sd
-                if n_calls == 2 and ev == EV_NONE and ev_l != EV_NONE:
+                if n_calls == 2 and s_l < 0.0:
+                    s = s_l   # the lower stop's scan could not advance: fail below
+                elif n_calls == 2 and ev == EV_NONE and ev_l != EV_NONE:
                     # the lower stop's event ends the step: its frame
                     s, ev, side = s_l, ev_l, 1
                     phs = (phi + math.pi) % TWO_PI
@@ -811,7 +847,7 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
                     pp = P[0]
                     Ds = DeltaL
                 if s < 0.0:
-                    return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                    return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l, n_steps)
                 if (phase == CONTACT and hunt) or (phase == 2 and huntl):
                     qn = Ds + y1[0]
                     vn_ = y1[1]
@@ -841,7 +877,7 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
                     v = u
                     n_con += 1
                     if n_con > max_contacts:
-                        return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                        return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l, n_steps)
                     if recording:
                         if q < ex[0]:
                             ex[0] = q
@@ -868,13 +904,13 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
                                              CHATTER_TOL, rem, 0, 0)
                     if act != REBOUND:
                         # sticking on a restitution stop beside a compliant one is not implemented
-                        return (STATUS_CHATTER, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                        return (STATUS_CHATTER, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l, n_steps)
                 elif ev == EV_ENTRY:
                     # d: the gap function of the entered stop and its derivatives (its own frame)
                     phase = CONTACT if side == 0 else 2
                     n_con += 1
                     if n_con > max_contacts:
-                        return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+                        return (STATUS_FAILED, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l, n_steps)
                     kk = kc if side == 0 else kcl
                     ck = cc if side == 0 else ccl
                     vn = d[1]
@@ -916,7 +952,7 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
                     in_record_contact = False
         if recording:
             pmin[p - n_transient] = ex[2]
-    return (STATUS_OK, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l)
+    return (STATUS_OK, n_rec, ex[0], ex[1], q, v, phase, n_con, t_contact, n_rec_l, n_steps)
 
 
 @njit(cache=True)
@@ -980,10 +1016,13 @@ class CompliantEventSolver:
     name = "event"
     time_domain = True
     chunk_periods = 500
+    #: work budget of one kernel call (steps; ~1.5 s at the ~3 us of a step of a stiff contact):
+    #: a call that needs more is ``incomplete`` and repeated in shorter calls by the sweep engine
+    MAX_STEPS_PER_CALL = 500_000
 
     def __init__(self, model, transient_samples: int = 16, max_impacts_per_period: int = 2000,
                  impact_buffer: int = 4096, chatter_tol: float | None = None,
-                 max_steps_per_period: int = 200_000):
+                 max_steps_per_period: int = 200_000, max_steps_per_call: int | None = None):
         from .contact import LAW_LINEAR, pack
 
         stops = model.stops()
@@ -998,6 +1037,7 @@ class CompliantEventSolver:
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.impact_buffer = int(impact_buffer)
         self.max_steps_per_period = int(max_steps_per_period)
+        self.max_steps_per_call = int(self.MAX_STEPS_PER_CALL if max_steps_per_call is None else max_steps_per_call)
         self._stops = pack(stops)
         for st, key in zip(stops, ("[model.contact]", "[model.contact_lower]")):
             law = st.law
@@ -1045,11 +1085,13 @@ class CompliantEventSolver:
         if s0.shape[0] > 2:
             ph0 = 1 if s0[2] > 0.5 else (2 if (s0[2] < -0.5 and two) else 0)
         imp_k = np.zeros(self.impact_buffer, np.int64)
+        max_steps, budget = call_budget(self.max_steps_per_period, n_transient + n_record, self.max_steps_per_call)
         out = compliant_kernel_stops(m.beta, m.B, par, float(Omega), float(s0[0]), float(s0[1]), ph0,
                                      int(n_transient), int(n_record), self.transient_samples,
                                      int(samples_per_period), max_con, samples, pmin, imp_t, imp_v, con, imp_k,
-                                     self.max_steps_per_period * max(n_transient + n_record, 1))
-        status, n_rec, q_min, q_max, q_end, v_end, ph_end, n_tot, t_con, n_low = out
+                                     max_steps)
+        status, n_rec, q_min, q_max, q_end, v_end, ph_end, n_tot, t_con, n_low, n_steps = out
+        incomplete = status == STATUS_FAILED and budget and n_steps > max_steps and n_tot <= max_con
         ph_end = -1 if ph_end == 2 else ph_end
         k = min(n_rec, self.impact_buffer)
         con = con[:k]
@@ -1064,10 +1106,18 @@ class CompliantEventSolver:
             pmin[:] = np.nan
             q_min = q_max = np.nan
         elif status == STATUS_FAILED:
-            message = (f"more than {max_con} contacts in {n_transient + n_record} periods"
-                       if n_tot > max_con else
-                       f"more than {self.max_steps_per_period} steps per period (a contact far stiffer than "
-                       f"the forcing; lower [model.contact] stiffness) or a resonant phase")
+            if n_tot > max_con:
+                message = f"more than {max_con} contacts in {n_transient + n_record} periods"
+            elif incomplete:
+                message = (f"more than max_steps_per_call = {self.max_steps_per_call} steps in "
+                           f"{n_transient + n_record} period(s)")
+            elif n_steps > max_steps:
+                message = (f"more than {self.max_steps_per_period} steps per period (a contact far stiffer than "
+                           f"the forcing; lower [model.contact] stiffness)")
+            else:
+                message = ("a step cannot be resolved in double precision (a contact far stiffer than the "
+                           "forcing, or a scale that overflows: lower [model.contact] stiffness) or a resonant "
+                           "phase")
         T_rec = n_record * TWO_PI / Omega
         return Trajectory(Omega=float(Omega), samples=samples, samples_per_period=samples_per_period,
                           impact_times=imp_t[:k].copy(), impact_velocities=imp_v[:k].copy(),
@@ -1077,7 +1127,7 @@ class CompliantEventSolver:
                           extra={"contact_fraction": t_con / T_rec if n_record else 0.0},
                           contacts=con, impact_stops=imp_k[:k].copy() if two else None,
                           contact_stops=imp_k[:k][closed].copy() if two else None,
-                          n_impacts_lower=int(n_low) if two else 0)
+                          n_impacts_lower=int(n_low) if two else 0, incomplete=bool(incomplete))
 
 
 

@@ -215,7 +215,8 @@ def _log_event(ev_log, ev_count, kind, t, q, v, a):
 def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init,
                  n_transient, n_record, ns_transient, ns_record,
                  max_impacts, chatter_tol,
-                 samples, imp_t, imp_v, imp_k, n_imp_stop, pmin, chat_t, ev_log=None, ev_count=None):
+                 samples, imp_t, imp_v, imp_k, n_imp_stop, pmin, chat_t, ev_log=None, ev_count=None,
+                 max_steps=-1):
     """Simulate whole forcing periods exactly; the numba core of method ``event``.
 
     Time starts at forcing phase 0.  ``samples`` (shape (n_record *
@@ -243,11 +244,20 @@ def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init
     measured from the start of the call -- and ``ev_count[0]`` the number of events (it
     keeps counting beyond ``cap``).  Omitted (None), nothing is logged.
 
+    ``max_steps`` bounds the work of the call: more than this many steps (trial steps of
+    the scan, events and stuck intervals, counted together) end it with
+    :data:`STATUS_FAILED` and ``n_imp_total <= max_impacts`` (what tells it from the impact
+    guard); -1: no bound.  A compiled call cannot be interrupted, so this is what returns it to
+    Python (Ctrl-C, the wall-time limit) within a bounded time whatever the scene: e.g. a
+    motion whose scale is subnormal, where no step can be certified and every step shrinks
+    to the smallest one (:attr:`vibeam.models.sdof.EventSolver.max_steps_per_call`).
+
     Returns
     -------
     tuple
         ``(status, n_imp_record, q_min, q_max, n_chatter, stuck_time,
         q_end, v_end, stuck_end, n_imp_total, gmax)``; ``stuck_end`` as ``stuck_init``;
+        ``n_imp_total = -1`` (failed at once): the forced response is not finite;
         ``gmax`` is the largest
         gap ``q - Delta`` at the end of a step without an event, before ``q`` is
         put back on the stop (a certificate: positive beyond round-off only if
@@ -288,9 +298,11 @@ def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init
     cap = imp_t.shape[0]
     status = STATUS_OK
     if not (math.isfinite(a) and math.isfinite(b)):
-        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, _held(stuck, side), 0, -np.inf)
+        # no forced response (undamped exact resonance, or an overflow): n_imp_total = -1 says so
+        return (STATUS_FAILED, 0, q_min, q_max, 0, 0.0, q, v, _held(stuck, side), -1, -np.inf)
     n_total = n_transient + n_record
     k_sample = 0
+    n_steps = 0
     # derivatives at the start of the next interval are carried over from the
     # end of the previous one; ``fresh`` forces a recomputation after any jump
     # (impact, sticking, release).  The homogeneous envelope A only decays
@@ -347,6 +359,10 @@ def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init
                 kg = j * sub + isub
                 at_grid = True  # still on the tabulated step (no event yet)
                 while rem > 0.0:
+                    n_steps += 1
+                    if max_steps >= 0 and n_steps > max_steps:
+                        return (STATUS_FAILED, n_imp_rec, q_min, q_max, n_chatter,
+                                stuck_time, q, v, _held(stuck, side), n_imp_total, gmax)
                     if stuck:
                         fresh = True
                         at_grid = False
@@ -427,9 +443,10 @@ def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init
                                 cert = 2
                                 break
                             cert = _certify(g20, g30, g21, g31, M3, M4, h, tol2)
-                            if cert != 0 or h < h_min:
+                            if cert != 0 or h < h_min or not h > 0.0:
                                 break
                             h *= 0.5
+                            n_steps += 1
                         if cert == 0:
                             cert = 1 if g20 + g21 > 0.0 else -1
                         if cert == 2:

@@ -52,7 +52,27 @@ def particular_coefficients(beta, F, Omega):
     k = 1.0 - Omega * Omega
     c = 2.0 * beta * Omega
     D = k * k + c * c
+    if D == 0.0:
+        return np.inf, np.inf   # (numba's float division by zero would raise ZeroDivisionError)
     return F * k / D, -F * c / D
+
+
+def undamped_resonance(beta: float, Omega: float) -> str:
+    """Why the closed-form flow has no forced response at ``(beta, Omega)``, or ''.
+
+    The particular solution ``a sin(phi) + b cos(phi)`` (:func:`particular_coefficients`)
+    divides by ``(1 - Omega^2)^2 + (2 beta Omega)^2``, which is zero in double precision only at
+    exact undamped resonance, ``beta = 0`` and ``Omega = 1``: the forced linear flow there is
+    the secular ``t cos t`` that grows without bound, which the closed-form solvers (``event``,
+    ``mapping``, the shooting problems) do not compute.  Case validation refuses such a scene
+    (:mod:`vibeam.case`); a model built directly fails its points with this reason.
+    """
+    k = 1.0 - float(Omega) ** 2
+    c = 2.0 * float(beta) * float(Omega)
+    if k * k + c * c == 0.0:
+        return (f"undamped exact resonance (beta = {beta:g}, Omega = {Omega:g}): the forced flow grows as "
+                f"t cos t and has no periodic particular solution; give beta > 0 or another Omega")
+    return ""
 
 
 @njit(cache=True)

@@ -34,7 +34,7 @@ from numba import njit
 from scipy.optimize import brentq
 
 from .impact import newton_restitution
-from .sdof_flow import flow_matrix, particular_coefficients, propagate
+from .sdof_flow import flow_matrix, particular_coefficients, propagate, undamped_resonance
 
 TWO_PI = 2.0 * math.pi
 
@@ -498,6 +498,37 @@ def fixed_point_analysis(model, Omega, x, n=1):
                 det_true=float(np.linalg.det(M)), tr_true=float(np.trace(M)), a_minus=a1)
 
 
+def resolved(out: dict, model, Omega: float, tol: float, failed) -> dict:
+    """``out`` (a mapping point), or the failed point ``failed([reason])`` when its orbit is not
+    resolved by the forcing.
+
+    Newton's residual is accepted at ``tol`` times the impact velocity, so the forcing's effect
+    on one flight must stand above it: the forced velocity amplitude ``Omega C``
+    (``C = Omega^2 B / sqrt((1 - Omega^2)^2 + (2 beta Omega)^2)``, paper Eq. 28) must exceed
+    1e3 ``tol`` times the orbit's scale (its amplitude ``Q`` or impact velocity ``v``).  An orbit
+    beyond that -- ``Q`` or ``v`` more than ``1e-3 / tol`` (1e10) times ``Omega C``, or not
+    finite -- is not an orbit of the forced oscillator but Newton losing the forcing in
+    round-off: e.g. the undamped, elastic scene (``beta = 0``, ``R = 1``) at its impacting
+    resonance ``Omega = 2k``, where no bounded orbit exists and Newton drifts to ``v ~ 1e22``.
+    A real orbit of a lightly damped scene reaches ~1e3 ``C``.
+    """
+    if out.get("status") != "ok":
+        return out
+    from .sdof import linear_amplitude
+
+    C = float(linear_amplitude(model.beta, model.B, Omega))
+    Q = float(out.get("amplitude", np.nan))
+    v = float(out.get("impact_velocity", np.nan))
+    size = max(abs(Q), abs(v) / Omega) if np.isfinite(v) else abs(Q)
+    limit = 1e-3 / tol
+    if np.isfinite(Q) and np.isfinite(size) and size <= limit * max(C, 1e-300):
+        return out
+    return failed([f"the orbit found (amplitude {Q:.3g}, impact velocity {v:.3g}) is {size / max(C, 1e-300):.2g} "
+                   f"times the forced amplitude C = {C:.3g}, beyond {limit:.0e} = 1e-3 / tol: the forcing is "
+                   f"below Newton's tolerance, so no bounded orbit is resolved (beta = {model.beta:g}, "
+                   f"R = {model.R:g}: an undamped resonance?)"])
+
+
 def event_guess(model, Omega, n=1, n_transient=200):
     """Initial guess ``(phi, v)`` from a short run of the exact event solver (guess only).
 
@@ -620,15 +651,18 @@ class MappingSolver:
             plus ``impacts_per_period_lower`` and ``impact_velocity_lower``; orbits with
             impacts on both stops have ``final_state`` ``(phi_j, v_j, k_j)`` flat (3m,).
         """
+        why = undamped_resonance(self.model.beta, float(Omega))
+        if why:
+            return self._failed([why])
         if getattr(self.model, "Delta_lower", None) is not None:
             from .sdof_mapping_stops import point_two_sided
-            return point_two_sided(self, Omega, state0)
+            return resolved(point_two_sided(self, Omega, state0), self.model, float(Omega), self.tol, self._failed)
         Omega = float(Omega)
         reasons = []
         for g in self._guesses(Omega, state0):
             out = self._one_impact(Omega, g)
             if isinstance(out, dict):
-                return out
+                return resolved(out, self.model, Omega, self.tol, self._failed)
             reasons.append(out)
         return self._failed(reasons)
 

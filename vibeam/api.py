@@ -497,8 +497,11 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
     if not solver.time_domain:
         raise ValueError(f"method {solver.name!r} computes no time history; use a time-domain method "
                          f"(event, direct, zhuravlev, ivanov)")
-    traj = solver.point(float(Omega), None if state is None else np.asarray(state, float), int(transient),
-                        int(periods), int(spp))
+    from .sweep import simulate as _run_point
+
+    # the sweep engine's calls of bounded work: Ctrl-C stops a long simulation between them
+    traj = _run_point(solver, float(Omega), None if state is None else np.asarray(state, float), int(transient),
+                      int(periods), int(spp))
     summ = summarize(traj, float(model.Delta), period_rtol)
     return Simulation(Omega=float(Omega), t=traj.t, q=traj.samples[:, 0].copy(), dq=traj.samples[:, 1].copy(),
                       impact_times=np.asarray(traj.impact_times), impact_velocities=np.asarray(traj.impact_velocities),

@@ -55,6 +55,48 @@ class _Strict(BaseModel):
 
 
 # ----------------------------------------------------------------------------- model
+#: the nondimensional forcing amplitude ``B`` (``gain x voltage`` of a physical scene, paper
+#: Eq. 43) a scene may give, 0 apart.  The model is exactly homogeneous in ``(B, Delta, q)``
+#: (Eqs. 1-2), so nothing is lost by rescaling a scene into this range; outside it the numbers
+#: are not computable in double precision: the kernels form squares and fourth powers of the
+#: motion's scale (energies ``(1 - R^2) v^2 / 2``, the envelope ``sqrt(x^2 + w^2)``, the
+#: bounds ``C Omega^4`` of the certified scan), which overflow from ``B ~ 1e154`` (measured:
+#: ``amplitude / B`` drifts by 2e-5 at B = 1e200 at Delta = 0), and below ``~1e-154`` they fall
+#: into subnormals, where precision is lost and no step can be certified (``B = 1e-310``: the
+#: period changes and a point takes 10^3 times longer; ``B = 5e-320`` never returns).  The
+#: bounds leave a factor 1e54 of headroom for the powers of Omega in those products.
+B_RANGE = (1e-100, 1e100)
+#: largest stiffness of a compliant stop in kernel units (SDOF: ``k_c / k``): the contact's
+#: natural frequency ``sqrt(1 + k_c)`` must leave its steps (1/16 of its period) resolvable
+#: against the time within a forcing period (an ulp of 2 pi is 9e-16; at 1e20 a step is 4e-11)
+#: and the bounds of the contact scan (``~k_c^3.5`` times the scale) finite; ``1e300`` hung
+#: every kernel.  Stiffer stops than ~1e8 are refused or failed by the work limit anyway.
+MAX_CONTACT_STIFFNESS = 1e20
+
+
+def check_scale(value: float, key: str) -> None:
+    """Refuse a forcing amplitude outside :data:`B_RANGE` (0 allowed).
+
+    Raises
+    ------
+    CaseError
+        Naming ``key``, the value and the allowed range.
+    """
+    lo, hi = B_RANGE
+    if value != 0.0 and not lo <= abs(value) <= hi:
+        raise CaseError(f"{key} = {value:.6g}: not computable in double precision; allowed: 0 or "
+                        f"{lo:g} <= |B| <= {hi:g} (the model is homogeneous in B and Delta: rescale "
+                        f"the scene's lengths instead)")
+
+
+def check_stiffness(law, key: str) -> None:
+    """Refuse a compliant law stiffer than :data:`MAX_CONTACT_STIFFNESS` (kernel units)."""
+    k = getattr(law, "stiffness", None)
+    if k is not None and not k <= MAX_CONTACT_STIFFNESS:
+        raise CaseError(f"{key}: the stop's stiffness is {k:.6g} in kernel units (k_c / k), whose contact "
+                        f"cannot be resolved in double precision; allowed: at most {MAX_CONTACT_STIFFNESS:g}")
+
+
 def _check_stops(spec, lower_keys: tuple, gap_key: str, mixed: bool = False) -> None:
     """The contact tables and the second stop of a model spec (ValueError naming the keys);
     ``mixed``: the fidelity takes a compliant upper stop beside a restitution lower one."""
@@ -237,15 +279,46 @@ class SDOFModelSpec(_Strict):
         return 1
 
     def check(self, prefix: str) -> None:
-        """Checks beyond the table's validators: the ``[model.contact]`` law can be built."""
+        """Checks beyond the table's validators: the ``[model.contact]`` law can be built, and
+        the forcing amplitude (:data:`B_RANGE`) and the stop's stiffness
+        (:data:`MAX_CONTACT_STIFFNESS`) can be computed in double precision."""
         from vibeam.contact_spec import sdof_law
 
+        if self.physical:
+            check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
+        else:
+            check_scale(self.B, f"'{prefix}.B'")
         for key, table in (("contact", self.contact), ("contact_lower", lower_law_spec(self))):
             try:
-                sdof_law(table, self.R, self.physical, self.natural_frequency_hz,
-                         self.length_mm * 1e-3 if self.physical else None)
+                law = sdof_law(table, self.R, self.physical, self.natural_frequency_hz,
+                               self.length_mm * 1e-3 if self.physical else None)
             except ValueError as e:
                 raise CaseError(f"'{prefix}.{key}': {e}") from None
+            if table is not None and law is not None:
+                given = "stiffness" if table.stiffness is not None else "stiffness_n_m"
+                check_stiffness(law, f"'{prefix}.{key}.{given}' = {getattr(table, given):g}")
+
+    #: methods that integrate the equations of motion (no closed-form forced response) or do not
+    #: use the flow at Omega = 1 (averaging, near Omega = 2k): undamped resonance is theirs
+    RESONANCE_SAFE: ClassVar[tuple] = ("direct", "zhuravlev", "ivanov", "averaging")
+
+    def check_sweep(self, sweep, method: str, where: str, i: int) -> None:
+        """No damping (``beta`` or ``damping_ratio`` 0) with Omega = 1 on the grid: the
+        closed-form flow of ``event``, ``mapping`` and ``continuation`` divides by ``(1 -
+        Omega^2)^2 + (2 beta Omega)^2 = 0`` there (undamped resonance grows as ``t cos t``: no
+        periodic forced response), so such a run is refused in one line
+        (:func:`vibeam.models.sdof_flow.undamped_resonance` is the model's own guard)."""
+        key = "damping_ratio" if self.physical else "beta"
+        if method in self.RESONANCE_SAFE or getattr(self, key) != 0.0:
+            return
+        Om = sweep.grid(self.natural_frequency_hz)
+        if np.any(1.0 - Om * Om == 0.0):
+            grid = "sweep.Omega" if sweep.Omega is not None else "sweep.frequency_hz"
+            what = f"'{where}.{key}' = 0" if where != "map.values" else f"'map.values': {key} = 0"
+            raise CaseError(f"{what} with Omega = 1 in '{grid}' (run[{i}], method {method!r}): undamped exact "
+                            f"resonance has no periodic forced response (it grows as t cos t), which the "
+                            f"closed-form methods cannot compute; allowed: {key} > 0, a grid without Omega = 1, "
+                            f"or method 'direct'")
 
     def result_attrs(self) -> dict:
         """Derived values stored with a run's results: none."""
@@ -439,6 +512,8 @@ class BeamModelSpec(_Strict):
         n = self.n_modes
         dofs = 2 * int(self.n_elements)
         from vibeam.contact_spec import beam_law
+
+        check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
 
         for key, table in (("contact", self.contact), ("contact_lower", lower_law_spec(self))):
             try:
@@ -1150,6 +1225,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                                     f"cannot change the fidelity; put it in another case")
                 run_spec = _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
             _check_contact_method(run_spec, i, r)
+            _check_resonance(case, i, r, run_spec, f"run[{i}].model" if r.model else "model")
             if r.effects:
                 case.effects_for(r)
             _check_two_sided(case, i, r)
@@ -1164,6 +1240,27 @@ def parse_case(text: str, source: str = "<case>") -> Case:
     except CaseError as e:
         raise CaseError(_one_line(f"{source}: {e}")) from None
     return case
+
+
+def _check_resonance(case, i: int, r, spec, prefix: str) -> None:
+    """The run's scene against its sweep grid (the spec's optional ``check_sweep``, e.g. the
+    SDOF's undamped exact resonance), for its own model and, with a ``[map]``, at every mapped
+    value."""
+    specs = [(spec, prefix)]
+    m = case.map
+    if (m is not None and getattr(spec, "check_sweep", None) is not None and m.parameter not in r.model
+            and m.parameter in case.map_parameters()):
+        specs = []
+        for v in m.grid():
+            try:
+                specs.append((_validate_model(dict(case.model, **r.model, **{m.parameter: float(v)}), prefix),
+                              "map.values"))
+            except CaseError:
+                pass            # _check_map names the value
+    for sp, where in specs:
+        check = getattr(sp, "check_sweep", None)
+        if check is not None:
+            check(case.sweep, r.method, where, i)
 
 
 def _check_contact_method(spec, i: int, r) -> None:

@@ -27,7 +27,36 @@ HARMONICS = 6  # 0 .. 5 Omega
 PERIOD_MAX = 8
 
 
-def strobe_returns(strobe: np.ndarray, scale: float) -> np.ndarray:
+def natural_time_factors(Omega: float | None) -> np.ndarray:
+    """How much of a free vibration the period-n returns of the stroboscopic map see, n = 1..8.
+
+    Settling is a matter of the oscillator's own time, not of forcing periods.  Between
+    strobe samples n forcing periods apart (``n T``, ``T = 2 pi / Omega``; the time unit is
+    ``1 / omega_n``, so a natural period is ``2 pi``) a free vibration of size ``e`` (what is
+    left of the transient, relative to the orbit) moves the sample by ``e |1 - exp(i n T)| <=
+    e n T``.  At high Omega (``n T << 1``) the returns therefore shrink with ``n T`` however
+    unsettled the motion: at Omega = 1e6 a free vibration as large as the orbit returns within
+    6e-6 of it, and the period-n test at 1e-5 would call it periodic (Fig. 7 scene, issue 19).
+    A return is therefore divided by ``min(1, n T)`` before it is compared with a tolerance:
+    then it measures the size of the transient, not how far it moves in n forcing periods.
+    For ``n T >= 1`` (Omega <= 2 pi n, every scene of the paper) nothing changes.
+
+    Parameters
+    ----------
+    Omega : float or None
+        Forcing frequency over the natural frequency; None: no correction (all 1).
+
+    Returns
+    -------
+    ndarray, shape (8,)
+        ``min(1, 2 pi n / Omega)`` for n = 1..8.
+    """
+    if Omega is None or not np.isfinite(Omega) or Omega <= 0:
+        return np.ones(PERIOD_MAX)
+    return np.minimum(1.0, 2.0 * np.pi * np.arange(1, PERIOD_MAX + 1) / float(Omega))
+
+
+def strobe_returns(strobe: np.ndarray, scale: float, Omega: float | None = None) -> np.ndarray:
     """Largest distance of the period-n returns of the stroboscopic map, n = 1..8.
 
     Parameters
@@ -36,22 +65,26 @@ def strobe_returns(strobe: np.ndarray, scale: float) -> np.ndarray:
         Stroboscopic samples ``(q, q')``.
     scale : float
         Size of the orbit the distances are divided by.
+    Omega : float, optional
+        Forcing frequency: the returns are judged in the oscillator's own time, divided by
+        :func:`natural_time_factors` (None: not).
 
     Returns
     -------
     ndarray, shape (8,)
         ``max_k |strobe[k + n] - strobe[k]| / scale`` (max norm over both
-        components); ``inf`` where the window is too short for that n.
+        components), over ``min(1, 2 pi n / Omega)`` when ``Omega`` is given; ``inf``
+        where the window is too short for that n.
     """
     m = strobe.shape[0]
     out = np.full(PERIOD_MAX, np.inf)
     sc = max(scale, 1e-300)
     for n in range(1, min(PERIOD_MAX, m - 1) + 1):
         out[n - 1] = np.max(np.abs(strobe[n:] - strobe[:-n])) / sc
-    return out
+    return out / natural_time_factors(Omega)
 
 
-def period_of_strobe(strobe: np.ndarray, scale: float, rtol: float = 1e-5) -> int:
+def period_of_strobe(strobe: np.ndarray, scale: float, rtol: float = 1e-5, Omega: float | None = None) -> int:
     """Smallest n in 1..8 with ``strobe[k + n] == strobe[k]`` over the window.
 
     Parameters
@@ -62,18 +95,21 @@ def period_of_strobe(strobe: np.ndarray, scale: float, rtol: float = 1e-5) -> in
         Size of the orbit; points closer than ``rtol * scale`` are equal.
     rtol : float
         Relative tolerance.
+    Omega : float, optional
+        Forcing frequency (returns judged in the oscillator's time, :func:`strobe_returns`).
 
     Returns
     -------
     int
         The period n, or 0 when no n <= 8 repeats (not periodic within 8).
     """
-    d = strobe_returns(strobe, scale)
+    d = strobe_returns(strobe, scale, Omega)
     ok = np.flatnonzero(d <= rtol)
     return int(ok[0]) + 1 if ok.size else 0
 
 
-def converging(strobe: np.ndarray, n: int, scale: float, rtol: float) -> tuple[bool, float, float]:
+def converging(strobe: np.ndarray, n: int, scale: float, rtol: float,
+               Omega: float | None = None) -> tuple[bool, float, float]:
     """Are the period-n returns of the stroboscopic map still shrinking (a transient)?
 
     The distances ``e_k = |strobe[k + n] - strobe[k]| / scale`` are split into
@@ -82,7 +118,8 @@ def converging(strobe: np.ndarray, n: int, scale: float, rtol: float) -> tuple[b
     below a quarter of the first, while still above ``rtol`` (a settled orbit
     repeats to ``rtol``; a chaotic attractor's returns do not shrink steadily:
     four decreasing quarter maxima with a factor 4 between the ends are
-    improbable for stationary motion).  Needs ``len(strobe) - n >= 8``.
+    improbable for stationary motion).  Needs ``len(strobe) - n >= 8``.  With ``Omega`` the
+    distances are judged in the oscillator's own time (:func:`natural_time_factors`).
 
     Returns
     -------
@@ -92,14 +129,14 @@ def converging(strobe: np.ndarray, n: int, scale: float, rtol: float) -> tuple[b
     m = strobe.shape[0]
     if m - n < 8:
         return False, np.nan, np.nan
-    e = np.max(np.abs(strobe[n:] - strobe[:-n]), axis=1) / max(scale, 1e-300)
+    e = np.max(np.abs(strobe[n:] - strobe[:-n]), axis=1) / max(scale, 1e-300) / natural_time_factors(Omega)[n - 1]
     qmax = np.array([np.max(c) for c in np.array_split(e, 4)])
     conv = bool(np.all(np.diff(qmax) < 0.0) and qmax[-1] < 0.25 * qmax[0] and qmax[-1] > rtol)
     return conv, float(qmax[0]), float(qmax[-1])
 
 
 def transient_verdict(strobe: np.ndarray, scale: float, rtol: float, no_impact: bool,
-                      margin: float = 1.0) -> tuple[int, str]:
+                      margin: float = 1.0, Omega: float | None = None) -> tuple[int, str]:
     """Period of the stroboscopic map and whether the transient has settled.
 
     Parameters
@@ -117,6 +154,11 @@ def transient_verdict(strobe: np.ndarray, scale: float, rtol: float, no_impact: 
         Factor on ``rtol`` a periodic orbit must meet to count as settled (1 for
         the recorded verdict; :data:`SETTLED_MARGIN` while ``transient_periods =
         "auto"`` decides whether to go on).
+    Omega : float, optional
+        Forcing frequency: the returns are judged in the oscillator's own time, divided by
+        ``min(1, 2 pi n / Omega)`` (:func:`natural_time_factors`), so a free vibration that
+        has not decayed is not taken for a periodic orbit at high Omega.  None: as measured
+        (the verdict of the recorded strobe alone).
 
     Returns
     -------
@@ -131,12 +173,13 @@ def transient_verdict(strobe: np.ndarray, scale: float, rtol: float, no_impact: 
         * no impact, yet the free motion does not repeat within ``margin x rtol``
           (a late impact's free decay not over).
     """
-    d = strobe_returns(strobe, scale)
+    d = strobe_returns(strobe, scale, Omega)
+    when = _own_time(Omega)
     if no_impact:
         if d[0] <= margin * rtol or not np.isfinite(d[0]):
             return -1, ""
         return -1, (f"no impact in the window, but the free motion does not repeat yet "
-                    f"(period-1 returns {d[0]:.2g} of the orbit > {margin * rtol:.2g})")
+                    f"(period-1 returns {d[0]:.2g} of the orbit > {margin * rtol:.2g}{when})")
     ok = np.flatnonzero(d <= rtol)
     period = int(ok[0]) + 1 if ok.size else 0
     tight = np.flatnonzero(d <= margin * rtol)
@@ -146,13 +189,22 @@ def transient_verdict(strobe: np.ndarray, scale: float, rtol: float, no_impact: 
     if close.size:
         n = int(close[0]) + 1
         return period, (f"period-{n} test marginal (returns {d[n - 1]:.2g} of the orbit, "
-                        f"> {margin * rtol:.2g})")
+                        f"> {margin * rtol:.2g}{when})")
     for n in range(1, PERIOD_MAX + 1):
-        conv, first, last = converging(strobe, n, scale, rtol)
+        conv, first, last = converging(strobe, n, scale, rtol, Omega)
         if conv:
             return period, (f"period-{n} returns still shrinking ({first:.2g} -> {last:.2g} of the "
                             f"orbit over the window)")
     return period, ""
+
+
+def _own_time(Omega) -> str:
+    """The note of a verdict judged in the oscillator's own time (Omega > 2 pi), else ''."""
+    f = natural_time_factors(Omega)[0]
+    if f >= 1.0:
+        return ""
+    return (f"; judged in the oscillator's own time: a forcing period lasts {f:.2g} natural time "
+            f"units 1/omega_n, the returns over {f:.2g}")
 
 
 def batch_means(x: np.ndarray) -> tuple[float, int]:
@@ -286,7 +338,7 @@ def spread_agrees(a: dict, b: dict, sigmas: float = 4.0) -> bool:
 
 
 def window_verdict(Q: np.ndarray, tail_strobe: np.ndarray, scale: float, rtol: float,
-                   no_impact: bool = False) -> str:
+                   no_impact: bool = False, Omega: float | None = None) -> str:
     """Is a long window of a non-periodic point a sample of one attractor?
 
     Parameters
@@ -302,6 +354,8 @@ def window_verdict(Q: np.ndarray, tail_strobe: np.ndarray, scale: float, rtol: f
         Tolerance of the period-n test.
     no_impact : bool
         No impact in the window's continuation.
+    Omega : float, optional
+        Forcing frequency (returns judged in the oscillator's own time, :func:`transient_verdict`).
 
     Returns
     -------
@@ -314,8 +368,8 @@ def window_verdict(Q: np.ndarray, tail_strobe: np.ndarray, scale: float, rtol: f
     """
     Q = np.asarray(Q, float)
     if tail_strobe.shape[0] >= 3:
-        period, _ = transient_verdict(tail_strobe, scale, rtol, no_impact)
-        if period != 0 and (period > 0 or strobe_returns(tail_strobe, scale)[0] <= rtol):
+        period, _ = transient_verdict(tail_strobe, scale, rtol, no_impact, Omega=Omega)
+        if period != 0 and (period > 0 or strobe_returns(tail_strobe, scale, Omega)[0] <= rtol):
             what = "the no-impact orbit" if period == -1 else f"a period-{period} orbit"
             return f"the statistics window ends on {what} (a transient that settled inside it)"
     if Q.size >= 32:
@@ -472,7 +526,7 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
         return out
     q = traj.samples[:, 0]
     scale = max(traj.q_max - traj.q_min, np.max(np.abs(traj.samples[:, 1])) if q.size else 0.0, 1e-300)
-    period, why = transient_verdict(traj.strobe, scale, period_rtol, traj.n_impacts == 0)
+    period, why = transient_verdict(traj.strobe, scale, period_rtol, traj.n_impacts == 0, Omega=traj.Omega)
     status, message = traj.status, traj.message
     if why:
         message = f"unsettled: {why}" + (f"; {status}: {message}" if status != "ok" else "")

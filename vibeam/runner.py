@@ -120,6 +120,28 @@ def _dofs(spec) -> int:
     return int(spec.dofs())
 
 
+def _contact_steps(model, Omega, spec=None):
+    """Steps per forcing period that a compliant stop adds, or None (Newton's law, a beam).
+
+    The contact phase is stepped at 1/16 of its own natural period ``2 pi / sqrt(1 + k_c)``
+    (:mod:`vibeam.models.sdof_compliant`), so its cost grows with the contact stiffness:
+    ``16 sqrt(1 + k_c) / (2 pi)`` steps per unit of time in contact.  A stop at or inside the
+    rest position (``Delta <= 0``) holds the mass for about half of each forcing period
+    (``8 sqrt(1 + k_c) / Omega`` steps); a stop with a gap is met in impacts of half a contact
+    period (8 steps each, one per period counted).  Returns ``(steps, key, value)``, steps of
+    the shape of ``Omega``, with the case key that sets the stiffness."""
+    law = getattr(model, "contact", None)
+    k = getattr(law, "stiffness", None)
+    if k is None or getattr(model, "fidelity", "") != "sdof":
+        return None
+    w = np.sqrt(1.0 + float(k))
+    steps = 8.0 * w / Omega if float(model.Delta) <= 0.0 else np.full(np.shape(Omega), 8.0)
+    table = getattr(spec, "contact", None)
+    if table is not None and getattr(table, "stiffness", None) is None and table.stiffness_n_m is not None:
+        return steps, "model.contact.stiffness_n_m", float(table.stiffness_n_m)
+    return steps, "model.contact.stiffness", float(k)
+
+
 def estimate_work(case, jobs_=None) -> dict:
     """Estimate what a case costs before running it.
 
@@ -127,7 +149,11 @@ def estimate_work(case, jobs_=None) -> dict:
     ``max(samples, 16 / Omega)`` steps per forcing period (``samples`` =
     ``transient_samples`` in the transient, ``samples_per_period`` in the record;
     the kernel sub-steps below 1/16 of the natural period 2 pi, so a forcing
-    period at small Omega costs 16 / Omega steps).  The work is the sum over
+    period at small Omega costs 16 / Omega steps), plus the steps of a compliant stop's
+    contact phase, which is stepped at 1/16 of the contact's period ``2 pi / sqrt(1 + k_c)``
+    (:func:`_contact_steps`; the SDOF's stiffness ratio ``k_c``).  Scales that double precision
+    cannot carry (a subnormal ``B``, a stiffness beyond 1e20) are refused by case validation
+    before this (:data:`vibeam.case.B_RANGE`, :data:`vibeam.case.MAX_CONTACT_STIFFNESS`).  The work is the sum over
     points, directions, runs and map values of ``transient x steps + record x
     steps``, times the retained modes for the FE beam and :data:`ODE_STEP_COST`
     for the ``solve_ivp`` methods (``averaging`` and ``mapping`` count one step
@@ -156,6 +182,7 @@ def estimate_work(case, jobs_=None) -> dict:
     point_values = 0.0
     w_min = np.inf
     worst_modes, worst_cost = (None, 1), (None, 1.0)
+    worst_contact = (None, None, 0.0)
     for job in jobs_:
         r = job.run
         Om = np.abs(np.asarray(job.sweep.Omega, float))
@@ -169,12 +196,16 @@ def estimate_work(case, jobs_=None) -> dict:
         ts = getattr(r, "transient_samples", 16)
         spp = job.sweep.samples_per_period
         sub = _STEPS_PER_NATURAL_PERIOD / Om
+        con = _contact_steps(job.solver.model, Om, job.spec)
+        if con is not None and float(np.max(con[0])) > worst_contact[2]:
+            worst_contact = (con[1], con[2], float(np.max(con[0])))
+        con = 0.0 if con is None else con[0]
         n_tr = job.sweep.max_transient_periods if job.sweep.auto else job.sweep.transient_periods
         n_rec = max(job.sweep.record_periods, job.sweep.statistics_periods)   # a non-periodic point's window
-        per = (n_tr * np.maximum(ts, sub) + n_rec * np.maximum(spp, sub))
+        per = (n_tr * (np.maximum(ts, sub) + con) + n_rec * (np.maximum(spp, sub) + con))
         cost = ODE_STEP_COST if r.method in ("direct", "zhuravlev", "ivanov") else 1.0
         steps += n_dir * float(per.sum()) * dofs * cost
-        per_min = (n_tr * np.maximum(ts, sub) + job.sweep.record_periods * np.maximum(spp, sub))
+        per_min = (n_tr * (np.maximum(ts, sub) + con) + job.sweep.record_periods * (np.maximum(spp, sub) + con))
         steps_min += n_dir * float(per_min.sum()) * dofs * cost
         point_values = max(point_values, n_rec * spp * 2.0 * (1 + dofs))
         i = case.run.index(r)
@@ -196,6 +227,7 @@ def estimate_work(case, jobs_=None) -> dict:
         ("map.values", case.map.values if case.map else None, len(case.map.grid()) if case.map else 0),
         (worst_modes[0], worst_modes[1], worst_modes[1]),
         (worst_cost[0], None, worst_cost[1]),
+        (worst_contact[0], worst_contact[1], worst_contact[2] / 64.0),
     ]
     key, val, _ = max((c for c in cands if c[0]), key=lambda c: c[2])
     if key.endswith(".method"):

@@ -103,7 +103,8 @@ class Sweep:
         Most transient periods of ``'auto'``.
     point_time_limit_s : float or None
         Wall time after which a point is ended as ``failed`` (checked between
-        the chunks of a time-domain point); None: no limit.
+        the calls of a time-domain point, each of bounded work: :func:`simulate`); None: no
+        limit.
     samples_per_period : int
         Recorded samples per forcing period.
     continuation : bool
@@ -166,6 +167,10 @@ class InlineExecutor(Executor):
 # (``solver.chunk_periods``): a compiled kernel cannot be interrupted inside a call, so a long
 # point is cut into calls between which Ctrl-C and the wall-time limit take effect
 CHUNK_PERIODS = 1000
+# a record of at most max(chunk_periods, RECORD_PIECE) periods is one call, together with the
+# last transient chunk (as every record of the shipped cases); a longer record (or statistics
+# window) is cut into calls of that many periods and joined (vibeam.models.trajectory.concatenate)
+RECORD_PIECE = 256
 # ``transient_periods = "auto"``: the first stage; each later stage is as long as everything before
 AUTO_FIRST_STAGE = 100
 
@@ -185,54 +190,131 @@ class _Clock:
         return limit is not None and self.t0 is not None and time.perf_counter() - self.t0 > limit
 
 
-def _simulate(solver, Omega, state, n_transient: int, sweep: Sweep, clock: _Clock | None = None):
-    """Trajectory of ``n_transient`` discarded and ``sweep.record_periods`` recorded periods.
+def simulate(solver, Omega, state, n_transient: int, n_record: int, samples_per_period: int = 64,
+             time_limit_s: float | None = None, clock: _Clock | None = None):
+    """Trajectory of ``n_transient`` discarded and ``n_record`` recorded periods of a
+    time-domain solver, in calls of bounded work: the one place where such a solver is called.
 
-    The one place where a time-domain solver is called: the transient is cut
-    into calls of ``solver.chunk_periods`` periods, each started from the last
-    state (the last chunk runs together with the record, so a transient of at
-    most one chunk is one call, as before chunking), and the wall-time limit is
-    checked between calls.  A chunk that fails, or the wall-time limit
-    ``sweep.point_time_limit_s`` passing (:class:`_Clock`), ends the point: a failed
-    trajectory with the record's shapes (NaN samples) and the reason is returned.
+    * The transient is cut into calls of ``solver.chunk_periods`` periods (default
+      :data:`CHUNK_PERIODS`), each started from the last state; the last transient chunk
+      runs together with the record when the record has at most ``max(chunk_periods,``
+      :data:`RECORD_PIECE` ``)`` periods (so a point of at most one chunk is one call).  A
+      longer record is cut into calls of that many periods, joined by
+      :func:`vibeam.models.trajectory.concatenate`.
+    * A call that runs out of the solver's work budget (``traj.incomplete``: the kernel's
+      ``max_steps_per_call``) is repeated from the same state in calls of half as many
+      periods, for the rest of the point; one period that does not fit the budget fails.
+      The budget depends on step counts only, so the cuts (and the numbers) do not depend on
+      the machine.
+    * Between calls the wall-time limit ``time_limit_s`` is checked (:class:`_Clock`) and
+      Python runs its signal handlers (Ctrl-C, SIGTERM): every compiled call returns within
+      the budget's time, whatever the scene.
+
+    A call that fails, or the wall-time limit passing, ends the point: a failed trajectory
+    with the record's shapes (NaN samples) and the reason is returned.
+
+    Parameters
+    ----------
+    solver : object
+        A time-domain solver (``point(Omega, state, n_transient, n_record, samples_per_period)``).
+    Omega : float
+        Forcing frequency (nondimensional).
+    state : array_like or None
+        Start state at forcing phase 0 (None: the model's rest state).
+    n_transient, n_record : int
+        Periods discarded, then recorded.
+    samples_per_period : int
+        Recorded samples per period.
+    time_limit_s : float, optional
+        Wall time after which the point fails (``[sweep] point_time_limit_s``).
+    clock : _Clock, optional
+        The point's clock (shared by the calls of one point).
+
+    Returns
+    -------
+    vibeam.models.trajectory.Trajectory
     """
-    chunk = max(1, int(getattr(solver, "chunk_periods", CHUNK_PERIODS) or CHUNK_PERIODS))
-    clock = clock if clock is not None else _Clock()
-    spp = sweep.samples_per_period
-    limit = sweep.point_time_limit_s
-    left = int(n_transient)
-    while left > chunk:
-        traj = solver.point(Omega, state, chunk, 0, spp)
-        clock.tick()
-        if traj.status == "failed":
-            return _failed_record(traj, sweep, int(n_transient) - left)
-        state = traj.final_state
-        left -= chunk
-        if clock.over(limit):
-            from dataclasses import replace
-
-            msg = (f"point_time_limit_s = {limit:g} s passed after {int(n_transient) - left} of "
-                   f"{int(n_transient)} transient periods")
-            return _failed_record(replace(traj, status="failed", message=msg), sweep, None)
-    traj = solver.point(Omega, state, left, sweep.record_periods, spp)
-    clock.tick()
-    return traj
-
-
-def _failed_record(traj, sweep: Sweep, done: int):
-    """A failed trajectory with the shapes of a record (NaN samples); ``done``: the transient
-    periods before the failing chunk (None: the message is kept as it is)."""
     from dataclasses import replace
 
-    n_s = sweep.record_periods * sweep.samples_per_period
+    from .models.trajectory import concatenate
+
+    chunk = max(1, int(getattr(solver, "chunk_periods", CHUNK_PERIODS) or CHUNK_PERIODS))
+    piece = max(chunk, RECORD_PIECE)
+    clock = clock if clock is not None else _Clock()
+    spp = int(samples_per_period)
+    n_tr, n_rec = int(n_transient), int(n_record)
+    done_tr = done_rec = 0
+    parts = []
+    limit = None        # most periods per call after a call ran out of its work budget
+    traj = None
+    while True:
+        left_tr, left_rec = n_tr - done_tr, n_rec - done_rec
+        if limit is None:
+            a, b = (chunk, 0) if left_tr > chunk else (left_tr, min(left_rec, piece))
+        else:
+            a = min(left_tr, limit)
+            b = min(left_rec, limit - a)
+        if a + b == 0 and traj is not None:
+            break
+        traj = solver.point(Omega, state, a, b, spp)
+        clock.tick()
+        if traj.incomplete and a + b > 1:
+            limit = max(1, (a + b) // 2)    # the same state again, in shorter calls
+            if clock.over(time_limit_s):
+                where = (f"{done_tr} of {n_tr} transient periods" if done_tr < n_tr else
+                         f"the {n_tr} transient periods and {done_rec} of {n_rec} recorded periods")
+                msg = f"point_time_limit_s = {time_limit_s:g} s passed after {where}"
+                return _failed_record(replace(traj, status="failed", message=msg), n_rec, spp, None)
+            continue
+        if traj.status == "failed":
+            if b == n_rec and done_rec == 0:
+                return traj         # the call of the whole record: its own shapes
+            return _failed_record(traj, n_rec, spp, done_tr if b == 0 else None, done_rec if b else None)
+        state = traj.final_state
+        done_tr += a
+        done_rec += b
+        if b:
+            parts.append(traj)
+        if done_tr == n_tr and done_rec == n_rec:
+            break
+        if clock.over(time_limit_s):
+            where = (f"{done_tr} of {n_tr} transient periods" if done_tr < n_tr else
+                     f"the {n_tr} transient periods and {done_rec} of {n_rec} recorded periods")
+            msg = f"point_time_limit_s = {time_limit_s:g} s passed after {where}"
+            return _failed_record(replace(traj, status="failed", message=msg), n_rec, spp, None)
+    return concatenate(parts) if parts else traj
+
+
+def _simulate(solver, Omega, state, n_transient: int, sweep: Sweep, clock: _Clock | None = None):
+    """:func:`simulate` of ``n_transient`` and ``sweep.record_periods`` periods with the sweep's
+    samples and wall-time limit."""
+    return simulate(solver, Omega, state, n_transient, sweep.record_periods, sweep.samples_per_period,
+                    sweep.point_time_limit_s, clock)
+
+
+def _failed_record(traj, n_record: int, samples_per_period: int, done: int | None, done_rec: int | None = None):
+    """A failed trajectory with the shapes of a record of ``n_record`` periods (NaN samples);
+    ``done``: the transient periods before the failing chunk, ``done_rec``: the recorded ones
+    (None: the message is kept as it is)."""
+    from dataclasses import replace
+
+    n_s = n_record * samples_per_period
     n0 = traj.samples.shape[0]
     extra = {k: (np.full((n_s,) + v.shape[1:], np.nan)
                  if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[0] == n0 else v)
              for k, v in traj.extra.items()}
-    msg = traj.message if done is None else f"{traj.message} (in the transient chunk after {done} periods)"
+    msg = traj.message
+    if done is not None:
+        msg = f"{traj.message} (in the transient chunk after {done} periods)"
+    elif done_rec is not None:
+        msg = f"{traj.message} (in the record after {done_rec} recorded periods)"
     return replace(traj, samples=np.full((n_s, 2), np.nan), impact_times=np.zeros(0),
                    impact_velocities=np.zeros(0), n_impacts=0, q_min=np.nan, q_max=np.nan,
-                   period_min=None, chatter_times=None, extra=extra, message=msg)
+                   period_min=None, chatter_times=None, extra=extra, message=msg,
+                   impact_stops=None if traj.impact_stops is None else np.zeros(0, np.int64),
+                   contacts=None if traj.contacts is None else np.zeros((0,) + np.shape(traj.contacts)[1:]),
+                   contact_stops=None if traj.contact_stops is None else np.zeros(0, np.int64),
+                   n_impacts_lower=0)
 
 
 def _settle(solver, Omega, state, sweep: Sweep, Delta: float, clock: _Clock):
@@ -278,7 +360,7 @@ def _settle(solver, Omega, state, sweep: Sweep, Delta: float, clock: _Clock):
         q = traj.samples[:, 0]
         scale = max(traj.q_max - traj.q_min, np.max(np.abs(traj.samples[:, 1])) if q.size else 0.0, 1e-300)
         period, why = transient_verdict(traj.strobe, scale, sweep.period_rtol, traj.n_impacts == 0,
-                                        margin=SETTLED_MARGIN)
+                                        margin=SETTLED_MARGIN, Omega=float(Omega))
         spread = amplitude_spread((traj.Delta if traj.Delta is not None else Delta) - period_minima(traj))
         if period != 0 and not why:
             return traj, used, ""
@@ -297,7 +379,8 @@ def _settle(solver, Omega, state, sweep: Sweep, Delta: float, clock: _Clock):
 
             msg = (f"point_time_limit_s = {limit:g} s passed after {used} transient periods "
                    f"(transient_periods = \"auto\")")
-            return _failed_record(replace(traj, status="failed", message=msg), sweep, None), used, ""
+            return _failed_record(replace(traj, status="failed", message=msg), sweep.record_periods,
+                                  sweep.samples_per_period, None), used, ""
         prev = spread
         state = traj.final_state
         used += n_rec
@@ -311,8 +394,9 @@ def _statistics(solver, Omega, traj, out: dict, sweep: Sweep, Delta: float, cloc
     A chaotic attractor is reproducible only in its statistics, and a mean over 16 or 64
     correlated ``Q_k`` is a poor one (:func:`vibeam.records.batch_means`), so a point
     whose record is not periodic (``period == 0``) is continued from the record's final
-    state by ``statistics_periods - record_periods`` periods (one more call of the
-    solver, skipped once the wall-time limit has passed).  ``amplitude_mean``,
+    state by ``statistics_periods - record_periods`` periods (:func:`simulate`: calls of
+    bounded work with the wall-time limit checked between them; skipped once it has
+    passed).  ``amplitude_mean``,
     ``amplitude_std``, ``amplitude_min``, ``amplitude_max``, ``amplitude_sem`` and
     ``record_periods`` then cover the whole window, and so do ``amplitude`` (``Delta -
     min q``), ``q_min`` and ``q_max``; the stroboscopic samples, harmonics, impacts and
@@ -325,8 +409,8 @@ def _statistics(solver, Omega, traj, out: dict, sweep: Sweep, Delta: float, cloc
     extra = int(sweep.statistics_periods) - int(sweep.record_periods)
     if extra <= 0 or out.get("period") != 0 or out.get("status") == "failed" or clock.over(sweep.point_time_limit_s):
         return
-    ext = solver.point(Omega, traj.final_state, 0, extra, sweep.samples_per_period)
-    clock.tick()
+    ext = simulate(solver, Omega, traj.final_state, 0, extra, sweep.samples_per_period,
+                   sweep.point_time_limit_s, clock)
     if ext.status == "failed":
         return
     d0 = traj.Delta if traj.Delta is not None else Delta
@@ -340,7 +424,7 @@ def _statistics(solver, Omega, traj, out: dict, sweep: Sweep, Delta: float, cloc
     scale = max(ext.q_max - ext.q_min, float(np.max(np.abs(ext.samples[:, 1]))) if ext.samples.size else 0.0,
                 1e-300)
     why = window_verdict(Q, ext.strobe[ext.strobe.shape[0] - n_tail:], scale, sweep.period_rtol,
-                         ext.n_impacts == 0)
+                         ext.n_impacts == 0, Omega=float(Omega))
     if why:
         why += f" (statistics_periods = {sweep.statistics_periods})"
     if why and out["status"] != "unsettled":
@@ -379,9 +463,31 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
     except Exception as e:  # a solver failure is recorded, never fatal to the sweep
         out = dict(status="failed", message=f"{type(e).__name__}: {e}")
         new_state = None
+    _not_finite(out)
     out["Omega"] = float(Omega)
     out["wall_time_s"] = time.perf_counter() - t0
     return out, new_state
+
+
+def _not_finite(out: dict) -> None:
+    """A point is never reported with a number its method could not compute: an infinite
+    amplitude or extreme, or a NaN amplitude of a point that claims an orbit (``period !=
+    -1``; NaN with period -1 is the averaging's "no impacting solution"), makes it ``failed``
+    with the reason (the method's own message kept).  ``out`` is changed in place."""
+    if out.get("status") == "failed":
+        return
+    bad = []
+    for k in ("amplitude", "q_min", "q_max"):
+        v = out.get(k)
+        if isinstance(v, (float, np.floating)) and np.isinf(v):
+            bad.append(f"{k} = {float(v):g}")
+    a = out.get("amplitude")
+    if isinstance(a, (float, np.floating)) and np.isnan(a) and out.get("period", -1) != -1:
+        bad.append(f"amplitude = nan with period {out.get('period')}")
+    if bad:
+        prev = f" ({out['status']}: {out['message']})" if out.get("message") else ""
+        out["message"] = "the method returned no finite result: " + ", ".join(bad) + prev
+        out["status"] = "failed"
 
 
 def _chain(solver, Omegas, sweep: Sweep, Delta: float, direction: str, report=None):
