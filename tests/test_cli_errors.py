@@ -61,6 +61,23 @@ name = "e"
 method = "event"
 """
 
+NONDIM = """
+name = "nondim"
+[model]
+fidelity = "sdof"
+beta = 0.05
+B = 0.01
+R = 0.8
+Delta = 0.15
+[sweep]
+Omega = [0.5, 1.5, 3]
+transient_periods = 30
+record_periods = 4
+[[run]]
+name = "exact"
+method = "event"
+"""
+
 
 class _Dir(type(Path())):
     readonly_ok = True
@@ -86,6 +103,30 @@ def ws():
     (d / "empty.h5").write_bytes(b"")
     (d / "bad.csv").write_text("freq,amp\n14,0.1\n")
     (d / "empty.csv").write_text("")
+    # issue 19: cases, tables and special files
+    (d / "reversed.toml").write_text(SDOF.replace("[14.0, 17.0, 3]", "[17.0, 14.0, 3]"))
+    (d / "repeated.toml").write_text(SDOF.replace("[14.0, 17.0, 3]", "[15.0, 15.0, 3]"))
+    (d / "other.toml").write_text(SDOF.replace("R = 0.72", "R = 0.5"))
+    (d / "nondim.toml").write_text(NONDIM)
+    (d / "ivanov.toml").write_text(NONDIM.replace("R = 0.8", "R = 0.0").replace('"event"', '"ivanov"'))
+    (d / "short.toml").write_text(BEAM.replace("length_mm = 180", "length_mm = 1e-9")
+                                  .replace("sensor_position_mm = 100", "sensor_position_mm = 1e-9")
+                                  .replace("mass_position_mm = 132", "mass_position_mm = 1e-9"))
+    (d / "clamped.toml").write_text(BEAM.replace("mass_position_mm = 132", "mass_position_mm = 1e-6"))
+    for name in ("zero.toml", "zero.csv"):
+        os.symlink("/dev/zero", d / name)
+    for name in ("fifo.toml", "fifo.csv"):
+        os.mkfifo(d / name)
+    for name in ("large.toml", "large.csv"):
+        with open(d / name, "wb") as f:          # sparse: 10 MB + 1 byte of NULs on disk in no time
+            f.truncate(10_000_001)
+    (d / "zeros.csv").write_text("frequency_hz,amplitude_mm\n14.5,0\n15.5,0\n16.5,0\n")
+    (d / "negamp.csv").write_text("frequency_hz,amplitude_mm\n14.5,0.2\n15.5,-0.1\n")
+    (d / "hz.csv").write_text("frequency_hz,amplitude_mm\n15.0,0.2\n")
+    (d / "sideways.csv").write_text("frequency_hz,amplitude_mm,direction\n15.0,0.2,sideways\n")
+    (d / "extra.csv").write_text("frequency_hz,amplitude_mm,comment\n15.0,0.2,x\n")
+    (d / "ragged.csv").write_text("frequency_hz,amplitude_mm\n15.0,0.2\n16.0\n")
+    (d / "negative.csv").write_text("Omega,amplitude\n-1.5,0.2\n")
     (d / "a_file").write_text("not a folder\n")
     (d / "h5dir" / "results.h5").mkdir(parents=True)
     ro = d / "readonly"
@@ -143,6 +184,54 @@ CASES = {
 }
 
 
+# issue 19, item 7: input files that are not regular files, or too large, refused before they are read
+CASES.update({
+    "case-is-a-directory": (["run", "{d}", "--out", "{d}/dir"], ["directory", "not a regular file"]),
+    "case-is-a-device": (["run", "{d}/zero.toml", "--out", "{d}/dev"], ["zero.toml", "character device"]),
+    "case-is-a-fifo": (["run", "{d}/fifo.toml", "--out", "{d}/fifo"], ["fifo.toml", "named pipe"]),
+    "case-too-large": (["run", "{d}/large.toml", "--out", "{d}/large"], ["large.toml", "10 MB"]),
+    "regress-reference-is-a-device": (["regress", "{d}/tiny.toml", "--reference", "{d}/zero.csv", "--results",
+                                       "{d}/good/results.h5"], ["--reference", "zero.csv", "character device"]),
+    "regress-reference-h5-is-a-device": (["regress", "{d}/tiny.toml", "--reference", "/dev/zero", "--results",
+                                          "{d}/good/results.h5"], ["--reference", "/dev/zero", "character device"]),
+    "regress-reference-too-large": (["regress", "{d}/tiny.toml", "--reference", "{d}/large.csv", "--results",
+                                     "{d}/good/results.h5"], ["large.csv", "10 MB"]),
+    "fit-reference-is-a-fifo": (["fit", "{d}/tiny.toml", "--reference", "{d}/fifo.csv", "--out", "{d}/fit"],
+                                ["fifo.csv", "named pipe"]),
+    "fit-decay-is-a-device": (["fit", "{d}/tiny.toml", "--decay", "{d}/zero.csv", "--out", "{d}/fit"],
+                              ["zero.csv", "character device"]),
+})
+
+# issue 19, item 12: wrong input to regress is exit 2, not 1 (REGRESSION); one reader with fit
+CASES.update({
+    "regress-hz-csv-nondimensional": (["regress", "{d}/nondim.toml", "--reference", "{d}/hz.csv", "--results",
+                                       "{d}/good/results.h5"], ["hz.csv", "physical", "Omega,amplitude"]),
+    "regress-results-of-another-case": (["regress", "{d}/other.toml", "--reference", "{d}/good/results.h5",
+                                         "--results", "{d}/good/results.h5"],
+                                        ["--results", "another case", "model.R", "0.72", "0.5"]),
+    "regress-csv-direction-sideways": (["regress", "{d}/tiny.toml", "--reference", "{d}/sideways.csv", "--results",
+                                        "{d}/good/results.h5"],
+                                       ["sideways.csv", "'direction' = 'sideways'", "up, down"]),
+    "regress-csv-extra-column": (["regress", "{d}/tiny.toml", "--reference", "{d}/extra.csv", "--results",
+                                  "{d}/good/results.h5"], ["extra.csv", "'comment'", "allowed columns"]),
+    "regress-csv-ragged-row": (["regress", "{d}/tiny.toml", "--reference", "{d}/ragged.csv", "--results",
+                                "{d}/good/results.h5"], ["ragged.csv", "data row 2", "one value per column"]),
+    "regress-csv-negative-omega": (["regress", "{d}/nondim.toml", "--reference", "{d}/negative.csv", "--results",
+                                    "{d}/good/results.h5"], ["negative.csv", "'Omega' = '-1.5'", "> 0"]),
+    "fit-negative-amplitude": (["fit", "{d}/tiny.toml", "--reference", "{d}/negamp.csv", "--out", "{d}/fit"],
+                               ["negamp.csv", "'amplitude_mm' = '-0.1'", ">= 0"]),
+    "fit-reference-all-zero": (["fit", "{d}/tiny.toml", "--reference", "{d}/zeros.csv", "--out", "{d}/fit",
+                                "--quiet", "--jobs", "1"], ["zeros.csv", "every 'amplitude_mm' is 0", "sigma"]),
+})
+
+
+
+def _cap_memory():
+    import resource
+
+    resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
+
+
 def _snapshot(d: Path) -> dict:
     return {str(p.relative_to(d)): p.stat().st_size for p in d.rglob("*") if p.is_file()}
 
@@ -155,7 +244,11 @@ def test_one_line_error_exit_2_no_partial_file(ws, name):
     if name == "out-readonly" and not ws.readonly_ok:
         pytest.skip("running as root without chattr: no folder is read-only")
     cmd = [sys.executable, "-c", ENOSPC, *argv] if name == "disk-full" else _vibeam(*argv)
-    p = subprocess.run(cmd, capture_output=True, text=True, cwd=ws, timeout=300)
+    # a file read without end (/dev/zero) or a blocking one (a named pipe) must fail this test, not
+    # the machine: the child's address space is capped and the wait bounded (guards only)
+    guard = "device" in name or "fifo" in name
+    p = subprocess.run(cmd, capture_output=True, text=True, cwd=ws, timeout=60 if guard else 300,
+                       preexec_fn=_cap_memory if guard else None)
     lines = [l for l in p.stderr.splitlines() if not l.startswith("[tiny]")]   # the run's header line
     assert p.returncode == 2, (p.returncode, p.stderr)
     assert "Traceback" not in p.stderr, p.stderr

@@ -1,6 +1,7 @@
 """`vibeam regress` against HDF5 and CSV references: periodic points by amplitude, the other
 points by the spread of their per-period amplitude."""
 import h5py
+import pytest
 import numpy as np
 
 from vibeam.cli import main
@@ -120,3 +121,91 @@ def test_non_periodic_points_compared_by_their_spread(tmp_path):
     # amplitude is 1e-3 off, its spread equal)
     assert verdict(_row(2.0, 0, 3.0, 0.4, 2.2, 3.9),
                    _row(1.0, 1, 2.0, 0.0, 2.0, 2.0, status="unsettled", amplitude=2.001)) == (0, 2)
+
+
+# ----------------------------------------------------------------------------- one table reader (issue 19, item 12)
+TABLES = {
+    # name: (text, accepted?) -- the same verdict from `vibeam fit` and `vibeam regress`
+    "plain": ("Omega,amplitude\n1.0,0.2\n1.2,0.3\n", True),
+    "bom": ("\ufeffOmega,amplitude\n1.0,0.2\n", True),                      # Excel's UTF-8: regress refused it
+    "comments-blank-lines": ("# rig, 2019\nOmega,amplitude\n\n1.0,0.2\n# end\n", True),
+    "direction-and-sigma": ("Omega,amplitude,direction,sigma\n1.0,0.2,up,0.01\n1.0,0.25,Down,0.01\n", True),
+    "zero-amplitude": ("Omega,amplitude\n1.0,0.0\n", True),                 # Q = 0: at rest on the stop
+    "extra-column": ("Omega,amplitude,note\n1.0,0.2,x\n", False),            # regress ignored it
+    "ragged-short": ("Omega,amplitude\n1.0,0.2\n1.2\n", False),              # regress ignored the row's end
+    "ragged-long": ("Omega,amplitude\n1.0,0.2,7\n", False),
+    "sideways": ("Omega,amplitude,direction\n1.0,0.2,sideways\n", False),   # regress ignored the column
+    "negative-Omega": ("Omega,amplitude\n-1.0,0.2\n", False),                # regress accepted it
+    "zero-Omega": ("Omega,amplitude\n0,0.2\n", False),
+    "negative-amplitude": ("Omega,amplitude\n1.0,-0.2\n", False),           # fit accepted it
+    "nan": ("Omega,amplitude\n1.0,nan\n", False),
+    "both-pairs": ("Omega,amplitude,frequency_hz,amplitude_mm\n1,0.2,7.6,0.03\n", False),
+    "repeated-column": ("Omega,amplitude,amplitude\n1,0.2,0.2\n", False),
+    "sigma-zero": ("Omega,amplitude,sigma\n1,0.2,0\n", False),
+    "header-only": ("Omega,amplitude\n", False),
+    "empty": ("", False),
+}
+
+
+@pytest.mark.parametrize("name", list(TABLES))
+def test_fit_and_regress_read_tables_by_one_set_of_rules(tmp_path, name):
+    """``vibeam fit`` and ``vibeam regress`` accept the same tables with the same numbers and
+    refuse the same ones with the same one-line message (vibeam.inputs.read_frc_table)."""
+    from vibeam.case import CaseError
+    from vibeam.fit import read_reference
+    from vibeam.regress import read_csv_reference
+
+    text, ok = TABLES[name]
+    p = tmp_path / f"{name}.csv"
+    p.write_bytes(text.encode("utf-8"))
+    got = []
+    for read in (read_reference, read_csv_reference):
+        try:
+            t = read(p)
+        except CaseError as e:
+            msg = str(e)
+            assert "\n" not in msg and p.name in msg, msg
+            got.append(("refused", msg.split(f"{p.name}: ", 1)[-1]))
+        else:
+            got.append(("read", t.x_name, list(t.x), list(t.y), list(t.direction)))
+    assert got[0] == got[1], got
+    assert (got[0][0] == "read") == ok, got
+
+
+def _two_branches():
+    """An FRC whose up and down branches differ (a hysteresis loop), as read_results gives it."""
+    W = np.array([1.0, 1.5, 2.0])
+    return {"runs": {"exact": {"Omega": np.concatenate([W, W[::-1]]),
+                               "direction": np.array(["up"] * 3 + ["down"] * 3, dtype=object),
+                               "amplitude": np.array([0.1, 0.2, 0.3, 0.9, 0.8, 0.7])}}}
+
+
+def test_csv_points_are_compared_with_the_branch_of_their_direction(tmp_path):
+    """A point measured sweeping down is compared with the down branch (amplitude 0.8 at 1.5),
+    an up point with the up branch (0.2): both pass; swapped, both fail.  Before, every point
+    was compared with the up branch."""
+    p = tmp_path / "loop.csv"
+    p.write_text("Omega,amplitude,direction\n1.5,0.2,up\n1.5,0.8,down\n")
+    row, = compare(_two_branches(), p, rtol=1e-9)
+    assert row.ok and row.points == 2, row
+    p.write_text("Omega,amplitude,direction\n1.5,0.8,up\n1.5,0.2,down\n")
+    row, = compare(_two_branches(), p, rtol=1e-9)
+    assert row.failures == 2, row
+
+
+def test_csv_reference_that_cannot_be_compared_is_bad_input(tmp_path):
+    """Input errors, not regressions: physical columns against nondimensional results, a direction
+    the results do not have, no point inside the sweep."""
+    from vibeam.case import InputError
+
+    new = _two_branches()
+    for text, needle in (("frequency_hz,amplitude_mm\n15.0,0.2\n", "'frequency_hz,amplitude_mm' are not in"),
+                         ("Omega,amplitude\n5.0,0.2\n", "none of its 1 points lies inside")):
+        p = tmp_path / "r.csv"
+        p.write_text(text)
+        with pytest.raises(InputError, match=needle):
+            compare(new, p)
+    up_only = {"runs": {"exact": {k: v[:3] for k, v in new["runs"]["exact"].items()}}}
+    p.write_text("Omega,amplitude,direction\n1.5,0.8,down\n")
+    with pytest.raises(InputError, match="no 'down' sweep"):
+        compare(up_only, p)

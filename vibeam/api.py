@@ -146,10 +146,11 @@ class Results:
     @classmethod
     def from_file(cls, path) -> "Results":
         """The runs and maps of a results file (``results.h5``)."""
+        from .case import Case
+        from .inputs import check_input_file
         from .results import load_results
 
-        from .case import Case
-
+        check_input_file(path, "results file")
         runs, maps, attrs = load_results(path)
         case = None
         try:                   # the case as run (e.g. its quick variant), else the case file's text
@@ -315,9 +316,10 @@ def open_results(path):
     """A results file as an :class:`xarray.DataTree` (:func:`vibeam.results.open_results`):
     ``tree["runs/<run>"]`` on (direction, Omega), ``tree["maps/<run>"]`` on
     (direction, <parameter>, Omega)."""
+    from .inputs import check_input_file
     from .results import open_results as _open
 
-    return _open(path)
+    return _open(check_input_file(path, "results file"))
 
 
 # ============================================================================ one frequency

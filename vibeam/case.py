@@ -1448,14 +1448,10 @@ def load_case(path) -> tuple[Case, str]:
     Raises
     ------
     CaseError
-        If the file cannot be read or is invalid (see :func:`parse_case`).
+        If the file cannot be read (not a regular file, larger than 10 MB, not UTF-8:
+        :func:`vibeam.inputs.read_input_text`) or is invalid (see :func:`parse_case`).
     """
-    path = Path(path)
-    try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except OSError as e:
-        raise CaseError(_one_line(f"{path}: cannot read case file: {e.strerror or e}")) from None
-    except UnicodeDecodeError as e:
-        raise CaseError(_one_line(f"{path}: cannot read case file: not UTF-8 text ({e.reason} at byte "
-                                  f"{e.start})")) from None
+    from vibeam.inputs import read_input_text
+
+    text = read_input_text(path, "case file")
     return parse_case(text, str(path)), text

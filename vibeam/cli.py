@@ -182,11 +182,14 @@ def cmd_regress(args) -> int:
     from .case import load_case
 
     case, text = load_case(args.case)
-    from .regress import compare, load_results, print_rows, read_reference
+    from .regress import (check_reference_of_case, check_results_of_case, compare, load_results, print_rows,
+                          read_reference)
 
-    read_reference(args.reference)          # a bad reference is refused before anything runs
+    ref = read_reference(args.reference)    # a bad reference is refused before anything runs
+    check_reference_of_case(case, ref, args.reference, args.case)
     if args.results:
         new = load_results(args.results, "--results")
+        check_results_of_case(case, new, args.results, args.case)
     else:
         import tempfile
 

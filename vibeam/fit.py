@@ -75,8 +75,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .identify import (_error, _irls_weights, column_floats, loss_psi, param_unit, read_csv_columns,
-                       uncertainty)
+from .identify import _error, _irls_weights, loss_psi, param_unit, uncertainty
 
 DEFAULT_LOSS = "soft_l1"
 #: f_scale of the robust loss, in units of sigma
@@ -136,55 +135,40 @@ _PAIRS = (("frequency_hz", "amplitude_mm"), ("Omega", "amplitude"))
 def read_reference(path, run: str | None = None) -> Reference:
     """Read measured points: a CSV or a vibeam results file (HDF5).
 
-    CSV: a header naming ``frequency_hz,amplitude_mm`` (physical) or ``Omega,amplitude``,
-    optionally ``direction`` (``up``/``down``, default ``up``) and ``sigma`` (standard
-    deviation of the amplitude, same unit, > 0); ``#`` lines are comments.  HDF5: the run
-    ``run`` of a results file (or its only run); all its points with both directions,
+    CSV: :func:`vibeam.inputs.read_frc_table`, the one reader of measured and reference
+    tables (``vibeam regress`` reads them too): a header naming ``frequency_hz,amplitude_mm``
+    (physical) or ``Omega,amplitude``, optionally ``direction`` (``up``/``down``, default
+    ``up``) and ``sigma`` (standard deviation of the amplitude, same unit, > 0); frequencies
+    > 0, amplitudes >= 0; ``#`` lines are comments.  HDF5: the run ``run`` of a results
+    file (or its only run); all its points with both directions,
     ``frequency_hz``/``amplitude_mm`` when present, failed points left out.
 
     Raises
     ------
     vibeam.case.CaseError
-        On a missing or unknown column, a value that is not a finite number, a direction
-        other than up/down, a sigma <= 0, no points, or a run not in the file.
+        On a file that is not a regular file or is larger than 10 MB, a missing or unknown
+        column, a row with missing or extra values, a value out of range, a direction other
+        than up/down, a sigma <= 0, no points, or a run not in the file.
     """
-    from .case import _value
-
     path = Path(path)
     if path.suffix.lower() in (".h5", ".hdf5"):
         return _read_h5_reference(path, run)
-    head, rows = read_csv_columns(path, "reference")
-    pair = next((p for p in _PAIRS if p[0] in head and p[1] in head), None)
-    allowed = "frequency_hz,amplitude_mm or Omega,amplitude, optionally direction and sigma"
-    if pair is None:
-        raise _error(f"{path}: header {head!r} not allowed; the columns must be {allowed}")
-    unknown = [h for h in head if h not in (*pair, "direction", "sigma")]
-    if unknown:
-        raise _error(f"{path}: column {unknown[0]!r} not allowed; allowed columns: {allowed}")
-    if not rows:
-        raise _error(f"{path}: no data rows below the header")
-    x = column_floats(path, head, rows, pair[0], positive=True)
-    y = column_floats(path, head, rows, pair[1])
-    if "direction" in head:
-        j = head.index("direction")
-        d = np.array([(r[j].strip().lower() if j < len(r) else "") for r in rows], dtype=object)
-        for i, v in enumerate(d):
-            if v not in ("up", "down"):
-                raise _error(f"{path}: 'direction' = {_value(rows[i][j] if j < len(rows[i]) else '')} "
-                             f"(data row {i + 1}): allowed: up, down")
-    else:
-        d = np.array(["up"] * len(rows), dtype=object)
-    sigma = column_floats(path, head, rows, "sigma", positive=True) if "sigma" in head else None
-    return Reference(str(path), pair[0], pair[1], x, y, d, sigma)
+    from .inputs import read_frc_table
+
+    t = read_frc_table(path, "reference file")
+    return Reference(t.source, t.x_name, t.y_name, t.x, t.y, t.direction, t.sigma)
 
 
 def _read_h5_reference(path: Path, run: str | None) -> Reference:
+    from .inputs import check_input_file
     from .results import read_results
 
+    check_input_file(path, "results file")
     try:
         res = read_results(path)
-    except OSError as e:
-        raise _error(f"{path}: cannot read results file: {e}") from None
+    except (OSError, KeyError, ValueError) as e:
+        why = getattr(e, "strerror", None) or (str(e).splitlines()[0] if str(e) else type(e).__name__)
+        raise _error(f"{path}: cannot read results file: {why}") from None
     runs = res.get("runs", {})
     if not runs:
         raise _error(f"{path}: no runs in the results file")
@@ -370,8 +354,12 @@ class FitProblem:
             raise _error(f"{ref.source}: 'frequency_hz,amplitude_mm' data need a physical scene; "
                          f"{source or case.name} is nondimensional (use 'Omega,amplitude')")
         self._check_range(model0)
+        if ref.sigma is None and not float(np.max(np.abs(ref.y))) > 0.0:
+            raise _error(f"{ref.source}: every '{ref.y_name}' is 0: without a 'sigma' column the residuals are "
+                         f"scaled by {DEFAULT_SIGMA_FRACTION:.0%} of the largest amplitude, which is 0; give a "
+                         f"'sigma' column (> 0) or data with a response")
         self.sigma = ref.sigma if ref.sigma is not None else \
-            np.full(ref.n, DEFAULT_SIGMA_FRACTION * max(float(np.max(np.abs(ref.y))), 1e-300))
+            np.full(ref.n, DEFAULT_SIGMA_FRACTION * float(np.max(np.abs(ref.y))))
         self.directions = [d for d in ("up", "down") if (ref.direction == d).any()]
 
     # ------------------------------------------------------------------ checks
@@ -884,6 +872,16 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
         ev0, ev2 = prob.evaluate_many([start, start], transient_factors=[1, 2])
         prob.remember(ev0)
         prob.measure_accuracy(ev0, ev2)
+        with np.errstate(over="ignore", invalid="ignore"):
+            r0 = prob.residuals(ev0)
+            r0[~np.isfinite(np.square(r0))] = np.inf   # the cost sums their squares
+        if not np.isfinite(r0).all():
+            i = int(np.flatnonzero(~np.isfinite(r0))[0])
+            raise _error(f"{ref.source}: the residual (model - data) / sigma of point {i + 1} "
+                         f"({ref.x_name} = {ref.x[i]:g}) is not finite or its square overflows at the start: "
+                         f"sigma = {prob.sigma[i]:g} is too "
+                         f"small for the model amplitude {ev0.amplitude[i]:g}; give sigma values of the data's "
+                         f"scale")
         jac_cache: dict = {}
         info_last: dict = {}
 

@@ -22,7 +22,6 @@ Statistics*, 1981, Sec. 7.6), which uses the loss's psi and psi' in place of r a
 """
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -220,45 +219,26 @@ def uncertainty(J, r, names=(), psi=None, dpsi=None, at_bound=None) -> Uncertain
 
 # ============================================================================ CSV input
 def read_csv_columns(path, kind: str = "data") -> tuple[list[str], list[list[str]]]:
-    """Header and rows of a CSV file (``#`` comment lines and blank lines skipped).
+    """Header and rows of a CSV input file: :func:`vibeam.inputs.read_csv_table` (a regular
+    file of at most 10 MB, UTF-8, ``#`` comment lines and blank lines skipped, one value per
+    column in every row).
 
     Raises
     ------
     vibeam.case.CaseError
-        If the file cannot be read or has no header.
+        If the file cannot be read, has no header or a ragged row.
     """
-    path = Path(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as f:
-            rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)
-                    and not r[0].lstrip().startswith("#")]
-    except OSError as e:
-        raise _error(f"{path}: cannot read {kind} file: {e.strerror or e}") from None
-    except (UnicodeDecodeError, csv.Error) as e:
-        raise _error(f"{path}: cannot read {kind} file: not a UTF-8 CSV ({e})") from None
-    if not rows:
-        raise _error(f"{path}: empty {kind} file; expected a header line")
-    head = [h.strip() for h in rows[0]]
-    return head, rows[1:]
+    from .inputs import read_csv_table
+
+    return read_csv_table(path, f"{kind} file")
 
 
-def column_floats(path, head, rows, name: str, positive: bool = False) -> np.ndarray:
-    """A numeric column by name; every value finite (and > 0 with ``positive``)."""
-    from .case import _value
+def column_floats(path, head, rows, name: str, positive: bool = False, kind: str = "data") -> np.ndarray:
+    """A numeric column by name; every value finite (and > 0 with ``positive``):
+    :func:`vibeam.inputs.column_floats`."""
+    from .inputs import column_floats as floats
 
-    j = head.index(name)
-    out = np.empty(len(rows))
-    for i, row in enumerate(rows):
-        v = row[j].strip() if j < len(row) else ""
-        try:
-            x = float(v)
-        except ValueError:
-            x = math.nan
-        if not math.isfinite(x) or (positive and x <= 0):
-            need = "a finite positive number" if positive else "a finite number"
-            raise _error(f"{path}: '{name}' = {_value(v)} (data row {i + 1}): must be {need}")
-        out[i] = x
-    return out
+    return floats(path, head, rows, name, low=0.0 if positive else None, low_open=True, what=f"{kind} file")
 
 
 def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
@@ -278,11 +258,11 @@ def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
         or fewer than 20 samples.
     """
     head, rows = read_csv_columns(path, "decay")
-    if head[:2] != ["t_s", "U_mm"]:
-        raise _error(f"{path}: header {head!r} not allowed; a free decay is 't_s,U_mm' (time in s, "
-                     f"displacement at the sensor in mm)")
-    t = column_floats(path, head, rows, "t_s")
-    U = column_floats(path, head, rows, "U_mm")
+    if sorted(head) != ["U_mm", "t_s"]:
+        raise _error(f"{path}: header {head!r} not allowed; a free decay has the columns 't_s,U_mm' (time in s, "
+                     f"displacement at the sensor in mm) and no others")
+    t = column_floats(path, head, rows, "t_s", kind="decay")
+    U = column_floats(path, head, rows, "U_mm", kind="decay")
     if t.size < 20:
         raise _error(f"{path}: {t.size} samples; a free decay needs at least 20")
     bad = np.flatnonzero(np.diff(t) <= 0)

@@ -77,40 +77,24 @@ class RegressRow:
         return self.failures == 0 and self.points > 0
 
 
-def read_csv_reference(path) -> tuple[str, np.ndarray, np.ndarray]:
-    """Read ``(x_name, x, amplitude)`` from a CSV reference.
+def read_csv_reference(path):
+    """A CSV reference: :func:`vibeam.inputs.read_frc_table`, the one reader of measured and
+    reference tables (``vibeam fit`` reads them too).
+
+    Returns
+    -------
+    vibeam.inputs.FRCTable
 
     Raises
     ------
     InputError
-        If the file cannot be read, is empty, its header is not
-        ``frequency_hz,amplitude_mm`` or ``Omega,amplitude``, or a value is not a
-        finite number.
+        If the file is not a regular file of at most 10 MB, is empty, its header is not
+        ``frequency_hz,amplitude_mm`` or ``Omega,amplitude`` (optionally ``direction`` and
+        ``sigma``), a row has missing or extra values, or a value is out of range.
     """
-    from .case import InputError
+    from .inputs import read_frc_table
 
-    try:
-        with open(path, newline="") as f:
-            rows = [r for r in csv.reader(f) if r and not r[0].lstrip().startswith("#")]
-    except (OSError, UnicodeDecodeError, csv.Error) as e:
-        raise InputError(f"--reference {path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
-    if not rows:
-        raise InputError(f"--reference {path}: empty CSV; it needs the header 'frequency_hz,amplitude_mm' or "
-                         f"'Omega,amplitude' and one row per point")
-    head = [h.strip() for h in rows[0]]
-    if head[:2] not in (["frequency_hz", "amplitude_mm"], ["Omega", "amplitude"]):
-        raise InputError(f"--reference {path}: header {','.join(head)[:80]!r} not allowed; use "
-                         f"'frequency_hz,amplitude_mm' or 'Omega,amplitude'")
-    if len(rows) < 2:
-        raise InputError(f"--reference {path}: no data rows below the header")
-    try:
-        data = np.array([[float(v) for v in r[:2]] for r in rows[1:]])
-    except ValueError as e:
-        raise InputError(f"--reference {path}: {e}") from None
-    if data.ndim != 2 or data.shape[1] != 2 or not np.isfinite(data).all():
-        raise InputError(f"--reference {path}: every row needs two finite numbers")
-    order = np.argsort(data[:, 0])
-    return head[0], data[order, 0], data[order, 1]
+    return read_frc_table(path, "reference file", "--reference")
 
 
 def load_results(path, option: str = "--results") -> dict:
@@ -123,11 +107,10 @@ def load_results(path, option: str = "--results") -> dict:
         with amplitudes.
     """
     from .case import InputError
+    from .inputs import check_input_file
     from .results import read_results
 
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{option} {path}: " + ("is not a file" if path.exists() else "no such file"))
+    path = check_input_file(path, "results file", option)
     try:
         res = read_results(path)
     except (OSError, KeyError, ValueError) as e:
@@ -178,23 +161,7 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
     new = dict(new, runs=all_runs(new))
     rows = []
     if ref_path.suffix.lower() == ".csv":
-        xname, x, a = read_csv_reference(ref_path)
-        yname = "amplitude_mm" if xname == "frequency_hz" else "amplitude"
-        for name, run in new["runs"].items():
-            if xname not in run or yname not in run:
-                rows.append(RegressRow(name, 0, 0, np.nan, np.nan, 0, f"run has no {xname}/{yname}"))
-                continue
-            sel = np.array([str(d) == "up" for d in run["direction"]]) if "direction" in run else \
-                np.ones(len(run[xname]), bool)
-            if not sel.any():
-                sel[:] = True
-            xs, ys = run[xname][sel], run[yname][sel]
-            o = np.argsort(xs)
-            inside = (x >= xs[o][0]) & (x <= xs[o][-1])
-            y_new = np.interp(x[inside], xs[o], ys[o])
-            rows.append(_row(name, y_new, a[inside], atol, rtol, None, None,
-                             note=f"{int(inside.sum())} of {len(x)} CSV points inside the sweep"))
-        return rows
+        return _compare_csv(new, read_csv_reference(ref_path), atol, rtol)
     ref = load_results(ref_path, "--reference")
     for name, r in all_runs(ref).items():
         if name not in new["runs"]:
@@ -216,6 +183,139 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
         row.multistable = int(other.sum())
         rows.append(row)
     return rows
+
+
+def _compare_csv(new: dict, t, atol: float, rtol: float) -> list[RegressRow]:
+    """Each run's FRC interpolated linearly at the table's points, on the sweep of each point's
+    direction (``up`` without a ``direction`` column), against the table's amplitudes."""
+    from .case import InputError
+
+    rows = []
+    where = f"--reference {t.source}"
+    for name, run in new["runs"].items():
+        if t.x_name not in run or t.y_name not in run:
+            raise InputError(f"{where}: the columns '{t.x_name},{t.y_name}' are not in the results of run "
+                             f"{name!r} (a nondimensional scene has 'Omega,amplitude' only); allowed: a table "
+                             f"in the scene's units")
+        xr = np.asarray(run[t.x_name], float)
+        dirs = np.array([str(d) for d in run["direction"]]) if "direction" in run else np.full(xr.size, "up")
+        y_new = np.full(t.x.size, np.nan)
+        inside = np.zeros(t.x.size, bool)
+        for d in np.unique(t.direction):
+            sel = dirs == d
+            if not sel.any():
+                raise InputError(f"{where}: points swept '{d}'{'' if t.has_direction else ' (no direction column: up)'}"
+                                 f" but run {name!r} has no '{d}' sweep; allowed: the directions of [sweep] direction "
+                                 f"({', '.join(sorted(set(dirs)))})")
+            xs, ys = xr[sel], np.asarray(run[t.y_name], float)[sel]
+            o = np.argsort(xs)
+            m = (t.direction == d) & (t.x >= xs[o][0]) & (t.x <= xs[o][-1])
+            y_new[m] = np.interp(t.x[m], xs[o], ys[o])
+            inside |= m
+        if not inside.any():
+            raise InputError(f"{where}: none of its {t.x.size} points lies inside the sweep of run {name!r} "
+                             f"({t.x_name} {xr.min():g} ... {xr.max():g}); allowed: points inside the swept range")
+        note = f"{int(inside.sum())} of {t.x.size} CSV points inside the sweep"
+        if t.sigma is not None:
+            note += "; its sigma column is not used (tolerances: [regress])"
+        rows.append(_row(name, y_new[inside], t.y[inside], atol, rtol, None, None, note=note))
+    return rows
+
+
+def _identity(d: dict) -> dict:
+    """What makes a case dump (``Case.model_dump``) the same scene for ``regress --results``:
+    the name, the model, the effects, the mapped parameter and the runs (name, method, model
+    and effects overrides); None values dropped.  The grid, periods and tolerances are left out:
+    a quick variant is the same case, and a grid that differs shows as points not in common."""
+    def clean(v):
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items() if x is not None and x != {}}
+        if isinstance(v, list):
+            return [clean(x) for x in v]
+        return v
+
+    runs = [{k: r.get(k) for k in ("name", "method", "model", "effects")} for r in d.get("run", [])]
+    m = d.get("map") or {}
+    return clean({"name": d.get("name"), "model": d.get("model"), "effects": d.get("effects"),
+                  "map": m.get("parameter"), "run": runs})
+
+
+def _first_difference(a, b, key=""):
+    """The first key path where two nested values differ, with both values."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in list(a) + [k for k in b if k not in a]:
+            if a.get(k) != b.get(k):
+                return _first_difference(a.get(k), b.get(k), f"{key}.{k}" if key else str(k))
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        for i, (x, y) in enumerate(zip(a, b)):
+            if x != y:
+                return _first_difference(x, y, f"{key}[{i}]")
+    return key, a, b
+
+
+def check_results_of_case(case, res: dict, path, source: str = "") -> None:
+    """Refuse a results file (``vibeam regress --results``) written by another case.
+
+    The case stored in the file (``case_json``, the case as run) must be the same scene as
+    ``case`` (:func:`_identity`: name, model, effects, mapped parameter, runs); a file
+    without the stored case is checked by its case name.
+
+    Raises
+    ------
+    InputError
+        Naming the file, the first differing key and both values.
+    """
+    import json
+
+    from .case import InputError, _value
+
+    attrs = res.get("attrs", {})
+    where = f"--results {path}"
+    mine = _identity(json.loads(case.model_dump_json()))
+    stored = str(attrs.get("case_json", "") or "")
+    if stored:
+        try:
+            theirs = _identity(json.loads(stored))
+        except (ValueError, AttributeError, TypeError):
+            raise InputError(f"{where}: the case stored in the file cannot be read; allowed: a results file "
+                             f"of {source or case.name}") from None
+        if theirs == mine:
+            return
+        key, a, b = _first_difference(theirs, mine)
+        raise InputError(f"{where}: written by another case ('{key}' = {_value(a)} in the file, {_value(b)} in "
+                         f"{source or case.name}); allowed: results of {source or case.name} (vibeam run)")
+    name = str(attrs.get("case_name", "") or "")
+    if name and name != case.name:
+        raise InputError(f"{where}: written by case {name!r}, not {case.name!r}; allowed: results of "
+                         f"{source or case.name} (vibeam run)")
+
+
+def check_reference_of_case(case, ref, path, source: str = "") -> None:
+    """Refuse a CSV reference (:class:`vibeam.inputs.FRCTable`) that cannot be compared with the
+    case's runs: physical columns for a nondimensional scene, or a direction the case does not
+    sweep.  A results-file reference is compared by run name and left alone here.
+
+    Raises
+    ------
+    InputError
+        Naming the file, the column or direction and what is allowed.
+    """
+    from .case import InputError
+    from .inputs import FRCTable
+
+    if not isinstance(ref, FRCTable):
+        return
+    where = f"--reference {path}"
+    spec = case.model_spec()
+    if ref.physical and not getattr(spec, "physical", False):
+        raise InputError(f"{where}: the columns 'frequency_hz,amplitude_mm' need a physical scene; "
+                         f"{source or case.name} is nondimensional; allowed: 'Omega,amplitude'")
+    swept = {"up": ("up",), "down": ("down",), "both": ("up", "down")}[case.sweep.direction]
+    for d in ("up", "down"):
+        if (ref.direction == d).any() and d not in swept:
+            raise InputError(f"{where}: points swept '{d}'{'' if ref.has_direction else ' (no direction column: up)'}"
+                             f" but {source or case.name} sweeps [sweep] direction = {case.sweep.direction!r}; "
+                             f"allowed: {', '.join(swept)}")
 
 
 SPREAD_KEYS = ("amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max", "record_periods")
