@@ -60,6 +60,10 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     case validation, :func:`contact_law_methods`).  The entry ``"continuation"`` names the
     law's shooting problem (not a solver: :func:`vibeam.models.shooting_problem` builds it as
     ``cls(model, parameter, Omega=Omega)``); without it the law cannot be continued.
+``positive_R_methods``
+    Methods that need ``R > 0`` (Ivanov's transformation, Eqs. 14-15, divides by
+    ``K_N = 0`` at ``R = 0``); case validation refuses such a run with ``R = 0`` (also a
+    ``[run.model]`` override or a ``[map]`` value of ``R``).
 ``shooting``
     Its periodic-orbit shooting problem (contract: :mod:`vibeam.models.periodic`), the
     class the continuation builds as ``cls(model, parameter, Omega=Omega)``; None: cannot
@@ -112,6 +116,7 @@ class Fidelity:
     two_sided_methods: tuple = ()
     two_sided_law_methods: dict = field(default_factory=dict, compare=False)
     mixed_stop_methods: tuple = ()
+    positive_R_methods: tuple = ()
     contact_laws: dict = field(default_factory=dict, compare=False)
     description: str = field(default="", compare=False)
 
@@ -142,6 +147,7 @@ register(Fidelity(
     two_sided_methods=("event", "direct", "mapping", "continuation"),
     two_sided_law_methods={"linear": ("event", "direct", "continuation"), "hunt_crossley": ("event", "direct")},
     mixed_stop_methods=("event", "direct"),
+    positive_R_methods=("ivanov",),
     contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver",

@@ -224,6 +224,15 @@ CASES.update({
                                 "--quiet", "--jobs", "1"], ["zeros.csv", "every 'amplitude_mm' is 0", "sigma"]),
 })
 
+# issue 19, item 11: refused at validation (or when the model is built), not a traceback at run time
+CASES.update({
+    "ivanov-R-0": (["run", "{d}/ivanov.toml", "--out", "{d}/iv"], ["ivanov.toml", "'model.R' = 0.0", "R > 0"]),
+    "beam-length-1e-9": (["run", "{d}/short.toml", "--out", "{d}/short"], ["short.toml", "model.length_mm",
+                                                                           "1 ... 100000 mm"]),
+    "beam-mass-at-the-clamp": (["run", "{d}/clamped.toml", "--out", "{d}/cl"], ["clamped.toml", "cannot be built",
+                                                                                "contact point"]),
+})
+
 
 
 def _cap_memory():

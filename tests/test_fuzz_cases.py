@@ -357,6 +357,62 @@ def test_known_bad_inputs(old, new, key):
     assert key in msg, msg
 
 
+# issue 19, item 11: refused at validation in one line naming the key; before, each failed at run
+# time (ivanov: ValueError in the solver; the beam: "zero-size array" / IndexError in the FE mesh)
+KNOWN_19 = [
+    ("paper-fig7", {'method = "event"': 'method = "ivanov"', "R = 0.9": "R = 0.0"},
+     "'model.R' = 0.0: method 'ivanov' (run[0]) needs R > 0"),
+    ("paper-fig7", {'method = "event"': 'method = "ivanov"\nmodel = {R = 0.0}'},
+     "'run[0].model.R' = 0.0: method 'ivanov'"),
+    ("paper-fig7", {'method = "event"': 'method = "ivanov"\n[map]\nparameter = "R"\nvalues = [0.0, 0.9, 3]'},
+     "R = 0 is not allowed ('model.R' = 0.0: method 'ivanov'"),
+    ("rig-fe-loose", {"length_mm = 180.0": "length_mm = 1e-9",
+                      "sensor_position_mm = 100.0": "sensor_position_mm = 1e-9",
+                      "mass_position_mm = 132.0": "mass_position_mm = 1e-9"},
+     "'model.length_mm' = 1e-09: allowed: 1 ... 100000 mm"),
+    ("rig-fe-loose", {"length_mm = 180.0": "length_mm = 1e300"},
+     "'model.length_mm' = 1e+300: allowed: 1 ... 100000 mm"),
+    ("rig-fe-loose", {"width_mm = 20.0": "width_mm = 5e-320"},      # found by the fuzzer: IndexError in scene_of
+     "EI_n_m2 = 8.25"),
+]
+
+
+@pytest.mark.parametrize("seed,edits,needle", KNOWN_19, ids=[k[2][:40] for k in KNOWN_19])
+def test_known_bad_inputs_issue_19(seed, edits, needle):
+    text = SEED_TEXT[seed]
+    for old, new in edits.items():
+        assert re.search("^" + re.escape(old), text, flags=re.M), old
+        text = re.sub("^" + re.escape(old), lambda _: new, text, count=1, flags=re.M)
+    with pytest.raises(CaseError) as e:
+        parse_case(text, SOURCE)
+    msg = str(e.value)
+    _one_line_error(msg)
+    assert needle in msg, msg
+
+
+def test_a_model_that_cannot_be_built_is_one_case_error():
+    """Values that pass the table's validators but make no model (an attached mass at the clamp,
+    which no mode moves; a calibration no rotary inertia reaches) are a CaseError of one line
+    naming the reason, with no warning printed, rather than a ValueError traceback (issue 19,
+    item 11)."""
+    import warnings
+
+    for edits, needle in (({"mass_position_mm = 132.0": "mass_position_mm = 1e-6"}, "no retained mode moves"),
+                          ({"length_mm = 180.0": "length_mm = 18000.0", "sensor_position_mm = 100.0":
+                            "sensor_position_mm = 10000.0", "mass_position_mm = 132.0": "mass_position_mm = 13200.0"},
+                           "not reachable")):
+        text = SEED_TEXT["rig-fe-loose"]
+        for old, new in edits.items():
+            text = text.replace(old, new)
+        spec = parse_case(text, SOURCE).model_spec()
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")            # a warning would be a second line on stderr
+            with pytest.raises(CaseError) as e:
+                spec.build()
+        _one_line_error(str(e.value))
+        assert "cannot be built" in str(e.value) and needle in str(e.value), str(e.value)
+
+
 def test_several_errors_are_one_line():
     text = SEED_TEXT["paper-fig7"].replace('fidelity = "sdof"', 'fidelity = "beam"')
     with pytest.raises(CaseError) as e:
@@ -443,3 +499,4 @@ def test_cli_subprocess_no_traceback(tmp_path, cmd):
         lines = p.stderr.splitlines()
         assert len(lines) == 1 and lines[0].startswith("vibeam: error: ") and name in lines[0], p.stderr
         assert not out.exists()
+

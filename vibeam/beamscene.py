@@ -65,7 +65,11 @@ def scene_of(spec) -> BeamScene:
     if spec.calibrate is not None:
         cal = BeamFE(g, n_elements=spec.n_elements).calibrate(spec.calibrate.f1_hz, spec.calibrate.f2_hz)
         g = cal.geometry
-    f1 = float(BeamFE(g, n_elements=spec.n_elements).modes(1).frequencies_hz[0])
+    f = BeamFE(g, n_elements=spec.n_elements).modes(1).frequencies_hz
+    if f.size == 0 or not (np.isfinite(f[0]) and f[0] > 0.0):
+        raise ValueError(f"the FE model has no positive finite first frequency (EI = {g.EI_n_m2:g} N m^2, rho A = "
+                         f"{g.rhoA_kg_m:g} kg/m, m = {g.mass_kg:g} kg, L = {g.length_m:g} m)")
+    f1 = float(f[0])
     D = 2.0 * spec.damping_ratio / (2 * math.pi * f1)
     L = g.length_m
     phim = float(static_mode_shape(g.mass_position_m / L, g.mass_position_m / L, g.sensor_position_m / L))

@@ -248,7 +248,16 @@ class SDOFModelSpec(_Strict):
         return table[key]
 
     def build(self):
-        """The :class:`vibeam.models.SDOF` this table describes."""
+        """The :class:`vibeam.models.SDOF` this table describes.
+
+        Raises
+        ------
+        CaseError
+            If the model cannot be built from these values (:func:`build_or_refuse`).
+        """
+        return build_or_refuse(self, self._build)
+
+    def _build(self):
         import dataclasses
 
         from vibeam.contact_spec import sdof_law
@@ -345,6 +354,30 @@ class SDOFModelSpec(_Strict):
         return {key: float(value)}, []
 
 
+def build_or_refuse(spec, build):
+    """``build()``, the model of a ``[model]`` spec; a value the model's constructors cannot
+    use (they raise ValueError, or an arithmetic error such as an overflow) becomes a
+    :class:`CaseError` of one line naming the fidelity and the reason, so a case whose
+    numbers pass the table's validators but make no model is refused like any bad input
+    (``vibeam`` exit 2; a fit counts such a trial as a failed evaluation).  Warnings of a
+    build that fails are dropped (the error says what went wrong); those of a build that
+    succeeds are issued as they were."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:   # kept back: a refused build says one line
+        warnings.simplefilter("always")
+        try:
+            model = build()
+        except CaseError:
+            raise
+        except (ValueError, ArithmeticError) as e:
+            raise CaseError(_one_line(f"'model' (fidelity {spec.fidelity!r}): the model cannot be built from these "
+                                      f"values: {type(e).__name__}: {e}")) from None
+    for w in caught:                                        # a model that builds: its warnings as they were
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+    return model
+
+
 class DiscsSpec(_Strict):
     """``[model.discs]``: the attached mass as a stack of discs (paper Sec. 5: 4 steel discs)."""
 
@@ -379,7 +412,7 @@ class BeamModelSpec(_Strict):
     """
 
     fidelity: Literal["beam"]
-    length_mm: Annotated[float, Field(gt=0.0)]
+    length_mm: Annotated[float, Field(gt=0.0)]   # and within LENGTH_RANGE_MM (_length_in_range)
     sensor_position_mm: Annotated[float, Field(gt=0.0)]
     mass_position_mm: Annotated[float, Field(gt=0.0)]
     width_mm: Annotated[float, Field(gt=0.0)] | None = None
@@ -405,6 +438,27 @@ class BeamModelSpec(_Strict):
     rayleigh_alpha_1_s: Annotated[float, Field(ge=0.0)] = 0.0
     n_modes: Annotated[int, Field(ge=1)] | Literal["all", "static"] = 4
     n_elements: Annotated[int, Field(ge=2, le=2000)] = 36
+
+    #: allowed ``length_mm``: the FE mesh (scikit-fem) locates the clamp and the attached mass
+    #: by position to an absolute 1e-8 m, so its elements (down to L / 2000 with ``n_elements``
+    #: <= 2000) must be far longer: from 1 mm (elements of 5e-7 m; measured: every model builds
+    #: at 1 mm, none below 1e-4 mm, ``n_modes = "all"`` fails from 0.01 mm) to 100 m, beyond any
+    #: cantilever of this kind (calibrations to the rig's f2/f1 stop being reachable from ~20 m)
+    LENGTH_RANGE_MM: ClassVar[tuple] = (1.0, 1e5)
+    #: allowed bending stiffness EI (N m^2) and mass per length rho A (kg/m), given or derived from
+    #: the section: their ratio over h^4 (h: the element length, 5e-7 ... 5e4 m) is the FE model's
+    #: eigenvalue scale, which stays a normal double within this range (a subnormal EI, e.g.
+    #: width_mm = 5e-320, leaves the eigensolver without any mode)
+    SECTION_RANGE: ClassVar[tuple] = (1e-100, 1e100)
+
+    @field_validator("length_mm")
+    @classmethod
+    def _length_in_range(cls, v):
+        lo, hi = cls.LENGTH_RANGE_MM
+        if not lo <= v <= hi:
+            raise ValueError(f"allowed: {lo:g} ... {hi:g} mm (the FE mesh locates nodes to 1e-8 m: a shorter "
+                             f"beam's elements cannot be resolved)")
+        return v
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -434,6 +488,19 @@ class BeamModelSpec(_Strict):
         for k in ("sensor_position_mm", "mass_position_mm"):
             if getattr(self, k) > self.length_mm:
                 raise ValueError(f"{k} = {getattr(self, k)} lies beyond length_mm = {self.length_mm}")
+        lo, hi = self.SECTION_RANGE
+        if sec:     # the section's EI and rho A as vibeam.beamscene.geometry_of derives them
+            b, t = self.width_mm * 1e-3, self.thickness_mm * 1e-3
+            derived = {"EI_n_m2": (self.youngs_modulus_gpa * 1e9 * b * t ** 3 / 12.0,
+                                   "youngs_modulus_gpa, width_mm, thickness_mm"),
+                       "rhoA_kg_m": (self.density_kg_m3 * b * t, "density_kg_m3, width_mm, thickness_mm")}
+        else:
+            derived = {"EI_n_m2": (self.EI_n_m2, "EI_n_m2"), "rhoA_kg_m": (self.rhoA_kg_m, "rhoA_kg_m")}
+        for name, (v, keys) in derived.items():
+            if not lo <= v <= hi:
+                raise ValueError(f"{name} = {v:g} (from {keys}) is outside {lo:g} ... {hi:g}: the FE matrices "
+                                 f"(EI / h^3, rho A h) would leave double precision; allowed: a section within "
+                                 f"that range")
         if self.calibrate and self.calibrate.f2_hz is not None and self.calibrate.f2_hz <= self.calibrate.f1_hz:
             raise ValueError("calibrate.f2_hz must exceed calibrate.f1_hz")
         return self
@@ -485,7 +552,18 @@ class BeamModelSpec(_Strict):
         return self.gap_lower_mm is not None or self.contact_gap_lower_mm is not None
 
     def build(self):
-        """The :class:`vibeam.models.beam_dynamics.BeamImpactModel` of this scene."""
+        """The :class:`vibeam.models.beam_dynamics.BeamImpactModel` of this scene.
+
+        Raises
+        ------
+        CaseError
+            If the model cannot be built from these values (:func:`build_or_refuse`: e.g. a
+            calibration to ``f2_hz / f1_hz`` that no rotary inertia reaches, an attached mass
+            at the clamp that no mode moves).
+        """
+        return build_or_refuse(self, self._build)
+
+    def _build(self):
         from vibeam.beamscene import build_beam_model
         from vibeam.contact_spec import beam_law
 
@@ -1226,6 +1304,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                 run_spec = _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
             _check_contact_method(run_spec, i, r)
             _check_resonance(case, i, r, run_spec, f"run[{i}].model" if r.model else "model")
+            _check_method_values(run_spec, i, r, "run[%d].model" % i if r.model else "model")
             if r.effects:
                 case.effects_for(r)
             _check_two_sided(case, i, r)
@@ -1261,6 +1340,19 @@ def _check_resonance(case, i: int, r, spec, prefix: str) -> None:
         check = getattr(sp, "check_sweep", None)
         if check is not None:
             check(case.sweep, r.method, where, i)
+
+
+def _check_method_values(spec, i: int, r, prefix: str) -> None:
+    """Values of the model a run's method cannot take (fidelity registry: ``positive_R_methods``
+    need R > 0)."""
+    from vibeam.models.registry import fidelity
+
+    fid = fidelity(spec.fidelity)
+    R = getattr(spec, "R", None)
+    if r.method in fid.positive_R_methods and R is not None and not R > 0.0:
+        others = [m for m in fid.method_names if m not in fid.positive_R_methods]
+        raise CaseError(f"'{prefix}.R' = {_value(R)}: method {r.method!r} (run[{i}]) needs R > 0 (its transformation "
+                        f"divides by K_N = 0 at R = 0); allowed: 0 < R <= 1, or another method ({', '.join(others)})")
 
 
 def _check_contact_method(spec, i: int, r) -> None:
@@ -1436,7 +1528,10 @@ def _check_map(case: Case) -> None:
         for i, o in overrides:
             data = dict(case.model, **o, **{m.parameter: float(v)})
             try:
-                _validate_model(data, prefix=f"run[{i}].model" if o else "model")
+                spec = _validate_model(data, prefix=f"run[{i}].model" if o else "model")
+                for j, r in enumerate(case.run):
+                    if r.model == o:
+                        _check_method_values(spec, j, r, f"run[{j}].model" if o else "model")
             except CaseError as e:
                 raise CaseError(f"'map.values' = {_value(m.values)}: {m.parameter} = {v:g} is not "
                                 f"allowed ({e})") from None

@@ -46,8 +46,14 @@ def _job(case, r, overrides: dict, j=None) -> _Job:
                point_time_limit_s=case.sweep.point_time_limit_s,
                assess=assess.hooks(case, spec, r, model))
     settings = dict(case.run_settings(r), **assess.solver_options(case, r, model))
-    solver = wrap_solver(make_solver(model, r.method, **settings), model, spec,
-                         assess.solver_effects(case.effects_for(r)), settings)
+    try:
+        base = make_solver(model, r.method, **settings)
+    except ValueError as e:         # a value the method's solver cannot take: bad input, one line
+        from .case import _one_line
+
+        where = f" at {', '.join(f'{k} = {v!r}' for k, v in overrides.items())}" if overrides else ""
+        raise CaseError(_one_line(f"'run[{case.run.index(r)}].method' = {r.method!r}{where}: {e}")) from None
+    solver = wrap_solver(base, model, spec, assess.solver_effects(case.effects_for(r)), settings)
     return _Job(r, spec, solver, sw, j)
 
 
@@ -357,7 +363,12 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
 
     if quick:
         case = case.quick_variant()
-    jobs_ = _jobs(case)
+    try:
+        jobs_ = _jobs(case)
+    except CaseError as e:          # a model or solver that cannot be built: name the case file
+        if source and not str(e).startswith(f"{source}: "):
+            raise CaseError(f"{source}: {e}") from None
+        raise
     for fn in {getattr(j.solver.model, "natural_frequency_hz", None) for j in jobs_}:
         check_time_series(case, source, fn)
     _notes(case, jobs_)
