@@ -251,3 +251,109 @@ def test_write_group_writes_any_labelled_group(tmp_path):
     assert tree["branches/cont/bifurcations"]["branch_of"].dims == ("branch",)
     tree.close()
     ds.close()
+
+
+# ----------------------------------------------------------------------------- bad arguments (issue 19, item 15)
+# Each call raises TypeError (a wrong type) or ValueError (out of range) with one line naming the
+# argument, the value and what is allowed, by the same rule as the case key it stands for.  Before,
+# Omega=-1 ran backwards in time and reported ok, nan gave `failed` without an error, 0 and inf a
+# ZeroDivisionError, periods=0 an amplitude of -inf `ok`, transient=-1 ran, periods=10**12 a
+# MemoryError, periods=-3 numpy's message, jobs=0/-1/2.5 were accepted and jobs="2" a bare TypeError.
+BAD_SIMULATE = [
+    (dict(Omega=-1.0), ValueError, ["Omega = -1.0", "> 0"]),
+    (dict(Omega=float("nan")), ValueError, ["Omega = nan", "finite number > 0"]),
+    (dict(Omega=0.0), ValueError, ["Omega = 0.0", "> 0"]),
+    (dict(Omega=float("inf")), ValueError, ["Omega = inf", "finite"]),
+    (dict(Omega="2"), TypeError, ["Omega = '2'", "not a number"]),
+    (dict(Omega=True), TypeError, ["Omega = True"]),
+    (dict(Omega=2.0, periods=0), ValueError, ["periods = 0", ">= 1", "record_periods"]),
+    (dict(Omega=2.0, periods=-3), ValueError, ["periods = -3", ">= 1"]),
+    (dict(Omega=2.0, periods=2.5), TypeError, ["periods = 2.5", "whole number"]),
+    (dict(Omega=2.0, periods=10**12), ValueError, ["periods = 1000000000000", "limit", "force=True"]),
+    (dict(Omega=2.0, transient=-1), ValueError, ["transient = -1", ">= 0", "transient_periods"]),
+    (dict(Omega=2.0, transient="auto"), ValueError, ["transient = 'auto'", "whole number >= 0"]),
+    (dict(Omega=2.0, samples_per_period=8), ValueError, ["samples_per_period = 8", ">= 16"]),
+    (dict(Omega=1e-9), ValueError, ["Omega = 1e-09", "limit"]),        # 16 / Omega steps a period
+    (dict(Omega=2.0, frequency_hz=3.0), ValueError, ["Omega = 2.0", "frequency_hz = 3.0", "not both"]),
+    (dict(), ValueError, ["Omega = None"]),
+    (dict(Omega=2.0, run=2), ValueError, ["run = 2", "0 ... 1"]),
+    (dict(Omega=2.0, run="nope"), ValueError, ["run = 'nope'", "'exact'"]),
+    (dict(Omega=2.0, run=1.0), TypeError, ["run = 1.0"]),
+    (dict(Omega=2.0, state=[0.0, float("nan"), 0.0]), ValueError, ["state = ", "3 finite numbers"]),
+    (dict(Omega=2.0, force="yes"), TypeError, ["force = 'yes'", "True or False"]),
+]
+
+
+@pytest.mark.parametrize("kw,exc,needles", BAD_SIMULATE, ids=[str(b[0]) for b in BAD_SIMULATE])
+def test_simulate_refuses_bad_arguments_in_one_line(kw, exc, needles):
+    """No solver runs for a refused argument (each call here is refused before the kernel)."""
+    case = vibeam.load_case(SMALL)
+    with pytest.raises(exc) as e:
+        vibeam.simulate(case, **kw)
+    msg = str(e.value)
+    assert "\n" not in msg and all(n in msg for n in needles), msg
+
+
+def test_simulate_of_a_model_has_the_work_limit_too():
+    from vibeam.models import SDOF
+
+    m = SDOF(beta=0.05, B=0.01, R=0.8, Delta=10.0)
+    with pytest.raises(ValueError, match="periods = 1000000000000.*force=True"):
+        vibeam.simulate(m, Omega=1.3, periods=10**12)
+    with pytest.raises(ValueError, match="Omega = 0.0"):
+        vibeam.simulate(m, Omega=0.0)
+    with pytest.raises(TypeError, match="method = 3"):
+        vibeam.simulate(m, Omega=1.3, method=3)
+
+
+@pytest.mark.parametrize("source,exc,needles", [
+    (None, TypeError, ["source = None", "a path to a case file"]),
+    (123, TypeError, ["source = 123"]),
+    (b"name = 'x'", TypeError, ["source = b"]),
+    ("", ValueError, ["empty path"]),
+    (str(ROOT / "cases"), ValueError, ["cases", "a directory, not a regular file"]),
+    ("/dev/zero", ValueError, ["/dev/zero", "character device"]),
+], ids=["None", "123", "bytes", "empty", "directory", "device"])
+def test_load_case_refuses_what_is_not_a_case(source, exc, needles):
+    """Before: None, 123 and a directory all said "not valid TOML"; /dev/zero was read without end."""
+    with pytest.raises(exc) as e:
+        vibeam.load_case(source)
+    assert all(n in str(e.value) for n in needles) and "not valid TOML" not in str(e.value), str(e.value)
+
+
+@pytest.mark.parametrize("kw,exc,needles", [
+    (dict(jobs=0), ValueError, ["jobs = 0", "from 1 to"]),
+    (dict(jobs=-1), ValueError, ["jobs = -1"]),
+    (dict(jobs=2.5), TypeError, ["jobs = 2.5", "whole number"]),
+    (dict(jobs="2"), TypeError, ["jobs = '2'"]),
+    (dict(jobs=True), TypeError, ["jobs = True"]),
+    (dict(jobs=10000), ValueError, ["jobs = 10000", "x the"]),
+    (dict(out=""), ValueError, ["out = ''", "empty path"]),
+    (dict(out=3), TypeError, ["out = 3"]),
+    (dict(quick="no"), TypeError, ["quick = 'no'"]),
+    (dict(executor="pool"), TypeError, ["executor = 'pool'"]),
+], ids=lambda v: str(v) if isinstance(v, dict) else "")
+def test_run_refuses_bad_arguments_before_anything_runs(kw, exc, needles, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(exc) as e:
+        vibeam.run(SMALL, **kw)
+    assert all(n in str(e.value) for n in needles), str(e.value)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_jobs_cap_is_a_stated_multiple_of_the_cores():
+    import os
+
+    from vibeam.arguments import JOBS_PER_CORE, check_jobs, max_jobs
+
+    assert max_jobs() == JOBS_PER_CORE * os.cpu_count() and JOBS_PER_CORE == 4
+    assert check_jobs(max_jobs()) == max_jobs() and check_jobs(np.int64(1)) == 1 and check_jobs(None) is None
+    with pytest.raises(ValueError):
+        check_jobs(max_jobs() + 1)
+
+
+def test_results_files_must_be_regular_files(tmp_path):
+    with pytest.raises(ValueError, match="directory, not a regular file"):
+        vibeam.open_results(tmp_path)
+    with pytest.raises(ValueError, match="no such file"):
+        vibeam.Results.from_file(tmp_path / "none.h5")

@@ -180,7 +180,7 @@ CASES = {
     "bench-points-0": (["bench", "--points", "0"], ["--points", ">= 1"]),
     "bench-direct-points-0": (["bench", "--direct-points", "0"], ["--direct-points", ">= 1"]),
     "bench-periods-0": (["bench", "--periods", "0"], ["--periods", ">= 65"]),
-    "jobs-0": (["run", "{d}/tiny.toml", "--jobs", "0"], ["--jobs", ">= 1"]),
+    "jobs-0": (["run", "{d}/tiny.toml", "--jobs", "0"], ["--jobs", "from 1 to"]),
 }
 
 
@@ -233,6 +233,20 @@ CASES.update({
                                                                                 "contact point"]),
 })
 
+# issue 19, item 16: empty paths, more workers than JOBS_PER_CORE x the cores, grids that are not
+# increasing ranges of distinct values
+CASES.update({
+    "out-empty": (["run", "{d}/tiny.toml", "--out", "", "--quiet"], ["--out", "empty path"]),
+    "regress-out-empty": (["regress", "{d}/tiny.toml", "--reference", "{d}/good/results.h5", "--out", ""],
+                          ["--out", "empty path"]),
+    "jobs-10000": (["run", "{d}/tiny.toml", "--jobs", "10000"], ["--jobs", "10000", "from 1 to", "x the"]),
+    "fit-jobs-10000": (["fit", "{d}/tiny.toml", "--reference", "{d}/zeros.csv", "--jobs", "10000"],
+                       ["--jobs", "10000", "from 1 to"]),
+    "grid-reversed": (["run", "{d}/reversed.toml", "--out", "{d}/rev"], ["reversed.toml", "sweep.frequency_hz",
+                                                                        "start > stop"]),
+    "grid-repeated": (["run", "{d}/repeated.toml", "--out", "{d}/rep"], ["repeated.toml", "sweep.frequency_hz",
+                                                                        "equal values"]),
+})
 
 
 def _cap_memory():

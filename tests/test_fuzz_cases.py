@@ -279,7 +279,9 @@ def test_good_maps_are_accepted_and_bad_values_name_map_values(name, draw):
     param = draw.draw(st.sampled_from(_numeric_model_keys(data)))
     x = data["model"][param]
     mappable = param in parse_case(to_toml(data)).map_parameters()     # float keys, not n_modes
-    good = [x, x, 1] if draw.draw(st.booleans()) else [0.9 * x, 1.1 * x, draw.draw(st.integers(2, 4))]
+    # a range around the value (increasing, of distinct values: a grid's rule), or the value alone
+    good = [x, x, 1] if draw.draw(st.booleans()) or x == 0 else \
+        [min(0.9 * x, 1.1 * x), max(0.9 * x, 1.1 * x), draw.draw(st.integers(2, 4))]
     data["map"] = {"parameter": param, "values": good}
     overridden = any(param in r.get("model", {}) for r in data["run"])
     text = to_toml(data)
@@ -411,6 +413,24 @@ def test_a_model_that_cannot_be_built_is_one_case_error():
                 spec.build()
         _one_line_error(str(e.value))
         assert "cannot be built" in str(e.value) and needle in str(e.value), str(e.value)
+
+
+# issue 19, item 16: a grid is an increasing range of distinct values; before, a reversed range
+# was sorted silently and a range of equal ends gave a coordinate of repeated values
+KNOWN_19_GRIDS = [
+    ("paper-fig7", {"Omega = [1.5, 2.5, 101]": "Omega = [2.5, 1.5, 3]"}, "'sweep.Omega' = [2.5, 1.5, 3]: start > stop"),
+    ("paper-fig7", {"Omega = [1.5, 2.5, 101]": "Omega = [2.0, 2.0, 3]"},
+     "'sweep.Omega' = [2.0, 2.0, 3]: start == stop"),
+    ("paper-fig7", {"Omega = [1.5, 2.5, 101]": "Omega = [1.0, 1.0000000000000002, 5]"},
+     "'sweep.Omega' = [1.0, 1.0000000000000002, 5]: 5 points"),
+    ("paper-fig7", {'method = "event"': 'method = "event"\n[map]\nparameter = "R"\nvalues = [0.9, 0.5, 3]'},
+     "'map.values' = [0.9, 0.5, 3]: start > stop"),
+]
+
+
+@pytest.mark.parametrize("seed,edits,needle", KNOWN_19_GRIDS, ids=[k[2][:40] for k in KNOWN_19_GRIDS])
+def test_known_bad_grids_issue_19(seed, edits, needle):
+    test_known_bad_inputs_issue_19(seed, edits, needle)
 
 
 def test_several_errors_are_one_line():

@@ -42,13 +42,21 @@ def load_case(source):
     Raises
     ------
     vibeam.case.CaseError
-        If the file cannot be read or the case is invalid (one line naming the key,
-        the value and what is allowed).
+        If the file cannot be read (not a regular file, larger than 10 MB:
+        :func:`vibeam.inputs.read_input_text`) or the case is invalid (one line naming the
+        key, the value and what is allowed).
+    TypeError
+        If ``source`` is none of the above (None, a number, bytes, ...).
     """
-    from .case import Case, CaseError, _format, load_case as _load, parse_case
+    import os
+
+    from .case import Case, CaseError, _format, _value, load_case as _load, parse_case
 
     if isinstance(source, Case):
         return source
+    if not isinstance(source, (str, os.PathLike, dict)):
+        raise TypeError(f"source = {_value(source)}: not a case; allowed: a path to a case file (str or "
+                        f"pathlib.Path), the TOML text of a case, a dict of its tables or a Case")
     if isinstance(source, dict):
         import tomllib
 
@@ -64,11 +72,24 @@ def load_case(source):
                 raise CaseError(_format(e, "", Case)) from None
             return _remember(case, "")
         return _remember(parse_case(text, "<dict>"), text)
-    if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and Path(source).is_file()) \
-            or (isinstance(source, str) and source.endswith(".toml") and "\n" not in source):
+    if not isinstance(source, str) or _names_a_file(source):
         case, text = _load(source)
         return _remember(case, text)
-    return _remember(parse_case(str(source), "<text>"), str(source))
+    return _remember(parse_case(source, "<text>"), source)
+
+
+def _names_a_file(text: str) -> bool:
+    """Is a string given to :func:`load_case` a path (rather than TOML text)?  One line that
+    names something on disk (a file, a folder, a device: what is not a regular file is then
+    refused as such), ends with ``.toml``, is empty, or could not be TOML (no ``=``)."""
+    if "\n" in text:
+        return False
+    if not text.strip() or text.endswith(".toml") or "=" not in text:
+        return True
+    try:
+        return Path(text).exists()
+    except (OSError, ValueError):        # a name too long, a NUL byte: not a file
+        return False
 
 
 _TEXT: dict = {}
@@ -289,9 +310,24 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
     vibeam.case.CaseError
         Bad case or input (:class:`vibeam.case.InputError`: a folder in use, a work
         estimate above the limit without ``force``, ...).
+    TypeError, ValueError
+        An argument of the wrong type or out of range, e.g. ``jobs`` not a whole number
+        from 1 to :func:`vibeam.arguments.max_jobs` (the rule of ``--jobs``), ``out`` an
+        empty string; one line naming the argument, the value and what is allowed.
     """
+    from .arguments import check_flag, check_jobs, check_path
     from .runner import run_case
 
+    jobs = check_jobs(jobs)
+    out = check_path(out, "out")
+    for name, flag in (("quick", quick), ("progress", progress), ("plots", plots), ("resume", resume),
+                       ("force", force), ("verbose", verbose)):
+        check_flag(flag, name)
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        from .case import _value
+
+        raise TypeError(f"executor = {_value(executor)}: not an executor; allowed: a "
+                        f"concurrent.futures.Executor (with submit) or None")
     c = load_case(case)
     text = case_text(c)
     ctx = contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO())
@@ -420,7 +456,7 @@ class Simulation:
 
 def simulate(case_or_model, Omega: float | None = None, periods: int | None = None, transient: int | None = None,
              frequency_hz: float | None = None, samples_per_period: int | None = None, run: str | int = 0,
-             method: str = "event", state=None, **settings) -> Simulation:
+             method: str = "event", state=None, force: bool = False, **settings) -> Simulation:
     """Simulate one forcing frequency and return the recorded time series and impacts.
 
     Parameters
@@ -447,7 +483,10 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
     method : str
         Method for a model (``event``, ``direct``, ...; time-domain methods only).
     state : array_like, optional
-        Initial state at forcing phase 0 (default: the model's rest state).
+        Initial state at forcing phase 0 (default: the model's rest state): finite
+        numbers, as many as the model's state.
+    force : bool
+        Simulate even if the work is above the limit of ``vibeam run`` (as ``--force``).
     **settings
         Method settings for a model (e.g. ``rtol`` for ``direct``).
 
@@ -457,55 +496,168 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
 
     Raises
     ------
-    ValueError
-        If neither ``Omega`` nor ``frequency_hz`` is given, ``frequency_hz`` is given for
-        a nondimensional scene, or the method computes no time history (averaging,
-        mapping).
+    TypeError, ValueError
+        One line naming the argument, the value and what is allowed; the arguments are
+        checked by the rules of the case keys they stand for (:mod:`vibeam.arguments`):
+        ``Omega`` / ``frequency_hz`` a finite number > 0 (a point of ``[sweep] Omega``),
+        ``periods`` as ``[sweep] record_periods`` (a whole number >= 1), ``transient`` as
+        ``transient_periods`` (a whole number >= 0; ``"auto"`` is the sweep's and is
+        refused here), ``samples_per_period`` as ``[sweep] samples_per_period``; ``run`` a
+        run's index or name; ``state`` finite numbers of the state's size.  Also: neither
+        or both of ``Omega`` and ``frequency_hz`` given, ``frequency_hz`` for a
+        nondimensional scene, a method without a time history (averaging, mapping).
+    vibeam.case.InputError
+        The work is above the limit of ``vibeam run`` (:func:`vibeam.runner.check_work`:
+        e.g. ``periods = 10**12``) and ``force`` is not set; a ValueError too.
     """
-    from .case import Case
+    from .arguments import check_case_value, check_flag, check_frequency
+    from .case import Case, SweepSpec, _value
     from .records import summarize
 
+    check_flag(force, "force")
+    if Omega is not None:
+        Omega = check_frequency(Omega, "Omega", "Omega")
+    if frequency_hz is not None:
+        frequency_hz = check_frequency(frequency_hz, "frequency_hz", "frequency_hz")
+        if Omega is not None:
+            raise ValueError(f"Omega = {Omega!r} and frequency_hz = {frequency_hz!r}: give one of them, not both")
+    if Omega is None and frequency_hz is None:
+        raise ValueError("Omega = None: give Omega (or frequency_hz for a physical scene)")
+    if periods is not None:
+        periods = check_case_value(periods, "periods", SweepSpec, "record_periods")
+    if transient is not None:
+        transient = check_case_value(transient, "transient", SweepSpec, "transient_periods")
+    if samples_per_period is not None:
+        samples_per_period = check_case_value(samples_per_period, "samples_per_period", SweepSpec,
+                                              "samples_per_period")
+    case = None
     if isinstance(case_or_model, (Case, str, Path, dict)):
         from .runner import _job
 
         case = load_case(case_or_model)
-        runs = case.run
-        r = runs[run] if isinstance(run, int) else next((x for x in runs if x.name == run), None)
-        if r is None:
-            raise ValueError(f"no run named {run!r}; runs: {[x.name for x in runs]}")
+        r = _pick_run(case, run)
         job = _job(case, r, dict(r.model))
         solver = job.solver
         periods = case.sweep.record_periods if periods is None else periods
-        transient = case.sweep.transient_periods if transient is None else transient
+        if transient is None:
+            transient = case.sweep.transient_periods
+            if transient == "auto":
+                raise ValueError("transient = None: the case's [sweep] transient_periods is \"auto\" (settled by "
+                                 "the sweep); give transient, a whole number >= 0")
         spp = case.sweep.samples_per_period if samples_per_period is None else samples_per_period
         period_rtol = case.sweep.period_rtol
     else:
         from .models import make_solver
 
+        if not isinstance(method, str):
+            raise TypeError(f"method = {_value(method)}: not a method name; allowed: a str (event, direct, ...)")
         solver = make_solver(case_or_model, method, **settings)
         periods = 16 if periods is None else periods
         transient = 0 if transient is None else transient
         spp = 64 if samples_per_period is None else samples_per_period
         period_rtol = 1e-5
+    if transient == "auto":
+        raise ValueError("transient = 'auto': simulate runs a fixed transient (the sweep settles 'auto'); "
+                         "allowed: a whole number >= 0")
     model = solver.model
     fn = getattr(model, "natural_frequency_hz", None)
     L = getattr(model, "length_m", None)
     if frequency_hz is not None:
         if not fn:
-            raise ValueError("frequency_hz needs a physical scene (natural_frequency_hz); give Omega")
-        Omega = frequency_hz / fn
-    if Omega is None:
-        raise ValueError("give Omega (or frequency_hz for a physical scene)")
+            raise ValueError(f"frequency_hz = {frequency_hz!r}: needs a physical scene (natural_frequency_hz); "
+                             f"give Omega")
+        Omega = check_frequency(frequency_hz / fn, "frequency_hz / natural_frequency_hz")
     if not solver.time_domain:
         raise ValueError(f"method {solver.name!r} computes no time history; use a time-domain method "
                          f"(event, direct, zhuravlev, ivanov)")
+    if state is not None:
+        state = _check_state(state, model)
+    _check_point_work(case, job if case is not None else None, solver, Omega, int(transient), int(periods),
+                      int(spp), force, settings)
     from .sweep import simulate as _run_point
 
     # the sweep engine's calls of bounded work: Ctrl-C stops a long simulation between them
-    traj = _run_point(solver, float(Omega), None if state is None else np.asarray(state, float), int(transient),
-                      int(periods), int(spp))
+    traj = _run_point(solver, float(Omega), state, int(transient), int(periods), int(spp))
     summ = summarize(traj, float(model.Delta), period_rtol)
     return Simulation(Omega=float(Omega), t=traj.t, q=traj.samples[:, 0].copy(), dq=traj.samples[:, 1].copy(),
                       impact_times=np.asarray(traj.impact_times), impact_velocities=np.asarray(traj.impact_velocities),
                       summary=summ, status=traj.status, message=traj.message, final_state=traj.final_state,
                       natural_frequency_hz=fn, length_m=L, trajectory=traj)
+
+
+def _pick_run(case, run):
+    """The run ``run`` (index or name) of a case (TypeError/ValueError naming the runs)."""
+    from .case import _value
+
+    names = [x.name for x in case.run]
+    if isinstance(run, bool) or not isinstance(run, (int, str)):
+        raise TypeError(f"run = {_value(run)}: allowed: a run's index (0 ... {len(names) - 1}) or name ({names})")
+    if isinstance(run, int):
+        if not 0 <= run < len(names):
+            raise ValueError(f"run = {run}: no such run; allowed: 0 ... {len(names) - 1} or a name of {names}")
+        return case.run[run]
+    r = next((x for x in case.run if x.name == run), None)
+    if r is None:
+        raise ValueError(f"run = {_value(run)}: no run of that name; allowed: {names} or 0 ... {len(names) - 1}")
+    return r
+
+
+def _check_state(state, model) -> np.ndarray:
+    """An initial state: finite numbers of the model's state size (TypeError/ValueError)."""
+    from .case import _value
+
+    n = int(np.size(model.initial_state()))
+    try:
+        x = np.asarray(state, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"state = {_value(state)}: not numbers; allowed: {n} finite numbers") from None
+    if x.shape != (n,) or not np.isfinite(x).all():
+        raise ValueError(f"state = {_value(state)}: allowed: {n} finite numbers (the model's state)")
+    return x
+
+
+_WORK_ARGS = {"sweep.record_periods": "periods", "sweep.transient_periods": "transient",
+              "sweep.samples_per_period": "samples_per_period", "sweep.Omega": "Omega"}
+
+
+def _check_point_work(case, job, solver, Omega, transient, periods, spp, force, settings) -> None:
+    """Refuse a point above the work limits of ``vibeam run`` (:data:`vibeam.runner.MAX_WORK_STEPS`,
+    :data:`vibeam.runner.MAX_POINT_VALUES`) unless ``force``: a case's point by the runner's
+    own estimate (:func:`vibeam.runner.check_work` of the one-point case), a model's by its
+    per-point term (:func:`vibeam.runner.point_work`)."""
+    import dataclasses
+    import re
+
+    from .case import Case, InputError, _value
+    from .runner import MAX_POINT_VALUES, MAX_WORK_STEPS, check_work, point_work
+
+    if force:
+        return
+    if case is not None:
+        data = case.model_dump()
+        data["sweep"] = dict(data["sweep"], Omega=[Omega, Omega, 1], frequency_hz=None, direction="up",
+                             transient_periods=transient, record_periods=periods, statistics_periods=0,
+                             samples_per_period=spp)
+        data["run"] = [job.run.model_dump()]
+        data["map"] = None
+        one = Case.model_validate(data)
+        sw = dataclasses.replace(job.sweep, Omega=np.array([Omega]), direction="up", transient_periods=transient,
+                                 record_periods=periods, statistics_periods=0, samples_per_period=spp)
+        try:
+            check_work(one, [dataclasses.replace(job, run=one.run[0], sweep=sw)], source="simulate")
+        except InputError as e:
+            msg = str(e).replace(f"'sweep.Omega' = {_value(one.sweep.Omega)}", f"Omega = {Omega!r}")
+            msg = re.sub(r"'(sweep\.[a-z_A-Z]+)'", lambda m: _WORK_ARGS.get(m.group(1), m.group(0)), msg)
+            raise InputError(msg.replace("the case needs", "the point needs")
+                             .replace("pass --force", "pass force=True")) from None
+        return
+    w = point_work(Omega, transient, periods, spp, dofs=max(1, int(np.size(solver.model.initial_state())) // 2),
+                   method=solver.name, transient_samples=int(settings.get("transient_samples", 16)))
+    if w["point_values"] > MAX_POINT_VALUES:
+        raise InputError(f"simulate: periods = {periods}, samples_per_period = {spp}: the point would record "
+                         f"{w['point_values']:.3g} values (limit {MAX_POINT_VALUES:.0e}); record fewer periods or "
+                         f"samples, or pass force=True")
+    if w["steps"] > MAX_WORK_STEPS:
+        raise InputError(f"simulate: Omega = {Omega:g}, transient = {transient}, periods = {periods}: the point needs "
+                         f"about {w['steps']:.2g} solver steps, above the limit of {MAX_WORK_STEPS:.0e}; reduce "
+                         f"them, or pass force=True")

@@ -664,9 +664,12 @@ MAX_GRID_POINTS = 1_000_000   # points of a [sweep] grid
 MAX_MAP_VALUES = 10_000       # values of a [map] parameter (each one is a whole sweep)
 
 
-def _check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS):
+def _check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS, sweep: bool = False):
     """``[start, stop, number of points]`` (``None`` passes): finite ends, a whole number of
-    points from 1 to ``max_n``."""
+    points from 1 to ``max_n``, ``start < stop`` (the order of the sweep is ``[sweep]
+    direction``, not the order of the ends, so a reversed range is refused rather than
+    sorted), and ``start == stop`` for a single point only (n equal values would give a
+    coordinate with repeated values)."""
     if v is None:
         return v
     if len(v) != 3:
@@ -680,7 +683,24 @@ def _check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS):
         raise ValueError(f"the number of points must be a whole number >= 1 and <= {max_n}")
     if n == 1 and start != stop:
         raise ValueError("a single-point grid needs start == stop")
+    if n > 1 and not start < stop:
+        if start == stop:
+            raise ValueError(f"start == stop gives {int(n)} equal values; allowed: start < stop, or a single point "
+                             f"[{start:g}, {stop:g}, 1]")
+        order = "; the order of the sweep is [sweep] direction" if sweep else ""
+        raise ValueError(f"start > stop; allowed: start < stop (give the range in increasing order: "
+                         f"[{stop:g}, {start:g}, {int(n)}]{order})")
+    if n > 1 and not np.all(np.diff(np.linspace(start, stop, int(n))) > 0):
+        raise ValueError(f"{int(n)} points between {start!r} and {stop!r} are closer than the resolution of double "
+                         f"precision (repeated values); allowed: fewer points or a wider range")
     return v
+
+
+def check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS, sweep: bool = False):
+    """The rule of a grid ``[start, stop, number of points]`` of a case (``[sweep] Omega`` /
+    ``frequency_hz``, ``[map] values``), for other inputs held to it (the API's frequencies,
+    :mod:`vibeam.arguments`); raises ValueError saying what is wrong."""
+    return _check_grid(v, positive, max_n, sweep)
 
 
 class SweepSpec(_Strict):
@@ -718,7 +738,7 @@ class SweepSpec(_Strict):
     @field_validator("Omega", "frequency_hz")
     @classmethod
     def _grid(cls, v):
-        return _check_grid(v, positive=True)
+        return _check_grid(v, positive=True, sweep=True)
 
     @model_validator(mode="after")
     def _exactly_one_grid(self):

@@ -21,6 +21,8 @@ import signal
 import sys
 from pathlib import Path
 
+from .arguments import jobs_option, path_option
+
 EXIT_CODES = {0: "done", 1: "regression found (regress)", 2: "bad input", 3: "every point failed",
               130: "interrupted (SIGINT, Ctrl-C)", 143: "terminated (SIGTERM)"}
 
@@ -359,8 +361,8 @@ def main(argv=None) -> int:
 
     def run_args(p):
         p.add_argument("case", help="case file (TOML)")
-        p.add_argument("--out", help="output folder (default results/<case name>/)")
-        p.add_argument("--jobs", type=_int_at_least(1), default=None,
+        p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/)")
+        p.add_argument("--jobs", type=jobs_option, default=None,
                        help="worker processes of the local pool (default: all cores; 1: inline)")
         p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -379,9 +381,10 @@ def main(argv=None) -> int:
     p = sub.add_parser("continue", help="run the continuation runs of a case (method = \"continuation\"): "
                        "branches of periodic orbits with stability and bifurcations")
     p.add_argument("case", help="case file (TOML)")
-    p.add_argument("--out", help="output folder (default results/<case name>/; a results.h5 of the same "
+    p.add_argument("--out", type=path_option("--out"),
+                   help="output folder (default results/<case name>/; a results.h5 of the same "
                    "case there keeps its sweeps, only /branches is replaced)")
-    p.add_argument("--jobs", type=_int_at_least(1), default=None,
+    p.add_argument("--jobs", type=jobs_option, default=None,
                    help="worker processes of the local pool (default: all cores; 1: inline)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -396,11 +399,14 @@ def main(argv=None) -> int:
     p = sub.add_parser("regress", help="compare a case's FRCs with reference FRCs (HDF5 or CSV); exit 1 on a "
                        "regression, 2 on bad input")
     p.add_argument("case", help="case file (TOML)")
-    p.add_argument("--reference", required=True, help="reference results.h5 or CSV")
-    p.add_argument("--results", help="compare this results file instead of rerunning the case")
-    p.add_argument("--out", help="output folder of the rerun (default: a temporary folder, removed afterwards; "
+    p.add_argument("--reference", type=path_option("--reference"), required=True,
+                   help="reference results.h5 or CSV")
+    p.add_argument("--results", type=path_option("--results"),
+                   help="compare this results file instead of rerunning the case")
+    p.add_argument("--out", type=path_option("--out"),
+                   help="output folder of the rerun (default: a temporary folder, removed afterwards; "
                    "the results of `vibeam run` in results/<case name>/ are never touched)")
-    p.add_argument("--jobs", type=_int_at_least(1), default=None)
+    p.add_argument("--jobs", type=jobs_option, default=None)
     p.add_argument("--atol", type=float, default=None, help="override [regress] amplitude_atol")
     p.add_argument("--rtol", type=float, default=None, help="override [regress] amplitude_rtol")
     p.add_argument("--quick", action="store_true",
@@ -409,37 +415,39 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_regress)
     p = sub.add_parser("cost", help="accuracy against time of every run (work-precision table and plot)")
     p.add_argument("case", help="case file (TOML)")
-    p.add_argument("--out", help="output folder (default results/<case name>/)")
+    p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/)")
     p.add_argument("--ladder", action="store_true", help="also a ladder of tolerances per ODE method")
     p.add_argument("--repeats", type=_int_at_least(1), default=3, help="timed repetitions (median reported)")
     p.add_argument("--quick", action="store_true",
                    help="the case's quick variant ([quick]: fewer points and periods)")
-    p.add_argument("--jobs", type=_int_at_least(1), default=None,
+    p.add_argument("--jobs", type=jobs_option, default=None,
                    help="worker processes for the converged references (default: all cores); the timed "
                         "sweeps always run inline, one at a time")
     p.add_argument("--force", action="store_true", help=force_help)
     p.set_defaults(func=cmd_cost)
     p = sub.add_parser("derive", help="SDOF parameters of a beam scene by the assumed static mode")
     p.add_argument("case", help="beam case file (TOML)")
-    p.add_argument("--write", metavar="FILE", help="write the SDOF case file of the same scene")
+    p.add_argument("--write", type=path_option("--write"), metavar="FILE",
+                   help="write the SDOF case file of the same scene")
     p.set_defaults(func=cmd_derive)
     p = sub.add_parser("modes", help="natural frequencies, participation, effective and contact modes")
     p.add_argument("case", help="beam case file (TOML)")
-    p.add_argument("--out", help="output folder (default results/<case name>/)")
+    p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/)")
     p.add_argument("-n", type=_int_at_least(1), default=6, help="number of modes (default 6)")
     p.set_defaults(func=cmd_modes)
     # ---- vibeam fit (vibeam.fit, vibeam.identify): identification from measurements, paper Secs. 6-7
     p = sub.add_parser("fit", help="fit model parameters to a measured FRC (with standard errors), or the "
                        "linear steps: Eq. 43 around f_n (--linear), beta_S from a free decay (--decay)")
     p.add_argument("case", help="case file (TOML); its [model] values start the fit")
-    p.add_argument("--reference", help="measured FRC: CSV 'frequency_hz,amplitude_mm' (or 'Omega,amplitude'), "
+    p.add_argument("--reference", type=path_option("--reference"),
+                   help="measured FRC: CSV 'frequency_hz,amplitude_mm' (or 'Omega,amplitude'), "
                    "optional columns 'direction' (up/down) and 'sigma'; or a results.h5")
     p.add_argument("--reference-run", help="run of an HDF5 reference with several runs")
     p.add_argument("--params", help="comma-separated numeric [model] keys to fit (default gain,R; with "
                    "--linear natural_frequency_hz,damping_ratio,gain)")
     p.add_argument("--run", help="fit this run only (default: every run of the case, one by one)")
-    p.add_argument("--out", help="output folder (default results/<case name>-fit/)")
-    p.add_argument("--jobs", type=_int_at_least(1), default=None, help="worker processes (default: all cores; 1: inline)")
+    p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>-fit/)")
+    p.add_argument("--jobs", type=jobs_option, default=None, help="worker processes (default: all cores; 1: inline)")
     p.add_argument("--quick", action="store_true", help="sweep with the case's quick variant's periods")
     p.add_argument("--loss", choices=["linear", "soft_l1", "huber", "cauchy", "arctan"], default=None,
                    help="least_squares loss (default soft_l1; --linear: linear)")
@@ -447,7 +455,8 @@ def main(argv=None) -> int:
                    help="scale of the robust loss in units of sigma (default 3)")
     p.add_argument("--max-evaluations", type=_int_at_least(1), default=60, help="max residual evaluations (sweeps)")
     p.add_argument("--linear", action="store_true", help="fit Eq. 43 without the stop to an FRC around f_n")
-    p.add_argument("--decay", metavar="DECAY.csv", help="identify beta_S from a free decay 't_s,U_mm'")
+    p.add_argument("--decay", type=path_option("--decay"), metavar="DECAY.csv",
+                   help="identify beta_S from a free decay 't_s,U_mm'")
     p.add_argument("--no-plots", action="store_true", help="skip fit.png")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=lambda a: __import__("vibeam.fit", fromlist=["main_fit"]).main_fit(a))
@@ -488,7 +497,7 @@ def main(argv=None) -> int:
     p.add_argument("--latency", action="store_true",
                    help="instead: seconds from SIGINT to exit of an inline long point and of a --jobs 2 map, "
                         "and the overshoot of point_time_limit_s (goal: each within 1 s)")
-    p.add_argument("--jobs", type=_int_at_least(1), default=None, help="workers of --fit (default 2)")
+    p.add_argument("--jobs", type=jobs_option, default=None, help="workers of --fit (default 2)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
     return _dispatch(args)

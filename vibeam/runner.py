@@ -241,6 +241,18 @@ def estimate_work(case, jobs_=None) -> dict:
     return {"steps": steps, "steps_min": steps_min, "point_values": point_values, "culprit": (key, val)}
 
 
+def point_work(Omega: float, transient_periods: int, record_periods: int, samples_per_period: int,
+               dofs: int = 1, method: str = "event", transient_samples: int = 16) -> dict:
+    """The work of one time-domain point as :func:`estimate_work` counts it (its per-point
+    term): ``steps`` and ``point_values``, for a point simulated outside a case's sweep
+    (:func:`vibeam.api.simulate` with a model), checked against the same limits."""
+    sub = _STEPS_PER_NATURAL_PERIOD / max(float(Omega), 1e-300)
+    cost = ODE_STEP_COST if method in ("direct", "zhuravlev", "ivanov") else 1.0
+    steps = (transient_periods * max(transient_samples, sub) + record_periods * max(samples_per_period, sub))
+    return {"steps": float(steps) * dofs * cost,
+            "point_values": float(record_periods) * samples_per_period * 2.0 * (1 + dofs)}
+
+
 def check_work(case, jobs_=None, force: bool = False, source: str = "") -> dict:
     """Refuse a case whose work (:func:`estimate_work`) exceeds :data:`MAX_WORK_STEPS` or whose
     one point records more than :data:`MAX_POINT_VALUES` floats, unless ``force``.
