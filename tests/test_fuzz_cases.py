@@ -376,6 +376,8 @@ KNOWN_19 = [
      "'model.length_mm' = 1e+300: allowed: 1 ... 100000 mm"),
     ("rig-fe-loose", {"width_mm = 20.0": "width_mm = 5e-320"},      # found by the fuzzer: IndexError in scene_of
      "EI_n_m2 = 8.25"),
+    ("rig-fe-loose", {"thickness_mm = 1.0": "thickness_mm = 1e300"}, "EI_n_m2 = inf"),   # and an OverflowError
+
 ]
 
 
@@ -425,12 +427,18 @@ KNOWN_19_GRIDS = [
      "'sweep.Omega' = [1.0, 1.0000000000000002, 5]: 5 points"),
     ("paper-fig7", {'method = "event"': 'method = "event"\n[map]\nparameter = "R"\nvalues = [0.9, 0.5, 3]'},
      "'map.values' = [0.9, 0.5, 3]: start > stop"),
+    ("paper-fig7", {'method = "event"': 'method = "event"\n[map]\nparameter = "Delta"\nvalues = [-1e308, 1e308, 3]'},
+     "'map.values' = [-1e+308, 1e+308, 3]: stop - start = inf overflows"),     # no RuntimeWarning line either
 ]
 
 
 @pytest.mark.parametrize("seed,edits,needle", KNOWN_19_GRIDS, ids=[k[2][:40] for k in KNOWN_19_GRIDS])
 def test_known_bad_grids_issue_19(seed, edits, needle):
-    test_known_bad_inputs_issue_19(seed, edits, needle)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")        # a warning would be a second line on stderr
+        test_known_bad_inputs_issue_19(seed, edits, needle)
 
 
 def test_several_errors_are_one_line():

@@ -491,7 +491,7 @@ class BeamModelSpec(_Strict):
         lo, hi = self.SECTION_RANGE
         if sec:     # the section's EI and rho A as vibeam.beamscene.geometry_of derives them
             b, t = self.width_mm * 1e-3, self.thickness_mm * 1e-3
-            derived = {"EI_n_m2": (self.youngs_modulus_gpa * 1e9 * b * t ** 3 / 12.0,
+            derived = {"EI_n_m2": (self.youngs_modulus_gpa * 1e9 * b * (t * t * t) / 12.0,   # inf, not OverflowError
                                    "youngs_modulus_gpa, width_mm, thickness_mm"),
                        "rhoA_kg_m": (self.density_kg_m3 * b * t, "density_kg_m3, width_mm, thickness_mm")}
         else:
@@ -690,6 +690,8 @@ def _check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS, sweep: bool = F
         order = "; the order of the sweep is [sweep] direction" if sweep else ""
         raise ValueError(f"start > stop; allowed: start < stop (give the range in increasing order: "
                          f"[{stop:g}, {start:g}, {int(n)}]{order})")
+    if n > 1 and not math.isfinite(stop - start):
+        raise ValueError(f"stop - start = {stop - start} overflows; allowed: a range whose width is a finite number")
     if n > 1 and not np.all(np.diff(np.linspace(start, stop, int(n))) > 0):
         raise ValueError(f"{int(n)} points between {start!r} and {stop!r} are closer than the resolution of double "
                          f"precision (repeated values); allowed: fewer points or a wider range")
