@@ -528,3 +528,267 @@ def test_cli_subprocess_no_traceback(tmp_path, cmd):
         assert len(lines) == 1 and lines[0].startswith("vibeam: error: ") and name in lines[0], p.stderr
         assert not out.exists()
 
+
+# ----------------------------------------------------------------------------- numeric extremes, run (issue 19)
+# Small scenes whose every numeric key the fuzzer sets to an extreme (0, -0, +-subnormal 5e-320,
+# +-1e300, NaN, +-inf, 2**63 - 1, numbers of the wrong type) and runs through `vibeam run` in a
+# subprocess.  Allowed outcomes only: exit 0 with finite amplitudes at every point not `failed`
+# and statuses from vibeam.records.STATUSES; exit 3 (every point failed, an honest status); or
+# exit 2 with one line `vibeam: error: ...`.  Never a traceback, a run past the guard time (a
+# hang), or a file outside the output folder.
+RUN_SEEDS = {
+    "nondim": """
+name = "xnd"
+[model]
+fidelity = "sdof"
+beta = 0.015
+B = 0.0005
+R = 0.9
+Delta = 0.0
+[sweep]
+Omega = [1.8, 2.2, 3]
+direction = "both"
+transient_periods = 20
+record_periods = 4
+statistics_periods = 8
+samples_per_period = 16
+period_rtol = 1e-5
+point_time_limit_s = 5.0
+max_transient_periods = 100
+[[run]]
+name = "event"
+method = "event"
+chatter_tol = 1e-7
+transient_samples = 16
+max_impacts_per_period = 2000
+[[run]]
+name = "mapping"
+method = "mapping"
+n = 1
+[[run]]
+name = "averaging"
+method = "averaging"
+k = 1
+""",
+    "compliant": """
+name = "xcomp"
+[model]
+fidelity = "sdof"
+natural_frequency_hz = 7.6
+damping_ratio = 0.017
+R = 0.72
+gap_mm = 0.01
+length_mm = 180.0
+gain = 5.16e-4
+voltage = 0.6
+[model.contact]
+law = "linear"
+stiffness = 100.0
+[sweep]
+frequency_hz = [14.0, 16.0, 2]
+transient_periods = 20
+record_periods = 4
+point_time_limit_s = 5.0
+[[run]]
+name = "event"
+method = "event"
+""",
+    "beam": """
+name = "xbeam"
+[model]
+fidelity = "beam"
+length_mm = 180.0
+sensor_position_mm = 100.0
+mass_position_mm = 132.0
+width_mm = 20.0
+thickness_mm = 1.0
+mass_kg = 0.1
+R = 0.7
+gap_mm = 0.0
+gain = 5e-4
+voltage = 0.6
+damping_ratio = 0.017
+rayleigh_alpha_1_s = 0.0
+n_modes = 2
+n_elements = 4
+[sweep]
+frequency_hz = [14.0, 15.0, 2]
+transient_periods = 10
+record_periods = 4
+point_time_limit_s = 5.0
+[[run]]
+name = "event"
+method = "event"
+""",
+}
+RUN_SEED_DATA = {k: tomllib.loads(t) for k, t in RUN_SEEDS.items()}
+EXTREMES = [0, 0.0, -0.0, 5e-320, -5e-320, 1e300, -1e300, math.nan, math.inf, -math.inf, 1, -1, 2**63 - 1,
+            "x", True, [1.0], {}]
+#: guard against a hang: far above any draw's legitimate time (a warm run here takes 1-5 s; the
+#: seeds' points are also bounded by point_time_limit_s = 5 s)
+HANG_GUARD_S = 120
+
+
+# Pending issue 19 items 6 and 9 (helper f-numerics: kernels that return at a bounded interval,
+# subnormal scales, huge contact stiffness, degenerate scenes).  Draws in these areas hang (no
+# SIGTERM, no point_time_limit_s), print a RuntimeWarning before the error line, or report a NaN
+# as `ok`; they are skipped (draw level) or counted (outcome level) under their own event, never
+# passed silently.  Remove an entry when its fix lands.  Measured on all 901 single-key draws
+# of RUN_SEEDS: 13 hangs and 3 warning lines, all listed here; 38 NaN-as-ok, all of the
+# averaging run.
+def _zero_tiny_or_huge(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and (abs(v) < 1e-300 or abs(v) >= 1e300)
+
+
+PENDING_F_NUMERICS = [
+    # (seed, key, values, why)
+    (None, "model.B", lambda v: _zero_tiny_or_huge(v) and 0 < abs(v) < 1e-300, "item 6: subnormal B never returns "
+     "(SIGTERM and point_time_limit_s ignored)"),
+    ("compliant", "model.gain", _zero_tiny_or_huge, "item 6: compliant kernel with B = 0, subnormal or huge "
+     "never returns (SIGTERM and point_time_limit_s ignored)"),
+    ("compliant", "model.voltage", _zero_tiny_or_huge, "item 6: as model.gain"),
+    ("compliant", "model.gap_mm", lambda v: _zero_tiny_or_huge(v) and v != 0,
+     "item 6: huge gap, compliant kernel hangs"),
+    ("compliant", "model.length_mm", lambda v: _zero_tiny_or_huge(v) and v != 0, "item 6: subnormal length scale "
+     "hangs"),
+    ("compliant", "model.contact.stiffness", lambda v: _zero_tiny_or_huge(v) and v != 0, "item 6: huge stiffness "
+     "hangs"),
+    (None, "sweep.Omega.0", lambda v: _zero_tiny_or_huge(v) and v != 0, "item 6: subnormal frequency: the work "
+     "estimate overflows with a RuntimeWarning line before the error"),
+    (None, "sweep.frequency_hz.0", lambda v: _zero_tiny_or_huge(v) and v != 0, "item 6: as sweep.Omega.0"),
+]
+
+
+def pending_f_numerics(seed, data, keys) -> str:
+    """Why a draw lies in an area of PENDING_F_NUMERICS ('' if it does not)."""
+    for s, key, hit, why in PENDING_F_NUMERICS:
+        if (s is None or s == seed) and key in keys and hit(_get(data, tuple(_path(key)))):
+            return why
+    return ""
+
+
+def _numeric_paths(data, path=()):
+    """Paths of every number in ``data``; an element of a list (a grid) is one path."""
+    out = []
+    items = data.items() if isinstance(data, dict) else enumerate(data)
+    for k, v in items:
+        p = (*path, k)
+        if isinstance(v, (dict, list)):
+            out += _numeric_paths(v, p)
+        elif isinstance(v, (int, float)) and not isinstance(v, bool):
+            out.append(p)
+    return out
+
+
+def _set(data, path, value):
+    for p in path[:-1]:
+        data = data[p]
+    data[path[-1]] = value
+
+
+def _key_name(path) -> str:
+    return ".".join(str(p) for p in path)
+
+
+@st.composite
+def extreme_cases(draw):
+    """(seed name, case data, the keys set to extremes)."""
+    seed = draw(st.sampled_from(sorted(RUN_SEEDS)))
+    data = json.loads(json.dumps(RUN_SEED_DATA[seed]))
+    paths = _numeric_paths(data)
+    chosen = draw(st.lists(st.sampled_from(paths), min_size=1, max_size=2, unique=True))
+    for p in chosen:
+        _set(data, p, draw(st.sampled_from(EXTREMES)))
+    return seed, data, [_key_name(p) for p in chosen]
+
+
+@pytest.fixture(scope="module")
+def warm_kernels(tmp_path_factory):
+    """Each seed run once unchanged (numba kernels compiled or loaded into the cache, so that a
+    draw's time is its own): every seed must give exit 0."""
+    d = tmp_path_factory.mktemp("warm")
+    for name, text in RUN_SEEDS.items():
+        (d / f"{name}.toml").write_text(text)
+        p = subprocess.run([sys.executable, "-m", "vibeam.cli", "run", str(d / f"{name}.toml"), "--out",
+                            str(d / name), "--jobs", "1", "--quiet", "--no-plots"], capture_output=True, text=True,
+                           timeout=1800)
+        assert p.returncode == 0, (name, p.stderr)
+    return True
+
+
+_INFO = ("[", "vibeam: note: ")      # the run's header line ([name] ...) and notes
+
+
+def run_extreme(seed, data, keys, tmp: Path) -> str:
+    """Run one drawn case; returns its outcome class or fails with what went wrong."""
+    from vibeam.records import STATUSES
+    from vibeam.results import read_results
+
+    work = tmp / "work"
+    work.mkdir()
+    (work / "case.toml").write_text(to_toml(data))
+    out = work / "out"
+    try:
+        p = subprocess.run([sys.executable, "-m", "vibeam.cli", "run", "case.toml", "--out", "out", "--jobs", "1",
+                            "--quiet", "--no-plots"], capture_output=True, text=True, cwd=work,
+                           timeout=HANG_GUARD_S)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"hang: no exit within {HANG_GUARD_S} s ({seed}: {keys} = "
+                    f"{[_get(data, tuple(_path(k))) for k in keys]})")
+    where = f"{seed}: {', '.join(f'{k} = {_get(data, tuple(_path(k)))!r}' for k in keys)}"
+    assert "Traceback" not in p.stderr, (where, p.stderr)
+    outside = sorted(str(f.relative_to(work)) for f in work.rglob("*")
+                     if f != work / "case.toml" and out not in f.parents and f != out)
+    assert not outside, (where, "files outside the output folder", outside)
+    if p.returncode == 2:
+        lines = [l for l in p.stderr.splitlines() if not l.startswith(_INFO)]
+        assert len(lines) == 1 and lines[0].startswith("vibeam: error: "), (where, p.stderr)
+        return "exit 2: one line"
+    assert p.returncode in (0, 3), (where, p.returncode, p.stderr)
+    res = read_results(out / "results.h5")
+    statuses = set()
+    for name, run in res["runs"].items():
+        st_ = np.array([str(s) for s in np.ravel(run["status"])])
+        amp = np.ravel(np.asarray(run["amplitude"], float))
+        assert set(st_) <= set(STATUSES), (where, name, set(st_))
+        live = st_ != "failed"
+        bad = sorted(set(st_[live][~np.isfinite(amp[live])]))
+        if bad and name == "averaging":
+            return "pending f-numerics (item 9): averaging reports a NaN as " + ",".join(bad)
+        assert not bad, (where, name, "a number that is not finite with status", bad)
+        statuses |= set(st_)
+    if p.returncode == 3:
+        assert statuses == {"failed"}, (where, statuses)
+        return "exit 3: every point failed"
+    return "exit 0: " + ("all ok" if statuses == {"ok"} else "statuses " + ",".join(sorted(statuses)))
+
+
+def _path(key: str):
+    return [int(p) if p.isdigit() else p for p in key.split(".")]
+
+
+def _check_extreme_draw(draw, tmp_path_factory):
+    seed, data, keys = draw
+    why = pending_f_numerics(seed, data, keys)
+    if why:
+        event(f"skipped, pending f-numerics: {why}")
+        assume(False)
+    tmp = tmp_path_factory.mktemp("x")
+    outcome = run_extreme(seed, data, keys, tmp)
+    event(outcome)
+    event(f"seed {seed}")
+
+
+@settings(FUZZ, max_examples=40)
+@given(extreme_cases())
+def test_extreme_numbers_run_to_an_allowed_outcome(warm_kernels, tmp_path_factory, draw):
+    """40 draws (the slow step runs 300): see RUN_SEEDS above.  Default-step cost: one
+    subprocess of 1-5 s per draw."""
+    _check_extreme_draw(draw, tmp_path_factory)
+
+
+@pytest.mark.slow
+@settings(FUZZ, max_examples=300)
+@given(extreme_cases())
+def test_extreme_numbers_run_to_an_allowed_outcome_many(warm_kernels, tmp_path_factory, draw):
+    _check_extreme_draw(draw, tmp_path_factory)
