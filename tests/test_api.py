@@ -306,6 +306,20 @@ def test_simulate_of_a_model_has_the_work_limit_too():
         vibeam.simulate(m, Omega=1.3, method=3)
 
 
+def test_simulate_of_a_compliant_model_counts_its_contact_steps():
+    """A pre-stressed stop of stiffness ratio k_c = 1e18 (Delta = -0.1: the mass stays on it)
+    steps its contact at 1/16 of the contact period, 8 sqrt(1 + k_c) / Omega = 4e9 steps a
+    forcing period at Omega = 2: 40 periods are 1.6e11 steps, above the limit of 1e11 (the
+    event grid alone, 40 x 64 samples, is not).  Refused before any kernel runs, like the same
+    scene through ``vibeam run`` (runner.estimate_work counts the same contact steps)."""
+    from vibeam.models import SDOF
+    from vibeam.models.compliant import LinearContact
+
+    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=-0.1, contact=LinearContact.from_restitution(1e18, 0.9))
+    with pytest.raises(ValueError, match="about 1.6e\\+11 solver steps.*force=True"):
+        vibeam.simulate(m, Omega=2.0, periods=40)
+
+
 @pytest.mark.parametrize("source,exc,needles", [
     (None, TypeError, ["source = None", "a path to a case file"]),
     (123, TypeError, ["source = 123"]),

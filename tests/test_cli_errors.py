@@ -106,6 +106,7 @@ def ws():
     # issue 19: cases, tables and special files
     (d / "reversed.toml").write_text(SDOF.replace("[14.0, 17.0, 3]", "[17.0, 14.0, 3]"))
     (d / "repeated.toml").write_text(SDOF.replace("[14.0, 17.0, 3]", "[15.0, 15.0, 3]"))
+    (d / "subnormal.toml").write_text(SDOF.replace("[14.0, 17.0, 3]", "[5e-320, 17.0, 3]"))
     (d / "other.toml").write_text(SDOF.replace("R = 0.72", "R = 0.5"))
     (d / "nondim.toml").write_text(NONDIM)
     (d / "ivanov.toml").write_text(NONDIM.replace("R = 0.8", "R = 0.0").replace('"event"', '"ivanov"'))
@@ -246,6 +247,13 @@ CASES.update({
                                                                         "start > stop"]),
     "grid-repeated": (["run", "{d}/repeated.toml", "--out", "{d}/rep"], ["repeated.toml", "sweep.frequency_hz",
                                                                         "equal values"]),
+})
+
+# found by the fuzz test of numeric extremes (tests/test_fuzz_cases.py): a subnormal start of the
+# grid made the work estimate overflow with a RuntimeWarning line before the error
+CASES.update({
+    "grid-subnormal-start": (["run", "{d}/subnormal.toml", "--out", "{d}/sub"],
+                             ["subnormal.toml", "'sweep.frequency_hz' = [5e-320, 17.0, 3.0]", "above the limit"]),
 })
 
 

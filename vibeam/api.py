@@ -652,7 +652,8 @@ def _check_point_work(case, job, solver, Omega, transient, periods, spp, force, 
                              .replace("pass --force", "pass force=True")) from None
         return
     w = point_work(Omega, transient, periods, spp, dofs=max(1, int(np.size(solver.model.initial_state())) // 2),
-                   method=solver.name, transient_samples=int(settings.get("transient_samples", 16)))
+                   method=solver.name, transient_samples=int(settings.get("transient_samples", 16)),
+                   model=solver.model)
     if w["point_values"] > MAX_POINT_VALUES:
         raise InputError(f"simulate: periods = {periods}, samples_per_period = {spp}: the point would record "
                          f"{w['point_values']:.3g} values (limit {MAX_POINT_VALUES:.0e}); record fewer periods or "

@@ -193,6 +193,7 @@ def estimate_work(case, jobs_=None) -> dict:
         r = job.run
         Om = np.abs(np.asarray(job.sweep.Omega, float))
         Om = Om[Om > 0] if (Om > 0).any() else np.array([1e-300])
+        Om = np.maximum(Om, 1e-300)     # a subnormal Omega: 16 / Omega stays finite, the estimate huge
         w_min = min(w_min, float(Om.min()))
         dofs = _dofs(job.spec)
         if r.method in ("averaging", "mapping"):
@@ -242,13 +243,18 @@ def estimate_work(case, jobs_=None) -> dict:
 
 
 def point_work(Omega: float, transient_periods: int, record_periods: int, samples_per_period: int,
-               dofs: int = 1, method: str = "event", transient_samples: int = 16) -> dict:
+               dofs: int = 1, method: str = "event", transient_samples: int = 16, model=None) -> dict:
     """The work of one time-domain point as :func:`estimate_work` counts it (its per-point
-    term): ``steps`` and ``point_values``, for a point simulated outside a case's sweep
-    (:func:`vibeam.api.simulate` with a model), checked against the same limits."""
-    sub = _STEPS_PER_NATURAL_PERIOD / max(float(Omega), 1e-300)
+    term, with a compliant stop's contact steps of ``model``): ``steps`` and
+    ``point_values``, for a point simulated outside a case's sweep (:func:`vibeam.api.simulate`
+    with a model), checked against the same limits."""
+    Om = max(float(Omega), 1e-300)
+    sub = _STEPS_PER_NATURAL_PERIOD / Om
+    con = _contact_steps(model, np.array([Om])) if model is not None else None
+    con = float(con[0][0]) if con is not None else 0.0
     cost = ODE_STEP_COST if method in ("direct", "zhuravlev", "ivanov") else 1.0
-    steps = (transient_periods * max(transient_samples, sub) + record_periods * max(samples_per_period, sub))
+    steps = (transient_periods * (max(transient_samples, sub) + con)
+             + record_periods * (max(samples_per_period, sub) + con))
     return {"steps": float(steps) * dofs * cost,
             "point_values": float(record_periods) * samples_per_period * 2.0 * (1 + dofs)}
 
@@ -264,7 +270,8 @@ def check_work(case, jobs_=None, force: bool = False, source: str = "") -> dict:
     """
     from .case import InputError, _value
 
-    w = estimate_work(case, jobs_)
+    with np.errstate(over="ignore"):      # an estimate beyond 1e308 is inf: refused, without a warning line
+        w = estimate_work(case, jobs_)
     if force:
         return w
     where = f"{source}: " if source else ""
