@@ -572,16 +572,21 @@ def test_fe_ladder_converges_with_a_compliant_stop():
     rest, 300 + 8 periods: the error against all modes, |A_n - A_all|, decreases strictly over
     n = 1, 2, 4, 8 at every frequency (monotone convergence of the error; the signed amplitude is
     not monotone: 4 modes undershoot all modes by ~0.8 %, README), 4 and 8 modes are within 1 %
-    of all modes, and all modes lie within 1 % of the mesh twice as fine at 15.2 Hz (measured
-    0.06 %).  Measured errors (mm, 14.8 / 15.2 / 15.6 Hz): 1 mode 0.094 / 0.086 / 0.055, 2 modes
+    of all modes, and all modes lie within 1 % of a mesh 1.5 times as fine (36 elements) at
+    15.2 Hz, both on the period-1 orbit (measured 0.04 %; 0.05 % at 42 elements).  The mesh
+    twice as fine (48 elements) is not used: from rest, and even from the coarse orbit's low
+    modes, it settles on a coexisting period-3 orbit (3.04 mm against 3.74 mm) in some numeric
+    environments and on the period-1 orbit in others (0.06 % when the test was written).  Measured errors (mm, 14.8 / 15.2 / 15.6 Hz): 1 mode 0.094 / 0.086 / 0.055, 2 modes
     0.017 / 0.016 / 0.011, 4 modes 0.0059 / 0.0054 / 0.0035, 8 modes 0.0026 / 0.0024 / 0.0016.
     With Newton's law 4 modes are 14 % off.  ~4 min."""
-    amps = {}
+    amps, periods = {}, {}
     for f in (14.8, 15.2, 15.6):
         W = f / 7.6
         for nm in (1, 2, 4, 8, "all"):
             m = _rig(nm, 1e6)
-            amps[f, nm] = summarize(make_solver(m, "event").point(W, None, 300, 8, 64), m.Delta)["amplitude"]
+            sm = summarize(make_solver(m, "event").point(W, None, 300, 8, 64), m.Delta)
+            amps[f, nm] = sm["amplitude"]
+        periods[f] = sm["period"]
         ref = amps[f, "all"]
         err = [abs(amps[f, nm] - ref) for nm in (1, 2, 4, 8)]
         assert all(a > b for a, b in zip(err, err[1:])), (f, err)
@@ -591,11 +596,12 @@ def test_fe_ladder_converges_with_a_compliant_stop():
     from vibeam.case import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
-    fine = case.model_spec({"n_modes": "all", "n_elements": 48,
+    fine = case.model_spec({"n_modes": "all", "n_elements": 36,
                             "contact": {"law": "linear", "stiffness_n_m": 1e6}}).build()
     W = 15.2 / 7.6
-    a_fine = summarize(make_solver(fine, "event").point(W, None, 300, 8, 64), fine.Delta)["amplitude"]
-    assert abs(amps[15.2, "all"] - a_fine) <= 0.01 * a_fine
+    s_fine = summarize(make_solver(fine, "event").point(W, None, 300, 8, 64), fine.Delta)
+    assert s_fine["period"] == 1 and periods[15.2] == 1
+    assert abs(amps[15.2, "all"] - s_fine["amplitude"]) <= 0.01 * s_fine["amplitude"]
 
 
 # ------------------------------------------------------------------ the piecewise-linear map

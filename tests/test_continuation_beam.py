@@ -469,12 +469,22 @@ def test_shipped_ladder_case(tmp_path):
     """cases/rig-fe-tight-continuation.toml as shipped (5 rungs, ~1 min with all modes): every
     rung's first fold (largest Q: where the down sweep jumps) and first period doubling (of the
     two-impact orbit) against the values measured when the case was made (1e-8 relative: the
-    location tolerance, with room for the library's round-off in the calibrated FE model)."""
+    location tolerance, with room for the library's round-off in the calibrated FE model).
+
+    The all-mode rung is held to 5e-7 instead: its model is not reproducible to 1e-8 across
+    numeric environments.  The 48-DOF eigenproblem spans ~12 decades (highest to lowest
+    eigenvalue), so the low modes' shapes carry round-off of the LAPACK/OpenBLAS kernel in use,
+    and the fold and period doubling move with it.  Measured (Hz, fold / period doubling):
+    native here 17.177320003 / 15.353035871, NUMBA_CPU_NAME=generic OPENBLAS_CORETYPE=Prescott
+    17.177321072 / 15.353036855, Haswell 17.177321890 / 15.353037610, and the values below
+    (the machine the case was made on): a spread of 1.1e-7 relative, while the 4-mode rung
+    agrees to 1e-11 in all four.  5e-7 is ~6 times the largest deviation from the values below."""
     res, table = _run_ladder(tuple(LADDER_FOLDS_HZ), tmp_path)
     for name, r in res.items():
         fn = r.attrs["natural_frequency_hz"]
         fold = max(_bifs(r, "fold"), key=lambda bf: bf["amplitude"])
         pd = max(_bifs(r, "period_doubling"), key=lambda bf: bf["amplitude"])
-        assert fold["parameter"] * fn == pytest.approx(LADDER_FOLDS_HZ[name], rel=1e-8), name
-        assert pd["parameter"] * fn == pytest.approx(LADDER_PD_HZ[name], rel=1e-8), name
+        rel = 5e-7 if name == "FE all modes" else 1e-8
+        assert fold["parameter"] * fn == pytest.approx(LADDER_FOLDS_HZ[name], rel=rel), name
+        assert pd["parameter"] * fn == pytest.approx(LADDER_PD_HZ[name], rel=rel), name
     assert "FE all modes" in table
