@@ -350,7 +350,7 @@ class TimeSeriesHook:
 
 
 def _sensor_hook(case, spec, run, model):
-    from .case import CaseError
+    from .errors import CaseError
     from .sensor import SensorHook
 
     eff = case.effects_for(run)

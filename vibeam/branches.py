@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .case import CaseError
+from .errors import CaseError
 
 #: units of the continuation parameters (the HDF5 ``units`` attribute of ``parameter``)
 PARAMETER_UNITS = {"Omega": "1 (forcing frequency / natural frequency)", "voltage": "V", "gain": "1/V",

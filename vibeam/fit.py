@@ -414,7 +414,7 @@ class FitProblem:
         """Sweep the model at each parameter vector in ``xs``: all lines go to the executor in
         one :func:`vibeam.sweep.run_lines` call (``transient_factors``: per vector, a multiple
         of the case's transient periods; default 1)."""
-        from .case import CaseError
+        from .errors import CaseError
         from .sweep import plan_lines, run_lines
 
         plans = []

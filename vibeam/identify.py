@@ -54,9 +54,9 @@ def param_unit(name: str) -> str:
 
 
 def _error(msg):
-    from .case import CaseError, _one_line
+    from .errors import CaseError, one_line
 
-    return CaseError(_one_line(msg))
+    return CaseError(one_line(msg))
 
 
 # ============================================================================ statistics

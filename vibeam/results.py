@@ -76,6 +76,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .errors import ForeignFileError  # noqa: F401 (re-exported)
 
 LAYOUT_VERSION = 2
 _DIM_ONLY = "This is a netCDF dimension but not a netCDF variable"
@@ -777,10 +778,6 @@ def case_hash(case_json: str) -> str:
     import hashlib
 
     return hashlib.sha256(case_json.encode()).hexdigest()[:16]
-
-
-class ForeignFileError(ValueError):
-    """A results file that belongs to another case (written by another process meanwhile)."""
 
 
 def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", case_json: str = "",
