@@ -520,7 +520,7 @@ def branch_variables(r) -> tuple:
     """The variables of ``/branches/<run>/`` (:func:`vibeam.results.write_group`): every branch
     on the dimensions (branch, point), the bifurcations on (bifurcation), the two-parameter
     curves on (curve, curve_point).  Returns ``(variables, subgroups)``."""
-    from .results import var
+    from .netcdf import var
 
     B = r.branches
     lens = [len(b["data"].get("parameter", ())) for b in B]
@@ -582,7 +582,7 @@ def branch_variables(r) -> tuple:
         u1, _ = _cf(PARAMETER_UNITS.get(r.parameter, "1"))
         cv["parameter"] = var(("curve", "curve_point"), _padded([c["p1"] for c in C], n_c, ()), u1,
                               f"continuation parameter {r.parameter}")
-        from .results import parameter_units
+        from .netcdf import parameter_units
 
         cv[key2] = var(("curve", "curve_point"), _padded([c["p2"] for c in C], n_c, ()), parameter_units(key2),
                        f"second parameter {key2}")
@@ -600,14 +600,14 @@ def write_branches(f, results: list) -> None:
     (branch, point), ``bifurcations/`` on (bifurcation), ``curves/`` on (curve, curve_point)."""
     import json
 
-    from .results import _json_default, write_group
+    from .netcdf import json_default, write_group
 
     for r in results:
         v, groups = branch_variables(r)
         attrs = {"fidelity": r.fidelity, "method": "continuation",
-                 "settings": json.dumps(r.settings, default=_json_default), "wall_time_s": r.wall_time_s,
+                 "settings": json.dumps(r.settings, default=json_default), "wall_time_s": r.wall_time_s,
                  "status": r.status, "message": r.message,
-                 "starts": json.dumps(r.starts, default=_json_default), **r.attrs}
+                 "starts": json.dumps(r.starts, default=json_default), **r.attrs}
         write_group(f, f"branches/{r.name}", v, attrs, groups)
 
 
@@ -615,9 +615,9 @@ def read_branch_group(g) -> dict:
     """One ``/branches/<run>/`` group back as nested dicts, one per branch (the shape of the
     first layout): ``{"<index>-period<n>": {dataset: array, "attrs": {index, n, status, message,
     origin}}, "bifurcations": {...}, "curves": {"<i>-<type>": {...}}}``; padding removed."""
-    from .results import _attrs, _read_plain
+    from .netcdf import read_plain
 
-    flat = _read_plain(g, attrs=True)
+    flat = read_plain(g, attrs=True)
     if "n_points" not in flat:            # the first layout: one group per branch already
         return flat
     out = {}
@@ -751,7 +751,7 @@ CURVE_STYLES = {"grazing": "-", "fold": "--", "period_doubling": ":", "neimark_s
 
 
 def _param_label(r, use_hz):
-    from .results import parameter_units
+    from .netcdf import parameter_units
     from .style import label
 
     if use_hz:
@@ -859,7 +859,7 @@ def curves_figure(r: ContinuationResult, title: str = "", case=None):
     import matplotlib.pyplot as plt
 
     from . import style
-    from .results import parameter_units
+    from .netcdf import parameter_units
 
     fn = r.attrs.get("natural_frequency_hz")
     with style.context():

@@ -347,7 +347,7 @@ def _plot_modes(rep, path, title):
 
 
 def main(argv=None) -> int:
-    from . import __version__
+    from .version import __version__
 
     ap = _Parser(prog="vibeam", description="Vibro-impact structural dynamics of an "
                  "impacting cantilever beam (multi-fidelity).",

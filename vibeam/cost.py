@@ -452,7 +452,7 @@ def print_cost(result: dict) -> None:
 def cost_tables(result: dict) -> dict:
     """Variables of the HDF5 group ``/cost`` (one row per line of the table; the error sources
     of each model in ``model_*``)."""
-    from .results import var
+    from .netcdf import var
 
     rows = result["rows"]
     ms = list(result.get("models", {}).values())

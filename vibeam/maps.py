@@ -186,7 +186,7 @@ def _mesh(x, y):
 
 
 def _axes_labels(m):
-    from .results import parameter_units
+    from .netcdf import parameter_units
     from .style import label
 
     phys = "frequency_hz" in m.data
