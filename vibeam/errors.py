@@ -48,3 +48,8 @@ def quote_value(v) -> str:
     if len(r) > MAX_VALUE_CHARS:
         r = r[: MAX_VALUE_CHARS - 3] + "..."
     return one_line(r)
+
+
+def case_error(msg: str) -> CaseError:
+    """A :class:`CaseError` whose message is ``msg`` on one line (see :func:`one_line`)."""
+    return CaseError(one_line(msg))
