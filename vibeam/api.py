@@ -50,7 +50,7 @@ def load_case(source):
     """
     import os
 
-    from .case import Case, _format, load_case as _load, parse_case
+    from .case import Case, validation_message, load_case as _load, parse_case
     from .errors import CaseError, quote_value
 
     if isinstance(source, Case):
@@ -70,7 +70,7 @@ def load_case(source):
             try:
                 case = Case.model_validate(source)
             except ValidationError as e:
-                raise CaseError(_format(e, "", Case)) from None
+                raise CaseError(validation_message(e, "", Case)) from None
             return _remember(case, "")
         return _remember(parse_case(text, "<dict>"), text)
     if not isinstance(source, str) or _names_a_file(source):
@@ -534,11 +534,11 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
                                               "samples_per_period")
     case = None
     if isinstance(case_or_model, (Case, str, Path, dict)):
-        from .runner import _job
+        from .runner import make_job
 
         case = load_case(case_or_model)
         r = _pick_run(case, run)
-        job = _job(case, r, dict(r.model))
+        job = make_job(case, r, dict(r.model))
         solver = job.solver
         periods = case.sweep.record_periods if periods is None else periods
         if transient is None:

@@ -65,7 +65,7 @@ class BranchTask:
         The run's continuation settings (:class:`vibeam.case.ContinuationRun`).
     sweep_periods : (int or "auto", int)
         Transient and recorded periods of a ``sweep`` start (``"auto"``: settled as the
-        sweep settles its points, :func:`vibeam.sweep._settle`).
+        sweep settles its points, :func:`vibeam.sweep.settle_transient`).
     curve_key : str or None
         The ``[map]`` parameter of a case with two-parameter curves.
     curve_range : (float, float) or None
@@ -205,11 +205,11 @@ def _sweep_start(task, spec, value):
     n_tr = task.sweep_periods[0]
     if n_tr == "auto":
         # the sweep's own settling (transient_periods = "auto", e.g. a [quick] variant's)
-        from .sweep import Sweep, _Clock, _settle
+        from .sweep import Sweep, PointClock, settle_transient
 
         sw = Sweep(Omega=np.array([float(Omega)]), transient_periods="auto", record_periods=task.sweep_periods[1],
                    samples_per_period=16)
-        tr, n_tr, _ = _settle(solver, float(Omega), None, sw, model.Delta, _Clock())
+        tr, n_tr, _ = settle_transient(solver, float(Omega), None, sw, model.Delta, PointClock())
     else:
         tr = solver.point(float(Omega), None, n_tr, task.sweep_periods[1], 16)
     sm = summarize(tr, model.Delta)
@@ -824,9 +824,9 @@ def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = ""
 
 def plot_continuation(r: ContinuationResult, sweep_runs: list, path, title: str = "", case=None):
     """:func:`continuation_figure` saved to ``path``; returns the path."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(continuation_figure(r, sweep_runs, title, case), path)
+    return save_close(continuation_figure(r, sweep_runs, title, case), path)
 
 
 def plot_curves_on(ax, results: list, frequency_hz: bool) -> list:
@@ -879,6 +879,6 @@ def curves_figure(r: ContinuationResult, title: str = "", case=None):
 
 def plot_curves(r: ContinuationResult, path, title: str = "", case=None):
     """:func:`curves_figure` saved to ``path``; returns the path."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(curves_figure(r, title, case), path)
+    return save_close(curves_figure(r, title, case), path)

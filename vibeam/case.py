@@ -701,7 +701,7 @@ class SweepSpec(_Strict):
 
     ``transient_periods = "auto"`` extends each point's transient until the
     stroboscopic map settles, up to ``max_transient_periods`` (default 10000;
-    :func:`vibeam.sweep._settle`); ``point_time_limit_s`` ends a point that runs
+    :func:`vibeam.sweep.settle_transient`); ``point_time_limit_s`` ends a point that runs
     longer as ``failed`` (default: no limit).  A point whose record is not periodic is
     continued until its spread is measured over ``statistics_periods`` periods (default
     256; 0 or at most ``record_periods``: the record alone), the sample its regression
@@ -1079,7 +1079,7 @@ class Case(_Strict):
         try:
             return EffectsSpec.model_validate(data)
         except ValidationError as e:
-            raise CaseError(_format(e, f"run '{run.name}'.effects", EffectsSpec)) from None
+            raise CaseError(validation_message(e, f"run '{run.name}'.effects", EffectsSpec)) from None
 
     def run_settings(self, run) -> dict:
         """Method settings of a run (everything but name, method and model overrides; unset
@@ -1138,7 +1138,7 @@ def _validate_model(data: dict, prefix: str = "model"):
     try:
         spec = MODEL_SPECS[fid].model_validate(data)
     except ValidationError as e:
-        raise CaseError(_format(e, prefix, MODEL_SPECS[fid])) from None
+        raise CaseError(validation_message(e, prefix, MODEL_SPECS[fid])) from None
     spec.check(prefix)
     return spec
 
@@ -1219,7 +1219,7 @@ def _check_ints(data, loc=()) -> None:
 _METHODS = ", ".join(repr(m) for m in _RUN_BY_METHOD)
 
 
-def _format(err: ValidationError, prefix: str, root_cls) -> str:
+def validation_message(err: ValidationError, prefix: str, root_cls) -> str:
     """One line naming, for every error, the key, the value and what is allowed."""
     msgs = []
     for e in err.errors():
@@ -1281,7 +1281,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
         try:
             case = Case.model_validate(data)
         except ValidationError as e:
-            raise CaseError(_format(e, "", Case)) from None
+            raise CaseError(validation_message(e, "", Case)) from None
         spec = case.model_spec()
         for i, r in enumerate(case.run):
             allowed = fidelity_methods(spec.fidelity)

@@ -12,7 +12,7 @@ One evaluation of the residuals is one sweep
     and/or ``down``, as continuation chains when the case's ``[sweep] continuation`` is on,
     like the rig's sweep that dwelt on exactly those frequencies), through the one sweep
     engine :func:`vibeam.sweep.run_lines` with the solvers built as the runner builds them
-    (:func:`vibeam.runner._job`).  Not on the case's grid and interpolated: a vibro-impact
+    (:func:`vibeam.runner.make_job`).  Not on the case's grid and interpolated: a vibro-impact
     FRC jumps, and an interpolated value next to a jump belongs to neither branch; the
     data frequencies are also where the residual is needed, so no point is wasted.
 
@@ -288,9 +288,9 @@ class FitProblem:
 
     def job(self, x):
         """The runner's job (solver and sweep) of the run at parameters ``x``."""
-        from .runner import _job
+        from .runner import make_job
 
-        return _job(self.case, self.run, self.overrides(x))
+        return make_job(self.case, self.run, self.overrides(x))
 
     def _sweeps(self, job, transient_factor: int = 1):
         """One :class:`vibeam.sweep.Sweep` per measured direction, at the data's frequencies."""
@@ -1105,9 +1105,9 @@ def synthetic_reference(case, frequencies, values: dict | None = None, run: str 
     r = _pick_run(case, run)
     spec0 = case.model_spec(dict(r.model)) if r.model else case.model_spec()
     phys = bool(getattr(spec0, "physical", False))
-    from .runner import _job
+    from .runner import make_job
 
-    job = _job(case, r, dict(r.model, **(values or {})))
+    job = make_job(case, r, dict(r.model, **(values or {})))
     model = job.solver.model
     fn = getattr(model, "natural_frequency_hz", None) if phys else None
     xs = np.asarray(frequencies, float)
