@@ -42,7 +42,7 @@ from numba import njit
 from .beam_dynamics import BeamImpactModel
 from .contact import Relation, Stop
 from .roots import rtsafe_update
-from .sdof_event import _certify
+from .sdof_event import certify_curvature
 from .trajectory import Trajectory, call_budget
 
 TWO_PI = 2.0 * math.pi
@@ -142,7 +142,7 @@ class CompliantBeamModel(BeamImpactModel):
 
 # ---------------------------------------------------------------- signals (sums of exponentials)
 @njit(cache=True)
-def _sig(s, al, lam, be, ga, phi0, Om, out):
+def signal_derivatives(s, al, lam, be, ga, phi0, Om, out):
     """Value and derivatives 1..3 at ``s`` of ``Re sum al_j e^{lam_j s} + Im(be e^{i phi}) + ga``."""
     r0 = r1 = r2 = r3 = 0.0
     for j in range(lam.shape[0]):
@@ -179,7 +179,7 @@ def _bound(al, lam, be, Om, n):
 
 
 @njit(cache=True)
-def _combo(c0, c1, c2, al, lam, be, ga, Om, al_out):
+def signal_combo(c0, c1, c2, al, lam, be, ga, Om, al_out):
     """Coefficients of ``c0 f + c1 f' + c2 f''`` of a signal; returns ``(be, ga)``."""
     for j in range(lam.shape[0]):
         al_out[j] = al[j] * (c0 + c1 * lam[j] + c2 * lam[j] * lam[j])
@@ -194,7 +194,7 @@ def _broot(al, lam, be, ga, phi0, Om, order, sgn, lo, hi, buf):
     dx = dxold
     s = 0.5 * (lo + hi)
     for _ in range(200):
-        _sig(s, al, lam, be, ga, phi0, Om, buf)
+        signal_derivatives(s, al, lam, be, ga, phi0, Om, buf)
         F = sgn * buf[order]
         dF = sgn * buf[order + 1]
         s, lo, hi, dx, dxold, done = rtsafe_update(F, dF, s, lo, hi, dx, dxold)
@@ -229,7 +229,7 @@ def bupcross(al, lam, be, ga, phi0, Om, lo, hi, h_min):
     b0 = np.empty(4)
     b1 = np.empty(4)
     s = lo
-    _sig(s, al, lam, be, ga, phi0, Om, b0)
+    signal_derivatives(s, al, lam, be, ga, phi0, Om, b0)
     n_scan = 0
     while s < hi:
         n_scan += 1
@@ -238,12 +238,12 @@ def bupcross(al, lam, be, ga, phi0, Om, lo, hi, h_min):
         h = hi - s
         cert = 0
         while True:
-            _sig(s + h, al, lam, be, ga, phi0, Om, b1)
+            signal_derivatives(s + h, al, lam, be, ga, phi0, Om, b1)
             e2 = 0.125 * M2 * h * h
             if min(b0[0], b1[0]) - e2 > 0.0 or max(b0[0], b1[0]) + e2 < 0.0:
                 cert = 2
                 break
-            cert = _certify(b0[2], b0[3], b1[2], b1[3], M3, M4, h, tol)
+            cert = certify_curvature(b0[2], b0[3], b1[2], b1[3], M3, M4, h, tol)
             if cert != 0 or h < h_min or not h > 0.0:
                 break
             h *= 0.5
@@ -255,23 +255,23 @@ def bupcross(al, lam, be, ga, phi0, Om, lo, hi, h_min):
         if cert == 1 or cert == 0:
             if b0[0] >= 0.0 and b1[0] >= 0.0 and b0[1] < 0.0 < b1[1]:
                 sm = _broot(al, lam, be, ga, phi0, Om, 1, 1.0, s, e, b1)
-                _sig(sm, al, lam, be, ga, phi0, Om, b1)
+                signal_derivatives(sm, al, lam, be, ga, phi0, Om, b1)
                 if b1[0] < 0.0:
                     return _broot(al, lam, be, ga, phi0, Om, 0, 1.0, sm, e, b1)
         if cert == -1 or cert == 0:
             if b0[0] < 0.0 and b1[0] < 0.0 and b0[1] > 0.0 > b1[1]:
                 sa = _broot(al, lam, be, ga, phi0, Om, 1, -1.0, s, e, b1)
-                _sig(sa, al, lam, be, ga, phi0, Om, b1)
+                signal_derivatives(sa, al, lam, be, ga, phi0, Om, b1)
                 if b1[0] >= 0.0:
                     return _broot(al, lam, be, ga, phi0, Om, 0, 1.0, s, sa, b1)
         s = e
-        _sig(s, al, lam, be, ga, phi0, Om, b0)
+        signal_derivatives(s, al, lam, be, ga, phi0, Om, b0)
     return -1.0
 
 
 # ---------------------------------------------------------------- kernel
 @njit(cache=True)
-def _state(s, a, lam, V, Z, ze, phi0, Om, z):
+def modal_state(s, a, lam, V, Z, ze, phi0, Om, z):
     """``z(s) = Re(V (a e^{lam s})) + Im(Z e^{i phi}) + z_e``."""
     n = lam.shape[0]
     e = np.empty(n, np.complex128)
@@ -287,7 +287,7 @@ def _state(s, a, lam, V, Z, ze, phi0, Om, z):
 
 
 @njit(cache=True)
-def _modal(z, W, Z, ze, phi0, a):
+def modal_coordinates(z, W, Z, ze, phi0, a):
     """``a = V^-1 (z - Im(Z e^{i phi0}) - z_e)``."""
     n = z.shape[0]
     ep = complex(math.cos(phi0), math.sin(phi0))
@@ -328,7 +328,7 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
 
 
 @njit(cache=True)
-def _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2, foff=0.0):
+def free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2, foff=0.0):
     """Contact entry of one stop in a free step of at most ``h``: the signal ``(al, lam, beU,
     gaU)`` is the stop's gap ``g`` (< 0 free), ``kc g + cc g' + foff`` has the sign of its
     force inside the stop (Kelvin-Voigt: the force; Hunt-Crossley after an exit by its damping
@@ -338,7 +338,7 @@ def _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2, foff=0.0)
     :data:`EV_NONE` (``s = h``)."""
     ev = EV_NONE
     s_adv = h
-    _sig(0.0, al, lam, beU, gaU, phi, Om, buf)
+    signal_derivatives(0.0, al, lam, beU, gaU, phi, Om, buf)
     g0 = buf[0]
     # the gap from the modal reconstruction carries round-off (1e-13 of its
     # bound): within it the body is on the stop (g0 = 0)
@@ -369,12 +369,12 @@ def _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2, foff=0.0)
         s_adv = 0.0
         ev = EV_ENTRY
     elif g0 >= 0.0:
-        b2, g2 = _combo(-1.0, 0.0, 0.0, al, lam, beU, gaU, Om, al2)
+        b2, g2 = signal_combo(-1.0, 0.0, 0.0, al, lam, beU, gaU, Om, al2)
         s_d = bupcross(al2, lam, b2, g2, phi, Om, 0.0, h, h_min)
         if s_d == STALL:
             return -1.0, EV_NONE
         lim = s_d if s_d >= 0.0 else h
-        b2, g2 = _combo(kc, cc, 0.0, al, lam, beU, gaU, Om, al2)
+        b2, g2 = signal_combo(kc, cc, 0.0, al, lam, beU, gaU, Om, al2)
         if foff != 0.0:
             g2 += foff
         s_e = bupcross(al2, lam, b2, g2, phi, Om, 0.0, lim, h_min)
@@ -438,7 +438,7 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
     # the modal coefficients of the homogeneous part are carried from step to step (a_j e^{lam_j s},
     # exact; fast overdamped modes decay to exactly 0 and drop out of the sums) and recomputed
     # from the state only at a change of phase
-    _modal(z, WA[phase], ZA[phase], zeA[phase], 0.0, a)
+    modal_coordinates(z, WA[phase], ZA[phase], zeA[phase], 0.0, a)
     for p in range(n_transient + n_record):
         recording = p >= n_transient
         ns = ns_record if recording else ns_transient
@@ -482,18 +482,18 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                         # the lower stop's entry first, then the upper stop's scan up to it
                         for j in range(n2):
                             alL[j] = -al[j]
-                        s_l, ev_l = _free_scan(alL, lam, -beU, -gU[phase] - DeltaL, phi, Om, kcl, ccl, h, h_min,
+                        s_l, ev_l = free_scan(alL, lam, -beU, -gU[phase] - DeltaL, phi, Om, kcl, ccl, h, h_min,
                                                buf, al2)
                         if s_l < 0.0:
                             z0[:] = z
                             return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
                         if ev_l != EV_NONE:
                             h = s_l
-                        s_adv, ev = _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2)
+                        s_adv, ev = free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2)
                         if ev == EV_NONE and ev_l != EV_NONE:
                             s_adv, ev, side = s_l, ev_l, 1
                     else:
-                        s_adv, ev = _free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2)
+                        s_adv, ev = free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2)
                 else:
                     # the signals of the stop in contact: its gap and force
                     if phase == 2:
@@ -509,7 +509,7 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                         c_s = cc
                     ev = EV_NONE
                     s_adv = h
-                    b2, g2 = _combo(-k_s, -c_s, 0.0, al, lam, beU, gaU, Om, al2)
+                    b2, g2 = signal_combo(-k_s, -c_s, 0.0, al, lam, beU, gaU, Om, al2)
                     s_x = bupcross(al2, lam, b2, g2, phi, Om, 0.0, h, h_min)
                     if s_x == STALL:
                         s_adv = -1.0
@@ -517,7 +517,7 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                         s_adv = s_x
                         ev = EV_EXIT
                     # peak force (interior maxima), largest penetration, work on the stop
-                    b2, g2 = _combo(0.0, -k_s, -c_s, al, lam, beU, gaU, Om, al2)
+                    b2, g2 = signal_combo(0.0, -k_s, -c_s, al, lam, beU, gaU, Om, al2)
                     s = 0.0
                     while True:
                         s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
@@ -526,9 +526,9 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                             break
                         if s < 0.0:
                             break
-                        _sig(s, al, lam, beU, gaU, phi, Om, buf)
+                        signal_derivatives(s, al, lam, beU, gaU, phi, Om, buf)
                         cs[1] = max(cs[1], k_s * buf[0] + c_s * buf[1])
-                    b2, g2 = _combo(0.0, -1.0, 0.0, al, lam, beU, gaU, Om, al2)
+                    b2, g2 = signal_combo(0.0, -1.0, 0.0, al, lam, beU, gaU, Om, al2)
                     s = 0.0
                     while True:
                         s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
@@ -537,14 +537,14 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                             break
                         if s < 0.0:
                             break
-                        _sig(s, al, lam, beU, gaU, phi, Om, buf)
+                        signal_derivatives(s, al, lam, beU, gaU, phi, Om, buf)
                         cs[2] = max(cs[2], buf[0])
                     acc = 0.0
                     for i in range(GL_X.shape[0]):
-                        _sig(GL_X[i] * s_adv, al, lam, beU, gaU, phi, Om, buf)
+                        signal_derivatives(GL_X[i] * s_adv, al, lam, beU, gaU, phi, Om, buf)
                         acc += GL_W[i] * (k_s * buf[0] + c_s * buf[1]) * buf[1]
                     cs[3] += acc * s_adv
-                    _sig(s_adv, al, lam, beU, gaU, phi, Om, buf)
+                    signal_derivatives(s_adv, al, lam, beU, gaU, phi, Om, buf)
                     cs[1] = max(cs[1], k_s * buf[0] + c_s * buf[1])
                     cs[2] = max(cs[2], buf[0])
                 if recording and s_adv > 0.0:
@@ -552,7 +552,7 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                     for j in range(n2):
                         al[j] = PS[phase, j] * a[j]
                     for sgn in (1.0, -1.0):
-                        b2, g2 = _combo(0.0, sgn, 0.0, al, lam, bS[phase], gS[phase], Om, al2)
+                        b2, g2 = signal_combo(0.0, sgn, 0.0, al, lam, bS[phase], gS[phase], Om, al2)
                         s = 0.0
                         while True:
                             s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
@@ -561,7 +561,7 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                                 break
                             if s < 0.0:
                                 break
-                            _sig(s, al, lam, bS[phase], gS[phase], phi, Om, buf)
+                            signal_derivatives(s, al, lam, bS[phase], gS[phase], phi, Om, buf)
                             if sgn > 0.0:
                                 smin = min(smin, buf[0])
                                 pm = min(pm, buf[0])
@@ -570,7 +570,7 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                 if s_adv < 0.0:     # a scan that could not be done in double precision (STALL)
                     z0[:] = z
                     return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
-                _state(s_adv, a, lam, VA[phase], ZA[phase], zeA[phase], phi, Om, z)
+                modal_state(s_adv, a, lam, VA[phase], ZA[phase], zeA[phase], phi, Om, z)
                 for j in range(n2):
                     if a[j] != 0.0:
                         a[j] = a[j] * np.exp(lam[j] * s_adv)
@@ -583,7 +583,7 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                     rem = 0.0
                 if ev == EV_ENTRY or ev == EV_EXIT:
                     nxt = FREE if ev == EV_EXIT else 1 + side
-                    _modal(z, WA[nxt], ZA[nxt], zeA[nxt], phi, a)
+                    modal_coordinates(z, WA[nxt], ZA[nxt], zeA[nxt], phi, a)
                 if ev == EV_ENTRY:
                     phase = 1 + side
                     n_con += 1
@@ -632,7 +632,7 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
     return (0, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
 
 
-def _phase_data(model: CompliantBeamModel, Om: float):
+def phase_data(model: CompliantBeamModel, Om: float):
     """Eigen-data and signal rows of the phases (free, upper contact[, lower contact]) at forcing
     ``Om`` (see the kernel)."""
     A, b, b0, kc, cc = model.phase_matrices()
@@ -704,7 +704,7 @@ class CompliantBeamEventSolver:
         # work budget of one kernel call (steps x modes; :class:`Trajectory` ``incomplete``)
         self.max_steps_per_call = max(self.max_steps_per_period, MAX_STEP_MODES_PER_CALL // model.n_modes)
         self.record_modal_states = bool(record_modal_states)
-        _ensure_eig(model)
+        ensure_eig(model)
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples, steps_per_fundamental=self.steps_per_fundamental,
@@ -718,7 +718,7 @@ class CompliantBeamEventSolver:
         s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
         if s0.shape != (2 * N + 1,) or not np.all(np.isfinite(s0)):
             s0 = m.initial_state()
-        data = _phase_data(m, Om)
+        data = phase_data(m, Om)
         lamA, VA, WA, ZA, zeA, PU, PS, bU, bS, gU, gS, kc, cc = data
         ww = float(m.contact_row @ m.contact_row)
         kl, cl, Dl = m.lower_stop_params()
@@ -776,7 +776,7 @@ class CompliantBeamEventSolver:
                           n_impacts_lower=int(n_low) if two else 0, incomplete=bool(incomplete))
 
 
-def _ensure_eig(model):
+def ensure_eig(model):
     """Diagonalise the phase matrices once per model (cached on it)."""
     key = (model.contact, model.n_modes, model.lower_law, getattr(model, "gap_contact_lower_m", None))
     if getattr(model, "_eig_key", None) == key:

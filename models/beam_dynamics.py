@@ -27,7 +27,7 @@ Exact flow
 Guaranteed impact detection
     As :mod:`vibeam.models.sdof_event`: on each step the cheap interpolation bound
     ``max(g0, g1) + M2 h^2 / 8 < 0`` clears intervals far from the stop; otherwise the
-    sign of ``g''`` is certified with :func:`vibeam.models.sdof_event._certify` from bounds
+    sign of ``g''`` is certified with :func:`vibeam.models.sdof_event.certify_curvature` from bounds
     ``M3, M4`` that sum, over every retained mode, the homogeneous bound of its k-th
     derivative (underdamped: ``A_i omega_i^k``; overdamped: ``|c1| |l1|^k + |c2| |l2|^k``;
     critical: a universal bound) plus the forced amplitude times ``Omega^k``.  Steps are
@@ -80,7 +80,7 @@ from .contact_policy import (BURST_DT, BURST_MAX, CHATTER, CHATTER_GUARD, REBOUN
                              release_now, zeno_burst)
 from .roots import rtsafe_update, select
 from .impact import newton_restitution, restitution_coefficient, restitution_impulse
-from .sdof_event import STATUS_NAMES, _certify
+from .sdof_event import STATUS_NAMES, certify_curvature
 
 TWO_PI = 2.0 * math.pi
 EPS = 2.220446049250313e-16
@@ -287,7 +287,7 @@ def _scan(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4):
         g1, v1, g21, g31, _ = _sig(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
         if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
             return -1.0, h
-        cert = _certify(g20, g30, g21, g31, M3, M4, h, tol2)
+        cert = certify_curvature(g20, g30, g21, g31, M3, M4, h, tol2)
         if cert != 0 or h < h_min or not h > 0.0:
             break
         h *= 0.5

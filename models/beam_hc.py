@@ -16,7 +16,7 @@ SDOF value for the same ``chi`` at any ``k_c``, ``m_eff`` and ``v_in`` (the test
 
 Free flight is the exact modal flow of :mod:`vibeam.models.beam_compliant` (the free phase's
 eigendecomposition; contact entry located by the same certified scan,
-:func:`vibeam.models.beam_compliant._free_scan`).  The contact phase is integrated by
+:func:`vibeam.models.beam_compliant.free_scan`).  The contact phase is integrated by
 Dormand-Prince 5(4) on ``(eta, eta', E)`` (``E' = f g'``, the work done on the stop), relative
 tolerance 1e-11 (:data:`vibeam.models.sdof_compliant.HC_RTOL`, absolute ones scaled by the
 isolated contact's penetration and the entry velocity along ``w``), its events -- the exit
@@ -34,9 +34,10 @@ import math
 import numpy as np
 from numba import njit
 
-from .beam_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_NONE, FREE, TWO_PI, _combo, _free_scan,
-                             _modal, _sig, _state, bupcross, STALL, MAX_STEP_MODES_PER_CALL)
-from .sdof_compliant import _DP_A, _DP_C, _DP_E, HC_ATOL, HC_RTOL, HC_V_FLOOR
+from .beam_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_NONE, FREE, TWO_PI, signal_combo, free_scan,
+                             modal_coordinates, signal_derivatives, modal_state, bupcross, STALL, MAX_STEP_MODES_PER_CALL)
+from .dormand_prince import DP_A, DP_C, DP_E
+from .sdof_compliant import HC_ATOL, HC_RTOL, HC_V_FLOOR
 from .trajectory import Trajectory, call_budget
 
 
@@ -74,22 +75,22 @@ def _dp_step(hs, y0, phi0, F, Om, knd, cnd, part, w, DC, kc, p, chi, vr, K, tmp,
         for c in range(n):
             acc = y0[c]
             for j in range(i):
-                acc += hs * _DP_A[i, j] * K[j, c]
+                acc += hs * DP_A[i, j] * K[j, c]
             tmp[c] = acc
-        _rhs(_DP_C[i] * hs, tmp, phi0, F, Om, knd, cnd, part, w, DC, kc, p, chi, vr, K[i])
+        _rhs(DP_C[i] * hs, tmp, phi0, F, Om, knd, cnd, part, w, DC, kc, p, chi, vr, K[i])
         if i == 6:
             break
     for c in range(n):
         acc = y0[c]
         for j in range(6):
-            acc += hs * _DP_A[6, j] * K[j, c]
+            acc += hs * DP_A[6, j] * K[j, c]
         y1[c] = acc
     _rhs(hs, y1, phi0, F, Om, knd, cnd, part, w, DC, kc, p, chi, vr, K[6])
     err = 0.0
     for c in range(2 * N):
         e = 0.0
         for j in range(7):
-            e += hs * _DP_E[j] * K[j, c]
+            e += hs * DP_E[j] * K[j, c]
         sc = (sc_x if c < N else sc_v) + HC_RTOL * max(abs(y0[c]), abs(y1[c]))
         err = max(err, abs(e) / sc)
     return err
@@ -294,7 +295,7 @@ def beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, wrow, srow, knd, cnd, part,
     for i in range(N):
         wn += wrow[i] * wrow[i]
     wn = math.sqrt(wn)
-    _modal(z, W, Z, ze, 0.0, a)
+    modal_coordinates(z, W, Z, ze, 0.0, a)
     if phase == CONTACT:
         gz = -DC
         uz = 0.0
@@ -345,7 +346,7 @@ def beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, wrow, srow, knd, cnd, part,
                     kk = 1.0 if foff != 0.0 else 0.0
                     # inside the stop after an exit by the damping factor: entry where
                     # g' + v_r / chi rises through 0 (force sign), else where g does
-                    s_adv, ev = _free_scan(al, lam, bU, -DC, phi, Om, 0.0 if kk else 1.0, kk, h, h_min, buf, al2,
+                    s_adv, ev = free_scan(al, lam, bU, -DC, phi, Om, 0.0 if kk else 1.0, kk, h, h_min, buf, al2,
                                            foff)
                     if s_adv < 0.0:     # a scan that could not be done in double precision
                         z0[:] = z
@@ -354,7 +355,7 @@ def beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, wrow, srow, knd, cnd, part,
                         for j in range(n2):
                             al[j] = PS[j] * a[j]
                         for sgn in (1.0, -1.0):
-                            b2, g2 = _combo(0.0, sgn, 0.0, al, lam, bS, 0.0, Om, al2)
+                            b2, g2 = signal_combo(0.0, sgn, 0.0, al, lam, bS, 0.0, Om, al2)
                             s = 0.0
                             while True:
                                 s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
@@ -363,13 +364,13 @@ def beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, wrow, srow, knd, cnd, part,
                                     return (3, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps)
                                 if s < 0.0:
                                     break
-                                _sig(s, al, lam, bS, 0.0, phi, Om, buf)
+                                signal_derivatives(s, al, lam, bS, 0.0, phi, Om, buf)
                                 if sgn > 0.0:
                                     ext[0] = min(ext[0], buf[0])
                                     ext[2] = min(ext[2], buf[0])
                                 else:
                                     ext[1] = max(ext[1], buf[0])
-                    _state(s_adv, a, lam, V, Z, ze, phi, Om, z)
+                    modal_state(s_adv, a, lam, V, Z, ze, phi, Om, z)
                     for j in range(n2):
                         if a[j] != 0.0:
                             a[j] = a[j] * np.exp(lam[j] * s_adv)
@@ -423,7 +424,7 @@ def beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, wrow, srow, knd, cnd, part,
                         n_rec += 1
                 elif ev == EV_EXIT:
                     phase = FREE
-                    _modal(z, W, Z, ze, phi, a)
+                    modal_coordinates(z, W, Z, ze, phi, a)
                     gz = -DC
                     for i in range(N):
                         gz += wrow[i] * z[i]
@@ -445,7 +446,7 @@ def beam_hc_kernel(Om, lam, V, W, Z, PU, PS, bU, bS, wrow, srow, knd, cnd, part,
     return (0, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps)
 
 
-def _free_data(model, Om):
+def free_data(model, Om):
     """Eigen-data of the free phase (cached on the model) and its signal rows at ``Om``."""
     N = model.n_modes
     key = ("hc", N)
@@ -531,7 +532,7 @@ class HuntCrossleyBeamEventSolver:
         s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
         if s0.shape != (2 * N + 1,) or not np.all(np.isfinite(s0)):
             s0 = m.initial_state()
-        lam, V, W, Z, PU, PS, bU, bS, F = _free_data(m, Om)
+        lam, V, W, Z, PU, PS, bU, bS, F = free_data(m, Om)
         law = m.contact
         kc = law.stiffness / m.omega_ref ** 2
         hmax = TWO_PI / math.sqrt(m.k_nd[0]) / self.steps_per_fundamental

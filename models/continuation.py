@@ -49,7 +49,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .continuation_kernels import SMALL_SPECTRUM, _corrector_step, _spectrum, _spectrum_small, _tangent
+from .continuation_kernels import SMALL_SPECTRUM, corrector_step, floquet_spectrum, floquet_spectrum_small, bordered_tangent
 
 FOLD = "fold"
 PERIOD_DOUBLING = "period_doubling"
@@ -246,7 +246,7 @@ def _stable(mu) -> bool:
 
 
 def _multipliers(M) -> np.ndarray:
-    return _spectrum(np.ascontiguousarray(M, dtype=float))[0]
+    return floquet_spectrum(np.ascontiguousarray(M, dtype=float))[0]
 
 
 class ContinuationError(ValueError):
@@ -271,7 +271,7 @@ class _Engine:
         self.I = np.eye(self.d)
         self.n_shots = 0
         # the spectrum: compiled for small d (no Python dispatch per point), LAPACK beyond
-        self.spectrum = _spectrum_small if self.d <= SMALL_SPECTRUM else _spectrum
+        self.spectrum = floquet_spectrum_small if self.d <= SMALL_SPECTRUM else floquet_spectrum
 
     # ------------------------------------------------------------------ basic evaluations
     def shot(self, x, p, n):
@@ -415,7 +415,7 @@ class _Engine:
             if s.status != "ok":
                 return None, s.message or s.status
             try:
-                nr, ndu_new, un, dist_new = _corrector_step(s.M, s.x_p, s.x, x, u, u_pred, t, sx, sp)
+                nr, ndu_new, un, dist_new = corrector_step(s.M, s.x_p, s.x, x, u, u_pred, t, sx, sp)
             except Exception:       # numba's solve raises on an exactly singular matrix
                 return None, "singular bordered Jacobian"
             # converged: residual at tolerance, or (near a grazing, where the impact time is
@@ -438,7 +438,7 @@ class _Engine:
         t = None
         if t_ref is not None:
             try:
-                t = _tangent(pt.shot.M, pt.shot.x_p, self.sx, self.sp, t_ref)
+                t = bordered_tangent(pt.shot.M, pt.shot.x_p, self.sx, self.sp, t_ref)
             except Exception:
                 t = None
             if t is not None and not np.isfinite(t).all():

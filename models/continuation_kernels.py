@@ -38,7 +38,7 @@ def _newton_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
 
 
 @njit(cache=True)
-def _corrector_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
+def corrector_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
     """:func:`_newton_step` and its update in one call: returns ``(|r|_inf, |du|_inf, u + du,
     |u + du - u_pred|_2)`` (``|du| = inf`` if the step is not finite)."""
     nr, du = _newton_step(M, xp, x_new, x, u, u_pred, t, sx, sp)
@@ -57,7 +57,7 @@ def _corrector_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
 
 
 @njit(cache=True)
-def _tangent(M, xp, sx, sp, t_ref):
+def bordered_tangent(M, xp, sx, sp, t_ref):
     """Unit null vector of ``[M - I, x_p s_p / s_x]`` oriented along ``t_ref`` (bordered solve)."""
     d = M.shape[0]
     A = np.empty((d + 1, d + 1))
@@ -81,14 +81,14 @@ def _tangent(M, xp, sx, sp, t_ref):
 SMALL_SPECTRUM = 8
 
 
-def _spectrum(M):
+def floquet_spectrum(M):
     """Floquet multipliers by decreasing modulus (complex), ``det(M + I)`` and ``max |mu| - 1``
     over the complex ones (NaN if none); ``M`` of shape (d, d), C-contiguous float.
 
     Compiled for ``d <= SMALL_SPECTRUM``, NumPy (LAPACK dgeev on the real matrix) beyond."""
     d = M.shape[0]
     if d <= SMALL_SPECTRUM:
-        return _spectrum_small(M)
+        return floquet_spectrum_small(M)
     mu = np.linalg.eigvals(M).astype(np.complex128)
     mu = mu[np.argsort(-np.abs(mu), kind="stable")]
     pd = float(np.linalg.det(M + np.eye(d)))
@@ -99,8 +99,8 @@ def _spectrum(M):
 
 
 @njit(cache=True)
-def _spectrum_small(M):
-    """:func:`_spectrum` in compiled code (small ``d``)."""
+def floquet_spectrum_small(M):
+    """:func:`floquet_spectrum` in compiled code (small ``d``)."""
     d = M.shape[0]
     mu = np.linalg.eigvals(M.astype(np.complex128))
     order = np.argsort(-np.abs(mu))

@@ -113,3 +113,36 @@ def energy_loss(U_minus, R, m_eff=1.0):
     """
     U_minus = np.asarray(U_minus, dtype=float)
     return 0.5 * (1.0 - R * R) * m_eff * U_minus * U_minus
+
+
+def saltation_matrix(R, v_minus, a_minus, beta):
+    """Saltation matrix of the impact ``q = Delta``, ``q'+ = -R q'-`` in ``(q, q')``.
+
+    For the surface ``h = q - Delta``, reset ``G(q, q') = (q, -R q')`` and
+    vector fields ``f- = (v-, a-)`` before and ``f+ = (v+, a+)`` after the impact
+    (Leine & Nijmeijer 2004; di Bernardo et al. 2008)::
+
+        S = G_x + (f+ - G_x f-) h_x / (h_x f-)
+          = [[-R, 0], [(a+ + R a-) / v-, -R]]
+
+    with ``a+ - a- = -2 beta (v+ - v-) = 2 beta (1 + R) v-`` (same position and
+    forcing), i.e. ``S21 = (1 + R)(a- + 2 beta v-) / v-
+    = (1 + R)(F sin(phi) - Delta) / v-``.  ``det S = R^2``.
+
+    Parameters
+    ----------
+    R : float
+        Coefficient of restitution.
+    v_minus : float
+        Pre-impact velocity (``> 0``).
+    a_minus : float
+        Pre-impact acceleration ``q''(t-)``.
+    beta : float
+        Damping ratio.
+
+    Returns
+    -------
+    ndarray, shape (2, 2)
+    """
+    a_plus = a_minus + 2.0 * beta * (1.0 + R) * v_minus
+    return np.array([[-R, 0.0], [(a_plus + R * a_minus) / v_minus, -R]])

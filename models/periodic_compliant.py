@@ -74,7 +74,7 @@ import numpy as np
 from numba import njit
 
 from .periodic import Shot
-from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_NONE, FREE, _mirror_in, _mirror_out, advance, envelope,
+from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_NONE, FREE, mirror_in, mirror_out, advance, envelope,
                              phase_eval, phase_params, upcross)
 from .sdof_flow import transition
 
@@ -416,9 +416,9 @@ class CompliantSDOFShooting:
                     apex = max(apex, self._extremes(CONTACT, s, phi, q, v, P[1], Omega, Delta))
             else:
                 side = 1
-                _mirror_in(ex, exm)
+                mirror_in(ex, exm)
                 s, ev = advance(CONTACT, h, phl, -q, -v, PL[1], kl, cl, Omega, Dl, True, exm, cs, d, kl, cl, 0.0)
-                _mirror_out(ex, exm)
+                mirror_out(ex, exm)
                 if s > 0.0:
                     apex = max(apex, self._extremes(CONTACT, s, phl, -q, -v, PL[1], Omega, Dl, kl, cl))
             if s < 0.0:
@@ -605,7 +605,7 @@ class CompliantBeamShooting:
 
     def __init__(self, model, parameter: str = "Omega", Omega: float | None = None,
                  steps_per_fundamental: int = 16, max_contacts: int = 4096):
-        from .beam_compliant import _ensure_eig
+        from .beam_compliant import ensure_eig
 
         if getattr(model, "contact", None) is None or getattr(model.contact, "name", "") != "linear":
             raise ValueError("CompliantBeamShooting needs a beam model with contact law \"linear\"")
@@ -619,7 +619,7 @@ class CompliantBeamShooting:
                              f"beam; allowed: {', '.join(BEAM_PARAMETERS)}")
         if parameter != "Omega" and Omega is None:
             raise ValueError(f"continuation in {parameter!r} needs the forcing frequency Omega")
-        _ensure_eig(model)
+        ensure_eig(model)
         self.model = model
         self.parameter = parameter
         self.Omega = None if Omega is None else float(Omega)
@@ -643,14 +643,14 @@ class CompliantBeamShooting:
     def data(self, p: float) -> dict:
         """Phase data at ``p`` (cached for the last ``p``): the kernel's arrays and the
         forced-response derivatives."""
-        from .beam_compliant import _phase_data
+        from .beam_compliant import phase_data
 
         if self._key == float(p):
             return self._data
         m = self.model_at(p)
         Om = float(p) if self.parameter == "Omega" else self.Omega
         A, b, b0, kc, cc = m.phase_matrices()
-        pd = _phase_data(m, Om)
+        pd = phase_data(m, Om)
         n2 = self.dim
         Y = m.base_amplitude_m
         F = Om * Om * Y
@@ -719,7 +719,7 @@ class CompliantBeamShooting:
         x0 = np.asarray(x0, float)
         if not (np.all(np.isfinite(x0)) and math.isfinite(float(p)) and n >= 1) or \
                 (self.parameter == "Omega" and not p > 0.0):
-            return _failed_n(self.dim, f"parameters or state out of range ({self.parameter} = {p}, n = {n})")
+            return failed_shot(self.dim, f"parameters or state out of range ({self.parameter} = {p}, n = {n})")
         D = self.data(p)
         m, Om, kc, cc = D["m"], D["Om"], D["kc"], D["cc"]
         lamA, VA, WA, ZA, zeA, PU, PS, bU, bS, gU, gS = D["pd"][:11]
@@ -755,7 +755,7 @@ class CompliantBeamShooting:
                 Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, kc, cc, DC, z, phase0, 0, n,
                 1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t, imp_v, con, msamp)
         if status != 0 or n_rec > cap:
-            return _failed_n(self.dim, f"the event kernel gave up after {n_con} contacts / {n_steps} steps in "
+            return failed_shot(self.dim, f"the event kernel gave up after {n_con} contacts / {n_steps} steps in "
                                        f"{n} period(s)")
         # the phase sequence: [start phase, events (t, kind)], kind 1 entry, 2 exit
         # events (t, kind, stop): kind 1 entry, 2 exit; stop 0 upper, 1 lower
@@ -774,10 +774,10 @@ class CompliantBeamShooting:
         ph = phase0
         for _, kind, _k in events:
             if (kind == 1) != (ph == FREE):
-                return _failed_n(self.dim, "contact events do not alternate (inconsistent event record)")
+                return failed_shot(self.dim, "contact events do not alternate (inconsistent event record)")
             ph = 1 + _k if kind == 1 else FREE
         if ph != int(ph_end):
-            return _failed_n(self.dim, "the event record does not end in the kernel's phase")
+            return failed_shot(self.dim, "the event record does not end in the kernel's phase")
         # compose the tangent along the phases (exact flows), with the state rebuilt on them
         J = np.zeros((n2, n2 + 2))
         J[:, :n2] = np.eye(n2)
@@ -827,7 +827,7 @@ class CompliantBeamShooting:
         jcol = n2 + BEAM_PARAMETERS.index(self.parameter)
         M = J[:, :n2].copy()
         if not np.all(np.isfinite(J)):
-            return _failed_n(self.dim, "non-finite derivatives")
+            return failed_shot(self.dim, "non-finite derivatives")
         extra = {"x_all_p": J[:, n2:].copy(), "contact_time": t_c, "rebuilt_state": zc,
                  "contacts": np.array(contacts, float).reshape(-1, 4), "in_contact_end": ph != FREE}
         if self.two:
@@ -840,11 +840,11 @@ class CompliantBeamShooting:
 
     def _signal(self, D, r, z, ta, rowc):
         """Coefficients ``(al, be, ga)`` of ``rowc . z(ta + s)`` in phase ``r`` from ``z`` at ``ta``."""
-        from .beam_compliant import _modal
+        from .beam_compliant import modal_coordinates
 
         phi = (D["Om"] * ta) % TWO_PI
         a = np.empty(self.dim, np.complex128)
-        _modal(np.ascontiguousarray(z), D["W"][r], D["pd"][3][r], D["pd"][4][r], phi, a)
+        modal_coordinates(np.ascontiguousarray(z), D["W"][r], D["pd"][3][r], D["pd"][4][r], phi, a)
         al = (rowc @ D["V"][r]) * a
         return al, complex(rowc @ D["pd"][3][r]), float(rowc @ D["pd"][4][r]), phi
 
@@ -852,7 +852,7 @@ class CompliantBeamShooting:
         """Exit time of a contact open at the section: the force ``k g + c g'`` down through 0
         (the kernel's certified scan, in its contact step lengths); ``side`` 1: the lower stop
         (gap ``-U - Delta_l``, its law)."""
-        from .beam_compliant import _combo, bupcross
+        from .beam_compliant import signal_combo, bupcross
 
         N = self.model.n_modes
         rowU = np.concatenate([self.model.contact_row, np.zeros(N)])
@@ -875,7 +875,7 @@ class CompliantBeamShooting:
             # out of the derivative bounds), the scan restarted on each step
             e = min(s + h, t_max)
             als = al * np.exp(lam * s)
-            b2, g2 = _combo(-kc, -cc, 0.0, als, lam, be, ga, Om, al2)
+            b2, g2 = signal_combo(-kc, -cc, 0.0, als, lam, be, ga, Om, al2)
             r = bupcross(al2, lam, b2, g2, (phi + Om * s) % TWO_PI, Om, 0.0, e - s, 1e-13 * TWO_PI / Om)
             if r >= 0.0:
                 return s + r
@@ -898,7 +898,7 @@ class CompliantBeamShooting:
 
     def _extremes_stop(self, D, r, z, ta, tb, rowU, side):
         """:meth:`_extremes` of one stop (``side`` 1: the lower one, gap ``-U - Delta_l``)."""
-        from .beam_compliant import _combo, _sig, bupcross
+        from .beam_compliant import signal_combo, signal_derivatives, bupcross
 
         if side == 0:
             al, be, ga, phi = self._signal(D, r, z, ta, rowU)
@@ -924,13 +924,13 @@ class CompliantBeamShooting:
             als = al * np.exp(lam * s)
             ph = (phi + Om * s) % TWO_PI
             for c0, c1, c2, kind in combos:
-                b2, g2 = _combo(c0, c1, c2, als, lam, be, ga, Om, al2)
+                b2, g2 = signal_combo(c0, c1, c2, als, lam, be, ga, Om, al2)
                 u = 0.0
                 while True:
                     u = bupcross(al2, lam, b2, g2, ph, Om, u, e - s, h_min)
                     if u < 0.0 or s + u >= S:
                         break
-                    _sig(u, als, lam, be, ga, ph, Om, buf)
+                    signal_derivatives(u, als, lam, be, ga, ph, Om, buf)
                     f = kc * buf[0] + cc * buf[1]
                     if kind == 0 and buf[0] < 0.0:
                         best = max(best, buf[0])
@@ -966,7 +966,8 @@ class CompliantBeamShooting:
         return self.linear_orbit(p), ""
 
 
-def _failed_n(d: int, message: str) -> Shot:
+def failed_shot(d: int, message: str) -> Shot:
+    """A failed :class:`Shot` of dimension ``d`` (NaN state and monodromy) with ``message``."""
     nan = np.full(d, np.nan)
     return Shot(x=nan, M=np.full((d, d), np.nan), x_p=nan.copy(), impact_times=np.zeros(0),
                 impact_velocities=np.zeros(0), q_min=np.nan, q_max=np.nan, status="failed", message=message)

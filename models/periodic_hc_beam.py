@@ -46,7 +46,7 @@ from numba import njit
 
 from .beam_compliant import CONTACT, FREE
 from .periodic import Shot
-from .periodic_compliant import BEAM_PARAMETERS, TWO_PI, CompliantBeamShooting, _failed_n
+from .periodic_compliant import BEAM_PARAMETERS, TWO_PI, CompliantBeamShooting, failed_shot
 
 
 @njit(cache=True)
@@ -144,7 +144,7 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
     def data(self, p: float) -> dict:
         """Free-phase data at ``p`` (cached for the last ``p``), in the layout of
         :meth:`CompliantBeamShooting.data` (phase index 0 only)."""
-        from .beam_hc import _free_data, velocity_floor
+        from .beam_hc import free_data, velocity_floor
 
         if self._key == float(p):
             return self._data
@@ -152,7 +152,7 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
         Om = float(p) if self.parameter == "Omega" else self.Omega
         N = m.n_modes
         n2 = 2 * N
-        lam, V, W, Z, PU, PS, bU, bS, F = _free_data(m, Om)
+        lam, V, W, Z, PU, PS, bU, bS, F = free_data(m, Om)
         A = m._hc_eig[0]
         b = np.concatenate([np.zeros(N), m.participation])
         Yb = m.base_amplitude_m
@@ -209,7 +209,7 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
         x0 = np.asarray(x0, float)
         if not (np.all(np.isfinite(x0)) and math.isfinite(float(p)) and n >= 1) or \
                 (self.parameter == "Omega" and not p > 0.0):
-            return _failed_n(self.dim, f"parameters or state out of range ({self.parameter} = {p}, n = {n})")
+            return failed_shot(self.dim, f"parameters or state out of range ({self.parameter} = {p}, n = {n})")
         D = self.data(p)
         m, Om = D["m"], D["Om"]
         N = m.n_modes
@@ -220,7 +220,7 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
         T = TWO_PI / Om
         t_end = n * T
         if float(w @ x0[:N]) - DC >= 0.0:
-            return _failed_n(self.dim, "the section lies inside the stop: a Hunt-Crossley contact depends on its "
+            return failed_shot(self.dim, "the section lies inside the stop: a Hunt-Crossley contact depends on its "
                                        "entry velocity, which is not part of the state (eta, eta')")
         kc, pe, chi = D["khc"], D["pe"], D["chi"]
         lam, V, W, Z, PU, PS, bU, bS = D["kern"]
@@ -237,7 +237,7 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
             DC, D["v_floor"], z, FREE, 0, n, 1, ns, float(D["hmax"][0]), cap, 200000 * n, samples, pmin, imp_t,
             imp_v, con, np.zeros((0, n2)))
         if status != 0 or n_rec > cap:
-            return _failed_n(self.dim, f"the event kernel gave up after {n_con} contacts / {n_steps} steps in "
+            return failed_shot(self.dim, f"the event kernel gave up after {n_con} contacts / {n_steps} steps in "
                                        f"{n} period(s)")
         wn = math.sqrt(float(w @ w))
         J = np.zeros((n2, n2 + 2))
@@ -266,13 +266,13 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
             if r == n_rec:
                 break
             if inside and float(w @ zc[:N]) - DC > 1e-9 * max(abs(DC), 1e-12):
-                return _failed_n(self.dim, "re-entry inside the stop after a damping-factor exit (depends on the "
+                return failed_shot(self.dim, "re-entry inside the stop after a damping-factor exit (depends on the "
                                            "previous contact's entry velocity): not represented")
             # entry: S = I (zero force), v_r and its sensitivity
             U = float(w @ zc[N:])
             a_m = float(w @ self._field(D, FREE, zc, tb)[N:])
             if not U > 0.0:
-                return _failed_n(self.dim, f"contact entry with non-positive velocity {U:.3g} (inconsistent record)")
+                return failed_shot(self.dim, f"contact entry with non-positive velocity {U:.3g} (inconsistent record)")
             dt = -(w @ J[:N, :]) / U
             if U > D["v_floor"]:
                 vr, dvr = U, w @ J[N:, :] + a_m * dt
@@ -296,7 +296,7 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
                             events=(ev_gap, ev_fac), first_step=1e-3 * pen / vr,
                             args=(vr, dvr, DC, kc, pe, chi, knd, cnd, part, w, Om, D["Yb"]))
             if sol.status < 0:
-                return _failed_n(self.dim, f"the contact phase's integration failed: {sol.message}")
+                return failed_shot(self.dim, f"the contact phase's integration failed: {sol.message}")
             yend = sol.y[:, -1]
             zc = yend[:n2].copy()
             J = yend[n2:].reshape(n2, n2 + 2).copy()
@@ -318,7 +318,7 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
             fld = self._field(D, FREE, zc, t_end)
         J[:, n2] += fld * (-t_end / Om)
         if not np.all(np.isfinite(J)):
-            return _failed_n(self.dim, "non-finite derivatives")
+            return failed_shot(self.dim, "non-finite derivatives")
         jcol = n2 + BEAM_PARAMETERS.index(self.parameter)
         extra = {"x_all_p": J[:, n2:].copy(), "contact_time": t_c, "rebuilt_state": zc,
                  "contacts": np.array(contacts, float).reshape(-1, 4), "in_contact_end": in_contact_end}

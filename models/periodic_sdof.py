@@ -23,7 +23,7 @@ Pai 2000 for the parameter sensitivities).  With ``X = d x(t) / d(x0, p)`` at fi
       X+ = G_x X + G_p + (G_x f- - f+) dt
 
   whose ``x0`` block is the saltation matrix ``S = [[-R, 0], [(a+ + R a-)/v-, -R]]``
-  (:func:`vibeam.models.sdof_mapping.saltation_matrix`) times ``X-``;
+  (:func:`vibeam.models.impact.saltation_matrix`) times ``X-``;
 * sticking: the state on the stop is ``(Delta, 0)`` whatever came before, so ``X <- [0 |
   (dDelta/dp, 0)]``; the release time drops out because the vector field after release
   vanishes there (contact force zero, ``q' = 0``);

@@ -280,3 +280,12 @@ class AveragingSolver:
                     stable=bool(r["stable"]), Q_star=float(r["Q_star"]),
                     Delta_max=float(r["Delta_max"]),
                     period=self.k if np.isfinite(up) else -1, status="ok", message="")
+
+
+def averaging_guess(model, Omega):
+    """Initial guess ``(phi, v)`` from averaging (k = 1): impact phase ``-psi``, ``v ~ Q``."""
+    r = solve(float(Omega), model.beta, model.B, model.R, model.Delta, 1)
+    Q = float(r["amplitude"])
+    if not np.isfinite(Q):
+        return None
+    return np.array([float(r["impact_phase"]), Q])

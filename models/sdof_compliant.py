@@ -46,8 +46,9 @@ from numba import njit
 
 from .contact import DAMPING, EXPONENT, LAW, LAW_HUNT_CROSSLEY, LAW_RESTITUTION, OFFSET, R, STIFFNESS
 from .contact_policy import REBOUND, impact_outcome
+from .dormand_prince import DP_A, DP_C, DP_E
 from .roots import rtsafe_update
-from .sdof_event import _certify
+from .sdof_event import certify_curvature
 from .sdof_flow import particular_coefficients, transition
 from .trajectory import call_budget
 
@@ -224,7 +225,7 @@ def upcross(c0, c1, c2, lo, hi, phi, q, v, pp, Omega, Delta, A, d, coff=0.0):
             if min(f0, f1) - e2 > 0.0 or max(f0, f1) + e2 < 0.0:
                 cert = 2
                 break
-            cert = _certify(f20, f30, f21, f31, M3, M4, h, tol)
+            cert = certify_curvature(f20, f30, f21, f31, M3, M4, h, tol)
             if cert != 0 or h < h_min or not h > 0.0:
                 break
             h *= 0.5
@@ -416,16 +417,6 @@ def advance(phase, h, phi, q, v, pp, kc, cc, Omega, Delta, rec, ex, cs, d, r0, r
 
 
 # ---------------------------------------------------------------- Hunt-Crossley contact phase
-# Dormand-Prince 5(4) (Dormand & Prince 1980; Hairer, Norsett & Wanner, Solving ODEs I, Sec. II.5)
-_DP_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
-_DP_A = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-                  [1 / 5, 0.0, 0.0, 0.0, 0.0, 0.0],
-                  [3 / 40, 9 / 40, 0.0, 0.0, 0.0, 0.0],
-                  [44 / 45, -56 / 15, 32 / 9, 0.0, 0.0, 0.0],
-                  [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0.0, 0.0],
-                  [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0.0],
-                  [35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84]])
-_DP_E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
 #: Hunt-Crossley contact phase: relative tolerance of the DOPRI5 steps, and the absolute ones
 #: as fractions of the isolated contact's penetration and of the entry velocity
 HC_RTOL = 1e-11
@@ -462,22 +453,22 @@ def _dp_step(hs, y0, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, K, y1):
         for c in range(3):
             acc = y0[c]
             for j in range(i):
-                acc += hs * _DP_A[i, j] * K[j, c]
+                acc += hs * DP_A[i, j] * K[j, c]
             tmp[c] = acc
-        _hc_rhs(_DP_C[i] * hs, tmp, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, K[i])
+        _hc_rhs(DP_C[i] * hs, tmp, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, K[i])
         if i == 6:
             break
     for c in range(3):
         acc = y0[c]
         for j in range(6):
-            acc += hs * _DP_A[6, j] * K[j, c]
+            acc += hs * DP_A[6, j] * K[j, c]
         y1[c] = acc
     _hc_rhs(hs, y1, phi0, beta, F, Omega, Delta, kc, p, chi, vr, ks, K[6])
     e0 = 0.0
     e1 = 0.0
     for j in range(7):
-        e0 += hs * _DP_E[j] * K[j, 0]
-        e1 += hs * _DP_E[j] * K[j, 1]
+        e0 += hs * DP_E[j] * K[j, 0]
+        e1 += hs * DP_E[j] * K[j, 1]
     return e0, e1
 
 
@@ -644,7 +635,7 @@ def compliant_kernel(beta, B, stops, Omega, q_init, v_init, phase_init, n_transi
 
 
 @njit(cache=True)
-def _mirror_in(ex, exm):
+def mirror_in(ex, exm):
     """Extremes of the lower stop's mirrored frame ``q~ = -q``: ``exm = [-max q, -min q of
     this period, (unused)]`` (see :func:`compliant_kernel_stops`)."""
     exm[0] = -ex[1]
@@ -653,7 +644,9 @@ def _mirror_in(ex, exm):
 
 
 @njit(cache=True)
-def _mirror_out(ex, exm):
+def mirror_out(ex, exm):
+    """Extremes ``exm`` of the mirrored frame back into the extremes ``ex`` of ``q`` (the inverse
+    of :func:`mirror_in`), in place."""
     ex[1] = max(ex[1], -exm[0])
     ex[2] = min(ex[2], -exm[1])
     ex[0] = min(ex[0], ex[2])
@@ -821,7 +814,7 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
                         hs_, ps_, xs_ = hunt, pexp, chi
                     rec_s = recording and not (n_calls == 2 and it == 0)
                     if sd == 1 and rec_s:
-                        _mirror_in(ex, exm)
+                        mirror_in(ex, exm)
                     exs = exm if sd == 1 else ex
                     if pk == CONTACT and hs_:
                         s, ev = hc_advance(rem, phs, qs, vs, beta, F, Omega, Ds, ks, ps_, xs_, vr, 1.0, rk, rec_s,
@@ -829,7 +822,7 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
                     else:
                         s, ev = advance(pk, h, phs, qs, vs, pp, ks, cks, Omega, Ds, rec_s, exs, cs, d, r0s, r1s, rfs)
                     if sd == 1 and rec_s:
-                        _mirror_out(ex, exm)
+                        mirror_out(ex, exm)
                     if n_calls == 2 and it == 0:
                         s_l = s
                         ev_l = ev

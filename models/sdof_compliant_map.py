@@ -32,14 +32,14 @@ from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_GAPDOWN, FREE, TWO_P
 from .sdof_flow import transition
 
 
-def _stm(s, pp):
+def phase_transition(s, pp):
     """Closed-form state-transition matrix of a phase over ``s`` (physical time), (2, 2)."""
     w, b = pp[0], pp[1]
     p11, p12, p21, p22 = transition(w * s, b)
     return np.array([[1.0 + p11, p12 / w], [w * p21, 1.0 + p22]])
 
 
-def _field(q, v, t, pp, F, Omega):
+def phase_field(q, v, t, pp, F, Omega):
     """``(q', q'')`` of a phase: ``q'' = F sin(Omega t) - 2 b w q' - w^2 (q - q_e)``."""
     w, b, qe = pp[0], pp[1], pp[2]
     return np.array([v, F * math.sin(Omega * t) - 2.0 * b * w * v - w * w * (q - qe)])
@@ -130,12 +130,12 @@ class CompliantMappingSolver:
                 break
         t1, v1 = t, v
         # Jacobian composed over the two phases (module docstring)
-        f0 = _field(Delta, v0, t0, P[1], F, Omega)
-        fx = _field(qx, vx, tx, P[1], F, Omega)
-        fxf = _field(qx, vx, tx, P[0], F, Omega)       # equal to fx: the force is zero at the exit
-        f1 = _field(Delta, v1, t1, P[0], F, Omega)
-        Pc = _stm(s_c, P[1])
-        Pf = _stm(t1 - tx, P[0])
+        f0 = phase_field(Delta, v0, t0, P[1], F, Omega)
+        fx = phase_field(qx, vx, tx, P[1], F, Omega)
+        fxf = phase_field(qx, vx, tx, P[0], F, Omega)       # equal to fx: the force is zero at the exit
+        f1 = phase_field(Delta, v1, t1, P[0], F, Omega)
+        Pc = phase_transition(s_c, P[1])
+        Pf = phase_transition(t1 - tx, P[0])
         gx = np.array([kc, cc])
         J = np.empty((2, 2))
         for col, (dt0, dx0) in enumerate(((1.0, np.zeros(2)), (0.0, np.array([0.0, 1.0])))):

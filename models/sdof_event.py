@@ -107,7 +107,7 @@ def _root_lower(kind, lo, hi, phi0, q0, v0, beta, a, b, Omega, Dl):
 
 
 @njit(cache=True)
-def _certify(g20, g30, g21, g31, M3, M4, h, tol):
+def certify_curvature(g20, g30, g21, g31, M3, M4, h, tol):
     """Certified sign of q'' on [0, h]: +1 convex, -1 concave, 0 unknown.
 
     ``g2x``/``g3x`` are the 2nd/3rd derivatives of q at the two ends,
@@ -136,7 +136,7 @@ def _certify(g20, g30, g21, g31, M3, M4, h, tol):
 
 
 @njit(cache=True)
-def _release_delay(phi, F, Delta, Omega):
+def release_delay(phi, F, Delta, Omega):
     """Time until a mass stuck on the stop is released (inf: never).
 
     The contact force per unit mass is ``a(phi) = F sin(phi) - Delta``; the
@@ -159,8 +159,8 @@ def _release_delay(phi, F, Delta, Omega):
 
 
 @njit(cache=True)
-def _release_delay_lower(phi, F, Dl, Omega):
-    """:func:`_release_delay` on the lower stop at ``q = -Dl`` (normal ``-1``).
+def release_delay_lower(phi, F, Dl, Omega):
+    """:func:`release_delay` on the lower stop at ``q = -Dl`` (normal ``-1``).
 
     The contact force per unit mass is ``a(phi) = -F sin(phi) - Dl``; it turns negative
     (downward zero crossing, ``cos(phi) > 0``) at ``phi = -asin(Dl / F)``.  Written like the
@@ -185,14 +185,14 @@ def _release_delay_lower(phi, F, Dl, Omega):
 
 @njit(cache=True)
 def _release_time(phi, F, D, Omega, side):
-    """Release delay on stop ``side`` (0: :func:`_release_delay`, 1: :func:`_release_delay_lower`),
+    """Release delay on stop ``side`` (0: :func:`release_delay`, 1: :func:`release_delay_lower`),
     0 when the crossing lies within round-off of the current phase (advancing the phase by
     the delay would not change it: without this, a mass could stick and release forever at
     one instant)."""
     if side == 0:
-        s_r = _release_delay(phi, F, D, Omega)
+        s_r = release_delay(phi, F, D, Omega)
     else:
-        s_r = _release_delay_lower(phi, F, D, Omega)
+        s_r = release_delay_lower(phi, F, D, Omega)
     if s_r > 0.0 and (phi + Omega * s_r) % TWO_PI == phi:
         return 0.0
     return s_r
@@ -442,7 +442,7 @@ def event_kernel(beta, B, stops, tab_U, tab_R, Omega, q_init, v_init, stuck_init
                             if max(g0, g1) + c8 < 0.0 and not near_l:
                                 cert = 2
                                 break
-                            cert = _certify(g20, g30, g21, g31, M3, M4, h, tol2)
+                            cert = certify_curvature(g20, g30, g21, g31, M3, M4, h, tol2)
                             if cert != 0 or h < h_min or not h > 0.0:
                                 break
                             h *= 0.5

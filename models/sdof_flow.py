@@ -217,3 +217,18 @@ def flow_matrix(s, beta):
     """
     p11, p12, p21, p22 = transition(float(s), float(beta))
     return np.array([[1.0 + p11, p12], [p21, 1.0 + p22]])
+
+
+@njit(cache=True)
+def sample_flow(s, phi0, q0, v0, beta, a, b, Omega, Delta):
+    """``g = q - Delta``, ``q'`` and ``q''`` of the flow at the local times ``s`` (shape (m,))."""
+    m = s.shape[0]
+    g = np.empty(m)
+    v = np.empty(m)
+    acc = np.empty(m)
+    for i in range(m):
+        gi, vi, a2, a3, a4 = propagate(s[i], phi0, q0, v0, beta, a, b, Omega, Delta)
+        g[i] = gi
+        v[i] = vi
+        acc[i] = a2
+    return g, v, acc

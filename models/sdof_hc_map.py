@@ -35,7 +35,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from .sdof_compliant import EV_ENTRY, EV_GAPDOWN, FREE, HC_V_FLOOR, TWO_PI, advance, phase_eval, phase_params
-from .sdof_compliant_map import _field, _stm
+from .sdof_compliant_map import phase_field, phase_transition
 
 #: tolerance of the contact phase (DOP853 with its variational equations)
 RTOL = 1e-12
@@ -195,10 +195,10 @@ class HuntCrossleyMappingSolver:
                 break
         t1, v1 = t, v
         # the contact phase: exact variations from the variational equations
-        f0 = _field(Delta, v0, t0, P[0], F, Omega)      # the contact force is zero at entry
-        fx = _field(qx, vx, tx, P[0], F, Omega)         # and at the exit
-        f1 = _field(Delta, v1, t1, P[0], F, Omega)
-        Pf = _stm(t1 - tx, P[0])
+        f0 = phase_field(Delta, v0, t0, P[0], F, Omega)      # the contact force is zero at entry
+        fx = phase_field(qx, vx, tx, P[0], F, Omega)         # and at the exit
+        f1 = phase_field(Delta, v1, t1, P[0], F, Omega)
+        Pf = phase_transition(t1 - tx, P[0])
         if c["kind"] == 0:
             gh, dh_dvr = np.array([1.0, 0.0]), 0.0
         else:

@@ -33,8 +33,9 @@ import numpy as np
 from numba import njit
 from scipy.optimize import brentq
 
-from .impact import newton_restitution
-from .sdof_flow import flow_matrix, particular_coefficients, propagate, undamped_resonance
+from .impact import newton_restitution, saltation_matrix
+from .sdof_averaging import averaging_guess
+from .sdof_flow import flow_matrix, particular_coefficients, propagate, sample_flow, undamped_resonance
 
 TWO_PI = 2.0 * math.pi
 
@@ -42,21 +43,6 @@ TWO_PI = 2.0 * math.pi
 # ----------------------------------------------------------------------------
 # flow helpers (all on top of sdof_flow.propagate)
 # ----------------------------------------------------------------------------
-
-@njit(cache=True)
-def _sample(s, phi0, q0, v0, beta, a, b, Omega, Delta):
-    """``g = q - Delta``, ``q'`` and ``q''`` of the flow at the local times ``s`` (shape (m,))."""
-    m = s.shape[0]
-    g = np.empty(m)
-    v = np.empty(m)
-    acc = np.empty(m)
-    for i in range(m):
-        gi, vi, a2, a3, a4 = propagate(s[i], phi0, q0, v0, beta, a, b, Omega, Delta)
-        g[i] = gi
-        v[i] = vi
-        acc[i] = a2
-    return g, v, acc
-
 
 class _Flow:
     """Closed-form free flight from a post-impact state of one model at one ``Omega``."""
@@ -78,7 +64,7 @@ class _Flow:
         return g, v, a2
 
     def sample(self, s, phi0, v_minus):
-        return _sample(np.asarray(s, dtype=float), float(phi0), self.Delta,
+        return sample_flow(np.asarray(s, dtype=float), float(phi0), self.Delta,
                        newton_restitution(float(v_minus), self.R),
                        self.beta, self.a, self.b, self.Omega, self.Delta)
 
@@ -225,39 +211,6 @@ def impact_map_jacobian(model, Omega, phi0, v_minus, tau):
     dtau = -J[0] / v1
     return np.array([[1.0 + flow.Omega * dtau[0], flow.Omega * dtau[1]],
                      J[1] + a1 * dtau])
-
-
-def saltation_matrix(R, v_minus, a_minus, beta):
-    """Saltation matrix of the impact ``q = Delta``, ``q'+ = -R q'-`` in ``(q, q')``.
-
-    For the surface ``h = q - Delta``, reset ``G(q, q') = (q, -R q')`` and
-    vector fields ``f- = (v-, a-)`` before and ``f+ = (v+, a+)`` after the impact
-    (Leine & Nijmeijer 2004; di Bernardo et al. 2008)::
-
-        S = G_x + (f+ - G_x f-) h_x / (h_x f-)
-          = [[-R, 0], [(a+ + R a-) / v-, -R]]
-
-    with ``a+ - a- = -2 beta (v+ - v-) = 2 beta (1 + R) v-`` (same position and
-    forcing), i.e. ``S21 = (1 + R)(a- + 2 beta v-) / v-
-    = (1 + R)(F sin(phi) - Delta) / v-``.  ``det S = R^2``.
-
-    Parameters
-    ----------
-    R : float
-        Coefficient of restitution.
-    v_minus : float
-        Pre-impact velocity (``> 0``).
-    a_minus : float
-        Pre-impact acceleration ``q''(t-)``.
-    beta : float
-        Damping ratio.
-
-    Returns
-    -------
-    ndarray, shape (2, 2)
-    """
-    a_plus = a_minus + 2.0 * beta * (1.0 + R) * v_minus
-    return np.array([[-R, 0.0], [(a_plus + R * a_minus) / v_minus, -R]])
 
 
 def monodromy(model, Omega, phi0, v_minus, tau):
@@ -541,16 +494,6 @@ def event_guess(model, Omega, n=1, n_transient=200):
     if k == 0 or tr.status == "failed":
         return None
     return np.array([(Omega * tr.impact_times[k - 1]) % TWO_PI, tr.impact_velocities[k - 1]])
-
-
-def averaging_guess(model, Omega):
-    """Initial guess ``(phi, v)`` from averaging (k = 1): impact phase ``-psi``, ``v ~ Q``."""
-    from .sdof_averaging import solve
-    r = solve(float(Omega), model.beta, model.B, model.R, model.Delta, 1)
-    Q = float(r["amplitude"])
-    if not np.isfinite(Q):
-        return None
-    return np.array([float(r["impact_phase"]), Q])
 
 
 class MappingSolver:

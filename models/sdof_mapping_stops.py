@@ -22,7 +22,7 @@ orbit (same stop, same time to 1e-9 of the period).
 
 Floquet multipliers: eigenvalues of the monodromy ``M = S_m Phi(tau_{m-1}) ... S_1 Phi(tau_0)``
 in ``(q, q')`` (homogeneous transition ``Phi`` and the saltation matrix ``S`` of each impact,
-:func:`vibeam.models.sdof_mapping.saltation_matrix` with the signed pre-impact velocity); the
+:func:`vibeam.models.impact.saltation_matrix` with the signed pre-impact velocity); the
 composed impact-map Jacobian ``J_{m-1} ... J_0`` (:func:`map_jacobian`) has the same
 eigenvalues (reported as ``map_eigenvalues``).  ``det M = prod R_k^2 exp(-2 beta n T)``.
 
@@ -39,8 +39,8 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-from .sdof_flow import flow_matrix, particular_coefficients, propagate
-from .sdof_mapping import _sample, saltation_matrix
+from .impact import saltation_matrix
+from .sdof_flow import flow_matrix, particular_coefficients, propagate, sample_flow
 
 TWO_PI = 2.0 * math.pi
 SIGN = (1.0, -1.0)
@@ -79,7 +79,7 @@ class Flights:
 
     def sample(self, s, phi0, k, v, ref):
         q0, v0 = self.start(k, v)
-        return _sample(np.asarray(s, dtype=float), float(phi0), q0, v0, self.beta, self.a, self.b,
+        return sample_flow(np.asarray(s, dtype=float), float(phi0), q0, v0, self.beta, self.a, self.b,
                        self.Omega, ref)
 
     def dP(self, phi):
@@ -396,7 +396,7 @@ def point_two_sided(solver, Omega, state0):
             else:
                 yield seq
         if n == 1:
-            from .sdof_mapping import averaging_guess
+            from .sdof_averaging import averaging_guess
             x = averaging_guess(m, Omega)
             if x is not None:
                 yield x

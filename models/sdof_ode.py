@@ -42,7 +42,7 @@ from scipy.optimize import brentq
 from .trajectory import Trajectory
 
 from .impact import newton_restitution
-from .sdof_event import _release_delay, _release_delay_lower
+from .sdof_event import release_delay, release_delay_lower
 
 TWO_PI = 2.0 * math.pi
 EPS = 2.220446049250313e-16
@@ -441,8 +441,8 @@ class _ScipyMethod:
                 law = m.stops()[side].law if two else None
                 v0 = sg * float(newton_restitution(U0, m.R if law is None else law.R))
             elif U0 == 0.0:  # resting on the stop: held until released
-                t0 = float(_release_delay(0.0, F, Delta, Omega) if side == 0 else
-                           _release_delay_lower(0.0, F, Dl, Omega))
+                t0 = float(release_delay(0.0, F, Delta, Omega) if side == 0 else
+                           release_delay_lower(0.0, F, Dl, Omega))
                 held = t_samples < t0
                 samples[held] = (qs, 0.0)
                 if t0 > t_record:

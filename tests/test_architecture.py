@@ -3,10 +3,15 @@
 * ``models/`` (the fidelities) and ``reductions/`` never import the framework (``vibeam.*``
   outside ``vibeam.models`` and ``vibeam.reductions``): the models produce plain data
   (:class:`vibeam.models.trajectory.Trajectory`) that the framework consumes.
+* No import cycle among the project's modules, function-local imports included: a piece two
+  modules share lives in a lower module both import (issue 20).
+* No ``_private`` name is imported from another module: a helper another module needs is
+  public (or lives in a shared module).
 """
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -40,6 +45,141 @@ def test_trajectory_is_the_models_class_reexported_by_the_framework():
     from vibeam.records import Trajectory as T2
 
     assert T2 is Trajectory and Trajectory.__module__ == "vibeam.models.trajectory"
+
+
+# ----------------------------------------------------------------------------- the module graph
+#: package name -> folder (setuptools package-dir: models/ is vibeam.models, reductions/ vibeam.reductions)
+PACKAGES = {"vibeam": "vibeam", "vibeam.models": "models", "vibeam.reductions": "reductions"}
+
+
+def project_modules(root: Path, packages: dict = PACKAGES) -> dict:
+    """``{dotted module name: path}`` of every ``.py`` of the packages (``__init__`` is the package)."""
+    mods = {}
+    for pkg, folder in packages.items():
+        for f in sorted((root / folder).glob("*.py")):
+            mods[pkg if f.stem == "__init__" else f"{pkg}.{f.stem}"] = f
+    return mods
+
+
+def _targets(name: str, mods: dict, node) -> list:
+    """``(module, imported name or None)`` of the project's modules that one import node reaches."""
+    if isinstance(node, ast.Import):
+        return [(a.name, None) for a in node.names if a.name in mods]
+    if node.level:
+        pkg = name.split(".") if mods[name].stem == "__init__" else name.split(".")[:-1]
+        pkg = pkg[:len(pkg) - (node.level - 1)]
+        base = ".".join(pkg + ([node.module] if node.module else []))
+    else:
+        base = node.module or ""
+    out = []
+    for a in node.names:
+        if f"{base}.{a.name}" in mods:
+            out.append((f"{base}.{a.name}", None))     # a submodule
+        elif base in mods:
+            out.append((base, a.name))                # a name of the module
+    return out
+
+
+def module_graph(root: Path, packages: dict = PACKAGES):
+    """Every Import/ImportFrom of the packages (function-local ones included, relative ones
+    resolved): the edges ``{module: {module it imports}}`` and the list of
+    ``(module, source module, name)`` of the ``_private`` names imported across modules."""
+    mods = project_modules(root, packages)
+    edges = {m: set() for m in mods}
+    private = []
+    for m, f in mods.items():
+        for node in ast.walk(ast.parse(f.read_text(), str(f))):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                for tgt, nm in _targets(m, mods, node):
+                    if tgt != m:
+                        edges[m].add(tgt)
+                        if nm and nm.startswith("_") and not nm.startswith("__"):
+                            private.append((m, tgt, nm))
+    return edges, private
+
+
+def cycles(edges: dict) -> list:
+    """The strongly connected components of more than one module (Tarjan, iterative), sorted."""
+    index, low, on, stack, out = {}, {}, set(), [], []
+    for v0 in edges:
+        if v0 in index:
+            continue
+        work = [(v0, iter(sorted(edges[v0])))]
+        index[v0] = low[v0] = len(index)
+        stack.append(v0)
+        on.add(v0)
+        while work:
+            v, it = work[-1]
+            w = next(it, None)
+            if w is not None:
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w)
+                    on.add(w)
+                    work.append((w, iter(sorted(edges.get(w, ())))))
+                elif w in on:
+                    low[v] = min(low[v], index[w])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                comp = []
+                while True:
+                    w = stack.pop()
+                    on.discard(w)
+                    comp.append(w)
+                    if w == v:
+                        break
+                if len(comp) > 1:
+                    out.append(sorted(comp))
+    return sorted(out)
+
+
+@functools.lru_cache(maxsize=1)
+def project_graph():
+    """:func:`module_graph` of this repository, parsed once for the tests below."""
+    return module_graph(ROOT)
+
+
+def test_no_import_cycle():
+    edges, _ = project_graph()
+    assert len(edges) > 50           # the walk found the project
+    found = cycles(edges)
+    assert not found, [f"import cycle among {', '.join(c)}" for c in found]
+
+
+def test_no_private_name_is_imported_across_modules():
+    _, private = project_graph()
+    assert private == [], [f"{m} imports {n} from {src}" for m, src, n in private]
+
+
+def test_models_and_reductions_never_import_the_framework_by_the_graph():
+    edges, _ = project_graph()
+    bad = [(m, t) for m, ts in edges.items() if m.startswith(ALLOWED) for t in sorted(ts)
+           if not t.startswith(ALLOWED)]
+    assert not bad, [f"{m} imports the framework module {t}" for m, t in bad]
+
+
+def test_no_module_imports_the_package_itself():
+    """``from vibeam import X`` of a name (not a submodule) would run the package's lazy API."""
+    edges, _ = project_graph()
+    assert [m for m, ts in edges.items() if "vibeam" in ts] == []
+
+
+def test_the_checks_find_a_cycle_and_a_private_import(tmp_path):
+    """The checks can fail: a synthetic package with a two-module cycle (one import inside a
+    function, one relative) and a private name imported across modules."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from .b import helper\n\ndef _hidden():\n    return 1\n")
+    (pkg / "b.py").write_text("def helper():\n    from pkg.a import _hidden\n    return _hidden()\n")
+    (pkg / "c.py").write_text("from . import a\nimport pkg.b\n")
+    edges, private = module_graph(tmp_path, {"pkg": "pkg"})
+    assert edges["pkg.c"] == {"pkg.a", "pkg.b"}
+    assert cycles(edges) == [["pkg.a", "pkg.b"]]
+    assert private == [("pkg.b", "pkg.a", "_hidden")]
 
 
 # ----------------------------------------------------------------------------- the fidelity registry

@@ -144,7 +144,7 @@ def ws():
     shutil.rmtree(d, ignore_errors=True)
 
 
-ENOSPC = ("import errno, sys; import vibeam.results as r\n"
+ENOSPC = ("import errno, sys; import vibeam.netcdf as r\n"
           "def full(*a, **k): raise OSError(errno.ENOSPC, 'No space left on device')\n"
           "r._create = full\n"
           "from vibeam.cli import main; sys.exit(main(sys.argv[1:]))")

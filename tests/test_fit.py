@@ -297,7 +297,7 @@ def test_platform_ratio_recovered_from_fits_at_fn_and_2fn():
     least-squares gamma is exactly the weighted mean sum g_i a_i^2 / sum a_i^2 of the platform's
     gamma(f_i) over the band (a_i: amplitude per unit gamma) -- checked to 1e-7 -- and the ratio
     lies between the band's extreme ratios around the filter's 0.214."""
-    from vibeam.runner import _job
+    from vibeam.runner import make_job as _job
     from vibeam.sweep import run_sweep
 
     c1 = parse_case(PLATFORM_SCENE.format(gap=20.0, V=0.1, effects=PLATFORM, f0=7.5, f1=7.7, n=11))

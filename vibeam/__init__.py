@@ -12,7 +12,7 @@ the sweep engine, case files, results and plots in this package.  The Python API
 
 Its names are imported on first use, so ``import vibeam`` stays fast.
 """
-__version__ = "0.1.0"
+from .version import __version__
 
 _API = ("load_case", "run", "simulate", "open_results", "Results", "Simulation")
 __all__ = ["__version__", *_API]

@@ -50,12 +50,13 @@ def load_case(source):
     """
     import os
 
-    from .case import Case, CaseError, _format, _value, load_case as _load, parse_case
+    from .case import Case, validation_message, load_case as _load, parse_case
+    from .errors import CaseError, quote_value
 
     if isinstance(source, Case):
         return source
     if not isinstance(source, (str, os.PathLike, dict)):
-        raise TypeError(f"source = {_value(source)}: not a case; allowed: a path to a case file (str or "
+        raise TypeError(f"source = {quote_value(source)}: not a case; allowed: a path to a case file (str or "
                         f"pathlib.Path), the TOML text of a case, a dict of its tables or a Case")
     if isinstance(source, dict):
         import tomllib
@@ -69,7 +70,7 @@ def load_case(source):
             try:
                 case = Case.model_validate(source)
             except ValidationError as e:
-                raise CaseError(_format(e, "", Case)) from None
+                raise CaseError(validation_message(e, "", Case)) from None
             return _remember(case, "")
         return _remember(parse_case(text, "<dict>"), text)
     if not isinstance(source, str) or _names_a_file(source):
@@ -324,9 +325,9 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
                        ("force", force), ("verbose", verbose)):
         check_flag(flag, name)
     if executor is not None and not callable(getattr(executor, "submit", None)):
-        from .case import _value
+        from .errors import quote_value
 
-        raise TypeError(f"executor = {_value(executor)}: not an executor; allowed: a "
+        raise TypeError(f"executor = {quote_value(executor)}: not an executor; allowed: a "
                         f"concurrent.futures.Executor (with submit) or None")
     c = load_case(case)
     text = case_text(c)
@@ -511,7 +512,8 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         e.g. ``periods = 10**12``) and ``force`` is not set; a ValueError too.
     """
     from .arguments import check_case_value, check_flag, check_frequency
-    from .case import Case, SweepSpec, _value
+    from .case import Case, SweepSpec
+    from .errors import quote_value
     from .records import summarize
 
     check_flag(force, "force")
@@ -532,11 +534,11 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
                                               "samples_per_period")
     case = None
     if isinstance(case_or_model, (Case, str, Path, dict)):
-        from .runner import _job
+        from .runner import make_job
 
         case = load_case(case_or_model)
         r = _pick_run(case, run)
-        job = _job(case, r, dict(r.model))
+        job = make_job(case, r, dict(r.model))
         solver = job.solver
         periods = case.sweep.record_periods if periods is None else periods
         if transient is None:
@@ -550,7 +552,7 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         from .models import make_solver
 
         if not isinstance(method, str):
-            raise TypeError(f"method = {_value(method)}: not a method name; allowed: a str (event, direct, ...)")
+            raise TypeError(f"method = {quote_value(method)}: not a method name; allowed: a str (event, direct, ...)")
         solver = make_solver(case_or_model, method, **settings)
         periods = 16 if periods is None else periods
         transient = 0 if transient is None else transient
@@ -587,32 +589,32 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
 
 def _pick_run(case, run):
     """The run ``run`` (index or name) of a case (TypeError/ValueError naming the runs)."""
-    from .case import _value
+    from .errors import quote_value
 
     names = [x.name for x in case.run]
     if isinstance(run, bool) or not isinstance(run, (int, str)):
-        raise TypeError(f"run = {_value(run)}: allowed: a run's index (0 ... {len(names) - 1}) or name ({names})")
+        raise TypeError(f"run = {quote_value(run)}: allowed: a run's index (0 ... {len(names) - 1}) or name ({names})")
     if isinstance(run, int):
         if not 0 <= run < len(names):
             raise ValueError(f"run = {run}: no such run; allowed: 0 ... {len(names) - 1} or a name of {names}")
         return case.run[run]
     r = next((x for x in case.run if x.name == run), None)
     if r is None:
-        raise ValueError(f"run = {_value(run)}: no run of that name; allowed: {names} or 0 ... {len(names) - 1}")
+        raise ValueError(f"run = {quote_value(run)}: no run of that name; allowed: {names} or 0 ... {len(names) - 1}")
     return r
 
 
 def _check_state(state, model) -> np.ndarray:
     """An initial state: finite numbers of the model's state size (TypeError/ValueError)."""
-    from .case import _value
+    from .errors import quote_value
 
     n = int(np.size(model.initial_state()))
     try:
         x = np.asarray(state, dtype=float)
     except (TypeError, ValueError):
-        raise TypeError(f"state = {_value(state)}: not numbers; allowed: {n} finite numbers") from None
+        raise TypeError(f"state = {quote_value(state)}: not numbers; allowed: {n} finite numbers") from None
     if x.shape != (n,) or not np.isfinite(x).all():
-        raise ValueError(f"state = {_value(state)}: allowed: {n} finite numbers (the model's state)")
+        raise ValueError(f"state = {quote_value(state)}: allowed: {n} finite numbers (the model's state)")
     return x
 
 
@@ -628,7 +630,8 @@ def _check_point_work(case, job, solver, Omega, transient, periods, spp, force, 
     import dataclasses
     import re
 
-    from .case import Case, InputError, _value
+    from .case import Case
+    from .errors import InputError, quote_value
     from .runner import MAX_POINT_VALUES, MAX_WORK_STEPS, check_work, point_work
 
     if force:
@@ -646,7 +649,7 @@ def _check_point_work(case, job, solver, Omega, transient, periods, spp, force, 
         try:
             check_work(one, [dataclasses.replace(job, run=one.run[0], sweep=sw)], source="simulate")
         except InputError as e:
-            msg = str(e).replace(f"'sweep.Omega' = {_value(one.sweep.Omega)}", f"Omega = {Omega!r}")
+            msg = str(e).replace(f"'sweep.Omega' = {quote_value(one.sweep.Omega)}", f"Omega = {Omega!r}")
             msg = re.sub(r"'(sweep\.[a-z_A-Z]+)'", lambda m: _WORK_ARGS.get(m.group(1), m.group(0)), msg)
             raise InputError(msg.replace("the case needs", "the point needs")
                              .replace("pass --force", "pass force=True")) from None

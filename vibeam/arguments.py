@@ -18,6 +18,8 @@ from __future__ import annotations
 import numbers
 import os
 
+from .errors import quote_value
+
 #: workers allowed per core (``--jobs``, ``jobs``): see the module docstring
 JOBS_PER_CORE = 4
 
@@ -40,12 +42,6 @@ def _scalar(value):
     return value
 
 
-def _value(v) -> str:
-    from .case import _value as quoted
-
-    return quoted(v)
-
-
 def check_jobs(jobs, name: str = "jobs", none: str = "None: all cores"):
     """``jobs`` as an int from 1 to :func:`max_jobs`, or None.
 
@@ -61,7 +57,7 @@ def check_jobs(jobs, name: str = "jobs", none: str = "None: all cores"):
         return None
     allowed = _jobs_allowed() + (f", or {none}" if none else "")
     if isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral):
-        raise TypeError(f"{name} = {_value(jobs)}: not a whole number; allowed: {allowed}")
+        raise TypeError(f"{name} = {quote_value(jobs)}: not a whole number; allowed: {allowed}")
     if not 1 <= int(jobs) <= max_jobs():
         raise ValueError(f"{name} = {int(jobs)} is not allowed; allowed: {allowed}")
     return int(jobs)
@@ -94,10 +90,10 @@ def check_path(value, name: str, optional: bool = True):
     if value is None and optional:
         return None
     if not isinstance(value, (str, os.PathLike)):
-        raise TypeError(f"{name} = {_value(value)}: not a path; allowed: a str or pathlib.Path"
+        raise TypeError(f"{name} = {quote_value(value)}: not a path; allowed: a str or pathlib.Path"
                         + (", or None" if optional else ""))
     if not str(os.fspath(value)).strip():
-        raise ValueError(f"{name} = {_value(value)}: an empty path; allowed: a folder or file name"
+        raise ValueError(f"{name} = {quote_value(value)}: an empty path; allowed: a folder or file name"
                          + (" (or None for the default)" if optional else ""))
     return value
 
@@ -125,7 +121,7 @@ def check_flag(value, name: str) -> bool:
     """
     value = _scalar(value)
     if not isinstance(value, bool):
-        raise TypeError(f"{name} = {_value(value)}: allowed: True or False")
+        raise TypeError(f"{name} = {quote_value(value)}: allowed: True or False")
     return value
 
 
@@ -191,7 +187,7 @@ def check_case_value(value, name: str, table, key: str):
         allowed = _describe(f.annotation, f.metadata)
         where = getattr(table, "__doc__", "") or ""
         section = where.split("``")[1] if where.count("``") >= 2 else table.__name__
-        msg = f"{name} = {_value(value)}: allowed: {allowed} (the rule of {section} {key} in a case file)"
+        msg = f"{name} = {quote_value(value)}: allowed: {allowed} (the rule of {section} {key} in a case file)"
         raise (TypeError if wrong_type else ValueError)(msg) from None
 
 
@@ -211,9 +207,9 @@ def check_frequency(value, name: str = "Omega", key: str = "Omega"):
     value = _scalar(value)
     allowed = f"a finite number > 0 (a point of [sweep] {key})"
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} = {_value(value)}: not a number; allowed: {allowed}")
+        raise TypeError(f"{name} = {quote_value(value)}: not a number; allowed: {allowed}")
     try:
         check_grid([float(value), float(value), 1], positive=True)
     except ValueError:
-        raise ValueError(f"{name} = {_value(value)} is not allowed; allowed: {allowed}") from None
+        raise ValueError(f"{name} = {quote_value(value)} is not allowed; allowed: {allowed}") from None
     return float(value)

@@ -350,7 +350,7 @@ class TimeSeriesHook:
 
 
 def _sensor_hook(case, spec, run, model):
-    from .case import CaseError
+    from .errors import CaseError
     from .sensor import SensorHook
 
     eff = case.effects_for(run)
@@ -613,9 +613,9 @@ def sensor_figure(rows, title="", case=None, colours=None, runs=()):
 
 def plot_sensor(rows, path, title="", case=None, colours=None, runs=()):
     """:func:`sensor_figure` saved to ``path`` (``sensor_R_vs_noise.png``); None if empty."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(sensor_figure(rows, title, case, colours, runs), path)
+    return save_close(sensor_figure(rows, title, case, colours, runs), path)
 
 
 def spectra_figure(runs, title="", case=None):
@@ -642,10 +642,10 @@ def spectra_figure(runs, title="", case=None):
             fy = np.asarray(r.attrs.get("spectrum_frequency"), float)
             with np.errstate(divide="ignore", invalid="ignore"):
                 Z = np.log10(np.where(S > 0, S, np.nan)).T
-            from .maps import _edges
+            from .maps import cell_edges
 
             top = np.nanmax(Z) if np.isfinite(Z).any() else 0.0
-            im = ax.pcolormesh(_edges(xs), _edges(fy), Z, cmap="viridis", vmin=top - 4, vmax=top)
+            im = ax.pcolormesh(cell_edges(xs), cell_edges(fy), Z, cmap="viridis", vmin=top - 4, vmax=top)
             fig.colorbar(im, ax=ax, label=style.label(r"velocity amplitude, $\log_{10}$", "mm/s" if phys else None))
             pf = d["peaks_frequency"][up][o]
             xx = np.repeat(xs[:, None], pf.shape[1], axis=1)
@@ -663,9 +663,9 @@ def spectra_figure(runs, title="", case=None):
 
 def plot_spectra(runs, path, title="", case=None):
     """:func:`spectra_figure` saved to ``path`` (``spectra.png``)."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(spectra_figure(runs, title, case), path)
+    return save_close(spectra_figure(runs, title, case), path)
 
 
 def print_hfc(runs):
@@ -736,9 +736,9 @@ def participation_figure(runs, title="", case=None):
 
 def plot_participation(runs, path, title="", case=None):
     """:func:`participation_figure` saved to ``path`` (``participation.png``); None if nothing."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(participation_figure(runs, title, case), path)
+    return save_close(participation_figure(runs, title, case), path)
 
 
 def time_series_figure(runs, label, title="", case=None, colours=None):
@@ -790,6 +790,6 @@ def time_series_figure(runs, label, title="", case=None, colours=None):
 
 def plot_time_series(runs, label, path, title="", case=None, colours=None):
     """:func:`time_series_figure` saved to ``path`` (``time_series_<label>.png``); None if none."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(time_series_figure(runs, label, title, case, colours), path)
+    return save_close(time_series_figure(runs, label, title, case, colours), path)

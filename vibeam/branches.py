@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .case import CaseError
+from .errors import CaseError
 
 #: units of the continuation parameters (the HDF5 ``units`` attribute of ``parameter``)
 PARAMETER_UNITS = {"Omega": "1 (forcing frequency / natural frequency)", "voltage": "V", "gain": "1/V",
@@ -65,7 +65,7 @@ class BranchTask:
         The run's continuation settings (:class:`vibeam.case.ContinuationRun`).
     sweep_periods : (int or "auto", int)
         Transient and recorded periods of a ``sweep`` start (``"auto"``: settled as the
-        sweep settles its points, :func:`vibeam.sweep._settle`).
+        sweep settles its points, :func:`vibeam.sweep.settle_transient`).
     curve_key : str or None
         The ``[map]`` parameter of a case with two-parameter curves.
     curve_range : (float, float) or None
@@ -205,11 +205,11 @@ def _sweep_start(task, spec, value):
     n_tr = task.sweep_periods[0]
     if n_tr == "auto":
         # the sweep's own settling (transient_periods = "auto", e.g. a [quick] variant's)
-        from .sweep import Sweep, _Clock, _settle
+        from .sweep import Sweep, PointClock, settle_transient
 
         sw = Sweep(Omega=np.array([float(Omega)]), transient_periods="auto", record_periods=task.sweep_periods[1],
                    samples_per_period=16)
-        tr, n_tr, _ = _settle(solver, float(Omega), None, sw, model.Delta, _Clock())
+        tr, n_tr, _ = settle_transient(solver, float(Omega), None, sw, model.Delta, PointClock())
     else:
         tr = solver.point(float(Omega), None, n_tr, task.sweep_periods[1], 16)
     sm = summarize(tr, model.Delta)
@@ -520,7 +520,7 @@ def branch_variables(r) -> tuple:
     """The variables of ``/branches/<run>/`` (:func:`vibeam.results.write_group`): every branch
     on the dimensions (branch, point), the bifurcations on (bifurcation), the two-parameter
     curves on (curve, curve_point).  Returns ``(variables, subgroups)``."""
-    from .results import var
+    from .netcdf import var
 
     B = r.branches
     lens = [len(b["data"].get("parameter", ())) for b in B]
@@ -582,7 +582,7 @@ def branch_variables(r) -> tuple:
         u1, _ = _cf(PARAMETER_UNITS.get(r.parameter, "1"))
         cv["parameter"] = var(("curve", "curve_point"), _padded([c["p1"] for c in C], n_c, ()), u1,
                               f"continuation parameter {r.parameter}")
-        from .results import parameter_units
+        from .netcdf import parameter_units
 
         cv[key2] = var(("curve", "curve_point"), _padded([c["p2"] for c in C], n_c, ()), parameter_units(key2),
                        f"second parameter {key2}")
@@ -600,14 +600,14 @@ def write_branches(f, results: list) -> None:
     (branch, point), ``bifurcations/`` on (bifurcation), ``curves/`` on (curve, curve_point)."""
     import json
 
-    from .results import _json_default, write_group
+    from .netcdf import json_default, write_group
 
     for r in results:
         v, groups = branch_variables(r)
         attrs = {"fidelity": r.fidelity, "method": "continuation",
-                 "settings": json.dumps(r.settings, default=_json_default), "wall_time_s": r.wall_time_s,
+                 "settings": json.dumps(r.settings, default=json_default), "wall_time_s": r.wall_time_s,
                  "status": r.status, "message": r.message,
-                 "starts": json.dumps(r.starts, default=_json_default), **r.attrs}
+                 "starts": json.dumps(r.starts, default=json_default), **r.attrs}
         write_group(f, f"branches/{r.name}", v, attrs, groups)
 
 
@@ -615,9 +615,9 @@ def read_branch_group(g) -> dict:
     """One ``/branches/<run>/`` group back as nested dicts, one per branch (the shape of the
     first layout): ``{"<index>-period<n>": {dataset: array, "attrs": {index, n, status, message,
     origin}}, "bifurcations": {...}, "curves": {"<i>-<type>": {...}}}``; padding removed."""
-    from .results import _attrs, _read_plain
+    from .netcdf import read_plain
 
-    flat = _read_plain(g, attrs=True)
+    flat = read_plain(g, attrs=True)
     if "n_points" not in flat:            # the first layout: one group per branch already
         return flat
     out = {}
@@ -751,7 +751,7 @@ CURVE_STYLES = {"grazing": "-", "fold": "--", "period_doubling": ":", "neimark_s
 
 
 def _param_label(r, use_hz):
-    from .results import parameter_units
+    from .netcdf import parameter_units
     from .style import label
 
     if use_hz:
@@ -824,9 +824,9 @@ def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = ""
 
 def plot_continuation(r: ContinuationResult, sweep_runs: list, path, title: str = "", case=None):
     """:func:`continuation_figure` saved to ``path``; returns the path."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(continuation_figure(r, sweep_runs, title, case), path)
+    return save_close(continuation_figure(r, sweep_runs, title, case), path)
 
 
 def plot_curves_on(ax, results: list, frequency_hz: bool) -> list:
@@ -859,7 +859,7 @@ def curves_figure(r: ContinuationResult, title: str = "", case=None):
     import matplotlib.pyplot as plt
 
     from . import style
-    from .results import parameter_units
+    from .netcdf import parameter_units
 
     fn = r.attrs.get("natural_frequency_hz")
     with style.context():
@@ -879,6 +879,6 @@ def curves_figure(r: ContinuationResult, title: str = "", case=None):
 
 def plot_curves(r: ContinuationResult, path, title: str = "", case=None):
     """:func:`curves_figure` saved to ``path``; returns the path."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(curves_figure(r, title, case), path)
+    return save_close(curves_figure(r, title, case), path)

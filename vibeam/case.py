@@ -35,18 +35,9 @@ from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
 from vibeam.contact_spec import ContactSpec  # [model.contact] (issue 13)
+from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
-
-
-class CaseError(ValueError):
-    """A case file that cannot be used; the message names key, value and what is allowed."""
-
-
-class InputError(CaseError):
-    """Other input that cannot be used (a file or folder, a command-line value); the message
-    names the file, option or key and what is allowed.  The command line reports it like a
-    :class:`CaseError`: one line ``vibeam: error: ...`` and exit code 2."""
 
 
 class _Strict(BaseModel):
@@ -371,7 +362,7 @@ def build_or_refuse(spec, build):
         except CaseError:
             raise
         except (ValueError, ArithmeticError) as e:
-            raise CaseError(_one_line(f"'model' (fidelity {spec.fidelity!r}): the model cannot be built from these "
+            raise CaseError(one_line(f"'model' (fidelity {spec.fidelity!r}): the model cannot be built from these "
                                       f"values: {type(e).__name__}: {e}")) from None
     for w in caught:                                        # a model that builds: its warnings as they were
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
@@ -710,7 +701,7 @@ class SweepSpec(_Strict):
 
     ``transient_periods = "auto"`` extends each point's transient until the
     stroboscopic map settles, up to ``max_transient_periods`` (default 10000;
-    :func:`vibeam.sweep._settle`); ``point_time_limit_s`` ends a point that runs
+    :func:`vibeam.sweep.settle_transient`); ``point_time_limit_s`` ends a point that runs
     longer as ``failed`` (default: no limit).  A point whose record is not periodic is
     continued until its spread is measured over ``statistics_periods`` periods (default
     256; 0 or at most ``record_periods``: the record alone), the sample its regression
@@ -1088,7 +1079,7 @@ class Case(_Strict):
         try:
             return EffectsSpec.model_validate(data)
         except ValidationError as e:
-            raise CaseError(_format(e, f"run '{run.name}'.effects", EffectsSpec)) from None
+            raise CaseError(validation_message(e, f"run '{run.name}'.effects", EffectsSpec)) from None
 
     def run_settings(self, run) -> dict:
         """Method settings of a run (everything but name, method and model overrides; unset
@@ -1138,16 +1129,16 @@ class Case(_Strict):
 def _validate_model(data: dict, prefix: str = "model"):
     allowed = ", ".join(repr(k) for k in MODEL_SPECS)
     if not isinstance(data, dict):
-        raise CaseError(f"'{prefix}' = {_value(data)}: must be a table with fidelity = {allowed}")
+        raise CaseError(f"'{prefix}' = {quote_value(data)}: must be a table with fidelity = {allowed}")
     if "fidelity" not in data:
         raise CaseError(f"missing key '{prefix}.fidelity'; allowed: {allowed}")
     fid = data["fidelity"]
     if not isinstance(fid, str) or fid not in MODEL_SPECS:
-        raise CaseError(f"'{prefix}.fidelity' = {_value(fid)} is not allowed; allowed: {allowed}")
+        raise CaseError(f"'{prefix}.fidelity' = {quote_value(fid)} is not allowed; allowed: {allowed}")
     try:
         spec = MODEL_SPECS[fid].model_validate(data)
     except ValidationError as e:
-        raise CaseError(_format(e, prefix, MODEL_SPECS[fid])) from None
+        raise CaseError(validation_message(e, prefix, MODEL_SPECS[fid])) from None
     spec.check(prefix)
     return spec
 
@@ -1188,27 +1179,6 @@ def _allowed_keys(model_cls, loc) -> list[str]:
     return sorted(getattr(cls, "model_fields", {}))
 
 
-_MAX_VALUE_CHARS = 80
-
-
-def _one_line(text: str) -> str:
-    """``text`` on one line: line breaks and other unprintable characters escaped."""
-    if text.isprintable():
-        return text
-    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
-
-
-def _value(v) -> str:
-    """A value as quoted in messages: its repr, on one line, shortened."""
-    try:
-        r = repr(v)
-    except Exception:  # pragma: no cover - TOML values always have a repr
-        r = f"<{type(v).__name__}>"
-    if len(r) > _MAX_VALUE_CHARS:
-        r = r[: _MAX_VALUE_CHARS - 3] + "..."
-    return _one_line(r)
-
-
 def _key(loc, tags: bool = True) -> str:
     """Dotted key of a pydantic error location, e.g. ``run[0].chatter_tol`` (with ``tags``, the
     method tag that pydantic inserts after a run's index is left out)."""
@@ -1221,7 +1191,7 @@ def _key(loc, tags: bool = True) -> str:
         elif tags and isinstance(p, str) and (p.startswith("literal[") or p in _UNION_MEMBERS):
             continue   # the member of a scalar union (e.g. transient_periods: int or "auto")
         else:
-            parts.append(("." if parts else "") + _one_line(str(p)))
+            parts.append(("." if parts else "") + one_line(str(p)))
     return "".join(parts)
 
 
@@ -1242,14 +1212,14 @@ def _check_ints(data, loc=()) -> None:
         for i, v in enumerate(data):
             _check_ints(v, (*loc, i))
     elif isinstance(data, int) and not isinstance(data, bool) and not -2**63 <= data < 2**63:
-        raise CaseError(f"'{_key(loc, tags=False)}' = {_value(data)}: an integer must fit in 64 bits "
+        raise CaseError(f"'{_key(loc, tags=False)}' = {quote_value(data)}: an integer must fit in 64 bits "
                         f"(-2**63 ... 2**63 - 1)")
 
 
 _METHODS = ", ".join(repr(m) for m in _RUN_BY_METHOD)
 
 
-def _format(err: ValidationError, prefix: str, root_cls) -> str:
+def validation_message(err: ValidationError, prefix: str, root_cls) -> str:
     """One line naming, for every error, the key, the value and what is allowed."""
     msgs = []
     for e in err.errors():
@@ -1261,22 +1231,22 @@ def _format(err: ValidationError, prefix: str, root_cls) -> str:
         val = e.get("input")
         if e["type"] == "extra_forbidden":
             allowed = _allowed_keys(root_cls, e["loc"])
-            msgs.append(f"unknown key '{where}' (value {_value(val)}); allowed keys: {', '.join(allowed)}")
+            msgs.append(f"unknown key '{where}' (value {quote_value(val)}); allowed keys: {', '.join(allowed)}")
         elif e["type"] == "missing":
             msgs.append(f"missing key '{where}'")
         elif e["type"] == "union_tag_invalid":     # a run's method
             tag = val.get("method") if isinstance(val, dict) else e.get("ctx", {}).get("tag")
-            msgs.append(f"'{where}.method' = {_value(tag)} is not a method; allowed: {_METHODS}")
+            msgs.append(f"'{where}.method' = {quote_value(tag)} is not a method; allowed: {_METHODS}")
         elif e["type"] == "union_tag_not_found":
             msgs.append(f"missing key '{where}.method'; allowed: {_METHODS}")
         else:
-            msg = _one_line(e["msg"].removeprefix("Value error, "))
+            msg = one_line(e["msg"].removeprefix("Value error, "))
             if isinstance(val, dict):
                 msgs.append(f"'{where}': {msg}")
-            elif msgs and msgs[-1].startswith(f"'{where}' = {_value(val)}: "):
+            elif msgs and msgs[-1].startswith(f"'{where}' = {quote_value(val)}: "):
                 msgs[-1] += f", or {msg[:1].lower()}{msg[1:]}"   # another member of a union
             else:
-                msgs.append(f"'{where}' = {_value(val)}: {msg}")
+                msgs.append(f"'{where}' = {quote_value(val)}: {msg}")
     return "; ".join(msgs)
 
 
@@ -1303,15 +1273,15 @@ def parse_case(text: str, source: str = "<case>") -> Case:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
-        raise CaseError(_one_line(f"{source}: not valid TOML: {e}")) from None
+        raise CaseError(one_line(f"{source}: not valid TOML: {e}")) from None
     except RecursionError:
-        raise CaseError(_one_line(f"{source}: not valid TOML: arrays or tables nested too deeply")) from None
+        raise CaseError(one_line(f"{source}: not valid TOML: arrays or tables nested too deeply")) from None
     try:
         _check_ints(data)
         try:
             case = Case.model_validate(data)
         except ValidationError as e:
-            raise CaseError(_format(e, "", Case)) from None
+            raise CaseError(validation_message(e, "", Case)) from None
         spec = case.model_spec()
         for i, r in enumerate(case.run):
             allowed = fidelity_methods(spec.fidelity)
@@ -1321,7 +1291,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
             run_spec = spec
             if r.model:
                 if "fidelity" in r.model and r.model["fidelity"] != case.model.get("fidelity"):
-                    raise CaseError(f"'run[{i}].model.fidelity' = {_value(r.model['fidelity'])}: a run "
+                    raise CaseError(f"'run[{i}].model.fidelity' = {quote_value(r.model['fidelity'])}: a run "
                                     f"cannot change the fidelity; put it in another case")
                 run_spec = _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
             _check_contact_method(run_spec, i, r)
@@ -1339,7 +1309,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
             raise CaseError("'sweep.frequency_hz' needs a physical model (natural_frequency_hz, ...); "
                             "use 'sweep.Omega' for a nondimensional one")
     except CaseError as e:
-        raise CaseError(_one_line(f"{source}: {e}")) from None
+        raise CaseError(one_line(f"{source}: {e}")) from None
     return case
 
 
@@ -1373,7 +1343,7 @@ def _check_method_values(spec, i: int, r, prefix: str) -> None:
     R = getattr(spec, "R", None)
     if r.method in fid.positive_R_methods and R is not None and not R > 0.0:
         others = [m for m in fid.method_names if m not in fid.positive_R_methods]
-        raise CaseError(f"'{prefix}.R' = {_value(R)}: method {r.method!r} (run[{i}]) needs R > 0 (its transformation "
+        raise CaseError(f"'{prefix}.R' = {quote_value(R)}: method {r.method!r} (run[{i}]) needs R > 0 (its transformation "
                         f"divides by K_N = 0 at R = 0); allowed: 0 < R <= 1, or another method ({', '.join(others)})")
 
 
@@ -1505,7 +1475,7 @@ def _check_continuation(case: Case, i: int, r) -> None:
         try:
             native(r.parameter)
         except ValueError as e:
-            raise CaseError(f"'run[{i}].parameter' = {_value(r.parameter)} {e}") from None
+            raise CaseError(f"'run[{i}].parameter' = {quote_value(r.parameter)} {e}") from None
     if r.parameter != "Omega":
         if r.at is None:
             unit = "Hz" if case.sweep.frequency_hz is not None else "Omega"
@@ -1514,7 +1484,7 @@ def _check_continuation(case: Case, i: int, r) -> None:
         if r.range is None and not (case.map is not None and case.map.parameter == r.parameter):
             raise CaseError(f"'run[{i}].range' is missing: give [low, high] of {r.parameter!r}")
     if case.map is not None and r.parameter != "Omega":
-        raise CaseError(f"'run[{i}].parameter' = {_value(r.parameter)}: in a [map] case a continuation runs "
+        raise CaseError(f"'run[{i}].parameter' = {quote_value(r.parameter)}: in a [map] case a continuation runs "
                         f"in the frequency ('Omega') and draws curves over (frequency, {case.map.parameter})")
     if not isinstance(r.start_at, str):
         if r.range is not None:
@@ -1526,7 +1496,7 @@ def _check_continuation(case: Case, i: int, r) -> None:
             v = case.map.grid() if case.map is not None else [r.start_at]
             lo, hi = min(v), max(v)
         if not lo <= r.start_at <= hi:
-            raise CaseError(f"'run[{i}].start_at' = {_value(r.start_at)} lies outside the range [{lo}, {hi}]")
+            raise CaseError(f"'run[{i}].start_at' = {quote_value(r.start_at)} lies outside the range [{lo}, {hi}]")
 
 
 def _check_map(case: Case) -> None:
@@ -1534,7 +1504,7 @@ def _check_map(case: Case) -> None:
     m = case.map
     allowed = case.map_parameters()
     if m.parameter not in allowed:
-        raise CaseError(f"'map.parameter' = {_value(m.parameter)} is not a numeric key of [model]; "
+        raise CaseError(f"'map.parameter' = {quote_value(m.parameter)} is not a numeric key of [model]; "
                         f"allowed: {', '.join(allowed)}")
     for i, r in enumerate(case.run):
         if m.parameter in r.model:
@@ -1555,7 +1525,7 @@ def _check_map(case: Case) -> None:
                     if r.model == o:
                         _check_method_values(spec, j, r, f"run[{j}].model" if o else "model")
             except CaseError as e:
-                raise CaseError(f"'map.values' = {_value(m.values)}: {m.parameter} = {v:g} is not "
+                raise CaseError(f"'map.values' = {quote_value(m.values)}: {m.parameter} = {v:g} is not "
                                 f"allowed ({e})") from None
 
 

@@ -22,13 +22,10 @@ import sys
 from pathlib import Path
 
 from .arguments import jobs_option, path_option
+from .errors import Terminated  # noqa: F401 (re-exported)
 
 EXIT_CODES = {0: "done", 1: "regression found (regress)", 2: "bad input", 3: "every point failed",
               130: "interrupted (SIGINT, Ctrl-C)", 143: "terminated (SIGTERM)"}
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised like Ctrl-C so that the same clean-up runs (exit code 143)."""
 
 
 def _on_sigterm(signum, frame):
@@ -43,9 +40,9 @@ class _Parser(argparse.ArgumentParser):
     """argparse with errors on one line: ``vibeam: error: <message> (vibeam <cmd> --help)``."""
 
     def error(self, message):
-        from .case import _one_line
+        from .errors import one_line
 
-        self.exit(2, f"vibeam: error: {_one_line(message)} (see `{self.prog} --help`)\n")
+        self.exit(2, f"vibeam: error: {one_line(message)} (see `{self.prog} --help`)\n")
 
 
 def _int_at_least(lo: int, name: str = ""):
@@ -149,7 +146,8 @@ def _interrupted_left(h5: Path, before) -> str:
 
 
 def cmd_run(args, need_map=False, continuation_only=False) -> int:
-    from .case import CaseError, load_case
+    from .case import load_case
+    from .errors import CaseError
     from .outdir import check_folder
     from .runner import failure_summary
 
@@ -244,7 +242,7 @@ def cmd_cost(args) -> int:
 
 def _beam_spec(case, command):
     """The model spec of a scene with a finite-element model (capability ``fe_model``)."""
-    from .case import CaseError
+    from .errors import CaseError
     from .models.registry import fidelity, with_capability
 
     spec = case.model_spec()
@@ -349,7 +347,7 @@ def _plot_modes(rep, path, title):
 
 
 def main(argv=None) -> int:
-    from . import __version__
+    from .version import __version__
 
     ap = _Parser(prog="vibeam", description="Vibro-impact structural dynamics of an "
                  "impacting cantilever beam (multi-fidelity).",
@@ -505,7 +503,7 @@ def main(argv=None) -> int:
 
 def _dispatch(args) -> int:
     """Run a parsed command: errors as one line and exit 2, interrupts as 130/143."""
-    from .case import CaseError, _one_line
+    from .errors import CaseError, one_line
 
     stdout = sys.stdout
     sys.stdout = _QuietPipe(stdout)
@@ -517,7 +515,7 @@ def _dispatch(args) -> int:
     try:
         return args.func(args)
     except CaseError as e:
-        print(f"vibeam: error: {_one_line(str(e))}", file=sys.stderr)
+        print(f"vibeam: error: {one_line(str(e))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as e:
         print(f"vibeam: interrupted ({'SIGTERM' if isinstance(e, Terminated) else 'Ctrl-C'})", file=sys.stderr)
@@ -535,7 +533,7 @@ def _dispatch(args) -> int:
             why = "file too large (the file system's or the process's file-size limit, ulimit -f)"
         elif e.errno == errno.EDQUOT:
             why = "disk quota exceeded"
-        print(f"vibeam: error: {_one_line(f'{what}: {why}' if what else why)}", file=sys.stderr)
+        print(f"vibeam: error: {one_line(f'{what}: {why}' if what else why)}", file=sys.stderr)
         return 2
     finally:
         try:

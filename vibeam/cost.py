@@ -452,7 +452,7 @@ def print_cost(result: dict) -> None:
 def cost_tables(result: dict) -> dict:
     """Variables of the HDF5 group ``/cost`` (one row per line of the table; the error sources
     of each model in ``model_*``)."""
-    from .results import var
+    from .netcdf import var
 
     rows = result["rows"]
     ms = list(result.get("models", {}).values())
@@ -552,6 +552,6 @@ def work_precision_figure(result: dict, title: str = "", case=None):
 
 def plot_work_precision(result: dict, path, title: str = "", case=None):
     """:func:`work_precision_figure` saved to ``path`` (``work_precision.png``)."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(work_precision_figure(result, title, case), path)
+    return save_close(work_precision_figure(result, title, case), path)

@@ -88,7 +88,7 @@ PAPER_GAIN_RATIOS = (3.78e-4 / 1.5e-3, 5.16e-4 / 1.5e-3, 7.66e-4 / 1.5e-3)
 
 
 def _err(msg):
-    from .case import CaseError
+    from .errors import CaseError
 
     return CaseError(msg)
 

@@ -12,7 +12,7 @@ One evaluation of the residuals is one sweep
     and/or ``down``, as continuation chains when the case's ``[sweep] continuation`` is on,
     like the rig's sweep that dwelt on exactly those frequencies), through the one sweep
     engine :func:`vibeam.sweep.run_lines` with the solvers built as the runner builds them
-    (:func:`vibeam.runner._job`).  Not on the case's grid and interpolated: a vibro-impact
+    (:func:`vibeam.runner.make_job`).  Not on the case's grid and interpolated: a vibro-impact
     FRC jumps, and an interpolated value next to a jump belongs to neither branch; the
     data frequencies are also where the residual is needed, so no point is wasted.
 
@@ -75,7 +75,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .identify import _error, _irls_weights, loss_psi, param_unit, uncertainty
+from .case_text import case_dump, to_toml  # noqa: F401 (re-exported)
+from .errors import case_error
+from .identify import irls_weights, loss_psi, param_unit, uncertainty
+from .reference import Reference, read_reference  # noqa: F401 (re-exported)
 
 DEFAULT_LOSS = "soft_l1"
 #: f_scale of the robust loss, in units of sigma
@@ -90,111 +93,6 @@ TYPICAL_SCALE = {"gap_mm": 0.01, "contact_gap_mm": 0.01, "Delta": 1e-4, "damping
 #: two one-sided differences agree when they differ by less than this fraction of the larger
 SLOPE_AGREEMENT = 0.5
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
-
-
-# ============================================================================ reference data
-@dataclass
-class Reference:
-    """Measured FRC points.
-
-    Attributes
-    ----------
-    source : str
-        File (and run) the points come from.
-    x_name, y_name : str
-        ``frequency_hz`` / ``amplitude_mm`` (physical) or ``Omega`` / ``amplitude``.
-    x, y : ndarray, shape (n,)
-    direction : ndarray of str, shape (n,)
-        ``up`` or ``down``: the sweep direction each point was measured in.
-    sigma : ndarray, shape (n,) or None
-        Standard deviation of each amplitude (units of ``y``).
-    notes : list of str
-    """
-
-    source: str
-    x_name: str
-    y_name: str
-    x: np.ndarray
-    y: np.ndarray
-    direction: np.ndarray
-    sigma: np.ndarray | None
-    notes: list = field(default_factory=list)
-
-    @property
-    def n(self) -> int:
-        return int(self.x.size)
-
-    @property
-    def physical(self) -> bool:
-        return self.x_name == "frequency_hz"
-
-
-_PAIRS = (("frequency_hz", "amplitude_mm"), ("Omega", "amplitude"))
-
-
-def read_reference(path, run: str | None = None) -> Reference:
-    """Read measured points: a CSV or a vibeam results file (HDF5).
-
-    CSV: :func:`vibeam.inputs.read_frc_table`, the one reader of measured and reference
-    tables (``vibeam regress`` reads them too): a header naming ``frequency_hz,amplitude_mm``
-    (physical) or ``Omega,amplitude``, optionally ``direction`` (``up``/``down``, default
-    ``up``) and ``sigma`` (standard deviation of the amplitude, same unit, > 0); frequencies
-    > 0, amplitudes >= 0; ``#`` lines are comments.  HDF5: the run ``run`` of a results
-    file (or its only run); all its points with both directions,
-    ``frequency_hz``/``amplitude_mm`` when present, failed points left out.
-
-    Raises
-    ------
-    vibeam.case.CaseError
-        On a file that is not a regular file or is larger than 10 MB, a missing or unknown
-        column, a row with missing or extra values, a value out of range, a direction other
-        than up/down, a sigma <= 0, no points, or a run not in the file.
-    """
-    path = Path(path)
-    if path.suffix.lower() in (".h5", ".hdf5"):
-        return _read_h5_reference(path, run)
-    from .inputs import read_frc_table
-
-    t = read_frc_table(path, "reference file")
-    return Reference(t.source, t.x_name, t.y_name, t.x, t.y, t.direction, t.sigma)
-
-
-def _read_h5_reference(path: Path, run: str | None) -> Reference:
-    from .inputs import check_input_file
-    from .results import read_results
-
-    check_input_file(path, "results file")
-    try:
-        res = read_results(path)
-    except (OSError, KeyError, ValueError) as e:
-        why = getattr(e, "strerror", None) or (str(e).splitlines()[0] if str(e) else type(e).__name__)
-        raise _error(f"{path}: cannot read results file: {why}") from None
-    runs = res.get("runs", {})
-    if not runs:
-        raise _error(f"{path}: no runs in the results file")
-    if run is None:
-        if len(runs) > 1:
-            raise _error(f"{path}: {len(runs)} runs; name the reference with --reference-run, one of: "
-                         f"{', '.join(repr(r) for r in runs)}")
-        run = next(iter(runs))
-    if run not in runs:
-        raise _error(f"{path}: '--reference-run' = {run!r} is not a run of the file; allowed: "
-                     f"{', '.join(repr(r) for r in runs)}")
-    d = runs[run]
-    pair = next((p for p in _PAIRS if p[0] in d and p[1] in d), None)
-    if pair is None:
-        raise _error(f"{path}: run {run!r} has neither frequency_hz/amplitude_mm nor Omega/amplitude")
-    x = np.asarray(d[pair[0]], float)
-    y = np.asarray(d[pair[1]], float)
-    dirs = np.array([str(v) for v in d.get("direction", ["up"] * x.size)], dtype=object)
-    status = np.array([str(v) for v in d.get("status", ["ok"] * x.size)])
-    keep = np.isfinite(x) & np.isfinite(y) & (status != "failed")
-    notes = []
-    if (~keep).any():
-        notes.append(f"{int((~keep).sum())} failed reference point(s) left out")
-    if not keep.any():
-        raise _error(f"{path}: run {run!r} has no usable points")
-    return Reference(f"{path} (run {run!r})", pair[0], pair[1], x[keep], y[keep], dirs[keep], None, notes)
 
 
 # ============================================================================ parameters
@@ -240,14 +138,14 @@ def check_params(case, params, source: str = "") -> list[str]:
     allowed = case.map_parameters()
     where = f"{source}: " if source else ""
     if not params:
-        raise _error(f"{where}'--params' is empty; allowed: {', '.join(allowed)}")
+        raise case_error(f"{where}'--params' is empty; allowed: {', '.join(allowed)}")
     for p in params:
         if p not in allowed:
-            raise _error(f"{where}'--params' = {p!r} is not a numeric key of [model]; allowed: "
+            raise case_error(f"{where}'--params' = {p!r} is not a numeric key of [model]; allowed: "
                          f"{', '.join(allowed)}")
     dup = sorted({p for p in params if params.count(p) > 1})
     if dup:
-        raise _error(f"{where}'--params': {', '.join(dup)} repeated")
+        raise case_error(f"{where}'--params': {', '.join(dup)} repeated")
     return list(params)
 
 
@@ -351,11 +249,11 @@ class FitProblem:
         model0 = spec.build()
         self.physical = bool(getattr(model0, "natural_frequency_hz", None) and getattr(model0, "length_m", None))
         if ref.physical and not self.physical:
-            raise _error(f"{ref.source}: 'frequency_hz,amplitude_mm' data need a physical scene; "
+            raise case_error(f"{ref.source}: 'frequency_hz,amplitude_mm' data need a physical scene; "
                          f"{source or case.name} is nondimensional (use 'Omega,amplitude')")
         self._check_range(model0)
         if ref.sigma is None and not float(np.max(np.abs(ref.y))) > 0.0:
-            raise _error(f"{ref.source}: every '{ref.y_name}' is 0: without a 'sigma' column the residuals are "
+            raise case_error(f"{ref.source}: every '{ref.y_name}' is 0: without a 'sigma' column the residuals are "
                          f"scaled by {DEFAULT_SIGMA_FRACTION:.0%} of the largest amplitude, which is 0; give a "
                          f"'sigma' column (> 0) or data with a response")
         self.sigma = ref.sigma if ref.sigma is not None else \
@@ -379,7 +277,7 @@ class FitProblem:
         bad = np.flatnonzero((x < lo - tol) | (x > hi + tol))
         if bad.size:
             i = int(bad[0])
-            raise _error(f"{self.ref.source}: '{self.ref.x_name}' = {self.ref.x[i]:g} (point {i + 1}) is outside "
+            raise case_error(f"{self.ref.source}: '{self.ref.x_name}' = {self.ref.x[i]:g} (point {i + 1}) is outside "
                          f"the case's sweep range {lo:g} ... {hi:g}{(' ' + unit) if unit else ''} "
                          f"({self.source or self.case.name} [sweep] {key}); allowed: points inside the swept "
                          f"range (widen [sweep] {key} or leave the point out)")
@@ -390,9 +288,9 @@ class FitProblem:
 
     def job(self, x):
         """The runner's job (solver and sweep) of the run at parameters ``x``."""
-        from .runner import _job
+        from .runner import make_job
 
-        return _job(self.case, self.run, self.overrides(x))
+        return make_job(self.case, self.run, self.overrides(x))
 
     def _sweeps(self, job, transient_factor: int = 1):
         """One :class:`vibeam.sweep.Sweep` per measured direction, at the data's frequencies."""
@@ -414,7 +312,7 @@ class FitProblem:
         """Sweep the model at each parameter vector in ``xs``: all lines go to the executor in
         one :func:`vibeam.sweep.run_lines` call (``transient_factors``: per vector, a multiple
         of the case's transient periods; default 1)."""
-        from .case import CaseError
+        from .errors import CaseError
         from .sweep import plan_lines, run_lines
 
         plans = []
@@ -849,9 +747,9 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
 
     t0 = time.perf_counter()
     if loss not in LOSSES:
-        raise _error(f"'--loss' = {loss!r} is not allowed; allowed: {', '.join(LOSSES)}")
+        raise case_error(f"'--loss' = {loss!r} is not allowed; allowed: {', '.join(LOSSES)}")
     if not (f_scale > 0 and math.isfinite(f_scale)):
-        raise _error(f"'--f-scale' = {f_scale!r}: must be a finite positive number")
+        raise case_error(f"'--f-scale' = {f_scale!r}: must be a finite positive number")
     ref = reference if isinstance(reference, Reference) else read_reference(reference, reference_run)
     params = check_params(case, list(params) if params else default_params(case), source)
     r = _pick_run(case, run, source)
@@ -860,7 +758,7 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
     try:
         prob = FitProblem(case, r, ref, params, ex, source)
         if ref.n < len(params):
-            raise _error(f"{ref.source}: {ref.n} points cannot determine {len(params)} parameters")
+            raise case_error(f"{ref.source}: {ref.n} points cannot determine {len(params)} parameters")
         start = prob.x0.copy()
         if x0:
             for k, v in x0.items():
@@ -877,7 +775,7 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
             r0[~np.isfinite(np.square(r0))] = np.inf   # the cost sums their squares
         if not np.isfinite(r0).all():
             i = int(np.flatnonzero(~np.isfinite(r0))[0])
-            raise _error(f"{ref.source}: the residual (model - data) / sigma of point {i + 1} "
+            raise case_error(f"{ref.source}: the residual (model - data) / sigma of point {i + 1} "
                          f"({ref.x_name} = {ref.x[i]:g}) is not finite or its square overflows at the start: "
                          f"sigma = {prob.sigma[i]:g} is too "
                          f"small for the model amplitude {ev0.amplitude[i]:g}; give sigma values of the data's "
@@ -907,7 +805,7 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
         info = jac_cache[x.tobytes()][1]
         rr = prob.residuals(ev)
         used = ~ev.failed
-        w = _irls_weights(rr, loss, f_scale)
+        w = irls_weights(rr, loss, f_scale)
         psi, dpsi = loss_psi(rr, loss, f_scale)
         at_bound = (res.active_mask != 0) | np.isclose(x, prob.lb_eff, rtol=0, atol=1e-12 * prob.typ) | \
             np.isclose(x, prob.ub_eff, rtol=0, atol=1e-12 * prob.typ)
@@ -987,64 +885,10 @@ def _pick_run(case, run, source=""):
         if r.name == run:
             return r
     where = f"{source}: " if source else ""
-    raise _error(f"{where}'--run' = {run!r} is not a run of the case; allowed: {', '.join(repr(n) for n in names)}")
+    raise case_error(f"{where}'--run' = {run!r} is not a run of the case; allowed: {', '.join(repr(n) for n in names)}")
 
 
 # ============================================================================ fitted case file
-_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
-
-
-def _tkey(k) -> str:
-    return k if _BARE.match(str(k)) else json.dumps(str(k), ensure_ascii=False)
-
-
-def _tval(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        return repr(float(v))
-    if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=False)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_tval(x) for x in v) + "]"
-    raise TypeError(f"cannot write {type(v).__name__} to TOML")
-
-
-def to_toml(data: dict, prefix: str = "") -> str:
-    """TOML text of nested dicts/lists of scalars (tables and arrays of tables)."""
-    lines = []
-    for k, v in data.items():
-        if v is None or isinstance(v, dict) or (isinstance(v, list) and v and all(isinstance(x, dict) for x in v)):
-            continue
-        lines.append(f"{_tkey(k)} = {_tval(v)}")
-    for k, v in data.items():
-        if isinstance(v, dict) and v:
-            lines.append(f"\n[{prefix}{_tkey(k)}]")
-            body = to_toml(v, prefix + _tkey(k) + ".")
-            if body:
-                lines.append(body)
-    for k, v in data.items():
-        if isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
-            for item in v:
-                lines.append(f"\n[[{prefix}{_tkey(k)}]]")
-                body = to_toml(item, prefix + _tkey(k) + ".")
-                if body:
-                    lines.append(body)
-    return "\n".join(lines)
-
-
-def case_dump(case) -> dict:
-    """The keys a case file set (not the defaults filled in), grids' point counts as integers."""
-    data = case.model_dump(exclude_unset=True, exclude_none=True)
-    for tab, key in (("sweep", "Omega"), ("sweep", "frequency_hz"), ("map", "values")):
-        g = data.get(tab, {}).get(key)
-        if isinstance(g, list) and len(g) == 3 and float(g[2]).is_integer():
-            g[2] = int(g[2])
-    return data
-
-
 def fitted_case_text(case, run, values: dict, source: str = "", reference: str = "", se=None) -> str:
     """The case with the fitted values: ``[model]`` updated, the fitted run alone (its overrides
     of fitted keys removed), a ``[map]`` of a fitted key dropped; validated before it is
@@ -1180,14 +1024,14 @@ def main_fit(args) -> int:
     case, text = load_case(args.case)
     log = None if getattr(args, "quiet", False) else (lambda m: print(m, file=sys.stderr))
     if not args.reference and not args.decay:
-        raise _error(f"{args.case}: `vibeam fit` needs --reference DATA (an FRC) or --decay DECAY.csv "
+        raise case_error(f"{args.case}: `vibeam fit` needs --reference DATA (an FRC) or --decay DECAY.csv "
                      f"(a free decay)")
     if not (math.isfinite(args.f_scale) and args.f_scale > 0):
-        raise _error(f"'--f-scale' = {args.f_scale!r}: must be a finite positive number (units of sigma)")
+        raise case_error(f"'--f-scale' = {args.f_scale!r}: must be a finite positive number (units of sigma)")
     if args.max_evaluations < 1:
-        raise _error(f"'--max-evaluations' = {args.max_evaluations!r}: must be at least 1")
+        raise case_error(f"'--max-evaluations' = {args.max_evaluations!r}: must be at least 1")
     if args.params is not None and not [p for p in args.params.split(",") if p.strip()]:
-        raise _error(f"{args.case}: '--params' = {args.params!r} names no parameter; allowed: "
+        raise case_error(f"{args.case}: '--params' = {args.params!r} names no parameter; allowed: "
                      f"{', '.join(case.map_parameters())}")
     from .outdir import OutputLock, check_folder, default_folder
 
@@ -1261,9 +1105,9 @@ def synthetic_reference(case, frequencies, values: dict | None = None, run: str 
     r = _pick_run(case, run)
     spec0 = case.model_spec(dict(r.model)) if r.model else case.model_spec()
     phys = bool(getattr(spec0, "physical", False))
-    from .runner import _job
+    from .runner import make_job
 
-    job = _job(case, r, dict(r.model, **(values or {})))
+    job = make_job(case, r, dict(r.model, **(values or {})))
     model = job.solver.model
     fn = getattr(model, "natural_frequency_hz", None) if phys else None
     xs = np.asarray(frequencies, float)

@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import case_error
+
 #: a singular value of the column-scaled Jacobian below this fraction of the largest is
 #: treated as zero: finite-difference Jacobians carry relative errors of ~1e-7 (step ~ eps^(1/3)),
 #: so a smaller singular value cannot be told from a direction the data do not determine
@@ -51,12 +53,6 @@ def param_unit(name: str) -> str:
         if name.endswith(suffix):
             return unit
     return "1"
-
-
-def _error(msg):
-    from .case import CaseError, _one_line
-
-    return CaseError(_one_line(msg))
 
 
 # ============================================================================ statistics
@@ -120,7 +116,7 @@ def loss_psi(r, loss: str, f_scale: float) -> tuple[np.ndarray, np.ndarray]:
     elif loss == "arctan":
         d1, d2 = 1 / (1 + z * z), -2 * z / (1 + z * z) ** 2
     else:
-        raise _error(f"'--loss' = {loss!r} is not allowed; allowed: linear, soft_l1, huber, cauchy, arctan")
+        raise case_error(f"'--loss' = {loss!r} is not allowed; allowed: linear, soft_l1, huber, cauchy, arctan")
     return r * d1, d1 + 2 * z * d2
 
 
@@ -259,16 +255,16 @@ def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
     """
     head, rows = read_csv_columns(path, "decay")
     if sorted(head) != ["U_mm", "t_s"]:
-        raise _error(f"{path}: header {head!r} not allowed; a free decay has the columns 't_s,U_mm' (time in s, "
+        raise case_error(f"{path}: header {head!r} not allowed; a free decay has the columns 't_s,U_mm' (time in s, "
                      f"displacement at the sensor in mm) and no others")
     t = column_floats(path, head, rows, "t_s", kind="decay")
     U = column_floats(path, head, rows, "U_mm", kind="decay")
     if t.size < 20:
-        raise _error(f"{path}: {t.size} samples; a free decay needs at least 20")
+        raise case_error(f"{path}: {t.size} samples; a free decay needs at least 20")
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         i = int(bad[0]) + 1
-        raise _error(f"{path}: 't_s' = {t[i]!r} (data row {i + 1}): times must increase")
+        raise case_error(f"{path}: 't_s' = {t[i]!r} (data row {i + 1}): times must increase")
     return t, U
 
 
@@ -428,11 +424,11 @@ def fit_linear(f_hz, amplitude_mm, length_mm: float, voltage: float, sigma_mm=No
     params = list(params)
     for p in params:
         if p not in EQ43_PARAMS:
-            raise _error(f"'--params' = {p!r} is not a parameter of Eq. 43; allowed: {', '.join(EQ43_PARAMS)}")
+            raise case_error(f"'--params' = {p!r} is not a parameter of Eq. 43; allowed: {', '.join(EQ43_PARAMS)}")
     if len(set(params)) != len(params):
-        raise _error(f"'--params' = {','.join(params)!r}: a parameter is repeated")
+        raise case_error(f"'--params' = {','.join(params)!r}: a parameter is repeated")
     if f.size < len(params):
-        raise _error(f"{f.size} points cannot determine {len(params)} parameters")
+        raise case_error(f"{f.size} points cannot determine {len(params)} parameters")
     fixed = dict(fixed or {})
     start = _initial_eq43(f, A, length_mm, voltage, fixed)
     start.update({k: v for k, v in fixed.items() if k not in params})
@@ -477,7 +473,7 @@ def fit_linear(f_hz, amplitude_mm, length_mm: float, voltage: float, sigma_mm=No
                      length_mm, voltage)
 
 
-def _irls_weights(r, loss: str, f_scale: float) -> np.ndarray:
+def irls_weights(r, loss: str, f_scale: float) -> np.ndarray:
     """``rho'(z)``, ``z = (r / f_scale)^2``, of scipy's losses: the weight a robust loss gives each
     residual in its iteratively reweighted least-squares form (1 for ``linear``)."""
     z = (np.asarray(r, float) / f_scale) ** 2
@@ -491,7 +487,7 @@ def _irls_weights(r, loss: str, f_scale: float) -> np.ndarray:
         return 1.0 / (1.0 + z)
     if loss == "arctan":
         return 1.0 / (1.0 + z * z)
-    raise _error(f"'--loss' = {loss!r} is not allowed; allowed: linear, soft_l1, huber, cauchy, arctan")
+    raise case_error(f"'--loss' = {loss!r} is not allowed; allowed: linear, soft_l1, huber, cauchy, arctan")
 
 
 # ============================================================================ free decay
@@ -614,7 +610,7 @@ def log_decrement(t, U, min_snr: float = 10.0) -> DecayEstimate:
     te, ue = _extrema(t, U, f0)
     noise = _noise_std(U)
     if te.size < 4:
-        raise _error(f"free decay: found {te.size} extrema; the log decrement needs at least 4 (is the "
+        raise case_error(f"free decay: found {te.size} extrema; the log decrement needs at least 4 (is the "
                      f"record a decaying oscillation of a few periods?)")
     p = np.abs(np.diff(ue))
     tk = te[:-1]
@@ -628,7 +624,7 @@ def log_decrement(t, U, min_snr: float = 10.0) -> DecayEstimate:
     use[i0:i1] = True
     k_used = i1 - i0
     if k_used < 3:
-        raise _error(f"free decay: only {k_used} peak-to-peak differences stand {min_snr:g} noise "
+        raise case_error(f"free decay: only {k_used} peak-to-peak differences stand {min_snr:g} noise "
                      f"deviations ({noise:.3g}) above the noise; need at least 3")
     # starting decay rate: weighted straight line through ln p_k (weights p_k^2)
     X = np.column_stack([np.ones(k_used), tk[use]])
@@ -762,7 +758,7 @@ def _model_values(case):
     """``(spec, L_mm, V, {f_n, beta_S, gamma})`` of a physical scene (SDOF or beam)."""
     spec = case.model_spec()
     if not getattr(spec, "physical", False):
-        raise _error(f"{case.name}: the linear steps need a physical scene (natural_frequency_hz or a beam, "
+        raise case_error(f"{case.name}: the linear steps need a physical scene (natural_frequency_hz or a beam, "
                      f"length_mm, gain, voltage), not the nondimensional keys")
     model = spec.build()
     return spec, float(spec.length_mm), float(spec.voltage), {
@@ -783,7 +779,7 @@ def _case_updates(spec, values: dict) -> tuple[dict, list]:
 
 def _write_case(case, updates, suffix, comment, out_dir) -> Path:
     from .case import parse_case
-    from .fit import case_dump, to_toml
+    from .case_text import case_dump, to_toml
 
     data = case_dump(case)
     data["name"] = f"{case.name}-{suffix}"
@@ -805,12 +801,12 @@ def report_linear(case, case_text, reference, out_dir, params=None, loss="linear
                   source="") -> LinearFit:
     """``vibeam fit CASE --linear --reference FRC``: fit Eq. 43 around f_n, print, write
     ``linear.h5`` (``/fit``), ``linear.png`` and ``<case>-linear.toml``."""
-    from .fit import read_reference
+    from .reference import read_reference
     from .results import write_results
 
     ref = read_reference(reference)
     if not ref.physical:
-        raise _error(f"{ref.source}: the linear fit needs 'frequency_hz,amplitude_mm' data")
+        raise case_error(f"{ref.source}: the linear fit needs 'frequency_hz,amplitude_mm' data")
     spec, L, V, vals = _model_values(case)
     params = list(params) if params else list(EQ43_PARAMS)
     res = fit_linear(ref.x, ref.y, L, V, sigma_mm=ref.sigma, params=params, fixed=vals, loss=loss,

@@ -48,9 +48,9 @@ _KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISCHR, "a character device"), (
 
 def _error(where: str, what: str, why: str, access: bool = True):
     """One line: ``<file>: cannot read <what>: <why>`` (``access``), else ``<file>: <why>``."""
-    from .case import InputError, _one_line
+    from .errors import InputError, one_line
 
-    return InputError(_one_line(f"{where}: cannot read {what}: {why}" if access else f"{where}: {why}"))
+    return InputError(one_line(f"{where}: cannot read {what}: {why}" if access else f"{where}: {why}"))
 
 
 def _content_error(where: str, what: str, why: str):
@@ -176,7 +176,7 @@ def read_csv_table(path, what: str = "data file", option: str = "") -> tuple[lis
         unclosed quote); no header; an empty or repeated column name; a row with missing
         or extra values (naming the data row, its count and the header's).
     """
-    from .case import _value
+    from .errors import quote_value
 
     text = read_input_text(path, what, option)
     where = _where(Path(path), option)
@@ -192,7 +192,7 @@ def read_csv_table(path, what: str = "data file", option: str = "") -> tuple[lis
         if not h:
             raise _content_error(where, what, f"column {j + 1} of the header has no name")
         if head.index(h) != j:
-            raise _content_error(where, what, f"column {_value(h)} appears twice in the header")
+            raise _content_error(where, what, f"column {quote_value(h)} appears twice in the header")
     for i, r in enumerate(rows[1:]):
         if len(r) != len(head):
             raise _content_error(where, what, f"data row {i + 1} has {len(r)} value(s), the header {len(head)} "
@@ -212,7 +212,7 @@ def column_floats(path, head, rows, name: str, low: float | None = None, low_ope
     """
     import numpy as np
 
-    from .case import _value
+    from .errors import quote_value
 
     j = head.index(name)
     need = "a finite number" + ("" if low is None else f" {'>' if low_open else '>='} {low:g}")
@@ -225,7 +225,7 @@ def column_floats(path, head, rows, name: str, low: float | None = None, low_ope
             x = math.nan
         if not math.isfinite(x) or (low is not None and (x <= low if low_open else x < low)):
             raise _content_error(_where(Path(path), option), what,
-                                 f"'{name}' = {_value(v)} (data row {i + 1}): allowed: {need}")
+                                 f"'{name}' = {quote_value(v)} (data row {i + 1}): allowed: {need}")
         out[i] = x
     return out
 
@@ -295,7 +295,7 @@ def read_frc_table(path, what: str = "reference file", option: str = "") -> FRCT
     """
     import numpy as np
 
-    from .case import _value
+    from .errors import quote_value
 
     head, rows = read_csv_table(path, what, option)
     where = _where(Path(path), option)
@@ -308,7 +308,7 @@ def read_frc_table(path, what: str = "reference file", option: str = "") -> FRCT
     pair = pairs[0]
     unknown = [h for h in head if h not in (*pair, *FRC_OPTIONAL)]
     if unknown:
-        raise _content_error(where, what, f"column {_value(unknown[0])} not allowed; allowed columns: {allowed}")
+        raise _content_error(where, what, f"column {quote_value(unknown[0])} not allowed; allowed columns: {allowed}")
     if not rows:
         raise _content_error(where, what, "no data rows below the header")
     kw = dict(what=what, option=option)
@@ -319,7 +319,7 @@ def read_frc_table(path, what: str = "reference file", option: str = "") -> FRCT
         d = np.array([r[j].lower() for r in rows], dtype=object)
         for i, v in enumerate(d):
             if v not in DIRECTIONS:
-                raise _content_error(where, what, f"'direction' = {_value(rows[i][j])} (data row {i + 1}): "
+                raise _content_error(where, what, f"'direction' = {quote_value(rows[i][j])} (data row {i + 1}): "
                                      f"allowed: {', '.join(DIRECTIONS)}")
     else:
         d = np.array(["up"] * len(rows), dtype=object)

@@ -164,7 +164,7 @@ def hysteresis(m: MapResult, rtol: float = 1e-3) -> np.ndarray | None:
         return (c[0] != c[1]) | (orbit & (np.abs(a[0] - a[1]) > rtol * scale))
 
 
-def _edges(c) -> np.ndarray:
+def cell_edges(c) -> np.ndarray:
     """Cell edges around increasing centres ``c`` (n,) -> (n + 1,); one centre gets a cell of
     +-5 % of its value (+-0.05 at 0), so a map with one value or one frequency is drawn."""
     c = np.asarray(c, float)
@@ -178,15 +178,15 @@ def _edges(c) -> np.ndarray:
 def _mesh(x, y):
     """Corner arrays (n_values + 1, n_freq + 1) of a map whose frequency grid ``x``
     (n_values, n_freq) may differ between the values ``y`` (n_values,)."""
-    xe = np.array([_edges(row) for row in np.atleast_2d(x)])
-    ye = _edges(y)
+    xe = np.array([cell_edges(row) for row in np.atleast_2d(x)])
+    ye = cell_edges(y)
     X = np.vstack([xe, xe[-1:]])
     Y = np.repeat(ye[:, None], X.shape[1], axis=1)
     return X, Y
 
 
 def _axes_labels(m):
-    from .results import parameter_units
+    from .netcdf import parameter_units
     from .style import label
 
     phys = "frequency_hz" in m.data
@@ -262,9 +262,9 @@ def map_figure(m: MapResult, title: str = "", case=None, curves=()):
 
 def plot_map(m: MapResult, path, title: str = "", case=None, curves=()):
     """:func:`map_figure` saved to ``path`` (``map_<run>.png``); returns the path."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(map_figure(m, title, case, curves), path)
+    return save_close(map_figure(m, title, case, curves), path)
 
 
 def class_agreement(a: MapResult, b: MapResult) -> np.ndarray | None:
@@ -322,9 +322,9 @@ def agreement_figure(maps: list, title: str = "", case=None):
 def plot_agreement(maps: list, path, title: str = "", case=None):
     """:func:`agreement_figure` saved to ``path`` (``maps_agreement.png``); None if fewer than
     two maps share a grid."""
-    from .plots import _save_close
+    from .plots import save_close
 
-    return _save_close(agreement_figure(maps, title, case), path)
+    return save_close(agreement_figure(maps, title, case), path)
 
 
 def print_map(m: MapResult) -> None:

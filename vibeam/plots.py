@@ -34,7 +34,8 @@ def save_figure(fig, path, dpi: int = 150) -> Path:
     return replace_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png"))
 
 
-def _save_close(fig, path):
+def save_close(fig, path):
+    """Save ``fig`` to ``path`` (:func:`save_figure`) and close it; None for no figure."""
     import matplotlib.pyplot as plt
 
     if fig is None:
@@ -199,12 +200,12 @@ def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None
 
 def plot_impacts(runs, path, title: str = "", case=None, colours=None) -> Path | None:
     """:func:`impacts_figure` saved to ``path`` (``impacts.png``); None without a two-sided run."""
-    return _save_close(impacts_figure(runs, title, case, colours), path)
+    return save_close(impacts_figure(runs, title, case, colours), path)
 
 
 def plot_frc(runs, path, title: str = "", case=None, colours=None) -> Path:
     """:func:`frc_figure` saved to ``path`` (``frc.png``); returns the path."""
-    return _save_close(frc_figure(runs, title, case, colours), path)
+    return save_close(frc_figure(runs, title, case, colours), path)
 
 
 def bifurcation_figure(runs, title: str = "", case=None, colours: dict | None = None):
@@ -255,7 +256,7 @@ def bifurcation_figure(runs, title: str = "", case=None, colours: dict | None = 
 
 def plot_bifurcation(runs, path, title: str = "", case=None, colours=None) -> Path | None:
     """:func:`bifurcation_figure` saved to ``path`` (``bifurcation.png``); None without strobe data."""
-    return _save_close(bifurcation_figure(runs, title, case, colours), path)
+    return save_close(bifurcation_figure(runs, title, case, colours), path)
 
 
 def simulation_figure(sim):

@@ -106,7 +106,7 @@ def load_results(path, option: str = "--results") -> dict:
         If the file is missing, empty, truncated, not HDF5, or holds no runs or maps
         with amplitudes.
     """
-    from .case import InputError
+    from .errors import InputError
     from .inputs import check_input_file
     from .results import read_results
 
@@ -188,7 +188,7 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
 def _compare_csv(new: dict, t, atol: float, rtol: float) -> list[RegressRow]:
     """Each run's FRC interpolated linearly at the table's points, on the sweep of each point's
     direction (``up`` without a ``direction`` column), against the table's amplitudes."""
-    from .case import InputError
+    from .errors import InputError
 
     rows = []
     where = f"--reference {t.source}"
@@ -267,7 +267,7 @@ def check_results_of_case(case, res: dict, path, source: str = "") -> None:
     """
     import json
 
-    from .case import InputError, _value
+    from .errors import InputError, quote_value
 
     attrs = res.get("attrs", {})
     where = f"--results {path}"
@@ -282,7 +282,7 @@ def check_results_of_case(case, res: dict, path, source: str = "") -> None:
         if theirs == mine:
             return
         key, a, b = _first_difference(theirs, mine)
-        raise InputError(f"{where}: written by another case ('{key}' = {_value(a)} in the file, {_value(b)} in "
+        raise InputError(f"{where}: written by another case ('{key}' = {quote_value(a)} in the file, {quote_value(b)} in "
                          f"{source or case.name}); allowed: results of {source or case.name} (vibeam run)")
     name = str(attrs.get("case_name", "") or "")
     if name and name != case.name:
@@ -300,7 +300,7 @@ def check_reference_of_case(case, ref, path, source: str = "") -> None:
     InputError
         Naming the file, the column or direction and what is allowed.
     """
-    from .case import InputError
+    from .errors import InputError
     from .inputs import FRCTable
 
     if not isinstance(ref, FRCTable):

@@ -61,7 +61,7 @@ the next one, never a corrupt one, and ``--resume`` recomputes only the lines
 missing from ``/lines``; HDF5 never meets a failing write.
 
 Any other group (continuation branches, fit tables) is written through
-:func:`write_group`: a dict of :class:`Variable` (dims, data, units, long_name)
+:func:`vibeam.netcdf.write_group`: a dict of :class:`~vibeam.netcdf.Variable` (dims, data, units, long_name)
 becomes one netCDF group with its dimensions and coordinates.
 """
 from __future__ import annotations
@@ -69,24 +69,18 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from .version import __version__
+from .netcdf import (PARAMETER_UNITS, Variable, dataset_values, is_dim_only, json_default,  # noqa: F401
+                     parameter_units, read_attrs, read_plain, set_attrs, var, write_group, DimIds)
+from .errors import ForeignFileError  # noqa: F401 (re-exported)
 
 LAYOUT_VERSION = 2
-_DIM_ONLY = "This is a netCDF dimension but not a netCDF variable"
 
-
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
 
 
 # ============================================================================ what each variable is
@@ -204,24 +198,6 @@ EXTRA_DIMS = {
 # run attributes that are the coordinate of an extra dimension (stored once, as the coordinate)
 ATTR_COORDS = {"spectrum_frequency": "spectrum_frequency", "noise_level": "noise_ladder_mm"}
 
-# units of the parameters a map may vary (by name, then by suffix)
-PARAMETER_UNITS = {"voltage": "V", "gain": "V-1", "natural_frequency_hz": "Hz", "damping_ratio": "1",
-                   "R": "1", "B": "1", "beta": "1", "Delta": "1", "youngs_modulus_gpa": "GPa",
-                   "density_kg_m3": "kg m-3", "rhoA_kg_m": "kg m-1", "EI_n_m2": "N m2",
-                   "rotary_inertia_kg_m2": "kg m2"}
-_SUFFIX_UNITS = (("_mm", "mm"), ("_hz", "Hz"), ("_kg", "kg"), ("_s", "s"), ("_m", "m"))
-
-
-def parameter_units(name: str) -> str:
-    """UDUNITS string of a model key (``voltage`` V, ``gap_mm`` mm, ``R`` 1, ...)."""
-    if name in PARAMETER_UNITS:
-        return PARAMETER_UNITS[name]
-    for suf, u in _SUFFIX_UNITS:
-        if name.endswith(suf):
-            return u
-    return "1"
-
-
 def describe(name: str, physical: bool = False) -> tuple[str, str]:
     """``(units, long_name)`` of a per-point output or coordinate.
 
@@ -254,227 +230,6 @@ def describe(name: str, physical: bool = False) -> tuple[str, str]:
     if name.endswith("_mm"):
         return "mm", name.replace("_", " ")
     return "1", name.replace("_", " ")
-
-
-# ============================================================================ the generic writer
-@dataclass
-class Variable:
-    """One netCDF variable: named dimensions, data and attributes.
-
-    Attributes
-    ----------
-    dims : tuple of str
-        One name per axis of ``data`` (``()`` for a scalar).
-    data : ndarray
-        Numbers, complex numbers, booleans (stored as int8 with ``dtype = "bool"``, as xarray
-        encodes them) or strings (UTF-8).
-    attrs : dict
-        ``units`` and ``long_name`` (CF), and any other attribute; dicts are stored as JSON.
-    """
-
-    dims: tuple
-    data: np.ndarray
-    attrs: dict = field(default_factory=dict)
-
-
-def var(dims, data, units: str | None = None, long_name: str | None = None, **attrs) -> Variable:
-    """A :class:`Variable` with ``units`` and ``long_name`` (omitted when None)."""
-    a = {}
-    if units is not None:
-        a["units"] = units
-    if long_name is not None:
-        a["long_name"] = long_name
-    a.update(attrs)
-    return Variable(tuple(dims), np.asarray(data), a)
-
-
-def _attr_value(v):
-    """An attribute value netCDF can hold: bools as int8, dicts (and ragged lists) as JSON."""
-    if isinstance(v, (bool, np.bool_)):
-        return np.int8(bool(v))
-    if isinstance(v, dict):
-        return json.dumps(v, default=_json_default)
-    if isinstance(v, (list, tuple)):
-        try:
-            a = np.asarray(v)
-        except ValueError:
-            return json.dumps(v, default=_json_default)
-        if a.dtype == object:
-            return json.dumps(v, default=_json_default)
-        v = a
-    if isinstance(v, np.ndarray):
-        if v.dtype == bool:
-            return v.astype(np.int8)
-        if v.dtype.kind in "US":
-            return [str(x) for x in v.ravel()]
-        if v.dtype == object:
-            return json.dumps(v.tolist(), default=_json_default)
-    return v
-
-
-def set_attrs(obj, attrs: dict) -> None:
-    """Set attributes on an HDF5 group or dataset (None values skipped; see :func:`_attr_value`)."""
-    for k, v in attrs.items():
-        if v is None:
-            continue
-        v = _attr_value(v)
-        if isinstance(v, list):
-            import h5py
-
-            v = np.array(v, dtype=h5py.string_dtype())
-        obj.attrs[k] = v
-
-
-def _next_dimid(f) -> int:
-    """One more than the largest netCDF dimension id (``_Netcdf4Dimid``) in the file."""
-    ids = [-1]
-
-    def visit(name, obj):
-        if obj.attrs.get("CLASS") == b"DIMENSION_SCALE" and "_Netcdf4Dimid" in obj.attrs:
-            ids.append(int(np.asarray(obj.attrs["_Netcdf4Dimid"]).ravel()[0]))
-
-    f.file.visititems(visit)
-    return max(ids) + 1
-
-
-def _find_scale(g, dim: str, size: int):
-    """The dimension scale ``dim`` of ``size`` in ``g`` or its parents (netCDF scoping), or None."""
-    import h5py
-
-    while True:
-        d = g.get(dim)
-        if isinstance(d, h5py.Dataset) and h5py.h5ds.is_scale(d.id) and d.shape == (size,):
-            return d
-        if g.name == "/":
-            return None
-        g = g.parent
-
-
-class _DimIds:
-    """The next free netCDF dimension id of an open file (found once, then counted)."""
-
-    def __init__(self):
-        self.next = None
-
-    def take(self, g) -> int:
-        if self.next is None:
-            self.next = _next_dimid(g)
-        self.next += 1
-        return self.next - 1
-
-
-def write_group(parent, name: str, variables: dict, attrs: dict | None = None, groups: dict | None = None,
-                _ids: _DimIds | None = None):
-    """Write one netCDF4 group with HDF5 dimension scales (h5py ``make_scale`` / ``attach_scale``).
-
-    Parameters
-    ----------
-    parent : h5py.File or h5py.Group
-        Where the group is created (``name`` may be a path, e.g. ``"runs/exact"``;
-        missing groups on the way are created).
-    name : str
-        Group name or path below ``parent``.
-    variables : dict
-        ``{name: Variable}``.  A 1-D variable named like its dimension is that
-        dimension's coordinate (the dimension scale holds its values); any other
-        dimension is a netCDF dimension without a variable.  Dimensions are declared
-        from the shapes; a dimension of a parent group with the same name and size is
-        reused (netCDF scoping), so a subgroup can share its parent's ``direction``.
-        A variable with ``aux = True`` in its attrs is an auxiliary coordinate: every
-        variable whose dimensions include its dimensions lists it in the CF
-        ``coordinates`` attribute.
-    attrs : dict, optional
-        Group attributes (dicts stored as JSON; their names listed in ``json_attrs``).
-    groups : dict, optional
-        Subgroups ``{name: (variables, attrs)}``, written the same way.
-
-    Returns
-    -------
-    h5py.Group
-
-    Raises
-    ------
-    ValueError
-        If a variable's dims do not match its shape, or two variables give one
-        dimension two sizes.
-
-    Notes
-    -----
-    The netCDF-4 conventions followed (as netCDF-C and h5netcdf write them): a
-    dimension without a variable is a float32 dataset of its length whose scale NAME
-    is ``"This is a netCDF dimension but not a netCDF variable." + "%10d" % size``;
-    every scale has the file-unique ``_Netcdf4Dimid``; every variable lists the ids
-    of its dimensions in ``_Netcdf4Coordinates``.  Strings are variable-length UTF-8;
-    booleans int8 with ``dtype = "bool"`` (decoded by xarray).  h5netcdf writes the
-    same but costs ~13 ms per variable, too slow for a checkpoint of many lines.
-    """
-    ids = _ids or _DimIds()
-    sizes: dict = {}
-    for k, v in variables.items():
-        shape = np.shape(v.data)
-        if len(shape) != len(v.dims):
-            raise ValueError(f"variable {k!r}: dims {v.dims} do not match shape {shape}")
-        for d, n in zip(v.dims, shape):
-            if sizes.setdefault(d, n) != n:
-                raise ValueError(f"dimension {d!r} has sizes {sizes[d]} and {n} (variable {k!r})")
-    g = parent.require_group(name.strip("/")) if name else parent
-    scales, dimid = {}, {}
-    for d, n in sizes.items():
-        coord = variables.get(d)
-        is_coord = coord is not None and coord.dims == (d,)
-        if not is_coord and g.name != "/" and d not in g:
-            sc = _find_scale(g.parent, d, n)
-            if sc is not None:            # the parent's dimension (netCDF scoping)
-                scales[d] = sc
-                dimid[d] = int(np.asarray(sc.attrs["_Netcdf4Dimid"]).ravel()[0])
-                continue
-        if is_coord:
-            sc = _create(g, d, coord)
-            sc.make_scale(d)
-        else:
-            sc = g.create_dataset(d, shape=(n,), dtype=">f4")
-            sc.make_scale(f"{_DIM_ONLY}.{n:10d}")
-        i = ids.take(g)
-        sc.attrs["_Netcdf4Dimid"] = np.int32(i)
-        if is_coord:
-            sc.attrs["_Netcdf4Coordinates"] = np.array([i], np.int32)
-        scales[d], dimid[d] = sc, i
-    aux = [k for k, v in variables.items() if v.attrs.get("aux")]
-    for k, v in variables.items():
-        a = {kk: vv for kk, vv in v.attrs.items() if kk != "aux"}
-        if np.asarray(v.data).dtype == bool:
-            a["dtype"] = "bool"
-        if k in sizes and v.dims == (k,):
-            ds = scales[k]
-        else:
-            ds = _create(g, k, v)
-            for i, d in enumerate(v.dims):
-                ds.dims[i].attach_scale(scales[d])
-            if v.dims:
-                ds.attrs["_Netcdf4Coordinates"] = np.array([dimid[d] for d in v.dims], np.int32)
-            cs = [c for c in aux if c != k and set(variables[c].dims) <= set(v.dims)]
-            if cs:
-                a["coordinates"] = " ".join(cs)
-        set_attrs(ds, a)
-    if attrs:
-        js = [k for k, v in attrs.items() if isinstance(v, dict)]
-        set_attrs(g, dict(attrs, **({"json_attrs": " ".join(js)} if js else {})))
-    for sub, (sv, sa) in (groups or {}).items():
-        write_group(g, sub, sv, sa, _ids=ids)
-    return g
-
-
-def _create(g, name, v: Variable):
-    """The HDF5 dataset of one variable (strings as UTF-8, bools as int8)."""
-    import h5py
-
-    data = np.asarray(v.data)
-    if data.dtype == bool:
-        return g.create_dataset(name, data=data.astype(np.int8))
-    if data.dtype == object or data.dtype.kind in "US":
-        txt = np.array([str(x) for x in data.ravel()], dtype=object).reshape(data.shape)
-        return g.create_dataset(name, data=txt, dtype=h5py.string_dtype())
-    return g.create_dataset(name, data=data)
 
 
 def table_variables(table: dict) -> dict:
@@ -779,10 +534,6 @@ def case_hash(case_json: str) -> str:
     return hashlib.sha256(case_json.encode()).hexdigest()[:16]
 
 
-class ForeignFileError(ValueError):
-    """A results file that belongs to another case (written by another process meanwhile)."""
-
-
 def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", case_json: str = "",
                  fresh: bool = False) -> Path:
     """Add finished sweep lines to the checkpoint ``/lines`` of ``path`` atomically.
@@ -820,7 +571,7 @@ def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", ca
             raise ForeignFileError(f"{path} now holds the results of another case "
                                    f"({f.attrs.get('case_name', '?')!s}): another process wrote it")
         f.attrs["complete"] = np.int8(0)
-        ids = _DimIds()
+        ids = DimIds()
         for key, data in lines.items():
             if f"lines/{key}" in f:
                 del f[f"lines/{key}"]
@@ -842,9 +593,9 @@ def read_lines(path, case_json: str | None = None) -> tuple[dict, dict]:
     out = {}
     ident = None if case_json is None else case_hash(case_json)
     with h5py.File(path, "r") as f:
-        attrs = _attrs(f)
+        attrs = read_attrs(f)
         for run, g in f.get("lines", {}).items():
-            got = {key: _read_plain(gl) for key, gl in g.items()
+            got = {key: read_plain(gl) for key, gl in g.items()
                    if ident is None or str(gl.attrs.get("case_hash", "")) == ident}
             if got:
                 out[run] = got
@@ -888,7 +639,7 @@ def write_results(path, runs: list, case_name: str = "", case_text: str = "",
     """
     def fill(f):
         _root_attrs(f, case_name, case_text, case_json, complete=True)
-        ids = _DimIds()
+        ids = DimIds()
         f.create_group("runs")
         for r in runs:
             v, groups = run_variables(r.data, r.attrs)
@@ -923,7 +674,7 @@ def replace_branches(path, branches: list) -> Path:
 
 
 def _group_attrs(r, **more) -> dict:
-    a = {"fidelity": r.fidelity, "method": r.method, "settings": json.dumps(r.settings, default=_json_default),
+    a = {"fidelity": r.fidelity, "method": r.method, "settings": json.dumps(r.settings, default=json_default),
          "wall_time_s": r.wall_time_s}
     for k, v in r.attrs.items():
         if k in ATTR_COORDS.values():
@@ -934,27 +685,12 @@ def _group_attrs(r, **more) -> dict:
 
 
 # ============================================================================ reading
-def _attrs(obj) -> dict:
-    """Attributes as Python values (netCDF bookkeeping left out)."""
-    out = {}
-    for k, v in obj.attrs.items():
-        if k in ("_NCProperties", "DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME", "_Netcdf4Dimid",
-                 "_Netcdf4Coordinates"):
-            continue
-        if isinstance(v, bytes):
-            v = v.decode()
-        if isinstance(v, np.ndarray) and v.shape == (1,) and v.dtype.kind in "biuf":
-            v = v[0]                       # netCDF stores a scalar attribute as a 1-element array
-        out[k] = v
-    return out
-
-
 def layout_of(path) -> int:
     """``vibeam_layout`` of a results file: 2 (netCDF dimensions) or 1 (the first, flat layout)."""
     import h5py
 
     with h5py.File(path, "r") as f:
-        return int(_attrs(f).get("vibeam_layout", 1))
+        return int(read_attrs(f).get("vibeam_layout", 1))
 
 
 def read_results(path) -> dict:
@@ -978,7 +714,7 @@ def read_results(path) -> dict:
 
     out = {"attrs": {}, "runs": {}, "maps": {}, "branches": {}}
     with h5py.File(path, "r") as f:
-        out["attrs"] = _attrs(f)
+        out["attrs"] = read_attrs(f)
         v2 = int(out["attrs"].get("vibeam_layout", 1)) >= 2
         for kind in ("runs", "maps", "branches"):
             for name, g in f.get(kind, {}).items():
@@ -987,50 +723,13 @@ def read_results(path) -> dict:
 
                     run = read_branch_group(g)
                 elif not v2:
-                    run = _read_plain(g)
+                    run = read_plain(g)
                 elif kind == "runs":
                     run = _flat_run(g)
                 else:
                     run = _flat_map(g)
-                run["attrs"] = dict(_attrs(g), **run.pop("_coord_attrs", {}))
+                run["attrs"] = dict(read_attrs(g), **run.pop("_coord_attrs", {}))
                 out[kind][name] = run
-    return out
-
-
-def _is_dim_only(d) -> bool:
-    n = d.attrs.get("NAME")
-    if isinstance(n, bytes):
-        n = n.decode(errors="replace")
-    return isinstance(n, str) and n.startswith(_DIM_ONLY)
-
-
-def _value(d):
-    """A dataset's values: strings as ``str``, int8 flags written from bools as ``bool``."""
-    import h5py
-
-    if d.dtype.kind == "O" or h5py.check_string_dtype(d.dtype):
-        return d.asstr()[()]
-    v = d[()]
-    if str(d.attrs.get("dtype", "")) == "bool":
-        v = np.asarray(v).astype(bool)
-    return v
-
-
-def _read_plain(g, attrs: bool = False) -> dict:
-    """Datasets of a group as they are; subgroups (e.g. ``time_series/<f>/<direction>``) as
-    nested dicts (with ``attrs``: each subgroup's attributes under ``"attrs"``, as for
-    ``/branches``); netCDF dimension-only datasets left out."""
-    import h5py
-
-    out = {}
-    for k, d in g.items():
-        if isinstance(d, h5py.Dataset):
-            if not _is_dim_only(d):
-                out[k] = _value(d)
-        elif isinstance(d, h5py.Group):
-            out[k] = _read_plain(d, attrs)
-            if attrs:
-                out[k]["attrs"] = _attrs(d)
     return out
 
 
@@ -1064,17 +763,17 @@ def _flat_run(g) -> dict:
     """A run group of layout 2 back to the flat per-point table (visiting order)."""
     import h5py
 
-    vals = {k: d for k, d in g.items() if isinstance(d, h5py.Dataset) and not _is_dim_only(d)}
+    vals = {k: d for k, d in g.items() if isinstance(d, h5py.Dataset) and not is_dim_only(d)}
     names = _dim_names(g)
     dims = {k: _dims(d, names) for k, d in vals.items()}
     out = {}
     if "direction" in vals and dims["direction"] == ("point",):
         for k, d in vals.items():
             if dims[k][:1] == ("point",):
-                out[str(d.attrs.get("vibeam_name", k))] = _value(d)
+                out[str(d.attrs.get("vibeam_name", k))] = dataset_values(d)
         _restore_coords(out, vals, dims)
         return out
-    dirs = [str(x) for x in _value(vals["direction"])]
+    dirs = [str(x) for x in dataset_values(vals["direction"])]
     n_f = vals["Omega"].shape[0]
     # visiting order: up along the grid, down against it
     flip = [d == "down" for d in dirs]
@@ -1085,18 +784,18 @@ def _flat_run(g) -> dict:
 
     for k, d in vals.items():
         if dims[k][:2] == ("direction", "Omega"):
-            out[str(d.attrs.get("vibeam_name", k))] = flat(_value(d))
-    om = _value(vals["Omega"])
+            out[str(d.attrs.get("vibeam_name", k))] = flat(dataset_values(d))
+    om = dataset_values(vals["Omega"])
     out["Omega"] = flat(np.broadcast_to(om, (len(dirs), n_f)))
     out["direction"] = flat(np.broadcast_to(np.array(dirs, dtype=object)[:, None], (len(dirs), n_f)))
     if "frequency_hz" in vals and dims["frequency_hz"] == ("Omega",):
-        out["frequency_hz"] = flat(np.broadcast_to(_value(vals["frequency_hz"]), (len(dirs), n_f)))
+        out["frequency_hz"] = flat(np.broadcast_to(dataset_values(vals["frequency_hz"]), (len(dirs), n_f)))
     if "time_series" in g:
         ts = {}
         for label, gl in g["time_series"].items():
-            t = _value(gl["time"]) if "time" in gl and not _is_dim_only(gl["time"]) else None
-            disp, vel, om_p = _value(gl["displacement"]), _value(gl["velocity"]), _value(gl["point_Omega"])
-            tt = _value(gl["t"]) if "t" in gl else None
+            t = dataset_values(gl["time"]) if "time" in gl and not is_dim_only(gl["time"]) else None
+            disp, vel, om_p = dataset_values(gl["displacement"]), dataset_values(gl["velocity"]), dataset_values(gl["point_Omega"])
+            tt = dataset_values(gl["t"]) if "t" in gl else None
             item = {}
             for i, dname in enumerate(dirs):
                 x = disp[i]
@@ -1119,7 +818,7 @@ def _restore_coords(out: dict, vals: dict, dims: dict) -> None:
     extra = {}
     for dim, attr in ATTR_COORDS.items():
         if dim in vals and dims.get(dim) == (dim,):
-            extra[attr] = np.asarray(_value(vals[dim]), float)
+            extra[attr] = np.asarray(dataset_values(vals[dim]), float)
         out.pop(dim, None)
     for dim in ("record_period", "state", "harmonic", "mode", "peak", "multiplier", "eigenvalue", "point"):
         out.pop(dim, None)
@@ -1132,11 +831,11 @@ def _flat_map(g) -> dict:
     import h5py
 
     par = str(g.attrs.get("parameter", "value"))
-    vals = {k: d for k, d in g.items() if isinstance(d, h5py.Dataset) and not _is_dim_only(d)}
+    vals = {k: d for k, d in g.items() if isinstance(d, h5py.Dataset) and not is_dim_only(d)}
     names = _dim_names(g)
     dims = {k: _dims(d, names) for k, d in vals.items()}
-    dirs = [str(x) for x in _value(vals["direction"])]
-    values = np.asarray(_value(vals[par]), float)
+    dirs = [str(x) for x in dataset_values(vals["direction"])]
+    values = np.asarray(dataset_values(vals[par]), float)
     out = {"values": values, "direction": np.array(dirs, dtype=object)}
     per = [k for k in vals if dims[k][:2] == ("direction", par)]
     if not per:
@@ -1144,10 +843,10 @@ def _flat_map(g) -> dict:
     n_f = vals[per[0]].shape[2]
     shape = (len(dirs), len(values), n_f)
     for k in per:
-        out[str(vals[k].attrs.get("vibeam_name", k))] = _value(vals[k])
+        out[str(vals[k].attrs.get("vibeam_name", k))] = dataset_values(vals[k])
     for k in ("Omega", "frequency_hz"):
         if k in vals:
-            a = np.asarray(_value(vals[k]), float)
+            a = np.asarray(dataset_values(vals[k]), float)
             out[k] = np.broadcast_to(a if a.ndim == 2 else a[None, :], shape[1:])[None].repeat(len(dirs), 0)
     _restore_coords(out, vals, dims)
     return out

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .case import CaseError
+from .errors import CaseError
 
 
 @dataclass
@@ -29,7 +29,9 @@ class _Job:
     j: int | None = None
 
 
-def _job(case, r, overrides: dict, j=None) -> _Job:
+def make_job(case, r, overrides: dict, j=None) -> _Job:
+    """The job of run ``r`` of ``case`` with the model keys ``overrides`` (map value ``j``): its
+    model spec, its solver with effects and hooks, and its sweep."""
     from . import assess
     from .effects import wrap_solver
     from .models import make_solver
@@ -49,12 +51,16 @@ def _job(case, r, overrides: dict, j=None) -> _Job:
     try:
         base = make_solver(model, r.method, **settings)
     except ValueError as e:         # a value the method's solver cannot take: bad input, one line
-        from .case import _one_line
+        from .errors import one_line
 
         where = f" at {', '.join(f'{k} = {v!r}' for k, v in overrides.items())}" if overrides else ""
-        raise CaseError(_one_line(f"'run[{case.run.index(r)}].method' = {r.method!r}{where}: {e}")) from None
+        raise CaseError(one_line(f"'run[{case.run.index(r)}].method' = {r.method!r}{where}: {e}")) from None
     solver = wrap_solver(base, model, spec, assess.solver_effects(case.effects_for(r)), settings)
     return _Job(r, spec, solver, sw, j)
+
+
+#: the name this module's own loops call :func:`make_job` by (a test replaces it to make points fail)
+_job = make_job
 
 
 def _jobs(case) -> list[_Job]:
@@ -268,7 +274,7 @@ def check_work(case, jobs_=None, force: bool = False, source: str = "") -> dict:
     InputError
         Naming the key that contributes most, its value, the estimate and the limit.
     """
-    from .case import InputError, _value
+    from .errors import InputError, quote_value
 
     with np.errstate(over="ignore"):      # an estimate beyond 1e308 is inf: refused, without a warning line
         w = estimate_work(case, jobs_)
@@ -285,7 +291,7 @@ def check_work(case, jobs_=None, force: bool = False, source: str = "") -> dict:
     if w["steps"] > MAX_WORK_STEPS:
         key, val = w["culprit"]
         hours = w["steps"] * 1e-7 / 3600
-        raise InputError(f"{where}'{key}' = {_value(val)}: the case needs about {w['steps']:.2g} solver steps "
+        raise InputError(f"{where}'{key}' = {quote_value(val)}: the case needs about {w['steps']:.2g} solver steps "
                          f"(~{hours:.3g} h on one core), above the limit of {MAX_WORK_STEPS:.0e}; "
                          f"reduce it, or pass --force to run anyway")
     return w
@@ -308,9 +314,9 @@ def open_executor(scheduler: str | None):
     try:
         client = Client(scheduler, timeout="20s")
     except Exception as e:   # OSError, TimeoutError, ValueError (not an address), ...
-        from .case import _one_line
+        from .errors import one_line
 
-        raise CaseError(_one_line(f"--scheduler {scheduler!r}: cannot connect: {e}; give the address "
+        raise CaseError(one_line(f"--scheduler {scheduler!r}: cannot connect: {e}; give the address "
                                   f"of a dask scheduler, e.g. tcp://host:8786")) from None
     return client.get_executor(), client
 
@@ -400,8 +406,9 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
 
 def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, executor, checkpoint,
                 checkpoint_interval_s, continuation_only=False):
-    from .case import InputError
-    from .results import ForeignFileError, append_lines, read_lines, write_results
+    from .errors import InputError
+    from .errors import ForeignFileError
+    from .results import append_lines, read_lines, write_results
     from .sweep import run_lines, stack, unstack
 
     case_json = case.model_dump_json()

@@ -90,7 +90,7 @@ class Sweep:
     direction : {'up', 'down', 'both'}
     transient_periods : int or 'auto'
         Forcing periods discarded per point; ``'auto'``: extended until the
-        stroboscopic map settles, up to ``max_transient_periods`` (:func:`_settle`).
+        stroboscopic map settles, up to ``max_transient_periods`` (:func:`settle_transient`).
     record_periods : int
         Forcing periods recorded per point.
     statistics_periods : int
@@ -175,7 +175,7 @@ RECORD_PIECE = 256
 AUTO_FIRST_STAGE = 100
 
 
-class _Clock:
+class PointClock:
     """Wall time of one point for ``point_time_limit_s``, started when the first solver call
     returns (so a kernel's compilation or loading in a fresh worker does not count)."""
 
@@ -191,7 +191,7 @@ class _Clock:
 
 
 def simulate(solver, Omega, state, n_transient: int, n_record: int, samples_per_period: int = 64,
-             time_limit_s: float | None = None, clock: _Clock | None = None):
+             time_limit_s: float | None = None, clock: PointClock | None = None):
     """Trajectory of ``n_transient`` discarded and ``n_record`` recorded periods of a
     time-domain solver, in calls of bounded work: the one place where such a solver is called.
 
@@ -206,7 +206,7 @@ def simulate(solver, Omega, state, n_transient: int, n_record: int, samples_per_
       periods, for the rest of the point; one period that does not fit the budget fails.
       The budget depends on step counts only, so the cuts (and the numbers) do not depend on
       the machine.
-    * Between calls the wall-time limit ``time_limit_s`` is checked (:class:`_Clock`) and
+    * Between calls the wall-time limit ``time_limit_s`` is checked (:class:`PointClock`) and
       Python runs its signal handlers (Ctrl-C, SIGTERM): every compiled call returns within
       the budget's time, whatever the scene.
 
@@ -227,7 +227,7 @@ def simulate(solver, Omega, state, n_transient: int, n_record: int, samples_per_
         Recorded samples per period.
     time_limit_s : float, optional
         Wall time after which the point fails (``[sweep] point_time_limit_s``).
-    clock : _Clock, optional
+    clock : PointClock, optional
         The point's clock (shared by the calls of one point).
 
     Returns
@@ -240,7 +240,7 @@ def simulate(solver, Omega, state, n_transient: int, n_record: int, samples_per_
 
     chunk = max(1, int(getattr(solver, "chunk_periods", CHUNK_PERIODS) or CHUNK_PERIODS))
     piece = max(chunk, RECORD_PIECE)
-    clock = clock if clock is not None else _Clock()
+    clock = clock if clock is not None else PointClock()
     spp = int(samples_per_period)
     n_tr, n_rec = int(n_transient), int(n_record)
     done_tr = done_rec = 0
@@ -285,7 +285,7 @@ def simulate(solver, Omega, state, n_transient: int, n_record: int, samples_per_
     return concatenate(parts) if parts else traj
 
 
-def _simulate(solver, Omega, state, n_transient: int, sweep: Sweep, clock: _Clock | None = None):
+def _simulate(solver, Omega, state, n_transient: int, sweep: Sweep, clock: PointClock | None = None):
     """:func:`simulate` of ``n_transient`` and ``sweep.record_periods`` periods with the sweep's
     samples and wall-time limit."""
     return simulate(solver, Omega, state, n_transient, sweep.record_periods, sweep.samples_per_period,
@@ -317,7 +317,7 @@ def _failed_record(traj, n_record: int, samples_per_period: int, done: int | Non
                    n_impacts_lower=0)
 
 
-def _settle(solver, Omega, state, sweep: Sweep, Delta: float, clock: _Clock):
+def settle_transient(solver, Omega, state, sweep: Sweep, Delta: float, clock: PointClock):
     """``transient_periods = "auto"``: extend the transient until the stroboscopic map settles.
 
     Stages of transient periods, the first :data:`AUTO_FIRST_STAGE` long and
@@ -387,7 +387,7 @@ def _settle(solver, Omega, state, sweep: Sweep, Delta: float, clock: _Clock):
         stage = max(1, min(used, max_tr - used))
 
 
-def _statistics(solver, Omega, traj, out: dict, sweep: Sweep, Delta: float, clock: _Clock) -> None:
+def _statistics(solver, Omega, traj, out: dict, sweep: Sweep, Delta: float, clock: PointClock) -> None:
     """Continue a non-periodic record until it holds ``sweep.statistics_periods`` per-period
     amplitudes, and measure the spread over all of them.
 
@@ -439,9 +439,9 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
     try:
         if solver.time_domain:
             why = ""
-            clock = _Clock()
+            clock = PointClock()
             if sweep.auto:
-                traj, used, why = _settle(solver, Omega, state, sweep, Delta, clock)
+                traj, used, why = settle_transient(solver, Omega, state, sweep, Delta, clock)
             else:
                 used = int(sweep.transient_periods)
                 traj = _simulate(solver, Omega, state, used, sweep, clock)
