@@ -1,6 +1,7 @@
 """Shared fixtures: every shipped case's quick variant, run once per test session."""
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import pytest
@@ -29,3 +30,12 @@ def quick_results(tmp_path_factory):
         return done[path]
 
     return get
+
+
+def pytest_configure(config):
+    """Ctrl-C's default disposition in this process, so the vibeam processes the interrupt tests
+    start (which inherit it across exec) stop on SIGINT: a shell without job control starts a
+    background command (``pytest ... &`` in a script, a CI step) with SIGINT ignored, and such a
+    child ran its map to the end and exited 0 (test_map.py::test_ctrl_c_keeps_finished_lines)."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
