@@ -117,6 +117,11 @@ def make_solver(model, method: str, **settings):
         if getattr(model, "two_sided", False) and method not in fid.two_sided_law_methods.get(law, ()):
             raise ValueError(f"method {method!r} cannot simulate contact law {law!r} on a second (lower) stop; "
                              f"allowed with two stops: {', '.join(fid.two_sided_law_methods.get(law, ())) or 'none'}")
+        lower = getattr(getattr(model, "lower_law", None), "name", law)
+        if getattr(model, "two_sided", False) and not getattr(model, "mixed_stops", False) and lower != law and \
+                method not in fid.two_sided_law_methods.get(lower, ()):
+            raise ValueError(f"method {method!r} cannot simulate contact law {lower!r} on the lower stop; allowed: "
+                             f"{', '.join(fid.two_sided_law_methods.get(lower, ())) or 'none'}")
         return resolve(table[method])(model, **settings)
     path = fid.methods.get(method)
     if path is None:

@@ -23,7 +23,7 @@ penetration; the work done on the stop is integrated by Gauss-Legendre on the ex
 
 A second (lower) stop at ``U = -Delta_l`` with its own Kelvin-Voigt law adds a third phase
 (its contact matrix ``A - w w^T [k_l, c_l]``, load ``-w k_l Delta_l``), diagonalised like the
-others (:func:`beam_compliant_kernel_stops`).
+others (:func:`beam_compliant_kernel`).
 
 Contact law and events are those of :mod:`vibeam.models.compliant` (force-zero separation;
 a target R gives the dashpot ``c_c = 2 zeta_c sqrt(k_c m_eff)`` with ``zeta_c`` from the
@@ -40,14 +40,17 @@ import numpy as np
 from numba import njit
 
 from .beam_dynamics import BeamImpactModel
-from .contact import Relation, Stop
+from .contact import EV_ENTRY, EV_EXIT, EV_GAPDOWN, EV_NONE, LAW_HUNT_CROSSLEY, NPAR, OFFSET, SIGN, \
+    STIFFNESS, DAMPING, EXPONENT, LAW, Relation, Stop
+from .contact import R as RCOL
+from .hc_contact import contact_scales, hc_contact_step, hunt_crossley_force
+from .sdof_compliant import HC_V_FLOOR
 from .roots import rtsafe_update
 from .sdof_event import certify_curvature
 from .trajectory import Trajectory, call_budget
 
 TWO_PI = 2.0 * math.pi
 FREE, CONTACT = 0, 1
-EV_NONE, EV_ENTRY, EV_EXIT, EV_GAPDOWN = 0, 1, 2, 3
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 GL_X = 0.5 * (_GL_X + 1.0)
 GL_W = 0.5 * _GL_W
@@ -106,13 +109,41 @@ class CompliantBeamModel(BeamImpactModel):
         """Newtons per unit of the nondimensional contact force ``F / (m_eff omega_ref^2 L)``."""
         return self.m_eff * self.omega_ref ** 2 * self.length_m
 
+    def linear_phase(self, law):
+        """``(k, c)`` of a stop's linear (Kelvin-Voigt) contact phase in kernel units
+        (``k_c / omega_ref^2``, ``c_c / omega_ref``); ``(0, 0)`` for a law whose contact phase has
+        no closed form (its phase matrices are then the free ones, unused by the kernel)."""
+        if not getattr(law, "linear_phase", False):
+            return 0.0, 0.0
+        return law.stiffness / self.omega_ref ** 2, self._damping(law) / self.omega_ref
+
     def lower_stop_params(self):
         """``(k, c, Delta_l)`` of the lower stop in kernel units (``k_l / omega_ref^2``,
         ``c_l / omega_ref``, gap at the contact point, m); zeros with one stop."""
         lo = self.lower_law
         if lo is None:
             return 0.0, 0.0, 0.0
-        return lo.stiffness / self.omega_ref ** 2, self._damping(lo) / self.omega_ref, self.gap_contact_lower_m
+        kl, cl = self.linear_phase(lo)
+        return kl, cl, self.gap_contact_lower_m
+
+    def kernel_stops(self) -> np.ndarray:
+        """The stops as kernel rows (n_stops, :data:`vibeam.models.contact.NPAR`) of
+        :func:`beam_compliant_kernel`: relation (sign, gap at the contact point in m) and law
+        (code, R, stiffness ``k_c / omega_ref^2``, damping: the dashpot ``c_c / omega_ref`` of a
+        Kelvin-Voigt law or the ``chi`` of a Hunt-Crossley one, exponent)."""
+        stops = self.stops()
+        rows = np.zeros((len(stops), NPAR))
+        for k, st in enumerate(stops):
+            code, R, _, _, expo = st.law.row()
+            rows[k, SIGN] = st.relation.sign
+            rows[k, OFFSET] = st.relation.offset
+            rows[k, LAW] = code
+            rows[k, RCOL] = R
+            rows[k, STIFFNESS] = st.law.stiffness / self.omega_ref ** 2
+            rows[k, DAMPING] = (self._damping(st.law) / self.omega_ref if getattr(st.law, "linear_phase", False)
+                                else float(st.law.damping))
+            rows[k, EXPONENT] = expo
+        return rows
 
     def phase_matrices(self):
         """``A`` (P, 2N, 2N) of the free and contact phases (P = 2; 3 with a lower stop: its
@@ -120,8 +151,7 @@ class CompliantBeamModel(BeamImpactModel):
         and the upper stop's ``kc``, ``cc`` (kernel units)."""
         N = self.n_modes
         k, c, w = self.k_nd, self.c_nd, self.contact_row
-        kc = self.contact.stiffness / self.omega_ref ** 2
-        cc = self.contact_damping_n_s_m / self.omega_ref
+        kc, cc = self.linear_phase(self.contact)
         kl, cl, Dl = self.lower_stop_params()
         P = 3 if self.two_sided else 2
         A = np.zeros((P, 2 * N, 2 * N))
@@ -302,32 +332,6 @@ def modal_coordinates(z, W, Z, ze, phi0, a):
 
 
 @njit(cache=True)
-def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS, gU, gS, kc, cc, DeltaC,
-                          z0, phase0, n_transient, n_record, ns_transient, ns_record, hmax,
-                          max_contacts, max_steps, samples, pmin, imp_t, imp_v, con, msamp):
-    """Simulate whole forcing periods on one stop; the numba core of
-    :class:`CompliantBeamEventSolver` (:func:`beam_compliant_kernel_stops` with one stop).
-
-    Per phase ``p`` (0 free, 1 contact): ``lamA[p]`` (2N,) eigenvalues, ``VA[p]``/``WA[p]``
-    eigenvectors and inverse, ``ZA[p]`` forced response (complex, 2N), ``zeA[p]`` equilibrium;
-    ``PU[p]``, ``PS[p]``: rows ``w^T`` and ``s^T`` (on eta) times ``V``; ``bU[p]``, ``bS[p]``
-    their forced coefficients, ``gU[p]``, ``gS[p]`` their constants; ``wrow``, ``srow`` (N,)
-    the contact and sensor rows.  ``samples`` receives ``(s^T eta, s^T eta')``, ``con`` per contact: duration,
-    peak force ``k g + c g'``, largest penetration ``g`` (m), work on the stop (kernel units),
-    entry velocity; ``msamp`` (m, 2N) the modal state at each sample when ``m > 0``.
-
-    Returns ``(status, n_rec, smin, smax, phase_end, n_con, t_contact, n_steps)``; ``z0`` is
-    left at the end state.
-    """
-    imp_k = np.zeros(imp_t.shape[0], np.int64)
-    out = beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS, gU, gS, kc, cc,
-                                      DeltaC, 1, 0.0, 0.0, 0.0, z0, phase0, n_transient, n_record, ns_transient,
-                                      ns_record, hmax, max_contacts, max_steps, samples, pmin, imp_t, imp_v, con,
-                                      imp_k, msamp)
-    return out[:8]
-
-
-@njit(cache=True)
 def free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2, foff=0.0):
     """Contact entry of one stop in a free step of at most ``h``: the signal ``(al, lam, beU,
     gaU)`` is the stop's gap ``g`` (< 0 free), ``kc g + cc g' + foff`` has the sign of its
@@ -397,35 +401,54 @@ def free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2, foff=0.0):
 
 
 @njit(cache=True)
-def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS, gU, gS, kc, cc, DeltaC,
-                                nst, kcl, ccl, DeltaL, z0, phase0, n_transient, n_record, ns_transient, ns_record,
-                                hmax, max_contacts, max_steps, samples, pmin, imp_t, imp_v, con, imp_k, msamp):
-    """Simulate whole forcing periods on one or two Kelvin-Voigt stops; the numba core of
-    :class:`CompliantBeamEventSolver`.
+def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS, gU, gS, stops, knd, cnd, part, F,
+                          v_floor, z0, phase0, n_transient, n_record, ns_transient, ns_record, hmax, max_contacts,
+                          max_steps, samples, pmin, imp_t, imp_v, con, imp_k, msamp):
+    """Simulate whole forcing periods of the modal beam on compliant stops (the one event kernel
+    of :class:`CompliantBeamEventSolver` and of the compliant beam shooting problems).
 
-    Phases ``p``: 0 free, 1 in contact with the upper stop (gap ``g = U - Delta_C``, force
-    ``kc g + cc g'``), 2 (``nst = 2``) with the lower one (gap ``g_l = -U - Delta_l``, force
-    ``kcl g_l + ccl g_l'``); the arrays of :func:`beam_compliant_kernel` then have a third
-    row (the lower contact phase's eigen-data).  Every signal of the lower stop is the upper
-    gap's coefficients negated.  A free step ends at the earlier of the two stops' certified
-    entries.  With one stop the computation is :func:`beam_compliant_kernel`'s.
+    Stops: row k of ``stops`` (n_stops, :data:`vibeam.models.contact.NPAR`) is the relation
+    (``SIGN`` s_k, ``OFFSET`` Delta_k in m: gap ``g_k = s_k w^T eta - Delta_k``) and the law
+    (``LAW`` code; ``STIFFNESS`` k in kernel units, ``k_c / omega_ref^2``; ``DAMPING`` the
+    Kelvin-Voigt dashpot ``c_c / omega_ref`` or the Hunt-Crossley ``chi``; ``EXPONENT`` p) of
+    stop k; row 0 is the upper stop.  Phases: 0 free, ``1 + k`` in contact with stop k.  A free
+    step ends at the earliest certified entry of any stop.  A Kelvin-Voigt contact phase is
+    exact (its eigendecomposed ``2N x 2N`` flow), a Hunt-Crossley one is integrated
+    (:func:`vibeam.models.hc_contact.hc_contact_step`, entry velocity floored at ``v_floor``).
 
-    ``imp_k`` (cap,) receives the stop of each recorded contact (0 upper, 1 lower), ``imp_v``
-    the normal entry velocities.  Returns ``(status, n_rec, smin, smax, phase_end, n_con,
-    t_contact, n_steps, n_rec_lower)``.
+    Per phase ``p``: ``lamA[p]`` (2N,) eigenvalues, ``VA[p]``/``WA[p]`` (2N, 2N) eigenvectors
+    and inverse, ``ZA[p]`` (2N,) forced response (complex), ``zeA[p]`` (2N,) equilibrium;
+    ``PU[p]``, ``PS[p]`` (2N,): rows ``w^T`` and ``s^T`` (on eta) times ``V``; ``bU[p]``,
+    ``bS[p]`` their forced coefficients, ``gU[p]``, ``gS[p]`` their constants (a Hunt-Crossley
+    stop's phase rows are unused: any finite arrays).  ``wrow``, ``srow`` (N,) the contact and
+    sensor rows; ``knd``, ``cnd``, ``part`` (N,) modal stiffness, damping and participation and
+    ``F = Omega^2 Y`` (used by Hunt-Crossley phases only).  ``samples`` (n_record * ns_record, 2)
+    receives ``(s^T eta, s^T eta')``; ``con`` (cap, 5) per contact: duration, peak force, largest
+    penetration (m), work on the stop (kernel units), entry velocity; ``imp_k`` (cap,) the stop
+    of each recorded contact; ``msamp`` (m, 2N) the modal state at each sample when ``m > 0``.
+
+    Returns ``(status, n_rec, smin, smax, phase_end, n_con, t_contact, n_steps, n_rec_lower)``
+    (status 0 ok, 3 gave up); ``z0`` (2N,) is left at the end state.
     """
     n2 = z0.shape[0]
+    N = n2 // 2
+    nst = stops.shape[0]
     T = TWO_PI / Om
     z = z0.copy()
     a = np.empty(n2, np.complex128)
     al = np.empty(n2, np.complex128)
     al2 = np.empty(n2, np.complex128)
-    alL = np.empty(n2, np.complex128)
+    alk = np.empty(n2, np.complex128)
     buf = np.empty(4)
+    y0 = np.zeros(n2 + 1)
+    y1 = np.zeros(n2 + 1)
+    rk = np.zeros(4)
+    # the sensor's extremes: [min, max, min of the current period]
+    ext = np.empty(3)
+    ext[0] = np.inf
+    ext[1] = -np.inf
+    ext[2] = np.inf
     phase = phase0
-    smin = np.inf
-    smax = -np.inf
-    pm = np.inf
     cs = np.zeros(4)
     n_con = 0
     n_rec = 0
@@ -435,6 +458,28 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
     in_rec = False
     k_sample = 0
     cap = con.shape[0]
+    # each stop's normal row s_k w, and the law's state: a Hunt-Crossley contact's damping scale v_r
+    # and, free inside a stop after an exit by the damping factor, the offset v_r / chi of the
+    # force's sign g' + v_r / chi (0 otherwise)
+    wst = np.empty((nst, N))
+    hc = np.zeros(nst, np.bool_)
+    foff = np.zeros(nst)
+    for k in range(nst):
+        hc[k] = int(stops[k, LAW]) == LAW_HUNT_CROSSLEY
+        for i in range(N):
+            wst[k, i] = wrow[i] if stops[k, SIGN] > 0.0 else -wrow[i]
+    wn = 0.0
+    for i in range(N):
+        wn += wrow[i] * wrow[i]
+    wn = math.sqrt(wn)
+    vr = v_floor
+    if phase != FREE and hc[phase - 1]:
+        k = phase - 1
+        uz = 0.0
+        for i in range(N):
+            uz += wst[k, i] * z[N + i]
+        vr = max(uz, v_floor)
+        contact_scales(vr, stops[k, STIFFNESS], stops[k, EXPONENT], wn, rk)
     # the modal coefficients of the homogeneous part are carried from step to step (a_j e^{lam_j s},
     # exact; fast overdamped modes decay to exactly 0 and drop out of the sums) and recomputed
     # from the state only at a change of phase
@@ -444,115 +489,103 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
         ns = ns_record if recording else ns_transient
         h_grid = T / ns
         t0p = (p - n_transient) * T
-        pm = np.inf
+        ext[2] = np.inf
         for jg in range(ns):
             phi = TWO_PI * jg / ns
             t_loc = jg * h_grid
             if recording:
                 sv = 0.0
                 svd = 0.0
-                for i in range(n2 // 2):
+                for i in range(N):
                     sv += srow[i] * z[i]
-                    svd += srow[i] * z[n2 // 2 + i]
+                    svd += srow[i] * z[N + i]
                 samples[k_sample, 0] = sv
                 samples[k_sample, 1] = svd
                 if msamp.shape[0] > k_sample:
                     for i in range(n2):
                         msamp[k_sample, i] = z[i]
                 k_sample += 1
-                smin = min(smin, sv)
-                smax = max(smax, sv)
-                pm = min(pm, sv)
+                ext[0] = min(ext[0], sv)
+                ext[1] = max(ext[1], sv)
+                ext[2] = min(ext[2], sv)
             rem = h_grid
             while rem > 0.0:
                 n_steps += 1
                 if n_steps > max_steps:
                     z0[:] = z
-                    return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
-                lam = lamA[phase]
-                for j in range(n2):
-                    al[j] = PU[phase, j] * a[j]
-                beU = bU[phase]
-                gaU = gU[phase] - DeltaC
-                h = min(rem, hmax[phase])
+                    return (3, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps, n_rec_l)
                 h_min = 1e-13 * T
                 side = 0
-                if phase == FREE:
-                    if nst > 1:
-                        # the lower stop's entry first, then the upper stop's scan up to it
-                        for j in range(n2):
-                            alL[j] = -al[j]
-                        s_l, ev_l = free_scan(alL, lam, -beU, -gU[phase] - DeltaL, phi, Om, kcl, ccl, h, h_min,
-                                               buf, al2)
-                        if s_l < 0.0:
-                            z0[:] = z
-                            return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
-                        if ev_l != EV_NONE:
-                            h = s_l
-                        s_adv, ev = free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2)
-                        if ev == EV_NONE and ev_l != EV_NONE:
-                            s_adv, ev, side = s_l, ev_l, 1
-                    else:
-                        s_adv, ev = free_scan(al, lam, beU, gaU, phi, Om, kc, cc, h, h_min, buf, al2)
+                if phase != FREE and hc[phase - 1]:
+                    # a Hunt-Crossley contact phase: one accepted Dormand-Prince step
+                    side = phase - 1
+                    for i in range(n2):
+                        y0[i] = z[i]
+                    y0[n2] = 0.0
+                    s_adv, ev = hc_contact_step(rem, phi, y0, F, Om, knd, cnd, part, wst[side], srow,
+                                                stops[side, OFFSET], stops[side, STIFFNESS], stops[side, EXPONENT],
+                                                stops[side, DAMPING], vr, rk, recording, ext, cs, y1)
+                    if s_adv < 0.0:
+                        z0[:] = z
+                        return (3, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps, n_rec_l)
+                    for i in range(n2):
+                        z[i] = y1[i]
                 else:
-                    # the signals of the stop in contact: its gap and force
-                    if phase == 2:
-                        side = 1
-                        for j in range(n2):
-                            al[j] = -al[j]
-                        beU = -beU
-                        gaU = -gU[phase] - DeltaL
-                        k_s = kcl
-                        c_s = ccl
-                    else:
-                        k_s = kc
-                        c_s = cc
-                    ev = EV_NONE
-                    s_adv = h
-                    b2, g2 = signal_combo(-k_s, -c_s, 0.0, al, lam, beU, gaU, Om, al2)
-                    s_x = bupcross(al2, lam, b2, g2, phi, Om, 0.0, h, h_min)
-                    if s_x == STALL:
-                        s_adv = -1.0
-                    elif s_x >= 0.0:
-                        s_adv = s_x
-                        ev = EV_EXIT
-                    # peak force (interior maxima), largest penetration, work on the stop
-                    b2, g2 = signal_combo(0.0, -k_s, -c_s, al, lam, beU, gaU, Om, al2)
-                    s = 0.0
-                    while True:
-                        s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
-                        if s == STALL:
-                            s_adv = -1.0
-                            break
-                        if s < 0.0:
-                            break
-                        signal_derivatives(s, al, lam, beU, gaU, phi, Om, buf)
-                        cs[1] = max(cs[1], k_s * buf[0] + c_s * buf[1])
-                    b2, g2 = signal_combo(0.0, -1.0, 0.0, al, lam, beU, gaU, Om, al2)
-                    s = 0.0
-                    while True:
-                        s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
-                        if s == STALL:
-                            s_adv = -1.0
-                            break
-                        if s < 0.0:
-                            break
-                        signal_derivatives(s, al, lam, beU, gaU, phi, Om, buf)
-                        cs[2] = max(cs[2], buf[0])
-                    acc = 0.0
-                    for i in range(GL_X.shape[0]):
-                        signal_derivatives(GL_X[i] * s_adv, al, lam, beU, gaU, phi, Om, buf)
-                        acc += GL_W[i] * (k_s * buf[0] + c_s * buf[1]) * buf[1]
-                    cs[3] += acc * s_adv
-                    signal_derivatives(s_adv, al, lam, beU, gaU, phi, Om, buf)
-                    cs[1] = max(cs[1], k_s * buf[0] + c_s * buf[1])
-                    cs[2] = max(cs[2], buf[0])
-                if recording and s_adv > 0.0:
-                    # exact minima (and maxima) of the sensor displacement inside the step
+                    lam = lamA[phase]
                     for j in range(n2):
-                        al[j] = PS[phase, j] * a[j]
-                    for sgn in (1.0, -1.0):
-                        b2, g2 = signal_combo(0.0, sgn, 0.0, al, lam, bS[phase], gS[phase], Om, al2)
+                        al[j] = PU[phase, j] * a[j]
+                    h = min(rem, hmax[phase])
+                    if phase == FREE:
+                        # every stop's entry, the last one scanned up to the earliest found
+                        s_adv = h
+                        ev = EV_NONE
+                        for k in range(nst - 1, -1, -1):
+                            up = stops[k, SIGN] > 0.0
+                            for j in range(n2):
+                                alk[j] = al[j] if up else -al[j]
+                            beK = bU[phase] if up else -bU[phase]
+                            gaK = (gU[phase] if up else -gU[phase]) - stops[k, OFFSET]
+                            # the sign of the force inside the stop: Kelvin-Voigt k g + c g';
+                            # Hunt-Crossley g, or g' + v_r / chi after an exit by the damping factor
+                            if hc[k]:
+                                kf = 0.0 if foff[k] != 0.0 else 1.0
+                                cf = 1.0 if foff[k] != 0.0 else 0.0
+                            else:
+                                kf = stops[k, STIFFNESS]
+                                cf = stops[k, DAMPING]
+                            s_k, ev_k = free_scan(alk, lam, beK, gaK, phi, Om, kf, cf, h, h_min, buf, al2, foff[k])
+                            if s_k < 0.0:
+                                z0[:] = z
+                                return (3, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps, n_rec_l)
+                            if ev_k != EV_NONE:
+                                s_adv = s_k
+                                ev = ev_k
+                                side = k
+                                h = s_k
+                    else:
+                        # the signals of the stop in contact: its gap and force
+                        side = phase - 1
+                        if stops[side, SIGN] > 0.0:
+                            beU = bU[phase]
+                            gaU = gU[phase] - stops[side, OFFSET]
+                        else:
+                            for j in range(n2):
+                                al[j] = -al[j]
+                            beU = -bU[phase]
+                            gaU = -gU[phase] - stops[side, OFFSET]
+                        k_s = stops[side, STIFFNESS]
+                        c_s = stops[side, DAMPING]
+                        ev = EV_NONE
+                        s_adv = h
+                        b2, g2 = signal_combo(-k_s, -c_s, 0.0, al, lam, beU, gaU, Om, al2)
+                        s_x = bupcross(al2, lam, b2, g2, phi, Om, 0.0, h, h_min)
+                        if s_x == STALL:
+                            s_adv = -1.0
+                        elif s_x >= 0.0:
+                            s_adv = s_x
+                            ev = EV_EXIT
+                        # peak force (interior maxima), largest penetration, work on the stop
+                        b2, g2 = signal_combo(0.0, -k_s, -c_s, al, lam, beU, gaU, Om, al2)
                         s = 0.0
                         while True:
                             s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
@@ -561,19 +594,54 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                                 break
                             if s < 0.0:
                                 break
-                            signal_derivatives(s, al, lam, bS[phase], gS[phase], phi, Om, buf)
-                            if sgn > 0.0:
-                                smin = min(smin, buf[0])
-                                pm = min(pm, buf[0])
-                            else:
-                                smax = max(smax, buf[0])
-                if s_adv < 0.0:     # a scan that could not be done in double precision (STALL)
-                    z0[:] = z
-                    return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
-                modal_state(s_adv, a, lam, VA[phase], ZA[phase], zeA[phase], phi, Om, z)
-                for j in range(n2):
-                    if a[j] != 0.0:
-                        a[j] = a[j] * np.exp(lam[j] * s_adv)
+                            signal_derivatives(s, al, lam, beU, gaU, phi, Om, buf)
+                            cs[1] = max(cs[1], k_s * buf[0] + c_s * buf[1])
+                        b2, g2 = signal_combo(0.0, -1.0, 0.0, al, lam, beU, gaU, Om, al2)
+                        s = 0.0
+                        while True:
+                            s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
+                            if s == STALL:
+                                s_adv = -1.0
+                                break
+                            if s < 0.0:
+                                break
+                            signal_derivatives(s, al, lam, beU, gaU, phi, Om, buf)
+                            cs[2] = max(cs[2], buf[0])
+                        acc = 0.0
+                        for i in range(GL_X.shape[0]):
+                            signal_derivatives(GL_X[i] * s_adv, al, lam, beU, gaU, phi, Om, buf)
+                            acc += GL_W[i] * (k_s * buf[0] + c_s * buf[1]) * buf[1]
+                        cs[3] += acc * s_adv
+                        signal_derivatives(s_adv, al, lam, beU, gaU, phi, Om, buf)
+                        cs[1] = max(cs[1], k_s * buf[0] + c_s * buf[1])
+                        cs[2] = max(cs[2], buf[0])
+                    if recording and s_adv > 0.0:
+                        # exact minima (and maxima) of the sensor displacement inside the step
+                        for j in range(n2):
+                            al[j] = PS[phase, j] * a[j]
+                        for sgn in (1.0, -1.0):
+                            b2, g2 = signal_combo(0.0, sgn, 0.0, al, lam, bS[phase], gS[phase], Om, al2)
+                            s = 0.0
+                            while True:
+                                s = bupcross(al2, lam, b2, g2, phi, Om, s, s_adv, h_min)
+                                if s == STALL:
+                                    s_adv = -1.0
+                                    break
+                                if s < 0.0:
+                                    break
+                                signal_derivatives(s, al, lam, bS[phase], gS[phase], phi, Om, buf)
+                                if sgn > 0.0:
+                                    ext[0] = min(ext[0], buf[0])
+                                    ext[2] = min(ext[2], buf[0])
+                                else:
+                                    ext[1] = max(ext[1], buf[0])
+                    if s_adv < 0.0:     # a scan that could not be done in double precision (STALL)
+                        z0[:] = z
+                        return (3, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps, n_rec_l)
+                    modal_state(s_adv, a, lam, VA[phase], ZA[phase], zeA[phase], phi, Om, z)
+                    for j in range(n2):
+                        if a[j] != 0.0:
+                            a[j] = a[j] * np.exp(lam[j] * s_adv)
                 if phase != FREE and recording:
                     t_con += s_adv
                 phi = (phi + Om * s_adv) % TWO_PI
@@ -583,27 +651,28 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                     rem = 0.0
                 if ev == EV_ENTRY or ev == EV_EXIT:
                     nxt = FREE if ev == EV_EXIT else 1 + side
-                    modal_coordinates(z, WA[nxt], ZA[nxt], zeA[nxt], phi, a)
+                    if not (ev == EV_ENTRY and hc[side]):
+                        modal_coordinates(z, WA[nxt], ZA[nxt], zeA[nxt], phi, a)
                 if ev == EV_ENTRY:
                     phase = 1 + side
+                    foff[side] = 0.0
                     n_con += 1
                     if n_con > max_contacts:
                         z0[:] = z
-                        return (3, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
-                    gz = -DeltaC
+                        return (3, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps, n_rec_l)
+                    gz = -stops[side, OFFSET]
                     uz = 0.0
-                    for i in range(n2 // 2):
-                        gz += wrow[i] * z[i]
-                        uz += wrow[i] * z[n2 // 2 + i]
-                    if side == 1:
-                        gz = -DeltaL
-                        uz = 0.0
-                        for i in range(n2 // 2):
-                            gz -= wrow[i] * z[i]
-                            uz -= wrow[i] * z[n2 // 2 + i]
-                        cs[1] = kcl * gz + ccl * uz
+                    for i in range(N):
+                        gz += wst[side, i] * z[i]
+                        uz += wst[side, i] * z[N + i]
+                    if hc[side]:
+                        # the damping scale v_r of this contact and its step-control scales
+                        vr = max(uz, v_floor)
+                        contact_scales(vr, stops[side, STIFFNESS], stops[side, EXPONENT], wn, rk)
+                        cs[1] = hunt_crossley_force(gz, uz, stops[side, STIFFNESS], stops[side, EXPONENT],
+                                                    stops[side, DAMPING], vr)
                     else:
-                        cs[1] = kc * gz + cc * uz
+                        cs[1] = stops[side, STIFFNESS] * gz + stops[side, DAMPING] * uz
                     cs[0] = t0p + t_loc
                     cs[2] = gz
                     cs[3] = 0.0
@@ -614,9 +683,18 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                             imp_v[n_rec] = uz
                             imp_k[n_rec] = side
                         n_rec += 1
-                        n_rec_l += side
+                        if side > 0:
+                            n_rec_l += 1
                 elif ev == EV_EXIT:
                     phase = FREE
+                    if hc[side]:
+                        # an exit by the damping factor inside the stop: its force's sign is
+                        # g' + v_r / chi until the gap falls back through 0
+                        gz = -stops[side, OFFSET]
+                        for i in range(N):
+                            gz += wst[side, i] * z[i]
+                        chi = stops[side, DAMPING]
+                        foff[side] = (vr / chi if chi > 0.0 else 1.0) if gz > 0.0 else 0.0
                     if in_rec and n_rec - 1 < cap:
                         r = n_rec - 1
                         con[r, 0] = t0p + t_loc - cs[0]
@@ -625,11 +703,20 @@ def beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, b
                         con[r, 3] = cs[3]
                         con[r, 4] = imp_v[r] if r < imp_v.shape[0] else np.nan
                     in_rec = False
+                elif ev == EV_GAPDOWN:
+                    foff[side] = 0.0     # back below the stop (its gap fell through 0)
         if recording:
-            pmin[p - n_transient] = pm
+            pmin[p - n_transient] = ext[2]
     for i in range(n2):
         z0[i] = z[i]
-    return (0, n_rec, smin, smax, phase, n_con, t_con, n_steps, n_rec_l)
+    return (0, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps, n_rec_l)
+
+
+def velocity_floor(model, Om) -> float:
+    """Hunt-Crossley entry velocities below this are floored (m per kernel time unit):
+    ``1e-2 Omega Y |w^T Gamma|`` (the SDOF's ``1e-2 Omega B`` for one mode)."""
+    v = HC_V_FLOOR * Om * model.base_amplitude_m * abs(float(model.contact_row @ model.participation))
+    return v if v > 0.0 else 1e-6 * model.length_m
 
 
 def phase_data(model: CompliantBeamModel, Om: float):
@@ -692,8 +779,9 @@ class CompliantBeamEventSolver:
     def __init__(self, model: CompliantBeamModel, transient_samples: int = 16, steps_per_fundamental: int = 16,
                  max_impacts_per_period: int = 2000, max_steps_per_period: int = 200000,
                  impact_buffer: int = 4096, chatter_tol: float | None = None, record_modal_states: bool = False):
-        if getattr(model, "contact", None) is None or any(st.law.name != "linear" for st in model.stops()):
-            raise ValueError("CompliantBeamEventSolver needs a beam model with law \"linear\"")
+        if getattr(model, "contact", None) is None or \
+                any(getattr(st.law, "kind", "") != "compliant" for st in model.stops()):
+            raise ValueError("CompliantBeamEventSolver needs a beam model with compliant stops")
         self.model = model
         self.transient_samples = int(transient_samples)
         self.steps_per_fundamental = int(steps_per_fundamental)
@@ -720,11 +808,9 @@ class CompliantBeamEventSolver:
             s0 = m.initial_state()
         data = phase_data(m, Om)
         lamA, VA, WA, ZA, zeA, PU, PS, bU, bS, gU, gS, kc, cc = data
-        ww = float(m.contact_row @ m.contact_row)
-        kl, cl, Dl = m.lower_stop_params()
+        stops = m.kernel_stops()
         two = m.two_sided
-        hmax = np.array([TWO_PI / math.sqrt(m.k_nd[0]), TWO_PI / math.sqrt(kc * ww),
-                         TWO_PI / math.sqrt((kl if two else kc) * ww)]) / self.steps_per_fundamental
+        hmax = phase_steps(m, self.steps_per_fundamental)
         samples = np.zeros((n_record * samples_per_period, 2))
         pmin = np.zeros(n_record)
         imp_t = np.zeros(self.impact_buffer)
@@ -736,12 +822,12 @@ class CompliantBeamEventSolver:
         n_per = max(n_transient + n_record, 1)
         ph0 = 1 if s0[2 * N] > 0.5 else (2 if (s0[2 * N] < -0.5 and two) else 0)
         max_steps, budget = call_budget(self.max_steps_per_period, n_per, self.max_steps_per_call)
-        out = beam_compliant_kernel_stops(Om, lamA, VA, WA, ZA, zeA, PU, PS, m.contact_row, m.sensor_row, bU, bS,
-                                          gU, gS, kc, cc, m.gap_contact_m, 2 if two else 1, kl, cl, Dl, z, ph0,
-                                          int(n_transient), int(n_record), self.transient_samples,
-                                          int(samples_per_period), hmax, self.max_impacts_per_period * n_per,
-                                          max_steps, samples, pmin, imp_t, imp_v, con, imp_k,
-                                          msamp)
+        out = beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, m.contact_row, m.sensor_row, bU, bS, gU, gS,
+                                    stops, m.k_nd, m.c_nd, m.participation, Om ** 2 * m.base_amplitude_m,
+                                    velocity_floor(m, Om), z, ph0, int(n_transient), int(n_record),
+                                    self.transient_samples, int(samples_per_period), hmax,
+                                    self.max_impacts_per_period * n_per, max_steps, samples, pmin, imp_t, imp_v, con,
+                                    imp_k, msamp)
         status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps, n_low = out
         incomplete = (status != 0 and budget and n_steps > max_steps
                       and n_con <= self.max_impacts_per_period * n_per)
@@ -774,6 +860,20 @@ class CompliantBeamEventSolver:
                           extra=extra, contacts=c, impact_stops=imp_k[:k].copy() if two else None,
                           contact_stops=imp_k[:k][closed].copy() if two else None,
                           n_impacts_lower=int(n_low) if two else 0, incomplete=bool(incomplete))
+
+
+def phase_steps(model: CompliantBeamModel, steps_per_fundamental: int) -> np.ndarray:
+    """Largest step of each phase of :func:`beam_compliant_kernel` (kernel time units), shape
+    (1 + n_stops,): 1/``steps_per_fundamental`` of the first modal period free, of the isolated
+    contact's period in a Kelvin-Voigt contact phase (a Hunt-Crossley phase controls its own
+    steps: the free value, unused)."""
+    free = TWO_PI / math.sqrt(model.k_nd[0])
+    ww = float(model.contact_row @ model.contact_row)
+    out = [free]
+    for st in model.stops():
+        k, _ = model.linear_phase(st.law)
+        out.append(TWO_PI / math.sqrt(k * ww) if k > 0.0 else free)
+    return np.array(out) / steps_per_fundamental
 
 
 def ensure_eig(model):

@@ -149,6 +149,8 @@ class LinearContact:
     table_U = ()      # no R(U-) table (kernel stop rows, vibeam.models.contact.pack)
     table_R = ()
     name = "linear"
+    #: the contact phase is a linear flow (exact, eigendecomposed: vibeam.models.beam_compliant)
+    linear_phase = True
 
     @classmethod
     def from_damping_ratio(cls, stiffness: float, damping_ratio: float) -> "LinearContact":
@@ -192,6 +194,8 @@ class HuntCrossley:
     table_U = ()
     table_R = ()
     name = "hunt_crossley"
+    #: the contact phase has no closed form (integrated: vibeam.models.hc_contact)
+    linear_phase = False
 
     @property
     def chi(self) -> float:

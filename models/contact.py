@@ -94,6 +94,11 @@ LAW_HUNT_CROSSLEY = 2     # F = k delta^p (1 + chi delta' / v_in) (compliant)
 IMPULSIVE = 0
 COMPLIANT = 1
 
+# ---- events of a free or contact step of the compliant event kernels (vibeam.models.beam_compliant,
+# vibeam.models.hc_contact): none, contact entry, exit (the force back to zero), the gap back to
+# zero while free inside a stop after an exit by a damping factor
+EV_NONE, EV_ENTRY, EV_EXIT, EV_GAPDOWN = 0, 1, 2, 3
+
 #: law names of a case's ``[model.contact]`` table (:data:`vibeam.models.registry.LAWS`) -> code
 LAW_CODES = {"restitution": LAW_RESTITUTION, "linear": LAW_LINEAR, "hunt_crossley": LAW_HUNT_CROSSLEY}
 

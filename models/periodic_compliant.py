@@ -576,7 +576,7 @@ class CompliantBeamShooting:
 
     A second (lower) Kelvin-Voigt stop at ``U = -Delta_C,lower`` (``model.two_sided``, its law
     ``model.lower_law``, linear too) adds the third phase of
-    :func:`~vibeam.models.beam_compliant.beam_compliant_kernel_stops` (state matrix with
+    :func:`~vibeam.models.beam_compliant.beam_compliant_kernel` (state matrix with
     ``- k_l w w^T``, ``- c_l w w^T``), which the shot runs instead; an entry into it (gap ``-U -
     Delta_l``, normal velocity ``-U'``) has the same saltation ``I - c_l [[0, 0], [w w^T, 0]]``
     (the normal's signs cancel in ``w w^T``), so ``det M = exp(trace(A_free) n T - |w|^2 (c
@@ -713,7 +713,7 @@ class CompliantBeamShooting:
             ``apex_gap`` in m; ``extra``: ``x_all_p`` (2N, 2) ``d x / d(Omega, Y)``,
             ``contact_time``, ``contacts`` (k, 4) per contact of the window (kernel units).
         """
-        from .beam_compliant import beam_compliant_kernel, beam_compliant_kernel_stops
+        from .beam_compliant import beam_compliant_kernel
 
         n = int(n)
         x0 = np.asarray(x0, float)
@@ -746,14 +746,10 @@ class CompliantBeamShooting:
         msamp = np.zeros((0, n2))
         z = x0.copy()
         imp_k = np.zeros(cap, np.int64)
-        if self.two:
-            status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps, _ = beam_compliant_kernel_stops(
-                Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, kc, cc, DC, 2, kl, cl, Dl, z,
-                phase0, 0, n, 1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t, imp_v, con, imp_k, msamp)
-        else:
-            status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = beam_compliant_kernel(
-                Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, kc, cc, DC, z, phase0, 0, n,
-                1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t, imp_v, con, msamp)
+        status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps, _ = beam_compliant_kernel(
+            Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, m.kernel_stops(), m.k_nd, m.c_nd,
+            m.participation, D["F"], 0.0, z, phase0, 0, n, 1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t,
+            imp_v, con, imp_k, msamp)
         if status != 0 or n_rec > cap:
             return failed_shot(self.dim, f"the event kernel gave up after {n_con} contacts / {n_steps} steps in "
                                        f"{n} period(s)")

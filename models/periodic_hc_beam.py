@@ -4,8 +4,9 @@ Contract: :mod:`vibeam.models.periodic` (driven unchanged by :mod:`vibeam.models
 The model is :mod:`vibeam.models.beam_hc`'s (kernel units: ``eta``, ``eta'``, gap ``g = w^T eta
 - Delta_C`` in m, force ``k g^p (1 + chi g' / v_r)``, ``v_r = max(v_in, v_floor)``).
 
-A shot is one run of the event kernel (:func:`vibeam.models.beam_hc.beam_hc_kernel`) over ``n``
-periods: its end state is the shot's value, so a branch follows the orbit of method ``event``.
+A shot is one run of the one compliant beam event kernel
+(:func:`vibeam.models.beam_compliant.beam_compliant_kernel`, the stop's law dispatched inside it)
+over ``n`` periods: its end state is the shot's value, so a branch follows the orbit of method ``event``.
 The derivatives are composed along the kernel's contacts on a rebuilt trajectory:
 
 * free flight: the exact modal flow of the free phase (as
@@ -44,7 +45,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .beam_compliant import CONTACT, FREE
+from .beam_compliant import FREE
 from .periodic import Shot
 from .periodic_compliant import BEAM_PARAMETERS, TWO_PI, CompliantBeamShooting, failed_shot
 
@@ -144,7 +145,8 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
     def data(self, p: float) -> dict:
         """Free-phase data at ``p`` (cached for the last ``p``), in the layout of
         :meth:`CompliantBeamShooting.data` (phase index 0 only)."""
-        from .beam_hc import free_data, velocity_floor
+        from .beam_compliant import ensure_eig, phase_data, phase_steps, velocity_floor
+        from .beam_hc import free_data
 
         if self._key == float(p):
             return self._data
@@ -153,6 +155,7 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
         N = m.n_modes
         n2 = 2 * N
         lam, V, W, Z, PU, PS, bU, bS, F = free_data(m, Om)
+        ensure_eig(m)
         A = m._hc_eig[0]
         b = np.concatenate([np.zeros(N), m.participation])
         Yb = m.base_amplitude_m
@@ -172,7 +175,9 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
                  khc=law.stiffness / m.omega_ref ** 2, pe=float(law.exponent), chi=float(law.chi),
                  lam=lam[None], V=V[None], W=W[None], pd=(lam[None], V[None], W[None], Z[None], ze),
                  dZ=dZ, hmax=np.array([TWO_PI / math.sqrt(m.k_nd[0]) / self.steps_per_fundamental]),
-                 kern=(lam, V, W, Z, PU, PS, bU, bS), v_floor=vf, dv_floor=dvf)
+                 v_floor=vf, dv_floor=dvf,
+                 phases=phase_data(m, Om)[:11], stops=m.kernel_stops(),
+                 hmaxes=phase_steps(m, self.steps_per_fundamental))
         self._key, self._data = float(p), D
         return D
 
@@ -203,7 +208,7 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
         """
         from scipy.integrate import solve_ivp
 
-        from .beam_hc import beam_hc_kernel
+        from .beam_compliant import beam_compliant_kernel
 
         n = int(n)
         x0 = np.asarray(x0, float)
@@ -223,7 +228,6 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
             return failed_shot(self.dim, "the section lies inside the stop: a Hunt-Crossley contact depends on its "
                                        "entry velocity, which is not part of the state (eta, eta')")
         kc, pe, chi = D["khc"], D["pe"], D["chi"]
-        lam, V, W, Z, PU, PS, bU, bS = D["kern"]
         cap = self.max_contacts
         ns = 4
         samples = np.zeros((n * ns, 2))
@@ -232,10 +236,11 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
         imp_v = np.zeros(cap)
         con = np.full((cap, 5), np.nan)
         z = x0.copy()
-        status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps = beam_hc_kernel(
-            Om, lam, V, W, Z, PU, PS, bU, bS, w, m.sensor_row, m.k_nd, m.c_nd, m.participation, D["F"], kc, pe, chi,
-            DC, D["v_floor"], z, FREE, 0, n, 1, ns, float(D["hmax"][0]), cap, 200000 * n, samples, pmin, imp_t,
-            imp_v, con, np.zeros((0, n2)))
+        lamA, VA, WA, ZA, zeA, PU, PS, bU, bS, gU, gS = D["phases"]
+        status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps, _ = beam_compliant_kernel(
+            Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, D["stops"], m.k_nd, m.c_nd,
+            m.participation, D["F"], D["v_floor"], z, FREE, 0, n, 1, ns, D["hmaxes"], cap, 200000 * n, samples, pmin,
+            imp_t, imp_v, con, np.zeros(cap, np.int64), np.zeros((0, n2)))
         if status != 0 or n_rec > cap:
             return failed_shot(self.dim, f"the event kernel gave up after {n_con} contacts / {n_steps} steps in "
                                        f"{n} period(s)")

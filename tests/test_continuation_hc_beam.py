@@ -302,13 +302,13 @@ def test_jacobian_with_the_velocity_floor(monkeypatch):
     the floor, 1.8e-3, exceeds the entry's 8e-4), v_r = v_floor depends on (Omega, Y) only: the
     Jacobian still equals central differences (tolerance as above; measured <= 2.3e-8, the
     damping now being ~2x larger)."""
-    import vibeam.models.beam_hc as bh
+    import vibeam.models.beam_compliant as bc
     import vibeam.models.sdof_compliant as sc
 
     m = _rig(2)
     W = 16.0 / m.f_ref_hz
     x0 = _settled(m, W) * 1.001
-    monkeypatch.setattr(bh, "HC_V_FLOOR", 10.0)
+    monkeypatch.setattr(bc, "HC_V_FLOOR", 10.0)     # the floor of the one compliant beam kernel's solver
     monkeypatch.setattr(sc, "HC_V_FLOOR", 10.0)
     d = 4
     h0 = 1e-6 * float(np.max(np.abs(x0)))

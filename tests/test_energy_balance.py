@@ -95,7 +95,7 @@ KV_UP, KV_LO = (1e4, R_UP), (3e3, 0.5)          # Kelvin-Voigt (stiffness ratio,
 HC_UP, HC_LO = (1e5, R_UP), (3e4, 0.6)          # Hunt-Crossley (k_c, target R), p = 3/2
 BEAM_R, BEAM_R_LO, BEAM_GAP_LO_MM = 0.72, 0.4, 0.3
 BEAM_K, BEAM_K_LO, BEAM_ZETA_LO = 1e5, 3e5, 0.3   # N/m; the lower stop's contact damping ratio
-BEAM_HC_K = 1e8                                   # N/m^1.5
+BEAM_HC_K, BEAM_HC_K_LO = 1e8, 3e8                # N/m^1.5
 
 
 @dataclass
@@ -146,8 +146,10 @@ def _sdof(contact=None, contact_lower=None, lower=None, R_lower=None):
                   solver=solver, states=lambda tr: tr.samples, v_floor=1e-2 * W * B)
 
 
-def _beam(law, two):
-    """The rig FE beam (2 modes) with ``law`` ("restitution", "linear", "hunt_crossley")."""
+def _beam(law, two, lower=None):
+    """The rig FE beam (2 modes) with ``law`` ("restitution", "linear", "hunt_crossley") and, on
+    two stops, the lower stop's own law ``lower`` (None: the upper stop's; "hunt_crossley": the
+    lower Hertzian stop of BEAM_HC_K_LO, the target R of [model] R)."""
     from vibeam.case import load_case
     from vibeam.models.beam_compliant import CompliantBeamEventSolver
     from vibeam.models.beam_dynamics import BeamEventSolver
@@ -165,6 +167,8 @@ def _beam(law, two):
             over["contact_lower"] = {"law": "linear", "stiffness_n_m": BEAM_K_LO, "damping_ratio": BEAM_ZETA_LO}
     elif law == "hunt_crossley":
         over["contact"] = {"law": "hunt_crossley", "stiffness_n_m": BEAM_HC_K}
+    if two and lower == "hunt_crossley":
+        over["contact_lower"] = {"law": "hunt_crossley", "stiffness_n_m": BEAM_HC_K_LO}
     m = case.model_spec(over).build()
     assert m.R == BEAM_R and m.gap_contact_m == 0.0
     wr = m.omega_ref
@@ -179,13 +183,18 @@ def _beam(law, two):
     else:
         up, lo = _hc(BEAM_HC_K / wr ** 2, BEAM_R), None
         solver = HuntCrossleyBeamEventSolver(m, record_modal_states=True)
+    if lower == "hunt_crossley":
+        lo = _hc(BEAM_HC_K_LO / wr ** 2, BEAM_R)
     stops = [(1.0, m.gap_contact_m, up)] + ([(-1.0, m.gap_contact_lower_m, lo)] if two else [])
-    f_hz = 17.5 if (two and law == "restitution") else (17.0 if two else 15.0)
+    # a Hunt-Crossley lower stop: at 16 Hz a period-2 orbit with two upper contacts and one lower
+    f_hz = 16.0 if lower else 17.5 if (two and law == "restitution") else (17.0 if two else 15.0)
     W = f_hz / m.f_ref_hz
+    hc = law == "hunt_crossley" or lower == "hunt_crossley"
     return System(k=m.k_nd, c=m.c_nd, G=m.participation, Y=m.base_amplitude_m, w=m.contact_row,
-                  scale=me * m.length_m ** 2, stops=stops, Omega=W, period=1, counts=(1, 1) if two else (1,),
+                  scale=me * m.length_m ** 2, stops=stops, Omega=W, period=2 if lower else 1,
+                  counts=(2, 1) if lower else (1, 1) if two else (1,),
                   solver=solver, states=lambda tr: tr.extra["modal_states"],
-                  v_floor=velocity_floor(m, W) / m.length_m if law == "hunt_crossley" else 0.0)
+                  v_floor=velocity_floor(m, W) / m.length_m if hc else 0.0)
 
 
 SCENES = {
@@ -202,8 +211,10 @@ SCENES = {
     "beam-linear-one": lambda: _beam("linear", False),
     "beam-linear-two": lambda: _beam("linear", True),
     "beam-hc-one": lambda: _beam("hunt_crossley", False),
+    "beam-hc-two": lambda: _beam("hunt_crossley", True, lower="hunt_crossley"),
+    "beam-linear-hc": lambda: _beam("linear", True, lower="hunt_crossley"),
 }
-SLOW = {"sdof-hc-two", "beam-hc-one"}
+SLOW = {"sdof-hc-two", "beam-hc-one", "beam-hc-two"}
 
 
 # --------------------------------------------------------------------------- the left side

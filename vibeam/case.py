@@ -589,9 +589,6 @@ class BeamModelSpec(_Strict):
                 beam_law(table, self.R)
             except ValueError as e:
                 raise CaseError(f"'{prefix}.{key}': {e}") from None
-            if table is not None and table.law == "hunt_crossley" and self.two_sided:
-                raise CaseError(f"'{prefix}.{key}.law' = \"hunt_crossley\": the beam takes it with one stop only "
-                                f"(two stops: law = \"linear\" or \"restitution\")")
         if isinstance(n, int) and n > dofs:
             raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
                             f"('{prefix}.n_elements' = {self.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
