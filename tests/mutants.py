@@ -129,6 +129,12 @@ MUTANTS: list[Mutant] = [
            "vibeam/effects.py", "return 1.0 / (1.0 - r * r + 2j * zeta_p * r)",
            "return 1.0 / (1.0 - r * r + 1j * zeta_p * r)",
            ("tests/test_effects.py",)),
+    # --- the one compliant beam kernel (issue 20)
+    Mutant("compliant beam kernel: a Hunt-Crossley contact phase with the upper stop's stiffness",
+           "models/beam_compliant.py",
+           "stops[side, OFFSET], stops[side, STIFFNESS], stops[side, EXPONENT],",
+           "stops[side, OFFSET], stops[0, STIFFNESS], stops[side, EXPONENT],",
+           ("tests/test_energy_balance.py",)),
 ]
 
 
