@@ -248,3 +248,49 @@ def hc_contact_step(h, phi, y0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, 
     cs[2] = max(cs[2], g)
     cs[3] += y1[2 * N]
     return s_adv, ev
+
+
+@njit(cache=True)
+def hc_variational_rhs(t, y, vr, dvr, DC, kc, pe, chi, knd, cnd, part, w, Om, Yb):
+    """Right-hand side of a modal system's Hunt-Crossley contact phase and its variational
+    equations: ``y = (eta, eta', J (2N, 2N + 2) row-major)``, ``J = d(eta, eta') / d(x0, Omega,
+    Y)``; ``dvr`` (2N + 2,) the sensitivity of the contact's ``v_r``; ``w`` (N,) the stop's
+    normal row (the contact row, negated for a lower stop) and ``DC`` its offset (m), ``kc``,
+    ``pe``, ``chi`` the law; the load ``Gamma Omega^2 Y sin(Omega t)``.  The force is zero at
+    entry and exit, so the phase has no saltation; its variational terms are ``df = f_g dg +
+    f_g' dg' + f_vr dv_r`` (the derivative of the force along ``w``)."""
+    N = knd.shape[0]
+    n2 = 2 * N
+    nc = n2 + 2
+    g = -DC
+    gd = 0.0
+    for i in range(N):
+        g += w[i] * y[i]
+        gd += w[i] * y[N + i]
+    dp = g if g > 0.0 else 0.0
+    fac = 1.0 + chi * gd / vr
+    f = kc * dp ** pe * fac
+    F = Om * Om * Yb
+    sn = math.sin(Om * t)
+    cs = math.cos(Om * t)
+    out = np.empty(y.shape[0])
+    for i in range(N):
+        out[i] = y[N + i]
+        out[N + i] = part[i] * F * sn - cnd[i] * y[N + i] - knd[i] * y[i] - w[i] * f
+    f_g = kc * pe * dp ** (pe - 1.0) * fac if dp > 0.0 else 0.0
+    f_gd = kc * dp ** pe * chi / vr
+    f_vr = -kc * dp ** pe * chi * gd / (vr * vr)
+    for j in range(nc):
+        wq = 0.0
+        wv = 0.0
+        for i in range(N):
+            wq += w[i] * y[n2 + i * nc + j]
+            wv += w[i] * y[n2 + (N + i) * nc + j]
+        df = f_g * wq + f_gd * wv + f_vr * dvr[j]
+        for i in range(N):
+            out[n2 + i * nc + j] = y[n2 + (N + i) * nc + j]
+            out[n2 + (N + i) * nc + j] = -knd[i] * y[n2 + i * nc + j] - cnd[i] * y[n2 + (N + i) * nc + j] - w[i] * df
+    for i in range(N):
+        out[n2 + (N + i) * nc + n2] += part[i] * (2.0 * Om * Yb * sn + F * t * cs)
+        out[n2 + (N + i) * nc + n2 + 1] += part[i] * Om * Om * sn
+    return out

@@ -73,6 +73,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .contact import DAMPING, EXPONENT, OFFSET, SIGN, STIFFNESS
 from .periodic import Shot
 from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_NONE, FREE, mirror_in, mirror_out, advance, envelope,
                              phase_eval, phase_params, upcross)
@@ -604,18 +605,16 @@ class CompliantBeamShooting:
     starts = ("linear",)
 
     def __init__(self, model, parameter: str = "Omega", Omega: float | None = None,
-                 steps_per_fundamental: int = 16, max_contacts: int = 4096):
+                 steps_per_fundamental: int = 16, max_contacts: int = 4096, rtol: float = 1e-12):
         from .beam_compliant import ensure_eig
 
-        if getattr(model, "contact", None) is None or getattr(model.contact, "name", "") != "linear":
-            raise ValueError("CompliantBeamShooting needs a beam model with contact law \"linear\"")
+        if getattr(model, "contact", None) is None or \
+                any(getattr(st.law, "kind", "") != "compliant" for st in model.stops()):
+            raise ValueError("CompliantBeamShooting needs a beam model with compliant stops (contact law "
+                             "\"linear\" or \"hunt_crossley\")")
         self.two = bool(getattr(model, "two_sided", False))
-        if self.two and getattr(model.lower_law, "name", "") != "linear":
-            raise ValueError("continuation with two stops needs contact law \"linear\" on the lower stop too "
-                             f"([model.contact_lower] law = {getattr(model.lower_law, 'name', '?')!r}); "
-                             "use method = \"event\"")
         if parameter not in BEAM_PARAMETERS:
-            raise ValueError(f"parameter {parameter!r} cannot be continued with contact law \"linear\" on the "
+            raise ValueError(f"parameter {parameter!r} cannot be continued with a compliant stop on the "
                              f"beam; allowed: {', '.join(BEAM_PARAMETERS)}")
         if parameter != "Omega" and Omega is None:
             raise ValueError(f"continuation in {parameter!r} needs the forcing frequency Omega")
@@ -629,6 +628,7 @@ class CompliantBeamShooting:
         self.state_scale = model.length_m * math.sqrt(model.m_eff)
         self.steps_per_fundamental = int(steps_per_fundamental)
         self.max_contacts = int(max_contacts)
+        self.rtol = float(rtol)
         self._key = None
         self._data = None
 
@@ -643,7 +643,8 @@ class CompliantBeamShooting:
     def data(self, p: float) -> dict:
         """Phase data at ``p`` (cached for the last ``p``): the kernel's arrays and the
         forced-response derivatives."""
-        from .beam_compliant import phase_data
+        from .beam_compliant import phase_data, phase_steps, velocity_floor
+        from .sdof_compliant import HC_V_FLOOR
 
         if self._key == float(p):
             return self._data
@@ -662,13 +663,19 @@ class CompliantBeamShooting:
             dZ[r, 1] = Om * Om * Zu
         lam, V, W = pd[0], pd[1], pd[2]
         w = m.contact_row
-        hmax = np.array([TWO_PI / math.sqrt(m.k_nd[0]), TWO_PI / math.sqrt(kc * float(w @ w))]) \
-            / self.steps_per_fundamental
         kl, cl, Dl = m.lower_stop_params()
-        if self.two:    # the lower contact phase's steps (as CompliantBeamEventSolver)
-            hmax = np.append(hmax, TWO_PI / math.sqrt(kl * float(w @ w)) / self.steps_per_fundamental)
-        D = dict(m=m, Om=Om, A=A, b=b * F, b0=b0, kc=kc, cc=cc, pd=pd, dZ=dZ, lam=lam, V=V, W=W, hmax=hmax, F=F,
-                 kl=kl, cl=cl, Dl=Dl)
+        # per stop: whether its contact phase is integrated (Hunt-Crossley) and its law's kernel
+        # values (sign, offset, k, p, chi); the free-flight scans watch k g + c g' (Kelvin-Voigt)
+        # or g itself (Hunt-Crossley: the force's sign at entry)
+        rows = m.kernel_stops()
+        hc = [not getattr(st.law, "linear_phase", False) for st in m.stops()]
+        scan = [(1.0, 0.0) if hc[k] else ((kc, cc) if k == 0 else (kl, cl)) for k in range(len(hc))]
+        wG = abs(float(w @ m.participation))
+        Yb = m.base_amplitude_m
+        dvf = np.array([HC_V_FLOOR * Yb * wG, HC_V_FLOOR * Om * wG]) if Yb * wG > 0.0 else np.zeros(2)
+        D = dict(m=m, Om=Om, A=A, b=b * F, b0=b0, kc=kc, cc=cc, pd=pd, dZ=dZ, lam=lam, V=V, W=W,
+                 hmax=phase_steps(m, self.steps_per_fundamental), F=F, Yb=Yb, kl=kl, cl=cl, Dl=Dl, stops=rows,
+                 hc=hc, scan=scan, v_floor=velocity_floor(m, Om), dv_floor=dvf)
         self._key, self._data = float(p), D
         return D
 
@@ -732,8 +739,12 @@ class CompliantBeamShooting:
         t_end = n * T
         g0 = float(w @ x0[:N]) - DC
         u0 = float(w @ x0[N:])
-        phase0 = CONTACT if (g0 >= 0.0 and kc * g0 + cc * u0 > 0.0) else FREE
         kl, cl, Dl = D["kl"], D["cl"], D["Dl"]
+        hc = D["hc"]
+        if (hc[0] and g0 >= 0.0) or (self.two and hc[1] and -g0 - DC - Dl >= 0.0):
+            return failed_shot(self.dim, "the section lies inside the stop: a Hunt-Crossley contact depends on its "
+                                       "entry velocity, which is not part of the state (eta, eta')")
+        phase0 = CONTACT if (g0 >= 0.0 and kc * g0 + cc * u0 > 0.0) else FREE
         if self.two and phase0 == FREE and -g0 - DC - Dl >= 0.0 and kl * (-g0 - DC - Dl) - cl * u0 > 0.0:
             phase0 = 2                 # in contact with the lower stop (gap -U - Delta_l)
         ns = 4
@@ -747,9 +758,9 @@ class CompliantBeamShooting:
         z = x0.copy()
         imp_k = np.zeros(cap, np.int64)
         status, n_rec, smin, smax, ph_end, n_con, t_con, n_steps, _ = beam_compliant_kernel(
-            Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, m.kernel_stops(), m.k_nd, m.c_nd,
-            m.participation, D["F"], 0.0, z, phase0, 0, n, 1, ns, D["hmax"], cap, 200000 * n, samples, pmin, imp_t,
-            imp_v, con, imp_k, msamp)
+            Om, lamA, VA, WA, ZA, zeA, PU, PS, w, m.sensor_row, bU, bS, gU, gS, D["stops"], m.k_nd, m.c_nd,
+            m.participation, D["F"], D["v_floor"], z, phase0, 0, n, 1, ns, D["hmax"], cap, 200000 * n, samples, pmin,
+            imp_t, imp_v, con, imp_k, msamp)
         if status != 0 or n_rec > cap:
             return failed_shot(self.dim, f"the event kernel gave up after {n_con} contacts / {n_steps} steps in "
                                        f"{n} period(s)")
@@ -784,18 +795,49 @@ class CompliantBeamShooting:
         rates, entries, contacts, t_c, sides = [], [], [], 0.0, []
         t_cs = [0.0, 0.0]
         t_open = None
+        vr, dvr = 0.0, None      # a Hunt-Crossley contact's damping scale and its sensitivity
+        inside = [False, False]  # free inside a Hunt-Crossley stop after an exit by its damping factor
         for (tb, kind, side) in events + [(t_end, 0, 0)]:
-            Phi = self._stm(D, ph, tb - ta)
-            za = zc
-            zc = Phi @ (zc - self._zp(D, ph, ta)) + self._zp(D, ph, tb)
-            J = Phi @ J
-            for j in range(2):
-                J[:, n2 + j] += self._dzp(D, ph, tb, j) - Phi @ self._dzp(D, ph, ta, j)
-            apex = max(apex, self._extremes(D, ph, za, ta, tb))
+            if ph != FREE and hc[ph - 1]:
+                # a Hunt-Crossley contact phase: its variational equations, integrated
+                zc, J, msg = self._hc_phase(D, ph - 1, zc, J, ta, tb, vr, dvr)
+                if msg:
+                    return failed_shot(self.dim, msg)
+            else:
+                Phi = self._stm(D, ph, tb - ta)
+                za = zc
+                zc = Phi @ (zc - self._zp(D, ph, ta)) + self._zp(D, ph, tb)
+                J = Phi @ J
+                for j in range(2):
+                    J[:, n2 + j] += self._dzp(D, ph, tb, j) - Phi @ self._dzp(D, ph, ta, j)
+                apex = max(apex, self._extremes(D, ph, za, ta, tb))
             if ph != FREE:
                 t_c += tb - ta
                 t_cs[ph - 1] += tb - ta
-            if kind == 1:
+            if kind == 1 and hc[side]:
+                # entry into a Hunt-Crossley stop: the force is zero there (S = I), but v_r is the
+                # entry velocity, whose sensitivity enters the contact's variational equations
+                sg, off = (1.0, DC) if side == 0 else (-1.0, Dl)
+                g = sg * float(w @ zc[:N]) - off
+                U = sg * float(w @ zc[N:])
+                if inside[side] and g > 1e-9 * max(abs(off), 1e-12):
+                    return failed_shot(self.dim, "re-entry inside the stop after a damping-factor exit (depends on "
+                                               "the previous contact's entry velocity): not represented")
+                if not U > 0.0:
+                    return failed_shot(self.dim, f"contact entry with non-positive velocity {U:.3g} (inconsistent "
+                                               f"record)")
+                a_m = sg * float(w @ self._field(D, FREE, zc, tb)[N:])
+                dt = -sg * (w @ J[:N, :]) / U
+                if U > D["v_floor"]:
+                    vr, dvr = U, sg * (w @ J[N:, :]) + a_m * dt
+                else:
+                    vr, dvr = D["v_floor"], np.concatenate([np.zeros(n2), D["dv_floor"]])
+                entries.append(tb)
+                sides.append(side)
+                rates.append(U / L)
+                t_open = tb
+                ph = 1 + side
+            elif kind == 1:
                 # the entered stop's gap, normal velocity and law (lower: gap -U - Delta_l)
                 sg, off, k_, c_ = (1.0, DC, kc, cc) if side == 0 else (-1.0, Dl, kl, cl)
                 g = sg * float(w @ zc[:N]) - off
@@ -816,10 +858,23 @@ class CompliantBeamShooting:
                 if t_open is not None:
                     r = len(contacts)
                     contacts.append(con[r if r < n_rec else 0, :4])
+                    if hc[side]:
+                        # an exit by the damping factor leaves the section inside the stop (g > 0,
+                        # beyond the round-off of a gap exit: 1e-6 of the contact's penetration)
+                        sg, off = (1.0, DC) if side == 0 else (-1.0, Dl)
+                        inside[side] = sg * float(w @ zc[:N]) - off > 1e-6 * abs(con[r if r < n_rec else 0, 2])
                 t_open = None
                 ph = FREE
             ta = tb
-        J[:, n2] += self._field(D, ph, z, t_end) * (-t_end / Om)
+        if ph != FREE and hc[ph - 1]:
+            # the window ends inside a Hunt-Crossley contact: the field with its force
+            ws, off, kh, pe, chi = self._hc_law(D, ph - 1)
+            g = float(ws @ zc[:N]) - off
+            fld = self._field(D, FREE, zc, t_end)
+            fld[N:] -= ws * (kh * max(g, 0.0) ** pe * (1.0 + chi * float(ws @ zc[N:]) / vr))
+        else:
+            fld = self._field(D, ph, z, t_end)
+        J[:, n2] += fld * (-t_end / Om)
         jcol = n2 + BEAM_PARAMETERS.index(self.parameter)
         M = J[:, :n2].copy()
         if not np.all(np.isfinite(J)):
@@ -833,6 +888,39 @@ class CompliantBeamShooting:
                     impact_velocities=np.array(rates, float), q_min=float(smin / L), q_max=float(smax / L),
                     apex_gap=float(apex), stuck_time=0.0, status="ok", message="", Omega=Om, gap=m.Delta,
                     extra=extra)
+
+    def _hc_law(self, D, k):
+        """``(w_k, Delta_k, k, p, chi)`` of Hunt-Crossley stop ``k`` in kernel units (``w_k`` its
+        normal row: the contact row, negated for the lower stop)."""
+        row = D["stops"][k]
+        return row[SIGN] * self.model.contact_row, row[OFFSET], row[STIFFNESS], row[EXPONENT], row[DAMPING]
+
+    def _hc_phase(self, D, k, zc, J, ta, tb, vr, dvr):
+        """The state and the tangent ``J`` (2N, 2N + 2) carried through a Hunt-Crossley contact
+        with stop ``k`` from ``ta`` to ``tb`` (the kernel's exit, or the window's end) by
+        :func:`vibeam.models.hc_contact.hc_variational_rhs` (DOP853 at ``self.rtol``); returns
+        ``(zc, J, message)``, a non-empty message when the integration failed."""
+        from scipy.integrate import solve_ivp
+
+        from .hc_contact import hc_variational_rhs
+
+        if not tb > ta:
+            return zc, J, ""
+        m = D["m"]
+        N = m.n_modes
+        n2 = 2 * N
+        ws, off, kh, pe, chi = self._hc_law(D, k)
+        wn = math.sqrt(float(ws @ ws))
+        pen = ((pe + 1.0) * vr * vr / (2.0 * kh * wn * wn)) ** (1.0 / (pe + 1.0))
+        atol = np.concatenate([np.full(N, 1e-13 * pen / wn), np.full(N, 1e-13 * vr / wn),
+                               np.full(n2 * (n2 + 2), 1e-13 * max(float(np.max(np.abs(J))), 1.0))])
+        sol = solve_ivp(hc_variational_rhs, (ta, tb), np.concatenate([zc, J.ravel()]), method="DOP853",
+                        rtol=self.rtol, atol=atol, first_step=min(1e-3 * pen / vr, tb - ta),
+                        args=(vr, dvr, off, kh, pe, chi, m.k_nd, m.c_nd, m.participation, ws, D["Om"], D["Yb"]))
+        if sol.status < 0:
+            return zc, J, f"the contact phase's integration failed: {sol.message}"
+        y = sol.y[:, -1]
+        return y[:n2].copy(), y[n2:].reshape(n2, n2 + 2).copy(), ""
 
     def _signal(self, D, r, z, ta, rowc):
         """Coefficients ``(al, be, ga)`` of ``rowc . z(ta + s)`` in phase ``r`` from ``z`` at ``ta``."""
@@ -856,11 +944,10 @@ class CompliantBeamShooting:
         if side == 0:
             al, be, ga, phi = self._signal(D, r, z, 0.0, rowU)
             ga -= self.model.gap_contact_m
-            kc, cc = D["kc"], D["cc"]
         else:
             al, be, ga, phi = self._signal(D, r, z, 0.0, -rowU)
             ga -= D["Dl"]
-            kc, cc = D["kl"], D["cl"]
+        kc, cc = D["scan"][side]
         lam = D["lam"][r]
         Om = D["Om"]
         al2 = np.empty_like(al)
@@ -880,8 +967,9 @@ class CompliantBeamShooting:
 
     def _extremes(self, D, r, z, ta, tb):
         """Grazing indicator (m) inside the phase segment ``[ta, tb]`` (class docstring): the
-        larger of the two stops' in free flight with a lower stop."""
-        if tb <= ta:
+        larger of the two stops' in free flight with a lower stop; a Hunt-Crossley contact
+        phase is not scanned."""
+        if tb <= ta or (r != FREE and D["hc"][r - 1]):
             return -np.inf
         N = self.model.n_modes
         rowU = np.concatenate([self.model.contact_row, np.zeros(N)])
@@ -899,11 +987,10 @@ class CompliantBeamShooting:
         if side == 0:
             al, be, ga, phi = self._signal(D, r, z, ta, rowU)
             ga -= self.model.gap_contact_m
-            kc, cc = D["kc"], D["cc"]
         else:
             al, be, ga, phi = self._signal(D, r, z, ta, -rowU)
             ga -= D["Dl"]
-            kc, cc = D["kl"], D["cl"]
+        kc, cc = D["scan"][side]
         lam = D["lam"][r]
         Om = D["Om"]
         al2 = np.empty_like(al)

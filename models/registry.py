@@ -171,7 +171,7 @@ register(Fidelity(
     fe_model=True,
     restitution_law_methods=("event", "direct"),
     two_sided_methods=("event", "direct", "continuation"),
-    two_sided_law_methods={"linear": ("event", "direct", "continuation"), "hunt_crossley": ("event",)},
+    two_sided_law_methods={"linear": ("event", "direct", "continuation"), "hunt_crossley": ("event", "continuation")},
     contact_laws={"linear": {"event": "beam_compliant:CompliantBeamEventSolver",
                              "direct": "beam_compliant:CompliantBeamODESolver",
                              "continuation": "periodic_compliant:CompliantBeamShooting"},

@@ -328,3 +328,48 @@ def test_jacobian_with_the_velocity_floor(monkeypatch):
                 J[:, c] = (prob.shot(x0, p + h, 1).x - prob.shot(x0, p - h, 1).x) / (2 * h)
         assert np.max(np.abs(s.M - J[:, :d])) < 1e-6 * np.max(np.abs(s.M))
         assert np.max(np.abs(s.x_p - J[:, d])) < 1e-6 * np.max(np.abs(s.x_p))
+
+
+@pytest.mark.parametrize("lower", ["hunt_crossley", "linear"])
+def test_two_stop_shot_fixed_point_and_jacobian_against_central_differences(lower):
+    """The one compliant beam shooting problem on two stops (issue 20: each contact phase composed
+    by its own law): the rig FE beam with 2 modes, a Hertzian Hunt-Crossley upper stop (1e8
+    N/m^1.5) and, 0.3 mm below, a lower stop of 3e8 N/m^1.5 (Hunt-Crossley) or 3e5 N/m
+    (Kelvin-Voigt), at 16 Hz: a settled period-2 orbit with two upper contacts and one lower
+    contact per orbit (asserted; the scene of ``test_energy_balance.py``'s ``beam-hc-two``).
+    The event run's settled state is a fixed point of the shot ``P^2`` to 1e-9 of the orbit (the
+    shot is the same kernel; measured 4.6e-12 and 1.1e-11), and the shot's monodromy and
+    d x / d Omega equal central differences of the shot (step 1e-6) to 1e-6 of their largest
+    entry, the tolerance of the one-stop checks above (measured 1.0e-7 and 1.5e-8 with the
+    Hunt-Crossley lower stop, 7.5e-8 and 1.3e-8 with the Kelvin-Voigt one: the difference
+    quotients' noise over two integrated contacts, far below the lower stop's terms -- its
+    variational equations along its normal -w, its own stiffness and v_r)."""
+    from vibeam.case import load_case
+    from vibeam.models import make_solver, shooting_problem
+
+    case, _ = load_case("cases/rig-fe-neutral.toml")
+    low = {"law": "hunt_crossley", "stiffness_n_m": 3e8} if lower == "hunt_crossley" else \
+        {"law": "linear", "stiffness_n_m": 3e5}
+    m = case.model_spec({"n_modes": 2, "gap_lower_mm": 0.3, "contact": {"law": "hunt_crossley", "stiffness_n_m": 1e8},
+                         "contact_lower": low}).build()
+    W = 16.0 / m.f_ref_hz
+    tr = make_solver(m, "event").point(W, None, 300, 4, 16)
+    assert tr.status == "ok" and tr.final_state[-1] == 0.0
+    x = tr.final_state[:4]
+    prob = shooting_problem(m, "Omega", Omega=W)
+    s = prob.shot(x, W, 2)
+    assert s.status == "ok" and s.n_impacts == 3 and list(s.extra["impact_stops"]).count(1) == 1, s.message
+    sc = float(np.max(np.abs(x)))
+    assert np.max(np.abs(s.x - x)) < 1e-9 * sc
+    x0 = x * 1.001
+    s = prob.shot(x0, W, 2)
+    assert s.status == "ok" and s.n_impacts == 3
+    J = np.empty((4, 5))
+    for c in range(4):
+        e = np.zeros(4)
+        e[c] = h = 1e-6 * sc
+        J[:, c] = (prob.shot(x0 + e, W, 2).x - prob.shot(x0 - e, W, 2).x) / (2 * h)
+    h = 1e-6 * W
+    J[:, 4] = (prob.shot(x0, W + h, 2).x - prob.shot(x0, W - h, 2).x) / (2 * h)
+    assert np.max(np.abs(s.M - J[:, :4])) < 1e-6 * np.max(np.abs(s.M))
+    assert np.max(np.abs(s.x_p - J[:, 4])) < 1e-6 * np.max(np.abs(s.x_p))
