@@ -135,6 +135,11 @@ MUTANTS: list[Mutant] = [
            "stops[side, OFFSET], stops[side, STIFFNESS], stops[side, EXPONENT],",
            "stops[side, OFFSET], stops[0, STIFFNESS], stops[side, EXPONENT],",
            ("tests/test_energy_balance.py",)),
+    Mutant("compliant beam shooting: a Hunt-Crossley lower stop's variational equations along +w",
+           "models/periodic_compliant.py",
+           "return row[SIGN] * self.model.contact_row, row[OFFSET]",
+           "return self.model.contact_row, row[OFFSET]",
+           ("tests/test_continuation_hc_beam.py",)),
 ]
 
 
