@@ -541,8 +541,9 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                         ev = EV_NONE
                         for k in range(nst - 1, -1, -1):
                             up = stops[k, SIGN] > 0.0
-                            for j in range(n2):
-                                alk[j] = al[j] if up else -al[j]
+                            if not up:
+                                for j in range(n2):
+                                    alk[j] = -al[j]
                             beK = bU[phase] if up else -bU[phase]
                             gaK = (gU[phase] if up else -gU[phase]) - stops[k, OFFSET]
                             # the sign of the force inside the stop: Kelvin-Voigt k g + c g';
@@ -553,7 +554,8 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                             else:
                                 kf = stops[k, STIFFNESS]
                                 cf = stops[k, DAMPING]
-                            s_k, ev_k = free_scan(alk, lam, beK, gaK, phi, Om, kf, cf, h, h_min, buf, al2, foff[k])
+                            s_k, ev_k = free_scan(al if up else alk, lam, beK, gaK, phi, Om, kf, cf, h, h_min, buf, al2,
+                                                  foff[k])
                             if s_k < 0.0:
                                 z0[:] = z
                                 return (3, n_rec, ext[0], ext[1], phase, n_con, t_con, n_steps, n_rec_l)
