@@ -143,3 +143,26 @@ def test_the_beam_on_a_kelvin_voigt_stop_obeys_liouville():
 def test_arguments_are_checked():
     with pytest.raises(ValueError, match="shots"):
         lyapunov_spectrum(SDOFShooting(FIG8, "Omega"), [0.0, 0.0], 1.8, 1)
+
+
+def test_the_api_settles_the_case_and_converts_to_seconds():
+    """``vibeam.lyapunov`` on the shipped two-sided Fig. 7 case (its first run's model) equals the
+    model-level spectrum from the same settled state (the same computation: to round-off), and on
+    the physical rig scene gives the exponents per second as ``2 pi f_n`` times the
+    nondimensional ones (hand conversion); bad arguments get one line."""
+    import vibeam
+
+    res = vibeam.lyapunov("cases/paper-fig7-two-sided.toml", Omega=CHAOS_OMEGA, shots=400, transient=400)
+    sp = lyapunov_spectrum(SDOFShooting(TWO_SIDED, "Omega"), _attractor(TWO_SIDED, CHAOS_OMEGA), CHAOS_OMEGA, 400)
+    assert res.status == "ok" and res.exponents_per_s is None
+    np.testing.assert_allclose(res.exponents, sp.exponents, rtol=1e-9, atol=1e-15)
+    rig = vibeam.lyapunov("cases/rig-neutral.toml", frequency_hz=15.0, shots=200, transient=200)
+    case = vibeam.load_case("cases/rig-neutral.toml")
+    assert rig.status == "ok"
+    fn = case.model_spec().natural_frequency_hz
+    np.testing.assert_allclose(rig.exponents_per_s, rig.exponents * 2 * math.pi * fn,
+                               rtol=1e-15)
+    with pytest.raises(ValueError, match="shots = 1 is not allowed"):
+        vibeam.lyapunov(case, frequency_hz=15.0, shots=1)
+    with pytest.raises(TypeError, match="shots = 2.5: not a whole number"):
+        vibeam.lyapunov(case, frequency_hz=15.0, shots=2.5)

@@ -14,7 +14,7 @@ Its names are imported on first use, so ``import vibeam`` stays fast.
 """
 from .version import __version__
 
-_API = ("load_case", "run", "simulate", "open_results", "Results", "Simulation")
+_API = ("load_case", "run", "simulate", "lyapunov", "open_results", "Results", "Simulation", "Lyapunov")
 __all__ = ["__version__", *_API]
 
 

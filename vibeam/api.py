@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import math
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -585,6 +586,102 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
                       impact_times=np.asarray(traj.impact_times), impact_velocities=np.asarray(traj.impact_velocities),
                       summary=summ, status=traj.status, message=traj.message, final_state=traj.final_state,
                       natural_frequency_hz=fn, length_m=L, trajectory=traj)
+
+
+@dataclass
+class Lyapunov:
+    """The Lyapunov spectrum of the attractor one simulation settles on (:func:`lyapunov`).
+
+    Attributes
+    ----------
+    Omega : float
+        Forcing frequency over the natural (reference) frequency.
+    exponents, error : ndarray, shape (d,)
+        ``lambda_1 >= ... >= lambda_d`` and their error estimates per unit of the model's
+        nondimensional time (:class:`vibeam.models.lyapunov.LyapunovSpectrum`).
+    exponents_per_s, error_per_s : ndarray, shape (d,) or None
+        The same per second for a physical scene (1/s), else None.
+    status, message : str
+        ``"ok"``, or ``"failed"`` with the reason (a shot the shooting problem could not take).
+    impacts_per_period : float
+        Impacts (contacts) per forcing period on the attractor.
+    spectrum : vibeam.models.lyapunov.LyapunovSpectrum
+    """
+
+    Omega: float
+    exponents: np.ndarray
+    error: np.ndarray
+    exponents_per_s: np.ndarray | None
+    error_per_s: np.ndarray | None
+    status: str
+    message: str
+    impacts_per_period: float
+    spectrum: object
+
+
+def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, transient: int | None = None,
+             frequency_hz: float | None = None, run: str | int = 0, state=None, n: int = 1) -> Lyapunov:
+    """Lyapunov spectrum of the stroboscopic map at one forcing frequency (issue 21).
+
+    The state from ``state`` (default: rest) is simulated by :func:`simulate` for ``transient``
+    periods (default: the case's ``transient_periods``), then ``shots`` shots of ``n`` periods of
+    the model's shooting problem (:func:`vibeam.models.shooting_problem`) give the spectrum by
+    the QR method (:func:`vibeam.models.lyapunov.lyapunov_spectrum`: exact flows, saltation
+    matrices at impacts, Müller 1995; Benettin et al. 1980).
+
+    Parameters
+    ----------
+    case_or_model : Case, str, Path, dict, or a model
+        As :func:`simulate` (a case's run ``run`` gives the model).
+    Omega, frequency_hz : float
+        The forcing frequency (one of them), as :func:`simulate`.
+    shots : int
+        Shots averaged, 2 ... 10**6.
+    transient : int, optional
+        Periods simulated first, as :func:`simulate`.
+    state : array_like, optional
+        Initial state, as :func:`simulate`.
+    n : int
+        Forcing periods per shot, 1 ... 64.
+
+    Returns
+    -------
+    Lyapunov
+
+    Raises
+    ------
+    TypeError, ValueError
+        One line naming the argument, the value and what is allowed (as :func:`simulate`); a
+        model without a shooting problem.
+    """
+    from .arguments import check_whole
+    from .models import shooting_problem
+    from .models.lyapunov import lyapunov_spectrum
+
+    shots = check_whole(shots, "shots", 2, 10 ** 6)
+    n = check_whole(n, "n", 1, 64)
+    sim = simulate(case_or_model, Omega=Omega, periods=1, transient=transient, frequency_hz=frequency_hz,
+                   run=run, state=state, samples_per_period=16)
+    from .case import Case
+
+    if isinstance(case_or_model, (Case, str, Path, dict)):
+        from .runner import make_job
+
+        case = load_case(case_or_model)
+        r = _pick_run(case, run)
+        model = make_job(case, r, dict(r.model)).solver.model
+    else:
+        model = case_or_model
+    problem = shooting_problem(model, "Omega")
+    d = 2 * int(getattr(model, "n_modes", 1))
+    sp = lyapunov_spectrum(problem, np.asarray(sim.final_state, float)[:d], sim.Omega, shots, 0, n)
+    # the model's time unit: 1 / (2 pi f) of its natural (SDOF) or reference (beam) frequency
+    f = getattr(model, "natural_frequency_hz", None) or getattr(model, "f_ref_hz", None)
+    scale = 2.0 * math.pi * f if f else None
+    return Lyapunov(Omega=float(sim.Omega), exponents=sp.exponents, error=sp.error,
+                    exponents_per_s=None if scale is None else sp.exponents * scale,
+                    error_per_s=None if scale is None else sp.error * scale, status=sp.status, message=sp.message,
+                    impacts_per_period=sp.impacts / max(sp.shots * sp.periods_per_shot, 1), spectrum=sp)
 
 
 def _pick_run(case, run):

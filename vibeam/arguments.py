@@ -63,6 +63,18 @@ def check_jobs(jobs, name: str = "jobs", none: str = "None: all cores"):
     return int(jobs)
 
 
+def check_whole(value, name: str, lo: int, hi: int) -> int:
+    """``value`` as an int in ``[lo, hi]`` (TypeError for anything but a whole number,
+    ValueError outside the range; one line naming the argument, the value and what is allowed)."""
+    value = _scalar(value)
+    allowed = f"a whole number from {lo} to {hi}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} = {quote_value(value)}: not a whole number; allowed: {allowed}")
+    if not lo <= int(value) <= hi:
+        raise ValueError(f"{name} = {int(value)} is not allowed; allowed: {allowed}")
+    return int(value)
+
+
 def jobs_option(text: str) -> int:
     """argparse type of ``--jobs``: :func:`check_jobs` of a whole number."""
     import argparse
