@@ -702,7 +702,10 @@ class SweepSpec(_Strict):
     longer as ``failed`` (default: no limit).  A point whose record is not periodic is
     continued until its spread is measured over ``statistics_periods`` periods (default
     256; 0 or at most ``record_periods``: the record alone), the sample its regression
-    statistics need (:func:`vibeam.records.batch_means`).
+    statistics need (:func:`vibeam.records.batch_means`).  ``lyapunov = true`` adds each
+    time-domain point's Lyapunov spectrum over ``lyapunov_periods`` periods (default 1000)
+    from its final state (:mod:`vibeam.models.lyapunov`; variables ``lyapunov`` and
+    ``lyapunov_error`` on (direction, Omega, exponent)).
     """
 
     Omega: list[float] | None = None
@@ -716,6 +719,8 @@ class SweepSpec(_Strict):
     continuation: bool = True
     period_rtol: Annotated[float, Field(gt=0.0, lt=1.0)] = 1e-5
     point_time_limit_s: Annotated[float, Field(gt=0.0)] | None = None
+    lyapunov: bool = False
+    lyapunov_periods: Annotated[int, Field(ge=2, le=100000)] = 1000
 
     def engine_options(self) -> dict:
         """The :class:`vibeam.sweep.Sweep` settings of this table (all but the grid)."""
@@ -723,7 +728,8 @@ class SweepSpec(_Strict):
                     max_transient_periods=self.max_transient_periods, record_periods=self.record_periods,
                     statistics_periods=self.statistics_periods,
                     samples_per_period=self.samples_per_period, continuation=self.continuation,
-                    period_rtol=self.period_rtol, point_time_limit_s=self.point_time_limit_s)
+                    period_rtol=self.period_rtol, point_time_limit_s=self.point_time_limit_s,
+                    lyapunov_shots=self.lyapunov_periods if self.lyapunov else 0)
 
     @field_validator("Omega", "frequency_hz")
     @classmethod

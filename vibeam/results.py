@@ -124,6 +124,10 @@ VARIABLES = {
     "disagree_full": ("1", "1 if Eqs. 29-32 and the Floquet multipliers disagree on stability"),
     "disagree_simplified": ("1", "1 if Eqs. 35-37 and the Floquet multipliers disagree on stability"),
     "multipliers": ("1", "Floquet multipliers (monodromy with the saltation matrix)"),
+    "lyapunov": ("1", "Lyapunov exponents of the stroboscopic map per unit nondimensional time, largest first "
+                      "(vibeam.models.lyapunov)"),
+    "lyapunov_error": ("1", "error estimate of each Lyapunov exponent (half the difference of the record's halves)"),
+    "lyapunov_message": ("", "why the Lyapunov exponents are NaN (empty when computed)"),
     "map_eigenvalues": ("1", "eigenvalues of the paper's impact-map Jacobian"),
     "det_full": ("1", "determinant of the Jacobian of Eqs. 29-32"),
     "tr_full": ("1", "trace of the Jacobian of Eqs. 29-32"),
@@ -173,6 +177,7 @@ VARIABLES = {
     "spectrum_frequency": (None, "frequency axis of spectrum_velocity (bin centres)"),
     "noise_level": ("mm", "standard deviation of the sensor noise"),
     "multiplier": ("1", "index of the Floquet multiplier"),
+    "exponent": ("1", "index of the Lyapunov exponent (1 = largest)"),
     "eigenvalue": ("1", "index of the eigenvalue"),
     "time": (None, "time from the start of the stored window"),
     "displacement": ("mm", "sensor displacement U(L_S)"),
@@ -194,6 +199,7 @@ EXTRA_DIMS = {
     "spectrum_velocity": ("spectrum_frequency",),
     "R_identified_ladder": ("noise_level",), "R_true_ladder": ("noise_level",),
     "multipliers": ("multiplier",), "map_eigenvalues": ("eigenvalue",),
+    "lyapunov": ("exponent",), "lyapunov_error": ("exponent",),
 }
 # run attributes that are the coordinate of an extra dimension (stored once, as the coordinate)
 ATTR_COORDS = {"spectrum_frequency": "spectrum_frequency", "noise_level": "noise_ladder_mm"}
@@ -287,7 +293,7 @@ def _extra_coords(taken: dict, attrs: dict, physical: bool) -> dict:
     for d, n in taken.items():
         if d == "record_period" or d == "harmonic":
             out[d] = _point_var(d, (d,), np.arange(n), physical)
-        elif d in ("mode", "peak", "multiplier", "eigenvalue"):
+        elif d in ("mode", "peak", "multiplier", "eigenvalue", "exponent"):
             out[d] = _point_var(d, (d,), np.arange(1, n + 1), physical)
         elif d == "state" and n == 2:
             out[d] = _point_var(d, (d,), np.array(["q", "q'"], dtype=object), physical)
@@ -820,7 +826,8 @@ def _restore_coords(out: dict, vals: dict, dims: dict) -> None:
         if dim in vals and dims.get(dim) == (dim,):
             extra[attr] = np.asarray(dataset_values(vals[dim]), float)
         out.pop(dim, None)
-    for dim in ("record_period", "state", "harmonic", "mode", "peak", "multiplier", "eigenvalue", "point"):
+    for dim in ("record_period", "state", "harmonic", "mode", "peak", "multiplier", "eigenvalue", "exponent",
+                "point"):
         out.pop(dim, None)
     if extra:
         out["_coord_attrs"] = extra

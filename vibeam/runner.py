@@ -40,13 +40,9 @@ def make_job(case, r, overrides: dict, j=None) -> _Job:
     spec = case.model_spec(overrides) if overrides else case.model_spec()
     model = spec.build()
     Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
-    sw = Sweep(Omega=Omega, direction=case.sweep.direction, transient_periods=case.sweep.transient_periods,
-               record_periods=case.sweep.record_periods, statistics_periods=case.sweep.statistics_periods,
-               samples_per_period=assess.samples_per_period(case, r, model, Omega),
-               continuation=case.sweep.continuation, period_rtol=case.sweep.period_rtol,
-               max_transient_periods=case.sweep.max_transient_periods,
-               point_time_limit_s=case.sweep.point_time_limit_s,
-               assess=assess.hooks(case, spec, r, model))
+    sw = Sweep(Omega=Omega, **dict(case.sweep.engine_options(),
+                                   samples_per_period=assess.samples_per_period(case, r, model, Omega),
+                                   assess=assess.hooks(case, spec, r, model)))
     settings = dict(case.run_settings(r), **assess.solver_options(case, r, model))
     try:
         base = make_solver(model, r.method, **settings)
@@ -215,10 +211,14 @@ def estimate_work(case, jobs_=None) -> dict:
         con = 0.0 if con is None else con[0]
         n_tr = job.sweep.max_transient_periods if job.sweep.auto else job.sweep.transient_periods
         n_rec = max(job.sweep.record_periods, job.sweep.statistics_periods)   # a non-periodic point's window
-        per = (n_tr * (np.maximum(ts, sub) + con) + n_rec * (np.maximum(spp, sub) + con))
+        # the Lyapunov spectrum's shots: one event run each, with its tangent (counted twice)
+        n_ly = 2 * int(getattr(job.sweep, "lyapunov_shots", 0))
+        per = (n_tr * (np.maximum(ts, sub) + con) + n_rec * (np.maximum(spp, sub) + con)
+               + n_ly * (np.maximum(ts, sub) + con))
         cost = ODE_STEP_COST if r.method in ("direct", "zhuravlev", "ivanov") else 1.0
         steps += n_dir * float(per.sum()) * dofs * cost
-        per_min = (n_tr * (np.maximum(ts, sub) + con) + job.sweep.record_periods * (np.maximum(spp, sub) + con))
+        per_min = (n_tr * (np.maximum(ts, sub) + con) + job.sweep.record_periods * (np.maximum(spp, sub) + con)
+                   + n_ly * (np.maximum(ts, sub) + con))
         steps_min += n_dir * float(per_min.sum()) * dofs * cost
         point_values = max(point_values, n_rec * spp * 2.0 * (1 + dofs))
         i = case.run.index(r)

@@ -67,6 +67,9 @@ UNITS = {
     "contact_fraction": "1 (share of the recorded window in contact with a compliant stop)",
     "contact_duration_s": "s", "contact_force_max_n": "N", "penetration_max_mm": "mm (at the sensor)",
     "energy_per_impact_j": "J",
+    "lyapunov": "1/time unit (Lyapunov exponents of the stroboscopic map per unit nondimensional time, largest "
+                "first; -inf: a direction a sticking phase collapses)",
+    "lyapunov_error": "1/time unit (half the difference between the two halves of the record)",
     "contact_duration_lower_s": "s", "contact_force_max_lower_n": "N",
     "penetration_max_lower_mm": "mm (at the sensor)", "energy_per_impact_lower_j": "J",
 }
@@ -115,6 +118,12 @@ class Sweep:
         Per-point assessments ``f(traj) -> dict`` applied to each recorded
         trajectory of a time-domain method (picklable: module-level functions
         or ``functools.partial``); their outputs join the point's datasets.
+    lyapunov_shots : int
+        0: no Lyapunov exponents; else the spectrum of the stroboscopic map over this many
+        forcing periods from the point's final state, by the model's shooting problem
+        (:func:`vibeam.models.lyapunov.lyapunov_spectrum`; time-domain methods): the point's
+        ``lyapunov`` and ``lyapunov_error`` (NaN, with the reason in ``lyapunov_message``, where
+        the shooting problem cannot follow the orbit).
     """
 
     Omega: np.ndarray
@@ -128,6 +137,7 @@ class Sweep:
     assess: tuple = ()
     max_transient_periods: int = 10000
     point_time_limit_s: float | None = None
+    lyapunov_shots: int = 0
 
     @property
     def auto(self) -> bool:
@@ -455,6 +465,8 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
             for fn in sweep.assess:
                 out.update(fn(traj))
             _statistics(solver, Omega, traj, out, sweep, Delta, clock)
+            if sweep.lyapunov_shots and out["status"] != "failed":
+                _lyapunov(solver, Omega, traj, out, int(sweep.lyapunov_shots))
             new_state = traj.final_state
         else:
             n_tr = 0 if sweep.auto else sweep.transient_periods
@@ -467,6 +479,26 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
     out["Omega"] = float(Omega)
     out["wall_time_s"] = time.perf_counter() - t0
     return out, new_state
+
+
+def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
+    """The point's Lyapunov spectrum (:data:`UNITS` ``lyapunov``) from its final state, in place."""
+    from .models import shooting_problem
+    from .models.lyapunov import lyapunov_spectrum
+
+    model = solver.model
+    d = 2 * int(getattr(model, "n_modes", 1))
+    try:
+        sp = lyapunov_spectrum(shooting_problem(model, "Omega"), np.asarray(traj.final_state, float)[:d],
+                               float(Omega), shots)
+        ok, why = sp.status == "ok", sp.message
+    except ValueError as e:       # a model without a shooting problem
+        ok, why = False, str(e)
+    if ok:
+        out["lyapunov"], out["lyapunov_error"] = sp.exponents, sp.error
+    else:
+        out["lyapunov"], out["lyapunov_error"] = np.full(d, np.nan), np.full(d, np.nan)
+        out["lyapunov_message"] = why
 
 
 def _not_finite(out: dict) -> None:
