@@ -213,9 +213,9 @@ def from_sdof(sdof) -> ModalSystem:
     L = getattr(sdof, "length_m", None)
     mass = getattr(sdof, "mass_kg", None)
     return modal_system([1.0], [2.0 * beta], [1.0], [1.0], [[1.0]], float(sdof.B),
-                   time_unit_s=math.nan if f_n is None else 1.0 / (TWO_PI * float(f_n)),
-                   length_unit_m=math.nan if L is None else float(L), coordinate_scale=1.0,
-                   mass_unit_kg=math.nan if mass is None else float(mass))
+                         time_unit_s=math.nan if f_n is None else 1.0 / (TWO_PI * float(f_n)),
+                         length_unit_m=math.nan if L is None else float(L), coordinate_scale=1.0,
+                         mass_unit_kg=math.nan if mass is None else float(mass))
 
 
 def from_beam(model) -> ModalSystem:
@@ -240,10 +240,10 @@ def from_beam(model) -> ModalSystem:
     """
     om_ref = float(model.omega_ref)
     return modal_system(np.asarray(model.omega_rad_s, dtype=float) / om_ref, model.c_nd, model.participation,
-                   model.sensor_row, np.asarray(model.contact_row, dtype=float)[None, :],
-                   float(model.base_amplitude_m), time_unit_s=1.0 / om_ref,
-                   length_unit_m=float(model.length_m), coordinate_scale=float(model.length_m),
-                   mass_unit_kg=1.0)
+                         model.sensor_row, np.asarray(model.contact_row, dtype=float)[None, :],
+                         float(model.base_amplitude_m), time_unit_s=1.0 / om_ref,
+                         length_unit_m=float(model.length_m), coordinate_scale=float(model.length_m),
+                         mass_unit_kg=1.0)
 
 
 def from_matrices(M, C, K, r=None, sensor=None, contacts=None, base_amplitude_m=0.0, n_modes=None,
@@ -346,8 +346,8 @@ def from_matrices(M, C, K, r=None, sensor=None, contacts=None, base_amplitude_m=
     if not (om_ref > 0 and math.isfinite(om_ref)):
         raise ValueError(f"f_ref_hz must be positive and finite, got {f_ref_hz!r}")
     return modal_system(om / om_ref, np.maximum(diag, 0.0) / om_ref, V.T @ (M @ r), s @ V, Wx @ V,
-                   float(base_amplitude_m), time_unit_s=1.0 / om_ref, length_unit_m=float(length_m),
-                   coordinate_scale=float(length_m), mass_unit_kg=1.0)
+                         float(base_amplitude_m), time_unit_s=1.0 / om_ref, length_unit_m=float(length_m),
+                         coordinate_scale=float(length_m), mass_unit_kg=1.0)
 
 
 def lowest_modes(K, M, n=None, eigvals_only=False):
