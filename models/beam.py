@@ -53,6 +53,11 @@ import scipy.optimize
 from skfem import Basis, BilinearForm, ElementLineHermite, MeshLine
 from skfem.helpers import dd, ddot
 
+from .system import lowest_modes
+
+#: the eigen-solver, now :func:`vibeam.models.system.lowest_modes` (one for every modal model)
+_lowest_eigs = lowest_modes
+
 __all__ = [
     "BeamGeometry",
     "BeamFE",
@@ -595,30 +600,6 @@ def calibrate(geometry: BeamGeometry, target_f1_hz: float, target_f2_hz: float |
     cal = geometry.replace(EI_n_m2=EI, rotary_inertia_kg_m2=J)
     f_cal = f * target_f1_hz / f[0]
     return Calibration(EI, J, cal, f_cal, target_f1_hz, target_f2_hz)
-
-
-def _lowest_eigs(K, M, n=None, eigvals_only=False):
-    """Lowest ``n`` (all if ``None``) eigenpairs of ``(K, M)``, ascending, M-normalised.
-
-    Up to half of the spectrum the inverse problem ``M v = mu K v`` is solved (accurate
-    low modes, see :meth:`BeamFE._eig`); for larger ``n`` the direct problem, whose
-    complete basis is M-orthonormal to round-off (the inverse problem's highest modes,
-    tiny ``mu``, are not).  The two agree to ``~eps lam_max / lam_1`` relative.
-    """
-    N = K.shape[0]
-    k = N if n is None else min(int(n), N)
-    if k > N // 2:
-        res = scipy.linalg.eigh(K, M, subset_by_index=[0, k - 1], eigvals_only=eigvals_only)
-        lam = np.clip(res if eigvals_only else res[0], 0.0, None)
-        return lam if eigvals_only else (lam, res[1])
-    res = scipy.linalg.eigh(M, K, subset_by_index=[N - k, N - 1], eigvals_only=eigvals_only)
-    mu = res if eigvals_only else res[0]
-    lam = 1.0 / mu[::-1]
-    if eigvals_only:
-        return lam
-    V = res[1][:, ::-1]
-    V = V / np.sqrt(np.einsum("ij,ij->j", V, M @ V))
-    return lam, V
 
 
 def _unit(n, i):

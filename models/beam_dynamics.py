@@ -81,6 +81,7 @@ from .contact_policy import (BURST_DT, BURST_MAX, CHATTER, CHATTER_GUARD, REBOUN
 from .roots import rtsafe_update, select
 from .impact import newton_restitution, restitution_coefficient, restitution_impulse
 from .sdof_event import STATUS_NAMES, certify_curvature
+from .system import advance_modes, mode_table, particular, transition_increment
 
 TWO_PI = 2.0 * math.pi
 EPS = 2.220446049250313e-16
@@ -88,39 +89,13 @@ ST_OK, ST_CHATTER, ST_STICKING, ST_FAILED = 0, 1, 2, 3
 
 __all__ = ["BeamImpactModel", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
 
+# the closed-form modal flow lives in vibeam.models.system (the one dynamical system); the kernels
+# below call it by these names (mode_table and particular are re-exported from there)
+_trans = transition_increment
+_advance = advance_modes
+
 
 # ============================================================================ mode algebra
-def mode_table(c, k):
-    """Per-mode flow parameters ``[sig, k, typ, q, l1, l2]`` for ``x'' + c x' + k x = 0``.
-
-    ``sig = c/2``; ``typ`` 0 underdamped (``q = omega_D``), 1 critical, 2 overdamped
-    (``q = mu = sqrt(sig^2 - k)``, roots ``l1 = -k/(sig+mu)`` (slow), ``l2 = -(sig+mu)``).
-    """
-    c = np.asarray(c, dtype=float)
-    k = np.asarray(k, dtype=float)
-    out = np.zeros((c.size, 6))
-    for i in range(c.size):
-        sig = 0.5 * c[i]
-        d = sig * sig - k[i]
-        out[i, 0], out[i, 1] = sig, k[i]
-        if d < 0:
-            out[i, 2], out[i, 3] = 0, math.sqrt(-d)
-        elif d == 0:
-            out[i, 2], out[i, 3] = 1, 0.0
-            out[i, 4] = out[i, 5] = -sig
-        else:
-            mu = math.sqrt(d)
-            out[i, 2], out[i, 3] = 2, mu
-            out[i, 4], out[i, 5] = -k[i] / (sig + mu), -(sig + mu)
-    return out
-
-
-def particular(c, k, G, F, Omega):
-    """Steady response ``a sin + b cos`` of ``x'' + c x' + k x = G F sin(Omega t)``."""
-    z = G * F / (k - Omega**2 + 1j * c * Omega)   # response to G F e^{i Omega t}
-    return z.real, z.imag  # Im(z e^{i phi}) = Re z sin + Im z cos
-
-
 @njit(cache=True)
 def _clock(phi, t_loc, rem, s, Om, T):
     """Advance forcing phase, time within the period and the rest of the step by ``s``."""
@@ -128,24 +103,6 @@ def _clock(phi, t_loc, rem, s, Om, T):
     if rem < 1e-15 * T:
         rem = 0.0
     return (phi + Om * s) % TWO_PI, t_loc + s, rem
-
-@njit(cache=True)
-def _trans(s, sig, k, typ, q, l1, l2):
-    """``Phi(s) - I`` of ``x'' + 2 sig x' + k x = 0`` (entries 11, 12, 21, 22)."""
-    if typ == 0:
-        E = math.exp(-sig * s)
-        c = math.cos(q * s)
-        hs = math.sin(0.5 * q * s)
-        cm1 = math.expm1(-sig * s) * c - 2.0 * hs * hs
-        S = E * math.sin(q * s) / q
-    elif typ == 2:
-        cm1 = 0.5 * (math.expm1(l1 * s) + math.expm1(l2 * s))
-        S = -math.exp(l1 * s) * math.expm1(-2.0 * q * s) / (2.0 * q)
-    else:
-        E = math.exp(-sig * s)
-        cm1 = math.expm1(-sig * s)
-        S = s * E
-    return cm1 + sig * S, S, -k * S, cm1 - sig * S
 
 
 @njit(cache=True)
@@ -332,25 +289,6 @@ def _extremes(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, vstart, vend, ext)
         v = _sig(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)[0]
         if v > ext[1]:
             ext[1] = v
-
-
-@njit(cache=True)
-def _advance(s, phi0, Om, z, zd, mp, a, b, e):
-    """Move modal coordinates ``z`` (with offsets ``e`` and harmonic particular ``a, b``)
-    by ``s`` in closed form, in place."""
-    half = 0.5 * Om * s
-    sh = math.sin(half)
-    ph = phi0 + half
-    sph = math.sin(ph)
-    cph = math.cos(ph)
-    sp0 = math.sin(phi0)
-    cp0 = math.cos(phi0)
-    for j in range(z.shape[0]):
-        x0 = z[j] - e[j] - (a[j] * sp0 + b[j] * cp0)
-        y0 = zd[j] - Om * (a[j] * cp0 - b[j] * sp0)
-        a11, a12, a21, a22 = _trans(s, mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3], mp[j, 4], mp[j, 5])
-        z[j] += a11 * x0 + a12 * y0 + 2.0 * sh * (a[j] * cph - b[j] * sph)
-        zd[j] += a21 * x0 + a22 * y0 - 2.0 * Om * sh * (a[j] * sph + b[j] * cph)
 
 
 @njit(cache=True)

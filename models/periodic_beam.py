@@ -17,8 +17,8 @@ How a shot is computed
 
     * flight (free): every mode is a forced damped oscillator, ``z_i(t_b) = Phi_i(t_b -
       t_a) (z_i(t_a) - z_p,i(t_a)) + z_p,i(t_b)`` with the per-mode 2x2 transition matrix
-      (under-, critically or over-damped, as :func:`~vibeam.models.beam_dynamics._trans`,
-      entries to relative precision: :func:`_phi`)
+      (under-, critically or over-damped, as :func:`~vibeam.models.system.transition_increment`,
+      entries to relative precision: :func:`~vibeam.models.system.transition_entries`)
       and the harmonic particular solution ``z_p``; ``J`` is updated two rows at a time,
       O(N^2) per flight, never a dense ``2N x 2N`` product;
     * sticking: the constrained flow in the coordinates ``eta = eta_c + Psi zeta``
@@ -105,14 +105,17 @@ import numpy as np
 from numba import njit
 
 from .beam_dynamics import (EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT,
-                            ST_FAILED, TWO_PI, BeamImpactModel, beam_kernel,
-                            mode_table, particular)
+                            ST_FAILED, TWO_PI, BeamImpactModel, beam_kernel)
 from .contact import pack
 from .impact import restitution_coefficient
 from .periodic import Shot
+from .system import mode_table, particular, transition_entries
 
 __all__ = ["BeamShooting", "BeamContinuation", "conversions", "assemble_derivatives", "NATIVE_PARAMETERS",
            "REBUILD_KEYS"]
+
+#: the per-mode transition matrix, :func:`vibeam.models.system.transition_entries`
+_phi = transition_entries
 
 #: native continuation parameters of the beam and the model attribute each one sets
 NATIVE_PARAMETERS = ("Omega", "base_amplitude_m", "gap_contact_m", "R", "damping_D_s",
@@ -233,30 +236,6 @@ def _dtrans_dsig(s, sig, k, typ, q, l1, l2):
     dEc = -s * Ec + sig * s * Es
     dEs = -s * Es + 2.0 * sig * Ed
     return dEc + sig * dEs + Es, dEs, -k * dEs, dEc - sig * dEs - Es
-
-
-@njit(cache=True)
-def _phi(s, sig, k, typ, q, l1, l2):
-    """Transition matrix ``Phi(s)`` (11, 12, 21, 22) of ``x'' + 2 sig x' + k x = 0``, entries
-    to relative precision (the kernel's :func:`_trans` returns ``Phi - I`` for the flow,
-    whose decayed entries lose their relative precision when 1 is added back).
-
-    ``Phi = e^{-sig s} C I + e^{-sig s} S (A + sig I)`` with ``C, S`` as in
-    :func:`_dtrans_dsig`; overdamped: ``(e^{l1 s} +- e^{l2 s}) / 2`` combinations.
-    """
-    if typ == 0:
-        E = math.exp(-sig * s)
-        Ec = E * math.cos(q * s)
-        Es = E * math.sin(q * s) / q
-        return Ec + sig * Es, Es, -k * Es, Ec - sig * Es
-    if typ == 2:
-        e1 = math.exp(l1 * s)
-        e2 = math.exp(l2 * s)
-        Es = -e1 * math.expm1(-2.0 * q * s) / (2.0 * q)
-        # l1 = -k / (sig + q) (slow), l2 = -(sig + q): no cancellation in the diagonal
-        return (-l2 * e1 + l1 * e2) / (2.0 * q), Es, -k * Es, (l1 * e1 - l2 * e2) / (2.0 * q)
-    E = math.exp(-sig * s)
-    return E * (1.0 + sig * s), s * E, -k * s * E, E * (1.0 - sig * s)
 
 
 @njit(cache=True)

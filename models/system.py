@@ -1,0 +1,645 @@
+"""The one linear dynamical system of vibeam: a base-excited, proportionally damped modal system.
+
+Every fidelity of vibeam is, between contacts, the same linear system in ``n`` decoupled modal
+coordinates ``eta_i`` (issue 20, "one dynamical system")::
+
+    eta_i'' + c_i eta_i' + omega_i^2 eta_i = Gamma_i Omega^2 B sin(Omega t),   i = 1..n
+
+in the nondimensional time ``t`` (one unit is :attr:`ModalSystem.time_unit_s` seconds), with the
+sensor reading ``y = s^T eta`` and the contact points ``u_k = W[k] @ eta`` (the rows that the
+stops' relations reference by index).  Here ``c_i = 2 zeta_i omega_i`` (modal, i.e. proportional
+damping), ``Gamma_i`` the base-excitation participation factor and ``B`` the base displacement
+amplitude ``b = B sin(Omega t)``: the load ``-M r b''`` of the physical model becomes
+``Gamma Omega^2 B sin(Omega t)`` in the modes.
+
+* The paper's SDOF (Eqs. 43-47; :class:`vibeam.models.sdof.SDOF`) is the one-mode case
+  ``omega = 1``, ``c = 2 beta``, ``Gamma = s = W = 1``: :func:`from_sdof`.
+* The FE cantilever (Eqs. 39-42; :class:`vibeam.models.beam_dynamics.BeamImpactModel`, modes of
+  :class:`vibeam.models.beam.BeamFE`) is the ``N``-mode case in its own kernel units:
+  :func:`from_beam`.
+* A lumped ``n``-DOF model ``M x'' + C x' + K x = -M r b''`` reduces to it by the generalized
+  eigenproblem ``K phi = omega^2 M phi`` when ``C`` is proportional: :func:`from_matrices`.
+
+Between contacts the motion is known in closed form (paper Eq. 28 for one mode; e.g.
+Meirovitch, *Fundamentals of Vibrations*, McGraw-Hill 2001, Ch. 4 and 7, for the modal
+superposition of a proportionally damped system): per mode the homogeneous part moves by its
+2 x 2 transition matrix (under-, critically or over-damped) and the harmonic particular part is
+``a_i sin(Omega t) + b_i cos(Omega t)``.  This module holds the one implementation of that flow:
+the numba kernels :func:`transition_increment` (``Phi - I``, used by the event kernels),
+:func:`transition_entries` (``Phi`` to relative precision, used by the shooting problems) and
+:func:`advance_modes`, their table :func:`mode_table` and :func:`particular`, and the Python entry
+points :func:`modal_flow` (the state after a free flight) and :func:`modal_transition` (its
+``2n x 2n`` state-transition matrix).  It imports nothing of vibeam.
+
+Units
+    Nondimensional time ``t = t~ / time_unit_s``; ``omega`` and ``damping`` are per unit of ``t``,
+    ``Omega`` the forcing frequency in the same unit.  Lengths: the rows ``s``, ``W`` give
+    displacements in the system's *row unit* (the SDOF: ``q``, multiples of ``L``; the beam and a
+    lumped model: metres), ``B`` and the stops' gaps are in that unit too; the reported
+    nondimensional displacement is ``q = (row @ eta) / coordinate_scale`` and
+    ``q * length_unit_m`` is metres.
+
+References
+----------
+.. [1] Paper: Reboucas, Santos & Thomsen, JSV 2019, Eqs. 28, 39-47
+   (``/work/shared/paper/000_db9366990d60f12d.txt``).
+.. [2] L. Meirovitch, *Fundamentals of Vibrations*, McGraw-Hill 2001 (modal analysis of
+   proportionally damped systems, base excitation, state-transition matrix).
+.. [3] T. K. Caughey, M. E. J. O'Kelly, Classical normal modes in damped linear dynamic systems,
+   J. Appl. Mech. 32 (1965) 583-588 (when a damping matrix is diagonalised by the undamped modes).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+import scipy.linalg
+from numba import njit
+
+TWO_PI = 2.0 * math.pi
+
+__all__ = ["ModalSystem", "modal_system", "from_sdof", "from_beam", "from_matrices", "modal_flow",
+           "modal_transition", "damping_ratios", "lowest_modes", "mode_table", "particular",
+           "transition_increment", "transition_entries", "advance_modes"]
+
+
+class ModalSystem(NamedTuple):
+    """A base-excited linear system in ``n`` decoupled modal coordinates (plain data).
+
+    ``eta_i'' + damping_i eta_i' + omega_i^2 eta_i = participation_i Omega^2 base_amplitude
+    sin(Omega t)``; a ``typing.NamedTuple`` of float64 arrays and floats, so numba kernels take it
+    as an argument (no methods, no behaviour).
+
+    Attributes
+    ----------
+    omega : ndarray, shape (n,)
+        Modal circular frequencies ``omega_i >= 0`` per unit nondimensional time (the SDOF: 1;
+        the beam: ``omega_i / omega_ref``).
+    damping : ndarray, shape (n,)
+        Modal damping *coefficients* ``c_i = 2 zeta_i omega_i >= 0`` per unit time, the
+        coefficient of ``eta_i'`` (not the ratios ``zeta_i``: :func:`damping_ratios`).  The SDOF:
+        ``2 beta``; the beam: ``(alpha + D omega_i^2) / omega_ref`` (Rayleigh, Eq. 39's ``D EI
+        U''''`` for ``alpha = 0``) or its per-mode ``modal_damping_1_s / omega_ref``.
+    participation : ndarray, shape (n,)
+        Base-excitation participation ``Gamma_i = phi_i^T M r`` (the beam: sqrt(kg); the SDOF: 1).
+    sensor : ndarray, shape (n,)
+        Sensor row ``s``: the sensor displacement is ``s @ eta`` (row unit; the beam: 1/sqrt(kg),
+        giving metres).
+    contacts : ndarray, shape (n_c, n)
+        Contact rows ``W``: ``W[k] @ eta`` is the displacement of contact point ``k`` (row unit).
+        A stop's relation references a row by its index ``k``, with its own side and gap.  The
+        SDOF and the beam have one (the sensor's coordinate; the attached mass at ``L_m``).
+    base_amplitude : float
+        ``B``: base displacement amplitude in the row unit (the SDOF: ``B = gamma V``, Eq. 43;
+        the beam: ``Y = gamma~ V`` in metres, Eq. 38).  The forcing of mode ``i`` is
+        ``Gamma_i Omega^2 B sin(Omega t)``.
+    time_unit_s : float
+        Seconds per unit of ``t``: ``1 / (2 pi f_ref)`` (the SDOF: ``f_n``; the beam: ``f_ref``);
+        NaN for a nondimensional scene.
+    length_unit_m : float
+        Metres per unit of the reported displacement ``q`` (the paper's normalising length ``L``);
+        NaN for a nondimensional scene.
+    coordinate_scale : float
+        Row value per unit of ``q``: ``q = (row @ eta) / coordinate_scale``.  The SDOF: 1 (its
+        coordinate is ``q``); the beam: ``L`` (its rows give metres, its modal coordinates are
+        sqrt(kg) m, and it reports ``q = U / L``).  ``coordinate_scale / |W[k]|`` is the scale of
+        the shooting problems' states (the beam's ``state_scale = L sqrt(m_eff)``).
+    mass_unit_kg : float
+        Kilograms per unit of the effective mass ``m_eff = 1 / |W[k]|^2`` at a contact (the beam:
+        1, its rows are 1/sqrt(kg); the SDOF: its ``mass_kg``, NaN without it).  Forces in newtons
+        are ``m_eff mass_unit_kg length_unit_m / time_unit_s^2`` per unit nondimensional force.
+    """
+
+    omega: np.ndarray
+    damping: np.ndarray
+    participation: np.ndarray
+    sensor: np.ndarray
+    contacts: np.ndarray
+    base_amplitude: float
+    time_unit_s: float
+    length_unit_m: float
+    coordinate_scale: float
+    mass_unit_kg: float
+
+
+def _vec(x, n, name):
+    v = np.array(x, dtype=float, order="C").reshape(-1)     # a copy: the system never shares a model's arrays
+    if v.shape != (n,):
+        raise ValueError(f"{name} must have shape ({n},), got {np.shape(x)}")
+    return v
+
+
+def modal_system(omega, damping, participation, sensor, contacts, base_amplitude, time_unit_s=math.nan,
+                 length_unit_m=math.nan, coordinate_scale=1.0, mass_unit_kg=math.nan) -> ModalSystem:
+    """A :class:`ModalSystem` from modal data, checked, its arrays contiguous float64.
+
+    Parameters
+    ----------
+    omega, damping, participation, sensor : array_like, shape (n,)
+        ``omega_i >= 0``, ``c_i = 2 zeta_i omega_i >= 0`` (per unit time), ``Gamma_i``, ``s``.
+    contacts : array_like, shape (n_c, n) or (n,)
+        Contact rows (one row for a 1-D input).
+    base_amplitude : float
+        ``B`` (row unit).
+    time_unit_s, length_unit_m, coordinate_scale, mass_unit_kg : float, optional
+        The scales (:class:`ModalSystem`); NaN: a nondimensional scene; ``coordinate_scale``
+        defaults to 1 (the rows give ``q``).
+
+    Returns
+    -------
+    ModalSystem
+
+    Raises
+    ------
+    ValueError
+        On no mode, shapes that do not match, negative or non-finite frequencies or damping, or a
+        ``coordinate_scale`` that is not positive and finite.
+    """
+    om = np.array(omega, dtype=float, order="C").reshape(-1)
+    n = om.size
+    if n < 1:
+        raise ValueError("a modal system needs at least one mode")
+    c = _vec(damping, n, "damping")
+    W = np.array(np.atleast_2d(contacts), dtype=float, order="C")
+    if W.ndim != 2 or W.shape[1] != n:
+        raise ValueError(f"contacts must have shape (n_c, {n}), got {np.shape(contacts)}")
+    if not (np.all(np.isfinite(om)) and np.all(om >= 0.0)):
+        raise ValueError("modal frequencies omega must be finite and >= 0")
+    if not (np.all(np.isfinite(c)) and np.all(c >= 0.0)):
+        raise ValueError("modal damping coefficients must be finite and >= 0")
+    if not (coordinate_scale > 0 and math.isfinite(coordinate_scale)):
+        raise ValueError(f"coordinate_scale must be positive and finite, got {coordinate_scale!r}")
+    return ModalSystem(om, c, _vec(participation, n, "participation"), _vec(sensor, n, "sensor"), W,
+                       float(base_amplitude), float(time_unit_s), float(length_unit_m),
+                       float(coordinate_scale), float(mass_unit_kg))
+
+
+def damping_ratios(system: ModalSystem) -> np.ndarray:
+    """Modal damping ratios ``zeta_i = c_i / (2 omega_i)``, shape (n,) (inf for ``omega_i = 0``
+    with ``c_i > 0``)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(system.damping == 0.0, 0.0, system.damping / (2.0 * system.omega))
+
+
+# ============================================================================ constructors
+def from_sdof(sdof) -> ModalSystem:
+    """The SDOF impact oscillator as the one-mode system (paper Eqs. 43-46).
+
+    ``q'' + 2 beta q' + q = Omega^2 B sin(Omega t)``: ``omega = 1``, ``damping = 2 beta``,
+    ``Gamma = s = W = 1``, ``B`` as is; the coordinate is ``q`` itself (``coordinate_scale = 1``).
+
+    Parameters
+    ----------
+    sdof : vibeam.models.sdof.SDOF
+        Or any object with ``beta``, ``B`` and optionally ``natural_frequency_hz`` (Hz),
+        ``length_m`` (m) and ``mass_kg`` (kg).
+
+    Returns
+    -------
+    ModalSystem
+        ``time_unit_s = 1 / (2 pi f_n)``, ``length_unit_m = L``, ``mass_unit_kg = mass_kg`` when
+        the scene is physical, NaN otherwise.
+
+    Raises
+    ------
+    ValueError
+        If ``beta`` is negative or not finite.
+    """
+    beta = float(sdof.beta)
+    if not (math.isfinite(beta) and beta >= 0.0):
+        raise ValueError(f"beta must be finite and >= 0, got {beta!r}")
+    f_n = getattr(sdof, "natural_frequency_hz", None)
+    L = getattr(sdof, "length_m", None)
+    mass = getattr(sdof, "mass_kg", None)
+    return modal_system([1.0], [2.0 * beta], [1.0], [1.0], [[1.0]], float(sdof.B),
+                         time_unit_s=math.nan if f_n is None else 1.0 / (TWO_PI * float(f_n)),
+                         length_unit_m=math.nan if L is None else float(L), coordinate_scale=1.0,
+                         mass_unit_kg=math.nan if mass is None else float(mass))
+
+
+def from_beam(model) -> ModalSystem:
+    """The modal FE beam (paper Eqs. 39-42) in its own kernel units.
+
+    Exactly the numbers the beam's event kernel uses: ``omega = omega_rad_s / omega_ref`` (so
+    ``omega**2`` is the kernel's ``k_nd`` bit for bit), ``damping = c_nd``, ``Gamma`` =
+    ``participation``, ``s`` = ``sensor_row``, ``W = [contact_row]`` (one contact point, the
+    attached mass at ``L_m``; a lower stop is a second relation on the same row), ``B =
+    base_amplitude_m``; modal coordinates in sqrt(kg) m, rows giving metres.
+
+    Parameters
+    ----------
+    model : vibeam.models.beam_dynamics.BeamImpactModel
+        Or a subclass (the compliant beam); any number of modes, the static-mode model included.
+
+    Returns
+    -------
+    ModalSystem
+        ``time_unit_s = 1 / omega_ref``, ``length_unit_m = coordinate_scale = L``,
+        ``mass_unit_kg = 1``.
+    """
+    om_ref = float(model.omega_ref)
+    return modal_system(np.asarray(model.omega_rad_s, dtype=float) / om_ref, model.c_nd, model.participation,
+                         model.sensor_row, np.asarray(model.contact_row, dtype=float)[None, :],
+                         float(model.base_amplitude_m), time_unit_s=1.0 / om_ref,
+                         length_unit_m=float(model.length_m), coordinate_scale=float(model.length_m),
+                         mass_unit_kg=1.0)
+
+
+def from_matrices(M, C, K, r=None, sensor=None, contacts=None, base_amplitude_m=0.0, n_modes=None,
+                  f_ref_hz=None, length_m=1.0, rtol=1e-9) -> ModalSystem:
+    """A lumped ``n``-DOF model ``M x'' + C x' + K x = -M r b''``, ``b = B sin(Omega~ t~)``, by
+    modal reduction (generalized eigenproblem ``K phi = omega^2 M phi``, ``Phi^T M Phi = I``).
+
+    With ``x = Phi eta``: ``eta'' + Phi^T C Phi eta' + diag(omega^2) eta = Phi^T M r Omega~^2 B
+    sin(Omega~ t~)``, then time is scaled by ``omega_ref = 2 pi f_ref``.  ``Phi^T C Phi`` must be
+    diagonal (proportional damping); modes of repeated frequencies are first rotated within their
+    eigenspace to diagonalise ``C`` there.
+
+    Parameters
+    ----------
+    M, C, K : array_like, shape (d, d)
+        Mass (kg), damping (N s/m) and stiffness (N/m) matrices (SI, or any consistent units);
+        ``M`` and ``K`` symmetric positive definite (no rigid-body mode).
+    r : array_like, shape (d,), optional
+        Influence vector of the base translation (default all ones: every DOF translates with it).
+    sensor : array_like, shape (d,), optional
+        Physical sensor row (default: DOF 0).
+    contacts : array_like, shape (n_c, d) or (d,), optional
+        Physical contact rows (default: the sensor row).
+    base_amplitude_m : float
+        ``B`` (m).
+    n_modes : int or None
+        Lowest modes kept (None: all ``d``).
+    f_ref_hz : float or None
+        Reference frequency of the time unit (default the lowest natural frequency ``f_1``).
+    length_m : float
+        Normalising length ``L`` (m) of the reported ``q = (row @ eta) / L``.
+    rtol : float
+        Largest off-diagonal entry of ``Phi^T C Phi`` accepted, relative to its largest diagonal
+        entry (round-off of a Rayleigh ``C`` is ~1e-15).
+
+    Returns
+    -------
+    ModalSystem
+        ``time_unit_s = 1 / (2 pi f_ref)``, ``length_unit_m = coordinate_scale = L``,
+        ``mass_unit_kg = 1``; modes ascending, each signed so that its largest component is
+        positive.
+
+    Raises
+    ------
+    ValueError
+        On shapes that do not match, ``M`` or ``K`` not symmetric positive definite, ``n_modes``
+        out of range, or a damping matrix that the undamped modes do not diagonalise (one line
+        naming what is allowed).
+    """
+    M = np.asarray(M, dtype=float)
+    C = np.asarray(C, dtype=float)
+    K = np.asarray(K, dtype=float)
+    d = M.shape[0] if M.ndim == 2 else -1
+    if d < 1 or any(A.shape != (d, d) for A in (M, C, K)):
+        raise ValueError(f"M, C and K must be square of one size, got {M.shape}, {C.shape}, {K.shape}")
+    for name, A in (("M", M), ("K", K)):
+        if not np.allclose(A, A.T, rtol=1e-12, atol=0.0):
+            raise ValueError(f"{name} must be symmetric")
+        try:
+            np.linalg.cholesky(A)
+        except np.linalg.LinAlgError:
+            raise ValueError(f"{name} must be positive definite (K: no rigid-body mode)") from None
+    r = np.ones(d) if r is None else _vec(r, d, "r")
+    s = np.eye(d)[0] if sensor is None else _vec(sensor, d, "sensor")
+    Wx = s[None, :] if contacts is None else np.atleast_2d(np.asarray(contacts, dtype=float))
+    if Wx.ndim != 2 or Wx.shape[1] != d:
+        raise ValueError(f"contacts must have shape (n_c, {d}), got {np.shape(contacts)}")
+    n = d if n_modes is None else int(n_modes)
+    if not 1 <= n <= d:
+        raise ValueError(f"n_modes must lie in [1, {d}], got {n_modes!r}")
+    lam, V = lowest_modes(K, M, None)
+    Cm = V.T @ C @ V
+    # a repeated frequency leaves the basis of its eigenspace free: rotate it to diagonalise C
+    i = 0
+    while i < d:
+        j = i + 1
+        while j < d and lam[j] - lam[i] <= 1e-10 * lam[j]:
+            j += 1
+        if j - i > 1:
+            _, Q = np.linalg.eigh(Cm[i:j, i:j])
+            V[:, i:j] = V[:, i:j] @ Q
+        i = j
+    Cm = V.T @ C @ V
+    diag = np.diag(Cm).copy()
+    off = np.max(np.abs(Cm - np.diag(diag))) if d > 1 else 0.0
+    if off > rtol * np.max(np.abs(diag), initial=0.0):
+        raise ValueError(f"C is not proportional (Phi^T C Phi has off-diagonal entries up to {off:.3g}, "
+                         f"diagonal up to {np.max(np.abs(diag)):.3g}); allowed: C = a M + b K or any C the "
+                         f"undamped modes diagonalise, C M^-1 K = K M^-1 C (Caughey)")
+    if np.any(diag < -rtol * np.max(np.abs(diag), initial=0.0)):
+        raise ValueError("C must be positive semi-definite (a negative modal damping coefficient); allowed: "
+                         "C = a M + b K with a, b >= 0 or any C >= 0 the undamped modes diagonalise")
+    V = V[:, :n]
+    lam = lam[:n]
+    diag = diag[:n]
+    big = np.argmax(np.abs(V), axis=0)
+    V = V * np.where(V[big, np.arange(n)] < 0.0, -1.0, 1.0)
+    om = np.sqrt(lam)
+    om_ref = om[0] if f_ref_hz is None else TWO_PI * float(f_ref_hz)
+    if not (om_ref > 0 and math.isfinite(om_ref)):
+        raise ValueError(f"f_ref_hz must be positive and finite, got {f_ref_hz!r}")
+    return modal_system(om / om_ref, np.maximum(diag, 0.0) / om_ref, V.T @ (M @ r), s @ V, Wx @ V,
+                         float(base_amplitude_m), time_unit_s=1.0 / om_ref, length_unit_m=float(length_m),
+                         coordinate_scale=float(length_m), mass_unit_kg=1.0)
+
+
+def lowest_modes(K, M, n=None, eigvals_only=False):
+    """Lowest ``n`` (all if ``None``) eigenpairs of ``K v = lam M v``, ascending, M-normalised.
+
+    Up to half of the spectrum the inverse problem ``M v = mu K v`` (``mu = 1 / lam``) is solved:
+    the fundamental, dominant there, is then accurate to round-off instead of ``eps lam_max /
+    lam_1`` (poorly scaled for fine meshes and ``m >> rhoA L``).  For larger ``n`` the direct
+    problem, whose complete basis is M-orthonormal to round-off (the inverse problem's highest
+    modes, tiny ``mu``, are not).  The two agree to ``~eps lam_max / lam_1`` relative.
+
+    Parameters
+    ----------
+    K, M : ndarray, shape (d, d)
+        Symmetric stiffness and mass matrices, ``M`` positive definite (and ``K`` too when
+        ``n <= d / 2``: the inverse problem factorises it).
+    n : int or None
+        Number of modes (clipped to ``d``).
+    eigvals_only : bool
+        Return the eigenvalues only.
+
+    Returns
+    -------
+    lam : ndarray, shape (k,)
+        ``omega^2`` (units of ``K / M``), ascending, ``>= 0``.
+    V : ndarray, shape (d, k)
+        ``V^T M V = I`` (not returned with ``eigvals_only``).
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        From :func:`scipy.linalg.eigh` when a matrix it factorises is not positive definite.
+    """
+    N = K.shape[0]
+    k = N if n is None else min(int(n), N)
+    if k > N // 2:
+        res = scipy.linalg.eigh(K, M, subset_by_index=[0, k - 1], eigvals_only=eigvals_only)
+        lam = np.clip(res if eigvals_only else res[0], 0.0, None)
+        return lam if eigvals_only else (lam, res[1])
+    res = scipy.linalg.eigh(M, K, subset_by_index=[N - k, N - 1], eigvals_only=eigvals_only)
+    mu = res if eigvals_only else res[0]
+    lam = 1.0 / mu[::-1]
+    if eigvals_only:
+        return lam
+    V = res[1][:, ::-1]
+    V = V / np.sqrt(np.einsum("ij,ij->j", V, M @ V))
+    return lam, V
+
+
+# ============================================================================ mode algebra
+def mode_table(c, k):
+    """Per-mode flow parameters ``[sig, k, typ, q, l1, l2]`` for ``x'' + c x' + k x = 0``.
+
+    ``sig = c/2``; ``typ`` 0 underdamped (``q = omega_D``), 1 critical, 2 overdamped
+    (``q = mu = sqrt(sig^2 - k)``, roots ``l1 = -k/(sig+mu)`` (slow), ``l2 = -(sig+mu)``).
+
+    Parameters
+    ----------
+    c, k : array_like, shape (n,)
+        Damping coefficients ``2 zeta omega`` and stiffnesses ``omega^2`` (nondimensional).
+
+    Returns
+    -------
+    ndarray, shape (n, 6)
+        The table the kernels :func:`transition_increment`, :func:`transition_entries` and
+        :func:`advance_modes` read.
+    """
+    c = np.asarray(c, dtype=float)
+    k = np.asarray(k, dtype=float)
+    out = np.zeros((c.size, 6))
+    for i in range(c.size):
+        sig = 0.5 * c[i]
+        d = sig * sig - k[i]
+        out[i, 0], out[i, 1] = sig, k[i]
+        if d < 0:
+            out[i, 2], out[i, 3] = 0, math.sqrt(-d)
+        elif d == 0:
+            out[i, 2], out[i, 3] = 1, 0.0
+            out[i, 4] = out[i, 5] = -sig
+        else:
+            mu = math.sqrt(d)
+            out[i, 2], out[i, 3] = 2, mu
+            out[i, 4], out[i, 5] = -k[i] / (sig + mu), -(sig + mu)
+    return out
+
+
+def particular(c, k, G, F, Omega):
+    """Steady response ``a sin + b cos`` of ``x'' + c x' + k x = G F sin(Omega t)``.
+
+    Parameters
+    ----------
+    c, k, G : array_like, shape (n,)
+        Damping coefficients, stiffnesses, participation factors.
+    F : float
+        Forcing amplitude (``Omega^2 B`` for base excitation).
+    Omega : float
+        Forcing frequency.
+
+    Returns
+    -------
+    a, b : ndarray, shape (n,)
+        Non-finite for a mode at undamped exact resonance (``k = Omega^2``, ``c = 0``), which
+        has no periodic particular solution (callers refuse it: :func:`modal_flow`).
+    """
+    z = G * F / (k - Omega**2 + 1j * c * Omega)   # response to G F e^{i Omega t}
+    return z.real, z.imag  # Im(z e^{i phi}) = Re z sin + Im z cos
+
+
+@njit(cache=True)
+def transition_increment(s, sig, k, typ, q, l1, l2):
+    """``Phi(s) - I`` of ``x'' + 2 sig x' + k x = 0`` (entries 11, 12, 21, 22).
+
+    Formed without cancellation for short ``s`` (``e^{-sig s} cos - 1`` as ``expm1(-sig s) cos -
+    2 sin^2(q s / 2)``), which the event kernels need for chatter; ``(sig, k, typ, q, l1, l2)`` is
+    a row of :func:`mode_table`.  The decayed entries lose relative precision once 1 is added back:
+    :func:`transition_entries` gives ``Phi`` itself.
+    """
+    if typ == 0:
+        E = math.exp(-sig * s)
+        c = math.cos(q * s)
+        hs = math.sin(0.5 * q * s)
+        cm1 = math.expm1(-sig * s) * c - 2.0 * hs * hs
+        S = E * math.sin(q * s) / q
+    elif typ == 2:
+        cm1 = 0.5 * (math.expm1(l1 * s) + math.expm1(l2 * s))
+        S = -math.exp(l1 * s) * math.expm1(-2.0 * q * s) / (2.0 * q)
+    else:
+        E = math.exp(-sig * s)
+        cm1 = math.expm1(-sig * s)
+        S = s * E
+    return cm1 + sig * S, S, -k * S, cm1 - sig * S
+
+
+@njit(cache=True)
+def transition_entries(s, sig, k, typ, q, l1, l2):
+    """Transition matrix ``Phi(s)`` (11, 12, 21, 22) of ``x'' + 2 sig x' + k x = 0``, entries
+    to relative precision (:func:`transition_increment` returns ``Phi - I`` for the flow,
+    whose decayed entries lose their relative precision when 1 is added back).
+
+    ``Phi = e^{-sig s} C I + e^{-sig s} S (A + sig I)`` with ``C = cos(q s)``, ``S = sin(q s) /
+    q`` (underdamped; ``cosh``, ``sinh`` overdamped, ``1``, ``s`` critical); overdamped:
+    ``(e^{l1 s} +- e^{l2 s}) / 2`` combinations.  Valid for either sign of ``s``.
+    """
+    if typ == 0:
+        E = math.exp(-sig * s)
+        Ec = E * math.cos(q * s)
+        Es = E * math.sin(q * s) / q
+        return Ec + sig * Es, Es, -k * Es, Ec - sig * Es
+    if typ == 2:
+        e1 = math.exp(l1 * s)
+        e2 = math.exp(l2 * s)
+        Es = -e1 * math.expm1(-2.0 * q * s) / (2.0 * q)
+        # l1 = -k / (sig + q) (slow), l2 = -(sig + q): no cancellation in the diagonal
+        return (-l2 * e1 + l1 * e2) / (2.0 * q), Es, -k * Es, (l1 * e1 - l2 * e2) / (2.0 * q)
+    E = math.exp(-sig * s)
+    return E * (1.0 + sig * s), s * E, -k * s * E, E * (1.0 - sig * s)
+
+
+@njit(cache=True)
+def advance_modes(s, phi0, Om, z, zd, mp, a, b, e):
+    """Move modal coordinates ``z`` (with offsets ``e`` and harmonic particular ``a, b``)
+    by ``s`` in closed form, in place.
+
+    Each ``z_j = e_j + a_j sin(phi) + b_j cos(phi) + x_j`` with ``phi = phi0 + Om s`` and ``x_j``
+    the homogeneous part moved by :func:`transition_increment`; the particular part's increment
+    is formed without cancellation (``2 sin(Om s / 2) cos(phi0 + Om s / 2)``).
+
+    Parameters
+    ----------
+    s : float
+        Time step (nondimensional).
+    phi0 : float
+        Forcing phase at the start (rad).
+    Om : float
+        Forcing frequency.
+    z, zd : ndarray, shape (n,)
+        Coordinates and velocities, overwritten.
+    mp : ndarray, shape (n, 6)
+        :func:`mode_table` of the modes.
+    a, b, e : ndarray, shape (n,)
+        Particular coefficients (:func:`particular`) and constant offsets (a stop's static
+        offset of the constrained modes; zeros in free flight).
+    """
+    half = 0.5 * Om * s
+    sh = math.sin(half)
+    ph = phi0 + half
+    sph = math.sin(ph)
+    cph = math.cos(ph)
+    sp0 = math.sin(phi0)
+    cp0 = math.cos(phi0)
+    for j in range(z.shape[0]):
+        x0 = z[j] - e[j] - (a[j] * sp0 + b[j] * cp0)
+        y0 = zd[j] - Om * (a[j] * cp0 - b[j] * sp0)
+        a11, a12, a21, a22 = transition_increment(s, mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3],
+                                                  mp[j, 4], mp[j, 5])
+        z[j] += a11 * x0 + a12 * y0 + 2.0 * sh * (a[j] * cph - b[j] * sph)
+        zd[j] += a21 * x0 + a22 * y0 - 2.0 * Om * sh * (a[j] * sph + b[j] * cph)
+
+
+# ============================================================================ the flow
+def _times(t0, t1):
+    t0, t1 = float(t0), float(t1)
+    if not (math.isfinite(t0) and math.isfinite(t1)):
+        raise ValueError(f"times must be finite, got t0 = {t0!r}, t1 = {t1!r}")
+    return t0, t1
+
+
+def modal_flow(system: ModalSystem, t0, t1, eta, etad, Omega=0.0):
+    """The state at ``t1`` of the free flight (no contact) from ``(eta, eta')`` at ``t0``.
+
+    Closed form per mode (paper Eq. 28; Meirovitch Ch. 4): ``z(t1) = z_p(t1) + Phi(t1 - t0)
+    (z(t0) - z_p(t0))`` with the homogeneous transition ``Phi`` (under-, critically or
+    over-damped) and the particular response ``z_p = a sin(Omega t) + b cos(Omega t)`` to the
+    forcing ``Gamma Omega^2 B sin(Omega t)`` (absolute time ``t``: phase ``Omega t0`` at ``t0``).
+    The beam's event kernel moves its modes with the same kernel (:func:`advance_modes`).
+
+    Parameters
+    ----------
+    system : ModalSystem
+    t0, t1 : float
+        Start and end times (nondimensional, units of ``system.time_unit_s``); ``t1 < t0`` flows
+        backward by the same closed form.
+    eta, etad : array_like, shape (n,)
+        Modal coordinates and their derivatives with respect to ``t`` at ``t0``.
+    Omega : float
+        Forcing frequency (per unit ``t``; the sweep's ``f / f_ref``); 0 (or ``B = 0``): free
+        vibration.
+
+    Returns
+    -------
+    eta1, etad1 : ndarray, shape (n,)
+
+    Raises
+    ------
+    ValueError
+        On shapes that do not match, non-finite times, or a forced mode at undamped exact
+        resonance (``omega_i = Omega``, ``c_i = 0``: the response grows as ``t cos t``, no
+        periodic particular solution).
+    """
+    t0, t1 = _times(t0, t1)
+    n = system.omega.size
+    z = _vec(eta, n, "eta")
+    zd = _vec(etad, n, "etad")
+    Om = float(Omega)
+    k = system.omega ** 2
+    F = Om ** 2 * system.base_amplitude
+    if F != 0.0:
+        bad = (k - Om ** 2 == 0.0) & (system.damping * Om == 0.0) & (system.participation != 0.0)
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise ValueError(f"mode {i} is at undamped exact resonance (omega = Omega = {Om:g}, damping 0): "
+                             f"the forced flow grows as t cos t; give it damping or another Omega")
+        a, b = particular(system.damping, k, system.participation, F, Om)
+    else:
+        a = b = np.zeros(n)
+    advance_modes(t1 - t0, Om * t0, Om, z, zd, mode_table(system.damping, k), np.ascontiguousarray(a),
+                  np.ascontiguousarray(b), np.zeros(n))
+    return z, zd
+
+
+def modal_transition(system: ModalSystem, t0, t1) -> np.ndarray:
+    """State-transition matrix ``d(eta, eta')(t1) / d(eta, eta')(t0)`` of the free flight.
+
+    The flow is affine in the state, so this is the homogeneous transition: per mode the 2 x 2
+    ``Phi(t1 - t0)`` (:func:`transition_entries`, entries to relative precision), independent of
+    the forcing and of ``t0``.  Its determinant is ``exp(-sum_i c_i (t1 - t0))`` (Liouville: the
+    trace of the state matrix is ``-sum_i c_i``).
+
+    Parameters
+    ----------
+    system : ModalSystem
+    t0, t1 : float
+        Start and end times (nondimensional; either order).
+
+    Returns
+    -------
+    ndarray, shape (2n, 2n)
+        Rows and columns ordered ``(eta_1..eta_n, eta'_1..eta'_n)`` (the shooting problems'
+        state); blocks ``[[diag(P11), diag(P12)], [diag(P21), diag(P22)]]``.
+
+    Raises
+    ------
+    ValueError
+        On non-finite times.
+    """
+    t0, t1 = _times(t0, t1)
+    n = system.omega.size
+    mp = mode_table(system.damping, system.omega ** 2)
+    out = np.zeros((2 * n, 2 * n))
+    s = t1 - t0
+    for i in range(n):
+        p11, p12, p21, p22 = transition_entries(s, mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4],
+                                                mp[i, 5])
+        out[i, i], out[i, n + i], out[n + i, i], out[n + i, n + i] = p11, p12, p21, p22
+    return out
