@@ -373,3 +373,62 @@ def test_bench_latency_runs_and_emits_its_json():
     assert len(data["goals"]) == 5 and all({"goal", "measured", "pass"} <= set(g) for g in data["goals"])
     verdicts = [l for l in p.stderr.splitlines() if l.startswith("vibeam bench --latency: ")]
     assert len(verdicts) == 5 and all(("PASS" in l) != ("FAIL" in l) for l in verdicts), p.stderr
+
+
+#: a tiny scenario for the compile bench: two small model kernels compiled in the main
+#: process (one inside the other), then one compiled in a forked pool worker only
+TINY_COMPILE = """
+from concurrent.futures import ProcessPoolExecutor
+from vibeam.models.impact import restitution_impulse
+from vibeam.models.roots import rtsafe_update
+restitution_impulse(-1.0, 0.9, 1.0)
+with ProcessPoolExecutor(1) as ex:
+    ex.submit(rtsafe_update, 1.0, 2.0, 0.5, 0.0, 1.0, 0.1, 0.2).result()
+"""
+
+
+def test_bench_compile_machinery_on_a_tiny_scenario(monkeypatch, capsys):
+    """``vibeam bench --compile`` on one tiny scenario (COMPILE_SCENARIOS replaced): the JSON
+    has every key of a cold and a warm run, compile times are non-negative, the cold run's
+    specialisations are listed (kernel, signature, own and inclusive seconds, process)
+    sorted by their own cost, the nested kernel is attributed inside its caller, the
+    worker's compilation is attributed to the worker, and the warm main process compiles
+    nothing.  No duration is asserted: the seconds are figures."""
+    import json
+
+    from vibeam import bench
+    from vibeam.cli import main
+
+    monkeypatch.setattr(bench, "COMPILE_SCENARIOS", (("tiny", "code", TINY_COMPILE),))
+    assert main(["bench", "--compile"]) == 0
+    cap = capsys.readouterr()
+    data = json.loads(cap.out, parse_constant=lambda c: pytest.fail(f"non-finite JSON value {c}"))
+    assert {"goal_s", "numba", "cores", "scenarios", "goals"} <= set(data)
+    keys = {"process_wall_s", "probe_wall_s", "compile_s", "compile_s_main", "compile_s_workers", "specialisations",
+            "specialisations_in_workers", "forked_workers", "dispatchers", "dispatchers_with_several_specialisations",
+            "cache_loads", "cache_misses", "cache_load_s", "cache_saves", "cache_save_s", "kernels"}
+    sc = data["scenarios"]["tiny"]
+    cold, warm = sc["cold"], sc["warm"]
+    for run in (cold, warm):
+        assert keys <= set(run), keys - set(run)
+        for k in ("process_wall_s", "probe_wall_s", "compile_s", "compile_s_main", "compile_s_workers",
+                  "cache_load_s", "cache_save_s"):
+            assert run[k] >= 0, (k, run[k])
+        assert run["forked_workers"] == 1
+        for r in run["kernels"]:
+            assert {"kernel", "signature", "n_args", "self_s", "inclusive_s", "nested", "process"} <= set(r), r
+            assert 0 <= r["self_s"] <= r["inclusive_s"], r
+    ks = cold["kernels"]
+    assert ks and [r["self_s"] for r in ks] == sorted((r["self_s"] for r in ks), reverse=True)
+    by = {r["kernel"].rsplit(".", 1)[1]: r for r in ks}
+    assert by["restitution_impulse"]["process"] == "main" and not by["restitution_impulse"]["nested"]
+    assert by["newton_restitution"]["nested"] and by["newton_restitution"]["signature"] == "(float64, float64)"
+    assert by["rtsafe_update"]["process"] == "worker"
+    assert cold["specialisations"] == len(ks) >= 3 and cold["specialisations_in_workers"] >= 1
+    assert cold["compile_s"] == pytest.approx(cold["compile_s_main"] + cold["compile_s_workers"])
+    assert cold["cache_saves"] >= 2 and cold["cache_loads"] == 0
+    assert warm["specialisations"] == warm["specialisations_in_workers"] and warm["compile_s_main"] == 0
+    assert warm["cache_loads"] >= 1
+    assert len(data["goals"]) == 2 and all({"goal", "measured", "pass"} <= set(g) for g in data["goals"])
+    verdicts = [l for l in cap.err.splitlines() if l.startswith("vibeam bench --compile: ")]
+    assert len(verdicts) == 2 and all(("PASS" in l) != ("FAIL" in l) for l in verdicts), cap.err

@@ -24,7 +24,9 @@ the event solver (:func:`run_shooting_bench`); ``--scaling`` instead measures ho
 simulated and with the retained modes of the FE beam, with fitted exponents
 (:func:`run_scaling_bench`); ``--fit`` instead times ``vibeam fit`` against its goal
 (:func:`run_fit_bench`); ``--latency`` instead measures how fast Ctrl-C stops an inline and a
-pooled run and how far a point overshoots its wall-time limit (:func:`run_latency_bench`).
+pooled run and how far a point overshoots its wall-time limit (:func:`run_latency_bench`);
+``--compile`` instead measures the cold and warm numba compile time of shipped scenarios, per
+specialisation, in fresh processes (:func:`run_compile_bench`).
 """
 from __future__ import annotations
 
@@ -77,9 +79,11 @@ def run_bench(points: int = 101, periods: int = 500, record: int = 64, repeats: 
     Omega = np.linspace(1.5, 2.5, points)
     n_tr = periods - record
     _sweep(model, "event", Omega[:2], 2, 2)  # warm-up (compilation / cache load)
-    times = []
+    times, cpus = [], []
     for _ in range(repeats):
+        c0 = time.process_time()
         t, ev = _sweep(model, "event", Omega, n_tr, record)
+        cpus.append(time.process_time() - c0)
         times.append(t)
     t_event = statistics.median(times)
     _, ref = _sweep(model, "event", Omega, reference_periods, record)
@@ -103,6 +107,10 @@ def run_bench(points: int = 101, periods: int = 500, record: int = 64, repeats: 
         "direct_error": err_direct,
         "error_ratio_direct_over_event": err_direct / max(err_event, 1e-300),
         "event_impacts_per_second": n_imp / t_event,
+        "event_us_per_impact": 1e6 * t_event / max(n_imp, 1.0),
+        "event_cpu_time_s": statistics.median(cpus),
+        "event_us_per_impact_cpu": 1e6 * statistics.median(cpus) / max(n_imp, 1.0),
+        "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
         "error_measure": "max |Q - Q_ref| / max Q_ref over the sweep; Q_ref from event with "
                          f"{reference_periods} transient periods",
         "goal": "event sweep well under 1 s, >= 300x faster than direct, >= 1000x smaller error",
@@ -192,7 +200,11 @@ def bench_goals(out: dict) -> list:
             goal(">= 300x faster than direct (solve_ivp RK23, rtol 1e-4, atol 1e-8, with events)",
                  f"{out['speedup_event_vs_direct']:.0f}x", out["speedup_event_vs_direct"] >= 300),
             goal(">= 1000x smaller amplitude error than direct",
-                 f"{out['error_ratio_direct_over_event']:.3g}x", out["error_ratio_direct_over_event"] >= 1000)]
+                 f"{out['error_ratio_direct_over_event']:.3g}x", out["error_ratio_direct_over_event"] >= 1000),
+            goal("event kernel <= 1 us per impact (issue 20; the whole sweep's time over its impacts)",
+                 f"{out['event_us_per_impact']:.2f} us ({out['event_impacts_per_second']:.3g} impacts/s; "
+                 f"{out['event_us_per_impact_cpu']:.2f} us of CPU time)",
+                 out["event_us_per_impact"] <= 1.0)]
 
 
 # ----------------------------------------------------------------------------- the command line
@@ -596,6 +608,9 @@ def main_bench(args) -> int:
     elif getattr(args, "latency", False):
         out, mode = run_latency_bench(repeats=getattr(args, "repeats", 3), log=log), "--latency"
         out["goals"] = latency_goals(out)
+    elif getattr(args, "compile", False):
+        out, mode = run_compile_bench(log=log), "--compile"
+        out["goals"] = compile_goals(out)
     elif getattr(args, "cli", False):
         out, mode = run_cli_bench(repeats=args.repeats, direct_points=args.direct_points or 11, log=log), "--cli"
     else:
@@ -1289,4 +1304,233 @@ def latency_goals(out: dict) -> list:
     g += [goal(f"point_time_limit_s overshoot within {LATENCY_GOAL_S:g} s ({name})", f"{r['overshoot_s']:.3f} s",
                r["status"] == "failed" and r["overshoot_s"] <= LATENCY_GOAL_S)
           for name, r in out["time_limit"].items()]
+    return g
+
+
+# ----------------------------------------------------------------------------- compile time
+COMPILE_GOAL_S = 5.0   # issue 20: the quick start's first run compiles in <= 5 s
+
+#: ``python -c COMPILE_PROBE EVENTS cli|code ARGS...``: runs ``vibeam ARGS`` (``cli``) or the
+#: Python text ARGS[0] (``code``) with a listener on numba's ``"numba:compile"`` event and timers
+#: around numba's cache loads and saves; one JSON line per event on the O_APPEND file EVENTS
+#: (``os.write``, so forked pool workers, which inherit the listener, append their own lines)
+COMPILE_PROBE = """
+import json, os, sys, time
+fd = os.open(sys.argv[1], os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+def emit(**rec):
+    rec["pid"] = os.getpid()
+    os.write(fd, (json.dumps(rec) + "\\n").encode())
+t_start = time.perf_counter()
+emit(kind="main")
+from numba.core import caching, event
+def name_of(f):
+    return f"{getattr(f, '__module__', '?')}.{getattr(f, '__qualname__', getattr(f, '__name__', repr(f)))}"
+class Compiles(event.Listener):
+    def __init__(self):
+        self.stack = []         # [start, seconds of nested compilations] per open compilation
+    def on_start(self, ev):
+        self.stack.append([time.perf_counter(), 0.0])
+    def on_end(self, ev):
+        t0, nested = self.stack.pop()
+        dt = time.perf_counter() - t0
+        if self.stack:
+            self.stack[-1][1] += dt
+        args = tuple(ev.data.get("args") or ())
+        emit(kind="compile", kernel=name_of(ev.data["dispatcher"].py_func), args=[str(a) for a in args],
+             depth=len(self.stack),
+             inclusive_s=dt, self_s=dt - nested)
+event.register("numba:compile", Compiles())
+os.register_at_fork(after_in_child=lambda: emit(kind="fork"))
+def timed(method, kind):
+    inner = getattr(caching.Cache, method)
+    def wrapper(self, *a, **k):
+        t0 = time.perf_counter()
+        out = inner(self, *a, **k)
+        emit(kind=kind, kernel=name_of(getattr(self, "_py_func", None)), seconds=time.perf_counter() - t0,
+             hit=out is not None)
+        return out
+    setattr(caching.Cache, method, wrapper)
+timed("load_overload", "load")
+timed("save_overload", "save")
+rc = 0
+try:
+    if sys.argv[2] == "cli":
+        from vibeam.cli import main
+        rc = main(sys.argv[3:])
+    else:
+        exec(compile(sys.argv[3], "<scenario>", "exec"), {"__name__": "__scenario__"})
+finally:
+    emit(kind="exit", seconds=time.perf_counter() - t_start)
+sys.exit(rc)
+"""
+
+#: the first point of the rig's FE beam (``cases/rig-fe-neutral.toml``) with ``{n}`` modes, as
+#: ``vibeam run`` builds its solver: the case's first frequency, two transient and two recorded
+#: periods
+FE_POINT = """
+from pathlib import Path
+import vibeam
+from vibeam.case import load_case
+from vibeam.models import make_solver
+case, _ = load_case(Path(vibeam.__file__).resolve().parent.parent / "cases" / "rig-fe-neutral.toml")
+run = next(r for r in case.run if r.method == "event")
+model = case.model_spec({{"n_modes": {n}}}).build()
+W = float(case.sweep.grid(model.natural_frequency_hz)[0])
+make_solver(model, "event", **case.run_settings(run)).point(W, None, 2, 2, case.sweep.samples_per_period)
+"""
+
+#: the scenarios of ``vibeam bench --compile``: (name, ``cli`` or ``code``, vibeam arguments or
+#: Python text); ``{root}`` is the checkout, ``{out}`` a fresh output folder
+COMPILE_SCENARIOS = (
+    ("quick start: vibeam run cases/paper-fig7.toml", "cli",
+     ["run", "{root}/cases/paper-fig7.toml", "--out", "{out}", "--no-plots", "--quiet"]),
+    ("first FE 2-mode point (rig-fe-neutral, n_modes = 2)", "code", FE_POINT.format(n=2)),
+    ("first FE 4-mode point (rig-fe-neutral, n_modes = 4)", "code", FE_POINT.format(n=4)),
+    ("first SDOF continuation: vibeam continue cases/paper-fig13-continuation.toml --quick", "cli",
+     ["continue", "{root}/cases/paper-fig13-continuation.toml", "--quick", "--out", "{out}", "--no-plots",
+      "--quiet"]),
+    ("pooled SDOF continuation: vibeam continue cases/rig-tight-continuation.toml --quick --jobs 2", "cli",
+     ["continue", "{root}/cases/rig-tight-continuation.toml", "--quick", "--jobs", "2", "--out", "{out}",
+      "--no-plots", "--quiet"]),
+)
+
+
+def _short(sig: str, limit: int = 240) -> str:
+    return sig if len(sig) <= limit else sig[:limit] + " ...)"
+
+
+def _compile_summary(records: list, process_wall_s: float) -> dict:
+    """One probed process (and its forked workers) from its event lines: compile time (the
+    outermost compilations, nested ones are inside them), each specialisation with its own
+    (``self_s``: less its nested compilations) and inclusive seconds, and the cache's loads
+    and saves."""
+    main = next(r["pid"] for r in records if r["kind"] == "main")
+    comp = [r for r in records if r["kind"] == "compile"]
+    loads = [r for r in records if r["kind"] == "load"]
+    saves = [r for r in records if r["kind"] == "save"]
+    ext = [r["seconds"] for r in records if r["kind"] == "exit" and r["pid"] == main]
+    top = lambda rs: float(sum(r["inclusive_s"] for r in rs if r["depth"] == 0))   # noqa: E731
+    workers = [r for r in comp if r["pid"] != main]
+    per_kernel: dict = {}
+    for r in comp:
+        r["signature"] = "(" + ", ".join(r["args"]) + ")"
+        per_kernel.setdefault(r["kernel"], {})[r["signature"]] = r["args"]
+    several = {}
+    for k, sigs in per_kernel.items():
+        if len(sigs) > 1:        # the arguments whose types differ between the specialisations
+            arglists = list(sigs.values())
+            n = max(len(a) for a in arglists)
+            at = {str(i): sorted({a[i] if i < len(a) else "-" for a in arglists}) for i in range(n)}
+            several[k] = {"specialisations": len(sigs),
+                          "differing_arguments": {i: t for i, t in at.items() if len(t) > 1}}
+    kernels = sorted(({"kernel": r["kernel"], "signature": _short(r["signature"]), "n_args": len(r["args"]),
+                       "self_s": r["self_s"], "inclusive_s": r["inclusive_s"], "nested": r["depth"] > 0,
+                       "process": "main" if r["pid"] == main else "worker"} for r in comp),
+                     key=lambda k: -k["self_s"])
+    return {"process_wall_s": process_wall_s, "probe_wall_s": ext[0] if ext else None,
+            "compile_s": top(comp), "compile_s_main": top([r for r in comp if r["pid"] == main]),
+            "compile_s_workers": top(workers),
+            "specialisations": len(comp), "specialisations_in_workers": len(workers),
+            "worker_processes_compiling": len({r["pid"] for r in workers}),
+            "dispatchers": len(per_kernel),
+            "dispatchers_with_several_specialisations": several,
+            "forked_workers": len({r["pid"] for r in records if r["kind"] == "fork"}),
+            "cache_loads": sum(r["hit"] for r in loads), "cache_misses": sum(not r["hit"] for r in loads),
+            "cache_loads_in_workers": sum(r["hit"] for r in loads if r["pid"] != main),
+            "cache_load_s": float(sum(r["seconds"] for r in loads if r["hit"])),
+            "cache_miss_s": float(sum(r["seconds"] for r in loads if not r["hit"])),
+            "cache_saves": len(saves), "cache_save_s": float(sum(r["seconds"] for r in saves)),
+            "kernels": kernels}
+
+
+def _probe_compile(kind: str, payload, cache_dir, tmp, timeout: float = 1800.0) -> dict:
+    """One scenario in a fresh interpreter under :data:`COMPILE_PROBE`, numba's cache in
+    ``cache_dir``; returns :func:`_compile_summary` of its event lines."""
+    import subprocess
+    import uuid
+
+    tmp = Path(tmp)
+    marks = tmp / f"events-{uuid.uuid4().hex}.jsonl"
+    out = tmp / f"out-{uuid.uuid4().hex}"
+    args = [str(a).format(root=_root(), out=out) for a in payload] if kind == "cli" else [payload]
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir))
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-c", COMPILE_PROBE, str(marks), kind, *args], capture_output=True,
+                       text=True, env=env, cwd=str(tmp), timeout=timeout)
+    wall = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise RuntimeError(f"compile probe ({kind} {' '.join(args)[:200]}) exited {p.returncode}: "
+                           f"{p.stderr.strip()[-500:]}")
+    records = [json.loads(line) for line in marks.read_text().splitlines() if line.strip()]
+    return _compile_summary(records, wall)
+
+
+def run_compile_bench(scenarios=None, log=None) -> dict:
+    """Cold and warm compile time of the shipped scenarios (issue 20's compile goal).
+
+    Each scenario (default :data:`COMPILE_SCENARIOS`) runs twice, each time in a fresh
+    interpreter under :data:`COMPILE_PROBE`: first with an empty temporary
+    ``NUMBA_CACHE_DIR`` (cold: every kernel it uses is compiled and saved), then again on
+    that cache (warm: loaded, nothing should compile).  Reported per run: the process's
+    wall time, the compile time (the outermost ``"numba:compile"`` events; a kernel's
+    callees compile inside it), every specialisation compiled (kernel, signature, its own
+    and its inclusive seconds, main process or pool worker; sorted by own cost), the
+    specialisations compiled in forked pool workers, and the cache's loads and saves.
+    Measured, never asserted.
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``scenarios`` (name -> ``{"cold": ..., "warm": ...}``), ``goal_s``,
+        ``cores``, ``load_average``, ``numba``.
+    """
+    import tempfile
+
+    import numba
+
+    say = log or (lambda m: None)
+    out = {"goal_s": COMPILE_GOAL_S, "numba": numba.__version__, "cores": os.cpu_count(),
+           "load_average_before": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
+           "note": "compile_s: numba's 'numba:compile' events (cache misses), outermost ones summed; self_s of a "
+                   "specialisation excludes the kernels compiled inside it; compile_s sums the main process and the "
+                   "pool workers (which compile side by side, so it can exceed the wall time); cold: empty "
+                   "NUMBA_CACHE_DIR, warm: the same cache in a second fresh process", "scenarios": {}}
+    for name, kind, payload in (scenarios or COMPILE_SCENARIOS):
+        with tempfile.TemporaryDirectory() as tmp:
+            cache = Path(tmp) / "numba-cache"
+            cache.mkdir()
+            cold = _probe_compile(kind, payload, cache, tmp)
+            say(f"{name}: cold {cold['process_wall_s']:.2f} s, compiling {cold['compile_s']:.2f} s "
+                f"({cold['specialisations']} specialisations, {cold['specialisations_in_workers']} in pool workers)")
+            warm = _probe_compile(kind, payload, cache, tmp)
+            say(f"{name}: warm {warm['process_wall_s']:.2f} s, compiling {warm['compile_s']:.2f} s, "
+                f"{warm['cache_loads']} cache loads in {warm['cache_load_s']:.2f} s")
+        out["scenarios"][name] = {"kind": kind, "command": "vibeam " + " ".join(payload) if kind == "cli" else
+                                  payload.strip(), "cold": cold, "warm": warm}
+    out["load_average_after"] = list(os.getloadavg()) if hasattr(os, "getloadavg") else None
+    return out
+
+
+def compile_goals(out: dict) -> list:
+    """Goals of :func:`run_compile_bench` (issue 20): the quick start compiles in
+    :data:`COMPILE_GOAL_S`; pool workers never compile; a warm cache compiles nothing."""
+    sc = out["scenarios"]
+    g = []
+    quick = next((k for k in sc if k.startswith("quick start")), None)
+    if quick is not None:
+        c = sc[quick]["cold"]
+        g.append(goal(f"quick start (`vibeam run cases/paper-fig7.toml`, cold cache) compiles in <= "
+                      f"{out['goal_s']:g} s", f"{c['compile_s']:.2f} s in {c['specialisations']} specialisations "
+                      f"({c['process_wall_s']:.1f} s wall)", c["compile_s"] <= out["goal_s"]))
+    n_w = {k: v["cold"]["specialisations_in_workers"] + v["warm"]["specialisations_in_workers"] for k, v in sc.items()}
+    forked = sum(v["cold"]["forked_workers"] + v["warm"]["forked_workers"] for v in sc.values())
+    loads = sum(v["warm"]["cache_loads_in_workers"] for v in sc.values())
+    g.append(goal("pool workers never compile (every scenario, cold and warm)",
+                  ", ".join(f"{k.split(':')[0].split(' (')[0]}: {n}" for k, n in n_w.items())
+                  + f" ({forked} workers forked; {loads} cache loads in workers with a warm cache)",
+                  not any(n_w.values())))
+    n_warm = {k: v["warm"]["specialisations"] for k, v in sc.items()}
+    g.append(goal("a warm cache compiles nothing (every scenario)",
+                  ", ".join(f"{k.split(':')[0].split(' (')[0]}: {n}" for k, n in n_warm.items()),
+                  not any(n_warm.values())))
     return g

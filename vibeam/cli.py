@@ -463,7 +463,7 @@ def main(argv=None) -> int:
                        description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
                        "atol 1e-8) on the Fig. 7 scene, inline, with the goals: event sweep under 1 s, >= 300x "
                        "faster, >= 1000x smaller error.  The other modes (--cli, --map, --scaling, --effects, "
-                       "--shooting, --continuation, --fit, --latency) replace it.")
+                       "--shooting, --continuation, --fit, --latency, --compile) replace it.")
     p.add_argument("--points", type=_int_at_least(1), default=101,
                    help="frequencies of the Fig. 7 sweep (default 101)")
     p.add_argument("--periods", type=_int_at_least(65), default=500,
@@ -495,6 +495,11 @@ def main(argv=None) -> int:
     p.add_argument("--latency", action="store_true",
                    help="instead: seconds from SIGINT to exit of an inline long point and of a --jobs 2 map, "
                         "and the overshoot of point_time_limit_s (goal: each within 1 s)")
+    p.add_argument("--compile", action="store_true",
+                   help="instead: numba compile time of the quick start, the first FE 2- and 4-mode points and "
+                        "the first SDOF `vibeam continue` (inline, and on a pool of 2), cold (empty cache) and "
+                        "warm, per specialisation, in fresh processes (goals: quick start <= 5 s; pool workers "
+                        "and warm runs compile nothing)")
     p.add_argument("--jobs", type=jobs_option, default=None, help="workers of --fit (default 2)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
