@@ -9,12 +9,13 @@ the sweep engine, case files, results and plots in this package.  The Python API
     res = vibeam.run(case)                   # Results: .runs, .to_xarray(), .plot_frc(), ...
     sim = vibeam.simulate(case, Omega=2.0)   # one frequency: .t, .q, .dq, .impact_times, ...
     tree = vibeam.open_results("results/paper-fig7/results.h5")   # xarray.DataTree
+    bas = vibeam.basins("cases/rig-tight.toml", frequency_hz=16.5)   # basins of attraction
 
 Its names are imported on first use, so ``import vibeam`` stays fast.
 """
 from .version import __version__
 
-_API = ("load_case", "run", "simulate", "lyapunov", "open_results", "Results", "Simulation", "Lyapunov")
+_API = ("load_case", "run", "simulate", "lyapunov", "basins", "open_results", "Results", "Simulation", "Lyapunov")
 __all__ = ["__version__", *_API]
 
 

@@ -684,6 +684,84 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
                     impacts_per_period=sp.impacts / max(sp.shots * sp.periods_per_shot, 1), spectrum=sp)
 
 
+def basins(case, frequency_hz=None, Omega=None, grid=None, samples: int | None = None, run: str | None = None,
+           jobs: int | None = 1, executor=None, out=None, progress: bool = False, **keys):
+    """Basins of attraction (a grid of initial states) or the census of attractors (random
+    initial states) of a case at one or more forcing frequencies (issue 21).
+
+    Every initial state is followed by the case's exact solver until the recurrences of its
+    stroboscopic samples on a cell grid name the attractor it reaches (Datseris & Wagemakers,
+    Chaos 32, 2022); each attractor is then typed (period-n, sticking, chaotic, quasi-periodic),
+    refined by the shooting problem and given its Lyapunov spectrum (:mod:`vibeam.attractors`).
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        Anything :func:`load_case` takes; its ``[basins]`` table gives the defaults.
+    frequency_hz, Omega : float or list of float, optional
+        Forcing frequencies (Hz for a physical scene, or nondimensional); default the case's
+        ``[basins]`` ones, else every frequency of its sweep.
+    grid : (int, int), optional
+        ``(nx, ny)`` initial states on a grid (default 200 x 200).
+    samples : int, optional
+        Random initial states instead of a grid (seeded by ``seed``).
+    run : str, optional
+        The run whose model and solver are used (default: the first time-domain run).
+    jobs : int or None
+        Workers of the local pool (1: in this process; None: all cores).
+    executor : concurrent.futures.Executor, optional
+        Where the grid's rows run (e.g. a dask client's executor).
+    out : str or Path, optional
+        A results file: the result is written to its ``/basins/<run>/`` (other groups kept).
+    progress : bool
+        A progress bar.
+    **keys
+        Any other key of ``[basins]`` (``x_range``, ``y_range``, ``coordinates``, ``seed``,
+        ``max_periods``, ``recurrences``, ``lyapunov_periods``, ...).
+
+    Returns
+    -------
+    vibeam.attractors.BasinsResult
+        ``labels`` per initial state, ``attractors`` (type, period, amplitude, fraction and its
+        standard error, Lyapunov spectrum), ``to_xarray()``.
+
+    Raises
+    ------
+    vibeam.case.CaseError, ValueError
+        One line naming the key, the value and what is allowed.
+    """
+    from .attractors import compute, write_basins
+    from .case import BasinsSpec
+    from .errors import CaseError
+
+    c = load_case(case)
+    data = c.basins.model_dump(exclude_none=True) if c.basins is not None else {}
+    aslist = lambda v: list(v) if isinstance(v, (tuple, np.ndarray)) else v
+    given = dict(frequency_hz=aslist(frequency_hz), Omega=aslist(Omega), grid=aslist(grid), samples=samples,
+                 run=run, **{k: aslist(v) for k, v in keys.items()})
+    given = {k: v for k, v in given.items() if v is not None}
+    if "frequency_hz" in given or "Omega" in given:
+        data.pop("frequency_hz", None)
+        data.pop("Omega", None)
+    if "samples" in given:
+        data.pop("grid", None)
+    if "grid" in given:
+        data.pop("samples", None)
+    data.update(given)
+    from pydantic import ValidationError
+
+    from .case import validation_message
+
+    try:
+        spec = BasinsSpec.model_validate(data)
+    except ValidationError as e:
+        raise CaseError(validation_message(e, "basins", BasinsSpec)) from None
+    res = compute(c, jobs=jobs, executor=executor, progress=progress, spec=spec)
+    if out is not None:
+        write_basins(out, [res], c.name, case_text(c))
+    return res
+
+
 def _pick_run(case, run):
     """The run ``run`` (index or name) of a case (TypeError/ValueError naming the runs)."""
     from .errors import quote_value

@@ -996,6 +996,67 @@ class MapSpec(_Strict):
         return np.linspace(start, stop, int(n))
 
 
+class BasinsSpec(_Strict):
+    """``[basins]``: basins of attraction (a grid of initial states) or the census of attractors
+    (``samples`` random initial states, seeded) at one or more forcing frequencies
+    (:mod:`vibeam.attractors`).
+
+    ``Omega`` / ``frequency_hz``: a number or a list (omitted: every frequency of the sweep's
+    grid, a census along the sweep); ``grid = [nx, ny]`` (default 200 x 200) or ``samples``;
+    ``x_range``/``y_range``: the box in the grid's units (SDOF: ``q``, ``q'``, or for a
+    physical scene ``U`` mm and ``U'`` mm/s; beam: the modal ``coordinates``), default a box
+    around the stop; ``run``: the run whose model and solver are used (default the first
+    time-domain run).  Recurrence settings (:mod:`vibeam.models.attractors`): ``recurrences``
+    consecutive revisits find an attractor, ``locate_periods`` samples describe it,
+    ``max_periods`` bound a trajectory (else ``unsettled``), ``basin_hits`` decides by the basin
+    cells of earlier states.  ``record_periods``: the simulation describing each attractor;
+    ``lyapunov_periods``: its Lyapunov spectrum (0: none).
+    """
+
+    Omega: Annotated[float, Field(gt=0.0)] | Annotated[list[Annotated[float, Field(gt=0.0)]], Field(min_length=1)] | None = None
+    frequency_hz: Annotated[float, Field(gt=0.0)] | Annotated[list[Annotated[float, Field(gt=0.0)]], Field(min_length=1)] | None = None
+    grid: Annotated[list[Annotated[int, Field(ge=2, le=2000)]], Field(min_length=2, max_length=2)] | None = None
+    samples: Annotated[int, Field(ge=1, le=1_000_000)] | None = None
+    seed: int = 0
+    x_range: _Pair | None = None
+    y_range: _Pair | None = None
+    coordinates: Annotated[list[Annotated[int, Field(ge=0)]], Field(min_length=2, max_length=2)] | None = None
+    run: str | None = None
+    recurrences: Annotated[int, Field(ge=2, le=100_000)] = 100
+    locate_periods: Annotated[int, Field(ge=1, le=100_000)] = 1000
+    max_periods: Annotated[int, Field(ge=10, le=10_000_000)] = 20000
+    hit_attractor: Annotated[int, Field(ge=1, le=10_000)] = 2
+    hit_basin: Annotated[int, Field(ge=1, le=10_000)] = 10
+    basin_hits: bool = True
+    record_periods: Annotated[int, Field(ge=8, le=100_000)] = 256
+    lyapunov_periods: Annotated[int, Field(ge=0, le=1_000_000)] = 1000
+
+    @model_validator(mode="after")
+    def _one_of(self):
+        if self.Omega is not None and self.frequency_hz is not None:
+            raise ValueError("give at most one of 'Omega' (nondimensional) or 'frequency_hz'")
+        if self.grid is not None and self.samples is not None:
+            raise ValueError("give 'grid' (basins on a grid) or 'samples' (random initial states), not both")
+        for k in ("x_range", "y_range"):
+            r = getattr(self, k)
+            if r is not None and not r[1] > r[0]:
+                raise ValueError(f"{k} = {list(r)}: [low, high] with high > low")
+        return self
+
+    def frequencies(self, sweep: SweepSpec, natural_frequency_hz=None) -> np.ndarray:
+        """Forcing frequencies Omega (nondimensional), shape (n,): this table's or the sweep's."""
+        v = self.Omega if self.Omega is not None else self.frequency_hz
+        if v is None:
+            return sweep.grid(natural_frequency_hz)
+        v = np.atleast_1d(np.asarray(v, float))
+        if self.frequency_hz is not None:
+            if not natural_frequency_hz:
+                raise ValueError(f"[basins] frequency_hz = {self.frequency_hz}: needs a physical scene "
+                                 f"(natural_frequency_hz); give Omega")
+            v = v / natural_frequency_hz
+        return v
+
+
 class QuickSpec(_Strict):
     """``[quick]``: the quick variant of a case (``vibeam run --quick``; regressed by the tests)."""
 
@@ -1036,6 +1097,7 @@ class Case(_Strict):
     assess: AssessSpec = Field(default_factory=AssessSpec)
     quick: QuickSpec = Field(default_factory=QuickSpec)
     map: MapSpec | None = None
+    basins: BasinsSpec | None = None
 
     @field_validator("name")
     @classmethod
@@ -1120,6 +1182,15 @@ class Case(_Strict):
             m0, m1, mn = self.map.values
             k = min(int(q.map_values), int(mn))
             data["map"] = dict(data["map"], values=[m0, m1 if k > 1 else m0, k])
+        if self.basins is not None:
+            # the quick variant's basins: a 40 x 40 grid (or 40 samples) at most, 200 Lyapunov periods
+            b = dict(data["basins"])
+            if b.get("samples") is not None:
+                b["samples"] = min(int(b["samples"]), 40)
+            else:
+                b["grid"] = [min(int(n), 40) for n in (b.get("grid") or [200, 200])]
+            b["lyapunov_periods"] = min(int(b["lyapunov_periods"]), 200)
+            data["basins"] = b
         return Case.model_validate(data)
 
     def map_parameters(self) -> list[str]:

@@ -170,12 +170,73 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
     finally:
         if client is not None:
             client.close()
+    if case.basins is not None and not need_map and not continuation_only:
+        code = _basins(args, case.quick_variant() if args.quick else case, text, out_dir, None)
+        if code:
+            return code
     bad = failure_summary(res)
     if bad:
         print(f"vibeam: error: {args.case}: {bad}; the results file and plots in {out_dir} show them",
               file=sys.stderr)
         return 3
     return 0
+
+
+def _basins(args, case, text, out_dir, spec) -> int:
+    """Basins of a case into ``out_dir``: ``/basins/<run>/`` of results.h5, plots, a table."""
+    from .attractors import compute, plot_basins, print_basins, write_basins
+
+    ex, client = _executor(args)
+    try:
+        r = compute(case, jobs=args.jobs, executor=ex, progress=not args.quiet, spec=spec)
+    except KeyboardInterrupt as e:
+        sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
+        print(f"vibeam: interrupted ({sig}); no basins written (results.h5 as before)", file=sys.stderr)
+        return _interrupt_code(e)
+    finally:
+        if client is not None:
+            client.close()
+    h5 = write_basins(out_dir / "results.h5", [r], case.name, text)
+    print_basins(r)
+    if not args.no_plots:
+        for p in plot_basins(r, out_dir):
+            print(f"plot: {p}")
+    print(f"basins -> {h5} (group /basins/{r.name})")
+    return 0
+
+
+def cmd_basins(args) -> int:
+    from pydantic import ValidationError
+
+    from .case import BasinsSpec, load_case, validation_message
+    from .errors import CaseError
+    from .outdir import check_folder
+
+    case, text = load_case(args.case)
+    if args.quick:
+        case = case.quick_variant()
+    data = case.basins.model_dump(exclude_none=True) if case.basins is not None else {}
+    if args.frequency_hz is not None or args.Omega is not None:
+        data.pop("frequency_hz", None)
+        data.pop("Omega", None)
+        data.update({"frequency_hz": args.frequency_hz} if args.frequency_hz is not None else {"Omega": args.Omega})
+    if args.grid is not None:
+        data.pop("samples", None)
+        data["grid"] = list(args.grid)
+    if args.samples is not None:
+        data.pop("grid", None)
+        data["samples"] = args.samples
+    for k in ("seed", "run"):
+        if getattr(args, k) is not None:
+            data[k] = getattr(args, k)
+    if not data:
+        raise CaseError(f"{args.case}: no [basins] table; give --frequency-hz (or --Omega), or add [basins]")
+    try:
+        spec = BasinsSpec.model_validate(data)
+    except ValidationError as e:
+        raise CaseError(f"{args.case}: " + validation_message(e, "basins", BasinsSpec)) from None
+    out_dir = check_folder(_out_dir(args, case))
+    return _basins(args, case, text, out_dir, spec)
 
 
 def cmd_regress(args) -> int:
@@ -394,6 +455,29 @@ def main(argv=None) -> int:
     p = sub.add_parser("map", help="parameter map of a case with [map] (period-n regions, paper Fig. 18)")
     run_args(p)
     p.set_defaults(func=lambda a: cmd_run(a, need_map=True))
+    p = sub.add_parser("basins", help="basins of attraction (or the census of attractors) at a forcing "
+                       "frequency: every attractor, its type, period, amplitude, basin fraction and Lyapunov "
+                       "exponents", formatter_class=argparse.RawDescriptionHelpFormatter,
+                       epilog="example:\n  vibeam basins cases/rig-tight.toml --frequency-hz 16.5 --grid 200 200\n"
+                       "  vibeam basins cases/paper-fig7-two-sided.toml --Omega 2.38 --samples 400 --seed 1")
+    p.add_argument("case", help="case file (TOML); its [basins] table gives the defaults")
+    p.add_argument("--frequency-hz", dest="frequency_hz", type=float, nargs="+", metavar="F",
+                   help="forcing frequencies in Hz (physical scenes)")
+    p.add_argument("--Omega", type=float, nargs="+", metavar="W", help="forcing frequencies (nondimensional)")
+    p.add_argument("--grid", type=int, nargs=2, metavar=("NX", "NY"), help="initial states on a grid (default 200 200)")
+    p.add_argument("--samples", type=int, metavar="N", help="N random initial states instead of a grid")
+    p.add_argument("--seed", type=int, help="seed of the random initial states")
+    p.add_argument("--run", help="the run whose model and solver are used (default: the first time-domain run)")
+    p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/; "
+                   "its results.h5 keeps its other groups, /basins/<run> is replaced)")
+    p.add_argument("--jobs", type=jobs_option, default=None,
+                   help="worker processes of the local pool (default: all cores; 1: inline)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quick", action="store_true", help="the case's quick variant (a 40 x 40 grid at most)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on a dask.distributed scheduler (e.g. tcp://host:8786)")
+    p.set_defaults(func=cmd_basins)
     p = sub.add_parser("regress", help="compare a case's FRCs with reference FRCs (HDF5 or CSV); exit 1 on a "
                        "regression, 2 on bad input")
     p.add_argument("case", help="case file (TOML)")

@@ -679,6 +679,22 @@ def replace_branches(path, branches: list) -> Path:
     return _atomic(Path(path), fill, copy_from=Path(path))
 
 
+def replace_group(path, group: str, fill, case_name: str = "", case_text: str = "") -> Path:
+    """Replace (or add) the group ``group`` of a results file, atomically, everything else kept;
+    ``fill(file)`` writes the new group (e.g. :func:`vibeam.netcdf.write_group`).  Without a file
+    at ``path``, a new one holds the group alone (with ``case_name`` and ``case_text``)."""
+    path = Path(path)
+
+    def fill_(f):
+        if "vibeam_layout" not in f.attrs:
+            _root_attrs(f, case_name, case_text, "", complete=True)
+        if group in f:
+            del f[group]
+        fill(f)
+
+    return _atomic(path, fill_, copy_from=path if path.exists() else None)
+
+
 def _group_attrs(r, **more) -> dict:
     a = {"fidelity": r.fidelity, "method": r.method, "settings": json.dumps(r.settings, default=json_default),
          "wall_time_s": r.wall_time_s}

@@ -1,0 +1,840 @@
+"""Basins of attraction and the census of attractors at a forcing frequency (``[basins]``).
+
+A grid of initial states at forcing phase 0 (or ``samples`` random ones, seeded) is labelled
+by the attractor of the stroboscopic map each state reaches, found by recurrences on a cell
+grid (:mod:`vibeam.models.attractors`; Datseris & Wagemakers, Chaos 32, 2022) with the case's
+exact event solver as the map.  Every attractor found is then described once: simulated over
+``record`` periods (:func:`vibeam.records.summarize`: amplitude ``Q``, period-n, status),
+a periodic one refined to its fixed point by the shooting problem of the model (Newton on
+``P^n(x) - x``, :func:`vibeam.models.continuation.start_point`) with its Floquet multipliers,
+and its Lyapunov spectrum computed (:func:`vibeam.models.lyapunov.lyapunov_spectrum`: exact
+flows and saltation matrices, Müller 1995).  Types:
+
+``period``          a period-n orbit (n in ``attractor_period``), no sticking phase;
+``sticking``        a periodic motion with a phase held on a stop (chatter ending in
+                    sticking included), or rest on a stop;
+``chaotic``         not periodic, ``lambda_1 > 0`` beyond its error;
+``quasi_periodic``  not periodic, ``|lambda_1|`` within its error;
+``non_periodic``    not periodic within 8 periods and neither of the above (a long period,
+                    a slow transient, or exponents the shooting problem could not compute).
+
+States that do not settle within ``max_periods`` are labelled ``-2`` (``unsettled``), states
+whose periods the solver could not compute ``-3`` (``failed``): they are counted, never forced
+into an attractor.
+
+Coordinates of the grid: the SDOF's ``(q, q')`` (nondimensional), or for a physical SDOF scene
+the sensor's ``(U, U')`` in mm and mm/s; a beam's modal pair ``coordinates = [i, j]`` of its
+state ``(eta_1 ... eta_N, eta_1' ... eta_N')`` (kernel units; default the first mode's
+displacement and velocity), the other coordinates at rest.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .models.attractors import FAILED, UNSETTLED, Recurrences, set_distance
+from .style import NODIM, PALETTE, context, legend_outside
+
+TYPES = ("period", "sticking", "chaotic", "quasi_periodic", "non_periodic")
+LABELS = {UNSETTLED: "unsettled", FAILED: "failed"}
+
+
+@dataclass
+class Axes:
+    """The two coordinates of a basin grid and how they map to the model's state.
+
+    ``index`` (2,): the state coordinates they set; ``factor`` (2,): axis value = factor x
+    state coordinate; ``names``, ``units``, ``labels``: for files and plots."""
+
+    index: tuple
+    factor: tuple
+    names: tuple
+    units: tuple
+    labels: tuple
+
+
+@dataclass
+class BasinsResult:
+    """Basins of attraction, or the census of attractors, at one or more forcing frequencies.
+
+    Attributes
+    ----------
+    name : str
+        The run whose model and solver were used.
+    Omega : ndarray, shape (n_Omega,)
+        Forcing frequencies (nondimensional); ``frequency_hz`` the same in Hz (physical scenes).
+    axes : Axes
+    x, y : ndarray, shape (nx,), (ny,)
+        Grid coordinates (axis units); empty for a census of random states.
+    labels : ndarray of int, shape (n_Omega, ny, nx) or (n_Omega, samples)
+        The attractor index each initial state reaches, ``-2`` unsettled, ``-3`` failed.
+    initial : ndarray, shape (samples, 2)
+        A census's initial states in axis units (empty for a grid).
+    attractors : dict
+        Per attractor (index = position), arrays over (n_Omega, n_attractors): ``type``
+        (str), ``period``, ``amplitude`` (``Q``, nondimensional), ``amplitude_min``,
+        ``amplitude_max``, ``stable`` (1, 0; -1 unknown), ``fraction``, ``fraction_se``,
+        ``lyapunov`` (n_Omega, n_attractors, d), ``lyapunov_error``; ``samples``: list per
+        Omega of lists of (m, d) stroboscopic sets; ``fixed_point`` (n_Omega, n_att, d).
+    periods : ndarray, shape (n_Omega,)
+        Map iterations spent per frequency; ``wall_time_s`` the time per frequency.
+    stop : float or None
+        The upper stop's position on the grid's first axis (SDOF), else None.
+    amplitude_scale_mm : float or None
+        ``Q`` times this is mm (physical scenes).
+    time_scale_s : float or None
+        Exponents per unit time divided by this are per second (physical scenes).
+    """
+
+    name: str
+    Omega: np.ndarray
+    frequency_hz: np.ndarray | None
+    axes: Axes
+    x: np.ndarray
+    y: np.ndarray
+    labels: np.ndarray
+    initial: np.ndarray
+    attractors: dict
+    periods: np.ndarray
+    wall_time_s: np.ndarray
+    amplitude_scale_mm: float | None = None
+    time_scale_s: float | None = None
+    settings: dict = field(default_factory=dict)
+    stop: float | None = None
+
+    @property
+    def grid(self) -> bool:
+        return self.labels.ndim == 3
+
+    @property
+    def n_attractors(self) -> int:
+        return len(self.attractors["type"][0]) if self.attractors["type"] else 0
+
+    def fractions(self, i: int = 0) -> dict:
+        """``{label: fraction}`` of the initial states at frequency ``i`` (unsettled, failed included)."""
+        lab = self.labels[i].ravel()
+        return {int(k): float(np.mean(lab == k)) for k in np.unique(lab)}
+
+    def to_xarray(self):
+        """The result as an :class:`xarray.Dataset` (the variables of ``/basins/<run>/``)."""
+        import xarray as xr
+
+        v = basins_variables(self)
+        dims = {d for x in v.values() for d in x.dims}
+        coords = {k: (x.dims, x.data, x.attrs) for k, x in v.items()
+                  if k in dims or x.attrs.get("aux")}
+        return xr.Dataset({k: (x.dims, x.data, {a: b for a, b in x.attrs.items() if a != "aux"})
+                           for k, x in v.items() if k not in coords},
+                          coords={k: (d, x, {a: b for a, b in at.items() if a != "aux"})
+                                  for k, (d, x, at) in coords.items()})
+
+
+# ---------------------------------------------------------------------------- the map
+def strobe(solver, Omega: float, d: int):
+    """The stroboscopic map of ``solver`` at ``Omega`` as ``step(x, n)`` for
+    :meth:`vibeam.models.attractors.Recurrences.label`: the states (shape (n, d)) after ``1 ...
+    n`` forcing periods from ``x``, or None when the solver reports ``failed``.
+
+    When the solver's samples are the whole state but its flag (the SDOF's ``(q, q')``, ``d =
+    3``), one call gives ``n`` periods and the flag of the intermediate states is read from the
+    state (held on a stop: exactly at the stop with zero velocity); otherwise one call per
+    period (the beam's samples are the sensor's, not the modes')."""
+    Omega = float(Omega)
+    model = solver.model
+    Delta = float(model.Delta)
+    Dl = getattr(model, "Delta_lower", None)
+    Dl = None if Dl is None or not math.isfinite(Dl) else float(Dl)
+
+    def one(x, n):
+        out = np.empty((n, d))
+        for k in range(n):
+            tr = solver.point(Omega, x, 0, 1, 1)
+            if tr.status == "failed" or tr.final_state.shape[0] != d:
+                return None
+            x = out[k] = tr.final_state
+        return out
+
+    def many(x, n):
+        tr = solver.point(Omega, x, 0, n, 1)
+        if tr.status == "failed":
+            return None
+        S = tr.samples
+        out = np.empty((n, d))
+        out[:-1, :2] = S[1:, :2]
+        flag = np.zeros(n - 1)
+        held = (S[1:, 1] == 0.0)
+        flag[held & (S[1:, 0] == Delta)] = 1.0
+        if Dl is not None:
+            flag[held & (S[1:, 0] == -Dl)] = -1.0
+        out[:-1, 2] = flag
+        out[-1] = tr.final_state
+        return out
+
+    probe = solver.point(Omega, np.asarray(model.initial_state(), float), 0, 1, 1)
+    if d == 3 and probe.samples.shape[1] == 2 and not hasattr(model, "n_modes"):
+        return many
+    return one
+
+
+def state_size(solver) -> int:
+    return int(np.asarray(solver.model.initial_state()).size)
+
+
+# ---------------------------------------------------------------------------- grid of states
+def axes_of(model, coordinates=None) -> Axes:
+    """The grid's coordinates for ``model`` (module docstring)."""
+    n = int(getattr(model, "n_modes", 1))
+    if hasattr(model, "n_modes"):
+        i, j = (0, n) if coordinates is None else (int(coordinates[0]), int(coordinates[1]))
+        for c in (i, j):
+            if not 0 <= c < 2 * n:
+                raise ValueError(f"[basins] coordinates = {list(coordinates)}: state indices 0 ... {2 * n - 1} "
+                                 f"(eta_1 ... eta_{n} are 0 ... {n - 1}, their velocities {n} ... {2 * n - 1})")
+        name = lambda c: f"eta_{c + 1}" if c < n else f"eta_{c - n + 1}_dot"
+        lab = lambda c: fr"$\eta_{{{c + 1}}}$" if c < n else fr"$\dot\eta_{{{c - n + 1}}}$"
+        return Axes((i, j), (1.0, 1.0), (name(i), name(j)), ("1", "1"), (lab(i) + f" ({NODIM})", lab(j) + f" ({NODIM})"))
+    if coordinates is not None:
+        raise ValueError(f"[basins] coordinates = {list(coordinates)}: a key of beam scenes only "
+                         f"(the SDOF's grid is (q, q'))")
+    L = getattr(model, "length_m", None)
+    fn = getattr(model, "natural_frequency_hz", None)
+    if L and fn:
+        s = L * 1e3
+        return Axes((0, 1), (s, s * 2 * math.pi * fn), ("U", "U_dot"), ("mm", "mm/s"),
+                    (r"$U$ (mm)", r"$\dot U$ (mm/s)"))
+    return Axes((0, 1), (1.0, 1.0), ("q", "q_dot"), ("1", "1"), (rf"$q$ ({NODIM})", rf"$q'$ ({NODIM})"))
+
+
+def default_ranges(model, axes: Axes, Omega: float) -> tuple:
+    """A box around the stop holding the attractors of a usual scene: for the SDOF ``q`` over
+    ``[Delta - 8 A, Delta]``, ``q'`` over ``[-8 A Omega, 8 A Omega]`` with ``A = max(|Delta|,
+    X)`` (``X`` the linear response amplitude without the stop); for a beam's modal pair the
+    same scale from the first mode's linear response."""
+    B = float(getattr(model, "B", 0.0) or 0.0)
+    beta = float(getattr(model, "beta", 0.0) or 0.0)
+    Delta = float(model.Delta)
+    if hasattr(model, "n_modes"):
+        from .models.system import from_beam
+
+        s = from_beam(model)
+        i = axes.index[0] % s.omega.size
+        w, c, G = float(s.omega[i]), float(s.damping[i]), float(s.participation[i])
+        X = abs(G) * Omega ** 2 * s.base_amplitude / math.hypot(w * w - Omega ** 2, c * Omega)
+        gap = abs(Delta) / max(abs(float(s.sensor[i])), 1e-300) * s.coordinate_scale if Delta else 0.0
+        A = max(X, gap, 1e-12)
+        rng = []
+        for c_ in axes.index:
+            vel = c_ >= s.omega.size
+            rng.append((-8 * A * (Omega if vel else 1.0), 8 * A * (Omega if vel else 1.0)))
+        return tuple(rng)
+    X = Omega ** 2 * B / max(math.hypot(1 - Omega ** 2, 2 * beta * Omega), 1e-300)
+    A = max(abs(Delta), X, 1e-12)
+    f0, f1 = axes.factor
+    return ((f0 * (Delta - 8 * A), f0 * Delta), (-f1 * 8 * A * Omega, f1 * 8 * A * Omega))
+
+
+# ---------------------------------------------------------------------------- the work
+# worker-local memory of cells and attractors, kept between the lines of one computation
+_MEMORY: dict = {}
+
+
+@dataclass
+class BasinLine:
+    """Initial states of one grid row (or census slice): a unit of work of the sweep engine."""
+
+    key: str
+    run: str
+    token: str
+    solver: object
+    Omega: float
+    states: np.ndarray
+    recurrence: dict
+
+    @property
+    def n_points(self) -> int:
+        return len(self.states)
+
+    def compute(self) -> list:
+        mem = _MEMORY.get(self.token)
+        if mem is None:
+            _MEMORY.clear()
+            d = self.states.shape[1]
+            rec = Recurrences(**self.recurrence)
+            mem = _MEMORY[self.token] = (rec, strobe(self.solver, self.Omega, d))
+        rec, step = mem
+        t0 = time.perf_counter()
+        p0 = rec.periods
+        labels = np.array([rec.label(step, x) for x in self.states], np.int64)
+        pid = os.getpid()
+        att = {f"{pid}-{k}": rec.attractors[k] for k in np.unique(labels) if k >= 0}
+        return [dict(labels=labels, attractors=att, pid=pid, periods=rec.periods - p0,
+                     wall_time_s=time.perf_counter() - t0)]
+
+    def lost_rows(self, err, attempts):
+        return [dict(labels=np.full(len(self.states), FAILED, np.int64), attractors={}, pid=0, periods=0,
+                     wall_time_s=0.0, message=f"worker lost {attempts} time(s): {err}")]
+
+
+def _spread(X) -> float:
+    """Self-distance of a stroboscopic set: its halves' distance (0 for a periodic orbit)."""
+    h = X.shape[0] // 2
+    return set_distance(X[:h], X[h:], 1.0) if h >= 1 else 0.0
+
+
+def merge_attractors(sets: dict, width) -> tuple:
+    """Group the stroboscopic sets found by different workers (``{key: (m, d) array}``) into
+    distinct attractors: two sets are one attractor when their distance (in cells) is at most
+    one cell plus twice the larger self-distance.  Returns ``(groups, mapping)``: the list of
+    one set per attractor and ``{key: index}``."""
+    width = np.asarray(width, float)
+    groups: list = []
+    spreads: list = []
+    mapping: dict = {}
+    for key in sorted(sets, key=lambda k: (int(k.split("-")[0]), int(k.split("-")[1]))):
+        X = sets[key]
+        sx = _spread(X / width)
+        for g, (Y, sy) in enumerate(zip(groups, spreads)):
+            if set_distance(X, Y, width) <= 1.0 + 2.0 * max(sx, sy):
+                mapping[key] = g
+                break
+        else:
+            mapping[key] = len(groups)
+            groups.append(X)
+            spreads.append(sx)
+    return groups, mapping
+
+
+def set_period(X, rtol: float) -> int:
+    """The smallest ``n <= m / 3`` with ``|X[i + n] - X[i]| <= rtol * scale`` over the
+    stroboscopic set ``X`` (shape (m, d), consecutive samples; scale: the set's largest
+    coordinate range, per coordinate), 0 if none: a long period-n orbit (e.g. one through a
+    sticking phase, which resets the state) that a record of a few periods cannot show."""
+    X = np.asarray(X, float)
+    m = X.shape[0]
+    if m < 3:
+        return 0
+    sc = np.maximum(np.ptp(X, axis=0), np.max(np.abs(X), axis=0) * 1e-12)
+    sc[sc == 0] = 1.0
+    for n in range(1, m // 3 + 1):
+        if np.all(np.abs(X[n:] - X[:-n]) <= rtol * sc):
+            return n
+    return 0
+
+
+def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_rtol: float,
+                       samples_per_period: int = 64) -> dict:
+    """Type, period, amplitude, stability and Lyapunov spectrum of the attractor whose
+    stroboscopic set is ``X`` (shape (m, d); its last sample is on it)."""
+    from .models import shooting_problem
+    from .models.continuation import start_point
+    from .models.lyapunov import lyapunov_spectrum
+    from .records import summarize
+
+    x = np.asarray(X[-1], float)
+    model = solver.model
+    tr = solver.point(float(Omega), x, 0, int(record), int(samples_per_period))
+    s = summarize(tr, float(Delta), period_rtol)
+    n = int(s["period"])
+    periodic = n != 0 and s["status"] in ("ok", "chatter", "sticking")
+    if not periodic and s["status"] in ("ok", "chatter", "sticking", "unsettled"):
+        # a period beyond the record's test (n <= 8): the stroboscopic set itself repeats
+        n = set_period(X, period_rtol)
+        periodic = n > 0
+    dprob = 2 * int(getattr(model, "n_modes", 1))
+    out = dict(period=max(n, 1) if periodic else 0, impacts_per_period=float(s["impacts_per_period"]), amplitude=float(s["amplitude"]),
+               amplitude_min=float(s["amplitude_min"]), amplitude_max=float(s["amplitude_max"]),
+               stable=-1, fixed_point=np.full(x.size, np.nan), status=s["status"], message=s["message"],
+               lyapunov=np.full(dprob, np.nan), lyapunov_error=np.full(dprob, np.nan),
+               lyapunov_impacts_per_period=np.nan)
+    try:
+        prob = shooting_problem(model, "Omega")
+    except ValueError as e:
+        prob = None
+        out["message"] = (out["message"] + "; " if out["message"] else "") + f"no shooting problem: {e}"
+    stuck = s["status"] in ("chatter", "sticking") or (x.size > dprob and x[dprob] != 0.0)
+    if prob is not None and periodic and n <= 64:
+        pt, why = start_point(prob, x[:dprob], float(Omega), max(n, 1), 0.5 * Omega, 2.0 * Omega)
+        if pt is not None:
+            out["fixed_point"][:dprob] = pt.x
+            out["stable"] = int(bool(np.max(np.abs(pt.mu)) < 1.0)) if pt.mu.size else 1
+            gap = getattr(pt.shot, "gap", np.nan)
+            if np.isfinite(gap) and n > 0:
+                out["amplitude"] = out["amplitude_min"] = out["amplitude_max"] = float(gap - pt.shot.q_min)
+        elif why:
+            out["message"] = (out["message"] + "; " if out["message"] else "") + f"shooting: {why}"
+    if prob is not None and shots >= 2:
+        sp = lyapunov_spectrum(prob, x[:dprob], float(Omega), int(shots), 0, 1)
+        if sp.status == "ok":
+            out["lyapunov"], out["lyapunov_error"] = sp.exponents, sp.error
+            out["lyapunov_impacts_per_period"] = sp.impacts / max(sp.shots * sp.periods_per_shot, 1)
+    lam = out["lyapunov"][0]
+    err = out["lyapunov_error"][0]
+    if periodic:
+        out["type"] = "sticking" if stuck else "period"
+    elif np.isfinite(lam) and lam > max(3.0 * err, 1e-6):
+        out["type"] = "chaotic"
+    elif np.isfinite(lam) and abs(lam) <= max(3.0 * err, 1e-6) and \
+            (out["lyapunov"].size < 2 or out["lyapunov"][1] < -max(3.0 * out["lyapunov_error"][1], 1e-6)):
+        out["type"] = "quasi_periodic"
+    else:
+        out["type"] = "non_periodic"
+    return out
+
+
+# ---------------------------------------------------------------------------- the computation
+def _pick_solver(case, run_name):
+    """The job of the case's run ``run_name`` (default: the first time-domain run)."""
+    from .errors import CaseError
+    from .runner import make_job
+
+    names = [r.name for r in case.run]
+    if run_name is not None:
+        r = next((x for x in case.run if x.name == run_name), None)
+        if r is None:
+            raise CaseError(f"[basins] run = {run_name!r}: no run of that name; allowed: {names}")
+        job = make_job(case, r, dict(r.model))
+        if not getattr(job.solver, "time_domain", False):
+            raise CaseError(f"[basins] run = {run_name!r}: method {job.solver.name!r} has no time history; "
+                            f"basins need a time-domain run (event, direct)")
+        return r.name, job
+    for r in case.run:
+        if getattr(r, "method", "") == "continuation":
+            continue
+        job = make_job(case, r, dict(r.model))
+        if getattr(job.solver, "time_domain", False):
+            return r.name, job
+    raise CaseError(f"[basins]: the case has no time-domain run (event, direct) among {names}; add one or "
+                    f"name it with [basins] run")
+
+
+def _cell_widths(step, model, d, axes: Axes, xs, ys, x_state, Omega):
+    """Cell widths: the grid's spacing in its two coordinates, 1 in the flag, and in every other
+    coordinate 1/200 of its range over 200 periods from three states of the box."""
+    w = np.full(d, np.nan)
+    w[axes.index[0]] = (xs[1] - xs[0]) / axes.factor[0] if len(xs) > 1 else abs(xs[0]) / 100 or 1e-6
+    w[axes.index[1]] = (ys[1] - ys[0]) / axes.factor[1] if len(ys) > 1 else abs(ys[0]) / 100 or 1e-6
+    n_mech = 2 * int(getattr(model, "n_modes", 1))
+    if d > n_mech:
+        w[n_mech:] = 1.0
+    rest = [i for i in range(n_mech) if not np.isfinite(w[i])]
+    if rest:
+        lo = np.full(d, np.inf)
+        hi = np.full(d, -np.inf)
+        for x in x_state:
+            X = step(np.asarray(x, float), 200)
+            if X is not None:
+                lo = np.minimum(lo, X.min(0))
+                hi = np.maximum(hi, X.max(0))
+        for i in rest:
+            span = hi[i] - lo[i]
+            w[i] = span / 200 if np.isfinite(span) and span > 0 else 1e-9
+    return w
+
+
+def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, progress: bool = False,
+            spec=None) -> BasinsResult:
+    """Basins of attraction (or the census of attractors) of a case (module docstring).
+
+    Parameters
+    ----------
+    case : vibeam.case.Case
+        With a ``[basins]`` table, or give ``spec``.
+    run : str, optional
+        The run whose model and solver are used (default: ``[basins] run``, else the first
+        time-domain run).
+    jobs : int or None
+        Workers of the local pool (1: in this process; None: all cores).
+    executor : concurrent.futures.Executor, optional
+        E.g. a dask.distributed client's executor (as the sweeps).
+    progress : bool
+        A progress bar of initial states.
+    spec : vibeam.case.BasinsSpec, optional
+        Replaces the case's ``[basins]``.
+
+    Returns
+    -------
+    BasinsResult
+
+    Raises
+    ------
+    vibeam.errors.CaseError
+        No ``[basins]``, no time-domain run, or a key that does not fit the scene (one line).
+    """
+    from .errors import CaseError
+    from .sweep import run_lines
+
+    spec = spec if spec is not None else case.basins
+    if spec is None:
+        raise CaseError(f"case {case.name}: no [basins] table (frequency_hz or Omega, grid or samples)")
+    name, job = _pick_solver(case, spec.run if run is None else run)
+    solver = job.solver
+    model = solver.model
+    fn = getattr(model, "natural_frequency_hz", None)
+    try:
+        Omegas = spec.frequencies(case.sweep, fn)
+        axes = axes_of(model, spec.coordinates)
+    except ValueError as e:
+        raise CaseError(str(e)) from None
+    d = state_size(solver)
+    grid = spec.samples is None
+    nx, ny = (spec.grid or [200, 200]) if grid else (0, 0)
+    rng = np.random.default_rng(spec.seed)
+    labels = np.zeros((len(Omegas), ny, nx) if grid else (len(Omegas), int(spec.samples or 0)), np.int64)
+    per_Omega = []
+    periods = np.zeros(len(Omegas), np.int64)
+    wall = np.zeros(len(Omegas))
+    xs = ys = np.zeros(0)
+    initial = np.zeros((0, 2))
+    for iO, Omega in enumerate(Omegas):
+        t0 = time.perf_counter()
+        r0 = default_ranges(model, axes, float(Omega))
+        xr = tuple(spec.x_range) if spec.x_range is not None else r0[0]
+        yr = tuple(spec.y_range) if spec.y_range is not None else r0[1]
+        if grid:
+            xs, ys = np.linspace(xr[0], xr[1], nx), np.linspace(yr[0], yr[1], ny)
+            pts = [np.column_stack([xs, np.full(nx, y)]) for y in ys]
+            wx, wy = xs[1] - xs[0], ys[1] - ys[0]
+        else:
+            if iO == 0:
+                initial = np.column_stack([rng.uniform(*xr, spec.samples), rng.uniform(*yr, spec.samples)])
+            per = max(1, int(math.ceil(len(initial) / 16)))
+            pts = [initial[k:k + per] for k in range(0, len(initial), per)]
+            wx, wy = (xr[1] - xr[0]) / 200, (yr[1] - yr[0]) / 200
+            xs, ys = np.array([xr[0], xr[0] + wx]), np.array([yr[0], yr[0] + wy])
+        base = np.asarray(model.initial_state(), float).copy()
+        base[:] = 0.0
+
+        def to_state(P):
+            S = np.repeat(base[None, :], len(P), 0)
+            S[:, axes.index[0]] = P[:, 0] / axes.factor[0]
+            S[:, axes.index[1]] = P[:, 1] / axes.factor[1]
+            return S
+
+        step = strobe(solver, float(Omega), d)
+        corners = to_state(np.array([[xr[0], yr[0]], [xr[1], yr[1]], [0.5 * (xr[0] + xr[1]), 0.0]]))
+        width = _cell_widths(step, model, d, axes, xs, ys, corners, Omega)
+        origin = np.zeros(d)
+        origin[axes.index[0]] = xs[0] / axes.factor[0] - 0.5 * width[axes.index[0]]
+        origin[axes.index[1]] = ys[0] / axes.factor[1] - 0.5 * width[axes.index[1]]
+        n_mech = 2 * int(getattr(model, "n_modes", 1))
+        origin[n_mech:] = -0.5
+        recurrence = dict(origin=origin, width=width, n_found=spec.recurrences, n_locate=spec.locate_periods,
+                          n_hit_attractor=spec.hit_attractor, n_hit_basin=spec.hit_basin,
+                          max_periods=spec.max_periods, basin_hits=spec.basin_hits)
+        token = f"{case.name}/{name}/{float(Omega)!r}/{os.getpid()}/{time.time_ns()}"
+        lines = [BasinLine(key=f"{iO:04d}-{k:04d}", run=name, token=token, solver=solver, Omega=float(Omega),
+                           states=to_state(P), recurrence=recurrence) for k, P in enumerate(pts)]
+        res = run_lines(lines, executor=executor, jobs=jobs, progress=progress,
+                        desc=f"basins {case.name} Omega={float(Omega):.4g}")
+        sets = {}
+        for l in lines:
+            sets.update(res[(l.run, l.key)][0]["attractors"])
+        groups, mapping = merge_attractors(sets, width)
+        flat = []
+        for l in lines:
+            row = res[(l.run, l.key)][0]
+            pid = row["pid"]
+            flat.append(np.array([mapping[f"{pid}-{k}"] if k >= 0 else k for k in row["labels"]], np.int64))
+            periods[iO] += row["periods"]
+        lab = np.concatenate(flat)
+        labels[iO] = lab.reshape(ny, nx) if grid else lab
+        desc = [describe_attractor(solver, X, float(Omega), float(model.Delta), spec.record_periods,
+                                   spec.lyapunov_periods, case.sweep.period_rtol) for X in groups]
+        for k, dsc in enumerate(desc):
+            dsc["samples"] = groups[k]
+            dsc["fraction"] = float(np.mean(lab == k))
+            dsc["fraction_se"] = math.sqrt(dsc["fraction"] * (1 - dsc["fraction"]) / lab.size)
+        per_Omega.append((desc, width))
+        wall[iO] = time.perf_counter() - t0
+    attractors = _track(per_Omega, labels)
+    L = getattr(model, "length_m", None)
+    return BasinsResult(name=name, Omega=np.asarray(Omegas, float), frequency_hz=np.asarray(Omegas) * fn if fn else None,
+                        axes=axes, x=xs if grid else np.zeros(0), y=ys if grid else np.zeros(0), labels=labels,
+                        initial=initial, attractors=attractors, periods=periods, wall_time_s=wall,
+                        amplitude_scale_mm=L * 1e3 if L else None,
+                        time_scale_s=1.0 / (2 * math.pi * fn) if fn else None,
+                        settings=spec.model_dump(),
+                        stop=float(model.Delta) * axes.factor[0] if axes.names[0] in ("q", "U") else None)
+
+
+def _track(per_Omega: list, labels: np.ndarray) -> dict:
+    """Attractors matched from one frequency to the next by their stroboscopic sets (nearest
+    first, within 10 cells plus twice the sets' spread), relabelling ``labels`` in place to the
+    matched indices; arrays over (n_Omega, n_attractors) (module docstring of
+    :class:`BasinsResult`)."""
+    tracks: list = []      # per track: last set and width
+    index_of: list = []    # per Omega: local -> track
+    for desc, width in per_Omega:
+        cand = []
+        for k, dsc in enumerate(desc):
+            X = dsc["samples"]
+            sx = _spread(X / width)
+            for t, (Y, sy) in enumerate(tracks):
+                dist = set_distance(X, Y, width)
+                if dist <= 10.0 + 2.0 * max(sx, sy) and dsc is not None:
+                    cand.append((dist, k, t))
+        cand.sort()
+        local: dict = {}
+        used = set()
+        for dist, k, t in cand:
+            if k in local or t in used:
+                continue
+            local[k] = t
+            used.add(t)
+        for k, dsc in enumerate(desc):
+            if k not in local:
+                local[k] = len(tracks)
+                tracks.append(None)
+            tracks[local[k]] = (dsc["samples"], _spread(dsc["samples"] / width))
+        index_of.append(local)
+    nO, nA = len(per_Omega), len(tracks)
+    d = max((dsc["samples"].shape[1] for desc, _ in per_Omega for dsc in desc), default=1)
+    dl = max((dsc["lyapunov"].size for desc, _ in per_Omega for dsc in desc), default=1)
+    m = max((dsc["samples"].shape[0] for desc, _ in per_Omega for dsc in desc), default=0)
+    out = dict(type=[[""] * nA for _ in range(nO)], period=np.zeros((nO, nA), np.int64),
+               amplitude=np.full((nO, nA), np.nan), amplitude_min=np.full((nO, nA), np.nan),
+               amplitude_max=np.full((nO, nA), np.nan), stable=np.full((nO, nA), -1, np.int64),
+               impacts_per_period=np.full((nO, nA), np.nan), lyapunov_impacts_per_period=np.full((nO, nA), np.nan),
+               fraction=np.zeros((nO, nA)), fraction_se=np.zeros((nO, nA)),
+               lyapunov=np.full((nO, nA, dl), np.nan), lyapunov_error=np.full((nO, nA, dl), np.nan),
+               fixed_point=np.full((nO, nA, d), np.nan), samples=np.full((nO, nA, m, d), np.nan),
+               message=[[""] * nA for _ in range(nO)])
+    for iO, ((desc, _), local) in enumerate(zip(per_Omega, index_of)):
+        lab = labels[iO]
+        new = lab.copy()
+        for k, dsc in enumerate(desc):
+            t = local[k]
+            new[lab == k] = t
+            out["type"][iO][t] = dsc["type"]
+            out["message"][iO][t] = dsc["message"]
+            for key in ("period", "amplitude", "amplitude_min", "amplitude_max", "stable", "fraction",
+                        "fraction_se", "impacts_per_period", "lyapunov_impacts_per_period"):
+                out[key][iO, t] = dsc[key]
+            out["lyapunov"][iO, t, :dsc["lyapunov"].size] = dsc["lyapunov"]
+            out["lyapunov_error"][iO, t, :dsc["lyapunov"].size] = dsc["lyapunov_error"]
+            out["fixed_point"][iO, t, :dsc["fixed_point"].size] = dsc["fixed_point"]
+            S = dsc["samples"]
+            out["samples"][iO, t, :S.shape[0], :S.shape[1]] = S
+        labels[iO] = new
+    return out
+
+
+# ---------------------------------------------------------------------------- file and plots
+def basins_variables(r: BasinsResult) -> dict:
+    """The netCDF variables of ``/basins/<run>/`` (names and units of the module docstring)."""
+    from .netcdf import var
+
+    out = {"Omega": var(("Omega",), r.Omega, "1", "forcing frequency over the natural frequency")}
+    if r.frequency_hz is not None:
+        out["frequency_hz"] = var(("Omega",), r.frequency_hz, "Hz", "forcing frequency", aux=True)
+    ax = r.axes
+    if r.grid:
+        out["state_1"] = var(("state_1",), r.x, ax.units[0], f"initial {ax.names[0]}")
+        out["state_2"] = var(("state_2",), r.y, ax.units[1], f"initial {ax.names[1]}")
+        out["basin"] = var(("Omega", "state_2", "state_1"), r.labels.astype(np.int32), None,
+                           "attractor reached (-2 unsettled, -3 failed)")
+    else:
+        out["initial_state_1"] = var(("sample",), r.initial[:, 0], ax.units[0], f"initial {ax.names[0]}")
+        out["initial_state_2"] = var(("sample",), r.initial[:, 1], ax.units[1], f"initial {ax.names[1]}")
+        out["label"] = var(("Omega", "sample"), r.labels.astype(np.int32), None,
+                           "attractor reached (-2 unsettled, -3 failed)")
+    a = r.attractors
+    nA = r.n_attractors
+    out["attractor"] = var(("attractor",), np.arange(nA, dtype=np.int32), None, "attractor index")
+    out["attractor_type"] = var(("Omega", "attractor"), np.array(a["type"], dtype=object).reshape(len(r.Omega), nA),
+                                None, "period, sticking, chaotic, quasi_periodic, non_periodic (empty: absent)")
+    out["attractor_period"] = var(("Omega", "attractor"), a["period"].astype(np.int32), None,
+                                  "period n of a periodic attractor (0: not periodic)")
+    mm = r.amplitude_scale_mm
+    for k in ("amplitude", "amplitude_min", "amplitude_max"):
+        if mm:
+            out[f"attractor_{k}_mm"] = var(("Omega", "attractor"), a[k] * mm, "mm", f"attractor {k} Q at the sensor")
+        else:
+            out[f"attractor_{k}"] = var(("Omega", "attractor"), a[k], "1", f"attractor {k} Q = Delta - min q")
+    out["attractor_stable"] = var(("Omega", "attractor"), a["stable"].astype(np.int8), None,
+                                  "shooting-refined orbit stable (1), unstable (0), not refined (-1)")
+    out["impacts_per_period"] = var(("Omega", "attractor"), a["impacts_per_period"], "1", "impacts per period")
+    out["lyapunov_impacts_per_period"] = var(("Omega", "attractor"), a["lyapunov_impacts_per_period"], "1",
+                                             "impacts per period over the Lyapunov record")
+    out["basin_fraction"] = var(("Omega", "attractor"), a["fraction"], "1", "fraction of the initial states")
+    out["basin_fraction_se"] = var(("Omega", "attractor"), a["fraction_se"], "1",
+                                   "binomial standard error of basin_fraction")
+    lam, err = a["lyapunov"], a["lyapunov_error"]
+    unit = "1"
+    if r.time_scale_s:
+        lam, err, unit = lam / r.time_scale_s, err / r.time_scale_s, "1/s"
+    out["lyapunov"] = var(("Omega", "attractor", "exponent"), lam, unit, "Lyapunov spectrum of the stroboscopic map")
+    out["lyapunov_error"] = var(("Omega", "attractor", "exponent"), err, unit, "half the halves' difference")
+    out["attractor_samples"] = var(("Omega", "attractor", "strobe_sample", "coordinate"), a["samples"], "1",
+                                   "stroboscopic set (model state, NaN padded)")
+    out["attractor_fixed_point"] = var(("Omega", "attractor", "coordinate"), a["fixed_point"], "1",
+                                       "shooting-refined fixed point of P^n (NaN: not refined)")
+    out["attractor_message"] = var(("Omega", "attractor"), np.array(a["message"], dtype=object).reshape(len(r.Omega), nA))
+    lab = r.labels.reshape(len(r.Omega), -1)
+    out["unsettled_fraction"] = var(("Omega",), np.mean(lab == UNSETTLED, axis=1), "1", "states not settled")
+    out["failed_fraction"] = var(("Omega",), np.mean(lab == FAILED, axis=1), "1", "states the solver failed on")
+    out["periods"] = var(("Omega",), r.periods, "1", "stroboscopic-map iterations spent")
+    out["wall_time_s"] = var(("Omega",), r.wall_time_s, "s", "wall time")
+    return out
+
+
+def write_basins(path, results: list, case_name: str = "", case_text: str = ""):
+    """Write each result to ``/basins/<run>/`` of ``path`` (atomically; the file's other groups kept)."""
+    import json
+
+    from .netcdf import json_default, write_group
+    from .results import replace_group
+
+    for r in results:
+        attrs = {"run": r.name, "coordinates": json.dumps(list(r.axes.names)),
+                 "settings": json.dumps(r.settings, default=json_default), "kind": "grid" if r.grid else "census"}
+        path = replace_group(path, f"basins/{r.name}",
+                             lambda f, r=r, attrs=attrs: write_group(f, f"basins/{r.name}", basins_variables(r), attrs),
+                             case_name, case_text)
+    return path
+
+
+def read_basins(path, run: str):
+    """``/basins/<run>/`` of a results file as an :class:`xarray.Dataset`."""
+    import xarray as xr
+
+    with xr.open_dataset(path, group=f"basins/{run}", engine="h5netcdf") as ds:
+        return ds.load()
+
+
+def _legend_text(r: BasinsResult, i: int, k: int) -> str:
+    a = r.attractors
+    t = a["type"][i][k]
+    n = int(a["period"][i, k])
+    name = {"period": f"period-{n}", "sticking": f"sticking (period {n})" if n else "sticking"}.get(t, t.replace("_", "-"))
+    amp = a["amplitude"][i, k] * (r.amplitude_scale_mm or 1.0)
+    unit = " mm" if r.amplitude_scale_mm else ""
+    return f"{k}: {name}, Q = {amp:.3g}{unit}, {100 * a['fraction'][i, k]:.1f} %"
+
+
+def basins_figure(r: BasinsResult, i: int = 0, title: str = ""):
+    """The basin image at frequency ``i``: one colour per attractor, unsettled/failed grey,
+    each attractor's stroboscopic set drawn over it, the stop's position marked (SDOF)."""
+    with context():
+        return _basins_figure(r, i, title)
+
+
+def _basins_figure(r, i, title):
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    fig, ax = plt.subplots(figsize=(6.4, 5.0))
+    nA = r.n_attractors
+    present = [k for k in range(nA) if r.attractors["type"][i][k]]
+    colours = ["0.55", "0.8"] + [PALETTE[k % len(PALETTE)] for k in range(nA)]
+    img = r.labels[i] + 3 if r.grid else None
+    handles = []
+    a0, a1 = r.axes.index
+    f0, f1 = r.axes.factor
+    if r.grid:
+        ax.imshow(img, origin="lower", aspect="auto", interpolation="nearest",
+                  extent=(r.x[0] - 0.5 * (r.x[1] - r.x[0]), r.x[-1] + 0.5 * (r.x[1] - r.x[0]),
+                          r.y[0] - 0.5 * (r.y[1] - r.y[0]), r.y[-1] + 0.5 * (r.y[1] - r.y[0])),
+                  cmap=ListedColormap(colours[:1] + colours[1:2] + ["white"] + colours[2:]),
+                  vmin=-0.5, vmax=len(colours) + 0.5)
+    else:
+        lab = r.labels[i]
+        ax.scatter(r.initial[:, 0], r.initial[:, 1], s=6, c=[colours[l + 2] if l >= 0 else colours[0 if l == FAILED else 1]
+                                                          for l in lab], linewidths=0)
+    for k in present:
+        S = r.attractors["samples"][i, k]
+        S = S[np.isfinite(S[:, 0])]
+        ax.plot(S[:, a0] * f0, S[:, a1] * f1, ".", ms=1.5, color="k")
+        handles.append(Patch(color=colours[k + 2], label=_legend_text(r, i, k)))
+    lab = r.labels[i]
+    for code, c in ((UNSETTLED, colours[1]), (FAILED, colours[0])):
+        if np.any(lab == code):
+            handles.append(Patch(color=c, label=f"{LABELS[code]}, {100 * np.mean(lab == code):.1f} %"))
+    if r.stop is not None:
+        ax.axvline(r.stop, color="k", lw=0.8, ls="--")
+        handles.append(Line2D([], [], color="k", lw=0.8, ls="--", label="stop"))
+    ax.set_xlabel(r.axes.labels[0])
+    ax.set_ylabel(r.axes.labels[1])
+    f = f"{r.frequency_hz[i]:.4g} Hz" if r.frequency_hz is not None else rf"$\Omega$ = {r.Omega[i]:.4g}"
+    ax.set_title(title or f"basins of attraction at {f} (run {r.name})")
+    if handles:
+        legend_outside(fig, handles, loc="outside lower center", ncol=1)
+    return fig
+
+
+def census_figure(r: BasinsResult, title: str = ""):
+    """Basin fractions as a stacked area over the frequency, and each attractor's amplitude."""
+    import matplotlib.pyplot as plt
+
+    with context():
+        x = r.frequency_hz if r.frequency_hz is not None else r.Omega
+        fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(6.4, 6.0))
+        _census_axes(r, x, a1, a2, title)
+        return fig
+
+
+def _census_axes(r, x, a1, a2, title):
+    fr = r.attractors["fraction"]
+    a1.stackplot(x, fr.T, colors=[PALETTE[k % len(PALETTE)] for k in range(fr.shape[1])],
+                 labels=[f"attractor {k}" for k in range(fr.shape[1])])
+    a1.set_ylim(0, 1)
+    amp = r.attractors["amplitude"] * (r.amplitude_scale_mm or 1.0)
+    for k in range(amp.shape[1]):
+        a2.plot(x, amp[:, k], "o-", ms=3, color=PALETTE[k % len(PALETTE)], label=f"attractor {k}")
+    a2.set_ylabel("amplitude Q (mm)" if r.amplitude_scale_mm else f"amplitude Q ({NODIM})")
+    a2.set_xlabel("frequency (Hz)" if r.frequency_hz is not None else rf"$\Omega$ ({NODIM})")
+    a1.set_ylabel(f"basin fraction ({NODIM})")
+    a1.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    a1.set_title(title or f"attractors along the frequency (run {r.name})")
+
+
+def plot_basins(r: BasinsResult, out_dir, title: str = "") -> list:
+    """Write ``basins_<run>[_<i>].png`` (and ``census_<run>.png`` for several frequencies)."""
+    from pathlib import Path
+
+    import matplotlib.pyplot as plt
+
+    from .runner import file_stem
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    stem = file_stem(r.name)
+    for i in range(len(r.Omega)):
+        fig = basins_figure(r, i, title)
+        p = out_dir / (f"basins_{stem}.png" if len(r.Omega) == 1 else f"basins_{stem}_{i:03d}.png")
+        fig.savefig(p, dpi=120)
+        plt.close(fig)
+        paths.append(p)
+    if len(r.Omega) > 1:
+        fig = census_figure(r, title)
+        p = out_dir / f"census_{stem}.png"
+        fig.savefig(p, dpi=120)
+        plt.close(fig)
+        paths.append(p)
+    return paths
+
+
+def print_basins(r: BasinsResult) -> None:
+    """One line per attractor and frequency."""
+    for i, W in enumerate(r.Omega):
+        f = f"{r.frequency_hz[i]:.4g} Hz" if r.frequency_hz is not None else f"Omega = {W:.4g}"
+        lab = r.labels[i]
+        print(f"basins of run {r.name} at {f}: {lab.size} initial states, {int(r.periods[i])} periods, "
+              f"{r.wall_time_s[i]:.2f} s")
+        for k in range(r.n_attractors):
+            if r.attractors["type"][i][k]:
+                lam = r.attractors["lyapunov"][i, k, 0]
+                if r.time_scale_s:
+                    lam = lam / r.time_scale_s
+                print(f"  {_legend_text(r, i, k)} (+- {100 * r.attractors['fraction_se'][i, k]:.1f} %), "
+                      f"lambda_1 = {lam:.4g}{' 1/s' if r.time_scale_s else ''}")
+        for code in (UNSETTLED, FAILED):
+            if np.any(lab == code):
+                print(f"  {LABELS[code]}: {100 * np.mean(lab == code):.1f} %")
