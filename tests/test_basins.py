@@ -165,7 +165,9 @@ def test_basins_are_written_and_read_back(tmp_path, tight):
     from vibeam.results import replace_group
 
     h5 = tmp_path / "results.h5"
-    replace_group(h5, "other", lambda f: f.create_group("other").create_dataset("x", data=[1.0]))
+    from vibeam.netcdf import var, write_group
+
+    replace_group(h5, "other", lambda f: write_group(f, "other", {"x": var(("x",), [1.0], "1", "a value")}))
     write_basins(h5, [tight], "rig-tight", "")
     write_basins(h5, [tight], "rig-tight", "")
     ds = read_basins(h5, tight.name)
@@ -269,3 +271,50 @@ def test_the_cli_writes_basins_and_a_plot(tmp_path):
     assert (tmp_path / "basins_exact.png").is_file()
     ds = read_basins(tmp_path / "results.h5", "exact")
     assert ds["basin"].shape == (1, 12, 12)
+
+
+def test_the_one_mode_beam_has_the_basins_of_its_sdof():
+    """The static-mode beam of rig-fe-tight and the SDOF of its derived parameters (paper Eqs.
+    39-47; tests/test_beam_dynamics.py shows their trajectories equal to 1e-9) at the same
+    physical frequency and over the same box of initial states (beam: ``eta = q L / s``,
+    ``eta' = q' L / s x f_n / f_ref``): the same attractors, every label equal (measured: all
+    900), fractions equal, amplitudes to 1e-9 relative."""
+    from vibeam.beamscene import derive
+    from vibeam.models.system import from_beam
+
+    case = vibeam.api.load_case("cases/rig-fe-tight.toml")
+    spec = case.model_spec({"n_modes": "static"})
+    beam = spec.build()
+    red = derive(spec)["reduction"]
+    f = 16.5 * red.f_n_hz / 7.6          # where this SDOF has two attractors (rig-tight's 16.5 Hz)
+    sd = {"name": "s", "model": {"fidelity": "sdof", "beta": red.beta_S, "B": red.gamma_per_V * spec.voltage,
+                                 "R": spec.R, "Delta": red.Delta},
+          "sweep": {"Omega": [2.0, 2.4, 3]}, "run": [{"name": "exact", "method": "event"}]}
+    a = vibeam.basins(sd, Omega=f / red.f_n_hz, grid=(30, 30), lyapunov_periods=0)
+    k = beam.length_m / from_beam(beam).sensor[0]
+    wr = red.f_n_hz / beam.f_ref_hz
+    b = vibeam.basins(case, run="static mode (SDOF)", frequency_hz=f, grid=(30, 30), lyapunov_periods=0,
+                      x_range=[a.x[0] * k, a.x[-1] * k], y_range=[a.y[0] * k * wr, a.y[-1] * k * wr])
+    assert sorted(a.attractors["type"][0]) == ["period", "sticking"]
+    assert a.attractors["type"] == b.attractors["type"]
+    assert np.array_equal(a.attractors["period"], b.attractors["period"])
+    assert np.array_equal(a.labels, b.labels)
+    np.testing.assert_allclose(b.attractors["amplitude"], a.attractors["amplitude"], rtol=1e-9)
+
+
+def test_vibeam_run_computes_the_cases_basins(tmp_path):
+    """rig-tight ships a [basins] table: `vibeam run --quick` writes /basins/exact (40 x 40) beside
+    /runs and the basin plot."""
+    from vibeam.cli import main
+
+    assert main(["run", "cases/rig-tight.toml", "--quick", "--jobs", "1", "--quiet", "--out", str(tmp_path)]) == 0
+    from vibeam.testing import check_labelled
+
+    check_labelled(tmp_path / "results.h5")       # every variable with long_name and units
+    ds = read_basins(tmp_path / "results.h5", "exact")
+    assert ds["basin"].shape == (1, 40, 40)
+    assert sorted(ds["attractor_type"].values[0]) == ["period", "sticking"]
+    assert (tmp_path / "basins_exact.png").is_file()
+    from vibeam.results import read_results
+
+    assert "exact" in read_results(tmp_path / "results.h5")["runs"]

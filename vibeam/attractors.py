@@ -212,8 +212,9 @@ def axes_of(model, coordinates=None) -> Axes:
 def default_ranges(model, axes: Axes, Omega: float) -> tuple:
     """A box around the stop holding the attractors of a usual scene: for the SDOF ``q`` over
     ``[Delta - 8 A, Delta]``, ``q'`` over ``[-8 A Omega, 8 A Omega]`` with ``A = max(|Delta|,
-    X)`` (``X`` the linear response amplitude without the stop); for a beam's modal pair the
-    same scale from the first mode's linear response."""
+    X)`` (``X`` the linear response amplitude without the stop); for a beam's modal coordinate
+    the same with the mode's own ``X`` and the value at which it alone closes the gap at the
+    contact row."""
     B = float(getattr(model, "B", 0.0) or 0.0)
     beta = float(getattr(model, "beta", 0.0) or 0.0)
     Delta = float(model.Delta)
@@ -221,15 +222,22 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
         from .models.system import from_beam
 
         s = from_beam(model)
-        i = axes.index[0] % s.omega.size
-        w, c, G = float(s.omega[i]), float(s.damping[i]), float(s.participation[i])
-        X = abs(G) * Omega ** 2 * s.base_amplitude / math.hypot(w * w - Omega ** 2, c * Omega)
-        gap = abs(Delta) / max(abs(float(s.sensor[i])), 1e-300) * s.coordinate_scale if Delta else 0.0
-        A = max(X, gap, 1e-12)
+        n = s.omega.size
         rng = []
         for c_ in axes.index:
-            vel = c_ >= s.omega.size
-            rng.append((-8 * A * (Omega if vel else 1.0), 8 * A * (Omega if vel else 1.0)))
+            i, vel = c_ % n, c_ >= n
+            w, c, G = float(s.omega[i]), float(s.damping[i]), float(s.participation[i])
+            X = abs(G) * Omega ** 2 * s.base_amplitude / math.hypot(w * w - Omega ** 2, c * Omega)
+            wc = float(s.contacts[0, i])
+            stop = float(model.gap_contact_m) / wc if wc != 0.0 else math.nan
+            A = max(X, abs(stop) if math.isfinite(stop) else 0.0, 1e-300)
+            if vel:
+                rng.append((-8 * A * Omega, 8 * A * Omega))
+            elif math.isfinite(stop):
+                # the admissible side of the stop: the mode's contact-row entry sets it
+                rng.append((stop - 8 * A, stop) if wc > 0 else (stop, stop + 8 * A))
+            else:
+                rng.append((-8 * A, 8 * A))
         return tuple(rng)
     X = Omega ** 2 * B / max(math.hypot(1 - Omega ** 2, 2 * beta * Omega), 1e-300)
     A = max(abs(Delta), X, 1e-12)
@@ -635,19 +643,19 @@ def basins_variables(r: BasinsResult) -> dict:
     if r.grid:
         out["state_1"] = var(("state_1",), r.x, ax.units[0], f"initial {ax.names[0]}")
         out["state_2"] = var(("state_2",), r.y, ax.units[1], f"initial {ax.names[1]}")
-        out["basin"] = var(("Omega", "state_2", "state_1"), r.labels.astype(np.int32), None,
+        out["basin"] = var(("Omega", "state_2", "state_1"), r.labels.astype(np.int32), "1",
                            "attractor reached (-2 unsettled, -3 failed)")
     else:
         out["initial_state_1"] = var(("sample",), r.initial[:, 0], ax.units[0], f"initial {ax.names[0]}")
         out["initial_state_2"] = var(("sample",), r.initial[:, 1], ax.units[1], f"initial {ax.names[1]}")
-        out["label"] = var(("Omega", "sample"), r.labels.astype(np.int32), None,
+        out["label"] = var(("Omega", "sample"), r.labels.astype(np.int32), "1",
                            "attractor reached (-2 unsettled, -3 failed)")
     a = r.attractors
     nA = r.n_attractors
-    out["attractor"] = var(("attractor",), np.arange(nA, dtype=np.int32), None, "attractor index")
+    out["attractor"] = var(("attractor",), np.arange(nA, dtype=np.int32), "1", "attractor index")
     out["attractor_type"] = var(("Omega", "attractor"), np.array(a["type"], dtype=object).reshape(len(r.Omega), nA),
                                 None, "period, sticking, chaotic, quasi_periodic, non_periodic (empty: absent)")
-    out["attractor_period"] = var(("Omega", "attractor"), a["period"].astype(np.int32), None,
+    out["attractor_period"] = var(("Omega", "attractor"), a["period"].astype(np.int32), "1",
                                   "period n of a periodic attractor (0: not periodic)")
     mm = r.amplitude_scale_mm
     for k in ("amplitude", "amplitude_min", "amplitude_max"):
@@ -655,7 +663,7 @@ def basins_variables(r: BasinsResult) -> dict:
             out[f"attractor_{k}_mm"] = var(("Omega", "attractor"), a[k] * mm, "mm", f"attractor {k} Q at the sensor")
         else:
             out[f"attractor_{k}"] = var(("Omega", "attractor"), a[k], "1", f"attractor {k} Q = Delta - min q")
-    out["attractor_stable"] = var(("Omega", "attractor"), a["stable"].astype(np.int8), None,
+    out["attractor_stable"] = var(("Omega", "attractor"), a["stable"].astype(np.int8), "1",
                                   "shooting-refined orbit stable (1), unstable (0), not refined (-1)")
     out["impacts_per_period"] = var(("Omega", "attractor"), a["impacts_per_period"], "1", "impacts per period")
     out["lyapunov_impacts_per_period"] = var(("Omega", "attractor"), a["lyapunov_impacts_per_period"], "1",
@@ -673,7 +681,8 @@ def basins_variables(r: BasinsResult) -> dict:
                                    "stroboscopic set (model state, NaN padded)")
     out["attractor_fixed_point"] = var(("Omega", "attractor", "coordinate"), a["fixed_point"], "1",
                                        "shooting-refined fixed point of P^n (NaN: not refined)")
-    out["attractor_message"] = var(("Omega", "attractor"), np.array(a["message"], dtype=object).reshape(len(r.Omega), nA))
+    out["attractor_message"] = var(("Omega", "attractor"), np.array(a["message"], dtype=object).reshape(len(r.Omega), nA),
+                                   None, "what the description of the attractor met (solver, shooting)")
     lab = r.labels.reshape(len(r.Omega), -1)
     out["unsettled_fraction"] = var(("Omega",), np.mean(lab == UNSETTLED, axis=1), "1", "states not settled")
     out["failed_fraction"] = var(("Omega",), np.mean(lab == FAILED, axis=1), "1", "states the solver failed on")
