@@ -145,3 +145,32 @@ def lyapunov_spectrum(problem, x0, p: float, shots: int, transient: int = 0, n: 
     err[~np.isfinite(err)] = 0.0
     order = np.argsort(-lam, kind="stable")
     return LyapunovSpectrum(lam[order], err[order], "ok", "", shots, n, total, impacts, x)
+
+
+def classify_spectrum(exponents, error, periodic: bool = False, floor: float = 1e-6) -> str:
+    """The class of an attractor from its Lyapunov spectrum (issue 21).
+
+    ``"periodic"`` when the orbit is known to be periodic; else ``"chaotic"`` when ``lambda_1 >
+    max(3 e_1, floor)``; ``"quasi_periodic"`` when ``|lambda_1| <= max(3 e_1, floor)`` and (with
+    two or more exponents) ``lambda_2 < -max(3 e_2, floor)``; ``"non_periodic"`` otherwise (e.g.
+    ``lambda_1 < 0`` on a record that does not repeat within the period test: a long period or a
+    slow transient), and ``""`` when the exponents are not finite numbers (not computed).  ``e_i``
+    are the error estimates of :class:`LyapunovSpectrum` (same units as the exponents); ``floor``
+    keeps a round-off-sized exponent from being called chaotic.
+    """
+    if periodic:
+        return "periodic"
+    lam = np.asarray(exponents, float)
+    err = np.asarray(error, float)
+    if lam.size == 0 or not np.isfinite(lam[0]) or not np.isfinite(err[0]):
+        return ""
+    t1 = max(3.0 * float(err[0]), floor)
+    if lam[0] > t1:
+        return "chaotic"
+    if abs(lam[0]) <= t1:
+        if lam.size < 2:
+            return "quasi_periodic"
+        t2 = max(3.0 * float(err[1]) if np.isfinite(err[1]) else 0.0, floor)
+        if lam[1] < -t2:
+            return "quasi_periodic"
+    return "non_periodic"

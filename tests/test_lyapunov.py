@@ -198,3 +198,24 @@ def test_a_sweep_stores_each_points_spectrum_in_the_results_file(tmp_path):
     assert float(lam.sel(Omega=2.30)[0]) < 0.0
     chaos = ds.sel(direction="up", Omega=2.38)
     assert float(chaos["lyapunov"][0]) > 2 * float(chaos["lyapunov_error"][0]) > 0.0
+    # the classes of the spectrum (vibeam.models.lyapunov.classify_spectrum): the period-4 point
+    # is periodic, the point at 2.38 chaotic (lambda_1 beyond 3 errors here: 0.0148 +- 0.0003)
+    assert str(p4["lyapunov_class"].values) == "periodic"
+    assert str(chaos["lyapunov_class"].values) == "chaotic"
+
+
+def test_the_spectrum_classes_and_the_map_classes():
+    """classify_spectrum: chaotic beyond 3 errors, quasi-periodic at 0 within them with lambda_2
+    below, non-periodic otherwise, empty when not computed; maps.classify turns the non-periodic
+    points (and only them) into CHAOTIC and QUASI_PERIODIC."""
+    from vibeam.maps import CHAOTIC, NON_PERIODIC, PERIOD_1, QUASI_PERIODIC, classify
+    from vibeam.models.lyapunov import classify_spectrum
+
+    assert classify_spectrum([0.01, -0.2], [0.001, 0.001]) == "chaotic"
+    assert classify_spectrum([0.002, -0.2], [0.001, 0.001]) == "quasi_periodic"
+    assert classify_spectrum([1e-12, -1e-12], [0.0, 0.0]) == "non_periodic"     # lambda_2 not below
+    assert classify_spectrum([-0.05, -0.2], [0.001, 0.001]) == "non_periodic"
+    assert classify_spectrum([-0.05, -0.2], [0.001, 0.001], periodic=True) == "periodic"
+    assert classify_spectrum([np.nan, np.nan], [np.nan, np.nan]) == ""
+    c = classify([1, 0, 0, 0], ["ok"] * 4, ["chaotic", "chaotic", "quasi_periodic", ""])
+    assert list(c) == [PERIOD_1, CHAOTIC, QUASI_PERIODIC, NON_PERIODIC]

@@ -339,7 +339,7 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
     stroboscopic set is ``X`` (shape (m, d); its last sample is on it)."""
     from .models import shooting_problem
     from .models.continuation import start_point
-    from .models.lyapunov import lyapunov_spectrum
+    from .models.lyapunov import classify_spectrum, lyapunov_spectrum
     from .records import summarize
 
     x = np.asarray(X[-1], float)
@@ -379,17 +379,10 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
         if sp.status == "ok":
             out["lyapunov"], out["lyapunov_error"] = sp.exponents, sp.error
             out["lyapunov_impacts_per_period"] = sp.impacts / max(sp.shots * sp.periods_per_shot, 1)
-    lam = out["lyapunov"][0]
-    err = out["lyapunov_error"][0]
     if periodic:
         out["type"] = "sticking" if stuck else "period"
-    elif np.isfinite(lam) and lam > max(3.0 * err, 1e-6):
-        out["type"] = "chaotic"
-    elif np.isfinite(lam) and abs(lam) <= max(3.0 * err, 1e-6) and \
-            (out["lyapunov"].size < 2 or out["lyapunov"][1] < -max(3.0 * out["lyapunov_error"][1], 1e-6)):
-        out["type"] = "quasi_periodic"
     else:
-        out["type"] = "non_periodic"
+        out["type"] = classify_spectrum(out["lyapunov"], out["lyapunov_error"]) or "non_periodic"
     return out
 
 

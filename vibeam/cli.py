@@ -547,7 +547,7 @@ def main(argv=None) -> int:
                        description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
                        "atol 1e-8) on the Fig. 7 scene, inline, with the goals: event sweep under 1 s, >= 300x "
                        "faster, >= 1000x smaller error.  The other modes (--cli, --map, --scaling, --effects, "
-                       "--shooting, --continuation, --fit, --latency, --compile) replace it.")
+                       "--shooting, --continuation, --fit, --latency, --compile, --basins) replace it.")
     p.add_argument("--points", type=_int_at_least(1), default=101,
                    help="frequencies of the Fig. 7 sweep (default 101)")
     p.add_argument("--periods", type=_int_at_least(65), default=500,
@@ -584,7 +584,10 @@ def main(argv=None) -> int:
                         "the first SDOF `vibeam continue` (inline, and on a pool of 2), cold (empty cache) and "
                         "warm, per specialisation, in fresh processes (goals: quick start <= 5 s; pool workers "
                         "and warm runs compile nothing)")
-    p.add_argument("--jobs", type=jobs_option, default=None, help="workers of --fit (default 2)")
+    p.add_argument("--basins", action="store_true",
+                   help="instead: a 200 x 200 SDOF basin of the tight rig at 16.5 Hz (goal < 20 s on 2 cores), "
+                        "basin hits against full trajectories, and a 50 x 50 basin of the 4-mode FE rig")
+    p.add_argument("--jobs", type=jobs_option, default=None, help="workers of --fit and --basins (default 2)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     args = ap.parse_args(argv)
     return _dispatch(args)

@@ -17,18 +17,22 @@ import numpy as np
 from .sweep import MM_KEYS, Sweep, stack
 
 # classification codes of a map point (dataset ``classification``)
-NO_IMPACT, PERIOD_1, PERIOD_2, PERIOD_N, NON_PERIODIC, FAILED, HELD = range(7)
+NO_IMPACT, PERIOD_1, PERIOD_2, PERIOD_N, NON_PERIODIC, FAILED, HELD, CHAOTIC, QUASI_PERIODIC = range(9)
 CLASSES = {NO_IMPACT: "no impact", PERIOD_1: "period-1", PERIOD_2: "period-2",
            PERIOD_N: "period-n (3 <= n <= 8)", NON_PERIODIC: "non-periodic", FAILED: "failed",
-           HELD: "held on the stop"}
+           HELD: "held on the stop", CHAOTIC: "chaotic (lambda_1 > 0)",
+           QUASI_PERIODIC: "quasi-periodic (lambda_1 = 0)"}
 # no impact light grey, period-1 blue, period-2 vermillion, period-n orange, non-periodic reddish purple
 # (never the white background), failed black, held on the stop dark grey (Okabe-Ito hues)
-CLASS_COLOURS = ("#DDDDDD", "#0072B2", "#D55E00", "#E69F00", "#CC79A7", "#000000", "#777777")
+# chaotic wine, quasi-periodic teal (Tol's muted scheme): the non-periodic points whose Lyapunov
+# spectrum was computed ([sweep] lyapunov = true)
+CLASS_COLOURS = ("#DDDDDD", "#0072B2", "#D55E00", "#E69F00", "#CC79A7", "#000000", "#777777", "#882255",
+                 "#44AA99")
 HYSTERESIS_COLOUR = "#009E73"
 SAME_COLOUR = "#F4F4F4"
 
 
-def classify(period, status) -> np.ndarray:
+def classify(period, status, lyapunov_class=None) -> np.ndarray:
     """Map-point classes from the period-n test and the solver status.
 
     Parameters
@@ -38,6 +42,10 @@ def classify(period, status) -> np.ndarray:
         within 8 forcing periods, else n), as in :func:`vibeam.records.summarize`.
     status : array_like of str, same shape
         ``ok``, ``chatter``, ``sticking`` or ``failed``.
+    lyapunov_class : array_like of str, same shape, optional
+        The points' ``lyapunov_class`` (:func:`vibeam.models.lyapunov.classify_spectrum`): a
+        non-periodic point becomes :data:`CHAOTIC` or :data:`QUASI_PERIODIC` where its spectrum
+        says so.
 
     Returns
     -------
@@ -57,6 +65,10 @@ def classify(period, status) -> np.ndarray:
     c[p == 2] = PERIOD_2
     c[p >= 3] = PERIOD_N
     c[(p == -1) & (st == "sticking")] = HELD
+    if lyapunov_class is not None:
+        lc = np.asarray(lyapunov_class, dtype=object)
+        c[(c == NON_PERIODIC) & (lc == "chaotic")] = CHAOTIC
+        c[(c == NON_PERIODIC) & (lc == "quasi_periodic")] = QUASI_PERIODIC
     c[st == "failed"] = FAILED
     return c
 
@@ -125,8 +137,9 @@ def assemble_map(name: str, solvers: list, sweep: Sweep, parameter: str, values,
     flat = stack(rows, sweep)
     n_d, n_v = len(directions), len(values)
     data = {k: v.reshape((n_d, n_v, -1) + v.shape[1:]) for k, v in flat.items() if k != "direction"}
-    data["classification"] = classify(data["period"], data["status"]) if "status" in data else \
-        classify(data["period"], np.full(data["period"].shape, "ok", dtype=object))
+    data["classification"] = classify(data["period"], data["status"] if "status" in data else
+                                      np.full(data["period"].shape, "ok", dtype=object),
+                                      data.get("lyapunov_class"))
     models = [s.model for s in solvers]
     fn = [getattr(m, "natural_frequency_hz", None) for m in models]
     L = [getattr(m, "length_m", None) for m in models]

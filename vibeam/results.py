@@ -128,6 +128,8 @@ VARIABLES = {
                       "(vibeam.models.lyapunov)"),
     "lyapunov_error": ("1", "error estimate of each Lyapunov exponent (half the difference of the record's halves)"),
     "lyapunov_message": ("", "why the Lyapunov exponents are NaN (empty when computed)"),
+    "lyapunov_class": ("", "periodic, chaotic, quasi_periodic or non_periodic from the Lyapunov spectrum "
+                           "(vibeam.models.lyapunov.classify_spectrum; empty: not computed)"),
     "map_eigenvalues": ("1", "eigenvalues of the paper's impact-map Jacobian"),
     "det_full": ("1", "determinant of the Jacobian of Eqs. 29-32"),
     "tr_full": ("1", "trace of the Jacobian of Eqs. 29-32"),

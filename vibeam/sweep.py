@@ -484,7 +484,7 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
 def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
     """The point's Lyapunov spectrum (:data:`UNITS` ``lyapunov``) from its final state, in place."""
     from .models import shooting_problem
-    from .models.lyapunov import lyapunov_spectrum
+    from .models.lyapunov import classify_spectrum, lyapunov_spectrum
 
     model = solver.model
     d = 2 * int(getattr(model, "n_modes", 1))
@@ -496,6 +496,8 @@ def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
         ok, why = False, str(e)
     if ok:
         out["lyapunov"], out["lyapunov_error"] = sp.exponents, sp.error
+        out["lyapunov_class"] = classify_spectrum(sp.exponents, sp.error,
+                                                  periodic=int(out.get("period", 0)) != 0)
     else:
         out["lyapunov"], out["lyapunov_error"] = np.full(d, np.nan), np.full(d, np.nan)
         out["lyapunov_message"] = why
