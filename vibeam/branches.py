@@ -100,6 +100,18 @@ class BranchTask:
         out["wall_time_s"] = time.perf_counter() - t0
         return [out]
 
+    def warm_up(self) -> None:
+        """Load (or compile) this run's kernels in this process: the same continuation cut to 3
+        points per branch, no switching, no curves (a forked pool worker inherits them, so the
+        run itself compiles little).  Failures are ignored: the run records them."""
+        import dataclasses
+
+        st = dict(self.settings, max_points=3, switch=False, curves=False, start_at="low")
+        try:
+            run_continuation(dataclasses.replace(self, settings=st, curve_key=None, curve_range=None))
+        except Exception:
+            pass
+
     def lost_rows(self, err, attempts) -> list:
         return [dict(branches=[], starts=[], curves=[], status="failed", wall_time_s=0.0,
                      message=f"worker lost {attempts} time(s): {type(err).__name__}: {err}")]

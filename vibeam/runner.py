@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .compiling import CompileClock
 from .errors import CaseError
 
 
@@ -475,14 +476,23 @@ def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, e
 
     timing = {"kernel_load_s": 0.0, "pool_startup_s": 0.0, "executor": "inline"}
     try:
-        if todo and executor is None:
+        # continuation runs are warmed up (a cut-down run) only before a pool: inline, their
+        # compile time is measured where it happens (CompileClock) and taken out of the run time
+        pooled_tasks = tasks if (executor is None and jobs != 1 and len(todo) + len(tasks) > 1) else []
+        cc = CompileClock()
+        if (todo or pooled_tasks) and executor is None:
             # numba kernels loaded (or compiled) once, here: a forked worker inherits them
-            timing["kernel_load_s"] = load_kernels(todo)
+            with CompileClock() as cc:
+                timing["kernel_load_s"] = load_kernels(todo + pooled_tasks)
         n_workers, why = plan_execution(case, jobs_, todo, jobs, executor) if not tasks else (jobs, "")
         t_run = last_flush[0] = time.perf_counter()
-        run_lines(todo + tasks, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet,
-                  desc=case.name, stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
-        timing["run_s"] = time.perf_counter() - t_run
+        with CompileClock() as cr:
+            run_lines(todo + tasks, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet,
+                      desc=case.name, stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
+        timing["run_s"] = time.perf_counter() - t_run - cr.seconds
+        timing["kernel_load_s"] += cr.seconds
+        announce_kernels(cc.seconds + cr.seconds, f"{len(todo)} sweep line(s)"
+                         + (f", {len(tasks)} continuation run(s)" if tasks else ""))
         timing["why"] = why
     finally:
         flush()              # on an interrupt too: every finished line is kept
@@ -565,6 +575,14 @@ def load_kernels(lines) -> float:
     t0 = time.perf_counter()
     seen = set()
     for l in lines:
+        if hasattr(l, "warm_up"):          # a continuation run: a cut-down run of the same kind
+            sp = getattr(l, "spec", None)
+            key = ("task", getattr(sp, "fidelity", ""), str(getattr(sp, "contact", None)),
+                   str(getattr(sp, "contact_lower", None)), l.parameter == "Omega")
+            if key not in seen:
+                seen.add(key)
+                l.warm_up()
+            continue
         s = getattr(l, "solver", None)
         if s is None:
             continue
@@ -578,6 +596,18 @@ def load_kernels(lines) -> float:
         except Exception:
             pass
     return time.perf_counter() - t0
+
+
+#: kernel loading above this (seconds) is announced: numba compiles them for first use
+COMPILE_NOTICE_S = 1.0
+
+
+def announce_kernels(seconds: float, what: str) -> None:
+    """The one line that says a first run compiled (or loaded) its kernels, and for how long,
+    so that the time is not mistaken for the run's (it is kept out of every run time)."""
+    if seconds >= COMPILE_NOTICE_S:
+        print(f"compiling kernels for first use ({what}): {seconds:.1f} s, kept out of the run times "
+              f"(numba caches them: later runs load them in about a second)", file=sys.stderr)
 
 
 def plan_execution(case, jobs_, todo, jobs, executor) -> tuple:
@@ -644,8 +674,18 @@ def _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quie
                         f"method = \"continuation\" (parameter, start, ...) or use `vibeam run`")
     t_all = time.perf_counter()
     print(f"[{case.name}] {len(tasks)} continuation run(s)", file=sys.stderr)
+    compiled = 0.0
+    if executor is None and jobs != 1 and len(tasks) > 1:
+        # before a pool: load the kernels here, a forked worker inherits them
+        with CompileClock() as cc:
+            load_kernels(tasks)
+        compiled += cc.seconds
+    t_run = time.perf_counter()
     task_rows = {}
-    done = run_lines(tasks, executor=executor, jobs=jobs, progress=not quiet, desc=case.name)
+    with CompileClock() as cr:
+        done = run_lines(tasks, executor=executor, jobs=jobs, progress=not quiet, desc=case.name)
+    run_s = time.perf_counter() - t_run - cr.seconds
+    announce_kernels(compiled + cr.seconds, f"{len(tasks)} continuation run(s)")
     for t in tasks:
         task_rows[t.run] = done[(t.run, t.key)][0]
     conts = _assemble_continuation(tasks, task_rows)
@@ -659,7 +699,8 @@ def _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quie
         replace_branches(h5, conts)
     else:
         write_results(h5, [], case.name, text, case_json=case_json, branches=conts)
-    print(f"\ncase {case.name}: {len(conts)} continuation run(s) in {time.perf_counter() - t_all:.2f} s -> {h5}"
+    print(f"\ncase {case.name}: {len(conts)} continuation run(s) in {run_s:.2f} s "
+          f"({time.perf_counter() - t_all:.2f} s with kernel loading and writing) -> {h5}"
           + (" (sweeps and maps of the file kept)" if same else ""))
     print_results(conts)
     if plots:
