@@ -14,7 +14,8 @@ search
     this trajectory has already visited mean that it has settled on an attractor not yet
     known (a period-n orbit revisits its n cells at once, a chaotic or quasi-periodic set once
     its cells are covered); ``n_hit_attractor`` consecutive samples in the cells of a known
-    attractor ``k`` decide ``k``; ``n_hit_basin`` consecutive samples in the basin cells of
+    attractor ``k`` decide ``k`` (``n_found`` consecutive samples in cells of known attractors,
+    alternating between two that share cells on a coarse grid, decide the last); ``n_hit_basin`` consecutive samples in the basin cells of
     one attractor ``k`` decide ``k`` (the map is deterministic: a trajectory that keeps to
     cells whose states went to ``k`` goes there too, up to the cell size);
 locate
@@ -58,7 +59,7 @@ _VISITED = 3
 
 # finite-state machine record (int64 array)
 _MODE, _STAMP, _REVISITS, _ATT_HITS, _ATT_ID, _BAS_HITS, _BAS_ID, _STEPS, _NEW_ID, _LOCATED, \
-    _N_VISITED, _DECISION, _NEXT_ID = range(13)
+    _N_VISITED, _DECISION, _NEXT_ID, _ANY_HITS = range(14)
 _SEARCH, _LOCATE, _DONE = 0, 1, 2
 # parameters (int64 array)
 _N_FOUND, _N_LOCATE, _N_HIT_ATT, _N_HIT_BAS, _MAX_STEPS, _BASIN_HITS = range(6)
@@ -82,25 +83,43 @@ def cell_key(x, origin, width):
 
 
 @njit(cache=True)
-def _decide(cells, st, visited, k):
-    """End the trajectory with label ``k``; its visited cells become basin of ``k``."""
+def _decide(cells, st, visited, k, basin):
+    """End the trajectory with label ``k``; with ``basin``, the cells it labelled become basin
+    of ``k``."""
     stamp = st[_STAMP]
     for j in range(st[_N_VISITED]):
         key = visited[j]
         v = cells.get(key, np.int64(0))
         if v & 3 == _VISITED and v >> 2 == stamp:
-            if k >= 0:
+            if k >= 0 and basin:
                 cells[key] = (k << 2) | _BASIN
     st[_DECISION] = k
     st[_MODE] = _DONE
 
 
 @njit(cache=True)
-def feed(X, origin, width, cells, st, visited, located, par):
+def _basin_hit(cells, st, visited, v, par):
+    """A sample in the basin cell ``v`` of an attractor: ``n_hit_basin`` in a row of one
+    attractor decide it (returns True)."""
+    a = v >> 2
+    if st[_BAS_HITS] > 0 and st[_BAS_ID] == a:
+        st[_BAS_HITS] += 1
+    else:
+        st[_BAS_HITS] = 1
+        st[_BAS_ID] = a
+    if st[_BAS_HITS] >= par[_N_HIT_BAS]:
+        _decide(cells, st, visited, a, True)
+        return True
+    return False
+
+
+@njit(cache=True)
+def feed(X, origin, width, cells, mine, st, visited, located, par):
     """Advance the recurrence machine over the samples ``X`` (shape (m, d)) in order.
 
-    ``st`` (int64) is the machine's record, ``visited`` (int64, capacity ``max_periods + 1``)
-    the keys this trajectory labelled, ``located`` (shape (n_locate, d)) receives a new
+    ``st`` (int64) is the machine's record, ``mine`` the cells this trajectory has been in (a
+    typed dict, emptied for each trajectory), ``visited`` (int64, capacity ``max_periods + 1``)
+    the keys it labelled, ``located`` (shape (n_locate, d)) receives a new
     attractor's samples, ``par`` the parameters (module docstring).  Returns the number of
     samples used; ``st[_DECISION]`` is the label once ``st[_MODE]`` is done (-1 before).
     """
@@ -112,7 +131,7 @@ def feed(X, origin, width, cells, st, visited, located, par):
         key = cell_key(x, origin, width)
         st[_STEPS] += 1
         if key == _NO_KEY:
-            _decide(cells, st, visited, FAILED)
+            _decide(cells, st, visited, FAILED, False)
             return i + 1
         v = cells.get(key, np.int64(0))
         kind = v & 3
@@ -122,7 +141,7 @@ def feed(X, origin, width, cells, st, visited, located, par):
             located[st[_LOCATED], :] = x
             st[_LOCATED] += 1
             if st[_LOCATED] >= par[_N_LOCATE]:
-                _decide(cells, st, visited, st[_NEW_ID])
+                _decide(cells, st, visited, st[_NEW_ID], par[_BASIN_HITS] != 0)
                 return i + 1
             continue
         # search
@@ -134,42 +153,48 @@ def feed(X, origin, width, cells, st, visited, located, par):
                 st[_ATT_HITS] = 1
                 st[_ATT_ID] = a
             st[_BAS_HITS] = 0
+            st[_ANY_HITS] += 1
             if st[_ATT_HITS] >= par[_N_HIT_ATT]:
-                _decide(cells, st, visited, a)
+                _decide(cells, st, visited, a, par[_BASIN_HITS] != 0)
                 return i + 1
-        elif kind == _BASIN and par[_BASIN_HITS] != 0:
-            a = v >> 2
-            if st[_BAS_HITS] > 0 and st[_BAS_ID] == a:
-                st[_BAS_HITS] += 1
-            else:
-                st[_BAS_HITS] = 1
-                st[_BAS_ID] = a
-            st[_ATT_HITS] = 0
-            if st[_BAS_HITS] >= par[_N_HIT_BAS]:
-                _decide(cells, st, visited, a)
+            if st[_ANY_HITS] >= par[_N_FOUND]:
+                # n_found samples in a row on known attractors' cells, never two in a row of one:
+                # cells shared by two attractors (a grid too coarse to tell them apart); the last
+                _decide(cells, st, visited, a, par[_BASIN_HITS] != 0)
                 return i + 1
-        elif kind == _VISITED and v >> 2 == st[_STAMP]:
+        elif key in mine:
+            # a cell this trajectory has been in (whatever earlier ones made of it): a recurrence
+            st[_ANY_HITS] = 0
             st[_ATT_HITS] = 0
-            st[_BAS_HITS] = 0
             st[_REVISITS] += 1
+            if kind == _BASIN and par[_BASIN_HITS] != 0:
+                if _basin_hit(cells, st, visited, v, par):
+                    return i + 1
+            else:
+                st[_BAS_HITS] = 0
             if st[_REVISITS] >= par[_N_FOUND]:
                 st[_MODE] = _LOCATE
                 st[_NEW_ID] = st[_NEXT_ID]
                 st[_NEXT_ID] += 1
                 st[_LOCATED] = 0
         else:
-            # a cell new to this trajectory (empty, a basin cell with basin hits off, or
-            # visited by an earlier trajectory that did not settle)
+            # a cell new to this trajectory: empty, visited by an earlier trajectory that did not
+            # settle, or the basin cell of an attractor
+            st[_ANY_HITS] = 0
             st[_ATT_HITS] = 0
-            st[_BAS_HITS] = 0
             st[_REVISITS] = 0
-            if kind == 0 or kind == _VISITED:
+            mine[key] = 1
+            if kind == _BASIN:
+                if par[_BASIN_HITS] != 0 and _basin_hit(cells, st, visited, v, par):
+                    return i + 1
+            else:
+                st[_BAS_HITS] = 0
                 cells[key] = (st[_STAMP] << 2) | _VISITED
                 if st[_N_VISITED] < visited.shape[0]:
                     visited[st[_N_VISITED]] = key
                     st[_N_VISITED] += 1
         if st[_STEPS] >= par[_MAX_STEPS]:
-            _decide(cells, st, visited, UNSETTLED)
+            _decide(cells, st, visited, UNSETTLED, False)
             return i + 1
     return m
 
@@ -242,7 +267,8 @@ class Recurrences:
         self.par = np.array([n_found, n_locate, n_hit_attractor, n_hit_basin, max_periods, int(bool(basin_hits))],
                             np.int64)
         self.cells = _new_cells()
-        self.st = np.zeros(13, np.int64)
+        self.mine = _new_cells()
+        self.st = np.zeros(14, np.int64)
         self.visited = np.zeros(int(max_periods) + 2, np.int64)
         self.located = np.zeros((int(n_locate), self.origin.size))
         self.attractors: dict = {}
@@ -273,8 +299,9 @@ class Recurrences:
         self._stamp = getattr(self, "_stamp", 0) + 1
         st[_STAMP] = self._stamp
         st[_DECISION] = -1
+        self.mine.clear()
         x = np.ascontiguousarray(x0, dtype=float)
-        feed(x[None, :], self.origin, self.width, self.cells, st, self.visited, self.located, self.par)
+        feed(x[None, :], self.origin, self.width, self.cells, self.mine, st, self.visited, self.located, self.par)
         n = max(1, int(chunk))
         while st[_MODE] != _DONE:
             want = n
@@ -284,10 +311,10 @@ class Recurrences:
             if X is None:
                 self.periods += want
                 from_st = FAILED
-                _decide(self.cells, st, self.visited, from_st)
+                _decide(self.cells, st, self.visited, from_st, False)
                 break
             X = np.ascontiguousarray(X, dtype=float)
-            used = feed(X, self.origin, self.width, self.cells, st, self.visited, self.located, self.par)
+            used = feed(X, self.origin, self.width, self.cells, self.mine, st, self.visited, self.located, self.par)
             self.periods += used
             x = X[-1]
             n = min(2 * n, 256)

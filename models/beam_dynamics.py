@@ -869,7 +869,7 @@ class BeamImpactModel:
         ``C = alpha M + D K`` so that ``c_i = alpha + D omega_i^2``.
     modal_damping_1_s : array_like, shape (N,), optional
         Per-mode damping ``c_i`` (1/s) replacing the Rayleigh law (used by the coupled
-        platform of :mod:`vibeam.effects`); the constrained modes then get the diagonal of
+        platform of :mod:`vibeam.engine.effects`); the constrained modes then get the diagonal of
         ``Psi^T diag(c) Psi`` (modal damping kept modal, off-diagonal terms dropped).
     restitution_table : (array_like, array_like), optional
         ``(U-, R)`` nodes of a velocity-dependent R with ``U-`` the pre-impact contact
@@ -1240,7 +1240,7 @@ class BeamEventSolver:
         self.impact_buffer = int(impact_buffer)
         self.record_modal_states = bool(record_modal_states)
         check_stops(model.stops())
-        # periods per call of the sweep engine (vibeam.sweep.simulate): the cost per period grows
+        # periods per call of the sweep engine (vibeam.engine.sweep.simulate): the cost per period grows
         # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
         # so a call lasts well under a second
         self.chunk_periods = max(16, 2000 // model.n_modes)

@@ -64,8 +64,8 @@ How a compliant law plugs in (the plan for ``law = "linear"`` and ``"hunt_crossl
        finite duration; a body resting on it is a contact phase that never exits).
     3. Per-point outputs: the kernels accumulate per stop the contact duration, peak force,
        penetration and energy lost (work of the contact damping) in an output array beside
-       the per-stop impact counts; :func:`vibeam.records.summarize` and
-       ``vibeam.sweep.UNITS`` declare them (the one place of per-point outputs).
+       the per-stop impact counts; :func:`vibeam.engine.records.summarize` and
+       ``vibeam.engine.sweep.UNITS`` declare them (the one place of per-point outputs).
     4. Mapping / continuation: the event log gets the contact entry and exit rows; the
        Jacobian of a contact phase is its state-transition matrix composed with the
        saltation matrices of entry and exit (Sec. 4.2 of the paper: the piecewise-linear map).

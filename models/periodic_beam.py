@@ -138,7 +138,7 @@ def conversions(model: BeamImpactModel, gain_per_V: float | None = None,
     Parameters
     ----------
     model : BeamImpactModel
-        The model (built by :func:`vibeam.beamscene.build_beam_model` for a case).
+        The model (built by :func:`vibeam.case.beamscene.build_beam_model` for a case).
     gain_per_V : float, optional
         The case's ``gain`` (the paper's normalised gamma, 1/V); needed for ``voltage``.
     voltage : float, optional
@@ -151,7 +151,7 @@ def conversions(model: BeamImpactModel, gain_per_V: float | None = None,
 
         * ``Omega`` -> ``Omega``, 1; ``frequency_hz`` -> ``Omega``, ``1 / f_ref``;
         * ``voltage`` -> ``base_amplitude_m``, ``gamma~ = gain phi(x_m) L`` (m/V, Eq. 46
-          inverted, :func:`vibeam.beamscene.scene_of`); ``gain`` -> ``base_amplitude_m``,
+          inverted, :func:`vibeam.case.beamscene.scene_of`); ``gain`` -> ``base_amplitude_m``,
           ``V phi(x_m) L``;
         * ``gap_mm`` (grazing gap at the sensor) -> ``gap_contact_m``, ``1e-3 phi(x_m)``
           (Eq. 45: ``Delta_C = phi(x_m) Delta_G``); ``contact_gap_mm`` -> ``gap_contact_m``,

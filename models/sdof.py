@@ -235,7 +235,7 @@ class EventSolver:
 
     name = "event"
     time_domain = True
-    # periods per call of the sweep engine (vibeam.sweep.simulate): ~5 ms at 2.5 us per period,
+    # periods per call of the sweep engine (vibeam.engine.sweep.simulate): ~5 ms at 2.5 us per period,
     # ~0.3 s on chatter-heavy points, so Ctrl-C and the wall-time limit act within a second
     chunk_periods = 2000
     #: default work budget of one kernel call: 0.3-2.5 s at the measured 0.06-0.65 us per step

@@ -65,7 +65,7 @@ def undamped_resonance(beta: float, Omega: float) -> str:
     exact undamped resonance, ``beta = 0`` and ``Omega = 1``: the forced linear flow there is
     the secular ``t cos t`` that grows without bound, which the closed-form solvers (``event``,
     ``mapping``, the shooting problems) do not compute.  Case validation refuses such a scene
-    (:mod:`vibeam.case`); a model built directly fails its points with this reason.
+    (:mod:`vibeam.case.schema`); a model built directly fails its points with this reason.
     """
     k = 1.0 - float(Omega) ** 2
     c = 2.0 * float(beta) * float(Omega)
@@ -232,3 +232,18 @@ def sample_flow(s, phi0, q0, v0, beta, a, b, Omega, Delta):
         v[i] = vi
         acc[i] = a2
     return g, v, acc
+
+
+@njit(cache=True)
+def largest_gap(s, q0, v0, beta, a, b, Omega, Delta):
+    """``max_i (q - Delta)`` of the free flight at the times ``s`` (shape (m,)) from each state
+    ``(q0[k], v0[k])`` at forcing phase 0 (shapes (K,)): one value per state, shape (K,)."""
+    out = np.empty(q0.shape[0])
+    for k in range(q0.shape[0]):
+        g = -np.inf
+        for i in range(s.shape[0]):
+            gi = propagate(s[i], 0.0, q0[k], v0[k], beta, a, b, Omega, Delta)[0]
+            if gi > g:
+                g = gi
+        out[k] = g
+    return out

@@ -315,7 +315,7 @@ class _ScipyMethod:
     time_domain = True
     #: simulates a second (lower) stop (``SDOF.Delta_lower``); see ``two_sided_methods`` of the registry
     two_sided = False
-    # periods per call of the sweep engine (vibeam.sweep._simulate); a restart of solve_ivp changes
+    # periods per call of the sweep engine (vibeam.engine.sweep._simulate); a restart of solve_ivp changes
     # the result at the level of its tolerance, so chunks are long (Python code is interruptible
     # anyway; the chunk only sets how often the wall-time limit is checked)
     chunk_periods = 1000

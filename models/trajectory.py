@@ -2,7 +2,7 @@
 
 :class:`Trajectory` is produced by the models (every ``point`` of a time-domain solver
 returns one) and consumed by the framework, whose one place for per-point outputs is
-:func:`vibeam.records.summarize` (which re-exports this class).  It lives here so that
+:func:`vibeam.engine.records.summarize` (which re-exports this class).  It lives here so that
 ``vibeam.models`` does not import the framework.
 """
 from __future__ import annotations
@@ -73,7 +73,7 @@ class Trajectory:
         The call ran out of its work budget (the solver's ``max_steps_per_call``) before its
         periods were done; ``status`` is then ``failed`` and nothing else in it is valid.  It
         says that fewer periods per call may succeed: the sweep engine then repeats the call
-        from the same state in two halves (:func:`vibeam.sweep.simulate`).  A compiled kernel
+        from the same state in two halves (:func:`vibeam.engine.sweep.simulate`).  A compiled kernel
         cannot be interrupted, so the budget is what bounds the time between its returns to
         Python (Ctrl-C, ``point_time_limit_s``).
     """
@@ -149,7 +149,7 @@ def concatenate(parts: list) -> Trajectory:
     """One record from consecutive pieces (each started from the previous one's final state).
 
     The sweep engine cuts a long record into calls of a bounded number of periods
-    (:func:`vibeam.sweep.simulate`) and joins them here: samples, impacts, contacts, the
+    (:func:`vibeam.engine.sweep.simulate`) and joins them here: samples, impacts, contacts, the
     per-period minima and chatter times are concatenated (times shifted by the periods before
     each piece), counts added, extremes joined, ``final_state`` and ``Delta`` are the last
     piece's, the status is the most severe (``failed`` > ``chatter`` > ``sticking`` > ``ok``,

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import vibeam
-from vibeam.case import CaseError
+from vibeam.case.schema import CaseError
 
 ROOT = Path(__file__).resolve().parents[1]
 FIG7 = ROOT / "cases" / "paper-fig7.toml"
@@ -59,7 +59,7 @@ def test_load_case_from_path_text_and_dict():
 @pytest.mark.slow   # two quick sweeps through the API and the CLI (~18 s): slow step
 def test_run_returns_labelled_results_equal_to_the_command_line(tmp_path):
     from vibeam.cli import main
-    from vibeam.results import read_results
+    from vibeam.io.results import read_results
 
     res = vibeam.run(SMALL, jobs=1)
     assert res.names == ["exact", "avg"] and res.path is None
@@ -113,7 +113,7 @@ def test_simulate_time_base_against_the_linear_steady_state():
 def test_simulate_equals_the_sweep_point_and_lists_the_impacts():
     """One frequency of a case: the same record as the sweep's point started from rest (a sweep
     without continuation), its impacts inside the window with q' jumping by -R there."""
-    from vibeam.records import summarize
+    from vibeam.engine.records import summarize
     from vibeam.models import make_solver
 
     case = vibeam.load_case(SMALL)
@@ -191,7 +191,7 @@ def test_files_of_the_first_layout_are_read_and_not_labelled(tmp_path):
     """read_results (and so regress) reads the flat layout of older files; the labelled-data
     check refuses it (no dimensions, no units), open_results says how to convert it."""
     from vibeam.cli import main
-    from vibeam.results import layout_of, read_results
+    from vibeam.io.results import layout_of, read_results
     from vibeam.testing import check_labelled
 
     case = tmp_path / "small.toml"
@@ -227,7 +227,7 @@ def test_write_group_writes_any_labelled_group(tmp_path):
     import h5py
     import xarray as xr
 
-    from vibeam.results import var, write_group
+    from vibeam.io.results import var, write_group
 
     n_b, n_p = 3, 4
     variables = {
@@ -392,7 +392,7 @@ def test_run_refuses_bad_arguments_before_anything_runs(kw, exc, needles, tmp_pa
 def test_jobs_cap_is_a_stated_multiple_of_the_cores():
     import os
 
-    from vibeam.arguments import JOBS_PER_CORE, check_jobs, max_jobs
+    from vibeam.case.arguments import JOBS_PER_CORE, check_jobs, max_jobs
 
     assert max_jobs() == JOBS_PER_CORE * os.cpu_count() and JOBS_PER_CORE == 4
     assert check_jobs(max_jobs()) == max_jobs() and check_jobs(np.int64(1)) == 1 and check_jobs(None) is None

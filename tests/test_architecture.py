@@ -42,7 +42,7 @@ def test_models_do_not_import_the_framework(folder):
 
 def test_trajectory_is_the_models_class_reexported_by_the_framework():
     from vibeam.models.trajectory import Trajectory
-    from vibeam.records import Trajectory as T2
+    from vibeam.engine.records import Trajectory as T2
 
     assert T2 is Trajectory and Trajectory.__module__ == "vibeam.models.trajectory"
 
@@ -56,8 +56,11 @@ def project_modules(root: Path, packages: dict = PACKAGES) -> dict:
     """``{dotted module name: path}`` of every ``.py`` of the packages (``__init__`` is the package)."""
     mods = {}
     for pkg, folder in packages.items():
-        for f in sorted((root / folder).glob("*.py")):
-            mods[pkg if f.stem == "__init__" else f"{pkg}.{f.stem}"] = f
+        for f in sorted((root / folder).rglob("*.py")):
+            rel = f.relative_to(root / folder).with_suffix("").parts
+            if rel[-1] == "__init__":
+                rel = rel[:-1]
+            mods[".".join((pkg,) + rel)] = f
     return mods
 
 
@@ -184,7 +187,7 @@ def test_the_checks_find_a_cycle_and_a_private_import(tmp_path):
 
 # ----------------------------------------------------------------------------- the fidelity registry
 def test_every_registered_fidelity_has_a_spec_and_every_spec_a_fidelity():
-    from vibeam.case import MODEL_SPECS
+    from vibeam.case.schema import MODEL_SPECS
     from vibeam.models.registry import FIDELITIES, resolve
 
     assert set(MODEL_SPECS) == set(FIDELITIES)
@@ -216,7 +219,7 @@ def test_validating_a_case_loads_no_solver():
     import subprocess
     import sys
 
-    code = ("import sys; from vibeam.case import load_case; load_case(sys.argv[1]); "
+    code = ("import sys; from vibeam.case.schema import load_case; load_case(sys.argv[1]); "
             "bad = sorted(m for m in sys.modules if m.startswith(('scipy.integrate', 'scipy.linalg', "
             "'scipy.optimize', 'skfem', 'vibeam.models.sdof', 'vibeam.models.beam'))); print(bad)")
     p = subprocess.run([sys.executable, "-c", code, str(ROOT / "cases" / "rig-fe-tight.toml")],
@@ -235,3 +238,46 @@ def test_make_solver_and_shooting_come_from_the_registry():
     assert set(SHOOTING) == {n for n, f in FIDELITIES.items() if f.shooting}
     with pytest.raises(ValueError, match="allowed: averaging, direct, event"):
         make_solver(m, "nope")
+
+
+# ----------------------------------------------------------------------------- the layers
+#: the framework's layers, lowest first (issue 20): a module imports only modules of its own or a
+#: lower layer, function-local imports included.  ``models``/``reductions`` (the dynamics) and the
+#: errors are at the bottom; the case files, input/output and the figures' style above them; the
+#: engine (sweep, jobs, per-point outputs, effects, assessments) on those; the analyses
+#: (maps, continuation, basins, cost, regression) and the identification on the engine; the runner
+#: of a whole case, the API, the command line and the benchmarks on top.
+LAYERS = (("vibeam.models", "vibeam.reductions", "vibeam.errors", "vibeam.version"),
+          ("vibeam.io",),
+          ("vibeam.case",),
+          ("vibeam.plots",),
+          ("vibeam.engine",),
+          ("vibeam.analysis", "vibeam.identify"),
+          ("vibeam.runner",),
+          ("vibeam.api", "vibeam.cli", "vibeam.bench", "vibeam.testing", "vibeam"))
+
+
+def layer_of(module: str) -> int:
+    """The index in :data:`LAYERS` of the longest prefix naming ``module``'s layer."""
+    best, depth = None, -1
+    for i, names in enumerate(LAYERS):
+        for n in names:
+            if (module == n or module.startswith(n + ".")) and n.count(".") > depth:
+                best, depth = i, n.count(".")
+    assert best is not None, f"{module} is in no layer of LAYERS"
+    return best
+
+
+def test_every_module_imports_only_its_own_or_lower_layers():
+    edges, _ = project_graph()
+    up = [f"{m} (layer {layer_of(m)}) imports {t} (layer {layer_of(t)})"
+          for m, ts in sorted(edges.items()) for t in sorted(ts) if layer_of(t) > layer_of(m)]
+    assert not up, up
+
+
+def test_the_framework_is_in_layer_subpackages():
+    """vibeam/ holds the entry points only; the rest lives in the layers' subpackages."""
+    top = sorted(p.stem for p in (ROOT / "vibeam").glob("*.py"))
+    assert top == ["__init__", "api", "bench", "cli", "errors", "runner", "testing", "version"], top
+    subs = sorted(p.parent.name for p in (ROOT / "vibeam").glob("*/__init__.py"))
+    assert subs == ["analysis", "case", "engine", "identify", "io", "plots"], subs

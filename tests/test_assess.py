@@ -5,9 +5,9 @@ import h5py
 import numpy as np
 import pytest
 
-from vibeam import assess
-from vibeam.case import parse_case
-from vibeam.records import Trajectory
+from vibeam.engine import assess
+from vibeam.case.schema import parse_case
+from vibeam.engine.records import Trajectory
 
 F = 15.0          # forcing (Hz)
 N_REC, SPP = 64, 64
@@ -176,7 +176,7 @@ time_series = [15.0]
         assert g["time_series/15/displacement"].shape == (1, n_ts)       # (direction, time)
         assert g["time_series/15/point_Omega"][0] * 7.6 == pytest.approx(15.0)
         assert "modal_states" not in g
-    from vibeam.results import read_results
+    from vibeam.io.results import read_results
     ts = read_results(tmp_path / "results.h5")["runs"]["exact"]["time_series"]["15"]["up"]
     assert np.array_equal(ts, d["time_series/15/up"]) and ts.shape == (n_ts, 3)
     assert not (tmp_path / "participation.png").exists()   # one mode: nothing to stack

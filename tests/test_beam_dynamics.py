@@ -9,7 +9,7 @@ from vibeam.models import SDOF, EventSolver
 from vibeam.models.beam import BeamFE, BeamGeometry
 from vibeam.models.beam_dynamics import (BeamEventSolver, BeamImpactModel, BeamODESolver,
                                          apply_impact)
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
 L, LS, LM = 0.18, 0.10, 0.132
@@ -136,8 +136,8 @@ def test_one_mode_beam_chatters_like_the_sdof(f_hz):
     differently, and the sequences amplify it), stuck fractions to 1e-9.  Before the shared
     policy the beam's estimate lacked the forcing term of the jerk and counted the damping
     twice: 172 against 196 impacts at 15 Hz."""
-    from vibeam.beamscene import derive
-    from vibeam.case import load_case
+    from vibeam.case.beamscene import derive
+    from vibeam.case.schema import load_case
     from pathlib import Path
 
     case, _ = load_case(Path(__file__).resolve().parents[1] / "cases" / "rig-fe-tight.toml")
@@ -340,7 +340,7 @@ def test_many_mode_chatter_does_not_stall():
     finish, without failing, in few steps per period."""
     from pathlib import Path
 
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
     from vibeam.models import make_solver
 
     case, _ = load_case(Path(__file__).parent.parent / "cases" / "rig-fe-tight.toml")

@@ -20,7 +20,7 @@ from vibeam.models.sdof_compliant import CompliantEventSolver, isolated_contact_
 
 
 def _rig(n_modes, k=1e8, R=None):
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     over = {"n_modes": n_modes, "contact": {"law": "hunt_crossley", "stiffness_n_m": k}}

@@ -5,8 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibeam.beamscene import derive, modes_report, scene_of
-from vibeam.case import CaseError, parse_case
+from vibeam.case.beamscene import derive, modes_report, scene_of
+from vibeam.case.schema import CaseError, parse_case
 from vibeam.cli import main
 
 RIG = """
@@ -122,11 +122,11 @@ def test_beam_case_runs_the_fidelity_ladder_and_costs_it(tmp_path):
     The static-mode run is the paper's SDOF model (Eqs. 42-47): its FRC must equal
     the SDOF event solver's on the derived parameters (beam mass excluded) to 1e-9.
     """
-    from vibeam.case import parse_case as pc
-    from vibeam.cost import run_cost
+    from vibeam.case.schema import parse_case as pc
+    from vibeam.analysis.cost import run_cost
     from vibeam.models import SDOF, make_solver
-    from vibeam.records import summarize
-    from vibeam.results import read_results
+    from vibeam.engine.records import summarize
+    from vibeam.io.results import read_results
 
     text = RIG.replace("[14.0, 17.0, 4]", "[15.0, 16.0, 3]").replace("n_elements = 24", "n_elements = 8") \
         .replace('[[run]]\nname = "fe"\nmethod = "event"\n',

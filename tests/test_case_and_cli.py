@@ -8,11 +8,11 @@ import h5py
 import numpy as np
 import pytest
 
-from vibeam.case import CaseError, parse_case
+from vibeam.case.schema import CaseError, parse_case
 from vibeam.cli import main
 from vibeam.models import SDOF, linear_amplitude, make_solver
-from vibeam.results import read_results
-from vibeam.sweep import Sweep, run_sweep
+from vibeam.io.results import read_results
+from vibeam.engine.sweep import Sweep, run_sweep
 
 GOOD = """
 name = "t"

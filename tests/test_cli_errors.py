@@ -144,7 +144,7 @@ def ws():
     shutil.rmtree(d, ignore_errors=True)
 
 
-ENOSPC = ("import errno, sys; import vibeam.netcdf as r\n"
+ENOSPC = ("import errno, sys; import vibeam.io.netcdf as r\n"
           "def full(*a, **k): raise OSError(errno.ENOSPC, 'No space left on device')\n"
           "r._create = full\n"
           "from vibeam.cli import main; sys.exit(main(sys.argv[1:]))")
@@ -325,7 +325,7 @@ def test_output_into_a_closed_pipe_is_dropped_quietly(tmp_path):
     import matplotlib.pyplot as plt
     from test_plots import assert_png_image          # its data: test_cost.py::test_cost_cli_writes_table_and_plot
 
-    from vibeam.cost import work_precision_figure
+    from vibeam.analysis.cost import work_precision_figure
 
     empty = work_precision_figure({"rows": [], "models": {}})          # for its size
     plt.close(empty)

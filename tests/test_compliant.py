@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from vibeam.case import CaseError, parse_case
+from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import make_solver
 from vibeam.models.compliant import (R_MIN_LINEAR, LinearContact, contact_duration,
                                      damping_ratio_for_restitution, restitution_of_damping_ratio)
@@ -21,7 +21,7 @@ from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import (C_DURATION, C_ENERGY, C_FORCE, C_PENETRATION,
                                           CompliantEventSolver, isolated_contact)
 from vibeam.models.sdof_compliant_ode import CompliantDirectSolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 
 def _model(k, R=0.9, beta=0.015, B=0.5e-3, Delta=0.0, zeta=None):
@@ -321,7 +321,7 @@ def test_physical_scene_outputs_in_si_against_an_si_reference(two):
     <= 1e-13): a wrong ``force_scale_n`` or time or length scale is an O(1) error.  The stiffness
     ratios k / (m omega_n^2) of the built laws are the hand values.  The scenario: period 1, one
     contact per period on each stop, free at forcing phase 0."""
-    from vibeam.sweep import Sweep, run_sweep
+    from vibeam.engine.sweep import Sweep, run_sweep
 
     fn, L, m_kg = 7.6, 0.180, 0.2
     zeta, gain, V, gap, gap_l = (0.015, 5e-4, 1.0, 0.126, 0.162) if two else (0.017, 5.16e-4, 0.6, 0.0, None)
@@ -446,7 +446,7 @@ def test_hunt_crossley_case():
 
 # ------------------------------------------------------------------ the modal beam
 def _rig(n_modes, k=None, R=None):
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     over = {"n_modes": n_modes}
@@ -518,8 +518,8 @@ def test_beam_outputs_in_si_against_an_si_reference():
     Y sin(Omega~ t~) - w_i f, f = k (U - Delta_C) + c U' on U = w . eta (N, m, s, J; c = 2 zeta
     sqrt(k m_eff), m_eff = 1 / |w|^2), from the kernel's modal state at forcing phase 0 (time
     t~ = t / (2 pi f_ref)).  1e-9 relative (measured <= 1.2e-13)."""
-    from vibeam.case import load_case
-    from vibeam.sweep import Sweep, run_sweep
+    from vibeam.case.schema import load_case
+    from vibeam.engine.sweep import Sweep, run_sweep
 
     k, zc = 1e5, 0.1
     case, _ = load_case("cases/rig-fe-neutral.toml")
@@ -596,7 +596,7 @@ def test_fe_ladder_converges_with_a_compliant_stop():
         for nm in (4, 8):
             assert abs(amps[f, nm] - ref) <= 0.01 * ref, amps
         assert err[0] > 0.05 * ref       # the ladder does move: one mode is 9-14 % off
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     fine = case.model_spec({"n_modes": "all", "n_elements": 36,

@@ -12,13 +12,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vibeam.case import CaseError, parse_case
+from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import make_solver
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import CompliantEventSolver
 from vibeam.models.sdof_compliant_ode import CompliantDirectSolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 
 def _two(law, law_lower=None, Delta=0.002, Delta_lower=0.002, B=5e-3, R=0.8, beta=0.015):
@@ -118,7 +118,7 @@ def test_two_stop_frc_converges_to_the_two_stop_cor_frc():
 
 # ------------------------------------------------------------------ the modal beam
 def _rig(n_modes, k=1e5, k_lower=None, gap_lower_mm=0.3):
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     over = {"n_modes": n_modes, "contact": {"law": "linear", "stiffness_n_m": k}, "gap_lower_mm": gap_lower_mm}

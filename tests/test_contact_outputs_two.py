@@ -18,7 +18,7 @@ from vibeam.models.compliant import LinearContact
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import CompliantEventSolver, isolated_contact
 from vibeam.models.sdof_compliant_ode import CompliantDirectSolver
-from vibeam.records import CONTACT_OUTPUTS, CONTACT_OUTPUTS_LOWER, summarize
+from vibeam.engine.records import CONTACT_OUTPUTS, CONTACT_OUTPUTS_LOWER, summarize
 
 K_UP, K_LO = 1e4, 3e3
 

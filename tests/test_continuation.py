@@ -11,7 +11,7 @@ from vibeam.models.continuation import (ContinuationError, Settings, start_point
 from vibeam.models.periodic_sdof import PARAMETERS, SDOFShooting
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_averaging import solve as averaging
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 TWO_PI = 2 * math.pi
 FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8: fold and grazing in 1.5..2.5

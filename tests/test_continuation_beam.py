@@ -25,17 +25,17 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from vibeam.beamscene import derive
-from vibeam.case import load_case, parse_case
+from vibeam.case.beamscene import derive
+from vibeam.case.schema import load_case, parse_case
 from vibeam.cli import main
 from vibeam.models import SDOF, shooting_problem
 from vibeam.models.beam_dynamics import BeamEventSolver
 from vibeam.models.continuation import Settings, start_point, trace
 from vibeam.models.periodic_beam import BeamContinuation
 from vibeam.models.periodic_sdof import SDOFShooting
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 from vibeam.runner import run_case
-from vibeam.results import read_results
+from vibeam.io.results import read_results
 
 ROOT = Path(__file__).resolve().parents[1]
 LADDER = ROOT / "cases" / "rig-fe-tight-continuation.toml"
@@ -253,7 +253,7 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     """Physical keys are affine in the native ones (``base_amplitude_m = gamma~ V``): the
     continuation in the voltage has ``d x / d V = gamma~ d x / d Y`` exactly, and the same
     orbit at the same native value."""
-    from vibeam.branches import problem
+    from vibeam.analysis.branches import problem
 
     spec = _case("rig-fe-tight").model_spec({"n_modes": 2})
     m = spec.build()

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from vibeam.case import CaseError, parse_case
+from vibeam.case.schema import CaseError, parse_case
 from vibeam.cli import main
 from vibeam.models import linear_amplitude
 from vibeam.models.continuation import trace
 from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models.sdof import SDOF
-from vibeam.results import read_results
+from vibeam.io.results import read_results
 
 FIG8 = """
 name = "fig8c"
@@ -139,7 +139,7 @@ def test_continuation_through_a_process_pool_equals_inline(tmp_path):
 def test_voltage_continuation_is_the_chain_rule_of_B():
     """Continuation in the rig's voltage (physical key, B = gamma V, paper Eq. 44) finds the same
     grazing as the nondimensional model continued in B, at B = gamma V (to 1e-10 relative)."""
-    from vibeam.branches import problem
+    from vibeam.analysis.branches import problem
     spec = parse_case(RIG.replace("gap_mm = -0.1", "gap_mm = 0.05")).model_spec()
     Omega = 2.0
     prob_v = problem(spec, "voltage", Omega)

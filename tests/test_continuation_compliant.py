@@ -7,14 +7,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from vibeam.case import CaseError, parse_case
+from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import shooting_problem
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import start_point, trace
 from vibeam.models.periodic_compliant import CompliantSDOFShooting
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import CompliantEventSolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8: fold and grazing in 1.5..2.5 (CoR)
 FOLD_COR = 1.9850022038952106                # its CoR fold (tests/test_continuation.py branch)
@@ -210,7 +210,7 @@ def test_vibeam_continue_end_to_end(tmp_path):
     """`vibeam continue` on a compliant scene writes the branch; its points are orbits of the
     event kernel (a stable point checked against a long event run)."""
     from vibeam.cli import main
-    from vibeam.results import read_results
+    from vibeam.io.results import read_results
 
     (tmp_path / "kv.toml").write_text(CASE)
     assert main(["continue", str(tmp_path / "kv.toml"), "--out", str(tmp_path / "out"), "--jobs", "1",
@@ -227,7 +227,7 @@ def test_vibeam_continue_end_to_end(tmp_path):
 
 # ------------------------------------------------------------------ the modal beam
 def _rig(n_modes, k=1e5, gap_mm=0.0):
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     return case.model_spec({"n_modes": n_modes, "gap_mm": gap_mm,

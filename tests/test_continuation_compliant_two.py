@@ -13,7 +13,7 @@ from vibeam.models.continuation import Settings, start_point, trace
 from vibeam.models.periodic_compliant import CompliantSDOFShooting
 from vibeam.models.sdof import SDOF
 from vibeam.models.sdof_compliant import CompliantEventSolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8 scene
 
@@ -259,7 +259,7 @@ def test_vibeam_continue_end_to_end(tmp_path):
     """`vibeam continue` on a two-stop compliant scene writes the branch with the lower stop's
     contact count; it is the branch traced directly (same start, same settings)."""
     from vibeam.cli import main
-    from vibeam.results import read_results
+    from vibeam.io.results import read_results
 
     (tmp_path / "kv2.toml").write_text(CASE)
     assert main(["continue", str(tmp_path / "kv2.toml"), "--out", str(tmp_path / "out"), "--jobs", "1",
@@ -275,7 +275,7 @@ def test_vibeam_continue_end_to_end(tmp_path):
 
 # ------------------------------------------------------------------ the modal beam
 def _rig2(n_modes, gap_lower_mm=0.3, lower=None):
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     over = {"n_modes": n_modes, "contact": {"law": "linear", "stiffness_n_m": 1e5}}
@@ -425,7 +425,7 @@ def test_vibeam_continue_beam_two_stops(tmp_path):
     """`vibeam continue` on the rig with two Kelvin-Voigt stops (2 modes): the case validates
     and the branch from 18 to 17.5 Hz records one contact per period on the lower stop."""
     from vibeam.cli import main
-    from vibeam.results import read_results
+    from vibeam.io.results import read_results
 
     text = open("cases/rig-fe-neutral.toml").read().split("# quick variant")[0]
     text = text.replace("n_modes = 4", "n_modes = 2\ngap_lower_mm = 0.3")

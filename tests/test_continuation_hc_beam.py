@@ -21,7 +21,7 @@ from vibeam.models.periodic_hc_beam import HuntCrossleyBeamShooting
 
 
 def _rig(n_modes, k=1e8, gap_mm=None):
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     over = {"n_modes": n_modes, "contact": {"law": "hunt_crossley", "stiffness_n_m": k}}
@@ -131,7 +131,7 @@ def test_refusals():
     assert s.status == "failed" and "inside the stop" in s.message
     with pytest.raises(ValueError, match="parameter"):
         HuntCrossleyBeamShooting(m, "gap_mm", Omega=W)
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     lin = case.model_spec({"n_modes": 1, "contact": {"law": "linear", "stiffness_n_m": 1e8}}).build()
@@ -154,7 +154,7 @@ def _case_text(lo=16.5, hi=17.0):
 def test_registry_dispatch_and_case_validation():
     """The beam's hunt_crossley table names the shooting problem; a case asking for
     ``method = "continuation"`` on a beam Hunt-Crossley scene validates."""
-    from vibeam.case import parse_case
+    from vibeam.case.schema import parse_case
     from vibeam.models import shooting_problem
 
     case = parse_case(_case_text())
@@ -246,7 +246,7 @@ def test_vibeam_continue_end_to_end(tmp_path):
     """`vibeam continue` on the 2-mode rig with a Hunt-Crossley stop writes the branch from 17
     down to 16.5 Hz, one contact per period (~5 s once the kernels are compiled)."""
     from vibeam.cli import main
-    from vibeam.results import read_results
+    from vibeam.io.results import read_results
 
     (tmp_path / "hc.toml").write_text(_case_text(16.5, 17.0))
     assert main(["continue", str(tmp_path / "hc.toml"), "--out", str(tmp_path / "out"), "--jobs", "1",
@@ -279,8 +279,8 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     """The case key ``voltage`` is affine in ``base_amplitude_m`` (``Y = gamma~ V``): the framework's
     problem in the voltage gives the same shot as the native one and ``d x / d V = gamma~ d x / d Y``
     (1e-12: the same arithmetic up to the scaling)."""
-    from vibeam.branches import problem
-    from vibeam.case import load_case
+    from vibeam.analysis.branches import problem
+    from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     spec = case.model_spec({"n_modes": 2, "contact": {"law": "hunt_crossley", "stiffness_n_m": 1e8}})
@@ -344,7 +344,7 @@ def test_two_stop_shot_fixed_point_and_jacobian_against_central_differences(lowe
     Hunt-Crossley lower stop, 7.5e-8 and 1.3e-8 with the Kelvin-Voigt one: the difference
     quotients' noise over two integrated contacts, far below the lower stop's terms -- its
     variational equations along its normal -w, its own stiffness and v_r)."""
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
     from vibeam.models import make_solver, shooting_problem
 
     case, _ = load_case("cases/rig-fe-neutral.toml")

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from vibeam.case import parse_case
+from vibeam.case.schema import parse_case
 from vibeam.models import SDOF, EventSolver, linear_amplitude, shooting_problem
 from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel
 from vibeam.models.continuation import Settings, trace

@@ -5,9 +5,9 @@ import h5py
 import numpy as np
 import pytest
 
-from vibeam.case import parse_case
+from vibeam.case.schema import parse_case
 from vibeam.cli import main
-from vibeam.cost import run_cost
+from vibeam.analysis.cost import run_cost
 
 CASE = """
 name = "tiny-cost"
@@ -88,7 +88,7 @@ def test_cost_separates_the_method_error_from_the_transient_truncation():
 
 
 def test_cost_table_prints_full_settings_and_long_names(capsys):
-    from vibeam.cost import CostRow, print_cost
+    from vibeam.analysis.cost import CostRow, print_cost
 
     long = "a run name that is much longer than twenty-two characters"
     row = CostRow(run=long, method="direct", settings={"solver": "RK23", "rtol": 1e-4, "atol": 1e-07},
@@ -138,7 +138,7 @@ def test_work_precision_figure_is_labelled():
     import matplotlib.pyplot as plt
 
     from test_plots import check_figure
-    from vibeam.cost import work_precision_figure
+    from vibeam.analysis.cost import work_precision_figure
 
     case = parse_case(CASE.replace("METHOD", "ivanov"))
     res = run_cost(case, repeats=1, log=lambda m: None)

@@ -1,4 +1,4 @@
-"""Scene effects (vibeam.effects): off by default and free when off; each effect against a
+"""Scene effects (vibeam.engine.effects): off by default and free when off; each effect against a
 closed form or against the plain model set up by hand."""
 import math
 from pathlib import Path
@@ -6,13 +6,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibeam.case import CaseError, EffectsSpec, load_case
-from vibeam.effects import (EffectSolver, build_beam_model, contact_factor, eccentric_contact_row,
-                            identify_platform, platform_H, wrap_solver)
+from vibeam.case.schema import CaseError, EffectsSpec, load_case
+from vibeam.case.beamscene import build_beam_model_with_effects as build_beam_model
+from vibeam.case.beamscene import contact_factor, eccentric_contact_row
+from vibeam.engine.effects import EffectSolver, identify_platform, platform_H, wrap_solver
 from vibeam.models import SDOF, EventSolver, make_solver
 from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel, apply_impact
 from vibeam.models.impact import restitution_coefficient
-from vibeam.sweep import Sweep, run_sweep
+from vibeam.engine.sweep import Sweep, run_sweep
 
 CASES = Path(__file__).resolve().parent.parent / "cases"
 SW = dict(transient_periods=60, record_periods=8, continuation=False)
@@ -67,7 +68,7 @@ def test_sdof_eccentric_impact_is_a_case_error():
 # ----------------------------------------------------------------------------- platform
 def _H_by_hand(f, fp, zeta):
     """|H| of a force-driven second-order platform, |1 / (1 - r^2 + 2 i zeta r)|, r = f / f_p,
-    written out here (Sec. 5.2), not vibeam.effects.platform_H."""
+    written out here (Sec. 5.2), not vibeam.engine.effects.platform_H."""
     r = np.asarray(f, float) / fp
     return 1.0 / np.sqrt((1.0 - r * r) ** 2 + (2.0 * zeta * r) ** 2)
 
@@ -121,7 +122,7 @@ def test_platform_coupled_heavy_platform_is_the_filter(beam):
 
 # ----------------------------------------------------------------------------- eccentric impact
 def test_eccentric_contact_row_includes_rotation(beam):
-    from vibeam.beamscene import scene_of
+    from vibeam.case.beamscene import scene_of
     from vibeam.models.beam import BeamFE
     from vibeam.reductions.modal import modal_reduction
 

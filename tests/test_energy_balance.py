@@ -81,7 +81,7 @@ from scipy.integrate import solve_ivp
 from vibeam.models.compliant import HuntCrossley, LinearContact, damping_ratio_for_restitution
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import CompliantEventSolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 N_FINE, N_COARSE = 8192, 2048     # samples per forcing period
 TOL_STOP = 2e-6                   # per stop (and total), of the stop's losses: measured <= 2.7e-7
@@ -150,7 +150,7 @@ def _beam(law, two, lower=None):
     """The rig FE beam (2 modes) with ``law`` ("restitution", "linear", "hunt_crossley") and, on
     two stops, the lower stop's own law ``lower`` (None: the upper stop's; "hunt_crossley": the
     lower Hertzian stop of BEAM_HC_K_LO, the target R of [model] R)."""
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
     from vibeam.models.beam_compliant import CompliantBeamEventSolver
     from vibeam.models.beam_dynamics import BeamEventSolver
     from vibeam.models.beam_hc import HuntCrossleyBeamEventSolver, velocity_floor

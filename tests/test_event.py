@@ -9,7 +9,7 @@ from scipy.linalg import expm
 from scipy.optimize import fsolve
 
 from vibeam.models import SDOF, EventSolver, linear_amplitude
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 
 def _run(model, Omega, n_transient, n_record, state0=None, ns=64, **kw):

@@ -1,7 +1,7 @@
 """A full disk, a file-size limit or a read-only folder under every writer (issue 19, items 1, 4, 5).
 
 The rule: whatever fails, the previous file stays in place byte for byte until its complete
-successor is renamed over it (``vibeam.outdir.replace_file``), the command ends with one line
+successor is renamed over it (``vibeam.io.outdir.replace_file``), the command ends with one line
 ``vibeam: error: <file>: ...`` and exit 2, and no temporary file or lock is left behind.
 
 The faults are made without root and without mounts: the writer runs in a child process under
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import pytest
 
-from vibeam.outdir import LOCK_NAME
+from vibeam.io.outdir import LOCK_NAME
 
 LIMIT = 2048
 
@@ -209,7 +209,7 @@ def ws(tmp_path_factory):
         (d / f"{name}.toml").write_text(text)
     r = _child(["run", str(d / "fit.toml"), "--out", str(d / "nd-run"), "--jobs", "1", "--quiet", "--no-plots"])
     assert r.returncode == 0, r.stderr
-    from vibeam.results import read_results
+    from vibeam.io.results import read_results
 
     run = read_results(d / "nd-run" / "results.h5")["runs"]["exact"]
     (d / "nd.csv").write_text("Omega,amplitude\n" + "".join(f"{float(o)!r},{float(a)!r}\n"

@@ -35,11 +35,11 @@ import numpy as np
 import pytest
 
 import vibeam
-from vibeam.case import CaseError, parse_case
+from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import SDOF, EventSolver, make_solver
 from vibeam.models.sdof import linear_amplitude
-from vibeam.records import summarize
-from vibeam.sweep import Sweep, run_sweep
+from vibeam.engine.records import summarize
+from vibeam.engine.sweep import Sweep, run_sweep
 
 FIG7 = dict(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
 
@@ -210,7 +210,7 @@ def test_point_time_limit_is_honoured_inside_a_compliant_point():
         from vibeam.models import SDOF
         from vibeam.models.compliant import LinearContact
         from vibeam.models.sdof_compliant import CompliantEventSolver
-        from vibeam.sweep import Sweep, run_sweep
+        from vibeam.engine.sweep import Sweep, run_sweep
         m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=-0.1, contact=LinearContact.from_restitution(1e8, 0.9))
         s = CompliantEventSolver(m)
         s.point(2.0, None, 0, 1, 16)                 # compile or load the kernel first
@@ -278,7 +278,7 @@ def test_the_work_estimate_counts_the_contact_stiffness():
     at 1/16 of the contact's period 2 pi / sqrt(1 + k_c): the estimate grows as sqrt(k_c) once
     that dominates (x10 from k_c = 1e10 to 1e12, within 1 %), and 1e12 is refused naming the
     key (the base branch's estimate did not depend on k_c; its points failed one by one)."""
-    from vibeam.case import InputError
+    from vibeam.case.schema import InputError
     from vibeam.runner import check_work, estimate_work
 
     def case(k):

@@ -1,4 +1,4 @@
-"""`vibeam fit` and the linear identification steps (vibeam.fit, vibeam.identify).
+"""`vibeam fit` and the linear identification steps (vibeam.identify.fit, vibeam.identify.linear).
 
 Oracles: the truth of synthetic data (with seeded noise: coverage of the +-2 standard-error
 interval, which is ~95 % for a correctly linearised estimate), closed forms (Eq. 43, the
@@ -12,11 +12,11 @@ import h5py
 import numpy as np
 import pytest
 
-from vibeam.case import CaseError, load_case, parse_case
+from vibeam.case.schema import CaseError, load_case, parse_case
 from vibeam.cli import main
-from vibeam.fit import (Evaluation, Reference, finite_difference_jacobian, fit_case, fit_runs, fitted_case_text,
+from vibeam.identify.fit import (Evaluation, Reference, finite_difference_jacobian, fit_case, fit_runs, fitted_case_text,
                         read_reference, synthetic_reference)
-from vibeam.identify import (damped_response, eq43_amplitude, eq43_jacobian, fit_decay, fit_linear,
+from vibeam.identify.linear import (damped_response, eq43_amplitude, eq43_jacobian, fit_decay, fit_linear,
                              log_decrement, uncertainty)
 
 CASES = Path(__file__).resolve().parent.parent / "cases"
@@ -99,7 +99,7 @@ def test_recovery_fe_two_modes_R_over_20_seeds():
 
 
 def _with_sweep(case, transient, record, direction):
-    from vibeam.fit import case_dump, to_toml
+    from vibeam.identify.fit import case_dump, to_toml
 
     d = case_dump(case)
     d["sweep"].update(transient_periods=transient, record_periods=record, direction=direction)
@@ -298,7 +298,7 @@ def test_platform_ratio_recovered_from_fits_at_fn_and_2fn():
     gamma(f_i) over the band (a_i: amplitude per unit gamma) -- checked to 1e-7 -- and the ratio
     lies between the band's extreme ratios around the filter's 0.214."""
     from vibeam.runner import make_job as _job
-    from vibeam.sweep import run_sweep
+    from vibeam.engine.sweep import run_sweep
 
     c1 = parse_case(PLATFORM_SCENE.format(gap=20.0, V=0.1, effects=PLATFORM, f0=7.5, f1=7.7, n=11))
     j1 = _job(c1, c1.run[0], {})
@@ -334,7 +334,7 @@ def test_fit_runs_of_a_ladder_prints_the_apparent_R(tmp_path, capsys):
     the FE rungs fitted to the paper's SDOF FRC at the FE's f_1 = 7.6 Hz (R 0.72) need an
     apparent R of their own, higher with more modes (each impact also feeds the higher,
     strongly damped modes; measured 0.725 and 0.764 on 122 points)."""
-    from vibeam.fit import fidelity_table
+    from vibeam.identify.fit import fidelity_table
 
     case, _ = load_case(CASES / "rig-fe-neutral.toml")
     d_text = _with_sweep(case, transient=150, record=16, direction="up")

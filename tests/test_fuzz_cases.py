@@ -4,8 +4,8 @@ The shipped case files (``cases/*.toml``) are the seeds.  Hypothesis mutates the
 data level (unknown keys in any table, wrong types, NaN/inf/huge/negative numbers, deleted
 keys, ``model``/``run`` replaced by something else, a ``[map]`` table with good and bad
 parameters and grids) and at the text level (truncation, garbage bytes and unicode).  For
-every mutant :func:`vibeam.case.parse_case` either accepts it (then it is a usable case) or
-raises :class:`vibeam.case.CaseError` with a single line that names the key (or says "not
+every mutant :func:`vibeam.case.schema.parse_case` either accepts it (then it is a usable case) or
+raises :class:`vibeam.case.schema.CaseError` with a single line that names the key (or says "not
 valid TOML"); any other exception fails the test.  A few invalid mutants go through
 ``vibeam run`` in-process and as a subprocess: exit code 2, ``vibeam: error: ...`` on one
 line, no traceback, nothing written to the output folder.
@@ -28,7 +28,7 @@ import pytest
 from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
-from vibeam.case import MAX_GRID_POINTS, MAX_MAP_VALUES, CaseError, load_case, parse_case
+from vibeam.case.schema import MAX_GRID_POINTS, MAX_MAP_VALUES, CaseError, load_case, parse_case
 from vibeam.cli import main
 
 CASES = sorted((Path(__file__).resolve().parent.parent / "cases").glob("*.toml"))
@@ -533,7 +533,7 @@ def test_cli_subprocess_no_traceback(tmp_path, cmd):
 # Small scenes whose every numeric key the fuzzer sets to an extreme (0, -0, +-subnormal 5e-320,
 # +-1e300, NaN, +-inf, 2**63 - 1, numbers of the wrong type) and runs through `vibeam run` in a
 # subprocess.  Allowed outcomes only: exit 0 with finite amplitudes at every point not `failed`
-# and statuses from vibeam.records.STATUSES; exit 3 (every point failed, an honest status); or
+# and statuses from vibeam.engine.records.STATUSES; exit 3 (every point failed, an honest status); or
 # exit 2 with one line `vibeam: error: ...`.  Never a traceback, a run past the guard time (a
 # hang), or a file outside the output folder.
 RUN_SEEDS = {
@@ -683,8 +683,8 @@ _INFO = ("[", "vibeam: note: ")      # the run's header line ([name] ...) and no
 
 def run_extreme(seed, data, keys, tmp: Path) -> str:
     """Run one drawn case; returns its outcome class or fails with what went wrong."""
-    from vibeam.records import STATUSES
-    from vibeam.results import read_results
+    from vibeam.engine.records import STATUSES
+    from vibeam.io.results import read_results
 
     work = tmp / "work"
     work.mkdir()

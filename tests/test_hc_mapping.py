@@ -17,7 +17,7 @@ from vibeam.models.compliant import HuntCrossley
 from vibeam.models.sdof import SDOF
 from vibeam.models.sdof_compliant import CompliantEventSolver
 from vibeam.models.sdof_hc_map import HuntCrossleyMappingSolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 KEYS = ("amplitude", "q_max", "impact_velocity", "contact_duration", "contact_force_max", "penetration_max",
         "energy_per_impact")
@@ -69,8 +69,8 @@ def test_hc_mapping_case_and_continued_sweep():
     """A Hunt-Crossley case takes method ``mapping`` (registry ``contact_laws``); a continued
     sweep hands the fixed point on and its last point equals the event kernel's orbit (amplitude
     to 1e-8)."""
-    from vibeam.case import parse_case
-    from vibeam.sweep import Sweep, run_sweep
+    from vibeam.case.schema import parse_case
+    from vibeam.engine.sweep import Sweep, run_sweep
 
     text = """name = "x"
 [model]

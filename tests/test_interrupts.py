@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from vibeam.results import read_lines
+from vibeam.io.results import read_lines
 
 # a map of 2 x 6 lines; with 2000000 transient periods a point is 1000 solver calls of 2000
 # periods (5-15 s: chatter at the pre-stressed stop) and a line six points: an interrupt that
@@ -276,7 +276,7 @@ def test_the_interrupt_message_says_what_is_on_disk(tmp_path, monkeypatch, capsy
     checkpoint keeps (and --resume).  The interrupt is injected deterministically: the sweep
     engine runs ``finished`` lines of the map (2 values x 2 directions), hands them to the
     checkpoint and raises KeyboardInterrupt, as Ctrl-C in the engine does."""
-    from vibeam import sweep
+    from vibeam.engine import sweep
     from vibeam.cli import main
 
     real = sweep.run_lines
@@ -346,7 +346,7 @@ def test_lines_finished_before_the_interrupt_are_kept(monkeypatch):
 
     import numpy as np
 
-    from vibeam import sweep as sw
+    from vibeam.engine import sweep as sw
     from vibeam.models import SDOF, make_solver
 
     m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)

@@ -118,7 +118,7 @@ def test_the_beam_on_a_kelvin_voigt_stop_obeys_liouville():
     1e5 N/m, 15.4 Hz, settled; every shot exact): ``sum lambda_i = trace(A_free) - c |w|^2 T_c /
     t`` (the contact phase's trace loses ``c w w^T``; ``T_c`` the contact time of the shots,
     recounted here), to 1e-9 of ``|trace A_free|`` (measured 2.7e-14)."""
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
     from vibeam.models import make_solver, shooting_problem
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
@@ -208,7 +208,7 @@ def test_the_spectrum_classes_and_the_map_classes():
     """classify_spectrum: chaotic beyond 3 errors, quasi-periodic at 0 within them with lambda_2
     below, non-periodic otherwise, empty when not computed; maps.classify turns the non-periodic
     points (and only them) into CHAOTIC and QUASI_PERIODIC."""
-    from vibeam.maps import CHAOTIC, NON_PERIODIC, PERIOD_1, QUASI_PERIODIC, classify
+    from vibeam.analysis.maps import CHAOTIC, NON_PERIODIC, PERIOD_1, QUASI_PERIODIC, classify
     from vibeam.models.lyapunov import classify_spectrum
 
     assert classify_spectrum([0.01, -0.2], [0.001, 0.001]) == "chaotic"
@@ -219,3 +219,35 @@ def test_the_spectrum_classes_and_the_map_classes():
     assert classify_spectrum([np.nan, np.nan], [np.nan, np.nan]) == ""
     c = classify([1, 0, 0, 0], ["ok"] * 4, ["chaotic", "chaotic", "quasi_periodic", ""])
     assert list(c) == [PERIOD_1, CHAOTIC, QUASI_PERIODIC, NON_PERIODIC]
+
+
+def test_lambda_1_tends_to_zero_at_the_period_doubling_located_by_continuation():
+    """Fig. 13's period-1 branch (paper Fig. 13: beta = 0.015, B = 0.5e-3, R = 0.9, Delta = 0.5e-3)
+    continued from Omega = 1.5 loses stability by a period doubling (tests/test_continuation.py).
+    Approaching it from the stable side (1e-3, 1e-4, 1e-5 before it), lambda_1 of the period-1
+    orbit (QR over 4000 shots started on the fixed point) equals ln |mu_1| / T of the
+    continuation's Floquet multiplier within the bound ln cond(V) / t of the first test (plus
+    1e-9), and goes to 0: |lambda_1| decreases (measured 0.053, 0.0038, 0.00012), and is below
+    1e-3 at 1e-5 before the doubling."""
+    from vibeam.models.continuation import start_point, trace
+
+    fig13 = SDOF(BETA, 0.5e-3, R, 0.5e-3)
+    prob = SDOFShooting(fig13, "Omega")
+    x0 = _attractor(fig13, 1.5)
+    branches = trace(prob, x0, 1.5, 1, 1.5, 2.5, +1)
+    pd = [f for f in branches[0].bifurcations if f.type == "period_doubling"][0]
+    lam = []
+    for d in (1e-3, 1e-4, 1e-5):
+        W = pd.parameter - d
+        pt, why = start_point(prob, pd.x, W, 1, 1.5, 2.5)
+        assert pt is not None, why
+        sp = lyapunov_spectrum(prob, pt.x, W, 4000)
+        assert sp.status == "ok"
+        T = 2 * math.pi / W
+        mu = np.linalg.eigvals(pt.shot.M)
+        floquet = np.sort(np.log(np.abs(mu)) / T)[::-1]
+        bound = math.log(np.linalg.cond(np.linalg.eig(pt.shot.M)[1])) / sp.time + 1e-9
+        assert np.all(np.abs(sp.exponents - floquet) <= bound), (d, sp.exponents, floquet, bound)
+        lam.append(sp.largest)
+    assert lam[0] < lam[1] < lam[2] < 0
+    assert abs(lam[2]) < 1e-3

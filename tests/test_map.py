@@ -10,12 +10,12 @@ import h5py
 import numpy as np
 import pytest
 
-from vibeam.case import parse_case
-from vibeam.maps import FAILED, HELD, NO_IMPACT, PERIOD_1, classify
+from vibeam.case.schema import parse_case
+from vibeam.analysis.maps import FAILED, HELD, NO_IMPACT, PERIOD_1, classify
 from vibeam.models import SDOF, make_solver
-from vibeam.results import read_lines, read_results
+from vibeam.io.results import read_lines, read_results
 from vibeam.runner import run_case
-from vibeam.sweep import Sweep, plan_lines, run_lines, run_sweep
+from vibeam.engine.sweep import Sweep, plan_lines, run_lines, run_sweep
 from vibeam.testing import CrashingSolver, FailingSolver
 
 RIG = """
@@ -281,7 +281,7 @@ def test_resume_refuses_another_case(tmp_path):
     case, text = rig(0.0, nf=3, nv=2, tp=50)
     run_case(case, text, tmp_path, jobs=1, quiet=True, plots=False)
     other, other_text = rig(0.1, nf=3, nv=2, tp=50)
-    from vibeam.case import CaseError
+    from vibeam.case.schema import CaseError
     with pytest.raises(CaseError, match="another case"):
         run_case(other, other_text, tmp_path, jobs=1, quiet=True, plots=False, resume=True)
 

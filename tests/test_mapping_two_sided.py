@@ -15,7 +15,7 @@ import pytest
 
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_mapping import MappingSolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 # (Delta, Delta_lower, R_lower, Omega, q0): paper-fig7-two-sided-like scenes (beta = 0.015,
 # B = 5e-4, R = 0.9) and what each exercises; q0: start of the event run (None: rest)
@@ -133,9 +133,9 @@ def test_two_sided_mapping_case_runs_a_continued_frc(tmp_path):
     continues the orbit from point to point (the flat impact sequence as state) and stores the
     lower stop's counts; the period-2 branch of Fig. 7 with a lower stop at 2e-3 (1.9 ... 2.2)
     agrees with the event run of the same case point by point (amplitude and speeds to 1e-9)."""
-    from vibeam.case import parse_case
+    from vibeam.case.schema import parse_case
     from vibeam.models import make_solver
-    from vibeam.sweep import Sweep, run_sweep
+    from vibeam.engine.sweep import Sweep, run_sweep
 
     text = """name = "x"
 [model]

@@ -12,7 +12,7 @@ Every cell is a case (a dict, as ``tomllib`` reads a case file) that a user coul
 * method ``event``, ``direct``, ``mapping``, ``averaging`` or ``continuation``.
 
 A cell either works or is refused at validation in one line naming the key and what is
-allowed (``vibeam.case.CaseError``).  :data:`WORKING` lists the cells that work: a cell that
+allowed (``vibeam.case.schema.CaseError``).  :data:`WORKING` lists the cells that work: a cell that
 starts or stops working must be added or removed here, so the count in the README's
 "Architecture" section stays true.  The second test runs every working row through each of its
 time-domain methods and checks them against each other (``event``, the exact kernels, against

@@ -18,7 +18,7 @@ from vibeam.models.compliant import LinearContact
 from vibeam.models.sdof import SDOF
 from vibeam.models.sdof_compliant import CompliantEventSolver
 from vibeam.models.sdof_compliant_ode import CompliantDirectSolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 KV = LinearContact.from_restitution(1e4, 0.8)
 

@@ -16,7 +16,7 @@ import pytest
 from vibeam.models.beam import BeamFE, BeamGeometry
 from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel, BeamODESolver
 from vibeam.models.sdof import SDOF, EventSolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
 L, LS, LM = 0.18, 0.10, 0.132
@@ -108,9 +108,9 @@ def test_physical_beam_scene_records_joules():
     """A physical beam run stores ``energy_per_impact_j``: for a period-1 orbit it is the
     modal kinetic energy lost at the impact in SI, (1 - R^2) m_eff U-^2 / 2 with m_eff = 1 /
     |w|^2 in kg and U- in m/s (the kernel's ``impact_velocity_m_s``), to 1e-8."""
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
     from vibeam.models import make_solver
-    from vibeam.sweep import Sweep, run_sweep
+    from vibeam.engine.sweep import Sweep, run_sweep
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     m = case.model_spec({"n_modes": 2}).build()

@@ -67,7 +67,7 @@ def test_editing_a_callee_reaches_its_cached_caller_and_damaged_files_recompile(
     assert _run(pkg, code) == "6.0"
 
 
-EVENT = ("from vibeam.models import SDOF, make_solver; from vibeam.records import summarize\n"
+EVENT = ("from vibeam.models import SDOF, make_solver; from vibeam.engine.records import summarize\n"
          "import vibeam.models as vm; assert vm.__file__.startswith({pkg!r})\n"
          "m = SDOF(beta=0.015, B=0.5e-3, R={R}, Delta=0.0)\n"
          "tr = make_solver(m, 'event').point(2.0, None, 300, 8)\n"

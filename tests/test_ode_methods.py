@@ -5,7 +5,7 @@ Scene (nondimensional): ``beta = 0.015``, ``B = 0.5e-3``, ``R = 0.9``,
 ``Delta = 0``; ``Omega = 1.9, 2.0, 2.1`` are period-1 motions with one impact
 per period.  Every method starts from the same state and runs the same
 150 transient + 16 recorded periods, so the amplitudes ``Q = Delta - min q``
-(paper Sec. 4.1, :func:`vibeam.records.summarize`) are directly comparable.
+(paper Sec. 4.1, :func:`vibeam.engine.records.summarize`) are directly comparable.
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ import pytest
 
 from vibeam.models import SDOF, EventSolver, make_solver
 from vibeam.models.sdof_ode import DirectSolver, IvanovSolver, ZhuravlevSolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 
 SCENE = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
 OMEGAS = (1.9, 2.0, 2.1)

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibeam.beamscene import derive, scene_of
-from vibeam.case import load_case
+from vibeam.case.beamscene import derive, scene_of
+from vibeam.case.schema import load_case
 from vibeam.models import SDOF
 from vibeam.models.beam_dynamics import BeamEventSolver, _trans, mode_table
 from vibeam.models.periodic_beam import (NATIVE_PARAMETERS, REBUILD_KEYS, BeamShooting,

@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from vibeam import assess  # noqa: E402
+from vibeam.engine import assess
 from vibeam.api import Results  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,7 +60,7 @@ def figures(res: Results) -> dict:
     """Every figure the command line draws for these results (None where it draws nothing)."""
     out = {}
     if res.runs:
-        from vibeam.plots import impacts_figure
+        from vibeam.plots.sweep import impacts_figure
 
         out["frc"] = res.plot_frc()
         out["bifurcation"] = res.plot_bifurcation()
@@ -87,7 +87,7 @@ def figures(res: Results) -> dict:
 # measured differences are <= 2 ulp, 4e-16) -- a 1 % error (test_the_data_checks_can_fail) is
 # 1e10 times larger.
 
-# README "Plots" / vibeam.style: the marker of a point is its period class
+# README "Plots" / vibeam.plots.style: the marker of a point is its period class
 _PERIOD_SHAPE = {1: "o", 2: "^", 0: "x", -1: "."}   # 3..8: square "s"
 _RED = "#cc0000"                                  # failed points (style.FAILED_COLOUR)
 
@@ -539,7 +539,7 @@ def check_figure_data(kind: str, fig, data: dict):
 
 
 def assert_png_shows(png, fig, dpi: int = 150):
-    """The PNG file is ``fig`` rendered at ``dpi`` (vibeam.plots.save_figure's): a valid image of
+    """The PNG file is ``fig`` rendered at ``dpi`` (vibeam.plots.sweep.save_figure's): a valid image of
     the figure's size in pixels, the same as rendering ``fig`` again (so the figure whose artists
     were checked is the one written) but for anti-aliasing: two renderings of one figure were
     measured to differ in a few edge pixels now and then (the work-precision figure, 5 of 10
@@ -565,7 +565,7 @@ def assert_png_shows_results(png, results, kind: str):
     """A figure written by `vibeam run` (``frc``, ``bifurcation``, ``impacts``, ``map <name>``):
     the same figure built from the results file plots the file's data (:func:`check_figure_data`)
     and the PNG is that figure (:func:`assert_png_shows`)."""
-    from vibeam.plots import impacts_figure
+    from vibeam.plots.sweep import impacts_figure
 
     res = Results.from_file(results)
     title = getattr(res.case, "name", "")
@@ -582,10 +582,10 @@ def assert_png_shows_results(png, results, kind: str):
 @contextlib.contextmanager
 def written_figures():
     """The figures vibeam saves while the block runs (every writer goes through
-    vibeam.plots.save_figure): file name -> Figure, for reading their artists back."""
+    vibeam.plots.sweep.save_figure): file name -> Figure, for reading their artists back."""
     from unittest import mock
 
-    from vibeam import plots
+    from vibeam.plots import sweep as plots
 
     figs, orig = {}, plots.save_figure
 
@@ -709,7 +709,7 @@ def test_every_figure_of_every_quick_case(path, quick_results):
 
 
 def _run(name, Omega, amp, period, direction, **extra):
-    from vibeam.sweep import SweepResult
+    from vibeam.engine.sweep import SweepResult
 
     data = dict(Omega=np.asarray(Omega, float), amplitude=np.asarray(amp, float), period=np.asarray(period),
                 direction=np.asarray(direction, dtype=object),
@@ -720,7 +720,7 @@ def _run(name, Omega, amp, period, direction, **extra):
 def test_frc_range_bars_up_down_and_failed_points():
     """Non-periodic points get a bar over amplitude_min..amplitude_max; up is solid with filled
     markers, down dashed with open ones; failed points are red crosses at the bottom."""
-    from vibeam.plots import frc_figure
+    from vibeam.plots.sweep import frc_figure
 
     W = np.array([1.0, 1.5, 2.0, 2.5, 2.5, 2.0, 1.5, 1.0])
     r = _run("a", W, [1.0, 2.0, 3.0, 4.0, 4.0, 3.0, 2.5, 1.0], [1, 0, 2, 1, 1, 2, 0, 1],
@@ -750,8 +750,8 @@ def test_frc_range_bars_up_down_and_failed_points():
 
 
 def test_run_colours_follow_the_case_order():
-    from vibeam.plots import bifurcation_figure, frc_figure
-    from vibeam.style import PALETTE, colours
+    from vibeam.plots.sweep import bifurcation_figure, frc_figure
+    from vibeam.plots.style import PALETTE, colours
 
     a = _run("a", [1.0, 2.0], [1, 2], [1, 1], ["up", "up"], strobe=np.ones((2, 4, 2)))
     b = _run("b", [1.0, 2.0], [1, 3], [1, 1], ["up", "up"], strobe=np.ones((2, 4, 2)))
@@ -769,7 +769,7 @@ def test_run_colours_follow_the_case_order():
 
 
 def _map(n_values, n_freq, classes):
-    from vibeam.maps import MapResult
+    from vibeam.analysis.maps import MapResult
 
     W = np.linspace(1.5, 2.5, n_freq)
     c = np.asarray(classes, dtype=np.int8).reshape(1, n_values, n_freq)
@@ -783,7 +783,7 @@ def _map(n_values, n_freq, classes):
 @pytest.mark.parametrize("shape", [(1, 1), (1, 5), (4, 1)])
 def test_map_with_one_value_or_one_frequency_is_drawn(shape):
     """A map of one value (or one frequency) has cells of finite size, not a blank panel."""
-    from vibeam.maps import NON_PERIODIC, map_figure
+    from vibeam.analysis.maps import NON_PERIODIC, map_figure
 
     m = _map(*shape, np.full(shape, NON_PERIODIC))
     fig = map_figure(m, "one value")
@@ -801,7 +801,7 @@ def test_map_with_one_value_or_one_frequency_is_drawn(shape):
 
 
 def test_map_hysteresis_panel_and_agreement_have_legends():
-    from vibeam.maps import PERIOD_1, PERIOD_2, agreement_figure, map_figure
+    from vibeam.analysis.maps import PERIOD_1, PERIOD_2, agreement_figure, map_figure
 
     m = _map(2, 3, [PERIOD_1] * 6)
     m.data = {k: (np.concatenate([v, v]) if k not in ("values", "direction") else v) for k, v in m.data.items()}
@@ -851,7 +851,7 @@ def test_a_figure_without_units_fails_the_check():
 def test_continuation_figures_are_labelled(name, tmp_path, monkeypatch):
     """The continuation FRC (stable solid, unstable dashed, bifurcations) and the two-parameter
     curves, drawn by `vibeam continue --quick` of the shipped continuation cases: the same checks."""
-    from vibeam import branches
+    from vibeam.analysis import branches
     from vibeam.cli import main
 
     figs = []
@@ -934,7 +934,7 @@ def test_the_data_checks_can_fail(quick_results):
             _fails(check_frc_data, one, data)                       # the down sweep is missing
         # impacts per stop
         data, res = file_data(cases["paper-fig7-two-sided"]), Results.from_file(cases["paper-fig7-two-sided"])
-        from vibeam.plots import impacts_figure
+        from vibeam.plots.sweep import impacts_figure
 
         imp = impacts_figure(res.runs)
         figs.append(imp)

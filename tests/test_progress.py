@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vibeam.models import SDOF, make_solver
-from vibeam.sweep import Sweep, plan_lines, run_lines
+from vibeam.engine.sweep import Sweep, plan_lines, run_lines
 
 
 class SlowSolver:
@@ -86,7 +86,7 @@ def test_small_sweep_runs_inline_and_hands_the_rest_to_the_pool():
 
 def test_plan_execution_inline_for_small_sweeps_pool_for_large():
     from vibeam import runner
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case(runner.__file__.replace("vibeam/runner.py", "cases/paper-fig7.toml"))
     jobs_ = runner._jobs(case)

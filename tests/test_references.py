@@ -24,11 +24,11 @@ import h5py
 import numpy as np
 import pytest
 
-from vibeam.case import load_case, parse_case
+from vibeam.case.schema import load_case, parse_case
 from vibeam.cli import main
-from vibeam.maps import all_runs
-from vibeam.regress import match_points
-from vibeam.results import read_results
+from vibeam.analysis.maps import all_runs
+from vibeam.analysis.regress import match_points
+from vibeam.io.results import read_results
 from vibeam.testing import check_labelled
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -79,7 +79,7 @@ def test_quick_variant_regresses_against_its_reference(path, quick_results, caps
     for name, r in old.items():
         n = new[name]
         # the same grid point by point (physical grids in Hz; Omega = f / f_n of a calibrated FE
-        # model carries ~1e-11 of library-dependent round-off, see vibeam.regress.match_points)
+        # model carries ~1e-11 of library-dependent round-off, see vibeam.analysis.regress.match_points)
         i_n, i_r = match_points(n, r)
         assert i_n == list(range(len(n["Omega"]))) and i_r == list(range(len(r["Omega"])))
         np.testing.assert_allclose(n["Omega"], r["Omega"], rtol=1e-9)

@@ -6,7 +6,7 @@ import numpy as np
 
 from vibeam.cli import main
 from vibeam.models import linear_amplitude
-from vibeam.regress import compare
+from vibeam.analysis.regress import compare
 
 # no impact on the whole grid: Delta = 0.15 lies beyond the largest linear amplitude
 # C(Omega) <= B / (2 beta) = 0.1, so the FRC is Delta + C(Omega) in closed form.  The response C
@@ -77,8 +77,8 @@ def test_regress_against_an_analytic_csv(tmp_path):
 
 def _fake(tmp_path, name, rows):
     """A results file with one run of the given per-point rows (only what compare reads)."""
-    from vibeam.results import write_results
-    from vibeam.sweep import Sweep, SweepResult, stack
+    from vibeam.io.results import write_results
+    from vibeam.engine.sweep import Sweep, SweepResult, stack
 
     sw = Sweep(Omega=np.array([r["Omega"] for r in rows]), record_periods=16)
     res = SweepResult(name="exact", fidelity="sdof", method="event", settings={}, data=stack(rows, sw),
@@ -98,7 +98,7 @@ def test_non_periodic_points_compared_by_their_spread(tmp_path):
     difference (SE = std sqrt(2 / 16) = 0.35 std here) and extremes within half the range
     pass; a mean 5 SE off, a range shifted by its whole width, or a no-impact orbit in place
     of the chaos fail.  Periodic points keep the amplitude check."""
-    from vibeam.results import read_results
+    from vibeam.io.results import read_results
 
     ref = _fake(tmp_path, "ref.h5", [_row(1.0, 1, 2.0, 0.0, 2.0, 2.0),
                                       _row(2.0, 0, 3.0, 0.4, 2.2, 3.9)])
@@ -150,10 +150,10 @@ TABLES = {
 @pytest.mark.parametrize("name", list(TABLES))
 def test_fit_and_regress_read_tables_by_one_set_of_rules(tmp_path, name):
     """``vibeam fit`` and ``vibeam regress`` accept the same tables with the same numbers and
-    refuse the same ones with the same one-line message (vibeam.inputs.read_frc_table)."""
-    from vibeam.case import CaseError
-    from vibeam.fit import read_reference
-    from vibeam.regress import read_csv_reference
+    refuse the same ones with the same one-line message (vibeam.io.inputs.read_frc_table)."""
+    from vibeam.case.schema import CaseError
+    from vibeam.identify.fit import read_reference
+    from vibeam.analysis.regress import read_csv_reference
 
     text, ok = TABLES[name]
     p = tmp_path / f"{name}.csv"
@@ -196,7 +196,7 @@ def test_csv_points_are_compared_with_the_branch_of_their_direction(tmp_path):
 def test_csv_reference_that_cannot_be_compared_is_bad_input(tmp_path):
     """Input errors, not regressions: physical columns against nondimensional results, a direction
     the results do not have, no point inside the sweep."""
-    from vibeam.case import InputError
+    from vibeam.case.schema import InputError
 
     new = _two_branches()
     for text, needle in (("frequency_hz,amplitude_mm\n15.0,0.2\n", "'frequency_hz,amplitude_mm' are not in"),

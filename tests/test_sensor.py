@@ -4,9 +4,9 @@ import math
 import numpy as np
 import pytest
 
-from vibeam.case import SensorSpec, parse_case
+from vibeam.case.schema import SensorSpec, parse_case
 from vibeam.models import SDOF, make_solver
-from vibeam.sensor import (SensorHook, central_velocity, identify, identify_impacts, physical_record,
+from vibeam.engine.sensor import (SensorHook, central_velocity, identify, identify_impacts, physical_record,
                            required_samples_per_period, resample)
 
 RIG = SDOF.from_physical(7.6, 0.017, 0.72, 0.0, 180.0, 5.16e-4, 0.6)   # rig-neutral (Sec. 7)
@@ -107,7 +107,7 @@ def test_sensor_hook_ladder_and_case_validation():
     out = SensorHook(sp, RIG.natural_frequency_hz, RIG.length_m, RIG.R)(tr)
     assert out["R_identified_ladder"].shape == (2,) and out["R_identified"] == out["R_identified_ladder"][0]
     assert out["R_n_identified"] == 3
-    from vibeam.case import CaseError
+    from vibeam.case.schema import CaseError
     with pytest.raises(CaseError, match="impacts"):
         parse_case('name="x"\n[model]\nfidelity="sdof"\nbeta=0.01\nB=0.1\nR=0.8\nDelta=0.0\n'
                    '[sweep]\nOmega=[2,2,1]\n[effects.sensor]\nimpacts="some"\n[[run]]\nname="a"\nmethod="event"\n')

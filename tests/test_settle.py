@@ -11,12 +11,12 @@ import time
 import numpy as np
 import pytest
 
-from vibeam.case import CaseError, parse_case
+from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import SDOF, EventSolver, linear_amplitude
 from vibeam.models.sdof_mapping import is_admissible, newton_fixed_point, orbit_extremes
-from vibeam.records import (STATUSES, amplitude_spread, converging, spread_agrees, summarize,
+from vibeam.engine.records import (STATUSES, amplitude_spread, converging, spread_agrees, summarize,
                             transient_verdict)
-from vibeam.sweep import UNITS, Sweep, _simulate, run_sweep
+from vibeam.engine.sweep import UNITS, Sweep, _simulate, run_sweep
 
 FIG8 = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
 FIG13 = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3)
@@ -258,14 +258,14 @@ def test_chunked_calls_equal_one_call_on_a_periodic_point(fidelity):
 def test_point_time_limit_ends_a_point_as_failed_and_the_sweep_goes_on(monkeypatch):
     """A point of 10^7 transient periods (~25 s) with a 0.2 s limit fails with the reason, and
     the sweep returns its row instead of raising.  Deterministic: the engine's clock
-    (``vibeam.sweep.time.perf_counter``) is replaced by one that advances 1/16 s per solver call
+    (``vibeam.engine.sweep.time.perf_counter``) is replaced by one that advances 1/16 s per solver call
     (binary-exact, so no rounding decides a comparison), and the calls are counted.  The limit
     is checked between calls and the clock starts when the first call returns (so a kernel's
     compilation does not count): after call k the point has run (k - 1) / 16 s, first over 0.2 s
     at k = 5 -- five calls of 2000 periods of the 5000 the point would need."""
     import types
 
-    import vibeam.sweep as sweep_module
+    import vibeam.engine.sweep as sweep_module
 
     solver = EventSolver(FIG13)
     assert solver.chunk_periods == 2000
@@ -312,7 +312,7 @@ def test_ctrl_c_interrupts_a_long_inline_point_between_chunks(tmp_path):
     script.write_text(textwrap.dedent("""
         import os, signal, sys, numpy as np
         from vibeam.models import SDOF, EventSolver
-        from vibeam.sweep import Sweep, run_sweep
+        from vibeam.engine.sweep import Sweep, run_sweep
         s = EventSolver(SDOF(0.015, 0.5e-3, 0.9, 0.5e-3))
         run_sweep(s, Sweep(Omega=np.array([2.0]), transient_periods=2, record_periods=2))  # compile
         inner = s.point

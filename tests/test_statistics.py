@@ -2,8 +2,8 @@
 
 A chaotic attractor is reproducible only in its statistics, so the per-period amplitudes
 ``Q_k`` of a non-periodic point are compared by the mean with a batch-means standard error
-(:func:`vibeam.records.batch_means`) and Welch's two-sample test at Student's critical value
-(:func:`vibeam.records.means_agree`), in ``vibeam regress``, in ``transient_periods = "auto"``
+(:func:`vibeam.engine.records.batch_means`) and Welch's two-sample test at Student's critical value
+(:func:`vibeam.engine.records.means_agree`), in ``vibeam regress``, in ``transient_periods = "auto"``
 and in the tests alike.  Oracles: the exact asymptotic standard error of an AR(1) series and
 the nominal false-alarm probability of the test; closed-form quantiles; bit-for-bit sweeps.
 """
@@ -16,10 +16,10 @@ import pytest
 from scipy.signal import lfilter
 
 from vibeam.models import SDOF, EventSolver
-from vibeam.records import (amplitude_spread, batch_means, critical_value, means_agree, spread_agrees,
+from vibeam.engine.records import (amplitude_spread, batch_means, critical_value, means_agree, spread_agrees,
                             window_verdict)
-from vibeam.regress import compare
-from vibeam.sweep import Sweep, run_sweep
+from vibeam.analysis.regress import compare
+from vibeam.engine.sweep import Sweep, run_sweep
 
 
 def ar1(rng, shape, phi):
@@ -163,8 +163,8 @@ def _run(Omega, period, mean, status=None, sem=1e-3, direction="up"):
 
 
 def _regress(tmp_path, new, ref, **kw):
-    from vibeam.results import write_results
-    from vibeam.sweep import SweepResult
+    from vibeam.io.results import write_results
+    from vibeam.engine.sweep import SweepResult
 
     res = SweepResult(name="r", fidelity="sdof", method="event", settings={}, data=ref, wall_time_s=0.0)
     path = write_results(tmp_path / "ref.h5", [res], "c", 'name = "c"')

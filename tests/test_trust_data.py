@@ -15,10 +15,10 @@ import h5py
 import numpy as np
 import pytest
 
-from vibeam.case import CaseError, InputError, parse_case
+from vibeam.case.schema import CaseError, InputError, parse_case
 from vibeam.cli import main
-from vibeam.outdir import LOCK_NAME, OutputLock
-from vibeam.results import ForeignFileError, append_lines, read_lines, read_results
+from vibeam.io.outdir import LOCK_NAME, OutputLock
+from vibeam.io.results import ForeignFileError, append_lines, read_lines, read_results
 from vibeam.runner import MAX_WORK_STEPS, check_work, run_case
 
 CASE = """
@@ -108,7 +108,7 @@ def test_stale_lock_of_a_dead_process_is_taken_over(tmp_path, capsys):
 def test_lock_of_a_killed_holder_is_stale_and_a_live_one_refuses(tmp_path):
     """A holder killed with SIGKILL leaves its lock file, but the kernel drops its flock: the
     next process takes it over.  While a holder lives, another OutputLock refuses."""
-    code = ("import sys, time; from vibeam.outdir import OutputLock\n"
+    code = ("import sys, time; from vibeam.io.outdir import OutputLock\n"
             "l = OutputLock(sys.argv[1], command='holder').acquire(); print('held', flush=True); time.sleep(60)")
     p = subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], stdout=subprocess.PIPE, text=True)
     assert p.stdout.readline().strip() == "held"
@@ -168,7 +168,7 @@ def test_modes_takes_the_output_lock(tmp_path, capsys):
     beam = tmp_path / "beam.toml"
     beam.write_text(BEAM)
     out = tmp_path / "out"
-    code = ("import sys, time; from vibeam.outdir import OutputLock\n"
+    code = ("import sys, time; from vibeam.io.outdir import OutputLock\n"
             "l = OutputLock(sys.argv[1], command='vibeam map held.toml').acquire(); print('held', flush=True); "
             "time.sleep(120)")
     p = subprocess.Popen([sys.executable, "-c", code, str(out)], stdout=subprocess.PIPE, text=True)
@@ -215,7 +215,7 @@ method = "event"
 def _line(case, text, key):
     """The stacked datasets of one line of a case (computed)."""
     from vibeam import runner
-    from vibeam.sweep import run_lines, stack
+    from vibeam.engine.sweep import run_lines, stack
 
     (job,) = runner._jobs(case)
     (line,) = [l for l in runner._lines(job) if l.key == key]
@@ -290,7 +290,7 @@ def test_unbounded_work_is_refused_naming_the_key(tmp_path, capsys, monkeypatch,
 
 
 def test_work_estimate_of_the_shipped_cases_is_below_the_limit():
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
     from vibeam.runner import estimate_work
 
     root = Path(__file__).parent.parent / "cases"
@@ -329,7 +329,7 @@ def test_a_case_name_never_leaves_the_results_folder(tmp_path, monkeypatch, caps
     err = [l for l in capsys.readouterr().err.splitlines() if l.strip()]
     assert len(err) == 1 and err[0].startswith("vibeam: error: x.toml: 'name'"), err
     assert sorted(p.name for p in tmp_path.rglob("*")) == ["work", "x.toml"]
-    from vibeam.outdir import default_folder
+    from vibeam.io.outdir import default_folder
 
     with pytest.raises(InputError, match="outside results/"):
         default_folder(name)
@@ -363,8 +363,8 @@ def test_time_series_off_the_grid_is_refused_and_labels_are_grid_points(tmp_path
 
 
 def test_nondimensional_tables_have_no_physical_units(capsys):
-    from vibeam.assess import print_hfc
-    from vibeam.sweep import SweepResult
+    from vibeam.engine.assess import print_hfc
+    from vibeam.engine.sweep import SweepResult
 
     d = {"Omega": np.array([2.0]), "band_velocity_mm_s": np.array([1.0]), "band_frequency": np.array([7.0]),
          "peaks_frequency": np.full((1, 5), np.nan)}

@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibeam.case import CaseError, parse_case
+from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import SDOF, EventSolver, make_solver
 from vibeam.models.beam import BeamFE, BeamGeometry
 from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel, BeamODESolver
-from vibeam.records import summarize
+from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
 REFS = Path(__file__).resolve().parent / "references"
@@ -452,7 +452,7 @@ def test_derive_carries_the_lower_stop_to_the_sdof_case():
     """`vibeam derive --write` of a two-sided beam scene writes the lower stop of the static-mode
     SDOF: gap_lower_mm at the sensor = Delta_C,lower / phi(x_m) (the same conversion as the
     upper gap, paper Eq. 45), and its law; the written case builds the same two stops."""
-    from vibeam.beamscene import derive, scene_of, sdof_case_text
+    from vibeam.case.beamscene import derive, scene_of, sdof_case_text
 
     text = (Path(__file__).resolve().parents[1] / "cases" / "rig-fe-neutral.toml").read_text()
     text = text.replace("gap_mm = 0.0\n", "gap_mm = 0.0\ngap_lower_mm = 0.3\n", 1)
@@ -474,7 +474,7 @@ def test_shipped_two_sided_case_runs_and_plots_impacts_per_stop(tmp_path):
     import h5py
 
     from vibeam.cli import main
-    from vibeam.plots import plot_impacts
+    from vibeam.plots.sweep import plot_impacts
 
     case = Path(__file__).resolve().parents[1] / "cases" / "paper-fig7-two-sided.toml"
     assert main(["run", str(case), "--quick", "--out", str(tmp_path), "--jobs", "1", "--quiet"]) == 0
@@ -487,8 +487,8 @@ def test_shipped_two_sided_case_runs_and_plots_impacts_per_stop(tmp_path):
         assert "lower stop" in r["impacts_per_period_lower"].attrs["long_name"]
         up = np.asarray(r["direction"][:]).astype(str) == "up"
         np.testing.assert_allclose(r["impact_velocity"][up], r["impact_velocity_lower"][up], rtol=1e-12)
-    from vibeam.results import read_results
-    from vibeam.sweep import SweepResult
+    from vibeam.io.results import read_results
+    from vibeam.engine.sweep import SweepResult
 
     one = SweepResult(name="x", fidelity="sdof", method="event", settings={},
                       data={"Omega": np.ones(2), "amplitude": np.ones(2)}, wall_time_s=0.0)

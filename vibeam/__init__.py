@@ -13,7 +13,7 @@ the sweep engine, case files, results and plots in this package.  The Python API
 
 Its names are imported on first use, so ``import vibeam`` stays fast.
 """
-from .version import __version__
+from vibeam.version import __version__
 
 _API = ("load_case", "run", "simulate", "lyapunov", "basins", "open_results", "Results", "Simulation", "Lyapunov")
 __all__ = ["__version__", *_API]
@@ -21,7 +21,7 @@ __all__ = ["__version__", *_API]
 
 def __getattr__(name):
     if name in _API:
-        from . import api
+        from vibeam import api
 
         return getattr(api, name)
     raise AttributeError(f"module 'vibeam' has no attribute {name!r}")

@@ -30,29 +30,29 @@ def load_case(source):
 
     Parameters
     ----------
-    source : str, Path, dict or vibeam.case.Case
+    source : str, Path, dict or vibeam.case.schema.Case
         A path to a case file (``.toml``); the TOML text of a case (any string with a
         newline, or one that is not an existing file); a dict with the case's tables
         (as ``tomllib`` would read them); or a Case (returned as it is).
 
     Returns
     -------
-    vibeam.case.Case
+    vibeam.case.schema.Case
         The case; its text (for the results file) is in ``case_text(case)``.
 
     Raises
     ------
-    vibeam.case.CaseError
+    vibeam.case.schema.CaseError
         If the file cannot be read (not a regular file, larger than 10 MB:
-        :func:`vibeam.inputs.read_input_text`) or the case is invalid (one line naming the
+        :func:`vibeam.io.inputs.read_input_text`) or the case is invalid (one line naming the
         key, the value and what is allowed).
     TypeError
         If ``source`` is none of the above (None, a number, bytes, ...).
     """
     import os
 
-    from .case import Case, validation_message, load_case as _load, parse_case
-    from .errors import CaseError, quote_value
+    from vibeam.case.schema import Case, validation_message, load_case as _load, parse_case
+    from vibeam.errors import CaseError, quote_value
 
     if isinstance(source, Case):
         return source
@@ -152,11 +152,11 @@ class Results:
 
     Attributes
     ----------
-    runs : list of vibeam.sweep.SweepResult
+    runs : list of vibeam.engine.sweep.SweepResult
         One per ``[[run]]`` (per-point arrays in ``.data``, visiting order).
-    maps : list of vibeam.maps.MapResult
+    maps : list of vibeam.analysis.maps.MapResult
         One per run of a ``[map]`` case.
-    case : vibeam.case.Case or None
+    case : vibeam.case.schema.Case or None
     path : Path or None
         The results file (None when the run kept nothing on disk).
     """
@@ -169,9 +169,9 @@ class Results:
     @classmethod
     def from_file(cls, path) -> "Results":
         """The runs and maps of a results file (``results.h5``)."""
-        from .case import Case
-        from .inputs import check_input_file
-        from .results import load_results
+        from vibeam.case.schema import Case
+        from vibeam.io.inputs import check_input_file
+        from vibeam.io.results import load_results
 
         check_input_file(path, "results file")
         runs, maps, attrs = load_results(path)
@@ -196,7 +196,7 @@ class Results:
         return [r.name for r in self.runs + self.maps]
 
     def to_xarray(self, name: str | None = None):
-        """The results as labelled data (the layout of :mod:`vibeam.results`), loaded in memory.
+        """The results as labelled data (the layout of :mod:`vibeam.io.results`), loaded in memory.
 
         Parameters
         ----------
@@ -207,7 +207,7 @@ class Results:
         """
         import xarray as xr
 
-        from .results import write_results
+        from vibeam.io.results import write_results
 
         with tempfile.TemporaryDirectory() as tmp:
             path = self.path
@@ -228,51 +228,51 @@ class Results:
 
     def plot_frc(self, path=None):
         """FRC of every run (``frc.png``): a :class:`matplotlib.figure.Figure`, saved if ``path``."""
-        from .plots import frc_figure
+        from vibeam.plots.sweep import frc_figure
 
         return _saved(frc_figure(self.runs, title=self._title(), case=self.case), path)
 
     def plot_bifurcation(self, path=None):
         """Bifurcation diagram (stroboscopic samples) of the time-domain runs; None without any."""
-        from .plots import bifurcation_figure
+        from vibeam.plots.sweep import bifurcation_figure
 
         return _saved(bifurcation_figure(self.runs, title=self._title(), case=self.case), path)
 
     def plot_map(self, name: str | None = None, path=None):
         """Class map of one map run (default the first; paper Fig. 18)."""
-        from .maps import map_figure
+        from vibeam.analysis.maps import map_figure
 
         m = self[name] if name else self.maps[0]
         return _saved(map_figure(m, title=self._title(), case=self.case), path)
 
     def plot_agreement(self, path=None):
         """Where the maps' classes differ from the first map's; None with fewer than two maps."""
-        from .maps import agreement_figure
+        from vibeam.analysis.maps import agreement_figure
 
         return _saved(agreement_figure(self.maps, title=self._title(), case=self.case), path)
 
     def plot_spectra(self, path=None):
         """Sensor velocity spectra against the forcing frequency (``[assess] spectra``)."""
-        from .assess import spectra_figure
+        from vibeam.engine.assess import spectra_figure
 
         return _saved(spectra_figure(self.runs, self._title(), case=self.case), path)
 
     def plot_time_series(self, label, path=None):
         """Time series and phase portrait at the grid frequency ``label`` (``[assess] time_series``)."""
-        from .assess import time_series_figure
+        from vibeam.engine.assess import time_series_figure
 
         return _saved(time_series_figure(self.runs, label, self._title(), case=self.case), path)
 
     def plot_participation(self, path=None):
         """Modal shares in the sensor displacement and the energy (``[assess] participation``)."""
-        from .assess import participation_figure
+        from vibeam.engine.assess import participation_figure
 
         return _saved(participation_figure(self.runs, self._title(), case=self.case), path)
 
 
 def _saved(fig, path):
     if fig is not None and path is not None:
-        from .plots import save_figure
+        from vibeam.plots.sweep import save_figure
 
         save_figure(fig, path)
     return fig
@@ -309,16 +309,16 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
 
     Raises
     ------
-    vibeam.case.CaseError
-        Bad case or input (:class:`vibeam.case.InputError`: a folder in use, a work
+    vibeam.case.schema.CaseError
+        Bad case or input (:class:`vibeam.case.schema.InputError`: a folder in use, a work
         estimate above the limit without ``force``, ...).
     TypeError, ValueError
         An argument of the wrong type or out of range, e.g. ``jobs`` not a whole number
-        from 1 to :func:`vibeam.arguments.max_jobs` (the rule of ``--jobs``), ``out`` an
+        from 1 to :func:`vibeam.case.arguments.max_jobs` (the rule of ``--jobs``), ``out`` an
         empty string; one line naming the argument, the value and what is allowed.
     """
-    from .arguments import check_flag, check_jobs, check_path
-    from .runner import run_case
+    from vibeam.case.arguments import check_flag, check_jobs, check_path
+    from vibeam.runner import run_case
 
     jobs = check_jobs(jobs)
     out = check_path(out, "out")
@@ -326,7 +326,7 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
                        ("force", force), ("verbose", verbose)):
         check_flag(flag, name)
     if executor is not None and not callable(getattr(executor, "submit", None)):
-        from .errors import quote_value
+        from vibeam.errors import quote_value
 
         raise TypeError(f"executor = {quote_value(executor)}: not an executor; allowed: a "
                         f"concurrent.futures.Executor (with submit) or None")
@@ -343,7 +343,7 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
             res = run_case(c, text, out, jobs=jobs, quiet=not progress, plots=plots, quick=quick, resume=resume,
                            executor=executor, force=force)
             path = Path(out) / "results.h5"
-    from .maps import MapResult
+    from vibeam.analysis.maps import MapResult
 
     maps = [r for r in res if isinstance(r, MapResult)]
     runs = [r for r in res if not isinstance(r, MapResult)]
@@ -351,11 +351,11 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
 
 
 def open_results(path):
-    """A results file as an :class:`xarray.DataTree` (:func:`vibeam.results.open_results`):
+    """A results file as an :class:`xarray.DataTree` (:func:`vibeam.io.results.open_results`):
     ``tree["runs/<run>"]`` on (direction, Omega), ``tree["maps/<run>"]`` on
     (direction, <parameter>, Omega)."""
-    from .inputs import check_input_file
-    from .results import open_results as _open
+    from vibeam.io.inputs import check_input_file
+    from vibeam.io.results import open_results as _open
 
     return _open(check_input_file(path, "results file"))
 
@@ -378,7 +378,7 @@ class Simulation:
     impact_times, impact_velocities : ndarray, shape (k,)
         Impacts in the window: times (as ``t``) and pre-impact velocities ``q'- >= 0``.
     summary : dict
-        The per-point outputs of the sweep (:func:`vibeam.records.summarize`): amplitude,
+        The per-point outputs of the sweep (:func:`vibeam.engine.records.summarize`): amplitude,
         period, impacts_per_period, ...
     status, message : str
         ``ok``, ``chatter``, ``sticking`` or ``failed``, and the detail.
@@ -451,7 +451,7 @@ class Simulation:
 
     def plot(self, path=None):
         """Displacement and velocity against time, and the phase portrait (a Figure)."""
-        from .plots import simulation_figure
+        from vibeam.plots.sweep import simulation_figure
 
         return _saved(simulation_figure(self), path)
 
@@ -500,7 +500,7 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
     ------
     TypeError, ValueError
         One line naming the argument, the value and what is allowed; the arguments are
-        checked by the rules of the case keys they stand for (:mod:`vibeam.arguments`):
+        checked by the rules of the case keys they stand for (:mod:`vibeam.case.arguments`):
         ``Omega`` / ``frequency_hz`` a finite number > 0 (a point of ``[sweep] Omega``),
         ``periods`` as ``[sweep] record_periods`` (a whole number >= 1), ``transient`` as
         ``transient_periods`` (a whole number >= 0; ``"auto"`` is the sweep's and is
@@ -508,14 +508,14 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         run's index or name; ``state`` finite numbers of the state's size.  Also: neither
         or both of ``Omega`` and ``frequency_hz`` given, ``frequency_hz`` for a
         nondimensional scene, a method without a time history (averaging, mapping).
-    vibeam.case.InputError
+    vibeam.case.schema.InputError
         The work is above the limit of ``vibeam run`` (:func:`vibeam.runner.check_work`:
         e.g. ``periods = 10**12``) and ``force`` is not set; a ValueError too.
     """
-    from .arguments import check_case_value, check_flag, check_frequency
-    from .case import Case, SweepSpec
-    from .errors import quote_value
-    from .records import summarize
+    from vibeam.case.arguments import check_case_value, check_flag, check_frequency
+    from vibeam.case.schema import Case, SweepSpec
+    from vibeam.errors import quote_value
+    from vibeam.engine.records import summarize
 
     check_flag(force, "force")
     if Omega is not None:
@@ -535,7 +535,7 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
                                               "samples_per_period")
     case = None
     if isinstance(case_or_model, (Case, str, Path, dict)):
-        from .runner import make_job
+        from vibeam.runner import make_job
 
         case = load_case(case_or_model)
         r = _pick_run(case, run)
@@ -550,7 +550,7 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         spp = case.sweep.samples_per_period if samples_per_period is None else samples_per_period
         period_rtol = case.sweep.period_rtol
     else:
-        from .models import make_solver
+        from vibeam.models import make_solver
 
         if not isinstance(method, str):
             raise TypeError(f"method = {quote_value(method)}: not a method name; allowed: a str (event, direct, ...)")
@@ -577,7 +577,7 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         state = _check_state(state, model)
     _check_point_work(case, job if case is not None else None, solver, Omega, int(transient), int(periods),
                       int(spp), force, settings)
-    from .sweep import simulate as _run_point
+    from vibeam.engine.sweep import simulate as _run_point
 
     # the sweep engine's calls of bounded work: Ctrl-C stops a long simulation between them
     traj = _run_point(solver, float(Omega), state, int(transient), int(periods), int(spp))
@@ -654,18 +654,18 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
         One line naming the argument, the value and what is allowed (as :func:`simulate`); a
         model without a shooting problem.
     """
-    from .arguments import check_whole
-    from .models import shooting_problem
-    from .models.lyapunov import lyapunov_spectrum
+    from vibeam.case.arguments import check_whole
+    from vibeam.models import shooting_problem
+    from vibeam.models.lyapunov import lyapunov_spectrum
 
     shots = check_whole(shots, "shots", 2, 10 ** 6)
     n = check_whole(n, "n", 1, 64)
     sim = simulate(case_or_model, Omega=Omega, periods=1, transient=transient, frequency_hz=frequency_hz,
                    run=run, state=state, samples_per_period=16)
-    from .case import Case
+    from vibeam.case.schema import Case
 
     if isinstance(case_or_model, (Case, str, Path, dict)):
-        from .runner import make_job
+        from vibeam.runner import make_job
 
         case = load_case(case_or_model)
         r = _pick_run(case, run)
@@ -692,7 +692,7 @@ def basins(case, frequency_hz=None, Omega=None, grid=None, samples: int | None =
     Every initial state is followed by the case's exact solver until the recurrences of its
     stroboscopic samples on a cell grid name the attractor it reaches (Datseris & Wagemakers,
     Chaos 32, 2022); each attractor is then typed (period-n, sticking, chaotic, quasi-periodic),
-    refined by the shooting problem and given its Lyapunov spectrum (:mod:`vibeam.attractors`).
+    refined by the shooting problem and given its Lyapunov spectrum (:mod:`vibeam.analysis.attractors`).
 
     Parameters
     ----------
@@ -721,18 +721,18 @@ def basins(case, frequency_hz=None, Omega=None, grid=None, samples: int | None =
 
     Returns
     -------
-    vibeam.attractors.BasinsResult
+    vibeam.analysis.attractors.BasinsResult
         ``labels`` per initial state, ``attractors`` (type, period, amplitude, fraction and its
         standard error, Lyapunov spectrum), ``to_xarray()``.
 
     Raises
     ------
-    vibeam.case.CaseError, ValueError
+    vibeam.case.schema.CaseError, ValueError
         One line naming the key, the value and what is allowed.
     """
-    from .attractors import compute, write_basins
-    from .case import BasinsSpec
-    from .errors import CaseError
+    from vibeam.analysis.attractors import compute, write_basins
+    from vibeam.case.schema import BasinsSpec
+    from vibeam.errors import CaseError
 
     c = load_case(case)
     data = c.basins.model_dump(exclude_none=True) if c.basins is not None else {}
@@ -750,7 +750,7 @@ def basins(case, frequency_hz=None, Omega=None, grid=None, samples: int | None =
     data.update(given)
     from pydantic import ValidationError
 
-    from .case import validation_message
+    from vibeam.case.schema import validation_message
 
     try:
         spec = BasinsSpec.model_validate(data)
@@ -764,7 +764,7 @@ def basins(case, frequency_hz=None, Omega=None, grid=None, samples: int | None =
 
 def _pick_run(case, run):
     """The run ``run`` (index or name) of a case (TypeError/ValueError naming the runs)."""
-    from .errors import quote_value
+    from vibeam.errors import quote_value
 
     names = [x.name for x in case.run]
     if isinstance(run, bool) or not isinstance(run, (int, str)):
@@ -781,7 +781,7 @@ def _pick_run(case, run):
 
 def _check_state(state, model) -> np.ndarray:
     """An initial state: finite numbers of the model's state size (TypeError/ValueError)."""
-    from .errors import quote_value
+    from vibeam.errors import quote_value
 
     n = int(np.size(model.initial_state()))
     try:
@@ -805,9 +805,9 @@ def _check_point_work(case, job, solver, Omega, transient, periods, spp, force, 
     import dataclasses
     import re
 
-    from .case import Case
-    from .errors import InputError, quote_value
-    from .runner import MAX_POINT_VALUES, MAX_WORK_STEPS, check_work, point_work
+    from vibeam.case.schema import Case
+    from vibeam.errors import InputError, quote_value
+    from vibeam.runner import MAX_POINT_VALUES, MAX_WORK_STEPS, check_work, point_work
 
     if force:
         return

@@ -43,8 +43,8 @@ import numpy as np
 
 
 def _sweep(model, method, Omega, n_transient, n_record, **settings):
-    from .models import make_solver
-    from .sweep import Sweep, run_sweep
+    from vibeam.models import make_solver
+    from vibeam.engine.sweep import Sweep, run_sweep
 
     sw = Sweep(Omega=Omega, direction="up", transient_periods=n_transient, record_periods=n_record,
                continuation=False)
@@ -73,7 +73,7 @@ def run_bench(points: int = 101, periods: int = 500, record: int = 64, repeats: 
         Time ``direct`` on this many evenly spread points only and scale its
         time to ``points`` (for a quick look); default: the full sweep.
     """
-    from .models import SDOF
+    from vibeam.models import SDOF
 
     model = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
     Omega = np.linspace(1.5, 2.5, points)
@@ -138,10 +138,10 @@ def run_effects_bench(points: int = 61, transient: int = 400, record: int = 64, 
     to plain.  Returns a JSON-ready dict."""
     from pathlib import Path
 
-    from .case import EffectsSpec, load_case
-    from .effects import wrap_solver
-    from .models import make_solver
-    from .sweep import Sweep, run_sweep
+    from vibeam.case.schema import EffectsSpec, load_case
+    from vibeam.engine.effects import wrap_solver
+    from vibeam.models import make_solver
+    from vibeam.engine.sweep import Sweep, run_sweep
 
     root = Path(__file__).resolve().parent.parent / "cases"
     scenes = {"sdof": ("rig-neutral.toml", None), "beam": ("rig-fe-neutral.toml", {"n_modes": 2})}
@@ -212,7 +212,7 @@ def _direct_time_per_period(points: int, periods: int = 500, record: int = 64, c
     """Seconds per point and forcing period of ``direct`` (solve_ivp RK23, rtol 1e-4, atol 1e-8,
     with events) on ``points`` frequencies spread over the case's grid (Fig. 7 scene),
     ``periods - record`` transient periods each, from rest (inline, one core)."""
-    from .case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case(case or _root() / "cases" / "paper-fig7.toml")
     model = case.model_spec().build()
@@ -245,7 +245,7 @@ def run_cli_bench(case: str | None = None, repeats: int = 3, direct_points: int 
     import subprocess
     import tempfile
 
-    from .case import load_case
+    from vibeam.case.schema import load_case
 
     path = str(case or _root() / "cases" / "paper-fig7.toml")
     c, _ = load_case(path)
@@ -336,9 +336,9 @@ def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_erro
     ``tests/test_continuation.py``); the cost per point of that sweep is set against the cost
     per point of the continuation.  The unstable part has no sweep counterpart at any cost.
     """
-    from .models import SDOF, EventSolver
-    from .models.continuation import Settings, trace
-    from .models.periodic_sdof import SDOFShooting
+    from vibeam.models import SDOF, EventSolver
+    from vibeam.models.continuation import Settings, trace
+    from vibeam.models.periodic_sdof import SDOFShooting
 
     log = log or (lambda m: None)
     m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
@@ -373,7 +373,7 @@ def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_erro
     W_b, Q_b = a["parameter"][upper], a["amplitude"][upper]
     grid = np.linspace(1.5, 1.98, sweep_points)
     # exact branch values on the grid: correct at each grid frequency (natural-parameter Newton)
-    from .models.continuation import start_point
+    from vibeam.models.continuation import start_point
     Q_ref = np.empty_like(grid)
     for i, W in enumerate(grid):
         k = int(np.argmin(np.abs(W_b - W)))
@@ -411,15 +411,15 @@ def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_erro
 
 def run_fit_bench(points: int = 30, jobs: int = 2, sigma_mm: float = 0.01, seed: int = 1,
                   goal_s: float = 10.0) -> dict:
-    """Cost of ``vibeam fit`` (:func:`vibeam.fit.fit_case`): a two-parameter (gain, R) fit of the
+    """Cost of ``vibeam fit`` (:func:`vibeam.identify.fit.fit_case`): a two-parameter (gain, R) fit of the
     SDOF rig scene (``rig-neutral``, 400 + 64 periods) to ``points`` synthetic points (14-17 Hz,
     up, Gaussian noise ``sigma_mm``) from a start 10 % off, on a local pool of ``jobs`` workers
     (its start-up included), against the goal; and the same for R alone on the FE beam with
     2 modes (``rig-fe-neutral``).  Returns a JSON-ready dict; prints no assertion."""
     from pathlib import Path
 
-    from .case import load_case
-    from .fit import fit_case, synthetic_reference
+    from vibeam.case.schema import load_case
+    from vibeam.identify.fit import fit_case, synthetic_reference
 
     root = Path(__file__).resolve().parent.parent / "cases"
     f = np.linspace(14.0, 17.0, points)
@@ -453,7 +453,7 @@ BEAM_CONTINUATION_GOAL_S = 10.0   # issue 10: all-modes branch of the 24-element
 def _timed_trace(prob, x0, p0, lo, hi, direction, settings, repeats):
     """Median wall and CPU time of :func:`trace` (after a warm-up call), shots per run, the
     branches of the last run."""
-    from .models.continuation import trace
+    from vibeam.models.continuation import trace
 
     trace(prob, x0, p0, 1, lo, hi, direction, settings)          # warm-up: kernels, cache load
     times, cpu = [], []
@@ -496,9 +496,9 @@ def run_beam_continuation_bench(repeats: int = 3, sweep_points: int = 16, target
       18 Hz, through its folds, non-smooth folds and period doublings), each timed once (the
       second is the case's, not the goal's).
     """
-    from .models import shooting_problem
-    from .models.beam_dynamics import BeamEventSolver
-    from .models.continuation import Settings, start_point, trace
+    from vibeam.models import shooting_problem
+    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models.continuation import Settings, start_point, trace
 
     log = log or (lambda m: None)
     out: dict = {}
@@ -630,13 +630,13 @@ BASINS_GOAL_S = 20.0
 
 
 def run_basins_bench(jobs: int = 2, log=None) -> dict:
-    """Basins of attraction (:mod:`vibeam.attractors`): the tight rig's SDOF on 200 x 200 at 16.5 Hz
+    """Basins of attraction (:mod:`vibeam.analysis.attractors`): the tight rig's SDOF on 200 x 200 at 16.5 Hz
     (goal: under :data:`BASINS_GOAL_S` s on 2 cores, every attractor described with its Lyapunov
     spectrum over 1000 periods), inline and on ``jobs`` workers; the labels with basin hits against
     following every state to an attractor (100 x 100); and the 24-element FE rig with 4 modes on
     50 x 50 (time reported).  A 10 x 10 run of each scene first loads (or compiles) the kernels:
     its time is reported apart, as ``warm_up_s``."""
-    from .api import basins
+    from vibeam.api import basins
 
     log = log or (lambda m: None)
     out: dict = {"jobs": jobs}
@@ -712,7 +712,7 @@ def _smooth(x: float) -> int:
     """The 5-smooth integer (prime factors 2, 3, 5 only) nearest to ``x`` (>= 1).
 
     Recorded periods are rounded to such counts: the harmonics of a record come from an
-    FFT of all its samples (:func:`vibeam.records.harmonic_amplitudes`), and numpy's FFT
+    FFT of all its samples (:func:`vibeam.engine.records.harmonic_amplitudes`), and numpy's FFT
     of a length with a large prime factor is an order of magnitude slower (64 x 883
     samples: 18 ms against 3 ms for 64 x 882), which would show as a jump in the ladder.
     """
@@ -735,7 +735,7 @@ def _scene(fname: str, over: dict | None):
     ``vibeam run`` builds them (:func:`vibeam.cli.run_case`)."""
     from pathlib import Path
 
-    from .case import load_case
+    from vibeam.case.schema import load_case
 
     root = Path(__file__).resolve().parent.parent / "cases"
     case, _ = load_case(root / fname)
@@ -754,8 +754,8 @@ def _time_sweep(case, model, settings, points: int, n_periods: int, repeats: int
     """Median wall time of an inline (jobs=1) event sweep of ``points`` frequencies spread
     over the case's grid with ``n_periods`` = transient + record periods per point, after
     a warm-up; the case's direction, continuation, samples per period and period rtol."""
-    from .models import make_solver
-    from .sweep import Sweep, run_sweep
+    from vibeam.models import make_solver
+    from vibeam.engine.sweep import Sweep, run_sweep
 
     cs = case.sweep
     fn = getattr(model, "natural_frequency_hz", None)
@@ -936,8 +936,8 @@ def run_map_bench(case_file: str | None = None, frequencies: int = 61, values: i
     import tempfile
     from pathlib import Path
 
-    from .case import load_case
-    from .runner import run_case
+    from vibeam.case.schema import load_case
+    from vibeam.runner import run_case
 
     path = Path(case_file) if case_file else Path(__file__).resolve().parents[1] / "cases" / \
         "paper-fig18-tight.toml"
@@ -1056,8 +1056,8 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
       costs, without the engine), against the case's sweep (transient + record periods per
       point, timed on 3 points and scaled).
     """
-    from .models.beam_dynamics import BeamEventSolver, particular
-    from .models.periodic_beam import BeamShooting
+    from vibeam.models.beam_dynamics import BeamEventSolver, particular
+    from vibeam.models.periodic_beam import BeamShooting
 
     out: dict = {"shot": {}, "newton_vs_event": {}, "frc": {}}
     t_all = time.perf_counter()
@@ -1283,8 +1283,8 @@ def _time_limit_overshoot(name: str, model, Omega: float, limit_s: float) -> dic
     """A point of 10^7 transient periods with ``point_time_limit_s = limit_s``, inline: its wall
     time (the point's own ``wall_time_s``), the overshoot beyond the limit, and the solver calls
     (chunks) it made."""
-    from .models import make_solver
-    from .sweep import Sweep, run_sweep
+    from vibeam.models import make_solver
+    from vibeam.engine.sweep import Sweep, run_sweep
 
     solver = make_solver(model, "event")
     run_sweep(solver, Sweep(Omega=np.array([Omega]), transient_periods=2, record_periods=2))   # warm-up
@@ -1310,7 +1310,7 @@ def run_latency_bench(repeats: int = 3, limit_s: float = 0.5, beam: bool = True,
     and the wall-time limit's overshoot.
 
     A compiled kernel cannot be interrupted inside a call, so the sweep engine cuts a point
-    into calls of ``solver.chunk_periods`` periods (:func:`vibeam.sweep._simulate`): Ctrl-C
+    into calls of ``solver.chunk_periods`` periods (:func:`vibeam.engine.sweep._simulate`): Ctrl-C
     lands at the next return, the wall-time limit is checked between calls, and a pooled run
     terminates its workers instead of waiting for their lines.  Measured here, never asserted
     (the tests check the behaviour by counting calls: tests/test_interrupts.py,
@@ -1332,8 +1332,8 @@ def run_latency_bench(repeats: int = 3, limit_s: float = 0.5, beam: bool = True,
         JSON-ready: ``inline``, ``pool_2_workers`` (``sigint_to_exit_s`` median and ``runs``),
         ``time_limit`` (per scene), ``goal_s``, ``cores``, ``load_average``.
     """
-    from .case import load_case, parse_case
-    from .models import SDOF
+    from vibeam.case.schema import load_case, parse_case
+    from vibeam.models import SDOF
 
     say = log or (lambda m: None)
     out = {"case": "SDOF on a pre-stressed stop (gap -0.05 mm, chatter), map 2 x 6 lines of 6 points, "
@@ -1443,7 +1443,7 @@ sys.exit(rc)
 FE_POINT = """
 from pathlib import Path
 import vibeam
-from vibeam.case import load_case
+from vibeam.case.schema import load_case
 from vibeam.models import make_solver
 case, _ = load_case(Path(vibeam.__file__).resolve().parent.parent / "cases" / "rig-fe-neutral.toml")
 run = next(r for r in case.run if r.method == "event")

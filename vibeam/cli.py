@@ -21,8 +21,8 @@ import signal
 import sys
 from pathlib import Path
 
-from .arguments import jobs_option, path_option
-from .errors import Terminated  # noqa: F401 (re-exported)
+from vibeam.case.arguments import jobs_option, path_option
+from vibeam.errors import Terminated  # noqa: F401 (re-exported)
 
 EXIT_CODES = {0: "done", 1: "regression found (regress)", 2: "bad input", 3: "every point failed",
               130: "interrupted (SIGINT, Ctrl-C)", 143: "terminated (SIGTERM)"}
@@ -40,7 +40,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse with errors on one line: ``vibeam: error: <message> (vibeam <cmd> --help)``."""
 
     def error(self, message):
-        from .errors import one_line
+        from vibeam.errors import one_line
 
         self.exit(2, f"vibeam: error: {one_line(message)} (see `{self.prog} --help`)\n")
 
@@ -98,19 +98,19 @@ class _QuietPipe:
 
 def run_case(*args, **kwargs):
     """:func:`vibeam.runner.run_case` (imported when called, so ``vibeam --help`` stays instant)."""
-    from .runner import run_case as run
+    from vibeam.runner import run_case as run
 
     return run(*args, **kwargs)
 
 
 def _executor(args):
-    from .runner import open_executor
+    from vibeam.runner import open_executor
 
     return open_executor(getattr(args, "scheduler", None))
 
 
 def _out_dir(args, case) -> Path:
-    from .outdir import default_folder
+    from vibeam.io.outdir import default_folder
 
     return Path(args.out) if args.out else default_folder(case.name, "-quick" if args.quick else "")
 
@@ -133,7 +133,7 @@ def _interrupted_left(h5: Path, before) -> str:
     if now == before:
         return f"no sweep line had finished; {h5} is as it was"
     try:
-        from .results import read_lines
+        from vibeam.io.results import read_lines
 
         attrs, lines = read_lines(h5)
     except Exception:
@@ -146,10 +146,10 @@ def _interrupted_left(h5: Path, before) -> str:
 
 
 def cmd_run(args, need_map=False, continuation_only=False) -> int:
-    from .case import load_case
-    from .errors import CaseError
-    from .outdir import check_folder
-    from .runner import failure_summary
+    from vibeam.case.schema import load_case
+    from vibeam.errors import CaseError
+    from vibeam.io.outdir import check_folder
+    from vibeam.runner import failure_summary
 
     case, text = load_case(args.case)
     if need_map and case.map is None:
@@ -184,14 +184,17 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
 
 def _basins(args, case, text, out_dir, spec) -> int:
     """Basins of a case into ``out_dir``: ``/basins/<run>/`` of results.h5, plots, a table."""
-    from .attractors import compute, plot_basins, print_basins, write_basins
+    from vibeam.analysis.attractors import compute, plot_basins, print_basins, write_basins
 
     ex, client = _executor(args)
+    h5 = out_dir / "results.h5"
     try:
-        r = compute(case, jobs=args.jobs, executor=ex, progress=not args.quiet, spec=spec)
+        r = compute(case, jobs=args.jobs, executor=ex, progress=not args.quiet, spec=spec, checkpoint=h5,
+                    resume=getattr(args, "resume", False), case_text=text)
     except KeyboardInterrupt as e:
         sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
-        print(f"vibeam: interrupted ({sig}); no basins written (results.h5 as before)", file=sys.stderr)
+        print(f"vibeam: interrupted ({sig}); the finished rows of the basins are kept in {h5} "
+              f"(/basin_lines); rerun `vibeam basins` with --resume to compute only the rest", file=sys.stderr)
         return _interrupt_code(e)
     finally:
         if client is not None:
@@ -199,7 +202,10 @@ def _basins(args, case, text, out_dir, spec) -> int:
     h5 = write_basins(out_dir / "results.h5", [r], case.name, text)
     print_basins(r)
     if not args.no_plots:
-        for p in plot_basins(r, out_dir):
+        from vibeam.io.results import read_results
+
+        branches = read_results(h5)["branches"]     # overlaid on a census (vibeam continue wrote them)
+        for p in plot_basins(r, out_dir, branches=branches):
             print(f"plot: {p}")
     print(f"basins -> {h5} (group /basins/{r.name})")
     return 0
@@ -208,9 +214,9 @@ def _basins(args, case, text, out_dir, spec) -> int:
 def cmd_basins(args) -> int:
     from pydantic import ValidationError
 
-    from .case import BasinsSpec, load_case, validation_message
-    from .errors import CaseError
-    from .outdir import check_folder
+    from vibeam.case.schema import BasinsSpec, load_case, validation_message
+    from vibeam.errors import CaseError
+    from vibeam.io.outdir import check_folder
 
     case, text = load_case(args.case)
     if args.quick:
@@ -240,10 +246,10 @@ def cmd_basins(args) -> int:
 
 
 def cmd_regress(args) -> int:
-    from .case import load_case
+    from vibeam.case.schema import load_case
 
     case, text = load_case(args.case)
-    from .regress import (check_reference_of_case, check_results_of_case, compare, load_results, print_rows,
+    from vibeam.analysis.regress import (check_reference_of_case, check_results_of_case, compare, load_results, print_rows,
                           read_reference)
 
     ref = read_reference(args.reference)    # a bad reference is refused before anything runs
@@ -254,7 +260,7 @@ def cmd_regress(args) -> int:
     else:
         import tempfile
 
-        from .outdir import check_folder
+        from vibeam.io.outdir import check_folder
 
         # the rerun goes to its own folder: --out, or a temporary one removed afterwards --
         # never results/<case>/, where it would replace the results of the user's run
@@ -279,12 +285,12 @@ def cmd_regress(args) -> int:
 
 
 def cmd_cost(args) -> int:
-    from .case import load_case
+    from vibeam.case.schema import load_case
 
     case, text = load_case(args.case)
-    from .cost import check_cost_work, cost_tables, plot_work_precision, print_cost, run_cost
-    from .outdir import OutputLock, check_folder
-    from .results import write_results
+    from vibeam.analysis.cost import check_cost_work, cost_tables, plot_work_precision, print_cost, run_cost
+    from vibeam.io.outdir import OutputLock, check_folder
+    from vibeam.io.results import write_results
 
     if args.quick:
         case = case.quick_variant()
@@ -303,8 +309,8 @@ def cmd_cost(args) -> int:
 
 def _beam_spec(case, command):
     """The model spec of a scene with a finite-element model (capability ``fe_model``)."""
-    from .errors import CaseError
-    from .models.registry import fidelity, with_capability
+    from vibeam.errors import CaseError
+    from vibeam.models.registry import fidelity, with_capability
 
     spec = case.model_spec()
     if not fidelity(spec.fidelity).fe_model:
@@ -315,11 +321,11 @@ def _beam_spec(case, command):
 
 
 def cmd_derive(args) -> int:
-    from .case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case(args.case)
     spec = _beam_spec(case, "derive")
-    from .beamscene import derive, sdof_case_text
+    from vibeam.case.beamscene import derive, sdof_case_text
 
     d = derive(spec)
     print(f"SDOF parameters of {case.name} by the assumed static mode (paper Eqs. 42-46)\n")
@@ -334,17 +340,17 @@ def cmd_derive(args) -> int:
 
 
 def _write_text(path: Path, text: str, option: str) -> None:
-    from .outdir import write_text_file
+    from vibeam.io.outdir import write_text_file
 
     write_text_file(path, text, option)
 
 
 def cmd_modes(args) -> int:
-    from .case import load_case
+    from vibeam.case.schema import load_case
 
     case, _ = load_case(args.case)
     spec = _beam_spec(case, "modes")
-    from .outdir import OutputLock, check_folder, default_folder
+    from vibeam.io.outdir import OutputLock, check_folder, default_folder
 
     out = check_folder(Path(args.out) if args.out else default_folder(case.name))
     with OutputLock(out):       # like every writer: one vibeam process per folder
@@ -352,9 +358,9 @@ def cmd_modes(args) -> int:
 
 
 def _modes_locked(args, case, spec, out) -> int:
-    from .beamscene import modes_report
-    from .models.beam import write_modes
-    from .outdir import replace_file
+    from vibeam.case.beamscene import modes_report
+    from vibeam.models.beam import write_modes
+    from vibeam.io.outdir import replace_file
 
     rep = modes_report(spec, n=args.n)
     md, cm = rep["modes"], rep["contact"]
@@ -380,8 +386,8 @@ def _plot_modes(rep, path, title):
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from . import style
-    from .plots import save_figure
+    from vibeam.plots import style
+    from vibeam.plots.sweep import save_figure
 
     fe, md, cm = rep["fe"], rep["modes"], rep["contact"]
     L = fe.geometry.length_m
@@ -408,7 +414,7 @@ def _plot_modes(rep, path, title):
 
 
 def main(argv=None) -> int:
-    from .version import __version__
+    from vibeam.version import __version__
 
     ap = _Parser(prog="vibeam", description="Vibro-impact structural dynamics of an "
                  "impacting cantilever beam (multi-fidelity).",
@@ -475,6 +481,8 @@ def main(argv=None) -> int:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--quick", action="store_true", help="the case's quick variant (a 40 x 40 grid at most)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted computation: keep the grid rows already in results.h5")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run on a dask.distributed scheduler (e.g. tcp://host:8786)")
     p.set_defaults(func=cmd_basins)
@@ -517,7 +525,7 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/)")
     p.add_argument("-n", type=_int_at_least(1), default=6, help="number of modes (default 6)")
     p.set_defaults(func=cmd_modes)
-    # ---- vibeam fit (vibeam.fit, vibeam.identify): identification from measurements, paper Secs. 6-7
+    # ---- vibeam fit (vibeam.identify.fit, vibeam.identify.linear): identification from measurements, paper Secs. 6-7
     p = sub.add_parser("fit", help="fit model parameters to a measured FRC (with standard errors), or the "
                        "linear steps: Eq. 43 around f_n (--linear), beta_S from a free decay (--decay)")
     p.add_argument("case", help="case file (TOML); its [model] values start the fit")
@@ -541,7 +549,7 @@ def main(argv=None) -> int:
                    help="identify beta_S from a free decay 't_s,U_mm'")
     p.add_argument("--no-plots", action="store_true", help="skip fit.png")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
-    p.set_defaults(func=lambda a: __import__("vibeam.fit", fromlist=["main_fit"]).main_fit(a))
+    p.set_defaults(func=lambda a: __import__("vibeam.identify.fit", fromlist=["main_fit"]).main_fit(a))
     p = sub.add_parser("bench", help="speed and accuracy against the stated goals: JSON on stdout, a PASS/FAIL "
                        "line per goal on stderr",
                        description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
@@ -595,7 +603,7 @@ def main(argv=None) -> int:
 
 def _dispatch(args) -> int:
     """Run a parsed command: errors as one line and exit 2, interrupts as 130/143."""
-    from .errors import CaseError, one_line
+    from vibeam.errors import CaseError, one_line
 
     stdout = sys.stdout
     sys.stdout = _QuietPipe(stdout)

@@ -1,8 +1,8 @@
 """vibeam's exceptions and the wording of their messages.
 
 Every framework module may import this one: it imports nothing of vibeam.  The classes are
-re-exported where they were defined first (``vibeam.case.CaseError``,
-``vibeam.case.InputError``, ``vibeam.results.ForeignFileError``, ``vibeam.cli.Terminated``).
+re-exported where they were defined first (``vibeam.case.schema.CaseError``,
+``vibeam.case.schema.InputError``, ``vibeam.io.results.ForeignFileError``, ``vibeam.cli.Terminated``).
 :class:`vibeam.models.continuation.ContinuationError` stays with the models, which never import
 the framework.
 """

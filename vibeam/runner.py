@@ -1,5 +1,5 @@
 """Running a case: every run (and, with ``[map]``, every value of the mapped parameter) is cut
-into sweep lines, all lines go to one executor through :func:`vibeam.sweep.run_lines`, each
+into sweep lines, all lines go to one executor through :func:`vibeam.engine.sweep.run_lines`, each
 finished line is checkpointed into ``results.h5``, and the file is completed at the end.
 
 With ``resume=True`` the lines already in the file's checkpoint are not computed again, and
@@ -7,75 +7,29 @@ the final file holds the same data as an uninterrupted run.
 """
 from __future__ import annotations
 
-import re
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .compiling import CompileClock
-from .errors import CaseError
-
-
-@dataclass
-class _Job:
-    """One run of a case at one value of the mapped parameter (``j`` = None: no map)."""
-
-    run: object
-    spec: object
-    solver: object
-    sweep: object
-    j: int | None = None
-
-
-def make_job(case, r, overrides: dict, j=None) -> _Job:
-    """The job of run ``r`` of ``case`` with the model keys ``overrides`` (map value ``j``): its
-    model spec, its solver with effects and hooks, and its sweep."""
-    from . import assess
-    from .effects import wrap_solver
-    from .models import make_solver
-    from .sweep import Sweep
-
-    spec = case.model_spec(overrides) if overrides else case.model_spec()
-    model = spec.build()
-    Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
-    sw = Sweep(Omega=Omega, **dict(case.sweep.engine_options(),
-                                   samples_per_period=assess.samples_per_period(case, r, model, Omega),
-                                   assess=assess.hooks(case, spec, r, model)))
-    settings = dict(case.run_settings(r), **assess.solver_options(case, r, model))
-    try:
-        base = make_solver(model, r.method, **settings)
-    except ValueError as e:         # a value the method's solver cannot take: bad input, one line
-        from .errors import one_line
-
-        where = f" at {', '.join(f'{k} = {v!r}' for k, v in overrides.items())}" if overrides else ""
-        raise CaseError(one_line(f"'run[{case.run.index(r)}].method' = {r.method!r}{where}: {e}")) from None
-    solver = wrap_solver(base, model, spec, assess.solver_effects(case.effects_for(r)), settings)
-    return _Job(r, spec, solver, sw, j)
+from vibeam.engine.compiling import CompileClock
+from vibeam.engine.jobs import (MAX_POINT_VALUES, MAX_WORK_STEPS, Job, case_jobs, check_work,  # noqa: F401
+                               estimate_work, file_stem, make_job, point_work)
+from vibeam.errors import CaseError
 
 
 #: the name this module's own loops call :func:`make_job` by (a test replaces it to make points fail)
 _job = make_job
 
 
-def _jobs(case) -> list[_Job]:
-    out = []
-    for r in case.run:
-        if r.method == "continuation":
-            continue              # a BranchTask, see _tasks
-        if case.map is None:
-            out.append(_job(case, r, dict(r.model)))
-        else:
-            for j, v in enumerate(case.map.grid()):
-                out.append(_job(case, r, dict(r.model, **{case.map.parameter: float(v)}), j))
-    return out
+def _jobs(case) -> list[Job]:
+    return case_jobs(case, _job)
 
 
 def _notes(case, jobs_) -> None:
     """One line per ``[assess]`` item that does not apply to a run (printed once)."""
-    from . import assess
+    from vibeam.engine import assess
 
     seen = []
     for job in jobs_:
@@ -85,21 +39,15 @@ def _notes(case, jobs_) -> None:
                 print(f"vibeam: note: {msg}; skipped", file=sys.stderr)
 
 
-def file_stem(name: str) -> str:
-    """A run name as part of a file name (``map_<stem>.png``): characters other than letters,
-    digits and ``_.+-`` become ``_``.  Case validation refuses two runs with the same stem."""
-    return re.sub(r"[^A-Za-z0-9_.+-]+", "_", name)
-
-
 def _tasks(case) -> list:
-    """The continuation runs of a case as units of work (:class:`vibeam.branches.BranchTask`)."""
-    from .branches import plan
+    """The continuation runs of a case as units of work (:class:`vibeam.analysis.branches.BranchTask`)."""
+    from vibeam.analysis.branches import plan
 
     return [plan(case, r, key="continuation") for r in case.run if r.method == "continuation"]
 
 
-def _lines(job: _Job):
-    from .sweep import plan_lines
+def _lines(job: Job):
+    from vibeam.engine.sweep import plan_lines
 
     lines = plan_lines(job.solver, job.sweep, job.run.name)
     if job.j is None:
@@ -107,195 +55,6 @@ def _lines(job: _Job):
     from dataclasses import replace
 
     return [replace(l, key=f"{job.j:04d}-{l.key}") for l in lines]
-
-
-# ----------------------------------------------------------------------------- work limit
-MAX_WORK_STEPS = 1e11
-"""Refuse a case whose estimated work exceeds this many event-kernel steps (``--force``
-overrides).  One step of the SDOF event kernel costs about 0.1 us on one core of the
-development machine (2.5 us per forcing period of 400 + 64 periods at 16 + 64 steps), so
-the limit is a few hours on one core; the largest shipped case (``rig-map-gap``) needs
-8e7 steps."""
-MAX_POINT_VALUES = 1e8
-"""Refuse a case whose one point would record more than this many floats (0.8 GB)."""
-ODE_STEP_COST = 1000.0
-"""Cost of a period of the ``solve_ivp`` methods over one of ``event`` (measured ~700x,
-``vibeam bench``), applied per step of the event grid."""
-_STEPS_PER_NATURAL_PERIOD = 16     # the event kernels' sub-steps: below 1/16 of a natural period
-
-
-def _dofs(spec) -> int:
-    """Degrees of freedom simulated by a model spec (1 for the SDOF and the static mode)."""
-    return int(spec.dofs())
-
-
-def _contact_steps(model, Omega, spec=None):
-    """Steps per forcing period that a compliant stop adds, or None (Newton's law, a beam).
-
-    The contact phase is stepped at 1/16 of its own natural period ``2 pi / sqrt(1 + k_c)``
-    (:mod:`vibeam.models.sdof_compliant`), so its cost grows with the contact stiffness:
-    ``16 sqrt(1 + k_c) / (2 pi)`` steps per unit of time in contact.  A stop at or inside the
-    rest position (``Delta <= 0``) holds the mass for about half of each forcing period
-    (``8 sqrt(1 + k_c) / Omega`` steps); a stop with a gap is met in impacts of half a contact
-    period (8 steps each, one per period counted).  Returns ``(steps, key, value)``, steps of
-    the shape of ``Omega``, with the case key that sets the stiffness."""
-    law = getattr(model, "contact", None)
-    k = getattr(law, "stiffness", None)
-    if k is None or getattr(model, "fidelity", "") != "sdof":
-        return None
-    w = np.sqrt(1.0 + float(k))
-    steps = 8.0 * w / Omega if float(model.Delta) <= 0.0 else np.full(np.shape(Omega), 8.0)
-    table = getattr(spec, "contact", None)
-    if table is not None and getattr(table, "stiffness", None) is None and table.stiffness_n_m is not None:
-        return steps, "model.contact.stiffness_n_m", float(table.stiffness_n_m)
-    return steps, "model.contact.stiffness", float(k)
-
-
-def estimate_work(case, jobs_=None) -> dict:
-    """Estimate what a case costs before running it.
-
-    Per point of a time-domain run, the event kernels step a fixed grid:
-    ``max(samples, 16 / Omega)`` steps per forcing period (``samples`` =
-    ``transient_samples`` in the transient, ``samples_per_period`` in the record;
-    the kernel sub-steps below 1/16 of the natural period 2 pi, so a forcing
-    period at small Omega costs 16 / Omega steps), plus the steps of a compliant stop's
-    contact phase, which is stepped at 1/16 of the contact's period ``2 pi / sqrt(1 + k_c)``
-    (:func:`_contact_steps`; the SDOF's stiffness ratio ``k_c``).  Scales that double precision
-    cannot carry (a subnormal ``B``, a stiffness beyond 1e20) are refused by case validation
-    before this (:data:`vibeam.case.B_RANGE`, :data:`vibeam.case.MAX_CONTACT_STIFFNESS`).  The work is the sum over
-    points, directions, runs and map values of ``transient x steps + record x
-    steps``, times the retained modes for the FE beam and :data:`ODE_STEP_COST`
-    for the ``solve_ivp`` methods (``averaging`` and ``mapping`` count one step
-    per point).  It is a lower bound: chatter, impacts and high modes add to it.
-
-    Parameters
-    ----------
-    case : vibeam.case.Case
-        The case as run (e.g. its quick variant).
-    jobs_ : list, optional
-        Its jobs (:func:`_jobs`), to reuse their grids; built if not given.
-
-    Returns
-    -------
-    dict
-        ``steps`` (float), ``point_values`` (most floats recorded by one point),
-        and ``culprit`` ``(key, value)``: the case key that contributes most
-        beyond a usual case (101 points, 400 + 64 periods, 64 samples, Omega >= 1,
-        one mode, the event method, one map value).
-    """
-    jobs_ = _jobs(case) if jobs_ is None else jobs_
-    sw = case.sweep
-    grid_key = "sweep.Omega" if sw.Omega is not None else "sweep.frequency_hz"
-    n_dir = 2 if sw.direction == "both" else 1
-    steps = steps_min = 0.0
-    point_values = 0.0
-    w_min = np.inf
-    worst_modes, worst_cost = (None, 1), (None, 1.0)
-    worst_contact = (None, None, 0.0)
-    for job in jobs_:
-        r = job.run
-        Om = np.abs(np.asarray(job.sweep.Omega, float))
-        Om = Om[Om > 0] if (Om > 0).any() else np.array([1e-300])
-        Om = np.maximum(Om, 1e-300)     # a subnormal Omega: 16 / Omega stays finite, the estimate huge
-        w_min = min(w_min, float(Om.min()))
-        dofs = _dofs(job.spec)
-        if r.method in ("averaging", "mapping"):
-            steps += n_dir * Om.size
-            steps_min += n_dir * Om.size
-            continue
-        ts = getattr(r, "transient_samples", 16)
-        spp = job.sweep.samples_per_period
-        sub = _STEPS_PER_NATURAL_PERIOD / Om
-        con = _contact_steps(job.solver.model, Om, job.spec)
-        if con is not None and float(np.max(con[0])) > worst_contact[2]:
-            worst_contact = (con[1], con[2], float(np.max(con[0])))
-        con = 0.0 if con is None else con[0]
-        n_tr = job.sweep.max_transient_periods if job.sweep.auto else job.sweep.transient_periods
-        n_rec = max(job.sweep.record_periods, job.sweep.statistics_periods)   # a non-periodic point's window
-        # the Lyapunov spectrum's shots: one event run each, with its tangent (counted twice)
-        n_ly = 2 * int(getattr(job.sweep, "lyapunov_shots", 0))
-        per = (n_tr * (np.maximum(ts, sub) + con) + n_rec * (np.maximum(spp, sub) + con)
-               + n_ly * (np.maximum(ts, sub) + con))
-        cost = ODE_STEP_COST if r.method in ("direct", "zhuravlev", "ivanov") else 1.0
-        steps += n_dir * float(per.sum()) * dofs * cost
-        per_min = (n_tr * (np.maximum(ts, sub) + con) + job.sweep.record_periods * (np.maximum(spp, sub) + con)
-                   + n_ly * (np.maximum(ts, sub) + con))
-        steps_min += n_dir * float(per_min.sum()) * dofs * cost
-        point_values = max(point_values, n_rec * spp * 2.0 * (1 + dofs))
-        i = case.run.index(r)
-        if dofs > worst_modes[1]:
-            worst_modes = (f"run[{i}].model.n_modes" if "n_modes" in r.model else "model.n_modes", dofs)
-        if cost > worst_cost[1]:
-            worst_cost = (f"run[{i}].method", cost)
-    n_pts = len(sw.grid(1.0))
-    auto = sw.transient_periods == "auto"
-    n_tr = sw.max_transient_periods if auto else sw.transient_periods
-    tr_key = "sweep.max_transient_periods" if auto else "sweep.transient_periods"
-    rec_key, n_rec = max(("sweep.record_periods", sw.record_periods),
-                         ("sweep.statistics_periods", sw.statistics_periods), key=lambda c: c[1])
-    periods = n_tr + n_rec
-    cands = [
-        ((tr_key if n_tr >= n_rec else rec_key), (n_tr if n_tr >= n_rec else n_rec), periods / 464),
-        (grid_key, getattr(sw, grid_key.split(".")[1]), max(n_pts / 101, 1.0 / max(w_min, 1e-300))),
-        ("sweep.samples_per_period", sw.samples_per_period, sw.samples_per_period / 64),
-        ("map.values", case.map.values if case.map else None, len(case.map.grid()) if case.map else 0),
-        (worst_modes[0], worst_modes[1], worst_modes[1]),
-        (worst_cost[0], None, worst_cost[1]),
-        (worst_contact[0], worst_contact[1], worst_contact[2] / 64.0),
-    ]
-    key, val, _ = max((c for c in cands if c[0]), key=lambda c: c[2])
-    if key.endswith(".method"):
-        val = case.run[int(key[4:key.index("]")])].method
-    return {"steps": steps, "steps_min": steps_min, "point_values": point_values, "culprit": (key, val)}
-
-
-def point_work(Omega: float, transient_periods: int, record_periods: int, samples_per_period: int,
-               dofs: int = 1, method: str = "event", transient_samples: int = 16, model=None) -> dict:
-    """The work of one time-domain point as :func:`estimate_work` counts it (its per-point
-    term, with a compliant stop's contact steps of ``model``): ``steps`` and
-    ``point_values``, for a point simulated outside a case's sweep (:func:`vibeam.api.simulate`
-    with a model), checked against the same limits."""
-    Om = max(float(Omega), 1e-300)
-    sub = _STEPS_PER_NATURAL_PERIOD / Om
-    con = _contact_steps(model, np.array([Om])) if model is not None else None
-    con = float(con[0][0]) if con is not None else 0.0
-    cost = ODE_STEP_COST if method in ("direct", "zhuravlev", "ivanov") else 1.0
-    steps = (transient_periods * (max(transient_samples, sub) + con)
-             + record_periods * (max(samples_per_period, sub) + con))
-    return {"steps": float(steps) * dofs * cost,
-            "point_values": float(record_periods) * samples_per_period * 2.0 * (1 + dofs)}
-
-
-def check_work(case, jobs_=None, force: bool = False, source: str = "") -> dict:
-    """Refuse a case whose work (:func:`estimate_work`) exceeds :data:`MAX_WORK_STEPS` or whose
-    one point records more than :data:`MAX_POINT_VALUES` floats, unless ``force``.
-
-    Raises
-    ------
-    InputError
-        Naming the key that contributes most, its value, the estimate and the limit.
-    """
-    from .errors import InputError, quote_value
-
-    with np.errstate(over="ignore"):      # an estimate beyond 1e308 is inf: refused, without a warning line
-        w = estimate_work(case, jobs_)
-    if force:
-        return w
-    where = f"{source}: " if source else ""
-    if w["point_values"] > MAX_POINT_VALUES:
-        sw = case.sweep
-        rec_key, n_rec = max(("record_periods", sw.record_periods), ("statistics_periods", sw.statistics_periods),
-                             key=lambda c: c[1])
-        raise InputError(f"{where}'sweep.{rec_key}' = {n_rec}: one point would record "
-                         f"{w['point_values']:.3g} values (limit {MAX_POINT_VALUES:.0e}, "
-                         f"{MAX_POINT_VALUES * 8 / 1e9:.1f} GB); record fewer periods or samples, or pass --force")
-    if w["steps"] > MAX_WORK_STEPS:
-        key, val = w["culprit"]
-        hours = w["steps"] * 1e-7 / 3600
-        raise InputError(f"{where}'{key}' = {quote_value(val)}: the case needs about {w['steps']:.2g} solver steps "
-                         f"(~{hours:.3g} h on one core), above the limit of {MAX_WORK_STEPS:.0e}; "
-                         f"reduce it, or pass --force to run anyway")
-    return w
 
 
 def open_executor(scheduler: str | None):
@@ -315,7 +74,7 @@ def open_executor(scheduler: str | None):
     try:
         client = Client(scheduler, timeout="20s")
     except Exception as e:   # OSError, TimeoutError, ValueError (not an address), ...
-        from .errors import one_line
+        from vibeam.errors import one_line
 
         raise CaseError(one_line(f"--scheduler {scheduler!r}: cannot connect: {e}; give the address "
                                   f"of a dask scheduler, e.g. tcp://host:8786")) from None
@@ -329,12 +88,12 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
 
     Parameters
     ----------
-    case : vibeam.case.Case
+    case : vibeam.case.schema.Case
     text : str
         The case file's text (stored in the results).
     out_dir : str or Path
         Output folder.  Held by this process for the whole run
-        (:class:`vibeam.outdir.OutputLock`); temporary files of killed writes
+        (:class:`vibeam.io.outdir.OutputLock`); temporary files of killed writes
         found there are removed.
     jobs : int or None
         Workers of the local process pool (None: all cores; 1: inline).
@@ -372,9 +131,9 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     Returns
     -------
     list
-        The :class:`vibeam.sweep.SweepResult` of each run, or the
-        :class:`vibeam.maps.MapResult` of each mapped run (with ``continuation_only``, the
-        :class:`vibeam.branches.ContinuationResult` of each continuation run).
+        The :class:`vibeam.engine.sweep.SweepResult` of each run, or the
+        :class:`vibeam.analysis.maps.MapResult` of each mapped run (with ``continuation_only``, the
+        :class:`vibeam.analysis.branches.ContinuationResult` of each continuation run).
 
     Raises
     ------
@@ -383,9 +142,9 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
         written, ``results.h5`` is not a file, ``resume`` finds a results file
         written by another case or variant, or the work is above the limit.
     """
-    from .outdir import OutputLock
+    from vibeam.io.outdir import OutputLock
 
-    from .case import check_time_series
+    from vibeam.case.schema import check_time_series
 
     if quick:
         case = case.quick_variant()
@@ -407,10 +166,10 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
 
 def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, executor, checkpoint,
                 checkpoint_interval_s, continuation_only=False):
-    from .errors import InputError
-    from .errors import ForeignFileError
-    from .results import append_lines, read_lines, write_results
-    from .sweep import run_lines, stack, unstack
+    from vibeam.errors import InputError
+    from vibeam.errors import ForeignFileError
+    from vibeam.io.results import append_lines, read_lines, write_results
+    from vibeam.engine.sweep import run_lines, stack, unstack
 
     case_json = case.model_dump_json()
     h5 = out_dir / "results.h5"
@@ -525,7 +284,7 @@ def _report(case, runs, maps, out_dir, plots, conts=()) -> None:
     """The tables (and the plots) of finished runs, maps and continuation runs."""
     if runs:
         _print_table(runs)
-    from .maps import class_agreement, print_map
+    from vibeam.analysis.maps import class_agreement, print_map
 
     for m in maps:
         print_map(m)
@@ -534,7 +293,7 @@ def _report(case, runs, maps, out_dir, plots, conts=()) -> None:
         if same is not None:
             print(f"  {m.name} vs {maps[0].name}: classes differ at {int((~same).sum())} of {same.size} points")
     if conts:
-        from .branches import print_results
+        from vibeam.analysis.branches import print_results
 
         print_results(conts)
     if plots:
@@ -543,7 +302,7 @@ def _report(case, runs, maps, out_dir, plots, conts=()) -> None:
 
 def _finished(case, h5, out_dir, plots):
     """``--resume`` of a complete file: nothing is recomputed; its runs are read back."""
-    from .results import load_results
+    from vibeam.io.results import load_results
 
     runs, maps, _ = load_results(h5)
     order = {r.name: i for i, r in enumerate(case.run)}
@@ -620,7 +379,7 @@ def plan_execution(case, jobs_, todo, jobs, executor) -> tuple:
     about ``POOL_STARTUP_S + t / n``, so a sweep with ``t < POOL_STARTUP_S n / (n - 1)``
     runs inline (e.g. the Fig. 7 case: 2e6 steps, ~0.2 s).  The estimate is a lower bound
     (chatter and impacts add work), so such a sweep starts inline and hands the lines left
-    to the pool once it has run ``2 POOL_STARTUP_S`` (:func:`vibeam.sweep.run_lines`,
+    to the pool once it has run ``2 POOL_STARTUP_S`` (:func:`vibeam.engine.sweep.run_lines`,
     ``inline_first_s``)."""
     import os
 
@@ -656,7 +415,7 @@ def failure_summary(results) -> str | None:
 
 
 def _assemble_continuation(tasks, task_rows) -> list:
-    from .branches import assemble
+    from vibeam.analysis.branches import assemble
 
     return [assemble(t, task_rows.get(t.run, dict(status="failed", message="not computed")))
             for t in tasks]
@@ -665,9 +424,9 @@ def _assemble_continuation(tasks, task_rows) -> list:
 def _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quiet, plots, executor):
     """``vibeam continue``: the continuation runs alone; an existing results file of the same case
     keeps its sweeps and maps (overlaid in the plots), its ``/branches`` are replaced."""
-    from .branches import print_results
-    from .results import read_results, replace_branches, write_results
-    from .sweep import run_lines
+    from vibeam.analysis.branches import print_results
+    from vibeam.io.results import read_results, replace_branches, write_results
+    from vibeam.engine.sweep import run_lines
 
     if not tasks:
         raise CaseError(f"{case.name}: no run has method = \"continuation\"; add a [[run]] with "
@@ -718,14 +477,14 @@ class _StoredRun:
 
 
 def _stored_sweeps(h5) -> list:
-    from .results import read_results
+    from vibeam.io.results import read_results
 
     res = read_results(h5)
     return [_StoredRun(k, {kk: vv for kk, vv in v.items() if kk != "attrs"}) for k, v in res["runs"].items()]
 
 
 def _plot_continuation(case, conts, sweeps, out_dir, maps=()):
-    from .branches import plot_continuation, plot_curves
+    from vibeam.analysis.branches import plot_continuation, plot_curves
 
     scene = {r.name: dict(r.model) for r in case.run}      # each run's [run.model] overrides
     for r in conts:
@@ -742,9 +501,9 @@ def _plot_continuation(case, conts, sweeps, out_dir, maps=()):
 
 
 def _assemble(case, jobs_, rows_of):
-    from . import assess
-    from .maps import assemble_map
-    from .sweep import assemble
+    from vibeam.engine import assess
+    from vibeam.analysis.maps import assemble_map
+    from vibeam.engine.sweep import assemble
 
     runs, maps = [], []
     for r in case.run:
@@ -776,9 +535,9 @@ def _assemble(case, jobs_, rows_of):
 
 
 def _plots(case, runs, maps, out_dir, conts=()):
-    from . import assess
-    from .maps import plot_agreement, plot_map
-    from .plots import plot_bifurcation, plot_frc, plot_impacts
+    from vibeam.engine import assess
+    from vibeam.analysis.maps import plot_agreement, plot_map
+    from vibeam.plots.sweep import plot_bifurcation, plot_frc, plot_impacts
 
     curves = [c for c in conts if c.curves]
     for m in maps:

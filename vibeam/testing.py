@@ -62,7 +62,7 @@ class FailingSolver(_Wrapped):
 
 
 def check_labelled(path) -> dict:
-    """Check that a results file is labelled data (the layout of :mod:`vibeam.results`), as
+    """Check that a results file is labelled data (the layout of :mod:`vibeam.io.results`), as
     xarray sees it; returns ``{group path: xarray.Dataset}`` of the runs and maps.
 
     Every run has the dimensions ``direction`` and ``Omega`` (coordinates; physical scenes

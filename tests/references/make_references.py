@@ -1,7 +1,7 @@
 """Make the reference FRCs in ``tests/references/``: one ``<case name>.h5`` per shipped case.
 
 For every case file in ``cases/`` the reference is the FRC of the case's *quick
-variant* (:meth:`vibeam.case.Case.quick_variant`: the same grid, directions and
+variant* (:meth:`vibeam.case.schema.Case.quick_variant`: the same grid, directions and
 run names as ``vibeam run --quick``) computed with converged settings:
 
 * every time-domain run (``event``, and the ODE methods ``direct``,
@@ -127,7 +127,7 @@ MAP_KEPT = ("classification", "values")
 
 def reference_case(case):
     """The converged counterpart of ``case.quick_variant()`` (same grid and run names)."""
-    from vibeam.case import Case
+    from vibeam.case.schema import Case
 
     data = case.quick_variant().model_dump()
     fid = case.model_spec().fidelity
@@ -452,9 +452,9 @@ def _sdof_checks(name, model, d):
 def _beam_checks(name, spec, model, d, sweep, expensive=True):
     from dataclasses import replace
 
-    from vibeam.beamscene import derive
+    from vibeam.case.beamscene import derive
     from vibeam.models import SDOF, EventSolver
-    from vibeam.sweep import run_sweep
+    from vibeam.engine.sweep import run_sweep
 
     c_lin = Check(name, "no-impact points vs modal linear_sensor_amplitude_m", TOL_LINEAR)
     for i, W in enumerate(d["Omega"]):
@@ -508,10 +508,10 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
 def _static_statistics_check(name, d, sdof_data, key):
     """Non-periodic points of a static-mode beam run against the derived SDOF's (the same
     equations; chaos tells their round-offs apart, so only the statistics can agree): the means
-    of Q_k by Welch's test on batch-means errors at 4 sigma (vibeam.records.means_agree).  Only
+    of Q_k by Welch's test on batch-means errors at 4 sigma (vibeam.engine.records.means_agree).  Only
     points that start from reproducible states in both sweeps: the first of each line, or after
     a periodic point in both (after a chaotic one a multistable point may land elsewhere)."""
-    from vibeam.records import means_agree
+    from vibeam.engine.records import means_agree
 
     c = Check(name, "static mode vs SDOF, non-periodic points: means of Q_k (Welch, batch means, 4 sigma)",
               1.0, floor=1.0)
@@ -542,7 +542,7 @@ def _static_statistics_check(name, d, sdof_data, key):
 def _direct_check(name, model, d, sweep, n_points=DIRECT_POINTS):
     """FE periodic impacting points against the ``direct`` beam solver (solve_ivp DOP853)."""
     from vibeam.models import make_solver
-    from vibeam.records import summarize
+    from vibeam.engine.records import summarize
 
     c = Check(name, "FE periodic points vs direct solve_ivp DOP853 (rtol 1e-10)", TOL_DIRECT)
     cand = [i for i in range(len(d["Omega"])) if int(d["period"][i]) == 1 and str(d["status"][i]) == "ok"
@@ -575,7 +575,7 @@ def _direct_check(name, model, d, sweep, n_points=DIRECT_POINTS):
 def _held_check(name, model, d):
     """Pre-stressed stop: a point is 'held on the stop' iff Omega^2 B <= |Delta| (the forcing
     cannot make q'' = Omega^2 B sin(Omega t) - Delta negative on the stop)."""
-    from vibeam.maps import HELD, classify
+    from vibeam.analysis.maps import HELD, classify
 
     c = Check(name, "held on a pre-stressed stop iff Omega^2 B <= |Delta|", 0.0)
     if model.Delta >= 0:
@@ -591,10 +591,10 @@ def check_runs(ref_case, data: dict, expensive: bool = True) -> list[Check]:
     """Every oracle that applies to the reference datasets ``data`` of ``ref_case``.
 
     ``data`` maps run names (map lines: ``<run>@<parameter>=<value>``, as
-    :func:`vibeam.maps.all_runs`) to per-point datasets.  ``expensive = False``
+    :func:`vibeam.analysis.maps.all_runs`) to per-point datasets.  ``expensive = False``
     leaves out the direct FE solver (for the tests).
     """
-    from vibeam.sweep import Sweep
+    from vibeam.engine.sweep import Sweep
 
     sw = ref_case.sweep
     sweep = Sweep(Omega=np.zeros(1), **sw.engine_options())
@@ -743,9 +743,9 @@ def check_stored(path, expensive: bool = False) -> list[Check]:
     """Recompute the oracles of a stored reference file from its own datasets and case text."""
     import h5py
 
-    from vibeam.case import parse_case
-    from vibeam.maps import all_runs
-    from vibeam.results import read_results
+    from vibeam.case.schema import parse_case
+    from vibeam.analysis.maps import all_runs
+    from vibeam.io.results import read_results
 
     with h5py.File(path, "r") as f:
         case = parse_case(f.attrs["case_text"])
@@ -755,10 +755,10 @@ def check_stored(path, expensive: bool = False) -> list[Check]:
 # ----------------------------------------------------------------------------- main
 def make_reference(path, out_dir=HERE, jobs=None, write=True, log=print) -> tuple[bool, list[Check]]:
     """Compute, check and (if every check passes) write the reference of one case file."""
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
     from vibeam.cli import run_case
-    from vibeam.maps import map_lines
-    from vibeam.results import write_results
+    from vibeam.analysis.maps import map_lines
+    from vibeam.io.results import write_results
 
     case, text = load_case(path)
     ref_case = reference_case(case)
@@ -803,7 +803,7 @@ def make_reference(path, out_dir=HERE, jobs=None, write=True, log=print) -> tupl
 
 def reference_table(dropped, transient_periods, methods, checks, max_transient_periods=None) -> dict:
     """The ``/reference`` group of a reference file (netCDF variables with units and names)."""
-    from vibeam.results import var
+    from vibeam.io.results import var
 
     out = {
         "dropped_datasets": var(("dropped_dataset",), np.array(list(dropped), dtype=object), None,
@@ -829,7 +829,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     paths = [Path(p) for p in args.cases] or sorted(CASES.glob("*.toml"))
     failed = []
-    from vibeam.case import load_case
+    from vibeam.case.schema import load_case
     for p in paths:
         if all(r.method == "continuation" for r in load_case(p)[0].run):
             print(f"[{p}] continuation runs only: no reference FRC (its branches are regressed by "

@@ -12,11 +12,11 @@ of an HDF5 reference (non-periodic, ``unsettled``, or of another period) is one
 sample of an attractor, reproducible only in its statistics (a chaotic
 trajectory differs after a few hundred periods between CPUs, BLAS kernels and
 compilers), and is compared by the spread of its per-period amplitude ``Q_k``
-(:func:`vibeam.records.amplitude_spread`, measured over ``[sweep]
+(:func:`vibeam.engine.records.amplitude_spread`, measured over ``[sweep]
 statistics_periods`` periods for a non-periodic point):
 
 * the means agree by Welch's two-sample test with batch-means standard errors
-  (:func:`vibeam.records.means_agree`: the ``Q_k`` of a chaotic attractor are
+  (:func:`vibeam.engine.records.means_agree`: the ``Q_k`` of a chaotic attractor are
   correlated over a few periods, so ``std / sqrt(n)`` would understate the
   error; the critical value is Student's t at the false-alarm probability of
   ``sigmas`` normal deviations, so a short record widens the bound rather than
@@ -56,7 +56,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .records import means_agree
+from vibeam.engine.records import means_agree
 
 
 @dataclass
@@ -78,12 +78,12 @@ class RegressRow:
 
 
 def read_csv_reference(path):
-    """A CSV reference: :func:`vibeam.inputs.read_frc_table`, the one reader of measured and
+    """A CSV reference: :func:`vibeam.io.inputs.read_frc_table`, the one reader of measured and
     reference tables (``vibeam fit`` reads them too).
 
     Returns
     -------
-    vibeam.inputs.FRCTable
+    vibeam.io.inputs.FRCTable
 
     Raises
     ------
@@ -92,13 +92,13 @@ def read_csv_reference(path):
         ``frequency_hz,amplitude_mm`` or ``Omega,amplitude`` (optionally ``direction`` and
         ``sigma``), a row has missing or extra values, or a value is out of range.
     """
-    from .inputs import read_frc_table
+    from vibeam.io.inputs import read_frc_table
 
     return read_frc_table(path, "reference file", "--reference")
 
 
 def load_results(path, option: str = "--results") -> dict:
-    """:func:`vibeam.results.read_results` of a file that must be a vibeam results file.
+    """:func:`vibeam.io.results.read_results` of a file that must be a vibeam results file.
 
     Raises
     ------
@@ -106,9 +106,9 @@ def load_results(path, option: str = "--results") -> dict:
         If the file is missing, empty, truncated, not HDF5, or holds no runs or maps
         with amplitudes.
     """
-    from .errors import InputError
-    from .inputs import check_input_file
-    from .results import read_results
+    from vibeam.errors import InputError
+    from vibeam.io.inputs import check_input_file
+    from vibeam.io.results import read_results
 
     path = check_input_file(path, "results file", option)
     try:
@@ -116,7 +116,7 @@ def load_results(path, option: str = "--results") -> dict:
     except (OSError, KeyError, ValueError) as e:
         why = getattr(e, "strerror", None) or (str(e).splitlines()[0] if str(e) else type(e).__name__)
         raise InputError(f"{option} {path}: not a readable results file ({why})") from None
-    from .maps import all_runs
+    from vibeam.analysis.maps import all_runs
 
     runs = all_runs(res)
     if not runs:
@@ -146,7 +146,7 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
             sigmas: float = 4.0, spread_range: float = 0.5, continuation: bool = True) -> list[RegressRow]:
     """Compare ``new`` (``read_results`` layout: ``{"runs": {name: datasets}}``) with a reference.
 
-    Parameter maps are compared line by line (:func:`vibeam.maps.map_lines`).
+    Parameter maps are compared line by line (:func:`vibeam.analysis.maps.map_lines`).
     ``sigmas`` and ``spread_range`` are the tolerances of the points compared by
     their spread (module docstring).  ``continuation``: the sweeps handed each
     point's final state to the next (``[sweep] continuation``), so a point after a
@@ -154,8 +154,8 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
     Returns one :class:`RegressRow` per compared run or map line (or per new run
     for CSV).
     """
-    from .maps import all_runs
-    from .results import read_results
+    from vibeam.analysis.maps import all_runs
+    from vibeam.io.results import read_results
 
     ref_path = Path(ref_path)
     new = dict(new, runs=all_runs(new))
@@ -188,7 +188,7 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
 def _compare_csv(new: dict, t, atol: float, rtol: float) -> list[RegressRow]:
     """Each run's FRC interpolated linearly at the table's points, on the sweep of each point's
     direction (``up`` without a ``direction`` column), against the table's amplitudes."""
-    from .errors import InputError
+    from vibeam.errors import InputError
 
     rows = []
     where = f"--reference {t.source}"
@@ -267,7 +267,7 @@ def check_results_of_case(case, res: dict, path, source: str = "") -> None:
     """
     import json
 
-    from .errors import InputError, quote_value
+    from vibeam.errors import InputError, quote_value
 
     attrs = res.get("attrs", {})
     where = f"--results {path}"
@@ -291,7 +291,7 @@ def check_results_of_case(case, res: dict, path, source: str = "") -> None:
 
 
 def check_reference_of_case(case, ref, path, source: str = "") -> None:
-    """Refuse a CSV reference (:class:`vibeam.inputs.FRCTable`) that cannot be compared with the
+    """Refuse a CSV reference (:class:`vibeam.io.inputs.FRCTable`) that cannot be compared with the
     case's runs: physical columns for a nondimensional scene, or a direction the case does not
     sweep.  A results-file reference is compared by run name and left alone here.
 
@@ -300,8 +300,8 @@ def check_reference_of_case(case, ref, path, source: str = "") -> None:
     InputError
         Naming the file, the column or direction and what is allowed.
     """
-    from .errors import InputError
-    from .inputs import FRCTable
+    from vibeam.errors import InputError
+    from vibeam.io.inputs import FRCTable
 
     if not isinstance(ref, FRCTable):
         return

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numbers
 import os
 
-from .errors import quote_value
+from vibeam.errors import quote_value
 
 #: workers allowed per core (``--jobs``, ``jobs``): see the module docstring
 JOBS_PER_CORE = 4
@@ -167,7 +167,7 @@ _ADAPTERS: dict = {}
 
 def check_case_value(value, name: str, table, key: str):
     """``value`` checked by the validator of the case key ``key`` of ``table`` (a spec class of
-    :mod:`vibeam.case`, e.g. :class:`~vibeam.case.SweepSpec`): the same types, ranges and
+    :mod:`vibeam.case.schema`, e.g. :class:`~vibeam.case.schema.SweepSpec`): the same types, ranges and
     strictness (no NaN, no infinity, no bool for a number) as in a case file.
 
     Returns
@@ -205,7 +205,7 @@ def check_case_value(value, name: str, table, key: str):
 
 def check_frequency(value, name: str = "Omega", key: str = "Omega"):
     """A forcing frequency (``Omega``, or ``frequency_hz`` in Hz): a finite number > 0, the rule
-    of a point of ``[sweep] Omega`` / ``frequency_hz`` (:func:`vibeam.case.check_grid`).
+    of a point of ``[sweep] Omega`` / ``frequency_hz`` (:func:`vibeam.case.schema.check_grid`).
 
     Raises
     ------
@@ -214,7 +214,7 @@ def check_frequency(value, name: str = "Omega", key: str = "Omega"):
     ValueError
         NaN, infinite, zero or negative.
     """
-    from .case import check_grid
+    from vibeam.case.schema import check_grid
 
     value = _scalar(value)
     allowed = f"a finite number > 0 (a point of [sweep] {key})"

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import case_error
+from vibeam.errors import case_error
 
 
 @dataclass
@@ -52,7 +52,7 @@ _PAIRS = (("frequency_hz", "amplitude_mm"), ("Omega", "amplitude"))
 def read_reference(path, run: str | None = None) -> Reference:
     """Read measured points: a CSV or a vibeam results file (HDF5).
 
-    CSV: :func:`vibeam.inputs.read_frc_table`, the one reader of measured and reference
+    CSV: :func:`vibeam.io.inputs.read_frc_table`, the one reader of measured and reference
     tables (``vibeam regress`` reads them too): a header naming ``frequency_hz,amplitude_mm``
     (physical) or ``Omega,amplitude``, optionally ``direction`` (``up``/``down``, default
     ``up``) and ``sigma`` (standard deviation of the amplitude, same unit, > 0); frequencies
@@ -62,7 +62,7 @@ def read_reference(path, run: str | None = None) -> Reference:
 
     Raises
     ------
-    vibeam.case.CaseError
+    vibeam.case.schema.CaseError
         On a file that is not a regular file or is larger than 10 MB, a missing or unknown
         column, a row with missing or extra values, a value out of range, a direction other
         than up/down, a sigma <= 0, no points, or a run not in the file.
@@ -70,15 +70,15 @@ def read_reference(path, run: str | None = None) -> Reference:
     path = Path(path)
     if path.suffix.lower() in (".h5", ".hdf5"):
         return _read_h5_reference(path, run)
-    from .inputs import read_frc_table
+    from vibeam.io.inputs import read_frc_table
 
     t = read_frc_table(path, "reference file")
     return Reference(t.source, t.x_name, t.y_name, t.x, t.y, t.direction, t.sigma)
 
 
 def _read_h5_reference(path: Path, run: str | None) -> Reference:
-    from .inputs import check_input_file
-    from .results import read_results
+    from vibeam.io.inputs import check_input_file
+    from vibeam.io.results import read_results
 
     check_input_file(path, "results file")
     try:

@@ -17,7 +17,7 @@ Conventions (README, "Plots"):
   failed points are red crosses along the bottom of the axes.
 
 Every figure is built inside :func:`context` and returned as a
-:class:`matplotlib.figure.Figure`; :func:`vibeam.plots.save_figure` writes it.
+:class:`matplotlib.figure.Figure`; :func:`vibeam.plots.sweep.save_figure` writes it.
 """
 from __future__ import annotations
 
@@ -104,7 +104,7 @@ def subtitle(case=None, model: dict | None = None, runs=(), exclude=()) -> str:
 
     Parameters
     ----------
-    case : vibeam.case.Case, optional
+    case : vibeam.case.schema.Case, optional
         Its ``[model]`` (and ``[sweep]``: periods and directions).
     model : dict, optional
         A model table (e.g. the ``attrs["model"]`` a run stored), used when there is no
@@ -175,3 +175,16 @@ def proxy(colour="0.3", ls="none", marker=None, fill=True, label="", ms=5, lw=1.
 
     return Line2D([], [], color=colour, ls=ls, marker=marker, ms=ms, lw=lw,
                   mfc=colour if fill else "none", mec=colour, label=label)
+
+
+def cell_edges(c):
+    """Cell edges around increasing centres ``c`` (n,) -> (n + 1,); one centre gets a cell of
+    +-5 % of its value (+-0.05 at 0), so a map with one value or one frequency is drawn."""
+    import numpy as np
+
+    c = np.asarray(c, float)
+    if c.size == 1:
+        w = 0.05 * abs(c[0]) or 0.05
+        return np.array([c[0] - w, c[0] + w])
+    mid = 0.5 * (c[1:] + c[:-1])
+    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])

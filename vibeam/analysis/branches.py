@@ -1,7 +1,7 @@
 """Continuation runs of a case (``method = "continuation"``): planning, the unit of work that
 the one executor runs, results, the printed table and the plots.
 
-A continuation run is one :class:`BranchTask`: it goes through :func:`vibeam.sweep.run_lines`
+A continuation run is one :class:`BranchTask`: it goes through :func:`vibeam.engine.sweep.run_lines`
 beside the sweep lines of the case, on the same executor (local pool or dask), and returns
 plain arrays (picklable).  In the worker it builds the fidelity's shooting problem from the
 registration :data:`vibeam.models.SHOOTING` (no per-fidelity code here), finds the starting
@@ -19,7 +19,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import CaseError
+from vibeam.io.results import branch_name
+
+from vibeam.errors import CaseError
 
 #: units of the continuation parameters (the HDF5 ``units`` attribute of ``parameter``)
 PARAMETER_UNITS = {"Omega": "1 (forcing frequency / natural frequency)", "voltage": "V", "gain": "1/V",
@@ -47,7 +49,7 @@ BRANCH_UNITS = {
 
 @dataclass(frozen=True)
 class BranchTask:
-    """One continuation run as a unit of work of :func:`vibeam.sweep.run_lines`.
+    """One continuation run as a unit of work of :func:`vibeam.engine.sweep.run_lines`.
 
     Attributes
     ----------
@@ -62,10 +64,10 @@ class BranchTask:
     at : float or None
         Forcing frequency Omega of a continuation in another key.
     settings : dict
-        The run's continuation settings (:class:`vibeam.case.ContinuationRun`).
+        The run's continuation settings (:class:`vibeam.case.schema.ContinuationRun`).
     sweep_periods : (int or "auto", int)
         Transient and recorded periods of a ``sweep`` start (``"auto"``: settled as the
-        sweep settles its points, :func:`vibeam.sweep.settle_transient`).
+        sweep settles its points, :func:`vibeam.engine.sweep.settle_transient`).
     curve_key : str or None
         The ``[map]`` parameter of a case with two-parameter curves.
     curve_range : (float, float) or None
@@ -127,7 +129,7 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
         If the run's fidelity has no registered shooting problem, or its start cannot be
         served by it (one message naming the key and what is allowed).
     """
-    from .models import SHOOTING
+    from vibeam.models import SHOOTING
 
     i = case.run.index(r)
     spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
@@ -192,8 +194,8 @@ def _with(spec, **over):
 def problem(spec, key: str, at: float | None):
     """The shooting problem of ``spec`` continued in ``key`` (physical keys through the scene's
     affine conversion, :class:`vibeam.models.continuation.ScaledParameter`)."""
-    from .models import shooting_problem
-    from .models.continuation import ScaledParameter
+    from vibeam.models import shooting_problem
+    from vibeam.models.continuation import ScaledParameter
 
     model = spec.build()
     native, factor = spec.native_parameter(key) if hasattr(spec, "native_parameter") else (key, 1.0)
@@ -206,8 +208,8 @@ def problem(spec, key: str, at: float | None):
 # ----------------------------------------------------------------------------- the run
 def _sweep_start(task, spec, value):
     """Settled state and detected period of an event run at the start value (a sweep point)."""
-    from .models import make_solver
-    from .records import summarize
+    from vibeam.models import make_solver
+    from vibeam.engine.records import summarize
 
     if task.parameter == "Omega":
         model, Omega = spec.build(), value
@@ -217,7 +219,7 @@ def _sweep_start(task, spec, value):
     n_tr = task.sweep_periods[0]
     if n_tr == "auto":
         # the sweep's own settling (transient_periods = "auto", e.g. a [quick] variant's)
-        from .sweep import Sweep, PointClock, settle_transient
+        from vibeam.engine.sweep import Sweep, PointClock, settle_transient
 
         sw = Sweep(Omega=np.array([float(Omega)]), transient_periods="auto", record_periods=task.sweep_periods[1],
                    samples_per_period=16)
@@ -260,7 +262,7 @@ def _duplicate(branches, first, n) -> bool:
 
 def run_continuation(task: BranchTask) -> dict:
     """Everything a continuation run computes, as plain arrays (see :func:`branch_arrays`)."""
-    from .models.continuation import ContinuationError, Settings, trace
+    from vibeam.models.continuation import ContinuationError, Settings, trace
 
     st = task.settings
     settings = Settings(ds=st["ds"], ds_min=st["ds_min"], ds_max=st["ds_max"], max_points=st["max_points"],
@@ -321,7 +323,7 @@ def run_continuation(task: BranchTask) -> dict:
 def _curves(task, spec, branches, settings) -> list:
     """Two-parameter curves of the folds, period doublings and grazings of ``branches``,
     seeded at ``slices`` values of the map parameter (see trace_curve)."""
-    from .models.continuation import FOLD, GRAZING, PERIOD_DOUBLING, trace_curves
+    from vibeam.models.continuation import FOLD, GRAZING, PERIOD_DOUBLING, trace_curves
 
     k2 = task.curve_key
     lo2, hi2 = task.curve_range
@@ -354,7 +356,7 @@ def _curves(task, spec, branches, settings) -> list:
 def _slice_bifurcations(task, spec, v, settings):
     """Bifurcations of the one-parameter branches at map value ``v`` (seeds of more curves)."""
     from dataclasses import replace as dc_replace
-    from .models.continuation import trace
+    from vibeam.models.continuation import trace
 
     sp2 = _with(spec, **{task.curve_key: float(v)})
     prob = problem(sp2, task.parameter, task.at)
@@ -446,6 +448,11 @@ class ContinuationResult:
     wall_time_s: float
     attrs: dict = field(default_factory=dict)
 
+    def write(self, f) -> None:
+        """This run's ``/branches/<run>/`` group into the open HDF5 file ``f``
+        (:func:`write_branches`; what the results writer calls)."""
+        write_branches(f, [self])
+
     @property
     def bifurcations(self) -> list:
         return [bf for b in self.branches for bf in b["bifurcations"]]
@@ -529,10 +536,10 @@ def _padded(arrays: list, n_p: int, extra: tuple):
 
 
 def branch_variables(r) -> tuple:
-    """The variables of ``/branches/<run>/`` (:func:`vibeam.results.write_group`): every branch
+    """The variables of ``/branches/<run>/`` (:func:`vibeam.io.results.write_group`): every branch
     on the dimensions (branch, point), the bifurcations on (bifurcation), the two-parameter
     curves on (curve, curve_point).  Returns ``(variables, subgroups)``."""
-    from .netcdf import var
+    from vibeam.io.netcdf import var
 
     B = r.branches
     lens = [len(b["data"].get("parameter", ())) for b in B]
@@ -594,7 +601,7 @@ def branch_variables(r) -> tuple:
         u1, _ = _cf(PARAMETER_UNITS.get(r.parameter, "1"))
         cv["parameter"] = var(("curve", "curve_point"), _padded([c["p1"] for c in C], n_c, ()), u1,
                               f"continuation parameter {r.parameter}")
-        from .netcdf import parameter_units
+        from vibeam.io.netcdf import parameter_units
 
         cv[key2] = var(("curve", "curve_point"), _padded([c["p2"] for c in C], n_c, ()), parameter_units(key2),
                        f"second parameter {key2}")
@@ -608,11 +615,11 @@ def branch_variables(r) -> tuple:
 
 def write_branches(f, results: list) -> None:
     """``/branches/<run>/`` of every continuation run into the open HDF5 file ``f`` through the
-    one labelled-data writer (:func:`vibeam.results.write_group`): the branches on
+    one labelled-data writer (:func:`vibeam.io.results.write_group`): the branches on
     (branch, point), ``bifurcations/`` on (bifurcation), ``curves/`` on (curve, curve_point)."""
     import json
 
-    from .netcdf import json_default, write_group
+    from vibeam.io.netcdf import json_default, write_group
 
     for r in results:
         v, groups = branch_variables(r)
@@ -621,52 +628,6 @@ def write_branches(f, results: list) -> None:
                  "status": r.status, "message": r.message,
                  "starts": json.dumps(r.starts, default=json_default), **r.attrs}
         write_group(f, f"branches/{r.name}", v, attrs, groups)
-
-
-def read_branch_group(g) -> dict:
-    """One ``/branches/<run>/`` group back as nested dicts, one per branch (the shape of the
-    first layout): ``{"<index>-period<n>": {dataset: array, "attrs": {index, n, status, message,
-    origin}}, "bifurcations": {...}, "curves": {"<i>-<type>": {...}}}``; padding removed."""
-    from .netcdf import read_plain
-
-    flat = read_plain(g, attrs=True)
-    if "n_points" not in flat:            # the first layout: one group per branch already
-        return flat
-    out = {}
-    n = flat.pop("n_points")
-    meta = {k: flat.pop(k) for k in ("branch", "branch_period", "branch_status", "branch_message", "branch_origin")}
-    subs = {k: flat.pop(k) for k in ("bifurcations", "curves") if k in flat}
-    for i in range(len(n)):
-        b = {"index": int(meta["branch"][i]), "n": int(meta["branch_period"][i])}
-        d = {k: a[i][: int(n[i])] for k, a in flat.items() if isinstance(a, np.ndarray) and a.ndim >= 2}
-        for k, a in d.items():
-            if a.ndim > 1:                  # trailing axes padded to the longest branch: as stored
-                d[k] = a
-        d["attrs"] = dict(b, status=str(meta["branch_status"][i]), message=str(meta["branch_message"][i]),
-                          origin=str(meta["branch_origin"][i]))
-        out[branch_name(b)] = d
-    if "bifurcations" in subs:
-        bt = subs["bifurcations"]
-        out["bifurcations"] = {("branch" if k == "bifurcation_branch" else k): v for k, v in bt.items()}
-    if "curves" in subs:
-        c = subs["curves"]
-        key2 = str(c["attrs"].get("curve_parameter", "parameter2"))
-        cs = {}
-        for i in range(len(c["n_curve_points"])):
-            m = int(c["n_curve_points"][i])
-            item = {"parameter": c["parameter"][i][:m], key2: c[key2][i][:m]}
-            if "frequency_hz" in c:
-                item["frequency_hz"] = c["frequency_hz"][i][:m]
-            item["attrs"] = {"type": str(c["curve_type"][i]), "status": str(c["curve_status"][i]),
-                             "message": str(c["curve_message"][i]), "period": int(c["curve_period"][i])}
-            cs[f"{i:02d}-{item['attrs']['type']}"] = item
-        cs["attrs"] = c.get("attrs", {})
-        out["curves"] = cs
-    return out
-
-
-def branch_name(b: dict) -> str:
-    return f"{b['index']:02d}-period{b['n']}"
 
 
 # ----------------------------------------------------------------------------- printing
@@ -763,8 +724,8 @@ CURVE_STYLES = {"grazing": "-", "fold": "--", "period_doubling": ":", "neimark_s
 
 
 def _param_label(r, use_hz):
-    from .netcdf import parameter_units
-    from .style import label
+    from vibeam.io.netcdf import parameter_units
+    from vibeam.plots.style import label
 
     if use_hz:
         return label("forcing frequency f", "Hz")
@@ -774,12 +735,12 @@ def _param_label(r, use_hz):
 
 
 def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = "", case=None):
-    """The FRC of a continuation run in the style of every vibeam figure (:mod:`vibeam.style`):
+    """The FRC of a continuation run in the style of every vibeam figure (:mod:`vibeam.plots.style`):
     stable branches solid, unstable dashed (colour by period), bifurcations marked, and the
     case's sweep points overlaid (up filled, down open, grey); a Figure."""
     import matplotlib.pyplot as plt
 
-    from . import style
+    from vibeam.plots import style
 
     fn, L = r.attrs.get("natural_frequency_hz"), r.attrs.get("length_m")
     use_hz = bool(fn) and r.parameter == "Omega"
@@ -836,7 +797,7 @@ def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = ""
 
 def plot_continuation(r: ContinuationResult, sweep_runs: list, path, title: str = "", case=None):
     """:func:`continuation_figure` saved to ``path``; returns the path."""
-    from .plots import save_close
+    from vibeam.plots.sweep import save_close
 
     return save_close(continuation_figure(r, sweep_runs, title, case), path)
 
@@ -846,7 +807,7 @@ def plot_curves_on(ax, results: list, frequency_hz: bool) -> list:
     parameter); returns one legend handle per kind of curve (the figure's legend takes them)."""
     from matplotlib import patheffects
 
-    from .style import proxy
+    from vibeam.plots.style import proxy
 
     halo = [patheffects.withStroke(linewidth=3.2, foreground="white")]
     seen, handles = set(), []
@@ -870,8 +831,8 @@ def curves_figure(r: ContinuationResult, title: str = "", case=None):
     """The two-parameter curves of one run alone (frequency x the second parameter); a Figure."""
     import matplotlib.pyplot as plt
 
-    from . import style
-    from .netcdf import parameter_units
+    from vibeam.plots import style
+    from vibeam.io.netcdf import parameter_units
 
     fn = r.attrs.get("natural_frequency_hz")
     with style.context():
@@ -891,6 +852,6 @@ def curves_figure(r: ContinuationResult, title: str = "", case=None):
 
 def plot_curves(r: ContinuationResult, path, title: str = "", case=None):
     """:func:`curves_figure` saved to ``path``; returns the path."""
-    from .plots import save_close
+    from vibeam.plots.sweep import save_close
 
     return save_close(curves_figure(r, title, case), path)

@@ -1,7 +1,7 @@
 """Assessments (``[assess]`` of a case) and the ``sensor`` effect's identification.
 
 :func:`hooks` returns the per-point assessment callables that the sweep applies
-to each recorded :class:`vibeam.records.Trajectory` (empty when the case asks
+to each recorded :class:`vibeam.engine.records.Trajectory` (empty when the case asks
 for none: nothing extra is computed or stored); :func:`collect` moves what is not
 a per-point quantity (time series) out of the per-point table after a run;
 :func:`finish` writes what needs the whole case (plots overlaying runs, the
@@ -34,10 +34,10 @@ Per-point outputs (HDF5 ``/runs/<run>/``):
     ``time_series_periods`` recorded periods at the grid point nearest to ``f``; ``<label>`` is
     that grid point's frequency (:func:`ts_label`), never a requested value off the grid
     (a request outside the grid, or two on one grid point, is a case error:
-    :func:`vibeam.case.check_time_series`); stored as the group ``time_series/<label>``
-    (:mod:`vibeam.results`).
+    :func:`vibeam.case.schema.check_time_series`); stored as the group ``time_series/<label>``
+    (:mod:`vibeam.io.results`).
 ``[effects.sensor]``
-    see :class:`vibeam.sensor.SensorHook`.
+    see :class:`vibeam.engine.sensor.SensorHook`.
 """
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def _units(model):
 
 def _caps(model):
     """The fidelity registry's entry of a model (capabilities, :mod:`vibeam.models.registry`)."""
-    from .models.registry import fidelity
+    from vibeam.models.registry import fidelity
 
     return fidelity(model)
 
@@ -350,8 +350,8 @@ class TimeSeriesHook:
 
 
 def _sensor_hook(case, spec, run, model):
-    from .errors import CaseError
-    from .sensor import SensorHook
+    from vibeam.errors import CaseError
+    from vibeam.engine.sensor import SensorHook
 
     eff = case.effects_for(run)
     sp = eff.sensor
@@ -393,7 +393,7 @@ def samples_per_period(case, run, model, Omega) -> int:
     sp = case.effects_for(run).sensor
     fn = getattr(model, "natural_frequency_hz", None)
     if sp is not None and fn:
-        from .sensor import required_samples_per_period
+        from vibeam.engine.sensor import required_samples_per_period
 
         n = max(n, required_samples_per_period(sp.sampling_hz, float(np.min(Omega)) * fn, sp.oversample))
     return n
@@ -444,7 +444,7 @@ def collect(case, run, res) -> None:
         res.attrs["peaks_family_codes"] = "0 none, 1 free mode, 2 contact mode"
     sp = case.effects_for(run).sensor
     if sp is not None and sp.identify_R:
-        from .sensor import DEFAULT_LADDER_MM
+        from vibeam.engine.sensor import DEFAULT_LADDER_MM
 
         res.attrs["noise_ladder_mm"] = np.asarray(sp.noise_ladder_mm if sp.noise_ladder_mm is not None
                                                   else DEFAULT_LADDER_MM, float)
@@ -456,7 +456,7 @@ def finish(case, runs, out_dir) -> list:
     """Case-level assessment outputs (plots, tables); returns the written paths."""
     from pathlib import Path
 
-    from .style import colours, run_names
+    from vibeam.plots.style import colours, run_names
 
     out_dir = Path(out_dir)
     paths = []
@@ -486,7 +486,7 @@ def finish(case, runs, out_dir) -> list:
         rows = sensor_table(runs)
         print_sensor_table(rows)
         csv = out_dir / "sensor_R_vs_noise.csv"
-        from .outdir import replace_file
+        from vibeam.io.outdir import replace_file
 
         replace_file(csv, "run,noise_mm,points,identified,median_abs_error,max_abs_error,rms_error,"
                      "mean_R_identified,mean_R_model,mean_R_sensor_exact\n"
@@ -501,7 +501,7 @@ def finish(case, runs, out_dir) -> list:
 
 
 def _x(r):
-    from .style import label
+    from vibeam.plots.style import label
 
     d = r.data
     return ((np.asarray(d["frequency_hz"], float), label("forcing frequency f", "Hz")) if "frequency_hz" in d
@@ -561,7 +561,7 @@ def sensor_figure(rows, title="", case=None, colours=None, runs=()):
     """Error of the identified R against the sensor noise, per run (median and max over the
     period-1 points; the noise-free error as a marker at the left edge); a Figure, or None
     when no row has a finite error."""
-    from . import style
+    from vibeam.plots import style
 
     plt = _plt()
     names = list(dict.fromkeys(r[0] for r in rows))
@@ -613,7 +613,7 @@ def sensor_figure(rows, title="", case=None, colours=None, runs=()):
 
 def plot_sensor(rows, path, title="", case=None, colours=None, runs=()):
     """:func:`sensor_figure` saved to ``path`` (``sensor_R_vs_noise.png``); None if empty."""
-    from .plots import save_close
+    from vibeam.plots.sweep import save_close
 
     return save_close(sensor_figure(rows, title, case, colours, runs), path)
 
@@ -621,7 +621,7 @@ def plot_sensor(rows, path, title="", case=None, colours=None, runs=()):
 def spectra_figure(runs, title="", case=None):
     """Per run: velocity spectrum (colour, log10 of mm/s) against the forcing frequency
     (up branch), non-harmonic peaks as circles; a Figure, or None without spectra."""
-    from . import style
+    from vibeam.plots import style
 
     plt = _plt()
     runs = [r for r in runs if "spectrum_velocity" in r.data]
@@ -642,7 +642,7 @@ def spectra_figure(runs, title="", case=None):
             fy = np.asarray(r.attrs.get("spectrum_frequency"), float)
             with np.errstate(divide="ignore", invalid="ignore"):
                 Z = np.log10(np.where(S > 0, S, np.nan)).T
-            from .maps import cell_edges
+            from vibeam.plots.style import cell_edges
 
             top = np.nanmax(Z) if np.isfinite(Z).any() else 0.0
             im = ax.pcolormesh(cell_edges(xs), cell_edges(fy), Z, cmap="viridis", vmin=top - 4, vmax=top)
@@ -663,7 +663,7 @@ def spectra_figure(runs, title="", case=None):
 
 def plot_spectra(runs, path, title="", case=None):
     """:func:`spectra_figure` saved to ``path`` (``spectra.png``)."""
-    from .plots import save_close
+    from vibeam.plots.sweep import save_close
 
     return save_close(spectra_figure(runs, title, case), path)
 
@@ -698,7 +698,7 @@ def print_hfc(runs):
 def participation_figure(runs, title="", case=None):
     """Stacked shares of the modes against the forcing frequency (up branch), per run; a
     Figure, or None when no run has more than one mode."""
-    from . import style
+    from vibeam.plots import style
 
     plt = _plt()
     runs = [r for r in runs if "participation_displacement" in r.data
@@ -736,7 +736,7 @@ def participation_figure(runs, title="", case=None):
 
 def plot_participation(runs, path, title="", case=None):
     """:func:`participation_figure` saved to ``path`` (``participation.png``); None if nothing."""
-    from .plots import save_close
+    from vibeam.plots.sweep import save_close
 
     return save_close(participation_figure(runs, title, case), path)
 
@@ -744,7 +744,7 @@ def plot_participation(runs, path, title="", case=None):
 def time_series_figure(runs, label, title="", case=None, colours=None):
     """Time series (displacement, velocity; last two periods) and phase portrait of every run
     at the grid frequency ``label`` (:func:`ts_label`); a Figure, or None."""
-    from . import style
+    from vibeam.plots import style
 
     plt = _plt()
     label = label if isinstance(label, str) else ts_label(label)
@@ -790,6 +790,6 @@ def time_series_figure(runs, label, title="", case=None, colours=None):
 
 def plot_time_series(runs, label, path, title="", case=None, colours=None):
     """:func:`time_series_figure` saved to ``path`` (``time_series_<label>.png``); None if none."""
-    from .plots import save_close
+    from vibeam.plots.sweep import save_close
 
     return save_close(time_series_figure(runs, label, title, case, colours), path)

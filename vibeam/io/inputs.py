@@ -26,7 +26,7 @@ set of rules for every command:
 * blank lines and lines starting with ``#`` are skipped; a UTF-8 byte-order mark is
   allowed.
 
-Every refusal is an :class:`vibeam.case.InputError` of one line naming the file (and the
+Every refusal is an :class:`vibeam.case.schema.InputError` of one line naming the file (and the
 option it was given with), the row or column, the value and what is allowed.
 """
 from __future__ import annotations
@@ -48,7 +48,7 @@ _KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISCHR, "a character device"), (
 
 def _error(where: str, what: str, why: str, access: bool = True):
     """One line: ``<file>: cannot read <what>: <why>`` (``access``), else ``<file>: <why>``."""
-    from .errors import InputError, one_line
+    from vibeam.errors import InputError, one_line
 
     return InputError(one_line(f"{where}: cannot read {what}: {why}" if access else f"{where}: {why}"))
 
@@ -79,7 +79,7 @@ def check_input_file(path, what: str = "input file", option: str = "") -> Path:
 
     Raises
     ------
-    vibeam.case.InputError
+    vibeam.case.schema.InputError
         One line naming the file: an empty path, no such file, or not a regular file
         (a directory, a device such as ``/dev/zero``, a named pipe, a socket).
     """
@@ -106,13 +106,13 @@ def read_input_bytes(path, what: str = "input file", option: str = "", limit: in
 
     Raises
     ------
-    vibeam.case.InputError
+    vibeam.case.schema.InputError
         One line naming the file: see :func:`check_input_file`; larger than ``limit``
         (the message names the limit); an error while reading.
     """
     p = check_input_file(path, what, option)
     where = _where(p, option)
-    too_big = (f"larger than the {limit / 1e6:g} MB limit for input files (vibeam.inputs.MAX_INPUT_BYTES); "
+    too_big = (f"larger than the {limit / 1e6:g} MB limit for input files (vibeam.io.inputs.MAX_INPUT_BYTES); "
                f"allowed: a file of at most {limit} bytes")
     flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
     try:
@@ -146,7 +146,7 @@ def read_input_text(path, what: str = "input file", option: str = "", limit: int
 
     Raises
     ------
-    vibeam.case.InputError
+    vibeam.case.schema.InputError
         As :func:`read_input_bytes`, or the bytes are not UTF-8 (the message names the byte).
     """
     data = read_input_bytes(path, what, option, limit)
@@ -171,12 +171,12 @@ def read_csv_table(path, what: str = "data file", option: str = "") -> tuple[lis
 
     Raises
     ------
-    vibeam.case.InputError
+    vibeam.case.schema.InputError
         One line naming the file: see :func:`read_input_text`; not CSV (a NUL byte, an
         unclosed quote); no header; an empty or repeated column name; a row with missing
         or extra values (naming the data row, its count and the header's).
     """
-    from .errors import quote_value
+    from vibeam.errors import quote_value
 
     text = read_input_text(path, what, option)
     where = _where(Path(path), option)
@@ -207,12 +207,12 @@ def column_floats(path, head, rows, name: str, low: float | None = None, low_ope
 
     Raises
     ------
-    vibeam.case.InputError
+    vibeam.case.schema.InputError
         Naming the file, the column, the value, its data row and what is allowed.
     """
     import numpy as np
 
-    from .errors import quote_value
+    from vibeam.errors import quote_value
 
     j = head.index(name)
     need = "a finite number" + ("" if low is None else f" {'>' if low_open else '>='} {low:g}")
@@ -290,12 +290,12 @@ def read_frc_table(path, what: str = "reference file", option: str = "") -> FRCT
 
     Raises
     ------
-    vibeam.case.InputError
+    vibeam.case.schema.InputError
         One line naming the file and what is wrong (module docstring).
     """
     import numpy as np
 
-    from .errors import quote_value
+    from vibeam.errors import quote_value
 
     head, rows = read_csv_table(path, what, option)
     where = _where(Path(path), option)

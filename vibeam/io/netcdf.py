@@ -3,7 +3,7 @@ parameters.
 
 :func:`write_group` writes a dict of :class:`Variable` (dims, data, units, long_name) as one
 netCDF-4 group with its dimensions and coordinates; :func:`read_attrs` and :func:`read_plain`
-read groups back.  :mod:`vibeam.results` (runs, maps, the checkpoint), :mod:`vibeam.branches`
+read groups back.  :mod:`vibeam.io.results` (runs, maps, the checkpoint), :mod:`vibeam.analysis.branches`
 and the other writers of groups build on this module, which imports nothing of vibeam.
 """
 from __future__ import annotations

@@ -4,15 +4,17 @@ A grid of initial states at forcing phase 0 (or ``samples`` random ones, seeded)
 by the attractor of the stroboscopic map each state reaches, found by recurrences on a cell
 grid (:mod:`vibeam.models.attractors`; Datseris & Wagemakers, Chaos 32, 2022) with the case's
 exact event solver as the map.  Every attractor found is then described once: simulated over
-``record`` periods (:func:`vibeam.records.summarize`: amplitude ``Q``, period-n, status),
+``record`` periods (:func:`vibeam.engine.records.summarize`: amplitude ``Q``, period-n, status),
 a periodic one refined to its fixed point by the shooting problem of the model (Newton on
 ``P^n(x) - x``, :func:`vibeam.models.continuation.start_point`) with its Floquet multipliers,
 and its Lyapunov spectrum computed (:func:`vibeam.models.lyapunov.lyapunov_spectrum`: exact
 flows and saltation matrices, Müller 1995).  Types:
 
 ``period``          a period-n orbit (n in ``attractor_period``), no sticking phase;
-``sticking``        a periodic motion with a phase held on a stop (chatter ending in
-                    sticking included), or rest on a stop;
+``sticking``        a motion with phases held on a stop (chatter ending in sticking
+                    included), or rest on a stop; ``attractor_period`` n where it is periodic
+                    to machine precision (confirmed on a second time grid of the solver),
+                    else 0;
 ``chaotic``         not periodic, ``lambda_1 > 0`` beyond its error;
 ``quasi_periodic``  not periodic, ``|lambda_1|`` within its error;
 ``non_periodic``    not periodic within 8 periods and neither of the above (a long period,
@@ -33,11 +35,12 @@ import math
 import os
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from .models.attractors import FAILED, UNSETTLED, Recurrences, set_distance
-from .style import NODIM, PALETTE, context, legend_outside
+from vibeam.models.attractors import FAILED, UNSETTLED, Recurrences, set_distance
+from vibeam.plots.style import NODIM, PALETTE, context, legend_outside
 
 TYPES = ("period", "sticking", "chaotic", "quasi_periodic", "non_periodic")
 LABELS = {UNSETTLED: "unsettled", FAILED: "failed"}
@@ -84,6 +87,10 @@ class BasinsResult:
         Map iterations spent per frequency; ``wall_time_s`` the time per frequency.
     stop : float or None
         The upper stop's position on the grid's first axis (SDOF), else None.
+    grazing : ndarray, shape (n_Omega, ny, nx), or None
+        SDOF grids: the largest gap ``q - Delta`` of the free flight over the first forcing
+        period from each initial state (:func:`first_period_gap`); its zero contour is the set
+        of initial states whose next period grazes the stop, drawn over the basins.
     amplitude_scale_mm : float or None
         ``Q`` times this is mm (physical scenes).
     time_scale_s : float or None
@@ -105,6 +112,7 @@ class BasinsResult:
     time_scale_s: float | None = None
     settings: dict = field(default_factory=dict)
     stop: float | None = None
+    grazing: np.ndarray | None = None
 
     @property
     def grid(self) -> bool:
@@ -184,6 +192,23 @@ def state_size(solver) -> int:
     return int(np.asarray(solver.model.initial_state()).size)
 
 
+def first_period_gap(model, Omega: float, q0, v0, samples: int = 256) -> np.ndarray:
+    """The largest ``q - Delta`` over one forcing period of the SDOF's free flight (no stop) from
+    each initial state ``(q0, v0)`` at forcing phase 0 (arrays of one shape, nondimensional;
+    paper Eq. 28, :func:`vibeam.models.sdof_flow.largest_gap` on ``samples`` times): positive
+    where the state meets the upper stop within a period, negative where it does not, zero on
+    the states whose next period grazes it."""
+    from vibeam.models.sdof_flow import largest_gap, particular_coefficients
+
+    beta, Delta = float(model.beta), float(model.Delta)
+    a, b = particular_coefficients(beta, float(Omega) ** 2 * float(model.B), float(Omega))
+    t = np.linspace(0.0, 2 * math.pi / float(Omega), int(samples))
+    q0, v0 = np.broadcast_arrays(np.asarray(q0, float), np.asarray(v0, float))
+    out = largest_gap(t, np.ascontiguousarray(q0.ravel()), np.ascontiguousarray(v0.ravel()), beta, a, b,
+                      float(Omega), Delta)
+    return out.reshape(q0.shape)
+
+
 # ---------------------------------------------------------------------------- grid of states
 def axes_of(model, coordinates=None) -> Axes:
     """The grid's coordinates for ``model`` (module docstring)."""
@@ -219,7 +244,7 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
     beta = float(getattr(model, "beta", 0.0) or 0.0)
     Delta = float(model.Delta)
     if hasattr(model, "n_modes"):
-        from .models.system import from_beam
+        from vibeam.models.system import from_beam
 
         s = from_beam(model)
         n = s.omega.size
@@ -278,7 +303,7 @@ class BasinLine:
         p0 = rec.periods
         labels = np.array([rec.label(step, x) for x in self.states], np.int64)
         pid = os.getpid()
-        att = {f"{pid}-{k}": rec.attractors[k] for k in np.unique(labels) if k >= 0}
+        att = {("new", pid, int(k)): rec.attractors[k] for k in np.unique(labels) if k >= 0}
         return [dict(labels=labels, attractors=att, pid=pid, periods=rec.periods - p0,
                      wall_time_s=time.perf_counter() - t0)]
 
@@ -288,13 +313,31 @@ class BasinLine:
 
 
 def _spread(X) -> float:
-    """Self-distance of a stroboscopic set: its halves' distance (0 for a periodic orbit)."""
+    """Spread of a stroboscopic set: the larger of its halves' distance (:func:`set_distance`: a
+    chaotic set whose consecutive samples visit its parts slowly) and its spacing, the mean
+    distance from each of its distinct points to the nearest other one (a long orbit whose halves
+    coincide).  0 for a period-1 orbit; about what two samples of one attractor are apart by."""
+    X = np.asarray(X, float)
+    X = X[np.all(np.isfinite(X), axis=1)]
     h = X.shape[0] // 2
-    return set_distance(X[:h], X[h:], 1.0) if h >= 1 else 0.0
+    halves = set_distance(X[:h], X[h:], 1.0) if h >= 1 else 0.0
+    return max(halves, _spacing(X))
+
+
+def _spacing(X) -> float:
+    X = X[:: max(1, X.shape[0] // 200)]            # the sampling of set_distance
+    U = np.unique(np.round(X, 12), axis=0)
+    if U.shape[0] < 2:
+        return 0.0
+    D = np.sqrt(((U[:, None, :] - U[None, :, :]) ** 2).sum(-1))
+    np.fill_diagonal(D, np.inf)
+    return float(D.min(1).mean())
 
 
 def merge_attractors(sets: dict, width) -> tuple:
-    """Group the stroboscopic sets found by different workers (``{key: (m, d) array}``) into
+    """Group the stroboscopic sets found by different workers (``{key: (m, d) array}``, keys
+    ``(origin, pid, index)`` tuples: sortable, so the grouping does not depend on the order the
+    lines finished in) into
     distinct attractors: two sets are one attractor when their distance (in cells) is at most
     one cell plus twice the larger self-distance.  Returns ``(groups, mapping)``: the list of
     one set per attractor and ``{key: index}``."""
@@ -302,7 +345,7 @@ def merge_attractors(sets: dict, width) -> tuple:
     groups: list = []
     spreads: list = []
     mapping: dict = {}
-    for key in sorted(sets, key=lambda k: (int(k.split("-")[0]), int(k.split("-")[1]))):
+    for key in sorted(sets):
         X = sets[key]
         sx = _spread(X / width)
         for g, (Y, sy) in enumerate(zip(groups, spreads)):
@@ -336,22 +379,43 @@ def set_period(X, rtol: float) -> int:
 def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_rtol: float,
                        samples_per_period: int = 64) -> dict:
     """Type, period, amplitude, stability and Lyapunov spectrum of the attractor whose
-    stroboscopic set is ``X`` (shape (m, d); its last sample is on it)."""
-    from .models import shooting_problem
-    from .models.continuation import start_point
-    from .models.lyapunov import classify_spectrum, lyapunov_spectrum
-    from .records import summarize
+    stroboscopic set is ``X`` (shape (m, d); its last sample is on it).  From that sample the
+    motion is settled ``m`` more periods; the period test of the set (:func:`set_period`) is
+    made on the ``m`` stroboscopic samples that follow, the record of ``record`` periods
+    (:func:`vibeam.engine.records.summarize`) and the spectrum start at their end."""
+    from vibeam.models import shooting_problem
+    from vibeam.models.continuation import start_point
+    from vibeam.models.lyapunov import classify_spectrum, lyapunov_spectrum
+    from vibeam.engine.records import summarize
 
     x = np.asarray(X[-1], float)
     model = solver.model
+    # the set was located once its cells recurred, which on a coarse grid can be before the
+    # motion has settled: settle as many periods again, and take the stroboscopic samples there
+    m = max(int(X.shape[0]), 8)
+    tr0 = solver.point(float(Omega), x, m, m, 1)
+    if tr0.status != "failed":
+        x = np.asarray(tr0.final_state, float)
+        X = tr0.samples
     tr = solver.point(float(Omega), x, 0, int(record), int(samples_per_period))
     s = summarize(tr, float(Delta), period_rtol)
     n = int(s["period"])
     periodic = n != 0 and s["status"] in ("ok", "chatter", "sticking")
+    why_not = ""
     if not periodic and s["status"] in ("ok", "chatter", "sticking", "unsettled"):
-        # a period beyond the record's test (n <= 8): the stroboscopic set itself repeats
+        # a period beyond the record's test (n <= 8): the stroboscopic set itself repeats; it
+        # counts only if the solver on another time grid (16 steps per period) repeats it too
         n = set_period(X, period_rtol)
-        periodic = n > 0
+        if n > 0:
+            trc = solver.point(float(Omega), x, 0, 3 * n, 16)
+            S = trc.samples[::16]
+            sc = np.maximum(np.ptp(S, axis=0), 1e-300)
+            periodic = trc.status != "failed" and bool(np.all(np.abs(S[n:] - S[:-n]) <= period_rtol * sc))
+            if not periodic:
+                why_not = (f"its stroboscopic samples repeat after {n} periods on one time grid of the solver "
+                           f"and not on another: round-off decides the period (not periodic to machine "
+                           f"precision)")
+                n = 0
     dprob = 2 * int(getattr(model, "n_modes", 1))
     out = dict(period=max(n, 1) if periodic else 0, impacts_per_period=float(s["impacts_per_period"]), amplitude=float(s["amplitude"]),
                amplitude_min=float(s["amplitude_min"]), amplitude_max=float(s["amplitude_max"]),
@@ -363,6 +427,8 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
     except ValueError as e:
         prob = None
         out["message"] = (out["message"] + "; " if out["message"] else "") + f"no shooting problem: {e}"
+    if why_not:
+        out["message"] = (out["message"] + "; " if out["message"] else "") + why_not
     stuck = s["status"] in ("chatter", "sticking") or (x.size > dprob and x[dprob] != 0.0)
     if prob is not None and periodic and n <= 64:
         pt, why = start_point(prob, x[:dprob], float(Omega), max(n, 1), 0.5 * Omega, 2.0 * Omega)
@@ -379,8 +445,10 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
         if sp.status == "ok":
             out["lyapunov"], out["lyapunov_error"] = sp.exponents, sp.error
             out["lyapunov_impacts_per_period"] = sp.impacts / max(sp.shots * sp.periods_per_shot, 1)
-    if periodic:
-        out["type"] = "sticking" if stuck else "period"
+    if stuck:
+        out["type"] = "sticking"
+    elif periodic:
+        out["type"] = "period"
     else:
         out["type"] = classify_spectrum(out["lyapunov"], out["lyapunov_error"]) or "non_periodic"
     return out
@@ -389,8 +457,8 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
 # ---------------------------------------------------------------------------- the computation
 def _pick_solver(case, run_name):
     """The job of the case's run ``run_name`` (default: the first time-domain run)."""
-    from .errors import CaseError
-    from .runner import make_job
+    from vibeam.errors import CaseError
+    from vibeam.engine.jobs import make_job
 
     names = [r.name for r in case.run]
     if run_name is not None:
@@ -436,13 +504,79 @@ def _cell_widths(step, model, d, axes: Axes, xs, ys, x_state, Omega):
     return w
 
 
+def checkpoint_ident(case, spec, name: str) -> str:
+    """What a basin checkpoint belongs to: the case as run, the ``[basins]`` table and the run."""
+    from vibeam.io.results import case_hash
+
+    return case_hash(case.model_dump_json() + spec.model_dump_json() + name)
+
+
+def _line_variables(row: dict) -> dict:
+    from vibeam.io.netcdf import var
+
+    keys = sorted(row["attractors"])
+    sets = [row["attractors"][k] for k in keys]
+    d = sets[0].shape[1] if sets else 1
+    return {"labels": var(("point",), np.asarray(row["labels"], np.int64), "1", "local attractor index"),
+            "set_pid": var(("set",), np.array([k[1] for k in keys], np.int64), "1", "process of the set"),
+            "set_index": var(("set",), np.array([k[2] for k in keys], np.int64), "1", "local index of the set"),
+            "set_length": var(("set",), np.array([x.shape[0] for x in sets], np.int64), "1", "samples per set"),
+            "sets": var(("sample", "coordinate"), np.concatenate(sets) if sets else np.zeros((0, d)), "1",
+                        "stroboscopic sets, concatenated"),
+            "pid": var((), np.int64(row["pid"]), "1", "process"),
+            "periods": var((), np.int64(row["periods"]), "1", "map iterations"),
+            "wall_time_s": var((), float(row["wall_time_s"]), "s", "wall time")}
+
+
+def append_checkpoint(path, run: str, rows: dict, ident: str, case_name: str = "", case_text: str = ""):
+    """Add finished lines ``{line key: row}`` to ``/basin_lines/<run>/`` of ``path`` (atomically,
+    the file's other groups kept; each line marked with ``ident``)."""
+    from vibeam.io.netcdf import write_group
+    from vibeam.io.results import replace_group
+
+    def fill(f):
+        for key, row in rows.items():
+            g = f"basin_lines/{run}/{key}"
+            if g in f:
+                del f[g]
+            write_group(f, g, _line_variables(row), {"basins_ident": ident})
+
+    return replace_group(path, None, fill, case_name, case_text)
+
+
+def read_checkpoint(path, run: str, ident: str) -> dict:
+    """The lines of ``/basin_lines/<run>/`` written for ``ident``: ``{line key: row}`` (the rows
+    of :meth:`BasinLine.compute`, their sets keyed ``("stored", pid, index)``)."""
+    import h5py
+
+    from vibeam.io.netcdf import read_plain
+
+    out = {}
+    if not Path(path).is_file():
+        return out
+    with h5py.File(path, "r") as f:
+        for key, g in f.get(f"basin_lines/{run}", {}).items():
+            if str(g.attrs.get("basins_ident", "")) != ident:
+                continue
+            d = read_plain(g)
+            ends = np.cumsum(d["set_length"])
+            sets = np.split(np.asarray(d["sets"], float), ends[:-1]) if len(ends) else []
+            pid = int(d["pid"])
+            out[key] = dict(labels=np.asarray(d["labels"], np.int64), pid=pid, periods=int(d["periods"]),
+                            wall_time_s=float(d["wall_time_s"]), stored=True,
+                            attractors={("stored", int(p), int(k)): X
+                                        for p, k, X in zip(d["set_pid"], d["set_index"], sets)})
+    return out
+
+
 def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, progress: bool = False,
-            spec=None) -> BasinsResult:
+            spec=None, checkpoint=None, resume: bool = False, checkpoint_interval_s: float = 0.5,
+            case_text: str = "") -> BasinsResult:
     """Basins of attraction (or the census of attractors) of a case (module docstring).
 
     Parameters
     ----------
-    case : vibeam.case.Case
+    case : vibeam.case.schema.Case
         With a ``[basins]`` table, or give ``spec``.
     run : str, optional
         The run whose model and solver are used (default: ``[basins] run``, else the first
@@ -453,8 +587,15 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         E.g. a dask.distributed client's executor (as the sweeps).
     progress : bool
         A progress bar of initial states.
-    spec : vibeam.case.BasinsSpec, optional
+    spec : vibeam.case.schema.BasinsSpec, optional
         Replaces the case's ``[basins]``.
+    checkpoint : str or Path, optional
+        A results file: finished grid rows (census slices) are kept in its ``/basin_lines/<run>/``
+        as they finish (at most every ``checkpoint_interval_s``, and on an interrupt), so that
+        an interrupted computation loses at most that much finished work.
+    resume : bool
+        Take the rows already in ``checkpoint`` for this case, ``[basins]`` table and run, and
+        compute only the rest (the cell grid is the same: it depends on the table alone).
 
     Returns
     -------
@@ -465,8 +606,8 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
     vibeam.errors.CaseError
         No ``[basins]``, no time-domain run, or a key that does not fit the scene (one line).
     """
-    from .errors import CaseError
-    from .sweep import run_lines
+    from vibeam.errors import CaseError
+    from vibeam.engine.sweep import run_lines
 
     spec = spec if spec is not None else case.basins
     if spec is None:
@@ -481,11 +622,14 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
     except ValueError as e:
         raise CaseError(str(e)) from None
     d = state_size(solver)
+    ident = checkpoint_ident(case, spec, name)
+    stored = read_checkpoint(checkpoint, name, ident) if (checkpoint is not None and resume) else {}
     grid = spec.samples is None
     nx, ny = (spec.grid or [200, 200]) if grid else (0, 0)
     rng = np.random.default_rng(spec.seed)
     labels = np.zeros((len(Omegas), ny, nx) if grid else (len(Omegas), int(spec.samples or 0)), np.int64)
     per_Omega = []
+    grazing: list = []
     periods = np.zeros(len(Omegas), np.int64)
     wall = np.zeros(len(Omegas))
     xs = ys = np.zeros(0)
@@ -529,8 +673,29 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         token = f"{case.name}/{name}/{float(Omega)!r}/{os.getpid()}/{time.time_ns()}"
         lines = [BasinLine(key=f"{iO:04d}-{k:04d}", run=name, token=token, solver=solver, Omega=float(Omega),
                            states=to_state(P), recurrence=recurrence) for k, P in enumerate(pts)]
-        res = run_lines(lines, executor=executor, jobs=jobs, progress=progress,
-                        desc=f"basins {case.name} Omega={float(Omega):.4g}")
+        todo = [l for l in lines if l.key not in stored]
+        buffer: dict = {}
+        last = [time.perf_counter()]
+
+        def flush():
+            if checkpoint is not None and buffer:
+                append_checkpoint(checkpoint, name, dict(buffer), ident, case.name, case_text)
+                buffer.clear()
+            last[0] = time.perf_counter()
+
+        def on_line(line, rows):
+            buffer[line.key] = rows[0]
+            if time.perf_counter() - last[0] >= checkpoint_interval_s:
+                flush()
+
+        try:
+            res = run_lines(todo, executor=executor, jobs=jobs, progress=progress, on_line=on_line,
+                            desc=f"basins {case.name} Omega={float(Omega):.4g}")
+        finally:
+            flush()
+        for l in lines:
+            if l.key in stored:
+                res[(l.run, l.key)] = [stored[l.key]]
         sets = {}
         for l in lines:
             sets.update(res[(l.run, l.key)][0]["attractors"])
@@ -539,7 +704,8 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         for l in lines:
             row = res[(l.run, l.key)][0]
             pid = row["pid"]
-            flat.append(np.array([mapping[f"{pid}-{k}"] if k >= 0 else k for k in row["labels"]], np.int64))
+            origin = "stored" if row.get("stored") else "new"
+            flat.append(np.array([mapping[(origin, pid, int(k))] if k >= 0 else k for k in row["labels"]], np.int64))
             periods[iO] += row["periods"]
         lab = np.concatenate(flat)
         labels[iO] = lab.reshape(ny, nx) if grid else lab
@@ -550,6 +716,9 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
             dsc["fraction"] = float(np.mean(lab == k))
             dsc["fraction_se"] = math.sqrt(dsc["fraction"] * (1 - dsc["fraction"]) / lab.size)
         per_Omega.append((desc, width))
+        if grid and axes.names[0] in ("q", "U"):
+            Q0, V0 = np.meshgrid(xs / axes.factor[0], ys / axes.factor[1])
+            grazing.append(first_period_gap(model, float(Omega), Q0, V0))
         wall[iO] = time.perf_counter() - t0
     attractors = _track(per_Omega, labels)
     L = getattr(model, "length_m", None)
@@ -559,12 +728,20 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
                         amplitude_scale_mm=L * 1e3 if L else None,
                         time_scale_s=1.0 / (2 * math.pi * fn) if fn else None,
                         settings=spec.model_dump(),
-                        stop=float(model.Delta) * axes.factor[0] if axes.names[0] in ("q", "U") else None)
+                        stop=float(model.Delta) * axes.factor[0] if axes.names[0] in ("q", "U") else None,
+                        grazing=np.array(grazing) if grazing else None)
+
+
+#: attractors at neighbouring frequencies are one when their stroboscopic sets are this many cells
+#: apart or less (plus twice their spacing): 15 % of a 200-cell box, about what a period-1 orbit
+#: of the tight rig moves between two frequencies 0.5 Hz apart (17 cells)
+MATCH_CELLS = 30.0
 
 
 def _track(per_Omega: list, labels: np.ndarray) -> dict:
-    """Attractors matched from one frequency to the next by their stroboscopic sets (nearest
-    first, within 10 cells plus twice the sets' spread), relabelling ``labels`` in place to the
+    """Attractors matched from one frequency to the next by their stroboscopic sets (those of the
+    same type and period first, then the nearest, within :data:`MATCH_CELLS` plus twice the
+    sets' spacing), relabelling ``labels`` in place to the
     matched indices; arrays over (n_Omega, n_attractors) (module docstring of
     :class:`BasinsResult`)."""
     tracks: list = []      # per track: last set and width
@@ -574,14 +751,15 @@ def _track(per_Omega: list, labels: np.ndarray) -> dict:
         for k, dsc in enumerate(desc):
             X = dsc["samples"]
             sx = _spread(X / width)
-            for t, (Y, sy) in enumerate(tracks):
+            for t, (Y, sy, typ) in enumerate(tracks):
                 dist = set_distance(X, Y, width)
-                if dist <= 10.0 + 2.0 * max(sx, sy) and dsc is not None:
-                    cand.append((dist, k, t))
+                if dist <= MATCH_CELLS + 2.0 * max(sx, sy):
+                    # one of the same type and period first, then the nearest
+                    cand.append(((dsc["type"], dsc["period"]) != typ, dist, k, t))
         cand.sort()
         local: dict = {}
         used = set()
-        for dist, k, t in cand:
+        for _, dist, k, t in cand:
             if k in local or t in used:
                 continue
             local[k] = t
@@ -590,7 +768,7 @@ def _track(per_Omega: list, labels: np.ndarray) -> dict:
             if k not in local:
                 local[k] = len(tracks)
                 tracks.append(None)
-            tracks[local[k]] = (dsc["samples"], _spread(dsc["samples"] / width))
+            tracks[local[k]] = (dsc["samples"], _spread(dsc["samples"] / width), (dsc["type"], dsc["period"]))
         index_of.append(local)
     nO, nA = len(per_Omega), len(tracks)
     d = max((dsc["samples"].shape[1] for desc, _ in per_Omega for dsc in desc), default=1)
@@ -627,7 +805,7 @@ def _track(per_Omega: list, labels: np.ndarray) -> dict:
 # ---------------------------------------------------------------------------- file and plots
 def basins_variables(r: BasinsResult) -> dict:
     """The netCDF variables of ``/basins/<run>/`` (names and units of the module docstring)."""
-    from .netcdf import var
+    from vibeam.io.netcdf import var
 
     out = {"Omega": var(("Omega",), r.Omega, "1", "forcing frequency over the natural frequency")}
     if r.frequency_hz is not None:
@@ -688,15 +866,20 @@ def write_basins(path, results: list, case_name: str = "", case_text: str = ""):
     """Write each result to ``/basins/<run>/`` of ``path`` (atomically; the file's other groups kept)."""
     import json
 
-    from .netcdf import json_default, write_group
-    from .results import replace_group
+    from vibeam.io.netcdf import json_default, write_group
+    from vibeam.io.results import replace_group
 
     for r in results:
         attrs = {"run": r.name, "coordinates": json.dumps(list(r.axes.names)),
                  "settings": json.dumps(r.settings, default=json_default), "kind": "grid" if r.grid else "census"}
-        path = replace_group(path, f"basins/{r.name}",
-                             lambda f, r=r, attrs=attrs: write_group(f, f"basins/{r.name}", basins_variables(r), attrs),
-                             case_name, case_text)
+        def fill(f, r=r, attrs=attrs):
+            write_group(f, f"basins/{r.name}", basins_variables(r), attrs)
+            if f"basin_lines/{r.name}" in f:          # the checkpoint of the finished computation
+                del f[f"basin_lines/{r.name}"]
+                if not len(f["basin_lines"]):
+                    del f["basin_lines"]
+
+        path = replace_group(path, f"basins/{r.name}", fill, case_name, case_text)
     return path
 
 
@@ -712,7 +895,8 @@ def _legend_text(r: BasinsResult, i: int, k: int) -> str:
     a = r.attractors
     t = a["type"][i][k]
     n = int(a["period"][i, k])
-    name = {"period": f"period-{n}", "sticking": f"sticking (period {n})" if n else "sticking"}.get(t, t.replace("_", "-"))
+    name = {"period": f"period-{n}",
+            "sticking": f"sticking, period-{n}" if n else "sticking, not periodic"}.get(t, t.replace("_", "-"))
     amp = a["amplitude"][i, k] * (r.amplitude_scale_mm or 1.0)
     unit = " mm" if r.amplitude_scale_mm else ""
     return f"{k}: {name}, Q = {amp:.3g}{unit}, {100 * a['fraction'][i, k]:.1f} %"
@@ -758,6 +942,9 @@ def _basins_figure(r, i, title):
     for code, c in ((UNSETTLED, colours[1]), (FAILED, colours[0])):
         if np.any(lab == code):
             handles.append(Patch(color=c, label=f"{LABELS[code]}, {100 * np.mean(lab == code):.1f} %"))
+    if r.grazing is not None and r.grid and np.nanmin(r.grazing[i]) < 0 < np.nanmax(r.grazing[i]):
+        ax.contour(r.x, r.y, r.grazing[i], levels=[0.0], colors="k", linewidths=0.8, linestyles=":")
+        handles.append(Line2D([], [], color="k", lw=0.8, ls=":", label="grazing within one period"))
     if r.stop is not None:
         ax.axvline(r.stop, color="k", lw=0.8, ls="--")
         handles.append(Line2D([], [], color="k", lw=0.8, ls="--", label="stop"))
@@ -770,14 +957,69 @@ def _basins_figure(r, i, title):
     return fig
 
 
-def census_figure(r: BasinsResult, title: str = ""):
-    """Basin fractions as a stacked area over the frequency, and each attractor's amplitude."""
+def _branch_lines(branches: dict):
+    """``(n, Omega, amplitude, stable)`` of every branch of ``{run: read_branch_group dict}`` that
+    is continued in Omega (other groups skipped)."""
+    for run, d in (branches or {}).items():
+        for name, b in d.items():
+            if not isinstance(b, dict) or not {"parameter", "amplitude", "stable", "attrs"} <= set(b):
+                continue
+            if str(b["attrs"].get("parameter", "Omega")) not in ("Omega", ""):
+                continue
+            yield (int(b["attrs"].get("n", 1)), np.asarray(b["parameter"], float),
+                   np.asarray(b["amplitude"], float), np.asarray(b["stable"], bool), run)
+
+
+def branch_distance(r: BasinsResult, branches: dict) -> np.ndarray:
+    """How far each periodic attractor lies from the stable continuation branches of its period,
+    shape (n_Omega, n_attractors): ``|Q - Q_b| / Q`` with ``Q_b`` the branch amplitude linearly
+    interpolated between the two stable branch points that bracket the frequency (the nearest
+    such branch); NaN for an attractor that is not periodic or where no stable branch of its
+    period passes.  ``branches``: ``{run: group}`` as :func:`vibeam.io.results.read_results` gives
+    them (``["branches"]``), continued in Omega over the same model.  A stable periodic attractor
+    must lie on a stable branch (issue 21)."""
+    out = np.full((len(r.Omega), r.n_attractors), np.nan)
+    lines = list(_branch_lines(branches))
+    for i, W in enumerate(r.Omega):
+        for k in range(r.n_attractors):
+            n = int(r.attractors["period"][i, k])
+            Q = r.attractors["amplitude"][i, k]
+            if n < 1 or not np.isfinite(Q):
+                continue
+            best = np.inf
+            for nb, p, A, st, _ in lines:
+                if nb != n:
+                    continue
+                for j in range(len(p) - 1):
+                    if (p[j] - W) * (p[j + 1] - W) <= 0 and p[j] != p[j + 1] and st[j] and st[j + 1]:
+                        Ab = A[j] + (A[j + 1] - A[j]) * (W - p[j]) / (p[j + 1] - p[j])
+                        best = min(best, abs(Q - Ab) / abs(Q))
+            if np.isfinite(best):
+                out[i, k] = best
+    return out
+
+
+def census_figure(r: BasinsResult, title: str = "", branches: dict | None = None):
+    """Basin fractions as a stacked area over the frequency, and each attractor's amplitude over
+    the continuation branches of ``branches`` (``{run: group}``, stable solid, unstable dashed)."""
     import matplotlib.pyplot as plt
 
     with context():
         x = r.frequency_hz if r.frequency_hz is not None else r.Omega
         fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(6.4, 6.0))
+        fx = (r.frequency_hz[0] / r.Omega[0]) if r.frequency_hz is not None else 1.0
+        fy = r.amplitude_scale_mm or 1.0
+        for n, p, A, st, run in _branch_lines(branches):
+            lo, hi = np.min(x) / fx, np.max(x) / fx
+            keep = (p >= lo - 0.1 * (hi - lo)) & (p <= hi + 0.1 * (hi - lo))
+            for stab, ls in ((True, "-"), (False, "--")):
+                y = np.where(st == stab, A, np.nan) * fy
+                a2.plot(p * fx, np.where(keep, y, np.nan), ls=ls, color="0.6", lw=0.9, zorder=0,
+                        label=f"branches ({'stable' if stab else 'unstable'})")
         _census_axes(r, x, a1, a2, title)
+        h, labels = a2.get_legend_handles_labels()
+        uniq = dict(zip(labels, h))
+        a2.legend(uniq.values(), uniq.keys(), loc="upper left", bbox_to_anchor=(1.0, 1.0))
         return fig
 
 
@@ -796,13 +1038,12 @@ def _census_axes(r, x, a1, a2, title):
     a1.set_title(title or f"attractors along the frequency (run {r.name})")
 
 
-def plot_basins(r: BasinsResult, out_dir, title: str = "") -> list:
-    """Write ``basins_<run>[_<i>].png`` (and ``census_<run>.png`` for several frequencies)."""
-    from pathlib import Path
-
+def plot_basins(r: BasinsResult, out_dir, title: str = "", branches: dict | None = None) -> list:
+    """Write ``basins_<run>[_<i>].png`` (and ``census_<run>.png`` for several frequencies, over
+    the continuation ``branches`` when given)."""
     import matplotlib.pyplot as plt
 
-    from .runner import file_stem
+    from vibeam.engine.jobs import file_stem
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -815,7 +1056,7 @@ def plot_basins(r: BasinsResult, out_dir, title: str = "") -> list:
         plt.close(fig)
         paths.append(p)
     if len(r.Omega) > 1:
-        fig = census_figure(r, title)
+        fig = census_figure(r, title, branches)
         p = out_dir / f"census_{stem}.png"
         fig.savefig(p, dpi=120)
         plt.close(fig)

@@ -14,6 +14,7 @@ Conversions (paper Secs. 5-6):
 """
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -37,7 +38,7 @@ class BeamScene:
 
 
 def geometry_of(spec):
-    """BeamGeometry of a :class:`vibeam.case.BeamModelSpec` before calibration."""
+    """BeamGeometry of a :class:`vibeam.case.schema.BeamModelSpec` before calibration."""
     from vibeam.models.beam import BeamGeometry
 
     kw = dict(length_m=spec.length_mm * 1e-3, mass_position_m=spec.mass_position_mm * 1e-3,
@@ -229,3 +230,113 @@ def modes_report(spec, n: int = 8) -> dict:
     s_phi = fe.sensor_row @ md.shapes
     return {"fe": fe, "scene": sc, "modes": md, "contact": cm, "total_mass_kg": total,
             "sensor_modal_mass_kg": 1.0 / np.maximum(s_phi**2, 1e-300)}
+
+
+def _err(msg):
+    from vibeam.errors import CaseError
+
+    return CaseError(msg)
+
+
+# ============================================================================ structural effects
+# (eccentric contact, a coupled platform, an R table: the scene effects that change the model itself;
+# vibeam.engine.effects applies the others per point)
+def contact_factor(spec, offset_m: float) -> float:
+    """Static-mode value at the contact point over phi(x_S): ``phi(x_m) (1 + 3 e / (2 L_m))``."""
+    sc = scene_of(spec)
+    return sc.phi_at_mass * (1.0 + 1.5 * offset_m / sc.geometry.mass_position_m)
+
+
+def eccentric_contact_row(fe, shapes, offset_m: float) -> np.ndarray:
+    """Modal contact row ``w(L_m) + e w'(L_m)`` of mass-normalised ``shapes`` (ndof, N)."""
+    return fe.contact_row @ shapes + offset_m * shapes[fe.mass_dof_slope, :]
+
+
+def build_beam_model_with_effects(spec, effects, base_model=None):
+    """BeamImpactModel of a beam scene with its structural effects (eccentric contact,
+    coupled platform, R table); ``base_model`` is reused when none changes the structure."""
+    from vibeam.models.beam import BeamFE
+    from vibeam.models.beam_dynamics import BeamImpactModel
+    from vibeam.reductions.modal import modal_reduction
+
+    ecc = effects.eccentric_impact
+    plat = effects.platform
+    coupled = plat is not None and plat.level == "coupled"
+    e = ecc.offset_mm * 1e-3 if ecc is not None else 0.0
+    sc = scene_of(spec)
+    phic = contact_factor(spec, e) if ecc is not None else sc.phi_at_mass
+    DC = sc.Delta_C_m if spec.gap_mm is None else (spec.gap_mm * 1e-3) * phic
+    if not (ecc or coupled):
+        m = base_model if base_model is not None else spec.build()
+        if effects.restitution_law is None:
+            return m
+        m = copy.copy(m)
+    elif spec.n_modes == "static":
+        if coupled:
+            raise _err("effects.platform: level = \"coupled\" needs FE modes (n_modes an integer or "
+                       "\"all\"), not the static mode")
+        m0 = base_model if base_model is not None else spec.build()
+        m = BeamImpactModel(m0.omega_rad_s, m0.participation, m0.contact_row * (phic / sc.phi_at_mass),
+                            m0.sensor_row, m0.R, DC, m0.base_amplitude_m, m0.f_ref_hz, m0.length_m, phic,
+                            m0.damping_D_s, m0.rayleigh_alpha_1_s, label="static mode, eccentric contact",
+                            **lower_stop(spec, sc, phic))
+    else:
+        fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
+                    rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
+        red = modal_reduction(fe, spec.n_modes)
+        md = fe.modes(red.n_modes)
+        P = red.shapes
+        w = eccentric_contact_row(fe, P, e) if ecc is not None else red.contact_row
+        s = red.sensor_row
+        G = md.participation
+        om = red.omega_rad_s
+        c = fe.rayleigh_alpha_1_s + fe.damping_D_s * om ** 2
+        if not coupled:
+            m = BeamImpactModel(om, G, w, s, spec.R, DC, sc.base_amplitude_m, sc.f1_hz, fe.geometry.length_m,
+                                phic, fe.damping_D_s, fe.rayleigh_alpha_1_s,
+                                label=f"FE {red.n_modes} modes" + (", eccentric contact" if ecc else ""),
+                                **lower_stop(spec, sc, phic))
+        else:
+            m = _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic)
+    if effects.restitution_law is not None:
+        t = effects.restitution_law
+        # sensor velocity (mm/s) -> contact velocity in kernel units (m per nondimensional time)
+        m.R_table_U = np.asarray(t.velocity_mm_s, float) * 1e-3 * phic / m.omega_ref
+        m.R_table_R = np.asarray(t.R, float)
+    return m
+
+
+def _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic):
+    """Beam + platform DOF as one modal model (module doc)."""
+    import scipy.linalg
+
+    from vibeam.models.beam_dynamics import BeamImpactModel
+
+    if plat.mass_kg is None:
+        raise _err("effects.platform.mass_kg is required for level = \"coupled\" (the platform's mass, kg)")
+    g = sc.geometry
+    N = om.size
+    m_tot = g.mass_kg + g.beam_mass_kg
+    Mtot = plat.mass_kg + m_tot
+    wp = 2 * math.pi * plat.frequency_hz
+    kp = Mtot * wp ** 2
+    cp = 2 * plat.damping_ratio * wp * Mtot
+    Mc = np.eye(N + 1)
+    Mc[:N, N] = Mc[N, :N] = G
+    Mc[N, N] = Mtot
+    Kc = np.diag(np.concatenate([om ** 2, [kp]]))
+    Cc = np.diag(np.concatenate([c, [cp]]))
+    lam, V = scipy.linalg.eigh(Kc, Mc)
+    V = V / np.sqrt(np.einsum("ij,ik,kj->j", V, Mc, V))
+    V = V * np.where(V[N] < 0, -1.0, 1.0)
+    f_ref = plat.reference_frequency_hz or sc.f1_hz
+    W = 2 * math.pi * f_ref
+    Y = sc.base_amplitude_m
+    F_s = Y * abs(kp - Mtot * W ** 2 + 1j * cp * W)
+    m = BeamImpactModel(np.sqrt(lam), V[N], np.concatenate([w, [0.0]]) @ V, np.concatenate([s, [0.0]]) @ V,
+                        spec.R, DC, 0.0, sc.f1_hz, g.length_m, phic,
+                        modal_damping_1_s=np.einsum("ij,i,ij->j", V, np.diag(Cc), V),
+                        label=f"FE {N} modes + platform DOF", **lower_stop(spec, sc, phic))
+    m.platform_force_n = F_s        # per-point base_amplitude_m = F_s / Omega~^2
+    m.platform_row = V[N].copy()    # z_p = platform_row @ xi
+    return m

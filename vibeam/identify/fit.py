@@ -11,7 +11,7 @@ One evaluation of the residuals is one sweep
     The model is swept *at the data frequencies*, in the measured direction(s) (``up``
     and/or ``down``, as continuation chains when the case's ``[sweep] continuation`` is on,
     like the rig's sweep that dwelt on exactly those frequencies), through the one sweep
-    engine :func:`vibeam.sweep.run_lines` with the solvers built as the runner builds them
+    engine :func:`vibeam.engine.sweep.run_lines` with the solvers built as the runner builds them
     (:func:`vibeam.runner.make_job`).  Not on the case's grid and interpolated: a vibro-impact
     FRC jumps, and an interpolated value next to a jump belongs to neither branch; the
     data frequencies are also where the residual is needed, so no point is wasted.
@@ -58,7 +58,7 @@ Weights and loss
     ones about linearly.  ``--loss linear`` is plain least squares.
 
 Uncertainty
-    :func:`vibeam.identify.uncertainty`: ``s^2 (J^T J)^-1`` at the solution; with a robust
+    :func:`vibeam.identify.linear.uncertainty`: ``s^2 (J^T J)^-1`` at the solution; with a robust
     loss Huber's covariance of an M-estimator (``psi``, ``psi'`` of the loss in place of the
     residual and 1).
 """
@@ -75,10 +75,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .case_text import case_dump, to_toml  # noqa: F401 (re-exported)
-from .errors import case_error
-from .identify import irls_weights, loss_psi, param_unit, uncertainty
-from .reference import Reference, read_reference  # noqa: F401 (re-exported)
+from vibeam.case.text import case_dump, to_toml  # noqa: F401 (re-exported)
+from vibeam.errors import case_error
+from vibeam.identify.linear import irls_weights, loss_psi, param_unit, uncertainty
+from vibeam.io.reference import Reference, read_reference  # noqa: F401 (re-exported)
 
 DEFAULT_LOSS = "soft_l1"
 #: f_scale of the robust loss, in units of sigma
@@ -132,7 +132,7 @@ def check_params(case, params, source: str = "") -> list[str]:
 
     Raises
     ------
-    vibeam.case.CaseError
+    vibeam.case.schema.CaseError
         Naming the parameter and the allowed keys.
     """
     allowed = case.map_parameters()
@@ -203,24 +203,24 @@ class FitProblem:
 
     Parameters
     ----------
-    case : vibeam.case.Case
+    case : vibeam.case.schema.Case
     run : run spec of ``case``
     ref : Reference
     params : list of str
         Numeric model keys to fit (validated by :func:`check_params`).
     executor : concurrent.futures.Executor
-        Where the sweep lines run (:func:`vibeam.sweep.run_lines`).
+        Where the sweep lines run (:func:`vibeam.engine.sweep.run_lines`).
     source : str
         Case file name for messages.
 
     Raises
     ------
-    vibeam.case.CaseError
+    vibeam.case.schema.CaseError
         If the data lie outside the case's frequency range or need a physical scene.
     """
 
     def __init__(self, case, run, ref: Reference, params, executor, source: str = ""):
-        from .case import AssessSpec
+        from vibeam.case.schema import AssessSpec
 
         # the fit needs the FRC only: no assessments (spectra, sensor record) are computed
         self.case = case.model_copy(update={"assess": AssessSpec()})
@@ -288,12 +288,12 @@ class FitProblem:
 
     def job(self, x):
         """The runner's job (solver and sweep) of the run at parameters ``x``."""
-        from .runner import make_job
+        from vibeam.engine.jobs import make_job
 
         return make_job(self.case, self.run, self.overrides(x))
 
     def _sweeps(self, job, transient_factor: int = 1):
-        """One :class:`vibeam.sweep.Sweep` per measured direction, at the data's frequencies."""
+        """One :class:`vibeam.engine.sweep.Sweep` per measured direction, at the data's frequencies."""
         model = job.solver.model
         fn = getattr(model, "natural_frequency_hz", None)
         out = []
@@ -310,10 +310,10 @@ class FitProblem:
 
     def evaluate_many(self, xs, transient_factors=None) -> list[Evaluation]:
         """Sweep the model at each parameter vector in ``xs``: all lines go to the executor in
-        one :func:`vibeam.sweep.run_lines` call (``transient_factors``: per vector, a multiple
+        one :func:`vibeam.engine.sweep.run_lines` call (``transient_factors``: per vector, a multiple
         of the case's transient periods; default 1)."""
-        from .errors import CaseError
-        from .sweep import plan_lines, run_lines
+        from vibeam.errors import CaseError
+        from vibeam.engine.sweep import plan_lines, run_lines
 
         plans = []
         all_lines = []
@@ -525,8 +525,8 @@ class FitResult:
     jacobian_info : dict
     loss, f_scale : str, float
     fitted_case_text : str
-        The case with the fitted values (loads with :func:`vibeam.case.parse_case`).
-    final : vibeam.sweep.SweepResult
+        The case with the fitted values (loads with :func:`vibeam.case.schema.parse_case`).
+    final : vibeam.engine.sweep.SweepResult
         The fitted FRC as a run (for ``/runs`` of ``fit.h5``).
     """
 
@@ -629,7 +629,7 @@ class FitResult:
 
     # ------------------------------------------------------------------ files
     def h5_tables(self) -> tuple[dict, dict]:
-        """``extra`` and ``extra_attrs`` of :func:`vibeam.results.write_results` for ``/fit``."""
+        """``extra`` and ``extra_attrs`` of :func:`vibeam.io.results.write_results` for ``/fit``."""
         yu = "mm" if self.y_name == "amplitude_mm" else "1"
         xu = "Hz" if self.x_name == "frequency_hz" else "1 (forcing frequency / natural frequency)"
         t = {"parameters": np.array(self.parameters, dtype=object), "units": np.array(self.units, dtype=object),
@@ -656,7 +656,7 @@ class FitResult:
                      "jacobian_zeroed": self.jacobian_info.get("zeroed", 0),
                      "sigma_given": self.sigma_given,
                      "cor_identification": "R from the sensor's time series (paper Sec. 5.1): [effects.sensor] "
-                                           "identify_R, vibeam.sensor (README 'Sensor and assessments')"}}
+                                           "identify_R, vibeam.engine.sensor (README 'Sensor and assessments')"}}
         for k in ("initial", "estimate", "standard_error", "lower_bound", "upper_bound", "step"):
             a[f"fit/{k}"] = {"units": per_param}
         a["fit/covariance"] = {"units": "product of the two parameters' units"}
@@ -672,9 +672,9 @@ class FitResult:
         return t, a
 
     def write(self, out_dir, case_text: str = "", plots: bool = True) -> dict:
-        """Write ``fit.h5`` (through :func:`vibeam.results.write_results`), ``fit.png`` and the
+        """Write ``fit.h5`` (through :func:`vibeam.io.results.write_results`), ``fit.png`` and the
         fitted case ``<case>-fit.toml`` into ``out_dir``; returns their paths."""
-        from .results import write_results
+        from vibeam.io.results import write_results
 
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -685,7 +685,7 @@ class FitResult:
         paths = {"h5": h5}
         if self.fitted_case_text:
             cp = out_dir / f"{self.case_name}-fit.toml"
-            from .outdir import write_text_file
+            from vibeam.io.outdir import write_text_file
             write_text_file(cp, self.fitted_case_text)
             paths["case"] = cp
         if plots:
@@ -701,7 +701,7 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
 
     Parameters
     ----------
-    case : vibeam.case.Case
+    case : vibeam.case.schema.Case
         The scene (its quick variant for ``--quick``); its ``[model]`` values start the fit.
     reference : Reference or str or Path
         Measured points or a file :func:`read_reference` reads.
@@ -737,13 +737,13 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
 
     Raises
     ------
-    vibeam.case.CaseError
+    vibeam.case.schema.CaseError
         On a parameter that is not a numeric model key, data outside the case's frequency
         range, an unknown run or loss, or unreadable data.
     """
     from scipy.optimize import least_squares
 
-    from .sweep import assemble, default_executor
+    from vibeam.engine.sweep import assemble, default_executor
 
     t0 = time.perf_counter()
     if loss not in LOSSES:
@@ -892,8 +892,8 @@ def _pick_run(case, run, source=""):
 def fitted_case_text(case, run, values: dict, source: str = "", reference: str = "", se=None) -> str:
     """The case with the fitted values: ``[model]`` updated, the fitted run alone (its overrides
     of fitted keys removed), a ``[map]`` of a fitted key dropped; validated before it is
-    returned (:func:`vibeam.case.parse_case`)."""
-    from .case import parse_case
+    returned (:func:`vibeam.case.schema.parse_case`)."""
+    from vibeam.case.schema import parse_case
 
     data = case_dump(case)
     data["name"] = f"{case.name}-fit"
@@ -972,7 +972,7 @@ def plot_fit(res: FitResult, path, title: str = "") -> Path:
     axr.legend(fontsize=7, ncol=3)
     fig.tight_layout()
     path = Path(path)
-    from .plots import save_figure
+    from vibeam.plots.sweep import save_figure
     save_figure(fig, path)
     plt.close(fig)
     return path
@@ -1019,7 +1019,7 @@ def fidelity_table(results: list[FitResult]) -> str:
 # ============================================================================ command line
 def main_fit(args) -> int:
     """``vibeam fit``: the linear steps (``--linear``, ``--decay``) or the vibro-impact fit."""
-    from .case import load_case
+    from vibeam.case.schema import load_case
 
     case, text = load_case(args.case)
     log = None if getattr(args, "quiet", False) else (lambda m: print(m, file=sys.stderr))
@@ -1033,7 +1033,7 @@ def main_fit(args) -> int:
     if args.params is not None and not [p for p in args.params.split(",") if p.strip()]:
         raise case_error(f"{args.case}: '--params' = {args.params!r} names no parameter; allowed: "
                      f"{', '.join(case.map_parameters())}")
-    from .outdir import OutputLock, check_folder, default_folder
+    from vibeam.io.outdir import OutputLock, check_folder, default_folder
 
     out_dir = check_folder(Path(args.out) if args.out else default_folder(case.name, "-fit"))
     with OutputLock(out_dir):
@@ -1042,11 +1042,11 @@ def main_fit(args) -> int:
 
 def _main_fit_locked(args, case, text, out_dir, log) -> int:
     if args.decay:
-        from .identify import report_decay
+        from vibeam.identify.linear import report_decay
 
         report_decay(case, text, args.decay, out_dir, source=args.case)
     if args.reference and args.linear:
-        from .identify import report_linear
+        from vibeam.identify.linear import report_linear
 
         params = [p.strip() for p in args.params.split(",") if p.strip()] if args.params else None
         report_linear(case, text, args.reference, out_dir, params=params, loss=args.loss or "linear",
@@ -1056,7 +1056,7 @@ def _main_fit_locked(args, case, text, out_dir, log) -> int:
         if args.quick:
             case = case.quick_variant()
         ref = read_reference(args.reference, args.reference_run)
-        from .sweep import default_executor
+        from vibeam.engine.sweep import default_executor
 
         check_params(case, params or default_params(case), args.case)
         runs = [args.run] if args.run else None
@@ -1066,7 +1066,7 @@ def _main_fit_locked(args, case, text, out_dir, log) -> int:
             print(res.summary())
             print("  -> " + ", ".join(str(p) for p in res.paths.values()))
             print("  R from the sensor's time series (paper Sec. 5.1, Table 1): [effects.sensor] identify_R "
-                  "(vibeam.sensor; README 'Sensor and assessments')\n", flush=True)
+                  "(vibeam.engine.sensor; README 'Sensor and assessments')\n", flush=True)
 
         ex = default_executor(args.jobs, 2)
         try:
@@ -1080,7 +1080,7 @@ def _main_fit_locked(args, case, text, out_dir, log) -> int:
             print(f"apparent parameters per run (fidelity) of {case.name}, against {ref.source}:")
             tab = fidelity_table(results)
             print(tab)
-            from .outdir import write_text_file
+            from vibeam.io.outdir import write_text_file
             write_text_file(out_dir / "fit_table.txt", tab + "\n")
     return 0
 
@@ -1100,12 +1100,12 @@ def synthetic_reference(case, frequencies, values: dict | None = None, run: str 
     Reference
         With ``sigma`` per point when ``sigma > 0`` (else no sigma column).
     """
-    from .sweep import run_sweep
+    from vibeam.engine.sweep import run_sweep
 
     r = _pick_run(case, run)
     spec0 = case.model_spec(dict(r.model)) if r.model else case.model_spec()
     phys = bool(getattr(spec0, "physical", False))
-    from .runner import make_job
+    from vibeam.engine.jobs import make_job
 
     job = make_job(case, r, dict(r.model, **(values or {})))
     model = job.solver.model

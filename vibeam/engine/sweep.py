@@ -19,66 +19,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .records import (HARMONICS, SETTLED_MARGIN, amplitude_spread, period_minima, spread_agrees,
+from vibeam.io.objects import SweepResult  # noqa: F401 (re-exported)
+from vibeam.io.outputs import MM_KEYS, UNITS  # noqa: F401 (re-exported)
+from vibeam.engine.records import (HARMONICS, SETTLED_MARGIN, amplitude_spread, period_minima, spread_agrees,
                       summarize, transient_verdict, window_verdict)
 
-# units of the per-point datasets (written as HDF5 attributes)
-UNITS = {
-    "Omega": "1 (forcing frequency / natural frequency)",
-    "amplitude": "1 (Q = Delta - min q, paper Sec. 4.1)",
-    "amplitude_mean": "1 (mean over the recorded periods of Q_k = Delta - min q over period k)",
-    "amplitude_std": "1 (sample standard deviation of Q_k over the recorded periods)",
-    "amplitude_min": "1 (smallest Q_k of the recorded periods)",
-    "amplitude_max": "1 (largest Q_k of the recorded periods)",
-    "amplitude_sem": "1 (standard error of amplitude_mean by batch means of the Q_k)",
-    "amplitude_sem_dof": "degrees of freedom of amplitude_sem (batches - 1)",
-    "record_periods": "forcing periods recorded (the sample size of the Q_k; statistics_periods for a "
-                      "non-periodic point)",
-    "transient_periods_used": "forcing periods simulated before the record",
-    "amplitude_lower": "1 (lower branch of P(Q) = 0)",
-    "q_max": "1", "q_min": "1",
-    "period": "period-n of the stroboscopic map (0 = not periodic within 8, -1 = no impact)",
-    "impacts_per_period": "1/forcing period (two stops: on the upper stop)",
-    "impact_velocity": "1 (mean pre-impact velocity; two stops: on the upper stop)",
-    "impacts_per_period_lower": "1/forcing period (impacts on the lower stop of a two-sided scene)",
-    "impact_velocity_lower": "1 (mean pre-impact speed |q'-| on the lower stop)",
-    "strobe": "1 ((q, q') at forcing phase 0 of each recorded period)",
-    "harmonics": "1 (amplitudes of 0, 1, ..., 5 Omega)",
-    "frequency_hz": "Hz", "amplitude_mm": "mm (at the sensor)",
-    "amplitude_mean_mm": "mm (at the sensor)", "amplitude_std_mm": "mm (at the sensor)",
-    "amplitude_min_mm": "mm (at the sensor)", "amplitude_max_mm": "mm (at the sensor)",
-    "amplitude_sem_mm": "mm (at the sensor)",
-    "wall_time_s": "s",
-    "effective_gain": "1/V (gamma at this frequency, platform filter)",
-    "gap_mm": "mm (grazing gap at the sensor at this point, gap drift)",
-    "gap_drift_mm": "mm", "impulse_per_period": "1 (sum of (1 + R) U- per forcing period)",
-    "stuck_fraction": "1 (share of the recorded window on the stop)",
-    "contact_duration": "1 (mean duration of a contact, time unit 1/omega_n; 0 for an impulsive law; "
-                        "two stops: on the upper stop)",
-    "contact_force_max": "1 (largest contact force per unit effective mass, k L; NaN for an impulsive law; "
-                         "two stops: on the upper stop)",
-    "penetration_max": "1 (largest penetration of the stop; 0 for an impulsive law; two stops: the upper stop)",
-    "energy_per_impact": "1 (mean energy lost per contact, k L^2 per unit effective mass; "
-                         "two stops: on the upper stop)",
-    "contact_duration_lower": "1 (mean duration of a contact on the lower stop of a two-sided scene)",
-    "contact_force_max_lower": "1 (largest contact force on the lower stop of a two-sided scene, k L)",
-    "penetration_max_lower": "1 (largest penetration of the lower stop of a two-sided scene)",
-    "energy_per_impact_lower": "1 (mean energy lost per contact on the lower stop of a two-sided scene, k L^2)",
-    "contact_fraction": "1 (share of the recorded window in contact with a compliant stop)",
-    "contact_duration_s": "s", "contact_force_max_n": "N", "penetration_max_mm": "mm (at the sensor)",
-    "energy_per_impact_j": "J",
-    "lyapunov": "1/time unit (Lyapunov exponents of the stroboscopic map per unit nondimensional time, largest "
-                "first; -inf: a direction a sticking phase collapses)",
-    "lyapunov_error": "1/time unit (half the difference between the two halves of the record)",
-    "contact_duration_lower_s": "s", "contact_force_max_lower_n": "N",
-    "penetration_max_lower_mm": "mm (at the sensor)", "energy_per_impact_lower_j": "J",
-}
-
-
-# per-point displacements that physical scenes also store in mm at the sensor (``<key>_mm``)
-MM_KEYS = ("amplitude", "amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max", "amplitude_sem",
-           "penetration_max",
-           "penetration_max_lower")
+# the per-point outputs and their units: vibeam.io.outputs (re-exported here)
 
 
 @dataclass(frozen=True)
@@ -142,23 +88,6 @@ class Sweep:
     @property
     def auto(self) -> bool:
         return isinstance(self.transient_periods, str)
-
-
-@dataclass
-class SweepResult:
-    """Per-point outputs of one run; ``data`` maps dataset names to arrays of length n_points."""
-
-    name: str
-    fidelity: str
-    method: str
-    settings: dict
-    data: dict
-    wall_time_s: float
-    attrs: dict = field(default_factory=dict)
-
-    @property
-    def n_points(self) -> int:
-        return len(self.data["Omega"])
 
 
 class InlineExecutor(Executor):
@@ -246,7 +175,7 @@ def simulate(solver, Omega, state, n_transient: int, n_record: int, samples_per_
     """
     from dataclasses import replace
 
-    from .models.trajectory import concatenate
+    from vibeam.models.trajectory import concatenate
 
     chunk = max(1, int(getattr(solver, "chunk_periods", CHUNK_PERIODS) or CHUNK_PERIODS))
     piece = max(chunk, RECORD_PIECE)
@@ -336,11 +265,11 @@ def settle_transient(solver, Omega, state, sweep: Sweep, Delta: float, clock: Po
     ``record_periods``.  The point has settled when the probe
 
     * repeats with some period n (1..8, or no impact) within
-      ``SETTLED_MARGIN x period_rtol`` (:func:`vibeam.records.transient_verdict`
+      ``SETTLED_MARGIN x period_rtol`` (:func:`vibeam.engine.records.transient_verdict`
       with a margin), or
     * is not periodic, at least ``max_transient_periods / 2`` periods have
       passed, and the spread of its per-period amplitude agrees with the
-      previous probe's (:func:`vibeam.records.spread_agrees`).  Transient chaos
+      previous probe's (:func:`vibeam.engine.records.spread_agrees`).  Transient chaos
       cannot be told from a chaotic attractor by its statistics (Fig. 8,
       Omega = 2.1 from rest: 2800 periods of chaos, then the no-impact orbit),
       so a non-periodic point is only accepted after that long.
@@ -354,7 +283,7 @@ def settle_transient(solver, Omega, state, sweep: Sweep, Delta: float, clock: Po
     -------
     (Trajectory, int, str)
         The record, the transient periods before it, and why it has not
-        settled ('' when it has, or when :func:`vibeam.records.summarize`
+        settled ('' when it has, or when :func:`vibeam.engine.records.summarize`
         will say so itself).
     """
     max_tr = int(sweep.max_transient_periods)
@@ -402,7 +331,7 @@ def _statistics(solver, Omega, traj, out: dict, sweep: Sweep, Delta: float, cloc
     amplitudes, and measure the spread over all of them.
 
     A chaotic attractor is reproducible only in its statistics, and a mean over 16 or 64
-    correlated ``Q_k`` is a poor one (:func:`vibeam.records.batch_means`), so a point
+    correlated ``Q_k`` is a poor one (:func:`vibeam.engine.records.batch_means`), so a point
     whose record is not periodic (``period == 0``) is continued from the record's final
     state by ``statistics_periods - record_periods`` periods (:func:`simulate`: calls of
     bounded work with the wall-time limit checked between them; skipped once it has
@@ -483,8 +412,8 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
 
 def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
     """The point's Lyapunov spectrum (:data:`UNITS` ``lyapunov``) from its final state, in place."""
-    from .models import shooting_problem
-    from .models.lyapunov import classify_spectrum, lyapunov_spectrum
+    from vibeam.models import shooting_problem
+    from vibeam.models.lyapunov import classify_spectrum, lyapunov_spectrum
 
     model = solver.model
     d = 2 * int(getattr(model, "n_modes", 1))
@@ -590,7 +519,7 @@ def run_line(line: Line, report=None) -> list[dict]:
     reported to the parent through the pool's progress queue (:func:`_worker_init`).
 
     Any other unit of work with ``key``, ``run``, ``n_points`` and a ``compute()`` returning
-    its rows (e.g. a continuation run, :class:`vibeam.branches.BranchTask`) runs through the
+    its rows (e.g. a continuation run, :class:`vibeam.analysis.branches.BranchTask`) runs through the
     same executor, retries and progress bar (advancing when it finishes)."""
     if hasattr(line, "compute"):
         return line.compute()

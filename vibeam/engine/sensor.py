@@ -163,7 +163,7 @@ def identify(traj, f_ref_hz: float, length_m: float, sampling_hz: float, noise_m
 
     Parameters
     ----------
-    traj : vibeam.records.Trajectory
+    traj : vibeam.engine.records.Trajectory
     f_ref_hz, length_m : float
         Time and length scales of the model (``t = 2 pi f_ref t~``, ``q = U / L``).
     sampling_hz, noise_mm : float

@@ -34,7 +34,7 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
-from .errors import InputError
+from vibeam.errors import InputError
 
 LOCK_NAME = ".vibeam.lock"
 TMP_PREFIX = ".vibeam-tmp-"

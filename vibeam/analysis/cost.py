@@ -104,7 +104,7 @@ def register_cost_method(method: str, handler) -> None:
     """Let runs of ``method`` appear in the work-precision table as a method of their own.
 
     ``handler(case, run, ctx) -> list[CostRow]`` is called for each such run; ``ctx`` holds
-    ``reference(model_key)`` (the converged reference :class:`vibeam.sweep.SweepResult` of a
+    ``reference(model_key)`` (the converged reference :class:`vibeam.engine.sweep.SweepResult` of a
     run's model, with ``model_key = json.dumps(run.model, sort_keys=True)``), ``repeats``,
     ``jobs`` and ``log``.  Continuation runs are the intended user: their branches evaluated
     on the case's grid, timed, and compared with the converged reference."""
@@ -112,7 +112,7 @@ def register_cost_method(method: str, handler) -> None:
 
 
 def _sweep_for(case, run_model: dict):
-    from .sweep import Sweep
+    from vibeam.engine.sweep import Sweep
 
     spec = case.model_spec(run_model) if run_model else case.model_spec()
     model = spec.build()
@@ -122,7 +122,7 @@ def _sweep_for(case, run_model: dict):
 
 
 def _timed(solver, sw, repeats):
-    from .sweep import Sweep, run_sweep
+    from vibeam.engine.sweep import Sweep, run_sweep
 
     warm = Sweep(Omega=sw.Omega[:1], transient_periods=2, record_periods=2)
     run_sweep(solver, warm, jobs=1)
@@ -146,8 +146,8 @@ def converged_sweep(sw):
 
 def reference_sweep(model, sw, jobs: int | None = 1):
     """Converged reference: ``event`` with max(4 x transient, 2000) transient periods."""
-    from .models import make_solver
-    from .sweep import run_sweep
+    from vibeam.models import make_solver
+    from vibeam.engine.sweep import run_sweep
 
     ref_sw = converged_sweep(sw)
     return run_sweep(make_solver(model, "event"), ref_sw, jobs=jobs), ref_sw.transient_periods
@@ -156,7 +156,7 @@ def reference_sweep(model, sw, jobs: int | None = 1):
 def _sweeps(tasks: dict, jobs) -> dict:
     """Several untimed sweeps at once through the one engine: ``{key: (solver, sweep)}`` ->
     ``{key: SweepResult}``; their lines share ``jobs`` workers."""
-    from .sweep import assemble, plan_lines, run_lines
+    from vibeam.engine.sweep import assemble, plan_lines, run_lines
 
     plans = {k: plan_lines(s, sw, run=k) for k, (s, sw) in tasks.items()}
     done = run_lines([l for ls in plans.values() for l in ls], jobs=jobs)
@@ -186,7 +186,7 @@ def reference_model(case, run_model: dict):
 def check_cost_work(case, force: bool = False, source: str = "") -> dict:
     """Refuse unbounded work before timing (:func:`vibeam.runner.check_work`): the case as
     given, and its converged reference with max(4 x transient, 2000) transient periods."""
-    from .runner import check_work
+    from vibeam.engine.jobs import check_work
 
     w = check_work(case, force=force, source=source)
     data = case.model_dump()
@@ -219,7 +219,7 @@ def run_cost(case, ladder: bool = False, repeats: int = 3, log=print, jobs: int 
 
     Parameters
     ----------
-    case : vibeam.case.Case
+    case : vibeam.case.schema.Case
     ladder : bool
         Also a ladder of tolerances (rtol 1e-3 ... 1e-10, atol = 1e-4 rtol) per ODE method.
     repeats : int
@@ -240,7 +240,7 @@ def run_cost(case, ladder: bool = False, repeats: int = 3, log=print, jobs: int 
         ``transient_periods`` and the ``claims`` of the paper beside the measurements
         (one per claim).
     """
-    from .models import make_solver
+    from vibeam.models import make_solver
 
     if quick:
         case = case.quick_variant()
@@ -286,7 +286,7 @@ def run_cost(case, ladder: bool = False, repeats: int = 3, log=print, jobs: int 
             continue
         if r.method == "continuation":
             log(f"run '{r.name}' (continuation) is not a sweep: no cost row (timed by `vibeam bench "
-                f"--continuation`; vibeam.cost.register_cost_method adds it as a method)")
+                f"--continuation`; vibeam.analysis.cost.register_cost_method adds it as a method)")
             continue
         mkey = json.dumps(r.model, sort_keys=True)
         model, sw, rkey, first = plan[mkey]
@@ -362,10 +362,10 @@ def paper_claims(rows, case) -> list[dict]:
                 why="" if ok else _why(row.method, saved)))
     # averaging accuracy at R = 0.6, Omega = 2 (Fig. 11), computed directly
     try:
-        from .models import SDOF, make_solver
-        from .records import summarize
+        from vibeam.models import SDOF, make_solver
+        from vibeam.engine.records import summarize
 
-        from .models.registry import fidelity
+        from vibeam.models.registry import fidelity
 
         spec = case.model_spec()
         if "averaging" not in fidelity(spec.fidelity).methods:
@@ -452,7 +452,7 @@ def print_cost(result: dict) -> None:
 def cost_tables(result: dict) -> dict:
     """Variables of the HDF5 group ``/cost`` (one row per line of the table; the error sources
     of each model in ``model_*``)."""
-    from .netcdf import var
+    from vibeam.io.netcdf import var
 
     rows = result["rows"]
     ms = list(result.get("models", {}).values())
@@ -501,7 +501,7 @@ def work_precision_figure(result: dict, title: str = "", case=None):
     Figure.  An exact method (error 0 to round-off) sits on the floor 1e-16."""
     import matplotlib.pyplot as plt
 
-    from . import style
+    from vibeam.plots import style
 
     floor = 1e-16
     rows = result["rows"]
@@ -552,6 +552,6 @@ def work_precision_figure(result: dict, title: str = "", case=None):
 
 def plot_work_precision(result: dict, path, title: str = "", case=None):
     """:func:`work_precision_figure` saved to ``path`` (``work_precision.png``)."""
-    from .plots import save_close
+    from vibeam.plots.sweep import save_close
 
     return save_close(work_precision_figure(result, title, case), path)

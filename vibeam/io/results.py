@@ -52,7 +52,7 @@ recomputes nothing (the runs are read back: :func:`load_results`); an
 interrupted file still has its lines.
 
 Every write builds the whole file in memory and hands it to
-:func:`vibeam.outdir.replace_file`: a temporary file in the same folder, flushed to
+:func:`vibeam.io.outdir.replace_file`: a temporary file in the same folder, flushed to
 the disk and then moved over the old one (:func:`os.replace` is atomic) -- the
 whole file at the end of a case, and one copy-and-append per batch of finished
 lines while it runs (:func:`append_lines`).  An interrupted or killed run, a full
@@ -61,7 +61,7 @@ the next one, never a corrupt one, and ``--resume`` recomputes only the lines
 missing from ``/lines``; HDF5 never meets a failing write.
 
 Any other group (continuation branches, fit tables) is written through
-:func:`vibeam.netcdf.write_group`: a dict of :class:`~vibeam.netcdf.Variable` (dims, data, units, long_name)
+:func:`vibeam.io.netcdf.write_group`: a dict of :class:`~vibeam.io.netcdf.Variable` (dims, data, units, long_name)
 becomes one netCDF group with its dimensions and coordinates.
 """
 from __future__ import annotations
@@ -74,10 +74,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .version import __version__
-from .netcdf import (PARAMETER_UNITS, Variable, dataset_values, is_dim_only, json_default,  # noqa: F401
+from vibeam.version import __version__
+from vibeam.io.netcdf import (PARAMETER_UNITS, Variable, dataset_values, is_dim_only, json_default,  # noqa: F401
                      parameter_units, read_attrs, read_plain, set_attrs, var, write_group, DimIds)
-from .errors import ForeignFileError  # noqa: F401 (re-exported)
+from vibeam.errors import ForeignFileError  # noqa: F401 (re-exported)
 
 LAYOUT_VERSION = 2
 
@@ -86,7 +86,7 @@ LAYOUT_VERSION = 2
 # ============================================================================ what each variable is
 # (units, long_name) of the per-point outputs; units are UDUNITS strings ("1": dimensionless).
 # ``None`` units: the unit of the scene's axes (Hz / mm / mm s-1 for physical scenes, "1" otherwise),
-# resolved by :func:`describe`.  Names not listed fall back to vibeam.sweep.UNITS ("unit (text)").
+# resolved by :func:`describe`.  Names not listed fall back to vibeam.io.outputs.UNITS ("unit (text)").
 VARIABLES = {
     "Omega": ("1", "forcing frequency over natural frequency, Omega = f / f_n"),
     "frequency_hz": ("Hz", "forcing frequency f"),
@@ -217,7 +217,7 @@ def describe(name: str, physical: bool = False) -> tuple[str, str]:
         A physical scene (frequencies in Hz, displacements in mm at the sensor); the
         spectral outputs of a nondimensional scene are in Omega units and q.
 
-    Names not in :data:`VARIABLES` take :data:`vibeam.sweep.UNITS` (``"unit (text)"``);
+    Names not in :data:`VARIABLES` take :data:`vibeam.io.outputs.UNITS` (``"unit (text)"``);
     unknown names get units ``"1"`` and their name as long_name.
     """
     if name in VARIABLES:
@@ -227,7 +227,7 @@ def describe(name: str, physical: bool = False) -> tuple[str, str]:
         elif name in _SCALED and not physical:
             u = "1"
         return u, ln
-    from .sweep import UNITS
+    from vibeam.io.outputs import UNITS
 
     text = UNITS.get(name)
     if text:
@@ -326,7 +326,7 @@ def run_variables(data: dict, attrs: dict | None = None) -> tuple[dict, dict]:
     Parameters
     ----------
     data : dict
-        Per-point arrays in visiting order (:attr:`vibeam.sweep.SweepResult.data`).
+        Per-point arrays in visiting order (:attr:`vibeam.engine.sweep.SweepResult.data`).
     attrs : dict, optional
         Run attributes (the spectrum and noise axes become coordinates).
 
@@ -334,7 +334,7 @@ def run_variables(data: dict, attrs: dict | None = None) -> tuple[dict, dict]:
     -------
     (variables, groups)
         For :func:`write_group`.  If the directions' points are not on one increasing grid
-        (never for a sweep of :mod:`vibeam.sweep`), the flat layout along ``point`` is
+        (never for a sweep of :mod:`vibeam.engine.sweep`), the flat layout along ``point`` is
         returned instead, with ``direction`` and ``Omega`` per point.
     """
     attrs = attrs or {}
@@ -414,7 +414,7 @@ def _time_series_variables(data, label, dirs, phys) -> dict:
 
 
 def map_variables(m) -> dict:
-    """The variables of a parameter map (:class:`vibeam.maps.MapResult`), on
+    """The variables of a parameter map (:class:`vibeam.analysis.maps.MapResult`), on
     (direction, <parameter>, Omega) -- or (direction, <parameter>, frequency_hz) when Omega
     differs between the values (a mapped parameter that changes f_n)."""
     d = m.data
@@ -458,12 +458,12 @@ def map_variables(m) -> dict:
         x = _point_var(k, ("direction", par, fdim) + _extra_dims(k, a.shape[3:], taken), a, phys)
         if name != k:
             x.attrs["vibeam_name"] = k
-        if k == "classification":
-            from .maps import CLASSES
-
-            x.attrs["flag_values"] = np.arange(len(CLASSES), dtype=np.int8)
-            x.attrs["flag_meanings"] = " ".join(CLASSES[i].split(" (")[0].replace(" ", "_").replace("-", "_")
-                                                for i in range(len(CLASSES)))
+        if k == "classification" and m.attrs.get("classes"):
+            # "0 no impact; 1 period-1; ..." (vibeam.analysis.maps.CLASSES, in the map's attrs)
+            classes = [c.strip().split(" ", 1) for c in str(m.attrs["classes"]).split(";")]
+            x.attrs["flag_values"] = np.array([int(c[0]) for c in classes], dtype=np.int8)
+            x.attrs["flag_meanings"] = " ".join(c[1].split(" (")[0].replace(" ", "_").replace("-", "_")
+                                                for c in classes)
         out[name] = x
     out.update(_extra_coords(taken, m.attrs, phys))
     return out
@@ -481,7 +481,7 @@ def line_variables(data: dict) -> dict:
 def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
     """Write ``path`` as a whole: ``fill(file)`` on an :class:`h5py.File` built in memory
     (with ``copy_from``, a copy of that file's bytes appended to), then the image handed to
-    :func:`vibeam.outdir.replace_file` (temporary file, ``fsync``, rename).
+    :func:`vibeam.io.outdir.replace_file` (temporary file, ``fsync``, rename).
 
     HDF5 itself never writes to the disk: a full disk or a file-size limit fails in a plain
     write of bytes (an :class:`OSError` naming ``path``), never inside the HDF5 library (where
@@ -492,7 +492,7 @@ def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
 
     import h5py
 
-    from .outdir import replace_file
+    from vibeam.io.outdir import replace_file
 
     path.parent.mkdir(parents=True, exist_ok=True)
     with _signals_deferred():
@@ -619,14 +619,14 @@ def write_results(path, runs: list, case_name: str = "", case_text: str = "",
     ----------
     path : str or Path
         Target HDF5 (netCDF4) file; its folder is created if needed.
-    runs : list of vibeam.sweep.SweepResult
+    runs : list of vibeam.engine.sweep.SweepResult
         Completed runs, written to ``/runs/<name>`` (:func:`run_variables`).
     case_name, case_text : str
         Stored as root attributes (the case text makes the file reproducible).
     extra : dict, optional
         Additional groups: ``{group_path: {name: array or Variable}}`` (e.g. the table
         of ``vibeam cost``; :func:`table_variables`).
-    maps : list of vibeam.maps.MapResult, optional
+    maps : list of vibeam.analysis.maps.MapResult, optional
         Parameter maps, written to ``/maps/<name>`` (:func:`map_variables`).
     lines : dict, optional
         A checkpoint ``{"<run>/<line key>": {dataset: array}}`` to keep in ``/lines``
@@ -634,8 +634,8 @@ def write_results(path, runs: list, case_name: str = "", case_text: str = "",
     case_json : str
         The validated case (as run, e.g. its quick variant) as JSON; ``--resume``
         only continues a file whose ``case_json`` matches.
-    branches : list of vibeam.branches.ContinuationResult, optional
-        Continuation runs, written to ``/branches/<run>/`` (:func:`vibeam.branches.write_branches`).
+    branches : list of vibeam.analysis.branches.ContinuationResult, optional
+        Continuation runs, written to ``/branches/<run>/`` (:func:`vibeam.analysis.branches.write_branches`).
     extra_attrs : dict, optional
         Attributes set last on groups or variables of the file, ``{path: {name: value}}``
         (e.g. ``{"fit/residuals": {"units": "mm"}}``); a missing path becomes a group.
@@ -658,10 +658,8 @@ def write_results(path, runs: list, case_name: str = "", case_text: str = "",
             write_group(f, gpath, table_variables(table), _ids=ids)
         for key, data in (lines or {}).items():
             write_group(f, f"lines/{key}", line_variables(data), {"case_hash": case_hash(case_json)}, _ids=ids)
-        if branches:
-            from .branches import write_branches
-
-            write_branches(f, branches)
+        for b in branches or []:
+            b.write(f)          # a continuation run writes its own /branches/<run>/ group
         for apath, a in (extra_attrs or {}).items():
             obj = f[apath] if apath in f else f.require_group(apath)
             set_attrs(obj, a)
@@ -670,27 +668,28 @@ def write_results(path, runs: list, case_name: str = "", case_text: str = "",
 
 
 def replace_branches(path, branches: list) -> Path:
-    """Replace the ``/branches`` of an existing results file (atomically, everything else kept)."""
-    from .branches import write_branches
-
+    """Replace the ``/branches`` of an existing results file (atomically, everything else kept);
+    each continuation run writes its own group (``ContinuationResult.write``)."""
     def fill(f):
         if "branches" in f:
             del f["branches"]
-        write_branches(f, branches)
+        for b in branches:
+            b.write(f)
 
     return _atomic(Path(path), fill, copy_from=Path(path))
 
 
-def replace_group(path, group: str, fill, case_name: str = "", case_text: str = "") -> Path:
+def replace_group(path, group: str | None, fill, case_name: str = "", case_text: str = "") -> Path:
     """Replace (or add) the group ``group`` of a results file, atomically, everything else kept;
-    ``fill(file)`` writes the new group (e.g. :func:`vibeam.netcdf.write_group`).  Without a file
-    at ``path``, a new one holds the group alone (with ``case_name`` and ``case_text``)."""
+    ``fill(file)`` writes the new group (e.g. :func:`vibeam.io.netcdf.write_group`; ``group`` None:
+    nothing is removed first).  Without a file at ``path``, a new one holds the group alone (with
+    ``case_name`` and ``case_text``)."""
     path = Path(path)
 
     def fill_(f):
         if "vibeam_layout" not in f.attrs:
             _root_attrs(f, case_name, case_text, "", complete=True)
-        if group in f:
+        if group is not None and group in f:
             del f[group]
         fill(f)
 
@@ -709,6 +708,50 @@ def _group_attrs(r, **more) -> dict:
 
 
 # ============================================================================ reading
+def read_branch_group(g) -> dict:
+    """One ``/branches/<run>/`` group back as nested dicts, one per branch (the shape of the
+    first layout): ``{"<index>-period<n>": {dataset: array, "attrs": {index, n, status, message,
+    origin}}, "bifurcations": {...}, "curves": {"<i>-<type>": {...}}}``; padding removed."""
+    flat = read_plain(g, attrs=True)
+    if "n_points" not in flat:            # the first layout: one group per branch already
+        return flat
+    out = {}
+    n = flat.pop("n_points")
+    meta = {k: flat.pop(k) for k in ("branch", "branch_period", "branch_status", "branch_message", "branch_origin")}
+    subs = {k: flat.pop(k) for k in ("bifurcations", "curves") if k in flat}
+    for i in range(len(n)):
+        b = {"index": int(meta["branch"][i]), "n": int(meta["branch_period"][i])}
+        d = {k: a[i][: int(n[i])] for k, a in flat.items() if isinstance(a, np.ndarray) and a.ndim >= 2}
+        for k, a in d.items():
+            if a.ndim > 1:                  # trailing axes padded to the longest branch: as stored
+                d[k] = a
+        d["attrs"] = dict(b, status=str(meta["branch_status"][i]), message=str(meta["branch_message"][i]),
+                          origin=str(meta["branch_origin"][i]))
+        out[branch_name(b)] = d
+    if "bifurcations" in subs:
+        bt = subs["bifurcations"]
+        out["bifurcations"] = {("branch" if k == "bifurcation_branch" else k): v for k, v in bt.items()}
+    if "curves" in subs:
+        c = subs["curves"]
+        key2 = str(c["attrs"].get("curve_parameter", "parameter2"))
+        cs = {}
+        for i in range(len(c["n_curve_points"])):
+            m = int(c["n_curve_points"][i])
+            item = {"parameter": c["parameter"][i][:m], key2: c[key2][i][:m]}
+            if "frequency_hz" in c:
+                item["frequency_hz"] = c["frequency_hz"][i][:m]
+            item["attrs"] = {"type": str(c["curve_type"][i]), "status": str(c["curve_status"][i]),
+                             "message": str(c["curve_message"][i]), "period": int(c["curve_period"][i])}
+            cs[f"{i:02d}-{item['attrs']['type']}"] = item
+        cs["attrs"] = c.get("attrs", {})
+        out["curves"] = cs
+    return out
+
+
+def branch_name(b: dict) -> str:
+    return f"{b['index']:02d}-period{b['n']}"
+
+
 def layout_of(path) -> int:
     """``vibeam_layout`` of a results file: 2 (netCDF dimensions) or 1 (the first, flat layout)."""
     import h5py
@@ -743,8 +786,6 @@ def read_results(path) -> dict:
         for kind in ("runs", "maps", "branches"):
             for name, g in f.get(kind, {}).items():
                 if kind == "branches":
-                    from .branches import read_branch_group
-
                     run = read_branch_group(g)
                 elif not v2:
                     run = read_plain(g)
@@ -879,15 +920,14 @@ def _flat_map(g) -> dict:
 
 # ============================================================================ results objects back
 def load_results(path) -> tuple[list, list, dict]:
-    """The runs and maps of a results file as :class:`vibeam.sweep.SweepResult` and
-    :class:`vibeam.maps.MapResult` (as a run returned them), and the root attributes.
+    """The runs and maps of a results file as :class:`vibeam.engine.sweep.SweepResult` and
+    :class:`vibeam.analysis.maps.MapResult` (as a run returned them), and the root attributes.
 
     Dict attributes stored as JSON (``json_attrs``) and the spectrum and noise axes
     (stored as coordinates) are restored, so plots and tables work on them as on a
     fresh run.
     """
-    from .maps import MapResult
-    from .sweep import SweepResult
+    from vibeam.io.objects import MapResult, SweepResult
 
     res = read_results(path)
     order = _run_order(res["attrs"])
@@ -954,5 +994,5 @@ def open_results(path):
 
     if layout_of(path) < LAYOUT_VERSION:
         raise ValueError(f"{path}: a results file of the first layout (no dimensions); rewrite it with "
-                         f"vibeam.results.load_results and write_results")
+                         f"vibeam.io.results.load_results and write_results")
     return xr.open_datatree(path, engine="h5netcdf")

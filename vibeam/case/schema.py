@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
-from vibeam.contact_spec import ContactSpec  # [model.contact] (issue 13)
+from vibeam.case.contact import ContactSpec  # [model.contact] (issue 13)
 from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
@@ -251,7 +251,7 @@ class SDOFModelSpec(_Strict):
     def _build(self):
         import dataclasses
 
-        from vibeam.contact_spec import sdof_law
+        from vibeam.case.contact import sdof_law
         from vibeam.models import SDOF
 
         if self.physical:
@@ -282,7 +282,7 @@ class SDOFModelSpec(_Strict):
         """Checks beyond the table's validators: the ``[model.contact]`` law can be built, and
         the forcing amplitude (:data:`B_RANGE`) and the stop's stiffness
         (:data:`MAX_CONTACT_STIFFNESS`) can be computed in double precision."""
-        from vibeam.contact_spec import sdof_law
+        from vibeam.case.contact import sdof_law
 
         if self.physical:
             check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
@@ -480,7 +480,7 @@ class BeamModelSpec(_Strict):
             if getattr(self, k) > self.length_mm:
                 raise ValueError(f"{k} = {getattr(self, k)} lies beyond length_mm = {self.length_mm}")
         lo, hi = self.SECTION_RANGE
-        if sec:     # the section's EI and rho A as vibeam.beamscene.geometry_of derives them
+        if sec:     # the section's EI and rho A as vibeam.case.beamscene.geometry_of derives them
             b, t = self.width_mm * 1e-3, self.thickness_mm * 1e-3
             derived = {"EI_n_m2": (self.youngs_modulus_gpa * 1e9 * b * (t * t * t) / 12.0,   # inf, not OverflowError
                                    "youngs_modulus_gpa, width_mm, thickness_mm"),
@@ -555,8 +555,8 @@ class BeamModelSpec(_Strict):
         return build_or_refuse(self, self._build)
 
     def _build(self):
-        from vibeam.beamscene import build_beam_model
-        from vibeam.contact_spec import beam_law
+        from vibeam.case.beamscene import build_beam_model
+        from vibeam.case.contact import beam_law
 
         m = build_beam_model(self)
         law = beam_law(self.contact, self.R)
@@ -580,7 +580,7 @@ class BeamModelSpec(_Strict):
         each node but the clamped one)."""
         n = self.n_modes
         dofs = 2 * int(self.n_elements)
-        from vibeam.contact_spec import beam_law
+        from vibeam.case.contact import beam_law
 
         check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
 
@@ -596,7 +596,7 @@ class BeamModelSpec(_Strict):
 
     def result_attrs(self) -> dict:
         """Calibrated and derived values of the scene, stored with its results."""
-        from vibeam.beamscene import scene_of
+        from vibeam.case.beamscene import scene_of
 
         sc = scene_of(self)
         g = sc.geometry
@@ -619,10 +619,10 @@ class BeamModelSpec(_Strict):
 
     def effect_model(self, effects, model):
         """``model`` with the structural effects of a run (eccentric contact, coupled
-        platform, R table): :func:`vibeam.effects.build_beam_model`."""
-        from vibeam.effects import build_beam_model
+        platform, R table): :func:`vibeam.case.beamscene.build_beam_model_with_effects`."""
+        from vibeam.case.beamscene import build_beam_model_with_effects
 
-        return build_beam_model(self, effects, base_model=model)
+        return build_beam_model_with_effects(self, effects, base_model=model)
 
     def case_update(self, key: str, value: float) -> tuple[dict, list]:
         """``[model]`` keys that set a fitted value, and notes: f_n is ``calibrate.f1_hz`` of a
@@ -689,7 +689,7 @@ def _check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS, sweep: bool = F
 def check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS, sweep: bool = False):
     """The rule of a grid ``[start, stop, number of points]`` of a case (``[sweep] Omega`` /
     ``frequency_hz``, ``[map] values``), for other inputs held to it (the API's frequencies,
-    :mod:`vibeam.arguments`); raises ValueError saying what is wrong."""
+    :mod:`vibeam.case.arguments`); raises ValueError saying what is wrong."""
     return _check_grid(v, positive, max_n, sweep)
 
 
@@ -698,11 +698,11 @@ class SweepSpec(_Strict):
 
     ``transient_periods = "auto"`` extends each point's transient until the
     stroboscopic map settles, up to ``max_transient_periods`` (default 10000;
-    :func:`vibeam.sweep.settle_transient`); ``point_time_limit_s`` ends a point that runs
+    :func:`vibeam.engine.sweep.settle_transient`); ``point_time_limit_s`` ends a point that runs
     longer as ``failed`` (default: no limit).  A point whose record is not periodic is
     continued until its spread is measured over ``statistics_periods`` periods (default
     256; 0 or at most ``record_periods``: the record alone), the sample its regression
-    statistics need (:func:`vibeam.records.batch_means`).  ``lyapunov = true`` adds each
+    statistics need (:func:`vibeam.engine.records.batch_means`).  ``lyapunov = true`` adds each
     time-domain point's Lyapunov spectrum over ``lyapunov_periods`` periods (default 1000)
     from its final state (:mod:`vibeam.models.lyapunov`; variables ``lyapunov`` and
     ``lyapunov_error`` on (direction, Omega, exponent)).
@@ -723,7 +723,7 @@ class SweepSpec(_Strict):
     lyapunov_periods: Annotated[int, Field(ge=2, le=100000)] = 1000
 
     def engine_options(self) -> dict:
-        """The :class:`vibeam.sweep.Sweep` settings of this table (all but the grid)."""
+        """The :class:`vibeam.engine.sweep.Sweep` settings of this table (all but the grid)."""
         return dict(direction=self.direction, transient_periods=self.transient_periods,
                     max_transient_periods=self.max_transient_periods, record_periods=self.record_periods,
                     statistics_periods=self.statistics_periods,
@@ -999,7 +999,7 @@ class MapSpec(_Strict):
 class BasinsSpec(_Strict):
     """``[basins]``: basins of attraction (a grid of initial states) or the census of attractors
     (``samples`` random initial states, seeded) at one or more forcing frequencies
-    (:mod:`vibeam.attractors`).
+    (:mod:`vibeam.analysis.attractors`).
 
     ``Omega`` / ``frequency_hz``: a number or a list (omitted: every frequency of the sweep's
     grid, a census along the sweep); ``grid = [nx, ny]`` (default 200 x 200) or ``samples``;
@@ -1073,7 +1073,7 @@ class RegressSpec(_Strict):
 
     ``spread_sigmas`` and ``spread_range`` are the tolerances of the points compared by
     the spread of their per-period amplitude (non-periodic, unsettled or of another
-    period; :mod:`vibeam.regress`): the means within ``spread_sigmas`` standard errors,
+    period; :mod:`vibeam.analysis.regress`): the means within ``spread_sigmas`` standard errors,
     the smallest and largest per-period amplitude within ``spread_range`` of the range.
     """
 
@@ -1610,9 +1610,9 @@ def load_case(path) -> tuple[Case, str]:
     ------
     CaseError
         If the file cannot be read (not a regular file, larger than 10 MB, not UTF-8:
-        :func:`vibeam.inputs.read_input_text`) or is invalid (see :func:`parse_case`).
+        :func:`vibeam.io.inputs.read_input_text`) or is invalid (see :func:`parse_case`).
     """
-    from vibeam.inputs import read_input_text
+    from vibeam.io.inputs import read_input_text
 
     text = read_input_text(path, "case file")
     return parse_case(text, str(path)), text

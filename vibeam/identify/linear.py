@@ -1,5 +1,5 @@
 """Identification of the rig's linear parameters (paper Sec. 6.1) and the statistics shared
-with the vibro-impact fit (:mod:`vibeam.fit`).
+with the vibro-impact fit (:mod:`vibeam.identify.fit`).
 
 The paper identifies its rig model step by step (Secs. 6.1 and 7):
 
@@ -9,10 +9,10 @@ The paper identifies its rig model step by step (Secs. 6.1 and 7):
 2. the natural frequency f_n and the gain gamma by fitting Eq. 43 without the stop to the
    FRC measured around f_n (Fig. 30c): :func:`fit_linear`, closed form :func:`eq43_amplitude`;
 3. R and gamma around 2 f_n from the vibro-impact FRC (Sec. 7, Fig. 31):
-   :func:`vibeam.fit.fit_case`.
+   :func:`vibeam.identify.fit.fit_case`.
 
 The coefficient of restitution picked from the sensor's time series (Sec. 5.1, Table 1) is
-the ``sensor`` effect's identification, :mod:`vibeam.sensor`.
+the ``sensor`` effect's identification, :mod:`vibeam.engine.sensor`.
 
 Standard errors (:func:`uncertainty`) are the usual linearised ones: the covariance
 ``s^2 (J^T J)^-1`` at the solution, ``J`` the Jacobian of the weighted residuals and
@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import case_error
+from vibeam.errors import case_error
 
 #: a singular value of the column-scaled Jacobian below this fraction of the largest is
 #: treated as zero: finite-difference Jacobians carry relative errors of ~1e-7 (step ~ eps^(1/3)),
@@ -98,7 +98,7 @@ def loss_psi(r, loss: str, f_scale: float) -> tuple[np.ndarray, np.ndarray]:
 
     Raises
     ------
-    vibeam.case.CaseError
+    vibeam.case.schema.CaseError
         On a loss scipy does not have.
     """
     r = np.asarray(r, float)
@@ -215,24 +215,24 @@ def uncertainty(J, r, names=(), psi=None, dpsi=None, at_bound=None) -> Uncertain
 
 # ============================================================================ CSV input
 def read_csv_columns(path, kind: str = "data") -> tuple[list[str], list[list[str]]]:
-    """Header and rows of a CSV input file: :func:`vibeam.inputs.read_csv_table` (a regular
+    """Header and rows of a CSV input file: :func:`vibeam.io.inputs.read_csv_table` (a regular
     file of at most 10 MB, UTF-8, ``#`` comment lines and blank lines skipped, one value per
     column in every row).
 
     Raises
     ------
-    vibeam.case.CaseError
+    vibeam.case.schema.CaseError
         If the file cannot be read, has no header or a ragged row.
     """
-    from .inputs import read_csv_table
+    from vibeam.io.inputs import read_csv_table
 
     return read_csv_table(path, f"{kind} file")
 
 
 def column_floats(path, head, rows, name: str, positive: bool = False, kind: str = "data") -> np.ndarray:
     """A numeric column by name; every value finite (and > 0 with ``positive``):
-    :func:`vibeam.inputs.column_floats`."""
-    from .inputs import column_floats as floats
+    :func:`vibeam.io.inputs.column_floats`."""
+    from vibeam.io.inputs import column_floats as floats
 
     return floats(path, head, rows, name, low=0.0 if positive else None, low_open=True, what=f"{kind} file")
 
@@ -249,7 +249,7 @@ def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
 
     Raises
     ------
-    vibeam.case.CaseError
+    vibeam.case.schema.CaseError
         On another header, a value that is not a finite number, times that do not increase,
         or fewer than 20 samples.
     """
@@ -289,7 +289,7 @@ def eq43_amplitude(f_hz, natural_frequency_hz, damping_ratio, gain, length_mm, v
     ndarray, shape (n,)
         Amplitude (half peak-to-peak) of the sensor displacement relative to the base (mm).
     """
-    from .models import linear_amplitude
+    from vibeam.models import linear_amplitude
 
     Om = np.asarray(f_hz, float) / natural_frequency_hz
     return length_mm * linear_amplitude(damping_ratio, gain * voltage, Om)
@@ -408,7 +408,7 @@ def fit_linear(f_hz, amplitude_mm, length_mm: float, voltage: float, sigma_mm=No
 
     Raises
     ------
-    vibeam.case.CaseError
+    vibeam.case.schema.CaseError
         On a parameter name outside Eq. 43's three, or fewer points than parameters.
     """
     import time
@@ -601,7 +601,7 @@ def log_decrement(t, U, min_snr: float = 10.0) -> DecayEstimate:
 
     Raises
     ------
-    vibeam.case.CaseError
+    vibeam.case.schema.CaseError
         If fewer than four extrema stand above the noise.
     """
     t = np.asarray(t, float)
@@ -778,8 +778,8 @@ def _case_updates(spec, values: dict) -> tuple[dict, list]:
 
 
 def _write_case(case, updates, suffix, comment, out_dir) -> Path:
-    from .case import parse_case
-    from .case_text import case_dump, to_toml
+    from vibeam.case.schema import parse_case
+    from vibeam.case.text import case_dump, to_toml
 
     data = case_dump(case)
     data["name"] = f"{case.name}-{suffix}"
@@ -792,7 +792,7 @@ def _write_case(case, updates, suffix, comment, out_dir) -> Path:
     text = f"# {comment}\n" + to_toml(data) + "\n"
     parse_case(text, f"{case.name}-{suffix}.toml")
     path = Path(out_dir) / f"{case.name}-{suffix}.toml"
-    from .outdir import write_text_file
+    from vibeam.io.outdir import write_text_file
     write_text_file(path, text)
     return path
 
@@ -801,8 +801,8 @@ def report_linear(case, case_text, reference, out_dir, params=None, loss="linear
                   source="") -> LinearFit:
     """``vibeam fit CASE --linear --reference FRC``: fit Eq. 43 around f_n, print, write
     ``linear.h5`` (``/fit``), ``linear.png`` and ``<case>-linear.toml``."""
-    from .reference import read_reference
-    from .results import write_results
+    from vibeam.io.reference import read_reference
+    from vibeam.io.results import write_results
 
     ref = read_reference(reference)
     if not ref.physical:
@@ -873,7 +873,7 @@ def _plot_linear(res: LinearFit, path, title=""):
     axr.set_ylabel("model − data (mm)")
     axr.grid(alpha=0.3)
     fig.tight_layout()
-    from .plots import save_figure
+    from vibeam.plots.sweep import save_figure
     save_figure(fig, path)
     plt.close(fig)
     return Path(path)
@@ -883,7 +883,7 @@ def report_decay(case, case_text, decay_csv, out_dir, source="") -> tuple[DecayE
     """``vibeam fit CASE --decay DECAY.csv``: beta_S (and f_n) from a free decay by the logarithmic
     decrement and by a fit of the damped response; print, write ``decay.h5`` (``/decay``),
     ``decay.png`` and ``<case>-decay.toml`` (``damping_ratio`` of the damped fit)."""
-    from .results import write_results
+    from vibeam.io.results import write_results
 
     t, U = read_decay(decay_csv)
     ld = log_decrement(t, U)
@@ -954,7 +954,7 @@ def _plot_decay(t, U, ld, fd, path, title=""):
     ax2.grid(alpha=0.3, which="both")
     ax2.legend(fontsize=8)
     fig.tight_layout()
-    from .plots import save_figure
+    from vibeam.plots.sweep import save_figure
     save_figure(fig, path)
     plt.close(fig)
     return Path(path)

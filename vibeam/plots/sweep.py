@@ -1,4 +1,4 @@
-"""Figures of a sweep (matplotlib, Agg backend, the style of :mod:`vibeam.style`).
+"""Figures of a sweep (matplotlib, Agg backend, the style of :mod:`vibeam.plots.style`).
 
 * ``frc.png`` (:func:`frc_figure`): the FRC of every run overlaid, one colour per run,
   up sweeps solid with filled markers and down sweeps dashed with open markers; the
@@ -21,14 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from . import style
+from vibeam.plots import style
 
 
 def save_figure(fig, path, dpi: int = 150) -> Path:
-    """Save a matplotlib figure atomically (:func:`vibeam.outdir.replace_file`: a temporary
+    """Save a matplotlib figure atomically (:func:`vibeam.io.outdir.replace_file`: a temporary
     file beside ``path``, flushed, then renamed over it); on any error the temporary file is
     removed, ``path`` is left as it was and the error raised."""
-    from .outdir import replace_file
+    from vibeam.io.outdir import replace_file
 
     path = Path(path)
     return replace_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png"))
@@ -72,13 +72,13 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
 
     Parameters
     ----------
-    runs : list of vibeam.sweep.SweepResult
+    runs : list of vibeam.engine.sweep.SweepResult
     title : str
         Figure title (the case name); the case's parameters go in the subtitle.
-    case : vibeam.case.Case, optional
+    case : vibeam.case.schema.Case, optional
         For the subtitle and the run colours (case order).
     colours : dict, optional
-        Run name -> colour (default :func:`vibeam.style.colours` of the case's runs).
+        Run name -> colour (default :func:`vibeam.plots.style.colours` of the case's runs).
     """
     import matplotlib.pyplot as plt
 

@@ -1,11 +1,11 @@
 """Parameter maps (paper Fig. 18): the period-n classification, amplitude and impacts per
 period over the frequency grid of ``[sweep]`` and one model parameter of ``[map]``.
 
-A map is made of sweep lines (:class:`vibeam.sweep.Line`): for every value of
+A map is made of sweep lines (:class:`vibeam.engine.sweep.Line`): for every value of
 the mapped parameter one up and/or one down continuation sweep along the
 frequency axis, so that hysteresis (coexisting orbits reached from below or
 from above) shows as a difference between the up and down maps.  The lines
-run through the one sweep engine (:func:`vibeam.sweep.run_lines`); this module
+run through the one sweep engine (:func:`vibeam.engine.sweep.run_lines`); this module
 only assembles their rows into arrays and plots them.
 """
 from __future__ import annotations
@@ -14,7 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .sweep import MM_KEYS, Sweep, stack
+from vibeam.engine.sweep import MM_KEYS, Sweep, stack
+from vibeam.io.objects import MapResult  # noqa: F401 (re-exported)
+from vibeam.plots.style import cell_edges
 
 # classification codes of a map point (dataset ``classification``)
 NO_IMPACT, PERIOD_1, PERIOD_2, PERIOD_N, NON_PERIODIC, FAILED, HELD, CHAOTIC, QUASI_PERIODIC = range(9)
@@ -39,7 +41,7 @@ def classify(period, status, lyapunov_class=None) -> np.ndarray:
     ----------
     period : array_like of int
         Period of the stroboscopic map (``-1`` no impact, ``0`` not periodic
-        within 8 forcing periods, else n), as in :func:`vibeam.records.summarize`.
+        within 8 forcing periods, else n), as in :func:`vibeam.engine.records.summarize`.
     status : array_like of str, same shape
         ``ok``, ``chatter``, ``sticking`` or ``failed``.
     lyapunov_class : array_like of str, same shape, optional
@@ -71,42 +73,6 @@ def classify(period, status, lyapunov_class=None) -> np.ndarray:
         c[(c == NON_PERIODIC) & (lc == "quasi_periodic")] = QUASI_PERIODIC
     c[st == "failed"] = FAILED
     return c
-
-
-@dataclass
-class MapResult:
-    """One run of a parameter map.
-
-    Attributes
-    ----------
-    name, fidelity, method : str
-    settings : dict
-        Method settings.
-    parameter : str
-        The mapped model key (e.g. ``voltage``, V; ``gap_mm``, mm).
-    data : dict
-        ``values`` (n_values,), ``direction`` (n_directions,), and per-point
-        datasets of shape ``(n_directions, n_values, n_frequencies, ...)`` in
-        increasing frequency: ``Omega``, ``classification``, ``period``,
-        ``amplitude``, ``impacts_per_period``, ``status``, ``message``, and
-        ``frequency_hz``/``amplitude_mm`` for physical scenes.
-    wall_time_s : float
-        Compute time summed over the map's points (s).
-    attrs : dict
-    """
-
-    name: str
-    fidelity: str
-    method: str
-    settings: dict
-    parameter: str
-    data: dict
-    wall_time_s: float
-    attrs: dict = field(default_factory=dict)
-
-    @property
-    def shape(self) -> tuple:
-        return self.data["classification"].shape
 
 
 def assemble_map(name: str, solvers: list, sweep: Sweep, parameter: str, values, directions,
@@ -177,17 +143,6 @@ def hysteresis(m: MapResult, rtol: float = 1e-3) -> np.ndarray | None:
         return (c[0] != c[1]) | (orbit & (np.abs(a[0] - a[1]) > rtol * scale))
 
 
-def cell_edges(c) -> np.ndarray:
-    """Cell edges around increasing centres ``c`` (n,) -> (n + 1,); one centre gets a cell of
-    +-5 % of its value (+-0.05 at 0), so a map with one value or one frequency is drawn."""
-    c = np.asarray(c, float)
-    if c.size == 1:
-        w = 0.05 * abs(c[0]) or 0.05
-        return np.array([c[0] - w, c[0] + w])
-    mid = 0.5 * (c[1:] + c[:-1])
-    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
-
-
 def _mesh(x, y):
     """Corner arrays (n_values + 1, n_freq + 1) of a map whose frequency grid ``x``
     (n_values, n_freq) may differ between the values ``y`` (n_values,)."""
@@ -199,8 +154,8 @@ def _mesh(x, y):
 
 
 def _axes_labels(m):
-    from .netcdf import parameter_units
-    from .style import label
+    from vibeam.io.netcdf import parameter_units
+    from vibeam.plots.style import label
 
     phys = "frequency_hz" in m.data
     xl = label("forcing frequency f", "Hz") if phys else label(r"forcing frequency $\Omega = f/f_n$", None)
@@ -225,7 +180,7 @@ def map_figure(m: MapResult, title: str = "", case=None, curves=()):
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
 
-    from . import style
+    from vibeam.plots import style
 
     d = m.data
     phys, xl, yl = _axes_labels(m)
@@ -255,7 +210,7 @@ def map_figure(m: MapResult, title: str = "", case=None, curves=()):
                                Patch(facecolor=SAME_COLOUR, edgecolor="0.6", lw=0.5, label="same orbit")],
                       loc="upper left", bbox_to_anchor=(0.0, -0.2), fontsize=7)
         if curves:
-            from .branches import plot_curves_on
+            from vibeam.analysis.branches import plot_curves_on
 
             for ax in axes[0]:
                 xl_, yl_ = ax.get_xlim(), ax.get_ylim()
@@ -275,7 +230,7 @@ def map_figure(m: MapResult, title: str = "", case=None, curves=()):
 
 def plot_map(m: MapResult, path, title: str = "", case=None, curves=()):
     """:func:`map_figure` saved to ``path`` (``map_<run>.png``); returns the path."""
-    from .plots import save_close
+    from vibeam.plots.sweep import save_close
 
     return save_close(map_figure(m, title, case, curves), path)
 
@@ -297,7 +252,7 @@ def agreement_figure(maps: list, title: str = "", case=None):
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
 
-    from . import style
+    from vibeam.plots import style
 
     if not maps:
         return None
@@ -335,7 +290,7 @@ def agreement_figure(maps: list, title: str = "", case=None):
 def plot_agreement(maps: list, path, title: str = "", case=None):
     """:func:`agreement_figure` saved to ``path`` (``maps_agreement.png``); None if fewer than
     two maps share a grid."""
-    from .plots import save_close
+    from vibeam.plots.sweep import save_close
 
     return save_close(agreement_figure(maps, title, case), path)
 
@@ -353,7 +308,7 @@ def print_map(m: MapResult) -> None:
 
 
 def map_lines(results: dict) -> dict:
-    """The maps of a results file (:func:`vibeam.results.read_results`) as one run-like dict
+    """The maps of a results file (:func:`vibeam.io.results.read_results`) as one run-like dict
     per parameter value, named ``<run>@<parameter>=<value>``: 1-D per-point datasets
     (``direction``, ``Omega``, ``amplitude``, ``period``, ...), the up line then the down line,
     each in increasing frequency -- the layout of ``/runs``, so FRC tools (regression,

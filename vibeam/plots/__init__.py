@@ -1,0 +1,1 @@
+"""Figures: the house style and the sweep figures (FRC, bifurcation diagram)."""
