@@ -1,0 +1,425 @@
+"""The case-file reference and the catalogue of shipped cases, generated from the schema.
+
+:func:`cases_readme` writes ``cases/README.md``: every shipped case with its ``description``
+(also printed by ``vibeam cases``), then every key of every table with its type, unit, default,
+allowed range and meaning.  Types, defaults and ranges are read from the pydantic models of
+:mod:`vibeam.case.schema` and :mod:`vibeam.case.contact`; only the unit and the meaning are
+written here, in :data:`MEANINGS`, and ``tests/test_docs.py`` fails when a key of the schema has
+no meaning here, when a meaning names a key the schema does not have, or when
+``cases/README.md`` differs from what :func:`cases_readme` generates.
+"""
+from __future__ import annotations
+
+import typing
+from pathlib import Path
+
+import annotated_types as at
+from pydantic import BaseModel
+
+from vibeam.case import schema
+from vibeam.case.contact import ContactSpec
+from vibeam.io.outdir import write_text_file
+
+#: the tables of a case file in reading order: (heading, pydantic model, note)
+TABLES = (
+    ("top level", schema.Case, "the scene's name and what it shows; the tables below"),
+    ("[model] (fidelity = \"sdof\")", schema.SDOFModelSpec,
+     "the coefficient-of-restitution oscillator: nondimensional (paper Eqs. 1-2: beta, B, Delta) or "
+     "physical (Eqs. 43-46: natural_frequency_hz, damping_ratio, gap_mm, length_mm, gain, voltage), not both"),
+    ("[model] (fidelity = \"beam\")", schema.BeamModelSpec,
+     "the finite-element cantilever with its attached mass (paper Eqs. 39-41, Fig. 15); lengths in mm"),
+    ("[model.discs]", schema.DiscsSpec, "the attached mass as a stack of discs (paper Sec. 5)"),
+    ("[model.calibrate]", schema.CalibrateSpec, "EI (and J) fitted to measured bending frequencies"),
+    ("[model.contact], [model.contact_lower]", ContactSpec,
+     "the contact law of the stop and of a second stop below; compliant laws take their target "
+     "restitution from [model] R"),
+    ("[sweep]", schema.SweepSpec, "the forcing-frequency grid and how each point is simulated"),
+    ("[[run]] (every method)", schema.EventRun, "one table per run; keys common to every method"),
+    ("[[run]] method = \"event\"", schema.EventRun, "the exact event-driven solver"),
+    ("[[run]] method = \"direct\", \"zhuravlev\", \"ivanov\"", schema.ODERun,
+     "scipy solve_ivp on the physical, Zhuravlev or Ivanov coordinates (paper Sec. 4.1)"),
+    ("[[run]] method = \"averaging\"", schema.AveragingRun, "averaging, paper Eqs. 18-27"),
+    ("[[run]] method = \"mapping\"", schema.MappingRun, "pointwise mapping, paper Eqs. 28-37"),
+    ("[[run]] method = \"continuation\"", schema.ContinuationRun,
+     "pseudo-arclength continuation of periodic orbits with Floquet multipliers and bifurcations"),
+    ("[effects]", schema.EffectsSpec, "the effects a scene calls for; each is off unless its table is present"),
+    ("[effects.platform]", schema.PlatformSpec, "the shaker platform that carries the clamp (paper Sec. 5.2)"),
+    ("[effects.eccentric_impact]", schema.EccentricImpactSpec, "the stop hits off the mass centre"),
+    ("[effects.gap_drift]", schema.GapDriftSpec, "the gap changes during a sweep (paper Fig. 21)"),
+    ("[effects.restitution_law]", schema.RestitutionLawSpec, "R as a function of the impact velocity (Fig. 26)"),
+    ("[effects.sensor]", schema.SensorSpec, "the displacement sensor at L_S and the CoR identification (Sec. 5.1)"),
+    ("[assess]", schema.AssessSpec, "assessments written by vibeam run when asked"),
+    ("[map]", schema.MapSpec, "a parameter map over frequency x one model key (paper Fig. 18)"),
+    ("[basins]", schema.BasinsSpec, "basins of attraction or a census of attractors"),
+    ("[quick]", schema.QuickSpec, "the quick variant (vibeam run --quick; the tests regress it)"),
+    ("[regress]", schema.RegressSpec, "tolerances of vibeam regress"),
+)
+
+#: keys of [[run]] documented once, under "every method"
+RUN_COMMON = ("name", "method", "model", "effects")
+
+_RANGE = "[low, high]"
+
+#: (unit, meaning) of every key, by table heading (see :data:`TABLES`)
+MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
+    "top level": {
+        "name": ("", "the scene's name: the output folder and file stems"),
+        "description": ("", "one line saying what the scene shows (printed by vibeam cases)"),
+        "model": ("", "the [model] table (below, by fidelity)"),
+        "sweep": ("", "the [sweep] table"),
+        "run": ("", "the [[run]] tables: one per method and model variant"),
+        "regress": ("", "the [regress] table"),
+        "effects": ("", "the [effects.*] tables; an effect is off unless its table is present"),
+        "assess": ("", "the [assess] table"),
+        "quick": ("", "the [quick] table"),
+        "map": ("", "the [map] table: a map instead of one sweep per run"),
+        "basins": ("", "the [basins] table: basins of attraction written by vibeam run"),
+    },
+    "[model] (fidelity = \"sdof\")": {
+        "fidelity": ("", "\"sdof\": the assumed static mode (Eqs. 39-47) or the paper's nondimensional oscillator"),
+        "beta": ("1", "viscous damping ratio beta (Eq. 1)"),
+        "B": ("1", "base-excitation amplitude B; the forcing is Omega^2 B sin(Omega t) (Eq. 1)"),
+        "R": ("1", "coefficient of restitution R of Newton's law q'+ = -R q'- (Eq. 2); the target R of a "
+              "compliant law"),
+        "Delta": ("1", "gap Delta from the static equilibrium to the stop (Eq. 2; < 0: pre-stressed)"),
+        "natural_frequency_hz": ("Hz", "natural frequency f_n of the assumed static mode (Eq. 43)"),
+        "damping_ratio": ("1", "damping ratio of the static mode (beta, Eq. 44)"),
+        "gap_mm": ("mm", "grazing gap Delta_G at the sensor (Delta = gap_mm / length_mm, Eq. 46)"),
+        "length_mm": ("mm", "the sensor's distance L_S from the clamp (the length scale of Eq. 46)"),
+        "gain": ("1/V", "normalised shaker gain gamma (B = gamma V, Eq. 45)"),
+        "voltage": ("V", "shaker voltage V"),
+        "Delta_lower": ("1", "a second stop at q = -Delta_lower below the equilibrium"),
+        "gap_lower_mm": ("mm", "a second stop gap_lower_mm below the equilibrium, at the sensor"),
+        "contact": ("", "[model.contact]: the stop's law (default Newton's restitution)"),
+        "contact_lower": ("", "[model.contact_lower]: the lower stop's law"),
+    },
+    "[model] (fidelity = \"beam\")": {
+        "fidelity": ("", "\"beam\": Euler-Bernoulli cantilever (scikit-fem Hermite elements), modal flow"),
+        "length_mm": ("mm", "beam length L from the clamp"),
+        "sensor_position_mm": ("mm", "sensor position L_S (the FRC's displacement U)"),
+        "mass_position_mm": ("mm", "position of the attached mass and of the stop"),
+        "width_mm": ("mm", "section width (with thickness_mm, youngs_modulus_gpa, density_kg_m3)"),
+        "thickness_mm": ("mm", "section thickness"),
+        "youngs_modulus_gpa": ("GPa", "Young's modulus E of the section"),
+        "density_kg_m3": ("kg/m^3", "density of the section"),
+        "EI_n_m2": ("N m^2", "bending stiffness EI (instead of the section)"),
+        "rhoA_kg_m": ("kg/m", "mass per length rho A (instead of the section)"),
+        "mass_kg": ("kg", "attached mass M (or [model.discs])"),
+        "rotary_inertia_kg_m2": ("kg m^2", "rotary inertia J of the attached mass"),
+        "discs": ("", "[model.discs]: the attached mass as discs"),
+        "calibrate": ("", "[model.calibrate]: EI, J fitted to measured frequencies"),
+        "R": ("1", "coefficient of restitution of Newton's law at the stop; the target R of a compliant law"),
+        "gap_mm": ("mm", "grazing gap Delta_G seen at the sensor (as the SDOF rig scenes)"),
+        "contact_gap_mm": ("mm", "gap Delta_C at the stop itself (instead of gap_mm)"),
+        "gap_lower_mm": ("mm", "a second stop below, its gap seen at the sensor"),
+        "contact_gap_lower_mm": ("mm", "a second stop below, its gap at the stop"),
+        "contact": ("", "[model.contact]: the stop's law"),
+        "contact_lower": ("", "[model.contact_lower]: the lower stop's law"),
+        "gain": ("1/V", "normalised shaker gain gamma (base displacement gamma V L_S)"),
+        "voltage": ("V", "shaker voltage V"),
+        "damping_ratio": ("1", "damping ratio of the first mode (stiffness-proportional D, Eq. 39)"),
+        "rayleigh_alpha_1_s": ("1/s", "mass-proportional Rayleigh damping alpha"),
+        "n_modes": ("", "retained modes: an integer, \"all\", or \"static\" (the paper's assumed static mode, "
+                    "the SDOF of Eqs. 42-47)"),
+        "n_elements": ("", "finite elements along the beam"),
+    },
+    "[model.discs]": {
+        "count": ("", "number of discs"),
+        "thickness_mm": ("mm", "thickness of one disc"),
+        "diameter_mm": ("mm", "disc diameter"),
+        "density_kg_m3": ("kg/m^3", "disc density"),
+        "mass_kg": ("kg", "measured mass of the stack (overrides the discs' volume times density)"),
+    },
+    "[model.calibrate]": {
+        "f1_hz": ("Hz", "measured first bending frequency (fits EI)"),
+        "f2_hz": ("Hz", "measured second bending frequency (fits the rotary inertia J)"),
+    },
+    "[model.contact], [model.contact_lower]": {
+        "law": ("", "\"restitution\": Newton's law (Eq. 2); a compliant law: a spring-dashpot contact phase"),
+        "R": ("1", "a lower restitution stop's own R (default [model] R)"),
+        "stiffness": ("1", "contact stiffness k_c over the oscillator's stiffness (nondimensional scenes)"),
+        "stiffness_n_m": ("N/m (N/m^p)", "contact stiffness (physical scenes; Hertz-type laws: N/m^p)"),
+        "damping_ratio": ("1", "linear law: damping ratio of the contact phase (else set by [model] R)"),
+        "exponent": ("1", "Hertz-type laws: the force exponent p (default 1.5)"),
+        "mass_kg": ("kg", "physical SDOF: the effective mass that turns stiffness_n_m into k_c"),
+    },
+    "[sweep]": {
+        "Omega": ("1", "frequency grid [start, stop, number of points] in Omega = f / f_n"),
+        "frequency_hz": ("Hz", "frequency grid [start, stop, number of points] (physical scenes)"),
+        "direction": ("", "sweep up, down or both (hysteresis shows with both)"),
+        "transient_periods": ("periods", "transient discarded per point; \"auto\": until the stroboscopic "
+                              "map settles"),
+        "max_transient_periods": ("periods", "bound of an \"auto\" transient"),
+        "record_periods": ("periods", "periods recorded per point (amplitude, period detection)"),
+        "statistics_periods": ("periods", "a non-periodic point's spread is measured over this many periods"),
+        "samples_per_period": ("", "output samples per forcing period"),
+        "continuation": ("", "each point starts from the previous point's final state"),
+        "period_rtol": ("1", "relative tolerance of the period-n detection on the stroboscopic map"),
+        "point_time_limit_s": ("s", "a point running longer ends as failed (default: no limit)"),
+        "lyapunov": ("", "add each point's Lyapunov spectrum (saltation-matrix variational equations)"),
+        "lyapunov_periods": ("periods", "length of the Lyapunov estimate"),
+    },
+    "[[run]] (every method)": {
+        "name": ("", "the run's name (an HDF5 group: no '/', no control characters)"),
+        "method": ("", "event, direct, zhuravlev, ivanov, averaging, mapping or continuation"),
+        "model": ("", "keys of [model] overridden for this run (e.g. n_modes, R, a contact table)"),
+        "effects": ("", "[effects.*] tables overridden for this run"),
+    },
+    "[[run]] method = \"event\"": {
+        "transient_samples": ("", "stroboscopic samples compared while a transient settles"),
+        "chatter_tol": ("1", "a chatter sequence is summed in closed form once its neglected terms are below "
+                        "this (Nordmark & Piiroinen 2009)"),
+        "max_impacts_per_period": ("", "impact guard: more impacts in one period end the point as failed"),
+    },
+    "[[run]] method = \"direct\", \"zhuravlev\", \"ivanov\"": {
+        "solver": ("", "the solve_ivp method"),
+        "rtol": ("1", "solve_ivp relative tolerance"),
+        "atol": ("1", "solve_ivp absolute tolerance"),
+        "max_step": ("1", "solve_ivp largest step (nondimensional time)"),
+    },
+    "[[run]] method = \"averaging\"": {
+        "k": ("", "the resonance Omega ~ 2k (Eqs. 18-27)"),
+    },
+    "[[run]] method = \"mapping\"": {
+        "n": ("", "period n of the impact-map fixed point (n impacts in n periods)"),
+        "form": ("", "stability by the full (Eqs. 29-32) or simplified (Eqs. 35-37) Jacobian"),
+    },
+    "[[run]] method = \"continuation\"": {
+        "parameter": ("", "Omega, or a numeric model key (B, Delta, R, beta; voltage, gain, gap_mm, "
+                      "damping_ratio, R for physical scenes)"),
+        "range": ("parameter", f"{_RANGE} of the parameter (default the [sweep] range for the frequency)"),
+        "at": ("Hz or 1", "forcing frequency of a continuation in another parameter"),
+        "start": ("", "start orbits: sweep (settled event run), averaging, linear (non-impacting) or auto (all)"),
+        "start_at": ("parameter", "low, high, both ends of the range, or a value"),
+        "n": ("", "period of a linear or averaging start"),
+        "ds": ("1", "initial pseudo-arclength step"),
+        "ds_min": ("1", "smallest step before a branch ends as failed"),
+        "ds_max": ("1", "largest step"),
+        "max_points": ("", "points per branch"),
+        "max_period": ("", "period-doubling branch switching stops at this period"),
+        "switch": ("", "switch to the period-2n branch at each period doubling"),
+        "curves": ("", "[map] cases: two-parameter curves of folds, period doublings and grazings"),
+        "slices": ("", "extra values of the map key that seed the curves"),
+        "curve_points": ("", "points per two-parameter curve"),
+        "curve_max_period": ("", "curves of orbits up to this period"),
+    },
+    "[effects]": {
+        "platform": ("", "[effects.platform]"),
+        "eccentric_impact": ("", "[effects.eccentric_impact]"),
+        "gap_drift": ("", "[effects.gap_drift]"),
+        "restitution_law": ("", "[effects.restitution_law]"),
+        "sensor": ("", "[effects.sensor]"),
+    },
+    "[effects.platform]": {
+        "level": ("", "\"filter\": the platform's transfer function on the base motion; \"coupled\": a platform "
+                  "DOF loaded by the beam (beam fidelity)"),
+        "frequency_hz": ("Hz", "platform mode frequency (3.25 Hz in the paper)"),
+        "damping_ratio": ("1", "platform mode damping ratio"),
+        "reference_frequency_hz": ("Hz", "where the filter is normalised to 1 (default the scene's f_n)"),
+        "gains": ("Hz, 1", "two measured [[f1_hz, g1], [f2_hz, g2]] that identify the platform mode"),
+        "mass_kg": ("kg", "platform mass (level = \"coupled\")"),
+    },
+    "[effects.eccentric_impact]": {
+        "offset_mm": ("mm", "contact point's distance from the mass centre along the beam"),
+    },
+    "[effects.gap_drift]": {
+        "table": ("Hz, mm", "prescribed [[frequency_hz, gap_mm], ...], linear in between"),
+        "law": ("", "\"sliding\": the stop slides with the impulse delivered"),
+        "slide_mm_per_impulse": ("mm", "slide per normalised impulse of a frequency point"),
+        "max_drift_mm": ("mm", "largest drift"),
+    },
+    "[effects.restitution_law]": {
+        "velocity_mm_s": ("mm/s", "pre-impact velocities at the sensor, increasing"),
+        "R": ("1", "R at those velocities (piecewise linear, constant beyond the ends)"),
+    },
+    "[effects.sensor]": {
+        "sampling_hz": ("Hz", "sensor sampling rate (5 kHz in the paper)"),
+        "noise_mm": ("mm", "standard deviation of Gaussian sensor noise"),
+        "seed": ("", "seed of the noise"),
+        "identify_R": ("", "run the paper's CoR identification R = -U'+/U'- on the simulated record"),
+        "noise_ladder_mm": ("mm", "noise levels at which the identification is repeated"),
+        "impacts": ("", "impacts used per point: the first three (paper) or all"),
+        "oversample": ("", "recorded samples per sensor sample"),
+    },
+    "[assess]": {
+        "spectra": ("", "windowed FFT of the sensor signals per point with the non-harmonic peaks"),
+        "participation": ("", "share of each mode in the sensor displacement and energy"),
+        "time_series": ("Hz or 1", "frequencies at which time series and phase portraits are plotted"),
+        "peaks": ("", "non-harmonic peaks listed per point"),
+        "subharmonic_order": ("", "k/n Omega with n up to this count as harmonics"),
+        "mode_tolerance": ("1", "relative distance within which a peak belongs to a mode"),
+        "hfc_band": ("Hz or 1", f"{_RANGE}: band of the high-frequency (~103 Hz) component (default 50-500 Hz)"),
+        "spectrum_max": ("Hz or 1", "top of the stored spectrum map"),
+        "time_series_periods": ("periods", "periods shown in a time series"),
+    },
+    "[map]": {
+        "parameter": ("", "a numeric [model] key (voltage, gap_mm, R, ...; B, Delta, R, beta)"),
+        "values": ("key's unit", "[start, stop, number of values] of the parameter"),
+    },
+    "[basins]": {
+        "Omega": ("1", "forcing frequency (a number or a list; default every frequency of the sweep)"),
+        "frequency_hz": ("Hz", "forcing frequency (physical scenes)"),
+        "grid": ("", "[nx, ny] initial states (default 200 x 200)"),
+        "samples": ("", "random initial states instead of a grid: a census of attractors"),
+        "seed": ("", "seed of the samples"),
+        "x_range": ("1 or mm", f"{_RANGE} of the first coordinate (default a box around the stop)"),
+        "y_range": ("1 or mm/s", f"{_RANGE} of the second coordinate"),
+        "coordinates": ("", "beam: the two modal coordinates of the grid (default the first mode's "
+                        "displacement and velocity)"),
+        "run": ("", "the run whose model and solver are used (default the first time-domain run)"),
+        "recurrences": ("", "consecutive revisits of the same cells that find an attractor"),
+        "locate_periods": ("periods", "stroboscopic samples that describe a new attractor"),
+        "max_periods": ("periods", "bound of one trajectory; beyond it the state is unsettled"),
+        "hit_attractor": ("", "visits of a known attractor's cells that decide a state"),
+        "hit_basin": ("", "visits of a known basin's cells that decide a state"),
+        "basin_hits": ("", "decide by the basin cells of earlier states"),
+        "record_periods": ("periods", "simulation describing each attractor (type, amplitude)"),
+        "lyapunov_periods": ("periods", "length of each attractor's Lyapunov spectrum (0: none)"),
+    },
+    "[quick]": {
+        "points": ("", "frequency points of the quick variant"),
+        "map_values": ("", "values of a [map] parameter kept"),
+        "transient_periods": ("periods", "[sweep] transient_periods of the quick variant"),
+        "max_transient_periods": ("periods", "[sweep] max_transient_periods of the quick variant"),
+        "record_periods": ("periods", "[sweep] record_periods of the quick variant"),
+        "statistics_periods": ("periods", "[sweep] statistics_periods of the quick variant"),
+    },
+    "[regress]": {
+        "amplitude_atol": ("FRC unit", "absolute tolerance of a periodic point's amplitude"),
+        "amplitude_rtol": ("1", "relative tolerance of a periodic point's amplitude"),
+        "period": ("", "the period n must match"),
+        "spread_sigmas": ("", "non-periodic points: means within this many standard errors"),
+        "spread_range": ("1", "non-periodic points: extremes within this fraction of the range"),
+    },
+}
+
+
+def table_keys(heading: str, model: type[BaseModel]) -> list[str]:
+    """The keys documented under ``heading``: the model's fields (``[[run]]`` methods without
+    the keys common to every run), in declaration order."""
+    keys = list(model.model_fields)
+    if heading.startswith("[[run]] method"):
+        keys = [k for k in keys if k not in RUN_COMMON]
+    elif heading.startswith("[[run]] (every"):
+        keys = [k for k in keys if k in RUN_COMMON]
+    return keys
+
+
+def _bounds(meta) -> list[str]:
+    out, lengths = [], {}
+    for m in meta:
+        for cls, op, attr in ((at.Ge, ">=", "ge"), (at.Gt, ">", "gt"), (at.Le, "<=", "le"), (at.Lt, "<", "lt")):
+            if isinstance(m, cls):
+                out.append(f"{op} {getattr(m, attr):g}")
+        if isinstance(m, at.MinLen) and m.min_length:
+            lengths["min"] = m.min_length
+        if isinstance(m, at.MaxLen):
+            lengths["max"] = m.max_length
+        pattern = getattr(m, "pattern", None)
+        if pattern:
+            out.append(f"pattern `{pattern}`")
+    if lengths.get("min") is not None and lengths.get("min") == lengths.get("max"):
+        out.append(f"length {lengths['min']}")
+    else:
+        out += [f"length {op} {lengths[k]}" for k, op in (("min", ">="), ("max", "<=")) if k in lengths]
+    return out
+
+
+def describe_type(ann, meta=()) -> str:
+    """A readable type with its allowed range, e.g. ``number (>= 0, <= 1)`` or ``"up" | "down"``."""
+    origin = typing.get_origin(ann)
+    args = typing.get_args(ann)
+    if origin is typing.Annotated:
+        extra = []
+        for a in args[1:]:   # annotated_types bounds, or a pydantic Field(...) carrying them
+            extra += list(getattr(a, "metadata", [a]))
+        return describe_type(args[0], list(meta) + extra)
+    bounds = _bounds(meta)
+    tail = f" ({', '.join(bounds)})" if bounds else ""
+    if origin in (typing.Union, __import__("types").UnionType):
+        parts = list(dict.fromkeys(describe_type(a) for a in args if a is not type(None)))
+        return " or ".join(parts) + tail
+    if origin is typing.Literal:
+        return " | ".join(f'"{a}"' if isinstance(a, str) else str(a) for a in args)
+    if origin is list:
+        return f"list of {describe_type(args[0])}" + tail if args else "list" + tail
+    if isinstance(ann, type) and issubclass(ann, BaseModel):
+        return "table"
+    name = {float: "number", int: "integer", str: "string", bool: "true/false", dict: "table"}.get(ann, str(ann))
+    return name + tail
+
+
+def _default(field) -> str:
+    if field.is_required():
+        return "required"
+    if field.default_factory is not None:
+        v = field.default_factory()
+        return "empty" if not v or isinstance(v, BaseModel) else repr(v)
+    if field.default is None:
+        return "-"
+    if isinstance(field.default, bool):
+        return str(field.default).lower()
+    if isinstance(field.default, str):
+        return f'"{field.default}"'
+    return f"{field.default!r}"
+
+
+def key_reference() -> str:
+    """The case-file key reference (markdown): one table per case-file table."""
+    lines = ["## Case-file keys", "",
+             "Generated from the schema (`vibeam.case.reference`); unit `1` is nondimensional.  "
+             "A wrong key, type or value is refused with one line naming the file, the key, the value "
+             "and what is allowed.", ""]
+    for heading, model, note in TABLES:
+        lines += [f"### {heading}", "", note[0].upper() + note[1:] + ".", "",
+                  "| key | type and allowed values | unit | default | meaning |", "|---|---|---|---|---|"]
+        meanings = MEANINGS[heading]
+        for k in table_keys(heading, model):
+            f = model.model_fields[k]
+            unit, meaning = meanings[k]
+            typ = describe_type(f.annotation, f.metadata).replace("|", "\\|")
+            lines.append(f"| `{k}` | {typ} | {unit} | {_default(f).replace('|', '/')} | {meaning} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def catalogue(cases_dir) -> list[tuple[str, str, str]]:
+    """The shipped cases: ``(file name, fidelity, description)`` sorted by file name.
+
+    Raises
+    ------
+    vibeam.errors.InputError
+        A case file that does not validate (named with its key and value).
+    """
+    out = []
+    for path in sorted(Path(cases_dir).glob("*.toml")):
+        case, _ = schema.load_case(path)
+        out.append((path.name, str(case.model.get("fidelity", "")), case.description))
+    return out
+
+
+def catalogue_text(cases_dir) -> str:
+    """The catalogue as printed by ``vibeam cases``: one line per case."""
+    rows = catalogue(cases_dir)
+    width = max(len(n) for n, _, _ in rows)
+    return "\n".join(f"{n:<{width}}  {fid:<4}  {d}" for n, fid, d in rows)
+
+
+def cases_readme(cases_dir) -> str:
+    """The whole ``cases/README.md``: catalogue of shipped cases, then :func:`key_reference`."""
+    lines = ["# Cases", "",
+             "<!-- generated by `python -m vibeam.case.reference`; tests/test_docs.py fails when it is "
+             "out of date -->", "",
+             "Each file is a scene: a model, a frequency sweep and one or more runs (methods or fidelities) "
+             "compared on it.  Run one with `vibeam run cases/<file>` (`--quick` for its small variant); "
+             "`vibeam cases` prints this list.", "",
+             "| case | fidelity | what it shows |", "|---|---|---|"]
+    for name, fid, desc in catalogue(cases_dir):
+        lines.append(f"| [`{name}`]({name}) | {fid} | {desc.replace('|', '/')} |")
+    lines += ["", key_reference()]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+if __name__ == "__main__":   # regenerate cases/README.md next to the shipped cases
+    root = Path(__file__).resolve().parents[2] / "cases"
+    write_text_file(root / "README.md", cases_readme(root))
