@@ -69,7 +69,9 @@ class BasinsResult:
     name : str
         The run whose model and solver were used.
     Omega : ndarray, shape (n_Omega,)
-        Forcing frequencies (nondimensional); ``frequency_hz`` the same in Hz (physical scenes).
+        Forcing frequency of each slice (nondimensional); ``frequency_hz`` the same in Hz
+        (physical scenes).  A slice is one frequency, or (``values``) one value of the ``[map]``
+        parameter at one frequency.
     axes : Axes
     x, y : ndarray, shape (nx,), (ny,)
         Grid coordinates (axis units); empty for a census of random states.
@@ -95,6 +97,10 @@ class BasinsResult:
         ``Q`` times this is mm (physical scenes).
     time_scale_s : float or None
         Exponents per unit time divided by this are per second (physical scenes).
+    parameter : str
+        ``Omega``, or the ``[map]`` parameter the slices run along (``[basins] along = "map"``).
+    values : ndarray, shape (n_Omega,), or None
+        The parameter's value of each slice (None: the slices run along the frequency).
     """
 
     name: str
@@ -113,6 +119,18 @@ class BasinsResult:
     settings: dict = field(default_factory=dict)
     stop: float | None = None
     grazing: np.ndarray | None = None
+    parameter: str = "Omega"
+    values: np.ndarray | None = None
+
+    @property
+    def along(self) -> str:
+        """The dimension the slices run along: ``Omega``, or the ``[map]`` parameter."""
+        return self.parameter if self.values is not None else "Omega"
+
+    def slice_text(self, i: int) -> str:
+        """Where slice ``i`` is, e.g. ``16.5 Hz`` or ``gap_mm = -0.1 at 16.5 Hz``."""
+        f = f"{self.frequency_hz[i]:.4g} Hz" if self.frequency_hz is not None else f"Omega = {self.Omega[i]:.4g}"
+        return f if self.values is None else f"{self.parameter} = {self.values[i]:.4g} at {f}"
 
     @property
     def grid(self) -> bool:
@@ -613,11 +631,12 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
     if spec is None:
         raise CaseError(f"case {case.name}: no [basins] table (frequency_hz or Omega, grid or samples)")
     name, job = _pick_solver(case, spec.run if run is None else run)
+    slices = _slices(case, spec, name, job)
     solver = job.solver
     model = solver.model
-    fn = getattr(model, "natural_frequency_hz", None)
+    Omegas = np.array([W for W, _, _ in slices])
+    fns = [getattr(j.solver.model, "natural_frequency_hz", None) for _, j, _ in slices]
     try:
-        Omegas = spec.frequencies(case.sweep, fn)
         axes = axes_of(model, spec.coordinates)
     except ValueError as e:
         raise CaseError(str(e)) from None
@@ -634,8 +653,10 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
     wall = np.zeros(len(Omegas))
     xs = ys = np.zeros(0)
     initial = np.zeros((0, 2))
-    for iO, Omega in enumerate(Omegas):
+    for iO, (Omega, job_i, value) in enumerate(slices):
         t0 = time.perf_counter()
+        solver = job_i.solver
+        model = solver.model
         r0 = default_ranges(model, axes, float(Omega))
         xr = tuple(spec.x_range) if spec.x_range is not None else r0[0]
         yr = tuple(spec.y_range) if spec.y_range is not None else r0[1]
@@ -670,7 +691,7 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         recurrence = dict(origin=origin, width=width, n_found=spec.recurrences, n_locate=spec.locate_periods,
                           n_hit_attractor=spec.hit_attractor, n_hit_basin=spec.hit_basin,
                           max_periods=spec.max_periods, basin_hits=spec.basin_hits)
-        token = f"{case.name}/{name}/{float(Omega)!r}/{os.getpid()}/{time.time_ns()}"
+        token = f"{case.name}/{name}/{float(Omega)!r}/{value!r}/{os.getpid()}/{time.time_ns()}"
         lines = [BasinLine(key=f"{iO:04d}-{k:04d}", run=name, token=token, solver=solver, Omega=float(Omega),
                            states=to_state(P), recurrence=recurrence) for k, P in enumerate(pts)]
         todo = [l for l in lines if l.key not in stored]
@@ -690,7 +711,8 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
 
         try:
             res = run_lines(todo, executor=executor, jobs=jobs, progress=progress, on_line=on_line,
-                            desc=f"basins {case.name} Omega={float(Omega):.4g}")
+                            desc=f"basins {case.name} Omega={float(Omega):.4g}"
+                                 + ("" if value is None else f" {case.map.parameter}={value:.4g}"))
         finally:
             flush()
         for l in lines:
@@ -722,14 +744,55 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         wall[iO] = time.perf_counter() - t0
     attractors = _track(per_Omega, labels)
     L = getattr(model, "length_m", None)
-    return BasinsResult(name=name, Omega=np.asarray(Omegas, float), frequency_hz=np.asarray(Omegas) * fn if fn else None,
+    fn = fns[-1]
+    return BasinsResult(name=name, Omega=np.asarray(Omegas, float),
+                        frequency_hz=np.asarray(Omegas) * np.asarray(fns, float) if fn else None,
                         axes=axes, x=xs if grid else np.zeros(0), y=ys if grid else np.zeros(0), labels=labels,
                         initial=initial, attractors=attractors, periods=periods, wall_time_s=wall,
                         amplitude_scale_mm=L * 1e3 if L else None,
                         time_scale_s=1.0 / (2 * math.pi * fn) if fn else None,
                         settings=spec.model_dump(),
                         stop=float(model.Delta) * axes.factor[0] if axes.names[0] in ("q", "U") else None,
-                        grazing=np.array(grazing) if grazing else None)
+                        grazing=np.array(grazing) if grazing else None,
+                        parameter=case.map.parameter if spec.along == "map" else "Omega",
+                        values=np.array([v for _, _, v in slices], float) if spec.along == "map" else None)
+
+
+def _slices(case, spec, name: str, job) -> list:
+    """``(Omega, job, value)`` of each slice of a basins computation: the table's frequencies
+    with the run's job (``value`` None), or (``along = "map"``) one frequency at each value of the
+    ``[map]`` parameter, each value its own job.
+
+    Raises
+    ------
+    vibeam.errors.CaseError
+        ``along = "map"`` without a ``[map]`` table or with other than one frequency; a frequency
+        in Hz for a nondimensional scene (one line each).
+    """
+    from vibeam.errors import CaseError
+    from vibeam.engine.jobs import make_job
+
+    def frequencies(model):
+        try:
+            return spec.frequencies(case.sweep, getattr(model, "natural_frequency_hz", None))
+        except ValueError as e:
+            raise CaseError(str(e)) from None
+
+    if spec.along == "frequency":
+        return [(float(W), job, None) for W in frequencies(job.solver.model)]
+    if case.map is None:
+        raise CaseError(f"case {case.name}: [basins] along = \"map\": the case has no [map] table; "
+                        f"allowed: along = \"frequency\", or add a [map]")
+    r = next(x for x in case.run if x.name == name)
+    out = []
+    for j, v in enumerate(case.map.grid()):
+        jb = make_job(case, r, dict(r.model, **{case.map.parameter: float(v)}), j)
+        W = frequencies(jb.solver.model)
+        if len(W) != 1:
+            raise CaseError(f"case {case.name}: [basins] along = \"map\" needs one forcing frequency "
+                            f"(frequency_hz or Omega), got {len(W)}; allowed: one value")
+        out.append((float(W[0]), jb, float(v)))
+    return out
 
 
 #: attractors at neighbouring frequencies are one when their stroboscopic sets are this many cells
@@ -807,58 +870,65 @@ def basins_variables(r: BasinsResult) -> dict:
     """The netCDF variables of ``/basins/<run>/`` (names and units of the module docstring)."""
     from vibeam.io.netcdf import var
 
-    out = {"Omega": var(("Omega",), r.Omega, "1", "forcing frequency over the natural frequency")}
+    from vibeam.io.netcdf import parameter_units
+
+    D = r.along
+    if r.values is None:
+        out = {"Omega": var(("Omega",), r.Omega, "1", "forcing frequency over the natural frequency")}
+    else:
+        out = {D: var((D,), r.values, parameter_units(D), f"{D} (the [map] parameter)"),
+               "Omega": var((D,), r.Omega, "1", "forcing frequency over the natural frequency", aux=True)}
     if r.frequency_hz is not None:
-        out["frequency_hz"] = var(("Omega",), r.frequency_hz, "Hz", "forcing frequency", aux=True)
+        out["frequency_hz"] = var((D,), r.frequency_hz, "Hz", "forcing frequency", aux=True)
     ax = r.axes
     if r.grid:
         out["state_1"] = var(("state_1",), r.x, ax.units[0], f"initial {ax.names[0]}")
         out["state_2"] = var(("state_2",), r.y, ax.units[1], f"initial {ax.names[1]}")
-        out["basin"] = var(("Omega", "state_2", "state_1"), r.labels.astype(np.int32), "1",
+        out["basin"] = var((D, "state_2", "state_1"), r.labels.astype(np.int32), "1",
                            "attractor reached (-2 unsettled, -3 failed)")
     else:
         out["initial_state_1"] = var(("sample",), r.initial[:, 0], ax.units[0], f"initial {ax.names[0]}")
         out["initial_state_2"] = var(("sample",), r.initial[:, 1], ax.units[1], f"initial {ax.names[1]}")
-        out["label"] = var(("Omega", "sample"), r.labels.astype(np.int32), "1",
+        out["label"] = var((D, "sample"), r.labels.astype(np.int32), "1",
                            "attractor reached (-2 unsettled, -3 failed)")
     a = r.attractors
     nA = r.n_attractors
     out["attractor"] = var(("attractor",), np.arange(nA, dtype=np.int32), "1", "attractor index")
-    out["attractor_type"] = var(("Omega", "attractor"), np.array(a["type"], dtype=object).reshape(len(r.Omega), nA),
+    out["attractor_type"] = var((D, "attractor"), np.array(a["type"], dtype=object).reshape(len(r.Omega), nA),
                                 None, "period, sticking, chaotic, quasi_periodic, non_periodic (empty: absent)")
-    out["attractor_period"] = var(("Omega", "attractor"), a["period"].astype(np.int32), "1",
+    out["attractor_period"] = var((D, "attractor"), a["period"].astype(np.int32), "1",
                                   "period n of a periodic attractor (0: not periodic)")
     mm = r.amplitude_scale_mm
     for k in ("amplitude", "amplitude_min", "amplitude_max"):
         if mm:
-            out[f"attractor_{k}_mm"] = var(("Omega", "attractor"), a[k] * mm, "mm", f"attractor {k} Q at the sensor")
+            out[f"attractor_{k}_mm"] = var((D, "attractor"), a[k] * mm, "mm", f"attractor {k} Q at the sensor")
         else:
-            out[f"attractor_{k}"] = var(("Omega", "attractor"), a[k], "1", f"attractor {k} Q = Delta - min q")
-    out["attractor_stable"] = var(("Omega", "attractor"), a["stable"].astype(np.int8), "1",
+            out[f"attractor_{k}"] = var((D, "attractor"), a[k], "1", f"attractor {k} Q = Delta - min q")
+    out["attractor_stable"] = var((D, "attractor"), a["stable"].astype(np.int8), "1",
                                   "shooting-refined orbit stable (1), unstable (0), not refined (-1)")
-    out["impacts_per_period"] = var(("Omega", "attractor"), a["impacts_per_period"], "1", "impacts per period")
-    out["lyapunov_impacts_per_period"] = var(("Omega", "attractor"), a["lyapunov_impacts_per_period"], "1",
+    out["impacts_per_period"] = var((D, "attractor"), a["impacts_per_period"], "1", "impacts per period")
+    out["lyapunov_impacts_per_period"] = var((D, "attractor"), a["lyapunov_impacts_per_period"], "1",
                                              "impacts per period over the Lyapunov record")
-    out["basin_fraction"] = var(("Omega", "attractor"), a["fraction"], "1", "fraction of the initial states")
-    out["basin_fraction_se"] = var(("Omega", "attractor"), a["fraction_se"], "1",
+    out["basin_fraction"] = var((D, "attractor"), a["fraction"], "1", "fraction of the initial states")
+    out["basin_fraction_se"] = var((D, "attractor"), a["fraction_se"], "1",
                                    "binomial standard error of basin_fraction")
     lam, err = a["lyapunov"], a["lyapunov_error"]
     unit = "1"
     if r.time_scale_s:
         lam, err, unit = lam / r.time_scale_s, err / r.time_scale_s, "1/s"
-    out["lyapunov"] = var(("Omega", "attractor", "exponent"), lam, unit, "Lyapunov spectrum of the stroboscopic map")
-    out["lyapunov_error"] = var(("Omega", "attractor", "exponent"), err, unit, "half the halves' difference")
-    out["attractor_samples"] = var(("Omega", "attractor", "strobe_sample", "coordinate"), a["samples"], "1",
+    out["lyapunov"] = var((D, "attractor", "exponent"), lam, unit, "Lyapunov spectrum of the stroboscopic map")
+    out["lyapunov_error"] = var((D, "attractor", "exponent"), err, unit, "half the halves' difference")
+    out["attractor_samples"] = var((D, "attractor", "strobe_sample", "coordinate"), a["samples"], "1",
                                    "stroboscopic set (model state, NaN padded)")
-    out["attractor_fixed_point"] = var(("Omega", "attractor", "coordinate"), a["fixed_point"], "1",
+    out["attractor_fixed_point"] = var((D, "attractor", "coordinate"), a["fixed_point"], "1",
                                        "shooting-refined fixed point of P^n (NaN: not refined)")
-    out["attractor_message"] = var(("Omega", "attractor"), np.array(a["message"], dtype=object).reshape(len(r.Omega), nA),
+    out["attractor_message"] = var((D, "attractor"), np.array(a["message"], dtype=object).reshape(len(r.Omega), nA),
                                    None, "what the description of the attractor met (solver, shooting)")
     lab = r.labels.reshape(len(r.Omega), -1)
-    out["unsettled_fraction"] = var(("Omega",), np.mean(lab == UNSETTLED, axis=1), "1", "states not settled")
-    out["failed_fraction"] = var(("Omega",), np.mean(lab == FAILED, axis=1), "1", "states the solver failed on")
-    out["periods"] = var(("Omega",), r.periods, "1", "stroboscopic-map iterations spent")
-    out["wall_time_s"] = var(("Omega",), r.wall_time_s, "s", "wall time")
+    out["unsettled_fraction"] = var((D,), np.mean(lab == UNSETTLED, axis=1), "1", "states not settled")
+    out["failed_fraction"] = var((D,), np.mean(lab == FAILED, axis=1), "1", "states the solver failed on")
+    out["periods"] = var((D,), r.periods, "1", "stroboscopic-map iterations spent")
+    out["wall_time_s"] = var((D,), r.wall_time_s, "s", "wall time")
     return out
 
 
@@ -870,7 +940,7 @@ def write_basins(path, results: list, case_name: str = "", case_text: str = ""):
     from vibeam.io.results import replace_group
 
     for r in results:
-        attrs = {"run": r.name, "coordinates": json.dumps(list(r.axes.names)),
+        attrs = {"run": r.name, "coordinates": json.dumps(list(r.axes.names)), "along": r.along,
                  "settings": json.dumps(r.settings, default=json_default), "kind": "grid" if r.grid else "census"}
         def fill(f, r=r, attrs=attrs):
             write_group(f, f"basins/{r.name}", basins_variables(r), attrs)
@@ -950,8 +1020,7 @@ def _basins_figure(r, i, title):
         handles.append(Line2D([], [], color="k", lw=0.8, ls="--", label="stop"))
     ax.set_xlabel(r.axes.labels[0])
     ax.set_ylabel(r.axes.labels[1])
-    f = f"{r.frequency_hz[i]:.4g} Hz" if r.frequency_hz is not None else rf"$\Omega$ = {r.Omega[i]:.4g}"
-    ax.set_title(title or f"basins of attraction at {f} (run {r.name})")
+    ax.set_title(title or f"basins of attraction at {r.slice_text(i)} (run {r.name})")
     if handles:
         legend_outside(fig, handles, loc="outside lower center", ncol=1)
     return fig
@@ -1005,8 +1074,10 @@ def census_figure(r: BasinsResult, title: str = "", branches: dict | None = None
     import matplotlib.pyplot as plt
 
     with context():
-        x = r.frequency_hz if r.frequency_hz is not None else r.Omega
+        x = r.values if r.values is not None else r.frequency_hz if r.frequency_hz is not None else r.Omega
         fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(6.4, 6.0))
+        if r.values is not None:      # continuation branches are drawn over the frequency only
+            branches = None
         fx = (r.frequency_hz[0] / r.Omega[0]) if r.frequency_hz is not None else 1.0
         fy = r.amplitude_scale_mm or 1.0
         for n, p, A, st, run in _branch_lines(branches):
@@ -1032,10 +1103,18 @@ def _census_axes(r, x, a1, a2, title):
     for k in range(amp.shape[1]):
         a2.plot(x, amp[:, k], "o-", ms=3, color=PALETTE[k % len(PALETTE)], label=f"attractor {k}")
     a2.set_ylabel("amplitude Q (mm)" if r.amplitude_scale_mm else f"amplitude Q ({NODIM})")
-    a2.set_xlabel("frequency (Hz)" if r.frequency_hz is not None else rf"$\Omega$ ({NODIM})")
+    if r.values is not None:
+        from vibeam.io.netcdf import parameter_units
+
+        unit = parameter_units(r.parameter)
+        a2.set_xlabel(f"{r.parameter} ({NODIM if unit == '1' else unit})")
+        where = f"{r.parameter} at {r.slice_text(0).split(' at ')[-1]}"
+    else:
+        a2.set_xlabel("frequency (Hz)" if r.frequency_hz is not None else rf"$\Omega$ ({NODIM})")
+        where = "the frequency"
     a1.set_ylabel(f"basin fraction ({NODIM})")
     a1.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    a1.set_title(title or f"attractors along the frequency (run {r.name})")
+    a1.set_title(title or f"attractors along {where} (run {r.name})")
 
 
 def plot_basins(r: BasinsResult, out_dir, title: str = "", branches: dict | None = None) -> list:
@@ -1067,9 +1146,8 @@ def plot_basins(r: BasinsResult, out_dir, title: str = "", branches: dict | None
 def print_basins(r: BasinsResult) -> None:
     """One line per attractor and frequency."""
     for i, W in enumerate(r.Omega):
-        f = f"{r.frequency_hz[i]:.4g} Hz" if r.frequency_hz is not None else f"Omega = {W:.4g}"
         lab = r.labels[i]
-        print(f"basins of run {r.name} at {f}: {lab.size} initial states, {int(r.periods[i])} periods, "
+        print(f"basins of run {r.name} at {r.slice_text(i)}: {lab.size} initial states, {int(r.periods[i])} periods, "
               f"{r.wall_time_s[i]:.2f} s")
         for k in range(r.n_attractors):
             if r.attractors["type"][i][k]:

@@ -275,6 +275,8 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "basin_hits": ("", "decide by the basin cells of earlier states"),
         "record_periods": ("periods", "simulation describing each attractor (type, amplitude)"),
         "lyapunov_periods": ("periods", "length of each attractor's Lyapunov spectrum (0: none)"),
+        "along": ("", "\"frequency\": the census along the forcing frequency; \"map\": at one frequency along "
+                  "the [map] parameter's values"),
     },
     "[quick]": {
         "points": ("", "frequency points of the quick variant"),

@@ -1010,7 +1010,9 @@ class BasinsSpec(_Strict):
     consecutive revisits find an attractor, ``locate_periods`` samples describe it,
     ``max_periods`` bound a trajectory (else ``unsettled``), ``basin_hits`` decides by the basin
     cells of earlier states.  ``record_periods``: the simulation describing each attractor;
-    ``lyapunov_periods``: its Lyapunov spectrum (0: none).
+    ``lyapunov_periods``: its Lyapunov spectrum (0: none).  ``along = "map"``: in a ``[map]``
+    case, the census at one forcing frequency along the mapped parameter's values (each value its
+    own model), instead of along the frequency.
     """
 
     Omega: Annotated[float, Field(gt=0.0)] | Annotated[list[Annotated[float, Field(gt=0.0)]], Field(min_length=1)] | None = None
@@ -1030,6 +1032,7 @@ class BasinsSpec(_Strict):
     basin_hits: bool = True
     record_periods: Annotated[int, Field(ge=8, le=100_000)] = 256
     lyapunov_periods: Annotated[int, Field(ge=0, le=1_000_000)] = 1000
+    along: Literal["frequency", "map"] = "frequency"
 
     @model_validator(mode="after")
     def _one_of(self):
