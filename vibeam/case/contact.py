@@ -67,8 +67,8 @@ class ContactSpec(BaseModel):
         for key in ("exponent", "damping_ratio"):
             if getattr(self, key) is not None and key not in own:
                 laws = " or ".join(f'"{n}"' for n, law in LAWS.items() if key in law.keys)
-                raise ValueError(f"{key} is a key of law = {laws} only (law = \"{self.law}\" takes "
-                                 f"{', '.join(own)} and [model] R)")
+                raise ValueError(f"{key} is a key of law = {laws} only: {key} = {getattr(self, key)!r} with "
+                                 f"law = \"{self.law}\"; allowed keys: law, {', '.join(own)}")
         return self
 
 
