@@ -123,6 +123,7 @@ LAWS = {
     "linear": Law("compliant", True, ("stiffness", "stiffness_n_m", "damping_ratio", "mass_kg"), "kelvin_voigt",
                   "compliant:LinearContact"),
     "hunt_crossley": Law("compliant", True, _HERTZ_KEYS, "hysteretic_hertz", "compliant:HuntCrossley"),
+    "lankarani_nikravesh": Law("compliant", True, _HERTZ_KEYS, "hysteretic_hertz", "compliant:LankaraniNikravesh"),
 }
 IMPLEMENTED_LAWS = tuple(n for n, law in LAWS.items() if law.implemented)
 
