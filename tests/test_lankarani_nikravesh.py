@@ -323,3 +323,22 @@ def test_case_file_validates_and_wrong_keys_are_one_line(tmp_path):
         assert "\n" not in msg and all(s in msg for s in parts), msg
     with pytest.raises(CaseError, match="needs R > 0 .chi = 3 .1 - R\\^2. / 4"):
         parse_case(CASE.replace("R = 0.9", "R = 0.0")).model_spec().build()
+
+
+def test_mapping_fixed_point_is_the_settled_event_orbit():
+    """Method ``mapping`` (the family's entry-to-entry map, registry) on a Lankarani-Nikravesh
+    stop (k_c = 1e4, R = 0.9, Omega = 1.8): its period-1 fixed point is the event kernel's
+    orbit settled over 400 periods -- amplitude, entry speed and the contact record to 1e-8
+    relative, the Hunt-Crossley test's tolerance (tests/test_hc_mapping.py)."""
+    from vibeam.models.sdof_hc_map import HuntCrossleyMappingSolver
+
+    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, contact=LankaraniNikravesh(1e4, 0.9))
+    s = make_solver(m, "mapping")
+    assert isinstance(s, HuntCrossleyMappingSolver)
+    out = s.point(1.8, None, 0, 0)
+    assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
+    se = summarize(CompliantEventSolver(m).point(1.8, None, 400, 8, 64), 0.0)
+    assert se["period"] == 1 and se["status"] == "ok"
+    for key in ("amplitude", "q_max", "impact_velocity", "contact_duration", "contact_force_max",
+                "penetration_max", "energy_per_impact"):
+        assert out[key] == pytest.approx(se[key], rel=1e-8), key
