@@ -17,7 +17,7 @@ from . import _cache
 
 _cache.install()   # before any kernel module: the cache key covers the whole package
 
-from .registry import FIDELITIES, fidelity, resolve  # noqa: E402
+from .registry import FIDELITIES, fidelity, is_compliant, law_family, resolve  # noqa: E402
 
 # public names -> their module (imported on first access, PEP 562)
 _LAZY = {
@@ -67,13 +67,15 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
         If no shooting problem is registered for the model's fidelity, or the parameter is not
         one of the problem's. A scene with two stops is served (the restitution shooting problems
         follow impacts on both). A model with a compliant stop gets its law's shooting problem
-        (registry ``contact_laws[law]["continuation"]``), or this error when the law has none or
-        the scene has two stops and the law's ``two_sided_law_methods`` lack ``"continuation"``.
+        (registry ``contact_laws[family]["continuation"]`` of the law's family), or this error when
+        the family has none or the scene has two stops and the family's ``two_sided_law_methods``
+        lack ``"continuation"``.
     """
     law = getattr(model, "contact_law", "restitution")
-    if law != "restitution":
-        # a compliant law: its shooting problem is the law's "continuation" entry of the registry
-        path = fidelity(model).contact_laws.get(law, {}).get("continuation")
+    if is_compliant(law):
+        # a compliant law: its shooting problem is its family's "continuation" entry of the registry
+        fam = law_family(law)
+        path = fidelity(model).contact_laws.get(fam, {}).get("continuation")
         if path is None:
             raise ValueError(f"continuation is not available for contact law {law!r} of fidelity "
                              f"{model.fidelity!r} (no shooting problem registered); use method = \"event\"")
@@ -81,7 +83,7 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
             raise ValueError("continuation with a restitution stop beside a compliant one is not implemented; "
                              "use method = \"event\"")
         if getattr(model, "two_sided", False) and \
-                "continuation" not in fidelity(model).two_sided_law_methods.get(law, ()):
+                "continuation" not in fidelity(model).two_sided_law_methods.get(fam, ()):
             raise ValueError(f"continuation with contact law {law!r} and a second (lower) stop is not "
                              f"implemented for this law and fidelity; use method = \"event\"")
         return resolve(path)(model, parameter, Omega=Omega)
@@ -100,28 +102,31 @@ def make_solver(model, method: str, **settings):
     ------
     ValueError
         If the method does not exist for the model's fidelity, does not simulate the model's
-        contact law (registry ``contact_laws``), or cannot simulate the model's second stop
+        contact law (registry ``contact_laws`` of its family), or cannot simulate the model's second stop
         (``two_sided_methods`` of the registry).
     """
     fid = fidelity(model)
     law = getattr(model, "contact_law", "restitution")
-    if law != "restitution":   # a compliant law: its own solvers (registry ``contact_laws``)
+    if is_compliant(law):   # a compliant law: its family's solvers (registry ``contact_laws``)
+        fam = law_family(law)
         if getattr(model, "mixed_stops", False) and method not in fid.mixed_stop_methods:
             raise ValueError(f"method {method!r} cannot simulate a restitution stop beside a compliant one; "
                              f"allowed: {', '.join(fid.mixed_stop_methods) or 'none'}")
-        table = {k: v for k, v in fid.contact_laws.get(law, {}).items() if k != "continuation"}
+        table = {k: v for k, v in fid.contact_laws.get(fam, {}).items() if k != "continuation"}
         if method not in table:
             allowed = ", ".join(table) or "none"
             raise ValueError(f"method {method!r} does not simulate contact law {law!r} of fidelity "
                              f"{fid.name!r}; allowed: {allowed}")
-        if getattr(model, "two_sided", False) and method not in fid.two_sided_law_methods.get(law, ()):
+        two = fid.two_sided_law_methods.get(fam, ())
+        if getattr(model, "two_sided", False) and method not in two:
             raise ValueError(f"method {method!r} cannot simulate contact law {law!r} on a second (lower) stop; "
-                             f"allowed with two stops: {', '.join(fid.two_sided_law_methods.get(law, ())) or 'none'}")
+                             f"allowed with two stops: {', '.join(two) or 'none'}")
         lower = getattr(getattr(model, "lower_law", None), "name", law)
+        two_lower = fid.two_sided_law_methods.get(law_family(lower), ())
         if getattr(model, "two_sided", False) and not getattr(model, "mixed_stops", False) and lower != law and \
-                method not in fid.two_sided_law_methods.get(lower, ()):
+                method not in two_lower:
             raise ValueError(f"method {method!r} cannot simulate contact law {lower!r} on the lower stop; allowed: "
-                             f"{', '.join(fid.two_sided_law_methods.get(lower, ())) or 'none'}")
+                             f"{', '.join(two_lower) or 'none'}")
         return resolve(table[method])(model, **settings)
     path = fid.methods.get(method)
     if path is None:

@@ -40,10 +40,10 @@ import numpy as np
 from numba import njit
 
 from .beam_dynamics import BeamImpactModel
-from .contact import EV_ENTRY, EV_EXIT, EV_GAPDOWN, EV_NONE, LAW_HUNT_CROSSLEY, NPAR, OFFSET, SIGN, \
+from .contact import EV_ENTRY, EV_EXIT, EV_GAPDOWN, EV_NONE, LAW_HYSTERETIC_HERTZ, NPAR, OFFSET, SIGN, \
     STIFFNESS, DAMPING, EXPONENT, LAW, Relation, Stop
 from .contact import R as RCOL
-from .hc_contact import contact_scales, hc_contact_step, hunt_crossley_force
+from .hc_contact import contact_scales, hc_contact_step, hysteretic_hertz_force
 from .sdof_compliant import HC_V_FLOOR
 from .roots import rtsafe_update
 from .sdof_event import certify_curvature
@@ -465,7 +465,7 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
     hc = np.zeros(nst, np.bool_)
     foff = np.zeros(nst)
     for k in range(nst):
-        hc[k] = int(stops[k, LAW]) == LAW_HUNT_CROSSLEY
+        hc[k] = int(stops[k, LAW]) == LAW_HYSTERETIC_HERTZ
         for i in range(N):
             wst[k, i] = wrow[i] if stops[k, SIGN] > 0.0 else -wrow[i]
     wn = 0.0
@@ -671,7 +671,7 @@ def beam_compliant_kernel(Om, lamA, VA, WA, ZA, zeA, PU, PS, wrow, srow, bU, bS,
                         # the damping scale v_r of this contact and its step-control scales
                         vr = max(uz, v_floor)
                         contact_scales(vr, stops[side, STIFFNESS], stops[side, EXPONENT], wn, rk)
-                        cs[1] = hunt_crossley_force(gz, uz, stops[side, STIFFNESS], stops[side, EXPONENT],
+                        cs[1] = hysteretic_hertz_force(gz, uz, stops[side, STIFFNESS], stops[side, EXPONENT],
                                                     stops[side, DAMPING], vr)
                     else:
                         cs[1] = stops[side, STIFFNESS] * gz + stops[side, DAMPING] * uz

@@ -39,6 +39,7 @@ from numba import njit
 from .beam_compliant import TWO_PI, CompliantBeamEventSolver, velocity_floor
 from .contact import EV_EXIT
 from .hc_contact import hc_contact_step
+from .registry import family_laws
 from .sdof_compliant import HC_ATOL
 from .trajectory import Trajectory
 
@@ -85,12 +86,12 @@ class HuntCrossleyBeamEventSolver(CompliantBeamEventSolver):
     Raises
     ------
     ValueError
-        If the upper stop's law is not ``hunt_crossley``.
+        If the upper stop's law is not of the hysteretic-Hertz family.
     """
 
     def __init__(self, model, **kwargs):
-        if getattr(model, "contact", None) is None or model.contact.name != "hunt_crossley":
-            raise ValueError("HuntCrossleyBeamEventSolver needs a beam model with law \"hunt_crossley\"")
+        if getattr(model, "contact", None) is None or getattr(model.contact, "family", "") != "hysteretic_hertz":
+            raise ValueError(f"HuntCrossleyBeamEventSolver needs a beam model with {family_laws('hysteretic_hertz')}")
         super().__init__(model, **kwargs)
 
 
@@ -161,10 +162,10 @@ class HuntCrossleyBeamODESolver:
 
     def __init__(self, model, solver: str = "DOP853", rtol: float = 1e-11, atol: float = 1e-13,
                  max_events_per_period: int = 200, max_step=None):
-        if getattr(model, "contact", None) is None or model.contact.name != "hunt_crossley":
-            raise ValueError("HuntCrossleyBeamODESolver needs a beam model with law \"hunt_crossley\"")
+        if getattr(model, "contact", None) is None or getattr(model.contact, "family", "") != "hysteretic_hertz":
+            raise ValueError(f"HuntCrossleyBeamODESolver needs a beam model with {family_laws('hysteretic_hertz')}")
         if getattr(model, "two_sided", False):
-            raise ValueError("law \"hunt_crossley\" on the beam takes one stop")
+            raise ValueError(f"{family_laws('hysteretic_hertz')} on the beam takes one stop with method \"direct\"")
         self.model = model
         self.solver = solver
         self.rtol = float(rtol)

@@ -1,10 +1,11 @@
-"""The Hunt-Crossley contact phase of a linear modal system: force, one Dormand-Prince step, exits.
+"""The hysteretic-Hertz contact phase of a linear modal system: force, one Dormand-Prince step, exits.
 
 A modal system (``eta'' + C eta' + K eta = Gamma F sin(Omega t)``, ``C``, ``K`` diagonal, kernel
 units of :mod:`vibeam.models.beam_compliant`) in contact with a stop of relation ``g = w^T eta -
 Delta`` (``w`` the stop's normal row: the contact row for an upper stop, its negative for a lower
-one) and Hunt-Crossley law ``f = k g^p (1 + chi g' / v_in)`` acting along ``-w``
-(:class:`vibeam.models.compliant.HuntCrossley`; Hunt & Crossley 1975, Flores et al. 2011).  The
+one) and a hysteretic-Hertz law ``f = k g^p (1 + chi g' / v_in)`` acting along ``-w``, ``chi`` a
+number of the law (:class:`vibeam.models.compliant.HystereticHertz`: Hunt-Crossley, Hunt & Crossley
+1975 with ``chi`` of Flores et al. 2011, or another law of the family).  The
 phase has no closed form; it is integrated by Dormand-Prince 5(4) on ``(eta, eta', E)``
 (``E' = f g'``, the work done on the stop) with relative tolerance
 :data:`vibeam.models.sdof_compliant.HC_RTOL` and absolute ones from the isolated contact's
@@ -14,7 +15,7 @@ penetration, the peak force and the sensor's extrema -- are located by bisection
 from the accepted step's start, as the SDOF kernel does
 (:func:`vibeam.models.sdof_compliant.hc_advance`).  The event kernel of
 :mod:`vibeam.models.beam_compliant` calls :func:`hc_contact_step` for every stop whose law is
-Hunt-Crossley, on either side.
+of the hysteretic-Hertz family, on either side.
 """
 from __future__ import annotations
 
@@ -42,7 +43,8 @@ def contact_scales(vr, kc, p, wn, rk):
 
 
 @njit(cache=True)
-def hunt_crossley_force(g, gd, kc, p, chi, vr):
+def hysteretic_hertz_force(g, gd, kc, p, chi, vr):
+    """Force ``k g^p (1 + chi g' / v_r)`` per unit effective mass (0 for ``g <= 0``), kernel units."""
     if g <= 0.0:
         return 0.0
     return kc * g ** p * (1.0 + chi * gd / vr)
@@ -57,7 +59,7 @@ def contact_rhs(s, y, phi0, F, Om, knd, cnd, part, w, DC, kc, p, chi, vr, out):
     for i in range(N):
         g += w[i] * y[i]
         gd += w[i] * y[N + i]
-    f = hunt_crossley_force(g, gd, kc, p, chi, vr)
+    f = hysteretic_hertz_force(g, gd, kc, p, chi, vr)
     fs = F * math.sin(phi0 + Om * s)
     for i in range(N):
         out[i] = y[N + i]
@@ -121,7 +123,7 @@ def event_function(kind, y, s, phi0, F, Om, knd, cnd, part, w, srow, DC, kc, p, 
         return -sd
     if g <= 0.0:
         return 0.0
-    f = hunt_crossley_force(g, gd, kc, p, chi, vr)
+    f = hysteretic_hertz_force(g, gd, kc, p, chi, vr)
     fs = F * math.sin(phi0 + Om * s)
     gdd = 0.0
     for i in range(N):
@@ -231,7 +233,7 @@ def hc_contact_step(h, phi, y0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, 
         if kind == 2:
             cs[2] = max(cs[2], g)
         elif kind == 4:
-            cs[1] = max(cs[1], hunt_crossley_force(g, gd, kc, p, chi, vr))
+            cs[1] = max(cs[1], hysteretic_hertz_force(g, gd, kc, p, chi, vr))
         elif kind == 3:
             ext[0] = min(ext[0], sv)
             ext[2] = min(ext[2], sv)
@@ -244,7 +246,7 @@ def hc_contact_step(h, phi, y0, F, Om, knd, cnd, part, w, srow, DC, kc, p, chi, 
     for i in range(N):
         g += w[i] * y1[i]
         gd += w[i] * y1[N + i]
-    cs[1] = max(cs[1], hunt_crossley_force(g, gd, kc, p, chi, vr))
+    cs[1] = max(cs[1], hysteretic_hertz_force(g, gd, kc, p, chi, vr))
     cs[2] = max(cs[2], g)
     cs[3] += y1[2 * N]
     return s_adv, ev

@@ -75,6 +75,7 @@ from numba import njit
 
 from .contact import DAMPING, EXPONENT, OFFSET, SIGN, STIFFNESS
 from .periodic import Shot
+from .registry import family_laws
 from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_NONE, FREE, mirror_in, mirror_out, advance, envelope,
                              phase_eval, phase_params, upcross)
 from .sdof_flow import transition
@@ -147,13 +148,13 @@ class CompliantSDOFShooting:
 
     def __init__(self, model, parameter: str = "Omega", Omega: float | None = None, max_events: int = 4096):
         law = getattr(model, "contact", None)
-        if law is None or getattr(law, "name", "") != "linear":
-            raise ValueError("CompliantSDOFShooting needs a stop with contact law \"linear\"")
+        if law is None or getattr(law, "family", "") != "kelvin_voigt":
+            raise ValueError(f"CompliantSDOFShooting needs a stop with contact {family_laws('kelvin_voigt')}")
         self.two = bool(getattr(model, "two_sided", False))
         if self.two:
             low = model.stops()[1].law
-            if getattr(low, "name", "") != "linear":
-                raise ValueError("continuation with two stops needs contact law \"linear\" on the lower stop too "
+            if getattr(low, "family", "") != "kelvin_voigt":
+                raise ValueError(f"continuation with two stops needs contact {family_laws('kelvin_voigt')} on the lower stop too "
                                  f"([model.contact_lower] law = {getattr(low, 'name', '?')!r}); use method = \"event\"")
             self.Dl = float(model.Delta_lower)
             self.kcl = float(low.stiffness)
@@ -611,7 +612,7 @@ class CompliantBeamShooting:
         if getattr(model, "contact", None) is None or \
                 any(getattr(st.law, "kind", "") != "compliant" for st in model.stops()):
             raise ValueError("CompliantBeamShooting needs a beam model with compliant stops (contact law "
-                             "\"linear\" or \"hunt_crossley\")")
+                             "of the Kelvin-Voigt or hysteretic-Hertz family)")
         self.two = bool(getattr(model, "two_sided", False))
         if parameter not in BEAM_PARAMETERS:
             raise ValueError(f"parameter {parameter!r} cannot be continued with a compliant stop on the "
@@ -1114,12 +1115,12 @@ class HuntCrossleySDOFShooting(CompliantSDOFShooting):
     def __init__(self, model, parameter: str = "Omega", Omega: float | None = None, max_events: int = 4096,
                  rtol: float = 1e-12):
         law = getattr(model, "contact", None)
-        if law is None or getattr(law, "name", "") != "hunt_crossley":
-            raise ValueError("HuntCrossleySDOFShooting needs a stop with contact law \"hunt_crossley\"")
+        if law is None or getattr(law, "family", "") != "hysteretic_hertz":
+            raise ValueError(f"HuntCrossleySDOFShooting needs a stop with contact {family_laws('hysteretic_hertz')}")
         if getattr(model, "two_sided", False):
             raise ValueError("continuation with a compliant law follows one stop (no second stop)")
         if parameter not in PARAMETERS:
-            raise ValueError(f"parameter {parameter!r} cannot be continued with contact law \"hunt_crossley\"; "
+            raise ValueError(f"parameter {parameter!r} cannot be continued with contact law {law.name!r}; "
                              f"allowed: {', '.join(PARAMETERS)}")
         if parameter != "Omega" and Omega is None:
             raise ValueError(f"continuation in {parameter!r} needs the forcing frequency Omega")

@@ -47,6 +47,7 @@ minima during a contact are not watched.  Parameters ``Omega``, ``base_amplitude
 from __future__ import annotations
 
 from .periodic_compliant import BEAM_PARAMETERS, CompliantBeamShooting
+from .registry import family_laws
 
 
 class HuntCrossleyBeamShooting(CompliantBeamShooting):
@@ -77,10 +78,10 @@ class HuntCrossleyBeamShooting(CompliantBeamShooting):
 
     def __init__(self, model, parameter: str = "Omega", Omega: float | None = None,
                  steps_per_fundamental: int = 16, max_contacts: int = 4096, rtol: float = 1e-12):
-        if getattr(model, "contact", None) is None or getattr(model.contact, "name", "") != "hunt_crossley":
-            raise ValueError("HuntCrossleyBeamShooting needs a beam model with contact law \"hunt_crossley\"")
+        if getattr(model, "contact", None) is None or getattr(model.contact, "family", "") != "hysteretic_hertz":
+            raise ValueError(f"HuntCrossleyBeamShooting needs a beam model with contact {family_laws('hysteretic_hertz')}")
         if parameter not in BEAM_PARAMETERS:
-            raise ValueError(f"parameter {parameter!r} cannot be continued with contact law \"hunt_crossley\" on "
+            raise ValueError(f"parameter {parameter!r} cannot be continued with contact law {model.contact.name!r} on "
                              f"the beam; allowed: {', '.join(BEAM_PARAMETERS)}")
         super().__init__(model, parameter, Omega=Omega, steps_per_fundamental=steps_per_fundamental,
                          max_contacts=max_contacts, rtol=rtol)

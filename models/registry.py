@@ -46,20 +46,24 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     follows orbits with impacts on both stops.  These are the restitution law's; a compliant
     law's are ``two_sided_law_methods``.
 ``two_sided_law_methods``
-    For each compliant law, the methods that simulate it on two stops
-    (``{"linear": ("event", "direct", "continuation")}``; ``"continuation"``: its shooting
-    problem follows both stops); a law not listed serves one stop only.
+    For each family of compliant laws (:data:`FAMILIES`), the methods that simulate its laws on
+    two stops (``{"kelvin_voigt": ("event", "direct", "continuation")}``; ``"continuation"``:
+    its shooting problem follows both stops); a family not listed serves one stop only.
 ``mixed_stop_methods``
     Methods that simulate a compliant upper stop beside a restitution (Newton) lower stop
     (the model's ``mixed_stops``); refused elsewhere by :func:`vibeam.models.make_solver`.
 ``contact_laws``
-    Compliant contact laws (:mod:`vibeam.models.compliant`) and, for each, the methods that
-    simulate it with their solvers (``{"linear": {"event": "module:Class", ...}}``); the
-    model then has ``contact_law`` (its stop's law name, ``"restitution"`` by default).  A
-    method not listed for a law is refused by :func:`vibeam.models.make_solver` (and by
-    case validation, :func:`contact_law_methods`).  The entry ``"continuation"`` names the
-    law's shooting problem (not a solver: :func:`vibeam.models.shooting_problem` builds it as
-    ``cls(model, parameter, Omega=Omega)``); without it the law cannot be continued.
+    Families of compliant contact laws (:data:`FAMILIES`; the laws in :data:`LAWS`, their
+    classes in :mod:`vibeam.models.compliant`) and, for each, the methods that simulate its
+    laws with their solvers (``{"kelvin_voigt": {"event": "module:Class", ...}}``); the
+    model then has ``contact_law`` (its stop's law name, ``"restitution"`` by default) and
+    the law object ``contact`` (its ``family`` and numbers, e.g. ``chi``).  A method not
+    listed for a law's family is refused by :func:`vibeam.models.make_solver` (and by case
+    validation, :func:`contact_law_methods`).  The entry ``"continuation"`` names the
+    family's shooting problem (not a solver: :func:`vibeam.models.shooting_problem` builds it
+    as ``cls(model, parameter, Omega=Omega)``); without it the law cannot be continued.
+    The kernels of a family never ask a law's name: they read its numbers from the law
+    object (a new law of a family then costs one class and one :data:`LAWS` line).
 ``positive_R_methods``
     Methods that need ``R > 0`` (Ivanov's transformation, Eqs. 14-15, divides by
     ``K_N = 0`` at ``R = 0``); case validation refuses such a run with ``R = 0`` (also a
@@ -73,17 +77,91 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 
-#: contact laws of a stop (``[model.contact]`` / ``[model.contact_lower]`` key ``law``):
-#: name -> (kind, implemented, keys of the law's table besides ``law``).  The kernels' codes
-#: and the plan for the compliant laws are in :mod:`vibeam.models.contact`.
-LAWS = {
-    "restitution": ("impulsive", True, ("R",)),
-    "linear": ("compliant", True, ("stiffness", "stiffness_n_m", "damping_ratio", "mass_kg")),
-    "hunt_crossley": ("compliant", True, ("stiffness", "stiffness_n_m", "exponent", "mass_kg")),
+class Law(NamedTuple):
+    """One contact law of a stop (a row of :data:`LAWS`).
+
+    Attributes
+    ----------
+    kind : str
+        ``"impulsive"`` (a velocity map at the contact event) or ``"compliant"`` (a contact phase
+        with its own force; :mod:`vibeam.models.contact`).
+    implemented : bool
+        Whether the kernels simulate it.
+    keys : tuple of str
+        Keys of the law's ``[model.contact]`` table besides ``law``.
+    family : str or None
+        A compliant law's family: the kernels that simulate it and the key of the fidelities'
+        ``contact_laws`` and ``two_sided_law_methods`` tables (:data:`FAMILIES`).
+    cls : str
+        ``"module:Class"`` of the law (relative to ``vibeam.models``); a compliant law's class
+        carries the same ``name`` and ``family`` and builds itself from a case's values
+        (``from_spec``; :mod:`vibeam.models.compliant`).
+    """
+
+    kind: str
+    implemented: bool
+    keys: tuple
+    family: str | None
+    cls: str
+
+
+#: families of compliant laws: one set of kernels each (vibeam.models.contact law codes)
+FAMILIES = {
+    "kelvin_voigt": "F = k_c delta + c_c delta' (the contact phase a linear flow, exact)",
+    "hysteretic_hertz": "F = k_c delta^p (1 + chi delta' / v_in), chi a number of the law (contact phase integrated)",
 }
-IMPLEMENTED_LAWS = tuple(n for n, (_, done, _) in LAWS.items() if done)
+_HERTZ_KEYS = ("stiffness", "stiffness_n_m", "exponent", "mass_kg")
+
+#: contact laws of a stop (``[model.contact]`` / ``[model.contact_lower]`` key ``law``), the one
+#: table of law names: name -> :class:`Law`.  A new law of an existing family is one class in
+#: :mod:`vibeam.models.compliant` and one line here.
+LAWS = {
+    "restitution": Law("impulsive", True, ("R",), None, "contact:Restitution"),
+    "linear": Law("compliant", True, ("stiffness", "stiffness_n_m", "damping_ratio", "mass_kg"), "kelvin_voigt",
+                  "compliant:LinearContact"),
+    "hunt_crossley": Law("compliant", True, _HERTZ_KEYS, "hysteretic_hertz", "compliant:HuntCrossley"),
+    "lankarani_nikravesh": Law("compliant", True, _HERTZ_KEYS, "hysteretic_hertz", "compliant:LankaraniNikravesh"),
+}
+IMPLEMENTED_LAWS = tuple(n for n, law in LAWS.items() if law.implemented)
+
+
+def law_family(law: str) -> str | None:
+    """The family of compliant law ``law`` (None for an impulsive or unknown law)."""
+    entry = LAWS.get(law)
+    return None if entry is None else entry.family
+
+
+def laws_of_family(family: str) -> tuple:
+    """Names of the laws of ``family`` (for messages)."""
+    return tuple(n for n, law in LAWS.items() if law.family == family)
+
+
+def family_laws(family: str) -> str:
+    """``law "a"`` or ``law "a" or "b"``: the laws of ``family`` for messages."""
+    return "law " + " or ".join(f'"{n}"' for n in laws_of_family(family))
+
+
+def is_compliant(law: str) -> bool:
+    """Whether ``law`` names a compliant law (a contact phase; :data:`LAWS`)."""
+    entry = LAWS.get(law)
+    return entry is not None and entry.kind == "compliant"
+
+
+def law_class(law: str):
+    """The class of law ``law`` (loads :mod:`vibeam.models.compliant`).
+
+    Raises
+    ------
+    ValueError
+        If ``law`` is not registered (the message lists the registered ones).
+    """
+    entry = LAWS.get(law)
+    if entry is None:
+        raise ValueError(f"contact law {law!r} is not registered; registered: {', '.join(LAWS)}")
+    return resolve(entry.cls)
 
 
 @dataclass(frozen=True)
@@ -145,14 +223,14 @@ register(Fidelity(
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
     two_sided_methods=("event", "direct", "mapping", "continuation"),
-    two_sided_law_methods={"linear": ("event", "direct", "continuation"), "hunt_crossley": ("event", "direct")},
+    two_sided_law_methods={"kelvin_voigt": ("event", "direct", "continuation"), "hysteretic_hertz": ("event", "direct")},
     mixed_stop_methods=("event", "direct"),
     positive_R_methods=("ivanov",),
-    contact_laws={"linear": {"event": "sdof_compliant:CompliantEventSolver",
+    contact_laws={"kelvin_voigt": {"event": "sdof_compliant:CompliantEventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver",
                              "continuation": "periodic_compliant:CompliantSDOFShooting"},
-                  "hunt_crossley": {"event": "sdof_compliant:CompliantEventSolver",
+                  "hysteretic_hertz": {"event": "sdof_compliant:CompliantEventSolver",
                                     "direct": "sdof_compliant_ode:CompliantDirectSolver",
                                     "mapping": "sdof_hc_map:HuntCrossleyMappingSolver",
                                     "continuation": "periodic_compliant:HuntCrossleySDOFShooting"}},
@@ -171,11 +249,12 @@ register(Fidelity(
     fe_model=True,
     restitution_law_methods=("event", "direct"),
     two_sided_methods=("event", "direct", "continuation"),
-    two_sided_law_methods={"linear": ("event", "direct", "continuation"), "hunt_crossley": ("event", "continuation")},
-    contact_laws={"linear": {"event": "beam_compliant:CompliantBeamEventSolver",
+    two_sided_law_methods={"kelvin_voigt": ("event", "direct", "continuation"),
+                           "hysteretic_hertz": ("event", "continuation")},
+    contact_laws={"kelvin_voigt": {"event": "beam_compliant:CompliantBeamEventSolver",
                              "direct": "beam_compliant:CompliantBeamODESolver",
                              "continuation": "periodic_compliant:CompliantBeamShooting"},
-                  "hunt_crossley": {"event": "beam_hc:HuntCrossleyBeamEventSolver",
+                  "hysteretic_hertz": {"event": "beam_hc:HuntCrossleyBeamEventSolver",
                                     "direct": "beam_hc:HuntCrossleyBeamODESolver",
                                     "continuation": "periodic_hc_beam:HuntCrossleyBeamShooting"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
@@ -197,12 +276,13 @@ def fidelity(name_or_model) -> Fidelity:
 
 
 def contact_law_methods(name: str, law: str) -> tuple:
-    """Methods of fidelity ``name`` that simulate contact law ``law`` (all of them for the
-    default ``"restitution"``; none for a law the fidelity does not register)."""
+    """Methods of fidelity ``name`` that simulate contact law ``law`` (all of them for an
+    impulsive law; for a compliant one those of its family, none for a family the fidelity
+    does not register)."""
     fid = fidelity(name)
-    if law == "restitution":
+    if not is_compliant(law):
         return fid.method_names
-    return tuple(fid.contact_laws.get(law, {}))
+    return tuple(fid.contact_laws.get(law_family(law), {}))
 
 
 def two_sided_methods(name: str, law: str = "restitution") -> tuple:
@@ -210,9 +290,9 @@ def two_sided_methods(name: str, law: str = "restitution") -> tuple:
     ``law`` (``two_sided_methods`` for the restitution law, ``two_sided_law_methods[law]`` for a
     compliant one; empty when the law serves one stop only)."""
     fid = fidelity(name)
-    if law == "restitution":
+    if not is_compliant(law):
         return fid.two_sided_methods
-    return tuple(fid.two_sided_law_methods.get(law, ()))
+    return tuple(fid.two_sided_law_methods.get(law_family(law), ()))
 
 
 def with_capability(flag: str) -> list[str]:

@@ -93,8 +93,8 @@ class SDOF:
 
     @property
     def contact_law(self) -> str:
-        """Name of the stop's law (``"restitution"``, ``"linear"``, ...; the fidelity
-        registry's ``contact_laws`` key)."""
+        """Name of the stop's law (a key of :data:`vibeam.models.registry.LAWS`; the registry
+        finds the law's family, the key of the fidelity's ``contact_laws``)."""
         return "restitution" if self.contact is None else self.contact.name
 
     @property

@@ -44,7 +44,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .contact import DAMPING, EXPONENT, LAW, LAW_HUNT_CROSSLEY, LAW_RESTITUTION, OFFSET, R, STIFFNESS
+from .contact import DAMPING, EXPONENT, LAW, LAW_HYSTERETIC_HERTZ, LAW_RESTITUTION, OFFSET, R, STIFFNESS
 from .contact_policy import REBOUND, impact_outcome
 from .dormand_prince import DP_A, DP_C, DP_E
 from .roots import rtsafe_update
@@ -670,8 +670,8 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
     Parameters
     ----------
     stops : ndarray, shape (n_stops, NPAR)
-        ``n_stops`` 1 or 2 rows (:func:`vibeam.models.contact.pack`), each ``linear`` or
-        ``hunt_crossley``; row 1 the lower stop (``OFFSET`` = Delta_lower > -Delta).
+        ``n_stops`` 1 or 2 rows (:func:`vibeam.models.contact.pack`), each Kelvin-Voigt or
+        hysteretic Hertz (its ``chi`` in the ``DAMPING`` column); row 1 the lower stop (``OFFSET`` = Delta_lower > -Delta).
     phase_init : int
         0 free, 1 in contact with the upper stop, 2 with the lower one.
     imp_k : ndarray of int64, shape (cap,)
@@ -692,7 +692,7 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
     Delta = stops[0, OFFSET]
     kc = stops[0, STIFFNESS]
     cc = stops[0, DAMPING]
-    hunt = int(stops[0, LAW]) == LAW_HUNT_CROSSLEY
+    hunt = int(stops[0, LAW]) == LAW_HYSTERETIC_HERTZ
     pexp = stops[0, EXPONENT]
     chi = cc if hunt else 0.0
     if hunt:
@@ -705,7 +705,7 @@ def compliant_kernel_stops(beta, B, stops, Omega, q_init, v_init, phase_init, n_
     DeltaL = stops[ls, OFFSET]
     kcl = stops[ls, STIFFNESS]
     ccl = stops[ls, DAMPING]
-    huntl = int(stops[ls, LAW]) == LAW_HUNT_CROSSLEY
+    huntl = int(stops[ls, LAW]) == LAW_HYSTERETIC_HERTZ
     pexpl = stops[ls, EXPONENT]
     chil = ccl if huntl else 0.0
     if huntl:
@@ -984,15 +984,16 @@ def isolated_contact(kc, cc, v_in, d):
 
 
 class CompliantEventSolver:
-    """Method ``event`` of an SDOF scene with a compliant stop (``law = "linear"``).
+    """Method ``event`` of an SDOF scene with a compliant stop (any law of the Kelvin-Voigt or
+    hysteretic-Hertz family; a lower stop of either family or Newton's).
 
-    The exact event-driven solver of this module (closed-form flow in both phases, certified
-    entry and exit).  Same interface as :class:`vibeam.models.sdof.EventSolver`.
+    The event-driven solver of this module (closed-form free flow and Kelvin-Voigt contact
+    phase, a hysteretic-Hertz one by DOPRI5; certified entry and exit).  Same interface as :class:`vibeam.models.sdof.EventSolver`.
 
     Parameters
     ----------
     model : vibeam.models.SDOF
-        The oscillator; ``model.contact`` a :class:`vibeam.models.compliant.LinearContact`.
+        The oscillator; ``model.contact`` a compliant law of :mod:`vibeam.models.compliant`.
     transient_samples : int, optional
         Grid points per forcing period during the transient (efficiency only).
     max_impacts_per_period : int, optional
@@ -1019,12 +1020,12 @@ class CompliantEventSolver:
         from .contact import LAW_LINEAR, pack
 
         stops = model.stops()
-        compliant = (LAW_LINEAR, LAW_HUNT_CROSSLEY)
+        compliant = (LAW_LINEAR, LAW_HYSTERETIC_HERTZ)
         # the upper stop compliant; a lower stop compliant or Newton's (a restitution stop beside it)
         if not 1 <= len(stops) <= 2 or getattr(stops[0].law, "code", -1) not in compliant or (
                 len(stops) == 2 and getattr(stops[1].law, "code", -1) not in compliant + (LAW_RESTITUTION,)):
-            raise ValueError("CompliantEventSolver needs an upper stop with law \"linear\" or \"hunt_crossley\" "
-                             "and a lower stop with one of those or \"restitution\"")
+            raise ValueError("CompliantEventSolver needs an upper stop with a compliant law (Kelvin-Voigt or "
+                             "hysteretic Hertz) and a lower stop with one of those or Newton's law")
         self.model = model
         self.transient_samples = int(transient_samples)
         self.max_impacts_per_period = int(max_impacts_per_period)

@@ -30,6 +30,7 @@ import numpy as np
 from .sdof_compliant import (CONTACT, EV_ENTRY, EV_EXIT, EV_GAPDOWN, FREE, TWO_PI, advance, phase_eval,
                              phase_params)
 from .sdof_flow import transition
+from .registry import family_laws
 
 
 def phase_transition(s, pp):
@@ -67,8 +68,8 @@ class CompliantMappingSolver:
                  form: str = "full", guess: str = "event", samples_per_flight_period: int = 256):
         if int(n) != n or not 1 <= n <= 4:
             raise ValueError(f"n must be an integer in 1..4, got {n!r}")
-        if getattr(model, "contact", None) is None or model.contact.name != "linear":
-            raise ValueError("CompliantMappingSolver needs law \"linear\"")
+        if getattr(model, "contact", None) is None or model.contact.family != "kelvin_voigt":
+            raise ValueError(f"CompliantMappingSolver needs {family_laws('kelvin_voigt')}")
         self.model = model
         self.n = int(n)
         self.guess_periods = int(guess_periods)

@@ -9,9 +9,9 @@ The independent oracle of :mod:`vibeam.models.sdof_compliant` (shares none of it
   free flight below the stop;
 * contact: ``f = 0`` falling -> free (the force-zero separation),
 
-with ``delta = q - Delta`` and ``f = k_c delta + c_c delta'`` (``law = "linear"``) or
-``f = k_c delta^p (1 + chi delta' / v_in)`` (``law = "hunt_crossley"``, ``v_in`` the entry
-velocity).  Per contact the duration comes from the event times, the energy lost from
+with ``delta = q - Delta`` and ``f = k_c delta + c_c delta'`` (a Kelvin-Voigt law) or
+``f = k_c delta^p (1 + chi delta' / v_in)`` (a hysteretic-Hertz law, ``chi`` the law's number,
+``v_in`` the entry velocity).  Per contact the duration comes from the event times, the energy lost from
 ``E``, the peak force and largest penetration from the dense output (maximised by
 :func:`scipy.optimize.minimize_scalar` around the best of 64 samples per integrator step).
 """
@@ -83,7 +83,7 @@ class CompliantDirectSolver:
         """Force of stop ``k`` on ``(q, q')`` (penetration ``s q - D``, rate ``s q'``)."""
         sg, D, law = self._laws()[k]
         kc = law.stiffness
-        if law.name == "linear":
+        if law.linear_phase:
             c = law.damping
             return lambda q, v: kc * (sg * q - D) + c * (sg * v)
         p, cv = law.exponent, law.chi / max(v_in, 1e-300)
@@ -116,7 +116,7 @@ class CompliantDirectSolver:
             mode, ks = "contact", 1
         entries, contacts, contact_k = [], [], []
         impacts_at = []   # (t, q, sign) of the restitution impacts: extremes at the stop (no v = 0 there)
-        # Hunt-Crossley: entry velocities floored at 1e-2 Omega B (vibeam.models.compliant)
+        # hysteretic Hertz: entry velocities floored at 1e-2 Omega B (vibeam.models.compliant)
         v_floor = 1e-2 * Omega * m.B if m.B > 0.0 else 1e-6
         v_in = max(laws[ks][0] * v, v_floor)
         if mode == "free":
@@ -153,7 +153,7 @@ class CompliantDirectSolver:
                 def rhs(tt, yy, force=force, sg=sg):
                     f = force(yy[0], yy[1])
                     return [yy[1], Fa * math.sin(Omega * tt) - b2 * yy[1] - yy[0] - sg * f, f * (sg * yy[1])]
-                if law.name == "linear":
+                if law.linear_phase:
                     events = [_ev(lambda tt, yy, force=force: force(yy[0], yy[1]), -1.0)]
                 else:   # the force k delta^p (1 + chi delta' / v_in) returns to 0 with either factor
                     cv = law.chi / v_in
@@ -165,7 +165,7 @@ class CompliantDirectSolver:
                 events = []
                 for k, (sg, D, law) in enumerate(laws):
                     if sg * y[0] - D > 0.0 and not _impulsive(law):
-                        if law.name == "linear":
+                        if law.linear_phase:
                             fk = self._force(1.0, k)
                         else:
                             cv = law.chi / (v_in if k == ks else v_floor)
@@ -181,7 +181,7 @@ class CompliantDirectSolver:
                 opts["max_step"] = self.max_step
             elif mode == "contact":
                 law = laws[ks][2]
-                opts["max_step"] = 0.1 * TWO_PI / math.sqrt(1.0 + law.stiffness) if law.name == "linear" \
+                opts["max_step"] = 0.1 * TWO_PI / math.sqrt(1.0 + law.stiffness) if law.linear_phase \
                     else 0.05 * ((law.exponent + 1) * v_in ** 2 / (2 * law.stiffness)) ** (
                         1 / (law.exponent + 1)) / v_in
             sol = solve_ivp(rhs, (t, t_end), y, events=events, **opts)

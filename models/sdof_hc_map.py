@@ -36,6 +36,7 @@ from scipy.integrate import solve_ivp
 
 from .sdof_compliant import EV_ENTRY, EV_GAPDOWN, FREE, HC_V_FLOOR, TWO_PI, advance, phase_eval, phase_params
 from .sdof_compliant_map import phase_field, phase_transition
+from .registry import family_laws
 
 #: tolerance of the contact phase (DOP853 with its variational equations)
 RTOL = 1e-12
@@ -68,8 +69,8 @@ class HuntCrossleyMappingSolver:
                  form: str = "full", guess: str = "event", samples_per_flight_period: int = 256):
         if int(n) != n or not 1 <= n <= 4:
             raise ValueError(f"n must be an integer in 1..4, got {n!r}")
-        if getattr(model, "contact", None) is None or model.contact.name != "hunt_crossley":
-            raise ValueError("HuntCrossleyMappingSolver needs law \"hunt_crossley\"")
+        if getattr(model, "contact", None) is None or getattr(model.contact, "family", "") != "hysteretic_hertz":
+            raise ValueError(f"HuntCrossleyMappingSolver needs {family_laws('hysteretic_hertz')}")
         self.model = model
         self.n = int(n)
         self.guess_periods = int(guess_periods)

@@ -281,3 +281,94 @@ def test_the_framework_is_in_layer_subpackages():
     assert top == ["__init__", "api", "bench", "cli", "errors", "runner", "testing", "version"], top
     subs = sorted(p.parent.name for p in (ROOT / "vibeam").glob("*/__init__.py"))
     assert subs == ["analysis", "case", "engine", "identify", "io", "plots"], subs
+
+
+# ----------------------------------------------------------------------------- the contact laws
+#: compliant law names that are also ordinary words of the project ("linear": a continuation start,
+#: a fit's loss); for these the check looks at branches and tables only, not at every string
+SHARED_WORDS = {"linear"}
+#: the two modules that may name a law: its class and the one table of laws
+LAW_MODULES = ("models/compliant.py", "models/registry.py")
+
+
+def law_name_uses(tree, names, shared=frozenset()) -> list:
+    """``(line, what)`` of every place in ``tree`` that names one of the law ``names``: any string
+    constant containing it (docstrings and messages included), and for the ``shared`` ones
+    (ordinary words too) a comparison of a law attribute (``.name``, ``.law``, ``contact_law``,
+    ``law``) with it, the annotation of such an attribute (``law: Literal[...]``) or a dict key
+    equal to it."""
+    out = []
+    lawish = {"name", "law", "contact_law"}
+
+    def is_law_expr(e):
+        return (isinstance(e, ast.Attribute) and e.attr in lawish) or (isinstance(e, ast.Name) and e.id in lawish) \
+            or (isinstance(e, ast.Call) and isinstance(e.func, ast.Name) and e.func.id == "getattr"
+                and len(e.args) > 1 and isinstance(e.args[1], ast.Constant) and e.args[1].value in lawish)
+
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str):
+            out += [(node.lineno, f"string names {n!r}") for n in names if n not in shared and n in node.value]
+        elif isinstance(node, ast.Compare):
+            ops = [node.left, *node.comparators]
+            consts = {o.value for o in ops if isinstance(o, ast.Constant) and isinstance(o.value, str)}
+            if any(is_law_expr(o) for o in ops):
+                out += [(node.lineno, f"branch on law {n!r}") for n in names if n in consts]
+        elif isinstance(node, ast.AnnAssign) and is_law_expr(node.target):
+            vals = {c.value for c in ast.walk(node.annotation) if isinstance(c, ast.Constant)}
+            out += [(node.lineno, f"Literal of law {n!r}") for n in names if n in vals]
+        elif isinstance(node, ast.Dict):
+            keys = {k.value for k in node.keys if isinstance(k, ast.Constant)}
+            out += [(node.lineno, f"table keyed by law {n!r}") for n in names if n in keys]
+    return out
+
+
+def test_no_module_but_the_laws_and_the_registry_names_a_compliant_law():
+    """A compliant law is known by its family and class attributes everywhere else (issue 20):
+    a new law of a family is one class in models/compliant.py and one line of registry.LAWS."""
+    from vibeam.models.registry import LAWS
+
+    names = [n for n, law in LAWS.items() if law.kind == "compliant"]
+    assert "hunt_crossley" in names and "linear" in names
+    bad = []
+    for folder in ("vibeam", "models", "reductions"):
+        for p in sorted((ROOT / folder).rglob("*.py")):
+            rel = p.relative_to(ROOT).as_posix()
+            if rel in LAW_MODULES:
+                continue
+            bad += [f"{rel}:{line}: {what}" for line, what in
+                    law_name_uses(ast.parse(p.read_text(), rel), names, SHARED_WORDS)]
+    assert not bad, bad
+
+
+def test_the_law_name_check_can_fail():
+    src = '''
+"""Uses law "hunt_crossley"."""
+if law.name == "linear":
+    pass
+if getattr(m, "contact_law", "") != "linear":
+    pass
+law: Literal["restitution", "linear"] = "linear"
+start: Literal["sweep", "linear"] = "linear"
+table = {"linear": 1}
+starts = ("linear",)
+if kind == "linear":
+    pass
+'''
+    found = law_name_uses(ast.parse(src), ["linear", "hunt_crossley"], {"linear"})
+    assert [w for _, w in found].count("branch on law 'linear'") == 2
+    assert {w for _, w in found} == {"string names 'hunt_crossley'", "branch on law 'linear'",
+                                     "Literal of law 'linear'", "table keyed by law 'linear'"}
+    assert len(found) == 5
+
+
+def test_every_law_class_carries_its_registry_entry():
+    """LAWS is the one table: each implemented law's class has the same name, kind and family."""
+    from vibeam.models.registry import FIDELITIES, LAWS, law_class
+
+    for n, law in LAWS.items():
+        cls = law_class(n)
+        assert cls.kind == law.kind, n
+        if law.kind == "compliant":
+            assert cls.name == n and cls.family == law.family, n
+            for f in FIDELITIES.values():
+                assert set(f.contact_laws) | set(f.two_sided_law_methods) <= {x.family for x in LAWS.values()}

@@ -5,22 +5,25 @@
     [model]
     R = 0.9                      # the target restitution of a compliant law
     [model.contact]
-    law = "linear"               # "restitution" (default: Newton's law, paper Eq. 2) | "linear"
+    law = "linear"               # "restitution" (default: Newton's law, paper Eq. 2) or a compliant law
     stiffness = 1e4              # k_c / k of the oscillator (nondimensional scenes)
-    # stiffness_n_m = 2e5        # physical SDOF scenes: N/m (hunt_crossley: N/m^p), with mass_kg
-    # exponent = 1.5             # hunt_crossley: F = k delta^p (1 + chi delta' / v_in)
-    # damping_ratio = 0.05       # else the dashpot gives an isolated impact the model's R
+    # stiffness_n_m = 2e5        # physical SDOF scenes: N/m (N/m^p for a law with an exponent), with mass_kg
+    # exponent = 1.5             # hysteretic-Hertz laws: F = k delta^p (1 + chi delta' / v_in)
+    # damping_ratio = 0.05       # Kelvin-Voigt: else the dashpot gives an isolated impact the model's R
     # mass_kg = 0.2              # physical SDOF: effective mass (forces in N, stiffness_n_m)
 
-The law itself lives in :mod:`vibeam.models.compliant`; which fidelities and methods
-simulate it in the fidelity registry (``contact_laws``, :mod:`vibeam.models.registry`).
+The laws, their keys and their classes are the one table :data:`vibeam.models.registry.LAWS`
+(the classes in :mod:`vibeam.models.compliant`); which fidelities and methods simulate a law's
+family is in the fidelity registry (``contact_laws``).  Nothing here names a law.
 """
 from __future__ import annotations
 
 import math
-from typing import Annotated, Literal
+from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from vibeam.models.registry import IMPLEMENTED_LAWS, LAWS, is_compliant, law_class
 
 
 class ContactSpec(BaseModel):
@@ -31,7 +34,7 @@ class ContactSpec(BaseModel):
 
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True, allow_inf_nan=False)
 
-    law: Literal["restitution", "linear", "hunt_crossley"] = "restitution"
+    law: str = "restitution"
     R: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
     stiffness: Annotated[float, Field(gt=0.0)] | None = None
     stiffness_n_m: Annotated[float, Field(gt=0.0)] | None = None
@@ -39,13 +42,21 @@ class ContactSpec(BaseModel):
     exponent: Annotated[float, Field(gt=0.0)] | None = None
     mass_kg: Annotated[float, Field(gt=0.0)] | None = None
 
+    @field_validator("law")
+    @classmethod
+    def _known(cls, v):
+        if v not in IMPLEMENTED_LAWS:
+            raise ValueError(f"not a contact law; allowed: {', '.join(IMPLEMENTED_LAWS)}")
+        return v
+
     @model_validator(mode="after")
     def _consistent(self):
-        if self.law == "restitution":
+        own = LAWS[self.law].keys
+        if not is_compliant(self.law):
             given = [k for k in ("stiffness", "stiffness_n_m", "damping_ratio", "exponent")
-                     if getattr(self, k) is not None]
+                     if getattr(self, k) is not None and k not in own]
             if given:
-                raise ValueError(f"law = \"restitution\" takes no {', '.join(given)} (it uses [model] R)")
+                raise ValueError(f"law = \"{self.law}\" takes no {', '.join(given)} (it uses [model] R)")
             return self
         if self.R is not None:
             raise ValueError(f"R is a key of law = \"restitution\" (a lower stop's own R); law = \"{self.law}\" "
@@ -53,10 +64,11 @@ class ContactSpec(BaseModel):
         if (self.stiffness is None) == (self.stiffness_n_m is None):
             raise ValueError(f"law = \"{self.law}\" needs exactly one of stiffness (nondimensional, ratio to the "
                              f"oscillator's) or stiffness_n_m (N/m, physical scenes)")
-        if self.exponent is not None and self.law != "hunt_crossley":
-            raise ValueError("exponent is a key of law = \"hunt_crossley\" only")
-        if self.damping_ratio is not None and self.law != "linear":
-            raise ValueError("damping_ratio is a key of law = \"linear\" only (hunt_crossley takes R)")
+        for key in ("exponent", "damping_ratio"):
+            if getattr(self, key) is not None and key not in own:
+                laws = " or ".join(f'"{n}"' for n, law in LAWS.items() if key in law.keys)
+                raise ValueError(f"{key} is a key of law = {laws} only: {key} = {getattr(self, key)!r} with "
+                                 f"law = \"{self.law}\"; allowed keys: law, {', '.join(own)}")
         return self
 
 
@@ -70,13 +82,10 @@ def sdof_law(contact: ContactSpec | None, R: float, physical: bool, natural_freq
         Naming the key: ``stiffness_n_m`` without ``mass_kg`` or in a nondimensional scene,
         ``stiffness`` with ... , a target R out of the law's range, a law not implemented.
     """
-    if contact is None or contact.law == "restitution":
+    if contact is None or not is_compliant(contact.law):
         return None
-    from vibeam.models.compliant import LinearContact
-
-    from vibeam.models.compliant import HuntCrossley
-
-    p = 1.0 if contact.law == "linear" else (1.5 if contact.exponent is None else contact.exponent)
+    cls = law_class(contact.law)
+    p = cls.force_exponent(contact.exponent)
     if contact.stiffness_n_m is not None:
         if not physical:
             raise ValueError("contact.stiffness_n_m needs a physical scene; use contact.stiffness (ratio) here")
@@ -87,37 +96,24 @@ def sdof_law(contact: ContactSpec | None, R: float, physical: bool, natural_freq
         k = contact.stiffness_n_m * length_m ** (p - 1.0) / (contact.mass_kg * (2 * math.pi * natural_frequency_hz) ** 2)
     else:
         k = contact.stiffness
-    if contact.law == "linear":
-        if contact.damping_ratio is not None:
-            return LinearContact.from_damping_ratio(k, contact.damping_ratio)
-        return LinearContact.from_restitution(k, R)
-    if not R > 0.0:
-        raise ValueError("law = \"hunt_crossley\" needs R > 0 (chi = 8 (1 - R) / (5 R), Flores et al. 2011)")
-    return HuntCrossley(k, float(R), p)
+    return cls.from_spec(k, R, exponent=contact.exponent, damping_ratio=contact.damping_ratio)
 
 
 def beam_law(contact: ContactSpec | None, R: float):
     """The compliant law of a beam scene (``stiffness_n_m`` at the contact point: N/m, N/m^p
-    for ``hunt_crossley``), or None.
+    for a law with an exponent ``p``), or None.
 
     Raises
     ------
     ValueError
         ``stiffness`` (a ratio) given, ``mass_kg`` given, a target R out of range.
     """
-    if contact is None or contact.law == "restitution":
+    if contact is None or not is_compliant(contact.law):
         return None
-    from vibeam.models.compliant import HuntCrossley, LinearContact
-
     if contact.stiffness_n_m is None:
         raise ValueError("beam scenes give the stop's stiffness as contact.stiffness_n_m (N/m at the contact point)")
     if contact.mass_kg is not None:
         raise ValueError("contact.mass_kg is for physical SDOF scenes; the beam's effective mass is 1 / |w|^2")
-    if contact.law == "hunt_crossley":
-        # F = k_c delta^p (1 + chi delta' / v_in), k_c in N/m^p; chi from R (Flores et al. 2011)
-        if not R > 0.0:
-            raise ValueError("law = \"hunt_crossley\" needs R > 0 (chi = 8 (1 - R) / (5 R), Flores et al. 2011)")
-        return HuntCrossley(contact.stiffness_n_m, float(R), 1.5 if contact.exponent is None else contact.exponent)
-    if contact.damping_ratio is not None:
-        return LinearContact.from_damping_ratio(contact.stiffness_n_m, contact.damping_ratio)
-    return LinearContact.from_restitution(contact.stiffness_n_m, R)
+    # F = k_c delta^p (...), k_c in N/m^p at the contact point (the law's from_spec: damping from R)
+    return law_class(contact.law).from_spec(contact.stiffness_n_m, R, exponent=contact.exponent,
+                                            damping_ratio=contact.damping_ratio)

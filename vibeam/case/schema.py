@@ -35,6 +35,7 @@ from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
 from vibeam.case.contact import ContactSpec  # [model.contact] (issue 13)
+from vibeam.models.registry import is_compliant
 from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
@@ -99,7 +100,7 @@ def _check_stops(spec, lower_keys: tuple, gap_key: str, mixed: bool = False) -> 
     if spec.contact_lower is not None and not lower:
         raise ValueError(f"[model.contact_lower] needs a lower stop: give one of {list(lower_keys)}")
     compliant = [k for k in ("contact", "contact_lower")
-                 if getattr(spec, k) is not None and getattr(spec, k).law != "restitution"]
+                 if getattr(spec, k) is not None and is_compliant(getattr(spec, k).law)]
     if mixed and compliant == ["contact"] and spec.contact_lower is not None:
         return   # a compliant upper stop beside a restitution lower one (models.registry mixed_stop_methods)
     if compliant and spec.contact_lower is not None and len(compliant) == 1:
@@ -116,7 +117,7 @@ def lower_law_spec(spec):
     """``[model.contact_lower]`` of a compliant two-sided scene with the upper table's
     ``mass_kg`` when it gives none (the oscillator's effective mass is one); None without it."""
     lo = spec.contact_lower
-    if lo is None or lo.law == "restitution":
+    if lo is None or not is_compliant(lo.law):
         return None
     if lo.mass_kg is None and spec.contact is not None and spec.contact.mass_kg is not None:
         lo = lo.model_copy(update={"mass_kg": spec.contact.mass_kg})
@@ -216,8 +217,8 @@ class SDOFModelSpec(_Strict):
     @property
     def mixed_stops(self) -> bool:
         """A compliant ``[model.contact]`` beside a restitution ``[model.contact_lower]``."""
-        return (self.contact is not None and self.contact.law != "restitution"
-                and self.contact_lower is not None and self.contact_lower.law == "restitution")
+        return (self.contact is not None and is_compliant(self.contact.law)
+                and self.contact_lower is not None and not is_compliant(self.contact_lower.law))
 
     # continuation parameters: key -> (native key of the SDOF model, factor d native / d key)
     def native_parameter(self, key: str):
@@ -230,7 +231,7 @@ class SDOFModelSpec(_Strict):
                      "R": ("R", 1.0)}
         else:
             table = {k: (k, 1.0) for k in ("Omega", "B", "Delta", "R", "beta")}
-        if self.contact is not None and self.contact.law != "restitution":
+        if self.contact is not None and is_compliant(self.contact.law):
             # a compliant stop: R and beta set the contact phase's flow, which the law's shooting
             # problem does not differentiate (vibeam.models.periodic_compliant)
             table = {k: v for k, v in table.items() if v[0] in ("Omega", "B", "Delta")}
@@ -522,7 +523,7 @@ class BeamModelSpec(_Strict):
         gap_key = "gap_mm" if self.gap_mm is not None else "contact_gap_mm"
         allowed = ("Omega",) + tuple(k for k in self._CONTINUABLE
                                      if k == gap_key or k not in ("gap_mm", "contact_gap_mm"))
-        if self.contact is not None and self.contact.law != "restitution":
+        if self.contact is not None and is_compliant(self.contact.law):
             # a compliant stop: the law's shooting problem differentiates the forced response only
             # (Omega, base_amplitude_m; vibeam.models.periodic_compliant)
             allowed = ("Omega", "voltage", "gain")
@@ -1430,7 +1431,7 @@ def _check_contact_method(spec, i: int, r) -> None:
 
     contact = getattr(spec, "contact", None)
     law = "restitution" if contact is None else contact.law
-    if law == "restitution":
+    if not is_compliant(law):
         return
     allowed = contact_law_methods(spec.fidelity, law)
     if r.method not in allowed:
@@ -1503,7 +1504,7 @@ def _check_two_sided(case: Case, i: int, r) -> None:
     contact = getattr(spec, "contact", None)
     law = "restitution" if contact is None else contact.law
     allowed = two_sided_methods(spec.fidelity, law)
-    what = "" if law == "restitution" else f" with contact.law = \"{law}\""
+    what = "" if not is_compliant(law) else f" with contact.law = \"{law}\""
     lo = lower_law_spec(spec) if contact is not None else None
     if getattr(spec, "mixed_stops", False):
         # a restitution stop beside a compliant one: the registry's mixed_stop_methods

@@ -334,13 +334,13 @@ def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
     vibeam.case.schema.CaseError
         If an effect does not make sense for the fidelity or method.
     """
-    from vibeam.models.registry import fidelity, with_capability
+    from vibeam.models.registry import fidelity, is_compliant, with_capability
 
     active = [k for k in effects.active() if k in HANDLED]
     if not active:
         return solver
     law = getattr(model, "contact_law", "restitution")
-    if law != "restitution":   # the effect models are built for Newton's law (issue 13: not yet)
+    if is_compliant(law):   # the effect models are built for Newton's law (issue 13: not yet)
         raise _err(f"effects.{active[0]}: not available with contact.law = \"{law}\" yet; use law = \"restitution\"")
     caps = fidelity(spec.fidelity)
     method = solver.name
