@@ -19,6 +19,7 @@ from pydantic import BaseModel
 from vibeam.case import schema
 from vibeam.case.contact import ContactSpec
 from vibeam.io.outdir import write_text_file
+from vibeam.models.registry import IMPLEMENTED_LAWS
 
 #: the tables of a case file in reading order: (heading, pydantic model, note)
 TABLES = (
@@ -135,7 +136,8 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "f2_hz": ("Hz", "measured second bending frequency (fits the rotary inertia J)"),
     },
     "[model.contact], [model.contact_lower]": {
-        "law": ("", "\"restitution\": Newton's law (Eq. 2); a compliant law: a spring-dashpot contact phase"),
+        "law": ("", "one of " + ", ".join(f'"{n}"' for n in IMPLEMENTED_LAWS) + ": \"restitution\" is Newton's "
+                "law (Eq. 2), the others compliant laws with a contact phase (vibeam.models.compliant)"),
         "R": ("1", "a lower restitution stop's own R (default [model] R)"),
         "stiffness": ("1", "contact stiffness k_c over the oscillator's stiffness (nondimensional scenes)"),
         "stiffness_n_m": ("N/m (N/m^p)", "contact stiffness (physical scenes; Hertz-type laws: N/m^p)"),
