@@ -1,7 +1,9 @@
-"""The generated documentation is complete and up to date (issue 22: cases/README.md).
+"""The documentation is complete, up to date and true to the code.
 
 Each test can fail: a key added to the schema without a meaning, a meaning left behind for a
-removed key, a case without a description, or a cases/README.md not regenerated after a change.
+removed key, a case without a description, a generated block of cases/README.md not regenerated
+after a change, a README.md longer than a newcomer reads, a test named in the validation table of
+tests/README.md that does not exist, or a documented results layout that does not open.
 """
 from pathlib import Path
 
@@ -56,9 +58,38 @@ def test_every_shipped_case_has_a_description():
 
 
 def test_cases_readme_is_up_to_date():
+    """The generated blocks equal what the generator writes now; the hand-written guide is there."""
     text = (CASES / "README.md").read_text(encoding="utf-8")
-    assert text == reference.cases_readme(CASES), \
+    assert text == reference.cases_readme(CASES, text), \
         "cases/README.md is out of date: run `python -m vibeam.case.reference`"
+    outside = text
+    for name in reference.BLOCKS:
+        head, rest = outside.split(f"<!-- begin generated: {name} -->")
+        outside = head + rest.split(f"<!-- end generated: {name} -->")[1]
+    assert "## Writing a scene" in outside   # the guide is hand-written, between the two blocks
+    assert text.index("generated: catalogue -->") < text.index("## Writing a scene") \
+        < text.index("<!-- begin generated: keys -->")
+
+
+def test_generator_rewrites_only_its_blocks():
+    """Text outside the markers is kept byte for byte; a stale block is replaced; a missing or
+    repeated marker is an error naming the file."""
+    from vibeam.errors import InputError
+
+    blocks = {"catalogue": "NEW CATALOGUE", "keys": "NEW KEYS"}
+    text = ("# hand\n\nintro ü\n<!-- begin generated: catalogue -->\nstale\n"
+            "<!-- end generated: catalogue -->\n\nguide\n  kept  \n"
+            "<!-- begin generated: keys -->\n<!-- end generated: keys -->\ntail\n")
+    out = reference.fill_blocks(text, blocks)
+    assert out == ("# hand\n\nintro ü\n<!-- begin generated: catalogue -->\nNEW CATALOGUE\n"
+                   "<!-- end generated: catalogue -->\n\nguide\n  kept  \n"
+                   "<!-- begin generated: keys -->\nNEW KEYS\n<!-- end generated: keys -->\ntail\n")
+    assert reference.fill_blocks(out, blocks) == out
+    for bad in (text.replace("<!-- end generated: keys -->", ""),
+                text + "<!-- begin generated: catalogue -->\n"):
+        with pytest.raises(InputError, match="README.md"):
+            reference.fill_blocks(bad, blocks)
+    assert reference.fill_blocks(reference.skeleton(), blocks).count("NEW") == 2
 
 
 def test_type_descriptions():
