@@ -101,3 +101,42 @@ def test_type_descriptions():
     assert reference.describe_type(Literal["up", "down"]) == '"up" | "down"'
     assert reference.describe_type(Annotated[list[float], Field(min_length=2, max_length=2)] | None) \
         == "list of number (length 2)"
+
+
+def _python_blocks(text: str) -> list[str]:
+    import re
+
+    return re.findall(r"```python\n(.*?)```", text, flags=re.S)
+
+
+def test_documented_branch_layout_opens(tmp_path, monkeypatch):
+    """The continuation layout of cases/README.md opens as documented: its code block runs on a
+    file written by the one branch writer (vibeam.analysis.branches.write_branches) and finds the
+    branches on (branch, point) and the bifurcations in their subgroup."""
+    import h5py
+    import numpy as np
+
+    from vibeam.analysis.branches import ContinuationResult, write_branches
+
+    text = (CASES / "README.md").read_text(encoding="utf-8")
+    code = [b for b in _python_blocks(text) if 'group="branches/' in b]
+    assert len(code) == 1
+    data = [dict(parameter=np.linspace(1.5, 2.5, n), amplitude=np.linspace(1e-3, 2e-3, n),
+                 stable=np.arange(n) < 3, period=np.full(n, p, np.int64)) for n, p in ((5, 1), (3, 2))]
+    bif = dict(type="period_doubling", parameter=2.28, branch=0, n=1, amplitude=1.7e-3, detail="multiplier -1")
+    r = ContinuationResult(
+        name="branches", fidelity="sdof", parameter="Omega", settings={},
+        branches=[dict(index=i, data=d, n=int(d["period"][0]), status="range_end", message="", origin="test",
+                       bifurcations=[bif] if i == 0 else []) for i, d in enumerate(data)],
+        starts=[], curves=[], status="ok", message="", wall_time_s=0.0)
+    out = tmp_path / "results" / "paper-fig13-continuation"
+    out.mkdir(parents=True)
+    with h5py.File(out / "results.h5", "w") as f:
+        write_branches(f, [r])
+    monkeypatch.chdir(tmp_path)
+    ns: dict = {}
+    exec(code[0], ns)   # prints the bifurcation types and parameters
+    assert ns["p1"].sizes["point"] == 5 and ns["br"].amplitude.dims == ("branch", "point")
+    assert np.allclose(ns["p1"].parameter.values, data[0]["parameter"])
+    assert list(ns["bif"].type.values) == ["period_doubling"]
+    assert int(ns["bif"].bifurcation_branch[0]) == 0
