@@ -140,3 +140,35 @@ def test_documented_branch_layout_opens(tmp_path, monkeypatch):
     assert np.allclose(ns["p1"].parameter.values, data[0]["parameter"])
     assert list(ns["bif"].type.values) == ["period_doubling"]
     assert int(ns["bif"].bifurcation_branch[0]) == 0
+
+
+def _validation_node_ids() -> list[str]:
+    import re
+
+    text = (Path(__file__).resolve().parent / "README.md").read_text(encoding="utf-8")
+    section = text.split("## Validation evidence", 1)[1].split("\n## ", 1)[0]
+    rows = [line for line in section.splitlines() if line.startswith("| ") and "::" in line]
+    assert len(rows) >= 50, "the validation table lost its rows"
+    ids = []
+    for row in rows:
+        found = re.findall(r"`(tests/test_\w+\.py::\w+)`", row.rsplit("|", 2)[-2])
+        assert found, f"a row of the validation table names no test: {row[:80]}"
+        ids += found
+    return ids
+
+
+def test_every_test_named_in_the_validation_table_exists():
+    """Each `tests/test_x.py::test_name` of tests/README.md's validation table is a test function
+    defined in that file (found in its syntax tree, so a renamed or removed test fails here)."""
+    import ast
+
+    root = Path(__file__).resolve().parents[1]
+    missing = []
+    for node in _validation_node_ids():
+        path, name = node.split("::")
+        tree = ast.parse((root / path).read_text(encoding="utf-8")) if (root / path).is_file() else None
+        defined = set() if tree is None else \
+            {n.name for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))}
+        if not name.startswith("test_") or name not in defined:
+            missing.append(node)
+    assert missing == []
