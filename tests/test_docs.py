@@ -172,3 +172,15 @@ def test_every_test_named_in_the_validation_table_exists():
         if not name.startswith("test_") or name not in defined:
             missing.append(node)
     assert missing == []
+
+
+def test_readme_is_short_and_keeps_the_quick_start():
+    """README.md is what a newcomer reads first: at most 300 lines, with the two quick-start
+    commands unchanged (CI and users copy them) and pointers to the longer documents."""
+    text = (CASES.parent / "README.md").read_text(encoding="utf-8")
+    assert len(text.splitlines()) <= 300
+    lines = text.splitlines()
+    assert "python3 -m venv .venv && .venv/bin/pip install -e . && .venv/bin/vibeam run cases/paper-fig7.toml" in lines
+    assert "python3 -m venv .venv && .venv/bin/pip install -e '.[test]' && .venv/bin/python -m pytest" in lines
+    for doc in ("cases/README.md", "tests/README.md"):
+        assert doc in text and (CASES.parent / doc).is_file()
