@@ -656,7 +656,7 @@ class FitResult:
                      "jacobian_zeroed": self.jacobian_info.get("zeroed", 0),
                      "sigma_given": self.sigma_given,
                      "cor_identification": "R from the sensor's time series (paper Sec. 5.1): [effects.sensor] "
-                                           "identify_R, vibeam.engine.sensor (README 'Sensor and assessments')"}}
+                                           "identify_R, vibeam.engine.sensor (cases/README.md, 'Effects and the sensor')"}}
         for k in ("initial", "estimate", "standard_error", "lower_bound", "upper_bound", "step"):
             a[f"fit/{k}"] = {"units": per_param}
         a["fit/covariance"] = {"units": "product of the two parameters' units"}
@@ -1066,7 +1066,7 @@ def _main_fit_locked(args, case, text, out_dir, log) -> int:
             print(res.summary())
             print("  -> " + ", ".join(str(p) for p in res.paths.values()))
             print("  R from the sensor's time series (paper Sec. 5.1, Table 1): [effects.sensor] identify_R "
-                  "(vibeam.engine.sensor; README 'Sensor and assessments')\n", flush=True)
+                  "(vibeam.engine.sensor; cases/README.md, 'Effects and the sensor')\n", flush=True)
 
         ex = default_executor(args.jobs, 2)
         try:
