@@ -146,32 +146,237 @@ def _toml_text(d: dict, prefix: str = "") -> str:
 
 
 # ============================================================================ runs
-@dataclass
+class _Group:
+    """What every group of :class:`Results` has: ``to_xarray()`` (its group of ``results.h5`` as
+    an :class:`xarray.Dataset`, loaded in memory) and ``plot(path=None)`` (a matplotlib Figure,
+    saved atomically when ``path`` is given).  ``group`` is its path in the file."""
+
+    _kind = "runs"
+
+    @property
+    def group(self) -> str:
+        return f"{self._kind}/{self.name}"
+
+    def _bind(self, owner):
+        object.__setattr__(self, "_owner", owner)
+        return self
+
+    def _results(self):
+        owner = getattr(self, "_owner", None)
+        return owner if owner is not None else Results(**{self._kind: [self]})
+
+    def to_xarray(self):
+        """This group as an :class:`xarray.Dataset` (the variables, dimensions and units of
+        ``results.h5``, README "Results")."""
+        return self._results().dataset(self.group)
+
+    def _title(self) -> str:
+        return self._results()._title()
+
+
+def _as(cls, obj, owner):
+    """``obj`` (a dataclass instance) as the API's subclass ``cls``, bound to ``owner``."""
+    import dataclasses
+
+    if not isinstance(obj, cls):
+        obj = cls(**{f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)})
+    return obj._bind(owner)
+
+
+def _group_classes():
+    """The API's group classes (built on first use: their bases live in modules that load
+    numba and scipy, kept out of ``import vibeam``)."""
+    global Run, Map, Branches, Basins
+    if Run is not None:
+        return
+    from vibeam.analysis.attractors import BasinsResult
+    from vibeam.analysis.branches import ContinuationResult
+    from vibeam.io.objects import MapResult, SweepResult
+
+    class _Run(SweepResult, _Group):
+        """One ``[[run]]`` (:class:`vibeam.engine.sweep.SweepResult`: per-point arrays in
+        ``.data``, visiting order); group ``runs/<name>`` on (direction, Omega)."""
+
+        _kind = "runs"
+
+        def plot(self, path=None, kind: str = "frc"):
+            """The run's FRC (``kind="frc"``) or bifurcation diagram (``"bifurcation"``)."""
+            from vibeam.plots.sweep import bifurcation_figure, frc_figure
+
+            fig = {"frc": frc_figure, "bifurcation": bifurcation_figure}[kind]
+            r = self._results()
+            return _saved(fig([self], title=r._title(), case=r.case), path)
+
+    class _Map(MapResult, _Group):
+        """One run of a ``[map]`` (:class:`vibeam.analysis.maps.MapResult`); group ``maps/<name>``
+        on (direction, <parameter>, Omega)."""
+
+        _kind = "maps"
+
+        def plot(self, path=None):
+            """The class map (paper Fig. 18), with the two-parameter curves of the case."""
+            from vibeam.analysis.maps import map_figure
+
+            r = self._results()
+            return _saved(map_figure(self, title=r._title(), case=r.case,
+                                     curves=[b for b in r.branches if b.curves]), path)
+
+    class _Branches(ContinuationResult, _Group):
+        """One continuation run (:class:`vibeam.analysis.branches.ContinuationResult`: ``branches``,
+        their ``bifurcations``, two-parameter ``curves``); group ``branches/<name>`` on
+        (branch, point)."""
+
+        _kind = "branches"
+
+        def plot(self, path=None):
+            """Branches (stable solid, unstable dashed), bifurcations and the sweeps of the same
+            scene overlaid (``continuation_<run>.png`` of ``vibeam continue``)."""
+            from vibeam.analysis.branches import continuation_figure
+
+            r = self._results()
+            scene = {x.name: dict(x.model) for x in getattr(r.case, "run", [])}
+            same = [s for s in r.runs if scene.get(s.name) == scene.get(self.name)] or r.runs
+            return _saved(continuation_figure(self, same, title=f"{r._title()}: {self.name}", case=r.case), path)
+
+    class _Basins(BasinsResult, _Group):
+        """Basins of attraction or the census of attractors of one run
+        (:class:`vibeam.analysis.attractors.BasinsResult`); group ``basins/<name>``."""
+
+        _kind = "basins"
+
+        def to_xarray(self):
+            """The variables of ``/basins/<run>/`` (computed from the result in memory)."""
+            return BasinsResult.to_xarray(self)
+
+        def plot(self, path=None, i: int | None = None):
+            """The basin image at frequency ``i`` (default the first), or with several
+            frequencies and ``i=None`` the census figure (fractions and amplitudes over the
+            continuation branches of the results)."""
+            from vibeam.analysis.attractors import basins_figure, census_figure
+
+            r = self._results()
+            if i is None and len(self.Omega) > 1:
+                br = {b.name: _branch_dicts(b) for b in r.branches}
+                return _saved(census_figure(self, r._title(), br), path)
+            return _saved(basins_figure(self, i or 0, r._title()), path)
+
+    Run, Map, Branches, Basins = _Run, _Map, _Branches, _Basins
+
+
+Run = Map = Branches = Basins = None
+
+
+def _branch_dicts(b) -> dict:
+    """A continuation run in the shape of :func:`vibeam.io.results.read_branch_group` (what the
+    census figure overlays)."""
+    from vibeam.io.results import branch_name
+
+    return {branch_name(x): dict(x["data"], attrs=dict(index=x["index"], n=x["n"], parameter=b.parameter))
+            for x in b.branches if x["data"]}
+
+
+@dataclass(eq=False)
+class Bifurcations(_Group):
+    """The bifurcations of one continuation run: ``table`` (``type``, ``parameter``, ``branch``,
+    ``period``, ``amplitude``, ``detail``, and ``frequency_hz`` / ``amplitude_mm`` for a
+    physical scene; one entry per bifurcation); group ``branches/<run>/bifurcations``."""
+
+    name: str
+    table: dict
+    run: object = None
+
+    @property
+    def group(self) -> str:
+        return f"branches/{self.name}/bifurcations"
+
+    def _results(self):
+        return self.run._results()
+
+    def plot(self, path=None):
+        """The continuation figure of the run, where the bifurcations are marked."""
+        return self.run.plot(path)
+
+
+@dataclass(eq=False)
+class Curves(_Group):
+    """The two-parameter curves of one continuation run (``curves``: dicts with ``type``,
+    ``p1`` (the continuation parameter), ``p2`` (the second one), ``n``, ``status``);
+    group ``branches/<run>/curves`` on (curve, curve_point)."""
+
+    name: str
+    curves: list
+    run: object = None
+
+    @property
+    def group(self) -> str:
+        return f"branches/{self.name}/curves"
+
+    def _results(self):
+        return self.run._results()
+
+    def plot(self, path=None):
+        """The curves of the run alone (frequency x the second parameter)."""
+        from vibeam.analysis.branches import curves_figure
+
+        r = self._results()
+        return _saved(curves_figure(self.run, title=f"{r._title()}: {self.name}", case=r.case), path)
+
+
+@dataclass(eq=False)
 class Results:
-    """What :func:`run` (``vibeam run``) computed: runs, maps, the case and the results file.
+    """Every group a case produced (:func:`run`, ``vibeam run``/``continue``/``basins``), or a
+    results file holds (:func:`open_results`).
 
     Attributes
     ----------
-    runs : list of vibeam.engine.sweep.SweepResult
-        One per ``[[run]]`` (per-point arrays in ``.data``, visiting order).
-    maps : list of vibeam.analysis.maps.MapResult
-        One per run of a ``[map]`` case.
+    runs : list of Run
+        One per ``[[run]]`` of a sweep (:class:`vibeam.engine.sweep.SweepResult` with
+        ``to_xarray()`` and ``plot()``; per-point arrays in ``.data``, visiting order).
+    maps : list of Map
+        One per run of a ``[map]`` case (:class:`vibeam.analysis.maps.MapResult`).
     case : vibeam.case.schema.Case or None
+        The case as run (its quick variant with ``quick``).
     path : Path or None
-        The results file (None when the run kept nothing on disk).
+        The results file (None when the run kept nothing on disk: the groups are in memory).
+    branches : list of Branches
+        One per continuation run (``method = "continuation"``;
+        :class:`vibeam.analysis.branches.ContinuationResult`).
+    basins : list of Basins
+        Basins of attraction or census of attractors (``[basins]``, :func:`basins`;
+        :class:`vibeam.analysis.attractors.BasinsResult`).
+
+    ``bifurcations`` and ``curves`` (properties) give each continuation run's bifurcations and
+    two-parameter curves; ``groups`` all of them by their path in ``results.h5``;
+    ``res["exact"]`` a group by its run's name, ``res["runs/exact"]`` the node of the
+    :class:`xarray.DataTree` (:meth:`tree`).
     """
 
     runs: list = field(default_factory=list)
     maps: list = field(default_factory=list)
     case: object = None
     path: Path | None = None
+    branches: list = field(default_factory=list)
+    basins: list = field(default_factory=list)
+
+    def __post_init__(self):
+        _group_classes()
+        self.runs = [_as(Run, r, self) for r in self.runs]
+        self.maps = [_as(Map, m, self) for m in self.maps]
+        self.branches = [_as(Branches, b, self) for b in self.branches]
+        self.basins = [_as(Basins, b, self) for b in self.basins]
+        self._tree = None
+        self._file = None        # a file holding the groups (self.path, or a private temporary one)
+        self._tmp = None
 
     @classmethod
     def from_file(cls, path) -> "Results":
-        """The runs and maps of a results file (``results.h5``)."""
+        """Every group of a results file (``results.h5``): runs, maps, continuation branches
+        (with bifurcations and curves) and basins."""
+        from vibeam.analysis.attractors import basins_from_dataset, read_basins
+        from vibeam.analysis.branches import read_continuation
         from vibeam.case.schema import Case
         from vibeam.io.inputs import check_input_file
-        from vibeam.io.results import load_results
+        from vibeam.io.results import layout_of, load_results
 
         check_input_file(path, "results file")
         runs, maps, attrs = load_results(path)
@@ -183,17 +388,92 @@ class Results:
                 case = load_case(str(attrs["case_text"]))
         except Exception:      # a case of an older vibeam: the data are still readable
             case = None
-        return cls(runs, maps, case, Path(path))
+        branches, basins = [], []
+        if layout_of(path) >= 2:
+            import h5py
 
-    def __getitem__(self, name: str):
-        for r in self.runs + self.maps:
+            branches = read_continuation(path)
+            with h5py.File(path, "r") as f:
+                names = list(f.get("basins", {}))
+            basins = [basins_from_dataset(read_basins(path, n), n) for n in names]
+        return cls(runs, maps, case, Path(path), branches, basins)
+
+    def _source(self, name: str):
+        for r in self.runs + self.maps + self.branches + self.basins:
             if r.name == name:
                 return r
-        raise KeyError(f"no run named {name!r}; runs: {[r.name for r in self.runs + self.maps]}")
+        return None
+
+    def __getitem__(self, name: str):
+        if "/" in name:
+            return self.tree()[name]
+        r = self._source(name)
+        if r is None:
+            raise KeyError(f"no run named {name!r}; runs: {self.names}")
+        return r
 
     @property
     def names(self) -> list:
-        return [r.name for r in self.runs + self.maps]
+        """The names of the runs, maps and continuation runs (the case's ``[[run]]`` names)."""
+        return [r.name for r in self.runs + self.maps + self.branches]
+
+    @property
+    def bifurcations(self) -> list:
+        """One :class:`Bifurcations` per continuation run."""
+        return [Bifurcations(b.name, b.bifurcation_table(), b) for b in self.branches]
+
+    @property
+    def curves(self) -> list:
+        """One :class:`Curves` per continuation run that traced two-parameter curves."""
+        return [Curves(b.name, b.curves, b) for b in self.branches if b.curves]
+
+    @property
+    def groups(self) -> dict:
+        """Every group by its path in ``results.h5``: ``runs/<run>``, ``maps/<run>``,
+        ``branches/<run>``, ``branches/<run>/bifurcations``, ``branches/<run>/curves``,
+        ``basins/<run>``."""
+        out = {}
+        for g in self.runs + self.maps + self.branches:
+            out[g.group] = g
+        for g in self.bifurcations + self.curves + self.basins:
+            out[g.group] = g
+        return out
+
+    def _h5(self) -> Path:
+        """A file holding every group: the results file, or one written once to a private
+        temporary folder (removed with this object)."""
+        if self.path is not None and Path(self.path).is_file():
+            return Path(self.path)
+        if self._file is not None and Path(self._file).is_file():
+            return self._file
+        from vibeam.analysis.attractors import write_basins
+        from vibeam.io.results import write_results
+
+        self._tmp = tempfile.TemporaryDirectory(prefix="vibeam-results-")
+        name = getattr(self.case, "name", "")
+        text = case_text(self.case) if self.case is not None else ""
+        f = write_results(Path(self._tmp.name) / "results.h5", self.runs, name, text, maps=self.maps,
+                          branches=self.branches)
+        if self.basins:
+            write_basins(f, self.basins, name, text)
+        self._file = f
+        return f
+
+    def tree(self):
+        """Every group as one :class:`xarray.DataTree`, loaded in memory (``tree["runs/<run>"]``,
+        ``tree["branches/<run>/bifurcations"]``, ...)."""
+        if self._tree is None:
+            import xarray as xr
+
+            tree = xr.open_datatree(self._h5(), engine="h5netcdf")
+            tree.load()
+            tree.close()
+            self._tree = tree
+        return self._tree
+
+    def dataset(self, group: str):
+        """One group (its path in ``results.h5``) as an :class:`xarray.Dataset`."""
+        return self.tree()[group].to_dataset()
 
     def to_xarray(self, name: str | None = None):
         """The results as labelled data (the layout of :mod:`vibeam.io.results`), loaded in memory.
@@ -201,26 +481,19 @@ class Results:
         Parameters
         ----------
         name : str, optional
-            One run or map: its :class:`xarray.Dataset` (on (direction, Omega), or
-            (direction, <parameter>, Omega) for a map).  Default: an
-            :class:`xarray.DataTree` of every run and map (``tree["runs/<name>"]``).
+            One run, map, continuation run or basins: its :class:`xarray.Dataset` (on
+            (direction, Omega), (direction, <parameter>, Omega), (branch, point), ...), or a
+            group's path (``"branches/<run>/bifurcations"``).  Default: an
+            :class:`xarray.DataTree` of every group (``tree["runs/<name>"]``).
         """
-        import xarray as xr
-
-        from vibeam.io.results import write_results
-
-        with tempfile.TemporaryDirectory() as tmp:
-            path = self.path
-            if path is None or not Path(path).is_file():
-                path = write_results(Path(tmp) / "results.h5", self.runs, getattr(self.case, "name", ""),
-                                     case_text(self.case) if self.case is not None else "", maps=self.maps)
-            tree = xr.open_datatree(path, engine="h5netcdf")
-            tree.load()
-            tree.close()
         if name is None:
-            return tree
-        kind = "maps" if any(m.name == name for m in self.maps) else "runs"
-        return tree[f"{kind}/{name}"].to_dataset()
+            return self.tree()
+        if "/" in name:
+            return self.dataset(name)
+        r = self._source(name)
+        if r is None:
+            raise KeyError(f"no run named {name!r}; runs: {self.names}")
+        return r.to_xarray()
 
     # ---------------------------------------------------------------- plots (matplotlib Figures)
     def _title(self) -> str:
@@ -240,16 +513,29 @@ class Results:
 
     def plot_map(self, name: str | None = None, path=None):
         """Class map of one map run (default the first; paper Fig. 18)."""
-        from vibeam.analysis.maps import map_figure
-
         m = self[name] if name else self.maps[0]
-        return _saved(map_figure(m, title=self._title(), case=self.case), path)
+        return m.plot(path)
 
     def plot_agreement(self, path=None):
         """Where the maps' classes differ from the first map's; None with fewer than two maps."""
         from vibeam.analysis.maps import agreement_figure
 
         return _saved(agreement_figure(self.maps, title=self._title(), case=self.case), path)
+
+    def plot_continuation(self, name: str | None = None, path=None):
+        """Branches of one continuation run (default the first) with the sweeps overlaid."""
+        b = self[name] if name else self.branches[0]
+        return b.plot(path)
+
+    def plot_curves(self, name: str | None = None, path=None):
+        """Two-parameter curves of one continuation run (default the first with curves)."""
+        c = next(c for c in self.curves if name is None or c.name == name)
+        return c.plot(path)
+
+    def plot_basins(self, name: str | None = None, path=None, i: int | None = None):
+        """Basins (or the census) of one run (default the first)."""
+        b = next(b for b in self.basins if name is None or b.name == name)
+        return b.plot(path, i=i)
 
     def plot_spectra(self, path=None):
         """Sensor velocity spectra against the forcing frequency (``[assess] spectra``)."""
@@ -278,9 +564,41 @@ def _saved(fig, path):
     return fig
 
 
+def _check_run_args(jobs, out, executor, **flags):
+    from vibeam.case.arguments import check_flag, check_jobs, check_path
+
+    jobs = check_jobs(jobs)
+    out = check_path(out, "out")
+    for name, flag in flags.items():
+        check_flag(flag, name)
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        from vibeam.errors import quote_value
+
+        raise TypeError(f"executor = {quote_value(executor)}: not an executor; allowed: a "
+                        f"concurrent.futures.Executor (with submit) or None")
+    return jobs, out
+
+
+def _collect(case, h5: Path, out, tmp, runs=None, maps=None, basins=()) -> Results:
+    """The Results of a run into ``h5``: the runs and maps in memory (as computed), the
+    continuation branches read back from the file (every group, nothing dropped)."""
+    from vibeam.analysis.branches import read_continuation
+
+    branches = read_continuation(h5) if Path(h5).is_file() else []
+    if runs is None:
+        back = Results.from_file(h5) if Path(h5).is_file() else Results()
+        runs, maps = back.runs, back.maps
+    res = Results(list(runs), list(maps or []), case, None if out is None else Path(h5), branches, list(basins))
+    res._tmp = tmp                       # kept alive with the results: the file behind to_xarray()
+    res._file = Path(h5) if Path(h5).is_file() else None
+    return res
+
+
 def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = False, progress: bool = False,
-        plots: bool = False, resume: bool = False, force: bool = False, verbose: bool = False) -> Results:
-    """Run a case (``vibeam run``): its runs, or its parameter map.
+        plots: bool = False, resume: bool = False, force: bool = False, verbose: bool = False,
+        basins: bool = True) -> Results:
+    """Run a case (``vibeam run``): its runs, or its parameter map, its continuation runs and
+    its ``[basins]``.
 
     Parameters
     ----------
@@ -293,7 +611,8 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
         Where the sweep lines run, e.g. ``distributed.Client(...).get_executor()``.
     out : str or Path, optional
         Output folder: ``results.h5`` (checkpointed as lines finish) and, with ``plots``,
-        the PNGs.  Default: nothing is kept on disk (the results are in memory).
+        the PNGs.  Default: nothing is kept on disk (the results are in memory, the file
+        behind :meth:`Results.to_xarray` in a private temporary folder removed with them).
     quick : bool
         The case's quick variant (``[quick]``).
     progress : bool
@@ -302,10 +621,14 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
         As the command line's ``--no-plots`` (inverted), ``--resume``, ``--force``.
     verbose : bool
         Print the tables the command line prints.
+    basins : bool
+        Compute the case's ``[basins]`` too (as ``vibeam run``).
 
     Returns
     -------
     Results
+        ``runs`` (or ``maps``), ``branches`` (continuation runs, with ``bifurcations`` and
+        ``curves``), ``basins``.
 
     Raises
     ------
@@ -317,47 +640,128 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
         from 1 to :func:`vibeam.case.arguments.max_jobs` (the rule of ``--jobs``), ``out`` an
         empty string; one line naming the argument, the value and what is allowed.
     """
-    from vibeam.case.arguments import check_flag, check_jobs, check_path
     from vibeam.runner import run_case
 
-    jobs = check_jobs(jobs)
-    out = check_path(out, "out")
-    for name, flag in (("quick", quick), ("progress", progress), ("plots", plots), ("resume", resume),
-                       ("force", force), ("verbose", verbose)):
-        check_flag(flag, name)
-    if executor is not None and not callable(getattr(executor, "submit", None)):
-        from vibeam.errors import quote_value
-
-        raise TypeError(f"executor = {quote_value(executor)}: not an executor; allowed: a "
-                        f"concurrent.futures.Executor (with submit) or None")
+    jobs, out = _check_run_args(jobs, out, executor, quick=quick, progress=progress, plots=plots, resume=resume,
+                                force=force, verbose=verbose, basins=basins)
     c = load_case(case)
     text = case_text(c)
+    source = str(case) if isinstance(case, (str, Path)) and _names_a_file(str(case)) else ""
     ctx = contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO())
+    tmp = None
+    if out is None:
+        tmp = tempfile.TemporaryDirectory(prefix="vibeam-run-")
+        folder = Path(tmp.name)
+    else:
+        folder = Path(out)
     with ctx:
-        if out is None:
-            with tempfile.TemporaryDirectory() as tmp:
-                res = run_case(c, text, tmp, jobs=jobs, quiet=not progress, plots=False, quick=quick,
-                               executor=executor, checkpoint=False, force=force)
-            path = None
-        else:
-            res = run_case(c, text, out, jobs=jobs, quiet=not progress, plots=plots, quick=quick, resume=resume,
-                           executor=executor, force=force)
-            path = Path(out) / "results.h5"
+        res = run_case(c, text, folder, jobs=jobs, quiet=not progress, plots=plots and out is not None,
+                       quick=quick, resume=resume and out is not None, executor=executor,
+                       checkpoint=out is not None, force=force, source=source)
+    run_c = c.quick_variant() if quick else c
+    found = []
+    if basins and c.basins is not None:
+        with ctx:
+            found = [run_basins(run_c, text, folder, None, jobs=jobs, executor=executor, progress=progress,
+                                  resume=resume and out is not None, plots=plots and out is not None)]
     from vibeam.analysis.maps import MapResult
 
     maps = [r for r in res if isinstance(r, MapResult)]
     runs = [r for r in res if not isinstance(r, MapResult)]
-    return Results(runs, maps, c.quick_variant() if quick else c, path)
+    return _collect(run_c, folder / "results.h5", out, tmp, runs, maps, found)
 
 
-def open_results(path):
-    """A results file as an :class:`xarray.DataTree` (:func:`vibeam.io.results.open_results`):
-    ``tree["runs/<run>"]`` on (direction, Omega), ``tree["maps/<run>"]`` on
-    (direction, <parameter>, Omega)."""
+def run_basins(case, text, folder, spec, jobs=None, executor=None, progress=False, resume=False, plots=True,
+                 log=None):
+    """Basins of ``case`` (``spec`` or its ``[basins]``) into ``folder/results.h5``
+    (``/basins/<run>/``; finished rows checkpointed in ``/basin_lines``), the table printed and,
+    with ``plots``, the PNGs (over the file's continuation branches).  Returns the BasinsResult."""
+    from vibeam.analysis.attractors import compute, plot_basins, print_basins, write_basins
+
+    h5 = Path(folder) / "results.h5"
+    r = compute(case, jobs=jobs, executor=executor, progress=progress, spec=spec, checkpoint=h5, resume=resume,
+                case_text=text)
+    h5 = write_basins(h5, [r], case.name, text)
+    print_basins(r)
+    if plots:
+        from vibeam.io.results import read_results
+
+        branches = read_results(h5)["branches"]     # overlaid on a census (vibeam continue wrote them)
+        for p in plot_basins(r, folder, branches=branches):
+            print(f"plot: {p}")
+    print(f"basins -> {h5} (group /basins/{r.name})")
+    return r
+
+
+def continuation(case, jobs: int | None = None, executor=None, out=None, quick: bool = False,
+                 progress: bool = False, plots: bool = False, force: bool = False, verbose: bool = False) -> Results:
+    """The continuation runs of a case alone (``vibeam continue``): branches of periodic orbits
+    with their Floquet multipliers, bifurcations and two-parameter curves
+    (:mod:`vibeam.analysis.branches`; pseudo-arclength continuation of the shooting problem).
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        Anything :func:`load_case` takes; at least one ``[[run]]`` with
+        ``method = "continuation"``.
+    jobs, executor, out, quick, progress, plots, force, verbose
+        As :func:`run`.  A ``results.h5`` of the same case in ``out`` keeps its sweeps and
+        maps (they are in the returned Results too); only its ``/branches`` are replaced.
+
+    Returns
+    -------
+    Results
+        ``branches`` (one per continuation run), ``bifurcations``, ``curves``; the sweeps of
+        the file in ``out`` when it holds the same case.
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        No continuation run (one line), or a bad case; TypeError, ValueError as :func:`run`.
+    """
+    from vibeam.runner import run_case
+
+    jobs, out = _check_run_args(jobs, out, executor, quick=quick, progress=progress, plots=plots, force=force,
+                                verbose=verbose)
+    c = load_case(case)
+    text = case_text(c)
+    source = str(case) if isinstance(case, (str, Path)) and _names_a_file(str(case)) else ""
+    tmp = None
+    if out is None:
+        tmp = tempfile.TemporaryDirectory(prefix="vibeam-continue-")
+        folder = Path(tmp.name)
+    else:
+        folder = Path(out)
+    ctx = contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO())
+    with ctx:
+        run_case(c, text, folder, jobs=jobs, quiet=not progress, plots=plots and out is not None, quick=quick,
+                 executor=executor, force=force, source=source, continuation_only=True)
+    return _collect(c.quick_variant() if quick else c, folder / "results.h5", out, tmp)
+
+
+# alias: ``continue`` is a Python keyword
+continue_ = continuation
+
+
+def open_results(path) -> Results:
+    """A results file (``results.h5``) as :class:`Results`: every group (runs, maps, continuation
+    branches with their bifurcations and curves, basins), each with ``to_xarray()`` and
+    ``plot()``; ``res["runs/<run>"]`` is the node of the file's :class:`xarray.DataTree`.
+
+    Raises
+    ------
+    ValueError
+        Not a regular file, or a file of the first layout (no dimensions: convert it with
+        :func:`vibeam.io.results.load_results` and :func:`vibeam.io.results.write_results`).
+    """
     from vibeam.io.inputs import check_input_file
-    from vibeam.io.results import open_results as _open
+    from vibeam.io.results import LAYOUT_VERSION, layout_of
 
-    return _open(check_input_file(path, "results file"))
+    p = check_input_file(path, "results file")
+    if layout_of(p) < LAYOUT_VERSION:
+        raise ValueError(f"{p}: a results file of the first layout (no dimensions); rewrite it with "
+                         f"vibeam.io.results.load_results and write_results")
+    return Results.from_file(p)
 
 
 # ============================================================================ one frequency
