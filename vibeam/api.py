@@ -1244,3 +1244,598 @@ def _check_point_work(case, job, solver, Omega, transient, periods, spp, force, 
         raise InputError(f"simulate: Omega = {Omega:g}, transient = {transient}, periods = {periods}: the point needs "
                          f"about {w['steps']:.2g} solver steps, above the limit of {MAX_WORK_STEPS:.0e}; reduce "
                          f"them, or pass force=True")
+
+
+# ============================================================================ the other commands
+def _case_and_source(case):
+    """``(Case, source)``: the case, and the file it came from (for messages) or ''."""
+    c = load_case(case)
+    source = str(case) if isinstance(case, (str, Path)) and _names_a_file(str(case)) else ""
+    return c, source
+
+
+@dataclass
+class Derived:
+    """SDOF parameters of a beam scene by the assumed static mode (:func:`derive`).
+
+    Attributes
+    ----------
+    case : Case
+    rows : list of (name, value, unit, source)
+        The table of ``vibeam derive`` (EI, M_S, K_S, f_n, beta_S, ...; SI units).
+    reduction, with_beam_mass : vibeam.reductions.static_mode.StaticModeReduction
+        The reduction without (the paper's) and with the beam's modal mass.
+    scene : vibeam.case.beamscene.BeamScene
+    sdof_case_text : str
+        The TOML of the SDOF case of the same scene (``vibeam derive --write``).
+    """
+
+    case: object
+    rows: list
+    reduction: object
+    with_beam_mass: object
+    scene: object
+    sdof_case_text: str
+
+    def write(self, path) -> Path:
+        """Write :attr:`sdof_case_text` to ``path`` atomically (``--write``)."""
+        from vibeam.io.outdir import write_text_file
+
+        return write_text_file(Path(path), self.sdof_case_text, "--write")
+
+
+def derive(case, write=None) -> Derived:
+    """SDOF parameters of a beam scene by the assumed static mode (``vibeam derive``; paper
+    Eqs. 42-46: ``M_S = m phi(x_m)^2``, ``K_S = EI/L^3 int phi''^2``, ``beta_S = D omega_n / 2``).
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        A beam scene (a fidelity with a finite-element model).
+    write : str or Path, optional
+        Also write the SDOF case file of the same scene there (``--write``).
+
+    Returns
+    -------
+    Derived
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        Not a beam scene (one line naming ``model.fidelity``), or a bad case.
+    """
+    from vibeam.case.arguments import check_path
+    from vibeam.case.beamscene import beam_spec, derive as _derive, sdof_case_text
+
+    write = check_path(write, "write")
+    c, _ = _case_and_source(case)
+    spec = beam_spec(c, "derive")
+    d = _derive(spec)
+    res = Derived(c, d["rows"], d["reduction"], d["with_beam_mass"], d["scene"],
+                  sdof_case_text(c, spec, d["reduction"], d["scene"]))
+    if write is not None:
+        res.write(write)
+    return res
+
+
+@dataclass
+class Modes:
+    """Modes of a beam scene (:func:`modes`).
+
+    Attributes
+    ----------
+    case : Case
+    fe : vibeam.models.beam.BeamFE
+        The finite-element model (``fe.ndof`` degrees of freedom).
+    modes, contact : modal data
+        Free modes (``frequencies_hz`` (n,), ``shapes`` (ndof, n), ``participation`` (n,),
+        kg^0.5, ``effective_mass_kg`` (n,)) and contact modes (beam held at the stop).
+    total_mass_kg : float
+    sensor_modal_mass_kg : ndarray, shape (n,)
+        The modal mass seen at the sensor, ``1 / (s phi_i)^2`` (kg).
+    n : int
+        Modes asked for.
+    paths : dict
+        ``vtu`` and ``png`` written (with ``out``).
+    """
+
+    case: object
+    fe: object
+    modes: object
+    contact: object
+    total_mass_kg: float
+    sensor_modal_mass_kg: np.ndarray
+    n: int
+    report: dict
+    paths: dict = field(default_factory=dict)
+
+    def plot(self, path=None):
+        """Free and contact mode shapes along the beam (``modes.png``)."""
+        return _saved(modes_figure(self.report, self.case.name), path)
+
+
+def modes(case, n: int = 6, out=None) -> Modes:
+    """Natural frequencies, participation, effective masses and contact modes of a beam scene
+    (``vibeam modes``; Hermite FE cantilever with point mass and rotary inertia, base excitation).
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        A beam scene.
+    n : int
+        Number of modes (>= 1; at most the FE model's degrees of freedom).
+    out : str or Path, optional
+        A folder: ``modes.vtu`` (ParaView) and ``modes.png`` are written there atomically.
+
+    Returns
+    -------
+    Modes
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        Not a beam scene; the folder in use by another vibeam process.
+    TypeError, ValueError
+        ``n`` not a whole number >= 1, ``out`` not a path.
+    """
+    from vibeam.case.arguments import check_path, check_whole
+    from vibeam.case.beamscene import beam_spec, modes_report
+
+    n = check_whole(n, "n", 1, 10 ** 6)
+    out = check_path(out, "out")
+    c, _ = _case_and_source(case)
+    spec = beam_spec(c, "modes")
+    rep = modes_report(spec, n=n)
+    res = Modes(c, rep["fe"], rep["modes"], rep["contact"], rep["total_mass_kg"], rep["sensor_modal_mass_kg"],
+                n, rep)
+    if out is not None:
+        from vibeam.io.outdir import OutputLock, check_folder
+
+        folder = check_folder(Path(out))
+        with OutputLock(folder):          # like every writer: one vibeam process per folder
+            res.paths = write_modes_files(res, folder)
+    return res
+
+
+def write_modes_files(res: Modes, folder) -> dict:
+    """``modes.vtu`` and ``modes.png`` of :func:`modes` into ``folder`` (atomically)."""
+    from vibeam.io.outdir import replace_file
+    from vibeam.models.beam import write_modes
+    from vibeam.plots.sweep import save_close
+
+    folder = Path(folder)
+    vtu = replace_file(folder / "modes.vtu",
+                       lambda p: write_modes(p, res.fe, n=min(res.n, len(res.modes.frequencies_hz))))
+    png = save_close(modes_figure(res.report, res.case.name), folder / "modes.png")
+    return {"vtu": vtu, "png": png}
+
+
+def modes_figure(rep: dict, title: str = ""):
+    """Free and contact mode shapes along the beam (the first four of each), normalised; a
+    Figure (``modes.png`` of ``vibeam modes``).  ``rep``: :func:`vibeam.case.beamscene.modes_report`."""
+    import matplotlib.pyplot as plt
+
+    from vibeam.plots import style
+
+    fe, md, cm = rep["fe"], rep["modes"], rep["contact"]
+    L = fe.geometry.length_m
+    x = np.linspace(0, L, 361)
+    with style.context():
+        fig, axes = plt.subplots(1, 2, figsize=(10, 4.4), sharey=True)
+        for ax, m, lab in ((axes[0], md, "free"), (axes[1], cm, "contact (held at the stop)")):
+            for i in range(min(4, m.shapes.shape[1])):
+                w = fe.deflection(m.shapes[:, i], x)
+                ax.plot(x * 1e3, w / np.max(np.abs(w)), label=f"{m.frequencies_hz[i]:.2f} Hz")
+            for xp, nm in ((fe.geometry.sensor_position_m, "L_S"), (fe.geometry.mass_position_m, "L_m")):
+                ax.axvline(xp * 1e3, color="0.6", ls=":")
+                ax.text(xp * 1e3, 1.02, nm, ha="center", fontsize=8)
+            ax.set_title(f"{lab} modes", loc="left")
+            ax.set_xlabel(style.label("position along the beam x", "mm"))
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=4, title="mode")
+        axes[0].set_ylabel(style.label("normalised deflection", None))
+        style.titles(fig, title, "mode shapes of the FE beam")
+    return fig
+
+
+@dataclass
+class Regression:
+    """A case's FRCs against reference FRCs (:func:`regress`).
+
+    Attributes
+    ----------
+    case : Case
+    reference : Path
+    rows : list of vibeam.analysis.regress.RegressRow
+        One per run: points compared, failures, max |dA| and relative, period mismatches.
+    atol, rtol : float
+        The amplitude tolerances used (``[regress]`` or the arguments).
+    ok : bool
+        Every run within the tolerances (``vibeam regress`` exits 0).
+    """
+
+    case: object
+    reference: Path
+    rows: list
+    atol: float
+    rtol: float
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.rows) and all(r.ok for r in self.rows)
+
+    def print(self) -> None:
+        """The table of ``vibeam regress``."""
+        from vibeam.analysis.regress import print_rows
+
+        tol = self.case.regress
+        print(f"\nregression of {self.case.name} against {self.reference}")
+        print_rows(self.rows, self.atol, self.rtol, tol.spread_sigmas, tol.spread_range)
+
+
+def regress(case, reference, results=None, out=None, jobs: int | None = None, executor=None,
+            atol: float | None = None, rtol: float | None = None, quick: bool = False,
+            force: bool = False) -> Regression:
+    """Compare a case's FRCs with reference FRCs (``vibeam regress``): rerun the case (or take
+    ``results``) and compare amplitudes point by point (``[regress]`` tolerances).
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+    reference : str or Path
+        Reference ``results.h5`` or CSV (``Omega,amplitude`` or ``frequency_hz,amplitude_mm``).
+    results : str or Path, optional
+        Compare this results file instead of rerunning the case.
+    out : str or Path, optional
+        Folder of the rerun (default: a temporary folder, removed afterwards).
+    jobs, executor, quick, force
+        As :func:`run`.
+    atol, rtol : float, optional
+        Override ``[regress] amplitude_atol`` / ``amplitude_rtol``.
+
+    Returns
+    -------
+    Regression
+
+    Raises
+    ------
+    vibeam.case.schema.InputError
+        A reference or results file that is not of this case or not readable (one line).
+    """
+    from vibeam.analysis.regress import (check_reference_of_case, check_results_of_case, compare, load_results,
+                                         read_reference)
+    from vibeam.case.arguments import check_path
+
+    jobs, out = _check_run_args(jobs, out, executor, quick=quick, force=force)
+    reference = check_path(reference, "reference", optional=False)
+    results = check_path(results, "results")
+    c, source = _case_and_source(case)
+    ref = read_reference(reference)    # a bad reference is refused before anything runs
+    check_reference_of_case(c, ref, reference, source)
+    if results is not None:
+        new = load_results(results, "--results")
+        check_results_of_case(c, new, results, source)
+    else:
+        from vibeam.io.outdir import check_folder
+        from vibeam.runner import run_case
+
+        # the rerun goes to its own folder: out, or a temporary one removed afterwards --
+        # never results/<case>/, where it would replace the results of the user's run
+        with tempfile.TemporaryDirectory(prefix=f"vibeam-regress-{c.name}-") as tmp:
+            out_dir = check_folder(Path(out) if out else Path(tmp))
+            run_case(c, case_text(c), out_dir, jobs=jobs, quiet=True, plots=False, quick=quick,
+                     executor=executor, force=force, source=source)
+            new = load_results(out_dir / "results.h5", "results")
+    tol = c.regress
+    atol = tol.amplitude_atol if atol is None else atol
+    rtol = tol.amplitude_rtol if rtol is None else rtol
+    rows = compare(new, reference, atol=atol, rtol=rtol, period=tol.period, sigmas=tol.spread_sigmas,
+                   spread_range=tol.spread_range, continuation=c.sweep.continuation)
+    return Regression(c, Path(reference), rows, atol, rtol)
+
+
+@dataclass
+class Cost:
+    """Accuracy against time of every run (:func:`cost`): ``result`` as
+    :func:`vibeam.analysis.cost.run_cost` returns it (``rows``: method, settings, seconds,
+    errors against the converged reference; the paper's claims), ``paths`` written."""
+
+    case: object
+    result: dict
+    paths: dict = field(default_factory=dict)
+
+    @property
+    def rows(self) -> list:
+        return self.result["rows"]
+
+    def to_xarray(self):
+        """The cost table (the variables of ``cost.h5`` ``/cost``) as an :class:`xarray.Dataset`."""
+        import xarray as xr
+
+        from vibeam.analysis.cost import cost_tables
+        from vibeam.io.results import table_variables
+
+        v = table_variables(cost_tables(self.result))
+        return xr.Dataset({k: (x.dims, x.data, x.attrs) for k, x in v.items()})
+
+    def plot(self, path=None):
+        """The work-precision figure (``work_precision.png``)."""
+        from vibeam.analysis.cost import work_precision_figure
+
+        return _saved(work_precision_figure(self.result, title=self.case.name, case=self.case), path)
+
+
+def cost(case, out=None, ladder: bool = False, repeats: int = 3, quick: bool = False, jobs: int | None = None,
+         force: bool = False, log=None) -> Cost:
+    """Accuracy against time of every run (``vibeam cost``): each run's sweep timed (median of
+    ``repeats``, inline) and its error against a converged reference.
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+    out : str or Path, optional
+        A folder: ``cost.h5`` (``/cost``) and ``work_precision.png`` written there atomically.
+    ladder : bool
+        Also a ladder of tolerances per ODE method.
+    repeats : int
+        Timed repetitions (>= 1).
+    quick, jobs, force
+        As :func:`run` (``jobs``: the workers of the converged references).
+    log : callable, optional
+        Progress messages (default: none).
+
+    Returns
+    -------
+    Cost
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        Work above the limit without ``force``; a bad case.
+    """
+    from vibeam.analysis.cost import check_cost_work, cost_tables, plot_work_precision, run_cost
+    from vibeam.case.arguments import check_whole
+
+    jobs, out = _check_run_args(jobs, out, None, ladder=ladder, quick=quick, force=force)
+    repeats = check_whole(repeats, "repeats", 1, 10 ** 6)
+    c, source = _case_and_source(case)
+    text = case_text(c)
+    if quick:
+        c = c.quick_variant()
+    check_cost_work(c, force=force, source=source)
+    log = log or (lambda m: None)
+    if out is None:
+        return Cost(c, run_cost(c, ladder=ladder, repeats=repeats, jobs=jobs, log=log))
+    from vibeam.io.outdir import OutputLock, check_folder
+    from vibeam.io.results import write_results
+
+    folder = check_folder(Path(out))
+    with OutputLock(folder):
+        res = run_cost(c, ladder=ladder, repeats=repeats, jobs=jobs, log=log)
+        h5 = write_results(folder / "cost.h5", [], c.name, text, extra={"cost": cost_tables(res)},
+                           case_json=c.model_dump_json())
+        png = plot_work_precision(res, folder / "work_precision.png", title=c.name, case=c)
+    return Cost(c, res, {"h5": h5, "png": png})
+
+
+def fit(case, reference=None, params=None, run: str | None = None, out=None, jobs: int | None = 1,
+        quick: bool = False, loss: str | None = None, f_scale: float = 3.0, max_evaluations: int = 60,
+        reference_run: str | None = None, plots: bool = True, log=None):
+    """Fit model parameters to a measured FRC (``vibeam fit``), with standard errors.
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        Its ``[model]`` values start the fit.
+    reference : str or Path
+        Measured FRC: CSV ``frequency_hz,amplitude_mm`` (or ``Omega,amplitude``), optional
+        ``direction`` and ``sigma`` columns; or a results.h5 (``reference_run`` names its run).
+    params : list of str or str, optional
+        Numeric ``[model]`` keys to fit (default ``gain, R``; a comma-separated str too).
+    run : str, optional
+        Fit this run only (default: every run, one by one).
+    out : str or Path, optional
+        A folder for each fit's files (fitted case, table, ``fit.png``); default none written.
+    jobs : int or None
+        Workers (1: inline).
+    quick : bool
+        Sweep with the quick variant's periods.
+    loss, f_scale, max_evaluations
+        As ``--loss`` (default soft_l1), ``--f-scale`` (units of sigma), ``--max-evaluations``.
+
+    Returns
+    -------
+    list of vibeam.identify.fit.FitResult
+        One per run: ``estimate``, ``standard_error``, ``correlation``, ``residuals``, ...
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        A parameter that is not a numeric key of the scene, an unreadable reference (one line).
+    """
+    from vibeam.case.arguments import check_path
+    from vibeam.engine.sweep import default_executor
+    from vibeam.errors import CaseError
+    from vibeam.identify.fit import DEFAULT_LOSS, check_params, default_params, fit_runs, read_reference
+
+    out = check_path(out, "out")
+    reference = check_path(reference, "reference", optional=False)
+    if not (isinstance(f_scale, (int, float)) and math.isfinite(f_scale) and f_scale > 0):
+        raise CaseError(f"f_scale = {f_scale!r}: must be a finite positive number (units of sigma)")
+    c, source = _case_and_source(case)
+    text = case_text(c)
+    if isinstance(params, str):
+        params = [p.strip() for p in params.split(",") if p.strip()]
+    if quick:
+        c = c.quick_variant()
+    ref = read_reference(reference, reference_run)
+    check_params(c, params or default_params(c), source)
+    ex = default_executor(jobs, 2)
+    try:
+        if out is None:
+            return fit_runs(c, ref, params, runs=[run] if run else None, case_text=text, plots=False, log=log,
+                            executor=ex, loss=loss or DEFAULT_LOSS, f_scale=f_scale,
+                            max_evaluations=max_evaluations, source=source)
+        from vibeam.io.outdir import OutputLock, check_folder
+
+        folder = check_folder(Path(out))
+        with OutputLock(folder):
+            return fit_runs(c, ref, params, runs=[run] if run else None, out_dir=folder, case_text=text,
+                            plots=plots, log=log, executor=ex, loss=loss or DEFAULT_LOSS, f_scale=f_scale,
+                            max_evaluations=max_evaluations, source=source)
+    finally:
+        ex.shutdown(wait=True, cancel_futures=True)
+
+
+# ============================================================================ export
+def export(path, csv_dir) -> list:
+    """Every group of a results file as tidy CSV files (``vibeam export RESULTS.h5 --csv DIR``).
+
+    Long format: one row per point, the dimensions' coordinates as the first columns, one column
+    per variable.  A group whose variables lie on several sets of dimensions (a run's per-point
+    outputs on (direction, Omega), its strobe on (direction, Omega, record_period, state), ...)
+    gives one file per set: ``<group>.csv`` for the set with most variables, else
+    ``<group>@<dim>-<dim>.csv`` (``/`` in a group's path is ``.``); ``index.csv`` lists each
+    file's group, dimensions and rows.  Complex values are two
+    columns ``<name>_real``, ``<name>_imag``.  Units and long names are in a sidecar
+    ``<file>.units.csv`` (``column,units,long_name``; ``1`` is nondimensional).  Padding (NaN
+    beyond a branch's ``n_points``) is kept as empty cells, so every row maps to one stored
+    value.  Each file is written to a temporary file, flushed and renamed
+    (:func:`vibeam.io.outdir.replace_file`): a file is never left partial.
+
+    Parameters
+    ----------
+    path : str or Path
+        A results file (layout 2).
+    csv_dir : str or Path
+        Output folder (created if missing).
+
+    Returns
+    -------
+    list of Path
+        The CSV files written (data files; each with its ``.units.csv``).
+
+    Raises
+    ------
+    ValueError
+        Not a results file of layout 2 (one line).
+    """
+    from vibeam.case.arguments import check_path
+    from vibeam.io.outdir import replace_file
+
+    csv_dir = check_path(csv_dir, "csv_dir", optional=False)
+    res = open_results(path)
+    tree = res.tree()
+    folder = Path(csv_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    import pandas as pd
+
+    written, index = [], []
+    for node in tree.subtree:
+        ds = node.to_dataset(inherit=False)
+        if not ds.data_vars:
+            continue
+        gname = node.path.strip("/").replace("/", ".")
+        for stem, dims, table, units in _tidy_tables(node.to_dataset(), ds, gname):
+            p = replace_file(folder / f"{stem}.csv", table.to_csv(index=False))
+            replace_file(folder / f"{stem}.units.csv", units.to_csv(index=False))
+            written.append(p)
+            index.append((p.name, node.path.strip("/"), " ".join(dims), len(table)))
+    # what each file holds: its group in results.h5 and its dimensions (the coordinate columns)
+    replace_file(folder / "index.csv", pd.DataFrame(index, columns=["file", "group", "dimensions", "rows"])
+                 .to_csv(index=False))
+    return written
+
+
+def _tidy_tables(full, own, gname: str):
+    """``(stem, DataFrame, units DataFrame)`` per set of dimensions of a group's own variables."""
+    import pandas as pd
+
+    sets: dict = {}
+    for k, v in own.data_vars.items():
+        sets.setdefault(tuple(v.dims), []).append(k)
+    main = max(sets, key=lambda d: (len(sets[d]), -len(d)))
+    for dims, names in sets.items():
+        stem = gname if dims == main else f"{gname}@{'-'.join(dims) or 'scalar'}"
+        sub = full[names]
+        # the coordinates on exactly these dimensions (e.g. frequency_hz on Omega) as columns too
+        coords = [c for c in full.coords if set(full[c].dims) <= set(dims) and c not in dims]
+        cols, meta = {}, []
+        shape = tuple(full.sizes[d] for d in dims)
+        grids = np.meshgrid(*[np.arange(n) for n in shape], indexing="ij") if dims else []
+        for d, g in zip(dims, grids):
+            vals = full[d].values if d in full.coords else np.arange(full.sizes[d])
+            cols[d] = np.asarray(vals)[g.ravel()]
+            a = full[d].attrs if d in full.coords else {}
+            meta.append((d, a.get("units", ""), a.get("long_name", "index")))
+        for k in coords + names:
+            v = full[k]
+            a = np.broadcast_to(v.transpose(*[d for d in dims if d in v.dims]).values,
+                                shape if v.dims else ()) if v.dims else np.asarray(v.values)
+            if v.dims and tuple(v.dims) != dims:       # a coordinate on fewer dimensions
+                idx = tuple(g for d, g in zip(dims, grids) if d in v.dims)
+                a = np.asarray(v.transpose(*[d for d in dims if d in v.dims]).values)[idx]
+            a = np.asarray(a).reshape(-1)
+            u, ln = v.attrs.get("units", ""), v.attrs.get("long_name", "")
+            if np.iscomplexobj(a):
+                cols[f"{k}_real"], cols[f"{k}_imag"] = a.real, a.imag
+                meta += [(f"{k}_real", u, f"{ln} (real part)"), (f"{k}_imag", u, f"{ln} (imaginary part)")]
+            else:
+                cols[k] = a
+                meta.append((k, u, ln))
+        yield stem, dims, pd.DataFrame(cols), pd.DataFrame(meta, columns=["column", "units", "long_name"])
+
+
+# ============================================================================ Poincaré sections
+def poincare(case, Omega: float | None = None, frequency_hz: float | None = None, periods: int = 64,
+             transient: int | None = None, run: str | int = 0, samples_per_period: int | None = None,
+             state=None, out=None, force: bool = False):
+    """Poincaré sections at one forcing frequency (``vibeam poincare``): the stroboscopic samples
+    ``(q, q')`` at forcing phase 0 after the transient, and the impact map (impact phase
+    ``Omega t mod 2 pi`` against the pre-impact velocity) from the event kernel's impact log
+    (:mod:`vibeam.analysis.poincare`).
+
+    Parameters
+    ----------
+    case : Case, str, Path, dict or a model
+        As :func:`simulate`.
+    Omega, frequency_hz : float
+        The forcing frequency (one of them), as :func:`simulate`.
+    periods : int
+        Forcing periods recorded: stroboscopic samples (default 64).
+    transient : int, optional
+        Periods simulated first (default: the case's ``transient_periods``; 2000 when that is
+        ``"auto"`` or for a model).
+    run, samples_per_period, state, force
+        As :func:`simulate`.
+    out : str or Path, optional
+        A PNG file (written atomically) of the two sections.
+
+    Returns
+    -------
+    vibeam.analysis.poincare.PoincareSection
+        ``strobe_q``, ``strobe_dq`` (periods,), ``impact_phase`` (rad), ``impact_velocity``;
+        ``plot()``, ``to_xarray()``; mm and mm/s for a physical scene (``scales``).
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`simulate` (one line naming the argument).
+    """
+    from vibeam.analysis.poincare import section
+    from vibeam.case.arguments import check_path
+    from vibeam.case.schema import Case
+
+    out = check_path(out, "out")
+    if transient is None:
+        t = None
+        if isinstance(case, (Case, str, Path, dict)):
+            t = load_case(case).sweep.transient_periods
+        transient = 2000 if t in (None, "auto") else t
+    sim = simulate(case, Omega=Omega, frequency_hz=frequency_hz, periods=periods, transient=transient, run=run,
+                   samples_per_period=samples_per_period, state=state, force=force)
+    sec = section(sim)
+    if out is not None:
+        import matplotlib.pyplot as plt
+
+        plt.close(sec.plot(out))
+    return sec
