@@ -454,7 +454,8 @@ def test_run_keeps_the_continuation_branches_in_memory_and_in_the_file(continuat
     for kind in ("runs/exact", "branches/branches", "branches/branches/bifurcations"):
         a, c = mem.groups[kind].to_xarray(), back.groups[kind].to_xarray()
         for k in a.data_vars:
-            np.testing.assert_array_equal(a[k].values, c[k].values, err_msg=f"{kind}/{k}")
+            if k != "wall_time_s":            # timings differ between the two runs
+                np.testing.assert_array_equal(a[k].values, c[k].values, err_msg=f"{kind}/{k}")
     for x, y in zip(mem.branches[0].branches, back.branches[0].branches):
         np.testing.assert_array_equal(x["data"]["amplitude"], y["data"]["amplitude"])
     assert back["runs/exact"]["amplitude"].dims == ("direction", "Omega")      # the DataTree node
@@ -601,7 +602,7 @@ def test_derive_and_modes_need_no_cli_helper():
     case = vibeam.load_case(ROOT / "cases" / "rig-fe-tight.toml")
     d = vibeam.derive(case)
     assert d.rows == bs_derive(case)["rows"] == bs_derive(case.model_spec())["rows"]
-    assert "[model]" in d.sdof_case_text and vibeam.load_case(d.sdof_case_text).model.fidelity == "sdof"
+    assert "[model]" in d.sdof_case_text and vibeam.load_case(d.sdof_case_text).model_spec().fidelity == "sdof"
     m = vibeam.modes(case, n=3)
     np.testing.assert_array_equal(m.modes.frequencies_hz, modes_report(case.model_spec(), 3)["modes"].frequencies_hz)
     with pytest.raises(CaseError, match="'model.fidelity' = 'sdof'.*needs a beam scene"):
