@@ -444,9 +444,12 @@ def test_a_census_along_a_map_parameter_is_the_census_of_each_values_scene(tmp_p
     ds = read_basins(tmp_path / "results.h5", "exact")
     assert ds["label"].dims == ("gap_mm", "sample") and ds["gap_mm"].attrs["units"] == "mm"
     assert np.allclose(ds["gap_mm"].values, [-0.1, 0.1]) and np.allclose(ds["frequency_hz"].values, 16.5)
-    from vibeam.analysis.attractors import plot_basins
+    from vibeam.analysis.attractors import basins_from_dataset, plot_basins
 
     assert tmp_path / "census_exact.png" in plot_basins(r, tmp_path)
+    back = basins_from_dataset(ds)                  # the file gives the same result back
+    assert back.parameter == "gap_mm" and np.array_equal(back.values, r.values)
+    assert np.array_equal(back.labels, r.labels) and back.slice_text(1) == r.slice_text(1)
 
 
 def test_a_census_along_a_map_needs_a_map_and_one_frequency():

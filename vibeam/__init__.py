@@ -10,12 +10,17 @@ the sweep engine, case files, results and plots in this package.  The Python API
     sim = vibeam.simulate(case, Omega=2.0)   # one frequency: .t, .q, .dq, .impact_times, ...
     tree = vibeam.open_results("results/paper-fig7/results.h5")   # xarray.DataTree
     bas = vibeam.basins("cases/rig-tight.toml", frequency_hz=16.5)   # basins of attraction
+    con = vibeam.continuation("cases/paper-fig13-continuation.toml")  # Results: .branches, .bifurcations
+    sec = vibeam.poincare("cases/paper-fig7.toml", Omega=2.0)         # Poincaré sections
+    vibeam.export("results/paper-fig7/results.h5", "csv/")           # tidy CSV per group
+    # and vibeam.derive, modes, regress, cost, fit: the other commands
 
 Its names are imported on first use, so ``import vibeam`` stays fast.
 """
 from vibeam.version import __version__
 
-_API = ("load_case", "run", "simulate", "lyapunov", "basins", "open_results", "Results", "Simulation", "Lyapunov")
+_API = ("load_case", "run", "simulate", "lyapunov", "basins", "open_results", "continuation", "continue_", "derive",
+        "modes", "regress", "cost", "fit", "export", "poincare", "Results", "Simulation", "Lyapunov")
 __all__ = ["__version__", *_API]
 
 

@@ -146,32 +146,237 @@ def _toml_text(d: dict, prefix: str = "") -> str:
 
 
 # ============================================================================ runs
-@dataclass
+class _Group:
+    """What every group of :class:`Results` has: ``to_xarray()`` (its group of ``results.h5`` as
+    an :class:`xarray.Dataset`, loaded in memory) and ``plot(path=None)`` (a matplotlib Figure,
+    saved atomically when ``path`` is given).  ``group`` is its path in the file."""
+
+    _kind = "runs"
+
+    @property
+    def group(self) -> str:
+        return f"{self._kind}/{self.name}"
+
+    def _bind(self, owner):
+        object.__setattr__(self, "_owner", owner)
+        return self
+
+    def _results(self):
+        owner = getattr(self, "_owner", None)
+        return owner if owner is not None else Results(**{self._kind: [self]})
+
+    def to_xarray(self):
+        """This group as an :class:`xarray.Dataset` (the variables, dimensions and units of
+        ``results.h5``, README "Results")."""
+        return self._results().dataset(self.group)
+
+    def _title(self) -> str:
+        return self._results()._title()
+
+
+def _as(cls, obj, owner):
+    """``obj`` (a dataclass instance) as the API's subclass ``cls``, bound to ``owner``."""
+    import dataclasses
+
+    if not isinstance(obj, cls):
+        obj = cls(**{f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)})
+    return obj._bind(owner)
+
+
+def _group_classes():
+    """The API's group classes (built on first use: their bases live in modules that load
+    numba and scipy, kept out of ``import vibeam``)."""
+    global Run, Map, Branches, Basins
+    if Run is not None:
+        return
+    from vibeam.analysis.attractors import BasinsResult
+    from vibeam.analysis.branches import ContinuationResult
+    from vibeam.io.objects import MapResult, SweepResult
+
+    class _Run(SweepResult, _Group):
+        """One ``[[run]]`` (:class:`vibeam.engine.sweep.SweepResult`: per-point arrays in
+        ``.data``, visiting order); group ``runs/<name>`` on (direction, Omega)."""
+
+        _kind = "runs"
+
+        def plot(self, path=None, kind: str = "frc"):
+            """The run's FRC (``kind="frc"``) or bifurcation diagram (``"bifurcation"``)."""
+            from vibeam.plots.sweep import bifurcation_figure, frc_figure
+
+            fig = {"frc": frc_figure, "bifurcation": bifurcation_figure}[kind]
+            r = self._results()
+            return _saved(fig([self], title=r._title(), case=r.case), path)
+
+    class _Map(MapResult, _Group):
+        """One run of a ``[map]`` (:class:`vibeam.analysis.maps.MapResult`); group ``maps/<name>``
+        on (direction, <parameter>, Omega)."""
+
+        _kind = "maps"
+
+        def plot(self, path=None):
+            """The class map (paper Fig. 18), with the two-parameter curves of the case."""
+            from vibeam.analysis.maps import map_figure
+
+            r = self._results()
+            return _saved(map_figure(self, title=r._title(), case=r.case,
+                                     curves=[b for b in r.branches if b.curves]), path)
+
+    class _Branches(ContinuationResult, _Group):
+        """One continuation run (:class:`vibeam.analysis.branches.ContinuationResult`: ``branches``,
+        their ``bifurcations``, two-parameter ``curves``); group ``branches/<name>`` on
+        (branch, point)."""
+
+        _kind = "branches"
+
+        def plot(self, path=None):
+            """Branches (stable solid, unstable dashed), bifurcations and the sweeps of the same
+            scene overlaid (``continuation_<run>.png`` of ``vibeam continue``)."""
+            from vibeam.analysis.branches import continuation_figure
+
+            r = self._results()
+            scene = {x.name: dict(x.model) for x in getattr(r.case, "run", [])}
+            same = [s for s in r.runs if scene.get(s.name) == scene.get(self.name)] or r.runs
+            return _saved(continuation_figure(self, same, title=f"{r._title()}: {self.name}", case=r.case), path)
+
+    class _Basins(BasinsResult, _Group):
+        """Basins of attraction or the census of attractors of one run
+        (:class:`vibeam.analysis.attractors.BasinsResult`); group ``basins/<name>``."""
+
+        _kind = "basins"
+
+        def to_xarray(self):
+            """The variables of ``/basins/<run>/`` (computed from the result in memory)."""
+            return BasinsResult.to_xarray(self)
+
+        def plot(self, path=None, i: int | None = None):
+            """The basin image at frequency ``i`` (default the first), or with several
+            frequencies and ``i=None`` the census figure (fractions and amplitudes over the
+            continuation branches of the results)."""
+            from vibeam.analysis.attractors import basins_figure, census_figure
+
+            r = self._results()
+            if i is None and len(self.Omega) > 1:
+                br = {b.name: _branch_dicts(b) for b in r.branches}
+                return _saved(census_figure(self, r._title(), br), path)
+            return _saved(basins_figure(self, i or 0, r._title()), path)
+
+    Run, Map, Branches, Basins = _Run, _Map, _Branches, _Basins
+
+
+Run = Map = Branches = Basins = None
+
+
+def _branch_dicts(b) -> dict:
+    """A continuation run in the shape of :func:`vibeam.io.results.read_branch_group` (what the
+    census figure overlays)."""
+    from vibeam.io.results import branch_name
+
+    return {branch_name(x): dict(x["data"], attrs=dict(index=x["index"], n=x["n"], parameter=b.parameter))
+            for x in b.branches if x["data"]}
+
+
+@dataclass(eq=False)
+class Bifurcations(_Group):
+    """The bifurcations of one continuation run: ``table`` (``type``, ``parameter``, ``branch``,
+    ``period``, ``amplitude``, ``detail``, and ``frequency_hz`` / ``amplitude_mm`` for a
+    physical scene; one entry per bifurcation); group ``branches/<run>/bifurcations``."""
+
+    name: str
+    table: dict
+    run: object = None
+
+    @property
+    def group(self) -> str:
+        return f"branches/{self.name}/bifurcations"
+
+    def _results(self):
+        return self.run._results()
+
+    def plot(self, path=None):
+        """The continuation figure of the run, where the bifurcations are marked."""
+        return self.run.plot(path)
+
+
+@dataclass(eq=False)
+class Curves(_Group):
+    """The two-parameter curves of one continuation run (``curves``: dicts with ``type``,
+    ``p1`` (the continuation parameter), ``p2`` (the second one), ``n``, ``status``);
+    group ``branches/<run>/curves`` on (curve, curve_point)."""
+
+    name: str
+    curves: list
+    run: object = None
+
+    @property
+    def group(self) -> str:
+        return f"branches/{self.name}/curves"
+
+    def _results(self):
+        return self.run._results()
+
+    def plot(self, path=None):
+        """The curves of the run alone (frequency x the second parameter)."""
+        from vibeam.analysis.branches import curves_figure
+
+        r = self._results()
+        return _saved(curves_figure(self.run, title=f"{r._title()}: {self.name}", case=r.case), path)
+
+
+@dataclass(eq=False)
 class Results:
-    """What :func:`run` (``vibeam run``) computed: runs, maps, the case and the results file.
+    """Every group a case produced (:func:`run`, ``vibeam run``/``continue``/``basins``), or a
+    results file holds (:func:`open_results`).
 
     Attributes
     ----------
-    runs : list of vibeam.engine.sweep.SweepResult
-        One per ``[[run]]`` (per-point arrays in ``.data``, visiting order).
-    maps : list of vibeam.analysis.maps.MapResult
-        One per run of a ``[map]`` case.
+    runs : list of Run
+        One per ``[[run]]`` of a sweep (:class:`vibeam.engine.sweep.SweepResult` with
+        ``to_xarray()`` and ``plot()``; per-point arrays in ``.data``, visiting order).
+    maps : list of Map
+        One per run of a ``[map]`` case (:class:`vibeam.analysis.maps.MapResult`).
     case : vibeam.case.schema.Case or None
+        The case as run (its quick variant with ``quick``).
     path : Path or None
-        The results file (None when the run kept nothing on disk).
+        The results file (None when the run kept nothing on disk: the groups are in memory).
+    branches : list of Branches
+        One per continuation run (``method = "continuation"``;
+        :class:`vibeam.analysis.branches.ContinuationResult`).
+    basins : list of Basins
+        Basins of attraction or census of attractors (``[basins]``, :func:`basins`;
+        :class:`vibeam.analysis.attractors.BasinsResult`).
+
+    ``bifurcations`` and ``curves`` (properties) give each continuation run's bifurcations and
+    two-parameter curves; ``groups`` all of them by their path in ``results.h5``;
+    ``res["exact"]`` a group by its run's name, ``res["runs/exact"]`` the node of the
+    :class:`xarray.DataTree` (:meth:`tree`).
     """
 
     runs: list = field(default_factory=list)
     maps: list = field(default_factory=list)
     case: object = None
     path: Path | None = None
+    branches: list = field(default_factory=list)
+    basins: list = field(default_factory=list)
+
+    def __post_init__(self):
+        _group_classes()
+        self.runs = [_as(Run, r, self) for r in self.runs]
+        self.maps = [_as(Map, m, self) for m in self.maps]
+        self.branches = [_as(Branches, b, self) for b in self.branches]
+        self.basins = [_as(Basins, b, self) for b in self.basins]
+        self._tree = None
+        self._file = None        # a file holding the groups (self.path, or a private temporary one)
+        self._tmp = None
 
     @classmethod
     def from_file(cls, path) -> "Results":
-        """The runs and maps of a results file (``results.h5``)."""
+        """Every group of a results file (``results.h5``): runs, maps, continuation branches
+        (with bifurcations and curves) and basins."""
+        from vibeam.analysis.attractors import basins_from_dataset, read_basins
+        from vibeam.analysis.branches import read_continuation
         from vibeam.case.schema import Case
         from vibeam.io.inputs import check_input_file
-        from vibeam.io.results import load_results
+        from vibeam.io.results import layout_of, load_results
 
         check_input_file(path, "results file")
         runs, maps, attrs = load_results(path)
@@ -183,17 +388,92 @@ class Results:
                 case = load_case(str(attrs["case_text"]))
         except Exception:      # a case of an older vibeam: the data are still readable
             case = None
-        return cls(runs, maps, case, Path(path))
+        branches, basins = [], []
+        if layout_of(path) >= 2:
+            import h5py
 
-    def __getitem__(self, name: str):
-        for r in self.runs + self.maps:
+            branches = read_continuation(path)
+            with h5py.File(path, "r") as f:
+                names = list(f.get("basins", {}))
+            basins = [basins_from_dataset(read_basins(path, n), n) for n in names]
+        return cls(runs, maps, case, Path(path), branches, basins)
+
+    def _source(self, name: str):
+        for r in self.runs + self.maps + self.branches + self.basins:
             if r.name == name:
                 return r
-        raise KeyError(f"no run named {name!r}; runs: {[r.name for r in self.runs + self.maps]}")
+        return None
+
+    def __getitem__(self, name: str):
+        if "/" in name:
+            return self.tree()[name]
+        r = self._source(name)
+        if r is None:
+            raise KeyError(f"no run named {name!r}; runs: {self.names}")
+        return r
 
     @property
     def names(self) -> list:
-        return [r.name for r in self.runs + self.maps]
+        """The names of the runs, maps and continuation runs (the case's ``[[run]]`` names)."""
+        return [r.name for r in self.runs + self.maps + self.branches]
+
+    @property
+    def bifurcations(self) -> list:
+        """One :class:`Bifurcations` per continuation run."""
+        return [Bifurcations(b.name, b.bifurcation_table(), b) for b in self.branches]
+
+    @property
+    def curves(self) -> list:
+        """One :class:`Curves` per continuation run that traced two-parameter curves."""
+        return [Curves(b.name, b.curves, b) for b in self.branches if b.curves]
+
+    @property
+    def groups(self) -> dict:
+        """Every group by its path in ``results.h5``: ``runs/<run>``, ``maps/<run>``,
+        ``branches/<run>``, ``branches/<run>/bifurcations``, ``branches/<run>/curves``,
+        ``basins/<run>``."""
+        out = {}
+        for g in self.runs + self.maps + self.branches:
+            out[g.group] = g
+        for g in self.bifurcations + self.curves + self.basins:
+            out[g.group] = g
+        return out
+
+    def _h5(self) -> Path:
+        """A file holding every group: the results file, or one written once to a private
+        temporary folder (removed with this object)."""
+        if self.path is not None and Path(self.path).is_file():
+            return Path(self.path)
+        if self._file is not None and Path(self._file).is_file():
+            return self._file
+        from vibeam.analysis.attractors import write_basins
+        from vibeam.io.results import write_results
+
+        self._tmp = tempfile.TemporaryDirectory(prefix="vibeam-results-")
+        name = getattr(self.case, "name", "")
+        text = case_text(self.case) if self.case is not None else ""
+        f = write_results(Path(self._tmp.name) / "results.h5", self.runs, name, text, maps=self.maps,
+                          branches=self.branches)
+        if self.basins:
+            write_basins(f, self.basins, name, text)
+        self._file = f
+        return f
+
+    def tree(self):
+        """Every group as one :class:`xarray.DataTree`, loaded in memory (``tree["runs/<run>"]``,
+        ``tree["branches/<run>/bifurcations"]``, ...)."""
+        if self._tree is None:
+            import xarray as xr
+
+            tree = xr.open_datatree(self._h5(), engine="h5netcdf")
+            tree.load()
+            tree.close()
+            self._tree = tree
+        return self._tree
+
+    def dataset(self, group: str):
+        """One group (its path in ``results.h5``) as an :class:`xarray.Dataset`."""
+        return self.tree()[group].to_dataset()
 
     def to_xarray(self, name: str | None = None):
         """The results as labelled data (the layout of :mod:`vibeam.io.results`), loaded in memory.
@@ -201,26 +481,19 @@ class Results:
         Parameters
         ----------
         name : str, optional
-            One run or map: its :class:`xarray.Dataset` (on (direction, Omega), or
-            (direction, <parameter>, Omega) for a map).  Default: an
-            :class:`xarray.DataTree` of every run and map (``tree["runs/<name>"]``).
+            One run, map, continuation run or basins: its :class:`xarray.Dataset` (on
+            (direction, Omega), (direction, <parameter>, Omega), (branch, point), ...), or a
+            group's path (``"branches/<run>/bifurcations"``).  Default: an
+            :class:`xarray.DataTree` of every group (``tree["runs/<name>"]``).
         """
-        import xarray as xr
-
-        from vibeam.io.results import write_results
-
-        with tempfile.TemporaryDirectory() as tmp:
-            path = self.path
-            if path is None or not Path(path).is_file():
-                path = write_results(Path(tmp) / "results.h5", self.runs, getattr(self.case, "name", ""),
-                                     case_text(self.case) if self.case is not None else "", maps=self.maps)
-            tree = xr.open_datatree(path, engine="h5netcdf")
-            tree.load()
-            tree.close()
         if name is None:
-            return tree
-        kind = "maps" if any(m.name == name for m in self.maps) else "runs"
-        return tree[f"{kind}/{name}"].to_dataset()
+            return self.tree()
+        if "/" in name:
+            return self.dataset(name)
+        r = self._source(name)
+        if r is None:
+            raise KeyError(f"no run named {name!r}; runs: {self.names}")
+        return r.to_xarray()
 
     # ---------------------------------------------------------------- plots (matplotlib Figures)
     def _title(self) -> str:
@@ -240,16 +513,29 @@ class Results:
 
     def plot_map(self, name: str | None = None, path=None):
         """Class map of one map run (default the first; paper Fig. 18)."""
-        from vibeam.analysis.maps import map_figure
-
         m = self[name] if name else self.maps[0]
-        return _saved(map_figure(m, title=self._title(), case=self.case), path)
+        return m.plot(path)
 
     def plot_agreement(self, path=None):
         """Where the maps' classes differ from the first map's; None with fewer than two maps."""
         from vibeam.analysis.maps import agreement_figure
 
         return _saved(agreement_figure(self.maps, title=self._title(), case=self.case), path)
+
+    def plot_continuation(self, name: str | None = None, path=None):
+        """Branches of one continuation run (default the first) with the sweeps overlaid."""
+        b = self[name] if name else self.branches[0]
+        return b.plot(path)
+
+    def plot_curves(self, name: str | None = None, path=None):
+        """Two-parameter curves of one continuation run (default the first with curves)."""
+        c = next(c for c in self.curves if name is None or c.name == name)
+        return c.plot(path)
+
+    def plot_basins(self, name: str | None = None, path=None, i: int | None = None):
+        """Basins (or the census) of one run (default the first)."""
+        b = next(b for b in self.basins if name is None or b.name == name)
+        return b.plot(path, i=i)
 
     def plot_spectra(self, path=None):
         """Sensor velocity spectra against the forcing frequency (``[assess] spectra``)."""
@@ -278,9 +564,41 @@ def _saved(fig, path):
     return fig
 
 
+def _check_run_args(jobs, out, executor, **flags):
+    from vibeam.case.arguments import check_flag, check_jobs, check_path
+
+    jobs = check_jobs(jobs)
+    out = check_path(out, "out")
+    for name, flag in flags.items():
+        check_flag(flag, name)
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        from vibeam.errors import quote_value
+
+        raise TypeError(f"executor = {quote_value(executor)}: not an executor; allowed: a "
+                        f"concurrent.futures.Executor (with submit) or None")
+    return jobs, out
+
+
+def _collect(case, h5: Path, out, tmp, runs=None, maps=None, basins=()) -> Results:
+    """The Results of a run into ``h5``: the runs and maps in memory (as computed), the
+    continuation branches read back from the file (every group, nothing dropped)."""
+    from vibeam.analysis.branches import read_continuation
+
+    branches = read_continuation(h5) if Path(h5).is_file() else []
+    if runs is None:
+        back = Results.from_file(h5) if Path(h5).is_file() else Results()
+        runs, maps = back.runs, back.maps
+    res = Results(list(runs), list(maps or []), case, None if out is None else Path(h5), branches, list(basins))
+    res._tmp = tmp                       # kept alive with the results: the file behind to_xarray()
+    res._file = Path(h5) if Path(h5).is_file() else None
+    return res
+
+
 def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = False, progress: bool = False,
-        plots: bool = False, resume: bool = False, force: bool = False, verbose: bool = False) -> Results:
-    """Run a case (``vibeam run``): its runs, or its parameter map.
+        plots: bool = False, resume: bool = False, force: bool = False, verbose: bool = False,
+        basins: bool = True) -> Results:
+    """Run a case (``vibeam run``): its runs, or its parameter map, its continuation runs and
+    its ``[basins]``.
 
     Parameters
     ----------
@@ -293,7 +611,8 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
         Where the sweep lines run, e.g. ``distributed.Client(...).get_executor()``.
     out : str or Path, optional
         Output folder: ``results.h5`` (checkpointed as lines finish) and, with ``plots``,
-        the PNGs.  Default: nothing is kept on disk (the results are in memory).
+        the PNGs.  Default: nothing is kept on disk (the results are in memory, the file
+        behind :meth:`Results.to_xarray` in a private temporary folder removed with them).
     quick : bool
         The case's quick variant (``[quick]``).
     progress : bool
@@ -302,10 +621,14 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
         As the command line's ``--no-plots`` (inverted), ``--resume``, ``--force``.
     verbose : bool
         Print the tables the command line prints.
+    basins : bool
+        Compute the case's ``[basins]`` too (as ``vibeam run``).
 
     Returns
     -------
     Results
+        ``runs`` (or ``maps``), ``branches`` (continuation runs, with ``bifurcations`` and
+        ``curves``), ``basins``.
 
     Raises
     ------
@@ -317,47 +640,128 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
         from 1 to :func:`vibeam.case.arguments.max_jobs` (the rule of ``--jobs``), ``out`` an
         empty string; one line naming the argument, the value and what is allowed.
     """
-    from vibeam.case.arguments import check_flag, check_jobs, check_path
     from vibeam.runner import run_case
 
-    jobs = check_jobs(jobs)
-    out = check_path(out, "out")
-    for name, flag in (("quick", quick), ("progress", progress), ("plots", plots), ("resume", resume),
-                       ("force", force), ("verbose", verbose)):
-        check_flag(flag, name)
-    if executor is not None and not callable(getattr(executor, "submit", None)):
-        from vibeam.errors import quote_value
-
-        raise TypeError(f"executor = {quote_value(executor)}: not an executor; allowed: a "
-                        f"concurrent.futures.Executor (with submit) or None")
+    jobs, out = _check_run_args(jobs, out, executor, quick=quick, progress=progress, plots=plots, resume=resume,
+                                force=force, verbose=verbose, basins=basins)
     c = load_case(case)
     text = case_text(c)
+    source = str(case) if isinstance(case, (str, Path)) and _names_a_file(str(case)) else ""
     ctx = contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO())
+    tmp = None
+    if out is None:
+        tmp = tempfile.TemporaryDirectory(prefix="vibeam-run-")
+        folder = Path(tmp.name)
+    else:
+        folder = Path(out)
     with ctx:
-        if out is None:
-            with tempfile.TemporaryDirectory() as tmp:
-                res = run_case(c, text, tmp, jobs=jobs, quiet=not progress, plots=False, quick=quick,
-                               executor=executor, checkpoint=False, force=force)
-            path = None
-        else:
-            res = run_case(c, text, out, jobs=jobs, quiet=not progress, plots=plots, quick=quick, resume=resume,
-                           executor=executor, force=force)
-            path = Path(out) / "results.h5"
+        res = run_case(c, text, folder, jobs=jobs, quiet=not progress, plots=plots and out is not None,
+                       quick=quick, resume=resume and out is not None, executor=executor,
+                       checkpoint=out is not None, force=force, source=source)
+    run_c = c.quick_variant() if quick else c
+    found = []
+    if basins and c.basins is not None:
+        with ctx:
+            found = [run_basins(run_c, text, folder, None, jobs=jobs, executor=executor, progress=progress,
+                                  resume=resume and out is not None, plots=plots and out is not None)]
     from vibeam.analysis.maps import MapResult
 
     maps = [r for r in res if isinstance(r, MapResult)]
     runs = [r for r in res if not isinstance(r, MapResult)]
-    return Results(runs, maps, c.quick_variant() if quick else c, path)
+    return _collect(run_c, folder / "results.h5", out, tmp, runs, maps, found)
 
 
-def open_results(path):
-    """A results file as an :class:`xarray.DataTree` (:func:`vibeam.io.results.open_results`):
-    ``tree["runs/<run>"]`` on (direction, Omega), ``tree["maps/<run>"]`` on
-    (direction, <parameter>, Omega)."""
+def run_basins(case, text, folder, spec, jobs=None, executor=None, progress=False, resume=False, plots=True,
+                 log=None):
+    """Basins of ``case`` (``spec`` or its ``[basins]``) into ``folder/results.h5``
+    (``/basins/<run>/``; finished rows checkpointed in ``/basin_lines``), the table printed and,
+    with ``plots``, the PNGs (over the file's continuation branches).  Returns the BasinsResult."""
+    from vibeam.analysis.attractors import compute, plot_basins, print_basins, write_basins
+
+    h5 = Path(folder) / "results.h5"
+    r = compute(case, jobs=jobs, executor=executor, progress=progress, spec=spec, checkpoint=h5, resume=resume,
+                case_text=text)
+    h5 = write_basins(h5, [r], case.name, text)
+    print_basins(r)
+    if plots:
+        from vibeam.io.results import read_results
+
+        branches = read_results(h5)["branches"]     # overlaid on a census (vibeam continue wrote them)
+        for p in plot_basins(r, folder, branches=branches):
+            print(f"plot: {p}")
+    print(f"basins -> {h5} (group /basins/{r.name})")
+    return r
+
+
+def continuation(case, jobs: int | None = None, executor=None, out=None, quick: bool = False,
+                 progress: bool = False, plots: bool = False, force: bool = False, verbose: bool = False) -> Results:
+    """The continuation runs of a case alone (``vibeam continue``): branches of periodic orbits
+    with their Floquet multipliers, bifurcations and two-parameter curves
+    (:mod:`vibeam.analysis.branches`; pseudo-arclength continuation of the shooting problem).
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        Anything :func:`load_case` takes; at least one ``[[run]]`` with
+        ``method = "continuation"``.
+    jobs, executor, out, quick, progress, plots, force, verbose
+        As :func:`run`.  A ``results.h5`` of the same case in ``out`` keeps its sweeps and
+        maps (they are in the returned Results too); only its ``/branches`` are replaced.
+
+    Returns
+    -------
+    Results
+        ``branches`` (one per continuation run), ``bifurcations``, ``curves``; the sweeps of
+        the file in ``out`` when it holds the same case.
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        No continuation run (one line), or a bad case; TypeError, ValueError as :func:`run`.
+    """
+    from vibeam.runner import run_case
+
+    jobs, out = _check_run_args(jobs, out, executor, quick=quick, progress=progress, plots=plots, force=force,
+                                verbose=verbose)
+    c = load_case(case)
+    text = case_text(c)
+    source = str(case) if isinstance(case, (str, Path)) and _names_a_file(str(case)) else ""
+    tmp = None
+    if out is None:
+        tmp = tempfile.TemporaryDirectory(prefix="vibeam-continue-")
+        folder = Path(tmp.name)
+    else:
+        folder = Path(out)
+    ctx = contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO())
+    with ctx:
+        run_case(c, text, folder, jobs=jobs, quiet=not progress, plots=plots and out is not None, quick=quick,
+                 executor=executor, force=force, source=source, continuation_only=True)
+    return _collect(c.quick_variant() if quick else c, folder / "results.h5", out, tmp)
+
+
+# alias: ``continue`` is a Python keyword
+continue_ = continuation
+
+
+def open_results(path) -> Results:
+    """A results file (``results.h5``) as :class:`Results`: every group (runs, maps, continuation
+    branches with their bifurcations and curves, basins), each with ``to_xarray()`` and
+    ``plot()``; ``res["runs/<run>"]`` is the node of the file's :class:`xarray.DataTree`.
+
+    Raises
+    ------
+    ValueError
+        Not a regular file, or a file of the first layout (no dimensions: convert it with
+        :func:`vibeam.io.results.load_results` and :func:`vibeam.io.results.write_results`).
+    """
     from vibeam.io.inputs import check_input_file
-    from vibeam.io.results import open_results as _open
+    from vibeam.io.results import LAYOUT_VERSION, layout_of
 
-    return _open(check_input_file(path, "results file"))
+    p = check_input_file(path, "results file")
+    if layout_of(p) < LAYOUT_VERSION:
+        raise ValueError(f"{p}: a results file of the first layout (no dimensions); rewrite it with "
+                         f"vibeam.io.results.load_results and write_results")
+    return Results.from_file(p)
 
 
 # ============================================================================ one frequency
@@ -840,3 +1244,598 @@ def _check_point_work(case, job, solver, Omega, transient, periods, spp, force, 
         raise InputError(f"simulate: Omega = {Omega:g}, transient = {transient}, periods = {periods}: the point needs "
                          f"about {w['steps']:.2g} solver steps, above the limit of {MAX_WORK_STEPS:.0e}; reduce "
                          f"them, or pass force=True")
+
+
+# ============================================================================ the other commands
+def _case_and_source(case):
+    """``(Case, source)``: the case, and the file it came from (for messages) or ''."""
+    c = load_case(case)
+    source = str(case) if isinstance(case, (str, Path)) and _names_a_file(str(case)) else ""
+    return c, source
+
+
+@dataclass
+class Derived:
+    """SDOF parameters of a beam scene by the assumed static mode (:func:`derive`).
+
+    Attributes
+    ----------
+    case : Case
+    rows : list of (name, value, unit, source)
+        The table of ``vibeam derive`` (EI, M_S, K_S, f_n, beta_S, ...; SI units).
+    reduction, with_beam_mass : vibeam.reductions.static_mode.StaticModeReduction
+        The reduction without (the paper's) and with the beam's modal mass.
+    scene : vibeam.case.beamscene.BeamScene
+    sdof_case_text : str
+        The TOML of the SDOF case of the same scene (``vibeam derive --write``).
+    """
+
+    case: object
+    rows: list
+    reduction: object
+    with_beam_mass: object
+    scene: object
+    sdof_case_text: str
+
+    def write(self, path) -> Path:
+        """Write :attr:`sdof_case_text` to ``path`` atomically (``--write``)."""
+        from vibeam.io.outdir import write_text_file
+
+        return write_text_file(Path(path), self.sdof_case_text, "--write")
+
+
+def derive(case, write=None) -> Derived:
+    """SDOF parameters of a beam scene by the assumed static mode (``vibeam derive``; paper
+    Eqs. 42-46: ``M_S = m phi(x_m)^2``, ``K_S = EI/L^3 int phi''^2``, ``beta_S = D omega_n / 2``).
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        A beam scene (a fidelity with a finite-element model).
+    write : str or Path, optional
+        Also write the SDOF case file of the same scene there (``--write``).
+
+    Returns
+    -------
+    Derived
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        Not a beam scene (one line naming ``model.fidelity``), or a bad case.
+    """
+    from vibeam.case.arguments import check_path
+    from vibeam.case.beamscene import beam_spec, derive as _derive, sdof_case_text
+
+    write = check_path(write, "write")
+    c, _ = _case_and_source(case)
+    spec = beam_spec(c, "derive")
+    d = _derive(spec)
+    res = Derived(c, d["rows"], d["reduction"], d["with_beam_mass"], d["scene"],
+                  sdof_case_text(c, spec, d["reduction"], d["scene"]))
+    if write is not None:
+        res.write(write)
+    return res
+
+
+@dataclass
+class Modes:
+    """Modes of a beam scene (:func:`modes`).
+
+    Attributes
+    ----------
+    case : Case
+    fe : vibeam.models.beam.BeamFE
+        The finite-element model (``fe.ndof`` degrees of freedom).
+    modes, contact : modal data
+        Free modes (``frequencies_hz`` (n,), ``shapes`` (ndof, n), ``participation`` (n,),
+        kg^0.5, ``effective_mass_kg`` (n,)) and contact modes (beam held at the stop).
+    total_mass_kg : float
+    sensor_modal_mass_kg : ndarray, shape (n,)
+        The modal mass seen at the sensor, ``1 / (s phi_i)^2`` (kg).
+    n : int
+        Modes asked for.
+    paths : dict
+        ``vtu`` and ``png`` written (with ``out``).
+    """
+
+    case: object
+    fe: object
+    modes: object
+    contact: object
+    total_mass_kg: float
+    sensor_modal_mass_kg: np.ndarray
+    n: int
+    report: dict
+    paths: dict = field(default_factory=dict)
+
+    def plot(self, path=None):
+        """Free and contact mode shapes along the beam (``modes.png``)."""
+        return _saved(modes_figure(self.report, self.case.name), path)
+
+
+def modes(case, n: int = 6, out=None) -> Modes:
+    """Natural frequencies, participation, effective masses and contact modes of a beam scene
+    (``vibeam modes``; Hermite FE cantilever with point mass and rotary inertia, base excitation).
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        A beam scene.
+    n : int
+        Number of modes (>= 1; at most the FE model's degrees of freedom).
+    out : str or Path, optional
+        A folder: ``modes.vtu`` (ParaView) and ``modes.png`` are written there atomically.
+
+    Returns
+    -------
+    Modes
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        Not a beam scene; the folder in use by another vibeam process.
+    TypeError, ValueError
+        ``n`` not a whole number >= 1, ``out`` not a path.
+    """
+    from vibeam.case.arguments import check_path, check_whole
+    from vibeam.case.beamscene import beam_spec, modes_report
+
+    n = check_whole(n, "n", 1, 10 ** 6)
+    out = check_path(out, "out")
+    c, _ = _case_and_source(case)
+    spec = beam_spec(c, "modes")
+    rep = modes_report(spec, n=n)
+    res = Modes(c, rep["fe"], rep["modes"], rep["contact"], rep["total_mass_kg"], rep["sensor_modal_mass_kg"],
+                n, rep)
+    if out is not None:
+        from vibeam.io.outdir import OutputLock, check_folder
+
+        folder = check_folder(Path(out))
+        with OutputLock(folder):          # like every writer: one vibeam process per folder
+            res.paths = write_modes_files(res, folder)
+    return res
+
+
+def write_modes_files(res: Modes, folder) -> dict:
+    """``modes.vtu`` and ``modes.png`` of :func:`modes` into ``folder`` (atomically)."""
+    from vibeam.io.outdir import replace_file
+    from vibeam.models.beam import write_modes
+    from vibeam.plots.sweep import save_close
+
+    folder = Path(folder)
+    vtu = replace_file(folder / "modes.vtu",
+                       lambda p: write_modes(p, res.fe, n=min(res.n, len(res.modes.frequencies_hz))))
+    png = save_close(modes_figure(res.report, res.case.name), folder / "modes.png")
+    return {"vtu": vtu, "png": png}
+
+
+def modes_figure(rep: dict, title: str = ""):
+    """Free and contact mode shapes along the beam (the first four of each), normalised; a
+    Figure (``modes.png`` of ``vibeam modes``).  ``rep``: :func:`vibeam.case.beamscene.modes_report`."""
+    import matplotlib.pyplot as plt
+
+    from vibeam.plots import style
+
+    fe, md, cm = rep["fe"], rep["modes"], rep["contact"]
+    L = fe.geometry.length_m
+    x = np.linspace(0, L, 361)
+    with style.context():
+        fig, axes = plt.subplots(1, 2, figsize=(10, 4.4), sharey=True)
+        for ax, m, lab in ((axes[0], md, "free"), (axes[1], cm, "contact (held at the stop)")):
+            for i in range(min(4, m.shapes.shape[1])):
+                w = fe.deflection(m.shapes[:, i], x)
+                ax.plot(x * 1e3, w / np.max(np.abs(w)), label=f"{m.frequencies_hz[i]:.2f} Hz")
+            for xp, nm in ((fe.geometry.sensor_position_m, "L_S"), (fe.geometry.mass_position_m, "L_m")):
+                ax.axvline(xp * 1e3, color="0.6", ls=":")
+                ax.text(xp * 1e3, 1.02, nm, ha="center", fontsize=8)
+            ax.set_title(f"{lab} modes", loc="left")
+            ax.set_xlabel(style.label("position along the beam x", "mm"))
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=4, title="mode")
+        axes[0].set_ylabel(style.label("normalised deflection", None))
+        style.titles(fig, title, "mode shapes of the FE beam")
+    return fig
+
+
+@dataclass
+class Regression:
+    """A case's FRCs against reference FRCs (:func:`regress`).
+
+    Attributes
+    ----------
+    case : Case
+    reference : Path
+    rows : list of vibeam.analysis.regress.RegressRow
+        One per run: points compared, failures, max |dA| and relative, period mismatches.
+    atol, rtol : float
+        The amplitude tolerances used (``[regress]`` or the arguments).
+    ok : bool
+        Every run within the tolerances (``vibeam regress`` exits 0).
+    """
+
+    case: object
+    reference: Path
+    rows: list
+    atol: float
+    rtol: float
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.rows) and all(r.ok for r in self.rows)
+
+    def print(self) -> None:
+        """The table of ``vibeam regress``."""
+        from vibeam.analysis.regress import print_rows
+
+        tol = self.case.regress
+        print(f"\nregression of {self.case.name} against {self.reference}")
+        print_rows(self.rows, self.atol, self.rtol, tol.spread_sigmas, tol.spread_range)
+
+
+def regress(case, reference, results=None, out=None, jobs: int | None = None, executor=None,
+            atol: float | None = None, rtol: float | None = None, quick: bool = False,
+            force: bool = False) -> Regression:
+    """Compare a case's FRCs with reference FRCs (``vibeam regress``): rerun the case (or take
+    ``results``) and compare amplitudes point by point (``[regress]`` tolerances).
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+    reference : str or Path
+        Reference ``results.h5`` or CSV (``Omega,amplitude`` or ``frequency_hz,amplitude_mm``).
+    results : str or Path, optional
+        Compare this results file instead of rerunning the case.
+    out : str or Path, optional
+        Folder of the rerun (default: a temporary folder, removed afterwards).
+    jobs, executor, quick, force
+        As :func:`run`.
+    atol, rtol : float, optional
+        Override ``[regress] amplitude_atol`` / ``amplitude_rtol``.
+
+    Returns
+    -------
+    Regression
+
+    Raises
+    ------
+    vibeam.case.schema.InputError
+        A reference or results file that is not of this case or not readable (one line).
+    """
+    from vibeam.analysis.regress import (check_reference_of_case, check_results_of_case, compare, load_results,
+                                         read_reference)
+    from vibeam.case.arguments import check_path
+
+    jobs, out = _check_run_args(jobs, out, executor, quick=quick, force=force)
+    reference = check_path(reference, "reference", optional=False)
+    results = check_path(results, "results")
+    c, source = _case_and_source(case)
+    ref = read_reference(reference)    # a bad reference is refused before anything runs
+    check_reference_of_case(c, ref, reference, source)
+    if results is not None:
+        new = load_results(results, "--results")
+        check_results_of_case(c, new, results, source)
+    else:
+        from vibeam.io.outdir import check_folder
+        from vibeam.runner import run_case
+
+        # the rerun goes to its own folder: out, or a temporary one removed afterwards --
+        # never results/<case>/, where it would replace the results of the user's run
+        with tempfile.TemporaryDirectory(prefix=f"vibeam-regress-{c.name}-") as tmp:
+            out_dir = check_folder(Path(out) if out else Path(tmp))
+            run_case(c, case_text(c), out_dir, jobs=jobs, quiet=True, plots=False, quick=quick,
+                     executor=executor, force=force, source=source)
+            new = load_results(out_dir / "results.h5", "results")
+    tol = c.regress
+    atol = tol.amplitude_atol if atol is None else atol
+    rtol = tol.amplitude_rtol if rtol is None else rtol
+    rows = compare(new, reference, atol=atol, rtol=rtol, period=tol.period, sigmas=tol.spread_sigmas,
+                   spread_range=tol.spread_range, continuation=c.sweep.continuation)
+    return Regression(c, Path(reference), rows, atol, rtol)
+
+
+@dataclass
+class Cost:
+    """Accuracy against time of every run (:func:`cost`): ``result`` as
+    :func:`vibeam.analysis.cost.run_cost` returns it (``rows``: method, settings, seconds,
+    errors against the converged reference; the paper's claims), ``paths`` written."""
+
+    case: object
+    result: dict
+    paths: dict = field(default_factory=dict)
+
+    @property
+    def rows(self) -> list:
+        return self.result["rows"]
+
+    def to_xarray(self):
+        """The cost table (the variables of ``cost.h5`` ``/cost``) as an :class:`xarray.Dataset`."""
+        import xarray as xr
+
+        from vibeam.analysis.cost import cost_tables
+        from vibeam.io.results import table_variables
+
+        v = table_variables(cost_tables(self.result))
+        return xr.Dataset({k: (x.dims, x.data, x.attrs) for k, x in v.items()})
+
+    def plot(self, path=None):
+        """The work-precision figure (``work_precision.png``)."""
+        from vibeam.analysis.cost import work_precision_figure
+
+        return _saved(work_precision_figure(self.result, title=self.case.name, case=self.case), path)
+
+
+def cost(case, out=None, ladder: bool = False, repeats: int = 3, quick: bool = False, jobs: int | None = None,
+         force: bool = False, log=None) -> Cost:
+    """Accuracy against time of every run (``vibeam cost``): each run's sweep timed (median of
+    ``repeats``, inline) and its error against a converged reference.
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+    out : str or Path, optional
+        A folder: ``cost.h5`` (``/cost``) and ``work_precision.png`` written there atomically.
+    ladder : bool
+        Also a ladder of tolerances per ODE method.
+    repeats : int
+        Timed repetitions (>= 1).
+    quick, jobs, force
+        As :func:`run` (``jobs``: the workers of the converged references).
+    log : callable, optional
+        Progress messages (default: none).
+
+    Returns
+    -------
+    Cost
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        Work above the limit without ``force``; a bad case.
+    """
+    from vibeam.analysis.cost import check_cost_work, cost_tables, plot_work_precision, run_cost
+    from vibeam.case.arguments import check_whole
+
+    jobs, out = _check_run_args(jobs, out, None, ladder=ladder, quick=quick, force=force)
+    repeats = check_whole(repeats, "repeats", 1, 10 ** 6)
+    c, source = _case_and_source(case)
+    text = case_text(c)
+    if quick:
+        c = c.quick_variant()
+    check_cost_work(c, force=force, source=source)
+    log = log or (lambda m: None)
+    if out is None:
+        return Cost(c, run_cost(c, ladder=ladder, repeats=repeats, jobs=jobs, log=log))
+    from vibeam.io.outdir import OutputLock, check_folder
+    from vibeam.io.results import write_results
+
+    folder = check_folder(Path(out))
+    with OutputLock(folder):
+        res = run_cost(c, ladder=ladder, repeats=repeats, jobs=jobs, log=log)
+        h5 = write_results(folder / "cost.h5", [], c.name, text, extra={"cost": cost_tables(res)},
+                           case_json=c.model_dump_json())
+        png = plot_work_precision(res, folder / "work_precision.png", title=c.name, case=c)
+    return Cost(c, res, {"h5": h5, "png": png})
+
+
+def fit(case, reference=None, params=None, run: str | None = None, out=None, jobs: int | None = 1,
+        quick: bool = False, loss: str | None = None, f_scale: float = 3.0, max_evaluations: int = 60,
+        reference_run: str | None = None, plots: bool = True, log=None):
+    """Fit model parameters to a measured FRC (``vibeam fit``), with standard errors.
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        Its ``[model]`` values start the fit.
+    reference : str or Path
+        Measured FRC: CSV ``frequency_hz,amplitude_mm`` (or ``Omega,amplitude``), optional
+        ``direction`` and ``sigma`` columns; or a results.h5 (``reference_run`` names its run).
+    params : list of str or str, optional
+        Numeric ``[model]`` keys to fit (default ``gain, R``; a comma-separated str too).
+    run : str, optional
+        Fit this run only (default: every run, one by one).
+    out : str or Path, optional
+        A folder for each fit's files (fitted case, table, ``fit.png``); default none written.
+    jobs : int or None
+        Workers (1: inline).
+    quick : bool
+        Sweep with the quick variant's periods.
+    loss, f_scale, max_evaluations
+        As ``--loss`` (default soft_l1), ``--f-scale`` (units of sigma), ``--max-evaluations``.
+
+    Returns
+    -------
+    list of vibeam.identify.fit.FitResult
+        One per run: ``estimate``, ``standard_error``, ``correlation``, ``residuals``, ...
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        A parameter that is not a numeric key of the scene, an unreadable reference (one line).
+    """
+    from vibeam.case.arguments import check_path
+    from vibeam.engine.sweep import default_executor
+    from vibeam.errors import CaseError
+    from vibeam.identify.fit import DEFAULT_LOSS, check_params, default_params, fit_runs, read_reference
+
+    out = check_path(out, "out")
+    reference = check_path(reference, "reference", optional=False)
+    if not (isinstance(f_scale, (int, float)) and math.isfinite(f_scale) and f_scale > 0):
+        raise CaseError(f"f_scale = {f_scale!r}: must be a finite positive number (units of sigma)")
+    c, source = _case_and_source(case)
+    text = case_text(c)
+    if isinstance(params, str):
+        params = [p.strip() for p in params.split(",") if p.strip()]
+    if quick:
+        c = c.quick_variant()
+    ref = read_reference(reference, reference_run)
+    check_params(c, params or default_params(c), source)
+    ex = default_executor(jobs, 2)
+    try:
+        if out is None:
+            return fit_runs(c, ref, params, runs=[run] if run else None, case_text=text, plots=False, log=log,
+                            executor=ex, loss=loss or DEFAULT_LOSS, f_scale=f_scale,
+                            max_evaluations=max_evaluations, source=source)
+        from vibeam.io.outdir import OutputLock, check_folder
+
+        folder = check_folder(Path(out))
+        with OutputLock(folder):
+            return fit_runs(c, ref, params, runs=[run] if run else None, out_dir=folder, case_text=text,
+                            plots=plots, log=log, executor=ex, loss=loss or DEFAULT_LOSS, f_scale=f_scale,
+                            max_evaluations=max_evaluations, source=source)
+    finally:
+        ex.shutdown(wait=True, cancel_futures=True)
+
+
+# ============================================================================ export
+def export(path, csv_dir) -> list:
+    """Every group of a results file as tidy CSV files (``vibeam export RESULTS.h5 --csv DIR``).
+
+    Long format: one row per point, the dimensions' coordinates as the first columns, one column
+    per variable.  A group whose variables lie on several sets of dimensions (a run's per-point
+    outputs on (direction, Omega), its strobe on (direction, Omega, record_period, state), ...)
+    gives one file per set: ``<group>.csv`` for the set with most variables, else
+    ``<group>@<dim>-<dim>.csv`` (``/`` in a group's path is ``.``); ``index.csv`` lists each
+    file's group, dimensions and rows.  Complex values are two
+    columns ``<name>_real``, ``<name>_imag``.  Units and long names are in a sidecar
+    ``<file>.units.csv`` (``column,units,long_name``; ``1`` is nondimensional).  Padding (NaN
+    beyond a branch's ``n_points``) is kept as empty cells, so every row maps to one stored
+    value.  Each file is written to a temporary file, flushed and renamed
+    (:func:`vibeam.io.outdir.replace_file`): a file is never left partial.
+
+    Parameters
+    ----------
+    path : str or Path
+        A results file (layout 2).
+    csv_dir : str or Path
+        Output folder (created if missing).
+
+    Returns
+    -------
+    list of Path
+        The CSV files written (data files; each with its ``.units.csv``).
+
+    Raises
+    ------
+    ValueError
+        Not a results file of layout 2 (one line).
+    """
+    from vibeam.case.arguments import check_path
+    from vibeam.io.outdir import replace_file
+
+    csv_dir = check_path(csv_dir, "csv_dir", optional=False)
+    res = open_results(path)
+    tree = res.tree()
+    folder = Path(csv_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    import pandas as pd
+
+    written, index = [], []
+    for node in tree.subtree:
+        ds = node.to_dataset(inherit=False)
+        if not ds.data_vars:
+            continue
+        gname = node.path.strip("/").replace("/", ".")
+        for stem, dims, table, units in _tidy_tables(node.to_dataset(), ds, gname):
+            p = replace_file(folder / f"{stem}.csv", table.to_csv(index=False))
+            replace_file(folder / f"{stem}.units.csv", units.to_csv(index=False))
+            written.append(p)
+            index.append((p.name, node.path.strip("/"), " ".join(dims), len(table)))
+    # what each file holds: its group in results.h5 and its dimensions (the coordinate columns)
+    replace_file(folder / "index.csv", pd.DataFrame(index, columns=["file", "group", "dimensions", "rows"])
+                 .to_csv(index=False))
+    return written
+
+
+def _tidy_tables(full, own, gname: str):
+    """``(stem, DataFrame, units DataFrame)`` per set of dimensions of a group's own variables."""
+    import pandas as pd
+
+    sets: dict = {}
+    for k, v in own.data_vars.items():
+        sets.setdefault(tuple(v.dims), []).append(k)
+    main = max(sets, key=lambda d: (len(sets[d]), -len(d)))
+    for dims, names in sets.items():
+        stem = gname if dims == main else f"{gname}@{'-'.join(dims) or 'scalar'}"
+        sub = full[names]
+        # the coordinates on exactly these dimensions (e.g. frequency_hz on Omega) as columns too
+        coords = [c for c in full.coords if set(full[c].dims) <= set(dims) and c not in dims]
+        cols, meta = {}, []
+        shape = tuple(full.sizes[d] for d in dims)
+        grids = np.meshgrid(*[np.arange(n) for n in shape], indexing="ij") if dims else []
+        for d, g in zip(dims, grids):
+            vals = full[d].values if d in full.coords else np.arange(full.sizes[d])
+            cols[d] = np.asarray(vals)[g.ravel()]
+            a = full[d].attrs if d in full.coords else {}
+            meta.append((d, a.get("units", ""), a.get("long_name", "index")))
+        for k in coords + names:
+            v = full[k]
+            a = np.broadcast_to(v.transpose(*[d for d in dims if d in v.dims]).values,
+                                shape if v.dims else ()) if v.dims else np.asarray(v.values)
+            if v.dims and tuple(v.dims) != dims:       # a coordinate on fewer dimensions
+                idx = tuple(g for d, g in zip(dims, grids) if d in v.dims)
+                a = np.asarray(v.transpose(*[d for d in dims if d in v.dims]).values)[idx]
+            a = np.asarray(a).reshape(-1)
+            u, ln = v.attrs.get("units", ""), v.attrs.get("long_name", "")
+            if np.iscomplexobj(a):
+                cols[f"{k}_real"], cols[f"{k}_imag"] = a.real, a.imag
+                meta += [(f"{k}_real", u, f"{ln} (real part)"), (f"{k}_imag", u, f"{ln} (imaginary part)")]
+            else:
+                cols[k] = a
+                meta.append((k, u, ln))
+        yield stem, dims, pd.DataFrame(cols), pd.DataFrame(meta, columns=["column", "units", "long_name"])
+
+
+# ============================================================================ Poincaré sections
+def poincare(case, Omega: float | None = None, frequency_hz: float | None = None, periods: int = 64,
+             transient: int | None = None, run: str | int = 0, samples_per_period: int | None = None,
+             state=None, out=None, force: bool = False):
+    """Poincaré sections at one forcing frequency (``vibeam poincare``): the stroboscopic samples
+    ``(q, q')`` at forcing phase 0 after the transient, and the impact map (impact phase
+    ``Omega t mod 2 pi`` against the pre-impact velocity) from the event kernel's impact log
+    (:mod:`vibeam.analysis.poincare`).
+
+    Parameters
+    ----------
+    case : Case, str, Path, dict or a model
+        As :func:`simulate`.
+    Omega, frequency_hz : float
+        The forcing frequency (one of them), as :func:`simulate`.
+    periods : int
+        Forcing periods recorded: stroboscopic samples (default 64).
+    transient : int, optional
+        Periods simulated first (default: the case's ``transient_periods``; 2000 when that is
+        ``"auto"`` or for a model).
+    run, samples_per_period, state, force
+        As :func:`simulate`.
+    out : str or Path, optional
+        A PNG file (written atomically) of the two sections.
+
+    Returns
+    -------
+    vibeam.analysis.poincare.PoincareSection
+        ``strobe_q``, ``strobe_dq`` (periods,), ``impact_phase`` (rad), ``impact_velocity``;
+        ``plot()``, ``to_xarray()``; mm and mm/s for a physical scene (``scales``).
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`simulate` (one line naming the argument).
+    """
+    from vibeam.analysis.poincare import section
+    from vibeam.case.arguments import check_path
+    from vibeam.case.schema import Case
+
+    out = check_path(out, "out")
+    if transient is None:
+        t = None
+        if isinstance(case, (Case, str, Path, dict)):
+            t = load_case(case).sweep.transient_periods
+        transient = 2000 if t in (None, "auto") else t
+    sim = simulate(case, Omega=Omega, frequency_hz=frequency_hz, periods=periods, transient=transient, run=run,
+                   samples_per_period=samples_per_period, state=state, force=force)
+    sec = section(sim)
+    if out is not None:
+        import matplotlib.pyplot as plt
+
+        plt.close(sec.plot(out))
+    return sec

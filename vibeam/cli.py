@@ -183,14 +183,15 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
 
 
 def _basins(args, case, text, out_dir, spec) -> int:
-    """Basins of a case into ``out_dir``: ``/basins/<run>/`` of results.h5, plots, a table."""
-    from vibeam.analysis.attractors import compute, plot_basins, print_basins, write_basins
+    """Basins of a case into ``out_dir``: ``/basins/<run>/`` of results.h5, plots, a table
+    (:func:`vibeam.api.run_basins`)."""
+    from vibeam.api import run_basins
 
     ex, client = _executor(args)
     h5 = out_dir / "results.h5"
     try:
-        r = compute(case, jobs=args.jobs, executor=ex, progress=not args.quiet, spec=spec, checkpoint=h5,
-                    resume=getattr(args, "resume", False), case_text=text)
+        run_basins(case, text, out_dir, spec, jobs=args.jobs, executor=ex, progress=not args.quiet,
+                   resume=getattr(args, "resume", False), plots=not args.no_plots)
     except KeyboardInterrupt as e:
         sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
         print(f"vibeam: interrupted ({sig}); the finished rows of the basins are kept in {h5} "
@@ -199,15 +200,6 @@ def _basins(args, case, text, out_dir, spec) -> int:
     finally:
         if client is not None:
             client.close()
-    h5 = write_basins(out_dir / "results.h5", [r], case.name, text)
-    print_basins(r)
-    if not args.no_plots:
-        from vibeam.io.results import read_results
-
-        branches = read_results(h5)["branches"]     # overlaid on a census (vibeam continue wrote them)
-        for p in plot_basins(r, out_dir, branches=branches):
-            print(f"plot: {p}")
-    print(f"basins -> {h5} (group /basins/{r.name})")
     return 0
 
 
@@ -232,7 +224,7 @@ def cmd_basins(args) -> int:
     if args.samples is not None:
         data.pop("grid", None)
         data["samples"] = args.samples
-    for k in ("seed", "run"):
+    for k in ("seed", "run", "along"):
         if getattr(args, k) is not None:
             data[k] = getattr(args, k)
     if not data:
@@ -246,171 +238,113 @@ def cmd_basins(args) -> int:
 
 
 def cmd_regress(args) -> int:
-    from vibeam.case.schema import load_case
+    from vibeam.api import regress
 
-    case, text = load_case(args.case)
-    from vibeam.analysis.regress import (check_reference_of_case, check_results_of_case, compare, load_results, print_rows,
-                          read_reference)
-
-    ref = read_reference(args.reference)    # a bad reference is refused before anything runs
-    check_reference_of_case(case, ref, args.reference, args.case)
-    if args.results:
-        new = load_results(args.results, "--results")
-        check_results_of_case(case, new, args.results, args.case)
-    else:
-        import tempfile
-
-        from vibeam.io.outdir import check_folder
-
-        # the rerun goes to its own folder: --out, or a temporary one removed afterwards --
-        # never results/<case>/, where it would replace the results of the user's run
-        with tempfile.TemporaryDirectory(prefix=f"vibeam-regress-{case.name}-") as tmp:
-            out_dir = check_folder(Path(args.out) if args.out else Path(tmp))
-            ex, client = _executor(args)
-            try:
-                run_case(case, text, out_dir, jobs=args.jobs, quiet=True, plots=False, quick=args.quick,
-                         executor=ex, force=args.force, source=args.case)
-            finally:
-                if client is not None:
-                    client.close()
-            new = load_results(out_dir / "results.h5", "results")
-    tol = case.regress
-    atol = tol.amplitude_atol if args.atol is None else args.atol
-    rtol = tol.amplitude_rtol if args.rtol is None else args.rtol
-    rows = compare(new, args.reference, atol=atol, rtol=rtol, period=tol.period,
-                   sigmas=tol.spread_sigmas, spread_range=tol.spread_range, continuation=case.sweep.continuation)
-    print(f"\nregression of {case.name} against {args.reference}")
-    print_rows(rows, atol, rtol, tol.spread_sigmas, tol.spread_range)
-    return 0 if rows and all(r.ok for r in rows) else 1
+    ex, client = _executor(args)
+    try:
+        res = regress(args.case, args.reference, results=args.results, out=args.out, jobs=args.jobs, executor=ex,
+                      atol=args.atol, rtol=args.rtol, quick=args.quick, force=args.force)
+    finally:
+        if client is not None:
+            client.close()
+    res.print()
+    return 0 if res.ok else 1
 
 
 def cmd_cost(args) -> int:
-    from vibeam.case.schema import load_case
-
-    case, text = load_case(args.case)
-    from vibeam.analysis.cost import check_cost_work, cost_tables, plot_work_precision, print_cost, run_cost
-    from vibeam.io.outdir import OutputLock, check_folder
-    from vibeam.io.results import write_results
-
-    if args.quick:
-        case = case.quick_variant()
-    out_dir = check_folder(_out_dir(args, case))
-    check_cost_work(case, force=args.force, source=args.case)
-    with OutputLock(out_dir):
-        res = run_cost(case, ladder=args.ladder, repeats=args.repeats, jobs=args.jobs,
-                       log=lambda m: print(m, file=sys.stderr))
-        h5 = write_results(out_dir / "cost.h5", [], case.name, text, extra={"cost": cost_tables(res)},
-                           case_json=case.model_dump_json())
-        png = plot_work_precision(res, out_dir / "work_precision.png", title=case.name, case=case)
-    print_cost(res)
-    print(f"\ncost table -> {h5} (/cost), plot -> {png}")
-    return 0
-
-
-def _beam_spec(case, command):
-    """The model spec of a scene with a finite-element model (capability ``fe_model``)."""
-    from vibeam.errors import CaseError
-    from vibeam.models.registry import fidelity, with_capability
-
-    spec = case.model_spec()
-    if not fidelity(spec.fidelity).fe_model:
-        fe = " or ".join(f'fidelity = "{n}"' for n in with_capability("fe_model"))
-        raise CaseError(f"'model.fidelity' = {spec.fidelity!r}: `vibeam {command}` needs a beam scene, "
-                        f"one with a finite-element model ({fe})")
-    return spec
-
-
-def cmd_derive(args) -> int:
+    from vibeam.analysis.cost import print_cost
+    from vibeam.api import cost
     from vibeam.case.schema import load_case
 
     case, _ = load_case(args.case)
-    spec = _beam_spec(case, "derive")
-    from vibeam.case.beamscene import derive, sdof_case_text
+    out_dir = _out_dir(args, case.quick_variant() if args.quick else case)
+    res = cost(args.case, out=out_dir, ladder=args.ladder, repeats=args.repeats, quick=args.quick, jobs=args.jobs,
+               force=args.force, log=lambda m: print(m, file=sys.stderr))
+    print_cost(res.result)
+    print(f"\ncost table -> {res.paths['h5']} (/cost), plot -> {res.paths['png']}")
+    return 0
 
-    d = derive(spec)
-    print(f"SDOF parameters of {case.name} by the assumed static mode (paper Eqs. 42-46)\n")
+
+def cmd_derive(args) -> int:
+    from vibeam.api import derive
+
+    d = derive(args.case)
+    print(f"SDOF parameters of {d.case.name} by the assumed static mode (paper Eqs. 42-46)\n")
     print(f"{'parameter':<20}{'value':>14}  {'unit':<8}source")
-    for name, val, unit, src in d["rows"]:
+    for name, val, unit, src in d.rows:
         print(f"{name:<20}{val:>14.6g}  {unit:<8}{src}")
     if args.write:
-        text = sdof_case_text(case, spec, d["reduction"], d["scene"])
-        _write_text(Path(args.write), text, "--write")
+        d.write(args.write)
         print(f"\nSDOF case written to {args.write}")
     return 0
 
 
-def _write_text(path: Path, text: str, option: str) -> None:
-    from vibeam.io.outdir import write_text_file
-
-    write_text_file(path, text, option)
-
-
 def cmd_modes(args) -> int:
+    from vibeam.api import modes
     from vibeam.case.schema import load_case
+    from vibeam.io.outdir import default_folder
 
     case, _ = load_case(args.case)
-    spec = _beam_spec(case, "modes")
-    from vibeam.io.outdir import OutputLock, check_folder, default_folder
-
-    out = check_folder(Path(args.out) if args.out else default_folder(case.name))
-    with OutputLock(out):       # like every writer: one vibeam process per folder
-        return _modes_locked(args, case, spec, out)
-
-
-def _modes_locked(args, case, spec, out) -> int:
-    from vibeam.case.beamscene import modes_report
-    from vibeam.models.beam import write_modes
-    from vibeam.io.outdir import replace_file
-
-    rep = modes_report(spec, n=args.n)
-    md, cm = rep["modes"], rep["contact"]
-    tot = rep["total_mass_kg"]
-    print(f"modes of {case.name} (FE, {rep['fe'].ndof} DOFs); base excitation, total mass {tot:.4g} kg\n")
+    rep = modes(case, n=args.n, out=Path(args.out) if args.out else default_folder(case.name))
+    md, cm = rep.modes, rep.contact
+    tot = rep.total_mass_kg
+    print(f"modes of {case.name} (FE, {rep.fe.ndof} DOFs); base excitation, total mass {tot:.4g} kg\n")
     print(f"{'mode':>4}{'f (Hz)':>12}{'m at sensor (kg)':>18}{'Gamma (kg^.5)':>15}{'m_eff (kg)':>12}"
           f"{'m_eff %':>9}{'cum. %':>8}")
     cum = 0.0
     for i, f in enumerate(md.frequencies_hz):
         me = md.effective_mass_kg[i]
         cum += me
-        print(f"{i + 1:>4}{f:>12.4f}{rep['sensor_modal_mass_kg'][i]:>18.4g}{md.participation[i]:>15.4g}"
+        print(f"{i + 1:>4}{f:>12.4f}{rep.sensor_modal_mass_kg[i]:>18.4g}{md.participation[i]:>15.4g}"
               f"{me:>12.4g}{100 * me / tot:>9.2f}{100 * cum / tot:>8.2f}")
     print("\ncontact modes (beam held at the stop, w(L_m) = 0): " +
           ", ".join(f"{f:.2f}" for f in cm.frequencies_hz[: args.n]) + " Hz")
-    vtu = replace_file(out / "modes.vtu", lambda p: write_modes(p, rep["fe"], n=min(args.n, len(md.frequencies_hz))))
-    png = _plot_modes(rep, out / "modes.png", case.name)
-    print(f"mode shapes -> {vtu} (ParaView), {png}")
+    print(f"mode shapes -> {rep.paths['vtu']} (ParaView), {rep.paths['png']}")
     return 0
 
 
-def _plot_modes(rep, path, title):
-    import matplotlib.pyplot as plt
-    import numpy as np
+def cmd_export(args) -> int:
+    from vibeam.api import export
 
-    from vibeam.plots import style
-    from vibeam.plots.sweep import save_figure
+    files = export(args.results, args.csv)
+    for p in files:
+        print(f"{p} (units: {p.with_suffix('.units.csv').name})")
+    print(f"{len(files)} CSV file(s) -> {args.csv}")
+    return 0
 
-    fe, md, cm = rep["fe"], rep["modes"], rep["contact"]
-    L = fe.geometry.length_m
-    x = np.linspace(0, L, 361)
-    with style.context():
-        fig, axes = plt.subplots(1, 2, figsize=(10, 4.4), sharey=True)
-        for ax, m, lab in ((axes[0], md, "free"), (axes[1], cm, "contact (held at the stop)")):
-            for i in range(min(4, m.shapes.shape[1])):
-                w = fe.deflection(m.shapes[:, i], x)
-                ax.plot(x * 1e3, w / np.max(np.abs(w)), label=f"{m.frequencies_hz[i]:.2f} Hz")
-            for xp, nm in ((fe.geometry.sensor_position_m, "L_S"), (fe.geometry.mass_position_m, "L_m")):
-                ax.axvline(xp * 1e3, color="0.6", ls=":")
-                ax.text(xp * 1e3, 1.02, nm, ha="center", fontsize=8)
-            ax.set_title(f"{lab} modes", loc="left")
-            ax.set_xlabel(style.label("position along the beam x", "mm"))
-            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=4, title="mode")
-        axes[0].set_ylabel(style.label("normalised deflection", None))
-        style.titles(fig, title, "mode shapes of the FE beam")
+
+def cmd_poincare(args) -> int:
+    from vibeam.api import poincare
+    from vibeam.case.schema import load_case
+    from vibeam.errors import CaseError
+    from vibeam.io.outdir import check_folder, default_folder
+
+    case, _ = load_case(args.case)
+    if (args.frequency_hz is None) == (args.Omega is None):
+        raise CaseError(f"{args.case}: `vibeam poincare` needs one of --frequency-hz F or --Omega W")
+    out_dir = check_folder(Path(args.out) if args.out else default_folder(case.name))
+    f = args.frequency_hz if args.frequency_hz is not None else args.Omega
+    stem = f"poincare_{'f' if args.frequency_hz is not None else 'Omega'}{f:g}"
     try:
-        save_figure(fig, path)
-    finally:
-        plt.close(fig)
-    return path
+        sec = poincare(case, Omega=args.Omega, frequency_hz=args.frequency_hz, periods=args.periods,
+                       transient=args.transient, run=args.run if args.run is not None else 0,
+                       out=out_dir / f"{stem}.png", force=args.force)
+    except (TypeError, ValueError) as e:
+        raise CaseError(f"{args.case}: {e}") from None
+    fx, fv = sec.scales
+    xu, vu = ("mm", "mm/s") if sec.physical else ("-", "-")
+    where = f"{sec.frequency_hz:.6g} Hz (Omega {sec.Omega:.8g})" if sec.frequency_hz else f"Omega = {sec.Omega:.8g}"
+    print(f"Poincare sections of {case.name} at {where}: period {sec.period}, {sec.status}")
+    print(f"  stroboscopic: {sec.strobe_q.size} samples, q in [{sec.strobe_q.min() * fx:.6g}, "
+          f"{sec.strobe_q.max() * fx:.6g}] {xu}, q' in [{sec.strobe_dq.min() * fv:.6g}, {sec.strobe_dq.max() * fv:.6g}] {vu}")
+    if sec.impact_phase.size:
+        print(f"  impacts: {sec.impact_phase.size}, phase in [{sec.impact_phase.min():.6f}, "
+              f"{sec.impact_phase.max():.6f}] rad, velocity in [{sec.impact_velocity.min() * fv:.6g}, "
+              f"{sec.impact_velocity.max() * fv:.6g}] {vu}")
+    else:
+        print("  impacts: none")
+    print(f"plot: {out_dir / (stem + '.png')}")
+    return 0
 
 
 def main(argv=None) -> int:
@@ -440,11 +374,12 @@ def main(argv=None) -> int:
         p.add_argument("--force", action="store_true", help=force_help)
 
     p = sub.add_parser("run", help="run the sweeps (or the [map]) of a case file; write results.h5, plots "
-                       "and a table")
+                       "and a table", formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam run cases/paper-fig7.toml --jobs 2\n  vibeam run cases/rig-tight.toml --quick --out results/tight-quick")
     run_args(p)
     p.set_defaults(func=cmd_run)
     p = sub.add_parser("continue", help="run the continuation runs of a case (method = \"continuation\"): "
-                       "branches of periodic orbits with stability and bifurcations")
+                       "branches of periodic orbits with stability and bifurcations",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam continue cases/paper-fig13-continuation.toml")
     p.add_argument("case", help="case file (TOML)")
     p.add_argument("--out", type=path_option("--out"),
                    help="output folder (default results/<case name>/; a results.h5 of the same "
@@ -458,14 +393,16 @@ def main(argv=None) -> int:
                    help="run on a dask.distributed scheduler (e.g. tcp://host:8786)")
     p.add_argument("--force", action="store_true", help=force_help)
     p.set_defaults(func=lambda a: cmd_run(a, continuation_only=True))
-    p = sub.add_parser("map", help="parameter map of a case with [map] (period-n regions, paper Fig. 18)")
+    p = sub.add_parser("map", help="parameter map of a case with [map] (period-n regions, paper Fig. 18)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam map cases/rig-map-gap.toml --quick")
     run_args(p)
     p.set_defaults(func=lambda a: cmd_run(a, need_map=True))
     p = sub.add_parser("basins", help="basins of attraction (or the census of attractors) at a forcing "
                        "frequency: every attractor, its type, period, amplitude, basin fraction and Lyapunov "
                        "exponents", formatter_class=argparse.RawDescriptionHelpFormatter,
-                       epilog="example:\n  vibeam basins cases/rig-tight.toml --frequency-hz 16.5 --grid 200 200\n"
-                       "  vibeam basins cases/paper-fig7-two-sided.toml --Omega 2.38 --samples 400 --seed 1")
+                       epilog="Example:\n  vibeam basins cases/rig-tight.toml --frequency-hz 16.5 --grid 200 200\n"
+                       "  vibeam basins cases/paper-fig7-two-sided.toml --Omega 2.38 --samples 400 --seed 1\n"
+                       "  vibeam basins cases/rig-map-gap.toml --frequency-hz 16.5 --samples 100 --along map")
     p.add_argument("case", help="case file (TOML); its [basins] table gives the defaults")
     p.add_argument("--frequency-hz", dest="frequency_hz", type=float, nargs="+", metavar="F",
                    help="forcing frequencies in Hz (physical scenes)")
@@ -474,6 +411,9 @@ def main(argv=None) -> int:
     p.add_argument("--samples", type=int, metavar="N", help="N random initial states instead of a grid")
     p.add_argument("--seed", type=int, help="seed of the random initial states")
     p.add_argument("--run", help="the run whose model and solver are used (default: the first time-domain run)")
+    p.add_argument("--along", choices=("frequency", "map"),
+                   help="a census along the frequencies (default) or, in a [map] case, at one frequency along "
+                   "the mapped parameter's values")
     p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/; "
                    "its results.h5 keeps its other groups, /basins/<run> is replaced)")
     p.add_argument("--jobs", type=jobs_option, default=None,
@@ -487,7 +427,8 @@ def main(argv=None) -> int:
                    help="run on a dask.distributed scheduler (e.g. tcp://host:8786)")
     p.set_defaults(func=cmd_basins)
     p = sub.add_parser("regress", help="compare a case's FRCs with reference FRCs (HDF5 or CSV); exit 1 on a "
-                       "regression, 2 on bad input")
+                       "regression, 2 on bad input",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam regress cases/paper-fig7.toml --reference tests/references/paper-fig7.h5 --quick")
     p.add_argument("case", help="case file (TOML)")
     p.add_argument("--reference", type=path_option("--reference"), required=True,
                    help="reference results.h5 or CSV")
@@ -496,14 +437,18 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=path_option("--out"),
                    help="output folder of the rerun (default: a temporary folder, removed afterwards; "
                    "the results of `vibeam run` in results/<case name>/ are never touched)")
-    p.add_argument("--jobs", type=jobs_option, default=None)
+    p.add_argument("--jobs", type=jobs_option, default=None,
+                   help="worker processes of the rerun's local pool (default: all cores; 1: inline)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the rerun on a dask.distributed scheduler (e.g. tcp://host:8786)")
     p.add_argument("--atol", type=float, default=None, help="override [regress] amplitude_atol")
     p.add_argument("--rtol", type=float, default=None, help="override [regress] amplitude_rtol")
     p.add_argument("--quick", action="store_true",
                    help="rerun the case's quick variant (as the references in tests/references/)")
     p.add_argument("--force", action="store_true", help=force_help)
     p.set_defaults(func=cmd_regress)
-    p = sub.add_parser("cost", help="accuracy against time of every run (work-precision table and plot)")
+    p = sub.add_parser("cost", help="accuracy against time of every run (work-precision table and plot)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam cost cases/paper-fig7-methods.toml --quick --repeats 1")
     p.add_argument("case", help="case file (TOML)")
     p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/)")
     p.add_argument("--ladder", action="store_true", help="also a ladder of tolerances per ODE method")
@@ -515,19 +460,22 @@ def main(argv=None) -> int:
                         "sweeps always run inline, one at a time")
     p.add_argument("--force", action="store_true", help=force_help)
     p.set_defaults(func=cmd_cost)
-    p = sub.add_parser("derive", help="SDOF parameters of a beam scene by the assumed static mode")
+    p = sub.add_parser("derive", help="SDOF parameters of a beam scene by the assumed static mode",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam derive cases/rig-fe-tight.toml --write rig-sdof.toml")
     p.add_argument("case", help="beam case file (TOML)")
     p.add_argument("--write", type=path_option("--write"), metavar="FILE",
                    help="write the SDOF case file of the same scene")
     p.set_defaults(func=cmd_derive)
-    p = sub.add_parser("modes", help="natural frequencies, participation, effective and contact modes")
+    p = sub.add_parser("modes", help="natural frequencies, participation, effective and contact modes",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam modes cases/rig-fe-tight.toml -n 4")
     p.add_argument("case", help="beam case file (TOML)")
     p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/)")
     p.add_argument("-n", type=_int_at_least(1), default=6, help="number of modes (default 6)")
     p.set_defaults(func=cmd_modes)
     # ---- vibeam fit (vibeam.identify.fit, vibeam.identify.linear): identification from measurements, paper Secs. 6-7
     p = sub.add_parser("fit", help="fit model parameters to a measured FRC (with standard errors), or the "
-                       "linear steps: Eq. 43 around f_n (--linear), beta_S from a free decay (--decay)")
+                       "linear steps: Eq. 43 around f_n (--linear), beta_S from a free decay (--decay)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam fit cases/rig-tight.toml --reference measured.csv --params gain,R --jobs 2\n  vibeam fit cases/rig-tight.toml --decay decay.csv")
     p.add_argument("case", help="case file (TOML); its [model] values start the fit")
     p.add_argument("--reference", type=path_option("--reference"),
                    help="measured FRC: CSV 'frequency_hz,amplitude_mm' (or 'Omega,amplitude'), "
@@ -550,12 +498,35 @@ def main(argv=None) -> int:
     p.add_argument("--no-plots", action="store_true", help="skip fit.png")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=lambda a: __import__("vibeam.identify.fit", fromlist=["main_fit"]).main_fit(a))
+    p = sub.add_parser("export", help="write every group of a results file as tidy CSV files (one row per "
+                       "point, coordinates as columns, units in a .units.csv sidecar)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam export results/paper-fig7/results.h5 --csv results/paper-fig7/csv")
+    p.add_argument("results", type=path_option("RESULTS.h5"), help="results file (results.h5)")
+    p.add_argument("--csv", type=path_option("--csv"), metavar="DIR", required=True,
+                   help="output folder of the CSV files (created if missing; files replaced atomically)")
+    p.set_defaults(func=cmd_export)
+    p = sub.add_parser("poincare", help="Poincare sections at one forcing frequency: stroboscopic samples "
+                       "(q, q') after the transient and the impact map (impact phase against impact velocity)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam poincare cases/paper-fig7.toml --Omega 2.0\n  vibeam poincare cases/rig-tight.toml --frequency-hz 16.5 --periods 200")
+    p.add_argument("case", help="case file (TOML)")
+    p.add_argument("--frequency-hz", dest="frequency_hz", type=float, metavar="F",
+                   help="forcing frequency in Hz (physical scenes)")
+    p.add_argument("--Omega", type=float, metavar="W", help="forcing frequency (nondimensional)")
+    p.add_argument("--periods", type=_int_at_least(1), default=64,
+                   help="forcing periods recorded: stroboscopic samples (default 64)")
+    p.add_argument("--transient", type=_int_at_least(0), default=None,
+                   help="periods simulated first (default: the case's transient_periods; 2000 for \"auto\")")
+    p.add_argument("--run", help="the run whose model and solver are used (default: the first)")
+    p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/)")
+    p.add_argument("--force", action="store_true", help=force_help)
+    p.set_defaults(func=cmd_poincare)
     p = sub.add_parser("bench", help="speed and accuracy against the stated goals: JSON on stdout, a PASS/FAIL "
                        "line per goal on stderr",
                        description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
                        "atol 1e-8) on the Fig. 7 scene, inline, with the goals: event sweep under 1 s, >= 300x "
                        "faster, >= 1000x smaller error.  The other modes (--cli, --map, --scaling, --effects, "
-                       "--shooting, --continuation, --fit, --latency, --compile, --basins) replace it.")
+                       "--shooting, --continuation, --fit, --latency, --compile, --basins) replace it.",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam bench --points 21 --repeats 1\n  vibeam bench --continuation")
     p.add_argument("--points", type=_int_at_least(1), default=101,
                    help="frequencies of the Fig. 7 sweep (default 101)")
     p.add_argument("--periods", type=_int_at_least(65), default=500,

@@ -929,7 +929,87 @@ def basins_variables(r: BasinsResult) -> dict:
     out["failed_fraction"] = var((D,), np.mean(lab == FAILED, axis=1), "1", "states the solver failed on")
     out["periods"] = var((D,), r.periods, "1", "stroboscopic-map iterations spent")
     out["wall_time_s"] = var((D,), r.wall_time_s, "s", "wall time")
+    if r.grazing is not None and r.grid:
+        out["grazing_gap"] = var((D, "state_2", "state_1"), r.grazing, "1",
+                                 "largest gap q - Delta of the free flight over the first forcing period")
     return out
+
+
+def _axes_attrs(r: BasinsResult) -> dict:
+    """What :func:`basins_from_dataset` needs to rebuild the result: the axes' state indices,
+    factors and labels, the scales and the stop (``/basins/<run>/`` attributes)."""
+    import json
+
+    a = {"axes_names": json.dumps(list(r.axes.names)), "axes_index": json.dumps([int(i) for i in r.axes.index]),
+         "axes_factor": json.dumps([float(x) for x in r.axes.factor]),
+         "axes_units": json.dumps(list(r.axes.units)), "axes_labels": json.dumps(list(r.axes.labels))}
+    for k in ("amplitude_scale_mm", "time_scale_s", "stop"):
+        if getattr(r, k) is not None:
+            a[k] = float(getattr(r, k))
+    return a
+
+
+def basins_from_dataset(ds, name: str | None = None) -> BasinsResult:
+    """A :class:`BasinsResult` from its ``/basins/<run>/`` group (:func:`read_basins`), so that
+    :func:`basins_figure`, :func:`census_figure` and :func:`print_basins` work on a file as on
+    a fresh computation.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The group as :func:`read_basins` returns it.
+    name : str, optional
+        The run (default the group's ``run`` attribute).
+
+    Returns
+    -------
+    BasinsResult
+        ``attractors["samples"]`` as stored (NaN padded); ``settings`` from the group.  Files
+        written before the axes attributes were stored get unit factors (axis = state).
+    """
+    import json
+
+    at = dict(ds.attrs)
+    # ("coordinates" is taken by the CF decoding of xarray: the names are also in "axes_names")
+    names = tuple(json.loads(at.get("axes_names", at.get("coordinates", '["x", "y"]'))))
+    get = lambda k, d: tuple(json.loads(at[k])) if k in at else d
+    grid = "basin" in ds
+    units = get("axes_units", (str(ds["state_1"].attrs.get("units", "1")), str(ds["state_2"].attrs.get("units", "1")))
+                if grid else (str(ds["initial_state_1"].attrs.get("units", "1")),
+                              str(ds["initial_state_2"].attrs.get("units", "1"))))
+    axes = Axes(get("axes_index", (0, 1)), get("axes_factor", (1.0, 1.0)), names, units,
+                get("axes_labels", tuple(f"{n} ({u})" for n, u in zip(names, units))))
+    mm = at.get("amplitude_scale_mm")
+    ts = at.get("time_scale_s")
+    along = str(at.get("along", "Omega"))
+    nO = ds.sizes[along]
+    v = lambda k: np.asarray(ds[k].values)
+    sfx = "_mm" if mm else ""
+    amp = {k: v(f"attractor_{k}{sfx}") / (float(mm) if mm else 1.0) for k in ("amplitude", "amplitude_min", "amplitude_max")}
+    lam, err = v("lyapunov"), v("lyapunov_error")
+    if ts:
+        lam, err = lam * float(ts), err * float(ts)
+    types = v("attractor_type").astype(str).reshape(nO, -1)
+    msgs = v("attractor_message").astype(str).reshape(nO, -1)
+    attractors = dict(type=[list(t) for t in types], period=v("attractor_period").astype(np.int64),
+                      stable=v("attractor_stable").astype(np.int64), fraction=v("basin_fraction"),
+                      fraction_se=v("basin_fraction_se"), impacts_per_period=v("impacts_per_period"),
+                      lyapunov_impacts_per_period=v("lyapunov_impacts_per_period"), lyapunov=lam,
+                      lyapunov_error=err, samples=v("attractor_samples"), fixed_point=v("attractor_fixed_point"),
+                      message=[list(m) for m in msgs], **amp)
+    settings = at.get("settings", "{}")
+    return BasinsResult(
+        name=name or str(at.get("run", "")), Omega=v("Omega").astype(float),
+        frequency_hz=v("frequency_hz").astype(float) if "frequency_hz" in ds else None, axes=axes,
+        x=v("state_1") if grid else np.zeros(0), y=v("state_2") if grid else np.zeros(0),
+        labels=(v("basin") if grid else v("label")).astype(np.int64),
+        initial=np.zeros((0, 2)) if grid else np.column_stack([v("initial_state_1"), v("initial_state_2")]),
+        attractors=attractors, periods=v("periods").astype(np.int64), wall_time_s=v("wall_time_s").astype(float),
+        amplitude_scale_mm=float(mm) if mm else None, time_scale_s=float(ts) if ts else None,
+        settings=json.loads(settings) if isinstance(settings, str) else dict(settings),
+        stop=float(at["stop"]) if "stop" in at else None,
+        grazing=v("grazing_gap") if "grazing_gap" in ds else None,
+        parameter=along, values=None if along == "Omega" else v(along).astype(float))
 
 
 def write_basins(path, results: list, case_name: str = "", case_text: str = ""):
@@ -941,7 +1021,8 @@ def write_basins(path, results: list, case_name: str = "", case_text: str = ""):
 
     for r in results:
         attrs = {"run": r.name, "coordinates": json.dumps(list(r.axes.names)), "along": r.along,
-                 "settings": json.dumps(r.settings, default=json_default), "kind": "grid" if r.grid else "census"}
+                 "settings": json.dumps(r.settings, default=json_default), "kind": "grid" if r.grid else "census",
+                 **_axes_attrs(r)}
         def fill(f, r=r, attrs=attrs):
             write_group(f, f"basins/{r.name}", basins_variables(r), attrs)
             if f"basin_lines/{r.name}" in f:          # the checkpoint of the finished computation

@@ -855,3 +855,78 @@ def plot_curves(r: ContinuationResult, path, title: str = "", case=None):
     from vibeam.plots.sweep import save_close
 
     return save_close(curves_figure(r, title, case), path)
+
+
+# ----------------------------------------------------------------------------- reading back
+def _decoded(attrs: dict) -> dict:
+    """Group attributes as written by :func:`write_branches`: JSON ones (``json_attrs``, and
+    ``settings``/``starts``) back to Python values, numpy scalars to Python numbers."""
+    import json
+
+    a = dict(attrs)
+    for k in set(str(a.pop("json_attrs", "")).split()) | {"settings", "starts"}:
+        if isinstance(a.get(k), str):
+            try:
+                a[k] = json.loads(a[k])
+            except ValueError:
+                pass
+    return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in a.items()}
+
+
+def read_continuation(path) -> list:
+    """Every ``/branches/<run>/`` group of a results file back as a :class:`ContinuationResult`
+    (as :func:`assemble` built it: branches with their per-point ``data``, bifurcations and
+    two-parameter curves), so that the figures and tables work on a file as on a fresh run.
+
+    Parameters
+    ----------
+    path : str or Path
+        A results file (``results.h5``, layout 2).
+
+    Returns
+    -------
+    list of ContinuationResult
+        In the order of the file's groups (empty if it has no ``/branches``).  Per-point arrays
+        lose their padding (``n_points``); the bifurcations' ``state`` and ``multipliers``
+        (not stored) are absent.
+    """
+    import h5py
+
+    from vibeam.io.netcdf import read_attrs
+    from vibeam.io.results import read_branch_group
+
+    out = []
+    with h5py.File(path, "r") as f:
+        for name, g in f.get("branches", {}).items():
+            d = read_branch_group(g)
+            a = _decoded(read_attrs(g))
+            bt = d.pop("bifurcations", {})
+            cs = d.pop("curves", {})
+            bifs = [dict(type=str(bt["type"][i]), parameter=float(bt["parameter"][i]), branch=int(bt["branch"][i]),
+                         n=int(bt["period"][i]), amplitude=float(bt["amplitude"][i]), detail=str(bt["detail"][i]))
+                    for i in range(len(bt.get("type", ())))]
+            branches = []
+            for b in d.values():
+                if not isinstance(b, dict) or "attrs" not in b:
+                    continue
+                ba = b["attrs"]
+                data = {k: v for k, v in b.items() if k != "attrs"}
+                branches.append(dict(index=int(ba["index"]), n=int(ba["n"]), status=ba["status"],
+                                     message=ba["message"], origin=ba["origin"], data=data,
+                                     bifurcations=[x for x in bifs if x["branch"] == int(ba["index"])]))
+            branches.sort(key=lambda b: b["index"])
+            key2 = str(cs.get("attrs", {}).get("curve_parameter", a.get("curve_parameter", "parameter2")))
+            curves = [dict(type=c["attrs"]["type"], p1=np.asarray(c["parameter"]), p2=np.asarray(c[key2]),
+                           n=int(c["attrs"]["period"]), status=c["attrs"]["status"], message=c["attrs"]["message"])
+                      for k, c in sorted(cs.items()) if k != "attrs"]
+            settings = a.pop("settings", {})
+            starts = a.pop("starts", [])
+            a.pop("method", None)
+            if "range" in a:
+                a["range"] = np.asarray(a["range"], float)
+            out.append(ContinuationResult(name=name, fidelity=str(a.pop("fidelity", "")),
+                                          parameter=str(a.get("parameter", "Omega")), settings=settings,
+                                          branches=branches, starts=starts, curves=curves,
+                                          status=str(a.pop("status", "")), message=str(a.pop("message", "")),
+                                          wall_time_s=float(a.pop("wall_time_s", 0.0)), attrs=a))
+    return out

@@ -124,8 +124,40 @@ def lower_stop(spec, sc, phi_c=None) -> dict:
     return dict(gap_contact_lower_m=DCl, R_lower=R_lower)
 
 
+def beam_spec(case, command: str = "derive"):
+    """The model spec of a scene with a finite-element model (capability ``fe_model``).
+
+    Parameters
+    ----------
+    case : vibeam.case.schema.Case
+    command : str
+        The command named in the message (``derive``, ``modes``).
+
+    Raises
+    ------
+    vibeam.errors.CaseError
+        If the scene's fidelity has no finite-element model (one line naming the key, the
+        value and the fidelities allowed).
+    """
+    from vibeam.errors import CaseError
+    from vibeam.models.registry import fidelity, with_capability
+
+    spec = case.model_spec()
+    if not fidelity(spec.fidelity).fe_model:
+        fe = " or ".join(f'fidelity = "{n}"' for n in with_capability("fe_model"))
+        raise CaseError(f"'model.fidelity' = {spec.fidelity!r}: `vibeam {command}` needs a beam scene, "
+                        f"one with a finite-element model ({fe})")
+    return spec
+
+
 def derive(spec) -> dict:
     """SDOF parameters of a beam scene by the assumed static mode (paper Eqs. 42-46).
+
+    Parameters
+    ----------
+    spec : model spec or vibeam.case.schema.Case
+        A beam scene's ``[model]`` spec, or a case (its spec through :func:`beam_spec`:
+        CaseError if it is not a beam scene).
 
     Returns
     -------
@@ -136,6 +168,8 @@ def derive(spec) -> dict:
     """
     from vibeam.reductions.static_mode import reduce_static_mode
 
+    if hasattr(spec, "model_spec"):            # a case
+        spec = beam_spec(spec, "derive")
     sc = scene_of(spec)
     red = reduce_static_mode(sc.geometry, damping_D_s=sc.damping_D_s, gap_contact_m=sc.Delta_C_m,
                              gamma_tilde_m_per_V=sc.gamma_tilde_m_per_V)
