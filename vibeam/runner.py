@@ -284,14 +284,14 @@ def _report(case, runs, maps, out_dir, plots, conts=()) -> None:
     """The tables (and the plots) of finished runs, maps and continuation runs."""
     if runs:
         _print_table(runs)
-    from vibeam.analysis.maps import class_agreement, print_map
+    from vibeam.analysis.maps import agreement_text, print_map
 
     for m in maps:
         print_map(m)
     for m in maps[1:]:
-        same = class_agreement(maps[0], m)
-        if same is not None:
-            print(f"  {m.name} vs {maps[0].name}: classes differ at {int((~same).sum())} of {same.size} points")
+        text = agreement_text(maps[0], m)
+        if text is not None:
+            print(f"  {text}")
     if conts:
         from vibeam.analysis.branches import print_results
 
