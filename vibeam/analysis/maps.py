@@ -22,8 +22,8 @@ from vibeam.plots.style import cell_edges
 NO_IMPACT, PERIOD_1, PERIOD_2, PERIOD_N, NON_PERIODIC, FAILED, HELD, CHAOTIC, QUASI_PERIODIC = range(9)
 CLASSES = {NO_IMPACT: "no impact", PERIOD_1: "period-1", PERIOD_2: "period-2",
            PERIOD_N: "period-n (3 <= n <= 8)", NON_PERIODIC: "non-periodic", FAILED: "failed",
-           HELD: "held on the stop", CHAOTIC: "chaotic (lambda_1 > 0)",
-           QUASI_PERIODIC: "quasi-periodic (lambda_1 = 0)"}
+           HELD: "held on the stop", CHAOTIC: "chaotic (largest Lyapunov exponent > 0)",
+           QUASI_PERIODIC: "quasi-periodic (largest Lyapunov exponent = 0)"}
 # no impact light grey, period-1 blue, period-2 vermillion, period-n orange, non-periodic reddish purple
 # (never the white background), failed black, held on the stop dark grey (Okabe-Ito hues)
 # chaotic wine, quasi-periodic teal (Tol's muted scheme): the non-periodic points whose Lyapunov
