@@ -298,18 +298,23 @@ def check_frc_data(fig, data: dict):
 
 
 def check_bifurcation_data(fig, data: dict):
-    """One panel per run with stroboscopic samples (title ``name (method)``): the (x, q at
-    phase 0) pairs of every recorded period, per direction (up filled, down open), equal to
-    the file's ``strobe[..., 0]`` in the FRC's unit (the file's amplitude_mm / amplitude)."""
+    """One row of panels per run with stroboscopic samples (left title ``name (method)``), one
+    panel per direction (right title ``up sweep`` / ``down sweep``): the (x, q at phase 0)
+    pairs of every recorded period, per direction, equal to the file's ``strobe[..., 0]`` in
+    the FRC's unit (the file's amplitude_mm / amplitude)."""
     runs = {f"{n} ({r['attrs'].get('method', '')})": r for n, r in data["runs"].items()
             if "strobe" in r and np.isfinite(r["strobe"]).any()}
-    panels = {ax.get_title(loc="left"): ax for ax in fig.axes}
+    panels = {}
+    for ax in fig.axes:
+        panels.setdefault(ax.get_title(loc="left"), []).append(ax)
     assert sorted(panels) == sorted(runs), "bifurcation panels differ from the runs with strobe data"
     for title, r in runs.items():
         s = np.asarray(r["strobe"], float)[..., 0] * _mm_factor(r)
         got = {}
-        for line in panels[title].get_lines():
-            got.setdefault("down" if _is_open(line) else "up", []).append(line)
+        for ax in panels[title]:
+            dname = ax.get_title(loc="right").removesuffix(" sweep")
+            for line in ax.get_lines():
+                got.setdefault(dname, []).append(line)
         assert sorted(got) == sorted(np.unique(r["direction"])), f"{title}: directions drawn"
         for dname, lines in got.items():
             assert len(lines) == 1, (title, dname)
@@ -400,15 +405,17 @@ def check_map_data(fig, m: dict):
 
 
 def check_agreement_data(fig, maps: dict):
-    """Each panel ('<other>' vs '<ref>'): cells where the two files' classes agree show the
-    'same class' colour of the legend, the others the legend colour 'differs: <class of the
-    other map>'; the title's count equals the file's number of differing (up) points."""
+    """Each panel ('<other>' vs '<ref>', <direction> sweep): cells where the two files' classes
+    agree show the 'same class' colour of the legend, the others the legend colour 'differs:
+    <class of the other map>'; the title's count equals the file's number of differing points
+    of that direction."""
     legend = legend_colours(fig)
     for ax in fig.axes:
         t = ax.get_title(loc="left")
         ax.collections[0].update_scalarmappable()        # face colours from the colour map (no draw)
-        other, ref = re.match(r"'(.+)' vs '(.+)': (\d+) of", t).group(1, 2)
-        a, b = np.asarray(maps[ref]["classification"])[0], np.asarray(maps[other]["classification"])[0]
+        other, ref, dname = re.match(r"'(.+)' vs '(.+)', (\w+) sweep: (\d+) of", t).group(1, 2, 3)
+        k = [str(v) for v in maps[ref]["direction"]].index(dname)
+        a, b = np.asarray(maps[ref]["classification"])[k], np.asarray(maps[other]["classification"])[k]
         names = _class_names(maps[other])
         faces = np.array([_hex(f) for f in ax.collections[0].get_facecolors()]).reshape(a.shape)
         want = np.where(a == b, legend[f"same class as '{ref}'"],

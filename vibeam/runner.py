@@ -283,15 +283,17 @@ def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, e
 def _report(case, runs, maps, out_dir, plots, conts=()) -> None:
     """The tables (and the plots) of finished runs, maps and continuation runs."""
     if runs:
-        _print_table(runs)
-    from vibeam.analysis.maps import class_agreement, print_map
+        from vibeam.analysis.summary import print_summary
+
+        print_summary(runs)     # timings, then the physics: peaks, period-n and status counts, jumps
+    from vibeam.analysis.maps import agreement_text, print_map
 
     for m in maps:
         print_map(m)
     for m in maps[1:]:
-        same = class_agreement(maps[0], m)
-        if same is not None:
-            print(f"  {m.name} vs {maps[0].name}: classes differ at {int((~same).sum())} of {same.size} points")
+        text = agreement_text(maps[0], m)
+        if text is not None:
+            print(f"  {text}")
     if conts:
         from vibeam.analysis.branches import print_results
 
@@ -556,27 +558,3 @@ def _plots(case, runs, maps, out_dir, conts=()):
         print(f"plots: {p1}" + (f", {p2}" if p2 else "") + (f", {p3}" if p3 else ""))
     if conts:
         _plot_continuation(case, conts, runs, out_dir)
-
-
-def _print_table(runs) -> None:
-    ref = runs[0]
-    key = "amplitude_mm" if "amplitude_mm" in ref.data else "amplitude"
-    unit = " (mm)" if key == "amplitude_mm" else ""
-    wn = max([22] + [len(r.name) + 2 for r in runs])          # columns as wide as the longest name
-    wm = max([12] + [len(r.method) + 2 for r in runs])
-    wd = max(30, len('max |dA| vs ' + ref.name + unit) + 2)
-    head = f"{'run':<{wn}}{'method':<{wm}}{'points':>7}{'compute (s)':>13}{'max |dA| vs ' + ref.name + unit:>{wd}}"
-    print(head)
-    print("-" * len(head))
-    for r in runs:
-        if r is ref:
-            diff = "reference"
-        elif key in r.data and len(r.data[key]) == len(ref.data[key]) and \
-                np.allclose(r.data["Omega"], ref.data["Omega"]):
-            d = np.abs(np.asarray(r.data[key], float) - np.asarray(ref.data[key], float))
-            diff = f"{np.nanmax(d):.3e}" if np.isfinite(d).any() else "n/a"
-        else:
-            diff = "n/a (different grid)"
-        n_bad = int(sum(1 for s in r.data.get("status", []) if s != "ok"))
-        extra = f"  [{n_bad} point(s) not ok]" if n_bad else ""
-        print(f"{r.name:<{wn}}{r.method:<{wm}}{r.n_points:>7}{r.wall_time_s:>13.3f}{diff:>{wd}}{extra}")

@@ -713,9 +713,14 @@ def _print_rungs(results: list) -> None:
 
 
 # ----------------------------------------------------------------------------- plots
-MARKERS = {"fold": ("s", "C3", "fold"), "period_doubling": ("D", "C2", "period doubling"),
-           "neimark_sacker": ("*", "C4", "Neimark-Sacker"), "grazing": ("v", "C1", "grazing"),
-           "sticking": ("P", "C5", "sticking")}
+# bifurcation markers: colours apart from every branch colour (vibeam.plots.style.BRANCH_STYLES:
+# blue, vermillion, green, purple), drawn over the branches with a thin black rim
+MARKERS = {"fold": ("s", "#777777", "fold"), "period_doubling": ("D", "#000000", "period doubling"),
+           "neimark_sacker": ("*", "#F0E442", "Neimark-Sacker"), "grazing": ("v", "#882255", "grazing"),
+           "sticking": ("P", "#56B4E9", "sticking")}
+BIFURCATION_MS = 5.5
+#: bifurcation points of one type nearer than this fraction of the axes are drawn once
+MARKER_SPACING = 0.015
 
 
 # line styles of the two-parameter curves (drawn black over the maps' class colours)
@@ -734,10 +739,27 @@ def _param_label(r, use_hz):
     return label(r.parameter, parameter_units(r.parameter))
 
 
+def _apart(points, xspan, yspan, frac: float = MARKER_SPACING) -> list:
+    """The bifurcation points of one type that are at least ``frac`` of the axes apart (in x or
+    y, as fractions of the spans): nearer ones (the same bifurcation found from two branches,
+    or two closer than a marker) are drawn once, so no marker hides another."""
+    kept = []
+    for p in points:
+        if all(abs(p[0] - q[0]) >= frac * xspan or abs(p[1] - q[1]) >= frac * yspan for q in kept):
+            kept.append(p)
+    return kept
+
+
 def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = "", case=None):
-    """The FRC of a continuation run in the style of every vibeam figure (:mod:`vibeam.plots.style`):
-    stable branches solid, unstable dashed (colour by period), bifurcations marked, and the
-    case's sweep points overlaid (up filled, down open, grey); a Figure."""
+    """The FRC of a continuation run in the style of every vibeam figure (:mod:`vibeam.plots.style`).
+
+    Each period has its colour and marker (:func:`vibeam.plots.style.branch_style`: period-1
+    blue circles, period-2 vermillion triangles, period-4 green squares, period-8 purple
+    pentagons), stable stretches solid and unstable ones dashed (said in the legend);
+    bifurcations are marked in colours apart from every branch colour (period doubling black
+    diamonds), one marker per point (:func:`_apart`); the case's sweep points are overlaid
+    (up filled, down open, grey) when there are any, and only then does the subtitle give the
+    sweep's settings.  A Figure."""
     import matplotlib.pyplot as plt
 
     from vibeam.plots import style
@@ -748,7 +770,7 @@ def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = ""
     ys = L * 1e3 if L else 1.0
     with style.context():
         fig, ax = plt.subplots(figsize=(8.0, 4.6))
-        handles = []
+        handles, overlaid = [], False
         if r.parameter == "Omega":
             for s in sweep_runs:
                 d = s.data
@@ -758,40 +780,62 @@ def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = ""
                 for dname in ("up", "down"):
                     sel = dirs == dname
                     if sel.any():
+                        overlaid = True
                         fill = style.DIRECTIONS[dname]["fill"]
                         ax.plot(np.asarray(x)[sel], np.asarray(y)[sel], ls="none", marker="o",
                                 ms=3.5 if fill else 6, mfc="0.6" if fill else "none", mec="0.6", zorder=1)
                         handles.append(style.proxy("0.6", marker="o", fill=fill,
                                                    label=f"sweep '{s.name}' ({dname})"))
-        seen = set()
+        periods, stab = [], set()
         for b in r.branches:
             d = b["data"]
             if not d:
                 continue
-            c = style.PALETTE[int(np.log2(max(b["n"], 1))) % len(style.PALETTE)]
+            c, mk = style.branch_style(b["n"])
             x, y, st = d["parameter"] * xs, d["amplitude"] * ys, d["stable"]
             k0 = 0
             for k in range(1, len(x) + 1):      # runs of equal stability, solid / dashed
                 if k == len(x) or st[k] != st[k0]:
                     seg = slice(k0, min(k + 1, len(x)))
-                    ax.plot(x[seg], y[seg], "-" if st[k0] else "--", color=c, lw=1.3, zorder=2)
-                    lab = f"period {b['n']}, {'stable' if st[k0] else 'unstable'}"
-                    if lab not in seen:
-                        seen.add(lab)
-                        handles.append(style.proxy(c, ls="-" if st[k0] else "--", label=lab))
+                    ax.plot(x[seg], y[seg], "-" if st[k0] else "--", color=c, lw=1.3, zorder=2, marker=mk,
+                            ms=4, mfc=c if st[k0] else "white", mec=c, markevery=0.08)   # evenly along the line
+                    stab.add(bool(st[k0]))
                     k0 = k
+            if b["n"] not in periods:
+                periods.append(b["n"])
+        for n in sorted(periods):
+            c, mk = style.branch_style(n)
+            handles.append(style.proxy(c, ls="-", marker=mk, ms=4, label=f"period-{n} branch"))
+        if True in stab:
+            handles.append(style.proxy("0.25", ls="-", label="stable (solid line, filled markers)"))
+        if False in stab:
+            handles.append(style.proxy("0.25", ls="--", fill=False, marker="o", ms=4,
+                                       label="unstable (dashed line, open markers)"))
+        ax.relim()
+        ax.autoscale_view()
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        by_type: dict = {}
         for bf in r.bifurcations:
-            mk, c, lab = MARKERS.get(bf["type"], ("o", "k", bf["type"]))
-            ax.plot(bf["parameter"] * xs, bf["amplitude"] * ys, ls="none", marker=mk, color=c, ms=7, mec="k",
-                    mew=0.6, zorder=5)
-            if lab not in seen:
-                seen.add(lab)
-                handles.append(style.proxy(c, marker=mk, label=lab, ms=7))
+            by_type.setdefault(bf["type"], []).append((bf["parameter"] * xs, bf["amplitude"] * ys))
+        for kind, pts in by_type.items():
+            mk, c, lab = MARKERS.get(kind, ("o", "k", kind))
+            found = [p for p in pts if np.isfinite(p[0]) and np.isfinite(p[1])]
+            pts = _apart(found, x1 - x0, y1 - y0)
+            if not pts:
+                continue
+            if len(pts) < len(found):
+                lab = f"{lab} ({len(found)} found; {len(found) - len(pts)} within a marker of another)"
+            px, py = zip(*pts)
+            ax.plot(px, py, ls="none", marker=mk, color=c, mfc=c, ms=BIFURCATION_MS, mec="k", mew=0.5,
+                    zorder=5 + list(MARKERS).index(kind) if kind in MARKERS else 5)
+            handles.append(style.proxy(c, marker=mk, label=lab, ms=BIFURCATION_MS))
         ax.set_xlabel(_param_label(r, use_hz))
-        ax.set_ylabel(style.label("amplitude at the sensor, U(L_S)", "mm") if L else
+        ax.set_ylabel(style.label(r"amplitude at the sensor, $U(L_S)$", "mm") if L else
                       style.label(r"amplitude $Q = \Delta - \min q$", None))
         style.legend_outside(fig, handles)
-        style.titles(fig, title or f"continuation '{r.name}'", style.subtitle(case, runs=[r]))
+        style.titles(fig, title or f"continuation '{r.name}'",
+                     style.subtitle(case, runs=[r], sweep=overlaid)
+                     + ("; sweeps overlaid (grey)" if overlaid else "; no sweep overlaid"))
     return fig
 
 

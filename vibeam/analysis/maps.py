@@ -22,8 +22,8 @@ from vibeam.plots.style import cell_edges
 NO_IMPACT, PERIOD_1, PERIOD_2, PERIOD_N, NON_PERIODIC, FAILED, HELD, CHAOTIC, QUASI_PERIODIC = range(9)
 CLASSES = {NO_IMPACT: "no impact", PERIOD_1: "period-1", PERIOD_2: "period-2",
            PERIOD_N: "period-n (3 <= n <= 8)", NON_PERIODIC: "non-periodic", FAILED: "failed",
-           HELD: "held on the stop", CHAOTIC: "chaotic (lambda_1 > 0)",
-           QUASI_PERIODIC: "quasi-periodic (lambda_1 = 0)"}
+           HELD: "held on the stop", CHAOTIC: "chaotic (largest Lyapunov exponent > 0)",
+           QUASI_PERIODIC: "quasi-periodic (largest Lyapunov exponent = 0)"}
 # no impact light grey, period-1 blue, period-2 vermillion, period-n orange, non-periodic reddish purple
 # (never the white background), failed black, held on the stop dark grey (Okabe-Ito hues)
 # chaotic wine, quasi-periodic teal (Tol's muted scheme): the non-periodic points whose Lyapunov
@@ -244,10 +244,37 @@ def class_agreement(a: MapResult, b: MapResult) -> np.ndarray | None:
     return ca == cb
 
 
+def agreement_counts(a: MapResult, b: MapResult) -> dict | None:
+    """Points where the classes of two maps of the same grid differ: ``{"total": (n, of),
+    "<direction>": (n, of), ...}`` (over both sweep directions, and per direction); None if
+    the grids differ.  The console (:func:`agreement_text`) and ``maps_agreement.png`` give
+    these numbers."""
+    same = class_agreement(a, b)
+    if same is None:
+        return None
+    out = {"total": (int((~same).sum()), int(same.size))}
+    for k, d in enumerate(a.data["direction"]):
+        out[str(d)] = (int((~same[k]).sum()), int(same[k].size))
+    return out
+
+
+def agreement_text(a: MapResult, b: MapResult) -> str | None:
+    """``"'b' vs 'a': classes differ at n of N points (up n1 of N1, down n2 of N2)"``; None if the
+    grids differ."""
+    c = agreement_counts(a, b)
+    if c is None:
+        return None
+    dirs = [str(d) for d in a.data["direction"]]
+    per = f" ({', '.join(f'{d} {c[d][0]} of {c[d][1]}' for d in dirs)})" if len(dirs) > 1 else ""
+    return f"'{b.name}' vs '{a.name}': classes differ at {c['total'][0]} of {c['total'][1]} points{per}"
+
+
 def agreement_figure(maps: list, title: str = "", case=None):
-    """Class of every map against the first one's: one panel per other map (up sweep), light
-    grey where both agree, the other map's class colour where they differ, with the
-    legend; None if fewer than two maps share a grid.  A Figure."""
+    """Class of every map against the first one's: one row of panels per other map, one
+    column per sweep direction; light grey where both agree, the other map's class colour
+    where they differ (the legend says whose class the colour is).  Each panel's title gives
+    its count, the figure's title the total over both directions -- the numbers the console
+    prints (:func:`agreement_text`).  None if fewer than two maps share a grid.  A Figure."""
     import matplotlib.pyplot as plt
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
@@ -264,25 +291,36 @@ def agreement_figure(maps: list, title: str = "", case=None):
     phys, xl, yl = _axes_labels(ref)
     x = np.asarray((d["frequency_hz"] if phys else d["Omega"])[0], float)
     X, Y = _mesh(x, d["values"])
+    dirs = [str(v) for v in d["direction"]]
     cmap = ListedColormap(CLASS_COLOURS + (SAME_COLOUR,))
     norm = BoundaryNorm(np.arange(-0.5, len(CLASSES) + 1.5), cmap.N)
     with style.context():
-        fig, axes = plt.subplots(1, len(others), figsize=(4.2 * len(others) + 2.4, 3.8), squeeze=False)
+        fig, axes = plt.subplots(len(others), len(dirs), figsize=(3.6 * len(dirs) + 3.2, 3.0 * len(others) + 1.0),
+                                 squeeze=False, sharex=True, sharey=True)
         present = set()
-        for ax, m in zip(axes[0], others):
-            same = class_agreement(ref, m)[0]
-            show = np.where(same, len(CLASSES), m.data["classification"][0])
-            present |= set(np.unique(m.data["classification"][0][~same]).tolist())
-            ax.pcolormesh(X, Y, show, cmap=cmap, norm=norm, edgecolors="face", lw=0)
-            ax.set_title(f"'{m.name}' vs '{ref.name}': {int((~same).sum())} of {same.size} differ", loc="left")
+        totals = []
+        for row, m in zip(axes, others):
+            same_all = class_agreement(ref, m)
+            totals.append(f"'{m.name}' {int((~same_all).sum())} of {same_all.size} points")
+            for k, ax in enumerate(row):
+                same = same_all[k]
+                cls = m.data["classification"][k]
+                show = np.where(same, len(CLASSES), cls)
+                present |= set(np.unique(cls[~same]).tolist())
+                ax.pcolormesh(X, Y, show, cmap=cmap, norm=norm, edgecolors="face", lw=0)
+                ax.set_title(f"'{m.name}' vs '{ref.name}', {dirs[k]} sweep: {int((~same).sum())} of {same.size} "
+                             f"differ", loc="left")
+                ax.grid(False)
+            row[0].set_ylabel(yl)
+        for ax in axes[-1]:
             ax.set_xlabel(xl)
-            ax.set_ylabel(yl)
-            ax.grid(False)
         handles = [Patch(facecolor=SAME_COLOUR, edgecolor="0.6", lw=0.5, label=f"same class as '{ref.name}'")]
         handles += [Patch(facecolor=CLASS_COLOURS[i], edgecolor="0.5", lw=0.5, label=f"differs: {CLASSES[i]}")
                     for i in sorted(present)]
-        style.legend_outside(fig, handles, title="up sweep")
-        style.titles(fig, f"{title + ': ' if title else ''}classes that differ between the maps",
+        names = " / ".join(f"'{m.name}'" for m in others)
+        style.legend_outside(fig, handles, title=f"colour: the class of {names}\nwhere it differs from '{ref.name}'")
+        style.titles(fig, f"{title + ': ' if title else ''}classes that differ from '{ref.name}' "
+                          f"(up and down sweeps): {'; '.join(totals)}",
                      style.subtitle(case, runs=maps, exclude=(ref.parameter,)))
     return fig
 

@@ -622,8 +622,7 @@ class FitResult:
                 f"{self.eps_rel:.2g} (the sweep's accuracy, measured {self.eps_measured:.2g} by doubling the "
                 f"transient; floor {EPS_FLOOR:g}); {self.jacobian_info.get('one_sided', 0)} one-sided and "
                 f"{self.jacobian_info.get('zeroed', 0)} zero entries at periodic points",
-                f"  standard errors: {'reliable' if self.reliable else 'NOT reliable'}"
-                + (": " + "; ".join(self.notes) if self.notes else ""),
+                f"  {verdict(self)}",
                 f"  optimizer: {self.message}"]
         return "\n".join(out)
 
@@ -921,61 +920,87 @@ def fitted_case_text(case, run, values: dict, source: str = "", reference: str =
 
 
 # ============================================================================ plot
-def plot_fit(res: FitResult, path, title: str = "") -> Path:
-    """Data against the fitted FRC, with a residual panel; units on both axes."""
-    import matplotlib
-    matplotlib.use("Agg")
+def verdict(res: FitResult) -> str:
+    """The fit's verdict in one line, as ``vibeam fit`` prints it: ``standard errors reliable``
+    or ``standard errors NOT reliable: <the reasons>`` (``res.notes``)."""
+    v = "standard errors reliable" if res.reliable else "standard errors NOT reliable"
+    return v + (": " + "; ".join(res.notes) if res.notes else "")
+
+
+def fit_figure(res: FitResult, title: str = ""):
+    """Data against the fitted FRC, with a residual panel, in vibeam's style
+    (:mod:`vibeam.plots.style`): the up sweep in the first colour with filled markers and a
+    solid model line drawn on top, the down sweep in the second colour with open markers and a
+    dashed line drawn below it; units on both axes, the legend outside the data, and the
+    estimates and the verdict (:func:`verdict`, with its reasons) written under the title.
+    A Figure."""
     import matplotlib.pyplot as plt
 
+    from vibeam.plots import style
+
     phys = res.x_name == "frequency_hz"
-    xl = "forcing frequency (Hz)" if phys else r"$\Omega$ (forcing / natural frequency)"
-    yl = "amplitude at the sensor (mm)" if phys else r"$Q = \Delta - \min q$ (1)"
-    ru = "mm" if phys else "1"
-    fig, (ax, axr) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
-    colors = {"up": "C0", "down": "C1"}
-    for d in ("up", "down"):
-        sel = res.direction == d
-        if not sel.any():
-            continue
-        o = np.argsort(res.x[sel])
-        xs, ys, ms = res.x[sel][o], res.y[sel][o], res.model[sel][o]
-        c = colors[d]
+    xl = style.label("forcing frequency f", "Hz") if phys else style.label(r"forcing frequency $\Omega = f/f_n$", None)
+    yl = (style.label(f"amplitude at the sensor, {style.DISPLACEMENT}", "mm") if phys else
+          style.label(r"amplitude $Q = \Delta - \min q$", None))
+    ru = "mm" if phys else None
+    with style.context():
+        fig, (ax, axr) = plt.subplots(2, 1, figsize=(8.6, 6.2), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
+        handles = {}
+        for d in ("down", "up"):              # the down sweep first: the up sweep is drawn over it
+            sel = res.direction == d
+            if not sel.any():
+                continue
+            up = d == "up"
+            c = style.PALETTE[0] if up else style.PALETTE[1]
+            z = 4 if up else 2
+            mk = dict(marker="o", ms=4.5 if up else 6.0, mec=c, mfc=c if up else "none", mew=1.0)
+            o = np.argsort(res.x[sel], kind="stable")
+            xs, ys, ms = res.x[sel][o], res.y[sel][o], res.model[sel][o]
+            if res.sigma_given:
+                ax.errorbar(xs, ys, yerr=res.sigma[sel][o], ls="none", color=c, lw=0.8, zorder=z + 1,
+                            label=f"data ({d})", **mk)
+            else:
+                ax.plot(xs, ys, ls="none", color=c, zorder=z + 1, label=f"data ({d})", **mk)
+            ax.plot(xs, ms, ls=style.DIRECTIONS[d]["ls"], color=c, lw=1.3, zorder=z, label=f"fitted model ({d})")
+            handles[f"data ({d})"] = style.proxy(c, marker="o", fill=up, label=f"data, {d} sweep "
+                                                 f"({'filled' if up else 'open'} markers)")
+            handles[f"model ({d})"] = style.proxy(c, ls=style.DIRECTIONS[d]["ls"],
+                                                  label=f"fitted model, {d} sweep "
+                                                        f"({'solid' if up else 'dashed'})")
+            npr = (res.model_period[sel][o] == 0) & np.isfinite(ms)
+            if npr.any():
+                ax.errorbar(xs[npr], ms[npr], yerr=np.nan_to_num(res.model_spread[sel][o][npr]), fmt="x", color=c,
+                            ms=6, lw=0.8, zorder=z, label=f"model not periodic ({d}): spread")
+                handles["np"] = style.proxy("0.3", marker="x", label="model not periodic: bar = its spread")
+            axr.plot(xs, res.residuals[sel][o], ls="none", color=c, zorder=z, label=d, **mk)
+            fail = ~np.isfinite(ms)
+            if fail.any():
+                ax.plot(xs[fail], np.zeros(fail.sum()), ls="none", marker="|", color="k", ms=10,
+                        transform=ax.get_xaxis_transform(), label="model failed")
+                handles["failed"] = style.proxy("k", marker="|", label="model failed", ms=10)
         if res.sigma_given:
-            ax.errorbar(xs, ys, yerr=res.sigma[sel][o], fmt="o", ms=4, color=c, mfc="none", lw=0.8,
-                        label=f"data ({d})")
-        else:
-            ax.plot(xs, ys, "o", ms=4, color=c, mfc="none", label=f"data ({d})")
-        ax.plot(xs, ms, "-" if d == "up" else "--", color=c, lw=1.2, label=f"fitted model ({d})")
-        npr = (res.model_period[sel][o] == 0) & np.isfinite(ms)
-        if npr.any():
-            ax.errorbar(xs[npr], ms[npr], yerr=np.nan_to_num(res.model_spread[sel][o][npr]), fmt="x", color=c,
-                        ms=6, lw=0.8, label=f"model not periodic ({d}): spread")
-        rr = res.residuals[sel][o]
-        axr.plot(xs, rr, "o" if d == "up" else "s", ms=3.5, color=c, label=d)
-        fail = ~np.isfinite(ms)
-        if fail.any():
-            ax.plot(xs[fail], np.zeros(fail.sum()), "k|", ms=10, label="model failed")
-    if res.sigma_given:
-        axr.plot(res.x[np.argsort(res.x)], res.sigma[np.argsort(res.x)], ":", color="0.5", lw=0.8)
-        axr.plot(res.x[np.argsort(res.x)], -res.sigma[np.argsort(res.x)], ":", color="0.5", lw=0.8,
-                 label=r"$\pm\sigma$")
-    axr.axhline(0.0, color="0.3", lw=0.8)
-    ests = ", ".join(f"{n} = {x:.4g} ± {s:.2g}" for n, x, s in zip(res.parameters, res.estimate,
-                                                                    res.standard_error))
-    ax.set_title(title or f"{res.case_name} / {res.run}: {ests}", fontsize=9)
-    ax.set_ylabel(yl)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    axr.set_xlabel(xl)
-    axr.set_ylabel(f"model − data ({ru})")
-    axr.grid(alpha=0.3)
-    axr.legend(fontsize=7, ncol=3)
-    fig.tight_layout()
-    path = Path(path)
-    from vibeam.plots.sweep import save_figure
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
+            o = np.argsort(res.x)
+            axr.plot(res.x[o], res.sigma[o], ":", color="0.5", lw=0.8)
+            axr.plot(res.x[o], -res.sigma[o], ":", color="0.5", lw=0.8, label=r"$\pm\sigma$")
+            handles["sigma"] = style.proxy("0.5", ls=":", label=r"residual panel: $\pm\sigma$ of the data")
+        axr.axhline(0.0, color="0.3", lw=0.8)
+        ax.set_ylabel(yl)
+        axr.set_xlabel(xl)
+        axr.set_ylabel(style.label("model − data", ru))
+        order = ["data (up)", "model (up)", "data (down)", "model (down)", "np", "failed", "sigma"]
+        style.legend_outside(fig, [handles[k] for k in order if k in handles])
+        ests = ", ".join(f"{n} = {x:.4g} ± {s:.2g}" for n, x, s in zip(res.parameters, res.estimate,
+                                                                        res.standard_error))
+        style.titles(fig, title or f"{res.case_name}: fit of run '{res.run}' against {res.reference}",
+                     f"{ests}; {verdict(res)}")
+    return fig
+
+
+def plot_fit(res: FitResult, path, title: str = "") -> Path:
+    """:func:`fit_figure` saved to ``path`` (``fit.png``); returns the path."""
+    from vibeam.plots.sweep import save_close
+
+    return save_close(fit_figure(res, title), Path(path))
 
 
 # ============================================================================ several runs

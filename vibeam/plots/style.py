@@ -28,9 +28,18 @@ PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#0
 DIRECTIONS = {"up": {"ls": "-", "fill": True, "label": "up sweep (solid line, filled markers)"},
               "down": {"ls": "--", "fill": False, "label": "down sweep (dashed line, open markers)"}}
 PERIOD_MARKERS = {1: ("o", "period-1"), 2: ("^", "period-2"), 3: ("s", "period-n (3..8)"),
-                  0: ("x", "non-periodic (bar: range of Q_k)"), -1: (".", "no impact")}
+                  0: ("x", "non-periodic (bar: range of $Q_k$)"), -1: (".", "no impact")}
 FAILED_COLOUR = "#CC0000"
+#: a bifurcation diagram's samples: small dots without an edge, as the field draws them (a
+#: chaotic band stays a cloud of points, not a blob of overlapping rings)
+DOT_SIZE = 1.2
+#: the branches of a continuation run by period (1, 2, 4, 8: the period-doubling cascade; others
+#: cycle through the rest): a colour and a marker each, so they stay apart in grey print too
+BRANCH_STYLES = {1: ("#0072B2", "o"), 2: ("#D55E00", "^"), 4: ("#009E73", "s"), 8: ("#CC79A7", "p")}
+_OTHER_BRANCH_STYLES = (("#E69F00", "v"), ("#56B4E9", "h"), ("#882255", "<"), ("#44AA99", ">"))
 NODIM = "–"          # the unit of a nondimensional quantity
+DISPLACEMENT = "$U(L_S)$"          # the sensor's displacement (paper Sec. 6), mathtext
+VELOCITY = r"$\dot U(L_S)$"        # its velocity
 
 RC = {
     "figure.dpi": 100, "savefig.dpi": 150, "figure.constrained_layout.use": True,
@@ -84,6 +93,14 @@ def period_marker(p: int) -> tuple:
     return PERIOD_MARKERS[3 if p >= 3 else p] if (p >= 3 or p in PERIOD_MARKERS) else PERIOD_MARKERS[0]
 
 
+def branch_style(n: int) -> tuple:
+    """(colour, marker) of a continuation branch of period ``n`` (:data:`BRANCH_STYLES`)."""
+    n = int(n)
+    if n in BRANCH_STYLES:
+        return BRANCH_STYLES[n]
+    return _OTHER_BRANCH_STYLES[n % len(_OTHER_BRANCH_STYLES)]
+
+
 def label(quantity: str, unit: str | None) -> str:
     """An axis label ``quantity (unit)``; ``unit`` None or '1': ``(–)``."""
     return f"{quantity} ({NODIM if unit in (None, '', '1') else unit})"
@@ -91,14 +108,14 @@ def label(quantity: str, unit: str | None) -> str:
 
 _SYMBOLS = (  # model key -> (symbol, unit, format)
     ("beta", "β", "", "{:g}"), ("B", "B", "", "{:g}"), ("R", "R", "", "{:g}"), ("Delta", "Δ", "", "{:g}"),
-    ("natural_frequency_hz", "f_n", " Hz", "{:g}"), ("damping_ratio", "ζ", "", "{:g}"),
+    ("natural_frequency_hz", "$f_n$", " Hz", "{:g}"), ("damping_ratio", "ζ", "", "{:g}"),
     ("gap_mm", "gap", " mm", "{:g}"), ("contact_gap_mm", "contact gap", " mm", "{:g}"),
     ("gain", "γ", " /V", "{:.3g}"), ("voltage", "V", " V", "{:g}"), ("length_mm", "L", " mm", "{:g}"),
     ("n_modes", "modes", "", "{}"), ("n_elements", "elements", "", "{}"),
 )
 
 
-def subtitle(case=None, model: dict | None = None, runs=(), exclude=()) -> str:
+def subtitle(case=None, model: dict | None = None, runs=(), exclude=(), sweep: bool = True) -> str:
     """The scene's parameters in one line (paper symbols and units), e.g.
     ``SDOF: β = 0.015, B = 0.0005, R = 0.9, Δ = 0; 400 + 64 periods per point, up and down``.
 
@@ -115,6 +132,9 @@ def subtitle(case=None, model: dict | None = None, runs=(), exclude=()) -> str:
         the runs).
     exclude : sequence of str
         Keys left out (a map's parameter, which is an axis).
+    sweep : bool
+        Add the case's ``[sweep]`` windows and directions (False for a figure that draws no
+        sweep, e.g. a continuation run without sweeps overlaid).
     """
     models = [getattr(r, "attrs", {}).get("model") for r in runs]
     models = [x for x in models if isinstance(x, dict)]
@@ -142,20 +162,53 @@ def subtitle(case=None, model: dict | None = None, runs=(), exclude=()) -> str:
             parts.append(f"{sym} = {fmt.format(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v}"
                          f"{unit}")
     out = (f"{fid}: " if fid else "") + ", ".join(parts)
-    if case is not None:
+    if case is not None and sweep:
         sw = case.sweep
         d = {"both": "up and down", "up": "up", "down": "down"}[sw.direction]
         out += f"; {sw.transient_periods} + {sw.record_periods} periods per point, {d}"
     return out
 
 
-def titles(fig, title: str = "", sub: str = "") -> None:
-    """Figure title (the case) and below it the parameters, left-aligned and wrapped to the
-    figure's width (constrained layout keeps them clear of the axes)."""
+def wrap_phrases(text: str, width: int) -> list:
+    """``text`` in lines of at most ``width`` characters, broken only between phrases: at the
+    separators ``' · '`` and ``'; '`` first, within a phrase longer than a line at ``', '``,
+    and only a clause longer than a line between words (:func:`textwrap.wrap`)."""
+    import re
     import textwrap
 
+    def pack(parts, seps, w):
+        lines, cur = [], ""
+        for part, sep in zip(parts, seps):
+            if cur and len(cur) + len(part) > w:
+                lines.append(cur.rstrip())
+                cur = ""
+            cur += part + sep
+        if cur.strip():
+            lines.append(cur.rstrip())
+        return lines
+
+    def split(t, pattern):
+        bits = re.split(f"({pattern})", t)
+        return bits[0::2], bits[1::2] + [""]
+
+    out = []
+    parts, seps = split(text, r" · |; ")
+    for line in pack(parts, seps, width):
+        if len(line) <= width:
+            out.append(line)
+            continue
+        cl, cs = split(line, r", ")
+        for sub in pack(cl, cs, width):
+            out += [sub] if len(sub) <= width else textwrap.wrap(sub, width)
+    return out
+
+
+def titles(fig, title: str = "", sub: str = "") -> None:
+    """Figure title (the case) and below it the parameters, left-aligned and wrapped to the
+    figure's width at phrase boundaries (:func:`wrap_phrases`; constrained layout keeps them
+    clear of the axes)."""
     width = max(40, int(fig.get_figwidth() * 13))
-    text = "\n".join(textwrap.wrap(title, width) + textwrap.wrap(sub, width)) if (title or sub) else ""
+    text = "\n".join(wrap_phrases(title, width) + wrap_phrases(sub, width)) if (title or sub) else ""
     if text:
         fig.suptitle(text, x=0.01, ha="left", fontsize=9)
 

@@ -8,7 +8,8 @@
   stored them: one sample of an attractor is not one number); failed points (no
   amplitude) are red crosses along the bottom of the axes.
 * ``bifurcation.png`` (:func:`bifurcation_figure`): stroboscopic displacement against
-  the forcing frequency, one panel per time-domain run, up and down distinguished.
+  the forcing frequency, small dots, one row per time-domain run and one column per sweep
+  direction, every panel on the same axes.
 
 The ``*_figure`` functions return a :class:`matplotlib.figure.Figure` (for a notebook,
 or a test that inspects it); ``plot_*`` save it through :func:`save_figure` (a
@@ -57,7 +58,7 @@ def axes_data(r):
     d = r.data
     if "frequency_hz" in d and "amplitude_mm" in d:
         return (np.asarray(d["frequency_hz"], float), np.asarray(d["amplitude_mm"], float),
-                style.label("forcing frequency f", "Hz"), style.label("amplitude at the sensor, U(L_S)", "mm"))
+                style.label("forcing frequency f", "Hz"), style.label(r"amplitude at the sensor, $U(L_S)$", "mm"))
     return (np.asarray(d["Omega"], float), np.asarray(d["amplitude"], float),
             style.label(r"forcing frequency $\Omega = f/f_n$", None),
             style.label(r"amplitude $Q = \Delta - \min q$", None))
@@ -183,7 +184,7 @@ def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None
                     for ax, key in ((ax1, key_v), (ax2, key_n)):
                         ax.plot(x[sel][o], np.asarray(r.data[key], float)[sel][o], ls=ls, marker="o",
                                 ms=3.5, color=c, mec=c, mfc=c if fill else "none", lw=1.0)
-        ax1.set_ylabel(style.label("mean pre-impact speed |q'-|", None))
+        ax1.set_ylabel(style.label(r"mean pre-impact speed $|\dot q^-|$", None))
         ax2.set_ylabel(style.label("impacts per period", None))
         ax2.set_xlabel(xl)
         handles = [style.proxy(col.get(r.name, "0.3"), ls="-", label=f"{r.name} ({r.method})") for r in runs]
@@ -209,45 +210,43 @@ def plot_frc(runs, path, title: str = "", case=None, colours=None) -> Path:
 
 
 def bifurcation_figure(runs, title: str = "", case=None, colours: dict | None = None):
-    """Stroboscopic displacement against frequency, one panel per run with strobe samples
-    (up: filled dots, down: open circles, in the run's colour); a Figure, or None."""
+    """Stroboscopic displacement against frequency (the bifurcation diagram): one row of panels
+    per run with strobe samples and one column per sweep direction (up, down), every sample a
+    small dot without an edge (:data:`vibeam.plots.style.DOT_SIZE`, as the field draws them: a
+    chaotic band stays a cloud) in the run's colour; all panels share the frequency and the
+    displacement axis, so the rungs of a ladder compare by eye.  A Figure, or None."""
     import matplotlib.pyplot as plt
 
     runs = [r for r in runs if "strobe" in r.data and np.isfinite(r.data["strobe"]).any()]
     if not runs:
         return None
+    dirs = [d for d in ("up", "down") if any((_directions(r, len(r.data["Omega"])) == d).any() for r in runs)]
     with style.context():
         col = colours or style.colours(style.run_names(case, runs))
-        fig, axes = plt.subplots(len(runs), 1, figsize=(8.0, 2.3 * len(runs) + 1.0), squeeze=False, sharex=True)
-        dirs_seen = []
-        for ax, r in zip(axes[:, 0], runs):
+        fig, axes = plt.subplots(len(runs), len(dirs), figsize=(4.0 * len(dirs) + 2.6, 2.0 * len(runs) + 1.2),
+                                 squeeze=False, sharex=True, sharey=True)
+        xl = ""
+        for row, r in zip(axes, runs):
             x, _, xl, _ = axes_data(r)
             s = np.asarray(r.data["strobe"], float)[:, :, 0] * _mm(r)
             direc = _directions(r, len(x))
             c = col.get(r.name, "0.3")
-            for dname in ("up", "down"):
+            for ax, dname in zip(row, dirs):
                 sel = direc == dname
+                ax.set_title(f"{r.name} ({r.method})", loc="left")
+                ax.set_title(f"{dname} sweep", loc="right")
                 if not sel.any():
+                    ax.text(0.5, 0.5, f"no {dname} sweep", transform=ax.transAxes, ha="center", color="0.5")
                     continue
-                if dname not in dirs_seen:
-                    dirs_seen.append(dname)
                 xs = np.repeat(x[sel][:, None], s.shape[1], axis=1)
-                if dname == "up":
-                    ax.plot(xs.ravel(), s[sel].ravel(), ls="none", marker="o", ms=3.0, color=c, mew=0,
-                            alpha=0.9, zorder=3)
-                else:
-                    ax.plot(xs.ravel(), s[sel].ravel(), ls="none", marker="o", ms=6.0, mfc="none", mec=c,
-                            mew=0.8, alpha=0.8, zorder=2)
+                ax.plot(xs.ravel(), s[sel].ravel(), ls="none", marker="o", ms=style.DOT_SIZE, color=c, mfc=c,
+                        mew=0, zorder=3)
             phys = "amplitude_mm" in r.data
-            ax.set_ylabel(style.label("U(L_S) at phase 0", "mm") if phys else style.label("q at phase 0", None))
-            ax.set_title(f"{r.name} ({r.method})", loc="left")
-            ax.set_xlabel(xl if ax is axes[-1, 0] else "")
-        axes[-1, 0].set_xlabel(xl)
+            row[0].set_ylabel(style.label(f"{style.DISPLACEMENT} at phase 0", "mm") if phys else
+                              style.label("$q$ at phase 0", None))
+        for ax in axes[-1]:
+            ax.set_xlabel(xl)
         handles = [style.proxy(col.get(r.name, "0.3"), marker="o", label=f"{r.name} ({r.method})") for r in runs]
-        if "up" in dirs_seen:
-            handles.append(style.proxy("0.25", marker="o", ms=3, label="up sweep (filled dots)"))
-        if "down" in dirs_seen:
-            handles.append(style.proxy("0.25", marker="o", fill=False, label="down sweep (open circles)"))
         style.legend_outside(fig, handles)
         style.titles(fig, (title + ": " if title else "") + "bifurcation diagram (stroboscopic map)",
                      style.subtitle(case, runs=runs))
@@ -281,10 +280,10 @@ def simulation_figure(sim):
             axes[0].plot(ti, xi, ls="none", marker="v", color=style.PALETTE[1], ms=5, label="impact")
         axes[0].set_xlabel(style.label("time t", tu))
         axes[1].set_xlabel(style.label("time t", tu))
-        axes[0].set_ylabel(style.label("U(L_S)" if phys else "q", xu))
-        axes[1].set_ylabel(style.label("U'(L_S)" if phys else "q'", vu))
-        axes[2].set_xlabel(style.label("U(L_S)" if phys else "q", xu))
-        axes[2].set_ylabel(style.label("U'(L_S)" if phys else "q'", vu))
+        axes[0].set_ylabel(style.label(style.DISPLACEMENT if phys else "$q$", xu))
+        axes[1].set_ylabel(style.label(style.VELOCITY if phys else r"$\dot q$", vu))
+        axes[2].set_xlabel(style.label(style.DISPLACEMENT if phys else "$q$", xu))
+        axes[2].set_ylabel(style.label(style.VELOCITY if phys else r"$\dot q$", vu))
         axes[0].set_title("displacement", loc="left")
         axes[1].set_title("velocity", loc="left")
         axes[2].set_title("phase portrait", loc="left")
@@ -293,7 +292,7 @@ def simulation_figure(sim):
             handles.append(style.proxy(style.PALETTE[1], marker="v", label=f"impacts ({len(ti)})"))
         style.legend_outside(fig, handles)
         f = f"{sim.Omega * sim.natural_frequency_hz:.4g} Hz, " if phys else ""
-        style.titles(fig, f"one forcing frequency: {f}Omega = {sim.Omega:.6g}",
+        style.titles(fig, f"one forcing frequency: {f}$\\Omega$ = {sim.Omega:.6g}",
                      f"period {sim.summary.get('period')}, {sim.summary.get('impacts_per_period', 0):.3g} impacts "
                      f"per period")
     return fig
