@@ -184,3 +184,17 @@ def test_readme_is_short_and_keeps_the_quick_start():
     assert "python3 -m venv .venv && .venv/bin/pip install -e '.[test]' && .venv/bin/python -m pytest" in lines
     for doc in ("cases/README.md", "tests/README.md"):
         assert doc in text and (CASES.parent / doc).is_file()
+
+
+def test_vibeam_cases_prints_the_catalogue(capsys, tmp_path):
+    from vibeam.cli import main
+
+    assert main(["cases", str(CASES)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    rows = reference.catalogue(CASES)
+    assert len(out) == len(rows)
+    for line, (name, fid, desc) in zip(out, rows):
+        assert line.startswith(name) and line.rstrip().endswith(desc) and f" {fid} " in line
+    assert main(["cases", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert str(tmp_path) in err and "no case files" in err and err.count("\n") == 1

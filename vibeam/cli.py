@@ -303,6 +303,21 @@ def cmd_modes(args) -> int:
     return 0
 
 
+def cmd_cases(args) -> int:
+    from pathlib import Path
+
+    from vibeam.case.reference import catalogue_text
+    from vibeam.errors import InputError
+
+    folder = Path(args.folder) if args.folder else Path("cases")
+    if args.folder is None and not folder.is_dir():    # the cases shipped beside the package
+        folder = Path(__file__).resolve().parents[1] / "cases"
+    if not folder.is_dir() or not any(folder.glob("*.toml")):
+        raise InputError(f"{folder}: no case files (*.toml) in this folder; give a folder of cases")
+    print(catalogue_text(folder))
+    return 0
+
+
 def cmd_export(args) -> int:
     from vibeam.api import export
 
@@ -498,6 +513,12 @@ def main(argv=None) -> int:
     p.add_argument("--no-plots", action="store_true", help="skip fit.png")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=lambda a: __import__("vibeam.identify.fit", fromlist=["main_fit"]).main_fit(a))
+    p = sub.add_parser("cases", help="the shipped cases, one line each: file, fidelity, what it shows",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       epilog="Example:\n  vibeam cases\n  vibeam cases my-cases/")
+    p.add_argument("folder", nargs="?", default=None,
+                   help="folder of case files (default ./cases, else the cases shipped with vibeam)")
+    p.set_defaults(func=cmd_cases)
     p = sub.add_parser("export", help="write every group of a results file as tidy CSV files (one row per "
                        "point, coordinates as columns, units in a .units.csv sidecar)",
                        formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam export results/paper-fig7/results.h5 --csv results/paper-fig7/csv")
