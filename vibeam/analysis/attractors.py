@@ -51,13 +51,37 @@ class Axes:
     """The two coordinates of a basin grid and how they map to the model's state.
 
     ``index`` (2,): the state coordinates they set; ``factor`` (2,): axis value = factor x
-    state coordinate; ``names``, ``units``, ``labels``: for files and plots."""
+    state coordinate; ``names``, ``units``, ``labels``: for files and plots.  Physical
+    coordinates of a beam (``coordinates = "sensor"``) are not state coordinates: ``write``
+    (2, 2n) is the mechanical state per unit of each axis and ``read`` (2, 2n) the covectors
+    giving the axis values (``read @ write = I``); ``index``/``factor`` are then unused."""
 
     index: tuple
     factor: tuple
     names: tuple
     units: tuple
     labels: tuple
+    write: np.ndarray | None = None
+    read: np.ndarray | None = None
+
+    def to_state(self, P, base) -> np.ndarray:
+        """States (m, d) of the axis values ``P`` (m, 2): ``base`` (d,) with the two axes set."""
+        P = np.asarray(P, float)
+        S = np.repeat(np.asarray(base, float)[None, :], len(P), 0)
+        if self.write is None:
+            S[:, self.index[0]] = P[:, 0] / self.factor[0]
+            S[:, self.index[1]] = P[:, 1] / self.factor[1]
+        else:
+            k = self.write.shape[1]
+            S[:, :k] = P @ self.write
+        return S
+
+    def values(self, S) -> np.ndarray:
+        """Axis values (m, 2) of states ``S`` (m, d)."""
+        S = np.atleast_2d(np.asarray(S, float))
+        if self.read is None:
+            return np.column_stack([S[:, self.index[0]] * self.factor[0], S[:, self.index[1]] * self.factor[1]])
+        return S[:, :self.read.shape[1]] @ self.read.T
 
 
 @dataclass
@@ -229,27 +253,67 @@ def first_period_gap(model, Omega: float, q0, v0, samples: int = 256) -> np.ndar
 
 # ---------------------------------------------------------------------------- grid of states
 def axes_of(model, coordinates=None) -> Axes:
-    """The grid's coordinates for ``model`` (module docstring)."""
+    """The grid's coordinates for ``model`` (module docstring).
+
+    A beam takes two of its modal state coordinates (``coordinates = [i, j]``, default the
+    first mode's displacement and velocity, the other modes at rest) or ``"sensor"``: the
+    displacement ``U`` (mm) and velocity (mm/s) at the sensor, the beam in its static deflection
+    shape under a load at the contact point (the assumed static mode of paper Eqs. 39-42:
+    ``eta_k`` proportional to ``W_k / omega_k^2``) moving in that shape.  The SDOF's grid is
+    ``(q, q')`` or, for a physical scene, ``(U, U')`` at the sensor (``"sensor"`` says the same).
+
+    Raises
+    ------
+    ValueError
+        ``coordinates`` out of range, or modal indices for the SDOF (one line).
+    """
     n = int(getattr(model, "n_modes", 1))
+    if hasattr(model, "n_modes") and coordinates == "sensor":
+        from vibeam.models.system import from_beam
+
+        s = from_beam(model)
+        u = s.contacts[0] / s.omega ** 2          # static deflection under a unit load at the contact
+        shape = u / float(s.sensor @ u)            # ... scaled to 1 m at the sensor
+        z = np.zeros(n)
+        mm, mm_s = 1e3, 1e3 / s.time_unit_s
+        write = np.array([np.r_[shape / mm, z], np.r_[z, shape / mm_s]])
+        read = np.array([np.r_[s.sensor * mm, z], np.r_[z, s.sensor * mm_s]])
+        return Axes((0, n), (1.0, 1.0), ("U", "U_dot"), ("mm", "mm/s"), (r"$U(L_S)$ (mm)", r"$\dot U(L_S)$ (mm/s)"),
+                    write=write, read=read)
     if hasattr(model, "n_modes"):
         i, j = (0, n) if coordinates is None else (int(coordinates[0]), int(coordinates[1]))
         for c in (i, j):
             if not 0 <= c < 2 * n:
                 raise ValueError(f"[basins] coordinates = {list(coordinates)}: state indices 0 ... {2 * n - 1} "
-                                 f"(eta_1 ... eta_{n} are 0 ... {n - 1}, their velocities {n} ... {2 * n - 1})")
+                                 f"(eta_1 ... eta_{n} are 0 ... {n - 1}, their velocities {n} ... {2 * n - 1}) "
+                                 f"or \"sensor\"")
         name = lambda c: f"eta_{c + 1}" if c < n else f"eta_{c - n + 1}_dot"
         lab = lambda c: fr"$\eta_{{{c + 1}}}$" if c < n else fr"$\dot\eta_{{{c - n + 1}}}$"
         return Axes((i, j), (1.0, 1.0), (name(i), name(j)), ("1", "1"), (lab(i) + f" ({NODIM})", lab(j) + f" ({NODIM})"))
-    if coordinates is not None:
-        raise ValueError(f"[basins] coordinates = {list(coordinates)}: a key of beam scenes only "
-                         f"(the SDOF's grid is (q, q'))")
+    if coordinates is not None and coordinates != "sensor":
+        raise ValueError(f"[basins] coordinates = {list(coordinates)}: modal indices are keys of beam scenes "
+                         f"only (the SDOF's grid is (q, q'), or (U, U') at the sensor)")
     L = getattr(model, "length_m", None)
     fn = getattr(model, "natural_frequency_hz", None)
     if L and fn:
         s = L * 1e3
         return Axes((0, 1), (s, s * 2 * math.pi * fn), ("U", "U_dot"), ("mm", "mm/s"),
                     (r"$U$ (mm)", r"$\dot U$ (mm/s)"))
+    if coordinates == "sensor":
+        raise ValueError("[basins] coordinates = \"sensor\": needs a physical scene (natural_frequency_hz, "
+                         "length_mm); a nondimensional SDOF's grid is (q, q')")
     return Axes((0, 1), (1.0, 1.0), ("q", "q_dot"), ("1", "1"), (rf"$q$ ({NODIM})", rf"$q'$ ({NODIM})"))
+
+
+def _sensor_stop(model, axes: Axes):
+    """The stop's position on a beam's ``U`` axis (mm): where the static shape closes the gap at
+    the contact point; None where the contact row does not move in that shape."""
+    from vibeam.models.system import from_beam
+
+    s = from_beam(model)
+    n = s.omega.size
+    wc = float(s.contacts[0] @ axes.write[0, :n])      # contact displacement (m) per mm at the sensor
+    return float(model.gap_contact_m) / wc if wc != 0.0 else None
 
 
 def default_ranges(model, axes: Axes, Omega: float) -> tuple:
@@ -261,6 +325,20 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
     B = float(getattr(model, "B", 0.0) or 0.0)
     beta = float(getattr(model, "beta", 0.0) or 0.0)
     Delta = float(model.Delta)
+    if hasattr(model, "n_modes") and axes.write is not None:     # U, U' at the sensor
+        from vibeam.models.system import from_beam
+
+        s = from_beam(model)
+        resp = s.sensor * s.participation * Omega ** 2 * s.base_amplitude / (s.omega ** 2 - Omega ** 2
+                                                                             + 1j * s.damping * Omega)
+        X = abs(complex(np.sum(resp))) * 1e3                  # linear response at the sensor, mm
+        stop = _sensor_stop(model, axes)
+        A = max(X, abs(stop) if stop is not None else 0.0, 1e-300)
+        V = 8 * A * Omega / (s.time_unit_s * 1.0)              # mm/s: Omega per unit of kernel time
+        if stop is None:
+            return ((-8 * A, 8 * A), (-V, V))
+        wc = float(s.contacts[0] @ axes.write[0, :s.omega.size])
+        return ((stop - 8 * A, stop) if wc > 0 else (stop, stop + 8 * A), (-V, V))
     if hasattr(model, "n_modes"):
         from vibeam.models.system import from_beam
 
@@ -502,8 +580,9 @@ def _cell_widths(step, model, d, axes: Axes, xs, ys, x_state, Omega):
     """Cell widths: the grid's spacing in its two coordinates, 1 in the flag, and in every other
     coordinate 1/200 of its range over 200 periods from three states of the box."""
     w = np.full(d, np.nan)
-    w[axes.index[0]] = (xs[1] - xs[0]) / axes.factor[0] if len(xs) > 1 else abs(xs[0]) / 100 or 1e-6
-    w[axes.index[1]] = (ys[1] - ys[0]) / axes.factor[1] if len(ys) > 1 else abs(ys[0]) / 100 or 1e-6
+    if axes.write is None:       # physical axes: every modal coordinate's width from its range
+        w[axes.index[0]] = (xs[1] - xs[0]) / axes.factor[0] if len(xs) > 1 else abs(xs[0]) / 100 or 1e-6
+        w[axes.index[1]] = (ys[1] - ys[0]) / axes.factor[1] if len(ys) > 1 else abs(ys[0]) / 100 or 1e-6
     n_mech = 2 * int(getattr(model, "n_modes", 1))
     if d > n_mech:
         w[n_mech:] = 1.0
@@ -675,18 +754,18 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         base[:] = 0.0
 
         def to_state(P):
-            S = np.repeat(base[None, :], len(P), 0)
-            S[:, axes.index[0]] = P[:, 0] / axes.factor[0]
-            S[:, axes.index[1]] = P[:, 1] / axes.factor[1]
-            return S
+            return axes.to_state(P, base)
 
         step = strobe(solver, float(Omega), d)
         corners = to_state(np.array([[xr[0], yr[0]], [xr[1], yr[1]], [0.5 * (xr[0] + xr[1]), 0.0]]))
         width = _cell_widths(step, model, d, axes, xs, ys, corners, Omega)
         origin = np.zeros(d)
-        origin[axes.index[0]] = xs[0] / axes.factor[0] - 0.5 * width[axes.index[0]]
-        origin[axes.index[1]] = ys[0] / axes.factor[1] - 0.5 * width[axes.index[1]]
         n_mech = 2 * int(getattr(model, "n_modes", 1))
+        if axes.write is None:
+            origin[axes.index[0]] = xs[0] / axes.factor[0] - 0.5 * width[axes.index[0]]
+            origin[axes.index[1]] = ys[0] / axes.factor[1] - 0.5 * width[axes.index[1]]
+        else:                    # the cells' lattice through the box's first state
+            origin[:n_mech] = to_state(np.array([[xs[0], ys[0]]]))[0, :n_mech] - 0.5 * width[:n_mech]
         origin[n_mech:] = -0.5
         recurrence = dict(origin=origin, width=width, n_found=spec.recurrences, n_locate=spec.locate_periods,
                           n_hit_attractor=spec.hit_attractor, n_hit_basin=spec.hit_basin,
@@ -738,7 +817,7 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
             dsc["fraction"] = float(np.mean(lab == k))
             dsc["fraction_se"] = math.sqrt(dsc["fraction"] * (1 - dsc["fraction"]) / lab.size)
         per_Omega.append((desc, width))
-        if grid and axes.names[0] in ("q", "U"):
+        if grid and axes.names[0] in ("q", "U") and not hasattr(model, "n_modes"):
             Q0, V0 = np.meshgrid(xs / axes.factor[0], ys / axes.factor[1])
             grazing.append(first_period_gap(model, float(Omega), Q0, V0))
         wall[iO] = time.perf_counter() - t0
@@ -752,7 +831,8 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
                         amplitude_scale_mm=L * 1e3 if L else None,
                         time_scale_s=1.0 / (2 * math.pi * fn) if fn else None,
                         settings=spec.model_dump(),
-                        stop=float(model.Delta) * axes.factor[0] if axes.names[0] in ("q", "U") else None,
+                        stop=(_sensor_stop(model, axes) if axes.write is not None else
+                              float(model.Delta) * axes.factor[0] if axes.names[0] in ("q", "U") else None),
                         grazing=np.array(grazing) if grazing else None,
                         parameter=case.map.parameter if spec.along == "map" else "Omega",
                         values=np.array([v for _, _, v in slices], float) if spec.along == "map" else None)
@@ -942,6 +1022,8 @@ def _axes_attrs(r: BasinsResult) -> dict:
 
     a = {"axes_names": json.dumps(list(r.axes.names)), "axes_index": json.dumps([int(i) for i in r.axes.index]),
          "axes_factor": json.dumps([float(x) for x in r.axes.factor]),
+         **({} if r.axes.write is None else {"axes_write": json.dumps(np.asarray(r.axes.write).tolist()),
+                                              "axes_read": json.dumps(np.asarray(r.axes.read).tolist())}),
          "axes_units": json.dumps(list(r.axes.units)), "axes_labels": json.dumps(list(r.axes.labels))}
     for k in ("amplitude_scale_mm", "time_scale_s", "stop"):
         if getattr(r, k) is not None:
@@ -978,7 +1060,9 @@ def basins_from_dataset(ds, name: str | None = None) -> BasinsResult:
                 if grid else (str(ds["initial_state_1"].attrs.get("units", "1")),
                               str(ds["initial_state_2"].attrs.get("units", "1"))))
     axes = Axes(get("axes_index", (0, 1)), get("axes_factor", (1.0, 1.0)), names, units,
-                get("axes_labels", tuple(f"{n} ({u})" for n, u in zip(names, units))))
+                get("axes_labels", tuple(f"{n} ({u})" for n, u in zip(names, units))),
+                write=np.array(json.loads(at["axes_write"])) if "axes_write" in at else None,
+                read=np.array(json.loads(at["axes_read"])) if "axes_read" in at else None)
     mm = at.get("amplitude_scale_mm")
     ts = at.get("time_scale_s")
     along = str(at.get("along", "Omega"))
@@ -1072,8 +1156,6 @@ def _basins_figure(r, i, title):
     colours = ["0.55", "0.8"] + [PALETTE[k % len(PALETTE)] for k in range(nA)]
     img = r.labels[i] + 3 if r.grid else None
     handles = []
-    a0, a1 = r.axes.index
-    f0, f1 = r.axes.factor
     if r.grid:
         ax.imshow(img, origin="lower", aspect="auto", interpolation="nearest",
                   extent=(r.x[0] - 0.5 * (r.x[1] - r.x[0]), r.x[-1] + 0.5 * (r.x[1] - r.x[0]),
@@ -1087,7 +1169,8 @@ def _basins_figure(r, i, title):
     for k in present:
         S = r.attractors["samples"][i, k]
         S = S[np.isfinite(S[:, 0])]
-        ax.plot(S[:, a0] * f0, S[:, a1] * f1, ".", ms=1.5, color="k")
+        XY = r.axes.values(S)
+        ax.plot(XY[:, 0], XY[:, 1], ".", ms=1.5, color="k")
         handles.append(Patch(color=colours[k + 2], label=_legend_text(r, i, k)))
     lab = r.labels[i]
     for code, c in ((UNSETTLED, colours[1]), (FAILED, colours[0])):

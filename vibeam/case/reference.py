@@ -269,8 +269,9 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "seed": ("", "seed of the samples"),
         "x_range": ("1 or mm", f"{_RANGE} of the first coordinate (default a box around the stop)"),
         "y_range": ("1 or mm/s", f"{_RANGE} of the second coordinate"),
-        "coordinates": ("", "beam: the two modal coordinates of the grid (default the first mode's "
-                        "displacement and velocity)"),
+        "coordinates": ("", "beam: the two modal state coordinates [i, j] of the grid (default the first "
+                        "mode's displacement and velocity), or \"sensor\": U (mm) and U' (mm/s) at the sensor, "
+                        "the beam in its static deflection shape"),
         "run": ("", "the run whose model and solver are used (default the first time-domain run)"),
         "recurrences": ("", "consecutive revisits of the same cells that find an attractor"),
         "locate_periods": ("periods", "stroboscopic samples that describe a new attractor"),

@@ -1005,7 +1005,8 @@ class BasinsSpec(_Strict):
     ``Omega`` / ``frequency_hz``: a number or a list (omitted: every frequency of the sweep's
     grid, a census along the sweep); ``grid = [nx, ny]`` (default 200 x 200) or ``samples``;
     ``x_range``/``y_range``: the box in the grid's units (SDOF: ``q``, ``q'``, or for a
-    physical scene ``U`` mm and ``U'`` mm/s; beam: the modal ``coordinates``), default a box
+    physical scene ``U`` mm and ``U'`` mm/s; beam: the modal ``coordinates = [i, j]`` or
+    ``"sensor"``, U and U' at the sensor in the static deflection shape), default a box
     around the stop; ``run``: the run whose model and solver are used (default the first
     time-domain run).  Recurrence settings (:mod:`vibeam.models.attractors`): ``recurrences``
     consecutive revisits find an attractor, ``locate_periods`` samples describe it,
@@ -1023,7 +1024,7 @@ class BasinsSpec(_Strict):
     seed: int = 0
     x_range: _Pair | None = None
     y_range: _Pair | None = None
-    coordinates: Annotated[list[Annotated[int, Field(ge=0)]], Field(min_length=2, max_length=2)] | None = None
+    coordinates: Annotated[list[Annotated[int, Field(ge=0)]], Field(min_length=2, max_length=2)] | Literal["sensor"] | None = None
     run: str | None = None
     recurrences: Annotated[int, Field(ge=2, le=100_000)] = 100
     locate_periods: Annotated[int, Field(ge=1, le=100_000)] = 1000
