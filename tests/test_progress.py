@@ -199,3 +199,31 @@ method = "event"
     out = capsys.readouterr().out
     assert "exact up: 6 points:" in out and "exact down: 6 points:" in out and "up and down sweeps differ" in out
     assert not list((tmp_path / "o").glob("*.png"))
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_continuation_run_advances_the_bar_per_start(monkeypatch, jobs):
+    """A continuation run is one unit of work whose bar advances per start (2 ends x 3 kinds on
+    the Fig. 13 scene: 6 steps), inline and from a pool worker, not once at its end; its result
+    is the same with and without the progress reports."""
+    import tqdm
+
+    from vibeam.analysis.branches import plan
+    from vibeam.case.schema import load_case
+
+    case, _ = load_case("cases/paper-fig13-continuation.toml")
+    case = case.quick_variant()
+    r = next(x for x in case.run if x.method == "continuation")
+    task = plan(case, r)
+    assert task.n_points == 6
+    monkeypatch.setattr(tqdm, "tqdm", _Bar)
+    _Bar.made.clear()
+    res = run_lines([task], jobs=jobs, progress=True)
+    (bar,) = _Bar.made
+    assert bar.total == 6 and sum(bar.updates) == 6
+    if jobs == 1:
+        assert len(bar.updates) == 6, bar.updates          # one step per start, as it happens
+    plain = task.compute()[0]
+    got = res[(task.run, task.key)][0]
+    assert [s["status"] for s in got["starts"]] == [s["status"] for s in plain["starts"]]
+    assert len(got["branches"]) == len(plain["branches"]) > 0

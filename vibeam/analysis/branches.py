@@ -86,15 +86,21 @@ class BranchTask:
     curve_key: str | None = None
     curve_range: tuple | None = None
 
+    #: the progress bar of :func:`vibeam.engine.sweep.run_lines` advances per start (and curves)
+    reports_progress = True
+
     @property
     def n_points(self) -> int:
-        return 1
+        """Steps of the progress bar: each start tried (an end of the range or a value, times
+        the kinds of start), and the two-parameter curves as one more."""
+        return len(plan_starts(self)) * len(start_kinds(self)) + (1 if self.curve_key is not None else 0)
 
-    def compute(self) -> list:
-        """Run the continuation (in a worker); failures are statuses, never exceptions."""
+    def compute(self, report=None) -> list:
+        """Run the continuation (in a worker); failures are statuses, never exceptions.
+        ``report()`` is called after each start (tried, skipped or failed) and after the curves."""
         t0 = time.perf_counter()
         try:
-            out = run_continuation(self)
+            out = run_continuation(self, report)
         except Exception as e:  # a bug or an unforeseen numerical failure: recorded, not fatal
             import traceback
             out = dict(branches=[], starts=[], curves=[], status="failed",
@@ -260,64 +266,88 @@ def _duplicate(branches, first, n) -> bool:
     return False
 
 
-def run_continuation(task: BranchTask) -> dict:
-    """Everything a continuation run computes, as plain arrays (see :func:`branch_arrays`)."""
-    from vibeam.models.continuation import ContinuationError, Settings, trace
+def plan_starts(task: BranchTask) -> list:
+    """``(value, direction)`` of each place a continuation run starts from (``start_at``)."""
+    where = task.settings.get("start_at", "both")
+    if where == "low":
+        return [(task.lo, +1)]
+    if where == "high":
+        return [(task.hi, -1)]
+    if where == "both":
+        return [(task.lo, +1), (task.hi, -1)]
+    return [(float(where), 0)]
+
+
+def start_kinds(task: BranchTask) -> list:
+    """The kinds of start tried at each place (``start``; ``auto``: linear, sweep, averaging)."""
+    st = task.settings.get("start", "auto")
+    return ["linear", "sweep", "averaging"] if st == "auto" else [st]
+
+
+def run_continuation(task: BranchTask, report=None) -> dict:
+    """Everything a continuation run computes, as plain arrays (see :func:`branch_arrays`).
+    ``report()`` (optional) is called after each start and after the two-parameter curves."""
+    from vibeam.models.continuation import Settings
 
     st = task.settings
     settings = Settings(ds=st["ds"], ds_min=st["ds_min"], ds_max=st["ds_max"], max_points=st["max_points"],
                         max_period=st["max_period"], switch=st["switch"])
     spec = task.spec
     prob = problem(spec, task.parameter, task.at)
-    where = st.get("start_at", "both")
-    if where == "low":
-        plan_ = [(task.lo, +1)]
-    elif where == "high":
-        plan_ = [(task.hi, -1)]
-    elif where == "both":
-        plan_ = [(task.lo, +1), (task.hi, -1)]
-    else:
-        plan_ = [(float(where), 0)]
+    tick = report if report is not None else (lambda: None)
     branches, starts = [], []
-    kinds = ["linear", "sweep", "averaging"] if st.get("start", "auto") == "auto" else [st["start"]]
-    for value, direction in plan_:
+    kinds = start_kinds(task)
+    for value, direction in plan_starts(task):
         for kind in kinds:
-            if kind != "sweep" and kind not in getattr(prob, "starts", ()):
-                continue
-            x0, n, why = _start(task, spec, prob, kind, value)
-            info = dict(value=value, kind=kind, n=n, status="ok", message=why)
-            starts.append(info)
-            if x0 is None:
-                info["status"] = "not_available"
-                continue
             try:
-                got = trace(prob, x0, value, n, task.lo, task.hi, direction, settings)
-            except ContinuationError as e:
-                info.update(status="failed_start", message=str(e))
-                continue
-            except Exception as e:       # an unforeseen numerical failure: this start only
-                info.update(status="failed", message=f"{type(e).__name__}: {e}")
-                continue
-            if not got[0].points:
-                info.update(status=got[0].status, message=got[0].message)
-                continue
-            if _duplicate(branches, got[0].points[0], got[0].n):
-                info.update(status="duplicate", message="its orbit lies on a branch already traced")
-                continue
-            base = len(branches)
-            for b in got:
-                b.index += base
-                for bf in b.bifurcations:
-                    bf.branch = b.index
-                b.origin = b.origin.replace("of branch ", "of branch #")
-            branches.extend(got)
+                _one_start(task, spec, prob, kind, value, direction, settings, branches, starts)
+            finally:
+                tick()
     out = dict(branches=[branch_arrays(b, spec, task) for b in branches], starts=starts, curves=[],
                status="ok" if branches else "failed",
                message="" if branches else "no branch could start: " + "; ".join(
                    f"{s['kind']} at {s['value']:.6g}: {s['message']}" for s in starts if s["status"] != "ok"))
     if task.curve_key is not None and branches:
         out["curves"] = _curves(task, spec, branches, settings)
+    if task.curve_key is not None:
+        tick()
     return out
+
+
+def _one_start(task, spec, prob, kind, value, direction, settings, branches, starts) -> None:
+    """Trace the branches of one start (``kind`` at ``value``) into ``branches``; its record (its
+    status: ok, not_available, failed_start, failed, duplicate, ...) into ``starts``."""
+    from vibeam.models.continuation import ContinuationError, trace
+
+    if kind != "sweep" and kind not in getattr(prob, "starts", ()):
+        return
+    x0, n, why = _start(task, spec, prob, kind, value)
+    info = dict(value=value, kind=kind, n=n, status="ok", message=why)
+    starts.append(info)
+    if x0 is None:
+        info["status"] = "not_available"
+        return
+    try:
+        got = trace(prob, x0, value, n, task.lo, task.hi, direction, settings)
+    except ContinuationError as e:
+        info.update(status="failed_start", message=str(e))
+        return
+    except Exception as e:       # an unforeseen numerical failure: this start only
+        info.update(status="failed", message=f"{type(e).__name__}: {e}")
+        return
+    if not got[0].points:
+        info.update(status=got[0].status, message=got[0].message)
+        return
+    if _duplicate(branches, got[0].points[0], got[0].n):
+        info.update(status="duplicate", message="its orbit lies on a branch already traced")
+        return
+    base = len(branches)
+    for b in got:
+        b.index += base
+        for bf in b.bifurcations:
+            bf.branch = b.index
+        b.origin = b.origin.replace("of branch ", "of branch #")
+    branches.extend(got)
 
 
 def _curves(task, spec, branches, settings) -> list:

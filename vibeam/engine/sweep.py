@@ -520,9 +520,9 @@ def run_line(line: Line, report=None) -> list[dict]:
 
     Any other unit of work with ``key``, ``run``, ``n_points`` and a ``compute()`` returning
     its rows (e.g. a continuation run, :class:`vibeam.analysis.branches.BranchTask`) runs through the
-    same executor, retries and progress bar (advancing when it finishes)."""
-    if hasattr(line, "compute"):
-        return line.compute()
+    same executor, retries and progress bar: advancing when it finishes, or, for a unit with
+    ``reports_progress = True``, by ``compute(report=...)`` calling ``report()`` once per step
+    (at most ``n_points`` steps: a continuation run's starts)."""
     if report is None and _PROGRESS_QUEUE is not None:
         q, ident = _PROGRESS_QUEUE, (line.run, line.key)
 
@@ -531,6 +531,10 @@ def run_line(line: Line, report=None) -> list[dict]:
                 q.put_nowait(ident)
             except Exception:  # pragma: no cover - progress is informative only
                 pass
+    if hasattr(line, "compute"):
+        if getattr(line, "reports_progress", False):
+            return line.compute(report=report)
+        return line.compute()
     return _chain(line.solver, line.Omega, line.sweep, line.Delta, line.direction, report)
 
 
