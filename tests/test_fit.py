@@ -508,7 +508,13 @@ def test_fit_recovers_the_synthetic_measurement_within_its_standard_errors():
     chi-square s^2 above 1.6 has p < 0.005)."""
     root = Path(__file__).resolve().parents[1]
     case, _ = load_case(root / "cases" / "rig-neutral.toml")
-    res = fit_case(case, root / "cases" / "measured" / "rig-neutral-frc.csv", ["gain", "R"], jobs=1)
+    lines = []
+    res = fit_case(case, root / "cases" / "measured" / "rig-neutral-frc.csv", ["gain", "R"], jobs=1,
+                   log=lines.append)
+    # progress: one line per Jacobian with the sweeps spent so far, increasing to the total
+    import re
+    counts = [int(m.group(1)) for l in lines for m in [re.search(r"(\d+) sweeps so far", l)] if m]
+    assert len(counts) >= 2 and counts == sorted(counts) and counts[-1] <= res.evaluations
     truth = {"gain": 5.4e-4, "R": 0.68}
     for k, x, se in zip(res.parameters, res.estimate, res.standard_error):
         assert abs(x - truth[k]) <= 3 * se, (k, x, se)

@@ -792,7 +792,8 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
                 jac_cache[key] = (J, info)
                 if log:
                     log(f"  x = {np.array2string(np.asarray(x), precision=6)}, cost "
-                        f"{0.5 * float(np.sum(fun(x) ** 2)):.6g}")
+                        f"{0.5 * float(np.sum(fun(x) ** 2)):.6g} (Jacobian {len(jac_cache)}, "
+                        f"{prob.evaluations} sweeps so far; at most {max_evaluations} residual evaluations)")
             info_last.update(jac_cache[key][1])
             return jac_cache[key][0]
 
