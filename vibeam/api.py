@@ -24,6 +24,22 @@ from pathlib import Path
 import numpy as np
 
 
+
+class _PrivateFolder:
+    """A temporary folder removed with its last reference (or at exit), quietly: the file behind an
+    in-memory result's ``to_xarray()`` lives there."""
+
+    def __init__(self, prefix: str):
+        import shutil
+        import weakref
+
+        self.name = tempfile.mkdtemp(prefix=prefix)
+        self._finalizer = weakref.finalize(self, shutil.rmtree, self.name, True)
+
+    def cleanup(self) -> None:
+        self._finalizer()
+
+
 # ============================================================================ cases
 def load_case(source):
     """A validated case from a file, TOML text or a dict.
@@ -449,7 +465,7 @@ class Results:
         from vibeam.analysis.attractors import write_basins
         from vibeam.io.results import write_results
 
-        self._tmp = tempfile.TemporaryDirectory(prefix="vibeam-results-")
+        self._tmp = _PrivateFolder("vibeam-results-")
         name = getattr(self.case, "name", "")
         text = case_text(self.case) if self.case is not None else ""
         f = write_results(Path(self._tmp.name) / "results.h5", self.runs, name, text, maps=self.maps,
@@ -650,7 +666,7 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
     ctx = contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO())
     tmp = None
     if out is None:
-        tmp = tempfile.TemporaryDirectory(prefix="vibeam-run-")
+        tmp = _PrivateFolder("vibeam-run-")
         folder = Path(tmp.name)
     else:
         folder = Path(out)
@@ -728,7 +744,7 @@ def continuation(case, jobs: int | None = None, executor=None, out=None, quick: 
     source = str(case) if isinstance(case, (str, Path)) and _names_a_file(str(case)) else ""
     tmp = None
     if out is None:
-        tmp = tempfile.TemporaryDirectory(prefix="vibeam-continue-")
+        tmp = _PrivateFolder("vibeam-continue-")
         folder = Path(tmp.name)
     else:
         folder = Path(out)
