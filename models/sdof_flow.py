@@ -237,12 +237,24 @@ def sample_flow(s, phi0, q0, v0, beta, a, b, Omega, Delta):
 @njit(cache=True)
 def largest_gap(s, q0, v0, beta, a, b, Omega, Delta):
     """``max_i (q - Delta)`` of the free flight at the times ``s`` (shape (m,)) from each state
-    ``(q0[k], v0[k])`` at forcing phase 0 (shapes (K,)): one value per state, shape (K,)."""
+    ``(q0[k], v0[k])`` at forcing phase 0 (shapes (K,)): one value per state, shape (K,).
+
+    The flow is affine in the initial state (paper Eq. 28), so each sample time's gap is
+    ``c0_i + c1_i q0 + c2_i v0``: three flows per sample time, then O(K m) multiply-adds."""
+    m = s.shape[0]
+    c0 = np.empty(m)
+    c1 = np.empty(m)
+    c2 = np.empty(m)
+    for i in range(m):
+        g0 = propagate(s[i], 0.0, 0.0, 0.0, beta, a, b, Omega, Delta)[0]
+        c0[i] = g0
+        c1[i] = propagate(s[i], 0.0, 1.0, 0.0, beta, a, b, Omega, Delta)[0] - g0
+        c2[i] = propagate(s[i], 0.0, 0.0, 1.0, beta, a, b, Omega, Delta)[0] - g0
     out = np.empty(q0.shape[0])
     for k in range(q0.shape[0]):
         g = -np.inf
-        for i in range(s.shape[0]):
-            gi = propagate(s[i], 0.0, q0[k], v0[k], beta, a, b, Omega, Delta)[0]
+        for i in range(m):
+            gi = c0[i] + c1[i] * q0[k] + c2[i] * v0[k]
             if gi > g:
                 g = gi
         out[k] = g

@@ -1772,7 +1772,6 @@ def _tidy_tables(full, own, gname: str):
     main = max(sets, key=lambda d: (len(sets[d]), -len(d)))
     for dims, names in sets.items():
         stem = gname if dims == main else f"{gname}@{'-'.join(dims) or 'scalar'}"
-        sub = full[names]
         # the coordinates on exactly these dimensions (e.g. frequency_hz on Omega) as columns too
         coords = [c for c in full.coords if set(full[c].dims) <= set(dims) and c not in dims]
         cols, meta = {}, []
