@@ -31,7 +31,8 @@ _stamp: str | None = None
 
 
 def package_stamp() -> str:
-    """SHA-256 over the names and contents of every ``*.py`` file of ``vibeam.models``.
+    """SHA-256 over the names and contents of every ``*.py`` file of ``vibeam.models`` and its
+    subpackages.
 
     Computed once per process (the sources of a running process do not change
     what it has already imported).
@@ -44,8 +45,8 @@ def package_stamp() -> str:
     global _stamp
     if _stamp is None:
         h = hashlib.sha256()
-        for p in sorted(_DIR.glob("*.py")):
-            h.update(p.name.encode() + b"\0")
+        for p in sorted(_DIR.rglob("*.py")):
+            h.update(p.relative_to(_DIR).as_posix().encode() + b"\0")
             h.update(p.read_bytes() + b"\0")
         _stamp = "models-" + h.hexdigest()
     return _stamp
@@ -53,7 +54,7 @@ def package_stamp() -> str:
 
 def _ours(py_file) -> bool:
     try:
-        return Path(py_file).resolve().parent == _DIR
+        return _DIR in Path(py_file).resolve().parents
     except (OSError, TypeError, ValueError):
         return False
 

@@ -12,56 +12,24 @@ Model
 
     and ``U = sum_i w_i eta_i``, sensor ``U(L_S) = sum_i s_i eta_i``.
 
-Units of the kernel
+Units
     Time is the nondimensional ``t = omega_ref t~`` with ``omega_ref = 2 pi f_ref``, so the
     sweep's ``Omega = f / f_ref`` is the forcing frequency; modal coordinates keep their SI
     units (sqrt(kg) m), modal frequencies/damping are divided by ``omega_ref``.  Outputs
     are ``q = U(L_S) / L`` and ``q' = dq/dt`` (same measure as the SDOF model when
     ``f_ref = f_n``).
 
-Exact flow
-    Between events every modal coordinate follows its closed-form damped forced response
-    (underdamped, critically damped or overdamped: stiffness-proportional damping makes
-    the high modes overdamped), written as increments ``Phi(s) - I`` free of cancellation.
-
-Guaranteed impact detection
-    As :mod:`vibeam.models.sdof_event`: on each step the cheap interpolation bound
-    ``max(g0, g1) + M2 h^2 / 8 < 0`` clears intervals far from the stop; otherwise the
-    sign of ``g''`` is certified with :func:`vibeam.models.sdof_event.certify_curvature` from bounds
-    ``M3, M4`` that sum, over every retained mode, the homogeneous bound of its k-th
-    derivative (underdamped: ``A_i omega_i^k``; overdamped: ``|c1| |l1|^k + |c2| |l2|^k``;
-    critical: a universal bound) plus the forced amplitude times ``Omega^k``.  Steps are
-    halved only where needed (and the last accepted step is remembered), so the step
-    scales with the highest mode only where that mode is excited near the stop.
-
-Contact relation and law (Moreau / Siconos; :mod:`vibeam.models.contact`)
-    Each stop is a relation (normal ``n = s w``, offset ``Delta``: gap ``n^T eta - Delta``,
-    normal velocity ``U = n^T eta'``, ``m_eff = 1 / sum_i w_i^2``) and a law.  At a contact
-    event the law gives ``U+`` (Newton: ``U+ = -R(U-) U-``) and the kernel applies the impulse
-    ``P = m_eff (U+ - U-)`` along ``n`` (:func:`apply_impulse`; energy loss ``(1 - R^2) m_eff
-    U-^2 / 2``); what follows (rebound, chatter, sticking) is the shared policy of
-    :mod:`vibeam.models.contact_policy`.
-
-Sticking and chatter
-    On the stop the beam is the constrained linear system ``w^T eta = Delta_C``: with an
-    orthonormal basis ``T`` of ``null(w^T)`` and ``T^T K T = V diag(nu^2) V^T``,
-    ``eta = eta_c + Psi zeta`` (``Psi = T V``, ``eta_c = w Delta_C / |w|^2``) and each
-    ``zeta_j`` again is a proportionally damped forced oscillator (constant + harmonic
-    load), integrated in closed form.  The contact force (positive pulling the beam
-    away from the stop; the beam is held while ``lambda <= 0``) is
-    ``lambda = -m_eff w^T (Gamma F sin - C eta' - K eta)``; release at its first upward
-    zero crossing, found with the same certified scan.  Entering contact removes the
-    normal velocity with the plastic (R = 0) impulse.  Chatter: after an impact with a
-    small rebound speed ``u`` into a free contact acceleration ``a > 0``, if the
-    constant-acceleration estimate of the accumulation time ``2 u / (a (1 - R))`` is
-    accurate to ``chatter_tol`` (the policy shared with the SDOF kernel,
-    :func:`vibeam.models.contact_policy.chatter_jump`: the jerk includes the forcing
-    term; the accumulation point must lie in the current step) the solver sticks at
-    once and holds the beam on the stop
-    (constrained flow, no release check) for that accumulation time, then continues as
-    stuck: with one mode this is exactly the SDOF kernel's jump (state frozen on the
-    stop for the accumulation time); with several modes the other modes keep moving
-    during the chatter as in the constrained system (an O(u) approximation).
+Method ``event``
+    The beam is the ``N``-mode case of vibeam's one dynamical system
+    (:func:`vibeam.models.system.from_beam`), simulated by the one event integrator
+    (:mod:`vibeam.models.core.integrator`): the closed-form modal flow between events, every
+    stop's gap scanned with certified bounds, Newton's law through the mass matrix along the
+    stop's normal (``P = m_eff (U+ - U-)``, ``m_eff = 1 / |w|^2``), the one chatter / sticking
+    policy (:mod:`vibeam.models.contact_policy`), and the beam held on a stop as the constrained
+    modal system ``eta = eta_c + Psi zeta`` (:mod:`vibeam.models.core.stops`; with several modes
+    the chatter hold lets the other modes move as in the constrained system, an O(u)
+    approximation).  Method ``direct`` (:class:`BeamODESolver`) integrates the same modes with
+    ``solve_ivp`` and events.
 """
 from __future__ import annotations
 
@@ -74,18 +42,12 @@ from numba import njit
 
 from .trajectory import Trajectory, call_budget
 
-from .contact import OFFSET as _OFFSET
-from .contact import Relation, Restitution, Stop, check_stops, impulsive_response, pack
-from .contact_policy import (BURST_DT, BURST_MAX, CHATTER, CHATTER_GUARD, REBOUND, STICK, impact_outcome,
-                             release_now, zeno_burst)
-from .roots import rtsafe_update, select
+from .contact import Relation, Restitution, Stop
+from .core.event import EventIntegrator, fundamental_step, trajectory
 from .impact import newton_restitution, restitution_coefficient, restitution_impulse
-from .sdof_event import STATUS_NAMES, certify_curvature
-from .system import advance_modes, mode_table, particular, transition_increment
+from .system import advance_modes, from_beam, mode_table, particular, transition_increment
 
 TWO_PI = 2.0 * math.pi
-EPS = 2.220446049250313e-16
-ST_OK, ST_CHATTER, ST_STICKING, ST_FAILED = 0, 1, 2, 3
 
 __all__ = ["BeamImpactModel", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
 
@@ -95,226 +57,7 @@ _trans = transition_increment
 _advance = advance_modes
 
 
-# ============================================================================ mode algebra
-@njit(cache=True)
-def _clock(phi, t_loc, rem, s, Om, T):
-    """Advance forcing phase, time within the period and the rest of the step by ``s``."""
-    rem -= s
-    if rem < 1e-15 * T:
-        rem = 0.0
-    return (phi + Om * s) % TWO_PI, t_loc + s, rem
-
-
-@njit(cache=True)
-def _hb(x0, y0, sig, k, typ, q, l1, l2, out):
-    """Bounds ``out[m] >= sup_{s>=0} |x^(m)(s)|``, m = 0..5, of a homogeneous solution."""
-    if typ == 0:
-        w = (y0 + sig * x0) / q
-        A = math.sqrt(x0 * x0 + w * w)
-        om = math.sqrt(k)
-        p = A
-        for m in range(6):
-            out[m] = p
-            p *= om
-    elif typ == 2:
-        c1 = (y0 - l2 * x0) / (l1 - l2)
-        c2 = (l1 * x0 - y0) / (l1 - l2)
-        a1 = abs(c1)
-        a2 = abs(c2)
-        for m in range(6):
-            out[m] = a1 + a2
-            a1 *= -l1
-            a2 *= -l2
-    else:
-        d = np.empty(7)
-        d[0] = x0
-        d[1] = y0
-        for m in range(5):
-            d[m + 2] = -2.0 * sig * d[m + 1] - k * d[m]
-        for m in range(6):
-            out[m] = abs(d[m]) + abs(d[m + 1] + sig * d[m]) / (math.e * sig)
-    for m in range(6):
-        out[m] = out[m] * (1.0 + 1e-9) + 1e-300
-
-
-@njit(cache=True)
-def _sig(s, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0):
-    """Signal ``f = sum_j p_j x_j + r_j x_j' + Sa sin + Sb cos (+ const)`` at local time ``s``.
-
-    ``x_j`` are homogeneous modal responses starting at ``(x0_j, y0_j)``; ``f0, fp0`` are
-    the signal value and slope at ``s = 0`` (the value is returned as ``f0`` plus an
-    increment computed without cancellation).  Returns ``(f, f', f'', f''', f'''')``.
-    """
-    f = f0
-    f1 = fp0
-    f2 = 0.0
-    f3 = 0.0
-    f4 = 0.0
-    for j in range(x0.shape[0]):
-        sig = mp[j, 0]
-        k = mp[j, 1]
-        a11, a12, a21, a22 = _trans(s, sig, k, int(mp[j, 2]), mp[j, 3], mp[j, 4], mp[j, 5])
-        dx = a11 * x0[j] + a12 * y0[j]
-        dy = a21 * x0[j] + a22 * y0[j]
-        x = x0[j] + dx
-        y = y0[j] + dy
-        dx2 = -2.0 * sig * dy - k * dx
-        x2 = -2.0 * sig * y - k * x
-        x3 = -2.0 * sig * x2 - k * y
-        x4 = -2.0 * sig * x3 - k * x2
-        x5 = -2.0 * sig * x4 - k * x3
-        f += p[j] * dx + r[j] * dy
-        f1 += p[j] * dy + r[j] * dx2
-        f2 += p[j] * x2 + r[j] * x3
-        f3 += p[j] * x3 + r[j] * x4
-        f4 += p[j] * x4 + r[j] * x5
-    half = 0.5 * Om * s
-    sh = math.sin(half)
-    ph = phi0 + half
-    sph = math.sin(ph)
-    cph = math.cos(ph)
-    f += 2.0 * sh * (Sa * cph - Sb * sph)
-    f1 += Om * (-2.0 * sh) * (Sa * sph + Sb * cph)
-    phi = phi0 + Om * s
-    S = Sa * math.sin(phi) + Sb * math.cos(phi)
-    Sd = Om * (Sa * math.cos(phi) - Sb * math.sin(phi))
-    W2 = Om * Om
-    f2 -= W2 * S
-    f3 -= W2 * Sd
-    f4 += W2 * W2 * S
-    return f, f1, f2, f3, f4
-
-
-@njit(cache=True)
-def _start(phi0, Om, x0, y0, mp, p, r, Sa, Sb, const):
-    """Value and slope of the signal at ``s = 0`` computed from the state."""
-    f = const + Sa * math.sin(phi0) + Sb * math.cos(phi0)
-    fp = Om * (Sa * math.cos(phi0) - Sb * math.sin(phi0))
-    for j in range(x0.shape[0]):
-        x2 = -2.0 * mp[j, 0] * y0[j] - mp[j, 1] * x0[j]
-        f += p[j] * x0[j] + r[j] * y0[j]
-        fp += p[j] * y0[j] + r[j] * x2
-    return f, fp
-
-
-@njit(cache=True)
-def _bounds(x0, y0, mp, p, r, Csin, Om):
-    """Bounds ``M2, M3, M4`` of the 2nd-4th derivatives of the signal over ``s >= 0``."""
-    M2 = Csin * Om ** 2
-    M3 = Csin * Om ** 3
-    M4 = Csin * Om ** 4
-    hb = np.empty(6)
-    for j in range(x0.shape[0]):
-        _hb(x0[j], y0[j], mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3], mp[j, 4], mp[j, 5], hb)
-        ap = abs(p[j])
-        ar = abs(r[j])
-        M2 += ap * hb[2] + ar * hb[3]
-        M3 += ap * hb[3] + ar * hb[4]
-        M4 += ap * hb[4] + ar * hb[5]
-    f = 1.0 + 1e-9
-    return M2 * f + 1e-300, M3 * f + 1e-300, M4 * f + 1e-300
-
-
-@njit(cache=True)
-def _root(kind, lo, hi, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0):
-    """Safeguarded Newton on a bracket with F(lo) < 0 <= F(hi); returns the bracket end
-    where F >= 0.  kind 0: F = f; 1: F = -f'; 2: F = f'."""
-    dxold = hi - lo
-    dx = dxold
-    s = 0.5 * (lo + hi)
-    for _ in range(200):
-        g, v, g2, g3, g4 = _sig(s, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
-        F, dF = select(kind, g, v, g2)
-        s, lo, hi, dx, dxold, done = rtsafe_update(F, dF, s, lo, hi, dx, dxold)
-        if done:
-            return s
-    return hi
-
-
-@njit(cache=True)
-def _scan(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4):
-    """One certified step of at most ``h``: first time the signal reaches 0 from below.
-
-    Returns ``(s_event, h_used)``; ``s_event = -1`` when the signal stays negative on
-    ``[0, h_used]`` (guaranteed unless the step fell below ``h_min``).
-    """
-    g0, v0, g20, g30, _ = _sig(0.0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
-    tol2 = 1e-13 * M2
-    while True:
-        g1, v1, g21, g31, _ = _sig(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
-        if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
-            return -1.0, h
-        cert = certify_curvature(g20, g30, g21, g31, M3, M4, h, tol2)
-        if cert != 0 or h < h_min or not h > 0.0:
-            break
-        h *= 0.5
-    if cert == 0:
-        cert = 1 if g20 + g21 > 0.0 else -1
-    if cert < 0:
-        if v0 > 0.0:
-            if v1 >= 0.0:
-                if g1 >= 0.0:
-                    return _root(0, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0), h
-            else:
-                bound = g0 + v0 * (g1 - g0 - v1 * h) / (v0 - v1) if v0 - v1 > 0.0 else g0
-                if bound >= 0.0:
-                    sa = _root(1, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
-                    ga = _sig(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)[0]
-                    if ga >= 0.0:
-                        if g0 < 0.0:
-                            return _root(0, 0.0, sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0), h
-                        return sa, h
-    else:
-        if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
-            if v0 < 0.0:
-                if g1 >= 0.0:
-                    sm = _root(2, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
-                    return _root(0, sm, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0), h
-            elif g1 >= 0.0:
-                return _root(0, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0), h
-    return -1.0, h
-
-
-@njit(cache=True)
-def _extremes(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, vstart, vend, ext):
-    """Update ``ext = [min, max]`` of a signal with the apex/minimum inside ``[0, h]``
-    when its slope changes sign between the ends."""
-    if vstart < 0.0 < vend:
-        sm = _root(2, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
-        v = _sig(sm, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)[0]
-        if v < ext[0]:
-            ext[0] = v
-    elif vstart > 0.0 > vend:
-        sa = _root(1, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)
-        v = _sig(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0)[0]
-        if v > ext[1]:
-            ext[1] = v
-
-
-@njit(cache=True)
-def _homog(phi0, Om, z, zd, a, b, e, x0, y0):
-    sp0 = math.sin(phi0)
-    cp0 = math.cos(phi0)
-    for j in range(z.shape[0]):
-        x0[j] = z[j] - e[j] - (a[j] * sp0 + b[j] * cp0)
-        y0[j] = zd[j] - Om * (a[j] * cp0 - b[j] * sp0)
-
-
-@njit(cache=True)
-def _contact_acc(phi, Om, eta, etad, w, cF, kF, GF):
-    """Free acceleration of the contact point ``a = w^T (Gamma F sin - C eta' - K eta)`` and
-    its time derivative ``w^T (Gamma F Omega cos - C eta'' - K eta')`` (forcing term included)."""
-    s = math.sin(phi)
-    c = Om * math.cos(phi)
-    acc = 0.0
-    jerk = 0.0
-    for i in range(eta.shape[0]):
-        ai = GF[i] * s - cF[i] * etad[i] - kF[i] * eta[i]
-        acc += w[i] * ai
-        jerk += w[i] * (GF[i] * c - cF[i] * ai - kF[i] * etad[i])
-    return acc, jerk
-
-
+# ============================================================================ impulses
 @njit(cache=True)
 def apply_impulse(etad, n, U_minus, U_plus, m_eff):
     """Impulse of a contact law through the mass matrix (Moreau / Siconos): ``P = m_eff (U+ -
@@ -336,508 +79,6 @@ def apply_impact(etad, w, U_minus, R, m_eff):
     for i in range(etad.shape[0]):
         etad[i] += w[i] * P
     return newton_restitution(U_minus, R)
-
-
-# Optional event log of ``beam_kernel`` (used by the periodic-orbit shooting of
-# :mod:`vibeam.models.periodic_beam`): one row ``[kind, t, aux, eta (N), eta' (N)]`` per
-# event, ``t`` from the call start.  Kinds and ``aux``:
-#   EV_START    the initial state was put on the stop (aux 1: held, 0: position only);
-#               the state logged is the one after the projection;
-#   EV_IMPACT   an impact; state just before it (on the stop, pre-impact velocity), aux U-;
-#   EV_STICK    sticking entered without an impact (v = 0 at the stop, pressed); state
-#               before the velocity projection;
-#   EV_STICK_IMPACT  the impact logged just before ends in sticking (plastic entry, chatter
-#               or R = 0); aux = chatter hold time (0 if none);
-#   EV_RELEASE  release from the stop; state at the release, aux = contact force at
-#               the release (0 at a located zero crossing, > 0 when released at a step start).
-# ``nlog[0]`` counts events, ``nlog[1]`` apexes (rows beyond the capacity are counted,
-# not stored); ``aplog[j] = (t, g)`` holds the interior free-flight apexes of the contact
-# gap ``g = w^T eta - Delta_C`` located on steps where ``g'`` falls through zero and, with a
-# lower stop, those of its gap ``g_l = -w^T eta - Delta_C,lower`` (minima of ``w^T eta``).
-EV_START, EV_IMPACT, EV_STICK, EV_STICK_IMPACT, EV_RELEASE = 0, 1, 2, 3, 4
-
-
-@njit(cache=True)
-def _log_event(evlog, nlog, kind, t, aux, eta, etad):
-    k = nlog[0]
-    if k < evlog.shape[0]:
-        N = eta.shape[0]
-        evlog[k, 0] = kind
-        evlog[k, 1] = t
-        evlog[k, 2] = aux
-        for i in range(N):
-            evlog[k, 3 + i] = eta[i]
-            evlog[k, 3 + N + i] = etad[i]
-    nlog[0] = k + 1
-
-
-@njit(cache=True)
-def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, Sa, Sb, f0, fp0):
-    """Locate the apex of the contact gap inside ``[0, h]`` (slope + at 0, <= 0 at h) and log it."""
-    zero = np.zeros(x0.shape[0])
-    sa = _root(1, 0.0, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0)
-    ga = _sig(sa, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0)[0]
-    k = nlog[1]
-    if k < aplog.shape[0]:
-        aplog[k, 0] = t + sa
-        aplog[k, 1] = ga
-    nlog[1] = k + 1
-
-
-@njit(cache=True)
-def beam_kernel(Om, mpF, aF, bF, w, sv, cF, kF, GF, stops, tab_U, tab_R, normals, m_eff,
-                mpC, aC, bC, eC, Psi, eta_c, pL, rL, SaL, SbL, cL, pS, SaS, SbS, cS,
-                eta, etad, stuck_init,
-                n_transient, n_record, ns_transient, ns_record, h_cap,
-                max_impacts, max_steps, chatter_tol,
-                samples, imp_t, imp_v, imp_k, n_imp_stop, modamp, msamp, pmin, chat_t,
-                evlog=None, aplog=None, nlog=None):
-    """Exact event-driven simulation of whole forcing periods (numba core).
-
-    ``eta, etad`` (N,) hold the initial modal state and receive the final one.
-    ``samples`` (n_record * ns_record, 2) receive ``(s^T eta, s^T eta')``; ``modamp``
-    (N,) the max ``|eta_i|`` over the samples; ``msamp`` (same rows or 0 rows, 2N) the
-    modal state ``(eta, eta')`` at the samples; ``pmin`` (n_record,) the minimum of the sensor
-    signal ``s^T eta`` over each recorded period (root-found like ``smin``); ``chat_t`` the
-    times of the first ``len(chat_t)`` chatter accumulation points of the record.
-
-    Stops (:mod:`vibeam.models.contact`): row k of ``stops`` (n_stops, NPAR) is the relation
-    (normal ``normals[k] = s_k w``, offset ``Delta_k``) and law of stop k, with its ``R(U-)``
-    table in ``tab_U``/``tab_R`` (contact velocity in kernel units); row 0 is the upper stop
-    at ``w^T eta = Delta_C``.  The constrained data of the beam held on stop k are the rows
-    ``eC[k]``, ``eta_c[k]``, ``pL[k]``, ``rL[k]``, ``SaL[k]``, ``SbL[k]``, ``cL[k]``, ``cS[k]``
-    (:meth:`BeamImpactModel.kernel_stops`).  ``imp_k`` receives the stop of each stored impact
-    and ``n_imp_stop`` (n_stops,) the recorded impacts per stop; ``stuck_init``: 0 free, 1 held
-    on the upper stop.  Returns ``(status, n_imp_rec, smin, smax, n_chatter, stuck_time,
-    stuck_end, n_imp_total, gmax, n_steps)`` with ``stuck_end`` as ``stuck_init``.
-
-    ``evlog`` (cap, 3 + 2N), ``aplog`` (cap_a, 2), ``nlog`` (2,) int64: optional event
-    and apex log (see ``EV_START``); omitted in sweeps, where the logging branches are
-    compiled out.
-    """
-    N = eta.shape[0]
-    Nc = eC.shape[1]
-    Delta_C = stops[0, _OFFSET]
-    # a second (lower) stop: normal -w at w^T eta = -Dl (vibeam.models.contact); its gap
-    # g_l = -w^T eta - Dl is carried beside g like g (value + accurate increments)
-    two = stops.shape[0] > 1
-    Dl = stops[1, _OFFSET] if two else np.inf
-    nl = normals[1] if two else normals[0]
-    side = 0 if stuck_init >= 0 else 1     # the stop the beam is held on (when stuck)
-    T = TWO_PI / Om
-    zeroN = np.zeros(N)
-    zeroC = np.zeros(Nc)
-    x0 = np.empty(N)
-    y0 = np.empty(N)
-    xc = np.empty(Nc)
-    yc = np.empty(Nc)
-    zeta = np.empty(Nc)
-    zetad = np.empty(Nc)
-    SaF = 0.0
-    SbF = 0.0
-    SaSF = 0.0
-    SbSF = 0.0
-    for i in range(N):
-        SaF += w[i] * aF[i]
-        SbF += w[i] * bF[i]
-        SaSF += sv[i] * aF[i]
-        SbSF += sv[i] * bF[i]
-    CsF = math.sqrt(SaF * SaF + SbF * SbF)
-    CsL = np.empty(SaL.shape[0])
-    for k in range(SaL.shape[0]):
-        CsL[k] = math.sqrt(SaL[k] * SaL[k] + SbL[k] * SbL[k])
-    for k in range(n_imp_stop.shape[0]):
-        n_imp_stop[k] = 0
-    w2 = 0.0
-    for i in range(N):
-        w2 += w[i] * w[i]
-    # damping rate and stiffness per unit mass of the contact coordinate (chatter policy)
-    c_eff = 0.0
-    k_eff = 0.0
-    for i in range(N):
-        c_eff += w[i] * w[i] * cF[i]
-        k_eff += w[i] * w[i] * kF[i]
-    c_eff *= m_eff
-    k_eff *= m_eff
-    ext = np.array([np.inf, -np.inf])
-    # extremes of the current recorded period, folded into ``ext`` at its end
-    pext = np.array([np.inf, -np.inf])
-    for i in range(pmin.shape[0]):
-        pmin[i] = np.inf
-    stuck = stuck_init != 0
-    g = 0.0
-    v = 0.0
-    for i in range(N):
-        g += w[i] * eta[i]
-        v += w[i] * etad[i]
-    g -= Delta_C
-    scale = abs(Delta_C) + math.sqrt(w2) * math.sqrt(np.sum(eta * eta)) + 1e-300
-    gl = -np.inf
-    if two:
-        gl = -Dl
-        for i in range(N):
-            gl -= w[i] * eta[i]
-    if (stuck and side == 0) or g > -1e-13 * scale:
-        corr = g / w2
-        for i in range(N):
-            eta[i] -= w[i] * corr
-        g = 0.0
-        if two:
-            gl = -Delta_C - Dl
-        if stuck:
-            v = 0.0
-        if evlog is not None:
-            _log_event(evlog, nlog, EV_START, 0.0, 1.0 if stuck else 0.0, eta, etad)
-    elif two and ((stuck and side == 1) or gl > -1e-13 * (scale + abs(Dl))):
-        corr = gl / w2
-        for i in range(N):
-            eta[i] -= nl[i] * corr
-        gl = 0.0
-        g = -Dl - Delta_C
-        if stuck:
-            v = 0.0
-        if evlog is not None:
-            _log_event(evlog, nlog, EV_START, 0.0, -1.0 if stuck else 0.0, eta, etad)
-    gmax = -np.inf
-    n_imp_total = 0
-    n_imp_rec = 0
-    n_chatter = 0
-    # Zeno guard: with many modes the contact acceleration is not smooth on the
-    # scale of the flights, so the geometric estimate of the chatter accumulation
-    # can stay above chatter_tol while the impacts pile up (rebounds of 1e-15 and
-    # less).  ``burst`` counts impacts that follow each other within BURST_DT of a
-    # forcing period; past BURST_MAX with the contact pressed the sequence is
-    # ended as a plastic impact (sticking), counted as chatter.
-    burst = 0
-    t_last_imp = -1e300
-    n_steps = 0
-    stuck_time = 0.0
-    cap = imp_t.shape[0]
-    for i in range(N):
-        modamp[i] = 0.0
-    just_released = False
-    just_stuck = False
-    hold = 0.0
-    h_last = h_cap
-    k_sample = 0
-    n_total = n_transient + n_record
-    for pp in range(n_total):
-        recording = pp >= n_transient
-        ns = ns_record if recording else ns_transient
-        h_grid = T / ns
-        t_period0 = (pp - n_transient) * T
-        if pp > n_transient:
-            # fold the extremes of the period just finished
-            pmin[pp - n_transient - 1] = pext[0]
-            ext[0] = min(ext[0], pext[0])
-            ext[1] = max(ext[1], pext[1])
-            pext[0] = np.inf
-            pext[1] = -np.inf
-        for jg in range(ns):
-            phi = TWO_PI * jg / ns
-            t_loc = jg * h_grid
-            if recording:
-                qs = 0.0
-                qd = 0.0
-                for i in range(N):
-                    qs += sv[i] * eta[i]
-                    qd += sv[i] * etad[i]
-                    if abs(eta[i]) > modamp[i]:
-                        modamp[i] = abs(eta[i])
-                samples[k_sample, 0] = qs
-                samples[k_sample, 1] = qd
-                if msamp.shape[0] > 0:
-                    for i in range(N):
-                        msamp[k_sample, i] = eta[i]
-                        msamp[k_sample, N + i] = etad[i]
-                k_sample += 1
-                if qs < pext[0]:
-                    pext[0] = qs
-                if qs > pext[1]:
-                    pext[1] = qs
-            rem = h_grid
-            while rem > 0.0:
-                n_steps += 1
-                if n_steps > max_steps:
-                    return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
-                            _side_code(stuck, side), n_imp_total, gmax, n_steps)
-                h_try = min(rem, h_cap, 2.0 * h_last)
-                if stuck:
-                    # ---- constrained motion on stop ``side``; scan the contact force ----
-                    eCk = eC[side]
-                    etck = eta_c[side]
-                    pLk = pL[side]
-                    rLk = rL[side]
-                    for j in range(Nc):
-                        zz = 0.0
-                        zd = 0.0
-                        for i in range(N):
-                            zz += Psi[i, j] * (eta[i] - etck[i])
-                            zd += Psi[i, j] * etad[i]
-                        zeta[j] = zz
-                        zetad[j] = zd
-                    _homog(phi, Om, zeta, zetad, aC, bC, eCk, xc, yc)
-                    const = cL[side]
-                    for j in range(Nc):
-                        const += pLk[j] * eCk[j]
-                    lam0, lamp0 = _start(phi, Om, xc, yc, mpC, pLk, rLk, SaL[side], SbL[side], const)
-                    # the shared release rule: lambda > 0 pulls the beam away (-lambda presses)
-                    if release_now(-lam0, -lamp0) and not just_stuck and hold <= 0.0:
-                        if evlog is not None:
-                            _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, lam0, eta, etad)
-                        stuck = False
-                        just_released = True
-                        g, gl = _on_stop(side, two, Delta_C, Dl)
-                        v = 0.0
-                        continue
-                    if lam0 > 0.0:
-                        lam0 = 0.0
-                    # the hold is the rest of a chatter sequence (impacts accumulating), not
-                    # sticking: it is not counted in stuck_time, as in the SDOF kernel, whose
-                    # chatter jump advances the clock to the accumulation point unstuck
-                    held = hold > 0.0
-                    if hold > 0.0:
-                        # held through the chatter accumulation time: no release check
-                        s_ev = -1.0
-                        h = min(h_try, hold)
-                        hold -= h
-                        if hold < 1e-15 * T:
-                            hold = 0.0
-                    else:
-                        M2, M3, M4 = _bounds(xc, yc, mpC, pLk, rLk, CsL[side], Om)
-                        s_ev, h = _scan(h_try, 1e-13 * T, phi, Om, xc, yc, mpC, pLk, rLk, SaL[side], SbL[side],
-                                        lam0, lamp0, M2, M3, M4)
-                        if s_ev < 0.0:
-                            h_last = h
-                    s_mv = s_ev if s_ev >= 0.0 else h
-                    if recording:
-                        # sensor extremes while stuck
-                        constS = cS[side]
-                        for j in range(Nc):
-                            constS += pS[j] * eCk[j]
-                        q0s, qp0s = _start(phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, constS)
-                        q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s)
-                        _extremes(s_mv, phi, Om, xc, yc, mpC, pS, zeroC, SaS, SbS, q0s, qp0s, qp0s, qp1s, pext)
-                        if not held:
-                            stuck_time += s_mv
-                    _advance(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eCk)
-                    for i in range(N):
-                        zz = etck[i]
-                        zd = 0.0
-                        for j in range(Nc):
-                            zz += Psi[i, j] * zeta[j]
-                            zd += Psi[i, j] * zetad[j]
-                        eta[i] = zz
-                        etad[i] = zd
-                    phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
-                    if s_mv > 0.0:
-                        just_stuck = False
-                        just_released = False
-                    if s_ev >= 0.0:
-                        if evlog is not None:
-                            _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, 0.0, eta, etad)
-                        stuck = False
-                        just_released = True
-                        g, gl = _on_stop(side, two, Delta_C, Dl)
-                        v = 0.0
-                    continue
-                # ---- free flight ----
-                s_imp = -1.0
-                k_imp = 0
-                if g >= 0.0 and v >= 0.0:
-                    g = 0.0
-                    if v > 0.0:
-                        s_imp = 0.0
-                    elif not just_released:
-                        acc, jerk = _contact_acc(phi, Om, eta, etad, w, cF, kF, GF)
-                        if acc > 0.0:
-                            if evlog is not None:
-                                _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, eta, etad)
-                            stuck = True
-                            side = 0
-                            just_stuck = True
-                            corr = v / w2
-                            for i in range(N):
-                                etad[i] -= w[i] * corr
-                            continue
-                elif two and gl >= 0.0 and v <= 0.0:
-                    # the same on the lower stop (normal -w, normal velocity -v)
-                    gl = 0.0
-                    if v < 0.0:
-                        s_imp = 0.0
-                        k_imp = 1
-                    elif not just_released:
-                        acc, jerk = _contact_acc(phi, Om, eta, etad, nl, cF, kF, GF)
-                        if acc > 0.0:
-                            if evlog is not None:
-                                _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, eta, etad)
-                            stuck = True
-                            side = 1
-                            just_stuck = True
-                            corr = -v / w2
-                            for i in range(N):
-                                etad[i] -= nl[i] * corr
-                            continue
-                if s_imp < 0.0:
-                    _homog(phi, Om, eta, etad, aF, bF, zeroN, x0, y0)
-                    M2, M3, M4 = _bounds(x0, y0, mpF, w, zeroN, CsF, Om)
-                    s_ev, h = _scan(h_try, 1e-13 * T, phi, Om, x0, y0, mpF, w, zeroN, SaF, SbF,
-                                    g, v, M2, M3, M4)
-                    if two:
-                        # the lower gap on [0, first upper event or certified step]: the same
-                        # bounds (|-w| = |w|); the earlier event wins, a shorter certified step
-                        # of the lower scan shortens the step
-                        h_l = s_ev if s_ev >= 0.0 else h
-                        s_evl, h_l2 = _scan(h_l, 1e-13 * T, phi, Om, x0, y0, mpF, nl, zeroN, -SaF, -SbF,
-                                            gl, -v, M2, M3, M4)
-                        if s_evl >= 0.0:
-                            s_ev = s_evl
-                            k_imp = 1
-                        elif h_l2 < h_l:
-                            s_ev = -1.0
-                            h = h_l2
-                    s_mv = s_ev if s_ev >= 0.0 else h
-                    if s_ev < 0.0:
-                        h_last = h
-                    g1, v1, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, w, zeroN, SaF, SbF, g, v)
-                    gl1 = -np.inf
-                    if two:
-                        gl1 = _sig(s_mv, phi, Om, x0, y0, mpF, nl, zeroN, -SaF, -SbF, gl, -v)[0]
-                    if aplog is not None and s_ev < 0.0 and v > 0.0 and v1 <= 0.0:
-                        _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, x0, y0, mpF, w, SaF, SbF, g, v)
-                    if aplog is not None and two and s_ev < 0.0 and v < 0.0 and v1 >= 0.0:
-                        # the lower stop's: an interior minimum of w^T eta, logged as its gap g_l
-                        _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, x0, y0, mpF, nl, -SaF, -SbF, gl, -v)
-                    if recording:
-                        q0s, qp0s = _start(phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, 0.0)
-                        q1s, qp1s, _a, _b, _c = _sig(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s)
-                        _extremes(s_mv, phi, Om, x0, y0, mpF, sv, zeroN, SaSF, SbSF, q0s, qp0s, qp0s, qp1s, pext)
-                        if q1s < pext[0]:
-                            pext[0] = q1s
-                        if q1s > pext[1]:
-                            pext[1] = q1s
-                    _advance(s_mv, phi, Om, eta, etad, mpF, aF, bF, zeroN)
-                    phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
-                    if s_mv > 0.0:
-                        just_stuck = False
-                        just_released = False
-                    if g1 > gmax:
-                        gmax = g1
-                    if gl1 > gmax:
-                        gmax = gl1
-                    if s_ev < 0.0:
-                        g = g1 if g1 < 0.0 else 0.0
-                        if two:
-                            gl = gl1 if gl1 < 0.0 else 0.0
-                        v = v1
-                        continue
-                    v = v1
-                    s_imp = s_ev
-                # ---- impact at the current time on stop k_imp (normal n, offset Dk) ----
-                n = normals[k_imp]
-                vk = v if k_imp == 0 else -v
-                g, gl = _on_stop(k_imp, two, Delta_C, Dl)
-                # Re-sync the state with the carried contact signal: ``g, v`` are carried
-                # as value + increment (no cancellation), so they differ from the state's
-                # ``w^T eta - Delta_C, w^T eta'`` by round-off that nothing contracts (the
-                # impact resets ``g`` to 0 and maps the velocity offset to itself).  On a
-                # periodic orbit that round-off is the same every period, so the offset,
-                # i.e. a shift of the stop seen by the state, grew linearly with the
-                # periods of one call (~1.6e-18 per period, 4e-13 in the state after 10^4
-                # periods of the one-mode beam).  Project the state onto the event
-                # (contact at gap 0 with velocity v) along w, as at a stick.
-                gs = -stops[k_imp, _OFFSET]
-                vs = 0.0
-                for i in range(N):
-                    gs += n[i] * eta[i]
-                    vs += n[i] * etad[i]
-                gs /= w2
-                vs = (vs - vk) / w2
-                for i in range(N):
-                    eta[i] -= n[i] * gs
-                    etad[i] -= n[i] * vs
-                Um = vk if vk > 0.0 else 0.0
-                if evlog is not None:
-                    _log_event(evlog, nlog, EV_IMPACT, pp * T + t_loc, Um, eta, etad)
-                # CONTACT EVENT: the stop's law (an impulsive one; a compliant law would enter
-                # its contact phase here, see vibeam.models.contact), impulse along its normal
-                Up, Rc = impulsive_response(Um, stops[k_imp], tab_U[k_imp], tab_R[k_imp])
-                vk = apply_impulse(etad, n, Um, Up, m_eff)
-                v = vk if k_imp == 0 else -vk
-                n_imp_total += 1
-                if recording:
-                    if n_imp_rec < cap:
-                        imp_t[n_imp_rec] = t_period0 + t_loc
-                        imp_v[n_imp_rec] = Um
-                        imp_k[n_imp_rec] = k_imp
-                    n_imp_rec += 1
-                    n_imp_stop[k_imp] += 1
-                if n_imp_total > max_impacts:
-                    return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
-                            _side_code(stuck, side), n_imp_total, gmax, n_steps)
-                # the shared policy (vibeam.models.contact_policy), R at the current impact
-                # velocity: the jerk beyond the one-DOF flow part -c_eff a + k_eff u is the
-                # forcing term plus the modal remainder (zero for one mode); a chatter jumps only
-                # to an accumulation point inside the current grid step; the Zeno guard is on
-                u = -vk
-                acc, jerk = _contact_acc(phi, Om, eta, etad, n, cF, kF, GF)
-                t_imp = t_period0 + t_loc
-                burst = zeno_burst(burst, t_imp, t_last_imp, BURST_DT * T)
-                t_last_imp = t_imp
-                action, D = impact_outcome(u, acc > 0.0, acc, jerk + c_eff * acc - k_eff * u, c_eff, k_eff,
-                                           Rc, chatter_tol, rem, burst, BURST_MAX)
-                stick_now = action != REBOUND
-                if action == STICK or action == CHATTER_GUARD:
-                    burst = 0
-                if action == CHATTER_GUARD:
-                    if recording:
-                        n_chatter += 1
-                        if n_chatter <= chat_t.shape[0]:
-                            chat_t[n_chatter - 1] = t_imp
-                elif action == CHATTER:
-                    hold = D
-                    if recording:
-                        n_chatter += 1
-                        if n_chatter <= chat_t.shape[0]:
-                            chat_t[n_chatter - 1] = t_imp + D
-                if stick_now:
-                    if evlog is not None:
-                        _log_event(evlog, nlog, EV_STICK_IMPACT, pp * T + t_loc, hold, eta, etad)
-                    corr = vk / w2
-                    for i in range(N):
-                        etad[i] -= n[i] * corr
-                    v = 0.0
-                    stuck = True
-                    side = k_imp
-                    just_stuck = True
-    if n_record > 0:
-        pmin[n_record - 1] = pext[0]
-        ext[0] = min(ext[0], pext[0])
-        ext[1] = max(ext[1], pext[1])
-    status = ST_OK
-    if n_record > 0:
-        if n_chatter > 0:
-            status = ST_CHATTER
-        elif stuck_time > 0.0:
-            status = ST_STICKING
-    return (status, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time, _side_code(stuck, side),
-            n_imp_total, gmax, n_steps)
-
-
-@njit(cache=True)
-def _on_stop(k, two, Delta_C, Dl):
-    """Carried gaps ``(g, g_l)`` of the beam on stop k (0 upper, 1 lower)."""
-    if k == 0:
-        return 0.0, (-Delta_C - Dl if two else -np.inf)
-    return -Dl - Delta_C, 0.0
-
-
-@njit(cache=True)
-def _side_code(stuck, side):
-    """Held-state code of the kernels: 0 free, 1 on the upper stop, -1 on the lower one."""
-    if not stuck:
-        return 0
-    return 1 if side == 0 else -1
 
 
 # ============================================================================ model
@@ -1239,7 +480,9 @@ class BeamEventSolver:
         self.steps_per_fundamental = int(steps_per_fundamental)
         self.impact_buffer = int(impact_buffer)
         self.record_modal_states = bool(record_modal_states)
-        check_stops(model.stops())
+        # the one event integrator on the beam's modal system with its stops
+        self._core = EventIntegrator(from_beam(model), model.stops())
+        self._h_cap = fundamental_step(self._core.system, self.steps_per_fundamental)
         # periods per call of the sweep engine (vibeam.engine.sweep.simulate): the cost per period grows
         # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
         # so a call lasts well under a second
@@ -1259,6 +502,9 @@ class BeamEventSolver:
               samples_per_period: int = 64) -> Trajectory:
         """Simulate one forcing frequency ``Omega = f / f_ref`` from ``state0`` (phase 0).
 
+        The one event integrator of the modal system (:mod:`vibeam.models.core.integrator`) on
+        the beam's modes (:func:`vibeam.models.system.from_beam`).
+
         ``state0``: ``(eta (N), eta' (N), stuck)`` or None (:meth:`BeamImpactModel.initial_state`).
         """
         m = self.model
@@ -1267,82 +513,27 @@ class BeamEventSolver:
         s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
         if s0.shape != (2 * N + 1,):
             raise ValueError(f"state0 must have shape ({2 * N + 1},), got {s0.shape}")
-        eta = s0[:N].copy()
-        etad = s0[N:2 * N].copy()
-        F = Om**2 * m.base_amplitude_m
-        k, c = m.k_nd, m.c_nd
-        mpF = mode_table(c, k)
-        aF, bF = particular(c, k, m.participation, F, Om)
-        GF = m.participation * F
-        mpC = mode_table(m.cC, m.nu2) if m.nu2.size else np.zeros((0, 6))
-        aC, bC = particular(m.cC, m.nu2, m.GC, F, Om)
-        me = m.m_eff
-        SaL, SbL = m.stop_forcing(aC, bC, F, Om)
-        SaS = float(m.pS @ aC)
-        SbS = float(m.pS @ bC)
-        par, tU, tR = pack(m.stops())
-        r = m.stop_rows
-        samples = np.zeros((n_record * samples_per_period, 2))
-        imp_t = np.zeros(self.impact_buffer)
-        imp_v = np.zeros(self.impact_buffer)
-        imp_k = np.zeros(self.impact_buffer, np.int64)
-        n_stop = np.zeros(par.shape[0], np.int64)
-        modamp = np.zeros(N)
-        msamp = np.zeros((samples.shape[0] if self.record_modal_states else 0, 2 * N))
-        pmin = np.zeros(n_record)
-        chat_t = np.zeros(self.impact_buffer)
         n_per = n_transient + n_record
-        h_cap = TWO_PI / np.sqrt(k[0]) / self.steps_per_fundamental
         max_steps, budget = call_budget(self.max_steps_per_period, n_per, self.max_steps_per_call)
-        out = beam_kernel(Om, mpF, aF, bF, m.contact_row, m.sensor_row, c, k, GF,
-                          par, tU, tR, r["normals"], me,
-                          mpC, aC, bC, r["eC"], m.Psi, r["eta_c"], r["pL"], r["rL"], SaL, SbL, r["cL"],
-                          m.pS, SaS, SbS, r["cS"],
-                          eta, etad, 1 if s0[2 * N] > 0.5 else (-1 if s0[2 * N] < -0.5 and par.shape[0] > 1 else 0),
-                          int(n_transient), int(n_record), self.transient_samples,
-                          int(samples_per_period), float(h_cap),
-                          self.max_impacts_per_period * n_per, max_steps,
-                          self.chatter_tol, samples, imp_t, imp_v, imp_k, n_stop, modamp, msamp, pmin,
-                          chat_t)
-        status, n_imp, smin, smax, n_chat, stuck_time, stuck_end, n_tot, gmax, n_steps = out
-        incomplete = (status == ST_FAILED and budget and n_steps > max_steps
-                      and n_tot <= self.max_impacts_per_period * n_per)
+        max_imp = self.max_impacts_per_period * n_per
+        run = self._core.run(Om, s0[:N], s0[N:2 * N], self._core.held_set_of(s0[2 * N]), int(n_transient),
+                             int(n_record), self.transient_samples, int(samples_per_period), self._h_cap, max_imp,
+                             max_steps, self.chatter_tol, impact_buffer=self.impact_buffer,
+                             modal_states=self.record_modal_states)
         L = m.length_m
-        if stuck_time > 0.0 or stuck_end:
-            gmax = max(gmax, 0.0)  # on the stop U = Delta_C exactly
-        samples /= L
-        kk = min(n_imp, self.impact_buffer)
-        T = TWO_PI / Om
-        message = ""
-        if incomplete:
-            message = f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} period(s)"
-        elif status == ST_FAILED:
-            message = (f"gave up after {n_tot} impacts / {n_steps} steps in {n_per} periods "
-                       f"(non-accumulating chatter or step collapse)")
-        elif status == ST_CHATTER:
-            message = f"{n_chat} chatter sequence(s) ending in sticking; stuck {stuck_time:.4g} of the window"
-        elif status == ST_STICKING:
-            message = f"stuck on the stop {stuck_time:.4g} of {n_record * T:.4g} time units"
-        iv = imp_v[:kk] / L
-        two = par.shape[0] > 1
-        iv_up = iv[imp_k[:kk] == 0] if two else iv
-        traj = Trajectory(
-            Omega=Om, samples=samples, samples_per_period=samples_per_period,
-            impact_times=imp_t[:kk].copy(), impact_velocities=iv,
-            contacts=newton_contact_rows(m, iv, imp_k[:kk] if two else None),
-            impact_stops=imp_k[:kk].copy() if two else None, n_impacts_lower=int(n_stop[1]) if two else 0,
-            n_impacts=int(n_imp), q_min=float(smin / L), q_max=float(smax / L),
-            period_min=pmin / L, chatter_times=chat_t[:min(n_chat, self.impact_buffer)].copy(),
-            status=STATUS_NAMES[status], message=message,
-            final_state=np.concatenate([eta, etad, [float(stuck_end)]]),
-            extra={"mode_amplitudes": modamp,
-                   "mode_contact_amplitudes": np.abs(m.contact_row) * modamp / L,
-                   "stuck_fraction": float(stuck_time / (n_record * T)) if n_record else 0.0,
-                   "contact_gap_max": float(gmax / L),
-                   "impact_velocity_m_s": float(np.mean(iv_up) * L * m.omega_ref) if iv_up.size else np.nan,
-                   "steps_per_period": float(n_steps / max(n_per, 1))}, incomplete=bool(incomplete))
+        msgs = {"incomplete": f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} period(s)",
+                "failed": (f"gave up after {run.n_impacts_total} impacts / {run.n_steps} steps in {n_per} periods "
+                           f"(non-accumulating chatter or step collapse)")}
+        traj = trajectory(run, Om, samples_per_period, n_record, L, self.impact_buffer,
+                          lambda v, ks: newton_contact_rows(m, v, ks), messages=msgs, budget=budget)
+        iv = traj.impact_velocities
+        iv_up = iv[traj.impact_stops == 0] if traj.impact_stops is not None else iv
+        modamp = run.record.modamp
+        traj.extra.update({"mode_amplitudes": modamp,
+                           "mode_contact_amplitudes": np.abs(m.contact_row) * modamp / L,
+                           "impact_velocity_m_s": float(np.mean(iv_up) * L * m.omega_ref) if iv_up.size else np.nan})
         if self.record_modal_states:
-            traj.extra["modal_states"] = msamp
+            traj.extra["modal_states"] = run.record.msamp
         return traj
 
 

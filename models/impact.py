@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def newton_restitution(U_minus, R):
     """Newton's kinematic impact law, paper Eq. 2: ``U+ = -R U-``.
 
@@ -35,7 +35,7 @@ def newton_restitution(U_minus, R):
     return -R * U_minus
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def restitution_coefficient(U_minus, R, table_U, table_R):
     """Coefficient of restitution at the pre-impact velocity ``U_minus`` (paper Fig. 26).
 
@@ -71,7 +71,7 @@ def restitution_coefficient(U_minus, R, table_U, table_R):
     return table_R[lo] + t * (table_R[hi] - table_R[lo])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def restitution_impulse(U_minus, R, m_eff):
     """Normal impulse that realises Newton's law on a contact of effective mass ``m_eff``.
 

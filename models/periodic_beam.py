@@ -104,12 +104,13 @@ import math
 import numpy as np
 from numba import njit
 
-from .beam_dynamics import (EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT,
-                            ST_FAILED, TWO_PI, BeamImpactModel, beam_kernel)
+from .beam_dynamics import TWO_PI, BeamImpactModel
+from .core.event import EventIntegrator
+from .core.integrator import EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, ST_FAILED
 from .contact import pack
 from .impact import restitution_coefficient
 from .periodic import Shot
-from .system import mode_table, particular, transition_entries
+from .system import from_beam, mode_table, particular, transition_entries
 
 __all__ = ["BeamShooting", "BeamContinuation", "conversions", "assemble_derivatives", "NATIVE_PARAMETERS",
            "REBUILD_KEYS"]
@@ -820,7 +821,7 @@ class BeamShooting:
                          eC_l=m.eC, eta_c_l=m.eta_c)
         self._cache_key = key
         self._cache = dict(
-            stops=stops, tab_U=tab_U, tab_R=tab_R, m=m, me=me, Om=Om, F=F, mpF=mpF, aF=aF, bF=bF, GF=GF, c=c, k=k,
+            core=EventIntegrator(from_beam(m), m.stops()), stops=stops, tab_U=tab_U, tab_R=tab_R, m=m, me=me, Om=Om, F=F, mpF=mpF, aF=aF, bF=bF, GF=GF, c=c, k=k,
             mpC=mpC, aC=aC, bC=bC,
             SaL=SaL, SbL=SbL, SaS=SaS, SbS=SbS, GCF=m.GC * F, Emis=np.ascontiguousarray(Emis),
             dOm=dOm, dF=dF, daF=daF, dbF=dbF, dsF=0.5 * dcF, dcF=dcF, daC=daC, dbC=dbC,
@@ -926,32 +927,26 @@ class BeamShooting:
         x_start = np.concatenate([eta, etad])
         h_cap = TWO_PI / math.sqrt(D["k"][0]) / self.steps_per_fundamental
         imp_cap = 64 * n + 64
+        held = (2 if stuck_low else 1) if stuck else 0
         while True:
-            e = eta.copy()
-            ed = etad.copy()
-            evlog = np.zeros((self._cap, 3 + d))
-            aplog = np.zeros((self._capa, 2))
-            nlog = np.zeros(2, np.int64)
-            samples = np.zeros((n, 2))
-            imp_t = np.zeros(imp_cap)
-            imp_v = np.zeros(imp_cap)
-            imp_k = np.zeros(imp_cap, np.int64)
-            r = m.stop_rows
-            out = beam_kernel(Om, D["mpF"], D["aF"], D["bF"], w, m.sensor_row, D["c"], D["k"], D["GF"],
-                              D["stops"], D["tab_U"], D["tab_R"], r["normals"], m.m_eff,
-                              D["mpC"], D["aC"], D["bC"], r["eC"], m.Psi, r["eta_c"], r["pL"], r["rL"],
-                              D["SaLk"], D["SbLk"], r["cL"], m.pS, D["SaS"], D["SbS"],
-                              r["cS"], e, ed, (-1 if stuck_low else 1) if stuck else 0, 0, n, 1, 1, float(h_cap),
-                              self.max_impacts_per_period * n, self.max_steps_per_period * n,
-                              self.chatter_tol, samples, imp_t, imp_v, imp_k,
-                              np.zeros(len(m.stops()), np.int64), np.zeros(N), np.zeros((0, d)),
-                              np.zeros(n), np.zeros(0), evlog, aplog, nlog)
-            status, n_imp, smin, smax, n_chat, stuck_time, stuck_end, n_tot, gmax, n_steps = out
+            # the one event integrator (:mod:`vibeam.models.core.integrator`) with its event log
+            run = D["core"].run(Om, eta, etad, held, 0, n, 1, 1, float(h_cap), self.max_impacts_per_period * n,
+                                self.max_steps_per_period * n, self.chatter_tol, impact_buffer=imp_cap,
+                                log_events=self._cap, log_apexes=self._capa)
+            nlog = run.record.nlog
+            n_imp = run.n_impacts
             if nlog[0] <= self._cap and nlog[1] <= self._capa and n_imp <= imp_cap:
                 break
             self._cap = max(self._cap, int(nlog[0]) + 16)
             self._capa = max(self._capa, int(nlog[1]) + 16)
             imp_cap = max(imp_cap, int(n_imp) + 16)
+        status, smin, smax, n_chat, stuck_time = run.status, run.s_min, run.s_max, run.n_chatter, run.stuck_time
+        stuck_end, n_tot, n_steps = run.held_end != 0, run.n_impacts_total, run.n_steps
+        imp_t, imp_v, imp_k = run.record.imp_t, run.record.imp_v, run.record.imp_k
+        e, ed = run.eta, run.etad
+        # the log's rows without their stop column (the derivatives tell the stops apart by position)
+        evlog = np.ascontiguousarray(np.delete(run.record.evlog, 3, axis=1))
+        aplog = run.record.aplog[:, :2]
         L = m.length_m
         n_ev, n_ap = int(nlog[0]), int(nlog[1])
         x = np.concatenate([e, ed])

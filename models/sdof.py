@@ -18,9 +18,10 @@ import numpy as np
 
 from .trajectory import Trajectory
 
-from .contact import Relation, Restitution, Stop, check_stops, pack
-from .sdof_event import STATUS_NAMES, event_kernel
+from .contact import Relation, Restitution, Stop
+from .core.event import EventIntegrator, fundamental_step, trajectory
 from .sdof_flow import undamped_resonance
+from .system import from_sdof
 
 _EMPTY = np.zeros(0)
 
@@ -228,7 +229,7 @@ class EventSolver:
     impact_buffer : int, optional
         Most impacts whose time and velocity are stored per point.
     max_steps_per_call : int, optional
-        Work budget of one call of the kernel (its steps, :func:`event_kernel` ``max_steps``):
+        Work budget of one call of the kernel (its steps, the integrator's ``max_steps``):
         a call that needs more returns ``incomplete`` (:class:`Trajectory`), and the sweep
         engine repeats it in shorter calls; one forcing period that needs more fails.
     """
@@ -252,9 +253,9 @@ class EventSolver:
         self.chatter_tol = float(chatter_tol)
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.impact_buffer = int(impact_buffer)
-        stops = model.stops()
-        check_stops(stops)
-        self._stops = pack(stops)   # kernel arrays of the relations and laws
+        # the one event integrator on the one-mode modal system with the model's stops
+        self._core = EventIntegrator(from_sdof(model), model.stops())
+        self._h_cap = fundamental_step(self._core.system)
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
@@ -264,12 +265,16 @@ class EventSolver:
               samples_per_period: int = 64) -> Trajectory:
         """Simulate one forcing frequency from ``state0`` at forcing phase 0.
 
+        The one event integrator of the modal system (:mod:`vibeam.models.core.integrator`) on
+        the oscillator as its one-mode case (:func:`vibeam.models.system.from_sdof`).
+
         Parameters
         ----------
         Omega : float
             Forcing frequency (nondimensional).
         state0 : array_like, shape (3,) or None
-            ``(q, q', stuck)``; None starts from :meth:`SDOF.initial_state`.
+            ``(q, q', stuck)`` (stuck: 0 free, 1 held on the upper stop, -1 on the lower one);
+            None starts from :meth:`SDOF.initial_state`.
         n_transient, n_record : int
             Forcing periods discarded, then recorded.
         samples_per_period : int
@@ -286,63 +291,29 @@ class EventSolver:
         """
         m = self.model
         s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
-        samples = np.zeros((n_record * samples_per_period, 2))
-        imp_t = np.zeros(self.impact_buffer)
-        imp_v = np.zeros(self.impact_buffer)
-        imp_k = np.zeros(self.impact_buffer, np.int64)
-        par, tU, tR = self._stops
-        n_stop = np.zeros(par.shape[0], np.int64)
-        pmin = np.zeros(n_record)
-        chat_t = np.zeros(self.impact_buffer)
-        max_imp = self.max_impacts_per_period * (n_transient + n_record)
-        held = 0
-        if s0.shape[0] > 2:
-            held = 1 if s0[2] > 0.5 else (-1 if s0[2] < -0.5 and par.shape[0] > 1 else 0)
-        out = event_kernel(m.beta, m.B, par, tU, tR, float(Omega), float(s0[0]), float(s0[1]), held,
-                           int(n_transient), int(n_record), self.transient_samples,
-                           int(samples_per_period), max_imp, self.chatter_tol,
-                           samples, imp_t, imp_v, imp_k, n_stop, pmin, chat_t, None, None,
-                           self.max_steps_per_call)
-        status, n_imp, q_min, q_max, n_chat, stuck_time, q_end, v_end, stuck_end, n_tot, gmax = out
-        k = min(n_imp, self.impact_buffer)
-        message = ""
-        incomplete = False
-        if status == 3 and n_tot < 0:
-            message = (undamped_resonance(m.beta, Omega) or
-                       f"the forced response is not finite (F = Omega^2 B = {Omega * Omega * m.B:g})")
-        elif status == 3 and n_tot <= max_imp:
-            incomplete = True
-            message = (f"more than max_steps_per_call = {self.max_steps_per_call} steps in "
-                       f"{n_transient + n_record} period(s) (no step could be certified at the "
-                       f"scale of the motion?)")
-        elif status == 3:
-            message = (f"more than {max_imp} impacts in {n_transient + n_record} periods "
-                       f"(chatter that does not accumulate?)")
-        elif status == 1:
-            message = f"{n_chat} chatter sequence(s) ending in sticking; stuck {stuck_time:.4g} of the window"
-        elif status == 2:
-            message = f"stuck on the stop {stuck_time:.4g} of {n_record * 2 * math.pi / Omega:.4g} time units"
-        two = par.shape[0] > 1
-        # per impact (Newton's law): no duration, an impulse (no finite force), no penetration,
-        # energy lost (1 - R^2) U-^2 / 2 per unit mass (U- the normal pre-impact speed)
-        v_imp = imp_v[:k]
-        if two:
-            Rk = m.restitution_coefficients(v_imp, imp_k[:k])
-        else:
-            Rk = m.restitution_coefficients(v_imp) if m.R_table else np.full(k, m.R)
-        contacts = np.column_stack([np.zeros(k), np.full(k, np.nan), np.zeros(k),
-                                    0.5 * (1.0 - Rk ** 2) * v_imp ** 2, v_imp])
-        return Trajectory(Omega=float(Omega), samples=samples, samples_per_period=samples_per_period,
-                          impact_times=imp_t[:k].copy(), impact_velocities=imp_v[:k].copy(), contacts=contacts,
-                          impact_stops=imp_k[:k].copy() if two else None,
-                          n_impacts_lower=int(n_stop[1]) if two else 0,
-                          n_impacts=int(n_imp), q_min=float(q_min), q_max=float(q_max),
-                          period_min=pmin, chatter_times=chat_t[:min(n_chat, self.impact_buffer)].copy(),
-                          status=STATUS_NAMES[status], message=message,
-                          final_state=np.array([q_end, v_end, float(stuck_end)]),
-                          extra={"stuck_fraction": stuck_time / (n_record * 2 * math.pi / Omega)
-                                 if n_record else 0.0,
-                                 "contact_gap_max": float(gmax)}, incomplete=incomplete)
+        held = self._core.held_set_of(s0[2]) if s0.shape[0] > 2 else 0
+        n_per = int(n_transient) + int(n_record)
+        max_imp = self.max_impacts_per_period * n_per
+        run = self._core.run(float(Omega), s0[:1], s0[1:2], held, int(n_transient), int(n_record),
+                             self.transient_samples, int(samples_per_period), self._h_cap, max_imp,
+                             self.max_steps_per_call, self.chatter_tol, impact_buffer=self.impact_buffer)
+        msgs = {"not_finite": (undamped_resonance(m.beta, Omega) or
+                               f"the forced response is not finite (F = Omega^2 B = {Omega * Omega * m.B:g})"),
+                "incomplete": (f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} "
+                               f"period(s) (no step could be certified at the scale of the motion?)"),
+                "failed": f"more than {max_imp} impacts in {n_per} periods (chatter that does not accumulate?)"}
+        traj = trajectory(run, Omega, samples_per_period, n_record, 1.0, self.impact_buffer, self._contacts,
+                          messages=msgs)
+        del traj.extra["steps_per_period"]
+        return traj
+
+    def _contacts(self, v, stops):
+        """Per impact (Newton's law): no duration, an impulse (no finite force), no penetration,
+        energy lost ``(1 - R^2) U-^2 / 2`` per unit mass (``U-`` the normal pre-impact speed)."""
+        k = v.shape[0]
+        Rk = self.model.restitution_coefficients(v, stops) if (stops is not None or self.model.R_table) \
+            else np.full(k, self.model.R)
+        return np.column_stack([np.zeros(k), np.full(k, np.nan), np.zeros(k), 0.5 * (1.0 - Rk ** 2) * v ** 2, v])
 
 
 def linear_amplitude(beta: float, B: float, Omega):

@@ -61,7 +61,7 @@ TWO_PI = 2.0 * math.pi
 
 __all__ = ["ModalSystem", "modal_system", "from_sdof", "from_beam", "from_matrices", "modal_flow",
            "modal_transition", "damping_ratios", "lowest_modes", "mode_table", "particular",
-           "transition_increment", "transition_entries", "advance_modes"]
+           "transition_increment", "transition_entries", "advance_modes", "advance_count"]
 
 
 class ModalSystem(NamedTuple):
@@ -456,7 +456,7 @@ def particular(c, k, G, F, Omega):
     return z.real, z.imag  # Im(z e^{i phi}) = Re z sin + Im z cos
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def transition_increment(s, sig, k, typ, q, l1, l2):
     """``Phi(s) - I`` of ``x'' + 2 sig x' + k x = 0`` (entries 11, 12, 21, 22).
 
@@ -466,22 +466,26 @@ def transition_increment(s, sig, k, typ, q, l1, l2):
     :func:`transition_entries` gives ``Phi`` itself.
     """
     if typ == 0:
-        E = math.exp(-sig * s)
-        c = math.cos(q * s)
+        # one expm1 and one sincos of the half angle: cos(q s) = hc^2 - hs^2, sin(q s) = 2 hs hc
+        em1 = math.expm1(-sig * s)
+        E = 1.0 + em1 if sig * s < 0.25 else math.exp(-sig * s)
         hs = math.sin(0.5 * q * s)
-        cm1 = math.expm1(-sig * s) * c - 2.0 * hs * hs
-        S = E * math.sin(q * s) / q
+        hc = math.cos(0.5 * q * s)
+        cm1 = em1 * (hc * hc - hs * hs) - 2.0 * hs * hs
+        S = E * (2.0 * hs * hc) / q
     elif typ == 2:
-        cm1 = 0.5 * (math.expm1(l1 * s) + math.expm1(l2 * s))
-        S = -math.exp(l1 * s) * math.expm1(-2.0 * q * s) / (2.0 * q)
+        e1m1 = math.expm1(l1 * s)
+        E1 = 1.0 + e1m1 if -l1 * s < 0.25 else math.exp(l1 * s)
+        cm1 = 0.5 * (e1m1 + math.expm1(l2 * s))
+        S = -E1 * math.expm1(-2.0 * q * s) / (2.0 * q)
     else:
-        E = math.exp(-sig * s)
         cm1 = math.expm1(-sig * s)
+        E = 1.0 + cm1 if sig * s < 0.25 else math.exp(-sig * s)
         S = s * E
     return cm1 + sig * S, S, -k * S, cm1 - sig * S
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def transition_entries(s, sig, k, typ, q, l1, l2):
     """Transition matrix ``Phi(s)`` (11, 12, 21, 22) of ``x'' + 2 sig x' + k x = 0``, entries
     to relative precision (:func:`transition_increment` returns ``Phi - I`` for the flow,
@@ -506,8 +510,14 @@ def transition_entries(s, sig, k, typ, q, l1, l2):
     return E * (1.0 + sig * s), s * E, -k * s * E, E * (1.0 - sig * s)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def advance_modes(s, phi0, Om, z, zd, mp, a, b, e):
+    """:func:`advance_count` over every coordinate of ``z``."""
+    advance_count(s, phi0, Om, z, zd, mp, a, b, e, z.shape[0])
+
+
+@njit(cache=True, error_model="numpy")
+def advance_count(s, phi0, Om, z, zd, mp, a, b, e, m):
     """Move modal coordinates ``z`` (with offsets ``e`` and harmonic particular ``a, b``)
     by ``s`` in closed form, in place.
 
@@ -530,6 +540,8 @@ def advance_modes(s, phi0, Om, z, zd, mp, a, b, e):
     a, b, e : ndarray, shape (n,)
         Particular coefficients (:func:`particular`) and constant offsets (a stop's static
         offset of the constrained modes; zeros in free flight).
+    m : int
+        Coordinates moved (the first ``m``; all of them for :func:`advance_modes`).
     """
     half = 0.5 * Om * s
     sh = math.sin(half)
@@ -538,7 +550,7 @@ def advance_modes(s, phi0, Om, z, zd, mp, a, b, e):
     cph = math.cos(ph)
     sp0 = math.sin(phi0)
     cp0 = math.cos(phi0)
-    for j in range(z.shape[0]):
+    for j in range(m):
         x0 = z[j] - e[j] - (a[j] * sp0 + b[j] * cp0)
         y0 = zd[j] - Om * (a[j] * cp0 - b[j] * sp0)
         a11, a12, a21, a22 = transition_increment(s, mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3],

@@ -92,16 +92,26 @@ def test_liouville_the_sum_is_damping_plus_the_impacts_restitution(scene):
 
 def test_a_chaotic_attractor_has_a_positive_exponent_equal_to_the_two_trajectory_estimate():
     """The two-sided Fig. 7 scene at Omega = 2.38 (the case's "not periodic (chaos)"): lambda_1 >
-    0 beyond 10 times its error estimate (measured 0.0148 +- 0.0003), lambda_2 < 0; and lambda_1
-    equals Benettin's two-trajectory estimate along the same orbit -- a neighbour 1e-9 of the
-    state away, its separation renormalised after every period, using the maps' end states
-    only (no monodromy, no saltation matrix) -- to 1e-4 relative (measured 4.7e-7)."""
+    0 beyond 10 times its standard error, lambda_2 < 0; and lambda_1 equals Benettin's
+    two-trajectory estimate along the same orbit -- a neighbour 1e-9 of the state away, its
+    separation renormalised after every period, using the maps' end states only (no monodromy,
+    no saltation matrix) -- to 1e-4 relative (measured 4.7e-7).
+
+    The exponent of 2000 periods of one chaotic orbit is a random variable: over six orbits
+    started 1e-9 apart on the attractor (decorrelated after 2000 periods: e^(lambda_1 t) ~ e^60)
+    it was 0.0103-0.0147, and one orbit's own error estimate (half the difference of its two
+    halves) 0.0004-0.0026.  So the significance is that of the six orbits' mean over their
+    standard error (measured 0.0124 +- 0.0007)."""
     W = CHAOS_OMEGA
     prob = SDOFShooting(TWO_SIDED, "Omega")
     x0 = _attractor(TWO_SIDED, W)
     K = 2000
     sp = lyapunov_spectrum(prob, x0, W, K)
-    assert sp.status == "ok" and sp.largest > 10 * sp.error[0] and sp.largest > 0.0 and sp.exponents[1] < 0.0
+    assert sp.status == "ok" and sp.largest > 0.0 and sp.exponents[1] < 0.0
+    orbits = [sp] + [lyapunov_spectrum(prob, x0 + np.array([1e-9 * k * abs(x0[0]), 0.0]), W, K) for k in range(1, 6)]
+    assert all(o.status == "ok" and o.exponents[1] < 0.0 for o in orbits)
+    lam = np.array([o.largest for o in orbits])
+    assert lam.mean() > 10 * lam.std(ddof=1) / math.sqrt(lam.size) and lam.mean() > 0.0
     x, u, S = x0.copy(), np.array([1.0, 0.0]), 0.0
     d0 = 1e-9 * float(np.max(np.abs(x0)))
     for _ in range(K):

@@ -22,10 +22,22 @@ FIG8 = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
 FIG13 = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3)
 
 
-def _one(model, W, **kw):
-    """One point from rest (no continuation), inline."""
+def _one(model, W, start=None, **kw):
+    """One point from rest (or from the state ``start``; no continuation), inline."""
     sw = Sweep(Omega=np.array([W]), continuation=False, **kw)
-    return {k: v[0] for k, v in run_sweep(EventSolver(model), sw).data.items()}
+    solver = EventSolver(model) if start is None else _From(model, start)
+    return {k: v[0] for k, v in run_sweep(solver, sw).data.items()}
+
+
+class _From(EventSolver):
+    """The event solver with another initial state than rest."""
+
+    def __init__(self, model, start):
+        super().__init__(model)
+        self.start = np.asarray(start, float)
+
+    def point(self, Omega, state0, *args, **kw):
+        return super().point(Omega, self.start if state0 is None else state0, *args, **kw)
 
 
 def _period1_amplitude(model, W, guess_point):
@@ -182,12 +194,24 @@ def test_auto_transient_reaches_the_converged_orbit(model, W, kind):
     the attractor, checked against closed forms: the linear steady state Delta + C(Omega) and
     the Newton fixed point of the impact map (1e-8; auto stops once the strobe repeats to
     1e-3 period_rtol = 1e-8 of the orbit; the remaining distance to the orbit is that over
-    1 - rho for the Floquet multiplier rho)."""
-    fixed = _one(model, W, transient_periods=400, record_periods=64)
+    1 - rho for the Floquet multiplier rho).
+
+    How long a chaotic transient lasts is a property of one trajectory, which round-off decides:
+    from 12 starts 1e-10 apart the Fig. 8 transient lasted 500-14000 periods (mean ~5000, the same
+    for the event kernel of vibeam 0.1 and the modal event integrator), and from rest 2800 with the
+    former, 9600 with the latter (and under 400 once the impulse was applied in two parts).  So the
+    test starts from the first of the states ``q = k 1e-6`` (k = 0, 1, ...; rest first) whose
+    transient outlasts 400 periods, and auto may use up to ``max_transient_periods = 30000`` (an
+    exponential lifetime of mean 5000 outlasts it with probability e^-6)."""
+    for k in range(20):
+        start = np.array([k * 1e-6, 0.0, 0.0])
+        fixed = _one(model, W, start=start, transient_periods=400, record_periods=64)
+        if fixed["period"] == 0:
+            break
     assert fixed["period"] == 0          # the wrong answer of a fixed, too short transient
-    auto = _one(model, W, transient_periods="auto", record_periods=64)
+    auto = _one(model, W, start=start, transient_periods="auto", record_periods=64, max_transient_periods=30000)
     assert auto["status"] == "ok"
-    assert 400 < auto["transient_periods_used"] <= 10000
+    assert 400 < auto["transient_periods_used"] <= 30000
     if kind == "no impact":
         assert auto["period"] == -1
         expected = model.Delta + float(linear_amplitude(model.beta, model.B, W))

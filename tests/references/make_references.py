@@ -484,6 +484,8 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
             p, p_sdof = int(d["period"][i]), int(res.data["period"][j])
             if p != p_sdof or p == 0:
                 continue  # not periodic: chaos tells the two round-offs apart
+            if not _reproducible_start(i, d, res.data, key):
+                continue  # after a chaotic point a multistable point may land on another orbit
             c_st.add(float(d["Omega"][i]), str(d["direction"][i]), float(d["amplitude"][i]),
                      float(res.data["amplitude"][j]))
         out.append(c_st)
@@ -505,6 +507,22 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
     return out
 
 
+def _reproducible_start(i, d, sdof_data, key) -> bool:
+    """Point ``i`` of a beam sweep starts from a reproducible state in both sweeps (the beam's
+    ``d`` and the derived SDOF's): it is the first of its line, or the point before it is periodic
+    in both.  After a non-periodic (chaotic) point the start is decided by round-off, and a
+    multistable point may land on another attractor -- even one of the same period."""
+    f = np.asarray(d["frequency_hz"], float)
+    dirs = np.array([str(x) for x in d["direction"]])
+    same = np.flatnonzero(dirs == dirs[i])
+    before = same[f[same] < f[i]] if dirs[i] != "down" else same[f[same] > f[i]]
+    if not before.size:
+        return True
+    k = before[np.argmax(f[before])] if dirs[i] != "down" else before[np.argmin(f[before])]
+    kj = key[(dirs[k], round(float(f[k]), 9))]
+    return int(d["period"][k]) != 0 and int(sdof_data["period"][kj]) != 0
+
+
 def _static_statistics_check(name, d, sdof_data, key):
     """Non-periodic points of a static-mode beam run against the derived SDOF's (the same
     equations; chaos tells their round-offs apart, so only the statistics can agree): the means
@@ -524,13 +542,8 @@ def _static_statistics_check(name, d, sdof_data, key):
         j = key[(dirs[i], round(float(f[i]), 9))]
         if int(d["period"][i]) != 0 or int(sdof_data["period"][j]) != 0:
             continue
-        same = np.flatnonzero(dirs == dirs[i])
-        before = same[f[same] < f[i]] if dirs[i] != "down" else same[f[same] > f[i]]
-        if before.size:
-            k = before[np.argmax(f[before])] if dirs[i] != "down" else before[np.argmin(f[before])]
-            kj = key[(dirs[k], round(float(f[k]), 9))]
-            if int(d["period"][k]) == 0 or int(sdof_data["period"][kj]) == 0:
-                continue
+        if not _reproducible_start(i, d, sdof_data, key):
+            continue
         m1, m2 = float(d["amplitude_mean"][i]), float(sdof_data["amplitude_mean"][j])
         ok = bool(means_agree(m1, float(d["amplitude_sem"][i]), int(d["amplitude_sem_dof"][i]),
                               m2, float(sdof_data["amplitude_sem"][j]), int(sdof_data["amplitude_sem_dof"][j])))

@@ -525,7 +525,11 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
         out["message"] = (out["message"] + "; " if out["message"] else "") + f"no shooting problem: {e}"
     if why_not:
         out["message"] = (out["message"] + "; " if out["message"] else "") + why_not
-    stuck = s["status"] in ("chatter", "sticking") or (x.size > dprob and x[dprob] != 0.0)
+    # phases held on a stop anywhere in the periods looked at (settling and record): on a
+    # chaotic attractor that chatters now and then, a record alone may or may not show one, and
+    # the type would depend on which trajectory located the attractor
+    stuck = (s["status"] in ("chatter", "sticking") or tr0.status in ("chatter", "sticking")
+             or (x.size > dprob and x[dprob] != 0.0))
     if prob is not None and periodic and n <= 64:
         pt, why = start_point(prob, x[:dprob], float(Omega), max(n, 1), 0.5 * Omega, 2.0 * Omega)
         if pt is not None:

@@ -1,0 +1,294 @@
+"""The event-driven simulation of a modal system with stops: one Python driver of the one kernel.
+
+:class:`EventIntegrator` holds a :class:`~vibeam.models.system.ModalSystem` and its stops in
+kernel form (:mod:`vibeam.models.core.stops`) and runs :func:`vibeam.models.core.integrator.integrate`
+for one forcing frequency (:meth:`EventIntegrator.run`), returning the raw :class:`Run` (record
+and scalars, row units).  The fidelities' ``event`` solvers (:class:`vibeam.models.sdof.EventSolver`,
+:class:`vibeam.models.beam_dynamics.BeamEventSolver`) turn it into a
+:class:`~vibeam.models.trajectory.Trajectory` in their units.
+
+The state of a point is ``(eta (n), eta' (n), held)`` with ``held`` the code of
+:func:`~vibeam.models.core.stops.held_code` (0 free; 1 held on stop 0; -1 on stop 1; else the bit
+mask of the held stops): the SDOF's ``(q, q', stuck)`` and the beam's ``(eta, eta', stuck)``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contact import check_stops
+from ..system import ModalSystem
+from .integrator import ST_FAILED, STATUS_NAMES, Record, integrate, new_record
+from .stops import held_code, held_mask, held_sets, kernel_stops, kernel_system
+
+__all__ = ["EventIntegrator", "Run"]
+
+
+@dataclass
+class Run:
+    """One call of the kernel: its record and its scalars (row units, nondimensional time).
+
+    Attributes
+    ----------
+    record : Record
+    status : int
+        :data:`vibeam.models.core.integrator.ST_OK` ...
+    n_impacts : int
+        Recorded impacts (may exceed the buffer).
+    s_min, s_max : float
+        Extremes of the sensor signal over the record.
+    n_chatter : int
+        Chatter sequences of the record.
+    stuck_time : float
+        Time held on stops in the record (chatter holds excluded).
+    held_end : int
+        Bit mask of the stops held at the end.
+    n_impacts_total : int
+        Impacts of the whole call; -1: the forced response is not finite (undamped exact
+        resonance); -2: the motion's scale is subnormal (below 1e-290).
+    gap_max : float
+        Largest gap at the end of an event-free step (row units).
+    n_steps : int
+    eta, etad : ndarray, shape (n,)
+        Final state.
+    max_steps, max_impacts : int
+        The guards of the call.
+    """
+
+    record: Record
+    status: int
+    n_impacts: int
+    s_min: float
+    s_max: float
+    n_chatter: int
+    stuck_time: float
+    held_end: int
+    n_impacts_total: int
+    gap_max: float
+    n_steps: int
+    eta: np.ndarray
+    etad: np.ndarray
+    max_steps: int
+    max_impacts: int
+    n_periods: int = 0
+
+    @property
+    def held_code(self) -> int:
+        return held_code(self.held_end)
+
+    @property
+    def final_state(self) -> np.ndarray:
+        return np.concatenate([self.eta, self.etad, [float(self.held_code)]])
+
+    @property
+    def out_of_steps(self) -> bool:
+        """Failed on the step budget (not on the impact guard, not at once)."""
+        return self.status == ST_FAILED and self.n_steps > self.max_steps and \
+            0 <= self.n_impacts_total <= self.max_impacts
+
+
+class EventIntegrator:
+    """The kernel's data for one model: system, stops and the held sets.
+
+    Parameters
+    ----------
+    system : ModalSystem
+    stops : sequence of vibeam.models.contact.Stop
+        Impulsive stops (relations on rows of ``system.contacts``).
+
+    Raises
+    ------
+    ValueError
+        From :func:`vibeam.models.contact.check_stops` and
+        :func:`vibeam.models.core.stops.kernel_stops` (a law not implemented, R out of range,
+        overlapping stops, too many stops, a relation row the system lacks).
+    """
+
+    def __init__(self, system: ModalSystem, stops):
+        check_stops(stops)
+        for k, s in enumerate(stops):
+            if getattr(s.law, "kind", "") != "impulsive":
+                raise ValueError(f"stop {k} has the {getattr(s.law, 'kind', '?')} law "
+                                 f"{getattr(s.law, 'name', type(s.law).__name__)!r}; the event integrator "
+                                 f"takes impulsive laws (Newton's)")
+        self.system = system
+        self.stops = tuple(stops)
+        self.ksys = kernel_system(system)
+        self.kstops = kernel_stops(system, self.stops)
+        self.held, self.damping_mismatch = held_sets(system, self.kstops)
+
+    @property
+    def n(self) -> int:
+        return self.ksys.k.shape[0]
+
+    @property
+    def n_stops(self) -> int:
+        return self.kstops.offset.shape[0]
+
+    def held_set_of(self, code) -> int:
+        """Bit mask of a state's held code (:func:`~vibeam.models.core.stops.held_mask`)."""
+        return held_mask(code, self.n_stops)
+
+    def run(self, Omega, eta, etad, held, n_transient, n_record, ns_transient, ns_record, h_cap,
+            max_impacts, max_steps, chatter_tol, record: Record | None = None, impact_buffer=4096,
+            modal_states=False, log_events=0, log_apexes=0) -> Run:
+        """Integrate one forcing frequency from phase 0 (:func:`~vibeam.models.core.integrator.integrate`).
+
+        Parameters
+        ----------
+        Omega : float
+            Forcing frequency (per unit nondimensional time).
+        eta, etad : array_like, shape (n,)
+            Initial state (copied).
+        held : int
+            Bit mask of the held stops at the start.
+        n_transient, n_record, ns_transient, ns_record : int
+            Periods and grid points per period.
+        h_cap : float
+            Largest step.
+        max_impacts, max_steps : int
+            Guards.
+        chatter_tol : float
+            Chatter accumulation tolerance.
+        record : Record, optional
+            Buffers to reuse (else new ones with ``impact_buffer``, ``modal_states`` and the log
+            capacities).
+
+        Returns
+        -------
+        Run
+        """
+        eta = np.array(eta, dtype=float)
+        etad = np.array(etad, dtype=float)
+        if record is None:
+            record = new_record(self.n, self.n_stops, n_record, ns_record, impact_buffer, modal_states,
+                                log_events, log_apexes)
+        record.nlog[:] = 0
+        args = (self.ksys, self.kstops, self.held, float(Omega), eta, etad, int(held), int(n_transient),
+                int(n_record), int(ns_transient), int(ns_record), float(h_cap), int(max_impacts),
+                int(max_steps), float(chatter_tol), record)
+        out = compiled_call(integrate, args)
+        status, n_imp, smin, smax, n_chat, stuck_time, H, n_tot, gmax, n_steps = out
+        return Run(record, int(status), int(n_imp), float(smin), float(smax), int(n_chat), float(stuck_time),
+                   int(H), int(n_tot), float(gmax), int(n_steps), eta, etad, int(max_steps), int(max_impacts),
+                   int(n_transient) + int(n_record))
+
+
+def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buffer, contacts, messages=None,
+               budget=True) -> "Trajectory":
+    """The :class:`~vibeam.models.trajectory.Trajectory` of one run, in the units of ``q``.
+
+    Parameters
+    ----------
+    run : Run
+    Omega : float
+    samples_per_period, n_record : int
+    scale : float
+        Row value per unit of ``q`` (:attr:`vibeam.models.system.ModalSystem.coordinate_scale`).
+    impact_buffer : int
+        Capacity of the impact buffers.
+    contacts : callable
+        ``contacts(v, stops) -> ndarray (k, 5)``: the per-impact contact rows of the fidelity
+        (:attr:`~vibeam.models.trajectory.Trajectory.contacts`) from the normal speeds ``v`` (units of
+        ``q'``) and the stops (None: one stop).
+    messages : dict, optional
+        Overrides of the status messages: ``"incomplete"``, ``"failed"``, ``"not_finite"``.
+    budget : bool
+        The step limit of the run was the solver's work budget of one call (running out of it
+        makes the trajectory ``incomplete``: fewer periods per call may fit), not a per-period guard
+        (then ``failed``).
+
+    Returns
+    -------
+    Trajectory
+        ``final_state = (eta, eta', held code)``; ``extra``: ``stuck_fraction``,
+        ``contact_gap_max`` (``q`` units; 0 when the run held on a stop) and
+        ``steps_per_period``.
+    """
+    from ..trajectory import Trajectory
+
+    msgs = messages or {}
+    rec = run.record
+    T = 2.0 * math.pi / Omega
+    n_per = run.max_steps      # (messages only)
+    k = min(run.n_impacts, impact_buffer)
+    two = rec.n_imp_stop.shape[0] > 1
+    message = ""
+    incomplete = False
+    if run.status == ST_FAILED and run.n_impacts_total == -2:
+        message = ("the motion's scale is subnormal (forcing response, state and gaps below 1e-290): "
+                   "numbers there carry fewer than 53 significant bits, so no result is given")
+    elif run.status == ST_FAILED and run.n_impacts_total < 0:
+        message = msgs.get("not_finite", "the forced response is not finite (undamped exact resonance)")
+    elif run.out_of_steps and budget:
+        incomplete = True
+        message = msgs.get("incomplete", f"more than {n_per} steps in one call")
+    elif run.status == ST_FAILED:
+        message = msgs.get("failed", f"more than {run.max_impacts} impacts (chatter that does not accumulate?)")
+    elif run.status == 1:
+        message = (f"{run.n_chatter} chatter sequence(s) ending in sticking; stuck {run.stuck_time:.4g} of the "
+                   f"window")
+    elif run.status == 2:
+        message = f"stuck on the stop {run.stuck_time:.4g} of {n_record * T:.4g} time units"
+    iv = rec.imp_v[:k] / scale
+    ks = rec.imp_k[:k].copy()
+    gmax = run.gap_max
+    if run.stuck_time > 0.0 or run.held_end:
+        gmax = max(gmax, 0.0)     # on a stop the gap is 0 exactly
+    samples = rec.samples / scale if scale != 1.0 else rec.samples
+    if run.status == ST_FAILED:
+        # what the kernel did not finish is no result: no samples, extremes or minima
+        samples = np.full_like(samples, np.nan)
+        run.s_min = run.s_max = np.nan
+        rec.pmin[:] = np.nan
+    return Trajectory(
+        Omega=float(Omega), samples=samples, samples_per_period=int(samples_per_period),
+        impact_times=rec.imp_t[:k].copy(), impact_velocities=iv, contacts=contacts(iv, ks if two else None),
+        impact_stops=ks if two else None, n_impacts_lower=int(rec.n_imp_stop[1:].sum()) if two else 0,
+        n_impacts=int(run.n_impacts), q_min=float(run.s_min / scale), q_max=float(run.s_max / scale),
+        period_min=rec.pmin / scale, chatter_times=rec.chat_t[:min(run.n_chatter, rec.chat_t.shape[0])].copy(),
+        status=STATUS_NAMES[run.status], message=message, final_state=run.final_state,
+        extra={"stuck_fraction": float(run.stuck_time / (n_record * T)) if n_record else 0.0,
+               "contact_gap_max": float(gmax / scale),
+               "steps_per_period": float(run.n_steps / max(run.n_periods, 1))},
+        incomplete=bool(incomplete))
+
+
+_ENTRIES: dict = {}
+
+
+def compiled_call(dispatcher, args):
+    """Call a numba kernel through its compiled entry point for these argument types.
+
+    numba's dispatcher resolves the types of tuple arguments in Python (about 0.1 ms per
+    NamedTuple of arrays, i.e. most of a short call); the entry point of the overload, found once
+    per type signature (keyed here on the arrays' dtype and dimensions, which is all that the
+    signature depends on), takes the arguments as they are.
+    """
+    key = (id(dispatcher),) + tuple(_key(a) for a in args)
+    entry = _ENTRIES.get(key)
+    if entry is None:
+        out = dispatcher(*args)
+        from numba import typeof
+        sig = tuple(typeof(a) for a in args)
+        cres = dispatcher.overloads.get(sig)
+        if cres is not None:
+            _ENTRIES[key] = cres.entry_point
+        return out
+    return entry(*args)
+
+
+def _key(a):
+    if isinstance(a, np.ndarray):
+        return (a.dtype.char, a.ndim, a.flags.c_contiguous)
+    if isinstance(a, tuple):
+        return (type(a),) + tuple(_key(x) for x in a)
+    return type(a)
+
+
+def fundamental_step(system: ModalSystem, steps_per_fundamental: int = 16) -> float:
+    """The largest step: ``1 / steps_per_fundamental`` of the lowest modal period."""
+    om = float(np.min(system.omega[system.omega > 0])) if np.any(system.omega > 0) else 1.0
+    return 2.0 * math.pi / om / int(steps_per_fundamental)

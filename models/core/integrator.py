@@ -1,0 +1,1044 @@
+"""The one event integrator: the modal system with any number of stops, exact between events.
+
+vibeam's event-driven method for every fidelity with impulsive stops is this kernel (the SDOF
+is the system's one-mode case, the FE beam its ``N``-mode case).  It integrates whole forcing
+periods of
+
+    eta_i'' + c_i eta_i' + omega_i^2 eta_i = Gamma_i Omega^2 B sin(Omega t)        (free flight)
+
+(:mod:`vibeam.models.system`; paper Eq. 28 per mode) with the stops of
+:mod:`vibeam.models.core.stops`, each a relation (a row of the system at any point, a side, an
+offset) and a law, and it switches between two kinds of phase:
+
+free flight
+    every mode moves in closed form (:func:`vibeam.models.system.advance_count`); every stop's
+    gap ``g_k = n_k^T eta - D_k`` is a signal (:mod:`vibeam.models.core.signals`) scanned with
+    certified bounds, so no contact is missed (grazing included); the first crossing of any
+    stop is the event;
+held on a set of stops
+    the constrained system (:class:`~vibeam.models.core.stops.HeldSets`) moves in closed form;
+    the constraint forces of the held stops are scanned for their release (first upward zero
+    crossing of ``lambda_k``), the gaps of the other stops for a contact.
+
+At a contact the stop's law acts (:func:`vibeam.models.contact.impulsive_response`: Newton,
+``U+ = -R(U-) U-``) through the mass matrix along the stop's normal (or its projection on the
+held constraints), and the one chatter / sticking policy of :mod:`vibeam.models.contact_policy`
+decides what follows: rebound, sticking (the stop joins the held set), or a chatter sequence
+summed in closed form to its accumulation point.  The time grid is aligned with the forcing
+phase (``ns`` points per period, the recorded samples); steps inside a grid interval are at
+most ``h_cap`` and grow by doubling after a certification shortened them.
+
+Outputs go to one :class:`Record` (arrays allocated by the caller: samples at the phase grid of
+the recorded periods, impacts, per-period minima, chatter points, an optional event log for the
+shooting problem); the kernel returns a tuple of scalars (:func:`integrate`).
+
+Event log (rows ``[kind, t, aux, stop, eta (n), eta' (n)]``, ``t`` from the start of the call)
+    ``EV_START``  the initial state was put on stop ``stop`` (aux 1: held, position and velocity;
+                  0: position only); the logged state is the projected one;
+    ``EV_IMPACT`` an impact on ``stop``; the state just before it (on the stop, pre-impact
+                  velocity), aux ``U-``;
+    ``EV_STICK``  sticking on ``stop`` entered without an impact (touching with ``U = 0``,
+                  pressed); the state before the velocity projection;
+    ``EV_STICK_IMPACT`` the impact logged just before ends in sticking (plastic entry, chatter,
+                  ``R = 0``); aux the chatter hold time (0 if none);
+    ``EV_RELEASE`` release of ``stop``; aux the contact force at the release (0 at a located
+                  zero crossing, > 0 when released at a step start).
+    Apex log rows ``[t, g, stop]``: interior maxima of a stop's gap in free flight (and in held
+    phases, of the gaps of the stops not held).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from ..contact_policy import (BURST_DT, BURST_MAX, CHATTER, CHATTER_GUARD, REBOUND, STICK, impact_outcome,
+                              release_now, zeno_burst)
+from ..impact import newton_restitution, restitution_coefficient
+from ..system import advance_count, transition_increment
+from .signals import (bounds, extremes, homogeneous, homogeneous_bounds, mode_ends, root, scan, scan_from, signal,
+                      signal_start)
+
+__all__ = ["Record", "integrate", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
+           "STATUS_NAMES", "EV_START", "EV_IMPACT", "EV_STICK", "EV_STICK_IMPACT", "EV_RELEASE", "LOG_HEAD"]
+
+TWO_PI = 2.0 * math.pi
+ST_OK, ST_CHATTER, ST_STICKING, ST_FAILED = 0, 1, 2, 3
+STATUS_NAMES = ("ok", "chatter", "sticking", "failed")
+EV_START, EV_IMPACT, EV_STICK, EV_STICK_IMPACT, EV_RELEASE = 0, 1, 2, 3, 4
+#: columns of an event-log row before the state
+LOG_HEAD = 4
+
+
+class Record(NamedTuple):
+    """What one call of :func:`integrate` writes (arrays allocated by :func:`new_record`).
+
+    Attributes
+    ----------
+    samples : ndarray, shape (n_record * ns_record, 2)
+        Sensor displacement and velocity ``(s^T eta, s^T eta')`` (row units) at the phase grid of
+        the recorded periods.
+    msamp : ndarray, shape (n_record * ns_record, 2n) or (0, 2n)
+        Modal state at the samples (0 rows: not recorded).
+    modamp : ndarray, shape (n,)
+        Largest ``|eta_i|`` over the samples.
+    pmin : ndarray, shape (n_record,)
+        Minimum of the sensor signal over each recorded period (exact: root-found).
+    imp_t, imp_v : ndarray, shape (cap,)
+        Time (from the start of the record) and normal pre-impact speed ``U-`` of the first
+        ``cap`` recorded impacts.
+    imp_k : ndarray of int64, shape (cap,)
+        Their stops.
+    n_imp_stop : ndarray of int64, shape (n_s,)
+        Recorded impacts per stop.
+    chat_t : ndarray, shape (cap_c,)
+        Accumulation points of the first chatter sequences of the record.
+    evlog : ndarray, shape (cap_e, LOG_HEAD + 2n)
+        Event log (0 rows: off).
+    aplog : ndarray, shape (cap_a, 3)
+        Apex log (0 rows: off).
+    nlog : ndarray of int64, shape (2,)
+        Events and apexes logged (counted beyond the capacities).
+    """
+
+    samples: np.ndarray
+    msamp: np.ndarray
+    modamp: np.ndarray
+    pmin: np.ndarray
+    imp_t: np.ndarray
+    imp_v: np.ndarray
+    imp_k: np.ndarray
+    n_imp_stop: np.ndarray
+    chat_t: np.ndarray
+    evlog: np.ndarray
+    aplog: np.ndarray
+    nlog: np.ndarray
+
+
+def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states=False, log_events=0,
+               log_apexes=0) -> Record:
+    """A :class:`Record` for ``n`` modes, ``n_stops`` stops and ``n_record`` recorded periods of
+    ``ns_record`` samples; ``log_events`` / ``log_apexes``: capacities of the logs (0: off)."""
+    ns = int(n_record) * int(ns_record)
+    return Record(np.zeros((ns, 2)), np.zeros((ns if modal_states else 0, 2 * n)), np.zeros(n),
+                  np.zeros(int(n_record)), np.zeros(impact_buffer), np.zeros(impact_buffer),
+                  np.zeros(impact_buffer, np.int64), np.zeros(n_stops, np.int64), np.zeros(impact_buffer),
+                  np.zeros((int(log_events), LOG_HEAD + 2 * n)), np.zeros((int(log_apexes), 3)),
+                  np.zeros(2, np.int64))
+
+
+# ============================================================================ helpers
+@njit(cache=True, error_model="numpy")
+def _clock(phi, t_loc, rem, s, Om, T):
+    """Advance the forcing phase, the time within the period and the rest of the grid step."""
+    rem -= s
+    if rem < 1e-15 * T:
+        rem = 0.0
+    phi += Om * s            # 0 <= Om s <= 2 pi (steps within a period): one wrap, exact (Sterbenz)
+    if phi >= TWO_PI:
+        phi -= TWO_PI
+    return phi, t_loc + s, rem
+
+
+@njit(cache=True, error_model="numpy")
+def _contact_acc(phi, Om, eta, etad, d, c, k, GF):
+    """Free acceleration along ``d``, ``a = d^T (Gamma F sin - C eta' - K eta)``, and its time
+    derivative ``d^T (Gamma F Omega cos - C eta'' - K eta')`` (forcing term included)."""
+    s = math.sin(phi)
+    co = Om * math.cos(phi)
+    acc = 0.0
+    jerk = 0.0
+    for i in range(eta.shape[0]):
+        ai = GF[i] * s - c[i] * etad[i] - k[i] * eta[i]
+        acc += d[i] * ai
+        jerk += d[i] * (GF[i] * co - c[i] * ai - k[i] * etad[i])
+    return acc, jerk
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _dot(a, b):
+    r = 0.0
+    for i in range(a.shape[0]):
+        r += a[i] * b[i]
+    return r
+
+
+@njit(cache=True, error_model="numpy")
+def _log_event(evlog, nlog, kind, t, aux, stop, eta, etad):
+    k = nlog[0]
+    if k < evlog.shape[0]:
+        N = eta.shape[0]
+        evlog[k, 0] = kind
+        evlog[k, 1] = t
+        evlog[k, 2] = aux
+        evlog[k, 3] = stop
+        for i in range(N):
+            evlog[k, 4 + i] = eta[i]
+            evlog[k, 4 + N + i] = etad[i]
+    nlog[0] = k + 1
+
+
+@njit(cache=True, error_model="numpy")
+def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m, stop):
+    """Locate the maximum of a gap inside ``[0, h]`` (slope + at 0, <= 0 at h) and log it."""
+    k = nlog[1]
+    if k < aplog.shape[0]:
+        sa = root(1, 0.0, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)
+        ga = signal(sa, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)[0]
+        aplog[k, 0] = t + sa
+        aplog[k, 1] = ga
+        aplog[k, 2] = stop
+    nlog[1] = k + 1
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _gap_ends(Pm, k, Sa, Sb, f0, fp0, Om, dx, dy, x2, x3, dsin, dcos, sp1, cp1, m, g1, v1, g21, g31):
+    """Value, slope, 2nd and 3rd derivative at the end of a free step of the gap signal with
+    weights ``Pm[k]`` (no velocity weights) and harmonic part ``Sa sin + Sb cos``, from the modes'
+    increments (:func:`vibeam.models.core.signals.mode_ends`) and the phase's; into row ``k``.
+    (Rows by index, not views: no reference counting in the hot loop.)"""
+    f = f0 + Sa * dsin + Sb * dcos
+    f1 = fp0 + Om * (Sa * dcos - Sb * dsin)
+    f2 = 0.0
+    f3 = 0.0
+    for j in range(m):
+        f += Pm[k, j] * dx[j]
+        f1 += Pm[k, j] * dy[j]
+        f2 += Pm[k, j] * x2[j]
+        f3 += Pm[k, j] * x3[j]
+    W2 = Om * Om
+    g1[k] = f
+    v1[k] = f1
+    g21[k] = f2 - W2 * (Sa * sp1 + Sb * cp1)
+    g31[k] = f3 - W2 * Om * (Sa * cp1 - Sb * sp1)
+
+
+@njit(cache=True, _nrt=False, error_model="numpy")
+def _free_bounds(x, y, mp, hb, Nrm, Cs, Om, M2, M3, M4, n, ns):
+    """Bounds of the 2nd-4th derivatives of every stop's gap over the rest of a free arc, from the
+    modes' homogeneous parts ``x, y`` now (:func:`vibeam.models.core.signals.homogeneous_bounds`)."""
+    for i in range(n):
+        homogeneous_bounds(x[i], y[i], mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5], hb[i])
+    W2 = Om * Om
+    for k in range(ns):
+        a2 = Cs[k] * W2
+        a3 = a2 * Om
+        a4 = a3 * Om
+        for i in range(n):
+            ap = abs(Nrm[k, i])
+            a2 += ap * hb[i, 2]
+            a3 += ap * hb[i, 3]
+            a4 += ap * hb[i, 4]
+        f = 1.0 + 1e-9
+        M2[k] = a2 * f + 1e-300
+        M3[k] = a3 * f + 1e-300
+        M4[k] = a4 * f + 1e-300
+
+
+@njit(cache=True, error_model="numpy")
+def _particular(c, k, G, F, Om, a, b, m):
+    """``a sin + b cos``, the steady response of ``x'' + c x' + k x = G F sin(Om t)``; False if
+    not finite (a mode at undamped exact resonance)."""
+    ok = True
+    for j in range(m):
+        num = G[j] * F
+        dr = k[j] - Om * Om
+        di = c[j] * Om
+        if num == 0.0:
+            a[j] = 0.0
+            b[j] = 0.0
+            continue
+        if dr == 0.0 and di == 0.0:
+            a[j] = np.inf
+            b[j] = np.inf
+            ok = False
+            continue
+        z = num / complex(dr, di)
+        a[j] = z.real
+        b[j] = z.imag
+        if not (math.isfinite(a[j]) and math.isfinite(b[j])):
+            ok = False
+    return ok
+
+
+@njit(cache=True, error_model="numpy")
+def _in(mask, k):
+    return (mask >> k) & 1 == 1
+
+
+# ============================================================================ the kernel
+@njit(cache=True, error_model="numpy")
+def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+              max_impacts, max_steps, chatter_tol, rec):
+    """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core).
+
+    Parameters
+    ----------
+    sy : KernelSystem
+    st : KernelStops
+    hs : HeldSets
+        :mod:`vibeam.models.core.stops`.
+    Om : float
+        Forcing frequency (per unit nondimensional time).
+    eta, etad : ndarray, shape (n,)
+        Initial modal state, overwritten with the final one.
+    held0 : int
+        Bit mask of the stops the system is held on at the start (0 free).
+    n_transient, n_record : int
+        Forcing periods discarded, then recorded.
+    ns_transient, ns_record : int
+        Grid points per period (the recorded samples).
+    h_cap : float
+        Largest step.
+    max_impacts, max_steps : int
+        Guards: beyond them the call returns :data:`ST_FAILED`.
+    chatter_tol : float
+        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.contact_policy`).
+    rec : Record
+        Outputs.
+
+    Returns
+    -------
+    tuple
+        ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
+        gmax, n_steps)``: status code, recorded impacts, sensor extremes over the record (row
+        units), chatter sequences, time held (excluding chatter holds), the final held mask,
+        all impacts (-1: the forced response is not finite; -2: the motion's scale is subnormal,
+        below 1e-290), the largest gap at the end of an
+        event-free step (a certificate: positive beyond round-off only if a crossing had been
+        stepped over), steps taken.
+    """
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    S = hs.valid.shape[0]
+    T = TWO_PI / Om
+    F = Om * Om * sy.B
+    mp = sy.mp
+    # ---- per-frequency data: particular solutions and the harmonic parts of every signal
+    aF = np.empty(n)
+    bF = np.empty(n)
+    GF = np.empty(n)
+    for i in range(n):
+        GF[i] = sy.gam[i] * F
+    if not _particular(sy.c, sy.k, sy.gam, F, Om, aF, bF, n):
+        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -1, -np.inf, 0)
+    # a motion at the scale of subnormal numbers (below 2.2e-308, i.e. with fewer than 53
+    # significant bits) cannot be computed to the kernel's precision: failed at once (n_imp_total
+    # -2), not a number with a few bits
+    scale_f = 0.0
+    for i in range(n):
+        scale_f = max(scale_f, abs(aF[i]), abs(bF[i]), abs(eta[i]), abs(etad[i]))
+    for k in range(ns):
+        scale_f = max(scale_f, abs(st.offset[k]))
+    if 0.0 < scale_f < 1e-290:
+        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -2, -np.inf, 0)
+    SaF = np.empty(ns)
+    SbF = np.empty(ns)
+    CsF = np.empty(ns)
+    for k in range(ns):
+        SaF[k] = _dot(st.normal[k], aF)
+        SbF[k] = _dot(st.normal[k], bF)
+        CsF[k] = math.sqrt(SaF[k] * SaF[k] + SbF[k] * SbF[k])
+    SaSF = _dot(sy.sensor, aF)
+    SbSF = _dot(sy.sensor, bF)
+    aC = np.zeros((S, n))
+    bC = np.zeros((S, n))
+    SaL = np.zeros((S, ns))
+    SbL = np.zeros((S, ns))
+    CsL = np.zeros((S, ns))
+    SaG = np.zeros((S, ns))
+    SbG = np.zeros((S, ns))
+    CsG = np.zeros((S, ns))
+    SaS = np.zeros(S)
+    SbS = np.zeros(S)
+    for m in range(1, S):
+        if hs.valid[m] == 0:
+            continue
+        nc = hs.nc[m]
+        if not _particular(hs.c[m], hs.nu2[m], hs.gam[m], F, Om, aC[m], bC[m], nc):
+            return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -1, -np.inf, 0)
+        for k in range(ns):
+            pa = 0.0
+            pb = 0.0
+            ra = 0.0
+            rb = 0.0
+            ga = 0.0
+            gb = 0.0
+            for j in range(nc):
+                pa += hs.pL[m, k, j] * aC[m, j]
+                pb += hs.pL[m, k, j] * bC[m, j]
+                ra += hs.rL[m, k, j] * aC[m, j]
+                rb += hs.rL[m, k, j] * bC[m, j]
+                ga += hs.pG[m, k, j] * aC[m, j]
+                gb += hs.pG[m, k, j] * bC[m, j]
+            SaL[m, k] = hs.lamF[m, k] * F + pa - Om * rb
+            SbL[m, k] = pb + Om * ra
+            CsL[m, k] = math.sqrt(SaL[m, k] ** 2 + SbL[m, k] ** 2)
+            SaG[m, k] = ga
+            SbG[m, k] = gb
+            CsG[m, k] = math.sqrt(ga * ga + gb * gb)
+        sa = 0.0
+        sb = 0.0
+        for j in range(nc):
+            sa += hs.pS[m, j] * aC[m, j]
+            sb += hs.pS[m, j] * bC[m, j]
+        SaS[m] = sa
+        SbS[m] = sb
+    # ---- fixed sub-steps (a grid step split into ``sub`` of at most h_cap) with the modes'
+    # transition increments and the forcing phases tabulated once: a free step over a whole
+    # sub-step that meets no event costs no transcendental function call
+    sub_t = max(1, int(math.ceil((T / ns_transient) / h_cap * (1.0 - 1e-12))))
+    sub_r = max(1, int(math.ceil((T / ns_record) / h_cap * (1.0 - 1e-12))))
+    P_t = np.empty((n, 4))
+    P_r = np.empty((n, 4))
+    for i in range(n):
+        P_t[i, 0], P_t[i, 1], P_t[i, 2], P_t[i, 3] = transition_increment(
+            T / (ns_transient * sub_t), mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
+        P_r[i, 0], P_r[i, 1], P_r[i, 2], P_r[i, 3] = transition_increment(
+            T / (ns_record * sub_r), mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
+    nt_t = ns_transient * sub_t
+    nt_r = ns_record * sub_r
+    tab_t = np.empty((nt_t + 1, 2))
+    tab_r = np.empty((nt_r + 1, 2))
+    for kk in range(nt_t + 1):
+        tab_t[kk, 0] = math.sin(TWO_PI * kk / nt_t)
+        tab_t[kk, 1] = math.cos(TWO_PI * kk / nt_t)
+    for kk in range(nt_r + 1):
+        tab_r[kk, 0] = math.sin(TWO_PI * kk / nt_r)
+        tab_r[kk, 1] = math.cos(TWO_PI * kk / nt_r)
+    # ---- work arrays
+    zeroN = np.zeros(n)
+    xF = np.empty(n)          # free flight: homogeneous parts of the modes, carried along an arc
+    yF = np.empty(n)
+    dxv = np.empty(n)
+    dyv = np.empty(n)
+    x2v = np.empty(n)
+    x3v = np.empty(n)
+    M2F = np.empty(ns)
+    M3F = np.empty(ns)
+    M4F = np.empty(ns)
+    G2 = np.empty(ns)         # 2nd and 3rd derivatives of the gaps, carried along a free arc
+    G3 = np.empty(ns)
+    G21 = np.empty(ns)
+    G31 = np.empty(ns)
+    fresh = True
+    bstale = False
+    Nrm = st.normal
+    x0 = np.empty(n)
+    y0 = np.empty(n)
+    hb = np.empty((n, 6))
+    zeta = np.empty(n)
+    zetad = np.empty(n)
+    g = np.empty(ns)          # carried gaps (value + accurate increments) and normal velocities
+    v = np.empty(ns)
+    g1 = np.empty(ns)
+    v1 = np.empty(ns)
+    lam0 = np.empty(ns)
+    lamp0 = np.empty(ns)
+    samples = rec.samples
+    msamp = rec.msamp
+    modamp = rec.modamp
+    pmin = rec.pmin
+    imp_t = rec.imp_t
+    imp_v = rec.imp_v
+    imp_k = rec.imp_k
+    n_imp_stop = rec.n_imp_stop
+    chat_t = rec.chat_t
+    evlog = rec.evlog
+    aplog = rec.aplog
+    nlog = rec.nlog
+    logging = evlog.shape[0] > 0
+    apexes = aplog.shape[0] > 0
+    for k in range(ns):
+        n_imp_stop[k] = 0
+    for i in range(n):
+        modamp[i] = 0.0
+    for i in range(pmin.shape[0]):
+        pmin[i] = np.inf
+    ext = np.array([np.inf, -np.inf])
+    pext = np.array([np.inf, -np.inf])
+    # ---- the initial state: held on its set (projected onto the constraint), or put on a stop it
+    # lies on within round-off (position only)
+    H = held0
+    if H < 0 or H >= S or hs.valid[H] == 0:
+        H = 0
+    eta_norm = math.sqrt(_dot(eta, eta))
+    if H != 0:
+        nc = hs.nc[H]
+        for j in range(nc):
+            zz = 0.0
+            zd = 0.0
+            for i in range(n):
+                zz += hs.Psi[H, i, j] * (eta[i] - hs.eta_c[H, i])
+                zd += hs.Psi[H, i, j] * etad[i]
+            zeta[j] = zz
+            zetad[j] = zd
+        for i in range(n):
+            zz = hs.eta_c[H, i]
+            zd = 0.0
+            for j in range(nc):
+                zz += hs.Psi[H, i, j] * zeta[j]
+                zd += hs.Psi[H, i, j] * zetad[j]
+            eta[i] = zz
+            etad[i] = zd
+        if logging:
+            for k in range(ns):
+                if _in(H, k):
+                    _log_event(evlog, nlog, EV_START, 0.0, 1.0, k, eta, etad)
+    for k in range(ns):
+        g[k] = _dot(st.normal[k], eta) - st.offset[k]
+        v[k] = _dot(st.normal[k], etad)
+        if _in(H, k):
+            g[k] = 0.0
+            v[k] = 0.0
+    if H == 0:
+        for k in range(ns):
+            scale = abs(st.offset[k]) + math.sqrt(_dot(st.normal[k], st.normal[k])) * eta_norm + 1e-300
+            if g[k] > -1e-13 * scale:
+                corr = g[k] * st.m_eff[k]
+                for i in range(n):
+                    eta[i] -= st.normal[k, i] * corr
+                for j in range(ns):
+                    g[j] = _dot(st.normal[j], eta) - st.offset[j]
+                g[k] = 0.0
+                if logging:
+                    _log_event(evlog, nlog, EV_START, 0.0, 0.0, k, eta, etad)
+                break
+    gmax = -np.inf
+    n_imp_total = 0
+    n_imp_rec = 0
+    n_chatter = 0
+    # Zeno guard (vibeam.models.contact_policy): impacts within BURST_DT of a period in a row; with
+    # one mode the chatter estimate becomes exact as the rebound speed vanishes (the jerk beyond the
+    # flow part is the forcing term alone), so there the guard is off
+    burst = 0
+    burst_max = BURST_MAX if n > 1 else 0
+    t_last_imp = -1e300
+    n_steps = 0
+    stuck_time = 0.0
+    cap = imp_t.shape[0]
+    just_released = False
+    just_stuck = False
+    hold = 0.0
+    h_last = h_cap
+    k_sample = 0
+    n_total = n_transient + n_record
+    for pp in range(n_total):
+        recording = pp >= n_transient
+        ns_grid = ns_record if recording else ns_transient
+        h_grid = T / ns_grid
+        sub = sub_r if recording else sub_t
+        h_sub = h_grid / sub
+        Ptab = P_r if recording else P_t
+        tab = tab_r if recording else tab_t
+        t_period0 = (pp - n_transient) * T
+        if pp > n_transient:
+            pmin[pp - n_transient - 1] = pext[0]
+            ext[0] = min(ext[0], pext[0])
+            ext[1] = max(ext[1], pext[1])
+            pext[0] = np.inf
+            pext[1] = -np.inf
+        for jg in range(ns_grid):
+            phi = TWO_PI * jg / ns_grid
+            t_loc = jg * h_grid
+            if recording:
+                qs = _dot(sy.sensor, eta)
+                qd = _dot(sy.sensor, etad)
+                for i in range(n):
+                    if abs(eta[i]) > modamp[i]:
+                        modamp[i] = abs(eta[i])
+                samples[k_sample, 0] = qs
+                samples[k_sample, 1] = qd
+                if msamp.shape[0] > 0:
+                    for i in range(n):
+                        msamp[k_sample, i] = eta[i]
+                        msamp[k_sample, n + i] = etad[i]
+                k_sample += 1
+                if qs < pext[0]:
+                    pext[0] = qs
+                if qs > pext[1]:
+                    pext[1] = qs
+            for isub in range(sub):
+                kg = jg * sub + isub
+                phi = TWO_PI * kg / (ns_grid * sub)
+                t_loc = jg * h_grid + isub * h_sub
+                rem = h_sub
+                at_grid = True          # still on the tabulated sub-step (no event yet)
+                while rem > 0.0:
+                    n_steps += 1
+                    if n_steps > max_steps:
+                        return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter,
+                                stuck_time, H, n_imp_total, gmax, n_steps)
+                    # the step grows by doubling from the last certified length (where the
+                    # certification had to halve), up to a whole tabulated sub-step
+                    h_try = min(rem, 2.0 * h_last)
+                    k_imp = -1           # an impact at the current time on this stop, after the step
+                    if H != 0:
+                        # ================================ held on the set H
+                        fresh = True
+                        at_grid = False
+                        nc = hs.nc[H]
+                        Psi = hs.Psi[H]
+                        etc = hs.eta_c[H]
+                        mpC = hs.mp[H]
+                        eC = hs.e[H]
+                        # a stop not held that the system touches and does not leave: impact or stick
+                        touched = -1
+                        for j in range(ns):
+                            if _in(H, j) or hs.moves[H, j] == 0:
+                                continue
+                            if g[j] >= 0.0 and v[j] >= 0.0:
+                                g[j] = 0.0
+                                if v[j] > 0.0:
+                                    touched = j
+                                    break
+                                if not just_released:
+                                    acc, jerk = _contact_acc(phi, Om, eta, etad, hs.dirn[H, j], sy.c, sy.k, GF)
+                                    if not release_now(acc, jerk) and hs.valid[H | (1 << j)] == 1:
+                                        if logging:
+                                            _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, j, eta, etad)
+                                        H = H | (1 << j)
+                                        v[j] = 0.0
+                                        just_stuck = True
+                                        touched = -2
+                                        break
+                        if touched == -2:
+                            continue
+                        if touched >= 0:
+                            k_imp = touched
+                        else:
+                            for j in range(nc):
+                                zz = 0.0
+                                zd = 0.0
+                                for i in range(n):
+                                    zz += Psi[i, j] * (eta[i] - etc[i])
+                                    zd += Psi[i, j] * etad[i]
+                                zeta[j] = zz
+                                zetad[j] = zd
+                            homogeneous(phi, Om, zeta, zetad, aC[H], bC[H], eC, x0, y0, nc)
+                            # the shared release rule: lambda > 0 pulls the system off the stop
+                            released = -1
+                            for k in range(ns):
+                                if not _in(H, k):
+                                    continue
+                                l0, lp0 = signal_start(phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k], SaL[H, k],
+                                                       SbL[H, k], hs.cL[H, k], nc)
+                                if release_now(-l0, -lp0) and not just_stuck and hold <= 0.0:
+                                    released = k
+                                    lam0[k] = l0
+                                    break
+                                lam0[k] = l0 if l0 <= 0.0 else 0.0
+                                lamp0[k] = lp0
+                            if released >= 0:
+                                if logging:
+                                    _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, lam0[released], released,
+                                               eta, etad)
+                                H = H & ~(1 << released)
+                                just_released = True
+                                g[released] = 0.0
+                                v[released] = 0.0
+                                continue
+                            for j in range(nc):
+                                homogeneous_bounds(x0[j], y0[j], mpC[j, 0], mpC[j, 1], int(mpC[j, 2]), mpC[j, 3],
+                                                   mpC[j, 4], mpC[j, 5], hb[j])
+                            # the hold is the rest of a chatter sequence (impacts accumulating), not
+                            # sticking: no release check, not counted in stuck_time
+                            in_hold = hold > 0.0
+                            s_ev = -1.0
+                            k_ev = -1
+                            ev_release = False
+                            h = h_try
+                            if in_hold:
+                                h = min(h_try, hold)
+                            else:
+                                for k in range(ns):
+                                    if not _in(H, k):
+                                        continue
+                                    M2, M3, M4 = bounds(hb, hs.pL[H, k], hs.rL[H, k], CsL[H, k], Om, nc)
+                                    hk = h if s_ev < 0.0 else s_ev
+                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k],
+                                                   SaL[H, k], SbL[H, k], lam0[k], lamp0[k], M2, M3, M4, nc)
+                                    if sk >= 0.0:
+                                        s_ev = sk
+                                        k_ev = k
+                                        ev_release = True
+                                    elif hk2 < hk:
+                                        s_ev = -1.0
+                                        k_ev = -1
+                                        h = hk2
+                            for j in range(ns):
+                                if _in(H, j) or hs.moves[H, j] == 0:
+                                    continue
+                                M2, M3, M4 = bounds(hb, hs.pG[H, j], zeroN, CsG[H, j], Om, nc)
+                                hk = h if s_ev < 0.0 else s_ev
+                                sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, hs.pG[H, j], zeroN, SaG[H, j],
+                                               SbG[H, j], g[j], v[j], M2, M3, M4, nc)
+                                if sk >= 0.0:
+                                    s_ev = sk
+                                    k_ev = j
+                                    ev_release = False
+                                elif hk2 < hk:
+                                    s_ev = -1.0
+                                    k_ev = -1
+                                    h = hk2
+                            if s_ev < 0.0 and not in_hold:
+                                h_last = h if h < h_try else max(h_last, h)
+                            s_mv = s_ev if s_ev >= 0.0 else h
+                            for j in range(ns):
+                                if _in(H, j) or hs.moves[H, j] == 0:
+                                    continue
+                                gj, vj, _a, _b, _c = signal(s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j], zeroN, SaG[H, j],
+                                                            SbG[H, j], g[j], v[j], nc)
+                                if apexes and not (s_ev >= 0.0 and k_ev == j) and v[j] > 0.0 and vj <= 0.0:
+                                    _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j],
+                                              zeroN, SaG[H, j], SbG[H, j], g[j], v[j], nc, j)
+                                if gj > gmax and not (s_ev >= 0.0 and k_ev == j):
+                                    gmax = gj
+                                g[j] = gj if gj < 0.0 else 0.0
+                                v[j] = vj
+                            if recording:
+                                q0s, qp0s = signal_start(phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS[H], SbS[H],
+                                                         hs.cS[H], nc)
+                                q1s, qp1s, _a, _b, _c = signal(s_mv, phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS[H],
+                                                               SbS[H], q0s, qp0s, nc)
+                                extremes(s_mv, phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS[H], SbS[H], q0s, qp0s, qp0s,
+                                         qp1s, pext, nc)
+                                if q1s < pext[0]:
+                                    pext[0] = q1s
+                                if q1s > pext[1]:
+                                    pext[1] = q1s
+                                if not in_hold:
+                                    stuck_time += s_mv
+                            if in_hold:
+                                hold -= s_mv
+                                if hold < 1e-15 * T:
+                                    hold = 0.0
+                            advance_count(s_mv, phi, Om, zeta, zetad, mpC, aC[H], bC[H], eC, nc)
+                            for i in range(n):
+                                zz = etc[i]
+                                zd = 0.0
+                                for j in range(nc):
+                                    zz += Psi[i, j] * zeta[j]
+                                    zd += Psi[i, j] * zetad[j]
+                                eta[i] = zz
+                                etad[i] = zd
+                            phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
+                            if s_mv > 0.0:
+                                just_stuck = False
+                                just_released = False
+                            if s_ev < 0.0:
+                                continue
+                            if ev_release:
+                                if logging:
+                                    _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, 0.0, k_ev, eta, etad)
+                                H = H & ~(1 << k_ev)
+                                just_released = True
+                                g[k_ev] = 0.0
+                                v[k_ev] = 0.0
+                                continue
+                            k_imp = k_ev
+                    else:
+                        # ================================ free flight
+                        touched = -1
+                        for k in range(ns):
+                            if g[k] >= 0.0 and v[k] >= 0.0:
+                                g[k] = 0.0
+                                if v[k] > 0.0:
+                                    touched = k
+                                    break
+                                if not just_released:
+                                    acc, jerk = _contact_acc(phi, Om, eta, etad, st.normal[k], sy.c, sy.k, GF)
+                                    if not release_now(acc, jerk):     # pressed (the release rule)
+                                        if logging:
+                                            _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, k, eta, etad)
+                                        H = 1 << k
+                                        just_stuck = True
+                                        corr = v[k] * st.m_eff[k]
+                                        for i in range(n):
+                                            etad[i] -= st.normal[k, i] * corr
+                                        v[k] = 0.0
+                                        for j in range(ns):
+                                            if j != k:
+                                                v[j] = _dot(st.normal[j], etad)
+                                        touched = -2
+                                        break
+                        if touched == -2:
+                            fresh = True
+                            continue
+                        if touched >= 0:
+                            k_imp = touched
+                        else:
+                            if fresh:
+                                # a new free arc: homogeneous parts, their bounds (valid along the whole
+                                # arc: the homogeneous envelope only decays), curvature of each gap
+                                homogeneous(phi, Om, eta, etad, aF, bF, zeroN, xF, yF, n)
+                                _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
+                                for k in range(ns):
+                                    _f, _f1, G2[k], G3[k], _f4 = signal(0.0, phi, Om, xF, yF, mp, st.normal[k], zeroN,
+                                                                        SaF[k], SbF[k], g[k], v[k], n)
+                                fresh = False
+                                bstale = False
+                            h = h_try
+                            tabd = at_grid and h == rem
+                            if tabd:
+                                sp0 = tab[kg, 0]
+                                cp0 = tab[kg, 1]
+                                sp1 = tab[kg + 1, 0]
+                                cp1 = tab[kg + 1, 1]
+                                dsin = sp1 - sp0
+                                dcos = cp1 - cp0
+                            else:
+                                half = 0.5 * Om * h
+                                sh = math.sin(half)
+                                ph = phi + half
+                                dsin = 2.0 * sh * math.cos(ph)
+                                dcos = -2.0 * sh * math.sin(ph)
+                                sp1 = math.sin(phi + Om * h)
+                                cp1 = math.cos(phi + Om * h)
+                            # the modes' increments and derivatives at h (written out here, not called:
+                            # array arguments cost a reference count each in this loop)
+                            for j in range(n):
+                                if tabd:
+                                    a11 = Ptab[j, 0]
+                                    a12 = Ptab[j, 1]
+                                    a21 = Ptab[j, 2]
+                                    a22 = Ptab[j, 3]
+                                else:
+                                    a11, a12, a21, a22 = transition_increment(h, mp[j, 0], mp[j, 1], int(mp[j, 2]),
+                                                                              mp[j, 3], mp[j, 4], mp[j, 5])
+                                ddx = a11 * xF[j] + a12 * yF[j]
+                                ddy = a21 * xF[j] + a22 * yF[j]
+                                xe = xF[j] + ddx
+                                ye = yF[j] + ddy
+                                dxv[j] = ddx
+                                dyv[j] = ddy
+                                xx2 = -2.0 * mp[j, 0] * ye - mp[j, 1] * xe
+                                x2v[j] = xx2
+                                x3v[j] = -2.0 * mp[j, 0] * xx2 - mp[j, 1] * ye
+                            W2 = Om * Om
+                            s_ev = -1.0
+                            k_ev = -1
+                            h_ok = h
+                            for k in range(ns):
+                                hk = h_ok if s_ev < 0.0 else s_ev
+                                if hk == h:
+                                    f = g[k] + SaF[k] * dsin + SbF[k] * dcos
+                                    f1 = v[k] + Om * (SaF[k] * dcos - SbF[k] * dsin)
+                                    f2 = 0.0
+                                    f3 = 0.0
+                                    for j in range(n):
+                                        f += Nrm[k, j] * dxv[j]
+                                        f1 += Nrm[k, j] * dyv[j]
+                                        f2 += Nrm[k, j] * x2v[j]
+                                        f3 += Nrm[k, j] * x3v[j]
+                                    g1[k] = f
+                                    v1[k] = f1
+                                    G21[k] = f2 - W2 * (SaF[k] * sp1 + SbF[k] * cp1)
+                                    G31[k] = f3 - W2 * Om * (SaF[k] * cp1 - SbF[k] * sp1)
+                                    far = max(g[k], g1[k]) + 0.125 * M2F[k] * hk * hk < 0.0
+                                    if not far and bstale:
+                                        # the bounds of the arc's start (valid: the homogeneous
+                                        # envelope only decays) are loose once fast modes have
+                                        # decayed: near a stop, take them from the current state
+                                        _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
+                                        bstale = False
+                                        far = max(g[k], g1[k]) + 0.125 * M2F[k] * hk * hk < 0.0
+                                    if far:
+                                        sk = -1.0        # far from the stop (interpolation bound)
+                                        hk2 = hk
+                                    else:
+                                        sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, st.normal[k], zeroN,
+                                                            SaF[k], SbF[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
+                                                            G21[k], G31[k], M2F[k], M3F[k], M4F[k], n)
+                                else:
+                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, st.normal[k], zeroN, SaF[k],
+                                                   SbF[k], g[k], v[k], M2F[k], M3F[k], M4F[k], n)
+                                if sk >= 0.0:
+                                    s_ev = sk
+                                    k_ev = k
+                                elif hk2 < hk:
+                                    s_ev = -1.0
+                                    k_ev = -1
+                                    h_ok = hk2
+                            s_mv = s_ev if s_ev >= 0.0 else h_ok
+                            if s_ev < 0.0:
+                                # shrink to a halved step; a step cut by the sub-grid says nothing
+                                h_last = h_ok if h_ok < h else max(h_last, h)
+                            if s_mv != h:
+                                # the step ends before the tabulated one: evaluate the flow there
+                                tabd = False
+                                half = 0.5 * Om * s_mv
+                                sh = math.sin(half)
+                                ph = phi + half
+                                dsin = 2.0 * sh * math.cos(ph)
+                                dcos = -2.0 * sh * math.sin(ph)
+                                sp1 = math.sin(phi + Om * s_mv)
+                                cp1 = math.cos(phi + Om * s_mv)
+                                mode_ends(s_mv, xF, yF, mp, Ptab, False, dxv, dyv, x2v, x3v, n)
+                                for k in range(ns):
+                                    _gap_ends(Nrm, k, SaF[k], SbF[k], g[k], v[k], Om, dxv, dyv, x2v, x3v,
+                                              dsin, dcos, sp1, cp1, n, g1, v1, G21, G31)
+                            if apexes and s_ev < 0.0:
+                                for k in range(ns):
+                                    if v[k] > 0.0 and v1[k] <= 0.0:
+                                        _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, xF, yF, mp, st.normal[k],
+                                                  zeroN, SaF[k], SbF[k], g[k], v[k], n, k)
+                            if recording:
+                                # the sensor's extremes inside the step (root-found where its slope turns)
+                                q0s = _dot(sy.sensor, eta)
+                                qp0s = _dot(sy.sensor, etad)
+                                q1s = q0s + _dot(sy.sensor, dxv) + SaSF * dsin + SbSF * dcos
+                                qp1s = qp0s + _dot(sy.sensor, dyv) + Om * (SaSF * dcos - SbSF * dsin)
+                                if (qp0s < 0.0 < qp1s) or (qp0s > 0.0 > qp1s):
+                                    extremes(s_mv, phi, Om, xF, yF, mp, sy.sensor, zeroN, SaSF, SbSF, q0s, qp0s,
+                                             qp0s, qp1s, pext, n)
+                            bstale = True
+                            for i in range(n):
+                                xF[i] += dxv[i]
+                                yF[i] += dyv[i]
+                                eta[i] = aF[i] * sp1 + bF[i] * cp1 + xF[i]
+                                etad[i] = Om * (aF[i] * cp1 - bF[i] * sp1) + yF[i]
+                            for k in range(ns):
+                                # the state recomposed from its parts may round past a stop that the
+                                # carried gap (value + increments) has not reached: put it back on it
+                                gs = _dot(st.normal[k], eta) - st.offset[k]
+                                if gs > 0.0:
+                                    gs *= st.m_eff[k]
+                                    for i in range(n):
+                                        eta[i] -= st.normal[k, i] * gs
+                            if recording:
+                                # the step's end as the next sample will read it
+                                q1s = _dot(sy.sensor, eta)
+                                if q1s < pext[0]:
+                                    pext[0] = q1s
+                                if q1s > pext[1]:
+                                    pext[1] = q1s
+                            if s_mv != rem:
+                                at_grid = False
+                            phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
+                            if s_mv > 0.0:
+                                just_stuck = False
+                                just_released = False
+                            for k in range(ns):
+                                if s_ev >= 0.0 and k == k_ev:
+                                    g[k] = 0.0
+                                else:
+                                    if g1[k] > gmax:
+                                        gmax = g1[k]
+                                    g[k] = g1[k] if g1[k] < 0.0 else 0.0
+                                v[k] = v1[k]
+                                G2[k] = G21[k]
+                                G3[k] = G31[k]
+                            if s_ev < 0.0:
+                                continue
+                            k_imp = k_ev
+                    # ================================ contact event on stop k_imp (held set H kept)
+                    fresh = True
+                    at_grid = False
+                    if H != 0:
+                        d = hs.dirn[H, k_imp]
+                        me = hs.meff[H, k_imp]
+                        c_eff = hs.ceff[H, k_imp]
+                        k_eff = hs.keff[H, k_imp]
+                    else:
+                        d = st.normal[k_imp]
+                        me = st.m_eff[k_imp]
+                        c_eff = st.c_eff[k_imp]
+                        k_eff = st.k_eff[k_imp]
+                    nk = st.normal[k_imp]
+                    vk = v[k_imp]
+                    # Re-sync the state with the carried contact signal: ``g, v`` are carried as value +
+                    # increment (no cancellation), so they differ from the state's ``n^T eta - D, n^T eta'``
+                    # by round-off that nothing contracts (the impact resets ``g`` to 0 and maps the
+                    # velocity offset to itself): on a periodic orbit it would shift the stop seen by the
+                    # state linearly with the periods of a call.  Project the state onto the event
+                    # (contact at gap 0 with velocity v) along d (d keeps the held constraints).
+                    gs = (_dot(nk, eta) - st.offset[k_imp]) * me
+                    vs = (_dot(nk, etad) - vk) * me
+                    for i in range(n):
+                        eta[i] -= d[i] * gs
+                        etad[i] -= d[i] * vs
+                    g[k_imp] = 0.0
+                    Um = vk if vk > 0.0 else 0.0
+                    if logging:
+                        _log_event(evlog, nlog, EV_IMPACT, pp * T + t_loc, Um, k_imp, eta, etad)
+                    # CONTACT EVENT: the stop's law (Newton's, impulsive), impulse along d
+                    m_nodes = st.nodes[k_imp]
+                    Rc = restitution_coefficient(Um, st.R[k_imp], st.tab_U[k_imp, :m_nodes], st.tab_R[k_imp, :m_nodes])
+                    Up = newton_restitution(Um, Rc)
+                    # the impulse in two parts, the normal velocity first removed, then U+ added: a
+                    # rebound far slower than U- (R -> 0) is not lost to the rounding of U+ - U-
+                    P0 = -me * vk
+                    P1 = me * Up
+                    for i in range(n):
+                        etad[i] += d[i] * P0
+                    for i in range(n):
+                        etad[i] += d[i] * P1
+                    for j in range(ns):
+                        if j != k_imp and not _in(H, j):
+                            v[j] = _dot(st.normal[j], etad)
+                    v[k_imp] = Up
+                    n_imp_total += 1
+                    if recording:
+                        if n_imp_rec < cap:
+                            imp_t[n_imp_rec] = t_period0 + t_loc
+                            imp_v[n_imp_rec] = Um
+                            imp_k[n_imp_rec] = k_imp
+                        n_imp_rec += 1
+                        n_imp_stop[k_imp] += 1
+                    if n_imp_total > max_impacts:
+                        return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
+                                H, n_imp_total, gmax, n_steps)
+                    # the shared policy (vibeam.models.contact_policy), R at the current impact velocity:
+                    # the jerk beyond the one-DOF flow part -c_eff a + k_eff u is the forcing term plus the
+                    # modal remainder (zero for one mode); a chatter jumps only to an accumulation point
+                    # inside the current grid step; the Zeno guard is on
+                    u = -Up
+                    acc, jerk = _contact_acc(phi, Om, eta, etad, d, sy.c, sy.k, GF)
+                    t_imp = t_period0 + t_loc
+                    burst = zeno_burst(burst, t_imp, t_last_imp, BURST_DT * T)
+                    t_last_imp = t_imp
+                    can_hold = hs.valid[H | (1 << k_imp)] == 1
+                    action, D = impact_outcome(u, can_hold and not release_now(acc, jerk), acc, jerk + c_eff * acc - k_eff * u,
+                                               c_eff, k_eff, Rc, chatter_tol, rem, burst, burst_max)
+                    if not can_hold:
+                        action = REBOUND
+                    stick_now = action != REBOUND
+                    if action == STICK or action == CHATTER_GUARD:
+                        burst = 0
+                    if action == CHATTER_GUARD:
+                        if recording:
+                            n_chatter += 1
+                            if n_chatter <= chat_t.shape[0]:
+                                chat_t[n_chatter - 1] = t_imp
+                    elif action == CHATTER:
+                        hold = D
+                        if recording:
+                            n_chatter += 1
+                            if n_chatter <= chat_t.shape[0]:
+                                chat_t[n_chatter - 1] = t_imp + D
+                    if stick_now:
+                        if logging:
+                            _log_event(evlog, nlog, EV_STICK_IMPACT, pp * T + t_loc, hold, k_imp, eta, etad)
+                        corr = Up * me
+                        for i in range(n):
+                            etad[i] -= d[i] * corr
+                        v[k_imp] = 0.0
+                        H = H | (1 << k_imp)
+                        just_stuck = True
+                        for j in range(ns):
+                            if not _in(H, j):
+                                v[j] = _dot(st.normal[j], etad)   # the projection moved them too
+    if n_record > 0:
+        pmin[n_record - 1] = pext[0]
+        ext[0] = min(ext[0], pext[0])
+        ext[1] = max(ext[1], pext[1])
+    status = ST_OK
+    if n_record > 0:
+        if n_chatter > 0:
+            status = ST_CHATTER
+        elif stuck_time > 0.0:
+            status = ST_STICKING
+    return (status, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time, H, n_imp_total, gmax, n_steps)

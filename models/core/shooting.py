@@ -1,0 +1,717 @@
+"""The one shooting problem: ``P^n`` of a modal system with impulsive stops, and its derivatives.
+
+A period-``n`` orbit is a fixed point of the ``n``-th iterate of the stroboscopic map ``P``
+(section at forcing phase 0; contract: :mod:`vibeam.models.periodic`).  ``P^n(x0; p)`` is one run
+of the one event integrator (:func:`vibeam.models.core.integrator.integrate`) from ``x0`` with its
+event log; the tangent ``J = d x_n / d(x0, p)`` (``M`` and ``x_p`` for any number of parameters)
+is then assembled from the log by :func:`tangent` (numba), so that one shot is one compiled call
+(:func:`shoot`):
+
+free flight
+    per mode the 2x2 transition matrix (:func:`vibeam.models.system.transition_entries`) and the
+    explicit parameter dependence of the particular solution and of the damping
+    (``d Phi / d sigma``);
+held on a set ``H`` of stops
+    the same in the constrained coordinates ``zeta = Psi^T (eta - eta_c)``
+    (:class:`~vibeam.models.core.stops.HeldSets`), with the parameter dependence of the stops'
+    offsets (``eta_c``, ``e``);
+impact on stop ``k`` (Newton, ``U+ = -R(U-) U-``, impulse along ``d = Pi_H n_k``)
+    the saltation matrix ``S = G_x + (f+ - G_x f-) h_x / (h_x f-)`` of the surface ``h = n_k^T eta
+    - D_k``, a rank-one update, its jump written in closed form per unit ``U-`` (no cancellation
+    as ``U- -> 0``): ``(-(1 + R) m d, (1 + R) m C_H d + (1 + R + R'(U) U) m d a_n / U)`` with
+    ``m = 1 / (n^T d)``, ``a_n = n^T eta''-`` and ``C_H`` the damping of the current flow;
+entry into sticking (plastic: the impact and the projection ``eta' -= m d U``)
+    the same with the constrained field of ``H + k`` after: the jump per unit ``U`` is ``(-m d,
+    m Pi' C d + (Psi' E' Psi'^T - Psi_H E_H Psi_H^T) eta' / U)``, ``E`` the part of ``Psi^T C Psi``
+    that the held flows' diagonal damping leaves out (zero for Rayleigh damping);
+release of stop ``k`` (``lambda_k = g_k^T (K eta + C eta' - Gamma F sin) = 0``, ``g_k`` its row of
+``(W W^T)^-1 W``)
+    ``dt_r = -(lambda_x dx + lambda_p dp) / lambda_dot`` and ``S = I + (f+ - f-) lambda_x /
+    lambda_dot`` (``f+ = f-`` where the contact force vanishes, up to the root's accuracy).
+
+Parameters are directions (:class:`Direction`): what a unit change of ``p`` does to the forcing
+frequency, the base amplitude, each stop's offset and restitution coefficient, each mode's damping
+coefficient.  A fidelity maps its native keys onto them (the SDOF's ``beta`` is ``dc = 2``, the
+beam's ``damping_D_s`` is ``dc_i = omega_i^2 / omega_ref``).
+
+References
+----------
+R. I. Leine, H. Nijmeijer, *Dynamics and Bifurcations of Non-Smooth Mechanical Systems*, Springer
+2004, Ch. 3 and 7 (saltation matrices); M. di Bernardo et al., *Piecewise-smooth Dynamical
+Systems*, Springer 2008, Sec. 2.5; I. A. Hiskens, M. A. Pai, Trajectory sensitivity analysis of
+hybrid systems, IEEE TCAS-I 47 (2000) 204-220 (parameter sensitivities through events).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from ..impact import restitution_coefficient
+from ..system import transition_entries
+from .integrator import (EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD, integrate)
+
+__all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "restitution_slope", "dtransition_dsig"]
+
+TWO_PI = 2.0 * math.pi
+
+
+class Direction(NamedTuple):
+    """What a unit change of a parameter ``p`` does to the system and its stops.
+
+    Attributes
+    ----------
+    name : str
+    dOm : float
+        ``d Omega / dp`` (1 for the forcing frequency).
+    dB : float
+        ``d B / dp`` (row unit): the base amplitude.
+    dD : ndarray, shape (n_s,)
+        ``d D_k / dp``: each stop's offset.
+    dR : ndarray, shape (n_s,)
+        ``d R_k / dp``: each stop's (constant part of its) coefficient of restitution.
+    dc : ndarray, shape (n,)
+        ``d c_i / dp``: each mode's damping coefficient.
+    """
+
+    name: str
+    dOm: float
+    dB: float
+    dD: np.ndarray
+    dR: np.ndarray
+    dc: np.ndarray
+
+
+class Directions(NamedTuple):
+    """``P`` parameter directions in kernel form, with what they do to the held sets.
+
+    Attributes
+    ----------
+    dOm, dB : ndarray, shape (P,)
+    dD, dR : ndarray, shape (P, n_s)
+    dc : ndarray, shape (P, n)
+    deta_c, de, dcC : ndarray, shape (P, S, n)
+        ``d eta_c / dp``, ``d e / dp`` and the constrained modes' ``d c / dp`` of each held set
+        (:class:`~vibeam.models.core.stops.HeldSets`).
+    """
+
+    dOm: np.ndarray
+    dB: np.ndarray
+    dD: np.ndarray
+    dR: np.ndarray
+    dc: np.ndarray
+    deta_c: np.ndarray
+    de: np.ndarray
+    dcC: np.ndarray
+
+
+def directions(core, dirs) -> Directions:
+    """The kernel form of a sequence of :class:`Direction` for an
+    :class:`~vibeam.models.core.event.EventIntegrator` ``core``."""
+    hs = core.held
+    st = core.kstops
+    n = core.n
+    ns = core.n_stops
+    S = hs.valid.shape[0]
+    P = len(dirs)
+    k = core.ksys.k
+    dOm = np.array([float(d.dOm) for d in dirs])
+    dB = np.array([float(d.dB) for d in dirs])
+    dD = np.zeros((P, ns))
+    dR = np.zeros((P, ns))
+    dc = np.zeros((P, n))
+    for p, d in enumerate(dirs):
+        dD[p] = np.broadcast_to(np.asarray(d.dD, float), (ns,))
+        dR[p] = np.broadcast_to(np.asarray(d.dR, float), (ns,))
+        dc[p] = np.broadcast_to(np.asarray(d.dc, float), (n,))
+    deta_c = np.zeros((P, S, n))
+    de = np.zeros((P, S, n))
+    dcC = np.zeros((P, S, n))
+    for m in range(1, S):
+        if not hs.valid[m]:
+            continue
+        idx = [j for j in range(ns) if m >> j & 1]
+        W = st.normal[idx]
+        G = np.linalg.inv(W @ W.T)
+        nc = int(hs.nc[m])
+        Psi = hs.Psi[m, :, :nc]
+        nu2 = hs.nu2[m, :nc]
+        for p in range(P):
+            dec = W.T @ (G @ dD[p, idx])
+            deta_c[p, m] = dec
+            de[p, m, :nc] = -(Psi.T @ (k * dec)) / np.where(nu2 > 0, nu2, 1.0)
+            dcC[p, m, :nc] = np.einsum("ij,i,ij->j", Psi, dc[p], Psi)
+    for p in range(P):
+        dcC[p, 0] = dc[p]
+    return Directions(dOm, dB, dD, dR, dc, deta_c, de, dcC)
+
+
+# ============================================================================ helpers
+@njit(cache=True, error_model="numpy")
+def restitution_slope(U, table_U, table_R):
+    """``dR/dU-`` of a piecewise-linear restitution law (0 for a constant R or outside its nodes)."""
+    n = table_U.shape[0]
+    if n < 2 or U <= table_U[0] or U >= table_U[n - 1]:
+        return 0.0
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if table_U[mid] <= U:
+            lo = mid
+        else:
+            hi = mid
+    return (table_R[hi] - table_R[lo]) / (table_U[hi] - table_U[lo])
+
+
+@njit(cache=True, error_model="numpy")
+def _series_ds(z):
+    """``sum_{n>=1} n z^(n-1) / (2n+1)!`` (``dS/d(Delta^2) = s^3`` times this)."""
+    out = 0.0
+    term = 1.0 / 6.0
+    zn = 1.0
+    for n in range(1, 10):
+        out += n * zn * term
+        zn *= z
+        term /= (2 * n + 2) * (2 * n + 3)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def dtransition_dsig(s, sig, k, typ, q, l1, l2):
+    """``d Phi(s) / d sig`` (entries 11, 12, 21, 22) of ``x'' + 2 sig x' + k x = 0`` at fixed ``k``.
+
+    With ``Phi = e^{-sig s} [C I + S (A + sig I)]``, ``C = cosh(mu s)``, ``S = sinh(mu s) / mu``
+    (entire functions of ``mu^2 = sig^2 - k``; cos/sin when underdamped), ``dC/dmu^2 = s S / 2`` and
+    ``dS/dmu^2 = (s C - S) / (2 mu^2)``, summed as a series when ``|mu^2| s^2 < 0.1`` (near
+    critical damping).
+    """
+    E = math.exp(-sig * s)
+    z = (sig * sig - k) * s * s
+    if typ == 0:
+        c = math.cos(q * s)
+        sn = math.sin(q * s)
+        Ec = E * c
+        Es = E * sn / q
+        if abs(z) < 0.1:
+            Ed = E * s * s * s * _series_ds(z)
+        else:
+            Ed = E * (s * c - sn / q) / (-2.0 * q * q)
+    elif typ == 2:
+        e1 = math.exp(l1 * s)
+        e2 = math.exp(l2 * s)
+        Ec = 0.5 * (e1 + e2)
+        Es = -e1 * math.expm1(-2.0 * q * s) / (2.0 * q)
+        if abs(z) < 0.1:
+            Ed = E * s * s * s * _series_ds(z)
+        else:
+            Ed = (s * Ec - Es) / (2.0 * q * q)
+    else:
+        Ec = E
+        Es = s * E
+        Ed = E * s * s * s / 6.0
+    dEc = -s * Ec + sig * s * Es
+    dEs = -s * Es + 2.0 * sig * Ed
+    return dEc + sig * dEs + Es, dEs, -k * dEs, dEc - sig * dEs - Es
+
+
+@njit(cache=True, error_model="numpy")
+def _particular_d(c, k, G, F, Om, dF, dOm, dc, a, b, da, db, m):
+    """Particular coefficients ``a, b`` (:func:`vibeam.models.system.particular`) of the first ``m``
+    coordinates and their derivatives ``da, db`` (P, m) along the parameter directions."""
+    P = dF.shape[0]
+    for j in range(m):
+        den = complex(k[j] - Om * Om, c[j] * Om)
+        z = G[j] * F / den
+        a[j] = z.real
+        b[j] = z.imag
+        for p in range(P):
+            dden = complex(-2.0 * Om * dOm[p], dc[p, j] * Om + c[j] * dOm[p])
+            dz = G[j] * (dF[p] / den - F * dden / (den * den))
+            da[p, j] = dz.real
+            db[p, j] = dz.imag
+
+
+@njit(cache=True, error_model="numpy")
+def _accel(H, eta, etad, t, Om, F, sy, hs, out):
+    """The acceleration ``eta''`` of the flow of held set ``H`` (0: free) at a state, in full
+    coordinates (the held flows' constrained modal form)."""
+    n = eta.shape[0]
+    s = math.sin(Om * t)
+    if H == 0:
+        for i in range(n):
+            out[i] = sy.gam[i] * F * s - sy.c[i] * etad[i] - sy.k[i] * eta[i]
+        return
+    nc = hs.nc[H]
+    for i in range(n):
+        out[i] = 0.0
+    for j in range(nc):
+        z = 0.0
+        zd = 0.0
+        for i in range(n):
+            z += hs.Psi[H, i, j] * (eta[i] - hs.eta_c[H, i])
+            zd += hs.Psi[H, i, j] * etad[i]
+        azj = hs.gam[H, j] * F * s - hs.c[H, j] * zd - hs.nu2[H, j] * (z - hs.e[H, j])
+        for i in range(n):
+            out[i] += hs.Psi[H, i, j] * azj
+
+
+@njit(cache=True, error_model="numpy")
+def _flow_free(J, ta, tb, eta, etad, Om, mp, a, b, da, db, dc, dOm, n):
+    """Tangent of the free modal flow from ``ta`` to ``tb`` (absolute times), in place.
+
+    ``J`` (2n, 2n + P): rows ``eta``, ``eta'``; the last ``P`` columns ``d/dp``; ``(eta, etad)`` the
+    state at ``ta``; ``a, b`` the particular solution, ``da, db`` (P, n) its derivatives, ``dc``
+    (P, n) the damping's, ``dOm`` (P,)."""
+    ncol = J.shape[1]
+    P = da.shape[0]
+    ip0 = ncol - P
+    s = tb - ta
+    if s <= 0.0:
+        return
+    sa, ca = math.sin(Om * ta), math.cos(Om * ta)
+    sb, cb = math.sin(Om * tb), math.cos(Om * tb)
+    for i in range(n):
+        sig = mp[i, 0]
+        kk = mp[i, 1]
+        typ = int(mp[i, 2])
+        t11, t12, t21, t22 = transition_entries(s, sig, kk, typ, mp[i, 3], mp[i, 4], mp[i, 5])
+        for c in range(ncol):
+            u = J[i, c]
+            v = J[n + i, c]
+            J[i, c] = t11 * u + t12 * v
+            J[n + i, c] = t21 * u + t22 * v
+        for p in range(P):
+            dpa = da[p, i] * sa + db[p, i] * ca + dOm[p] * ta * (a[i] * ca - b[i] * sa)
+            dva = (dOm[p] * (a[i] * ca - b[i] * sa) + Om * (da[p, i] * ca - db[p, i] * sa)
+                   - Om * dOm[p] * ta * (a[i] * sa + b[i] * ca))
+            dpb = da[p, i] * sb + db[p, i] * cb + dOm[p] * tb * (a[i] * cb - b[i] * sb)
+            dvb = (dOm[p] * (a[i] * cb - b[i] * sb) + Om * (da[p, i] * cb - db[p, i] * sb)
+                   - Om * dOm[p] * tb * (a[i] * sb + b[i] * cb))
+            ep = dpb - (t11 * dpa + t12 * dva)
+            ev = dvb - (t21 * dpa + t22 * dva)
+            if dc[p, i] != 0.0:
+                x0 = eta[i] - (a[i] * sa + b[i] * ca)
+                y0 = etad[i] - Om * (a[i] * ca - b[i] * sa)
+                d11, d12, d21, d22 = dtransition_dsig(s, sig, kk, typ, mp[i, 3], mp[i, 4], mp[i, 5])
+                ep += 0.5 * dc[p, i] * (d11 * x0 + d12 * y0)
+                ev += 0.5 * dc[p, i] * (d21 * x0 + d22 * y0)
+            J[i, ip0 + p] += ep
+            J[n + i, ip0 + p] += ev
+
+
+@njit(cache=True, error_model="numpy")
+def _flow_held(J, ta, tb, eta, etad, Om, H, hs, aC, bC, daC, dbC, dd, Z, Zd, n):
+    """Tangent of the flow held on set ``H`` from ``ta`` to ``tb``, in place: the tangent is taken
+    to ``zeta`` with ``Psi^T``, advanced per constrained mode and taken back, ``d eta_c / dp`` added
+    to the parameter columns.  ``Z, Zd`` (n, ncol) are work arrays."""
+    ncol = J.shape[1]
+    P = daC.shape[0]
+    ip0 = ncol - P
+    nc = hs.nc[H]
+    s = tb - ta
+    for j in range(nc):
+        for c in range(ncol):
+            z = 0.0
+            zd = 0.0
+            for i in range(n):
+                z += hs.Psi[H, i, j] * J[i, c]
+                zd += hs.Psi[H, i, j] * J[n + i, c]
+            Z[j, c] = z
+            Zd[j, c] = zd
+    sa, ca = math.sin(Om * ta), math.cos(Om * ta)
+    sb, cb = math.sin(Om * tb), math.cos(Om * tb)
+    if s > 0.0:
+        for j in range(nc):
+            sig = hs.mp[H, j, 0]
+            kk = hs.mp[H, j, 1]
+            typ = int(hs.mp[H, j, 2])
+            t11, t12, t21, t22 = transition_entries(s, sig, kk, typ, hs.mp[H, j, 3], hs.mp[H, j, 4], hs.mp[H, j, 5])
+            for c in range(ncol):
+                u = Z[j, c]
+                v = Zd[j, c]
+                Z[j, c] = t11 * u + t12 * v
+                Zd[j, c] = t21 * u + t22 * v
+            for p in range(P):
+                dpa = daC[p, j] * sa + dbC[p, j] * ca + dd.dOm[p] * ta * (aC[j] * ca - bC[j] * sa)
+                dva = (dd.dOm[p] * (aC[j] * ca - bC[j] * sa) + Om * (daC[p, j] * ca - dbC[p, j] * sa)
+                       - Om * dd.dOm[p] * ta * (aC[j] * sa + bC[j] * ca))
+                dpb = daC[p, j] * sb + dbC[p, j] * cb + dd.dOm[p] * tb * (aC[j] * cb - bC[j] * sb)
+                dvb = (dd.dOm[p] * (aC[j] * cb - bC[j] * sb) + Om * (daC[p, j] * cb - dbC[p, j] * sb)
+                       - Om * dd.dOm[p] * tb * (aC[j] * sb + bC[j] * cb))
+                # offset e: zeta = e + zp + Phi (zeta_a - e - zp_a)
+                dej = dd.de[p, H, j]
+                ep = dpb - (t11 * dpa + t12 * dva) + dej * (1.0 - t11)
+                ev = dvb - (t21 * dpa + t22 * dva) - dej * t21
+                dcj = dd.dcC[p, H, j]
+                if dcj != 0.0:
+                    z0 = 0.0
+                    zd0 = 0.0
+                    for i in range(n):
+                        z0 += hs.Psi[H, i, j] * (eta[i] - hs.eta_c[H, i])
+                        zd0 += hs.Psi[H, i, j] * etad[i]
+                    x0 = z0 - hs.e[H, j] - (aC[j] * sa + bC[j] * ca)
+                    y0 = zd0 - Om * (aC[j] * ca - bC[j] * sa)
+                    d11, d12, d21, d22 = dtransition_dsig(s, sig, kk, typ, hs.mp[H, j, 3], hs.mp[H, j, 4],
+                                                          hs.mp[H, j, 5])
+                    ep += 0.5 * dcj * (d11 * x0 + d12 * y0)
+                    ev += 0.5 * dcj * (d21 * x0 + d22 * y0)
+                Z[j, ip0 + p] += ep
+                Zd[j, ip0 + p] += ev
+    for c in range(ncol):
+        for i in range(n):
+            u = 0.0
+            v = 0.0
+            for j in range(nc):
+                u += hs.Psi[H, i, j] * Z[j, c]
+                v += hs.Psi[H, i, j] * Zd[j, c]
+            J[i, c] = u
+            J[n + i, c] = v
+    for p in range(P):
+        for i in range(n):
+            J[i, ip0 + p] += dd.deta_c[p, H, i]
+
+
+@njit(cache=True, error_model="numpy")
+def _project_velocity(J, d, nrm, me, n):
+    """``J_eta' -= m d (n^T J_eta')`` (a velocity reset along ``d``), every column."""
+    for c in range(J.shape[1]):
+        r = 0.0
+        for i in range(n):
+            r += nrm[i] * J[n + i, c]
+        for i in range(n):
+            J[n + i, c] -= d[i] * me * r
+
+
+# ============================================================================ the tangent
+@njit(cache=True, error_model="numpy")
+def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_end, J, rel):
+    """The tangent ``J = d x(T_end) / d(x0, p)`` of one logged run of the event integrator.
+
+    Parameters
+    ----------
+    sy, st, hs : KernelSystem, KernelStops, HeldSets
+        The run's system, stops and held sets (:mod:`vibeam.models.core.stops`).
+    dd : Directions
+        ``P`` parameter directions (:func:`directions`).
+    Om : float
+        Forcing frequency.
+    evlog : ndarray, shape (>= n_ev, LOG_HEAD + 2n)
+        The run's event log (:mod:`vibeam.models.core.integrator`).
+    n_ev : int
+    held0 : int
+        The held mask the run started with.
+    x_start, x_end : ndarray, shape (2n,)
+        State passed to the run (before its projection onto held stops) and its final state.
+    held_end : int
+        The held mask at the end.
+    T_end : float
+        End time ``n T``.
+    J : ndarray, shape (2n, 2n + P)
+        Receives ``[M | x_p]``.
+    rel : ndarray, shape (>= releases, 2n + P + 1)
+        Receives, per release, its time and ``d t_r / d(x0, p)``.
+
+    Returns
+    -------
+    n_rel : int
+    n_inexact : int
+        Events without an exact derivative (a release forced at the end of a chatter hold, an
+        entry into sticking at zero velocity after the start).
+    """
+    n = sy.k.shape[0]
+    ns = st.offset.shape[0]
+    S = hs.valid.shape[0]
+    P = dd.dOm.shape[0]
+    ncol = 2 * n + P
+    ip0 = 2 * n
+    F = Om * Om * sy.B
+    dF = np.empty(P)
+    for p in range(P):
+        dF[p] = 2.0 * Om * sy.B * dd.dOm[p] + Om * Om * dd.dB[p]
+    aF = np.empty(n)
+    bF = np.empty(n)
+    daF = np.empty((P, n))
+    dbF = np.empty((P, n))
+    _particular_d(sy.c, sy.k, sy.gam, F, Om, dF, dd.dOm, dd.dc, aF, bF, daF, dbF, n)
+    aC = np.zeros((S, n))
+    bC = np.zeros((S, n))
+    daC = np.zeros((S, P, n))
+    dbC = np.zeros((S, P, n))
+    dcC = np.zeros((P, n))
+    for m in range(1, S):
+        if hs.valid[m] == 1:
+            for p in range(P):
+                for j in range(n):
+                    dcC[p, j] = dd.dcC[p, m, j]
+            _particular_d(hs.c[m], hs.nu2[m], hs.gam[m], F, Om, dF, dd.dOm, dcC, aC[m], bC[m], daC[m], dbC[m],
+                          hs.nc[m])
+    for i in range(2 * n):
+        for c in range(ncol):
+            J[i, c] = 1.0 if i == c else 0.0
+    Z = np.zeros((n, ncol))
+    Zd = np.zeros((n, ncol))
+    eta = x_start[:n].copy()
+    etad = x_start[n:].copy()
+    a0 = np.empty(n)
+    a1 = np.empty(n)
+    cd = np.empty(n)
+    hrow = np.empty(ncol)
+    lrow = np.empty(ncol)
+    n_rel = 0
+    n_inexact = 0
+    t_cur = 0.0
+    H = held0
+    if H != 0:
+        # the run put the state on the held set's constraint: J_eta -> Pi J_eta + d eta_c / dp,
+        # J_eta' -> Pi J_eta'
+        nc = hs.nc[H]
+        for c in range(ncol):
+            for half in range(2):
+                o = half * n
+                for j in range(nc):
+                    r = 0.0
+                    for i in range(n):
+                        r += hs.Psi[H, i, j] * J[o + i, c]
+                    Z[j, c] = r
+                for i in range(n):
+                    r = 0.0
+                    for j in range(nc):
+                        r += hs.Psi[H, i, j] * Z[j, c]
+                    J[o + i, c] = r
+        for p in range(P):
+            for i in range(n):
+                J[i, ip0 + p] += dd.deta_c[p, H, i]
+    k_ev = 0
+    while k_ev < n_ev:
+        kind = int(evlog[k_ev, 0])
+        te = evlog[k_ev, 1]
+        aux = evlog[k_ev, 2]
+        k = int(evlog[k_ev, 3])
+        if kind == EV_START:
+            if aux < 0.5:
+                # the position put on stop k (not held): eta -= m n (n^T eta - D)
+                me = st.m_eff[k]
+                for c in range(ncol):
+                    r = 0.0
+                    for i in range(n):
+                        r += st.normal[k, i] * J[i, c]
+                    for i in range(n):
+                        J[i, c] -= st.normal[k, i] * me * r
+                for p in range(P):
+                    for i in range(n):
+                        J[i, ip0 + p] += st.normal[k, i] * me * dd.dD[p, k]
+            for i in range(n):
+                eta[i] = evlog[k_ev, LOG_HEAD + i]
+                etad[i] = evlog[k_ev, LOG_HEAD + n + i]
+            k_ev += 1
+            continue
+        # ---- flow up to the event
+        if H == 0:
+            _flow_free(J, t_cur, te, eta, etad, Om, sy.mp, aF, bF, daF, dbF, dd.dc, dd.dOm, n)
+        else:
+            _flow_held(J, t_cur, te, eta, etad, Om, H, hs, aC[H], bC[H], daC[H], dbC[H], dd, Z, Zd, n)
+        t_cur = te
+        for i in range(n):
+            eta[i] = evlog[k_ev, LOG_HEAD + i]
+            etad[i] = evlog[k_ev, LOG_HEAD + n + i]
+        if H == 0:
+            d = st.normal[k]
+            me = st.m_eff[k]
+        else:
+            d = hs.dirn[H, k]
+            me = hs.meff[H, k]
+        nv = st.normal[k]
+        if kind == EV_IMPACT or kind == EV_STICK:
+            # row h_x J + h_p of the contact surface h = n^T eta - D_k
+            for c in range(ncol):
+                r = 0.0
+                for i in range(n):
+                    r += nv[i] * J[i, c]
+                hrow[c] = r
+            for p in range(P):
+                hrow[ip0 + p] -= dd.dD[p, k]
+        U = 0.0
+        for i in range(n):
+            U += nv[i] * etad[i]
+        plastic = kind == EV_STICK or (kind == EV_IMPACT and k_ev + 1 < n_ev and
+                                       int(evlog[k_ev + 1, 0]) == EV_STICK_IMPACT)
+        if kind == EV_IMPACT and not plastic:
+            m_nodes = st.nodes[k]
+            Rc = restitution_coefficient(U, st.R[k], st.tab_U[k, :m_nodes], st.tab_R[k, :m_nodes])
+            Rp = restitution_slope(U, st.tab_U[k, :m_nodes], st.tab_R[k, :m_nodes])
+            _accel(H, eta, etad, te, Om, F, sy, hs, a0)
+            an = 0.0
+            for i in range(n):
+                an += nv[i] * a0[i]
+            gv = (1.0 + Rc + Rp * U) * me
+            # G_x: eta' -= d (1 + R + R'U) m n^T eta';  G_R: -d m U per unit R
+            for c in range(ncol):
+                r = 0.0
+                for i in range(n):
+                    r += nv[i] * J[n + i, c]
+                for i in range(n):
+                    J[n + i, c] -= d[i] * gv * r
+            for p in range(P):
+                for i in range(n):
+                    J[n + i, ip0 + p] -= dd.dR[p, k] * d[i] * me * U
+            # the damping of the current flow applied to d: C d free, Psi c Psi^T d held
+            if H == 0:
+                for i in range(n):
+                    cd[i] = sy.c[i] * d[i]
+            else:
+                for i in range(n):
+                    cd[i] = 0.0
+                for j in range(hs.nc[H]):
+                    r = 0.0
+                    for i in range(n):
+                        r += hs.Psi[H, i, j] * d[i]
+                    for i in range(n):
+                        cd[i] += hs.Psi[H, i, j] * hs.c[H, j] * r
+            if U > 0.0:
+                for c in range(ncol):
+                    hc = hrow[c]
+                    if hc != 0.0:
+                        for i in range(n):
+                            J[i, c] -= (1.0 + Rc) * me * d[i] * hc
+                            J[n + i, c] += ((1.0 + Rc) * me * cd[i] + gv * d[i] * an / U) * hc
+            P_imp = -(1.0 + Rc) * me * U
+            for i in range(n):
+                etad[i] += d[i] * P_imp
+            k_ev += 1
+            continue
+        if plastic:
+            H2 = H | (1 << k)
+            # the plastic projection eta' -= m d U, and the constrained field of H2 after it
+            _project_velocity(J, d, nv, me, n)
+            if U > 0.0:
+                # jump per unit U: (-m d, m Pi' C d + (Psi' E' Psi'^T - Psi_H E_H Psi_H^T) eta' / U)
+                for i in range(n):
+                    cd[i] = 0.0
+                nc2 = hs.nc[H2]
+                for j in range(nc2):
+                    r = 0.0
+                    for i in range(n):
+                        r += hs.Psi[H2, i, j] * sy.c[i] * d[i]
+                    for i in range(n):
+                        cd[i] += hs.Psi[H2, i, j] * me * r
+                    # the mismatch E' of the held damping, on the pre-event velocity
+                    for jj in range(nc2):
+                        e = hs.Emis[H2, j, jj]
+                        if e != 0.0:
+                            zd = 0.0
+                            for i in range(n):
+                                zd += hs.Psi[H2, i, jj] * etad[i]
+                            for i in range(n):
+                                cd[i] += hs.Psi[H2, i, j] * e * zd / U
+                if H != 0:
+                    nc1 = hs.nc[H]
+                    for j in range(nc1):
+                        for jj in range(nc1):
+                            e = hs.Emis[H, j, jj]
+                            if e != 0.0:
+                                zd = 0.0
+                                for i in range(n):
+                                    zd += hs.Psi[H, i, jj] * etad[i]
+                                for i in range(n):
+                                    cd[i] -= hs.Psi[H, i, j] * e * zd / U
+                for c in range(ncol):
+                    hc = hrow[c]
+                    if hc != 0.0:
+                        for i in range(n):
+                            J[i, c] -= me * d[i] * hc
+                            J[n + i, c] += cd[i] * hc
+            elif te > 0.0:
+                n_inexact += 1
+            for i in range(n):
+                etad[i] -= d[i] * me * U
+            H = H2
+            k_ev += 2 if kind == EV_IMPACT else 1
+            continue
+        if kind == EV_RELEASE:
+            H2 = H & ~(1 << k)
+            g = hs.gw[H, k]
+            # lambda_k = g^T (K eta + C eta' - Gamma F sin(Om t))
+            _accel(H, eta, etad, te, Om, F, sy, hs, a0)
+            _accel(H2, eta, etad, te, Om, F, sy, hs, a1)
+            cs = math.cos(Om * te)
+            sn = math.sin(Om * te)
+            ldot = 0.0
+            for i in range(n):
+                ldot += g[i] * (sy.k[i] * etad[i] + sy.c[i] * a0[i] - sy.gam[i] * F * Om * cs)
+            for c in range(ncol):
+                r = 0.0
+                for i in range(n):
+                    r += g[i] * (sy.k[i] * J[i, c] + sy.c[i] * J[n + i, c])
+                lrow[c] = r
+            for p in range(P):
+                r = 0.0
+                for i in range(n):
+                    r += g[i] * (dd.dc[p, i] * etad[i]
+                                 - sy.gam[i] * (dF[p] * sn + dd.dOm[p] * F * te * cs))
+                lrow[ip0 + p] += r
+            if n_rel < rel.shape[0]:
+                rel[n_rel, 0] = te
+            if ldot > 0.0 and aux <= 0.0:
+                for c in range(ncol):
+                    if n_rel < rel.shape[0]:
+                        rel[n_rel, 1 + c] = -lrow[c] / ldot
+                    for i in range(n):
+                        J[n + i, c] += (a1[i] - a0[i]) * lrow[c] / ldot
+            elif te > 0.0:
+                n_inexact += 1   # released at a step start with lambda > 0 (the end of a chatter hold)
+            n_rel += 1
+            H = H2
+            k_ev += 1
+            continue
+        k_ev += 1    # EV_STICK_IMPACT without its impact cannot happen; skip defensively
+    if H == 0:
+        _flow_free(J, t_cur, T_end, eta, etad, Om, sy.mp, aF, bF, daF, dbF, dd.dc, dd.dOm, n)
+    else:
+        _flow_held(J, t_cur, T_end, eta, etad, Om, H, hs, aC[H], bC[H], daC[H], dbC[H], dd, Z, Zd, n)
+    # the end time n T = 2 pi n / Omega moves with Omega: + f(nT) d(nT)/dOmega
+    _accel(held_end, x_end[:n], x_end[n:], T_end, Om, F, sy, hs, a0)
+    dT = -T_end / Om
+    for p in range(P):
+        if dd.dOm[p] != 0.0:
+            for i in range(n):
+                J[i, ip0 + p] += x_end[n + i] * dT * dd.dOm[p]
+                J[n + i, ip0 + p] += a0[i] * dT * dd.dOm[p]
+    return n_rel, n_inexact
+
+
+# ============================================================================ one shot
+@njit(cache=True, error_model="numpy")
+def shoot(sy, st, hs, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel,
+          derivatives):
+    """``P^n(x0)``: the integrator's run of ``n_periods`` from phase 0 with its event log, then
+    (``derivatives``) the tangent, in one compiled call.
+
+    Returns
+    -------
+    out : tuple
+        The run's scalars (:func:`vibeam.models.core.integrator.integrate`: ``status, n_imp_record,
+        s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total, gmax, n_steps``).
+    n_rel, n_inexact : int
+        From :func:`tangent` (-1, -1 without derivatives, after a failed run or a full log).
+    x_end : ndarray, shape (2n,)
+        The final state.
+    """
+    n = sy.k.shape[0]
+    eta = x0[:n].copy()
+    etad = x0[n:].copy()
+    out = integrate(sy, st, hs, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
+                    chatter_tol, rec)
+    x_end = np.empty(2 * n)
+    for i in range(n):
+        x_end[i] = eta[i]
+        x_end[n + i] = etad[i]
+    n_rel = -1
+    n_inexact = -1
+    n_ev = rec.nlog[0]
+    if derivatives and out[0] != 3 and n_ev <= rec.evlog.shape[0]:
+        n_rel, n_inexact = tangent(sy, st, hs, dd, Om, rec.evlog, n_ev, held0, x0, x_end, out[6],
+                                   n_periods * TWO_PI / Om, J, rel)
+    return out, n_rel, n_inexact, x_end
