@@ -46,7 +46,7 @@ from .contact import R as RCOL
 from .hc_contact import contact_scales, hc_contact_step, hysteretic_hertz_force
 from .sdof_compliant import HC_V_FLOOR
 from .roots import rtsafe_update
-from .sdof_event import certify_curvature
+from .core.signals import certify_curvature
 from .trajectory import Trajectory, call_budget
 
 TWO_PI = 2.0 * math.pi

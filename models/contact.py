@@ -64,7 +64,7 @@ How a compliant law plugs in
        state matrix ``A_c = A - n n^T [k_c, c_c]`` (the stop couples the modes), exponentiated
        once per point, or numerical integration for hysteretic Hertz -- and its exit event
        ``F = k_c delta + c_c delta' = 0`` (Kelvin-Voigt) is located on the force signal with the
-       same certified scan (:func:`vibeam.models.sdof_event.certify_curvature`, ``rtsafe``).  The
+       same certified scan (:func:`vibeam.models.core.signals.certify_curvature`, ``rtsafe``).  The
        impulsive chatter / sticking rules do not apply to a compliant stop (contact has a
        finite duration; a body resting on it is a contact phase that never exits).
     3. Per-point outputs: the kernels accumulate per stop the contact duration, peak force,

@@ -19,7 +19,7 @@ Events (the contact relation's gap ``delta = q - Delta`` and the law's force
            ``delta >= 0`` and ``f > 0``);
     exit   ``f`` crosses 0 downwards (the force-zero separation; ``delta_e >= 0`` remains).
 Every event function is ``c0 delta + c1 delta' + c2 delta''`` and is located by the
-certified scan of :mod:`vibeam.models.sdof_event` applied to it: on each interval the sign
+certified scan of :mod:`vibeam.models.core.signals` applied to it: on each interval the sign
 of its second derivative is certified from exact bounds on its 3rd and 4th derivatives
 (envelope of the homogeneous part times ``w_p^n`` plus the forced amplitude times
 ``Omega^n``), an uncertified interval is halved, and the crossing is refined by safeguarded
@@ -48,7 +48,7 @@ from .contact import DAMPING, EXPONENT, LAW, LAW_HYSTERETIC_HERTZ, LAW_RESTITUTI
 from .contact_policy import REBOUND, impact_outcome
 from .dormand_prince import DP_A, DP_C, DP_E
 from .roots import rtsafe_update
-from .sdof_event import certify_curvature
+from .core.signals import certify_curvature
 from .sdof_flow import particular_coefficients, transition
 from .trajectory import call_budget
 

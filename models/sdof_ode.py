@@ -37,12 +37,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from numba import njit
 from scipy.optimize import brentq
 
 from .trajectory import Trajectory
 
 from .impact import newton_restitution
-from .sdof_event import release_delay, release_delay_lower
+from .contact_policy import release_now
 
 TWO_PI = 2.0 * math.pi
 EPS = 2.220446049250313e-16
@@ -67,6 +68,55 @@ class _Run:
     y_end: np.ndarray | None = None
     mode_end: float = 0.0
     nfev: int = 0
+
+
+# the closed-form release of the SDOF held on a stop: the direct solver's (its own event loop)
+@njit(cache=True)
+def release_delay(phi, F, Delta, Omega):
+    """Time until a mass stuck on the stop is released (inf: never).
+
+    The contact force per unit mass is ``a(phi) = F sin(phi) - Delta``; the
+    mass stays while ``a >= 0`` and leaves when ``a`` turns negative.
+    """
+    a_now = F * math.sin(phi) - Delta
+    da = F * Omega * math.cos(phi)
+    if release_now(a_now, da):
+        return 0.0
+    if F <= 0.0:
+        return np.inf  # unforced: a = -Delta >= 0 stays
+    r = Delta / F
+    if r <= -1.0:
+        return np.inf
+    if r >= 1.0:
+        return 0.0
+    phid = math.pi - math.asin(r)  # downward zero crossing of a
+    dphi = (phid - phi) % TWO_PI
+    return dphi / Omega
+
+
+@njit(cache=True)
+def release_delay_lower(phi, F, Dl, Omega):
+    """:func:`release_delay` on the lower stop at ``q = -Dl`` (normal ``-1``).
+
+    The contact force per unit mass is ``a(phi) = -F sin(phi) - Dl``; it turns negative
+    (downward zero crossing, ``cos(phi) > 0``) at ``phi = -asin(Dl / F)``.  Written like the
+    upper stop's (no phase shift by pi, which would round), so that advancing the phase by
+    the returned delay lands on the crossing.
+    """
+    a_now = -F * math.sin(phi) - Dl
+    da = -F * Omega * math.cos(phi)
+    if release_now(a_now, da):
+        return 0.0
+    if F <= 0.0:
+        return np.inf  # unforced: a = -Dl >= 0 stays
+    r = Dl / F
+    if r <= -1.0:
+        return np.inf
+    if r >= 1.0:
+        return 0.0
+    phid = -math.asin(r)  # downward zero crossing of a
+    dphi = (phid - phi) % TWO_PI
+    return dphi / Omega
 
 
 def integrate_piecewise(rhs, event, jump, to_q, y0, mode0, t0, period, n_transient, n_record,

@@ -116,20 +116,18 @@ def test_sdof_two_sided_chatter_and_sticking_match_solve_ivp(D, Dl, W, B, R, Rl,
 
 
 def _kernel_events(m, W, x0, n, ns=64):
-    """The event kernel's own event log over ``n`` periods from ``x0`` (rows ``(kind, t, q, q',
-    q'')``, :func:`vibeam.models.sdof_event.event_kernel`), the public route to its release
-    times (method ``event`` does not return them)."""
-    from vibeam.models.contact import pack
-    from vibeam.models.sdof_event import event_kernel
+    """The event integrator's own event log over ``n`` periods from ``x0`` (rows ``[kind, t, aux,
+    stop, q, q']``, :mod:`vibeam.models.core.integrator`), the public route to its release times
+    (method ``event`` does not return them)."""
+    from vibeam.models.core.event import EventIntegrator, fundamental_step
+    from vibeam.models.system import from_sdof
 
-    stops, tU, tR = pack(m.stops())
-    log, cnt = np.zeros((1000, 5)), np.zeros(1, np.int64)
-    held = 1 if x0[2] > 0.5 else (-1 if x0[2] < -0.5 else 0)
-    event_kernel(m.beta, m.B, stops, tU, tR, W, x0[0], x0[1], held, 0, n, ns, ns, 10000, 1e-6,
-                 np.zeros((n * ns, 2)), np.zeros(100), np.zeros(100), np.zeros(100, np.int64),
-                 np.zeros(2, np.int64), np.zeros(n), np.zeros(100), log, cnt)
-    assert cnt[0] <= log.shape[0], f"{cnt[0]} kernel events in {n} periods"
-    return log[:cnt[0]]
+    core = EventIntegrator(from_sdof(m), m.stops())
+    run = core.run(W, x0[:1], x0[1:2], core.held_set_of(x0[2]), 0, n, ns, ns, fundamental_step(core.system),
+                   10000, 10 ** 8, 1e-6, log_events=1000)
+    cnt = int(run.record.nlog[0])
+    assert cnt <= 1000, f"{cnt} kernel events in {n} periods"
+    return run.record.evlog[:cnt]
 
 
 def test_sdof_prestressed_lower_stop_holds_and_releases_exactly():
@@ -139,7 +137,8 @@ def test_sdof_prestressed_lower_stop_holds_and_releases_exactly():
     falling zero, cos > 0).  The kernel's own records against that closed form:
 
     * its release times (event log) equal (asin(-Delta_l / F) + 2 pi k) / Omega to 1e-12
-      (closed form in the kernel; measured 4e-15);
+      (a root of the contact force, safeguarded Newton to a few ulps; measured 4e-15 with the
+      closed form of vibeam's first kernel);
     * its ``stuck_fraction`` equals the held time the closed-form releases and the landings
       of the independent solve_ivp reference imply: from 0 to the first release, then from
       each landing that sticks to the next release (or the end), over 4 T; to 1e-10 (the
@@ -176,8 +175,9 @@ def test_sdof_prestressed_lower_stop_holds_and_releases_exactly():
     assert np.all(force(land[0::2]) < -0.1 * F) and np.all(force(sticks) > 0.2 * F)
     t_rel = (math.asin(-Dl / F) + 2 * math.pi * np.arange(n)) / W
     # the kernel's own releases: the closed form
+    from vibeam.models.core.integrator import EV_RELEASE
     log = _kernel_events(m, W, x0, n)
-    rel = log[log[:, 0] == 2, 1]                 # EV_RELEASE
+    rel = log[log[:, 0] == EV_RELEASE, 1]
     assert rel.size == n
     np.testing.assert_allclose(rel, t_rel, rtol=0, atol=1e-12)
     # the reference releases by brentq on the force: the same instants

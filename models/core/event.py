@@ -264,8 +264,9 @@ def compiled_call(dispatcher, args):
 
     numba's dispatcher resolves the types of tuple arguments in Python (about 0.1 ms per
     NamedTuple of arrays, i.e. most of a short call); the entry point of the overload, found once
-    per type signature (keyed here on the arrays' dtype and dimensions, which is all that the
-    signature depends on), takes the arguments as they are.
+    per type signature, takes the arguments as they are.  The key is cheap: the arrays' dtype,
+    dimensions and layout, the class of a NamedTuple (whose fields this package always builds
+    with one dtype and dimension each: :mod:`vibeam.models.core.stops`), the type of a scalar.
     """
     key = (id(dispatcher),) + tuple(_key(a) for a in args)
     entry = _ENTRIES.get(key)
@@ -280,11 +281,14 @@ def compiled_call(dispatcher, args):
     return entry(*args)
 
 
+def entry_point(dispatcher, args):
+    """The compiled entry point of ``dispatcher`` for these arguments (after a call), or None."""
+    return _ENTRIES.get((id(dispatcher),) + tuple(_key(a) for a in args))
+
+
 def _key(a):
-    if isinstance(a, np.ndarray):
+    if type(a) is np.ndarray:
         return (a.dtype.char, a.ndim, a.flags.c_contiguous)
-    if isinstance(a, tuple):
-        return (type(a),) + tuple(_key(x) for x in a)
     return type(a)
 
 

@@ -158,6 +158,13 @@ def _contact_acc(phi, Om, eta, etad, d, c, k, GF):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
+def _far(g0, g1, M2, h):
+    """A gap negative at both ends of a step stays negative inside when it is far from zero:
+    linear interpolation is off by at most ``M2 h^2 / 8`` (``M2`` bounds ``|g''|``)."""
+    return max(g0, g1) + 0.125 * M2 * h * h < 0.0
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def _dot(a, b):
     r = 0.0
     for i in range(a.shape[0]):
@@ -451,6 +458,8 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
     nlog = rec.nlog
     logging = evlog.shape[0] > 0
     apexes = aplog.shape[0] > 0
+    nlog[0] = 0
+    nlog[1] = 0
     for k in range(ns):
         n_imp_stop[k] = 0
     for i in range(n):
@@ -837,14 +846,14 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                     v1[k] = f1
                                     G21[k] = f2 - W2 * (SaF[k] * sp1 + SbF[k] * cp1)
                                     G31[k] = f3 - W2 * Om * (SaF[k] * cp1 - SbF[k] * sp1)
-                                    far = max(g[k], g1[k]) + 0.125 * M2F[k] * hk * hk < 0.0
+                                    far = _far(g[k], g1[k], M2F[k], hk)
                                     if not far and bstale:
                                         # the bounds of the arc's start (valid: the homogeneous
                                         # envelope only decays) are loose once fast modes have
                                         # decayed: near a stop, take them from the current state
                                         _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
                                         bstale = False
-                                        far = max(g[k], g1[k]) + 0.125 * M2F[k] * hk * hk < 0.0
+                                        far = _far(g[k], g1[k], M2F[k], hk)
                                     if far:
                                         sk = -1.0        # far from the stop (interpolation bound)
                                         hk2 = hk

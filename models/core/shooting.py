@@ -53,7 +53,8 @@ from ..impact import restitution_coefficient
 from ..system import transition_entries
 from .integrator import (EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD, integrate)
 
-__all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "restitution_slope", "dtransition_dsig"]
+__all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "held_at_section", "restitution_slope",
+           "dtransition_dsig", "ModalShooting", "Setup"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -303,24 +304,18 @@ def _flow_free(J, ta, tb, eta, etad, Om, mp, a, b, da, db, dc, dOm, n):
 
 
 @njit(cache=True, error_model="numpy")
-def _flow_held(J, ta, tb, eta, etad, Om, H, hs, aC, bC, daC, dbC, dd, Z, Zd, n):
+def _flow_held(J, ta, tb, eta, etad, Om, H, hs, aC, bC, daC, dbC, dd, n):
     """Tangent of the flow held on set ``H`` from ``ta`` to ``tb``, in place: the tangent is taken
     to ``zeta`` with ``Psi^T``, advanced per constrained mode and taken back, ``d eta_c / dp`` added
-    to the parameter columns.  ``Z, Zd`` (n, ncol) are work arrays."""
+    to the parameter columns."""
     ncol = J.shape[1]
     P = daC.shape[0]
     ip0 = ncol - P
     nc = hs.nc[H]
     s = tb - ta
-    for j in range(nc):
-        for c in range(ncol):
-            z = 0.0
-            zd = 0.0
-            for i in range(n):
-                z += hs.Psi[H, i, j] * J[i, c]
-                zd += hs.Psi[H, i, j] * J[n + i, c]
-            Z[j, c] = z
-            Zd[j, c] = zd
+    Psi = np.ascontiguousarray(hs.Psi[H][:, :nc])
+    Z = Psi.T @ J[:n]             # (nc, ncol): BLAS, O(n nc ncol)
+    Zd = Psi.T @ J[n:]
     sa, ca = math.sin(Om * ta), math.cos(Om * ta)
     sb, cb = math.sin(Om * tb), math.cos(Om * tb)
     if s > 0.0:
@@ -360,15 +355,8 @@ def _flow_held(J, ta, tb, eta, etad, Om, H, hs, aC, bC, daC, dbC, dd, Z, Zd, n):
                     ev += 0.5 * dcj * (d21 * x0 + d22 * y0)
                 Z[j, ip0 + p] += ep
                 Zd[j, ip0 + p] += ev
-    for c in range(ncol):
-        for i in range(n):
-            u = 0.0
-            v = 0.0
-            for j in range(nc):
-                u += hs.Psi[H, i, j] * Z[j, c]
-                v += hs.Psi[H, i, j] * Zd[j, c]
-            J[i, c] = u
-            J[n + i, c] = v
+    J[:n] = Psi @ Z
+    J[n:] = Psi @ Zd
     for p in range(P):
         for i in range(n):
             J[i, ip0 + p] += dd.deta_c[p, H, i]
@@ -452,7 +440,6 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
         for c in range(ncol):
             J[i, c] = 1.0 if i == c else 0.0
     Z = np.zeros((n, ncol))
-    Zd = np.zeros((n, ncol))
     eta = x_start[:n].copy()
     etad = x_start[n:].copy()
     a0 = np.empty(n)
@@ -512,7 +499,7 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
         if H == 0:
             _flow_free(J, t_cur, te, eta, etad, Om, sy.mp, aF, bF, daF, dbF, dd.dc, dd.dOm, n)
         else:
-            _flow_held(J, t_cur, te, eta, etad, Om, H, hs, aC[H], bC[H], daC[H], dbC[H], dd, Z, Zd, n)
+            _flow_held(J, t_cur, te, eta, etad, Om, H, hs, aC[H], bC[H], daC[H], dbC[H], dd, n)
         t_cur = te
         for i in range(n):
             eta[i] = evlog[k_ev, LOG_HEAD + i]
@@ -670,7 +657,7 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
     if H == 0:
         _flow_free(J, t_cur, T_end, eta, etad, Om, sy.mp, aF, bF, daF, dbF, dd.dc, dd.dOm, n)
     else:
-        _flow_held(J, t_cur, T_end, eta, etad, Om, H, hs, aC[H], bC[H], daC[H], dbC[H], dd, Z, Zd, n)
+        _flow_held(J, t_cur, T_end, eta, etad, Om, H, hs, aC[H], bC[H], daC[H], dbC[H], dd, n)
     # the end time n T = 2 pi n / Omega moves with Omega: + f(nT) d(nT)/dOmega
     _accel(held_end, x_end[:n], x_end[n:], T_end, Om, F, sy, hs, a0)
     dT = -T_end / Om
@@ -684,10 +671,40 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
 
 # ============================================================================ one shot
 @njit(cache=True, error_model="numpy")
+def held_at_section(st, hs, x0, Om):
+    """The stops a state ``(eta, eta')`` lies on with zero normal velocity, within 1e-9 of the
+    state's scale (bit mask, 0 none): an orbit through it is taken as held there at the section."""
+    n = x0.shape[0] // 2
+    en = 0.0
+    vn = 0.0
+    for i in range(n):
+        en += x0[i] * x0[i]
+        vn += x0[n + i] * x0[n + i]
+    en = math.sqrt(en)
+    vn = math.sqrt(vn) + Om * en
+    mask = 0
+    for k in range(st.offset.shape[0]):
+        nn = 0.0
+        g = -st.offset[k]
+        U = 0.0
+        for i in range(n):
+            nn += st.normal[k, i] * st.normal[k, i]
+            g += st.normal[k, i] * x0[i]
+            U += st.normal[k, i] * x0[n + i]
+        nn = math.sqrt(nn)
+        if g > -1e-9 * (abs(st.offset[k]) + nn * en + 1e-300) and abs(U) <= 1e-9 * (nn * vn + 1e-300):
+            if hs.valid[mask | (1 << k)] == 1:
+                mask |= 1 << k
+    return mask
+
+
+@njit(cache=True, error_model="numpy")
 def shoot(sy, st, hs, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel,
           derivatives):
     """``P^n(x0)``: the integrator's run of ``n_periods`` from phase 0 with its event log, then
     (``derivatives``) the tangent, in one compiled call.
+
+    ``held0 < 0``: start held where :func:`held_at_section` finds the state held.
 
     Returns
     -------
@@ -696,10 +713,16 @@ def shoot(sy, st, hs, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_step
         s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total, gmax, n_steps``).
     n_rel, n_inexact : int
         From :func:`tangent` (-1, -1 without derivatives, after a failed run or a full log).
+    finite : bool
+        Every entry of the tangent is finite (not: a grazing impact, zero velocity).
+    held0 : int
+        The held mask the run started with.
     x_end : ndarray, shape (2n,)
         The final state.
     """
     n = sy.k.shape[0]
+    if held0 < 0:
+        held0 = held_at_section(st, hs, x0, Om)
     eta = x0[:n].copy()
     etad = x0[n:].copy()
     out = integrate(sy, st, hs, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
@@ -710,8 +733,216 @@ def shoot(sy, st, hs, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_step
         x_end[n + i] = etad[i]
     n_rel = -1
     n_inexact = -1
+    finite = True
     n_ev = rec.nlog[0]
     if derivatives and out[0] != 3 and n_ev <= rec.evlog.shape[0]:
         n_rel, n_inexact = tangent(sy, st, hs, dd, Om, rec.evlog, n_ev, held0, x0, x_end, out[6],
                                    n_periods * TWO_PI / Om, J, rel)
-    return out, n_rel, n_inexact, x_end
+        for i in range(J.shape[0]):
+            for c in range(J.shape[1]):
+                if not math.isfinite(J[i, c]):
+                    finite = False
+    return out, n_rel, n_inexact, finite, held0, x_end
+
+
+# ============================================================================ the problem
+class Setup(NamedTuple):
+    """What a fidelity's shooting problem gives the one shot at a parameter value.
+
+    Attributes
+    ----------
+    core : EventIntegrator
+        The model at the value (system, stops, held sets).
+    Omega : float
+        Forcing frequency.
+    dirs : Directions
+        Its native parameters' directions (:func:`directions`), in a fixed order.
+    gap : float
+        ``Delta`` of the output coordinate (``Q = gap - q_min``).
+    scale : float
+        Row value per unit of ``q`` (:attr:`vibeam.models.system.ModalSystem.coordinate_scale`).
+    """
+
+    core: object
+    Omega: float
+    dirs: Directions
+    gap: float
+    scale: float
+
+
+class ModalShooting:
+    """``P^n`` of a modal system with impulsive stops (contract of :mod:`vibeam.models.periodic`).
+
+    The fidelities' problems subclass it and provide :meth:`setup` (the model, its directions
+    and scales at a parameter value), ``parameter``, ``value`` and ``index`` (the continuation
+    parameter's column among the directions); everything else -- the run, the derivatives, the
+    events, the section held on a stop -- is here once.
+
+    Parameters
+    ----------
+    chatter_tol, steps_per_fundamental, max_impacts_per_period, max_steps_per_period :
+        Settings of the event integrator, as the fidelity's ``event`` solver (same defaults, so
+        that a stable fixed point is what a sweep lands on).
+    """
+
+    #: events, apexes and impacts a shot may log before its buffers grow
+    _CAP = 64
+
+    def __init__(self, chatter_tol: float = 1e-7, steps_per_fundamental: int = 16,
+                 max_impacts_per_period: int = 20000, max_steps_per_period: int = 20000):
+        self.chatter_tol = float(chatter_tol)
+        self.steps_per_fundamental = int(steps_per_fundamental)
+        self.max_impacts_per_period = int(max_impacts_per_period)
+        self.max_steps_per_period = int(max_steps_per_period)
+        self._cap = self._CAP
+        self._capa = self._CAP
+        self._capi = self._CAP
+        self._bufs = {}
+        self._h_caps = {}
+        self._entry = None
+
+    def setup(self, p: float) -> Setup:      # pragma: no cover - the fidelities' own
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ the shot
+    def shot(self, x0, p: float, n: int = 1, derivatives: bool = True, stuck=None) -> "Shot":
+        """``P^n(x0; p)`` with its monodromy, ``d x / d p``, events and test values.
+
+        Parameters
+        ----------
+        x0 : array_like, shape (2n,)
+            ``(eta, eta')`` at forcing phase 0.
+        p : float
+            Value of the parameter (native units).
+        n : int, optional
+            Number of forcing periods.
+        derivatives : bool, optional
+            Assemble ``M`` and ``x_p`` (False: NaN arrays, the cost of the run alone).
+        stuck : bool, int or None, optional
+            Start held: True on the stops the state lies on, an int: that bit mask of stops;
+            None: where :func:`held_at_section` finds the state held.
+
+        Returns
+        -------
+        Shot
+            ``x``, ``M``, ``x_p``, ``impact_times`` (from the section), ``impact_velocities``
+            (normal ``U- `` in units of ``q'``), ``q_min``/``q_max`` (exact extremes of the output
+            coordinate), ``apex_gap`` (row units: the largest gap at an interior free-flight
+            maximum of any stop's gap), ``stuck_time``, ``status`` (``ok``, ``chatter``,
+            ``failed``), ``Omega``, ``gap`` and ``extra``: ``x_all_p`` (2n, P) along every native
+            parameter, ``event_kinds``, ``event_times``, ``event_stops``, ``event_states``,
+            ``apexes`` (k, 3: time, gap, stop), ``impact_stops``, ``n_chatter``, ``stuck_start``,
+            ``stuck_end``, ``n_steps``, ``release_times``, ``release_time_derivatives``,
+            ``n_inexact``.
+        """
+        from ..periodic import Shot
+        from .integrator import ST_FAILED, new_record
+
+        n = int(n)
+        d = int(self.dim)
+        x0 = np.ascontiguousarray(x0, dtype=float).reshape(-1)
+        bad = self.invalid(float(p)) if math.isfinite(p) else f"the parameter must be finite, got {p}"
+        if x0.shape != (d,) or not np.isfinite(x0).all() or n < 1 or bad:
+            nanM = np.full((d, d), np.nan)
+            nanv = np.full(d, np.nan)
+            msg = bad or f"x0 must be finite with shape ({d},) and n >= 1; got shape {x0.shape}, n = {n}"
+            return Shot(x=nanv, M=nanM, x_p=nanv, impact_times=np.zeros(0), impact_velocities=np.zeros(0),
+                        q_min=np.nan, q_max=np.nan, status="failed", message=msg)
+        set_ = self.setup(p)
+        core = set_.core
+        N = core.n
+        Om = set_.Omega
+        if stuck is None:
+            held = -1
+        elif stuck is True:
+            held = int(held_at_section(core.kstops, core.held, np.concatenate([x0[:N], np.zeros(N)]), Om))
+        else:
+            held = int(stuck)
+        h_cap = self._h_caps.get(id(core))
+        if h_cap is None:
+            h_cap = self._h_caps[id(core)] = (2.0 * math.pi / float(np.sqrt(np.min(core.ksys.k[core.ksys.k > 0])))
+                                              / self.steps_per_fundamental)
+        P = set_.dirs.dOm.shape[0]
+        while True:
+            key = (n, N, core.n_stops, P)
+            bufs = self._bufs.get(key)
+            if bufs is None:
+                bufs = self._bufs[key] = (new_record(N, core.n_stops, n, 1, self._capi, False, self._cap, self._capa),
+                                          np.empty((d, d + P)), np.zeros((self._cap, d + P + 1)))
+            rec, J, rel = bufs
+            args = (core.ksys, core.kstops, core.held, set_.dirs, float(Om), x0, held, n, float(h_cap),
+                    self.max_impacts_per_period * n, self.max_steps_per_period * n, self.chatter_tol, rec, J, rel,
+                    bool(derivatives))
+            if self._entry is None:
+                out, n_rel, n_inexact, finite, held, x = _call_shoot(args)
+                self._entry = _ENTRY.get("shoot")
+            else:
+                # the same argument types every call of this problem: its compiled entry point
+                out, n_rel, n_inexact, finite, held, x = self._entry(*args)
+            nlog = rec.nlog
+            if nlog[0] <= self._cap and nlog[1] <= self._capa and out[1] <= self._capi:
+                break
+            self._cap = max(self._cap, int(nlog[0]) + 16)
+            self._capa = max(self._capa, int(nlog[1]) + 16)
+            self._capi = max(self._capi, int(out[1]) + 16)
+            self._bufs.clear()
+        status, n_imp, smin, smax, n_chat, stuck_time, held_end, n_tot, gmax, n_steps = out
+        sc = set_.scale
+        n_ev, n_ap = int(nlog[0]), int(nlog[1])
+        ev = rec.evlog[:n_ev].copy()          # one copy; the event arrays are views of it
+        kinds = ev[:, 0].astype(np.int64)
+        extra = dict(event_kinds=kinds, event_times=ev[:, 1], event_stops=ev[:, 3].astype(np.int64),
+                     event_states=ev[:, 4:], apexes=rec.aplog[:n_ap].copy(), n_chatter=int(n_chat),
+                     stuck_start=bool(held), stuck_end=bool(held_end), n_steps=int(n_steps))
+        if core.n_stops > 1:
+            extra["impact_stops"] = rec.imp_k[:n_imp].copy()
+        it = rec.imp_t[:n_imp].copy()
+        iv = rec.imp_v[:n_imp] / sc
+        if status == ST_FAILED:
+            return Shot(x=x, M=np.full((d, d), np.nan), x_p=np.full(d, np.nan), impact_times=it, impact_velocities=iv, q_min=smin / sc,
+                        q_max=smax / sc, stuck_time=float(stuck_time), status="failed", Omega=Om, gap=set_.gap,
+                        message=(f"the event integrator gave up after {n_tot} impacts / {n_steps} steps in {n} "
+                                 f"period(s) (non-accumulating chatter or step collapse)"), extra=extra)
+        if not derivatives:
+            M, xp = np.full((d, d), np.nan), np.full(d, np.nan)
+        else:
+            Jc = J.copy()
+            M = Jc[:, :d]
+            xp = Jc[:, d + self.index]
+            extra["x_all_p"] = Jc[:, d:]
+            rl = rel[:n_rel].copy()
+            extra["release_times"] = rl[:, 0]
+            extra["release_time_derivatives"] = rl[:, 1:]
+        extra["n_inexact"] = int(max(n_inexact, 0))
+        apex = float(rec.aplog[:n_ap, 1].max()) if n_ap else -math.inf
+        st, msg = "ok", ""
+        if n_inexact > 0:
+            st = "chatter"
+            msg = (f"{n_inexact} event(s) without an exact derivative (release forced at the end of a chatter "
+                   f"hold, or entry into sticking at zero velocity)")
+        elif derivatives and not finite:
+            st = "failed"
+            msg = "grazing impact (zero impact velocity): the monodromy is singular"
+        return Shot(x=x, M=M, x_p=xp, impact_times=it, impact_velocities=iv, q_min=float(smin / sc),
+                    q_max=float(smax / sc), apex_gap=apex, stuck_time=float(stuck_time), status=st, message=msg,
+                    extra=extra, Omega=Om, gap=set_.gap)
+
+    def invalid(self, p: float) -> str:
+        """Why ``p`` is not a value of the parameter ('' if it is)."""
+        return ""
+
+
+_SHOOT_ENTRY = {}
+
+
+_ENTRY = {}
+
+
+def _call_shoot(args):
+    """:func:`shoot` through its compiled entry point (no per-call type resolution of the
+    NamedTuple arguments; :func:`vibeam.models.core.event.compiled_call`), which is kept for the
+    problem's later shots."""
+    from .event import compiled_call, entry_point
+    out = compiled_call(shoot, args)
+    _ENTRY["shoot"] = entry_point(shoot, args)
+    return out

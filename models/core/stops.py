@@ -147,6 +147,12 @@ class HeldSets(NamedTuple):
     meff, ceff, keff : ndarray, shape (S, n_s)
         Its effective mass ``1 / (n_j^T Pi_H n_j)`` and the chatter estimate's damping rate and
         stiffness along it.
+    gw : ndarray, shape (S, n_s, n)
+        Row ``k`` of ``(W_H W_H^T)^-1 W_H`` for each held stop ``k``: ``lambda_k = gw^T (K eta + C
+        eta' - Gamma F sin)`` in full coordinates.
+    Emis : ndarray, shape (S, n, n)
+        ``Psi^T C Psi - diag(c)`` (first ``nc`` rows and columns): the damping coupling that the
+        held flow's diagonal damping leaves out (zero for Rayleigh damping).
     """
 
     valid: np.ndarray
@@ -171,6 +177,8 @@ class HeldSets(NamedTuple):
     meff: np.ndarray
     ceff: np.ndarray
     keff: np.ndarray
+    gw: np.ndarray
+    Emis: np.ndarray
 
 
 def kernel_system(system: ModalSystem) -> KernelSystem:
@@ -241,7 +249,8 @@ def held_sets(system: ModalSystem, ks: KernelStops) -> tuple[HeldSets, np.ndarra
                nu2=np.zeros((S, n)), gam=np.zeros((S, n)), pL=np.zeros((S, ns, n)), rL=np.zeros((S, ns, n)),
                cL=np.zeros((S, ns)), lamF=np.zeros((S, ns)), pG=np.zeros((S, ns, n)), cG=np.zeros((S, ns)),
                moves=np.zeros((S, ns), np.int64), pS=np.zeros((S, n)), cS=np.zeros(S),
-               dirn=np.zeros((S, ns, n)), meff=np.zeros((S, ns)), ceff=np.zeros((S, ns)), keff=np.zeros((S, ns)))
+               dirn=np.zeros((S, ns, n)), meff=np.zeros((S, ns)), ceff=np.zeros((S, ns)), keff=np.zeros((S, ns)),
+               gw=np.zeros((S, ns, n)), Emis=np.zeros((S, n, n)))
     mismatch = np.zeros(S)
     for mask in range(S):
         idx = [k for k in range(ns) if mask >> k & 1]
@@ -274,6 +283,8 @@ def held_sets(system: ModalSystem, ks: KernelStops) -> tuple[HeldSets, np.ndarra
         if nc > 1:
             off = np.max(np.abs(CC - np.diag(cC)))
             mismatch[mask] = off / max(np.max(np.abs(cC)), 1e-300)
+            if off > 1e-12 * max(np.max(np.abs(cC)), 1e-300):     # not Rayleigh's round-off
+                out["Emis"][mask, :nc, :nc] = CC - np.diag(cC)
         e = -(Psi.T @ (K @ eta_c)) / np.where(nu2 > 0, nu2, 1.0)
         o = out
         o["valid"][mask] = 1
@@ -288,6 +299,7 @@ def held_sets(system: ModalSystem, ks: KernelStops) -> tuple[HeldSets, np.ndarra
         o["pS"][mask, :nc] = Psi.T @ sens
         o["cS"][mask] = float(sens @ eta_c) + float((Psi.T @ sens) @ e)
         for a, k in enumerate(idx):
+            out["gw"][mask, k] = sum(G[a, b] * Nrm[l] for b, l in enumerate(idx))
             pL = sum(G[a, b] * (Psi.T @ (K @ Nrm[l])) for b, l in enumerate(idx))
             rL = sum(G[a, b] * (Psi.T @ (C @ Nrm[l])) for b, l in enumerate(idx))
             o["pL"][mask, k, :nc] = pL
