@@ -43,6 +43,7 @@ from numba import njit
 from .trajectory import Trajectory, call_budget
 
 from .contact import Relation, Restitution, Stop
+from .core.direct import DirectIntegrator
 from .core.event import EventIntegrator, fundamental_step, trajectory
 from .impact import newton_restitution, restitution_coefficient, restitution_impulse
 from .system import advance_modes, from_beam, mode_table, particular, transition_increment
@@ -322,7 +323,7 @@ class BeamImpactModel:
             rows["rL"].append(me * (n @ C @ Psi))
             rows["cL"].append(me * float(n @ K @ eta_c))
             rows["cS"].append(float(self.sensor_row @ eta_c))
-        #: per-stop kernel data (row k: stop k), see :func:`beam_kernel`
+        #: per-stop data of the beam held on each stop (row k: stop k; the direct solver and the starts)
         self.stop_rows = {k: np.ascontiguousarray(np.stack(v) if k not in ("cL", "cS") else np.array(v, dtype=float))
                           for k, v in rows.items()}
         r = self.stop_rows
@@ -570,248 +571,22 @@ class BeamODESolver:
         self.atol = float(atol)
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.chatter_velocity = float(chatter_velocity)
+        self._direct = DirectIntegrator(EventIntegrator(from_beam(model), model.stops()),
+                                        model.length_m * math.sqrt(model.m_eff), solver, self.rtol, self.atol,
+                                        self.max_impacts_per_period, self.chatter_velocity, max_step)
 
     def settings(self) -> dict:
         return dict(solver=self.solver, rtol=self.rtol, atol=self.atol, n_modes=self.model.n_modes,
                     chatter_velocity=self.chatter_velocity)
 
     def point(self, Omega, state0, n_transient, n_record, samples_per_period=64) -> Trajectory:
-        from scipy.integrate import solve_ivp
-
+        """One forcing frequency by the one direct solver (:mod:`vibeam.models.core.direct`) on the
+        beam's modal system and stops; ``state0`` as :meth:`BeamEventSolver.point`."""
         m = self.model
-        N = m.n_modes
-        Om = float(Omega)
-        L = m.length_m
-        sc = L * math.sqrt(m.m_eff)
         s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
-        y = s0[:2 * N] / sc
-        stuck = bool(s0[2 * N] > 0.5)
-        k, c = m.k_nd, m.c_nd
-        F = Om**2 * m.base_amplitude_m
-        GF = m.participation * F / sc
-        w, sv = m.contact_row, m.sensor_row
-        w2 = float(w @ w)
-        me = m.m_eff
-        Psi = m.Psi
-        Nc = Psi.shape[1]
-        cC, nu2, GC = m.cC, m.nu2, m.GC * F / sc
-        T = TWO_PI / Om
-        # each stop (vibeam.models.contact): normal n = s w, offset, its law, and the data of the
-        # beam held on it (constrained offset eta_c, load of the constrained modes, contact force)
-        stops = m.stops()
-        two = len(stops) > 1
-        r = m.stop_rows
-        sides = []
-        for j, st in enumerate(stops):
-            n = r["normals"][j]
-            etac = r["eta_c"][j] / sc
-            sides.append(dict(n=n, D=st.relation.offset / sc, law=st.law, etac=etac,
-                              gconst=-(Psi.T @ (k * etac)), pL=r["pL"][j], rL=r["rL"][j],
-                              lam_sin=-me * float(n @ m.participation) * F / sc,
-                              lam_const=me * float(n @ (k * etac))))
-        side = 0 if s0[2 * N] > -0.5 or not two else 1
-        stuck = stuck or (two and s0[2 * N] < -0.5)
-
-        def rhs(t, z):
-            return np.concatenate([z[N:], GF * math.sin(Om * t) - c * z[N:] - k * z[:N]])
-
-        def rhs_c(t, z):
-            if Nc == 0:
-                return np.zeros(2)
-            return np.concatenate([z[Nc:], GC * math.sin(Om * t) - cC * z[Nc:] - nu2 * z[:Nc]
-                                   + sides[side]["gconst"]])
-
-        def lam(t, z):  # contact force / m_eff-scaled units; the beam is held while <= 0
-            d = sides[side]
-            if Nc == 0:
-                return d["lam_const"] + d["lam_sin"] * math.sin(Om * t)
-            return (d["lam_const"] + d["lam_sin"] * math.sin(Om * t) + d["pL"] @ z[:Nc] + d["rL"] @ z[Nc:])
-        lam.terminal = True
-        lam.direction = 1.0
-
-        DC = sides[0]["D"]
-
-        def ev_contact(t, z):
-            return w @ z[:N] - DC
-        ev_contact.terminal = True
-        ev_contact.direction = 1.0
-        events_free = [ev_contact]
-
-        if two:
-            nl, Dlow = sides[1]["n"], sides[1]["D"]
-
-            def ev_lower(t, z):
-                return nl @ z[:N] - Dlow
-            ev_lower.terminal = True
-            ev_lower.direction = 1.0
-
-        def ev_sens(t, z):
-            return sv @ z[N:]
-        events_free.append(ev_sens)
-        if two:
-            events_free.append(ev_lower)
-
-        def ev_sens_c(t, z):
-            return sv @ (Psi @ z[Nc:2 * Nc]) if Nc else 1.0
-
-        def acc_U(t, z, j=0):
-            return float(sides[j]["n"] @ (GF * math.sin(Om * t) - c * z[N:] - k * z[:N]))
-
-        def full(zc):  # constrained -> full state, columns
-            etac = sides[side]["etac"]
-            if Nc == 0:
-                return np.concatenate([np.repeat(etac[:, None], zc.shape[1], 1), np.zeros((N, zc.shape[1]))])
-            return np.concatenate([etac[:, None] + Psi @ zc[:Nc], Psi @ zc[Nc:2 * Nc]])
-
-        def stick(y, j=0):
-            n, D = sides[j]["n"], sides[j]["D"]
-            y = y.copy()
-            y[:N] -= n * (n @ y[:N] - D) / w2
-            y[N:] -= n * (n @ y[N:]) / w2
-            return y
-
-        t = 0.0
-        t_end = (n_transient + n_record) * T
-        t_rec = n_transient * T
-        ts = t_rec + np.arange(n_record * samples_per_period) * (T / samples_per_period)
-        samples = np.zeros((ts.size, 2))
-        filled = np.zeros(ts.size, bool)
-        ext = [np.inf, -np.inf]
-        ev_min = []   # (t, q) of sensor extremes located by events in the record
-        imp_t, imp_v, imp_k, imp_e = [], [], [], []
-        n_imp = 0
-        n_chat = 0
-        stuck_time = 0.0
-        max_imp = self.max_impacts_per_period * (n_transient + n_record)
-        vscale = None
-        modamp = np.zeros(N)
-        if not stuck:
-            for j, d in enumerate(sides):   # at rest on a stop: held if the contact force presses
-                n, D = d["n"], d["D"]
-                if n @ y[:N] - D >= -1e-13 * (abs(D) + np.abs(n) @ np.abs(y[:N])) and n @ y[N:] <= 0:
-                    y = stick(y, j)
-                    stuck = True
-                    side = j
-                    break
-        guard = 0
-        while t < t_end:
-            guard += 1
-            if guard > 10 * max_imp + 100:
-                return self._failed(Om, s0, n_record, samples_per_period, "no progress")
-            if stuck:
-                etac = sides[side]["etac"]
-                zc = np.concatenate([Psi.T @ (y[:N] - etac), Psi.T @ y[N:]]) if Nc else np.zeros(2)
-                l0 = lam(t, zc)
-                eps_t = 1e-9 * T
-                if l0 > 0 or (l0 == 0 and lam(t + eps_t, zc) > 0):
-                    stuck = False
-                    continue
-                sol = solve_ivp(rhs_c, (t, t_end), zc, method=self.solver, rtol=self.rtol,
-                                atol=self.atol, events=[lam, ev_sens_c], dense_output=True,
-                                max_step=min(T / 16, self.max_step or np.inf))
-                if sol.status < 0:
-                    return self._failed(Om, s0, n_record, samples_per_period, sol.message)
-                t1 = sol.t[-1]
-                Zf = lambda tt: full(np.atleast_2d(sol.sol(tt).T).T)
-                if t1 > t_rec:
-                    stuck_time += t1 - max(t, t_rec)
-                y = Zf(np.array([t1]))[:, 0]
-                released = sol.status == 1 and sol.t_events[0].size > 0
-                ev_ext = sol.t_events[1]
-            else:
-                sol = solve_ivp(rhs, (t, t_end), y, method=self.solver, rtol=self.rtol, atol=self.atol,
-                                events=events_free, dense_output=True,
-                                max_step=min(T / 16, self.max_step or np.inf))
-                if sol.status < 0:
-                    return self._failed(Om, s0, n_record, samples_per_period, sol.message)
-                t1 = sol.t[-1]
-                Zf = sol.sol
-                y = sol.y[:, -1].copy()
-                released = False
-                ev_ext = sol.t_events[1]
-            sel = (ts >= t - 1e-12 * T) & (ts <= t1) & ~filled
-            if np.any(sel):
-                Z = Zf(ts[sel])
-                samples[sel, 0] = sv @ Z[:N] * sc / L
-                samples[sel, 1] = sv @ Z[N:] * sc / L
-                filled[sel] = True
-                modamp = np.maximum(modamp, np.max(np.abs(Z[:N]), axis=1) * sc)
-            for te in ev_ext:
-                if te >= t_rec:
-                    qv = float(sv @ Zf(np.array([te]))[:N, 0]) * sc / L
-                    ev_min.append((te, qv))
-                    ext[0] = min(ext[0], qv)
-                    ext[1] = max(ext[1], qv)
-            t = t1
-            if stuck:
-                if released:
-                    stuck = False
-                continue
-            hit = -1
-            if sol.status == 1 and sol.t_events[0].size:
-                hit = 0
-            elif two and sol.status == 1 and sol.t_events[2].size:
-                hit = 1
-            if hit >= 0:
-                n = sides[hit]["n"]
-                Um = float(n @ y[N:])
-                if vscale is None:
-                    vscale = max(abs(Um), 1e-300)
-                n_imp += 1
-                if n_imp > max_imp:
-                    return self._failed(Om, s0, n_record, samples_per_period, "too many impacts")
-                rec = t >= t_rec
-                if rec:
-                    imp_t.append(t - t_rec)
-                    imp_v.append(max(Um, 0.0) * sc / L)
-                    imp_k.append(hit)
-                    # energy lost: the jump of the modal kinetic energy |eta'|^2 / 2 over the impact
-                    # (state scaled by 1 / (L sqrt(m_eff)): already per m_eff L^2)
-                    ke0 = 0.5 * float(y[N:] @ y[N:])
-                    qv = float(sv @ y[:N]) * sc / L
-                    if hit == 0:
-                        ext[1] = max(ext[1], qv)
-                    else:
-                        ext[0] = min(ext[0], qv)
-                if Um <= self.chatter_velocity * vscale:
-                    y = stick(y, hit)
-                    if rec:
-                        imp_e.append(ke0 - 0.5 * float(y[N:] @ y[N:]))
-                    if acc_U(t, y, hit) > 0:
-                        stuck = True
-                        side = hit
-                        n_chat += t >= t_rec
-                    continue
-                ydot = y[N:].copy()
-                law = sides[hit]["law"]
-                Up = newton_restitution(Um, law.coefficient(Um * sc))
-                apply_impulse(ydot, n, Um, Up, me)
-                y[N:] = ydot
-                if rec:
-                    imp_e.append(ke0 - 0.5 * float(ydot @ ydot))
-                if law.R == 0.0 and acc_U(t, y, hit) > 0:   # plastic impact into a pressing contact
-                    y = stick(y, hit)
-                    stuck = True
-                    side = hit
-        q = samples[:, 0]
-        pmin = q.reshape(n_record, samples_per_period).min(axis=1) if q.size else np.zeros(n_record)
-        for te, qv in (ev_min if n_record else []):
-            kp = min(max(int((te - t_rec) // T), 0), n_record - 1)
-            pmin[kp] = min(pmin[kp], qv)
-        status = "chatter" if n_chat else ("sticking" if stuck_time > 0 else "ok")
-        return Trajectory(
-            Omega=Om, samples=samples, samples_per_period=samples_per_period,
-            impact_times=np.array(imp_t), impact_velocities=np.array(imp_v), n_impacts=len(imp_t),
-            contacts=np.column_stack([np.zeros(len(imp_e)), np.full(len(imp_e), np.nan), np.zeros(len(imp_e)),
-                                      np.array(imp_e, float), np.array(imp_v, float)]).reshape(-1, 5),
-            impact_stops=np.array(imp_k, np.int64) if two else None,
-            n_impacts_lower=int(np.sum(np.array(imp_k) == 1)) if two else 0,
-            q_min=float(min(ext[0], q.min())) if q.size else float(ext[0]),
-            q_max=float(max(ext[1], q.max())) if q.size else float(ext[1]), period_min=pmin,
-            status=status, message="" if status == "ok" else f"stuck {stuck_time:.4g} of the window",
-            final_state=np.concatenate([y * sc, [(1.0 if side == 0 else -1.0) if stuck else 0.0]]),
-            extra={"mode_amplitudes": modamp,
-                   "stuck_fraction": float(stuck_time / (n_record * T)) if n_record else 0.0})
+        laws = [st.law for st in m.stops()]
+        return self._direct.run(float(Omega), s0, n_transient, n_record, samples_per_period, m.length_m,
+                                lambda k: laws[k])
 
     def _failed(self, Om, s0, n_record, spp, msg):
         return Trajectory(Omega=Om, samples=np.full((n_record * spp, 2), np.nan), samples_per_period=spp,
