@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import copy
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
@@ -50,7 +51,7 @@ from .system import advance_modes, from_beam, mode_table, particular, transition
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["BeamImpactModel", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
+__all__ = ["BeamImpactModel", "PointStop", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
 
 # the closed-form modal flow lives in vibeam.models.system (the one dynamical system); the kernels
 # below call it by these names (mode_table and particular are re-exported from there)
@@ -83,6 +84,32 @@ def apply_impact(etad, w, U_minus, R, m_eff):
 
 
 # ============================================================================ model
+@dataclass(frozen=True)
+class PointStop:
+    """A stop at any point of the beam besides the attached mass's (case key ``[[model.stop]]``).
+
+    Attributes
+    ----------
+    position_m : float
+        Axial position ``x`` of the stop's contact point (m from the clamp).
+    sign : float
+        ``+1``: above the point (upper), ``-1``: below it (lower).
+    gap_contact_m : float
+        Its distance from the static equilibrium at the point, along its normal (m; negative:
+        pre-stressed).
+    R : float
+        Newton's coefficient of restitution of the stop.
+    label : str
+        Its name in outputs and messages.
+    """
+
+    position_m: float
+    sign: float = 1.0
+    gap_contact_m: float = 0.0
+    R: float = 0.72
+    label: str = ""
+
+
 class BeamImpactModel:
     """Impacting cantilever in ``N`` modal coordinates (fidelity ``"beam"``).
 
@@ -123,6 +150,11 @@ class BeamImpactModel:
     R_lower : float or None, optional
         Coefficient of restitution of the lower stop; None: the upper stop's law (``R`` and
         the table).
+    point_stops : sequence of (PointStop, ndarray (N,)), optional
+        Further stops at other points of the beam, each with its contact row ``w(x)`` in the
+        retained modes (:meth:`from_fe` and :meth:`static_mode` compute them from positions);
+        Newton's law with their own R.  They are relations on the system's contact rows 1, 2, ...
+        (:meth:`contact_rows`).
     """
 
     fidelity = "beam"
@@ -130,7 +162,7 @@ class BeamImpactModel:
     def __init__(self, omega_rad_s, participation, contact_row, sensor_row, R, gap_contact_m,
                  base_amplitude_m, f_ref_hz, length_m, phi_at_mass, damping_D_s=0.0,
                  rayleigh_alpha_1_s=0.0, label="", modal_damping_1_s=None, restitution_table=None,
-                 gap_contact_lower_m=None, R_lower=None):
+                 gap_contact_lower_m=None, R_lower=None, point_stops=()):
         self.omega_rad_s = np.asarray(omega_rad_s, dtype=float).copy()
         self.participation = np.asarray(participation, dtype=float).copy()
         self.contact_row = np.asarray(contact_row, dtype=float).copy()
@@ -171,15 +203,22 @@ class BeamImpactModel:
         if self.gap_contact_lower_m is not None and not self.gap_contact_m + self.gap_contact_lower_m > 0.0:
             raise ValueError("the stops overlap: gap_contact_m + gap_contact_lower_m must be > 0")
         self.label = label
+        self.point_stops = tuple((ps, np.ascontiguousarray(row, dtype=float)) for ps, row in point_stops)
+        for ps, row in self.point_stops:
+            if row.shape != (n,) or not np.any(row != 0.0):
+                raise ValueError(f"the stop at x = {ps.position_m:g} m: no retained mode moves its point")
+            if not 0.0 <= ps.R <= 1.0:
+                raise ValueError(f"R of the stop at x = {ps.position_m:g} m must lie in [0, 1], got {ps.R}")
         self._constrained()
 
     # ---------------------------------------------------------------- constructors
     @classmethod
     def from_fe(cls, fe, n_modes=2, R=0.72, gap_contact_m=0.0, base_amplitude_m=0.0,
                 f_ref_hz=None, damping_D_s=None, rayleigh_alpha_1_s=None, gap_contact_lower_m=None,
-                R_lower=None):
+                R_lower=None, point_stops=()):
         """Modal truncation of a :class:`vibeam.models.beam.BeamFE` to ``n_modes`` (int or
-        ``"all"``).  Damping defaults to the FE model's; ``f_ref`` to its ``f_1``."""
+        ``"all"``).  Damping defaults to the FE model's; ``f_ref`` to its ``f_1``;
+        ``point_stops`` (:class:`PointStop`) get their rows from the FE shapes at their points."""
         from vibeam.reductions.modal import modal_reduction
         from vibeam.reductions.static_mode import static_mode_shape
 
@@ -194,11 +233,12 @@ class BeamImpactModel:
                    md.frequencies_hz[0] if f_ref_hz is None else f_ref_hz, L, phim,
                    fe.damping_D_s if damping_D_s is None else damping_D_s,
                    fe.rayleigh_alpha_1_s if rayleigh_alpha_1_s is None else rayleigh_alpha_1_s,
-                   label=f"FE {red.n_modes} modes", gap_contact_lower_m=gap_contact_lower_m, R_lower=R_lower)
+                   label=f"FE {red.n_modes} modes", gap_contact_lower_m=gap_contact_lower_m, R_lower=R_lower,
+                   point_stops=[(ps, fe.point_rows([ps.position_m])[0] @ red.shapes) for ps in point_stops])
 
     @classmethod
     def static_mode(cls, geometry, R=0.72, gap_contact_m=0.0, base_amplitude_m=0.0,
-                    damping_D_s=0.0, f_ref_hz=None, gap_contact_lower_m=None, R_lower=None):
+                    damping_D_s=0.0, f_ref_hz=None, gap_contact_lower_m=None, R_lower=None, point_stops=()):
         """One assumed shape, the static mode ``phi`` (paper Eqs. 42-47, beam mass
         excluded): mass ``M_S = m phi(x_m)^2``, stiffness ``K_S``, load ``m phi(x_m)``.
 
@@ -206,16 +246,19 @@ class BeamImpactModel:
         modal coordinate is ``eta = L sqrt(M_S) q``, so ``w = phi(x_m) / sqrt(M_S)``,
         ``s = 1 / sqrt(M_S)``, ``Gamma = m phi(x_m) / sqrt(M_S)`` and ``m_eff = m``.
         """
-        from vibeam.reductions.static_mode import reduce_static_mode
+        from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
         red = reduce_static_mode(geometry, damping_D_s=damping_D_s, gap_contact_m=gap_contact_m)
+        L = geometry.length_m
+        xm, xs = geometry.mass_position_m / L, geometry.sensor_position_m / L
         sq = math.sqrt(red.M_S_kg)
         phim = red.phi_at_mass
         return cls([red.omega_n_rad_s], [geometry.mass_kg * phim / sq], [phim / sq], [1.0 / sq],
                    R, gap_contact_m, base_amplitude_m,
                    red.f_n_hz if f_ref_hz is None else f_ref_hz, geometry.length_m, phim,
                    damping_D_s, 0.0, label="static mode", gap_contact_lower_m=gap_contact_lower_m,
-                   R_lower=R_lower)
+                   R_lower=R_lower,
+                   point_stops=[(ps, [float(static_mode_shape(ps.position_m / L, xm, xs)) / sq]) for ps in point_stops])
 
     # ---------------------------------------------------------------- derived data
     @property
@@ -275,12 +318,32 @@ class BeamImpactModel:
         """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
         ``w^T eta = Delta_C`` (normal ``w``) with Newton's law, ``R`` and ``R(U-)``, and for a
         two-sided scene the stop at ``w^T eta = -Delta_C,lower`` (normal ``-w``) with its law."""
+        return self.mass_stops() + tuple(
+            Stop(Relation(ps.sign, ps.gap_contact_m, row=1 + i), Restitution(ps.R), ps.label)
+            for i, (ps, _) in enumerate(self.point_stops))
+
+    def mass_stops(self) -> tuple:
+        """The stops at the attached mass (the paper's, and a lower one): the first of :meth:`stops`."""
         upper = Restitution(self.R, tuple(self.R_table_U), tuple(self.R_table_R))
         out = (Stop(Relation(1.0, self.gap_contact_m), upper),)
         if self.two_sided:
             law = upper if self.R_lower is None else Restitution(self.R_lower)
             out += (Stop(Relation(-1.0, self.gap_contact_lower_m), law),)
         return out
+
+    def stop_codes(self) -> np.ndarray | None:
+        """The output code of each of :meth:`stops` (0 the upper stop at the mass, 1 a lower one
+        there, 2 + i the point stop i): the stop numbering of the trajectories' ``impact_stops``
+        and of the per-stop outputs; None without point stops (the codes are the indices)."""
+        if not self.point_stops:
+            return None
+        return np.array(list(range(len(self.mass_stops()))) + [2 + i for i in range(len(self.point_stops))],
+                        np.int64)
+
+    def contact_rows(self) -> np.ndarray:
+        """The contact rows of the system, shape (1 + len(point_stops), N): the attached mass's,
+        then each point stop's (:func:`vibeam.models.system.from_beam`)."""
+        return np.vstack([self.contact_row] + [row for _, row in self.point_stops])
 
     def _constrained(self):
         """Null-space basis, constrained modes and contact-force coefficients.
@@ -312,7 +375,7 @@ class BeamImpactModel:
         C = np.diag(self.c_nd)
         self.pS = self.sensor_row @ Psi
         rows = {k: [] for k in ("normals", "eta_c", "eC", "pL", "rL", "cL", "cS")}
-        for st in self.stops():
+        for st in self.mass_stops():
             s, D = st.relation.sign, st.relation.offset
             n = st.relation.normal(w)
             eta_c = w * D / w2 if s > 0 else w * (-D) / w2
@@ -365,12 +428,14 @@ class BeamImpactModel:
     def restitution_coefficients(self, velocities, stops=None) -> np.ndarray:
         """R of impacts with recorded pre-impact normal velocities ``U- / L`` (per
         nondimensional time, the trajectory's unit), shape (k,), on the stops ``stops`` (k,)
-        (0 upper, 1 lower; None: all on the upper one): the law of the kernel, in its units."""
+        (their codes, :meth:`stop_codes`: 0 upper, 1 lower, 2 + i the point stop i; None: all on the
+        upper one): the law of the kernel, in its units."""
         v = np.asarray(velocities, float)
         if stops is None:
             return np.array([restitution_coefficient(float(x) * self.length_m, self.R, self.R_table_U,
                                                      self.R_table_R) for x in v])
-        laws = [s.law for s in self.stops()]
+        codes = self.stop_codes()
+        laws = {int(c): s.law for c, s in zip(range(len(self.stops())) if codes is None else codes, self.stops())}
         return np.array([laws[int(k)].coefficient(float(x) * self.length_m) for x, k in zip(v, stops)])
 
     def with_gain(self, gain_per_V: float, scene_gain_per_V: float, voltage: float) -> "BeamImpactModel":
@@ -525,8 +590,10 @@ class BeamEventSolver:
         msgs = {"incomplete": f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} period(s)",
                 "failed": (f"gave up after {run.n_impacts_total} impacts / {run.n_steps} steps in {n_per} periods "
                            f"(non-accumulating chatter or step collapse)")}
+        codes = m.stop_codes()
         traj = trajectory(run, Om, samples_per_period, n_record, L, self.impact_buffer,
-                          lambda v, ks: newton_contact_rows(m, v, ks), messages=msgs, budget=budget)
+                          lambda v, ks: newton_contact_rows(m, v, ks), messages=msgs, budget=budget,
+                          stop_codes=codes)
         iv = traj.impact_velocities
         iv_up = iv[traj.impact_stops == 0] if traj.impact_stops is not None else iv
         modamp = run.record.modamp
@@ -586,7 +653,7 @@ class BeamODESolver:
         s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
         laws = [st.law for st in m.stops()]
         return self._direct.run(float(Omega), s0, n_transient, n_record, samples_per_period, m.length_m,
-                                lambda k: laws[k])
+                                lambda k: laws[k], m.stop_codes())
 
     def _failed(self, Om, s0, n_record, spp, msg):
         return Trajectory(Omega=Om, samples=np.full((n_record * spp, 2), np.nan), samples_per_period=spp,

@@ -118,10 +118,15 @@ class Relation:
     offset : float
         Distance of the stop from the static equilibrium along its normal (model units;
         negative = pre-stressed).
+    row : int
+        The system's contact row ``w`` the relation reads (index into
+        :attr:`vibeam.models.system.ModalSystem.contacts`; 0: the attached mass, the paper's
+        stop).
     """
 
     sign: float
     offset: float
+    row: int = 0
 
     def gap(self, w, eta) -> float:
         """``g = s w^T eta - offset`` (< 0 free)."""
@@ -178,10 +183,12 @@ class Stop:
 
     relation: Relation
     law: Restitution
+    label: str = ""
 
     @property
     def name(self) -> str:
-        return "upper" if self.relation.sign > 0 else "lower"
+        """Its label, else ``"upper"`` or ``"lower"``."""
+        return self.label or ("upper" if self.relation.sign > 0 else "lower")
 
 
 def pack(stops) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

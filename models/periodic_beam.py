@@ -343,6 +343,13 @@ class BeamShooting(ModalShooting):
             return None, (f"the non-impacting orbit does not exist: its contact amplitude {A:.6g} m "
                           f"reaches the lower stop Delta_C,lower = {mp.gap_contact_lower_m:.6g} m at "
                           f"{self.parameter} = {p:.6g}")
+        D = self._data(p)
+        for ps, row in mp.point_stops:      # the stops at other points
+            Ak = float(abs(row @ (D["aF"] + 1j * D["bF"])))
+            if not Ak < ps.gap_contact_m:
+                return None, (f"the non-impacting orbit does not exist: its amplitude {Ak:.6g} m at "
+                              f"x = {ps.position_m:g} m reaches the stop there ({ps.gap_contact_m:.6g} m) at "
+                              f"{self.parameter} = {p:.6g}")
         return self.linear_orbit(p), ""
 
     # ------------------------------------------------------------------ section crossing
@@ -381,13 +388,12 @@ class BeamShooting(ModalShooting):
         i, j = rows[0], rows[-1]
         if times[i] < 1e-6 * T and kinds[i] == EV_IMPACT:
             eta, etad = states[i, :N].copy(), states[i, N:].copy()
-            nv, law = w, m.stops()[0].law
-            if m.two_sided and float(w @ eta) < 0.5 * (m.gap_contact_m - m.gap_contact_lower_m):
-                nv, law = -w, m.stops()[1].law        # an impact on the lower stop (normal -w)
+            k = int(s.extra["event_stops"][i])
+            st = D["core"].kstops
+            nv, law = st.normal[k], m.stops()[k].law      # the impact's stop (normal, law)
             U = float(nv @ etad)
-            Rc = restitution_coefficient(U, law.R, np.asarray(law.table_U, float), np.asarray(law.table_R, float)) \
-                if m.two_sided else restitution_coefficient(U, m.R, m.R_table_U, m.R_table_R)
-            etad -= nv * (1.0 + Rc) * U / float(w @ w)
+            Rc = restitution_coefficient(U, law.R, np.asarray(law.table_U, float), np.asarray(law.table_R, float))
+            etad -= nv * (1.0 + Rc) * U * float(st.m_eff[k])
             return np.concatenate([eta, etad])
         if times[j] > n * T - 1e-6 * T and kinds[j] == EV_IMPACT:
             return states[j].copy()

@@ -223,8 +223,9 @@ def from_beam(model) -> ModalSystem:
 
     Exactly the numbers the beam's event kernel uses: ``omega = omega_rad_s / omega_ref`` (so
     ``omega**2`` is the kernel's ``k_nd`` bit for bit), ``damping = c_nd``, ``Gamma`` =
-    ``participation``, ``s`` = ``sensor_row``, ``W = [contact_row]`` (one contact point, the
-    attached mass at ``L_m``; a lower stop is a second relation on the same row), ``B =
+    ``participation``, ``s`` = ``sensor_row``, ``W`` = its :meth:`contact_rows` (the attached mass
+    at ``L_m``, a lower stop being a second relation on that row, then the rows of its stops at
+    other points), ``B =
     base_amplitude_m``; modal coordinates in sqrt(kg) m, rows giving metres.
 
     Parameters
@@ -239,8 +240,9 @@ def from_beam(model) -> ModalSystem:
         ``mass_unit_kg = 1``.
     """
     om_ref = float(model.omega_ref)
+    rows = model.contact_rows() if hasattr(model, "contact_rows") else np.asarray(model.contact_row, float)[None, :]
     return modal_system(np.asarray(model.omega_rad_s, dtype=float) / om_ref, model.c_nd, model.participation,
-                         model.sensor_row, np.asarray(model.contact_row, dtype=float)[None, :],
+                         model.sensor_row, rows,
                          float(model.base_amplitude_m), time_unit_s=1.0 / om_ref,
                          length_unit_m=float(model.length_m), coordinate_scale=float(model.length_m),
                          mass_unit_kg=1.0)

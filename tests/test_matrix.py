@@ -7,9 +7,10 @@ Every cell is a case (a dict, as ``tomllib`` reads a case file) that a user coul
   FE beam of ``cases/rig-fe-neutral.toml`` with 2 modes, a lower stop 0.3 mm below);
 * law of the upper stop ``restitution``, ``linear`` (Kelvin-Voigt), ``hunt_crossley`` or
   ``lankarani_nikravesh`` (the hysteretic-Hertz family: one class and one registry line, issue 20);
-* stops ``one``, ``two`` (the lower stop with the same law, its own stiffness) or ``mixed``
+* stops ``one``, ``two`` (the lower stop with the same law, its own stiffness), ``mixed``
   (the lower stop with another kind of law: Newton beside a compliant stop, or Kelvin-Voigt
-  below a Newton one);
+  below a Newton one) or ``point`` (the stop at the attached mass and a Newton stop 1.2 mm below
+  the beam's tip, both as ``[[model.stop]]`` tables: stops anywhere);
 * method ``event``, ``direct``, ``mapping``, ``averaging`` or ``continuation``.
 
 A cell either works or is refused at validation in one line naming the key and what is
@@ -35,7 +36,7 @@ from vibeam.errors import CaseError
 ROOT = Path(__file__).resolve().parents[1]
 FIDELITIES = ("sdof", "beam")
 LAWS = ("restitution", "linear", "hunt_crossley", "lankarani_nikravesh")
-STOPS = ("one", "two", "mixed")
+STOPS = ("one", "two", "mixed", "point")
 METHODS = ("event", "direct", "mapping", "averaging", "continuation")
 CELLS = list(itertools.product(FIDELITIES, LAWS, STOPS, METHODS))
 
@@ -51,7 +52,9 @@ def _cells(spec: str) -> set:
 
 
 #: the cells that work (measured 2026-11-23: 43 of the 90; with lankarani_nikravesh 56 of the 120: its
-#: cells are Hunt-Crossley's, with no source change but its class and registry line)
+#: cells are Hunt-Crossley's, with no source change but its class and registry line; with the stops
+#: ``point`` 59 of the 160: Newton stops anywhere on the beam through the one integrator, direct
+#: solver and shooting problem)
 WORKING = _cells("""
 sdof restitution one: event direct mapping averaging continuation
 sdof restitution two: event direct mapping continuation
@@ -72,6 +75,7 @@ sdof lankarani_nikravesh two: event direct
 sdof lankarani_nikravesh mixed: event direct
 beam lankarani_nikravesh one: event direct continuation
 beam lankarani_nikravesh two: event continuation
+beam restitution point: event direct continuation
 """)
 
 BEAM_MODEL = tomllib.loads((ROOT / "cases" / "rig-fe-neutral.toml").read_text())["model"]
@@ -101,9 +105,15 @@ def case_of(fid: str, law: str, stops: str, methods) -> dict:
         sweep = {"frequency_hz": [15.0, 15.5, 2], "transient_periods": 20, "record_periods": 4}
         lower = ("gap_lower_mm", 0.3)
     up = _law(fid, law)
-    if up is not None:
+    if stops == "point":
+        # every stop a [[model.stop]] table: the upper one at the mass with the law, one below the tip
+        first = {"side": "upper", "R": model.pop("R"),
+                 **({"Delta": model.pop("Delta")} if fid == "sdof" else {"gap_mm": model.pop("gap_mm")})}
+        first.update({k: v for k, v in (up or {}).items() if k != "R"})
+        model["stop"] = [first, {"side": "lower", "position_mm": 180.0, "contact_gap_mm": 1.2, "R": 0.9}]
+    elif up is not None:
         model["contact"] = up
-    if stops != "one":
+    if stops not in ("one", "point"):
         model[lower[0]] = lower[1]
         if stops == "mixed":
             model["contact_lower"] = _law(fid, "restitution" if law != "restitution" else "linear", lower=True)
@@ -116,7 +126,7 @@ def case_of(fid: str, law: str, stops: str, methods) -> dict:
 
 
 def test_the_matrix_accepts_exactly_the_working_cells_and_refuses_the_others_in_one_line():
-    """Each of the 120 cells validated on its own: a working cell loads, every other one is
+    """Each of the 160 cells validated on its own: a working cell loads, every other one is
     refused with one line naming the key (``run[0].method`` or the model's contact tables)
     and what is allowed."""
     accepted, wrong = set(), []
@@ -132,7 +142,8 @@ def test_the_matrix_accepts_exactly_the_working_cells_and_refuses_the_others_in_
                 wrong.append((cell, msg))
     assert not wrong, wrong
     assert accepted == WORKING, (sorted(accepted - WORKING), sorted(WORKING - accepted))
-    assert len(WORKING) == 56        # 43 before lankarani_nikravesh (13 cells of its own)
+    # 43 before lankarani_nikravesh (13 cells of its own), 3 with a stop away from the mass
+    assert len(WORKING) == 59
 
 
 @pytest.mark.parametrize("row", sorted({c[:3] for c in WORKING if c[3] == "event"}))

@@ -69,7 +69,7 @@ class DirectIntegrator:
         self.chatter_velocity = float(chatter_velocity)
         self.max_step = max_step
 
-    def run(self, Omega, state0, n_transient, n_record, samples_per_period, scale, contacts_of):
+    def run(self, Omega, state0, n_transient, n_record, samples_per_period, scale, contacts_of, stop_codes=None):
         """One forcing frequency from ``state0`` (``(eta, eta', held code)``, row units).
 
         Parameters
@@ -80,8 +80,10 @@ class DirectIntegrator:
         scale : float
             Row value per unit of the output ``q`` (:attr:`~vibeam.models.system.ModalSystem.coordinate_scale`).
         contacts_of : callable
-            ``contacts_of(stop, U-)`` -> the law object of a stop (its ``coefficient(U-)``) --
-            the stops' own laws, as the fidelity holds them.
+            ``contacts_of(stop)`` -> the law object of a stop (its ``coefficient(U-)``): the
+            stops' own laws, as the fidelity holds them.
+        stop_codes : ndarray of int, optional
+            As :func:`vibeam.models.core.event.trajectory`.
 
         Returns
         -------
@@ -324,6 +326,13 @@ class DirectIntegrator:
         status = "chatter" if n_chat else ("sticking" if stuck_time > 0 else "ok")
         two = ns > 1
         ik = np.array(imp_k, np.int64)
+        extra_stop = {}
+        if stop_codes is not None:
+            codes = np.asarray(stop_codes, np.int64)
+            ik = codes[ik] if ik.size else ik
+            per = np.zeros(int(codes.max()) + 1)
+            np.add.at(per, ik, 1.0)
+            extra_stop = {"stop_impacts": per}
         return Trajectory(
             Omega=Om, samples=samples, samples_per_period=samples_per_period,
             impact_times=np.array(imp_t), impact_velocities=np.array(imp_v), n_impacts=len(imp_t),
@@ -335,7 +344,7 @@ class DirectIntegrator:
             status=status, message="" if status == "ok" else f"stuck {stuck_time:.4g} of the window",
             final_state=np.concatenate([y * sc, [float(held_code(H))]]),
             extra={"mode_amplitudes": modamp,
-                   "stuck_fraction": float(stuck_time / (n_record * T)) if n_record else 0.0})
+                   "stuck_fraction": float(stuck_time / (n_record * T)) if n_record else 0.0, **extra_stop})
 
     def _failed(self, Om, s0, n_record, spp, msg):
         return Trajectory(Omega=Om, samples=np.full((n_record * spp, 2), np.nan), samples_per_period=spp,

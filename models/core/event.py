@@ -177,7 +177,7 @@ class EventIntegrator:
 
 
 def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buffer, contacts, messages=None,
-               budget=True) -> "Trajectory":
+               budget=True, stop_codes=None) -> "Trajectory":
     """The :class:`~vibeam.models.trajectory.Trajectory` of one run, in the units of ``q``.
 
     Parameters
@@ -199,6 +199,11 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
         The step limit of the run was the solver's work budget of one call (running out of it
         makes the trajectory ``incomplete``: fewer periods per call may fit), not a per-period guard
         (then ``failed``).
+    stop_codes : ndarray of int, shape (n_s,), optional
+        The output code of each stop (0 upper and 1 lower at the attached mass, 2 + i the point
+        stop i: :meth:`vibeam.models.beam_dynamics.BeamImpactModel.stop_codes`); given, the
+        trajectory's ``impact_stops`` are these codes and ``extra["stop_impacts"]`` (shape
+        (max code + 1,)) counts the recorded impacts of each.
 
     Returns
     -------
@@ -234,6 +239,13 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
         message = f"stuck on the stop {run.stuck_time:.4g} of {n_record * T:.4g} time units"
     iv = rec.imp_v[:k] / scale
     ks = rec.imp_k[:k].copy()
+    per_stop = None
+    n_lower = int(rec.n_imp_stop[1]) if two else 0
+    if stop_codes is not None:
+        ks = np.asarray(stop_codes, np.int64)[ks]
+        per_stop = np.zeros(int(np.max(stop_codes)) + 1)
+        np.add.at(per_stop, stop_codes, rec.n_imp_stop)
+        n_lower = int(per_stop[1])
     gmax = run.gap_max
     if run.stuck_time > 0.0 or run.held_end:
         gmax = max(gmax, 0.0)     # on a stop the gap is 0 exactly
@@ -246,13 +258,14 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
     return Trajectory(
         Omega=float(Omega), samples=samples, samples_per_period=int(samples_per_period),
         impact_times=rec.imp_t[:k].copy(), impact_velocities=iv, contacts=contacts(iv, ks if two else None),
-        impact_stops=ks if two else None, n_impacts_lower=int(rec.n_imp_stop[1:].sum()) if two else 0,
+        impact_stops=ks if two else None, n_impacts_lower=n_lower,
         n_impacts=int(run.n_impacts), q_min=float(run.s_min / scale), q_max=float(run.s_max / scale),
         period_min=rec.pmin / scale, chatter_times=rec.chat_t[:min(run.n_chatter, rec.chat_t.shape[0])].copy(),
         status=STATUS_NAMES[run.status], message=message, final_state=run.final_state,
         extra={"stuck_fraction": float(run.stuck_time / (n_record * T)) if n_record else 0.0,
                "contact_gap_max": float(gmax / scale),
-               "steps_per_period": float(run.n_steps / max(run.n_periods, 1))},
+               "steps_per_period": float(run.n_steps / max(run.n_periods, 1)),
+               **({"stop_impacts": per_stop} if per_stop is not None else {})},
         incomplete=bool(incomplete))
 
 

@@ -500,9 +500,10 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
         else:
             out += [c for c in _sdof_checks(name, sdof, d2) if "averaging" not in c.oracle]
     elif model.n_modes <= DIRECT_MAX_MODES and (expensive or getattr(model, "contact_law", "restitution")
-                                                 != "restitution"):
-        # every compliant FE run gets its direct check, one point in the default test step (the
-        # restitution FE runs have the static-mode, one-mode and shooting oracles of the tests)
+                                                 != "restitution" or getattr(model, "point_stops", ())):
+        # every compliant FE run, and every run with stops away from the mass, gets its direct
+        # check, one point in the default test step (the restitution FE runs with their stops at
+        # the mass have the static-mode, one-mode and shooting oracles of the tests)
         out.append(_direct_check(name, model, d, sweep, DIRECT_POINTS if expensive else 1))
     return out
 

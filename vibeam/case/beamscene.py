@@ -103,12 +103,34 @@ def build_beam_model(spec):
         return BeamImpactModel.static_mode(sc.geometry, R=spec.R, gap_contact_m=sc.Delta_C_m,
                                            base_amplitude_m=sc.base_amplitude_m,
                                            damping_D_s=sc.damping_D_s, f_ref_hz=sc.f1_hz,
-                                           **lower_stop(spec, sc))
+                                           point_stops=point_stops(spec, sc), **lower_stop(spec, sc))
     fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
                 rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
     return BeamImpactModel.from_fe(fe, n_modes=spec.n_modes, R=spec.R, gap_contact_m=sc.Delta_C_m,
                                    base_amplitude_m=sc.base_amplitude_m, f_ref_hz=sc.f1_hz,
-                                   **lower_stop(spec, sc))
+                                   point_stops=point_stops(spec, sc), **lower_stop(spec, sc))
+
+
+def point_stops(spec, sc) -> list:
+    """The scene's stops away from the attached mass (``[[model.stop]]`` with ``position_mm``) as
+    :class:`~vibeam.models.beam_dynamics.PointStop`: the gap at the stop is ``contact_gap_mm``, or
+    ``gap_mm`` seen at the sensor times the static mode ``phi(x)`` at the stop's point (``phi(L_S)
+    = 1``; Eq. 45 at another point)."""
+    from vibeam.models.beam_dynamics import PointStop
+    from vibeam.reductions.static_mode import static_mode_shape
+
+    out = []
+    g = sc.geometry
+    L = g.length_m
+    for i, p in enumerate(getattr(spec, "stop", None) or ()):
+        x = p.position_mm * 1e-3
+        if p.contact_gap_mm is not None:
+            gap = p.contact_gap_mm * 1e-3
+        else:
+            gap = p.gap_mm * 1e-3 * float(static_mode_shape(x / L, g.mass_position_m / L, g.sensor_position_m / L))
+        out.append(PointStop(position_m=x, sign=1.0 if p.side == "upper" else -1.0, gap_contact_m=gap, R=p.R,
+                             label=f"{p.side} at {p.position_mm:g} mm"))
+    return out
 
 
 def lower_stop(spec, sc, phi_c=None) -> dict:
@@ -297,6 +319,10 @@ def build_beam_model_with_effects(spec, effects, base_model=None):
     plat = effects.platform
     coupled = plat is not None and plat.level == "coupled"
     e = ecc.offset_mm * 1e-3 if ecc is not None else 0.0
+    if (ecc is not None or coupled) and getattr(spec, "stop", None):
+        which = "effects.eccentric_impact" if ecc is not None else "effects.platform (level = \"coupled\")"
+        raise _err(f"{which} with stops away from the attached mass ([[model.stop]] with position_mm) is not "
+                   f"implemented; allowed: these effects with the stops at the mass")
     sc = scene_of(spec)
     phic = contact_factor(spec, e) if ecc is not None else sc.phi_at_mass
     DC = sc.Delta_C_m if spec.gap_mm is None else (spec.gap_mm * 1e-3) * phic

@@ -117,3 +117,204 @@ def beam_law(contact: ContactSpec | None, R: float):
     # F = k_c delta^p (...), k_c in N/m^p at the contact point (the law's from_spec: damping from R)
     return law_class(contact.law).from_spec(contact.stiffness_n_m, R, exponent=contact.exponent,
                                             damping_ratio=contact.damping_ratio)
+
+
+class StopSpec(ContactSpec):
+    """One ``[[model.stop]]`` table: a stop complete in itself -- where (``side``, ``position_mm``
+    on a beam), its gap and its law with the law's keys, its ``R`` included (Newton's R, or the
+    target R of a compliant law).
+
+    ::
+
+        [[model.stop]]               # the paper's stop, at the attached mass
+        side = "upper"
+        gap_mm = 0.1                 # at the sensor (or contact_gap_mm at the stop; Delta nondimensional)
+        R = 0.8
+        [[model.stop]]               # a second stop at the tip, below the beam
+        side = "lower"
+        position_mm = 180.0
+        contact_gap_mm = 1.2
+        R = 0.9
+
+    The first upper stop at the attached mass is the paper's (the amplitude ``Q`` is measured
+    from it); a lower stop there is the scene's second stop; a beam takes further Newton stops at
+    any other points.  The keys ``Delta``, ``Delta_lower``, ``gap_mm``, ``R``, ``[model.contact]``,
+    ``[model.contact_lower]`` stay shorthands for one or two stops at the mass.
+    """
+
+    side: str = "upper"
+    position_mm: Annotated[float, Field(gt=0.0)] | None = None
+    gap_mm: float | None = None
+    contact_gap_mm: float | None = None
+    Delta: float | None = None
+
+    @field_validator("side")
+    @classmethod
+    def _side(cls, v):
+        if v not in ("upper", "lower"):
+            raise ValueError('allowed: "upper" (above the point) or "lower" (below it)')
+        return v
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        # ContactSpec's check (this overrides it) with R allowed for every law: a stop's R is
+        # Newton's R or the compliant law's target R
+        if is_compliant(self.law) and self.R is not None:
+            return ContactSpec._consistent(self.model_copy(update={"R": None})) and self
+        return ContactSpec._consistent(self)
+
+    @model_validator(mode="after")
+    def _gap(self):
+        given = [k for k in ("gap_mm", "contact_gap_mm", "Delta") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError(f"give the stop's gap once: one of gap_mm (at the sensor), contact_gap_mm (at the "
+                             f"stop, beam scenes) or Delta (nondimensional SDOF scenes); got {given or 'none'}")
+        if self.stop_R is None:
+            raise ValueError("give the stop's R (Newton's coefficient of restitution, or a compliant law's target)")
+        return self
+
+    @property
+    def stop_R(self):
+        """The stop's R: Newton's, or the compliant law's target."""
+        return self.R
+
+    def law_table(self) -> dict:
+        """The ``[model.contact]``-style table of its law (no geometry, no R of a compliant law)."""
+        d = {k: v for k, v in self.model_dump(exclude_none=True).items()
+             if k in ContactSpec.model_fields and k != "R"}
+        return d
+
+
+def stops_as_keys(data: dict, fidelity: str) -> dict:
+    """A ``[model]`` table with ``[[model.stop]]`` written with the shorthand keys (the paper's
+    stop and a lower one at the attached mass) and, for a beam, ``point_stops`` (the others).
+
+    Raises
+    ------
+    ValueError
+        Naming the stop and key: a stop table that is not valid, a shorthand key beside
+        ``[[model.stop]]``, no upper stop at the attached mass, two stops of one side there, a
+        ``position_mm`` on an SDOF, a compliant law away from the attached mass.
+    """
+    stops = data.get("stop")
+    if stops is None:
+        return data
+    if not isinstance(stops, list) or not stops:
+        raise ValueError("[[model.stop]] must be a list of tables, one per stop")
+    short = [k for k in ("R", "Delta", "Delta_lower", "gap_mm", "contact_gap_mm", "gap_lower_mm",
+                         "contact_gap_lower_mm", "contact", "contact_lower") if k in data]
+    if short:
+        raise ValueError(f"give the stops either as [[model.stop]] tables or by the shorthand keys, not both "
+                         f"(got [[model.stop]] and {short})")
+    specs = []
+    for i, s in enumerate(stops):
+        try:
+            specs.append(StopSpec(**s) if isinstance(s, dict) else StopSpec.model_validate(s))
+        except Exception as e:          # pydantic's ValidationError: one line naming the stop
+            msg = str(e).splitlines()
+            detail = "; ".join(line.strip() for line in msg[1:] if line.strip() and not line.strip().startswith("For "))
+            raise ValueError(f"stop[{i}]: {detail or msg[0]}") from None
+    out = {k: v for k, v in data.items() if k != "stop"}
+    mass = data.get("mass_position_mm")
+    at_mass = [s.position_mm is None or (mass is not None and abs(s.position_mm - mass) <= 1e-9 * max(mass, 1.0))
+               for s in specs]
+    if fidelity == "sdof" and any(s.position_mm is not None for s in specs):
+        raise ValueError("stop: position_mm is a beam key (the SDOF has one coordinate, at the sensor); allowed "
+                         "in an SDOF stop table: side, Delta or gap_mm, R and the law's keys")
+    up = [i for i, s in enumerate(specs) if at_mass[i] and s.side == "upper"]
+    lo = [i for i, s in enumerate(specs) if at_mass[i] and s.side == "lower"]
+    if not up:
+        raise ValueError("stop: no upper stop at the attached mass: the first one there is the paper's stop, "
+                         "from which the amplitude Q is measured; give one (side = \"upper\", no position_mm)")
+    if len(up) > 1 or len(lo) > 1:
+        side = "upper" if len(up) > 1 else "lower"
+        raise ValueError(f"stop: two {side} stops at the attached mass (stops {up if len(up) > 1 else lo}); "
+                         f"allowed: one of each side there")
+    u = specs[up[0]]
+    gap_keys = {"gap_mm": ("gap_mm", "gap_lower_mm"), "contact_gap_mm": ("contact_gap_mm", "contact_gap_lower_mm"),
+                "Delta": ("Delta", "Delta_lower")}
+    for key, (k_up, k_lo) in gap_keys.items():
+        if getattr(u, key) is not None:
+            out[k_up] = getattr(u, key)
+    out["R"] = u.stop_R
+    if u.law != "restitution":
+        out["contact"] = u.law_table()
+    if lo:
+        w = specs[lo[0]]
+        for key, (k_up, k_lo) in gap_keys.items():
+            if getattr(w, key) is not None:
+                out[k_lo] = getattr(w, key)
+        table = w.law_table()
+        if w.law == "restitution":
+            table["R"] = w.stop_R
+        elif w.stop_R != u.stop_R:
+            raise ValueError(f"stop[{lo[0]}]: R = {w.stop_R}: a compliant lower stop takes the upper stop's "
+                             f"target R ({u.stop_R}); allowed: the same R")
+        out["contact_lower"] = table
+    points = [s for i, s in enumerate(specs) if not at_mass[i]]
+    for s in points:
+        if s.law != "restitution":
+            raise ValueError(f"stop at position_mm = {s.position_mm:g}: law = {s.law!r} away from the attached mass "
+                             f"is not implemented; allowed there: law = \"restitution\"")
+        if s.Delta is not None:
+            raise ValueError(f"stop at position_mm = {s.position_mm:g}: Delta is an SDOF key; give gap_mm (at the "
+                             f"sensor) or contact_gap_mm (at the stop)")
+    if points:
+        out["point_stops"] = [s.model_dump(exclude_none=True) for s in points]
+    return out
+
+
+_UPPER_GAPS = ("gap_mm", "contact_gap_mm", "Delta")
+_LOWER_GAPS = {"gap_lower_mm": "gap_mm", "contact_gap_lower_mm": "contact_gap_mm", "Delta_lower": "Delta"}
+
+
+def model_with(model: dict, values: dict | None) -> dict:
+    """``model`` (a ``[model]`` table) with ``values`` set: a ``[run.model]`` override, a
+    ``[map]`` value or a fitted value.  On a table whose stops are ``[[model.stop]]`` tables the
+    shorthand keys go into the stops they stand for: ``R``, ``Delta``, ``gap_mm``,
+    ``contact_gap_mm`` and ``contact`` into the paper's stop (the first upper stop at the attached
+    mass), the ``*_lower`` keys and ``contact_lower`` into the lower stop there (added if there is
+    none); a gap replaces the stop's gap, a law table replaces its law keys.  A new dict; the
+    tables given are not changed.
+    """
+    out = dict(model)
+    out.update(values or {})
+    stops = model.get("stop")
+    if not isinstance(stops, list) or not values:
+        return out
+    short = [k for k in values if k in ("R", "contact", "contact_lower", *_UPPER_GAPS, *_LOWER_GAPS)]
+    if not short:
+        return out
+    stops = [dict(s) if isinstance(s, dict) else s for s in stops]
+    for k in short:
+        del out[k]
+
+    def at_mass(side):
+        for s in stops:
+            if isinstance(s, dict) and s.get("side", "upper") == side and "position_mm" not in s:
+                return s
+        if side == "upper":
+            return None                       # refused by stops_as_keys in one line
+        up = at_mass("upper")                 # a new lower stop takes the paper's R, as R_lower does
+        s = {"side": "lower", **({"R": up["R"]} if up is not None and "R" in up else {})}
+        stops.append(s)
+        return s
+
+    for k in short:
+        lower = k in _LOWER_GAPS or k == "contact_lower"
+        s = at_mass("lower" if lower else "upper")
+        if s is None:
+            continue
+        if k == "R":
+            s["R"] = values[k]
+        elif k in ("contact", "contact_lower"):
+            keep = {q: s[q] for q in ("side", "position_mm", "R", *_UPPER_GAPS) if q in s}
+            s.clear()
+            s.update(keep)
+            s.update(values[k])
+        else:
+            for q in _UPPER_GAPS:
+                s.pop(q, None)
+            s[_LOWER_GAPS.get(k, k)] = values[k]
+    out["stop"] = stops
+    return out

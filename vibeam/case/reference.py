@@ -19,7 +19,7 @@ import annotated_types as at
 from pydantic import BaseModel
 
 from vibeam.case import schema
-from vibeam.case.contact import ContactSpec
+from vibeam.case.contact import ContactSpec, StopSpec
 from vibeam.errors import InputError
 from vibeam.io.outdir import write_text_file
 from vibeam.models.registry import IMPLEMENTED_LAWS
@@ -37,6 +37,10 @@ TABLES = (
     ("[model.contact], [model.contact_lower]", ContactSpec,
      "the contact law of the stop and of a second stop below; compliant laws take their target "
      "restitution from [model] R"),
+    ("[[model.stop]]", StopSpec,
+     "one table per stop, each complete: where, its gap, its law with the law's keys and its R (instead of "
+     "the shorthand keys R, Delta, gap_mm, ... and [model.contact]); the first upper stop at the attached "
+     "mass is the paper's, a beam takes Newton stops at any other point"),
     ("[sweep]", schema.SweepSpec, "the forcing-frequency grid and how each point is simulated"),
     ("[[run]] (every method)", schema.EventRun, "one table per run; keys common to every method"),
     ("[[run]] method = \"event\"", schema.EventRun, "the exact event-driven solver"),
@@ -119,6 +123,8 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "contact_gap_lower_mm": ("mm", "a second stop below, its gap at the stop"),
         "contact": ("", "[model.contact]: the stop's law"),
         "contact_lower": ("", "[model.contact_lower]: the lower stop's law"),
+        "stop": ("", "[[model.stop]]: the stops, one table each (below); the shorthand keys stand for one or "
+                 "two stops at the attached mass"),
         "gain": ("1/V", "normalised shaker gain gamma (base displacement gamma V L_S)"),
         "voltage": ("V", "shaker voltage V"),
         "damping_ratio": ("1", "damping ratio of the first mode (stiffness-proportional D, Eq. 39)"),
@@ -147,6 +153,21 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "damping_ratio": ("1", "linear law: damping ratio of the contact phase (else set by [model] R)"),
         "exponent": ("1", "Hertz-type laws: the force exponent p (default 1.5)"),
         "mass_kg": ("kg", "physical SDOF: the effective mass that turns stiffness_n_m into k_c"),
+    },
+    "[[model.stop]]": {
+        "law": ("", "the stop's law, as [model.contact] law (default \"restitution\", Newton's); away from "
+                "the attached mass only \"restitution\""),
+        "R": ("1", "Newton's coefficient of restitution of the stop, or a compliant law's target R"),
+        "stiffness": ("1", "compliant law: contact stiffness over the oscillator's (nondimensional scenes)"),
+        "stiffness_n_m": ("N/m (N/m^p)", "compliant law: contact stiffness (physical scenes)"),
+        "damping_ratio": ("1", "linear law: damping ratio of the contact phase (else set by R)"),
+        "exponent": ("1", "Hertz-type laws: the force exponent p"),
+        "mass_kg": ("kg", "physical SDOF: the effective mass that turns stiffness_n_m into k_c"),
+        "side": ("", "\"upper\": above the point (the paper's side), \"lower\": below it"),
+        "position_mm": ("mm", "beam: the stop's point along the beam (default the attached mass)"),
+        "gap_mm": ("mm", "gap seen at the sensor (at another point: times the static mode there, Eq. 45)"),
+        "contact_gap_mm": ("mm", "beam: gap at the stop itself"),
+        "Delta": ("1", "nondimensional SDOF: the gap from the equilibrium (the lower stop's downwards)"),
     },
     "[sweep]": {
         "Omega": ("1", "frequency grid [start, stop, number of points] in Omega = f / f_n"),

@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
-from vibeam.case.contact import ContactSpec  # [model.contact] (issue 13)
+from vibeam.case.contact import ContactSpec, StopSpec, model_with, stops_as_keys  # [model.contact] (issue 13), [[model.stop]]
 from vibeam.models.registry import is_compliant
 from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
@@ -165,6 +165,12 @@ class SDOFModelSpec(_Strict):
     gap_lower_mm: float | None = None
     contact: ContactSpec | None = None
     contact_lower: ContactSpec | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _stops(cls, data):
+        """``[[model.stop]]`` tables written as the shorthand keys (:func:`vibeam.case.contact.stops_as_keys`)."""
+        return stops_as_keys(data, "sdof") if isinstance(data, dict) else data
 
     @model_validator(mode="after")
     def _one_parameter_set(self):
@@ -424,6 +430,7 @@ class BeamModelSpec(_Strict):
     contact_gap_lower_mm: float | None = None
     contact: ContactSpec | None = None
     contact_lower: ContactSpec | None = None
+    stop: list[StopSpec] | None = None     # [[model.stop]] away from the attached mass (the others: keys)
     gain: Annotated[float, Field(ge=0.0)]
     voltage: Annotated[float, Field(ge=0.0)]
     damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
@@ -451,6 +458,19 @@ class BeamModelSpec(_Strict):
             raise ValueError(f"allowed: {lo:g} ... {hi:g} mm (the FE mesh locates nodes to 1e-8 m: a shorter "
                              f"beam's elements cannot be resolved)")
         return v
+
+    @model_validator(mode="before")
+    @classmethod
+    def _stops(cls, data):
+        """``[[model.stop]]`` tables: those at the attached mass written as the shorthand keys, the
+        others kept as point stops (:func:`vibeam.case.contact.stops_as_keys`)."""
+        if not isinstance(data, dict):
+            return data
+        data = stops_as_keys(data, "beam")
+        if "point_stops" in data:
+            data = dict(data)
+            data["stop"] = data.pop("point_stops")
+        return data
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -480,6 +500,15 @@ class BeamModelSpec(_Strict):
         for k in ("sensor_position_mm", "mass_position_mm"):
             if getattr(self, k) > self.length_mm:
                 raise ValueError(f"{k} = {getattr(self, k)} lies beyond length_mm = {self.length_mm}")
+        for i, p in enumerate(self.stop or ()):
+            if p.position_mm > self.length_mm:
+                raise ValueError(f"stop at position_mm = {p.position_mm:g} lies beyond length_mm = {self.length_mm}")
+            if (p.gap_mm is None) == (p.contact_gap_mm is None):
+                raise ValueError(f"stop at position_mm = {p.position_mm:g}: give exactly one of gap_mm (at the "
+                                 f"sensor) or contact_gap_mm (at the stop)")
+            if self.contact is not None and is_compliant(self.contact.law):
+                raise ValueError(f"stop at position_mm = {p.position_mm:g} beside a compliant stop at the mass "
+                                 f"(law = {self.contact.law!r}) is not implemented; allowed: Newton stops everywhere")
         lo, hi = self.SECTION_RANGE
         if sec:     # the section's EI and rho A as vibeam.case.beamscene.geometry_of derives them
             b, t = self.width_mm * 1e-3, self.thickness_mm * 1e-3
@@ -613,8 +642,7 @@ class BeamModelSpec(_Strict):
         """Model table of the converged reference of a cost table: the finest FE model of the
         scene, all modes on a mesh twice as fine, so every rung of the fidelity ladder (static
         mode, 1, 2, 4 ... modes, coarser meshes) is measured against the same thing."""
-        fine = dict(table)
-        fine.update({k: v for k, v in overrides.items() if k not in ("n_modes", "n_elements")})
+        fine = model_with(table, {k: v for k, v in overrides.items() if k not in ("n_modes", "n_elements")})
         fine.update(n_modes="all", n_elements=2 * int(fine.get("n_elements", 36)))
         return fine
 
@@ -1134,8 +1162,7 @@ class Case(_Strict):
 
     # the model table is validated by its fidelity's spec (below)
     def model_spec(self, overrides: dict | None = None):
-        data = dict(self.model)
-        data.update(overrides or {})
+        data = model_with(self.model, overrides)
         return _validate_model(data, prefix="model" if not overrides else "run.model")
 
     def effects_for(self, run) -> EffectsSpec:
@@ -1372,7 +1399,7 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                 if "fidelity" in r.model and r.model["fidelity"] != case.model.get("fidelity"):
                     raise CaseError(f"'run[{i}].model.fidelity' = {quote_value(r.model['fidelity'])}: a run "
                                     f"cannot change the fidelity; put it in another case")
-                run_spec = _validate_model(dict(case.model, **r.model), prefix=f"run[{i}].model")
+                run_spec = _validate_model(model_with(case.model, r.model), prefix=f"run[{i}].model")
             _check_contact_method(run_spec, i, r)
             _check_resonance(case, i, r, run_spec, f"run[{i}].model" if r.model else "model")
             _check_method_values(run_spec, i, r, "run[%d].model" % i if r.model else "model")
@@ -1403,7 +1430,7 @@ def _check_resonance(case, i: int, r, spec, prefix: str) -> None:
         specs = []
         for v in m.grid():
             try:
-                specs.append((_validate_model(dict(case.model, **r.model, **{m.parameter: float(v)}), prefix),
+                specs.append((_validate_model(model_with(case.model, {**r.model, m.parameter: float(v)}), prefix),
                               "map.values"))
             except CaseError:
                 pass            # _check_map names the value
@@ -1597,7 +1624,7 @@ def _check_map(case: Case) -> None:
             overrides.append((i, r.model))
     for v in values:
         for i, o in overrides:
-            data = dict(case.model, **o, **{m.parameter: float(v)})
+            data = model_with(case.model, {**o, m.parameter: float(v)})
             try:
                 spec = _validate_model(data, prefix=f"run[{i}].model" if o else "model")
                 for j, r in enumerate(case.run):

@@ -523,6 +523,9 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
         if two:
             out.update(impacts_per_period_lower=nan, impact_velocity_lower=nan,
                        **{k: nan for k in CONTACT_OUTPUTS_LOWER})
+        if traj.extra.get("stop_impacts") is not None:
+            sz = np.shape(traj.extra["stop_impacts"])
+            out.update(stop_impacts_per_period=np.full(sz, nan), stop_impact_velocity=np.full(sz, nan))
         return out
     q = traj.samples[:, 0]
     scale = max(traj.q_max - traj.q_min, np.max(np.abs(traj.samples[:, 1])) if q.size else 0.0, 1e-300)
@@ -533,9 +536,13 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
         status = "unsettled"
     iv = traj.impact_velocities
     n_up = traj.n_impacts - traj.n_impacts_lower
+    per_stop = traj.extra.get("stop_impacts")
+    if per_stop is not None:
+        # stops at other points (codes 2, 3, ...): the upper stop's outputs are its own impacts
+        n_up = int(per_stop[0])
     if two:
         lower = traj.impact_stops == 1
-        iv, iv_l = iv[~lower], iv[lower]
+        iv_all, iv, iv_l = iv, iv[traj.impact_stops == 0], iv[lower]
     out = dict(
         amplitude=Delta - traj.q_min,
         **amplitude_spread(Delta - period_minima(traj)),
@@ -553,4 +560,13 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
     if two:
         out.update(impacts_per_period_lower=traj.n_impacts_lower / n_rec if n_rec else np.nan,
                    impact_velocity_lower=float(np.mean(iv_l)) if iv_l.size else np.nan)
+    if per_stop is not None:
+        # every stop by its code (0 upper and 1 lower at the mass, 2 + i the point stop i)
+        vel = np.full(per_stop.size, np.nan)
+        for c in range(per_stop.size):
+            sel = iv_all[traj.impact_stops == c]
+            if sel.size:
+                vel[c] = float(np.mean(sel))
+        out.update(stop_impacts_per_period=np.asarray(per_stop, float) / n_rec if n_rec else
+                   np.full(per_stop.size, np.nan), stop_impact_velocity=vel)
     return out

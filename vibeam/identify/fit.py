@@ -75,6 +75,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vibeam.case.contact import model_with
 from vibeam.case.text import case_dump, to_toml  # noqa: F401 (re-exported)
 from vibeam.errors import case_error
 from vibeam.identify.linear import irls_weights, loss_psi, param_unit, uncertainty
@@ -900,8 +901,7 @@ def fitted_case_text(case, run, values: dict, source: str = "", reference: str =
     fitted = ", ".join(f"{k} = {v:.6g}" + (f" +- {s:.2g}" if se is not None and np.isfinite(s) else "")
                        for (k, v), s in zip(values.items(), se if se is not None else [None] * len(values)))
     data["description"] = f"{case.name} run '{run.name}' with {fitted} (vibeam fit)"
-    model = dict(case.model)
-    model.update(values)
+    model = model_with(case.model, values)
     data["model"] = model
     rd = run.model_dump(exclude_unset=True, exclude_none=True)
     if "model" in rd:

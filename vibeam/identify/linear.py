@@ -779,12 +779,12 @@ def _case_updates(spec, values: dict) -> tuple[dict, list]:
 
 def _write_case(case, updates, suffix, comment, out_dir) -> Path:
     from vibeam.case.schema import parse_case
+    from vibeam.case.contact import model_with
     from vibeam.case.text import case_dump, to_toml
 
     data = case_dump(case)
     data["name"] = f"{case.name}-{suffix}"
-    model = dict(case.model)
-    model.update(updates)
+    model = model_with(case.model, updates)
     data["model"] = model
     data["description"] = f"{case.name} with {comment} (vibeam fit)"
     order = ["name", "description", "model", "effects", "sweep", "quick", "regress", "assess", "map", "run"]

@@ -27,6 +27,11 @@ UNITS = {
     "impact_velocity": "1 (mean pre-impact velocity; two stops: on the upper stop)",
     "impacts_per_period_lower": "1/forcing period (impacts on the lower stop of a two-sided scene)",
     "impact_velocity_lower": "1 (mean pre-impact speed |q'-| on the lower stop)",
+    "stop_impacts": "impacts recorded on each stop (stop 0 upper and 1 lower at the attached mass, 2 + i the "
+                    "i-th [[model.stop]] at another point)",
+    "stop_impacts_per_period": "1/forcing period (impacts on each stop; stops as stop_impacts)",
+    "stop_impact_velocity": "1 (mean normal pre-impact speed on each stop, per L and time unit; stops as "
+                            "stop_impacts)",
     "strobe": "1 ((q, q') at forcing phase 0 of each recorded period)",
     "harmonics": "1 (amplitudes of 0, 1, ..., 5 Omega)",
     "frequency_hz": "Hz", "amplitude_mm": "mm (at the sensor)",

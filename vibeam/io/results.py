@@ -202,6 +202,7 @@ EXTRA_DIMS = {
     "R_identified_ladder": ("noise_level",), "R_true_ladder": ("noise_level",),
     "multipliers": ("multiplier",), "map_eigenvalues": ("eigenvalue",),
     "lyapunov": ("exponent",), "lyapunov_error": ("exponent",),
+    "stop_impacts": ("stop",), "stop_impacts_per_period": ("stop",), "stop_impact_velocity": ("stop",),
 }
 # run attributes that are the coordinate of an extra dimension (stored once, as the coordinate)
 ATTR_COORDS = {"spectrum_frequency": "spectrum_frequency", "noise_level": "noise_ladder_mm"}
