@@ -233,3 +233,24 @@ def test_no_state_beyond_the_stop(beta, B, R, Delta, Omega):
         assert np.all(y[:, 0] <= Delta + 1e-10 * scale), f"free flow crosses the stop after sample {j}"
         if tr.samples[j + 1, 0] < Delta:   # the next sample not on the stop (stuck, released)
             assert abs(y[-1, 0] - tr.samples[j + 1, 0]) <= 1e-9 * scale
+
+
+def test_held_at_the_exact_zero_of_a_rising_force_stays_held():
+    """The release rule (:func:`vibeam.models.contact_policy.release_now`) at a force exactly 0:
+    held on the stop Delta = 0 at rest at t = 0, the force needed to hold the mass is
+    F sin(Omega t) (F = Omega^2 B; q = q' = 0 leave only the forcing), exactly 0 and rising.
+    The mass stays held and leaves when the force falls through zero at Omega t = pi (closed
+    form): the event log is the start and that one release, no impact (a rule releasing at
+    force <= 0 leaves at t = 0 and chatters back onto the stop)."""
+    from vibeam.models.core.event import EventIntegrator
+    from vibeam.models.core.integrator import EV_RELEASE, EV_START
+    from vibeam.models.system import from_sdof
+
+    m = SDOF(beta=0.05, B=0.2, R=0.5, Delta=0.0)
+    core = EventIntegrator(from_sdof(m), m.stops())
+    Om = 1.5
+    r = core.run(Om, [0.0], [0.0], 1, 0, 1, 1, 64, 2 * math.pi / 16, 1000, 10000, 1e-7, log_events=32)
+    log = r.record.evlog[:r.record.nlog[0]]
+    assert [int(k) for k in log[:, 0]] == [EV_START, EV_RELEASE]
+    assert log[1, 1] == pytest.approx(math.pi / Om, rel=1e-12, abs=0)
+    assert r.n_impacts_total == 0 and r.stuck_time == pytest.approx(math.pi / Om, rel=1e-12)

@@ -398,23 +398,28 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
     # sub-step that meets no event costs no transcendental function call
     sub_t = max(1, int(math.ceil((T / ns_transient) / h_cap * (1.0 - 1e-12))))
     sub_r = max(1, int(math.ceil((T / ns_record) / h_cap * (1.0 - 1e-12))))
-    P_t = np.empty((n, 4))
-    P_r = np.empty((n, 4))
-    for i in range(n):
-        P_t[i, 0], P_t[i, 1], P_t[i, 2], P_t[i, 3] = transition_increment(
-            T / (ns_transient * sub_t), mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
-        P_r[i, 0], P_r[i, 1], P_r[i, 2], P_r[i, 3] = transition_increment(
-            T / (ns_record * sub_r), mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
     nt_t = ns_transient * sub_t
     nt_r = ns_record * sub_r
-    tab_t = np.empty((nt_t + 1, 2))
+    P_r = np.empty((n, 4))
+    for i in range(n):
+        P_r[i, 0], P_r[i, 1], P_r[i, 2], P_r[i, 3] = transition_increment(
+            T / (ns_record * sub_r), mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
     tab_r = np.empty((nt_r + 1, 2))
-    for kk in range(nt_t + 1):
-        tab_t[kk, 0] = math.sin(TWO_PI * kk / nt_t)
-        tab_t[kk, 1] = math.cos(TWO_PI * kk / nt_t)
     for kk in range(nt_r + 1):
         tab_r[kk, 0] = math.sin(TWO_PI * kk / nt_r)
         tab_r[kk, 1] = math.cos(TWO_PI * kk / nt_r)
+    if nt_t == nt_r and ns_transient == ns_record:
+        P_t = P_r             # one grid (a shot): the same tables
+        tab_t = tab_r
+    else:
+        P_t = np.empty((n, 4))
+        for i in range(n):
+            P_t[i, 0], P_t[i, 1], P_t[i, 2], P_t[i, 3] = transition_increment(
+                T / (ns_transient * sub_t), mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
+        tab_t = np.empty((nt_t + 1, 2))
+        for kk in range(nt_t + 1):
+            tab_t[kk, 0] = math.sin(TWO_PI * kk / nt_t)
+            tab_t[kk, 1] = math.cos(TWO_PI * kk / nt_t)
     # ---- work arrays
     zeroN = np.zeros(n)
     xF = np.empty(n)          # free flight: homogeneous parts of the modes, carried along an arc

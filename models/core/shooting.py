@@ -51,7 +51,9 @@ from numba import njit
 
 from ..impact import restitution_coefficient
 from ..system import transition_entries
-from .integrator import (EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD, integrate)
+from ..periodic import Shot
+from .integrator import (EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD, ST_FAILED, integrate,
+                         new_record)
 
 __all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "held_at_section", "restitution_slope",
            "dtransition_dsig", "ModalShooting", "Setup"]
@@ -835,14 +837,11 @@ class ModalShooting:
             ``stuck_end``, ``n_steps``, ``release_times``, ``release_time_derivatives``,
             ``n_inexact``.
         """
-        from ..periodic import Shot
-        from .integrator import ST_FAILED, new_record
-
         n = int(n)
         d = int(self.dim)
         x0 = np.ascontiguousarray(x0, dtype=float).reshape(-1)
         bad = self.invalid(float(p)) if math.isfinite(p) else f"the parameter must be finite, got {p}"
-        if x0.shape != (d,) or not np.isfinite(x0).all() or n < 1 or bad:
+        if x0.shape != (d,) or not all(map(math.isfinite, x0.tolist())) or n < 1 or bad:
             nanM = np.full((d, d), np.nan)
             nanv = np.full(d, np.nan)
             msg = bad or f"x0 must be finite with shape ({d},) and n >= 1; got shape {x0.shape}, n = {n}"
