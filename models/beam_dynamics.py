@@ -34,6 +34,7 @@ Method ``event``
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -322,6 +323,18 @@ class BeamImpactModel:
             Stop(Relation(ps.sign, ps.gap_contact_m, row=1 + i), Restitution(ps.R), ps.label)
             for i, (ps, _) in enumerate(self.point_stops))
 
+    def system_stops(self) -> tuple:
+        """:meth:`stops` in the units of the modal system (:func:`vibeam.models.system.from_beam`): a
+        compliant law's stiffness (N/m^p) over ``omega_ref^2`` (the system's time unit is
+        ``1 / omega_ref``, its modes mass-normalised in kg), its damping ratio or ``chi`` as they are."""
+        out = []
+        for s in self.stops():
+            law = s.law
+            if getattr(law, "kind", "") == "compliant":
+                law = dataclasses.replace(law, stiffness=law.stiffness / self.omega_ref ** 2)
+            out.append(Stop(s.relation, law, s.label))
+        return tuple(out)
+
     def mass_stops(self) -> tuple:
         """The stops at the attached mass (the paper's, and a lower one): the first of :meth:`stops`."""
         upper = Restitution(self.R, tuple(self.R_table_U), tuple(self.R_table_R))
@@ -547,7 +560,7 @@ class BeamEventSolver:
         self.impact_buffer = int(impact_buffer)
         self.record_modal_states = bool(record_modal_states)
         # the one event integrator on the beam's modal system with its stops
-        self._core = EventIntegrator(from_beam(model), model.stops())
+        self._core = EventIntegrator(from_beam(model), model.system_stops())
         self._h_cap = fundamental_step(self._core.system, self.steps_per_fundamental)
         # periods per call of the sweep engine (vibeam.engine.sweep.simulate): the cost per period grows
         # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
@@ -593,7 +606,7 @@ class BeamEventSolver:
         codes = m.stop_codes()
         traj = trajectory(run, Om, samples_per_period, n_record, L, self.impact_buffer,
                           lambda v, ks: newton_contact_rows(m, v, ks), messages=msgs, budget=budget,
-                          stop_codes=codes)
+                          stop_codes=codes, core=self._core)
         iv = traj.impact_velocities
         iv_up = iv[traj.impact_stops == 0] if traj.impact_stops is not None else iv
         modamp = run.record.modamp
@@ -638,7 +651,7 @@ class BeamODESolver:
         self.atol = float(atol)
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.chatter_velocity = float(chatter_velocity)
-        self._direct = DirectIntegrator(EventIntegrator(from_beam(model), model.stops()),
+        self._direct = DirectIntegrator(EventIntegrator(from_beam(model), model.system_stops()),
                                         model.length_m * math.sqrt(model.m_eff), solver, self.rtol, self.atol,
                                         self.max_impacts_per_period, self.chatter_velocity, max_step)
 

@@ -229,7 +229,7 @@ class BeamShooting(ModalShooting):
         core_key = None if self.parameter == "Omega" else key
         if self._cache is None or self._cache["core_key"] != core_key:
             m = self.model_at(p)
-            core = EventIntegrator(from_beam(m), m.stops())
+            core = EventIntegrator(from_beam(m), m.system_stops())
             ns = core.n_stops
             z = np.zeros(ns)
             N = m.n_modes

@@ -303,7 +303,7 @@ class EventSolver:
                                f"period(s) (no step could be certified at the scale of the motion?)"),
                 "failed": f"more than {max_imp} impacts in {n_per} periods (chatter that does not accumulate?)"}
         traj = trajectory(run, Omega, samples_per_period, n_record, 1.0, self.impact_buffer, self._contacts,
-                          messages=msgs)
+                          messages=msgs, core=self._core)
         del traj.extra["steps_per_period"]
         return traj
 

@@ -17,6 +17,7 @@ from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import make_solver
 from vibeam.models.compliant import (R_MIN_LINEAR, LinearContact, contact_duration,
                                      damping_ratio_for_restitution, restitution_of_damping_ratio)
+from vibeam.models.beam_dynamics import BeamEventSolver
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import (C_DURATION, C_ENERGY, C_FORCE, C_PENETRATION,
                                           CompliantEventSolver, isolated_contact)
@@ -175,7 +176,7 @@ def test_case_builds_the_law_and_refuses_other_methods():
     m = case.model_spec().build()
     assert m.contact_law == "linear" and m.contact.R == 0.9
     assert m.contact.damping_ratio == pytest.approx(damping_ratio_for_restitution(0.9))
-    assert isinstance(make_solver(m, "event"), CompliantEventSolver)
+    assert isinstance(make_solver(m, "event"), EventSolver)
     assert isinstance(make_solver(m, "direct"), CompliantDirectSolver)
     with pytest.raises(ValueError, match="does not simulate contact law 'linear'"):
         make_solver(m, "averaging")
@@ -437,7 +438,7 @@ def test_hunt_crossley_case():
                                                                                           "stiffness = 1e6")
     m = parse_case(text).model_spec().build()
     assert m.contact_law == "hunt_crossley" and m.contact.chi == pytest.approx(8 * 0.1 / (5 * 0.9))
-    assert isinstance(make_solver(m, "event"), CompliantEventSolver)
+    assert isinstance(make_solver(m, "event"), EventSolver)
     with pytest.raises(CaseError, match="damping_ratio is a key of law = \"linear\" only"):
         parse_case(text.replace("exponent = 1.5", "damping_ratio = 0.1"))
     with pytest.raises(CaseError, match="allowed: event, direct, mapping"):
@@ -487,7 +488,7 @@ def test_beam_isolated_contact_restitution_and_case_keys():
     assert m.contact_damping_n_s_m == pytest.approx(2 * zeta * math.sqrt(1e6 * m.m_eff))
     Rk = isolated_contact(1e6 / m.m_eff, m.contact_damping_n_s_m / m.m_eff, 1.0, np.empty(6))[0]
     assert Rk == pytest.approx(0.72, abs=1e-10)
-    assert isinstance(make_solver(m, "event"), CompliantBeamEventSolver)
+    assert isinstance(make_solver(m, "event"), BeamEventSolver)
     text = open("cases/rig-fe-neutral.toml").read().replace("[model.discs]", "[model.contact]\nlaw = \"linear\"\n"
                                                              "stiffness_n_m = 1e6\n\n[model.discs]")
     parse_case(text)

@@ -186,7 +186,7 @@ def test_case_builds_two_compliant_stops_and_records_contacts_per_stop():
     m = parse_case(CASE).model_spec().build()
     st = m.stops()
     assert [s.law.name for s in st] == ["linear", "linear"] and st[1].law is st[0].law
-    assert isinstance(make_solver(m, "event"), CompliantEventSolver)
+    assert isinstance(make_solver(m, "event"), EventSolver)
 
     text = CASE.replace("[sweep]", '[model.contact_lower]\nlaw = "hunt_crossley"\nstiffness = 3e4\n\n[sweep]')
     m2 = parse_case(text).model_spec().build()

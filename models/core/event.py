@@ -21,6 +21,7 @@ import numpy as np
 from ..contact import check_stops
 from ..system import ModalSystem
 from .integrator import ST_FAILED, STATUS_NAMES, Record, integrate, new_record
+from .phases import compliant_data
 from .stops import held_code, held_mask, held_sets, kernel_stops, kernel_system
 
 __all__ = ["EventIntegrator", "Run"]
@@ -55,6 +56,10 @@ class Run:
         Final state.
     max_steps, max_impacts : int
         The guards of the call.
+    n_periods : int
+        Periods of the call.
+    contact_time : float
+        Time in compliant contact during the record.
     """
 
     record: Record
@@ -73,6 +78,7 @@ class Run:
     max_steps: int
     max_impacts: int
     n_periods: int = 0
+    contact_time: float = 0.0
 
     @property
     def held_code(self) -> int:
@@ -96,28 +102,27 @@ class EventIntegrator:
     ----------
     system : ModalSystem
     stops : sequence of vibeam.models.contact.Stop
-        Impulsive stops (relations on rows of ``system.contacts``).
+        Stops (relations on rows of ``system.contacts``) with Newton's law or a compliant law whose
+        numbers are in the system's units (:mod:`vibeam.models.core.laws`).
 
     Raises
     ------
     ValueError
-        From :func:`vibeam.models.contact.check_stops` and
-        :func:`vibeam.models.core.stops.kernel_stops` (a law not implemented, R out of range,
-        overlapping stops, too many stops, a relation row the system lacks).
+        From :func:`vibeam.models.contact.check_stops`,
+        :func:`vibeam.models.core.stops.kernel_stops` and :func:`vibeam.models.core.phases.contact_phases`
+        (a law not implemented, R out of range, overlapping stops, too many stops, a relation row the
+        system lacks, an unstable or defective contact phase).
     """
 
     def __init__(self, system: ModalSystem, stops):
         check_stops(stops)
-        for k, s in enumerate(stops):
-            if getattr(s.law, "kind", "") != "impulsive":
-                raise ValueError(f"stop {k} has the {getattr(s.law, 'kind', '?')} law "
-                                 f"{getattr(s.law, 'name', type(s.law).__name__)!r}; the event integrator "
-                                 f"takes impulsive laws (Newton's)")
         self.system = system
         self.stops = tuple(stops)
         self.ksys = kernel_system(system)
         self.kstops = kernel_stops(system, self.stops)
         self.held, self.damping_mismatch = held_sets(system, self.kstops)
+        #: the compliant stops' data, None without one (:func:`vibeam.models.core.phases.compliant_data`)
+        self.compliant = compliant_data(system, self.kstops, self.held)
 
     @property
     def n(self) -> int:
@@ -164,20 +169,20 @@ class EventIntegrator:
         etad = np.array(etad, dtype=float)
         if record is None:
             record = new_record(self.n, self.n_stops, n_record, ns_record, impact_buffer, modal_states,
-                                log_events, log_apexes)
+                                log_events, log_apexes, compliant=self.compliant is not None)
         record.nlog[:] = 0
-        args = (self.ksys, self.kstops, self.held, float(Omega), eta, etad, int(held), int(n_transient),
-                int(n_record), int(ns_transient), int(ns_record), float(h_cap), int(max_impacts),
+        args = (self.ksys, self.kstops, self.held, self.compliant, float(Omega), eta, etad, int(held),
+                int(n_transient), int(n_record), int(ns_transient), int(ns_record), float(h_cap), int(max_impacts),
                 int(max_steps), float(chatter_tol), record)
         out = compiled_call(integrate, args)
-        status, n_imp, smin, smax, n_chat, stuck_time, H, n_tot, gmax, n_steps = out
+        status, n_imp, smin, smax, n_chat, stuck_time, H, n_tot, gmax, n_steps, t_con = out
         return Run(record, int(status), int(n_imp), float(smin), float(smax), int(n_chat), float(stuck_time),
                    int(H), int(n_tot), float(gmax), int(n_steps), eta, etad, int(max_steps), int(max_impacts),
-                   int(n_transient) + int(n_record))
+                   int(n_transient) + int(n_record), float(t_con))
 
 
 def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buffer, contacts, messages=None,
-               budget=True, stop_codes=None) -> "Trajectory":
+               budget=True, stop_codes=None, core=None) -> "Trajectory":
     """The :class:`~vibeam.models.trajectory.Trajectory` of one run, in the units of ``q``.
 
     Parameters
@@ -204,6 +209,12 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
         stop i: :meth:`vibeam.models.beam_dynamics.BeamImpactModel.stop_codes`); given, the
         trajectory's ``impact_stops`` are these codes and ``extra["stop_impacts"]`` (shape
         (max code + 1,)) counts the recorded impacts of each.
+    core : EventIntegrator, optional
+        The run's integrator: with compliant stops, their contacts' rows come from the kernel's
+        records (:data:`vibeam.models.core.integrator.C_DURATION` ...), per unit effective mass and
+        in the units of ``q`` (force over ``m_eff scale``, penetration over ``scale``, work over
+        ``m_eff scale^2``); a contact still open at the end has no row (``contact_stops`` gives the
+        stop of each row), and ``extra["contact_fraction"]`` is the time in contact over the record.
 
     Returns
     -------
@@ -255,9 +266,30 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
         samples = np.full_like(samples, np.nan)
         run.s_min = run.s_max = np.nan
         rec.pmin[:] = np.nan
+    extra = {}
+    contact_stops = None
+    if rec.con.shape[0] and core is not None:
+        kk = rec.imp_k[:k]
+        comp = core.kstops.law[kk] != 0
+        rows = np.empty((k, 5))
+        if np.any(~comp):
+            rows[~comp] = contacts(iv[~comp], ks[~comp] if two else None)
+        me = core.kstops.m_eff[kk[comp]]
+        c = rec.con[:k][comp].copy()
+        c[:, 1] /= me * scale
+        c[:, 2] /= scale
+        c[:, 3] /= me * scale * scale
+        c[:, 4] /= scale
+        rows[comp] = c
+        closed = np.isfinite(rows[:, 0])    # a contact still open at the end has no record
+        crow = rows[closed]
+        contact_stops = ks[closed].copy() if two else None
+        extra["contact_fraction"] = float(run.contact_time / (n_record * T)) if n_record else 0.0
+    else:
+        crow = contacts(iv, ks if two else None)
     return Trajectory(
         Omega=float(Omega), samples=samples, samples_per_period=int(samples_per_period),
-        impact_times=rec.imp_t[:k].copy(), impact_velocities=iv, contacts=contacts(iv, ks if two else None),
+        impact_times=rec.imp_t[:k].copy(), impact_velocities=iv, contacts=crow, contact_stops=contact_stops,
         impact_stops=ks if two else None, n_impacts_lower=n_lower,
         n_impacts=int(run.n_impacts), q_min=float(run.s_min / scale), q_max=float(run.s_max / scale),
         period_min=rec.pmin / scale, chatter_times=rec.chat_t[:min(run.n_chatter, rec.chat_t.shape[0])].copy(),
@@ -265,7 +297,7 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
         extra={"stuck_fraction": float(run.stuck_time / (n_record * T)) if n_record else 0.0,
                "contact_gap_max": float(gmax / scale),
                "steps_per_period": float(run.n_steps / max(run.n_periods, 1)),
-               **({"stop_impacts": per_stop} if per_stop is not None else {})},
+               **({"stop_impacts": per_stop} if per_stop is not None else {}), **extra},
         incomplete=bool(incomplete))
 
 

@@ -56,18 +56,26 @@ from numba import njit
 
 from ..contact_policy import (BURST_DT, BURST_MAX, CHATTER, CHATTER_GUARD, REBOUND, STICK, impact_outcome,
                               release_now, zeno_burst)
+from ..contact import LAW_LINEAR
 from ..impact import newton_restitution, restitution_coefficient
 from ..system import advance_count, transition_increment
+from .contact_phase import (EK_ENTRY, EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_IMPACT, EK_NONE, EK_RELEASE, linear_step,
+                            phase_harmonics, rk_phase_step, rk_scales)
+from .laws import force, hertz_floor, inside_sign, is_compliant
 from .signals import (bounds, extremes, homogeneous, homogeneous_bounds, mode_ends, root, scan, scan_from, signal,
                       signal_start)
 
 __all__ = ["Record", "integrate", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
-           "STATUS_NAMES", "EV_START", "EV_IMPACT", "EV_STICK", "EV_STICK_IMPACT", "EV_RELEASE", "LOG_HEAD"]
+           "STATUS_NAMES", "EV_START", "EV_IMPACT", "EV_STICK", "EV_STICK_IMPACT", "EV_RELEASE", "EV_ENTRY",
+           "EV_EXIT", "LOG_HEAD", "C_DURATION", "C_FORCE", "C_PENETRATION", "C_ENERGY", "C_VELOCITY"]
 
 TWO_PI = 2.0 * math.pi
 ST_OK, ST_CHATTER, ST_STICKING, ST_FAILED = 0, 1, 2, 3
 STATUS_NAMES = ("ok", "chatter", "sticking", "failed")
-EV_START, EV_IMPACT, EV_STICK, EV_STICK_IMPACT, EV_RELEASE = 0, 1, 2, 3, 4
+EV_START, EV_IMPACT, EV_STICK, EV_STICK_IMPACT, EV_RELEASE, EV_ENTRY, EV_EXIT = 0, 1, 2, 3, 4, 5, 6
+#: columns of a compliant contact's record: duration, peak force, largest penetration, work done on the
+#: stop, entry velocity (system units)
+C_DURATION, C_FORCE, C_PENETRATION, C_ENERGY, C_VELOCITY = range(5)
 #: columns of an event-log row before the state
 LOG_HEAD = 4
 
@@ -101,6 +109,11 @@ class Record(NamedTuple):
         Apex log (0 rows: off).
     nlog : ndarray of int64, shape (2,)
         Events and apexes logged (counted beyond the capacities).
+    con : ndarray, shape (cap, 5) or (0, 5)
+        Per recorded contact of a compliant stop (row: its index among the recorded impacts and
+        contacts): duration, peak force, largest penetration, work done on the stop, entry velocity
+        (:data:`C_DURATION` ...; system units); NaN rows for Newton impacts and contacts still open
+        at the end.
     """
 
     samples: np.ndarray
@@ -115,18 +128,20 @@ class Record(NamedTuple):
     evlog: np.ndarray
     aplog: np.ndarray
     nlog: np.ndarray
+    con: np.ndarray
 
 
 def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states=False, log_events=0,
-               log_apexes=0) -> Record:
+               log_apexes=0, compliant=False) -> Record:
     """A :class:`Record` for ``n`` modes, ``n_stops`` stops and ``n_record`` recorded periods of
-    ``ns_record`` samples; ``log_events`` / ``log_apexes``: capacities of the logs (0: off)."""
+    ``ns_record`` samples; ``log_events`` / ``log_apexes``: capacities of the logs (0: off);
+    ``compliant``: with the per-contact records of compliant stops."""
     ns = int(n_record) * int(ns_record)
     return Record(np.zeros((ns, 2)), np.zeros((ns if modal_states else 0, 2 * n)), np.zeros(n),
                   np.zeros(int(n_record)), np.zeros(impact_buffer), np.zeros(impact_buffer),
                   np.zeros(impact_buffer, np.int64), np.zeros(n_stops, np.int64), np.zeros(impact_buffer),
                   np.zeros((int(log_events), LOG_HEAD + 2 * n)), np.zeros((int(log_apexes), 3)),
-                  np.zeros(2, np.int64))
+                  np.zeros(2, np.int64), np.full((impact_buffer if compliant else 0, 5), np.nan))
 
 
 # ============================================================================ helpers
@@ -157,14 +172,14 @@ def _contact_acc(phi, Om, eta, etad, d, c, k, GF):
     return acc, jerk
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def _far(g0, g1, M2, h):
     """A gap negative at both ends of a step stays negative inside when it is far from zero:
     linear interpolation is off by at most ``M2 h^2 / 8`` (``M2`` bounds ``|g''|``)."""
     return max(g0, g1) + 0.125 * M2 * h * h < 0.0
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def _dot(a, b):
     r = 0.0
     for i in range(a.shape[0]):
@@ -200,7 +215,7 @@ def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0,
     nlog[1] = k + 1
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def _gap_ends(Pm, k, Sa, Sb, f0, fp0, Om, dx, dy, x2, x3, dsin, dcos, sp1, cp1, m, g1, v1, g21, g31):
     """Value, slope, 2nd and 3rd derivative at the end of a free step of the gap signal with
     weights ``Pm[k]`` (no velocity weights) and harmonic part ``Sa sin + Sb cos``, from the modes'
@@ -277,7 +292,7 @@ def _in(mask, k):
 
 # ============================================================================ the kernel
 @njit(cache=True, error_model="numpy")
-def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
               max_impacts, max_steps, chatter_tol, rec):
     """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core).
 
@@ -287,12 +302,17 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
     st : KernelStops
     hs : HeldSets
         :mod:`vibeam.models.core.stops`.
+    cp : Compliant or None
+        The compliant stops' data (:class:`vibeam.models.core.phases.Compliant`: the linear contact
+        phases, the Runge-Kutta tableau); None for a scene with Newton stops only, whose compiled
+        specialisation then holds no compliant code (numba prunes the branches on ``cp is None``).
     Om : float
         Forcing frequency (per unit nondimensional time).
     eta, etad : ndarray, shape (n,)
         Initial modal state, overwritten with the final one.
     held0 : int
-        Bit mask of the stops the system is held on at the start (0 free).
+        Bit mask of the stops the system is held on (Newton stops) or in contact with (compliant
+        stops) at the start (0 free).
     n_transient, n_record : int
         Forcing periods discarded, then recorded.
     ns_transient, ns_record : int
@@ -310,12 +330,13 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
     -------
     tuple
         ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
-        gmax, n_steps)``: status code, recorded impacts, sensor extremes over the record (row
-        units), chatter sequences, time held (excluding chatter holds), the final held mask,
-        all impacts (-1: the forced response is not finite; -2: the motion's scale is subnormal,
-        below 1e-290), the largest gap at the end of an
-        event-free step (a certificate: positive beyond round-off only if a crossing had been
-        stepped over), steps taken.
+        gmax, n_steps, contact_time)``: status code, recorded impacts and contacts, sensor extremes
+        over the record (row units), chatter sequences, time held (excluding chatter holds), the
+        final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
+        response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
+        gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
+        round-off only if a crossing had been stepped over), steps taken, time in compliant contact
+        during the record.
     """
     n = eta.shape[0]
     ns = st.offset.shape[0]
@@ -330,7 +351,7 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
     for i in range(n):
         GF[i] = sy.gam[i] * F
     if not _particular(sy.c, sy.k, sy.gam, F, Om, aF, bF, n):
-        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -1, -np.inf, 0)
+        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -1, -np.inf, 0, 0.0)
     # a motion at the scale of subnormal numbers (below 2.2e-308, i.e. with fewer than 53
     # significant bits) cannot be computed to the kernel's precision: failed at once (n_imp_total
     # -2), not a number with a few bits
@@ -340,7 +361,7 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
     for k in range(ns):
         scale_f = max(scale_f, abs(st.offset[k]))
     if 0.0 < scale_f < 1e-290:
-        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -2, -np.inf, 0)
+        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -2, -np.inf, 0, 0.0)
     SaF = np.empty(ns)
     SbF = np.empty(ns)
     CsF = np.empty(ns)
@@ -365,7 +386,7 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
             continue
         nc = hs.nc[m]
         if not _particular(hs.c[m], hs.nu2[m], hs.gam[m], F, Om, aC[m], bC[m], nc):
-            return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -1, -np.inf, 0)
+            return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -1, -np.inf, 0, 0.0)
         for k in range(ns):
             pa = 0.0
             pb = 0.0
@@ -473,11 +494,75 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
         pmin[i] = np.inf
     ext = np.array([np.inf, -np.inf])
     pext = np.array([np.inf, -np.inf])
+    # ---- compliant stops (a contact phase each; vibeam.models.core.contact_phase): the set in
+    # contact C, the stops the body is inside of without contact, those left by a hysteretic-Hertz
+    # stop's damping factor; all zero for Newton stops only
+    cmask = 0
+    C = 0
+    inside = 0
+    relaxed = 0
+    t_contact = 0.0
+    q_last = -1
+    qfresh = True
+    if cp is not None:
+        lph = cp.ph
+        Qn = lph.m.shape[0]
+        pax = np.zeros((Qn, n))
+        pbx = np.zeros((Qn, n))
+        pay = np.zeros((Qn, n))
+        pby = np.zeros((Qn, n))
+        phase_harmonics(lph, Om, F, pax, pbx, pay, pby)
+        vr = np.zeros(ns)          # the open contacts' entry velocities (hysteretic Hertz: floored)
+        vfl = np.zeros(ns)
+        cs = np.zeros((ns, 5))     # the open contacts' records (C_DURATION ...; column 0 the entry time)
+        crow = np.full(ns, -1, np.int64)
+        for k in range(ns):
+            if is_compliant(st.law[k]):
+                cmask |= 1 << k
+                vfl[k] = hertz_floor(Om, sy.B, _dot(st.normal[k], sy.gam), cp.vfall)
+        xq = np.zeros(n)
+        yq = np.zeros(n)
+        hbq = np.empty((n, 6))
+        wpa = np.empty(n)
+        wra = np.empty(n)
+        wpb = np.empty(n)
+        wrb = np.empty(n)
+        ext2 = np.empty(2)
+        Lr = 2 * n + ns
+        ry0 = np.empty(Lr)
+        ry1 = np.empty(Lr)
+        rtmp = np.empty(Lr)
+        ryt = np.empty(Lr)
+        ryw = np.empty(Lr)
+        rye = np.empty(Lr)
+        racc = np.empty(Lr)
+        rK = np.empty((cp.tab.c.shape[0], Lr))
+        rkc = np.zeros(4)
+        con = rec.con
+        for r in range(con.shape[0]):
+            for c in range(5):
+                con[r, c] = np.nan
     # ---- the initial state: held on its set (projected onto the constraint), or put on a stop it
     # lies on within round-off (position only)
-    H = held0
+    H = held0 & ~cmask
     if H < 0 or H >= S or hs.valid[H] == 0:
         H = 0
+    if cp is not None:
+        C = held0 & cmask if 0 <= held0 < S else 0
+        for k in range(ns):
+            if (C >> k) & 1:
+                U = _dot(st.normal[k], etad)
+                vr[k] = max(U if st.law[k] != LAW_LINEAR else abs(U), vfl[k])
+                gk = _dot(st.normal[k], eta) - st.offset[k]
+                cs[k, 0] = 0.0
+                cs[k, 1] = force(st.law[k], gk, U, st.kc[k], st.cc[k], st.pe[k], vr[k])
+                cs[k, 2] = gk
+                cs[k, 3] = 0.0
+                cs[k, 4] = U
+            elif (cmask >> k) & 1 and _dot(st.normal[k], eta) - st.offset[k] > 0.0:
+                inside |= 1 << k
+        if C != 0 and lph.index[H, C] < 0:
+            rk_scales(H, C, sy, st, hs, vr, rkc)
     eta_norm = math.sqrt(_dot(eta, eta))
     if H != 0:
         nc = hs.nc[H]
@@ -507,8 +592,10 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
         if _in(H, k):
             g[k] = 0.0
             v[k] = 0.0
-    if H == 0:
+    if H == 0 and C == 0:
         for k in range(ns):
+            if (cmask >> k) & 1:
+                continue
             scale = abs(st.offset[k]) + math.sqrt(_dot(st.normal[k], st.normal[k])) * eta_norm + 1e-300
             if g[k] > -1e-13 * scale:
                 corr = g[k] * st.m_eff[k]
@@ -584,12 +671,86 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                     n_steps += 1
                     if n_steps > max_steps:
                         return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter,
-                                stuck_time, H, n_imp_total, gmax, n_steps)
+                                stuck_time, H | C, n_imp_total, gmax, n_steps, t_contact)
                     # the step grows by doubling from the last certified length (where the
                     # certification had to halve), up to a whole tabulated sub-step
                     h_try = min(rem, 2.0 * h_last)
                     k_imp = -1           # an impact at the current time on this stop, after the step
-                    if H != 0:
+                    if cp is not None and C != 0:
+                        # ================================ in contact with the compliant stops C (held on H)
+                        fresh = True
+                        at_grid = False
+                        qq = lph.index[H, C]
+                        if qq >= 0:
+                            if qq != q_last:
+                                qfresh = True
+                                q_last = qq
+                            s_mv, ekind, kk, eaux = linear_step(qq, H, C, inside, relaxed, rem, 1e-13 * T, phi, Om, F,
+                                                                eta, etad, st, hs, lph, pax, pbx, pay, pby, xq, yq,
+                                                                qfresh, vr, cs, recording, pext, hbq, wpa, wra, wpb,
+                                                                wrb, ext2)
+                            qfresh = False
+                        else:
+                            q_last = -1
+                            s_mv, ekind, kk, eaux = rk_phase_step(H, C, inside, relaxed, rem, phi, Om, F, eta, etad, sy,
+                                                                  st, hs, cp.tab, vr, rkc, cs, recording, pext, ry0,
+                                                                  ry1, rK, rtmp, ryt, ryw, rye, racc)
+                        if ekind == EK_FAIL:
+                            return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter,
+                                    stuck_time, H | C, n_imp_total, gmax, n_steps, t_contact)
+                        if recording:
+                            t_contact += s_mv
+                            if H != 0:
+                                stuck_time += s_mv
+                        phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
+                        if s_mv > 0.0:
+                            just_stuck = False
+                            just_released = False
+                        for j in range(ns):
+                            if _in(H, j):
+                                g[j] = 0.0
+                                v[j] = 0.0
+                            else:
+                                g[j] = _dot(st.normal[j], eta) - st.offset[j]
+                                v[j] = _dot(st.normal[j], etad)
+                                if g[j] > 0.0 and (cmask >> j) & 1 == 0:
+                                    g[j] = 0.0      # a Newton stop is never penetrated (round-off)
+                        if ekind == EK_NONE:
+                            continue
+                        qfresh = True
+                        if ekind == EK_EXIT:
+                            C &= ~(1 << kk)
+                            if g[kk] > 0.0:
+                                inside |= 1 << kk
+                                if eaux == 1:
+                                    relaxed |= 1 << kk
+                            r = crow[kk]
+                            if r >= 0:
+                                if r < con.shape[0]:
+                                    con[r, 0] = t_period0 + t_loc - cs[kk, 0]
+                                    for c in range(1, 5):
+                                        con[r, c] = cs[kk, c]
+                                crow[kk] = -1
+                            if logging:
+                                _log_event(evlog, nlog, EV_EXIT, pp * T + t_loc, float(eaux), kk, eta, etad)
+                            if C != 0 and lph.index[H, C] < 0:
+                                rk_scales(H, C, sy, st, hs, vr, rkc)
+                            continue
+                        if ekind == EK_GAPDOWN:
+                            inside &= ~(1 << kk)
+                            relaxed &= ~(1 << kk)
+                            g[kk] = 0.0
+                            continue
+                        if ekind == EK_RELEASE:
+                            if logging:
+                                _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, 0.0, kk, eta, etad)
+                            H = H & ~(1 << kk)
+                            just_released = True
+                            g[kk] = 0.0
+                            v[kk] = 0.0
+                            continue
+                        k_imp = kk         # an entry (EK_ENTRY) or a Newton impact (EK_IMPACT)
+                    elif H != 0:
                         # ================================ held on the set H
                         fresh = True
                         at_grid = False
@@ -600,8 +761,30 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                         eC = hs.e[H]
                         # a stop not held that the system touches and does not leave: impact or stick
                         touched = -1
+                        if cp is not None and inside != 0:
+                            # inside a compliant stop without contact: back below it, or a contact now
+                            for j in range(ns):
+                                if (inside >> j) & 1 == 0:
+                                    continue
+                                gk = _dot(st.normal[j], eta) - st.offset[j]
+                                vk = _dot(st.normal[j], etad)
+                                g[j] = gk
+                                v[j] = vk
+                                if gk <= 0.0:
+                                    inside &= ~(1 << j)
+                                    relaxed &= ~(1 << j)
+                                    continue
+                                r0, r1, roff = inside_sign(st.law[j], st.kc[j], st.cc[j], vr[j], (relaxed >> j) & 1 == 1)
+                                acc, jerk = _contact_acc(phi, Om, eta, etad, hs.dirn[H, j], sy.c, sy.k, GF)
+                                sg = r0 * gk + r1 * vk + roff
+                                tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
+                                if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
+                                    touched = j
+                                    break
                         for j in range(ns):
-                            if _in(H, j) or hs.moves[H, j] == 0:
+                            if touched >= 0:
+                                break
+                            if _in(H, j) or hs.moves[H, j] == 0 or (inside >> j) & 1:
                                 continue
                             if g[j] >= 0.0 and v[j] >= 0.0:
                                 g[j] = 0.0
@@ -610,7 +793,11 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                     break
                                 if not just_released:
                                     acc, jerk = _contact_acc(phi, Om, eta, etad, hs.dirn[H, j], sy.c, sy.k, GF)
-                                    if not release_now(acc, jerk) and hs.valid[H | (1 << j)] == 1:
+                                    if (cmask >> j) & 1:
+                                        if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
+                                            touched = j     # pressed onto a compliant stop: a contact
+                                            break
+                                    elif not release_now(acc, jerk) and hs.valid[H | (1 << j)] == 1:
                                         if logging:
                                             _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, j, eta, etad)
                                         H = H | (1 << j)
@@ -682,8 +869,51 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                         s_ev = -1.0
                                         k_ev = -1
                                         h = hk2
+                            ev_in = 0
                             for j in range(ns):
                                 if _in(H, j) or hs.moves[H, j] == 0:
+                                    continue
+                                if cp is not None and (inside >> j) & 1:
+                                    # inside a compliant stop: the sign of its force up, its gap down
+                                    r0, r1, roff = inside_sign(st.law[j], st.kc[j], st.cc[j], vr[j],
+                                                               (relaxed >> j) & 1 == 1)
+                                    for i in range(nc):
+                                        wpa[i] = r0 * hs.pG[H, j, i]
+                                        wra[i] = r1 * hs.pG[H, j, i]
+                                    Sa = r0 * SaG[H, j] - r1 * Om * SbG[H, j]
+                                    Sb = r0 * SbG[H, j] + r1 * Om * SaG[H, j]
+                                    M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, nc)
+                                    f0, fp0 = signal_start(phi, Om, x0, y0, mpC, wpa, wra, Sa, Sb,
+                                                           r0 * hs.cG[H, j] + roff, nc)
+                                    hk = h if s_ev < 0.0 else s_ev
+                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, wpa, wra, Sa, Sb, f0, fp0,
+                                                   M2, M3, M4, nc)
+                                    if sk >= 0.0:
+                                        s_ev = sk
+                                        k_ev = j
+                                        ev_release = False
+                                        ev_in = 1
+                                    elif hk2 < hk:
+                                        s_ev = -1.0
+                                        k_ev = -1
+                                        ev_in = 0
+                                        h = hk2
+                                    for i in range(nc):
+                                        wpa[i] = -hs.pG[H, j, i]
+                                    M2, M3, M4 = bounds(hb, wpa, zeroN, CsG[H, j], Om, nc)
+                                    hk = h if s_ev < 0.0 else s_ev
+                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, wpa, zeroN, -SaG[H, j],
+                                                   -SbG[H, j], -g[j], -v[j], M2, M3, M4, nc)
+                                    if sk >= 0.0:
+                                        s_ev = sk
+                                        k_ev = j
+                                        ev_release = False
+                                        ev_in = 2
+                                    elif hk2 < hk:
+                                        s_ev = -1.0
+                                        k_ev = -1
+                                        ev_in = 0
+                                        h = hk2
                                     continue
                                 M2, M3, M4 = bounds(hb, hs.pG[H, j], zeroN, CsG[H, j], Om, nc)
                                 hk = h if s_ev < 0.0 else s_ev
@@ -693,9 +923,11 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                     s_ev = sk
                                     k_ev = j
                                     ev_release = False
+                                    ev_in = 0
                                 elif hk2 < hk:
                                     s_ev = -1.0
                                     k_ev = -1
+                                    ev_in = 0
                                     h = hk2
                             if s_ev < 0.0 and not in_hold:
                                 h_last = h if h < h_try else max(h_last, h)
@@ -708,6 +940,10 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                 if apexes and not (s_ev >= 0.0 and k_ev == j) and v[j] > 0.0 and vj <= 0.0:
                                     _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j],
                                               zeroN, SaG[H, j], SbG[H, j], g[j], v[j], nc, j)
+                                if (inside >> j) & 1:
+                                    g[j] = gj
+                                    v[j] = vj
+                                    continue
                                 if gj > gmax and not (s_ev >= 0.0 and k_ev == j):
                                     gmax = gj
                                 g[j] = gj if gj < 0.0 else 0.0
@@ -752,11 +988,42 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                 g[k_ev] = 0.0
                                 v[k_ev] = 0.0
                                 continue
+                            if ev_in == 2:
+                                inside &= ~(1 << k_ev)
+                                relaxed &= ~(1 << k_ev)
+                                g[k_ev] = 0.0
+                                continue
                             k_imp = k_ev
                     else:
                         # ================================ free flight
                         touched = -1
+                        if cp is not None and inside != 0:
+                            # inside a compliant stop without contact: back below it, or a contact now
+                            for k in range(ns):
+                                if (inside >> k) & 1 == 0:
+                                    continue
+                                gk = _dot(st.normal[k], eta) - st.offset[k]
+                                vk = _dot(st.normal[k], etad)
+                                if gk <= 0.0:
+                                    inside &= ~(1 << k)
+                                    relaxed &= ~(1 << k)
+                                    g[k] = gk
+                                    v[k] = vk
+                                    continue
+                                g[k] = gk
+                                v[k] = vk
+                                r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k], (relaxed >> k) & 1 == 1)
+                                acc, jerk = _contact_acc(phi, Om, eta, etad, st.normal[k], sy.c, sy.k, GF)
+                                sg = r0 * gk + r1 * vk + roff
+                                tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
+                                if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
+                                    touched = k
+                                    break
                         for k in range(ns):
+                            if touched >= 0:
+                                break
+                            if (inside >> k) & 1:
+                                continue
                             if g[k] >= 0.0 and v[k] >= 0.0:
                                 g[k] = 0.0
                                 if v[k] > 0.0:
@@ -764,7 +1031,11 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                     break
                                 if not just_released:
                                     acc, jerk = _contact_acc(phi, Om, eta, etad, st.normal[k], sy.c, sy.k, GF)
-                                    if not release_now(acc, jerk):     # pressed (the release rule)
+                                    if (cmask >> k) & 1:
+                                        if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
+                                            touched = k     # pressed onto a compliant stop: a contact
+                                            break
+                                    elif not release_now(acc, jerk):     # pressed (the release rule)
                                         if logging:
                                             _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, k, eta, etad)
                                         H = 1 << k
@@ -835,7 +1106,52 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                             s_ev = -1.0
                             k_ev = -1
                             h_ok = h
+                            ev_in = 0
+                            if cp is not None and inside != 0:
+                                # inside a compliant stop: its force's sign up through zero (a contact),
+                                # or its gap down through zero (below it again)
+                                for k in range(ns):
+                                    if (inside >> k) & 1 == 0:
+                                        continue
+                                    r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k],
+                                                               (relaxed >> k) & 1 == 1)
+                                    for j in range(n):
+                                        wpa[j] = r0 * Nrm[k, j]
+                                        wra[j] = r1 * Nrm[k, j]
+                                    Sa = r0 * SaF[k] - r1 * Om * SbF[k]
+                                    Sb = r0 * SbF[k] + r1 * Om * SaF[k]
+                                    f0, fp0 = signal_start(phi, Om, xF, yF, mp, wpa, wra, Sa, Sb,
+                                                           roff - r0 * st.offset[k], n)
+                                    M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, n)
+                                    hk = h_ok if s_ev < 0.0 else s_ev
+                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, wra, Sa, Sb, f0, fp0, M2, M3,
+                                                   M4, n)
+                                    if sk >= 0.0:
+                                        s_ev = sk
+                                        k_ev = k
+                                        ev_in = 1
+                                    elif hk2 < hk:
+                                        s_ev = -1.0
+                                        k_ev = -1
+                                        ev_in = 0
+                                        h_ok = hk2
+                                    for j in range(n):
+                                        wpa[j] = -Nrm[k, j]
+                                    hk = h_ok if s_ev < 0.0 else s_ev
+                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, zeroN, -SaF[k], -SbF[k],
+                                                   -g[k], -v[k], M2F[k], M3F[k], M4F[k], n)
+                                    if sk >= 0.0:
+                                        s_ev = sk
+                                        k_ev = k
+                                        ev_in = 2
+                                    elif hk2 < hk:
+                                        s_ev = -1.0
+                                        k_ev = -1
+                                        ev_in = 0
+                                        h_ok = hk2
                             for k in range(ns):
+                                if (inside >> k) & 1:
+                                    continue
                                 hk = h_ok if s_ev < 0.0 else s_ev
                                 if hk == h:
                                     f = g[k] + SaF[k] * dsin + SbF[k] * dcos
@@ -872,9 +1188,11 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                 if sk >= 0.0:
                                     s_ev = sk
                                     k_ev = k
+                                    ev_in = 0
                                 elif hk2 < hk:
                                     s_ev = -1.0
                                     k_ev = -1
+                                    ev_in = 0
                                     h_ok = hk2
                             s_mv = s_ev if s_ev >= 0.0 else h_ok
                             if s_ev < 0.0:
@@ -896,7 +1214,7 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                               dsin, dcos, sp1, cp1, n, g1, v1, G21, G31)
                             if apexes and s_ev < 0.0:
                                 for k in range(ns):
-                                    if v[k] > 0.0 and v1[k] <= 0.0:
+                                    if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:
                                         _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, xF, yF, mp, st.normal[k],
                                                   zeroN, SaF[k], SbF[k], g[k], v[k], n, k)
                             if recording:
@@ -917,6 +1235,8 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                             for k in range(ns):
                                 # the state recomposed from its parts may round past a stop that the
                                 # carried gap (value + increments) has not reached: put it back on it
+                                if (inside >> k) & 1:
+                                    continue
                                 gs = _dot(st.normal[k], eta) - st.offset[k]
                                 if gs > 0.0:
                                     gs *= st.m_eff[k]
@@ -936,6 +1256,10 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                 just_stuck = False
                                 just_released = False
                             for k in range(ns):
+                                if (inside >> k) & 1:
+                                    g[k] = _dot(st.normal[k], eta) - st.offset[k]
+                                    v[k] = _dot(st.normal[k], etad)
+                                    continue
                                 if s_ev >= 0.0 and k == k_ev:
                                     g[k] = 0.0
                                 else:
@@ -947,7 +1271,50 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                                 G3[k] = G31[k]
                             if s_ev < 0.0:
                                 continue
+                            if ev_in == 2:
+                                inside &= ~(1 << k_ev)
+                                relaxed &= ~(1 << k_ev)
+                                g[k_ev] = 0.0
+                                fresh = True
+                                continue
                             k_imp = k_ev
+                    if cp is not None and (cmask >> k_imp) & 1:
+                        # ================================ a compliant stop's contact begins (held set H kept)
+                        fresh = True
+                        at_grid = False
+                        qfresh = True
+                        kk = k_imp
+                        U = _dot(st.normal[kk], etad)
+                        gk = _dot(st.normal[kk], eta) - st.offset[kk]
+                        if logging:
+                            _log_event(evlog, nlog, EV_ENTRY, pp * T + t_loc, U, kk, eta, etad)
+                        C |= 1 << kk
+                        inside &= ~(1 << kk)
+                        relaxed &= ~(1 << kk)
+                        vr[kk] = max(U if st.law[kk] != LAW_LINEAR else abs(U), vfl[kk])
+                        cs[kk, 0] = t_period0 + t_loc
+                        cs[kk, 1] = force(st.law[kk], gk, U, st.kc[kk], st.cc[kk], st.pe[kk], vr[kk])
+                        cs[kk, 2] = gk
+                        cs[kk, 3] = 0.0
+                        cs[kk, 4] = U
+                        g[kk] = gk
+                        v[kk] = U
+                        n_imp_total += 1
+                        crow[kk] = -1
+                        if recording:
+                            if n_imp_rec < cap:
+                                imp_t[n_imp_rec] = t_period0 + t_loc
+                                imp_v[n_imp_rec] = U
+                                imp_k[n_imp_rec] = kk
+                            crow[kk] = n_imp_rec
+                            n_imp_rec += 1
+                            n_imp_stop[kk] += 1
+                        if n_imp_total > max_impacts:
+                            return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter,
+                                    stuck_time, H | C, n_imp_total, gmax, n_steps, t_contact)
+                        if lph.index[H, C] < 0:
+                            rk_scales(H, C, sy, st, hs, vr, rkc)
+                        continue
                     # ================================ contact event on stop k_imp (held set H kept)
                     fresh = True
                     at_grid = False
@@ -1004,13 +1371,20 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                         n_imp_stop[k_imp] += 1
                     if n_imp_total > max_impacts:
                         return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
-                                H, n_imp_total, gmax, n_steps)
+                                H | C, n_imp_total, gmax, n_steps, t_contact)
                     # the shared policy (vibeam.models.contact_policy), R at the current impact velocity:
                     # the jerk beyond the one-DOF flow part -c_eff a + k_eff u is the forcing term plus the
                     # modal remainder (zero for one mode); a chatter jumps only to an accumulation point
                     # inside the current grid step; the Zeno guard is on
                     u = -Up
                     acc, jerk = _contact_acc(phi, Om, eta, etad, d, sy.c, sy.k, GF)
+                    if cp is not None and C != 0:
+                        # the compliant stops in contact push too (their force along d)
+                        for c in range(ns):
+                            if (C >> c) & 1:
+                                fc = force(st.law[c], _dot(st.normal[c], eta) - st.offset[c], _dot(st.normal[c], etad),
+                                           st.kc[c], st.cc[c], st.pe[c], vr[c])
+                                acc -= _dot(d, st.normal[c]) * fc
                     t_imp = t_period0 + t_loc
                     burst = zeno_burst(burst, t_imp, t_last_imp, BURST_DT * T)
                     t_last_imp = t_imp
@@ -1028,7 +1402,7 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
                             if n_chatter <= chat_t.shape[0]:
                                 chat_t[n_chatter - 1] = t_imp
                     elif action == CHATTER:
-                        hold = D
+                        hold = D if C == 0 else 0.0     # (beside a compliant contact: stick at once)
                         if recording:
                             n_chatter += 1
                             if n_chatter <= chat_t.shape[0]:
@@ -1055,4 +1429,5 @@ def integrate(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transi
             status = ST_CHATTER
         elif stuck_time > 0.0:
             status = ST_STICKING
-    return (status, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time, H, n_imp_total, gmax, n_steps)
+    return (status, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time, H | C, n_imp_total, gmax, n_steps,
+            t_contact)

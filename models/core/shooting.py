@@ -727,7 +727,7 @@ def shoot(sy, st, hs, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_step
         held0 = held_at_section(st, hs, x0, Om)
     eta = x0[:n].copy()
     etad = x0[n:].copy()
-    out = integrate(sy, st, hs, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
+    out = integrate(sy, st, hs, None, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
                     chatter_tol, rec)
     x_end = np.empty(2 * n)
     for i in range(n):
@@ -885,7 +885,7 @@ class ModalShooting:
             self._capa = max(self._capa, int(nlog[1]) + 16)
             self._capi = max(self._capi, int(out[1]) + 16)
             self._bufs.clear()
-        status, n_imp, smin, smax, n_chat, stuck_time, held_end, n_tot, gmax, n_steps = out
+        status, n_imp, smin, smax, n_chat, stuck_time, held_end, n_tot, gmax, n_steps, _t_con = out
         sc = set_.scale
         n_ev, n_ap = int(nlog[0]), int(nlog[1])
         ev = rec.evlog[:n_ev].copy()          # one copy; the event arrays are views of it

@@ -43,7 +43,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg
 
-from ..contact import LAW, NODES, OFFSET, R as RCOL, SIGN, pack
+from ..contact import LAW, LAW_LINEAR, NODES, OFFSET, R as RCOL, SIGN, pack
 from ..system import ModalSystem, mode_table
 
 __all__ = ["KernelSystem", "KernelStops", "HeldSets", "kernel_system", "kernel_stops", "held_sets",
@@ -95,6 +95,10 @@ class KernelStops(NamedTuple):
         ``1 / |n|^2`` and the damping rate and stiffness of the contact coordinate
         (``m_eff n^T C n``, ``m_eff n^T K n``; the chatter estimate of
         :mod:`vibeam.models.contact_policy`).
+    kc, cc, pe : ndarray, shape (n_s,)
+        A compliant law's stiffness (system units: ``eta'' = ... - n f``, ``f = kc g^pe ...``), its
+        dashpot (Kelvin-Voigt, ``2 zeta_c sqrt(kc m_eff)``) or ``chi`` (hysteretic Hertz), and its
+        exponent (:mod:`vibeam.models.core.laws`); zeros for Newton's law.
     """
 
     normal: np.ndarray
@@ -107,6 +111,9 @@ class KernelStops(NamedTuple):
     m_eff: np.ndarray
     c_eff: np.ndarray
     k_eff: np.ndarray
+    kc: np.ndarray
+    cc: np.ndarray
+    pe: np.ndarray
 
 
 class HeldSets(NamedTuple):
@@ -219,10 +226,23 @@ def kernel_stops(system: ModalSystem, stops) -> KernelStops:
     me = 1.0 / n2
     c = np.asarray(system.damping, float)
     k = np.asarray(system.omega, float) ** 2
+    kc = np.zeros(len(stops))
+    cc = np.zeros(len(stops))
+    pe = np.zeros(len(stops))
+    for i, s in enumerate(stops):
+        if getattr(s.law, "kind", "") != "compliant":
+            continue
+        kc[i] = float(s.law.stiffness)
+        if s.law.code == LAW_LINEAR:
+            cc[i] = 2.0 * float(s.law.damping_ratio) * math.sqrt(kc[i] * me[i])
+            pe[i] = 1.0
+        else:
+            cc[i] = float(s.law.chi)
+            pe[i] = float(s.law.exponent)
     return KernelStops(np.ascontiguousarray(N), np.ascontiguousarray(par[:, OFFSET]),
                        par[:, LAW].astype(np.int64), np.ascontiguousarray(par[:, RCOL]),
                        par[:, NODES].astype(np.int64), np.ascontiguousarray(tU), np.ascontiguousarray(tR),
-                       me, me * ((N * N) @ c), me * ((N * N) @ k))
+                       me, me * ((N * N) @ c), me * ((N * N) @ k), kc, cc, pe)
 
 
 def held_sets(system: ModalSystem, ks: KernelStops) -> tuple[HeldSets, np.ndarray]:
