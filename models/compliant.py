@@ -62,6 +62,7 @@ tests check.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -197,6 +198,10 @@ class LinearContact:
         """``c_c = 2 zeta_c sqrt(k_c)`` (per unit effective mass)."""
         return 2.0 * self.damping_ratio * math.sqrt(self.stiffness)
 
+    def with_restitution(self, R: float) -> "LinearContact":
+        """The law of the same stiffness with target restitution ``R`` (its dashpot solved anew)."""
+        return self.from_restitution(self.stiffness, R)
+
     def row(self) -> tuple:
         """``(law code, R, stiffness, damping, exponent)`` of a kernel stop row."""
         return (float(self.code), float(self.R), float(self.stiffness), float(self.damping), 1.0)
@@ -247,6 +252,10 @@ class HystereticHertz:
     @property
     def damping(self) -> float:
         return self.chi
+
+    def with_restitution(self, R: float):
+        """The law of the same stiffness and exponent with target restitution ``R``."""
+        return dataclasses.replace(self, R=float(R))
 
     @staticmethod
     def force_exponent(exponent: float | None = None) -> float:

@@ -203,7 +203,9 @@ class BeamShooting(ModalShooting):
         self.parameter = parameter
         self.pid = _PID[parameter]
         self.index = 0           # the directions hold the continuation parameter alone
-        self.value = self.Omega if parameter == "Omega" else float(getattr(model, parameter))
+        law = getattr(model, "contact", None)
+        self.value = self.Omega if parameter == "Omega" else (
+            float(law.R) if parameter == "R" and law is not None else float(getattr(model, parameter)))
         self.dim = 2 * model.n_modes
         self.state_scale = model.length_m * math.sqrt(model.m_eff)
         self._cache_key = None
@@ -215,7 +217,11 @@ class BeamShooting(ModalShooting):
         if self.parameter == "Omega" or p == self.value:
             return self.model
         m = copy.copy(self.model)
-        setattr(m, self.parameter, float(p))
+        law = getattr(m, "contact", None)
+        if self.parameter == "R" and law is not None:
+            m.contact = law.with_restitution(float(p))     # a compliant stop: its law's target R
+        else:
+            setattr(m, self.parameter, float(p))
         m._constrained()
         return m
 
@@ -235,7 +241,8 @@ class BeamShooting(ModalShooting):
             N = m.n_modes
             up = np.eye(ns)[0]
             # the lower stop follows the upper stop's law when it has no R of its own
-            both = np.array([1.0, 0.0 if m.R_lower is not None else 1.0])[:ns]
+            own = m.R_lower is not None or getattr(m, "contact_lower", None) is not None
+            both = np.array([1.0, 0.0 if own else 1.0])[:ns]
             # the continuation parameter's direction only (one column: the cost of a tangent
             # grows with the columns, and with every mode for a damping parameter)
             dirs = directions(core, [{

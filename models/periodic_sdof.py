@@ -106,15 +106,19 @@ class SDOFShooting(ModalShooting):
         self.parameter = parameter
         self.index = PARAMETERS.index(parameter)
         self.Omega = None if Omega is None else float(Omega)
+        #: the upper stop's law when it is compliant (R is then its target restitution)
+        self.law = getattr(model, "contact", None)
+        R0 = float(model.R) if self.law is None else float(self.law.R)
         self.value = (float(Omega) if Omega is not None else math.nan) if parameter == "Omega" \
-            else float(getattr(model, parameter))
+            else (R0 if parameter == "R" else float(getattr(model, parameter)))
         # a second (lower) stop at q = -Delta_lower: its own R, or the upper stop's (then it moves
         # with R: d R_lower / d R = 1)
         self.two_sided = bool(getattr(model, "two_sided", False))
         self.Delta_lower = float(model.Delta_lower) if self.two_sided else math.inf
-        self.own_R_lower = self.two_sided and getattr(model, "R_lower", None) is not None
+        self.own_R_lower = self.two_sided and (getattr(model, "R_lower", None) is not None or
+                                               getattr(model, "contact_lower", None) is not None)
         # (beta, B, R, Delta, Omega) of the model and the slot of the continuation parameter
-        self._base = [float(model.beta), float(model.B), float(model.R), float(model.Delta), self.Omega]
+        self._base = [float(model.beta), float(model.B), R0, float(model.Delta), self.Omega]
         self._slot = _ORDER[self.index]
         self._setups = {}
 
@@ -133,6 +137,11 @@ class SDOFShooting(ModalShooting):
         if not (0.0 <= beta < 1.0 and 0.0 <= R <= 1.0 and Omega is not None and Omega > 0.0
                 and math.isfinite(B) and math.isfinite(Delta)):
             return f"parameters out of range (beta {beta}, R {R}, Omega {Omega})"
+        if self.law is not None and R != float(self.law.R):
+            try:
+                self.law.with_restitution(R).check()
+            except ValueError as e:
+                return str(e)
         if beta == 0.0 and Omega == 1.0:
             return "undamped exact resonance: no periodic particular solution"
         if self.two_sided and not Delta + self.Delta_lower > 0.0:
@@ -148,6 +157,11 @@ class SDOFShooting(ModalShooting):
         if su is None:
             if self.invalid(p):
                 m = self.model     # a placeholder: the shot returns the reason before running
+            elif self.law is not None:
+                # a compliant upper stop: R is its law's target restitution (the lower stop's law
+                # follows it unless it has its own)
+                law = self.law if R == float(self.law.R) else self.law.with_restitution(R)
+                m = replace(self.model, beta=beta, B=B, Delta=Delta, contact=law)
             else:
                 m = replace(self.model, beta=beta, B=B, R=R, Delta=Delta,
                             R_lower=self.R_lower(R) if self.two_sided else None)
@@ -156,15 +170,23 @@ class SDOFShooting(ModalShooting):
             z = np.zeros(ns)
             up = np.eye(ns)[0]
             both = np.array([1.0, 0.0 if self.own_R_lower else 1.0])[:ns]
-            dirs = directions(core, [Direction("Omega", 1.0, 0.0, z, z, np.zeros(1)),
-                                     Direction("B", 0.0, 1.0, z, z, np.zeros(1)),
-                                     Direction("Delta", 0.0, 0.0, up, z, np.zeros(1)),
-                                     Direction("R", 0.0, 0.0, z, both, np.zeros(1)),
-                                     Direction("beta", 0.0, 0.0, z, z, np.array([2.0]))])
+            every = [Direction("Omega", 1.0, 0.0, z, z, np.zeros(1)),
+                     Direction("B", 0.0, 1.0, z, z, np.zeros(1)),
+                     Direction("Delta", 0.0, 0.0, up, z, np.zeros(1)),
+                     Direction("R", 0.0, 0.0, z, both, np.zeros(1)),
+                     Direction("beta", 0.0, 0.0, z, z, np.array([2.0]))]
+            # a compliant stop: the continuation parameter's direction alone (a direction that changes a
+            # Kelvin-Voigt contact phase's matrix, R or beta, integrates its variational equations)
+            dirs = directions(core, [every[self.index]] if self.law is not None else every)
             if len(self._setups) > 64:
                 self._setups.clear()
             su = self._setups[key] = (core, dirs)
         return Setup(su[0], float(Omega) if Omega is not None else math.nan, su[1], float(Delta), 1.0)
+
+    @property
+    def column(self) -> int:
+        """The continuation parameter's column among the directions of :meth:`setup`."""
+        return 0 if self.law is not None else self.index
 
     def shot(self, x0, p, n=1, derivatives: bool = True, stuck=None) -> Shot:
         """``P^n(x0; p)`` with monodromy and ``d/dp`` (:meth:`ModalShooting.shot`).

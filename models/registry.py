@@ -223,17 +223,18 @@ register(Fidelity(
     shooting="periodic_sdof:SDOFShooting",
     restitution_law_methods=("event",),
     two_sided_methods=("event", "direct", "mapping", "continuation"),
-    two_sided_law_methods={"kelvin_voigt": ("event", "direct", "continuation"), "hysteretic_hertz": ("event", "direct")},
-    mixed_stop_methods=("event", "direct"),
+    two_sided_law_methods={"kelvin_voigt": ("event", "direct", "continuation"),
+                           "hysteretic_hertz": ("event", "direct", "continuation")},
+    mixed_stop_methods=("event", "direct", "continuation"),
     positive_R_methods=("ivanov",),
     contact_laws={"kelvin_voigt": {"event": "sdof:EventSolver",
                              "direct": "sdof_compliant_ode:CompliantDirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver",
-                             "continuation": "periodic_compliant:CompliantSDOFShooting"},
+                             "continuation": "periodic_sdof:SDOFShooting"},
                   "hysteretic_hertz": {"event": "sdof:EventSolver",
                                     "direct": "sdof_compliant_ode:CompliantDirectSolver",
                                     "mapping": "sdof_hc_map:HuntCrossleyMappingSolver",
-                                    "continuation": "periodic_compliant:HuntCrossleySDOFShooting"}},
+                                    "continuation": "periodic_sdof:SDOFShooting"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(
@@ -253,10 +254,10 @@ register(Fidelity(
                            "hysteretic_hertz": ("event", "continuation")},
     contact_laws={"kelvin_voigt": {"event": "beam_dynamics:BeamEventSolver",
                              "direct": "beam_compliant:CompliantBeamODESolver",
-                             "continuation": "periodic_compliant:CompliantBeamShooting"},
+                             "continuation": "periodic_beam:BeamContinuation"},
                   "hysteretic_hertz": {"event": "beam_dynamics:BeamEventSolver",
                                     "direct": "beam_hc:HuntCrossleyBeamODESolver",
-                                    "continuation": "periodic_hc_beam:HuntCrossleyBeamShooting"}},
+                                    "continuation": "periodic_beam:BeamContinuation"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 

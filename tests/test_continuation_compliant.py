@@ -11,7 +11,7 @@ from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import shooting_problem
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import start_point, trace
-from vibeam.models.periodic_compliant import CompliantSDOFShooting
+from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import CompliantEventSolver
 from vibeam.engine.records import summarize
@@ -36,7 +36,7 @@ def fig8_kv():
     from the contacting orbit at Omega = 1.5 up to 2.5."""
     m = _kv(FIG8, 1e4)
     x0, _ = _settled(m, 1.5)
-    brs = trace(CompliantSDOFShooting(m), x0, 1.5, 1, 1.5, 2.5, +1)
+    brs = trace(SDOFShooting(m), x0, 1.5, 1, 1.5, 2.5, +1)
     return m, brs
 
 
@@ -61,7 +61,7 @@ def test_shot_jacobian_equals_central_differences(name):
     x, _ = _settled(m, W, 400)
     x = x * (1.0 + 1e-3)
     for par in ("Omega", "B", "Delta"):
-        prob = CompliantSDOFShooting(m, par, Omega=W)
+        prob = SDOFShooting(m, par, Omega=W)
         p = W if par == "Omega" else float(getattr(m, par))
         s = prob.shot(x, p, n)
         assert s.status == "ok" and s.n_impacts >= 1, s.message
@@ -152,7 +152,7 @@ def test_branch_tends_to_the_cor_branch_as_the_stiffness_grows():
     for k in (1e6, 1e7):
         m = _kv(FIG8, k)
         x0, _ = _settled(m, 1.9, 600)
-        b = trace(CompliantSDOFShooting(m), x0, 1.9, 1, 1.8, 2.05, +1)[0]
+        b = trace(SDOFShooting(m), x0, 1.9, 1, 1.8, 2.05, +1)[0]
         folds = [f for f in b.bifurcations if f.type == "fold"]
         assert len(folds) == 1
         shifts.append(FOLD_COR - folds[0].parameter)
@@ -188,15 +188,14 @@ start_at = "low"
 def test_registry_dispatch_and_case_validation(monkeypatch):
     """shooting_problem takes the law's 'continuation' entry of the registry (no law branches); a
     law without one is refused with one line; R and beta are not continuation keys here."""
-    from vibeam.models.periodic_compliant import HuntCrossleySDOFShooting
     from vibeam.models.registry import FIDELITIES
 
     m = parse_case(CASE).model_spec().build()
-    assert isinstance(shooting_problem(m, "Omega"), CompliantSDOFShooting)
-    with pytest.raises(ValueError, match="allowed: Omega, B, Delta"):
-        shooting_problem(m, "R", Omega=2.0)
+    assert isinstance(shooting_problem(m, "Omega"), SDOFShooting)
+    with pytest.raises(ValueError, match="allowed: Omega, B, Delta, R, beta"):
+        shooting_problem(m, "gamma", Omega=2.0)
     hc = CASE.replace('law = "linear"', 'law = "hunt_crossley"').replace("stiffness = 1e4", "stiffness = 1e6")
-    assert isinstance(shooting_problem(parse_case(hc).model_spec().build(), "Omega"), HuntCrossleySDOFShooting)
+    assert isinstance(shooting_problem(parse_case(hc).model_spec().build(), "Omega"), SDOFShooting)
     table = FIDELITIES["sdof"].contact_laws
     # the registry's tables are keyed by the law's family (vibeam.models.registry.LAWS)
     monkeypatch.setitem(table, "hysteretic_hertz", {k: v for k, v in table["hysteretic_hertz"].items()
@@ -244,16 +243,16 @@ def test_beam_shot_jacobian_liouville_and_state(n_modes):
       of M for its columns (the stiff high modes' columns are ~1e-30 of it: absolute
       comparison) and of the parameter column's own scale; measured <= 4e-10);
     * Liouville: det M = exp(trace(A_free) T - c |w|^2 T_c) to 1e-9 (measured ~1e-15)."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver
-    from vibeam.models.periodic_compliant import CompliantBeamShooting
+    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig(n_modes)
     W = 16.0 / m.f_ref_hz
-    x0 = CompliantBeamEventSolver(m).point(W, None, 200, 4, 16).final_state[:2 * n_modes] * 1.001
+    x0 = BeamEventSolver(m).point(W, None, 200, 4, 16).final_state[:2 * n_modes] * 1.001
     d = 2 * n_modes
     sc = float(np.max(np.abs(x0)))
     for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
-        prob = CompliantBeamShooting(m, par, Omega=W)
+        prob = BeamContinuation(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
         assert np.max(np.abs(s.extra["rebuilt_state"] - s.x)) < 1e-13 * sc
@@ -268,9 +267,10 @@ def test_beam_shot_jacobian_liouville_and_state(n_modes):
                 J[:, c] = (prob.shot(x0, p + h, 1).x - prob.shot(x0, p - h, 1).x) / (2 * h)
         assert np.max(np.abs(s.M - J[:, :d])) < 1e-7 * np.max(np.abs(s.M))
         assert np.max(np.abs(s.x_p - J[:, d])) < 1e-7 * np.max(np.abs(s.x_p))
-        D = prob.data(p)
+        # trace of the free phase's state matrix -sum c_i; the contact's dashpot c_c / omega_ref along w
         w = m.contact_row
-        det = math.exp(np.trace(D["A"][0]) * 2 * math.pi / W - D["cc"] * float(w @ w) * s.extra["contact_time"])
+        cc = m.contact_damping_n_s_m / m.omega_ref
+        det = math.exp(-np.sum(m.c_nd) * 2 * math.pi / W - cc * float(w @ w) * s.extra["contact_time"])
         assert np.linalg.det(s.M) == pytest.approx(det, rel=1e-9, abs=1e-300)
 
 
@@ -296,17 +296,17 @@ def test_one_mode_beam_branch_equals_its_sdof_branch():
     fixed point of the SDOF problem (another flow, another derivative assembly, other units) to
     1e-9 of the state (measured 1e-11), with the same multipliers to 1e-9 (measured 1e-13) and
     contact count; the SDOF branch has the same fold to 1e-10 in frequency (measured 1e-15)."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.beam_dynamics import BeamEventSolver
     from vibeam.models.continuation import Settings
-    from vibeam.models.periodic_compliant import CompliantBeamShooting
+    from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig(1, gap_mm=0.1)
     sd, sk, to_sdof = _one_dof(m)
     lo, hi = 13.0 / m.f_ref_hz, 19.0 / m.f_ref_hz
-    x0 = CompliantBeamEventSolver(m).point(lo, None, 600, 4, 16).final_state[:2]
-    bb = trace(CompliantBeamShooting(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
+    x0 = BeamEventSolver(m).point(lo, None, 600, 4, 16).final_state[:2]
+    bb = trace(BeamContinuation(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
     assert len(bb.points) > 10
-    prob = CompliantSDOFShooting(sd)
+    prob = SDOFShooting(sd)
     for pt in bb.points:
         xs = to_sdof(pt.x)
         s = prob.shot(xs, pt.p / sk, 1)
@@ -325,28 +325,27 @@ def test_beam_grazing_indicator_and_event_runs():
     of the 2-mode contacting branch (12.5-16 Hz, neutral gap) are the attractors of long event runs
     of the compliant beam kernel started 1 % off the orbit (amplitude to 1e-9 relative:
     max|mu|^800 is negligible; measured ~1e-14)."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver
-    from vibeam.models.periodic_compliant import CompliantBeamShooting
+    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig(2, gap_mm=0.1)
-    prob = CompliantBeamShooting(m)
+    prob = BeamContinuation(m)
     W = 19.0 / m.f_ref_hz
     x, why = prob.start("linear", W)
     s = prob.shot(x, W, 1)
     assert s.n_impacts == 0 and np.max(np.abs(s.x - x)) < 1e-12 * np.max(np.abs(x))
-    Z = prob.data(W)["pd"][3][0][:2]
-    assert s.apex_gap == pytest.approx(abs(m.contact_row @ Z) - m.gap_contact_m, abs=1e-12)
+    assert s.apex_gap == pytest.approx(prob.linear_amplitude(W) - m.gap_contact_m, abs=1e-12)
     m = _rig(2)
     lo, hi = 12.5 / m.f_ref_hz, 16.0 / m.f_ref_hz
-    x0 = CompliantBeamEventSolver(m).point(lo, None, 400, 4, 16).final_state[:4]
-    b = trace(CompliantBeamShooting(m), x0, lo, 1, lo, hi, +1)[0]
+    x0 = BeamEventSolver(m).point(lo, None, 400, 4, 16).final_state[:4]
+    b = trace(BeamContinuation(m), x0, lo, 1, lo, hi, +1)[0]
     assert b.status == "range_end"
     A = b.arrays()
     idx = np.flatnonzero(A["stable"])
     assert idx.size > 10
     for i in idx[[0, idx.size // 2, -1]]:
         pt = b.points[i]
-        tr = CompliantBeamEventSolver(m).point(pt.p, np.concatenate([pt.x * 1.01, [0.0]]), 800, 4, 64)
+        tr = BeamEventSolver(m).point(pt.p, np.concatenate([pt.x * 1.01, [0.0]]), 800, 4, 64)
         sm = summarize(tr, m.Delta)
         assert sm["period"] == 1
         assert sm["amplitude"] == pytest.approx(A["amplitude"][i], rel=1e-9)
@@ -360,15 +359,14 @@ def test_hunt_crossley_shot_against_differences_and_the_kernel():
     1e-9 (the kernel's own DOPRI5 runs at rtol 1e-11; measured 3e-11), and M, d/d(Omega, B,
     Delta) agree with central differences (step 1e-5, larger than the integrator's noise
     1e-12 / 1e-5; tolerance 1e-6 of each column, measured ~1e-9)."""
-    from vibeam.models.periodic_compliant import HuntCrossleySDOFShooting
 
     m = replace(FIG8, contact=HuntCrossley(1e6, 0.9))
     W = 1.9
     x0, sm = _settled(m, W, 1500)
     assert sm["period"] == 1
-    assert isinstance(shooting_problem(m, "Omega"), HuntCrossleySDOFShooting)
+    assert isinstance(shooting_problem(m, "Omega"), SDOFShooting)
     for par in ("Omega", "B", "Delta"):
-        prob = HuntCrossleySDOFShooting(m, par, Omega=W)
+        prob = SDOFShooting(m, par, Omega=W)
         p = W if par == "Omega" else float(getattr(m, par))
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
@@ -384,7 +382,7 @@ def test_hunt_crossley_shot_against_differences_and_the_kernel():
                 col = (prob.shot(x0, p + h, 1).x - prob.shot(x0, p - h, 1).x) / (2 * h)
             assert np.max(np.abs(A[:, c] - col)) < 1e-6 * np.max(np.abs(A[:, c]))
     # a section inside the stop is not a state of this law: a status, not a crash
-    s = HuntCrossleySDOFShooting(m).shot(np.array([m.Delta + 1e-6, 0.01]), W, 1)
+    s = SDOFShooting(m).shot(np.array([m.Delta + 1e-6, 0.01]), W, 1)
     assert s.status == "failed" and "inside the stop" in s.message
 
 
@@ -395,11 +393,10 @@ def test_hunt_crossley_branch_fold_grazing_and_event_runs():
     its stable points are the long event runs' attractors to 1e-9 (the two integrators' tolerances;
     measured ~1e-10)."""
     from vibeam.models.continuation import Settings
-    from vibeam.models.periodic_compliant import HuntCrossleySDOFShooting
 
     m = replace(FIG8, contact=HuntCrossley(1e6, 0.9))
     x0, _ = _settled(m, 1.8, 1500)
-    b = trace(HuntCrossleySDOFShooting(m), x0, 1.8, 1, 1.8, 2.1, +1, Settings(switch=False))[0]
+    b = trace(SDOFShooting(m), x0, 1.8, 1, 1.8, 2.1, +1, Settings(switch=False))[0]
     assert b.status == "range_end"
     folds = [f for f in b.bifurcations if f.type == "fold" and f.amplitude > 3e-3]
     assert len(folds) == 1 and np.min(np.abs(folds[0].multipliers - 1.0)) < 1e-6
@@ -409,3 +406,31 @@ def test_hunt_crossley_branch_fold_grazing_and_event_runs():
         pt = b.points[i]
         _, sm = _settled(m, pt.p, 1500, x0=pt.x * 1.01)
         assert sm["amplitude"] == pytest.approx(A["amplitude"][i], rel=1e-9)
+
+
+@pytest.mark.parametrize("law", [LinearContact.from_restitution(1e4, 0.9), HuntCrossley(1e6, 0.9)],
+                         ids=["kelvin_voigt", "hunt_crossley"])
+def test_continuation_in_the_laws_restitution_and_the_damping(law):
+    """Continuation in R (the law's target restitution: its dashpot or chi) and in beta, once
+    refused for compliant laws: the contact phases then carry their variational equations (the
+    Runge-Kutta pair; M and d/dp against central differences of the shot, step 1e-5, tolerance
+    1e-6 of each column, the Hunt-Crossley checks' above)."""
+    m = replace(FIG8, contact=law)
+    W = 1.9
+    x0 = _settled(m, W, 400)[0] * (1.0 + 1e-3)
+    for par in ("R", "beta"):
+        prob = shooting_problem(m, par, Omega=W)
+        p = prob.value
+        assert p == (law.R if par == "R" else m.beta)
+        s = prob.shot(x0, p, 1)
+        assert s.status == "ok" and s.n_impacts == 1, s.message
+        A = np.column_stack([s.M, s.x_p])
+        for c in range(3):
+            if c < 2:
+                e = np.zeros(2)
+                e[c] = h = 1e-5 * np.max(np.abs(x0))
+                col = (prob.shot(x0 + e, p, 1).x - prob.shot(x0 - e, p, 1).x) / (2 * h)
+            else:
+                h = 1e-5 * abs(p)
+                col = (prob.shot(x0, p + h, 1).x - prob.shot(x0, p - h, 1).x) / (2 * h)
+            assert np.max(np.abs(A[:, c] - col)) < 1e-6 * np.max(np.abs(A[:, c])), (par, c)

@@ -1,5 +1,5 @@
 """Continuation of periodic orbits with two Kelvin-Voigt stops (SDOF, law "linear"): the shooting
-problem of vibeam.models.periodic_compliant (CompliantSDOFShooting with a lower stop) against
+problem of vibeam.models.periodic_compliant (SDOFShooting with a lower stop) against
 finite differences, Liouville's formula, the two-stop event kernel, the one-stop problem and
 the mirror symmetry of a symmetric scene."""
 from dataclasses import replace
@@ -10,7 +10,7 @@ import pytest
 from vibeam.models import shooting_problem
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import Settings, start_point, trace
-from vibeam.models.periodic_compliant import CompliantSDOFShooting
+from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models.sdof import SDOF
 from vibeam.models.sdof_compliant import CompliantEventSolver
 from vibeam.engine.records import summarize
@@ -56,7 +56,7 @@ def test_shot_jacobian_equals_central_differences(name):
     else:
         x = np.array(x0)
     for par in ("Omega", "B", "Delta"):
-        prob = CompliantSDOFShooting(m, par, Omega=W)
+        prob = SDOFShooting(m, par, Omega=W)
         p = W if par == "Omega" else float(getattr(m, par))
         s = prob.shot(x, p, n)
         assert s.status == "ok", s.message
@@ -83,12 +83,13 @@ def test_liouville(name):
     matrix, det S = 1 at every entry); closed-form flows: agreement to round-off (1e-12)."""
     m, W, n, x0 = CASES[name]
     x = _settled(m, W, 400)[0] if x0 is None else np.array(x0)
-    prob = CompliantSDOFShooting(m)
+    prob = SDOFShooting(m)
     s = prob.shot(x, W, n)
     e = s.extra
     assert e["contact_time_upper"] > 0.0 and e["contact_time_lower"] > 0.0
-    want = np.exp(-2 * m.beta * n * 2 * np.pi / W - prob.cc * e["contact_time_upper"]
-                  - prob.ccl * e["contact_time_lower"])
+    low = m.contact if m.contact_lower is None else m.contact_lower     # the lower stop's law
+    want = np.exp(-2 * m.beta * n * 2 * np.pi / W - m.contact.damping * e["contact_time_upper"]
+                  - low.damping * e["contact_time_lower"])
     assert abs(np.linalg.det(s.M) / want - 1.0) < 1e-12
 
 
@@ -190,8 +191,8 @@ def test_far_lower_stop_gives_the_one_stop_branch():
     one = replace(FIG8, contact=LinearContact.from_restitution(1e4, 0.9))
     far = replace(one, Delta_lower=1.0)
     x0, _ = _settled(one, 2.3)
-    b1 = trace(CompliantSDOFShooting(one), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
-    b2 = trace(CompliantSDOFShooting(far), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
+    b1 = trace(SDOFShooting(one), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
+    b2 = trace(SDOFShooting(far), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
     assert len(b1["parameter"]) == len(b2["parameter"]) >= 5
     assert np.all(b2["impacts_lower"] == 0)
     np.testing.assert_allclose(b2["parameter"], b1["parameter"], rtol=1e-13, atol=0)
@@ -205,7 +206,7 @@ def test_symmetric_stops_give_a_symmetric_orbit():
     velocity, duration, peak force, penetration and energy (relative 1e-9: Newton tolerance)."""
     m = _kv(FIG8, 1e4, FIG8.Delta)
     x0, _ = _settled(m, 1.9)
-    prob = CompliantSDOFShooting(m)
+    prob = SDOFShooting(m)
     pt, why = start_point(prob, x0, 1.9, 1, 1.5, 2.5)
     assert pt is not None, why
     s = prob.shot(pt.x, 1.9, 1)
@@ -221,15 +222,27 @@ def test_symmetric_stops_give_a_symmetric_orbit():
     assert abs(abs(t[1] - t[0]) - np.pi / 1.9) < 1e-9
 
 
-def test_refusals():
-    """Two stops with a Hunt-Crossley law (upper or lower) are still refused by the compliant
-    shooting problems, with a message."""
-    hc = replace(FIG8, contact=HuntCrossley(1e4, 0.9), Delta_lower=0.9e-3)
-    with pytest.raises(ValueError, match="second"):
-        shooting_problem(hc, "Omega")
-    mixed = replace(TWO, contact_lower=HuntCrossley(1e4, 0.9))
-    with pytest.raises(ValueError, match="lower stop"):
-        shooting_problem(mixed, "Omega")
+def test_hertz_stops_are_continued_with_exact_jacobians():
+    """Two stops with a Hunt-Crossley law (both, or the lower one beside a Kelvin-Voigt upper stop),
+    once refused, are one shooting problem (the integrator's Runge-Kutta contact phases with their
+    variational equations): M and d/dOmega against central differences of the shot (step 1e-5,
+    tolerance 1e-6 of each column, the Hunt-Crossley checks' of tests/test_continuation_compliant.py)."""
+    for m, W in ((replace(FIG8, contact=HuntCrossley(1e4, 0.9), Delta_lower=0.9e-3), 2.0),
+                 (replace(TWO, contact_lower=HuntCrossley(1e4, 0.9)), 2.0)):
+        prob = shooting_problem(m, "Omega")
+        x = _settled(m, W, 400)[0] * (1.0 + 1e-3)
+        s = prob.shot(x, W, 1)
+        assert s.status == "ok" and s.n_impacts >= 1, s.message
+        A = np.column_stack([s.M, s.x_p])
+        for c in range(3):
+            if c < 2:
+                e = np.zeros(2)
+                e[c] = h = 1e-5 * np.max(np.abs(x))
+                col = (prob.shot(x + e, W, 1).x - prob.shot(x - e, W, 1).x) / (2 * h)
+            else:
+                h = 1e-5 * W
+                col = (prob.shot(x, W + h, 1).x - prob.shot(x, W - h, 1).x) / (2 * h)
+            assert np.max(np.abs(A[:, c] - col)) < 1e-6 * np.max(np.abs(A[:, c]))
 
 
 CASE = '''
@@ -310,14 +323,14 @@ def test_beam_shot_jacobian_and_liouville(n_modes):
     a state off the orbit and from one inside the lower stop: the Jacobian equals central
     differences (bound 1e-7 relative; measured <= 1.3e-9) and det M = exp(trace(A_free) T -
     |w|^2 (c T_up + c_l T_low)) to round-off (1e-12)."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver
-    from vibeam.models.periodic_compliant import CompliantBeamShooting
+    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig2(n_modes)
     N = m.n_modes
     W = 15.4 / 7.6
-    tr = CompliantBeamEventSolver(m, record_modal_states=True).point(W, None, 40, 1, 64)
-    prob = CompliantBeamShooting(m)
+    tr = BeamEventSolver(m, record_modal_states=True).point(W, None, 40, 1, 64)
+    prob = BeamContinuation(m)
     w = m.contact_row
     kl, cl, Dl = m.lower_stop_params()
     ms = tr.extra["modal_states"]
@@ -325,16 +338,18 @@ def test_beam_shot_jacobian_and_liouville(n_modes):
     inside = np.flatnonzero((gl > 0) & (kl * gl - cl * (ms[:, N:] @ w) > 0))
     assert inside.size
     # near the 18 Hz orbit (one contact on each stop), and inside the lower stop at 15.4 Hz
-    x18 = CompliantBeamEventSolver(m).point(18.0 / 7.6, None, 100, 1, 4).final_state[:2 * N] * (1 + 1e-3)
+    x18 = BeamEventSolver(m).point(18.0 / 7.6, None, 100, 1, 4).final_state[:2 * N] * (1 + 1e-3)
     for x, W in ((x18, 18.0 / 7.6), (ms[inside[inside.size // 2]], W)):
         s, J = _beam_jacobian(prob, x, W)
         assert s.status == "ok" and s.extra["contact_time_lower"] > 0 and s.extra["contact_time_upper"] > 0
         A = np.column_stack([s.M, s.x_p])
         assert np.max(np.abs(A - J)) <= 1e-7 * np.max(np.abs(A))
-        D = prob.data(W)
         e = s.extra
-        want = np.exp(np.trace(D["A"][0]) * 2 * np.pi / W - float(w @ w) * (D["cc"] * e["contact_time_upper"]
-                                                                         + D["cl"] * e["contact_time_lower"]))
+        # trace of the free phase's state matrix -sum c_i; each stop's dashpot c / omega_ref along w
+        cc = m.contact_damping_n_s_m / m.omega_ref
+        cl = 2.0 * m.lower_law.damping_ratio * np.sqrt(m.lower_law.stiffness * m.m_eff) / m.omega_ref
+        want = np.exp(-np.sum(m.c_nd) * 2 * np.pi / W - float(w @ w) * (cc * e["contact_time_upper"]
+                                                                      + cl * e["contact_time_lower"]))
         assert abs(np.linalg.det(s.M) / want - 1.0) < 1e-12
 
 
@@ -344,12 +359,12 @@ def test_beam_two_stop_branch_period_doubling_and_event_runs():
     fixed points of the two-stop beam kernel (400-period `event` runs from the branch state end
     on it to 1e-9: the slowest multiplier used, 0.99, leaves 400 periods of decay ~1e-2 of a
     1e-9 perturbation)."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.beam_dynamics import BeamEventSolver
     from vibeam.models import shooting_problem
 
     m = _rig2(2)
     W = 18.0 / 7.6
-    tr = CompliantBeamEventSolver(m).point(W, None, 400, 4, 32)
+    tr = BeamEventSolver(m).point(W, None, 400, 4, 32)
     brs = trace(shooting_problem(m, "Omega"), tr.final_state[:4], W, 1, 17.0 / 7.6, 19.0 / 7.6, -1)
     assert [b.n for b in brs] == [1, 2]
     pd = [f for f in brs[0].bifurcations if f.type == "period_doubling"]
@@ -361,7 +376,7 @@ def test_beam_two_stop_branch_period_doubling_and_event_runs():
         assert idx
         for i in idx[:: max(1, len(idx) // 2)]:
             x = a["state"][i]
-            t = CompliantBeamEventSolver(m).point(a["parameter"][i], np.concatenate([x, [0.0]]), 400, 4, 32)
+            t = BeamEventSolver(m).point(a["parameter"][i], np.concatenate([x, [0.0]]), 400, 4, 32)
             assert np.max(np.abs(t.final_state[:4] - x)) < 1e-9 * np.max(np.abs(x))
             assert t.n_impacts_lower == 4 and t.n_impacts == 8
 
@@ -379,12 +394,12 @@ def test_beam_own_lower_law_branch_equals_event_runs_and_map_jacobian():
     * Floquet multipliers = eigenvalues of a central-difference Jacobian of the kernel's
       one-period map (step 1e-5 relative; measured <= 1.2e-9 of max|mu|; bound 1e-6).
     Both fail if the shooting problem's lower stop takes the upper law."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.beam_dynamics import BeamEventSolver
 
     m = _rig2(2, lower={"law": "linear", "stiffness_n_m": 3e4, "damping_ratio": 0.15})
     up, lo = (st.law for st in m.stops())
     assert (lo.stiffness, lo.damping_ratio) == (3e4, 0.15) and up.stiffness == 1e5
-    solver = CompliantBeamEventSolver(m)
+    solver = BeamEventSolver(m)
     W = 18.0 / 7.6
     tr = solver.point(W, None, 400, 4, 32)
     brs = trace(shooting_problem(m, "Omega"), tr.final_state[:4], W, 1, 17.0 / 7.6, W, -1)
@@ -408,13 +423,13 @@ def test_beam_own_lower_law_branch_equals_event_runs_and_map_jacobian():
 def test_beam_far_lower_stop_gives_the_one_stop_shot():
     """A lower stop 100 mm away changes nothing the orbit sees: the two-stop shot equals the
     one-stop shot (state, monodromy, d/dOmega) to round-off (measured: bit for bit)."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver
-    from vibeam.models.periodic_compliant import CompliantBeamShooting
+    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models.periodic_beam import BeamContinuation
 
     one, far = _rig2(2, None), _rig2(2, 100.0)
     W = 15.4 / 7.6
-    x = CompliantBeamEventSolver(one).point(W, None, 40, 4, 32).final_state[:4]
-    a, b = CompliantBeamShooting(one).shot(x, W, 1), CompliantBeamShooting(far).shot(x, W, 1)
+    x = BeamEventSolver(one).point(W, None, 40, 4, 32).final_state[:4]
+    a, b = BeamContinuation(one).shot(x, W, 1), BeamContinuation(far).shot(x, W, 1)
     assert a.n_impacts >= 1 and list(b.extra["impact_stops"]) == [0] * a.n_impacts
     np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-15 * np.max(np.abs(a.x)))
     np.testing.assert_allclose(b.M, a.M, rtol=0, atol=1e-13 * np.max(np.abs(a.M)))

@@ -1,5 +1,5 @@
 """Continuation of the modal FE beam on a Hunt-Crossley stop (issue 13):
-:class:`vibeam.models.periodic_hc_beam.HuntCrossleyBeamShooting`.
+:class:`vibeam.models.periodic_hc_beam.BeamContinuation`.
 
 Oracles: central differences of the shot (its Jacobian), the solve_ivp reference
 (:class:`vibeam.models.beam_hc.HuntCrossleyBeamODESolver`, no shared code with the kernel or
@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from vibeam.models.periodic_hc_beam import HuntCrossleyBeamShooting
+from vibeam.models.periodic_beam import BeamContinuation
 
 # the file runs in the slow step (CI runs `pytest -m slow` second) but for one representative
 # check, test_two_mode_shot_jacobian_in_omega_against_central_differences: the Hunt-Crossley beam
@@ -52,7 +52,7 @@ def test_two_mode_shot_jacobian_in_omega_against_central_differences():
     x0 = _settled(m, W) * 1.001
     d = 4
     sc = float(np.max(np.abs(x0)))
-    prob = HuntCrossleyBeamShooting(m, "Omega", Omega=W)
+    prob = BeamContinuation(m, "Omega", Omega=W)
     s = prob.shot(x0, W, 1)
     assert s.status == "ok" and s.n_impacts == 1, s.message
     J = np.empty((d, d + 1))
@@ -80,7 +80,7 @@ def test_shot_jacobian_against_central_differences(n_modes):
     d = 2 * n_modes
     sc = float(np.max(np.abs(x0)))
     for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
-        prob = HuntCrossleyBeamShooting(m, par, Omega=W)
+        prob = BeamContinuation(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1, s.message
         J = np.empty((d, d + 1))
@@ -110,7 +110,7 @@ def test_shot_end_state_is_the_event_kernels(n_modes):
     W = 16.0 / m.f_ref_hz
     x0 = _settled(m, W) * 1.001
     sc = float(np.max(np.abs(x0)))
-    s = HuntCrossleyBeamShooting(m).shot(x0, W, 2)
+    s = BeamContinuation(m).shot(x0, W, 2)
     assert s.status == "ok" and s.n_impacts == 2
     s0 = np.concatenate([x0, [0.0]])
     ev = HuntCrossleyBeamEventSolver(m).point(W, s0, 0, 2, 16)
@@ -127,16 +127,16 @@ def test_refusals():
     m = _rig(1)
     W = 16.0 / m.f_ref_hz
     x = np.array([2.0 * m.gap_contact_m / m.contact_row[0], 0.0])
-    s = HuntCrossleyBeamShooting(m).shot(x, W, 1)
+    s = BeamContinuation(m).shot(x, W, 1)
     assert s.status == "failed" and "inside the stop" in s.message
     with pytest.raises(ValueError, match="parameter"):
-        HuntCrossleyBeamShooting(m, "gap_mm", Omega=W)
+        BeamContinuation(m, "gap_mm", Omega=W)
     from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     lin = case.model_spec({"n_modes": 1, "contact": {"law": "linear", "stiffness_n_m": 1e8}}).build()
     with pytest.raises(ValueError, match="hunt_crossley"):
-        HuntCrossleyBeamShooting(lin)
+        BeamContinuation(lin)
 
 
 def _case_text(lo=16.5, hi=17.0):
@@ -160,7 +160,7 @@ def test_registry_dispatch_and_case_validation():
     case = parse_case(_case_text())
     assert [r.method for r in case.run] == ["continuation"]
     m = case.model_spec().build()
-    assert isinstance(shooting_problem(m, "Omega"), HuntCrossleyBeamShooting)
+    assert isinstance(shooting_problem(m, "Omega"), BeamContinuation)
 
 
 def _one_dof(m):
@@ -193,15 +193,14 @@ def test_one_mode_beam_branch_equals_its_sdof_branch():
     of the state (both are accurate to their integrators, ~1e-10; measured 2e-11), with the
     same multipliers to 1e-8 (measured 1e-11) and contact count."""
     from vibeam.models.continuation import Settings, trace
-    from vibeam.models.periodic_compliant import HuntCrossleySDOFShooting
 
     m = _rig(1)
     sd, sk, to_sdof = _one_dof(m)
     lo, hi = 16.5 / m.f_ref_hz, 17.0 / m.f_ref_hz
     x0 = _settled(m, lo, 100)
-    bb = trace(HuntCrossleyBeamShooting(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
+    bb = trace(BeamContinuation(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
     assert len(bb.points) > 5
-    prob = HuntCrossleySDOFShooting(sd)
+    prob = SDOFShooting(sd)
     err_x = err_mu = 0.0
     for pt in bb.points:
         xs = to_sdof(pt.x)
@@ -226,7 +225,7 @@ def test_stable_branch_points_are_long_event_runs():
     m = _rig(2)
     lo, hi = 15.0 / m.f_ref_hz, 17.0 / m.f_ref_hz
     x0 = _settled(m, hi, 300)
-    b = trace(HuntCrossleyBeamShooting(m), x0, hi, 1, lo, hi, -1, Settings(switch=False))[0]
+    b = trace(BeamContinuation(m), x0, hi, 1, lo, hi, -1, Settings(switch=False))[0]
     a = b.arrays()
     idx = [i for i in np.flatnonzero(a["stable"]) if np.abs(a["multipliers"][i]).max() < 0.95]
     assert len(idx) >= 3
@@ -263,15 +262,14 @@ def test_grazing_indicator_of_the_contact_free_orbit():
     closed-form contact amplitude minus the gap (to 1e-12 m: a located extremum of the exact
     free flow), and the shot of that orbit returns it (no contact; 1e-12 of the state)."""
     m = _rig(2, gap_mm=0.1)
-    prob = HuntCrossleyBeamShooting(m)
+    prob = BeamContinuation(m)
     W = 19.0 / m.f_ref_hz
     x, why = prob.start("linear", W)
     assert x is not None, why
     s = prob.shot(x, W, 1)
     assert s.status == "ok" and s.n_impacts == 0 and np.max(np.abs(s.x - x)) < 1e-12 * np.max(np.abs(x))
-    Z = prob.data(W)["pd"][3][0][:2]
     assert s.apex_gap < 0.0
-    assert s.apex_gap == pytest.approx(abs(m.contact_row @ Z) - m.gap_contact_m, abs=1e-12)
+    assert s.apex_gap == pytest.approx(prob.linear_amplitude(W) - m.gap_contact_m, abs=1e-12)
 
 
 @pytest.mark.slow
@@ -289,7 +287,7 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     x = _settled(m, W) * 1.001
     V = float(spec.voltage)
     sv = problem(spec, "voltage", W).shot(x, V, 1)
-    sy = HuntCrossleyBeamShooting(m, "base_amplitude_m", Omega=W).shot(x, m.base_amplitude_m, 1)
+    sy = BeamContinuation(m, "base_amplitude_m", Omega=W).shot(x, m.base_amplitude_m, 1)
     g = spec.native_parameter("voltage")[1]
     assert sv.status == sy.status == "ok" and sv.n_impacts == 1
     np.testing.assert_allclose(sv.x, sy.x, rtol=0, atol=1e-14 * np.max(np.abs(x)))
@@ -302,21 +300,21 @@ def test_jacobian_with_the_velocity_floor(monkeypatch):
     the floor, 1.8e-3, exceeds the entry's 8e-4), v_r = v_floor depends on (Omega, Y) only: the
     Jacobian still equals central differences (tolerance as above; measured <= 2.3e-8, the
     damping now being ~2x larger)."""
-    import vibeam.models.beam_compliant as bc
-    import vibeam.models.sdof_compliant as sc
+    import vibeam.models.core.laws as laws
 
     m = _rig(2)
     W = 16.0 / m.f_ref_hz
     x0 = _settled(m, W) * 1.001
-    monkeypatch.setattr(bc, "HC_V_FLOOR", 10.0)     # the floor of the one compliant beam kernel's solver
-    monkeypatch.setattr(sc, "HC_V_FLOOR", 10.0)
+    monkeypatch.setattr(laws, "V_FLOOR", 10.0)     # the floor of the compliant laws (read when a model's kernel data are built)
     d = 4
     h0 = 1e-6 * float(np.max(np.abs(x0)))
     for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
-        prob = HuntCrossleyBeamShooting(m, par, Omega=W)
+        prob = BeamContinuation(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
-        assert s.impact_velocities[0] * m.length_m < prob.data(p)["v_floor"]
+        Y = p if par == "base_amplitude_m" else m.base_amplitude_m
+        v_floor = 10.0 * W * Y * abs(float(m.contact_row @ m.participation))
+        assert s.impact_velocities[0] * m.length_m < v_floor
         J = np.empty((d, d + 1))
         for c in range(d + 1):
             if c < d:

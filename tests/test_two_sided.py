@@ -408,7 +408,7 @@ method = "{method}"
     ("Delta_lower = 1e-3\n[model.contact_lower]\nlaw = 'linear'\nstiffness = 1e4", "event",
      "beside a restitution upper stop is not implemented"),
     ("Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4\n[model.contact_lower]\nR = 0.5",
-     "continuation", "contact_lower.law = \"restitution\".*allowed with two stops: event, direct$"),
+     "mapping", "contact_lower.law = \"restitution\".*allowed with two stops: event, direct, continuation$"),
     ("Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4", "mapping",
      "allowed with two stops: event, direct"),
     ("Delta_lower = 1e-3\n[model.contact_lower]\nR = 1.5", "event", "contact_lower.R"),

@@ -501,6 +501,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
     C = 0
     inside = 0
     relaxed = 0
+    exited = 0          # stops whose contact ended at the current instant (no re-entry on round-off)
     t_contact = 0.0
     q_last = -1
     qfresh = True
@@ -519,7 +520,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
         for k in range(ns):
             if is_compliant(st.law[k]):
                 cmask |= 1 << k
-                vfl[k] = hertz_floor(Om, sy.B, _dot(st.normal[k], sy.gam), cp.vfall)
+                vfl[k] = hertz_floor(Om, sy.B, _dot(st.normal[k], sy.gam), cp.vfall, cp.vfac)
         xq = np.zeros(n)
         yq = np.zeros(n)
         hbq = np.empty((n, 6))
@@ -706,6 +707,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                         if s_mv > 0.0:
                             just_stuck = False
                             just_released = False
+                            exited = 0
                         for j in range(ns):
                             if _in(H, j):
                                 g[j] = 0.0
@@ -720,6 +722,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                         qfresh = True
                         if ekind == EK_EXIT:
                             C &= ~(1 << kk)
+                            exited |= 1 << kk
                             if g[kk] > 0.0:
                                 inside |= 1 << kk
                                 if eaux == 1:
@@ -778,6 +781,8 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                 acc, jerk = _contact_acc(phi, Om, eta, etad, hs.dirn[H, j], sy.c, sy.k, GF)
                                 sg = r0 * gk + r1 * vk + roff
                                 tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
+                                if (exited >> j) & 1:
+                                    sg = 0.0      # just left it: the force is zero there to round-off
                                 if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
                                     touched = j
                                     break
@@ -978,6 +983,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                             if s_mv > 0.0:
                                 just_stuck = False
                                 just_released = False
+                                exited = 0
                             if s_ev < 0.0:
                                 continue
                             if ev_release:
@@ -1016,6 +1022,8 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                 acc, jerk = _contact_acc(phi, Om, eta, etad, st.normal[k], sy.c, sy.k, GF)
                                 sg = r0 * gk + r1 * vk + roff
                                 tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
+                                if (exited >> k) & 1:
+                                    sg = 0.0      # just left it: the force is zero there to round-off
                                 if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
                                     touched = k
                                     break
@@ -1255,6 +1263,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                             if s_mv > 0.0:
                                 just_stuck = False
                                 just_released = False
+                                exited = 0
                             for k in range(ns):
                                 if (inside >> k) & 1:
                                     g[k] = _dot(st.normal[k], eta) - st.offset[k]

@@ -104,8 +104,9 @@ def contact_scales(code, kc, pe, nn, vr):
 
 
 @njit(cache=True, _nrt=False, error_model="numpy")
-def hertz_floor(Om, B, gn, fallback):
-    """``v_in`` floor of a hysteretic-Hertz stop: ``V_FLOOR Omega B |n^T Gamma|`` (``gn``), or
-    ``fallback`` without forcing."""
-    v = V_FLOOR * Om * B * abs(gn)
+def hertz_floor(Om, B, gn, fallback, factor):
+    """``v_in`` floor of a hysteretic-Hertz stop: ``factor Omega B |n^T Gamma|`` (``gn``; ``factor``
+    is :data:`V_FLOOR` as read when the scene's kernel data were built), or ``fallback`` without
+    forcing."""
+    v = factor * Om * B * abs(gn)
     return v if v > 0.0 else fallback

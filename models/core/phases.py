@@ -40,6 +40,7 @@ import numpy as np
 
 from ..contact import LAW_HYSTERETIC_HERTZ, LAW_LINEAR, LAW_RESTITUTION
 from ..system import mode_table
+from . import laws
 from .rk import DOPRI5
 
 __all__ = ["ContactPhases", "Compliant", "contact_phases", "compliant_data", "pair_modes"]
@@ -287,11 +288,14 @@ class Compliant(NamedTuple):
         The Runge-Kutta pair of the other contact phases.
     vfall : float
         The hysteretic-Hertz ``v_in`` floor without forcing (row units per unit time).
+    vfac : float
+        The floor's factor :data:`vibeam.models.core.laws.V_FLOOR` (read when built).
     """
 
     ph: ContactPhases
     tab: object
     vfall: float
+    vfac: float
 
 
 def compliant_data(system, ks, hs):
@@ -299,4 +303,5 @@ def compliant_data(system, ks, hs):
     then compiles and runs its Newton-only specialisation)."""
     if not any(int(c) in (LAW_LINEAR, LAW_HYSTERETIC_HERTZ) for c in ks.law):
         return None
-    return Compliant(contact_phases(system, ks, hs), DOPRI5, 1e-6 * float(system.coordinate_scale))
+    return Compliant(contact_phases(system, ks, hs), DOPRI5, 1e-6 * float(system.coordinate_scale),
+                     float(laws.V_FLOOR))

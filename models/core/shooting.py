@@ -49,11 +49,16 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ..compliant import R_MIN_LINEAR, damping_ratio_for_restitution
+from ..contact import LAW_LINEAR
 from ..impact import restitution_coefficient
-from ..system import transition_entries
 from ..periodic import Shot
-from .integrator import (EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD, ST_FAILED, integrate,
-                         new_record)
+from ..system import advance_count, advance_modes, transition_entries
+from .contact_phase import rk_scales
+from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
+                         ST_FAILED, integrate, new_record)
+from .laws import force, force_partials, hertz_floor
+from .variational import contact_accel, contact_damping, flow_linear, flow_rk, pair_particular
 
 __all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "held_at_section", "restitution_slope",
            "dtransition_dsig", "ModalShooting", "Setup"]
@@ -77,6 +82,10 @@ class Direction(NamedTuple):
         ``d R_k / dp``: each stop's (constant part of its) coefficient of restitution.
     dc : ndarray, shape (n,)
         ``d c_i / dp``: each mode's damping coefficient.
+    dkc, dcc : ndarray, shape (n_s,) or float, optional
+        ``d kc_k / dp`` and ``d cc_k / dp``: a compliant law's stiffness and dashpot (or ``chi``),
+        system units (:mod:`vibeam.models.core.laws`); a compliant stop's ``dR`` is turned into its
+        ``dcc`` (the dashpot or ``chi`` of the target R) by :func:`directions`.
     """
 
     name: str
@@ -85,6 +94,8 @@ class Direction(NamedTuple):
     dD: np.ndarray
     dR: np.ndarray
     dc: np.ndarray
+    dkc: object = 0.0
+    dcc: object = 0.0
 
 
 class Directions(NamedTuple):
@@ -98,6 +109,10 @@ class Directions(NamedTuple):
     deta_c, de, dcC : ndarray, shape (P, S, n)
         ``d eta_c / dp``, ``d e / dp`` and the constrained modes' ``d c / dp`` of each held set
         (:class:`~vibeam.models.core.stops.HeldSets`).
+    dkc, dcc : ndarray, shape (P, n_s)
+        The compliant laws' stiffness and dashpot (or ``chi``) derivatives.
+    dze : ndarray, shape (P, Q, 2n)
+        ``d z_e / dp`` of each linear contact phase's equilibrium (:mod:`vibeam.models.core.phases`).
     """
 
     dOm: np.ndarray
@@ -108,6 +123,9 @@ class Directions(NamedTuple):
     deta_c: np.ndarray
     de: np.ndarray
     dcC: np.ndarray
+    dkc: np.ndarray
+    dcc: np.ndarray
+    dze: np.ndarray
 
 
 def directions(core, dirs) -> Directions:
@@ -148,7 +166,62 @@ def directions(core, dirs) -> Directions:
             dcC[p, m, :nc] = np.einsum("ij,i,ij->j", Psi, dc[p], Psi)
     for p in range(P):
         dcC[p, 0] = dc[p]
-    return Directions(dOm, dB, dD, dR, dc, deta_c, de, dcC)
+    dkc = np.zeros((P, ns))
+    dcc = np.zeros((P, ns))
+    for p, d in enumerate(dirs):
+        dkc[p] = np.broadcast_to(np.asarray(d.dkc, float), (ns,))
+        dcc[p] = np.broadcast_to(np.asarray(d.dcc, float), (ns,))
+    for k, s in enumerate(core.stops):
+        if getattr(s.law, "kind", "") == "compliant":
+            # the target R acts through the law's dashpot (Kelvin-Voigt) or chi (hysteretic Hertz)
+            dcc[:, k] += dR[:, k] * law_damping_slope(s.law, float(st.kc[k]), float(st.m_eff[k]))
+            dR[:, k] = 0.0
+    ph = core.compliant.ph if core.compliant is not None else None
+    Q = ph.m.shape[0] if ph is not None else 1
+    dze = np.zeros((P, Q, 2 * n))
+    if ph is not None:
+        for (H, C) in zip(*np.nonzero(ph.index >= 0)):
+            dze[:, ph.index[H, C]] = _equilibrium_slopes(core, int(H), int(C), deta_c, dD)
+    return Directions(dOm, dB, dD, dR, dc, deta_c, de, dcC, dkc, dcc, dze)
+
+
+def law_damping_slope(law, kc: float, m_eff: float, h: float = 1e-6) -> float:
+    """``d cc / dR`` of a compliant law (system units): the Kelvin-Voigt dashpot ``2 zeta(R) sqrt(kc
+    m_eff)`` or the hysteretic-Hertz ``chi(R)``, by a central difference of the law's own relation
+    (step ``h``, inside ``(0, 1]``; truncation ~1e-12 relative)."""
+    R = float(law.R)
+    if law.code == LAW_LINEAR:
+        a, b = max(R - h, R_MIN_LINEAR + h), min(R + h, 1.0)
+        if b <= a:
+            return 0.0
+        zeta = damping_ratio_for_restitution
+        return 2.0 * math.sqrt(kc * m_eff) * (zeta(b) - zeta(a)) / (b - a)
+    a, b = max(R - h, 1e-12), min(R + h, 1.0)
+    return (law.chi_of(b) - law.chi_of(a)) / (b - a)
+
+
+def _equilibrium_slopes(core, H: int, C: int, deta_c: np.ndarray, dD: np.ndarray) -> np.ndarray:
+    """``d z_e / dp`` (P, 2n) of the linear contact phase ``(H, C)``: ``z_e = (eta_c + Psi zeta_e,
+    0)``, ``K_z zeta_e = -Psi^T K eta_c - sum_{k in C} Psi^T n_k kc_k (n_k^T eta_c - D_k)``."""
+    hs, st = core.held, core.kstops
+    n = core.n
+    nc = int(hs.nc[H])
+    Psi = hs.Psi[H][:, :nc]
+    kk = core.ksys.k
+    Kz = np.diag(hs.nu2[H, :nc]).astype(float)
+    idx = [k for k in range(core.n_stops) if C >> k & 1]
+    for k in idx:
+        pn = Psi.T @ st.normal[k]
+        Kz = Kz + st.kc[k] * np.outer(pn, pn)
+    P = dD.shape[0]
+    out = np.zeros((P, 2 * n))
+    for p in range(P):
+        dec = deta_c[p, H]
+        rhs = -(Psi.T @ (kk * dec))
+        for k in idx:
+            rhs = rhs - (Psi.T @ st.normal[k]) * st.kc[k] * (float(st.normal[k] @ dec) - dD[p, k])
+        out[p, :n] = dec + Psi @ np.linalg.solve(Kz, rhs)
+    return out
 
 
 # ============================================================================ helpers
@@ -377,13 +450,15 @@ def _project_velocity(J, d, nrm, me, n):
 
 # ============================================================================ the tangent
 @njit(cache=True, error_model="numpy")
-def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_end, J, rel):
+def tangent(sy, st, hs, cp, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_end, J, rel, rst):
     """The tangent ``J = d x(T_end) / d(x0, p)`` of one logged run of the event integrator.
 
     Parameters
     ----------
     sy, st, hs : KernelSystem, KernelStops, HeldSets
         The run's system, stops and held sets (:mod:`vibeam.models.core.stops`).
+    cp : Compliant or None
+        The compliant stops' data (:mod:`vibeam.models.core.phases`); None: Newton stops only.
     dd : Directions
         ``P`` parameter directions (:func:`directions`).
     Om : float
@@ -392,24 +467,29 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
         The run's event log (:mod:`vibeam.models.core.integrator`).
     n_ev : int
     held0 : int
-        The held mask the run started with.
+        The mask of the stops the run started held on (Newton) or in contact with (compliant).
     x_start, x_end : ndarray, shape (2n,)
         State passed to the run (before its projection onto held stops) and its final state.
     held_end : int
-        The held mask at the end.
+        The same mask at the end.
     T_end : float
         End time ``n T``.
     J : ndarray, shape (2n, 2n + P)
         Receives ``[M | x_p]``.
     rel : ndarray, shape (>= releases, 2n + P + 1)
         Receives, per release, its time and ``d t_r / d(x0, p)``.
+    rst : ndarray, shape (2n,)
+        Receives the end state rebuilt by the tangent's own flows from the last logged event (a
+        check of their consistency with the run).
 
     Returns
     -------
     n_rel : int
     n_inexact : int
         Events without an exact derivative (a release forced at the end of a chatter hold, an
-        entry into sticking at zero velocity after the start).
+        entry into sticking at zero velocity after the start); -1: a hysteretic-Hertz contact
+        entered inside its stop (its force depends on an earlier contact), -2: a Runge-Kutta
+        contact phase whose step underflowed.
     """
     n = sy.k.shape[0]
     ns = st.offset.shape[0]
@@ -452,7 +532,62 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
     n_rel = 0
     n_inexact = 0
     t_cur = 0.0
-    H = held0
+    # ---- compliant stops: the contact set C, each open contact's v_in and its sensitivity row
+    cmask = 0
+    C = 0
+    vr = np.zeros(ns)
+    dvr = np.zeros((ns, ncol))
+    if cp is not None:
+        ph = cp.ph
+        Q = ph.m.shape[0]
+        ZX = np.zeros((Q, n), np.complex128)
+        ZY = np.zeros((Q, n), np.complex128)
+        dZX = np.zeros((Q, P, n), np.complex128)
+        dZY = np.zeros((Q, P, n), np.complex128)
+        for q in range(Q):
+            pair_particular(ph, q, Om, F, dF, dd.dOm, ZX[q], ZY[q], dZX[q], dZY[q])
+        W = np.zeros((2 * n, ncol))
+        rkc = np.zeros(4)
+        # a direction that changes a linear contact phase's matrix (modal damping, a law's stiffness
+        # or dashpot) has no closed-form derivative here: its phases are integrated with their
+        # variational equations instead (to the Runge-Kutta tolerance)
+        apar = False
+        for p in range(P):
+            for i in range(n):
+                if dd.dc[p, i] != 0.0:
+                    apar = True
+            for k in range(ns):
+                if dd.dkc[p, k] != 0.0 or dd.dcc[p, k] != 0.0:
+                    apar = True
+        vfl = np.zeros(ns)
+        dfl = np.zeros((ns, P))
+        for k in range(ns):
+            if st.law[k] != 0:
+                cmask |= 1 << k
+                gn = 0.0
+                for i in range(n):
+                    gn += st.normal[k, i] * sy.gam[i]
+                vfl[k] = hertz_floor(Om, sy.B, gn, cp.vfall, cp.vfac)
+                if Om * sy.B > 0.0:
+                    for p in range(P):
+                        dfl[k, p] = vfl[k] * (dd.dOm[p] / Om + dd.dB[p] / sy.B)
+        C = held0 & cmask
+        for k in range(ns):
+            if (C >> k) & 1:
+                U = 0.0
+                for i in range(n):
+                    U += st.normal[k, i] * etad[i]
+                if st.law[k] == LAW_LINEAR:
+                    vr[k] = max(abs(U), vfl[k])
+                elif U > vfl[k]:
+                    vr[k] = U
+                    for i in range(n):
+                        dvr[k, n + i] = st.normal[k, i]
+                else:
+                    vr[k] = vfl[k]
+                    for p in range(P):
+                        dvr[k, ip0 + p] = dfl[k, p]
+    H = held0 & ~cmask
     if H != 0:
         # the run put the state on the held set's constraint: J_eta -> Pi J_eta + d eta_c / dp,
         # J_eta' -> Pi J_eta'
@@ -474,11 +609,18 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
             for i in range(n):
                 J[i, ip0 + p] += dd.deta_c[p, H, i]
     k_ev = 0
-    while k_ev < n_ev:
-        kind = int(evlog[k_ev, 0])
-        te = evlog[k_ev, 1]
-        aux = evlog[k_ev, 2]
-        k = int(evlog[k_ev, 3])
+    last = True       # after the loop: the segment up to T_end is still to be carried
+    while k_ev <= n_ev:
+        if k_ev < n_ev:
+            kind = int(evlog[k_ev, 0])
+            te = evlog[k_ev, 1]
+            aux = evlog[k_ev, 2]
+            k = int(evlog[k_ev, 3])
+        else:
+            kind = -1
+            te = T_end
+            aux = 0.0
+            k = 0
         if kind == EV_START:
             if aux < 0.5:
                 # the position put on stop k (not held): eta -= m n (n^T eta - D)
@@ -497,22 +639,92 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
                 etad[i] = evlog[k_ev, LOG_HEAD + n + i]
             k_ev += 1
             continue
-        # ---- flow up to the event
-        if H == 0:
+        # ---- flow up to the event (or the end), in the phase (H, C); the state it rebuilds
+        for i in range(n):
+            rst[i] = eta[i]
+            rst[n + i] = etad[i]
+        if cp is not None and C != 0:
+            qq = ph.index[H, C]
+            if qq >= 0 and not apar:
+                flow_linear(J, t_cur, te, qq, ph, Om, ZX[qq], ZY[qq], dZX[qq], dZY[qq], dd.dze, dd.dOm, W)
+                _linear_state(rst, t_cur, te, qq, ph, Om, ZX[qq], ZY[qq], n)
+            else:
+                rk_scales(H, C, sy, st, hs, vr, rkc)
+                if not flow_rk(J, t_cur, te, eta, etad, H, C, Om, F, dF, sy, st, hs, dd, vr, dvr, cp.tab, rkc, rst):
+                    return n_rel, -2
+        elif H == 0:
             _flow_free(J, t_cur, te, eta, etad, Om, sy.mp, aF, bF, daF, dbF, dd.dc, dd.dOm, n)
+            _free_state(rst, t_cur, te, Om, sy.mp, aF, bF, n)
         else:
             _flow_held(J, t_cur, te, eta, etad, Om, H, hs, aC[H], bC[H], daC[H], dbC[H], dd, n)
+            _held_state(rst, t_cur, te, Om, H, hs, aC[H], bC[H], n)
         t_cur = te
+        if kind < 0:
+            break
         for i in range(n):
             eta[i] = evlog[k_ev, LOG_HEAD + i]
             etad[i] = evlog[k_ev, LOG_HEAD + n + i]
+        nv = st.normal[k]
+        U = 0.0
+        for i in range(n):
+            U += nv[i] * etad[i]
+        if cp is not None and (kind == EV_ENTRY or kind == EV_EXIT):
+            if kind == EV_EXIT:
+                C &= ~(1 << k)          # the force is zero there: the fields agree, S = I
+                k_ev += 1
+                continue
+            # ---- a compliant contact begins: through its gap (h = n^T eta - D) or inside the stop
+            g = -st.offset[k]
+            sc = abs(st.offset[k]) + abs(U) / Om
+            for i in range(n):
+                g += nv[i] * eta[i]
+                sc += abs(nv[i] * eta[i])
+            through = abs(g) <= 1e-10 * sc
+            for c in range(ncol):
+                r = 0.0
+                for i in range(n):
+                    r += nv[i] * J[i, c]
+                hrow[c] = r
+            for p in range(P):
+                hrow[ip0 + p] -= dd.dD[p, k]
+            if st.law[k] == LAW_LINEAR:
+                vr[k] = max(abs(U), vfl[k])
+                if through:
+                    # the dashpot acts at once: the field jumps by -d c U, S = I - d c h_x (U cancels)
+                    for c in range(ncol):
+                        hc = hrow[c]
+                        if hc != 0.0:
+                            for i in range(n):
+                                J[n + i, c] -= (nv[i] if H == 0 else hs.dirn[H, k, i]) * st.cc[k] * hc
+            else:
+                if not through:
+                    return n_rel, -1
+                # v_in = max(U, floor) moves with the entry: dU = n^T J_eta' - (n^T a-) h_row / U
+                if U > vfl[k]:
+                    vr[k] = U
+                    _accel(H, eta, etad, te, Om, F, sy, hs, a0)
+                    contact_accel(H, C, eta, etad, st, hs, vr, a0)
+                    an = 0.0
+                    for i in range(n):
+                        an += nv[i] * a0[i]
+                    for c in range(ncol):
+                        r = 0.0
+                        for i in range(n):
+                            r += nv[i] * J[n + i, c]
+                        dvr[k, c] = r - an * hrow[c] / U
+                else:
+                    vr[k] = vfl[k]
+                    for c in range(ncol):
+                        dvr[k, c] = dfl[k, c - ip0] if c >= ip0 else 0.0
+            C |= 1 << k
+            k_ev += 1
+            continue
         if H == 0:
             d = st.normal[k]
             me = st.m_eff[k]
         else:
             d = hs.dirn[H, k]
             me = hs.meff[H, k]
-        nv = st.normal[k]
         if kind == EV_IMPACT or kind == EV_STICK:
             # row h_x J + h_p of the contact surface h = n^T eta - D_k
             for c in range(ncol):
@@ -522,9 +734,6 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
                 hrow[c] = r
             for p in range(P):
                 hrow[ip0 + p] -= dd.dD[p, k]
-        U = 0.0
-        for i in range(n):
-            U += nv[i] * etad[i]
         plastic = kind == EV_STICK or (kind == EV_IMPACT and k_ev + 1 < n_ev and
                                        int(evlog[k_ev + 1, 0]) == EV_STICK_IMPACT)
         if kind == EV_IMPACT and not plastic:
@@ -532,6 +741,8 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
             Rc = restitution_coefficient(U, st.R[k], st.tab_U[k, :m_nodes], st.tab_R[k, :m_nodes])
             Rp = restitution_slope(U, st.tab_U[k, :m_nodes], st.tab_R[k, :m_nodes])
             _accel(H, eta, etad, te, Om, F, sy, hs, a0)
+            if cp is not None and C != 0:
+                contact_accel(H, C, eta, etad, st, hs, vr, a0)
             an = 0.0
             for i in range(n):
                 an += nv[i] * a0[i]
@@ -546,7 +757,8 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
             for p in range(P):
                 for i in range(n):
                     J[n + i, ip0 + p] -= dd.dR[p, k] * d[i] * me * U
-            # the damping of the current flow applied to d: C d free, Psi c Psi^T d held
+            # the damping of the current flow applied to d: C d free, Psi c Psi^T d held (and the
+            # compliant stops' in contact)
             if H == 0:
                 for i in range(n):
                     cd[i] = sy.c[i] * d[i]
@@ -559,6 +771,8 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
                         r += hs.Psi[H, i, j] * d[i]
                     for i in range(n):
                         cd[i] += hs.Psi[H, i, j] * hs.c[H, j] * r
+            if cp is not None and C != 0:
+                contact_damping(H, C, eta, etad, st, hs, vr, d, cd)
             if U > 0.0:
                 for c in range(ncol):
                     hc = hrow[c]
@@ -622,9 +836,12 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
         if kind == EV_RELEASE:
             H2 = H & ~(1 << k)
             g = hs.gw[H, k]
-            # lambda_k = g^T (K eta + C eta' - Gamma F sin(Om t))
+            # lambda_k = g^T (K eta + C eta' - Gamma F sin(Om t) + sum_c n_c f_c)
             _accel(H, eta, etad, te, Om, F, sy, hs, a0)
             _accel(H2, eta, etad, te, Om, F, sy, hs, a1)
+            if cp is not None and C != 0:
+                contact_accel(H, C, eta, etad, st, hs, vr, a0)
+                contact_accel(H2, C, eta, etad, st, hs, vr, a1)
             cs = math.cos(Om * te)
             sn = math.sin(Om * te)
             ldot = 0.0
@@ -641,6 +858,21 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
                     r += g[i] * (dd.dc[p, i] * etad[i]
                                  - sy.gam[i] * (dF[p] * sn + dd.dOm[p] * F * te * cs))
                 lrow[ip0 + p] += r
+            if cp is not None and C != 0:
+                _release_contacts(C, g, eta, etad, a0, J, st, dd, vr, dvr, lrow, n, ip0)
+                for c in range(ns):
+                    if (C >> c) & 1:
+                        w = 0.0
+                        gg = -st.offset[c]
+                        gd = 0.0
+                        gdd = 0.0
+                        for i in range(n):
+                            w += g[i] * st.normal[c, i]
+                            gg += st.normal[c, i] * eta[i]
+                            gd += st.normal[c, i] * etad[i]
+                            gdd += st.normal[c, i] * a0[i]
+                        fg, fgd, _fv = force_partials(st.law[c], gg, gd, st.kc[c], st.cc[c], st.pe[c], vr[c])
+                        ldot += w * (fg * gd + fgd * gdd)
             if n_rel < rel.shape[0]:
                 rel[n_rel, 0] = te
             if ldot > 0.0 and aux <= 0.0:
@@ -656,12 +888,10 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
             k_ev += 1
             continue
         k_ev += 1    # EV_STICK_IMPACT without its impact cannot happen; skip defensively
-    if H == 0:
-        _flow_free(J, t_cur, T_end, eta, etad, Om, sy.mp, aF, bF, daF, dbF, dd.dc, dd.dOm, n)
-    else:
-        _flow_held(J, t_cur, T_end, eta, etad, Om, H, hs, aC[H], bC[H], daC[H], dbC[H], dd, n)
     # the end time n T = 2 pi n / Omega moves with Omega: + f(nT) d(nT)/dOmega
-    _accel(held_end, x_end[:n], x_end[n:], T_end, Om, F, sy, hs, a0)
+    _accel(held_end & ~cmask, x_end[:n], x_end[n:], T_end, Om, F, sy, hs, a0)
+    if cp is not None and C != 0:
+        contact_accel(held_end & ~cmask, C, x_end[:n], x_end[n:], st, hs, vr, a0)
     dT = -T_end / Om
     for p in range(P):
         if dd.dOm[p] != 0.0:
@@ -669,6 +899,91 @@ def tangent(sy, st, hs, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end, T_
                 J[i, ip0 + p] += x_end[n + i] * dT * dd.dOm[p]
                 J[n + i, ip0 + p] += a0[i] * dT * dd.dOm[p]
     return n_rel, n_inexact
+
+
+@njit(cache=True, error_model="numpy")
+def _release_contacts(C, g, eta, etad, a0, J, st, dd, vr, dvr, lrow, n, ip0):
+    """The compliant contacts' part of a held stop's constraint-force row ``lrow``:
+    ``sum_c (g^T n_c) df_c`` with ``df = f_g dg + f_g' dg' + f_v dv_in`` (and ``dg_p = -dD``)."""
+    ncol = J.shape[1]
+    for c in range(st.offset.shape[0]):
+        if (C >> c) & 1 == 0:
+            continue
+        w = 0.0
+        gg = -st.offset[c]
+        gd = 0.0
+        for i in range(n):
+            w += g[i] * st.normal[c, i]
+            gg += st.normal[c, i] * eta[i]
+            gd += st.normal[c, i] * etad[i]
+        fg, fgd, fv = force_partials(st.law[c], gg, gd, st.kc[c], st.cc[c], st.pe[c], vr[c])
+        for col in range(ncol):
+            dg = 0.0
+            dgd = 0.0
+            for i in range(n):
+                dg += st.normal[c, i] * J[i, col]
+                dgd += st.normal[c, i] * J[n + i, col]
+            if col >= ip0:
+                dg -= dd.dD[col - ip0, c]
+            lrow[col] += w * (fg * dg + fgd * dgd + fv * dvr[c, col])
+
+
+@njit(cache=True, error_model="numpy")
+def _free_state(z, ta, tb, Om, mp, a, b, n):
+    """The free flight's state ``z = (eta, eta')`` carried from ``ta`` to ``tb`` (closed form)."""
+    eta = z[:n].copy()
+    etad = z[n:].copy()
+    advance_modes(tb - ta, Om * ta, Om, eta, etad, mp, a, b, np.zeros(n))
+    for i in range(n):
+        z[i] = eta[i]
+        z[n + i] = etad[i]
+
+
+@njit(cache=True, error_model="numpy")
+def _held_state(z, ta, tb, Om, H, hs, a, b, n):
+    """The same on the held set ``H`` (its constrained coordinates)."""
+    nc = hs.nc[H]
+    zeta = np.zeros(n)
+    zetad = np.zeros(n)
+    for j in range(nc):
+        for i in range(n):
+            zeta[j] += hs.Psi[H, i, j] * (z[i] - hs.eta_c[H, i])
+            zetad[j] += hs.Psi[H, i, j] * z[n + i]
+    advance_count(tb - ta, Om * ta, Om, zeta, zetad, hs.mp[H], a, b, hs.e[H], nc)
+    for i in range(n):
+        e = hs.eta_c[H, i]
+        ed = 0.0
+        for j in range(nc):
+            e += hs.Psi[H, i, j] * zeta[j]
+            ed += hs.Psi[H, i, j] * zetad[j]
+        z[i] = e
+        z[n + i] = ed
+
+
+@njit(cache=True, error_model="numpy")
+def _linear_state(z, ta, tb, q, ph, Om, ZX, ZY, n):
+    """The same in the linear contact phase ``q``: ``z_e + T (w_p(tb) + Phi (Ti (z - z_e) - w_p(ta)))``."""
+    m = ph.m[q]
+    w = np.zeros(2 * m)
+    sa, ca = math.sin(Om * ta), math.cos(Om * ta)
+    sb, cb = math.sin(Om * tb), math.cos(Om * tb)
+    for j in range(m):
+        x = 0.0
+        y = 0.0
+        for i in range(2 * n):
+            x += ph.Tix[q, j, i] * (z[i] - ph.ze[q, i])
+            y += ph.Tiy[q, j, i] * (z[i] - ph.ze[q, i])
+        x -= ZX[j].real * sa + ZX[j].imag * ca
+        y -= ZY[j].real * sa + ZY[j].imag * ca
+        t11, t12, t21, t22 = transition_entries(tb - ta, ph.mp[q, j, 0], ph.mp[q, j, 1], int(ph.mp[q, j, 2]),
+                                                ph.mp[q, j, 3], ph.mp[q, j, 4], ph.mp[q, j, 5])
+        w[j] = t11 * x + t12 * y + ZX[j].real * sb + ZX[j].imag * cb
+        w[m + j] = t21 * x + t22 * y + ZY[j].real * sb + ZY[j].imag * cb
+    for i in range(2 * n):
+        r = ph.ze[q, i]
+        for j in range(m):
+            r += ph.Tx[q, i, j] * w[j] + ph.Ty[q, i, j] * w[m + j]
+        z[i] = r
 
 
 # ============================================================================ one shot
@@ -686,6 +1001,8 @@ def held_at_section(st, hs, x0, Om):
     vn = math.sqrt(vn) + Om * en
     mask = 0
     for k in range(st.offset.shape[0]):
+        if st.law[k] != 0:
+            continue            # a compliant stop is never held (see contact_at_section)
         nn = 0.0
         g = -st.offset[k]
         U = 0.0
@@ -701,12 +1018,40 @@ def held_at_section(st, hs, x0, Om):
 
 
 @njit(cache=True, error_model="numpy")
-def shoot(sy, st, hs, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel,
-          derivatives):
+def contact_at_section(st, x0):
+    """The compliant stops a state ``(eta, eta')`` is in contact with (bit mask: the penetration
+    ``g >= 0`` and the force positive), and the hysteretic-Hertz stops it lies inside of (their
+    force depends on the entry velocity of a contact before the section: not a state of the
+    shooting problem)."""
+    n = x0.shape[0] // 2
+    mask = 0
+    bad = 0
+    for k in range(st.offset.shape[0]):
+        if st.law[k] == 0:
+            continue
+        g = -st.offset[k]
+        gd = 0.0
+        for i in range(n):
+            g += st.normal[k, i] * x0[i]
+            gd += st.normal[k, i] * x0[n + i]
+        if g < 0.0:
+            continue
+        if st.law[k] != LAW_LINEAR:
+            bad |= 1 << k
+        elif st.kc[k] * g + st.cc[k] * gd > 0.0:
+            mask |= 1 << k
+    return mask, bad
+
+
+@njit(cache=True, error_model="numpy")
+def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel,
+          derivatives, rst):
     """``P^n(x0)``: the integrator's run of ``n_periods`` from phase 0 with its event log, then
     (``derivatives``) the tangent, in one compiled call.
 
-    ``held0 < 0``: start held where :func:`held_at_section` finds the state held.
+    ``held0 < 0``: start held where :func:`held_at_section` finds the state held, in contact with
+    the compliant stops :func:`contact_at_section` finds.  ``rst`` (2n) receives the end state
+    rebuilt by the tangent's flows (:func:`tangent`).
 
     Returns
     -------
@@ -725,9 +1070,12 @@ def shoot(sy, st, hs, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_step
     n = sy.k.shape[0]
     if held0 < 0:
         held0 = held_at_section(st, hs, x0, Om)
+        if cp is not None:
+            cm, _bad = contact_at_section(st, x0)
+            held0 |= cm
     eta = x0[:n].copy()
     etad = x0[n:].copy()
-    out = integrate(sy, st, hs, None, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
+    out = integrate(sy, st, hs, cp, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
                     chatter_tol, rec)
     x_end = np.empty(2 * n)
     for i in range(n):
@@ -738,8 +1086,8 @@ def shoot(sy, st, hs, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_step
     finite = True
     n_ev = rec.nlog[0]
     if derivatives and out[0] != 3 and n_ev <= rec.evlog.shape[0]:
-        n_rel, n_inexact = tangent(sy, st, hs, dd, Om, rec.evlog, n_ev, held0, x0, x_end, out[6],
-                                   n_periods * TWO_PI / Om, J, rel)
+        n_rel, n_inexact = tangent(sy, st, hs, cp, dd, Om, rec.evlog, n_ev, held0, x0, x_end, out[6],
+                                   n_periods * TWO_PI / Om, J, rel, rst)
         for i in range(J.shape[0]):
             for c in range(J.shape[1]):
                 if not math.isfinite(J[i, c]):
@@ -862,16 +1210,26 @@ class ModalShooting:
             h_cap = self._h_caps[id(core)] = (2.0 * math.pi / float(np.sqrt(np.min(core.ksys.k[core.ksys.k > 0])))
                                               / self.steps_per_fundamental)
         P = set_.dirs.dOm.shape[0]
+        cp = core.compliant
+        if cp is not None and held < 0:
+            _cm, bad = contact_at_section(core.kstops, x0)
+            if bad:
+                k = int(bad).bit_length() - 1
+                return self._failed(d, f"the section lies inside the stop {k} of a "
+                                       f"{getattr(core.stops[k].law, 'name', 'compliant')} law: its contact "
+                                       f"depends on its entry velocity, which is not part of the state")
+        rst = np.zeros(d)
         while True:
             key = (n, N, core.n_stops, P)
             bufs = self._bufs.get(key)
             if bufs is None:
-                bufs = self._bufs[key] = (new_record(N, core.n_stops, n, 1, self._capi, False, self._cap, self._capa),
+                bufs = self._bufs[key] = (new_record(N, core.n_stops, n, 1, self._capi, False, self._cap, self._capa,
+                                                     compliant=cp is not None),
                                           np.empty((d, d + P)), np.zeros((self._cap, d + P + 1)))
             rec, J, rel = bufs
-            args = (core.ksys, core.kstops, core.held, set_.dirs, float(Om), x0, held, n, float(h_cap),
+            args = (core.ksys, core.kstops, core.held, cp, set_.dirs, float(Om), x0, held, n, float(h_cap),
                     self.max_impacts_per_period * n, self.max_steps_per_period * n, self.chatter_tol, rec, J, rel,
-                    bool(derivatives))
+                    bool(derivatives), rst)
             if self._entry is None:
                 out, n_rel, n_inexact, finite, held, x = _call_shoot(args)
                 self._entry = _ENTRY.get("shoot")
@@ -885,14 +1243,20 @@ class ModalShooting:
             self._capa = max(self._capa, int(nlog[1]) + 16)
             self._capi = max(self._capi, int(out[1]) + 16)
             self._bufs.clear()
-        status, n_imp, smin, smax, n_chat, stuck_time, held_end, n_tot, gmax, n_steps, _t_con = out
+        status, n_imp, smin, smax, n_chat, stuck_time, held_end, n_tot, gmax, n_steps, t_con = out
         sc = set_.scale
         n_ev, n_ap = int(nlog[0]), int(nlog[1])
         ev = rec.evlog[:n_ev].copy()          # one copy; the event arrays are views of it
         kinds = ev[:, 0].astype(np.int64)
+        cmask = sum(1 << k for k, s in enumerate(core.stops) if getattr(s.law, "kind", "") == "compliant")
         extra = dict(event_kinds=kinds, event_times=ev[:, 1], event_stops=ev[:, 3].astype(np.int64),
                      event_states=ev[:, 4:], apexes=rec.aplog[:n_ap].copy(), n_chatter=int(n_chat),
-                     stuck_start=bool(held), stuck_end=bool(held_end), n_steps=int(n_steps))
+                     stuck_start=bool(held & ~cmask), stuck_end=bool(held_end & ~cmask), n_steps=int(n_steps))
+        if cp is not None:
+            extra.update(_contact_times(ev, held & cmask, held_end & cmask, core.n_stops, n * 2.0 * math.pi / Om))
+            extra["contact_time"] = float(t_con)
+            extra["in_contact_end"] = bool(held_end & cmask)
+            extra["rebuilt_state"] = rst.copy()
         if core.n_stops > 1:
             extra["impact_stops"] = rec.imp_k[:n_imp].copy()
         it = rec.imp_t[:n_imp].copy()
@@ -907,7 +1271,7 @@ class ModalShooting:
         else:
             Jc = J.copy()
             M = Jc[:, :d]
-            xp = Jc[:, d + self.index]
+            xp = Jc[:, d + self.column]
             extra["x_all_p"] = Jc[:, d:]
             rl = rel[:n_rel].copy()
             extra["release_times"] = rl[:, 0]
@@ -915,7 +1279,14 @@ class ModalShooting:
         extra["n_inexact"] = int(max(n_inexact, 0))
         apex = float(rec.aplog[:n_ap, 1].max()) if n_ap else -math.inf
         st, msg = "ok", ""
-        if n_inexact > 0:
+        if derivatives and n_inexact == -1:
+            st = "failed"
+            msg = ("re-entry inside the stop after a damping-factor exit (the contact depends on the previous "
+                   "contact's entry velocity): not represented")
+        elif derivatives and n_inexact == -2:
+            st = "failed"
+            msg = "the variational equations of a contact phase could not be integrated (step size underflow)"
+        elif n_inexact > 0:
             st = "chatter"
             msg = (f"{n_inexact} event(s) without an exact derivative (release forced at the end of a chatter "
                    f"hold, or entry into sticking at zero velocity)")
@@ -929,6 +1300,39 @@ class ModalShooting:
     def invalid(self, p: float) -> str:
         """Why ``p`` is not a value of the parameter ('' if it is)."""
         return ""
+
+    @property
+    def column(self) -> int:
+        """The continuation parameter's column among the directions of :meth:`setup`."""
+        return self.index
+
+    @staticmethod
+    def _failed(d: int, message: str) -> Shot:
+        nan = np.full(d, np.nan)
+        return Shot(x=nan, M=np.full((d, d), np.nan), x_p=nan.copy(), impact_times=np.zeros(0),
+                    impact_velocities=np.zeros(0), q_min=np.nan, q_max=np.nan, status="failed", message=message)
+
+
+def _contact_times(ev, c0, c1, ns, t_end) -> dict:
+    """Time in contact of each compliant stop over a shot, from its event log (entries and exits;
+    ``c0``, ``c1`` the masks in contact at the start and the end): ``contact_time_upper`` (stop 0),
+    ``contact_time_lower`` (stop 1), ``contact_times`` (n_s,)."""
+    out = np.zeros(ns)
+    start = np.full(ns, np.nan)
+    for k in range(ns):
+        if c0 >> k & 1:
+            start[k] = 0.0
+    for kind, t, k in zip(ev[:, 0].astype(int), ev[:, 1], ev[:, 3].astype(int)):
+        if kind == EV_ENTRY:
+            start[k] = t
+        elif kind == EV_EXIT and np.isfinite(start[k]):
+            out[k] += t - start[k]
+            start[k] = np.nan
+    for k in range(ns):
+        if c1 >> k & 1 and np.isfinite(start[k]):
+            out[k] += t_end - start[k]
+    return {"contact_times": out, "contact_time_upper": float(out[0]),
+            "contact_time_lower": float(out[1]) if ns > 1 else 0.0}
 
 
 _SHOOT_ENTRY = {}
