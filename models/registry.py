@@ -227,11 +227,11 @@ register(Fidelity(
     mixed_stop_methods=("event", "direct"),
     positive_R_methods=("ivanov",),
     contact_laws={"kelvin_voigt": {"event": "sdof:EventSolver",
-                             "direct": "sdof_compliant_ode:CompliantDirectSolver",
+                             "direct": "sdof_ode:DirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver",
                              "continuation": "periodic_compliant:CompliantSDOFShooting"},
                   "hysteretic_hertz": {"event": "sdof:EventSolver",
-                                    "direct": "sdof_compliant_ode:CompliantDirectSolver",
+                                    "direct": "sdof_ode:DirectSolver",
                                     "mapping": "sdof_hc_map:HuntCrossleyMappingSolver",
                                     "continuation": "periodic_compliant:HuntCrossleySDOFShooting"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
@@ -252,10 +252,10 @@ register(Fidelity(
     two_sided_law_methods={"kelvin_voigt": ("event", "direct", "continuation"),
                            "hysteretic_hertz": ("event", "continuation")},
     contact_laws={"kelvin_voigt": {"event": "beam_dynamics:BeamEventSolver",
-                             "direct": "beam_compliant:CompliantBeamODESolver",
+                             "direct": "beam_dynamics:BeamODESolver",
                              "continuation": "periodic_compliant:CompliantBeamShooting"},
                   "hysteretic_hertz": {"event": "beam_dynamics:BeamEventSolver",
-                                    "direct": "beam_hc:HuntCrossleyBeamODESolver",
+                                    "direct": "beam_dynamics:BeamODESolver",
                                     "continuation": "periodic_hc_beam:HuntCrossleyBeamShooting"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 

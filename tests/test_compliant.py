@@ -2,7 +2,7 @@
 
 Oracles: closed forms of the isolated contact (restitution, duration, energy), an
 independent quadrature of the damping work, the solve_ivp reference (method ``direct``,
-:mod:`vibeam.models.sdof_compliant_ode`, sharing no code with the kernel) and the CoR model
+:class:`vibeam.models.sdof_ode.DirectSolver` on :mod:`vibeam.models.core.direct`, sharing no code with the kernel) and the CoR model
 as the stiffness grows.
 """
 from __future__ import annotations
@@ -21,7 +21,7 @@ from vibeam.models.beam_dynamics import BeamEventSolver
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import (C_DURATION, C_ENERGY, C_FORCE, C_PENETRATION,
                                           CompliantEventSolver, isolated_contact)
-from vibeam.models.sdof_compliant_ode import CompliantDirectSolver
+from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
 
 
@@ -111,7 +111,7 @@ def test_event_agrees_with_the_direct_reference(k, W, Delta, B):
     maximisation)."""
     m = _model(k, Delta=Delta, B=B)
     a = CompliantEventSolver(m).point(W, None, 4, 4, 32)
-    b = CompliantDirectSolver(m).point(W, None, 4, 4, 32)
+    b = DirectSolver(m).point(W, None, 4, 4, 32)
     scale = np.max(np.abs(a.samples))
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-8 * scale
     assert a.n_impacts == b.n_impacts
@@ -177,7 +177,7 @@ def test_case_builds_the_law_and_refuses_other_methods():
     assert m.contact_law == "linear" and m.contact.R == 0.9
     assert m.contact.damping_ratio == pytest.approx(damping_ratio_for_restitution(0.9))
     assert isinstance(make_solver(m, "event"), EventSolver)
-    assert isinstance(make_solver(m, "direct"), CompliantDirectSolver)
+    assert isinstance(make_solver(m, "direct"), DirectSolver)
     with pytest.raises(ValueError, match="does not simulate contact law 'linear'"):
         make_solver(m, "averaging")
     for method in ("averaging", "zhuravlev"):
@@ -426,7 +426,7 @@ def test_hunt_crossley_event_agrees_with_the_direct_reference(k, W, Delta):
 
     m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=Delta, contact=HuntCrossley(k, 0.9))
     a = CompliantEventSolver(m).point(W, None, 4, 4, 32)
-    b = CompliantDirectSolver(m).point(W, None, 4, 4, 32)
+    b = DirectSolver(m).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-7 * np.max(np.abs(a.samples))
     n = min(a.contacts.shape[0], b.contacts.shape[0])
@@ -464,12 +464,13 @@ def test_beam_event_agrees_with_the_direct_reference(n_modes, k):
     vs solve_ivp DOP853 at rtol 1e-11 from rest on the stop over 8 periods: samples to 1e-9 of
     the orbit (measured <= 3e-10), contact records (duration, peak force, penetration, work,
     entry velocity) to 1e-8 relative (measured <= 3e-11)."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver, CompliantBeamODESolver
+    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.beam_dynamics import BeamODESolver
 
     m = _rig(n_modes, k)
     W = 15.4 / 7.6
     a = CompliantBeamEventSolver(m).point(W, None, 4, 4, 32)
-    b = CompliantBeamODESolver(m).point(W, None, 4, 4, 32)
+    b = BeamODESolver(m).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-9 * np.max(np.abs(a.samples))
     n = min(a.contacts.shape[0], b.contacts.shape[0])

@@ -28,7 +28,7 @@ from vibeam.models.contact import DAMPING, EXPONENT, STIFFNESS, Relation, Stop, 
 from vibeam.models.beam_dynamics import BeamEventSolver
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import CompliantEventSolver, hc_force, isolated_contact_hc
-from vibeam.models.sdof_compliant_ode import CompliantDirectSolver
+from vibeam.models.sdof_ode import DirectSolver
 
 FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8 scene (as tests/test_continuation_compliant.py)
 
@@ -144,7 +144,7 @@ def test_event_agrees_with_direct_on_a_frequency_response_point(k, W, Delta):
     test's tolerances (tests/test_compliant.py), through make_solver (the registry's family)."""
     m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=Delta, contact=LankaraniNikravesh(k, 0.9))
     ev, di = make_solver(m, "event"), make_solver(m, "direct")
-    assert isinstance(ev, EventSolver) and isinstance(di, CompliantDirectSolver)
+    assert isinstance(ev, EventSolver) and isinstance(di, DirectSolver)
     a = ev.point(W, None, 4, 4, 32)
     b = di.point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3

@@ -17,7 +17,7 @@ from vibeam.models import make_solver, shooting_problem
 from vibeam.models.compliant import LinearContact
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import CompliantEventSolver
-from vibeam.models.sdof_compliant_ode import CompliantDirectSolver
+from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
 
 KV = LinearContact.from_restitution(1e4, 0.8)
@@ -36,7 +36,7 @@ def test_event_agrees_with_the_direct_reference_on_a_mixed_scene(W):
     stop's rows are impulses whose energy is (1 - R_l^2) v^2 / 2 (round-off)."""
     m = _mixed()
     a = CompliantEventSolver(m).point(W, None, 4, 4, 32)
-    b = CompliantDirectSolver(m).point(W, None, 4, 4, 32)
+    b = DirectSolver(m).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower >= 3
     np.testing.assert_array_equal(a.impact_stops, b.impact_stops)
@@ -92,4 +92,4 @@ def test_mixed_stops_are_refused_where_not_implemented():
     with pytest.raises(ValueError, match="continuation with a restitution stop beside a compliant one"):
         shooting_problem(m, "Omega", Omega=1.0)
     assert isinstance(make_solver(m, "event"), EventSolver)
-    assert isinstance(make_solver(m, "direct"), CompliantDirectSolver)
+    assert isinstance(make_solver(m, "direct"), DirectSolver)
