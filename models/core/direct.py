@@ -96,9 +96,9 @@ _scales = laws.contact_scales.py_func
 _floor = laws.hertz_floor.py_func
 
 # terminal event kinds
-RELEASE, EXIT, EXIT_DAMPING, ENTRY_INSIDE, GAP_DOWN, GAP = range(6)
+RELEASE, EXIT, EXIT_DAMPING, ENTRY_INSIDE, GAP_DOWN, GAP, TURN = range(7)
 # non-terminal event kinds
-SENSOR, MAX_PEN, PEAK_FORCE = 6, 7, 8
+SENSOR, MAX_PEN, PEAK_FORCE = 7, 8, 9
 
 
 def _now(v, rate, size, t):
@@ -247,6 +247,9 @@ class _Phase:
                 add(lambda t, z, j=j: self.gap(j, z)[0], -1.0, True, GAP_DOWN, j)
             else:
                 add(lambda t, z, j=j: self.gap(j, z)[0], 1.0, True, GAP, j)
+                if j == r.turn:
+                    eta = ROUND * r.vscale * r.sc
+                    add(lambda t, z, j=j: self.gap(j, z)[1] - eta, 1.0, True, TURN, j)
         m, sv = self.m, r.sy.sensor
         if self.P is None:
             add(lambda t, z: float(sv @ z[m:2 * m]), 0.0, False, SENSOR, -1)
@@ -381,6 +384,7 @@ class _Run:
         self.stuck_time = self.contact_time = 0.0
         self.max_imp = di.max_impacts_per_period * (n_transient + n_record)
         self.vscale = None
+        self.turn = -1          # a Newton stop left by a slow rebound (its gap's minimum is an event)
         self.modamp = np.zeros(self.N)
         self.max_step = min(T / 16, di.max_step or np.inf)
 
@@ -430,7 +434,9 @@ class _Run:
                     continue      # the end of the run
             kind, j = event
             # ---- the transition
-            if kind == RELEASE:
+            if kind == TURN:
+                self.turn = -1      # strictly below the stop again: its gap's event sees the return
+            elif kind == RELEASE:
                 H &= ~(1 << j)
             elif kind in (EXIT, EXIT_DAMPING):
                 C &= ~(1 << j)
@@ -673,14 +679,21 @@ class _Run:
             if self.acc_along(d, t, y, C) > 0:
                 H = H2
                 self.n_chat += rec
-            return H, y
-        Up = newton_restitution(Um, law.coefficient(Um * sc))
-        y[N:] += d * me * (Up - Um)
-        if rec:
-            self.newton_row(hit, ke0 - 0.5 * float(y[N:] @ y[N:]), Um)
-        if Up == 0.0 and can_hold and self.acc_along(d, t, y, C) > 0:   # plastic into a pressing contact
-            y = self.project(H2, y)
-            H = H2
+        else:
+            Up = newton_restitution(Um, law.coefficient(Um * sc))
+            y[N:] += d * me * (Up - Um)
+            if rec:
+                self.newton_row(hit, ke0 - 0.5 * float(y[N:] @ y[N:]), Um)
+            if Up == 0.0 and can_hold and self.acc_along(d, t, y, C) > 0:   # plastic into a pressing contact
+                y = self.project(H2, y)
+                H = H2
+        self.turn = -1
+        if not H >> hit & 1:
+            # a slow rebound, whose flight may end inside one step (solve_ivp compares signs at step
+            # ends only): the gap's minimum is an event, after which the stop is strictly ahead
+            up = -float(self.Nrm[hit] @ y[N:])
+            if 2.0 * up <= abs(self.acc_along(self.Nrm[hit], t, y, C)) * self.max_step:
+                self.turn = hit
         return H, y
 
     def newton_row(self, k, de, Um):
