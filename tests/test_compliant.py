@@ -104,9 +104,10 @@ def test_energy_lost_is_the_work_of_the_contact_damping(R, k):
                                          (1e6, 2.6, 0.0, 5e-4), (1e3, 2.0, -0.0005, 5e-4),
                                          (1e3, 1.5, -0.001, 2e-3)])
 def test_event_agrees_with_the_direct_reference(k, W, Delta, B):
-    """Exact kernel vs solve_ivp (DOP853, rtol 1e-11, atol 1e-13) from the same start over 8
-    periods (pre-stressed stops at Delta < 0 included, starting on the stop): samples to 1e-8
-    of the orbit (the reference's tolerance accumulated over ~10^3 steps; measured <= 3e-9),
+    """Exact kernel vs solve_ivp (DOP853, rtol 1e-11, atol 1e-15: the one direct solver) from the
+    same start over 8 periods (pre-stressed stops at Delta < 0 included, starting on the stop):
+    samples to 1e-8 of the orbit (the reference's tolerance accumulated over ~10^3 steps; measured
+    <= 7.3e-11),
     contact records to 1e-6 relative (the reference's event location and dense-output
     maximisation)."""
     m = _model(k, Delta=Delta, B=B)
@@ -419,9 +420,9 @@ def test_hunt_crossley_restitution_depends_on_the_target_only():
 @pytest.mark.parametrize("k,W,Delta", [(1e4, 2.0, 0.0), (1e6, 1.7, 0.0), (1e5, 2.3, 0.001), (1e4, 2.0, -0.0005)])
 def test_hunt_crossley_event_agrees_with_the_direct_reference(k, W, Delta):
     """Free flight exact, contact by DOPRI5 (rtol 1e-11) in the kernel; solve_ivp DOP853
-    (rtol 1e-11) in the reference: samples to 1e-7 of the orbit (measured <= 7e-8 over 8
+    (rtol 1e-11) in the reference: samples to 1e-7 of the orbit (measured <= 5.3e-9 over 8
     periods, the contacts' integration errors carried by the free flights), contact records
-    to 1e-7 relative (measured <= 2e-8)."""
+    to 1e-7 relative (measured <= 1.7e-9)."""
     from vibeam.models.compliant import HuntCrossley
 
     m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=Delta, contact=HuntCrossley(k, 0.9))
@@ -462,8 +463,8 @@ def _rig(n_modes, k=None, R=None):
 def test_beam_event_agrees_with_the_direct_reference(n_modes, k):
     """Rig FE beam on a Kelvin-Voigt stop (R = 0.72 target): exact kernel (eigendecomposed phases)
     vs solve_ivp DOP853 at rtol 1e-11 from rest on the stop over 8 periods: samples to 1e-9 of
-    the orbit (measured <= 3e-10), contact records (duration, peak force, penetration, work,
-    entry velocity) to 1e-8 relative (measured <= 3e-11)."""
+    the orbit (measured <= 1.5e-11), contact records (duration, peak force, penetration, work,
+    entry velocity) to 1e-8 relative (measured <= 8.2e-12)."""
     from vibeam.models.beam_compliant import CompliantBeamEventSolver
     from vibeam.models.beam_dynamics import BeamODESolver
 

@@ -240,7 +240,7 @@ def test_sdof_two_stops_and_beside_a_newton_stop(lower):
     """SDOF with a Lankarani-Nikravesh upper stop and, below, another one, a Hunt-Crossley one
     (two laws of one family, each its own chi) or Newton's law (mixed): event against direct,
     both stops hit, samples to 1e-7 of the orbit (tests/test_matrix.py's tolerance; measured
-    1.5e-8, 7.1e-8, 8.1e-8)."""
+    1.0e-8, 2.5e-10, 1.3e-10)."""
     kw = {"R_lower": 0.5} if lower == "newton" else \
         {"contact_lower": (LankaraniNikravesh if lower == "lankarani_nikravesh" else HuntCrossley)(3e4, 0.9)}
     m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact=LankaraniNikravesh(1e5, 0.8), **kw)

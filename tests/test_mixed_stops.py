@@ -31,8 +31,8 @@ def _mixed(Delta_lower=0.003, R_lower=0.6, B=5e-3, Delta=0.002):
 def test_event_agrees_with_the_direct_reference_on_a_mixed_scene(W):
     """Chatter-free orbits with a Kelvin-Voigt contact above and a Newton impact below (6
     upper and 4 lower contacts in 4 periods, from rest): the same contact sequence on the
-    same stops, samples to 1e-8 of the orbit (measured <= 6.3e-9: both flows exact against
-    DOP853 at rtol 1e-11), contact rows to 1e-6 relative (measured <= 7.1e-10); the lower
+    same stops, samples to 1e-8 of the orbit (measured <= 1.7e-10: both flows exact against
+    DOP853 at rtol 1e-11), contact rows to 1e-6 relative (measured <= 3.0e-11); the lower
     stop's rows are impulses whose energy is (1 - R_l^2) v^2 / 2 (round-off)."""
     m = _mixed()
     a = CompliantEventSolver(m).point(W, None, 4, 4, 32)
