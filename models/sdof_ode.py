@@ -591,22 +591,22 @@ class DirectSolver(_ScipyMethod):
     name = "direct"
     two_sided = True
 
+    #: defaults of the paper's method (Newton stops) and of the compliant reference
+    PAPER = dict(solver="RK23", rtol=1e-4, atol=1e-8, max_events_per_period=20000)
+    REFERENCE = dict(solver="DOP853", rtol=RTOL_COMPLIANT, atol=ATOL_COMPLIANT, max_events_per_period=200)
+
     def __init__(self, model, solver: str | None = None, rtol: float | None = None, atol: float | None = None,
                  max_step=None, max_events_per_period: int | None = None, max_nfev_per_period: int = 50000):
         compliant = any(getattr(s.law, "kind", "") == "compliant" for s in model.stops())
-        if not compliant:
-            super().__init__(model, solver or "RK23", 1e-4 if rtol is None else rtol, 1e-8 if atol is None else atol,
-                             max_step, 20000 if max_events_per_period is None else max_events_per_period,
-                             max_nfev_per_period)
-            self._direct = None
-            return
-        rtol = RTOL_COMPLIANT if rtol is None else rtol
-        atol = ATOL_COMPLIANT if atol is None else atol
-        super().__init__(model, solver or "DOP853", rtol, atol, max_step,
-                         200 if max_events_per_period is None else max_events_per_period, max_nfev_per_period)
-        self._direct = DirectIntegrator(EventIntegrator(from_sdof(model), model.stops()), 1.0, self.solver,
-                                        self.rtol, self.atol, self.max_events_per_period, max_step=self.max_step)
-        self._laws = [s.law for s in model.stops()]
+        given = dict(solver=solver, rtol=rtol, atol=atol, max_events_per_period=max_events_per_period)
+        kw = {k: (self.REFERENCE if compliant else self.PAPER)[k] if v is None else v for k, v in given.items()}
+        super().__init__(model, kw["solver"], kw["rtol"], kw["atol"], max_step, kw["max_events_per_period"],
+                         max_nfev_per_period)
+        self._direct = None
+        if compliant:
+            self._direct = DirectIntegrator(EventIntegrator(from_sdof(model), model.stops()), 1.0, self.solver,
+                                            self.rtol, self.atol, self.max_events_per_period, max_step=self.max_step)
+            self._laws = [s.law for s in model.stops()]
 
     def point(self, Omega: float, state0, n_transient: int, n_record: int,
               samples_per_period: int = 64) -> Trajectory:
