@@ -619,41 +619,59 @@ class BeamEventSolver:
 
 
 class BeamODESolver:
-    """Method ``direct`` for the beam: the same modal system integrated with
-    :func:`scipy.integrate.solve_ivp` (reference solver).
+    """Method ``direct`` for the beam, every contact law: the same modal system and stops integrated
+    by :func:`scipy.integrate.solve_ivp` (the reference solver), through the one direct solver
+    (:class:`vibeam.models.core.direct.DirectIntegrator`; the beam's stops in system units,
+    :meth:`BeamImpactModel.system_stops`).
 
-    Free flight: a terminal event at the contact (``U = Delta_C`` upward) and the same
-    impact law (:func:`apply_impact` / ``restitution_impulse``).  Sticking: the
-    constrained system in the coordinates ``zeta`` (``eta = eta_c + Psi zeta``) is
-    integrated too, with a terminal event on the contact force ``lambda`` turning
-    positive.  An impact with ``U- < chatter_velocity`` times the first impact speed into
-    a pressing contact acceleration is treated as the end of a chatter (plastic
-    projection, then sticking): a crude chatter model, fine for a reference of
-    impacting/sticking orbits, not for resolving chatter.
+    Newton stops: a terminal event at each contact (a gap ``n^T eta - Delta`` rising) and the same
+    impact law; held on stops, the constrained system ``eta = eta_c + Psi zeta`` with a terminal
+    event on each contact force ``lambda`` turning positive; an impact with ``U- < chatter_velocity``
+    times the first impact speed into a pressing contact acceleration ends a chatter (plastic
+    projection, then sticking): a crude chatter model, fine for a reference of impacting/sticking
+    orbits, not for resolving chatter.  Compliant stops (Kelvin-Voigt, hysteretic Hertz): the
+    contact forces in the equations while in contact, with terminal events at the entries and exits
+    of :mod:`vibeam.models.core.contact_phase` and the work done on each stop integrated with the
+    state; the contacts' rows are the event method's (:func:`vibeam.models.core.event.trajectory`).
 
     The state is scaled by ``1 / (L sqrt(m_eff))`` so that it is of the order of ``U / L``.
-    ``q_min/q_max`` use the sensor-velocity zero crossings (events) and the samples.
-    Steps are capped at ``T / 16`` so that sign changes of the event functions are not
-    stepped over (solve_ivp only checks signs at step ends: detection is not guaranteed).
+    ``q_min/q_max`` use the sensor-velocity zero crossings (events) and the samples.  Steps are
+    capped at ``T / 16`` (and at a twentieth of a compliant contact's time scale) so that sign
+    changes of the event functions are not stepped over (solve_ivp only checks signs at step ends:
+    detection is not guaranteed).
+
+    Parameters
+    ----------
+    model : BeamImpactModel
+    solver : str
+        ``solve_ivp`` method (DOP853 default).
+    rtol, atol : float or None
+        Tolerances (``atol`` in units of ``q``); None: 1e-9 and 1e-12 with Newton stops, 1e-11 and
+        1e-15 with a compliant stop (:data:`vibeam.models.core.direct.RTOL_IMPULSIVE` ...).
+    max_impacts_per_period : int
+        More impacts and contact entries per period on average: ``failed``.
+    chatter_velocity : float
+    max_step : float or None
+        Largest step (nondimensional time; default ``T / 16``).
     """
 
     name = "direct"
     time_domain = True
     chunk_periods = 200   # a restart of solve_ivp changes the result at the level of rtol
 
-    def __init__(self, model: BeamImpactModel, solver: str = "DOP853", rtol: float = 1e-9,
-                 atol: float = 1e-12, max_impacts_per_period: int = 200,
+    def __init__(self, model: BeamImpactModel, solver: str = "DOP853", rtol: float | None = None,
+                 atol: float | None = None, max_impacts_per_period: int = 200,
                  chatter_velocity: float = 1e-6, max_step: float | None = None):
         self.model = model
         self.max_step = max_step
         self.solver = solver
-        self.rtol = float(rtol)
-        self.atol = float(atol)
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.chatter_velocity = float(chatter_velocity)
         self._direct = DirectIntegrator(EventIntegrator(from_beam(model), model.system_stops()),
-                                        model.length_m * math.sqrt(model.m_eff), solver, self.rtol, self.atol,
+                                        model.length_m * math.sqrt(model.m_eff), solver, rtol, atol,
                                         self.max_impacts_per_period, self.chatter_velocity, max_step)
+        self.rtol = self._direct.rtol
+        self.atol = self._direct.atol
 
     def settings(self) -> dict:
         return dict(solver=self.solver, rtol=self.rtol, atol=self.atol, n_modes=self.model.n_modes,
@@ -661,17 +679,10 @@ class BeamODESolver:
 
     def point(self, Omega, state0, n_transient, n_record, samples_per_period=64) -> Trajectory:
         """One forcing frequency by the one direct solver (:mod:`vibeam.models.core.direct`) on the
-        beam's modal system and stops; ``state0`` as :meth:`BeamEventSolver.point`."""
+        beam's modal system and stops; ``state0`` as :meth:`BeamEventSolver.point` (its last entry
+        the held code of the Newton stops held and the compliant stops in contact)."""
         m = self.model
         s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
         laws = [st.law for st in m.stops()]
         return self._direct.run(float(Omega), s0, n_transient, n_record, samples_per_period, m.length_m,
                                 lambda k: laws[k], m.stop_codes())
-
-    def _failed(self, Om, s0, n_record, spp, msg):
-        return Trajectory(Omega=Om, samples=np.full((n_record * spp, 2), np.nan), samples_per_period=spp,
-                          impact_times=np.zeros(0), impact_velocities=np.zeros(0), n_impacts=0,
-                          q_min=np.nan, q_max=np.nan, status="failed", message=msg,
-                          final_state=np.asarray(s0, float).copy(),
-                          extra={"mode_amplitudes": np.full(self.model.n_modes, np.nan),
-                                 "stuck_fraction": np.nan})

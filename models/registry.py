@@ -228,11 +228,11 @@ register(Fidelity(
     mixed_stop_methods=("event", "direct", "continuation"),
     positive_R_methods=("ivanov",),
     contact_laws={"kelvin_voigt": {"event": "sdof:EventSolver",
-                             "direct": "sdof_compliant_ode:CompliantDirectSolver",
+                             "direct": "sdof_ode:DirectSolver",
                              "mapping": "sdof_compliant_map:CompliantMappingSolver",
                              "continuation": "periodic_sdof:SDOFShooting"},
                   "hysteretic_hertz": {"event": "sdof:EventSolver",
-                                    "direct": "sdof_compliant_ode:CompliantDirectSolver",
+                                    "direct": "sdof_ode:DirectSolver",
                                     "mapping": "sdof_hc_map:HuntCrossleyMappingSolver",
                                     "continuation": "periodic_sdof:SDOFShooting"}},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
@@ -253,10 +253,10 @@ register(Fidelity(
     two_sided_law_methods={"kelvin_voigt": ("event", "direct", "continuation"),
                            "hysteretic_hertz": ("event", "continuation")},
     contact_laws={"kelvin_voigt": {"event": "beam_dynamics:BeamEventSolver",
-                             "direct": "beam_compliant:CompliantBeamODESolver",
+                             "direct": "beam_dynamics:BeamODESolver",
                              "continuation": "periodic_beam:BeamContinuation"},
                   "hysteretic_hertz": {"event": "beam_dynamics:BeamEventSolver",
-                                    "direct": "beam_hc:HuntCrossleyBeamODESolver",
+                                    "direct": "beam_dynamics:BeamODESolver",
                                     "continuation": "periodic_beam:BeamContinuation"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 

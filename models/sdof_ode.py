@@ -12,7 +12,10 @@ as ``ode23``):
 
 ``direct`` (:class:`DirectSolver`, Sec. 3.1)
     Eq. 1 in ``(q, q')`` with a terminal event at ``q = Delta`` (rising) and a
-    restart after the impact law Eq. 2.
+    restart after the impact law Eq. 2.  A scene with a compliant stop is the
+    one direct solver's (:class:`vibeam.models.core.direct.DirectIntegrator`:
+    the contact force in the equations, events at the contacts' entries and
+    exits), with its reference tolerances.
 ``zhuravlev`` (:class:`ZhuravlevSolver`, Sec. 3.2)
     The unfolded variable ``q = Delta - |z|`` (Eqs. 4-6); Eq. 7 in ``(z, z')``
     with a terminal event at ``z = 0`` and the reduced jump ``z'+ = R z'-``
@@ -44,6 +47,9 @@ from .trajectory import Trajectory
 
 from .impact import newton_restitution
 from .contact_policy import release_now
+from .core.direct import ATOL_COMPLIANT, RTOL_COMPLIANT, DirectIntegrator
+from .core.event import EventIntegrator
+from .system import from_sdof
 
 TWO_PI = 2.0 * math.pi
 EPS = 2.220446049250313e-16
@@ -564,17 +570,57 @@ def _event_fn(g, direction):
 
 
 class DirectSolver(_ScipyMethod):
-    """Method ``direct``: Eq. 1 with an impact event, paper Sec. 3.1.
+    """Method ``direct``: Eq. 1 with an impact event, paper Sec. 3.1; with a compliant stop, the one
+    direct solver of the modal system.
 
-    ``y = (q, q')``; ``solve_ivp`` integrates paper Eq. 1 until the terminal
-    event ``q - Delta = 0`` (rising), applies Eq. 2 through
-    :func:`vibeam.models.impact.newton_restitution` and restarts, as MATLAB's
-    ``ode23`` with ``'events'`` does in the paper.  Parameters, errors and
-    outputs as in :class:`_ScipyMethod`.
+    Newton stops: ``y = (q, q')``; ``solve_ivp`` integrates paper Eq. 1 until the terminal event
+    ``q - Delta = 0`` (rising), applies Eq. 2 through :func:`vibeam.models.impact.newton_restitution`
+    and restarts, as MATLAB's ``ode23`` with ``'events'`` does in the paper (defaults: ``RK23``,
+    ``rtol = 1e-4``, ``atol = 1e-8``, the paper's).  Parameters, errors and outputs as in
+    :class:`_ScipyMethod`.
+
+    A compliant stop (Kelvin-Voigt or hysteretic Hertz, on one or two stops, or beside a Newton
+    stop): the oscillator as the one-mode modal system (:func:`vibeam.models.system.from_sdof`)
+    on :class:`vibeam.models.core.direct.DirectIntegrator`, whose outputs are the event method's
+    (contacts' rows, ``final_state`` ``(q, q', code)`` with code 1 / -1 in contact with the upper /
+    lower stop); defaults ``DOP853``, ``rtol = 1e-11``, ``atol = 1e-15`` (the reference of the event
+    kernels) and at most ``max_events_per_period = 200`` impacts and contact entries per period.
+    ``max_nfev_per_period`` is the paper method's only.
     """
 
     name = "direct"
     two_sided = True
+
+    #: defaults of the paper's method (Newton stops) and of the compliant reference
+    PAPER = dict(solver="RK23", rtol=1e-4, atol=1e-8, max_events_per_period=20000)
+    REFERENCE = dict(solver="DOP853", rtol=RTOL_COMPLIANT, atol=ATOL_COMPLIANT, max_events_per_period=200)
+
+    def __init__(self, model, solver: str | None = None, rtol: float | None = None, atol: float | None = None,
+                 max_step=None, max_events_per_period: int | None = None, max_nfev_per_period: int = 50000):
+        compliant = any(getattr(s.law, "kind", "") == "compliant" for s in model.stops())
+        given = dict(solver=solver, rtol=rtol, atol=atol, max_events_per_period=max_events_per_period)
+        kw = {k: (self.REFERENCE if compliant else self.PAPER)[k] if v is None else v for k, v in given.items()}
+        super().__init__(model, kw["solver"], kw["rtol"], kw["atol"], max_step, kw["max_events_per_period"],
+                         max_nfev_per_period)
+        self._direct = None
+        if compliant:
+            self._direct = DirectIntegrator(EventIntegrator(from_sdof(model), model.stops()), 1.0, self.solver,
+                                            self.rtol, self.atol, self.max_events_per_period, max_step=self.max_step)
+            self._laws = [s.law for s in model.stops()]
+
+    def point(self, Omega: float, state0, n_transient: int, n_record: int,
+              samples_per_period: int = 64) -> Trajectory:
+        """One forcing frequency from ``state0`` (:meth:`_ScipyMethod.point`; with a compliant stop
+        :meth:`vibeam.models.core.direct.DirectIntegrator.run` from ``(q, q', code)``, code 1 / -1 in
+        contact with the upper / lower stop)."""
+        if self._direct is None:
+            return super().point(Omega, state0, n_transient, n_record, samples_per_period)
+        m = self.model
+        s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
+        if not np.all(np.isfinite(s0)):  # e.g. handed on from a failed point
+            s0 = m.initial_state()
+        return self._direct.run(float(Omega), s0, n_transient, n_record, samples_per_period, 1.0,
+                                lambda k: self._laws[k])
 
     def _to_internal(self, q, v):
         return np.array([q, v]), 0.0

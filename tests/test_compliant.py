@@ -2,7 +2,7 @@
 
 Oracles: closed forms of the isolated contact (restitution, duration, energy), an
 independent quadrature of the damping work, the solve_ivp reference (method ``direct``,
-:mod:`vibeam.models.sdof_compliant_ode`, sharing no code with the kernel) and the CoR model
+:class:`vibeam.models.sdof_ode.DirectSolver` on :mod:`vibeam.models.core.direct`, sharing no code with the kernel) and the CoR model
 as the stiffness grows.
 """
 from __future__ import annotations
@@ -21,7 +21,7 @@ from vibeam.models.beam_dynamics import BeamEventSolver
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import (C_DURATION, C_ENERGY, C_FORCE, C_PENETRATION,
                                           CompliantEventSolver, isolated_contact)
-from vibeam.models.sdof_compliant_ode import CompliantDirectSolver
+from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
 
 
@@ -104,14 +104,15 @@ def test_energy_lost_is_the_work_of_the_contact_damping(R, k):
                                          (1e6, 2.6, 0.0, 5e-4), (1e3, 2.0, -0.0005, 5e-4),
                                          (1e3, 1.5, -0.001, 2e-3)])
 def test_event_agrees_with_the_direct_reference(k, W, Delta, B):
-    """Exact kernel vs solve_ivp (DOP853, rtol 1e-11, atol 1e-13) from the same start over 8
-    periods (pre-stressed stops at Delta < 0 included, starting on the stop): samples to 1e-8
-    of the orbit (the reference's tolerance accumulated over ~10^3 steps; measured <= 3e-9),
+    """Exact kernel vs solve_ivp (DOP853, rtol 1e-11, atol 1e-15: the one direct solver) from the
+    same start over 8 periods (pre-stressed stops at Delta < 0 included, starting on the stop):
+    samples to 1e-8 of the orbit (the reference's tolerance accumulated over ~10^3 steps; measured
+    <= 7.3e-11),
     contact records to 1e-6 relative (the reference's event location and dense-output
     maximisation)."""
     m = _model(k, Delta=Delta, B=B)
     a = CompliantEventSolver(m).point(W, None, 4, 4, 32)
-    b = CompliantDirectSolver(m).point(W, None, 4, 4, 32)
+    b = DirectSolver(m).point(W, None, 4, 4, 32)
     scale = np.max(np.abs(a.samples))
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-8 * scale
     assert a.n_impacts == b.n_impacts
@@ -177,7 +178,7 @@ def test_case_builds_the_law_and_refuses_other_methods():
     assert m.contact_law == "linear" and m.contact.R == 0.9
     assert m.contact.damping_ratio == pytest.approx(damping_ratio_for_restitution(0.9))
     assert isinstance(make_solver(m, "event"), EventSolver)
-    assert isinstance(make_solver(m, "direct"), CompliantDirectSolver)
+    assert isinstance(make_solver(m, "direct"), DirectSolver)
     with pytest.raises(ValueError, match="does not simulate contact law 'linear'"):
         make_solver(m, "averaging")
     for method in ("averaging", "zhuravlev"):
@@ -419,14 +420,14 @@ def test_hunt_crossley_restitution_depends_on_the_target_only():
 @pytest.mark.parametrize("k,W,Delta", [(1e4, 2.0, 0.0), (1e6, 1.7, 0.0), (1e5, 2.3, 0.001), (1e4, 2.0, -0.0005)])
 def test_hunt_crossley_event_agrees_with_the_direct_reference(k, W, Delta):
     """Free flight exact, contact by DOPRI5 (rtol 1e-11) in the kernel; solve_ivp DOP853
-    (rtol 1e-11) in the reference: samples to 1e-7 of the orbit (measured <= 7e-8 over 8
+    (rtol 1e-11) in the reference: samples to 1e-7 of the orbit (measured <= 5.3e-9 over 8
     periods, the contacts' integration errors carried by the free flights), contact records
-    to 1e-7 relative (measured <= 2e-8)."""
+    to 1e-7 relative (measured <= 1.7e-9)."""
     from vibeam.models.compliant import HuntCrossley
 
     m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=Delta, contact=HuntCrossley(k, 0.9))
     a = CompliantEventSolver(m).point(W, None, 4, 4, 32)
-    b = CompliantDirectSolver(m).point(W, None, 4, 4, 32)
+    b = DirectSolver(m).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-7 * np.max(np.abs(a.samples))
     n = min(a.contacts.shape[0], b.contacts.shape[0])
@@ -462,14 +463,15 @@ def _rig(n_modes, k=None, R=None):
 def test_beam_event_agrees_with_the_direct_reference(n_modes, k):
     """Rig FE beam on a Kelvin-Voigt stop (R = 0.72 target): exact kernel (eigendecomposed phases)
     vs solve_ivp DOP853 at rtol 1e-11 from rest on the stop over 8 periods: samples to 1e-9 of
-    the orbit (measured <= 3e-10), contact records (duration, peak force, penetration, work,
-    entry velocity) to 1e-8 relative (measured <= 3e-11)."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver, CompliantBeamODESolver
+    the orbit (measured <= 1.5e-11), contact records (duration, peak force, penetration, work,
+    entry velocity) to 1e-8 relative (measured <= 8.2e-12)."""
+    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.beam_dynamics import BeamODESolver
 
     m = _rig(n_modes, k)
     W = 15.4 / 7.6
     a = CompliantBeamEventSolver(m).point(W, None, 4, 4, 32)
-    b = CompliantBeamODESolver(m).point(W, None, 4, 4, 32)
+    b = BeamODESolver(m).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-9 * np.max(np.abs(a.samples))
     n = min(a.contacts.shape[0], b.contacts.shape[0])

@@ -17,7 +17,7 @@ import pytest
 from vibeam.models.compliant import LinearContact
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_compliant import CompliantEventSolver, isolated_contact
-from vibeam.models.sdof_compliant_ode import CompliantDirectSolver
+from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import CONTACT_OUTPUTS, CONTACT_OUTPUTS_LOWER, summarize
 
 K_UP, K_LO = 1e4, 3e3
@@ -39,7 +39,7 @@ def test_two_compliant_stops_of_different_stiffness_give_each_stop_its_contact_o
     solve_ivp reference's rows of the same stop: 1e-6 relative (measured ~1e-9)."""
     m = _kv_two()
     a = CompliantEventSolver(m).point(1.0, None, 4, 4, 32)
-    b = CompliantDirectSolver(m).point(1.0, None, 4, 4, 32)
+    b = DirectSolver(m).point(1.0, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     np.testing.assert_array_equal(a.contact_stops, b.contact_stops)
     sa, sb = summarize(a, m.Delta), summarize(b, m.Delta)

@@ -2,7 +2,7 @@
 :class:`vibeam.models.periodic_hc_beam.BeamContinuation`.
 
 Oracles: central differences of the shot (its Jacobian), the solve_ivp reference
-(:class:`vibeam.models.beam_hc.HuntCrossleyBeamODESolver`, no shared code with the kernel or
+(:class:`vibeam.models.beam_dynamics.BeamODESolver`, no shared code with the kernel or
 the variational integration), the SDOF Hunt-Crossley shooting problem on the mapped stop (another
 flow, another derivative assembly, other units) and long event runs.
 """
@@ -104,7 +104,8 @@ def test_shot_end_state_is_the_event_kernels(n_modes):
     which moves the steps; measured ~1e-12), the independent solve_ivp reference (method
     ``direct``, DOP853 rtol 1e-11) to 1e-8 (measured ~1e-10), and the derivatives' own DOP853
     trajectory ends within 1e-8 of it (measured ~1e-11)."""
-    from vibeam.models.beam_hc import HuntCrossleyBeamEventSolver, HuntCrossleyBeamODESolver
+    from vibeam.models.beam_dynamics import BeamODESolver
+    from vibeam.models.beam_hc import HuntCrossleyBeamEventSolver
 
     m = _rig(n_modes)
     W = 16.0 / m.f_ref_hz
@@ -114,7 +115,7 @@ def test_shot_end_state_is_the_event_kernels(n_modes):
     assert s.status == "ok" and s.n_impacts == 2
     s0 = np.concatenate([x0, [0.0]])
     ev = HuntCrossleyBeamEventSolver(m).point(W, s0, 0, 2, 16)
-    ref = HuntCrossleyBeamODESolver(m).point(W, s0, 0, 2, 16)
+    ref = BeamODESolver(m).point(W, s0, 0, 2, 16)
     assert np.max(np.abs(ev.final_state[:-1] - s.x)) < 1e-10 * sc
     assert np.max(np.abs(ref.final_state[:-1] - s.x)) < 1e-8 * sc
     assert np.max(np.abs(s.extra["rebuilt_state"] - s.x)) < 1e-8 * sc

@@ -151,9 +151,9 @@ def _beam(law, two, lower=None):
     two stops, the lower stop's own law ``lower`` (None: the upper stop's; "hunt_crossley": the
     lower Hertzian stop of BEAM_HC_K_LO, the target R of [model] R)."""
     from vibeam.case.schema import load_case
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver
+    from vibeam.models.beam_compliant import CompliantBeamEventSolver, velocity_floor
     from vibeam.models.beam_dynamics import BeamEventSolver
-    from vibeam.models.beam_hc import HuntCrossleyBeamEventSolver, velocity_floor
+    from vibeam.models.beam_hc import HuntCrossleyBeamEventSolver
 
     case, _ = load_case(Path(__file__).resolve().parents[1] / "cases" / "rig-fe-neutral.toml")
     over = {"n_modes": 2}
