@@ -62,8 +62,8 @@ from ..system import advance_count, transition_increment
 from .contact_phase import (EK_ENTRY, EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_IMPACT, EK_NONE, EK_RELEASE, linear_step,
                             phase_harmonics, rk_phase_step, rk_scales)
 from .laws import force, hertz_floor, inside_sign, is_compliant
-from .signals import (bounds, extremes, homogeneous, homogeneous_bounds, mode_ends, root, scan, scan_from, signal,
-                      signal_start)
+from .signals import (ROOT_APEX, bounds, extremes, homogeneous, homogeneous_bounds, mode_ends, root, scan, scan_from,
+                      signal, signal_start)
 
 __all__ = ["Record", "integrate", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
            "STATUS_NAMES", "EV_START", "EV_IMPACT", "EV_STICK", "EV_STICK_IMPACT", "EV_RELEASE", "EV_ENTRY",
@@ -174,7 +174,8 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
 # the event kinds and the root kind of an apex as int64 constants: a literal int argument would
 # compile the callee once per value
 _K_START, _K_IMPACT, _K_STICK, _K_STICK_IMPACT, _K_RELEASE, _K_ENTRY, _K_EXIT = (np.int64(k) for k in range(7))
-_APEX = np.int64(1)
+#: the internal functions: called from compiled code only (no Python or C wrapper), no reference counting
+_kernel = njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 
 class _CompliantWork(NamedTuple):
@@ -211,7 +212,7 @@ class _CompliantWork(NamedTuple):
 
 
 # ============================================================================ helpers
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def _clock(phi, t_loc, rem, s, Om, T):
     """Advance the forcing phase, the time within the period and the rest of the grid step."""
     rem -= s
@@ -223,7 +224,7 @@ def _clock(phi, t_loc, rem, s, Om, T):
     return phi, t_loc + s, rem
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _contact_acc(phi, Om, eta, etad, d, c, k, GF):
     """Free acceleration along ``d``, ``a = d^T (Gamma F sin - C eta' - K eta)``, and its time
     derivative ``d^T (Gamma F Omega cos - C eta'' - K eta')`` (forcing term included)."""
@@ -238,14 +239,14 @@ def _contact_acc(phi, Om, eta, etad, d, c, k, GF):
     return acc, jerk
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def _far(g0, g1, M2, h):
     """A gap negative at both ends of a step stays negative inside when it is far from zero:
     linear interpolation is off by at most ``M2 h^2 / 8`` (``M2`` bounds ``|g''|``)."""
     return max(g0, g1) + 0.125 * M2 * h * h < 0.0
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _dot(a, b):
     r = 0.0
     for i in range(a.shape[0]):
@@ -253,7 +254,7 @@ def _dot(a, b):
     return r
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _log_event(evlog, nlog, kind, t, aux, stop, eta, etad):
     k = nlog[0]
     if k < evlog.shape[0]:
@@ -268,12 +269,12 @@ def _log_event(evlog, nlog, kind, t, aux, stop, eta, etad):
     nlog[0] = k + 1
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m, stop):
     """Locate the maximum of a gap inside ``[0, h]`` (slope + at 0, <= 0 at h) and log it."""
     k = nlog[1]
     if k < aplog.shape[0]:
-        sa = root(_APEX, 0.0, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)
+        sa = root(ROOT_APEX, 0.0, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)
         ga = signal(sa, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)[0]
         aplog[k, 0] = t + sa
         aplog[k, 1] = ga
@@ -281,7 +282,7 @@ def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0,
     nlog[1] = k + 1
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def _gap_ends(Pm, k, Sa, Sb, f0, fp0, Om, dx, dy, x2, x3, dsin, dcos, sp1, cp1, m, g1, v1, g21, g31):
     """Value, slope, 2nd and 3rd derivative at the end of a free step of the gap signal with
     weights ``Pm[k]`` (no velocity weights) and harmonic part ``Sa sin + Sb cos``, from the modes'
@@ -302,7 +303,7 @@ def _gap_ends(Pm, k, Sa, Sb, f0, fp0, Om, dx, dy, x2, x3, dsin, dcos, sp1, cp1, 
     g31[k] = f3 - W2 * Om * (Sa * cp1 - Sb * sp1)
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _free_bounds(x, y, mp, hb, Nrm, Cs, Om, M2, M3, M4, n, ns):
     """Bounds of the 2nd-4th derivatives of every stop's gap over the rest of a free arc, from the
     modes' homogeneous parts ``x, y`` now (:func:`vibeam.models.core.signals.homogeneous_bounds`)."""
@@ -324,7 +325,7 @@ def _free_bounds(x, y, mp, hb, Nrm, Cs, Om, M2, M3, M4, n, ns):
         M4[k] = a4 * f + 1e-300
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _particular(c, k, G, F, Om, a, b, m):
     """``a sin + b cos``, the steady response of ``x'' + c x' + k x = G F sin(Om t)``; False if
     not finite (a mode at undamped exact resonance)."""
@@ -350,7 +351,7 @@ def _particular(c, k, G, F, Om, a, b, m):
     return ok
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def _failed(fs, ist):
     """The return tuple of a call that gave up (:data:`ST_FAILED`)."""
     return (ST_FAILED, ist[_NIMPR], min(fs[_EXT], fs[_PEXT]), max(fs[_EXT1], fs[_PEXT1]), ist[_NCHAT], fs[_STUCK],
@@ -358,37 +359,46 @@ def _failed(fs, ist):
 
 
 # ============================================================================ preparing a call
-@njit(cache=True, error_model="numpy", no_cpython_wrapper=True)
-def _prepare(sy, st, hs, Om, eta, etad, ns_transient, ns_record, h_cap, rec):
+@njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _alloc(n, ns, S, Om, ns_transient, ns_record, h_cap):
+    """The work arrays of one call (:func:`_frequency` fills them) and the sub-steps per grid step
+    of the transient and of the record (a grid step split into ``sub`` of at most ``h_cap``)."""
+    T = TWO_PI / Om
+    sub_t = max(1, int(math.ceil((T / ns_transient) / h_cap * (1.0 - 1e-12))))
+    sub_r = max(1, int(math.ceil((T / ns_record) / h_cap * (1.0 - 1e-12))))
+    nt_t = ns_transient * sub_t
+    nt_r = ns_record * sub_r
+    one = nt_t == nt_r and ns_transient == ns_record     # one grid (a shot): the same tables
+    P_r = np.empty((n, 4))
+    tab_r = np.empty((nt_r + 1, 2))
+    P_t = P_r if one else np.empty((n, 4))
+    tab_t = tab_r if one else np.empty((nt_t + 1, 2))
+    return (np.empty((_NWN, n)), np.empty((_NWK, ns)), np.empty((n, 6)), np.empty((2 * S, n)),
+            np.empty((6 * S, ns)), np.empty((2, S)), P_r, tab_r, P_t, tab_t, np.empty(_NFS),
+            np.empty(_NIS, np.int64), sub_r, sub_t)
+
+
+@_kernel
+def _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
+               ns_transient, ns_record, h_cap, fs, ist):
     """Per-frequency data (particular solutions, the harmonic parts of every signal, the tables of
-    the sub-steps) and the work arrays of one call; the record reset.  Status 0, or -1 (the forced
-    response is not finite) / -2 (the motion's scale is subnormal), the record then untouched."""
+    the sub-steps) into the work arrays of :func:`_alloc`; the record and the loop's state reset.
+    Returns 0, or -1 (the forced response is not finite) / -2 (the motion's scale is subnormal),
+    the record then untouched."""
     n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
     T = TWO_PI / Om
     F = Om * Om * sy.B
     mp = sy.mp
-    # ---- fixed sub-steps (a grid step split into ``sub`` of at most h_cap) with the modes'
-    # transition increments and the forcing phases tabulated once: a free step over a whole
-    # sub-step that meets no event costs no transcendental function call
-    sub_t = max(1, int(math.ceil((T / ns_transient) / h_cap * (1.0 - 1e-12))))
-    sub_r = max(1, int(math.ceil((T / ns_record) / h_cap * (1.0 - 1e-12))))
     nt_t = ns_transient * sub_t
     nt_r = ns_record * sub_r
-    one = nt_t == nt_r and ns_transient == ns_record     # one grid (a shot): the same tables
-    wn = np.zeros((_NWN, n))
-    wk = np.zeros((_NWK, ns))
-    hb = np.zeros((n, 6))
-    hab = np.zeros((2, S, n))
-    hsig = np.zeros((6, S, ns))
-    hss = np.zeros((2, S))
-    fs = np.zeros(_NFS)
-    ist = np.zeros(_NIS, np.int64)
-    P_r = np.zeros((n, 4))
-    tab_r = np.zeros((nt_r + 1, 2))
-    P_t = P_r if one else np.zeros((n, 4))
-    tab_t = tab_r if one else np.zeros((nt_t + 1, 2))
+    for i in range(n):
+        wn[_ZERO, i] = 0.0
+    for j in range(_NFS):
+        fs[j] = 0.0
+    for j in range(_NIS):
+        ist[j] = 0
     # ---- per-frequency data: particular solutions and the harmonic parts of every signal
     aF = wn[_AF]
     bF = wn[_BF]
@@ -396,7 +406,7 @@ def _prepare(sy, st, hs, Om, eta, etad, ns_transient, ns_record, h_cap, rec):
     for i in range(n):
         GF[i] = sy.gam[i] * F
     if not _particular(sy.c, sy.k, sy.gam, F, Om, aF, bF, n):
-        return -1, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist
+        return -1
     # a motion at the scale of subnormal numbers (below 2.2e-308, i.e. with fewer than 53
     # significant bits) cannot be computed to the kernel's precision: failed at once (n_imp_total
     # -2), not a number with a few bits
@@ -406,7 +416,7 @@ def _prepare(sy, st, hs, Om, eta, etad, ns_transient, ns_record, h_cap, rec):
     for k in range(ns):
         scale_f = max(scale_f, abs(st.offset[k]))
     if 0.0 < scale_f < 1e-290:
-        return -2, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist
+        return -2
     SaF = wk[_SAF]
     SbF = wk[_SBF]
     CsF = wk[_CSF]
@@ -416,22 +426,14 @@ def _prepare(sy, st, hs, Om, eta, etad, ns_transient, ns_record, h_cap, rec):
         CsF[k] = math.sqrt(SaF[k] * SaF[k] + SbF[k] * SbF[k])
     fs[_SASF] = _dot(sy.sensor, aF)
     fs[_SBSF] = _dot(sy.sensor, bF)
-    aC = hab[0]
-    bC = hab[1]
-    SaL = hsig[0]
-    SbL = hsig[1]
-    CsL = hsig[2]
-    SaG = hsig[3]
-    SbG = hsig[4]
-    CsG = hsig[5]
-    SaS = hss[0]
-    SbS = hss[1]
     for m in range(1, S):
         if hs.valid[m] == 0:
             continue
         nc = hs.nc[m]
-        if not _particular(hs.c[m], hs.nu2[m], hs.gam[m], F, Om, aC[m], bC[m], nc):
-            return -1, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist
+        aC = hab[m]
+        bC = hab[S + m]
+        if not _particular(hs.c[m], hs.nu2[m], hs.gam[m], F, Om, aC, bC, nc):
+            return -1
         for k in range(ns):
             pa = 0.0
             pb = 0.0
@@ -440,32 +442,36 @@ def _prepare(sy, st, hs, Om, eta, etad, ns_transient, ns_record, h_cap, rec):
             ga = 0.0
             gb = 0.0
             for j in range(nc):
-                pa += hs.pL[m, k, j] * aC[m, j]
-                pb += hs.pL[m, k, j] * bC[m, j]
-                ra += hs.rL[m, k, j] * aC[m, j]
-                rb += hs.rL[m, k, j] * bC[m, j]
-                ga += hs.pG[m, k, j] * aC[m, j]
-                gb += hs.pG[m, k, j] * bC[m, j]
-            SaL[m, k] = hs.lamF[m, k] * F + pa - Om * rb
-            SbL[m, k] = pb + Om * ra
-            CsL[m, k] = math.sqrt(SaL[m, k] ** 2 + SbL[m, k] ** 2)
-            SaG[m, k] = ga
-            SbG[m, k] = gb
-            CsG[m, k] = math.sqrt(ga * ga + gb * gb)
+                pa += hs.pL[m, k, j] * aC[j]
+                pb += hs.pL[m, k, j] * bC[j]
+                ra += hs.rL[m, k, j] * aC[j]
+                rb += hs.rL[m, k, j] * bC[j]
+                ga += hs.pG[m, k, j] * aC[j]
+                gb += hs.pG[m, k, j] * bC[j]
+            SaL = hs.lamF[m, k] * F + pa - Om * rb
+            SbL = pb + Om * ra
+            hsig[m, k] = SaL
+            hsig[S + m, k] = SbL
+            hsig[2 * S + m, k] = math.sqrt(SaL ** 2 + SbL ** 2)
+            hsig[3 * S + m, k] = ga
+            hsig[4 * S + m, k] = gb
+            hsig[5 * S + m, k] = math.sqrt(ga * ga + gb * gb)
         sa = 0.0
         sb = 0.0
         for j in range(nc):
-            sa += hs.pS[m, j] * aC[m, j]
-            sb += hs.pS[m, j] * bC[m, j]
-        SaS[m] = sa
-        SbS[m] = sb
+            sa += hs.pS[m, j] * aC[j]
+            sb += hs.pS[m, j] * bC[j]
+        hss[0, m] = sa
+        hss[1, m] = sb
+    # ---- the sub-steps' transition increments and forcing phases, tabulated once: a free step
+    # over a whole sub-step that meets no event costs no transcendental function call
     for i in range(n):
         P_r[i, 0], P_r[i, 1], P_r[i, 2], P_r[i, 3] = transition_increment(
             T / (ns_record * sub_r), mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
     for kk in range(nt_r + 1):
         tab_r[kk, 0] = math.sin(TWO_PI * kk / nt_r)
         tab_r[kk, 1] = math.cos(TWO_PI * kk / nt_r)
-    if not one:
+    if not (nt_t == nt_r and ns_transient == ns_record):
         for i in range(n):
             P_t[i, 0], P_t[i, 1], P_t[i, 2], P_t[i, 3] = transition_increment(
                 T / (ns_transient * sub_t), mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
@@ -500,10 +506,10 @@ def _prepare(sy, st, hs, Om, eta, etad, ns_transient, ns_record, h_cap, rec):
     ist[_FRESH] = 1
     ist[_QFRESH] = 1
     ist[_QLAST] = -1
-    return 0, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist
+    return 0
 
 
-@njit(cache=True, error_model="numpy", no_cpython_wrapper=True)
+@njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec):
     """The compliant stops' work (:class:`_CompliantWork`): the linear contact phases' forced
     response at this frequency, the entry-velocity floors, the contacts open at the start (from the
@@ -565,72 +571,8 @@ def _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec):
                           np.empty(Lr), np.empty((cp.tab.c.shape[0], Lr)), con)
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
-def _start(st, hs, eta, etad, held0, wn, wk, ist, evlog, nlog):
-    """The initial state: held on its set (projected onto the constraint), or put on a Newton stop
-    it lies on within round-off (position only); the carried gaps and normal velocities."""
-    n = eta.shape[0]
-    ns = st.offset.shape[0]
-    S = hs.valid.shape[0]
-    cmask = ist[_CMASK]
-    C = ist[_C]
-    logging = evlog.shape[0] > 0
-    zeta = wn[_ZETA]
-    zetad = wn[_ZETAD]
-    g = wk[_G]
-    v = wk[_V]
-    H = held0 & ~cmask
-    if H < 0 or H >= S or hs.valid[H] == 0:
-        H = 0
-    eta_norm = math.sqrt(_dot(eta, eta))
-    if H != 0:
-        nc = hs.nc[H]
-        for j in range(nc):
-            zz = 0.0
-            zd = 0.0
-            for i in range(n):
-                zz += hs.Psi[H, i, j] * (eta[i] - hs.eta_c[H, i])
-                zd += hs.Psi[H, i, j] * etad[i]
-            zeta[j] = zz
-            zetad[j] = zd
-        for i in range(n):
-            zz = hs.eta_c[H, i]
-            zd = 0.0
-            for j in range(nc):
-                zz += hs.Psi[H, i, j] * zeta[j]
-                zd += hs.Psi[H, i, j] * zetad[j]
-            eta[i] = zz
-            etad[i] = zd
-        if logging:
-            for k in range(ns):
-                if (H >> k) & 1 == 1:
-                    _log_event(evlog, nlog, _K_START, 0.0, 1.0, k, eta, etad)
-    for k in range(ns):
-        g[k] = _dot(st.normal[k], eta) - st.offset[k]
-        v[k] = _dot(st.normal[k], etad)
-        if (H >> k) & 1 == 1:
-            g[k] = 0.0
-            v[k] = 0.0
-    if H == 0 and C == 0:
-        for k in range(ns):
-            if (cmask >> k) & 1:
-                continue
-            scale = abs(st.offset[k]) + math.sqrt(_dot(st.normal[k], st.normal[k])) * eta_norm + 1e-300
-            if g[k] > -1e-13 * scale:
-                corr = g[k] * st.m_eff[k]
-                for i in range(n):
-                    eta[i] -= st.normal[k, i] * corr
-                for j in range(ns):
-                    g[j] = _dot(st.normal[j], eta) - st.offset[j]
-                g[k] = 0.0
-                if logging:
-                    _log_event(evlog, nlog, _K_START, 0.0, 0.0, k, eta, etad)
-                break
-    ist[_H] = H
-
-
 # ============================================================================ the steps
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _free_step(mp, Nrm, wn, wk, hb, tab, Ptab, eta, etad, fs, ist, evlog, aplog, nlog, Om, T, kg, recording, cw):
     """One step of free flight (held set empty, no compliant contact) of at most the rest of the
     sub-step ``kg`` of the grid (tables ``tab``, ``Ptab``).  Returns the stop of a contact at the
@@ -872,7 +814,7 @@ def _free_step(mp, Nrm, wn, wk, hb, tab, Ptab, eta, etad, fs, ist, evlog, aplog,
                 hk2 = hk
             else:
                 sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN,
-                                    SaF[k], SbF[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
+                                    SaF[k], SbF[k], g[k], v[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
                                     G21[k], G31[k], M2F[k], M3F[k], M4F[k], n)
         else:
             sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN, SaF[k],
@@ -983,7 +925,7 @@ def _free_step(mp, Nrm, wn, wk, hb, tab, Ptab, eta, etad, fs, ist, evlog, aplog,
     return k_imp
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog, nlog, Om, T, recording, cw):
     """One step held on the set ``H`` (no compliant contact): the constrained system in closed form,
     the held stops' forces scanned for their release, the other stops' gaps for a contact.
@@ -1019,16 +961,19 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
     lam0 = wk[_LAM0]
     lamp0 = wk[_LAMP0]
     off = wk[_OFF]
-    aC = hab[0]
-    bC = hab[1]
-    SaL = hsig[0]
-    SbL = hsig[1]
-    CsL = hsig[2]
-    SaG = hsig[3]
-    SbG = hsig[4]
-    CsG = hsig[5]
-    SaS = hss[0]
-    SbS = hss[1]
+    S = hs.valid.shape[0]
+    # the per-frequency data of the set H (rows of _frequency's arrays): the particular solution of
+    # its coordinates; the harmonic parts of the held stops' forces (L) and of the gaps (G)
+    aC = hab[H]
+    bC = hab[S + H]
+    SaL = hsig[H]
+    SbL = hsig[S + H]
+    CsL = hsig[2 * S + H]
+    SaG = hsig[3 * S + H]
+    SbG = hsig[4 * S + H]
+    CsG = hsig[5 * S + H]
+    SaS = hss[0, H]
+    SbS = hss[1, H]
     ist[_FRESH] = 1
     ist[_ATGRID] = 0
     nc = hs.nc[H]
@@ -1097,14 +1042,14 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
             zd += Psi[i, j] * etad[i]
         zeta[j] = zz
         zetad[j] = zd
-    homogeneous(phi, Om, zeta, zetad, aC[H], bC[H], eC, x0, y0, nc)
+    homogeneous(phi, Om, zeta, zetad, aC, bC, eC, x0, y0, nc)
     # the shared release rule: lambda > 0 pulls the system off the stop
     released = -1
     for k in range(ns):
         if (H >> k) & 1 == 0:
             continue
-        l0, lp0 = signal_start(phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k], SaL[H, k],
-                               SbL[H, k], hs.cL[H, k], nc)
+        l0, lp0 = signal_start(phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k], SaL[k],
+                               SbL[k], hs.cL[H, k], nc)
         if release_now(-l0, -lp0) and not just_stuck and hold <= 0.0:
             released = k
             lam0[k] = l0
@@ -1137,10 +1082,10 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
         for k in range(ns):
             if (H >> k) & 1 == 0:
                 continue
-            M2, M3, M4 = bounds(hb, hs.pL[H, k], hs.rL[H, k], CsL[H, k], Om, nc)
+            M2, M3, M4 = bounds(hb, hs.pL[H, k], hs.rL[H, k], CsL[k], Om, nc)
             hk = h if s_ev < 0.0 else s_ev
             sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k],
-                           SaL[H, k], SbL[H, k], lam0[k], lamp0[k], M2, M3, M4, nc)
+                           SaL[k], SbL[k], lam0[k], lamp0[k], M2, M3, M4, nc)
             if sk >= 0.0:
                 s_ev = sk
                 k_ev = k
@@ -1164,8 +1109,8 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
             for i in range(nc):
                 wpa[i] = r0 * hs.pG[H, j, i]
                 wra[i] = r1 * hs.pG[H, j, i]
-            Sa = r0 * SaG[H, j] - r1 * Om * SbG[H, j]
-            Sb = r0 * SbG[H, j] + r1 * Om * SaG[H, j]
+            Sa = r0 * SaG[j] - r1 * Om * SbG[j]
+            Sb = r0 * SbG[j] + r1 * Om * SaG[j]
             M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, nc)
             f0, fp0 = signal_start(phi, Om, x0, y0, mpC, wpa, wra, Sa, Sb,
                                    r0 * hs.cG[H, j] + roff, nc)
@@ -1184,10 +1129,10 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
                 h = hk2
             for i in range(nc):
                 wpa[i] = -hs.pG[H, j, i]
-            M2, M3, M4 = bounds(hb, wpa, zeroN, CsG[H, j], Om, nc)
+            M2, M3, M4 = bounds(hb, wpa, zeroN, CsG[j], Om, nc)
             hk = h if s_ev < 0.0 else s_ev
-            sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, wpa, zeroN, -SaG[H, j],
-                           -SbG[H, j], -g[j], -v[j], M2, M3, M4, nc)
+            sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, wpa, zeroN, -SaG[j],
+                           -SbG[j], -g[j], -v[j], M2, M3, M4, nc)
             if sk >= 0.0:
                 s_ev = sk
                 k_ev = j
@@ -1199,10 +1144,10 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
                 ev_in = 0
                 h = hk2
             continue
-        M2, M3, M4 = bounds(hb, hs.pG[H, j], zeroN, CsG[H, j], Om, nc)
+        M2, M3, M4 = bounds(hb, hs.pG[H, j], zeroN, CsG[j], Om, nc)
         hk = h if s_ev < 0.0 else s_ev
-        sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, hs.pG[H, j], zeroN, SaG[H, j],
-                       SbG[H, j], g[j], v[j], M2, M3, M4, nc)
+        sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, hs.pG[H, j], zeroN, SaG[j],
+                       SbG[j], g[j], v[j], M2, M3, M4, nc)
         if sk >= 0.0:
             s_ev = sk
             k_ev = j
@@ -1219,11 +1164,11 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
     for j in range(ns):
         if (H >> j) & 1 == 1 or hs.moves[H, j] == 0:
             continue
-        gj, vj, _a, _b, _c = signal(s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j], zeroN, SaG[H, j],
-                                    SbG[H, j], g[j], v[j], nc)
+        gj, vj, _a, _b, _c = signal(s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j], zeroN, SaG[j],
+                                    SbG[j], g[j], v[j], nc)
         if apexes and not (s_ev >= 0.0 and k_ev == j) and v[j] > 0.0 and vj <= 0.0:
             _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j],
-                      zeroN, SaG[H, j], SbG[H, j], g[j], v[j], nc, j)
+                      zeroN, SaG[j], SbG[j], g[j], v[j], nc, j)
         if (inside >> j) & 1:
             g[j] = gj
             v[j] = vj
@@ -1233,11 +1178,11 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
         g[j] = gj if gj < 0.0 else 0.0
         v[j] = vj
     if recording:
-        q0s, qp0s = signal_start(phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS[H], SbS[H],
+        q0s, qp0s = signal_start(phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS, SbS,
                                  hs.cS[H], nc)
-        q1s, qp1s, _a, _b, _c = signal(s_mv, phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS[H],
-                                       SbS[H], q0s, qp0s, nc)
-        extremes(s_mv, phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS[H], SbS[H], q0s, qp0s, qp0s,
+        q1s, qp1s, _a, _b, _c = signal(s_mv, phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS,
+                                       SbS, q0s, qp0s, nc)
+        extremes(s_mv, phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS, SbS, q0s, qp0s, qp0s,
                  qp1s, pext, nc)
         if q1s < pext[0]:
             pext[0] = q1s
@@ -1249,7 +1194,7 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
         hold -= s_mv
         if hold < 1e-15 * T:
             hold = 0.0
-    advance_count(s_mv, phi, Om, zeta, zetad, mpC, aC[H], bC[H], eC, nc)
+    advance_count(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eC, nc)
     for i in range(n):
         zz = etc[i]
         zd = 0.0
@@ -1290,7 +1235,7 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
     return k_imp
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T, recording):
     """One step in contact with the compliant stops ``C`` (held on ``H``; a linear phase exactly,
     another by Runge-Kutta: :mod:`vibeam.models.core.contact_phase`) and its event.  Returns the
@@ -1398,7 +1343,7 @@ def _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T, r
     return kk         # an entry (EK_ENTRY) or a Newton impact (EK_IMPACT)
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, kk, max_impacts, recording):
     """A compliant stop's contact begins (held set ``H`` kept).  Returns True when the impacts and
     contacts exceed ``max_impacts`` (failed)."""
@@ -1448,7 +1393,7 @@ def _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, kk, max_impacts, recordi
     return False
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
+@_kernel
 def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, Om, T, k_imp, max_impacts,
             chatter_tol, recording, cw):
     """The contact event on Newton stop ``k_imp`` (held set ``H`` kept): the stop's law, then the one
@@ -1582,12 +1527,16 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
     return False
 
 
+# ============================================================================ the kernel
 # ============================================================================ the loop
-@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True)
-def _run(sy, st, hs, cw, Om, eta, etad, n_transient, n_record, ns_transient, ns_record, max_impacts, max_steps,
+@_kernel
+def _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts, max_steps,
          chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist):
-    """The periods, their grid and sub-steps, a step at a time (:func:`integrate`)."""
+    """The call after :func:`_frequency` (:func:`integrate`): the initial state, then the periods,
+    their grid and sub-steps, a step at a time."""
     n = eta.shape[0]
+    ns = st.offset.shape[0]
+    S = hs.valid.shape[0]
     T = TWO_PI / Om
     mp = sy.mp
     Nrm = st.normal
@@ -1598,9 +1547,72 @@ def _run(sy, st, hs, cw, Om, eta, etad, n_transient, n_record, ns_transient, ns_
     evlog = rec.evlog
     aplog = rec.aplog
     nlog = rec.nlog
+    logging = evlog.shape[0] > 0
     sens = wn[_SENS]
     pext = fs[_PEXT:_PEXT1 + 1]
     ext = fs[_EXT:_EXT1 + 1]
+    dirn = hs.dirn
+    meff = hs.meff
+    ceff = hs.ceff
+    keff = hs.keff
+    valid = hs.valid
+    # ---- the initial state: held on its set (projected onto the constraint), or put on a Newton
+    # stop it lies on within round-off (position only); the carried gaps and normal velocities
+    cmask = ist[_CMASK]
+    C = ist[_C]
+    zeta = wn[_ZETA]
+    zetad = wn[_ZETAD]
+    g = wk[_G]
+    v = wk[_V]
+    H = held0 & ~cmask
+    if H < 0 or H >= S or hs.valid[H] == 0:
+        H = 0
+    eta_norm = math.sqrt(_dot(eta, eta))
+    if H != 0:
+        nc = hs.nc[H]
+        for j in range(nc):
+            zz = 0.0
+            zd = 0.0
+            for i in range(n):
+                zz += hs.Psi[H, i, j] * (eta[i] - hs.eta_c[H, i])
+                zd += hs.Psi[H, i, j] * etad[i]
+            zeta[j] = zz
+            zetad[j] = zd
+        for i in range(n):
+            zz = hs.eta_c[H, i]
+            zd = 0.0
+            for j in range(nc):
+                zz += hs.Psi[H, i, j] * zeta[j]
+                zd += hs.Psi[H, i, j] * zetad[j]
+            eta[i] = zz
+            etad[i] = zd
+        if logging:
+            for k in range(ns):
+                if (H >> k) & 1 == 1:
+                    _log_event(evlog, nlog, _K_START, 0.0, 1.0, k, eta, etad)
+    for k in range(ns):
+        g[k] = _dot(st.normal[k], eta) - st.offset[k]
+        v[k] = _dot(st.normal[k], etad)
+        if (H >> k) & 1 == 1:
+            g[k] = 0.0
+            v[k] = 0.0
+    if H == 0 and C == 0:
+        for k in range(ns):
+            if (cmask >> k) & 1:
+                continue
+            scale = abs(st.offset[k]) + math.sqrt(_dot(st.normal[k], st.normal[k])) * eta_norm + 1e-300
+            if g[k] > -1e-13 * scale:
+                corr = g[k] * st.m_eff[k]
+                for i in range(n):
+                    eta[i] -= st.normal[k, i] * corr
+                for j in range(ns):
+                    g[j] = _dot(st.normal[j], eta) - st.offset[j]
+                g[k] = 0.0
+                if logging:
+                    _log_event(evlog, nlog, _K_START, 0.0, 0.0, k, eta, etad)
+                break
+    ist[_H] = H
+    # ---- the periods, their grid and sub-steps, a step at a time
     k_sample = 0
     n_total = n_transient + n_record
     for pp in range(n_total):
@@ -1668,8 +1680,8 @@ def _run(sy, st, hs, cw, Om, eta, etad, n_transient, n_record, ns_transient, ns_
                     if cw is not None and (ist[_CMASK] >> k_imp) & 1:
                         if _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, k_imp, max_impacts, recording):
                             return _failed(fs, ist)
-                    elif _impact(st, hs.dirn, hs.meff, hs.ceff, hs.keff, hs.valid, wn, wk, eta, etad, fs, ist, rec,
-                                 Om, T, k_imp, max_impacts, chatter_tol, recording, cw):
+                    elif _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, Om, T, k_imp,
+                                 max_impacts, chatter_tol, recording, cw):
                         return _failed(fs, ist)
     if n_record > 0:
         pmin[n_record - 1] = pext[0]
@@ -1685,8 +1697,9 @@ def _run(sy, st, hs, cw, Om, eta, etad, n_transient, n_record, ns_transient, ns_
             ist[_NSTEPS], fs[_TCON])
 
 
-# ============================================================================ the kernel
-@njit(cache=True, error_model="numpy")
+
+
+@njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
 def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
               max_impacts, max_steps, chatter_tol, rec):
     """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core).
@@ -1733,16 +1746,19 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
         round-off only if a crossing had been stepped over), steps taken, time in compliant contact
         during the record.
     """
-    (status, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs,
-     ist) = _prepare(sy, st, hs, Om, eta, etad, ns_transient, ns_record, h_cap, rec)
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    S = hs.valid.shape[0]
+    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, sub_r,
+     sub_t) = _alloc(n, ns, S, Om, ns_transient, ns_record, h_cap)
+    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
+                        ns_transient, ns_record, h_cap, fs, ist)
     if status != 0:
         return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
     if cp is None:
-        _start(st, hs, eta, etad, held0, wn, wk, ist, rec.evlog, rec.nlog)
-        return _run(sy, st, hs, None, Om, eta, etad, n_transient, n_record, ns_transient, ns_record, max_impacts,
+        return _run(sy, st, hs, None, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
                     max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs,
                     ist)
     cw = _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec)
-    _start(st, hs, eta, etad, held0, wn, wk, ist, rec.evlog, rec.nlog)
-    return _run(sy, st, hs, cw, Om, eta, etad, n_transient, n_record, ns_transient, ns_record, max_impacts,
+    return _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
                 max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist)
