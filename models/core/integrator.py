@@ -1528,177 +1528,6 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
 
 
 # ============================================================================ the kernel
-# ============================================================================ the loop
-@_kernel
-def _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts, max_steps,
-         chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist):
-    """The call after :func:`_frequency` (:func:`integrate`): the initial state, then the periods,
-    their grid and sub-steps, a step at a time."""
-    n = eta.shape[0]
-    ns = st.offset.shape[0]
-    S = hs.valid.shape[0]
-    T = TWO_PI / Om
-    mp = sy.mp
-    Nrm = st.normal
-    samples = rec.samples
-    msamp = rec.msamp
-    modamp = rec.modamp
-    pmin = rec.pmin
-    evlog = rec.evlog
-    aplog = rec.aplog
-    nlog = rec.nlog
-    logging = evlog.shape[0] > 0
-    sens = wn[_SENS]
-    pext = fs[_PEXT:_PEXT1 + 1]
-    ext = fs[_EXT:_EXT1 + 1]
-    dirn = hs.dirn
-    meff = hs.meff
-    ceff = hs.ceff
-    keff = hs.keff
-    valid = hs.valid
-    # ---- the initial state: held on its set (projected onto the constraint), or put on a Newton
-    # stop it lies on within round-off (position only); the carried gaps and normal velocities
-    cmask = ist[_CMASK]
-    C = ist[_C]
-    zeta = wn[_ZETA]
-    zetad = wn[_ZETAD]
-    g = wk[_G]
-    v = wk[_V]
-    H = held0 & ~cmask
-    if H < 0 or H >= S or hs.valid[H] == 0:
-        H = 0
-    eta_norm = math.sqrt(_dot(eta, eta))
-    if H != 0:
-        nc = hs.nc[H]
-        for j in range(nc):
-            zz = 0.0
-            zd = 0.0
-            for i in range(n):
-                zz += hs.Psi[H, i, j] * (eta[i] - hs.eta_c[H, i])
-                zd += hs.Psi[H, i, j] * etad[i]
-            zeta[j] = zz
-            zetad[j] = zd
-        for i in range(n):
-            zz = hs.eta_c[H, i]
-            zd = 0.0
-            for j in range(nc):
-                zz += hs.Psi[H, i, j] * zeta[j]
-                zd += hs.Psi[H, i, j] * zetad[j]
-            eta[i] = zz
-            etad[i] = zd
-        if logging:
-            for k in range(ns):
-                if (H >> k) & 1 == 1:
-                    _log_event(evlog, nlog, _K_START, 0.0, 1.0, k, eta, etad)
-    for k in range(ns):
-        g[k] = _dot(st.normal[k], eta) - st.offset[k]
-        v[k] = _dot(st.normal[k], etad)
-        if (H >> k) & 1 == 1:
-            g[k] = 0.0
-            v[k] = 0.0
-    if H == 0 and C == 0:
-        for k in range(ns):
-            if (cmask >> k) & 1:
-                continue
-            scale = abs(st.offset[k]) + math.sqrt(_dot(st.normal[k], st.normal[k])) * eta_norm + 1e-300
-            if g[k] > -1e-13 * scale:
-                corr = g[k] * st.m_eff[k]
-                for i in range(n):
-                    eta[i] -= st.normal[k, i] * corr
-                for j in range(ns):
-                    g[j] = _dot(st.normal[j], eta) - st.offset[j]
-                g[k] = 0.0
-                if logging:
-                    _log_event(evlog, nlog, _K_START, 0.0, 0.0, k, eta, etad)
-                break
-    ist[_H] = H
-    # ---- the periods, their grid and sub-steps, a step at a time
-    k_sample = 0
-    n_total = n_transient + n_record
-    for pp in range(n_total):
-        recording = pp >= n_transient
-        ns_grid = ns_record if recording else ns_transient
-        h_grid = T / ns_grid
-        sub = sub_r if recording else sub_t
-        h_sub = h_grid / sub
-        Ptab = P_r if recording else P_t
-        tab = tab_r if recording else tab_t
-        fs[_T0] = (pp - n_transient) * T
-        fs[_PT] = pp * T
-        if pp > n_transient:
-            pmin[pp - n_transient - 1] = pext[0]
-            ext[0] = min(ext[0], pext[0])
-            ext[1] = max(ext[1], pext[1])
-            pext[0] = np.inf
-            pext[1] = -np.inf
-        for jg in range(ns_grid):
-            if recording:
-                qs = _dot(sens, eta)
-                qd = _dot(sens, etad)
-                for i in range(n):
-                    if abs(eta[i]) > modamp[i]:
-                        modamp[i] = abs(eta[i])
-                samples[k_sample, 0] = qs
-                samples[k_sample, 1] = qd
-                if msamp.shape[0] > 0:
-                    for i in range(n):
-                        msamp[k_sample, i] = eta[i]
-                        msamp[k_sample, n + i] = etad[i]
-                k_sample += 1
-                if qs < pext[0]:
-                    pext[0] = qs
-                if qs > pext[1]:
-                    pext[1] = qs
-            for isub in range(sub):
-                kg = jg * sub + isub
-                fs[_PHI] = TWO_PI * kg / (ns_grid * sub)
-                fs[_TLOC] = jg * h_grid + isub * h_sub
-                fs[_REM] = h_sub
-                ist[_ATGRID] = 1          # still on the tabulated sub-step (no event yet)
-                while fs[_REM] > 0.0:
-                    ist[_NSTEPS] += 1
-                    if ist[_NSTEPS] > max_steps:
-                        return _failed(fs, ist)
-                    # the step grows by doubling from the last certified length (where the
-                    # certification had to halve), up to a whole tabulated sub-step
-                    if cw is not None and ist[_C] != 0:
-                        # in contact with the compliant stops C (held on H)
-                        k_imp = _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T,
-                                               recording)
-                        if k_imp == -2:
-                            return _failed(fs, ist)
-                    elif ist[_H] != 0:
-                        # held on the set H
-                        k_imp = _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog,
-                                           nlog, Om, T, recording, cw)
-                    else:
-                        k_imp = _free_step(mp, Nrm, wn, wk, hb, tab, Ptab, eta, etad, fs, ist, evlog, aplog, nlog,
-                                           Om, T, kg, recording, cw)
-                    if k_imp < 0:
-                        continue
-                    # a contact at the current time on stop k_imp
-                    if cw is not None and (ist[_CMASK] >> k_imp) & 1:
-                        if _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, k_imp, max_impacts, recording):
-                            return _failed(fs, ist)
-                    elif _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, Om, T, k_imp,
-                                 max_impacts, chatter_tol, recording, cw):
-                        return _failed(fs, ist)
-    if n_record > 0:
-        pmin[n_record - 1] = pext[0]
-        ext[0] = min(ext[0], pext[0])
-        ext[1] = max(ext[1], pext[1])
-    status = ST_OK
-    if n_record > 0:
-        if ist[_NCHAT] > 0:
-            status = ST_CHATTER
-        elif fs[_STUCK] > 0.0:
-            status = ST_STICKING
-    return (status, ist[_NIMPR], ext[0], ext[1], ist[_NCHAT], fs[_STUCK], ist[_H] | ist[_C], ist[_NIMPT], fs[_GMAX],
-            ist[_NSTEPS], fs[_TCON])
-
-
-
-
 @njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
 def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
               max_impacts, max_steps, chatter_tol, rec):
@@ -1749,6 +1578,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
     n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
+    T = TWO_PI / Om
     (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, sub_r,
      sub_t) = _alloc(n, ns, S, Om, ns_transient, ns_record, h_cap)
     status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
@@ -1756,9 +1586,154 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
     if status != 0:
         return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
     if cp is None:
-        return _run(sy, st, hs, None, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
-                    max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs,
-                    ist)
-    cw = _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec)
-    return _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
-                max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist)
+        cw = None
+    else:
+        cw = _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec)
+    # ---- the initial state: held on its set (projected onto the constraint), or put on a Newton
+    # stop it lies on within round-off (position only); the carried gaps and normal velocities
+    logging = rec.evlog.shape[0] > 0
+    cmask = ist[_CMASK]
+    H = held0 & ~cmask
+    if H < 0 or H >= S or hs.valid[H] == 0:
+        H = 0
+    eta_norm = math.sqrt(_dot(eta, eta))
+    if H != 0:
+        nc = hs.nc[H]
+        for j in range(nc):
+            zz = 0.0
+            zd = 0.0
+            for i in range(n):
+                zz += hs.Psi[H, i, j] * (eta[i] - hs.eta_c[H, i])
+                zd += hs.Psi[H, i, j] * etad[i]
+            wn[_ZETA, j] = zz
+            wn[_ZETAD, j] = zd
+        for i in range(n):
+            zz = hs.eta_c[H, i]
+            zd = 0.0
+            for j in range(nc):
+                zz += hs.Psi[H, i, j] * wn[_ZETA, j]
+                zd += hs.Psi[H, i, j] * wn[_ZETAD, j]
+            eta[i] = zz
+            etad[i] = zd
+        if logging:
+            for k in range(ns):
+                if (H >> k) & 1 == 1:
+                    _log_event(rec.evlog, rec.nlog, _K_START, 0.0, 1.0, k, eta, etad)
+    for k in range(ns):
+        wk[_G, k] = _dot(st.normal[k], eta) - st.offset[k]
+        wk[_V, k] = _dot(st.normal[k], etad)
+        if (H >> k) & 1 == 1:
+            wk[_G, k] = 0.0
+            wk[_V, k] = 0.0
+    if H == 0 and ist[_C] == 0:
+        for k in range(ns):
+            if (cmask >> k) & 1:
+                continue
+            scale = abs(st.offset[k]) + math.sqrt(_dot(st.normal[k], st.normal[k])) * eta_norm + 1e-300
+            if wk[_G, k] > -1e-13 * scale:
+                corr = wk[_G, k] * st.m_eff[k]
+                for i in range(n):
+                    eta[i] -= st.normal[k, i] * corr
+                for j in range(ns):
+                    wk[_G, j] = _dot(st.normal[j], eta) - st.offset[j]
+                wk[_G, k] = 0.0
+                if logging:
+                    _log_event(rec.evlog, rec.nlog, _K_START, 0.0, 0.0, k, eta, etad)
+                break
+    ist[_H] = H
+    # ---- the periods, their grid and sub-steps, a step at a time (a failure leaves every loop)
+    k_sample = 0
+    n_total = n_transient + n_record
+    failed = False
+    for pp in range(n_total):
+        recording = pp >= n_transient
+        ns_grid = ns_record if recording else ns_transient
+        h_grid = T / ns_grid
+        sub = sub_r if recording else sub_t
+        h_sub = h_grid / sub
+        Ptab = P_r if recording else P_t
+        tab = tab_r if recording else tab_t
+        fs[_T0] = (pp - n_transient) * T
+        fs[_PT] = pp * T
+        if pp > n_transient:
+            rec.pmin[pp - n_transient - 1] = fs[_PEXT]
+            fs[_EXT] = min(fs[_EXT], fs[_PEXT])
+            fs[_EXT1] = max(fs[_EXT1], fs[_PEXT1])
+            fs[_PEXT] = np.inf
+            fs[_PEXT1] = -np.inf
+        for jg in range(ns_grid):
+            if recording:
+                qs = 0.0
+                qd = 0.0
+                for i in range(n):
+                    qs += wn[_SENS, i] * eta[i]
+                    qd += wn[_SENS, i] * etad[i]
+                for i in range(n):
+                    if abs(eta[i]) > rec.modamp[i]:
+                        rec.modamp[i] = abs(eta[i])
+                rec.samples[k_sample, 0] = qs
+                rec.samples[k_sample, 1] = qd
+                if rec.msamp.shape[0] > 0:
+                    for i in range(n):
+                        rec.msamp[k_sample, i] = eta[i]
+                        rec.msamp[k_sample, n + i] = etad[i]
+                k_sample += 1
+                if qs < fs[_PEXT]:
+                    fs[_PEXT] = qs
+                if qs > fs[_PEXT1]:
+                    fs[_PEXT1] = qs
+            for isub in range(sub):
+                kg = jg * sub + isub
+                fs[_PHI] = TWO_PI * kg / (ns_grid * sub)
+                fs[_TLOC] = jg * h_grid + isub * h_sub
+                fs[_REM] = h_sub
+                ist[_ATGRID] = 1          # still on the tabulated sub-step (no event yet)
+                while fs[_REM] > 0.0:
+                    ist[_NSTEPS] += 1
+                    if ist[_NSTEPS] > max_steps:
+                        failed = True
+                        break
+                    if cp is not None and ist[_C] != 0:
+                        # in contact with the compliant stops C (held on H)
+                        k_imp = _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, rec.evlog, rec.nlog, Om, T,
+                                               recording)
+                        if k_imp == -2:
+                            failed = True
+                            break
+                    elif ist[_H] != 0:
+                        # held on the set H
+                        k_imp = _held_step(hs, st.normal, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, rec.evlog,
+                                           rec.aplog, rec.nlog, Om, T, recording, cw)
+                    else:
+                        k_imp = _free_step(sy.mp, st.normal, wn, wk, hb, tab, Ptab, eta, etad, fs, ist, rec.evlog,
+                                           rec.aplog, rec.nlog, Om, T, kg, recording, cw)
+                    if k_imp < 0:
+                        continue
+                    # a contact at the current time on stop k_imp
+                    if cp is not None and (ist[_CMASK] >> k_imp) & 1:
+                        failed = _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, k_imp, max_impacts, recording)
+                    else:
+                        failed = _impact(st, hs.dirn, hs.meff, hs.ceff, hs.keff, hs.valid, wn, wk, eta, etad, fs,
+                                         ist, rec, Om, T, k_imp, max_impacts, chatter_tol, recording, cw)
+                    if failed:
+                        break
+                if failed:
+                    break
+            if failed:
+                break
+        if failed:
+            break
+    if failed:
+        return _failed(fs, ist)
+    if n_record > 0:
+        rec.pmin[n_record - 1] = fs[_PEXT]
+        fs[_EXT] = min(fs[_EXT], fs[_PEXT])
+        fs[_EXT1] = max(fs[_EXT1], fs[_PEXT1])
+    status = ST_OK
+    if n_record > 0:
+        if ist[_NCHAT] > 0:
+            status = ST_CHATTER
+        elif fs[_STUCK] > 0.0:
+            status = ST_STICKING
+    return (status, ist[_NIMPR], fs[_EXT], fs[_EXT1], ist[_NCHAT], fs[_STUCK], ist[_H] | ist[_C], ist[_NIMPT],
+            fs[_GMAX], ist[_NSTEPS], fs[_TCON])
