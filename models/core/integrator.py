@@ -1044,28 +1044,24 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
         zetad[j] = zd
     homogeneous(phi, Om, zeta, zetad, aC, bC, eC, x0, y0, nc)
     # the shared release rule: lambda > 0 pulls the system off the stop
-    released = -1
     for k in range(ns):
         if (H >> k) & 1 == 0:
             continue
         l0, lp0 = signal_start(phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k], SaL[k],
                                SbL[k], hs.cL[H, k], nc)
         if release_now(-l0, -lp0) and not just_stuck and hold <= 0.0:
-            released = k
             lam0[k] = l0
-            break
+            if logging:
+                _log_event(evlog, nlog, _K_RELEASE, pT + t_loc, lam0[k], k, eta, etad)
+            ist[_H] = H & ~(1 << k)
+            ist[_JREL] = 1
+            ist[_INSIDE] = inside
+            ist[_RELAXED] = relaxed
+            g[k] = 0.0
+            v[k] = 0.0
+            return -1
         lam0[k] = l0 if l0 <= 0.0 else 0.0
         lamp0[k] = lp0
-    if released >= 0:
-        if logging:
-            _log_event(evlog, nlog, _K_RELEASE, pT + t_loc, lam0[released], released, eta, etad)
-        ist[_H] = H & ~(1 << released)
-        ist[_JREL] = 1
-        ist[_INSIDE] = inside
-        ist[_RELAXED] = relaxed
-        g[released] = 0.0
-        v[released] = 0.0
-        return -1
     for j in range(nc):
         homogeneous_bounds(x0[j], y0[j], mpC[j, 0], mpC[j, 1], int(mpC[j, 2]), mpC[j, 3],
                            mpC[j, 4], mpC[j, 5], hb[j])
