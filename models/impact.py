@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def newton_restitution(U_minus, R):
     """Newton's kinematic impact law, paper Eq. 2: ``U+ = -R U-``.
 
