@@ -573,359 +573,6 @@ def _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec):
 
 # ============================================================================ the steps
 @_kernel
-def _free_step(mp, Nrm, wn, wk, hb, tab, Ptab, eta, etad, fs, ist, evlog, aplog, nlog, Om, T, kg, recording, cw):
-    """One step of free flight (held set empty, no compliant contact) of at most the rest of the
-    sub-step ``kg`` of the grid (tables ``tab``, ``Ptab``).  Returns the stop of a contact at the
-    step's end (an impact or a compliant stop's entry; -1: none, the step was taken)."""
-    n = eta.shape[0]
-    ns = Nrm.shape[0]
-    phi = fs[_PHI]
-    t_loc = fs[_TLOC]
-    rem = fs[_REM]
-    h_last = fs[_HLAST]
-    gmax = fs[_GMAX]
-    pT = fs[_PT]
-    SaSF = fs[_SASF]
-    SbSF = fs[_SBSF]
-    inside = ist[_INSIDE]
-    relaxed = ist[_RELAXED]
-    cmask = ist[_CMASK]
-    fresh = ist[_FRESH] != 0
-    bstale = ist[_BSTALE] != 0
-    at_grid = ist[_ATGRID] != 0
-    just_released = ist[_JREL] != 0
-    logging = evlog.shape[0] > 0
-    apexes = aplog.shape[0] > 0
-    h_try = min(rem, 2.0 * h_last)
-    pext = fs[_PEXT:_PEXT1 + 1]
-    aF = wn[_AF]
-    bF = wn[_BF]
-    GF = wn[_GF]
-    zeroN = wn[_ZERO]
-    xF = wn[_XF]
-    yF = wn[_YF]
-    dxv = wn[_DXV]
-    dyv = wn[_DYV]
-    x2v = wn[_X2V]
-    x3v = wn[_X3V]
-    sens = wn[_SENS]
-    SaF = wk[_SAF]
-    SbF = wk[_SBF]
-    CsF = wk[_CSF]
-    g = wk[_G]
-    v = wk[_V]
-    g1 = wk[_G1]
-    v1 = wk[_V1]
-    G2 = wk[_G2]
-    G3 = wk[_G3]
-    G21 = wk[_G21]
-    G31 = wk[_G31]
-    M2F = wk[_M2F]
-    M3F = wk[_M3F]
-    M4F = wk[_M4F]
-    off = wk[_OFF]
-    touched = -1
-    if cw is not None and inside != 0:
-        # inside a compliant stop without contact: back below it, or a contact now
-        st = cw.st
-        vr = cw.vr
-        for k in range(ns):
-            if (inside >> k) & 1 == 0:
-                continue
-            gk = _dot(Nrm[k], eta) - off[k]
-            vk = _dot(Nrm[k], etad)
-            if gk <= 0.0:
-                inside &= ~(1 << k)
-                relaxed &= ~(1 << k)
-                g[k] = gk
-                v[k] = vk
-                continue
-            g[k] = gk
-            v[k] = vk
-            r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k], (relaxed >> k) & 1 == 1)
-            acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
-            sg = r0 * gk + r1 * vk + roff
-            tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
-            if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
-                touched = k
-                break
-    for k in range(ns):
-        if touched >= 0:
-            break
-        if (inside >> k) & 1:
-            continue
-        if g[k] >= 0.0 and v[k] >= 0.0:
-            g[k] = 0.0
-            if v[k] > 0.0:
-                touched = k
-                break
-            if not just_released:
-                acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
-                if (cmask >> k) & 1:
-                    if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
-                        touched = k     # pressed onto a compliant stop: a contact
-                        break
-                elif not release_now(acc, jerk):     # pressed (the release rule)
-                    if logging:
-                        _log_event(evlog, nlog, _K_STICK, pT + t_loc, 0.0, k, eta, etad)
-                    ist[_H] = 1 << k
-                    ist[_JSTUCK] = 1
-                    corr = v[k] * wk[_MEFF, k]
-                    for i in range(n):
-                        etad[i] -= Nrm[k, i] * corr
-                    v[k] = 0.0
-                    for j in range(ns):
-                        if j != k:
-                            v[j] = _dot(Nrm[j], etad)
-                    touched = -2
-                    break
-    if touched != -1:
-        ist[_INSIDE] = inside
-        ist[_RELAXED] = relaxed
-        if touched == -2:
-            ist[_FRESH] = 1
-            return -1
-        return touched
-    if fresh:
-        # a new free arc: homogeneous parts, their bounds (valid along the whole
-        # arc: the homogeneous envelope only decays), curvature of each gap
-        homogeneous(phi, Om, eta, etad, aF, bF, zeroN, xF, yF, n)
-        _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
-        for k in range(ns):
-            _f, _f1, G2[k], G3[k], _f4 = signal(0.0, phi, Om, xF, yF, mp, Nrm[k], zeroN,
-                                                SaF[k], SbF[k], g[k], v[k], n)
-        fresh = False
-        bstale = False
-    h = h_try
-    tabd = at_grid and h == rem
-    if tabd:
-        sp0 = tab[kg, 0]
-        cp0 = tab[kg, 1]
-        sp1 = tab[kg + 1, 0]
-        cp1 = tab[kg + 1, 1]
-        dsin = sp1 - sp0
-        dcos = cp1 - cp0
-    else:
-        half = 0.5 * Om * h
-        sh = math.sin(half)
-        ph = phi + half
-        dsin = 2.0 * sh * math.cos(ph)
-        dcos = -2.0 * sh * math.sin(ph)
-        sp1 = math.sin(phi + Om * h)
-        cp1 = math.cos(phi + Om * h)
-    # the modes' increments and derivatives at h
-    for j in range(n):
-        if tabd:
-            a11 = Ptab[j, 0]
-            a12 = Ptab[j, 1]
-            a21 = Ptab[j, 2]
-            a22 = Ptab[j, 3]
-        else:
-            a11, a12, a21, a22 = transition_increment(h, mp[j, 0], mp[j, 1], int(mp[j, 2]),
-                                                      mp[j, 3], mp[j, 4], mp[j, 5])
-        ddx = a11 * xF[j] + a12 * yF[j]
-        ddy = a21 * xF[j] + a22 * yF[j]
-        xe = xF[j] + ddx
-        ye = yF[j] + ddy
-        dxv[j] = ddx
-        dyv[j] = ddy
-        xx2 = -2.0 * mp[j, 0] * ye - mp[j, 1] * xe
-        x2v[j] = xx2
-        x3v[j] = -2.0 * mp[j, 0] * xx2 - mp[j, 1] * ye
-    W2 = Om * Om
-    s_ev = -1.0
-    k_ev = -1
-    h_ok = h
-    ev_in = 0
-    if cw is not None and inside != 0:
-        # inside a compliant stop: its force's sign up through zero (a contact),
-        # or its gap down through zero (below it again)
-        st = cw.st
-        vr = cw.vr
-        wpa = cw.wpa
-        wra = cw.wra
-        for k in range(ns):
-            if (inside >> k) & 1 == 0:
-                continue
-            r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k],
-                                       (relaxed >> k) & 1 == 1)
-            for j in range(n):
-                wpa[j] = r0 * Nrm[k, j]
-                wra[j] = r1 * Nrm[k, j]
-            Sa = r0 * SaF[k] - r1 * Om * SbF[k]
-            Sb = r0 * SbF[k] + r1 * Om * SaF[k]
-            f0, fp0 = signal_start(phi, Om, xF, yF, mp, wpa, wra, Sa, Sb,
-                                   roff - r0 * off[k], n)
-            M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, n)
-            hk = h_ok if s_ev < 0.0 else s_ev
-            sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, wra, Sa, Sb, f0, fp0, M2, M3,
-                           M4, n)
-            if sk >= 0.0:
-                s_ev = sk
-                k_ev = k
-                ev_in = 1
-            elif hk2 < hk:
-                s_ev = -1.0
-                k_ev = -1
-                ev_in = 0
-                h_ok = hk2
-            for j in range(n):
-                wpa[j] = -Nrm[k, j]
-            hk = h_ok if s_ev < 0.0 else s_ev
-            sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, zeroN, -SaF[k], -SbF[k],
-                           -g[k], -v[k], M2F[k], M3F[k], M4F[k], n)
-            if sk >= 0.0:
-                s_ev = sk
-                k_ev = k
-                ev_in = 2
-            elif hk2 < hk:
-                s_ev = -1.0
-                k_ev = -1
-                ev_in = 0
-                h_ok = hk2
-    for k in range(ns):
-        if (inside >> k) & 1:
-            continue
-        hk = h_ok if s_ev < 0.0 else s_ev
-        if hk == h:
-            f = g[k] + SaF[k] * dsin + SbF[k] * dcos
-            f1 = v[k] + Om * (SaF[k] * dcos - SbF[k] * dsin)
-            f2 = 0.0
-            f3 = 0.0
-            for j in range(n):
-                f += Nrm[k, j] * dxv[j]
-                f1 += Nrm[k, j] * dyv[j]
-                f2 += Nrm[k, j] * x2v[j]
-                f3 += Nrm[k, j] * x3v[j]
-            g1[k] = f
-            v1[k] = f1
-            G21[k] = f2 - W2 * (SaF[k] * sp1 + SbF[k] * cp1)
-            G31[k] = f3 - W2 * Om * (SaF[k] * cp1 - SbF[k] * sp1)
-            far = _far(g[k], g1[k], M2F[k], hk)
-            if not far and bstale:
-                # the bounds of the arc's start (valid: the homogeneous
-                # envelope only decays) are loose once fast modes have
-                # decayed: near a stop, take them from the current state
-                _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
-                bstale = False
-                far = _far(g[k], g1[k], M2F[k], hk)
-            if far:
-                sk = -1.0        # far from the stop (interpolation bound)
-                hk2 = hk
-            else:
-                sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN,
-                                    SaF[k], SbF[k], g[k], v[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
-                                    G21[k], G31[k], M2F[k], M3F[k], M4F[k], n)
-        else:
-            sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN, SaF[k],
-                           SbF[k], g[k], v[k], M2F[k], M3F[k], M4F[k], n)
-        if sk >= 0.0:
-            s_ev = sk
-            k_ev = k
-            ev_in = 0
-        elif hk2 < hk:
-            s_ev = -1.0
-            k_ev = -1
-            ev_in = 0
-            h_ok = hk2
-    s_mv = s_ev if s_ev >= 0.0 else h_ok
-    if s_ev < 0.0:
-        # shrink to a halved step; a step cut by the sub-grid says nothing
-        h_last = h_ok if h_ok < h else max(h_last, h)
-    if s_mv != h:
-        # the step ends before the tabulated one: evaluate the flow there
-        tabd = False
-        half = 0.5 * Om * s_mv
-        sh = math.sin(half)
-        ph = phi + half
-        dsin = 2.0 * sh * math.cos(ph)
-        dcos = -2.0 * sh * math.sin(ph)
-        sp1 = math.sin(phi + Om * s_mv)
-        cp1 = math.cos(phi + Om * s_mv)
-        mode_ends(s_mv, xF, yF, mp, Ptab, False, dxv, dyv, x2v, x3v, n)
-        for k in range(ns):
-            _gap_ends(Nrm, k, SaF[k], SbF[k], g[k], v[k], Om, dxv, dyv, x2v, x3v,
-                      dsin, dcos, sp1, cp1, n, g1, v1, G21, G31)
-    if apexes and s_ev < 0.0:
-        for k in range(ns):
-            if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:
-                _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, xF, yF, mp, Nrm[k],
-                          zeroN, SaF[k], SbF[k], g[k], v[k], n, k)
-    if recording:
-        # the sensor's extremes inside the step (root-found where its slope turns)
-        q0s = _dot(sens, eta)
-        qp0s = _dot(sens, etad)
-        q1s = q0s + _dot(sens, dxv) + SaSF * dsin + SbSF * dcos
-        qp1s = qp0s + _dot(sens, dyv) + Om * (SaSF * dcos - SbSF * dsin)
-        if (qp0s < 0.0 < qp1s) or (qp0s > 0.0 > qp1s):
-            extremes(s_mv, phi, Om, xF, yF, mp, sens, zeroN, SaSF, SbSF, q0s, qp0s,
-                     qp0s, qp1s, pext, n)
-    bstale = True
-    for i in range(n):
-        xF[i] += dxv[i]
-        yF[i] += dyv[i]
-        eta[i] = aF[i] * sp1 + bF[i] * cp1 + xF[i]
-        etad[i] = Om * (aF[i] * cp1 - bF[i] * sp1) + yF[i]
-    for k in range(ns):
-        # the state recomposed from its parts may round past a stop that the
-        # carried gap (value + increments) has not reached: put it back on it
-        if (inside >> k) & 1:
-            continue
-        gs = _dot(Nrm[k], eta) - off[k]
-        if gs > 0.0:
-            gs *= wk[_MEFF, k]
-            for i in range(n):
-                eta[i] -= Nrm[k, i] * gs
-    if recording:
-        # the step's end as the next sample will read it
-        q1s = _dot(sens, eta)
-        if q1s < pext[0]:
-            pext[0] = q1s
-        if q1s > pext[1]:
-            pext[1] = q1s
-    if s_mv != rem:
-        at_grid = False
-    phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
-    if s_mv > 0.0:
-        ist[_JSTUCK] = 0
-        ist[_JREL] = 0
-    for k in range(ns):
-        if (inside >> k) & 1:
-            g[k] = _dot(Nrm[k], eta) - off[k]
-            v[k] = _dot(Nrm[k], etad)
-            continue
-        if s_ev >= 0.0 and k == k_ev:
-            g[k] = 0.0
-        else:
-            if g1[k] > gmax:
-                gmax = g1[k]
-            g[k] = g1[k] if g1[k] < 0.0 else 0.0
-        v[k] = v1[k]
-        G2[k] = G21[k]
-        G3[k] = G31[k]
-    k_imp = -1
-    if s_ev >= 0.0:
-        if ev_in == 2:
-            inside &= ~(1 << k_ev)
-            relaxed &= ~(1 << k_ev)
-            g[k_ev] = 0.0
-            fresh = True
-        else:
-            k_imp = k_ev
-    fs[_PHI] = phi
-    fs[_TLOC] = t_loc
-    fs[_REM] = rem
-    fs[_HLAST] = h_last
-    fs[_GMAX] = gmax
-    ist[_INSIDE] = inside
-    ist[_RELAXED] = relaxed
-    ist[_FRESH] = fresh
-    ist[_BSTALE] = bstale
-    ist[_ATGRID] = at_grid
-    return k_imp
-
-
-@_kernel
 def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog, nlog, Om, T, recording, cw):
     """One step held on the set ``H`` (no compliant contact): the constrained system in closed form,
     the held stops' forces scanned for their release, the other stops' gaps for a contact.
@@ -1524,67 +1171,17 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
 
 
 # ============================================================================ the kernel
-@njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
-def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
-              max_impacts, max_steps, chatter_tol, rec):
-    """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core).
-
-    Parameters
-    ----------
-    sy : KernelSystem
-    st : KernelStops
-    hs : HeldSets
-        :mod:`vibeam.models.core.stops`.
-    cp : Compliant or None
-        The compliant stops' data (:class:`vibeam.models.core.phases.Compliant`: the linear contact
-        phases, the Runge-Kutta tableau); None for a scene with Newton stops only, whose compiled
-        specialisation then holds no compliant code (numba prunes the branches on ``cp is None``).
-    Om : float
-        Forcing frequency (per unit nondimensional time).
-    eta, etad : ndarray, shape (n,)
-        Initial modal state, overwritten with the final one.
-    held0 : int
-        Bit mask of the stops the system is held on (Newton stops) or in contact with (compliant
-        stops) at the start (0 free).
-    n_transient, n_record : int
-        Forcing periods discarded, then recorded.
-    ns_transient, ns_record : int
-        Grid points per period (the recorded samples).
-    h_cap : float
-        Largest step.
-    max_impacts, max_steps : int
-        Guards: beyond them the call returns :data:`ST_FAILED`.
-    chatter_tol : float
-        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.contact_policy`).
-    rec : Record
-        Outputs.
-
-    Returns
-    -------
-    tuple
-        ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
-        gmax, n_steps, contact_time)``: status code, recorded impacts and contacts, sensor extremes
-        over the record (row units), chatter sequences, time held (excluding chatter holds), the
-        final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
-        response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
-        gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
-        round-off only if a crossing had been stepped over), steps taken, time in compliant contact
-        during the record.
-    """
+# ============================================================================ the loop
+@_kernel
+def _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts, max_steps,
+         chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist):
+    """The call after :func:`_frequency` (:func:`integrate`): the initial state, then the periods,
+    their grid and sub-steps, a step at a time.  Compiled without reference counting: the free step,
+    the hot path, is inlined here (no call per step)."""
     n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
     T = TWO_PI / Om
-    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, sub_r,
-     sub_t) = _alloc(n, ns, S, Om, ns_transient, ns_record, h_cap)
-    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
-                        ns_transient, ns_record, h_cap, fs, ist)
-    if status != 0:
-        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
-    if cp is None:
-        cw = None
-    else:
-        cw = _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec)
     # ---- the initial state: held on its set (projected onto the constraint), or put on a Newton
     # stop it lies on within round-off (position only); the carried gaps and normal velocities
     logging = rec.evlog.shape[0] > 0
@@ -1638,6 +1235,20 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                 break
     ist[_H] = H
     # ---- the periods, their grid and sub-steps, a step at a time (a failure leaves every loop)
+    mp = sy.mp
+    Nrm = st.normal
+    evlog = rec.evlog
+    aplog = rec.aplog
+    nlog = rec.nlog
+    dirn = hs.dirn
+    meff = hs.meff
+    ceff = hs.ceff
+    keff = hs.keff
+    valid = hs.valid
+    samples = rec.samples
+    msamp = rec.msamp
+    modamp = rec.modamp
+    pmin = rec.pmin
     k_sample = 0
     n_total = n_transient + n_record
     failed = False
@@ -1652,7 +1263,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
         fs[_T0] = (pp - n_transient) * T
         fs[_PT] = pp * T
         if pp > n_transient:
-            rec.pmin[pp - n_transient - 1] = fs[_PEXT]
+            pmin[pp - n_transient - 1] = fs[_PEXT]
             fs[_EXT] = min(fs[_EXT], fs[_PEXT])
             fs[_EXT1] = max(fs[_EXT1], fs[_PEXT1])
             fs[_PEXT] = np.inf
@@ -1665,14 +1276,14 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                     qs += wn[_SENS, i] * eta[i]
                     qd += wn[_SENS, i] * etad[i]
                 for i in range(n):
-                    if abs(eta[i]) > rec.modamp[i]:
-                        rec.modamp[i] = abs(eta[i])
-                rec.samples[k_sample, 0] = qs
-                rec.samples[k_sample, 1] = qd
-                if rec.msamp.shape[0] > 0:
+                    if abs(eta[i]) > modamp[i]:
+                        modamp[i] = abs(eta[i])
+                samples[k_sample, 0] = qs
+                samples[k_sample, 1] = qd
+                if msamp.shape[0] > 0:
                     for i in range(n):
-                        rec.msamp[k_sample, i] = eta[i]
-                        rec.msamp[k_sample, n + i] = etad[i]
+                        msamp[k_sample, i] = eta[i]
+                        msamp[k_sample, n + i] = etad[i]
                 k_sample += 1
                 if qs < fs[_PEXT]:
                     fs[_PEXT] = qs
@@ -1689,28 +1300,372 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                     if ist[_NSTEPS] > max_steps:
                         failed = True
                         break
-                    if cp is not None and ist[_C] != 0:
+                    if cw is not None and ist[_C] != 0:
                         # in contact with the compliant stops C (held on H)
-                        k_imp = _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, rec.evlog, rec.nlog, Om, T,
-                                               recording)
+                        k_imp = _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T, recording)
                         if k_imp == -2:
                             failed = True
                             break
                     elif ist[_H] != 0:
                         # held on the set H
-                        k_imp = _held_step(hs, st.normal, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, rec.evlog,
-                                           rec.aplog, rec.nlog, Om, T, recording, cw)
+                        k_imp = _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog, nlog,
+                                           Om, T, recording, cw)
                     else:
-                        k_imp = _free_step(sy.mp, st.normal, wn, wk, hb, tab, Ptab, eta, etad, fs, ist, rec.evlog,
-                                           rec.aplog, rec.nlog, Om, T, kg, recording, cw)
+                        # free flight (held set empty, no compliant contact): one step of at most the rest
+                        # of the sub-step kg of the grid (tables tab, Ptab), written out here, the hot path
+                        # (no call per step); k_imp: the stop of a contact at the step's end
+
+                        phi = fs[_PHI]
+                        t_loc = fs[_TLOC]
+                        rem = fs[_REM]
+                        h_last = fs[_HLAST]
+                        gmax = fs[_GMAX]
+                        pT = fs[_PT]
+                        SaSF = fs[_SASF]
+                        SbSF = fs[_SBSF]
+                        inside = ist[_INSIDE]
+                        relaxed = ist[_RELAXED]
+                        cmask = ist[_CMASK]
+                        fresh = ist[_FRESH] != 0
+                        bstale = ist[_BSTALE] != 0
+                        at_grid = ist[_ATGRID] != 0
+                        just_released = ist[_JREL] != 0
+                        apexes = aplog.shape[0] > 0
+                        h_try = min(rem, 2.0 * h_last)
+                        pext = fs[_PEXT:_PEXT1 + 1]
+                        aF = wn[_AF]
+                        bF = wn[_BF]
+                        GF = wn[_GF]
+                        zeroN = wn[_ZERO]
+                        xF = wn[_XF]
+                        yF = wn[_YF]
+                        dxv = wn[_DXV]
+                        dyv = wn[_DYV]
+                        x2v = wn[_X2V]
+                        x3v = wn[_X3V]
+                        sens = wn[_SENS]
+                        SaF = wk[_SAF]
+                        SbF = wk[_SBF]
+                        CsF = wk[_CSF]
+                        g = wk[_G]
+                        v = wk[_V]
+                        g1 = wk[_G1]
+                        v1 = wk[_V1]
+                        G2 = wk[_G2]
+                        G3 = wk[_G3]
+                        G21 = wk[_G21]
+                        G31 = wk[_G31]
+                        M2F = wk[_M2F]
+                        M3F = wk[_M3F]
+                        M4F = wk[_M4F]
+                        off = wk[_OFF]
+                        touched = -1
+                        if cw is not None and inside != 0:
+                            # inside a compliant stop without contact: back below it, or a contact now
+                            st = cw.st
+                            vr = cw.vr
+                            for k in range(ns):
+                                if (inside >> k) & 1 == 0:
+                                    continue
+                                gk = _dot(Nrm[k], eta) - off[k]
+                                vk = _dot(Nrm[k], etad)
+                                if gk <= 0.0:
+                                    inside &= ~(1 << k)
+                                    relaxed &= ~(1 << k)
+                                    g[k] = gk
+                                    v[k] = vk
+                                    continue
+                                g[k] = gk
+                                v[k] = vk
+                                r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k], (relaxed >> k) & 1 == 1)
+                                acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
+                                sg = r0 * gk + r1 * vk + roff
+                                tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
+                                if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
+                                    touched = k
+                                    break
+                        for k in range(ns):
+                            if touched >= 0:
+                                break
+                            if (inside >> k) & 1:
+                                continue
+                            if g[k] >= 0.0 and v[k] >= 0.0:
+                                g[k] = 0.0
+                                if v[k] > 0.0:
+                                    touched = k
+                                    break
+                                if not just_released:
+                                    acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
+                                    if (cmask >> k) & 1:
+                                        if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
+                                            touched = k     # pressed onto a compliant stop: a contact
+                                            break
+                                    elif not release_now(acc, jerk):     # pressed (the release rule)
+                                        if logging:
+                                            _log_event(evlog, nlog, _K_STICK, pT + t_loc, 0.0, k, eta, etad)
+                                        ist[_H] = 1 << k
+                                        ist[_JSTUCK] = 1
+                                        corr = v[k] * wk[_MEFF, k]
+                                        for i in range(n):
+                                            etad[i] -= Nrm[k, i] * corr
+                                        v[k] = 0.0
+                                        for j in range(ns):
+                                            if j != k:
+                                                v[j] = _dot(Nrm[j], etad)
+                                        touched = -2
+                                        break
+                        k_imp = -1
+                        if touched != -1:
+                            ist[_INSIDE] = inside
+                            ist[_RELAXED] = relaxed
+                            if touched == -2:
+                                ist[_FRESH] = 1
+                            else:
+                                k_imp = touched
+                        else:
+                            if fresh:
+                                # a new free arc: homogeneous parts, their bounds (valid along the whole
+                                # arc: the homogeneous envelope only decays), curvature of each gap
+                                homogeneous(phi, Om, eta, etad, aF, bF, zeroN, xF, yF, n)
+                                _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
+                                for k in range(ns):
+                                    _f, _f1, G2[k], G3[k], _f4 = signal(0.0, phi, Om, xF, yF, mp, Nrm[k], zeroN,
+                                                                        SaF[k], SbF[k], g[k], v[k], n)
+                                fresh = False
+                                bstale = False
+                            h = h_try
+                            tabd = at_grid and h == rem
+                            if tabd:
+                                sp0 = tab[kg, 0]
+                                cp0 = tab[kg, 1]
+                                sp1 = tab[kg + 1, 0]
+                                cp1 = tab[kg + 1, 1]
+                                dsin = sp1 - sp0
+                                dcos = cp1 - cp0
+                            else:
+                                half = 0.5 * Om * h
+                                sh = math.sin(half)
+                                ph = phi + half
+                                dsin = 2.0 * sh * math.cos(ph)
+                                dcos = -2.0 * sh * math.sin(ph)
+                                sp1 = math.sin(phi + Om * h)
+                                cp1 = math.cos(phi + Om * h)
+                            # the modes' increments and derivatives at h
+                            for j in range(n):
+                                if tabd:
+                                    a11 = Ptab[j, 0]
+                                    a12 = Ptab[j, 1]
+                                    a21 = Ptab[j, 2]
+                                    a22 = Ptab[j, 3]
+                                else:
+                                    a11, a12, a21, a22 = transition_increment(h, mp[j, 0], mp[j, 1], int(mp[j, 2]),
+                                                                              mp[j, 3], mp[j, 4], mp[j, 5])
+                                ddx = a11 * xF[j] + a12 * yF[j]
+                                ddy = a21 * xF[j] + a22 * yF[j]
+                                xe = xF[j] + ddx
+                                ye = yF[j] + ddy
+                                dxv[j] = ddx
+                                dyv[j] = ddy
+                                xx2 = -2.0 * mp[j, 0] * ye - mp[j, 1] * xe
+                                x2v[j] = xx2
+                                x3v[j] = -2.0 * mp[j, 0] * xx2 - mp[j, 1] * ye
+                            W2 = Om * Om
+                            s_ev = -1.0
+                            k_ev = -1
+                            h_ok = h
+                            ev_in = 0
+                            if cw is not None and inside != 0:
+                                # inside a compliant stop: its force's sign up through zero (a contact),
+                                # or its gap down through zero (below it again)
+                                st = cw.st
+                                vr = cw.vr
+                                wpa = cw.wpa
+                                wra = cw.wra
+                                for k in range(ns):
+                                    if (inside >> k) & 1 == 0:
+                                        continue
+                                    r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k],
+                                                               (relaxed >> k) & 1 == 1)
+                                    for j in range(n):
+                                        wpa[j] = r0 * Nrm[k, j]
+                                        wra[j] = r1 * Nrm[k, j]
+                                    Sa = r0 * SaF[k] - r1 * Om * SbF[k]
+                                    Sb = r0 * SbF[k] + r1 * Om * SaF[k]
+                                    f0, fp0 = signal_start(phi, Om, xF, yF, mp, wpa, wra, Sa, Sb,
+                                                           roff - r0 * off[k], n)
+                                    M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, n)
+                                    hk = h_ok if s_ev < 0.0 else s_ev
+                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, wra, Sa, Sb, f0, fp0, M2, M3,
+                                                   M4, n)
+                                    if sk >= 0.0:
+                                        s_ev = sk
+                                        k_ev = k
+                                        ev_in = 1
+                                    elif hk2 < hk:
+                                        s_ev = -1.0
+                                        k_ev = -1
+                                        ev_in = 0
+                                        h_ok = hk2
+                                    for j in range(n):
+                                        wpa[j] = -Nrm[k, j]
+                                    hk = h_ok if s_ev < 0.0 else s_ev
+                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, zeroN, -SaF[k], -SbF[k],
+                                                   -g[k], -v[k], M2F[k], M3F[k], M4F[k], n)
+                                    if sk >= 0.0:
+                                        s_ev = sk
+                                        k_ev = k
+                                        ev_in = 2
+                                    elif hk2 < hk:
+                                        s_ev = -1.0
+                                        k_ev = -1
+                                        ev_in = 0
+                                        h_ok = hk2
+                            for k in range(ns):
+                                if (inside >> k) & 1:
+                                    continue
+                                hk = h_ok if s_ev < 0.0 else s_ev
+                                if hk == h:
+                                    f = g[k] + SaF[k] * dsin + SbF[k] * dcos
+                                    f1 = v[k] + Om * (SaF[k] * dcos - SbF[k] * dsin)
+                                    f2 = 0.0
+                                    f3 = 0.0
+                                    for j in range(n):
+                                        f += Nrm[k, j] * dxv[j]
+                                        f1 += Nrm[k, j] * dyv[j]
+                                        f2 += Nrm[k, j] * x2v[j]
+                                        f3 += Nrm[k, j] * x3v[j]
+                                    g1[k] = f
+                                    v1[k] = f1
+                                    G21[k] = f2 - W2 * (SaF[k] * sp1 + SbF[k] * cp1)
+                                    G31[k] = f3 - W2 * Om * (SaF[k] * cp1 - SbF[k] * sp1)
+                                    far = _far(g[k], g1[k], M2F[k], hk)
+                                    if not far and bstale:
+                                        # the bounds of the arc's start (valid: the homogeneous
+                                        # envelope only decays) are loose once fast modes have
+                                        # decayed: near a stop, take them from the current state
+                                        _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
+                                        bstale = False
+                                        far = _far(g[k], g1[k], M2F[k], hk)
+                                    if far:
+                                        sk = -1.0        # far from the stop (interpolation bound)
+                                        hk2 = hk
+                                    else:
+                                        sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN,
+                                                            SaF[k], SbF[k], g[k], v[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
+                                                            G21[k], G31[k], M2F[k], M3F[k], M4F[k], n)
+                                else:
+                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN, SaF[k],
+                                                   SbF[k], g[k], v[k], M2F[k], M3F[k], M4F[k], n)
+                                if sk >= 0.0:
+                                    s_ev = sk
+                                    k_ev = k
+                                    ev_in = 0
+                                elif hk2 < hk:
+                                    s_ev = -1.0
+                                    k_ev = -1
+                                    ev_in = 0
+                                    h_ok = hk2
+                            s_mv = s_ev if s_ev >= 0.0 else h_ok
+                            if s_ev < 0.0:
+                                # shrink to a halved step; a step cut by the sub-grid says nothing
+                                h_last = h_ok if h_ok < h else max(h_last, h)
+                            if s_mv != h:
+                                # the step ends before the tabulated one: evaluate the flow there
+                                tabd = False
+                                half = 0.5 * Om * s_mv
+                                sh = math.sin(half)
+                                ph = phi + half
+                                dsin = 2.0 * sh * math.cos(ph)
+                                dcos = -2.0 * sh * math.sin(ph)
+                                sp1 = math.sin(phi + Om * s_mv)
+                                cp1 = math.cos(phi + Om * s_mv)
+                                mode_ends(s_mv, xF, yF, mp, Ptab, False, dxv, dyv, x2v, x3v, n)
+                                for k in range(ns):
+                                    _gap_ends(Nrm, k, SaF[k], SbF[k], g[k], v[k], Om, dxv, dyv, x2v, x3v,
+                                              dsin, dcos, sp1, cp1, n, g1, v1, G21, G31)
+                            if apexes and s_ev < 0.0:
+                                for k in range(ns):
+                                    if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:
+                                        _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, xF, yF, mp, Nrm[k],
+                                                  zeroN, SaF[k], SbF[k], g[k], v[k], n, k)
+                            if recording:
+                                # the sensor's extremes inside the step (root-found where its slope turns)
+                                q0s = _dot(sens, eta)
+                                qp0s = _dot(sens, etad)
+                                q1s = q0s + _dot(sens, dxv) + SaSF * dsin + SbSF * dcos
+                                qp1s = qp0s + _dot(sens, dyv) + Om * (SaSF * dcos - SbSF * dsin)
+                                if (qp0s < 0.0 < qp1s) or (qp0s > 0.0 > qp1s):
+                                    extremes(s_mv, phi, Om, xF, yF, mp, sens, zeroN, SaSF, SbSF, q0s, qp0s,
+                                             qp0s, qp1s, pext, n)
+                            bstale = True
+                            for i in range(n):
+                                xF[i] += dxv[i]
+                                yF[i] += dyv[i]
+                                eta[i] = aF[i] * sp1 + bF[i] * cp1 + xF[i]
+                                etad[i] = Om * (aF[i] * cp1 - bF[i] * sp1) + yF[i]
+                            for k in range(ns):
+                                # the state recomposed from its parts may round past a stop that the
+                                # carried gap (value + increments) has not reached: put it back on it
+                                if (inside >> k) & 1:
+                                    continue
+                                gs = _dot(Nrm[k], eta) - off[k]
+                                if gs > 0.0:
+                                    gs *= wk[_MEFF, k]
+                                    for i in range(n):
+                                        eta[i] -= Nrm[k, i] * gs
+                            if recording:
+                                # the step's end as the next sample will read it
+                                q1s = _dot(sens, eta)
+                                if q1s < pext[0]:
+                                    pext[0] = q1s
+                                if q1s > pext[1]:
+                                    pext[1] = q1s
+                            if s_mv != rem:
+                                at_grid = False
+                            phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
+                            if s_mv > 0.0:
+                                ist[_JSTUCK] = 0
+                                ist[_JREL] = 0
+                            for k in range(ns):
+                                if (inside >> k) & 1:
+                                    g[k] = _dot(Nrm[k], eta) - off[k]
+                                    v[k] = _dot(Nrm[k], etad)
+                                    continue
+                                if s_ev >= 0.0 and k == k_ev:
+                                    g[k] = 0.0
+                                else:
+                                    if g1[k] > gmax:
+                                        gmax = g1[k]
+                                    g[k] = g1[k] if g1[k] < 0.0 else 0.0
+                                v[k] = v1[k]
+                                G2[k] = G21[k]
+                                G3[k] = G31[k]
+                            if s_ev >= 0.0:
+                                if ev_in == 2:
+                                    inside &= ~(1 << k_ev)
+                                    relaxed &= ~(1 << k_ev)
+                                    g[k_ev] = 0.0
+                                    fresh = True
+                                else:
+                                    k_imp = k_ev
+                            fs[_PHI] = phi
+                            fs[_TLOC] = t_loc
+                            fs[_REM] = rem
+                            fs[_HLAST] = h_last
+                            fs[_GMAX] = gmax
+                            ist[_INSIDE] = inside
+                            ist[_RELAXED] = relaxed
+                            ist[_FRESH] = fresh
+                            ist[_BSTALE] = bstale
+                            ist[_ATGRID] = at_grid
                     if k_imp < 0:
                         continue
                     # a contact at the current time on stop k_imp
-                    if cp is not None and (ist[_CMASK] >> k_imp) & 1:
+                    if cw is not None and (ist[_CMASK] >> k_imp) & 1:
                         failed = _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, k_imp, max_impacts, recording)
                     else:
-                        failed = _impact(st, hs.dirn, hs.meff, hs.ceff, hs.keff, hs.valid, wn, wk, eta, etad, fs,
-                                         ist, rec, Om, T, k_imp, max_impacts, chatter_tol, recording, cw)
+                        failed = _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, Om, T,
+                                         k_imp, max_impacts, chatter_tol, recording, cw)
                     if failed:
                         break
                 if failed:
@@ -1722,7 +1677,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
     if failed:
         return _failed(fs, ist)
     if n_record > 0:
-        rec.pmin[n_record - 1] = fs[_PEXT]
+        pmin[n_record - 1] = fs[_PEXT]
         fs[_EXT] = min(fs[_EXT], fs[_PEXT])
         fs[_EXT1] = max(fs[_EXT1], fs[_PEXT1])
     status = ST_OK
@@ -1733,3 +1688,69 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
             status = ST_STICKING
     return (status, ist[_NIMPR], fs[_EXT], fs[_EXT1], ist[_NCHAT], fs[_STUCK], ist[_H] | ist[_C], ist[_NIMPT],
             fs[_GMAX], ist[_NSTEPS], fs[_TCON])
+
+
+@njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
+def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+              max_impacts, max_steps, chatter_tol, rec):
+    """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core).
+
+    Parameters
+    ----------
+    sy : KernelSystem
+    st : KernelStops
+    hs : HeldSets
+        :mod:`vibeam.models.core.stops`.
+    cp : Compliant or None
+        The compliant stops' data (:class:`vibeam.models.core.phases.Compliant`: the linear contact
+        phases, the Runge-Kutta tableau); None for a scene with Newton stops only, whose compiled
+        specialisation then holds no compliant code (numba prunes the branches on ``cp is None``).
+    Om : float
+        Forcing frequency (per unit nondimensional time).
+    eta, etad : ndarray, shape (n,)
+        Initial modal state, overwritten with the final one.
+    held0 : int
+        Bit mask of the stops the system is held on (Newton stops) or in contact with (compliant
+        stops) at the start (0 free).
+    n_transient, n_record : int
+        Forcing periods discarded, then recorded.
+    ns_transient, ns_record : int
+        Grid points per period (the recorded samples).
+    h_cap : float
+        Largest step.
+    max_impacts, max_steps : int
+        Guards: beyond them the call returns :data:`ST_FAILED`.
+    chatter_tol : float
+        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.contact_policy`).
+    rec : Record
+        Outputs.
+
+    Returns
+    -------
+    tuple
+        ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
+        gmax, n_steps, contact_time)``: status code, recorded impacts and contacts, sensor extremes
+        over the record (row units), chatter sequences, time held (excluding chatter holds), the
+        final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
+        response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
+        gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
+        round-off only if a crossing had been stepped over), steps taken, time in compliant contact
+        during the record.
+    """
+
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    S = hs.valid.shape[0]
+    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, sub_r,
+     sub_t) = _alloc(n, ns, S, Om, ns_transient, ns_record, h_cap)
+    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
+                        ns_transient, ns_record, h_cap, fs, ist)
+    if status != 0:
+        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
+    if cp is None:
+        return _run(sy, st, hs, None, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
+                    max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs,
+                    ist)
+    cw = _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec)
+    return _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
+                max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist)
