@@ -70,7 +70,7 @@ BURST_DT = 1e-3
 BURST_MAX = 200
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def release_now(force, dforce):
     """Does a body held on a stop leave it now?
 
@@ -90,7 +90,7 @@ def release_now(force, dforce):
     return force < 0.0 or (force == 0.0 and dforce < 0.0)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def zeno_burst(burst, t_imp, t_last, window):
     """Impacts in the current burst: ``burst + 1`` if this impact follows the last one within
     ``window``, else 0."""
@@ -99,7 +99,7 @@ def zeno_burst(burst, t_imp, t_last, window):
     return 0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def impact_outcome(u, pressed, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon, burst, burst_max):
     """What follows an impulsive impact (module docstring, step 2).
 
@@ -140,7 +140,7 @@ def impact_outcome(u, pressed, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon,
     return REBOUND, 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def chatter_jump(u, a, jerk, c_eff, k_eff, R, chatter_tol, horizon):
     """Accumulation time of a chatter sequence, or -1 to resolve the next impact.
 

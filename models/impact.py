@@ -35,7 +35,7 @@ def newton_restitution(U_minus, R):
     return -R * U_minus
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def restitution_coefficient(U_minus, R, table_U, table_R):
     """Coefficient of restitution at the pre-impact velocity ``U_minus`` (paper Fig. 26).
 

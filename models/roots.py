@@ -13,7 +13,7 @@ from numba import njit
 EPS = 2.220446049250313e-16
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def select(kind, g, v, g2):
     """``(F, F')`` of the three bracketed problems from ``g, g', g''``.
 
@@ -27,7 +27,7 @@ def select(kind, g, v, g2):
     return v, g2
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def rtsafe_update(F, dF, s, lo, hi, dx, dxold):
     """One step of safeguarded Newton on a sign-changing bracket.
 

@@ -518,7 +518,7 @@ def advance_modes(s, phi0, Om, z, zd, mp, a, b, e):
     advance_count(s, phi0, Om, z, zd, mp, a, b, e, z.shape[0])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def advance_count(s, phi0, Om, z, zd, mp, a, b, e, m):
     """Move modal coordinates ``z`` (with offsets ``e`` and harmonic particular ``a, b``)
     by ``s`` in closed form, in place.

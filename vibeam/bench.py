@@ -25,8 +25,10 @@ simulated and with the retained modes of the FE beam, with fitted exponents
 (:func:`run_scaling_bench`); ``--fit`` instead times ``vibeam fit`` against its goal
 (:func:`run_fit_bench`); ``--latency`` instead measures how fast Ctrl-C stops an inline and a
 pooled run and how far a point overshoots its wall-time limit (:func:`run_latency_bench`);
-``--compile`` instead measures the cold and warm numba compile time of shipped scenarios, per
-specialisation, in fresh processes (:func:`run_compile_bench`).
+``--compile`` instead measures the cold and warm numba compile time of shipped scenarios (the quick
+start, a compliant SDOF point, FE points, continuations), per kernel specialisation (the event
+integrator's for Newton stops only and with compliant stops) and per compiled function, in fresh
+processes with an empty ``NUMBA_CACHE_DIR`` (:func:`run_compile_bench`).
 """
 from __future__ import annotations
 
@@ -1452,11 +1454,22 @@ W = float(case.sweep.grid(model.natural_frequency_hz)[0])
 make_solver(model, "event", **case.run_settings(run)).point(W, None, 2, 2, case.sweep.samples_per_period)
 """
 
+#: the first point of the quick start's SDOF scene (paper Fig. 7: beta 0.015, B 0.5e-3, Delta 0) on a
+#: compliant stop, as ``vibeam run`` builds its solver: Kelvin-Voigt, stiffness 1e4, the dashpot of an
+#: isolated impact's R = 0.8 (the event integrator's compliant specialisation)
+COMPLIANT_POINT = """
+from vibeam.models import SDOF, make_solver
+from vibeam.models.compliant import LinearContact
+m = SDOF(beta=0.015, B=0.5e-3, R=0.8, Delta=0.0, contact=LinearContact.from_restitution(1e4, 0.8))
+make_solver(m, "event").point(1.8, None, 2, 2, 64)
+"""
+
 #: the scenarios of ``vibeam bench --compile``: (name, ``cli`` or ``code``, vibeam arguments or
 #: Python text); ``{root}`` is the checkout, ``{out}`` a fresh output folder
 COMPILE_SCENARIOS = (
     ("quick start: vibeam run cases/paper-fig7.toml", "cli",
      ["run", "{root}/cases/paper-fig7.toml", "--out", "{out}", "--no-plots", "--quiet"]),
+    ("first compliant SDOF point (Kelvin-Voigt stop, paper-fig7 scene)", "code", COMPLIANT_POINT),
     ("first FE 2-mode point (rig-fe-neutral, n_modes = 2)", "code", FE_POINT.format(n=2)),
     ("first FE 4-mode point (rig-fe-neutral, n_modes = 4)", "code", FE_POINT.format(n=4)),
     ("first SDOF continuation: vibeam continue cases/paper-fig13-continuation.toml --quick", "cli",
@@ -1472,11 +1485,20 @@ def _short(sig: str, limit: int = 240) -> str:
     return sig if len(sig) <= limit else sig[:limit] + " ...)"
 
 
+def _specialisation(kernel: str, args: list) -> str:
+    """A readable name of a compiled specialisation: the event integrator's by its compliant data
+    (``cp``: None for a scene of Newton stops only), any other by its signature."""
+    if kernel.endswith("core.integrator.integrate") and len(args) > 3:
+        return "Newton stops only (cp None)" if args[3] == "none" else "with compliant stops (cp Compliant)"
+    return _short("(" + ", ".join(args) + ")", 120)
+
+
 def _compile_summary(records: list, process_wall_s: float) -> dict:
     """One probed process (and its forked workers) from its event lines: compile time (the
-    outermost compilations, nested ones are inside them), each specialisation with its own
-    (``self_s``: less its nested compilations) and inclusive seconds, and the cache's loads
-    and saves."""
+    outermost compilations, nested ones are inside them), the kernel specialisations the work
+    compiled (the outermost ones, each with the seconds of everything compiled for it), each
+    specialisation with its own (``self_s``: less its nested compilations) and inclusive seconds,
+    and the cache's loads and saves."""
     main = next(r["pid"] for r in records if r["kind"] == "main")
     comp = [r for r in records if r["kind"] == "compile"]
     loads = [r for r in records if r["kind"] == "load"]
@@ -1500,7 +1522,17 @@ def _compile_summary(records: list, process_wall_s: float) -> dict:
                        "self_s": r["self_s"], "inclusive_s": r["inclusive_s"], "nested": r["depth"] > 0,
                        "process": "main" if r["pid"] == main else "worker"} for r in comp),
                      key=lambda k: -k["self_s"])
+    outer = [{"kernel": r["kernel"], "specialisation": _specialisation(r["kernel"], r["args"]),
+              "compile_s": r["inclusive_s"], "nested_compilations": 0,
+              "process": "main" if r["pid"] == main else "worker"} for r in comp if r["depth"] == 0]
+    i = 0
+    for r in comp:               # events end innermost first: a top-level one closes its nested ones
+        if r["depth"] == 0:
+            i += 1
+        elif i < len(outer):
+            outer[i]["nested_compilations"] += 1
     return {"process_wall_s": process_wall_s, "probe_wall_s": ext[0] if ext else None,
+            "kernel_specialisations": outer,
             "compile_s": top(comp), "compile_s_main": top([r for r in comp if r["pid"] == main]),
             "compile_s_workers": top(workers),
             "specialisations": len(comp), "specialisations_in_workers": len(workers),
@@ -1554,8 +1586,10 @@ def run_compile_bench(scenarios=None, log=None) -> dict:
     Returns
     -------
     dict
-        JSON-ready: ``scenarios`` (name -> ``{"cold": ..., "warm": ...}``), ``goal_s``,
-        ``cores``, ``load_average``, ``numba``.
+        JSON-ready: ``scenarios`` (name -> ``{"cold": ..., "warm": ...}``), ``kernel_specialisations``
+        (name -> the outermost specialisations compiled cold, each with the seconds of everything
+        compiled for it: the event integrator's ``integrate`` for Newton stops only or with compliant
+        stops, the shooting problem's ``shoot``), ``goal_s``, ``cores``, ``load_average``, ``numba``.
     """
     import tempfile
 
@@ -1580,6 +1614,14 @@ def run_compile_bench(scenarios=None, log=None) -> dict:
                 f"{warm['cache_loads']} cache loads in {warm['cache_load_s']:.2f} s")
         out["scenarios"][name] = {"kind": kind, "command": "vibeam " + " ".join(payload) if kind == "cli" else
                                   payload.strip(), "cold": cold, "warm": warm}
+        for k in cold["kernel_specialisations"]:
+            say(f"  cold: {k['kernel'].rsplit('.', 1)[-1]} [{k['specialisation']}] {k['compile_s']:.2f} s "
+                f"({k['nested_compilations']} nested compilations, {k['process']})")
+    # the figure of issue 20: the cold compile time of each kernel specialisation a scenario uses
+    out["kernel_specialisations"] = {name: [{"kernel": k["kernel"], "specialisation": k["specialisation"],
+                                             "cold_compile_s": k["compile_s"]}
+                                            for k in v["cold"]["kernel_specialisations"]]
+                                     for name, v in out["scenarios"].items()}
     out["load_average_after"] = list(os.getloadavg()) if hasattr(os, "getloadavg") else None
     return out
 
@@ -1595,6 +1637,13 @@ def compile_goals(out: dict) -> list:
         g.append(goal(f"quick start (`vibeam run cases/paper-fig7.toml`, cold cache) compiles in <= "
                       f"{out['goal_s']:g} s", f"{c['compile_s']:.2f} s in {c['specialisations']} specialisations "
                       f"({c['process_wall_s']:.1f} s wall)", c["compile_s"] <= out["goal_s"]))
+    for k, v in sc.items():
+        if "compliant" in k or k.startswith(("quick start", "first FE")):
+            want = "with compliant stops" if "compliant" in k else "Newton stops only"
+            got = [f"{s['kernel'].rsplit('.', 1)[-1]} [{s['specialisation']}]" for s in v["cold"]["kernel_specialisations"]]
+            g.append(goal(f"{k.split(':')[0].split(' (')[0]} compiles the event integrator's specialisation it uses "
+                          f"({want}) and no other", ", ".join(got) or "nothing",
+                          len(got) == 1 and got[0].startswith("integrate [" + want)))
     n_w = {k: v["cold"]["specialisations_in_workers"] + v["warm"]["specialisations_in_workers"] for k, v in sc.items()}
     forked = sum(v["cold"]["forked_workers"] + v["warm"]["forked_workers"] for v in sc.values())
     loads = sum(v["warm"]["cache_loads_in_workers"] for v in sc.values())

@@ -580,10 +580,12 @@ def main(argv=None) -> int:
                    help="instead: seconds from SIGINT to exit of an inline long point and of a --jobs 2 map, "
                         "and the overshoot of point_time_limit_s (goal: each within 1 s)")
     p.add_argument("--compile", action="store_true",
-                   help="instead: numba compile time of the quick start, the first FE 2- and 4-mode points and "
-                        "the first SDOF `vibeam continue` (inline, and on a pool of 2), cold (empty cache) and "
-                        "warm, per specialisation, in fresh processes (goals: quick start <= 5 s; pool workers "
-                        "and warm runs compile nothing)")
+                   help="instead: numba compile time of the quick start, a first compliant SDOF point, the first "
+                        "FE 2- and 4-mode points and the first SDOF `vibeam continue` (inline, and on a pool of 2), "
+                        "cold (empty NUMBA_CACHE_DIR) and warm, in fresh processes: JSON with the cold compile time "
+                        "of each kernel specialisation a scenario uses (key kernel_specialisations) and of every "
+                        "compiled function (goals: quick start <= 5 s; each scenario compiles only the event "
+                        "integrator's specialisation it uses; pool workers and warm runs compile nothing)")
     p.add_argument("--basins", action="store_true",
                    help="instead: a 200 x 200 SDOF basin of the tight rig at 16.5 Hz (goal < 20 s on 2 cores), "
                         "basin hits against full trajectories, and a 50 x 50 basin of the 4-mode FE rig")

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from vibeam.engine.compiling import CompileClock
+from vibeam.engine.sweep import load_kernels
 from vibeam.engine.jobs import (MAX_POINT_VALUES, MAX_WORK_STEPS, Job, case_jobs, check_work,  # noqa: F401
                                estimate_work, file_stem, make_job, point_work)
 from vibeam.errors import CaseError
@@ -325,38 +326,6 @@ POOL_STARTUP_S = 0.15
 """What starting the local pool costs (fork and initialise the workers, hand out the
 lines, collect the rows): measured 0.05-0.15 s for 2 workers on the development machine
 (``pool start-up`` in the run's report)."""
-
-
-def load_kernels(lines) -> float:
-    """Load (or compile) the numba kernels of the lines' solvers in this process, once per
-    solver class: one short call each (two forcing periods, at the line's first frequency).
-    Returns the seconds it took.  Forked pool workers inherit the loaded kernels, so a
-    sweep's run time holds neither a cache load per worker nor a compilation per worker.
-    A call that fails is ignored (the sweep records the failure where it happens)."""
-    t0 = time.perf_counter()
-    seen = set()
-    for l in lines:
-        if hasattr(l, "warm_up"):          # a continuation run: a cut-down run of the same kind
-            sp = getattr(l, "spec", None)
-            key = ("task", getattr(sp, "fidelity", ""), str(getattr(sp, "contact", None)),
-                   str(getattr(sp, "contact_lower", None)), l.parameter == "Omega")
-            if key not in seen:
-                seen.add(key)
-                l.warm_up()
-            continue
-        s = getattr(l, "solver", None)
-        if s is None:
-            continue
-        inner = getattr(s, "solver", None)
-        key = (type(s), type(inner), getattr(s, "name", ""), getattr(getattr(s, "model", None), "fidelity", ""))
-        if key in seen:
-            continue
-        seen.add(key)
-        try:
-            s.point(float(l.Omega[0]), None, 1, 1, 16)
-        except Exception:
-            pass
-    return time.perf_counter() - t0
 
 
 #: kernel loading above this (seconds) is announced: numba compiles them for first use

@@ -62,8 +62,8 @@ from ..system import advance_count, transition_increment
 from .contact_phase import (EK_ENTRY, EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_IMPACT, EK_NONE, EK_RELEASE, linear_step,
                             phase_harmonics, rk_phase_step, rk_scales)
 from .laws import force, hertz_floor, inside_sign, is_compliant
-from .signals import (bounds, extremes, homogeneous, homogeneous_bounds, mode_ends, root, scan, scan_from, signal,
-                      signal_start)
+from .signals import (ROOT_APEX, bounds, extremes, homogeneous, homogeneous_bounds, mode_ends, root, scan, scan_from,
+                      signal, signal_start)
 
 __all__ = ["Record", "integrate", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
            "STATUS_NAMES", "EV_START", "EV_IMPACT", "EV_STICK", "EV_STICK_IMPACT", "EV_RELEASE", "EV_ENTRY",
@@ -144,8 +144,75 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
                   np.zeros(2, np.int64), np.full((impact_buffer if compliant else 0, 5), np.nan))
 
 
+# ============================================================================ work arrays
+# The kernel is a set of separately compiled functions (numba and LLVM compile several functions of
+# moderate size far faster than one of a thousand lines, issue 20): :func:`integrate` prepares a
+# call (:func:`_prepare`, :func:`_prepare_compliant`, :func:`_start`) and runs the loop
+# (:func:`_run`), which takes each step by :func:`_free_step`, :func:`_held_step` or
+# :func:`_contact_phase` and resolves a contact by :func:`_impact` or :func:`_entry`.  They share
+# the state of the call through small work arrays (rows by index, no views kept):
+#
+# ``wn`` (_NWN, n)  per mode: the particular solution, the free arc's homogeneous parts and their
+#                   increments, the held phase's coordinates, copies of the system's rows;
+# ``wk`` (_NWK, ns) per stop: harmonic parts, carried gaps and their derivatives, bounds;
+# ``fs`` (_NFS,)    the loop's floats (clock, times, sensor extremes);
+# ``ist`` (_NIS,)   its integers and flags (held set, contact set, counters).
+#
+# Every function but the public :func:`integrate` and the two that allocate is compiled without
+# reference counting (``_nrt=False``: an array argument costs nothing per call) and without a
+# Python wrapper (called from compiled code only), each for one argument signature (the
+# compliant data ``cw`` is None for a scene of Newton stops, whose functions then hold no
+# compliant code: numba prunes the branches on ``cw is not None``).
+(_AF, _BF, _GF, _ZERO, _XF, _YF, _DXV, _DYV, _X2V, _X3V, _X0, _Y0, _ZETA, _ZETAD, _SENS, _CM, _KM,
+ _NWN) = range(18)
+(_SAF, _SBF, _CSF, _G, _V, _G1, _V1, _G2, _G3, _G21, _G31, _M2F, _M3F, _M4F, _LAM0, _LAMP0, _OFF, _MEFF,
+ _NWK) = range(19)
+(_PHI, _TLOC, _REM, _HLAST, _HOLD, _GMAX, _STUCK, _TCON, _TLAST, _PT, _T0, _SASF, _SBSF, _PEXT, _PEXT1,
+ _EXT, _EXT1, _NFS) = range(18)
+(_H, _C, _INSIDE, _RELAXED, _CMASK, _FRESH, _BSTALE, _ATGRID, _JSTUCK, _JREL, _QFRESH, _QLAST, _BURST,
+ _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _NIS) = range(19)
+# the event kinds and the root kind of an apex as int64 constants: a literal int argument would
+# compile the callee once per value
+_K_START, _K_IMPACT, _K_STICK, _K_STICK_IMPACT, _K_RELEASE, _K_ENTRY, _K_EXIT = (np.int64(k) for k in range(7))
+#: the internal functions: called from compiled code only (no Python or C wrapper), no reference counting
+_kernel = njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+
+
+class _CompliantWork(NamedTuple):
+    """The compliant stops' data and work arrays of one call (None for Newton stops only)."""
+
+    st: object
+    cp: object
+    pax: np.ndarray
+    pbx: np.ndarray
+    pay: np.ndarray
+    pby: np.ndarray
+    vr: np.ndarray
+    vfl: np.ndarray
+    cs: np.ndarray
+    crow: np.ndarray
+    rkc: np.ndarray
+    xq: np.ndarray
+    yq: np.ndarray
+    hbq: np.ndarray
+    wpa: np.ndarray
+    wra: np.ndarray
+    wpb: np.ndarray
+    wrb: np.ndarray
+    ext2: np.ndarray
+    ry0: np.ndarray
+    ry1: np.ndarray
+    rtmp: np.ndarray
+    ryt: np.ndarray
+    ryw: np.ndarray
+    rye: np.ndarray
+    racc: np.ndarray
+    rK: np.ndarray
+    con: np.ndarray
+
+
 # ============================================================================ helpers
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def _clock(phi, t_loc, rem, s, Om, T):
     """Advance the forcing phase, the time within the period and the rest of the grid step."""
     rem -= s
@@ -157,7 +224,7 @@ def _clock(phi, t_loc, rem, s, Om, T):
     return phi, t_loc + s, rem
 
 
-@njit(cache=True, error_model="numpy")
+@_kernel
 def _contact_acc(phi, Om, eta, etad, d, c, k, GF):
     """Free acceleration along ``d``, ``a = d^T (Gamma F sin - C eta' - K eta)``, and its time
     derivative ``d^T (Gamma F Omega cos - C eta'' - K eta')`` (forcing term included)."""
@@ -172,14 +239,14 @@ def _contact_acc(phi, Om, eta, etad, d, c, k, GF):
     return acc, jerk
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def _far(g0, g1, M2, h):
     """A gap negative at both ends of a step stays negative inside when it is far from zero:
     linear interpolation is off by at most ``M2 h^2 / 8`` (``M2`` bounds ``|g''|``)."""
     return max(g0, g1) + 0.125 * M2 * h * h < 0.0
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@_kernel
 def _dot(a, b):
     r = 0.0
     for i in range(a.shape[0]):
@@ -187,7 +254,7 @@ def _dot(a, b):
     return r
 
 
-@njit(cache=True, error_model="numpy")
+@_kernel
 def _log_event(evlog, nlog, kind, t, aux, stop, eta, etad):
     k = nlog[0]
     if k < evlog.shape[0]:
@@ -202,12 +269,12 @@ def _log_event(evlog, nlog, kind, t, aux, stop, eta, etad):
     nlog[0] = k + 1
 
 
-@njit(cache=True, error_model="numpy")
+@_kernel
 def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m, stop):
     """Locate the maximum of a gap inside ``[0, h]`` (slope + at 0, <= 0 at h) and log it."""
     k = nlog[1]
     if k < aplog.shape[0]:
-        sa = root(1, 0.0, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)
+        sa = root(ROOT_APEX, 0.0, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)
         ga = signal(sa, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)[0]
         aplog[k, 0] = t + sa
         aplog[k, 1] = ga
@@ -215,12 +282,11 @@ def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0,
     nlog[1] = k + 1
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def _gap_ends(Pm, k, Sa, Sb, f0, fp0, Om, dx, dy, x2, x3, dsin, dcos, sp1, cp1, m, g1, v1, g21, g31):
     """Value, slope, 2nd and 3rd derivative at the end of a free step of the gap signal with
     weights ``Pm[k]`` (no velocity weights) and harmonic part ``Sa sin + Sb cos``, from the modes'
-    increments (:func:`vibeam.models.core.signals.mode_ends`) and the phase's; into row ``k``.
-    (Rows by index, not views: no reference counting in the hot loop.)"""
+    increments (:func:`vibeam.models.core.signals.mode_ends`) and the phase's; into row ``k``."""
     f = f0 + Sa * dsin + Sb * dcos
     f1 = fp0 + Om * (Sa * dcos - Sb * dsin)
     f2 = 0.0
@@ -237,7 +303,7 @@ def _gap_ends(Pm, k, Sa, Sb, f0, fp0, Om, dx, dy, x2, x3, dsin, dcos, sp1, cp1, 
     g31[k] = f3 - W2 * Om * (Sa * cp1 - Sb * sp1)
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@_kernel
 def _free_bounds(x, y, mp, hb, Nrm, Cs, Om, M2, M3, M4, n, ns):
     """Bounds of the 2nd-4th derivatives of every stop's gap over the rest of a free arc, from the
     modes' homogeneous parts ``x, y`` now (:func:`vibeam.models.core.signals.homogeneous_bounds`)."""
@@ -259,7 +325,7 @@ def _free_bounds(x, y, mp, hb, Nrm, Cs, Om, M2, M3, M4, n, ns):
         M4[k] = a4 * f + 1e-300
 
 
-@njit(cache=True, error_model="numpy")
+@_kernel
 def _particular(c, k, G, F, Om, a, b, m):
     """``a sin + b cos``, the steady response of ``x'' + c x' + k x = G F sin(Om t)``; False if
     not finite (a mode at undamped exact resonance)."""
@@ -285,73 +351,62 @@ def _particular(c, k, G, F, Om, a, b, m):
     return ok
 
 
-@njit(cache=True, error_model="numpy")
-def _in(mask, k):
-    return (mask >> k) & 1 == 1
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def _failed(fs, ist):
+    """The return tuple of a call that gave up (:data:`ST_FAILED`)."""
+    return (ST_FAILED, ist[_NIMPR], min(fs[_EXT], fs[_PEXT]), max(fs[_EXT1], fs[_PEXT1]), ist[_NCHAT], fs[_STUCK],
+            ist[_H] | ist[_C], ist[_NIMPT], fs[_GMAX], ist[_NSTEPS], fs[_TCON])
 
 
-# ============================================================================ the kernel
-@njit(cache=True, error_model="numpy")
-def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
-              max_impacts, max_steps, chatter_tol, rec):
-    """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core).
+# ============================================================================ preparing a call
+@njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _alloc(n, ns, S, Om, ns_transient, ns_record, h_cap):
+    """The work arrays of one call (:func:`_frequency` fills them) and the sub-steps per grid step
+    of the transient and of the record (a grid step split into ``sub`` of at most ``h_cap``)."""
+    T = TWO_PI / Om
+    sub_t = max(1, int(math.ceil((T / ns_transient) / h_cap * (1.0 - 1e-12))))
+    sub_r = max(1, int(math.ceil((T / ns_record) / h_cap * (1.0 - 1e-12))))
+    nt_t = ns_transient * sub_t
+    nt_r = ns_record * sub_r
+    one = nt_t == nt_r and ns_transient == ns_record     # one grid (a shot): the same tables
+    P_r = np.empty((n, 4))
+    tab_r = np.empty((nt_r + 1, 2))
+    P_t = P_r if one else np.empty((n, 4))
+    tab_t = tab_r if one else np.empty((nt_t + 1, 2))
+    return (np.empty((_NWN, n)), np.empty((_NWK, ns)), np.empty((n, 6)), np.empty((2 * S, n)),
+            np.empty((6 * S, ns)), np.empty((2, S)), P_r, tab_r, P_t, tab_t, np.empty(_NFS),
+            np.empty(_NIS, np.int64), sub_r, sub_t)
 
-    Parameters
-    ----------
-    sy : KernelSystem
-    st : KernelStops
-    hs : HeldSets
-        :mod:`vibeam.models.core.stops`.
-    cp : Compliant or None
-        The compliant stops' data (:class:`vibeam.models.core.phases.Compliant`: the linear contact
-        phases, the Runge-Kutta tableau); None for a scene with Newton stops only, whose compiled
-        specialisation then holds no compliant code (numba prunes the branches on ``cp is None``).
-    Om : float
-        Forcing frequency (per unit nondimensional time).
-    eta, etad : ndarray, shape (n,)
-        Initial modal state, overwritten with the final one.
-    held0 : int
-        Bit mask of the stops the system is held on (Newton stops) or in contact with (compliant
-        stops) at the start (0 free).
-    n_transient, n_record : int
-        Forcing periods discarded, then recorded.
-    ns_transient, ns_record : int
-        Grid points per period (the recorded samples).
-    h_cap : float
-        Largest step.
-    max_impacts, max_steps : int
-        Guards: beyond them the call returns :data:`ST_FAILED`.
-    chatter_tol : float
-        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.contact_policy`).
-    rec : Record
-        Outputs.
 
-    Returns
-    -------
-    tuple
-        ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
-        gmax, n_steps, contact_time)``: status code, recorded impacts and contacts, sensor extremes
-        over the record (row units), chatter sequences, time held (excluding chatter holds), the
-        final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
-        response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
-        gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
-        round-off only if a crossing had been stepped over), steps taken, time in compliant contact
-        during the record.
-    """
+@_kernel
+def _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
+               ns_transient, ns_record, h_cap, fs, ist):
+    """Per-frequency data (particular solutions, the harmonic parts of every signal, the tables of
+    the sub-steps) into the work arrays of :func:`_alloc`; the record and the loop's state reset.
+    Returns 0, or -1 (the forced response is not finite) / -2 (the motion's scale is subnormal),
+    the record then untouched."""
     n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
     T = TWO_PI / Om
     F = Om * Om * sy.B
     mp = sy.mp
+    nt_t = ns_transient * sub_t
+    nt_r = ns_record * sub_r
+    for i in range(n):
+        wn[_ZERO, i] = 0.0
+    for j in range(_NFS):
+        fs[j] = 0.0
+    for j in range(_NIS):
+        ist[j] = 0
     # ---- per-frequency data: particular solutions and the harmonic parts of every signal
-    aF = np.empty(n)
-    bF = np.empty(n)
-    GF = np.empty(n)
+    aF = wn[_AF]
+    bF = wn[_BF]
+    GF = wn[_GF]
     for i in range(n):
         GF[i] = sy.gam[i] * F
     if not _particular(sy.c, sy.k, sy.gam, F, Om, aF, bF, n):
-        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -1, -np.inf, 0, 0.0)
+        return -1
     # a motion at the scale of subnormal numbers (below 2.2e-308, i.e. with fewer than 53
     # significant bits) cannot be computed to the kernel's precision: failed at once (n_imp_total
     # -2), not a number with a few bits
@@ -361,32 +416,24 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
     for k in range(ns):
         scale_f = max(scale_f, abs(st.offset[k]))
     if 0.0 < scale_f < 1e-290:
-        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -2, -np.inf, 0, 0.0)
-    SaF = np.empty(ns)
-    SbF = np.empty(ns)
-    CsF = np.empty(ns)
+        return -2
+    SaF = wk[_SAF]
+    SbF = wk[_SBF]
+    CsF = wk[_CSF]
     for k in range(ns):
         SaF[k] = _dot(st.normal[k], aF)
         SbF[k] = _dot(st.normal[k], bF)
         CsF[k] = math.sqrt(SaF[k] * SaF[k] + SbF[k] * SbF[k])
-    SaSF = _dot(sy.sensor, aF)
-    SbSF = _dot(sy.sensor, bF)
-    aC = np.zeros((S, n))
-    bC = np.zeros((S, n))
-    SaL = np.zeros((S, ns))
-    SbL = np.zeros((S, ns))
-    CsL = np.zeros((S, ns))
-    SaG = np.zeros((S, ns))
-    SbG = np.zeros((S, ns))
-    CsG = np.zeros((S, ns))
-    SaS = np.zeros(S)
-    SbS = np.zeros(S)
+    fs[_SASF] = _dot(sy.sensor, aF)
+    fs[_SBSF] = _dot(sy.sensor, bF)
     for m in range(1, S):
         if hs.valid[m] == 0:
             continue
         nc = hs.nc[m]
-        if not _particular(hs.c[m], hs.nu2[m], hs.gam[m], F, Om, aC[m], bC[m], nc):
-            return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, -1, -np.inf, 0, 0.0)
+        aC = hab[m]
+        bC = hab[S + m]
+        if not _particular(hs.c[m], hs.nu2[m], hs.gam[m], F, Om, aC, bC, nc):
+            return -1
         for k in range(ns):
             pa = 0.0
             pb = 0.0
@@ -395,175 +442,758 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
             ga = 0.0
             gb = 0.0
             for j in range(nc):
-                pa += hs.pL[m, k, j] * aC[m, j]
-                pb += hs.pL[m, k, j] * bC[m, j]
-                ra += hs.rL[m, k, j] * aC[m, j]
-                rb += hs.rL[m, k, j] * bC[m, j]
-                ga += hs.pG[m, k, j] * aC[m, j]
-                gb += hs.pG[m, k, j] * bC[m, j]
-            SaL[m, k] = hs.lamF[m, k] * F + pa - Om * rb
-            SbL[m, k] = pb + Om * ra
-            CsL[m, k] = math.sqrt(SaL[m, k] ** 2 + SbL[m, k] ** 2)
-            SaG[m, k] = ga
-            SbG[m, k] = gb
-            CsG[m, k] = math.sqrt(ga * ga + gb * gb)
+                pa += hs.pL[m, k, j] * aC[j]
+                pb += hs.pL[m, k, j] * bC[j]
+                ra += hs.rL[m, k, j] * aC[j]
+                rb += hs.rL[m, k, j] * bC[j]
+                ga += hs.pG[m, k, j] * aC[j]
+                gb += hs.pG[m, k, j] * bC[j]
+            SaL = hs.lamF[m, k] * F + pa - Om * rb
+            SbL = pb + Om * ra
+            hsig[m, k] = SaL
+            hsig[S + m, k] = SbL
+            hsig[2 * S + m, k] = math.sqrt(SaL ** 2 + SbL ** 2)
+            hsig[3 * S + m, k] = ga
+            hsig[4 * S + m, k] = gb
+            hsig[5 * S + m, k] = math.sqrt(ga * ga + gb * gb)
         sa = 0.0
         sb = 0.0
         for j in range(nc):
-            sa += hs.pS[m, j] * aC[m, j]
-            sb += hs.pS[m, j] * bC[m, j]
-        SaS[m] = sa
-        SbS[m] = sb
-    # ---- fixed sub-steps (a grid step split into ``sub`` of at most h_cap) with the modes'
-    # transition increments and the forcing phases tabulated once: a free step over a whole
-    # sub-step that meets no event costs no transcendental function call
-    sub_t = max(1, int(math.ceil((T / ns_transient) / h_cap * (1.0 - 1e-12))))
-    sub_r = max(1, int(math.ceil((T / ns_record) / h_cap * (1.0 - 1e-12))))
-    nt_t = ns_transient * sub_t
-    nt_r = ns_record * sub_r
-    P_r = np.empty((n, 4))
+            sa += hs.pS[m, j] * aC[j]
+            sb += hs.pS[m, j] * bC[j]
+        hss[0, m] = sa
+        hss[1, m] = sb
+    # ---- the sub-steps' transition increments and forcing phases, tabulated once: a free step
+    # over a whole sub-step that meets no event costs no transcendental function call
     for i in range(n):
         P_r[i, 0], P_r[i, 1], P_r[i, 2], P_r[i, 3] = transition_increment(
             T / (ns_record * sub_r), mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
-    tab_r = np.empty((nt_r + 1, 2))
     for kk in range(nt_r + 1):
         tab_r[kk, 0] = math.sin(TWO_PI * kk / nt_r)
         tab_r[kk, 1] = math.cos(TWO_PI * kk / nt_r)
-    if nt_t == nt_r and ns_transient == ns_record:
-        P_t = P_r             # one grid (a shot): the same tables
-        tab_t = tab_r
-    else:
-        P_t = np.empty((n, 4))
+    if not (nt_t == nt_r and ns_transient == ns_record):
         for i in range(n):
             P_t[i, 0], P_t[i, 1], P_t[i, 2], P_t[i, 3] = transition_increment(
                 T / (ns_transient * sub_t), mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4], mp[i, 5])
-        tab_t = np.empty((nt_t + 1, 2))
         for kk in range(nt_t + 1):
             tab_t[kk, 0] = math.sin(TWO_PI * kk / nt_t)
             tab_t[kk, 1] = math.cos(TWO_PI * kk / nt_t)
-    # ---- work arrays
-    zeroN = np.zeros(n)
-    xF = np.empty(n)          # free flight: homogeneous parts of the modes, carried along an arc
-    yF = np.empty(n)
-    dxv = np.empty(n)
-    dyv = np.empty(n)
-    x2v = np.empty(n)
-    x3v = np.empty(n)
-    M2F = np.empty(ns)
-    M3F = np.empty(ns)
-    M4F = np.empty(ns)
-    G2 = np.empty(ns)         # 2nd and 3rd derivatives of the gaps, carried along a free arc
-    G3 = np.empty(ns)
-    G21 = np.empty(ns)
-    G31 = np.empty(ns)
-    fresh = True
-    bstale = False
-    Nrm = st.normal
-    x0 = np.empty(n)
-    y0 = np.empty(n)
-    hb = np.empty((n, 6))
-    zeta = np.empty(n)
-    zetad = np.empty(n)
-    g = np.empty(ns)          # carried gaps (value + accurate increments) and normal velocities
-    v = np.empty(ns)
-    g1 = np.empty(ns)
-    v1 = np.empty(ns)
-    lam0 = np.empty(ns)
-    lamp0 = np.empty(ns)
-    samples = rec.samples
-    msamp = rec.msamp
-    modamp = rec.modamp
-    pmin = rec.pmin
-    imp_t = rec.imp_t
-    imp_v = rec.imp_v
-    imp_k = rec.imp_k
-    n_imp_stop = rec.n_imp_stop
-    chat_t = rec.chat_t
-    evlog = rec.evlog
-    aplog = rec.aplog
-    nlog = rec.nlog
-    logging = evlog.shape[0] > 0
-    apexes = aplog.shape[0] > 0
-    nlog[0] = 0
-    nlog[1] = 0
-    for k in range(ns):
-        n_imp_stop[k] = 0
+    # ---- copies of the rows the steps read (the stops' offsets and effective masses, the
+    # system's damping, stiffness and sensor)
     for i in range(n):
-        modamp[i] = 0.0
-    for i in range(pmin.shape[0]):
-        pmin[i] = np.inf
-    ext = np.array([np.inf, -np.inf])
-    pext = np.array([np.inf, -np.inf])
+        wn[_SENS, i] = sy.sensor[i]
+        wn[_CM, i] = sy.c[i]
+        wn[_KM, i] = sy.k[i]
+    for k in range(ns):
+        wk[_OFF, k] = st.offset[k]
+        wk[_MEFF, k] = st.m_eff[k]
+    # ---- the record and the loop's state
+    rec.nlog[0] = 0
+    rec.nlog[1] = 0
+    for k in range(ns):
+        rec.n_imp_stop[k] = 0
+    for i in range(n):
+        rec.modamp[i] = 0.0
+    for i in range(rec.pmin.shape[0]):
+        rec.pmin[i] = np.inf
+    fs[_EXT] = np.inf
+    fs[_EXT1] = -np.inf
+    fs[_PEXT] = np.inf
+    fs[_PEXT1] = -np.inf
+    fs[_HLAST] = h_cap
+    fs[_GMAX] = -np.inf
+    fs[_TLAST] = -1e300
+    ist[_FRESH] = 1
+    ist[_QFRESH] = 1
+    ist[_QLAST] = -1
+    return 0
+
+
+@njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec):
+    """The compliant stops' work (:class:`_CompliantWork`): the linear contact phases' forced
+    response at this frequency, the entry-velocity floors, the contacts open at the start (from the
+    state as given, before any projection) and the stops the body starts inside of."""
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    S = hs.valid.shape[0]
+    F = Om * Om * sy.B
     # ---- compliant stops (a contact phase each; vibeam.models.core.contact_phase): the set in
     # contact C, the stops the body is inside of without contact, those left by a hysteretic-Hertz
-    # stop's damping factor; all zero for Newton stops only
+    # stop's damping factor
+    lph = cp.ph
+    Qn = lph.m.shape[0]
+    pax = np.zeros((Qn, n))
+    pbx = np.zeros((Qn, n))
+    pay = np.zeros((Qn, n))
+    pby = np.zeros((Qn, n))
+    phase_harmonics(lph, Om, F, pax, pbx, pay, pby)
+    vr = np.zeros(ns)          # the open contacts' entry velocities (hysteretic Hertz: floored)
+    vfl = np.zeros(ns)
+    cs = np.zeros((ns, 5))     # the open contacts' records (C_DURATION ...; column 0 the entry time)
+    crow = np.full(ns, -1, np.int64)
     cmask = 0
-    C = 0
-    inside = 0
-    relaxed = 0
-    exited = 0          # stops whose contact ended at the current instant (no re-entry on round-off)
-    t_contact = 0.0
-    q_last = -1
-    qfresh = True
-    if cp is not None:
-        lph = cp.ph
-        Qn = lph.m.shape[0]
-        pax = np.zeros((Qn, n))
-        pbx = np.zeros((Qn, n))
-        pay = np.zeros((Qn, n))
-        pby = np.zeros((Qn, n))
-        phase_harmonics(lph, Om, F, pax, pbx, pay, pby)
-        vr = np.zeros(ns)          # the open contacts' entry velocities (hysteretic Hertz: floored)
-        vfl = np.zeros(ns)
-        cs = np.zeros((ns, 5))     # the open contacts' records (C_DURATION ...; column 0 the entry time)
-        crow = np.full(ns, -1, np.int64)
-        for k in range(ns):
-            if is_compliant(st.law[k]):
-                cmask |= 1 << k
-                vfl[k] = hertz_floor(Om, sy.B, _dot(st.normal[k], sy.gam), cp.vfall, cp.vfac)
-        xq = np.zeros(n)
-        yq = np.zeros(n)
-        hbq = np.empty((n, 6))
-        wpa = np.empty(n)
-        wra = np.empty(n)
-        wpb = np.empty(n)
-        wrb = np.empty(n)
-        ext2 = np.empty(2)
-        Lr = 2 * n + ns
-        ry0 = np.empty(Lr)
-        ry1 = np.empty(Lr)
-        rtmp = np.empty(Lr)
-        ryt = np.empty(Lr)
-        ryw = np.empty(Lr)
-        rye = np.empty(Lr)
-        racc = np.empty(Lr)
-        rK = np.empty((cp.tab.c.shape[0], Lr))
-        rkc = np.zeros(4)
-        con = rec.con
-        for r in range(con.shape[0]):
-            for c in range(5):
-                con[r, c] = np.nan
-    # ---- the initial state: held on its set (projected onto the constraint), or put on a stop it
-    # lies on within round-off (position only)
+    for k in range(ns):
+        if is_compliant(st.law[k]):
+            cmask |= 1 << k
+            vfl[k] = hertz_floor(Om, sy.B, _dot(st.normal[k], sy.gam), cp.vfall, cp.vfac)
+    Lr = 2 * n + ns
+    rkc = np.zeros(4)
+    con = rec.con
+    for r in range(con.shape[0]):
+        for c in range(5):
+            con[r, c] = np.nan
     H = held0 & ~cmask
     if H < 0 or H >= S or hs.valid[H] == 0:
         H = 0
-    if cp is not None:
-        C = held0 & cmask if 0 <= held0 < S else 0
+    C = held0 & cmask if 0 <= held0 < S else 0
+    inside = 0
+    for k in range(ns):
+        if (C >> k) & 1:
+            U = _dot(st.normal[k], etad)
+            vr[k] = max(U if st.law[k] != LAW_LINEAR else abs(U), vfl[k])
+            gk = _dot(st.normal[k], eta) - st.offset[k]
+            cs[k, 0] = 0.0
+            cs[k, 1] = force(st.law[k], gk, U, st.kc[k], st.cc[k], st.pe[k], vr[k])
+            cs[k, 2] = gk
+            cs[k, 3] = 0.0
+            cs[k, 4] = U
+        elif (cmask >> k) & 1 and _dot(st.normal[k], eta) - st.offset[k] > 0.0:
+            inside |= 1 << k
+    if C != 0 and lph.index[H, C] < 0:
+        rk_scales(H, C, sy, st, hs, vr, rkc)
+    ist[_CMASK] = cmask
+    ist[_C] = C
+    ist[_INSIDE] = inside
+    return _CompliantWork(st, cp, pax, pbx, pay, pby, vr, vfl, cs, crow, rkc, np.zeros(n), np.zeros(n),
+                          np.empty((n, 6)), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(2),
+                          np.empty(Lr), np.empty(Lr), np.empty(Lr), np.empty(Lr), np.empty(Lr), np.empty(Lr),
+                          np.empty(Lr), np.empty((cp.tab.c.shape[0], Lr)), con)
+
+
+# ============================================================================ the steps
+@_kernel
+def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog, nlog, Om, T, recording, cw):
+    """One step held on the set ``H`` (no compliant contact): the constrained system in closed form,
+    the held stops' forces scanned for their release, the other stops' gaps for a contact.
+    Returns the stop of a contact (-1: none, the step was taken or the held set changed)."""
+    n = eta.shape[0]
+    ns = Nrm.shape[0]
+    phi = fs[_PHI]
+    t_loc = fs[_TLOC]
+    rem = fs[_REM]
+    h_last = fs[_HLAST]
+    gmax = fs[_GMAX]
+    hold = fs[_HOLD]
+    stuck_time = fs[_STUCK]
+    pT = fs[_PT]
+    H = ist[_H]
+    inside = ist[_INSIDE]
+    relaxed = ist[_RELAXED]
+    cmask = ist[_CMASK]
+    just_released = ist[_JREL] != 0
+    just_stuck = ist[_JSTUCK] != 0
+    logging = evlog.shape[0] > 0
+    apexes = aplog.shape[0] > 0
+    h_try = min(rem, 2.0 * h_last)
+    pext = fs[_PEXT:_PEXT1 + 1]
+    GF = wn[_GF]
+    zeroN = wn[_ZERO]
+    x0 = wn[_X0]
+    y0 = wn[_Y0]
+    zeta = wn[_ZETA]
+    zetad = wn[_ZETAD]
+    g = wk[_G]
+    v = wk[_V]
+    lam0 = wk[_LAM0]
+    lamp0 = wk[_LAMP0]
+    off = wk[_OFF]
+    S = hs.valid.shape[0]
+    # the per-frequency data of the set H (rows of _frequency's arrays): the particular solution of
+    # its coordinates; the harmonic parts of the held stops' forces (L) and of the gaps (G)
+    aC = hab[H]
+    bC = hab[S + H]
+    SaL = hsig[H]
+    SbL = hsig[S + H]
+    CsL = hsig[2 * S + H]
+    SaG = hsig[3 * S + H]
+    SbG = hsig[4 * S + H]
+    CsG = hsig[5 * S + H]
+    SaS = hss[0, H]
+    SbS = hss[1, H]
+    ist[_FRESH] = 1
+    ist[_ATGRID] = 0
+    nc = hs.nc[H]
+    Psi = hs.Psi[H]
+    etc = hs.eta_c[H]
+    mpC = hs.mp[H]
+    eC = hs.e[H]
+    # a stop not held that the system touches and does not leave: impact or stick
+    touched = -1
+    if cw is not None and inside != 0:
+        # inside a compliant stop without contact: back below it, or a contact now
+        st = cw.st
+        vr = cw.vr
+        for j in range(ns):
+            if (inside >> j) & 1 == 0:
+                continue
+            gk = _dot(Nrm[j], eta) - off[j]
+            vk = _dot(Nrm[j], etad)
+            g[j] = gk
+            v[j] = vk
+            if gk <= 0.0:
+                inside &= ~(1 << j)
+                relaxed &= ~(1 << j)
+                continue
+            r0, r1, roff = inside_sign(st.law[j], st.kc[j], st.cc[j], vr[j], (relaxed >> j) & 1 == 1)
+            acc, jerk = _contact_acc(phi, Om, eta, etad, hs.dirn[H, j], wn[_CM], wn[_KM], GF)
+            sg = r0 * gk + r1 * vk + roff
+            tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
+            if (ist[_EXITED] >> j) & 1:
+                sg = 0.0      # just left it: the force is zero there to round-off
+            if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
+                touched = j
+                break
+    for j in range(ns):
+        if touched >= 0:
+            break
+        if (H >> j) & 1 == 1 or hs.moves[H, j] == 0 or (inside >> j) & 1:
+            continue
+        if g[j] >= 0.0 and v[j] >= 0.0:
+            g[j] = 0.0
+            if v[j] > 0.0:
+                touched = j
+                break
+            if not just_released:
+                acc, jerk = _contact_acc(phi, Om, eta, etad, hs.dirn[H, j], wn[_CM], wn[_KM], GF)
+                if (cmask >> j) & 1:
+                    if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
+                        touched = j     # pressed onto a compliant stop: a contact
+                        break
+                elif not release_now(acc, jerk) and hs.valid[H | (1 << j)] == 1:
+                    if logging:
+                        _log_event(evlog, nlog, _K_STICK, pT + t_loc, 0.0, j, eta, etad)
+                    H = H | (1 << j)
+                    v[j] = 0.0
+                    ist[_JSTUCK] = 1
+                    touched = -2
+                    break
+    if touched != -1:
+        ist[_H] = H
+        ist[_INSIDE] = inside
+        ist[_RELAXED] = relaxed
+        return touched if touched >= 0 else -1
+    for j in range(nc):
+        zz = 0.0
+        zd = 0.0
+        for i in range(n):
+            zz += Psi[i, j] * (eta[i] - etc[i])
+            zd += Psi[i, j] * etad[i]
+        zeta[j] = zz
+        zetad[j] = zd
+    homogeneous(phi, Om, zeta, zetad, aC, bC, eC, x0, y0, nc)
+    # the shared release rule: lambda > 0 pulls the system off the stop
+    for k in range(ns):
+        if (H >> k) & 1 == 0:
+            continue
+        l0, lp0 = signal_start(phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k], SaL[k],
+                               SbL[k], hs.cL[H, k], nc)
+        if release_now(-l0, -lp0) and not just_stuck and hold <= 0.0:
+            lam0[k] = l0
+            if logging:
+                _log_event(evlog, nlog, _K_RELEASE, pT + t_loc, lam0[k], k, eta, etad)
+            ist[_H] = H & ~(1 << k)
+            ist[_JREL] = 1
+            ist[_INSIDE] = inside
+            ist[_RELAXED] = relaxed
+            g[k] = 0.0
+            v[k] = 0.0
+            return -1
+        lam0[k] = l0 if l0 <= 0.0 else 0.0
+        lamp0[k] = lp0
+    for j in range(nc):
+        homogeneous_bounds(x0[j], y0[j], mpC[j, 0], mpC[j, 1], int(mpC[j, 2]), mpC[j, 3],
+                           mpC[j, 4], mpC[j, 5], hb[j])
+    # the hold is the rest of a chatter sequence (impacts accumulating), not
+    # sticking: no release check, not counted in stuck_time
+    in_hold = hold > 0.0
+    s_ev = -1.0
+    k_ev = -1
+    ev_release = False
+    h = h_try
+    if in_hold:
+        h = min(h_try, hold)
+    else:
         for k in range(ns):
-            if (C >> k) & 1:
-                U = _dot(st.normal[k], etad)
-                vr[k] = max(U if st.law[k] != LAW_LINEAR else abs(U), vfl[k])
-                gk = _dot(st.normal[k], eta) - st.offset[k]
-                cs[k, 0] = 0.0
-                cs[k, 1] = force(st.law[k], gk, U, st.kc[k], st.cc[k], st.pe[k], vr[k])
-                cs[k, 2] = gk
-                cs[k, 3] = 0.0
-                cs[k, 4] = U
-            elif (cmask >> k) & 1 and _dot(st.normal[k], eta) - st.offset[k] > 0.0:
-                inside |= 1 << k
+            if (H >> k) & 1 == 0:
+                continue
+            M2, M3, M4 = bounds(hb, hs.pL[H, k], hs.rL[H, k], CsL[k], Om, nc)
+            hk = h if s_ev < 0.0 else s_ev
+            sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k],
+                           SaL[k], SbL[k], lam0[k], lamp0[k], M2, M3, M4, nc)
+            if sk >= 0.0:
+                s_ev = sk
+                k_ev = k
+                ev_release = True
+            elif hk2 < hk:
+                s_ev = -1.0
+                k_ev = -1
+                h = hk2
+    ev_in = 0
+    for j in range(ns):
+        if (H >> j) & 1 == 1 or hs.moves[H, j] == 0:
+            continue
+        if cw is not None and (inside >> j) & 1:
+            # inside a compliant stop: the sign of its force up, its gap down
+            st = cw.st
+            vr = cw.vr
+            wpa = cw.wpa
+            wra = cw.wra
+            r0, r1, roff = inside_sign(st.law[j], st.kc[j], st.cc[j], vr[j],
+                                       (relaxed >> j) & 1 == 1)
+            for i in range(nc):
+                wpa[i] = r0 * hs.pG[H, j, i]
+                wra[i] = r1 * hs.pG[H, j, i]
+            Sa = r0 * SaG[j] - r1 * Om * SbG[j]
+            Sb = r0 * SbG[j] + r1 * Om * SaG[j]
+            M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, nc)
+            f0, fp0 = signal_start(phi, Om, x0, y0, mpC, wpa, wra, Sa, Sb,
+                                   r0 * hs.cG[H, j] + roff, nc)
+            hk = h if s_ev < 0.0 else s_ev
+            sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, wpa, wra, Sa, Sb, f0, fp0,
+                           M2, M3, M4, nc)
+            if sk >= 0.0:
+                s_ev = sk
+                k_ev = j
+                ev_release = False
+                ev_in = 1
+            elif hk2 < hk:
+                s_ev = -1.0
+                k_ev = -1
+                ev_in = 0
+                h = hk2
+            for i in range(nc):
+                wpa[i] = -hs.pG[H, j, i]
+            M2, M3, M4 = bounds(hb, wpa, zeroN, CsG[j], Om, nc)
+            hk = h if s_ev < 0.0 else s_ev
+            sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, wpa, zeroN, -SaG[j],
+                           -SbG[j], -g[j], -v[j], M2, M3, M4, nc)
+            if sk >= 0.0:
+                s_ev = sk
+                k_ev = j
+                ev_release = False
+                ev_in = 2
+            elif hk2 < hk:
+                s_ev = -1.0
+                k_ev = -1
+                ev_in = 0
+                h = hk2
+            continue
+        M2, M3, M4 = bounds(hb, hs.pG[H, j], zeroN, CsG[j], Om, nc)
+        hk = h if s_ev < 0.0 else s_ev
+        sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, hs.pG[H, j], zeroN, SaG[j],
+                       SbG[j], g[j], v[j], M2, M3, M4, nc)
+        if sk >= 0.0:
+            s_ev = sk
+            k_ev = j
+            ev_release = False
+            ev_in = 0
+        elif hk2 < hk:
+            s_ev = -1.0
+            k_ev = -1
+            ev_in = 0
+            h = hk2
+    if s_ev < 0.0 and not in_hold:
+        h_last = h if h < h_try else max(h_last, h)
+    s_mv = s_ev if s_ev >= 0.0 else h
+    for j in range(ns):
+        if (H >> j) & 1 == 1 or hs.moves[H, j] == 0:
+            continue
+        gj, vj, _a, _b, _c = signal(s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j], zeroN, SaG[j],
+                                    SbG[j], g[j], v[j], nc)
+        if apexes and not (s_ev >= 0.0 and k_ev == j) and v[j] > 0.0 and vj <= 0.0:
+            _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j],
+                      zeroN, SaG[j], SbG[j], g[j], v[j], nc, j)
+        if (inside >> j) & 1:
+            g[j] = gj
+            v[j] = vj
+            continue
+        if gj > gmax and not (s_ev >= 0.0 and k_ev == j):
+            gmax = gj
+        g[j] = gj if gj < 0.0 else 0.0
+        v[j] = vj
+    if recording:
+        q0s, qp0s = signal_start(phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS, SbS,
+                                 hs.cS[H], nc)
+        q1s, qp1s, _a, _b, _c = signal(s_mv, phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS,
+                                       SbS, q0s, qp0s, nc)
+        extremes(s_mv, phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS, SbS, q0s, qp0s, qp0s,
+                 qp1s, pext, nc)
+        if q1s < pext[0]:
+            pext[0] = q1s
+        if q1s > pext[1]:
+            pext[1] = q1s
+        if not in_hold:
+            stuck_time += s_mv
+    if in_hold:
+        hold -= s_mv
+        if hold < 1e-15 * T:
+            hold = 0.0
+    advance_count(s_mv, phi, Om, zeta, zetad, mpC, aC, bC, eC, nc)
+    for i in range(n):
+        zz = etc[i]
+        zd = 0.0
+        for j in range(nc):
+            zz += Psi[i, j] * zeta[j]
+            zd += Psi[i, j] * zetad[j]
+        eta[i] = zz
+        etad[i] = zd
+    phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
+    if s_mv > 0.0:
+        ist[_JSTUCK] = 0
+        ist[_JREL] = 0
+        ist[_EXITED] = 0
+    k_imp = -1
+    if s_ev >= 0.0:
+        if ev_release:
+            if logging:
+                _log_event(evlog, nlog, _K_RELEASE, pT + t_loc, 0.0, k_ev, eta, etad)
+            H = H & ~(1 << k_ev)
+            ist[_JREL] = 1
+            g[k_ev] = 0.0
+            v[k_ev] = 0.0
+        elif ev_in == 2:
+            inside &= ~(1 << k_ev)
+            relaxed &= ~(1 << k_ev)
+            g[k_ev] = 0.0
+        else:
+            k_imp = k_ev
+    fs[_PHI] = phi
+    fs[_TLOC] = t_loc
+    fs[_REM] = rem
+    fs[_HLAST] = h_last
+    fs[_GMAX] = gmax
+    fs[_HOLD] = hold
+    fs[_STUCK] = stuck_time
+    ist[_H] = H
+    ist[_INSIDE] = inside
+    ist[_RELAXED] = relaxed
+    return k_imp
+
+
+@_kernel
+def _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T, recording):
+    """One step in contact with the compliant stops ``C`` (held on ``H``; a linear phase exactly,
+    another by Runge-Kutta: :mod:`vibeam.models.core.contact_phase`) and its event.  Returns the
+    stop of a contact to resolve (an entry or a Newton impact), -1 (none), -2 (failed)."""
+    ns = st.offset.shape[0]
+    cp = cw.cp
+    lph = cp.ph
+    cs = cw.cs
+    vr = cw.vr
+    crow = cw.crow
+    con = cw.con
+    phi = fs[_PHI]
+    t_loc = fs[_TLOC]
+    rem = fs[_REM]
+    H = ist[_H]
+    C = ist[_C]
+    inside = ist[_INSIDE]
+    relaxed = ist[_RELAXED]
+    cmask = ist[_CMASK]
+    qfresh = ist[_QFRESH] != 0
+    q_last = ist[_QLAST]
+    logging = evlog.shape[0] > 0
+    pext = fs[_PEXT:_PEXT1 + 1]
+    g = wk[_G]
+    v = wk[_V]
+    F = Om * Om * sy.B
+    ist[_FRESH] = 1
+    ist[_ATGRID] = 0
+    qq = lph.index[H, C]
+    if qq >= 0:
+        if qq != q_last:
+            qfresh = True
+            q_last = qq
+        s_mv, ekind, kk, eaux = linear_step(qq, H, C, inside, relaxed, rem, 1e-13 * T, phi, Om, F,
+                                            eta, etad, st, hs, lph, cw.pax, cw.pbx, cw.pay, cw.pby, cw.xq, cw.yq,
+                                            qfresh, vr, cs, recording, pext, cw.hbq, cw.wpa, cw.wra, cw.wpb,
+                                            cw.wrb, cw.ext2)
+        qfresh = False
+    else:
+        q_last = -1
+        s_mv, ekind, kk, eaux = rk_phase_step(H, C, inside, relaxed, rem, phi, Om, F, eta, etad, sy,
+                                              st, hs, cp.tab, vr, cw.rkc, cs, recording, pext, cw.ry0,
+                                              cw.ry1, cw.rK, cw.rtmp, cw.ryt, cw.ryw, cw.rye, cw.racc)
+    ist[_QFRESH] = qfresh
+    ist[_QLAST] = q_last
+    if ekind == EK_FAIL:
+        return -2
+    if recording:
+        fs[_TCON] += s_mv
+        if H != 0:
+            fs[_STUCK] += s_mv
+    phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
+    fs[_PHI] = phi
+    fs[_TLOC] = t_loc
+    fs[_REM] = rem
+    if s_mv > 0.0:
+        ist[_JSTUCK] = 0
+        ist[_JREL] = 0
+        ist[_EXITED] = 0
+    for j in range(ns):
+        if (H >> j) & 1 == 1:
+            g[j] = 0.0
+            v[j] = 0.0
+        else:
+            g[j] = _dot(st.normal[j], eta) - st.offset[j]
+            v[j] = _dot(st.normal[j], etad)
+            if g[j] > 0.0 and (cmask >> j) & 1 == 0:
+                g[j] = 0.0      # a Newton stop is never penetrated (round-off)
+    if ekind == EK_NONE:
+        return -1
+    ist[_QFRESH] = 1
+    if ekind == EK_EXIT:
+        C &= ~(1 << kk)
+        ist[_EXITED] |= 1 << kk
+        if g[kk] > 0.0:
+            inside |= 1 << kk
+            if eaux == 1:
+                relaxed |= 1 << kk
+        r = crow[kk]
+        if r >= 0:
+            if r < con.shape[0]:
+                con[r, 0] = fs[_T0] + t_loc - cs[kk, 0]
+                for c in range(1, 5):
+                    con[r, c] = cs[kk, c]
+            crow[kk] = -1
+        if logging:
+            _log_event(evlog, nlog, _K_EXIT, fs[_PT] + t_loc, float(eaux), kk, eta, etad)
         if C != 0 and lph.index[H, C] < 0:
-            rk_scales(H, C, sy, st, hs, vr, rkc)
+            rk_scales(H, C, sy, st, hs, vr, cw.rkc)
+        ist[_C] = C
+        ist[_INSIDE] = inside
+        ist[_RELAXED] = relaxed
+        return -1
+    if ekind == EK_GAPDOWN:
+        ist[_INSIDE] = inside & ~(1 << kk)
+        ist[_RELAXED] = relaxed & ~(1 << kk)
+        g[kk] = 0.0
+        return -1
+    if ekind == EK_RELEASE:
+        if logging:
+            _log_event(evlog, nlog, _K_RELEASE, fs[_PT] + t_loc, 0.0, kk, eta, etad)
+        ist[_H] = H & ~(1 << kk)
+        ist[_JREL] = 1
+        g[kk] = 0.0
+        v[kk] = 0.0
+        return -1
+    return kk         # an entry (EK_ENTRY) or a Newton impact (EK_IMPACT)
+
+
+@_kernel
+def _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, kk, max_impacts, recording):
+    """A compliant stop's contact begins (held set ``H`` kept).  Returns True when the impacts and
+    contacts exceed ``max_impacts`` (failed)."""
+    cs = cw.cs
+    vr = cw.vr
+    crow = cw.crow
+    g = wk[_G]
+    v = wk[_V]
+    t_loc = fs[_TLOC]
+    t_period0 = fs[_T0]
+    H = ist[_H]
+    ist[_FRESH] = 1
+    ist[_ATGRID] = 0
+    ist[_QFRESH] = 1
+    U = _dot(st.normal[kk], etad)
+    gk = _dot(st.normal[kk], eta) - st.offset[kk]
+    if rec.evlog.shape[0] > 0:
+        _log_event(rec.evlog, rec.nlog, _K_ENTRY, fs[_PT] + t_loc, U, kk, eta, etad)
+    C = ist[_C] | 1 << kk
+    ist[_C] = C
+    ist[_INSIDE] &= ~(1 << kk)
+    ist[_RELAXED] &= ~(1 << kk)
+    vr[kk] = max(U if st.law[kk] != LAW_LINEAR else abs(U), cw.vfl[kk])
+    cs[kk, 0] = t_period0 + t_loc
+    cs[kk, 1] = force(st.law[kk], gk, U, st.kc[kk], st.cc[kk], st.pe[kk], vr[kk])
+    cs[kk, 2] = gk
+    cs[kk, 3] = 0.0
+    cs[kk, 4] = U
+    g[kk] = gk
+    v[kk] = U
+    n_imp_total = ist[_NIMPT] + 1
+    ist[_NIMPT] = n_imp_total
+    crow[kk] = -1
+    if recording:
+        n_imp_rec = ist[_NIMPR]
+        if n_imp_rec < rec.imp_t.shape[0]:
+            rec.imp_t[n_imp_rec] = t_period0 + t_loc
+            rec.imp_v[n_imp_rec] = U
+            rec.imp_k[n_imp_rec] = kk
+        crow[kk] = n_imp_rec
+        ist[_NIMPR] = n_imp_rec + 1
+        rec.n_imp_stop[kk] += 1
+    if n_imp_total > max_impacts:
+        return True
+    if cw.cp.ph.index[H, C] < 0:
+        rk_scales(H, C, sy, st, hs, vr, cw.rkc)
+    return False
+
+
+@_kernel
+def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, Om, T, k_imp, max_impacts,
+            chatter_tol, recording, cw):
+    """The contact event on Newton stop ``k_imp`` (held set ``H`` kept): the stop's law, then the one
+    chatter / sticking policy (:mod:`vibeam.models.contact_policy`).  Returns True when the impacts
+    exceed ``max_impacts`` (failed)."""
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    phi = fs[_PHI]
+    t_loc = fs[_TLOC]
+    rem = fs[_REM]
+    t_period0 = fs[_T0]
+    H = ist[_H]
+    C = ist[_C]
+    g = wk[_G]
+    v = wk[_V]
+    GF = wn[_GF]
+    evlog = rec.evlog
+    nlog = rec.nlog
+    logging = evlog.shape[0] > 0
+    chat_t = rec.chat_t
+    burst_max = BURST_MAX if n > 1 else 0
+    ist[_FRESH] = 1
+    ist[_ATGRID] = 0
+    if H != 0:
+        d = dirn[H, k_imp]
+        me = meff[H, k_imp]
+        c_eff = ceff[H, k_imp]
+        k_eff = keff[H, k_imp]
+    else:
+        d = st.normal[k_imp]
+        me = st.m_eff[k_imp]
+        c_eff = st.c_eff[k_imp]
+        k_eff = st.k_eff[k_imp]
+    nk = st.normal[k_imp]
+    vk = v[k_imp]
+    # Re-sync the state with the carried contact signal: ``g, v`` are carried as value +
+    # increment (no cancellation), so they differ from the state's ``n^T eta - D, n^T eta'``
+    # by round-off that nothing contracts (the impact resets ``g`` to 0 and maps the
+    # velocity offset to itself): on a periodic orbit it would shift the stop seen by the
+    # state linearly with the periods of a call.  Project the state onto the event
+    # (contact at gap 0 with velocity v) along d (d keeps the held constraints).
+    gs = (_dot(nk, eta) - st.offset[k_imp]) * me
+    vs = (_dot(nk, etad) - vk) * me
+    for i in range(n):
+        eta[i] -= d[i] * gs
+        etad[i] -= d[i] * vs
+    g[k_imp] = 0.0
+    Um = vk if vk > 0.0 else 0.0
+    if logging:
+        _log_event(evlog, nlog, _K_IMPACT, fs[_PT] + t_loc, Um, k_imp, eta, etad)
+    # CONTACT EVENT: the stop's law (Newton's, impulsive), impulse along d
+    m_nodes = st.nodes[k_imp]
+    Rc = restitution_coefficient(Um, st.R[k_imp], st.tab_U[k_imp, :m_nodes], st.tab_R[k_imp, :m_nodes])
+    Up = newton_restitution(Um, Rc)
+    # the impulse in two parts, the normal velocity first removed, then U+ added: a
+    # rebound far slower than U- (R -> 0) is not lost to the rounding of U+ - U-
+    P0 = -me * vk
+    P1 = me * Up
+    for i in range(n):
+        etad[i] += d[i] * P0
+    for i in range(n):
+        etad[i] += d[i] * P1
+    for j in range(ns):
+        if j != k_imp and (H >> j) & 1 == 0:
+            v[j] = _dot(st.normal[j], etad)
+    v[k_imp] = Up
+    n_imp_total = ist[_NIMPT] + 1
+    ist[_NIMPT] = n_imp_total
+    if recording:
+        n_imp_rec = ist[_NIMPR]
+        if n_imp_rec < rec.imp_t.shape[0]:
+            rec.imp_t[n_imp_rec] = t_period0 + t_loc
+            rec.imp_v[n_imp_rec] = Um
+            rec.imp_k[n_imp_rec] = k_imp
+        ist[_NIMPR] = n_imp_rec + 1
+        rec.n_imp_stop[k_imp] += 1
+    if n_imp_total > max_impacts:
+        return True
+    # the shared policy (vibeam.models.contact_policy), R at the current impact velocity:
+    # the jerk beyond the one-DOF flow part -c_eff a + k_eff u is the forcing term plus the
+    # modal remainder (zero for one mode); a chatter jumps only to an accumulation point
+    # inside the current grid step; the Zeno guard is on
+    u = -Up
+    acc, jerk = _contact_acc(phi, Om, eta, etad, d, wn[_CM], wn[_KM], GF)
+    if cw is not None and C != 0:
+        # the compliant stops in contact push too (their force along d)
+        vr = cw.vr
+        for c in range(ns):
+            if (C >> c) & 1:
+                fc = force(st.law[c], _dot(st.normal[c], eta) - st.offset[c], _dot(st.normal[c], etad),
+                           st.kc[c], st.cc[c], st.pe[c], vr[c])
+                acc -= _dot(d, st.normal[c]) * fc
+    t_imp = t_period0 + t_loc
+    burst = zeno_burst(ist[_BURST], t_imp, fs[_TLAST], BURST_DT * T)
+    fs[_TLAST] = t_imp
+    can_hold = valid[H | (1 << k_imp)] == 1
+    action, D = impact_outcome(u, can_hold and not release_now(acc, jerk), acc, jerk + c_eff * acc - k_eff * u,
+                               c_eff, k_eff, Rc, chatter_tol, rem, burst, burst_max)
+    if not can_hold:
+        action = REBOUND
+    stick_now = action != REBOUND
+    if action == STICK or action == CHATTER_GUARD:
+        burst = 0
+    ist[_BURST] = burst
+    if action == CHATTER_GUARD:
+        if recording:
+            n_chatter = ist[_NCHAT] + 1
+            ist[_NCHAT] = n_chatter
+            if n_chatter <= chat_t.shape[0]:
+                chat_t[n_chatter - 1] = t_imp
+    elif action == CHATTER:
+        fs[_HOLD] = D if C == 0 else 0.0     # (beside a compliant contact: stick at once)
+        if recording:
+            n_chatter = ist[_NCHAT] + 1
+            ist[_NCHAT] = n_chatter
+            if n_chatter <= chat_t.shape[0]:
+                chat_t[n_chatter - 1] = t_imp + D
+    if stick_now:
+        if logging:
+            _log_event(evlog, nlog, _K_STICK_IMPACT, fs[_PT] + t_loc, fs[_HOLD], k_imp, eta, etad)
+        corr = Up * me
+        for i in range(n):
+            etad[i] -= d[i] * corr
+        v[k_imp] = 0.0
+        H = H | (1 << k_imp)
+        ist[_H] = H
+        ist[_JSTUCK] = 1
+        for j in range(ns):
+            if (H >> j) & 1 == 0:
+                v[j] = _dot(st.normal[j], etad)   # the projection moved them too
+    return False
+
+
+# ============================================================================ the kernel
+# ============================================================================ the loop
+@_kernel
+def _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts, max_steps,
+         chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist):
+    """The call after :func:`_frequency` (:func:`integrate`): the initial state, then the periods,
+    their grid and sub-steps, a step at a time.  Compiled without reference counting: the free step,
+    the hot path, is inlined here (no call per step)."""
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    S = hs.valid.shape[0]
+    T = TWO_PI / Om
+    # ---- the initial state: held on its set (projected onto the constraint), or put on a Newton
+    # stop it lies on within round-off (position only); the carried gaps and normal velocities
+    logging = rec.evlog.shape[0] > 0
+    cmask = ist[_CMASK]
+    H = held0 & ~cmask
+    if H < 0 or H >= S or hs.valid[H] == 0:
+        H = 0
     eta_norm = math.sqrt(_dot(eta, eta))
     if H != 0:
         nc = hs.nc[H]
@@ -573,60 +1203,60 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
             for i in range(n):
                 zz += hs.Psi[H, i, j] * (eta[i] - hs.eta_c[H, i])
                 zd += hs.Psi[H, i, j] * etad[i]
-            zeta[j] = zz
-            zetad[j] = zd
+            wn[_ZETA, j] = zz
+            wn[_ZETAD, j] = zd
         for i in range(n):
             zz = hs.eta_c[H, i]
             zd = 0.0
             for j in range(nc):
-                zz += hs.Psi[H, i, j] * zeta[j]
-                zd += hs.Psi[H, i, j] * zetad[j]
+                zz += hs.Psi[H, i, j] * wn[_ZETA, j]
+                zd += hs.Psi[H, i, j] * wn[_ZETAD, j]
             eta[i] = zz
             etad[i] = zd
         if logging:
             for k in range(ns):
-                if _in(H, k):
-                    _log_event(evlog, nlog, EV_START, 0.0, 1.0, k, eta, etad)
+                if (H >> k) & 1 == 1:
+                    _log_event(rec.evlog, rec.nlog, _K_START, 0.0, 1.0, k, eta, etad)
     for k in range(ns):
-        g[k] = _dot(st.normal[k], eta) - st.offset[k]
-        v[k] = _dot(st.normal[k], etad)
-        if _in(H, k):
-            g[k] = 0.0
-            v[k] = 0.0
-    if H == 0 and C == 0:
+        wk[_G, k] = _dot(st.normal[k], eta) - st.offset[k]
+        wk[_V, k] = _dot(st.normal[k], etad)
+        if (H >> k) & 1 == 1:
+            wk[_G, k] = 0.0
+            wk[_V, k] = 0.0
+    if H == 0 and ist[_C] == 0:
         for k in range(ns):
             if (cmask >> k) & 1:
                 continue
             scale = abs(st.offset[k]) + math.sqrt(_dot(st.normal[k], st.normal[k])) * eta_norm + 1e-300
-            if g[k] > -1e-13 * scale:
-                corr = g[k] * st.m_eff[k]
+            if wk[_G, k] > -1e-13 * scale:
+                corr = wk[_G, k] * st.m_eff[k]
                 for i in range(n):
                     eta[i] -= st.normal[k, i] * corr
                 for j in range(ns):
-                    g[j] = _dot(st.normal[j], eta) - st.offset[j]
-                g[k] = 0.0
+                    wk[_G, j] = _dot(st.normal[j], eta) - st.offset[j]
+                wk[_G, k] = 0.0
                 if logging:
-                    _log_event(evlog, nlog, EV_START, 0.0, 0.0, k, eta, etad)
+                    _log_event(rec.evlog, rec.nlog, _K_START, 0.0, 0.0, k, eta, etad)
                 break
-    gmax = -np.inf
-    n_imp_total = 0
-    n_imp_rec = 0
-    n_chatter = 0
-    # Zeno guard (vibeam.models.contact_policy): impacts within BURST_DT of a period in a row; with
-    # one mode the chatter estimate becomes exact as the rebound speed vanishes (the jerk beyond the
-    # flow part is the forcing term alone), so there the guard is off
-    burst = 0
-    burst_max = BURST_MAX if n > 1 else 0
-    t_last_imp = -1e300
-    n_steps = 0
-    stuck_time = 0.0
-    cap = imp_t.shape[0]
-    just_released = False
-    just_stuck = False
-    hold = 0.0
-    h_last = h_cap
+    ist[_H] = H
+    # ---- the periods, their grid and sub-steps, a step at a time (a failure leaves every loop)
+    mp = sy.mp
+    Nrm = st.normal
+    evlog = rec.evlog
+    aplog = rec.aplog
+    nlog = rec.nlog
+    dirn = hs.dirn
+    meff = hs.meff
+    ceff = hs.ceff
+    keff = hs.keff
+    valid = hs.valid
+    samples = rec.samples
+    msamp = rec.msamp
+    modamp = rec.modamp
+    pmin = rec.pmin
     k_sample = 0
     n_total = n_transient + n_record
+    failed = False
     for pp in range(n_total):
         recording = pp >= n_transient
         ns_grid = ns_record if recording else ns_transient
@@ -635,19 +1265,21 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
         h_sub = h_grid / sub
         Ptab = P_r if recording else P_t
         tab = tab_r if recording else tab_t
-        t_period0 = (pp - n_transient) * T
+        fs[_T0] = (pp - n_transient) * T
+        fs[_PT] = pp * T
         if pp > n_transient:
-            pmin[pp - n_transient - 1] = pext[0]
-            ext[0] = min(ext[0], pext[0])
-            ext[1] = max(ext[1], pext[1])
-            pext[0] = np.inf
-            pext[1] = -np.inf
+            pmin[pp - n_transient - 1] = fs[_PEXT]
+            fs[_EXT] = min(fs[_EXT], fs[_PEXT])
+            fs[_EXT1] = max(fs[_EXT1], fs[_PEXT1])
+            fs[_PEXT] = np.inf
+            fs[_PEXT1] = -np.inf
         for jg in range(ns_grid):
-            phi = TWO_PI * jg / ns_grid
-            t_loc = jg * h_grid
             if recording:
-                qs = _dot(sy.sensor, eta)
-                qd = _dot(sy.sensor, etad)
+                qs = 0.0
+                qd = 0.0
+                for i in range(n):
+                    qs += wn[_SENS, i] * eta[i]
+                    qd += wn[_SENS, i] * etad[i]
                 for i in range(n):
                     if abs(eta[i]) > modamp[i]:
                         modamp[i] = abs(eta[i])
@@ -658,358 +1290,90 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                         msamp[k_sample, i] = eta[i]
                         msamp[k_sample, n + i] = etad[i]
                 k_sample += 1
-                if qs < pext[0]:
-                    pext[0] = qs
-                if qs > pext[1]:
-                    pext[1] = qs
+                if qs < fs[_PEXT]:
+                    fs[_PEXT] = qs
+                if qs > fs[_PEXT1]:
+                    fs[_PEXT1] = qs
             for isub in range(sub):
                 kg = jg * sub + isub
-                phi = TWO_PI * kg / (ns_grid * sub)
-                t_loc = jg * h_grid + isub * h_sub
-                rem = h_sub
-                at_grid = True          # still on the tabulated sub-step (no event yet)
-                while rem > 0.0:
-                    n_steps += 1
-                    if n_steps > max_steps:
-                        return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter,
-                                stuck_time, H | C, n_imp_total, gmax, n_steps, t_contact)
-                    # the step grows by doubling from the last certified length (where the
-                    # certification had to halve), up to a whole tabulated sub-step
-                    h_try = min(rem, 2.0 * h_last)
-                    k_imp = -1           # an impact at the current time on this stop, after the step
-                    if cp is not None and C != 0:
-                        # ================================ in contact with the compliant stops C (held on H)
-                        fresh = True
-                        at_grid = False
-                        qq = lph.index[H, C]
-                        if qq >= 0:
-                            if qq != q_last:
-                                qfresh = True
-                                q_last = qq
-                            s_mv, ekind, kk, eaux = linear_step(qq, H, C, inside, relaxed, rem, 1e-13 * T, phi, Om, F,
-                                                                eta, etad, st, hs, lph, pax, pbx, pay, pby, xq, yq,
-                                                                qfresh, vr, cs, recording, pext, hbq, wpa, wra, wpb,
-                                                                wrb, ext2)
-                            qfresh = False
-                        else:
-                            q_last = -1
-                            s_mv, ekind, kk, eaux = rk_phase_step(H, C, inside, relaxed, rem, phi, Om, F, eta, etad, sy,
-                                                                  st, hs, cp.tab, vr, rkc, cs, recording, pext, ry0,
-                                                                  ry1, rK, rtmp, ryt, ryw, rye, racc)
-                        if ekind == EK_FAIL:
-                            return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter,
-                                    stuck_time, H | C, n_imp_total, gmax, n_steps, t_contact)
-                        if recording:
-                            t_contact += s_mv
-                            if H != 0:
-                                stuck_time += s_mv
-                        phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
-                        if s_mv > 0.0:
-                            just_stuck = False
-                            just_released = False
-                            exited = 0
-                        for j in range(ns):
-                            if _in(H, j):
-                                g[j] = 0.0
-                                v[j] = 0.0
-                            else:
-                                g[j] = _dot(st.normal[j], eta) - st.offset[j]
-                                v[j] = _dot(st.normal[j], etad)
-                                if g[j] > 0.0 and (cmask >> j) & 1 == 0:
-                                    g[j] = 0.0      # a Newton stop is never penetrated (round-off)
-                        if ekind == EK_NONE:
-                            continue
-                        qfresh = True
-                        if ekind == EK_EXIT:
-                            C &= ~(1 << kk)
-                            exited |= 1 << kk
-                            if g[kk] > 0.0:
-                                inside |= 1 << kk
-                                if eaux == 1:
-                                    relaxed |= 1 << kk
-                            r = crow[kk]
-                            if r >= 0:
-                                if r < con.shape[0]:
-                                    con[r, 0] = t_period0 + t_loc - cs[kk, 0]
-                                    for c in range(1, 5):
-                                        con[r, c] = cs[kk, c]
-                                crow[kk] = -1
-                            if logging:
-                                _log_event(evlog, nlog, EV_EXIT, pp * T + t_loc, float(eaux), kk, eta, etad)
-                            if C != 0 and lph.index[H, C] < 0:
-                                rk_scales(H, C, sy, st, hs, vr, rkc)
-                            continue
-                        if ekind == EK_GAPDOWN:
-                            inside &= ~(1 << kk)
-                            relaxed &= ~(1 << kk)
-                            g[kk] = 0.0
-                            continue
-                        if ekind == EK_RELEASE:
-                            if logging:
-                                _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, 0.0, kk, eta, etad)
-                            H = H & ~(1 << kk)
-                            just_released = True
-                            g[kk] = 0.0
-                            v[kk] = 0.0
-                            continue
-                        k_imp = kk         # an entry (EK_ENTRY) or a Newton impact (EK_IMPACT)
-                    elif H != 0:
-                        # ================================ held on the set H
-                        fresh = True
-                        at_grid = False
-                        nc = hs.nc[H]
-                        Psi = hs.Psi[H]
-                        etc = hs.eta_c[H]
-                        mpC = hs.mp[H]
-                        eC = hs.e[H]
-                        # a stop not held that the system touches and does not leave: impact or stick
-                        touched = -1
-                        if cp is not None and inside != 0:
-                            # inside a compliant stop without contact: back below it, or a contact now
-                            for j in range(ns):
-                                if (inside >> j) & 1 == 0:
-                                    continue
-                                gk = _dot(st.normal[j], eta) - st.offset[j]
-                                vk = _dot(st.normal[j], etad)
-                                g[j] = gk
-                                v[j] = vk
-                                if gk <= 0.0:
-                                    inside &= ~(1 << j)
-                                    relaxed &= ~(1 << j)
-                                    continue
-                                r0, r1, roff = inside_sign(st.law[j], st.kc[j], st.cc[j], vr[j], (relaxed >> j) & 1 == 1)
-                                acc, jerk = _contact_acc(phi, Om, eta, etad, hs.dirn[H, j], sy.c, sy.k, GF)
-                                sg = r0 * gk + r1 * vk + roff
-                                tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
-                                if (exited >> j) & 1:
-                                    sg = 0.0      # just left it: the force is zero there to round-off
-                                if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
-                                    touched = j
-                                    break
-                        for j in range(ns):
-                            if touched >= 0:
-                                break
-                            if _in(H, j) or hs.moves[H, j] == 0 or (inside >> j) & 1:
-                                continue
-                            if g[j] >= 0.0 and v[j] >= 0.0:
-                                g[j] = 0.0
-                                if v[j] > 0.0:
-                                    touched = j
-                                    break
-                                if not just_released:
-                                    acc, jerk = _contact_acc(phi, Om, eta, etad, hs.dirn[H, j], sy.c, sy.k, GF)
-                                    if (cmask >> j) & 1:
-                                        if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
-                                            touched = j     # pressed onto a compliant stop: a contact
-                                            break
-                                    elif not release_now(acc, jerk) and hs.valid[H | (1 << j)] == 1:
-                                        if logging:
-                                            _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, j, eta, etad)
-                                        H = H | (1 << j)
-                                        v[j] = 0.0
-                                        just_stuck = True
-                                        touched = -2
-                                        break
-                        if touched == -2:
-                            continue
-                        if touched >= 0:
-                            k_imp = touched
-                        else:
-                            for j in range(nc):
-                                zz = 0.0
-                                zd = 0.0
-                                for i in range(n):
-                                    zz += Psi[i, j] * (eta[i] - etc[i])
-                                    zd += Psi[i, j] * etad[i]
-                                zeta[j] = zz
-                                zetad[j] = zd
-                            homogeneous(phi, Om, zeta, zetad, aC[H], bC[H], eC, x0, y0, nc)
-                            # the shared release rule: lambda > 0 pulls the system off the stop
-                            released = -1
-                            for k in range(ns):
-                                if not _in(H, k):
-                                    continue
-                                l0, lp0 = signal_start(phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k], SaL[H, k],
-                                                       SbL[H, k], hs.cL[H, k], nc)
-                                if release_now(-l0, -lp0) and not just_stuck and hold <= 0.0:
-                                    released = k
-                                    lam0[k] = l0
-                                    break
-                                lam0[k] = l0 if l0 <= 0.0 else 0.0
-                                lamp0[k] = lp0
-                            if released >= 0:
-                                if logging:
-                                    _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, lam0[released], released,
-                                               eta, etad)
-                                H = H & ~(1 << released)
-                                just_released = True
-                                g[released] = 0.0
-                                v[released] = 0.0
-                                continue
-                            for j in range(nc):
-                                homogeneous_bounds(x0[j], y0[j], mpC[j, 0], mpC[j, 1], int(mpC[j, 2]), mpC[j, 3],
-                                                   mpC[j, 4], mpC[j, 5], hb[j])
-                            # the hold is the rest of a chatter sequence (impacts accumulating), not
-                            # sticking: no release check, not counted in stuck_time
-                            in_hold = hold > 0.0
-                            s_ev = -1.0
-                            k_ev = -1
-                            ev_release = False
-                            h = h_try
-                            if in_hold:
-                                h = min(h_try, hold)
-                            else:
-                                for k in range(ns):
-                                    if not _in(H, k):
-                                        continue
-                                    M2, M3, M4 = bounds(hb, hs.pL[H, k], hs.rL[H, k], CsL[H, k], Om, nc)
-                                    hk = h if s_ev < 0.0 else s_ev
-                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k],
-                                                   SaL[H, k], SbL[H, k], lam0[k], lamp0[k], M2, M3, M4, nc)
-                                    if sk >= 0.0:
-                                        s_ev = sk
-                                        k_ev = k
-                                        ev_release = True
-                                    elif hk2 < hk:
-                                        s_ev = -1.0
-                                        k_ev = -1
-                                        h = hk2
-                            ev_in = 0
-                            for j in range(ns):
-                                if _in(H, j) or hs.moves[H, j] == 0:
-                                    continue
-                                if cp is not None and (inside >> j) & 1:
-                                    # inside a compliant stop: the sign of its force up, its gap down
-                                    r0, r1, roff = inside_sign(st.law[j], st.kc[j], st.cc[j], vr[j],
-                                                               (relaxed >> j) & 1 == 1)
-                                    for i in range(nc):
-                                        wpa[i] = r0 * hs.pG[H, j, i]
-                                        wra[i] = r1 * hs.pG[H, j, i]
-                                    Sa = r0 * SaG[H, j] - r1 * Om * SbG[H, j]
-                                    Sb = r0 * SbG[H, j] + r1 * Om * SaG[H, j]
-                                    M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, nc)
-                                    f0, fp0 = signal_start(phi, Om, x0, y0, mpC, wpa, wra, Sa, Sb,
-                                                           r0 * hs.cG[H, j] + roff, nc)
-                                    hk = h if s_ev < 0.0 else s_ev
-                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, wpa, wra, Sa, Sb, f0, fp0,
-                                                   M2, M3, M4, nc)
-                                    if sk >= 0.0:
-                                        s_ev = sk
-                                        k_ev = j
-                                        ev_release = False
-                                        ev_in = 1
-                                    elif hk2 < hk:
-                                        s_ev = -1.0
-                                        k_ev = -1
-                                        ev_in = 0
-                                        h = hk2
-                                    for i in range(nc):
-                                        wpa[i] = -hs.pG[H, j, i]
-                                    M2, M3, M4 = bounds(hb, wpa, zeroN, CsG[H, j], Om, nc)
-                                    hk = h if s_ev < 0.0 else s_ev
-                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, wpa, zeroN, -SaG[H, j],
-                                                   -SbG[H, j], -g[j], -v[j], M2, M3, M4, nc)
-                                    if sk >= 0.0:
-                                        s_ev = sk
-                                        k_ev = j
-                                        ev_release = False
-                                        ev_in = 2
-                                    elif hk2 < hk:
-                                        s_ev = -1.0
-                                        k_ev = -1
-                                        ev_in = 0
-                                        h = hk2
-                                    continue
-                                M2, M3, M4 = bounds(hb, hs.pG[H, j], zeroN, CsG[H, j], Om, nc)
-                                hk = h if s_ev < 0.0 else s_ev
-                                sk, hk2 = scan(hk, 1e-13 * T, phi, Om, x0, y0, mpC, hs.pG[H, j], zeroN, SaG[H, j],
-                                               SbG[H, j], g[j], v[j], M2, M3, M4, nc)
-                                if sk >= 0.0:
-                                    s_ev = sk
-                                    k_ev = j
-                                    ev_release = False
-                                    ev_in = 0
-                                elif hk2 < hk:
-                                    s_ev = -1.0
-                                    k_ev = -1
-                                    ev_in = 0
-                                    h = hk2
-                            if s_ev < 0.0 and not in_hold:
-                                h_last = h if h < h_try else max(h_last, h)
-                            s_mv = s_ev if s_ev >= 0.0 else h
-                            for j in range(ns):
-                                if _in(H, j) or hs.moves[H, j] == 0:
-                                    continue
-                                gj, vj, _a, _b, _c = signal(s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j], zeroN, SaG[H, j],
-                                                            SbG[H, j], g[j], v[j], nc)
-                                if apexes and not (s_ev >= 0.0 and k_ev == j) and v[j] > 0.0 and vj <= 0.0:
-                                    _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j],
-                                              zeroN, SaG[H, j], SbG[H, j], g[j], v[j], nc, j)
-                                if (inside >> j) & 1:
-                                    g[j] = gj
-                                    v[j] = vj
-                                    continue
-                                if gj > gmax and not (s_ev >= 0.0 and k_ev == j):
-                                    gmax = gj
-                                g[j] = gj if gj < 0.0 else 0.0
-                                v[j] = vj
-                            if recording:
-                                q0s, qp0s = signal_start(phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS[H], SbS[H],
-                                                         hs.cS[H], nc)
-                                q1s, qp1s, _a, _b, _c = signal(s_mv, phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS[H],
-                                                               SbS[H], q0s, qp0s, nc)
-                                extremes(s_mv, phi, Om, x0, y0, mpC, hs.pS[H], zeroN, SaS[H], SbS[H], q0s, qp0s, qp0s,
-                                         qp1s, pext, nc)
-                                if q1s < pext[0]:
-                                    pext[0] = q1s
-                                if q1s > pext[1]:
-                                    pext[1] = q1s
-                                if not in_hold:
-                                    stuck_time += s_mv
-                            if in_hold:
-                                hold -= s_mv
-                                if hold < 1e-15 * T:
-                                    hold = 0.0
-                            advance_count(s_mv, phi, Om, zeta, zetad, mpC, aC[H], bC[H], eC, nc)
-                            for i in range(n):
-                                zz = etc[i]
-                                zd = 0.0
-                                for j in range(nc):
-                                    zz += Psi[i, j] * zeta[j]
-                                    zd += Psi[i, j] * zetad[j]
-                                eta[i] = zz
-                                etad[i] = zd
-                            phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
-                            if s_mv > 0.0:
-                                just_stuck = False
-                                just_released = False
-                                exited = 0
-                            if s_ev < 0.0:
-                                continue
-                            if ev_release:
-                                if logging:
-                                    _log_event(evlog, nlog, EV_RELEASE, pp * T + t_loc, 0.0, k_ev, eta, etad)
-                                H = H & ~(1 << k_ev)
-                                just_released = True
-                                g[k_ev] = 0.0
-                                v[k_ev] = 0.0
-                                continue
-                            if ev_in == 2:
-                                inside &= ~(1 << k_ev)
-                                relaxed &= ~(1 << k_ev)
-                                g[k_ev] = 0.0
-                                continue
-                            k_imp = k_ev
+                fs[_PHI] = TWO_PI * kg / (ns_grid * sub)
+                fs[_TLOC] = jg * h_grid + isub * h_sub
+                fs[_REM] = h_sub
+                ist[_ATGRID] = 1          # still on the tabulated sub-step (no event yet)
+                while fs[_REM] > 0.0:
+                    ist[_NSTEPS] += 1
+                    if ist[_NSTEPS] > max_steps:
+                        failed = True
+                        break
+                    if cw is not None and ist[_C] != 0:
+                        # in contact with the compliant stops C (held on H)
+                        k_imp = _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T, recording)
+                        if k_imp == -2:
+                            failed = True
+                            break
+                    elif ist[_H] != 0:
+                        # held on the set H
+                        k_imp = _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog, nlog,
+                                           Om, T, recording, cw)
                     else:
-                        # ================================ free flight
+                        # free flight (held set empty, no compliant contact): one step of at most the rest
+                        # of the sub-step kg of the grid (tables tab, Ptab), written out here, the hot path
+                        # (no call per step); k_imp: the stop of a contact at the step's end
+
+                        phi = fs[_PHI]
+                        t_loc = fs[_TLOC]
+                        rem = fs[_REM]
+                        h_last = fs[_HLAST]
+                        gmax = fs[_GMAX]
+                        pT = fs[_PT]
+                        SaSF = fs[_SASF]
+                        SbSF = fs[_SBSF]
+                        inside = ist[_INSIDE]
+                        relaxed = ist[_RELAXED]
+                        cmask = ist[_CMASK]
+                        fresh = ist[_FRESH] != 0
+                        bstale = ist[_BSTALE] != 0
+                        at_grid = ist[_ATGRID] != 0
+                        just_released = ist[_JREL] != 0
+                        apexes = aplog.shape[0] > 0
+                        h_try = min(rem, 2.0 * h_last)
+                        pext = fs[_PEXT:_PEXT1 + 1]
+                        aF = wn[_AF]
+                        bF = wn[_BF]
+                        GF = wn[_GF]
+                        zeroN = wn[_ZERO]
+                        xF = wn[_XF]
+                        yF = wn[_YF]
+                        dxv = wn[_DXV]
+                        dyv = wn[_DYV]
+                        x2v = wn[_X2V]
+                        x3v = wn[_X3V]
+                        sens = wn[_SENS]
+                        SaF = wk[_SAF]
+                        SbF = wk[_SBF]
+                        CsF = wk[_CSF]
+                        g = wk[_G]
+                        v = wk[_V]
+                        g1 = wk[_G1]
+                        v1 = wk[_V1]
+                        G2 = wk[_G2]
+                        G3 = wk[_G3]
+                        G21 = wk[_G21]
+                        G31 = wk[_G31]
+                        M2F = wk[_M2F]
+                        M3F = wk[_M3F]
+                        M4F = wk[_M4F]
+                        off = wk[_OFF]
                         touched = -1
-                        if cp is not None and inside != 0:
+                        if cw is not None and inside != 0:
                             # inside a compliant stop without contact: back below it, or a contact now
+                            st = cw.st
+                            vr = cw.vr
                             for k in range(ns):
                                 if (inside >> k) & 1 == 0:
                                     continue
-                                gk = _dot(st.normal[k], eta) - st.offset[k]
-                                vk = _dot(st.normal[k], etad)
+                                gk = _dot(Nrm[k], eta) - off[k]
+                                vk = _dot(Nrm[k], etad)
                                 if gk <= 0.0:
                                     inside &= ~(1 << k)
                                     relaxed &= ~(1 << k)
@@ -1019,10 +1383,10 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                 g[k] = gk
                                 v[k] = vk
                                 r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k], (relaxed >> k) & 1 == 1)
-                                acc, jerk = _contact_acc(phi, Om, eta, etad, st.normal[k], sy.c, sy.k, GF)
+                                acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
                                 sg = r0 * gk + r1 * vk + roff
                                 tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
-                                if (exited >> k) & 1:
+                                if (ist[_EXITED] >> k) & 1:
                                     sg = 0.0      # just left it: the force is zero there to round-off
                                 if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
                                     touched = k
@@ -1038,30 +1402,33 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                     touched = k
                                     break
                                 if not just_released:
-                                    acc, jerk = _contact_acc(phi, Om, eta, etad, st.normal[k], sy.c, sy.k, GF)
+                                    acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
                                     if (cmask >> k) & 1:
                                         if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
                                             touched = k     # pressed onto a compliant stop: a contact
                                             break
                                     elif not release_now(acc, jerk):     # pressed (the release rule)
                                         if logging:
-                                            _log_event(evlog, nlog, EV_STICK, pp * T + t_loc, 0.0, k, eta, etad)
-                                        H = 1 << k
-                                        just_stuck = True
-                                        corr = v[k] * st.m_eff[k]
+                                            _log_event(evlog, nlog, _K_STICK, pT + t_loc, 0.0, k, eta, etad)
+                                        ist[_H] = 1 << k
+                                        ist[_JSTUCK] = 1
+                                        corr = v[k] * wk[_MEFF, k]
                                         for i in range(n):
-                                            etad[i] -= st.normal[k, i] * corr
+                                            etad[i] -= Nrm[k, i] * corr
                                         v[k] = 0.0
                                         for j in range(ns):
                                             if j != k:
-                                                v[j] = _dot(st.normal[j], etad)
+                                                v[j] = _dot(Nrm[j], etad)
                                         touched = -2
                                         break
-                        if touched == -2:
-                            fresh = True
-                            continue
-                        if touched >= 0:
-                            k_imp = touched
+                        k_imp = -1
+                        if touched != -1:
+                            ist[_INSIDE] = inside
+                            ist[_RELAXED] = relaxed
+                            if touched == -2:
+                                ist[_FRESH] = 1
+                            else:
+                                k_imp = touched
                         else:
                             if fresh:
                                 # a new free arc: homogeneous parts, their bounds (valid along the whole
@@ -1069,7 +1436,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                 homogeneous(phi, Om, eta, etad, aF, bF, zeroN, xF, yF, n)
                                 _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
                                 for k in range(ns):
-                                    _f, _f1, G2[k], G3[k], _f4 = signal(0.0, phi, Om, xF, yF, mp, st.normal[k], zeroN,
+                                    _f, _f1, G2[k], G3[k], _f4 = signal(0.0, phi, Om, xF, yF, mp, Nrm[k], zeroN,
                                                                         SaF[k], SbF[k], g[k], v[k], n)
                                 fresh = False
                                 bstale = False
@@ -1090,8 +1457,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                 dcos = -2.0 * sh * math.sin(ph)
                                 sp1 = math.sin(phi + Om * h)
                                 cp1 = math.cos(phi + Om * h)
-                            # the modes' increments and derivatives at h (written out here, not called:
-                            # array arguments cost a reference count each in this loop)
+                            # the modes' increments and derivatives at h
                             for j in range(n):
                                 if tabd:
                                     a11 = Ptab[j, 0]
@@ -1115,9 +1481,13 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                             k_ev = -1
                             h_ok = h
                             ev_in = 0
-                            if cp is not None and inside != 0:
+                            if cw is not None and inside != 0:
                                 # inside a compliant stop: its force's sign up through zero (a contact),
                                 # or its gap down through zero (below it again)
+                                st = cw.st
+                                vr = cw.vr
+                                wpa = cw.wpa
+                                wra = cw.wra
                                 for k in range(ns):
                                     if (inside >> k) & 1 == 0:
                                         continue
@@ -1129,7 +1499,7 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                     Sa = r0 * SaF[k] - r1 * Om * SbF[k]
                                     Sb = r0 * SbF[k] + r1 * Om * SaF[k]
                                     f0, fp0 = signal_start(phi, Om, xF, yF, mp, wpa, wra, Sa, Sb,
-                                                           roff - r0 * st.offset[k], n)
+                                                           roff - r0 * off[k], n)
                                     M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, n)
                                     hk = h_ok if s_ev < 0.0 else s_ev
                                     sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, wra, Sa, Sb, f0, fp0, M2, M3,
@@ -1187,11 +1557,11 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                         sk = -1.0        # far from the stop (interpolation bound)
                                         hk2 = hk
                                     else:
-                                        sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, st.normal[k], zeroN,
-                                                            SaF[k], SbF[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
+                                        sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN,
+                                                            SaF[k], SbF[k], g[k], v[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
                                                             G21[k], G31[k], M2F[k], M3F[k], M4F[k], n)
                                 else:
-                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, st.normal[k], zeroN, SaF[k],
+                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN, SaF[k],
                                                    SbF[k], g[k], v[k], M2F[k], M3F[k], M4F[k], n)
                                 if sk >= 0.0:
                                     s_ev = sk
@@ -1223,16 +1593,16 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                             if apexes and s_ev < 0.0:
                                 for k in range(ns):
                                     if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:
-                                        _log_apex(aplog, nlog, pp * T + t_loc, s_mv, phi, Om, xF, yF, mp, st.normal[k],
+                                        _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, xF, yF, mp, Nrm[k],
                                                   zeroN, SaF[k], SbF[k], g[k], v[k], n, k)
                             if recording:
                                 # the sensor's extremes inside the step (root-found where its slope turns)
-                                q0s = _dot(sy.sensor, eta)
-                                qp0s = _dot(sy.sensor, etad)
-                                q1s = q0s + _dot(sy.sensor, dxv) + SaSF * dsin + SbSF * dcos
-                                qp1s = qp0s + _dot(sy.sensor, dyv) + Om * (SaSF * dcos - SbSF * dsin)
+                                q0s = _dot(sens, eta)
+                                qp0s = _dot(sens, etad)
+                                q1s = q0s + _dot(sens, dxv) + SaSF * dsin + SbSF * dcos
+                                qp1s = qp0s + _dot(sens, dyv) + Om * (SaSF * dcos - SbSF * dsin)
                                 if (qp0s < 0.0 < qp1s) or (qp0s > 0.0 > qp1s):
-                                    extremes(s_mv, phi, Om, xF, yF, mp, sy.sensor, zeroN, SaSF, SbSF, q0s, qp0s,
+                                    extremes(s_mv, phi, Om, xF, yF, mp, sens, zeroN, SaSF, SbSF, q0s, qp0s,
                                              qp0s, qp1s, pext, n)
                             bstale = True
                             for i in range(n):
@@ -1245,14 +1615,14 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                 # carried gap (value + increments) has not reached: put it back on it
                                 if (inside >> k) & 1:
                                     continue
-                                gs = _dot(st.normal[k], eta) - st.offset[k]
+                                gs = _dot(Nrm[k], eta) - off[k]
                                 if gs > 0.0:
-                                    gs *= st.m_eff[k]
+                                    gs *= wk[_MEFF, k]
                                     for i in range(n):
-                                        eta[i] -= st.normal[k, i] * gs
+                                        eta[i] -= Nrm[k, i] * gs
                             if recording:
                                 # the step's end as the next sample will read it
-                                q1s = _dot(sy.sensor, eta)
+                                q1s = _dot(sens, eta)
                                 if q1s < pext[0]:
                                     pext[0] = q1s
                                 if q1s > pext[1]:
@@ -1261,13 +1631,13 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                 at_grid = False
                             phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
                             if s_mv > 0.0:
-                                just_stuck = False
-                                just_released = False
-                                exited = 0
+                                ist[_JSTUCK] = 0
+                                ist[_JREL] = 0
+                                ist[_EXITED] = 0
                             for k in range(ns):
                                 if (inside >> k) & 1:
-                                    g[k] = _dot(st.normal[k], eta) - st.offset[k]
-                                    v[k] = _dot(st.normal[k], etad)
+                                    g[k] = _dot(Nrm[k], eta) - off[k]
+                                    v[k] = _dot(Nrm[k], etad)
                                     continue
                                 if s_ev >= 0.0 and k == k_ev:
                                     g[k] = 0.0
@@ -1278,165 +1648,117 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
                                 v[k] = v1[k]
                                 G2[k] = G21[k]
                                 G3[k] = G31[k]
-                            if s_ev < 0.0:
-                                continue
-                            if ev_in == 2:
-                                inside &= ~(1 << k_ev)
-                                relaxed &= ~(1 << k_ev)
-                                g[k_ev] = 0.0
-                                fresh = True
-                                continue
-                            k_imp = k_ev
-                    if cp is not None and (cmask >> k_imp) & 1:
-                        # ================================ a compliant stop's contact begins (held set H kept)
-                        fresh = True
-                        at_grid = False
-                        qfresh = True
-                        kk = k_imp
-                        U = _dot(st.normal[kk], etad)
-                        gk = _dot(st.normal[kk], eta) - st.offset[kk]
-                        if logging:
-                            _log_event(evlog, nlog, EV_ENTRY, pp * T + t_loc, U, kk, eta, etad)
-                        C |= 1 << kk
-                        inside &= ~(1 << kk)
-                        relaxed &= ~(1 << kk)
-                        vr[kk] = max(U if st.law[kk] != LAW_LINEAR else abs(U), vfl[kk])
-                        cs[kk, 0] = t_period0 + t_loc
-                        cs[kk, 1] = force(st.law[kk], gk, U, st.kc[kk], st.cc[kk], st.pe[kk], vr[kk])
-                        cs[kk, 2] = gk
-                        cs[kk, 3] = 0.0
-                        cs[kk, 4] = U
-                        g[kk] = gk
-                        v[kk] = U
-                        n_imp_total += 1
-                        crow[kk] = -1
-                        if recording:
-                            if n_imp_rec < cap:
-                                imp_t[n_imp_rec] = t_period0 + t_loc
-                                imp_v[n_imp_rec] = U
-                                imp_k[n_imp_rec] = kk
-                            crow[kk] = n_imp_rec
-                            n_imp_rec += 1
-                            n_imp_stop[kk] += 1
-                        if n_imp_total > max_impacts:
-                            return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter,
-                                    stuck_time, H | C, n_imp_total, gmax, n_steps, t_contact)
-                        if lph.index[H, C] < 0:
-                            rk_scales(H, C, sy, st, hs, vr, rkc)
+                            if s_ev >= 0.0:
+                                if ev_in == 2:
+                                    inside &= ~(1 << k_ev)
+                                    relaxed &= ~(1 << k_ev)
+                                    g[k_ev] = 0.0
+                                    fresh = True
+                                else:
+                                    k_imp = k_ev
+                            fs[_PHI] = phi
+                            fs[_TLOC] = t_loc
+                            fs[_REM] = rem
+                            fs[_HLAST] = h_last
+                            fs[_GMAX] = gmax
+                            ist[_INSIDE] = inside
+                            ist[_RELAXED] = relaxed
+                            ist[_FRESH] = fresh
+                            ist[_BSTALE] = bstale
+                            ist[_ATGRID] = at_grid
+                    if k_imp < 0:
                         continue
-                    # ================================ contact event on stop k_imp (held set H kept)
-                    fresh = True
-                    at_grid = False
-                    if H != 0:
-                        d = hs.dirn[H, k_imp]
-                        me = hs.meff[H, k_imp]
-                        c_eff = hs.ceff[H, k_imp]
-                        k_eff = hs.keff[H, k_imp]
+                    # a contact at the current time on stop k_imp
+                    if cw is not None and (ist[_CMASK] >> k_imp) & 1:
+                        failed = _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, k_imp, max_impacts, recording)
                     else:
-                        d = st.normal[k_imp]
-                        me = st.m_eff[k_imp]
-                        c_eff = st.c_eff[k_imp]
-                        k_eff = st.k_eff[k_imp]
-                    nk = st.normal[k_imp]
-                    vk = v[k_imp]
-                    # Re-sync the state with the carried contact signal: ``g, v`` are carried as value +
-                    # increment (no cancellation), so they differ from the state's ``n^T eta - D, n^T eta'``
-                    # by round-off that nothing contracts (the impact resets ``g`` to 0 and maps the
-                    # velocity offset to itself): on a periodic orbit it would shift the stop seen by the
-                    # state linearly with the periods of a call.  Project the state onto the event
-                    # (contact at gap 0 with velocity v) along d (d keeps the held constraints).
-                    gs = (_dot(nk, eta) - st.offset[k_imp]) * me
-                    vs = (_dot(nk, etad) - vk) * me
-                    for i in range(n):
-                        eta[i] -= d[i] * gs
-                        etad[i] -= d[i] * vs
-                    g[k_imp] = 0.0
-                    Um = vk if vk > 0.0 else 0.0
-                    if logging:
-                        _log_event(evlog, nlog, EV_IMPACT, pp * T + t_loc, Um, k_imp, eta, etad)
-                    # CONTACT EVENT: the stop's law (Newton's, impulsive), impulse along d
-                    m_nodes = st.nodes[k_imp]
-                    Rc = restitution_coefficient(Um, st.R[k_imp], st.tab_U[k_imp, :m_nodes], st.tab_R[k_imp, :m_nodes])
-                    Up = newton_restitution(Um, Rc)
-                    # the impulse in two parts, the normal velocity first removed, then U+ added: a
-                    # rebound far slower than U- (R -> 0) is not lost to the rounding of U+ - U-
-                    P0 = -me * vk
-                    P1 = me * Up
-                    for i in range(n):
-                        etad[i] += d[i] * P0
-                    for i in range(n):
-                        etad[i] += d[i] * P1
-                    for j in range(ns):
-                        if j != k_imp and not _in(H, j):
-                            v[j] = _dot(st.normal[j], etad)
-                    v[k_imp] = Up
-                    n_imp_total += 1
-                    if recording:
-                        if n_imp_rec < cap:
-                            imp_t[n_imp_rec] = t_period0 + t_loc
-                            imp_v[n_imp_rec] = Um
-                            imp_k[n_imp_rec] = k_imp
-                        n_imp_rec += 1
-                        n_imp_stop[k_imp] += 1
-                    if n_imp_total > max_impacts:
-                        return (ST_FAILED, n_imp_rec, min(ext[0], pext[0]), max(ext[1], pext[1]), n_chatter, stuck_time,
-                                H | C, n_imp_total, gmax, n_steps, t_contact)
-                    # the shared policy (vibeam.models.contact_policy), R at the current impact velocity:
-                    # the jerk beyond the one-DOF flow part -c_eff a + k_eff u is the forcing term plus the
-                    # modal remainder (zero for one mode); a chatter jumps only to an accumulation point
-                    # inside the current grid step; the Zeno guard is on
-                    u = -Up
-                    acc, jerk = _contact_acc(phi, Om, eta, etad, d, sy.c, sy.k, GF)
-                    if cp is not None and C != 0:
-                        # the compliant stops in contact push too (their force along d)
-                        for c in range(ns):
-                            if (C >> c) & 1:
-                                fc = force(st.law[c], _dot(st.normal[c], eta) - st.offset[c], _dot(st.normal[c], etad),
-                                           st.kc[c], st.cc[c], st.pe[c], vr[c])
-                                acc -= _dot(d, st.normal[c]) * fc
-                    t_imp = t_period0 + t_loc
-                    burst = zeno_burst(burst, t_imp, t_last_imp, BURST_DT * T)
-                    t_last_imp = t_imp
-                    can_hold = hs.valid[H | (1 << k_imp)] == 1
-                    action, D = impact_outcome(u, can_hold and not release_now(acc, jerk), acc, jerk + c_eff * acc - k_eff * u,
-                                               c_eff, k_eff, Rc, chatter_tol, rem, burst, burst_max)
-                    if not can_hold:
-                        action = REBOUND
-                    stick_now = action != REBOUND
-                    if action == STICK or action == CHATTER_GUARD:
-                        burst = 0
-                    if action == CHATTER_GUARD:
-                        if recording:
-                            n_chatter += 1
-                            if n_chatter <= chat_t.shape[0]:
-                                chat_t[n_chatter - 1] = t_imp
-                    elif action == CHATTER:
-                        hold = D if C == 0 else 0.0     # (beside a compliant contact: stick at once)
-                        if recording:
-                            n_chatter += 1
-                            if n_chatter <= chat_t.shape[0]:
-                                chat_t[n_chatter - 1] = t_imp + D
-                    if stick_now:
-                        if logging:
-                            _log_event(evlog, nlog, EV_STICK_IMPACT, pp * T + t_loc, hold, k_imp, eta, etad)
-                        corr = Up * me
-                        for i in range(n):
-                            etad[i] -= d[i] * corr
-                        v[k_imp] = 0.0
-                        H = H | (1 << k_imp)
-                        just_stuck = True
-                        for j in range(ns):
-                            if not _in(H, j):
-                                v[j] = _dot(st.normal[j], etad)   # the projection moved them too
+                        failed = _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, Om, T,
+                                         k_imp, max_impacts, chatter_tol, recording, cw)
+                    if failed:
+                        break
+                if failed:
+                    break
+            if failed:
+                break
+        if failed:
+            break
+    if failed:
+        return _failed(fs, ist)
     if n_record > 0:
-        pmin[n_record - 1] = pext[0]
-        ext[0] = min(ext[0], pext[0])
-        ext[1] = max(ext[1], pext[1])
+        pmin[n_record - 1] = fs[_PEXT]
+        fs[_EXT] = min(fs[_EXT], fs[_PEXT])
+        fs[_EXT1] = max(fs[_EXT1], fs[_PEXT1])
     status = ST_OK
     if n_record > 0:
-        if n_chatter > 0:
+        if ist[_NCHAT] > 0:
             status = ST_CHATTER
-        elif stuck_time > 0.0:
+        elif fs[_STUCK] > 0.0:
             status = ST_STICKING
-    return (status, n_imp_rec, ext[0], ext[1], n_chatter, stuck_time, H | C, n_imp_total, gmax, n_steps,
-            t_contact)
+    return (status, ist[_NIMPR], fs[_EXT], fs[_EXT1], ist[_NCHAT], fs[_STUCK], ist[_H] | ist[_C], ist[_NIMPT],
+            fs[_GMAX], ist[_NSTEPS], fs[_TCON])
+
+
+@njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
+def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+              max_impacts, max_steps, chatter_tol, rec):
+    """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core).
+
+    Parameters
+    ----------
+    sy : KernelSystem
+    st : KernelStops
+    hs : HeldSets
+        :mod:`vibeam.models.core.stops`.
+    cp : Compliant or None
+        The compliant stops' data (:class:`vibeam.models.core.phases.Compliant`: the linear contact
+        phases, the Runge-Kutta tableau); None for a scene with Newton stops only, whose compiled
+        specialisation then holds no compliant code (numba prunes the branches on ``cp is None``).
+    Om : float
+        Forcing frequency (per unit nondimensional time).
+    eta, etad : ndarray, shape (n,)
+        Initial modal state, overwritten with the final one.
+    held0 : int
+        Bit mask of the stops the system is held on (Newton stops) or in contact with (compliant
+        stops) at the start (0 free).
+    n_transient, n_record : int
+        Forcing periods discarded, then recorded.
+    ns_transient, ns_record : int
+        Grid points per period (the recorded samples).
+    h_cap : float
+        Largest step.
+    max_impacts, max_steps : int
+        Guards: beyond them the call returns :data:`ST_FAILED`.
+    chatter_tol : float
+        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.contact_policy`).
+    rec : Record
+        Outputs.
+
+    Returns
+    -------
+    tuple
+        ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
+        gmax, n_steps, contact_time)``: status code, recorded impacts and contacts, sensor extremes
+        over the record (row units), chatter sequences, time held (excluding chatter holds), the
+        final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
+        response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
+        gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
+        round-off only if a crossing had been stepped over), steps taken, time in compliant contact
+        during the record.
+    """
+
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    S = hs.valid.shape[0]
+    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, sub_r,
+     sub_t) = _alloc(n, ns, S, Om, ns_transient, ns_record, h_cap)
+    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
+                        ns_transient, ns_record, h_cap, fs, ist)
+    if status != 0:
+        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
+    if cp is None:
+        return _run(sy, st, hs, None, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
+                    max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs,
+                    ist)
+    cw = _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec)
+    return _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
+                max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist)

@@ -36,11 +36,16 @@ from numba import njit
 from ..roots import rtsafe_update, select
 from ..system import transition_increment
 
+#: the bracketed problems of :func:`root` (int64, not literal ints: one compiled specialisation)
+ROOT_CROSS, ROOT_APEX, ROOT_MIN = np.int64(0), np.int64(1), np.int64(2)
+#: the helpers are called from compiled code only: no Python or C wrappers, no reference counting
+_kernel = njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+
 __all__ = ["certify_curvature", "homogeneous_bounds", "signal", "signal_sc", "signal_start", "bounds", "root", "scan",
            "extremes", "homogeneous"]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def certify_curvature(g20, g30, g21, g31, M3, M4, h, tol):
     """Certified sign of ``f''`` on ``[0, h]``: +1 convex, -1 concave, 0 unknown.
 
@@ -75,7 +80,7 @@ def certify_curvature(g20, g30, g21, g31, M3, M4, h, tol):
     return 0
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@_kernel
 def homogeneous_bounds(x0, y0, sig, k, typ, q, l1, l2, out):
     """Bounds ``out[m] >= sup_{s >= 0} |x^(m)(s)|``, ``m = 0..5``, of the homogeneous solution
     of ``x'' + 2 sig x' + k x = 0`` from ``(x0, y0)`` (a row ``(sig, k, typ, q, l1, l2)`` of
@@ -109,13 +114,13 @@ def homogeneous_bounds(x0, y0, sig, k, typ, q, l1, l2, out):
         out[m] = out[m] * (1.0 + 1e-9) + 1e-300
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@_kernel
 def signal(s, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
     """:func:`signal_sc` from the phase ``phi0`` itself."""
     return signal_sc(s, math.sin(phi0), math.cos(phi0), Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def signal_sc(s, sp0, cp0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
     """The signal and its first four derivatives at local time ``s``.
 
@@ -186,7 +191,7 @@ def signal_sc(s, sp0, cp0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
     return f, f1, f2, f3, f4
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@_kernel
 def signal_start(phi0, Om, x0, y0, mp, p, r, Sa, Sb, const, m):
     """Value and slope at ``s = 0`` of the signal ``const + sum p x + r x' + Sa sin + Sb cos``
     (arguments as :func:`signal`)."""
@@ -199,7 +204,7 @@ def signal_start(phi0, Om, x0, y0, mp, p, r, Sa, Sb, const, m):
     return f, fp
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@_kernel
 def bounds(hb, p, r, Csin, Om, m):
     """Bounds ``M2, M3, M4`` of the 2nd-4th derivatives of a signal over ``s >= 0``.
 
@@ -229,7 +234,7 @@ def bounds(hb, p, r, Csin, Om, m):
     return M2 * f + 1e-300, M3 * f + 1e-300, M4 * f + 1e-300
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@_kernel
 def root(kind, lo, hi, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
     """Safeguarded Newton on a bracket with ``F(lo) < 0 <= F(hi)``; returns the bracket end where
     ``F >= 0`` (an event is never placed before its crossing).  kind 0: ``F = f``; 1: ``F = -f'``
@@ -248,7 +253,7 @@ def root(kind, lo, hi, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
     return hi
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@_kernel
 def scan(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4, m):
     """One certified step of at most ``h``: the first time the signal reaches 0 from below.
 
@@ -259,61 +264,30 @@ def scan(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4, m):
         the step fell below ``h_min``); ``h_used <= h`` is the certified step.
     """
     g0, v0, g20, g30, _ = signal(0.0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-    tol2 = 1e-13 * M2
     if M2 <= 1e-290 and M3 <= 1e-290 and g0 <= 0.0:
         return -1.0, h          # a constant signal (every bound zero): it never rises through zero
-    while True:
-        g1, v1, g21, g31, _ = signal(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-        if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
-            return -1.0, h
-        cert = certify_curvature(g20, g30, g21, g31, M3, M4, h, tol2)
-        if cert != 0 or h < h_min or not h > 0.0:
-            break
-        h *= 0.5
-    if cert == 0:
-        cert = 1 if g20 + g21 > 0.0 else -1
-    if cert < 0:
-        if v0 > 0.0:
-            if v1 >= 0.0:
-                if g1 >= 0.0:
-                    return root(0, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
-            else:
-                bound = g0 + v0 * (g1 - g0 - v1 * h) / (v0 - v1) if v0 - v1 > 0.0 else g0
-                if bound >= 0.0:
-                    sa = root(1, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-                    ga = signal(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
-                    if ga >= 0.0:
-                        if g0 < 0.0:
-                            return root(0, 0.0, sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
-                        return sa, h
-    else:
-        if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
-            if v0 < 0.0:
-                if g1 >= 0.0:
-                    sm = root(2, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-                    return root(0, sm, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
-            elif g1 >= 0.0:
-                return root(0, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
-    return -1.0, h
+    g1, v1, g21, g31, _ = signal(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+    return scan_from(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, g0, v0, g20, g30, g1, v1, g21, g31, M2,
+                     M3, M4, m)
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@_kernel
 def extremes(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, vstart, vend, ext, m):
     """Update ``ext = [min, max]`` with the interior minimum or maximum of a signal on ``[0, h]``
     when its slope changes sign between the ends (``vstart``, ``vend``)."""
     if vstart < 0.0 < vend:
-        sm = root(2, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+        sm = root(ROOT_MIN, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
         v = signal(sm, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
         if v < ext[0]:
             ext[0] = v
     elif vstart > 0.0 > vend:
-        sa = root(1, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+        sa = root(ROOT_APEX, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
         v = signal(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
         if v > ext[1]:
             ext[1] = v
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@_kernel
 def homogeneous(phi0, Om, z, zd, a, b, e, x0, y0, m):
     """Homogeneous parts ``x0 = z - e - (a sin + b cos)``, ``y0 = z' - Om (a cos - b sin)`` of
     coordinates ``z`` with static offsets ``e`` and particular coefficients ``a, b``."""
@@ -324,13 +298,13 @@ def homogeneous(phi0, Om, z, zd, a, b, e, x0, y0, m):
         y0[j] = zd[j] - Om * (a[j] * cp0 - b[j] * sp0)
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
-def scan_from(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, g20, g30, g1, v1, g21, g31, M2, M3, M4, m):
-    """:func:`scan` with the signal's derivatives at ``0`` and its values at ``h`` given (the
-    caller's tabulated flow): no transcendental call unless the step must be halved or an
-    event is located."""
-    v0 = fp0
-    g0 = f0
+@_kernel
+def scan_from(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, g0, v0, g20, g30, g1, v1, g21, g31, M2, M3, M4,
+              m):
+    """:func:`scan` with the signal's value, slope and derivatives at ``0`` (``g0, v0, g20, g30``;
+    ``f0, fp0`` the signal's own start, :func:`signal`) and at ``h`` given (the caller's tabulated
+    flow, or :func:`scan`'s evaluation): no transcendental call unless the step must be halved or
+    an event is located."""
     tol2 = 1e-13 * M2
     if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
         return -1.0, h
@@ -349,28 +323,28 @@ def scan_from(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, g20, g30, g
         if v0 > 0.0:
             if v1 >= 0.0:
                 if g1 >= 0.0:
-                    return root(0, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
+                    return root(ROOT_CROSS, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
             else:
                 bound = g0 + v0 * (g1 - g0 - v1 * h) / (v0 - v1) if v0 - v1 > 0.0 else g0
                 if bound >= 0.0:
-                    sa = root(1, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+                    sa = root(ROOT_APEX, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
                     ga = signal(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
                     if ga >= 0.0:
                         if g0 < 0.0:
-                            return root(0, 0.0, sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
+                            return root(ROOT_CROSS, 0.0, sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
                         return sa, h
     else:
         if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
             if v0 < 0.0:
                 if g1 >= 0.0:
-                    sm = root(2, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-                    return root(0, sm, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
+                    sm = root(ROOT_MIN, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+                    return root(ROOT_CROSS, sm, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
             elif g1 >= 0.0:
-                return root(0, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
+                return root(ROOT_CROSS, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
     return -1.0, h
 
 
-@njit(cache=True, _nrt=False, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def mode_ends(s, x0, y0, mp, P, tab, dx, dy, x2, x3, m):
     """Per-coordinate increments and derivatives of the homogeneous flow at local time ``s``.
 

@@ -546,6 +546,55 @@ def _lost_rows(line: Line, err: BaseException, attempts: int) -> list[dict]:
             for W in line.Omega]
 
 
+# the kinds of work whose kernels this process has loaded (:func:`load_kernels`)
+_LOADED: set = set()
+
+
+def _kernel_key(line):
+    """What decides the compiled kernels a unit of work runs: its solver (or continuation run)
+    kind and whether its model has a compliant stop (the event integrator's compliant
+    specialisation); None for work without a solver."""
+    if hasattr(line, "warm_up"):          # a continuation run
+        sp = getattr(line, "spec", None)
+        return ("task", getattr(sp, "fidelity", ""), str(getattr(sp, "contact", None)),
+                str(getattr(sp, "contact_lower", None)), getattr(line, "parameter", "") == "Omega")
+    s = getattr(line, "solver", None)
+    if s is None:
+        return None
+    model = getattr(s, "model", None)
+    stops = getattr(model, "system_stops", None) or getattr(model, "stops", None)
+    try:
+        laws = tuple(type(getattr(st, "law", None)).__name__ for st in stops())
+    except Exception:      # no stops of that form (or a model its solver refuses): the classes decide
+        laws = ()
+    return ("solver", type(s), type(getattr(s, "solver", None)), getattr(s, "name", ""), type(model), laws)
+
+
+def load_kernels(lines) -> float:
+    """Load (or compile) the numba kernels of the lines' work in this process, once per kind of work
+    (:func:`_kernel_key`): one short call of each solver (two forcing periods at the line's first
+    frequency), a cut-down run of each kind of continuation.  Returns the seconds it took.
+
+    :func:`run_lines` calls it before it forks the workers of a local pool: forked workers inherit
+    the loaded kernels, so no worker compiles a kernel or loads it from numba's cache (with an
+    empty cache every worker would otherwise compile the same kernels side by side).  A call that
+    fails is ignored (the work records the failure where it happens)."""
+    t0 = time.perf_counter()
+    for l in lines:
+        key = _kernel_key(l)
+        if key is None or key in _LOADED:
+            continue
+        _LOADED.add(key)
+        if key[0] == "task":
+            l.warm_up()
+            continue
+        try:
+            l.solver.point(float(np.atleast_1d(l.Omega)[0]), None, 1, 1, 16)
+        except Exception:
+            pass
+    return time.perf_counter() - t0
+
+
 def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_line=None,
               progress: bool = False, desc: str = "", max_attempts: int = 3, stats: dict | None = None,
               inline_first_s: float | None = None) -> dict:
@@ -608,6 +657,7 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
 
     def start_pool(k):
         nonlocal queue
+        load_kernels(lines)     # before the fork: the workers inherit the kernels, none compiles
         t0 = time.perf_counter()
         queue = _progress_queue() if progress else None
         pool = _pool(k, queue)
@@ -623,6 +673,8 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
     else:
         ex = executor
         stats.update(executor=type(executor).__name__, pool_startup_s=0.0)
+        if isinstance(ex, ProcessPoolExecutor):     # a local pool (its workers fork at its first task)
+            load_kernels(lines)
     attempts: dict = {}
     isolated = False        # after a pool broke under several lines: one line in flight from then on
     backlog: list = []      # lines waiting for their turn while isolated
@@ -835,7 +887,7 @@ def _pool(workers: int, progress_queue=None) -> ProcessPoolExecutor:
     finished points to ``progress_queue``).
 
     On Linux the workers are forked, so they inherit the parent's imported modules and the
-    numba kernels it has loaded (:func:`vibeam.runner.load_kernels`): nothing is compiled or
+    numba kernels it has loaded (:func:`load_kernels`, called before the fork): nothing is compiled or
     loaded from the cache again in a worker."""
     return ProcessPoolExecutor(max_workers=workers, initializer=_worker_init,
                                initargs=(os.getpid(), progress_queue))
