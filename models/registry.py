@@ -251,7 +251,7 @@ register(Fidelity(
     restitution_law_methods=("event", "direct"),
     two_sided_methods=("event", "direct", "continuation"),
     two_sided_law_methods={"kelvin_voigt": ("event", "direct", "continuation"),
-                           "hysteretic_hertz": ("event", "continuation")},
+                           "hysteretic_hertz": ("event", "direct", "continuation")},
     contact_laws={"kelvin_voigt": {"event": "beam_dynamics:BeamEventSolver",
                              "direct": "beam_dynamics:BeamODESolver",
                              "continuation": "periodic_beam:BeamContinuation"},
