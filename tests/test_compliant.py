@@ -481,7 +481,7 @@ def test_beam_event_agrees_with_the_direct_reference(n_modes, k):
 def test_beam_isolated_contact_restitution_and_case_keys():
     """The beam's dashpot realises the target R for the relation's effective mass m_eff =
     1 / |w|^2: c_c = 2 zeta sqrt(k_c m_eff); case keys: stiffness_n_m required, the ratio
-    refused, hunt_crossley with two stops accepted by event only, continuation accepted for both laws."""
+    refused, hunt_crossley with two stops accepted by event and direct, continuation accepted for both laws."""
     from vibeam.models.beam_compliant import CompliantBeamEventSolver, CompliantBeamModel
 
     m = _rig(2, 1e6)
@@ -498,11 +498,11 @@ def test_beam_isolated_contact_restitution_and_case_keys():
         parse_case(text.replace("stiffness_n_m = 1e6", "stiffness = 1e4"))
     hc = text.replace('law = "linear"', 'law = "hunt_crossley"')
     parse_case(hc)
-    # two Hunt-Crossley stops: the one compliant beam kernel (event); direct (one stop) refused
+    # two Hunt-Crossley stops: event, and direct since the one direct solver (refused before it)
     parse_case(hc.replace("[model.contact]", "gap_lower_mm = 0.3\n[model.contact]"))
-    with pytest.raises(CaseError, match="allowed with two stops: event"):
-        parse_case(hc.replace("[model.contact]", "gap_lower_mm = 0.3\n[model.contact]")
-                   .replace('method = "event"', 'method = "direct"', 1))
+    two = parse_case(hc.replace("[model.contact]", "gap_lower_mm = 0.3\n[model.contact]")
+                     .replace('method = "event"', 'method = "direct"', 1))
+    assert two.run[0].method == "direct"
     # hunt_crossley on the beam continues too (vibeam.models.periodic_hc_beam)
     parse_case(hc.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"', 1))
     # continuation: the law's shooting problem (vibeam.models.periodic_compliant), in the frequency and
