@@ -87,6 +87,9 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
             raise ValueError(f"continuation with contact law {law!r} and a second (lower) stop is not "
                              f"implemented for this law and fidelity; use method = \"event\"")
         return resolve(path)(model, parameter, Omega=Omega)
+    if getattr(model, "mixed_stops", False) and "continuation" not in fidelity(model).mixed_stop_methods:
+        raise ValueError("continuation with a compliant stop beside a restitution one is not implemented for "
+                         f"fidelity {model.fidelity!r}; use method = \"event\"")
     shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
     cls = shooting.get(model.fidelity)
     if cls is None:
@@ -132,6 +135,10 @@ def make_solver(model, method: str, **settings):
     if path is None:
         raise ValueError(f"method {method!r} is not available for fidelity {fid.name!r}; "
                          f"allowed: {', '.join(sorted(fid.methods))}")
+    if getattr(model, "mixed_stops", False) and method not in fid.mixed_stop_methods:
+        # a restitution upper stop above a compliant lower one
+        raise ValueError(f"method {method!r} cannot simulate a compliant stop beside a restitution one; "
+                         f"allowed: {', '.join(fid.mixed_stop_methods) or 'none'}")
     if getattr(model, "two_sided", False) and method not in fid.two_sided_methods:
         raise ValueError(f"method {method!r} cannot simulate a second (lower) stop; allowed with two stops: "
                          f"{', '.join(fid.two_sided_methods)}")

@@ -108,6 +108,8 @@ class SDOFShooting(ModalShooting):
         self.Omega = None if Omega is None else float(Omega)
         #: the upper stop's law when it is compliant (R is then its target restitution)
         self.law = getattr(model, "contact", None)
+        #: a compliant stop in the scene: the continuation parameter's direction alone
+        self.compliant = any(getattr(s.law, "kind", "") == "compliant" for s in model.stops())
         R0 = float(model.R) if self.law is None else float(self.law.R)
         self.value = (float(Omega) if Omega is not None else math.nan) if parameter == "Omega" \
             else (R0 if parameter == "R" else float(getattr(model, parameter)))
@@ -130,7 +132,9 @@ class SDOFShooting(ModalShooting):
 
     def R_lower(self, R: float) -> float:
         """The lower stop's R when the upper stop's is ``R``."""
-        return float(self.model.R_lower) if self.own_R_lower else float(R)
+        if not self.own_R_lower:
+            return float(R)
+        return None if self.model.R_lower is None else float(self.model.R_lower)
 
     def invalid(self, p: float) -> str:
         beta, B, R, Delta, Omega = self.params(p)
@@ -177,7 +181,7 @@ class SDOFShooting(ModalShooting):
                      Direction("beta", 0.0, 0.0, z, z, np.array([2.0]))]
             # a compliant stop: the continuation parameter's direction alone (a direction that changes a
             # Kelvin-Voigt contact phase's matrix, R or beta, integrates its variational equations)
-            dirs = directions(core, [every[self.index]] if self.law is not None else every)
+            dirs = directions(core, [every[self.index]] if self.compliant else every)
             if len(self._setups) > 64:
                 self._setups.clear()
             su = self._setups[key] = (core, dirs)
@@ -186,7 +190,7 @@ class SDOFShooting(ModalShooting):
     @property
     def column(self) -> int:
         """The continuation parameter's column among the directions of :meth:`setup`."""
-        return 0 if self.law is not None else self.index
+        return 0 if self.compliant else self.index
 
     def shot(self, x0, p, n=1, derivatives: bool = True, stuck=None) -> Shot:
         """``P^n(x0; p)`` with monodromy and ``d/dp`` (:meth:`ModalShooting.shot`).
@@ -220,6 +224,8 @@ class SDOFShooting(ModalShooting):
         if no impact lies within ``1e-6 T`` of the section.
         """
         from .sdof_flow import propagate
+        if self.compliant:
+            return None     # a compliant contact has a duration: no jump of the section's state
         s = self.shot(x0, p, n)
         if s.status != "ok" or not s.n_impacts:
             return None

@@ -60,11 +60,10 @@ class SDOF:
         Effective mass of a physical scene's oscillator at the contact (kg): contact forces
         in N (``force_scale_n``); None: forces stay nondimensional.
     contact_lower : LinearContact or HuntCrossley or None, optional
-        The compliant law of the lower stop of a two-sided scene with a compliant upper stop;
-        None: ``contact`` (the upper stop's law), or Newton's law with ``R_lower`` when that is
-        given (a restitution stop beside the compliant one; ``event`` and ``direct`` only).  A
-        restitution upper stop beside a compliant lower one is not implemented (:meth:`stops`
-        raises ValueError).
+        The compliant law of the lower stop of a two-sided scene; None: ``contact`` (the upper
+        stop's law), or Newton's law with ``R_lower`` when that is given.  Beside a Newton
+        upper stop (``contact`` None) the lower stop is compliant and the upper one keeps
+        ``R`` and ``R_table``.
     """
 
     beta: float
@@ -89,8 +88,14 @@ class SDOF:
 
     @property
     def mixed_stops(self) -> bool:
-        """A compliant upper stop beside a restitution lower stop (``R_lower`` given)."""
-        return self.contact is not None and self.Delta_lower is not None and self.R_lower is not None
+        """Two stops, one of Newton's law and one compliant: a compliant upper stop beside a
+        restitution lower stop (``R_lower`` given), or a Newton upper stop above a compliant
+        lower one (``contact`` None, ``contact_lower`` given)."""
+        if self.Delta_lower is None:
+            return False
+        if self.contact is not None:
+            return self.R_lower is not None
+        return self.contact_lower is not None
 
     @property
     def contact_law(self) -> str:
@@ -110,13 +115,16 @@ class SDOF:
         ``q = Delta`` (normal ``+1``) with Newton's law, ``R`` and ``R(q'-)``, or the compliant
         law ``contact``; for a two-sided scene the stop at ``q = -Delta_lower`` (normal ``-1``)
         with its own law."""
+        if self.contact_lower is not None and self.R_lower is not None:
+            raise ValueError("the lower stop takes one law: contact_lower (compliant) or R_lower (restitution)")
         if self.contact is not None or self.contact_lower is not None:
             if self.contact is None:
-                raise ValueError("a restitution upper stop beside a compliant lower stop is not implemented: "
-                                 "give the upper stop the compliant law ([model.contact]) and the lower one "
-                                 "law = \"restitution\", or both stops a compliant law")
-            if self.contact_lower is not None and self.R_lower is not None:
-                raise ValueError("the lower stop takes one law: contact_lower (compliant) or R_lower (restitution)")
+                # Newton's law above a compliant lower stop
+                tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())
+                upper = Stop(Relation(1.0, self.Delta), Restitution(self.R, tuple(tv), tuple(tR)))
+                if self.Delta_lower is None:
+                    raise ValueError("contact_lower needs a lower stop (Delta_lower)")
+                return upper, Stop(Relation(-1.0, self.Delta_lower), self.contact_lower)
             out = (Stop(Relation(1.0, self.Delta), self.contact),)
             if self.Delta_lower is not None:
                 if self.R_lower is not None:   # Newton's law below, beside the compliant upper stop

@@ -81,11 +81,15 @@ def test_chatter_on_the_restitution_stop_ends_the_point_with_status_chatter():
 
 
 def test_mixed_stops_are_refused_where_not_implemented():
-    """A restitution upper stop beside a compliant lower one, and the methods other than
-    event/direct/continuation (mapping), are refused in one line; continuation is the one shooting
-    problem (vibeam.models.core.shooting)."""
-    with pytest.raises(ValueError, match="restitution upper stop beside a compliant lower stop is not implemented"):
-        SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact_lower=KV).stops()
+    """The methods other than event/direct/continuation (mapping) are refused in one line for
+    either order of the laws; continuation is the one shooting problem
+    (vibeam.models.core.shooting).  A restitution upper stop above a compliant lower one, refused
+    before the one shooting problem, is now served: its stops are Newton's law above the law of
+    contact_lower (tests/test_continuation_compliant_two.py checks its shots)."""
+    up = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact_lower=KV)
+    assert [s.law.kind for s in up.stops()] == ["impulsive", "compliant"] and up.mixed_stops
+    with pytest.raises(ValueError, match="cannot simulate a compliant stop beside a restitution one"):
+        make_solver(up, "mapping")
     m = _mixed()
     with pytest.raises(ValueError, match="a restitution stop beside a compliant one"):
         make_solver(m, "mapping")

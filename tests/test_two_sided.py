@@ -405,8 +405,9 @@ method = "{method}"
     ("Delta_lower = 1e-3", "zhuravlev", "cannot simulate a second stop"),
     ("Delta_lower = -1e-3", "event", "the stops overlap: Delta \\+ Delta_lower = -0.001 must be > 0"),
     ("[model.contact_lower]\nR = 0.5", "event", "needs a lower stop"),
-    ("Delta_lower = 1e-3\n[model.contact_lower]\nlaw = 'linear'\nstiffness = 1e4", "event",
-     "beside a restitution upper stop is not implemented"),
+    # a restitution upper stop above a compliant lower one: event, direct, continuation (was refused)
+    ("Delta_lower = 1e-3\n[model.contact_lower]\nlaw = 'linear'\nstiffness = 1e4", "mapping",
+     "contact_lower.law = \"linear\".*allowed with two stops: event, direct, continuation$"),
     ("Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4\n[model.contact_lower]\nR = 0.5",
      "mapping", "contact_lower.law = \"restitution\".*allowed with two stops: event, direct, continuation$"),
     ("Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4", "mapping",

@@ -91,7 +91,7 @@ def check_stiffness(law, key: str) -> None:
 
 def _check_stops(spec, lower_keys: tuple, gap_key: str, mixed: bool = False) -> None:
     """The contact tables and the second stop of a model spec (ValueError naming the keys);
-    ``mixed``: the fidelity takes a compliant upper stop beside a restitution lower one."""
+    ``mixed``: the fidelity takes a compliant stop beside a restitution one (either above)."""
     lower = [k for k in lower_keys if getattr(spec, k) is not None]
     if len(lower) > 1:
         raise ValueError(f"give the lower stop once: one of {list(lower_keys)} (got {lower})")
@@ -103,11 +103,9 @@ def _check_stops(spec, lower_keys: tuple, gap_key: str, mixed: bool = False) -> 
                  if getattr(spec, k) is not None and is_compliant(getattr(spec, k).law)]
     if mixed and compliant == ["contact"] and spec.contact_lower is not None:
         return   # a compliant upper stop beside a restitution lower one (models.registry mixed_stop_methods)
+    if mixed and compliant == ["contact_lower"]:
+        return   # a restitution upper stop ([model] R) above a compliant lower one
     if compliant and spec.contact_lower is not None and len(compliant) == 1:
-        if mixed:
-            raise ValueError("[model.contact_lower] law = %r beside a restitution upper stop is not implemented: "
-                             "give the upper stop the compliant law ([model.contact]) and the lower one "
-                             "law = 'restitution', or both stops a compliant law" % spec.contact_lower.law)
         raise ValueError(f"[model.{compliant[0]}] law = {getattr(spec, compliant[0]).law!r} beside a restitution stop "
                          f"is not implemented: give both stops a compliant law (or omit [model.contact_lower]: "
                          f"the upper stop's law), or both law = 'restitution'")
@@ -214,7 +212,8 @@ class SDOFModelSpec(_Strict):
         return self.Delta_lower is not None or self.gap_lower_mm is not None
 
     def _R_lower(self):
-        if self.contact_lower is None:
+        upper_compliant = self.contact is not None and is_compliant(self.contact.law)
+        if self.contact_lower is None or (is_compliant(self.contact_lower.law) and not upper_compliant):
             return None
         if self.mixed_stops:   # Newton's law below a compliant upper stop: its R, else [model] R
             return self.R if self.contact_lower.R is None else self.contact_lower.R
@@ -222,9 +221,12 @@ class SDOFModelSpec(_Strict):
 
     @property
     def mixed_stops(self) -> bool:
-        """A compliant ``[model.contact]`` beside a restitution ``[model.contact_lower]``."""
-        return (self.contact is not None and is_compliant(self.contact.law)
-                and self.contact_lower is not None and not is_compliant(self.contact_lower.law))
+        """A compliant ``[model.contact]`` beside a restitution ``[model.contact_lower]``, or a
+        restitution upper stop (no ``[model.contact]``) above a compliant ``[model.contact_lower]``."""
+        if self.contact_lower is None:
+            return False
+        up = self.contact is not None and is_compliant(self.contact.law)
+        return up != is_compliant(self.contact_lower.law)
 
     # continuation parameters: key -> (native key of the SDOF model, factor d native / d key)
     def native_parameter(self, key: str):
@@ -1538,7 +1540,7 @@ def _check_two_sided(case: Case, i: int, r) -> None:
         # a restitution stop beside a compliant one: the registry's mixed_stop_methods
         from vibeam.models.registry import fidelity
         allowed = tuple(m for m in allowed if m in fidelity(spec.fidelity).mixed_stop_methods)
-        what += " and contact_lower.law = \"restitution\""
+        what += f" and contact_lower.law = \"{spec.contact_lower.law}\""
     if lo is not None and lo.law != law:
         # a lower stop with another law: the methods that simulate both laws on two stops
         low = two_sided_methods(spec.fidelity, lo.law)
