@@ -361,8 +361,9 @@ class _Run:
         self.kc, self.cc, self.pe = [float(x) for x in st.kc], [float(x) for x in st.cc], [float(x) for x in st.pe]
         self.comp = [c in (LAW_LINEAR, LAW_HYSTERETIC_HERTZ) for c in self.law]
         self.cmask = sum(1 << k for k in range(self.ns) if self.comp[k])
-        vfall = core.compliant.vfall if core.compliant is not None else 0.0
-        self.vfl = [_floor(Om, float(self.sy.B), float(st.normal[k] @ self.sy.gam), vfall) if self.comp[k] else 0.0
+        cp = core.compliant
+        vfall, vfac = (cp.vfall, cp.vfac) if cp is not None else (0.0, 0.0)
+        self.vfl = [_floor(Om, float(self.sy.B), float(st.normal[k] @ self.sy.gam), vfall, vfac) if self.comp[k] else 0.0
                     for k in range(self.ns)]
         self.vr = [0.0] * self.ns
         self.inside = self.relaxed = 0
