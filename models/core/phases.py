@@ -253,8 +253,10 @@ def contact_phases(system, ks, hs) -> ContactPhases:
             sens = np.asarray(system.sensor, float)
             rows.append(dict(H=H, C=C, m=nc, mp=mode_table(c2, k2), Tx=Tx, Ty=Ty,
                              Tix=Ti[:nc] @ B2.T, Tiy=Ti[nc:] @ B2.T, fx=f[:nc], fy=f[nc:], ze=ze, hcap=hcap,
-                             pg=Nrm @ Tx[:n], rg=Nrm @ Ty[:n], gc=Nrm @ ze[:n] - np.asarray(ks.offset, float),
-                             pv=Nrm @ Tx[n:], rv=Nrm @ Ty[n:], pl=ll @ Tx, rl=ll @ Ty, lc=ll @ ze + cl, lF=lF,
+                             pg=_by_row(Nrm, Tx[:n]), rg=_by_row(Nrm, Ty[:n]),
+                             gc=_by_row(Nrm, ze[:n]) - np.asarray(ks.offset, float),
+                             pv=_by_row(Nrm, Tx[n:]), rv=_by_row(Nrm, Ty[n:]), pl=_by_row(ll, Tx), rl=_by_row(ll, Ty),
+                             lc=_by_row(ll, ze) + cl, lF=lF,
                              ps=sens @ Tx[:n], rs=sens @ Ty[:n], sc=float(sens @ ze[:n])))
     Q = max(len(rows), 1)
     out = dict(m=np.zeros(Q, np.int64), mp=np.zeros((Q, n, 6)), Tx=np.zeros((Q, 2 * n, n)),
@@ -275,6 +277,13 @@ def contact_phases(system, ks, hs) -> ContactPhases:
             out[key][q] = r[key]
     arrays = {k: np.ascontiguousarray(v) for k, v in out.items()}
     return ContactPhases(index=index, **arrays)
+
+
+def _by_row(M: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """``M @ A`` one row of ``M`` at a time: each stop's row gets the same bits whatever the number
+    of stops (BLAS takes other kernels, with other sums, for other shapes), so that a stop the
+    motion never reaches changes nothing."""
+    return np.array([row @ A for row in M]).reshape((M.shape[0],) + A.shape[1:])
 
 
 class Compliant(NamedTuple):
