@@ -152,6 +152,8 @@ def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, h
     ns = st.offset.shape[0]
     m = cp.m[q]
     mp = cp.mp[q]
+    if not cp.hcap[q] > 0.0:
+        return -1.0, EK_FAIL, -1, 0       # a phase not resolved in double precision (phases.UnresolvedPhase)
     sp0 = math.sin(phi)
     cp0 = math.cos(phi)
     axq = ax[q]
