@@ -71,16 +71,33 @@ class LinearPhase:
         self.a, self.b = float(a[0]), float(b[0])
 
     def field(self, q, v, t):
-        """``(q', q'')`` at ``(q, q')`` and time ``t``."""
+        """The phase's field ``(q', q'')`` at ``(q, q')`` and time ``t`` (ndarray, shape (2,))."""
         return np.array([v, self.F * math.sin(self.Omega * t) - self.c * v - self.k * (q - self.qe)])
 
     def transition(self, s):
-        """Closed-form state-transition matrix over ``s`` (2, 2)."""
+        """Closed-form state-transition matrix of ``(q, q')`` over a time ``s`` (ndarray, shape (2, 2))."""
         p11, p12, p21, p22 = transition_entries(s, *self.mp[0])
         return np.array([[p11, p12], [p21, p22]])
 
     def step(self, kind, h, t, q, v, r=(0.0, 0.0, 0.0), rec=False, ext=None, cs=None):
-        """:func:`phase_step` of this phase: ``(s, event, q, v)`` after at most ``h`` from ``(t, q, v)``."""
+        """One :func:`phase_step` of this phase of at most ``h`` from ``(t, q, q')``.
+
+        Parameters
+        ----------
+        kind : int
+            :data:`FREE` or :data:`CONTACT`.
+        r : tuple of float
+            ``(r0, r1, roff)``: the force's sign function inside the stop (free phase).
+        rec : bool
+            Update ``ext`` (shape (2,): min and max of ``q``).
+        cs : ndarray, shape (3,), optional
+            The contact's record (contact phase), updated.
+
+        Returns
+        -------
+        s, event, q, v : float, int, float, float
+            The step taken, how it ended and the state at its end.
+        """
         out = np.empty(2)
         ext = np.array([np.inf, -np.inf]) if ext is None else ext
         cs = np.zeros(3) if cs is None else cs
@@ -230,20 +247,24 @@ def phase_step(kind, h, h_min, t, q, v, mp, qe, a, b, F, Om, Delta, kc, cc, r0, 
     return s, ev
 
 
-def phase_transition(s, phase: LinearPhase) -> np.ndarray:
-    """Closed-form state-transition matrix of a phase over ``s`` (physical time), (2, 2)."""
-    return phase.transition(s)
+def entry_guess(model, Omega, n, guess_periods):
+    """The first Newton guess of a one-contact orbit: the last contact entry of an event run.
 
+    Parameters
+    ----------
+    model : vibeam.models.SDOF
+    Omega : float
+    n : int
+        Forcing periods per contact (the run records ``n + 1``).
+    guess_periods : int
+        Transient periods of the run (:class:`vibeam.models.sdof.EventSolver`, from rest).
 
-def phase_field(q, v, t, phase: LinearPhase) -> np.ndarray:
-    """``(q', q'')`` of a phase: ``q'' = F sin(Omega t) - 2 b w q' - w^2 (q - q_e)``."""
-    return phase.field(q, v, t)
-
-
-def event_guess(model, Omega, n, guess_periods):
-    """The first Newton guess ``(t0, v0)`` of a one-contact orbit: the last contact entry of an
-    event run (:class:`vibeam.models.sdof.EventSolver`, ``guess_periods`` periods from rest), or
-    None without a contact."""
+    Returns
+    -------
+    tuple of float or None
+        ``(t0, v0)``: the entry's time within its forcing period and its speed; None without a
+        contact.
+    """
     from .sdof import EventSolver
 
     tr = EventSolver(model).point(Omega, None, guess_periods, n + 1, 16)
@@ -364,7 +385,7 @@ class CompliantMappingSolver:
             s = np.asarray(state0, float).ravel()
             if s.shape == (2,) and np.all(np.isfinite(s)) and s[1] > 0:
                 yield s[0] / Omega, s[1]
-        g = event_guess(self.model, Omega, self.n, self.guess_periods)
+        g = entry_guess(self.model, Omega, self.n, self.guess_periods)
         if g is not None:
             yield g
 

@@ -36,7 +36,7 @@ from scipy.integrate import solve_ivp
 
 from .core import laws
 from .registry import family_laws
-from .sdof_compliant_map import EV_ENTRY, EV_FAIL, EV_GAPDOWN, FREE, TWO_PI, LinearPhase, event_guess
+from .sdof_compliant_map import EV_ENTRY, EV_FAIL, EV_GAPDOWN, FREE, TWO_PI, LinearPhase, entry_guess
 
 #: tolerance of the contact phase (DOP853 with its variational equations)
 RTOL = 1e-12
@@ -225,7 +225,7 @@ class HuntCrossleyMappingSolver:
             s = np.asarray(state0, float).ravel()
             if s.shape == (2,) and np.all(np.isfinite(s)) and s[1] > 0:
                 yield s[0] / Omega, s[1]
-        g = event_guess(self.model, Omega, self.n, self.guess_periods)
+        g = entry_guess(self.model, Omega, self.n, self.guess_periods)
         if g is not None:
             yield g
 
