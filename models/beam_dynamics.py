@@ -52,7 +52,7 @@ from .system import advance_modes, from_beam, mode_table, particular, transition
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["BeamImpactModel", "PointStop", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
+__all__ = ["BeamImpactModel", "CompliantBeamModel", "PointStop", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
 
 # the closed-form modal flow lives in vibeam.models.system (the one dynamical system); the kernels
 # below call it by these names (mode_table and particular are re-exported from there)
@@ -491,6 +491,62 @@ class BeamImpactModel:
         return float(abs(self.sensor_row @ H))
 
 
+
+class CompliantBeamModel(BeamImpactModel):
+    """A :class:`BeamImpactModel` whose stops at the attached mass have compliant laws.
+
+    The same beam; :meth:`stops` gives the stop at ``w^T eta = Delta_C`` (and a lower one at
+    ``w^T eta = -Delta_C,lower``) with the laws of :mod:`vibeam.models.compliant`, which every
+    solver of the beam (:class:`BeamEventSolver`, :class:`BeamODESolver`,
+    :class:`vibeam.models.periodic_beam.BeamContinuation`) simulates through
+    :meth:`BeamImpactModel.system_stops`.
+
+    Attributes (beyond the base model's)
+    ------------------------------------
+    contact : vibeam.models.compliant.LinearContact or HystereticHertz
+        The upper stop's law: ``stiffness`` in N/m^p at the contact point, the damping ratio (of
+        the isolated contact of mass ``m_eff``) or ``chi``.
+    contact_lower : law or None
+        The lower stop's own law (None: ``contact``).
+    """
+
+    @classmethod
+    def from_model(cls, base: BeamImpactModel, law, law_lower=None) -> "CompliantBeamModel":
+        """The compliant model of ``base`` with the stop's law ``law``; a two-sided ``base``
+        (``gap_contact_lower_m``) gets ``law_lower`` at its lower stop (None: ``law``)."""
+        m = cls.__new__(cls)
+        m.__dict__.update(copy.copy(base.__dict__))
+        m.contact = law
+        m.contact_lower = law_lower
+        return m
+
+    @property
+    def contact_law(self) -> str:
+        return self.contact.name
+
+    @property
+    def lower_law(self):
+        """The law of the lower stop of a two-sided scene (``contact_lower`` or ``contact``),
+        None with one stop."""
+        if not self.two_sided:
+            return None
+        lo = getattr(self, "contact_lower", None)
+        return self.contact if lo is None else lo
+
+    def stops(self) -> tuple:
+        """The contact relations and (compliant) laws: the stop at ``w^T eta = Delta_C`` and,
+        for a two-sided scene, the one at ``w^T eta = -Delta_C,lower``."""
+        out = (Stop(Relation(1.0, self.gap_contact_m), self.contact),)
+        if self.two_sided:
+            out += (Stop(Relation(-1.0, self.gap_contact_lower_m), self.lower_law),)
+        return out
+
+    @property
+    def contact_damping_n_s_m(self) -> float:
+        """The upper Kelvin-Voigt stop's dashpot ``c_c = 2 zeta_c sqrt(k_c m_eff)`` (N s/m)."""
+        return 2.0 * self.contact.damping_ratio * math.sqrt(self.contact.stiffness * self.m_eff)
+
+
 # ============================================================================ solvers
 def newton_contact_rows(model: BeamImpactModel, velocities, stops=None) -> np.ndarray:
     """Contact rows (:attr:`vibeam.models.trajectory.Trajectory.contacts`) of Newton impacts.
@@ -499,7 +555,7 @@ def newton_contact_rows(model: BeamImpactModel, velocities, stops=None) -> np.nd
     mass-normalised modal beam receives the impulse ``P = -m_eff (1 + R) U-`` along ``n``
     (:func:`apply_impulse`, ``m_eff = 1 / |w|^2``), which removes the kinetic energy
     ``(1 - R^2) m_eff U-^2 / 2`` of the modal state (``|eta'|^2 / 2``) and nothing else.  In
-    the units of the compliant beam's rows (:mod:`vibeam.models.beam_compliant`: work per
+    the units of the compliant contacts' rows (:func:`vibeam.models.core.event.trajectory`: work per
     ``m_eff L^2``, time unit ``1 / omega_ref``) that is ``(1 - R^2) v^2 / 2`` with ``v = U- / L``,
     the SDOF's expression (:class:`vibeam.models.sdof.EventSolver`).
 

@@ -155,7 +155,7 @@ class LinearContact:
     table_U = ()      # no R(U-) table (kernel stop rows, vibeam.models.contact.pack)
     table_R = ()
     name = "linear"
-    #: the contact phase is a linear flow (exact, eigendecomposed: vibeam.models.beam_compliant)
+    #: the contact phase is a linear flow (exact, eigendecomposed: vibeam.models.core.phases)
     linear_phase = True
 
     @staticmethod
@@ -236,7 +236,7 @@ class HystereticHertz:
     name = ""                      # a law of the family names itself (vibeam.models.registry.LAWS)
     #: ``chi`` as a function of ``R`` (for messages)
     chi_formula = ""
-    #: the contact phase has no closed form (integrated: vibeam.models.hc_contact)
+    #: the contact phase has no closed form (integrated: vibeam.models.core.rk)
     linear_phase = False
 
     @staticmethod

@@ -29,10 +29,10 @@ Law of stop k (unit free, acts on the relation's ``U``; :class:`Restitution`)
                  does).  Two families are implemented, each by its own kernels: Kelvin-Voigt
                  (:data:`LAW_LINEAR`) and hysteretic Hertz (:data:`LAW_HYSTERETIC_HERTZ`,
                  ``k delta^p (1 + chi delta' / v_in)``, ``chi`` a number of the law); the laws
-                 are named in :data:`vibeam.models.registry.LAWS` (:mod:`vibeam.models.compliant`; kernels
-                 :mod:`vibeam.models.sdof_compliant`, :mod:`vibeam.models.beam_compliant`,
-                 :mod:`vibeam.models.beam_hc`, beside the impulsive ones), on one stop or on
-                 two (each its own compliant law; not mixed with an impulsive stop).
+                 are named in :data:`vibeam.models.registry.LAWS` (:mod:`vibeam.models.compliant`; in
+                 kernel form :mod:`vibeam.models.core.laws`, simulated by the one event integrator,
+                 :mod:`vibeam.models.core.contact_phase`, beside the impulsive ones), on one stop or
+                 on two (each its own law; a compliant upper stop also beside a Newton lower one).
 
 Kernel representation (numba: plain arrays, one row per stop; :func:`pack`)
     ``stops``   float64 (n_stops, :data:`NPAR`): row k = ``[sign s_k, offset Delta_k, law code,
@@ -98,11 +98,6 @@ LAW_LINEAR = 1            # Kelvin-Voigt spring-dashpot stop (compliant; vibeam.
 LAW_HYSTERETIC_HERTZ = 2  # F = k delta^p (1 + chi delta' / v_in), chi from the law (compliant)
 IMPULSIVE = 0
 COMPLIANT = 1
-
-# ---- events of a free or contact step of the compliant event kernels (vibeam.models.beam_compliant,
-# vibeam.models.hc_contact): none, contact entry, exit (the force back to zero), the gap back to
-# zero while free inside a stop after an exit by a damping factor
-EV_NONE, EV_ENTRY, EV_EXIT, EV_GAPDOWN = 0, 1, 2, 3
 
 
 

@@ -4,7 +4,7 @@ As :mod:`vibeam.models.sdof_compliant_map` (paper Sec. 4.2: contact and free pha
 with the section at contact entry, ``q = Delta``, ``q' = v0 > 0`` at time ``t0``, and one
 contact per ``n`` forcing periods a fixed point ``t1 = t0 + n T``, ``v1 = v0`` (Newton).  The
 contact phase of ``F = k_c delta^p (1 + chi delta' / v_r)`` (``v_r = max(v0, v_floor)``, the
-entry speed, floored as in the event kernel, :data:`vibeam.models.sdof_compliant.HC_V_FLOOR`)
+entry speed, floored as in the event integrator, :data:`vibeam.models.core.laws.V_FLOOR`)
 has no closed form: it is integrated with scipy's DOP853 (rtol 1e-12) *together with its
 variational equations*::
 
@@ -18,8 +18,8 @@ or the damping factor ``h = 1 + chi delta' / v_r`` falling through 0 (an event t
 ``v_r`` too: ``dt_x = -(grad h . dx + dh/dv_r dv_r) / (grad h . f)``).  The fields of the
 contact and the free phase agree at entry and exit (the force is zero there), so no saltation
 arises.  The free flight to the next entry (``delta`` up through 0 after having fallen through
-0) is the closed-form flow and the certified scan of the event kernel
-(:func:`vibeam.models.sdof_compliant.advance`), its transition matrix closed form.  Floquet
+0) is the closed-form flow and the certified scans of the event integrator
+(:func:`vibeam.models.sdof_compliant_map.phase_step`), its transition matrix closed form.  Floquet
 multipliers: eigenvalues of ``d(t1, v1) / d(t0, v0)``.
 
 Measured (tests/test_hc_mapping.py): fixed points equal the event kernel's settled orbits to
@@ -34,9 +34,9 @@ import math
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .sdof_compliant import EV_ENTRY, EV_GAPDOWN, FREE, HC_V_FLOOR, TWO_PI, advance, phase_eval, phase_params
-from .sdof_compliant_map import phase_field, phase_transition
+from .core import laws
 from .registry import family_laws
+from .sdof_compliant_map import EV_ENTRY, EV_FAIL, EV_GAPDOWN, FREE, TWO_PI, LinearPhase, entry_guess
 
 #: tolerance of the contact phase (DOP853 with its variational equations)
 RTOL = 1e-12
@@ -96,7 +96,7 @@ class HuntCrossleyMappingSolver:
         kc, p, chi = law.stiffness, law.exponent, law.chi
         beta, Delta = m.beta, m.Delta
         F = Omega * Omega * m.B
-        v_floor = HC_V_FLOOR * Omega * m.B if m.B > 0.0 else 1e-6
+        v_floor = laws.V_FLOOR * Omega * m.B if m.B > 0.0 else 1e-6
         vr = max(v0, v_floor)
         dvr = 1.0 if v0 > v_floor else 0.0
 
@@ -172,11 +172,10 @@ class HuntCrossleyMappingSolver:
         if c["kind"] == 0:
             dx = 0.0      # the exit through delta = 0 (located to round-off): on the section's surface
         qx = Delta + dx
-        # free flight to the next entry (delta through 0 falling first when the exit left delta > 0)
-        P = phase_params(beta, F, Omega, Delta, 0.0, 0.0)
-        d = np.empty(6)
-        ex = np.array([np.inf, -np.inf, np.inf])
-        cs = np.zeros(4)
+        # free flight to the next entry (delta through 0 falling first when the exit left delta > 0,
+        # where the force's sign function is that of the damping factor, v_r / chi + delta')
+        free = LinearPhase(beta, F, Omega, Delta)
+        ext = np.array([np.inf, -np.inf])
         roff = c["vr"] / c["chi"] if c["chi"] > 0.0 else 1.0
         q, v, t = qx, vx, tx
         below = c["kind"] == 0 or q - Delta <= 0.0
@@ -184,10 +183,10 @@ class HuntCrossleyMappingSolver:
         for _ in range(100000):
             if t - t0 > (self.n + 1) * T:
                 return None
-            s, ev = advance(FREE, hf, (Omega * t) % TWO_PI, q, v, P[0], 0.0, 0.0, Omega, Delta, want_record,
-                            ex, cs, d, 0.0, 1.0, roff)
-            phase_eval(s, (Omega * t) % TWO_PI, q, v, P[0], Omega, Delta, d)
-            q, v, t = Delta + d[0], d[1], t + s
+            s, ev, q, v = free.step(FREE, hf, t, q, v, r=(0.0, 1.0, roff), rec=want_record, ext=ext)
+            if ev == EV_FAIL:
+                return None
+            t = t + s
             if ev == EV_GAPDOWN:
                 below = True
             elif ev == EV_ENTRY:
@@ -196,10 +195,10 @@ class HuntCrossleyMappingSolver:
                 break
         t1, v1 = t, v
         # the contact phase: exact variations from the variational equations
-        f0 = phase_field(Delta, v0, t0, P[0], F, Omega)      # the contact force is zero at entry
-        fx = phase_field(qx, vx, tx, P[0], F, Omega)         # and at the exit
-        f1 = phase_field(Delta, v1, t1, P[0], F, Omega)
-        Pf = phase_transition(t1 - tx, P[0])
+        f0 = free.field(Delta, v0, t0)      # the contact force is zero at entry
+        fx = free.field(qx, vx, tx)         # and at the exit
+        f1 = free.field(Delta, v1, t1)
+        Pf = free.transition(t1 - tx)
         if c["kind"] == 0:
             gh, dh_dvr = np.array([1.0, 0.0]), 0.0
         else:
@@ -215,7 +214,7 @@ class HuntCrossleyMappingSolver:
             dx1 = f1 * dt1 + y
             J[0, col] = dt1
             J[1, col] = dx1[1]
-        rec = dict(q_min=ex[0], q_max=max(ex[1], Delta + c["penetration"], qx), duration=tx - t0,
+        rec = dict(q_min=ext[0], q_max=max(ext[1], Delta + c["penetration"], qx), duration=tx - t0,
                    force=c["force"], penetration=c["penetration"], energy=c["energy"])
         return t1, v1, J, rec
 
@@ -226,11 +225,9 @@ class HuntCrossleyMappingSolver:
             s = np.asarray(state0, float).ravel()
             if s.shape == (2,) and np.all(np.isfinite(s)) and s[1] > 0:
                 yield s[0] / Omega, s[1]
-        from .sdof_compliant import CompliantEventSolver
-
-        tr = CompliantEventSolver(self.model).point(Omega, None, self.guess_periods, self.n + 1, 16)
-        if tr.n_impacts:
-            yield float(tr.impact_times[-1] % (TWO_PI / Omega)), float(tr.impact_velocities[-1])
+        g = entry_guess(self.model, Omega, self.n, self.guess_periods)
+        if g is not None:
+            yield g
 
     def point(self, Omega: float, state0, n_transient: int, n_record: int, samples_per_period: int = 64) -> dict:
         """Period-n one-contact fixed point, its multipliers and its contact data (the keys of

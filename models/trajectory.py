@@ -65,7 +65,7 @@ class Trajectory:
         One row per recorded contact of a compliant stop (nondimensional, per unit
         effective mass): duration, peak contact force, largest penetration, energy
         lost (work done on the stop), entry velocity
-        (:data:`vibeam.models.sdof_compliant.C_DURATION` ...); None for impulsive laws.
+        (:data:`vibeam.models.core.integrator.C_DURATION` ...); None for impulsive laws.
     contact_stops : ndarray of int, shape (k,), optional
         Two-sided scenes: the stop of each row of ``contacts`` (0 upper, 1 lower).  None: one
         stop, or rows in one-to-one order with ``impact_stops``.

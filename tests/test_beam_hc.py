@@ -1,23 +1,24 @@
 """Hunt-Crossley stop on the modal beam (issue 13): free flight exact, contact integrated.
 
 Oracles: the solve_ivp reference (:class:`vibeam.models.beam_dynamics.BeamODESolver` on :mod:`vibeam.models.core.direct`,
-sharing no code with the kernel), the SDOF Hunt-Crossley kernel (an isolated contact along
-``w`` is the SDOF law's with stiffness ``k / m_eff``; a one-mode beam is an SDOF oscillator
+sharing no code with the kernel), the SDOF scene (an isolated contact of the free modes along
+``w`` is that of one free mass on the law with stiffness ``k / m_eff``,
+:func:`vibeam.models.core.isolated.isolated_contact`; a one-mode beam is an SDOF oscillator
 after scaling), and the Flores relation's restitution (a function of chi only).
 """
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from vibeam.models import make_solver
-from vibeam.models.beam_hc import HuntCrossleyBeamEventSolver, isolated_contact_beam
 from vibeam.models.compliant import HuntCrossley
 from vibeam.models.beam_dynamics import BeamEventSolver, BeamODESolver
-from vibeam.models.sdof import SDOF
-from vibeam.models.sdof_compliant import CompliantEventSolver, isolated_contact_hc
+from vibeam.models.core.isolated import isolated_contact
+from vibeam.models.sdof import SDOF, EventSolver
 
 
 def _rig(n_modes, k=1e8, R=None):
@@ -77,17 +78,19 @@ def test_beam_hc_event_agrees_with_the_direct_reference(n_modes, k):
                                          pytest.param(1, 1e9, 0.003, marks=pytest.mark.slow),
                                          pytest.param(4, 1e9, 0.003, marks=pytest.mark.slow)])
 def test_isolated_beam_contact_has_the_sdof_restitution_for_the_same_chi(n_modes, k, v):
-    """Along the normal w the stop acts on m_eff = 1 / |w|^2: the beam kernel's isolated contact
-    (free, unforced modes) gives the SDOF kernel's restitution and duration for stiffness
-    k / m_eff (to 1e-10: both DOPRI5 at rtol 1e-11; measured ~1e-13), and the restitution is the
-    Flores relation's value for chi alone (the same at every k and v: 0.7043 for target 0.72)."""
+    """Along the normal w the stop acts on m_eff = 1 / |w|^2: the isolated contact of the free,
+    unforced modes along w gives the restitution and duration of one free mass on the stop of
+    stiffness k / m_eff (to 1e-10: both DOPRI5 at rtol 1e-11; measured ~1e-13), and the
+    restitution is the Flores relation's value for chi alone (the same at every k and v: 0.7043
+    for target 0.72)."""
     m = _rig(n_modes, k)
     kk = k / m.omega_ref ** 2
-    Rb, dur_b = isolated_contact_beam(kk, 1.5, m.contact.chi, m.contact_row, v)
-    Rs, dur_s = isolated_contact_hc(kk / m.m_eff, 1.5, m.contact.chi, v)[:2]
+    assert m.contact.exponent == 1.5
+    Rb, dur_b = isolated_contact(replace(m.contact, stiffness=kk), v, m.contact_row)[:2]
+    Rs, dur_s = isolated_contact(replace(m.contact, stiffness=kk / m.m_eff), v)[:2]
     assert Rb == pytest.approx(Rs, abs=1e-10)
     assert dur_b == pytest.approx(dur_s, rel=1e-10)
-    R0 = isolated_contact_hc(1.0, 1.5, m.contact.chi, 1.0)[0]
+    R0 = isolated_contact(replace(m.contact, stiffness=1.0), 1.0)[0]
     assert Rb == pytest.approx(R0, abs=1e-10) and abs(Rb - 0.72) < 0.03
 
 
@@ -111,7 +114,7 @@ def test_one_mode_beam_is_the_sdof_hunt_crossley_scene():
     assert sd.B > 0.0
     W = 15.4 / 7.6
     a = make_solver(m, "event").point(W, None, 20, 4, 32)
-    b = CompliantEventSolver(sd).point(W / sq, None, 20, 4, 32)
+    b = EventSolver(sd).point(W / sq, None, 20, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     scale = np.max(np.abs(a.samples[:, 0]))
     assert np.max(np.abs(a.samples[:, 0] - b.samples[:, 0])) <= 1e-10 * scale

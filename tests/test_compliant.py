@@ -19,8 +19,8 @@ from vibeam.models.compliant import (R_MIN_LINEAR, LinearContact, contact_durati
                                      damping_ratio_for_restitution, restitution_of_damping_ratio)
 from vibeam.models.beam_dynamics import BeamEventSolver
 from vibeam.models.sdof import SDOF, EventSolver
-from vibeam.models.sdof_compliant import (C_DURATION, C_ENERGY, C_FORCE, C_PENETRATION,
-                                          CompliantEventSolver, isolated_contact)
+from vibeam.models.core.integrator import C_DURATION, C_ENERGY, C_FORCE, C_PENETRATION
+from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
 
@@ -39,7 +39,7 @@ def test_target_restitution_of_an_isolated_impact(R, k, v):
     kernel's own contact step; 1e-10 is the issue's bar (the closed-form flow and the rtsafe
     exit reach ~1e-15, measured <= 3e-16)."""
     law = LinearContact.from_restitution(k, R)
-    Rk, dur, fmax, pen, E = isolated_contact(law.stiffness, law.damping, v, np.empty(6))
+    Rk, dur, fmax, pen, E = isolated_contact(law, v)
     assert abs(Rk - R) <= 1e-10
     assert dur == pytest.approx(contact_duration(law.damping_ratio, math.sqrt(k)), rel=1e-12)
     # energy balance of the isolated contact: all the kinetic energy lost went to the stop
@@ -64,13 +64,13 @@ def test_undamped_contact_lasts_pi_over_omega_c(k):
     """Undamped Kelvin-Voigt stop: the contact is half a period of the contact oscillator.
     Isolated: omega_c = sqrt(k_c); in the SDOF with Delta = 0, beta = 0 and no forcing both
     phases are centred on q = 0 and omega_c = sqrt(1 + k_c).  Round-off only (<= 1e-13 rel)."""
-    Rk, dur, fmax, pen, E = isolated_contact(k, 0.0, 1.0, np.empty(6))
+    Rk, dur, fmax, pen, E = isolated_contact(LinearContact.from_damping_ratio(k, 0.0), 1.0)
     assert dur == pytest.approx(math.pi / math.sqrt(k), rel=1e-13)
     assert Rk == pytest.approx(1.0, abs=1e-13) and abs(E) < 1e-13
     assert pen == pytest.approx(1.0 / math.sqrt(k), rel=1e-13)       # v / omega_c
     assert fmax == pytest.approx(math.sqrt(k), rel=1e-13)            # k v / omega_c
     m = SDOF(beta=0.0, B=0.0, R=1.0, Delta=0.0, contact=LinearContact.from_damping_ratio(k, 0.0))
-    tr = CompliantEventSolver(m).point(1.3, np.array([0.0, 1e-2, 0.0]), 0, 4, 32)
+    tr = EventSolver(m).point(1.3, np.array([0.0, 1e-2, 0.0]), 0, 4, 32)
     assert tr.contacts.shape[0] >= 3
     np.testing.assert_allclose(tr.contacts[:, C_DURATION], math.pi / math.sqrt(1.0 + k), rtol=1e-12)
 
@@ -84,7 +84,7 @@ def test_energy_lost_is_the_work_of_the_contact_damping(R, k):
     ~1e-14; bar 1e-10."""
     law = LinearContact.from_restitution(k, R)
     v = 0.3
-    Rk, dur, fmax, pen, E = isolated_contact(law.stiffness, law.damping, v, np.empty(6))
+    Rk, dur, fmax, pen, E = isolated_contact(law, v)
     w, z = math.sqrt(k), law.damping_ratio
     wd = w * math.sqrt(1 - z * z)
 
@@ -111,7 +111,7 @@ def test_event_agrees_with_the_direct_reference(k, W, Delta, B):
     contact records to 1e-6 relative (the reference's event location and dense-output
     maximisation)."""
     m = _model(k, Delta=Delta, B=B)
-    a = CompliantEventSolver(m).point(W, None, 4, 4, 32)
+    a = EventSolver(m).point(W, None, 4, 4, 32)
     b = DirectSolver(m).point(W, None, 4, 4, 32)
     scale = np.max(np.abs(a.samples))
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-8 * scale
@@ -142,7 +142,7 @@ def test_frc_converges_to_the_cor_frc_as_the_stiffness_grows():
         errs = []
         ks = np.array([1e5, 1e6, 1e7])
         for k in ks:
-            sm = summarize(CompliantEventSolver(_model(k)).point(W, s0, 600, 16, 64), 0.0)
+            sm = summarize(EventSolver(_model(k)).point(W, s0, 600, 16, 64), 0.0)
             assert sm["period"] == 1 and sm["status"] == "ok"
             errs.append(abs(sm["amplitude"] - Q0))
         slope = np.polyfit(np.log10(ks), np.log10(errs), 1)[0]
@@ -184,7 +184,7 @@ def test_case_builds_the_law_and_refuses_other_methods():
     for method in ("averaging", "zhuravlev"):
         with pytest.raises(CaseError, match="allowed: event, direct, mapping"):
             parse_case(CASE.replace('method = "event"', f'method = "{method}"'))
-    # continuation is the law's shooting problem (vibeam.models.periodic_compliant), in Omega, B, Delta
+    # continuation is the one shooting problem (vibeam.models.core.shooting), in Omega, B, Delta
     parse_case(CASE.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"'))
     with pytest.raises(CaseError, match="allowed: Omega, B, Delta"):
         parse_case(CASE.replace('method = "event"', 'method = "continuation"\nparameter = "R"\nat = 2.0\n'
@@ -374,7 +374,7 @@ def test_cor_runs_record_zero_duration_and_the_impact_energy():
     # and the compliant law converges to it
     s0 = tr.final_state.copy()
     s0[2] = 0.0
-    kv = summarize(CompliantEventSolver(_model(1e7)).point(2.0, s0, 400, 8, 64), 0.0)
+    kv = summarize(EventSolver(_model(1e7)).point(2.0, s0, 400, 8, 64), 0.0)
     assert kv["energy_per_impact"] == pytest.approx(out["energy_per_impact"], rel=1e-2)
     # the isolated contact's duration (pi - psi) / omega_d (vibeam.models.compliant), to the
     # oscillator's share 1 / k_c and the forcing
@@ -389,12 +389,13 @@ def test_hunt_crossley_energy_loss_small_damping_closed_form(p):
     any k_c and p (integral of k delta^p chi delta'^2 / v_in over the elastic contact: Hunt &
     Crossley 1975, Lankarani & Nikravesh 1990).  Measured E / ((2/3) chi v^2) = 1 - chi (1 +- 1e-2)
     at chi = 1e-2, 1e-3: the relative error must be O(chi), bounded by 1.2 chi; and the kernel's
-    contact conserves energy, E = (1 - R^2) v^2 / 2 (DOPRI5 at rtol 1e-11: <= 1e-10 relative)."""
-    from vibeam.models.sdof_compliant import isolated_contact_hc
+    contact conserves energy, E = (1 - R^2) v^2 / 2 (DOPRI5 at rtol 1e-11: <= 1e-10 relative).
+    The law of a given chi: Hunt-Crossley's of target R = 8 / (8 + 5 chi)."""
+    from vibeam.models.compliant import HuntCrossley
 
     for chi in (1e-2, 1e-3):
         for k, v in ((1e4, 1.0), (1e8, 0.01)):
-            Rr, dur, fmax, pen, E = isolated_contact_hc(k, p, chi, v)
+            Rr, dur, fmax, pen, E = isolated_contact(HuntCrossley(k, 8.0 / (8.0 + 5.0 * chi), p), v)
             closed = 2.0 / 3.0 * chi * v * v
             assert abs(E / closed - 1.0) <= 1.2 * chi
             assert E == pytest.approx(0.5 * v * v * (1 - Rr * Rr), rel=1e-8)
@@ -408,11 +409,9 @@ def test_hunt_crossley_restitution_depends_on_the_target_only():
     integration's 1e-10).  Flores' relation is approximate: measured R = 0.8939 for 0.9, 0.7043
     for 0.72 (recorded in the README); it must stay within 0.03 of the target over 0.5 ... 1."""
     from vibeam.models.compliant import HuntCrossley
-    from vibeam.models.sdof_compliant import isolated_contact_hc
 
     for R in (0.99, 0.9, 0.72, 0.5):
-        law = HuntCrossley(1.0, R)
-        Rs = [isolated_contact_hc(k, 1.5, law.chi, v)[0] for k, v in ((1e4, 1.0), (1e8, 1e-3), (1e6, 0.1))]
+        Rs = [isolated_contact(HuntCrossley(k, R, 1.5), v)[0] for k, v in ((1e4, 1.0), (1e8, 1e-3), (1e6, 0.1))]
         assert max(Rs) - min(Rs) <= 1e-10
         assert abs(Rs[0] - R) <= 0.03
 
@@ -426,7 +425,7 @@ def test_hunt_crossley_event_agrees_with_the_direct_reference(k, W, Delta):
     from vibeam.models.compliant import HuntCrossley
 
     m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=Delta, contact=HuntCrossley(k, 0.9))
-    a = CompliantEventSolver(m).point(W, None, 4, 4, 32)
+    a = EventSolver(m).point(W, None, 4, 4, 32)
     b = DirectSolver(m).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-7 * np.max(np.abs(a.samples))
@@ -465,12 +464,11 @@ def test_beam_event_agrees_with_the_direct_reference(n_modes, k):
     vs solve_ivp DOP853 at rtol 1e-11 from rest on the stop over 8 periods: samples to 1e-9 of
     the orbit (measured <= 1.5e-11), contact records (duration, peak force, penetration, work,
     entry velocity) to 1e-8 relative (measured <= 8.2e-12)."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver
     from vibeam.models.beam_dynamics import BeamODESolver
 
     m = _rig(n_modes, k)
     W = 15.4 / 7.6
-    a = CompliantBeamEventSolver(m).point(W, None, 4, 4, 32)
+    a = BeamEventSolver(m).point(W, None, 4, 4, 32)
     b = BeamODESolver(m).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-9 * np.max(np.abs(a.samples))
@@ -482,13 +480,15 @@ def test_beam_isolated_contact_restitution_and_case_keys():
     """The beam's dashpot realises the target R for the relation's effective mass m_eff =
     1 / |w|^2: c_c = 2 zeta sqrt(k_c m_eff); case keys: stiffness_n_m required, the ratio
     refused, hunt_crossley with two stops accepted by event and direct, continuation accepted for both laws."""
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver, CompliantBeamModel
+    from vibeam.models.beam_dynamics import CompliantBeamModel
 
     m = _rig(2, 1e6)
     assert isinstance(m, CompliantBeamModel) and m.contact_law == "linear"
     zeta = damping_ratio_for_restitution(0.72)
     assert m.contact_damping_n_s_m == pytest.approx(2 * zeta * math.sqrt(1e6 * m.m_eff))
-    Rk = isolated_contact(1e6 / m.m_eff, m.contact_damping_n_s_m / m.m_eff, 1.0, np.empty(6))[0]
+    # per unit effective mass: stiffness 1e6 / m_eff, the model's dashpot as damping ratio c_c / (2 sqrt(1e6 m_eff))
+    zeta_m = m.contact_damping_n_s_m / (2.0 * math.sqrt(1e6 * m.m_eff))
+    Rk = isolated_contact(LinearContact.from_damping_ratio(1e6 / m.m_eff, zeta_m), 1.0)[0]
     assert Rk == pytest.approx(0.72, abs=1e-10)
     assert isinstance(make_solver(m, "event"), BeamEventSolver)
     text = open("cases/rig-fe-neutral.toml").read().replace("[model.discs]", "[model.contact]\nlaw = \"linear\"\n"
@@ -503,9 +503,9 @@ def test_beam_isolated_contact_restitution_and_case_keys():
     two = parse_case(hc.replace("[model.contact]", "gap_lower_mm = 0.3\n[model.contact]")
                      .replace('method = "event"', 'method = "direct"', 1))
     assert two.run[0].method == "direct"
-    # hunt_crossley on the beam continues too (vibeam.models.periodic_hc_beam)
+    # hunt_crossley on the beam continues too (the one shooting problem, vibeam.models.periodic_beam)
     parse_case(hc.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"', 1))
-    # continuation: the law's shooting problem (vibeam.models.periodic_compliant), in the frequency and
+    # continuation: the one shooting problem (vibeam.models.core.shooting), in the frequency and
     # the excitation only
     parse_case(text.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"', 1))
     with pytest.raises(CaseError, match="allowed: Omega, voltage, gain"):
@@ -626,7 +626,7 @@ def test_compliant_map_fixed_point_jacobian_and_multipliers(k, W):
     s = CompliantMappingSolver(m)
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
-    ev = CompliantEventSolver(m).point(W, None, 2000, 8, 64)
+    ev = EventSolver(m).point(W, None, 2000, 8, 64)
     sm = summarize(ev, 0.0)
     assert sm["period"] == 1
     assert out["amplitude"] == pytest.approx(sm["amplitude"], rel=1e-12)

@@ -16,7 +16,7 @@ import pytest
 
 from vibeam.models.compliant import LinearContact
 from vibeam.models.sdof import SDOF, EventSolver
-from vibeam.models.sdof_compliant import CompliantEventSolver, isolated_contact
+from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import CONTACT_OUTPUTS, CONTACT_OUTPUTS_LOWER, summarize
 
@@ -38,7 +38,7 @@ def test_two_compliant_stops_of_different_stiffness_give_each_stop_its_contact_o
     undamped lower stop takes no energy (its work is round-off, <= 1e-12).  Against the
     solve_ivp reference's rows of the same stop: 1e-6 relative (measured ~1e-9)."""
     m = _kv_two()
-    a = CompliantEventSolver(m).point(1.0, None, 4, 4, 32)
+    a = EventSolver(m).point(1.0, None, 4, 4, 32)
     b = DirectSolver(m).point(1.0, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     np.testing.assert_array_equal(a.contact_stops, b.contact_stops)
@@ -50,7 +50,7 @@ def test_two_compliant_stops_of_different_stiffness_give_each_stop_its_contact_o
     assert up.shape[0] >= 4 and lo.shape[0] >= 3
     # upper stop: damped, target R = 0.8
     law = m.contact
-    iso = np.array([isolated_contact(law.stiffness, law.damping, v, np.empty(6)) for v in up[:, 4]])
+    iso = np.array([isolated_contact(law, v) for v in up[:, 4]])
     assert sa["contact_force_max"] == pytest.approx(np.max(iso[:, 2]), rel=3e-2)
     assert sa["contact_duration"] == pytest.approx(np.mean(iso[:, 1]), rel=3e-2)
     assert sa["energy_per_impact"] == pytest.approx(np.mean(0.5 * (1 - 0.8 ** 2) * up[:, 4] ** 2), rel=3e-2)
@@ -137,7 +137,7 @@ def test_each_stop_rebounds_with_its_own_R_in_the_trajectory(mixed):
     if mixed:
         m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5,
                  contact=LinearContact.from_restitution(1e4, 0.8))
-        t = CompliantEventSolver(m).point(Omega, None, 20, 8, ns)
+        t = EventSolver(m).point(Omega, None, 20, 8, ns)
     else:
         m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5)
         t = EventSolver(m).point(Omega, None, 20, 8, ns)
@@ -159,7 +159,7 @@ def test_each_stop_rebounds_with_its_own_R_in_the_trajectory(mixed):
 def test_one_stop_results_have_no_lower_contact_outputs():
     """One stop: the unprefixed outputs cover its contacts as before, no ``*_lower`` keys."""
     m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, contact=LinearContact.from_restitution(1e4, 0.9))
-    t = CompliantEventSolver(m).point(2.0, None, 8, 8, 32)
+    t = EventSolver(m).point(2.0, None, 8, 8, 32)
     s = summarize(t, m.Delta)
     assert not any(k in s for k in CONTACT_OUTPUTS_LOWER)
     assert s["energy_per_impact"] == pytest.approx(np.mean(t.contacts[:, 3]), rel=1e-15)

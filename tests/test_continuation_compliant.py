@@ -1,5 +1,5 @@
-"""Continuation of periodic orbits with a compliant (Kelvin-Voigt) stop: the shooting problem of
-vibeam.models.periodic_compliant against finite differences, the event kernel, the
+"""Continuation of periodic orbits with a compliant (Kelvin-Voigt) stop: the one shooting problem
+(vibeam.models.core.shooting, served by SDOFShooting) against finite differences, the event kernel, the
 entry-to-entry map of Sec. 4.2, Liouville's formula, the CoR limit and the command line."""
 import math
 from dataclasses import replace
@@ -13,7 +13,6 @@ from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import start_point, trace
 from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models.sdof import SDOF, EventSolver
-from vibeam.models.sdof_compliant import CompliantEventSolver
 from vibeam.engine.records import summarize
 
 FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8: fold and grazing in 1.5..2.5 (CoR)
@@ -26,7 +25,7 @@ def _kv(m, k, R=0.9):
 
 def _settled(m, Omega, periods=1500, x0=None):
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = CompliantEventSolver(m).point(Omega, s0, periods, 16, 16)
+    tr = EventSolver(m).point(Omega, s0, periods, 16, 16)
     return np.asarray(tr.final_state[:2], float), summarize(tr, m.Delta)
 
 

@@ -1,5 +1,5 @@
 """Continuation of periodic orbits with two Kelvin-Voigt stops (SDOF, law "linear"): the shooting
-problem of vibeam.models.periodic_compliant (SDOFShooting with a lower stop) against
+problem of vibeam.models.core.shooting (SDOFShooting with a lower stop) against
 finite differences, Liouville's formula, the two-stop event kernel, the one-stop problem and
 the mirror symmetry of a symmetric scene."""
 from dataclasses import replace
@@ -11,8 +11,7 @@ from vibeam.models import shooting_problem
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import Settings, start_point, trace
 from vibeam.models.periodic_sdof import SDOFShooting
-from vibeam.models.sdof import SDOF
-from vibeam.models.sdof_compliant import CompliantEventSolver
+from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.engine.records import summarize
 
 FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8 scene
@@ -28,7 +27,7 @@ SOFT = _kv(SDOF(0.015, 0.5e-3, 0.9, 0.2e-3), 1e2, 0.3e-3)     # soft, long conta
 
 def _settled(m, Omega, periods=1500, x0=None):
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = CompliantEventSolver(m).point(Omega, s0, periods, 16, 16)
+    tr = EventSolver(m).point(Omega, s0, periods, 16, 16)
     return np.asarray(tr.final_state[:2], float), tr
 
 
@@ -170,7 +169,7 @@ def test_own_lower_law_branch_equals_event_runs_and_map_jacobian(own_branch):
     a = own_branch[0].arrays()
     assert a["parameter"][-1] == pytest.approx(2.4)
     assert np.all(a["impacts_lower"] == 1) and np.all(a["impacts"] == 2) and np.all(a["stable"])
-    solver = CompliantEventSolver(OWN)
+    solver = EventSolver(OWN)
     idx = range(0, len(a["parameter"]), 5)
     assert len(idx) >= 4
     for i in idx:
@@ -332,7 +331,10 @@ def test_beam_shot_jacobian_and_liouville(n_modes):
     tr = BeamEventSolver(m, record_modal_states=True).point(W, None, 40, 1, 64)
     prob = BeamContinuation(m)
     w = m.contact_row
-    kl, cl, Dl = m.lower_stop_params()
+    lo = m.lower_law      # the lower stop's law in kernel units: k_l / omega_ref^2, c_l / omega_ref, its gap
+    kl = lo.stiffness / m.omega_ref ** 2
+    cl = 2.0 * lo.damping_ratio * np.sqrt(lo.stiffness * m.m_eff) / m.omega_ref
+    Dl = m.gap_contact_lower_m
     ms = tr.extra["modal_states"]
     gl = -(ms[:, :N] @ w) - Dl
     inside = np.flatnonzero((gl > 0) & (kl * gl - cl * (ms[:, N:] @ w) > 0))

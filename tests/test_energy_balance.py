@@ -80,7 +80,6 @@ from scipy.integrate import solve_ivp
 
 from vibeam.models.compliant import HuntCrossley, LinearContact, damping_ratio_for_restitution
 from vibeam.models.sdof import SDOF, EventSolver
-from vibeam.models.sdof_compliant import CompliantEventSolver
 from vibeam.engine.records import summarize
 
 N_FINE, N_COARSE = 8192, 2048     # samples per forcing period
@@ -139,7 +138,7 @@ def _sdof(contact=None, contact_lower=None, lower=None, R_lower=None):
     elif isinstance(contact, HuntCrossley):
         up = _hc(*HC_UP)
     stops = [(1.0, DELTA, up)] + ([(-1.0, DELTA_L, lower)] if two else [])
-    solver = EventSolver(m) if contact is None else CompliantEventSolver(m)
+    solver = EventSolver(m)
     W = 0.9 if two else 0.75
     return System(k=np.array([1.0]), c=np.array([2.0 * BETA]), G=np.array([1.0]), Y=B, w=np.array([1.0]),
                   scale=1.0, stops=stops, Omega=W, period=2 if two else 1, counts=(3, 2) if two else (2,),
@@ -151,9 +150,8 @@ def _beam(law, two, lower=None):
     two stops, the lower stop's own law ``lower`` (None: the upper stop's; "hunt_crossley": the
     lower Hertzian stop of BEAM_HC_K_LO, the target R of [model] R)."""
     from vibeam.case.schema import load_case
-    from vibeam.models.beam_compliant import CompliantBeamEventSolver, velocity_floor
     from vibeam.models.beam_dynamics import BeamEventSolver
-    from vibeam.models.beam_hc import HuntCrossleyBeamEventSolver
+    from vibeam.models.core.laws import V_FLOOR, hertz_floor
 
     case, _ = load_case(Path(__file__).resolve().parents[1] / "cases" / "rig-fe-neutral.toml")
     over = {"n_modes": 2}
@@ -179,10 +177,10 @@ def _beam(law, two, lower=None):
     elif law == "linear":   # kernel units: k_c / omega_ref^2, c_c / omega_ref, c_c = 2 zeta sqrt(k_c m_eff)
         up = ("linear", BEAM_K / wr ** 2, 2.0 * damping_ratio_for_restitution(BEAM_R) * math.sqrt(BEAM_K * me) / wr)
         lo = ("linear", BEAM_K_LO / wr ** 2, 2.0 * BEAM_ZETA_LO * math.sqrt(BEAM_K_LO * me) / wr)
-        solver = CompliantBeamEventSolver(m, record_modal_states=True)
+        solver = BeamEventSolver(m, record_modal_states=True)
     else:
         up, lo = _hc(BEAM_HC_K / wr ** 2, BEAM_R), None
-        solver = HuntCrossleyBeamEventSolver(m, record_modal_states=True)
+        solver = BeamEventSolver(m, record_modal_states=True)
     if lower == "hunt_crossley":
         lo = _hc(BEAM_HC_K_LO / wr ** 2, BEAM_R)
     stops = [(1.0, m.gap_contact_m, up)] + ([(-1.0, m.gap_contact_lower_m, lo)] if two else [])
@@ -194,7 +192,8 @@ def _beam(law, two, lower=None):
                   scale=me * m.length_m ** 2, stops=stops, Omega=W, period=2 if lower else 1,
                   counts=(2, 1) if lower else (1, 1) if two else (1,),
                   solver=solver, states=lambda tr: tr.extra["modal_states"],
-                  v_floor=velocity_floor(m, W) / m.length_m if hc else 0.0)
+                  v_floor=(hertz_floor(W, m.base_amplitude_m, float(m.contact_row @ m.participation),
+                                       1e-6 * m.length_m, V_FLOOR) / m.length_m if hc else 0.0))
 
 
 SCENES = {

@@ -189,9 +189,9 @@ def test_a_stop_of_stiffness_1e300_built_past_validation_fails_at_once():
         import json
         from vibeam.models import SDOF
         from vibeam.models.compliant import LinearContact
-        from vibeam.models.sdof_compliant import CompliantEventSolver
+        from vibeam.models.sdof import EventSolver
         m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, contact=LinearContact.from_restitution(1e300, 0.9))
-        tr = CompliantEventSolver(m).point(2.0, None, 0, 1, 64)
+        tr = EventSolver(m).point(2.0, None, 0, 1, 64)
         print(json.dumps({"status": tr.status, "message": tr.message}))
     """)
     assert out["status"] == "failed" and "double precision" in out["message"], out
@@ -210,10 +210,10 @@ def test_point_time_limit_is_honoured_inside_a_compliant_point():
         import numpy as np
         from vibeam.models import SDOF
         from vibeam.models.compliant import LinearContact
-        from vibeam.models.sdof_compliant import CompliantEventSolver
+        from vibeam.models.sdof import EventSolver
         from vibeam.engine.sweep import Sweep, run_sweep
         m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=-0.1, contact=LinearContact.from_restitution(1e8, 0.9))
-        s = CompliantEventSolver(m)
+        s = EventSolver(m)
         s.point(2.0, None, 0, 1, 16)                 # compile or load the kernel first
         s.max_steps_per_call = 100_000
         calls = []

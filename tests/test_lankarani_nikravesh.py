@@ -24,11 +24,12 @@ from vibeam.case.schema import CaseError, load_case, parse_case
 from vibeam.engine.records import summarize
 from vibeam.models import make_solver, shooting_problem
 from vibeam.models.compliant import HuntCrossley, LankaraniNikravesh
-from vibeam.models.contact import DAMPING, EXPONENT, STIFFNESS, Relation, Stop, pack
+from vibeam.models.contact import DAMPING, EXPONENT, LAW, STIFFNESS, Relation, Stop, pack
 from vibeam.models.beam_dynamics import BeamEventSolver
 from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models.sdof import SDOF, EventSolver
-from vibeam.models.sdof_compliant import CompliantEventSolver, hc_force, isolated_contact_hc
+from vibeam.models.core.isolated import isolated_contact
+from vibeam.models.core.laws import force
 from vibeam.models.sdof_ode import DirectSolver
 
 FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8 scene (as tests/test_continuation_compliant.py)
@@ -42,9 +43,8 @@ def chi_ln(R):
 # ---------------------------------------------------------------------------- (a) the force
 def test_force_and_kernel_row_against_the_hand_formula():
     """The law's chi and the force the kernels evaluate from its stop row (``DAMPING`` = chi)
-    equal ``k delta^p (1 + 3 (1 - R^2) / 4 delta' / v_in)`` by hand (to rounding, 1e-14)."""
-    from vibeam.models.hc_contact import hysteretic_hertz_force
-
+    equal ``k delta^p (1 + 3 (1 - R^2) / 4 delta' / v_in)`` by hand (to rounding, 1e-14): the one
+    force of the kernels (:func:`vibeam.models.core.laws.force`, event, direct and shooting)."""
     for R, k, p, d, dd, v in ((0.9, 1e6, 1.5, 2e-4, -3e-3, 0.01), (0.5, 2e4, 1.0, 1e-3, 0.2, 0.5),
                               (0.99, 1e8, 2.0, 3e-6, 1e-4, 1e-3)):
         law = LankaraniNikravesh(k, R, p)
@@ -52,9 +52,9 @@ def test_force_and_kernel_row_against_the_hand_formula():
         row = pack([Stop(Relation(1.0, 0.0), law)])[0][0]
         assert row[STIFFNESS] == k and row[EXPONENT] == p and row[DAMPING] == pytest.approx(chi_ln(R), rel=1e-15)
         hand = k * d ** p * (1.0 + 0.75 * (1.0 - R * R) * dd / v)
-        for f in (hc_force, hysteretic_hertz_force):
-            assert f(d, dd, row[STIFFNESS], row[EXPONENT], row[DAMPING], v) == pytest.approx(hand, rel=1e-14)
-        assert hc_force(-d, dd, k, p, law.chi, v) == 0.0          # no force outside the stop
+        code = int(row[LAW])
+        assert force(code, d, dd, row[STIFFNESS], row[DAMPING], row[EXPONENT], v) == pytest.approx(hand, rel=1e-14)
+        assert force(code, -d, dd, k, law.chi, p, v) == 0.0          # no force outside the stop
     # the same family as Hunt-Crossley, another chi: 3 (1 - R^2) / 4 vs 8 (1 - R) / (5 R)
     assert LankaraniNikravesh(1.0, 0.8).family == HuntCrossley(1.0, 0.8).family == "hysteretic_hertz"
     assert LankaraniNikravesh(1.0, 0.8).chi == pytest.approx(0.27) and HuntCrossley(1.0, 0.8).chi == pytest.approx(0.4)
@@ -93,7 +93,7 @@ def test_isolated_restitution_kernel_against_solve_ivp(R):
     chi = LankaraniNikravesh(1.0, R).chi
     Rs = []
     for k, v in ((1e4, 1.0), (1e8, 1e-3)):
-        Rk = isolated_contact_hc(k, 1.5, chi, v)[0]
+        Rk = isolated_contact(LankaraniNikravesh(k, R, 1.5), v)[0]
         assert Rk == pytest.approx(_restitution_ivp(k, 1.5, chi, v), abs=1e-8)
         Rs.append(Rk)
     assert abs(Rs[0] - Rs[1]) <= 1e-10
@@ -108,13 +108,13 @@ def test_restitution_tends_to_the_target_as_R_tends_to_1_and_is_biased_below():
     Flores' chi stays within 0.03 (tests/test_compliant.py)."""
     ratios = []
     for R in (0.999, 0.99, 0.95, 0.9):
-        Re = isolated_contact_hc(1e6, 1.5, LankaraniNikravesh(1.0, R).chi, 0.1)[0]
+        Re = isolated_contact(LankaraniNikravesh(1e6, R, 1.5), 0.1)[0]
         ratio = (1.0 - Re) / (1.0 - R)
         assert abs(ratio - 1.0) <= 2.0 * (1.0 - R)
         ratios.append(ratio)
     assert all(a > b for a, b in zip(ratios, ratios[1:]))      # the error grows with 1 - R
     assert ratios[0] > 0.998
-    low = {R: isolated_contact_hc(1e6, 1.5, LankaraniNikravesh(1.0, R).chi, 0.1)[0] for R in (0.72, 0.5)}
+    low = {R: isolated_contact(LankaraniNikravesh(1e6, R, 1.5), 0.1)[0] for R in (0.72, 0.5)}
     assert low[0.72] == pytest.approx(0.8052, abs=1e-3) and low[0.5] == pytest.approx(0.7252, abs=1e-3)
 
 
@@ -127,7 +127,7 @@ def test_sdof_impact_from_rest_event_kernel_against_solve_ivp():
     R_eff = sqrt(1 - 2 E / v^2), to 1e-8."""
     law = LankaraniNikravesh(1e6, 0.9)
     m = SDOF(beta=0.0, B=0.0, R=0.9, Delta=0.0, contact=law)
-    tr = CompliantEventSolver(m).point(1.0, np.array([-0.01, 0.0, 0.0]), 0, 1, 64)
+    tr = EventSolver(m).point(1.0, np.array([-0.01, 0.0, 0.0]), 0, 1, 64)
     assert tr.status == "ok" and tr.n_impacts >= 2
     v0, v1 = tr.impact_velocities[:2]
     assert v0 == pytest.approx(0.01, rel=1e-12)
@@ -157,7 +157,7 @@ def test_event_agrees_with_direct_on_a_frequency_response_point(k, W, Delta):
 # ---------------------------------------------------------------------------- (d) continuation
 def _settled(m, W, periods=1500, x0=None):
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = CompliantEventSolver(m).point(W, s0, periods, 16, 16)
+    tr = EventSolver(m).point(W, s0, periods, 16, 16)
     return np.asarray(tr.final_state[:2], float), summarize(tr, m.Delta)
 
 
@@ -197,8 +197,6 @@ def test_one_mode_beam_is_the_sdof_scene():
     of tests/test_beam_hc.py: tau = sqrt(k) t, q = x / L_q, stiffness w^2 k_c L_q^(p-1) / k):
     same samples (velocities times sqrt(k)) to 1e-10 of the orbit, same contact times to 1e-9
     relative, the Hunt-Crossley test's tolerances (two DOPRI5 at rtol 1e-11 in other units)."""
-    from vibeam.models.beam_hc import HuntCrossleyBeamEventSolver
-
     m = _rig({"n_modes": 1, "contact": {"law": "lankarani_nikravesh", "stiffness_n_m": 1e8}})
     assert m.contact_law == "lankarani_nikravesh" and m.contact.chi == pytest.approx(chi_ln(m.contact.R))
     k1, c1, w1, s1, G1 = m.k_nd[0], m.c_nd[0], m.contact_row[0], m.sensor_row[0], m.participation[0]
@@ -212,7 +210,7 @@ def test_one_mode_beam_is_the_sdof_scene():
     ev = make_solver(m, "event")
     assert isinstance(ev, BeamEventSolver)
     a = ev.point(W, None, 20, 4, 32)
-    b = CompliantEventSolver(sd).point(W / sq, None, 20, 4, 32)
+    b = EventSolver(sd).point(W / sq, None, 20, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples[:, 0] - b.samples[:, 0])) <= 1e-10 * np.max(np.abs(a.samples[:, 0]))
     assert np.max(np.abs(a.samples[:, 1] - sq * b.samples[:, 1])) <= 1e-10 * np.max(np.abs(a.samples[:, 1]))
@@ -338,7 +336,7 @@ def test_mapping_fixed_point_is_the_settled_event_orbit():
     assert isinstance(s, HuntCrossleyMappingSolver)
     out = s.point(1.8, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
-    se = summarize(CompliantEventSolver(m).point(1.8, None, 400, 8, 64), 0.0)
+    se = summarize(EventSolver(m).point(1.8, None, 400, 8, 64), 0.0)
     assert se["period"] == 1 and se["status"] == "ok"
     for key in ("amplitude", "q_max", "impact_velocity", "contact_duration", "contact_force_max",
                 "penetration_max", "energy_per_impact"):

@@ -152,6 +152,8 @@ def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, h
     ns = st.offset.shape[0]
     m = cp.m[q]
     mp = cp.mp[q]
+    if not cp.hcap[q] > 0.0:
+        return -1.0, EK_FAIL, -1, 0       # a phase not resolved in double precision (phases.UnresolvedPhase)
     sp0 = math.sin(phi)
     cp0 = math.cos(phi)
     axq = ax[q]
@@ -185,7 +187,15 @@ def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, h
         Sa, Sb = _harm(wp, wr, axq, bxq, ayq, byq, m)
         f0, fp0 = signal_start(phi, Om, xh, yh, mp, wp, wr, Sa, Sb, -kc * cp.gc[q, k], m)
         Cs = math.sqrt(Sa * Sa + Sb * Sb)
-        tol0 = 1e-13 * (_mag(hb, wp, wr, Cs, Om, m, 0) + abs(kc * cp.gc[q, k]))
+        # the force is known to the round-off of the gap n^T eta - D and the rate n^T eta' it is
+        # formed of: just after an entry (located on the free flow, the gap 0 there to that
+        # round-off) an undamped stop's force k g must not count as an exit
+        gsc = abs(st.offset[k])
+        vsc = 0.0
+        for i in range(n):
+            gsc += abs(st.normal[k, i] * eta[i])
+            vsc += abs(st.normal[k, i] * etad[i])
+        tol0 = 1e-13 * (_mag(hb, wp, wr, Cs, Om, m, 0) + abs(kc * cp.gc[q, k]) + kc * gsc + abs(cc) * vsc)
         tol1 = 1e-13 * _mag(hb, wp, wr, Cs, Om, m, 1)
         if f0 > tol0 or (f0 >= -tol0 and fp0 > tol1):
             return 0.0, EK_EXIT, k, 0

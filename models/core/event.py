@@ -199,7 +199,8 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
         (:attr:`~vibeam.models.trajectory.Trajectory.contacts`) from the normal speeds ``v`` (units of
         ``q'``) and the stops (None: one stop).
     messages : dict, optional
-        Overrides of the status messages: ``"incomplete"``, ``"failed"``, ``"not_finite"``.
+        Overrides of the status messages: ``"incomplete"``, ``"failed"``, ``"not_finite"``,
+        ``"unresolved"`` (a step the kernel could not take).
     budget : bool
         The step limit of the run was the solver's work budget of one call (running out of it
         makes the trajectory ``incomplete``: fewer periods per call may fit), not a per-period guard
@@ -241,6 +242,10 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
     elif run.out_of_steps and budget:
         incomplete = True
         message = msgs.get("incomplete", f"more than {n_per} steps in one call")
+    elif run.status == ST_FAILED and run.n_steps <= run.max_steps and run.n_impacts_total <= run.max_impacts:
+        # neither guard: a step the kernel could not take
+        message = msgs.get("unresolved", "a step cannot be resolved in double precision (a contact far stiffer "
+                                         "than the system, or a scale that overflows)")
     elif run.status == ST_FAILED:
         message = msgs.get("failed", f"more than {run.max_impacts} impacts (chatter that does not accumulate?)")
     elif run.status == 1:

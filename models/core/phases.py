@@ -43,7 +43,7 @@ from ..system import mode_table
 from . import laws
 from .rk import DOPRI5
 
-__all__ = ["ContactPhases", "Compliant", "contact_phases", "compliant_data", "pair_modes"]
+__all__ = ["ContactPhases", "Compliant", "contact_phases", "compliant_data", "pair_modes", "UnresolvedPhase"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -70,7 +70,9 @@ class ContactPhases(NamedTuple):
         The phase's equilibrium state (the stops' and constraint's constant loads).
     hcap : ndarray, shape (Q,)
         Largest step: 1/16 of the shortest isolated contact period ``2 pi / sqrt(k_k |n_k|^2)``
-        of the stops in contact (a Gauss-Legendre panel of the contact work).
+        of the stops in contact (a Gauss-Legendre panel of the contact work); 0 for a phase that
+        cannot be resolved in double precision (:class:`UnresolvedPhase`; the rest of its row
+        zeros), on which the kernel fails at once.
     pg, rg : ndarray, shape (Q, ns, n)
         Weights of ``x`` and ``y`` in each stop's gap ``g_k = n_k^T eta - D_k``; ``gc`` (Q, ns) its
         constant (the equilibrium's gap).
@@ -109,6 +111,11 @@ class ContactPhases(NamedTuple):
     sc: np.ndarray
 
 
+class UnresolvedPhase(ValueError):
+    """A contact phase whose oscillators cannot be represented in double precision (their modes
+    overflow or underflow: a stop far stiffer than the system)."""
+
+
 def pair_modes(A: np.ndarray):
     """Real oscillators of a diagonalisable state matrix ``A`` (2m, 2m) (module docstring).
 
@@ -125,6 +132,8 @@ def pair_modes(A: np.ndarray):
         If ``A`` has an eigenvalue with a positive real part, a repeated real eigenvalue (a
         critically damped pair, not diagonalisable in this form) or its eigenvectors are
         singular to working precision.
+    UnresolvedPhase
+        If the oscillators or their columns are not finite, or a column is below 1e-290.
     """
     d = A.shape[0]
     m = d // 2
@@ -161,7 +170,11 @@ def pair_modes(A: np.ndarray):
         Y[:, j] = (v1 - v2) / (l1 - l2)
         j += 1
     T = np.hstack([X, Y])
-    if np.linalg.cond(T / np.linalg.norm(T, axis=0)) > 1e12:    # (scale-free: columns normalised)
+    norms = np.linalg.norm(T, axis=0)
+    if not (np.all(np.isfinite(T)) and np.all(np.isfinite(c)) and np.all(np.isfinite(k)) and np.all(norms > 1e-290)):
+        raise UnresolvedPhase("a contact phase cannot be resolved in double precision (its modes overflow or "
+                              "underflow: a stop far stiffer than the system)")
+    if np.linalg.cond(T / norms) > 1e12:    # (scale-free: columns normalised)
         raise ValueError("the modes of a contact phase are nearly dependent (defective state matrix)")
     return c, k, X, Y
 
@@ -186,7 +199,7 @@ def contact_phases(system, ks, hs) -> ContactPhases:
     Raises
     ------
     ValueError
-        From :func:`pair_modes`.
+        From :func:`pair_modes` (but for :class:`UnresolvedPhase`: that phase gets ``hcap = 0``).
     """
     Nrm = ks.normal
     ns, n = Nrm.shape
@@ -223,7 +236,11 @@ def contact_phases(system, ks, hs) -> ContactPhases:
             A[:nc, nc:] = np.eye(nc)
             A[nc:, :nc] = -Kz
             A[nc:, nc:] = -Cz
-            c2, k2, X, Y = pair_modes(A)
+            try:
+                c2, k2, X, Y = pair_modes(A)
+            except UnresolvedPhase:
+                rows.append(dict(H=H, C=C, m=0, hcap=0.0))
+                continue
             Tz = np.hstack([X, Y])
             Ti = np.linalg.inv(Tz)
             # the forcing Psi^T Gamma F sin and the constant loads act on zeta''
@@ -253,8 +270,10 @@ def contact_phases(system, ks, hs) -> ContactPhases:
             sens = np.asarray(system.sensor, float)
             rows.append(dict(H=H, C=C, m=nc, mp=mode_table(c2, k2), Tx=Tx, Ty=Ty,
                              Tix=Ti[:nc] @ B2.T, Tiy=Ti[nc:] @ B2.T, fx=f[:nc], fy=f[nc:], ze=ze, hcap=hcap,
-                             pg=Nrm @ Tx[:n], rg=Nrm @ Ty[:n], gc=Nrm @ ze[:n] - np.asarray(ks.offset, float),
-                             pv=Nrm @ Tx[n:], rv=Nrm @ Ty[n:], pl=ll @ Tx, rl=ll @ Ty, lc=ll @ ze + cl, lF=lF,
+                             pg=_by_row(Nrm, Tx[:n]), rg=_by_row(Nrm, Ty[:n]),
+                             gc=_by_row(Nrm, ze[:n]) - np.asarray(ks.offset, float),
+                             pv=_by_row(Nrm, Tx[n:]), rv=_by_row(Nrm, Ty[n:]), pl=_by_row(ll, Tx), rl=_by_row(ll, Ty),
+                             lc=_by_row(ll, ze) + cl, lF=lF,
                              ps=sens @ Tx[:n], rs=sens @ Ty[:n], sc=float(sens @ ze[:n])))
     Q = max(len(rows), 1)
     out = dict(m=np.zeros(Q, np.int64), mp=np.zeros((Q, n, 6)), Tx=np.zeros((Q, 2 * n, n)),
@@ -267,6 +286,9 @@ def contact_phases(system, ks, hs) -> ContactPhases:
         m = r["m"]
         index[r["H"], r["C"]] = q
         out["m"][q] = m
+        if "mp" not in r:             # an unresolved phase (UnresolvedPhase): hcap 0, zeros
+            out["hcap"][q] = r["hcap"]
+            continue
         for key in ("mp", "Tix", "Tiy", "fx", "fy"):
             out[key][q, :m] = r[key]
         for key in ("Tx", "Ty", "pg", "rg", "pv", "rv", "pl", "rl", "ps", "rs"):
@@ -275,6 +297,13 @@ def contact_phases(system, ks, hs) -> ContactPhases:
             out[key][q] = r[key]
     arrays = {k: np.ascontiguousarray(v) for k, v in out.items()}
     return ContactPhases(index=index, **arrays)
+
+
+def _by_row(M: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """``M @ A`` one row of ``M`` at a time: each stop's row gets the same bits whatever the number
+    of stops (BLAS takes other kernels, with other sums, for other shapes), so that a stop the
+    motion never reaches changes nothing."""
+    return np.array([row @ A for row in M]).reshape((M.shape[0],) + A.shape[1:])
 
 
 class Compliant(NamedTuple):

@@ -103,6 +103,13 @@ def homogeneous_bounds(x0, y0, sig, k, typ, q, l1, l2, out):
             out[m] = a1 + a2
             a1 *= -l1
             a2 *= -l2
+    elif sig == 0.0:
+        # a free mass (k = 0): x0 + y0 s, unbounded in position, its derivatives y0, 0, 0, ...
+        # (out[0] is read only as a contact phase's round-off scale, whose modes never are free)
+        out[0] = math.inf
+        out[1] = abs(y0)
+        for m in range(2, 6):
+            out[m] = 0.0
     else:
         # derivatives d_m of the critically damped solution by the recursion of the ODE
         d0 = x0

@@ -240,8 +240,8 @@ class SDOFModelSpec(_Strict):
         else:
             table = {k: (k, 1.0) for k in ("Omega", "B", "Delta", "R", "beta")}
         if self.contact is not None and is_compliant(self.contact.law):
-            # a compliant stop: R and beta set the contact phase's flow, which the law's shooting
-            # problem does not differentiate (vibeam.models.periodic_compliant)
+            # a compliant stop: a case continues it in the forcing and the gap only (the one shooting
+            # problem, vibeam.models.core.shooting)
             table = {k: v for k, v in table.items() if v[0] in ("Omega", "B", "Delta")}
         if key not in table:
             raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(table)}")
@@ -555,8 +555,8 @@ class BeamModelSpec(_Strict):
         allowed = ("Omega",) + tuple(k for k in self._CONTINUABLE
                                      if k == gap_key or k not in ("gap_mm", "contact_gap_mm"))
         if self.contact is not None and is_compliant(self.contact.law):
-            # a compliant stop: the law's shooting problem differentiates the forced response only
-            # (Omega, base_amplitude_m; vibeam.models.periodic_compliant)
+            # a compliant stop: a case continues it in the forced response only (Omega,
+            # base_amplitude_m; the one shooting problem, vibeam.models.core.shooting)
             allowed = ("Omega", "voltage", "gain")
         if key in REBUILD_KEYS:
             raise ValueError(f"changes the FE model (its modes and shapes): a beam scene cannot be continued "
@@ -592,8 +592,8 @@ class BeamModelSpec(_Strict):
 
         m = build_beam_model(self)
         law = beam_law(self.contact, self.R)
-        if law is not None:   # a compliant stop (issue 13): the model of vibeam.models.beam_compliant
-            from vibeam.models.beam_compliant import CompliantBeamModel
+        if law is not None:   # a compliant stop (issue 13): the beam's compliant model
+            from vibeam.models.beam_dynamics import CompliantBeamModel
 
             m = CompliantBeamModel.from_model(m, law, beam_law(lower_law_spec(self), self.R))
         return m

@@ -100,7 +100,8 @@ def _contact_steps(model, Omega, spec=None):
     """Steps per forcing period that a compliant stop adds, or None (Newton's law, a beam).
 
     The contact phase is stepped at 1/16 of its own natural period ``2 pi / sqrt(1 + k_c)``
-    (:mod:`vibeam.models.sdof_compliant`), so its cost grows with the contact stiffness:
+    (about: the event integrator's ``hcap``, :class:`vibeam.models.core.phases.ContactPhases`), so its
+    cost grows with the contact stiffness:
     ``16 sqrt(1 + k_c) / (2 pi)`` steps per unit of time in contact.  A stop at or inside the
     rest position (``Delta <= 0``) holds the mass for about half of each forcing period
     (``8 sqrt(1 + k_c) / Omega`` steps); a stop with a gap is met in impacts of half a contact

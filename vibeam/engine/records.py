@@ -458,7 +458,7 @@ def contact_outputs(traj: Trajectory) -> dict:
     """Per-point contact outputs (nondimensional, per unit effective mass of the stop).
 
     From ``traj.contacts`` (one row per recorded contact: duration, peak force, largest
-    penetration, energy lost, entry velocity; :mod:`vibeam.models.sdof_compliant`):
+    penetration, energy lost, entry velocity; :data:`vibeam.models.core.integrator.C_DURATION` ...):
     ``contact_duration`` (mean over the record's contacts), ``contact_force_max`` (largest peak
     force), ``penetration_max`` (largest penetration) and ``energy_per_impact`` (mean energy
     lost per contact: the work done on the stop).  A trajectory without contact rows (an
