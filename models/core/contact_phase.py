@@ -199,6 +199,11 @@ def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, h
         tol1 = 1e-13 * _mag(hb, wp, wr, Cs, Om, m, 1)
         if f0 > tol0 or (f0 >= -tol0 and fp0 > tol1):
             return 0.0, EK_EXIT, k, 0
+        if f0 >= -tol0 and fp0 >= -tol1:
+            # the force and its rate are zero to round-off (a contact entered at rest, g = g' = 0):
+            # the force's sign is round-off until it grows, so the exit is its fall below -tol0, not
+            # a crossing of zero by round-off (a contact of duration 5e-17, then entered again)
+            f0 -= tol0
         M2, M3, M4 = bounds(hb, wp, wr, Cs, Om, m)
         hk = hh if s_ev < 0.0 else s_ev
         sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, M2, M3, M4, m)
