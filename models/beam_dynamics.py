@@ -335,14 +335,28 @@ class BeamImpactModel:
             out.append(Stop(s.relation, law, s.label))
         return tuple(out)
 
+    #: the compliant law of the lower stop beside Newton's upper one (:mod:`vibeam.models.compliant`,
+    #: stiffness in N/m^p at the contact point); None: Newton's law there (``R_lower`` or the upper R)
+    contact_lower = None
+
     def mass_stops(self) -> tuple:
-        """The stops at the attached mass (the paper's, and a lower one): the first of :meth:`stops`."""
+        """The stops at the attached mass (the paper's, and a lower one): the first of :meth:`stops`.
+        The upper stop has Newton's law with ``R`` (and its table); the lower one ``contact_lower``
+        when given, else Newton's law with ``R_lower`` (None: the upper stop's law)."""
         upper = Restitution(self.R, tuple(self.R_table_U), tuple(self.R_table_R))
         out = (Stop(Relation(1.0, self.gap_contact_m), upper),)
         if self.two_sided:
-            law = upper if self.R_lower is None else Restitution(self.R_lower)
+            law = self.contact_lower
+            if law is None:
+                law = upper if self.R_lower is None else Restitution(self.R_lower)
             out += (Stop(Relation(-1.0, self.gap_contact_lower_m), law),)
         return out
+
+    @property
+    def mixed_stops(self) -> bool:
+        """Two stops at the mass, one of Newton's law and one compliant (either above)."""
+        kinds = {getattr(s.law, "kind", "") for s in self.mass_stops()}
+        return len(kinds) == 2
 
     def stop_codes(self) -> np.ndarray | None:
         """The output code of each of :meth:`stops` (0 the upper stop at the mass, 1 a lower one
@@ -507,7 +521,8 @@ class CompliantBeamModel(BeamImpactModel):
         The upper stop's law: ``stiffness`` in N/m^p at the contact point, the damping ratio (of
         the isolated contact of mass ``m_eff``) or ``chi``.
     contact_lower : law or None
-        The lower stop's own law (None: ``contact``).
+        The lower stop's own law (None: ``contact``): compliant, or Newton's
+        (:class:`vibeam.models.contact.Restitution`) beside the compliant upper stop.
     """
 
     @classmethod
@@ -533,9 +548,10 @@ class CompliantBeamModel(BeamImpactModel):
         lo = getattr(self, "contact_lower", None)
         return self.contact if lo is None else lo
 
-    def stops(self) -> tuple:
-        """The contact relations and (compliant) laws: the stop at ``w^T eta = Delta_C`` and,
-        for a two-sided scene, the one at ``w^T eta = -Delta_C,lower``."""
+    def mass_stops(self) -> tuple:
+        """The stops at the attached mass with their laws: the stop at ``w^T eta = Delta_C`` (law
+        ``contact``) and, for a two-sided scene, the one at ``w^T eta = -Delta_C,lower``
+        (:attr:`lower_law`); the point stops (Newton's law) follow in :meth:`stops`."""
         out = (Stop(Relation(1.0, self.gap_contact_m), self.contact),)
         if self.two_sided:
             out += (Stop(Relation(-1.0, self.gap_contact_lower_m), self.lower_law),)

@@ -250,6 +250,7 @@ register(Fidelity(
     fe_model=True,
     restitution_law_methods=("event", "direct"),
     two_sided_methods=("event", "direct", "continuation"),
+    mixed_stop_methods=("event", "direct", "continuation"),
     two_sided_law_methods={"kelvin_voigt": ("event", "direct", "continuation"),
                            "hysteretic_hertz": ("event", "direct", "continuation")},
     contact_laws={"kelvin_voigt": {"event": "beam_dynamics:BeamEventSolver",

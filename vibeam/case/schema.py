@@ -111,6 +111,15 @@ def _check_stops(spec, lower_keys: tuple, gap_key: str, mixed: bool = False) -> 
                          f"the upper stop's law), or both law = 'restitution'")
 
 
+def mixed_stops(spec) -> bool:
+    """A compliant ``[model.contact]`` beside a restitution ``[model.contact_lower]``, or a
+    restitution upper stop (no ``[model.contact]``) above a compliant ``[model.contact_lower]``."""
+    if spec.contact_lower is None:
+        return False
+    up = spec.contact is not None and is_compliant(spec.contact.law)
+    return up != is_compliant(spec.contact_lower.law)
+
+
 def lower_law_spec(spec):
     """``[model.contact_lower]`` of a compliant two-sided scene with the upper table's
     ``mass_kg`` when it gives none (the oscillator's effective mass is one); None without it."""
@@ -221,12 +230,8 @@ class SDOFModelSpec(_Strict):
 
     @property
     def mixed_stops(self) -> bool:
-        """A compliant ``[model.contact]`` beside a restitution ``[model.contact_lower]``, or a
-        restitution upper stop (no ``[model.contact]``) above a compliant ``[model.contact_lower]``."""
-        if self.contact_lower is None:
-            return False
-        up = self.contact is not None and is_compliant(self.contact.law)
-        return up != is_compliant(self.contact_lower.law)
+        """A restitution stop beside a compliant one (:func:`mixed_stops`)."""
+        return mixed_stops(self)
 
     # continuation parameters: key -> (native key of the SDOF model, factor d native / d key)
     def native_parameter(self, key: str):
@@ -489,7 +494,7 @@ class BeamModelSpec(_Strict):
             raise ValueError("give the attached mass either as mass_kg or as a [model.discs] table")
         if (self.gap_mm is None) == (self.contact_gap_mm is None):
             raise ValueError("give exactly one of gap_mm (at the sensor) or contact_gap_mm (at the stop)")
-        _check_stops(self, ("gap_lower_mm", "contact_gap_lower_mm"), "gap_mm")
+        _check_stops(self, ("gap_lower_mm", "contact_gap_lower_mm"), "gap_mm", mixed=True)
         if self.two_sided:
             pair = ("gap_mm", "gap_lower_mm") if self.gap_mm is not None else ("contact_gap_mm", "contact_gap_lower_mm")
             if getattr(self, pair[1]) is None:
@@ -508,9 +513,6 @@ class BeamModelSpec(_Strict):
             if (p.gap_mm is None) == (p.contact_gap_mm is None):
                 raise ValueError(f"stop at position_mm = {p.position_mm:g}: give exactly one of gap_mm (at the "
                                  f"sensor) or contact_gap_mm (at the stop)")
-            if self.contact is not None and is_compliant(self.contact.law):
-                raise ValueError(f"stop at position_mm = {p.position_mm:g} beside a compliant stop at the mass "
-                                 f"(law = {self.contact.law!r}) is not implemented; allowed: Newton stops everywhere")
         lo, hi = self.SECTION_RANGE
         if sec:     # the section's EI and rho A as vibeam.case.beamscene.geometry_of derives them
             b, t = self.width_mm * 1e-3, self.thickness_mm * 1e-3
@@ -554,7 +556,7 @@ class BeamModelSpec(_Strict):
         gap_key = "gap_mm" if self.gap_mm is not None else "contact_gap_mm"
         allowed = ("Omega",) + tuple(k for k in self._CONTINUABLE
                                      if k == gap_key or k not in ("gap_mm", "contact_gap_mm"))
-        if self.contact is not None and is_compliant(self.contact.law):
+        if any(t is not None and is_compliant(t.law) for t in (self.contact, self.contact_lower)):
             # a compliant stop: a case continues it in the forced response only (Omega,
             # base_amplitude_m; the one shooting problem, vibeam.models.core.shooting)
             allowed = ("Omega", "voltage", "gain")
@@ -592,11 +594,23 @@ class BeamModelSpec(_Strict):
 
         m = build_beam_model(self)
         law = beam_law(self.contact, self.R)
+        lower = beam_law(lower_law_spec(self), self.R)
         if law is not None:   # a compliant stop (issue 13): the beam's compliant model
             from vibeam.models.beam_dynamics import CompliantBeamModel
 
-            m = CompliantBeamModel.from_model(m, law, beam_law(lower_law_spec(self), self.R))
+            if self.mixed_stops:   # Newton's law below the compliant upper stop: its R, else [model] R
+                from vibeam.models.contact import Restitution
+
+                lower = Restitution(self.R if self.contact_lower.R is None else self.contact_lower.R)
+            m = CompliantBeamModel.from_model(m, law, lower)
+        elif lower is not None:   # a compliant lower stop below Newton's upper one
+            m.contact_lower = lower
         return m
+
+    @property
+    def mixed_stops(self) -> bool:
+        """A restitution stop beside a compliant one (:func:`mixed_stops`)."""
+        return mixed_stops(self)
 
     # ---- what is specific to this fidelity (see register_model_spec)
     def dofs(self) -> int:
