@@ -42,6 +42,31 @@ CASES = {
 }
 
 
+def _check_shot_jacobian(m, par, W, x, n):
+    """The shot of ``SDOFShooting(m, par)`` from ``x`` (status ok, contacts on both stops) and
+    its ``[M, d P^n / d par]`` against central differences (step 1e-6 relative; the same number
+    of impacts on both sides; bound 1e-6 of the largest entry)."""
+    prob = SDOFShooting(m, par, Omega=W)
+    p = W if par == "Omega" else float(getattr(m, par))
+    s = prob.shot(x, p, n)
+    assert s.status == "ok", s.message
+    assert set(s.extra["impact_stops"]) == {0, 1}
+    scale = max(float(np.max(np.abs(x))), 1e-4)
+    J = np.empty((2, 3))
+    for c in range(3):
+        if c < 2:
+            e = np.zeros(2)
+            e[c] = 1e-6 * scale
+            a, b, h = prob.shot(x + e, p, n), prob.shot(x - e, p, n), e[c]
+        else:
+            h = 1e-6 * max(abs(p), 1e-3)
+            a, b = prob.shot(x, p + h, n), prob.shot(x, p - h, n)
+        assert a.n_impacts == b.n_impacts == s.n_impacts
+        J[:, c] = (a.x - b.x) / (2 * h)
+    A = np.column_stack([s.M, s.x_p])
+    assert np.max(np.abs(A - J)) <= 1e-6 * np.max(np.abs(A)), (par, A, J)
+
+
 @pytest.mark.parametrize("name", list(CASES))
 def test_shot_jacobian_equals_central_differences(name):
     """M = d P^n / d x0 and d P^n / d(Omega, B, Delta) against central differences of the shot,
@@ -55,25 +80,7 @@ def test_shot_jacobian_equals_central_differences(name):
     else:
         x = np.array(x0)
     for par in ("Omega", "B", "Delta"):
-        prob = SDOFShooting(m, par, Omega=W)
-        p = W if par == "Omega" else float(getattr(m, par))
-        s = prob.shot(x, p, n)
-        assert s.status == "ok", s.message
-        assert set(s.extra["impact_stops"]) == {0, 1}
-        scale = max(float(np.max(np.abs(x))), 1e-4)
-        J = np.empty((2, 3))
-        for c in range(3):
-            if c < 2:
-                e = np.zeros(2)
-                e[c] = 1e-6 * scale
-                a, b, h = prob.shot(x + e, p, n), prob.shot(x - e, p, n), e[c]
-            else:
-                h = 1e-6 * max(abs(p), 1e-3)
-                a, b = prob.shot(x, p + h, n), prob.shot(x, p - h, n)
-            assert a.n_impacts == b.n_impacts == s.n_impacts
-            J[:, c] = (a.x - b.x) / (2 * h)
-        A = np.column_stack([s.M, s.x_p])
-        assert np.max(np.abs(A - J)) <= 1e-6 * np.max(np.abs(A)), (par, A, J)
+        _check_shot_jacobian(m, par, W, x, n)
 
 
 @pytest.mark.parametrize("name", list(CASES))
@@ -485,25 +492,7 @@ def test_newton_above_compliant_shot_jacobian_and_liouville():
     assert tr.status == "ok" and set(tr.impact_stops) == {0, 1}
     x = x * (1.0 + 1e-3)
     for par in ("Omega", "B", "Delta", "R"):
-        prob = SDOFShooting(m, par, Omega=W)
-        p = W if par == "Omega" else float(getattr(m, par))
-        s = prob.shot(x, p, 1)
-        assert s.status == "ok", s.message
-        assert set(s.extra["impact_stops"]) == {0, 1}
-        scale = max(float(np.max(np.abs(x))), 1e-4)
-        J = np.empty((2, 3))
-        for c in range(3):
-            if c < 2:
-                e = np.zeros(2)
-                e[c] = 1e-6 * scale
-                a, b, h = prob.shot(x + e, p, 1), prob.shot(x - e, p, 1), e[c]
-            else:
-                h = 1e-6 * max(abs(p), 1e-3)
-                a, b = prob.shot(x, p + h, 1), prob.shot(x, p - h, 1)
-            assert a.n_impacts == b.n_impacts == s.n_impacts
-            J[:, c] = (a.x - b.x) / (2 * h)
-        A = np.column_stack([s.M, s.x_p])
-        assert np.max(np.abs(A - J)) <= 1e-6 * np.max(np.abs(A)), (par, A, J)
+        _check_shot_jacobian(m, par, W, x, 1)
     s = SDOFShooting(m).shot(x, W, 1)
     m_up = int(np.sum(np.asarray(s.extra["impact_stops"]) == 0))
     want = m.R ** (2 * m_up) * np.exp(-2 * m.beta * 2 * np.pi / W
