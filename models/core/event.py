@@ -123,6 +123,12 @@ class EventIntegrator:
         self.held, self.damping_mismatch = held_sets(system, self.kstops)
         #: the compliant stops' data, None without one (:func:`vibeam.models.core.phases.compliant_data`)
         self.compliant = compliant_data(system, self.kstops, self.held)
+        #: bit mask of the stops with a compliant law
+        self.compliant_mask = sum(1 << k for k, s in enumerate(self.stops)
+                                  if getattr(s.law, "kind", "") == "compliant")
+        k = self.ksys.k
+        #: the lowest nonzero modal frequency ``sqrt(min k_i)`` (nondimensional; NaN without one)
+        self.lowest_omega = float(np.sqrt(np.min(k[k > 0]))) if np.any(k > 0) else math.nan
 
     @property
     def n(self) -> int:

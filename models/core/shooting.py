@@ -1148,7 +1148,6 @@ class ModalShooting:
         self._capa = self._CAP
         self._capi = self._CAP
         self._bufs = {}
-        self._h_caps = {}
         self._entry = None
 
     def setup(self, p: float) -> Setup:      # pragma: no cover - the fidelities' own
@@ -1205,10 +1204,7 @@ class ModalShooting:
             held = int(held_at_section(core.kstops, core.held, np.concatenate([x0[:N], np.zeros(N)]), Om))
         else:
             held = int(stuck)
-        h_cap = self._h_caps.get(id(core))
-        if h_cap is None:
-            h_cap = self._h_caps[id(core)] = (2.0 * math.pi / float(np.sqrt(np.min(core.ksys.k[core.ksys.k > 0])))
-                                              / self.steps_per_fundamental)
+        h_cap = 2.0 * math.pi / core.lowest_omega / self.steps_per_fundamental
         P = set_.dirs.dOm.shape[0]
         cp = core.compliant
         if cp is not None and held < 0:
@@ -1247,9 +1243,9 @@ class ModalShooting:
         sc = set_.scale
         n_ev, n_ap = int(nlog[0]), int(nlog[1])
         ev = rec.evlog[:n_ev].copy()          # one copy; the event arrays are views of it
-        kinds = ev[:, 0].astype(np.int64)
-        cmask = sum(1 << k for k, s in enumerate(core.stops) if getattr(s.law, "kind", "") == "compliant")
-        extra = dict(event_kinds=kinds, event_times=ev[:, 1], event_stops=ev[:, 3].astype(np.int64),
+        ik = ev[:, 0:4:3].astype(np.int64)    # columns 0 (kind) and 3 (stop)
+        cmask = core.compliant_mask
+        extra = dict(event_kinds=ik[:, 0], event_times=ev[:, 1], event_stops=ik[:, 1],
                      event_states=ev[:, 4:], apexes=rec.aplog[:n_ap].copy(), n_chatter=int(n_chat),
                      stuck_start=bool(held & ~cmask), stuck_end=bool(held_end & ~cmask), n_steps=int(n_steps))
         if cp is not None:
