@@ -14,6 +14,15 @@ check a run's method without loading any solver.  Classes are named by
 
 Capabilities (:class:`Fidelity` fields) and the protocol they imply for the model class
 --------------------------------------------------------------------------------------
+A fidelity lists its methods, each as one :class:`Method`: its solver and the stops it
+simulates (the laws and families it serves, on one or two stops, mixed or not).  The methods of
+the one core (:mod:`vibeam.models.core`: event integrator, direct solver, shooting problem)
+serve every law on any stops (:func:`on_the_core`); the SDOF's textbook methods and mapping
+say what they are limited to.  The method tables below (``modal_state_methods``,
+``restitution_law_methods``, ``two_sided_methods``, ``two_sided_law_methods``,
+``mixed_stop_methods``, ``contact_laws``, ``positive_R_methods``) are derived from these
+entries, never kept by hand; a refusal names what the table allows.
+
 Every model has ``fidelity`` (its registry name), ``Delta`` (the gap of the amplitude
 ``Q = Delta - min q``, paper Sec. 4.1), ``natural_frequency_hz`` and ``length_m`` (None for a
 nondimensional scene), ``phi_contact`` (static-mode value at the contact point over the
@@ -164,6 +173,47 @@ def law_class(law: str):
     return resolve(entry.cls)
 
 
+#: the key of Newton's (impulsive) law in a :class:`Method`'s tables, beside the families of
+#: compliant laws (:data:`FAMILIES`)
+IMPULSIVE = "impulsive"
+
+
+class Method(NamedTuple):
+    """One method of a fidelity and the stops it simulates: the one fact the registry keeps per
+    method, from which every capability table of :class:`Fidelity` is derived.
+
+    Attributes
+    ----------
+    solver : str
+        ``"module:Class"`` of its solver for Newton's law (built as ``cls(model, **settings)``);
+        for ``continuation`` the shooting problem (``cls(model, parameter, Omega=Omega)``).
+    laws : dict
+        Family of compliant laws (:data:`FAMILIES`) -> ``"module:Class"`` of the solver of its
+        laws; a family not listed is refused by this method.
+    two_sided : tuple of str
+        The laws it simulates on two stops: :data:`IMPULSIVE` and/or families.
+    mixed : bool
+        It simulates a compliant stop beside a Newton one.
+    restitution_law, positive_R, modal_states : bool
+        It takes a velocity-dependent R; it needs ``R > 0``; it records the modal states.
+    """
+
+    solver: str
+    laws: dict = {}
+    two_sided: tuple = ()
+    mixed: bool = False
+    restitution_law: bool = False
+    positive_R: bool = False
+    modal_states: bool = False
+
+
+def on_the_core(solver: str, **flags) -> Method:
+    """A method of the one core (event integrator, direct solver or shooting problem,
+    :mod:`vibeam.models.core`): every law of every family, on one or two stops, mixed ones
+    included, by the same ``solver``."""
+    return Method(solver, {f: solver for f in FAMILIES}, (IMPULSIVE,) + tuple(FAMILIES), True, **flags)
+
+
 @dataclass(frozen=True)
 class Fidelity:
     """One fidelity: its model, methods and capabilities (see the module docstring).
@@ -174,35 +224,72 @@ class Fidelity:
         Registry name, the ``fidelity`` key of a case's ``[model]`` table.
     model : str
         ``"module:Class"`` of the model (relative to ``vibeam.models``).
-    methods : dict
-        Method name -> ``"module:Class"`` of its solver (built as ``cls(model, **settings)``).
-    shooting : str or None
-        ``"module:Class"`` of the shooting problem, or None.
+    solvers : dict
+        Method name -> :class:`Method` (``"continuation"``: the shooting problem).  The tables
+        ``methods``, ``shooting``, ``two_sided_methods``, ``two_sided_law_methods``,
+        ``mixed_stop_methods``, ``contact_laws``, ``restitution_law_methods``,
+        ``positive_R_methods`` and ``modal_state_methods`` are derived from it.
     """
 
     name: str
     model: str
-    methods: dict
-    shooting: str | None = None
+    solvers: dict = field(compare=False)
     modes: bool = False
     contact_modes: bool = False
-    modal_state_methods: tuple = ()
     eccentric_contact: bool = False
     coupled_platform: bool = False
     fe_model: bool = False
-    restitution_law_methods: tuple = ()
-    two_sided_methods: tuple = ()
-    two_sided_law_methods: dict = field(default_factory=dict, compare=False)
-    mixed_stop_methods: tuple = ()
-    positive_R_methods: tuple = ()
-    contact_laws: dict = field(default_factory=dict, compare=False)
     description: str = field(default="", compare=False)
+
+    def _with(self, flag: str) -> tuple:
+        return tuple(m for m, x in self.solvers.items() if getattr(x, flag))
+
+    @property
+    def methods(self) -> dict:
+        """Method name -> ``"module:Class"`` of its solver for Newton's law (continuation apart)."""
+        return {m: x.solver for m, x in self.solvers.items() if m != "continuation"}
+
+    @property
+    def shooting(self) -> str | None:
+        """``"module:Class"`` of the shooting problem, or None."""
+        x = self.solvers.get("continuation")
+        return None if x is None else x.solver
 
     @property
     def method_names(self) -> tuple:
         """Names of the methods a case may ask for (``continuation`` when it has a shooting
         problem registered in :data:`vibeam.models.SHOOTING`, checked when planned)."""
         return tuple(self.methods) + ("continuation",)
+
+    @property
+    def two_sided_methods(self) -> tuple:
+        return tuple(m for m, x in self.solvers.items() if IMPULSIVE in x.two_sided)
+
+    @property
+    def two_sided_law_methods(self) -> dict:
+        return {f: ms for f in FAMILIES
+                if (ms := tuple(m for m, x in self.solvers.items() if f in x.two_sided and f in x.laws))}
+
+    @property
+    def mixed_stop_methods(self) -> tuple:
+        return self._with("mixed")
+
+    @property
+    def contact_laws(self) -> dict:
+        return {f: tab for f in FAMILIES
+                if (tab := {m: x.laws[f] for m, x in self.solvers.items() if f in x.laws})}
+
+    @property
+    def restitution_law_methods(self) -> tuple:
+        return self._with("restitution_law")
+
+    @property
+    def positive_R_methods(self) -> tuple:
+        return self._with("positive_R")
+
+    @property
+    def modal_state_methods(self) -> tuple:
+        return self._with("modal_states")
 
 
 FIDELITIES: dict[str, Fidelity] = {}
@@ -217,48 +304,30 @@ def register(fid: Fidelity) -> Fidelity:
 register(Fidelity(
     name="sdof",
     model="sdof:SDOF",
-    methods={"event": "sdof:EventSolver", "direct": "sdof_ode:DirectSolver",
-             "zhuravlev": "sdof_ode:ZhuravlevSolver", "ivanov": "sdof_ode:IvanovSolver",
-             "averaging": "sdof_averaging:AveragingSolver", "mapping": "sdof_mapping:MappingSolver"},
-    shooting="periodic_sdof:SDOFShooting",
-    restitution_law_methods=("event",),
-    two_sided_methods=("event", "direct", "mapping", "continuation"),
-    two_sided_law_methods={"kelvin_voigt": ("event", "direct", "continuation"),
-                           "hysteretic_hertz": ("event", "direct", "continuation")},
-    mixed_stop_methods=("event", "direct", "continuation"),
-    positive_R_methods=("ivanov",),
-    contact_laws={"kelvin_voigt": {"event": "sdof:EventSolver",
-                             "direct": "sdof_ode:DirectSolver",
-                             "mapping": "sdof_compliant_map:CompliantMappingSolver",
-                             "continuation": "periodic_sdof:SDOFShooting"},
-                  "hysteretic_hertz": {"event": "sdof:EventSolver",
-                                    "direct": "sdof_ode:DirectSolver",
-                                    "mapping": "sdof_hc_map:HuntCrossleyMappingSolver",
-                                    "continuation": "periodic_sdof:SDOFShooting"}},
+    solvers={"event": on_the_core("sdof:EventSolver", restitution_law=True),
+             "direct": on_the_core("sdof_ode:DirectSolver"),
+             # the textbook methods of one Newton stop (paper Sec. 3)
+             "zhuravlev": Method("sdof_ode:ZhuravlevSolver"),
+             "ivanov": Method("sdof_ode:IvanovSolver", positive_R=True),
+             "averaging": Method("sdof_averaging:AveragingSolver"),
+             # the pointwise mapping: one stop of any law, two Newton stops
+             "mapping": Method("sdof_mapping:MappingSolver",
+                               {"kelvin_voigt": "sdof_compliant_map:CompliantMappingSolver",
+                                "hysteretic_hertz": "sdof_hc_map:HuntCrossleyMappingSolver"}, (IMPULSIVE,)),
+             "continuation": on_the_core("periodic_sdof:SDOFShooting")},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 register(Fidelity(
     name="beam",
     model="beam_dynamics:BeamImpactModel",
-    methods={"event": "beam_dynamics:BeamEventSolver", "direct": "beam_dynamics:BeamODESolver"},
-    shooting="periodic_beam:BeamContinuation",
+    solvers={"event": on_the_core("beam_dynamics:BeamEventSolver", restitution_law=True, modal_states=True),
+             "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
+             "continuation": on_the_core("periodic_beam:BeamContinuation")},
     modes=True,
     contact_modes=True,
-    modal_state_methods=("event",),
     eccentric_contact=True,
     coupled_platform=True,
     fe_model=True,
-    restitution_law_methods=("event", "direct"),
-    two_sided_methods=("event", "direct", "continuation"),
-    mixed_stop_methods=("event", "direct", "continuation"),
-    two_sided_law_methods={"kelvin_voigt": ("event", "direct", "continuation"),
-                           "hysteretic_hertz": ("event", "direct", "continuation")},
-    contact_laws={"kelvin_voigt": {"event": "beam_dynamics:BeamEventSolver",
-                             "direct": "beam_dynamics:BeamODESolver",
-                             "continuation": "periodic_beam:BeamContinuation"},
-                  "hysteretic_hertz": {"event": "beam_dynamics:BeamEventSolver",
-                                    "direct": "beam_dynamics:BeamODESolver",
-                                    "continuation": "periodic_beam:BeamContinuation"}},
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 

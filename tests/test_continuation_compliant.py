@@ -195,10 +195,11 @@ def test_registry_dispatch_and_case_validation(monkeypatch):
         shooting_problem(m, "gamma", Omega=2.0)
     hc = CASE.replace('law = "linear"', 'law = "hunt_crossley"').replace("stiffness = 1e4", "stiffness = 1e6")
     assert isinstance(shooting_problem(parse_case(hc).model_spec().build(), "Omega"), SDOFShooting)
-    table = FIDELITIES["sdof"].contact_laws
-    # the registry's tables are keyed by the law's family (vibeam.models.registry.LAWS)
-    monkeypatch.setitem(table, "hysteretic_hertz", {k: v for k, v in table["hysteretic_hertz"].items()
-                                                    if k != "continuation"})
+    # the registry's tables derive from each method's entry, keyed by the law's family
+    # (vibeam.models.registry.Method, LAWS): a shooting problem without the hysteretic-Hertz family
+    cont = FIDELITIES["sdof"].solvers["continuation"]
+    monkeypatch.setitem(FIDELITIES["sdof"].solvers, "continuation",
+                        cont._replace(laws={f: c for f, c in cont.laws.items() if f != "hysteretic_hertz"}))
     with pytest.raises(CaseError, match="allowed: event, direct, mapping$"):
         parse_case(hc)
     with pytest.raises(ValueError, match="no shooting problem registered"):
