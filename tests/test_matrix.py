@@ -18,7 +18,8 @@ allowed (``vibeam.case.schema.CaseError``).  :data:`WORKING` lists the cells tha
 starts or stops working must be added or removed here, so the count in the README's
 "Architecture" section stays true.  The second test runs every working row through each of its
 time-domain methods and checks them against each other (``event``, the exact kernels, against
-``direct``, solve_ivp with events, sharing no code).
+``direct``, solve_ivp with events, sharing no code); the third builds each SDOF row again as a
+one-mode beam and asks for the same trajectory (issue 20: one-mode beam = SDOF to 1e-10).
 """
 from __future__ import annotations
 
@@ -245,3 +246,64 @@ def test_every_continuation_row_gives_periodic_orbits_of_the_event_integrator(ro
         hit = np.asarray(pt.shot.extra.get("impact_stops", np.zeros(pt.shot.n_impacts, int)), int)
         want = np.prod(R[hit] ** 2) * np.exp(-np.sum(damping) * 2.0 * np.pi / W)
         assert abs(np.linalg.det(pt.shot.M) / want - 1.0) <= 1e-9, (row, np.linalg.det(pt.shot.M), want)
+
+
+def _one_mode_beam_of(sd):
+    """The SDOF ``sd`` as a one-mode beam of the same ODE, stop by stop: ``f = f_ref`` (k = 1),
+    Rayleigh ``alpha = 2 beta omega_ref`` (c = 2 beta), ``w = Gamma = s = 1`` and ``phi(x_m) = L =
+    1`` (so ``q = eta``, ``B = Y``, ``Delta = Delta_C``, ``m_eff = 1``); each of its stops keeps its
+    side, offset and law, a compliant law's stiffness in N/m^p (``k_c omega_ref^2``: the beam's time
+    unit is ``1 / omega_ref``, its modes mass-normalised in kg).  Another model class, another
+    system builder (``from_beam``) and unit conversion than the SDOF's."""
+    import dataclasses
+    import math
+
+    from vibeam.models.beam_dynamics import BeamImpactModel, CompliantBeamModel
+
+    f = 10.0
+    om = 2.0 * math.pi * f
+
+    def si(law):
+        return dataclasses.replace(law, stiffness=law.stiffness * om ** 2) if law.kind == "compliant" else law
+
+    up, *rest = sd.stops()
+    lo = rest[0] if rest else None
+    newton_pair = lo is not None and up.law.kind == lo.law.kind == "impulsive"
+    base = BeamImpactModel([om], [1.0], [1.0], [1.0], up.law.R, up.relation.offset, sd.B, f, 1.0, 1.0,
+                           rayleigh_alpha_1_s=2.0 * sd.beta * om,
+                           gap_contact_lower_m=None if lo is None else lo.relation.offset,
+                           R_lower=lo.law.R if newton_pair else None)
+    if up.law.kind == "compliant":
+        return CompliantBeamModel.from_model(base, si(up.law), None if lo is None else si(lo.law))
+    if lo is not None and lo.law.kind == "compliant":
+        base.contact_lower = si(lo.law)
+    return base
+
+
+@pytest.mark.parametrize("row", sorted({c[:3] for c in WORKING if c[0] == "sdof" and c[3] == "event"}),
+                         ids="-".join)
+def test_every_sdof_row_is_its_one_mode_beam(row):
+    """Each SDOF row's scene (one, two or mixed stops, every law) built again as a one-mode beam
+    (:func:`_one_mode_beam_of`): the same stops and laws in the beam's system, and the beam's event
+    solver gives the SDOF's trajectory over 20 + 4 periods at Omega 0.75 and 0.8: samples to 1e-10
+    of the orbit, the same impacts (count, stops, times to 1e-10 of the period).  Both run the one
+    event integrator, so this checks the beam's model, system builder and unit conversion against
+    the SDOF's (issue 20: one-mode beam = SDOF to 1e-10)."""
+    from vibeam.models import make_solver
+    from vibeam.models.system import from_beam, from_sdof
+
+    fid, law, stops = row
+    sd = vibeam.load_case(case_of(fid, law, stops, ["event"])).model_spec().build()
+    beam = _one_mode_beam_of(sd)
+    assert [(s.relation.sign, s.law.kind) for s in beam.stops()] == [(s.relation.sign, s.law.kind) for s in sd.stops()]
+    a_sys, b_sys = from_sdof(sd), from_beam(beam)
+    np.testing.assert_allclose(b_sys.damping, a_sys.damping, rtol=1e-14)
+    for W in (0.75, 0.8):
+        a = make_solver(sd, "event").point(W, None, 20, 4, 32)
+        b = make_solver(beam, "event").point(W, None, 20, 4, 32)
+        assert a.status == b.status and a.n_impacts == b.n_impacts >= 1, (row, W, a.status, b.status)
+        scale = np.max(np.abs(a.samples))
+        assert np.max(np.abs(a.samples - b.samples)) <= 1e-10 * scale, (row, W)
+        assert np.max(np.abs(a.impact_times - b.impact_times)) <= 1e-10 * 2.0 * np.pi / W, (row, W)
+        ka, kb = a.impact_stops, b.impact_stops
+        assert (ka is None) == (kb is None) and (ka is None or list(ka) == list(kb)), (row, W)
