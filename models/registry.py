@@ -199,7 +199,7 @@ class Method(NamedTuple):
     """
 
     solver: str
-    laws: dict = {}
+    laws: dict = {}       # never mutated: a changed entry is a new Method (``_replace``)
     two_sided: tuple = ()
     mixed: bool = False
     restitution_law: bool = False
@@ -263,32 +263,40 @@ class Fidelity:
 
     @property
     def two_sided_methods(self) -> tuple:
+        """Methods that simulate two Newton stops (:data:`IMPULSIVE` in their ``two_sided``)."""
         return tuple(m for m, x in self.solvers.items() if IMPULSIVE in x.two_sided)
 
     @property
     def two_sided_law_methods(self) -> dict:
+        """Family -> methods that simulate its laws on two stops (families with none left out)."""
         return {f: ms for f in FAMILIES
                 if (ms := tuple(m for m, x in self.solvers.items() if f in x.two_sided and f in x.laws))}
 
     @property
     def mixed_stop_methods(self) -> tuple:
+        """Methods that simulate a compliant stop beside a Newton one."""
         return self._with("mixed")
 
     @property
     def contact_laws(self) -> dict:
+        """Family -> {method: ``"module:Class"``} of the methods that simulate its laws
+        (``"continuation"``: the shooting problem)."""
         return {f: tab for f in FAMILIES
                 if (tab := {m: x.laws[f] for m, x in self.solvers.items() if f in x.laws})}
 
     @property
     def restitution_law_methods(self) -> tuple:
+        """Methods that take a velocity-dependent R (effect ``restitution_law``)."""
         return self._with("restitution_law")
 
     @property
     def positive_R_methods(self) -> tuple:
+        """Methods that need ``R > 0`` (Ivanov's transformation, paper Eqs. 14-15)."""
         return self._with("positive_R")
 
     @property
     def modal_state_methods(self) -> tuple:
+        """Methods whose solver records the modal states at the samples."""
         return self._with("modal_states")
 
 

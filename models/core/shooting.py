@@ -1243,9 +1243,9 @@ class ModalShooting:
         sc = set_.scale
         n_ev, n_ap = int(nlog[0]), int(nlog[1])
         ev = rec.evlog[:n_ev].copy()          # one copy; the event arrays are views of it
-        ik = ev[:, 0:4:3].astype(np.int64)    # columns 0 (kind) and 3 (stop)
+        ik = np.array(ev[:, 0:4:3].T, dtype=np.int64, order="C")   # rows: kind (column 0), stop (column 3)
         cmask = core.compliant_mask
-        extra = dict(event_kinds=ik[:, 0], event_times=ev[:, 1], event_stops=ik[:, 1],
+        extra = dict(event_kinds=ik[0], event_times=ev[:, 1], event_stops=ik[1],
                      event_states=ev[:, 4:], apexes=rec.aplog[:n_ap].copy(), n_chatter=int(n_chat),
                      stuck_start=bool(held & ~cmask), stuck_end=bool(held_end & ~cmask), n_steps=int(n_steps))
         if cp is not None:
