@@ -123,12 +123,18 @@ class SDOFShooting(ModalShooting):
         self._base = [float(model.beta), float(model.B), R0, float(model.Delta), self.Omega]
         self._slot = _ORDER[self.index]
         self._setups = {}
+        self._last = None
 
     def params(self, p: float):
         """``(beta, B, R, Delta, Omega)`` with the continuation parameter set to ``p``."""
+        last = self._last
+        if last is not None and last[0] == p and p != 0.0:     # (-0.0 == 0.0: recomputed)
+            return last[1]      # a shot asks twice (:meth:`invalid`, :meth:`setup`)
         v = self._base.copy()
         v[self._slot] = float(p)
-        return tuple(v)
+        v = tuple(v)
+        self._last = (p, v)
+        return v
 
     def R_lower(self, R: float) -> float:
         """The lower stop's R when the upper stop's is ``R``."""

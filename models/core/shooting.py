@@ -44,6 +44,7 @@ hybrid systems, IEEE TCAS-I 47 (2000) 204-220 (parameter sensitivities through e
 from __future__ import annotations
 
 import math
+from collections.abc import MutableMapping
 from typing import NamedTuple
 
 import numpy as np
@@ -1043,31 +1044,42 @@ def contact_at_section(st, x0):
     return mask, bad
 
 
+#: the header of a packed shot (:func:`shoot`): its scalars, in this order, before the arrays
+(H_STATUS, H_NIMP, H_SMIN, H_SMAX, H_NCHAT, H_STUCK, H_HELD_END, H_NTOT, H_GMAX, H_NSTEPS, H_TCON, H_NREL,
+ H_NINEXACT, H_FINITE, H_HELD0, H_NEV, H_NAP, H_APEX) = range(18)
+HEAD = 18
+
+
 @njit(cache=True, error_model="numpy")
 def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel,
-          derivatives, rst):
+          derivatives, scale):
     """``P^n(x0)``: the integrator's run of ``n_periods`` from phase 0 with its event log, then
-    (``derivatives``) the tangent, in one compiled call.
+    (``derivatives``) the tangent, in one compiled call, its outputs packed in two new arrays.
 
     ``held0 < 0``: start held where :func:`held_at_section` finds the state held, in contact with
-    the compliant stops :func:`contact_at_section` finds.  ``rst`` (2n) receives the end state
-    rebuilt by the tangent's flows (:func:`tangent`).
+    the compliant stops :func:`contact_at_section` finds.  ``rec``, ``J`` and ``rel`` are work
+    buffers (:class:`~vibeam.models.core.integrator.Record` with an event and an apex log, the
+    tangent ``[M | x_p]``, the releases); ``scale``: row value per unit of the output coordinate.
 
     Returns
     -------
-    out : tuple
-        The run's scalars (:func:`vibeam.models.core.integrator.integrate`: ``status, n_imp_record,
-        s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total, gmax, n_steps``).
-    n_rel, n_inexact : int
-        From :func:`tangent` (-1, -1 without derivatives, after a failed run or a full log).
-    finite : bool
-        Every entry of the tangent is finite (not: a grazing impact, zero velocity).
-    held0 : int
-        The held mask the run started with.
-    x_end : ndarray, shape (2n,)
-        The final state.
+    f : ndarray, shape (HEAD + ...,)
+        The header (``H_STATUS ... H_APEX``: the run's scalars of
+        :func:`vibeam.models.core.integrator.integrate`, ``s_min``/``s_max`` divided by ``scale``;
+        ``n_rel``, ``n_inexact`` of :func:`tangent`, -1 without derivatives, after a failed run or
+        a full log; ``finite``: every entry of the tangent is finite; ``held0``, the held mask the
+        run started with; the events and apexes logged; the largest logged apex gap, ``-inf`` if
+        none), then the final state (2n), the tangent (2n x (2n + P), row-major; unset without
+        derivatives), the end state rebuilt by the tangent's flows (2n), the ``m`` impact times
+        and normal velocities (divided by ``scale``), the event log (``e`` rows of ``LOG_HEAD +
+        2n``), the apex log (``a`` rows of 3), the releases (``n_rel`` rows of ``2n + P + 1``).
+        ``m``, ``e`` and ``a`` are the counts clipped to the buffers' capacities.
+    i : ndarray of int64, shape (2 e + m,)
+        The events' kinds and stops, the impacts' stops.
     """
     n = sy.k.shape[0]
+    d = 2 * n
+    ncol = J.shape[1]
     if held0 < 0:
         held0 = held_at_section(st, hs, x0, Om)
         if cp is not None:
@@ -1077,25 +1089,160 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     etad = x0[n:].copy()
     out = integrate(sy, st, hs, cp, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
                     chatter_tol, rec)
-    x_end = np.empty(2 * n)
-    for i in range(n):
-        x_end[i] = eta[i]
-        x_end[n + i] = etad[i]
     n_rel = -1
     n_inexact = -1
     finite = True
     n_ev = rec.nlog[0]
+    n_ap = rec.nlog[1]
+    rst = np.zeros(d)
     if derivatives and out[0] != 3 and n_ev <= rec.evlog.shape[0]:
+        x_end = np.empty(d)
+        for i in range(n):
+            x_end[i] = eta[i]
+            x_end[n + i] = etad[i]
         n_rel, n_inexact = tangent(sy, st, hs, cp, dd, Om, rec.evlog, n_ev, held0, x0, x_end, out[6],
                                    n_periods * TWO_PI / Om, J, rel, rst)
-        for i in range(J.shape[0]):
-            for c in range(J.shape[1]):
+        for i in range(d):
+            for c in range(ncol):
                 if not math.isfinite(J[i, c]):
                     finite = False
-    return out, n_rel, n_inexact, finite, held0, x_end
+    m = min(out[1], rec.imp_t.shape[0])
+    e = min(n_ev, rec.evlog.shape[0])
+    a = min(n_ap, rec.aplog.shape[0])
+    r = max(n_rel, 0)
+    w = rec.evlog.shape[1]
+    f = np.empty(HEAD + 2 * d + d * ncol + 2 * m + e * w + 3 * a + r * (ncol + 1))
+    f[H_STATUS] = out[0]
+    f[H_NIMP] = out[1]
+    f[H_SMIN] = out[2] / scale
+    f[H_SMAX] = out[3] / scale
+    f[H_NCHAT] = out[4]
+    f[H_STUCK] = out[5]
+    f[H_HELD_END] = out[6]
+    f[H_NTOT] = out[7]
+    f[H_GMAX] = out[8]
+    f[H_NSTEPS] = out[9]
+    f[H_TCON] = out[10]
+    f[H_NREL] = n_rel
+    f[H_NINEXACT] = n_inexact
+    f[H_FINITE] = 1.0 if finite else 0.0
+    f[H_HELD0] = held0
+    f[H_NEV] = n_ev
+    f[H_NAP] = n_ap
+    apex = -np.inf
+    for j in range(a):
+        apex = max(apex, rec.aplog[j, 1])
+    f[H_APEX] = apex
+    o = HEAD
+    for i in range(n):
+        f[o + i] = eta[i]
+        f[o + n + i] = etad[i]
+    o += d
+    if derivatives:
+        for i in range(d):
+            for c in range(ncol):
+                f[o + i * ncol + c] = J[i, c]
+    o += d * ncol
+    for i in range(d):
+        f[o + i] = rst[i]
+    o += d
+    for j in range(m):
+        f[o + j] = rec.imp_t[j]
+        f[o + m + j] = rec.imp_v[j] / scale
+    o += 2 * m
+    for j in range(e):
+        for c in range(w):
+            f[o + j * w + c] = rec.evlog[j, c]
+    o += e * w
+    for j in range(a):
+        for c in range(3):
+            f[o + 3 * j + c] = rec.aplog[j, c]
+    o += 3 * a
+    for j in range(r):
+        for c in range(ncol + 1):
+            f[o + j * (ncol + 1) + c] = rel[j, c]
+    iv = np.empty(2 * e + m, np.int64)
+    for j in range(e):
+        iv[j] = int(rec.evlog[j, 0])
+        iv[e + j] = int(rec.evlog[j, 3])
+    for j in range(m):
+        iv[2 * e + j] = rec.imp_k[j]
+    return f, iv
 
 
 # ============================================================================ the problem
+def _shot_extra(f, iv, d, nc, n, n_imp, n_ev, n_ap, n_rel, n_inexact, held, held_end, n_chat, n_steps, t_con,
+                tangent, ok, core, Om) -> dict:
+    """A shot's ``extra`` from its packed arrays (:func:`shoot`; :meth:`ModalShooting.shot`)."""
+    w = LOG_HEAD + d
+    o = HEAD + 2 * d + d * nc + 2 * n_imp
+    ev = f[o:o + n_ev * w].reshape(n_ev, w)
+    o += n_ev * w
+    cmask = core.compliant_mask
+    ns = core.n_stops
+    extra = dict(event_kinds=iv[:n_ev], event_times=ev[:, 1], event_stops=iv[n_ev:2 * n_ev], event_states=ev[:, 4:],
+                 apexes=f[o:o + 3 * n_ap].reshape(n_ap, 3), n_chatter=int(n_chat), stuck_start=bool(held & ~cmask),
+                 stuck_end=bool(held_end & ~cmask), n_steps=int(n_steps))
+    o += 3 * n_ap
+    if core.compliant is not None:
+        extra.update(_contact_times(ev, held & cmask, held_end & cmask, ns, n * 2.0 * math.pi / Om))
+        extra["contact_time"] = t_con
+        extra["in_contact_end"] = bool(held_end & cmask)
+        extra["rebuilt_state"] = f[HEAD + d + d * nc:HEAD + 2 * d + d * nc]
+    if ns > 1:
+        extra["impact_stops"] = iv[2 * n_ev:]
+    if tangent:
+        extra["x_all_p"] = f[HEAD + d:HEAD + d + d * nc].reshape(d, nc)[:, d:]
+        rl = f[o:o + n_rel * (nc + 1)].reshape(n_rel, nc + 1)
+        extra["release_times"] = rl[:, 0]
+        extra["release_time_derivatives"] = rl[:, 1:]
+    if ok:
+        extra["n_inexact"] = max(n_inexact, 0)
+    return extra
+
+
+class LazyExtra(MutableMapping):
+    """A shot's ``extra`` dict, built on first use (most shots of a Newton iteration are read only
+    for ``x``, ``M`` and ``x_p``): ``make(*args)`` returns the dict; a mapping like it otherwise."""
+
+    __slots__ = ("_d", "_make", "_args")
+
+    def __init__(self, make, args=()):
+        self._d = None
+        self._make = make
+        self._args = args
+
+    def _dict(self) -> dict:
+        if self._d is None:
+            self._d = self._make(*self._args)
+            self._make = self._args = None
+        return self._d
+
+    def __getitem__(self, key):
+        return self._dict()[key]
+
+    def __setitem__(self, key, value):
+        self._dict()[key] = value
+
+    def __delitem__(self, key):
+        del self._dict()[key]
+
+    def __iter__(self):
+        return iter(self._dict())
+
+    def __len__(self):
+        return len(self._dict())
+
+    def __contains__(self, key):
+        return key in self._dict()
+
+    def get(self, key, default=None):
+        return self._dict().get(key, default)
+
+    def __repr__(self):
+        return repr(self._dict())
+
+
 class Setup(NamedTuple):
     """What a fidelity's shooting problem gives the one shot at a parameter value.
 
@@ -1214,7 +1361,7 @@ class ModalShooting:
                 return self._failed(d, f"the section lies inside the stop {k} of a "
                                        f"{getattr(core.stops[k].law, 'name', 'compliant')} law: its contact "
                                        f"depends on its entry velocity, which is not part of the state")
-        rst = np.zeros(d)
+        sc = set_.scale
         while True:
             key = (n, N, core.n_stops, P)
             bufs = self._bufs.get(key)
@@ -1225,55 +1372,44 @@ class ModalShooting:
             rec, J, rel = bufs
             args = (core.ksys, core.kstops, core.held, cp, set_.dirs, float(Om), x0, held, n, float(h_cap),
                     self.max_impacts_per_period * n, self.max_steps_per_period * n, self.chatter_tol, rec, J, rel,
-                    bool(derivatives), rst)
+                    bool(derivatives), float(sc))
             if self._entry is None:
-                out, n_rel, n_inexact, finite, held, x = _call_shoot(args)
+                f, iv = _call_shoot(args)
                 self._entry = _ENTRY.get("shoot")
             else:
                 # the same argument types every call of this problem: its compiled entry point
-                out, n_rel, n_inexact, finite, held, x = self._entry(*args)
-            nlog = rec.nlog
-            if nlog[0] <= self._cap and nlog[1] <= self._capa and out[1] <= self._capi:
+                f, iv = self._entry(*args)
+            (status, n_imp, smin, smax, n_chat, stuck_time, held_end, n_tot, gmax, n_steps, t_con, n_rel, n_inexact,
+             finite, held, n_ev, n_ap, apex) = f[:HEAD].tolist()
+            n_imp, n_ev, n_ap = int(n_imp), int(n_ev), int(n_ap)
+            if n_ev <= self._cap and n_ap <= self._capa and n_imp <= self._capi:
                 break
-            self._cap = max(self._cap, int(nlog[0]) + 16)
-            self._capa = max(self._capa, int(nlog[1]) + 16)
-            self._capi = max(self._capi, int(out[1]) + 16)
+            self._cap = max(self._cap, n_ev + 16)
+            self._capa = max(self._capa, n_ap + 16)
+            self._capi = max(self._capi, n_imp + 16)
             self._bufs.clear()
-        status, n_imp, smin, smax, n_chat, stuck_time, held_end, n_tot, gmax, n_steps, t_con = out
-        sc = set_.scale
-        n_ev, n_ap = int(nlog[0]), int(nlog[1])
-        ev = rec.evlog[:n_ev].copy()          # one copy; the event arrays are views of it
-        ik = np.array(ev[:, 0:4:3].T, dtype=np.int64, order="C")   # rows: kind (column 0), stop (column 3)
-        cmask = core.compliant_mask
-        extra = dict(event_kinds=ik[0], event_times=ev[:, 1], event_stops=ik[1],
-                     event_states=ev[:, 4:], apexes=rec.aplog[:n_ap].copy(), n_chatter=int(n_chat),
-                     stuck_start=bool(held & ~cmask), stuck_end=bool(held_end & ~cmask), n_steps=int(n_steps))
-        if cp is not None:
-            extra.update(_contact_times(ev, held & cmask, held_end & cmask, core.n_stops, n * 2.0 * math.pi / Om))
-            extra["contact_time"] = float(t_con)
-            extra["in_contact_end"] = bool(held_end & cmask)
-            extra["rebuilt_state"] = rst.copy()
-        if core.n_stops > 1:
-            extra["impact_stops"] = rec.imp_k[:n_imp].copy()
-        it = rec.imp_t[:n_imp].copy()
-        iv = rec.imp_v[:n_imp] / sc
+        held, held_end, n_rel, n_inexact = int(held), int(held_end), int(n_rel), int(n_inexact)
+        # the packed arrays (:func:`shoot`): views of this shot's own buffer; the events, apexes and
+        # releases go to ``extra``, built on first use
+        nc = d + P
+        o = HEAD + 2 * d + d * nc
+        extra = LazyExtra(_shot_extra, (f, iv, d, nc, n, n_imp, n_ev, n_ap, n_rel, n_inexact, held, held_end, n_chat,
+                                        n_steps, t_con, status != ST_FAILED and derivatives, status != ST_FAILED,
+                                        core, Om))
+        it = f[o:o + n_imp]
+        iv_ = f[o + n_imp:o + 2 * n_imp]
+        x = f[HEAD:HEAD + d]
         if status == ST_FAILED:
-            return Shot(x=x, M=np.full((d, d), np.nan), x_p=np.full(d, np.nan), impact_times=it, impact_velocities=iv, q_min=smin / sc,
-                        q_max=smax / sc, stuck_time=float(stuck_time), status="failed", Omega=Om, gap=set_.gap,
-                        message=(f"the event integrator gave up after {n_tot} impacts / {n_steps} steps in {n} "
-                                 f"period(s) (non-accumulating chatter or step collapse)"), extra=extra)
+            return Shot(x=x, M=np.full((d, d), np.nan), x_p=np.full(d, np.nan), impact_times=it, impact_velocities=iv_,
+                        q_min=smin, q_max=smax, stuck_time=stuck_time, status="failed", Omega=Om, gap=set_.gap,
+                        message=(f"the event integrator gave up after {int(n_tot)} impacts / {int(n_steps)} steps in "
+                                 f"{n} period(s) (non-accumulating chatter or step collapse)"), extra=extra)
         if not derivatives:
             M, xp = np.full((d, d), np.nan), np.full(d, np.nan)
         else:
-            Jc = J.copy()
+            Jc = f[HEAD + d:HEAD + d + d * nc].reshape(d, nc)
             M = Jc[:, :d]
             xp = Jc[:, d + self.column]
-            extra["x_all_p"] = Jc[:, d:]
-            rl = rel[:n_rel].copy()
-            extra["release_times"] = rl[:, 0]
-            extra["release_time_derivatives"] = rl[:, 1:]
-        extra["n_inexact"] = int(max(n_inexact, 0))
-        apex = float(rec.aplog[:n_ap, 1].max()) if n_ap else -math.inf
         st, msg = "ok", ""
         if derivatives and n_inexact == -1:
             st = "failed"
@@ -1289,9 +1425,8 @@ class ModalShooting:
         elif derivatives and not finite:
             st = "failed"
             msg = "grazing impact (zero impact velocity): the monodromy is singular"
-        return Shot(x=x, M=M, x_p=xp, impact_times=it, impact_velocities=iv, q_min=float(smin / sc),
-                    q_max=float(smax / sc), apex_gap=apex, stuck_time=float(stuck_time), status=st, message=msg,
-                    extra=extra, Omega=Om, gap=set_.gap)
+        return Shot(x=x, M=M, x_p=xp, impact_times=it, impact_velocities=iv_, q_min=smin, q_max=smax, apex_gap=apex,
+                    stuck_time=stuck_time, status=st, message=msg, extra=extra, Omega=Om, gap=set_.gap)
 
     def invalid(self, p: float) -> str:
         """Why ``p`` is not a value of the parameter ('' if it is)."""
