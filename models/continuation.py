@@ -404,6 +404,23 @@ class _Engine:
         Returns (Point or None, reason).  ``radius``: largest accepted distance from ``u_pred``.
         """
         d, S = self.d, self.S
+        fast = getattr(self.prob, "correct", None)
+        if fast is not None:
+            # the problem's compiled corrector (the same iterates, without a Python round trip per
+            # shot; :meth:`vibeam.models.core.shooting.ModalShooting.correct`); None: not served
+            try:
+                r = fast(u_pred, t, n, self.sx, self.sp, S.tol, S.max_newton, radius)
+            except Exception:       # noqa: BLE001 - the loop below meets the same shots and reports
+                r = None
+            if r is not None:
+                code, it, u, x, p, nr, s, n_shots = r
+                self.n_shots += n_shots
+                if code == 0:
+                    return self.make_point(x, p, s, its=it, u=u), ""
+                return None, {1: "the corrector left the neighbourhood of the predictor",
+                              2: "singular bordered Jacobian",
+                              3: "non-finite residual or Newton step (singular bordered Jacobian)"}.get(
+                    code, f"no convergence in {S.max_newton} corrector iterations (residual {nr:.2e})")
         u = u_pred
         sx, sp = self.sx, self.sp
         nr, dist, ndu = np.inf, 0.0, np.inf
@@ -1002,6 +1019,15 @@ class ScaledParameter:
         s = self.prob.shot(x0, self.native(p), n)
         s.x_p = s.x_p * self.factor
         return s
+
+    def correct(self, u_pred, t, n, sx, sp, tol, max_newton, radius, factor=1.0, offset=0.0):
+        """The wrapped problem's compiled corrector (if any) in the native parameter
+        ``offset + factor value``; None where it has none."""
+        f = getattr(self.prob, "correct", None)
+        if f is None:
+            return None
+        return f(u_pred, t, n, sx, sp, tol, max_newton, radius, factor=self.factor * factor,
+                 offset=self.offset + self.factor * offset)
 
     @property
     def starts(self):

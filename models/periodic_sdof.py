@@ -198,6 +198,11 @@ class SDOFShooting(ModalShooting):
         """The continuation parameter's column among the directions of :meth:`setup`."""
         return 0 if self.compliant else self.index
 
+    def frequency_corrector(self) -> bool:
+        """The compiled corrector serves a continuation in Omega with damping (without it,
+        ``Omega = 1`` is a resonance the shot refuses, a validity beyond ``Omega > 0``)."""
+        return self.parameter == "Omega" and float(self.model.beta) > 0.0
+
     def shot(self, x0, p, n=1, derivatives: bool = True, stuck=None) -> Shot:
         """``P^n(x0; p)`` with monodromy and ``d/dp`` (:meth:`ModalShooting.shot`).
 

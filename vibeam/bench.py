@@ -348,13 +348,6 @@ def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_erro
     x0 = EventSolver(m).point(1.5, None, 400, 4, 8).final_state[:2]
     st = Settings()
     trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st)  # warm-up (compiled kernels, cache load)
-    calls = [0]
-    shot = prob.shot
-
-    def counted(x, p, n):
-        calls[0] += 1
-        return shot(x, p, n)
-
     times, cpu = [], []
     for _ in range(repeats):
         t0, c0 = time.perf_counter(), time.process_time()
@@ -362,9 +355,7 @@ def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_erro
         times.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
     t = statistics.median(times)
-    prob.shot = counted
-    trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st)
-    prob.shot = shot
+    calls = _count_shots(prob, lambda: trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st))
     b = branches[0]
     a = b.arrays()
     n_pts = len(b)
@@ -390,7 +381,7 @@ def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_erro
         "continuation": {
             "points": n_pts, "time_s": t, "times_s": times, "time_per_point_s": per_point,
             "cpu_time_s": statistics.median(cpu),
-            "shots": calls[0], "stable_points": int(a["stable"].sum()), "unstable_points": int((~a["stable"]).sum()),
+            "shots": calls, "stable_points": int(a["stable"].sum()), "unstable_points": int((~a["stable"]).sum()),
             "bifurcations": bifs, "status": b.status},
         "goal": {"points": "~500", "time_s": CONTINUATION_GOAL_S,
                  "verdict": "pass" if t < CONTINUATION_GOAL_S else "fail",
@@ -464,19 +455,36 @@ def _timed_trace(prob, x0, p0, lo, hi, direction, settings, repeats):
         brs = trace(prob, x0, p0, 1, lo, hi, direction, settings)
         times.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
+    calls = _count_shots(prob, lambda: trace(prob, x0, p0, 1, lo, hi, direction, settings))
+    return statistics.median(times), statistics.median(cpu), times, calls, brs
+
+
+def _count_shots(prob, run) -> int:
+    """The shots ``run()`` makes of ``prob``: its calls of ``prob.shot`` and the shots of its
+    compiled corrector (``prob.correct``)."""
     calls = [0]
-    shot = prob.shot
+    shot, correct = prob.shot, getattr(prob, "correct", None)
 
     def counted(*a, **k):
         calls[0] += 1
         return shot(*a, **k)
 
+    def counted_correct(*a, **k):
+        r = correct(*a, **k)
+        if r is not None:
+            calls[0] += r[-1]
+        return r
+
     prob.shot = counted
+    if correct is not None:
+        prob.correct = counted_correct
     try:
-        trace(prob, x0, p0, 1, lo, hi, direction, settings)
+        run()
     finally:
         del prob.shot
-    return statistics.median(times), statistics.median(cpu), times, calls[0], brs
+        if correct is not None:
+            del prob.correct
+    return calls[0]
 
 
 def run_beam_continuation_bench(repeats: int = 3, sweep_points: int = 16, target_error: float = 1e-8,

@@ -52,6 +52,7 @@ from numba import njit
 
 from ..compliant import R_MIN_LINEAR, damping_ratio_for_restitution
 from ..contact import LAW_LINEAR
+from ..continuation_kernels import corrector_step
 from ..impact import restitution_coefficient
 from ..periodic import Shot
 from ..system import advance_count, advance_modes, transition_entries
@@ -61,8 +62,9 @@ from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_
 from .laws import force, force_partials, hertz_floor
 from .variational import contact_accel, contact_damping, flow_linear, flow_rk, pair_particular
 
-__all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "held_at_section", "restitution_slope",
-           "dtransition_dsig", "ModalShooting", "Setup"]
+__all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "correct_frequency", "held_at_section",
+           "restitution_slope", "dtransition_dsig", "ModalShooting", "Setup", "LazyExtra", "CORRECT_CONVERGED",
+           "CORRECT_LEFT", "CORRECT_SINGULAR", "CORRECT_NONFINITE", "CORRECT_NO_CONVERGENCE", "CORRECT_FALLBACK"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -1170,6 +1172,112 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     return f, iv
 
 
+#: outcomes of :func:`correct_frequency`
+(CORRECT_CONVERGED, CORRECT_LEFT, CORRECT_SINGULAR, CORRECT_NONFINITE, CORRECT_NO_CONVERGENCE,
+ CORRECT_FALLBACK) = range(6)
+
+
+@njit(cache=True, error_model="numpy")
+def _bordered_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
+    """:func:`vibeam.models.continuation_kernels.corrector_step`, with a singular bordered matrix
+    (numba's solve raises) as a flag: ``(|r|, |du|, u + du, |u + du - u_pred|, singular)``."""
+    try:
+        nr, ndu, un, dist = corrector_step(M, xp, x_new, x, u, u_pred, t, sx, sp)
+    except Exception:       # noqa: BLE001 - numba raises LinAlgError for an exactly singular matrix
+        return np.inf, np.inf, u, np.inf, True
+    return nr, ndu, un, dist, False
+
+
+@njit(cache=True, error_model="numpy")
+def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_periods, sx, sp, tol, max_newton, radius,
+                      h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel, scale):
+    """The pseudo-arclength corrector of :mod:`vibeam.models.continuation` in the forcing
+    frequency, its Newton iterations and their shots (:func:`shoot`) in one compiled call.
+
+    Solves ``P^n(x) - x = 0`` and ``t . (u - u_pred) = 0`` for ``u = (x / sx, p / sp)`` with
+    ``Omega = offset + factor p``, by the bordered Newton step of
+    :func:`vibeam.models.continuation_kernels.corrector_step`, stopping as the engine's own
+    corrector does (``_Engine.correct``; the same iterates, to the last bit): converged when the
+    residual ``|P^n(x) - x|_inf / sx <= tol`` (or ``<= 1e3 tol`` after a Newton step ``<= tol``),
+    out of the neighbourhood ``radius`` of the predictor (``radius < 0``: none), singular, not
+    finite, or after ``max_newton`` steps.
+
+    Parameters
+    ----------
+    sy, st, hs, cp, dd :
+        The system, stops, held sets, compliant data and parameter directions of the shots.
+    factor, offset : float
+        ``Omega = offset + factor p``.
+    col : int
+        The column of the directions that is ``d / d Omega``.
+    u_pred, t : ndarray, shape (d + 1,)
+        Predictor and tangent (scaled).
+    n_periods : int
+    sx, sp, tol, max_newton, radius :
+        Scales, tolerance and limits of the corrector.
+    h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel, scale :
+        As :func:`shoot`.
+
+    Returns
+    -------
+    code : int
+        :data:`CORRECT_CONVERGED` ... :data:`CORRECT_FALLBACK` (a shot that is not ``ok``, or a
+        state or frequency out of range: the caller's own corrector takes over, from the start).
+    it, n_shots : int
+        The last iteration and the shots run.
+    nr : float
+        The last residual.
+    u : ndarray, shape (d + 1,)
+        The last iterate.
+    f, iv : ndarray
+        The last shot, packed (:func:`shoot`).
+    """
+    d = u_pred.shape[0] - 1
+    u = u_pred.copy()
+    dist = 0.0
+    nr = np.inf
+    f = np.empty(0)
+    iv = np.empty(0, np.int64)
+    xp = np.empty(d)
+    n_shots = 0
+    for it in range(max_newton + 1):
+        x = u[:d] * sx
+        p = u[d] * sp
+        Om = offset + factor * p
+        ok = math.isfinite(Om) and Om > 0.0
+        for i in range(d):
+            if not math.isfinite(x[i]):
+                ok = False
+        if ok and cp is not None:
+            _cm, bad = contact_at_section(st, x)
+            ok = bad == 0
+        if not ok:
+            return CORRECT_FALLBACK, it, n_shots, nr, u, f, iv
+        f, iv = shoot(sy, st, hs, cp, dd, Om, x, -1, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J,
+                      rel, True, scale)
+        n_shots += 1
+        if f[H_STATUS] == ST_FAILED or f[H_NINEXACT] != 0.0 or f[H_FINITE] == 0.0:
+            return CORRECT_FALLBACK, it, n_shots, nr, u, f, iv
+        for i in range(d):
+            xp[i] = J[i, d + col] * factor
+        nr, ndu, un, dist_new, singular = _bordered_step(J[:, :d], xp, f[HEAD:HEAD + d], x, u, u_pred, t, sx, sp)
+        if singular:
+            return CORRECT_SINGULAR, it, n_shots, nr, u, f, iv
+        if nr <= tol or (nr <= 1e3 * tol and it > 0 and ndu <= tol):
+            if radius >= 0.0 and dist > radius:
+                return CORRECT_LEFT, it, n_shots, nr, u, f, iv
+            return CORRECT_CONVERGED, it, n_shots, nr, u, f, iv
+        if it == max_newton:
+            break
+        if not (nr < np.inf and ndu < np.inf):
+            return CORRECT_NONFINITE, it, n_shots, nr, u, f, iv
+        u = un
+        dist = dist_new
+        if radius >= 0.0 and dist > 2.0 * radius:
+            return CORRECT_LEFT, it, n_shots, nr, u, f, iv
+    return CORRECT_NO_CONVERGENCE, max_newton, n_shots, nr, u, f, iv
+
+
 # ============================================================================ the problem
 def _shot_extra(f, iv, d, nc, n, n_imp, n_ev, n_ap, n_rel, n_inexact, held, held_end, n_chat, n_steps, t_con,
                 tangent, ok, core, Om) -> dict:
@@ -1296,6 +1404,8 @@ class ModalShooting:
         self._capi = self._CAP
         self._bufs = {}
         self._entry = None
+        self._correct_entry = None
+        self._correct_args = None
 
     def setup(self, p: float) -> Setup:      # pragma: no cover - the fidelities' own
         raise NotImplementedError
@@ -1351,8 +1461,6 @@ class ModalShooting:
             held = int(held_at_section(core.kstops, core.held, np.concatenate([x0[:N], np.zeros(N)]), Om))
         else:
             held = int(stuck)
-        h_cap = 2.0 * math.pi / core.lowest_omega / self.steps_per_fundamental
-        P = set_.dirs.dOm.shape[0]
         cp = core.compliant
         if cp is not None and held < 0:
             _cm, bad = contact_at_section(core.kstops, x0)
@@ -1361,37 +1469,58 @@ class ModalShooting:
                 return self._failed(d, f"the section lies inside the stop {k} of a "
                                        f"{getattr(core.stops[k].law, 'name', 'compliant')} law: its contact "
                                        f"depends on its entry velocity, which is not part of the state")
-        sc = set_.scale
         while True:
-            key = (n, N, core.n_stops, P)
-            bufs = self._bufs.get(key)
-            if bufs is None:
-                bufs = self._bufs[key] = (new_record(N, core.n_stops, n, 1, self._capi, False, self._cap, self._capa,
-                                                     compliant=cp is not None),
-                                          np.empty((d, d + P)), np.zeros((self._cap, d + P + 1)))
-            rec, J, rel = bufs
-            args = (core.ksys, core.kstops, core.held, cp, set_.dirs, float(Om), x0, held, n, float(h_cap),
-                    self.max_impacts_per_period * n, self.max_steps_per_period * n, self.chatter_tol, rec, J, rel,
-                    bool(derivatives), float(sc))
+            rec, J, rel = self._buffers(set_, n)
+            args = (core.ksys, core.kstops, core.held, cp, set_.dirs, float(Om), x0, held, n,
+                    2.0 * math.pi / core.lowest_omega / self.steps_per_fundamental, self.max_impacts_per_period * n,
+                    self.max_steps_per_period * n, self.chatter_tol, rec, J, rel, bool(derivatives), float(set_.scale))
             if self._entry is None:
                 f, iv = _call_shoot(args)
                 self._entry = _ENTRY.get("shoot")
             else:
                 # the same argument types every call of this problem: its compiled entry point
                 f, iv = self._entry(*args)
-            (status, n_imp, smin, smax, n_chat, stuck_time, held_end, n_tot, gmax, n_steps, t_con, n_rel, n_inexact,
-             finite, held, n_ev, n_ap, apex) = f[:HEAD].tolist()
-            n_imp, n_ev, n_ap = int(n_imp), int(n_ev), int(n_ap)
-            if n_ev <= self._cap and n_ap <= self._capa and n_imp <= self._capi:
-                break
-            self._cap = max(self._cap, n_ev + 16)
-            self._capa = max(self._capa, n_ap + 16)
-            self._capi = max(self._capi, n_imp + 16)
-            self._bufs.clear()
+            if self._fits(f):
+                return self._unpack(set_, f, iv, n, derivatives)
+
+    def _buffers(self, set_: Setup, n: int):
+        """The work buffers of a shot of ``n`` periods: a :class:`Record` with event and apex logs,
+        the tangent, the releases (kept between shots; :meth:`_fits` grows them)."""
+        core = set_.core
+        P = set_.dirs.dOm.shape[0]
+        key = (n, core.n, core.n_stops, P)
+        bufs = self._bufs.get(key)
+        if bufs is None:
+            d = 2 * core.n
+            bufs = self._bufs[key] = (new_record(core.n, core.n_stops, n, 1, self._capi, False, self._cap, self._capa,
+                                                 compliant=core.compliant is not None),
+                                      np.empty((d, d + P)), np.zeros((self._cap, d + P + 1)))
+        return bufs
+
+    def _fits(self, f) -> bool:
+        """Whether a packed shot's events, apexes and impacts fitted the buffers (else they grow,
+        and the shot is to be run again)."""
+        n_imp, n_ev, n_ap = int(f[H_NIMP]), int(f[H_NEV]), int(f[H_NAP])
+        if n_ev <= self._cap and n_ap <= self._capa and n_imp <= self._capi:
+            return True
+        self._cap = max(self._cap, n_ev + 16)
+        self._capa = max(self._capa, n_ap + 16)
+        self._capi = max(self._capi, n_imp + 16)
+        self._bufs.clear()
+        self._correct_args = None
+        return False
+
+    def _unpack(self, set_: Setup, f, iv, n: int, derivatives: bool) -> Shot:
+        """The :class:`Shot` of a packed shot (:func:`shoot`): its arrays are views of ``f`` and
+        ``iv``; the events, apexes and releases go to ``extra``, built on first use."""
+        core = set_.core
+        Om = set_.Omega
+        d = 2 * core.n
+        nc = d + set_.dirs.dOm.shape[0]
+        (status, n_imp, smin, smax, n_chat, stuck_time, held_end, n_tot, gmax, n_steps, t_con, n_rel, n_inexact,
+         finite, held, n_ev, n_ap, apex) = f[:HEAD].tolist()
+        n_imp, n_ev, n_ap = int(n_imp), int(n_ev), int(n_ap)
         held, held_end, n_rel, n_inexact = int(held), int(held_end), int(n_rel), int(n_inexact)
-        # the packed arrays (:func:`shoot`): views of this shot's own buffer; the events, apexes and
-        # releases go to ``extra``, built on first use
-        nc = d + P
         o = HEAD + 2 * d + d * nc
         extra = LazyExtra(_shot_extra, (f, iv, d, nc, n, n_imp, n_ev, n_ap, n_rel, n_inexact, held, held_end, n_chat,
                                         n_steps, t_con, status != ST_FAILED and derivatives, status != ST_FAILED,
@@ -1427,6 +1556,73 @@ class ModalShooting:
             msg = "grazing impact (zero impact velocity): the monodromy is singular"
         return Shot(x=x, M=M, x_p=xp, impact_times=it, impact_velocities=iv_, q_min=smin, q_max=smax, apex_gap=apex,
                     stuck_time=stuck_time, status=st, message=msg, extra=extra, Omega=Om, gap=set_.gap)
+
+    # ------------------------------------------------------------------ the corrector, compiled
+    def frequency_corrector(self) -> bool:
+        """Whether :meth:`correct` serves this problem: a continuation in the forcing frequency
+        (``parameter == "Omega"``), whose system does not change along the branch (a fidelity
+        may refuse it where its validity depends on more than ``Omega > 0``)."""
+        return getattr(self, "parameter", None) == "Omega"
+
+    def correct(self, u_pred, t, n: int, sx: float, sp: float, tol: float, max_newton: int, radius,
+                factor: float = 1.0, offset: float = 0.0):
+        """The pseudo-arclength corrector of :mod:`vibeam.models.continuation` in one compiled call
+        (:func:`correct_frequency`): ``F(x, p) = P^n(x) - x = 0`` and ``t . (u - u_pred) = 0`` in the
+        scaled variables ``u = (x / sx, p / sp)``, ``Omega = offset + factor p``.
+
+        Returns
+        -------
+        None
+            Not served here (:meth:`frequency_corrector` false), or a shot of the iteration was not
+            ``ok`` or not of the problem's range: the caller runs its own corrector (which meets
+            the same iterates, one :meth:`shot` at a time, and reports what stopped it).
+        tuple
+            ``(code, it, u, x, p, nr, shot, n_shots)``: the outcome (:data:`CORRECT_CONVERGED`,
+            ``..._LEFT``, ``..._SINGULAR``, ``..._NONFINITE``, ``..._NO_CONVERGENCE``), the last
+            iteration, its scaled point, state and parameter, its residual ``|P^n(x) - x|_inf / sx``,
+            the converged point's :class:`Shot` (``x_p`` along ``p``; None otherwise) and the shots
+            run.
+        """
+        if not self.frequency_corrector():
+            return None
+        d = int(self.dim)
+        u_pred = np.ascontiguousarray(u_pred, dtype=float)
+        p0 = float(offset + factor * float(u_pred[d] * sp))
+        if not math.isfinite(p0) or self.invalid(p0) or n < 1:
+            return None
+        set_ = self.setup(p0)
+        core = set_.core
+        mid = (float(factor), float(offset), int(self.column), u_pred, np.ascontiguousarray(t, dtype=float), n,
+               float(sx), float(sp), float(tol), int(max_newton), -1.0 if radius is None else float(radius))
+        while True:
+            c = self._correct_args
+            if c is None or c[0] is not core or c[1] != n:
+                # the arguments that stay along a branch (the cache holds the core: its id stays its own)
+                rec, J, rel = self._buffers(set_, n)
+                c = self._correct_args = (core, n, (core.ksys, core.kstops, core.held, core.compliant, set_.dirs),
+                                          (2.0 * math.pi / core.lowest_omega / self.steps_per_fundamental,
+                                           self.max_impacts_per_period * n, self.max_steps_per_period * n,
+                                           self.chatter_tol, rec, J, rel, float(set_.scale)))
+            args = c[2] + mid + c[3]
+            if self._correct_entry is None:
+                out = _call_correct(args)
+                self._correct_entry = _ENTRY.get("correct")
+            else:
+                out = self._correct_entry(*args)
+            code, it, n_shots, nr, u, f, iv = out
+            if code == CORRECT_FALLBACK:
+                return None
+            if self._fits(f):
+                break
+        x = u[:d] * sx
+        p = u[d] * sp
+        shot = None
+        if code == CORRECT_CONVERGED:
+            # the setup at the point: the same system, its frequency (:meth:`setup` for Omega = p)
+            shot = self._unpack(Setup(core, float(offset + factor * p), set_.dirs, set_.gap, set_.scale), f, iv, n, True)
+            if factor != 1.0:
+                shot.x_p = shot.x_p * factor
+        return int(code), int(it), u, x, p, float(nr), shot, int(n_shots)
 
     def invalid(self, p: float) -> str:
         """Why ``p`` is not a value of the parameter ('' if it is)."""
@@ -1466,10 +1662,16 @@ def _contact_times(ev, c0, c1, ns, t_end) -> dict:
             "contact_time_lower": float(out[1]) if ns > 1 else 0.0}
 
 
-_SHOOT_ENTRY = {}
-
 
 _ENTRY = {}
+
+
+def _call_correct(args):
+    """:func:`correct_frequency` through its compiled entry point (as :func:`_call_shoot`)."""
+    from .event import compiled_call, entry_point
+    out = compiled_call(correct_frequency, args)
+    _ENTRY["correct"] = entry_point(correct_frequency, args)
+    return out
 
 
 def _call_shoot(args):
