@@ -170,7 +170,7 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
 (_PHI, _TLOC, _REM, _HLAST, _HOLD, _GMAX, _STUCK, _TCON, _TLAST, _PT, _T0, _SASF, _SBSF, _PEXT, _PEXT1,
  _EXT, _EXT1, _NFS) = range(18)
 (_H, _C, _INSIDE, _RELAXED, _CMASK, _FRESH, _BSTALE, _ATGRID, _JSTUCK, _JREL, _QFRESH, _QLAST, _BURST,
- _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _NIS) = range(19)
+ _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _NIS) = range(20)
 # the event kinds and the root kind of an apex as int64 constants: a literal int argument would
 # compile the callee once per value
 _K_START, _K_IMPACT, _K_STICK, _K_STICK_IMPACT, _K_RELEASE, _K_ENTRY, _K_EXIT = (np.int64(k) for k in range(7))
@@ -701,7 +701,10 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
         if release_now(-l0, -lp0) and not just_stuck and hold <= 0.0:
             lam0[k] = l0
             if logging:
-                _log_event(evlog, nlog, _K_RELEASE, pT + t_loc, lam0[k], k, eta, etad)
+                # a release held back by a round-off (below) is its located zero crossing: aux 0
+                _log_event(evlog, nlog, _K_RELEASE, pT + t_loc, 0.0 if (ist[_RDEL] >> k) & 1 else lam0[k], k,
+                           eta, etad)
+            ist[_RDEL] = 0
             ist[_H] = H & ~(1 << k)
             ist[_JREL] = 1
             ist[_INSIDE] = inside
@@ -711,6 +714,8 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
             return -1
         lam0[k] = l0 if l0 <= 0.0 else 0.0
         lamp0[k] = lp0
+    if hold <= 0.0:
+        ist[_RDEL] = 0
     for j in range(nc):
         homogeneous_bounds(x0[j], y0[j], mpC[j, 0], mpC[j, 1], int(mpC[j, 2]), mpC[j, 3],
                            mpC[j, 4], mpC[j, 5], hb[j])
@@ -855,7 +860,25 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
         ist[_EXITED] = 0
     k_imp = -1
     if s_ev >= 0.0:
-        if ev_release:
+        early = 0.0
+        if ev_release and H == 1 << k_ev and (ist[_RDEL] >> k_ev) & 1 == 0:
+            # into free flight: the free flow's normal acceleration must pull away.  The force
+            # lambda (the held set's coordinates) and that acceleration are one quantity in two
+            # representations; where they differ by their round-off (many modes), lambda can
+            # cross zero a hair before the free flow turns, which would touch the stop again at
+            # zero speed.  Then hold on (no release check) until it has turned, and release at
+            # the next step's start.
+            acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k_ev], wn[_CM], wn[_KM], GF)
+            if acc > 0.0 and jerk < 0.0:
+                early = 2.0 * acc / -jerk
+                if not 1e-14 * T <= early <= 1e-9 * T:
+                    # below the clock's resolution, or not a round-off disagreement: released
+                    # where lambda says (and once only: a second crossing is released at once)
+                    early = 0.0
+        if ev_release and early > 0.0:
+            hold = early
+            ist[_RDEL] = 1 << k_ev
+        elif ev_release:
             if logging:
                 _log_event(evlog, nlog, _K_RELEASE, pT + t_loc, 0.0, k_ev, eta, etad)
             H = H & ~(1 << k_ev)
