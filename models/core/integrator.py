@@ -573,6 +573,38 @@ def _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec):
 
 # ============================================================================ the steps
 @_kernel
+def _inside_touch(cw, Nrm, D, off, eta, etad, g, v, inside, relaxed, exited, phi, Om, wn, GF):
+    """At a step's start, the compliant stops the state lies inside of without a contact (the
+    ``inside`` mask): each is left (its gap back below zero: out of ``inside`` and ``relaxed``) or
+    touched now (its force's sign up through zero, or at zero and rising; ``D[k]`` the direction
+    of the free acceleration along stop ``k``: its normal in free flight, the held set's
+    projection of it when held).  The gaps ``g`` and normal velocities ``v`` of the stops looked
+    at are refreshed from the state.  Returns ``(k touched or -1, inside, relaxed)``."""
+    st = cw.st
+    vr = cw.vr
+    for k in range(Nrm.shape[0]):
+        if (inside >> k) & 1 == 0:
+            continue
+        gk = _dot(Nrm[k], eta) - off[k]
+        vk = _dot(Nrm[k], etad)
+        g[k] = gk
+        v[k] = vk
+        if gk <= 0.0:
+            inside &= ~(1 << k)
+            relaxed &= ~(1 << k)
+            continue
+        r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k], (relaxed >> k) & 1 == 1)
+        acc, jerk = _contact_acc(phi, Om, eta, etad, D[k], wn[_CM], wn[_KM], GF)
+        sg = r0 * gk + r1 * vk + roff
+        tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
+        if (exited >> k) & 1:
+            sg = 0.0      # just left it: the force is zero there to round-off
+        if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
+            return k, inside, relaxed
+    return -1, inside, relaxed
+
+
+@_kernel
 def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog, nlog, Om, T, recording, cw):
     """One step held on the set ``H`` (no compliant contact): the constrained system in closed form,
     the held stops' forces scanned for their release, the other stops' gaps for a contact.
@@ -631,29 +663,8 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
     # a stop not held that the system touches and does not leave: impact or stick
     touched = -1
     if cw is not None and inside != 0:
-        # inside a compliant stop without contact: back below it, or a contact now
-        st = cw.st
-        vr = cw.vr
-        for j in range(ns):
-            if (inside >> j) & 1 == 0:
-                continue
-            gk = _dot(Nrm[j], eta) - off[j]
-            vk = _dot(Nrm[j], etad)
-            g[j] = gk
-            v[j] = vk
-            if gk <= 0.0:
-                inside &= ~(1 << j)
-                relaxed &= ~(1 << j)
-                continue
-            r0, r1, roff = inside_sign(st.law[j], st.kc[j], st.cc[j], vr[j], (relaxed >> j) & 1 == 1)
-            acc, jerk = _contact_acc(phi, Om, eta, etad, hs.dirn[H, j], wn[_CM], wn[_KM], GF)
-            sg = r0 * gk + r1 * vk + roff
-            tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
-            if (ist[_EXITED] >> j) & 1:
-                sg = 0.0      # just left it: the force is zero there to round-off
-            if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
-                touched = j
-                break
+        touched, inside, relaxed = _inside_touch(cw, Nrm, hs.dirn[H], off, eta, etad, g, v, inside, relaxed,
+                                                 ist[_EXITED], phi, Om, wn, GF)
     for j in range(ns):
         if touched >= 0:
             break
@@ -1389,31 +1400,8 @@ def _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transie
                         off = wk[_OFF]
                         touched = -1
                         if cw is not None and inside != 0:
-                            # inside a compliant stop without contact: back below it, or a contact now
-                            st = cw.st
-                            vr = cw.vr
-                            for k in range(ns):
-                                if (inside >> k) & 1 == 0:
-                                    continue
-                                gk = _dot(Nrm[k], eta) - off[k]
-                                vk = _dot(Nrm[k], etad)
-                                if gk <= 0.0:
-                                    inside &= ~(1 << k)
-                                    relaxed &= ~(1 << k)
-                                    g[k] = gk
-                                    v[k] = vk
-                                    continue
-                                g[k] = gk
-                                v[k] = vk
-                                r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k], (relaxed >> k) & 1 == 1)
-                                acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
-                                sg = r0 * gk + r1 * vk + roff
-                                tol = 1e-13 * (abs(r0 * gk) + abs(r1 * vk) + abs(roff))
-                                if (ist[_EXITED] >> k) & 1:
-                                    sg = 0.0      # just left it: the force is zero there to round-off
-                                if sg > tol or (sg >= -tol and r0 * vk + r1 * acc > 0.0):
-                                    touched = k
-                                    break
+                            touched, inside, relaxed = _inside_touch(cw, Nrm, Nrm, off, eta, etad, g, v, inside,
+                                                                     relaxed, ist[_EXITED], phi, Om, wn, GF)
                         for k in range(ns):
                             if touched >= 0:
                                 break
