@@ -32,7 +32,7 @@ import numpy as np
 from numba import njit
 
 from .core.contact_phase import GL_W, GL_X
-from .core.signals import bounds, extremes, homogeneous_bounds, scan, signal, signal_start
+from .core.signals import bounds, extremes, homogeneous_bounds, scan, signal
 from .registry import family_laws
 from .system import mode_table, particular, transition_entries
 
@@ -273,37 +273,126 @@ def entry_guess(model, Omega, n, guess_periods):
     return None
 
 
-class CompliantMappingSolver:
-    """Period-n one-contact orbits of an SDOF on a Kelvin-Voigt stop (module docstring).
+class EntryMappingSolver:
+    """Method ``mapping`` on a compliant stop: period-n one-contact orbits as fixed points of the
+    entry-to-entry map ``P(t0, v0) = (t1, v1)`` (paper Sec. 4.2; module docstring), one class for
+    every family of laws.
+
+    A family's subclass gives the map, :meth:`evaluate` (``(t1, v1, J, record)``, ``J = d(t1, v1)
+    / d(t0, v0)``, or None when the orbit leaves the one-contact family); here are the Newton
+    iteration ``t1 = t0 + n T``, ``v1 = v0`` from the guesses (the previous point's entry, then an
+    event run's), the Floquet multipliers (eigenvalues of ``J``, by decreasing modulus) and the
+    point's outputs.
 
     Parameters
     ----------
     model : vibeam.models.SDOF
-        With ``contact`` a :class:`vibeam.models.compliant.LinearContact`.
+        With ``contact`` a law of the subclass's ``family``.
     n : int
         Forcing periods per contact (1..4).
     guess_periods : int
         Transient periods of the event run that provides the first Newton guess.
-    tol : float
-        Newton tolerance (residual relative to the entry velocity and the period).
+    tol : float, optional
+        Newton tolerance (residual relative to the entry velocity and the period); the family's
+        ``default_tol`` if None.
+
+    Raises
+    ------
+    ValueError
+        For ``n`` outside 1..4 or a model whose stop is not of the family.
     """
 
     name = "mapping"
     time_domain = False
+    #: the family of laws the subclass maps (:data:`vibeam.models.registry.FAMILIES`)
+    family = ""
+    default_tol = 1e-12
 
-    def __init__(self, model, n: int = 1, guess_periods: int = 300, tol: float = 1e-12,
+    def __init__(self, model, n: int = 1, guess_periods: int = 300, tol: float | None = None,
                  form: str = "full", guess: str = "event", samples_per_flight_period: int = 256):
         if int(n) != n or not 1 <= n <= 4:
             raise ValueError(f"n must be an integer in 1..4, got {n!r}")
-        if getattr(model, "contact", None) is None or model.contact.family != "kelvin_voigt":
-            raise ValueError(f"CompliantMappingSolver needs {family_laws('kelvin_voigt')}")
+        if getattr(getattr(model, "contact", None), "family", "") != self.family:
+            raise ValueError(f"{type(self).__name__} needs {family_laws(self.family)}")
         self.model = model
         self.n = int(n)
         self.guess_periods = int(guess_periods)
-        self.tol = float(tol)
+        self.tol = float(self.default_tol if tol is None else tol)
 
     def settings(self) -> dict:
         return dict(n=self.n, guess_periods=self.guess_periods, tol=self.tol)
+
+    def evaluate(self, Omega, t0, v0, want_record=False):      # pragma: no cover - the families'
+        raise NotImplementedError
+
+    def _guess(self, Omega, state0):
+        if isinstance(state0, dict):
+            state0 = state0.get("final_state")
+        if state0 is not None:
+            s = np.asarray(state0, float).ravel()
+            if s.shape == (2,) and np.all(np.isfinite(s)) and s[1] > 0:
+                yield s[0] / Omega, s[1]
+        g = entry_guess(self.model, Omega, self.n, self.guess_periods)
+        if g is not None:
+            yield g
+
+    def point(self, Omega: float, state0, n_transient: int, n_record: int, samples_per_period: int = 64) -> dict:
+        """Period-n one-contact fixed point, its multipliers and its contact data.
+
+        Returns
+        -------
+        dict
+            ``amplitude``, ``q_min``, ``q_max``, ``period`` (n, or 0), ``impacts_per_period``,
+            ``impact_velocity`` (entry), ``impact_phase``, ``stable``, ``multipliers`` (complex
+            (2,)), ``contact_duration``, ``contact_force_max``, ``penetration_max``,
+            ``energy_per_impact``, ``final_state`` ``(phase, v)``, ``status``, ``message``.
+        """
+        m = self.model
+        Omega = float(Omega)
+        T = TWO_PI / Omega
+        reasons = []
+        for t0, v0 in self._guess(Omega, state0):
+            x = np.array([t0, v0])
+            ok = False
+            for _ in range(50):
+                r = self.evaluate(Omega, x[0], x[1])
+                if r is None:
+                    break
+                t1, v1, J, _ = r
+                res = np.array([(t1 - x[0] - self.n * T), v1 - x[1]])
+                if abs(res[0]) <= self.tol * T and abs(res[1]) <= self.tol * abs(x[1]):
+                    ok = True
+                    break
+                x = x + np.linalg.solve(J - np.eye(2), -res)
+                if not x[1] > 0.0:
+                    break
+            if not ok:
+                reasons.append(f"Newton did not converge from t = {t0:.4g}, v = {v0:.4g}")
+                continue
+            t1, v1, J, rec = self.evaluate(Omega, x[0], x[1], want_record=True)
+            mult = np.linalg.eigvals(J)
+            mult = mult[np.argsort(-np.abs(mult))]
+            return dict(amplitude=m.Delta - rec["q_min"], q_min=rec["q_min"], q_max=rec["q_max"], period=self.n,
+                        impacts_per_period=1.0 / self.n, impact_velocity=float(x[1]),
+                        impact_phase=float((Omega * x[0]) % TWO_PI), stable=bool(np.max(np.abs(mult)) < 1.0),
+                        multipliers=mult.astype(complex), contact_duration=rec["duration"],
+                        contact_force_max=rec["force"], penetration_max=rec["penetration"],
+                        energy_per_impact=rec["energy"],
+                        final_state=np.array([(Omega * x[0]) % TWO_PI, x[1]]), status="ok", message="")
+        nan = float("nan")
+        return dict(amplitude=nan, q_min=nan, q_max=nan, period=0, impacts_per_period=nan, impact_velocity=nan,
+                    impact_phase=nan, stable=False, multipliers=np.full(2, nan, dtype=complex),
+                    contact_duration=nan, contact_force_max=nan, penetration_max=nan, energy_per_impact=nan,
+                    final_state=np.full(2, nan), status="failed",
+                    message="; ".join(reasons) if reasons else "no initial guess (no contact)")
+
+
+class CompliantMappingSolver(EntryMappingSolver):
+    """The entry-to-entry map on a Kelvin-Voigt stop: both phases linear, composed in closed form
+    (module docstring); :class:`EntryMappingSolver` for the parameters."""
+
+    family = "kelvin_voigt"
+    default_tol = 1e-12
 
     # ------------------------------------------------------------------ the map
     def _phases(self, Omega):
@@ -377,64 +466,3 @@ class CompliantMappingSolver:
         rec = dict(q_min=ext[0], q_max=max(ext[1], Delta + cs[1]), duration=s_c, force=cs[0], penetration=cs[1],
                    energy=cs[2])
         return t1, v1, J, rec
-
-    def _guess(self, Omega, state0):
-        if isinstance(state0, dict):
-            state0 = state0.get("final_state")
-        if state0 is not None:
-            s = np.asarray(state0, float).ravel()
-            if s.shape == (2,) and np.all(np.isfinite(s)) and s[1] > 0:
-                yield s[0] / Omega, s[1]
-        g = entry_guess(self.model, Omega, self.n, self.guess_periods)
-        if g is not None:
-            yield g
-
-    def point(self, Omega: float, state0, n_transient: int, n_record: int, samples_per_period: int = 64) -> dict:
-        """Period-n one-contact fixed point, its multipliers and its contact data.
-
-        Returns
-        -------
-        dict
-            ``amplitude``, ``q_min``, ``q_max``, ``period`` (n, or 0), ``impacts_per_period``,
-            ``impact_velocity`` (entry), ``impact_phase``, ``stable``, ``multipliers`` (complex
-            (2,)), ``contact_duration``, ``contact_force_max``, ``penetration_max``,
-            ``energy_per_impact``, ``final_state`` ``(phase, v)``, ``status``, ``message``.
-        """
-        m = self.model
-        Omega = float(Omega)
-        T = TWO_PI / Omega
-        reasons = []
-        for t0, v0 in self._guess(Omega, state0):
-            x = np.array([t0, v0])
-            ok = False
-            for _ in range(50):
-                r = self.evaluate(Omega, x[0], x[1])
-                if r is None:
-                    break
-                t1, v1, J, _ = r
-                res = np.array([(t1 - x[0] - self.n * T), v1 - x[1]])
-                if abs(res[0]) <= self.tol * T and abs(res[1]) <= self.tol * abs(x[1]):
-                    ok = True
-                    break
-                dx = np.linalg.solve(J - np.eye(2), -res)
-                x = x + dx
-                if not x[1] > 0.0:
-                    break
-            if not ok:
-                reasons.append(f"Newton did not converge from t = {t0:.4g}, v = {v0:.4g}")
-                continue
-            t1, v1, J, rec = self.evaluate(Omega, x[0], x[1], want_record=True)
-            mult = np.linalg.eigvals(J)
-            return dict(amplitude=m.Delta - rec["q_min"], q_min=rec["q_min"], q_max=rec["q_max"], period=self.n,
-                        impacts_per_period=1.0 / self.n, impact_velocity=float(x[1]),
-                        impact_phase=float((Omega * x[0]) % TWO_PI), stable=bool(np.max(np.abs(mult)) < 1.0),
-                        multipliers=mult.astype(complex), contact_duration=rec["duration"],
-                        contact_force_max=rec["force"], penetration_max=rec["penetration"],
-                        energy_per_impact=rec["energy"],
-                        final_state=np.array([(Omega * x[0]) % TWO_PI, x[1]]), status="ok", message="")
-        nan = float("nan")
-        return dict(amplitude=nan, q_min=nan, q_max=nan, period=0, impacts_per_period=nan, impact_velocity=nan,
-                    impact_phase=nan, stable=False, multipliers=np.full(2, nan, dtype=complex),
-                    contact_duration=nan, contact_force_max=nan, penetration_max=nan, energy_per_impact=nan,
-                    final_state=np.full(2, nan), status="failed",
-                    message="; ".join(reasons) if reasons else "no initial guess (no contact)")

@@ -35,49 +35,23 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from .core import laws
-from .registry import family_laws
-from .sdof_compliant_map import EV_ENTRY, EV_FAIL, EV_GAPDOWN, FREE, TWO_PI, LinearPhase, entry_guess
+from .sdof_compliant_map import EV_ENTRY, EV_FAIL, EV_GAPDOWN, FREE, TWO_PI, EntryMappingSolver, LinearPhase
 
 #: tolerance of the contact phase (DOP853 with its variational equations)
 RTOL = 1e-12
 
 
-class HuntCrossleyMappingSolver:
-    """Period-n one-contact orbits of an SDOF on a Hunt-Crossley stop (module docstring).
+class HuntCrossleyMappingSolver(EntryMappingSolver):
+    """The entry-to-entry map on a hysteretic-Hertz stop (Hunt-Crossley and its kin): the contact
+    phase with its variational equations by DOP853, the free flight in closed form (module
+    docstring); :class:`~vibeam.models.sdof_compliant_map.EntryMappingSolver` for the parameters
+    (``tol`` 1e-10 by default)."""
 
-    Parameters
-    ----------
-    model : vibeam.models.SDOF
-        With ``contact`` a :class:`vibeam.models.compliant.HuntCrossley`.
-    n : int
-        Forcing periods per contact (1..4).
-    guess_periods : int
-        Transient periods of the event run that provides the first Newton guess.
-    tol : float
-        Newton tolerance (residual relative to the entry velocity and the period).
-
-    Raises
-    ------
-    ValueError
-        For ``n`` outside 1..4 or a model without a Hunt-Crossley stop.
-    """
-
-    name = "mapping"
-    time_domain = False
-
-    def __init__(self, model, n: int = 1, guess_periods: int = 300, tol: float = 1e-10,
-                 form: str = "full", guess: str = "event", samples_per_flight_period: int = 256):
-        if int(n) != n or not 1 <= n <= 4:
-            raise ValueError(f"n must be an integer in 1..4, got {n!r}")
-        if getattr(model, "contact", None) is None or getattr(model.contact, "family", "") != "hysteretic_hertz":
-            raise ValueError(f"HuntCrossleyMappingSolver needs {family_laws('hysteretic_hertz')}")
-        self.model = model
-        self.n = int(n)
-        self.guess_periods = int(guess_periods)
-        self.tol = float(tol)
+    family = "hysteretic_hertz"
+    default_tol = 1e-10
 
     def settings(self) -> dict:
-        return dict(n=self.n, guess_periods=self.guess_periods, tol=self.tol, rtol=RTOL)
+        return {**super().settings(), "rtol": RTOL}
 
     # ------------------------------------------------------------------ the contact phase
     def contact_phase(self, Omega, t0, v0):
@@ -217,56 +191,3 @@ class HuntCrossleyMappingSolver:
         rec = dict(q_min=ext[0], q_max=max(ext[1], Delta + c["penetration"], qx), duration=tx - t0,
                    force=c["force"], penetration=c["penetration"], energy=c["energy"])
         return t1, v1, J, rec
-
-    def _guess(self, Omega, state0):
-        if isinstance(state0, dict):
-            state0 = state0.get("final_state")
-        if state0 is not None:
-            s = np.asarray(state0, float).ravel()
-            if s.shape == (2,) and np.all(np.isfinite(s)) and s[1] > 0:
-                yield s[0] / Omega, s[1]
-        g = entry_guess(self.model, Omega, self.n, self.guess_periods)
-        if g is not None:
-            yield g
-
-    def point(self, Omega: float, state0, n_transient: int, n_record: int, samples_per_period: int = 64) -> dict:
-        """Period-n one-contact fixed point, its multipliers and its contact data (the keys of
-        :meth:`vibeam.models.sdof_compliant_map.CompliantMappingSolver.point`)."""
-        m = self.model
-        Omega = float(Omega)
-        T = TWO_PI / Omega
-        reasons = []
-        for t0, v0 in self._guess(Omega, state0):
-            x = np.array([t0, v0])
-            ok = False
-            for _ in range(50):
-                r = self.evaluate(Omega, x[0], x[1])
-                if r is None:
-                    break
-                t1, v1, J, _ = r
-                res = np.array([(t1 - x[0] - self.n * T), v1 - x[1]])
-                if abs(res[0]) <= self.tol * T and abs(res[1]) <= self.tol * abs(x[1]):
-                    ok = True
-                    break
-                x = x + np.linalg.solve(J - np.eye(2), -res)
-                if not x[1] > 0.0:
-                    break
-            if not ok:
-                reasons.append(f"Newton did not converge from t = {t0:.4g}, v = {v0:.4g}")
-                continue
-            t1, v1, J, rec = self.evaluate(Omega, x[0], x[1], want_record=True)
-            mult = np.linalg.eigvals(J)
-            mult = mult[np.argsort(-np.abs(mult))]
-            return dict(amplitude=m.Delta - rec["q_min"], q_min=rec["q_min"], q_max=rec["q_max"], period=self.n,
-                        impacts_per_period=1.0 / self.n, impact_velocity=float(x[1]),
-                        impact_phase=float((Omega * x[0]) % TWO_PI), stable=bool(np.max(np.abs(mult)) < 1.0),
-                        multipliers=mult.astype(complex), contact_duration=rec["duration"],
-                        contact_force_max=rec["force"], penetration_max=rec["penetration"],
-                        energy_per_impact=rec["energy"],
-                        final_state=np.array([(Omega * x[0]) % TWO_PI, x[1]]), status="ok", message="")
-        nan = float("nan")
-        return dict(amplitude=nan, q_min=nan, q_max=nan, period=0, impacts_per_period=nan, impact_velocity=nan,
-                    impact_phase=nan, stable=False, multipliers=np.full(2, nan, dtype=complex),
-                    contact_duration=nan, contact_force_max=nan, penetration_max=nan, energy_per_impact=nan,
-                    final_state=np.full(2, nan), status="failed",
-                    message="; ".join(reasons) if reasons else "no initial guess (no contact)")
