@@ -17,7 +17,7 @@ from . import _cache
 
 _cache.install()   # before any kernel module: the cache key covers the whole package
 
-from .registry import FIDELITIES, fidelity, is_compliant, law_family, resolve  # noqa: E402
+from .registry import FIDELITIES, fidelity, is_compliant, law_family, mixed_stops, resolve  # noqa: E402
 
 # public names -> their module (imported on first access, PEP 562)
 _LAZY = {
@@ -79,7 +79,7 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
         if path is None:
             raise ValueError(f"continuation is not available for contact law {law!r} of fidelity "
                              f"{model.fidelity!r} (no shooting problem registered); use method = \"event\"")
-        if getattr(model, "mixed_stops", False) and "continuation" not in fidelity(model).mixed_stop_methods:
+        if mixed_stops(model) and "continuation" not in fidelity(model).mixed_stop_methods:
             raise ValueError("continuation with a restitution stop beside a compliant one is not implemented; "
                              "use method = \"event\"")
         if getattr(model, "two_sided", False) and \
@@ -87,7 +87,7 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
             raise ValueError(f"continuation with contact law {law!r} and a second (lower) stop is not "
                              f"implemented for this law and fidelity; use method = \"event\"")
         return resolve(path)(model, parameter, Omega=Omega)
-    if getattr(model, "mixed_stops", False) and "continuation" not in fidelity(model).mixed_stop_methods:
+    if mixed_stops(model) and "continuation" not in fidelity(model).mixed_stop_methods:
         raise ValueError("continuation with a compliant stop beside a restitution one is not implemented for "
                          f"fidelity {model.fidelity!r}; use method = \"event\"")
     shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
@@ -112,7 +112,7 @@ def make_solver(model, method: str, **settings):
     law = getattr(model, "contact_law", "restitution")
     if is_compliant(law):   # a compliant law: its family's solvers (registry ``contact_laws``)
         fam = law_family(law)
-        if getattr(model, "mixed_stops", False) and method not in fid.mixed_stop_methods:
+        if mixed_stops(model) and method not in fid.mixed_stop_methods:
             raise ValueError(f"method {method!r} cannot simulate a restitution stop beside a compliant one; "
                              f"allowed: {', '.join(fid.mixed_stop_methods) or 'none'}")
         table = {k: v for k, v in fid.contact_laws.get(fam, {}).items() if k != "continuation"}
@@ -126,7 +126,7 @@ def make_solver(model, method: str, **settings):
                              f"allowed with two stops: {', '.join(two) or 'none'}")
         lower = getattr(getattr(model, "lower_law", None), "name", law)
         two_lower = fid.two_sided_law_methods.get(law_family(lower), ())
-        if getattr(model, "two_sided", False) and not getattr(model, "mixed_stops", False) and lower != law and \
+        if getattr(model, "two_sided", False) and not mixed_stops(model) and lower != law and \
                 method not in two_lower:
             raise ValueError(f"method {method!r} cannot simulate contact law {lower!r} on the lower stop; allowed: "
                              f"{', '.join(two_lower) or 'none'}")
@@ -135,7 +135,7 @@ def make_solver(model, method: str, **settings):
     if path is None:
         raise ValueError(f"method {method!r} is not available for fidelity {fid.name!r}; "
                          f"allowed: {', '.join(sorted(fid.methods))}")
-    if getattr(model, "mixed_stops", False) and method not in fid.mixed_stop_methods:
+    if mixed_stops(model) and method not in fid.mixed_stop_methods:
         # a restitution upper stop above a compliant lower one
         raise ValueError(f"method {method!r} cannot simulate a compliant stop beside a restitution one; "
                          f"allowed: {', '.join(fid.mixed_stop_methods) or 'none'}")

@@ -149,8 +149,14 @@ class BeamImpactModel:
         equilibrium at the contact point, positive; ``Delta_C + Delta_C,lower > 0``); None: one
         stop.
     R_lower : float or None, optional
-        Coefficient of restitution of the lower stop; None: the upper stop's law (``R`` and
-        the table).
+        Shorthand of ``lower_law = Restitution(R_lower)``: Newton's law with its own R at the lower
+        stop; None: the upper stop's law (``R`` and the table).
+
+    Attributes
+    ----------
+    lower_law : law or None
+        The lower stop's own law (:mod:`vibeam.models.contact`: Newton's, or a compliant one in
+        N/m^p at the contact point); None: the upper stop's.
     point_stops : sequence of (PointStop, ndarray (N,)), optional
         Further stops at other points of the beam, each with its contact row ``w(x)`` in the
         retained modes (:meth:`from_fe` and :meth:`static_mode` compute them from positions);
@@ -198,9 +204,9 @@ class BeamImpactModel:
             self.R_table_U = np.ascontiguousarray(restitution_table[0], dtype=float)
             self.R_table_R = np.ascontiguousarray(restitution_table[1], dtype=float)
         self.gap_contact_lower_m = None if gap_contact_lower_m is None else float(gap_contact_lower_m)
-        self.R_lower = None if R_lower is None else float(R_lower)
-        if self.R_lower is not None and not 0.0 <= self.R_lower <= 1.0:
+        if R_lower is not None and not 0.0 <= float(R_lower) <= 1.0:
             raise ValueError("R_lower must lie in [0, 1]")
+        self.lower_law = None if R_lower is None else Restitution(float(R_lower))
         if self.gap_contact_lower_m is not None and not self.gap_contact_m + self.gap_contact_lower_m > 0.0:
             raise ValueError("the stops overlap: gap_contact_m + gap_contact_lower_m must be > 0")
         self.label = label
@@ -335,28 +341,19 @@ class BeamImpactModel:
             out.append(Stop(s.relation, law, s.label))
         return tuple(out)
 
-    #: the compliant law of the lower stop beside Newton's upper one (:mod:`vibeam.models.compliant`,
-    #: stiffness in N/m^p at the contact point); None: Newton's law there (``R_lower`` or the upper R)
-    contact_lower = None
+    #: the lower stop's own law (None: the upper stop's); set by ``R_lower`` or a compliant law
+    lower_law = None
 
     def mass_stops(self) -> tuple:
         """The stops at the attached mass (the paper's, and a lower one): the first of :meth:`stops`.
-        The upper stop has Newton's law with ``R`` (and its table); the lower one ``contact_lower``
-        when given, else Newton's law with ``R_lower`` (None: the upper stop's law)."""
+        The upper stop has Newton's law with ``R`` (and its table); the lower one ``lower_law``
+        (None: the upper stop's law)."""
         upper = Restitution(self.R, tuple(self.R_table_U), tuple(self.R_table_R))
         out = (Stop(Relation(1.0, self.gap_contact_m), upper),)
         if self.two_sided:
-            law = self.contact_lower
-            if law is None:
-                law = upper if self.R_lower is None else Restitution(self.R_lower)
-            out += (Stop(Relation(-1.0, self.gap_contact_lower_m), law),)
+            out += (Stop(Relation(-1.0, self.gap_contact_lower_m),
+                         upper if self.lower_law is None else self.lower_law),)
         return out
-
-    @property
-    def mixed_stops(self) -> bool:
-        """Two stops at the mass, one of Newton's law and one compliant (either above)."""
-        kinds = {getattr(s.law, "kind", "") for s in self.mass_stops()}
-        return len(kinds) == 2
 
     def stop_codes(self) -> np.ndarray | None:
         """The output code of each of :meth:`stops` (0 the upper stop at the mass, 1 a lower one
@@ -520,7 +517,7 @@ class CompliantBeamModel(BeamImpactModel):
     contact : vibeam.models.compliant.LinearContact or HystereticHertz
         The upper stop's law: ``stiffness`` in N/m^p at the contact point, the damping ratio (of
         the isolated contact of mass ``m_eff``) or ``chi``.
-    contact_lower : law or None
+    lower_law : law or None
         The lower stop's own law (None: ``contact``): compliant, or Newton's
         (:class:`vibeam.models.contact.Restitution`) beside the compliant upper stop.
     """
@@ -532,29 +529,21 @@ class CompliantBeamModel(BeamImpactModel):
         m = cls.__new__(cls)
         m.__dict__.update(copy.copy(base.__dict__))
         m.contact = law
-        m.contact_lower = law_lower
+        m.lower_law = law_lower
         return m
 
     @property
     def contact_law(self) -> str:
         return self.contact.name
 
-    @property
-    def lower_law(self):
-        """The law of the lower stop of a two-sided scene (``contact_lower`` or ``contact``),
-        None with one stop."""
-        if not self.two_sided:
-            return None
-        lo = getattr(self, "contact_lower", None)
-        return self.contact if lo is None else lo
-
     def mass_stops(self) -> tuple:
         """The stops at the attached mass with their laws: the stop at ``w^T eta = Delta_C`` (law
         ``contact``) and, for a two-sided scene, the one at ``w^T eta = -Delta_C,lower``
-        (:attr:`lower_law`); the point stops (Newton's law) follow in :meth:`stops`."""
+        (``lower_law``, None: ``contact``); the point stops (Newton's law) follow in :meth:`stops`."""
         out = (Stop(Relation(1.0, self.gap_contact_m), self.contact),)
         if self.two_sided:
-            out += (Stop(Relation(-1.0, self.gap_contact_lower_m), self.lower_law),)
+            out += (Stop(Relation(-1.0, self.gap_contact_lower_m),
+                         self.contact if self.lower_law is None else self.lower_law),)
         return out
 
     @property

@@ -15,7 +15,7 @@ How a shot is computed
     flow while held, the impacts' saltation matrices in closed form (no cancellation as ``U-
     -> 0``), the plastic entries into sticking and the releases with their time derivatives
     (``extra["release_time_derivatives"]``).  A second (lower) stop (``gap_contact_lower_m``,
-    normal ``-w``, its own ``R_lower`` or the upper stop's law) is one more stop of the same
+    normal ``-w``, its own ``lower_law`` or the upper stop's) is one more stop of the same
     problem; ``extra["impact_stops"]`` gives the stop of each impact (0 upper, 1 lower) and
     ``apex_gap`` watches the grazing of both.  This class maps the beam's native parameters onto
     the problem's directions: Omega enters the forcing phase, the particular solutions and the
@@ -241,7 +241,7 @@ class BeamShooting(ModalShooting):
             N = m.n_modes
             up = np.eye(ns)[0]
             # the lower stop follows the upper stop's law when it has no R of its own
-            own = m.R_lower is not None or getattr(m, "contact_lower", None) is not None
+            own = m.lower_law is not None
             both = np.array([1.0, 0.0 if own else 1.0])[:ns]
             # the continuation parameter's direction only (one column: the cost of a tangent
             # grows with the columns, and with every mode for a damping parameter)

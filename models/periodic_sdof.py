@@ -117,8 +117,7 @@ class SDOFShooting(ModalShooting):
         # with R: d R_lower / d R = 1)
         self.two_sided = bool(getattr(model, "two_sided", False))
         self.Delta_lower = float(model.Delta_lower) if self.two_sided else math.inf
-        self.own_R_lower = self.two_sided and (getattr(model, "R_lower", None) is not None or
-                                               getattr(model, "contact_lower", None) is not None)
+        self.own_R_lower = self.two_sided and getattr(model, "lower_law", None) is not None
         # (beta, B, R, Delta, Omega) of the model and the slot of the continuation parameter
         self._base = [float(model.beta), float(model.B), R0, float(model.Delta), self.Omega]
         self._slot = _ORDER[self.index]
@@ -140,7 +139,8 @@ class SDOFShooting(ModalShooting):
         """The lower stop's R when the upper stop's is ``R``."""
         if not self.own_R_lower:
             return float(R)
-        return None if self.model.R_lower is None else float(self.model.R_lower)
+        law = self.model.lower_law
+        return float(law.R) if getattr(law, "kind", "") == "impulsive" else None
 
     def invalid(self, p: float) -> str:
         beta, B, R, Delta, Omega = self.params(p)
@@ -173,8 +173,7 @@ class SDOFShooting(ModalShooting):
                 law = self.law if R == float(self.law.R) else self.law.with_restitution(R)
                 m = replace(self.model, beta=beta, B=B, Delta=Delta, contact=law)
             else:
-                m = replace(self.model, beta=beta, B=B, R=R, Delta=Delta,
-                            R_lower=self.R_lower(R) if self.two_sided else None)
+                m = replace(self.model, beta=beta, B=B, R=R, Delta=Delta)   # its lower_law kept (None: follows R)
             core = EventIntegrator(from_sdof(m), m.stops())
             ns = core.n_stops
             z = np.zeros(ns)

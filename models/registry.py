@@ -60,7 +60,7 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     its shooting problem follows both stops); a family not listed serves one stop only.
 ``mixed_stop_methods``
     Methods that simulate a compliant upper stop beside a restitution (Newton) lower stop
-    (the model's ``mixed_stops``); refused elsewhere by :func:`vibeam.models.make_solver`.
+    (:func:`mixed_stops` of the model); refused elsewhere by :func:`vibeam.models.make_solver`.
 ``contact_laws``
     Families of compliant contact laws (:data:`FAMILIES`; the laws in :data:`LAWS`, their
     classes in :mod:`vibeam.models.compliant`) and, for each, the methods that simulate its
@@ -135,6 +135,14 @@ LAWS = {
     "lankarani_nikravesh": Law("compliant", True, _HERTZ_KEYS, "hysteretic_hertz", "compliant:LankaraniNikravesh"),
 }
 IMPLEMENTED_LAWS = tuple(n for n, law in LAWS.items() if law.implemented)
+
+
+def mixed_stops(model) -> bool:
+    """Whether the stops at the model's attached mass mix the two kinds of law: a Newton stop
+    beside a compliant one, either above (from its ``mass_stops()``, else ``stops()``: the (relation,
+    law) pairs of :mod:`vibeam.models.contact`)."""
+    stops = model.mass_stops() if hasattr(model, "mass_stops") else model.stops()
+    return len({getattr(s.law, "kind", "") for s in stops}) == 2
 
 
 def law_family(law: str) -> str | None:

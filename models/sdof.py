@@ -26,9 +26,14 @@ from .system import from_sdof
 _EMPTY = np.zeros(0)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class SDOF:
     """Parameters of the nondimensional SDOF impact oscillator.
+
+    Its stops are (relation, law) pairs (:meth:`stops`, :mod:`vibeam.models.contact`): the
+    paper's stop at ``q = Delta`` with Newton's law and ``R`` (or the compliant law ``contact``,
+    ``R`` then its target restitution), and optionally a lower one at ``q = -Delta_lower`` with
+    the law ``lower_law`` (None: the upper stop's).
 
     Attributes
     ----------
@@ -50,20 +55,27 @@ class SDOF:
     Delta_lower : float or None, optional
         A second (lower) stop at ``q = -Delta_lower`` (distance from the static equilibrium,
         positive; ``Delta + Delta_lower > 0``); None: the one stop of the paper.
-    R_lower : float or None, optional
-        Coefficient of restitution of the lower stop; None: the upper stop's law (``R`` and
-        ``R_table``).
     contact : LinearContact or None, optional
         A compliant law of the stop (:mod:`vibeam.models.compliant`, kernel units: stiffness
         ratio ``k_c / k``); None = Newton's law with ``R`` (paper Eq. 2).
     mass_kg : float or None, optional
         Effective mass of a physical scene's oscillator at the contact (kg): contact forces
         in N (``force_scale_n``); None: forces stay nondimensional.
-    contact_lower : LinearContact or HuntCrossley or None, optional
-        The compliant law of the lower stop of a two-sided scene; None: ``contact`` (the upper
-        stop's law), or Newton's law with ``R_lower`` when that is given.  Beside a Newton
-        upper stop (``contact`` None) the lower stop is compliant and the upper one keeps
-        ``R`` and ``R_table``.
+    lower_law : law or None, optional
+        The lower stop's own law: Newton's (:class:`vibeam.models.contact.Restitution`) or a
+        compliant one; None: the upper stop's law (``contact``, or Newton's with ``R`` and
+        ``R_table``, so that it follows ``R``).
+
+    Parameters
+    ----------
+    R_lower, contact_lower : optional
+        Shorthands of ``lower_law`` (as the case keys): ``R_lower`` for
+        ``Restitution(R_lower)``, ``contact_lower`` for a compliant law; one of the two.
+
+    Raises
+    ------
+    ValueError
+        For both ``R_lower`` and ``contact_lower``.
     """
 
     beta: float
@@ -74,28 +86,30 @@ class SDOF:
     length_m: float | None = None
     R_table: tuple = ()
     Delta_lower: float | None = None
-    R_lower: float | None = None
     contact: object = None
     mass_kg: float | None = None
-    contact_lower: object = None
+    lower_law: object = None
 
     fidelity = "sdof"
+
+    def __init__(self, beta, B, R, Delta, natural_frequency_hz=None, length_m=None, R_table=(), Delta_lower=None,
+                 R_lower=None, contact=None, mass_kg=None, contact_lower=None, lower_law=None):
+        if R_lower is not None and contact_lower is not None:
+            raise ValueError("the lower stop takes one law: contact_lower (compliant) or R_lower (restitution)")
+        if R_lower is not None:
+            lower_law = Restitution(float(R_lower))
+        elif contact_lower is not None:
+            lower_law = contact_lower
+        for k, v in (("beta", beta), ("B", B), ("R", R), ("Delta", Delta),
+                     ("natural_frequency_hz", natural_frequency_hz), ("length_m", length_m), ("R_table", R_table),
+                     ("Delta_lower", Delta_lower), ("contact", contact), ("mass_kg", mass_kg),
+                     ("lower_law", lower_law)):
+            object.__setattr__(self, k, v)
 
     @property
     def two_sided(self) -> bool:
         """A second stop below (``Delta_lower`` given)."""
         return self.Delta_lower is not None
-
-    @property
-    def mixed_stops(self) -> bool:
-        """Two stops, one of Newton's law and one compliant: a compliant upper stop beside a
-        restitution lower stop (``R_lower`` given), or a Newton upper stop above a compliant
-        lower one (``contact`` None, ``contact_lower`` given)."""
-        if self.Delta_lower is None:
-            return False
-        if self.contact is not None:
-            return self.R_lower is not None
-        return self.contact_lower is not None
 
     @property
     def contact_law(self) -> str:
@@ -114,31 +128,17 @@ class SDOF:
         """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
         ``q = Delta`` (normal ``+1``) with Newton's law, ``R`` and ``R(q'-)``, or the compliant
         law ``contact``; for a two-sided scene the stop at ``q = -Delta_lower`` (normal ``-1``)
-        with its own law."""
-        if self.contact_lower is not None and self.R_lower is not None:
-            raise ValueError("the lower stop takes one law: contact_lower (compliant) or R_lower (restitution)")
-        if self.contact is not None or self.contact_lower is not None:
-            if self.contact is None:
-                # Newton's law above a compliant lower stop
-                tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())
-                upper = Stop(Relation(1.0, self.Delta), Restitution(self.R, tuple(tv), tuple(tR)))
-                if self.Delta_lower is None:
-                    raise ValueError("contact_lower needs a lower stop (Delta_lower)")
-                return upper, Stop(Relation(-1.0, self.Delta_lower), self.contact_lower)
-            out = (Stop(Relation(1.0, self.Delta), self.contact),)
-            if self.Delta_lower is not None:
-                if self.R_lower is not None:   # Newton's law below, beside the compliant upper stop
-                    law = Restitution(self.R_lower)
-                else:
-                    law = self.contact if self.contact_lower is None else self.contact_lower
-                out += (Stop(Relation(-1.0, self.Delta_lower), law),)
-            return out
-        tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())
-        upper = Restitution(self.R, tuple(tv), tuple(tR))
+        with ``lower_law`` (None: the upper stop's)."""
+        if self.contact is None:
+            tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())
+            upper = Restitution(self.R, tuple(tv), tuple(tR))
+        else:
+            upper = self.contact
         out = (Stop(Relation(1.0, self.Delta), upper),)
         if self.Delta_lower is not None:
-            law = upper if self.R_lower is None else Restitution(self.R_lower)
-            out += (Stop(Relation(-1.0, self.Delta_lower), law),)
+            out += (Stop(Relation(-1.0, self.Delta_lower), upper if self.lower_law is None else self.lower_law),)
+        elif getattr(self.lower_law, "kind", "") == "compliant":
+            raise ValueError("contact_lower needs a lower stop (Delta_lower)")
         return out
 
     def restitution_table(self):

@@ -64,7 +64,7 @@ class Flights:
         self.a, self.b = particular_coefficients(self.beta, self.F, self.Omega)
         self.T = TWO_PI / self.Omega
         self.d = (float(model.Delta), -float(model.Delta_lower))
-        Rl = model.R if model.R_lower is None else model.R_lower
+        Rl = model.stops()[1].law.R       # the lower stop's law: its own, or the upper one's
         self.R = (float(model.R), float(Rl))
 
     def start(self, k, v):

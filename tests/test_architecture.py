@@ -372,3 +372,38 @@ def test_every_law_class_carries_its_registry_entry():
             assert cls.name == n and cls.family == law.family, n
             for f in FIDELITIES.values():
                 assert set(f.contact_laws) | set(f.two_sided_law_methods) <= {x.family for x in LAWS.values()}
+
+
+def test_the_model_classes_carry_their_stops_not_law_fields():
+    """Issue 20: a model's stops are (relation, law) pairs; the lower stop's law is one law object
+    (``lower_law``, None: the upper stop's), not per-law fields (``R_lower``, ``contact_lower``)
+    nor a ``mixed_stops`` flag (the registry's :func:`mixed_stops` reads it off the stops).  The
+    shorthands ``R_lower`` and ``contact_lower`` stay keywords of the constructors, as they stay
+    keys of a case file, and build the same stops."""
+    import dataclasses
+
+    from vibeam.models import SDOF
+    from vibeam.models.beam_dynamics import BeamImpactModel, CompliantBeamModel
+    from vibeam.models.compliant import LinearContact
+    from vibeam.models.contact import Restitution
+    from vibeam.models.registry import mixed_stops
+
+    gone = {"R_lower", "contact_lower", "mixed_stops"}
+    assert not gone & {f.name for f in dataclasses.fields(SDOF)}
+    kv = LinearContact.from_restitution(1e4, 0.7)
+    newton_below = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5)
+    kv_below = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact_lower=kv)
+    same = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003)
+    beam = BeamImpactModel([10.0], [1.0], [1.0], [1.0], 0.8, 1e-3, 1e-4, 1.6, 1.0, 1.0,
+                           gap_contact_lower_m=2e-3, R_lower=0.5)
+    for m in (newton_below, kv_below, same, beam, CompliantBeamModel.from_model(beam, kv)):
+        assert not any(hasattr(m, k) for k in gone), type(m)
+    assert newton_below.lower_law == Restitution(0.5) and newton_below.stops()[1].law == Restitution(0.5)
+    assert kv_below.stops()[1].law is kv and mixed_stops(kv_below) and not mixed_stops(newton_below)
+    assert same.lower_law is None and same.stops()[1].law == same.stops()[0].law
+    # R moves the lower stop that has no law of its own, and not the one that has
+    assert dataclasses.replace(same, R=0.6).stops()[1].law.R == 0.6
+    assert dataclasses.replace(newton_below, R=0.6).stops()[1].law.R == 0.5
+    assert beam.mass_stops()[1].law == Restitution(0.5)
+    with pytest.raises(ValueError, match="one law"):
+        SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5, contact_lower=kv)

@@ -354,7 +354,7 @@ def test_physical_scene_outputs_in_si_against_an_si_reference(two):
 
     stops = [(np.array([1 / sm]), gap * 1e-3, k_up, 2 * 0.1 * math.sqrt(k_up * m_kg))]
     if two:
-        assert m.contact_lower.stiffness == pytest.approx(3e3, rel=1e-12)
+        assert m.lower_law.stiffness == pytest.approx(3e3, rel=1e-12)
         stops.append((np.array([-1 / sm]), gap_l * 1e-3, k_lo, 2 * 0.2 * math.sqrt(k_lo * m_kg)))
     con = _si_contacts(np.array([sm * q * L]), np.array([sm * qd * L * wn]), 1.0 / f, acc, stops)
     assert [r[0] for r in con] in ([0, 1], [1, 0]) if two else [r[0] for r in con] == [0]

@@ -276,7 +276,7 @@ def _one_mode_beam_of(sd):
     if up.law.kind == "compliant":
         return CompliantBeamModel.from_model(base, si(up.law), None if lo is None else si(lo.law))
     if lo is not None and lo.law.kind == "compliant":
-        base.contact_lower = si(lo.law)
+        base.lower_law = si(lo.law)
     return base
 
 

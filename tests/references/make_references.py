@@ -220,7 +220,7 @@ def two_sided_ode(model, Omega, x0, n_periods, rtol=1e-12, u_stick=1e-6, max_imp
     two = model.Delta_lower is not None
     D_lo = model.Delta_lower if two else math.inf
     R_up = model.R
-    R_lo = model.R if (not two or model.R_lower is None) else model.R_lower
+    R_lo = model.stops()[1].law.R if two else model.R     # the lower stop's own law, or the upper one's
     T = 2 * math.pi / Omega
     t_end = n_periods * T
     scale = max(abs(D_up), abs(D_lo) if two else 0.0, F, 1e-300)
@@ -467,7 +467,7 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
         lower = {}
         if getattr(model, "two_sided", False):   # the lower stop at the sensor: Delta_C,lower / (phi L)
             lower = dict(Delta_lower=model.gap_contact_lower_m / model.phi_at_mass / model.length_m,
-                         R_lower=model.R_lower)
+                         lower_law=model.lower_law)
         sdof = SDOF(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, R=spec.R, Delta=red.Delta, **lower)
         f = np.asarray(d["frequency_hz"], float)
         up = np.unique(f)

@@ -604,7 +604,7 @@ class BeamModelSpec(_Strict):
                 lower = Restitution(self.R if self.contact_lower.R is None else self.contact_lower.R)
             m = CompliantBeamModel.from_model(m, law, lower)
         elif lower is not None:   # a compliant lower stop below Newton's upper one
-            m.contact_lower = lower
+            m.lower_law = lower
         return m
 
     @property
