@@ -65,6 +65,7 @@ from .beam_dynamics import TWO_PI, BeamImpactModel
 from .core.event import EventIntegrator
 from .core.integrator import EV_IMPACT, EV_STICK_IMPACT
 from .core.shooting import Direction, ModalShooting, Setup, directions, dtransition_dsig
+from .contact import Restitution
 from .impact import restitution_coefficient
 from .system import from_beam, particular, transition_entries
 
@@ -78,7 +79,10 @@ _dtrans_dsig = dtransition_dsig
 #: native continuation parameters of the beam and the model attribute each one sets
 NATIVE_PARAMETERS = ("Omega", "base_amplitude_m", "gap_contact_m", "R", "damping_D_s",
                      "rayleigh_alpha_1_s")
-_PID = {name: i for i, name in enumerate(NATIVE_PARAMETERS)}
+#: the lower stop's parameters: its offset (m, at the contact point) and its R (Newton's, or a
+#: compliant law's target R); native parameters of a two-sided model only
+LOWER = ("gap_contact_lower_m", "R_lower")
+_PID = {name: i for i, name in enumerate(NATIVE_PARAMETERS + LOWER)}
 
 #: case keys of a beam scene that change the FE model (modes, shapes): not continuable
 REBUILD_KEYS = ("length_mm", "sensor_position_mm", "mass_position_mm", "width_mm",
@@ -121,10 +125,12 @@ def conversions(model: BeamImpactModel, gain_per_V: float | None = None,
     """
     L = model.length_m
     phim = model.phi_at_mass
-    tab = {name: (name, 1.0) for name in NATIVE_PARAMETERS}
+    tab = {name: (name, 1.0) for name in NATIVE_PARAMETERS + LOWER}
     tab["frequency_hz"] = ("Omega", 1.0 / model.f_ref_hz)
     tab["gap_mm"] = ("gap_contact_m", 1e-3 * phim)
     tab["contact_gap_mm"] = ("gap_contact_m", 1e-3)
+    tab["gap_lower_mm"] = ("gap_contact_lower_m", 1e-3 * phim)
+    tab["contact_gap_lower_mm"] = ("gap_contact_lower_m", 1e-3)
     tab["damping_ratio"] = ("damping_D_s", 2.0 / model.omega_ref)
     if gain_per_V is not None:
         tab["voltage"] = ("base_amplitude_m", float(gain_per_V) * phim * L)
@@ -136,11 +142,11 @@ def conversions(model: BeamImpactModel, gain_per_V: float | None = None,
 def _check_parameter(name: str):
     if name in REBUILD_KEYS:
         raise ValueError(f"parameter {name!r} changes the FE model (modes and shapes): the beam "
-                         f"shooting cannot continue in it; allowed: {', '.join(NATIVE_PARAMETERS)} "
+                         f"shooting cannot continue in it; allowed: {', '.join(NATIVE_PARAMETERS + LOWER)} "
                          f"(or a physical key of conversions())")
     if name not in _PID:
         raise ValueError(f"parameter {name!r} is not a native beam parameter; allowed: "
-                         f"{', '.join(NATIVE_PARAMETERS)} (physical keys map onto them through "
+                         f"{', '.join(NATIVE_PARAMETERS + LOWER)} (physical keys map onto them through "
                          f"conversions())")
 
 
@@ -158,7 +164,8 @@ class BeamShooting(ModalShooting):
     parameter : str, optional
         Native continuation parameter, one of :data:`NATIVE_PARAMETERS` (``Omega``,
         ``base_amplitude_m`` (m), ``gap_contact_m`` (m), ``R``, ``damping_D_s`` (s),
-        ``rayleigh_alpha_1_s`` (1/s)).  Physical keys go through :func:`conversions`.
+        ``rayleigh_alpha_1_s`` (1/s)) or, with a lower stop, :data:`LOWER`
+        (``gap_contact_lower_m`` (m), ``R_lower``).  Physical keys go through :func:`conversions`.
     chatter_tol, steps_per_fundamental, max_impacts_per_period, max_steps_per_period :
         Settings of the event kernel, as :class:`~vibeam.models.beam_dynamics.BeamEventSolver`
         (same defaults, so that a stable fixed point is what a sweep lands on).
@@ -197,6 +204,8 @@ class BeamShooting(ModalShooting):
                              f"(modal_damping_1_s)")
         if not (np.isfinite(Omega) and Omega > 0):
             raise ValueError(f"Omega must be positive and finite, got {Omega!r}")
+        if parameter in LOWER and not model.two_sided:
+            raise ValueError(f"continuation in {parameter!r} needs a lower stop (gap_contact_lower_m)")
         super().__init__(chatter_tol, steps_per_fundamental, max_impacts_per_period, max_steps_per_period)
         self.model = model
         self.Omega = float(Omega)
@@ -205,7 +214,8 @@ class BeamShooting(ModalShooting):
         self.index = 0           # the directions hold the continuation parameter alone
         law = getattr(model, "contact", None)
         self.value = self.Omega if parameter == "Omega" else (
-            float(law.R) if parameter == "R" and law is not None else float(getattr(model, parameter)))
+            float(law.R) if parameter == "R" and law is not None else
+            float(model.mass_stops()[1].law.R) if parameter == "R_lower" else float(getattr(model, parameter)))
         self.dim = 2 * model.n_modes
         self.state_scale = model.length_m * math.sqrt(model.m_eff)
         self._cache_key = None
@@ -220,6 +230,9 @@ class BeamShooting(ModalShooting):
         law = getattr(m, "contact", None)
         if self.parameter == "R" and law is not None:
             m.contact = law.with_restitution(float(p))     # a compliant stop: its law's target R
+        elif self.parameter == "R_lower":
+            low = m.mass_stops()[1].law                    # the lower stop's own law from now on
+            m.lower_law = Restitution(float(p)) if low.kind == "impulsive" else low.with_restitution(float(p))
         else:
             setattr(m, self.parameter, float(p))
         m._constrained()
@@ -240,6 +253,7 @@ class BeamShooting(ModalShooting):
             z = np.zeros(ns)
             N = m.n_modes
             up = np.eye(ns)[0]
+            low = np.eye(ns)[1] if ns > 1 else z
             # the lower stop follows the upper stop's law when it has no R of its own
             own = m.lower_law is not None
             both = np.array([1.0, 0.0 if own else 1.0])[:ns]
@@ -253,7 +267,11 @@ class BeamShooting(ModalShooting):
                 # c_i = (alpha + D omega_i^2) / omega_ref
                 "damping_D_s": Direction("damping_D_s", 0.0, 0.0, z, z, m.omega_ref * m.k_nd),
                 "rayleigh_alpha_1_s": Direction("rayleigh_alpha_1_s", 0.0, 0.0, z, z,
-                                                np.full(N, 1.0 / m.omega_ref))}[self.parameter]])
+                                                np.full(N, 1.0 / m.omega_ref)),
+                # the lower stop's offset and its R (the parameter is its own R, even where it
+                # followed the upper stop's law at the start value)
+                "gap_contact_lower_m": Direction("gap_contact_lower_m", 0.0, 0.0, low, z, np.zeros(N)),
+                "R_lower": Direction("R_lower", 0.0, 0.0, z, low, np.zeros(N))}[self.parameter]])
         else:
             m, core, dirs = self._cache["m"], self._cache["core"], self._cache["dirs"]
         aF, bF = particular(m.c_nd, m.k_nd, m.participation, Om ** 2 * m.base_amplitude_m, Om)
@@ -287,8 +305,8 @@ class BeamShooting(ModalShooting):
 
     @staticmethod
     def _invalid(p, name):
-        if name == "R" and not 0.0 <= p <= 1.0:
-            return "R must lie in [0, 1]"
+        if name in ("R", "R_lower") and not 0.0 <= p <= 1.0:
+            return f"{name} must lie in [0, 1]"
         if name in ("damping_D_s", "rayleigh_alpha_1_s") and p < 0.0:
             return f"{name} must be >= 0"
         if name == "Omega" and not p > 0.0:

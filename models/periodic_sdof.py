@@ -34,7 +34,7 @@ Pai 2000 for the parameter sensitivities).  With ``X = d x(t) / d(x0, p)`` at fi
 
 A second (lower) stop at ``q = -Delta_lower`` (``model.Delta_lower``, normal ``-1``, its own
 constant ``R_lower`` or the upper stop's ``R``) enters the same way: an impact on it has the
-surface ``h = -q - Delta_lower`` (``h_p = 0``: none of :data:`PARAMETERS` moves it), the reset
+surface ``h = -q - Delta_lower`` (``h_p = 0`` but along ``Delta_lower``), the reset
 ``q' -> -R_lower q'`` and so the same saltation formula with the signed pre-impact velocity; the
 mass held on it is at ``(-Delta_lower, 0)``.  Its grazing (a free-flight minimum touching
 ``-Delta_lower``) is watched through the logged minima (``apex_gap`` is the nearer of the two
@@ -50,6 +50,7 @@ from dataclasses import replace
 import numpy as np
 
 from .core.event import EventIntegrator
+from .contact import Restitution
 from .core.shooting import Direction, ModalShooting, Setup, directions
 from .periodic import Shot
 from .sdof_flow import particular_coefficients
@@ -57,9 +58,11 @@ from .system import from_sdof
 
 TWO_PI = 2.0 * math.pi
 
-#: native continuation parameters of the SDOF model, in the column order of the kernel's d/dp
+#: native continuation parameters of every SDOF model, in the column order of the kernel's d/dp
 PARAMETERS = ("Omega", "B", "Delta", "R", "beta")
 _ORDER = (4, 1, 3, 2, 0)   # position of each parameter in (beta, B, R, Delta, Omega)
+#: the lower stop's offset and R, native parameters of a two-sided model only (columns 5 and 6)
+LOWER = ("Delta_lower", "R_lower")
 
 
 class SDOFShooting(ModalShooting):
@@ -75,8 +78,10 @@ class SDOFShooting(ModalShooting):
         The oscillator (constant ``R``; a velocity-dependent ``R_table`` is not supported), with
         one stop or two (``Delta_lower``, ``R_lower``: a shot's ``extra["impact_stops"]`` gives
         the stop of each impact, 0 upper, 1 lower).
-    parameter : {"Omega", "B", "Delta", "R", "beta"}
-        Continuation parameter (native, nondimensional).
+    parameter : {"Omega", "B", "Delta", "R", "beta", "Delta_lower", "R_lower"}
+        (:data:`PARAMETERS`, then :data:`LOWER`)
+        Continuation parameter (native, nondimensional); the lower stop's offset and R (its
+        Newton R, or a compliant law's target R) with a lower stop only.
     Omega : float, optional
         Forcing frequency; required unless ``parameter == "Omega"`` (then it is only the
         reported ``value``).
@@ -87,24 +92,27 @@ class SDOFShooting(ModalShooting):
     Raises
     ------
     ValueError
-        For an unknown parameter, a missing ``Omega`` or a model with ``R_table``.
+        For an unknown parameter, a missing ``Omega``, a model with ``R_table`` or a lower stop's
+        parameter without a lower stop.
     """
 
     dim = 2
 
     def __init__(self, model, parameter: str = "Omega", Omega: float | None = None,
                  chatter_tol: float = 1e-7, **settings):
-        if parameter not in PARAMETERS:
+        if parameter not in PARAMETERS + LOWER:
             raise ValueError(f"parameter {parameter!r} is not a parameter of the SDOF model; "
-                             f"allowed: {', '.join(PARAMETERS)}")
+                             f"allowed: {', '.join(PARAMETERS + LOWER)}")
         if parameter != "Omega" and Omega is None:
             raise ValueError(f"continuation in {parameter!r} needs the forcing frequency Omega")
         if getattr(model, "R_table", ()):
             raise ValueError("the shooting problem supports a constant R only (no restitution_law)")
+        if parameter in LOWER and not getattr(model, "two_sided", False):
+            raise ValueError(f"continuation in {parameter!r} needs a lower stop (Delta_lower)")
         super().__init__(chatter_tol=chatter_tol)
         self.model = model
         self.parameter = parameter
-        self.index = PARAMETERS.index(parameter)
+        self.index = (PARAMETERS + LOWER).index(parameter)
         self.Omega = None if Omega is None else float(Omega)
         #: the upper stop's law when it is compliant (R is then its target restitution)
         self.law = getattr(model, "contact", None)
@@ -112,15 +120,14 @@ class SDOFShooting(ModalShooting):
         self.compliant = any(getattr(s.law, "kind", "") == "compliant" for s in model.stops())
         R0 = float(model.R) if self.law is None else float(self.law.R)
         self.value = (float(Omega) if Omega is not None else math.nan) if parameter == "Omega" \
-            else (R0 if parameter == "R" else float(getattr(model, parameter)))
+            else (R0 if parameter == "R" else float(model.stops()[1].law.R) if parameter == "R_lower"
+                  else float(getattr(model, parameter)))
         # a second (lower) stop at q = -Delta_lower: its own R, or the upper stop's (then it moves
         # with R: d R_lower / d R = 1)
         self.two_sided = bool(getattr(model, "two_sided", False))
-        self.Delta_lower = float(model.Delta_lower) if self.two_sided else math.inf
-        self.own_R_lower = self.two_sided and getattr(model, "lower_law", None) is not None
         # (beta, B, R, Delta, Omega) of the model and the slot of the continuation parameter
         self._base = [float(model.beta), float(model.B), R0, float(model.Delta), self.Omega]
-        self._slot = _ORDER[self.index]
+        self._slot = _ORDER[self.index] if parameter not in LOWER else None
         self._setups = {}
         self._last = None
 
@@ -130,16 +137,32 @@ class SDOFShooting(ModalShooting):
         if last is not None and last[0] == p and p != 0.0:     # (-0.0 == 0.0: recomputed)
             return last[1]      # a shot asks twice (:meth:`invalid`, :meth:`setup`)
         v = self._base.copy()
-        v[self._slot] = float(p)
+        if self._slot is not None:
+            v[self._slot] = float(p)
         v = tuple(v)
         self._last = (p, v)
         return v
 
-    def R_lower(self, R: float) -> float:
-        """The lower stop's R when the upper stop's is ``R``."""
-        if not self.own_R_lower:
+    def lower(self, p: float):
+        """``(Delta_lower, lower_law)`` of the lower stop at ``p`` (``lower_law`` None: the upper
+        stop's law; ``(inf, None)`` without a lower stop)."""
+        if not self.two_sided:
+            return math.inf, None
+        m = self.model
+        if self.parameter == "Delta_lower":
+            return float(p), m.lower_law
+        if self.parameter == "R_lower":
+            law = m.stops()[1].law
+            return float(m.Delta_lower), (Restitution(float(p)) if law.kind == "impulsive"
+                                          else law.with_restitution(float(p)))
+        return float(m.Delta_lower), m.lower_law
+
+    def R_lower(self, R: float, p: float | None = None) -> float:
+        """The lower stop's R when the upper stop's is ``R`` (at ``p`` for a continuation in
+        ``R_lower``): its own law's, or ``R``; None for a compliant lower law of its own."""
+        law = self.lower(self.value if p is None else p)[1] if self.two_sided else None
+        if law is None:
             return float(R)
-        law = self.model.lower_law
         return float(law.R) if getattr(law, "kind", "") == "impulsive" else None
 
     def invalid(self, p: float) -> str:
@@ -154,15 +177,24 @@ class SDOFShooting(ModalShooting):
                 return str(e)
         if beta == 0.0 and Omega == 1.0:
             return "undamped exact resonance: no periodic particular solution"
-        if self.two_sided and not Delta + self.Delta_lower > 0.0:
-            return f"the stops overlap: Delta + Delta_lower = {Delta + self.Delta_lower} must be > 0"
+        Dl, lower = self.lower(p)
+        if self.two_sided and not Delta + Dl > 0.0:
+            return f"the stops overlap: Delta + Delta_lower = {Delta + Dl} must be > 0"
+        if self.parameter == "R_lower":
+            if not 0.0 <= p <= 1.0:
+                return f"R_lower must lie in [0, 1], got {p}"
+            try:
+                lower.check() if hasattr(lower, "check") else None
+            except ValueError as e:
+                return str(e)
         return ""
 
     def setup(self, p: float) -> Setup:
         """The one-mode system at ``p`` with the directions of :data:`PARAMETERS` (cached: a
         continuation in Omega builds it once)."""
         beta, B, R, Delta, Omega = self.params(p)
-        key = (beta, B, R, Delta)
+        Dl, lower = self.lower(p) if self.parameter in LOWER else (None, None)
+        key = (beta, B, R, Delta, Dl, None if lower is None else lower.R)
         su = self._setups.get(key)
         if su is None:
             if self.invalid(p):
@@ -174,16 +206,24 @@ class SDOFShooting(ModalShooting):
                 m = replace(self.model, beta=beta, B=B, Delta=Delta, contact=law)
             else:
                 m = replace(self.model, beta=beta, B=B, R=R, Delta=Delta)   # its lower_law kept (None: follows R)
+            if Dl is not None and m is not self.model:
+                m = replace(m, Delta_lower=Dl, lower_law=lower)       # the lower stop at p
             core = EventIntegrator(from_sdof(m), m.stops())
             ns = core.n_stops
             z = np.zeros(ns)
             up = np.eye(ns)[0]
-            both = np.array([1.0, 0.0 if self.own_R_lower else 1.0])[:ns]
+            own = self.two_sided and m.lower_law is not None
+            both = np.array([1.0, 0.0 if own else 1.0])[:ns]
             every = [Direction("Omega", 1.0, 0.0, z, z, np.zeros(1)),
                      Direction("B", 0.0, 1.0, z, z, np.zeros(1)),
                      Direction("Delta", 0.0, 0.0, up, z, np.zeros(1)),
                      Direction("R", 0.0, 0.0, z, both, np.zeros(1)),
                      Direction("beta", 0.0, 0.0, z, z, np.array([2.0]))]
+            if ns > 1:
+                # the lower stop's offset and its own R
+                low = np.eye(ns)[1]
+                every += [Direction("Delta_lower", 0.0, 0.0, low, z, np.zeros(1)),
+                          Direction("R_lower", 0.0, 0.0, z, low if own else z, np.zeros(1))]
             # a compliant stop: the continuation parameter's direction alone (a direction that changes a
             # Kelvin-Voigt contact phase's matrix, R or beta, integrates its variational equations)
             dirs = directions(core, [every[self.index]] if self.compliant else every)
@@ -217,7 +257,9 @@ class SDOFShooting(ModalShooting):
         Returns
         -------
         Shot
-            ``extra["x_all_p"]`` holds ``d x / d(Omega, B, Delta, R, beta)`` (shape (2, 5));
+            ``extra["x_all_p"]`` holds ``d x / d(Omega, B, Delta, R, beta)`` (shape (2, 5); with a
+            lower stop (2, 7), ``Delta_lower`` and ``R_lower`` after them, the latter zero when
+            the lower stop follows ``R``);
             ``extra["stuck_end"]`` whether the mass is on the stop at the end.
         """
         return super().shot(x0, p, n, derivatives, stuck)
@@ -250,7 +292,7 @@ class SDOFShooting(ModalShooting):
         def at(k):
             if stops[k] == 0:
                 return Delta, 1.0, R
-            return -self.Delta_lower, -1.0, self.R_lower(R)
+            return -self.lower(p)[0], -1.0, self.R_lower(R, p)
 
         if t1 < 1e-6 * T:
             qs, sg, Rk = at(0) if where is None else where
@@ -301,9 +343,10 @@ class SDOFShooting(ModalShooting):
             if not C < Delta:
                 return None, (f"the non-impacting orbit does not exist: its amplitude C = {C:.6g} "
                               f"reaches the stop Delta = {Delta:.6g} at {self.parameter} = {p:.6g}")
-            if self.two_sided and not C < self.Delta_lower:
+            Dl = self.lower(p)[0]
+            if self.two_sided and not C < Dl:
                 return None, (f"the non-impacting orbit does not exist: its amplitude C = {C:.6g} "
-                              f"reaches the lower stop Delta_lower = {self.Delta_lower:.6g} at "
+                              f"reaches the lower stop Delta_lower = {Dl:.6g} at "
                               f"{self.parameter} = {p:.6g}")
             return np.array([b, Omega * a]), ""
         if kind == "averaging":
@@ -330,9 +373,10 @@ class SDOFShooting(ModalShooting):
                 # the averaged orbit is a one-stop orbit: admissible only if it stays above the
                 # lower stop (one impact per period on the upper stop, none below)
                 sh = self.shot(x0, p, 1)
-                if sh.status != "ok" or np.any(sh.extra["impact_stops"] == 1) or sh.q_min <= -self.Delta_lower:
+                Dl = self.lower(p)[0]
+                if sh.status != "ok" or np.any(sh.extra["impact_stops"] == 1) or sh.q_min <= -Dl:
                     return None, (f"the averaging orbit reaches the lower stop Delta_lower = "
-                                  f"{self.Delta_lower:.6g} at {self.parameter} = {p:.6g}")
+                                  f"{Dl:.6g} at {self.parameter} = {p:.6g}")
             return x0, ""
         raise ValueError(f"unknown start {kind!r}; allowed: {', '.join(self.starts)}")
 

@@ -281,7 +281,8 @@ def _beam2(Dl, R_lower, Y):
 def test_two_mode_beam_derivatives_against_central_differences(Dl, R_lower, Y, W, sticks):
     """A two-mode beam between two stops over two periods from a state on its attractor: impacts on
     both stops (R_lower = 0.6), and plastic impacts with sticking and release on the lower stop
-    (R_lower = 0): the monodromy and d x / d(Omega, gap_contact_m, R) against central differences
+    (R_lower = 0): the monodromy and d x / d(Omega, gap_contact_m, R, gap_contact_lower_m, R_lower)
+    against central differences
     of the shot, Richardson-extrapolated from h and h / 2 (h = 1e-6 relative: truncation ~h^4 times
     the fourth derivative): 1e-6.  The first attractor is chaotic (the 2-period map's multipliers
     ~11 and ~3), so the state, and the curvature of P^2 there, is decided by round-off: a plain
@@ -296,7 +297,10 @@ def test_two_mode_beam_derivatives_against_central_differences(Dl, R_lower, Y, W
         d2 = (f(h / 2) - f(-h / 2)) / h
         return (4 * d2 - d1) / 3
 
-    for par, p in (("Omega", W), ("gap_contact_m", 0.0), ("R", 0.8)):
+    # the lower stop's offset and R too (issue 20: continuation in any numeric parameter); R_lower = 0
+    # is the corner of its range (R_lower < 0 is refused), left out
+    lower = (("gap_contact_lower_m", Dl),) + ((("R_lower", R_lower),) if R_lower > 0 else ())
+    for par, p in (("Omega", W), ("gap_contact_m", 0.0), ("R", 0.8)) + lower:
         pr = BeamContinuation(m, par, Omega=W)
         s = pr.shot(x0, p, 2)
         assert s.status == "ok" and 1 in s.extra["impact_stops"] and (s.stuck_time > 0) == sticks
@@ -370,3 +374,64 @@ switch = false
             assert np.max(np.abs(np.asarray(tr.final_state[:4]) - x)) < 1e-8 * np.max(np.abs(x))
             checked += 1
     assert checked
+
+
+# --------------------------------------------------------------------------- the lower stop's parameters
+#: Fig. 7's upper stop and a lower stop at q = -1e-3 with its own R = 0.6: at these frequencies the
+#: settled period-1 orbit hits both stops (once above, once or twice below)
+OWN = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e-3, R_lower=0.6)
+
+
+@pytest.mark.parametrize("parameter", ["Delta_lower", "R_lower"])
+@pytest.mark.parametrize("W", [1.8, 2.2])
+def test_the_lower_stops_offset_and_R_are_continuation_parameters(parameter, W):
+    """Continuation in the lower stop's offset and R (issue 20: continuation in any numeric
+    parameter): ``x_p`` of the shot against central differences of the shot itself (h = 1e-6 of
+    the value; bound 1e-7 relative, measured <= 5e-10), on orbits that hit both stops."""
+    x0 = _settled(OWN, W, 800)
+    prob = SDOFShooting(OWN, parameter, Omega=W)
+    p0 = prob.value
+    assert p0 == (1e-3 if parameter == "Delta_lower" else 0.6)
+    s = prob.shot(x0, p0, 1)
+    assert s.status == "ok" and set(s.extra["impact_stops"]) == {0, 1}
+    h = 1e-6 * p0
+    fd = (prob.shot(x0, p0 + h, 1).x - prob.shot(x0, p0 - h, 1).x) / (2 * h)
+    assert np.max(np.abs(s.x_p - fd)) <= 1e-7 * np.max(np.abs(fd)), (s.x_p, fd)
+    with pytest.raises(ValueError, match="needs a lower stop"):
+        SDOFShooting(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), parameter, Omega=W)
+
+
+def test_a_branch_in_R_lower_is_made_of_event_orbits_and_obeys_liouville():
+    """The period-1 branch in R_lower at Omega = 1.8 (from the settled orbit at R_lower = 0.6, over
+    0.3 .. 0.9): each stable point is a fixed point of the event solver's one-period map at its
+    R_lower (1e-9 of the state: the corrector's 1e-10 times max |mu| < 1), and each point without
+    sticking satisfies ``det M = R^(2 m_up) R_lower^(2 m_low) e^(-2 beta T)`` (1e-9; round-off of
+    the saltation products).  A case continues in ``R_lower`` too, and refuses it without a
+    lower stop, naming what it allows."""
+    W = 1.8
+    prob = SDOFShooting(OWN, "R_lower", Omega=W)
+    (b, *_) = trace(prob, _settled(OWN, W, 800), 0.6, 1, 0.3, 0.9, 0, NO_SWITCH)
+    assert len(b) > 10
+    checked = 0
+    for pt in b.points:
+        s = pt.shot
+        if s.status != "ok":
+            continue
+        stops = np.asarray(s.extra.get("impact_stops", np.zeros(s.n_impacts, int)))
+        if s.stuck_time == 0.0:
+            want = 0.9 ** (2 * np.sum(stops == 0)) * pt.p ** (2 * np.sum(stops == 1)) * np.exp(-2 * 0.015 * 2 * np.pi / W)
+            assert abs(np.linalg.det(s.M) / want - 1.0) <= 1e-9, (pt.p, np.linalg.det(s.M), want)
+        if np.max(np.abs(pt.mu)) < 0.95:
+            m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e-3, R_lower=pt.p)
+            one = EventSolver(m).point(W, np.concatenate([pt.x, [0.0]]), 0, 1, 16)
+            assert np.max(np.abs(one.final_state[:2] - pt.x)) <= 1e-9 * np.max(np.abs(pt.x)), pt.p
+            checked += 1
+    assert checked >= 5
+    text = ('name = "x"\n[model]\nfidelity = "sdof"\nbeta = 0.015\nB = 0.5e-3\nR = 0.9\nDelta = 0.0\n{lower}'
+            '[sweep]\nOmega = [1.5, 2.5, 3]\n[[run]]\nname = "a"\nmethod = "continuation"\nparameter = "R_lower"\n'
+            'at = 1.8\nrange = [0.3, 0.9]\nstart_at = 0.6\n')
+    case = parse_case(text.format(lower="Delta_lower = 1e-3\n[model.contact_lower]\nR = 0.6\n"), "x.toml")
+    assert case.run[0].parameter == "R_lower"
+    from vibeam.errors import CaseError
+    with pytest.raises(CaseError, match="R_lower.*allowed: Omega, B, Delta, R, beta"):
+        parse_case(text.format(lower=""), "x.toml")

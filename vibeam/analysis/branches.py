@@ -191,9 +191,11 @@ def _natural_frequency(spec):
 
 
 def _with(spec, **over):
-    """The spec with some keys replaced (validated again)."""
+    """The spec with some keys (or continuation parameters, through the spec's
+    ``parameter_values``) replaced (validated again)."""
     data = spec.model_dump()
-    data.update(over)
+    for k, v in over.items():
+        data.update(spec.parameter_values(k, v) if hasattr(spec, "parameter_values") else {k: v})
     return type(spec).model_validate(data)
 
 

@@ -212,7 +212,8 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
     },
     "[[run]] method = \"continuation\"": {
         "parameter": ("", "Omega, or a numeric model key (B, Delta, R, beta; voltage, gain, gap_mm, "
-                      "damping_ratio, R for physical scenes)"),
+                      "damping_ratio, R for physical scenes; with a lower stop Delta_lower or gap_lower_mm "
+                      "and R_lower)"),
         "range": ("parameter", f"{_RANGE} of the parameter (default the [sweep] range for the frequency)"),
         "at": ("Hz or 1", "forcing frequency of a continuation in another parameter"),
         "start": ("", "start orbits: sweep (settled event run), averaging, linear (non-impacting) or auto (all)"),

@@ -153,8 +153,22 @@ def register_model_spec(name: str):
     return deco
 
 
+class _StopsSpec(_Strict):
+    """What the model tables of both fidelities share: the stops' case keys as continuation
+    parameters."""
+
+    def parameter_values(self, key: str, value: float) -> dict:
+        """The keys of this table that give the continuation parameter ``key`` (of
+        :meth:`native_parameter`) the value ``value``: the key itself, or for ``R_lower`` the
+        ``R`` of ``[model.contact_lower]`` (the lower stop's own law from then on)."""
+        if key == "R_lower":
+            lo = self.contact_lower.model_dump() if self.contact_lower is not None else {}
+            return {"contact_lower": {**lo, "R": float(value)}}
+        return {key: value}
+
+
 @register_model_spec("sdof")
-class SDOFModelSpec(_Strict):
+class SDOFModelSpec(_StopsSpec):
     """``[model]`` of an SDOF scene: nondimensional (paper Eqs. 1-2) or physical (Eqs. 43-46)."""
 
     fidelity: Literal["sdof"]
@@ -244,10 +258,15 @@ class SDOFModelSpec(_Strict):
                      "R": ("R", 1.0)}
         else:
             table = {k: (k, 1.0) for k in ("Omega", "B", "Delta", "R", "beta")}
+        if self.two_sided:
+            # the lower stop's offset and R (its Newton R, or a compliant law's target R)
+            table.update({"gap_lower_mm": ("Delta_lower", 1.0 / self.length_mm)} if self.physical
+                         else {"Delta_lower": ("Delta_lower", 1.0)})
+            table["R_lower"] = ("R_lower", 1.0)
         if self.contact is not None and is_compliant(self.contact.law):
-            # a compliant stop: a case continues it in the forcing and the gap only (the one shooting
+            # a compliant stop: a case continues it in the forcing and the gaps only (the one shooting
             # problem, vibeam.models.core.shooting)
-            table = {k: v for k, v in table.items() if v[0] in ("Omega", "B", "Delta")}
+            table = {k: v for k, v in table.items() if v[0] in ("Omega", "B", "Delta", "Delta_lower")}
         if key not in table:
             raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(table)}")
         return table[key]
@@ -401,7 +420,7 @@ class CalibrateSpec(_Strict):
 
 
 @register_model_spec("beam")
-class BeamModelSpec(_Strict):
+class BeamModelSpec(_StopsSpec):
     """``[model]`` of a finite-element beam scene (paper Eqs. 39-41, Fig. 15).
 
     Lengths in mm, masses in kg; section either ``width_mm``/``thickness_mm``
@@ -556,6 +575,9 @@ class BeamModelSpec(_Strict):
         gap_key = "gap_mm" if self.gap_mm is not None else "contact_gap_mm"
         allowed = ("Omega",) + tuple(k for k in self._CONTINUABLE
                                      if k == gap_key or k not in ("gap_mm", "contact_gap_mm"))
+        if self.two_sided:
+            # the lower stop's gap (the key the scene uses) and its R
+            allowed += ("gap_lower_mm" if self.gap_lower_mm is not None else "contact_gap_lower_mm", "R_lower")
         if any(t is not None and is_compliant(t.law) for t in (self.contact, self.contact_lower)):
             # a compliant stop: a case continues it in the forced response only (Omega,
             # base_amplitude_m; the one shooting problem, vibeam.models.core.shooting)
