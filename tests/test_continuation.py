@@ -57,12 +57,17 @@ ORBITS = {
     "pre-stressed": (RIG_TIGHT, 16.5 / FN, 1),
     "sticking": (RIG_STICK, 15.0 / FN, 1),
 }
+#: Newton's start where the settled state is not one: at 16.5 Hz the tight rig's period-1 orbit is
+#: unstable (|mu| = 1.22) beside the chaotic chatter attractor that a run from rest lands on
+#: (README, example (b)); that attractor's state after 1000 periods depends on round-off, and
+#: Newton from it met the orbit on some machines only.  The orbit's state to 5 digits instead.
+GUESS = {"pre-stressed": np.array([-2.2492e-3, 5.4533e-4])}
 
 
 @pytest.mark.parametrize("name", sorted(ORBITS))
 def test_monodromy_and_parameter_derivatives_against_central_differences(name):
     m, Omega, n = ORBITS[name]
-    x, s = _orbit(m, Omega, n)
+    x, s = _orbit(m, Omega, n, GUESS.get(name))
     if name == "two impacts":
         assert s.n_impacts == 2
     if name == "sticking":
@@ -94,7 +99,7 @@ def test_monodromy_and_parameter_derivatives_against_central_differences(name):
 def test_det_monodromy_is_R_to_2m_times_damping(name):
     """Liouville with the saltation matrices: det M = R^(2m) exp(-2 beta n T) (d = 2)."""
     m, Omega, n = ORBITS[name]
-    _, s = _orbit(m, Omega, n)
+    _, s = _orbit(m, Omega, n, GUESS.get(name))
     expected = m.R ** (2 * s.n_impacts) * math.exp(-2 * m.beta * n * TWO_PI / Omega)
     assert np.linalg.det(s.M) == pytest.approx(expected, rel=1e-10)
 
@@ -233,8 +238,11 @@ def test_fold_lies_between_the_jumps_of_fine_up_and_down_sweeps(fig8_branch):
     solver = EventSolver(FIG8)
     state = np.r_[a["state"][k0], 0.0]
     up = []
+    # 2000 periods per step: 1e-4 past the fold the passage through its ghost (time ~ 1/sqrt(W -
+    # W_fold)) took ~600 periods, so with 600 the step past the fold ended inside the passage or
+    # after it depending on round-off (1e-16 changes of the impact times moved it by periods)
     for W in np.arange(1.975, 1.99, 1e-4):
-        tr = solver.point(W, state, 600, 4, 8)
+        tr = solver.point(W, state, 2000, 4, 8)
         state = tr.final_state
         up.append((W, FIG8.Delta - tr.q_min))
     upper = [W for W, Q in up if Q > 3e-3]        # upper branch: Q > 6e-3; linear: Q ~ 1.3e-3

@@ -274,7 +274,7 @@ def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0,
     """Locate the maximum of a gap inside ``[0, h]`` (slope + at 0, <= 0 at h) and log it."""
     k = nlog[1]
     if k < aplog.shape[0]:
-        sa = root(ROOT_APEX, 0.0, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)
+        sa = root(ROOT_APEX, 0.0, h, -1.0, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)
         ga = signal(sa, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)[0]
         aplog[k, 0] = t + sa
         aplog[k, 1] = ga

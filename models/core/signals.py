@@ -41,7 +41,8 @@ ROOT_CROSS, ROOT_APEX, ROOT_MIN = np.int64(0), np.int64(1), np.int64(2)
 #: the helpers are called from compiled code only: no Python or C wrappers, no reference counting
 _kernel = njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
-__all__ = ["certify_curvature", "homogeneous_bounds", "signal", "signal_sc", "signal_start", "bounds", "root", "scan",
+__all__ = ["certify_curvature", "homogeneous_bounds", "signal", "signal_sc", "signal_start", "bounds", "hermite_guess",
+           "root", "scan",
            "extremes", "homogeneous"]
 
 
@@ -241,14 +242,52 @@ def bounds(hb, p, r, Csin, Om, m):
     return M2 * f + 1e-300, M3 * f + 1e-300, M4 * f + 1e-300
 
 
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def hermite_guess(lo, hi, Fa, dFa, Fb, dFb):
+    """A start for :func:`root`: the zero of the cubic Hermite interpolant of ``F`` on ``[lo, hi]``
+    from its values and slopes at both ends (``Fa < 0 <= Fb``), by safeguarded Newton steps on
+    the polynomial (no transcendental call).  Its error is ``O(h^4 max |F^(4)|)``, so Newton on
+    the signal itself then converges in two or three evaluations instead of five to seven from
+    the midpoint.  Always strictly inside the bracket."""
+    h = hi - lo
+    a = 0.0
+    b = 1.0
+    t = Fa / (Fa - Fb) if Fa - Fb != 0.0 else 0.5
+    for _ in range(12):
+        if not (a < t < b):
+            t = 0.5 * (a + b)
+        t2 = t * t
+        t3 = t2 * t
+        p = (Fa * (2.0 * t3 - 3.0 * t2 + 1.0) + h * dFa * (t3 - 2.0 * t2 + t) + Fb * (3.0 * t2 - 2.0 * t3)
+             + h * dFb * (t3 - t2))
+        dp = 6.0 * (Fa - Fb) * (t2 - t) + h * dFa * (3.0 * t2 - 4.0 * t + 1.0) + h * dFb * (3.0 * t2 - 2.0 * t)
+        if p < 0.0:
+            a = t
+        else:
+            b = t
+        if dp == 0.0:
+            continue
+        dt = p / dp
+        t = t - dt
+        if abs(dt) < 1e-9:
+            break
+    if not (a < t < b):
+        t = 0.5 * (a + b)
+    s = lo + t * h
+    if not (lo < s < hi):
+        s = 0.5 * (lo + hi)
+    return s
+
+
 @_kernel
-def root(kind, lo, hi, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
-    """Safeguarded Newton on a bracket with ``F(lo) < 0 <= F(hi)``; returns the bracket end where
-    ``F >= 0`` (an event is never placed before its crossing).  kind 0: ``F = f``; 1: ``F = -f'``
-    (a maximum); 2: ``F = f'`` (a minimum)."""
+def root(kind, lo, hi, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
+    """Safeguarded Newton on a bracket with ``F(lo) < 0 <= F(hi)``, started at ``s0`` (the
+    midpoint unless ``lo < s0 < hi``; :func:`hermite_guess` gives a close one); returns the
+    bracket end where ``F >= 0`` (an event is never placed before its crossing).  kind 0:
+    ``F = f``; 1: ``F = -f'`` (a maximum); 2: ``F = f'`` (a minimum)."""
     dxold = hi - lo
     dx = dxold
-    s = 0.5 * (lo + hi)
+    s = s0 if lo < s0 < hi else 0.5 * (lo + hi)
     sp0 = math.sin(phi0)
     cp0 = math.cos(phi0)
     for _ in range(200):
@@ -283,12 +322,12 @@ def extremes(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, vstart, vend, ext, 
     """Update ``ext = [min, max]`` with the interior minimum or maximum of a signal on ``[0, h]``
     when its slope changes sign between the ends (``vstart``, ``vend``)."""
     if vstart < 0.0 < vend:
-        sm = root(ROOT_MIN, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+        sm = root(ROOT_MIN, 0.0, h, h * vstart / (vstart - vend), phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
         v = signal(sm, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
         if v < ext[0]:
             ext[0] = v
     elif vstart > 0.0 > vend:
-        sa = root(ROOT_APEX, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+        sa = root(ROOT_APEX, 0.0, h, h * vstart / (vstart - vend), phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
         v = signal(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
         if v > ext[1]:
             ext[1] = v
@@ -330,24 +369,29 @@ def scan_from(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, g0, v0, g20
         if v0 > 0.0:
             if v1 >= 0.0:
                 if g1 >= 0.0:
-                    return root(ROOT_CROSS, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
+                    s0 = hermite_guess(0.0, h, g0, v0, g1, v1)
+                    return root(ROOT_CROSS, 0.0, h, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
             else:
                 bound = g0 + v0 * (g1 - g0 - v1 * h) / (v0 - v1) if v0 - v1 > 0.0 else g0
                 if bound >= 0.0:
-                    sa = root(ROOT_APEX, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+                    s0 = hermite_guess(0.0, h, -v0, -g20, -v1, -g21)
+                    sa = root(ROOT_APEX, 0.0, h, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
                     ga = signal(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
                     if ga >= 0.0:
                         if g0 < 0.0:
-                            return root(ROOT_CROSS, 0.0, sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
+                            s0 = hermite_guess(0.0, sa, g0, v0, ga, 0.0)
+                            return root(ROOT_CROSS, 0.0, sa, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
                         return sa, h
     else:
         if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
             if v0 < 0.0:
                 if g1 >= 0.0:
-                    sm = root(ROOT_MIN, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-                    return root(ROOT_CROSS, sm, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
+                    s0 = hermite_guess(0.0, h, v0, g20, v1, g21)
+                    sm = root(ROOT_MIN, 0.0, h, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+                    return root(ROOT_CROSS, sm, h, -1.0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
             elif g1 >= 0.0:
-                return root(ROOT_CROSS, 0.0, h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
+                s0 = hermite_guess(0.0, h, g0, v0, g1, v1)
+                return root(ROOT_CROSS, 0.0, h, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
     return -1.0, h
 
 
