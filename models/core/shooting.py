@@ -55,7 +55,7 @@ from ..contact import LAW_LINEAR
 from ..continuation_kernels import corrector_step
 from ..impact import restitution_coefficient
 from ..periodic import Shot
-from ..system import advance_count, advance_modes, transition_entries
+from ..system import advance_count, advance_state, transition_entries
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
                          ST_FAILED, integrate, new_record)
@@ -228,7 +228,7 @@ def _equilibrium_slopes(core, H: int, C: int, deta_c: np.ndarray, dD: np.ndarray
 
 
 # ============================================================================ helpers
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def restitution_slope(U, table_U, table_R):
     """``dR/dU-`` of a piecewise-linear restitution law (0 for a constant R or outside its nodes)."""
     n = table_U.shape[0]
@@ -245,7 +245,7 @@ def restitution_slope(U, table_U, table_R):
     return (table_R[hi] - table_R[lo]) / (table_U[hi] - table_U[lo])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def _series_ds(z):
     """``sum_{n>=1} n z^(n-1) / (2n+1)!`` (``dS/d(Delta^2) = s^3`` times this)."""
     out = 0.0
@@ -258,7 +258,7 @@ def _series_ds(z):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def dtransition_dsig(s, sig, k, typ, q, l1, l2):
     """``d Phi(s) / d sig`` (entries 11, 12, 21, 22) of ``x'' + 2 sig x' + k x = 0`` at fixed ``k``.
 
@@ -296,7 +296,7 @@ def dtransition_dsig(s, sig, k, typ, q, l1, l2):
     return dEc + sig * dEs + Es, dEs, -k * dEs, dEc - sig * dEs - Es
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def _particular_d(c, k, G, F, Om, dF, dOm, dc, a, b, da, db, m):
     """Particular coefficients ``a, b`` (:func:`vibeam.models.system.particular`) of the first ``m``
     coordinates and their derivatives ``da, db`` (P, m) along the parameter directions."""
@@ -313,7 +313,7 @@ def _particular_d(c, k, G, F, Om, dF, dOm, dc, a, b, da, db, m):
             db[p, j] = dz.imag
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def _accel(H, eta, etad, t, Om, F, sy, hs, out):
     """The acceleration ``eta''`` of the flow of held set ``H`` (0: free) at a state, in full
     coordinates (the held flows' constrained modal form)."""
@@ -337,7 +337,7 @@ def _accel(H, eta, etad, t, Om, F, sy, hs, out):
             out[i] += hs.Psi[H, i, j] * azj
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def _flow_free(J, ta, tb, eta, etad, Om, mp, a, b, da, db, dc, dOm, n):
     """Tangent of the free modal flow from ``ta`` to ``tb`` (absolute times), in place.
 
@@ -440,7 +440,7 @@ def _flow_held(J, ta, tb, eta, etad, Om, H, hs, aC, bC, daC, dbC, dd, n):
             J[i, ip0 + p] += dd.deta_c[p, H, i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def _project_velocity(J, d, nrm, me, n):
     """``J_eta' -= m d (n^T J_eta')`` (a velocity reset along ``d``), every column."""
     for c in range(J.shape[1]):
@@ -931,15 +931,10 @@ def _release_contacts(C, g, eta, etad, a0, J, st, dd, vr, dvr, lrow, n, ip0):
             lrow[col] += w * (fg * dg + fgd * dgd + fv * dvr[c, col])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def _free_state(z, ta, tb, Om, mp, a, b, n):
     """The free flight's state ``z = (eta, eta')`` carried from ``ta`` to ``tb`` (closed form)."""
-    eta = z[:n].copy()
-    etad = z[n:].copy()
-    advance_modes(tb - ta, Om * ta, Om, eta, etad, mp, a, b, np.zeros(n))
-    for i in range(n):
-        z[i] = eta[i]
-        z[n + i] = etad[i]
+    advance_state(tb - ta, Om * ta, Om, z, mp, a, b, n)
 
 
 @njit(cache=True, error_model="numpy")
@@ -990,7 +985,7 @@ def _linear_state(z, ta, tb, q, ph, Om, ZX, ZY, n):
 
 
 # ============================================================================ one shot
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def held_at_section(st, hs, x0, Om):
     """The stops a state ``(eta, eta')`` lies on with zero normal velocity, within 1e-9 of the
     state's scale (bit mask, 0 none): an orbit through it is taken as held there at the section."""
@@ -1020,7 +1015,7 @@ def held_at_section(st, hs, x0, Om):
     return mask
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, _nrt=False, error_model="numpy")
 def contact_at_section(st, x0):
     """The compliant stops a state ``(eta, eta')`` is in contact with (bit mask: the penetration
     ``g >= 0`` and the force positive), and the hysteretic-Hertz stops it lies inside of (their
