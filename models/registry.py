@@ -309,6 +309,8 @@ class Fidelity:
 
 
 FIDELITIES: dict[str, Fidelity] = {}
+#: the families the SDOF's pointwise mapping passes a stop of (vibeam.models.mapping.orbit.PASSAGES)
+_MAPPED = ("kelvin_voigt", "hysteretic_hertz")
 
 
 def register(fid: Fidelity) -> Fidelity:
@@ -326,10 +328,8 @@ register(Fidelity(
              "zhuravlev": Method("sdof_ode:ZhuravlevSolver"),
              "ivanov": Method("sdof_ode:IvanovSolver", positive_R=True),
              "averaging": Method("sdof_averaging:AveragingSolver"),
-             # the pointwise mapping: one stop of any law, two Newton stops
-             "mapping": Method("sdof_mapping:MappingSolver",
-                               {"kelvin_voigt": "sdof_compliant_map:CompliantMappingSolver",
-                                "hysteretic_hertz": "sdof_hc_map:HuntCrossleyMappingSolver"}, (IMPULSIVE,)),
+             # the one pointwise mapping (paper Sec. 4.2): one stop of any law, two Newton stops
+             "mapping": Method("mapping:MappingSolver", {f: "mapping:MappingSolver" for f in _MAPPED}, (IMPULSIVE,)),
              "continuation": on_the_core("periodic_sdof:SDOFShooting")},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
