@@ -4,7 +4,7 @@ A *section* is an arrival at a stop ``k`` of the one-mode system (paper Eq. 1 wi
 :meth:`vibeam.models.sdof.SDOF.stops`): time ``t`` (forcing phase ``Omega t``) and normal arrival
 speed ``v = s_k q'(t) > 0`` at ``q = s_k d_k``.  From it the map goes through two pieces:
 
-passage (the stop's law, :func:`passage`; in the stop's normal coordinate ``u = s_k q``)
+passage (the stop's law, :meth:`Scene.passage`; in the stop's normal coordinate ``u = s_k q``)
     Newton (``law.kind == "impulsive"``, paper Eq. 2): the instantaneous reset ``u' -> -R u'``;
     Kelvin-Voigt (family ``kelvin_voigt``): the exact linear contact phase up to its force-zero
     exit (:class:`~vibeam.models.mapping.phases.Phase`, certified scans); hysteretic Hertz (family
@@ -80,7 +80,29 @@ class Passage:
 
 
 def newton_passage(law, d, scene, t0, v0, F):
-    """Newton's law ``u' -> -R u'`` at ``u = d`` (paper Eq. 2): the exit is the arrival's instant."""
+    """Newton's law ``u' -> -R u'`` at ``u = d`` (paper Eq. 2): the exit is the arrival's instant.
+
+    The parameters and result are those of every passage of :data:`PASSAGES`.
+
+    Parameters
+    ----------
+    law : law object
+        The stop's law (:class:`vibeam.models.contact.Restitution` or a compliant law of
+        :mod:`vibeam.models.compliant`).
+    d : float
+        The stop's offset along its normal (the section is at ``u = d``).
+    scene : Scene
+        The frequency, damping and time limit ``t_max`` of a passage.
+    t0, v0 : float
+        The section's time and normal arrival speed (``> 0``).
+    F : float
+        The forcing amplitude along the stop's normal (``s_k Omega^2 B``).
+
+    Returns
+    -------
+    Passage or None
+        None when the contact has no exit within ``scene.t_max``.
+    """
     R = float(law.R)
     D = np.array([[1.0, 0.0], [0.0, 0.0], [0.0, -R]])
     return Passage(t0, (d, -R * v0), D, None, (0.0, math.nan, 0.0, 0.5 * (1.0 - R * R) * v0 * v0))
@@ -290,6 +312,12 @@ class Scene:
 
         Parameters
         ----------
+        k : int
+            The stop of the passage (the one the body may still be inside of).
+        pas : Passage
+            The exit, physical coordinate (:meth:`passage`).
+        t_end : float
+            Time after which the flight is given up.
         ext : ndarray, shape (4,)
             ``[min q, max q]`` and ``[min, max]`` of the interior extrema of ``q``, updated.
 
@@ -321,7 +349,8 @@ class Scene:
         return EV_FAIL, -1, t, q, w
 
     def section_map(self, k, t0, v0, max_time):
-        """The map from the section ``(t0, v0)`` on stop ``k`` to the next arrival at any stop.
+        """The map from the section ``(t0, v0)`` on stop ``k`` to the next arrival at any stop
+        (within ``max_time``).
 
         Returns
         -------
