@@ -22,7 +22,7 @@ from .registry import FIDELITIES, fidelity, is_compliant, law_family, mixed_stop
 # public names -> their module (imported on first access, PEP 562)
 _LAZY = {
     "SDOF": "sdof", "EventSolver": "sdof", "linear_amplitude": "sdof",
-    "AveragingSolver": "sdof_averaging", "MappingSolver": "sdof_mapping",
+    "AveragingSolver": "sdof_averaging", "MappingSolver": "mapping",
     "BeamEventSolver": "beam_dynamics", "BeamImpactModel": "beam_dynamics",
     "BeamODESolver": "beam_dynamics",
     "DirectSolver": "sdof_ode", "IvanovSolver": "sdof_ode", "ZhuravlevSolver": "sdof_ode",

@@ -74,8 +74,8 @@ How a compliant law plugs in
     4. Mapping / continuation: the event log gets the contact entry and exit rows; the
        Jacobian of a contact phase is its state-transition matrix composed with the
        saltation matrices of entry and exit (Sec. 4.2 of the paper: the piecewise-linear map).
-       Done for the SDOF's ``mapping`` (:mod:`vibeam.models.sdof_compliant_map`); the shooting
-       problem of the continuation is not.
+       Done for the SDOF's ``mapping`` (:mod:`vibeam.models.mapping`: the passage through a stop
+       of each family) and the one shooting problem (:mod:`vibeam.models.core.shooting`).
 """
 from __future__ import annotations
 

@@ -321,7 +321,7 @@ class SDOFShooting(ModalShooting):
             particular part); ``averaging``: the upper averaging branch (paper Eqs. 18-23,
             ``k = 1``: impact phase and velocity ~ Q) refined, where it converges to an
             admissible orbit, by Newton on the impact map (Eqs. 33-34,
-            :func:`vibeam.models.sdof_mapping.newton_fixed_point`), turned into the
+            :func:`vibeam.models.mapping.newton_fixed_point`), turned into the
             post-impact state and carried by the closed-form flow to the next phase 0.
         p : float
             Value of the continuation parameter.
@@ -354,7 +354,7 @@ class SDOFShooting(ModalShooting):
                 return None, "the averaging start gives period-1 orbits only (k = 1)"
             from dataclasses import replace
             from .sdof_averaging import solve
-            from .sdof_mapping import is_admissible, newton_fixed_point
+            from .mapping import is_admissible, newton_fixed_point
             r = solve(Omega, beta, B, R, Delta, 1)
             Q = float(r["amplitude"])
             if not np.isfinite(Q):

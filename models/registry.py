@@ -17,11 +17,12 @@ Capabilities (:class:`Fidelity` fields) and the protocol they imply for the mode
 A fidelity lists its methods, each as one :class:`Method`: its solver and the stops it
 simulates (the laws and families it serves, on one or two stops, mixed or not).  The methods of
 the one core (:mod:`vibeam.models.core`: event integrator, direct solver, shooting problem)
-serve every law on any stops (:func:`on_the_core`); the SDOF's textbook methods and mapping
-say what they are limited to.  The method tables below (``modal_state_methods``,
-``restitution_law_methods``, ``two_sided_methods``, ``two_sided_law_methods``,
-``mixed_stop_methods``, ``contact_laws``, ``positive_R_methods``) are derived from these
-entries, never kept by hand; a refusal names what the table allows.
+serve every law on any stops (:func:`on_the_core`), as does the SDOF's pointwise mapping on its
+one or two stops (:mod:`vibeam.models.mapping`: a passage through a stop per kind and family);
+the SDOF's textbook methods say what they are limited to.  The method tables below
+(``modal_state_methods``, ``restitution_law_methods``, ``two_sided_methods``,
+``two_sided_law_methods``, ``mixed_stop_methods``, ``contact_laws``, ``positive_R_methods``) are
+derived from these entries, never kept by hand; a refusal names what the table allows.
 
 Every model has ``fidelity`` (its registry name), ``Delta`` (the gap of the amplitude
 ``Q = Delta - min q``, paper Sec. 4.1), ``natural_frequency_hz`` and ``length_m`` (None for a
@@ -56,8 +57,9 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     law's are ``two_sided_law_methods``.
 ``two_sided_law_methods``
     For each family of compliant laws (:data:`FAMILIES`), the methods that simulate its laws on
-    two stops (``{"kelvin_voigt": ("event", "direct", "continuation")}``; ``"continuation"``:
-    its shooting problem follows both stops); a family not listed serves one stop only.
+    two stops (``{"kelvin_voigt": ("event", "direct", "mapping", "continuation")}``;
+    ``"continuation"``: its shooting problem follows both stops); a family not listed serves one
+    stop only.
 ``mixed_stop_methods``
     Methods that simulate a compliant upper stop beside a restitution (Newton) lower stop
     (:func:`mixed_stops` of the model); refused elsewhere by :func:`vibeam.models.make_solver`.
@@ -309,6 +311,8 @@ class Fidelity:
 
 
 FIDELITIES: dict[str, Fidelity] = {}
+#: the families the SDOF's pointwise mapping passes a stop of (vibeam.models.mapping.orbit.PASSAGES)
+_MAPPED = ("kelvin_voigt", "hysteretic_hertz")
 
 
 def register(fid: Fidelity) -> Fidelity:
@@ -326,10 +330,10 @@ register(Fidelity(
              "zhuravlev": Method("sdof_ode:ZhuravlevSolver"),
              "ivanov": Method("sdof_ode:IvanovSolver", positive_R=True),
              "averaging": Method("sdof_averaging:AveragingSolver"),
-             # the pointwise mapping: one stop of any law, two Newton stops
-             "mapping": Method("sdof_mapping:MappingSolver",
-                               {"kelvin_voigt": "sdof_compliant_map:CompliantMappingSolver",
-                                "hysteretic_hertz": "sdof_hc_map:HuntCrossleyMappingSolver"}, (IMPULSIVE,)),
+             # the one pointwise mapping (paper Sec. 4.2): a passage through a stop of each law, on
+             # one or two stops, mixed ones included
+             "mapping": Method("mapping:MappingSolver", {f: "mapping:MappingSolver" for f in _MAPPED},
+                               (IMPULSIVE,) + _MAPPED, True),
              "continuation": on_the_core("periodic_sdof:SDOFShooting")},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 

@@ -620,10 +620,10 @@ def test_compliant_map_fixed_point_jacobian_and_multipliers(k, W):
       the stencil's truncation and the event round-off, measured 1e-8);
     * Liouville: with the section mapped to itself, det J = exp(-2 beta n T - c_c tau_c)
       (the divergence of the free and the contact flow), to 1e-10 (measured ~1e-14)."""
-    from vibeam.models.sdof_compliant_map import CompliantMappingSolver
+    from vibeam.models.mapping import MappingSolver
 
     m = _model(k)
-    s = CompliantMappingSolver(m)
+    s = MappingSolver(m)
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
     ev = EventSolver(m).point(W, None, 2000, 8, 64)

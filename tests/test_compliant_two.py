@@ -194,15 +194,21 @@ def test_case_builds_two_compliant_stops_and_records_contacts_per_stop():
     sm = summarize(EventSolver(m2).point(1.1, None, 100, 8, 32), m2.Delta)
     assert sm["status"] == "ok" and sm["impacts_per_period"] >= 1 and sm["impacts_per_period_lower"] >= 1
     # what simulates a compliant law on two stops is the registry's two_sided_law_methods: mapping
-    # (one-stop for a compliant law) is refused at validation and by make_solver; continuation
-    # serves two stops of any compliant laws (the one shooting problem, vibeam.models.core.shooting;
-    # tests/test_continuation_compliant_two.py)
-    with pytest.raises(CaseError, match="cannot simulate a second stop with contact.law = \"linear\".*"
-                                        "allowed with two stops: event, direct, continuation$"):
-        parse_case(CASE.replace('method = "event"', 'method = "mapping"'))
+    # (the one pointwise mapping, vibeam.models.mapping; refused here before it served two stops, now
+    # accepted at validation and built by make_solver: its orbits are checked against the event
+    # kernel in tests/test_mapping_stops.py) and continuation (the one shooting problem,
+    # vibeam.models.core.shooting; tests/test_continuation_compliant_two.py) serve two stops of any
+    # compliant laws; averaging is refused in one line naming them
+    assert parse_case(CASE.replace('method = "event"', 'method = "mapping"')).run[0].method == "mapping"
+    with pytest.raises(CaseError, match="does not simulate contact.law = \"linear\".*"
+                                        "allowed: event, direct, mapping, continuation$"):
+        parse_case(CASE.replace('method = "event"', 'method = "averaging"'))
     assert parse_case(text.replace('method = "event"', 'method = "continuation"')).run[0].method == "continuation"
-    with pytest.raises(ValueError, match="cannot simulate contact law 'linear' on a second"):
-        make_solver(m, "mapping")
+    assert parse_case(text.replace('method = "event"', 'method = "mapping"')).run[0].method == "mapping"
+    from vibeam.models.mapping import MappingSolver
+    assert isinstance(make_solver(m, "mapping"), MappingSolver) and isinstance(make_solver(m2, "mapping"), MappingSolver)
+    with pytest.raises(ValueError, match="does not simulate contact law 'linear'"):
+        make_solver(m, "averaging")
     # a restitution lower stop beside the compliant upper one: SDOF event/direct
     # (tests/test_mixed_stops.py); a compliant lower stop beside a restitution upper one, refused
     # before the one shooting problem, is served: Newton's law above, the lower table's law below

@@ -88,9 +88,9 @@ def test_liouville_and_the_map_of_sec_4_2(fig8_kv):
     """Along the branch det M = exp(-2 beta T - c_c T_c) (the divergence of the free and the
     contact flows; the entry saltation has det 1) to 1e-10 relative (measured <= 5e-13), and at
     stable one-contact points the multipliers equal those of the entry-to-entry map of Sec. 4.2
-    (vibeam.models.sdof_compliant_map, another section of the same orbit) to 1e-9
+    (vibeam.models.mapping, another section of the same orbit) to 1e-9
     (measured <= 6e-12)."""
-    from vibeam.models.sdof_compliant_map import CompliantMappingSolver
+    from vibeam.models.mapping import MappingSolver
 
     m, brs = fig8_kv
     b = brs[0]
@@ -99,7 +99,7 @@ def test_liouville_and_the_map_of_sec_4_2(fig8_kv):
         T = 2 * math.pi / pt.p
         det = math.exp(-2 * m.beta * T - cc * pt.shot.extra["contact_time"])
         assert np.linalg.det(pt.shot.M) == pytest.approx(det, rel=1e-10)
-    ms = CompliantMappingSolver(m)
+    ms = MappingSolver(m)
     checked = 0
     for pt in b.points[::40]:
         if pt.shot.n_impacts != 1 or not np.max(np.abs(pt.mu)) < 1.0:

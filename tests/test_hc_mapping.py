@@ -1,4 +1,4 @@
-"""Method ``mapping`` on a Hunt-Crossley stop (:mod:`vibeam.models.sdof_hc_map`): the
+"""Method ``mapping`` on a Hunt-Crossley stop (:mod:`vibeam.models.mapping`): the
 entry-to-entry map of paper Sec. 4.2 with the contact phase integrated together with its
 variational equations.
 
@@ -15,7 +15,7 @@ import pytest
 from vibeam.models import make_solver
 from vibeam.models.compliant import HuntCrossley
 from vibeam.models.sdof import SDOF, EventSolver
-from vibeam.models.sdof_hc_map import HuntCrossleyMappingSolver
+from vibeam.models.mapping import MappingSolver
 from vibeam.engine.records import summarize
 
 KEYS = ("amplitude", "q_max", "impact_velocity", "contact_duration", "contact_force_max", "penetration_max",
@@ -41,7 +41,7 @@ def test_hc_map_fixed_point_is_the_event_orbit_and_multipliers_match(k, W, R):
     the state; measured 1.1e-7 with 8 samples per period on the event integrator, and 1.1e-7 / 2.4e-7
     with 16 / 32 on the former compliant kernel, which passed with its 8 by where its grid fell)."""
     m = _model(k, R)
-    s = HuntCrossleyMappingSolver(m)
+    s = MappingSolver(m)
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
     ev = EventSolver(m).point(W, None, 400, 8, 64)
@@ -93,7 +93,7 @@ method = "mapping"
 """
     m = parse_case(text, "x.toml").model_spec().build()
     solver = make_solver(m, "mapping")
-    assert isinstance(solver, HuntCrossleyMappingSolver)
+    assert isinstance(solver, MappingSolver)
     W = np.array([1.8, 2.0])
     d = run_sweep(solver, Sweep(Omega=W, direction="up"), jobs=1).data
     assert np.all(d["status"] == "ok") and np.all(d["period"] == 1)

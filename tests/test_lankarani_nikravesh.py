@@ -330,11 +330,11 @@ def test_mapping_fixed_point_is_the_settled_event_orbit():
     stop (k_c = 1e4, R = 0.9, Omega = 1.8): its period-1 fixed point is the event kernel's
     orbit settled over 400 periods -- amplitude, entry speed and the contact record to 1e-8
     relative, the Hunt-Crossley test's tolerance (tests/test_hc_mapping.py)."""
-    from vibeam.models.sdof_hc_map import HuntCrossleyMappingSolver
+    from vibeam.models.mapping import MappingSolver
 
     m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, contact=LankaraniNikravesh(1e4, 0.9))
     s = make_solver(m, "mapping")
-    assert isinstance(s, HuntCrossleyMappingSolver)
+    assert isinstance(s, MappingSolver)
     out = s.point(1.8, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
     se = summarize(EventSolver(m).point(1.8, None, 400, 8, 64), 0.0)

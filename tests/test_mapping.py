@@ -7,8 +7,8 @@ import pytest
 from vibeam.models import make_solver
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_flow import propagate, particular_coefficients
-from vibeam.models.sdof_mapping import (fixed_point_analysis, impact_map, impact_map_jacobian,
-                                        newton_fixed_point, next_impact)
+from vibeam.models.mapping import (fixed_point_analysis, impact_map, impact_map_jacobian, newton_fixed_point,
+                                   next_impact)
 
 TWO_PI = 2 * math.pi
 FIG13 = SDOF(0.015, 0.5e-3, 0.9, 0.5e-3)   # paper Fig. 13 scene

@@ -1,5 +1,5 @@
 """Pointwise mapping between two stops (paper Sec. 4.2 with the second stop of Sec. 8;
-:mod:`vibeam.models.sdof_mapping_stops`).
+:mod:`vibeam.models.mapping`).
 
 Oracles: the exact event kernel (its settled orbits: amplitudes, impacts and speeds per stop),
 central differences of the event kernel's stroboscopic map (the Floquet multipliers), Liouville's
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from vibeam.models.sdof import SDOF, EventSolver
-from vibeam.models.sdof_mapping import MappingSolver
+from vibeam.models.mapping import MappingSolver
 from vibeam.engine.records import summarize
 
 # (Delta, Delta_lower, R_lower, Omega, q0): paper-fig7-two-sided-like scenes (beta = 0.015,

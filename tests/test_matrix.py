@@ -18,8 +18,9 @@ allowed (``vibeam.case.schema.CaseError``).  :data:`WORKING` lists the cells tha
 starts or stops working must be added or removed here, so the count in the README's
 "Architecture" section stays true.  The second test runs every working row through each of its
 time-domain methods and checks them against each other (``event``, the exact kernels, against
-``direct``, solve_ivp with events, sharing no code); the third builds each SDOF row again as a
-one-mode beam and asks for the same trajectory (issue 20: one-mode beam = SDOF to 1e-10).
+``direct``, solve_ivp with events, sharing no code); the third every row with ``mapping`` against
+``event`` (the mapping's orbit is the settled event orbit); the last builds each SDOF row again as
+a one-mode beam and asks for the same trajectory (issue 20: one-mode beam = SDOF to 1e-10).
 """
 from __future__ import annotations
 
@@ -59,17 +60,18 @@ def _cells(spec: str) -> set:
 #: SDOF stops and a compliant stop beside a Newton one continue; 66 with the one direct solver for every
 #: law: the beam's two Hertz-type stops; 69 with a Newton upper stop above a Kelvin-Voigt lower one on
 #: the SDOF; 90 with the beam's stops carrying their own laws: a Newton stop beside a compliant one at
-#: the mass, either above, and a compliant stop at the mass beside Newton stops elsewhere on the beam)
+#: the mass, either above, and a compliant stop at the mass beside Newton stops elsewhere on the beam;
+#: 97 with the one pointwise mapping: the SDOF's two compliant stops and mixed stops)
 WORKING = _cells("""
 sdof restitution one: event direct mapping averaging continuation
 sdof restitution two: event direct mapping continuation
-sdof restitution mixed: event direct continuation
+sdof restitution mixed: event direct mapping continuation
 sdof linear one: event direct mapping continuation
-sdof linear two: event direct continuation
-sdof linear mixed: event direct continuation
+sdof linear two: event direct mapping continuation
+sdof linear mixed: event direct mapping continuation
 sdof hunt_crossley one: event direct mapping continuation
-sdof hunt_crossley two: event direct continuation
-sdof hunt_crossley mixed: event direct continuation
+sdof hunt_crossley two: event direct mapping continuation
+sdof hunt_crossley mixed: event direct mapping continuation
 beam restitution one: event direct continuation
 beam restitution two: event direct continuation
 beam linear one: event direct continuation
@@ -77,8 +79,8 @@ beam linear two: event direct continuation
 beam hunt_crossley one: event direct continuation
 beam hunt_crossley two: event direct continuation
 sdof lankarani_nikravesh one: event direct mapping continuation
-sdof lankarani_nikravesh two: event direct continuation
-sdof lankarani_nikravesh mixed: event direct continuation
+sdof lankarani_nikravesh two: event direct mapping continuation
+sdof lankarani_nikravesh mixed: event direct mapping continuation
 beam lankarani_nikravesh one: event direct continuation
 beam lankarani_nikravesh two: event direct continuation
 beam restitution point: event direct continuation
@@ -156,8 +158,9 @@ def test_the_matrix_accepts_exactly_the_working_cells_and_refuses_the_others_in_
     assert not wrong, wrong
     assert accepted == WORKING, (sorted(accepted - WORKING), sorted(WORKING - accepted))
     # 43 before lankarani_nikravesh (13 cells of its own), 3 with a stop away from the mass, 21 with the
-    # beam's mixed stops and compliant stops beside point stops
-    assert len(WORKING) == 90
+    # beam's mixed stops and compliant stops beside point stops, 7 with the one pointwise mapping (the
+    # SDOF's two compliant stops and mixed stops)
+    assert len(WORKING) == 97
 
 
 @pytest.mark.parametrize("row", sorted({c[:3] for c in WORKING if c[3] == "event"}), ids="-".join)
@@ -186,6 +189,44 @@ def test_every_working_row_agrees_across_its_time_domain_methods(row):
     if len(sims) == 2:
         a, b = sims
         assert np.max(np.abs(a.q - b.q)) <= 1e-7 * np.max(np.abs(a.q)), (row, np.max(np.abs(a.q - b.q)))
+
+
+@pytest.mark.parametrize("row", sorted({c[:3] for c in WORKING if c[3] == "mapping"}), ids="-".join)
+def test_every_mapping_row_finds_the_event_orbit(row):
+    """Each row with ``mapping``: at the sweep's first frequency (Omega = 0.75, where every row's
+    event run settles on a period-1 orbit that hits each of its stops; period 2 is allowed) the mapping's
+    orbit of that period from rest is the event kernel's, settled over 1500 periods: the same
+    sections per period on each stop, and amplitude, q_max, the mean arrival speed and the contact
+    records of each stop to 1e-8 relative.  Both compute the same exact flows (Newton's law, the
+    Kelvin-Voigt phase) with other code (the mapping: one Newton solve on its sections; the event
+    kernel: time stepping with its certified scans), so they agree to round-off there; the
+    hysteretic-Hertz contact phase is integrated by both to their tolerances (DOP853 at 1e-12
+    against the kernel's Runge-Kutta at 1e-11), so 1e-8 as for one stop (tests/test_hc_mapping.py);
+    measured <= 1.6e-13 for the exact rows, <= 1.4e-10 for the Hertz-type ones.  A contact record that is NaN for the event (a Newton stop's
+    force) is NaN for the mapping too."""
+    from vibeam.models import make_solver
+    from vibeam.engine.records import summarize
+
+    fid, law, stops = row
+    model = vibeam.load_case(case_of(fid, law, stops, ["mapping"])).model_spec().build()
+    W = 0.75
+    ev = summarize(make_solver(model, "event").point(W, None, 1500, 4, 32), model.Delta)
+    n = ev["period"]
+    assert ev["status"] == "ok" and n in (1, 2), (row, ev["status"], n)
+    out = make_solver(model, "mapping", n=n).point(W, None, 0, 0)
+    assert out["status"] == "ok" and out["period"] == n and out["stable"], (row, out["message"])
+    two = stops != "one"
+    keys = ["amplitude", "q_max", "impact_velocity", "contact_duration", "contact_force_max", "penetration_max",
+            "energy_per_impact"]
+    keys += [k + "_lower" for k in keys[2:]] if two else []
+    for k in ["impacts_per_period"] + (["impacts_per_period_lower"] if two else []):
+        assert out[k] == ev[k], (row, k)
+    assert (out["impacts_per_period_lower"] > 0) if two else True, row     # every stop of the row is hit
+    for k in keys:
+        if np.isnan(ev[k]):
+            assert np.isnan(out[k]), (row, k)
+        else:
+            assert out[k] == pytest.approx(ev[k], rel=1e-8, abs=1e-300), (row, k, out[k], ev[k])
 
 
 def _period_one_point(fid, model):

@@ -1,5 +1,5 @@
 """A compliant upper stop beside a restitution (Newton) lower stop, SDOF ``event`` and
-``direct`` (issue 13: each stop with its own law).
+``direct`` (issue 13: each stop with its own law), and ``mapping``.
 
 Oracles: the solve_ivp reference (DOP853 at rtol 1e-11 with the impact applied at a located
 event, independently of the kernel's mirrored frame and certified scans), the one-stop
@@ -88,19 +88,32 @@ def test_chatter_on_the_restitution_stop_ends_in_sticking_as_in_the_direct_refer
     assert t.extra["stuck_fraction"] == pytest.approx(d.extra["stuck_fraction"], rel=1e-6)
 
 
-def test_mixed_stops_are_refused_where_not_implemented():
-    """The methods other than event/direct/continuation (mapping) are refused in one line for
-    either order of the laws; continuation is the one shooting problem
-    (vibeam.models.core.shooting).  A restitution upper stop above a compliant lower one, refused
-    before the one shooting problem, is now served: its stops are Newton's law above the law of
-    contact_lower (tests/test_continuation_compliant_two.py checks its shots)."""
+def test_mixed_stops_are_served_by_the_mapping_and_refused_by_the_textbook_methods():
+    """The mapping (vibeam.models.mapping: a passage through each stop by its law) serves mixed
+    stops, in either order of the laws -- refused here before; now its period-1 orbit of each scene
+    is the event kernel's settled one (amplitude and the speed on each stop to 1e-9 relative: two
+    exact flows, measured <= 1e-13; tests/test_mapping_stops.py checks more) -- and the methods of
+    one Newton stop (averaging) are refused in one line for either order; continuation is the one
+    shooting problem (vibeam.models.core.shooting).  A restitution upper stop above a compliant
+    lower one, refused before the one shooting problem, is now served: its stops are Newton's law
+    above the law of contact_lower (tests/test_continuation_compliant_two.py checks its shots)."""
+    from vibeam.models.mapping import MappingSolver
+
     up = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact_lower=KV)
     assert [s.law.kind for s in up.stops()] == ["impulsive", "compliant"] and mixed_stops(up)
     with pytest.raises(ValueError, match="cannot simulate a compliant stop beside a restitution one"):
-        make_solver(up, "mapping")
+        make_solver(up, "averaging")
     m = _mixed()
     with pytest.raises(ValueError, match="a restitution stop beside a compliant one"):
-        make_solver(m, "mapping")
+        make_solver(m, "averaging")
+    for scene in (up, m):
+        solver = make_solver(scene, "mapping")
+        assert isinstance(solver, MappingSolver)
+        out = solver.point(0.75, None, 0, 0)
+        ev = summarize(EventSolver(scene).point(0.75, None, 1500, 4, 32), scene.Delta)
+        assert out["status"] == "ok" and ev["period"] == out["period"] == 1, out["message"]
+        for key in ("amplitude", "impact_velocity", "impact_velocity_lower"):
+            assert out[key] == pytest.approx(ev[key], rel=1e-9), key
     assert shooting_problem(m, "Omega", Omega=1.0).shot(np.zeros(2), 1.0, 1).status == "ok"
     assert isinstance(make_solver(m, "event"), EventSolver)
     assert isinstance(make_solver(m, "direct"), DirectSolver)

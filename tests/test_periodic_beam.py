@@ -15,8 +15,7 @@ from vibeam.models import SDOF
 from vibeam.models.beam_dynamics import BeamEventSolver, _trans, mode_table
 from vibeam.models.periodic_beam import (NATIVE_PARAMETERS, REBUILD_KEYS, BeamShooting,
                                          _dtrans_dsig, conversions)
-from vibeam.models.sdof_mapping import (event_guess, fixed_point_analysis, newton_fixed_point,
-                                        orbit_extremes)
+from vibeam.models.mapping import event_guess, fixed_point_analysis, newton_fixed_point, orbit_extremes
 
 CASES = Path(__file__).parent.parent / "cases"
 

@@ -13,7 +13,7 @@ import pytest
 
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import SDOF, EventSolver, linear_amplitude
-from vibeam.models.sdof_mapping import is_admissible, newton_fixed_point, orbit_extremes
+from vibeam.models.mapping import is_admissible, newton_fixed_point, orbit_extremes
 from vibeam.engine.records import (STATUSES, amplitude_spread, converging, spread_agrees, summarize,
                             transient_verdict)
 from vibeam.engine.sweep import UNITS, Sweep, _simulate, run_sweep

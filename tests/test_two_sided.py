@@ -405,13 +405,11 @@ method = "{method}"
     ("Delta_lower = 1e-3", "zhuravlev", "cannot simulate a second stop"),
     ("Delta_lower = -1e-3", "event", "the stops overlap: Delta \\+ Delta_lower = -0.001 must be > 0"),
     ("[model.contact_lower]\nR = 0.5", "event", "needs a lower stop"),
-    # a restitution upper stop above a compliant lower one: event, direct, continuation (was refused)
-    ("Delta_lower = 1e-3\n[model.contact_lower]\nlaw = 'linear'\nstiffness = 1e4", "mapping",
-     "contact_lower.law = \"linear\".*allowed with two stops: event, direct, continuation$"),
-    ("Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4\n[model.contact_lower]\nR = 0.5",
-     "mapping", "contact_lower.law = \"restitution\".*allowed with two stops: event, direct, continuation$"),
-    ("Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4", "mapping",
-     "allowed with two stops: event, direct"),
+    # a restitution upper stop above a compliant lower one: event, direct, mapping, continuation (were
+    # refused; mapping's acceptance of this and the two other scenes it was refused on is
+    # test_two_sided_mapping_cases_are_accepted)
+    ("Delta_lower = 1e-3\n[model.contact_lower]\nlaw = 'linear'\nstiffness = 1e4", "averaging",
+     "contact_lower.law = \"linear\".*allowed with two stops: event, direct, mapping, continuation$"),
     ("Delta_lower = 1e-3\n[model.contact_lower]\nR = 1.5", "event", "contact_lower.R"),
 ])
 def test_two_sided_case_errors_are_one_line(model, method, match):
@@ -420,6 +418,22 @@ def test_two_sided_case_errors_are_one_line(model, method, match):
     with pytest.raises(CaseError, match=match) as e:
         parse_case(BASE.format(model=model, method=method), "x.toml")
     assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("model", [
+    "Delta_lower = 1e-3\n[model.contact_lower]\nlaw = 'linear'\nstiffness = 1e4",
+    "Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4\n[model.contact_lower]\nR = 0.5",
+    "Delta_lower = 1e-3\n[model.contact]\nlaw = 'linear'\nstiffness = 1e4",
+])
+def test_two_sided_mapping_cases_are_accepted(model):
+    """The scenes method ``mapping`` was refused on (a compliant stop beside a Newton one, either
+    above, and two compliant stops) validate with it and build the one mapping solver
+    (vibeam.models.mapping; its orbits against the event kernel: tests/test_mapping_stops.py)."""
+    from vibeam.models.mapping import MappingSolver
+
+    case = parse_case(BASE.format(model=model, method="mapping"), "x.toml")
+    assert case.run[0].method == "mapping"
+    assert isinstance(make_solver(case.model_spec().build(), "mapping"), MappingSolver)
 
 
 def test_two_sided_case_builds_both_stops():

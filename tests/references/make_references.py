@@ -28,11 +28,11 @@ that apply, and nothing is written if one fails (:func:`check_runs`):
   from the reference's own impact), admissible, with its exact minimum:
   amplitude to ``1e-8`` relative;
 * period-n points (n = 1..8) of SDOF event runs with k impacts per n periods
-  (all but the one-impact period-1 points): the fixed point of the k-fold impact map, each impact found by the
-  sampled root search of ``next_impact`` (not the event kernel's certified
-  stepping), solved by ``scipy.optimize.fsolve`` for ``(phase, velocity)`` with
-  the k flights summing to n periods; amplitude from the exact minima of the
-  k flights, ``1e-8`` relative;
+  (all but the one-impact period-1 points): the fixed point of the k-fold impact map, each impact found by
+  the pointwise mapping's ``next_impact`` (the closed-form flight with the certified scans of
+  ``vibeam.models.core.signals``, not the event kernel's stepping, impact handling or chatter policy),
+  solved by ``scipy.optimize.fsolve`` for ``(phase, velocity)`` with the k flights summing to n
+  periods; amplitude from the exact minima of the k flights, ``1e-8`` relative;
 * points without impact (``period = -1``): the linear steady state
   ``Delta + C(Omega)`` (``linear_amplitude``; for beam runs the modal sum
   ``linear_sensor_amplitude_m``), ``1e-8`` relative;
@@ -361,13 +361,15 @@ def _impacts_from_strobe(model, W, d, i, n):
 def k_fold_fixed_point(model, W, phi0, v0, k, n):
     """Fixed point of the k-fold impact map whose k flights last n forcing periods together.
 
-    Each flight is found by :func:`vibeam.models.sdof_mapping.next_impact` (sampled root
-    search, independent of the event kernel); ``fsolve`` on ``(phase, velocity)``.
-    Returns ``(q_min of the orbit, (phi, v))`` or None.
+    Each flight is found by :func:`vibeam.models.mapping.next_impact` (the mapping's flight search,
+    independent of the event kernel's stepping); ``fsolve`` on ``(phase, velocity)``; the exact
+    minimum from the flights' extremes (:meth:`vibeam.models.mapping.orbit.Scene.fly`).  Returns
+    ``(q_min of the orbit, (phi, v))`` or None.
     """
     from scipy.optimize import fsolve
 
-    from vibeam.models.sdof_mapping import _extrema, _Flow, next_impact
+    from vibeam.models.mapping import next_impact
+    from vibeam.models.mapping.orbit import Scene
 
     T = 2 * math.pi / W
 
@@ -394,18 +396,18 @@ def k_fold_fixed_point(model, W, phi0, v0, k, n):
     if np.max(np.abs(resid(x))) > 1e-11:
         return None
     fl, _, _ = flights(x)
-    flow = _Flow(model, W)
-    q_min = np.inf
-    for phi, v, tau in fl:
-        _, g, _, smin = _extrema(flow, phi, v, tau, max(int(256 * tau / T), 8), "min")
-        q_min = min([q_min, g[0], g[-1]] + [flow.state(t, phi, v)[0] for t in smin])
-    return model.Delta + q_min, x
+    sc = Scene(model, W, n)
+    ext = np.array([np.inf, -np.inf, np.inf, -np.inf])
+    for phi, v, tau in fl:       # each flight to its next impact, its extremes in ext
+        pas = sc.passage(0, phi / W, v)
+        sc.fly(0, pas, pas.t + tau, ext)
+    return ext[0], x
 
 
 def _sdof_checks(name, model, d):
     from vibeam.models import linear_amplitude
     from vibeam.models.sdof_averaging import solve as averaging
-    from vibeam.models.sdof_mapping import is_admissible, newton_fixed_point, orbit_extremes
+    from vibeam.models.mapping import is_admissible, newton_fixed_point, orbit_extremes
 
     c_map = Check(name, "period-1 points vs impact-map fixed point (Newton)", TOL_MAPPING)
     c_kn = Check(name, "period-n points, k impacts, vs k-fold impact-map fixed point (fsolve)",
