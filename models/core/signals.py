@@ -42,7 +42,7 @@ ROOT_CROSS, ROOT_APEX, ROOT_MIN = np.int64(0), np.int64(1), np.int64(2)
 _kernel = njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 __all__ = ["certify_curvature", "homogeneous_bounds", "signal", "signal_sc", "signal_start", "bounds", "hermite_guess",
-           "root", "scan",
+           "root", "root_value", "scan", "extremes_from",
            "extremes", "homogeneous"]
 
 
@@ -300,6 +300,32 @@ def root(kind, lo, hi, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
 
 
 @_kernel
+def root_value(kind, lo, hi, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
+    """:func:`root` and the signal's value at the returned time, from the evaluation the iteration
+    made there (the same number as evaluating it again; one evaluation fewer)."""
+    dxold = hi - lo
+    dx = dxold
+    s = s0 if lo < s0 < hi else 0.5 * (lo + hi)
+    sp0 = math.sin(phi0)
+    cp0 = math.cos(phi0)
+    g_hi = np.nan            # the value at hi once an iterate became hi (F >= 0 there)
+    for _ in range(200):
+        g, v, g2, g3, g4 = signal_sc(s, sp0, cp0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+        F, dF = select(kind, g, v, g2)
+        s_now = s
+        if F >= 0.0:
+            g_hi = g
+        s, lo, hi, dx, dxold, done = rtsafe_update(F, dF, s, lo, hi, dx, dxold)
+        if done:
+            if s == s_now:
+                return s, g
+            if g_hi == g_hi and s == hi:
+                return s, g_hi
+            return s, signal_sc(s, sp0, cp0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
+    return hi, signal_sc(hi, sp0, cp0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
+
+
+@_kernel
 def scan(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4, m):
     """One certified step of at most ``h``: the first time the signal reaches 0 from below.
 
@@ -321,14 +347,19 @@ def scan(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4, m):
 def extremes(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, vstart, vend, ext, m):
     """Update ``ext = [min, max]`` with the interior minimum or maximum of a signal on ``[0, h]``
     when its slope changes sign between the ends (``vstart``, ``vend``)."""
+    extremes_from(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, vstart, vend, h * vstart / (vstart - vend), ext, m)
+
+
+@_kernel
+def extremes_from(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, vstart, vend, s0, ext, m):
+    """:func:`extremes` with the root search started at ``s0`` (e.g. :func:`hermite_guess` of the
+    slope from its values and derivatives at both ends)."""
     if vstart < 0.0 < vend:
-        sm = root(ROOT_MIN, 0.0, h, h * vstart / (vstart - vend), phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-        v = signal(sm, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
+        sm, v = root_value(ROOT_MIN, 0.0, h, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
         if v < ext[0]:
             ext[0] = v
     elif vstart > 0.0 > vend:
-        sa = root(ROOT_APEX, 0.0, h, h * vstart / (vstart - vend), phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-        v = signal(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
+        sa, v = root_value(ROOT_APEX, 0.0, h, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
         if v > ext[1]:
             ext[1] = v
 
