@@ -590,7 +590,9 @@ class BeamEventSolver:
     ----------
     model : BeamImpactModel
     transient_samples : int
-        Grid points per forcing period in the transient (efficiency only).
+        Grid points per forcing period in the transient (the steps are sub-steps of at most
+        ``h_cap``; efficiency only, but for integrated contact phases, as
+        :class:`~vibeam.models.sdof.EventSolver`).
     chatter_tol : float
         Accuracy required of the chatter accumulation estimate before sticking.
     max_impacts_per_period : int

@@ -226,8 +226,12 @@ class EventSolver:
     model : SDOF
         The oscillator.
     transient_samples : int, optional
-        Grid points per forcing period during the discarded transient (only the
-        efficiency of impact detection depends on it, never its correctness).
+        Grid points per forcing period during the discarded transient (the steps are
+        sub-steps of it of at most 1/16 of the natural period).  Only the efficiency of
+        impact detection depends on it, except for a contact phase that is integrated
+        (hysteretic-Hertz stops): its Runge-Kutta steps end on the grid too, so the
+        transient's numerical orbit differs from the record's within the integration
+        tolerance (measured 5e-11 relative with 4 points, 5e-14 with 16).
     chatter_tol : float, optional
         Relative error allowed in the constant-acceleration estimate of the
         chatter accumulation time before the solver jumps to it.
