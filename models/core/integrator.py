@@ -62,8 +62,8 @@ from ..system import advance_count, transition_increment
 from .contact_phase import (EK_ENTRY, EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_IMPACT, EK_NONE, EK_RELEASE, linear_step,
                             phase_harmonics, rk_phase_step, rk_scales)
 from .laws import force, hertz_floor, inside_sign, is_compliant
-from .signals import (ROOT_APEX, bounds, extremes, homogeneous, homogeneous_bounds, mode_ends, root, scan, scan_from,
-                      signal, signal_start)
+from .signals import (ROOT_APEX, bounds, extremes, extremes_from, hermite_guess, homogeneous, homogeneous_bounds,
+                      mode_ends, root_value, scan, scan_from, signal, signal_start)
 
 __all__ = ["Record", "integrate", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
            "STATUS_NAMES", "EV_START", "EV_IMPACT", "EV_STICK", "EV_STICK_IMPACT", "EV_RELEASE", "EV_ENTRY",
@@ -272,16 +272,40 @@ def _log_event(evlog, nlog, kind, t, aux, stop, eta, etad):
 
 
 @_kernel
-def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m, stop):
-    """Locate the maximum of a gap inside ``[0, h]`` (slope + at 0, <= 0 at h) and log it."""
+def _log_apex(aplog, nlog, t, h, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m, stop, fpp0, fp1, fpp1):
+    """Locate the maximum of a gap inside ``[0, h]`` (slope ``fp0 > 0`` at 0, ``fp1 <= 0`` at h) and
+    log it; the search starts at the :func:`hermite_guess` of the slope from its derivatives
+    ``fpp0``, ``fpp1`` at the ends (NaN: unknown, the midpoint)."""
     k = nlog[1]
     if k < aplog.shape[0]:
-        sa = root(ROOT_APEX, 0.0, h, -1.0, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)
-        ga = signal(sa, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)[0]
+        s0 = -1.0 if fpp0 != fpp0 else hermite_guess(0.0, h, -fp0, -fpp0, -fp1, -fpp1)
+        sa, ga = root_value(ROOT_APEX, 0.0, h, s0, phi0, Om, x0, y0, mp, p, zero, Sa, Sb, f0, fp0, m)
         aplog[k, 0] = t + sa
         aplog[k, 1] = ga
         aplog[k, 2] = stop
     nlog[1] = k + 1
+
+
+@_kernel
+def _sensor_extreme(h, phi, Om, x0, y0, mp, sens, zero, Sa, Sb, q0, qp0, qp1, x2e, ext, m):
+    """The sensor's interior extreme in a free step of length ``h`` whose slope turns (``qp0``,
+    ``qp1`` of opposite signs) into ``ext = [min, max]``: the root of the slope, started at the
+    :func:`hermite_guess` from the slope's derivatives at both ends (homogeneous parts ``x0, y0`` at
+    the start, their second derivatives ``x2e`` at the end).  A separate function: the hot loop
+    keeps no more values live for it."""
+    sp0 = math.sin(phi)
+    cp0 = math.cos(phi)
+    sp1 = math.sin(phi + Om * h)
+    cp1 = math.cos(phi + Om * h)
+    W2 = Om * Om
+    qa0 = -W2 * (Sa * sp0 + Sb * cp0)
+    qa1 = -W2 * (Sa * sp1 + Sb * cp1)
+    for i in range(m):
+        qa0 += sens[i] * (-2.0 * mp[i, 0] * y0[i] - mp[i, 1] * x0[i])
+        qa1 += sens[i] * x2e[i]
+    sgn = 1.0 if qp0 < 0.0 else -1.0
+    s0 = hermite_guess(0.0, h, sgn * qp0, sgn * qa0, sgn * qp1, sgn * qa1)
+    extremes_from(h, phi, Om, x0, y0, mp, sens, zero, Sa, Sb, q0, qp0, qp0, qp1, s0, ext, m)
 
 
 @njit(cache=True, _nrt=False, error_model="numpy", inline="always")
@@ -831,7 +855,7 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
                                     SbG[j], g[j], v[j], nc)
         if apexes and not (s_ev >= 0.0 and k_ev == j) and v[j] > 0.0 and vj <= 0.0:
             _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, x0, y0, mpC, hs.pG[H, j],
-                      zeroN, SaG[j], SbG[j], g[j], v[j], nc, j)
+                      zeroN, SaG[j], SbG[j], g[j], v[j], nc, j, np.nan, 0.0, np.nan)
         if (inside >> j) & 1:
             g[j] = gj
             v[j] = vj
@@ -1607,7 +1631,7 @@ def _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transie
                                 for k in range(ns):
                                     if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:
                                         _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, xF, yF, mp, Nrm[k],
-                                                  zeroN, SaF[k], SbF[k], g[k], v[k], n, k)
+                                                  zeroN, SaF[k], SbF[k], g[k], v[k], n, k, G2[k], v1[k], G21[k])
                             if recording:
                                 # the sensor's extremes inside the step (root-found where its slope turns)
                                 q0s = _dot(sens, eta)
@@ -1615,8 +1639,8 @@ def _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transie
                                 q1s = q0s + _dot(sens, dxv) + SaSF * dsin + SbSF * dcos
                                 qp1s = qp0s + _dot(sens, dyv) + Om * (SaSF * dcos - SbSF * dsin)
                                 if (qp0s < 0.0 < qp1s) or (qp0s > 0.0 > qp1s):
-                                    extremes(s_mv, phi, Om, xF, yF, mp, sens, zeroN, SaSF, SbSF, q0s, qp0s,
-                                             qp0s, qp1s, pext, n)
+                                    _sensor_extreme(s_mv, phi, Om, xF, yF, mp, sens, zeroN, SaSF, SbSF, q0s, qp0s,
+                                                    qp1s, x2v, pext, n)
                             bstale = True
                             for i in range(n):
                                 xF[i] += dxv[i]
