@@ -145,7 +145,8 @@ def Q_star(Omega, beta, B, R, Delta, k=1):
     where positive, NaN elsewhere (shape of ``Omega``).
     """
     g2, g1, _ = polynomial_coefficients(Omega, beta, B, R, Delta, k)
-    qs = -g1 / (2.0 * g2)
+    with np.errstate(divide="ignore", invalid="ignore"):    # g2 = g1 = 0 undamped with R = 1: NaN
+        qs = -g1 / (2.0 * g2)
     return np.where(qs > 0.0, qs, np.nan)
 
 
@@ -157,7 +158,7 @@ def Delta_max(Omega, beta, B, R, k=1):
     """
     k = _check_k(k)
     sigma, beta_k, Bk, _, _, _ = _coefficients(Omega, beta, B, R, 0.0, k)
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):    # 0 / 0 at resonance: NaN
         return Bk * np.asarray(Omega, float) ** 2 * np.sqrt((sigma / beta_k) ** 2 + 1.0)
 
 
