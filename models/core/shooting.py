@@ -483,7 +483,8 @@ def tangent(sy, st, hs, cp, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end
         Receives, per release, its time and ``d t_r / d(x0, p)``.
     rst : ndarray, shape (2n,)
         Receives the end state rebuilt by the tangent's own flows from the last logged event (a
-        check of their consistency with the run).
+        check of their consistency with the run; with compliant stops only, ``cp`` not None:
+        otherwise the state at the last event).
 
     Returns
     -------
@@ -657,10 +658,12 @@ def tangent(sy, st, hs, cp, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end
                     return n_rel, -2
         elif H == 0:
             _flow_free(J, t_cur, te, eta, etad, Om, sy.mp, aF, bF, daF, dbF, dd.dc, dd.dOm, n)
-            _free_state(rst, t_cur, te, Om, sy.mp, aF, bF, n)
+            if cp is not None:      # the rebuilt state is a check of the compliant phases' flows
+                _free_state(rst, t_cur, te, Om, sy.mp, aF, bF, n)
         else:
             _flow_held(J, t_cur, te, eta, etad, Om, H, hs, aC[H], bC[H], daC[H], dbC[H], dd, n)
-            _held_state(rst, t_cur, te, Om, H, hs, aC[H], bC[H], n)
+            if cp is not None:
+                _held_state(rst, t_cur, te, Om, H, hs, aC[H], bC[H], n)
         t_cur = te
         if kind < 0:
             break
