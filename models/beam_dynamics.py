@@ -47,7 +47,7 @@ from .trajectory import Trajectory, call_budget
 from .contact import Relation, Restitution, Stop
 from .core.direct import DirectIntegrator
 from .core.event import EventIntegrator, fundamental_step, trajectory
-from .impact import newton_restitution, restitution_coefficient, restitution_impulse
+from .impact import newton_restitution, restitution_at, restitution_impulse
 from .system import advance_modes, from_beam, mode_table, particular, transition_increment
 
 TWO_PI = 2.0 * math.pi
@@ -456,8 +456,8 @@ class BeamImpactModel:
         upper one): the law of the kernel, in its units."""
         v = np.asarray(velocities, float)
         if stops is None:
-            return np.array([restitution_coefficient(float(x) * self.length_m, self.R, self.R_table_U,
-                                                     self.R_table_R) for x in v])
+            return np.array([restitution_at(float(x) * self.length_m, self.R, self.R_table_U, self.R_table_R)
+                             for x in v])
         codes = self.stop_codes()
         laws = {int(c): s.law for c, s in zip(range(len(self.stops())) if codes is None else codes, self.stops())}
         return np.array([laws[int(k)].coefficient(float(x) * self.length_m) for x, k in zip(v, stops)])

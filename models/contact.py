@@ -85,7 +85,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from .impact import newton_restitution, restitution_coefficient
+from .impact import newton_restitution, restitution_at, restitution_coefficient
 from .registry import IMPLEMENTED_LAWS
 
 # ---- layout of a stop row (kernel arrays)
@@ -164,8 +164,7 @@ class Restitution:
 
     def coefficient(self, U_minus) -> float:
         """``R(U-)`` as the kernels evaluate it."""
-        return float(restitution_coefficient(float(U_minus), self.R, np.asarray(self.table_U, float),
-                                             np.asarray(self.table_R, float)))
+        return restitution_at(U_minus, self.R, np.asarray(self.table_U, float), np.asarray(self.table_R, float))
 
     def row(self) -> tuple:
         """``(law code, R, stiffness, damping, exponent)`` of a kernel stop row."""

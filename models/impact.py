@@ -70,6 +70,12 @@ def restitution_coefficient(U_minus, R, table_U, table_R):
     t = (U_minus - table_U[lo]) / (table_U[hi] - table_U[lo])
     return table_R[lo] + t * (table_R[hi] - table_R[lo])
 
+def restitution_at(U_minus, R, table_U, table_R) -> float:
+    """:func:`restitution_coefficient` evaluated in Python (its own code, the same arithmetic):
+    for callers outside the kernels, which would otherwise compile a specialisation of it for
+    a few calls."""
+    return float(restitution_coefficient.py_func(float(U_minus), float(R), table_U, table_R))
+
 
 @njit(cache=True, error_model="numpy")
 def restitution_impulse(U_minus, R, m_eff):

@@ -66,7 +66,7 @@ from .core.event import EventIntegrator
 from .core.integrator import EV_IMPACT, EV_STICK_IMPACT
 from .core.shooting import Direction, ModalShooting, Setup, directions, dtransition_dsig
 from .contact import Restitution
-from .impact import restitution_coefficient
+from .impact import restitution_at
 from .system import from_beam, particular, transition_entries
 
 __all__ = ["BeamShooting", "BeamContinuation", "conversions", "NATIVE_PARAMETERS", "REBUILD_KEYS"]
@@ -417,7 +417,7 @@ class BeamShooting(ModalShooting):
             st = D["core"].kstops
             nv, law = st.normal[k], m.stops()[k].law      # the impact's stop (normal, law)
             U = float(nv @ etad)
-            Rc = restitution_coefficient(U, law.R, np.asarray(law.table_U, float), np.asarray(law.table_R, float))
+            Rc = restitution_at(U, law.R, np.asarray(law.table_U, float), np.asarray(law.table_R, float))
             etad -= nv * (1.0 + Rc) * U * float(st.m_eff[k])
             return np.concatenate([eta, etad])
         if times[j] > n * T - 1e-6 * T and kinds[j] == EV_IMPACT:

@@ -158,12 +158,12 @@ class SDOF:
         """R of impacts with pre-impact normal velocities ``|q'-|`` (shape (k,)) on the stops
         ``stops`` (k,) (0 upper, 1 lower; None: all on the upper one), the kernel's law
         (:func:`vibeam.models.impact.restitution_coefficient`)."""
-        from .impact import restitution_coefficient
+        from .impact import restitution_at
 
         v = np.asarray(velocities, float)
         if stops is None:
             tv, tR = self.restitution_table()
-            return np.array([restitution_coefficient(float(x), self.R, tv, tR) for x in v])
+            return np.array([restitution_at(float(x), self.R, tv, tR) for x in v])
         laws = [s.law for s in self.stops()]
         return np.array([laws[int(k)].coefficient(x) for x, k in zip(v, stops)])
 
