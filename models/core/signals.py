@@ -242,7 +242,7 @@ def bounds(hb, p, r, Csin, Om, m):
     return M2 * f + 1e-300, M3 * f + 1e-300, M4 * f + 1e-300
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+@_kernel
 def hermite_guess(lo, hi, Fa, dFa, Fb, dFb):
     """A start for :func:`root`: the zero of the cubic Hermite interpolant of ``F`` on ``[lo, hi]``
     from its values and slopes at both ends (``Fa < 0 <= Fb``), by safeguarded Newton steps on
@@ -280,26 +280,6 @@ def hermite_guess(lo, hi, Fa, dFa, Fb, dFb):
 
 
 @_kernel
-def root(kind, lo, hi, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
-    """Safeguarded Newton on a bracket with ``F(lo) < 0 <= F(hi)``, started at ``s0`` (the
-    midpoint unless ``lo < s0 < hi``; :func:`hermite_guess` gives a close one); returns the
-    bracket end where ``F >= 0`` (an event is never placed before its crossing).  kind 0:
-    ``F = f``; 1: ``F = -f'`` (a maximum); 2: ``F = f'`` (a minimum)."""
-    dxold = hi - lo
-    dx = dxold
-    s = s0 if lo < s0 < hi else 0.5 * (lo + hi)
-    sp0 = math.sin(phi0)
-    cp0 = math.cos(phi0)
-    for _ in range(200):
-        g, v, g2, g3, g4 = signal_sc(s, sp0, cp0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-        F, dF = select(kind, g, v, g2)
-        s, lo, hi, dx, dxold, done = rtsafe_update(F, dF, s, lo, hi, dx, dxold)
-        if done:
-            return s
-    return hi
-
-
-@_kernel
 def root_value(kind, lo, hi, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
     """:func:`root` and the signal's value at the returned time, from the evaluation the iteration
     made there (the same number as evaluating it again; one evaluation fewer)."""
@@ -321,8 +301,22 @@ def root_value(kind, lo, hi, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
                 return s, g
             if g_hi == g_hi and s == hi:
                 return s, g_hi
-            return s, signal_sc(s, sp0, cp0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
-    return hi, signal_sc(hi, sp0, cp0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
+            hi = s             # (returned: the bracket end rtsafe_update chose)
+            break
+    s_out = hi
+    # (the rare fallback: one more evaluation, by the compiled signal rather than a third inlined
+    # copy of signal_sc, for the compile time; the same numbers)
+    return s_out, signal(s_out, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
+
+
+@_kernel
+def root(kind, lo, hi, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m):
+    """Safeguarded Newton on a bracket with ``F(lo) < 0 <= F(hi)``, started at ``s0`` (the
+    midpoint unless ``lo < s0 < hi``; :func:`hermite_guess` gives a close one); returns the
+    bracket end where ``F >= 0`` (an event is never placed before its crossing).  kind 0:
+    ``F = f``; 1: ``F = -f'`` (a maximum); 2: ``F = f'`` (a minimum).  The time of
+    :func:`root_value` (one compiled iteration for both)."""
+    return root_value(kind, lo, hi, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
 
 
 @_kernel

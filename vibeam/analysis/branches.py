@@ -110,11 +110,13 @@ class BranchTask:
 
     def warm_up(self) -> None:
         """Load (or compile) this run's kernels in this process: the same continuation cut to 3
-        points per branch, no switching, no curves (a forked pool worker inherits them, so the
-        run itself compiles little).  Failures are ignored: the run records them."""
+        points per branch, no switching, no curves, from the run's own starts (a start met only
+        at the high end compiled its kernels in the workers: the SDOF averaging start's impact
+        map, vibeam bench --compile), so that a forked pool worker inherits them and compiles
+        nothing.  Failures are ignored: the run records them."""
         import dataclasses
 
-        st = dict(self.settings, max_points=3, switch=False, curves=False, start_at="low")
+        st = dict(self.settings, max_points=3, switch=False, curves=False)
         try:
             run_continuation(dataclasses.replace(self, settings=st, curve_key=None, curve_range=None))
         except Exception:
