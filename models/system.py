@@ -523,20 +523,7 @@ def advance_state(s, phi0, Om, z, mp, a, b, m):
     """:func:`advance_count` of a state vector ``z = (eta, eta')`` (shape (2m,)) without offsets, in
     place: the same arithmetic, no allocation and no reference counting (the tangent of the
     shooting problem calls it per segment)."""
-    half = 0.5 * Om * s
-    sh = math.sin(half)
-    ph = phi0 + half
-    sph = math.sin(ph)
-    cph = math.cos(ph)
-    sp0 = math.sin(phi0)
-    cp0 = math.cos(phi0)
-    for j in range(m):
-        x0 = z[j] - 0.0 - (a[j] * sp0 + b[j] * cp0)      # (the offset of advance_count: zero)
-        y0 = z[m + j] - Om * (a[j] * cp0 - b[j] * sp0)
-        a11, a12, a21, a22 = transition_increment(s, mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3],
-                                                  mp[j, 4], mp[j, 5])
-        z[j] += a11 * x0 + a12 * y0 + 2.0 * sh * (a[j] * cph - b[j] * sph)
-        z[m + j] += a21 * x0 + a22 * y0 - 2.0 * Om * sh * (a[j] * sph + b[j] * cph)
+    advance_count(s, phi0, Om, z[:m], z[m:], mp, a, b, z[:0], m)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -562,7 +549,7 @@ def advance_count(s, phi0, Om, z, zd, mp, a, b, e, m):
         :func:`mode_table` of the modes.
     a, b, e : ndarray, shape (n,)
         Particular coefficients (:func:`particular`) and constant offsets (a stop's static
-        offset of the constrained modes; zeros in free flight).
+        offset of the constrained modes; zeros in free flight; ``e`` of length 0: none).
     m : int
         Coordinates moved (the first ``m``; all of them for :func:`advance_modes`).
     """
@@ -574,7 +561,7 @@ def advance_count(s, phi0, Om, z, zd, mp, a, b, e, m):
     sp0 = math.sin(phi0)
     cp0 = math.cos(phi0)
     for j in range(m):
-        x0 = z[j] - e[j] - (a[j] * sp0 + b[j] * cp0)
+        x0 = z[j] - (e[j] if e.shape[0] > 0 else 0.0) - (a[j] * sp0 + b[j] * cp0)
         y0 = zd[j] - Om * (a[j] * cp0 - b[j] * sp0)
         a11, a12, a21, a22 = transition_increment(s, mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3],
                                                   mp[j, 4], mp[j, 5])
