@@ -1077,6 +1077,20 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     i : ndarray of int64, shape (2 e + m,)
         The events' kinds and stops, the impacts' stops.
     """
+    d = 2 * sy.k.shape[0]
+    xe = np.empty(d)
+    rst = np.zeros(d)
+    out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts,
+                                                 max_steps, chatter_tol, rec, J, rel, derivatives, xe, rst)
+    return _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, derivatives, scale)
+
+
+@njit(cache=True, error_model="numpy")
+def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel,
+          derivatives, xe, rst):
+    """The run and tangent of :func:`shoot` into the buffers (``xe``: the final state, shape (2n,);
+    ``rst``: the rebuilt state), without packing them: ``(out, held0, n_rel, n_inexact, finite)``,
+    ``out`` the tuple of :func:`vibeam.models.core.integrator.integrate`."""
     n = sy.k.shape[0]
     d = 2 * n
     ncol = J.shape[1]
@@ -1093,19 +1107,27 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     n_inexact = -1
     finite = True
     n_ev = rec.nlog[0]
-    n_ap = rec.nlog[1]
-    rst = np.zeros(d)
+    for i in range(n):
+        xe[i] = eta[i]
+        xe[n + i] = etad[i]
     if derivatives and out[0] != 3 and n_ev <= rec.evlog.shape[0]:
-        x_end = np.empty(d)
-        for i in range(n):
-            x_end[i] = eta[i]
-            x_end[n + i] = etad[i]
-        n_rel, n_inexact = tangent(sy, st, hs, cp, dd, Om, rec.evlog, n_ev, held0, x0, x_end, out[6],
+        n_rel, n_inexact = tangent(sy, st, hs, cp, dd, Om, rec.evlog, n_ev, held0, x0, xe, out[6],
                                    n_periods * TWO_PI / Om, J, rel, rst)
         for i in range(d):
             for c in range(ncol):
                 if not math.isfinite(J[i, c]):
                     finite = False
+    return out, held0, n_rel, n_inexact, finite
+
+
+@njit(cache=True, error_model="numpy")
+def _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, derivatives, scale):
+    """The two arrays of :func:`shoot` from a shot's buffers (:func:`_shot`)."""
+    d = xe.shape[0]
+    n = d // 2
+    ncol = J.shape[1]
+    n_ev = rec.nlog[0]
+    n_ap = rec.nlog[1]
     m = min(out[1], rec.imp_t.shape[0])
     e = min(n_ev, rec.evlog.shape[0])
     a = min(n_ap, rec.aplog.shape[0])
@@ -1134,9 +1156,8 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
         apex = max(apex, rec.aplog[j, 1])
     f[H_APEX] = apex
     o = HEAD
-    for i in range(n):
-        f[o + i] = eta[i]
-        f[o + n + i] = etad[i]
+    for i in range(d):
+        f[o + i] = xe[i]
     o += d
     if derivatives:
         for i in range(d):
@@ -1234,10 +1255,19 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
     u = u_pred.copy()
     dist = 0.0
     nr = np.inf
-    f = np.empty(0)
-    iv = np.empty(0, np.int64)
     xp = np.empty(d)
+    xe = np.empty(d)
+    rst = np.zeros(d)
     n_shots = 0
+    code = CORRECT_NO_CONVERGENCE
+    it_out = max_newton
+    # the last shot's outcome, packed once at the end (:func:`_pack`; the iterations' shots before
+    # it only need the state and the tangent, which stay in the buffers)
+    out = (0, 0, 0.0, 0.0, 0, 0.0, 0, 0, 0.0, 0, 0.0)
+    held0 = 0
+    n_rel = -1
+    n_inexact = -1
+    finite = True
     for it in range(max_newton + 1):
         x = u[:d] * sx
         p = u[d] * sp
@@ -1250,30 +1280,37 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
             _cm, bad = contact_at_section(st, x)
             ok = bad == 0
         if not ok:
-            return CORRECT_FALLBACK, it, n_shots, nr, u, f, iv
-        f, iv = shoot(sy, st, hs, cp, dd, Om, x, -1, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J,
-                      rel, True, scale)
+            code, it_out = CORRECT_FALLBACK, it
+            break
+        out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x, -1, n_periods, h_cap, max_impacts,
+                                                     max_steps, chatter_tol, rec, J, rel, True, xe, rst)
         n_shots += 1
-        if f[H_STATUS] == ST_FAILED or f[H_NINEXACT] != 0.0 or f[H_FINITE] == 0.0:
-            return CORRECT_FALLBACK, it, n_shots, nr, u, f, iv
+        if out[0] == ST_FAILED or n_inexact != 0 or not finite:
+            code, it_out = CORRECT_FALLBACK, it
+            break
         for i in range(d):
             xp[i] = J[i, d + col] * factor
-        nr, ndu, un, dist_new, singular = _bordered_step(J[:, :d], xp, f[HEAD:HEAD + d], x, u, u_pred, t, sx, sp)
+        nr, ndu, un, dist_new, singular = _bordered_step(J[:, :d], xp, xe, x, u, u_pred, t, sx, sp)
         if singular:
-            return CORRECT_SINGULAR, it, n_shots, nr, u, f, iv
+            code, it_out = CORRECT_SINGULAR, it
+            break
         if nr <= tol or (nr <= 1e3 * tol and it > 0 and ndu <= tol):
-            if radius >= 0.0 and dist > radius:
-                return CORRECT_LEFT, it, n_shots, nr, u, f, iv
-            return CORRECT_CONVERGED, it, n_shots, nr, u, f, iv
+            code, it_out = (CORRECT_LEFT if radius >= 0.0 and dist > radius else CORRECT_CONVERGED), it
+            break
         if it == max_newton:
             break
         if not (nr < np.inf and ndu < np.inf):
-            return CORRECT_NONFINITE, it, n_shots, nr, u, f, iv
+            code, it_out = CORRECT_NONFINITE, it
+            break
         u = un
         dist = dist_new
         if radius >= 0.0 and dist > 2.0 * radius:
-            return CORRECT_LEFT, it, n_shots, nr, u, f, iv
-    return CORRECT_NO_CONVERGENCE, max_newton, n_shots, nr, u, f, iv
+            code, it_out = CORRECT_LEFT, it
+            break
+    if n_shots == 0:
+        return code, it_out, n_shots, nr, u, np.empty(0), np.empty(0, np.int64)
+    f, iv = _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, True, scale)
+    return code, it_out, n_shots, nr, u, f, iv
 
 
 # ============================================================================ the problem
