@@ -385,13 +385,21 @@ def _failed(fs, ist):
 
 
 # ============================================================================ preparing a call
-@njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _alloc(n, ns, S, Om, ns_transient, ns_record, h_cap):
-    """The work arrays of one call (:func:`_frequency` fills them) and the sub-steps per grid step
-    of the transient and of the record (a grid step split into ``sub`` of at most ``h_cap``)."""
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def substeps(Om, ns_transient, ns_record, h_cap):
+    """The sub-steps per grid step of the record and of the transient ``(sub_r, sub_t)`` (a grid
+    step split into ``sub`` of at most ``h_cap``)."""
     T = TWO_PI / Om
     sub_t = max(1, int(math.ceil((T / ns_transient) / h_cap * (1.0 - 1e-12))))
     sub_r = max(1, int(math.ceil((T / ns_record) / h_cap * (1.0 - 1e-12))))
+    return sub_r, sub_t
+
+
+@njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap):
+    """The work arrays of one call (:func:`_frequency` fills them) and the sub-steps per grid step
+    of the transient and of the record (:func:`substeps`)."""
+    sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
     nt_t = ns_transient * sub_t
     nt_r = ns_record * sub_r
     one = nt_t == nt_r and ns_transient == ns_record     # one grid (a shot): the same tables
@@ -408,7 +416,7 @@ def _alloc(n, ns, S, Om, ns_transient, ns_record, h_cap):
 def _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
                ns_transient, ns_record, h_cap, fs, ist):
     """Per-frequency data (particular solutions, the harmonic parts of every signal, the tables of
-    the sub-steps) into the work arrays of :func:`_alloc`; the record and the loop's state reset.
+    the sub-steps) into the work arrays of :func:`new_work`; the record and the loop's state reset.
     Returns 0, or -1 (the forced response is not finite) / -2 (the motion's scale is subnormal),
     the record then untouched."""
     n = eta.shape[0]
@@ -1786,16 +1794,41 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
     n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
-    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, sub_r,
-     sub_t) = _alloc(n, ns, S, Om, ns_transient, ns_record, h_cap)
+    work = new_work(n, ns, S, Om, ns_transient, ns_record, h_cap)
+    if cp is None:
+        return integrate_newton(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record,
+                                h_cap, max_impacts, max_steps, chatter_tol, rec, work)
+    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, sub_r, sub_t) = work
     status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
                         ns_transient, ns_record, h_cap, fs, ist)
     if status != 0:
         return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
-    if cp is None:
-        return _run(sy, st, hs, None, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
-                    max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs,
-                    ist)
     cw = _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec)
     return _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
+                max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist)
+
+
+@_kernel
+def work_fits(work, Om, ns, h_cap):
+    """Whether the work arrays of :func:`new_work` for one grid of ``ns`` points (``work``,
+    transient and record alike) serve a call at ``Om``: a table long enough for its sub-steps."""
+    sub_r, _sub_t = substeps(Om, ns, ns, h_cap)
+    return ns * sub_r + 1 <= work[7].shape[0]
+
+
+@_kernel
+def integrate_newton(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+                     max_impacts, max_steps, chatter_tol, rec, work):
+    """:func:`integrate` for Newton stops only, in the caller's work arrays (``work``: the tuple of
+    :func:`new_work`; a caller that reuses it at another ``Om`` runs one grid, ``ns_transient ==
+    ns_record``, and checks :func:`work_fits`; the sub-steps are those of ``Om``): no
+    allocation and no reference counting, for compiled callers that run many calls (the shots
+    of a corrector)."""
+    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t) = work
+    sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
+    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
+                        ns_transient, ns_record, h_cap, fs, ist)
+    if status != 0:
+        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
+    return _run(sy, st, hs, None, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
                 max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist)

@@ -58,7 +58,7 @@ from ..periodic import Shot
 from ..system import advance_count, advance_state, transition_entries
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
-                         ST_FAILED, integrate, new_record)
+                         ST_FAILED, integrate, integrate_newton, new_record, new_work, work_fits)
 from .laws import force, force_partials, hertz_floor
 from .variational import contact_accel, contact_damping, flow_linear, flow_rk, pair_particular
 
@@ -1077,20 +1077,24 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     i : ndarray of int64, shape (2 e + m,)
         The events' kinds and stops, the impacts' stops.
     """
-    d = 2 * sy.k.shape[0]
+    n = sy.k.shape[0]
+    d = 2 * n
     xe = np.empty(d)
     rst = np.zeros(d)
+    work = new_work(n, st.offset.shape[0], hs.valid.shape[0], Om, 1, 1, h_cap)
     out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts,
-                                                 max_steps, chatter_tol, rec, J, rel, derivatives, xe, rst)
+                                                 max_steps, chatter_tol, rec, J, rel, derivatives, xe, rst, work)
     return _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, derivatives, scale)
 
 
 @njit(cache=True, error_model="numpy")
 def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel,
-          derivatives, xe, rst):
+          derivatives, xe, rst, work):
     """The run and tangent of :func:`shoot` into the buffers (``xe``: the final state, shape (2n,);
-    ``rst``: the rebuilt state), without packing them: ``(out, held0, n_rel, n_inexact, finite)``,
-    ``out`` the tuple of :func:`vibeam.models.core.integrator.integrate`."""
+    ``rst``: the rebuilt state; ``work``: the integrator's work arrays for a grid of one point per
+    period at ``Om``, :func:`~vibeam.models.core.integrator.work_fits`, used by Newton stops),
+    without packing them: ``(out, held0, n_rel, n_inexact, finite)``, ``out`` the tuple of
+    :func:`vibeam.models.core.integrator.integrate`."""
     n = sy.k.shape[0]
     d = 2 * n
     ncol = J.shape[1]
@@ -1099,10 +1103,16 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
         if cp is not None:
             cm, _bad = contact_at_section(st, x0)
             held0 |= cm
-    eta = x0[:n].copy()
-    etad = x0[n:].copy()
-    out = integrate(sy, st, hs, cp, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
-                    chatter_tol, rec)
+    for i in range(d):
+        xe[i] = x0[i]
+    eta = xe[:n]
+    etad = xe[n:]
+    if cp is None:
+        out = integrate_newton(sy, st, hs, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
+                               chatter_tol, rec, work)
+    else:
+        out = integrate(sy, st, hs, cp, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
+                        chatter_tol, rec)
     n_rel = -1
     n_inexact = -1
     finite = True
@@ -1268,6 +1278,9 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
     n_rel = -1
     n_inexact = -1
     finite = True
+    Om0 = offset + factor * u[d] * sp
+    work = new_work(d // 2, st.offset.shape[0], hs.valid.shape[0], Om0 if math.isfinite(Om0) and Om0 > 0.0 else 1.0,
+                    1, 1, h_cap)
     for it in range(max_newton + 1):
         x = u[:d] * sx
         p = u[d] * sp
@@ -1282,8 +1295,10 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
         if not ok:
             code, it_out = CORRECT_FALLBACK, it
             break
+        if not work_fits(work, Om, 1, h_cap):
+            work = new_work(d // 2, st.offset.shape[0], hs.valid.shape[0], Om, 1, 1, h_cap)
         out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x, -1, n_periods, h_cap, max_impacts,
-                                                     max_steps, chatter_tol, rec, J, rel, True, xe, rst)
+                                                     max_steps, chatter_tol, rec, J, rel, True, xe, rst, work)
         n_shots += 1
         if out[0] == ST_FAILED or n_inexact != 0 or not finite:
             code, it_out = CORRECT_FALLBACK, it
