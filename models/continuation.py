@@ -272,6 +272,7 @@ class _Engine:
         self.n_shots = 0
         # the spectrum: compiled for small d (no Python dispatch per point), LAPACK beyond
         self.spectrum = floquet_spectrum_small if self.d <= SMALL_SPECTRUM else floquet_spectrum
+        self._tangent_at = None      # (point, t_ref, tangent) of the compiled corrector's last point
 
     # ------------------------------------------------------------------ basic evaluations
     def shot(self, x, p, n):
@@ -308,8 +309,9 @@ class _Engine:
             return t if t @ t_ref >= 0 else -t
         return t if t[d] * direction >= 0 else -t
 
-    def make_point(self, x, p, s, t=None, its=0, u=None):
-        mu, pd, ns = self.spectrum(np.ascontiguousarray(s.M, dtype=float))
+    def make_point(self, x, p, s, t=None, its=0, u=None, spectrum=None):
+        """The :class:`Point` of a corrected shot (``spectrum``: its Floquet spectrum if known)."""
+        mu, pd, ns = spectrum if spectrum is not None else self.spectrum(np.ascontiguousarray(s.M, dtype=float))
         return Point(x=np.asarray(x, float).copy(), p=float(p), u=self.u_of(x, p) if u is None else u,
                      t=t, shot=s, mu=mu, its=its, pd=pd, ns=ns)
 
@@ -413,10 +415,13 @@ class _Engine:
             except Exception:       # noqa: BLE001 - the loop below meets the same shots and reports
                 r = None
             if r is not None:
-                code, it, u, x, p, nr, s, n_shots = r
+                code, it, u, x, p, nr, s, n_shots, (spectrum, tan) = r
                 self.n_shots += n_shots
                 if code == 0:
-                    return self.make_point(x, p, s, its=it, u=u), ""
+                    pt = self.make_point(x, p, s, its=it, u=u, spectrum=spectrum)
+                    # the tangent the compiled corrector computed at the point along t (finish's)
+                    self._tangent_at = (pt, t, tan) if tan is not None else None
+                    return pt, ""
                 return None, {1: "the corrector left the neighbourhood of the predictor",
                               2: "singular bordered Jacobian",
                               3: "non-finite residual or Newton step (singular bordered Jacobian)"}.get(
@@ -453,7 +458,10 @@ class _Engine:
     def finish(self, pt, t_ref=None, direction=1.0, away=None):
         """Tangent of a corrected point (oriented along ``t_ref``, or away from ``away``)."""
         t = None
-        if t_ref is not None:
+        known = self._tangent_at
+        if t_ref is not None and known is not None and known[0] is pt and known[1] is t_ref:
+            t = known[2]
+        elif t_ref is not None:
             try:
                 t = bordered_tangent(pt.shot.M, pt.shot.x_p, self.sx, self.sp, t_ref)
             except Exception:

@@ -52,7 +52,7 @@ from numba import njit
 
 from ..compliant import R_MIN_LINEAR, damping_ratio_for_restitution
 from ..contact import LAW_LINEAR
-from ..continuation_kernels import corrector_step
+from ..continuation_kernels import SMALL_SPECTRUM, bordered_tangent, corrector_step, floquet_spectrum_small
 from ..impact import restitution_coefficient
 from ..periodic import Shot
 from ..system import advance_count, advance_state, transition_entries
@@ -1260,6 +1260,14 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
         The last iterate.
     f, iv : ndarray
         The last shot, packed (:func:`shoot`).
+    mu, pd, ns : ndarray of complex, float, float
+        The converged point's Floquet spectrum
+        (:func:`vibeam.models.continuation_kernels.floquet_spectrum_small`; ``mu`` empty when not
+        computed: not converged, ``d > SMALL_SPECTRUM`` or a LAPACK failure).
+    tan : ndarray, shape (d + 1,) or (0,)
+        The converged point's unit tangent oriented along ``t``
+        (:func:`vibeam.models.continuation_kernels.bordered_tangent`; empty when not computed or
+        not finite).  The engine's own calls of the two functions on the point give the same bits.
     """
     d = u_pred.shape[0] - 1
     u = u_pred.copy()
@@ -1322,10 +1330,27 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
         if radius >= 0.0 and dist > 2.0 * radius:
             code, it_out = CORRECT_LEFT, it
             break
+    mu = np.empty(0, np.complex128)
+    pd = np.nan
+    nsv = np.nan
+    tan = np.empty(0)
     if n_shots == 0:
-        return code, it_out, n_shots, nr, u, np.empty(0), np.empty(0, np.int64)
+        return code, it_out, n_shots, nr, u, np.empty(0), np.empty(0, np.int64), mu, pd, nsv, tan
+    if code == CORRECT_CONVERGED and d <= SMALL_SPECTRUM:
+        # what the engine computes next at the point (its spectrum and tangent), in this call
+        Mc = J[:, :d].copy()
+        try:
+            mu, pd, nsv = floquet_spectrum_small(Mc)
+        except Exception:       # noqa: BLE001 - LAPACK's failure: the engine's own call reports it
+            mu = np.empty(0, np.complex128)
+        try:
+            tn = bordered_tangent(Mc, xp, sx, sp, t)
+            if np.isfinite(tn).all():
+                tan = tn
+        except Exception:       # noqa: BLE001 - a singular bordered matrix: the engine falls back
+            pass
     f, iv = _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, True, scale)
-    return code, it_out, n_shots, nr, u, f, iv
+    return code, it_out, n_shots, nr, u, f, iv, mu, pd, nsv, tan
 
 
 # ============================================================================ the problem
@@ -1627,11 +1652,12 @@ class ModalShooting:
             ``ok`` or not of the problem's range: the caller runs its own corrector (which meets
             the same iterates, one :meth:`shot` at a time, and reports what stopped it).
         tuple
-            ``(code, it, u, x, p, nr, shot, n_shots)``: the outcome (:data:`CORRECT_CONVERGED`,
+            ``(code, it, u, x, p, nr, shot, n_shots, pre)``: the outcome (:data:`CORRECT_CONVERGED`,
             ``..._LEFT``, ``..._SINGULAR``, ``..._NONFINITE``, ``..._NO_CONVERGENCE``), the last
             iteration, its scaled point, state and parameter, its residual ``|P^n(x) - x|_inf / sx``,
-            the converged point's :class:`Shot` (``x_p`` along ``p``; None otherwise) and the shots
-            run.
+            the converged point's :class:`Shot` (``x_p`` along ``p``; None otherwise), the shots
+            run and ``(spectrum, tangent)`` of the converged point (``(mu, det(M + I), max |mu| -
+            1)`` and the unit tangent along ``t``; each None where not computed).
         """
         if not self.frequency_corrector():
             return None
@@ -1659,7 +1685,7 @@ class ModalShooting:
                 self._correct_entry = _ENTRY.get("correct")
             else:
                 out = self._correct_entry(*args)
-            code, it, n_shots, nr, u, f, iv = out
+            code, it, n_shots, nr, u, f, iv, mu, pd, nsv, tan = out
             if code == CORRECT_FALLBACK:
                 return None
             if self._fits(f):
@@ -1672,7 +1698,8 @@ class ModalShooting:
             shot = self._unpack(Setup(core, float(offset + factor * p), set_.dirs, set_.gap, set_.scale), f, iv, n, True)
             if factor != 1.0:
                 shot.x_p = shot.x_p * factor
-        return int(code), int(it), u, x, p, float(nr), shot, int(n_shots)
+        pre = ((mu, float(pd), float(nsv)) if mu.shape[0] else None, tan if tan.shape[0] else None)
+        return int(code), int(it), u, x, p, float(nr), shot, int(n_shots), pre
 
     def invalid(self, p: float) -> str:
         """Why ``p`` is not a value of the parameter ('' if it is)."""
