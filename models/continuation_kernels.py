@@ -99,12 +99,44 @@ def floquet_spectrum(M):
 
 
 @njit(cache=True)
+def _eig2(M):
+    """Eigenvalues of a real 2 x 2 matrix, by decreasing modulus: ``h +- sqrt(h^2 - det)`` with
+    ``h = tr / 2`` and the discriminant formed as ``((a - d) / 2)^2 + b c`` (no cancellation of
+    ``h^2`` against ``det``); a real pair as ``l1 = h + sign(h) r``, ``l2 = det / l1`` (the
+    stable quadratic formula, Press et al., Numerical Recipes, Sec. 5.6); a complex pair
+    ``h +- i r``, the positive imaginary part first (LAPACK's order)."""
+    a = M[0, 0]
+    b = M[0, 1]
+    c = M[1, 0]
+    e = M[1, 1]
+    h = 0.5 * (a + e)
+    q = 0.5 * (a - e)
+    disc = q * q + b * c
+    mu = np.empty(2, np.complex128)
+    if disc >= 0.0:
+        r = np.sqrt(disc)
+        l1 = h + r if h >= 0.0 else h - r
+        l2 = (a * e - b * c) / l1 if l1 != 0.0 else 0.0
+        mu[0] = l1
+        mu[1] = l2
+    else:
+        r = np.sqrt(-disc)
+        mu[0] = complex(h, r)
+        mu[1] = complex(h, -r)
+    return mu
+
+
+@njit(cache=True)
 def floquet_spectrum_small(M):
-    """:func:`floquet_spectrum` in compiled code (small ``d``)."""
+    """:func:`floquet_spectrum` in compiled code (small ``d``; ``d = 2`` in closed form,
+    :func:`_eig2`, LAPACK's zgeev beyond)."""
     d = M.shape[0]
-    mu = np.linalg.eigvals(M.astype(np.complex128))
-    order = np.argsort(-np.abs(mu))
-    mu = mu[order]
+    if d == 2 and np.isfinite(M).all():
+        mu = _eig2(M)
+    else:
+        mu = np.linalg.eigvals(M.astype(np.complex128))
+        order = np.argsort(-np.abs(mu))
+        mu = mu[order]
     A = M.copy()
     for i in range(d):
         A[i, i] += 1.0
