@@ -142,6 +142,10 @@ def test_modes_normalisation_and_participation():
                for r in (1, 2, 3)]
     assert deficit[0] > deficit[1] > deficit[2] > 0
     assert 1.7 < deficit[0] / deficit[1] < 2.3
+    # each refinement bisects every element (h -> h/2): a first-order deficit halves; measured 2 to
+    # 1e-11 on both pairs, so 1e-8 leaves room for round-off and fails on any other rate
+    assert deficit[0] / deficit[1] == pytest.approx(2.0, rel=1e-8)
+    assert deficit[1] / deficit[2] == pytest.approx(2.0, rel=1e-8)
 
 
 def test_damping_matrices():

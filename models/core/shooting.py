@@ -471,12 +471,13 @@ def _project_velocity(J, d, nrm, me, n):
 @njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def tangent_work(n, ns, S, P):
     """The work arrays of :func:`tangent` for ``n`` modes, ``ns`` stops, ``S`` held sets and ``P``
-    parameter directions (allocated once for the shots of a call)."""
+    parameter directions (allocated once for the shots of a call; :func:`tangent` sets what it
+    reads: the arrays read before written are cleared there)."""
     ncol = 2 * n + P
-    return (np.empty(P), np.empty(n), np.empty(n), np.empty((P, n)), np.empty((P, n)), np.zeros((S, n)),
-            np.zeros((S, n)), np.zeros((S, P, n)), np.zeros((S, P, n)), np.zeros((P, n)), np.zeros((n, ncol)),
-            np.zeros((n, ncol)), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(ncol),
-            np.empty(ncol), np.zeros(ns), np.zeros((ns, ncol)))
+    return (np.empty(P), np.empty(n), np.empty(n), np.empty((P, n)), np.empty((P, n)), np.empty((S, n)),
+            np.empty((S, n)), np.empty((S, P, n)), np.empty((S, P, n)), np.empty((P, n)), np.empty((n, ncol)),
+            np.empty((n, ncol)), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(ncol),
+            np.empty(ncol), np.empty(ns), np.empty((ns, ncol)))
 
 
 @njit(cache=True, error_model="numpy")
@@ -541,7 +542,6 @@ def tangent(sy, st, hs, cp, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end
     daC[:] = 0.0
     dbC[:] = 0.0
     dcC[:] = 0.0
-    Z[:] = 0.0
     vr[:] = 0.0
     dvr[:] = 0.0
     for m in range(1, S):
@@ -1147,9 +1147,6 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     n_inexact = -1
     finite = True
     n_ev = rec.nlog[0]
-    for i in range(n):
-        xe[i] = eta[i]
-        xe[n + i] = etad[i]
     if derivatives and out[0] != 3 and n_ev <= rec.evlog.shape[0]:
         n_rel, n_inexact = tangent(sy, st, hs, cp, dd, Om, rec.evlog, n_ev, held0, x0, xe, out[6],
                                    n_periods * TWO_PI / Om, J, rel, rst, tw)
