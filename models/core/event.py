@@ -1,7 +1,7 @@
 """The event-driven simulation of a modal system with stops: one Python driver of the one kernel.
 
 :class:`EventIntegrator` holds a :class:`~vibeam.models.system.ModalSystem` and its stops in
-kernel form (:mod:`vibeam.models.core.stops`) and runs :func:`vibeam.models.core.integrator.integrate`
+kernel form (:mod:`vibeam.models.core.stops`) and runs :func:`vibeam.models.core.integrator.integrate_work`
 for one forcing frequency (:meth:`EventIntegrator.run`), returning the raw :class:`Run` (record
 and scalars, row units).  The fidelities' ``event`` solvers (:class:`vibeam.models.sdof.EventSolver`,
 :class:`vibeam.models.beam_dynamics.BeamEventSolver`) turn it into a
@@ -20,7 +20,7 @@ import numpy as np
 
 from ..contact import check_stops
 from ..system import ModalSystem
-from .integrator import ST_FAILED, STATUS_NAMES, Record, integrate, new_record
+from .integrator import ST_FAILED, STATUS_NAMES, Record, compliant_work, integrate_work, new_record, new_work
 from .phases import compliant_data
 from .stops import held_code, held_mask, held_sets, kernel_stops, kernel_system
 
@@ -138,6 +138,11 @@ class EventIntegrator:
     def n_stops(self) -> int:
         return self.kstops.offset.shape[0]
 
+    @property
+    def n_held_sets(self) -> int:
+        """Rows of the held-set tables (``2 ** n_stops``)."""
+        return self.held.valid.shape[0]
+
     def held_set_of(self, code) -> int:
         """Bit mask of a state's held code (:func:`~vibeam.models.core.stops.held_mask`)."""
         return held_mask(code, self.n_stops)
@@ -145,7 +150,7 @@ class EventIntegrator:
     def run(self, Omega, eta, etad, held, n_transient, n_record, ns_transient, ns_record, h_cap,
             max_impacts, max_steps, chatter_tol, record: Record | None = None, impact_buffer=4096,
             modal_states=False, log_events=0, log_apexes=0) -> Run:
-        """Integrate one forcing frequency from phase 0 (:func:`~vibeam.models.core.integrator.integrate`).
+        """Integrate one forcing frequency from phase 0 (:func:`~vibeam.models.core.integrator.integrate_work`).
 
         Parameters
         ----------
@@ -177,10 +182,18 @@ class EventIntegrator:
             record = new_record(self.n, self.n_stops, n_record, ns_record, impact_buffer, modal_states,
                                 log_events, log_apexes, compliant=self.compliant is not None)
         record.nlog[:] = 0
-        args = (self.ksys, self.kstops, self.held, self.compliant, float(Omega), eta, etad, int(held),
-                int(n_transient), int(n_record), int(ns_transient), int(ns_record), float(h_cap), int(max_impacts),
-                int(max_steps), float(chatter_tol), record)
-        out = compiled_call(integrate, args)
+        # the work arrays, then the one compiled call (integrate_work: a wrapper above it would
+        # compile its code a second time)
+        Om = float(Omega)
+        ns_transient = int(ns_transient)
+        ns_record = int(ns_record)
+        h_cap = float(h_cap)
+        work = compiled_call(new_work, (self.n, self.n_stops, self.n_held_sets, Om, ns_transient, ns_record, h_cap))
+        cw = None if self.compliant is None else compiled_call(compliant_work, (self.compliant, self.kstops, self.n,
+                                                                               record))
+        args = (self.ksys, self.kstops, self.held, cw, Om, eta, etad, int(held), int(n_transient), int(n_record),
+                ns_transient, ns_record, h_cap, int(max_impacts), int(max_steps), float(chatter_tol), record, work)
+        out = compiled_call(integrate_work, args)
         status, n_imp, smin, smax, n_chat, stuck_time, H, n_tot, gmax, n_steps, t_con = out
         return Run(record, int(status), int(n_imp), float(smin), float(smax), int(n_chat), float(stuck_time),
                    int(H), int(n_tot), float(gmax), int(n_steps), eta, etad, int(max_steps), int(max_impacts),

@@ -30,7 +30,9 @@ most ``h_cap`` and grow by doubling after a certification shortened them.
 
 Outputs go to one :class:`Record` (arrays allocated by the caller: samples at the phase grid of
 the recorded periods, impacts, per-period minima, chatter points, an optional event log for the
-shooting problem); the kernel returns a tuple of scalars (:func:`integrate`).
+shooting problem); the kernel returns a tuple of scalars (:func:`integrate_work`, in work arrays
+of the caller's, :func:`new_work` and :func:`compliant_work`; :func:`integrate` allocates them
+for compiled callers).
 
 Event log (rows ``[kind, t, aux, stop, eta (n), eta' (n)]``, ``t`` from the start of the call)
     ``EV_START``  the initial state was put on stop ``stop`` (aux 1: held, position and velocity;
@@ -65,7 +67,7 @@ from .laws import force, hertz_floor, inside_sign, is_compliant
 from .signals import (ROOT_APEX, bounds, extremes, extremes_from, hermite_guess, homogeneous, homogeneous_bounds,
                       mode_ends, root_value, scan, scan_from, signal, signal_start)
 
-__all__ = ["Record", "integrate", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
+__all__ = ["Record", "integrate", "integrate_work", "new_work", "compliant_work", "work_fits", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
            "STATUS_NAMES", "EV_START", "EV_IMPACT", "EV_STICK", "EV_STICK_IMPACT", "EV_RELEASE", "EV_ENTRY",
            "EV_EXIT", "LOG_HEAD", "C_DURATION", "C_FORCE", "C_PENETRATION", "C_ENERGY", "C_VELOCITY"]
 
@@ -148,10 +150,12 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
 
 # ============================================================================ work arrays
 # The kernel is a set of separately compiled functions (numba and LLVM compile several functions of
-# moderate size far faster than one of a thousand lines, issue 20): :func:`integrate` prepares a
-# call (:func:`_prepare`, :func:`_prepare_compliant`, :func:`_start`) and runs the loop
-# (:func:`_run`), which takes each step by :func:`_free_step`, :func:`_held_step` or
-# :func:`_contact_phase` and resolves a contact by :func:`_impact` or :func:`_entry`.  They share
+# moderate size far faster than one of a thousand lines, issue 20): :func:`integrate_work` prepares
+# a call (:func:`_frequency`, :func:`_start_compliant`) and runs the loop, which takes each free step
+# itself, a held one by :func:`_held_step` and a compliant contact by :func:`_contact_phase`, and
+# resolves a contact by :func:`_impact` or :func:`_entry`.  Nothing wraps it for Python: numba
+# links a callee's code into its caller and compiles it again there, so a wrapper above the loop
+# cost ~3 s of the quick start's compile.  They share
 # the state of the call through small work arrays (rows by index, no views kept):
 #
 # ``wn`` (_NWN, n)  per mode: the particular solution, the free arc's homogeneous parts and their
@@ -395,7 +399,7 @@ def substeps(Om, ns_transient, ns_record, h_cap):
     return sub_r, sub_t
 
 
-@njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
 def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap):
     """The work arrays of one call (:func:`_frequency` fills them) and the sub-steps per grid step
     of the transient and of the record (:func:`substeps`)."""
@@ -543,36 +547,61 @@ def _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_
     return 0
 
 
-@njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec):
-    """The compliant stops' work (:class:`_CompliantWork`): the linear contact phases' forced
-    response at this frequency, the entry-velocity floors, the contacts open at the start (from the
+@njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
+def compliant_work(cp, st, n, rec):
+    """The compliant stops' work arrays of a call (:class:`_CompliantWork`; :func:`_start_compliant`
+    fills them at its frequency): ``cp`` the compliant stops' data, ``n`` the modes, ``rec`` the
+    record (its contact rows)."""
+    ns = st.offset.shape[0]
+    Qn = cp.ph.m.shape[0]
+    Lr = 2 * n + ns
+    return _CompliantWork(st, cp, np.zeros((Qn, n)), np.zeros((Qn, n)), np.zeros((Qn, n)), np.zeros((Qn, n)),
+                          np.zeros(ns), np.zeros(ns), np.zeros((ns, 5)), np.full(ns, -1, np.int64), np.zeros(4),
+                          np.zeros(n), np.zeros(n), np.empty((n, 6)), np.empty(n), np.empty(n), np.empty(n),
+                          np.empty(n), np.empty(2), np.empty(Lr), np.empty(Lr), np.empty(Lr), np.empty(Lr),
+                          np.empty(Lr), np.empty(Lr), np.empty(Lr), np.empty((cp.tab.c.shape[0], Lr)), rec.con)
+
+
+@_kernel
+def _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec):
+    """The compliant stops' work (:func:`compliant_work`) at this frequency: the linear contact
+    phases' forced response, the entry-velocity floors, the contacts open at the start (from the
     state as given, before any projection) and the stops the body starts inside of."""
     n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
     F = Om * Om * sy.B
+    cp = cw.cp
     # ---- compliant stops (a contact phase each; vibeam.models.core.contact_phase): the set in
     # contact C, the stops the body is inside of without contact, those left by a hysteretic-Hertz
     # stop's damping factor
     lph = cp.ph
-    Qn = lph.m.shape[0]
-    pax = np.zeros((Qn, n))
-    pbx = np.zeros((Qn, n))
-    pay = np.zeros((Qn, n))
-    pby = np.zeros((Qn, n))
+    pax = cw.pax
+    pbx = cw.pbx
+    pay = cw.pay
+    pby = cw.pby
+    pax[:] = 0.0
+    pbx[:] = 0.0
+    pay[:] = 0.0
+    pby[:] = 0.0
     phase_harmonics(lph, Om, F, pax, pbx, pay, pby)
-    vr = np.zeros(ns)          # the open contacts' entry velocities (hysteretic Hertz: floored)
-    vfl = np.zeros(ns)
-    cs = np.zeros((ns, 5))     # the open contacts' records (C_DURATION ...; column 0 the entry time)
-    crow = np.full(ns, -1, np.int64)
+    vr = cw.vr                 # the open contacts' entry velocities (hysteretic Hertz: floored)
+    vfl = cw.vfl
+    cs = cw.cs                 # the open contacts' records (C_DURATION ...; column 0 the entry time)
+    crow = cw.crow
+    vr[:] = 0.0
+    vfl[:] = 0.0
+    cs[:] = 0.0
+    crow[:] = -1
+    cw.xq[:] = 0.0
+    cw.yq[:] = 0.0
     cmask = 0
     for k in range(ns):
         if is_compliant(st.law[k]):
             cmask |= 1 << k
             vfl[k] = hertz_floor(Om, sy.B, _dot(st.normal[k], sy.gam), cp.vfall, cp.vfac)
-    Lr = 2 * n + ns
-    rkc = np.zeros(4)
+    rkc = cw.rkc
+    rkc[:] = 0.0
     con = rec.con
     for r in range(con.shape[0]):
         for c in range(5):
@@ -599,10 +628,6 @@ def _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec):
     ist[_CMASK] = cmask
     ist[_C] = C
     ist[_INSIDE] = inside
-    return _CompliantWork(st, cp, pax, pbx, pay, pby, vr, vfl, cs, crow, rkc, np.zeros(n), np.zeros(n),
-                          np.empty((n, 6)), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(2),
-                          np.empty(Lr), np.empty(Lr), np.empty(Lr), np.empty(Lr), np.empty(Lr), np.empty(Lr),
-                          np.empty(Lr), np.empty((cp.tab.c.shape[0], Lr)), con)
 
 
 # ============================================================================ the steps
@@ -1245,12 +1270,43 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
 
 # ============================================================================ the kernel
 # ============================================================================ the loop
-@_kernel
-def _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts, max_steps,
-         chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist):
-    """The call after :func:`_frequency` (:func:`integrate`): the initial state, then the periods,
-    their grid and sub-steps, a step at a time.  Compiled without reference counting: the free step,
-    the hot path, is inlined here (no call per step)."""
+@njit(cache=True, _nrt=False, error_model="numpy", no_cfunc_wrapper=True)
+def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+                   max_impacts, max_steps, chatter_tol, rec, work):
+    """:func:`integrate` in the caller's work arrays: no allocation and no reference counting.
+
+    The per-frequency data (:func:`_frequency`), the compliant stops' start (``cw`` not None),
+    the initial state, then the periods, their grid and sub-steps, a step at a time; the free
+    step, the hot path, is written out here (no call per step).  Called from Python by the sweep
+    (:class:`vibeam.models.core.event.EventIntegrator`; one compiled unit: numba links and
+    re-emits a callee's code in every caller, so no wrapper above it) and from compiled callers
+    that run many calls (the shots of a corrector).
+
+    Parameters
+    ----------
+    sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap, max_impacts, max_steps, chatter_tol, rec
+        As :func:`integrate`.
+    cw : _CompliantWork or None
+        The compliant stops' work arrays (:func:`compliant_work`); None for Newton stops only,
+        whose compiled specialisation then holds no compliant code.
+    work : tuple
+        The work arrays of :func:`new_work` (a caller that reuses them at another ``Om`` runs one
+        grid, ``ns_transient == ns_record``, and checks :func:`work_fits`; the sub-steps are those
+        of ``Om``).
+
+    Returns
+    -------
+    tuple
+        As :func:`integrate`.
+    """
+    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t) = work
+    sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
+    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
+                        ns_transient, ns_record, h_cap, fs, ist)
+    if status != 0:
+        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
+    if cw is not None:
+        _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec)
     n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
@@ -1743,7 +1799,7 @@ def _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transie
             fs[_GMAX], ist[_NSTEPS], fs[_TCON])
 
 
-@njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
+@njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
               max_impacts, max_steps, chatter_tol, rec):
     """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core).
@@ -1794,21 +1850,12 @@ def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_tr
     n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
-    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, sub_r,
-     sub_t) = new_work(n, ns, S, Om, ns_transient, ns_record, h_cap)
-    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
-                        ns_transient, ns_record, h_cap, fs, ist)
-    if status != 0:
-        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
+    work = new_work(n, ns, S, Om, ns_transient, ns_record, h_cap)
     if cp is None:
-        # (the body of integrate_newton, written out: called through it, the sweep's hot loop
-        # measured ~5 % slower, a code-layout effect)
-        return _run(sy, st, hs, None, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
-                    max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs,
-                    ist)
-    cw = _prepare_compliant(cp, sy, st, hs, Om, eta, etad, held0, ist, rec)
-    return _run(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
-                max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist)
+        return integrate_work(sy, st, hs, None, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record,
+                              h_cap, max_impacts, max_steps, chatter_tol, rec, work)
+    return integrate_work(sy, st, hs, compliant_work(cp, st, n, rec), Om, eta, etad, held0, n_transient, n_record,
+                          ns_transient, ns_record, h_cap, max_impacts, max_steps, chatter_tol, rec, work)
 
 
 @_kernel
@@ -1817,21 +1864,3 @@ def work_fits(work, Om, ns, h_cap):
     transient and record alike) serve a call at ``Om``: a table long enough for its sub-steps."""
     sub_r, _sub_t = substeps(Om, ns, ns, h_cap)
     return ns * sub_r + 1 <= work[7].shape[0]
-
-
-@_kernel
-def integrate_newton(sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
-                     max_impacts, max_steps, chatter_tol, rec, work):
-    """:func:`integrate` for Newton stops only, in the caller's work arrays (``work``: the tuple of
-    :func:`new_work`; a caller that reuses it at another ``Om`` runs one grid, ``ns_transient ==
-    ns_record``, and checks :func:`work_fits`; the sub-steps are those of ``Om``): no
-    allocation and no reference counting, for compiled callers that run many calls (the shots
-    of a corrector)."""
-    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t) = work
-    sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
-    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
-                        ns_transient, ns_record, h_cap, fs, ist)
-    if status != 0:
-        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
-    return _run(sy, st, hs, None, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, max_impacts,
-                max_steps, chatter_tol, rec, wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t, fs, ist)

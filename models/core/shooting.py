@@ -58,7 +58,7 @@ from ..periodic import Shot
 from ..system import advance_count, advance_state, transition_entries
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
-                         ST_FAILED, integrate, integrate_newton, new_record, new_work, work_fits)
+                         ST_FAILED, integrate, integrate_work, new_record, new_work, work_fits)
 from .laws import force, force_partials, hertz_floor
 from .variational import contact_accel, contact_damping, flow_linear, flow_rk, pair_particular
 
@@ -67,6 +67,12 @@ __all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "correct
            "CORRECT_LEFT", "CORRECT_SINGULAR", "CORRECT_NONFINITE", "CORRECT_NO_CONVERGENCE", "CORRECT_FALLBACK"]
 
 TWO_PI = 2.0 * math.pi
+#: integer and flag arguments of compiled calls, typed (a literal argument makes numba compile
+#: the callee again for that value)
+_ZERO = np.int64(0)
+_ONE = np.int64(1)
+_MINUS_ONE = np.int64(-1)
+_TRUE = np.bool_(True)
 
 
 class Direction(NamedTuple):
@@ -1103,7 +1109,7 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     d = 2 * n
     xe = np.empty(d)
     rst = np.zeros(d)
-    work = new_work(n, st.offset.shape[0], hs.valid.shape[0], Om, 1, 1, h_cap)
+    work = new_work(n, st.offset.shape[0], hs.valid.shape[0], Om, _ONE, _ONE, h_cap)
     tw = tangent_work(n, st.offset.shape[0], hs.valid.shape[0], dd.dOm.shape[0])
     if cp is None:
         out, held0, n_rel, n_inexact, finite = _shot_newton(sy, st, hs, dd, Om, x0, held0, n_periods, h_cap,
@@ -1138,8 +1144,8 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     eta = xe[:n]
     etad = xe[n:]
     if cp is None:
-        out = integrate_newton(sy, st, hs, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
-                               chatter_tol, rec, work)
+        out = integrate_work(sy, st, hs, None, Om, eta, etad, held0, _ZERO, n_periods, _ONE, _ONE, h_cap, max_impacts,
+                             max_steps, chatter_tol, rec, work)
     else:
         out = integrate(sy, st, hs, cp, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
                         chatter_tol, rec)
@@ -1325,7 +1331,7 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
     finite = True
     Om0 = offset + factor * u[d] * sp
     work = new_work(d // 2, st.offset.shape[0], hs.valid.shape[0], Om0 if math.isfinite(Om0) and Om0 > 0.0 else 1.0,
-                    1, 1, h_cap)
+                    _ONE, _ONE, h_cap)
     tw = tangent_work(d // 2, st.offset.shape[0], hs.valid.shape[0], dd.dOm.shape[0])
     for it in range(max_newton + 1):
         x = u[:d] * sx
@@ -1342,14 +1348,14 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
             code, it_out = CORRECT_FALLBACK, it
             break
         if not work_fits(work, Om, 1, h_cap):
-            work = new_work(d // 2, st.offset.shape[0], hs.valid.shape[0], Om, 1, 1, h_cap)
+            work = new_work(d // 2, st.offset.shape[0], hs.valid.shape[0], Om, _ONE, _ONE, h_cap)
         if cp is None:
-            out, held0, n_rel, n_inexact, finite = _shot_newton(sy, st, hs, dd, Om, x, -1, n_periods, h_cap,
-                                                                max_impacts, max_steps, chatter_tol, rec, J, rel, True,
+            out, held0, n_rel, n_inexact, finite = _shot_newton(sy, st, hs, dd, Om, x, _MINUS_ONE, n_periods, h_cap,
+                                                                max_impacts, max_steps, chatter_tol, rec, J, rel, _TRUE,
                                                                 xe, rst, work, tw)
         else:
-            out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x, -1, n_periods, h_cap,
-                                                         max_impacts, max_steps, chatter_tol, rec, J, rel, True, xe,
+            out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x, _MINUS_ONE, n_periods, h_cap,
+                                                         max_impacts, max_steps, chatter_tol, rec, J, rel, _TRUE, xe,
                                                          rst, work, tw)
         n_shots += 1
         if out[0] == ST_FAILED or n_inexact != 0 or not finite:
@@ -1393,7 +1399,7 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
                 tan = tn
         except Exception:       # noqa: BLE001 - a singular bordered matrix: the engine falls back
             pass
-    f, iv = _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, True, scale)
+    f, iv = _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, _TRUE, scale)
     return code, it_out, n_shots, nr, u, f, iv, mu, pd, nsv, tan
 
 

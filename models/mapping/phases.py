@@ -32,6 +32,8 @@ from ..core.signals import bounds, extremes, homogeneous_bounds, scan, signal
 from ..system import mode_table, particular, transition_entries
 
 TWO_PI = 2.0 * math.pi
+#: the one mode, typed int64 (a literal 1 would compile the signal kernels a second time)
+_ONE = np.int64(1)
 #: the phases of :func:`phase_step`
 FREE, CONTACT = 0, 1
 #: how a step ended: the whole step, an arrival at a stop, a contact exit, the gap of a stop the
@@ -117,9 +119,9 @@ def _watch(c0, c1, f0, fp0, hh, s_ev, h_min, phi, Om, x0, y0, mp, a, b, hb, p, r
     event so far (-1: none; also when the scan had to shorten the horizon below it), the certified
     horizon, and whether this signal's crossing is that event."""
     Sa, Sb = _weights(c0, c1, a, b, Om, p, r)
-    M2, M3, M4 = bounds(hb, p, r, math.sqrt(Sa * Sa + Sb * Sb), Om, 1)
+    M2, M3, M4 = bounds(hb, p, r, math.sqrt(Sa * Sa + Sb * Sb), Om, _ONE)
     hk = hh if s_ev < 0.0 else s_ev
-    sk, hk2 = scan(hk, h_min, phi, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4, 1)
+    sk, hk2 = scan(hk, h_min, phi, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4, _ONE)
     if sk >= 0.0:
         return sk, hh, True
     if hk2 < hk:
@@ -132,10 +134,10 @@ def _maximum(c0, c1, f0, fp0, s, phi, Om, x0, y0, mp, a, b, p, r, e2):
     """Largest value on ``[0, s]`` of the signal ``c0 u + c1 u' + const`` (value ``f0``, slope ``fp0``
     at 0): its ends and an interior maximum."""
     Sa, Sb = _weights(c0, c1, a, b, Om, p, r)
-    f1, fp1, _f2, _f3, _f4 = signal(s, phi, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, 1)
+    f1, fp1, _f2, _f3, _f4 = signal(s, phi, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, _ONE)
     e2[0] = np.inf
     e2[1] = max(f0, f1)
-    extremes(s, phi, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, fp0, fp1, e2, 1)
+    extremes(s, phi, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, fp0, fp1, e2, _ONE)
     return e2[1]
 
 
@@ -233,7 +235,7 @@ def phase_step(kind, h, h_min, t, u, w, mp, qe, a, b, F, Om, kc, cc, rows, insid
         return -1.0, EV_FAIL, -1
     # the state at the step's end from its exact start values
     Sa, Sb = _weights(1.0, 0.0, a, b, Om, p, r)
-    u1, w1, _f2, _f3, _f4 = signal(s, phi, Om, x0, y0, mp, p, r, Sa, Sb, u, w, 1)
+    u1, w1, _f2, _f3, _f4 = signal(s, phi, Om, x0, y0, mp, p, r, Sa, Sb, u, w, _ONE)
     if kind == CONTACT:
         d = rows[0, 1]
         g0 = u - d
@@ -243,12 +245,12 @@ def phase_step(kind, h, h_min, t, u, w, mp, qe, a, b, F, Om, kc, cc, rows, insid
         Sa, Sb = _weights(1.0, 0.0, a, b, Om, p, r)
         work = 0.0
         for i in range(GL_X.shape[0]):
-            g, gd, _f2, _f3, _f4 = signal(GL_X[i] * s, phi, Om, x0, y0, mp, p, r, Sa, Sb, u, w, 1)
+            g, gd, _f2, _f3, _f4 = signal(GL_X[i] * s, phi, Om, x0, y0, mp, p, r, Sa, Sb, u, w, _ONE)
             work += GL_W[i] * (kc * (g - d) + cc * gd) * gd
         cs[2] += work * s
     e2[0] = np.inf
     e2[1] = -np.inf
-    extremes(s, phi, Om, x0, y0, mp, p, r, Sa, Sb, u, w, w, w1, e2, 1)
+    extremes(s, phi, Om, x0, y0, mp, p, r, Sa, Sb, u, w, w, w1, e2, _ONE)
     ext[0] = min(ext[0], u, u1, e2[0])
     ext[1] = max(ext[1], u, u1, e2[1])
     ext[2] = min(ext[2], e2[0])
