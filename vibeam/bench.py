@@ -1505,13 +1505,10 @@ def _short(sig: str, limit: int = 240) -> str:
 
 
 def _specialisation(kernel: str, args: list) -> str:
-    """A readable name of a compiled specialisation: the event integrator's (``integrate_work``, and
-    ``integrate`` above it for compiled callers) by its compliant data (``cw``/``cp``: None for a
-    scene of Newton stops only), any other by its signature."""
+    """A readable name of a compiled specialisation: the event integrator's (``integrate_work``) by
+    its compliant data (``cw``: None for a scene of Newton stops only), any other by its signature."""
     if kernel.endswith("core.integrator.integrate_work") and len(args) > 3:
         return "Newton stops only (cw None)" if args[3] == "none" else "with compliant stops (cw _CompliantWork)"
-    if kernel.endswith("core.integrator.integrate") and len(args) > 3:
-        return "Newton stops only (cp None)" if args[3] == "none" else "with compliant stops (cp Compliant)"
     return _short("(" + ", ".join(args) + ")", 120)
 
 

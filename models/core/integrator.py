@@ -31,8 +31,7 @@ most ``h_cap`` and grow by doubling after a certification shortened them.
 Outputs go to one :class:`Record` (arrays allocated by the caller: samples at the phase grid of
 the recorded periods, impacts, per-period minima, chatter points, an optional event log for the
 shooting problem); the kernel returns a tuple of scalars (:func:`integrate_work`, in work arrays
-of the caller's, :func:`new_work` and :func:`compliant_work`; :func:`integrate` allocates them
-for compiled callers).
+of the caller's, :func:`new_work` and :func:`compliant_work`).
 
 Event log (rows ``[kind, t, aux, stop, eta (n), eta' (n)]``, ``t`` from the start of the call)
     ``EV_START``  the initial state was put on stop ``stop`` (aux 1: held, position and velocity;
@@ -67,7 +66,7 @@ from .laws import force, hertz_floor, inside_sign, is_compliant
 from .signals import (ROOT_APEX, bounds, extremes, extremes_from, hermite_guess, homogeneous, homogeneous_bounds,
                       mode_ends, root_value, scan, scan_from, signal, signal_start)
 
-__all__ = ["Record", "integrate", "integrate_work", "new_work", "compliant_work", "work_fits", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
+__all__ = ["Record", "integrate_work", "new_work", "compliant_work", "work_fits", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
            "STATUS_NAMES", "EV_START", "EV_IMPACT", "EV_STICK", "EV_STICK_IMPACT", "EV_RELEASE", "EV_ENTRY",
            "EV_EXIT", "LOG_HEAD", "C_DURATION", "C_FORCE", "C_PENETRATION", "C_ENERGY", "C_VELOCITY"]
 
@@ -83,7 +82,7 @@ LOG_HEAD = 4
 
 
 class Record(NamedTuple):
-    """What one call of :func:`integrate` writes (arrays allocated by :func:`new_record`).
+    """What one call of :func:`integrate_work` writes (arrays allocated by :func:`new_record`).
 
     Attributes
     ----------
@@ -164,9 +163,10 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
 # ``fs`` (_NFS,)    the loop's floats (clock, times, sensor extremes);
 # ``ist`` (_NIS,)   its integers and flags (held set, contact set, counters).
 #
-# Every function but the public :func:`integrate` and the two that allocate is compiled without
-# reference counting (``_nrt=False``: an array argument costs nothing per call) and without a
-# Python wrapper (called from compiled code only), each for one argument signature (the
+# Every function but the two that allocate (:func:`new_work`, :func:`compliant_work`) is compiled
+# without reference counting (``_nrt=False``: an array argument costs nothing per call) and, but
+# :func:`integrate_work`, without a Python wrapper (called from compiled code only), each for one
+# argument signature (the
 # compliant data ``cw`` is None for a scene of Newton stops, whose functions then hold no
 # compliant code: numba prunes the branches on ``cw is not None``).
 (_AF, _BF, _GF, _ZERO, _XF, _YF, _DXV, _DYV, _X2V, _X3V, _X0, _Y0, _ZETA, _ZETAD, _SENS, _CM, _KM,
@@ -1273,7 +1273,8 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
 @njit(cache=True, _nrt=False, error_model="numpy", no_cfunc_wrapper=True)
 def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
                    max_impacts, max_steps, chatter_tol, rec, work):
-    """:func:`integrate` in the caller's work arrays: no allocation and no reference counting.
+    """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core), in the
+    caller's work arrays: no allocation and no reference counting.
 
     The per-frequency data (:func:`_frequency`), the compliant stops' start (``cw`` not None),
     the initial state, then the periods, their grid and sub-steps, a step at a time; the free
@@ -1284,11 +1285,34 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
 
     Parameters
     ----------
-    sy, st, hs, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap, max_impacts, max_steps, chatter_tol, rec
-        As :func:`integrate`.
+    sy : KernelSystem
+    st : KernelStops
+    hs : HeldSets
+        :mod:`vibeam.models.core.stops`.
     cw : _CompliantWork or None
-        The compliant stops' work arrays (:func:`compliant_work`); None for Newton stops only,
-        whose compiled specialisation then holds no compliant code.
+        The compliant stops' work arrays (:func:`compliant_work`, from the compliant stops' data
+        :class:`vibeam.models.core.phases.Compliant`); None for a scene with Newton stops only,
+        whose compiled specialisation then holds no compliant code (numba prunes the branches on
+        ``cw is None``).
+    Om : float
+        Forcing frequency (per unit nondimensional time).
+    eta, etad : ndarray, shape (n,)
+        Initial modal state, overwritten with the final one.
+    held0 : int
+        Bit mask of the stops the system is held on (Newton stops) or in contact with (compliant
+        stops) at the start (0 free).
+    n_transient, n_record : int
+        Forcing periods discarded, then recorded.
+    ns_transient, ns_record : int
+        Grid points per period (the recorded samples).
+    h_cap : float
+        Largest step.
+    max_impacts, max_steps : int
+        Guards: beyond them the call returns :data:`ST_FAILED`.
+    chatter_tol : float
+        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.contact_policy`).
+    rec : Record
+        Outputs.
     work : tuple
         The work arrays of :func:`new_work` (a caller that reuses them at another ``Om`` runs one
         grid, ``ns_transient == ns_record``, and checks :func:`work_fits`; the sub-steps are those
@@ -1297,7 +1321,14 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
     Returns
     -------
     tuple
-        As :func:`integrate`.
+        ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
+        gmax, n_steps, contact_time)``: status code, recorded impacts and contacts, sensor extremes
+        over the record (row units), chatter sequences, time held (excluding chatter holds), the
+        final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
+        response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
+        gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
+        round-off only if a crossing had been stepped over), steps taken, time in compliant contact
+        during the record.
     """
     (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t) = work
     sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
@@ -1797,65 +1828,6 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
             status = ST_STICKING
     return (status, ist[_NIMPR], fs[_EXT], fs[_EXT1], ist[_NCHAT], fs[_STUCK], ist[_H] | ist[_C], ist[_NIMPT],
             fs[_GMAX], ist[_NSTEPS], fs[_TCON])
-
-
-@njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def integrate(sy, st, hs, cp, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
-              max_impacts, max_steps, chatter_tol, rec):
-    """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core).
-
-    Parameters
-    ----------
-    sy : KernelSystem
-    st : KernelStops
-    hs : HeldSets
-        :mod:`vibeam.models.core.stops`.
-    cp : Compliant or None
-        The compliant stops' data (:class:`vibeam.models.core.phases.Compliant`: the linear contact
-        phases, the Runge-Kutta tableau); None for a scene with Newton stops only, whose compiled
-        specialisation then holds no compliant code (numba prunes the branches on ``cp is None``).
-    Om : float
-        Forcing frequency (per unit nondimensional time).
-    eta, etad : ndarray, shape (n,)
-        Initial modal state, overwritten with the final one.
-    held0 : int
-        Bit mask of the stops the system is held on (Newton stops) or in contact with (compliant
-        stops) at the start (0 free).
-    n_transient, n_record : int
-        Forcing periods discarded, then recorded.
-    ns_transient, ns_record : int
-        Grid points per period (the recorded samples).
-    h_cap : float
-        Largest step.
-    max_impacts, max_steps : int
-        Guards: beyond them the call returns :data:`ST_FAILED`.
-    chatter_tol : float
-        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.contact_policy`).
-    rec : Record
-        Outputs.
-
-    Returns
-    -------
-    tuple
-        ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
-        gmax, n_steps, contact_time)``: status code, recorded impacts and contacts, sensor extremes
-        over the record (row units), chatter sequences, time held (excluding chatter holds), the
-        final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
-        response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
-        gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
-        round-off only if a crossing had been stepped over), steps taken, time in compliant contact
-        during the record.
-    """
-
-    n = eta.shape[0]
-    ns = st.offset.shape[0]
-    S = hs.valid.shape[0]
-    work = new_work(n, ns, S, Om, ns_transient, ns_record, h_cap)
-    if cp is None:
-        return integrate_work(sy, st, hs, None, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record,
-                              h_cap, max_impacts, max_steps, chatter_tol, rec, work)
-    return integrate_work(sy, st, hs, compliant_work(cp, st, n, rec), Om, eta, etad, held0, n_transient, n_record,
-                          ns_transient, ns_record, h_cap, max_impacts, max_steps, chatter_tol, rec, work)
 
 
 @_kernel

@@ -2,7 +2,7 @@
 
 A period-``n`` orbit is a fixed point of the ``n``-th iterate of the stroboscopic map ``P``
 (section at forcing phase 0; contract: :mod:`vibeam.models.periodic`).  ``P^n(x0; p)`` is one run
-of the one event integrator (:func:`vibeam.models.core.integrator.integrate`) from ``x0`` with its
+of the one event integrator (:func:`vibeam.models.core.integrator.integrate_work`) from ``x0`` with its
 event log; the tangent ``J = d x_n / d(x0, p)`` (``M`` and ``x_p`` for any number of parameters)
 is then assembled from the log by :func:`tangent` (numba), so that one shot is one compiled call
 (:func:`shoot`):
@@ -58,7 +58,7 @@ from ..periodic import Shot
 from ..system import advance_count, advance_state, transition_entries
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
-                         ST_FAILED, integrate, integrate_work, new_record, new_work, work_fits)
+                         ST_FAILED, compliant_work, integrate_work, new_record, new_work, work_fits)
 from .laws import force, force_partials, hertz_floor
 from .variational import contact_accel, contact_damping, flow_linear, flow_rk, pair_particular
 
@@ -1093,7 +1093,7 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     -------
     f : ndarray, shape (HEAD + ...,)
         The header (``H_STATUS ... H_APEX``: the run's scalars of
-        :func:`vibeam.models.core.integrator.integrate`, ``s_min``/``s_max`` divided by ``scale``;
+        :func:`vibeam.models.core.integrator.integrate_work`, ``s_min``/``s_max`` divided by ``scale``;
         ``n_rel``, ``n_inexact`` of :func:`tangent`, -1 without derivatives, after a failed run or
         a full log; ``finite``: every entry of the tangent is finite; ``held0``, the held mask the
         run started with; the events and apexes logged; the largest logged apex gap, ``-inf`` if
@@ -1127,10 +1127,10 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
           derivatives, xe, rst, work, tw):
     """The run and tangent of :func:`shoot` into the buffers (``xe``: the final state, shape (2n,);
     ``rst``: the rebuilt state; ``work``: the integrator's work arrays for a grid of one point per
-    period at ``Om``, :func:`~vibeam.models.core.integrator.work_fits`, used by Newton stops;
+    period at ``Om``, :func:`~vibeam.models.core.integrator.work_fits`;
     ``tw``: the tangent's, :func:`tangent_work`),
     without packing them: ``(out, held0, n_rel, n_inexact, finite)``, ``out`` the tuple of
-    :func:`vibeam.models.core.integrator.integrate`."""
+    :func:`vibeam.models.core.integrator.integrate_work`."""
     n = sy.k.shape[0]
     d = 2 * n
     ncol = J.shape[1]
@@ -1147,8 +1147,8 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
         out = integrate_work(sy, st, hs, None, Om, eta, etad, held0, _ZERO, n_periods, _ONE, _ONE, h_cap, max_impacts,
                              max_steps, chatter_tol, rec, work)
     else:
-        out = integrate(sy, st, hs, cp, Om, eta, etad, held0, 0, n_periods, 1, 1, h_cap, max_impacts, max_steps,
-                        chatter_tol, rec)
+        out = integrate_work(sy, st, hs, compliant_work(cp, st, n, rec), Om, eta, etad, held0, _ZERO, n_periods, _ONE,
+                             _ONE, h_cap, max_impacts, max_steps, chatter_tol, rec, work)
     n_rel = -1
     n_inexact = -1
     finite = True
