@@ -463,7 +463,9 @@ class _Engine:
             t = known[2]
         elif t_ref is not None:
             try:
-                t = bordered_tangent(pt.shot.M, pt.shot.x_p, self.sx, self.sp, t_ref)
+                # contiguous: the compiled corrector's own call has C arrays (one specialisation)
+                t = bordered_tangent(np.ascontiguousarray(pt.shot.M), np.ascontiguousarray(pt.shot.x_p),
+                                     self.sx, self.sp, np.ascontiguousarray(t_ref))
             except Exception:
                 t = None
             if t is not None and not np.isfinite(t).all():

@@ -488,3 +488,32 @@ def test_shipped_ladder_case(tmp_path):
         assert fold["parameter"] * fn == pytest.approx(LADDER_FOLDS_HZ[name], rel=rel), name
         assert pd["parameter"] * fn == pytest.approx(LADDER_PD_HZ[name], rel=rel), name
     assert "FE all modes" in table
+
+
+def test_the_compiled_spectrum_orders_multipliers_as_a_stable_argsort():
+    """The beam's spectra (``d`` of 4 to 8) are ordered by a hand-written insertion sort, not
+    numba's argsort (whose cold compile costs ~2.5 s): the reference is NumPy's stable argsort of
+    ``-|mu|`` (NaN last), on exact ties (conjugate pairs, equal moduli) and NaNs, so the order
+    is unique and any swap or lost entry fails."""
+    from vibeam.models.continuation_kernels import by_decreasing_modulus, floquet_spectrum_small
+
+    rng = np.random.default_rng(7)
+    for d in range(1, 9):
+        for _ in range(40):
+            mu = rng.normal(size=d) + 1j * rng.normal(size=d)
+            if d >= 4:
+                # exact ties of moduli (Pythagorean triples: |mu| exact in any hypot), in random places
+                s = 2.0 ** rng.integers(-3, 3)
+                ties = s * np.array([3 + 4j, 3 - 4j, 5j, -5 + 0j])
+                mu[rng.permutation(d)[:4]] = ties
+            if d >= 5 and rng.random() < 0.3:
+                mu[rng.integers(d)] = complex(np.nan, 0.0)
+            want = mu[np.argsort(-np.abs(mu), kind="stable")]
+            got = by_decreasing_modulus(mu)
+            np.testing.assert_array_equal(got.view(float), want.view(float))
+    M = rng.normal(size=(6, 6))
+    mu = floquet_spectrum_small(M)[0]
+    assert np.all(np.diff(np.abs(mu)) <= 1e-12 * np.abs(mu[0]))
+    ref = np.linalg.eigvals(M)       # the same set (LAPACK zgeev against dgeev: round-off apart)
+    dist = np.abs(mu[:, None] - ref[None, :])
+    assert dist.min(axis=1).max() <= 1e-12 * np.abs(ref).max() and dist.min(axis=0).max() <= 1e-12 * np.abs(ref).max()

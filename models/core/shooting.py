@@ -1122,7 +1122,7 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     return _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, derivatives, scale)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel,
           derivatives, xe, rst, work, tw):
     """The run and tangent of :func:`shoot` into the buffers (``xe``: the final state, shape (2n,);
