@@ -61,16 +61,6 @@ _advance = advance_modes
 
 
 # ============================================================================ impulses
-@njit(cache=True)
-def apply_impulse(etad, n, U_minus, U_plus, m_eff):
-    """Impulse of a contact law through the mass matrix (Moreau / Siconos): ``P = m_eff (U+ -
-    U-)`` along ``M^-1 n = n`` (mass-normalised modes), ``eta' += n P`` in place; returns ``U+``.
-
-    ``n`` is the stop's normal (``s w``, :class:`vibeam.models.contact.Relation`)."""
-    P = m_eff * (U_plus - U_minus)
-    for i in range(etad.shape[0]):
-        etad[i] += n[i] * P
-    return U_plus
 
 
 @njit(cache=True)
@@ -370,12 +360,15 @@ class BeamImpactModel:
         return np.vstack([self.contact_row] + [row for _, row in self.point_stops])
 
     def _constrained(self):
-        """Null-space basis, constrained modes and contact-force coefficients.
+        """The beam held on a stop at the mass: null-space basis and static offsets.
 
         The beam held on stop k (``s_k w^T eta = Delta_k``) moves in ``eta = eta_c,k + Psi
-        zeta``: ``Psi`` and the constrained modes are the same for every stop (the null space of
-        ``w``), the offsets ``eta_c,k``, ``eC_k`` and the contact-force coefficients differ; they
-        are the rows of :attr:`stop_rows` (``eta_c``, ``eC``, ... are the upper stop's)."""
+        zeta``: ``Psi`` (shape (N, N - 1)) and the constrained modes (squared frequencies ``nu2``)
+        are the same for every stop (the null space of ``w``), the offsets ``eta_c,k`` and the
+        static constrained coordinates ``eC_k`` differ; they are the rows of :attr:`stop_rows`
+        (``eta_c``, ``eC`` are the upper stop's).  The event integrator derives its own held
+        sets from the system (:func:`vibeam.models.core.stops.held_sets`); these serve the
+        pre-stressed start (:meth:`initial_state`) and :meth:`contact_mode_frequencies`."""
         w = self.contact_row
         N = w.size
         w2 = float(w @ w)
@@ -389,50 +382,16 @@ class BeamImpactModel:
             nu2, Psi = np.zeros(0), np.zeros((1, 0))
         self.Psi = np.ascontiguousarray(Psi)
         self.nu2 = nu2
-        aD = self.rayleigh_alpha_1_s / self.omega_ref
-        DD = self.damping_D_s * self.omega_ref
-        self.cC = aD + DD * nu2
-        if self.modal_damping_1_s is not None:
-            self.cC = np.einsum("ij,i,ij->j", Psi, self.c_nd, Psi)
-        self.GC = Psi.T @ self.participation
-        me = 1.0 / w2
-        C = np.diag(self.c_nd)
-        self.pS = self.sensor_row @ Psi
-        rows = {k: [] for k in ("normals", "eta_c", "eC", "pL", "rL", "cL", "cS")}
+        rows = {k: [] for k in ("eta_c", "eC")}
         for st in self.mass_stops():
             s, D = st.relation.sign, st.relation.offset
-            n = st.relation.normal(w)
             eta_c = w * D / w2 if s > 0 else w * (-D) / w2
-            rows["normals"].append(n)
             rows["eta_c"].append(eta_c)
             rows["eC"].append(-(Psi.T @ (K @ eta_c)) / np.where(nu2 > 0, nu2, 1.0))
-            rows["pL"].append(me * (n @ K @ Psi))
-            rows["rL"].append(me * (n @ C @ Psi))
-            rows["cL"].append(me * float(n @ K @ eta_c))
-            rows["cS"].append(float(self.sensor_row @ eta_c))
-        #: per-stop data of the beam held on each stop (row k: stop k; the direct solver and the starts)
-        self.stop_rows = {k: np.ascontiguousarray(np.stack(v) if k not in ("cL", "cS") else np.array(v, dtype=float))
-                          for k, v in rows.items()}
-        r = self.stop_rows
-        self.eta_c = r["eta_c"][0].copy()
-        self.eC = r["eC"][0].copy()
-        self.pL = r["pL"][0].copy()
-        self.rL = r["rL"][0].copy()
-        self.lam_const = float(r["cL"][0])
-        self.sens_const = float(r["cS"][0])
-
-    def stop_forcing(self, aC, bC, F, Om):
-        """Harmonic coefficients ``(SaL, SbL)`` (n_stops,) of the contact force of the beam held
-        on each stop, for the constrained particular solution ``aC, bC`` at forcing ``F``, ``Om``."""
-        me = self.m_eff
-        r = self.stop_rows
-        SaL = np.empty(r["cL"].size)
-        SbL = np.empty(r["cL"].size)
-        for k in range(SaL.size):
-            lamF = -me * float(r["normals"][k] @ self.participation) * F
-            SaL[k] = lamF + float(r["pL"][k] @ aC - Om * (r["rL"][k] @ bC))
-            SbL[k] = float(r["pL"][k] @ bC + Om * (r["rL"][k] @ aC))
-        return SaL, SbL
+        #: per-stop data of the beam held on each stop at the mass (row k: stop k)
+        self.stop_rows = {k: np.ascontiguousarray(np.stack(v)) for k, v in rows.items()}
+        self.eta_c = self.stop_rows["eta_c"][0].copy()
+        self.eC = self.stop_rows["eC"][0].copy()
 
     # ---- the model protocol of the fidelity registry (vibeam.models.registry)
     @property
@@ -558,7 +517,7 @@ def newton_contact_rows(model: BeamImpactModel, velocities, stops=None) -> np.nd
 
     An impact with normal pre-impact speed ``U-`` on the relation ``g = n^T eta - Delta`` of the
     mass-normalised modal beam receives the impulse ``P = -m_eff (1 + R) U-`` along ``n``
-    (:func:`apply_impulse`, ``m_eff = 1 / |w|^2``), which removes the kinetic energy
+    (the event integrator's impact, ``m_eff = 1 / |w|^2``), which removes the kinetic energy
     ``(1 - R^2) m_eff U-^2 / 2`` of the modal state (``|eta'|^2 / 2``) and nothing else.  In
     the units of the compliant contacts' rows (:func:`vibeam.models.core.event.trajectory`: work per
     ``m_eff L^2``, time unit ``1 / omega_ref``) that is ``(1 - R^2) v^2 / 2`` with ``v = U- / L``,

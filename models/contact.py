@@ -41,41 +41,17 @@ Kernel representation (numba: plain arrays, one row per stop; :func:`pack`)
                 :data:`EXPONENT`, :data:`NODES`); row 0 is the upper stop;
     ``tab_U``, ``tab_R``  float64 (n_stops, n_nodes): the ``R(U-)`` table of each stop
                 (first ``NODES`` entries used; 0 nodes = constant R).
-    Kernels evaluate an impulsive law with :func:`impulsive_response` and decide what
-    follows with the one policy of :mod:`vibeam.models.contact_policy`.
+    The kernels apply Newton's law with :func:`vibeam.models.impact.restitution_coefficient`
+    and decide what follows with the one policy of :mod:`vibeam.models.contact_policy`.
 
-How a compliant law plugs in
-    0. A new law of an existing family is one class in :mod:`vibeam.models.compliant` (its
-       ``name``, ``family``, ``code`` and numbers, e.g. its ``chi``) and one line of
-       :data:`vibeam.models.registry.LAWS`; nothing below changes.  A new family:
-    1. Here: a law class with ``kind = "compliant"``, its family's code (:data:`LAW_LINEAR`,
-       :data:`LAW_HYSTERETIC_HERTZ`) and parameters in the ``STIFFNESS``,
-       ``DAMPING``, ``EXPONENT`` columns (kernel units: stiffness per unit effective mass
-       relative to the model's, i.e. ``k_c / m_eff`` in the kernel's time unit; for a target
-       R, the damping that realises it is computed here, once, in :meth:`pack`);
-       :func:`law_kind` then returns :data:`COMPLIANT` for it.
-    2. In each kernel, at the place marked ``CONTACT EVENT`` (where the gap reaches zero with
-       ``U- > 0``): ``law_kind(stops[k, LAW]) == COMPLIANT`` enters a contact phase instead of
-       calling :func:`impulsive_response`.  The kernel's ``stuck`` state becomes a phase
-       (free / held on stop k / in compliant contact with stop k); the contact phase has its
-       own exact flow -- SDOF: the closed-form oscillator of stiffness ``1 + k_c`` and damping
-       ``2 beta + c_c`` about the shifted equilibrium (:mod:`vibeam.models.sdof_flow` with the
-       natural frequency and the offset as parameters); beam: the ``2N x 2N`` contact-phase
-       state matrix ``A_c = A - n n^T [k_c, c_c]`` (the stop couples the modes), exponentiated
-       once per point, or numerical integration for hysteretic Hertz -- and its exit event
-       ``F = k_c delta + c_c delta' = 0`` (Kelvin-Voigt) is located on the force signal with the
-       same certified scan (:func:`vibeam.models.core.signals.certify_curvature`, ``rtsafe``).  The
-       impulsive chatter / sticking rules do not apply to a compliant stop (contact has a
-       finite duration; a body resting on it is a contact phase that never exits).
-    3. Per-point outputs: the kernels accumulate per stop the contact duration, peak force,
-       penetration and energy lost (work of the contact damping) in an output array beside
-       the per-stop impact counts; :func:`vibeam.engine.records.summarize` and
-       ``vibeam.engine.sweep.UNITS`` declare them (the one place of per-point outputs).
-    4. Mapping / continuation: the event log gets the contact entry and exit rows; the
-       Jacobian of a contact phase is its state-transition matrix composed with the
-       saltation matrices of entry and exit (Sec. 4.2 of the paper: the piecewise-linear map).
-       Done for the SDOF's ``mapping`` (:mod:`vibeam.models.mapping`: the passage through a stop
-       of each family) and the one shooting problem (:mod:`vibeam.models.core.shooting`).
+How a law plugs in
+    A new law of an existing family is one class in :mod:`vibeam.models.compliant` (its
+    ``name``, ``family``, ``code`` and numbers, e.g. its ``chi``) and one line of
+    :data:`vibeam.models.registry.LAWS`; nothing else changes.  A new family adds its law code
+    here and its force, partials, inside sign and exit condition to :mod:`vibeam.models.core.laws`
+    (the one place the one event integrator, :mod:`vibeam.models.core.integrator` with the
+    contact phase of :mod:`vibeam.models.core.contact_phase`, the direct solver and the shooting
+    problem's saltation and variational terms branch on a law code).
 """
 from __future__ import annotations
 
@@ -83,9 +59,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
-from .impact import newton_restitution, restitution_at, restitution_coefficient
+from .impact import restitution_at
 from .registry import IMPLEMENTED_LAWS
 
 # ---- layout of a stop row (kernel arrays)
@@ -96,8 +71,6 @@ NPAR = 8
 LAW_RESTITUTION = 0       # Newton's impact law, U+ = -R(U-) U- (impulsive)
 LAW_LINEAR = 1            # Kelvin-Voigt spring-dashpot stop (compliant; vibeam.models.compliant)
 LAW_HYSTERETIC_HERTZ = 2  # F = k delta^p (1 + chi delta' / v_in), chi from the law (compliant)
-IMPULSIVE = 0
-COMPLIANT = 1
 
 
 
@@ -225,36 +198,3 @@ def check_stops(stops) -> None:
         up, lo = stops[0].relation, stops[1].relation
         if not up.offset + lo.offset > 0.0 or not math.isfinite(up.offset + lo.offset):
             raise ValueError(f"the stops overlap: Delta + Delta_lower = {up.offset + lo.offset} must be > 0")
-
-
-# ---------------------------------------------------------------------------- kernels
-@njit(cache=True)
-def law_kind(code):
-    """:data:`IMPULSIVE` or :data:`COMPLIANT` for a law code (a stop row's ``LAW`` column)."""
-    c = int(code)
-    if c == LAW_LINEAR or c == LAW_HYSTERETIC_HERTZ:
-        return COMPLIANT
-    return IMPULSIVE
-
-
-@njit(cache=True)
-def impulsive_response(U_minus, row, tab_U, tab_R):
-    """Post-contact normal velocity of an impulsive law, and its coefficient of restitution.
-
-    Parameters
-    ----------
-    U_minus : float
-        Pre-impact normal velocity of the stop's relation (``>= 0``, approaching), kernel units.
-    row : ndarray, shape (NPAR,)
-        The stop's row of the kernel's ``stops`` array.
-    tab_U, tab_R : ndarray, shape (n_nodes,)
-        The stop's ``R(U-)`` table rows (the first ``row[NODES]`` entries are used).
-
-    Returns
-    -------
-    U_plus, R : float
-        ``U+ = -R(U-) U-`` and ``R(U-)`` (Newton's law, the only impulsive law).
-    """
-    m = int(row[NODES])
-    Rc = restitution_coefficient(U_minus, row[R], tab_U[:m], tab_R[:m])
-    return newton_restitution(U_minus, Rc), Rc

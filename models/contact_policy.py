@@ -3,7 +3,7 @@
 What happens at a contact of an *impulsive* law (:mod:`vibeam.models.contact`), in order:
 
 1. **Apply the law** to the relation's pre-impact normal velocity ``U-``:
-   ``U+ = -R(U-) U-`` (:func:`vibeam.models.contact.impulsive_response`); the kernel applies
+   ``U+ = -R(U-) U-`` (:func:`vibeam.models.impact.restitution_coefficient`); the kernel applies
    the impulse along ``M^-1 n`` of the stop.
 2. **Decide what follows** (:func:`impact_outcome`), from the rebound speed ``u = -U+``, whether
    the free contact acceleration presses the body onto the stop (``pressed``), and the

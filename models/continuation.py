@@ -245,10 +245,6 @@ def _stable(mu) -> bool:
     return bool(np.max(np.abs(mu)) < 1.0) if mu.size else True
 
 
-def _multipliers(M) -> np.ndarray:
-    return floquet_spectrum(np.ascontiguousarray(M, dtype=float))[0]
-
-
 class ContinuationError(ValueError):
     """A request the engine cannot serve (bad range, bad problem)."""
 

@@ -105,22 +105,6 @@ def restitution_impulse(U_minus, R, m_eff):
     return m_eff * (U_plus - U_minus)
 
 
-def energy_loss(U_minus, R, m_eff=1.0):
-    """Kinetic energy removed by one Newton impact, ``(1 - R^2) m_eff U-^2 / 2``.
-
-    Parameters
-    ----------
-    U_minus : float or ndarray
-        Pre-impact normal velocity.
-    R : float
-        Coefficient of restitution.
-    m_eff : float, optional
-        Effective contact mass (1 for the nondimensional SDOF model).
-    """
-    U_minus = np.asarray(U_minus, dtype=float)
-    return 0.5 * (1.0 - R * R) * m_eff * U_minus * U_minus
-
-
 def saltation_matrix(R, v_minus, a_minus, beta):
     """Saltation matrix of the impact ``q = Delta``, ``q'+ = -R q'-`` in ``(q, q')``.
 

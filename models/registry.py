@@ -158,11 +158,6 @@ def laws_of_family(family: str) -> tuple:
     return tuple(n for n, law in LAWS.items() if law.family == family)
 
 
-def family_laws(family: str) -> str:
-    """``law "a"`` or ``law "a" or "b"``: the laws of ``family`` for messages."""
-    return "law " + " or ".join(f'"{n}"' for n in laws_of_family(family))
-
-
 def is_compliant(law: str) -> bool:
     """Whether ``law`` names a compliant law (a contact phase; :data:`LAWS`)."""
     entry = LAWS.get(law)

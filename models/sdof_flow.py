@@ -156,60 +156,6 @@ def propagate(s, phi0, q0, v0, beta, a, b, Omega, Delta):
     return g, v, g2, g3, g4
 
 
-@njit(cache=True)
-def propagate_tabulated(P, sp0, cp0, sp1, cp1, q0, v0, beta, a, b, Omega, Delta):
-    """:func:`propagate` over a fixed step with its transition and phases tabulated.
-
-    Parameters
-    ----------
-    P : ndarray, shape (4,)
-        ``Phi(h) - I`` from :func:`transition` for the fixed step ``h``.
-    sp0, cp0, sp1, cp1 : float
-        sin and cos of the forcing phase at the start and at the end of the step.
-    q0, v0, beta, a, b, Omega, Delta : float
-        As in :func:`propagate`.
-
-    Returns
-    -------
-    g, v, g2, g3, g4 : float
-        Same as :func:`propagate` at ``s = h``, with no transcendental call.
-    """
-    qp0 = a * sp0 + b * cp0
-    dqp0 = Omega * (a * cp0 - b * sp0)
-    x0 = q0 - qp0
-    y0 = v0 - dqp0
-    dx = P[0] * x0 + P[1] * y0
-    x = x0 + dx
-    y = y0 + P[2] * x0 + P[3] * y0
-    qp = a * sp1 + b * cp1
-    dqp_dt = Omega * (a * cp1 - b * sp1)
-    g = (q0 - Delta) + dx + (qp - qp0)
-    v = y + dqp_dt
-    x2 = -2.0 * beta * y - x
-    x3 = -2.0 * beta * x2 - y
-    x4 = -2.0 * beta * x3 - x2
-    W2 = Omega * Omega
-    return g, v, x2 - W2 * qp, x3 - W2 * dqp_dt, x4 + W2 * W2 * qp
-
-
-@njit(cache=True)
-def homogeneous_amplitude(phi0, q0, v0, beta, a, b, Omega):
-    """Envelope ``A`` of the homogeneous part: ``|x^(k)(s)| <= A e^{-beta s}`` for all k.
-
-    With ``x = A e^{-beta s} cos(omega_D s - psi)`` each time derivative
-    multiplies the envelope by ``|-beta + i omega_D| = 1``, so ``A`` bounds the
-    homogeneous displacement and every derivative of it (used for the
-    guaranteed impact detection).
-    """
-    sp0 = math.sin(phi0)
-    cp0 = math.cos(phi0)
-    x0 = q0 - (a * sp0 + b * cp0)
-    y0 = v0 - Omega * (a * cp0 - b * sp0)
-    wd = math.sqrt(1.0 - beta * beta)
-    w = (y0 + beta * x0) / wd
-    return math.sqrt(x0 * x0 + w * w)
-
-
 def flow_matrix(s, beta):
     """State-transition matrix ``Phi(s)`` of ``x'' + 2 beta x' + x = 0`` (shape (2, 2)).
 
@@ -217,21 +163,6 @@ def flow_matrix(s, beta):
     """
     p11, p12, p21, p22 = transition(float(s), float(beta))
     return np.array([[1.0 + p11, p12], [p21, 1.0 + p22]])
-
-
-@njit(cache=True)
-def sample_flow(s, phi0, q0, v0, beta, a, b, Omega, Delta):
-    """``g = q - Delta``, ``q'`` and ``q''`` of the flow at the local times ``s`` (shape (m,))."""
-    m = s.shape[0]
-    g = np.empty(m)
-    v = np.empty(m)
-    acc = np.empty(m)
-    for i in range(m):
-        gi, vi, a2, a3, a4 = propagate(s[i], phi0, q0, v0, beta, a, b, Omega, Delta)
-        g[i] = gi
-        v[i] = vi
-        acc[i] = a2
-    return g, v, acc
 
 
 @njit(cache=True)

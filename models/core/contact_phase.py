@@ -95,24 +95,6 @@ def _combo(a0, p0, r0, a1, p1, r1, wp, wr, m):
 
 
 @njit(cache=True, _nrt=False, error_model="numpy")
-def _positive_now(f, f1, f2, f3, t0, t1, t2, t3):
-    """The first of ``f, f', f'', f'''`` beyond its round-off level ``t`` is positive."""
-    if f > t0:
-        return True
-    if f < -t0:
-        return False
-    if f1 > t1:
-        return True
-    if f1 < -t1:
-        return False
-    if f2 > t2:
-        return True
-    if f2 < -t2:
-        return False
-    return f3 > t3
-
-
-@njit(cache=True, _nrt=False, error_model="numpy")
 def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, hs, cp, ax, bx, ay, by, xh, yh,
                 fresh, vr, cs, recording, pext, hb, wp, wr, wp2, wr2, ext2):
     """One step of the linear contact phase ``q`` (held set ``H``, contact set ``C``) of at most ``h``.

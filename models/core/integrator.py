@@ -20,7 +20,7 @@ held on a set of stops
     the constraint forces of the held stops are scanned for their release (first upward zero
     crossing of ``lambda_k``), the gaps of the other stops for a contact.
 
-At a contact the stop's law acts (:func:`vibeam.models.contact.impulsive_response`: Newton,
+At a contact the stop's law acts (:func:`vibeam.models.impact.restitution_coefficient`: Newton,
 ``U+ = -R(U-) U-``) through the mass matrix along the stop's normal (or its projection on the
 held constraints), and the one chatter / sticking policy of :mod:`vibeam.models.contact_policy`
 decides what follows: rebound, sticking (the stop joins the held set), or a chatter sequence

@@ -144,15 +144,6 @@ def converged_sweep(sw):
     return replace(sw, transient_periods=n)
 
 
-def reference_sweep(model, sw, jobs: int | None = 1):
-    """Converged reference: ``event`` with max(4 x transient, 2000) transient periods."""
-    from vibeam.models import make_solver
-    from vibeam.engine.sweep import run_sweep
-
-    ref_sw = converged_sweep(sw)
-    return run_sweep(make_solver(model, "event"), ref_sw, jobs=jobs), ref_sw.transient_periods
-
-
 def _sweeps(tasks: dict, jobs) -> dict:
     """Several untimed sweeps at once through the one engine: ``{key: (solver, sweep)}`` ->
     ``{key: SweepResult}``; their lines share ``jobs`` workers."""

@@ -84,30 +84,6 @@ def strobe_returns(strobe: np.ndarray, scale: float, Omega: float | None = None)
     return out / natural_time_factors(Omega)
 
 
-def period_of_strobe(strobe: np.ndarray, scale: float, rtol: float = 1e-5, Omega: float | None = None) -> int:
-    """Smallest n in 1..8 with ``strobe[k + n] == strobe[k]`` over the window.
-
-    Parameters
-    ----------
-    strobe : ndarray, shape (m, 2)
-        Stroboscopic samples ``(q, q')``.
-    scale : float
-        Size of the orbit; points closer than ``rtol * scale`` are equal.
-    rtol : float
-        Relative tolerance.
-    Omega : float, optional
-        Forcing frequency (returns judged in the oscillator's time, :func:`strobe_returns`).
-
-    Returns
-    -------
-    int
-        The period n, or 0 when no n <= 8 repeats (not periodic within 8).
-    """
-    d = strobe_returns(strobe, scale, Omega)
-    ok = np.flatnonzero(d <= rtol)
-    return int(ok[0]) + 1 if ok.size else 0
-
-
 def converging(strobe: np.ndarray, n: int, scale: float, rtol: float,
                Omega: float | None = None) -> tuple[bool, float, float]:
     """Are the period-n returns of the stroboscopic map still shrinking (a transient)?

@@ -256,13 +256,6 @@ def table_variables(table: dict) -> dict:
     return out
 
 
-def _write_dataset(g, name, v):
-    """One array into the open group ``g`` as a netCDF variable with dimensions ``<name>_dim<i>``
-    and the units of :func:`describe` (the writer of the first layout took plain datasets;
-    new groups should use :func:`write_group` with named dimensions)."""
-    write_group(g, "", table_variables({name: v}))
-
-
 # ============================================================================ runs and maps as variables
 def _physical(data: dict) -> bool:
     return "frequency_hz" in data
