@@ -199,28 +199,6 @@ def feed(X, origin, width, cells, mine, st, visited, located, par):
     return m
 
 
-@njit(cache=True)
-def in_cells(X, origin, width, cells, k):
-    """How many samples of ``X`` (shape (m, d)) lie in attractor ``k``'s cells or the cells
-    next to them (the 3^2 neighbours in the first two coordinates, the rest equal)."""
-    n = 0
-    y = np.empty(X.shape[1])
-    for i in range(X.shape[0]):
-        hit = False
-        for a in range(-1, 2):
-            for b in range(-1, 2):
-                y[:] = X[i]
-                y[0] += a * width[0]
-                if y.shape[0] > 1:
-                    y[1] += b * width[1]
-                v = cells.get(cell_key(y, origin, width), np.int64(0))
-                if v & 3 == _ATTRACTOR and v >> 2 == k:
-                    hit = True
-        if hit:
-            n += 1
-    return n
-
-
 def _new_cells():
     return Dict.empty(key_type=types.int64, value_type=types.int64)
 
@@ -322,14 +300,6 @@ class Recurrences:
         if k >= 0 and k not in self.attractors:
             self.attractors[k] = self.located[:int(st[_LOCATED])].copy()
         return k
-
-    def overlap(self, X, k: int) -> float:
-        """Fraction of the samples ``X`` (shape (m, d)) in attractor ``k``'s cells or next to them."""
-        X = np.ascontiguousarray(X, dtype=float)
-        if X.shape[0] == 0:
-            return 0.0
-        return in_cells(X, self.origin, self.width, self.cells, np.int64(k)) / X.shape[0]
-
 
 def set_distance(A, B, scale) -> float:
     """Symmetric mean nearest-neighbour distance between two stroboscopic sets (shapes (m, d)

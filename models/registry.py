@@ -153,11 +153,6 @@ def law_family(law: str) -> str | None:
     return None if entry is None else entry.family
 
 
-def laws_of_family(family: str) -> tuple:
-    """Names of the laws of ``family`` (for messages)."""
-    return tuple(n for n, law in LAWS.items() if law.family == family)
-
-
 def is_compliant(law: str) -> bool:
     """Whether ``law`` names a compliant law (a contact phase; :data:`LAWS`)."""
     entry = LAWS.get(law)
