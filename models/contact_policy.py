@@ -14,7 +14,11 @@ What happens at a contact of an *impulsive* law (:mod:`vibeam.models.contact`), 
      the last, while pressed): **stick** and count a chatter (the beam kernel: with many modes
      the contact acceleration is not smooth on the scale of the flights, so the geometric
      estimate may never pass while impacts pile up; the SDOF kernel, whose one-DOF estimate
-     becomes exact as ``u -> 0``, passes ``burst_max = 0``);
+     becomes exact as ``u -> 0``, passes ``burst_max = 0``, and the guard then acts only on an
+     elastic impact, ``R = 1``, whose sequence never accumulates: a body released at rest a
+     hair's breadth below the stop and pressed onto it bounces elastically with that height,
+     ~1e10 impacts per forcing period for a height of 1e-20 of the orbit, where the guard holds it
+     on the stop, an error of the order of the bounce height);
    * the chatter sequence accumulates within the current step with a small enough error
      (:func:`chatter_jump`): **chatter**, jump to the accumulation point and stick;
    * otherwise **rebound** (the next impact is resolved).
@@ -118,7 +122,8 @@ def impact_outcome(u, pressed, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon,
     chatter_tol, horizon : float
         As :func:`chatter_jump`.
     burst, burst_max : int
-        Impacts of the current burst (:func:`zeno_burst`) and the guard's limit (0: none).
+        Impacts of the current burst (:func:`zeno_burst`) and the guard's limit (0: none; one
+        DOF: then :data:`BURST_MAX` for ``R >= 1`` only).
 
     Returns
     -------
@@ -132,6 +137,8 @@ def impact_outcome(u, pressed, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon,
         if pressed:
             return STICK, 0.0
         return REBOUND, 0.0
+    if burst_max <= 0 and R >= 1.0:
+        burst_max = BURST_MAX       # one DOF, elastic: a burst that cannot accumulate (D infinite)
     if burst_max > 0 and burst >= burst_max and acc > 0.0:
         return CHATTER_GUARD, 0.0
     D = chatter_jump(u, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon)
