@@ -73,6 +73,7 @@ _ZERO = np.int64(0)
 _ONE = np.int64(1)
 _MINUS_ONE = np.int64(-1)
 _TRUE = np.bool_(True)
+_FALSE = np.bool_(False)
 
 
 class Direction(NamedTuple):
@@ -1148,7 +1149,7 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
                              _ONE, h_cap, max_impacts, max_steps, chatter_tol, rec, work)
     n_rel = -1
     n_inexact = -1
-    finite = True
+    finite = _TRUE
     n_ev = rec.nlog[0]
     if derivatives and out[0] != 3 and n_ev <= rec.evlog.shape[0]:
         n_rel, n_inexact = tangent(sy, st, hs, cp, dd, Om, rec.evlog, n_ev, held0, x0, xe, out[6],
@@ -1156,7 +1157,7 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
         for i in range(d):
             for c in range(ncol):
                 if not math.isfinite(J[i, c]):
-                    finite = False
+                    finite = _FALSE
     return out, held0, n_rel, n_inexact, finite
 
 
@@ -1315,7 +1316,7 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
     held0 = 0
     n_rel = -1
     n_inexact = -1
-    finite = True
+    finite = _TRUE
     Om0 = offset + factor * u[d] * sp
     work = new_work(d // 2, st.offset.shape[0], hs.valid.shape[0], Om0 if math.isfinite(Om0) and Om0 > 0.0 else 1.0,
                     _ONE, _ONE, h_cap)
