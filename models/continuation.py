@@ -433,7 +433,9 @@ class _Engine:
             if s.status != "ok":
                 return None, s.message or s.status
             try:
-                nr, ndu_new, un, dist_new = corrector_step(s.M, s.x_p, s.x, x, u, u_pred, t, sx, sp)
+                # x_p contiguous: the types of the compiled corrector's own call (one specialisation)
+                nr, ndu_new, un, dist_new = corrector_step(s.M, np.ascontiguousarray(s.x_p), s.x, x, u, u_pred, t,
+                                                           sx, sp)
             except Exception:       # numba's solve raises on an exactly singular matrix
                 return None, "singular bordered Jacobian"
             # converged: residual at tolerance, or (near a grazing, where the impact time is
