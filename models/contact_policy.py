@@ -10,15 +10,14 @@ What happens at a contact of an *impulsive* law (:mod:`vibeam.models.contact`), 
    chatter estimate below:
 
    * no rebound (``u <= 0``: ``R = 0``, or a grazing contact): **stick** if pressed, else fly on;
-   * a Zeno burst (``burst_max > 0`` impacts in a row, each within ``BURST_DT`` forcing periods of
-     the last, while pressed): **stick** and count a chatter (the beam kernel: with many modes
-     the contact acceleration is not smooth on the scale of the flights, so the geometric
-     estimate may never pass while impacts pile up; the SDOF kernel, whose one-DOF estimate
-     becomes exact as ``u -> 0``, passes ``burst_max = 0``, and the guard then acts only on an
-     elastic impact, ``R = 1``, whose sequence never accumulates: a body released at rest a
-     hair's breadth below the stop and pressed onto it bounces elastically with that height,
-     ~1e10 impacts per forcing period for a height of 1e-20 of the orbit, where the guard holds it
-     on the stop, an error of the order of the bounce height);
+   * a Zeno burst (:func:`burst_limit` impacts in a row, each within ``BURST_DT`` forcing periods
+     of the last, while pressed): **stick** and count a chatter.  With several modes the contact
+     acceleration is not smooth on the scale of the flights, so the geometric estimate may never
+     pass while impacts pile up; with one DOF, whose estimate becomes exact as ``u -> 0``, the
+     guard acts only on an elastic impact, ``R = 1``, whose sequence never accumulates: a body
+     released at rest a hair's breadth below the stop and pressed onto it bounces elastically
+     with that height, ~1e10 impacts per forcing period for a height of 1e-20 of the orbit, and
+     the guard holds it on the stop, an error of the order of the bounce height;
    * the chatter sequence accumulates within the current step with a small enough error
      (:func:`chatter_jump`): **chatter**, jump to the accumulation point and stick;
    * otherwise **rebound** (the next impact is resolved).
@@ -104,6 +103,29 @@ def zeno_burst(burst, t_imp, t_last, window):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def burst_limit(n_modes, R):
+    """The Zeno guard's limit for an impact (module docstring, step 2).
+
+    Parameters
+    ----------
+    n_modes : int
+        Modes of the system (1: the SDOF or a one-mode beam).
+    R : float
+        Coefficient of restitution of the impact.
+
+    Returns
+    -------
+    int
+        :data:`BURST_MAX` with several modes (the geometric chatter estimate may never pass) or
+        for an elastic impact, ``R >= 1`` (its sequence never accumulates, ``D`` infinite);
+        0 otherwise (one DOF, ``R < 1``: the estimate, exact as ``u -> 0``, decides alone).
+    """
+    if n_modes > 1 or R >= 1.0:
+        return BURST_MAX
+    return 0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def impact_outcome(u, pressed, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon, burst, burst_max):
     """What follows an impulsive impact (module docstring, step 2).
 
@@ -122,8 +144,8 @@ def impact_outcome(u, pressed, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon,
     chatter_tol, horizon : float
         As :func:`chatter_jump`.
     burst, burst_max : int
-        Impacts of the current burst (:func:`zeno_burst`) and the guard's limit (0: none; one
-        DOF: then :data:`BURST_MAX` for ``R >= 1`` only).
+        Impacts of the current burst (:func:`zeno_burst`) and the guard's limit
+        (:func:`burst_limit`; 0: none).
 
     Returns
     -------
@@ -137,8 +159,6 @@ def impact_outcome(u, pressed, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon,
         if pressed:
             return STICK, 0.0
         return REBOUND, 0.0
-    if burst_max <= 0 and R >= 1.0:
-        burst_max = BURST_MAX       # one DOF, elastic: a burst that cannot accumulate (D infinite)
     if burst_max > 0 and burst >= burst_max and acc > 0.0:
         return CHATTER_GUARD, 0.0
     D = chatter_jump(u, acc, jerk, c_eff, k_eff, R, chatter_tol, horizon)

@@ -128,10 +128,23 @@ def _eig2(M):
 
 @njit(cache=True)
 def by_decreasing_modulus(mu):
-    """``mu`` by decreasing modulus, a stable insertion sort on ``-|mu|`` with NaN last: the
-    order of ``mu[np.argsort(-np.abs(mu))]`` for fewer than 16 entries (numba's quicksort sorts
-    those by this insertion sort; ``floquet_spectrum_small`` has ``d <= SMALL_SPECTRUM``), without
-    compiling numba's quicksort (~2.5 s of a cold continuation)."""
+    """Floquet multipliers by decreasing modulus, ties in their given order, NaN last.
+
+    A stable insertion sort on ``-|mu|``: the order of ``mu[np.argsort(-np.abs(mu))]`` for fewer
+    than 16 entries (numba's quicksort sorts those by the same insertion sort;
+    :func:`floquet_spectrum_small` has ``d <= SMALL_SPECTRUM``), without compiling numba's
+    quicksort (~2.5 s of a cold continuation).
+
+    Parameters
+    ----------
+    mu : ndarray of complex, shape (d,)
+        Multipliers (nondimensional).
+
+    Returns
+    -------
+    ndarray of complex, shape (d,)
+        A new array, ``mu`` reordered.
+    """
     d = mu.shape[0]
     key = -np.abs(mu)
     order = np.arange(d)

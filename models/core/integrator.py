@@ -55,7 +55,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..contact_policy import (BURST_DT, BURST_MAX, CHATTER, CHATTER_GUARD, REBOUND, STICK, impact_outcome,
+from ..contact_policy import (BURST_DT, CHATTER, CHATTER_GUARD, REBOUND, STICK, burst_limit, impact_outcome,
                               release_now, zeno_burst)
 from ..contact import LAW_LINEAR
 from ..impact import newton_restitution, restitution_coefficient
@@ -1155,7 +1155,6 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
     nlog = rec.nlog
     logging = evlog.shape[0] > 0
     chat_t = rec.chat_t
-    burst_max = BURST_MAX if n > 1 else 0
     ist[_FRESH] = 1
     ist[_ATGRID] = 0
     if H != 0:
@@ -1232,7 +1231,7 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
     fs[_TLAST] = t_imp
     can_hold = valid[H | (1 << k_imp)] == 1
     action, D = impact_outcome(u, can_hold and not release_now(acc, jerk), acc, jerk + c_eff * acc - k_eff * u,
-                               c_eff, k_eff, Rc, chatter_tol, rem, burst, burst_max)
+                               c_eff, k_eff, Rc, chatter_tol, rem, burst, burst_limit(n, Rc))
     if not can_hold:
         action = REBOUND
     stick_now = action != REBOUND

@@ -1128,7 +1128,8 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     (:func:`shoot`, :func:`correct_frequency`): numba links a compiled callee's code into each
     caller and optimises and emits it again there, so every compiled level between them and the
     integrator and tangent cost a cold continuation seconds (this one and the former Newton-only
-    level without reference counting, 58 -> 46 s; no measurable run-time difference)."""
+    level without reference counting: a cold first continuation 51-53 -> 45-47 s, no measurable
+    run-time difference)."""
     n = sy.k.shape[0]
     d = 2 * n
     ncol = J.shape[1]
