@@ -562,6 +562,11 @@ class BeamEventSolver:
         Largest step is ``1 / steps_per_fundamental`` of the first modal period.
     impact_buffer : int
         Most impacts stored per point.
+    record_modal_states : bool
+        Also record the modal state at the samples.
+    recurrence : bool
+        End a transient early once its state recurs exactly, with the same outputs bit for bit
+        (:mod:`vibeam.models.core.integrator`); False integrates every period (a check, a timing).
     """
 
     name = "event"
@@ -572,8 +577,9 @@ class BeamEventSolver:
     def __init__(self, model: BeamImpactModel, transient_samples: int = 16, chatter_tol: float = 1e-7,
                  max_impacts_per_period: int = 20000, max_steps_per_period: int = 20000,
                  steps_per_fundamental: int = 16, impact_buffer: int = 4096,
-                 record_modal_states: bool = False):
+                 record_modal_states: bool = False, recurrence: bool = True):
         self.model = model
+        self.recurrence = bool(recurrence)
         self.transient_samples = int(transient_samples)
         self.chatter_tol = float(chatter_tol)
         self.max_impacts_per_period = int(max_impacts_per_period)
@@ -620,7 +626,7 @@ class BeamEventSolver:
         run = self._core.run(Om, s0[:N], s0[N:2 * N], self._core.held_set_of(s0[2 * N]), int(n_transient),
                              int(n_record), self.transient_samples, int(samples_per_period), self._h_cap, max_imp,
                              max_steps, self.chatter_tol, impact_buffer=self.impact_buffer,
-                             modal_states=self.record_modal_states)
+                             modal_states=self.record_modal_states, recurrence=self.recurrence)
         L = m.length_m
         msgs = {"incomplete": f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} period(s)",
                 "failed": (f"gave up after {run.n_impacts_total} impacts / {run.n_steps} steps in {n_per} periods "

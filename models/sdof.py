@@ -244,6 +244,9 @@ class EventSolver:
         Work budget of one call of the kernel (its steps, the integrator's ``max_steps``):
         a call that needs more returns ``incomplete`` (:class:`Trajectory`), and the sweep
         engine repeats it in shorter calls; one forcing period that needs more fails.
+    recurrence : bool, optional
+        End a transient early once its state recurs exactly, with the same outputs bit for bit
+        (:mod:`vibeam.models.core.integrator`); False integrates every period (a check, a timing).
     """
 
     name = "event"
@@ -258,8 +261,9 @@ class EventSolver:
 
     def __init__(self, model: SDOF, transient_samples: int = 16, chatter_tol: float = 1e-7,
                  max_impacts_per_period: int = 20000, impact_buffer: int = 4096,
-                 max_steps_per_call: int | None = None):
+                 max_steps_per_call: int | None = None, recurrence: bool = True):
         self.model = model
+        self.recurrence = bool(recurrence)
         self.max_steps_per_call = int(self.MAX_STEPS_PER_CALL if max_steps_per_call is None else max_steps_per_call)
         self.transient_samples = int(transient_samples)
         self.chatter_tol = float(chatter_tol)
@@ -308,7 +312,8 @@ class EventSolver:
         max_imp = self.max_impacts_per_period * n_per
         run = self._core.run(float(Omega), s0[:1], s0[1:2], held, int(n_transient), int(n_record),
                              self.transient_samples, int(samples_per_period), self._h_cap, max_imp,
-                             self.max_steps_per_call, self.chatter_tol, impact_buffer=self.impact_buffer)
+                             self.max_steps_per_call, self.chatter_tol, impact_buffer=self.impact_buffer,
+                             recurrence=self.recurrence)
         msgs = {"not_finite": (undamped_resonance(m.beta, Omega) or
                                f"the forced response is not finite (F = Omega^2 B = {Omega * Omega * m.B:g})"),
                 "incomplete": (f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} "

@@ -64,7 +64,9 @@ def test_second_process_is_refused_with_the_folder_and_the_running_process(tmp_p
     the folder and the first process), and the first finishes with only its own data."""
     out = tmp_path / "out"
     a = tmp_path / "a.toml"
-    a.write_text(CASE.format(name="a", gap=0.0, nf=6, tp=150000))    # a few seconds
+    # a few seconds: every period integrated (a transient that recurs exactly would end early)
+    a.write_text(CASE.format(name="a", gap=0.0, nf=6, tp=150000).replace('method = "event"',
+                                                                         'method = "event"\nrecurrence = false'))
     b = tmp_path / "b.toml"
     b.write_text(CASE.format(name="b", gap=0.1, nf=6, tp=50))
     pa = subprocess.Popen(_vibeam("run", str(a), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"),

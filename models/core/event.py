@@ -61,6 +61,9 @@ class Run:
         Periods of the call.
     contact_time : float
         Time in compliant contact during the record.
+    periods_skipped : int
+        Transient periods not integrated because the state had recurred exactly (the
+        integrator's module docstring; the outputs are those of the full run).
     """
 
     record: Record
@@ -80,6 +83,7 @@ class Run:
     max_impacts: int
     n_periods: int = 0
     contact_time: float = 0.0
+    periods_skipped: int = 0
 
     @property
     def held_code(self) -> int:
@@ -153,7 +157,7 @@ class EventIntegrator:
 
     def run(self, Omega, eta, etad, held, n_transient, n_record, ns_transient, ns_record, h_cap,
             max_impacts, max_steps, chatter_tol, record: Record | None = None, impact_buffer=4096,
-            modal_states=False, log_events=0, log_apexes=0) -> Run:
+            modal_states=False, log_events=0, log_apexes=0, recurrence=True) -> Run:
         """Integrate one forcing frequency from phase 0 (:func:`~vibeam.models.core.integrator.integrate_work`).
 
         Parameters
@@ -175,6 +179,10 @@ class EventIntegrator:
         record : Record, optional
             Buffers to reuse (else new ones with ``impact_buffer``, ``modal_states`` and the log
             capacities).
+        recurrence : bool
+            End a transient that recurs exactly early, with the same outputs bit for bit
+            (:mod:`vibeam.models.core.integrator`; off with the event or apex log or compliant
+            stops); False integrates every period.
 
         Returns
         -------
@@ -192,22 +200,23 @@ class EventIntegrator:
         ns_transient = int(ns_transient)
         ns_record = int(ns_record)
         h_cap = float(h_cap)
-        key = (threading.get_ident(), Om, ns_transient, ns_record, h_cap)
+        recur = bool(recurrence)
+        key = (threading.get_ident(), Om, ns_transient, ns_record, h_cap, recur)
         if self._work is not None and self._work[0] == key:
             work = self._work[1]        # integrate_work writes every entry before reading it
         else:
             work = compiled_call(new_work, (self.n, self.n_stops, self.n_held_sets, Om, ns_transient, ns_record,
-                                            h_cap))
+                                            h_cap, recur))
             self._work = (key, work)
         cw = None if self.compliant is None else compiled_call(compliant_work, (self.compliant, self.kstops, self.n,
                                                                                record))
         args = (self.ksys, self.kstops, self.held, cw, Om, eta, etad, int(held), int(n_transient), int(n_record),
                 ns_transient, ns_record, h_cap, int(max_impacts), int(max_steps), float(chatter_tol), record, work)
         out = compiled_call(integrate_work, args)
-        status, n_imp, smin, smax, n_chat, stuck_time, H, n_tot, gmax, n_steps, t_con = out
+        status, n_imp, smin, smax, n_chat, stuck_time, H, n_tot, gmax, n_steps, t_con, skipped = out
         return Run(record, int(status), int(n_imp), float(smin), float(smax), int(n_chat), float(stuck_time),
                    int(H), int(n_tot), float(gmax), int(n_steps), eta, etad, int(max_steps), int(max_impacts),
-                   int(n_transient) + int(n_record), float(t_con))
+                   int(n_transient) + int(n_record), float(t_con), int(skipped))
 
 
 def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buffer, contacts, messages=None,

@@ -28,6 +28,16 @@ summed in closed form to its accumulation point.  The time grid is aligned with 
 phase (``ns`` points per period, the recorded samples); steps inside a grid interval are at
 most ``h_cap`` and grow by doubling after a certification shortened them.
 
+A transient that settles in floating point ends early, with the same numbers: the loop's whole
+state at a period start (modal state, free arc, carried gaps and bounds, step length, flags) is
+compared bit for bit with a snapshot taken at most :data:`RECUR_MAX` periods before; once it
+recurs after ``L`` periods, every later period repeats the last ``L`` exactly (the kernel is a
+deterministic function of that state and the phase), so whole multiples of ``L`` are skipped up
+to the record and the step and impact counters advance by their counts over the cycle (the last
+impact's time by the skipped time, for the Zeno guard's window).  The outputs are those of the
+full run bit for bit; ``periods_skipped`` says how many were not integrated.  Not with compliant
+stops or the event and apex logs (whose rows would be missing).
+
 Outputs go to one :class:`Record` (arrays allocated by the caller: samples at the phase grid of
 the recorded periods, impacts, per-period minima, chatter points, an optional event log for the
 shooting problem); the kernel returns a tuple of scalars (:func:`integrate_work`, in work arrays
@@ -177,6 +187,8 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
  _EXT, _EXT1, _NFS) = range(18)
 (_H, _C, _INSIDE, _RELAXED, _CMASK, _FRESH, _BSTALE, _ATGRID, _JSTUCK, _JREL, _QFRESH, _QLAST, _BURST,
  _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _NIS) = range(20)
+#: longest exact cycle of a transient's period-start state that is detected and skipped (periods)
+RECUR_MAX = 16
 # the event kinds and the root kind of an apex as int64 constants: a literal int argument would
 # compile the callee once per value
 _K_START, _K_IMPACT, _K_STICK, _K_STICK_IMPACT, _K_RELEASE, _K_ENTRY, _K_EXIT = (np.int64(k) for k in range(7))
@@ -382,10 +394,10 @@ def _particular(c, k, G, F, Om, a, b, m):
 
 
 @njit(cache=True, _nrt=False, error_model="numpy", inline="always")
-def _failed(fs, ist):
+def _failed(fs, ist, skipped):
     """The return tuple of a call that gave up (:data:`ST_FAILED`)."""
     return (ST_FAILED, ist[_NIMPR], min(fs[_EXT], fs[_PEXT]), max(fs[_EXT1], fs[_PEXT1]), ist[_NCHAT], fs[_STUCK],
-            ist[_H] | ist[_C], ist[_NIMPT], fs[_GMAX], ist[_NSTEPS], fs[_TCON])
+            ist[_H] | ist[_C], ist[_NIMPT], fs[_GMAX], ist[_NSTEPS], fs[_TCON], skipped)
 
 
 # ============================================================================ preparing a call
@@ -400,9 +412,10 @@ def substeps(Om, ns_transient, ns_record, h_cap):
 
 
 @njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
-def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap):
-    """The work arrays of one call (:func:`_frequency` fills them) and the sub-steps per grid step
-    of the transient and of the record (:func:`substeps`)."""
+def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap, recur):
+    """The work arrays of one call (:func:`_frequency` fills them), the sub-steps per grid step
+    of the transient and of the record (:func:`substeps`), and the snapshot of the transient's
+    exact recurrence (module docstring; empty, so off, when ``recur`` is False)."""
     sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
     nt_t = ns_transient * sub_t
     nt_r = ns_record * sub_r
@@ -411,9 +424,66 @@ def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap):
     tab_r = np.empty((nt_r + 1, 2))
     P_t = P_r if one else np.empty((n, 4))
     tab_t = tab_r if one else np.empty((nt_t + 1, 2))
-    return (np.empty((_NWN, n)), np.empty((_NWK, ns)), np.empty((n, 6)), np.empty((2 * S, n)),
-            np.empty((6 * S, ns)), np.empty((2, S)), P_r, tab_r, P_t, tab_t, np.empty(_NFS),
-            np.empty(_NIS, np.int64), sub_r, sub_t)
+    # the arrays the recurrence compares start as zeros (never-written entries of np.empty could
+    # hold a NaN, which equals nothing, and decide at random whether a transient is ended early)
+    return (np.zeros((_NWN, n)), np.zeros((_NWK, ns)), np.zeros((n, 6)), np.empty((2 * S, n)),
+            np.empty((6 * S, ns)), np.empty((2, S)), P_r, tab_r, P_t, tab_t, np.zeros(_NFS),
+            np.zeros(_NIS, np.int64), sub_r, sub_t,
+            np.empty((8 * n + _NWN * n + _NWK * ns + _NFS) if recur else 0), np.empty(_NIS if recur else 0, np.int64))
+
+
+@_kernel
+def _snapshot(sf, si, eta, etad, wn, wk, hb, fs, ist):
+    """Copy the loop's state at a period start into ``sf`` (floats) and ``si`` (integers)."""
+    j = 0
+    for i in range(eta.shape[0]):
+        sf[j] = eta[i]
+        sf[j + 1] = etad[i]
+        j += 2
+    for a in (wn, wk, hb):
+        for r in range(a.shape[0]):
+            for c in range(a.shape[1]):
+                sf[j] = a[r, c]
+                j += 1
+    for i in range(_NFS):
+        sf[j + i] = fs[i]
+    for i in range(_NIS):
+        si[i] = ist[i]
+
+
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def _same(a, b):
+    """``a`` and ``b`` are the same float, signed zeros told apart (NaN never is)."""
+    return a == b and (a != 0.0 or math.copysign(1.0, a) == math.copysign(1.0, b))
+
+
+@_kernel
+def _recurs(sf, si, eta, etad, wn, wk, hb, fs, ist):
+    """Whether the loop's state equals the snapshot of :func:`_snapshot` bit for bit, but for
+    the quantities that only count or stamp (steps, impacts, the largest gap, the record's times,
+    the clock's period offsets, the last impact's time)."""
+    j = 0
+    for i in range(eta.shape[0]):
+        if not (_same(sf[j], eta[i]) and _same(sf[j + 1], etad[i])):
+            return False
+        j += 2
+    for a in (wn, wk, hb):
+        for r in range(a.shape[0]):
+            for c in range(a.shape[1]):
+                if not _same(sf[j], a[r, c]):
+                    return False
+                j += 1
+    for i in range(_NFS):
+        if i == _GMAX or i == _STUCK or i == _TCON or i == _TLAST or i == _PT or i == _T0:
+            continue
+        if not _same(sf[j + i], fs[i]):
+            return False
+    for i in range(_NIS):
+        if i == _NSTEPS or i == _NIMPT:
+            continue
+        if si[i] != ist[i]:
+            return False
+    return True
 
 
 @_kernel
@@ -1315,26 +1385,27 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
     work : tuple
         The work arrays of :func:`new_work` (a caller that reuses them at another ``Om`` runs one
         grid, ``ns_transient == ns_record``, and checks :func:`work_fits`; the sub-steps are those
-        of ``Om``).
+        of ``Om``).  With a snapshot, the transient's exact recurrence is on.
 
     Returns
     -------
     tuple
         ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
-        gmax, n_steps, contact_time)``: status code, recorded impacts and contacts, sensor extremes
+        gmax, n_steps, contact_time, periods_skipped)``: status code, recorded impacts and contacts, sensor extremes
         over the record (row units), chatter sequences, time held (excluding chatter holds), the
         final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
         response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
         gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
         round-off only if a crossing had been stepped over), steps taken, time in compliant contact
-        during the record.
+        during the record, transient periods skipped by the exact recurrence (module docstring; the
+        counters include them).
     """
-    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t) = work
+    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, snap_f, snap_i) = work
     sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
     status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
                         ns_transient, ns_record, h_cap, fs, ist)
     if status != 0:
-        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0)
+        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0, 0)
     if cw is not None:
         _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec)
     n = eta.shape[0]
@@ -1411,7 +1482,30 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
     k_sample = 0
     n_total = n_transient + n_record
     failed = False
-    for pp in range(n_total):
+    # the transient's exact recurrence (module docstring): snapshot period (-1: none yet, -2: off)
+    snap_pp = -2 if (cw is not None or logging or aplog.shape[0] > 0 or snap_f.shape[0] == 0) else -1
+    skipped = 0
+    pp = 0
+    while pp < n_total:
+        if snap_pp != -2 and pp < n_transient:
+            if snap_pp >= 0 and _recurs(snap_f, snap_i, eta, etad, wn, wk, hb, fs, ist):
+                L = pp - snap_pp
+                m = (n_transient - pp) // L
+                d_steps = ist[_NSTEPS] - snap_i[_NSTEPS]
+                d_imp = ist[_NIMPT] - snap_i[_NIMPT]
+                if m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts:
+                    ist[_NSTEPS] += m * d_steps
+                    ist[_NIMPT] += m * d_imp
+                    if fs[_TLAST] > -1e299:
+                        fs[_TLAST] += (m * L) * T
+                    pp += m * L
+                    skipped += m * L
+                    snap_pp = -2
+                    continue        # (the call may end here: no record)
+                snap_pp = -2
+            elif snap_pp < 0 or pp - snap_pp >= RECUR_MAX:
+                _snapshot(snap_f, snap_i, eta, etad, wn, wk, hb, fs, ist)
+                snap_pp = pp
         recording = pp >= n_transient
         ns_grid = ns_record if recording else ns_transient
         h_grid = T / ns_grid
@@ -1813,8 +1907,9 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                 break
         if failed:
             break
+        pp += 1
     if failed:
-        return _failed(fs, ist)
+        return _failed(fs, ist, skipped)
     if n_record > 0:
         pmin[n_record - 1] = fs[_PEXT]
         fs[_EXT] = min(fs[_EXT], fs[_PEXT])
@@ -1826,7 +1921,7 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
         elif fs[_STUCK] > 0.0:
             status = ST_STICKING
     return (status, ist[_NIMPR], fs[_EXT], fs[_EXT1], ist[_NCHAT], fs[_STUCK], ist[_H] | ist[_C], ist[_NIMPT],
-            fs[_GMAX], ist[_NSTEPS], fs[_TCON])
+            fs[_GMAX], ist[_NSTEPS], fs[_TCON], skipped)
 
 
 @_kernel

@@ -1109,7 +1109,7 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     d = 2 * n
     xe = np.empty(d)
     rst = np.zeros(d)
-    work = new_work(n, st.offset.shape[0], hs.valid.shape[0], Om, _ONE, _ONE, h_cap)
+    work = new_work(n, st.offset.shape[0], hs.valid.shape[0], Om, _ONE, _ONE, h_cap, _FALSE)
     tw = tangent_work(n, st.offset.shape[0], hs.valid.shape[0], dd.dOm.shape[0])
     out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts,
                                                  max_steps, chatter_tol, rec, J, rel, derivatives, xe, rst, work, tw)
@@ -1320,7 +1320,7 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
     finite = _TRUE
     Om0 = offset + factor * u[d] * sp
     work = new_work(d // 2, st.offset.shape[0], hs.valid.shape[0], Om0 if math.isfinite(Om0) and Om0 > 0.0 else 1.0,
-                    _ONE, _ONE, h_cap)
+                    _ONE, _ONE, h_cap, _FALSE)
     tw = tangent_work(d // 2, st.offset.shape[0], hs.valid.shape[0], dd.dOm.shape[0])
     for it in range(max_newton + 1):
         x = u[:d] * sx
@@ -1337,7 +1337,7 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
             code, it_out = CORRECT_FALLBACK, it
             break
         if not work_fits(work, Om, 1, h_cap):
-            work = new_work(d // 2, st.offset.shape[0], hs.valid.shape[0], Om, _ONE, _ONE, h_cap)
+            work = new_work(d // 2, st.offset.shape[0], hs.valid.shape[0], Om, _ONE, _ONE, h_cap, _FALSE)
         out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x, _MINUS_ONE, n_periods, h_cap,
                                                      max_impacts, max_steps, chatter_tol, rec, J, rel, _TRUE, xe, rst,
                                                      work, tw)

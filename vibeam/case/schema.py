@@ -840,6 +840,7 @@ class EventRun(_RunBase):
     transient_samples: Annotated[int, Field(ge=4, le=1024)] = 16
     chatter_tol: Annotated[float, Field(gt=0.0, lt=1.0)] = 1e-7
     max_impacts_per_period: Annotated[int, Field(ge=1)] = 20000
+    recurrence: bool = True
 
 
 class ODERun(_RunBase):

@@ -1,0 +1,125 @@
+"""The transient's exact recurrence (vibeam.models.core.integrator): a transient whose state at a
+period start recurs bit for bit is ended early, and every output must be that of the run that
+integrates every period, bit for bit (the kernel is a deterministic function of that state).
+
+The reference is the same kernel with the recurrence off (``recurrence=False``) and, as a second
+independent switch, with the event log on (which turns it off: its rows would be missing).
+Equality is exact (``np.array_equal``, ``==``): a skip that lands one period off, or counters
+advanced by a wrong cycle count, changes the samples, the final state or the step and impact
+counts.  Each scene is checked to skip something, so the comparison is not vacuous.
+"""
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vibeam.case.schema import load_case
+from vibeam.models import SDOF, make_solver
+from vibeam.models.core.event import EventIntegrator
+from vibeam.models.system import from_beam, from_sdof
+
+ROOT = Path(__file__).resolve().parents[1]
+SCALARS = ("status", "n_impacts", "s_min", "s_max", "n_chatter", "stuck_time", "held_end", "n_impacts_total",
+           "gap_max", "n_steps")
+
+
+def _sdof(name):
+    return {
+        "fig7": SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0),
+        "two-sided": SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e-3, R_lower=0.6),
+        # the rig's SDOF in its sticking band: chatter sequences and holds in every period
+        "sticking": SDOF.from_physical(7.6, 0.017, 0.72, -0.1, 180.0, 5.16e-4, 0.35),
+    }[name]
+
+
+def _core(name):
+    """The kernel's data, the modes, and two forcing frequencies where the transient recurs
+    exactly natively and under NUMBA_CPU_NAME=generic (whether a chattering orbit's transient
+    recurs within 400 periods depends on the last bits: the tight beam at 15 Hz does natively,
+    not under generic)."""
+    if name == "beam-2-modes":
+        m = load_case(ROOT / "cases" / "rig-fe-tight.toml")[0].model_spec({"n_modes": 2}).build()
+        return EventIntegrator(from_beam(m), m.system_stops()), 2, (16.0 / m.f_ref_hz, 16.5 / m.f_ref_hz)
+    m = _sdof(name)
+    Om = {"fig7": (1.5, 2.1), "two-sided": (1.9, 2.1), "sticking": (14.0 / 7.6, 14.5 / 7.6)}[name]
+    return EventIntegrator(from_sdof(m), m.stops()), 1, Om
+
+
+def _run(core, n, Om, n_transient, n_record, max_impacts=10**7, max_steps=4 * 10**6, **kw):
+    z = np.zeros(n)
+    return core.run(Om, z, z, 0, n_transient, n_record, 16, 64, 2 * math.pi / Om / 16, max_impacts, max_steps,
+                    1e-7, **kw)
+
+
+def _assert_identical(a, b):
+    for f in SCALARS:
+        assert getattr(a, f) == getattr(b, f), f
+    np.testing.assert_array_equal(a.eta, b.eta)
+    np.testing.assert_array_equal(a.etad, b.etad)
+    for f in ("samples", "pmin", "modamp", "n_imp_stop"):
+        np.testing.assert_array_equal(getattr(a.record, f), getattr(b.record, f), err_msg=f)
+    k = min(a.n_impacts, a.record.imp_t.shape[0])
+    for f in ("imp_t", "imp_v", "imp_k"):
+        np.testing.assert_array_equal(getattr(a.record, f)[:k], getattr(b.record, f)[:k], err_msg=f)
+    c = min(a.n_chatter, a.record.chat_t.shape[0])
+    np.testing.assert_array_equal(a.record.chat_t[:c], b.record.chat_t[:c])
+
+
+@pytest.mark.parametrize("name", ["fig7", "two-sided", "sticking", "beam-2-modes"])
+def test_a_recurring_transient_ends_early_with_the_outputs_of_every_period(name):
+    """Newton stops, one and two of them, with sticking and chatter (the Zeno guard's window
+    is live with two modes): outputs equal to both references at both frequencies, and at
+    least one of them skips over 100 periods."""
+    core, n, Oms = _core(name)
+    skipped = []
+    for Om in Oms:
+        a = _run(core, n, Om, 400, 32)
+        b = _run(core, n, Om, 400, 32, recurrence=False)
+        c = _run(core, n, Om, 400, 32, log_events=1)
+        assert b.periods_skipped == 0 and c.periods_skipped == 0
+        _assert_identical(a, b)
+        _assert_identical(a, c)
+        skipped.append(a.periods_skipped)
+        if name in ("sticking", "beam-2-modes"):
+            assert a.stuck_time > 0.0 and a.n_chatter > 0     # the scene does stick and chatter
+    assert max(skipped) > 100, skipped
+
+
+def test_a_call_without_record_ends_on_the_skipped_period():
+    """``n_record = 0`` (a call that only settles): a skip may end the call; the final state and
+    counters are those of every period (the first version ran one period beyond the call here)."""
+    core, n, (Om, _) = _core("fig7")
+    for n_tr in (300, 301, 317):
+        a = _run(core, n, Om, n_tr, 0)
+        b = _run(core, n, Om, n_tr, 0, recurrence=False)
+        assert a.periods_skipped > 0
+        _assert_identical(a, b)
+
+
+def test_no_skip_past_a_guard_the_full_run_would_hit():
+    """An impact or step budget that the full run exhausts in the transient: no skip jumps over
+    it; the point fails as the full run does, with the same counts."""
+    core, n, (Om, _) = _core("fig7")
+    full = _run(core, n, Om, 400, 8, recurrence=False)
+    per_period_steps = full.n_steps / 408
+    for guard in ({"max_impacts": 300}, {"max_steps": int(300 * per_period_steps)}):
+        a = _run(core, n, Om, 400, 8, **guard)
+        b = _run(core, n, Om, 400, 8, recurrence=False, **guard)
+        assert a.status == b.status == 3      # ST_FAILED
+        _assert_identical(a, b)
+
+
+def test_the_sweep_outputs_do_not_depend_on_the_recurrence():
+    """Through the solver and the per-point summary: every output of the Fig. 7 scene's points."""
+    from vibeam.engine.records import summarize
+
+    m = _sdof("fig7")
+    on, off = make_solver(m, "event"), make_solver(m, "event", recurrence=False)
+    for W in (1.5, 1.8, 2.2):
+        a, b = on.point(W, None, 436, 64), off.point(W, None, 436, 64)
+        sa, sb = summarize(a, m.Delta), summarize(b, m.Delta)
+        assert sa.keys() == sb.keys()
+        for k in sa:
+            np.testing.assert_array_equal(np.asarray(sa[k]), np.asarray(sb[k]), err_msg=k)
+        np.testing.assert_array_equal(a.final_state, b.final_state)
