@@ -424,11 +424,9 @@ def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap, recur):
     tab_r = np.empty((nt_r + 1, 2))
     P_t = P_r if one else np.empty((n, 4))
     tab_t = tab_r if one else np.empty((nt_t + 1, 2))
-    # the arrays the recurrence compares start as zeros (never-written entries of np.empty could
-    # hold a NaN, which equals nothing, and decide at random whether a transient is ended early)
-    return (np.zeros((_NWN, n)), np.zeros((_NWK, ns)), np.zeros((n, 6)), np.empty((2 * S, n)),
-            np.empty((6 * S, ns)), np.empty((2, S)), P_r, tab_r, P_t, tab_t, np.zeros(_NFS),
-            np.zeros(_NIS, np.int64), sub_r, sub_t,
+    return (np.empty((_NWN, n)), np.empty((_NWK, ns)), np.empty((n, 6)), np.empty((2 * S, n)),
+            np.empty((6 * S, ns)), np.empty((2, S)), P_r, tab_r, P_t, tab_t, np.empty(_NFS),
+            np.empty(_NIS, np.int64), sub_r, sub_t,
             np.empty((8 * n + _NWN * n + _NWK * ns + _NFS) if recur else 0), np.empty(_NIS if recur else 0, np.int64))
 
 
@@ -453,8 +451,12 @@ def _snapshot(sf, si, eta, etad, wn, wk, hb, fs, ist):
 
 @njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def _same(a, b):
-    """``a`` and ``b`` are the same float, signed zeros told apart (NaN never is)."""
-    return a == b and (a != 0.0 or math.copysign(1.0, a) == math.copysign(1.0, b))
+    """``a`` and ``b`` are the same float: signed zeros told apart, two NaNs the same (an entry
+    of the work arrays that a scene never writes keeps what ``np.empty`` left there, a NaN
+    included: it must not decide at random whether a transient is ended early)."""
+    if a == b:
+        return a != 0.0 or math.copysign(1.0, a) == math.copysign(1.0, b)
+    return a != a and b != b
 
 
 @_kernel
