@@ -80,7 +80,8 @@ def strobe_returns(strobe: np.ndarray, scale: float, Omega: float | None = None)
     out = np.full(PERIOD_MAX, np.inf)
     sc = max(scale, 1e-300)
     for n in range(1, min(PERIOD_MAX, m - 1) + 1):
-        out[n - 1] = np.max(np.abs(strobe[n:] - strobe[:-n])) / sc
+        d = strobe[n:] - strobe[:-n]
+        out[n - 1] = np.abs(d, out=d).max() / sc      # (in place: ~1 us a return fewer per point)
     return out / natural_time_factors(Omega)
 
 
@@ -176,7 +177,7 @@ def transient_verdict(strobe: np.ndarray, scale: float, rtol: float, no_impact: 
 
 def _own_time(Omega) -> str:
     """The note of a verdict judged in the oscillator's own time (Omega > 2 pi), else ''."""
-    f = natural_time_factors(Omega)[0]
+    f = min(1.0, 2.0 * np.pi / float(Omega)) if Omega is not None and np.isfinite(Omega) and Omega > 0 else 1.0
     if f >= 1.0:
         return ""
     return (f"; judged in the oscillator's own time: a forcing period lasts {f:.2g} natural time "
@@ -213,10 +214,10 @@ def batch_means(x: np.ndarray) -> tuple[float, int]:
     n = x.size
     b = max(1, math.isqrt(n))
     a = n // b
-    if a < 2 or not np.all(np.isfinite(x)):
+    if a < 2 or not np.isfinite(x).all():
         return math.nan, 0
     means = x[n - a * b:].reshape(a, b).mean(axis=1)
-    return float(np.std(means, ddof=1) / math.sqrt(a)), a - 1
+    return float(means.std(ddof=1) / math.sqrt(a)), a - 1
 
 
 def amplitude_spread(period_amplitudes: np.ndarray) -> dict:
@@ -231,13 +232,13 @@ def amplitude_spread(period_amplitudes: np.ndarray) -> dict:
     """
     a = np.asarray(period_amplitudes, float)
     n = a.size
-    if n == 0 or not np.all(np.isfinite(a)):
+    if n == 0 or not np.isfinite(a).all():
         nan = np.nan
         return dict(amplitude_mean=nan, amplitude_std=nan, amplitude_min=nan, amplitude_max=nan,
                     amplitude_sem=nan, amplitude_sem_dof=0, record_periods=n)
     sem, dof = batch_means(a)
-    return dict(amplitude_mean=float(np.mean(a)), amplitude_std=float(np.std(a, ddof=1)) if n > 1 else 0.0,
-                amplitude_min=float(np.min(a)), amplitude_max=float(np.max(a)), amplitude_sem=sem,
+    return dict(amplitude_mean=float(a.mean()), amplitude_std=float(a.std(ddof=1)) if n > 1 else 0.0,
+                amplitude_min=float(a.min()), amplitude_max=float(a.max()), amplitude_sem=sem,
                 amplitude_sem_dof=dof, record_periods=n)
 
 
@@ -381,7 +382,9 @@ def harmonic_amplitudes(q: np.ndarray, samples_per_period: int, n_harmonics: int
     X = np.fft.rfft(q[: n_rec * spp].reshape(n_rec, spp).mean(axis=0)) / spp
     out = np.full(n_harmonics, np.nan)
     k = min(n_harmonics, X.shape[0])
-    out[:k] = np.abs(X[:k]) * np.r_[1.0, np.full(k - 1, 2.0)]
+    single = np.full(k, 2.0)
+    single[0] = 1.0
+    out[:k] = np.abs(X[:k]) * single
     return out
 
 
