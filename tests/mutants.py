@@ -147,6 +147,15 @@ MUTANTS: list[Mutant] = [
            "w = st.normal[k, j] if H == 0 else hs.pG[H, k, j]\n                dg += w * Y[j, c]",
            "w = st.normal[0, j] if H == 0 else hs.pG[H, k, j]\n                dg += w * Y[j, c]",
            ("tests/test_continuation_hc_beam.py",)),
+    # --- the transient's exact recurrence
+    Mutant("recurrence: the skip lands one period short of a whole number of cycles",
+           "models/core/integrator.py", "                    pp += m * L\n", "                    pp += m * L - 1\n",
+           ("tests/test_recurrence.py",)),
+    Mutant("recurrence: a skip jumps over the impact and step guards the full run would hit",
+           "models/core/integrator.py",
+           "if m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts:",
+           "if m > 0:",
+           ("tests/test_recurrence.py",)),
 ]
 
 
@@ -164,8 +173,9 @@ def run(m: Mutant, python: str = sys.executable) -> tuple[str, float]:
     finally:
         path.write_bytes(text)
     dt = time.perf_counter() - t0
-    if p.returncode == 1:
-        failed = [ln.split(" ")[1] for ln in p.stdout.splitlines() if ln.startswith("FAILED ")]
+    failed = [ln.split(" ")[1] for ln in p.stdout.splitlines() if ln.startswith("FAILED ")]
+    if p.returncode == 1 or (p.returncode == 2 and failed):
+        # (2: pytest-xdist ends a -x run that has failed as "Interrupted")
         return "killed by " + (failed[0] if failed else "a failing test"), dt
     if p.returncode == 0:
         return "SURVIVED", dt
