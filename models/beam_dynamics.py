@@ -565,7 +565,8 @@ class BeamEventSolver:
     record_modal_states : bool
         Also record the modal state at the samples.
     recurrence : bool
-        End a transient early once its state recurs exactly, with the same outputs bit for bit
+        Stop integrating a transient or a record once its state recurs exactly (skip or copy
+        whole cycles), with the same outputs bit for bit
         (:mod:`vibeam.models.core.integrator`); False integrates every period (a check, a timing).
     """
 

@@ -245,7 +245,8 @@ class EventSolver:
         a call that needs more returns ``incomplete`` (:class:`Trajectory`), and the sweep
         engine repeats it in shorter calls; one forcing period that needs more fails.
     recurrence : bool, optional
-        End a transient early once its state recurs exactly, with the same outputs bit for bit
+        Stop integrating a transient or a record once its state recurs exactly (skip or copy
+        whole cycles), with the same outputs bit for bit
         (:mod:`vibeam.models.core.integrator`); False integrates every period (a check, a timing).
     """
 

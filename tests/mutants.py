@@ -153,8 +153,11 @@ MUTANTS: list[Mutant] = [
            ("tests/test_recurrence.py",)),
     Mutant("recurrence: a skip jumps over the impact and step guards the full run would hit",
            "models/core/integrator.py",
-           "if m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts:",
-           "if m > 0:",
+           "ok = m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts",
+           "ok = m > 0",
+           ("tests/test_recurrence.py",)),
+    Mutant("recurrence: an impact copied into the record keeps its source's period (its time one cycle early)",
+           "models/core/integrator.py", "rp = rec.imp_rp[src] + L", "rp = rec.imp_rp[src]",
            ("tests/test_recurrence.py",)),
 ]
 

@@ -1,6 +1,7 @@
-"""The transient's exact recurrence (vibeam.models.core.integrator): a transient whose state at a
-period start recurs bit for bit is ended early, and every output must be that of the run that
-integrates every period, bit for bit (the kernel is a deterministic function of that state).
+"""The exact recurrence (vibeam.models.core.integrator): a transient whose state at a period start
+recurs bit for bit is ended early, a record's cycle is copied to its end, and every output must be
+that of the run that integrates every period, bit for bit (the kernel is a deterministic function
+of that state).
 
 The reference is the same kernel with the recurrence off (``recurrence=False``) and, as a second
 independent switch, with the event log on (which turns it off: its rows would be missing).
@@ -60,7 +61,7 @@ def _assert_identical(a, b):
     for f in ("samples", "pmin", "modamp", "n_imp_stop"):
         np.testing.assert_array_equal(getattr(a.record, f), getattr(b.record, f), err_msg=f)
     k = min(a.n_impacts, a.record.imp_t.shape[0])
-    for f in ("imp_t", "imp_v", "imp_k"):
+    for f in ("imp_t", "imp_v", "imp_k", "imp_tl", "imp_rp"):
         np.testing.assert_array_equal(getattr(a.record, f)[:k], getattr(b.record, f)[:k], err_msg=f)
     c = min(a.n_chatter, a.record.chat_t.shape[0])
     np.testing.assert_array_equal(a.record.chat_t[:c], b.record.chat_t[:c])
@@ -95,6 +96,32 @@ def test_a_call_without_record_ends_on_the_skipped_period():
         b = _run(core, n, Om, n_tr, 0, recurrence=False)
         assert a.periods_skipped > 0
         _assert_identical(a, b)
+
+
+@pytest.mark.parametrize("buffer", [4096, 7])
+def test_a_recurring_record_is_copied_to_its_end(buffer):
+    """A run that is all record (no transient): once the recorded state recurs, whole cycles are
+    copied (samples, modal states, per-period minima, impacts and their times, also when the
+    impact buffer fills up mid-copy), identical to integrating every period."""
+    core, n, (Om, Om2) = _core("fig7")
+    for W in (Om, Om2):
+        a = _run(core, n, W, 0, 300, impact_buffer=buffer, modal_states=True)
+        b = _run(core, n, W, 0, 300, impact_buffer=buffer, modal_states=True, recurrence=False)
+        assert a.periods_skipped > 30 and b.periods_skipped == 0
+        assert a.n_impacts > buffer or buffer > 300
+        _assert_identical(a, b)
+        np.testing.assert_array_equal(a.record.msamp, b.record.msamp)
+
+
+def test_a_record_that_holds_is_integrated_to_its_end():
+    """A recorded cycle that adds time held or chatter sequences is not copied (its sums would be
+    added in another order): the sticking scene's record is integrated, identical."""
+    core, n, (Om, _) = _core("sticking")
+    a = _run(core, n, Om, 400, 200)
+    b = _run(core, n, Om, 400, 200, recurrence=False)
+    assert a.stuck_time > 0.0
+    assert 0 < a.periods_skipped <= 400          # the transient only
+    _assert_identical(a, b)
 
 
 def test_no_skip_past_a_guard_the_full_run_would_hit():

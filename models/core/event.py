@@ -62,8 +62,9 @@ class Run:
     contact_time : float
         Time in compliant contact during the record.
     periods_skipped : int
-        Transient periods not integrated because the state had recurred exactly (the
-        integrator's module docstring; the outputs are those of the full run).
+        Periods not integrated because the state had recurred exactly (skipped in the
+        transient, copied in the record; the integrator's module docstring; the outputs are
+        those of the full run).
     """
 
     record: Record
@@ -180,7 +181,8 @@ class EventIntegrator:
             Buffers to reuse (else new ones with ``impact_buffer``, ``modal_states`` and the log
             capacities).
         recurrence : bool
-            End a transient that recurs exactly early, with the same outputs bit for bit
+            Stop integrating a transient or a record once its state recurs exactly, with the
+            same outputs bit for bit
             (:mod:`vibeam.models.core.integrator`; off with the event or apex log or compliant
             stops); False integrates every period.
 

@@ -34,9 +34,12 @@ compared bit for bit with a snapshot taken at most :data:`RECUR_MAX` periods bef
 recurs after ``L`` periods, every later period repeats the last ``L`` exactly (the kernel is a
 deterministic function of that state and the phase), so whole multiples of ``L`` are skipped up
 to the record and the step and impact counters advance by their counts over the cycle (the last
-impact's time by the skipped time, for the Zeno guard's window).  The outputs are those of the
-full run bit for bit; ``periods_skipped`` says how many were not integrated.  Not with compliant
-stops or the event and apex logs (whose rows would be missing).
+impact's time by the skipped time, for the Zeno guard's window).  In the record (a snapshot taken
+in it) a cycle that adds no time held or in contact and no chatter sequence is copied to the
+record's end in whole cycles: samples, per-period minima, impacts (their times rebuilt as the
+kernel computes them, from their periods and times within them).  The outputs are those of the
+full run bit for bit; ``periods_skipped`` says how many periods were not integrated.  Not with
+compliant stops or the event and apex logs (whose rows would be missing).
 
 Outputs go to one :class:`Record` (arrays allocated by the caller: samples at the phase grid of
 the recorded periods, impacts, per-period minima, chatter points, an optional event log for the
@@ -110,6 +113,9 @@ class Record(NamedTuple):
         ``cap`` recorded impacts.
     imp_k : ndarray of int64, shape (cap,)
         Their stops.
+    imp_tl, imp_rp : ndarray, shape (cap,)
+        Their times within their periods and the periods' indices in the record (int64):
+        ``imp_t = imp_rp * T + imp_tl`` as the kernel computes it (the recurrence repeats them).
     n_imp_stop : ndarray of int64, shape (n_s,)
         Recorded impacts per stop.
     chat_t : ndarray, shape (cap_c,)
@@ -134,6 +140,8 @@ class Record(NamedTuple):
     imp_t: np.ndarray
     imp_v: np.ndarray
     imp_k: np.ndarray
+    imp_tl: np.ndarray
+    imp_rp: np.ndarray
     n_imp_stop: np.ndarray
     chat_t: np.ndarray
     evlog: np.ndarray
@@ -152,7 +160,8 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
     # default 4096 entries, clearing them cost ~10 us per point of a sweep)
     return Record(np.zeros((ns, 2)), np.zeros((ns if modal_states else 0, 2 * n)), np.zeros(n),
                   np.zeros(int(n_record)), np.empty(impact_buffer), np.empty(impact_buffer),
-                  np.empty(impact_buffer, np.int64), np.zeros(n_stops, np.int64), np.empty(impact_buffer),
+                  np.empty(impact_buffer, np.int64), np.empty(impact_buffer), np.empty(impact_buffer, np.int64),
+                  np.zeros(n_stops, np.int64), np.empty(impact_buffer),
                   np.zeros((int(log_events), LOG_HEAD + 2 * n)), np.zeros((int(log_apexes), 3)),
                   np.zeros(2, np.int64), np.full((impact_buffer if compliant else 0, 5), np.nan))
 
@@ -186,7 +195,7 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
 (_PHI, _TLOC, _REM, _HLAST, _HOLD, _GMAX, _STUCK, _TCON, _TLAST, _PT, _T0, _SASF, _SBSF, _PEXT, _PEXT1,
  _EXT, _EXT1, _NFS) = range(18)
 (_H, _C, _INSIDE, _RELAXED, _CMASK, _FRESH, _BSTALE, _ATGRID, _JSTUCK, _JREL, _QFRESH, _QLAST, _BURST,
- _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _NIS) = range(20)
+ _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _RP, _NIS) = range(21)
 #: longest exact cycle of a transient's period-start state that is detected and skipped (periods)
 RECUR_MAX = 16
 # the event kinds and the root kind of an apex as int64 constants: a literal int argument would
@@ -427,12 +436,19 @@ def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap, recur):
     return (np.empty((_NWN, n)), np.empty((_NWK, ns)), np.empty((n, 6)), np.empty((2 * S, n)),
             np.empty((6 * S, ns)), np.empty((2, S)), P_r, tab_r, P_t, tab_t, np.empty(_NFS),
             np.empty(_NIS, np.int64), sub_r, sub_t,
-            np.empty((8 * n + _NWN * n + _NWK * ns + _NFS) if recur else 0), np.empty(_NIS if recur else 0, np.int64))
+            np.empty((_snap_fs(n, ns) + _NFS) if recur else 0), np.empty((_NIS + ns) if recur else 0, np.int64))
+
+
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def _snap_fs(n, ns):
+    """Where the loop's floats ``fs`` start in a snapshot (:func:`_snapshot`)."""
+    return 8 * n + _NWN * n + _NWK * ns
 
 
 @_kernel
-def _snapshot(sf, si, eta, etad, wn, wk, hb, fs, ist):
-    """Copy the loop's state at a period start into ``sf`` (floats) and ``si`` (integers)."""
+def _snapshot(sf, si, eta, etad, wn, wk, hb, fs, ist, n_imp_stop):
+    """Copy the loop's state at a period start into ``sf`` (floats) and ``si`` (integers, then
+    the recorded impacts per stop)."""
     j = 0
     for i in range(eta.shape[0]):
         sf[j] = eta[i]
@@ -447,6 +463,8 @@ def _snapshot(sf, si, eta, etad, wn, wk, hb, fs, ist):
         sf[j + i] = fs[i]
     for i in range(_NIS):
         si[i] = ist[i]
+    for k in range(n_imp_stop.shape[0]):
+        si[_NIS + k] = n_imp_stop[k]
 
 
 @njit(cache=True, _nrt=False, error_model="numpy", inline="always")
@@ -462,8 +480,9 @@ def _same(a, b):
 @_kernel
 def _recurs(sf, si, eta, etad, wn, wk, hb, fs, ist):
     """Whether the loop's state equals the snapshot of :func:`_snapshot` bit for bit, but for
-    the quantities that only count or stamp (steps, impacts, the largest gap, the record's times,
-    the clock's period offsets, the last impact's time)."""
+    the quantities that only count, sum or stamp (steps, impacts, chatter sequences, the largest
+    gap, the record's extremes, its last period's and times held and in contact, the clock's
+    period offsets and record period, the last impact's time)."""
     j = 0
     for i in range(eta.shape[0]):
         if not (_same(sf[j], eta[i]) and _same(sf[j + 1], etad[i])):
@@ -476,16 +495,48 @@ def _recurs(sf, si, eta, etad, wn, wk, hb, fs, ist):
                     return False
                 j += 1
     for i in range(_NFS):
-        if i == _GMAX or i == _STUCK or i == _TCON or i == _TLAST or i == _PT or i == _T0:
+        if (i == _GMAX or i == _STUCK or i == _TCON or i == _TLAST or i == _PT or i == _T0 or i == _EXT
+                or i == _EXT1 or i == _PEXT or i == _PEXT1):
             continue
         if not _same(sf[j + i], fs[i]):
             return False
     for i in range(_NIS):
-        if i == _NSTEPS or i == _NIMPT:
+        if i == _NSTEPS or i == _NIMPT or i == _NIMPR or i == _NCHAT or i == _RP:
             continue
         if si[i] != ist[i]:
             return False
     return True
+
+
+@_kernel
+def _repeat_record(rec, r0, L, m, ns_record, q0, d_rec, stop0, T, pext):
+    """Write the record of ``m`` more cycles of ``L`` periods from record period ``r0`` on as
+    copies of the cycle just recorded (its last period's minimum ``pext`` not yet stored):
+    samples, per-period minima, the impacts after the ``q0`` recorded ones (``d_rec`` a cycle;
+    their times as the kernel computes them, from their periods and times within them) and
+    impacts per stop (``stop0``: at the cycle's start)."""
+    pmin = rec.pmin
+    pmin[r0 - 1] = pext
+    for r in range(r0, r0 + m * L - 1):
+        pmin[r] = pmin[r - L]
+    lag = L * ns_record
+    for k in range(r0 * ns_record, (r0 + m * L) * ns_record):
+        for c in range(rec.samples.shape[1]):
+            rec.samples[k, c] = rec.samples[k - lag, c]
+        if rec.msamp.shape[0] > 0:
+            for c in range(rec.msamp.shape[1]):
+                rec.msamp[k, c] = rec.msamp[k - lag, c]
+    n0 = rec.n_imp_stop.shape[0]
+    for q in range(q0, min(q0 + m * d_rec, rec.imp_t.shape[0])):
+        src = q - d_rec
+        rec.imp_v[q] = rec.imp_v[src]
+        rec.imp_k[q] = rec.imp_k[src]
+        rec.imp_tl[q] = rec.imp_tl[src]
+        rp = rec.imp_rp[src] + L
+        rec.imp_rp[q] = rp
+        rec.imp_t[q] = rp * T + rec.imp_tl[q]
+    for k in range(n0):
+        rec.n_imp_stop[k] += m * (rec.n_imp_stop[k] - stop0[k])
 
 
 @_kernel
@@ -1194,6 +1245,8 @@ def _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, kk, max_impacts, recordi
         n_imp_rec = ist[_NIMPR]
         if n_imp_rec < rec.imp_t.shape[0]:
             rec.imp_t[n_imp_rec] = t_period0 + t_loc
+            rec.imp_tl[n_imp_rec] = t_loc
+            rec.imp_rp[n_imp_rec] = ist[_RP]
             rec.imp_v[n_imp_rec] = U
             rec.imp_k[n_imp_rec] = kk
         crow[kk] = n_imp_rec
@@ -1278,6 +1331,8 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
         n_imp_rec = ist[_NIMPR]
         if n_imp_rec < rec.imp_t.shape[0]:
             rec.imp_t[n_imp_rec] = t_period0 + t_loc
+            rec.imp_tl[n_imp_rec] = t_loc
+            rec.imp_rp[n_imp_rec] = ist[_RP]
             rec.imp_v[n_imp_rec] = Um
             rec.imp_k[n_imp_rec] = k_imp
         ist[_NIMPR] = n_imp_rec + 1
@@ -1399,8 +1454,8 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
         response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
         gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
         round-off only if a crossing had been stepped over), steps taken, time in compliant contact
-        during the record, transient periods skipped by the exact recurrence (module docstring; the
-        counters include them).
+        during the record, periods not integrated thanks to the exact recurrence (module docstring;
+        the counters and the record include them).
     """
     (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, snap_f, snap_i) = work
     sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
@@ -1484,30 +1539,48 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
     k_sample = 0
     n_total = n_transient + n_record
     failed = False
-    # the transient's exact recurrence (module docstring): snapshot period (-1: none yet, -2: off)
+    # the exact recurrence (module docstring): snapshot period (-1: none yet, -2: off); a cycle
+    # found in the transient is skipped up to the record, one found in the record (the snapshot
+    # taken in it) is copied to its end
     snap_pp = -2 if (cw is not None or logging or aplog.shape[0] > 0 or snap_f.shape[0] == 0) else -1
+    j_fs = _snap_fs(n, ns)
     skipped = 0
     pp = 0
     while pp < n_total:
-        if snap_pp != -2 and pp < n_transient:
-            if snap_pp >= 0 and _recurs(snap_f, snap_i, eta, etad, wn, wk, hb, fs, ist):
+        if snap_pp != -2:
+            in_rec = pp >= n_transient
+            if snap_pp >= 0 and (snap_pp >= n_transient or not in_rec) and \
+                    _recurs(snap_f, snap_i, eta, etad, wn, wk, hb, fs, ist):
                 L = pp - snap_pp
-                m = (n_transient - pp) // L
+                m = ((n_total if in_rec else n_transient) - pp) // L
                 d_steps = ist[_NSTEPS] - snap_i[_NSTEPS]
                 d_imp = ist[_NIMPT] - snap_i[_NIMPT]
-                if m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts:
+                ok = m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts
+                if in_rec:
+                    # the record's sums must not grow over the cycle: no time held or in contact, no chatter
+                    ok = ok and ist[_NCHAT] == snap_i[_NCHAT] and fs[_STUCK] == snap_f[j_fs + _STUCK] and \
+                        fs[_TCON] == snap_f[j_fs + _TCON]
+                if ok:
+                    if in_rec:
+                        d_rec = ist[_NIMPR] - snap_i[_NIMPR]
+                        _repeat_record(rec, pp - n_transient, L, m, ns_record, ist[_NIMPR], d_rec, snap_i[_NIS:], T,
+                                       fs[_PEXT])
+                        ist[_NIMPR] += m * d_rec
+                        k_sample += m * L * ns_record
                     ist[_NSTEPS] += m * d_steps
                     ist[_NIMPT] += m * d_imp
                     if fs[_TLAST] > -1e299:
                         fs[_TLAST] += (m * L) * T
                     pp += m * L
                     skipped += m * L
-                    snap_pp = -2
-                    continue        # (the call may end here: no record)
-                snap_pp = -2
-            elif snap_pp < 0 or pp - snap_pp >= RECUR_MAX:
-                _snapshot(snap_f, snap_i, eta, etad, wn, wk, hb, fs, ist)
+                    snap_pp = -1
+                    continue        # (the call may end here)
+                if in_rec or m > 0:
+                    snap_pp = -2    # a guard, or a record that holds or chatters: integrate on
+            elif snap_pp < 0 or pp - snap_pp >= RECUR_MAX or (in_rec and snap_pp < n_transient):
+                _snapshot(snap_f, snap_i, eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
                 snap_pp = pp
+        ist[_RP] = pp - n_transient
         recording = pp >= n_transient
         ns_grid = ns_record if recording else ns_transient
         h_grid = T / ns_grid

@@ -196,8 +196,9 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "chatter_tol": ("1", "a chatter sequence is summed in closed form once its neglected terms are below "
                         "this (Nordmark & Piiroinen 2009)"),
         "max_impacts_per_period": ("", "impact guard: more impacts in one period end the point as failed"),
-        "recurrence": ("", "true (default): a transient whose state recurs bit for bit ends early, with the same "
-                       "outputs bit for bit; false integrates every period (Newton stops; a check or a timing)"),
+        "recurrence": ("", "true (default): a transient or record whose state recurs bit for bit is not integrated "
+                       "further (whole cycles skipped or copied), with the same outputs bit for bit; false "
+                       "integrates every period (Newton stops; a check or a timing)"),
     },
     "[[run]] method = \"direct\", \"zhuravlev\", \"ivanov\"": {
         "solver": ("", "the solve_ivp method"),
