@@ -776,10 +776,11 @@ def _scene(fname: str, over: dict | None):
 
 def _time_sweep(case, model, settings, points: int, n_periods: int, repeats: int,
                 record_fraction: float | None = None, record: int | None = None,
-                min_total_s: float = 0.25, max_repeats: int = 25) -> tuple[float, dict]:
+                min_total_s: float = 0.25, max_repeats: int = 25, recurrence: bool = False) -> tuple[float, dict]:
     """Median wall time of an inline (jobs=1) event sweep of ``points`` frequencies spread
     over the case's grid with ``n_periods`` = transient + record periods per point, after
-    a warm-up; the case's direction, continuation, samples per period and period rtol."""
+    a warm-up; the case's direction, continuation, samples per period and period rtol; every
+    period integrated unless ``recurrence`` (the solver's exact recurrence)."""
     from vibeam.models import make_solver
     from vibeam.engine.sweep import Sweep, run_sweep
 
@@ -790,7 +791,7 @@ def _time_sweep(case, model, settings, points: int, n_periods: int, repeats: int
     if record is None:
         record = _smooth(n_periods * record_fraction)
     transient = n_periods - record
-    solver = make_solver(model, "event", **settings)
+    solver = make_solver(model, "event", **{**settings, "recurrence": recurrence})
     kw = dict(direction=cs.direction, continuation=cs.continuation,
               samples_per_period=cs.samples_per_period, period_rtol=cs.period_rtol)
     run_sweep(solver, Sweep(Omega=grid[:2], transient_periods=2, record_periods=2, **kw), jobs=1)  # warm-up
@@ -817,6 +818,10 @@ def run_scaling_bench(points: int = 11,
                       mode_budget_s: float = 60.0) -> dict:
     """How the cost of an inline event sweep grows with periods simulated and with retained
     modes; returns a JSON-ready dict.
+
+    The ladders integrate every period (the solvers' exact recurrence off: with it, a settled
+    point's cost stops growing with its periods, which is not the integrator's cost); the same
+    sweeps with the recurrence on are timed beside them (``time_s_with_recurrence``).
 
     * Periods: ``points`` frequencies of the rig SDOF scene (``cases/rig-neutral.toml``)
       at ``sdof_periods`` and of the FE rig (``cases/rig-fe-neutral.toml``) with
@@ -845,11 +850,13 @@ def run_scaling_bench(points: int = 11,
     def periods_study(label, fname, over, ladder):
         case, model, settings, t_build = _scene(fname, over)
         frac = case.sweep.record_periods / (case.sweep.transient_periods + case.sweep.record_periods)
-        ts, infos = [], []
+        ts, infos, ts_on = [], [], []
         for N in ladder:
             t, info = _time_sweep(case, model, settings, points, int(N), repeats, record_fraction=frac)
             ts.append(t)
             infos.append(info)
+            ts_on.append(_time_sweep(case, model, settings, points, int(N), repeats, record_fraction=frac,
+                                     recurrence=True)[0])
         N = np.asarray(ladder, float)
         solves = infos[0]["point_solves"]
         fit = _loglog_fit(N, ts)
@@ -867,6 +874,7 @@ def run_scaling_bench(points: int = 11,
             "N": [int(n) for n in ladder],
             "record_periods": [i["record"] for i in infos],
             "time_s": ts,
+            "time_s_with_recurrence": ts_on,
             "repeats": [i["repeats"] for i in infos],
             "exponent": fit["exponent"],
             "prefactor_s": fit["prefactor_s"],
@@ -896,7 +904,9 @@ def run_scaling_bench(points: int = 11,
     frac = case.sweep.record_periods / (case.sweep.transient_periods + case.sweep.record_periods)
     t_static, info = _time_sweep(case, model, settings, mode_points, mode_periods, repeats,
                                  record_fraction=frac)
-    n_list, ts, cpu, reps, builds, labels, skipped = [], [], [], [], [], [], []
+    t_static_on = _time_sweep(case, model, settings, mode_points, mode_periods, repeats, record_fraction=frac,
+                              recurrence=True)[0]
+    n_list, ts, cpu, reps, builds, labels, skipped, ts_on = [], [], [], [], [], [], [], []
     stop = False
     for m in modes:
         if stop:
@@ -908,6 +918,8 @@ def run_scaling_bench(points: int = 11,
             continue
         t, inf = _time_sweep(case, model, settings, mode_points, mode_periods, repeats,
                              record=info["record"])
+        ts_on.append(_time_sweep(case, model, settings, mode_points, mode_periods, repeats, record=info["record"],
+                                 recurrence=True)[0])
         reps.append(inf["repeats"])
         n_list.append(n)
         cpu.append(inf["cpu_s"])
@@ -925,6 +937,9 @@ def run_scaling_bench(points: int = 11,
         "record_periods": info["record"],
         "n_modes_requested": [str(m) for m in labels],
         "n_modes": n_list, "time_s": ts, "repeats": reps,
+        "time_s_with_recurrence": ts_on,
+        "exponent_with_recurrence": _loglog_fit(n_list, ts_on)["exponent"],
+        "static_mode_sdof_time_s_with_recurrence": t_static_on,
         "exponent": fit["exponent"], "prefactor_s": fit["prefactor_s"], "r2_loglog": fit["r2_loglog"],
         "local_exponents": fit["local_exponents"],
         "exponent_n_modes_ge_4": fit_up["exponent"] if fit_up else None,

@@ -1577,7 +1577,11 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                     continue        # (the call may end here)
                 if in_rec or m > 0:
                     snap_pp = -2    # a guard, or a record that holds or chatters: integrate on
-            elif snap_pp < 0 or pp - snap_pp >= RECUR_MAX or (in_rec and snap_pp < n_transient):
+            elif (snap_pp == -1 and pp > 0) or pp - snap_pp >= RECUR_MAX or (in_rec and snap_pp < n_transient):
+                # (not at the call's first period start: the loop's flags are those of a fresh start
+                # there, e.g. the free arc's parts about to be recomputed, which a settled orbit's
+                # later period starts do not repeat: a short call, a sweep engine's chunk, would
+                # then wait RECUR_MAX periods for its first useful snapshot)
                 _snapshot(snap_f, snap_i, eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
                 snap_pp = pp
         ist[_RP] = pp - n_transient
