@@ -147,7 +147,7 @@ MUTANTS: list[Mutant] = [
            "w = st.normal[k, j] if H == 0 else hs.pG[H, k, j]\n                dg += w * Y[j, c]",
            "w = st.normal[0, j] if H == 0 else hs.pG[H, k, j]\n                dg += w * Y[j, c]",
            ("tests/test_continuation_hc_beam.py",)),
-    # --- the transient's exact recurrence
+    # --- the exact recurrence
     Mutant("recurrence: the skip lands one period short of a whole number of cycles",
            "models/core/integrator.py", "                    pp += m * L\n", "                    pp += m * L - 1\n",
            ("tests/test_recurrence.py",)),

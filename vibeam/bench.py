@@ -88,7 +88,7 @@ def run_bench(points: int = 101, periods: int = 500, record: int = 64, repeats: 
         cpus.append(time.process_time() - c0)
         times.append(t)
     t_event = statistics.median(times)
-    # the same sweep integrating every period (the transient's exact recurrence off: the same
+    # the same sweep integrating every period (the exact recurrence off: the same
     # outputs bit for bit, so its time is the kernel's cost per impact actually integrated)
     full = []
     for _ in range(repeats):
@@ -219,7 +219,7 @@ def bench_goals(out: dict) -> list:
             goal("event kernel <= 1 us per impact (issue 20; the whole sweep's time over its impacts)",
                  f"{out['event_us_per_impact']:.2f} us ({out['event_impacts_per_second']:.3g} impacts/s; "
                  f"{out['event_us_per_impact_cpu']:.2f} us of CPU time; "
-                 f"{out['event_us_per_impact_every_period']:.2f} us integrating every period, the transient's "
+                 f"{out['event_us_per_impact_every_period']:.2f} us integrating every period, the "
                  f"exact recurrence off: {out['recurrence_speedup']:.2f}x, outputs identical: "
                  f"{out['recurrence_outputs_identical']})",
                  out["event_us_per_impact"] <= 1.0)]

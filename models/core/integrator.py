@@ -114,8 +114,9 @@ class Record(NamedTuple):
     imp_k : ndarray of int64, shape (cap,)
         Their stops.
     imp_tl, imp_rp : ndarray, shape (cap,)
-        Their times within their periods and the periods' indices in the record (int64):
-        ``imp_t = imp_rp * T + imp_tl`` as the kernel computes it (the recurrence repeats them).
+        Their times within their periods (nondimensional) and the periods' indices in the record
+        (int64): ``imp_t = imp_rp * T + imp_tl`` as the kernel computes it, ``T = 2 pi / Omega``
+        (kept so that the recurrence can rebuild the times of the impacts it copies).
     n_imp_stop : ndarray of int64, shape (n_s,)
         Recorded impacts per stop.
     chat_t : ndarray, shape (cap_c,)
@@ -196,7 +197,8 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
  _EXT, _EXT1, _NFS) = range(18)
 (_H, _C, _INSIDE, _RELAXED, _CMASK, _FRESH, _BSTALE, _ATGRID, _JSTUCK, _JREL, _QFRESH, _QLAST, _BURST,
  _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _RP, _NIS) = range(21)
-#: longest exact cycle of a transient's period-start state that is detected and skipped (periods)
+#: longest exact cycle of the period-start state that the recurrence finds (periods; skipped in a
+#: transient, copied in a record)
 RECUR_MAX = 16
 # the event kinds and the root kind of an apex as int64 constants: a literal int argument would
 # compile the callee once per value
@@ -423,8 +425,8 @@ def substeps(Om, ns_transient, ns_record, h_cap):
 @njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
 def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap, recur):
     """The work arrays of one call (:func:`_frequency` fills them), the sub-steps per grid step
-    of the transient and of the record (:func:`substeps`), and the snapshot of the transient's
-    exact recurrence (module docstring; empty, so off, when ``recur`` is False)."""
+    of the transient and of the record (:func:`substeps`), and the snapshot of the exact
+    recurrence (module docstring; empty, so off, when ``recur`` is False)."""
     sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
     nt_t = ns_transient * sub_t
     nt_r = ns_record * sub_r
@@ -1442,7 +1444,7 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
     work : tuple
         The work arrays of :func:`new_work` (a caller that reuses them at another ``Om`` runs one
         grid, ``ns_transient == ns_record``, and checks :func:`work_fits`; the sub-steps are those
-        of ``Om``).  With a snapshot, the transient's exact recurrence is on.
+        of ``Om``).  With a snapshot (``recur``), the exact recurrence is on.
 
     Returns
     -------
