@@ -1313,7 +1313,7 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
     it_out = max_newton
     # the last shot's outcome, packed once at the end (:func:`_pack`; the iterations' shots before
     # it only need the state and the tangent, which stay in the buffers)
-    out = (0, 0, 0.0, 0.0, 0, 0.0, 0, 0, 0.0, 0, 0.0)
+    out = (0, 0, 0.0, 0.0, 0, 0.0, 0, 0, 0.0, 0, 0.0, 0)
     held0 = 0
     n_rel = -1
     n_inexact = -1
