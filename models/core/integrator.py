@@ -30,7 +30,8 @@ most ``h_cap`` and grow by doubling after a certification shortened them.
 
 A transient that settles in floating point ends early, with the same numbers: the loop's whole
 state at a period start (modal state, free arc, carried gaps and bounds, step length, flags) is
-compared bit for bit with a snapshot taken at most :data:`RECUR_MAX` periods before; once it
+compared bit for bit with two snapshots, one retaken every :data:`RECUR_MAX` periods and one every
+:data:`RECUR_FAST` (a short cycle is then found soon after it begins); once it
 recurs after ``L`` periods, every later period repeats the last ``L`` exactly (the kernel is a
 deterministic function of that state and the phase), so whole multiples of ``L`` are skipped up
 to the record and the step and impact counters advance by their counts over the cycle (the last
@@ -73,7 +74,7 @@ from ..contact_policy import (BURST_DT, CHATTER, CHATTER_GUARD, REBOUND, STICK, 
 from ..contact import LAW_LINEAR
 from ..impact import newton_restitution, restitution_coefficient
 from ..system import advance_count, transition_increment
-from .contact_phase import (EK_ENTRY, EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_IMPACT, EK_NONE, EK_RELEASE, linear_step,
+from .contact_phase import (EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_NONE, EK_RELEASE, linear_step,
                             phase_harmonics, rk_phase_step, rk_scales)
 from .laws import force, hertz_floor, inside_sign, is_compliant
 from .signals import (ROOT_APEX, bounds, extremes, extremes_from, hermite_guess, homogeneous, homogeneous_bounds,
@@ -198,8 +199,11 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
 (_H, _C, _INSIDE, _RELAXED, _CMASK, _FRESH, _BSTALE, _ATGRID, _JSTUCK, _JREL, _QFRESH, _QLAST, _BURST,
  _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _RP, _NIS) = range(21)
 #: longest exact cycle of the period-start state that the recurrence finds (periods; skipped in a
-#: transient, copied in a record)
+#: transient, copied in a record): the cadence of its first snapshot
 RECUR_MAX = 16
+#: the cadence of its second snapshot (periods): a cycle of at most this length is found at most
+#: ``RECUR_FAST + L`` periods after it began, not ``RECUR_MAX + L``
+RECUR_FAST = 4
 # the event kinds and the root kind of an apex as int64 constants: a literal int argument would
 # compile the callee once per value
 _K_START, _K_IMPACT, _K_STICK, _K_STICK_IMPACT, _K_RELEASE, _K_ENTRY, _K_EXIT = (np.int64(k) for k in range(7))
@@ -438,7 +442,7 @@ def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap, recur):
     return (np.empty((_NWN, n)), np.empty((_NWK, ns)), np.empty((n, 6)), np.empty((2 * S, n)),
             np.empty((6 * S, ns)), np.empty((2, S)), P_r, tab_r, P_t, tab_t, np.empty(_NFS),
             np.empty(_NIS, np.int64), sub_r, sub_t,
-            np.empty((_snap_fs(n, ns) + _NFS) if recur else 0), np.empty((_NIS + ns) if recur else 0, np.int64))
+            np.empty(2 * (_snap_fs(n, ns) + _NFS) if recur else 0), np.empty(2 * (_NIS + ns) if recur else 0, np.int64))
 
 
 @njit(cache=True, _nrt=False, error_model="numpy", inline="always")
@@ -692,7 +696,6 @@ def _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec):
     """The compliant stops' work (:func:`compliant_work`) at this frequency: the linear contact
     phases' forced response, the entry-velocity floors, the contacts open at the start (from the
     state as given, before any projection) and the stops the body starts inside of."""
-    n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
     F = Om * Om * sy.B
@@ -1545,27 +1548,40 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
     # found in the transient is skipped up to the record, one found in the record (the snapshot
     # taken in it) is copied to its end
     snap_pp = -2 if (cw is not None or logging or aplog.shape[0] > 0 or snap_f.shape[0] == 0) else -1
+    snapb_pp = -1           # the second snapshot's period (cadence RECUR_FAST; -1: none yet)
     j_fs = _snap_fs(n, ns)
+    nsf = snap_f.shape[0] // 2      # the two snapshots: [0, nsf) and [nsf, 2 nsf)
+    nsi = snap_i.shape[0] // 2
     skipped = 0
     pp = 0
     while pp < n_total:
         if snap_pp != -2:
             in_rec = pp >= n_transient
+            s_pp = -1
             if snap_pp >= 0 and (snap_pp >= n_transient or not in_rec) and \
-                    _recurs(snap_f, snap_i, eta, etad, wn, wk, hb, fs, ist):
-                L = pp - snap_pp
+                    _recurs(snap_f[:nsf], snap_i[:nsi], eta, etad, wn, wk, hb, fs, ist):
+                s_pp = snap_pp
+                sf = snap_f[:nsf]
+                si = snap_i[:nsi]
+            elif snapb_pp >= 0 and (snapb_pp >= n_transient or not in_rec) and \
+                    _recurs(snap_f[nsf:], snap_i[nsi:], eta, etad, wn, wk, hb, fs, ist):
+                s_pp = snapb_pp
+                sf = snap_f[nsf:]
+                si = snap_i[nsi:]
+            if s_pp >= 0:
+                L = pp - s_pp
                 m = ((n_total if in_rec else n_transient) - pp) // L
-                d_steps = ist[_NSTEPS] - snap_i[_NSTEPS]
-                d_imp = ist[_NIMPT] - snap_i[_NIMPT]
+                d_steps = ist[_NSTEPS] - si[_NSTEPS]
+                d_imp = ist[_NIMPT] - si[_NIMPT]
                 ok = m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts
                 if in_rec:
                     # the record's sums must not grow over the cycle: no time held or in contact, no chatter
-                    ok = ok and ist[_NCHAT] == snap_i[_NCHAT] and fs[_STUCK] == snap_f[j_fs + _STUCK] and \
-                        fs[_TCON] == snap_f[j_fs + _TCON]
+                    ok = ok and ist[_NCHAT] == si[_NCHAT] and fs[_STUCK] == sf[j_fs + _STUCK] and \
+                        fs[_TCON] == sf[j_fs + _TCON]
                 if ok:
                     if in_rec:
-                        d_rec = ist[_NIMPR] - snap_i[_NIMPR]
-                        _repeat_record(rec, pp - n_transient, L, m, ns_record, ist[_NIMPR], d_rec, snap_i[_NIS:], T,
+                        d_rec = ist[_NIMPR] - si[_NIMPR]
+                        _repeat_record(rec, pp - n_transient, L, m, ns_record, ist[_NIMPR], d_rec, si[_NIS:], T,
                                        fs[_PEXT])
                         ist[_NIMPR] += m * d_rec
                         k_sample += m * L * ns_record
@@ -1576,16 +1592,22 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                     pp += m * L
                     skipped += m * L
                     snap_pp = -1
+                    snapb_pp = -1
                     continue        # (the call may end here)
                 if in_rec or m > 0:
                     snap_pp = -2    # a guard, or a record that holds or chatters: integrate on
-            elif (snap_pp == -1 and pp > 0) or pp - snap_pp >= RECUR_MAX or (in_rec and snap_pp < n_transient):
+            else:
                 # (not at the call's first period start: the loop's flags are those of a fresh start
                 # there, e.g. the free arc's parts about to be recomputed, which a settled orbit's
                 # later period starts do not repeat: a short call, a sweep engine's chunk, would
                 # then wait RECUR_MAX periods for its first useful snapshot)
-                _snapshot(snap_f, snap_i, eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
-                snap_pp = pp
+                if (snap_pp == -1 and pp > 0) or pp - snap_pp >= RECUR_MAX or (in_rec and snap_pp < n_transient):
+                    _snapshot(snap_f[:nsf], snap_i[:nsi], eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
+                    snap_pp = pp
+                elif (snapb_pp == -1 and pp > 0) or pp - snapb_pp >= RECUR_FAST or \
+                        (in_rec and snapb_pp < n_transient):
+                    _snapshot(snap_f[nsf:], snap_i[nsi:], eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
+                    snapb_pp = pp
         ist[_RP] = pp - n_transient
         recording = pp >= n_transient
         ns_grid = ns_record if recording else ns_transient
