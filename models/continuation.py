@@ -424,7 +424,7 @@ class _Engine:
                     code, f"no convergence in {S.max_newton} corrector iterations (residual {nr:.2e})")
         u = u_pred
         sx, sp = self.sx, self.sp
-        nr, dist, ndu = np.inf, 0.0, np.inf
+        nr, dist = np.inf, 0.0
         tol = S.tol
         for it in range(S.max_newton + 1):
             x = u[:d] * sx

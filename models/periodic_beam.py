@@ -405,7 +405,6 @@ class BeamShooting(ModalShooting):
         m, Om = D["m"], D["Om"]
         T = TWO_PI / Om
         N = m.n_modes
-        w = m.contact_row
         rows = np.flatnonzero((kinds == EV_IMPACT) | (kinds == EV_STICK_IMPACT))
         if not rows.size:
             return None

@@ -24,6 +24,7 @@ from ..system import ModalSystem
 from .integrator import ST_FAILED, STATUS_NAMES, Record, compliant_work, integrate_work, new_record, new_work
 from .phases import compliant_data
 from .stops import held_code, held_mask, held_sets, kernel_stops, kernel_system
+from ..trajectory import Trajectory
 
 __all__ = ["EventIntegrator", "Run"]
 
@@ -264,8 +265,6 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
         ``contact_gap_max`` (``q`` units; 0 when the run held on a stop) and
         ``steps_per_period``.
     """
-    from ..trajectory import Trajectory
-
     msgs = messages or {}
     rec = run.record
     T = 2.0 * math.pi / Omega

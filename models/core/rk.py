@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from ..contact import LAW_LINEAR
-from .laws import ATOL, RTOL, force, force_partials
+from .laws import RTOL, force, force_partials
 
 __all__ = ["Tableau", "DOPRI5", "phase_rhs", "rk_step", "event_value", "locate", "EVF_EXIT_FORCE", "EVF_EXIT_GAP",
            "EVF_EXIT_DAMPING", "EVF_GAP", "EVF_GAP_DOWN", "EVF_INSIDE", "EVF_RELEASE", "EVF_MAX_PEN",

@@ -59,7 +59,7 @@ from ..system import advance_count, advance_state, transition_entries
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
                          ST_FAILED, compliant_work, integrate_work, new_record, new_work, work_fits)
-from .laws import force, force_partials, hertz_floor
+from .laws import force_partials, hertz_floor
 from .variational import contact_accel, contact_damping, flow_linear, flow_rk, pair_particular
 
 __all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "correct_frequency", "held_at_section",
@@ -641,7 +641,6 @@ def tangent(sy, st, hs, cp, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end
             for i in range(n):
                 J[i, ip0 + p] += dd.deta_c[p, H, i]
     k_ev = 0
-    last = True       # after the loop: the segment up to T_end is still to be carried
     while k_ev <= n_ev:
         if k_ev < n_ev:
             kind = int(evlog[k_ev, 0])
@@ -1166,7 +1165,6 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
 def _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, derivatives, scale):
     """The two arrays of :func:`shoot` from a shot's buffers (:func:`_shot`)."""
     d = xe.shape[0]
-    n = d // 2
     ncol = J.shape[1]
     n_ev = rec.nlog[0]
     n_ap = rec.nlog[1]

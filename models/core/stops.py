@@ -43,7 +43,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg
 
-from ..contact import LAW, LAW_LINEAR, NODES, OFFSET, R as RCOL, SIGN, pack
+from ..contact import LAW, LAW_LINEAR, NODES, OFFSET, R as RCOL, pack
 from ..system import ModalSystem, mode_table
 
 __all__ = ["KernelSystem", "KernelStops", "HeldSets", "kernel_system", "kernel_stops", "held_sets",

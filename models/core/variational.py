@@ -80,7 +80,6 @@ def flow_linear(J, ta, tb, q, ph, Om, ZX, ZY, dZX, dZY, dze, dOm, W):
     ``J`` (2n, 2n + P): rows ``eta``, ``eta'``, the last ``P`` columns ``d/dp``; ``dze`` (P, Q, 2n)
     the equilibria's parameter derivatives; ``W`` (2n, 2n + P) a work array."""
     n2, ncol = J.shape
-    n = n2 // 2
     P = dOm.shape[0]
     ip0 = ncol - P
     m = ph.m[q]

@@ -10,7 +10,6 @@ only assembles their rows into arrays and plots them.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 
 import numpy as np
 

@@ -50,7 +50,6 @@ the spread datasets is compared by the amplitude at every point.
 """
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -155,7 +154,6 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
     for CSV).
     """
     from vibeam.analysis.maps import all_runs
-    from vibeam.io.results import read_results
 
     ref_path = Path(ref_path)
     new = dict(new, runs=all_runs(new))

@@ -30,7 +30,6 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from pathlib import Path
 from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np

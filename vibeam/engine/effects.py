@@ -291,8 +291,6 @@ class EffectSolver:
 
     def _impulse_per_period(self, traj, pm, n_record):
         """Normalised impulse per forcing period, ``sum (1 + R(U-)) U-`` / periods (sensor units)."""
-        from vibeam.models.impact import restitution_coefficient
-
         v = np.asarray(traj.impact_velocities, float)   # q'- (SDOF) or contact velocity / L (beam)
         if v.size == 0 or n_record <= 0 or traj.status == "failed":
             return 0.0

@@ -65,7 +65,6 @@ Uncertainty
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import re
 import sys

@@ -38,6 +38,10 @@ import os
 import stat
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:          # annotations only: numpy is imported where it is used
+    import numpy as np
 
 #: the largest input file read (bytes): case files, reference and measurement tables
 MAX_INPUT_BYTES = 10_000_000
