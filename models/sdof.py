@@ -329,9 +329,16 @@ class EventSolver:
         """Per impact (Newton's law): no duration, an impulse (no finite force), no penetration,
         energy lost ``(1 - R^2) U-^2 / 2`` per unit mass (``U-`` the normal pre-impact speed)."""
         k = v.shape[0]
-        Rk = self.model.restitution_coefficients(v, stops) if (stops is not None or self.model.R_table) \
-            else np.full(k, self.model.R)
-        return np.column_stack([np.zeros(k), np.full(k, np.nan), np.zeros(k), 0.5 * (1.0 - Rk ** 2) * v ** 2, v])
+        rows = np.zeros((k, 5))
+        rows[:, 1] = np.nan
+        if stops is not None or self.model.R_table:
+            Rk = self.model.restitution_coefficients(v, stops)
+            rows[:, 3] = 0.5 * (1.0 - Rk ** 2) * v ** 2
+        else:
+            R = float(self.model.R)
+            rows[:, 3] = 0.5 * (1.0 - R * R) * (v * v)     # (the same operations, one R)
+        rows[:, 4] = v
+        return rows
 
 
 def linear_amplitude(beta: float, B: float, Omega):

@@ -159,6 +159,9 @@ MUTANTS: list[Mutant] = [
     Mutant("recurrence: an impact copied into the record keeps its source's period (its time one cycle early)",
            "models/core/integrator.py", "rp = rec.imp_rp[src] + L", "rp = rec.imp_rp[src]",
            ("tests/test_recurrence.py",)),
+    Mutant("the verdict's early exit settles a period whose return is within margin x rtol but not rtol",
+           "vibeam/engine/records.py", "lo = min(1.0, margin) * rtol", "lo = max(1.0, margin) * rtol",
+           ("tests/test_settle.py::test_the_verdicts_early_exit_agrees_with_the_whole_rule",)),
 ]
 
 

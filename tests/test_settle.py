@@ -10,13 +10,14 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import SDOF, EventSolver, linear_amplitude
 from vibeam.models.mapping import is_admissible, newton_fixed_point, orbit_extremes
-from vibeam.engine.records import (STATUSES, amplitude_spread, converging, spread_agrees, summarize,
-                            transient_verdict)
-from vibeam.engine.sweep import UNITS, Sweep, _simulate, run_sweep
+from vibeam.engine.records import (MARGINAL, SETTLED_MARGIN, STATUSES, amplitude_spread, converging, spread_agrees,
+                            strobe_returns, summarize, transient_verdict, verdict_from_returns)
+from vibeam.engine.sweep import UNITS, Sweep, _simulate, run_sweep, stack
 
 FIG8 = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
 FIG13 = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3)
@@ -172,6 +173,56 @@ def test_transient_verdict_on_constructed_strobes():
     assert transient_verdict(np.c_[np.ones(8), np.zeros(8)], 1.0, 1e-5, no_impact=True) == (-1, "")
     p, why = transient_verdict(np.c_[1 + 1e-3 * 0.9 ** k, 0 * k], 1.0, 1e-5, no_impact=True)
     assert p == -1 and "free motion" in why
+
+
+@settings(max_examples=300, deadline=None)
+@given(period=st.integers(1, 9), m=st.integers(1, 40), level=st.sampled_from([0.0, 0.3, 0.9, 1.0, 1.1, 5.0, 12.0,
+                                                                             1e3]),
+       decay=st.sampled_from([1.0, 0.8, 0.97]), margin=st.sampled_from([1.0, SETTLED_MARGIN, 3.0, 2 * MARGINAL]),
+       Omega=st.sampled_from([None, 2.0, 20.0]), no_impact=st.booleans(), seed=st.integers(0, 2 ** 16),
+       nan=st.booleans())
+def test_the_verdicts_early_exit_agrees_with_the_whole_rule(period, m, level, decay, margin, Omega, no_impact,
+                                                            seed, nan):
+    """transient_verdict stops at the first return that settles the period (the common outcome);
+    the verdict must be the one of the whole rule over all eight returns (verdict_from_returns),
+    the reason's text included: orbits of period 1-9 with a perturbation of a few rtol around
+    the thresholds (1, margin, MARGINAL), decaying or not, short windows, high Omega (returns in
+    the oscillator's own time) and NaN samples."""
+    rtol = 1e-5
+    rng = np.random.default_rng(seed)
+    base = rng.uniform(-1, 1, (period, 2))
+    k = np.arange(m)
+    strobe = base[k % period] + level * rtol * decay ** k[:, None] * rng.uniform(-1, 1, (m, 2))
+    if nan and m > 2:
+        strobe[rng.integers(m)] = np.nan
+    scale = float(rng.uniform(0.5, 2.0))
+    got = transient_verdict(strobe, scale, rtol, no_impact, margin, Omega)
+    want = verdict_from_returns(strobe_returns(strobe, scale, Omega), strobe, scale, rtol, no_impact, margin, Omega)
+    assert got == want
+
+
+_SCALARS = st.one_of(st.none(), st.booleans(), st.integers(-2 ** 62, 2 ** 62),
+                     st.floats(allow_nan=True, allow_infinity=True), st.builds(np.float64, st.floats()),
+                     st.builds(np.int64, st.integers(-2 ** 62, 2 ** 62)), st.builds(np.bool_, st.booleans()),
+                     st.builds(np.float32, st.floats(width=32)))
+
+
+@settings(max_examples=200, deadline=None)
+@given(columns=st.lists(st.lists(_SCALARS, min_size=3, max_size=3), min_size=1, max_size=6))
+def test_stack_gives_scalar_columns_the_dtype_and_values_of_the_general_rule(columns):
+    """stack() builds a column of plain scalars at once; it must be the array of the general
+    rule: each value as an array (None a NaN), the dtype their np.result_type, same bits."""
+    rows = [{f"k{j}": col[i] for j, col in enumerate(columns)} for i in range(3)]
+    sw = Sweep(Omega=np.array([1.0, 2.0, 3.0]), record_periods=2)
+    got = stack(rows, sw)
+    for j, col in enumerate(columns):
+        if all(v is None for v in col):
+            continue            # (a text column of '')
+        arr = [np.asarray(v) if v is not None else np.nan for v in col]
+        want = np.array(arr, dtype=np.result_type(*[a.dtype if hasattr(a, "dtype") else type(a) for a in arr]))
+        g = got[f"k{j}"]
+        assert g.dtype == want.dtype
+        assert g.tobytes() == want.tobytes()
 
 
 @pytest.mark.parametrize("W, n_short, why", [(2.0, 50, "marginal"), (2.5, 50, "shrinking")])

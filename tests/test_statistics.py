@@ -16,8 +16,8 @@ import pytest
 from scipy.signal import lfilter
 
 from vibeam.models import SDOF, EventSolver
-from vibeam.engine.records import (amplitude_spread, batch_means, critical_value, means_agree, spread_agrees,
-                            window_verdict)
+from vibeam.engine.records import (amplitude_spread, batch_means, critical_value, mean_std, means_agree,
+                            spread_agrees, window_verdict)
 from vibeam.analysis.regress import compare
 from vibeam.engine.sweep import Sweep, run_sweep
 
@@ -27,6 +27,25 @@ def ar1(rng, shape, phi):
     variance ``1 / (1 - phi^2)``, integrated autocorrelation time ``(1 + phi) / (1 - phi)``."""
     e = rng.standard_normal(shape[:-1] + (shape[-1] + 200,))
     return lfilter([1.0], [1.0, -phi], e, axis=-1)[..., 200:]
+
+
+@pytest.mark.parametrize("n", [2, 3, 8, 63, 64, 129, 1000, 4097])
+def test_mean_std_is_numpys_two_pass_mean_and_sample_std(n):
+    """mean_std (the per-point spread's mean and ddof = 1 standard deviation, without NumPy's
+    Python layers) against x.mean() and x.std(ddof=1): equal to 1e-15 relative (both are the
+    two-pass formula over NumPy's pairwise sums, equal bit for bit on the NumPy of this writing;
+    the tolerance leaves room for another summation order only), on series with a large offset
+    (the amplitudes Q_k of a settled orbit: a mean of 1 with a spread of 1e-12, where a one-pass
+    formula would lose every digit of the spread), on constant series and on wide ones."""
+    rng = np.random.default_rng(n)
+    for x in (1.0 + 1e-12 * rng.standard_normal(n), np.full(n, 0.1), 1e3 * rng.standard_normal(n),
+              rng.uniform(0, 1e-300, n)):
+        m, s = mean_std(x)
+        assert m == pytest.approx(x.mean(), rel=1e-15, abs=0.0)
+        assert s == pytest.approx(x.std(ddof=1), rel=1e-15, abs=1e-300)
+    if n >= 63:     # the spread itself, not round-off: within 4 standard errors 1 / sqrt(2 n) of 1e-12
+        x = 1.0 + 1e-12 * rng.standard_normal(n)
+        assert mean_std(x)[1] == pytest.approx(1e-12, rel=4.0 / math.sqrt(2 * n))
 
 
 def test_critical_value_is_students_t_at_the_normal_false_alarm_probability():

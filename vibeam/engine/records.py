@@ -150,7 +150,31 @@ def transient_verdict(strobe: np.ndarray, scale: float, rtol: float, no_impact: 
         * no impact, yet the free motion does not repeat within ``margin x rtol``
           (a late impact's free decay not over).
     """
-    d = strobe_returns(strobe, scale, Omega)
+    # the common outcome first: the first n whose return is within min(1, margin) rtol, every
+    # return before it beyond max(1, margin, MARGINAL) rtol (then neither a marginal nor a
+    # converging test can apply), from the returns up to n only; the same values as below
+    m = strobe.shape[0]
+    if not no_impact and m > 1:
+        f = natural_time_factors(Omega)
+        sc = max(scale, 1e-300)
+        lo = min(1.0, margin) * rtol
+        hi = max(1.0, margin, MARGINAL) * rtol
+        for n in range(1, min(PERIOD_MAX, m - 1) + 1):
+            e = strobe[n:] - strobe[:-n]
+            dn = np.abs(e, out=e).max() / sc / f[n - 1]
+            if dn <= lo:
+                return n, ""
+            if not dn > hi:
+                break
+    return verdict_from_returns(strobe_returns(strobe, scale, Omega), strobe, scale, rtol, no_impact, margin,
+                                Omega)
+
+
+def verdict_from_returns(d: np.ndarray, strobe: np.ndarray, scale: float, rtol: float, no_impact: bool,
+                         margin: float = 1.0, Omega: float | None = None) -> tuple[int, str]:
+    """:func:`transient_verdict` from all the returns ``d = strobe_returns(strobe, scale, Omega)``
+    (shape (8,)); the other arguments as there.  :func:`transient_verdict` returns the same
+    verdict, from the returns up to the period only when the period is clear."""
     when = _own_time(Omega)
     if no_impact:
         if d[0] <= margin * rtol or not np.isfinite(d[0]):
@@ -182,6 +206,17 @@ def _own_time(Omega) -> str:
         return ""
     return (f"; judged in the oscillator's own time: a forcing period lasts {f:.2g} natural time "
             f"units 1/omega_n, the returns over {f:.2g}")
+
+
+def mean_std(x: np.ndarray) -> tuple[float, float]:
+    """Mean and sample standard deviation (``ddof = 1``) of a 1-D float64 array, two-pass: the
+    mean ``sum(x) / n``, then ``sqrt(sum((x - mean)^2) / (n - 1))``, each sum NumPy's pairwise
+    ``np.add.reduce``: the values of ``x.mean()`` and ``x.std(ddof=1)`` (NumPy's own two-pass
+    formula), without their Python layers (~10 us per point of a sweep).  Needs ``n >= 2``."""
+    n = x.shape[0]
+    m = np.add.reduce(x) / n
+    d = x - m
+    return float(m), float(np.sqrt(np.add.reduce(np.multiply(d, d, out=d)) / (n - 1)))
 
 
 def batch_means(x: np.ndarray) -> tuple[float, int]:
@@ -216,8 +251,8 @@ def batch_means(x: np.ndarray) -> tuple[float, int]:
     a = n // b
     if a < 2 or not np.isfinite(x).all():
         return math.nan, 0
-    means = x[n - a * b:].reshape(a, b).mean(axis=1)
-    return float(means.std(ddof=1) / math.sqrt(a)), a - 1
+    means = np.add.reduce(x[n - a * b:].reshape(a, b), axis=1) / b      # (the batches' .mean(axis=1))
+    return float(mean_std(means)[1] / math.sqrt(a)), a - 1
 
 
 def amplitude_spread(period_amplitudes: np.ndarray) -> dict:
@@ -237,9 +272,10 @@ def amplitude_spread(period_amplitudes: np.ndarray) -> dict:
         return dict(amplitude_mean=nan, amplitude_std=nan, amplitude_min=nan, amplitude_max=nan,
                     amplitude_sem=nan, amplitude_sem_dof=0, record_periods=n)
     sem, dof = batch_means(a)
-    return dict(amplitude_mean=float(a.mean()), amplitude_std=float(a.std(ddof=1)) if n > 1 else 0.0,
-                amplitude_min=float(a.min()), amplitude_max=float(a.max()), amplitude_sem=sem,
-                amplitude_sem_dof=dof, record_periods=n)
+    mean, std = mean_std(a) if n > 1 else (float(a[0]), 0.0)
+    return dict(amplitude_mean=mean, amplitude_std=std, amplitude_min=float(np.minimum.reduce(a)),
+                amplitude_max=float(np.maximum.reduce(a)), amplitude_sem=sem, amplitude_sem_dof=dof,
+                record_periods=n)
 
 
 def critical_value(sigmas, dof):
@@ -379,7 +415,7 @@ def harmonic_amplitudes(q: np.ndarray, samples_per_period: int, n_harmonics: int
     # whatever the number of periods (an FFT of a length with a large prime factor is slow)
     spp = samples_per_period
     n_rec = q.shape[0] // spp
-    X = np.fft.rfft(q[: n_rec * spp].reshape(n_rec, spp).mean(axis=0)) / spp
+    X = np.fft.rfft(np.add.reduce(q[: n_rec * spp].reshape(n_rec, spp), axis=0) / n_rec) / spp    # (.mean(axis=0))
     out = np.full(n_harmonics, np.nan)
     k = min(n_harmonics, X.shape[0])
     single = np.full(k, 2.0)
@@ -410,11 +446,13 @@ def _contact_rows(c, n_impacts: int) -> dict:
         zero = 0.0 if n_impacts and c is None else nan
         return dict(contact_duration=zero, contact_force_max=nan, penetration_max=zero, energy_per_impact=nan)
     c = np.asarray(c, float)
+    k = c.shape[0]
     force = c[:, 1]
-    return dict(contact_duration=float(np.mean(c[:, 0])),
-                contact_force_max=float(np.max(force)) if np.all(np.isfinite(force)) else nan,
-                penetration_max=float(np.max(c[:, 2])),
-                energy_per_impact=float(np.mean(c[:, 3])))
+    # (np.add.reduce(x) / k is np.mean(x): NumPy's mean is that sum and division)
+    return dict(contact_duration=float(np.add.reduce(c[:, 0]) / k),
+                contact_force_max=float(np.maximum.reduce(force)) if np.isfinite(force).all() else nan,
+                penetration_max=float(np.maximum.reduce(c[:, 2])),
+                energy_per_impact=float(np.add.reduce(c[:, 3]) / k))
 
 
 def contact_stops(traj: Trajectory) -> np.ndarray | None:

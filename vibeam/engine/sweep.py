@@ -12,6 +12,7 @@ can be dropped in).
 """
 from __future__ import annotations
 
+import math
 import os
 import time
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
@@ -442,10 +443,10 @@ def _not_finite(out: dict) -> None:
     bad = []
     for k in ("amplitude", "q_min", "q_max"):
         v = out.get(k)
-        if isinstance(v, (float, np.floating)) and np.isinf(v):
+        if isinstance(v, (float, np.floating)) and math.isinf(v):
             bad.append(f"{k} = {float(v):g}")
     a = out.get("amplitude")
-    if isinstance(a, (float, np.floating)) and np.isnan(a) and out.get("period", -1) != -1:
+    if isinstance(a, (float, np.floating)) and math.isnan(a) and out.get("period", -1) != -1:
         bad.append(f"amplitude = nan with period {out.get('period')}")
     if bad:
         prev = f" ({out['status']}: {out['message']})" if out.get("message") else ""
@@ -1032,6 +1033,10 @@ def stack(rows: list[dict], sweep: Sweep) -> dict:
         if all(isinstance(v, str) or v is None for v in vals):
             data[k] = np.array(["" if v is None else v for v in vals], dtype=object)
             continue
+        col = _scalar_column(vals)
+        if col is not None:
+            data[k] = col
+            continue
         proto = next(v for v in vals if v is not None)
         shape = np.shape(proto)
         fill = defaults.get(k, np.full(shape, np.nan) if shape else np.nan)
@@ -1045,6 +1050,28 @@ def stack(rows: list[dict], sweep: Sweep) -> dict:
     if "period" in data:
         data["period"] = np.nan_to_num(data["period"].astype(float), nan=0).astype(np.int64)
     return data
+
+
+#: the scalar types of per-point outputs, by the dtype :func:`stack` gives a column of them
+#: (0 bool, 1 int64, 2 float64: the ``np.result_type`` of their arrays)
+_SCALAR_KIND = {bool: 0, np.bool_: 0, int: 1, np.int64: 1, float: 2, np.float64: 2, type(None): 2}
+_KIND_DTYPE = (np.bool_, np.int64, np.float64)
+
+
+def _scalar_column(vals: list):
+    """The column of :func:`stack` for per-point values that are all plain scalars (None a NaN),
+    built at once: the array the general rule gives (same dtype, same values), or None when
+    some value is not such a scalar."""
+    kind = 0
+    for v in vals:
+        c = _SCALAR_KIND.get(type(v), -1)
+        if c < 0:
+            return None
+        kind = max(kind, c)
+    try:
+        return np.array([np.nan if v is None else v for v in vals], dtype=_KIND_DTYPE[kind])
+    except OverflowError:       # an int beyond int64: the general rule
+        return None
 
 
 # datasets every run has, even when every point failed (NaN, status 'failed')
