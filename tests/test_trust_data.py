@@ -257,6 +257,66 @@ def test_lines_of_another_case_are_never_kept(tmp_path):
     np.testing.assert_array_equal(stored["amplitude"], full.data["amplitude"])
 
 
+def _older_json(case) -> str:
+    """The case JSON an earlier vibeam wrote: without the [[run]] key `recurrence` (added on
+    2026-11-25, default true, which changes no output)."""
+    d = json.loads(case.model_dump_json())
+    for r in d["run"]:
+        assert r.pop("recurrence") is True
+    return json.dumps(d)
+
+
+def test_resume_continues_a_file_of_an_earlier_vibeam_of_the_same_case(tmp_path, capsys):
+    """A checkpoint written before a defaulted key existed is the same case once read now: the
+    resumed run keeps its line (marked here by a wall time no run gives), computes the rest,
+    and the file keeps its own case text.  A case that differs in a value is still refused, in
+    one line naming the file, and the file is left as it was."""
+    a, ta = _case("a", gap=0.0)
+    old = _older_json(a)
+    assert old != a.model_dump_json()
+    h5 = tmp_path / "results.h5"
+    up = _line(a, ta, "up")
+    up["wall_time_s"] = np.full_like(up["wall_time_s"], -7.0)
+    append_lines(h5, {"exact/up": up}, "a", ta, old)
+    res = run_case(a, ta, tmp_path, jobs=1, quiet=True, plots=False, resume=True)[0]
+    full = run_case(a, ta, tmp_path / "full", jobs=1, quiet=True, plots=False)[0]
+    kept = res.data["direction"] == "up"
+    assert np.all(res.data["wall_time_s"][kept] == -7.0) and np.all(res.data["wall_time_s"][~kept] > 0)
+    np.testing.assert_array_equal(res.data["amplitude"], full.data["amplitude"])
+    stored = read_results(h5)
+    assert stored["attrs"]["complete"] and stored["attrs"]["case_json"] == old
+    np.testing.assert_array_equal(stored["runs"]["exact"]["amplitude"], full.data["amplitude"])
+    # another case (gap 0.1) with the same older writer: refused, nothing touched
+    b, tb = _case("a", gap=0.1)
+    h5b = tmp_path / "b" / "results.h5"
+    h5b.parent.mkdir()
+    append_lines(h5b, {"exact/up": up}, "a", ta, old)
+    before = h5b.read_bytes()
+    with pytest.raises(InputError, match=r"^--resume: .*results\.h5 was written by another case or variant"):
+        run_case(b, tb, h5b.parent, jobs=1, quiet=True, plots=False, resume=True)
+    assert h5b.read_bytes() == before
+
+
+def test_regress_takes_results_of_an_earlier_vibeam_of_the_same_case(tmp_path):
+    """`vibeam regress --results` against a file whose stored case lacks a run key added since
+    (at its default, no output changed): the same scene (its identity is the name, model,
+    effects, mapped parameter and runs' names, methods and overrides), accepted; a file of a
+    case with another gap is refused, naming the key and both values."""
+    from vibeam.analysis.regress import check_results_of_case
+
+    a, ta = _case("a", gap=0.0)
+    run_case(a, ta, tmp_path, jobs=1, quiet=True, plots=False)
+    h5 = tmp_path / "results.h5"
+    with h5py.File(h5, "a") as f:
+        f.attrs["case_json"] = _older_json(a)
+    res = read_results(h5)
+    assert res["attrs"]["case_json"] != a.model_dump_json()
+    check_results_of_case(a, res, h5)
+    b, _ = _case("a", gap=0.1)
+    with pytest.raises(InputError, match=r"written by another case \('model.gap_mm' = 0.0 in the file, 0.1"):
+        check_results_of_case(b, res, h5)
+
+
 # ----------------------------------------------------------------------------- work limit
 @pytest.mark.parametrize("old,new,key", [
     ("transient_periods = 50", "transient_periods = 1000000000000", "sweep.transient_periods"),

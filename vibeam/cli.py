@@ -383,7 +383,8 @@ def main(argv=None) -> int:
         p.add_argument("--quick", action="store_true",
                        help="run the case's quick variant ([quick]: fewer points, periods and map values)")
         p.add_argument("--resume", action="store_true",
-                       help="continue an interrupted run: keep the sweep lines already in results.h5")
+                       help="continue an interrupted run: keep the sweep lines already in results.h5 "
+                            "(of this case, also when an earlier vibeam wrote them)")
         p.add_argument("--scheduler", metavar="ADDRESS",
                        help="run the sweep lines on a dask.distributed scheduler (e.g. tcp://host:8786)")
         p.add_argument("--force", action="store_true", help=force_help)

@@ -165,6 +165,26 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
                            checkpoint, checkpoint_interval_s, continuation_only)
 
 
+def same_case(stored_json, case_json: str) -> bool:
+    """Whether a results file's case (``stored_json``, the ``case_json`` attribute; None or any
+    text) is the case ``case_json`` once read by this vibeam: equal, or equal after
+    validation, which gives a key the file's vibeam did not have yet its default (a case file's
+    every other key, defaults included, is stored as it was).  False when it does not
+    validate."""
+    from pydantic import ValidationError
+
+    from vibeam.case.schema import Case
+
+    if stored_json is None:
+        return False
+    if str(stored_json) == case_json:
+        return True
+    try:
+        return Case.model_validate_json(str(stored_json)).model_dump_json() == case_json
+    except (ValidationError, ValueError):
+        return False
+
+
 def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, executor, checkpoint,
                 checkpoint_interval_s, continuation_only=False):
     from vibeam.errors import InputError
@@ -182,6 +202,12 @@ def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, e
     if resume and h5.exists():
         try:
             attrs, stored = read_lines(h5, case_json=case_json)
+            old = attrs.get("case_json")
+            if old != case_json and same_case(old, case_json):
+                # an earlier vibeam's file: its case lacks only keys added since, which take
+                # their defaults (the earlier behaviour); the run goes on under the file's own text
+                case_json = str(old)
+                attrs, stored = read_lines(h5, case_json=case_json)
         except OSError as e:
             raise InputError(f"--resume: cannot read {h5}: {e}") from None
         if attrs.get("case_json") != case_json:
@@ -422,7 +448,7 @@ def _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quie
     same = False
     if h5.exists():
         try:
-            same = read_results(h5)["attrs"].get("case_json") == case_json
+            same = same_case(read_results(h5)["attrs"].get("case_json"), case_json)
         except OSError:
             same = False
     if same:
