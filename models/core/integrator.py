@@ -452,10 +452,10 @@ def _snap_fs(n, ns):
 
 
 @_kernel
-def _snapshot(sf, si, eta, etad, wn, wk, hb, fs, ist, n_imp_stop):
-    """Copy the loop's state at a period start into ``sf`` (floats) and ``si`` (integers, then
-    the recorded impacts per stop)."""
-    j = 0
+def _snapshot(sf, si, fo, io, eta, etad, wn, wk, hb, fs, ist, n_imp_stop):
+    """Copy the loop's state at a period start into ``sf`` from ``fo`` on (floats) and ``si``
+    from ``io`` on (integers, then the recorded impacts per stop)."""
+    j = fo
     for i in range(eta.shape[0]):
         sf[j] = eta[i]
         sf[j + 1] = etad[i]
@@ -468,9 +468,9 @@ def _snapshot(sf, si, eta, etad, wn, wk, hb, fs, ist, n_imp_stop):
     for i in range(_NFS):
         sf[j + i] = fs[i]
     for i in range(_NIS):
-        si[i] = ist[i]
+        si[io + i] = ist[i]
     for k in range(n_imp_stop.shape[0]):
-        si[_NIS + k] = n_imp_stop[k]
+        si[io + _NIS + k] = n_imp_stop[k]
 
 
 @njit(cache=True, _nrt=False, error_model="numpy", inline="always")
@@ -484,12 +484,12 @@ def _same(a, b):
 
 
 @_kernel
-def _recurs(sf, si, eta, etad, wn, wk, hb, fs, ist):
-    """Whether the loop's state equals the snapshot of :func:`_snapshot` bit for bit, but for
-    the quantities that only count, sum or stamp (steps, impacts, chatter sequences, the largest
-    gap, the record's extremes, its last period's and times held and in contact, the clock's
-    period offsets and record period, the last impact's time)."""
-    j = 0
+def _recurs(sf, si, fo, io, eta, etad, wn, wk, hb, fs, ist):
+    """Whether the loop's state equals the snapshot of :func:`_snapshot` at ``fo`` / ``io`` bit
+    for bit, but for the quantities that only count, sum or stamp (steps, impacts, chatter
+    sequences, the largest gap, the record's extremes, its last period's and times held and in
+    contact, the clock's period offsets and record period, the last impact's time)."""
+    j = fo
     for i in range(eta.shape[0]):
         if not (_same(sf[j], eta[i]) and _same(sf[j + 1], etad[i])):
             return False
@@ -509,7 +509,7 @@ def _recurs(sf, si, eta, etad, wn, wk, hb, fs, ist):
     for i in range(_NIS):
         if i == _NSTEPS or i == _NIMPT or i == _NIMPR or i == _NCHAT or i == _RP:
             continue
-        if si[i] != ist[i]:
+        if si[io + i] != ist[i]:
             return False
     return True
 
@@ -1558,31 +1558,31 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
         if snap_pp != -2:
             in_rec = pp >= n_transient
             s_pp = -1
-            if snap_pp >= 0 and (snap_pp >= n_transient or not in_rec) and \
-                    _recurs(snap_f[:nsf], snap_i[:nsi], eta, etad, wn, wk, hb, fs, ist):
-                s_pp = snap_pp
-                sf = snap_f[:nsf]
-                si = snap_i[:nsi]
-            elif snapb_pp >= 0 and (snapb_pp >= n_transient or not in_rec) and \
-                    _recurs(snap_f[nsf:], snap_i[nsi:], eta, etad, wn, wk, hb, fs, ist):
-                s_pp = snapb_pp
-                sf = snap_f[nsf:]
-                si = snap_i[nsi:]
+            fo = 0
+            io = 0
+            for b in range(2):
+                b_pp = snap_pp if b == 0 else snapb_pp
+                if b_pp >= 0 and (b_pp >= n_transient or not in_rec) and \
+                        _recurs(snap_f, snap_i, b * nsf, b * nsi, eta, etad, wn, wk, hb, fs, ist):
+                    s_pp = b_pp
+                    fo = b * nsf
+                    io = b * nsi
+                    break
             if s_pp >= 0:
                 L = pp - s_pp
                 m = ((n_total if in_rec else n_transient) - pp) // L
-                d_steps = ist[_NSTEPS] - si[_NSTEPS]
-                d_imp = ist[_NIMPT] - si[_NIMPT]
+                d_steps = ist[_NSTEPS] - snap_i[io + _NSTEPS]
+                d_imp = ist[_NIMPT] - snap_i[io + _NIMPT]
                 ok = m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts
                 if in_rec:
                     # the record's sums must not grow over the cycle: no time held or in contact, no chatter
-                    ok = ok and ist[_NCHAT] == si[_NCHAT] and fs[_STUCK] == sf[j_fs + _STUCK] and \
-                        fs[_TCON] == sf[j_fs + _TCON]
+                    ok = ok and ist[_NCHAT] == snap_i[io + _NCHAT] and fs[_STUCK] == snap_f[fo + j_fs + _STUCK] \
+                        and fs[_TCON] == snap_f[fo + j_fs + _TCON]
                 if ok:
                     if in_rec:
-                        d_rec = ist[_NIMPR] - si[_NIMPR]
-                        _repeat_record(rec, pp - n_transient, L, m, ns_record, ist[_NIMPR], d_rec, si[_NIS:], T,
-                                       fs[_PEXT])
+                        d_rec = ist[_NIMPR] - snap_i[io + _NIMPR]
+                        _repeat_record(rec, pp - n_transient, L, m, ns_record, ist[_NIMPR], d_rec,
+                                       snap_i[io + _NIS:io + nsi], T, fs[_PEXT])
                         ist[_NIMPR] += m * d_rec
                         k_sample += m * L * ns_record
                     ist[_NSTEPS] += m * d_steps
@@ -1601,13 +1601,16 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                 # there, e.g. the free arc's parts about to be recomputed, which a settled orbit's
                 # later period starts do not repeat: a short call, a sweep engine's chunk, would
                 # then wait RECUR_MAX periods for its first useful snapshot)
-                if (snap_pp == -1 and pp > 0) or pp - snap_pp >= RECUR_MAX or (in_rec and snap_pp < n_transient):
-                    _snapshot(snap_f[:nsf], snap_i[:nsi], eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
-                    snap_pp = pp
-                elif (snapb_pp == -1 and pp > 0) or pp - snapb_pp >= RECUR_FAST or \
-                        (in_rec and snapb_pp < n_transient):
-                    _snapshot(snap_f[nsf:], snap_i[nsi:], eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
-                    snapb_pp = pp
+                for b in range(2):      # one snapshot a period: the first that is due
+                    b_pp = snap_pp if b == 0 else snapb_pp
+                    if (b_pp == -1 and pp > 0) or pp - b_pp >= (RECUR_MAX if b == 0 else RECUR_FAST) or \
+                            (in_rec and b_pp < n_transient):
+                        _snapshot(snap_f, snap_i, b * nsf, b * nsi, eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
+                        if b == 0:
+                            snap_pp = pp
+                        else:
+                            snapb_pp = pp
+                        break
         ist[_RP] = pp - n_transient
         recording = pp >= n_transient
         ns_grid = ns_record if recording else ns_transient
