@@ -123,6 +123,27 @@ def test_continue_keeps_the_sweeps_of_the_same_case(tmp_path):
     assert "branches" in after["branches"]
 
 
+def test_continue_keeps_the_sweeps_of_an_earlier_vibeams_file_of_the_same_case(tmp_path):
+    """The same, when the results file was written before a defaulted [[run]] key existed (its
+    stored case lacks `recurrence`): still the same case, its sweeps kept (they used to be
+    replaced by a file of branches only) and its case text left as written."""
+    import json
+
+    case = _write(tmp_path, FIG8)
+    out = tmp_path / "out"
+    assert main(["run", str(case), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 0
+    h5 = out / "results.h5"
+    d = json.loads(read_results(h5)["attrs"]["case_json"])
+    assert [r.pop("recurrence") for r in d["run"] if "recurrence" in r] == [True]     # the event run's
+    with h5py.File(h5, "a") as f:
+        f.attrs["case_json"] = old = json.dumps(d)
+    before = read_results(h5)["runs"]["exact"]["amplitude"]
+    assert main(["continue", str(case), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 0
+    after = read_results(h5)
+    np.testing.assert_array_equal(after["runs"]["exact"]["amplitude"], before)
+    assert "branches" in after["branches"] and after["attrs"]["case_json"] == old
+
+
 def test_continuation_through_a_process_pool_equals_inline(tmp_path):
     case = _write(tmp_path, FIG8)
     a, b = tmp_path / "a", tmp_path / "b"
