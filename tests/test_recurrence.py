@@ -67,6 +67,29 @@ def _assert_identical(a, b):
     np.testing.assert_array_equal(a.record.chat_t[:c], b.record.chat_t[:c])
 
 
+@pytest.mark.parametrize("name", ["fig7", "sticking"])
+def test_work_arrays_kept_across_frequencies_give_a_fresh_integrators_outputs(name):
+    """EventIntegrator.run keeps its work arrays and compiled entry for the next call whose
+    tables have the same sizes (work_sizes), whatever the frequency: across the frequencies
+    where the sub-steps per grid step change (with h_cap = 2 pi / 16 the transient's grid step
+    T / 16 is h_cap / Om: one sub-step above Om = 1, k below Om = 1 / (k - 1)), within
+    round-off of such a change, and back, every output equals a fresh integrator's bit for
+    bit; a used integrator pickles (to a pool worker) and runs the same."""
+    import pickle
+
+    m = _sdof(name)
+    core = EventIntegrator(from_sdof(m), m.stops())
+    h_cap = 2 * math.pi / 16
+    z = np.zeros(1)
+    for Om in (1.9, 1.5, 0.9, 0.5 * (1 + 1e-13), 0.5, 0.5 * (1 - 1e-13), 0.34, 1 / 3, 0.3, 1.0, 2.1):
+        a = core.run(Om, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7)
+        b = EventIntegrator(from_sdof(m), m.stops()).run(Om, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7)
+        _assert_identical(a, b)
+    c = pickle.loads(pickle.dumps(core))
+    _assert_identical(c.run(1.7, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7),
+                      core.run(1.7, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7))
+
+
 @pytest.mark.parametrize("name", ["fig7", "two-sided", "sticking", "beam-2-modes"])
 def test_a_recurring_transient_ends_early_with_the_outputs_of_every_period(name):
     """Newton stops, one and two of them, with sticking and chatter (the Zeno guard's window

@@ -21,7 +21,8 @@ import numpy as np
 
 from ..contact import check_stops
 from ..system import ModalSystem
-from .integrator import ST_FAILED, STATUS_NAMES, Record, compliant_work, integrate_work, new_record, new_work
+from .integrator import (ST_FAILED, STATUS_NAMES, TWO_PI, Record, compliant_work, integrate_work, new_record,
+                         new_work)
 from .phases import compliant_data
 from .stops import held_code, held_mask, held_sets, kernel_stops, kernel_system
 from ..trajectory import Trajectory
@@ -136,9 +137,19 @@ class EventIntegrator:
         k = self.ksys.k
         #: the lowest nonzero modal frequency ``sqrt(min k_i)`` (nondimensional; NaN without one)
         self.lowest_omega = float(np.sqrt(np.min(k[k > 0]))) if np.any(k > 0) else math.nan
-        # the last call's work arrays, kept for the next call of the same frequency and grids in the
-        # same thread (a basin's cells: one allocation and dispatch less per call)
+        # the last call's work arrays, kept for the next call of the same table sizes and grids in
+        # the same thread (a basin's cells, a sweep's frequencies: one allocation and dispatch less
+        # per call), and the compiled entry of integrate_work for this integrator's argument types
         self._work = None
+        self._entry = None
+
+    def __getstate__(self):
+        """Pickled (to a pool worker) without the cached work arrays and compiled entry, which
+        belong to this process."""
+        state = self.__dict__.copy()
+        state["_work"] = None
+        state["_entry"] = None
+        return state
 
     @property
     def n(self) -> int:
@@ -193,7 +204,8 @@ class EventIntegrator:
         """
         eta = np.array(eta, dtype=float)
         etad = np.array(etad, dtype=float)
-        if record is None:
+        own = record is None        # a record of new_record's types: the cached entry serves it
+        if own:
             record = new_record(self.n, self.n_stops, n_record, ns_record, impact_buffer, modal_states,
                                 log_events, log_apexes, compliant=self.compliant is not None)
         record.nlog[:] = 0
@@ -204,7 +216,8 @@ class EventIntegrator:
         ns_record = int(ns_record)
         h_cap = float(h_cap)
         recur = bool(recurrence)
-        key = (threading.get_ident(), Om, ns_transient, ns_record, h_cap, recur)
+        key = (threading.get_ident(), work_sizes(Om, ns_transient, ns_record, h_cap), ns_transient, ns_record,
+               h_cap, recur)
         if self._work is not None and self._work[0] == key:
             work = self._work[1]        # integrate_work writes every entry before reading it
         else:
@@ -215,7 +228,12 @@ class EventIntegrator:
                                                                                record))
         args = (self.ksys, self.kstops, self.held, cw, Om, eta, etad, int(held), int(n_transient), int(n_record),
                 ns_transient, ns_record, h_cap, int(max_impacts), int(max_steps), float(chatter_tol), record, work)
-        out = compiled_call(integrate_work, args)
+        if own and self._entry is not None:
+            out = self._entry(*args)
+        else:
+            out = compiled_call(integrate_work, args)
+            if own:
+                self._entry = entry_point(integrate_work, args)
         status, n_imp, smin, smax, n_chat, stuck_time, H, n_tot, gmax, n_steps, t_con, skipped = out
         return Run(record, int(status), int(n_imp), float(smin), float(smax), int(n_chat), float(stuck_time),
                    int(H), int(n_tot), float(gmax), int(n_steps), eta, etad, int(max_steps), int(max_impacts),
@@ -368,6 +386,22 @@ def compiled_call(dispatcher, args):
             _ENTRIES[key] = cres.entry_point
         return out
     return entry(*args)
+
+
+def work_sizes(Om: float, ns_transient: int, ns_record: int, h_cap: float):
+    """What the sizes of :func:`~vibeam.models.core.integrator.new_work`'s arrays depend on at
+    ``Om``: the sub-steps per grid step ``(sub_r, sub_t)`` as
+    :func:`~vibeam.models.core.integrator.substeps` computes them (the same floating-point
+    operations), or ``Om`` itself where a count is within 1e-9 of changing (then the arrays
+    serve this frequency only)."""
+    T = TWO_PI / Om
+    out = []
+    for ns in (ns_record, ns_transient):
+        x = (T / ns) / h_cap * (1.0 - 1e-12)
+        if not math.isfinite(x) or abs(x - round(x)) <= 1e-9 * max(1.0, x):
+            return Om
+        out.append(max(1, math.ceil(x)))
+    return tuple(out)
 
 
 def entry_point(dispatcher, args):
