@@ -225,7 +225,11 @@ def test_kill_and_resume_gives_the_same_file(tmp_path):
     file must be readable at that moment (atomic line writes), `--resume` must compute only
     the missing lines, and the final file must hold the same data as an uninterrupted run."""
     case_file = tmp_path / "case.toml"
-    case_file.write_text(RIG.format(gap=-0.1, nf=9, nv=8, tp=400))
+    # every period integrated (recurrence = false) and 800 transient periods: ~2 s of lines,
+    # checkpointed every 0.5 s, so the kill lands with most lines to go (with the exact
+    # recurrence the whole map took ~0.5 s, and the kill, sent as the first checkpoint of 15
+    # lines was seen, could find the map done)
+    case_file.write_text(RIG.format(gap=-0.1, nf=9, nv=8, tp=800) + "recurrence = false\n")
     full, part = tmp_path / "full", tmp_path / "part"
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     subprocess.run(_vibeam("map", str(case_file), "--out", str(full), "--jobs", "1", "--quiet", "--no-plots"),
@@ -260,7 +264,10 @@ def test_ctrl_c_keeps_finished_lines(tmp_path):
     """SIGINT (Ctrl-C) stops the run with exit code 130 and a hint; the file is valid and
     holds the finished lines."""
     case_file = tmp_path / "case.toml"
-    case_file.write_text(RIG.format(gap=-0.1, nf=9, nv=8, tp=400))
+    # ~2 s of lines (as in test_kill_and_resume_gives_the_same_file): the signal, sent once the
+    # first checkpoint (0.5 s) is there, must find the map running; with the exact recurrence
+    # the map could end before its first checkpoint on a fast machine
+    case_file.write_text(RIG.format(gap=-0.1, nf=9, nv=8, tp=800) + "recurrence = false\n")
     proc = subprocess.Popen(_vibeam("map", str(case_file), "--out", str(tmp_path), "--jobs", "1", "--quiet",
                                     "--no-plots"), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     h5 = tmp_path / "results.h5"
