@@ -166,11 +166,24 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
 
 
 def same_case(stored_json, case_json: str) -> bool:
-    """Whether a results file's case (``stored_json``, the ``case_json`` attribute; None or any
-    text) is the case ``case_json`` once read by this vibeam: equal, or equal after
-    validation, which gives a key the file's vibeam did not have yet its default (a case file's
-    every other key, defaults included, is stored as it was).  False when it does not
-    validate."""
+    """Whether a results file's case is the case ``case_json`` once read by this vibeam.
+
+    Equal, or equal after validation by this vibeam's schema, which gives a key that the file's
+    vibeam did not have yet its default (every other key, defaults included, is stored as it
+    was run, so a changed value is still another case).
+
+    Parameters
+    ----------
+    stored_json : str or None
+        The file's ``case_json`` attribute (any text).
+    case_json : str
+        ``Case.model_dump_json()`` of the case to run.
+
+    Returns
+    -------
+    bool
+        False also when ``stored_json`` is None or does not validate (never raises).
+    """
     from pydantic import ValidationError
 
     from vibeam.case.schema import Case

@@ -21,8 +21,8 @@ import numpy as np
 
 from ..contact import check_stops
 from ..system import ModalSystem
-from .integrator import (ST_FAILED, STATUS_NAMES, TWO_PI, Record, compliant_work, integrate_work, new_record,
-                         new_work)
+from .integrator import (ST_FAILED, STATUS_NAMES, Record, compliant_work, integrate_work, new_record, new_work,
+                         substeps)
 from .phases import compliant_data
 from .stops import held_code, held_mask, held_sets, kernel_stops, kernel_system
 from ..trajectory import Trajectory
@@ -388,20 +388,26 @@ def compiled_call(dispatcher, args):
     return entry(*args)
 
 
-def work_sizes(Om: float, ns_transient: int, ns_record: int, h_cap: float):
+def work_sizes(Om: float, ns_transient: int, ns_record: int, h_cap: float) -> tuple[int, int]:
     """What the sizes of :func:`~vibeam.models.core.integrator.new_work`'s arrays depend on at
-    ``Om``: the sub-steps per grid step ``(sub_r, sub_t)`` as
-    :func:`~vibeam.models.core.integrator.substeps` computes them (the same floating-point
-    operations), or ``Om`` itself where a count is within 1e-9 of changing (then the arrays
-    serve this frequency only)."""
-    T = TWO_PI / Om
-    out = []
-    for ns in (ns_record, ns_transient):
-        x = (T / ns) / h_cap * (1.0 - 1e-12)
-        if not math.isfinite(x) or abs(x - round(x)) <= 1e-9 * max(1.0, x):
-            return Om
-        out.append(max(1, math.ceil(x)))
-    return tuple(out)
+    ``Om`` beside the grids: the sub-steps per grid step ``(sub_r, sub_t)``.
+
+    Parameters
+    ----------
+    Om : float
+        Forcing frequency (nondimensional).
+    ns_transient, ns_record : int
+        Grid points per period of the transient and of the record.
+    h_cap : float
+        Largest step (nondimensional time).
+
+    Returns
+    -------
+    (int, int)
+        :func:`~vibeam.models.core.integrator.substeps` itself (compiled, the kernel's own
+        numbers), so that work arrays kept under this key have the tables a call at ``Om`` needs.
+    """
+    return compiled_call(substeps, (Om, ns_transient, ns_record, h_cap))
 
 
 def entry_point(dispatcher, args):

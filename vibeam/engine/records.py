@@ -172,9 +172,23 @@ def transient_verdict(strobe: np.ndarray, scale: float, rtol: float, no_impact: 
 
 def verdict_from_returns(d: np.ndarray, strobe: np.ndarray, scale: float, rtol: float, no_impact: bool,
                          margin: float = 1.0, Omega: float | None = None) -> tuple[int, str]:
-    """:func:`transient_verdict` from all the returns ``d = strobe_returns(strobe, scale, Omega)``
-    (shape (8,)); the other arguments as there.  :func:`transient_verdict` returns the same
-    verdict, from the returns up to the period only when the period is clear."""
+    """The whole rule of :func:`transient_verdict`, from all the returns.
+
+    :func:`transient_verdict` returns this verdict; it computes the returns only up to the
+    period when the period is clear, and calls this function otherwise.
+
+    Parameters
+    ----------
+    d : ndarray, shape (8,)
+        ``strobe_returns(strobe, scale, Omega)`` (fractions of the orbit's size).
+    strobe, scale, rtol, no_impact, margin, Omega
+        As in :func:`transient_verdict`.
+
+    Returns
+    -------
+    (int, str)
+        As :func:`transient_verdict`.
+    """
     when = _own_time(Omega)
     if no_impact:
         if d[0] <= margin * rtol or not np.isfinite(d[0]):
@@ -209,10 +223,22 @@ def _own_time(Omega) -> str:
 
 
 def mean_std(x: np.ndarray) -> tuple[float, float]:
-    """Mean and sample standard deviation (``ddof = 1``) of a 1-D float64 array, two-pass: the
-    mean ``sum(x) / n``, then ``sqrt(sum((x - mean)^2) / (n - 1))``, each sum NumPy's pairwise
-    ``np.add.reduce``: the values of ``x.mean()`` and ``x.std(ddof=1)`` (NumPy's own two-pass
-    formula), without their Python layers (~10 us per point of a sweep).  Needs ``n >= 2``."""
+    """Mean and sample standard deviation (``ddof = 1``), two-pass.
+
+    The mean ``sum(x) / n``, then ``sqrt(sum((x - mean)^2) / (n - 1))``, each sum NumPy's
+    pairwise ``np.add.reduce``: the values of ``x.mean()`` and ``x.std(ddof=1)`` (NumPy's own
+    two-pass formula), without their Python layers (~10 us per point of a sweep).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,), float64, n >= 2
+        The series (any units).
+
+    Returns
+    -------
+    (float, float)
+        Mean and standard deviation, in the units of ``x``.
+    """
     n = x.shape[0]
     m = np.add.reduce(x) / n
     d = x - m
