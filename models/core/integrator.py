@@ -42,6 +42,14 @@ kernel computes them, from their periods and times within them).  The outputs ar
 full run bit for bit; ``periods_skipped`` says how many periods were not integrated.  Not with
 compliant stops or the event and apex logs (whose rows would be missing).
 
+The record of a one-mode system with Newton stops steps on the transient's grid when the record's
+samples refine it (``ns_record`` a multiple of ``ns_transient``, one sub-step per grid step of
+each): a sample inside a free step is the closed-form flow evaluated there from the step's start
+(dense output, the same formula as a step's end, so equal to a step to it up to round-off); a
+held step or a contact event sees the rest of the record's grid step, as on the record's own
+grid.  The record then continues the transient's floating-point cycle, so the recurrence copies it
+after one cycle instead of waiting for the orbit to settle anew on a finer grid.
+
 Outputs go to one :class:`Record` (arrays allocated by the caller: samples at the phase grid of
 the recorded periods, impacts, per-period minima, chatter points, an optional event log for the
 shooting problem); the kernel returns a tuple of scalars (:func:`integrate_work`, in work arrays
@@ -443,6 +451,58 @@ def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap, recur):
             np.empty((6 * S, ns)), np.empty((2, S)), P_r, tab_r, P_t, tab_t, np.empty(_NFS),
             np.empty(_NIS, np.int64), sub_r, sub_t,
             np.empty(2 * (_snap_fs(n, ns) + _NFS) if recur else 0), np.empty(2 * (_NIS + ns) if recur else 0, np.int64))
+
+
+@_kernel
+def _put_sample(samples, msamp, fs, k, qs, qd):
+    """Sample ``k`` of the record: the sensor ``(qs, qd)`` (row units), into the period's extremes."""
+    samples[k, 0] = qs
+    samples[k, 1] = qd
+    if qs < fs[_PEXT]:
+        fs[_PEXT] = qs
+    if qs > fs[_PEXT1]:
+        fs[_PEXT1] = qs
+
+
+@_kernel
+def _state_sample(samples, msamp, modamp, fs, k, sens, eta, etad, n):
+    """Sample ``k`` of the record from the current modal state ``eta, eta'`` (shape ``(n,)``)."""
+    qs = 0.0
+    qd = 0.0
+    for i in range(n):
+        qs += sens[i] * eta[i]
+        qd += sens[i] * etad[i]
+    for i in range(n):
+        if abs(eta[i]) > modamp[i]:
+            modamp[i] = abs(eta[i])
+    if msamp.shape[0] > 0:
+        for i in range(n):
+            msamp[k, i] = eta[i]
+            msamp[k, n + i] = etad[i]
+    _put_sample(samples, msamp, fs, k, qs, qd)
+
+
+@_kernel
+def _dense_sample(samples, msamp, modamp, fs, k, sens, aF, bF, xF, yF, mp, tau, sp, cp, Om, n):
+    """Sample ``k`` of the record inside a free step, at ``tau`` after its start: the closed-form
+    flow from the step's parts (particular ``aF, bF`` at the sample's phase ``sin, cos = sp, cp``,
+    homogeneous ``xF, yF`` advanced by the transition increment over ``tau``), the formula of a
+    step's end (paper Eq. 28 per mode)."""
+    qs = 0.0
+    qd = 0.0
+    for i in range(n):
+        a11, a12, a21, a22 = transition_increment(tau, mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4],
+                                                  mp[i, 5])
+        e = aF[i] * sp + bF[i] * cp + (xF[i] + (a11 * xF[i] + a12 * yF[i]))
+        ed = Om * (aF[i] * cp - bF[i] * sp) + (yF[i] + (a21 * xF[i] + a22 * yF[i]))
+        qs += sens[i] * e
+        qd += sens[i] * ed
+        if abs(e) > modamp[i]:
+            modamp[i] = abs(e)
+        if msamp.shape[0] > 0:
+            msamp[k, i] = e
+            msamp[k, n + i] = ed
+    _put_sample(samples, msamp, fs, k, qs, qd)
 
 
 @njit(cache=True, _nrt=False, error_model="numpy", inline="always")
@@ -1553,6 +1613,12 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
     nsf = snap_f.shape[0] // 2      # the two snapshots: [0, nsf) and [nsf, 2 nsf)
     nsi = snap_i.shape[0] // 2
     skipped = 0
+    # the record on the transient's grid, its samples inside a free step by dense output (module
+    # docstring): r_d samples per grid step of the transient, h_rs apart
+    r_d = ns_record // ns_transient
+    dense = cw is None and n == 1 and sub_t == 1 and sub_r == 1 and r_d > 1 and r_d * ns_transient == ns_record
+    h_rs = T / ns_record
+    eps_t = 1e-15 * T
     pp = 0
     while pp < n_total:
         if snap_pp != -2:
@@ -1613,12 +1679,14 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                         break
         ist[_RP] = pp - n_transient
         recording = pp >= n_transient
-        ns_grid = ns_record if recording else ns_transient
+        fine = recording and not dense      # on the record's own grid
+        ns_grid = ns_record if fine else ns_transient
         h_grid = T / ns_grid
-        sub = sub_r if recording else sub_t
+        sub = sub_r if fine else sub_t
         h_sub = h_grid / sub
-        Ptab = P_r if recording else P_t
-        tab = tab_r if recording else tab_t
+        Ptab = P_r if fine else P_t
+        tab = tab_r if fine else tab_t
+        j_end = r_d if recording and dense else 0
         fs[_T0] = (pp - n_transient) * T
         fs[_PT] = pp * T
         if pp > n_transient:
@@ -1629,25 +1697,9 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
             fs[_PEXT1] = -np.inf
         for jg in range(ns_grid):
             if recording:
-                qs = 0.0
-                qd = 0.0
-                for i in range(n):
-                    qs += wn[_SENS, i] * eta[i]
-                    qd += wn[_SENS, i] * etad[i]
-                for i in range(n):
-                    if abs(eta[i]) > modamp[i]:
-                        modamp[i] = abs(eta[i])
-                samples[k_sample, 0] = qs
-                samples[k_sample, 1] = qd
-                if msamp.shape[0] > 0:
-                    for i in range(n):
-                        msamp[k_sample, i] = eta[i]
-                        msamp[k_sample, n + i] = etad[i]
+                _state_sample(samples, msamp, modamp, fs, k_sample, wn[_SENS], eta, etad, n)
                 k_sample += 1
-                if qs < fs[_PEXT]:
-                    fs[_PEXT] = qs
-                if qs > fs[_PEXT1]:
-                    fs[_PEXT1] = qs
+            j_next = 1      # the next sample inside the grid step (dense record: j_next < j_end)
             for isub in range(sub):
                 kg = jg * sub + isub
                 fs[_PHI] = TWO_PI * kg / (ns_grid * sub)
@@ -1655,6 +1707,11 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                 fs[_REM] = h_sub
                 ist[_ATGRID] = 1          # still on the tabulated sub-step (no event yet)
                 while fs[_REM] > 0.0:
+                    while j_next < j_end and (jg * r_d + j_next) * h_rs <= fs[_TLOC] + eps_t:
+                        # a sample reached by a step's end (a held step cut there, an event on it)
+                        _state_sample(samples, msamp, modamp, fs, k_sample, wn[_SENS], eta, etad, n)
+                        k_sample += 1
+                        j_next += 1
                     ist[_NSTEPS] += 1
                     if ist[_NSTEPS] > max_steps:
                         failed = True
@@ -1666,9 +1723,17 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                             failed = True
                             break
                     elif ist[_H] != 0:
-                        # held on the set H
+                        # held on the set H (a dense record: up to the next sample, as on its own grid)
+                        rem_full = fs[_REM]
+                        cut = rem_full
+                        if j_next < j_end:
+                            cut = min(rem_full, (jg * r_d + j_next) * h_rs - fs[_TLOC])
+                            fs[_REM] = cut
                         k_imp = _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog, nlog,
                                            Om, T, recording, cw)
+                        if cut != rem_full:
+                            rest = rem_full - (cut - fs[_REM])
+                            fs[_REM] = rest if rest >= eps_t else 0.0
                     else:
                         # free flight (held set empty, no compliant contact): one step of at most the rest
                         # of the sub-step kg of the grid (tables tab, Ptab), written out here, the hot path
@@ -1921,6 +1986,16 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                                 for k in range(ns):
                                     _gap_ends(Nrm, k, SaF[k], SbF[k], g[k], v[k], Om, dxv, dyv, x2v, x3v,
                                               dsin, dcos, sp1, cp1, n, g1, v1, G21, G31)
+                            while j_next < j_end:
+                                # the record's samples inside the step: the flow evaluated there
+                                kd = jg * r_d + j_next
+                                tau = kd * h_rs - t_loc
+                                if tau >= s_mv:
+                                    break
+                                _dense_sample(samples, msamp, modamp, fs, k_sample, sens, aF, bF, xF, yF, mp,
+                                              max(tau, 0.0), tab_r[kd, 0], tab_r[kd, 1], Om, n)
+                                k_sample += 1
+                                j_next += 1
                             if apexes and s_ev < 0.0:
                                 for k in range(ns):
                                     if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:
@@ -2003,8 +2078,13 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                     if cw is not None and (ist[_CMASK] >> k_imp) & 1:
                         failed = _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, k_imp, max_impacts, recording)
                     else:
+                        # (a dense record: the policy sees the rest of the record's grid step)
+                        rem_full = fs[_REM]
+                        if j_next < j_end:
+                            fs[_REM] = min(rem_full, (jg * r_d + j_next) * h_rs - fs[_TLOC])
                         failed = _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, Om, T,
                                          k_imp, max_impacts, chatter_tol, recording, cw)
+                        fs[_REM] = rem_full
                     if failed:
                         break
                 if failed:
