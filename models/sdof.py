@@ -231,7 +231,11 @@ class EventSolver:
         impact detection depends on it, except for a contact phase that is integrated
         (hysteretic-Hertz stops): its Runge-Kutta steps end on the grid too, so the
         transient's numerical orbit differs from the record's within the integration
-        tolerance (measured 5e-11 relative with 4 points, 5e-14 with 16).
+        tolerance (measured 5e-11 relative with 4 points, 5e-14 with 16).  With Newton
+        stops, a record whose samples per period are a multiple of it steps on this grid
+        too (one sub-step per grid step), its samples inside a step evaluated from the
+        closed-form flow (:mod:`vibeam.models.core.integrator`): the same numbers to
+        round-off, and a settled record is copied after one cycle.
     chatter_tol : float, optional
         Relative error allowed in the constant-acceleration estimate of the
         chatter accumulation time before the solver jumps to it.

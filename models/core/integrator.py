@@ -44,8 +44,9 @@ compliant stops or the event and apex logs (whose rows would be missing).
 
 The record of a one-mode system with Newton stops steps on the transient's grid when the record's
 samples refine it (``ns_record`` a multiple of ``ns_transient``, one sub-step per grid step of
-each): a sample inside a free step is the closed-form flow evaluated there from the step's start
-(dense output, the same formula as a step's end, so equal to a step to it up to round-off); a
+each): the samples inside a free step are the closed-form flow evaluated there from the step's
+parts (dense output: the homogeneous part carried from sample to sample by the record grid's
+tabulated transition, the formula of a step's end, so equal to steps to them up to round-off); a
 held step or a contact event sees the rest of the record's grid step, as on the record's own
 grid.  The record then continues the transient's floating-point cycle, so the recurrence copies it
 after one cycle instead of waiting for the orbit to settle anew on a finer grid.
@@ -454,19 +455,9 @@ def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap, recur):
 
 
 @_kernel
-def _put_sample(samples, msamp, fs, k, qs, qd):
-    """Sample ``k`` of the record: the sensor ``(qs, qd)`` (row units), into the period's extremes."""
-    samples[k, 0] = qs
-    samples[k, 1] = qd
-    if qs < fs[_PEXT]:
-        fs[_PEXT] = qs
-    if qs > fs[_PEXT1]:
-        fs[_PEXT1] = qs
-
-
-@_kernel
 def _state_sample(samples, msamp, modamp, fs, k, sens, eta, etad, n):
-    """Sample ``k`` of the record from the current modal state ``eta, eta'`` (shape ``(n,)``)."""
+    """Sample ``k`` of the record from the current modal state ``eta, eta'`` (shape ``(n,)``): the
+    sensor ``(s^T eta, s^T eta')`` (row units), the modes' amplitudes, the period's extremes."""
     qs = 0.0
     qd = 0.0
     for i in range(n):
@@ -475,34 +466,81 @@ def _state_sample(samples, msamp, modamp, fs, k, sens, eta, etad, n):
     for i in range(n):
         if abs(eta[i]) > modamp[i]:
             modamp[i] = abs(eta[i])
+    samples[k, 0] = qs
+    samples[k, 1] = qd
     if msamp.shape[0] > 0:
         for i in range(n):
             msamp[k, i] = eta[i]
             msamp[k, n + i] = etad[i]
-    _put_sample(samples, msamp, fs, k, qs, qd)
+    if qs < fs[_PEXT]:
+        fs[_PEXT] = qs
+    if qs > fs[_PEXT1]:
+        fs[_PEXT1] = qs
 
 
 @_kernel
-def _dense_sample(samples, msamp, modamp, fs, k, sens, aF, bF, xF, yF, mp, tau, sp, cp, Om, n):
-    """Sample ``k`` of the record inside a free step, at ``tau`` after its start: the closed-form
-    flow from the step's parts (particular ``aF, bF`` at the sample's phase ``sin, cos = sp, cp``,
-    homogeneous ``xF, yF`` advanced by the transition increment over ``tau``), the formula of a
-    step's end (paper Eq. 28 per mode)."""
-    qs = 0.0
-    qd = 0.0
+def _dense_samples(samples, msamp, modamp, fs, k0, j_next, j_end, base, sens, aF, bF, xF, yF, mp, P_r, tab_r,
+                   t_loc, s_mv, h_rs, from_grid, Om, n):
+    """The record's samples inside one free step (dense output; module docstring): samples
+    ``base + j`` of the period for ``j = j_next ..`` below ``j_end`` whose time ``(base + j) h_rs``
+    (from the period's start) lies before the step's end ``t_loc + s_mv``, into rows ``k0 ..`` of
+    the record, as :func:`_state_sample` takes them.
+
+    Each mode's homogeneous part ``xF, yF`` (shape ``(n,)``, at the step's start ``t_loc``) is
+    carried to the first sample by the transition increment over the time to it (the tabulated
+    one ``P_r`` when the step starts at the grid point, ``from_grid``), then from sample to sample
+    by ``P_r``, as steps on the record's own grid would carry it; the particular part is read at the
+    sample's phase (``tab_r``, the record grid's sines and cosines).  The closed form of paper
+    Eq. 28 per mode, the formula of a step's end.  Returns the number of samples taken."""
+    m = 0
+    while j_next + m < j_end and (base + j_next + m) * h_rs - t_loc < s_mv:
+        m += 1
+    if m == 0:
+        return 0
+    for q in range(m):
+        samples[k0 + q, 0] = 0.0
+        samples[k0 + q, 1] = 0.0
     for i in range(n):
-        a11, a12, a21, a22 = transition_increment(tau, mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4],
-                                                  mp[i, 5])
-        e = aF[i] * sp + bF[i] * cp + (xF[i] + (a11 * xF[i] + a12 * yF[i]))
-        ed = Om * (aF[i] * cp - bF[i] * sp) + (yF[i] + (a21 * xF[i] + a22 * yF[i]))
-        qs += sens[i] * e
-        qd += sens[i] * ed
-        if abs(e) > modamp[i]:
-            modamp[i] = abs(e)
-        if msamp.shape[0] > 0:
-            msamp[k, i] = e
-            msamp[k, n + i] = ed
-    _put_sample(samples, msamp, fs, k, qs, qd)
+        x = xF[i]
+        y = yF[i]
+        if from_grid:
+            a11 = P_r[i, 0]
+            a12 = P_r[i, 1]
+            a21 = P_r[i, 2]
+            a22 = P_r[i, 3]
+        else:
+            tau = max((base + j_next) * h_rs - t_loc, 0.0)
+            a11, a12, a21, a22 = transition_increment(tau, mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4],
+                                                      mp[i, 5])
+        for q in range(m):
+            if q > 0:
+                a11 = P_r[i, 0]
+                a12 = P_r[i, 1]
+                a21 = P_r[i, 2]
+                a22 = P_r[i, 3]
+            dx = a11 * x + a12 * y
+            dy = a21 * x + a22 * y
+            x += dx
+            y += dy
+            kd = base + j_next + q
+            sp = tab_r[kd, 0]
+            cp = tab_r[kd, 1]
+            e = aF[i] * sp + bF[i] * cp + x
+            ed = Om * (aF[i] * cp - bF[i] * sp) + y
+            samples[k0 + q, 0] += sens[i] * e
+            samples[k0 + q, 1] += sens[i] * ed
+            if abs(e) > modamp[i]:
+                modamp[i] = abs(e)
+            if msamp.shape[0] > 0:
+                msamp[k0 + q, i] = e
+                msamp[k0 + q, n + i] = ed
+    for q in range(m):
+        qs = samples[k0 + q, 0]
+        if qs < fs[_PEXT]:
+            fs[_PEXT] = qs
+        if qs > fs[_PEXT1]:
+            fs[_PEXT1] = qs
+    return m
 
 
 @njit(cache=True, _nrt=False, error_model="numpy", inline="always")
@@ -1697,8 +1735,25 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
             fs[_PEXT1] = -np.inf
         for jg in range(ns_grid):
             if recording:
-                _state_sample(samples, msamp, modamp, fs, k_sample, wn[_SENS], eta, etad, n)
+                qs = 0.0
+                qd = 0.0
+                for i in range(n):
+                    qs += wn[_SENS, i] * eta[i]
+                    qd += wn[_SENS, i] * etad[i]
+                for i in range(n):
+                    if abs(eta[i]) > modamp[i]:
+                        modamp[i] = abs(eta[i])
+                samples[k_sample, 0] = qs
+                samples[k_sample, 1] = qd
+                if msamp.shape[0] > 0:
+                    for i in range(n):
+                        msamp[k_sample, i] = eta[i]
+                        msamp[k_sample, n + i] = etad[i]
                 k_sample += 1
+                if qs < fs[_PEXT]:
+                    fs[_PEXT] = qs
+                if qs > fs[_PEXT1]:
+                    fs[_PEXT1] = qs
             j_next = 1      # the next sample inside the grid step (dense record: j_next < j_end)
             for isub in range(sub):
                 kg = jg * sub + isub
@@ -1986,16 +2041,13 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                                 for k in range(ns):
                                     _gap_ends(Nrm, k, SaF[k], SbF[k], g[k], v[k], Om, dxv, dyv, x2v, x3v,
                                               dsin, dcos, sp1, cp1, n, g1, v1, G21, G31)
-                            while j_next < j_end:
+                            if j_next < j_end:
                                 # the record's samples inside the step: the flow evaluated there
-                                kd = jg * r_d + j_next
-                                tau = kd * h_rs - t_loc
-                                if tau >= s_mv:
-                                    break
-                                _dense_sample(samples, msamp, modamp, fs, k_sample, sens, aF, bF, xF, yF, mp,
-                                              max(tau, 0.0), tab_r[kd, 0], tab_r[kd, 1], Om, n)
-                                k_sample += 1
-                                j_next += 1
+                                taken = _dense_samples(samples, msamp, modamp, fs, k_sample, j_next, j_end, jg * r_d,
+                                                       sens, aF, bF, xF, yF, mp, P_r, tab_r, t_loc, s_mv, h_rs,
+                                                       at_grid, Om, n)
+                                k_sample += taken
+                                j_next += taken
                             if apexes and s_ev < 0.0:
                                 for k in range(ns):
                                     if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:

@@ -192,7 +192,7 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "effects": ("", "[effects.*] tables overridden for this run"),
     },
     "[[run]] method = \"event\"": {
-        "transient_samples": ("", "grid points per forcing period in the discarded transient (steps are sub-steps of at most 1/16 of the natural period; efficiency only, but for integrated hysteretic-Hertz contact phases)"),
+        "transient_samples": ("", "grid points per forcing period in the discarded transient (steps are sub-steps of at most 1/16 of the natural period; efficiency only, but for integrated hysteretic-Hertz contact phases); a one-mode record with Newton stops whose samples refine this grid steps on it too, the samples inside a step evaluated from the closed-form flow (the same numbers to round-off, and the recurrence then copies a settled record after one cycle)"),
         "chatter_tol": ("1", "a chatter sequence is summed in closed form once its neglected terms are below "
                         "this (Nordmark & Piiroinen 2009)"),
         "max_impacts_per_period": ("", "impact guard: more impacts in one period end the point as failed"),
