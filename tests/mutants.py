@@ -162,6 +162,18 @@ MUTANTS: list[Mutant] = [
     Mutant("the verdict's early exit settles a period whose return is within margin x rtol but not rtol",
            "vibeam/engine/records.py", "lo = min(1.0, margin) * rtol", "lo = max(1.0, margin) * rtol",
            ("tests/test_settle.py::test_the_verdicts_early_exit_agrees_with_the_whole_rule",)),
+    # --- the dense record (a one-mode record on the transient's grid)
+    Mutant("dense record: a sample inside a step read at the next sample's forcing phase",
+           "models/core/integrator.py", "sp = tab_r[kd, 0]\n            cp = tab_r[kd, 1]",
+           "sp = tab_r[kd + 1, 0]\n            cp = tab_r[kd + 1, 1]",
+           ("tests/test_recurrence.py::test_the_dense_record_equals_the_record_on_its_own_grid",)),
+    Mutant("dense record: a held step runs to the transient's grid point past the record's samples",
+           "models/core/integrator.py", "if j_next < j_end:\n                            cut = min(rem_full",
+           "if j_next < 0:\n                            cut = min(rem_full",
+           ("tests/test_recurrence.py::test_the_dense_record_equals_the_record_on_its_own_grid",)),
+    Mutant("dense record: a step started after an event carries its samples from the grid point's time",
+           "models/core/integrator.py", "if from_grid:\n            a11 = P_r[i, 0]", "if True:\n            a11 = P_r[i, 0]",
+           ("tests/test_recurrence.py::test_the_dense_record_equals_the_record_on_its_own_grid",)),
 ]
 
 
