@@ -1735,25 +1735,8 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
             fs[_PEXT1] = -np.inf
         for jg in range(ns_grid):
             if recording:
-                qs = 0.0
-                qd = 0.0
-                for i in range(n):
-                    qs += wn[_SENS, i] * eta[i]
-                    qd += wn[_SENS, i] * etad[i]
-                for i in range(n):
-                    if abs(eta[i]) > modamp[i]:
-                        modamp[i] = abs(eta[i])
-                samples[k_sample, 0] = qs
-                samples[k_sample, 1] = qd
-                if msamp.shape[0] > 0:
-                    for i in range(n):
-                        msamp[k_sample, i] = eta[i]
-                        msamp[k_sample, n + i] = etad[i]
+                _state_sample(samples, msamp, modamp, fs, k_sample, wn[_SENS], eta, etad, n)
                 k_sample += 1
-                if qs < fs[_PEXT]:
-                    fs[_PEXT] = qs
-                if qs > fs[_PEXT1]:
-                    fs[_PEXT1] = qs
             j_next = 1      # the next sample inside the grid step (dense record: j_next < j_end)
             for isub in range(sub):
                 kg = jg * sub + isub
