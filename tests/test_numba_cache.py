@@ -96,3 +96,34 @@ def test_editing_newton_restitution_reaches_the_cached_sdof_kernel(tmp_path):
     for f in models.joinpath("__pycache__").glob("*.nb?"):
         f.write_bytes(b"")
     assert float(_run(pkg, EVENT.format(pkg=str(pkg), R=0.9))) == after
+
+
+def _scenario(outer):
+    run = {"compile_s": 1.0, "specialisations": len(outer), "process_wall_s": 2.0, "specialisations_in_workers": 0,
+           "forked_workers": 0, "cache_loads_in_workers": 0,
+           "kernel_specialisations": [{"kernel": "vibeam.models.core.integrator." + k, "specialisation": s}
+                                      for k, s in outer]}
+    return {"cold": run, "warm": dict(run, specialisations=0, kernel_specialisations=[])}
+
+
+@pytest.mark.parametrize("outer, verdict", [
+    # what a quick start compiles: the work arrays' sizing and allocation beside one integrator
+    ([("substeps", "(float64, int64, int64, float64)"), ("new_work", "(int64, ...)"),
+      ("integrate_work", "Newton stops only (cw None)")], True),
+    ([("new_work", "(int64, ...)"), ("integrate_work", "Newton stops only (cw None)")], True),
+    # a second integrator specialisation, the wrong kind, or another kernel compiled on its own
+    ([("new_work", "(int64, ...)"), ("integrate_work", "Newton stops only (cw None)"),
+      ("integrate_work", "with compliant stops (cw _CompliantWork)")], False),
+    ([("integrate_work", "with compliant stops (cw _CompliantWork)")], False),
+    ([("integrate_work", "Newton stops only (cw None)"), ("_held_step", "(...)")], False),
+])
+def test_the_compile_bench_names_an_extra_specialisation_only(outer, verdict):
+    """``vibeam bench --compile``'s "compiles the event integrator's specialisation it uses and no
+    other" verdict: the work arrays' sizing (``substeps``, called by the integrator's driver to size
+    them) and allocation are part of that specialisation; anything else compiled on its own is
+    not (cabb081 made ``substeps`` a top-level compilation and the verdict failed every scene)."""
+    from vibeam.bench import compile_goals
+
+    out = {"goal_s": 5.0, "scenarios": {"quick start: vibeam run x": _scenario(outer)}}
+    g = [x for x in compile_goals(out) if "and no other" in x["goal"]]
+    assert len(g) == 1 and g[0]["pass"] is verdict, g
