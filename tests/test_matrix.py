@@ -348,3 +348,61 @@ def test_every_sdof_row_is_its_one_mode_beam(row):
         assert np.max(np.abs(a.impact_times - b.impact_times)) <= 1e-10 * 2.0 * np.pi / W, (row, W)
         ka, kb = a.impact_stops, b.impact_stops
         assert (ka is None) == (kb is None) and (ka is None or list(ka) == list(kb)), (row, W)
+
+
+
+def _event_core(row):
+    """The row's event integrator (:class:`vibeam.models.core.event.EventIntegrator`); its
+    ``compliant`` the compliant data it runs on (:class:`vibeam.models.core.phases.Compliant`)."""
+    from vibeam.models import make_solver
+
+    model = vibeam.load_case(case_of(*row, ["event"])).model_spec().build()
+    return make_solver(model, "event")._core
+
+
+@pytest.mark.parametrize("row, linear, integrated", [
+    (("sdof", "linear", "one"), True, False), (("sdof", "linear", "two"), True, False),
+    (("sdof", "hunt_crossley", "one"), False, True), (("sdof", "lankarani_nikravesh", "mixed"), False, True),
+    # held on the Newton stop, the SDOF has no free coordinate: a Kelvin-Voigt contact then is not a
+    # linear phase of pair_modes (the integrator would integrate it), so both kinds stay compiled
+    (("sdof", "linear", "mixed"), True, True), (("sdof", "restitution", "mixed"), True, True),
+    (("beam", "linear", "mixed"), True, False), (("beam", "linear", "point"), True, False),
+    (("beam", "restitution", "mixed"), True, False), (("beam", "hunt_crossley", "two"), False, True),
+])
+def test_each_row_compiles_the_kinds_of_contact_phase_it_can_reach(row, linear, integrated):
+    """A compliant row's event integrator gets the linear phases (``lin``) only if one of its held
+    sets and contact sets is a linear phase, and the Runge-Kutta tableau (``itab``) only if one is
+    not (:func:`vibeam.models.core.phases.reachable_phases`; numba compiles nothing behind a None).
+    The oracle is the phase table itself: every reachable pair, enumerated here again from the stops'
+    laws and the held sets, is linear or integrated as ``index`` says.  A kind left out wrongly
+    would fail the row's points (``EK_FAIL``), which the agreement test above would catch."""
+    from vibeam.models.contact import LAW_RESTITUTION
+
+    core = _event_core(row)
+    cp = core.compliant
+    assert (cp.lin is not None, cp.itab is not None) == (linear, integrated)
+    assert cp.lin is None or cp.lin is cp.ph
+    assert cp.itab is None or cp.itab is cp.tab
+    law = core.kstops.law
+    ns = len(law)
+    kinds = set()
+    for H in range(1 << ns):
+        if core.held.valid[H] and all(law[k] == LAW_RESTITUTION for k in range(ns) if H >> k & 1):
+            for C in range(1, 1 << ns):
+                if all(law[k] != LAW_RESTITUTION for k in range(ns) if C >> k & 1):
+                    kinds.add(bool(cp.ph.index[H, C] >= 0))
+    assert kinds == {k for k, on in ((True, linear), (False, integrated)) if on}
+
+
+def test_the_compiled_entry_of_a_call_tells_the_kinds_of_compliant_data_apart():
+    """``compiled_call`` keeps one compiled entry per argument types; two scenes whose compliant
+    data differ only in which kinds of phase are None are two specialisations, so they must not
+    share an entry (they did at first: the Kelvin-Voigt row's shot ran the Hunt-Crossley row's
+    machine code, and the process crashed).  The key tells them apart, nested ones too."""
+    from vibeam.models.core.event import _key
+
+    kv, hc, both = (_event_core(("sdof", law, stops)).compliant
+                    for law, stops in (("linear", "one"), ("hunt_crossley", "one"), ("linear", "mixed")))
+    keys = {_key(kv), _key(hc), _key(both)}
+    assert len(keys) == 3
+    assert _key((1, kv)) != _key((1, hc)) and _key((1, kv)) == _key((1, kv._replace(vfall=2.0)))

@@ -1539,9 +1539,14 @@ def _short(sig: str, limit: int = 240) -> str:
 
 def _specialisation(kernel: str, args: list) -> str:
     """A readable name of a compiled specialisation: the event integrator's (``integrate_work``) by
-    its compliant data (``cw``: None for a scene of Newton stops only), any other by its signature."""
+    its compliant data (``cw``: None for a scene of Newton stops only; else the kinds of contact
+    phase compiled, :class:`vibeam.models.core.phases.Compliant`'s ``lin`` and ``itab``: a second
+    ``ContactPhases`` or ``Tableau`` beside ``ph`` and ``tab``), any other by its signature."""
     if kernel.endswith("core.integrator.integrate_work") and len(args) > 3:
-        return "Newton stops only (cw None)" if args[3] == "none" else "with compliant stops (cw _CompliantWork)"
+        if args[3] == "none":
+            return "Newton stops only (cw None)"
+        kinds = [k for k, t in (("linear", "ContactPhases("), ("Runge-Kutta", "Tableau(")) if args[3].count(t) > 1]
+        return f"with compliant stops ({' and '.join(kinds) or 'no'} contact phases)"
     return _short("(" + ", ".join(args) + ")", 120)
 
 
@@ -1571,6 +1576,7 @@ def _compile_summary(records: list, process_wall_s: float) -> dict:
             several[k] = {"specialisations": len(sigs),
                           "differing_arguments": {i: t for i, t in at.items() if len(t) > 1}}
     kernels = sorted(({"kernel": r["kernel"], "signature": _short(r["signature"]), "n_args": len(r["args"]),
+                       "none_args": [i for i, a in enumerate(r["args"]) if a == "none"],
                        "self_s": r["self_s"], "inclusive_s": r["inclusive_s"], "nested": r["depth"] > 0,
                        "process": "main" if r["pid"] == main else "worker"} for r in comp),
                      key=lambda k: -k["self_s"])

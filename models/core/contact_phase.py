@@ -50,7 +50,10 @@ GL_W = 0.5 * _W
 def phase_harmonics(cp, Om, F, ax, bx, ay, by):
     """The forced response ``x_p = ax sin + bx cos``, ``y_p = ay sin + by cos`` of every oscillator
     of every linear contact phase at forcing ``F sin(Om t)``: ``(i Om - A_j) Z = (f_x, f_y) F`` per
-    pair, ``A_j = [[0, 1], [-k, -c]]``."""
+    pair, ``A_j = [[0, 1], [-k, -c]]``.  ``cp`` None (a scene that reaches no linear phase,
+    :class:`vibeam.models.core.phases.Compliant`): nothing to do, and nothing compiled."""
+    if cp is None:
+        return
     for q in range(cp.m.shape[0]):
         for j in range(cp.m[q]):
             c = 2.0 * cp.mp[q, j, 0]
@@ -109,6 +112,8 @@ def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, h
     eta, etad : ndarray, shape (n,)
         The state, advanced in place.
     st, hs, cp : KernelStops, HeldSets, ContactPhases
+        (``cp`` None: the scene reaches no linear phase, :class:`vibeam.models.core.phases.Compliant`;
+        the step fails, and numba compiles nothing of it.)
     ax, bx, ay, by : ndarray, shape (Q, n)
         :func:`phase_harmonics` at this frequency.
     xh, yh : ndarray, shape (n,)
@@ -130,6 +135,8 @@ def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, h
     s, kind, stop, aux : float, int, int, int
         The step taken, how it ended (module docstring) and the stop of the event.
     """
+    if cp is None:
+        return -1.0, EK_FAIL, -1, 0
     n = eta.shape[0]
     ns = st.offset.shape[0]
     m = cp.m[q]
@@ -364,6 +371,10 @@ def rk_phase_step(H, C, inside, relaxed, h, phi, Om, F, eta, etad, sy, st, hs, t
 
     Parameters
     ----------
+    tab : vibeam.models.core.rk.Tableau or None
+        The Runge-Kutta pair (None: the scene reaches no phase that is not linear,
+        :class:`vibeam.models.core.phases.Compliant`; the step fails, and numba compiles nothing
+        of it).
     rk : ndarray, shape (4,)
         The phase's step control (:func:`vibeam.models.core.rk.rk_step`), carried.
     y0, y1, tmp, yt, yw, ye, acc : ndarray, shape (2n + n_s,)
@@ -376,6 +387,8 @@ def rk_phase_step(H, C, inside, relaxed, h, phi, Om, F, eta, etad, sy, st, hs, t
     s, kind, stop, aux : float, int, int, int
         As :func:`linear_step`; ``aux`` 1 for an exit by a hysteretic-Hertz stop's damping factor.
     """
+    if tab is None:
+        return -1.0, EK_FAIL, -1, 0
     n = eta.shape[0]
     ns = st.offset.shape[0]
     m = n if H == 0 else hs.nc[H]

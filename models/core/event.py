@@ -372,8 +372,11 @@ def compiled_call(dispatcher, args):
     numba's dispatcher resolves the types of tuple arguments in Python (about 0.1 ms per
     NamedTuple of arrays, i.e. most of a short call); the entry point of the overload, found once
     per type signature, takes the arguments as they are.  The key is cheap: the arrays' dtype,
-    dimensions and layout, the class of a NamedTuple (whose fields this package always builds
-    with one dtype and dimension each: :mod:`vibeam.models.core.stops`), the type of a scalar.
+    dimensions and layout, the class of a NamedTuple (whose array fields this package always
+    builds with one dtype and dimension each: :mod:`vibeam.models.core.stops`) with which of its
+    fields are None and the keys of its tuple fields (an optional field, such as
+    :class:`vibeam.models.core.phases.Compliant`'s ``lin`` and ``itab``, makes another
+    specialisation), the type of a scalar.
     """
     key = (id(dispatcher),) + tuple(_key(a) for a in args)
     entry = _ENTRIES.get(key)
@@ -416,9 +419,12 @@ def entry_point(dispatcher, args):
 
 
 def _key(a):
-    if type(a) is np.ndarray:
+    t = type(a)
+    if t is np.ndarray:
         return (a.dtype.char, a.ndim, a.flags.c_contiguous)
-    return type(a)
+    if isinstance(a, tuple):
+        return (t,) + tuple(_key(x) if isinstance(x, tuple) else x is None for x in a)
+    return t
 
 
 def fundamental_step(system: ModalSystem, steps_per_fundamental: int = 16) -> float:

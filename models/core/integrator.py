@@ -774,6 +774,15 @@ def _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_
     return 0
 
 
+@_kernel
+def _rk_scales(itab, H, C, sy, st, hs, vr, rk):
+    """:func:`vibeam.models.core.contact_phase.rk_scales` of a Runge-Kutta contact phase entered
+    now; ``itab`` None (a scene that reaches no such phase,
+    :class:`vibeam.models.core.phases.Compliant`): nothing, and nothing compiled."""
+    if itab is not None:
+        rk_scales(H, C, sy, st, hs, vr, rk)
+
+
 @njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
 def compliant_work(cp, st, n, rec):
     """The compliant stops' work arrays of a call (:class:`_CompliantWork`; :func:`_start_compliant`
@@ -810,7 +819,7 @@ def _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec):
     pbx[:] = 0.0
     pay[:] = 0.0
     pby[:] = 0.0
-    phase_harmonics(lph, Om, F, pax, pbx, pay, pby)
+    phase_harmonics(cp.lin, Om, F, pax, pbx, pay, pby)
     vr = cw.vr                 # the open contacts' entry velocities (hysteretic Hertz: floored)
     vfl = cw.vfl
     cs = cw.cs                 # the open contacts' records (C_DURATION ...; column 0 the entry time)
@@ -850,7 +859,7 @@ def _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec):
         elif (cmask >> k) & 1 and _dot(st.normal[k], eta) - st.offset[k] > 0.0:
             inside |= 1 << k
     if C != 0 and lph.index[H, C] < 0:
-        rk_scales(H, C, sy, st, hs, vr, rkc)
+        _rk_scales(cp.itab, H, C, sy, st, hs, vr, rkc)
     ist[_CMASK] = cmask
     ist[_C] = C
     ist[_INSIDE] = inside
@@ -1235,14 +1244,14 @@ def _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T, r
             qfresh = True
             q_last = qq
         s_mv, ekind, kk, eaux = linear_step(qq, H, C, inside, relaxed, rem, 1e-13 * T, phi, Om, F,
-                                            eta, etad, st, hs, lph, cw.pax, cw.pbx, cw.pay, cw.pby, cw.xq, cw.yq,
+                                            eta, etad, st, hs, cp.lin, cw.pax, cw.pbx, cw.pay, cw.pby, cw.xq, cw.yq,
                                             qfresh, vr, cs, recording, pext, cw.hbq, cw.wpa, cw.wra, cw.wpb,
                                             cw.wrb, cw.ext2)
         qfresh = False
     else:
         q_last = -1
         s_mv, ekind, kk, eaux = rk_phase_step(H, C, inside, relaxed, rem, phi, Om, F, eta, etad, sy,
-                                              st, hs, cp.tab, vr, cw.rkc, cs, recording, pext, cw.ry0,
+                                              st, hs, cp.itab, vr, cw.rkc, cs, recording, pext, cw.ry0,
                                               cw.ry1, cw.rK, cw.rtmp, cw.ryt, cw.ryw, cw.rye, cw.racc)
     ist[_QFRESH] = qfresh
     ist[_QLAST] = q_last
@@ -1289,7 +1298,7 @@ def _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T, r
         if logging:
             _log_event(evlog, nlog, _K_EXIT, fs[_PT] + t_loc, float(eaux), kk, eta, etad)
         if C != 0 and lph.index[H, C] < 0:
-            rk_scales(H, C, sy, st, hs, vr, cw.rkc)
+            _rk_scales(cp.itab, H, C, sy, st, hs, vr, cw.rkc)
         ist[_C] = C
         ist[_INSIDE] = inside
         ist[_RELAXED] = relaxed
@@ -1358,7 +1367,7 @@ def _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, kk, max_impacts, recordi
     if n_imp_total > max_impacts:
         return True
     if cw.cp.ph.index[H, C] < 0:
-        rk_scales(H, C, sy, st, hs, vr, cw.rkc)
+        _rk_scales(cw.cp.itab, H, C, sy, st, hs, vr, cw.rkc)
     return False
 
 

@@ -43,7 +43,8 @@ from ..system import mode_table
 from . import laws
 from .rk import DOPRI5
 
-__all__ = ["ContactPhases", "Compliant", "contact_phases", "compliant_data", "pair_modes", "UnresolvedPhase"]
+__all__ = ["ContactPhases", "Compliant", "contact_phases", "compliant_data", "reachable_phases", "pair_modes",
+           "UnresolvedPhase"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -319,12 +320,62 @@ class Compliant(NamedTuple):
         The hysteretic-Hertz ``v_in`` floor without forcing (row units per unit time).
     vfac : float
         The floor's factor :data:`vibeam.models.core.laws.V_FLOOR` (read when built).
+    lin : ContactPhases or None
+        ``ph`` if the scene can reach a linear contact phase (:func:`reachable_phases`), else None.
+    itab : vibeam.models.core.rk.Tableau or None
+        ``tab`` if the scene can reach a contact phase that is not linear, else None.
+
+    The event integrator takes a phase's kind from ``lin`` and ``itab``, so that numba compiles only
+    the kinds a scene reaches (it prunes the code behind an argument that is None): a scene of
+    Kelvin-Voigt stops compiles no Runge-Kutta phase, one of hysteretic-Hertz stops no linear
+    phase.  The shooting problem's tangent takes ``ph`` and ``tab`` (its variational equations
+    integrate a linear phase too when a parameter changes its matrix).
     """
 
     ph: ContactPhases
     tab: object
     vfall: float
     vfac: float
+    lin: object
+    itab: object
+
+
+def reachable_phases(ph: ContactPhases, law, valid) -> tuple[bool, bool]:
+    """Whether a scene can reach a linear contact phase, and one that is not linear.
+
+    A contact phase is a pair ``(H, C)``: ``H`` a set of Newton stops the system can be held on
+    (``valid[H]``, :class:`~vibeam.models.core.stops.HeldSets`), ``C`` a non-empty set of compliant
+    stops in contact; it is linear if ``ph.index[H, C] >= 0`` (:func:`contact_phases`), else the
+    event integrator integrates it (Runge-Kutta).
+
+    Parameters
+    ----------
+    ph : ContactPhases
+    law : array_like of int, shape (ns,)
+        The stops' law codes (:data:`vibeam.models.contact.LAW_RESTITUTION` ...).
+    valid : array_like of int, shape (2**ns,)
+        The held sets the system can be held on.
+
+    Returns
+    -------
+    (bool, bool)
+        Some reachable phase is linear; some is not.
+    """
+    codes = [int(c) for c in law]
+    S = 1 << len(codes)
+    newton = sum(1 << k for k, c in enumerate(codes) if c == LAW_RESTITUTION)
+    linear = integrated = False
+    for H in range(S):
+        if H & ~newton or not valid[H]:
+            continue
+        for C in range(1, S):
+            if C & (newton | H):
+                continue
+            if ph.index[H, C] >= 0:
+                linear = True
+            else:
+                integrated = True
+    return linear, integrated
 
 
 def compliant_data(system, ks, hs):
@@ -332,5 +383,7 @@ def compliant_data(system, ks, hs):
     then compiles and runs its Newton-only specialisation)."""
     if not any(int(c) in (LAW_LINEAR, LAW_HYSTERETIC_HERTZ) for c in ks.law):
         return None
-    return Compliant(contact_phases(system, ks, hs), DOPRI5, 1e-6 * float(system.coordinate_scale),
-                     float(laws.V_FLOOR))
+    ph = contact_phases(system, ks, hs)
+    linear, integrated = reachable_phases(ph, ks.law, hs.valid)
+    return Compliant(ph, DOPRI5, 1e-6 * float(system.coordinate_scale), float(laws.V_FLOOR),
+                     ph if linear else None, DOPRI5 if integrated else None)

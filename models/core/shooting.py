@@ -1581,12 +1581,14 @@ class ModalShooting:
             args = (core.ksys, core.kstops, core.held, cp, set_.dirs, float(Om), x0, held, n,
                     2.0 * math.pi / core.lowest_omega / self.steps_per_fundamental, self.max_impacts_per_period * n,
                     self.max_steps_per_period * n, self.chatter_tol, rec, J, rel, bool(derivatives), float(set_.scale))
-            if self._entry is None:
+            kinds = _phase_kinds(cp)
+            if self._entry is None or self._entry[0] != kinds:
                 f, iv = _call_shoot(args)
-                self._entry = _ENTRY.get("shoot")
+                self._entry = (kinds, _ENTRY.get("shoot")) if _ENTRY.get("shoot") is not None else None
             else:
-                # the same argument types every call of this problem: its compiled entry point
-                f, iv = self._entry(*args)
+                # the same argument types every call of this problem (the kinds of contact phase of
+                # its compliant data included): its compiled entry point
+                f, iv = self._entry[1](*args)
             if self._fits(f):
                 return self._unpack(set_, f, iv, n, derivatives)
 
@@ -1712,11 +1714,12 @@ class ModalShooting:
                                            self.max_impacts_per_period * n, self.max_steps_per_period * n,
                                            self.chatter_tol, rec, J, rel, float(set_.scale)))
             args = c[2] + mid + c[3]
-            if self._correct_entry is None:
+            kinds = _phase_kinds(core.compliant)
+            if self._correct_entry is None or self._correct_entry[0] != kinds:
                 out = _call_correct(args)
-                self._correct_entry = _ENTRY.get("correct")
+                self._correct_entry = (kinds, _ENTRY.get("correct")) if _ENTRY.get("correct") is not None else None
             else:
-                out = self._correct_entry(*args)
+                out = self._correct_entry[1](*args)
             code, it, n_shots, nr, u, f, iv, mu, pd, nsv, tan = out
             if code == CORRECT_FALLBACK:
                 return None
@@ -1773,6 +1776,14 @@ def _contact_times(ev, c0, c1, ns, t_end) -> dict:
 
 
 _ENTRY = {}
+
+
+def _phase_kinds(cp):
+    """Which kinds of contact phase the compliant data ``cp`` compiles (None: Newton stops only;
+    else whether its linear phases and its tableau are None,
+    :class:`vibeam.models.core.phases.Compliant`): a problem keeps its compiled entry points only
+    for calls of the same kinds, another kind being another specialisation."""
+    return None if cp is None else (cp.lin is None, cp.itab is None)
 
 
 def _call_correct(args):
