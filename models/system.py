@@ -61,7 +61,7 @@ TWO_PI = 2.0 * math.pi
 
 __all__ = ["ModalSystem", "modal_system", "from_sdof", "from_beam", "from_matrices", "modal_flow",
            "modal_transition", "damping_ratios", "lowest_modes", "mode_table", "particular",
-           "transition_increment", "transition_entries", "advance_modes", "advance_count"]
+           "transition_increment", "increment_of", "transition_entries", "advance_modes", "advance_count"]
 
 
 class ModalSystem(NamedTuple):
@@ -485,6 +485,16 @@ def transition_increment(s, sig, k, typ, q, l1, l2):
         E = 1.0 + cm1 if sig * s < 0.25 else math.exp(-sig * s)
         S = s * E
     return cm1 + sig * S, S, -k * S, cm1 - sig * S
+
+
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def increment_of(tab, P, j, s, mp):
+    """``Phi(s) - I`` of coordinate ``j`` (entries 11, 12, 21, 22): the tabulated row ``P[j]``
+    (shape (>= j + 1, 4), for this fixed ``s``) if ``tab``, else :func:`transition_increment` of
+    its row of the mode table ``mp`` (:func:`mode_table`)."""
+    if tab:
+        return P[j, 0], P[j, 1], P[j, 2], P[j, 3]
+    return transition_increment(s, mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3], mp[j, 4], mp[j, 5])
 
 
 @njit(cache=True, error_model="numpy")

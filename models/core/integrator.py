@@ -82,7 +82,7 @@ from ..contact_policy import (BURST_DT, CHATTER, CHATTER_GUARD, REBOUND, STICK, 
                               release_now, zeno_burst)
 from ..contact import LAW_LINEAR
 from ..impact import newton_restitution, restitution_coefficient
-from ..system import advance_count, transition_increment
+from ..system import advance_count, increment_of, transition_increment
 from .contact_phase import (EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_NONE, EK_RELEASE, linear_step,
                             phase_harmonics, rk_phase_step, rk_scales)
 from .laws import force, hertz_floor, inside_sign, is_compliant
@@ -503,15 +503,7 @@ def _dense_samples(samples, msamp, modamp, fs, k0, j_next, j_end, base, sens, aF
     for i in range(n):
         x = xF[i]
         y = yF[i]
-        if from_grid:
-            a11 = P_r[i, 0]
-            a12 = P_r[i, 1]
-            a21 = P_r[i, 2]
-            a22 = P_r[i, 3]
-        else:
-            tau = max((base + j_next) * h_rs - t_loc, 0.0)
-            a11, a12, a21, a22 = transition_increment(tau, mp[i, 0], mp[i, 1], int(mp[i, 2]), mp[i, 3], mp[i, 4],
-                                                      mp[i, 5])
+        a11, a12, a21, a22 = increment_of(from_grid, P_r, i, max((base + j_next) * h_rs - t_loc, 0.0), mp)
         for q in range(m):
             if q > 0:
                 a11 = P_r[i, 0]
@@ -1902,14 +1894,7 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                                 cp1 = math.cos(phi + Om * h)
                             # the modes' increments and derivatives at h
                             for j in range(n):
-                                if tabd:
-                                    a11 = Ptab[j, 0]
-                                    a12 = Ptab[j, 1]
-                                    a21 = Ptab[j, 2]
-                                    a22 = Ptab[j, 3]
-                                else:
-                                    a11, a12, a21, a22 = transition_increment(h, mp[j, 0], mp[j, 1], int(mp[j, 2]),
-                                                                              mp[j, 3], mp[j, 4], mp[j, 5])
+                                a11, a12, a21, a22 = increment_of(tabd, Ptab, j, h, mp)
                                 ddx = a11 * xF[j] + a12 * yF[j]
                                 ddy = a21 * xF[j] + a22 * yF[j]
                                 xe = xF[j] + ddx

@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from ..roots import rtsafe_update, select
-from ..system import transition_increment
+from ..system import increment_of, transition_increment
 
 #: the bracketed problems of :func:`root` (int64, not literal ints: one compiled specialisation)
 ROOT_CROSS, ROOT_APEX, ROOT_MIN = np.int64(0), np.int64(1), np.int64(2)
@@ -430,13 +430,7 @@ def mode_ends(s, x0, y0, mp, P, tab, dx, dy, x2, x3, m):
     for j in range(m):
         sig = mp[j, 0]
         k = mp[j, 1]
-        if tab:
-            a11 = P[j, 0]
-            a12 = P[j, 1]
-            a21 = P[j, 2]
-            a22 = P[j, 3]
-        else:
-            a11, a12, a21, a22 = transition_increment(s, sig, k, int(mp[j, 2]), mp[j, 3], mp[j, 4], mp[j, 5])
+        a11, a12, a21, a22 = increment_of(tab, P, j, s, mp)
         ddx = a11 * x0[j] + a12 * y0[j]
         ddy = a21 * x0[j] + a22 * y0[j]
         x = x0[j] + ddx
