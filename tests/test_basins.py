@@ -165,12 +165,14 @@ def test_basins_are_written_and_read_back(tmp_path, tight):
     grid's coordinates in mm and mm/s, one type per attractor, fractions and exponents per second;
     a second write replaces the group and keeps the file's other groups."""
     from vibeam.analysis.attractors import write_basins
-    from vibeam.io.results import replace_group
+    from vibeam.io.store import Store
 
     h5 = tmp_path / "results.h5"
     from vibeam.io.netcdf import var, write_group
 
-    replace_group(h5, "other", lambda f: write_group(f, "other", {"x": var(("x",), [1.0], "1", "a value")}))
+    with Store(tmp_path) as store:
+        store.commit({"other": lambda f: write_group(f, "other", {"x": var(("x",), [1.0], "1", "a value")})},
+                     "rig-tight", "", "")
     write_basins(h5, [tight], "rig-tight", "")
     write_basins(h5, [tight], "rig-tight", "")
     ds = read_basins(h5, tight.name)
@@ -324,13 +326,14 @@ def test_vibeam_run_computes_the_cases_basins(tmp_path):
 
 
 def test_an_interrupted_basin_computation_resumes_from_its_checkpoint(tmp_path, monkeypatch):
-    """Rows finished before an interrupt are kept in results.h5 (/basin_lines/<run>/); --resume
-    computes only the rest, and the labels, attractors and fractions equal those of an
-    uninterrupted computation (every row's recurrence memory starts afresh after a restart,
-    so the test runs without basin hits: labels then do not depend on what was computed before);
-    the finished result replaces the checkpoint."""
+    """Rows finished before an interrupt are kept in the checkpoint beside results.h5
+    (results.h5.partial, /basin_lines/<run>/); --resume computes only the rest, and the labels,
+    attractors and fractions equal those of an uninterrupted computation (every row's recurrence
+    memory starts afresh after a restart, so the test runs without basin hits: labels then do not
+    depend on what was computed before); the finished result replaces the checkpoint."""
     from vibeam.analysis.attractors import BasinLine, compute, write_basins
     from vibeam.case.schema import BasinsSpec
+    from vibeam.io.store import Store
 
     case = load_case("cases/rig-tight.toml")
     spec = BasinsSpec(frequency_hz=16.5, grid=[8, 6], basin_hits=False, lyapunov_periods=0)
@@ -346,22 +349,25 @@ def test_an_interrupted_basin_computation_resumes_from_its_checkpoint(tmp_path, 
         return real(self)
 
     monkeypatch.setattr(BasinLine, "compute", interrupted)
-    with pytest.raises(KeyboardInterrupt):
-        compute(case, spec=spec, checkpoint=h5, checkpoint_interval_s=0.0)
+    with pytest.raises(KeyboardInterrupt), Store(tmp_path) as store:
+        compute(case, spec=spec, checkpoint=store, checkpoint_interval_s=0.0)
     import h5py
 
-    with h5py.File(h5) as f:
+    assert not h5.exists()
+    with h5py.File(tmp_path / "results.h5.partial") as f:
         assert sorted(f["basin_lines/exact"]) == sorted(calls[:3])
     calls.clear()
     monkeypatch.setattr(BasinLine, "compute", lambda self: (calls.append(self.key), real(self))[1])
-    again = compute(case, spec=spec, checkpoint=h5, resume=True)
-    assert len(calls) == 3                          # 6 rows, 3 of them kept
-    assert np.array_equal(again.labels, whole.labels)
-    assert again.attractors["type"] == whole.attractors["type"]
-    np.testing.assert_allclose(again.attractors["fraction"], whole.attractors["fraction"], rtol=0, atol=0)
-    write_basins(h5, [again])
+    with Store(tmp_path) as store:
+        again = compute(case, spec=spec, checkpoint=store, resume=True)
+        assert len(calls) == 3                          # 6 rows, 3 of them kept
+        assert np.array_equal(again.labels, whole.labels)
+        assert again.attractors["type"] == whole.attractors["type"]
+        np.testing.assert_allclose(again.attractors["fraction"], whole.attractors["fraction"], rtol=0, atol=0)
+        write_basins(store, [again])
     with h5py.File(h5) as f:
         assert "basin_lines" not in f and "basins/exact" in f
+    assert not (tmp_path / "results.h5.partial").exists()
 
 
 def test_the_grazing_field_tells_the_states_that_impact_within_a_period(tight):

@@ -239,7 +239,7 @@ def test_kill_and_resume_gives_the_same_file(tmp_path):
     h5 = part / "results.h5"
     n_done, t0 = 0, time.time()
     while time.time() - t0 < 120 and proc.poll() is None:
-        if h5.exists():
+        if (part / "results.h5.partial").exists():       # the checkpoint, beside results.h5
             n_done = sum(len(v) for v in read_lines(h5)[1].values())
             if n_done >= 3:
                 break
@@ -271,10 +271,11 @@ def test_ctrl_c_keeps_finished_lines(tmp_path):
     proc = subprocess.Popen(_vibeam("map", str(case_file), "--out", str(tmp_path), "--jobs", "1", "--quiet",
                                     "--no-plots"), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     h5 = tmp_path / "results.h5"
+    partial = tmp_path / "results.h5.partial"          # the checkpoint, beside results.h5
     t0 = time.time()
-    while time.time() - t0 < 120 and proc.poll() is None and not h5.exists():
+    while time.time() - t0 < 120 and proc.poll() is None and not partial.exists():
         time.sleep(0.02)
-    seen = (round(time.time() - t0, 2), h5.exists(), proc.poll())
+    seen = (round(time.time() - t0, 2), partial.exists(), proc.poll())
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)
     # seen: (s until the signal, the file there, the exit code if the map had already ended)

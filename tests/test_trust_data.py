@@ -18,7 +18,7 @@ import pytest
 from vibeam.case.schema import CaseError, InputError, parse_case
 from vibeam.cli import main
 from vibeam.io.outdir import LOCK_NAME, OutputLock
-from vibeam.io.results import ForeignFileError, append_lines, read_lines, read_results
+from vibeam.io.results import read_lines, read_results
 from vibeam.runner import MAX_WORK_STEPS, check_work, run_case
 
 CASE = """
@@ -225,20 +225,40 @@ def _line(case, text, key):
     return stack(rows, job.sweep)
 
 
+def _earlier_checkpoint(h5, lines: dict, name: str, text: str, case_json: str) -> None:
+    """A checkpoint as vibeam wrote it before the results store (issue 41): the lines inside
+    results.h5 itself (``/lines/<run>/<key>``, root ``complete = 0``)."""
+    from vibeam.io.netcdf import write_group
+    from vibeam.io.results import line_group
+    from vibeam.io.store import build_file, root_attrs
+
+    def fill(f):
+        if "case_text" not in f.attrs:
+            root_attrs(f, name, text, case_json, complete=False)
+        for key, data in lines.items():
+            write_group(f, f"lines/{key}", *line_group(data, case_json))
+
+    build_file(h5, fill, h5 if h5.exists() else None)
+
+
 def test_lines_of_another_case_are_never_kept(tmp_path):
     """The interleaving that used to give a 'complete' file with another case's down sweep:
     case A checkpoints its up line, process B (another case, same run name) appends its down
-    line to the same file, then A resumes and keeps B's line.  Now B's append is refused, and a
-    line of another case found in the file is dropped and recomputed on resume."""
+    line to the same file, then A resumes and keeps B's line.  Now B cannot write while A holds
+    the folder (the results store holds the lock for the whole command: the tests of the lock
+    above), a checkpoint is written only by a command that holds the store, and a line of
+    another case found in a checkpoint is dropped and recomputed on resume."""
+    from vibeam.io.store import Store
+
     a, ta = _case("a", gap=0.0)
     b, tb = _case("b", gap=0.1)
     h5 = tmp_path / "results.h5"
     ja, jb = a.model_dump_json(), b.model_dump_json()
-    append_lines(h5, {"exact/up": _line(a, ta, "up")}, "a", ta, ja)
+    _earlier_checkpoint(h5, {"exact/up": _line(a, ta, "up")}, "a", ta, ja)
     b_down = _line(b, tb, "down")
-    with pytest.raises(ForeignFileError, match="another case"):
-        append_lines(h5, {"exact/down": b_down}, "b", tb, jb)
-    # bypass the check as an old vibeam would have: B's line lands in A's file
+    with pytest.raises(RuntimeError, match=r"only inside `with Store"):
+        Store(tmp_path).checkpoint("lines", {}, "b", tb, jb)
+    # bypass the store as an old vibeam would have: B's line lands in A's file
     with h5py.File(h5, "a") as f:
         g = f.create_group("lines/exact/down")
         for k, v in b_down.items():
@@ -277,7 +297,7 @@ def test_resume_continues_a_file_of_an_earlier_vibeam_of_the_same_case(tmp_path,
     h5 = tmp_path / "results.h5"
     up = _line(a, ta, "up")
     up["wall_time_s"] = np.full_like(up["wall_time_s"], -7.0)
-    append_lines(h5, {"exact/up": up}, "a", ta, old)
+    _earlier_checkpoint(h5, {"exact/up": up}, "a", ta, old)
     res = run_case(a, ta, tmp_path, jobs=1, quiet=True, plots=False, resume=True)[0]
     full = run_case(a, ta, tmp_path / "full", jobs=1, quiet=True, plots=False)[0]
     kept = res.data["direction"] == "up"
@@ -290,7 +310,7 @@ def test_resume_continues_a_file_of_an_earlier_vibeam_of_the_same_case(tmp_path,
     b, tb = _case("a", gap=0.1)
     h5b = tmp_path / "b" / "results.h5"
     h5b.parent.mkdir()
-    append_lines(h5b, {"exact/up": up}, "a", ta, old)
+    _earlier_checkpoint(h5b, {"exact/up": up}, "a", ta, old)
     before = h5b.read_bytes()
     with pytest.raises(InputError, match=r"^--resume: .*results\.h5 was written by another case or variant"):
         run_case(b, tb, h5b.parent, jobs=1, quiet=True, plots=False, resume=True)

@@ -406,10 +406,10 @@ class Results:
             case = None
         branches, basins = [], []
         if layout_of(path) >= 2:
-            import h5py
+            from vibeam.io.h5check import open_checked
 
             branches = read_continuation(path)
-            with h5py.File(path, "r") as f:
+            with open_checked(path) as f:
                 names = list(f.get("basins", {}))
             basins = [basins_from_dataset(read_basins(path, n), n) for n in names]
         return cls(runs, maps, case, Path(path), branches, basins)
@@ -462,16 +462,17 @@ class Results:
             return Path(self.path)
         if self._file is not None and Path(self._file).is_file():
             return self._file
-        from vibeam.analysis.attractors import write_basins
-        from vibeam.io.results import write_results
+        from vibeam.analysis.attractors import basins_group
+        from vibeam.io.results import result_groups
+        from vibeam.io.store import write_file
 
         self._tmp = _PrivateFolder("vibeam-results-")
         name = getattr(self.case, "name", "")
         text = case_text(self.case) if self.case is not None else ""
-        f = write_results(Path(self._tmp.name) / "results.h5", self.runs, name, text, maps=self.maps,
-                          branches=self.branches)
-        if self.basins:
-            write_basins(f, self.basins, name, text)
+        cj = self.case.model_dump_json() if self.case is not None else ""
+        groups = result_groups(self.runs, self.maps, self.branches)
+        groups.update({f"basins/{b.name}": basins_group(b) for b in self.basins})
+        f = write_file(Path(self._tmp.name) / "results.h5", groups, name, text, cj)
         self._file = f
         return f
 
@@ -599,11 +600,15 @@ def _collect(case, h5: Path, out, tmp, runs=None, maps=None, basins=()) -> Resul
     """The Results of a run into ``h5``: the runs and maps in memory (as computed), the
     continuation branches read back from the file (every group, nothing dropped)."""
     from vibeam.analysis.branches import read_continuation
+    from vibeam.io.store import current_units
 
-    branches = read_continuation(h5) if Path(h5).is_file() else []
+    # what the file holds of this case (a group of another case is kept there, marked stale)
+    current = set(current_units(h5, case.model_dump_json())) if Path(h5).is_file() else set()
+    branches = [b for b in read_continuation(h5) if f"branches/{b.name}" in current] if Path(h5).is_file() else []
     if runs is None:
         back = Results.from_file(h5) if Path(h5).is_file() else Results()
-        runs, maps = back.runs, back.maps
+        runs = [r for r in back.runs if f"runs/{r.name}" in current]
+        maps = [m for m in back.maps if f"maps/{m.name}" in current]
     res = Results(list(runs), list(maps or []), case, None if out is None else Path(h5), branches, list(basins))
     res._tmp = tmp                       # kept alive with the results: the file behind to_xarray()
     res._file = Path(h5) if Path(h5).is_file() else None
@@ -612,7 +617,7 @@ def _collect(case, h5: Path, out, tmp, runs=None, maps=None, basins=()) -> Resul
 
 def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = False, progress: bool = False,
         plots: bool = False, resume: bool = False, force: bool = False, verbose: bool = False,
-        basins: bool = True) -> Results:
+        basins: bool = True, fresh: bool = False) -> Results:
     """Run a case (``vibeam run``): its runs, or its parameter map, its continuation runs and
     its ``[basins]``.
 
@@ -639,6 +644,9 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
         Print the tables the command line prints.
     basins : bool
         Compute the case's ``[basins]`` too (as ``vibeam run``).
+    fresh : bool
+        As ``--fresh``: start a new ``results.h5`` in ``out`` (without it, every group of the
+        one there is kept, those of another case marked stale: :mod:`vibeam.io.store`).
 
     Returns
     -------
@@ -659,7 +667,10 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
     from vibeam.runner import run_case
 
     jobs, out = _check_run_args(jobs, out, executor, quick=quick, progress=progress, plots=plots, resume=resume,
-                                force=force, verbose=verbose, basins=basins)
+                                force=force, verbose=verbose, basins=basins, fresh=fresh)
+    if fresh and resume:
+        raise ValueError("fresh = True and resume = True: choose one (fresh starts a new results file, resume "
+                         "continues the checkpoint of an interrupted run)")
     c = load_case(case)
     text = case_text(c)
     source = str(case) if isinstance(case, (str, Path)) and _names_a_file(str(case)) else ""
@@ -670,16 +681,18 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
         folder = Path(tmp.name)
     else:
         folder = Path(out)
-    with ctx:
-        res = run_case(c, text, folder, jobs=jobs, quiet=not progress, plots=plots and out is not None,
-                       quick=quick, resume=resume and out is not None, executor=executor,
-                       checkpoint=out is not None, force=force, source=source)
+    from vibeam.io.store import Store
+
     run_c = c.quick_variant() if quick else c
     found = []
-    if basins and c.basins is not None:
-        with ctx:
+    # one results store for the whole call: the sweeps, then the [basins], under one lock
+    with ctx, Store(folder, fresh=fresh) as store:
+        res = run_case(c, text, folder, jobs=jobs, quiet=not progress, plots=plots and out is not None,
+                       quick=quick, resume=resume and out is not None, executor=executor,
+                       checkpoint=out is not None, force=force, source=source, store=store)
+        if basins and c.basins is not None:
             found = [run_basins(run_c, text, folder, None, jobs=jobs, executor=executor, progress=progress,
-                                  resume=resume and out is not None, plots=plots and out is not None)]
+                                resume=resume and out is not None, plots=plots and out is not None, store=store)]
     from vibeam.analysis.maps import MapResult
 
     maps = [r for r in res if isinstance(r, MapResult)]
@@ -688,29 +701,37 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
 
 
 def run_basins(case, text, folder, spec, jobs=None, executor=None, progress=False, resume=False, plots=True,
-                 log=None):
+               log=None, store=None):
     """Basins of ``case`` (``spec`` or its ``[basins]``) into ``folder/results.h5``
-    (``/basins/<run>/``; finished rows checkpointed in ``/basin_lines``), the table printed and,
-    with ``plots``, the PNGs (over the file's continuation branches).  Returns the BasinsResult."""
+    (``/basins/<run>/``; finished rows checkpointed in ``results.h5.partial``), the table printed
+    and, with ``plots``, the PNGs (over the file's continuation branches of the same case).
+    ``store``: the results store of ``folder`` the command holds (default: one is opened).
+    Returns the BasinsResult."""
     from vibeam.analysis.attractors import compute, plot_basins, print_basins, write_basins
+    from vibeam.io.store import Store
 
-    h5 = Path(folder) / "results.h5"
-    r = compute(case, jobs=jobs, executor=executor, progress=progress, spec=spec, checkpoint=h5, resume=resume,
-                case_text=text)
-    h5 = write_basins(h5, [r], case.name, text)
-    print_basins(r)
-    if plots:
-        from vibeam.io.results import read_results
+    with (store if store is not None else Store(folder)) as st:
+        r = compute(case, jobs=jobs, executor=executor, progress=progress, spec=spec, checkpoint=st,
+                    resume=resume, case_text=text)
+        from vibeam.runner import case_identity
 
-        branches = read_results(h5)["branches"]     # overlaid on a census (vibeam continue wrote them)
-        for p in plot_basins(r, folder, branches=branches):
-            print(f"plot: {p}")
+        cj, aliases = case_identity(st, case.model_dump_json())
+        h5 = write_basins(st, [r], case.name, text, cj, aliases)
+        print_basins(r)
+        if plots:
+            from vibeam.io.results import read_results
+
+            current = set(st.current(cj, aliases))
+            branches = {k: v for k, v in read_results(h5)["branches"].items() if f"branches/{k}" in current}
+            for p in plot_basins(r, folder, branches=branches):   # over the branches `vibeam continue` wrote
+                print(f"plot: {p}")
     print(f"basins -> {h5} (group /basins/{r.name})")
     return r
 
 
 def continuation(case, jobs: int | None = None, executor=None, out=None, quick: bool = False,
-                 progress: bool = False, plots: bool = False, force: bool = False, verbose: bool = False) -> Results:
+                 progress: bool = False, plots: bool = False, force: bool = False, verbose: bool = False,
+                 fresh: bool = False) -> Results:
     """The continuation runs of a case alone (``vibeam continue``): branches of periodic orbits
     with their Floquet multipliers, bifurcations and two-parameter curves
     (:mod:`vibeam.analysis.branches`; pseudo-arclength continuation of the shooting problem).
@@ -720,9 +741,10 @@ def continuation(case, jobs: int | None = None, executor=None, out=None, quick: 
     case : Case, str, Path or dict
         Anything :func:`load_case` takes; at least one ``[[run]]`` with
         ``method = "continuation"``.
-    jobs, executor, out, quick, progress, plots, force, verbose
-        As :func:`run`.  A ``results.h5`` of the same case in ``out`` keeps its sweeps and
-        maps (they are in the returned Results too); only its ``/branches`` are replaced.
+    jobs, executor, out, quick, progress, plots, force, verbose, fresh
+        As :func:`run`.  A ``results.h5`` in ``out`` keeps every other group (its sweeps and
+        maps are in the returned Results too); only ``/branches/<run>`` of these runs is
+        replaced.
 
     Returns
     -------
@@ -738,7 +760,7 @@ def continuation(case, jobs: int | None = None, executor=None, out=None, quick: 
     from vibeam.runner import run_case
 
     jobs, out = _check_run_args(jobs, out, executor, quick=quick, progress=progress, plots=plots, force=force,
-                                verbose=verbose)
+                                verbose=verbose, fresh=fresh)
     c = load_case(case)
     text = case_text(c)
     source = str(case) if isinstance(case, (str, Path)) and _names_a_file(str(case)) else ""
@@ -751,7 +773,7 @@ def continuation(case, jobs: int | None = None, executor=None, out=None, quick: 
     ctx = contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO())
     with ctx:
         run_case(c, text, folder, jobs=jobs, quiet=not progress, plots=plots and out is not None, quick=quick,
-                 executor=executor, force=force, source=source, continuation_only=True)
+                 executor=executor, force=force, source=source, continuation_only=True, fresh=fresh)
     return _collect(c.quick_variant() if quick else c, folder / "results.h5", out, tmp)
 
 
@@ -1535,11 +1557,12 @@ def regress(case, reference, results=None, out=None, jobs: int | None = None, ex
         from vibeam.runner import run_case
 
         # the rerun goes to its own folder: out, or a temporary one removed afterwards --
-        # never results/<case>/, where it would replace the results of the user's run
+        # never results/<case>/, where it would replace the results of the user's run, and never
+        # into the reference it is compared with
         with tempfile.TemporaryDirectory(prefix=f"vibeam-regress-{c.name}-") as tmp:
             out_dir = check_folder(Path(out) if out else Path(tmp))
             run_case(c, case_text(c), out_dir, jobs=jobs, quiet=True, plots=False, quick=quick,
-                     executor=executor, force=force, source=source)
+                     executor=executor, force=force, source=source, inputs=[(reference, "--reference")])
             new = load_results(out_dir / "results.h5", "results")
     tol = c.regress
     atol = tol.amplitude_atol if atol is None else atol
@@ -1710,13 +1733,16 @@ def export(path, csv_dir) -> list:
     per variable.  A group whose variables lie on several sets of dimensions (a run's per-point
     outputs on (direction, Omega), its strobe on (direction, Omega, record_period, state), ...)
     gives one file per set: ``<group>.csv`` for the set with most variables, else
-    ``<group>@<dim>-<dim>.csv`` (``/`` in a group's path is ``.``); ``index.csv`` lists each
-    file's group, dimensions and rows.  Complex values are two
-    columns ``<name>_real``, ``<name>_imag``.  Units and long names are in a sidecar
+    ``<group>@<dim>-<dim>.csv`` (``/`` in a group's path is ``.``); where two groups would give one
+    file name (run names ``a`` and ``a.units``, or ``a@direction-Omega-harmonic``), the later one
+    gets ``~2``, ``~3``, ... before ``.csv``, so every table has a file of its own.
+    ``index.csv`` lists each file once, with its group, dimensions and rows.  Complex values are
+    two columns ``<name>_real``, ``<name>_imag``.  Units and long names are in a sidecar
     ``<file>.units.csv`` (``column,units,long_name``; ``1`` is nondimensional).  Padding (NaN
     beyond a branch's ``n_points``) is kept as empty cells, so every row maps to one stored
-    value.  Each file is written to a temporary file, flushed and renamed
-    (:func:`vibeam.io.outdir.replace_file`): a file is never left partial.
+    value.  Every table is built before any file is written; then each file goes to a
+    temporary file, flushed and renamed (:func:`vibeam.io.outdir.replace_file`): a file is never
+    left partial, and a results file that cannot be read in full writes no file at all.
 
     Parameters
     ----------
@@ -1733,33 +1759,62 @@ def export(path, csv_dir) -> list:
     Raises
     ------
     ValueError
-        Not a results file of layout 2 (one line).
+        Not a results file of layout 2, or one whose structure vibeam refuses (links, data
+        beyond the size bounds; :mod:`vibeam.io.h5check`): one line naming the file
+        (:class:`vibeam.errors.InputError`).
     """
     from vibeam.case.arguments import check_path
-    from vibeam.io.outdir import replace_file
+    from vibeam.io.outdir import check_output_file, replace_file
 
     csv_dir = check_path(csv_dir, "csv_dir", optional=False)
     res = open_results(path)
     tree = res.tree()
     folder = Path(csv_dir)
-    folder.mkdir(parents=True, exist_ok=True)
     import pandas as pd
 
-    written, index = [], []
+    files, index, used = [], [], set()
     for node in tree.subtree:
         ds = node.to_dataset(inherit=False)
         if not ds.data_vars:
             continue
         gname = node.path.strip("/").replace("/", ".")
         for stem, dims, table, units in _tidy_tables(node.to_dataset(), ds, gname):
-            p = replace_file(folder / f"{stem}.csv", table.to_csv(index=False))
-            replace_file(folder / f"{stem}.units.csv", units.to_csv(index=False))
-            written.append(p)
-            index.append((p.name, node.path.strip("/"), " ".join(dims), len(table)))
+            stem = _unique_stem(stem, used)
+            files.append((f"{stem}.csv", table.to_csv(index=False)))
+            files.append((f"{stem}.units.csv", units.to_csv(index=False)))
+            index.append((f"{stem}.csv", node.path.strip("/"), " ".join(dims), len(table)))
     # what each file holds: its group in results.h5 and its dimensions (the coordinate columns)
-    replace_file(folder / "index.csv", pd.DataFrame(index, columns=["file", "group", "dimensions", "rows"])
-                 .to_csv(index=False))
+    files.append(("index.csv", pd.DataFrame(index, columns=["file", "group", "dimensions", "rows"])
+                  .to_csv(index=False)))
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, _ in files:
+        check_output_file(folder / name)
+    written = []
+    for name, text in files:
+        p = replace_file(folder / name, text)
+        if name != "index.csv" and not name.endswith(".units.csv"):
+            written.append(p)
     return written
+
+
+#: the longest file stem export writes (bytes of UTF-8; file systems allow 255 per name)
+MAX_STEM_BYTES = 200
+
+
+def _unique_stem(stem: str, used: set) -> str:
+    """``stem`` made unique among ``used`` (and added to it): no two tables share a data file,
+    and no data file is another's ``.units.csv`` sidecar; cut to :data:`MAX_STEM_BYTES` on a
+    character boundary."""
+    raw = stem.encode("utf-8")
+    if len(raw) > MAX_STEM_BYTES:
+        stem = raw[:MAX_STEM_BYTES].decode("utf-8", "ignore")
+    names = lambda s: {s.lower(), f"{s}.units".lower()}
+    cand, k = stem, 1
+    while names(cand) & used or cand.lower() == "index" or any(cand.lower() == f"{u}.units" for u in used):
+        k += 1
+        cand = f"{stem}~{k}"
+    used |= names(cand)
+    return cand
 
 
 def _tidy_tables(full, own, gname: str):
@@ -1784,9 +1839,11 @@ def _tidy_tables(full, own, gname: str):
             meta.append((d, a.get("units", ""), a.get("long_name", "index")))
         for k in coords + names:
             v = full[k]
-            a = np.broadcast_to(v.transpose(*[d for d in dims if d in v.dims]).values,
-                                shape if v.dims else ()) if v.dims else np.asarray(v.values)
-            if v.dims and tuple(v.dims) != dims:       # a coordinate on fewer dimensions
+            if not v.dims:
+                a = np.broadcast_to(np.asarray(v.values), shape)
+            elif tuple(v.dims) == dims:
+                a = np.asarray(v.values)
+            else:                   # a coordinate on fewer dimensions (frequency_hz on Omega): gathered
                 idx = tuple(g for d, g in zip(dims, grids) if d in v.dims)
                 a = np.asarray(v.transpose(*[d for d in dims if d in v.dims]).values)[idx]
             a = np.asarray(a).reshape(-1)

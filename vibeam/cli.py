@@ -24,6 +24,8 @@ from pathlib import Path
 from vibeam.case.arguments import jobs_option, path_option
 from vibeam.errors import Terminated  # noqa: F401 (re-exported)
 
+FRESH_HELP = ("start a new results file: the groups of the one in the output folder are not kept (without it, "
+              "every group is kept; those of another case are marked stale)")
 EXIT_CODES = {0: "done", 1: "regression found (regress)", 2: "bad input", 3: "every point failed",
               130: "interrupted (SIGINT, Ctrl-C)", 143: "terminated (SIGTERM)"}
 
@@ -109,10 +111,15 @@ def _executor(args):
     return open_executor(getattr(args, "scheduler", None))
 
 
+#: the suffix of a quick variant's default folder: '@' is not allowed in a case name, so no case
+#: (``qq-quick``) shares the folder of another's quick variant (``qq`` with --quick)
+QUICK_SUFFIX = "@quick"
+
+
 def _out_dir(args, case) -> Path:
     from vibeam.io.outdir import default_folder
 
-    return Path(args.out) if args.out else default_folder(case.name, "-quick" if args.quick else "")
+    return Path(args.out) if args.out else default_folder(case.name, QUICK_SUFFIX if args.quick else "")
 
 
 def _file_state(path: Path):
@@ -124,24 +131,27 @@ def _file_state(path: Path):
     return st.st_ino, st.st_size, st.st_mtime_ns
 
 
-def _interrupted_left(h5: Path, before) -> str:
-    """What an interrupted run left in its results file, as read from the disk afterwards
-    (``before``: :func:`_file_state` of the file when the run started)."""
+def _interrupted_left(h5: Path, before, partial_before=None) -> str:
+    """What an interrupted run left on the disk, as read afterwards (``before``,
+    ``partial_before``: :func:`_file_state` of the results file and of its checkpoint
+    ``results.h5.partial`` when the run started)."""
+    from vibeam.io.store import PARTIAL_SUFFIX
+
+    partial = h5.with_name(h5.name + PARTIAL_SUFFIX)
     now = _file_state(h5)
-    if now is None:
-        return "no sweep line had finished; no results file was written"
-    if now == before:
-        return f"no sweep line had finished; {h5} is as it was"
+    kept = (f"{h5} is as it was" if now == before and now is not None else
+            "no results file was written" if now is None else f"the results are complete in {h5}")
+    pnow = _file_state(partial)
+    if pnow is None or pnow == partial_before:
+        return f"no sweep line had finished; {kept}"
     try:
         from vibeam.io.results import read_lines
 
-        attrs, lines = read_lines(h5)
+        _, lines = read_lines(h5)
     except Exception:
-        return f"see {h5}"
-    if attrs.get("complete"):
-        return f"the results are complete in {h5}"
+        return f"{kept}; see {partial}"
     n = sum(len(v) for v in lines.values())
-    return (f"{n} finished sweep line{'s are' if n != 1 else ' is'} kept in {h5}; "
+    return (f"{kept}; {n} finished sweep line{'s are' if n != 1 else ' is'} kept in {partial}; "
             f"rerun with --resume to compute only the rest")
 
 
@@ -155,25 +165,32 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
     if need_map and case.map is None:
         raise CaseError(f"{args.case}: `vibeam map` needs a [map] table (parameter, values); "
                         f"use `vibeam run` for a plain sweep")
+    from vibeam.io.store import PARTIAL_SUFFIX, Store
+
+    _check_fresh(args)
     out_dir = check_folder(_out_dir(args, case))
     h5 = out_dir / "results.h5"
-    before = _file_state(h5)
-    ex, client = _executor(args)
-    try:
-        res = run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
-                       quick=args.quick, resume=getattr(args, "resume", False), executor=ex,
-                       force=args.force, source=args.case, continuation_only=continuation_only)
-    except KeyboardInterrupt as e:
-        sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
-        print(f"vibeam: interrupted ({sig}); {_interrupted_left(h5, before)}", file=sys.stderr)
-        return _interrupt_code(e)
-    finally:
-        if client is not None:
-            client.close()
-    if case.basins is not None and not need_map and not continuation_only:
-        code = _basins(args, case.quick_variant() if args.quick else case, text, out_dir, None)
-        if code:
-            return code
+    # the results store holds the folder for the whole command: the sweeps, then the [basins]
+    with Store(out_dir, fresh=getattr(args, "fresh", False)) as store:
+        before = _file_state(h5)
+        partial_before = _file_state(h5.with_name(h5.name + PARTIAL_SUFFIX))
+        ex, client = _executor(args)
+        try:
+            res = run_case(case, text, out_dir, jobs=args.jobs, quiet=args.quiet, plots=not args.no_plots,
+                           quick=args.quick, resume=getattr(args, "resume", False), executor=ex,
+                           force=args.force, source=args.case, continuation_only=continuation_only, store=store)
+        except KeyboardInterrupt as e:
+            sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
+            print(f"vibeam: interrupted ({sig}); {_interrupted_left(h5, before, partial_before)}",
+                  file=sys.stderr)
+            return _interrupt_code(e)
+        finally:
+            if client is not None:
+                client.close()
+        if case.basins is not None and not need_map and not continuation_only:
+            code = _basins(args, case.quick_variant() if args.quick else case, text, out_dir, None, store)
+            if code:
+                return code
     bad = failure_summary(res)
     if bad:
         print(f"vibeam: error: {args.case}: {bad}; the results file and plots in {out_dir} show them",
@@ -182,20 +199,29 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
     return 0
 
 
-def _basins(args, case, text, out_dir, spec) -> int:
+def _check_fresh(args) -> None:
+    from vibeam.errors import InputError
+
+    if getattr(args, "fresh", False) and getattr(args, "resume", False):
+        raise InputError("--fresh and --resume: choose one (--fresh starts a new results file, --resume "
+                         "continues the checkpoint of an interrupted run)")
+
+
+def _basins(args, case, text, out_dir, spec, store) -> int:
     """Basins of a case into ``out_dir``: ``/basins/<run>/`` of results.h5, plots, a table
-    (:func:`vibeam.api.run_basins`)."""
+    (:func:`vibeam.api.run_basins`), through the command's results store."""
     from vibeam.api import run_basins
 
     ex, client = _executor(args)
-    h5 = out_dir / "results.h5"
+    partial = store.partial
     try:
         run_basins(case, text, out_dir, spec, jobs=args.jobs, executor=ex, progress=not args.quiet,
-                   resume=getattr(args, "resume", False), plots=not args.no_plots)
+                   resume=getattr(args, "resume", False), plots=not args.no_plots, store=store)
     except KeyboardInterrupt as e:
         sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
-        print(f"vibeam: interrupted ({sig}); the finished rows of the basins are kept in {h5} "
-              f"(/basin_lines); rerun `vibeam basins` with --resume to compute only the rest", file=sys.stderr)
+        print(f"vibeam: interrupted ({sig}); {store.path} is as it was; the finished rows of the basins are kept "
+              f"in {partial} (/basin_lines); rerun `vibeam basins` with --resume to compute only the rest",
+              file=sys.stderr)
         return _interrupt_code(e)
     finally:
         if client is not None:
@@ -233,8 +259,12 @@ def cmd_basins(args) -> int:
         spec = BasinsSpec.model_validate(data)
     except ValidationError as e:
         raise CaseError(f"{args.case}: " + validation_message(e, "basins", BasinsSpec)) from None
+    from vibeam.io.store import Store
+
+    _check_fresh(args)
     out_dir = check_folder(_out_dir(args, case))
-    return _basins(args, case, text, out_dir, spec)
+    with Store(out_dir, fresh=args.fresh) as store:
+        return _basins(args, case, text, out_dir, spec, store)
 
 
 def cmd_regress(args) -> int:
@@ -383,8 +413,9 @@ def main(argv=None) -> int:
         p.add_argument("--quick", action="store_true",
                        help="run the case's quick variant ([quick]: fewer points, periods and map values)")
         p.add_argument("--resume", action="store_true",
-                       help="continue an interrupted run: keep the sweep lines already in results.h5 "
-                            "(of this case, also when an earlier vibeam wrote them)")
+                       help="continue an interrupted run: keep the sweep lines already in the checkpoint "
+                            "results.h5.partial (of this case, also when an earlier vibeam wrote them)")
+        p.add_argument("--fresh", action="store_true", help=FRESH_HELP)
         p.add_argument("--scheduler", metavar="ADDRESS",
                        help="run the sweep lines on a dask.distributed scheduler (e.g. tcp://host:8786)")
         p.add_argument("--force", action="store_true", help=force_help)
@@ -398,8 +429,9 @@ def main(argv=None) -> int:
                        formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam continue cases/paper-fig13-continuation.toml")
     p.add_argument("case", help="case file (TOML)")
     p.add_argument("--out", type=path_option("--out"),
-                   help="output folder (default results/<case name>/; a results.h5 of the same "
-                   "case there keeps its sweeps, only /branches is replaced)")
+                   help="output folder (default results/<case name>/; a results.h5 there keeps its other "
+                   "groups, only /branches/<run> of these runs is replaced)")
+    p.add_argument("--fresh", action="store_true", help=FRESH_HELP)
     p.add_argument("--jobs", type=jobs_option, default=None,
                    help="worker processes of the local pool (default: all cores; 1: inline)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
@@ -438,7 +470,8 @@ def main(argv=None) -> int:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--quick", action="store_true", help="the case's quick variant (a 40 x 40 grid at most)")
     p.add_argument("--resume", action="store_true",
-                   help="continue an interrupted computation: keep the grid rows already in results.h5")
+                   help="continue an interrupted computation: keep the grid rows already in results.h5.partial")
+    p.add_argument("--fresh", action="store_true", help=FRESH_HELP)
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run on a dask.distributed scheduler (e.g. tcp://host:8786)")
     p.set_defaults(func=cmd_basins)
@@ -500,7 +533,7 @@ def main(argv=None) -> int:
     p.add_argument("--params", help="comma-separated numeric [model] keys to fit (default gain,R; with "
                    "--linear natural_frequency_hz,damping_ratio,gain)")
     p.add_argument("--run", help="fit this run only (default: every run of the case, one by one)")
-    p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>-fit/)")
+    p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>@fit/)")
     p.add_argument("--jobs", type=jobs_option, default=None, help="worker processes (default: all cores; 1: inline)")
     p.add_argument("--quick", action="store_true", help="sweep with the case's quick variant's periods")
     p.add_argument("--loss", choices=["linear", "soft_l1", "huber", "cauchy", "arctan"], default=None,

@@ -84,7 +84,7 @@ def open_executor(scheduler: str | None):
 
 def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=False, resume=False,
              executor=None, checkpoint=True, checkpoint_interval_s=0.5, force=False, source="",
-             continuation_only=False):
+             continuation_only=False, store=None, fresh=False, inputs=()):
     """Run a case: its runs, or its parameter map; write ``results.h5``, plots and a table.
 
     Parameters
@@ -122,9 +122,16 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     source : str
         Name of the case file, for messages.
     continuation_only : bool
-        Run only the continuation runs (``vibeam continue``): an existing ``results.h5`` of the
-        same case keeps its sweeps and maps (and they are overlaid in the plots); only its
-        ``/branches`` are replaced.
+        Run only the continuation runs (``vibeam continue``): only the ``/branches`` of these
+        runs are replaced; the sweeps and maps of the same case are overlaid in the plots.
+    store : vibeam.io.store.Store, optional
+        The results store of ``out_dir`` that the calling command holds (default: one is
+        opened for this call).  Every group of an existing ``results.h5`` is kept; a group of
+        another case is marked stale (:mod:`vibeam.io.store`).
+    fresh : bool
+        Start a new results file (``--fresh``): the old file's groups are not kept.
+    inputs : iterable of (path, option)
+        Files the command reads (a reference): never the results file it writes.
 
     Continuation runs (``method = "continuation"``) go to the same executor as the sweep
     lines, one unit of work each; they are not checkpointed (``--resume`` computes them again).
@@ -140,10 +147,11 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     ------
     InputError
         If the output folder is used by another running process or cannot be
-        written, ``results.h5`` is not a file, ``resume`` finds a results file
-        written by another case or variant, or the work is above the limit.
+        written, ``results.h5`` is not a regular file, ``resume`` finds a results file
+        written by another case or variant or a checkpoint this vibeam would not have
+        written, an input is the results file, or the work is above the limit.
     """
-    from vibeam.io.outdir import OutputLock
+    from vibeam.io.store import Store
 
     from vibeam.case.schema import check_time_series
 
@@ -160,8 +168,10 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     _notes(case, jobs_)
     check_work(case, jobs_, force=force, source=source)
     tasks = _tasks(case)          # planned first: a continuation the scene cannot serve fails here
-    with OutputLock(out_dir):
-        return _run_locked(case, text, Path(out_dir), jobs_, tasks, jobs, quiet, plots, resume, executor,
+    if store is not None and Path(store.folder).resolve() != Path(out_dir).resolve():
+        raise ValueError(f"run_case: the store of {store.folder} given for out_dir {out_dir}")
+    with (store if store is not None else Store(out_dir, fresh=fresh, inputs=inputs)) as st:
+        return _run_locked(case, text, st, jobs_, tasks, jobs, quiet, plots, resume, executor,
                            checkpoint, checkpoint_interval_s, continuation_only)
 
 
@@ -198,40 +208,53 @@ def same_case(stored_json, case_json: str) -> bool:
         return False
 
 
-def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, executor, checkpoint,
+def case_identity(store, case_json: str) -> tuple[str, list]:
+    """The case JSON a command writes under, and its aliases: a results file of an earlier
+    vibeam whose stored case lacks only keys added since is the same case (:func:`same_case`),
+    so the command goes on under the file's own case text and both texts name its groups
+    (:meth:`vibeam.io.store.Store.commit`)."""
+    root = store.info()["attrs"].get("case_json")
+    if root is not None and str(root) != case_json and same_case(root, case_json):
+        return str(root), [case_json]
+    return case_json, []
+
+
+def _unit_paths(case) -> list:
+    """The units of ``results.h5`` the sweeps and maps of a case write (``runs/<run>`` or ``maps/<run>``)."""
+    kind = "maps" if case.map else "runs"
+    return [f"{kind}/{r.name}" for r in case.run if r.method != "continuation"]
+
+
+def _run_locked(case, text, store, jobs_, tasks, jobs, quiet, plots, resume, executor, checkpoint,
                 checkpoint_interval_s, continuation_only=False):
     from vibeam.errors import InputError
-    from vibeam.errors import ForeignFileError
-    from vibeam.io.results import append_lines, read_lines, write_results
+    from vibeam.io.results import line_group, result_groups
     from vibeam.engine.sweep import run_lines, stack, unstack
 
     case_json = case.model_dump_json()
-    h5 = out_dir / "results.h5"
-    if h5.exists() and not h5.is_file():
-        raise InputError(f"{h5} is not a file (a folder?); remove it or use another --out")
+    h5 = store.path
+    out_dir = store.folder
+    case_json, aliases = case_identity(store, case_json)
     if continuation_only:
-        return _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quiet, plots, executor)
-    stored = {}
-    if resume and h5.exists():
-        try:
-            attrs, stored = read_lines(h5, case_json=case_json)
-            old = attrs.get("case_json")
-            if old != case_json and same_case(old, case_json):
-                # an earlier vibeam's file: its case lacks only keys added since, which take
-                # their defaults (the earlier behaviour); the run goes on under the file's own text
-                case_json = str(old)
-                attrs, stored = read_lines(h5, case_json=case_json)
-        except OSError as e:
-            raise InputError(f"--resume: cannot read {h5}: {e}") from None
-        if attrs.get("case_json") != case_json:
-            raise InputError(f"--resume: {h5} was written by another case or variant; run without "
-                             f"--resume to start afresh, or use another --out")
-        if attrs.get("complete") and not stored:
-            if tasks:              # continuation runs are not checkpointed: computed again, sweeps kept
-                _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quiet, plots, executor)
-            return _finished(case, h5, out_dir, plots)
-    t_all = time.perf_counter()
+        return _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plots, executor, aliases)
     all_lines = [(job, l) for job in jobs_ for l in _lines(job)]
+    stored = {}
+    if resume:
+        stored, cj = _resume_lines(store, case_json, all_lines)
+        if cj != case_json:
+            aliases, case_json = aliases + [case_json], cj
+        if not stored:
+            want = _unit_paths(case)
+            if want and set(want) <= set(store.current(case_json, aliases)):
+                if tasks:          # continuation runs are not checkpointed: computed again, sweeps kept
+                    _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plots, executor,
+                                           aliases)
+                return _finished(case, store, out_dir, plots, want)
+            roots = [a.get("case_json") for a in (store.checkpoint_attrs(), store.info()["attrs"]) if a]
+            if roots and not any(same_case(r, case_json) for r in roots):
+                raise InputError(f"--resume: {h5} was written by another case or variant; run without "
+                                 f"--resume (its groups are kept, marked stale) or use another --out")
+    t_all = time.perf_counter()
     task_rows: dict = {}
     line_data = {}          # "<run>/<key>" -> stacked datasets (the checkpoint)
     for job, l in all_lines:
@@ -246,19 +269,15 @@ def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, e
           + (f", {len(tasks)} continuation run(s)" if tasks else "")
           + (f"; resuming: {len(all_lines) - len(todo)} lines done" if resume and stored else ""),
           file=sys.stderr)
-    fresh = [not (resume and h5.exists())]
     buffer: dict = {}
     last_flush = [time.perf_counter()]
 
     def flush():
         if checkpoint and buffer:
-            try:
-                # the first checkpoint of a new run is a new file, renamed over an old one only
-                # once it is complete: a failed write leaves the old file as it was
-                append_lines(h5, dict(buffer), case.name, text, case_json, fresh=fresh[0])
-            except ForeignFileError as e:
-                raise InputError(str(e)) from None
-            fresh[0] = False
+            # finished lines go to the checkpoint beside results.h5 (results.h5.partial), never
+            # into the complete file; the first checkpoint of a run that is not resumed starts anew
+            store.checkpoint("lines", {k: line_group(v, case_json) for k, v in buffer.items()},
+                             case.name, text, case_json, start=not resume)
             buffer.clear()
         last_flush[0] = time.perf_counter()
 
@@ -299,9 +318,10 @@ def _run_locked(case, text, out_dir, jobs_, tasks, jobs, quiet, plots, resume, e
     rows_of = {k: unstack(v) for k, v in line_data.items()}
     runs, maps = _assemble(case, jobs_, rows_of)
     conts = _assemble_continuation(tasks, task_rows)
-    # the checkpoint lines are compacted: the finished file holds every point once (/runs, /maps)
+    # the successor of results.h5: every group it had, these runs' groups replaced; the checkpoint's
+    # lines are then removed (the finished file holds every point once, in /runs and /maps)
     t_w = time.perf_counter()
-    write_results(h5, runs, case.name, text, maps=maps, case_json=case_json, branches=conts)
+    store.commit(result_groups(runs, maps, conts), case.name, text, case_json, done=["lines"], aliases=aliases)
     timing["write_s"] = time.perf_counter() - t_w
     n_done = sum(l.n_points for l in todo)
     print(f"\ncase {case.name}: {len(runs) + len(maps) + len(conts)} run(s) in "
@@ -342,11 +362,56 @@ def _report(case, runs, maps, out_dir, plots, conts=()) -> None:
         _plots(case, runs, maps, out_dir, conts)
 
 
-def _finished(case, h5, out_dir, plots):
-    """``--resume`` of a complete file: nothing is recomputed; its runs are read back."""
+def _resume_lines(store, case_json: str, all_lines) -> tuple[dict, str]:
+    """The finished lines of ``all_lines`` in the checkpoint, validated (``{run: {key: data}}``),
+    and the case JSON they were computed for: ``case_json``, or the stored case of an earlier
+    vibeam that is the same case (:func:`same_case`; the run goes on under the file's own text).
+
+    Raises
+    ------
+    InputError
+        A checkpointed line whose structure, shape, type or values this vibeam would not have
+        written (one line naming the file and the dataset).
+    """
+    from vibeam.engine.sweep import check_line
+    from vibeam.io.results import case_hash
+
+    by_run: dict = {}
+    for _, l in all_lines:
+        by_run.setdefault(l.run, {})[l.key] = l
+
+    def read(cj):
+        attrs, out = {}, {}
+        for run, lines in by_run.items():
+            def check(key, meta, got, lines=lines):
+                return check_line(meta, got, lines[key]) if key in lines else None
+            attrs, got = store.read_checkpoint(f"lines/{run}", "case_hash", case_hash(cj), check)
+            got = {k: v for k, v in got.items() if k in lines}
+            if got:
+                out[run] = got
+        return attrs, out
+
+    try:
+        attrs, lines = read(case_json)
+        old = attrs.get("case_json")
+        if not lines and old is not None and str(old) != case_json and same_case(old, case_json):
+            attrs, lines = read(str(old))
+            case_json = str(old) if lines else case_json
+    except OSError as e:
+        from vibeam.errors import InputError
+
+        raise InputError(f"--resume: cannot read {store.path}: {e}") from None
+    return lines, case_json
+
+
+def _finished(case, store, out_dir, plots, want):
+    """``--resume`` of a complete run: nothing is recomputed; its runs are read back."""
     from vibeam.io.results import load_results
 
+    h5 = store.path
     runs, maps, _ = load_results(h5)
+    runs = [r for r in runs if f"runs/{r.name}" in want]
+    maps = [m for m in maps if f"maps/{m.name}" in want]
     order = {r.name: i for i, r in enumerate(case.run)}
     runs.sort(key=lambda r: order.get(r.name, len(order)))
     maps.sort(key=lambda m: order.get(m.name, len(order)))
@@ -431,16 +496,18 @@ def _assemble_continuation(tasks, task_rows) -> list:
             for t in tasks]
 
 
-def _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quiet, plots, executor):
-    """``vibeam continue``: the continuation runs alone; an existing results file of the same case
-    keeps its sweeps and maps (overlaid in the plots), its ``/branches`` are replaced."""
+def _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plots, executor, aliases=()):
+    """``vibeam continue``: the continuation runs alone, written as ``/branches/<run>`` of the
+    results file through its store (every other group kept); the sweeps of the same case are
+    overlaid in the plots."""
     from vibeam.analysis.branches import print_results
-    from vibeam.io.results import read_results, replace_branches, write_results
+    from vibeam.io.results import result_groups
     from vibeam.engine.sweep import run_lines
 
     if not tasks:
         raise CaseError(f"{case.name}: no run has method = \"continuation\"; add a [[run]] with "
                         f"method = \"continuation\" (parameter, start, ...) or use `vibeam run`")
+    h5, out_dir = store.path, store.folder
     t_all = time.perf_counter()
     print(f"[{case.name}] {len(tasks)} continuation run(s)", file=sys.stderr)
     compiled = 0.0
@@ -458,22 +525,15 @@ def _run_continuation_only(case, text, out_dir, h5, tasks, case_json, jobs, quie
     for t in tasks:
         task_rows[t.run] = done[(t.run, t.key)][0]
     conts = _assemble_continuation(tasks, task_rows)
-    same = False
-    if h5.exists():
-        try:
-            same = same_case(read_results(h5)["attrs"].get("case_json"), case_json)
-        except OSError:
-            same = False
-    if same:
-        replace_branches(h5, conts)
-    else:
-        write_results(h5, [], case.name, text, case_json=case_json, branches=conts)
+    kept = [p for p in store.info()["units"] if not p.startswith("branches/")]
+    store.commit(result_groups(branches=conts), case.name, text, case_json, aliases=aliases)
     print(f"\ncase {case.name}: {len(conts)} continuation run(s) in {run_s:.2f} s "
           f"({time.perf_counter() - t_all:.2f} s with kernel loading and writing) -> {h5}"
-          + (" (sweeps and maps of the file kept)" if same else ""))
+          + (f" (the file's {len(kept)} other group(s) kept)" if kept else ""))
     print_results(conts)
     if plots:
-        sweeps = _stored_sweeps(h5) if same else []
+        current = set(store.current(case_json, aliases))
+        sweeps = [s for s in _stored_sweeps(h5) if f"runs/{s.name}" in current]
         _plot_continuation(case, conts, sweeps, out_dir)
     return conts
 

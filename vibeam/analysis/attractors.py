@@ -629,44 +629,53 @@ def _line_variables(row: dict) -> dict:
             "wall_time_s": var((), float(row["wall_time_s"]), "s", "wall time")}
 
 
-def append_checkpoint(path, run: str, rows: dict, ident: str, case_name: str = "", case_text: str = ""):
-    """Add finished lines ``{line key: row}`` to ``/basin_lines/<run>/`` of ``path`` (atomically,
-    the file's other groups kept; each line marked with ``ident``)."""
-    from vibeam.io.netcdf import write_group
-    from vibeam.io.results import replace_group
-
-    def fill(f):
-        for key, row in rows.items():
-            g = f"basin_lines/{run}/{key}"
-            if g in f:
-                del f[g]
-            write_group(f, g, _line_variables(row), {"basins_ident": ident})
-
-    return replace_group(path, None, fill, case_name, case_text)
+def checkpoint_groups(rows: dict, ident: str) -> dict:
+    """Finished lines ``{line key: row}`` as checkpoint groups ``{key: (variables, attrs)}``
+    (:meth:`vibeam.io.store.Store.checkpoint` of ``basin_lines/<run>``), each marked with ``ident``."""
+    return {key: (_line_variables(row), {"basins_ident": ident}) for key, row in rows.items()}
 
 
-def read_checkpoint(path, run: str, ident: str) -> dict:
-    """The lines of ``/basin_lines/<run>/`` written for ``ident``: ``{line key: row}`` (the rows
-    of :meth:`BasinLine.compute`, their sets keyed ``("stored", pid, index)``)."""
-    import h5py
+def check_row(meta: dict, data: dict | None, n_states: int | None) -> str | None:
+    """What is wrong with a checkpointed basin row, or None (what :func:`_line_variables` writes:
+    ``labels`` one whole number per state, the sets' lengths adding up to their samples, finite
+    samples); ``meta`` ``{dataset: (shape, dtype)}``, ``data`` the values (None: shapes only)."""
+    need = {"labels": 1, "set_pid": 1, "set_index": 1, "set_length": 1, "sets": 2, "pid": 0, "periods": 0,
+            "wall_time_s": 0}
+    for k, nd in need.items():
+        if k not in meta:
+            return f"dataset {k} is missing"
+        shape, dtype = meta[k]
+        if len(shape) != nd or np.dtype(dtype).kind not in ("iu" if k != "wall_time_s" and k != "sets" else "f"):
+            return f"dataset {k} has shape {tuple(shape)} and type {np.dtype(dtype)}, not what vibeam writes"
+    if n_states is not None and meta["labels"][0] != (n_states,):
+        return f"dataset labels has shape {tuple(meta['labels'][0])}; the row has {n_states} state(s)"
+    ns = meta["set_length"][0]
+    if meta["set_pid"][0] != ns or meta["set_index"][0] != ns:
+        return "datasets set_pid, set_index and set_length differ in length"
+    if data is None:
+        return None
+    lengths = np.asarray(data["set_length"])
+    if np.any(lengths < 0) or int(lengths.sum()) != np.shape(data["sets"])[0]:
+        return "dataset set_length does not add up to the samples of sets"
+    if not np.all(np.isfinite(np.asarray(data["sets"], float))):
+        return "dataset sets holds a value that is not finite"
+    if int(data["periods"]) < 0:
+        return "dataset periods is negative"
+    return None
 
-    from vibeam.io.netcdf import read_plain
 
+def rows_from_checkpoint(got: dict) -> dict:
+    """The rows of :meth:`BasinLine.compute` from checkpointed groups ``{key: {dataset: array}}``
+    (their sets keyed ``("stored", pid, index)``)."""
     out = {}
-    if not Path(path).is_file():
-        return out
-    with h5py.File(path, "r") as f:
-        for key, g in f.get(f"basin_lines/{run}", {}).items():
-            if str(g.attrs.get("basins_ident", "")) != ident:
-                continue
-            d = read_plain(g)
-            ends = np.cumsum(d["set_length"])
-            sets = np.split(np.asarray(d["sets"], float), ends[:-1]) if len(ends) else []
-            pid = int(d["pid"])
-            out[key] = dict(labels=np.asarray(d["labels"], np.int64), pid=pid, periods=int(d["periods"]),
-                            wall_time_s=float(d["wall_time_s"]), stored=True,
-                            attractors={("stored", int(p), int(k)): X
-                                        for p, k, X in zip(d["set_pid"], d["set_index"], sets)})
+    for key, d in got.items():
+        ends = np.cumsum(d["set_length"])
+        sets = np.split(np.asarray(d["sets"], float), ends[:-1]) if len(ends) else []
+        pid = int(d["pid"])
+        out[key] = dict(labels=np.asarray(d["labels"], np.int64), pid=pid, periods=int(d["periods"]),
+                        wall_time_s=float(d["wall_time_s"]), stored=True,
+                        attractors={("stored", int(p), int(k)): X
+                                    for p, k, X in zip(d["set_pid"], d["set_index"], sets)})
     return out
 
 
@@ -690,13 +699,15 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         A progress bar of initial states.
     spec : vibeam.case.schema.BasinsSpec, optional
         Replaces the case's ``[basins]``.
-    checkpoint : str or Path, optional
-        A results file: finished grid rows (census slices) are kept in its ``/basin_lines/<run>/``
-        as they finish (at most every ``checkpoint_interval_s``, and on an interrupt), so that
-        an interrupted computation loses at most that much finished work.
+    checkpoint : vibeam.io.store.Store, optional
+        The results store the command holds: finished grid rows (census slices) are kept in its
+        checkpoint (``results.h5.partial``, ``/basin_lines/<run>/``) as they finish (at most every
+        ``checkpoint_interval_s``, and on an interrupt), so that an interrupted computation loses
+        at most that much finished work.
     resume : bool
-        Take the rows already in ``checkpoint`` for this case, ``[basins]`` table and run, and
-        compute only the rest (the cell grid is the same: it depends on the table alone).
+        Take the rows already in ``checkpoint`` for this case, ``[basins]`` table and run
+        (validated: :func:`check_row`), and compute only the rest (the cell grid is the same:
+        it depends on the table alone).
 
     Returns
     -------
@@ -725,9 +736,22 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         raise CaseError(str(e)) from None
     d = state_size(solver)
     ident = checkpoint_ident(case, spec, name)
-    stored = read_checkpoint(checkpoint, name, ident) if (checkpoint is not None and resume) else {}
     grid = spec.samples is None
     nx, ny = (spec.grid or [200, 200]) if grid else (0, 0)
+    per_row = max(1, int(math.ceil(int(spec.samples or 0) / 16))) if not grid else nx
+
+    def n_states(key: str):
+        try:
+            k = int(key.split("-")[1])
+        except (IndexError, ValueError):
+            return -1
+        return nx if grid else max(0, min(per_row, int(spec.samples) - k * per_row))
+
+    stored = {}
+    if checkpoint is not None and resume:
+        _, got = checkpoint.read_checkpoint(f"basin_lines/{name}", "basins_ident", ident,
+                                            lambda key, meta, data: check_row(meta, data, n_states(key)))
+        stored = rows_from_checkpoint(got)
     rng = np.random.default_rng(spec.seed)
     labels = np.zeros((len(Omegas), ny, nx) if grid else (len(Omegas), int(spec.samples or 0)), np.int64)
     per_Omega = []
@@ -783,7 +807,8 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
 
         def flush():
             if checkpoint is not None and buffer:
-                append_checkpoint(checkpoint, name, dict(buffer), ident, case.name, case_text)
+                checkpoint.checkpoint(f"basin_lines/{name}", checkpoint_groups(buffer, ident), case.name,
+                                      case_text, case.model_dump_json(), start=not resume)
                 buffer.clear()
             last[0] = time.perf_counter()
 
@@ -1100,26 +1125,36 @@ def basins_from_dataset(ds, name: str | None = None) -> BasinsResult:
         parameter=along, values=None if along == "Omega" else v(along).astype(float))
 
 
-def write_basins(path, results: list, case_name: str = "", case_text: str = ""):
-    """Write each result to ``/basins/<run>/`` of ``path`` (atomically; the file's other groups kept)."""
+def basins_group(r):
+    """The writer of ``/basins/<run>/`` of one result (a ``fill(file)`` for
+    :meth:`vibeam.io.store.Store.commit`)."""
     import json
 
     from vibeam.io.netcdf import json_default, write_group
-    from vibeam.io.results import replace_group
 
-    for r in results:
-        attrs = {"run": r.name, "coordinates": json.dumps(list(r.axes.names)), "along": r.along,
-                 "settings": json.dumps(r.settings, default=json_default), "kind": "grid" if r.grid else "census",
-                 **_axes_attrs(r)}
-        def fill(f, r=r, attrs=attrs):
-            write_group(f, f"basins/{r.name}", basins_variables(r), attrs)
-            if f"basin_lines/{r.name}" in f:          # the checkpoint of the finished computation
-                del f[f"basin_lines/{r.name}"]
-                if not len(f["basin_lines"]):
-                    del f["basin_lines"]
+    attrs = {"run": r.name, "coordinates": json.dumps(list(r.axes.names)), "along": r.along,
+             "settings": json.dumps(r.settings, default=json_default), "kind": "grid" if r.grid else "census",
+             **_axes_attrs(r)}
 
-        path = replace_group(path, f"basins/{r.name}", fill, case_name, case_text)
-    return path
+    def fill(f):
+        write_group(f, f"basins/{r.name}", basins_variables(r), attrs)
+    return fill
+
+
+def write_basins(store, results: list, case_name: str = "", case_text: str = "", case_json: str = "", aliases=()):
+    """Write each result to ``/basins/<run>/`` of the store's file (every other group kept; the
+    checkpoint rows of these runs removed).  ``store`` is a held :class:`vibeam.io.store.Store`,
+    or a path (a store is opened for the write)."""
+    from vibeam.io.store import Store
+
+    if not isinstance(store, Store):
+        from pathlib import Path as _P
+
+        path = _P(store)
+        with Store(path.parent, path.name) as st:
+            return write_basins(st, results, case_name, case_text, case_json, aliases)
+    return store.commit({f"basins/{r.name}": basins_group(r) for r in results}, case_name, case_text, case_json,
+                        done=[f"basin_lines/{r.name}" for r in results], aliases=aliases)
 
 
 def read_basins(path, run: str):

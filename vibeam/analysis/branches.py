@@ -968,13 +968,12 @@ def read_continuation(path) -> list:
         lose their padding (``n_points``); the bifurcations' ``state`` and ``multipliers``
         (not stored) are absent.
     """
-    import h5py
-
+    from vibeam.io.h5check import open_checked
     from vibeam.io.netcdf import read_attrs
     from vibeam.io.results import read_branch_group
 
     out = []
-    with h5py.File(path, "r") as f:
+    with open_checked(path) as f:
         for name, g in f.get("branches", {}).items():
             d = read_branch_group(g)
             a = _decoded(read_attrs(g))

@@ -1077,3 +1077,71 @@ def _scalar_column(vals: list):
 # datasets every run has, even when every point failed (NaN, status 'failed')
 CORE_OUTPUTS = ("amplitude", "q_max", "q_min", "period", "impacts_per_period", "impact_velocity", "status",
                 "message")
+
+#: per-point outputs stored as text (every other output is a number)
+TEXT_OUTPUTS = ("status", "message", "direction", "lyapunov_message", "lyapunov_class")
+#: per-point outputs that are numbers in every line this vibeam writes
+NUMBER_OUTPUTS = ("Omega", "amplitude", "q_max", "q_min", "period", "impacts_per_period", "impact_velocity")
+
+
+def check_line(meta: dict, data: dict | None, line) -> str | None:
+    """What is wrong with a checkpointed sweep line, or None: what ``--resume`` reads is what
+    this vibeam writes for ``line`` (:func:`stack` of its rows).
+
+    Parameters
+    ----------
+    meta : dict
+        ``{dataset: (shape, dtype)}`` of the stored line (read before any value).
+    data : dict or None
+        ``{dataset: array}`` once read (None: check the shapes and types only).
+    line : Line
+        The planned line (its points, in visiting order).
+
+    Returns
+    -------
+    str or None
+        One phrase naming the dataset and what is wrong.
+
+    The rules: every output of :data:`CORE_OUTPUTS` and ``Omega`` present; every dataset one
+    value (or one array) per point of the line; :data:`NUMBER_OUTPUTS` numbers and
+    :data:`TEXT_OUTPUTS` text; ``Omega`` the line's frequencies in its visiting order (within
+    1e-12 relative); ``status`` one of :data:`vibeam.engine.records.STATUSES`; ``period`` whole
+    numbers; ``amplitude`` finite at every ``ok`` point (an ``ok`` point has the number it
+    reports, never NaN).
+    """
+    from vibeam.engine.records import STATUSES
+
+    n = line.n_points
+    for k in CORE_OUTPUTS + ("Omega",):
+        if k not in meta:
+            return f"dataset {k} is missing"
+    for k, (shape, dtype) in meta.items():
+        if not shape or shape[0] != n:
+            return f"dataset {k} has shape {tuple(shape)}; the line has {n} point(s)"
+        kind = np.dtype(dtype).kind
+        text = kind in "OSU"
+        if k in NUMBER_OUTPUTS and kind not in "biuf":
+            return f"dataset {k} holds {np.dtype(dtype)} values; allowed: numbers"
+        if k in TEXT_OUTPUTS and not text:
+            return f"dataset {k} holds {np.dtype(dtype)} values; allowed: text"
+        if not text and kind not in "biufc":
+            return f"dataset {k} holds {np.dtype(dtype)} values; allowed: numbers or text"
+    if data is None:
+        return None
+    om = np.asarray(data["Omega"], float)
+    want = np.asarray(line.Omega, float)
+    if om.shape != want.shape or not np.allclose(om, want, rtol=1e-12, atol=0):
+        return f"dataset Omega is not the line's frequencies ({want[:3].tolist()}...)"
+    st = np.asarray(data["status"]).astype(str)
+    bad = [x for x in st if x not in STATUSES]
+    if bad:
+        return f"dataset status holds {bad[0]!r}; allowed: {', '.join(STATUSES)}"
+    per = np.asarray(data["period"], float)
+    if not np.all(per == np.round(per)):
+        return "dataset period holds a value that is not a whole number"
+    amp = np.asarray(data["amplitude"], float)
+    ok = st == "ok"
+    if np.any(ok & ~np.isfinite(amp)):
+        i = int(np.flatnonzero(ok & ~np.isfinite(amp))[0])
+        return f"dataset amplitude is {amp[i]} at point {i} whose status is 'ok'"
+    return None

@@ -1060,7 +1060,7 @@ def main_fit(args) -> int:
                      f"{', '.join(case.map_parameters())}")
     from vibeam.io.outdir import OutputLock, check_folder, default_folder
 
-    out_dir = check_folder(Path(args.out) if args.out else default_folder(case.name, "-fit"))
+    out_dir = check_folder(Path(args.out) if args.out else default_folder(case.name, "@fit"))
     with OutputLock(out_dir):
         return _main_fit_locked(args, case, text, out_dir, log)
 

@@ -29,6 +29,7 @@ import errno
 import json
 import os
 import socket
+import stat
 import sys
 import time
 from datetime import datetime, timezone
@@ -44,6 +45,8 @@ TMP_PATTERNS = (TMP_PREFIX + "*", ".results-*.h5.tmp")
 TMP_PATTERN = TMP_PATTERNS[1]
 
 _held_fds: set[int] = set()
+#: the locks this process holds: real path of the folder -> its OutputLock (nested uses share it)
+_held_locks: dict = {}
 
 
 def _close_in_child() -> None:
@@ -54,6 +57,13 @@ def _close_in_child() -> None:
         except OSError:
             pass
     _held_fds.clear()
+    _held_locks.clear()
+
+
+def holds_lock(folder) -> bool:
+    """Whether this process holds the lock of ``folder`` (:class:`OutputLock`)."""
+    lock = _held_locks.get(os.path.realpath(folder))
+    return lock is not None and lock.fd is not None
 
 
 if hasattr(os, "register_at_fork"):
@@ -158,6 +168,13 @@ class OutputLock:
         On entering: the folder is used by another running process (the
         message names the folder and that process), or cannot be created or
         written.
+
+    Notes
+    -----
+    Nested use in one process is allowed: a lock of a folder this process already holds
+    shares that hold (a command holds its folder from start to end, and the steps it calls
+    -- a run, then its basins -- take the lock again); the folder is released when the
+    outermost holder releases it.
     """
 
     def __init__(self, folder, command: str | None = None):
@@ -167,6 +184,8 @@ class OutputLock:
         self.fd: int | None = None
         self.stale: dict | None = None
         self.removed_tmp: list[Path] = []
+        self._outer: "OutputLock | None" = None       # the holder this nested use shares
+        self._nested = 0                               # nested uses of this holder still open
 
     # ------------------------------------------------------------------ acquire
     def _read(self, fd) -> dict:
@@ -238,6 +257,12 @@ class OutputLock:
         import fcntl
 
         check_folder(self.folder)
+        key = os.path.realpath(self.folder)
+        outer = _held_locks.get(key)
+        if outer is not None and outer.fd is not None:     # this process holds it already
+            outer._nested += 1
+            self._outer = outer
+            return self
         deadline = time.monotonic() + 2.0
         while True:
             fd = self._open()
@@ -278,6 +303,7 @@ class OutputLock:
                 "command": self.command}
         self.fd = fd
         _held_fds.add(fd)
+        _held_locks[key] = self
         try:
             os.ftruncate(fd, 0)
             os.lseek(fd, 0, os.SEEK_SET)
@@ -296,9 +322,14 @@ class OutputLock:
         return self
 
     def release(self) -> None:
-        """Remove the lock file and drop the lock (idempotent)."""
+        """Remove the lock file and drop the lock (idempotent); a nested use only ends itself."""
+        if self._outer is not None:
+            self._outer._nested -= 1
+            self._outer = None
+            return
         if self.fd is None:
             return
+        _held_locks.pop(os.path.realpath(self.folder), None)
         try:
             if os.path.lexists(self.path) and os.lstat(self.path).st_ino == os.fstat(self.fd).st_ino:
                 os.unlink(self.path)
@@ -323,6 +354,55 @@ class OutputLock:
         return False
 
 
+_OUT_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+              (stat.S_ISFIFO, "a named pipe"), (stat.S_ISSOCK, "a socket"))
+
+
+def check_output_file(path, option: str = "") -> Path:
+    """``path`` is a name vibeam may write: nothing there yet, or a regular file (not a link).
+
+    A device (``/dev/null``), a named pipe, a socket, a folder or a symbolic link at ``path``
+    is refused whatever the user's privileges: replacing it would swap a system file for a
+    regular one (``/dev/null`` as root) or write where the link points.
+
+    Parameters
+    ----------
+    path : str or Path
+    option : str
+        The option that named the file (``--write``), for the message.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    InputError
+        One line naming the file, what it is, and what is allowed.
+    """
+    path = Path(path)
+    opt = f"{option} " if option else ""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return path
+    except OSError as e:
+        raise InputError(f"{opt}{path}: cannot write: {e.strerror or e}") from None
+    allowed = "allowed: a regular file or a new name"
+    if stat.S_ISLNK(st.st_mode):
+        try:
+            to = f" (to {os.readlink(path)})"
+        except OSError:
+            to = ""
+        raise InputError(f"{opt}{path}: is a symbolic link{to}; vibeam never writes over or through a link; "
+                         f"{allowed}")
+    if not stat.S_ISREG(st.st_mode):
+        kind = next((name for test, name in _OUT_KINDS if test(st.st_mode)), "not a regular file")
+        what = "not a file" if kind == "a folder" else "not a regular file"
+        raise InputError(f"{opt}{path}: is {kind}, {what}; vibeam would replace it; {allowed}")
+    return path
+
+
 def replace_file(path, content) -> Path:
     """Replace ``path`` by a complete successor: the one way vibeam writes a file.
 
@@ -345,6 +425,9 @@ def replace_file(path, content) -> Path:
 
     Raises
     ------
+    InputError
+        If ``path`` is not a regular file or a new name (:func:`check_output_file`): nothing is
+        written.
     OSError
         If the file cannot be written in full (a full disk, a file-size limit, permissions);
         its ``filename`` is ``path``, not the temporary file, and the temporary file is gone.
@@ -352,7 +435,7 @@ def replace_file(path, content) -> Path:
     """
     import tempfile
 
-    path = Path(path)
+    path = check_output_file(path)
     try:
         fd, tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=f"-{path.name}", dir=path.parent)
     except OSError as e:

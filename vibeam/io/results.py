@@ -34,9 +34,21 @@ Layout (``vibeam_layout = 2``, root attribute)::
         Omega (Omega) and frequency_hz (Omega)   when Omega is the same on every value line;
             otherwise frequency_hz (frequency_hz) and Omega (<parameter>, frequency_hz)
         <per-point> (direction, <parameter>, Omega|frequency_hz[, ...])   classification, ...
-    /lines/<run>/<line>/     the checkpoint of an unfinished run: each finished sweep line's
-                             per-point arrays along ``point`` (visiting order); attrs: case_hash
-    /<extra>/                tables of other commands (``cost``, ``reference``), e.g. (row)
+    /branches/<run>/         continuation branches (vibeam.analysis.branches)
+    /basins/<run>/           basins of attraction (vibeam.analysis.attractors)
+    /<extra>/                tables of other commands (``cost``, ``fit``), e.g. (row)
+
+Every unit (``runs/<run>``, ``maps/<run>``, ``branches/<run>``, ``basins/<run>``, a table)
+has the attributes ``case_hash`` and ``case_name`` of the case it was computed from; a unit of
+another case than the file's is marked ``stale = 1`` (``stale_reason``, and its own
+``case_text`` and ``case_json``) -- :mod:`vibeam.io.store`.
+
+The checkpoint of a running command is a file of its own beside the results file,
+``results.h5.partial`` (root attribute ``complete = 0``)::
+
+    /lines/<run>/<line>/         each finished sweep line's per-point arrays along ``point``
+                                 (visiting order); attrs: case_hash
+    /basin_lines/<run>/<row>/    finished rows of a basin computation; attrs: basins_ident
 
 A run's points of every direction lie on one grid: ``up`` visits the ``Omega``
 coordinate in increasing order and ``down`` in decreasing order; both are stored
@@ -46,19 +58,16 @@ per-point table (points in visiting order: up, then down), which every FRC tool
 dimensions; ``tests/references`` were converted once by
 ``tests/references/convert_layout.py``).
 
-When a run completes, its checkpoint ``/lines`` is dropped (compacted): the data
-is stored once, in ``/runs`` and ``/maps``.  ``--resume`` of a complete file
-recomputes nothing (the runs are read back: :func:`load_results`); an
-interrupted file still has its lines.
+When a command completes, what it consumed of the checkpoint is removed: the data is
+stored once, in the results file.  ``--resume`` of a complete run recomputes nothing (the
+runs are read back: :func:`load_results`).
 
-Every write builds the whole file in memory and hands it to
-:func:`vibeam.io.outdir.replace_file`: a temporary file in the same folder, flushed to
-the disk and then moved over the old one (:func:`os.replace` is atomic) -- the
-whole file at the end of a case, and one copy-and-append per batch of finished
-lines while it runs (:func:`append_lines`).  An interrupted or killed run, a full
-disk or a file-size limit therefore leaves either the previous complete file or
-the next one, never a corrupt one, and ``--resume`` recomputes only the lines
-missing from ``/lines``; HDF5 never meets a failing write.
+Every write goes through the results store (:class:`vibeam.io.store.Store`): the folder's
+lock for the whole command, the whole successor built in memory from the old file and
+renamed over it once complete (:func:`vibeam.io.outdir.replace_file`), every group kept.
+An interrupted or killed run, a full disk or a file-size limit therefore leaves the
+previous complete file byte for byte, and ``--resume`` recomputes only the lines missing
+from the checkpoint; HDF5 never meets a failing write.
 
 Any other group (continuation branches, fit tables) is written through
 :func:`vibeam.io.netcdf.write_group`: a dict of :class:`~vibeam.io.netcdf.Variable` (dims, data, units, long_name)
@@ -66,19 +75,15 @@ becomes one netCDF group with its dimensions and coordinates.
 """
 from __future__ import annotations
 
-import contextlib
 import json
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
-from vibeam.version import __version__
 from vibeam.io.netcdf import (PARAMETER_UNITS, Variable, dataset_values, is_dim_only, json_default,  # noqa: F401
                      parameter_units, read_attrs, read_plain, set_attrs, var, write_group, DimIds)
+from vibeam.io.store import LAYOUT_VERSION, case_hash  # noqa: F401 (re-exported)
 from vibeam.errors import ForeignFileError  # noqa: F401 (re-exported)
-
-LAYOUT_VERSION = 2
 
 
 
@@ -470,143 +475,77 @@ def line_variables(data: dict) -> dict:
             for k, v in data.items()}
 
 
-# ============================================================================ files
-def _atomic(path: Path, fill, copy_from: Path | None = None) -> Path:
-    """Write ``path`` as a whole: ``fill(file)`` on an :class:`h5py.File` built in memory
-    (with ``copy_from``, a copy of that file's bytes appended to), then the image handed to
-    :func:`vibeam.io.outdir.replace_file` (temporary file, ``fsync``, rename).
-
-    HDF5 itself never writes to the disk: a full disk or a file-size limit fails in a plain
-    write of bytes (an :class:`OSError` naming ``path``), never inside the HDF5 library (where
-    such a failure crashed the process), and ``path`` keeps its previous content byte for byte
-    until the complete new file is renamed over it.
-    """
-    import io
-
-    import h5py
-
-    from vibeam.io.outdir import replace_file
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with _signals_deferred():
-        try:
-            buf = io.BytesIO(Path(copy_from).read_bytes()) if copy_from is not None else io.BytesIO()
-            with h5py.File(buf, "r+" if copy_from is not None else "w") as f:
-                fill(f)
-        except OSError as e:
-            if isinstance(e, BrokenPipeError) or e.filename == str(path):
-                raise
-            why = e.strerror or (str(e).splitlines()[0] if str(e) else type(e).__name__)
-            raise OSError(e.errno, why, str(path)) from e
-        return replace_file(path, buf.getbuffer())
+# ============================================================================ groups (written by the store)
+def run_group(r):
+    """The writer of ``/runs/<name>`` of one run (a ``fill(file)`` for :meth:`vibeam.io.store.Store.commit`)."""
+    def fill(f, ids=None):
+        v, groups = run_variables(r.data, r.attrs)
+        write_group(f, f"runs/{r.name}", v, _group_attrs(r), groups, _ids=ids)
+    return fill
 
 
-@contextlib.contextmanager
-def _signals_deferred():
-    """Hold SIGINT/SIGTERM back while a file is written (delivered right after), so Ctrl-C
-    never interrupts HDF5 in the middle of a call; a no-op off the main thread or on Windows."""
-    import signal
-    import threading
-
-    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    sigs = {signal.SIGINT, signal.SIGTERM}
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+def map_group(m):
+    """The writer of ``/maps/<name>`` of one parameter map."""
+    def fill(f, ids=None):
+        write_group(f, f"maps/{m.name}", map_variables(m), _group_attrs(m, parameter=m.parameter), _ids=ids)
+    return fill
 
 
-def _root_attrs(f, case_name, case_text, case_json="", complete=True):
-    set_attrs(f, {"Conventions": "CF-1.10", "vibeam_version": __version__, "vibeam_layout": LAYOUT_VERSION,
-                  "case_name": case_name, "case_text": case_text, "case_json": case_json,
-                  "created": datetime.now(timezone.utc).isoformat(), "complete": bool(complete)})
+def table_group(gpath: str, table: dict, attrs: dict | None = None):
+    """The writer of a plain table ``{name: array or Variable}`` at ``gpath`` (:func:`table_variables`),
+    with ``attrs = {path: {name: value}}`` set last on the group or its variables (paths below
+    ``gpath``, e.g. ``{"fit/residuals": {"units": "mm"}}``)."""
+    def fill(f, ids=None):
+        write_group(f, gpath, table_variables(table), _ids=ids)
+        for apath, a in (attrs or {}).items():
+            obj = f[apath] if apath in f else f.require_group(apath)
+            set_attrs(obj, a)
+    return fill
 
 
-def case_hash(case_json: str) -> str:
-    """Identity of a case as run (its validated JSON): SHA-256, 16 hex digits.
-
-    Every checkpointed line carries it (attribute ``case_hash``), so a resume
-    keeps only lines computed for the same case and variant."""
-    import hashlib
-
-    return hashlib.sha256(case_json.encode()).hexdigest()[:16]
-
-
-def append_lines(path, lines: dict, case_name: str = "", case_text: str = "", case_json: str = "",
-                 fresh: bool = False) -> Path:
-    """Add finished sweep lines to the checkpoint ``/lines`` of ``path`` atomically.
-
-    Parameters
-    ----------
-    path : str or Path
-        Results file; created (marked ``complete = 0``) if missing.
-    lines : dict
-        ``{"<run>/<line key>": {dataset: array of length n_points}}``.
-    case_name, case_text, case_json : str
-        Root attributes of a new file (the case identifies what may be resumed).
-    fresh : bool
-        Start a new file holding only ``lines`` (the first checkpoint of a run that is not
-        resumed): an existing ``path`` is not read, and it stays as it was until the new
-        file is complete and renamed over it.
-
-    Returns
-    -------
-    Path
-
-    Raises
-    ------
-    ForeignFileError
-        If ``path`` holds the checkpoint of another case (``case_json``
-        differs): lines of two cases are never mixed in one file.
-    """
-    path = Path(path)
-    ident = case_hash(case_json)
-
-    def fill(f):
-        if "case_text" not in f.attrs:
-            _root_attrs(f, case_name, case_text, case_json, complete=False)
-        elif str(f.attrs.get("case_json", "")) != case_json:
-            raise ForeignFileError(f"{path} now holds the results of another case "
-                                   f"({f.attrs.get('case_name', '?')!s}): another process wrote it")
-        f.attrs["complete"] = np.int8(0)
-        ids = DimIds()
-        for key, data in lines.items():
-            if f"lines/{key}" in f:
-                del f[f"lines/{key}"]
-            write_group(f, f"lines/{key}", line_variables(data), {"case_hash": ident}, _ids=ids)
-
-    return _atomic(path, fill, copy_from=path if path.exists() and not fresh else None)
+def line_group(data: dict, case_json: str) -> tuple:
+    """``(variables, attrs)`` of one checkpointed sweep line (:meth:`vibeam.io.store.Store.checkpoint`)."""
+    return line_variables(data), {"case_hash": case_hash(case_json)}
 
 
 def read_lines(path, case_json: str | None = None) -> tuple[dict, dict]:
     """The checkpoint of a results file: ``(root attrs, {run: {line key: {dataset: array}}})``.
 
-    With ``case_json``, only the lines whose ``case_hash`` attribute is that of
-    ``case_json`` (:func:`case_hash`) are returned: a line of another case, or
-    one without the attribute, is never kept.  A complete file has no lines
-    (they were compacted into ``/runs`` and ``/maps``).
+    The checkpoint is ``<path>.partial`` (:mod:`vibeam.io.store`); without one, the file's own
+    ``/lines`` (where an earlier vibeam kept its checkpoint).  With ``case_json``, only the
+    lines whose ``case_hash`` attribute is that of ``case_json`` (:func:`case_hash`) are
+    returned: a line of another case, or one without the attribute, is never kept.  A complete
+    file has no lines.  The root attributes are those of the file read (the checkpoint's
+    ``complete`` is 0).
     """
     import h5py
 
+    from vibeam.io.h5check import open_checked
+    from vibeam.io.store import PARTIAL_SUFFIX
+
+    path = Path(path)
+    partial = path.with_name(path.name + PARTIAL_SUFFIX)
+    src = partial if partial.is_file() else path
     out = {}
     ident = None if case_json is None else case_hash(case_json)
-    with h5py.File(path, "r") as f:
+    with open_checked(src, "checkpoint") as f:
         attrs = read_attrs(f)
-        for run, g in f.get("lines", {}).items():
-            got = {key: read_plain(gl) for key, gl in g.items()
-                   if ident is None or str(gl.attrs.get("case_hash", "")) == ident}
-            if got:
-                out[run] = got
+        lines = f.get("lines", getlink=True)
+        if isinstance(lines, h5py.HardLink):
+            for run, g in f["lines"].items():
+                got = {key: read_plain(gl) for key, gl in g.items()
+                       if ident is None or str(gl.attrs.get("case_hash", "")) == ident}
+                if got:
+                    out[run] = got
     return attrs, out
 
 
 def write_results(path, runs: list, case_name: str = "", case_text: str = "",
-                  extra: dict | None = None, maps: list | None = None, lines: dict | None = None,
-                  case_json: str = "", branches: list | None = None, extra_attrs: dict | None = None) -> Path:
-    """Write all runs to ``path`` atomically (the layout of the module docstring).
+                  extra: dict | None = None, maps: list | None = None, case_json: str = "",
+                  branches: list | None = None, extra_attrs: dict | None = None, fresh: bool = False) -> Path:
+    """Write runs, maps, continuation branches and tables into the results file ``path``,
+    through its folder's results store (:class:`vibeam.io.store.Store`: under the folder's
+    lock, every other group of an existing file kept, the whole file replaced atomically).
 
     Parameters
     ----------
@@ -621,72 +560,53 @@ def write_results(path, runs: list, case_name: str = "", case_text: str = "",
         of ``vibeam cost``; :func:`table_variables`).
     maps : list of vibeam.analysis.maps.MapResult, optional
         Parameter maps, written to ``/maps/<name>`` (:func:`map_variables`).
-    lines : dict, optional
-        A checkpoint ``{"<run>/<line key>": {dataset: array}}`` to keep in ``/lines``
-        (a finished run passes none: its lines are compacted into ``/runs``).
     case_json : str
-        The validated case (as run, e.g. its quick variant) as JSON; ``--resume``
-        only continues a file whose ``case_json`` matches.
+        The validated case (as run, e.g. its quick variant) as JSON: the identity of the
+        groups written (``case_hash``).
     branches : list of vibeam.analysis.branches.ContinuationResult, optional
-        Continuation runs, written to ``/branches/<run>/`` (:func:`vibeam.analysis.branches.write_branches`).
+        Continuation runs, written to ``/branches/<run>/``.
     extra_attrs : dict, optional
-        Attributes set last on groups or variables of the file, ``{path: {name: value}}``
-        (e.g. ``{"fit/residuals": {"units": "mm"}}``); a missing path becomes a group.
+        Attributes set last on groups or variables of ``extra``, ``{path: {name: value}}``
+        (e.g. ``{"fit/residuals": {"units": "mm"}}``).
+    fresh : bool
+        Start a new file (the old one's groups are not kept).
 
     Returns
     -------
     Path
         The written file.
+
+    Raises
+    ------
+    ValueError
+        An ``extra_attrs`` path that lies in none of the ``extra`` groups.
     """
-    def fill(f):
-        _root_attrs(f, case_name, case_text, case_json, complete=True)
-        ids = DimIds()
-        f.create_group("runs")
-        for r in runs:
-            v, groups = run_variables(r.data, r.attrs)
-            write_group(f, f"runs/{r.name}", v, _group_attrs(r), groups, _ids=ids)
-        for m in maps or []:
-            write_group(f, f"maps/{m.name}", map_variables(m), _group_attrs(m, parameter=m.parameter), _ids=ids)
-        for gpath, table in (extra or {}).items():
-            write_group(f, gpath, table_variables(table), _ids=ids)
-        for key, data in (lines or {}).items():
-            write_group(f, f"lines/{key}", line_variables(data), {"case_hash": case_hash(case_json)}, _ids=ids)
-        for b in branches or []:
-            b.write(f)          # a continuation run writes its own /branches/<run>/ group
-        for apath, a in (extra_attrs or {}).items():
-            obj = f[apath] if apath in f else f.require_group(apath)
-            set_attrs(obj, a)
+    from vibeam.io.store import Store
 
-    return _atomic(Path(path), fill)
-
-
-def replace_branches(path, branches: list) -> Path:
-    """Replace the ``/branches`` of an existing results file (atomically, everything else kept);
-    each continuation run writes its own group (``ContinuationResult.write``)."""
-    def fill(f):
-        if "branches" in f:
-            del f["branches"]
-        for b in branches:
-            b.write(f)
-
-    return _atomic(Path(path), fill, copy_from=Path(path))
-
-
-def replace_group(path, group: str | None, fill, case_name: str = "", case_text: str = "") -> Path:
-    """Replace (or add) the group ``group`` of a results file, atomically, everything else kept;
-    ``fill(file)`` writes the new group (e.g. :func:`vibeam.io.netcdf.write_group`; ``group`` None:
-    nothing is removed first).  Without a file at ``path``, a new one holds the group alone (with
-    ``case_name`` and ``case_text``)."""
     path = Path(path)
+    with Store(path.parent, path.name, fresh=fresh) as store:
+        return store.commit(result_groups(runs, maps, branches, extra, extra_attrs), case_name, case_text,
+                            case_json)
 
-    def fill_(f):
-        if "vibeam_layout" not in f.attrs:
-            _root_attrs(f, case_name, case_text, "", complete=True)
-        if group is not None and group in f:
-            del f[group]
-        fill(f)
 
-    return _atomic(path, fill_, copy_from=path if path.exists() else None)
+def result_groups(runs=(), maps=(), branches=(), extra=None, extra_attrs=None) -> dict:
+    """``{unit path: fill}`` of runs, maps, continuation branches and tables (for
+    :meth:`vibeam.io.store.Store.commit`)."""
+    groups = {}
+    for r in runs or []:
+        groups[f"runs/{r.name}"] = run_group(r)
+    for m in maps or []:
+        groups[f"maps/{m.name}"] = map_group(m)
+    for b in branches or []:
+        groups[f"branches/{b.name}"] = b.write       # a continuation run writes its own group
+    extra = extra or {}
+    for apath in extra_attrs or {}:
+        if not any(apath == g or apath.startswith(g.rstrip("/") + "/") for g in extra):
+            raise ValueError(f"extra_attrs {apath!r}: lies in none of the groups {sorted(extra)}")
+    for gpath, table in extra.items():
+        own = {k: v for k, v in (extra_attrs or {}).items() if k == gpath or k.startswith(gpath.rstrip("/") + "/")}
+        groups[gpath.strip("/")] = table_group(gpath, table, own)
+    return groups
 
 
 def _group_attrs(r, **more) -> dict:
@@ -747,9 +667,9 @@ def branch_name(b: dict) -> str:
 
 def layout_of(path) -> int:
     """``vibeam_layout`` of a results file: 2 (netCDF dimensions) or 1 (the first, flat layout)."""
-    import h5py
+    from vibeam.io.h5check import open_checked
 
-    with h5py.File(path, "r") as f:
+    with open_checked(path) as f:
         return int(read_attrs(f).get("vibeam_layout", 1))
 
 
@@ -770,10 +690,10 @@ def read_results(path) -> dict:
         ``/lines`` is read by :func:`read_lines`.  Files of the first layout
         (no dimensions) are read as well.
     """
-    import h5py
+    from vibeam.io.h5check import open_checked
 
     out = {"attrs": {}, "runs": {}, "maps": {}, "branches": {}}
-    with h5py.File(path, "r") as f:
+    with open_checked(path) as f:
         out["attrs"] = read_attrs(f)
         v2 = int(out["attrs"].get("vibeam_layout", 1)) >= 2
         for kind in ("runs", "maps", "branches"):
