@@ -727,3 +727,38 @@ def test_no_long_sequence_of_commands_loses_a_complete_group(store_ws, tmp_path_
         _run_sequence(store_ws, folder, steps, monkeypatch)
 
     prop()
+
+
+# ----------------------------------------------------------------------------- item 5 (export)
+def test_export_gives_every_table_its_own_file(tmp_path):
+    """Runs named ``a``, ``a.units`` and ``a@direction-Omega-harmonic``: before, their files
+    overwrote each other (``runs.a.units.csv`` is also the sidecar of ``runs.a.csv``; the third
+    run's main table is the harmonics file of the first) and index.csv listed one file twice.
+    Now every (group, dimensions) table has a file of its own, listed once, holding that group's
+    values."""
+    import pandas as pd
+
+    from vibeam.api import export
+
+    names = ["a", "a.units", "a@direction-Omega-harmonic"]
+    text = SCENE.format(description="a").split("[basins]")[0]       # the nondimensional scene, a sweep
+    text += "".join(f'[[run]]\nname = "{n}"\nmethod = "event"\n[run.model]\nR = {0.6 + 0.1 * i}\n'
+                    for i, n in enumerate(names))
+    case = _write(tmp_path, "c.toml", text)
+    out = tmp_path / "D"
+    assert main(["run", str(case), "--out", str(out), *QUIET]) == 0
+    files = export(out / "results.h5", tmp_path / "csv")
+    index = pd.read_csv(tmp_path / "csv" / "index.csv")
+    assert len(index) == len(set(index["file"])) == len(files)
+    for n, R in zip(names, (0.6, 0.7, 0.8)):
+        rows = index[(index["group"] == f"runs/{n}") & (index["dimensions"] == "direction Omega")]
+        assert len(rows) == 1, (n, index)
+        table = pd.read_csv(tmp_path / "csv" / rows["file"].iloc[0])
+        stored = read_results(out / "results.h5")["runs"][n]
+        np.testing.assert_allclose(np.sort(table["amplitude"].to_numpy()), np.sort(stored["amplitude"]))
+        assert (tmp_path / "csv" / rows["file"].iloc[0].replace(".csv", ".units.csv")).is_file()
+    # every data file's sidecar describes that file's columns
+    for f in index["file"]:
+        cols = list(pd.read_csv(tmp_path / "csv" / f, nrows=0).columns)
+        units = pd.read_csv(tmp_path / "csv" / f.replace(".csv", ".units.csv"))
+        assert list(units["column"]) == cols, f
