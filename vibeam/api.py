@@ -1198,9 +1198,16 @@ def basins(case, frequency_hz=None, Omega=None, grid=None, samples: int | None =
         spec = BasinsSpec.model_validate(data)
     except ValidationError as e:
         raise CaseError(validation_message(e, "basins", BasinsSpec)) from None
-    res = compute(c, jobs=jobs, executor=executor, progress=progress, spec=spec)
-    if out is not None:
-        write_basins(out, [res], c.name, case_text(c))
+    if out is None:
+        return compute(c, jobs=jobs, executor=executor, progress=progress, spec=spec)
+    from vibeam.io.store import Store
+    from vibeam.runner import case_identity
+
+    out = Path(out)
+    with Store(out.parent, out.name) as st:       # the file's folder held for the computation and the write
+        res = compute(c, jobs=jobs, executor=executor, progress=progress, spec=spec)
+        cj, aliases = case_identity(st, c.model_dump_json())
+        write_basins(st, [res], c.name, case_text(c), cj, aliases)
     return res
 
 

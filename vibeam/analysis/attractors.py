@@ -43,7 +43,10 @@ from vibeam.models.attractors import FAILED, UNSETTLED, Recurrences, set_distanc
 from vibeam.plots.style import NODIM, PALETTE, context, legend_outside
 
 TYPES = ("period", "sticking", "chaotic", "quasi_periodic", "non_periodic")
-LABELS = {UNSETTLED: "unsettled", FAILED: "failed"}
+#: label of an initial state that lies behind a rigid (impulsive) stop: outside the admissible
+#: region, so it is neither simulated nor counted in the basin fractions
+BEHIND_STOP = -4
+LABELS = {UNSETTLED: "unsettled", FAILED: "failed", BEHIND_STOP: "behind a stop (not simulated)"}
 
 
 @dataclass
@@ -113,6 +116,9 @@ class BasinsResult:
         Map iterations spent per frequency; ``wall_time_s`` the time per frequency.
     stop : float or None
         The upper stop's position on the grid's first axis (SDOF), else None.
+    stops : tuple of (float, float)
+        Every stop's position on the grid's first axis and its side ``d`` (:func:`axis_stops`:
+        states with ``d (x - position) > 0`` lie behind it); drawn in the basin plot.
     grazing : ndarray, shape (n_Omega, ny, nx), or None
         SDOF grids: the largest gap ``q - Delta`` of the free flight over the first forcing
         period from each initial state (:func:`first_period_gap`); its zero contour is the set
@@ -145,6 +151,7 @@ class BasinsResult:
     grazing: np.ndarray | None = None
     parameter: str = "Omega"
     values: np.ndarray | None = None
+    stops: tuple = ()
 
     @property
     def along(self) -> str:
@@ -165,9 +172,15 @@ class BasinsResult:
         return len(self.attractors["type"][0]) if self.attractors["type"] else 0
 
     def fractions(self, i: int = 0) -> dict:
-        """``{label: fraction}`` of the initial states at frequency ``i`` (unsettled, failed included)."""
+        """``{label: fraction}`` of the admissible initial states at frequency ``i`` (unsettled,
+        failed included; states behind a stop, :data:`BEHIND_STOP`, are not counted)."""
         lab = self.labels[i].ravel()
+        lab = lab[lab != BEHIND_STOP]
         return {int(k): float(np.mean(lab == k)) for k in np.unique(lab)}
+
+    def behind_stop(self, i: int = 0) -> int:
+        """How many initial states at frequency ``i`` lie behind a stop (not simulated, not counted)."""
+        return int(np.sum(self.labels[i] == BEHIND_STOP))
 
     def to_xarray(self):
         """The result as an :class:`xarray.Dataset` (the variables of ``/basins/<run>/``)."""
@@ -305,6 +318,113 @@ def axes_of(model, coordinates=None) -> Axes:
     return Axes((0, 1), (1.0, 1.0), ("q", "q_dot"), ("1", "1"), (rf"$q$ ({NODIM})", rf"$q'$ ({NODIM})"))
 
 
+def _system(model):
+    """The model's modal system (:mod:`vibeam.models.system`) and its stops."""
+    from vibeam.models.system import from_beam, from_sdof
+
+    return (from_beam(model) if hasattr(model, "n_modes") else from_sdof(model)), tuple(model.stops())
+
+
+def stop_gaps(model, states) -> np.ndarray:
+    """The gap of every stop at each state: ``g_k = s_k W[row_k] @ eta - offset_k`` (< 0 free,
+    > 0 behind the stop; paper Eq. 2's ``q - Delta`` for the SDOF's upper stop).
+
+    Parameters
+    ----------
+    model : SDOF or beam model
+    states : array_like, shape (m, d) or (d,)
+        Model states ``(eta, eta', ...)``; the first ``n_modes`` entries are the modal
+        coordinates (the SDOF's ``q``).
+
+    Returns
+    -------
+    ndarray, shape (m, n_stops)
+        In the model's own units (the SDOF: nondimensional; the beam: metres).
+    """
+    s, stops = _system(model)
+    n = s.omega.size
+    S = np.atleast_2d(np.asarray(states, float))
+    eta = S[:, :n]
+    out = np.empty((S.shape[0], len(stops)))
+    for k, st in enumerate(stops):
+        r = st.relation
+        out[:, k] = r.sign * (eta @ s.contacts[r.row]) - r.offset
+    return out
+
+
+def behind_stop(model, states) -> np.ndarray:
+    """Whether each state lies behind a rigid (impulsive, Newton's law) stop: outside the region
+    the motion can reach, so the event kernels would project it onto the stop.  A compliant
+    stop admits penetration (its contact phase), so a state behind it is admissible.
+
+    Parameters
+    ----------
+    model : SDOF or beam model
+    states : array_like, shape (m, d) or (d,)
+
+    Returns
+    -------
+    ndarray of bool, shape (m,)
+        True where some impulsive stop's gap (:func:`stop_gaps`) exceeds 1e-12 of the larger of
+        the stop's offset and the contact coordinate (round-off of a state placed on the stop).
+    """
+    s, stops = _system(model)
+    n = s.omega.size
+    S = np.atleast_2d(np.asarray(states, float))
+    g = stop_gaps(model, S)
+    out = np.zeros(S.shape[0], bool)
+    for k, st in enumerate(stops):
+        if getattr(st.law, "kind", "") == "compliant":
+            continue
+        scale = np.maximum(abs(st.relation.offset), np.abs(S[:, :n] @ s.contacts[st.relation.row]))
+        out |= g[:, k] > 1e-12 * np.maximum(scale, 1e-300)
+    return out
+
+
+def axis_stops(model, axes: Axes, k: int = 0) -> list:
+    """Where each stop closes on axis ``k`` of a basin grid, the other coordinates at rest:
+    ``[(position, d)]`` in axis units, a state with ``d (x - position) > 0`` lying behind the
+    stop (``d = +1``: an upper bound of the admissible region, ``-1`` a lower one).  Stops whose
+    contact coordinate does not move along the axis (a velocity axis) are left out."""
+    s, stops = _system(model)
+    n = s.omega.size
+    out = []
+    for st in stops:
+        r = st.relation
+        W = s.contacts[r.row]
+        if axes.write is not None:
+            wc = float(W @ axes.write[k, :n])              # contact displacement per axis unit
+        else:
+            i = int(axes.index[k])
+            if i >= n:
+                continue
+            wc = float(W[i]) / float(axes.factor[k])
+        a = r.sign * wc
+        if a == 0.0 or not math.isfinite(a):
+            continue
+        out.append((float(r.offset) / a, 1.0 if a > 0 else -1.0))
+    return out
+
+
+def _admissible_interval(model, axes: Axes, k: int, span: float, centre: float = 0.0) -> tuple:
+    """The default range of axis ``k``: from the nearest upper bound (a stop) ``span`` down, not
+    past a lower bound (a second stop), or from a lower bound ``span`` up; ``centre +- span``
+    without a stop on the axis."""
+    st = axis_stops(model, axes, k)
+    upper = [p for p, d in st if d > 0]
+    lower = [p for p, d in st if d < 0]
+    if upper:
+        hi = min(upper)
+        lo = hi - span
+        if lower:
+            lo = max(lo, max(lower))
+        return (lo, hi)
+    if lower:
+        lo = max(lower)
+        return (lo, lo + span)
+    return (centre - span, centre + span)
+
+
 def _sensor_stop(model, axes: Axes):
     """The stop's position on a beam's ``U`` axis (mm): where the static shape closes the gap at
     the contact point; None where the contact row does not move in that shape."""
@@ -317,11 +437,13 @@ def _sensor_stop(model, axes: Axes):
 
 
 def default_ranges(model, axes: Axes, Omega: float) -> tuple:
-    """A box around the stop holding the attractors of a usual scene: for the SDOF ``q`` over
-    ``[Delta - 8 A, Delta]``, ``q'`` over ``[-8 A Omega, 8 A Omega]`` with ``A = max(|Delta|,
-    X)`` (``X`` the linear response amplitude without the stop); for a beam's modal coordinate
-    the same with the mode's own ``X`` and the value at which it alone closes the gap at the
-    contact row."""
+    """A box around the stop holding the attractors of a usual scene, inside the admissible
+    region: for the SDOF ``q`` over ``[Delta - 8 A, Delta]``, ``q'`` over ``[-8 A Omega, 8 A
+    Omega]`` with ``A = max(|Delta|, X)`` (``X`` the linear response amplitude without the
+    stop); for a beam's modal coordinate the same with the mode's own ``X`` and the value at
+    which it alone closes the gap at the contact row.  A second stop (a two-sided scene) bounds
+    the range from the other side (:func:`axis_stops`): no state of the default box lies behind
+    a stop."""
     B = float(getattr(model, "B", 0.0) or 0.0)
     beta = float(getattr(model, "beta", 0.0) or 0.0)
     Delta = float(model.Delta)
@@ -335,10 +457,7 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
         stop = _sensor_stop(model, axes)
         A = max(X, abs(stop) if stop is not None else 0.0, 1e-300)
         V = 8 * A * Omega / (s.time_unit_s * 1.0)              # mm/s: Omega per unit of kernel time
-        if stop is None:
-            return ((-8 * A, 8 * A), (-V, V))
-        wc = float(s.contacts[0] @ axes.write[0, :s.omega.size])
-        return ((stop - 8 * A, stop) if wc > 0 else (stop, stop + 8 * A), (-V, V))
+        return (_admissible_interval(model, axes, 0, 8 * A), (-V, V))
     if hasattr(model, "n_modes"):
         from vibeam.models.system import from_beam
 
@@ -354,16 +473,14 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
             A = max(X, abs(stop) if math.isfinite(stop) else 0.0, 1e-300)
             if vel:
                 rng.append((-8 * A * Omega, 8 * A * Omega))
-            elif math.isfinite(stop):
-                # the admissible side of the stop: the mode's contact-row entry sets it
-                rng.append((stop - 8 * A, stop) if wc > 0 else (stop, stop + 8 * A))
             else:
-                rng.append((-8 * A, 8 * A))
+                # the admissible side of the stops: the mode's contact-row entries set it
+                rng.append(_admissible_interval(model, axes, len(rng), 8 * A))
         return tuple(rng)
     X = Omega ** 2 * B / max(math.hypot(1 - Omega ** 2, 2 * beta * Omega), 1e-300)
     A = max(abs(Delta), X, 1e-12)
     f0, f1 = axes.factor
-    return ((f0 * (Delta - 8 * A), f0 * Delta), (-f1 * 8 * A * Omega, f1 * 8 * A * Omega))
+    return (_admissible_interval(model, axes, 0, f0 * 8 * A), (-f1 * 8 * A * Omega, f1 * 8 * A * Omega))
 
 
 # ---------------------------------------------------------------------------- the work
@@ -382,6 +499,7 @@ class BasinLine:
     Omega: float
     states: np.ndarray
     recurrence: dict
+    skip: np.ndarray | None = None        # states behind a stop: labelled BEHIND_STOP, not simulated
 
     @property
     def n_points(self) -> int:
@@ -397,7 +515,8 @@ class BasinLine:
         rec, step = mem
         t0 = time.perf_counter()
         p0 = rec.periods
-        labels = np.array([rec.label(step, x) for x in self.states], np.int64)
+        skip = self.skip if self.skip is not None else np.zeros(len(self.states), bool)
+        labels = np.array([BEHIND_STOP if sk else rec.label(step, x) for x, sk in zip(self.states, skip)], np.int64)
         pid = os.getpid()
         att = {("new", pid, int(k)): rec.attractors[k] for k in np.unique(labels) if k >= 0}
         return [dict(labels=labels, attractors=att, pid=pid, periods=rec.periods - p0,
@@ -800,7 +919,8 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
                           max_periods=spec.max_periods, basin_hits=spec.basin_hits)
         token = f"{case.name}/{name}/{float(Omega)!r}/{value!r}/{os.getpid()}/{time.time_ns()}"
         lines = [BasinLine(key=f"{iO:04d}-{k:04d}", run=name, token=token, solver=solver, Omega=float(Omega),
-                           states=to_state(P), recurrence=recurrence) for k, P in enumerate(pts)]
+                           states=to_state(P), recurrence=recurrence, skip=behind_stop(model, to_state(P)))
+                 for k, P in enumerate(pts)]
         todo = [l for l in lines if l.key not in stored]
         buffer: dict = {}
         last = [time.perf_counter()]
@@ -841,10 +961,12 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         labels[iO] = lab.reshape(ny, nx) if grid else lab
         desc = [describe_attractor(solver, X, float(Omega), float(model.Delta), spec.record_periods,
                                    spec.lyapunov_periods, case.sweep.period_rtol) for X in groups]
+        counted = lab[lab != BEHIND_STOP]          # the fractions of the admissible states
         for k, dsc in enumerate(desc):
             dsc["samples"] = groups[k]
-            dsc["fraction"] = float(np.mean(lab == k))
-            dsc["fraction_se"] = math.sqrt(dsc["fraction"] * (1 - dsc["fraction"]) / lab.size)
+            dsc["fraction"] = float(np.mean(counted == k)) if counted.size else math.nan
+            dsc["fraction_se"] = (math.sqrt(dsc["fraction"] * (1 - dsc["fraction"]) / counted.size)
+                                  if counted.size else math.nan)
         per_Omega.append((desc, width))
         if grid and axes.names[0] in ("q", "U") and not hasattr(model, "n_modes"):
             Q0, V0 = np.meshgrid(xs / axes.factor[0], ys / axes.factor[1])
@@ -863,6 +985,7 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
                         stop=(_sensor_stop(model, axes) if axes.write is not None else
                               float(model.Delta) * axes.factor[0] if axes.names[0] in ("q", "U") else None),
                         grazing=np.array(grazing) if grazing else None,
+                        stops=tuple(axis_stops(model, axes, 0)),
                         parameter=case.map.parameter if spec.along == "map" else "Omega",
                         values=np.array([v for _, _, v in slices], float) if spec.along == "map" else None)
 
@@ -994,12 +1117,12 @@ def basins_variables(r: BasinsResult) -> dict:
         out["state_1"] = var(("state_1",), r.x, ax.units[0], f"initial {ax.names[0]}")
         out["state_2"] = var(("state_2",), r.y, ax.units[1], f"initial {ax.names[1]}")
         out["basin"] = var((D, "state_2", "state_1"), r.labels.astype(np.int32), "1",
-                           "attractor reached (-2 unsettled, -3 failed)")
+                           "attractor reached (-2 unsettled, -3 failed, -4 behind a stop)")
     else:
         out["initial_state_1"] = var(("sample",), r.initial[:, 0], ax.units[0], f"initial {ax.names[0]}")
         out["initial_state_2"] = var(("sample",), r.initial[:, 1], ax.units[1], f"initial {ax.names[1]}")
         out["label"] = var((D, "sample"), r.labels.astype(np.int32), "1",
-                           "attractor reached (-2 unsettled, -3 failed)")
+                           "attractor reached (-2 unsettled, -3 failed, -4 behind a stop)")
     a = r.attractors
     nA = r.n_attractors
     out["attractor"] = var(("attractor",), np.arange(nA, dtype=np.int32), "1", "attractor index")
@@ -1034,8 +1157,13 @@ def basins_variables(r: BasinsResult) -> dict:
     out["attractor_message"] = var((D, "attractor"), np.array(a["message"], dtype=object).reshape(len(r.Omega), nA),
                                    None, "what the description of the attractor met (solver, shooting)")
     lab = r.labels.reshape(len(r.Omega), -1)
-    out["unsettled_fraction"] = var((D,), np.mean(lab == UNSETTLED, axis=1), "1", "states not settled")
-    out["failed_fraction"] = var((D,), np.mean(lab == FAILED, axis=1), "1", "states the solver failed on")
+    n_ok = np.maximum(np.sum(lab != BEHIND_STOP, axis=1), 1)
+    out["unsettled_fraction"] = var((D,), np.sum(lab == UNSETTLED, axis=1) / n_ok, "1",
+                                    "share of the admissible states not settled")
+    out["failed_fraction"] = var((D,), np.sum(lab == FAILED, axis=1) / n_ok, "1",
+                                 "share of the admissible states the solver failed on")
+    out["states_behind_stop"] = var((D,), np.sum(lab == BEHIND_STOP, axis=1).astype(np.int64), "1",
+                                    "initial states behind a rigid stop: not simulated, not counted")
     out["periods"] = var((D,), r.periods, "1", "stroboscopic-map iterations spent")
     out["wall_time_s"] = var((D,), r.wall_time_s, "s", "wall time")
     if r.grazing is not None and r.grid:
@@ -1057,6 +1185,8 @@ def _axes_attrs(r: BasinsResult) -> dict:
     for k in ("amplitude_scale_mm", "time_scale_s", "stop"):
         if getattr(r, k) is not None:
             a[k] = float(getattr(r, k))
+    if r.stops:
+        a["stops"] = json.dumps([[float(p), float(d)] for p, d in r.stops])
     return a
 
 
@@ -1121,6 +1251,7 @@ def basins_from_dataset(ds, name: str | None = None) -> BasinsResult:
         amplitude_scale_mm=float(mm) if mm else None, time_scale_s=float(ts) if ts else None,
         settings=json.loads(settings) if isinstance(settings, str) else dict(settings),
         stop=float(at["stop"]) if "stop" in at else None,
+        stops=tuple(tuple(x) for x in json.loads(at["stops"])) if "stops" in at else (),
         grazing=v("grazing_gap") if "grazing_gap" in ds else None,
         parameter=along, values=None if along == "Omega" else v(along).astype(float))
 
@@ -1193,7 +1324,8 @@ def _basins_figure(r, i, title):
     nA = r.n_attractors
     present = [k for k in range(nA) if r.attractors["type"][i][k]]
     colours = ["0.55", "0.8"] + [PALETTE[k % len(PALETTE)] for k in range(nA)]
-    img = r.labels[i] + 3 if r.grid else None
+    # image values: 0 failed, 1 unsettled, 2 behind a stop (white), 3 + k attractor k
+    img = np.where(r.labels[i] == BEHIND_STOP, -1, r.labels[i]) + 3 if r.grid else None
     handles = []
     if r.grid:
         ax.imshow(img, origin="lower", aspect="auto", interpolation="nearest",
@@ -1203,8 +1335,9 @@ def _basins_figure(r, i, title):
                   vmin=-0.5, vmax=len(colours) + 0.5)
     else:
         lab = r.labels[i]
-        ax.scatter(r.initial[:, 0], r.initial[:, 1], s=6, c=[colours[l + 2] if l >= 0 else colours[0 if l == FAILED else 1]
-                                                          for l in lab], linewidths=0)
+        ax.scatter(r.initial[:, 0], r.initial[:, 1], s=6,
+                   c=[colours[l + 2] if l >= 0 else "white" if l == BEHIND_STOP else colours[0 if l == FAILED else 1]
+                      for l in lab], edgecolors=["0.5" if l == BEHIND_STOP else "none" for l in lab], linewidths=0.5)
     for k in present:
         S = r.attractors["samples"][i, k]
         S = S[np.isfinite(S[:, 0])]
@@ -1215,12 +1348,17 @@ def _basins_figure(r, i, title):
     for code, c in ((UNSETTLED, colours[1]), (FAILED, colours[0])):
         if np.any(lab == code):
             handles.append(Patch(color=c, label=f"{LABELS[code]}, {100 * np.mean(lab == code):.1f} %"))
+    if np.any(lab == BEHIND_STOP):
+        handles.append(Patch(color="white", ec="0.5", label=f"{LABELS[BEHIND_STOP]}: {int(np.sum(lab == BEHIND_STOP))} "
+                                                              f"states"))
     if r.grazing is not None and r.grid and np.nanmin(r.grazing[i]) < 0 < np.nanmax(r.grazing[i]):
         ax.contour(r.x, r.y, r.grazing[i], levels=[0.0], colors="k", linewidths=0.8, linestyles=":")
         handles.append(Line2D([], [], color="k", lw=0.8, ls=":", label="grazing within one period"))
-    if r.stop is not None:
-        ax.axvline(r.stop, color="k", lw=0.8, ls="--")
-        handles.append(Line2D([], [], color="k", lw=0.8, ls="--", label="stop"))
+    drawn = [p for p, _ in r.stops] or ([r.stop] if r.stop is not None else [])
+    for j, p in enumerate(drawn):                   # every stop (a two-sided scene: both)
+        ax.axvline(p, color="k", lw=0.8, ls="--")
+    if drawn:
+        handles.append(Line2D([], [], color="k", lw=0.8, ls="--", label="stops" if len(drawn) > 1 else "stop"))
     ax.set_xlabel(r.axes.labels[0])
     ax.set_ylabel(r.axes.labels[1])
     ax.set_title(title or f"basins of attraction at {r.slice_text(i)} (run {r.name})")
@@ -1359,6 +1497,10 @@ def print_basins(r: BasinsResult) -> None:
                     lam = lam / r.time_scale_s
                 print(f"  {_legend_text(r, i, k)} (+- {100 * r.attractors['fraction_se'][i, k]:.1f} %), "
                       f"lambda_1 = {lam:.4g}{' 1/s' if r.time_scale_s else ''}")
+        n_ok = max(int(np.sum(lab != BEHIND_STOP)), 1)
         for code in (UNSETTLED, FAILED):
             if np.any(lab == code):
-                print(f"  {LABELS[code]}: {100 * np.mean(lab == code):.1f} %")
+                print(f"  {LABELS[code]}: {100 * np.sum(lab == code) / n_ok:.1f} %")
+        if np.any(lab == BEHIND_STOP):
+            print(f"  {int(np.sum(lab == BEHIND_STOP))} of {lab.size} initial states lie behind a stop: not "
+                  f"simulated, not counted in the fractions")

@@ -1,0 +1,104 @@
+"""Basins count only states the motion can reach (issue 42, item 2).
+
+On the two-sided Fig. 7 scene (stops at q = 0 and q = -Delta_lower = -2e-3) the default box used
+to run q from Delta - 8A = -4.86e-3 to 0: 58-60 % of the initial states lay behind the lower stop,
+the event kernel projected each onto the stop, and one line of projected states carried the
+fractions.  The oracle here is the closed form of the admissible region, -Delta_lower <= q <=
+Delta for a rigid stop, checked state by state.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import vibeam
+from vibeam.api import load_case
+from vibeam.engine.jobs import make_job
+
+TWO = "cases/paper-fig7-two-sided.toml"
+
+
+def _model(path=TWO, run=0):
+    c = load_case(path)
+    r = [x for x in c.run if x.method != "continuation"][run]
+    return make_job(c, r, dict(r.model)).solver.model
+
+
+def test_the_default_box_lies_between_the_stops():
+    """Both runs of the two-sided scene (lower stop at 2e-3 below the upper one at 0, and the
+    symmetric pair at +-2e-3), at three frequencies: the default q range lies in
+    [-Delta_lower, Delta] and reaches both ends where 8 A exceeds the distance between them."""
+    from vibeam.analysis.attractors import axes_of, default_ranges
+
+    for run in (0, 1):
+        m = _model(run=run)
+        lo, hi = -float(m.Delta_lower), float(m.Delta)
+        for W in (1.6, 2.0, 2.38):
+            (q0, q1), _ = default_ranges(m, axes_of(m, None), W)
+            assert lo <= q0 < q1 <= hi, (run, W, q0, q1, lo, hi)
+            assert q1 == hi and q0 == lo            # the span 8 A is larger than the gap here
+
+
+def test_behind_stop_is_the_closed_form_region():
+    """Random states on (q, q'): behind a stop exactly where q > Delta or q < -Delta_lower (rigid
+    stops); a compliant stop admits penetration, so nothing is behind it."""
+    from vibeam.analysis.attractors import behind_stop, stop_gaps
+
+    rng = np.random.default_rng(3)
+    m = _model()
+    S = np.column_stack([rng.uniform(-5e-3, 2e-3, 2000), rng.uniform(-1e-2, 1e-2, 2000), np.zeros(2000)])
+    want = (S[:, 0] > m.Delta) | (S[:, 0] < -m.Delta_lower)
+    assert want.any() and (~want).any()
+    np.testing.assert_array_equal(behind_stop(m, S), want)
+    g = stop_gaps(m, S)
+    np.testing.assert_allclose(g[:, 0], S[:, 0] - m.Delta, rtol=0, atol=1e-18)
+    np.testing.assert_allclose(g[:, 1], -S[:, 0] - m.Delta_lower, rtol=0, atol=1e-18)
+    # a state exactly on a stop (the box's edge) is admissible
+    assert not behind_stop(m, [[0.0, 1e-3, 0.0], [-m.Delta_lower, -1e-3, 0.0]]).any()
+    kv = vibeam.api.load_case({"name": "kv", "model": {"fidelity": "sdof", "beta": 0.015, "B": 5e-4, "Delta": 0.0,
+                                                       "R": 0.9, "contact": {"law": "linear", "stiffness": 1e4}},
+                               "sweep": {"Omega": [2.0, 2.1, 2]}, "run": [{"name": "e", "method": "event"}]})
+    mk = make_job(kv, kv.run[0], {}).solver.model
+    assert not behind_stop(mk, S).any()
+
+
+def test_states_behind_a_stop_are_excluded_counted_and_not_simulated(tmp_path, monkeypatch):
+    """A user box reaching q = -4e-3 (below the lower stop): every state with q < -Delta_lower is
+    labelled behind-stop (-4), none of them is simulated, the fractions are those of the admissible
+    states (they and the unsettled/failed shares add up to 1), and the count is stored and printed."""
+    from vibeam.analysis import attractors
+    from vibeam.models.attractors import Recurrences
+
+    calls = []
+    real = Recurrences.label
+
+    def label(self, step, x):
+        calls.append(float(x[0]))
+        return real(self, step, x)
+
+    monkeypatch.setattr(Recurrences, "label", label)
+    r = vibeam.basins(TWO, Omega=2.38, samples=200, seed=1, x_range=[-4e-3, 0.0], lyapunov_periods=0,
+                      out=tmp_path / "results.h5")
+    q = r.initial[:, 0]
+    behind = q < -2e-3
+    assert 0.3 < behind.mean() < 0.7
+    np.testing.assert_array_equal(r.labels[0] == attractors.BEHIND_STOP, behind)
+    assert r.behind_stop(0) == behind.sum()
+    assert len(calls) == (~behind).sum() and min(calls) >= -2e-3
+    counted = r.labels[0][~behind]
+    total = sum(float(np.mean(counted == k)) for k in range(r.n_attractors))
+    total += float(np.mean(counted < 0))
+    assert total == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(r.attractors["fraction"][0], [np.mean(counted == k) for k in range(r.n_attractors)])
+    ds = attractors.read_basins(tmp_path / "results.h5", r.name)
+    assert int(ds["states_behind_stop"].values[0]) == behind.sum()
+
+
+def test_the_basin_plot_draws_every_stop(tmp_path):
+    """Both stops of the two-sided scene are drawn (read back from the figure's artists)."""
+    from vibeam.analysis.attractors import basins_figure
+
+    r = vibeam.basins(TWO, Omega=2.0, grid=(6, 5), lyapunov_periods=0)
+    fig = basins_figure(r, 0)
+    xs = sorted(float(l.get_xdata()[0]) for l in fig.axes[0].lines if l.get_linestyle() == "--")
+    assert xs == pytest.approx([-2e-3, 0.0], abs=1e-15)
