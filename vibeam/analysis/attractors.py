@@ -600,7 +600,7 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
     (:func:`vibeam.engine.records.summarize`) and the spectrum start at their end."""
     from vibeam.models import shooting_problem
     from vibeam.models.continuation import start_point
-    from vibeam.models.lyapunov import classify_spectrum, lyapunov_spectrum
+    from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
     from vibeam.engine.records import summarize
 
     x = np.asarray(X[-1], float)
@@ -649,8 +649,11 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
     # the type would depend on which trajectory located the attractor
     stuck = (s["status"] in ("chatter", "sticking") or tr0.status in ("chatter", "sticking")
              or (x.size > dprob and x[dprob] != 0.0))
+    floquet = None
     if prob is not None and periodic and n <= 64:
         pt, why = start_point(prob, x[:dprob], float(Omega), max(n, 1), 0.5 * Omega, 2.0 * Omega)
+        if pt is not None and np.size(pt.mu) == dprob:
+            floquet = floquet_exponents(pt.mu, max(n, 1), float(Omega))
         if pt is not None:
             out["fixed_point"][:dprob] = pt.x
             out["stable"] = int(bool(np.max(np.abs(pt.mu)) < 1.0)) if pt.mu.size else 1
@@ -664,6 +667,8 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
         if sp.status == "ok":
             out["lyapunov"], out["lyapunov_error"] = sp.exponents, sp.error
             out["lyapunov_impacts_per_period"] = sp.impacts / max(sp.shots * sp.periods_per_shot, 1)
+            if floquet is not None:        # a refined periodic orbit: its exact exponents (QR: the check)
+                out["lyapunov"], out["lyapunov_error"] = floquet, np.zeros(dprob)
     if stuck:
         out["type"] = "sticking"
     elif periodic:
@@ -1149,7 +1154,8 @@ def basins_variables(r: BasinsResult) -> dict:
     if r.time_scale_s:
         lam, err, unit = lam / r.time_scale_s, err / r.time_scale_s, "1/s"
     out["lyapunov"] = var((D, "attractor", "exponent"), lam, unit, "Lyapunov spectrum of the stroboscopic map")
-    out["lyapunov_error"] = var((D, "attractor", "exponent"), err, unit, "half the halves' difference")
+    out["lyapunov_error"] = var((D, "attractor", "exponent"), err, unit,
+                                "standard error by batch means (0: Floquet exponents of a periodic orbit)")
     out["attractor_samples"] = var((D, "attractor", "strobe_sample", "coordinate"), a["samples"], "1",
                                    "stroboscopic set (model state, NaN padded)")
     out["attractor_fixed_point"] = var((D, "attractor", "coordinate"), a["fixed_point"], "1",

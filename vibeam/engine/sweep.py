@@ -69,8 +69,10 @@ class Sweep:
         0: no Lyapunov exponents; else the spectrum of the stroboscopic map over this many
         forcing periods from the point's final state, by the model's shooting problem
         (:func:`vibeam.models.lyapunov.lyapunov_spectrum`; time-domain methods): the point's
-        ``lyapunov`` and ``lyapunov_error`` (NaN, with the reason in ``lyapunov_message``, where
-        the shooting problem cannot follow the orbit).
+        ``lyapunov`` and ``lyapunov_error`` (batch-means standard error; NaN, with the reason in
+        ``lyapunov_message``, where the shooting problem cannot follow the orbit).  At a periodic
+        point the exponents are its orbit's Floquet exponents (exact; ``lyapunov_method`` =
+        ``floquet``, error 0) and the QR estimate is kept in ``lyapunov_qr`` as a check.
     """
 
     Omega: np.ndarray
@@ -426,11 +428,41 @@ def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
         ok, why = False, str(e)
     if ok:
         out["lyapunov"], out["lyapunov_error"] = sp.exponents, sp.error
-        out["lyapunov_class"] = classify_spectrum(sp.exponents, sp.error,
-                                                  periodic=int(out.get("period", 0)) != 0)
+        out["lyapunov_qr"] = sp.exponents
+        out["lyapunov_method"] = "qr"
+        n = int(out.get("period", 0))
+        if n > 0:
+            # a periodic orbit: its Floquet exponents are exact, the QR estimate (biased like 1/K)
+            # stays as the check; where the orbit cannot be refined, the QR values are reported
+            lam = orbit_exponents(model, traj.final_state, float(Omega), n, d)
+            if lam is not None:
+                out["lyapunov"], out["lyapunov_error"] = lam, np.zeros(d)
+                out["lyapunov_method"] = "floquet"
+        out["lyapunov_class"] = classify_spectrum(out["lyapunov"], out["lyapunov_error"], periodic=n != 0)
     else:
         out["lyapunov"], out["lyapunov_error"] = np.full(d, np.nan), np.full(d, np.nan)
+        out["lyapunov_qr"] = np.full(d, np.nan)
+        out["lyapunov_method"] = ""
         out["lyapunov_message"] = why
+
+
+def orbit_exponents(model, state, Omega: float, n: int, d: int):
+    """The Floquet exponents of the period-``n`` orbit through ``state`` (its first ``d``
+    coordinates at forcing phase 0), refined by the shooting problem's Newton iteration
+    (:func:`vibeam.models.continuation.start_point`), as
+    :func:`vibeam.models.lyapunov.floquet_exponents`; None where the orbit is not refined."""
+    from vibeam.models import shooting_problem
+    from vibeam.models.continuation import start_point
+    from vibeam.models.lyapunov import floquet_exponents
+
+    try:
+        pt, _ = start_point(shooting_problem(model, "Omega"), np.asarray(state, float)[:d], float(Omega), int(n),
+                            0.5 * Omega, 2.0 * Omega)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if pt is None or np.size(pt.mu) != d:
+        return None
+    return floquet_exponents(pt.mu, n, Omega)
 
 
 def _not_finite(out: dict) -> None:
@@ -1079,7 +1111,7 @@ CORE_OUTPUTS = ("amplitude", "q_max", "q_min", "period", "impacts_per_period", "
                 "message")
 
 #: per-point outputs stored as text (every other output is a number)
-TEXT_OUTPUTS = ("status", "message", "direction", "lyapunov_message", "lyapunov_class")
+TEXT_OUTPUTS = ("status", "message", "direction", "lyapunov_message", "lyapunov_class", "lyapunov_method")
 #: per-point outputs that are numbers in every line this vibeam writes
 NUMBER_OUTPUTS = ("Omega", "amplitude", "q_max", "q_min", "period", "impacts_per_period", "impact_velocity")
 

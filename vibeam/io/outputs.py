@@ -59,7 +59,9 @@ UNITS = {
     "energy_per_impact_j": "J",
     "lyapunov": "1/time unit (Lyapunov exponents of the stroboscopic map per unit nondimensional time, largest "
                 "first; -inf: a direction a sticking phase collapses)",
-    "lyapunov_error": "1/time unit (half the difference between the two halves of the record)",
+    "lyapunov_error": "1/time unit (standard error of the exponents by batch means over the record; 0 for "
+                      "Floquet exponents)",
+    "lyapunov_qr": "1/time unit (the QR estimate of the exponents, kept beside Floquet exponents as a check)",
     "contact_duration_lower_s": "s", "contact_force_max_lower_n": "N",
     "penetration_max_lower_mm": "mm (at the sensor)", "energy_per_impact_lower_j": "J",
 }

@@ -130,7 +130,10 @@ VARIABLES = {
     "multipliers": ("1", "Floquet multipliers (monodromy with the saltation matrix)"),
     "lyapunov": ("1", "Lyapunov exponents of the stroboscopic map per unit nondimensional time, largest first "
                       "(vibeam.models.lyapunov)"),
-    "lyapunov_error": ("1", "error estimate of each Lyapunov exponent (half the difference of the record's halves)"),
+    "lyapunov_error": ("1", "standard error of each Lyapunov exponent by batch means over the record (0: Floquet "
+                            "exponents of a periodic orbit)"),
+    "lyapunov_qr": ("1", "Lyapunov exponents by the QR method, kept as a check beside Floquet exponents"),
+    "lyapunov_method": ("", "floquet (the periodic orbit's Floquet exponents) or qr (the QR method on the record)"),
     "lyapunov_message": ("", "why the Lyapunov exponents are NaN (empty when computed)"),
     "lyapunov_class": ("", "periodic, chaotic, quasi_periodic or non_periodic from the Lyapunov spectrum "
                            "(vibeam.models.lyapunov.classify_spectrum; empty: not computed)"),
@@ -205,7 +208,7 @@ EXTRA_DIMS = {
     "spectrum_velocity": ("spectrum_frequency",),
     "R_identified_ladder": ("noise_level",), "R_true_ladder": ("noise_level",),
     "multipliers": ("multiplier",), "map_eigenvalues": ("eigenvalue",),
-    "lyapunov": ("exponent",), "lyapunov_error": ("exponent",),
+    "lyapunov": ("exponent",), "lyapunov_error": ("exponent",), "lyapunov_qr": ("exponent",),
     "stop_impacts": ("stop",), "stop_impacts_per_period": ("stop",), "stop_impact_velocity": ("stop",),
 }
 # run attributes that are the coordinate of an extra dimension (stored once, as the coordinate)
