@@ -165,7 +165,17 @@ class SDOF:
             tv, tR = self.restitution_table()
             return np.array([restitution_at(float(x), self.R, tv, tR) for x in v])
         laws = [s.law for s in self.stops()]
-        return np.array([laws[int(k)].coefficient(x) for x, k in zip(v, stops)])
+        stops = np.asarray(stops, np.int64)
+        out = np.empty(v.shape[0])
+        for k, law in enumerate(laws):
+            at = stops == k
+            if not at.any():
+                continue
+            if getattr(law, "kind", "") == "impulsive" and not law.table_U:
+                out[at] = float(law.R)                 # the constant law: R itself (what the kernel returns)
+            else:
+                out[at] = [law.coefficient(x) for x in v[at]]
+        return out
 
     def with_gain(self, gain_per_V: float, scene_gain_per_V: float, voltage: float) -> "SDOF":
         """The model at excitation gain ``gamma`` (1/V): ``B = gamma V`` (paper Eq. 43)."""

@@ -119,6 +119,9 @@ class BasinsResult:
     stops : tuple of (float, float)
         Every stop's position on the grid's first axis and its side ``d`` (:func:`axis_stops`:
         states with ``d (x - position) > 0`` lie behind it); drawn in the basin plot.
+    labels_checked, labels_wrong : ndarray of int, shape (n_Omega,), or None
+        Labels checked by long simulation per slice and how many of them were wrong
+        (:func:`verify_labels`; :meth:`mislabel_rate`).
     grazing : ndarray, shape (n_Omega, ny, nx), or None
         SDOF grids: the largest gap ``q - Delta`` of the free flight over the first forcing
         period from each initial state (:func:`first_period_gap`); its zero contour is the set
@@ -152,6 +155,16 @@ class BasinsResult:
     parameter: str = "Omega"
     values: np.ndarray | None = None
     stops: tuple = ()
+    labels_checked: np.ndarray | None = None
+    labels_wrong: np.ndarray | None = None
+
+    def mislabel_rate(self, i: int = 0) -> tuple[float, float]:
+        """The estimated share of wrong labels at slice ``i`` from the check by long simulation
+        (:func:`verify_labels`): ``(wrong / checked, one-sided 95 % Clopper-Pearson upper
+        bound)``; ``(nan, nan)`` when nothing was checked."""
+        if self.labels_checked is None or int(self.labels_checked[i]) == 0:
+            return math.nan, math.nan
+        return mislabel_bound(int(self.labels_wrong[i]), int(self.labels_checked[i]))
 
     @property
     def along(self) -> str:
@@ -549,6 +562,84 @@ def _spacing(X) -> float:
     return float(D.min(1).mean())
 
 
+def verify_labels(solver, Omega: float, d: int, states, labels, groups, width, n: int, periods: int,
+                  rng) -> tuple[int, int]:
+    """Check ``n`` labels by long simulation: how many of them are wrong.
+
+    ``n`` states with an attractor label (picked by ``rng`` among ``labels >= 0``) are followed
+    by the stroboscopic map (:func:`strobe`, the event kernel) in chunks of 500 periods, up to
+    ``periods``; after each chunk its last 64 samples are matched to the attractors' sets
+    ``groups`` (:func:`set_distance` in cells of ``width``, within one cell plus twice the sets'
+    spreads, as :func:`merge_attractors` groups them).  A state whose chunk lies on a periodic
+    attractor stops there; any other is followed the whole length.  A label is wrong when the
+    attractor matched at the end is another one, or none (a state still on its transient, or a
+    set the census did not find).
+
+    Parameters
+    ----------
+    solver : time-domain solver
+    Omega : float
+        Forcing frequency (nondimensional).
+    d : int
+        State size.
+    states : ndarray, shape (m, d)
+        The slice's initial states.
+    labels : ndarray of int, shape (m,)
+        Their labels (local attractor indices; negative: none).
+    groups : list of ndarray
+        Each attractor's stroboscopic set, shape (k, d).
+    width : ndarray, shape (d,)
+        Cell widths.
+    n, periods : int
+        States checked (0: none) and the longest simulation (periods).
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    (int, int)
+        States checked and labels found wrong.
+    """
+    idx = np.flatnonzero(np.asarray(labels) >= 0)
+    if n <= 0 or idx.size == 0 or not groups:
+        return 0, 0
+    pick = np.sort(rng.choice(idx, size=min(int(n), idx.size), replace=False))
+    step = strobe(solver, float(Omega), d)
+    width = np.asarray(width, float)
+    spreads = [_spread(G / width) for G in groups]
+    wrong = 0
+    for i in pick:
+        x = np.asarray(states[i], float).copy()
+        found, done = -1, 0
+        while done < periods:
+            m = min(500, periods - done)
+            X = step(x, m)
+            if X is None or not np.all(np.isfinite(X)):
+                found = -1
+                break
+            done += m
+            x = X[-1]
+            tail = X[-min(64, m):]
+            sx = _spread(tail / width)
+            dist = [set_distance(tail, G, width) - (1.0 + 2.0 * max(sx, sg)) for G, sg in zip(groups, spreads)]
+            k = int(np.argmin(dist))
+            found = k if dist[k] <= 0.0 else -1
+            if found >= 0 and spreads[found] < 0.5 and sx < 0.5:     # settled on a periodic attractor
+                break
+        wrong += int(found != int(labels[i]))
+    return int(pick.size), int(wrong)
+
+
+def mislabel_bound(wrong: int, checked: int) -> tuple[float, float]:
+    """``(wrong / checked, upper)``: the estimated mislabel rate and its one-sided 95 %
+    Clopper-Pearson upper bound (``1 - 0.05^(1/n)``, about ``3 / n``, when none was wrong)."""
+    from scipy.stats import beta
+
+    if checked <= 0:
+        return math.nan, math.nan
+    upper = 1.0 if wrong >= checked else float(beta.ppf(0.95, wrong + 1, checked - wrong))
+    return wrong / checked, upper
+
+
 def merge_attractors(sets: dict, width) -> tuple:
     """Group the stroboscopic sets found by different workers (``{key: (m, d) array}``, keys
     ``(origin, pid, index)`` tuples: sortable, so the grouping does not depend on the order the
@@ -881,6 +972,8 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
     per_Omega = []
     grazing: list = []
     periods = np.zeros(len(Omegas), np.int64)
+    checked = np.zeros(len(Omegas), np.int64)
+    wrong = np.zeros(len(Omegas), np.int64)
     wall = np.zeros(len(Omegas))
     xs = ys = np.zeros(0)
     initial = np.zeros((0, 2))
@@ -966,6 +1059,9 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         labels[iO] = lab.reshape(ny, nx) if grid else lab
         desc = [describe_attractor(solver, X, float(Omega), float(model.Delta), spec.record_periods,
                                    spec.lyapunov_periods, case.sweep.period_rtol) for X in groups]
+        checked[iO], wrong[iO] = verify_labels(solver, float(Omega), d, np.concatenate([l.states for l in lines]),
+                                               lab, groups, width, spec.verify, spec.verify_periods,
+                                               np.random.default_rng([int(spec.seed), iO]))
         counted = lab[lab != BEHIND_STOP]          # the fractions of the admissible states
         for k, dsc in enumerate(desc):
             dsc["samples"] = groups[k]
@@ -991,6 +1087,7 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
                               float(model.Delta) * axes.factor[0] if axes.names[0] in ("q", "U") else None),
                         grazing=np.array(grazing) if grazing else None,
                         stops=tuple(axis_stops(model, axes, 0)),
+                        labels_checked=checked, labels_wrong=wrong,
                         parameter=case.map.parameter if spec.along == "map" else "Omega",
                         values=np.array([v for _, _, v in slices], float) if spec.along == "map" else None)
 
@@ -1170,6 +1267,13 @@ def basins_variables(r: BasinsResult) -> dict:
                                  "share of the admissible states the solver failed on")
     out["states_behind_stop"] = var((D,), np.sum(lab == BEHIND_STOP, axis=1).astype(np.int64), "1",
                                     "initial states behind a rigid stop: not simulated, not counted")
+    if r.labels_checked is not None:
+        out["labels_checked"] = var((D,), np.asarray(r.labels_checked, np.int64), "1",
+                                    "labels checked by long simulation")
+        out["labels_wrong"] = var((D,), np.asarray(r.labels_wrong, np.int64), "1",
+                                  "checked labels found wrong (another attractor, or none, at the end)")
+        out["mislabel_rate_upper95"] = var((D,), np.array([r.mislabel_rate(i)[1] for i in range(len(r.Omega))]),
+                                           "1", "one-sided 95 % upper bound of the share of wrong labels")
     out["periods"] = var((D,), r.periods, "1", "stroboscopic-map iterations spent")
     out["wall_time_s"] = var((D,), r.wall_time_s, "s", "wall time")
     if r.grazing is not None and r.grid:
@@ -1259,6 +1363,8 @@ def basins_from_dataset(ds, name: str | None = None) -> BasinsResult:
         stop=float(at["stop"]) if "stop" in at else None,
         stops=tuple(tuple(x) for x in json.loads(at["stops"])) if "stops" in at else (),
         grazing=v("grazing_gap") if "grazing_gap" in ds else None,
+        labels_checked=v("labels_checked").astype(np.int64) if "labels_checked" in ds else None,
+        labels_wrong=v("labels_wrong").astype(np.int64) if "labels_wrong" in ds else None,
         parameter=along, values=None if along == "Omega" else v(along).astype(float))
 
 
@@ -1510,3 +1616,7 @@ def print_basins(r: BasinsResult) -> None:
         if np.any(lab == BEHIND_STOP):
             print(f"  {int(np.sum(lab == BEHIND_STOP))} of {lab.size} initial states lie behind a stop: not "
                   f"simulated, not counted in the fractions")
+        rate, upper = r.mislabel_rate(i)
+        if math.isfinite(rate):
+            print(f"  labels checked by long simulation: {int(r.labels_wrong[i])} of {int(r.labels_checked[i])} "
+                  f"wrong (mislabel rate {100 * rate:.1f} %, at most {100 * upper:.1f} % at 95 %)")

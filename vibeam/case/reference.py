@@ -304,6 +304,8 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "hit_attractor": ("", "visits of a known attractor's cells that decide a state"),
         "hit_basin": ("", "visits of a known basin's cells that decide a state"),
         "basin_hits": ("", "decide by the basin cells of earlier states"),
+        "verify": ("", "labelled states per frequency checked by long simulation (the mislabel rate; 0: none)"),
+        "verify_periods": ("periods", "length of each check"),
         "record_periods": ("periods", "simulation describing each attractor (type, amplitude)"),
         "lyapunov_periods": ("periods", "length of each attractor's Lyapunov spectrum (0: none)"),
         "along": ("", "\"frequency\": the census along the forcing frequency; \"map\": at one frequency along "

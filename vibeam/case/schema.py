@@ -1077,7 +1077,12 @@ class BasinsSpec(_Strict):
     time-domain run).  Recurrence settings (:mod:`vibeam.models.attractors`): ``recurrences``
     consecutive revisits find an attractor, ``locate_periods`` samples describe it,
     ``max_periods`` bound a trajectory (else ``unsettled``), ``basin_hits`` decides by the basin
-    cells of earlier states.  ``record_periods``: the simulation describing each attractor;
+    cells of earlier states after ``hit_basin`` consecutive visits (default 50: with 10, 12 of
+    2000 census states of the two-sided Fig. 7 scene at Omega = 2.38 were labelled chaotic on
+    their way to the period-1 orbit; with 20, 2; with 50, none, as without basin hits).
+    ``verify`` labelled states per frequency are followed ``verify_periods`` more periods and
+    matched to the attractors found: the estimated mislabel rate, reported with the fractions
+    (0: no check).  ``record_periods``: the simulation describing each attractor;
     ``lyapunov_periods``: its Lyapunov spectrum (0: none).  ``along = "map"``: in a ``[map]``
     case, the census at one forcing frequency along the mapped parameter's values (each value its
     own model), instead of along the frequency.
@@ -1096,8 +1101,10 @@ class BasinsSpec(_Strict):
     locate_periods: Annotated[int, Field(ge=1, le=100_000)] = 1000
     max_periods: Annotated[int, Field(ge=10, le=10_000_000)] = 20000
     hit_attractor: Annotated[int, Field(ge=1, le=10_000)] = 2
-    hit_basin: Annotated[int, Field(ge=1, le=10_000)] = 10
+    hit_basin: Annotated[int, Field(ge=1, le=10_000)] = 50
     basin_hits: bool = True
+    verify: Annotated[int, Field(ge=0, le=100_000)] = 50
+    verify_periods: Annotated[int, Field(ge=100, le=10_000_000)] = 5000
     record_periods: Annotated[int, Field(ge=8, le=100_000)] = 256
     lyapunov_periods: Annotated[int, Field(ge=0, le=1_000_000)] = 1000
     along: Literal["frequency", "map"] = "frequency"
