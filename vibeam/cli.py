@@ -350,8 +350,17 @@ def cmd_cases(args) -> int:
 
 def cmd_export(args) -> int:
     from vibeam.api import export
+    from vibeam.errors import CaseError, InputError, one_line
 
-    files = export(args.results, args.csv)
+    try:
+        files = export(args.results, args.csv)
+    except CaseError:
+        raise
+    except (ValueError, KeyError, TypeError, IndexError) as e:
+        # a group that cannot be laid out as tables: one line, and no file was written (every
+        # table is built before the first file is)
+        raise InputError(one_line(f"{args.results}: cannot export: {type(e).__name__}: {e}; no CSV file was "
+                                  f"written")) from None
     for p in files:
         print(f"{p} (units: {p.with_suffix('.units.csv').name})")
     print(f"{len(files)} CSV file(s) -> {args.csv}")
