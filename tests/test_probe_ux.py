@@ -108,3 +108,76 @@ def test_fit_progress_cost_is_the_summary_cost(tmp_path):
     assert np.allclose(key, res.estimate, rtol=1e-5)           # a Jacobian was taken at the estimate
     assert costs[key] == pytest.approx(res.cost, rel=1e-5)      # printed with 6 digits
     assert "soft_l1 loss" in res.summary() and "0.5 sum r^2" in res.summary()
+
+
+# ============================================================================ item 3: tracebacks
+@pytest.mark.parametrize("f_scale", ["1e-300", "1e300", "nan"])
+def test_fit_f_scale_out_of_range_is_one_line(tmp_path, capsys, f_scale):
+    assert _exit(["fit", str(CASES / "rig-neutral.toml"), "--reference", str(MEASURED), "--f-scale", f_scale,
+                 "--out", str(tmp_path / "o"), "--jobs", "1", "--quiet", "--max-evaluations", "2"]) == 2
+    line = _one_error_line(capsys)
+    assert "'--f-scale'" in line and "allowed:" in line, line
+
+
+def _decay_csv(path, t, U):
+    path.write_text("t_s,U_mm\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, U)))
+    return path
+
+
+@pytest.mark.parametrize("step", [1e300, 1e-300])
+def test_decay_with_absurd_time_steps_is_one_line(tmp_path, capsys, step):
+    """Time steps of 1e300 s (or 1e-300 s) gave numpy's LinAlgError ("SVD did not converge")."""
+    k = np.arange(200)
+    p = _decay_csv(tmp_path / "d.csv", k * step, np.exp(-0.01 * k) * np.cos(k))
+    assert main(["fit", str(CASES / "rig-neutral.toml"), "--decay", str(p), "--out", str(tmp_path / "o")]) == 2
+    line = _one_error_line(capsys)
+    assert str(p) in line and "'t_s'" in line and "allowed:" in line, line
+
+
+# ============================================================================ item 4: messages
+def test_decay_messages_quote_plain_numbers(tmp_path, capsys):
+    t = np.arange(200) * 1e-3
+    t[5] = -0.001
+    p = _decay_csv(tmp_path / "d.csv", t, np.cos(np.arange(200)))
+    assert main(["fit", str(CASES / "rig-neutral.toml"), "--decay", str(p), "--out", str(tmp_path / "o")]) == 2
+    line = _one_error_line(capsys)
+    assert "'t_s' = -0.001 " in line and "np.float64" not in line, line
+
+
+def test_a_huge_amplitude_in_the_reference_is_named_not_sigma(tmp_path, capsys):
+    """An amplitude of 1e300 mm (the third point) was blamed on "sigma = 0.005 is too small";
+    the line must name the amplitude (with and without a sigma column)."""
+    lines = MEASURED.read_text().splitlines()
+    head = [ln for ln in lines if ln.startswith("#") or ln.startswith("frequency_hz")]
+    rows = [ln.split(",") for ln in lines if ln not in head]
+    rows[2][1] = "1e300"
+    for name, cols in (("sig.csv", 4), ("nosig.csv", 3)):
+        p = tmp_path / name
+        p.write_text("\n".join(head[:-1] + [",".join(head[-1].split(",")[:cols])] +
+                               [",".join(r[:cols]) for r in rows]) + "\n")
+        assert main(["fit", str(CASES / "rig-neutral.toml"), "--reference", str(p), "--out", str(tmp_path / "o"),
+                     "--jobs", "1", "--quiet"]) == 2, name
+        line = _one_error_line(capsys)
+        assert str(p) in line and "amplitude_mm = 1e+300" in line and "too small" not in line, line
+
+
+def test_reference_run_with_a_csv_reference_is_refused(tmp_path, capsys):
+    assert main(["fit", str(CASES / "rig-neutral.toml"), "--reference", str(MEASURED), "--reference-run", "exact",
+                 "--out", str(tmp_path / "o"), "--jobs", "1", "--quiet"]) == 2
+    line = _one_error_line(capsys)
+    assert "'--reference-run' = 'exact'" in line and str(MEASURED) in line and "results.h5" in line, line
+    assert not (tmp_path / "o" / "fit.h5").exists()
+
+
+def test_export_of_a_file_that_is_not_a_results_file_is_one_line_naming_it(tmp_path, capsys):
+    import h5py
+
+    text = tmp_path / "passwd"
+    text.write_text("root:x:0:0:root:/root:/bin/bash\n")
+    empty = tmp_path / "empty.h5"
+    h5py.File(empty, "w").close()
+    for p in (text, empty):
+        assert main(["export", str(p), "--csv", str(tmp_path / "csv")]) == 2, p
+        line = _one_error_line(capsys)
+        assert str(p) in line and "not" in line and ("HDF5" in line or "results file" in line), line
+    assert not (tmp_path / "csv").exists()

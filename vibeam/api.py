@@ -788,16 +788,26 @@ def open_results(path) -> Results:
 
     Raises
     ------
-    ValueError
-        Not a regular file, or a file of the first layout (no dimensions: convert it with
+    vibeam.errors.InputError (a ValueError)
+        One line naming the file: not a regular file, not an HDF5 file, an HDF5 file that is
+        not a vibeam results file (no ``vibeam_layout``, no runs, maps, branches or basins), or a
+        file of the first layout (no dimensions: convert it with
         :func:`vibeam.io.results.load_results` and :func:`vibeam.io.results.write_results`).
     """
+    from vibeam.errors import InputError
+    from vibeam.io.h5check import open_checked
     from vibeam.io.inputs import check_input_file
-    from vibeam.io.results import LAYOUT_VERSION, layout_of
+    from vibeam.io.results import LAYOUT_VERSION
 
     p = check_input_file(path, "results file")
-    if layout_of(p) < LAYOUT_VERSION:
-        raise ValueError(f"{p}: a results file of the first layout (no dimensions); rewrite it with "
+    with open_checked(p) as f:
+        layout = f.attrs.get("vibeam_layout")
+        groups = [g for g in ("runs", "maps", "branches", "basins") if g in f]
+    if layout is None and not groups:
+        raise InputError(f"{p}: not a vibeam results file (an HDF5 file without vibeam_layout and without runs, "
+                         f"maps, branches or basins); allowed: a results.h5 written by vibeam")
+    if int(layout if layout is not None else 1) < LAYOUT_VERSION:
+        raise InputError(f"{p}: a results file of the first layout (no dimensions); rewrite it with "
                          f"vibeam.io.results.load_results and write_results")
     return Results.from_file(p)
 

@@ -89,6 +89,13 @@ DEFAULT_F_SCALE = 3.0
 DEFAULT_SIGMA_FRACTION = 0.02
 #: floor of the sweep's relative accuracy: round-off of the event solvers
 EPS_FLOOR = 1e-13
+#: the range of ``f_scale`` (units of sigma): below it every residual is an outlier of the loss and
+#: ``(r / f_scale)^2`` overflows; above it the robust loss is least squares (``--loss linear``) and
+#: scipy's cost ``f_scale^2 rho`` loses its precision
+F_SCALE_RANGE = (1e-3, 1e3)
+#: a measured amplitude more than this many times the model's largest at the start is refused (not an
+#: amplitude of the scene: another unit, a corrupted value)
+DATA_SCALE_LIMIT = 1e6
 #: magnitude used for a parameter's finite-difference step when its value is zero
 TYPICAL_SCALE = {"gap_mm": 0.01, "contact_gap_mm": 0.01, "Delta": 1e-4, "damping_ratio": 0.01, "beta": 0.01,
                  "rayleigh_alpha_1_s": 0.1, "R": 0.1, "rotary_inertia_kg_m2": 1e-6}
@@ -753,8 +760,7 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
     t0 = time.perf_counter()
     if loss not in LOSSES:
         raise case_error(f"'--loss' = {loss!r} is not allowed; allowed: {', '.join(LOSSES)}")
-    if not (f_scale > 0 and math.isfinite(f_scale)):
-        raise case_error(f"'--f-scale' = {f_scale!r}: must be a finite positive number")
+    check_f_scale(f_scale)
     ref = reference if isinstance(reference, Reference) else read_reference(reference, reference_run)
     params = check_params(case, list(params) if params else default_params(case), source)
     r = _pick_run(case, run, source)
@@ -777,14 +783,13 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
         prob.measure_accuracy(ev0, ev2)
         with np.errstate(over="ignore", invalid="ignore"):
             r0 = prob.residuals(ev0)
-            r0[~np.isfinite(np.square(r0))] = np.inf   # the cost sums their squares
-        if not np.isfinite(r0).all():
-            i = int(np.flatnonzero(~np.isfinite(r0))[0])
-            raise case_error(f"{ref.source}: the residual (model - data) / sigma of point {i + 1} "
-                         f"({ref.x_name} = {ref.x[i]:g}) is not finite or its square overflows at the start: "
-                         f"sigma = {prob.sigma[i]:g} is too "
-                         f"small for the model amplitude {ev0.amplitude[i]:g}; give sigma values of the data's "
-                         f"scale")
+            # the cost sums their squares, the loss those of r / f_scale
+            r0[~np.isfinite(np.square(r0 / min(1.0, f_scale)))] = np.inf
+        amax = float(np.nanmax(np.abs(ev0.amplitude))) if np.isfinite(ev0.amplitude).any() else 0.0
+        huge = np.abs(ref.y) > DATA_SCALE_LIMIT * amax if amax > 0 else np.zeros(ref.n, bool)
+        if huge.any() or not np.isfinite(r0).all():
+            bad = np.flatnonzero(huge) if huge.any() else np.flatnonzero(~np.isfinite(r0))
+            raise case_error(_start_residual_error(ref, prob, ev0, int(bad[0])))
         jac_cache: dict = {}
         info_last: dict = {}
 
@@ -900,6 +905,42 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
     finally:
         if own:
             ex.shutdown(wait=True, cancel_futures=True)
+
+
+def check_f_scale(f_scale) -> float:
+    """``--f-scale`` / ``f_scale``: a number in :data:`F_SCALE_RANGE` (units of sigma).
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        One line naming the option, the value and the range.
+    """
+    lo, hi = F_SCALE_RANGE
+    try:
+        v = float(f_scale)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not lo <= v <= hi:
+        raise case_error(f"'--f-scale' = {f_scale!r} is not allowed; allowed: a number from {lo:g} to {hi:g} "
+                         f"(the robust loss's scale in units of sigma; default {DEFAULT_F_SCALE:g})")
+    return v
+
+
+def _start_residual_error(ref, prob, ev0, i: int) -> str:
+    """Why the normalised residual of point ``i`` is not finite at the start, naming what is wrong:
+    the data's amplitude, the model's, or sigma."""
+    y, a, sg = float(ref.y[i]), float(ev0.amplitude[i]), float(prob.sigma[i])
+    yu = " mm" if ref.y_name == "amplitude_mm" else ""
+    where = f"{ref.source}: point {i + 1} ({ref.x_name} = {float(ref.x[i]):g})"
+    if not math.isfinite(a):
+        return f"{where}: the model amplitude at the start is {a:g}; allowed: a finite amplitude (check the case)"
+    scale = max(abs(a), float(np.nanmax(np.abs(ev0.amplitude))) if np.isfinite(ev0.amplitude).any() else 0.0)
+    if scale > 0 and abs(y) > DATA_SCALE_LIMIT * scale:
+        return (f"{where}: {ref.y_name} = {y:g}{yu} is not an amplitude of this scene: {abs(y) / scale:.3g} times "
+                f"the model's largest at the start ({scale:g}{yu}); allowed: amplitudes up to {DATA_SCALE_LIMIT:g} "
+                f"times the model's (is the column in another unit?)")
+    return (f"{where}: sigma = {sg:g}{yu} is too small for the difference between the model amplitude {a:g}{yu} "
+            f"and the data {y:g}{yu} (its square overflows); allowed: sigma values of the data's scale")
 
 
 def _first_message(ev) -> str:
@@ -1105,8 +1146,7 @@ def main_fit(args) -> int:
     if not args.reference and not args.decay:
         raise case_error(f"{args.case}: `vibeam fit` needs --reference DATA (an FRC) or --decay DECAY.csv "
                      f"(a free decay)")
-    if not (math.isfinite(args.f_scale) and args.f_scale > 0):
-        raise case_error(f"'--f-scale' = {args.f_scale!r}: must be a finite positive number (units of sigma)")
+    check_f_scale(args.f_scale)
     if args.max_evaluations < 1:
         raise case_error(f"'--max-evaluations' = {args.max_evaluations!r}: must be at least 1")
     if args.params is not None and not [p for p in args.params.split(",") if p.strip()]:

@@ -299,6 +299,13 @@ def column_floats(path, head, rows, name: str, positive: bool = False, kind: str
     return floats(path, head, rows, name, low=0.0 if positive else None, low_open=True, what=f"{kind} file")
 
 
+#: time steps and times of a free decay (s): a step below 1 ns (a sampling above 1 GHz) or a time beyond
+#: 1e6 s (11.6 days) is not a record of the rig, and their powers in the fits underflow or overflow
+DECAY_TIME_RANGE = (1e-9, 1e6)
+#: largest displacement of a free decay (mm) whose squares the fits can sum without overflow
+DECAY_MAX_MM = 1e100
+
+
 def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
     """A free-decay record: CSV with header ``t_s,U_mm`` (time in s, sensor displacement in mm).
 
@@ -313,7 +320,8 @@ def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
     ------
     vibeam.case.schema.CaseError
         On another header, a value that is not a finite number, times that do not increase,
-        or fewer than 20 samples.
+        fewer than 20 samples, times or steps outside :data:`DECAY_TIME_RANGE`, or a displacement
+        beyond :data:`DECAY_MAX_MM`; values are quoted as plain numbers.
     """
     head, rows = read_csv_columns(path, "decay")
     if sorted(head) != ["U_mm", "t_s"]:
@@ -326,7 +334,24 @@ def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         i = int(bad[0]) + 1
-        raise case_error(f"{path}: 't_s' = {t[i]!r} (data row {i + 1}): times must increase")
+        raise case_error(f"{path}: 't_s' = {float(t[i])!r} (data row {i + 1}) after {float(t[i - 1])!r}: times must "
+                         f"increase")
+    lo, hi = DECAY_TIME_RANGE
+    far = np.flatnonzero(np.abs(t) > hi)
+    if far.size:
+        i = int(far[0])
+        raise case_error(f"{path}: 't_s' = {float(t[i])!r} (data row {i + 1}) is not allowed; allowed: times within "
+                         f"+-{hi:g} s (a free decay of the rig lasts seconds)")
+    dt = np.diff(t)
+    if dt.min() < lo:
+        i = int(np.flatnonzero(dt < lo)[0]) + 1
+        raise case_error(f"{path}: 't_s' = {float(t[i])!r} (data row {i + 1}) is {float(dt[i - 1]):g} s after the row "
+                         f"before; allowed: time steps of at least {lo:g} s")
+    big = np.flatnonzero(np.abs(U) > DECAY_MAX_MM)
+    if big.size:
+        i = int(big[0])
+        raise case_error(f"{path}: 'U_mm' = {float(U[i])!r} (data row {i + 1}) is not allowed; allowed: displacements "
+                         f"within +-{DECAY_MAX_MM:g} mm")
     return t, U
 
 
