@@ -181,3 +181,62 @@ def test_export_of_a_file_that_is_not_a_results_file_is_one_line_naming_it(tmp_p
         line = _one_error_line(capsys)
         assert str(p) in line and "not" in line and ("HDF5" in line or "results file" in line), line
     assert not (tmp_path / "csv").exists()
+
+
+# ============================================================================ item 2: regress
+TINY = """
+name = "{name}"
+[model]
+fidelity = "sdof"
+beta = 0.05
+B = 0.01
+R = {R}
+Delta = 0.15
+[sweep]
+Omega = [0.5, 1.5, 6]
+transient_periods = 300
+record_periods = 4
+[[run]]
+name = "exact"
+method = "event"
+"""
+
+
+@pytest.fixture(scope="module")
+def two_results(tmp_path_factory):
+    """Results of the tiny case ``reg`` and of another case ``other`` (another name and R)."""
+    d = tmp_path_factory.mktemp("reg")
+    for name, R in (("reg", 0.8), ("other", 0.7)):
+        (d / f"{name}.toml").write_text(TINY.format(name=name, R=R))
+        assert main(["run", str(d / f"{name}.toml"), "--out", str(d / name), "--jobs", "1", "--quiet",
+                     "--no-plots"]) == 0
+    return d
+
+
+@pytest.mark.parametrize("opt", [("--atol", "nan"), ("--atol", "-1"), ("--rtol", "inf"), ("--rtol", "-1e-6")])
+def test_regress_refuses_tolerances_that_are_not_finite_and_non_negative(two_results, capsys, opt):
+    """--atol nan / -1 reported identical files as a regression, --rtol inf passed anything."""
+    d = two_results
+    h5 = str(d / "reg" / "results.h5")
+    capsys.readouterr()
+    assert _exit(["regress", str(d / "reg.toml"), "--reference", h5, "--results", h5, f"{opt[0]}={opt[1]}"]) == 2
+    line = _one_error_line(capsys)
+    assert opt[0] in line and "allowed:" in line and "finite" in line, line
+    # the API refuses them as its other arguments: ValueError naming the argument
+    import vibeam
+
+    with pytest.raises(ValueError, match=opt[0].strip("-")):
+        vibeam.regress(str(d / "reg.toml"), h5, results=h5, **{opt[0].strip("-"): float(opt[1])})
+
+
+def test_regress_refuses_a_reference_of_another_case(two_results, capsys):
+    """The reference written by case 'other' was compared (exit 0 or 1): bad input, exit 2."""
+    d = two_results
+    capsys.readouterr()
+    assert main(["regress", str(d / "reg.toml"), "--reference", str(d / "other" / "results.h5"),
+                 "--results", str(d / "reg" / "results.h5")]) == 2
+    line = _one_error_line(capsys)
+    assert "--reference" in line and "other" in line and "another case" in line, line
+    # its own reference still passes
+    assert main(["regress", str(d / "reg.toml"), "--reference", str(d / "reg" / "results.h5"),
+                 "--results", str(d / "reg" / "results.h5")]) == 0

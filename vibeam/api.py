@@ -1538,7 +1538,8 @@ def regress(case, reference, results=None, out=None, jobs: int | None = None, ex
     jobs, executor, quick, force
         As :func:`run`.
     atol, rtol : float, optional
-        Override ``[regress] amplitude_atol`` / ``amplitude_rtol``.
+        Override ``[regress] amplitude_atol`` / ``amplitude_rtol``; checked by those keys' rule
+        (a finite number >= 0).
 
     Returns
     -------
@@ -1547,13 +1548,22 @@ def regress(case, reference, results=None, out=None, jobs: int | None = None, ex
     Raises
     ------
     vibeam.case.schema.InputError
-        A reference or results file that is not of this case or not readable (one line).
+        A reference or results file that is not of this case or not readable (one line): a
+        results-file reference (or ``results``) written by another case (another name, model,
+        effects or runs: :func:`vibeam.analysis.regress.check_results_of_case`).
+    TypeError, ValueError
+        ``atol`` / ``rtol`` not a finite number >= 0 (NaN, infinite, negative).
     """
     from vibeam.analysis.regress import (check_reference_of_case, check_results_of_case, compare, load_results,
                                          read_reference)
-    from vibeam.case.arguments import check_path
+    from vibeam.case.arguments import check_case_value, check_path
+    from vibeam.case.schema import RegressSpec
 
     jobs, out = _check_run_args(jobs, out, executor, quick=quick, force=force)
+    if atol is not None:
+        atol = check_case_value(atol, "atol", RegressSpec, "amplitude_atol")
+    if rtol is not None:
+        rtol = check_case_value(rtol, "rtol", RegressSpec, "amplitude_rtol")
     reference = check_path(reference, "reference", optional=False)
     results = check_path(results, "results")
     c, source = _case_and_source(case)
@@ -1562,7 +1572,9 @@ def regress(case, reference, results=None, out=None, jobs: int | None = None, ex
     if results is not None:
         new = load_results(results, "--results")
         check_results_of_case(c, new, results, source)
-    else:
+    if isinstance(ref, dict):          # a results-file reference: of this case too
+        check_results_of_case(c, ref, reference, source, option="--reference")
+    if results is None:
         from vibeam.io.outdir import check_folder
         from vibeam.runner import run_case
 

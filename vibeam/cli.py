@@ -21,7 +21,7 @@ import signal
 import sys
 from pathlib import Path
 
-from vibeam.case.arguments import jobs_option, path_option
+from vibeam.case.arguments import case_value_option, jobs_option, path_option
 from vibeam.errors import Terminated  # noqa: F401 (re-exported)
 
 FRESH_HELP = ("start a new results file: the groups of the one in the output folder are not kept (without it, "
@@ -490,8 +490,10 @@ def main(argv=None) -> int:
                    help="worker processes of the rerun's local pool (default: all cores; 1: inline)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the rerun on a dask.distributed scheduler (e.g. tcp://host:8786)")
-    p.add_argument("--atol", type=float, default=None, help="override [regress] amplitude_atol")
-    p.add_argument("--rtol", type=float, default=None, help="override [regress] amplitude_rtol")
+    p.add_argument("--atol", type=case_value_option("--atol", "RegressSpec", "amplitude_atol"), default=None,
+                   help="override [regress] amplitude_atol (a finite number >= 0)")
+    p.add_argument("--rtol", type=case_value_option("--rtol", "RegressSpec", "amplitude_rtol"), default=None,
+                   help="override [regress] amplitude_rtol (a finite number >= 0)")
     p.add_argument("--quick", action="store_true",
                    help="rerun the case's quick variant (as the references in tests/references/)")
     p.add_argument("--force", action="store_true", help=force_help)
