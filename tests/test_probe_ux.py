@@ -240,3 +240,100 @@ def test_regress_refuses_a_reference_of_another_case(two_results, capsys):
     # its own reference still passes
     assert main(["regress", str(d / "reg.toml"), "--reference", str(d / "reg" / "results.h5"),
                  "--results", str(d / "reg" / "results.h5")]) == 0
+
+
+# ============================================================================ item 5: SI metadata
+#: a subset of the UDUNITS-2 grammar, written here: "1", or symbols with optional integer powers
+#: separated by spaces ("mm s-1", "V-1"); the symbols SI outputs use.  Not vibeam's rule.
+_SYMBOLS = {"m", "mm", "s", "Hz", "N", "J", "V", "kg", "rad"}
+_FACTOR = re.compile(r"^([A-Za-z]+)(-?[1-9][0-9]*)?$")
+#: the unit a name's suffix promises, longest suffix first
+_SUFFIX = (("_mm_s", "mm s-1"), ("_m_s", "m s-1"), ("_mm", "mm"), ("_hz", "Hz"), ("_s", "s"), ("_n", "N"),
+           ("_j", "J"), ("_kg", "kg"))
+
+
+def _udunits(u: str) -> bool:
+    if u == "1":
+        return True
+    parts = u.split(" ")
+    return bool(parts) and all((m := _FACTOR.match(p)) and m.group(1) in _SYMBOLS for p in parts)
+
+
+def _metadata_faults(name: str, units, long_name, numeric: bool) -> list:
+    """What is wrong with a variable's (units, long_name): units not UDUNITS or not the unit of
+    its suffix; a long_name that is empty, a bare unit, or (for a suffixed name) none of its
+    words."""
+    out = []
+    ln = str(long_name or "").strip()
+    if numeric:
+        if not isinstance(units, str) or not _udunits(units):
+            out.append(f"units {units!r} is not a UDUNITS unit")
+        for suf, want in _SUFFIX:
+            if name.endswith(suf):
+                if units != want:
+                    out.append(f"units {units!r}, its suffix {suf} says {want!r}")
+                words = [w for w in name[: -len(suf)].split("_") if len(w) >= 3]
+                if words and not any(w.lower() in ln.lower() for w in words):
+                    out.append(f"long_name {ln!r} names none of {words}")
+                break
+    if not ln or _udunits(ln) or ln == units:
+        out.append(f"long_name {ln!r} is not a description")
+    return out
+
+
+def test_describe_gives_every_output_si_units_and_a_description():
+    """Every per-point output vibeam writes (vibeam.io.outputs.UNITS, vibeam.io.results.VARIABLES),
+    for physical and nondimensional scenes: the _lower variants of the contact outputs included
+    (contact_force_max_n had units '1' and long_name 'N', penetration_max_lower_mm the long_name
+    'at the sensor')."""
+    from vibeam.io.outputs import UNITS
+    from vibeam.io.results import VARIABLES, describe
+
+    faults = {}
+    for name in sorted(set(UNITS) | set(VARIABLES)):
+        u, ln = describe(name, physical=True)
+        if u == "" and name in VARIABLES:     # text variables (direction, status, ...) have no units
+            f = [] if ln else ["no long_name"]
+        else:
+            f = _metadata_faults(name, u, ln, True)
+        if f:
+            faults[name] = f
+    assert not faults, faults
+
+
+def _file_faults(path) -> dict:
+    import h5py
+
+    faults = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            top = name.split("/")[0]
+            if not isinstance(obj, h5py.Dataset) or top not in ("runs", "maps", "branches", "basins"):
+                return
+            u, ln = obj.attrs.get("units"), obj.attrs.get("long_name")
+            u = u.decode() if isinstance(u, bytes) else (None if u is None else str(u))
+            ln = ln.decode() if isinstance(ln, bytes) else ln
+            numeric = obj.dtype.kind in "fiub" and not str(name).endswith("/direction")
+            fl = _metadata_faults(name.split("/")[-1], u, ln, numeric)
+            if fl:
+                faults[f"{path.name}:{name}"] = fl
+        f.visititems(visit)
+    return faults
+
+
+def test_every_shipped_results_file_has_si_metadata(quick_results):
+    """Every variable of the shipped reference results (tests/references/*.h5, the quick variants
+    of every case) and of the quick run of the compliant FE case rig-fe-contact (the references
+    leave the contact outputs out): UDUNITS units matching the name's suffix (_mm mm, _s s, _n
+    N, _j J, _m_s m s-1, ...) and a long_name that describes it."""
+    files = sorted((ROOT / "tests" / "references").glob("*.h5"))
+    files.append(quick_results(CASES / "rig-fe-contact.toml") / "results.h5")
+    faults = {}
+    for p in files:
+        faults.update(_file_faults(p))
+    assert not faults, faults
+    import h5py
+
+    with h5py.File(files[-1], "r") as f:        # the contact outputs were there to check
+        run = f["runs"][next(iter(f["runs"]))]
+        assert run["contact_force_max_n"].attrs["units"] == "N" and "energy_per_impact_j" in run
