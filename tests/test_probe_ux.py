@@ -337,3 +337,37 @@ def test_every_shipped_results_file_has_si_metadata(quick_results):
     with h5py.File(files[-1], "r") as f:        # the contact outputs were there to check
         run = f["runs"][next(iter(f["runs"]))]
         assert run["contact_force_max_n"].attrs["units"] == "N" and "energy_per_impact_j" in run
+
+
+# ============================================================================ item 6: simulate's state
+def test_simulate_takes_a_state_without_the_held_flag():
+    """(q, q') starts where it says (the first sample at t = 0 with no transient is (q, q'))
+    and equals the state with the flag 0; the flag is optional, not required
+    (6b53e11: "allowed: 3 finite numbers")."""
+    import vibeam
+
+    case = vibeam.load_case(CASES / "paper-fig7.toml")
+    two = vibeam.simulate(case, Omega=2.0, state=(-0.004, 0.003), transient=0, periods=2)
+    assert two.t[0] == 0.0 and two.q[0] == -0.004 and two.dq[0] == 0.003
+    three = vibeam.simulate(case, Omega=2.0, state=[-0.004, 0.003, 0.0], transient=0, periods=2)
+    np.testing.assert_array_equal(two.q, three.q)
+    np.testing.assert_array_equal(two.final_state, three.final_state)
+    again = vibeam.simulate(case, Omega=2.0, state=two.final_state, transient=0, periods=2)   # flag kept
+    assert again.status == "ok"
+    with pytest.raises(ValueError, match="2 or 3 finite numbers"):
+        vibeam.simulate(case, Omega=2.0, state=[0.1])
+
+
+def test_simulate_takes_modal_pairs_of_a_beam():
+    """A beam's (eta, eta') -- 2 N numbers -- as its 2 N + 1 with the flag 0."""
+    import vibeam
+
+    case = vibeam.load_case(CASES / "rig-fe-neutral.toml")
+    run = next(r.name for r in case.run if r.name.startswith("FE 2"))
+    warm = vibeam.simulate(case, frequency_hz=15.0, run=run, transient=20, periods=1)
+    eta = np.asarray(warm.final_state[:-1])
+    assert eta.size == 4 and np.any(eta != 0)
+    a = vibeam.simulate(case, frequency_hz=15.0, run=run, transient=0, periods=2, state=eta)
+    b = vibeam.simulate(case, frequency_hz=15.0, run=run, transient=0, periods=2, state=np.append(eta, 0.0))
+    np.testing.assert_array_equal(a.q, b.q)
+    np.testing.assert_array_equal(a.final_state, b.final_state)

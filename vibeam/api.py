@@ -936,9 +936,15 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         effects are used.
     method : str
         Method for a model (``event``, ``direct``, ...; time-domain methods only).
-    state : array_like, optional
-        Initial state at forcing phase 0 (default: the model's rest state): finite
-        numbers, as many as the model's state.
+    state : array_like, shape (2 d,) or (2 d + 1,), optional
+        Initial state at forcing phase 0 (default: the model's rest state,
+        ``model.initial_state()``): the displacements then the velocities of the model's
+        ``d`` degrees of freedom -- ``(q, q')`` of the SDOF oscillator (nondimensional), the
+        modal coordinates ``(eta_1..eta_d, eta'_1..eta'_d)`` of a beam (mass-normalised, m
+        kg^(1/2) and m kg^(1/2)/s over the time unit) -- optionally followed by the held flag
+        (0 free, 1 held on the upper stop, -1 on the lower one; left out: 0, and a state on a
+        stop with zero relative velocity is held by the solver's own sticking test).  Finite
+        numbers; ``Simulation.final_state`` has the flag and can be passed back.
     force : bool
         Simulate even if the work is above the limit of ``vibeam run`` (as ``--force``).
     **settings
@@ -957,7 +963,7 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         ``periods`` as ``[sweep] record_periods`` (a whole number >= 1), ``transient`` as
         ``transient_periods`` (a whole number >= 0; ``"auto"`` is the sweep's and is
         refused here), ``samples_per_period`` as ``[sweep] samples_per_period``; ``run`` a
-        run's index or name; ``state`` finite numbers of the state's size.  Also: neither
+        run's index or name; ``state`` 2 d or 2 d + 1 finite numbers.  Also: neither
         or both of ``Omega`` and ``frequency_hz`` given, ``frequency_hz`` for a
         nondimensional scene, a method without a time history (averaging, mapping).
     vibeam.case.schema.InputError
@@ -1232,17 +1238,22 @@ def _pick_run(case, run):
 
 
 def _check_state(state, model) -> np.ndarray:
-    """An initial state: finite numbers of the model's state size (TypeError/ValueError)."""
+    """An initial state (TypeError/ValueError): the model's displacements and velocities
+    (``(q, q')``, or ``(eta, eta')`` of a modal beam: ``n - 1`` numbers), optionally followed by the
+    held flag (``n`` numbers, :meth:`initial_state`'s layout); returned with the flag (0, free,
+    when it was left out)."""
     from vibeam.errors import quote_value
 
     n = int(np.size(model.initial_state()))
+    allowed = (f"{n - 1} or {n} finite numbers: the displacements and velocities{' (q, dq)' if n == 3 else ''}, "
+               f"optionally followed by the held flag (0 free, 1 held on the upper stop, -1 on the lower one)")
     try:
         x = np.asarray(state, dtype=float)
     except (TypeError, ValueError):
-        raise TypeError(f"state = {quote_value(state)}: not numbers; allowed: {n} finite numbers") from None
-    if x.shape != (n,) or not np.isfinite(x).all():
-        raise ValueError(f"state = {quote_value(state)}: allowed: {n} finite numbers (the model's state)")
-    return x
+        raise TypeError(f"state = {quote_value(state)}: not numbers; allowed: {allowed}") from None
+    if x.ndim != 1 or x.size not in (n - 1, n) or not np.isfinite(x).all():
+        raise ValueError(f"state = {quote_value(state)}: allowed: {allowed}")
+    return np.append(x, 0.0) if x.size == n - 1 else x
 
 
 _WORK_ARGS = {"sweep.record_periods": "periods", "sweep.transient_periods": "transient",
