@@ -371,3 +371,111 @@ def test_simulate_takes_modal_pairs_of_a_beam():
     b = vibeam.simulate(case, frequency_hz=15.0, run=run, transient=0, periods=2, state=np.append(eta, 0.0))
     np.testing.assert_array_equal(a.q, b.q)
     np.testing.assert_array_equal(a.final_state, b.final_state)
+
+
+# ============================================================================ item 7: command line and API consistency
+COMMANDS = ["run", "continue", "map", "basins", "regress", "cost", "derive", "modes", "fit", "export", "poincare"]
+
+
+@pytest.mark.parametrize("cmd", COMMANDS)
+def test_every_command_has_quiet(capsys, cmd):
+    """--quiet exists for every command that computes or writes (regress --quiet exited 2)."""
+    assert _exit([cmd, "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "--quiet" in out and "no tables" in out, out
+
+
+def test_quiet_run_and_regress_print_no_tables_and_errors_stay_one_line(two_results, tmp_path, capsys):
+    """run --quiet printed its tables; now standard output stays empty, the files are written,
+    and an error is still one line."""
+    d = two_results
+    capsys.readouterr()
+    assert main(["run", str(d / "reg.toml"), "--out", str(tmp_path / "q"), "--jobs", "1", "--quiet",
+                 "--no-plots"]) == 0
+    cap = capsys.readouterr()
+    assert cap.out == "" and (tmp_path / "q" / "results.h5").exists()
+    assert "it/s" not in cap.err and "pt/s" not in cap.err            # no progress bar
+    h5 = str(tmp_path / "q" / "results.h5")
+    assert main(["regress", str(d / "reg.toml"), "--reference", h5, "--results", h5, "--quiet"]) == 0
+    assert capsys.readouterr().out == ""
+    assert main(["regress", str(d / "reg.toml"), "--reference", str(tmp_path / "none.h5"), "--results", h5,
+                 "--quiet"]) == 2
+    line = _one_error_line(capsys)
+    assert "none.h5" in line
+
+
+def _canned_bench(points: int, event_time_s: float = 0.1, speedup: float = 900.0) -> dict:
+    """What run_bench returns, with chosen figures (the verdict logic is tested, not the timing)."""
+    return {"points": points, "periods_per_point": 500, "event_time_s": event_time_s,
+            "speedup_event_vs_direct": speedup, "error_ratio_direct_over_event": 1e6,
+            "event_us_per_impact": 0.5, "event_impacts_per_second": 2e6, "event_us_per_impact_cpu": 0.5,
+            "event_us_per_impact_every_period": 0.9, "recurrence_speedup": 1.8,
+            "recurrence_outputs_identical": True}
+
+
+def test_bench_outside_the_goals_configuration_does_not_pass_it(monkeypatch, capsys):
+    """vibeam bench --points 21 printed PASS for "event sweep well under 1 s (101 points x 500
+    periods)": 21 points say nothing about it."""
+    import json
+
+    from vibeam import bench
+
+    monkeypatch.setattr(bench, "run_bench", lambda **kw: _canned_bench(kw["points"]))
+    assert _exit(["bench", "--points", "21", "--repeats", "1"]) == 0
+    cap = capsys.readouterr()
+    line = next(l for l in cap.err.splitlines() if "well under 1 s" in l)
+    assert "PASS" not in line and "not the goal's configuration" in line and "21 points" in line, line
+    goal = next(g for g in json.loads(cap.out)["goals"] if "well under 1 s" in g["goal"])
+    assert goal["pass"] is None
+    assert _exit(["bench", "--repeats", "1"]) == 0                  # 101 points: checked, passes
+    assert "PASS  event sweep well under 1 s" in capsys.readouterr().err
+
+
+def test_bench_exits_non_zero_after_a_fail(monkeypatch, capsys):
+    from vibeam import bench
+
+    monkeypatch.setattr(bench, "run_bench", lambda **kw: _canned_bench(kw["points"], speedup=20.0))
+    assert _exit(["bench", "--repeats", "1"]) == 1
+    assert "FAIL  >= 300x faster" in capsys.readouterr().err
+
+
+def test_poincare_has_quick(tmp_path, capsys, monkeypatch):
+    """--quick takes the quick variant, as `run --quick`: its transient (a case with no transient
+    of its own starts from rest, so its 64 stroboscopic samples of q spread; the quick variant's
+    400 periods settle the period-1 orbit of Fig. 7 at Omega = 2, one value) and its folder
+    results/<case>@quick/."""
+    text = (CASES / "paper-fig7.toml").read_text()
+    text = re.sub(r"(?m)^transient_periods = 400$", "transient_periods = 0", text, count=1)
+    text = text.replace("[quick]\n", "[quick]\ntransient_periods = 400\n", 1)
+    assert "transient_periods = 0" in text and "transient_periods = 400" in text
+    (tmp_path / "p.toml").write_text(text.replace('name = "paper-fig7"', 'name = "p"'))
+    monkeypatch.chdir(tmp_path)
+
+    def q_range(argv):
+        capsys.readouterr()
+        assert _exit(["poincare", "p.toml", "--Omega", "2.0", *argv]) == 0
+        m = re.search(r"q in \[([-0-9.e]+), ([-0-9.e]+)\]", capsys.readouterr().out)
+        return float(m.group(1)), float(m.group(2))
+
+    lo, hi = q_range([])
+    assert hi - lo > 1e-3, (lo, hi)                                    # from rest: a transient
+    lo, hi = q_range(["--quick"])
+    assert hi - lo < 1e-9, (lo, hi)                                    # settled
+    assert (tmp_path / "results" / "p@quick" / "poincare_Omega2.png").exists()
+    assert (tmp_path / "results" / "p" / "poincare_Omega2.png").exists()
+
+
+def test_results_repr_is_short():
+    """The repr names the groups, their names and sizes; it printed private class names
+    (_group_classes.<locals>._Run) and whole arrays (21835 characters for paper-fig7.h5)."""
+    import vibeam
+
+    res = vibeam.open_results(ROOT / "tests" / "references" / "paper-fig7.h5")
+    r = repr(res)
+    n = res.runs[0].n_points
+    assert len(r) < 400 and "array(" not in r and "<locals>" not in r and "_Run" not in r, r
+    assert "runs: 'exact'" in r and f"{n} points" in r and "paper-fig7" in r, r
+    g = repr(res.runs[0])
+    assert g.startswith("Run('exact': runs/exact") and "array(" not in g and len(g) < 200, g
+    m = vibeam.open_results(ROOT / "tests" / "references" / "paper-fig18-fe.h5")
+    assert "maps: 'static mode'" in repr(m) and len(repr(m)) < 600 and "array(" not in repr(m.maps[0])

@@ -189,6 +189,19 @@ class _Group:
     def _title(self) -> str:
         return self._results()._title()
 
+    def _sizes(self) -> str:
+        """What the group holds, in a few words (its sizes), for the repr."""
+        data = getattr(self, "data", None) or {}
+        pts = next((int(np.size(v)) for k, v in data.items() if k in ("Omega", "classification")), 0)
+        return f"{pts} points, {len(data)} variables"
+
+    def __repr__(self) -> str:
+        """``Run('exact': runs/exact, 202 points, 25 variables)``: the group, its name and sizes,
+        never its arrays."""
+        kind = {"runs": "Run", "maps": "Map", "branches": "Branches", "basins": "Basins"}.get(
+            self._kind, type(self).__name__.lstrip("_"))
+        return f"{kind}({self.name!r}: {self.group}, {self._sizes()})"
+
 
 def _as(cls, obj, owner):
     """``obj`` (a dataclass instance) as the API's subclass ``cls``, bound to ``owner``."""
@@ -214,6 +227,7 @@ def _group_classes():
         ``.data``, visiting order); group ``runs/<name>`` on (direction, Omega)."""
 
         _kind = "runs"
+        __repr__ = _Group.__repr__
 
         def plot(self, path=None, kind: str = "frc"):
             """The run's FRC (``kind="frc"``) or bifurcation diagram (``"bifurcation"``)."""
@@ -228,6 +242,10 @@ def _group_classes():
         on (direction, <parameter>, Omega)."""
 
         _kind = "maps"
+        __repr__ = _Group.__repr__
+
+        def _sizes(self):
+            return f"{self.parameter} x frequency, {_Group._sizes(self)}"
 
         def plot(self, path=None):
             """The class map (paper Fig. 18), with the two-parameter curves of the case."""
@@ -243,6 +261,12 @@ def _group_classes():
         (branch, point)."""
 
         _kind = "branches"
+        __repr__ = _Group.__repr__
+
+        def _sizes(self):
+            pts = sum(int(b.get("n", 0) or 0) for b in self.branches if isinstance(b, dict))
+            return (f"parameter {self.parameter}, {len(self.branches)} branches ({pts} points), "
+                    f"{len(self.curves)} curves, status {self.status}")
 
         def plot(self, path=None):
             """Branches (stable solid, unstable dashed), bifurcations and the sweeps of the same
@@ -259,6 +283,11 @@ def _group_classes():
         (:class:`vibeam.analysis.attractors.BasinsResult`); group ``basins/<name>``."""
 
         _kind = "basins"
+        __repr__ = _Group.__repr__
+
+        def _sizes(self):
+            return (f"{np.size(self.Omega)} frequencies, initial states {' x '.join(map(str, np.shape(self.labels)[1:]))}, "
+                    f"{len(self.attractors)} attractors")
 
         def to_xarray(self):
             """The variables of ``/basins/<run>/`` (computed from the result in memory)."""
@@ -305,6 +334,10 @@ class Bifurcations(_Group):
     def group(self) -> str:
         return f"branches/{self.name}/bifurcations"
 
+    def __repr__(self) -> str:
+        n = max((int(np.size(v)) for v in self.table.values()), default=0)
+        return f"Bifurcations({self.name!r}: {self.group}, {n} bifurcations)"
+
     def _results(self):
         return self.run._results()
 
@@ -326,6 +359,9 @@ class Curves(_Group):
     @property
     def group(self) -> str:
         return f"branches/{self.name}/curves"
+
+    def __repr__(self) -> str:
+        return f"Curves({self.name!r}: {self.group}, {len(self.curves)} curves)"
 
     def _results(self):
         return self.run._results()
@@ -373,6 +409,17 @@ class Results:
     path: Path | None = None
     branches: list = field(default_factory=list)
     basins: list = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        """The groups by kind with their names and sizes (never their arrays), e.g.
+        ``Results('paper-fig7', path='results.h5', runs: 'exact' (202 points, 25 variables);
+        maps: none; branches: none; basins: none)``."""
+        name = getattr(self.case, "name", None)
+        parts = [repr(name) if name else "case unknown", f"path={str(self.path)!r}" if self.path else "in memory"]
+        for kind in ("runs", "maps", "branches", "basins"):
+            gs = getattr(self, kind)
+            parts.append(f"{kind}: " + (", ".join(f"{g.name!r} ({g._sizes()})" for g in gs) if gs else "none"))
+        return "Results(" + ", ".join(parts[:2]) + "; " + "; ".join(parts[2:]) + ")"
 
     def __post_init__(self):
         _group_classes()
