@@ -479,3 +479,20 @@ def test_results_repr_is_short():
     assert g.startswith("Run('exact': runs/exact") and "array(" not in g and len(g) < 200, g
     m = vibeam.open_results(ROOT / "tests" / "references" / "paper-fig18-fe.h5")
     assert "maps: 'static mode'" in repr(m) and len(repr(m)) < 600 and "array(" not in repr(m.maps[0])
+
+
+# ============================================================================ item 8: README
+def test_readme_says_how_to_reach_vibeam_after_the_quick_start():
+    """The quick start installs into .venv without activating it; the examples after it use a
+    bare `vibeam` (`vibeam: command not found`).  A sentence between the quick start and the
+    first bare command says to activate .venv (or to call .venv/bin/vibeam); the two
+    quick-start commands and the 300-line limit stay (tests/test_docs.py)."""
+    import vibeam
+
+    readme = Path(vibeam.__file__).resolve().parents[1] / "README.md"      # the tree under test
+    lines = readme.read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= 300
+    quick = lines.index("python3 -m venv .venv && .venv/bin/pip install -e '.[test]' && .venv/bin/python -m pytest")
+    first_bare = next(i for i, l in enumerate(lines) if i > quick and l.startswith("vibeam "))
+    between = " ".join(lines[quick + 1:first_bare])
+    assert ". .venv/bin/activate" in between and ".venv/bin/vibeam" in between, between
