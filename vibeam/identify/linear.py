@@ -574,10 +574,19 @@ def loss_cost(r, loss: str, f_scale: float) -> float:
     ``0.5 sum r^2``).  NaN for a loss scipy does not have."""
     z = (np.asarray(r, float) / f_scale) ** 2
     with np.errstate(over="ignore", invalid="ignore"):
-        rho = {"linear": lambda: z, "soft_l1": lambda: 2.0 * (np.sqrt(1.0 + z) - 1.0),
-               "huber": lambda: np.where(z <= 1.0, z, 2.0 * np.sqrt(z) - 1.0),
-               "cauchy": lambda: np.log1p(z), "arctan": lambda: np.arctan(z)}.get(loss)
-        return float(0.5 * f_scale ** 2 * np.sum(rho())) if rho is not None else math.nan
+        if loss == "linear":
+            rho = z
+        elif loss == "soft_l1":
+            rho = 2.0 * (np.sqrt(1.0 + z) - 1.0)
+        elif loss == "huber":
+            rho = np.where(z <= 1.0, z, 2.0 * np.sqrt(z) - 1.0)
+        elif loss == "cauchy":
+            rho = np.log1p(z)
+        elif loss == "arctan":
+            rho = np.arctan(z)
+        else:
+            return math.nan
+        return float(0.5 * f_scale ** 2 * np.sum(rho))
 
 
 def irls_weights(r, loss: str, f_scale: float) -> np.ndarray:
