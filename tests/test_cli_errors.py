@@ -337,7 +337,8 @@ def test_bench_json_is_finite_for_small_counts():
     """The smallest allowed bench counts give finite JSON (no Infinity / NaN tokens)."""
     p = subprocess.run(_vibeam("bench", "--points", "2", "--periods", "66", "--repeats", "1",
                                "--direct-points", "1"), capture_output=True, text=True, timeout=300)
-    assert p.returncode == 0, p.stderr
+    # bench exits 1 after a FAIL line (issue 42 item 7); the figures are not asserted here
+    assert p.returncode == (1 if ": FAIL  " in p.stderr else 0), p.stderr
     import json
 
     data = json.loads(p.stdout, parse_constant=lambda c: pytest.fail(f"non-finite JSON value {c}"))
@@ -355,7 +356,7 @@ def test_bench_latency_runs_and_emits_its_json():
 
     p = subprocess.run(_vibeam("bench", "--latency", "--repeats", "1"), capture_output=True, text=True,
                        timeout=600)
-    assert p.returncode == 0, p.stderr
+    assert p.returncode == (1 if ": FAIL  " in p.stderr else 0), p.stderr     # exit 1 after a FAIL line
     data = json.loads(p.stdout, parse_constant=lambda c: pytest.fail(f"non-finite JSON value {c}"))
     for k in ("inline", "pool_2_workers"):
         d = data[k]
@@ -400,8 +401,9 @@ def test_bench_compile_machinery_on_a_tiny_scenario(monkeypatch, capsys):
     from vibeam.cli import main
 
     monkeypatch.setattr(bench, "COMPILE_SCENARIOS", (("tiny", "code", TINY_COMPILE),))
-    assert main(["bench", "--compile"]) == 0
+    code = main(["bench", "--compile"])
     cap = capsys.readouterr()
+    assert code == (1 if ": FAIL  " in cap.err else 0), cap.err       # exit 1 after a FAIL line
     data = json.loads(cap.out, parse_constant=lambda c: pytest.fail(f"non-finite JSON value {c}"))
     assert {"goal_s", "numba", "cores", "scenarios", "goals"} <= set(data)
     keys = {"process_wall_s", "probe_wall_s", "compile_s", "compile_s_main", "compile_s_workers", "specialisations",

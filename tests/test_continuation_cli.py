@@ -72,7 +72,7 @@ def _write(tmp_path, text, name="case.toml"):
 def test_run_writes_branches_with_units(tmp_path, capsys):
     case = _write(tmp_path, FIG8)
     out = tmp_path / "out"
-    assert main(["run", str(case), "--out", str(out), "--jobs", "1", "--quiet"]) == 0
+    assert main(["run", str(case), "--out", str(out), "--jobs", "1"]) == 0  # not --quiet: it reads the report (--quiet drops it, issue 42 item 7)
     text = capsys.readouterr().out
     assert "fold" in text and "grazing" in text and "continuation 'branches'" in text
     # labelled data: the branches on (branch, point), the bifurcations on (bifurcation), units
@@ -281,7 +281,7 @@ def test_no_continuation_run_and_a_branch_that_cannot_start(tmp_path, capsys):
     # the linear orbit does not exist at Omega = 1.5 here: a recorded status, not a traceback
     case = _write(tmp_path, FIG8.replace('start_at = "low"', 'start = "linear"\nstart_at = "low"'))
     out = tmp_path / "o3"
-    assert main(["continue", str(case), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 0
+    assert main(["continue", str(case), "--out", str(out), "--jobs", "1", "--no-plots"]) == 0  # not --quiet: it reads the report (--quiet drops it, issue 42 item 7)
     text = capsys.readouterr().out
     assert "not_available" in text and "does not exist" in text
     with h5py.File(out / "results.h5", "r") as f:

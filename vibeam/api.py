@@ -189,6 +189,19 @@ class _Group:
     def _title(self) -> str:
         return self._results()._title()
 
+    def _sizes(self) -> str:
+        """What the group holds, in a few words (its sizes), for the repr."""
+        data = getattr(self, "data", None) or {}
+        pts = next((int(np.size(v)) for k, v in data.items() if k in ("Omega", "classification")), 0)
+        return f"{pts} points, {len(data)} variables"
+
+    def __repr__(self) -> str:
+        """``Run('exact': runs/exact, 202 points, 25 variables)``: the group, its name and sizes,
+        never its arrays."""
+        kind = {"runs": "Run", "maps": "Map", "branches": "Branches", "basins": "Basins"}.get(
+            self._kind, type(self).__name__.lstrip("_"))
+        return f"{kind}({self.name!r}: {self.group}, {self._sizes()})"
+
 
 def _as(cls, obj, owner):
     """``obj`` (a dataclass instance) as the API's subclass ``cls``, bound to ``owner``."""
@@ -214,6 +227,7 @@ def _group_classes():
         ``.data``, visiting order); group ``runs/<name>`` on (direction, Omega)."""
 
         _kind = "runs"
+        __repr__ = _Group.__repr__
 
         def plot(self, path=None, kind: str = "frc"):
             """The run's FRC (``kind="frc"``) or bifurcation diagram (``"bifurcation"``)."""
@@ -228,6 +242,10 @@ def _group_classes():
         on (direction, <parameter>, Omega)."""
 
         _kind = "maps"
+        __repr__ = _Group.__repr__
+
+        def _sizes(self):
+            return f"{self.parameter} x frequency, {_Group._sizes(self)}"
 
         def plot(self, path=None):
             """The class map (paper Fig. 18), with the two-parameter curves of the case."""
@@ -243,6 +261,12 @@ def _group_classes():
         (branch, point)."""
 
         _kind = "branches"
+        __repr__ = _Group.__repr__
+
+        def _sizes(self):
+            pts = sum(int(b.get("n", 0) or 0) for b in self.branches if isinstance(b, dict))
+            return (f"parameter {self.parameter}, {len(self.branches)} branches ({pts} points), "
+                    f"{len(self.curves)} curves, status {self.status}")
 
         def plot(self, path=None):
             """Branches (stable solid, unstable dashed), bifurcations and the sweeps of the same
@@ -259,6 +283,11 @@ def _group_classes():
         (:class:`vibeam.analysis.attractors.BasinsResult`); group ``basins/<name>``."""
 
         _kind = "basins"
+        __repr__ = _Group.__repr__
+
+        def _sizes(self):
+            return (f"{np.size(self.Omega)} frequencies, initial states {' x '.join(map(str, np.shape(self.labels)[1:]))}, "
+                    f"{len(self.attractors)} attractors")
 
         def to_xarray(self):
             """The variables of ``/basins/<run>/`` (computed from the result in memory)."""
@@ -305,6 +334,10 @@ class Bifurcations(_Group):
     def group(self) -> str:
         return f"branches/{self.name}/bifurcations"
 
+    def __repr__(self) -> str:
+        n = max((int(np.size(v)) for v in self.table.values()), default=0)
+        return f"Bifurcations({self.name!r}: {self.group}, {n} bifurcations)"
+
     def _results(self):
         return self.run._results()
 
@@ -326,6 +359,9 @@ class Curves(_Group):
     @property
     def group(self) -> str:
         return f"branches/{self.name}/curves"
+
+    def __repr__(self) -> str:
+        return f"Curves({self.name!r}: {self.group}, {len(self.curves)} curves)"
 
     def _results(self):
         return self.run._results()
@@ -373,6 +409,17 @@ class Results:
     path: Path | None = None
     branches: list = field(default_factory=list)
     basins: list = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        """The groups by kind with their names and sizes (never their arrays), e.g.
+        ``Results('paper-fig7', path='results.h5', runs: 'exact' (202 points, 25 variables);
+        maps: none; branches: none; basins: none)``."""
+        name = getattr(self.case, "name", None)
+        parts = [repr(name) if name else "case unknown", f"path={str(self.path)!r}" if self.path else "in memory"]
+        for kind in ("runs", "maps", "branches", "basins"):
+            gs = getattr(self, kind)
+            parts.append(f"{kind}: " + (", ".join(f"{g.name!r} ({g._sizes()})" for g in gs) if gs else "none"))
+        return "Results(" + ", ".join(parts[:2]) + "; " + "; ".join(parts[2:]) + ")"
 
     def __post_init__(self):
         _group_classes()
@@ -788,16 +835,26 @@ def open_results(path) -> Results:
 
     Raises
     ------
-    ValueError
-        Not a regular file, or a file of the first layout (no dimensions: convert it with
+    vibeam.errors.InputError (a ValueError)
+        One line naming the file: not a regular file, not an HDF5 file, an HDF5 file that is
+        not a vibeam results file (no ``vibeam_layout``, no runs, maps, branches or basins), or a
+        file of the first layout (no dimensions: convert it with
         :func:`vibeam.io.results.load_results` and :func:`vibeam.io.results.write_results`).
     """
+    from vibeam.errors import InputError
+    from vibeam.io.h5check import open_checked
     from vibeam.io.inputs import check_input_file
-    from vibeam.io.results import LAYOUT_VERSION, layout_of
+    from vibeam.io.results import LAYOUT_VERSION
 
     p = check_input_file(path, "results file")
-    if layout_of(p) < LAYOUT_VERSION:
-        raise ValueError(f"{p}: a results file of the first layout (no dimensions); rewrite it with "
+    with open_checked(p) as f:
+        layout = f.attrs.get("vibeam_layout")
+        groups = [g for g in ("runs", "maps", "branches", "basins") if g in f]
+    if layout is None and not groups:
+        raise InputError(f"{p}: not a vibeam results file (an HDF5 file without vibeam_layout and without runs, "
+                         f"maps, branches or basins); allowed: a results.h5 written by vibeam")
+    if int(layout if layout is not None else 1) < LAYOUT_VERSION:
+        raise InputError(f"{p}: a results file of the first layout (no dimensions); rewrite it with "
                          f"vibeam.io.results.load_results and write_results")
     return Results.from_file(p)
 
@@ -926,9 +983,15 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         effects are used.
     method : str
         Method for a model (``event``, ``direct``, ...; time-domain methods only).
-    state : array_like, optional
-        Initial state at forcing phase 0 (default: the model's rest state): finite
-        numbers, as many as the model's state.
+    state : array_like, shape (2 d,) or (2 d + 1,), optional
+        Initial state at forcing phase 0 (default: the model's rest state,
+        ``model.initial_state()``): the displacements then the velocities of the model's
+        ``d`` degrees of freedom -- ``(q, q')`` of the SDOF oscillator (nondimensional), the
+        modal coordinates ``(eta_1..eta_d, eta'_1..eta'_d)`` of a beam (mass-normalised, m
+        kg^(1/2) and m kg^(1/2)/s over the time unit) -- optionally followed by the held flag
+        (0 free, 1 held on the upper stop, -1 on the lower one; left out: 0, and a state on a
+        stop with zero relative velocity is held by the solver's own sticking test).  Finite
+        numbers; ``Simulation.final_state`` has the flag and can be passed back.
     force : bool
         Simulate even if the work is above the limit of ``vibeam run`` (as ``--force``).
     **settings
@@ -947,7 +1010,7 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         ``periods`` as ``[sweep] record_periods`` (a whole number >= 1), ``transient`` as
         ``transient_periods`` (a whole number >= 0; ``"auto"`` is the sweep's and is
         refused here), ``samples_per_period`` as ``[sweep] samples_per_period``; ``run`` a
-        run's index or name; ``state`` finite numbers of the state's size.  Also: neither
+        run's index or name; ``state`` 2 d or 2 d + 1 finite numbers.  Also: neither
         or both of ``Omega`` and ``frequency_hz`` given, ``frequency_hz`` for a
         nondimensional scene, a method without a time history (averaging, mapping).
     vibeam.case.schema.InputError
@@ -1229,17 +1292,22 @@ def _pick_run(case, run):
 
 
 def _check_state(state, model) -> np.ndarray:
-    """An initial state: finite numbers of the model's state size (TypeError/ValueError)."""
+    """An initial state (TypeError/ValueError): the model's displacements and velocities
+    (``(q, q')``, or ``(eta, eta')`` of a modal beam: ``n - 1`` numbers), optionally followed by the
+    held flag (``n`` numbers, :meth:`initial_state`'s layout); returned with the flag (0, free,
+    when it was left out)."""
     from vibeam.errors import quote_value
 
     n = int(np.size(model.initial_state()))
+    allowed = (f"{n - 1} or {n} finite numbers: the displacements and velocities{' (q, dq)' if n == 3 else ''}, "
+               f"optionally followed by the held flag (0 free, 1 held on the upper stop, -1 on the lower one)")
     try:
         x = np.asarray(state, dtype=float)
     except (TypeError, ValueError):
-        raise TypeError(f"state = {quote_value(state)}: not numbers; allowed: {n} finite numbers") from None
-    if x.shape != (n,) or not np.isfinite(x).all():
-        raise ValueError(f"state = {quote_value(state)}: allowed: {n} finite numbers (the model's state)")
-    return x
+        raise TypeError(f"state = {quote_value(state)}: not numbers; allowed: {allowed}") from None
+    if x.ndim != 1 or x.size not in (n - 1, n) or not np.isfinite(x).all():
+        raise ValueError(f"state = {quote_value(state)}: allowed: {allowed}")
+    return np.append(x, 0.0) if x.size == n - 1 else x
 
 
 _WORK_ARGS = {"sweep.record_periods": "periods", "sweep.transient_periods": "transient",
@@ -1535,7 +1603,8 @@ def regress(case, reference, results=None, out=None, jobs: int | None = None, ex
     jobs, executor, quick, force
         As :func:`run`.
     atol, rtol : float, optional
-        Override ``[regress] amplitude_atol`` / ``amplitude_rtol``.
+        Override ``[regress] amplitude_atol`` / ``amplitude_rtol``; checked by those keys' rule
+        (a finite number >= 0).
 
     Returns
     -------
@@ -1544,13 +1613,22 @@ def regress(case, reference, results=None, out=None, jobs: int | None = None, ex
     Raises
     ------
     vibeam.case.schema.InputError
-        A reference or results file that is not of this case or not readable (one line).
+        A reference or results file that is not of this case or not readable (one line): a
+        results-file reference (or ``results``) written by another case (another name, model,
+        effects or runs: :func:`vibeam.analysis.regress.check_results_of_case`).
+    TypeError, ValueError
+        ``atol`` / ``rtol`` not a finite number >= 0 (NaN, infinite, negative).
     """
     from vibeam.analysis.regress import (check_reference_of_case, check_results_of_case, compare, load_results,
                                          read_reference)
-    from vibeam.case.arguments import check_path
+    from vibeam.case.arguments import check_case_value, check_path
+    from vibeam.case.schema import RegressSpec
 
     jobs, out = _check_run_args(jobs, out, executor, quick=quick, force=force)
+    if atol is not None:
+        atol = check_case_value(atol, "atol", RegressSpec, "amplitude_atol")
+    if rtol is not None:
+        rtol = check_case_value(rtol, "rtol", RegressSpec, "amplitude_rtol")
     reference = check_path(reference, "reference", optional=False)
     results = check_path(results, "results")
     c, source = _case_and_source(case)
@@ -1559,7 +1637,9 @@ def regress(case, reference, results=None, out=None, jobs: int | None = None, ex
     if results is not None:
         new = load_results(results, "--results")
         check_results_of_case(c, new, results, source)
-    else:
+    if isinstance(ref, dict):          # a results-file reference: of this case too
+        check_results_of_case(c, ref, reference, source, option="--reference")
+    if results is None:
         from vibeam.io.outdir import check_folder
         from vibeam.runner import run_case
 

@@ -3,7 +3,8 @@
 Heavy modules (numba kernels, h5py, matplotlib) are imported only by the
 command that needs them, so ``vibeam --help`` and case errors are instant.
 
-Exit codes (:data:`EXIT_CODES`): 0 done; 1 ``regress`` found a regression;
+Exit codes (:data:`EXIT_CODES`): 0 done; 1 ``regress`` found a regression, or a ``bench``
+goal FAILed;
 2 bad input (case file, option, file or folder: one line ``vibeam: error:
 ...``, nothing computed is lost and no partial file is left); 3 the run
 finished but every point failed (the results file and plots show the
@@ -11,6 +12,12 @@ failures); 130 interrupted by Ctrl-C (SIGINT), 143 by SIGTERM (finished
 sweep lines are kept: ``--resume``).  Output piped into a program that stops
 reading (``vibeam cost ... | head``) is dropped quietly and the command
 finishes its files.
+
+``--quiet`` (every command but ``cases`` and ``bench``, whose output is what they are for): no
+progress bar and no tables or reports -- standard output stays empty; the files are written as
+without it, and what goes to standard error stays: an error is still its one line ``vibeam:
+error: ...`` (exit 2), and notes (``vibeam: note: ...``), an interruption's report and the one-line
+``[case] ...`` header of a run are kept.
 """
 from __future__ import annotations
 
@@ -21,12 +28,16 @@ import signal
 import sys
 from pathlib import Path
 
-from vibeam.case.arguments import jobs_option, path_option
+from vibeam.case.arguments import case_value_option, jobs_option, path_option
 from vibeam.errors import Terminated  # noqa: F401 (re-exported)
 
+QUIET_HELP = ("no progress bar and no tables or reports (standard output stays empty; files are written as "
+              "without it); errors are still one line on standard error")
+#: the commands without --quiet: their output is what they are for
+NOT_QUIET = ("cases", "bench")
 FRESH_HELP = ("start a new results file: the groups of the one in the output folder are not kept (without it, "
               "every group is kept; those of another case are marked stale)")
-EXIT_CODES = {0: "done", 1: "regression found (regress)", 2: "bad input", 3: "every point failed",
+EXIT_CODES = {0: "done", 1: "regression found (regress), a goal FAILed (bench)", 2: "bad input", 3: "every point failed",
               130: "interrupted (SIGINT, Ctrl-C)", 143: "terminated (SIGTERM)"}
 
 
@@ -289,7 +300,7 @@ def cmd_cost(args) -> int:
     case, _ = load_case(args.case)
     out_dir = _out_dir(args, case.quick_variant() if args.quick else case)
     res = cost(args.case, out=out_dir, ladder=args.ladder, repeats=args.repeats, quick=args.quick, jobs=args.jobs,
-               force=args.force, log=lambda m: print(m, file=sys.stderr))
+               force=args.force, log=(lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr)))
     print_cost(res.result)
     print(f"\ncost table -> {res.paths['h5']} (/cost), plot -> {res.paths['png']}")
     return 0
@@ -371,12 +382,14 @@ def cmd_poincare(args) -> int:
     from vibeam.api import poincare
     from vibeam.case.schema import load_case
     from vibeam.errors import CaseError
-    from vibeam.io.outdir import check_folder, default_folder
+    from vibeam.io.outdir import check_folder
 
     case, _ = load_case(args.case)
     if (args.frequency_hz is None) == (args.Omega is None):
         raise CaseError(f"{args.case}: `vibeam poincare` needs one of --frequency-hz F or --Omega W")
-    out_dir = check_folder(Path(args.out) if args.out else default_folder(case.name))
+    if args.quick:                   # the quick variant's transient (and its folder), as run --quick
+        case = case.quick_variant()
+    out_dir = check_folder(_out_dir(args, case))
     f = args.frequency_hz if args.frequency_hz is not None else args.Omega
     stem = f"poincare_{'f' if args.frequency_hz is not None else 'Omega'}{f:g}"
     try:
@@ -418,7 +431,7 @@ def main(argv=None) -> int:
         p.add_argument("--jobs", type=jobs_option, default=None,
                        help="worker processes of the local pool (default: all cores; 1: inline)")
         p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
-        p.add_argument("--quiet", action="store_true", help="no progress bar")
+        p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
         p.add_argument("--quick", action="store_true",
                        help="run the case's quick variant ([quick]: fewer points, periods and map values)")
         p.add_argument("--resume", action="store_true",
@@ -444,7 +457,7 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=jobs_option, default=None,
                    help="worker processes of the local pool (default: all cores; 1: inline)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     p.add_argument("--quick", action="store_true", help="the case's quick variant")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run on a dask.distributed scheduler (e.g. tcp://host:8786)")
@@ -476,7 +489,7 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=jobs_option, default=None,
                    help="worker processes of the local pool (default: all cores; 1: inline)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     p.add_argument("--quick", action="store_true", help="the case's quick variant (a 40 x 40 grid at most)")
     p.add_argument("--resume", action="store_true",
                    help="continue an interrupted computation: keep the grid rows already in results.h5.partial")
@@ -499,8 +512,10 @@ def main(argv=None) -> int:
                    help="worker processes of the rerun's local pool (default: all cores; 1: inline)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the rerun on a dask.distributed scheduler (e.g. tcp://host:8786)")
-    p.add_argument("--atol", type=float, default=None, help="override [regress] amplitude_atol")
-    p.add_argument("--rtol", type=float, default=None, help="override [regress] amplitude_rtol")
+    p.add_argument("--atol", type=case_value_option("--atol", "RegressSpec", "amplitude_atol"), default=None,
+                   help="override [regress] amplitude_atol (a finite number >= 0)")
+    p.add_argument("--rtol", type=case_value_option("--rtol", "RegressSpec", "amplitude_rtol"), default=None,
+                   help="override [regress] amplitude_rtol (a finite number >= 0)")
     p.add_argument("--quick", action="store_true",
                    help="rerun the case's quick variant (as the references in tests/references/)")
     p.add_argument("--force", action="store_true", help=force_help)
@@ -554,7 +569,7 @@ def main(argv=None) -> int:
     p.add_argument("--decay", type=path_option("--decay"), metavar="DECAY.csv",
                    help="identify beta_S from a free decay 't_s,U_mm'")
     p.add_argument("--no-plots", action="store_true", help="skip fit.png")
-    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     p.set_defaults(func=lambda a: __import__("vibeam.identify.fit", fromlist=["main_fit"]).main_fit(a))
     p = sub.add_parser("cases", help="the shipped cases, one line each: file, fidelity, what it shows",
                        formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -580,12 +595,15 @@ def main(argv=None) -> int:
                    help="forcing periods recorded: stroboscopic samples (default 64)")
     p.add_argument("--transient", type=_int_at_least(0), default=None,
                    help="periods simulated first (default: the case's transient_periods; 2000 for \"auto\")")
+    p.add_argument("--quick", action="store_true",
+                   help="the case's quick variant: its [quick] transient_periods (default folder "
+                        "results/<case name>@quick/)")
     p.add_argument("--run", help="the run whose model and solver are used (default: the first)")
     p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/)")
     p.add_argument("--force", action="store_true", help=force_help)
     p.set_defaults(func=cmd_poincare)
     p = sub.add_parser("bench", help="speed and accuracy against the stated goals: JSON on stdout, a PASS/FAIL "
-                       "line per goal on stderr",
+                       "line per goal on stderr (NOT CHECKED outside the goal's configuration); exit 1 after a FAIL",
                        description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
                        "atol 1e-8) on the Fig. 7 scene, inline, with the goals: event sweep under 1 s, >= 300x "
                        "faster, >= 1000x smaller error.  The other modes (--cli, --map, --scaling, --effects, "
@@ -634,6 +652,9 @@ def main(argv=None) -> int:
                         "basin hits against full trajectories, and a 50 x 50 basin of the 4-mode FE rig")
     p.add_argument("--jobs", type=jobs_option, default=None, help="workers of --fit and --basins (default 2)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
+    for name, sp in sub.choices.items():          # --quiet means the same for every command (module doc)
+        if name not in NOT_QUIET and not any("--quiet" in a.option_strings for a in sp._actions):
+            sp.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     args = ap.parse_args(argv)
     return _dispatch(args)
 
@@ -643,7 +664,8 @@ def _dispatch(args) -> int:
     from vibeam.errors import CaseError, one_line
 
     stdout = sys.stdout
-    sys.stdout = _QuietPipe(stdout)
+    dropped = open(os.devnull, "w") if getattr(args, "quiet", False) else None     # --quiet: no tables
+    sys.stdout = dropped if dropped is not None else _QuietPipe(stdout)
     old_term = None
     try:
         old_term = signal.signal(signal.SIGTERM, _on_sigterm)
@@ -678,6 +700,8 @@ def _dispatch(args) -> int:
         except Exception:
             pass
         sys.stdout = stdout
+        if dropped is not None:
+            dropped.close()
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
 

@@ -251,24 +251,36 @@ def _first_difference(a, b, key=""):
     return key, a, b
 
 
-def check_results_of_case(case, res: dict, path, source: str = "") -> None:
-    """Refuse a results file (``vibeam regress --results``) written by another case.
+def check_results_of_case(case, res: dict, path, source: str = "", option: str = "--results") -> None:
+    """Refuse a results file (``vibeam regress --results``, or a results-file ``--reference``)
+    written by another case.
 
     The case stored in the file (``case_json``, the case as run) must be the same scene as
     ``case`` (:func:`_identity`: name, model, effects, mapped parameter, runs); a file
     without the stored case is checked by its case name.
 
+    Parameters
+    ----------
+    case : vibeam.case.schema.Case
+    res : dict
+        The file as :func:`load_results` reads it.
+    path : str or Path
+    source : str
+        The case file's name (for the message).
+    option : str
+        The option that named the file (``--results`` or ``--reference``).
+
     Raises
     ------
     InputError
-        Naming the file, the first differing key and both values.
+        Naming the option, the file, the first differing key and both values.
     """
     import json
 
     from vibeam.errors import InputError, quote_value
 
     attrs = res.get("attrs", {})
-    where = f"--results {path}"
+    where = f"{option} {path}"
     mine = _identity(json.loads(case.model_dump_json()))
     stored = str(attrs.get("case_json", "") or "")
     if stored:

@@ -203,6 +203,28 @@ def check_case_value(value, name: str, table, key: str):
         raise (TypeError if wrong_type else ValueError)(msg) from None
 
 
+def case_value_option(option: str, table: str, key: str):
+    """argparse type of an option that overrides a case key (``--atol`` is ``[regress]
+    amplitude_atol``): a float checked by that key's own rule (:func:`check_case_value`), so
+    ``nan``, ``inf`` and values out of range are refused in one line (exit 2) like in a case file.
+    ``table`` is the name of a spec class of :mod:`vibeam.case.schema` (``"RegressSpec"``)."""
+    import argparse
+
+    def conv(text: str) -> float:
+        from vibeam.case import schema
+
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        try:
+            return check_case_value(v, option, getattr(schema, table), key)
+        except (TypeError, ValueError) as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+    conv.__name__ = "number"
+    return conv
+
+
 def check_frequency(value, name: str = "Omega", key: str = "Omega"):
     """A forcing frequency (``Omega``, or ``frequency_hz`` in Hz): a finite number > 0, the rule
     of a point of ``[sweep] Omega`` / ``frequency_hz`` (:func:`vibeam.case.schema.check_grid`).

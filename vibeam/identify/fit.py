@@ -77,7 +77,9 @@ import numpy as np
 from vibeam.case.contact import model_with
 from vibeam.case.text import case_dump, to_toml  # noqa: F401 (re-exported)
 from vibeam.errors import case_error
-from vibeam.identify.linear import irls_weights, loss_psi, param_unit, uncertainty
+from vibeam.identify.linear import (CONVERGED_STEP_SE, NOISE_TEST_LEVEL, irls_weights, loss_cost, loss_psi,
+                                    noise_consistent,
+                                    noise_interval, param_unit, remaining_step, uncertainty)
 from vibeam.io.reference import Reference, read_reference  # noqa: F401 (re-exported)
 
 DEFAULT_LOSS = "soft_l1"
@@ -87,6 +89,13 @@ DEFAULT_F_SCALE = 3.0
 DEFAULT_SIGMA_FRACTION = 0.02
 #: floor of the sweep's relative accuracy: round-off of the event solvers
 EPS_FLOOR = 1e-13
+#: the range of ``f_scale`` (units of sigma): below it every residual is an outlier of the loss and
+#: ``(r / f_scale)^2`` overflows; above it the robust loss is least squares (``--loss linear``) and
+#: scipy's cost ``f_scale^2 rho`` loses its precision
+F_SCALE_RANGE = (1e-3, 1e3)
+#: a measured amplitude more than this many times the model's largest at the start is refused (not an
+#: amplitude of the scene: another unit, a corrupted value)
+DATA_SCALE_LIMIT = 1e6
 #: magnitude used for a parameter's finite-difference step when its value is zero
 TYPICAL_SCALE = {"gap_mm": 0.01, "contact_gap_mm": 0.01, "Delta": 1e-4, "damping_ratio": 0.01, "beta": 0.01,
                  "rayleigh_alpha_1_s": 0.1, "R": 0.1, "rotary_inertia_kg_m2": 1e-6}
@@ -515,6 +524,8 @@ class FitResult:
         Residual and Jacobian evaluations of ``least_squares``.
     wall_time_s : float
     reliable : bool
+        The standard errors can be trusted: the rule of :func:`verdict` (finite, a converged
+        optimizer, residuals consistent with the data's sigma, ...).
     notes : list of str
         Why the standard errors may be unreliable, and what was excluded.
     message : str
@@ -615,7 +626,9 @@ class FitResult:
                 f"  points used {self.n_used} of {self.n_points} (p = {p}, dof = {self.dof}); model not periodic at "
                 f"{self.n_nonperiodic} (down-weighted by their spread), failed at {self.n_failed}; "
                 f"{self.n_downweighted} point(s) down-weighted by the loss (weight < 0.5)",
-                f"  residual rms {rms:.4g} {yu}, s^2 = {self.s2:.4g} (in sigma^2), cost {self.cost:.4g}",
+                f"  residual rms {rms:.4g} {yu}, s^2 = {self.s2:.4g} (in sigma^2), cost {self.cost:.4g} ({self.loss} "
+                f"loss: f_scale^2/2 sum rho((r/f_scale)^2), as in the progress lines; 0.5 sum r^2 = "
+                f"{0.5 * float(np.sum(self.normalized_residuals[self.used] ** 2)):.4g})",
                 f"  evaluations: {self.evaluations} sweeps (least_squares: {self.nfev} residual, {self.njev} "
                 f"Jacobian evaluations), wall time {self.wall_time_s:.2f} s",
                 f"  Jacobian: {self.jacobian_info.get('method', '')}, step eps^(1/3) |x| with eps = "
@@ -747,8 +760,7 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
     t0 = time.perf_counter()
     if loss not in LOSSES:
         raise case_error(f"'--loss' = {loss!r} is not allowed; allowed: {', '.join(LOSSES)}")
-    if not (f_scale > 0 and math.isfinite(f_scale)):
-        raise case_error(f"'--f-scale' = {f_scale!r}: must be a finite positive number")
+    check_f_scale(f_scale)
     ref = reference if isinstance(reference, Reference) else read_reference(reference, reference_run)
     params = check_params(case, list(params) if params else default_params(case), source)
     r = _pick_run(case, run, source)
@@ -771,14 +783,13 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
         prob.measure_accuracy(ev0, ev2)
         with np.errstate(over="ignore", invalid="ignore"):
             r0 = prob.residuals(ev0)
-            r0[~np.isfinite(np.square(r0))] = np.inf   # the cost sums their squares
-        if not np.isfinite(r0).all():
-            i = int(np.flatnonzero(~np.isfinite(r0))[0])
-            raise case_error(f"{ref.source}: the residual (model - data) / sigma of point {i + 1} "
-                         f"({ref.x_name} = {ref.x[i]:g}) is not finite or its square overflows at the start: "
-                         f"sigma = {prob.sigma[i]:g} is too "
-                         f"small for the model amplitude {ev0.amplitude[i]:g}; give sigma values of the data's "
-                         f"scale")
+            # the cost sums their squares, the loss those of r / f_scale
+            r0[~np.isfinite(np.square(r0 / min(1.0, f_scale)))] = np.inf
+        amax = float(np.nanmax(np.abs(ev0.amplitude))) if np.isfinite(ev0.amplitude).any() else 0.0
+        huge = np.abs(ref.y) > DATA_SCALE_LIMIT * amax if amax > 0 else np.zeros(ref.n, bool)
+        if huge.any() or not np.isfinite(r0).all():
+            bad = np.flatnonzero(huge) if huge.any() else np.flatnonzero(~np.isfinite(r0))
+            raise case_error(_start_residual_error(ref, prob, ev0, int(bad[0])))
         jac_cache: dict = {}
         info_last: dict = {}
 
@@ -792,7 +803,7 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
                 jac_cache[key] = (J, info)
                 if log:
                     log(f"  x = {np.array2string(np.asarray(x), precision=6)}, cost "
-                        f"{0.5 * float(np.sum(fun(x) ** 2)):.6g} (Jacobian {len(jac_cache)}, "
+                        f"{loss_cost(fun(x), loss, f_scale):.6g} ({loss} loss) (Jacobian {len(jac_cache)}, "
                         f"{prob.evaluations} sweeps so far; at most {max_evaluations} residual evaluations)")
             info_last.update(jac_cache[key][1])
             return jac_cache[key][0]
@@ -840,11 +851,40 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
                          f"[sweep] transient_periods")
         if res.status <= 0:
             notes.append(f"optimizer stopped: {res.message}")
+        # the rule of a reliable verdict (verdict's docstring): finite standard errors, a converged
+        # optimizer, residuals that scatter as the data's sigma says
+        se = unc.standard_error
+        bad_se = [n_ for n_, v in zip(params, se) if not np.isfinite(v)]
+        if bad_se:
+            reliable = False
+        if bad_se and unc.reliable:      # (rank deficiency and no degrees of freedom have their notes)
+            notes.append("standard error not a finite number for " + ", ".join(
+                f"{n_} ({float(v):g})" for n_, v in zip(params, se) if not np.isfinite(v)))
+        step = remaining_step(J[used], rr[used], w[used])
+        slack = 10 * xtol * np.maximum(np.abs(x), prob.typ)
+        sef = np.where(np.isfinite(se), se, 0.0)
+        moving = ~at_bound & ~(np.abs(step) <= CONVERGED_STEP_SE * sef + slack)
+        if moving.any():
+            reliable = False
+            j = int(np.argmax(np.where(moving, np.abs(step) / np.maximum(sef, 1e-300), -1.0)))
+            far = (f"{abs(step[j]) / sef[j]:.3g} standard errors (allowed: {CONVERGED_STEP_SE:g})"
+                   if sef[j] > 0 and np.isfinite(step[j]) else
+                   f"{float(step[j]):.3g} {param_unit(params[j])} (its standard error is {float(se[j]):g})")
+            notes.append(f"the optimizer did not reach the minimum: a Gauss-Newton step from the estimate would "
+                         f"still move {params[j]} by {far}; it stopped after "
+                         f"{res.nfev} residual evaluation(s){' at the starting values' if np.array_equal(x, start) else ''} "
+                         f"({res.message})")
         if ref.sigma is None:
             notes.append("no sigma column: standard errors from the residual scatter")
-        elif unc.s2 > 4.0:
-            notes.append(f"residuals exceed sigma (s^2 = {unc.s2:.3g}): the model does not describe the data "
-                         f"within their scatter; s^2 scales the standard errors")
+        elif not noise_consistent(unc.s2, unc.dof):
+            reliable = False
+            lo, hi = noise_interval(unc.dof)
+            why = ("the residuals are far smaller than sigma: sigma overstates the noise (or the model "
+                   "interpolates the data)" if unc.s2 < lo else
+                   "the residuals exceed sigma: the model does not describe the data within their scatter "
+                   "(s^2 scales the standard errors)")
+            notes.append(f"s^2 = {unc.s2:.3g} (in sigma^2) is outside [{lo:.3g}, {hi:.3g}], the chi-square "
+                         f"spread of {unc.dof} degrees of freedom (level {NOISE_TEST_LEVEL:g}): {why}")
         final = None
         if ev.line_rows is not None:
             final = assemble(ev.job.solver, ev.sweeps[0][2], r.name, ev.line_rows,
@@ -865,6 +905,42 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
     finally:
         if own:
             ex.shutdown(wait=True, cancel_futures=True)
+
+
+def check_f_scale(f_scale) -> float:
+    """``--f-scale`` / ``f_scale``: a number in :data:`F_SCALE_RANGE` (units of sigma).
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        One line naming the option, the value and the range.
+    """
+    lo, hi = F_SCALE_RANGE
+    try:
+        v = float(f_scale)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not lo <= v <= hi:
+        raise case_error(f"'--f-scale' = {f_scale!r} is not allowed; allowed: a number from {lo:g} to {hi:g} "
+                         f"(the robust loss's scale in units of sigma; default {DEFAULT_F_SCALE:g})")
+    return v
+
+
+def _start_residual_error(ref, prob, ev0, i: int) -> str:
+    """Why the normalised residual of point ``i`` is not finite at the start, naming what is wrong:
+    the data's amplitude, the model's, or sigma."""
+    y, a, sg = float(ref.y[i]), float(ev0.amplitude[i]), float(prob.sigma[i])
+    yu = " mm" if ref.y_name == "amplitude_mm" else ""
+    where = f"{ref.source}: point {i + 1} ({ref.x_name} = {float(ref.x[i]):g})"
+    if not math.isfinite(a):
+        return f"{where}: the model amplitude at the start is {a:g}; allowed: a finite amplitude (check the case)"
+    scale = max(abs(a), float(np.nanmax(np.abs(ev0.amplitude))) if np.isfinite(ev0.amplitude).any() else 0.0)
+    if scale > 0 and abs(y) > DATA_SCALE_LIMIT * scale:
+        return (f"{where}: {ref.y_name} = {y:g}{yu} is not an amplitude of this scene: {abs(y) / scale:.3g} times "
+                f"the model's largest at the start ({scale:g}{yu}); allowed: amplitudes up to {DATA_SCALE_LIMIT:g} "
+                f"times the model's (is the column in another unit?)")
+    return (f"{where}: sigma = {sg:g}{yu} is too small for the difference between the model amplitude {a:g}{yu} "
+            f"and the data {y:g}{yu} (its square overflows); allowed: sigma values of the data's scale")
 
 
 def _first_message(ev) -> str:
@@ -922,7 +998,26 @@ def fitted_case_text(case, run, values: dict, source: str = "", reference: str =
 # ============================================================================ plot
 def verdict(res: FitResult) -> str:
     """The fit's verdict in one line, as ``vibeam fit`` prints it: ``standard errors reliable``
-    or ``standard errors NOT reliable: <the reasons>`` (``res.notes``)."""
+    or ``standard errors NOT reliable: <the reasons>`` (``res.notes``).
+
+    ``res.reliable`` (:func:`fit_case`) requires all of:
+
+    * finite standard errors (no rank deficiency, no degrees of freedom missing, no NaN);
+    * a converged optimizer: ``least_squares`` stopped by a tolerance (not by
+      ``max_evaluations``), and the Gauss-Newton step still left at the estimate
+      (:func:`vibeam.identify.linear.remaining_step`, with the loss's IRLS weights) is at most
+      :data:`~vibeam.identify.linear.CONVERGED_STEP_SE` = 0.1 standard error of each parameter
+      (plus 10 xtol |x|) -- a fit that stopped where it started because its cost was flat
+      (``gtol`` is absolute, so a huge sigma flattens it) fails this;
+    * with a ``sigma`` column, residuals consistent with the noise: ``s^2 = chi^2 / dof`` (in
+      sigma^2, Huber-corrected for a robust loss) inside the chi-square spread
+      :func:`vibeam.identify.linear.noise_interval` ``[chi2.ppf(0.0005, dof), chi2.ppf(0.9995,
+      dof)] / dof`` (level :data:`~vibeam.identify.linear.NOISE_TEST_LEVEL` = 0.001; 48 dof:
+      [0.46, 1.81]); without a sigma column ``s^2`` is estimated from the scatter and not tested;
+    * no estimate on a bound, a well-conditioned Jacobian, at most a quarter of its entries
+      one-sided or zero, at most a quarter of the points down-weighted by the loss, at least
+      as many periodic points as parameters.
+    """
     v = "standard errors reliable" if res.reliable else "standard errors NOT reliable"
     return v + (": " + "; ".join(res.notes) if res.notes else "")
 
@@ -1051,8 +1146,7 @@ def main_fit(args) -> int:
     if not args.reference and not args.decay:
         raise case_error(f"{args.case}: `vibeam fit` needs --reference DATA (an FRC) or --decay DECAY.csv "
                      f"(a free decay)")
-    if not (math.isfinite(args.f_scale) and args.f_scale > 0):
-        raise case_error(f"'--f-scale' = {args.f_scale!r}: must be a finite positive number (units of sigma)")
+    check_f_scale(args.f_scale)
     if args.max_evaluations < 1:
         raise case_error(f"'--max-evaluations' = {args.max_evaluations!r}: must be at least 1")
     if args.params is not None and not [p for p in args.params.split(",") if p.strip()]:

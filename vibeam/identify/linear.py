@@ -185,9 +185,10 @@ def uncertainty(J, r, names=(), psi=None, dpsi=None, at_bound=None) -> Uncertain
     Vt_full = np.zeros((p, p))
     Vt_full[: Vt.shape[0]] = Vt
     inv = np.zeros(p)
-    inv[keep] = 1.0 / S_full[keep] ** 2
-    cov_s = (Vt_full.T * inv) @ Vt_full
-    cov = s2 * cov_s / np.outer(scale, scale)
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):   # underflowing J: NaN, reported
+        inv[keep] = 1.0 / S_full[keep] ** 2
+        cov_s = (Vt_full.T * inv) @ Vt_full
+        cov = s2 * cov_s / np.outer(scale, scale)
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     if rank < p:
         null = Vt_full[~keep] if Vt.shape[0] == p else np.eye(p)
@@ -211,6 +212,67 @@ def uncertainty(J, r, names=(), psi=None, dpsi=None, at_bound=None) -> Uncertain
         se = np.full(p, np.nan)
     reliable = dof > 0 and rank == p and cond <= 1e6 and not (at_bound is not None and np.any(at_bound))
     return Uncertainty(cov, se, corr, s2, dof, rank, cond, bool(reliable), notes)
+
+
+#: two-sided level of the test of the residual variance against the data's sigma
+#: (:func:`noise_consistent`): a fit whose model and sigma are right fails it once in 1000
+NOISE_TEST_LEVEL = 1e-3
+#: the Gauss-Newton step still left at a converged solution, in standard errors, at most
+#: (:func:`remaining_step`): a step of 0.1 SE changes the cost by ~0.005 (in sigma^2 units), far
+#: more than ``least_squares``' ftol leaves
+CONVERGED_STEP_SE = 0.1
+
+
+def noise_interval(dof: int, level: float = NOISE_TEST_LEVEL) -> tuple[float, float]:
+    """The range of ``s^2 = chi^2 / dof`` that residuals of the stated sigma reach with probability
+    ``1 - level``: ``[chi2.ppf(level/2, dof) / dof, chi2.ppf(1 - level/2, dof) / dof]`` (``chi^2``
+    the sum of the squared normalised residuals, chi-square distributed with ``dof`` degrees of
+    freedom for a correct model and Gaussian noise of standard deviation sigma; e.g. dof = 48:
+    [0.46, 1.81]).  ``(nan, nan)`` for ``dof < 1``."""
+    from scipy.stats import chi2
+
+    if dof < 1:
+        return math.nan, math.nan
+    return float(chi2.ppf(level / 2, dof) / dof), float(chi2.ppf(1 - level / 2, dof) / dof)
+
+
+def noise_consistent(s2: float, dof: int, level: float = NOISE_TEST_LEVEL) -> bool:
+    """True when ``s2`` lies in :func:`noise_interval` ``(dof, level)``: the residuals scatter as the
+    data's sigma says (False for NaN, no degrees of freedom, or ``s2`` outside)."""
+    lo, hi = noise_interval(dof, level)
+    return bool(math.isfinite(s2) and lo <= s2 <= hi)
+
+
+def remaining_step(J, r, w=None) -> np.ndarray:
+    """The Gauss-Newton step still left at ``x``: ``dx`` minimising ``sum w_i (r_i + J_i dx)^2``.
+
+    Parameters
+    ----------
+    J : ndarray, shape (n, p)
+        Jacobian of the (sigma-normalised) residuals at ``x``.
+    r : ndarray, shape (n,)
+        Residuals at ``x``.
+    w : ndarray, shape (n,), optional
+        IRLS weights of a robust loss (:func:`irls_weights`; default 1): with them ``dx = 0``
+        exactly where the robust cost's gradient ``J^T (w r)`` vanishes.
+
+    Returns
+    -------
+    ndarray, shape (p,)
+        In the parameters' units; zero where the data do not determine a direction
+        (minimum-norm solution).  Scale-free: the same for residuals and Jacobian both divided
+        by a common sigma.
+    """
+    J = np.asarray(J, float)
+    r = np.asarray(r, float)
+    sw = np.sqrt(np.ones_like(r) if w is None else np.asarray(w, float))
+    A = J * sw[:, None]
+    col = np.sqrt(np.sum(A * A, axis=0))
+    scale = np.where(col > 0, col, 1.0)
+    if A.size == 0 or not np.isfinite(A).all() or not np.isfinite(r).all():
+        return np.full(J.shape[1], np.nan)
+    dx, *_ = np.linalg.lstsq(A / scale, -sw * r, rcond=RANK_RTOL)
+    return dx / scale
 
 
 # ============================================================================ CSV input
@@ -237,6 +299,13 @@ def column_floats(path, head, rows, name: str, positive: bool = False, kind: str
     return floats(path, head, rows, name, low=0.0 if positive else None, low_open=True, what=f"{kind} file")
 
 
+#: time steps and times of a free decay (s): a step below 1 ns (a sampling above 1 GHz) or a time beyond
+#: 1e6 s (11.6 days) is not a record of the rig, and their powers in the fits underflow or overflow
+DECAY_TIME_RANGE = (1e-9, 1e6)
+#: largest displacement of a free decay (mm) whose squares the fits can sum without overflow
+DECAY_MAX_MM = 1e100
+
+
 def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
     """A free-decay record: CSV with header ``t_s,U_mm`` (time in s, sensor displacement in mm).
 
@@ -251,7 +320,8 @@ def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
     ------
     vibeam.case.schema.CaseError
         On another header, a value that is not a finite number, times that do not increase,
-        or fewer than 20 samples.
+        fewer than 20 samples, times or steps outside :data:`DECAY_TIME_RANGE`, or a displacement
+        beyond :data:`DECAY_MAX_MM`; values are quoted as plain numbers.
     """
     head, rows = read_csv_columns(path, "decay")
     if sorted(head) != ["U_mm", "t_s"]:
@@ -264,7 +334,24 @@ def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         i = int(bad[0]) + 1
-        raise case_error(f"{path}: 't_s' = {t[i]!r} (data row {i + 1}): times must increase")
+        raise case_error(f"{path}: 't_s' = {float(t[i])!r} (data row {i + 1}) after {float(t[i - 1])!r}: times must "
+                         f"increase")
+    lo, hi = DECAY_TIME_RANGE
+    far = np.flatnonzero(np.abs(t) > hi)
+    if far.size:
+        i = int(far[0])
+        raise case_error(f"{path}: 't_s' = {float(t[i])!r} (data row {i + 1}) is not allowed; allowed: times within "
+                         f"+-{hi:g} s (a free decay of the rig lasts seconds)")
+    dt = np.diff(t)
+    if dt.min() < lo:
+        i = int(np.flatnonzero(dt < lo)[0]) + 1
+        raise case_error(f"{path}: 't_s' = {float(t[i])!r} (data row {i + 1}) is {float(dt[i - 1]):g} s after the row "
+                         f"before; allowed: time steps of at least {lo:g} s")
+    big = np.flatnonzero(np.abs(U) > DECAY_MAX_MM)
+    if big.size:
+        i = int(big[0])
+        raise case_error(f"{path}: 'U_mm' = {float(U[i])!r} (data row {i + 1}) is not allowed; allowed: displacements "
+                         f"within +-{DECAY_MAX_MM:g} mm")
     return t, U
 
 
@@ -467,10 +554,39 @@ def fit_linear(f_hz, amplitude_mm, length_mm: float, voltage: float, sigma_mm=No
         notes.append("no 'sigma' column: equal weights, standard errors from the residual scatter")
     if res.status <= 0:
         notes.append(f"optimizer did not converge: {res.message}")
+    # the rule of vibeam.identify.fit.verdict: finite standard errors, residuals consistent with sigma
+    reliable = unc.reliable and res.status > 0 and bool(np.all(np.isfinite(unc.standard_error)))
+    if sigma_mm is not None and not noise_consistent(unc.s2, unc.dof):
+        reliable = False
+        lo, hi = noise_interval(unc.dof)
+        notes.append(f"s^2 = {unc.s2:.3g} (in sigma^2) is outside [{lo:.3g}, {hi:.3g}], the chi-square spread of "
+                     f"{unc.dof} degrees of freedom (level {NOISE_TEST_LEVEL:g}): the residuals do not scatter as "
+                     f"the data's sigma says")
     return LinearFit(params, res.x.copy(), unc.standard_error, unc.correlation, v, f, A, sig, model, model - A,
                      f.size, unc.s2, float(res.cost), int(res.nfev), str(res.message),
-                     unc.reliable and res.status > 0, notes, loss, f_scale, time.perf_counter() - t0,
+                     reliable, notes, loss, f_scale, time.perf_counter() - t0,
                      length_mm, voltage)
+
+
+def loss_cost(r, loss: str, f_scale: float) -> float:
+    """The cost ``scipy.optimize.least_squares`` reports (``res.cost``) for residuals ``r``:
+    ``f_scale^2 / 2 sum rho((r / f_scale)^2)`` with scipy's ``rho`` of ``loss`` (``linear``:
+    ``0.5 sum r^2``).  NaN for a loss scipy does not have."""
+    z = (np.asarray(r, float) / f_scale) ** 2
+    with np.errstate(over="ignore", invalid="ignore"):
+        if loss == "linear":
+            rho = z
+        elif loss == "soft_l1":
+            rho = 2.0 * (np.sqrt(1.0 + z) - 1.0)
+        elif loss == "huber":
+            rho = np.where(z <= 1.0, z, 2.0 * np.sqrt(z) - 1.0)
+        elif loss == "cauchy":
+            rho = np.log1p(z)
+        elif loss == "arctan":
+            rho = np.arctan(z)
+        else:
+            return math.nan
+        return float(0.5 * f_scale ** 2 * np.sum(rho))
 
 
 def irls_weights(r, loss: str, f_scale: float) -> np.ndarray:

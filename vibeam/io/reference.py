@@ -65,11 +65,15 @@ def read_reference(path, run: str | None = None) -> Reference:
     vibeam.case.schema.CaseError
         On a file that is not a regular file or is larger than 10 MB, a missing or unknown
         column, a row with missing or extra values, a value out of range, a direction other
-        than up/down, a sigma <= 0, no points, or a run not in the file.
+        than up/down, a sigma <= 0, no points, or a run not in the file; ``run`` given for a
+        CSV file (it names a run of a results file only).
     """
     path = Path(path)
     if path.suffix.lower() in (".h5", ".hdf5"):
         return _read_h5_reference(path, run)
+    if run is not None:
+        raise case_error(f"{path}: '--reference-run' = {run!r} is not allowed with a CSV reference; allowed: "
+                         f"--reference-run names a run of a results.h5 reference only (leave it out)")
     from vibeam.io.inputs import read_frc_table
 
     t = read_frc_table(path, "reference file")

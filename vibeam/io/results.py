@@ -146,7 +146,10 @@ VARIABLES = {
     "tr_true": ("1", "trace of the exact impact-map Jacobian"),
     "nfev": ("1", "Newton iterations (function evaluations) of the fixed point"),
     # beam
-    "mode_amplitudes": ("m kg0.5", "largest |eta_i| of each mass-normalised modal coordinate"),
+    # eta_i is in m kg^(1/2), which UDUNITS cannot write (no fractional powers: "m kg0.5" reads as
+    # 0.5 m): the variable is eta_i / sqrt(1 kg), the same numbers, in m
+    "mode_amplitudes": ("m", "largest |eta_i| / sqrt(1 kg) of each mass-normalised modal coordinate "
+                             "(eta_i in m kg^(1/2))"),
     "mode_contact_amplitudes": ("1", "largest |w_i eta_i| / L of each mode at the contact"),
     "contact_gap_max": ("1", "largest unclamped contact gap of an event-free step / L (certificate)"),
     "impact_velocity_m_s": ("m s-1", "mean pre-impact contact velocity"),
@@ -240,12 +243,30 @@ def describe(name: str, physical: bool = False) -> tuple[str, str]:
     text = UNITS.get(name)
     if text:
         head, _, rest = text.partition(" (")
-        if rest and " " not in head:
-            return head, rest.rstrip(")")
-        return ("1", text) if " " in head or not rest else (head, text)
-    if name.endswith("_mm"):
-        return "mm", name.replace("_", " ")
+        if " " in head:                       # a count described in words: "forcing periods recorded (...)"
+            return "1", text
+        if rest:
+            return head, rest[:-1] if rest.endswith(")") else rest
+        return head, _name_words(name)        # a bare unit: the long_name is the name, never the unit
+    for suffix, unit in _NAME_SUFFIX_UNITS:
+        if name.endswith(suffix):
+            return unit, _name_words(name)
     return "1", name.replace("_", " ")
+
+
+#: units of a name's suffix (``contact_force_max_n`` N): the fall-back of :func:`describe`, longest first
+_NAME_SUFFIX_UNITS = (("_mm_s", "mm s-1"), ("_m_s", "m s-1"), ("_mm", "mm"), ("_hz", "Hz"), ("_s", "s"),
+                      ("_n", "N"), ("_j", "J"))
+
+
+def _name_words(name: str) -> str:
+    """A long_name from a dataset name: its words without the unit suffix (``energy_per_impact_j``
+    -> ``energy per impact``)."""
+    for suffix, _ in _NAME_SUFFIX_UNITS:
+        if name.endswith(suffix):
+            name = name[: -len(suffix)]
+            break
+    return name.replace("_", " ")
 
 
 def table_variables(table: dict) -> dict:
