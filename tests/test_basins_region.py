@@ -158,3 +158,13 @@ def test_the_default_mislabels_at_most_one_in_two_thousand():
                         verify_periods=20000)
     p1o = [k for k in range(old.n_attractors) if old.attractors["type"][0][k] == "period"][0]
     assert int(old.labels_wrong[0]) == int(np.sum((old.labels[0] == p1o) != truth)) >= 5
+
+
+def test_simulate_refuses_a_state_behind_a_stop():
+    """simulate(state=[-0.004, 0.005]) on the two-sided scene (q below the lower stop at -2e-3)
+    returned ``ok`` from the state projected onto the stop; now it is refused in one line naming
+    the state and the stop; a state on the stop is taken."""
+    with pytest.raises(ValueError, match=r"state = .*behind stop 1 .*lower stop"):
+        vibeam.simulate(TWO, Omega=2.38, periods=2, state=[-0.004, 0.005, 0.0])
+    sim = vibeam.simulate(TWO, Omega=2.38, periods=2, state=[-0.002, 0.005, 0.0])
+    assert sim.summary["status"] in ("ok", "chatter", "unsettled")

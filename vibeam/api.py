@@ -991,7 +991,9 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         kg^(1/2) and m kg^(1/2)/s over the time unit) -- optionally followed by the held flag
         (0 free, 1 held on the upper stop, -1 on the lower one; left out: 0, and a state on a
         stop with zero relative velocity is held by the solver's own sticking test).  Finite
-        numbers; ``Simulation.final_state`` has the flag and can be passed back.
+        numbers, on the free side of every rigid stop (a state behind one is refused: the
+        kernels would project it onto the stop); ``Simulation.final_state`` has the flag and
+        can be passed back.
     force : bool
         Simulate even if the work is above the limit of ``vibeam run`` (as ``--force``).
     **settings
@@ -1307,7 +1309,17 @@ def _check_state(state, model) -> np.ndarray:
         raise TypeError(f"state = {quote_value(state)}: not numbers; allowed: {allowed}") from None
     if x.ndim != 1 or x.size not in (n - 1, n) or not np.isfinite(x).all():
         raise ValueError(f"state = {quote_value(state)}: allowed: {allowed}")
-    return np.append(x, 0.0) if x.size == n - 1 else x
+    x = np.append(x, 0.0) if x.size == n - 1 else x
+    from vibeam.analysis.attractors import behind_stop, stop_gaps
+
+    if hasattr(model, "stops") and behind_stop(model, x[None, :])[0]:
+        # the kernels would project it onto the stop and report a motion it never had
+        g = stop_gaps(model, x[None, :])[0]
+        k = int(np.argmax(g))
+        raise ValueError(f"state = {quote_value(state)}: lies behind stop {k} (gap {g[k]:.6g} > 0, the "
+                         f"{'upper' if k == 0 else 'lower' if k == 1 else 'point'} stop); allowed: a state the "
+                         f"motion can reach, every rigid stop's gap <= 0")
+    return x
 
 
 _WORK_ARGS = {"sweep.record_periods": "periods", "sweep.transient_periods": "transient",
