@@ -227,3 +227,21 @@ def test_a_continuation_run_advances_the_bar_per_start(monkeypatch, jobs):
     got = res[(task.run, task.key)][0]
     assert [s["status"] for s in got["starts"]] == [s["status"] for s in plain["starts"]]
     assert len(got["branches"]) == len(plain["branches"]) > 0
+
+
+def test_a_long_first_line_hands_the_next_lines_to_the_pool_while_it_runs():
+    """Issue 42, item 9: a sweep estimated small runs inline first; its two lines (up and down,
+    each a whole continued sweep) were each computed whole before the pool was asked, so a
+    4-mode Hunt-Crossley sweep that the estimate put at 0.14 s ran 28.8 s on one core with the
+    other idle.  Now the inline time is checked after every point: once it is spent (0.5 s here;
+    the points take 0.3 s each, so it is spent inside the first line) the lines after the current
+    one go to a pool of the other cores while this process finishes its line; the results equal
+    an inline run bit for bit."""
+    lines = _lines(4, delay=0.3, direction="both")
+    assert len(lines) == 2
+    stats = {}
+    out = run_lines(lines, jobs=2, inline_first_s=0.5, stats=stats)
+    assert stats["executor"].startswith("inline for") and stats["executor"].endswith("beside it"), stats
+    ref = run_lines(_lines(4, direction="both"), jobs=1)
+    for k in ref:
+        np.testing.assert_array_equal([r["amplitude"] for r in out[k]], [r["amplitude"] for r in ref[k]])

@@ -763,12 +763,37 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
         if isinstance(ex, InlineExecutor):  # in order, each line reported as soon as it is done
             t_in = time.perf_counter()
             rest = []
+            beside = []                     # lines handed to a pool while this process computes one
+
+            def hand_over(i):
+                """Inside line ``i``, after a point: once the inline time is spent, the lines after it
+                go to a pool of the other cores now, not after this line (a sweep of two long
+                lines -- up and down -- ran serially with a core idle, issue 42 item 9)."""
+                nonlocal ex
+                if beside or not inline_first or len(lines) - i < 2 or n < 2 \
+                        or time.perf_counter() - t_in <= inline_first_s:
+                    return
+                beside.extend(lines[i + 1:])
+                k = min(n - 1, len(beside))
+                ex = start_pool(k)
+                stats["executor"] = (f"inline for {time.perf_counter() - t_in:.2f} s, then a pool of {k} "
+                                     f"worker(s) beside it")
+                for other in beside:
+                    submit(other)
+
             for i, line in enumerate(lines):
                 if inline_first and len(lines) - i >= 2 and time.perf_counter() - t_in > inline_first_s:
                     rest = lines[i:]        # longer than it looked: the pool takes the rest
                     break
                 ident = (line.run, line.key)
-                finish(line, run_line(line, report=lambda ident=ident: advance(ident)))
+
+                def report(ident=ident, i=i):
+                    advance(ident)
+                    hand_over(i)
+
+                finish(line, run_line(line, report=report))
+                if beside:
+                    break
             if rest:
                 k = min(n, len(rest))
                 ex = start_pool(k)
