@@ -141,15 +141,15 @@ def test_chatter_fails_fast_without_raising(cls):
     """Pre-stressed stop with R = 0.5: chatter accumulates into sticking
     (``event`` reports ``chatter``).  Event solvers cannot pass the accumulation
     point and ``ivanov`` would slide along ``z = 0``: the point must end as
-    ``failed`` with a message, quickly and without an exception."""
+    ``failed`` with a message, quickly and without an exception.  "Quickly" is counted, not
+    timed: at most the per-period budget of right-hand-side evaluations (50000) and a little
+    more (measured 211, 423 and 50108 for direct, zhuravlev and ivanov) of the 24 periods'."""
     m = SDOF(beta=0.015, B=0.5e-3, R=0.5, Delta=-0.0015)
     assert EventSolver(m).point(2.0, None, 20, 4).status == "chatter"
-    t = time.perf_counter()
     traj = cls(m, **PAPER).point(2.0, None, 20, 4)
-    dt = time.perf_counter() - t
     assert traj.status == "failed" and traj.message
     assert np.isnan(summarize(traj, m.Delta)["amplitude"])
-    assert dt < 10.0
+    assert 0 < traj.extra["nfev"] <= 51000, traj.extra
 
 
 @pytest.mark.parametrize("cls", CLASSES, ids=lambda c: c.name)

@@ -64,7 +64,7 @@ def test_progress_advances_per_point(monkeypatch, jobs):
     assert max(bar.updates) <= 2 and len(bar.updates) >= 8, bar.updates
     assert stats["executor"] == ("inline" if jobs == 1 else "pool of 2 workers")
     if jobs == 2:
-        assert 0 < stats["pool_startup_s"] < 5
+        assert stats["pool_startup_s"] > 0        # measured and reported (its size is the bench's)
 
 
 def test_small_sweep_runs_inline_and_hands_the_rest_to_the_pool():
