@@ -66,18 +66,14 @@ def check_root_attrs(path, attrs) -> None:
     InputError
         One line naming the file and the attribute.
     """
-    if "complete" in attrs:
-        v = np.asarray(attrs["complete"])
-        ok = v.size == 1 and v.dtype.kind in "biu" and int(v.ravel()[0]) in (0, 1)
-        if not ok:
-            raise _refuse(path, "root attribute 'complete'", f"{one_line(repr(attrs['complete']))[:60]} is "
-                          f"not allowed; vibeam writes a scalar 0 or 1")
-    if "vibeam_layout" in attrs:
-        v = np.asarray(attrs["vibeam_layout"])
-        ok = v.size == 1 and v.dtype.kind in "iu" and int(v.ravel()[0]) in (1, 2)
-        if not ok:
-            raise _refuse(path, "root attribute 'vibeam_layout'", f"{one_line(repr(attrs['vibeam_layout']))[:60]} "
-                          f"is not allowed; vibeam writes the whole number 1 or 2")
+    for key, kinds, allowed, what in (("complete", "biu", (0, 1), "a scalar 0 or 1"),
+                                      ("vibeam_layout", "iu", (1, 2), "the whole number 1 or 2")):
+        if key not in attrs:
+            continue
+        v = np.asarray(attrs[key])
+        if not (v.size == 1 and v.dtype.kind in kinds and int(v.ravel()[0]) in allowed):
+            raise _refuse(path, f"root attribute '{key}'", f"{one_line(repr(attrs[key]))[:60]} is not allowed; "
+                          f"vibeam writes {what}")
 
 
 def check_tree(path, group=None, where: str = "/", max_total: int = MAX_TOTAL_BYTES) -> int:
