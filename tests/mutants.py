@@ -123,10 +123,9 @@ MUTANTS: list[Mutant] = [
     Mutant("the one file writer: a failed write leaves its temporary file behind",
            "vibeam/io/outdir.py", "        try:\n            os.unlink(tmp)\n        except OSError:\n            pass\n",
            "", ("tests/test_faults_data.py",)),
-    Mutant("the first checkpoint of a new run unlinks the old results file before the new one exists",
-           "vibeam/io/results.py", "copy_from=path if path.exists() and not fresh else None)",
-           "copy_from=path if path.exists() and not fresh else (path.unlink() if path.exists() else None))",
-           ("tests/test_faults_data.py",)),
+    Mutant("the results store writes a checkpoint over the complete file (results.h5) instead of beside it",
+           "vibeam/io/store.py", "out = build_file(self.partial, fill, base)", "out = build_file(self.path, fill, base)",
+           ("tests/test_store.py",)),
     Mutant("results writer: the mm datasets of a physical scene in units of 0.1 mm",
            "vibeam/engine/sweep.py", "data[k + \"_mm\"] = data[k] * L * 1e3", "data[k + \"_mm\"] = data[k] * L * 1e4",
            ("tests/test_settle.py",)),
@@ -174,6 +173,9 @@ MUTANTS: list[Mutant] = [
     Mutant("dense record: a step started after an event carries its samples from the grid point's time",
            "models/core/integrator.py", "if from_grid:\n            a11 = P_r[i, 0]", "if True:\n            a11 = P_r[i, 0]",
            ("tests/test_recurrence.py::test_the_dense_record_equals_the_record_on_its_own_grid",)),
+    Mutant("the results store never marks a group of another case stale (every unit counted as the file's case)",
+           "vibeam/io/store.py", "                if h in same:", "                if True:",
+           ("tests/test_store.py",)),
 ]
 
 
