@@ -83,18 +83,26 @@ start_at = "low"
 
 QUIET = ["--jobs", "1", "--quiet", "--no-plots"]
 
+# the child checkpoints after every finished line when asked (argv[2] = "1"): run_case's
+# interval (0.5 s) would make which lines share a checkpoint depend on the machine's speed
 CHILD = ("import resource, signal, sys\n"
          "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
          "n = int(sys.argv[1])\n"
+         "if sys.argv[2] == '1':\n"
+         "    import inspect, vibeam.runner as r\n"
+         "    names = list(inspect.signature(r.run_case).parameters)\n"
+         "    d = list(r.run_case.__defaults__)\n"
+         "    d[names.index('checkpoint_interval_s') - (len(names) - len(d))] = 0.0\n"
+         "    r.run_case.__defaults__ = tuple(d)\n"
          "if n > 0:\n"
          "    resource.setrlimit(resource.RLIMIT_FSIZE, (n, n))\n"
          "from vibeam.cli import main\n"
-         "sys.exit(main(sys.argv[2:]))\n")
+         "sys.exit(main(sys.argv[3:]))\n")
 
 
-def _child(argv, limit=0):
-    return subprocess.run([sys.executable, "-c", CHILD, str(limit), *argv], capture_output=True, text=True,
-                          timeout=600)
+def _child(argv, limit=0, every_line=False):
+    return subprocess.run([sys.executable, "-c", CHILD, str(limit), "1" if every_line else "0", *argv],
+                          capture_output=True, text=True, timeout=600)
 
 
 def _snapshot(folder: Path) -> dict:
@@ -186,12 +194,9 @@ def test_an_interrupted_rerun_leaves_the_complete_file_byte_for_byte(tmp_path, m
     np.testing.assert_array_equal(a["classification"], c["classification"])
 
 
-def _slow_map(R: float, name: str) -> str:
-    """The map with 4 values (8 lines of ~0.5 s: every period of 40000 integrated), so that
-    lines are checkpointed while it runs (every 0.5 s), not only at its end."""
+def _map8(R: float, name: str) -> str:
+    """The map with 4 values: 8 sweep lines."""
     return (MAP.format(R=R).replace('name = "smap"', f'name = "{name}"')
-            .replace("transient_periods = 20", "transient_periods = 40000")
-            .replace('method = "event"', 'method = "event"\nrecurrence = false')
             .replace("values = [0.5, 0.7, 2]", "values = [0.5, 0.7, 4]"))
 
 
@@ -200,16 +205,16 @@ def test_a_rerun_of_another_case_under_a_file_size_limit_keeps_the_complete_file
     not its complete file: before, the complete map was replaced by the new case's checkpoint
     and the command exited 2; now the command exits 2 with one line and results.h5 is byte for
     byte."""
-    case = _write(tmp_path, "smap.toml", _slow_map(0.72, "smap"))
-    other = _write(tmp_path, "other.toml", _slow_map(0.6, "other"))
+    case = _write(tmp_path, "smap.toml", _map8(0.72, "smap"))
+    other = _write(tmp_path, "other.toml", _map8(0.6, "other"))
     out = tmp_path / "D"
     r = _child(["map", str(case), "--out", str(out), *QUIET])
     assert r.returncode == 0, r.stderr
     before = (out / "results.h5").read_bytes()
-    # the first checkpoint (one or two lines, ~60 kB: the datasets' headers) fits, the next ones
-    # and the complete file of 8 lines (~66 kB) do not
+    # a checkpoint after every line: the first (one line, ~60 kB: the datasets' headers) fits,
+    # the later ones and the complete file of 8 lines (~66 kB) do not
     assert len(before) > 64_000
-    r = _child(["map", str(other), "--out", str(out), *QUIET], limit=64_000)
+    r = _child(["map", str(other), "--out", str(out), *QUIET], limit=64_000, every_line=True)
     assert r.returncode == 2, r.stderr[-2000:]
     assert "Traceback" not in r.stderr and "file too large" in r.stderr.lower(), r.stderr[-2000:]
     assert (out / "results.h5").read_bytes() == before
