@@ -276,7 +276,10 @@ class _Engine:
         try:
             s = self.prob.shot(x, p, n)
         except Exception as e:  # a problem must not raise; if it does, it is a failed shot
+            from .interrupts import reraise_interrupt
             from .periodic import Shot
+
+            reraise_interrupt(e)       # Ctrl-C inside the compiled shot: an interrupt, not a failure
             nan = np.full(self.d, np.nan)
             s = Shot(x=nan, M=np.full((self.d, self.d), np.nan), x_p=nan, impact_times=np.zeros(0),
                      impact_velocities=np.zeros(0), q_min=np.nan, q_max=np.nan, status="failed",

@@ -880,7 +880,9 @@ class Simulation:
         The per-point outputs of the sweep (:func:`vibeam.engine.records.summarize`): amplitude,
         period, impacts_per_period, ...
     status, message : str
-        ``ok``, ``chatter``, ``sticking`` or ``failed``, and the detail.
+        The point's outcome as a sweep records it (``summary["status"]``): ``ok``, ``chatter``,
+        ``sticking``, ``unsettled`` (the stroboscopic map shows a transient) or ``failed`` (also
+        when the motion left the range of floating-point numbers), and the detail.
     final_state : ndarray
         The state at the end (to continue from).
     natural_frequency_hz, length_m : float or None
@@ -1091,7 +1093,7 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
     summ = summarize(traj, float(model.Delta), period_rtol)
     return Simulation(Omega=float(Omega), t=traj.t, q=traj.samples[:, 0].copy(), dq=traj.samples[:, 1].copy(),
                       impact_times=np.asarray(traj.impact_times), impact_velocities=np.asarray(traj.impact_velocities),
-                      summary=summ, status=traj.status, message=traj.message, final_state=traj.final_state,
+                      summary=summ, status=summ["status"], message=summ["message"], final_state=traj.final_state,
                       natural_frequency_hz=fn, length_m=L, trajectory=traj)
 
 
@@ -1293,6 +1295,10 @@ def _pick_run(case, run):
     return r
 
 
+#: the largest magnitude of an initial state's numbers (:func:`simulate`): squares stay finite
+STATE_MAX = 1e100
+
+
 def _check_state(state, model) -> np.ndarray:
     """An initial state (TypeError/ValueError): the model's displacements and velocities
     (``(q, q')``, or ``(eta, eta')`` of a modal beam: ``n - 1`` numbers), optionally followed by the
@@ -1309,6 +1315,9 @@ def _check_state(state, model) -> np.ndarray:
         raise TypeError(f"state = {quote_value(state)}: not numbers; allowed: {allowed}") from None
     if x.ndim != 1 or x.size not in (n - 1, n) or not np.isfinite(x).all():
         raise ValueError(f"state = {quote_value(state)}: allowed: {allowed}")
+    if np.abs(x).max() > STATE_MAX:
+        raise ValueError(f"state = {quote_value(state)}: allowed: |values| <= {STATE_MAX:g} (the record's energies "
+                         f"and spreads square them: 1e300 overflows double precision)")
     x = np.append(x, 0.0) if x.size == n - 1 else x
     from vibeam.analysis.attractors import behind_stop, stop_gaps
 

@@ -270,6 +270,11 @@ def cmd_basins(args) -> int:
         spec = BasinsSpec.model_validate(data)
     except ValidationError as e:
         raise CaseError(f"{args.case}: " + validation_message(e, "basins", BasinsSpec)) from None
+    if spec.frequency_hz is None and (spec.Omega is not None or case.sweep.Omega is not None):
+        try:        # the frequencies' range and the number of states, before any model is built
+            spec.frequencies(case.sweep)
+        except ValueError as e:
+            raise CaseError(f"{args.case}: {e}") from None
     from vibeam.io.store import Store
 
     _check_fresh(args)
@@ -401,7 +406,7 @@ def cmd_poincare(args) -> int:
     fx, fv = sec.scales
     xu, vu = ("mm", "mm/s") if sec.physical else ("-", "-")
     where = f"{sec.frequency_hz:.6g} Hz (Omega {sec.Omega:.8g})" if sec.frequency_hz else f"Omega = {sec.Omega:.8g}"
-    print(f"Poincare sections of {case.name} at {where}: period {sec.period}, {sec.status}")
+    print(f"Poincare sections of {case.name} at {where}: {sec.period_text}, {sec.status}")
     print(f"  stroboscopic: {sec.strobe_q.size} samples, q in [{sec.strobe_q.min() * fx:.6g}, "
           f"{sec.strobe_q.max() * fx:.6g}] {xu}, q' in [{sec.strobe_dq.min() * fv:.6g}, {sec.strobe_dq.max() * fv:.6g}] {vu}")
     if sec.impact_phase.size:

@@ -15,7 +15,7 @@ import numpy as np
 
 from vibeam.engine.compiling import CompileClock
 from vibeam.engine.sweep import load_kernels
-from vibeam.engine.jobs import (MAX_POINT_VALUES, MAX_WORK_STEPS, Job, case_jobs, check_work,  # noqa: F401
+from vibeam.engine.jobs import (MAX_POINT_VALUES, MAX_WORK_STEPS, Job, case_jobs, check_model_size, check_work,  # noqa: F401
                                estimate_work, file_stem, make_job, point_work)
 from vibeam.errors import CaseError
 
@@ -157,6 +157,7 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
 
     if quick:
         case = case.quick_variant()
+    check_model_size(case, force=force, source=source)
     try:
         jobs_ = _jobs(case)
     except CaseError as e:          # a model or solver that cannot be built: name the case file

@@ -694,8 +694,18 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
     from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
     from vibeam.engine.records import summarize
 
-    x = np.asarray(X[-1], float)
     model = solver.model
+    if len(X) == 0:
+        # a set the recurrence recorded without a sample (its states' integration failed): nothing
+        # of it can be described, and a number for it would be made up
+        dprob = 2 * int(getattr(model, "n_modes", 1))
+        nan = np.nan
+        return dict(period=0, impacts_per_period=nan, amplitude=nan, amplitude_min=nan, amplitude_max=nan,
+                    stable=-1, fixed_point=np.full(dprob + 1, nan), status="failed",
+                    message="the set has no stroboscopic sample (its states' integration failed)",
+                    lyapunov=np.full(dprob, nan), lyapunov_error=np.full(dprob, nan),
+                    lyapunov_impacts_per_period=nan, type="non_periodic")
+    x = np.asarray(X[-1], float)
     # the set was located once its cells recurred, which on a coarse grid can be before the
     # motion has settled: settle as many periods again, and take the stroboscopic samples there
     m = max(int(X.shape[0]), 8)
@@ -1110,7 +1120,7 @@ def _slices(case, spec, name: str, job) -> list:
         try:
             return spec.frequencies(case.sweep, getattr(model, "natural_frequency_hz", None))
         except ValueError as e:
-            raise CaseError(str(e)) from None
+            raise CaseError(f"case {case.name}: {e}") from None
 
     if spec.along == "frequency":
         return [(float(W), job, None) for W in frequencies(job.solver.model)]

@@ -103,6 +103,10 @@ class BranchTask:
             out = run_continuation(self, report)
         except Exception as e:  # a bug or an unforeseen numerical failure: recorded, not fatal
             import traceback
+
+            from vibeam.models.interrupts import reraise_interrupt
+
+            reraise_interrupt(e)
             out = dict(branches=[], starts=[], curves=[], status="failed",
                        message=f"{type(e).__name__}: {e}; {traceback.format_exc(limit=3)}")
         out["wall_time_s"] = time.perf_counter() - t0
@@ -337,6 +341,9 @@ def _one_start(task, spec, prob, kind, value, direction, settings, branches, sta
         info.update(status="failed_start", message=str(e))
         return
     except Exception as e:       # an unforeseen numerical failure: this start only
+        from vibeam.models.interrupts import reraise_interrupt
+
+        reraise_interrupt(e)
         info.update(status="failed", message=f"{type(e).__name__}: {e}")
         return
     if not got[0].points:

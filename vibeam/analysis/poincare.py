@@ -38,7 +38,9 @@ class PoincareSection:
     length_m, natural_frequency_hz : float or None
         Scales of a physical scene: ``U = q L`` (mm: x 1e3), ``U' = q' L 2 pi f_n``.
     period, status : int, str
-        Period-n of the record (:func:`vibeam.engine.records.summarize`) and the solver status.
+        Period-n of the record (:func:`vibeam.engine.records.summarize`: 0 not periodic within 8
+        periods, -1 no impact) and the point's outcome as a sweep records it (``ok``,
+        ``unsettled``, ``chatter``, ...); :attr:`period_text` says the period in words.
     """
 
     Omega: float
@@ -50,6 +52,11 @@ class PoincareSection:
     natural_frequency_hz: float | None = None
     period: int = 0
     status: str = "ok"
+
+    @property
+    def period_text(self) -> str:
+        """``period-n``, ``not periodic within 8 periods`` or ``no impact``."""
+        return {0: "not periodic within 8 periods", -1: "no impact"}.get(self.period, f"period-{self.period}")
 
     @property
     def physical(self) -> bool:
@@ -138,5 +145,5 @@ def poincare_figure(p: PoincareSection, title: str = ""):
             ax.ticklabel_format(useOffset=False)       # a collapsed section: its values, not offsets
         f = f"{p.frequency_hz:.4g} Hz, " if p.frequency_hz else ""
         style.titles(fig, title or f"Poincaré sections at {f}Omega = {p.Omega:.6g}",
-                     f"period {p.period}, {p.status}")
+                     f"{p.period_text}, {p.status}")
     return fig

@@ -236,7 +236,7 @@ def check_frequency(value, name: str = "Omega", key: str = "Omega"):
     ValueError
         NaN, infinite, zero or negative.
     """
-    from vibeam.case.schema import check_grid
+    from vibeam.case.schema import OMEGA_MAX, check_grid
 
     value = _scalar(value)
     allowed = f"a finite number > 0 (a point of [sweep] {key})"
@@ -246,4 +246,7 @@ def check_frequency(value, name: str = "Omega", key: str = "Omega"):
         check_grid([float(value), float(value), 1], positive=True)
     except ValueError:
         raise ValueError(f"{name} = {quote_value(value)} is not allowed; allowed: {allowed}") from None
+    if key == "Omega" and float(value) > OMEGA_MAX:
+        raise ValueError(f"{name} = {quote_value(value)} is above Omega's limit; allowed: a number > 0 and <= "
+                         f"{OMEGA_MAX:g} (the exact flows' Omega^4 terms overflow double precision)")
     return float(value)

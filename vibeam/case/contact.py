@@ -26,6 +26,10 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 from vibeam.models.registry import IMPLEMENTED_LAWS, LAWS, is_compliant, law_class
 
 
+#: the force exponents ``p`` of a Hertz-family law a case accepts (:meth:`ContactSpec._exponent`)
+EXPONENT_RANGE = (1.0, 3.0)
+
+
 class ContactSpec(BaseModel):
     """``[model.contact]`` (the stop of the paper) or ``[model.contact_lower]`` (a second stop
     below, default the upper stop's law: law ``restitution`` with its own ``R`` beside a
@@ -39,7 +43,7 @@ class ContactSpec(BaseModel):
     stiffness: Annotated[float, Field(gt=0.0)] | None = None
     stiffness_n_m: Annotated[float, Field(gt=0.0)] | None = None
     damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
-    exponent: Annotated[float, Field(gt=0.0)] | None = None
+    exponent: float | None = None
     mass_kg: Annotated[float, Field(gt=0.0)] | None = None
 
     @field_validator("law")
@@ -47,6 +51,20 @@ class ContactSpec(BaseModel):
     def _known(cls, v):
         if v not in IMPLEMENTED_LAWS:
             raise ValueError(f"not a contact law; allowed: {', '.join(IMPLEMENTED_LAWS)}")
+        return v
+
+    @field_validator("exponent")
+    @classmethod
+    def _exponent(cls, v):
+        # Hertz-family laws in the literature use p in [1, 3]: 1 (linear), 3/2 (Hertz's sphere-on-
+        # plane and cylinder contacts, Hunt & Crossley 1975, Lankarani & Nikravesh 1990), up to ~3
+        # for rough or conforming surfaces (Machado et al., Mech. Mach. Theory 53, 2012).  Below 1
+        # the contact stiffness d(k delta^p)/d delta is unbounded at delta = 0: the contact
+        # phase's step control then takes ever smaller steps and a point need not end.
+        if v is not None and not (EXPONENT_RANGE[0] <= v <= EXPONENT_RANGE[1]):
+            raise ValueError(f"not a Hertz-family exponent; allowed: {EXPONENT_RANGE[0]:g} <= p <= "
+                             f"{EXPONENT_RANGE[1]:g} (the Hertz-family laws' range: 1 linear, 1.5 Hertz, up to 3 "
+                             f"rough surfaces; below 1 the contact stiffness is unbounded at contact onset)")
         return v
 
     @model_validator(mode="after")
@@ -153,6 +171,20 @@ class StopSpec(ContactSpec):
     def _side(cls, v):
         if v not in ("upper", "lower"):
             raise ValueError('allowed: "upper" (above the point) or "lower" (below it)')
+        return v
+
+    @field_validator("exponent")
+    @classmethod
+    def _exponent(cls, v):
+        # Hertz-family laws in the literature use p in [1, 3]: 1 (linear), 3/2 (Hertz's sphere-on-
+        # plane and cylinder contacts, Hunt & Crossley 1975, Lankarani & Nikravesh 1990), up to ~3
+        # for rough or conforming surfaces (Machado et al., Mech. Mach. Theory 53, 2012).  Below 1
+        # the contact stiffness d(k delta^p)/d delta is unbounded at delta = 0: the contact
+        # phase's step control then takes ever smaller steps and a point need not end.
+        if v is not None and not (EXPONENT_RANGE[0] <= v <= EXPONENT_RANGE[1]):
+            raise ValueError(f"not a Hertz-family exponent; allowed: {EXPONENT_RANGE[0]:g} <= p <= "
+                             f"{EXPONENT_RANGE[1]:g} (the Hertz-family laws' range: 1 linear, 1.5 Hertz, up to 3 "
+                             f"rough surfaces; below 1 the contact stiffness is unbounded at contact onset)")
         return v
 
     @model_validator(mode="after")

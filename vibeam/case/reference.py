@@ -151,7 +151,7 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "stiffness": ("1", "contact stiffness k_c over the oscillator's stiffness (nondimensional scenes)"),
         "stiffness_n_m": ("N/m (N/m^p)", "contact stiffness (physical scenes; Hertz-type laws: N/m^p)"),
         "damping_ratio": ("1", "linear law: damping ratio of the contact phase (else set by [model] R)"),
-        "exponent": ("1", "Hertz-type laws: the force exponent p (default 1.5)"),
+        "exponent": ("1", "Hertz-type laws: the force exponent p, 1 <= p <= 3 (default 1.5)"),
         "mass_kg": ("kg", "physical SDOF: the effective mass that turns stiffness_n_m into k_c"),
     },
     "[[model.stop]]": {
@@ -161,7 +161,7 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "stiffness": ("1", "compliant law: contact stiffness over the oscillator's (nondimensional scenes)"),
         "stiffness_n_m": ("N/m (N/m^p)", "compliant law: contact stiffness (physical scenes)"),
         "damping_ratio": ("1", "linear law: damping ratio of the contact phase (else set by R)"),
-        "exponent": ("1", "Hertz-type laws: the force exponent p"),
+        "exponent": ("1", "Hertz-type laws: the force exponent p, 1 <= p <= 3"),
         "mass_kg": ("kg", "physical SDOF: the effective mass that turns stiffness_n_m into k_c"),
         "side": ("", "\"upper\": above the point (the paper's side), \"lower\": below it"),
         "position_mm": ("mm", "beam: the stop's point along the beam (default the attached mass)"),

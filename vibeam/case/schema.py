@@ -716,6 +716,17 @@ def fidelity_methods(name: str) -> tuple:
 # ----------------------------------------------------------------------------- sweep
 MAX_GRID_POINTS = 1_000_000   # points of a [sweep] grid
 MAX_MAP_VALUES = 10_000       # values of a [map] parameter (each one is a whole sweep)
+#: the largest forcing frequency ratio Omega: the exact flows' coefficients hold Omega^2 and
+#: Omega^4 (the particular solution of the forced linear oscillator), which overflow double
+#: precision above ~1e77; 1e8 times the natural frequency is beyond any beam model's validity
+OMEGA_MAX = 1e8
+#: ``[basins]``: the smallest forcing frequency (every state runs up to ``max_periods`` periods of
+#: 1/Omega natural periods each), the box's largest magnitude and finest relative width, and the
+#: most initial states of one computation (labels, final states and cells in memory: ~1 GB)
+BASINS_OMEGA_MIN = 1e-3
+BOX_MAX = 1e12
+BOX_RESOLUTION = 1e-9
+MAX_BASIN_STATES = 20_000_000
 
 
 def _check_grid(v, positive: bool, max_n: int = MAX_GRID_POINTS, sweep: bool = False):
@@ -799,8 +810,12 @@ class SweepSpec(_Strict):
 
     @field_validator("Omega", "frequency_hz")
     @classmethod
-    def _grid(cls, v):
-        return _check_grid(v, positive=True, sweep=True)
+    def _grid(cls, v, info):
+        _check_grid(v, positive=True, sweep=True)
+        if info.field_name == "Omega" and v is not None and float(v[1]) > OMEGA_MAX:
+            raise ValueError(f"stop = {float(v[1])!r} is above Omega's limit; allowed: Omega <= {OMEGA_MAX:g} (the "
+                             f"exact flows' Omega^4 terms overflow double precision)")
+        return v
 
     @model_validator(mode="after")
     def _exactly_one_grid(self):
@@ -1092,7 +1107,7 @@ class BasinsSpec(_Strict):
     frequency_hz: Annotated[float, Field(gt=0.0)] | Annotated[list[Annotated[float, Field(gt=0.0)]], Field(min_length=1)] | None = None
     grid: Annotated[list[Annotated[int, Field(ge=2, le=2000)]], Field(min_length=2, max_length=2)] | None = None
     samples: Annotated[int, Field(ge=1, le=1_000_000)] | None = None
-    seed: int = 0
+    seed: Annotated[int, Field(ge=0, le=2**63 - 1)] = 0
     x_range: _Pair | None = None
     y_range: _Pair | None = None
     coordinates: Annotated[list[Annotated[int, Field(ge=0)]], Field(min_length=2, max_length=2)] | Literal["sensor"] | None = None
@@ -1117,9 +1132,24 @@ class BasinsSpec(_Strict):
             raise ValueError("give 'grid' (basins on a grid) or 'samples' (random initial states), not both")
         for k in ("x_range", "y_range"):
             r = getattr(self, k)
-            if r is not None and not r[1] > r[0]:
+            if r is None:
+                continue
+            lo, hi = float(r[0]), float(r[1])
+            big = max(1.0, abs(lo), abs(hi))
+            if not hi > lo:
                 raise ValueError(f"{k} = {list(r)}: [low, high] with high > low")
+            if big > BOX_MAX or not (hi - lo) >= BOX_RESOLUTION * big:
+                raise ValueError(f"{k} = {list(r)}: allowed: |low|, |high| <= {BOX_MAX:g} and high - low >= "
+                                 f"{BOX_RESOLUTION:g} x max(1, |low|, |high|) (a box whose cells double precision "
+                                 f"can tell apart)")
         return self
+
+    def states(self) -> int:
+        """Initial states per frequency: ``samples``, or the grid's cells (default 200 x 200)."""
+        if self.samples is not None:
+            return int(self.samples)
+        nx, ny = self.grid if self.grid is not None else (200, 200)
+        return int(nx) * int(ny)
 
     def frequencies(self, sweep: SweepSpec, natural_frequency_hz=None) -> np.ndarray:
         """Forcing frequencies Omega (nondimensional), shape (n,): this table's or the sweep's."""
@@ -1132,6 +1162,15 @@ class BasinsSpec(_Strict):
                 raise ValueError(f"[basins] frequency_hz = {self.frequency_hz}: needs a physical scene "
                                  f"(natural_frequency_hz); give Omega")
             v = v / natural_frequency_hz
+        bad = v[(v < BASINS_OMEGA_MIN) | (v > OMEGA_MAX)]
+        if bad.size:
+            raise ValueError(f"[basins] Omega = {float(bad[0])!r}: allowed: {BASINS_OMEGA_MIN:g} <= Omega <= "
+                             f"{OMEGA_MAX:g} (each state runs up to max_periods forcing periods, each of 1/Omega "
+                             f"natural periods)")
+        if v.size * self.states() > MAX_BASIN_STATES:
+            raise ValueError(f"[basins]: {v.size} frequencies x {self.states()} states = {v.size * self.states()} "
+                             f"initial states; allowed: at most {MAX_BASIN_STATES:g} (their labels and final "
+                             f"states are held in memory): fewer frequencies, a smaller grid or fewer samples")
         return v
 
 

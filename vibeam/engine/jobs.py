@@ -234,6 +234,43 @@ def point_work(Omega: float, transient_periods: int, record_periods: int, sample
             "point_values": float(record_periods) * samples_per_period * 2.0 * (1 + dofs)}
 
 
+def check_model_size(case, force: bool = False, source: str = "") -> None:
+    """Refuse, before any model is built, a case whose one point would record more than
+    :data:`MAX_POINT_VALUES` floats with the degrees of freedom its model specs ask for
+    (``n_modes = "all"`` of a fine mesh: ``2 n_elements`` modes), unless ``force``.  The same
+    rule as :func:`check_work`, from the specs alone: a beam of 2000 elements with every mode
+    was refused by it only after its modal basis and tables were built (569 s, 2.4 GB).
+
+    Raises
+    ------
+    InputError
+        Naming the run's ``n_modes`` key, its value, the modes it gives and the limit.
+    """
+    from vibeam.errors import InputError, quote_value
+
+    if force:
+        return
+    sw = case.sweep
+    n_rec = max(sw.record_periods, sw.statistics_periods)
+    for i, r in enumerate(case.run):
+        try:
+            spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
+            dofs = _dofs(spec)
+        except Exception:            # noqa: BLE001
+            continue                 # a spec that does not build is named by the build itself
+        values = n_rec * sw.samples_per_period * 2.0 * (1 + dofs)
+        # the modes decide only when one degree of freedom would fit: else the record's keys are
+        # the culprit, which check_work names
+        if values > MAX_POINT_VALUES and n_rec * sw.samples_per_period * 4.0 <= MAX_POINT_VALUES:
+            key = f"run[{i}].model.n_modes" if "n_modes" in r.model else "model.n_modes"
+            val = r.model.get("n_modes", getattr(spec, "n_modes", dofs))
+            where = f"{source}: " if source else ""
+            raise InputError(f"{where}'{key}' = {quote_value(val)}: {dofs} modes, one point would record "
+                             f"{values:.3g} values (limit {MAX_POINT_VALUES:.0e}, {MAX_POINT_VALUES * 8 / 1e9:.1f} "
+                             f"GB); refused before the model is built: fewer modes or elements, fewer recorded "
+                             f"periods or samples, or pass --force")
+
+
 def check_work(case, jobs_=None, force: bool = False, source: str = "") -> dict:
     """Refuse a case whose work (:func:`estimate_work`) exceeds :data:`MAX_WORK_STEPS` or whose
     one point records more than :data:`MAX_POINT_VALUES` floats, unless ``force``.

@@ -242,7 +242,8 @@ def mean_std(x: np.ndarray) -> tuple[float, float]:
     n = x.shape[0]
     m = np.add.reduce(x) / n
     d = x - m
-    return float(m), float(np.sqrt(np.add.reduce(np.multiply(d, d, out=d)) / (n - 1)))
+    with np.errstate(over="ignore"):          # inf: summarize() fails such a point
+        return float(m), float(np.sqrt(np.add.reduce(np.multiply(d, d, out=d)) / (n - 1)))
 
 
 def batch_means(x: np.ndarray) -> tuple[float, int]:
@@ -557,6 +558,13 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
     if traj.Delta is not None:
         Delta = traj.Delta
     two = traj.impact_stops is not None
+    if traj.status != "failed" and not (np.isfinite(traj.samples).all() and np.isfinite([traj.q_min, traj.q_max]).all()):
+        # a state of 1e300 overflows the exact flows: no number of this record is a result
+        from dataclasses import replace
+
+        traj = replace(traj, status="failed", message="the motion's numbers overflow double precision (a "
+                       "non-finite state in the record)" + (f"; {traj.status}: {traj.message}"
+                                                            if traj.status != "ok" else ""))
     if traj.status == "failed":
         nan = np.nan
         out = dict(amplitude=nan, **amplitude_spread(np.full(n_rec, nan)), q_max=nan, q_min=nan,
@@ -612,4 +620,14 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
                 vel[c] = float(np.mean(sel))
         out.update(stop_impacts_per_period=np.asarray(per_stop, float) / n_rec if n_rec else
                    np.full(per_stop.size, np.nan), stop_impact_velocity=vel)
+    over = sorted(k for k, v in out.items() if isinstance(v, (float, np.floating, np.ndarray))
+                  and np.asarray(v).dtype.kind == "f" and np.isinf(v).any())
+    if over:
+        # an output no double can hold (a start of 1e300: its energy, its spread): the point's
+        # numbers are not results -- failed, never ok with a made-up amplitude
+        from dataclasses import replace
+
+        why = f"the motion's numbers overflow double precision ({', '.join(over)} infinite)"
+        return summarize(replace(traj, status="failed", message=why + (f"; {status}: {message}" if status != "ok"
+                                                                        else "")), Delta, period_rtol)
     return out

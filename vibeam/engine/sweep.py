@@ -405,6 +405,9 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
             out = dict(solver.point(Omega, state, n_tr, sweep.record_periods, sweep.samples_per_period))
             new_state = out.pop("final_state", None)
     except Exception as e:  # a solver failure is recorded, never fatal to the sweep
+        from vibeam.models.interrupts import reraise_interrupt
+
+        reraise_interrupt(e)         # Ctrl-C inside a compiled call: an interrupt, not a failed point
         out = dict(status="failed", message=f"{type(e).__name__}: {e}")
         new_state = None
     _not_finite(out)
@@ -438,7 +441,11 @@ def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
             if lam is not None:
                 out["lyapunov"], out["lyapunov_error"] = lam, np.zeros(d)
                 out["lyapunov_method"] = "floquet"
-        out["lyapunov_class"] = classify_spectrum(out["lyapunov"], out["lyapunov_error"], periodic=n != 0)
+        # periodic: a period found (or no impact: the linear response) on a record that has
+        # settled -- an unsettled record (a window shorter than the transient's decay, as at
+        # Omega 1e5 over 1000 periods) is classed by its spectrum, never called periodic
+        settled = out.get("status") in ("ok", "chatter", "sticking")
+        out["lyapunov_class"] = classify_spectrum(out["lyapunov"], out["lyapunov_error"], periodic=n != 0 and settled)
     else:
         out["lyapunov"], out["lyapunov_error"] = np.full(d, np.nan), np.full(d, np.nan)
         out["lyapunov_qr"] = np.full(d, np.nan)
