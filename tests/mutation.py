@@ -22,7 +22,8 @@ as the installed package (``models/`` as ``vibeam/models``, ``reductions/`` as
 Each mutant's tests are its module's test files (:data:`MODULES`: a selection by what the
 tests exercise, written down here, not by measured coverage) run with ``pytest -x -q -n 0``;
 a mutant is *killed* when they fail or exceed the time limit (an endless loop), *survived* when
-they pass; *incompetent* (the mutated module does not import) counts as killed, as cosmic-ray
+they pass, *equivalent* when it is listed in :data:`EQUIVALENT` with the reason (left out of the
+score); *incompetent* (the mutated module does not import) counts as killed, as cosmic-ray
 counts it.  The sample is a fixed-seed draw of ``--sample`` mutants per module (all when fewer);
 the report (``--out``, JSON) lists each mutant's diff and outcome, the score per module and the
 survivors, which ``tests/README.md`` ("Tool-generated mutants") answers one by one: a test that
@@ -62,6 +63,35 @@ MODULES = {
     "reductions/static_mode.py": ["tests/test_reductions.py"],
     "reductions/modal.py": ["tests/test_reductions.py"],
 }
+
+
+#: mutants judged equivalent (no reachable state of the program tells them apart), by module,
+#: operator and the original source line (stripped), with the reason; they are reported as
+#: ``equivalent`` and left out of the score (tests/README.md, "Tool-generated mutants")
+EQUIVALENT = {
+    ("vibeam/io/store.py", "core/ReplaceComparisonOperator_Eq_GtE",
+     'if "case_text" not in g.attrs and h == old_origin["case_hash"]:'):
+        "every group without its own case_text carries the old origin's hash (groups written by this "
+        "vibeam get case_hash and, once stale, case_text) or none (an earlier vibeam's, hash ''), and "
+        "'' >= a hex digest is False as '' == it is: no reachable group tells == from >=",
+    ("vibeam/io/store.py", "core/ExceptionReplacer", "except (KeyError, OSError, RuntimeError, ValueError):"):
+        "the KeyError of a damaged object header (h5py: 'bad object header') is met first by "
+        "vibeam.io.h5check.open_checked, which every reader and the commit open the file with and which "
+        "refuses such a file in one line (test_store.py::test_a_group_whose_object_header_is_damaged_"
+        "is_not_a_traceback): the handler is a second guard no reachable file reaches",
+    ("vibeam/analysis/regress.py", "core/ReplaceBinaryOperator_BitOr_BitXor",
+     "bad = ~((d <= atol + rtol * np.abs(a_ref)) | both_nan)"):
+        "| and ^ differ only where both sides are true: a point within the tolerance (d <= ..., so d "
+        "is a number) whose two amplitudes are both NaN (so d is NaN): no point is both",
+}
+
+
+def _original_line(diff: str) -> str:
+    """The source line a one-line mutant replaced (the diff's ``-`` line, stripped)."""
+    for line in diff.splitlines():
+        if line.startswith("-") and not line.startswith("---"):
+            return line[1:].strip()
+    return ""
 
 
 def layout(dest: Path) -> Path:
@@ -147,6 +177,8 @@ def run(modules, sample: int, seed: int, timeout: float, out: Path | None, verbo
                     res = mutate_and_test([spec], cmd, timeout)
                     outcome = (res.test_outcome.value if res.test_outcome is not None
                                else res.worker_outcome.value)
+                    if (module, spec.operator_name, _original_line(res.diff or "")) in EQUIVALENT:
+                        outcome = "equivalent"
                     rows.append({"index": i, "operator": spec.operator_name, "line": spec.start_pos[0],
                                  "outcome": outcome, "seconds": round(time.perf_counter() - t0, 1),
                                  "diff": res.diff or ""})
@@ -159,6 +191,7 @@ def run(modules, sample: int, seed: int, timeout: float, out: Path | None, verbo
                 killed = sum(r["outcome"] != "survived" for r in scored)
                 report["modules"][module] = {"mutants": len(specs), "sampled": len(rows), "killed": killed,
                                              "survived": len(scored) - killed,
+                                             "equivalent": sum(r["outcome"] == "equivalent" for r in rows),
                                              "score": killed / len(scored) if scored else None,
                                              "tests": MODULES[module], "rows": rows}
         finally:
@@ -204,8 +237,9 @@ def main(argv=None) -> int:
     bad = False
     for m, r in rep["modules"].items():
         score = r["score"]
-        print(f"{m}: {r['killed']} of {r['killed'] + r['survived']} sampled mutants killed"
-              f" ({r['mutants']} in all)" + (f", score {score:.2f}" if score is not None else ""))
+        print(f"{m}: {r['killed']} of {r['killed'] + r['survived']} sampled non-equivalent mutants killed"
+              f" ({r['equivalent']} equivalent, {r['mutants']} in all)"
+              + (f", score {score:.2f}" if score is not None else ""))
         for row in r["rows"]:
             if row["outcome"] == "survived":
                 print("  survived:", row["operator"], "line", row["line"])

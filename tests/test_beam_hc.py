@@ -20,6 +20,10 @@ from vibeam.models.beam_dynamics import BeamEventSolver, BeamODESolver
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.sdof import SDOF, EventSolver
 
+# slow (the default test step's time): the compliant laws' shooting tangents and two-stop
+# kernels are compiled by these tests alone (~4 min of cold compile on 2 cores); .ci/run runs them
+pytestmark = pytest.mark.slow
+
 
 def _rig(n_modes, k=1e8, R=None):
     from vibeam.case.schema import load_case

@@ -20,6 +20,10 @@ from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
 
+# slow (the default test step's time): the compliant laws' shooting tangents and two-stop
+# kernels are compiled by these tests alone (~4 min of cold compile on 2 cores); .ci/run runs them
+pytestmark = pytest.mark.slow
+
 
 def _two(law, law_lower=None, Delta=0.002, Delta_lower=0.002, B=5e-3, R=0.8, beta=0.015):
     return SDOF(beta=beta, B=B, R=R, Delta=Delta, Delta_lower=Delta_lower, contact=law, contact_lower=law_lower)

@@ -14,6 +14,10 @@ from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models.sdof import SDOF, EventSolver
 from vibeam.engine.records import summarize
 
+# slow (the default test step's time): the compliant laws' shooting tangents and two-stop
+# kernels are compiled by these tests alone (~4 min of cold compile on 2 cores); .ci/run runs them
+pytestmark = pytest.mark.slow
+
 FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8 scene
 
 

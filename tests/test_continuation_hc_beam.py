@@ -15,6 +15,10 @@ import pytest
 
 from vibeam.models.periodic_beam import BeamContinuation
 
+# slow (the default test step's time): the compliant laws' shooting tangents and two-stop
+# kernels are compiled by these tests alone (~4 min of cold compile on 2 cores); .ci/run runs them
+pytestmark = pytest.mark.slow
+
 # the file runs in the slow step (CI runs `pytest -m slow` second) but for one representative
 # check, test_two_mode_shot_jacobian_in_omega_against_central_differences: the Hunt-Crossley beam
 # kernels' first compile costs ~20 s, which the default step's 10-minute budget takes only once

@@ -162,6 +162,7 @@ def _settled(m, W, periods=1500, x0=None):
     return np.asarray(tr.final_state[:2], float), summarize(tr, m.Delta)
 
 
+@pytest.mark.slow     # the Lankarani-Nikravesh shooting tangent: compiled by this test alone (~1 min cold)
 def test_continued_orbit_is_the_settled_event_orbit():
     """Fig. 8 scene on a Lankarani-Nikravesh stop (k_c = 1e6, R = 0.9): the family's shooting
     problem (registry) returns the event kernel's settled state at Omega = 1.9 to 1e-9 (DOP853 at

@@ -123,6 +123,39 @@ def test_non_periodic_points_compared_by_their_spread(tmp_path):
                    _row(1.0, 1, 2.0, 0.0, 2.0, 2.0, status="unsettled", amplitude=2.001)) == (0, 2)
 
 
+def test_a_spread_mean_within_the_amplitude_tolerance_passes_whatever_its_standard_error(tmp_path):
+    """The mean of a non-periodic point passes Welch's test *or* the amplitude tolerance atol +
+    rtol |ref|: with standard errors of 1e-9 a mean 5e-4 off fails Welch's test and passes at
+    atol = 1e-3, fails at atol = 1e-4 (a cosmic-ray mutant that dropped the tolerance's share,
+    within(..., -1.0), survived: no test had a mean off by less than atol but by many SE)."""
+    from vibeam.io.results import read_results
+
+    ref = _fake(tmp_path, "ref.h5", [_row(2.0, 0, 3.0, 1e-9, 2.9, 3.1)])
+    new = read_results(_fake(tmp_path, "new.h5", [_row(2.0, 0, 3.0005, 1e-9, 2.9, 3.1)]))
+    assert compare(new, ref, atol=1e-3, rtol=0.0, period=False)[0].failures == 0
+    assert compare(new, ref, atol=1e-4, rtol=0.0, period=False)[0].failures == 1
+
+
+def test_the_table_says_how_many_points_were_compared_by_their_spread(tmp_path, capsys):
+    """The printed table's note for a run with non-periodic points: "N point(s) by spread, M
+    failed", after any other note (a cosmic-ray mutant that broke this line, a TypeError at
+    print time, survived every regress test: none printed such a run)."""
+    from vibeam.analysis.regress import print_rows
+    from vibeam.io.results import read_results
+
+    ref = _fake(tmp_path, "ref.h5", [_row(1.0, 1, 2.0, 0.0, 2.0, 2.0), _row(2.0, 0, 3.0, 0.4, 2.2, 3.9)])
+    new = read_results(_fake(tmp_path, "new.h5", [_row(1.0, 1, 2.0, 0.0, 2.0, 2.0),
+                                                  _row(2.0, 0, 3.0 + 5 * 0.4 * np.sqrt(2 / 16), 0.4, 2.2, 3.9)]))
+    rows = compare(new, ref, atol=0.0, rtol=1e-6, period=False)
+    capsys.readouterr()
+    print_rows(rows, 0.0, 1e-6)
+    out = capsys.readouterr().out
+    assert "(1 point(s) by spread, 1 failed)" in out and "REGRESSION" in out, out
+    rows[0].note = "a note"
+    print_rows(rows, 0.0, 1e-6)
+    assert "(a note; 1 point(s) by spread, 1 failed)" in capsys.readouterr().out
+
+
 # ----------------------------------------------------------------------------- one table reader (issue 19, item 12)
 TABLES = {
     # name: (text, accepted?) -- the same verdict from `vibeam fit` and `vibeam regress`

@@ -289,6 +289,10 @@ def test_continue_after_an_edit_keeps_the_sweeps_marked_stale(tmp_path, capsys):
         assert 'description = "a"' in str(attrs["case_text"])
     assert "stale" not in new["branches/branches"][0]
     assert "marked stale" in err and "runs/exact" in err and "basins/exact" in err, err
+    # the note names the groups, and says "and N more" only past 6 (a cosmic-ray mutant said
+    # "and -4 more" of 2 groups and survived)
+    note = next(l for l in err.splitlines() if "marked stale" in l)
+    assert "keeps 2 group(s)" in note and "more" not in note, note
     with h5py.File(out / "results.h5") as f:
         assert 'description = "edited"' in str(f.attrs["case_text"])
 
@@ -767,3 +771,45 @@ def test_export_gives_every_table_its_own_file(tmp_path):
         cols = list(pd.read_csv(tmp_path / "csv" / f, nrows=0).columns)
         units = pd.read_csv(tmp_path / "csv" / f.replace(".csv", ".units.csv"))
         assert list(units["column"]) == cols, f
+
+
+# ----------------------------------------------------------------------------- tool-generated mutants
+def test_an_earlier_vibeams_file_gives_every_group_its_case():
+    """A file of an earlier vibeam (the shipped references: no case_hash on its groups) has one
+    case, the file's: every group gets the hash of the root's case_json (a cosmic-ray mutant
+    gave them none, so a rerun of the same case would have marked them stale)."""
+    from vibeam.io.store import case_hash, file_info
+
+    ref = Path(__file__).parent / "references" / "paper-fig7.h5"
+    info = file_info(ref)
+    want = case_hash(str(info["attrs"]["case_json"]))
+    assert want and info["units"]
+    assert {u["case_hash"] for u in info["units"].values()} == {want}
+
+
+def test_a_group_whose_object_header_is_damaged_is_not_a_traceback(tmp_path):
+    """A unit whose object header is damaged (its link is intact: h5py raises KeyError "bad object
+    header" on opening it) is left out of what the store reads, never a traceback (a cosmic-ray
+    mutant let that KeyError through and survived)."""
+    from vibeam.errors import InputError
+    from vibeam.io.store import file_info
+
+    case = _write(tmp_path, "scene.toml", SCENE.format(description="a"))
+    out = tmp_path / "D"
+    assert main(["run", str(case), "--out", str(out), *QUIET]) == 0
+    h5 = out / "results.h5"
+    with h5py.File(h5) as f:
+        addr = h5py.h5o.get_info(f["runs/exact"].id).addr
+    raw = bytearray(h5.read_bytes())
+    raw[addr:addr + 16] = b"\xff" * 16
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(bytes(raw))
+    with h5py.File(bad) as f:                         # the premise: the link is there, the object is not
+        assert isinstance(f.get("runs/exact", getlink=True), h5py.HardLink)
+        with pytest.raises(KeyError):
+            f["runs/exact"]
+    try:
+        info = file_info(bad)
+    except InputError:
+        return                                         # refused in one line: as good
+    assert "runs/exact" not in info["units"] and "basins/exact" in info["units"]
