@@ -147,7 +147,10 @@ def test_the_default_mislabels_at_most_one_in_two_thousand():
     """2000 census states, each followed 20000 periods by the event kernel alone: the default
     settings label at most 1 of them wrong (measured 0; with hit_basin = 10: 12, with 20: 2;
     the issue's independent check found 4 of 4000 wrong with the old settings and box), and the
-    census's own check with every state (verify = 2000) counts the same wrong labels."""
+    census's own check with every state (verify = 2000) counts those wrong labels too: at least
+    them, and at most 2 more (it tells every attractor apart, the independent check only period-1
+    or not, so a label between two other attractors is wrong to it alone: 13 against 12 on CI's
+    first run of this test, 12 against 12 before)."""
     m = _model()
     r = vibeam.basins(TWO, Omega=2.38, samples=2000, seed=1, lyapunov_periods=0, verify=0)
     p1 = [k for k in range(r.n_attractors) if r.attractors["type"][0][k] == "period"][0]
@@ -157,7 +160,8 @@ def test_the_default_mislabels_at_most_one_in_two_thousand():
     old = vibeam.basins(TWO, Omega=2.38, samples=2000, seed=1, lyapunov_periods=0, hit_basin=10, verify=2000,
                         verify_periods=20000)
     p1o = [k for k in range(old.n_attractors) if old.attractors["type"][0][k] == "period"][0]
-    assert int(old.labels_wrong[0]) == int(np.sum((old.labels[0] == p1o) != truth)) >= 5
+    truth_wrong = int(np.sum((old.labels[0] == p1o) != truth))
+    assert truth_wrong + 2 >= int(old.labels_wrong[0]) >= truth_wrong >= 5, (int(old.labels_wrong[0]), truth_wrong)
 
 
 def test_simulate_refuses_a_state_behind_a_stop():

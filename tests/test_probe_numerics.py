@@ -247,3 +247,27 @@ def test_ctrl_c_inside_a_compiled_shot_is_not_a_failed_shot():
 
     with pytest.raises(KeyboardInterrupt):
         trace(Wrapped(), np.zeros(2), 2.0, 1, 1.5, 2.5)
+
+
+def test_a_killed_pool_leaves_no_thread_blocked_on_a_partial_result():
+    """`vibeam basins --jobs 2`, Ctrl-C while lines stream their results: the workers were killed
+    with a result half written, the pool's manager thread blocked reading the rest of it, and the
+    command hung at exit (Python joins that thread) after printing "interrupted": 10 min and more
+    at 45 s into a 4-frequency grid.  Here the half-written result is made by hand (a message
+    header for 1000 bytes and 10 of them); after the pool is terminated the thread must end (its
+    read meets the end of the pipe), where before it stayed blocked for good."""
+    import os
+    import struct
+    from concurrent.futures import ProcessPoolExecutor
+
+    from vibeam.engine.sweep import _terminate
+
+    ex = ProcessPoolExecutor(1)
+    assert ex.submit(abs, -1).result() == 1                 # the pool and its manager thread run
+    manager = ex._executor_manager_thread
+    os.write(ex._result_queue._writer.fileno(), struct.pack("!i", 1000) + b"x" * 10)
+    manager.join(timeout=1.0)
+    assert manager.is_alive()                               # blocked on the rest of the message
+    _terminate(ex)
+    manager.join(timeout=30.0)                              # a bound on a hang, not a speed
+    assert not manager.is_alive()

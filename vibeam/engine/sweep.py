@@ -893,6 +893,7 @@ def _terminate(ex) -> None:
     """Shut a local pool down now: queued lines cancelled, workers killed (their lines are
     abandoned), without waiting for anything they run."""
     procs = list((getattr(ex, "_processes", None) or {}).values())   # shutdown() forgets them
+    writer = getattr(getattr(ex, "_result_queue", None), "_writer", None)   # and this
     ex.shutdown(wait=False, cancel_futures=True)
     for p in procs:
         try:
@@ -903,6 +904,16 @@ def _terminate(ex) -> None:
         try:
             p.join(timeout=1.0)
         except Exception:  # pragma: no cover
+            pass
+    # a worker killed while it wrote a result leaves a partial message in the result pipe, and the
+    # pool's manager thread blocks reading the rest; Python joins that thread at exit, so the
+    # command hung after "interrupted" (vibeam basins --jobs 2, Ctrl-C: 10 min and more).  With the
+    # workers gone, the parent's write end is the pipe's last one: closing it ends that read (EOF),
+    # the thread sees a broken pool and exits
+    if writer is not None:
+        try:
+            writer.close()
+        except Exception:  # pragma: no cover - already closed
             pass
 
 
