@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 import vibeam
-from vibeam.cli import main
 from vibeam.errors import CaseError
+from test_probe_ux import _exit, _one_error_line   # the command's exit code, its one error line
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = ROOT / "cases"
@@ -41,19 +41,6 @@ name = "e"
 method = "event"
 """
 HERTZ = '[model.contact]\nlaw = "hunt_crossley"\nstiffness = 100.0\nexponent = {p}\n'
-
-
-def _exit(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as e:
-        return int(e.code)
-
-
-def _one_error_line(capsys) -> str:
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("vibeam: error: "), err
-    return err[0]
 
 
 # ----------------------------------------------------------------------------- unstoppable runs

@@ -26,8 +26,29 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 from vibeam.models.registry import IMPLEMENTED_LAWS, LAWS, is_compliant, law_class
 
 
-#: the force exponents ``p`` of a Hertz-family law a case accepts (:meth:`ContactSpec._exponent`)
+#: the force exponents ``p`` of a Hertz-family law a case accepts (:func:`check_exponent`)
 EXPONENT_RANGE = (1.0, 3.0)
+
+
+def check_exponent(v):
+    """A Hertz-family force exponent ``p`` of a case (None passes).
+
+    Hertz-family laws in the literature use p in [1, 3]: 1 (linear), 3/2 (Hertz's sphere-on-plane
+    and cylinder contacts, Hunt & Crossley 1975, Lankarani & Nikravesh 1990), up to ~3 for rough or
+    conforming surfaces (Machado et al., Mech. Mach. Theory 53, 2012).  Below 1 the contact
+    stiffness d(k delta^p)/d delta is unbounded at delta = 0: the contact phase's step control then
+    takes ever smaller steps and a point need not end.
+
+    Raises
+    ------
+    ValueError
+        ``p`` outside :data:`EXPONENT_RANGE`, with the reason.
+    """
+    if v is not None and not (EXPONENT_RANGE[0] <= v <= EXPONENT_RANGE[1]):
+        raise ValueError(f"not a Hertz-family exponent; allowed: {EXPONENT_RANGE[0]:g} <= p <= "
+                         f"{EXPONENT_RANGE[1]:g} (the Hertz-family laws' range: 1 linear, 1.5 Hertz, up to 3 "
+                         f"rough surfaces; below 1 the contact stiffness is unbounded at contact onset)")
+    return v
 
 
 class ContactSpec(BaseModel):
@@ -56,16 +77,7 @@ class ContactSpec(BaseModel):
     @field_validator("exponent")
     @classmethod
     def _exponent(cls, v):
-        # Hertz-family laws in the literature use p in [1, 3]: 1 (linear), 3/2 (Hertz's sphere-on-
-        # plane and cylinder contacts, Hunt & Crossley 1975, Lankarani & Nikravesh 1990), up to ~3
-        # for rough or conforming surfaces (Machado et al., Mech. Mach. Theory 53, 2012).  Below 1
-        # the contact stiffness d(k delta^p)/d delta is unbounded at delta = 0: the contact
-        # phase's step control then takes ever smaller steps and a point need not end.
-        if v is not None and not (EXPONENT_RANGE[0] <= v <= EXPONENT_RANGE[1]):
-            raise ValueError(f"not a Hertz-family exponent; allowed: {EXPONENT_RANGE[0]:g} <= p <= "
-                             f"{EXPONENT_RANGE[1]:g} (the Hertz-family laws' range: 1 linear, 1.5 Hertz, up to 3 "
-                             f"rough surfaces; below 1 the contact stiffness is unbounded at contact onset)")
-        return v
+        return check_exponent(v)
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -176,16 +188,7 @@ class StopSpec(ContactSpec):
     @field_validator("exponent")
     @classmethod
     def _exponent(cls, v):
-        # Hertz-family laws in the literature use p in [1, 3]: 1 (linear), 3/2 (Hertz's sphere-on-
-        # plane and cylinder contacts, Hunt & Crossley 1975, Lankarani & Nikravesh 1990), up to ~3
-        # for rough or conforming surfaces (Machado et al., Mech. Mach. Theory 53, 2012).  Below 1
-        # the contact stiffness d(k delta^p)/d delta is unbounded at delta = 0: the contact
-        # phase's step control then takes ever smaller steps and a point need not end.
-        if v is not None and not (EXPONENT_RANGE[0] <= v <= EXPONENT_RANGE[1]):
-            raise ValueError(f"not a Hertz-family exponent; allowed: {EXPONENT_RANGE[0]:g} <= p <= "
-                             f"{EXPONENT_RANGE[1]:g} (the Hertz-family laws' range: 1 linear, 1.5 Hertz, up to 3 "
-                             f"rough surfaces; below 1 the contact stiffness is unbounded at contact onset)")
-        return v
+        return check_exponent(v)
 
     @model_validator(mode="after")
     def _consistent(self):
