@@ -157,6 +157,10 @@ class LinearContact:
     name = "linear"
     #: the contact phase is a linear flow (exact, eigendecomposed: vibeam.models.core.phases)
     linear_phase = True
+    #: cost of a sweep point with this law against the event grid's step count
+    #: (:func:`vibeam.engine.jobs.estimate_work`): measured 5-47x on the cell matrix's event rows
+    #: (SDOF and 2-mode beam, one, two, mixed and point stops; ``vibeam bench --estimate``)
+    work_factor = 12.0
 
     @staticmethod
     def force_exponent(exponent: float | None = None) -> float:
@@ -238,6 +242,10 @@ class HystereticHertz:
     chi_formula = ""
     #: the contact phase has no closed form (integrated: vibeam.models.core.rk)
     linear_phase = False
+    #: cost of a sweep point with a law of this family against the event grid's step count
+    #: (:func:`vibeam.engine.jobs.estimate_work`): measured 146-1000x on the cell matrix's event
+    #: rows (Hunt-Crossley and Lankarani-Nikravesh, SDOF and 2-mode beam; ``vibeam bench --estimate``)
+    work_factor = 300.0
 
     @staticmethod
     def chi_of(R: float) -> float:

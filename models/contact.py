@@ -134,6 +134,9 @@ class Restitution:
 
     kind = "impulsive"
     code = LAW_RESTITUTION
+    #: cost of a sweep point with this law against the event grid's step count
+    #: (:func:`vibeam.engine.jobs.estimate_work`): an impact is one map, the grid is the work
+    work_factor = 1.0
 
     def coefficient(self, U_minus) -> float:
         """``R(U-)`` as the kernels evaluate it."""

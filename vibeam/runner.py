@@ -451,7 +451,8 @@ def plan_execution(case, jobs_, todo, jobs, executor) -> tuple:
 
     A given executor is used as it is.  Otherwise the local pool (``jobs`` workers, None: all
     cores) is used only when it is faster: with ``n`` workers the serial time ``t``
-    (:func:`estimate_work` x :data:`STEP_SECONDS`, for the points still to do) becomes
+    (:func:`estimate_work`'s ``work_min`` x :data:`STEP_SECONDS`, for the points still to
+    do: the event grid's steps weighted by the stop laws' cost) becomes
     about ``POOL_STARTUP_S + t / n``, so a sweep with ``t < POOL_STARTUP_S n / (n - 1)``
     runs inline (e.g. the Fig. 7 case: 2e6 steps, ~0.2 s).  The estimate is a lower bound
     (chatter and impacts add work), so such a sweep starts inline and hands the lines left
@@ -466,7 +467,7 @@ def plan_execution(case, jobs_, todo, jobs, executor) -> tuple:
         return 1, ""
     total = sum(l.n_points for j in jobs_ for l in _lines(j)) or 1
     frac = sum(l.n_points for l in todo) / total
-    t = estimate_work(case, jobs_)["steps_min"] * STEP_SECONDS * frac
+    t = estimate_work(case, jobs_)["work_min"] * STEP_SECONDS * frac
     if t < POOL_STARTUP_S * n / (n - 1):
         return n, f"small sweep, ~{t:.2g} s on one core: inline first"
     return n, ""

@@ -96,6 +96,16 @@ def _dofs(spec) -> int:
     return int(spec.dofs())
 
 
+def _work_factor(model) -> float:
+    """The largest ``work_factor`` of the model's stop laws (1 without stops): what one point
+    costs against the event grid's step count (a Newton stop 1, Kelvin-Voigt about 12, the
+    hysteretic-Hertz family about 300: their contact phases are integrated; measured on the
+    cell matrix by ``vibeam bench --estimate``)."""
+    stops = getattr(model, "stops", None)
+    laws = [s.law for s in stops()] if callable(stops) else []
+    return max([float(getattr(law, "work_factor", 1.0)) for law in laws], default=1.0)
+
+
 def _contact_steps(model, Omega, spec=None):
     """Steps per forcing period that a compliant stop adds, or None (Newton's law, a beam).
 
@@ -135,6 +145,11 @@ def estimate_work(case, jobs_=None) -> dict:
     steps``, times the retained modes for the FE beam and :data:`ODE_STEP_COST`
     for the ``solve_ivp`` methods (``averaging`` and ``mapping`` count one step
     per point).  It is a lower bound: chatter, impacts and high modes add to it.
+    ``work_min`` turns the minimum steps into the time they take, in event-step units: the
+    event method's steps times the largest ``work_factor`` of the scene's stop laws
+    (:func:`_work_factor`: an integrated contact phase costs far more than its steps on the
+    grid; calibrated on the cell matrix, ``vibeam bench --estimate``); the limits
+    (:func:`check_work`) count steps.
 
     Parameters
     ----------
@@ -146,7 +161,9 @@ def estimate_work(case, jobs_=None) -> dict:
     Returns
     -------
     dict
-        ``steps`` (float), ``point_values`` (most floats recorded by one point),
+        ``steps`` (float), ``steps_min`` (the record's ``record_periods`` only, not a
+        non-periodic point's ``statistics_periods``), ``work_min`` (``steps_min`` weighted by
+        the laws' cost, for the time it takes), ``point_values`` (most floats recorded by one point),
         and ``culprit`` ``(key, value)``: the case key that contributes most
         beyond a usual case (101 points, 400 + 64 periods, 64 samples, Omega >= 1,
         one mode, the event method, one map value).
@@ -155,7 +172,7 @@ def estimate_work(case, jobs_=None) -> dict:
     sw = case.sweep
     grid_key = "sweep.Omega" if sw.Omega is not None else "sweep.frequency_hz"
     n_dir = 2 if sw.direction == "both" else 1
-    steps = steps_min = 0.0
+    steps = steps_min = work_min = 0.0
     point_values = 0.0
     w_min = np.inf
     worst_modes, worst_cost = (None, 1), (None, 1.0)
@@ -170,6 +187,7 @@ def estimate_work(case, jobs_=None) -> dict:
         if r.method in ("averaging", "mapping"):
             steps += n_dir * Om.size
             steps_min += n_dir * Om.size
+            work_min += n_dir * Om.size
             continue
         ts = getattr(r, "transient_samples", 16)
         spp = job.sweep.samples_per_period
@@ -185,10 +203,12 @@ def estimate_work(case, jobs_=None) -> dict:
         per = (n_tr * (np.maximum(ts, sub) + con) + n_rec * (np.maximum(spp, sub) + con)
                + n_ly * (np.maximum(ts, sub) + con))
         cost = ODE_STEP_COST if r.method in ("direct", "zhuravlev", "ivanov") else 1.0
+        factor = _work_factor(job.solver.model) if cost == 1.0 else 1.0
         steps += n_dir * float(per.sum()) * dofs * cost
         per_min = (n_tr * (np.maximum(ts, sub) + con) + job.sweep.record_periods * (np.maximum(spp, sub) + con)
                    + n_ly * (np.maximum(ts, sub) + con))
         steps_min += n_dir * float(per_min.sum()) * dofs * cost
+        work_min += n_dir * float(per_min.sum()) * dofs * cost * factor
         point_values = max(point_values, n_rec * spp * 2.0 * (1 + dofs))
         i = case.run.index(r)
         if dofs > worst_modes[1]:
@@ -214,7 +234,8 @@ def estimate_work(case, jobs_=None) -> dict:
     key, val, _ = max((c for c in cands if c[0]), key=lambda c: c[2])
     if key.endswith(".method"):
         val = case.run[int(key[4:key.index("]")])].method
-    return {"steps": steps, "steps_min": steps_min, "point_values": point_values, "culprit": (key, val)}
+    return {"steps": steps, "steps_min": steps_min, "work_min": work_min, "point_values": point_values,
+            "culprit": (key, val)}
 
 
 def point_work(Omega: float, transient_periods: int, record_periods: int, samples_per_period: int,
