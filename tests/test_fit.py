@@ -155,6 +155,11 @@ def test_exact_data_from_the_runner_gives_the_truth(tmp_path, capsys):
     tol = 2 * np.abs(np.linalg.pinv(jac)) @ (np.nan_to_num(acc) / sigma) + 10 * 1e-8 * np.array([7.66e-4, 0.59])
     assert np.all(np.abs(est - [7.66e-4, 0.59]) <= tol), (est, tol)
     assert np.all(se < 1e-6 * np.array([7.66e-4, 0.59]))    # exact data: no scatter left
+    from test_probe_ux import _file_faults
+
+    # issue 42 item 5, the fits' own tables: UDUNITS units and a description ("1 (residual / sigma,
+    # ...)", "mm (model - data)", "per parameter: /fit/units" were units)
+    assert not _file_faults(out / "fit.h5", tops=("fit",)), _file_faults(out / "fit.h5", tops=("fit",))
     check_fit_data(figs["fit.png"], out / "fit.h5")            # data, fitted FRC and residuals drawn
     assert_png_shows(out / "fit.png", figs["fit.png"])
     fitted, _ = load_case(out / "rigfit-fit.toml")
@@ -494,6 +499,12 @@ def test_cli_linear_and_decay(tmp_path, capsys):
     with h5py.File(out / "linear.h5", "r") as h:
         est = dict(zip([s.decode() for s in h["fit/parameters"][()]], h["fit/estimate"][()]))
     assert est["gain"] == pytest.approx(1.5e-3, rel=1e-8) and est["natural_frequency_hz"] == pytest.approx(7.6, rel=1e-10)
+    from test_probe_ux import _file_faults
+
+    for name, top in (("linear.h5", "fit"), ("decay.h5", "decay")):      # issue 42 item 5: "1/V", "mm (model - data)"
+        assert not _file_faults(out / name, tops=(top,)), _file_faults(out / name, tops=(top,))
+    with h5py.File(out / "linear.h5", "r") as h:
+        assert [u.decode() for u in h["fit/units"][()]] == ["Hz", "1", "V-1"]
     lin, _ = load_case(out / "rig-neutral-linear.toml")
     assert lin.model["gain"] == pytest.approx(1.5e-3, rel=1e-8)
     dec, _ = load_case(out / "rig-neutral-decay.toml")

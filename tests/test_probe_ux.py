@@ -245,7 +245,7 @@ def test_regress_refuses_a_reference_of_another_case(two_results, capsys):
 # ============================================================================ item 5: SI metadata
 #: a subset of the UDUNITS-2 grammar, written here: "1", or symbols with optional integer powers
 #: separated by spaces ("mm s-1", "V-1"); the symbols SI outputs use.  Not vibeam's rule.
-_SYMBOLS = {"m", "mm", "s", "Hz", "N", "J", "V", "kg", "rad"}
+_SYMBOLS = {"m", "mm", "s", "Hz", "N", "J", "V", "kg", "rad", "Pa", "GPa"}
 _FACTOR = re.compile(r"^([A-Za-z]+)(-?[1-9][0-9]*)?$")
 #: the unit a name's suffix promises, longest suffix first
 _SUFFIX = (("_mm_s", "mm s-1"), ("_m_s", "m s-1"), ("_mm", "mm"), ("_hz", "Hz"), ("_s", "s"), ("_n", "N"),
@@ -301,19 +301,27 @@ def test_describe_gives_every_output_si_units_and_a_description():
     assert not faults, faults
 
 
-def _file_faults(path) -> dict:
+def _file_faults(path, tops=("runs", "maps", "branches", "basins")) -> dict:
+    """Metadata faults of the datasets under ``tops``.  An array over parameters of different
+    units (the fits' estimate, covariance, Jacobian) may have no ``units`` when its ``comment``
+    says where they are ('/fit/units'); it still needs a long_name."""
     import h5py
 
     faults = {}
     with h5py.File(path, "r") as f:
         def visit(name, obj):
             top = name.split("/")[0]
-            if not isinstance(obj, h5py.Dataset) or top not in ("runs", "maps", "branches", "basins"):
+            if not isinstance(obj, h5py.Dataset) or top not in tops:
                 return
+            if str(obj.attrs.get("NAME", b"")).find("not a netCDF variable") >= 0:
+                return                    # a netCDF dimension without values (an index), not a variable
             u, ln = obj.attrs.get("units"), obj.attrs.get("long_name")
             u = u.decode() if isinstance(u, bytes) else (None if u is None else str(u))
             ln = ln.decode() if isinstance(ln, bytes) else ln
+            comment = str(obj.attrs.get("comment", ""))
             numeric = obj.dtype.kind in "fiub" and not str(name).endswith("/direction")
+            if u is None and "/fit/units" in comment:
+                numeric = False           # units per parameter: only the long_name is checked
             fl = _metadata_faults(name.split("/")[-1], u, ln, numeric)
             if fl:
                 faults[f"{path.name}:{name}"] = fl
@@ -479,6 +487,34 @@ def test_results_repr_is_short():
     assert g.startswith("Run('exact': runs/exact") and "array(" not in g and len(g) < 200, g
     m = vibeam.open_results(ROOT / "tests" / "references" / "paper-fig18-fe.h5")
     assert "maps: 'static mode'" in repr(m) and len(repr(m)) < 600 and "array(" not in repr(m.maps[0])
+
+
+def test_result_objects_repr_is_short():
+    """The engine's result objects as the API returns them without an ``out`` folder
+    (``vibeam.basins``: a BasinsResult; before, its dataclass repr printed every label, 40 x 40
+    grid: > 5000 characters) and the sweep, map and continuation objects of a results file: sizes,
+    never arrays; the attractor count is the attractors' (the repr of a Basins group counted the
+    keys of its table)."""
+    import dataclasses
+
+    import vibeam
+    from vibeam.analysis.attractors import BasinsResult
+    from vibeam.analysis.branches import ContinuationResult
+    from vibeam.io.objects import MapResult, SweepResult
+
+    b = vibeam.basins(CASES / "paper-fig7.toml", Omega=2.0, grid=(12, 10), lyapunov_periods=0)
+    r = repr(b)
+    n_att = np.shape(b.attractors["type"])[-1]
+    assert r.startswith("BasinsResult(") and "initial states 10 x 12" in r and f", {n_att} attractors)" in r, r
+    assert len(r) < 200 and "array(" not in r, r
+    res = vibeam.open_results(ROOT / "tests" / "references" / "paper-fig7.h5")
+    raw = SweepResult(**{f.name: getattr(res.runs[0], f.name) for f in dataclasses.fields(SweepResult)})
+    assert repr(raw).startswith("SweepResult('exact': event, ") and len(repr(raw)) < 200, repr(raw)
+    m = vibeam.open_results(ROOT / "tests" / "references" / "paper-fig18-fe.h5").maps[0]
+    raw = MapResult(**{f.name: getattr(m, f.name) for f in dataclasses.fields(MapResult)})
+    assert "array(" not in repr(raw) and len(repr(raw)) < 200, repr(raw)
+    c = ContinuationResult("c", "sdof", "Omega", {}, [{"n": 1}] * 2, [], [], "ok", "", 0.1)
+    assert repr(c) == "ContinuationResult('c': Omega, 2 branches, 0 curves, ok)"
 
 
 # ============================================================================ item 8: README

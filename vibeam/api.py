@@ -286,8 +286,7 @@ def _group_classes():
         __repr__ = _Group.__repr__
 
         def _sizes(self):
-            return (f"{np.size(self.Omega)} frequencies, initial states {' x '.join(map(str, np.shape(self.labels)[1:]))}, "
-                    f"{len(self.attractors)} attractors")
+            return BasinsResult.sizes(self)
 
         def to_xarray(self):
             """The variables of ``/basins/<run>/`` (computed from the result in memory)."""

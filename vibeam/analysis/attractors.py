@@ -158,6 +158,16 @@ class BasinsResult:
     labels_checked: np.ndarray | None = None
     labels_wrong: np.ndarray | None = None
 
+    def sizes(self) -> str:
+        """``1 frequencies, initial states 40 x 40, 3 attractors`` (the most found at one slice)."""
+        return (f"{np.size(self.Omega)} frequencies, initial states "
+                f"{' x '.join(map(str, np.shape(self.labels)[1:]))}, {self.n_attractors} attractors")
+
+    def __repr__(self) -> str:
+        """``BasinsResult('exact': 1 frequencies, initial states 40 x 40, 3 attractors)``: sizes,
+        never the arrays (the dataclass's own repr printed every label)."""
+        return f"{type(self).__name__}({self.name!r}: {self.sizes()})"
+
     def mislabel_rate(self, i: int = 0) -> tuple[float, float]:
         """The estimated share of wrong labels at slice ``i`` from the check by long simulation
         (:func:`verify_labels`): ``(wrong / checked, one-sided 95 % Clopper-Pearson upper

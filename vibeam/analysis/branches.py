@@ -489,6 +489,11 @@ class ContinuationResult:
     wall_time_s: float
     attrs: dict = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        """``ContinuationResult('exact': Omega, 2 branches, 1 curves, ok)``: never the arrays."""
+        return (f"{type(self).__name__}({self.name!r}: {self.parameter}, {len(self.branches)} branches, "
+                f"{len(self.curves)} curves, {self.status})")
+
     def write(self, f) -> None:
         """This run's ``/branches/<run>/`` group into the open HDF5 file ``f``
         (:func:`write_branches`; what the results writer calls)."""

@@ -643,7 +643,6 @@ class FitResult:
     def h5_tables(self) -> tuple[dict, dict]:
         """``extra`` and ``extra_attrs`` of :func:`vibeam.io.results.write_results` for ``/fit``."""
         yu = "mm" if self.y_name == "amplitude_mm" else "1"
-        xu = "Hz" if self.x_name == "frequency_hz" else "1 (forcing frequency / natural frequency)"
         t = {"parameters": np.array(self.parameters, dtype=object), "units": np.array(self.units, dtype=object),
              "initial": self.initial, "estimate": self.estimate, "standard_error": self.standard_error,
              "correlation": self.correlation, "covariance": self.covariance,
@@ -669,18 +668,33 @@ class FitResult:
                      "sigma_given": self.sigma_given,
                      "cor_identification": "R from the sensor's time series (paper Sec. 5.1): [effects.sensor] "
                                            "identify_R, vibeam.engine.sensor (cases/README.md, 'Effects and the sensor')"}}
-        for k in ("initial", "estimate", "standard_error", "lower_bound", "upper_bound", "step"):
-            a[f"fit/{k}"] = {"units": per_param}
-        a["fit/covariance"] = {"units": "product of the two parameters' units"}
-        a["fit/correlation"] = {"units": "1"}
-        for k in ("sigma", "model_" + self.y_name, "model_spread", "sweep_accuracy"):
-            a[f"fit/{k}"] = {"units": yu}
-        a["fit/residuals"] = {"units": f"{yu} (model - data)"}
-        a["fit/normalized_residuals"] = {"units": "1 (residual / sigma, widened at non-periodic points)"}
-        a["fit/jacobian"] = {"units": "d normalized residual / d parameter"}
-        a["fit/loss_weight"] = {"units": "1 (IRLS weight rho' of the loss)"}
-        a[f"fit/{self.x_name}"] = {"units": xu}
-        a["fit/model_period"] = {"units": "period-n (0 = not periodic within 8, -1 = no impact)"}
+        # UDUNITS units (CF); an array over parameters of different units has none, its comment
+        # names the per-parameter units, and each array says what it is in long_name
+        what = {"initial": "parameter value at the start of the fit", "estimate": "fitted parameter value",
+                "standard_error": "standard error of the fitted parameter", "lower_bound": "lower bound of the "
+                "parameter", "upper_bound": "upper bound of the parameter", "step": "finite-difference step of "
+                "the parameter"}
+        for k, ln in what.items():
+            a[f"fit/{k}"] = {"long_name": ln, "comment": per_param}
+        a["fit/covariance"] = {"long_name": "covariance of the fitted parameters",
+                               "comment": "units: the product of the two parameters' units (/fit/units)"}
+        a["fit/correlation"] = {"units": "1", "long_name": "correlation of the fitted parameters"}
+        for k, ln in (("sigma", "standard deviation of the data"), ("model_" + self.y_name, "fitted model's "
+                      + self.y_name.removesuffix("_mm")), ("model_spread", "fitted model's spread over the "
+                      "record (non-periodic points)"), ("sweep_accuracy", "sweep's accuracy at the point")):
+            a[f"fit/{k}"] = {"units": yu, "long_name": ln}
+        a[f"fit/{self.y_name}"] = {"units": yu, "long_name": "measured " + self.y_name.removesuffix("_mm")}
+        a["fit/used"] = {"units": "1", "long_name": "point used by the fit (1 used, 0 left out)"}
+        a["fit/residuals"] = {"units": yu, "long_name": "residual, model - data"}
+        a["fit/normalized_residuals"] = {"units": "1", "long_name": "normalized residual, residual / sigma "
+                                         "(sigma widened at non-periodic points)"}
+        a["fit/jacobian"] = {"long_name": "Jacobian of the normalized residuals",
+                             "comment": "units: 1 / the parameter's unit (/fit/units), per column"}
+        a["fit/loss_weight"] = {"units": "1", "long_name": "IRLS weight rho' of the robust loss"}
+        a[f"fit/{self.x_name}"] = ({"units": "Hz", "long_name": "forcing frequency"} if self.x_name == "frequency_hz"
+                                   else {"units": "1", "long_name": "forcing frequency / natural frequency, Omega"})
+        a["fit/model_period"] = {"units": "1", "long_name": "fitted model's period-n (forcing periods)",
+                                 "comment": "0 = not periodic within 8 periods, -1 = no impact"}
         return t, a
 
     def write(self, out_dir, case_text: str = "", plots: bool = True) -> dict:

@@ -39,14 +39,15 @@ RANK_RTOL = 1e-8
 EQ43_PARAMS = ("natural_frequency_hz", "damping_ratio", "gain")
 
 #: units of model keys (case-file names); others are derived from the key's suffix
-PARAM_UNITS = {"gain": "1/V", "R": "1", "damping_ratio": "1", "natural_frequency_hz": "Hz", "voltage": "V",
-               "beta": "1", "B": "1", "Delta": "1", "rayleigh_alpha_1_s": "1/s", "EI_n_m2": "N m^2",
-               "rhoA_kg_m": "kg/m", "rotary_inertia_kg_m2": "kg m^2", "density_kg_m3": "kg/m^3",
+#: in UDUNITS syntax (CF: ``V-1``, not ``1/V``)
+PARAM_UNITS = {"gain": "V-1", "R": "1", "damping_ratio": "1", "natural_frequency_hz": "Hz", "voltage": "V",
+               "beta": "1", "B": "1", "Delta": "1", "rayleigh_alpha_1_s": "s-1", "EI_n_m2": "N m2",
+               "rhoA_kg_m": "kg m-1", "rotary_inertia_kg_m2": "kg m2", "density_kg_m3": "kg m-3",
                "youngs_modulus_gpa": "GPa"}
 
 
 def param_unit(name: str) -> str:
-    """Unit of a model key (``gain`` -> ``1/V``, ``gap_mm`` -> ``mm``, ...)."""
+    """Unit of a model key in UDUNITS syntax (``gain`` -> ``V-1``, ``gap_mm`` -> ``mm``, ...)."""
     if name in PARAM_UNITS:
         return PARAM_UNITS[name]
     for suffix, unit in (("_mm", "mm"), ("_hz", "Hz"), ("_kg", "kg"), ("_s", "s")):
@@ -957,10 +958,16 @@ def report_linear(case, case_text, reference, out_dir, params=None, loss="linear
                      "n_parameters": len(params), "s2": res.s2, "cost": res.cost, "evaluations": res.evaluations,
                      "wall_time_s": res.wall_time_s, "reliable": res.reliable, "notes": "; ".join(res.notes),
                      "loss": loss, "length_mm": L, "voltage": V},
-             "fit/residuals": {"units": "mm (model - data)"}, "fit/model_amplitude_mm": {"units": "mm"},
-             "fit/sigma": {"units": "mm" if ref.sigma is not None else "1 (no sigma: equal weights)"},
-             "fit/estimate": {"units": "per parameter: /fit/units"},
-             "fit/standard_error": {"units": "per parameter: /fit/units"}, "fit/correlation": {"units": "1"}}
+             "fit/residuals": {"units": "mm", "long_name": "residual, model - data"},
+             "fit/model_amplitude_mm": {"units": "mm", "long_name": "fitted Eq. 43 amplitude"},
+             "fit/frequency_hz": {"units": "Hz", "long_name": "forcing frequency"},
+             "fit/amplitude_mm": {"units": "mm", "long_name": "measured amplitude"},
+             "fit/sigma": ({"units": "mm", "long_name": "standard deviation of the data"} if ref.sigma is not None
+                           else {"units": "1", "long_name": "weight of the data (no sigma: equal weights)"}),
+             "fit/estimate": {"long_name": "fitted parameter value", "comment": "per parameter: /fit/units"},
+             "fit/standard_error": {"long_name": "standard error of the fitted parameter",
+                                    "comment": "per parameter: /fit/units"},
+             "fit/correlation": {"units": "1", "long_name": "correlation of the fitted parameters"}}
     h5 = write_results(out_dir / "linear.h5", [], case.name, case_text, extra={"fit": table}, extra_attrs=attrs)
     png = _plot_linear(res, out_dir / "linear.png", f"{case.name}: Eq. 43 fitted around f_n")
     print("  -> " + ", ".join(str(p) for p in (h5, png, cpath) if p))
@@ -1031,10 +1038,17 @@ def report_decay(case, case_text, decay_csv, out_dir, source="") -> tuple[DecayE
     attrs = {"decay": {"source": str(decay_csv), "log_decrement": ld.extra["log_decrement"],
                        "noise_std_mm": ld.extra["noise_std"], "residual_rms_mm": fd.extra["residual_rms"],
                        "notes": "; ".join(ld.notes + fd.notes)},
-             "decay/t_s": {"units": "s"}, "decay/U_mm": {"units": "mm"}, "decay/model_U_mm": {"units": "mm"},
-             "decay/natural_frequency_hz": {"units": "Hz"}, "decay/natural_frequency_hz_se": {"units": "Hz"},
-             "decay/damping_ratio": {"units": "1"}, "decay/extremum_time_s": {"units": "s"},
-             "decay/extremum_U_mm": {"units": "mm"}}
+             "decay/t_s": {"units": "s", "long_name": "time"},
+             "decay/U_mm": {"units": "mm", "long_name": "measured displacement U"},
+             "decay/model_U_mm": {"units": "mm", "long_name": "model U: the fitted damped free vibration"},
+             "decay/natural_frequency_hz": {"units": "Hz", "long_name": "natural frequency (log decrement, fit)"},
+             "decay/natural_frequency_hz_se": {"units": "Hz", "long_name": "standard error of the natural "
+                                               "frequency"},
+             "decay/damping_ratio": {"units": "1", "long_name": "damping ratio (log decrement, fit)"},
+             "decay/damping_ratio_se": {"units": "1", "long_name": "standard error of the damping ratio"},
+             "decay/extremum_time_s": {"units": "s", "long_name": "time of an extremum of U"},
+             "decay/extremum_U_mm": {"units": "mm", "long_name": "extremum of U"},
+             "decay/pair_used": {"units": "1", "long_name": "extremum pair used by the log decrement (1 used)"}}
     h5 = write_results(out_dir / "decay.h5", [], case.name, case_text, extra={"decay": table}, extra_attrs=attrs)
     png = _plot_decay(t, U, ld, fd, out_dir / "decay.png", f"{case.name}: free decay")
     print("  -> " + ", ".join(str(p) for p in (h5, png, cpath) if p))

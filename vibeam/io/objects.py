@@ -27,6 +27,10 @@ class SweepResult:
     def n_points(self) -> int:
         return len(self.data["Omega"])
 
+    def __repr__(self) -> str:
+        """``SweepResult('exact': event, 202 points, 25 variables)``: never the arrays."""
+        return f"{type(self).__name__}({self.name!r}: {self.method}, {self.n_points} points, {len(self.data)} variables)"
+
 
 
 @dataclass
@@ -63,3 +67,8 @@ class MapResult:
     @property
     def shape(self) -> tuple:
         return self.data["classification"].shape
+
+    def __repr__(self) -> str:
+        """``MapResult('exact': gap_mm, shape (2, 8, 61), 20 variables)``: never the arrays."""
+        return (f"{type(self).__name__}({self.name!r}: {self.parameter}, shape {self.shape}, "
+                f"{len(self.data)} variables)")
