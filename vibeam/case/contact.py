@@ -23,6 +23,7 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from vibeam.case.paths import is_path, set_value
 from vibeam.models.registry import IMPLEMENTED_LAWS, LAWS, is_compliant, law_class
 
 
@@ -309,11 +310,21 @@ def model_with(model: dict, values: dict | None) -> dict:
     shorthand keys go into the stops they stand for: ``R``, ``Delta``, ``gap_mm``,
     ``contact_gap_mm`` and ``contact`` into the paper's stop (the first upper stop at the attached
     mass), the ``*_lower`` keys and ``contact_lower`` into the lower stop there (added if there is
-    none); a gap replaces the stop's gap, a law table replaces its law keys.  A new dict; the
-    tables given are not changed.
+    none); a gap replaces the stop's gap, a law table replaces its law keys.  A key written as a
+    parameter path (``stops[1].law.stiffness_n_m``: :mod:`vibeam.case.paths`) sets the one key it
+    stands for.  A new dict; the tables given are not changed.
+
+    Raises
+    ------
+    ValueError
+        A parameter path that is not valid for this table (:func:`vibeam.case.paths.set_value`).
     """
+    paths = {k: v for k, v in (values or {}).items() if is_path(k)}
+    for k, v in paths.items():             # a parameter path sets the one key it stands for
+        model = set_value(model, k, v)
+    values = {k: v for k, v in (values or {}).items() if k not in paths}
     out = dict(model)
-    out.update(values or {})
+    out.update(values)
     stops = model.get("stop")
     if not isinstance(stops, list) or not values:
         return out

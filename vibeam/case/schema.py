@@ -1310,10 +1310,14 @@ class Case(_Strict):
         return Case.model_validate(data)
 
     def map_parameters(self) -> list[str]:
-        """Model keys a ``[map]`` may vary: the numeric (float) keys set in ``[model]``."""
+        """What a ``[map]`` (and ``vibeam fit``) may vary: the numeric (float) keys set in
+        ``[model]``, then the paths of the stops' numbers (:func:`vibeam.case.paths.parameter_paths`:
+        ``stops[1].law.stiffness_n_m``, ``stops[0].gap_mm``, ...)."""
+        from vibeam.case.paths import parameter_paths
+
         spec = self.model_spec()
         return sorted(k for k, v in spec.model_dump().items()
-                      if isinstance(v, float) and not isinstance(v, bool))
+                      if isinstance(v, float) and not isinstance(v, bool)) + parameter_paths(self.model)
 
 
 def _validate_model(data: dict, prefix: str = "model"):

@@ -74,7 +74,9 @@ from pathlib import Path
 
 import numpy as np
 
-from vibeam.case.contact import model_with
+from vibeam.case.contact import ContactSpec, StopSpec, model_with
+from vibeam.case.paths import get_value, is_path, key_of
+from vibeam.case.paths import parse as parse_path
 from vibeam.case.text import case_dump, to_toml  # noqa: F401 (re-exported)
 from vibeam.errors import case_error
 from vibeam.identify.linear import (CONVERGED_STEP_SE, NOISE_TEST_LEVEL, irls_weights, loss_cost, loss_psi,
@@ -105,6 +107,17 @@ LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 
 
 # ============================================================================ parameters
+def owner_of(name: str, model_spec_cls) -> tuple:
+    """``(pydantic class, field)`` whose bounds bound the number ``name`` (a flat key or a
+    parameter path, :mod:`vibeam.case.paths`): a law's key the contact table's
+    (:class:`vibeam.case.contact.ContactSpec`), a stop's own key the stop table's
+    (:class:`vibeam.case.contact.StopSpec`), any other the model table's ``model_spec_cls``."""
+    if not is_path(name):
+        return model_spec_cls, name
+    kind, _, key = parse_path(name)
+    return {"law": ContactSpec, "stop": StopSpec}.get(kind, model_spec_cls), key
+
+
 def schema_bounds(spec_cls, name: str) -> tuple[float, float, bool, bool]:
     """``(lower, upper, lower_open, upper_open)`` of a model key from the case schema
     (pydantic ``ge``/``gt``/``le``/``lt``); +-inf when unbounded."""
@@ -242,11 +255,13 @@ class FitProblem:
         spec = case.model_spec(self.base) if self.base else case.model_spec()
         self.spec_cls = type(spec)
         values = spec.model_dump()
-        self.x0 = np.array([float(values[p]) for p in self.params])
-        b = [schema_bounds(self.spec_cls, p) for p in self.params]
+        table = model_with(case.model, self.base)
+        # a flat key from the validated table; a parameter path from the table as written
+        self.x0 = np.array([float(get_value(table, p) if is_path(p) else values[p]) for p in self.params])
+        b = [schema_bounds(*owner_of(p, self.spec_cls)) for p in self.params]
         self.lb = np.array([v[0] for v in b])
         self.ub = np.array([v[1] for v in b])
-        typ = np.array([abs(v) if v != 0 else TYPICAL_SCALE.get(p, 1.0) for p, v in zip(self.params, self.x0)])
+        typ = np.array([abs(v) if v != 0 else TYPICAL_SCALE.get(key_of(p), 1.0) for p, v in zip(self.params, self.x0)])
         # open bounds (gt/lt) are kept a relative hair away
         self.lb_eff = np.where([v[2] for v in b], self.lb + 1e-9 * typ, self.lb)
         self.ub_eff = np.where([v[3] for v in b], self.ub - 1e-9 * typ, self.ub)

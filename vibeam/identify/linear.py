@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from vibeam.errors import case_error
+from vibeam.io.netcdf import parameter_units
 
 #: a singular value of the column-scaled Jacobian below this fraction of the largest is
 #: treated as zero: finite-difference Jacobians carry relative errors of ~1e-7 (step ~ eps^(1/3)),
@@ -38,22 +39,10 @@ RANK_RTOL = 1e-8
 #: the three parameters of Eq. 43 fitted by :func:`fit_linear` (case-file names)
 EQ43_PARAMS = ("natural_frequency_hz", "damping_ratio", "gain")
 
-#: units of model keys (case-file names); others are derived from the key's suffix
-#: in UDUNITS syntax (CF: ``V-1``, not ``1/V``)
-PARAM_UNITS = {"gain": "V-1", "R": "1", "damping_ratio": "1", "natural_frequency_hz": "Hz", "voltage": "V",
-               "beta": "1", "B": "1", "Delta": "1", "rayleigh_alpha_1_s": "s-1", "EI_n_m2": "N m2",
-               "rhoA_kg_m": "kg m-1", "rotary_inertia_kg_m2": "kg m2", "density_kg_m3": "kg m-3",
-               "youngs_modulus_gpa": "GPa"}
-
-
 def param_unit(name: str) -> str:
-    """Unit of a model key in UDUNITS syntax (``gain`` -> ``V-1``, ``gap_mm`` -> ``mm``, ...)."""
-    if name in PARAM_UNITS:
-        return PARAM_UNITS[name]
-    for suffix, unit in (("_mm", "mm"), ("_hz", "Hz"), ("_kg", "kg"), ("_s", "s")):
-        if name.endswith(suffix):
-            return unit
-    return "1"
+    """Unit of a model key or parameter path in UDUNITS syntax (``gain`` -> ``V-1``, ``gap_mm``
+    -> ``mm``, ...): :func:`vibeam.io.netcdf.parameter_units`, the results' one table."""
+    return parameter_units(name)
 
 
 # ============================================================================ statistics

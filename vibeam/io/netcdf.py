@@ -30,12 +30,15 @@ def json_default(o):
 PARAMETER_UNITS = {"voltage": "V", "gain": "V-1", "natural_frequency_hz": "Hz", "damping_ratio": "1",
                    "R": "1", "B": "1", "beta": "1", "Delta": "1", "youngs_modulus_gpa": "GPa",
                    "density_kg_m3": "kg m-3", "rhoA_kg_m": "kg m-1", "EI_n_m2": "N m2",
-                   "rotary_inertia_kg_m2": "kg m2"}
-_SUFFIX_UNITS = (("_mm", "mm"), ("_hz", "Hz"), ("_kg", "kg"), ("_s", "s"), ("_m", "m"))
+                   "rotary_inertia_kg_m2": "kg m2", "rayleigh_alpha_1_s": "s-1"}
+_SUFFIX_UNITS = (("_mm", "mm"), ("_hz", "Hz"), ("_kg", "kg"), ("_s", "s"), ("_n_m", "N m-1"), ("_m", "m"))
 
 
 def parameter_units(name: str) -> str:
-    """UDUNITS string of a model key (``voltage`` V, ``gap_mm`` mm, ``R`` 1, ...)."""
+    """UDUNITS string of a model key or a parameter path's last key (``voltage`` V, ``gap_mm``
+    mm, ``R`` 1, ``stops[1].law.stiffness_n_m`` N m-1 (N m-p for a law with an exponent p: the
+    key's unit at p = 1), ...)."""
+    name = name.rsplit(".", 1)[-1]
     if name in PARAMETER_UNITS:
         return PARAMETER_UNITS[name]
     for suf, u in _SUFFIX_UNITS:

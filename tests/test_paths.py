@@ -1,0 +1,155 @@
+"""Parameters named by path into the scene (issue 43, first step): ``[map] parameter`` and
+``vibeam fit --params`` reach numbers no flat key names -- the second stop's law stiffness, a
+point stop's position on the beam -- through one resolver (:mod:`vibeam.case.paths`).
+
+The oracle of each run is the same scene with the value written in the case file: a path sets
+exactly the key it stands for, so the two must agree to the last bit (the tolerance 1e-10 of the
+issue is met with 0); the fit's oracle is the truth its synthetic data were made at."""
+from __future__ import annotations
+
+import copy
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vibeam
+from vibeam.case.paths import get_value, parameter_paths, set_value
+from vibeam.errors import CaseError
+
+ROOT = Path(__file__).resolve().parents[1]
+#: two Kelvin-Voigt stops of the SDOF (tests/test_matrix.py's row "sdof linear two")
+SDOF = {"fidelity": "sdof", "beta": 0.015, "B": 5e-3, "R": 0.8, "Delta": 0.002, "Delta_lower": 0.003,
+        "contact": {"law": "linear", "stiffness": 1e4}, "contact_lower": {"law": "linear", "stiffness": 3e3}}
+BEAM = tomllib.loads((ROOT / "cases" / "rig-fe-neutral.toml").read_text())["model"]
+
+
+def _sdof_case(model, **extra):
+    return {"name": "paths", "model": model,
+            "sweep": {"Omega": [0.75, 0.95, 3], "transient_periods": 60, "record_periods": 8},
+            "run": [{"name": "event", "method": "event"}], **extra}
+
+
+# ----------------------------------------------------------------------------- the resolver
+def test_a_path_sets_the_one_key_it_stands_for():
+    """Shorthand tables: stops[0] is the paper's stop, stops[1] the lower one at the mass; the
+    lower stop's law key lands in [model.contact_lower] (made from the upper table when the lower
+    stop takes the upper stop's law), its Newton R in contact_lower.R; [[model.stop]] tables:
+    the stop's own key.  The table given is not changed."""
+    m = copy.deepcopy(SDOF)
+    assert set_value(m, "stops[1].law.stiffness", 5e3)["contact_lower"] == {"law": "linear", "stiffness": 5e3}
+    assert set_value(m, "stops[0].law.R", 0.7)["R"] == 0.7
+    assert set_value(m, "stops[1].Delta", 0.004)["Delta_lower"] == 0.004
+    assert set_value(m, "system.beta", 0.02)["beta"] == 0.02
+    assert set_value(m, "excitation.B", 1e-3)["B"] == 1e-3
+    assert m == SDOF
+    implicit = {k: v for k, v in SDOF.items() if k != "contact_lower"}       # the lower stop takes the upper law
+    assert get_value(implicit, "stops[1].law.stiffness") == 1e4
+    assert set_value(implicit, "stops[1].law.stiffness", 2e3)["contact_lower"] == {"law": "linear", "stiffness": 2e3}
+    newton = {"fidelity": "sdof", "beta": 0.015, "B": 5e-3, "R": 0.8, "Delta": 0.002, "Delta_lower": 0.003}
+    assert get_value(newton, "stops[1].law.R") == 0.8
+    assert set_value(newton, "stops[1].law.R", 0.5)["contact_lower"] == {"law": "restitution", "R": 0.5}
+    listed = {"fidelity": "sdof", "beta": 0.015, "B": 5e-3,
+              "stop": [{"side": "upper", "Delta": 0.002, "R": 0.8},
+                       {"side": "lower", "Delta": 0.003, "R": 0.8, "law": "linear", "stiffness": 3e3}]}
+    out = set_value(listed, "stops[1].law.stiffness", 7e3)
+    assert out["stop"][1]["stiffness"] == 7e3 and listed["stop"][1]["stiffness"] == 3e3
+    assert parameter_paths(listed) == ["stops[0].Delta", "stops[0].law.R", "stops[1].Delta", "stops[1].law.R",
+                                       "stops[1].law.stiffness"]
+    assert parameter_paths(SDOF) == ["stops[0].Delta", "stops[0].law.R", "stops[0].law.stiffness",
+                                     "stops[1].Delta", "stops[1].law.stiffness"]
+
+
+@pytest.mark.parametrize("path,needle", [
+    ("stops[2].law.R", "the scene has 2 stop(s)"),
+    ("stops[1].law.R", "takes the upper stop's target R"),
+    ("stops[0].gap_mm", "gives its gap as Delta"),
+    ("stops[0].law.exponent", "takes R, stiffness"),
+    ("stops[0].R", "a law's key: stops[0].law.R"),
+    ("system.R", "a stop's key"),
+    ("system.voltage", "excitation.voltage"),
+    ("stops[0].position_mm", "[[model.stop]] tables"),
+    ("stop[1].law.R", "not a parameter path"),
+])
+def test_a_path_the_scene_does_not_have_is_one_line(path, needle):
+    with pytest.raises(ValueError, match=None) as e:
+        set_value(SDOF, path, 1.0)
+    msg = str(e.value)
+    assert "\n" not in msg and repr(path) in msg and needle in msg, msg
+
+
+def test_a_map_of_an_unknown_path_is_refused_naming_it():
+    d = _sdof_case(copy.deepcopy(SDOF), map={"parameter": "stops[1].law.exponent", "values": [1.0, 2.0, 2]})
+    with pytest.raises(CaseError, match=r"'map.parameter' = 'stops\[1\].law.exponent'.*stops\[1\].law.stiffness"):
+        vibeam.load_case(d)
+
+
+# ----------------------------------------------------------------------------- map and fit by path
+def _map_and_written(tmp_path, d_map, model_of, values):
+    """The map of ``d_map`` and, per value, the same scene with the value written in its model."""
+    res = vibeam.run(d_map, jobs=1, out=tmp_path / "map")
+    m = res.maps[0]
+    for j, v in enumerate(values):
+        d = copy.deepcopy(d_map)
+        d.pop("map")
+        d["model"] = model_of(v)
+        one = vibeam.run(d, jobs=1, out=tmp_path / f"v{j}").runs[0]
+        for key in ("amplitude", "period", "impacts_per_period"):
+            a = np.asarray(m.data[key])[:, j]                      # (direction, value, Omega) -> value j
+            b = np.asarray(one.data[key]).reshape(a.shape)
+            np.testing.assert_array_equal(a, b, err_msg=f"{key} at value {v}")
+    return res
+
+
+def test_the_second_stops_stiffness_is_mapped_by_path(tmp_path):
+    """The SDOF's lower Kelvin-Voigt stop stiffness (no flat key names it) mapped over
+    2e3 ... 6e3: each line equals the scene with ``[model.contact_lower] stiffness`` written;
+    the map's coordinate is the path, unit '1' (a nondimensional stiffness ratio)."""
+    values = [2e3, 6e3]
+    d = _sdof_case(copy.deepcopy(SDOF), map={"parameter": "stops[1].law.stiffness", "values": [2e3, 6e3, 2]})
+    res = _map_and_written(tmp_path, d, lambda v: dict(SDOF, contact_lower={"law": "linear", "stiffness": v}),
+                           values)
+    ds = res.maps[0].to_xarray()
+    assert "stops[1].law.stiffness" in ds.coords and ds["stops[1].law.stiffness"].attrs["units"] == "1"
+    np.testing.assert_array_equal(ds["stops[1].law.stiffness"].values, values)
+
+
+def test_a_point_stops_position_on_the_beam_is_mapped_by_path(tmp_path):
+    """The 2-mode rig beam with the paper's stop at the mass and a Newton stop below the tip
+    (tests/test_matrix.py's 'point' row): the second stop's position_mm mapped over 160 and 175 mm
+    equals the scene with position_mm written; coordinate unit mm."""
+    model = dict(BEAM, n_modes=2)
+    up = {"side": "upper", "R": model.pop("R"), "gap_mm": model.pop("gap_mm")}
+
+    def model_of(x):
+        return dict(model, stop=[up, {"side": "lower", "position_mm": x, "contact_gap_mm": 0.6, "R": 0.9}])
+
+    d = {"name": "paths-beam", "model": model_of(180.0),
+         "sweep": {"frequency_hz": [15.0, 15.5, 2], "transient_periods": 40, "record_periods": 4},
+         "map": {"parameter": "stops[1].position_mm", "values": [160.0, 175.0, 2]},
+         "run": [{"name": "event", "method": "event"}]}
+    res = _map_and_written(tmp_path, d, model_of, [160.0, 175.0])
+    assert res.maps[0].to_xarray()["stops[1].position_mm"].attrs["units"] == "mm"
+
+
+def test_the_second_stops_stiffness_is_fitted_by_path():
+    """vibeam fit of ``stops[1].law.stiffness`` alone: exact synthetic data made at 4e3 (the
+    case-file value written), started at 3e3, recover 4e3 within the first-order propagation of
+    the sweep's measured accuracy (x 2) plus 10 x xtol |x| for the optimizer's stop, as
+    tests/test_fit.py's exact-data test bounds it, and within 1e-8 relative (1.2e-10 measured).
+    The same data made through the path instead of the written value are bit for bit the same."""
+    from vibeam.identify.fit import fit_case, synthetic_reference
+
+    truth = vibeam.load_case(_sdof_case(dict(SDOF, contact_lower={"law": "linear", "stiffness": 4e3})))
+    Om = np.linspace(0.75, 0.85, 6)          # every point period-1 (measured; above 0.875 not periodic)
+    ref = synthetic_reference(truth, Om)
+    case = vibeam.load_case(_sdof_case(copy.deepcopy(SDOF)))
+    res = fit_case(case, ref, ["stops[1].law.stiffness"], x0={"stops[1].law.stiffness": 3e3}, loss="linear",
+                   jobs=1)
+    assert res.parameters == ["stops[1].law.stiffness"] and res.units == ["1"]
+    P = np.linalg.pinv(res.jacobian[res.used])
+    bound = np.abs(P) @ (np.nan_to_num(res.accuracy[res.used], nan=0.0) / res.sigma[res.used])
+    assert abs(res.estimate[0] - 4e3) <= 2 * bound[0] + 10 * 1e-8 * 4e3, (res.estimate, bound)
+    assert res.estimate[0] == pytest.approx(4e3, rel=1e-8), res.estimate
+    np.testing.assert_array_equal(synthetic_reference(case, Om, {"stops[1].law.stiffness": 4e3}).y, ref.y)

@@ -1,0 +1,244 @@
+"""Parameters named by path into the scene (issue 43): one resolver for ``[map] parameter``,
+``vibeam fit --params`` and ``[basins] along = "map"``.
+
+A path names a number of the scene as the case file holds it::
+
+    stops[1].law.stiffness_n_m   # the second stop's law: its stiffness (N/m)
+    stops[1].law.R               # the second stop's R (Newton's coefficient, or a compliant law's target)
+    stops[0].gap_mm              # the first stop's gap at the sensor (its gap key: gap_mm,
+                                 # contact_gap_mm or Delta, as the stop gives it)
+    stops[2].position_mm         # where a point stop sits on the beam
+    system.damping_ratio         # a key of the modal system ([model])
+    excitation.voltage           # a key of the excitation (voltage, gain, B)
+
+The stops are counted as the case file gives them: the ``[[model.stop]]`` tables in their order,
+or, for a scene given by the shorthand keys, ``stops[0]`` the paper's stop (``R``, ``Delta`` /
+``gap_mm`` / ``contact_gap_mm``, ``[model.contact]``) and ``stops[1]`` the lower stop at the
+attached mass (``Delta_lower`` / ``gap_lower_mm`` / ``contact_gap_lower_mm``,
+``[model.contact_lower]``).  A path sets exactly the key it stands for (:func:`set_value`), so a
+value set by path and the same value written in the case file give the same scene.  The flat
+keys (``R``, ``gap_mm``, ``Delta_lower``, ``voltage``, ...) stay as they are: aliases of the
+paths they stand for.
+
+Plain functions over plain dicts (the ``[model]`` table as read); nothing here names a law.
+"""
+from __future__ import annotations
+
+import re
+
+from vibeam.models.registry import LAWS, is_compliant
+
+#: a stop table's own numbers (where it is and its gap); the rest of its numbers are its law's
+STOP_KEYS = ("position_mm", "gap_mm", "contact_gap_mm", "Delta")
+#: the model keys of the excitation (``excitation.<key>``); every other model key is the system's
+EXCITATION_KEYS = ("voltage", "gain", "B")
+#: the shorthand keys of the two stops at the attached mass: (upper, lower) per stop key
+_SHORT_GAPS = {"Delta": ("Delta", "Delta_lower"), "gap_mm": ("gap_mm", "gap_lower_mm"),
+               "contact_gap_mm": ("contact_gap_mm", "contact_gap_lower_mm")}
+_SHORTHAND = ("R", "contact", "contact_lower", *(k for pair in _SHORT_GAPS.values() for k in pair))
+_STOP = re.compile(r"^stops\[(\d+)\]\.(?:(law)\.)?([A-Za-z_][A-Za-z0-9_]*)$")
+_GROUP = re.compile(r"^(system|excitation)\.([A-Za-z_][A-Za-z0-9_]*)$")
+_FORMS = ("stops[i].law.<key>, stops[i].<gap or position key>, system.<key>, excitation.<key>")
+
+
+def is_path(name) -> bool:
+    """Whether ``name`` is written as a path (``stops[...]``, ``system.``, ``excitation.``)
+    rather than a flat ``[model]`` key."""
+    return isinstance(name, str) and (name.startswith("stops") or _GROUP.match(name) is not None
+                                      or name.startswith(("system.", "excitation.")))
+
+
+def parse(name: str) -> tuple:
+    """``(kind, index, key)`` of a path: ``("law", i, key)``, ``("stop", i, key)`` or
+    ``("model", None, key)``.
+
+    Raises
+    ------
+    ValueError
+        One line naming the path and the forms allowed.
+    """
+    m = _STOP.match(name)
+    if m:
+        i, law, key = int(m.group(1)), m.group(2), m.group(3)
+        if law is None and key not in STOP_KEYS:
+            hint = f" (a law's key: stops[{i}].law.{key})" if key in _law_keys() else ""
+            raise ValueError(f"{name!r}: a stop's own keys are {', '.join(STOP_KEYS)}{hint}")
+        if law is not None and key not in _law_keys():
+            raise ValueError(f"{name!r}: a law's keys are {', '.join(_law_keys())}")
+        return ("law" if law else "stop", i, key)
+    m = _GROUP.match(name)
+    if m:
+        group, key = m.groups()
+        if key in _SHORTHAND:
+            raise ValueError(f"{name!r}: {key} is a stop's key; name it by its stop (stops[i]....)")
+        if (group == "excitation") != (key in EXCITATION_KEYS):
+            want = "excitation" if key in EXCITATION_KEYS else "system"
+            raise ValueError(f"{name!r}: {key} is a key of the {want} ({want}.{key})")
+        return ("model", None, key)
+    raise ValueError(f"{name!r} is not a parameter path; allowed forms: {_FORMS}")
+
+
+def _law_keys() -> tuple:
+    """Every law's numeric keys (the registry's), R first."""
+    out = ["R"]
+    for law in LAWS.values():
+        out += [k for k in law.keys if k not in out]
+    return tuple(out)
+
+
+def _keys_of(law: str) -> tuple:
+    """A law's keys as paths name them: R, then its registry keys."""
+    return ("R",) + tuple(k for k in LAWS[law].keys if k != "R")
+
+
+# ----------------------------------------------------------------------------- the stops of a table
+def _short_stops(model: dict) -> list:
+    """The stops of a shorthand table: the paper's stop, and the lower one at the mass if given."""
+    n = 1 + any(lo in model for _, lo in _SHORT_GAPS.values())
+    return list(range(n))
+
+
+def _law_of_short(model: dict, i: int) -> tuple[str, dict, str]:
+    """``(law name, table, key)`` of shorthand stop ``i``: its law, the table that holds its
+    keys (``contact`` or ``contact_lower``; the upper table when the lower stop takes the upper
+    stop's law), and the key of that table in ``[model]``."""
+    up = model.get("contact") or {}
+    if i == 0:
+        return up.get("law", "restitution"), up, "contact"
+    lo = model.get("contact_lower")
+    if lo is None:   # the lower stop takes the upper stop's law (restitution with [model] R, or its table)
+        return up.get("law", "restitution"), up, "contact"
+    return lo.get("law", "restitution"), lo, "contact_lower"
+
+
+def _count(model: dict) -> int:
+    stops = model.get("stop")
+    return len(stops) if isinstance(stops, list) else len(_short_stops(model))
+
+
+def _refuse_index(name: str, i: int, model: dict) -> None:
+    n = _count(model)
+    if i >= n:
+        raise ValueError(f"{name!r}: the scene has {n} stop(s) (stops[0]{f' ... stops[{n - 1}]' if n > 1 else ''})")
+
+
+def get_value(model: dict, name: str):
+    """The value ``name`` has in the ``[model]`` table ``model`` (a path or a flat key); None
+    where it is not given (a key left to its default).
+
+    Raises
+    ------
+    ValueError
+        A path that is not valid or names a stop or key the scene does not have (one line).
+    """
+    if not is_path(name):
+        return model.get(name)
+    kind, i, key = parse(name)
+    if kind == "model":
+        return model.get(key)
+    _refuse_index(name, i, model)
+    stops = model.get("stop")
+    if isinstance(stops, list):
+        return stops[i].get(key)
+    if kind == "stop":
+        return model.get(_SHORT_GAPS[key][i]) if key in _SHORT_GAPS else None
+    if key == "R":
+        law, table, where = _law_of_short(model, i)
+        if i == 1 and where == "contact_lower" and not is_compliant(law) and table.get("R") is not None:
+            return table["R"]
+        return model.get("R")
+    return _law_of_short(model, i)[1].get(key)
+
+
+def set_value(model: dict, name: str, value) -> dict:
+    """``model`` (a ``[model]`` table) with the number ``name`` (a path) set to ``value``: the one
+    key the path stands for (``[[model.stop]]`` tables: the stop's key; shorthand tables: ``R``,
+    ``Delta_lower``, ``[model.contact_lower] stiffness_n_m``, ...).  A new dict; ``model`` is
+    not changed.
+
+    Raises
+    ------
+    ValueError
+        One line naming the path: not a valid path; a stop the scene does not have; a key its
+        stop or law does not take (a gap given as another key, a restitution law's stiffness);
+        a compliant lower stop's R in a shorthand table (it is the upper stop's target R).
+    """
+    kind, i, key = parse(name)
+    out = dict(model)
+    if kind == "model":
+        out[key] = value
+        return out
+    _refuse_index(name, i, model)
+    stops = model.get("stop")
+    if isinstance(stops, list):
+        stops = [dict(s) if isinstance(s, dict) else s for s in stops]
+        s = stops[i]
+        law = s.get("law", "restitution")
+        if kind == "stop":
+            if key not in s:
+                given = [k for k in STOP_KEYS if k in s]
+                raise ValueError(f"{name!r}: stop[{i}] has no {key} (it gives {', '.join(given) or 'none'})")
+        elif key != "R" and key not in LAWS[law].keys:
+            raise ValueError(f"{name!r}: law = {law!r} of stop[{i}] takes {', '.join(_keys_of(law))}")
+        s[key] = value
+        out["stop"] = stops
+        return out
+    if kind == "stop":
+        if key == "position_mm":
+            raise ValueError(f"{name!r}: a stop given by the shorthand keys sits at the attached mass; give the "
+                             f"stops as [[model.stop]] tables to place one by position_mm")
+        short = _SHORT_GAPS[key][i]
+        if short not in model:
+            given = [k for k, pair in _SHORT_GAPS.items() if pair[i] in model]
+            raise ValueError(f"{name!r}: stop[{i}] gives its gap as {', '.join(given)} "
+                             f"(stops[{i}].{given[0] if given else 'gap_mm'})")
+        out[short] = value
+        return out
+    law, table, where = _law_of_short(model, i)
+    if key == "R":
+        if i == 0:
+            out["R"] = value
+        elif is_compliant(law):
+            raise ValueError(f"{name!r}: a compliant lower stop given by the shorthand keys takes the upper stop's "
+                             f"target R ([model] R, stops[0].law.R); give the stops as [[model.stop]] tables")
+        else:
+            lo = dict(model.get("contact_lower") or {"law": "restitution"})
+            lo["R"] = value
+            out["contact_lower"] = lo
+        return out
+    if key not in LAWS[law].keys:
+        raise ValueError(f"{name!r}: law = {law!r} of stop[{i}] takes {', '.join(_keys_of(law))}")
+    where = "contact" if i == 0 else "contact_lower"     # the lower stop's own table from now on
+    out[where] = {**table, key: value}
+    return out
+
+
+def parameter_paths(model: dict) -> list[str]:
+    """The paths of the stops' numbers given in ``model`` (a ``[model]`` table): each stop's gap
+    and position, its law's R and the law's keys that are set."""
+    out = []
+    stops = model.get("stop")
+    if isinstance(stops, list):
+        for i, s in enumerate(stops):
+            if not isinstance(s, dict):
+                continue
+            out += [f"stops[{i}].{k}" for k in STOP_KEYS if isinstance(s.get(k), (int, float))]
+            law = s.get("law", "restitution")
+            keys = _keys_of(law) if law in LAWS else ("R",)
+            out += [f"stops[{i}].law.{k}" for k in keys if isinstance(s.get(k), (int, float))]
+        return out
+    for i in _short_stops(model):
+        out += [f"stops[{i}].{k}" for k, pair in _SHORT_GAPS.items() if isinstance(model.get(pair[i]), (int, float))]
+        law, table, _ = _law_of_short(model, i)
+        if not (i == 1 and is_compliant(law)):
+            out.append(f"stops[{i}].law.R")
+        if law in LAWS:
+            out += [f"stops[{i}].law.{k}" for k in _keys_of(law)[1:] if isinstance(table.get(k), (int, float))]
+    return out
+
+
+def key_of(name: str) -> str:
+    """The key a name ends in (``stops[1].law.stiffness_n_m`` -> ``stiffness_n_m``): what its unit
+    and its schema bounds are looked up by."""
+    return name.rsplit(".", 1)[-1] if is_path(name) else name
+
