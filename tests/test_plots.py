@@ -229,8 +229,8 @@ def check_frc_data(fig, data: dict):
     open down; the no-impact dot is drawn filled in both directions), a bar from
     amplitude_min to amplitude_max at every non-periodic point (solid up, dashed down), the
     averaging lower branch dotted, failed points as red crosses at their frequency -- and
-    nothing else."""
-    ax = fig.axes[0]
+    nothing else.  With several runs every run has its own panel (small multiples): the
+    artists of all panels are read; the stops' horizontal lines (gid ``stop``) are not data."""
     runs = data["runs"]
     want_lines, want_marks, want_bars, want_lower, want_failed = {}, {}, {}, {}, []
     for name, r in runs.items():
@@ -252,7 +252,7 @@ def check_frc_data(fig, data: dict):
         if "amplitude_lower" in r:
             want_lower[c] = _pairs(x, _in_mm(r, "amplitude_lower"))
     got_lines, got_marks, got_bars, got_lower, got_failed = {}, {}, {}, {}, []
-    for line in ax.get_lines():
+    for line in [l for ax in fig.axes for l in ax.get_lines() if l.get_gid() != "stop"]:
         c, ls = _hex(line.get_color()), line.get_linestyle()
         x, y = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
         if _no_marker(line):
@@ -268,7 +268,7 @@ def check_frc_data(fig, data: dict):
         else:
             got_marks.setdefault(c, []).extend((xi, yi, line.get_marker(), _is_open(line))
                                                for xi, yi in zip(x, y) if np.isfinite(yi))
-    for coll in ax.collections:
+    for coll in [c for ax in fig.axes for c in ax.collections]:
         if coll.__class__.__name__ == "LineCollection":
             c = _hex(coll.get_colors()[0])
             dashed = coll.get_linestyle()[0][1] is not None
@@ -975,3 +975,75 @@ def test_the_data_checks_can_fail(quick_results):
     finally:
         for f in figs:
             plt.close(f)
+
+
+# ============================================================================ issue 42, item 10
+def test_frc_of_several_runs_is_small_multiples_on_shared_axes():
+    """Issue 42 item 10: the ladder's five runs overlaid in one axes (x 2 directions, markers,
+    range bars) hid each other under the 1-mode branch.  Several runs: one panel per run (its
+    name and method as the panel's title, only its colour), all on the same x and y axes."""
+    from vibeam.plots.sweep import frc_figure
+    from vibeam.plots.style import colours
+
+    W = [1.0, 1.5, 2.0, 2.0, 1.5, 1.0]
+    runs = [_run(n, W, np.array([1.0, 2.0, 3.0, 3.0, 2.5, 1.0]) * (i + 1), [1, 0, 1, 1, 0, 1],
+                 ["up"] * 3 + ["down"] * 3, amplitude_min=np.full(6, 0.5), amplitude_max=np.full(6, 4.0))
+            for i, n in enumerate(("a", "b", "c"))]
+    fig = frc_figure(runs, title="ladder")
+    try:
+        check_figure(fig, "small multiples")
+        assert len(fig.axes) == len(runs)
+        col = colours(["a", "b", "c"])
+        for ax, r in zip(fig.axes, runs):
+            assert ax.get_title(loc="left") == f"{r.name} ({r.method})"
+            drawn = {_hex(l.get_color()) for l in ax.get_lines()} | \
+                {_hex(c.get_colors()[0]) for c in ax.collections if len(c.get_colors())}
+            assert drawn == {_hex(col[r.name])}, (r.name, drawn)
+        ylims = {ax.get_ylim() for ax in fig.axes}
+        xlims = {ax.get_xlim() for ax in fig.axes}
+        assert len(ylims) == 1 and len(xlims) == 1, "the panels do not share their axes"
+        assert max(ylims.pop()) >= 9.0                 # the largest run's amplitude fits every panel
+    finally:
+        plt.close(fig)
+    one = frc_figure(runs[:1], title="one run")
+    try:
+        assert len(one.axes) == 1
+    finally:
+        plt.close(one)
+
+
+def test_frc_names_the_lower_stop_and_marks_it():
+    """Issue 42 item 10: the subtitle omitted the lower stop and no line marked it.  The
+    subtitle names its offset and law (restitution R, or a compliant law's stiffness); the FRC
+    draws a horizontal line at each stop's amplitude Q (upper Q = 0, lower Q = Delta +
+    Delta_lower), with a legend entry; a physical scene's gaps in mm at the sensor."""
+    from vibeam.plots.sweep import frc_figure
+    from vibeam.plots.style import subtitle
+
+    r = _run("two", [1.5, 2.0], [1e-3, 2.5e-3], [1, 1], ["up", "up"])
+    r.attrs["model"] = {"fidelity": "sdof", "beta": 0.015, "B": 5e-4, "R": 0.9, "Delta": 5e-4,
+                        "Delta_lower": 2e-3, "contact_lower": {"law": "restitution", "R": 0.8}}
+    fig = frc_figure([r], title="two-sided")
+    try:
+        check_figure(fig, "two-sided FRC")
+        sub = fig._suptitle.get_text()
+        assert "lower stop" in sub and "0.002" in sub and "restitution R = 0.8" in sub, sub
+        stops = sorted(float(l.get_ydata()[0]) for l in fig.axes[0].get_lines() if l.get_gid() == "stop")
+        np.testing.assert_allclose(stops, [0.0, 2.5e-3], rtol=1e-12)
+        texts = [t.get_text() for t in fig.legends[0].get_texts()]
+        assert any(t.startswith("lower stop") for t in texts), texts
+    finally:
+        plt.close(fig)
+    kv = subtitle(model={"fidelity": "beam", "gap_mm": 0.0, "gap_lower_mm": 1.2,
+                         "contact_lower": {"law": "linear", "stiffness_n_m": 1e6}})
+    assert "lower stop: gap 1.2 mm, linear, $k_c$ = 1e+06 N/m" in kv, kv
+    tip = subtitle(model={"fidelity": "beam", "stop": [
+        {"side": "upper", "gap_mm": 0.0, "R": 0.72},
+        {"side": "lower", "position_mm": 180.0, "contact_gap_mm": 1.2, "R": 0.9}]})
+    assert "lower stop at 180 mm: contact gap 1.2 mm, restitution R = 0.9" in tip, tip
+    single = frc_figure([_run("one", [1.5, 2.0], [1e-3, 2e-3], [1, 1], ["up", "up"])], title="single")
+    try:
+        assert not [l for l in single.axes[0].get_lines() if l.get_gid() == "stop"]
+        assert "stop" not in single._suptitle.get_text()
+    finally:
+        plt.close(single)

@@ -84,11 +84,25 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
     import matplotlib.pyplot as plt
 
     with style.context():
-        fig, ax = plt.subplots(figsize=(8.0, 4.6))
+        n = len(runs)
+        ncol = 1 if n <= 1 else 2
+        nrow = max(1, -(-n // ncol))
+        if n <= 1:
+            fig, ax0 = plt.subplots(figsize=(8.0, 4.6))
+            axes = [ax0]
+        else:       # small multiples: one panel per run on shared axes (overlaid runs hide each other)
+            fig, grid = plt.subplots(nrow, ncol, figsize=(4.2 * ncol + 3.0, 2.1 * nrow + 1.3), sharex=True,
+                                     sharey=True, squeeze=False)
+            axes = list(grid.ravel())
+            for extra in axes[n:]:
+                fig.delaxes(extra)
+            axes = axes[:n]
+            for a in grid.ravel()[max(n - ncol, 0):n]:
+                a.xaxis.set_tick_params(labelbottom=True)
         col = colours or style.colours(style.run_names(case, runs))
-        classes, dirs_seen = {}, []
+        classes, dirs_seen, stops_seen = {}, [], {}
         xl = yl = ""
-        for r in runs:
+        for ax, r in zip(axes, runs):
             x, y, xl, yl = axes_data(r)
             c = col.get(r.name, "0.3")
             period = np.asarray(r.data.get("period", np.ones(len(x), dtype=int)))
@@ -134,8 +148,21 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
             if "amplitude_lower" in r.data:
                 ax.plot(x, np.asarray(r.data["amplitude_lower"], float) * _mm(r), ":", color=c, lw=1.0)
                 classes["lower branch of P(Q) = 0 (dotted)"] = "lower"
-        ax.set_xlabel(xl)
-        ax.set_ylabel(yl)
+            m = getattr(r, "attrs", {}).get("model")
+            if not isinstance(m, dict) and case is not None:
+                m = dict(case.model, **({} if r.name not in {x.name for x in getattr(case, "run", [])} else
+                                        next(x.model for x in case.run if x.name == r.name) or {}))
+            for q, lab in style.stop_lines(m or {}):   # the stops' positions on the amplitude axis
+                ls = style.STOP_LINES["upper" if q == 0.0 else "lower"]
+                ax.axhline(q, color="0.35", ls=ls, lw=0.9, zorder=1, gid="stop")
+                stops_seen[lab.split(" (")[0]] = ls
+            if n > 1:
+                ax.set_title(f"{r.name} ({r.method})", loc="left", color=c)
+        for i, ax in enumerate(axes):
+            if i + ncol >= n or n <= 1:                  # the lowest panel of each column
+                ax.set_xlabel(xl)
+        # one amplitude label for the shared axis, at the middle row of the first column
+        axes[((nrow - 1) // 2) * ncol if n > 1 else 0].set_ylabel(yl)
         handles = [style.proxy(col[r.name], ls="-", label=f"{r.name} ({r.method})") for r in runs
                    if r.name in col]
         handles += [style.proxy("0.25", ls=style.DIRECTIONS[d]["ls"], marker="o", fill=style.DIRECTIONS[d]["fill"],
@@ -147,6 +174,7 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
                 handles.append(style.proxy("0.25", ls=":", label=lab))
             else:
                 handles.append(style.proxy("0.25", marker=mk, label=lab, ms=3 if mk == "." else 5))
+        handles += [style.proxy("0.35", ls=ls, label=f"{lab} (horizontal line)") for lab, ls in stops_seen.items()]
         style.legend_outside(fig, handles)
         style.titles(fig, title or "frequency response curves", style.subtitle(case, runs=runs))
     return fig
