@@ -328,18 +328,27 @@ def check_bifurcation_data(fig, data: dict):
 def check_impacts_data(fig, data: dict):
     """Two-sided runs: mean pre-impact speed (top) and impacts per period (bottom) against
     frequency, per run colour and direction (filled up, open down), upper stop solid and lower
-    stop dotted, equal to the file's impact_velocity(_lower), impacts_per_period(_lower)."""
+    stop dotted, equal to the file's impact_velocity(_lower), impacts_per_period(_lower).  Physical
+    runs (frequency in Hz): the speeds in mm/s (x L 2 pi f_n 1e3 from the group's attributes, and
+    the y label says mm/s); nondimensional runs: against Omega, the speed nondimensional (issue 42
+    item 10: a nondimensional speed was drawn against Hz)."""
     ax1, ax2 = fig.axes[:2]
     want = {}
-    for name, r in data["runs"].items():
-        if "impacts_per_period_lower" not in r:
-            continue
+    two = {n: r for n, r in data["runs"].items() if "impacts_per_period_lower" in r}
+    phys = all(r["physical"] and r["attrs"].get("length_m") and r["attrs"].get("natural_frequency_hz")
+               for r in two.values())
+    assert ax1.get_ylabel().endswith("(mm/s)" if phys else "(–)"), ax1.get_ylabel()
+    assert ax2.get_xlabel().endswith("(Hz)" if phys else "(–)"), ax2.get_xlabel()
+    for name, r in two.items():
         c = _run_colour(fig, name, r)
+        k = float(r["attrs"]["length_m"]) * 2.0 * np.pi * float(r["attrs"]["natural_frequency_hz"]) * 1e3 \
+            if phys else 1.0
+        x = r["x"] if phys else np.asarray(r["Omega"], float)
         for dname in np.unique(r["direction"]):
             s = r["direction"] == dname
-            for ax, key in ((0, "impact_velocity"), (1, "impacts_per_period")):
+            for ax, key, f in ((0, "impact_velocity", k), (1, "impacts_per_period", 1.0)):
                 for suffix, ls in (("", "-"), ("_lower", ":")):
-                    want[(ax, c, dname, ls)] = _by_x(r["x"][s], np.asarray(r[key + suffix], float)[s])
+                    want[(ax, c, dname, ls)] = _by_x(x[s], np.asarray(r[key + suffix], float)[s] * f)
     got = {}
     for i, ax in enumerate((ax1, ax2)):
         for line in ax.get_lines():
@@ -349,7 +358,7 @@ def check_impacts_data(fig, data: dict):
     assert sorted(got) == sorted(want)
     for key, (wx, wy) in want.items():
         np.testing.assert_array_equal(got[key][0], wx, err_msg=str(key))
-        np.testing.assert_array_equal(got[key][1], wy, err_msg=str(key))
+        np.testing.assert_allclose(got[key][1], wy, rtol=1e-12, atol=0, err_msg=str(key))
 
 
 def _mesh_cells_hold(mesh, x, y, what):
@@ -1041,9 +1050,50 @@ def test_frc_names_the_lower_stop_and_marks_it():
         {"side": "upper", "gap_mm": 0.0, "R": 0.72},
         {"side": "lower", "position_mm": 180.0, "contact_gap_mm": 1.2, "R": 0.9}]})
     assert "lower stop at 180 mm: contact gap 1.2 mm, restitution R = 0.9" in tip, tip
+    # several runs of a case with [[model.stop]] tables: the runs' resolved model names the stop
+    import vibeam
+
+    case = vibeam.load_case(ROOT / "cases" / "rig-fe-tip-stop.toml")
+    runs = [_run(n, [1.5, 2.0], [1e-3, 2e-3], [1, 1], ["up", "up"]) for n in ("FE 2 modes", "FE 4 modes")]
+    for i, r in enumerate(runs):
+        r.attrs["model"] = {"fidelity": "beam", "R": 0.72, "gap_mm": 0.0, "n_modes": 2 * (i + 1), "stop": [
+            {"side": "lower", "position_mm": 180.0, "contact_gap_mm": 1.2, "law": "restitution", "R": 0.9}]}
+    both = subtitle(case, runs=runs)
+    assert "lower stop at 180 mm: contact gap 1.2 mm, restitution R = 0.9" in both and "R = 0.72" in both, both
     single = frc_figure([_run("one", [1.5, 2.0], [1e-3, 2e-3], [1, 1], ["up", "up"])], title="single")
     try:
         assert not [l for l in single.axes[0].get_lines() if l.get_gid() == "stop"]
         assert "stop" not in single._suptitle.get_text()
     finally:
         plt.close(single)
+
+
+def test_impacts_speed_and_frequency_in_one_system_of_units():
+    """Issue 42 item 10: impacts.png drew the nondimensional speed |q'-| against Hz.  A physical
+    two-sided run: mm/s against Hz (the speed x L 2 pi f_n); a nondimensional one: (–) against
+    Omega."""
+    from vibeam.plots.sweep import impacts_figure
+
+    W = np.array([1.8, 2.0, 2.2])
+    extra = dict(impact_velocity=np.array([0.01, 0.02, 0.03]), impact_velocity_lower=np.array([0.005, 0.0, 0.01]),
+                 impacts_per_period=np.ones(3), impacts_per_period_lower=np.array([1.0, 0.0, 1.0]))
+    r = _run("tip", W, [0.1, 0.2, 0.3], [1, 1, 1], ["up"] * 3, frequency_hz=W * 7.6,
+             amplitude_mm=np.array([0.1, 0.2, 0.3]) * 180.0, **extra)
+    r.attrs.update(length_m=0.18, natural_frequency_hz=7.6)
+    fig = impacts_figure([r], "tip")
+    try:
+        check_figure(fig, "physical impacts")
+        ax1, ax2 = fig.axes[:2]
+        assert ax1.get_ylabel().endswith("(mm/s)") and ax2.get_xlabel().endswith("(Hz)")
+        up = next(l for l in ax1.get_lines() if l.get_linestyle() == "-")
+        np.testing.assert_allclose(up.get_xdata(), W * 7.6, rtol=1e-15)
+        np.testing.assert_allclose(up.get_ydata(), extra["impact_velocity"] * 0.18 * 2 * np.pi * 7.6 * 1e3, rtol=1e-12)
+    finally:
+        plt.close(fig)
+    nd = _run("nd", W, [0.1, 0.2, 0.3], [1, 1, 1], ["up"] * 3, **extra)
+    fig = impacts_figure([nd], "nd")
+    try:
+        check_figure(fig, "nondimensional impacts")
+        assert fig.axes[0].get_ylabel().endswith("(–)") and "Omega" in fig.axes[1].get_xlabel()
+    finally:
+        plt.close(fig)

@@ -140,8 +140,8 @@ def subtitle(case=None, model: dict | None = None, runs=(), exclude=(), sweep: b
     """
     models = [getattr(r, "attrs", {}).get("model") for r in runs]
     models = [x for x in models if isinstance(x, dict)]
-    if len(runs) == 1 and models:
-        m = dict(models[0])
+    if models and len(models) == len(runs):
+        m = dict(models[0])      # the model as run (stops resolved: [[model.stop]] -> gap, R, stop)
     elif case is not None:
         m = dict(case.model)
     elif model is not None:

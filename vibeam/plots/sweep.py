@@ -180,9 +180,22 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
     return fig
 
 
+def impact_speed_scale(r):
+    """Factor from a run's nondimensional impact speeds (``impact_velocity``, per length L and
+    time unit 1/omega_n) to mm/s at the stop: ``L 2 pi f_n 1e3`` for a physical run (one whose
+    FRC is in Hz and mm, with ``length_m`` and ``natural_frequency_hz``); None for a
+    nondimensional one."""
+    a = getattr(r, "attrs", {}) or {}
+    L, fn = a.get("length_m"), a.get("natural_frequency_hz")
+    if "frequency_hz" in r.data and "amplitude_mm" in r.data and L and fn:
+        return float(L) * 2.0 * np.pi * float(fn) * 1e3
+    return None
+
+
 def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None):
-    """Impacts of two-sided runs per stop against frequency: mean pre-impact speed (top) and
-    impacts per period (bottom), upper stop solid, lower stop dotted, up filled and down open
+    """Impacts of two-sided runs per stop against frequency: mean pre-impact speed (top; mm/s
+    against Hz for physical runs, nondimensional against Omega otherwise) and impacts per
+    period (bottom), upper stop solid, lower stop dotted, up filled and down open
     markers.  Where the lower stop is hit the amplitude ``Delta - min q`` saturates at
     ``Delta + Delta_lower``; these carry the information.  A Figure, or None when no run has a
     lower stop (``impacts_per_period_lower``)."""
@@ -195,8 +208,12 @@ def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None
         col = colours or style.colours(style.run_names(case, runs))
         fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8.0, 5.6), sharex=True)
         xl, dirs_seen = "", []
+        phys = all(impact_speed_scale(r) is not None for r in runs)
         for r in runs:
             x, _, xl, _ = axes_data(r)
+            if not phys:      # one axis for every run: nondimensional against Omega unless all are physical
+                x, xl = np.asarray(r.data["Omega"], float), style.label(r"forcing frequency $\Omega = f/f_n$", None)
+            k = impact_speed_scale(r) if phys else 1.0
             c = col.get(r.name, "0.3")
             direc = _directions(r, len(x))
             for dname in ("up", "down"):
@@ -209,10 +226,11 @@ def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None
                 o = np.argsort(x[sel])
                 for key_v, key_n, ls in (("impact_velocity", "impacts_per_period", "-"),
                                          ("impact_velocity_lower", "impacts_per_period_lower", ":")):
-                    for ax, key in ((ax1, key_v), (ax2, key_n)):
-                        ax.plot(x[sel][o], np.asarray(r.data[key], float)[sel][o], ls=ls, marker="o",
+                    for ax, key, f in ((ax1, key_v, k), (ax2, key_n, 1.0)):
+                        ax.plot(x[sel][o], np.asarray(r.data[key], float)[sel][o] * f, ls=ls, marker="o",
                                 ms=3.5, color=c, mec=c, mfc=c if fill else "none", lw=1.0)
-        ax1.set_ylabel(style.label(r"mean pre-impact speed $|\dot q^-|$", None))
+        ax1.set_ylabel(style.label(r"mean pre-impact speed $|v^-|$", "mm/s") if phys else
+                       style.label(r"mean pre-impact speed $|\dot q^-|$", None))
         ax2.set_ylabel(style.label("impacts per period", None))
         ax2.set_xlabel(xl)
         handles = [style.proxy(col.get(r.name, "0.3"), ls="-", label=f"{r.name} ({r.method})") for r in runs]
