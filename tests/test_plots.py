@@ -1097,3 +1097,82 @@ def test_impacts_speed_and_frequency_in_one_system_of_units():
         assert fig.axes[0].get_ylabel().endswith("(–)") and "Omega" in fig.axes[1].get_xlabel()
     finally:
         plt.close(fig)
+
+
+def _overlapping_tick_labels(fig):
+    """(axes title, axis) of every axis with two visible tick labels whose boxes overlap."""
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    out = []
+    for ax in fig.axes:
+        for w in ("x", "y"):
+            b = [t.get_window_extent(r) for t in getattr(ax, f"get_{w}ticklabels")() if t.get_visible() and t.get_text()]
+            if any(p.overlaps(q) for i, p in enumerate(b) for q in b[i + 1:]):
+                out.append((ax.get_title(loc="left"), w))
+    return out
+
+
+def test_poincare_figure_layout_labels_and_title():
+    """Issue 42 item 10: Poincaré plots overlapped their tick labels (a collapsed section's
+    -0.01825 ... -0.01675 without an offset), printed U(L_S), L_S literally, mixed q' with the
+    other figures' q-dot, lacked the case name and titled a chatter point 'period 0, chatter'."""
+    from vibeam.analysis.poincare import PoincareSection, poincare_figure
+
+    one = dict(Omega=2.0, strobe_q=-0.0175 + 1e-9 * np.arange(8), strobe_dq=np.full(8, -9.4e-4),
+               impact_phase=np.full(8, 3.14), impact_velocity=np.full(8, 0.0184))
+    for phys in (False, True):
+        scales = dict(length_m=0.18, natural_frequency_hz=7.6) if phys else {}
+        p = PoincareSection(**one, **scales, period=0, status="chatter", name="rig-tight")
+        fig = poincare_figure(p)
+        try:
+            assert all(UNIT.search(ax.get_xlabel()) and UNIT.search(ax.get_ylabel()) for ax in fig.axes)
+            assert not _overlapping_tick_labels(fig), _overlapping_tick_labels(fig)
+            a0, a1 = fig.axes[:2]
+            if phys:
+                assert (a0.get_xlabel(), a0.get_ylabel()) == ("$U(L_S)$ (mm)", r"$\dot U(L_S)$ (mm/s)")
+            else:
+                assert (a0.get_xlabel(), a0.get_ylabel()) == ("$q$ (–)", r"$\dot q$ (–)")
+            for lab in (a0.get_xlabel(), a0.get_ylabel(), a1.get_ylabel()):
+                assert "'" not in lab and not re.search(r"(?<!\$)L_S(?![^$]*\$)", lab.replace("$U(L_S)$", "")), lab
+            title = fig._suptitle.get_text()
+            assert title.startswith("rig-tight: Poincaré sections"), title
+            assert title.split("\n")[-1] == "chatter", title
+            assert "period 0" not in title and "Omega" not in title.replace(r"$\Omega$", ""), title
+        finally:
+            plt.close(fig)
+
+
+def test_motion_text():
+    from vibeam.plots.style import motion_text
+
+    assert motion_text(0, "chatter") == "chatter"
+    assert motion_text(1, "ok") == "period-1"
+    assert motion_text(2, "sticking") == "period-2, sticking"
+    assert motion_text(-1, "unsettled") == "no impact, unsettled"
+    assert motion_text(0, "ok") == "not periodic within 8 periods"
+
+
+def test_simulation_and_poincare_of_a_case_name_it_and_keep_status_out_of_the_legend():
+    """Issue 42 item 10: Simulation.plot()'s legend said 'ok' (the status); the Poincaré plot of
+    `vibeam poincare` / vibeam.poincare had no case name in its title."""
+    import vibeam
+
+    fig7 = ROOT / "cases" / "paper-fig7.toml"
+    sim = vibeam.simulate(fig7, Omega=2.0, periods=4, transient=200)
+    assert sim.status == "ok"
+    fig = sim.plot()
+    try:
+        check_figure(fig, "simulation")
+        texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+        assert not any(re.search(r"\bok\b", t) for t in texts), texts
+        title = fig._suptitle.get_text()
+        assert title.startswith("paper-fig7: ") and "period-1" in title, title
+    finally:
+        plt.close(fig)
+    sec = vibeam.poincare(fig7, Omega=2.0, periods=4, transient=200)
+    fig = sec.plot()
+    try:
+        assert fig._suptitle.get_text().startswith("paper-fig7: Poincaré sections")
+        assert not _overlapping_tick_labels(fig), _overlapping_tick_labels(fig)
+    finally:
+        plt.close(fig)

@@ -887,6 +887,9 @@ class Simulation:
         The state at the end (to continue from).
     natural_frequency_hz, length_m : float or None
         Scales of a physical scene (then ``time_s``, ``U_mm``, ``dU_mm_s`` are set).
+    name : str
+        The case simulated (and its run, when the case has several): the figures' title; ''
+        for a model.
     """
 
     Omega: float
@@ -902,6 +905,7 @@ class Simulation:
     natural_frequency_hz: float | None = None
     length_m: float | None = None
     trajectory: object = None
+    name: str = ""
 
     @property
     def physical(self) -> bool:
@@ -1094,7 +1098,8 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
     return Simulation(Omega=float(Omega), t=traj.t, q=traj.samples[:, 0].copy(), dq=traj.samples[:, 1].copy(),
                       impact_times=np.asarray(traj.impact_times), impact_velocities=np.asarray(traj.impact_velocities),
                       summary=summ, status=summ["status"], message=summ["message"], final_state=traj.final_state,
-                      natural_frequency_hz=fn, length_m=L, trajectory=traj)
+                      natural_frequency_hz=fn, length_m=L, trajectory=traj,
+                      name="" if case is None else (case.name if len(case.run) <= 1 else f"{case.name}, {r.name}"))
 
 
 @dataclass

@@ -245,6 +245,44 @@ def stop_lines(m: dict) -> list:
     return []
 
 
+def motion_text(period, status: str = "ok") -> str:
+    """One point's motion in words for a title: ``period-2``, ``no impact``, ``not periodic
+    within 8 periods`` when it settled (``status`` ok), else the status first: ``chatter`` (not
+    ``period 0, chatter``), ``period-1, sticking``, ``no impact, unsettled``."""
+    try:
+        p = int(period)
+    except (TypeError, ValueError):
+        p = 0
+    status = str(status or "ok")
+    if status == "ok":
+        return {0: "not periodic within 8 periods", -1: "no impact"}.get(p, f"period-{p}")
+    if p == 0:
+        return status
+    return f"{'no impact' if p == -1 else f'period-{p}'}, {status}"
+
+
+def tick_labels_overlap(fig, ax, which: str = "x") -> bool:
+    """Whether two visible tick labels of ``ax``'s ``which`` axis overlap (drawn ``fig``)."""
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    boxes = [t.get_window_extent(r) for t in getattr(ax, f"get_{which}ticklabels")()
+             if t.get_visible() and t.get_text()]
+    return any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+
+
+def thin_ticks(fig, axes, which=("x", "y")) -> None:
+    """Fewer ticks where an axis's tick labels overlap (long labels of a collapsed section, e.g.
+    -0.01825 ... -0.01675 without an offset): the locator's bins are halved until they clear."""
+    from matplotlib.ticker import MaxNLocator
+
+    for ax in axes:
+        for w in which:
+            nb = 8
+            while nb > 2 and tick_labels_overlap(fig, ax, w):
+                nb = max(2, nb // 2) if nb > 4 else nb - 1
+                getattr(ax, f"{w}axis").set_major_locator(MaxNLocator(nbins=nb, steps=[1, 2, 2.5, 5, 10]))
+
+
 def wrap_phrases(text: str, width: int) -> list:
     """``text`` in lines of at most ``width`` characters, broken only between phrases: at the
     separators ``' · '`` and ``'; '`` first, within a phrase longer than a line at ``', '``,

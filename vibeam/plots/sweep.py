@@ -333,12 +333,14 @@ def simulation_figure(sim):
         axes[0].set_title("displacement", loc="left")
         axes[1].set_title("velocity", loc="left")
         axes[2].set_title("phase portrait", loc="left")
-        handles = [style.proxy(c, ls="-", label=f"{sim.status}")]
+        # the legend names what is drawn; the point's outcome (status) goes in the subtitle
+        handles = [style.proxy(c, ls="-", label=f"recorded motion ({len(t)} samples)")]
         if len(ti):
             handles.append(style.proxy(style.PALETTE[1], marker="v", label=f"impacts ({len(ti)})"))
         style.legend_outside(fig, handles)
         f = f"{sim.Omega * sim.natural_frequency_hz:.4g} Hz, " if phys else ""
-        style.titles(fig, f"one forcing frequency: {f}$\\Omega$ = {sim.Omega:.6g}",
-                     f"period {sim.summary.get('period')}, {sim.summary.get('impacts_per_period', 0):.3g} impacts "
-                     f"per period")
+        name = getattr(sim, "name", "")
+        style.titles(fig, f"{name + ': ' if name else ''}one forcing frequency: {f}$\\Omega$ = {sim.Omega:.6g}",
+                     f"{style.motion_text(sim.summary.get('period'), sim.status)}, "
+                     f"{sim.summary.get('impacts_per_period', 0):.3g} impacts per period")
     return fig
