@@ -1176,3 +1176,30 @@ def test_simulation_and_poincare_of_a_case_name_it_and_keep_status_out_of_the_le
         assert not _overlapping_tick_labels(fig), _overlapping_tick_labels(fig)
     finally:
         plt.close(fig)
+
+
+def test_decay_figure_house_style_and_data_above_the_fit(tmp_path):
+    """Issue 42 item 10: decay.png ignored the house style (no figure title, labels without the
+    quantity's symbol, legends inside the data) and hid the data (pixel markers, drawn first)
+    under the fit.  Now: the record's dots above a thin fit line, a figure legend outside the
+    axes, titles, the style's labels."""
+    from vibeam.identify.linear import _plot_decay, damped_response, fit_decay, log_decrement
+
+    t = np.arange(0, 2.0, 1 / 1000)
+    U = damped_response(t, 7.75, 0.02, 1.0, 0.0, 0.0) + np.random.default_rng(1).normal(0, 0.01, t.size)
+    ld = log_decrement(t, U)
+    fd = fit_decay(t, U, ld)
+    with written_figures() as figs:
+        _plot_decay(t, U, ld, fd, tmp_path / "decay.png", "rig-neutral: free decay")
+    fig = figs["decay.png"]
+    check_figure(fig, "decay")
+    assert fig._suptitle.get_text().startswith("rig-neutral: free decay")
+    ax = fig.axes[0]
+    data = next(l for l in ax.get_lines() if len(l.get_xdata()) == t.size and np.array_equal(l.get_ydata(), U))
+    fit = next(l for l in ax.get_lines() if l is not data and len(l.get_xdata()) == t.size)
+    assert data.get_zorder() > fit.get_zorder(), "the fit is drawn over the data"
+    assert data.get_marker() not in (",", "", "None") and data.get_linestyle() in ("None", "none", "")
+    assert fit.get_linewidth() <= 0.8
+    assert ax.get_ylabel() == "displacement $U(L_S)$ (mm)" and fig.axes[1].get_xlabel() == "time t (s)"
+    assert not [a.get_legend() for a in fig.axes if a.get_legend() is not None], "legend inside the data"
+    assert not ax.spines["top"].get_visible()          # the house style's rc (style.RC)
