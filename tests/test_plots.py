@@ -314,7 +314,8 @@ def check_bifurcation_data(fig, data: dict):
         for ax in panels[title]:
             dname = ax.get_title(loc="right").removesuffix(" sweep")
             for line in ax.get_lines():
-                got.setdefault(dname, []).append(line)
+                if line.get_gid() != "stop":          # the stops' horizontal lines are not data
+                    got.setdefault(dname, []).append(line)
         assert sorted(got) == sorted(np.unique(r["direction"])), f"{title}: directions drawn"
         for dname, lines in got.items():
             assert len(lines) == 1, (title, dname)
@@ -615,16 +616,17 @@ def written_figures():
 
 def check_work_precision_data(fig, cost_h5):
     """``vibeam cost``'s work-precision figure against its ``cost.h5``: per run (legend colour)
-    one series through the file's (wall_time_s, error_method_max) of the run's rows in time
-    order (an error below 1e-16 or 0 drawn on the 1e-16 floor, as the figure's docstring says),
-    and a horizontal line at each model's transient truncation model_transient_error_max."""
+    one series through the file's (wall_time_s, error_max) of the run's rows in time order: the
+    error against the converged reference (issue 42 item 10: not error_method_max, each method
+    against its own reference, which put every event rung at 1e-16); an error below 1e-16 or 0
+    drawn on the 1e-16 floor, as the figure's docstring says; and a horizontal line at each
+    model's transient truncation model_transient_error_max."""
     import h5py
 
     with h5py.File(cost_h5, "r") as f:
         g = f["cost"]
         run, method = g["run"].asstr()[()], g["method"].asstr()[()]
-        against = g["error_against"].asstr()[()]
-        t, e = g["wall_time_s"][()], g["error_method_max"][()]
+        t, e = g["wall_time_s"][()], g["error_max"][()]
         trans = g["model_transient_error_max"][()] if "model_transient_error_max" in g else np.array([])
     ax = fig.axes[0]
     legend = legend_colours(fig)
@@ -634,14 +636,14 @@ def check_work_precision_data(fig, cost_h5):
     assert len(got) == len(series) == len(set(run)), "one series per run"
     for name in dict.fromkeys(run):
         k = run == name
-        vs = "vs event, same transient" if against[k][0].startswith("event") else "vs converged"
-        line = got[legend[f"{name} ({method[k][0]}; {vs})"]]
+        line = got[legend[f"{name} ({method[k][0]}; vs converged)"]]
         o = np.argsort(t[k], kind="stable")
         want = np.where(np.isfinite(e[k]), np.maximum(e[k], 1e-16), np.nan)[o]
         np.testing.assert_array_equal(line.get_xdata(), t[k][o], err_msg=name)
         np.testing.assert_array_equal(line.get_ydata(), want, err_msg=name)
     want_h = sorted([1e-16] + [float(v) for v in trans if np.isfinite(v) and v > 0])
     assert hlines == want_h, (hlines, want_h)
+    assert "converged reference" in ax.get_ylabel(), ax.get_ylabel()
 
 
 def check_fit_data(fig, fit_h5):
@@ -1043,6 +1045,17 @@ def test_frc_names_the_lower_stop_and_marks_it():
         assert any(t.startswith("lower stop") for t in texts), texts
     finally:
         plt.close(fig)
+    # the bifurcation diagram's axis is the displacement q: the stops at q = Delta and -Delta_lower
+    from vibeam.plots.sweep import bifurcation_figure
+
+    r.data["strobe"] = np.full((2, 4, 2), -1e-3)
+    fig = bifurcation_figure([r], title="two-sided")
+    try:
+        stops = sorted(float(l.get_ydata()[0]) for l in fig.axes[0].get_lines() if l.get_gid() == "stop")
+        np.testing.assert_allclose(stops, [-2e-3, 5e-4], rtol=1e-12)
+        assert any(t.get_text().startswith("lower stop") for t in fig.legends[0].get_texts())
+    finally:
+        plt.close(fig)
     kv = subtitle(model={"fidelity": "beam", "gap_mm": 0.0, "gap_lower_mm": 1.2,
                          "contact_lower": {"law": "linear", "stiffness_n_m": 1e6}})
     assert "lower stop: gap 1.2 mm, linear, $k_c$ = 1e+06 N/m" in kv, kv
@@ -1231,5 +1244,36 @@ def test_basin_plot_attractor_dots_are_in_the_legend():
     try:
         texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
         assert any(t.startswith("starting state") for t in texts), texts
+    finally:
+        plt.close(fig)
+
+
+def test_work_precision_plots_the_error_against_the_converged_reference():
+    """Issue 42 item 10: `vibeam cost`'s work_precision.png drew each row's own-method error
+    (event against event with the same transient: 0, on the 1e-16 floor for every rung of a
+    ladder) where the README speaks of the error against the mesh-converged model.  The figure
+    draws error_max (against the converged reference; for a beam the finest FE model), says so
+    on its axis and names the reference."""
+    from vibeam.analysis.cost import CostRow, ModelSources, work_precision_figure
+
+    def row(run, t, err):
+        return CostRow(run=run, method="event", settings={}, time_s=t, err_max=err, err_rms=err / 2,
+                       n_period_diff=0, n_points=5, n_nonperiodic_ref=0, time_rel_event=1.0, err_method_max=0.0,
+                       err_method_rms=0.0, against="event, same transient", model_key=run)
+    rows = [row("FE 1 mode", 0.5, 0.30), row("FE 2 modes", 1.0, 0.12), row("FE all modes", 9.0, 2e-3)]
+    models = {r.run: ModelSources(key=r.run, label=r.run, event_time_s=r.time_s, transient_periods=300,
+                                  reference_periods=2000, transient_max=1e-9, transient_rms=1e-10, n_compared=5,
+                                  model_max=r.err_max) for r in rows}
+    fig = work_precision_figure({"rows": rows, "models": models, "reference_periods": 2000}, "ladder")
+    try:
+        check_figure(fig, "work-precision")
+        ax = fig.axes[0]
+        series = {_hex(l.get_color()): l for l in ax.get_lines() if l.get_transform() is ax.transData}
+        legend = legend_colours(fig)
+        for r in rows:
+            line = series[next(c for lab, c in legend.items() if lab.startswith(f"{r.run} (event"))]
+            np.testing.assert_array_equal(line.get_ydata(), [r.err_max])
+        assert "converged reference" in ax.get_ylabel()
+        assert "finest FE model" in fig._suptitle.get_text()
     finally:
         plt.close(fig)

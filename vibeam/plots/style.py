@@ -283,6 +283,19 @@ def thin_ticks(fig, axes, which=("x", "y")) -> None:
                 getattr(ax, f"{w}axis").set_major_locator(MaxNLocator(nbins=nb, steps=[1, 2, 2.5, 5, 10]))
 
 
+def stop_positions(m: dict) -> list:
+    """Where the stops lie on a displacement axis (``q``, or ``U(L_S)`` in mm for a physical
+    scene: the bifurcation diagram): ``[(q, label), ...]``, the upper stop at ``Delta`` (``gap_mm``)
+    and the lower one at ``-Delta_lower`` (``-gap_lower_mm``), for a scene with a lower stop at the
+    attached mass given in the plotted coordinate; [] otherwise (as :func:`stop_lines`)."""
+    lines = stop_lines(m)
+    if not lines:
+        return []
+    q_low = lines[1][0]
+    up = next((float(m[k]) for k in ("Delta", "gap_mm") if isinstance(m.get(k), (int, float))), 0.0)
+    return [(up, "upper stop"), (up - q_low, "lower stop")]
+
+
 def wrap_phrases(text: str, width: int) -> list:
     """``text`` in lines of at most ``width`` characters, broken only between phrases: at the
     separators ``' · '`` and ``'; '`` first, within a phrase longer than a line at ``', '``,

@@ -64,6 +64,18 @@ def axes_data(r):
             style.label(r"amplitude $Q = \Delta - \min q$", None))
 
 
+def _model_of(r, case=None) -> dict:
+    """The model table of run ``r``: the one it stored (``attrs["model"]``), else the case's
+    ``[model]`` with the run's overrides; {} without either."""
+    m = (getattr(r, "attrs", None) or {}).get("model")
+    if isinstance(m, dict):
+        return m
+    if case is None:
+        return {}
+    own = next((x.model for x in getattr(case, "run", []) if x.name == r.name), None) or {}
+    return dict(case.model, **own)
+
+
 def _directions(r, n):
     return np.asarray([str(v) for v in r.data.get("direction", ["up"] * n)])
 
@@ -148,11 +160,7 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
             if "amplitude_lower" in r.data:
                 ax.plot(x, np.asarray(r.data["amplitude_lower"], float) * _mm(r), ":", color=c, lw=1.0)
                 classes["lower branch of P(Q) = 0 (dotted)"] = "lower"
-            m = getattr(r, "attrs", {}).get("model")
-            if not isinstance(m, dict) and case is not None:
-                m = dict(case.model, **({} if r.name not in {x.name for x in getattr(case, "run", [])} else
-                                        next(x.model for x in case.run if x.name == r.name) or {}))
-            for q, lab in style.stop_lines(m or {}):   # the stops' positions on the amplitude axis
+            for q, lab in style.stop_lines(_model_of(r, case)):   # the stops' positions on the amplitude axis
                 ls = style.STOP_LINES["upper" if q == 0.0 else "lower"]
                 ax.axhline(q, color="0.35", ls=ls, lw=0.9, zorder=1, gid="stop")
                 stops_seen[lab.split(" (")[0]] = ls
@@ -271,7 +279,7 @@ def bifurcation_figure(runs, title: str = "", case=None, colours: dict | None = 
         col = colours or style.colours(style.run_names(case, runs))
         fig, axes = plt.subplots(len(runs), len(dirs), figsize=(4.0 * len(dirs) + 2.6, 2.0 * len(runs) + 1.2),
                                  squeeze=False, sharex=True, sharey=True)
-        xl = ""
+        xl, stops_seen = "", {}
         for row, r in zip(axes, runs):
             x, _, xl, _ = axes_data(r)
             s = np.asarray(r.data["strobe"], float)[:, :, 0] * _mm(r)
@@ -287,12 +295,17 @@ def bifurcation_figure(runs, title: str = "", case=None, colours: dict | None = 
                 xs = np.repeat(x[sel][:, None], s.shape[1], axis=1)
                 ax.plot(xs.ravel(), s[sel].ravel(), ls="none", marker="o", ms=style.DOT_SIZE, color=c, mfc=c,
                         mew=0, zorder=3)
+                for q, lab in style.stop_positions(_model_of(r, case)):   # the stops on the displacement axis
+                    ls = style.STOP_LINES["upper" if lab.startswith("upper") else "lower"]
+                    ax.axhline(q, color="0.35", ls=ls, lw=0.9, zorder=1, gid="stop")
+                    stops_seen[lab] = ls
             phys = "amplitude_mm" in r.data
             row[0].set_ylabel(style.label(f"{style.DISPLACEMENT} at phase 0", "mm") if phys else
                               style.label("$q$ at phase 0", None))
         for ax in axes[-1]:
             ax.set_xlabel(xl)
         handles = [style.proxy(col.get(r.name, "0.3"), marker="o", label=f"{r.name} ({r.method})") for r in runs]
+        handles += [style.proxy("0.35", ls=ls, label=f"{lab} (horizontal line)") for lab, ls in stops_seen.items()]
         style.legend_outside(fig, handles)
         style.titles(fig, (title + ": " if title else "") + "bifurcation diagram (stroboscopic map)",
                      style.subtitle(case, runs=runs))
