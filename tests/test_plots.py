@@ -1277,3 +1277,17 @@ def test_work_precision_plots_the_error_against_the_converged_reference():
         assert "finest FE model" in fig._suptitle.get_text()
     finally:
         plt.close(fig)
+
+
+def test_modes_figure_marks_the_positions_in_mathtext():
+    """Issue 42 item 10: modes.png printed 'L_S' and 'L_m' literally at the sensor's and the
+    mass's lines; they are mathtext ($L_S$, $L_m$)."""
+    import vibeam
+
+    fig = vibeam.modes(ROOT / "cases" / "rig-fe-neutral.toml", n=4).plot()
+    try:
+        texts = [t.get_text() for ax in fig.axes for t in ax.texts]
+        assert "$L_S$" in texts and "$L_m$" in texts, texts
+        assert not [t for t in texts if "_" in re.sub(r"\$[^$]*\$", "", t)], texts
+    finally:
+        plt.close(fig)

@@ -1565,7 +1565,7 @@ def modes_figure(rep: dict, title: str = ""):
             for i in range(min(4, m.shapes.shape[1])):
                 w = fe.deflection(m.shapes[:, i], x)
                 ax.plot(x * 1e3, w / np.max(np.abs(w)), label=f"{m.frequencies_hz[i]:.2f} Hz")
-            for xp, nm in ((fe.geometry.sensor_position_m, "L_S"), (fe.geometry.mass_position_m, "L_m")):
+            for xp, nm in ((fe.geometry.sensor_position_m, "$L_S$"), (fe.geometry.mass_position_m, "$L_m$")):
                 ax.axvline(xp * 1e3, color="0.6", ls=":")
                 ax.text(xp * 1e3, 1.02, nm, ha="center", fontsize=8)
             ax.set_title(f"{lab} modes", loc="left")
