@@ -1,12 +1,14 @@
 """Figures of a sweep (matplotlib, Agg backend, the style of :mod:`vibeam.plots.style`).
 
-* ``frc.png`` (:func:`frc_figure`): the FRC of every run overlaid, one colour per run,
-  up sweeps solid with filled markers and down sweeps dashed with open markers; the
+* ``frc.png`` (:func:`frc_figure`): the FRC of every run, one colour per run and, with
+  several runs, one panel per run on shared axes (small multiples: overlaid, the rungs of a
+  ladder hid each other), up sweeps solid with filled markers and down sweeps dashed with open markers; the
   marker is the period class (circle period-1, triangle period-2, square period-n,
   small dot no impact); non-periodic points are crosses with a bar over the range of
   their per-period amplitude Q_k (``amplitude_min`` .. ``amplitude_max``, when the run
   stored them: one sample of an attractor is not one number); failed points (no
-  amplitude) are red crosses along the bottom of the axes.
+  amplitude) are red crosses along the bottom of the axes; a scene with a lower stop has
+  both stops drawn as horizontal lines (:func:`vibeam.plots.style.stop_lines`).
 * ``bifurcation.png`` (:func:`bifurcation_figure`): stroboscopic displacement against
   the forcing frequency, small dots, one row per time-domain run and one column per sweep
   direction, every panel on the same axes.
@@ -81,7 +83,8 @@ def _directions(r, n):
 
 
 def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
-    """The FRC of every run in one axes (see the module docstring); a Figure.
+    """The FRC of every run: one axes for one run, one panel per run (shared axes) for several
+    (see the module docstring); a Figure.
 
     Parameters
     ----------
