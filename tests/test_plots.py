@@ -229,8 +229,8 @@ def check_frc_data(fig, data: dict):
     open down; the no-impact dot is drawn filled in both directions), a bar from
     amplitude_min to amplitude_max at every non-periodic point (solid up, dashed down), the
     averaging lower branch dotted, failed points as red crosses at their frequency -- and
-    nothing else."""
-    ax = fig.axes[0]
+    nothing else.  With several runs every run has its own panel (small multiples): the
+    artists of all panels are read; the stops' horizontal lines (gid ``stop``) are not data."""
     runs = data["runs"]
     want_lines, want_marks, want_bars, want_lower, want_failed = {}, {}, {}, {}, []
     for name, r in runs.items():
@@ -252,7 +252,7 @@ def check_frc_data(fig, data: dict):
         if "amplitude_lower" in r:
             want_lower[c] = _pairs(x, _in_mm(r, "amplitude_lower"))
     got_lines, got_marks, got_bars, got_lower, got_failed = {}, {}, {}, {}, []
-    for line in ax.get_lines():
+    for line in [l for ax in fig.axes for l in ax.get_lines() if l.get_gid() != "stop"]:
         c, ls = _hex(line.get_color()), line.get_linestyle()
         x, y = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
         if _no_marker(line):
@@ -268,7 +268,7 @@ def check_frc_data(fig, data: dict):
         else:
             got_marks.setdefault(c, []).extend((xi, yi, line.get_marker(), _is_open(line))
                                                for xi, yi in zip(x, y) if np.isfinite(yi))
-    for coll in ax.collections:
+    for coll in [c for ax in fig.axes for c in ax.collections]:
         if coll.__class__.__name__ == "LineCollection":
             c = _hex(coll.get_colors()[0])
             dashed = coll.get_linestyle()[0][1] is not None
@@ -314,7 +314,8 @@ def check_bifurcation_data(fig, data: dict):
         for ax in panels[title]:
             dname = ax.get_title(loc="right").removesuffix(" sweep")
             for line in ax.get_lines():
-                got.setdefault(dname, []).append(line)
+                if line.get_gid() != "stop":          # the stops' horizontal lines are not data
+                    got.setdefault(dname, []).append(line)
         assert sorted(got) == sorted(np.unique(r["direction"])), f"{title}: directions drawn"
         for dname, lines in got.items():
             assert len(lines) == 1, (title, dname)
@@ -328,18 +329,27 @@ def check_bifurcation_data(fig, data: dict):
 def check_impacts_data(fig, data: dict):
     """Two-sided runs: mean pre-impact speed (top) and impacts per period (bottom) against
     frequency, per run colour and direction (filled up, open down), upper stop solid and lower
-    stop dotted, equal to the file's impact_velocity(_lower), impacts_per_period(_lower)."""
+    stop dotted, equal to the file's impact_velocity(_lower), impacts_per_period(_lower).  Physical
+    runs (frequency in Hz): the speeds in mm/s (x L 2 pi f_n 1e3 from the group's attributes, and
+    the y label says mm/s); nondimensional runs: against Omega, the speed nondimensional (issue 42
+    item 10: a nondimensional speed was drawn against Hz)."""
     ax1, ax2 = fig.axes[:2]
     want = {}
-    for name, r in data["runs"].items():
-        if "impacts_per_period_lower" not in r:
-            continue
+    two = {n: r for n, r in data["runs"].items() if "impacts_per_period_lower" in r}
+    phys = all(r["physical"] and r["attrs"].get("length_m") and r["attrs"].get("natural_frequency_hz")
+               for r in two.values())
+    assert ax1.get_ylabel().endswith("(mm/s)" if phys else "(–)"), ax1.get_ylabel()
+    assert ax2.get_xlabel().endswith("(Hz)" if phys else "(–)"), ax2.get_xlabel()
+    for name, r in two.items():
         c = _run_colour(fig, name, r)
+        k = float(r["attrs"]["length_m"]) * 2.0 * np.pi * float(r["attrs"]["natural_frequency_hz"]) * 1e3 \
+            if phys else 1.0
+        x = r["x"] if phys else np.asarray(r["Omega"], float)
         for dname in np.unique(r["direction"]):
             s = r["direction"] == dname
-            for ax, key in ((0, "impact_velocity"), (1, "impacts_per_period")):
+            for ax, key, f in ((0, "impact_velocity", k), (1, "impacts_per_period", 1.0)):
                 for suffix, ls in (("", "-"), ("_lower", ":")):
-                    want[(ax, c, dname, ls)] = _by_x(r["x"][s], np.asarray(r[key + suffix], float)[s])
+                    want[(ax, c, dname, ls)] = _by_x(x[s], np.asarray(r[key + suffix], float)[s] * f)
     got = {}
     for i, ax in enumerate((ax1, ax2)):
         for line in ax.get_lines():
@@ -349,7 +359,7 @@ def check_impacts_data(fig, data: dict):
     assert sorted(got) == sorted(want)
     for key, (wx, wy) in want.items():
         np.testing.assert_array_equal(got[key][0], wx, err_msg=str(key))
-        np.testing.assert_array_equal(got[key][1], wy, err_msg=str(key))
+        np.testing.assert_allclose(got[key][1], wy, rtol=1e-12, atol=0, err_msg=str(key))
 
 
 def _mesh_cells_hold(mesh, x, y, what):
@@ -606,16 +616,17 @@ def written_figures():
 
 def check_work_precision_data(fig, cost_h5):
     """``vibeam cost``'s work-precision figure against its ``cost.h5``: per run (legend colour)
-    one series through the file's (wall_time_s, error_method_max) of the run's rows in time
-    order (an error below 1e-16 or 0 drawn on the 1e-16 floor, as the figure's docstring says),
-    and a horizontal line at each model's transient truncation model_transient_error_max."""
+    one series through the file's (wall_time_s, error_max) of the run's rows in time order: the
+    error against the converged reference (issue 42 item 10: not error_method_max, each method
+    against its own reference, which put every event rung at 1e-16); an error below 1e-16 or 0
+    drawn on the 1e-16 floor, as the figure's docstring says; and a horizontal line at each
+    model's transient truncation model_transient_error_max."""
     import h5py
 
     with h5py.File(cost_h5, "r") as f:
         g = f["cost"]
         run, method = g["run"].asstr()[()], g["method"].asstr()[()]
-        against = g["error_against"].asstr()[()]
-        t, e = g["wall_time_s"][()], g["error_method_max"][()]
+        t, e = g["wall_time_s"][()], g["error_max"][()]
         trans = g["model_transient_error_max"][()] if "model_transient_error_max" in g else np.array([])
     ax = fig.axes[0]
     legend = legend_colours(fig)
@@ -625,14 +636,14 @@ def check_work_precision_data(fig, cost_h5):
     assert len(got) == len(series) == len(set(run)), "one series per run"
     for name in dict.fromkeys(run):
         k = run == name
-        vs = "vs event, same transient" if against[k][0].startswith("event") else "vs converged"
-        line = got[legend[f"{name} ({method[k][0]}; {vs})"]]
+        line = got[legend[f"{name} ({method[k][0]}; vs converged)"]]
         o = np.argsort(t[k], kind="stable")
         want = np.where(np.isfinite(e[k]), np.maximum(e[k], 1e-16), np.nan)[o]
         np.testing.assert_array_equal(line.get_xdata(), t[k][o], err_msg=name)
         np.testing.assert_array_equal(line.get_ydata(), want, err_msg=name)
     want_h = sorted([1e-16] + [float(v) for v in trans if np.isfinite(v) and v > 0])
     assert hlines == want_h, (hlines, want_h)
+    assert "converged reference" in ax.get_ylabel(), ax.get_ylabel()
 
 
 def check_fit_data(fig, fit_h5):
@@ -975,3 +986,308 @@ def test_the_data_checks_can_fail(quick_results):
     finally:
         for f in figs:
             plt.close(f)
+
+
+# ============================================================================ issue 42, item 10
+def test_frc_of_several_runs_is_small_multiples_on_shared_axes():
+    """Issue 42 item 10: the ladder's five runs overlaid in one axes (x 2 directions, markers,
+    range bars) hid each other under the 1-mode branch.  Several runs: one panel per run (its
+    name and method as the panel's title, only its colour), all on the same x and y axes."""
+    from vibeam.plots.sweep import frc_figure
+    from vibeam.plots.style import colours
+
+    W = [1.0, 1.5, 2.0, 2.0, 1.5, 1.0]
+    runs = [_run(n, W, np.array([1.0, 2.0, 3.0, 3.0, 2.5, 1.0]) * (i + 1), [1, 0, 1, 1, 0, 1],
+                 ["up"] * 3 + ["down"] * 3, amplitude_min=np.full(6, 0.5), amplitude_max=np.full(6, 4.0))
+            for i, n in enumerate(("a", "b", "c"))]
+    fig = frc_figure(runs, title="ladder")
+    try:
+        check_figure(fig, "small multiples")
+        assert len(fig.axes) == len(runs)
+        col = colours(["a", "b", "c"])
+        for ax, r in zip(fig.axes, runs):
+            assert ax.get_title(loc="left") == f"{r.name} ({r.method})"
+            drawn = {_hex(l.get_color()) for l in ax.get_lines()} | \
+                {_hex(c.get_colors()[0]) for c in ax.collections if len(c.get_colors())}
+            assert drawn == {_hex(col[r.name])}, (r.name, drawn)
+        ylims = {ax.get_ylim() for ax in fig.axes}
+        xlims = {ax.get_xlim() for ax in fig.axes}
+        assert len(ylims) == 1 and len(xlims) == 1, "the panels do not share their axes"
+        assert max(ylims.pop()) >= 9.0                 # the largest run's amplitude fits every panel
+    finally:
+        plt.close(fig)
+    one = frc_figure(runs[:1], title="one run")
+    try:
+        assert len(one.axes) == 1
+    finally:
+        plt.close(one)
+
+
+def test_frc_names_the_lower_stop_and_marks_it():
+    """Issue 42 item 10: the subtitle omitted the lower stop and no line marked it.  The
+    subtitle names its offset and law (restitution R, or a compliant law's stiffness); the FRC
+    draws a horizontal line at each stop's amplitude Q (upper Q = 0, lower Q = Delta +
+    Delta_lower), with a legend entry; a physical scene's gaps in mm at the sensor."""
+    from vibeam.plots.sweep import frc_figure
+    from vibeam.plots.style import subtitle
+
+    r = _run("two", [1.5, 2.0], [1e-3, 2.5e-3], [1, 1], ["up", "up"])
+    r.attrs["model"] = {"fidelity": "sdof", "beta": 0.015, "B": 5e-4, "R": 0.9, "Delta": 5e-4,
+                        "Delta_lower": 2e-3, "contact_lower": {"law": "restitution", "R": 0.8}}
+    fig = frc_figure([r], title="two-sided")
+    try:
+        check_figure(fig, "two-sided FRC")
+        sub = fig._suptitle.get_text()
+        assert "lower stop" in sub and "0.002" in sub and "restitution R = 0.8" in sub, sub
+        stops = sorted(float(l.get_ydata()[0]) for l in fig.axes[0].get_lines() if l.get_gid() == "stop")
+        np.testing.assert_allclose(stops, [0.0, 2.5e-3], rtol=1e-12)
+        texts = [t.get_text() for t in fig.legends[0].get_texts()]
+        assert any(t.startswith("lower stop") for t in texts), texts
+    finally:
+        plt.close(fig)
+    # the bifurcation diagram's axis is the displacement q: the stops at q = Delta and -Delta_lower
+    from vibeam.plots.sweep import bifurcation_figure
+
+    r.data["strobe"] = np.full((2, 4, 2), -1e-3)
+    fig = bifurcation_figure([r], title="two-sided")
+    try:
+        stops = sorted(float(l.get_ydata()[0]) for l in fig.axes[0].get_lines() if l.get_gid() == "stop")
+        np.testing.assert_allclose(stops, [-2e-3, 5e-4], rtol=1e-12)
+        assert any(t.get_text().startswith("lower stop") for t in fig.legends[0].get_texts())
+    finally:
+        plt.close(fig)
+    kv = subtitle(model={"fidelity": "beam", "gap_mm": 0.0, "gap_lower_mm": 1.2,
+                         "contact_lower": {"law": "linear", "stiffness_n_m": 1e6}})
+    assert "lower stop: gap 1.2 mm, linear, $k_c$ = 1e+06 N/m" in kv, kv
+    tip = subtitle(model={"fidelity": "beam", "stop": [
+        {"side": "upper", "gap_mm": 0.0, "R": 0.72},
+        {"side": "lower", "position_mm": 180.0, "contact_gap_mm": 1.2, "R": 0.9}]})
+    assert "lower stop at 180 mm: contact gap 1.2 mm, restitution R = 0.9" in tip, tip
+    # several runs of a case with [[model.stop]] tables: the runs' resolved model names the stop
+    import vibeam
+
+    case = vibeam.load_case(ROOT / "cases" / "rig-fe-tip-stop.toml")
+    runs = [_run(n, [1.5, 2.0], [1e-3, 2e-3], [1, 1], ["up", "up"]) for n in ("FE 2 modes", "FE 4 modes")]
+    for i, r in enumerate(runs):
+        r.attrs["model"] = {"fidelity": "beam", "R": 0.72, "gap_mm": 0.0, "n_modes": 2 * (i + 1), "stop": [
+            {"side": "lower", "position_mm": 180.0, "contact_gap_mm": 1.2, "law": "restitution", "R": 0.9}]}
+    both = subtitle(case, runs=runs)
+    assert "lower stop at 180 mm: contact gap 1.2 mm, restitution R = 0.9" in both and "R = 0.72" in both, both
+    single = frc_figure([_run("one", [1.5, 2.0], [1e-3, 2e-3], [1, 1], ["up", "up"])], title="single")
+    try:
+        assert not [l for l in single.axes[0].get_lines() if l.get_gid() == "stop"]
+        assert "stop" not in single._suptitle.get_text()
+    finally:
+        plt.close(single)
+
+
+def test_impacts_speed_and_frequency_in_one_system_of_units():
+    """Issue 42 item 10: impacts.png drew the nondimensional speed |q'-| against Hz.  A physical
+    two-sided run: mm/s against Hz (the speed x L 2 pi f_n); a nondimensional one: (–) against
+    Omega."""
+    from vibeam.plots.sweep import impacts_figure
+
+    W = np.array([1.8, 2.0, 2.2])
+    extra = dict(impact_velocity=np.array([0.01, 0.02, 0.03]), impact_velocity_lower=np.array([0.005, 0.0, 0.01]),
+                 impacts_per_period=np.ones(3), impacts_per_period_lower=np.array([1.0, 0.0, 1.0]))
+    r = _run("tip", W, [0.1, 0.2, 0.3], [1, 1, 1], ["up"] * 3, frequency_hz=W * 7.6,
+             amplitude_mm=np.array([0.1, 0.2, 0.3]) * 180.0, **extra)
+    r.attrs.update(length_m=0.18, natural_frequency_hz=7.6)
+    fig = impacts_figure([r], "tip")
+    try:
+        check_figure(fig, "physical impacts")
+        ax1, ax2 = fig.axes[:2]
+        assert ax1.get_ylabel().endswith("(mm/s)") and ax2.get_xlabel().endswith("(Hz)")
+        up = next(l for l in ax1.get_lines() if l.get_linestyle() == "-")
+        np.testing.assert_allclose(up.get_xdata(), W * 7.6, rtol=1e-15)
+        np.testing.assert_allclose(up.get_ydata(), extra["impact_velocity"] * 0.18 * 2 * np.pi * 7.6 * 1e3, rtol=1e-12)
+    finally:
+        plt.close(fig)
+    nd = _run("nd", W, [0.1, 0.2, 0.3], [1, 1, 1], ["up"] * 3, **extra)
+    fig = impacts_figure([nd], "nd")
+    try:
+        check_figure(fig, "nondimensional impacts")
+        assert fig.axes[0].get_ylabel().endswith("(–)") and "Omega" in fig.axes[1].get_xlabel()
+    finally:
+        plt.close(fig)
+
+
+def _overlapping_tick_labels(fig):
+    """(axes title, axis) of every axis with two visible tick labels whose boxes overlap."""
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    out = []
+    for ax in fig.axes:
+        for w in ("x", "y"):
+            b = [t.get_window_extent(r) for t in getattr(ax, f"get_{w}ticklabels")() if t.get_visible() and t.get_text()]
+            if any(p.overlaps(q) for i, p in enumerate(b) for q in b[i + 1:]):
+                out.append((ax.get_title(loc="left"), w))
+    return out
+
+
+def test_poincare_figure_layout_labels_and_title():
+    """Issue 42 item 10: Poincaré plots overlapped their tick labels (a collapsed section's
+    -0.01825 ... -0.01675 without an offset), printed U(L_S), L_S literally, mixed q' with the
+    other figures' q-dot, lacked the case name and titled a chatter point 'period 0, chatter'."""
+    from vibeam.analysis.poincare import PoincareSection, poincare_figure
+
+    one = dict(Omega=2.0, strobe_q=-0.0175 + 1e-9 * np.arange(8), strobe_dq=np.full(8, -9.4e-4),
+               impact_phase=np.full(8, 3.14), impact_velocity=np.full(8, 0.0184))
+    for phys in (False, True):
+        scales = dict(length_m=0.18, natural_frequency_hz=7.6) if phys else {}
+        p = PoincareSection(**one, **scales, period=0, status="chatter", name="rig-tight")
+        fig = poincare_figure(p)
+        try:
+            assert all(UNIT.search(ax.get_xlabel()) and UNIT.search(ax.get_ylabel()) for ax in fig.axes)
+            assert not _overlapping_tick_labels(fig), _overlapping_tick_labels(fig)
+            a0, a1 = fig.axes[:2]
+            if phys:
+                assert (a0.get_xlabel(), a0.get_ylabel()) == ("$U(L_S)$ (mm)", r"$\dot U(L_S)$ (mm/s)")
+            else:
+                assert (a0.get_xlabel(), a0.get_ylabel()) == ("$q$ (–)", r"$\dot q$ (–)")
+            for lab in (a0.get_xlabel(), a0.get_ylabel(), a1.get_ylabel()):
+                assert "'" not in lab and not re.search(r"(?<!\$)L_S(?![^$]*\$)", lab.replace("$U(L_S)$", "")), lab
+            title = fig._suptitle.get_text()
+            assert title.startswith("rig-tight: Poincaré sections"), title
+            assert title.split("\n")[-1] == "chatter", title
+            assert "period 0" not in title and "Omega" not in title.replace(r"$\Omega$", ""), title
+        finally:
+            plt.close(fig)
+
+
+def test_motion_text():
+    from vibeam.plots.style import motion_text
+
+    assert motion_text(0, "chatter") == "chatter"
+    assert motion_text(1, "ok") == "period-1"
+    assert motion_text(2, "sticking") == "period-2, sticking"
+    assert motion_text(-1, "unsettled") == "no impact, unsettled"
+    assert motion_text(0, "ok") == "not periodic within 8 periods"
+
+
+def test_simulation_and_poincare_of_a_case_name_it_and_keep_status_out_of_the_legend():
+    """Issue 42 item 10: Simulation.plot()'s legend said 'ok' (the status); the Poincaré plot of
+    `vibeam poincare` / vibeam.poincare had no case name in its title."""
+    import vibeam
+
+    fig7 = ROOT / "cases" / "paper-fig7.toml"
+    sim = vibeam.simulate(fig7, Omega=2.0, periods=4, transient=200)
+    assert sim.status == "ok"
+    fig = sim.plot()
+    try:
+        check_figure(fig, "simulation")
+        texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+        assert not any(re.search(r"\bok\b", t) for t in texts), texts
+        title = fig._suptitle.get_text()
+        assert title.startswith("paper-fig7: ") and "period-1" in title, title
+    finally:
+        plt.close(fig)
+    sec = vibeam.poincare(fig7, Omega=2.0, periods=4, transient=200)
+    fig = sec.plot()
+    try:
+        assert fig._suptitle.get_text().startswith("paper-fig7: Poincaré sections")
+        assert not _overlapping_tick_labels(fig), _overlapping_tick_labels(fig)
+    finally:
+        plt.close(fig)
+
+
+def test_decay_figure_house_style_and_data_above_the_fit(tmp_path):
+    """Issue 42 item 10: decay.png ignored the house style (no figure title, labels without the
+    quantity's symbol, legends inside the data) and hid the data (pixel markers, drawn first)
+    under the fit.  Now: the record's dots above a thin fit line, a figure legend outside the
+    axes, titles, the style's labels."""
+    from vibeam.identify.linear import _plot_decay, damped_response, fit_decay, log_decrement
+
+    t = np.arange(0, 2.0, 1 / 1000)
+    U = damped_response(t, 7.75, 0.02, 1.0, 0.0, 0.0) + np.random.default_rng(1).normal(0, 0.01, t.size)
+    ld = log_decrement(t, U)
+    fd = fit_decay(t, U, ld)
+    with written_figures() as figs:
+        _plot_decay(t, U, ld, fd, tmp_path / "decay.png", "rig-neutral: free decay")
+    fig = figs["decay.png"]
+    check_figure(fig, "decay")
+    assert fig._suptitle.get_text().startswith("rig-neutral: free decay")
+    ax = fig.axes[0]
+    data = next(l for l in ax.get_lines() if len(l.get_xdata()) == t.size and np.array_equal(l.get_ydata(), U))
+    fit = next(l for l in ax.get_lines() if l is not data and len(l.get_xdata()) == t.size)
+    assert data.get_zorder() > fit.get_zorder(), "the fit is drawn over the data"
+    assert data.get_marker() not in (",", "", "None") and data.get_linestyle() in ("None", "none", "")
+    assert fit.get_linewidth() <= 0.8
+    assert ax.get_ylabel() == "displacement $U(L_S)$ (mm)" and fig.axes[1].get_xlabel() == "time t (s)"
+    assert not [a.get_legend() for a in fig.axes if a.get_legend() is not None], "legend inside the data"
+    assert not ax.spines["top"].get_visible()          # the house style's rc (style.RC)
+
+
+def test_basin_plot_attractor_dots_are_in_the_legend():
+    """Issue 42 item 10: the basin plot drew each attractor's stroboscopic samples as black dots
+    over the basins without a legend entry.  Every kind of artist drawn has its entry: the
+    basins' colours (patches), the attractors' dots (a black dot handle), the stops; the grid's
+    velocity is q-dot as in every other figure."""
+    import vibeam
+    from vibeam.analysis.attractors import basins_figure
+
+    r = vibeam.basins(ROOT / "cases" / "paper-fig7-two-sided.toml", Omega=2.0, grid=(6, 5), lyapunov_periods=0)
+    fig = basins_figure(r, 0)
+    try:
+        dots = [l for l in fig.axes[0].lines if l.get_marker() == "." and l.get_linestyle() in ("None", "none")]
+        assert dots, "no attractor dots drawn"
+        hs = [(h, t.get_text()) for leg in fig.legends for h, t in zip(leg.legend_handles, leg.get_texts())]
+        dot_entries = [t for h, t in hs if hasattr(h, "get_marker") and h.get_marker() == "."
+                       and _hex(h.get_color()) == _hex(dots[0].get_color())]
+        assert dot_entries and "attractor" in dot_entries[0], [t for _, t in hs]
+        assert fig.axes[0].get_ylabel() == r"$\dot q$ (–)"
+    finally:
+        plt.close(fig)
+    s = vibeam.basins(ROOT / "cases" / "paper-fig7-two-sided.toml", Omega=2.0, samples=20, seed=1,
+                      lyapunov_periods=0)
+    fig = basins_figure(s, 0)                  # sampled states: the coloured dots have their entry too
+    try:
+        texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+        assert any(t.startswith("starting state") for t in texts), texts
+    finally:
+        plt.close(fig)
+
+
+def test_work_precision_plots_the_error_against_the_converged_reference():
+    """Issue 42 item 10: `vibeam cost`'s work_precision.png drew each row's own-method error
+    (event against event with the same transient: 0, on the 1e-16 floor for every rung of a
+    ladder) where the README speaks of the error against the mesh-converged model.  The figure
+    draws error_max (against the converged reference; for a beam the finest FE model), says so
+    on its axis and names the reference."""
+    from vibeam.analysis.cost import CostRow, ModelSources, work_precision_figure
+
+    def row(run, t, err):
+        return CostRow(run=run, method="event", settings={}, time_s=t, err_max=err, err_rms=err / 2,
+                       n_period_diff=0, n_points=5, n_nonperiodic_ref=0, time_rel_event=1.0, err_method_max=0.0,
+                       err_method_rms=0.0, against="event, same transient", model_key=run)
+    rows = [row("FE 1 mode", 0.5, 0.30), row("FE 2 modes", 1.0, 0.12), row("FE all modes", 9.0, 2e-3)]
+    models = {r.run: ModelSources(key=r.run, label=r.run, event_time_s=r.time_s, transient_periods=300,
+                                  reference_periods=2000, transient_max=1e-9, transient_rms=1e-10, n_compared=5,
+                                  model_max=r.err_max) for r in rows}
+    fig = work_precision_figure({"rows": rows, "models": models, "reference_periods": 2000}, "ladder")
+    try:
+        check_figure(fig, "work-precision")
+        ax = fig.axes[0]
+        series = {_hex(l.get_color()): l for l in ax.get_lines() if l.get_transform() is ax.transData}
+        legend = legend_colours(fig)
+        for r in rows:
+            line = series[next(c for lab, c in legend.items() if lab.startswith(f"{r.run} (event"))]
+            np.testing.assert_array_equal(line.get_ydata(), [r.err_max])
+        assert "converged reference" in ax.get_ylabel()
+        assert "finest FE model" in fig._suptitle.get_text()
+    finally:
+        plt.close(fig)
+
+
+def test_modes_figure_marks_the_positions_in_mathtext():
+    """Issue 42 item 10: modes.png printed 'L_S' and 'L_m' literally at the sensor's and the
+    mass's lines; they are mathtext ($L_S$, $L_m$)."""
+    import vibeam
+
+    fig = vibeam.modes(ROOT / "cases" / "rig-fe-neutral.toml", n=4).plot()
+    try:
+        texts = [t.get_text() for ax in fig.axes for t in ax.texts]
+        assert "$L_S$" in texts and "$L_m$" in texts, texts
+        assert not [t for t in texts if "_" in re.sub(r"\$[^$]*\$", "", t)], texts
+    finally:
+        plt.close(fig)

@@ -886,6 +886,9 @@ class Simulation:
         The state at the end (to continue from).
     natural_frequency_hz, length_m : float or None
         Scales of a physical scene (then ``time_s``, ``U_mm``, ``dU_mm_s`` are set).
+    name : str
+        The case simulated (and its run, when the case has several): the figures' title; ''
+        for a model.
     """
 
     Omega: float
@@ -901,6 +904,7 @@ class Simulation:
     natural_frequency_hz: float | None = None
     length_m: float | None = None
     trajectory: object = None
+    name: str = ""
 
     @property
     def physical(self) -> bool:
@@ -1093,7 +1097,8 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
     return Simulation(Omega=float(Omega), t=traj.t, q=traj.samples[:, 0].copy(), dq=traj.samples[:, 1].copy(),
                       impact_times=np.asarray(traj.impact_times), impact_velocities=np.asarray(traj.impact_velocities),
                       summary=summ, status=summ["status"], message=summ["message"], final_state=traj.final_state,
-                      natural_frequency_hz=fn, length_m=L, trajectory=traj)
+                      natural_frequency_hz=fn, length_m=L, trajectory=traj,
+                      name="" if case is None else (case.name if len(case.run) <= 1 else f"{case.name}, {r.name}"))
 
 
 @dataclass
@@ -1559,7 +1564,7 @@ def modes_figure(rep: dict, title: str = ""):
             for i in range(min(4, m.shapes.shape[1])):
                 w = fe.deflection(m.shapes[:, i], x)
                 ax.plot(x * 1e3, w / np.max(np.abs(w)), label=f"{m.frequencies_hz[i]:.2f} Hz")
-            for xp, nm in ((fe.geometry.sensor_position_m, "L_S"), (fe.geometry.mass_position_m, "L_m")):
+            for xp, nm in ((fe.geometry.sensor_position_m, "$L_S$"), (fe.geometry.mass_position_m, "$L_m$")):
                 ax.axvline(xp * 1e3, color="0.6", ls=":")
                 ax.text(xp * 1e3, 1.02, nm, ha="center", fontsize=8)
             ax.set_title(f"{lab} modes", loc="left")

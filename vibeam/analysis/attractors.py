@@ -338,7 +338,7 @@ def axes_of(model, coordinates=None) -> Axes:
     if coordinates == "sensor":
         raise ValueError("[basins] coordinates = \"sensor\": needs a physical scene (natural_frequency_hz, "
                          "length_mm); a nondimensional SDOF's grid is (q, q')")
-    return Axes((0, 1), (1.0, 1.0), ("q", "q_dot"), ("1", "1"), (rf"$q$ ({NODIM})", rf"$q'$ ({NODIM})"))
+    return Axes((0, 1), (1.0, 1.0), ("q", "q_dot"), ("1", "1"), (rf"$q$ ({NODIM})", rf"$\dot q$ ({NODIM})"))
 
 
 def _system(model):
@@ -1474,8 +1474,14 @@ def _basins_figure(r, i, title):
         S = r.attractors["samples"][i, k]
         S = S[np.isfinite(S[:, 0])]
         XY = r.axes.values(S)
-        ax.plot(XY[:, 0], XY[:, 1], ".", ms=1.5, color="k")
+        ax.plot(XY[:, 0], XY[:, 1], ".", ms=1.5, color="k", gid="attractor")
         handles.append(Patch(color=colours[k + 2], label=_legend_text(r, i, k)))
+    if not r.grid:  # sampled states: coloured dots, not cells
+        handles.append(Line2D([], [], ls="none", marker="o", ms=3, color="0.45",
+                              label="starting state, coloured by the attractor it reaches"))
+    if present:     # the black dots over the basins: each attractor's stroboscopic set
+        handles.append(Line2D([], [], ls="none", marker=".", ms=5, color="k",
+                              label="attractor: its stroboscopic samples (black dots)"))
     lab = r.labels[i]
     for code, c in ((UNSETTLED, colours[1]), (FAILED, colours[0])):
         if np.any(lab == code):

@@ -41,6 +41,8 @@ class PoincareSection:
         Period-n of the record (:func:`vibeam.engine.records.summarize`: 0 not periodic within 8
         periods, -1 no impact) and the point's outcome as a sweep records it (``ok``,
         ``unsettled``, ``chatter``, ...); :attr:`period_text` says the period in words.
+    name : str
+        The case (and run) simulated, the figure's title ('' for a model).
     """
 
     Omega: float
@@ -52,6 +54,7 @@ class PoincareSection:
     natural_frequency_hz: float | None = None
     period: int = 0
     status: str = "ok"
+    name: str = ""
 
     @property
     def period_text(self) -> str:
@@ -118,7 +121,8 @@ def section(sim) -> PoincareSection:
                            impact_phase=np.mod(sim.Omega * ti, 2.0 * math.pi),
                            impact_velocity=np.asarray(sim.impact_velocities, float).copy(),
                            length_m=sim.length_m, natural_frequency_hz=sim.natural_frequency_hz,
-                           period=int(sim.summary.get("period", 0)), status=str(sim.status))
+                           period=int(sim.summary.get("period", 0)), status=str(sim.status),
+                           name=str(getattr(sim, "name", "") or ""))
 
 
 def poincare_figure(p: PoincareSection, title: str = ""):
@@ -129,21 +133,25 @@ def poincare_figure(p: PoincareSection, title: str = ""):
 
     fx, fv = p.scales
     xu, vu = ("mm", "mm/s") if p.physical else (None, None)
+    x_sym, v_sym = (style.DISPLACEMENT, style.VELOCITY) if p.physical else ("$q$", r"$\dot q$")
     with style.context():
         fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.2))
         c0, c1 = style.PALETTE[0], style.PALETTE[1]
         axes[0].plot(p.strobe_q * fx, p.strobe_dq * fv, ls="none", marker="o", ms=3, color=c0)
-        axes[0].set_xlabel(style.label("U(L_S)" if p.physical else "q", xu))
-        axes[0].set_ylabel(style.label("U'(L_S)" if p.physical else "q'", vu))
+        axes[0].set_xlabel(style.label(x_sym, xu))
+        axes[0].set_ylabel(style.label(v_sym, vu))
         axes[0].set_title(f"stroboscopic section ({p.strobe_q.size} periods)", loc="left")
         axes[1].plot(p.impact_phase, p.impact_velocity * fv, ls="none", marker="o", ms=3, color=c1)
         axes[1].set_xlim(0.0, 2.0 * math.pi)
         axes[1].set_xlabel(style.label(r"impact phase $\Omega t$ mod $2\pi$", "rad"))
-        axes[1].set_ylabel(style.label("pre-impact velocity", vu))
+        axes[1].set_ylabel(style.label(r"pre-impact speed at the stop $|v^-|$" if p.physical else
+                                       r"pre-impact speed $|\dot q^-|$", vu))
         axes[1].set_title(f"impact section ({p.impact_phase.size} impacts)", loc="left")
         for ax in axes:
             ax.ticklabel_format(useOffset=False)       # a collapsed section: its values, not offsets
+        style.thin_ticks(fig, axes)
         f = f"{p.frequency_hz:.4g} Hz, " if p.frequency_hz else ""
-        style.titles(fig, title or f"Poincaré sections at {f}Omega = {p.Omega:.6g}",
-                     f"{p.period_text}, {p.status}")
+        head = f"{p.name}: " if p.name else ""
+        style.titles(fig, title or f"{head}Poincaré sections at {f}$\\Omega$ = {p.Omega:.6g}",
+                     style.motion_text(p.period, p.status))
     return fig

@@ -1044,36 +1044,56 @@ def report_decay(case, case_text, decay_csv, out_dir, source="") -> tuple[DecayE
     return ld, fd
 
 
-def _plot_decay(t, U, ld, fd, path, title=""):
-    import matplotlib
-    matplotlib.use("Agg")
+def decay_figure(t, U, ld, fd, title=""):
+    """The free decay (top: the record as dots over the damped fit, a thin line beneath them) and
+    the log decrement (bottom: the peak-to-peak differences over their straight line), in the
+    house style (:mod:`vibeam.plots.style`: title and subtitle, units, legend outside); a Figure."""
     import matplotlib.pyplot as plt
 
-    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 6))
-    ax.plot(t, U, ",", color="0.4", label="data")
-    ax.plot(t, fd.extra["model"], "-", lw=0.8, color="C1",
-            label=rf"damped fit: $\beta_S$ = {fd.damping_ratio:.4g} ± {fd.damping_ratio_se:.2g}")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("displacement at the sensor (mm)")
-    ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    te, p, use = ld.extra["extremum_time_s"][:-1], ld.extra["peak_to_peak"], ld.extra["used"]
-    ax2.semilogy(te[use], p[use], "o", ms=3, label="peak-to-peak, used")
-    if (~use).any():
-        ax2.semilogy(te[~use], p[~use], "x", ms=3, color="0.5", label="below the noise threshold")
-    s = ld.extra["sigma_1_s"]
-    k = np.flatnonzero(use)
-    if k.size:
-        c = np.exp(np.average(np.log(p[use]) + s * te[use], weights=p[use] ** 2))
-        ax2.semilogy(te[use], c * np.exp(-s * te[use]), "-", color="C1", lw=1,
-                     label=rf"log decrement: $\beta_S$ = {ld.damping_ratio:.4g} ± {ld.damping_ratio_se:.2g}")
-    ax2.set_xlabel("time (s)")
-    ax2.set_ylabel("peak-to-peak difference (mm)")
-    ax2.grid(alpha=0.3, which="both")
-    ax2.legend(fontsize=8)
-    fig.tight_layout()
-    from vibeam.plots.sweep import save_figure
-    save_figure(fig, path)
-    plt.close(fig)
+    from vibeam.plots import style
+
+    c_data, c_fit, c_skip = "0.15", style.PALETTE[1], "0.55"
+    with style.context():
+        fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8.0, 6.0), sharex=True)
+        # the data above the fit: dots on top (zorder 3), the fit a thin line beneath (zorder 2)
+        ax.plot(t, U, ls="none", marker="o", ms=1.2, mew=0, color=c_data, zorder=3, label="data")
+        ax.plot(t, fd.extra["model"], "-", lw=0.7, color=c_fit, zorder=2, label="damped fit")
+        ax.set_ylabel(style.label(f"displacement {style.DISPLACEMENT}", "mm"))
+        ax.set_title("free decay", loc="left")
+        te, p, use = ld.extra["extremum_time_s"][:-1], ld.extra["peak_to_peak"], ld.extra["used"]
+        ax2.semilogy(te[use], p[use], ls="none", marker="o", ms=3.5, color=style.PALETTE[0], zorder=3,
+                     label="peak-to-peak, used")
+        if (~use).any():
+            ax2.semilogy(te[~use], p[~use], ls="none", marker="x", ms=3.5, color=c_skip, zorder=3,
+                         label="peak-to-peak, below the noise threshold")
+        s = ld.extra["sigma_1_s"]
+        if use.any():
+            c = np.exp(np.average(np.log(p[use]) + s * te[use], weights=p[use] ** 2))
+            ax2.semilogy(te[use], c * np.exp(-s * te[use]), "-", color=c_fit, lw=0.7, zorder=2,
+                         label="log decrement fit")
+        ax2.set_xlabel(style.label("time t", "s"))
+        ax2.set_ylabel(style.label("peak-to-peak difference", "mm"))
+        ax2.set_title("logarithmic decrement", loc="left")
+        ax2.grid(True, which="both")
+        handles = [style.proxy(c_data, marker="o", ms=3, label="data (the record)"),
+                   style.proxy(c_fit, ls="-", lw=0.7, label=rf"damped fit: $\beta_S$ = {fd.damping_ratio:.4g} ± "
+                                                           rf"{fd.damping_ratio_se:.2g}"),
+                   style.proxy(style.PALETTE[0], marker="o", label="peak-to-peak, used")]
+        if (~use).any():
+            handles.append(style.proxy(c_skip, marker="x", label="peak-to-peak, below the noise threshold"))
+        if use.any():
+            handles.append(style.proxy(c_fit, ls="-", lw=0.7, label=rf"log decrement: $\beta_S$ = "
+                                                                  rf"{ld.damping_ratio:.4g} ± {ld.damping_ratio_se:.2g}"))
+        style.legend_outside(fig, handles, loc="outside lower center", ncol=2)
+        style.titles(fig, title or "free decay",
+                     f"{t.size} samples over {t[-1] - t[0]:.4g} s; damped fit: $f_n$ = {fd.natural_frequency_hz:.5g} ± "
+                     f"{fd.natural_frequency_hz_se:.2g} Hz")
+    return fig
+
+
+def _plot_decay(t, U, ld, fd, path, title=""):
+    """:func:`decay_figure` saved to ``path`` (``decay.png``, atomically) and closed."""
+    from vibeam.plots.sweep import save_close
+
+    save_close(decay_figure(t, U, ld, fd, title), path)
     return Path(path)

@@ -37,6 +37,8 @@ DOT_SIZE = 1.2
 #: cycle through the rest): a colour and a marker each, so they stay apart in grey print too
 BRANCH_STYLES = {1: ("#0072B2", "o"), 2: ("#D55E00", "^"), 4: ("#009E73", "s"), 8: ("#CC79A7", "p")}
 _OTHER_BRANCH_STYLES = (("#E69F00", "v"), ("#56B4E9", "h"), ("#882255", "<"), ("#44AA99", ">"))
+#: the line style of a stop's position drawn across an axes (upper, lower)
+STOP_LINES = {"upper": (0, (6, 2, 1, 2)), "lower": (0, (1, 1.5))}
 NODIM = "–"          # the unit of a nondimensional quantity
 DISPLACEMENT = "$U(L_S)$"          # the sensor's displacement (paper Sec. 6), mathtext
 VELOCITY = r"$\dot U(L_S)$"        # its velocity
@@ -138,8 +140,8 @@ def subtitle(case=None, model: dict | None = None, runs=(), exclude=(), sweep: b
     """
     models = [getattr(r, "attrs", {}).get("model") for r in runs]
     models = [x for x in models if isinstance(x, dict)]
-    if len(runs) == 1 and models:
-        m = dict(models[0])
+    if models and len(models) == len(runs):
+        m = dict(models[0])      # the model as run (stops resolved: [[model.stop]] -> gap, R, stop)
     elif case is not None:
         m = dict(case.model)
     elif model is not None:
@@ -162,11 +164,136 @@ def subtitle(case=None, model: dict | None = None, runs=(), exclude=(), sweep: b
             parts.append(f"{sym} = {fmt.format(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v}"
                          f"{unit}")
     out = (f"{fid}: " if fid else "") + ", ".join(parts)
+    st = stops_text(m)
+    if st:
+        out += "; " + st
     if case is not None and sweep:
         sw = case.sweep
         d = {"both": "up and down", "up": "up", "down": "down"}[sw.direction]
         out += f"; {sw.transient_periods} + {sw.record_periods} periods per point, {d}"
     return out
+
+
+_LAW_KEYS = (("stiffness", "$k_c$", ""), ("stiffness_n_m", "$k_c$", " N/m"), ("exponent", "p", ""),
+             ("damping_ratio", r"$\zeta_c$", ""), ("R", "R", ""), ("mass_kg", "m", " kg"))
+
+
+def law_text(table, R=None) -> str:
+    """A stop's contact law in words, e.g. ``restitution R = 0.9`` or ``linear, $k_c$ = 1e+06
+    N/m`` (``table``: a ``[model.contact]``-like dict; None: Newton's law with ``R``)."""
+    t = dict(table or {})
+    law = t.get("law", "restitution")
+    if law == "restitution":
+        r = t.get("R", R)
+        return "restitution" + (f" R = {r:g}" if isinstance(r, (int, float)) else "")
+    keys = [f"{sym} = {t[k]:g}{unit}" for k, sym, unit in _LAW_KEYS if isinstance(t.get(k), (int, float))
+            and not isinstance(t.get(k), bool)]
+    return ", ".join([law.replace("_", "-")] + keys)
+
+
+def _gap_text(t: dict) -> str:
+    for k, txt in (("Delta", "Δ = {:g}"), ("gap_mm", "gap {:g} mm"), ("contact_gap_mm", "contact gap {:g} mm")):
+        if isinstance(t.get(k), (int, float)):
+            return txt.format(t[k])
+    return ""
+
+
+def stops_text(m: dict) -> str:
+    """The scene's stops beyond the paper's upper one (a model table ``m``): the lower stop
+    (its offset and law: ``lower stop: Δ_lower = 0.002, restitution R = 0.9``), every
+    ``[[model.stop]]`` (side, position, gap, law) and a compliant upper law; '' for the paper's
+    single Newton stop."""
+    parts = []
+    up = m.get("contact")
+    if isinstance(up, dict) and up.get("law", "restitution") != "restitution":
+        parts.append("contact: " + law_text(up, m.get("R")))
+    lower = next(((fmt.format(m[k])) for k, fmt in (("Delta_lower", "$\\Delta_{{lower}}$ = {:g}"),
+                                                     ("gap_lower_mm", "gap {:g} mm"),
+                                                     ("contact_gap_lower_mm", "contact gap {:g} mm"))
+                  if isinstance(m.get(k), (int, float))), None)
+    if lower is not None:
+        lo = m.get("contact_lower")
+        law = law_text(lo, m.get("R")) if isinstance(lo, dict) else (
+            law_text(up, m.get("R")) if isinstance(up, dict) else law_text(None, m.get("R")))
+        parts.append(f"lower stop: {lower}, {law}")
+    for st in m.get("stop") or ():
+        if not isinstance(st, dict):
+            continue
+        where = f" at {st['position_mm']:g} mm" if isinstance(st.get("position_mm"), (int, float)) else ""
+        bits = [b for b in (_gap_text(st), law_text(st, m.get("R"))) if b]
+        parts.append(f"{st.get('side', 'upper')} stop{where}: " + ", ".join(bits))
+    return "; ".join(parts)
+
+
+def stop_lines(m: dict) -> list:
+    """Where the stops lie on the FRC's amplitude axis ``Q = Delta - min q`` (the distance below
+    the upper stop; mm at the sensor for a physical scene): ``[(Q, label), ...]`` for a scene with
+    a lower stop at the attached mass whose gap is given in the plotted coordinate (``Delta`` and
+    ``Delta_lower``, or ``gap_mm`` and ``gap_lower_mm`` at the sensor): the upper stop at Q = 0
+    and the lower one at ``Delta + Delta_lower``; [] otherwise (a stop elsewhere on a beam has no
+    one position on the sensor's axis)."""
+    pairs = (("Delta", "Delta_lower", "{:g}"), ("gap_mm", "gap_lower_mm", "{:g} mm"))
+    if not isinstance(m, dict):
+        return []
+    for up, lo, fmt in pairs:
+        if isinstance(m.get(lo), (int, float)):
+            u = m.get(up) if isinstance(m.get(up), (int, float)) else (0.0 if up == "Delta" else None)
+            if u is None:
+                return []
+            q = float(u) + float(m[lo])
+            return [(0.0, "upper stop (Q = 0)"), (q, "lower stop (Q = " + fmt.format(q) + ")")]
+    return []
+
+
+def motion_text(period, status: str = "ok") -> str:
+    """One point's motion in words for a title: ``period-2``, ``no impact``, ``not periodic
+    within 8 periods`` when it settled (``status`` ok), else the status first: ``chatter`` (not
+    ``period 0, chatter``), ``period-1, sticking``, ``no impact, unsettled``."""
+    try:
+        p = int(period)
+    except (TypeError, ValueError):
+        p = 0
+    status = str(status or "ok")
+    if status == "ok":
+        return {0: "not periodic within 8 periods", -1: "no impact"}.get(p, f"period-{p}")
+    if p == 0:
+        return status
+    return f"{'no impact' if p == -1 else f'period-{p}'}, {status}"
+
+
+def tick_labels_overlap(fig, ax, which: str = "x") -> bool:
+    """Whether two visible tick labels of ``ax``'s ``which`` axis overlap (drawn ``fig``)."""
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    boxes = [t.get_window_extent(r) for t in getattr(ax, f"get_{which}ticklabels")()
+             if t.get_visible() and t.get_text()]
+    return any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+
+
+def thin_ticks(fig, axes, which=("x", "y")) -> None:
+    """Fewer ticks where an axis's tick labels overlap (long labels of a collapsed section, e.g.
+    -0.01825 ... -0.01675 without an offset): the locator's bins are halved until they clear."""
+    from matplotlib.ticker import MaxNLocator
+
+    for ax in axes:
+        for w in which:
+            nb = 8
+            while nb > 2 and tick_labels_overlap(fig, ax, w):
+                nb = max(2, nb // 2) if nb > 4 else nb - 1
+                getattr(ax, f"{w}axis").set_major_locator(MaxNLocator(nbins=nb, steps=[1, 2, 2.5, 5, 10]))
+
+
+def stop_positions(m: dict) -> list:
+    """Where the stops lie on a displacement axis (``q``, or ``U(L_S)`` in mm for a physical
+    scene: the bifurcation diagram): ``[(q, label), ...]``, the upper stop at ``Delta`` (``gap_mm``)
+    and the lower one at ``-Delta_lower`` (``-gap_lower_mm``), for a scene with a lower stop at the
+    attached mass given in the plotted coordinate; [] otherwise (as :func:`stop_lines`)."""
+    lines = stop_lines(m)
+    if not lines:
+        return []
+    q_low = lines[1][0]
+    up = next((float(m[k]) for k in ("Delta", "gap_mm") if isinstance(m.get(k), (int, float))), 0.0)
+    return [(up, "upper stop"), (up - q_low, "lower stop")]
 
 
 def wrap_phrases(text: str, width: int) -> list:

@@ -1,12 +1,14 @@
 """Figures of a sweep (matplotlib, Agg backend, the style of :mod:`vibeam.plots.style`).
 
-* ``frc.png`` (:func:`frc_figure`): the FRC of every run overlaid, one colour per run,
-  up sweeps solid with filled markers and down sweeps dashed with open markers; the
+* ``frc.png`` (:func:`frc_figure`): the FRC of every run, one colour per run and, with
+  several runs, one panel per run on shared axes (small multiples: overlaid, the rungs of a
+  ladder hid each other), up sweeps solid with filled markers and down sweeps dashed with open markers; the
   marker is the period class (circle period-1, triangle period-2, square period-n,
   small dot no impact); non-periodic points are crosses with a bar over the range of
   their per-period amplitude Q_k (``amplitude_min`` .. ``amplitude_max``, when the run
   stored them: one sample of an attractor is not one number); failed points (no
-  amplitude) are red crosses along the bottom of the axes.
+  amplitude) are red crosses along the bottom of the axes; a scene with a lower stop has
+  both stops drawn as horizontal lines (:func:`vibeam.plots.style.stop_lines`).
 * ``bifurcation.png`` (:func:`bifurcation_figure`): stroboscopic displacement against
   the forcing frequency, small dots, one row per time-domain run and one column per sweep
   direction, every panel on the same axes.
@@ -64,12 +66,25 @@ def axes_data(r):
             style.label(r"amplitude $Q = \Delta - \min q$", None))
 
 
+def _model_of(r, case=None) -> dict:
+    """The model table of run ``r``: the one it stored (``attrs["model"]``), else the case's
+    ``[model]`` with the run's overrides; {} without either."""
+    m = (getattr(r, "attrs", None) or {}).get("model")
+    if isinstance(m, dict):
+        return m
+    if case is None:
+        return {}
+    own = next((x.model for x in getattr(case, "run", []) if x.name == r.name), None) or {}
+    return dict(case.model, **own)
+
+
 def _directions(r, n):
     return np.asarray([str(v) for v in r.data.get("direction", ["up"] * n)])
 
 
 def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
-    """The FRC of every run in one axes (see the module docstring); a Figure.
+    """The FRC of every run: one axes for one run, one panel per run (shared axes) for several
+    (see the module docstring); a Figure.
 
     Parameters
     ----------
@@ -84,11 +99,25 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
     import matplotlib.pyplot as plt
 
     with style.context():
-        fig, ax = plt.subplots(figsize=(8.0, 4.6))
+        n = len(runs)
+        ncol = 1 if n <= 1 else 2
+        nrow = max(1, -(-n // ncol))
+        if n <= 1:
+            fig, ax0 = plt.subplots(figsize=(8.0, 4.6))
+            axes = [ax0]
+        else:       # small multiples: one panel per run on shared axes (overlaid runs hide each other)
+            fig, grid = plt.subplots(nrow, ncol, figsize=(4.2 * ncol + 3.0, 2.1 * nrow + 1.3), sharex=True,
+                                     sharey=True, squeeze=False)
+            axes = list(grid.ravel())
+            for extra in axes[n:]:
+                fig.delaxes(extra)
+            axes = axes[:n]
+            for a in grid.ravel()[max(n - ncol, 0):n]:
+                a.xaxis.set_tick_params(labelbottom=True)
         col = colours or style.colours(style.run_names(case, runs))
-        classes, dirs_seen = {}, []
+        classes, dirs_seen, stops_seen = {}, [], {}
         xl = yl = ""
-        for r in runs:
+        for ax, r in zip(axes, runs):
             x, y, xl, yl = axes_data(r)
             c = col.get(r.name, "0.3")
             period = np.asarray(r.data.get("period", np.ones(len(x), dtype=int)))
@@ -134,8 +163,17 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
             if "amplitude_lower" in r.data:
                 ax.plot(x, np.asarray(r.data["amplitude_lower"], float) * _mm(r), ":", color=c, lw=1.0)
                 classes["lower branch of P(Q) = 0 (dotted)"] = "lower"
-        ax.set_xlabel(xl)
-        ax.set_ylabel(yl)
+            for q, lab in style.stop_lines(_model_of(r, case)):   # the stops' positions on the amplitude axis
+                ls = style.STOP_LINES["upper" if q == 0.0 else "lower"]
+                ax.axhline(q, color="0.35", ls=ls, lw=0.9, zorder=1, gid="stop")
+                stops_seen[lab.split(" (")[0]] = ls
+            if n > 1:
+                ax.set_title(f"{r.name} ({r.method})", loc="left", color=c)
+        for i, ax in enumerate(axes):
+            if i + ncol >= n or n <= 1:                  # the lowest panel of each column
+                ax.set_xlabel(xl)
+        # one amplitude label for the shared axis, at the middle row of the first column
+        axes[((nrow - 1) // 2) * ncol if n > 1 else 0].set_ylabel(yl)
         handles = [style.proxy(col[r.name], ls="-", label=f"{r.name} ({r.method})") for r in runs
                    if r.name in col]
         handles += [style.proxy("0.25", ls=style.DIRECTIONS[d]["ls"], marker="o", fill=style.DIRECTIONS[d]["fill"],
@@ -147,14 +185,28 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
                 handles.append(style.proxy("0.25", ls=":", label=lab))
             else:
                 handles.append(style.proxy("0.25", marker=mk, label=lab, ms=3 if mk == "." else 5))
+        handles += [style.proxy("0.35", ls=ls, label=f"{lab} (horizontal line)") for lab, ls in stops_seen.items()]
         style.legend_outside(fig, handles)
         style.titles(fig, title or "frequency response curves", style.subtitle(case, runs=runs))
     return fig
 
 
+def impact_speed_scale(r):
+    """Factor from a run's nondimensional impact speeds (``impact_velocity``, per length L and
+    time unit 1/omega_n) to mm/s at the stop: ``L 2 pi f_n 1e3`` for a physical run (one whose
+    FRC is in Hz and mm, with ``length_m`` and ``natural_frequency_hz``); None for a
+    nondimensional one."""
+    a = getattr(r, "attrs", {}) or {}
+    L, fn = a.get("length_m"), a.get("natural_frequency_hz")
+    if "frequency_hz" in r.data and "amplitude_mm" in r.data and L and fn:
+        return float(L) * 2.0 * np.pi * float(fn) * 1e3
+    return None
+
+
 def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None):
-    """Impacts of two-sided runs per stop against frequency: mean pre-impact speed (top) and
-    impacts per period (bottom), upper stop solid, lower stop dotted, up filled and down open
+    """Impacts of two-sided runs per stop against frequency: mean pre-impact speed (top; mm/s
+    against Hz for physical runs, nondimensional against Omega otherwise) and impacts per
+    period (bottom), upper stop solid, lower stop dotted, up filled and down open
     markers.  Where the lower stop is hit the amplitude ``Delta - min q`` saturates at
     ``Delta + Delta_lower``; these carry the information.  A Figure, or None when no run has a
     lower stop (``impacts_per_period_lower``)."""
@@ -167,8 +219,12 @@ def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None
         col = colours or style.colours(style.run_names(case, runs))
         fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8.0, 5.6), sharex=True)
         xl, dirs_seen = "", []
+        phys = all(impact_speed_scale(r) is not None for r in runs)
         for r in runs:
             x, _, xl, _ = axes_data(r)
+            if not phys:      # one axis for every run: nondimensional against Omega unless all are physical
+                x, xl = np.asarray(r.data["Omega"], float), style.label(r"forcing frequency $\Omega = f/f_n$", None)
+            k = impact_speed_scale(r) if phys else 1.0
             c = col.get(r.name, "0.3")
             direc = _directions(r, len(x))
             for dname in ("up", "down"):
@@ -181,10 +237,11 @@ def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None
                 o = np.argsort(x[sel])
                 for key_v, key_n, ls in (("impact_velocity", "impacts_per_period", "-"),
                                          ("impact_velocity_lower", "impacts_per_period_lower", ":")):
-                    for ax, key in ((ax1, key_v), (ax2, key_n)):
-                        ax.plot(x[sel][o], np.asarray(r.data[key], float)[sel][o], ls=ls, marker="o",
+                    for ax, key, f in ((ax1, key_v, k), (ax2, key_n, 1.0)):
+                        ax.plot(x[sel][o], np.asarray(r.data[key], float)[sel][o] * f, ls=ls, marker="o",
                                 ms=3.5, color=c, mec=c, mfc=c if fill else "none", lw=1.0)
-        ax1.set_ylabel(style.label(r"mean pre-impact speed $|\dot q^-|$", None))
+        ax1.set_ylabel(style.label(r"mean pre-impact speed $|v^-|$", "mm/s") if phys else
+                       style.label(r"mean pre-impact speed $|\dot q^-|$", None))
         ax2.set_ylabel(style.label("impacts per period", None))
         ax2.set_xlabel(xl)
         handles = [style.proxy(col.get(r.name, "0.3"), ls="-", label=f"{r.name} ({r.method})") for r in runs]
@@ -225,7 +282,7 @@ def bifurcation_figure(runs, title: str = "", case=None, colours: dict | None = 
         col = colours or style.colours(style.run_names(case, runs))
         fig, axes = plt.subplots(len(runs), len(dirs), figsize=(4.0 * len(dirs) + 2.6, 2.0 * len(runs) + 1.2),
                                  squeeze=False, sharex=True, sharey=True)
-        xl = ""
+        xl, stops_seen = "", {}
         for row, r in zip(axes, runs):
             x, _, xl, _ = axes_data(r)
             s = np.asarray(r.data["strobe"], float)[:, :, 0] * _mm(r)
@@ -241,12 +298,17 @@ def bifurcation_figure(runs, title: str = "", case=None, colours: dict | None = 
                 xs = np.repeat(x[sel][:, None], s.shape[1], axis=1)
                 ax.plot(xs.ravel(), s[sel].ravel(), ls="none", marker="o", ms=style.DOT_SIZE, color=c, mfc=c,
                         mew=0, zorder=3)
+                for q, lab in style.stop_positions(_model_of(r, case)):   # the stops on the displacement axis
+                    ls = style.STOP_LINES["upper" if lab.startswith("upper") else "lower"]
+                    ax.axhline(q, color="0.35", ls=ls, lw=0.9, zorder=1, gid="stop")
+                    stops_seen[lab] = ls
             phys = "amplitude_mm" in r.data
             row[0].set_ylabel(style.label(f"{style.DISPLACEMENT} at phase 0", "mm") if phys else
                               style.label("$q$ at phase 0", None))
         for ax in axes[-1]:
             ax.set_xlabel(xl)
         handles = [style.proxy(col.get(r.name, "0.3"), marker="o", label=f"{r.name} ({r.method})") for r in runs]
+        handles += [style.proxy("0.35", ls=ls, label=f"{lab} (horizontal line)") for lab, ls in stops_seen.items()]
         style.legend_outside(fig, handles)
         style.titles(fig, (title + ": " if title else "") + "bifurcation diagram (stroboscopic map)",
                      style.subtitle(case, runs=runs))
@@ -287,12 +349,14 @@ def simulation_figure(sim):
         axes[0].set_title("displacement", loc="left")
         axes[1].set_title("velocity", loc="left")
         axes[2].set_title("phase portrait", loc="left")
-        handles = [style.proxy(c, ls="-", label=f"{sim.status}")]
+        # the legend names what is drawn; the point's outcome (status) goes in the subtitle
+        handles = [style.proxy(c, ls="-", label=f"recorded motion ({len(t)} samples)")]
         if len(ti):
             handles.append(style.proxy(style.PALETTE[1], marker="v", label=f"impacts ({len(ti)})"))
         style.legend_outside(fig, handles)
         f = f"{sim.Omega * sim.natural_frequency_hz:.4g} Hz, " if phys else ""
-        style.titles(fig, f"one forcing frequency: {f}$\\Omega$ = {sim.Omega:.6g}",
-                     f"period {sim.summary.get('period')}, {sim.summary.get('impacts_per_period', 0):.3g} impacts "
-                     f"per period")
+        name = getattr(sim, "name", "")
+        style.titles(fig, f"{name + ': ' if name else ''}one forcing frequency: {f}$\\Omega$ = {sim.Omega:.6g}",
+                     f"{style.motion_text(sim.summary.get('period'), sim.status)}, "
+                     f"{sim.summary.get('impacts_per_period', 0):.3g} impacts per period")
     return fig
