@@ -153,3 +153,47 @@ def test_the_second_stops_stiffness_is_fitted_by_path():
     assert abs(res.estimate[0] - 4e3) <= 2 * bound[0] + 10 * 1e-8 * 4e3, (res.estimate, bound)
     assert res.estimate[0] == pytest.approx(4e3, rel=1e-8), res.estimate
     np.testing.assert_array_equal(synthetic_reference(case, Om, {"stops[1].law.stiffness": 4e3}).y, ref.y)
+
+
+# ----------------------------------------------------------------------------- continuation by path
+def _continued(tmp_path, parameter, tag):
+    """Continuation of the two-sided Fig. 7 scene (Newton stops, R = R_lower = 0.9) in
+    ``parameter`` at Omega = 2.0 over [0.6, 0.9], from the sweep's settled orbit."""
+    d = tomllib.loads((ROOT / "cases" / "paper-fig7-two-sided.toml").read_text())
+    d.pop("quick", None)
+    d.pop("map", None)
+    d.pop("basins", None)
+    d["name"] = "paths-cont"
+    d["sweep"] = {"Omega": [1.9, 2.1, 3], "transient_periods": 400, "record_periods": 16}
+    d["run"] = [{"name": "c", "method": "continuation", "parameter": parameter, "at": 2.0, "range": [0.6, 0.9],
+                 }]
+    res = vibeam.continuation(d, jobs=1, out=tmp_path / tag)
+    return res.branches[0]
+
+
+def test_continuation_in_the_lower_stops_R_by_path_is_the_flat_keys(tmp_path):
+    """``stops[1].law.R`` stands for ``R_lower`` (the lower stop at the mass): the continued
+    branches are the same to the last bit; the results name the path, unit '1'."""
+    a = _continued(tmp_path, "R_lower", "flat")
+    b = _continued(tmp_path, "stops[1].law.R", "path")
+    assert b.parameter == "stops[1].law.R" and a.parameter == "R_lower"
+    assert len(a.branches) == len(b.branches) >= 1
+    for x, y in zip(a.branches, b.branches):
+        assert set(x["data"]) == set(y["data"])
+        for k in x["data"]:
+            np.testing.assert_array_equal(np.asarray(x["data"][k]), np.asarray(y["data"][k]), err_msg=k)
+    assert b.attrs["parameter"] == "stops[1].law.R"
+    assert sum(len(x["data"]["parameter"]) for x in b.branches) > 10      # not two empty branches
+    import h5py
+
+    with h5py.File(tmp_path / "path" / "results.h5") as f:
+        g = f["branches/c"]
+        assert g.attrs["parameter"] == "stops[1].law.R" and g["parameter"].attrs["units"] == "1"
+
+
+def test_continuation_in_a_path_no_shooting_problem_takes_is_one_line():
+    d = _sdof_case(copy.deepcopy(SDOF))
+    d["run"] = [{"name": "c", "method": "continuation", "parameter": "stops[1].law.stiffness", "at": 0.8,
+                 "range": [1e3, 5e3]}]
+    with pytest.raises(CaseError, match=r"'run\[0\].parameter' = 'stops\[1\].law.stiffness' cannot be continued"):
+        vibeam.load_case(d)

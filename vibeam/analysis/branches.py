@@ -19,6 +19,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from vibeam.case.contact import model_with
+from vibeam.case.paths import alias_of, key_of
+from vibeam.io.netcdf import parameter_units
 from vibeam.io.results import branch_name
 
 from vibeam.errors import CaseError
@@ -27,6 +30,13 @@ from vibeam.errors import CaseError
 PARAMETER_UNITS = {"Omega": "1 (forcing frequency / natural frequency)", "voltage": "V", "gain": "1/V",
                    "gap_mm": "mm (grazing gap at the sensor)", "damping_ratio": "1", "R": "1", "B": "1",
                    "Delta": "1", "beta": "1"}
+
+
+def units_of(name: str) -> str:
+    """Units of a continuation parameter, a flat key or a path into the scene (its last key)."""
+    return PARAMETER_UNITS.get(name) or PARAMETER_UNITS.get(key_of(name)) or parameter_units(name)
+
+
 BRANCH_UNITS = {
     "amplitude": "1 (Q = Delta - min q, paper Sec. 4.1)",
     "amplitude_mm": "mm (at the sensor)",
@@ -72,6 +82,10 @@ class BranchTask:
         The ``[map]`` parameter of a case with two-parameter curves.
     curve_range : (float, float) or None
         Its range.
+    label : str or None
+        The parameter as the case names it, when that is a path into the scene
+        (``stops[1].law.R``: :mod:`vibeam.case.paths`) and ``parameter`` the flat key it
+        stands for (``R_lower``); the results carry the label.
     """
 
     key: str
@@ -85,6 +99,7 @@ class BranchTask:
     sweep_periods: tuple = (400, 16)
     curve_key: str | None = None
     curve_range: tuple | None = None
+    label: str | None = None
 
     #: the progress bar of :func:`vibeam.engine.sweep.run_lines` advances per start (and curves)
     reports_progress = True
@@ -182,7 +197,9 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
         curve_key = case.map.parameter
         v = case.map.grid()
         curve_range = (float(np.min(v)), float(np.max(v)))
-    return BranchTask(key=key, run=r.name, spec=spec, parameter=r.parameter, lo=float(lo), hi=float(hi),
+    key_ = alias_of(model_with(case.model, dict(r.model)), r.parameter)
+    return BranchTask(key=key, run=r.name, spec=spec, parameter=key_, label=r.parameter if key_ != r.parameter else None,
+                      lo=float(lo), hi=float(hi),
                       at=at, settings=settings,
                       sweep_periods=(case.sweep.transient_periods, max(16, case.sweep.record_periods)),
                       curve_key=curve_key, curve_range=curve_range)
@@ -523,8 +540,9 @@ class ContinuationResult:
 
 def assemble(task: BranchTask, row: dict) -> ContinuationResult:
     spec = task.spec
-    attrs = {"parameter": task.parameter, "range": np.array([task.lo, task.hi]),
-             "parameter_units": PARAMETER_UNITS.get(task.parameter, "")}
+    name = task.label or task.parameter
+    attrs = {"parameter": name, "range": np.array([task.lo, task.hi]),
+             "parameter_units": units_of(name) if task.label else PARAMETER_UNITS.get(task.parameter, "")}
     fn, L = _natural_frequency(spec), _length_m(spec)
     if fn:
         attrs["natural_frequency_hz"] = fn
@@ -537,7 +555,7 @@ def assemble(task: BranchTask, row: dict) -> ContinuationResult:
     if task.curve_key:
         attrs["curve_parameter"] = task.curve_key
     attrs["model"] = spec.model_dump()
-    return ContinuationResult(name=task.run, fidelity=spec.fidelity, parameter=task.parameter,
+    return ContinuationResult(name=task.run, fidelity=spec.fidelity, parameter=name,
                               settings=task.settings, branches=row.get("branches", []),
                               starts=row.get("starts", []), curves=row.get("curves", []),
                               status=row.get("status", "failed"), message=row.get("message", ""),
@@ -609,7 +627,7 @@ def branch_variables(r) -> tuple:
         extra = tuple(max((a.shape[i] if a.ndim > i else 0) for a in arrays) for i in range(1, nd))
         dims = ("branch", "point") + tuple(_BRANCH_EXTRA.get(k, f"{k}_dim{i}") if i == 0 else f"{k}_dim{i}"
                                            for i in range(len(extra)))
-        u, ln = _cf(PARAMETER_UNITS.get(r.parameter, "1") if k == "parameter" else BRANCH_UNITS.get(k, k))
+        u, ln = _cf(units_of(r.parameter) if k == "parameter" else BRANCH_UNITS.get(k, k))
         if k == "parameter":
             ln = f"continuation parameter {r.parameter}" + (f" ({ln})" if ln else "")
         data = _padded(arrays, n_p, extra)
@@ -621,7 +639,7 @@ def branch_variables(r) -> tuple:
     for k, a in t.items():
         a = np.asarray(a)
         name = "bifurcation_branch" if k == "branch" else k      # "branch" is the parent's dimension
-        u, ln = _cf(PARAMETER_UNITS.get(r.parameter, "1") if k == "parameter" else
+        u, ln = _cf(units_of(r.parameter) if k == "parameter" else
                     {"type": "1 (fold, period_doubling, neimark_sacker, grazing, sticking)",
                      "branch": "1 (index of the branch it lies on)", "period": "1 (period-n of that branch)",
                      "detail": "1 (what was located)"}.get(k, BRANCH_UNITS.get(k, k)))
@@ -644,7 +662,7 @@ def branch_variables(r) -> tuple:
                                    "detail of the curve's status"),
               "curve_period": var(("curve",), np.array([c["n"] for c in C], np.int64), "1",
                                   "period-n of the orbits along the curve")}
-        u1, _ = _cf(PARAMETER_UNITS.get(r.parameter, "1"))
+        u1, _ = _cf(units_of(r.parameter))
         cv["parameter"] = var(("curve", "curve_point"), _padded([c["p1"] for c in C], n_c, ()), u1,
                               f"continuation parameter {r.parameter}")
         from vibeam.io.netcdf import parameter_units
@@ -684,7 +702,7 @@ def _x(r: ContinuationResult, p: float) -> str:
     fn = r.attrs.get("natural_frequency_hz")
     if r.parameter == "Omega":
         return f"{p * fn:.6f} Hz (Omega {p:.8f})" if fn else f"Omega = {p:.10f}"
-    return f"{r.parameter} = {p:.10g} {_SHORT_UNITS.get(r.parameter, '')}".rstrip()
+    return f"{r.parameter} = {p:.10g} {_SHORT_UNITS.get(key_of(r.parameter), '')}".rstrip()
 
 
 def print_results(results: list) -> None:

@@ -242,3 +242,48 @@ def key_of(name: str) -> str:
     and its schema bounds are looked up by."""
     return name.rsplit(".", 1)[-1] if is_path(name) else name
 
+
+
+def _role(model: dict, i: int) -> int | None:
+    """0 for the paper's stop (the first upper stop at the attached mass), 1 for the lower stop
+    at the mass, None for a stop elsewhere (a point stop on the beam)."""
+    stops = model.get("stop")
+    if not isinstance(stops, list):
+        return i
+    at_mass = [j for j, s in enumerate(stops) if isinstance(s, dict) and "position_mm" not in s]
+    up = [j for j in at_mass if stops[j].get("side", "upper") == "upper"]
+    lo = [j for j in at_mass if stops[j].get("side", "upper") == "lower"]
+    if up and i == up[0]:
+        return 0
+    if lo and i == lo[0]:
+        return 1
+    return None
+
+
+def alias_of(model: dict, name: str) -> str:
+    """The flat key a parameter path stands for in ``model`` (a ``[model]`` table), where one
+    exists: ``stops[0].law.R`` -> ``R``, ``stops[1].law.R`` -> ``R_lower``, ``stops[1].Delta``
+    -> ``Delta_lower``, ``stops[0].gap_mm`` -> ``gap_mm``, ``system.damping_ratio`` ->
+    ``damping_ratio``, ...; the name itself otherwise (a flat key, or a path no flat key names:
+    a law's stiffness, a point stop's position).  What a method that knows the flat keys (the
+    continuation's shooting problems) is given.
+
+    Raises
+    ------
+    ValueError
+        A path that is not valid or names a stop the scene does not have.
+    """
+    if not is_path(name):
+        return name
+    kind, i, key = parse(name)
+    if kind == "model":
+        return key
+    _refuse_index(name, i, model)
+    role = _role(model, i)
+    if role is None:
+        return name
+    if kind == "stop" and key in _SHORT_GAPS:
+        return _SHORT_GAPS[key][role]
+    if kind == "law" and key == "R":
+        return ("R", "R_lower")[role]
+    return name

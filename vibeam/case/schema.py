@@ -1666,8 +1666,10 @@ def _check_continuation(case: Case, i: int, r) -> None:
                         f"continue the plain scene")
     native = getattr(spec, "native_parameter", None)
     if native is not None:
+        from vibeam.case.paths import alias_of
+
         try:
-            native(r.parameter)
+            native(alias_of(model_with(case.model, dict(r.model)), r.parameter))
         except ValueError as e:
             raise CaseError(f"'run[{i}].parameter' = {quote_value(r.parameter)} {e}") from None
     if r.parameter != "Omega":
