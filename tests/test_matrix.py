@@ -61,7 +61,8 @@ def _cells(spec: str) -> set:
 #: law: the beam's two Hertz-type stops; 69 with a Newton upper stop above a Kelvin-Voigt lower one on
 #: the SDOF; 90 with the beam's stops carrying their own laws: a Newton stop beside a compliant one at
 #: the mass, either above, and a compliant stop at the mass beside Newton stops elsewhere on the beam;
-#: 97 with the one pointwise mapping: the SDOF's two compliant stops and mixed stops)
+#: 97 with the one pointwise mapping: the SDOF's two compliant stops and mixed stops; 113 with the SDOF's
+#: point rows as [[model.stop]] tables, a Newton stop of its own R below the mass)
 WORKING = _cells("""
 sdof restitution one: event direct mapping averaging continuation
 sdof restitution two: event direct mapping continuation
@@ -91,6 +92,10 @@ beam lankarani_nikravesh mixed: event direct continuation
 beam linear point: event direct continuation
 beam hunt_crossley point: event direct continuation
 beam lankarani_nikravesh point: event direct continuation
+sdof restitution point: event direct mapping continuation
+sdof linear point: event direct mapping continuation
+sdof hunt_crossley point: event direct mapping continuation
+sdof lankarani_nikravesh point: event direct mapping continuation
 """)
 
 BEAM_MODEL = tomllib.loads((ROOT / "cases" / "rig-fe-neutral.toml").read_text())["model"]
@@ -121,11 +126,14 @@ def case_of(fid: str, law: str, stops: str, methods) -> dict:
         lower = ("gap_lower_mm", 0.3)
     up = _law(fid, law)
     if stops == "point":
-        # every stop a [[model.stop]] table: the upper one at the mass with the law, one below the tip
+        # every stop a [[model.stop]] table: the upper one at the mass with the law, a Newton stop of
+        # its own R below the tip (the SDOF, one point: below the mass, at Delta_lower)
         first = {"side": "upper", "R": model.pop("R"),
                  **({"Delta": model.pop("Delta")} if fid == "sdof" else {"gap_mm": model.pop("gap_mm")})}
         first.update({k: v for k, v in (up or {}).items() if k != "R"})
-        model["stop"] = [first, {"side": "lower", "position_mm": 180.0, "contact_gap_mm": 0.6, "R": 0.9}]
+        second = {"side": "lower", "Delta": lower[1]} if fid == "sdof" else \
+            {"side": "lower", "position_mm": 180.0, "contact_gap_mm": 0.6}
+        model["stop"] = [first, {**second, "R": 0.9}]
     elif up is not None:
         model["contact"] = up
     if stops not in ("one", "point"):
@@ -160,7 +168,9 @@ def test_the_matrix_accepts_exactly_the_working_cells_and_refuses_the_others_in_
     # 43 before lankarani_nikravesh (13 cells of its own), 3 with a stop away from the mass, 21 with the
     # beam's mixed stops and compliant stops beside point stops, 7 with the one pointwise mapping (the
     # SDOF's two compliant stops and mixed stops)
-    assert len(WORKING) == 97
+    # 16 with the SDOF's [[model.stop]] rows (the point row of the SDOF: a Newton stop of its own R
+    # below the mass; they were refused only because the row put it at position_mm, a beam key)
+    assert len(WORKING) == 113
 
 
 @pytest.mark.parametrize("row", sorted({c[:3] for c in WORKING if c[3] == "event"}), ids="-".join)
