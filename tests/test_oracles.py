@@ -136,3 +136,71 @@ def test_a_hertz_exponent_of_the_case_is_the_power_of_the_force(p):
     np.testing.assert_allclose(tr.contacts[:, 2], con[:, 2], rtol=1e-6)   # largest penetration
     np.testing.assert_allclose(tr.contacts[:, 4], con[:, 3], rtol=1e-6)   # entry speed
     assert m.contact.exponent == p
+
+
+# ------------------------------------------------------------------ 2. Floquet multipliers' order
+
+def _check_spectrum(mu, M):
+    """``mu`` is LAPACK's set of eigenvalues of ``M`` (each matched to 1e-13 of the largest
+    modulus: round-off of a 2 x 2 closed form against dgeev), by non-increasing modulus (ties
+    within round-off), a complex pair with its positive imaginary part first (LAPACK's order)."""
+    ref = np.linalg.eigvals(M)
+    scale = np.abs(ref).max()
+    dist = np.abs(mu[:, None] - ref[None, :])
+    assert dist.min(axis=1).max() <= 1e-13 * scale and dist.min(axis=0).max() <= 1e-13 * scale, (mu, ref)
+    assert np.all(np.diff(np.abs(mu)) <= 1e-13 * scale), (mu, ref)
+    assert abs(mu[0]) == pytest.approx(np.abs(ref).max(), rel=1e-13)
+    if abs(ref[0].imag) > 1e-12 * scale:
+        assert mu[0].imag > 0.0 and mu[1] == pytest.approx(np.conj(mu[0]), rel=1e-13)
+
+
+@pytest.mark.parametrize("M", [
+    [[-0.9, 0.3], [0.1, -0.2]],          # negative trace, real pair (|mu| 0.94, 0.16)
+    [[-1.3, 0.0], [0.0, 0.4]],           # negative trace, a flip beyond -1 and a stable one
+    [[-0.1, 0.2], [0.3, -1.7]],          # negative trace, the larger one in the second row
+    [[0.2, 0.5], [-0.5, 0.2]],           # complex pair, positive trace
+    [[-0.6, 0.9], [-0.4, -0.3]],         # complex pair, negative trace
+    [[0.5, 0.0], [0.0, -0.5]],           # real pair of equal modulus, opposite signs, trace 0
+    [[-0.5, 1.0], [0.0, -0.5]],          # a double multiplier -0.5 (Jordan block)
+    [[0.3, 0.2], [0.2, 0.3]],            # positive trace, real pair
+    [[1e-3, 2.0], [-4.0, -1e-3]],        # complex pair of large modulus, trace 0
+])
+def test_floquet_multipliers_of_a_2x2_monodromy_against_lapack(M):
+    """The continuation's 2 x 2 spectrum (closed form, vibeam.models.continuation_kernels._eig2
+    through floquet_spectrum_small) against numpy.linalg.eigvals (LAPACK dgeev): the same set,
+    by decreasing modulus, for negative traces, complex pairs and real pairs of equal modulus;
+    ``det(M + I)`` against numpy.linalg.det; ``max |mu| - 1`` over the complex ones written out."""
+    from vibeam.models.continuation_kernels import floquet_spectrum_small
+
+    M = np.array(M, float)
+    mu, pd, ns = floquet_spectrum_small(M)
+    _check_spectrum(mu, M)
+    assert pd == pytest.approx(np.linalg.det(M + np.eye(2)), rel=1e-13, abs=1e-15)
+    ref = np.linalg.eigvals(M)
+    if np.abs(ref.imag).max() > 0:
+        assert ns == pytest.approx(np.abs(ref).max() - 1.0, rel=1e-12, abs=1e-15)
+    else:
+        assert math.isnan(ns)
+
+
+def test_the_multipliers_of_a_continued_branch_through_its_period_doubling_against_lapack():
+    """Fig. 13's period-1 branch (beta = 0.015, B = 0.5e-3, R = 0.9, Delta = 0.5e-3) continued in
+    Omega from 2.25 across its period doubling (Omega ~ 2.281; one branch, no switching): every
+    point's multipliers (the continuation's, stored on the point) are LAPACK's eigenvalues of that
+    point's monodromy by decreasing modulus.  The whole branch has a negative trace (measured
+    -0.96 ... -2.9): complex pairs before the doubling, a real pair beyond (-1.26 and -0.59 at
+    2.285, mu_1 < -1), so both halves of the closed form's negative-trace case are exercised."""
+    from vibeam.models.continuation import Settings, trace
+    from vibeam.models.periodic_sdof import SDOFShooting
+    from vibeam.models.sdof import SDOF, EventSolver
+
+    fig13 = SDOF(0.015, 0.5e-3, 0.9, 0.5e-3)
+    prob = SDOFShooting(fig13, "Omega")
+    x0 = EventSolver(fig13).point(2.25, None, 1000, 1, 16).final_state[:2]
+    branches = trace(prob, x0, 2.25, 1, 2.2, 2.32, +1, Settings(switch=False, max_points=60))
+    pts = branches[0].points
+    assert [f.type for f in branches[0].bifurcations] == ["period_doubling"]
+    assert all(np.trace(p.shot.M) < 0.0 for p in pts)
+    assert sum(abs(p.mu[0].imag) > 0 for p in pts) >= 3 and sum(p.mu[0].real < -1.0 for p in pts) >= 3
+    for p in pts:
+        _check_spectrum(np.asarray(p.mu), p.shot.M)
