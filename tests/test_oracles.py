@@ -204,3 +204,59 @@ def test_the_multipliers_of_a_continued_branch_through_its_period_doubling_again
     assert sum(abs(p.mu[0].imag) > 0 for p in pts) >= 3 and sum(p.mu[0].real < -1.0 for p in pts) >= 3
     for p in pts:
         _check_spectrum(np.asarray(p.mu), p.shot.M)
+
+
+# ------------------------------------------------------------------ 3. Lyapunov exponents of period-n orbits
+
+@pytest.mark.parametrize("W,n,impacts", [(2.285, 2, 2), (2.55, 3, 2)])
+def test_lyapunov_exponents_of_period_2_and_3_orbits_are_their_floquet_exponents(W, n, impacts):
+    """Fig. 13's scene (beta = 0.015, B = 0.5e-3, R = 0.9, Delta = 0.5e-3): a period-2 orbit at
+    Omega = 2.285 (past the period doubling at 2.281; the attractor from rest) and a period-3 one at 2.55 (two impacts per
+    orbit each), their fixed points of ``P^n`` refined by Newton.  The exact Lyapunov exponents
+    of a periodic orbit are ``ln |mu_i| / (n T)``, ``mu`` the eigenvalues (numpy.linalg.eigvals)
+    of the monodromy of ``P^n``: the QR estimate with 1, n and 2n forcing periods per shot (the
+    model function and ``vibeam.lyapunov``'s ``n``) must lie within ``ln cond(V) / t`` of them
+    (the singular values of ``M^K = V D^K V^-1`` are within cond(V) of ``|mu|^K``; module
+    docstring of tests/test_lyapunov.py), plus 1e-12 of round-off; the sum within 1e-11 of
+    ``sum ln |mu| / (n T)`` (Liouville: exact at every shot).  Measured: 5.9e-4 against a bound
+    of 7.4e-4 (period 2), 1.1774e-3 against 1.1810e-3 (period 3; the bound is a theorem, so its
+    closeness is no fragility); a shot of n periods counted as one period of time would scale
+    the exponents by the periods per shot."""
+    import vibeam
+    from vibeam.models.lyapunov import lyapunov_spectrum
+    from vibeam.models.periodic_sdof import SDOFShooting
+    from vibeam.models.sdof import SDOF, EventSolver
+
+    fig13 = SDOF(0.015, 0.5e-3, 0.9, 0.5e-3)
+    prob = SDOFShooting(fig13, "Omega")
+    x = EventSolver(fig13).point(W, None, 2000, 1, 16).final_state[:2]
+    for _ in range(6):
+        s = prob.shot(x, W, n)
+        x = x - np.linalg.solve(s.M - np.eye(2), s.x - x)
+    s = prob.shot(x, W, n)
+    assert s.status == "ok" and s.impact_times.size == impacts
+    assert np.max(np.abs(s.x - x)) < 1e-14 and np.max(np.abs(prob.shot(x, W, 1).x - x)) > 1e-5
+    if n == 3:
+        assert np.max(np.abs(prob.shot(x, W, 2).x - x)) > 1e-5    # not of period 1 or 2
+    mu, V = np.linalg.eig(s.M)
+    assert np.all(np.abs(mu) < 1.0)
+    T = 2 * math.pi / W
+    floquet = np.sort(np.log(np.abs(mu)) / (n * T))[::-1]
+    periods = 1200
+    for per_shot in (1, n, 2 * n):
+        sp = lyapunov_spectrum(prob, x, W, periods // per_shot, n=per_shot)
+        assert sp.status == "ok"
+        bound = math.log(np.linalg.cond(V)) / (periods * T) + 1e-12
+        assert np.all(np.abs(sp.exponents - floquet) <= bound), (per_shot, sp.exponents, floquet, bound)
+        assert abs(sp.exponents.sum() - floquet.sum()) < 1e-11
+        assert sp.time == pytest.approx(periods * T, rel=1e-12)
+    # the API starts one period on (vibeam.simulate's final state): the bound of that point's
+    # monodromy (the same multipliers, other eigenvectors), the largest over the orbit's points
+    conds, y = [], x
+    for _ in range(n):
+        conds.append(np.linalg.cond(np.linalg.eig(prob.shot(y, W, n).M)[1]))
+        y = prob.shot(y, W, 1).x
+    api = vibeam.lyapunov(fig13, Omega=W, shots=periods // n, transient=0, state=np.r_[x, 0.0], n=n)
+    bound = math.log(max(conds)) / (periods * T) + 1e-12
+    assert api.status == "ok" and np.all(np.abs(api.exponents - floquet) <= bound), (api.exponents, floquet)
+    assert api.impacts_per_period == pytest.approx(impacts / n, rel=1e-12)
