@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from vibeam.analysis.regress import compare
 from vibeam.case.schema import parse_case
 
 # ------------------------------------------------------------------ 1. a Hertz-family exponent
@@ -260,3 +261,67 @@ def test_lyapunov_exponents_of_period_2_and_3_orbits_are_their_floquet_exponents
     bound = math.log(max(conds)) / (periods * T) + 1e-12
     assert api.status == "ok" and np.all(np.abs(api.exponents - floquet) <= bound), (api.exponents, floquet)
     assert api.impacts_per_period == pytest.approx(impacts / n, rel=1e-12)
+
+
+# ------------------------------------------------------------------ 4. vibeam regress on NaN patterns
+
+def _regress_file(tmp_path, name, rows):
+    """A results file with one run of the given per-point rows (only what compare reads)."""
+    from vibeam.engine.sweep import Sweep, SweepResult, stack
+    from vibeam.io.results import write_results
+
+    sw = Sweep(Omega=np.array([r["Omega"] for r in rows]), record_periods=16)
+    res = SweepResult(name="exact", fidelity="sdof", method="event", settings={}, data=stack(rows, sw),
+                      wall_time_s=0.0)
+    return write_results(tmp_path / name, [res], "c", "")
+
+
+def _regress_row(W, period, amp, mean=None, lo=None, hi=None):
+    return dict(Omega=W, direction="up", period=period, status="ok", message="", amplitude=amp,
+                amplitude_mean=amp if mean is None else mean, amplitude_std=0.1 if period == 0 else 0.0,
+                amplitude_min=amp if lo is None else lo, amplitude_max=amp if hi is None else hi,
+                record_periods=16)
+
+
+NAN = float("nan")
+
+
+@pytest.mark.parametrize("new,ref", [(NAN, 2.0), (2.0, NAN), (NAN, NAN), (2.0, 2.0)])
+@pytest.mark.parametrize("key", ["amplitude", "amplitude_mean", "amplitude_min", "amplitude_max"])
+def test_regress_fails_a_point_that_is_nan_on_one_side_only(tmp_path, capsys, key, new, ref):
+    """The rule written out here (regress module docstring): a compared value passes when both
+    sides are numbers within ``atol + rtol |ref|`` or both are NaN (the same failed point in
+    both files); a NaN on one side only is a regression.  For a periodic point (period 1) its
+    amplitude is compared, for a non-periodic one (period 0, compared by its spread) the mean,
+    smallest and largest per-period amplitude, one of them NaN on one side (both sides NaN: a
+    failed point, all of them NaN in both files); through compare() and ``vibeam regress``'s exit
+    code (1 = regression)."""
+    from vibeam.cli import main
+    from vibeam.io.results import read_results
+
+    periodic = key == "amplitude"
+
+    both = new != new and ref != ref
+
+    def row(v):
+        if periodic:
+            return _regress_row(1.0, 1, v)
+        if both:      # a failed point: all its statistics NaN (the same in both files)
+            return _regress_row(2.0, 0, NAN, NAN, NAN, NAN)
+        vals = dict(amp=3.0, mean=3.0, lo=2.5, hi=3.5)
+        vals[{"amplitude_mean": "mean", "amplitude_min": "lo", "amplitude_max": "hi"}[key]] = v + (
+            {"amplitude_mean": 1.0, "amplitude_min": 0.5, "amplitude_max": 1.5}[key] if v == v else 0.0)
+        return _regress_row(2.0, 0, **vals)
+
+    d = tmp_path / "x"
+    d.mkdir()
+    f_ref = _regress_file(d, "ref.h5", [row(ref)])
+    f_new = _regress_file(d, "new.h5", [row(new)])
+    expected_fail = (new != new) != (ref != ref)
+    r = compare(read_results(f_new), f_ref, atol=0.0, rtol=1e-6, period=True)[0]
+    assert r.failures == int(expected_fail), (key, new, ref, r)
+    case = d / "c.toml"
+    case.write_text('name = "c"\n[model]\nfidelity = "sdof"\nbeta = 0.05\nB = 0.01\nR = 0.8\nDelta = 0.15\n'
+                    '[sweep]\nOmega = [1.0, 2.0, 2]\n[[run]]\nname = "exact"\nmethod = "event"\n')
+    assert main(["regress", str(case), "--reference", str(f_ref), "--results", str(f_new)]) == int(expected_fail)
+    capsys.readouterr()
