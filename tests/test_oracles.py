@@ -325,3 +325,43 @@ def test_regress_fails_a_point_that_is_nan_on_one_side_only(tmp_path, capsys, ke
                     '[sweep]\nOmega = [1.0, 2.0, 2]\n[[run]]\nname = "exact"\nmethod = "event"\n')
     assert main(["regress", str(case), "--reference", str(f_ref), "--results", str(f_new)]) == int(expected_fail)
     capsys.readouterr()
+
+
+# ------------------------------------------------------------------ 5. the platform filter at f_ref != f_n
+
+def test_the_platform_filter_is_normalised_at_its_reference_frequency():
+    """``[effects.platform]`` with ``reference_frequency_hz = 12`` (the rig's f_n is 7.6 Hz):
+    gamma(f) = gamma_ref |H(f)| / |H(f_ref)|, |H| = 1 / sqrt((1 - r^2)^2 + (2 zeta r)^2), r = f /
+    f_p, written out here (paper Sec. 5.2); so gamma(f_ref) = gamma_ref, the scene's gain.  Per
+    point (effective_gain) and the run attribute gain_ratio_2fn_to_fn to 1e-13 (round-off of a
+    few operations; normalising at f_n instead moves them by |H(12)| / |H(7.6)| ~ 0.35), and the
+    point at 14 Hz is the plain scene with its gain set by hand to gamma(14) (amplitude to 1e-12:
+    the same computation once the gain is the same)."""
+    from vibeam.case.schema import EffectsSpec, load_case
+    from vibeam.engine.effects import wrap_solver
+    from vibeam.engine.sweep import Sweep, run_sweep
+    from vibeam.models import make_solver
+
+    def H(f, fp=3.25, z=0.05):
+        r = np.asarray(f, float) / fp
+        return 1.0 / np.sqrt((1.0 - r * r) ** 2 + (2.0 * z * r) ** 2)
+
+    case, _ = load_case("cases/rig-neutral.toml")
+    spec = case.model_spec({"gain": 1.5e-3})
+    model = spec.build()
+    fn = model.natural_frequency_hz
+    assert abs(fn - 12.0) > 1.0
+    eff = EffectsSpec.model_validate({"platform": {"frequency_hz": 3.25, "damping_ratio": 0.05,
+                                                   "reference_frequency_hz": 12.0}})
+    s = wrap_solver(make_solver(model, "event"), model, spec, eff, {})
+    f = np.array([12.0, 14.0, 16.5])
+    sw = dict(transient_periods=60, record_periods=8, continuation=False)
+    res = run_sweep(s, Sweep(Omega=f / fn, **sw), jobs=1)
+    np.testing.assert_allclose(res.data["effective_gain"], 1.5e-3 * H(f) / H(12.0), rtol=1e-13)
+    assert res.data["effective_gain"][0] == pytest.approx(1.5e-3, rel=1e-13)
+    assert s.run_attrs["gain_ratio_2fn_to_fn"] == pytest.approx(float(H(2 * fn) / H(fn)), rel=1e-13)
+    assert s.run_attrs["platform_reference_frequency_hz"] == 12.0
+    g14 = float(1.5e-3 * H(14.0) / H(12.0))
+    m14 = case.model_spec({"gain": g14}).build()
+    plain = run_sweep(make_solver(m14, "event"), Sweep(Omega=np.array([14.0 / fn]), **sw), jobs=1)
+    assert plain.data["amplitude"][0] == pytest.approx(res.data["amplitude"][1], rel=1e-12)
