@@ -505,3 +505,47 @@ def test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration(n_mo
             return np.concatenate([v, -D * om2 * v - om2 * eta + gam * Y * Wt * Wt * math.sin(Wt * t)])
         t1 = _first_crossing(rhs, 2, row, gap, 1.0, 1 / (64 * f_hz))
     assert tr.impact_times[0] == pytest.approx(2 * math.pi * f_ref * t1, rel=1e-10)
+
+
+# ------------------------------------------------------------------ 9. defaults exercised directly
+
+def test_the_continuation_step_is_capped_at_ds_max():
+    """Fig. 13's smooth period-1 branch (Omega 1.5 ... 2.0, no bifurcation) with ``ds_max = 0.02``
+    (default 0.05; ``ds = 0.01`` grows by 1.6 per fast step): every accepted step's arclength
+    along the previous tangent, ``t_k . (u_{k+1} - u_k)`` (the pseudo-arclength constraint the
+    corrector solves; its predictor adds the curvature term ds^2 kappa / 2, nearly normal to t:
+    measured 2e-5 of ds beyond it) is at most ds_max (+1e-4 relative), the cap is reached (5 or
+    more steps within 1e-4 of it), and the branch needs at least its arclength over ds_max
+    steps.  Without the cap the steps grow by 1.6 to 0.05 and beyond."""
+    from vibeam.models.continuation import Settings, trace
+    from vibeam.models.periodic_sdof import SDOFShooting
+    from vibeam.models.sdof import SDOF, EventSolver
+
+    fig13 = SDOF(0.015, 0.5e-3, 0.9, 0.5e-3)
+    prob = SDOFShooting(fig13, "Omega")
+    x0 = EventSolver(fig13).point(1.5, None, 400, 1, 16).final_state[:2]
+    ds_max = 0.02
+    (br,) = trace(prob, x0, 1.5, 1, 1.5, 2.0, +1, Settings(switch=False, ds_max=ds_max))
+    assert br.status == "range_end" and not br.bifurcations
+    pts = br.points
+    steps = np.array([float(a.t @ (b.u - a.u)) for a, b in zip(pts[:-1], pts[1:])])
+    assert np.all(steps > 0) and steps.max() <= ds_max * (1 + 1e-4), steps.max()
+    assert np.sum(np.abs(steps - ds_max) < 1e-4 * ds_max) >= 5
+    length = sum(float(np.linalg.norm(b.u - a.u)) for a, b in zip(pts[:-1], pts[1:]))
+    assert len(pts) - 1 >= length / ds_max
+
+
+@pytest.mark.parametrize("n_modes", ['"static"', 2])
+def test_the_beams_lower_gap_is_converted_to_the_contact_point(n_modes):
+    """A beam's ``gap_lower_mm`` (at the sensor) is ``gap_lower_mm phi(x_m)`` at the contact point
+    in m (phi of the static mode written out, phi(x_S) = 1), ``contact_gap_lower_mm`` (with
+    ``contact_gap_mm``) is taken as it is, for the static-mode and the FE models; the upper gap likewise (round-off: 1e-12)."""
+    base = POINT_RIG.split("[[model.stop]]")[0].format(n_modes=n_modes)
+    sweep = "[sweep]\nfrequency_hz = [14.0, 17.0, 5]\n[[run]]\nname = \"event\"\nmethod = \"event\"\n"
+    phim = _phi_static(132.0 / 180.0, 132.0 / 180.0, 100.0 / 180.0)
+    for keys, up, low in (("R = 0.8\ngap_mm = 0.1\ngap_lower_mm = 0.3\n", 0.1e-3 * phim, 0.3e-3 * phim),
+                          ("R = 0.8\ncontact_gap_mm = 0.2\ncontact_gap_lower_mm = 0.45\n", 0.2e-3, 0.45e-3)):
+        text = base.replace("n_elements = 24\n", "n_elements = 24\n" + keys) + sweep
+        m = parse_case(text).model_spec().build()
+        assert m.gap_contact_m == pytest.approx(up, rel=1e-12)
+        assert m.gap_contact_lower_m == pytest.approx(low, rel=1e-12)
