@@ -595,8 +595,9 @@ def test_poincare_of_a_period_one_orbit_against_the_shooting_solution(tmp_path):
 
 
 def test_derive_and_modes_need_no_cli_helper():
-    """vibeam.derive / vibeam.modes: the rows and modes of vibeam.case.beamscene; an SDOF case
-    is refused in one line."""
+    """vibeam.derive / vibeam.modes: the rows and modes of vibeam.case.beamscene, and against the
+    paper's static-mode formulas and LAPACK (independent oracles); an SDOF case is refused in one
+    line."""
     from vibeam.case.beamscene import derive as bs_derive, modes_report
 
     case = vibeam.load_case(ROOT / "cases" / "rig-fe-tight.toml")
@@ -605,6 +606,37 @@ def test_derive_and_modes_need_no_cli_helper():
     assert "[model]" in d.sdof_case_text and vibeam.load_case(d.sdof_case_text).model_spec().fidelity == "sdof"
     m = vibeam.modes(case, n=3)
     np.testing.assert_array_equal(m.modes.frequencies_hz, modes_report(case.model_spec(), 3)["modes"].frequencies_hz)
+    # independent of those helpers: the static-mode rows against paper Eqs. 42-46 written out
+    # here (the calibrated EI and rho A as input; the case's m, positions, beta, gain, V, gap), to
+    # 1e-9 relative (f_1 = 7.6 Hz is the calibration's target, reached to ~5e-12; the rest is
+    # round-off), and the modes: f_1, f_2 the calibration's targets, f_3 LAPACK's (the FE
+    # matrices' inverse problem M v = K v / omega^2 by scipy.linalg.eigh), to 1e-9
+    import scipy.linalg
+    from scipy.integrate import quad
+
+    row = {r[0]: float(r[1]) for r in d.rows}
+    L, xm, xs, mass, beta, f1 = 0.18, 132.0 / 180.0, 100.0 / 180.0, 0.2, 0.017, 7.6
+
+    def y(u):
+        return u * u * (3 * xm - u) / 6 if u <= xm else xm * xm * (3 * u - xm) / 6
+
+    phim = y(xm) / y(xs)
+    EI, rhoA = row["EI"], row["rho A"]
+    wn = np.sqrt(3 * EI / (mass * (xm * L) ** 3))       # K_S / M_S, beam mass excluded (Eqs. 45-46)
+    D = 2 * beta / (2 * np.pi * f1)
+    int_phi2 = quad(lambda u: (y(u) / y(xs)) ** 2, 0, xm, epsabs=0, epsrel=1e-13)[0] + \
+        quad(lambda u: (y(u) / y(xs)) ** 2, xm, 1, epsabs=0, epsrel=1e-13)[0]
+    want = {"phi(x_m)": phim, "M_S": mass * phim ** 2, "K_S": wn ** 2 * mass * phim ** 2, "omega_n": wn,
+            "f_n": wn / (2 * np.pi), "D": D, "beta_S": D * wn / 2, "gamma~": 3.78e-4 * phim * L,
+            "gamma": 3.78e-4, "B": 3.78e-4 * 0.6, "Delta_C": -0.1 * phim, "Delta_G": -0.1, "Delta": -0.1 / 180.0,
+            "f_n with beam mass": np.sqrt(wn ** 2 * mass * phim ** 2 / (mass * phim ** 2 + rhoA * L * int_phi2))
+            / (2 * np.pi)}
+    for k, v in want.items():
+        assert row[k] == pytest.approx(v, rel=1e-9), k
+    nd = m.fe.K.shape[0]
+    mu = scipy.linalg.eigh(m.fe.M, m.fe.K, eigvals_only=True, subset_by_index=[nd - 3, nd - 1])[::-1]
+    np.testing.assert_allclose(m.modes.frequencies_hz, 1 / np.sqrt(mu) / (2 * np.pi), rtol=1e-9)
+    np.testing.assert_allclose(m.modes.frequencies_hz[:2], [7.6, 98.75], rtol=1e-9)
     with pytest.raises(CaseError, match="'model.fidelity' = 'sdof'.*needs a beam scene"):
         vibeam.derive(FIG7)
     with pytest.raises(ValueError, match="n = 0"):

@@ -159,19 +159,32 @@ def test_the_api_settles_the_case_and_converts_to_seconds():
     """``vibeam.lyapunov`` on the shipped two-sided Fig. 7 case (its first run's model) equals the
     model-level spectrum from the same settled state (the same computation: to round-off), and on
     the physical rig scene gives the exponents per second as ``2 pi f_n`` times the
-    nondimensional ones (hand conversion); bad arguments get one line."""
+    nondimensional ones (hand conversion); bad arguments get one line.  Independently of the
+    function the API calls, both sums obey Liouville's formula ``-2 beta + 2 ln R x (impacts per
+    unit time)`` with the case files' values written here."""
     import vibeam
 
     res = vibeam.lyapunov("cases/paper-fig7-two-sided.toml", Omega=CHAOS_OMEGA, shots=400, transient=400)
     sp = lyapunov_spectrum(SDOFShooting(TWO_SIDED, "Omega"), _attractor(TWO_SIDED, CHAOS_OMEGA), CHAOS_OMEGA, 400)
     assert res.status == "ok" and res.exponents_per_s is None
     np.testing.assert_allclose(res.exponents, sp.exponents, rtol=1e-9, atol=1e-15)
+    # independent of the function it calls: Liouville's formula (both stops R = 0.9, beta = 0.015
+    # of the case file) with the API's own impact count, to 1e-11 as above (measured 2e-15)
+    ipp = res.impacts_per_period
+    assert ipp > 1.0
+    assert abs(res.exponents.sum() - (-2 * BETA + 2 * math.log(R) * ipp * CHAOS_OMEGA / (2 * math.pi))) < 1e-11
     rig = vibeam.lyapunov("cases/rig-neutral.toml", frequency_hz=15.0, shots=200, transient=200)
     case = vibeam.load_case("cases/rig-neutral.toml")
     assert rig.status == "ok"
     fn = case.model_spec().natural_frequency_hz
     np.testing.assert_allclose(rig.exponents_per_s, rig.exponents * 2 * math.pi * fn,
                                rtol=1e-15)
+    # the rig's per-second sum by Liouville with the case file's values written here (f_n = 7.6 Hz,
+    # damping_ratio 0.017, R = 0.72; Omega = 15 / 7.6): 1e-11 of the nondimensional sum (times 2 pi
+    # f_n ~ 48), round-off of the logarithms over 200 shots
+    W_rig = 15.0 / 7.6
+    liouville = 2 * math.pi * 7.6 * (-2 * 0.017 + 2 * math.log(0.72) * rig.impacts_per_period * W_rig / (2 * math.pi))
+    assert rig.impacts_per_period > 0 and abs(rig.exponents_per_s.sum() - liouville) < 1e-11 * 2 * math.pi * 7.6
     with pytest.raises(ValueError, match="shots = 1 is not allowed"):
         vibeam.lyapunov(case, frequency_hz=15.0, shots=1)
     with pytest.raises(TypeError, match="shots = 2.5: not a whole number"):

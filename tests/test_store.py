@@ -194,6 +194,70 @@ def test_an_interrupted_rerun_leaves_the_complete_file_byte_for_byte(tmp_path, m
     np.testing.assert_array_equal(a["classification"], c["classification"])
 
 
+
+def _line_bytes(partial) -> dict:
+    """``{dataset path below /lines: bytes}`` of a checkpoint (what a kept line must keep)."""
+    out = {}
+    with h5py.File(partial, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset):
+                v = obj[()]
+                out[name] = v.tobytes() if isinstance(v, np.ndarray) and v.dtype != object else repr(v)
+        f["lines"].visititems(visit)
+    return out
+
+
+def test_an_interrupted_resume_keeps_the_stored_lines_byte_for_byte(tmp_path, monkeypatch, capsys):
+    """A map (4 lines) interrupted after 1 line, resumed and interrupted again after 1 more, then
+    resumed to the end: the second checkpoint holds the first line's datasets byte for byte (read
+    with h5py) beside the new line's, each resume computes only the lines missing (counted where
+    the engine is called: 1 before its interrupt, then 2), and the finished map equals a map run
+    in one go (the oracle: the same case computed without any checkpoint)."""
+    from vibeam.engine import sweep
+
+    case = _write(tmp_path, "smap.toml", MAP.format(R=0.72))
+    out = tmp_path / "D"
+    real = _interrupt_after(monkeypatch, 1)
+    assert main(["map", str(case), "--out", str(out), *QUIET]) == 130
+    partial = out / "results.h5.partial"
+    first = _line_bytes(partial)
+    n_first = len(read_lines(partial)[1]["exact"])
+    assert n_first == 1 and first
+    calls = []
+
+    def counted(lines, **kw):
+        calls.append(len(list(lines)))
+        return real(lines, **kw)
+
+    _interrupt_after(monkeypatch, 1)                # the resume is interrupted after 1 more line
+    wrapped = sweep.run_lines
+
+    def counted_interrupted(lines, **kw):
+        lines = list(lines)
+        calls.append(len(lines))
+        return wrapped(lines, **kw)
+
+    monkeypatch.setattr(sweep, "run_lines", counted_interrupted)
+    assert main(["map", str(case), "--out", str(out), "--resume", *QUIET]) == 130
+    assert calls == [3]                              # the 3 missing lines handed to the engine
+    second = _line_bytes(partial)
+    assert len(read_lines(partial)[1]["exact"]) == 2
+    kept = {k: v for k, v in second.items() if k in first}
+    assert kept == first, sorted(set(first) - set(second))
+    calls.clear()
+    monkeypatch.setattr(sweep, "run_lines", counted)
+    assert main(["map", str(case), "--out", str(out), "--resume", *QUIET]) == 0
+    assert calls == [2] and not partial.exists()
+    capsys.readouterr()
+    monkeypatch.setattr(sweep, "run_lines", real)
+    fresh = tmp_path / "E"
+    assert main(["map", str(case), "--out", str(fresh), *QUIET]) == 0
+    a = read_results(out / "results.h5")["maps"]["exact"]
+    c = read_results(fresh / "results.h5")["maps"]["exact"]
+    for k in ("amplitude", "classification", "impacts_per_period"):
+        np.testing.assert_array_equal(a[k], c[k])
+
+
 def _map8(R: float, name: str) -> str:
     """The map with 4 values: 8 sweep lines."""
     return (MAP.format(R=R).replace('name = "smap"', f'name = "{name}"')

@@ -26,7 +26,8 @@ statistics_periods`` periods for a non-periodic point):
   no-impact orbit against chaos, moves them by the whole range);
 
 each plus ``atol + rtol |ref|``.  With ``period = true`` the period-n
-classifications must agree too.
+classifications must agree too.  A value that is NaN in both files (the same
+failed point) passes; NaN in one file only is a regression.
 
 Multistability: in a continuation sweep each point starts from the previous
 point's final state.  After a non-periodic point (or an unsettled one) that
