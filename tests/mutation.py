@@ -47,21 +47,76 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: module (path in the repository) -> the tests that exercise it (run from the copy's root)
 MODULES = {
-    "vibeam/io/store.py": ["tests/test_store.py"],
-    "vibeam/io/h5check.py": ["tests/test_store.py"],
-    "vibeam/analysis/regress.py": ["tests/test_regress.py", "tests/test_statistics.py"],
-    "vibeam/analysis/attractors.py": ["tests/test_basins.py", "tests/test_basins_region.py"],
-    "vibeam/engine/effects.py": ["tests/test_effects.py"],
-    "models/lyapunov.py": ["tests/test_lyapunov.py", "tests/test_lyapunov_errors.py"],
-    "models/compliant.py": ["tests/test_compliant.py", "tests/test_lankarani_nikravesh.py", "tests/test_beam_hc.py"],
-    "models/continuation.py": ["tests/test_continuation.py"],
-    "models/core/laws.py": ["tests/test_compliant.py", "tests/test_energy_balance.py"],
-    "models/core/shooting.py": ["tests/test_continuation.py", "tests/test_continuation_compliant.py"],
-    "models/core/variational.py": ["tests/test_continuation_compliant.py", "tests/test_continuation_hc_beam.py"],
-    "models/core/signals.py": ["tests/test_event.py", "tests/test_recurrence.py"],
-    "models/core/integrator.py": ["tests/test_event.py", "tests/test_two_sided.py", "tests/test_recurrence.py"],
-    "reductions/static_mode.py": ["tests/test_reductions.py"],
-    "reductions/modal.py": ["tests/test_reductions.py"],
+    "vibeam/io/store.py": [
+        "tests/test_store.py",
+    ],
+    "vibeam/io/h5check.py": [
+        "tests/test_store.py",
+    ],
+    "vibeam/analysis/regress.py": [
+        "tests/test_oracles.py::test_regress_fails_a_point_that_is_nan_on_one_side_only",
+        "tests/test_regress.py",
+        "tests/test_statistics.py",
+    ],
+    "vibeam/analysis/attractors.py": [
+        "tests/test_basins.py",
+        "tests/test_basins_region.py",
+    ],
+    "vibeam/engine/effects.py": [
+        "tests/test_oracles.py::test_the_platform_filter_is_normalised_at_its_reference_frequency",
+        "tests/test_effects.py",
+    ],
+    "vibeam/case/paths.py": [
+        "tests/test_paths.py",
+    ],
+    "models/lyapunov.py": [
+        "tests/test_oracles.py::test_lyapunov_exponents_of_period_2_and_3_orbits_are_their_floquet_exponents",
+        "tests/test_lyapunov.py",
+        "tests/test_lyapunov_errors.py",
+    ],
+    "models/compliant.py": [
+        "tests/test_oracles.py::test_a_hertz_exponent_of_the_case_is_the_power_of_the_force",
+        "tests/test_compliant.py",
+        "tests/test_lankarani_nikravesh.py",
+    ],
+    "models/continuation.py": [
+        "tests/test_oracles.py::test_the_continuation_step_is_capped_at_ds_max",
+        "tests/test_oracles.py::test_the_multipliers_of_a_continued_branch_through_its_period_doubling_against_lapack",
+        "tests/test_continuation.py",
+    ],
+    "models/continuation_kernels.py": [
+        "tests/test_oracles.py::test_floquet_multipliers_of_a_2x2_monodromy_against_lapack",
+        "tests/test_continuation.py",
+    ],
+    "models/core/laws.py": [
+        "tests/test_compliant.py",
+        "tests/test_energy_balance.py",
+    ],
+    "models/core/shooting.py": [
+        "tests/test_continuation.py",
+        "tests/test_continuation_compliant.py",
+    ],
+    "models/core/variational.py": [
+        "tests/test_continuation_compliant.py",
+        "tests/test_continuation_hc_beam.py",
+    ],
+    "models/core/signals.py": [
+        "tests/test_event.py",
+        "tests/test_recurrence.py",
+    ],
+    "models/core/integrator.py": [
+        "tests/test_event.py",
+        "tests/test_two_sided.py",
+        "tests/test_recurrence.py",
+    ],
+    "reductions/static_mode.py": [
+        "tests/test_oracles.py::test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration",
+        "tests/test_reductions.py",
+    ],
+    "reductions/modal.py": [
+        "tests/test_oracles.py::test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration",
+        "tests/test_reductions.py",
+    ],
 }
 
 
