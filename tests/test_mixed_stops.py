@@ -117,3 +117,48 @@ def test_mixed_stops_are_served_by_the_mapping_and_refused_by_the_textbook_metho
     assert shooting_problem(m, "Omega", Omega=1.0).shot(np.zeros(2), 1.0, 1).status == "ok"
     assert isinstance(make_solver(m, "event"), EventSolver)
     assert isinstance(make_solver(m, "direct"), DirectSolver)
+
+
+def test_a_compliant_lower_stop_has_its_own_target_R():
+    """Issue 43: an SDOF with a Newton upper stop (R 0.9) and a Kelvin-Voigt lower stop of target
+    R 0.8, as two [[model.stop]] tables (refused before: 'a compliant lower stop takes the upper
+    stop's target R').  The lower law's isolated impact, integrated here by solve_ivp with the
+    force-zero exit (the law's stiffness and damping only), has restitution 0.8 (1e-8: the
+    integration's tolerance); the upper stop keeps Newton's 0.9; the shorthand table with
+    [model.contact_lower] R = 0.8 is the same scene (bit for bit); event and direct agree from rest
+    over 2 periods to 1e-7 of the motion (tests/test_matrix.py's bound) with both stops hit."""
+    import vibeam
+    from scipy.integrate import solve_ivp
+
+    base = {"fidelity": "sdof", "beta": 0.015, "B": 5e-3}
+    listed = dict(base, stop=[{"side": "upper", "Delta": 0.002, "R": 0.9},
+                              {"side": "lower", "Delta": 0.003, "R": 0.8, "law": "linear", "stiffness": 3e3}])
+    short = dict(base, R=0.9, Delta=0.002, Delta_lower=0.003,
+                 contact_lower={"law": "linear", "stiffness": 3e3, "R": 0.8})
+
+    def case(model):
+        return vibeam.load_case({"name": "own-R", "model": model, "sweep": {"Omega": [0.75, 0.8, 2]},
+                                 "run": [{"name": "event", "method": "event"},
+                                         {"name": "direct", "method": "direct", "solver": "DOP853",
+                                          "rtol": 1e-10, "atol": 1e-13}]})
+
+    a, b = case(listed), case(short)
+    m = a.model_spec().build()
+    lo = m.stops()[1].law
+    assert m.R == 0.9 and m.stops()[0].law.R == 0.9 and lo.R == 0.8
+    w, z = math.sqrt(lo.stiffness), lo.damping_ratio
+
+    def rhs(t, y):
+        return [y[1], -2 * z * w * y[1] - w * w * y[0]]
+
+    def force_zero(t, y):
+        return w * w * y[0] + 2 * z * w * y[1]
+    force_zero.terminal, force_zero.direction = True, -1
+    sol = solve_ivp(rhs, (0.0, 10 * math.pi / w), [0.0, 1.0], events=force_zero, rtol=1e-12, atol=1e-14,
+                    method="DOP853")
+    assert -sol.y_events[0][0][1] == pytest.approx(0.8, abs=1e-8)
+    sims = [vibeam.simulate(c, run=r, Omega=0.75, periods=2, transient=0) for c in (a, b) for r in ("event", "direct")]
+    np.testing.assert_array_equal(sims[0].q, sims[2].q)                      # shorthand = [[model.stop]]
+    ev, di = sims[0], sims[1]
+    assert len(set(ev.trajectory.impact_stops.tolist())) == 2               # both stops hit
+    assert np.max(np.abs(ev.q - di.q)) <= 1e-7 * np.max(np.abs(ev.q))

@@ -58,12 +58,15 @@ def test_a_path_sets_the_one_key_it_stands_for():
     assert parameter_paths(listed) == ["stops[0].Delta", "stops[0].law.R", "stops[1].Delta", "stops[1].law.R",
                                        "stops[1].law.stiffness"]
     assert parameter_paths(SDOF) == ["stops[0].Delta", "stops[0].law.R", "stops[0].law.stiffness",
-                                     "stops[1].Delta", "stops[1].law.stiffness"]
+                                     "stops[1].Delta", "stops[1].law.R", "stops[1].law.stiffness"]
+    # a compliant lower stop's own target R (issue 43: it had to be the upper stop's)
+    assert set_value(m, "stops[1].law.R", 0.6)["contact_lower"] == {"law": "linear", "stiffness": 3e3, "R": 0.6}
+    assert get_value(m, "stops[1].law.R") == 0.8 and get_value(set_value(m, "stops[1].law.R", 0.6),
+                                                               "stops[1].law.R") == 0.6
 
 
 @pytest.mark.parametrize("path,needle", [
     ("stops[2].law.R", "the scene has 2 stop(s)"),
-    ("stops[1].law.R", "takes the upper stop's target R"),
     ("stops[0].gap_mm", "gives its gap as Delta"),
     ("stops[0].law.exponent", "takes R, stiffness"),
     ("stops[0].R", "a law's key: stops[0].law.R"),

@@ -56,7 +56,8 @@ class ContactSpec(BaseModel):
     """``[model.contact]`` (the stop of the paper) or ``[model.contact_lower]`` (a second stop
     below, default the upper stop's law: law ``restitution`` with its own ``R`` beside a
     restitution upper stop, or a compliant law with its own stiffness beside a compliant one;
-    its target restitution is ``[model] R``): module docstring."""
+    a compliant lower stop's target restitution is its own ``R``, default ``[model] R``; the
+    upper stop's R is ``[model] R``): module docstring."""
 
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True, allow_inf_nan=False)
 
@@ -89,9 +90,6 @@ class ContactSpec(BaseModel):
             if given:
                 raise ValueError(f"law = \"{self.law}\" takes no {', '.join(given)} (it uses [model] R)")
             return self
-        if self.R is not None:
-            raise ValueError(f"R is a key of law = \"restitution\" (a lower stop's own R); law = \"{self.law}\" "
-                             f"takes its target restitution from [model] R")
         if (self.stiffness is None) == (self.stiffness_n_m is None):
             raise ValueError(f"law = \"{self.law}\" needs exactly one of stiffness (nondimensional, ratio to the "
                              f"oscillator's) or stiffness_n_m (N/m, physical scenes)")
@@ -101,6 +99,12 @@ class ContactSpec(BaseModel):
                 raise ValueError(f"{key} is a key of law = {laws} only: {key} = {getattr(self, key)!r} with "
                                  f"law = \"{self.law}\"; allowed keys: law, {', '.join(own)}")
         return self
+
+
+def target_R(table: ContactSpec | None, R: float) -> float:
+    """The target restitution of a compliant stop's table: its own ``R`` (a lower stop's), else
+    ``R`` (``[model] R``)."""
+    return R if table is None or table.R is None else float(table.R)
 
 
 def sdof_law(contact: ContactSpec | None, R: float, physical: bool, natural_frequency_hz: float | None,
@@ -281,11 +285,8 @@ def stops_as_keys(data: dict, fidelity: str) -> dict:
             if getattr(w, key) is not None:
                 out[k_lo] = getattr(w, key)
         table = w.law_table()
-        if w.law == "restitution":
-            table["R"] = w.stop_R
-        elif w.stop_R != u.stop_R:
-            raise ValueError(f"stop[{lo[0]}]: R = {w.stop_R}: a compliant lower stop takes the upper stop's "
-                             f"target R ({u.stop_R}); allowed: the same R")
+        if w.law == "restitution" or w.stop_R != u.stop_R:
+            table["R"] = w.stop_R        # Newton's R, or a compliant law's own target R
         out["contact_lower"] = table
     points = [s for i, s in enumerate(specs) if not at_mass[i]]
     for s in points:

@@ -143,8 +143,8 @@ def get_value(model: dict, name: str):
     if kind == "stop":
         return model.get(_SHORT_GAPS[key][i]) if key in _SHORT_GAPS else None
     if key == "R":
-        law, table, where = _law_of_short(model, i)
-        if i == 1 and where == "contact_lower" and not is_compliant(law) and table.get("R") is not None:
+        _, table, where = _law_of_short(model, i)
+        if i == 1 and where == "contact_lower" and table.get("R") is not None:
             return table["R"]
         return model.get("R")
     return _law_of_short(model, i)[1].get(key)
@@ -160,8 +160,7 @@ def set_value(model: dict, name: str, value) -> dict:
     ------
     ValueError
         One line naming the path: not a valid path; a stop the scene does not have; a key its
-        stop or law does not take (a gap given as another key, a restitution law's stiffness);
-        a compliant lower stop's R in a shorthand table (it is the upper stop's target R).
+        stop or law does not take (a gap given as another key, a restitution law's stiffness).
     """
     kind, i, key = parse(name)
     out = dict(model)
@@ -198,11 +197,8 @@ def set_value(model: dict, name: str, value) -> dict:
     if key == "R":
         if i == 0:
             out["R"] = value
-        elif is_compliant(law):
-            raise ValueError(f"{name!r}: a compliant lower stop given by the shorthand keys takes the upper stop's "
-                             f"target R ([model] R, stops[0].law.R); give the stops as [[model.stop]] tables")
-        else:
-            lo = dict(model.get("contact_lower") or {"law": "restitution"})
+        else:            # the lower stop's own R: Newton's, or its compliant law's target R
+            lo = dict(model.get("contact_lower") or ({"law": "restitution"} if not is_compliant(law) else table))
             lo["R"] = value
             out["contact_lower"] = lo
         return out
@@ -230,8 +226,7 @@ def parameter_paths(model: dict) -> list[str]:
     for i in _short_stops(model):
         out += [f"stops[{i}].{k}" for k, pair in _SHORT_GAPS.items() if isinstance(model.get(pair[i]), (int, float))]
         law, table, _ = _law_of_short(model, i)
-        if not (i == 1 and is_compliant(law)):
-            out.append(f"stops[{i}].law.R")
+        out.append(f"stops[{i}].law.R")
         if law in LAWS:
             out += [f"stops[{i}].law.{k}" for k in _keys_of(law)[1:] if isinstance(table.get(k), (int, float))]
     return out

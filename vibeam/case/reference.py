@@ -35,8 +35,8 @@ TABLES = (
     ("[model.discs]", schema.DiscsSpec, "the attached mass as a stack of discs (paper Sec. 5)"),
     ("[model.calibrate]", schema.CalibrateSpec, "EI (and J) fitted to measured bending frequencies"),
     ("[model.contact], [model.contact_lower]", ContactSpec,
-     "the contact law of the stop and of a second stop below; compliant laws take their target "
-     "restitution from [model] R"),
+     "the contact law of the stop and of a second stop below; the stop's compliant law takes its target "
+     "restitution from [model] R, the lower stop's from its own R (default [model] R)"),
     ("[[model.stop]]", StopSpec,
      "one table per stop, each complete: where, its gap, its law with the law's keys and its R (instead of "
      "the shorthand keys R, Delta, gap_mm, ... and [model.contact]); the first upper stop at the attached "
@@ -147,7 +147,7 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
     "[model.contact], [model.contact_lower]": {
         "law": ("", "one of " + ", ".join(f'"{n}"' for n in IMPLEMENTED_LAWS) + ": \"restitution\" is Newton's "
                 "law (Eq. 2), the others compliant laws with a contact phase (vibeam.models.compliant)"),
-        "R": ("1", "a lower restitution stop's own R (default [model] R)"),
+        "R": ("1", "the lower stop's own R: Newton's, or its compliant law's target (default [model] R)"),
         "stiffness": ("1", "contact stiffness k_c over the oscillator's stiffness (nondimensional scenes)"),
         "stiffness_n_m": ("N/m (N/m^p)", "contact stiffness (physical scenes; Hertz-type laws: N/m^p)"),
         "damping_ratio": ("1", "linear law: damping ratio of the contact phase (else set by [model] R)"),

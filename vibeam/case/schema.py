@@ -33,7 +33,7 @@ import tomllib
 from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
-from vibeam.case.contact import ContactSpec, StopSpec, model_with, stops_as_keys  # [model.contact] (issue 13), [[model.stop]]
+from vibeam.case.contact import ContactSpec, StopSpec, model_with, stops_as_keys, target_R  # [model.contact] (issue 13), [[model.stop]]
 from vibeam.models.registry import is_compliant
 from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
@@ -301,7 +301,8 @@ class SDOFModelSpec(_StopsSpec):
             m = dataclasses.replace(m, contact=law, mass_kg=self.contact.mass_kg)
         lo = lower_law_spec(self)
         if lo is not None:   # a compliant lower stop with its own [model.contact_lower] table
-            m = dataclasses.replace(m, contact_lower=sdof_law(lo, self.R, self.physical, self.natural_frequency_hz,
+            m = dataclasses.replace(m, contact_lower=sdof_law(lo, target_R(lo, self.R), self.physical,
+                                                              self.natural_frequency_hz,
                                                               self.length_mm * 1e-3 if self.physical else None))
         return m
 
@@ -322,7 +323,7 @@ class SDOFModelSpec(_StopsSpec):
             check_scale(self.B, f"'{prefix}.B'")
         for key, table in (("contact", self.contact), ("contact_lower", lower_law_spec(self))):
             try:
-                law = sdof_law(table, self.R, self.physical, self.natural_frequency_hz,
+                law = sdof_law(table, target_R(table, self.R), self.physical, self.natural_frequency_hz,
                                self.length_mm * 1e-3 if self.physical else None)
             except ValueError as e:
                 raise CaseError(f"'{prefix}.{key}': {e}") from None
@@ -615,7 +616,8 @@ class BeamModelSpec(_StopsSpec):
 
         m = build_beam_model(self)
         law = beam_law(self.contact, self.R)
-        lower = beam_law(lower_law_spec(self), self.R)
+        lo = lower_law_spec(self)
+        lower = beam_law(lo, target_R(lo, self.R))
         if law is not None:   # a compliant stop (issue 13): the beam's compliant model
             from vibeam.models.beam_dynamics import CompliantBeamModel
 
@@ -653,7 +655,7 @@ class BeamModelSpec(_StopsSpec):
 
         for key, table in (("contact", self.contact), ("contact_lower", lower_law_spec(self))):
             try:
-                beam_law(table, self.R)
+                beam_law(table, target_R(table, self.R))
             except ValueError as e:
                 raise CaseError(f"'{prefix}.{key}': {e}") from None
         if isinstance(n, int) and n > dofs:
