@@ -121,9 +121,17 @@ MODULES = {
 
 
 #: mutants judged equivalent (no reachable state of the program tells them apart), by module,
-#: operator and the original source line (stripped), with the reason; they are reported as
-#: ``equivalent`` and left out of the score (tests/README.md, "Tool-generated mutants")
+#: operator and the original source line (stripped) -- and the column where one line has several
+#: sites of the operator --, with the reason; they are reported as ``equivalent`` and left out of
+#: the score (tests/README.md, "Tool-generated mutants")
 EQUIVALENT = {
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_GtE", 'if key == "position_mm":'):
+        "key is one of STOP_KEYS here (parse refused the rest): position_mm, gap_mm, contact_gap_mm, Delta; "
+        "of these only position_mm is >= 'position_mm' ('g', 'c', 'D' sort before 'p')",
+    ("vibeam/engine/effects.py", "core/ReplaceBinaryOperator_Mul_Mod", "lo, hi = 1e-6 * f1, f1 * (1 - 1e-9)", 18):
+        "the scan for f_p starts at 1e-6 % f1 = 1e-6 Hz instead of 1e-6 f1 (f1 > 1e-6 Hz): below 1e-6 f1 "
+        "the gain ratio is flat ((f1 / f2)^2 to 1e-12), so the same first sign change is bracketed and "
+        "brentq (xtol 1e-14) returns the same f_p to 1e-14",
     ("vibeam/io/store.py", "core/ReplaceComparisonOperator_Eq_GtE",
      'if "case_text" not in g.attrs and h == old_origin["case_hash"]:'):
         "every group without its own case_text carries the old origin's hash (groups written by this "
@@ -195,6 +203,23 @@ def mutants_of(path: Path) -> list:
             return [m for item in db.work_items for m in item.mutations]
 
 
+def annotation_only(spec, src: list) -> bool:
+    """Whether a mutant replaces the ``|`` of a union in a function's annotations (``x: float |
+    None``) in a module with ``from __future__ import annotations``: such annotations are strings
+    (PEP 563) that nothing in vibeam evaluates (no pydantic model and no ``get_type_hints`` on
+    functions; numba reads the types of the arguments, not the annotations), so the mutant is
+    equivalent.  Decided from the source, without running it (each would cost a full test run)."""
+    if "BitOr" not in spec.operator_name or "from __future__ import annotations" not in src:
+        return False
+    line = src[spec.start_pos[0] - 1]
+    head = line.lstrip()
+    if not head.startswith("def "):
+        return False
+    col = spec.start_pos[1]
+    close = line.rfind(")")
+    return line.find("(") < col and (close < 0 or col < close or "->" in line[:col])
+
+
 def run(modules, sample: int, seed: int, timeout: float, out: Path | None, verbose: bool) -> dict:
     from cosmic_ray.mutating import mutate_and_test
 
@@ -224,15 +249,27 @@ def run(modules, sample: int, seed: int, timeout: float, out: Path | None, verbo
                 # filled by the first mutant from the clean kernels' source
                 kernel = Path(module).parts[0] in ("models", "reductions")
                 shared = None if kernel else tempfile.mkdtemp(prefix="numba-shared-", dir=tmp)
+                src = Path(copied(module)).read_text().splitlines()
                 for i in chosen:
                     spec = specs[i]
+                    if annotation_only(spec, src):
+                        rows.append({"index": i, "operator": spec.operator_name, "line": spec.start_pos[0],
+                                     "outcome": "equivalent", "seconds": 0.0,
+                                     "diff": f"(a '|' of a function's annotations, line {spec.start_pos[0]}: "
+                                             f"{src[spec.start_pos[0] - 1].strip()})"})
+                        if verbose:
+                            print(f"{module}:{spec.start_pos[0]} {spec.operator_name}: equivalent (annotation)",
+                                  flush=True)
+                        continue
                     os.environ["NUMBA_CACHE_DIR"] = shared or tempfile.mkdtemp(prefix="numba-", dir=tmp)
                     cmd = f"{sys.executable} -m pytest -x -q -n 0 -p no:cacheprovider {tests}"
                     t0 = time.perf_counter()
                     res = mutate_and_test([spec], cmd, timeout)
                     outcome = (res.test_outcome.value if res.test_outcome is not None
                                else res.worker_outcome.value)
-                    if (module, spec.operator_name, _original_line(res.diff or "")) in EQUIVALENT:
+                    line = _original_line(res.diff or "")
+                    if ((module, spec.operator_name, line) in EQUIVALENT
+                            or (module, spec.operator_name, line, spec.start_pos[1]) in EQUIVALENT):
                         outcome = "equivalent"
                     rows.append({"index": i, "operator": spec.operator_name, "line": spec.start_pos[0],
                                  "outcome": outcome, "seconds": round(time.perf_counter() - t0, 1),

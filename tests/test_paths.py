@@ -65,6 +65,23 @@ def test_a_path_sets_the_one_key_it_stands_for():
                                                                "stops[1].law.R") == 0.6
 
 
+def test_a_path_stands_for_the_flat_key_of_its_stop():
+    """alias_of: by the stop's role at the attached mass, in shorthand and [[model.stop]] tables
+    (a listed table's first upper stop at the mass is the paper's, whatever its index); a point
+    stop and a law's stiffness have no flat key."""
+    from vibeam.case.paths import alias_of
+
+    listed = {"fidelity": "beam", "stop": [{"side": "lower", "position_mm": 180.0, "contact_gap_mm": 0.6, "R": 0.9},
+                                           {"side": "lower", "gap_mm": 0.3, "R": 0.7},
+                                           {"side": "upper", "gap_mm": 0.1, "R": 0.8}]}
+    assert alias_of(listed, "stops[2].law.R") == "R" and alias_of(listed, "stops[2].gap_mm") == "gap_mm"
+    assert alias_of(listed, "stops[1].law.R") == "R_lower" and alias_of(listed, "stops[1].gap_mm") == "gap_lower_mm"
+    assert alias_of(listed, "stops[0].law.R") == "stops[0].law.R"           # a point stop: the path itself
+    assert alias_of(SDOF, "stops[0].law.R") == "R" and alias_of(SDOF, "stops[1].Delta") == "Delta_lower"
+    assert alias_of(SDOF, "stops[1].law.stiffness") == "stops[1].law.stiffness"
+    assert alias_of(SDOF, "excitation.B") == "B" and alias_of(SDOF, "voltage") == "voltage"
+
+
 @pytest.mark.parametrize("path,needle", [
     ("stops[2].law.R", "the scene has 2 stop(s)"),
     ("stops[0].gap_mm", "gives its gap as Delta"),

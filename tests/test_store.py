@@ -573,6 +573,8 @@ def test_resume_refuses_a_checkpoint_this_vibeam_would_not_write(tmp_path, monke
     assert len(err) == 1 and err[0].startswith("vibeam: error: ") and str(partial) in err[0], err
     assert f"lines/exact/{key}" in err[0], err
     assert "Traceback" not in err[0]
+    if tamper == "2^37-element chunked dataset":    # its size and the limit, in GiB (2^37 x 8 bytes = 1024 GiB)
+        assert "1.02e+03 GiB once decompressed" in err[0] and "more than the 1 GiB this vibeam reads" in err[0], err
     assert not calls
     assert _snapshot(out) == before
 
