@@ -245,3 +245,42 @@ def test_a_long_first_line_hands_the_next_lines_to_the_pool_while_it_runs():
     ref = run_lines(_lines(4, direction="both"), jobs=1)
     for k in ref:
         np.testing.assert_array_equal([r["amplitude"] for r in out[k]], [r["amplitude"] for r in ref[k]])
+
+
+def test_the_first_compilation_is_announced_before_the_wait():
+    """Issue 44: the quick start sat 49 s in silence after '[paper-fig7] ... 202 points' and said
+    'compiling kernels' only after the wait.  CompileClock's notice is called once, when the
+    first compilation starts (a fresh njit function: numba's compile event), before it ends --
+    and not for a cached kernel (the second call compiles nothing); the runner's notice says it
+    once per process."""
+    import numba
+
+    from vibeam import runner
+    from vibeam.engine.compiling import CompileClock
+
+    seen = []
+
+    @numba.njit(cache=False)
+    def fresh(x):
+        return x + 1.0
+
+    with CompileClock(lambda: seen.append(("notice", c.count))) as c:
+        fresh(1.0)
+        fresh(2.0)                          # compiled already: no second notice
+    assert seen == [("notice", 0)] and c.count >= 1 and c.seconds > 0, (seen, c.count)
+    with CompileClock(lambda: seen.append("again")) as c2:
+        fresh(3.0)                          # nothing compiled: no notice
+    assert "again" not in seen and c2.count == 0
+    runner._NOTICED.clear()
+    said = []
+    real = runner.sys.stderr
+    try:
+        import io
+
+        runner.sys.stderr = buf = io.StringIO()
+        runner.compile_notice()
+        runner.compile_notice()
+        said = buf.getvalue().splitlines()
+    finally:
+        runner.sys.stderr = real
+    assert len(said) == 1 and said[0].startswith("compiling kernels for first use"), said

@@ -298,14 +298,14 @@ def _run_locked(case, text, store, jobs_, tasks, jobs, quiet, plots, resume, exe
         # continuation runs are warmed up (a cut-down run) only before a pool: inline, their
         # compile time is measured where it happens (CompileClock) and taken out of the run time
         pooled_tasks = tasks if (executor is None and jobs != 1 and len(todo) + len(tasks) > 1) else []
-        cc = CompileClock()
+        cc = CompileClock(compile_notice)
         if (todo or pooled_tasks) and executor is None:
             # numba kernels loaded (or compiled) once, here: a forked worker inherits them
-            with CompileClock() as cc:
+            with CompileClock(compile_notice) as cc:
                 timing["kernel_load_s"] = load_kernels(todo + pooled_tasks)
         n_workers, why = plan_execution(case, jobs_, todo, jobs, executor) if not tasks else (jobs, "")
         t_run = last_flush[0] = time.perf_counter()
-        with CompileClock() as cr:
+        with CompileClock(compile_notice) as cr:
             run_lines(todo + tasks, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet,
                       desc=case.name, stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
         timing["run_s"] = time.perf_counter() - t_run - cr.seconds
@@ -437,6 +437,26 @@ lines, collect the rows): measured 0.05-0.15 s for 2 workers on the development 
 COMPILE_NOTICE_S = 1.0
 
 
+_NOTICED = []
+
+
+def compile_notice() -> None:
+    """The line said when numba starts compiling a kernel in this process (once per process,
+    before the wait: :class:`vibeam.engine.compiling.CompileClock`'s ``notice``); the time it took
+    follows in :func:`announce_kernels`' line."""
+    if _NOTICED:
+        return
+    _NOTICED.append(True)
+    msg = ("compiling kernels for first use (numba: 10-60 s once per machine and vibeam version, "
+           "then loaded from its cache in about a second) ...")
+    try:
+        from tqdm import tqdm
+
+        tqdm.write(msg, file=sys.stderr)       # above a progress bar, if one is drawn
+    except ImportError:                        # pragma: no cover - tqdm is a dependency
+        print(msg, file=sys.stderr)
+
+
 def announce_kernels(seconds: float, what: str) -> None:
     """The one line that says a first run compiled (or loaded) its kernels, and for how long,
     so that the time is not mistaken for the run's (it is kept out of every run time)."""
@@ -515,12 +535,12 @@ def _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plo
     compiled = 0.0
     if executor is None and jobs != 1 and len(tasks) > 1:
         # before a pool: load the kernels here, a forked worker inherits them
-        with CompileClock() as cc:
+        with CompileClock(compile_notice) as cc:
             load_kernels(tasks)
         compiled += cc.seconds
     t_run = time.perf_counter()
     task_rows = {}
-    with CompileClock() as cr:
+    with CompileClock(compile_notice) as cr:
         done = run_lines(tasks, executor=executor, jobs=jobs, progress=not quiet, desc=case.name)
     run_s = time.perf_counter() - t_run - cr.seconds
     announce_kernels(compiled + cr.seconds, f"{len(tasks)} continuation run(s)")

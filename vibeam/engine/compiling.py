@@ -16,7 +16,9 @@ import time
 
 class CompileClock:
     """Context manager: ``seconds`` spent compiling (outermost compilations) and ``count`` of
-    specialisations compiled while it was open.
+    specialisations compiled while it was open; ``notice`` (a callable, optional) is called once
+    when the first compilation starts -- loading a kernel from numba's cache is not one -- so
+    that a first run can say it is compiling before the wait, not after it (issue 44).
 
     Examples
     --------
@@ -25,12 +27,13 @@ class CompileClock:
     >>> c.seconds, c.count
     """
 
-    def __init__(self):
+    def __init__(self, notice=None):
         self.seconds = 0.0
         self.count = 0
         self._depth = 0
         self._t0 = 0.0
         self._listener = None
+        self._notice = notice
 
     def __enter__(self):
         from numba.core import event
@@ -41,6 +44,9 @@ class CompileClock:
             def on_start(self, ev):
                 if clock._depth == 0:
                     clock._t0 = time.perf_counter()
+                    if clock._notice is not None:      # said once, when the first compilation starts
+                        notice, clock._notice = clock._notice, None
+                        notice()
                 clock._depth += 1
 
             def on_end(self, ev):
