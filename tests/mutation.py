@@ -125,6 +125,8 @@ MODULES = {
 #: sites of the operator --, with the reason; they are reported as ``equivalent`` and left out of
 #: the score (tests/README.md, "Tool-generated mutants")
 EQUIVALENT = {
+    ("models/compliant.py", "core/ReplaceComparisonOperator_Eq_GtE", "if R == 1.0:"):
+        "the line above refuses R outside (e^-2, 1], so R >= 1.0 holds exactly when R == 1.0",
     ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_GtE", 'if key == "position_mm":'):
         "key is one of STOP_KEYS here (parse refused the rest): position_mm, gap_mm, contact_gap_mm, Delta; "
         "of these only position_mm is >= 'position_mm' ('g', 'c', 'D' sort before 'p')",
