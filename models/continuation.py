@@ -1057,6 +1057,88 @@ class ScaledParameter:
         return getattr(self.prob, name)
 
 
+class FiniteDifferenceParameter:
+    """A shooting problem continued in a parameter its problems do not carry as one of theirs
+    (a law's stiffness, a stop's position: a parameter path of the case, issue 43): one problem
+    per value, ``make(p)`` (each continued in its own parameter, held at ``native``), and ``d x /
+    d p`` by central differences of their shots, ``h = rel_step max(|p|, scale)`` (error
+    O(h^2); the shots' state is exact to round-off, so ``rel_step = 1e-5`` leaves ~1e-10 of
+    ``x_p``).  An inexact ``F_p`` changes only the corrector's path and the tangent: a point is
+    a zero of ``F`` (the residual is the exact shot), and its multipliers come from the exact
+    monodromy.  No compiled corrector (``correct`` is None): the corrector runs in Python.
+
+    Parameters
+    ----------
+    make : callable
+        ``p -> problem``: the shooting problem of the scene with the parameter set to ``p``.
+    parameter : str
+        The parameter's name (for messages and results).
+    native : float
+        The value of each problem's own parameter at which it is shot (e.g. the frequency Omega).
+    p0 : float
+        A value of the parameter (the start; the scale of the step).
+    rel_step : float
+        Relative step of the central differences.
+    """
+
+    def __init__(self, make, parameter: str, native: float, p0: float, rel_step: float = 1e-5):
+        if not (math.isfinite(p0) and math.isfinite(native)):
+            raise ContinuationError(f"{parameter!r}: start {p0} and native value {native} must be finite")
+        self.make = make
+        self.parameter = parameter
+        self.native = float(native)
+        self.value = float(p0)
+        self.scale = max(abs(float(p0)), 1e-300)
+        self.rel_step = float(rel_step)
+        self._probs: dict = {}
+        self.dim = self._at(p0).dim
+
+    def _at(self, p):
+        """The problem at ``p`` (the last few kept: a shot and its two neighbours)."""
+        p = float(p)
+        prob = self._probs.get(p)
+        if prob is None:
+            if len(self._probs) >= 6:
+                self._probs.pop(next(iter(self._probs)))
+            prob = self._probs[p] = self.make(p)
+        return prob
+
+    def shot(self, x0, p, n=1, derivatives: bool = True, stuck=None):
+        s = self._at(p).shot(x0, self.native, n, derivatives, stuck)
+        if not derivatives or s.status != "ok":
+            return s
+        h = self.rel_step * max(abs(float(p)), self.scale)
+        a = self._at(float(p) + h).shot(x0, self.native, n, False, stuck)
+        b = self._at(float(p) - h).shot(x0, self.native, n, False, stuck)
+        if a.status == "ok" and b.status == "ok":
+            s.x_p = (np.asarray(a.x) - np.asarray(b.x)) / (2.0 * h)
+        elif a.status == "ok":
+            s.x_p = (np.asarray(a.x) - np.asarray(s.x)) / h
+        elif b.status == "ok":
+            s.x_p = (np.asarray(s.x) - np.asarray(b.x)) / h
+        else:
+            s.x_p = np.full_like(np.asarray(s.x, float), np.nan)
+        return s
+
+    correct = None
+
+    @property
+    def starts(self):
+        return getattr(self._at(self.value), "starts", ())
+
+    def start(self, kind, p, n=1):
+        return self._at(p).start(kind, self.native, n)
+
+    def resect(self, x0, p, n):
+        f = getattr(self._at(p), "resect", None)
+        return None if f is None else f(x0, self.native, n)
+
+    def __getattr__(self, name):
+        if name in ("make", "_probs", "value"):
+            raise AttributeError(name)
+        return getattr(self._at(self.value), name)
+
+
 def _prob_name(prob) -> str:
     return str(getattr(prob, "parameter", "p"))
 

@@ -211,9 +211,42 @@ def test_continuation_in_the_lower_stops_R_by_path_is_the_flat_keys(tmp_path):
         assert g.attrs["parameter"] == "stops[1].law.R" and g["parameter"].attrs["units"] == "1"
 
 
-def test_continuation_in_a_path_no_shooting_problem_takes_is_one_line():
+def test_continuation_in_a_path_the_scene_does_not_set_is_one_line():
+    """A law key the case leaves to its default (the Kelvin-Voigt damping ratio, set by R) has no
+    value to start from: refused in one line naming the path; a stop the scene does not have too."""
     d = _sdof_case(copy.deepcopy(SDOF))
-    d["run"] = [{"name": "c", "method": "continuation", "parameter": "stops[1].law.stiffness", "at": 0.8,
-                 "range": [1e3, 5e3]}]
-    with pytest.raises(CaseError, match=r"'run\[0\].parameter' = 'stops\[1\].law.stiffness' cannot be continued"):
-        vibeam.load_case(d)
+    for path, needle in (("stops[1].law.damping_ratio", "is not set in this scene"),
+                         ("stops[2].law.stiffness", "the scene has 2 stop(s)")):
+        d["run"] = [{"name": "c", "method": "continuation", "parameter": path, "at": 0.8, "range": [0.01, 0.1]}]
+        with pytest.raises(CaseError) as e:
+            vibeam.load_case(d)
+        msg = str(e.value)
+        assert f"'run[0].parameter' = '{path}'" in msg and needle in msg and "\n" not in msg, msg
+
+
+def test_continuation_in_the_second_stops_stiffness_gives_orbits_of_the_scene_with_it_written():
+    """Issue 43, 'continue a parameter only a path can name': the SDOF's lower Kelvin-Voigt
+    stiffness continued at Omega = 0.8 over [2e3, 6e3] (d x / d k by central differences of the
+    scene's shots).  Oracle: at points along the branch, the scene built with that stiffness
+    *written* in [model.contact_lower] and its event integrator -- one forcing period from the
+    branch's state returns to it to 1e-8 of the state (tests/test_matrix.py's bound: the shot
+    converges to 1e-10, one period grows an error by at most max|mu|).  The results name the
+    path."""
+    from vibeam.models import make_solver
+
+    d = _sdof_case(copy.deepcopy(SDOF))
+    d["run"] = [{"name": "k", "method": "continuation", "parameter": "stops[1].law.stiffness", "at": 0.8,
+                 "range": [2e3, 6e3], "start": "sweep", "start_at": 3e3}]
+    res = vibeam.continuation(d, jobs=1)
+    r = res.branches[0]
+    assert r.parameter == "stops[1].law.stiffness" and r.status == "ok", (r.status, r.message)
+    b, n = r.branches[0]["data"], int(r.branches[0]["n"])             # the sweep start's period-n orbit
+    k = np.asarray(b["parameter"])
+    assert k.min() <= 2.0e3 + 1e-6 and k.max() >= 6.0e3 - 1e-6, (k.min(), k.max())   # the whole range
+    assert len(k) >= 5 and n >= 1
+    for i in np.linspace(0, len(k) - 1, 4).astype(int):
+        model = vibeam.load_case(_sdof_case(dict(SDOF, contact_lower={"law": "linear", "stiffness": float(k[i])}))
+                                 ).model_spec().build()
+        x = np.asarray(b["state"][i])
+        one = make_solver(model, "event").point(0.8, np.concatenate([x, [0.0]]), 0, n, 32)
+        assert np.max(np.abs(one.final_state[:-1] - x)) <= 1e-8 * np.max(np.abs(x)), (k[i], one.final_state, x)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vibeam.case.contact import model_with
-from vibeam.case.paths import alias_of, key_of
+from vibeam.case.paths import alias_of, get_value, is_path, key_of
 from vibeam.io.netcdf import parameter_units
 from vibeam.io.results import branch_name
 
@@ -86,6 +86,10 @@ class BranchTask:
         The parameter as the case names it, when that is a path into the scene
         (``stops[1].law.R``: :mod:`vibeam.case.paths`) and ``parameter`` the flat key it
         stands for (``R_lower``); the results carry the label.
+    table : dict or None
+        The run's ``[model]`` table as written (overrides applied) when ``parameter`` is a path
+        no flat key names (a law's stiffness, a stop's position): each value is set in it and
+        the scene built again (:func:`spec_at`), ``d x / d p`` by finite differences.
     """
 
     key: str
@@ -100,6 +104,7 @@ class BranchTask:
     curve_key: str | None = None
     curve_range: tuple | None = None
     label: str | None = None
+    table: dict | None = None
 
     #: the progress bar of :func:`vibeam.engine.sweep.run_lines` advances per start (and curves)
     reports_progress = True
@@ -197,9 +202,10 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
         curve_key = case.map.parameter
         v = case.map.grid()
         curve_range = (float(np.min(v)), float(np.max(v)))
-    key_ = alias_of(model_with(case.model, dict(r.model)), r.parameter)
+    table = model_with(case.model, dict(r.model))
+    key_ = alias_of(table, r.parameter)
     return BranchTask(key=key, run=r.name, spec=spec, parameter=key_, label=r.parameter if key_ != r.parameter else None,
-                      lo=float(lo), hi=float(hi),
+                      table=table if is_path(key_) else None, lo=float(lo), hi=float(hi),
                       at=at, settings=settings,
                       sweep_periods=(case.sweep.transient_periods, max(16, case.sweep.record_periods)),
                       curve_key=curve_key, curve_range=curve_range)
@@ -220,6 +226,27 @@ def _with(spec, **over):
     for k, v in over.items():
         data.update(spec.parameter_values(k, v) if hasattr(spec, "parameter_values") else {k: v})
     return type(spec).model_validate(data)
+
+
+def spec_at(task: BranchTask, spec, value: float):
+    """The scene's model table with the continuation parameter at ``value``: a flat key through
+    the spec (:func:`_with`), a path set in the table as written (``task.table``)."""
+    if task.table is None:
+        return _with(spec, **{task.parameter: value})
+    return type(spec).model_validate(model_with(task.table, {task.parameter: float(value)}))
+
+
+def task_problem(task: BranchTask, spec):
+    """The shooting problem of a continuation run: :func:`problem` in a key the scene's problems
+    carry, else (a path: ``task.table``) one problem per value, each at the run's frequency,
+    with ``d x / d p`` by central differences (:class:`vibeam.models.continuation.FiniteDifferenceParameter`)."""
+    if task.table is None:
+        return problem(spec, task.parameter, task.at)
+    from vibeam.models.continuation import FiniteDifferenceParameter
+
+    p0 = float(get_value(task.table, task.parameter))
+    return FiniteDifferenceParameter(lambda p: problem(spec_at(task, spec, p), "Omega", task.at),
+                                     task.parameter, task.at, p0)
 
 
 def problem(spec, key: str, at: float | None):
@@ -245,7 +272,7 @@ def _sweep_start(task, spec, value):
     if task.parameter == "Omega":
         model, Omega = spec.build(), value
     else:
-        model, Omega = _with(spec, **{task.parameter: value}).build(), task.at
+        model, Omega = spec_at(task, spec, value).build(), task.at
     solver = make_solver(model, "event")
     n_tr = task.sweep_periods[0]
     if n_tr == "auto":
@@ -318,7 +345,7 @@ def run_continuation(task: BranchTask, report=None) -> dict:
     settings = Settings(ds=st["ds"], ds_min=st["ds_min"], ds_max=st["ds_max"], max_points=st["max_points"],
                         max_period=st["max_period"], switch=st["switch"])
     spec = task.spec
-    prob = problem(spec, task.parameter, task.at)
+    prob = task_problem(task, spec)
     tick = report if report is not None else (lambda: None)
     branches, starts = [], []
     kinds = start_kinds(task)

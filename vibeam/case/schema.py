@@ -1668,10 +1668,18 @@ def _check_continuation(case: Case, i: int, r) -> None:
                         f"continue the plain scene")
     native = getattr(spec, "native_parameter", None)
     if native is not None:
-        from vibeam.case.paths import alias_of
+        from vibeam.case.paths import alias_of, get_value, is_path
 
+        table = model_with(case.model, dict(r.model))
         try:
-            native(alias_of(model_with(case.model, dict(r.model)), r.parameter))
+            key = alias_of(table, r.parameter)
+            if is_path(key):
+                # a number only a path names (a law's stiffness, a stop's position): continued by
+                # finite differences of the scene's shots (vibeam.models.continuation.FiniteDifferenceParameter)
+                if not isinstance(get_value(table, key), (int, float)):
+                    raise ValueError("is not set in this scene's [model]; continue a number the case gives")
+            else:
+                native(key)
         except ValueError as e:
             raise CaseError(f"'run[{i}].parameter' = {quote_value(r.parameter)} {e}") from None
     if r.parameter != "Omega":
