@@ -125,6 +125,13 @@ MODULES = {
 #: sites of the operator --, with the reason; they are reported as ``equivalent`` and left out of
 #: the score (tests/README.md, "Tool-generated mutants")
 EQUIVALENT = {
+    ("vibeam/analysis/attractors.py", "core/NumberReplacer",
+     "nx, ny = (spec.grid or [200, 200]) if grid else (0, 0)", 53):
+        "a census (grid False) never reads nx or ny: its labels are (n_Omega, samples), its rows per_row, "
+        "and the grid's linspace and reshape are behind 'if grid'",
+    ("vibeam/analysis/attractors.py", "core/NumberReplacer",
+     "nx, ny = (spec.grid or [200, 200]) if grid else (0, 0)", 56):
+        "as column 53: ny is read only for a grid",
     ("models/compliant.py", "core/ReplaceComparisonOperator_Eq_GtE", "if R == 1.0:"):
         "the line above refuses R outside (e^-2, 1], so R >= 1.0 holds exactly when R == 1.0",
     ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_GtE", 'if key == "position_mm":'):

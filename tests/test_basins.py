@@ -509,3 +509,35 @@ def test_beam_basins_on_the_sensor_coordinates():
     same = np.mean((a.labels[0] == p1(a)[0]) == (b.labels[0] == p1(b)[0]))
     assert same >= 0.97, same
     assert b.stop is not None and abs(b.stop - float(beam.gap_contact_m) / (sm.contacts[0, 0] / sm.sensor[0]) * 1e3) < 1e-9
+
+
+# ------------------------------------------------------------------- what the tool's mutants found
+def test_cell_widths_are_a_200th_of_each_coordinates_range():
+    """The recurrence cells of coordinates the grid does not set: 1/200 of the range each takes
+    over 200 periods from the box's states (a mutant of the range, hi ** lo, survived); the held
+    flag's cell is 1; a coordinate that does not move gets 1e-9."""
+    from types import SimpleNamespace
+
+    from vibeam.analysis.attractors import _cell_widths
+
+    X = np.array([[0.0, -1.0, 0.0, 0.0, 0.0], [2.0, 3.0, 0.0, 0.0, 1.0], [1.0, 0.0, 0.0, 0.0, 0.0]])
+    w = _cell_widths(lambda x, n: X, SimpleNamespace(n_modes=2), 5, SimpleNamespace(write=True), [], [],
+                     [np.zeros(5)], 2.0)
+    np.testing.assert_array_equal(w, [2.0 / 200, 4.0 / 200, 1e-9, 1e-9, 1.0])
+
+
+def test_the_basin_image_spans_the_grid_cells_and_the_summary_names_each_attractor(capsys):
+    """The basin image's extent is the grid's cells, half a spacing beyond the first and last
+    states on both axes (a mutant of the lower y edge survived); print_basins gives each
+    attractor its line with lambda_1 (a mutant that printed none survived)."""
+    from vibeam.analysis.attractors import basins_figure, print_basins
+
+    r = vibeam.basins(_sdof_case(Omega=2.2, grid=[12, 10], x_range=[-0.01, 0.01], y_range=[-0.02, 0.02]))
+    fig = basins_figure(r)
+    dx, dy = r.x[1] - r.x[0], r.y[1] - r.y[0]
+    np.testing.assert_allclose(fig.axes[0].images[0].get_extent(),
+                               [r.x[0] - dx / 2, r.x[-1] + dx / 2, r.y[0] - dy / 2, r.y[-1] + dy / 2], rtol=1e-12)
+    capsys.readouterr()
+    print_basins(r)
+    out = capsys.readouterr().out
+    assert out.count("lambda_1 = ") == r.n_attractors >= 1, out

@@ -117,3 +117,23 @@ def test_a_periodic_point_reports_the_floquet_exponents_of_its_orbit(tmp_path):
     assert np.all(np.abs(qr - lam) < 1e-3)
     liouville = -2 * BETA + 2 * math.log(R) / T
     assert abs(lam.sum() - liouville) < 1e-10 and abs(qr.sum() - liouville) < 1e-10
+
+
+def test_batch_error_with_few_shots_by_hand():
+    """models.lyapunov.batch_error below BATCHES batches (a mutant of the batch count, K // 2 ->
+    K + 2, survived: every test had K >= 20): K = 7 shots of 2 exponents give min(10, 7 // 2) = 3
+    batches of 2 shots (the first shot dropped), each batch's exponents sum(logs) / sum(times),
+    the error their standard deviation (ddof 1) over sqrt(3), 2 degrees of freedom -- written out
+    here; K = 3 has one batch: NaN and 0."""
+    from vibeam.models.lyapunov import batch_error
+
+    rng = np.random.default_rng(5)
+    logs = rng.normal(size=(7, 2))
+    times = rng.uniform(1.0, 2.0, 7)
+    err, dof = batch_error(logs, times)
+    lam = np.array([(logs[1 + 2 * j] + logs[2 + 2 * j]) / (times[1 + 2 * j] + times[2 + 2 * j]) for j in range(3)])
+    want = np.array([np.std(lam[:, i], ddof=1) / np.sqrt(3) for i in range(2)])
+    assert dof == 2
+    np.testing.assert_allclose(err, want, rtol=1e-14)
+    e3, d3 = batch_error(logs[:3], times[:3])
+    assert d3 == 0 and np.all(np.isnan(e3))

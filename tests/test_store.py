@@ -879,3 +879,35 @@ def test_a_group_whose_object_header_is_damaged_is_not_a_traceback(tmp_path):
     except InputError:
         return                                         # refused in one line: as good
     assert "runs/exact" not in info["units"] and "basins/exact" in info["units"]
+
+
+def test_the_tree_walk_counts_every_object_and_names_its_limits(tmp_path, monkeypatch):
+    """vibeam.io.h5check.check_tree at its limits (mutants of the walk's count and of the numbers
+    its refusals print survived): a tree of exactly MAX_OBJECTS objects passes and one more is
+    refused; a tree over max_total bytes is refused naming the limit in GiB; a file over the
+    size limit is refused naming its size and the limit in GiB."""
+    from vibeam.errors import InputError
+    from vibeam.io import h5check
+
+    p = tmp_path / "t.h5"
+    with h5py.File(p, "w") as f:
+        g = f.create_group("g")
+        for k in range(4):
+            g.create_dataset(f"d{k}", data=np.zeros(1000))           # 5 objects: g and 4 datasets
+    monkeypatch.setattr(h5check, "MAX_OBJECTS", 5)
+    with h5py.File(p, "r") as f:
+        assert h5check.check_tree(p, f) == 4 * 8000
+    with h5py.File(p, "a") as f:
+        f["g"].create_dataset("d4", data=np.zeros(1000))             # 6 objects
+    with h5py.File(p, "r") as f, pytest.raises(InputError, match="more than 5 objects"):
+        h5check.check_tree(p, f)
+    monkeypatch.setattr(h5check, "MAX_OBJECTS", 100)
+    with h5py.File(p, "r") as f, pytest.raises(InputError) as e:
+        h5check.check_tree(p, f, max_total=20000)                    # 40000 bytes in all
+    assert f"more than {20000 / 2**30:g} GiB of data once decompressed" in str(e.value), e.value
+    big = tmp_path / "big.h5"
+    with open(big, "wb") as fh:
+        fh.truncate(3 * 2 ** 29)                                     # 1.5 GiB, sparse
+    with pytest.raises(InputError) as e:
+        h5check.file_size_ok(big, limit=2 ** 30)
+    assert "the results file is 1.5 GiB, more than the 1 GiB vibeam reads" in str(e.value), e.value
