@@ -125,6 +125,10 @@ MODULES = {
 #: sites of the operator --, with the reason; they are reported as ``equivalent`` and left out of
 #: the score (tests/README.md, "Tool-generated mutants")
 EQUIVALENT = {
+    ("models/continuation_kernels.py", "core/NumberReplacer", "SMALL_SPECTRUM = 8"):
+        "the threshold only chooses which of two computations of the same multipliers runs (numba's "
+        "eigvals on a complex copy, LAPACK zgeev, or NumPy's dgeev; both sorted by decreasing modulus): "
+        "a speed choice, equal to round-off on either side",
     ("vibeam/analysis/attractors.py", "core/NumberReplacer",
      "nx, ny = (spec.grid or [200, 200]) if grid else (0, 0)", 53):
         "a census (grid False) never reads nx or ny: its labels are (n_Omega, samples), its rows per_row, "
