@@ -125,6 +125,9 @@ MODULES = {
 #: sites of the operator --, with the reason; they are reported as ``equivalent`` and left out of
 #: the score (tests/README.md, "Tool-generated mutants")
 EQUIVALENT = {
+    ("models/continuation_kernels.py", "core/ReplaceComparisonOperator_Gt_Is", "if ns != ns or a - 1.0 > ns:"):
+        "mu arrives sorted by decreasing modulus (_eig2, by_decreasing_modulus), so the first complex "
+        "multiplier met has the largest modulus of the complex ones: the 'max' never changes after it",
     ("models/continuation_kernels.py", "core/NumberReplacer", "SMALL_SPECTRUM = 8"):
         "the threshold only chooses which of two computations of the same multipliers runs (numba's "
         "eigvals on a complex copy, LAPACK zgeev, or NumPy's dgeev; both sorted by decreasing modulus): "
