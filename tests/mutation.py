@@ -82,6 +82,7 @@ MODULES = {
     "models/continuation.py": [
         "tests/test_oracles.py::test_the_continuation_step_is_capped_at_ds_max",
         "tests/test_oracles.py::test_the_multipliers_of_a_continued_branch_through_its_period_doubling_against_lapack",
+        "tests/test_continuation_cli.py::test_map_curves_follow_the_closed_form_grazing_and_the_one_parameter_fold",
         "tests/test_continuation.py",
     ],
     "models/continuation_kernels.py": [

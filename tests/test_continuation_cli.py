@@ -217,6 +217,22 @@ curve_points = 40
     graze = [v for v in kinds.values() if v["attrs"]["type"] == "grazing"]
     fold = [v for v in kinds.values() if v["attrs"]["type"] == "fold"]
     assert graze and fold
+    # every curve stays in the (frequency, gap) box, and one that leaves it ends on its edge (the
+    # edge point is relocated on the edge the predictor crossed: a mutant that swapped the two
+    # edges survived the test files)
+    W_box, g_box = (14.0 / 7.6, 16.0 / 7.6), (0.06, 0.14)
+    ended = 0
+    for c in kinds.values():
+        W, gap = np.asarray(c["parameter"]), np.asarray(c["gap_mm"])
+        assert np.all((W >= W_box[0] - 1e-9) & (W <= W_box[1] + 1e-9)), (W.min(), W.max())
+        assert np.all((gap >= g_box[0] - 1e-12) & (gap <= g_box[1] + 1e-12)), (gap.min(), gap.max())
+        if c["attrs"]["status"] == "box":
+            ends = [(W[0], gap[0]), (W[-1], gap[-1])]
+            on_edge = [min(abs(w - W_box[0]), abs(w - W_box[1])) <= 1e-9 or min(abs(g - g_box[0]), abs(g - g_box[1]))
+                       <= 1e-12 for w, g in ends]
+            assert all(on_edge), (c["attrs"]["type"], ends)
+            ended += 1
+    assert ended >= 1
     B = 5.16e-4 * 0.6
     for c in graze:
         W, gap = c["parameter"], c["gap_mm"]
