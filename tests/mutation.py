@@ -102,6 +102,7 @@ MODULES = {
         "tests/test_continuation_hc_beam.py",
     ],
     "models/core/signals.py": [
+        "tests/test_signals.py",
         "tests/test_event.py",
         "tests/test_recurrence.py",
     ],
@@ -126,6 +127,9 @@ MODULES = {
 #: sites of the operator --, with the reason; they are reported as ``equivalent`` and left out of
 #: the score (tests/README.md, "Tool-generated mutants")
 EQUIVALENT = {
+    ("models/continuation.py", "core/NumberReplacer", "tr.run(br, 0, br.points[0], settings.ds)"):
+        "the branch has exactly one point when it is run (appended on the line before, to an empty "
+        "branch): points[0] is points[-1]",
     ("models/continuation_kernels.py", "core/ReplaceComparisonOperator_Gt_Is", "if ns != ns or a - 1.0 > ns:"):
         "mu arrives sorted by decreasing modulus (_eig2, by_decreasing_modulus), so the first complex "
         "multiplier met has the largest modulus of the complex ones: the 'max' never changes after it",
