@@ -423,3 +423,50 @@ def test_the_compiled_corrector_serves_a_frequency_continuation(fidelity, monkey
     trace(prob, x0, W0, 1, W0, W1, +1, Settings())
     assert calls and not raised, raised[:1]
     assert any(served)
+
+
+class _AffineSectionMap:
+    """A 2-D stroboscopic map with the fixed point ``c(p) = (1 + p, 0)`` and multipliers 0.5,
+    whose shot cannot be resolved within ``5e-7`` of ``p_cross`` (an impact closer to the
+    section than the event tolerance) -- the situation ``resect`` steps across."""
+
+    dim = 2
+    parameter = "p"
+
+    def __init__(self, p_cross):
+        self.p_cross = p_cross
+
+    def shot(self, x, p, n):
+        from vibeam.models.periodic import Shot
+
+        c = np.array([1.0 + p, 0.0])
+        status = "failed" if abs(p - self.p_cross) < 5e-7 else "ok"
+        return Shot(x=c + 0.5 * (np.asarray(x, float) - c), M=0.5 * np.eye(2), x_p=np.array([0.5, 0.0]),
+                    impact_times=np.zeros(1), impact_velocities=np.ones(1), q_min=0.0, q_max=1.0,
+                    status=status)
+
+    def resect(self, x, p, n):
+        return np.array([1.0 + p, 0.0])          # the orbit seen from the other side of the section
+
+
+def test_resect_steps_to_the_first_resolvable_parameter_beyond_the_crossing():
+    """``_Tracer.resect``: after an impact crosses the section the orbit is continued from its
+    other representation at the smallest step of the parameter (of 1e-10 ... 1e-4 of the range)
+    where Newton converges, inside the range, in the direction of travel.  Here every step below
+    1e-6 is unresolvable, so the new point must be the fixed point ``c(p)`` at exactly ``p_cross +
+    1e-6`` (a larger step in the ladder, e.g. a mutated 1e-6, leaves the range and gives up)."""
+    from vibeam.models.continuation import Branch, _Engine, _Tracer
+
+    p_cross = 0.5
+    prob = _AffineSectionMap(p_cross)
+    eng = _Engine(prob, 0.0, 1.0, Settings(), s_x=1.0)
+    tr = _Tracer(eng)
+    far = np.array([0.0, 5.0])                     # the orbit as seen before the crossing
+    a = eng.make_point(far, p_cross, prob.shot(far, 0.0, 1), t=np.array([0.0, 0.0, 1.0]))
+    br = Branch(n=1, origin="start")
+    assert tr.resect(br, a, 1)
+    pt = br.points[-1]
+    assert pt.p == pytest.approx(p_cross + 1e-6, rel=0, abs=1e-15)
+    np.testing.assert_allclose(pt.x, [1.0 + pt.p, 0.0], rtol=0, atol=Settings().tol)   # Newton's own tolerance
+    assert br.resections == 1
+    assert pt.t[2] > 0                              # still travelling towards larger p
