@@ -470,3 +470,39 @@ def test_resect_steps_to_the_first_resolvable_parameter_beyond_the_crossing():
     np.testing.assert_allclose(pt.x, [1.0 + pt.p, 0.0], rtol=0, atol=Settings().tol)   # Newton's own tolerance
     assert br.resections == 1
     assert pt.t[2] > 0                              # still travelling towards larger p
+
+
+def test_the_parameter_derivatives_do_not_depend_on_the_order_of_the_directions():
+    """The shooting tangent's parameter columns (``d x / d p`` of each :class:`Direction`) are
+    independent of where a direction sits in the list: the frequency as the last of the five
+    SDOF directions (every fidelity puts it first today, so a column offset wrong for p >= 1
+    is otherwise unseen) gives the columns of the usual order, reversed, and its own column is
+    the central difference of the shot in Omega (relative steps 1e-6: as above, 2e-6 of the
+    scale)."""
+    from vibeam.models.core.shooting import Direction, Setup, directions
+
+    m, Omega, n = ORBITS["two impacts"]
+    x, s = _orbit(m, Omega, n, None)
+    usual = s.extra["x_all_p"]
+
+    class Reversed(SDOFShooting):
+        def setup(self, p):
+            su = super().setup(p)
+            z = np.zeros(1)
+            every = [Direction("Omega", 1.0, 0.0, z, z, z), Direction("B", 0.0, 1.0, z, z, z),
+                     Direction("Delta", 0.0, 0.0, np.ones(1), z, z), Direction("R", 0.0, 0.0, z, np.ones(1), z),
+                     Direction("beta", 0.0, 0.0, z, z, np.array([2.0]))]
+            return Setup(su.core, su.Omega, directions(su.core, every[::-1]), su.gap, su.scale)
+
+        @property
+        def column(self):
+            return 4        # Omega, last
+
+    pr = Reversed(m, "Omega")
+    got = pr.shot(x, Omega, n)
+    assert got.status == "ok" and got.n_impacts == s.n_impacts
+    scale = max(np.max(np.abs(usual)), np.max(np.abs(x)))
+    np.testing.assert_allclose(got.extra["x_all_p"], usual[:, ::-1], rtol=0, atol=1e-12 * scale)
+    hp = 1e-6 * Omega
+    fd = (pr.shot(x, Omega + hp, n).x - pr.shot(x, Omega - hp, n).x) / (2 * hp)
+    assert np.max(np.abs(fd - got.x_p)) <= 2e-6 * scale, (fd, got.x_p)

@@ -207,6 +207,10 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
  _EXT, _EXT1, _NFS) = range(18)
 (_H, _C, _INSIDE, _RELAXED, _CMASK, _FRESH, _BSTALE, _ATGRID, _JSTUCK, _JREL, _QFRESH, _QLAST, _BURST,
  _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _RP, _NIS) = range(21)
+# ``lp`` (_NLP,)    the period loop's counters (period, the recurrence's snapshot periods, samples
+#                   taken, periods skipped) and the current grid step's (sub-step, its tables, the
+#                   dense record's next and last sample, recording)
+(_LPP, _LSNAP, _LSNAPB, _LKS, _LSKIP, _LJNEXT, _LJEND, _LBASE, _LKG, _LFINE, _LNSREC, _LREC, _NLP) = range(13)
 #: longest exact cycle of the period-start state that the recurrence finds (periods; skipped in a
 #: transient, copied in a record): the cadence of its first snapshot
 RECUR_MAX = 16
@@ -218,6 +222,10 @@ RECUR_FAST = 4
 _K_START, _K_IMPACT, _K_STICK, _K_STICK_IMPACT, _K_RELEASE, _K_ENTRY, _K_EXIT = (np.int64(k) for k in range(7))
 #: the internal functions: called from compiled code only (no Python or C wrapper), no reference counting
 _kernel = njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+#: the event loop's phases (:func:`integrate_work`): inlined into the loop at numba's IR (compiled
+#: on their own, a call per step with its ~40 array arguments made the Fig. 7 sweep 1.7x slower;
+#: the free step inlined and the other phases called, 1.05x)
+_inline = njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 
 
 class _CompliantWork(NamedTuple):
@@ -451,7 +459,8 @@ def new_work(n, ns, S, Om, ns_transient, ns_record, h_cap, recur):
     return (np.empty((_NWN, n)), np.empty((_NWK, ns)), np.empty((n, 6)), np.empty((2 * S, n)),
             np.empty((6 * S, ns)), np.empty((2, S)), P_r, tab_r, P_t, tab_t, np.empty(_NFS),
             np.empty(_NIS, np.int64), sub_r, sub_t,
-            np.empty(2 * (_snap_fs(n, ns) + _NFS) if recur else 0), np.empty(2 * (_NIS + ns) if recur else 0, np.int64))
+            np.empty(2 * (_snap_fs(n, ns) + _NFS) if recur else 0), np.empty(2 * (_NIS + ns) if recur else 0, np.int64),
+            np.zeros(_NLP, np.int64))
 
 
 @_kernel
@@ -1500,81 +1509,14 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
 
 # ============================================================================ the kernel
 # ============================================================================ the loop
-@njit(cache=True, _nrt=False, error_model="numpy", no_cfunc_wrapper=True)
-def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
-                   max_impacts, max_steps, chatter_tol, rec, work):
-    """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core), in the
-    caller's work arrays: no allocation and no reference counting.
-
-    The per-frequency data (:func:`_frequency`), the compliant stops' start (``cw`` not None),
-    the initial state, then the periods, their grid and sub-steps, a step at a time; the free
-    step, the hot path, is written out here (no call per step).  Called from Python by the sweep
-    (:class:`vibeam.models.core.event.EventIntegrator`; one compiled unit: numba links and
-    re-emits a callee's code in every caller, so no wrapper above it) and from compiled callers
-    that run many calls (the shots of a corrector).
-
-    Parameters
-    ----------
-    sy : KernelSystem
-    st : KernelStops
-    hs : HeldSets
-        :mod:`vibeam.models.core.stops`.
-    cw : _CompliantWork or None
-        The compliant stops' work arrays (:func:`compliant_work`, from the compliant stops' data
-        :class:`vibeam.models.core.phases.Compliant`); None for a scene with Newton stops only,
-        whose compiled specialisation then holds no compliant code (numba prunes the branches on
-        ``cw is None``).
-    Om : float
-        Forcing frequency (per unit nondimensional time).
-    eta, etad : ndarray, shape (n,)
-        Initial modal state, overwritten with the final one.
-    held0 : int
-        Bit mask of the stops the system is held on (Newton stops) or in contact with (compliant
-        stops) at the start (0 free).
-    n_transient, n_record : int
-        Forcing periods discarded, then recorded.
-    ns_transient, ns_record : int
-        Grid points per period (the recorded samples).
-    h_cap : float
-        Largest step.
-    max_impacts, max_steps : int
-        Guards: beyond them the call returns :data:`ST_FAILED`.
-    chatter_tol : float
-        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.contact_policy`).
-    rec : Record
-        Outputs.
-    work : tuple
-        The work arrays of :func:`new_work` (a caller that reuses them at another ``Om`` runs one
-        grid, ``ns_transient == ns_record``, and checks :func:`work_fits`; the sub-steps are those
-        of ``Om``).  With a snapshot (``recur``), the exact recurrence is on.
-
-    Returns
-    -------
-    tuple
-        ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
-        gmax, n_steps, contact_time, periods_skipped)``: status code, recorded impacts and contacts, sensor extremes
-        over the record (row units), chatter sequences, time held (excluding chatter holds), the
-        final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
-        response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
-        gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
-        round-off only if a crossing had been stepped over), steps taken, time in compliant contact
-        during the record, periods not integrated thanks to the exact recurrence (module docstring;
-        the counters and the record include them).
-    """
-    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, snap_f, snap_i) = work
-    sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
-    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
-                        ns_transient, ns_record, h_cap, fs, ist)
-    if status != 0:
-        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0, 0)
-    if cw is not None:
-        _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec)
+@_kernel
+def _initial_state(st, hs, eta, etad, held0, wn, wk, ist, rec):
+    """Phase *start*: the initial state held on its set ``held0`` (projected onto the constraint),
+    or put on a Newton stop it lies on within round-off (position only); the carried gaps and
+    normal velocities ``wk``, the held set ``ist[_H]`` (the event log: :data:`EV_START` rows)."""
     n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
-    T = TWO_PI / Om
-    # ---- the initial state: held on its set (projected onto the constraint), or put on a Newton
-    # stop it lies on within round-off (position only); the carried gaps and normal velocities
     logging = rec.evlog.shape[0] > 0
     cmask = ist[_CMASK]
     H = held0 & ~cmask
@@ -1625,495 +1567,647 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                     _log_event(rec.evlog, rec.nlog, _K_START, 0.0, 0.0, k, eta, etad)
                 break
     ist[_H] = H
-    # ---- the periods, their grid and sub-steps, a step at a time (a failure leaves every loop)
+
+
+@_inline
+def _recurrence(eta, etad, work, rec, lp, n_transient, n_total, T, max_steps, max_impacts):
+    """Phase *recurrence*, at a period start (module docstring): the state compared bit for bit
+    with the two snapshots; a cycle found in the transient is skipped up to the record, one found
+    in the record is copied to its end (whole cycles; the counters advance by theirs), or a
+    snapshot is taken when one is due.  The loop's counters live in ``lp`` (period, the
+    snapshots' periods, samples taken, periods skipped).  True when periods were skipped (the
+    caller starts again at the new period ``lp[_LPP]``)."""
+    (wn, wk, hb, _hab, _hsig, _hss, _P_r, _tab_r, _P_t, _tab_t, fs, ist, _sub_r, _sub_t, snap_f, snap_i, _lp) = work
+    n = eta.shape[0]
+    ns = wk.shape[1]
+    ns_record = lp[_LNSREC]
+    pp = lp[_LPP]
+    snap_pp = lp[_LSNAP]
+    snapb_pp = lp[_LSNAPB]
+    k_sample = lp[_LKS]
+    skipped = lp[_LSKIP]
+    j_fs = _snap_fs(n, ns)
+    nsf = snap_f.shape[0] // 2      # the two snapshots: [0, nsf) and [nsf, 2 nsf)
+    nsi = snap_i.shape[0] // 2
+    in_rec = pp >= n_transient
+    s_pp = -1
+    fo = 0
+    io = 0
+    for b in range(2):
+        b_pp = snap_pp if b == 0 else snapb_pp
+        if b_pp >= 0 and (b_pp >= n_transient or not in_rec) and \
+                _recurs(snap_f, snap_i, b * nsf, b * nsi, eta, etad, wn, wk, hb, fs, ist):
+            s_pp = b_pp
+            fo = b * nsf
+            io = b * nsi
+            break
+    if s_pp >= 0:
+        L = pp - s_pp
+        m = ((n_total if in_rec else n_transient) - pp) // L
+        d_steps = ist[_NSTEPS] - snap_i[io + _NSTEPS]
+        d_imp = ist[_NIMPT] - snap_i[io + _NIMPT]
+        ok = m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts
+        if in_rec:
+            # the record's sums must not grow over the cycle: no time held or in contact, no chatter
+            ok = ok and ist[_NCHAT] == snap_i[io + _NCHAT] and fs[_STUCK] == snap_f[fo + j_fs + _STUCK] \
+                and fs[_TCON] == snap_f[fo + j_fs + _TCON]
+        if ok:
+            if in_rec:
+                d_rec = ist[_NIMPR] - snap_i[io + _NIMPR]
+                _repeat_record(rec, pp - n_transient, L, m, ns_record, ist[_NIMPR], d_rec,
+                               snap_i[io + _NIS:io + nsi], T, fs[_PEXT])
+                ist[_NIMPR] += m * d_rec
+                k_sample += m * L * ns_record
+            ist[_NSTEPS] += m * d_steps
+            ist[_NIMPT] += m * d_imp
+            if fs[_TLAST] > -1e299:
+                fs[_TLAST] += (m * L) * T
+            pp += m * L
+            skipped += m * L
+            snap_pp = -1
+            snapb_pp = -1
+            lp[_LPP] = pp
+            lp[_LSNAP] = snap_pp
+            lp[_LSNAPB] = snapb_pp
+            lp[_LKS] = k_sample
+            lp[_LSKIP] = skipped
+            return True     # (the call may end here)
+        if in_rec or m > 0:
+            snap_pp = -2    # a guard, or a record that holds or chatters: integrate on
+    else:
+        # (not at the call's first period start: the loop's flags are those of a fresh start
+        # there, e.g. the free arc's parts about to be recomputed, which a settled orbit's
+        # later period starts do not repeat: a short call, a sweep engine's chunk, would
+        # then wait RECUR_MAX periods for its first useful snapshot)
+        for b in range(2):      # one snapshot a period: the first that is due
+            b_pp = snap_pp if b == 0 else snapb_pp
+            if (b_pp == -1 and pp > 0) or pp - b_pp >= (RECUR_MAX if b == 0 else RECUR_FAST) or \
+                    (in_rec and b_pp < n_transient):
+                _snapshot(snap_f, snap_i, b * nsf, b * nsi, eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
+                if b == 0:
+                    snap_pp = pp
+                else:
+                    snapb_pp = pp
+    lp[_LPP] = pp
+    lp[_LSNAP] = snap_pp
+    lp[_LSNAPB] = snapb_pp
+    lp[_LKS] = k_sample
+    lp[_LSKIP] = skipped
+    return False
+
+
+@_inline
+def _period_start(fs, ist, pmin, pp, n_transient, T):
+    """A period's start: its times (from the record's start, and from the call's), and the
+    sensor's extremes of the period that ended (the record: its minimum, the running extremes)."""
+    ist[_RP] = pp - n_transient
+    fs[_T0] = (pp - n_transient) * T
+    fs[_PT] = pp * T
+    if pp > n_transient:
+        pmin[pp - n_transient - 1] = fs[_PEXT]
+        fs[_EXT] = min(fs[_EXT], fs[_PEXT])
+        fs[_EXT1] = max(fs[_EXT1], fs[_PEXT1])
+        fs[_PEXT] = np.inf
+        fs[_PEXT1] = -np.inf
+
+
+@_inline
+def _held_phase(hs, st, cw, work, rec, eta, etad, lp, Om, T, recording):
+    """Phase *held* on the set ``ist[_H]``: one step (:func:`_held_step`), with a dense record up to
+    the record's next sample, as on its own grid.  Returns the stop of a contact, or -1."""
+    (wn, wk, hb, hab, hsig, hss, _P_r, _tab_r, _P_t, _tab_t, fs, ist, _sub_r, _sub_t, _snap_f, _snap_i, _lp) = work
+    rem_full = fs[_REM]
+    cut = rem_full
+    if lp[_LJNEXT] < lp[_LJEND]:
+        cut = min(rem_full, (lp[_LBASE] + lp[_LJNEXT]) * (T / lp[_LNSREC]) - fs[_TLOC])
+        fs[_REM] = cut
+    k_imp = _held_step(hs, st.normal, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, rec.evlog, rec.aplog, rec.nlog,
+                       Om, T, recording, cw)
+    if cut != rem_full:
+        rest = rem_full - (cut - fs[_REM])
+        fs[_REM] = rest if rest >= 1e-15 * T else 0.0
+    return k_imp
+
+
+@_inline
+def _contact_event(sy, st, hs, cw, work, rec, eta, etad, lp, k_imp, Om, guards):
+    """Phase *contact* at the current time on stop ``k_imp``: a compliant stop's contact begins
+    (:func:`_entry`), or a Newton stop's impact and the chatter / sticking policy act
+    (:func:`_impact`; a dense record: the policy sees the rest of the record's grid step).
+    ``guards``: ``(max_impacts, chatter_tol)``.  True when the call failed."""
+    (wn, wk, _hb, _hab, _hsig, _hss, _P_r, _tab_r, _P_t, _tab_t, fs, ist, _sub_r, _sub_t, _snap_f, _snap_i, _lp) = work
+    max_impacts, chatter_tol = guards
+    recording = lp[_LREC] != 0
+    if cw is not None and (ist[_CMASK] >> k_imp) & 1:
+        return _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, k_imp, max_impacts, recording)
+    T = TWO_PI / Om
+    rem_full = fs[_REM]
+    if lp[_LJNEXT] < lp[_LJEND]:
+        fs[_REM] = min(rem_full, (lp[_LBASE] + lp[_LJNEXT]) * (T / lp[_LNSREC]) - fs[_TLOC])
+    failed = _impact(st, hs.dirn, hs.meff, hs.ceff, hs.keff, hs.valid, wn, wk, eta, etad, fs, ist, rec, Om, T,
+                     k_imp, max_impacts, chatter_tol, recording, cw)
+    fs[_REM] = rem_full
+    return failed
+
+
+@_inline
+def _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording):
+    """Phase *free flight* (held set empty, no compliant contact): one step of at most the rest of
+    the grid's sub-step ``lp[_LKG]`` (its tables by ``lp[_LFINE]``): the stops touched at its start
+    (a contact, or sticking entered by the release rule), else every stop's gap scanned with
+    certified bounds (:mod:`vibeam.models.core.signals`; inside a compliant stop its force's sign
+    and its gap), the flow moved to the first event or the step's end, the record's samples
+    inside the step (dense output), the apexes and the sensor's extremes.  Returns the stop of a
+    contact at the step's end, or -1."""
+    (wn, wk, hb, _hab, _hsig, _hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, _snap_f, _snap_i, _lp) = work
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
     mp = sy.mp
     Nrm = st.normal
     evlog = rec.evlog
     aplog = rec.aplog
     nlog = rec.nlog
-    dirn = hs.dirn
-    meff = hs.meff
-    ceff = hs.ceff
-    keff = hs.keff
-    valid = hs.valid
     samples = rec.samples
     msamp = rec.msamp
     modamp = rec.modamp
-    pmin = rec.pmin
-    k_sample = 0
+    logging = evlog.shape[0] > 0
+    kg = lp[_LKG]
+    fine = lp[_LFINE] != 0
+    Ptab = P_r if fine else P_t
+    tab = tab_r if fine else tab_t
+    k_sample = lp[_LKS]
+    j_next = lp[_LJNEXT]
+    j_end = lp[_LJEND]
+    h_rs = T / lp[_LNSREC]
+    phi = fs[_PHI]
+    t_loc = fs[_TLOC]
+    rem = fs[_REM]
+    h_last = fs[_HLAST]
+    gmax = fs[_GMAX]
+    pT = fs[_PT]
+    SaSF = fs[_SASF]
+    SbSF = fs[_SBSF]
+    inside = ist[_INSIDE]
+    relaxed = ist[_RELAXED]
+    cmask = ist[_CMASK]
+    fresh = ist[_FRESH] != 0
+    bstale = ist[_BSTALE] != 0
+    at_grid = ist[_ATGRID] != 0
+    just_released = ist[_JREL] != 0
+    apexes = aplog.shape[0] > 0
+    h_try = min(rem, 2.0 * h_last)
+    pext = fs[_PEXT:_PEXT1 + 1]
+    aF = wn[_AF]
+    bF = wn[_BF]
+    GF = wn[_GF]
+    zeroN = wn[_ZERO]
+    xF = wn[_XF]
+    yF = wn[_YF]
+    dxv = wn[_DXV]
+    dyv = wn[_DYV]
+    x2v = wn[_X2V]
+    x3v = wn[_X3V]
+    sens = wn[_SENS]
+    SaF = wk[_SAF]
+    SbF = wk[_SBF]
+    CsF = wk[_CSF]
+    g = wk[_G]
+    v = wk[_V]
+    g1 = wk[_G1]
+    v1 = wk[_V1]
+    G2 = wk[_G2]
+    G3 = wk[_G3]
+    G21 = wk[_G21]
+    G31 = wk[_G31]
+    M2F = wk[_M2F]
+    M3F = wk[_M3F]
+    M4F = wk[_M4F]
+    off = wk[_OFF]
+    touched = -1
+    if cw is not None and inside != 0:
+        touched, inside, relaxed = _inside_touch(cw, Nrm, Nrm, off, eta, etad, g, v, inside,
+                                                 relaxed, ist[_EXITED], phi, Om, wn, GF)
+    for k in range(ns):
+        if touched >= 0:
+            break
+        if (inside >> k) & 1:
+            continue
+        if g[k] >= 0.0 and v[k] >= 0.0:
+            g[k] = 0.0
+            if v[k] > 0.0:
+                touched = k
+                break
+            if not just_released:
+                acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
+                if (cmask >> k) & 1:
+                    if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
+                        touched = k     # pressed onto a compliant stop: a contact
+                        break
+                elif not release_now(acc, jerk):     # pressed (the release rule)
+                    if logging:
+                        _log_event(evlog, nlog, _K_STICK, pT + t_loc, 0.0, k, eta, etad)
+                    ist[_H] = 1 << k
+                    ist[_JSTUCK] = 1
+                    corr = v[k] * wk[_MEFF, k]
+                    for i in range(n):
+                        etad[i] -= Nrm[k, i] * corr
+                    v[k] = 0.0
+                    for j in range(ns):
+                        if j != k:
+                            v[j] = _dot(Nrm[j], etad)
+                    touched = -2
+                    break
+    k_imp = -1
+    if touched != -1:
+        ist[_INSIDE] = inside
+        ist[_RELAXED] = relaxed
+        if touched == -2:
+            ist[_FRESH] = 1
+        else:
+            k_imp = touched
+    else:
+        if fresh:
+            # a new free arc: homogeneous parts, their bounds (valid along the whole
+            # arc: the homogeneous envelope only decays), curvature of each gap
+            homogeneous(phi, Om, eta, etad, aF, bF, zeroN, xF, yF, n)
+            _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
+            for k in range(ns):
+                _f, _f1, G2[k], G3[k], _f4 = signal(0.0, phi, Om, xF, yF, mp, Nrm[k], zeroN,
+                                                    SaF[k], SbF[k], g[k], v[k], n)
+            fresh = False
+            bstale = False
+        h = h_try
+        tabd = at_grid and h == rem
+        if tabd:
+            sp0 = tab[kg, 0]
+            cp0 = tab[kg, 1]
+            sp1 = tab[kg + 1, 0]
+            cp1 = tab[kg + 1, 1]
+            dsin = sp1 - sp0
+            dcos = cp1 - cp0
+        else:
+            half = 0.5 * Om * h
+            sh = math.sin(half)
+            ph = phi + half
+            dsin = 2.0 * sh * math.cos(ph)
+            dcos = -2.0 * sh * math.sin(ph)
+            sp1 = math.sin(phi + Om * h)
+            cp1 = math.cos(phi + Om * h)
+        # the modes' increments and derivatives at h
+        for j in range(n):
+            a11, a12, a21, a22 = increment_of(tabd, Ptab, j, h, mp)
+            ddx = a11 * xF[j] + a12 * yF[j]
+            ddy = a21 * xF[j] + a22 * yF[j]
+            xe = xF[j] + ddx
+            ye = yF[j] + ddy
+            dxv[j] = ddx
+            dyv[j] = ddy
+            xx2 = -2.0 * mp[j, 0] * ye - mp[j, 1] * xe
+            x2v[j] = xx2
+            x3v[j] = -2.0 * mp[j, 0] * xx2 - mp[j, 1] * ye
+        W2 = Om * Om
+        s_ev = -1.0
+        k_ev = -1
+        h_ok = h
+        ev_in = 0
+        if cw is not None and inside != 0:
+            # inside a compliant stop: its force's sign up through zero (a contact),
+            # or its gap down through zero (below it again)
+            st = cw.st
+            vr = cw.vr
+            wpa = cw.wpa
+            wra = cw.wra
+            for k in range(ns):
+                if (inside >> k) & 1 == 0:
+                    continue
+                r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k],
+                                           (relaxed >> k) & 1 == 1)
+                for j in range(n):
+                    wpa[j] = r0 * Nrm[k, j]
+                    wra[j] = r1 * Nrm[k, j]
+                Sa = r0 * SaF[k] - r1 * Om * SbF[k]
+                Sb = r0 * SbF[k] + r1 * Om * SaF[k]
+                f0, fp0 = signal_start(phi, Om, xF, yF, mp, wpa, wra, Sa, Sb,
+                                       roff - r0 * off[k], n)
+                M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, n)
+                hk = h_ok if s_ev < 0.0 else s_ev
+                sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, wra, Sa, Sb, f0, fp0, M2, M3,
+                               M4, n)
+                if sk >= 0.0:
+                    s_ev = sk
+                    k_ev = k
+                    ev_in = 1
+                elif hk2 < hk:
+                    s_ev = -1.0
+                    k_ev = -1
+                    ev_in = 0
+                    h_ok = hk2
+                for j in range(n):
+                    wpa[j] = -Nrm[k, j]
+                hk = h_ok if s_ev < 0.0 else s_ev
+                sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, zeroN, -SaF[k], -SbF[k],
+                               -g[k], -v[k], M2F[k], M3F[k], M4F[k], n)
+                if sk >= 0.0:
+                    s_ev = sk
+                    k_ev = k
+                    ev_in = 2
+                elif hk2 < hk:
+                    s_ev = -1.0
+                    k_ev = -1
+                    ev_in = 0
+                    h_ok = hk2
+        for k in range(ns):
+            if (inside >> k) & 1:
+                continue
+            hk = h_ok if s_ev < 0.0 else s_ev
+            if hk == h:
+                f = g[k] + SaF[k] * dsin + SbF[k] * dcos
+                f1 = v[k] + Om * (SaF[k] * dcos - SbF[k] * dsin)
+                f2 = 0.0
+                f3 = 0.0
+                for j in range(n):
+                    f += Nrm[k, j] * dxv[j]
+                    f1 += Nrm[k, j] * dyv[j]
+                    f2 += Nrm[k, j] * x2v[j]
+                    f3 += Nrm[k, j] * x3v[j]
+                g1[k] = f
+                v1[k] = f1
+                G21[k] = f2 - W2 * (SaF[k] * sp1 + SbF[k] * cp1)
+                G31[k] = f3 - W2 * Om * (SaF[k] * cp1 - SbF[k] * sp1)
+                far = _far(g[k], g1[k], M2F[k], hk)
+                if not far and bstale:
+                    # the bounds of the arc's start (valid: the homogeneous
+                    # envelope only decays) are loose once fast modes have
+                    # decayed: near a stop, take them from the current state
+                    _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
+                    bstale = False
+                    far = _far(g[k], g1[k], M2F[k], hk)
+                if far:
+                    sk = -1.0        # far from the stop (interpolation bound)
+                    hk2 = hk
+                else:
+                    sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN,
+                                        SaF[k], SbF[k], g[k], v[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
+                                        G21[k], G31[k], M2F[k], M3F[k], M4F[k], n)
+            else:
+                sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN, SaF[k],
+                               SbF[k], g[k], v[k], M2F[k], M3F[k], M4F[k], n)
+            if sk >= 0.0:
+                s_ev = sk
+                k_ev = k
+                ev_in = 0
+            elif hk2 < hk:
+                s_ev = -1.0
+                k_ev = -1
+                ev_in = 0
+                h_ok = hk2
+        s_mv = s_ev if s_ev >= 0.0 else h_ok
+        if s_ev < 0.0:
+            # shrink to a halved step; a step cut by the sub-grid says nothing
+            h_last = h_ok if h_ok < h else max(h_last, h)
+        if s_mv != h:
+            # the step ends before the tabulated one: evaluate the flow there
+            tabd = False
+            half = 0.5 * Om * s_mv
+            sh = math.sin(half)
+            ph = phi + half
+            dsin = 2.0 * sh * math.cos(ph)
+            dcos = -2.0 * sh * math.sin(ph)
+            sp1 = math.sin(phi + Om * s_mv)
+            cp1 = math.cos(phi + Om * s_mv)
+            mode_ends(s_mv, xF, yF, mp, Ptab, False, dxv, dyv, x2v, x3v, n)
+            for k in range(ns):
+                _gap_ends(Nrm, k, SaF[k], SbF[k], g[k], v[k], Om, dxv, dyv, x2v, x3v,
+                          dsin, dcos, sp1, cp1, n, g1, v1, G21, G31)
+        if j_next < j_end:
+            # the record's samples inside the step: the flow evaluated there
+            taken = _dense_samples(samples, msamp, modamp, fs, k_sample, j_next, j_end, lp[_LBASE],
+                                   sens, aF, bF, xF, yF, mp, P_r, tab_r, t_loc, s_mv, h_rs,
+                                   at_grid, Om, n)
+            k_sample += taken
+            j_next += taken
+        if apexes and s_ev < 0.0:
+            for k in range(ns):
+                if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:
+                    _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, xF, yF, mp, Nrm[k],
+                              zeroN, SaF[k], SbF[k], g[k], v[k], n, k, G2[k], v1[k], G21[k])
+        if recording:
+            # the sensor's extremes inside the step (root-found where its slope turns)
+            q0s = _dot(sens, eta)
+            qp0s = _dot(sens, etad)
+            q1s = q0s + _dot(sens, dxv) + SaSF * dsin + SbSF * dcos
+            qp1s = qp0s + _dot(sens, dyv) + Om * (SaSF * dcos - SbSF * dsin)
+            if (qp0s < 0.0 < qp1s) or (qp0s > 0.0 > qp1s):
+                _sensor_extreme(s_mv, phi, Om, xF, yF, mp, sens, zeroN, SaSF, SbSF, q0s, qp0s,
+                                qp1s, x2v, pext, n)
+        bstale = True
+        for i in range(n):
+            xF[i] += dxv[i]
+            yF[i] += dyv[i]
+            eta[i] = aF[i] * sp1 + bF[i] * cp1 + xF[i]
+            etad[i] = Om * (aF[i] * cp1 - bF[i] * sp1) + yF[i]
+        for k in range(ns):
+            # the state recomposed from its parts may round past a stop that the
+            # carried gap (value + increments) has not reached: put it back on it
+            if (inside >> k) & 1:
+                continue
+            gs = _dot(Nrm[k], eta) - off[k]
+            if gs > 0.0:
+                gs *= wk[_MEFF, k]
+                for i in range(n):
+                    eta[i] -= Nrm[k, i] * gs
+        if recording:
+            # the step's end as the next sample will read it
+            q1s = _dot(sens, eta)
+            if q1s < pext[0]:
+                pext[0] = q1s
+            if q1s > pext[1]:
+                pext[1] = q1s
+        if s_mv != rem:
+            at_grid = False
+        phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
+        if s_mv > 0.0:
+            ist[_JSTUCK] = 0
+            ist[_JREL] = 0
+            ist[_EXITED] = 0
+        for k in range(ns):
+            if (inside >> k) & 1:
+                g[k] = _dot(Nrm[k], eta) - off[k]
+                v[k] = _dot(Nrm[k], etad)
+                continue
+            if s_ev >= 0.0 and k == k_ev:
+                g[k] = 0.0
+            else:
+                if g1[k] > gmax:
+                    gmax = g1[k]
+                g[k] = g1[k] if g1[k] < 0.0 else 0.0
+            v[k] = v1[k]
+            G2[k] = G21[k]
+            G3[k] = G31[k]
+        if s_ev >= 0.0:
+            if ev_in == 2:
+                inside &= ~(1 << k_ev)
+                relaxed &= ~(1 << k_ev)
+                g[k_ev] = 0.0
+                fresh = True
+            else:
+                k_imp = k_ev
+        fs[_PHI] = phi
+        fs[_TLOC] = t_loc
+        fs[_REM] = rem
+        fs[_HLAST] = h_last
+        fs[_GMAX] = gmax
+        ist[_INSIDE] = inside
+        ist[_RELAXED] = relaxed
+        ist[_FRESH] = fresh
+        ist[_BSTALE] = bstale
+        ist[_ATGRID] = at_grid
+    lp[_LKS] = k_sample
+    lp[_LJNEXT] = j_next
+    return k_imp
+
+
+@njit(cache=True, _nrt=False, error_model="numpy", no_cfunc_wrapper=True)
+def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+                   max_impacts, max_steps, chatter_tol, rec, work):
+    """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core), in the
+    caller's work arrays: no allocation and no reference counting.
+
+    The event loop in named phases (Siconos' event-driven simulation names its phases alike):
+    the per-frequency data (:func:`_frequency`), the compliant stops' start (``cw`` not None),
+    the initial state (:func:`_initial_state`), then the periods (:func:`_recurrence`,
+    :func:`_period_start`), their grid and sub-steps, a step at a time in the phase the state is
+    in -- compliant contact (:func:`_contact_phase`), held (:func:`_held_phase`) or free flight
+    (:func:`_free_step`) -- and the contact that ends a step (:func:`_contact_event`).  Called from
+    Python by the sweep (:class:`vibeam.models.core.event.EventIntegrator`) and from compiled
+    callers that run many calls (the shots of a corrector).
+
+    Parameters
+    ----------
+    sy : KernelSystem
+    st : KernelStops
+    hs : HeldSets
+        :mod:`vibeam.models.core.stops`.
+    cw : _CompliantWork or None
+        The compliant stops' work arrays (:func:`compliant_work`, from the compliant stops' data
+        :class:`vibeam.models.core.phases.Compliant`); None for a scene with Newton stops only,
+        whose compiled specialisation then holds no compliant code (numba prunes the branches on
+        ``cw is None``).
+    Om : float
+        Forcing frequency (per unit nondimensional time).
+    eta, etad : ndarray, shape (n,)
+        Initial modal state, overwritten with the final one.
+    held0 : int
+        Bit mask of the stops the system is held on (Newton stops) or in contact with (compliant
+        stops) at the start (0 free).
+    n_transient, n_record : int
+        Forcing periods discarded, then recorded.
+    ns_transient, ns_record : int
+        Grid points per period (the recorded samples).
+    h_cap : float
+        Largest step.
+    max_impacts, max_steps : int
+        Guards: beyond them the call returns :data:`ST_FAILED`.
+    chatter_tol : float
+        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.contact_policy`).
+    rec : Record
+        Outputs.
+    work : tuple
+        The work arrays of :func:`new_work` (a caller that reuses them at another ``Om`` runs one
+        grid, ``ns_transient == ns_record``, and checks :func:`work_fits`; the sub-steps are those
+        of ``Om``).  With a snapshot (``recur``), the exact recurrence is on.
+
+    Returns
+    -------
+    tuple
+        ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
+        gmax, n_steps, contact_time, periods_skipped)``: status code, recorded impacts and contacts, sensor extremes
+        over the record (row units), chatter sequences, time held (excluding chatter holds), the
+        final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
+        response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
+        gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
+        round-off only if a crossing had been stepped over), steps taken, time in compliant contact
+        during the record, periods not integrated thanks to the exact recurrence (module docstring;
+        the counters and the record include them).
+    """
+    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, snap_f, snap_i, lp) = work
+    sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
+    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
+                        ns_transient, ns_record, h_cap, fs, ist)
+    if status != 0:
+        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0, 0)
+    if cw is not None:
+        _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec)
+    _initial_state(st, hs, eta, etad, held0, wn, wk, ist, rec)
+    n = eta.shape[0]
+    T = TWO_PI / Om
     n_total = n_transient + n_record
-    failed = False
-    # the exact recurrence (module docstring): snapshot period (-1: none yet, -2: off); a cycle
-    # found in the transient is skipped up to the record, one found in the record (the snapshot
-    # taken in it) is copied to its end
-    snap_pp = -2 if (cw is not None or logging or aplog.shape[0] > 0 or snap_f.shape[0] == 0) else -1
-    snapb_pp = -1           # the second snapshot's period (cadence RECUR_FAST; -1: none yet)
-    j_fs = _snap_fs(n, ns)
-    nsf = snap_f.shape[0] // 2      # the two snapshots: [0, nsf) and [nsf, 2 nsf)
-    nsi = snap_i.shape[0] // 2
-    skipped = 0
+    logging = rec.evlog.shape[0] > 0
+    # the loop's counters (_L*): the exact recurrence's snapshot periods (-1: none yet, -2: off;
+    # the second, cadence RECUR_FAST), samples taken, periods skipped
+    lp[_LSNAP] = -2 if (cw is not None or logging or rec.aplog.shape[0] > 0 or snap_f.shape[0] == 0) else -1
+    lp[_LSNAPB] = -1
+    lp[_LKS] = 0
+    lp[_LSKIP] = 0
+    lp[_LNSREC] = ns_record
     # the record on the transient's grid, its samples inside a free step by dense output (module
     # docstring): r_d samples per grid step of the transient, h_rs apart
     r_d = ns_record // ns_transient
     dense = cw is None and n == 1 and sub_t == 1 and sub_r == 1 and r_d > 1 and r_d * ns_transient == ns_record
     h_rs = T / ns_record
     eps_t = 1e-15 * T
-    pp = 0
-    while pp < n_total:
-        if snap_pp != -2:
-            in_rec = pp >= n_transient
-            s_pp = -1
-            fo = 0
-            io = 0
-            for b in range(2):
-                b_pp = snap_pp if b == 0 else snapb_pp
-                if b_pp >= 0 and (b_pp >= n_transient or not in_rec) and \
-                        _recurs(snap_f, snap_i, b * nsf, b * nsi, eta, etad, wn, wk, hb, fs, ist):
-                    s_pp = b_pp
-                    fo = b * nsf
-                    io = b * nsi
-                    break
-            if s_pp >= 0:
-                L = pp - s_pp
-                m = ((n_total if in_rec else n_transient) - pp) // L
-                d_steps = ist[_NSTEPS] - snap_i[io + _NSTEPS]
-                d_imp = ist[_NIMPT] - snap_i[io + _NIMPT]
-                ok = m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts
-                if in_rec:
-                    # the record's sums must not grow over the cycle: no time held or in contact, no chatter
-                    ok = ok and ist[_NCHAT] == snap_i[io + _NCHAT] and fs[_STUCK] == snap_f[fo + j_fs + _STUCK] \
-                        and fs[_TCON] == snap_f[fo + j_fs + _TCON]
-                if ok:
-                    if in_rec:
-                        d_rec = ist[_NIMPR] - snap_i[io + _NIMPR]
-                        _repeat_record(rec, pp - n_transient, L, m, ns_record, ist[_NIMPR], d_rec,
-                                       snap_i[io + _NIS:io + nsi], T, fs[_PEXT])
-                        ist[_NIMPR] += m * d_rec
-                        k_sample += m * L * ns_record
-                    ist[_NSTEPS] += m * d_steps
-                    ist[_NIMPT] += m * d_imp
-                    if fs[_TLAST] > -1e299:
-                        fs[_TLAST] += (m * L) * T
-                    pp += m * L
-                    skipped += m * L
-                    snap_pp = -1
-                    snapb_pp = -1
-                    continue        # (the call may end here)
-                if in_rec or m > 0:
-                    snap_pp = -2    # a guard, or a record that holds or chatters: integrate on
-            else:
-                # (not at the call's first period start: the loop's flags are those of a fresh start
-                # there, e.g. the free arc's parts about to be recomputed, which a settled orbit's
-                # later period starts do not repeat: a short call, a sweep engine's chunk, would
-                # then wait RECUR_MAX periods for its first useful snapshot)
-                for b in range(2):      # one snapshot a period: the first that is due
-                    b_pp = snap_pp if b == 0 else snapb_pp
-                    if (b_pp == -1 and pp > 0) or pp - b_pp >= (RECUR_MAX if b == 0 else RECUR_FAST) or \
-                            (in_rec and b_pp < n_transient):
-                        _snapshot(snap_f, snap_i, b * nsf, b * nsi, eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
-                        if b == 0:
-                            snap_pp = pp
-                        else:
-                            snapb_pp = pp
-                        break
-        ist[_RP] = pp - n_transient
+    failed = False
+    lp[_LPP] = 0
+    guards = (max_impacts, chatter_tol)
+    while lp[_LPP] < n_total:
+        if lp[_LSNAP] != -2 and _recurrence(eta, etad, work, rec, lp, n_transient, n_total, T, max_steps,
+                                            max_impacts):
+            continue
+        pp = lp[_LPP]
         recording = pp >= n_transient
         fine = recording and not dense      # on the record's own grid
         ns_grid = ns_record if fine else ns_transient
         h_grid = T / ns_grid
         sub = sub_r if fine else sub_t
         h_sub = h_grid / sub
-        Ptab = P_r if fine else P_t
-        tab = tab_r if fine else tab_t
-        j_end = r_d if recording and dense else 0
-        fs[_T0] = (pp - n_transient) * T
-        fs[_PT] = pp * T
-        if pp > n_transient:
-            pmin[pp - n_transient - 1] = fs[_PEXT]
-            fs[_EXT] = min(fs[_EXT], fs[_PEXT])
-            fs[_EXT1] = max(fs[_EXT1], fs[_PEXT1])
-            fs[_PEXT] = np.inf
-            fs[_PEXT1] = -np.inf
+        lp[_LFINE] = 1 if fine else 0
+        lp[_LJEND] = r_d if recording and dense else 0
+        lp[_LREC] = 1 if recording else 0
+        _period_start(fs, ist, rec.pmin, pp, n_transient, T)
         for jg in range(ns_grid):
             if recording:
-                _state_sample(samples, msamp, modamp, fs, k_sample, wn[_SENS], eta, etad, n)
-                k_sample += 1
-            j_next = 1      # the next sample inside the grid step (dense record: j_next < j_end)
+                _state_sample(rec.samples, rec.msamp, rec.modamp, fs, lp[_LKS], wn[_SENS], eta, etad, n)
+                lp[_LKS] += 1
+            lp[_LJNEXT] = 1     # the next sample inside the grid step (dense record: < lp[_LJEND])
+            lp[_LBASE] = jg * r_d
             for isub in range(sub):
                 kg = jg * sub + isub
+                lp[_LKG] = kg
                 fs[_PHI] = TWO_PI * kg / (ns_grid * sub)
                 fs[_TLOC] = jg * h_grid + isub * h_sub
                 fs[_REM] = h_sub
                 ist[_ATGRID] = 1          # still on the tabulated sub-step (no event yet)
                 while fs[_REM] > 0.0:
-                    while j_next < j_end and (jg * r_d + j_next) * h_rs <= fs[_TLOC] + eps_t:
+                    while lp[_LJNEXT] < lp[_LJEND] and (lp[_LBASE] + lp[_LJNEXT]) * h_rs <= fs[_TLOC] + eps_t:
                         # a sample reached by a step's end (a held step cut there, an event on it)
-                        _state_sample(samples, msamp, modamp, fs, k_sample, wn[_SENS], eta, etad, n)
-                        k_sample += 1
-                        j_next += 1
+                        _state_sample(rec.samples, rec.msamp, rec.modamp, fs, lp[_LKS], wn[_SENS], eta, etad, n)
+                        lp[_LKS] += 1
+                        lp[_LJNEXT] += 1
                     ist[_NSTEPS] += 1
                     if ist[_NSTEPS] > max_steps:
                         failed = True
                         break
                     if cw is not None and ist[_C] != 0:
-                        # in contact with the compliant stops C (held on H)
-                        k_imp = _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T, recording)
-                        if k_imp == -2:
-                            failed = True
-                            break
+                        # in contact with the compliant stops C (held on H); -2: failed
+                        k_imp = _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, rec.evlog, rec.nlog, Om, T,
+                                               recording)
                     elif ist[_H] != 0:
-                        # held on the set H (a dense record: up to the next sample, as on its own grid)
-                        rem_full = fs[_REM]
-                        cut = rem_full
-                        if j_next < j_end:
-                            cut = min(rem_full, (jg * r_d + j_next) * h_rs - fs[_TLOC])
-                            fs[_REM] = cut
-                        k_imp = _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog, nlog,
-                                           Om, T, recording, cw)
-                        if cut != rem_full:
-                            rest = rem_full - (cut - fs[_REM])
-                            fs[_REM] = rest if rest >= eps_t else 0.0
+                        k_imp = _held_phase(hs, st, cw, work, rec, eta, etad, lp, Om, T, recording)
                     else:
-                        # free flight (held set empty, no compliant contact): one step of at most the rest
-                        # of the sub-step kg of the grid (tables tab, Ptab), written out here, the hot path
-                        # (no call per step); k_imp: the stop of a contact at the step's end
-
-                        phi = fs[_PHI]
-                        t_loc = fs[_TLOC]
-                        rem = fs[_REM]
-                        h_last = fs[_HLAST]
-                        gmax = fs[_GMAX]
-                        pT = fs[_PT]
-                        SaSF = fs[_SASF]
-                        SbSF = fs[_SBSF]
-                        inside = ist[_INSIDE]
-                        relaxed = ist[_RELAXED]
-                        cmask = ist[_CMASK]
-                        fresh = ist[_FRESH] != 0
-                        bstale = ist[_BSTALE] != 0
-                        at_grid = ist[_ATGRID] != 0
-                        just_released = ist[_JREL] != 0
-                        apexes = aplog.shape[0] > 0
-                        h_try = min(rem, 2.0 * h_last)
-                        pext = fs[_PEXT:_PEXT1 + 1]
-                        aF = wn[_AF]
-                        bF = wn[_BF]
-                        GF = wn[_GF]
-                        zeroN = wn[_ZERO]
-                        xF = wn[_XF]
-                        yF = wn[_YF]
-                        dxv = wn[_DXV]
-                        dyv = wn[_DYV]
-                        x2v = wn[_X2V]
-                        x3v = wn[_X3V]
-                        sens = wn[_SENS]
-                        SaF = wk[_SAF]
-                        SbF = wk[_SBF]
-                        CsF = wk[_CSF]
-                        g = wk[_G]
-                        v = wk[_V]
-                        g1 = wk[_G1]
-                        v1 = wk[_V1]
-                        G2 = wk[_G2]
-                        G3 = wk[_G3]
-                        G21 = wk[_G21]
-                        G31 = wk[_G31]
-                        M2F = wk[_M2F]
-                        M3F = wk[_M3F]
-                        M4F = wk[_M4F]
-                        off = wk[_OFF]
-                        touched = -1
-                        if cw is not None and inside != 0:
-                            touched, inside, relaxed = _inside_touch(cw, Nrm, Nrm, off, eta, etad, g, v, inside,
-                                                                     relaxed, ist[_EXITED], phi, Om, wn, GF)
-                        for k in range(ns):
-                            if touched >= 0:
-                                break
-                            if (inside >> k) & 1:
-                                continue
-                            if g[k] >= 0.0 and v[k] >= 0.0:
-                                g[k] = 0.0
-                                if v[k] > 0.0:
-                                    touched = k
-                                    break
-                                if not just_released:
-                                    acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
-                                    if (cmask >> k) & 1:
-                                        if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
-                                            touched = k     # pressed onto a compliant stop: a contact
-                                            break
-                                    elif not release_now(acc, jerk):     # pressed (the release rule)
-                                        if logging:
-                                            _log_event(evlog, nlog, _K_STICK, pT + t_loc, 0.0, k, eta, etad)
-                                        ist[_H] = 1 << k
-                                        ist[_JSTUCK] = 1
-                                        corr = v[k] * wk[_MEFF, k]
-                                        for i in range(n):
-                                            etad[i] -= Nrm[k, i] * corr
-                                        v[k] = 0.0
-                                        for j in range(ns):
-                                            if j != k:
-                                                v[j] = _dot(Nrm[j], etad)
-                                        touched = -2
-                                        break
-                        k_imp = -1
-                        if touched != -1:
-                            ist[_INSIDE] = inside
-                            ist[_RELAXED] = relaxed
-                            if touched == -2:
-                                ist[_FRESH] = 1
-                            else:
-                                k_imp = touched
-                        else:
-                            if fresh:
-                                # a new free arc: homogeneous parts, their bounds (valid along the whole
-                                # arc: the homogeneous envelope only decays), curvature of each gap
-                                homogeneous(phi, Om, eta, etad, aF, bF, zeroN, xF, yF, n)
-                                _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
-                                for k in range(ns):
-                                    _f, _f1, G2[k], G3[k], _f4 = signal(0.0, phi, Om, xF, yF, mp, Nrm[k], zeroN,
-                                                                        SaF[k], SbF[k], g[k], v[k], n)
-                                fresh = False
-                                bstale = False
-                            h = h_try
-                            tabd = at_grid and h == rem
-                            if tabd:
-                                sp0 = tab[kg, 0]
-                                cp0 = tab[kg, 1]
-                                sp1 = tab[kg + 1, 0]
-                                cp1 = tab[kg + 1, 1]
-                                dsin = sp1 - sp0
-                                dcos = cp1 - cp0
-                            else:
-                                half = 0.5 * Om * h
-                                sh = math.sin(half)
-                                ph = phi + half
-                                dsin = 2.0 * sh * math.cos(ph)
-                                dcos = -2.0 * sh * math.sin(ph)
-                                sp1 = math.sin(phi + Om * h)
-                                cp1 = math.cos(phi + Om * h)
-                            # the modes' increments and derivatives at h
-                            for j in range(n):
-                                a11, a12, a21, a22 = increment_of(tabd, Ptab, j, h, mp)
-                                ddx = a11 * xF[j] + a12 * yF[j]
-                                ddy = a21 * xF[j] + a22 * yF[j]
-                                xe = xF[j] + ddx
-                                ye = yF[j] + ddy
-                                dxv[j] = ddx
-                                dyv[j] = ddy
-                                xx2 = -2.0 * mp[j, 0] * ye - mp[j, 1] * xe
-                                x2v[j] = xx2
-                                x3v[j] = -2.0 * mp[j, 0] * xx2 - mp[j, 1] * ye
-                            W2 = Om * Om
-                            s_ev = -1.0
-                            k_ev = -1
-                            h_ok = h
-                            ev_in = 0
-                            if cw is not None and inside != 0:
-                                # inside a compliant stop: its force's sign up through zero (a contact),
-                                # or its gap down through zero (below it again)
-                                st = cw.st
-                                vr = cw.vr
-                                wpa = cw.wpa
-                                wra = cw.wra
-                                for k in range(ns):
-                                    if (inside >> k) & 1 == 0:
-                                        continue
-                                    r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k],
-                                                               (relaxed >> k) & 1 == 1)
-                                    for j in range(n):
-                                        wpa[j] = r0 * Nrm[k, j]
-                                        wra[j] = r1 * Nrm[k, j]
-                                    Sa = r0 * SaF[k] - r1 * Om * SbF[k]
-                                    Sb = r0 * SbF[k] + r1 * Om * SaF[k]
-                                    f0, fp0 = signal_start(phi, Om, xF, yF, mp, wpa, wra, Sa, Sb,
-                                                           roff - r0 * off[k], n)
-                                    M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, n)
-                                    hk = h_ok if s_ev < 0.0 else s_ev
-                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, wra, Sa, Sb, f0, fp0, M2, M3,
-                                                   M4, n)
-                                    if sk >= 0.0:
-                                        s_ev = sk
-                                        k_ev = k
-                                        ev_in = 1
-                                    elif hk2 < hk:
-                                        s_ev = -1.0
-                                        k_ev = -1
-                                        ev_in = 0
-                                        h_ok = hk2
-                                    for j in range(n):
-                                        wpa[j] = -Nrm[k, j]
-                                    hk = h_ok if s_ev < 0.0 else s_ev
-                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, zeroN, -SaF[k], -SbF[k],
-                                                   -g[k], -v[k], M2F[k], M3F[k], M4F[k], n)
-                                    if sk >= 0.0:
-                                        s_ev = sk
-                                        k_ev = k
-                                        ev_in = 2
-                                    elif hk2 < hk:
-                                        s_ev = -1.0
-                                        k_ev = -1
-                                        ev_in = 0
-                                        h_ok = hk2
-                            for k in range(ns):
-                                if (inside >> k) & 1:
-                                    continue
-                                hk = h_ok if s_ev < 0.0 else s_ev
-                                if hk == h:
-                                    f = g[k] + SaF[k] * dsin + SbF[k] * dcos
-                                    f1 = v[k] + Om * (SaF[k] * dcos - SbF[k] * dsin)
-                                    f2 = 0.0
-                                    f3 = 0.0
-                                    for j in range(n):
-                                        f += Nrm[k, j] * dxv[j]
-                                        f1 += Nrm[k, j] * dyv[j]
-                                        f2 += Nrm[k, j] * x2v[j]
-                                        f3 += Nrm[k, j] * x3v[j]
-                                    g1[k] = f
-                                    v1[k] = f1
-                                    G21[k] = f2 - W2 * (SaF[k] * sp1 + SbF[k] * cp1)
-                                    G31[k] = f3 - W2 * Om * (SaF[k] * cp1 - SbF[k] * sp1)
-                                    far = _far(g[k], g1[k], M2F[k], hk)
-                                    if not far and bstale:
-                                        # the bounds of the arc's start (valid: the homogeneous
-                                        # envelope only decays) are loose once fast modes have
-                                        # decayed: near a stop, take them from the current state
-                                        _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
-                                        bstale = False
-                                        far = _far(g[k], g1[k], M2F[k], hk)
-                                    if far:
-                                        sk = -1.0        # far from the stop (interpolation bound)
-                                        hk2 = hk
-                                    else:
-                                        sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN,
-                                                            SaF[k], SbF[k], g[k], v[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
-                                                            G21[k], G31[k], M2F[k], M3F[k], M4F[k], n)
-                                else:
-                                    sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN, SaF[k],
-                                                   SbF[k], g[k], v[k], M2F[k], M3F[k], M4F[k], n)
-                                if sk >= 0.0:
-                                    s_ev = sk
-                                    k_ev = k
-                                    ev_in = 0
-                                elif hk2 < hk:
-                                    s_ev = -1.0
-                                    k_ev = -1
-                                    ev_in = 0
-                                    h_ok = hk2
-                            s_mv = s_ev if s_ev >= 0.0 else h_ok
-                            if s_ev < 0.0:
-                                # shrink to a halved step; a step cut by the sub-grid says nothing
-                                h_last = h_ok if h_ok < h else max(h_last, h)
-                            if s_mv != h:
-                                # the step ends before the tabulated one: evaluate the flow there
-                                tabd = False
-                                half = 0.5 * Om * s_mv
-                                sh = math.sin(half)
-                                ph = phi + half
-                                dsin = 2.0 * sh * math.cos(ph)
-                                dcos = -2.0 * sh * math.sin(ph)
-                                sp1 = math.sin(phi + Om * s_mv)
-                                cp1 = math.cos(phi + Om * s_mv)
-                                mode_ends(s_mv, xF, yF, mp, Ptab, False, dxv, dyv, x2v, x3v, n)
-                                for k in range(ns):
-                                    _gap_ends(Nrm, k, SaF[k], SbF[k], g[k], v[k], Om, dxv, dyv, x2v, x3v,
-                                              dsin, dcos, sp1, cp1, n, g1, v1, G21, G31)
-                            if j_next < j_end:
-                                # the record's samples inside the step: the flow evaluated there
-                                taken = _dense_samples(samples, msamp, modamp, fs, k_sample, j_next, j_end, jg * r_d,
-                                                       sens, aF, bF, xF, yF, mp, P_r, tab_r, t_loc, s_mv, h_rs,
-                                                       at_grid, Om, n)
-                                k_sample += taken
-                                j_next += taken
-                            if apexes and s_ev < 0.0:
-                                for k in range(ns):
-                                    if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:
-                                        _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, xF, yF, mp, Nrm[k],
-                                                  zeroN, SaF[k], SbF[k], g[k], v[k], n, k, G2[k], v1[k], G21[k])
-                            if recording:
-                                # the sensor's extremes inside the step (root-found where its slope turns)
-                                q0s = _dot(sens, eta)
-                                qp0s = _dot(sens, etad)
-                                q1s = q0s + _dot(sens, dxv) + SaSF * dsin + SbSF * dcos
-                                qp1s = qp0s + _dot(sens, dyv) + Om * (SaSF * dcos - SbSF * dsin)
-                                if (qp0s < 0.0 < qp1s) or (qp0s > 0.0 > qp1s):
-                                    _sensor_extreme(s_mv, phi, Om, xF, yF, mp, sens, zeroN, SaSF, SbSF, q0s, qp0s,
-                                                    qp1s, x2v, pext, n)
-                            bstale = True
-                            for i in range(n):
-                                xF[i] += dxv[i]
-                                yF[i] += dyv[i]
-                                eta[i] = aF[i] * sp1 + bF[i] * cp1 + xF[i]
-                                etad[i] = Om * (aF[i] * cp1 - bF[i] * sp1) + yF[i]
-                            for k in range(ns):
-                                # the state recomposed from its parts may round past a stop that the
-                                # carried gap (value + increments) has not reached: put it back on it
-                                if (inside >> k) & 1:
-                                    continue
-                                gs = _dot(Nrm[k], eta) - off[k]
-                                if gs > 0.0:
-                                    gs *= wk[_MEFF, k]
-                                    for i in range(n):
-                                        eta[i] -= Nrm[k, i] * gs
-                            if recording:
-                                # the step's end as the next sample will read it
-                                q1s = _dot(sens, eta)
-                                if q1s < pext[0]:
-                                    pext[0] = q1s
-                                if q1s > pext[1]:
-                                    pext[1] = q1s
-                            if s_mv != rem:
-                                at_grid = False
-                            phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
-                            if s_mv > 0.0:
-                                ist[_JSTUCK] = 0
-                                ist[_JREL] = 0
-                                ist[_EXITED] = 0
-                            for k in range(ns):
-                                if (inside >> k) & 1:
-                                    g[k] = _dot(Nrm[k], eta) - off[k]
-                                    v[k] = _dot(Nrm[k], etad)
-                                    continue
-                                if s_ev >= 0.0 and k == k_ev:
-                                    g[k] = 0.0
-                                else:
-                                    if g1[k] > gmax:
-                                        gmax = g1[k]
-                                    g[k] = g1[k] if g1[k] < 0.0 else 0.0
-                                v[k] = v1[k]
-                                G2[k] = G21[k]
-                                G3[k] = G31[k]
-                            if s_ev >= 0.0:
-                                if ev_in == 2:
-                                    inside &= ~(1 << k_ev)
-                                    relaxed &= ~(1 << k_ev)
-                                    g[k_ev] = 0.0
-                                    fresh = True
-                                else:
-                                    k_imp = k_ev
-                            fs[_PHI] = phi
-                            fs[_TLOC] = t_loc
-                            fs[_REM] = rem
-                            fs[_HLAST] = h_last
-                            fs[_GMAX] = gmax
-                            ist[_INSIDE] = inside
-                            ist[_RELAXED] = relaxed
-                            ist[_FRESH] = fresh
-                            ist[_BSTALE] = bstale
-                            ist[_ATGRID] = at_grid
-                    if k_imp < 0:
-                        continue
+                        k_imp = _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording)
                     # a contact at the current time on stop k_imp
-                    if cw is not None and (ist[_CMASK] >> k_imp) & 1:
-                        failed = _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, k_imp, max_impacts, recording)
-                    else:
-                        # (a dense record: the policy sees the rest of the record's grid step)
-                        rem_full = fs[_REM]
-                        if j_next < j_end:
-                            fs[_REM] = min(rem_full, (jg * r_d + j_next) * h_rs - fs[_TLOC])
-                        failed = _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, Om, T,
-                                         k_imp, max_impacts, chatter_tol, recording, cw)
-                        fs[_REM] = rem_full
+                    failed = k_imp == -2 or (k_imp >= 0 and _contact_event(sy, st, hs, cw, work, rec, eta, etad, lp,
+                                                                           k_imp, Om, guards))
                     if failed:
                         break
                 if failed:
@@ -2122,11 +2216,11 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                 break
         if failed:
             break
-        pp += 1
+        lp[_LPP] += 1
     if failed:
-        return _failed(fs, ist, skipped)
+        return _failed(fs, ist, lp[_LSKIP])
     if n_record > 0:
-        pmin[n_record - 1] = fs[_PEXT]
+        rec.pmin[n_record - 1] = fs[_PEXT]
         fs[_EXT] = min(fs[_EXT], fs[_PEXT])
         fs[_EXT1] = max(fs[_EXT1], fs[_PEXT1])
     status = ST_OK
@@ -2136,7 +2230,7 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
         elif fs[_STUCK] > 0.0:
             status = ST_STICKING
     return (status, ist[_NIMPR], fs[_EXT], fs[_EXT1], ist[_NCHAT], fs[_STUCK], ist[_H] | ist[_C], ist[_NIMPT],
-            fs[_GMAX], ist[_NSTEPS], fs[_TCON], skipped)
+            fs[_GMAX], ist[_NSTEPS], fs[_TCON], lp[_LSKIP])
 
 
 @_kernel
