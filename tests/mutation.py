@@ -107,6 +107,7 @@ MODULES = {
         "tests/test_recurrence.py",
     ],
     "models/core/integrator.py": [
+        "tests/test_oracles.py::test_a_start_inside_a_compliant_stop_without_contact_follows_the_force_sign",
         "tests/test_event.py",
         "tests/test_two_sided.py",
         "tests/test_recurrence.py",
