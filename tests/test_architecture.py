@@ -415,7 +415,6 @@ def test_the_model_classes_carry_their_stops_not_law_fields():
 #: shrink (issue 43: split into named phases; README "Architecture" lists them with the reason)
 SIZE_EXCEPTIONS = {
     "models/core/shooting.py:tangent": (400, 8),
-    "models/core/integrator.py:_free_step": (346, 6),
     "models/core/integrator.py:_held_step": (304, 5),
     "models/core/contact_phase.py:linear_step": (226, 3),
     "models/core/signals.py:scan_from": (42, 6),

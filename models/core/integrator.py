@@ -1711,55 +1711,90 @@ def _contact_event(sy, st, hs, cw, work, rec, eta, etad, lp, k_imp, Om, guards):
 
 
 @_inline
-def _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording):
-    """Phase *free flight* (held set empty, no compliant contact): one step of at most the rest of
-    the grid's sub-step ``lp[_LKG]`` (its tables by ``lp[_LFINE]``): the stops touched at its start
-    (a contact, or sticking entered by the release rule), else every stop's gap scanned with
-    certified bounds (:mod:`vibeam.models.core.signals`; inside a compliant stop its force's sign
-    and its gap), the flow moved to the first event or the step's end, the record's samples
-    inside the step (dense output), the apexes and the sensor's extremes.  Returns the stop of a
-    contact at the step's end, or -1."""
-    (wn, wk, hb, _hab, _hsig, _hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, _snap_f, _snap_i, _lp) = work
+def _free_touch(st, cw, wn, wk, fs, ist, rec, eta, etad, Om):
+    """The stops touched at a free step's start: a stop reached with ``U > 0`` (a contact), a
+    compliant stop pressed onto (a contact) or a Newton stop pressed onto by the release rule
+    (sticking entered: the stop joins the held set); inside a compliant stop, its force's sign
+    (:func:`_inside_touch`).  Returns the stop of a contact, -2 (sticking entered) or -1; the
+    stops the body is inside of go to ``ist``."""
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    Nrm = st.normal
+    evlog = rec.evlog
+    nlog = rec.nlog
+    logging = evlog.shape[0] > 0
+    phi = fs[_PHI]
+    t_loc = fs[_TLOC]
+    pT = fs[_PT]
+    inside = ist[_INSIDE]
+    relaxed = ist[_RELAXED]
+    cmask = ist[_CMASK]
+    just_released = ist[_JREL] != 0
+    GF = wn[_GF]
+    g = wk[_G]
+    v = wk[_V]
+    off = wk[_OFF]
+    touched = -1
+    if cw is not None and inside != 0:
+        touched, inside, relaxed = _inside_touch(cw, Nrm, Nrm, off, eta, etad, g, v, inside,
+                                                 relaxed, ist[_EXITED], phi, Om, wn, GF)
+    for k in range(ns):
+        if touched >= 0:
+            break
+        if (inside >> k) & 1 or not (g[k] >= 0.0 and v[k] >= 0.0):
+            continue
+        g[k] = 0.0
+        if v[k] > 0.0:
+            touched = k
+            break
+        if just_released:
+            continue
+        acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
+        if (cmask >> k) & 1:
+            if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
+                touched = k     # pressed onto a compliant stop: a contact
+                break
+        elif not release_now(acc, jerk):     # pressed (the release rule)
+            if logging:
+                _log_event(evlog, nlog, _K_STICK, pT + t_loc, 0.0, k, eta, etad)
+            ist[_H] = 1 << k
+            ist[_JSTUCK] = 1
+            corr = v[k] * wk[_MEFF, k]
+            for i in range(n):
+                etad[i] -= Nrm[k, i] * corr
+            v[k] = 0.0
+            for j in range(ns):
+                if j != k:
+                    v[j] = _dot(Nrm[j], etad)
+            touched = -2
+            break
+    ist[_INSIDE] = inside
+    ist[_RELAXED] = relaxed
+    if touched == -2:
+        ist[_FRESH] = 1
+    return touched
+
+
+@_inline
+def _free_arc(sy, st, work, eta, etad, tab, Ptab, kg, Om):
+    """A free step's length and the flow at its end: a new free arc's homogeneous parts, their
+    bounds (valid along the whole arc: the homogeneous envelope only decays) and each gap's
+    curvature when the arc is fresh; the step ``h`` (at most twice the last, to the sub-step's
+    end), the forcing's increments over it (tabulated on the grid's sub-step) and the modes'
+    increments and derivatives at ``h`` (``wn``).  Returns ``(h, dsin, dcos, sp1, cp1, bstale)``."""
+    (wn, wk, hb, _hab, _hsig, _hss, _P_r, _tab_r, _P_t, _tab_t, fs, ist, _sub_r, _sub_t, _sf, _si, _lp) = work
     n = eta.shape[0]
     ns = st.offset.shape[0]
     mp = sy.mp
     Nrm = st.normal
-    evlog = rec.evlog
-    aplog = rec.aplog
-    nlog = rec.nlog
-    samples = rec.samples
-    msamp = rec.msamp
-    modamp = rec.modamp
-    logging = evlog.shape[0] > 0
-    kg = lp[_LKG]
-    fine = lp[_LFINE] != 0
-    Ptab = P_r if fine else P_t
-    tab = tab_r if fine else tab_t
-    k_sample = lp[_LKS]
-    j_next = lp[_LJNEXT]
-    j_end = lp[_LJEND]
-    h_rs = T / lp[_LNSREC]
     phi = fs[_PHI]
-    t_loc = fs[_TLOC]
     rem = fs[_REM]
-    h_last = fs[_HLAST]
-    gmax = fs[_GMAX]
-    pT = fs[_PT]
-    SaSF = fs[_SASF]
-    SbSF = fs[_SBSF]
-    inside = ist[_INSIDE]
-    relaxed = ist[_RELAXED]
-    cmask = ist[_CMASK]
+    h_try = min(rem, 2.0 * fs[_HLAST])
     fresh = ist[_FRESH] != 0
     bstale = ist[_BSTALE] != 0
     at_grid = ist[_ATGRID] != 0
-    just_released = ist[_JREL] != 0
-    apexes = aplog.shape[0] > 0
-    h_try = min(rem, 2.0 * h_last)
-    pext = fs[_PEXT:_PEXT1 + 1]
     aF = wn[_AF]
     bF = wn[_BF]
-    GF = wn[_GF]
     zeroN = wn[_ZERO]
     xF = wn[_XF]
     yF = wn[_YF]
@@ -1767,7 +1802,6 @@ def _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording):
     dyv = wn[_DYV]
     x2v = wn[_X2V]
     x3v = wn[_X3V]
-    sens = wn[_SENS]
     SaF = wk[_SAF]
     SbF = wk[_SBF]
     CsF = wk[_CSF]
@@ -1783,288 +1817,495 @@ def _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording):
     M3F = wk[_M3F]
     M4F = wk[_M4F]
     off = wk[_OFF]
-    touched = -1
-    if cw is not None and inside != 0:
-        touched, inside, relaxed = _inside_touch(cw, Nrm, Nrm, off, eta, etad, g, v, inside,
-                                                 relaxed, ist[_EXITED], phi, Om, wn, GF)
+    if fresh:
+        # a new free arc: homogeneous parts, their bounds (valid along the whole
+        # arc: the homogeneous envelope only decays), curvature of each gap
+        homogeneous(phi, Om, eta, etad, aF, bF, zeroN, xF, yF, n)
+        _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
+        for k in range(ns):
+            _f, _f1, G2[k], G3[k], _f4 = signal(0.0, phi, Om, xF, yF, mp, Nrm[k], zeroN,
+                                                SaF[k], SbF[k], g[k], v[k], n)
+        fresh = False
+        bstale = False
+    h = h_try
+    tabd = at_grid and h == rem
+    if tabd:
+        sp0 = tab[kg, 0]
+        cp0 = tab[kg, 1]
+        sp1 = tab[kg + 1, 0]
+        cp1 = tab[kg + 1, 1]
+        dsin = sp1 - sp0
+        dcos = cp1 - cp0
+    else:
+        half = 0.5 * Om * h
+        sh = math.sin(half)
+        ph = phi + half
+        dsin = 2.0 * sh * math.cos(ph)
+        dcos = -2.0 * sh * math.sin(ph)
+        sp1 = math.sin(phi + Om * h)
+        cp1 = math.cos(phi + Om * h)
+    # the modes' increments and derivatives at h
+    for j in range(n):
+        a11, a12, a21, a22 = increment_of(tabd, Ptab, j, h, mp)
+        ddx = a11 * xF[j] + a12 * yF[j]
+        ddy = a21 * xF[j] + a22 * yF[j]
+        xe = xF[j] + ddx
+        ye = yF[j] + ddy
+        dxv[j] = ddx
+        dyv[j] = ddy
+        xx2 = -2.0 * mp[j, 0] * ye - mp[j, 1] * xe
+        x2v[j] = xx2
+        x3v[j] = -2.0 * mp[j, 0] * xx2 - mp[j, 1] * ye
+    return h, dsin, dcos, sp1, cp1, bstale
+
+
+@_inline
+def _scan_inside(sy, cw, wn, wk, hb, inside, relaxed, phi, Om, T, h_ok):
+    """The events of the compliant stops the body is inside of over a free step of ``h_ok``: each
+    stop's force's sign up through zero (a contact, ``ev_in`` 1) or its gap down through zero
+    (below it again, ``ev_in`` 2), scanned with certified bounds.  Returns ``(s_ev, k_ev, ev_in,
+    h_ok)``: the first event's time and stop (-1: none) and the certified step."""
+    n = sy.mp.shape[0]
+    mp = sy.mp
+    ns = cw.st.offset.shape[0]
+    Nrm = cw.st.normal
+    zeroN = wn[_ZERO]
+    xF = wn[_XF]
+    yF = wn[_YF]
+    SaF = wk[_SAF]
+    SbF = wk[_SBF]
+    g = wk[_G]
+    v = wk[_V]
+    M2F = wk[_M2F]
+    M3F = wk[_M3F]
+    M4F = wk[_M4F]
+    off = wk[_OFF]
+    s_ev = -1.0
+    k_ev = -1
+    ev_in = 0
+    st = cw.st
+    vr = cw.vr
+    wpa = cw.wpa
+    wra = cw.wra
     for k in range(ns):
-        if touched >= 0:
-            break
+        if (inside >> k) & 1 == 0:
+            continue
+        r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k],
+                                   (relaxed >> k) & 1 == 1)
+        for j in range(n):
+            wpa[j] = r0 * Nrm[k, j]
+            wra[j] = r1 * Nrm[k, j]
+        Sa = r0 * SaF[k] - r1 * Om * SbF[k]
+        Sb = r0 * SbF[k] + r1 * Om * SaF[k]
+        f0, fp0 = signal_start(phi, Om, xF, yF, mp, wpa, wra, Sa, Sb,
+                               roff - r0 * off[k], n)
+        M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, n)
+        hk = h_ok if s_ev < 0.0 else s_ev
+        sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, wra, Sa, Sb, f0, fp0, M2, M3,
+                       M4, n)
+        if sk >= 0.0:
+            s_ev = sk
+            k_ev = k
+            ev_in = 1
+        elif hk2 < hk:
+            s_ev = -1.0
+            k_ev = -1
+            ev_in = 0
+            h_ok = hk2
+        for j in range(n):
+            wpa[j] = -Nrm[k, j]
+        hk = h_ok if s_ev < 0.0 else s_ev
+        sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, zeroN, -SaF[k], -SbF[k],
+                       -g[k], -v[k], M2F[k], M3F[k], M4F[k], n)
+        if sk >= 0.0:
+            s_ev = sk
+            k_ev = k
+            ev_in = 2
+        elif hk2 < hk:
+            s_ev = -1.0
+            k_ev = -1
+            ev_in = 0
+            h_ok = hk2
+    return s_ev, k_ev, ev_in, h_ok
+
+
+@_inline
+def _scan_stops(sy, st, wn, wk, hb, inside, Om, T, step, ev, bstale):
+    """The events of the stops not inside over a free step: each gap's first upward zero crossing,
+    scanned with certified bounds (:mod:`vibeam.models.core.signals`; from the step's ends when the
+    step is the tabulated one, far stops skipped by the interpolation bound).  ``step``: ``(phi,
+    h, dsin, dcos, sp1, cp1)``; ``ev``: ``(s_ev, k_ev, ev_in, h_ok)`` so far.  Returns them updated
+    and ``bstale``."""
+    phi, h, dsin, dcos, sp1, cp1 = step
+    s_ev, k_ev, ev_in, h_ok = ev
+    n = sy.mp.shape[0]
+    ns = st.offset.shape[0]
+    mp = sy.mp
+    Nrm = st.normal
+    W2 = Om * Om
+    aF = wn[_AF]
+    bF = wn[_BF]
+    zeroN = wn[_ZERO]
+    xF = wn[_XF]
+    yF = wn[_YF]
+    dxv = wn[_DXV]
+    dyv = wn[_DYV]
+    x2v = wn[_X2V]
+    x3v = wn[_X3V]
+    SaF = wk[_SAF]
+    SbF = wk[_SBF]
+    CsF = wk[_CSF]
+    g = wk[_G]
+    v = wk[_V]
+    g1 = wk[_G1]
+    v1 = wk[_V1]
+    G2 = wk[_G2]
+    G3 = wk[_G3]
+    G21 = wk[_G21]
+    G31 = wk[_G31]
+    M2F = wk[_M2F]
+    M3F = wk[_M3F]
+    M4F = wk[_M4F]
+    off = wk[_OFF]
+    for k in range(ns):
         if (inside >> k) & 1:
             continue
-        if g[k] >= 0.0 and v[k] >= 0.0:
-            g[k] = 0.0
-            if v[k] > 0.0:
-                touched = k
-                break
-            if not just_released:
-                acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
-                if (cmask >> k) & 1:
-                    if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
-                        touched = k     # pressed onto a compliant stop: a contact
-                        break
-                elif not release_now(acc, jerk):     # pressed (the release rule)
-                    if logging:
-                        _log_event(evlog, nlog, _K_STICK, pT + t_loc, 0.0, k, eta, etad)
-                    ist[_H] = 1 << k
-                    ist[_JSTUCK] = 1
-                    corr = v[k] * wk[_MEFF, k]
-                    for i in range(n):
-                        etad[i] -= Nrm[k, i] * corr
-                    v[k] = 0.0
-                    for j in range(ns):
-                        if j != k:
-                            v[j] = _dot(Nrm[j], etad)
-                    touched = -2
-                    break
-    k_imp = -1
-    if touched != -1:
-        ist[_INSIDE] = inside
-        ist[_RELAXED] = relaxed
-        if touched == -2:
-            ist[_FRESH] = 1
-        else:
-            k_imp = touched
-    else:
-        if fresh:
-            # a new free arc: homogeneous parts, their bounds (valid along the whole
-            # arc: the homogeneous envelope only decays), curvature of each gap
-            homogeneous(phi, Om, eta, etad, aF, bF, zeroN, xF, yF, n)
-            _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
-            for k in range(ns):
-                _f, _f1, G2[k], G3[k], _f4 = signal(0.0, phi, Om, xF, yF, mp, Nrm[k], zeroN,
-                                                    SaF[k], SbF[k], g[k], v[k], n)
-            fresh = False
-            bstale = False
-        h = h_try
-        tabd = at_grid and h == rem
-        if tabd:
-            sp0 = tab[kg, 0]
-            cp0 = tab[kg, 1]
-            sp1 = tab[kg + 1, 0]
-            cp1 = tab[kg + 1, 1]
-            dsin = sp1 - sp0
-            dcos = cp1 - cp0
-        else:
-            half = 0.5 * Om * h
-            sh = math.sin(half)
-            ph = phi + half
-            dsin = 2.0 * sh * math.cos(ph)
-            dcos = -2.0 * sh * math.sin(ph)
-            sp1 = math.sin(phi + Om * h)
-            cp1 = math.cos(phi + Om * h)
-        # the modes' increments and derivatives at h
-        for j in range(n):
-            a11, a12, a21, a22 = increment_of(tabd, Ptab, j, h, mp)
-            ddx = a11 * xF[j] + a12 * yF[j]
-            ddy = a21 * xF[j] + a22 * yF[j]
-            xe = xF[j] + ddx
-            ye = yF[j] + ddy
-            dxv[j] = ddx
-            dyv[j] = ddy
-            xx2 = -2.0 * mp[j, 0] * ye - mp[j, 1] * xe
-            x2v[j] = xx2
-            x3v[j] = -2.0 * mp[j, 0] * xx2 - mp[j, 1] * ye
-        W2 = Om * Om
-        s_ev = -1.0
-        k_ev = -1
-        h_ok = h
-        ev_in = 0
-        if cw is not None and inside != 0:
-            # inside a compliant stop: its force's sign up through zero (a contact),
-            # or its gap down through zero (below it again)
-            st = cw.st
-            vr = cw.vr
-            wpa = cw.wpa
-            wra = cw.wra
-            for k in range(ns):
-                if (inside >> k) & 1 == 0:
-                    continue
-                r0, r1, roff = inside_sign(st.law[k], st.kc[k], st.cc[k], vr[k],
-                                           (relaxed >> k) & 1 == 1)
-                for j in range(n):
-                    wpa[j] = r0 * Nrm[k, j]
-                    wra[j] = r1 * Nrm[k, j]
-                Sa = r0 * SaF[k] - r1 * Om * SbF[k]
-                Sb = r0 * SbF[k] + r1 * Om * SaF[k]
-                f0, fp0 = signal_start(phi, Om, xF, yF, mp, wpa, wra, Sa, Sb,
-                                       roff - r0 * off[k], n)
-                M2, M3, M4 = bounds(hb, wpa, wra, math.sqrt(Sa * Sa + Sb * Sb), Om, n)
-                hk = h_ok if s_ev < 0.0 else s_ev
-                sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, wra, Sa, Sb, f0, fp0, M2, M3,
-                               M4, n)
-                if sk >= 0.0:
-                    s_ev = sk
-                    k_ev = k
-                    ev_in = 1
-                elif hk2 < hk:
-                    s_ev = -1.0
-                    k_ev = -1
-                    ev_in = 0
-                    h_ok = hk2
-                for j in range(n):
-                    wpa[j] = -Nrm[k, j]
-                hk = h_ok if s_ev < 0.0 else s_ev
-                sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, wpa, zeroN, -SaF[k], -SbF[k],
-                               -g[k], -v[k], M2F[k], M3F[k], M4F[k], n)
-                if sk >= 0.0:
-                    s_ev = sk
-                    k_ev = k
-                    ev_in = 2
-                elif hk2 < hk:
-                    s_ev = -1.0
-                    k_ev = -1
-                    ev_in = 0
-                    h_ok = hk2
-        for k in range(ns):
-            if (inside >> k) & 1:
-                continue
-            hk = h_ok if s_ev < 0.0 else s_ev
-            if hk == h:
-                f = g[k] + SaF[k] * dsin + SbF[k] * dcos
-                f1 = v[k] + Om * (SaF[k] * dcos - SbF[k] * dsin)
-                f2 = 0.0
-                f3 = 0.0
-                for j in range(n):
-                    f += Nrm[k, j] * dxv[j]
-                    f1 += Nrm[k, j] * dyv[j]
-                    f2 += Nrm[k, j] * x2v[j]
-                    f3 += Nrm[k, j] * x3v[j]
-                g1[k] = f
-                v1[k] = f1
-                G21[k] = f2 - W2 * (SaF[k] * sp1 + SbF[k] * cp1)
-                G31[k] = f3 - W2 * Om * (SaF[k] * cp1 - SbF[k] * sp1)
+        hk = h_ok if s_ev < 0.0 else s_ev
+        if hk == h:
+            f = g[k] + SaF[k] * dsin + SbF[k] * dcos
+            f1 = v[k] + Om * (SaF[k] * dcos - SbF[k] * dsin)
+            f2 = 0.0
+            f3 = 0.0
+            for j in range(n):
+                f += Nrm[k, j] * dxv[j]
+                f1 += Nrm[k, j] * dyv[j]
+                f2 += Nrm[k, j] * x2v[j]
+                f3 += Nrm[k, j] * x3v[j]
+            g1[k] = f
+            v1[k] = f1
+            G21[k] = f2 - W2 * (SaF[k] * sp1 + SbF[k] * cp1)
+            G31[k] = f3 - W2 * Om * (SaF[k] * cp1 - SbF[k] * sp1)
+            far = _far(g[k], g1[k], M2F[k], hk)
+            if not far and bstale:
+                # the bounds of the arc's start (valid: the homogeneous
+                # envelope only decays) are loose once fast modes have
+                # decayed: near a stop, take them from the current state
+                _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
+                bstale = False
                 far = _far(g[k], g1[k], M2F[k], hk)
-                if not far and bstale:
-                    # the bounds of the arc's start (valid: the homogeneous
-                    # envelope only decays) are loose once fast modes have
-                    # decayed: near a stop, take them from the current state
-                    _free_bounds(xF, yF, mp, hb, Nrm, CsF, Om, M2F, M3F, M4F, n, ns)
-                    bstale = False
-                    far = _far(g[k], g1[k], M2F[k], hk)
-                if far:
-                    sk = -1.0        # far from the stop (interpolation bound)
-                    hk2 = hk
-                else:
-                    sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN,
-                                        SaF[k], SbF[k], g[k], v[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
-                                        G21[k], G31[k], M2F[k], M3F[k], M4F[k], n)
+            if far:
+                sk = -1.0        # far from the stop (interpolation bound)
+                hk2 = hk
             else:
-                sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN, SaF[k],
-                               SbF[k], g[k], v[k], M2F[k], M3F[k], M4F[k], n)
-            if sk >= 0.0:
-                s_ev = sk
-                k_ev = k
-                ev_in = 0
-            elif hk2 < hk:
-                s_ev = -1.0
-                k_ev = -1
-                ev_in = 0
-                h_ok = hk2
-        s_mv = s_ev if s_ev >= 0.0 else h_ok
-        if s_ev < 0.0:
-            # shrink to a halved step; a step cut by the sub-grid says nothing
-            h_last = h_ok if h_ok < h else max(h_last, h)
-        if s_mv != h:
-            # the step ends before the tabulated one: evaluate the flow there
-            tabd = False
-            half = 0.5 * Om * s_mv
-            sh = math.sin(half)
-            ph = phi + half
-            dsin = 2.0 * sh * math.cos(ph)
-            dcos = -2.0 * sh * math.sin(ph)
-            sp1 = math.sin(phi + Om * s_mv)
-            cp1 = math.cos(phi + Om * s_mv)
-            mode_ends(s_mv, xF, yF, mp, Ptab, False, dxv, dyv, x2v, x3v, n)
-            for k in range(ns):
-                _gap_ends(Nrm, k, SaF[k], SbF[k], g[k], v[k], Om, dxv, dyv, x2v, x3v,
-                          dsin, dcos, sp1, cp1, n, g1, v1, G21, G31)
-        if j_next < j_end:
-            # the record's samples inside the step: the flow evaluated there
-            taken = _dense_samples(samples, msamp, modamp, fs, k_sample, j_next, j_end, lp[_LBASE],
-                                   sens, aF, bF, xF, yF, mp, P_r, tab_r, t_loc, s_mv, h_rs,
-                                   at_grid, Om, n)
-            k_sample += taken
-            j_next += taken
-        if apexes and s_ev < 0.0:
-            for k in range(ns):
-                if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:
-                    _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, xF, yF, mp, Nrm[k],
-                              zeroN, SaF[k], SbF[k], g[k], v[k], n, k, G2[k], v1[k], G21[k])
-        if recording:
-            # the sensor's extremes inside the step (root-found where its slope turns)
-            q0s = _dot(sens, eta)
-            qp0s = _dot(sens, etad)
-            q1s = q0s + _dot(sens, dxv) + SaSF * dsin + SbSF * dcos
-            qp1s = qp0s + _dot(sens, dyv) + Om * (SaSF * dcos - SbSF * dsin)
-            if (qp0s < 0.0 < qp1s) or (qp0s > 0.0 > qp1s):
-                _sensor_extreme(s_mv, phi, Om, xF, yF, mp, sens, zeroN, SaSF, SbSF, q0s, qp0s,
-                                qp1s, x2v, pext, n)
-        bstale = True
-        for i in range(n):
-            xF[i] += dxv[i]
-            yF[i] += dyv[i]
-            eta[i] = aF[i] * sp1 + bF[i] * cp1 + xF[i]
-            etad[i] = Om * (aF[i] * cp1 - bF[i] * sp1) + yF[i]
+                sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN,
+                                    SaF[k], SbF[k], g[k], v[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
+                                    G21[k], G31[k], M2F[k], M3F[k], M4F[k], n)
+        else:
+            sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN, SaF[k],
+                           SbF[k], g[k], v[k], M2F[k], M3F[k], M4F[k], n)
+        if sk >= 0.0:
+            s_ev = sk
+            k_ev = k
+            ev_in = 0
+        elif hk2 < hk:
+            s_ev = -1.0
+            k_ev = -1
+            ev_in = 0
+            h_ok = hk2
+    return s_ev, k_ev, ev_in, h_ok, bstale
+
+
+@_inline
+def _flow_at(sy, st, wn, wk, Ptab, phi, Om, s_mv):
+    """The flow at ``s_mv``, a free step ended before the tabulated one (an event, a certified
+    shorter step): the forcing's and the modes' increments (``wn``) and the gaps' ends (``wk``).
+    Returns ``(dsin, dcos, sp1, cp1)``."""
+    n = sy.mp.shape[0]
+    ns = st.offset.shape[0]
+    mp = sy.mp
+    Nrm = st.normal
+    aF = wn[_AF]
+    bF = wn[_BF]
+    zeroN = wn[_ZERO]
+    xF = wn[_XF]
+    yF = wn[_YF]
+    dxv = wn[_DXV]
+    dyv = wn[_DYV]
+    x2v = wn[_X2V]
+    x3v = wn[_X3V]
+    SaF = wk[_SAF]
+    SbF = wk[_SBF]
+    CsF = wk[_CSF]
+    g = wk[_G]
+    v = wk[_V]
+    g1 = wk[_G1]
+    v1 = wk[_V1]
+    G2 = wk[_G2]
+    G3 = wk[_G3]
+    G21 = wk[_G21]
+    G31 = wk[_G31]
+    M2F = wk[_M2F]
+    M3F = wk[_M3F]
+    M4F = wk[_M4F]
+    off = wk[_OFF]
+    tabd = False
+    half = 0.5 * Om * s_mv
+    sh = math.sin(half)
+    ph = phi + half
+    dsin = 2.0 * sh * math.cos(ph)
+    dcos = -2.0 * sh * math.sin(ph)
+    sp1 = math.sin(phi + Om * s_mv)
+    cp1 = math.cos(phi + Om * s_mv)
+    mode_ends(s_mv, xF, yF, mp, Ptab, False, dxv, dyv, x2v, x3v, n)
+    for k in range(ns):
+        _gap_ends(Nrm, k, SaF[k], SbF[k], g[k], v[k], Om, dxv, dyv, x2v, x3v,
+                  dsin, dcos, sp1, cp1, n, g1, v1, G21, G31)
+    return dsin, dcos, sp1, cp1
+
+
+@_inline
+def _free_outputs(sy, st, work, rec, eta, etad, lp, Om, T, recording, step, flags):
+    """A free step's outputs before the state moves: the record's samples inside it (dense output,
+    ``lp`` advanced), the apexes of the gaps (no event) and the sensor's extremes (root-found where
+    its slope turns).  ``step``: ``(phi, t_loc, s_mv, dsin, dcos)``; ``flags``: ``(s_ev, at_grid,
+    inside)``."""
+    (wn, wk, _hb, _hab, _hsig, _hss, P_r, tab_r, _P_t, _tab_t, fs, _ist, _sub_r, _sub_t, _sf, _si, _lp) = work
+    phi, t_loc, s_mv, dsin, dcos = step
+    s_ev, at_grid, inside = flags
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    mp = sy.mp
+    Nrm = st.normal
+    aplog = rec.aplog
+    nlog = rec.nlog
+    apexes = aplog.shape[0] > 0
+    samples = rec.samples
+    msamp = rec.msamp
+    modamp = rec.modamp
+    pT = fs[_PT]
+    SaSF = fs[_SASF]
+    SbSF = fs[_SBSF]
+    pext = fs[_PEXT:_PEXT1 + 1]
+    sens = wn[_SENS]
+    k_sample = lp[_LKS]
+    j_next = lp[_LJNEXT]
+    j_end = lp[_LJEND]
+    h_rs = T / lp[_LNSREC]
+    aF = wn[_AF]
+    bF = wn[_BF]
+    zeroN = wn[_ZERO]
+    xF = wn[_XF]
+    yF = wn[_YF]
+    dxv = wn[_DXV]
+    dyv = wn[_DYV]
+    x2v = wn[_X2V]
+    x3v = wn[_X3V]
+    SaF = wk[_SAF]
+    SbF = wk[_SBF]
+    CsF = wk[_CSF]
+    g = wk[_G]
+    v = wk[_V]
+    g1 = wk[_G1]
+    v1 = wk[_V1]
+    G2 = wk[_G2]
+    G3 = wk[_G3]
+    G21 = wk[_G21]
+    G31 = wk[_G31]
+    M2F = wk[_M2F]
+    M3F = wk[_M3F]
+    M4F = wk[_M4F]
+    off = wk[_OFF]
+    if j_next < j_end:
+        # the record's samples inside the step: the flow evaluated there
+        taken = _dense_samples(samples, msamp, modamp, fs, k_sample, j_next, j_end, lp[_LBASE],
+                               sens, aF, bF, xF, yF, mp, P_r, tab_r, t_loc, s_mv, h_rs,
+                               at_grid, Om, n)
+        k_sample += taken
+        j_next += taken
+    if apexes and s_ev < 0.0:
         for k in range(ns):
-            # the state recomposed from its parts may round past a stop that the
-            # carried gap (value + increments) has not reached: put it back on it
-            if (inside >> k) & 1:
-                continue
-            gs = _dot(Nrm[k], eta) - off[k]
-            if gs > 0.0:
-                gs *= wk[_MEFF, k]
-                for i in range(n):
-                    eta[i] -= Nrm[k, i] * gs
-        if recording:
-            # the step's end as the next sample will read it
-            q1s = _dot(sens, eta)
-            if q1s < pext[0]:
-                pext[0] = q1s
-            if q1s > pext[1]:
-                pext[1] = q1s
-        if s_mv != rem:
-            at_grid = False
-        phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
-        if s_mv > 0.0:
-            ist[_JSTUCK] = 0
-            ist[_JREL] = 0
-            ist[_EXITED] = 0
-        for k in range(ns):
-            if (inside >> k) & 1:
-                g[k] = _dot(Nrm[k], eta) - off[k]
-                v[k] = _dot(Nrm[k], etad)
-                continue
-            if s_ev >= 0.0 and k == k_ev:
-                g[k] = 0.0
-            else:
-                if g1[k] > gmax:
-                    gmax = g1[k]
-                g[k] = g1[k] if g1[k] < 0.0 else 0.0
-            v[k] = v1[k]
-            G2[k] = G21[k]
-            G3[k] = G31[k]
-        if s_ev >= 0.0:
-            if ev_in == 2:
-                inside &= ~(1 << k_ev)
-                relaxed &= ~(1 << k_ev)
-                g[k_ev] = 0.0
-                fresh = True
-            else:
-                k_imp = k_ev
-        fs[_PHI] = phi
-        fs[_TLOC] = t_loc
-        fs[_REM] = rem
-        fs[_HLAST] = h_last
-        fs[_GMAX] = gmax
-        ist[_INSIDE] = inside
-        ist[_RELAXED] = relaxed
-        ist[_FRESH] = fresh
-        ist[_BSTALE] = bstale
-        ist[_ATGRID] = at_grid
+            if v[k] > 0.0 and v1[k] <= 0.0 and (inside >> k) & 1 == 0:
+                _log_apex(aplog, nlog, pT + t_loc, s_mv, phi, Om, xF, yF, mp, Nrm[k],
+                          zeroN, SaF[k], SbF[k], g[k], v[k], n, k, G2[k], v1[k], G21[k])
+    if recording:
+        # the sensor's extremes inside the step (root-found where its slope turns)
+        q0s = _dot(sens, eta)
+        qp0s = _dot(sens, etad)
+        q1s = q0s + _dot(sens, dxv) + SaSF * dsin + SbSF * dcos
+        qp1s = qp0s + _dot(sens, dyv) + Om * (SaSF * dcos - SbSF * dsin)
+        if (qp0s < 0.0 < qp1s) or (qp0s > 0.0 > qp1s):
+            _sensor_extreme(s_mv, phi, Om, xF, yF, mp, sens, zeroN, SaSF, SbSF, q0s, qp0s,
+                            qp1s, x2v, pext, n)
     lp[_LKS] = k_sample
     lp[_LJNEXT] = j_next
+
+
+@_inline
+def _free_advance(st, wn, wk, fs, eta, etad, inside, Om, recording, sp1, cp1):
+    """The state at a free step's end, recomposed from its parts (put back on a stop it rounds
+    past), and the sensor's value there for the period's extremes."""
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    Nrm = st.normal
+    sens = wn[_SENS]
+    pext = fs[_PEXT:_PEXT1 + 1]
+    aF = wn[_AF]
+    bF = wn[_BF]
+    zeroN = wn[_ZERO]
+    xF = wn[_XF]
+    yF = wn[_YF]
+    dxv = wn[_DXV]
+    dyv = wn[_DYV]
+    x2v = wn[_X2V]
+    x3v = wn[_X3V]
+    SaF = wk[_SAF]
+    SbF = wk[_SBF]
+    CsF = wk[_CSF]
+    g = wk[_G]
+    v = wk[_V]
+    g1 = wk[_G1]
+    v1 = wk[_V1]
+    G2 = wk[_G2]
+    G3 = wk[_G3]
+    G21 = wk[_G21]
+    G31 = wk[_G31]
+    M2F = wk[_M2F]
+    M3F = wk[_M3F]
+    M4F = wk[_M4F]
+    off = wk[_OFF]
+    for i in range(n):
+        xF[i] += dxv[i]
+        yF[i] += dyv[i]
+        eta[i] = aF[i] * sp1 + bF[i] * cp1 + xF[i]
+        etad[i] = Om * (aF[i] * cp1 - bF[i] * sp1) + yF[i]
+    for k in range(ns):
+        # the state recomposed from its parts may round past a stop that the
+        # carried gap (value + increments) has not reached: put it back on it
+        if (inside >> k) & 1:
+            continue
+        gs = _dot(Nrm[k], eta) - off[k]
+        if gs > 0.0:
+            gs *= wk[_MEFF, k]
+            for i in range(n):
+                eta[i] -= Nrm[k, i] * gs
+    if recording:
+        # the step's end as the next sample will read it
+        q1s = _dot(sens, eta)
+        if q1s < pext[0]:
+            pext[0] = q1s
+        if q1s > pext[1]:
+            pext[1] = q1s
+
+
+@_inline
+def _carry_gaps(st, wk, eta, etad, inside, s_ev, k_ev, gmax):
+    """The gaps, their rates and curvatures carried to a free step's end (the stop of an event on
+    it; inside a compliant stop, from the state); ``gmax`` the largest gap at an event-free end (a
+    certificate).  Returns ``gmax``."""
+    ns = st.offset.shape[0]
+    Nrm = st.normal
+    SaF = wk[_SAF]
+    SbF = wk[_SBF]
+    CsF = wk[_CSF]
+    g = wk[_G]
+    v = wk[_V]
+    g1 = wk[_G1]
+    v1 = wk[_V1]
+    G2 = wk[_G2]
+    G3 = wk[_G3]
+    G21 = wk[_G21]
+    G31 = wk[_G31]
+    M2F = wk[_M2F]
+    M3F = wk[_M3F]
+    M4F = wk[_M4F]
+    off = wk[_OFF]
+    for k in range(ns):
+        if (inside >> k) & 1:
+            g[k] = _dot(Nrm[k], eta) - off[k]
+            v[k] = _dot(Nrm[k], etad)
+            continue
+        if s_ev >= 0.0 and k == k_ev:
+            g[k] = 0.0
+        else:
+            if g1[k] > gmax:
+                gmax = g1[k]
+            g[k] = g1[k] if g1[k] < 0.0 else 0.0
+        v[k] = v1[k]
+        G2[k] = G21[k]
+        G3[k] = G31[k]
+    return gmax
+
+
+@_inline
+def _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording):
+    """Phase *free flight* (held set empty, no compliant contact): one step of at most the rest of
+    the grid's sub-step ``lp[_LKG]`` (its tables by ``lp[_LFINE]``): the stops touched at its start
+    (:func:`_free_touch`), else the arc and the step (:func:`_free_arc`), every stop's event scanned
+    with certified bounds (:func:`_scan_inside`, :func:`_scan_stops`), the flow moved to the first
+    event or the step's end (:func:`_flow_at`, :func:`_free_outputs`, :func:`_free_advance`,
+    :func:`_carry_gaps`).  Returns the stop of a contact at the step's end, or -1."""
+    (wn, wk, hb, _hab, _hsig, _hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, _snap_f, _snap_i, _lp) = work
+    touched = _free_touch(st, cw, wn, wk, fs, ist, rec, eta, etad, Om)
+    if touched != -1:
+        return touched if touched >= 0 else -1
+    fine = lp[_LFINE] != 0
+    Ptab = P_r if fine else P_t
+    tab = tab_r if fine else tab_t
+    phi = fs[_PHI]
+    t_loc = fs[_TLOC]
+    rem = fs[_REM]
+    h_last = fs[_HLAST]
+    inside = ist[_INSIDE]
+    relaxed = ist[_RELAXED]
+    at_grid = ist[_ATGRID] != 0
+    h, dsin, dcos, sp1, cp1, bstale = _free_arc(sy, st, work, eta, etad, tab, Ptab, lp[_LKG], Om)
+    s_ev = -1.0
+    k_ev = -1
+    ev_in = 0
+    h_ok = h
+    if cw is not None and inside != 0:
+        s_ev, k_ev, ev_in, h_ok = _scan_inside(sy, cw, wn, wk, hb, inside, relaxed, phi, Om, T, h_ok)
+    s_ev, k_ev, ev_in, h_ok, bstale = _scan_stops(sy, st, wn, wk, hb, inside, Om, T, (phi, h, dsin, dcos, sp1, cp1),
+                                                  (s_ev, k_ev, ev_in, h_ok), bstale)
+    s_mv = s_ev if s_ev >= 0.0 else h_ok
+    if s_ev < 0.0:
+        # shrink to a halved step; a step cut by the sub-grid says nothing
+        h_last = h_ok if h_ok < h else max(h_last, h)
+    if s_mv != h:
+        dsin, dcos, sp1, cp1 = _flow_at(sy, st, wn, wk, Ptab, phi, Om, s_mv)
+    _free_outputs(sy, st, work, rec, eta, etad, lp, Om, T, recording, (phi, t_loc, s_mv, dsin, dcos),
+                  (s_ev, at_grid, inside))
+    _free_advance(st, wn, wk, fs, eta, etad, inside, Om, recording, sp1, cp1)
+    if s_mv != rem:
+        at_grid = False
+    phi, t_loc, rem = _clock(phi, t_loc, rem, s_mv, Om, T)
+    if s_mv > 0.0:
+        ist[_JSTUCK] = 0
+        ist[_JREL] = 0
+        ist[_EXITED] = 0
+    gmax = _carry_gaps(st, wk, eta, etad, inside, s_ev, k_ev, fs[_GMAX])
+    k_imp = -1
+    fresh = False
+    if s_ev >= 0.0:
+        if ev_in == 2:
+            inside &= ~(1 << k_ev)
+            relaxed &= ~(1 << k_ev)
+            wk[_G, k_ev] = 0.0
+            fresh = True
+        else:
+            k_imp = k_ev
+    fs[_PHI] = phi
+    fs[_TLOC] = t_loc
+    fs[_REM] = rem
+    fs[_HLAST] = h_last
+    fs[_GMAX] = gmax
+    ist[_INSIDE] = inside
+    ist[_RELAXED] = relaxed
+    ist[_FRESH] = fresh
+    ist[_BSTALE] = True
+    ist[_ATGRID] = at_grid
     return k_imp
+
 
 
 @njit(cache=True, _nrt=False, error_model="numpy", no_cfunc_wrapper=True)
