@@ -50,8 +50,9 @@ def test_trajectory_is_the_models_class_reexported_by_the_framework():
 # ----------------------------------------------------------------------------- the module graph
 #: package name -> folder (setuptools package-dir: models/ is vibeam.models, reductions/ vibeam.reductions)
 PACKAGES = {"vibeam": "vibeam", "vibeam.models": "models", "vibeam.reductions": "reductions"}
-#: the entry points of vibeam/ that are packages of modules (the API's by topic), in the top layer
-ENTRY_PACKAGES = ("api",)
+#: the entry points of vibeam/ that are packages of modules (the API's by topic, the benchmarks one a
+#: module), in the top layer
+ENTRY_PACKAGES = ("api", "bench")
 
 
 def project_modules(root: Path, packages: dict = PACKAGES) -> dict:
@@ -249,8 +250,9 @@ def test_make_solver_and_shooting_come_from_the_registry():
 #: errors are at the bottom; the case files, input/output and the figures' style above them; the
 #: engine (sweep, jobs, per-point outputs, effects, assessments) on those; the analyses
 #: (maps, continuation, basins, cost, regression) and the identification on the engine; the runner
-#: of a whole case, the API, the command line and the benchmarks on top.  ``vibeam.api`` is a
-#: package (modules by topic): its submodules are in its layer.
+#: of a whole case, the API, the command line and the benchmarks on top.  ``vibeam.api`` and
+#: ``vibeam.bench`` are packages (modules by topic, one per benchmark): their submodules are in their
+#: layer.
 LAYERS = (("vibeam.models", "vibeam.reductions", "vibeam.errors", "vibeam.version"),
           ("vibeam.io",),
           ("vibeam.case",),
@@ -273,8 +275,8 @@ def layer_of(module: str) -> int:
 
 
 def test_the_entry_packages_are_the_top_layer():
-    """Every module of the entry packages (``vibeam.api.results``, ...) is in the top layer, as the
-    packages are."""
+    """Every module of the entry packages (``vibeam.api.results``, ``vibeam.bench.common``, ...) is in
+    the top layer, as the packages are."""
     mods = [m for m in project_modules(ROOT) if m.startswith(tuple(f"vibeam.{p}" for p in ENTRY_PACKAGES))]
     assert len(mods) > len(ENTRY_PACKAGES)          # the packages and their submodules
     assert {layer_of(m) for m in mods} == {len(LAYERS) - 1}, [(m, layer_of(m)) for m in mods]
@@ -291,7 +293,7 @@ def test_the_framework_is_in_layer_subpackages():
     """vibeam/ holds the entry points only (modules, or packages of them: :data:`ENTRY_PACKAGES`); the
     rest lives in the layers' subpackages."""
     top = sorted(p.stem for p in (ROOT / "vibeam").glob("*.py"))
-    assert top == ["__init__", "bench", "cli", "errors", "runner", "testing", "version"], top
+    assert top == ["__init__", "cli", "errors", "runner", "testing", "version"], top
     subs = sorted(p.parent.name for p in (ROOT / "vibeam").glob("*/__init__.py"))
     assert subs == sorted(["analysis", "case", "engine", "identify", "io", "plots", *ENTRY_PACKAGES]), subs
 
