@@ -50,6 +50,9 @@ def test_trajectory_is_the_models_class_reexported_by_the_framework():
 # ----------------------------------------------------------------------------- the module graph
 #: package name -> folder (setuptools package-dir: models/ is vibeam.models, reductions/ vibeam.reductions)
 PACKAGES = {"vibeam": "vibeam", "vibeam.models": "models", "vibeam.reductions": "reductions"}
+#: the entry points of vibeam/ that are packages of modules (the API's by topic, the benchmarks one a
+#: module), in the top layer
+ENTRY_PACKAGES = ("api", "bench")
 
 
 def project_modules(root: Path, packages: dict = PACKAGES) -> dict:
@@ -208,7 +211,8 @@ def test_the_framework_has_no_fidelity_branches():
     import re
 
     pat = re.compile(r"""fidelity['"\])]*\s*[!=]=\s*['"]""")
-    files = sorted((ROOT / "vibeam").glob("*.py")) + [ROOT / "tests" / "references" / "make_references.py"]
+    files = sorted((ROOT / "vibeam").glob("*.py")) + [ROOT / "tests" / "references" / "make_references.py"] \
+        + [p for pkg in ENTRY_PACKAGES for p in sorted((ROOT / "vibeam" / pkg).glob("*.py"))]
     bad = [f"{p.name}:{i}: {line.strip()}" for p in files
            for i, line in enumerate(p.read_text().splitlines(), 1) if pat.search(line)]
     assert not bad, bad
@@ -246,7 +250,9 @@ def test_make_solver_and_shooting_come_from_the_registry():
 #: errors are at the bottom; the case files, input/output and the figures' style above them; the
 #: engine (sweep, jobs, per-point outputs, effects, assessments) on those; the analyses
 #: (maps, continuation, basins, cost, regression) and the identification on the engine; the runner
-#: of a whole case, the API, the command line and the benchmarks on top.
+#: of a whole case, the API, the command line and the benchmarks on top.  ``vibeam.api`` and
+#: ``vibeam.bench`` are packages (modules by topic, one per benchmark): their submodules are in their
+#: layer.
 LAYERS = (("vibeam.models", "vibeam.reductions", "vibeam.errors", "vibeam.version"),
           ("vibeam.io",),
           ("vibeam.case",),
@@ -268,6 +274,14 @@ def layer_of(module: str) -> int:
     return best
 
 
+def test_the_entry_packages_are_the_top_layer():
+    """Every module of the entry packages (``vibeam.api.results``, ``vibeam.bench.common``, ...) is in
+    the top layer, as the packages are."""
+    mods = [m for m in project_modules(ROOT) if m.startswith(tuple(f"vibeam.{p}" for p in ENTRY_PACKAGES))]
+    assert len(mods) > len(ENTRY_PACKAGES)          # the packages and their submodules
+    assert {layer_of(m) for m in mods} == {len(LAYERS) - 1}, [(m, layer_of(m)) for m in mods]
+
+
 def test_every_module_imports_only_its_own_or_lower_layers():
     edges, _ = project_graph()
     up = [f"{m} (layer {layer_of(m)}) imports {t} (layer {layer_of(t)})"
@@ -276,11 +290,12 @@ def test_every_module_imports_only_its_own_or_lower_layers():
 
 
 def test_the_framework_is_in_layer_subpackages():
-    """vibeam/ holds the entry points only; the rest lives in the layers' subpackages."""
+    """vibeam/ holds the entry points only (modules, or packages of them: :data:`ENTRY_PACKAGES`); the
+    rest lives in the layers' subpackages."""
     top = sorted(p.stem for p in (ROOT / "vibeam").glob("*.py"))
-    assert top == ["__init__", "api", "bench", "cli", "errors", "runner", "testing", "version"], top
+    assert top == ["__init__", "cli", "errors", "runner", "testing", "version"], top
     subs = sorted(p.parent.name for p in (ROOT / "vibeam").glob("*/__init__.py"))
-    assert subs == ["analysis", "case", "engine", "identify", "io", "plots"], subs
+    assert subs == sorted(["analysis", "case", "engine", "identify", "io", "plots", *ENTRY_PACKAGES]), subs
 
 
 # ----------------------------------------------------------------------------- the contact laws

@@ -397,10 +397,10 @@ def test_bench_compile_machinery_on_a_tiny_scenario(monkeypatch, capsys):
     nothing.  No duration is asserted: the seconds are figures."""
     import json
 
-    from vibeam import bench
+    from vibeam.bench import compilation      # the compile bench's module, where its scenarios are read
     from vibeam.cli import main
 
-    monkeypatch.setattr(bench, "COMPILE_SCENARIOS", (("tiny", "code", TINY_COMPILE),))
+    monkeypatch.setattr(compilation, "COMPILE_SCENARIOS", (("tiny", "code", TINY_COMPILE),))
     code = main(["bench", "--compile"])
     cap = capsys.readouterr()
     assert code == (1 if ": FAIL  " in cap.err else 0), cap.err       # exit 1 after a FAIL line

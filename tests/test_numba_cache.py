@@ -144,7 +144,7 @@ def test_a_compliant_scene_compiles_only_the_contact_phases_it_reaches(tmp_path,
     kinds compiled in full for either scene (40 s against 32 s for the Kelvin-Voigt point, 40
     against 36 s for the Hunt-Crossley one).  The outputs are the same bits (the code a scene runs
     is the same)."""
-    from vibeam.bench import _probe_compile
+    from vibeam.bench import probe_compile
 
     code = ("from vibeam.models import SDOF, make_solver\n"
             "from vibeam.models.compliant import HuntCrossley, LinearContact\n"
@@ -152,7 +152,7 @@ def test_a_compliant_scene_compiles_only_the_contact_phases_it_reaches(tmp_path,
             "make_solver(m, 'event').point(1.8, None, 2, 2, 64)\n")
     cache = tmp_path / "cache"
     cache.mkdir()
-    out = _probe_compile("code", code, cache, tmp_path)
+    out = probe_compile("code", code, cache, tmp_path)
     import inspect
 
     from vibeam.models.core import contact_phase
