@@ -1807,16 +1807,11 @@ def _free_arc(sy, st, work, eta, etad, tab, Ptab, kg, Om):
     CsF = wk[_CSF]
     g = wk[_G]
     v = wk[_V]
-    g1 = wk[_G1]
-    v1 = wk[_V1]
     G2 = wk[_G2]
     G3 = wk[_G3]
-    G21 = wk[_G21]
-    G31 = wk[_G31]
     M2F = wk[_M2F]
     M3F = wk[_M3F]
     M4F = wk[_M4F]
-    off = wk[_OFF]
     if fresh:
         # a new free arc: homogeneous parts, their bounds (valid along the whole
         # arc: the homogeneous envelope only decays), curvature of each gap
@@ -1943,8 +1938,6 @@ def _scan_stops(sy, st, wn, wk, hb, inside, Om, T, step, ev, bstale):
     mp = sy.mp
     Nrm = st.normal
     W2 = Om * Om
-    aF = wn[_AF]
-    bF = wn[_BF]
     zeroN = wn[_ZERO]
     xF = wn[_XF]
     yF = wn[_YF]
@@ -1966,7 +1959,6 @@ def _scan_stops(sy, st, wn, wk, hb, inside, Om, T, step, ev, bstale):
     M2F = wk[_M2F]
     M3F = wk[_M3F]
     M4F = wk[_M4F]
-    off = wk[_OFF]
     for k in range(ns):
         if (inside >> k) & 1:
             continue
@@ -2024,9 +2016,6 @@ def _flow_at(sy, st, wn, wk, Ptab, phi, Om, s_mv):
     ns = st.offset.shape[0]
     mp = sy.mp
     Nrm = st.normal
-    aF = wn[_AF]
-    bF = wn[_BF]
-    zeroN = wn[_ZERO]
     xF = wn[_XF]
     yF = wn[_YF]
     dxv = wn[_DXV]
@@ -2035,19 +2024,12 @@ def _flow_at(sy, st, wn, wk, Ptab, phi, Om, s_mv):
     x3v = wn[_X3V]
     SaF = wk[_SAF]
     SbF = wk[_SBF]
-    CsF = wk[_CSF]
     g = wk[_G]
     v = wk[_V]
     g1 = wk[_G1]
     v1 = wk[_V1]
-    G2 = wk[_G2]
-    G3 = wk[_G3]
     G21 = wk[_G21]
     G31 = wk[_G31]
-    M2F = wk[_M2F]
-    M3F = wk[_M3F]
-    M4F = wk[_M4F]
-    off = wk[_OFF]
     tabd = False
     half = 0.5 * Om * s_mv
     sh = math.sin(half)
@@ -2099,22 +2081,13 @@ def _free_outputs(sy, st, work, rec, eta, etad, lp, Om, T, recording, step, flag
     dxv = wn[_DXV]
     dyv = wn[_DYV]
     x2v = wn[_X2V]
-    x3v = wn[_X3V]
     SaF = wk[_SAF]
     SbF = wk[_SBF]
-    CsF = wk[_CSF]
     g = wk[_G]
     v = wk[_V]
-    g1 = wk[_G1]
     v1 = wk[_V1]
     G2 = wk[_G2]
-    G3 = wk[_G3]
     G21 = wk[_G21]
-    G31 = wk[_G31]
-    M2F = wk[_M2F]
-    M3F = wk[_M3F]
-    M4F = wk[_M4F]
-    off = wk[_OFF]
     if j_next < j_end:
         # the record's samples inside the step: the flow evaluated there
         taken = _dense_samples(samples, msamp, modamp, fs, k_sample, j_next, j_end, lp[_LBASE],
@@ -2151,27 +2124,10 @@ def _free_advance(st, wn, wk, fs, eta, etad, inside, Om, recording, sp1, cp1):
     pext = fs[_PEXT:_PEXT1 + 1]
     aF = wn[_AF]
     bF = wn[_BF]
-    zeroN = wn[_ZERO]
     xF = wn[_XF]
     yF = wn[_YF]
     dxv = wn[_DXV]
     dyv = wn[_DYV]
-    x2v = wn[_X2V]
-    x3v = wn[_X3V]
-    SaF = wk[_SAF]
-    SbF = wk[_SBF]
-    CsF = wk[_CSF]
-    g = wk[_G]
-    v = wk[_V]
-    g1 = wk[_G1]
-    v1 = wk[_V1]
-    G2 = wk[_G2]
-    G3 = wk[_G3]
-    G21 = wk[_G21]
-    G31 = wk[_G31]
-    M2F = wk[_M2F]
-    M3F = wk[_M3F]
-    M4F = wk[_M4F]
     off = wk[_OFF]
     for i in range(n):
         xF[i] += dxv[i]
@@ -2204,9 +2160,6 @@ def _carry_gaps(st, wk, eta, etad, inside, s_ev, k_ev, gmax):
     certificate).  Returns ``gmax``."""
     ns = st.offset.shape[0]
     Nrm = st.normal
-    SaF = wk[_SAF]
-    SbF = wk[_SBF]
-    CsF = wk[_CSF]
     g = wk[_G]
     v = wk[_V]
     g1 = wk[_G1]
@@ -2215,9 +2168,6 @@ def _carry_gaps(st, wk, eta, etad, inside, s_ev, k_ev, gmax):
     G3 = wk[_G3]
     G21 = wk[_G21]
     G31 = wk[_G31]
-    M2F = wk[_M2F]
-    M3F = wk[_M3F]
-    M4F = wk[_M4F]
     off = wk[_OFF]
     for k in range(ns):
         if (inside >> k) & 1:
