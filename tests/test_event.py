@@ -235,6 +235,47 @@ def test_no_state_beyond_the_stop(beta, B, R, Delta, Omega):
             assert abs(y[-1, 0] - tr.samples[j + 1, 0]) <= 1e-9 * scale
 
 
+def test_a_chatter_hold_that_ends_with_the_force_pulling_away_releases_at_once():
+    """The release rule after a chatter hold (:mod:`vibeam.models.contact_policy`, step 3): the
+    kernel jumps to a chatter sequence's accumulation point D = 2 u / (a (1 - R)) and holds the
+    mass on the stop without a release check until then.  With a coarse step (2 per period) and
+    a loose chatter tolerance (10) the hold is long (2.45 time units here), and the contact force
+    turns to pulling the mass off before it ends; the mass must then leave at the hold's end,
+    not stay stuck to the force's next zero crossing (as a kernel that keeps its just-stuck flag
+    after the hold does).
+
+    Oracle, the closed form of the contact force: held on the stop q = Delta at rest, the
+    pressing acceleration of the nondimensional SDOF is a(t) = F sin(Omega t) - Delta
+    (F = Omega^2 B, the equation of motion with q = Delta, q' = 0).  Checked on the kernel's
+    event log (rows [kind, t, aux, stop, q, q']):
+
+    * the scenario: a stick that ends a chatter (``EV_STICK_IMPACT``, aux its hold D > 0) whose
+      hold ends at a(t + D) < -0.1 F (measured -0.12 F);
+    * its next event is the release, at t + D to 1e-12 (the hold's end is a step's end: nothing
+      is integrated between; measured 1 ulp apart), and the force it logs (aux, the pull) is
+      -a(t + D) to 1e-9 (measured equal: the held flow in closed form)."""
+    from vibeam.models.core.event import EventIntegrator
+    from vibeam.models.core.integrator import EV_RELEASE, EV_STICK_IMPACT
+    from vibeam.models.system import from_sdof
+
+    m = SDOF(beta=0.02, B=0.5, R=0.7, Delta=0.05)
+    Om = 0.6
+    F = Om * Om * m.B
+    core = EventIntegrator(from_sdof(m), m.stops())
+    r = core.run(Om, [0.0], [0.0], 0, 0, 6, 2, 2, math.pi / Om, 10 ** 5, 10 ** 7, 10.0, log_events=4000)
+    log = r.record.evlog[:int(r.record.nlog[0])]
+    assert 0 < log.shape[0] < 4000
+    kinds = log[:, 0].astype(int)
+    holds = [i for i in np.flatnonzero(kinds == EV_STICK_IMPACT) if log[i, 2] > 0.0]
+    te = {i: log[i, 1] + log[i, 2] for i in holds}
+    pulled = [i for i in holds if F * math.sin(Om * te[i]) - m.Delta < -0.1 * F]
+    assert pulled, "no chatter hold ends with the force pulling the mass off"
+    for i in pulled:
+        a_end = F * math.sin(Om * te[i]) - m.Delta
+        assert kinds[i + 1] == EV_RELEASE
+        assert log[i + 1, 1] == pytest.approx(te[i], rel=1e-12, abs=0)
+        assert log[i + 1, 2] == pytest.approx(-a_end, rel=1e-9, abs=0)
+
 def test_held_at_the_exact_zero_of_a_rising_force_stays_held():
     """The release rule (:func:`vibeam.models.contact_policy.release_now`) at a force exactly 0:
     held on the stop Delta = 0 at rest at t = 0, the force needed to hold the mass is
