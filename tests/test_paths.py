@@ -250,3 +250,29 @@ def test_continuation_in_the_second_stops_stiffness_gives_orbits_of_the_scene_wi
         x = np.asarray(b["state"][i])
         one = make_solver(model, "event").point(0.8, np.concatenate([x, [0.0]]), 0, n, 32)
         assert np.max(np.abs(one.final_state[:-1] - x)) <= 1e-8 * np.max(np.abs(x)), (k[i], one.final_state, x)
+
+
+@pytest.mark.parametrize("parameter, rng, needle", [
+    ("stops[1].position_mm", [150.0, 190.0], "lies beyond length_mm"),
+    ("stops[0].law.R", [0.5, 1.2], "R"),
+])
+def test_a_continuation_range_the_scene_cannot_take_is_one_line(parameter, rng, needle):
+    """Each end of a continuation's range must be a scene the model accepts: a point stop moved
+    beyond the beam's end (180 mm) or R above 1 is refused when the case is loaded, in one line
+    naming 'run[0].range', the parameter and the value (it was a branch that failed with the
+    model's multi-line validation error as its message)."""
+    model = dict(BEAM, n_modes=2)
+    up = {"side": "upper", "R": model.pop("R"), "gap_mm": model.pop("gap_mm")}
+    model["stop"] = [up, {"side": "lower", "position_mm": 170.0, "contact_gap_mm": 0.6, "R": 0.9}]
+    d = {"name": "paths-range", "model": model,
+         "sweep": {"frequency_hz": [15.0, 15.5, 2], "transient_periods": 40, "record_periods": 4},
+         "run": [{"name": "c", "method": "continuation", "parameter": parameter, "at": 15.0, "range": rng,
+                  "start": "sweep", "start_at": rng[0]}]}
+    with pytest.raises(CaseError) as e:
+        vibeam.load_case(d)
+    msg = str(e.value)
+    assert f"'run[0].range' = {rng}: {parameter} = {rng[1]:g} is not allowed" in msg, msg
+    assert needle in msg and "\n" not in msg, msg
+    rng_ok = [rng[0], 175.0 if "position" in parameter else 0.95]
+    d["run"][0]["range"] = rng_ok
+    vibeam.load_case(d)                  # the same run with a range the scene takes loads

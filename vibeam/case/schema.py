@@ -1667,8 +1667,8 @@ def _check_continuation(case: Case, i: int, r) -> None:
         raise CaseError(f"'run[{i}]' (continuation) cannot use [effects] ({', '.join(case.effects_for(r).active())}); "
                         f"continue the plain scene")
     native = getattr(spec, "native_parameter", None)
+    from vibeam.case.paths import alias_of, get_value, is_path
     if native is not None:
-        from vibeam.case.paths import alias_of, get_value, is_path
 
         table = model_with(case.model, dict(r.model))
         try:
@@ -1689,6 +1689,20 @@ def _check_continuation(case: Case, i: int, r) -> None:
                             f"frequency at which it runs ({unit})")
         if r.range is None and not (case.map is not None and case.map.parameter == r.parameter):
             raise CaseError(f"'run[{i}].range' is missing: give [low, high] of {r.parameter!r}")
+        if r.range is not None and native is not None and (is_path(r.parameter)
+                                                            or r.parameter in type(spec).model_fields):
+            # each end of the range is a scene the model must accept (a stop beyond the beam's
+            # length, R above 1, a negative stiffness): refused here in one line, not found by the
+            # branch as a failed point (a name of the shooting problem's own, R_lower, is checked
+            # by it)
+            table = model_with(case.model, dict(r.model))
+            for v in r.range:
+                try:
+                    _validate_model(model_with(table, {r.parameter: float(v)}),
+                                    prefix=f"run[{i}].model" if r.model else "model")
+                except (CaseError, ValueError) as e:
+                    raise CaseError(f"'run[{i}].range' = {quote_value(list(r.range))}: {r.parameter} = {v:g} is "
+                                    f"not allowed ({e})") from None
     if case.map is not None and r.parameter != "Omega":
         raise CaseError(f"'run[{i}].parameter' = {quote_value(r.parameter)}: in a [map] case a continuation runs "
                         f"in the frequency ('Omega') and draws curves over (frequency, {case.map.parameter})")
