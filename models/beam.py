@@ -42,6 +42,7 @@ References
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -66,6 +67,8 @@ __all__ = [
     "disc_stack",
     "paper_rig",
     "calibrate",
+    "shared_fe",
+    "shared_calibration",
     "write_modes",
 ]
 
@@ -438,8 +441,13 @@ class BeamFE:
         fine meshes and ``m >> rhoA L``).  Vectors are rescaled to ``V^T M V = I``."""
         return _lowest_eigs(K, M, n)
 
+    @functools.cached_property
+    def _tip_row(self) -> np.ndarray:
+        """``w(L) = _tip_row @ u`` (ndof,): the row the mode shapes' signs are fixed by, probed once."""
+        return self.point_rows(self.geometry.length_m)[0]
+
     def _fix_signs(self, V):
-        tip = self.point_rows(self.geometry.length_m)[0] @ V
+        tip = self._tip_row @ V
         ref = np.where(np.abs(tip) > 1e-12 * np.abs(V).max(axis=0), tip,
                        V[np.argmax(np.abs(V), axis=0), np.arange(V.shape[1])])
         return V * np.where(ref < 0, -1.0, 1.0)
@@ -600,6 +608,40 @@ def calibrate(geometry: BeamGeometry, target_f1_hz: float, target_f2_hz: float |
     cal = geometry.replace(EI_n_m2=EI, rotary_inertia_kg_m2=J)
     f_cal = f * target_f1_hz / f[0]
     return Calibration(EI, J, cal, f_cal, target_f1_hz, target_f2_hz)
+
+
+@functools.lru_cache(maxsize=16)
+def shared_fe(geometry: BeamGeometry, n_elements: int = 24, refine: int = 0, damping_D_s: float = 0.0,
+              rayleigh_alpha_1_s: float = 0.0) -> BeamFE:
+    """The :class:`BeamFE` of these arguments, assembled once per process and shared.
+
+    A scene rebuilt with a number that does not enter the FE model (a stop's position or gap, a
+    law's stiffness: a parameter map, a continuation's finite differences, a fit) reuses its
+    matrices: assembling the rig's beam takes ~10 ms against ~1 ms for a shot of its 2 modes.
+    The arguments are the key (``BeamGeometry`` is frozen); the 16 latest are kept.  The
+    model is shared: read it, never change its arrays in place.
+
+    Returns
+    -------
+    BeamFE
+        Identical to ``BeamFE(geometry, n_elements, refine, damping_D_s, rayleigh_alpha_1_s)``.
+
+    Raises
+    ------
+    ValueError
+        As :class:`BeamFE`.
+    """
+    return BeamFE(geometry, n_elements=n_elements, refine=refine, damping_D_s=damping_D_s,
+                  rayleigh_alpha_1_s=rayleigh_alpha_1_s)
+
+
+@functools.lru_cache(maxsize=16)
+def shared_calibration(geometry: BeamGeometry, target_f1_hz: float, target_f2_hz: float | None = None,
+                       n_elements: int = 36, refine: int = 0) -> Calibration:
+    """:func:`calibrate` once per process for these arguments (a frozen result, shared; see
+    :func:`shared_fe`); the same ``Calibration`` as ``calibrate(geometry, target_f1_hz,
+    target_f2_hz, n_elements=n_elements, refine=refine)``."""
+    return calibrate(geometry, target_f1_hz, target_f2_hz, n_elements=n_elements, refine=refine)
 
 
 def _unit(n, i):

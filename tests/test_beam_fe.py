@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import brentq
 
 from vibeam.models.beam import (BeamFE, BeamGeometry, calibrate, disc_stack, paper_rig,
-                                write_modes)
+                                shared_calibration, shared_fe, write_modes)
 
 
 # ----------------------------------------------------------------- analytical roots
@@ -231,3 +231,23 @@ def test_write_modes_roundtrip(tmp_path):
     assert np.allclose(m.point_data["mode_2_w"], full[fe.basis.nodal_dofs[0], 1])
     i_s = np.argmin(np.abs(fe.mesh.p[0] - fe.geometry.sensor_position_m))
     assert math.isclose(m.point_data["static_mode_w"][i_s], 1.0)
+
+
+def test_a_shared_fe_model_is_the_model_its_arguments_build():
+    """shared_fe and shared_calibration (what a scene rebuilt for a map, a continuation's finite
+    differences or a fit reuses): the same arguments give the same object, and it holds exactly
+    the matrices, rows and modes of a model built anew (bit for bit: the same assembly); other
+    arguments give another model."""
+    g = paper_rig()
+    a = shared_fe(g, n_elements=12, damping_D_s=1e-4)
+    assert shared_fe(g, n_elements=12, damping_D_s=1e-4) is a
+    b = BeamFE(g, n_elements=12, damping_D_s=1e-4)
+    for k in ("K", "M", "C", "M_beam", "r", "base_load", "contact_row", "sensor_row"):
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)
+    np.testing.assert_array_equal(a.modes(3).shapes, b.modes(3).shapes)
+    c = shared_fe(g, n_elements=12, damping_D_s=2e-4)
+    assert c is not a and np.array_equal(c.K, a.K) and not np.array_equal(c.C, a.C)
+    cal = shared_calibration(g, 7.6, 98.75, n_elements=12)
+    assert shared_calibration(g, 7.6, 98.75, n_elements=12) is cal
+    ref = calibrate(g, 7.6, 98.75, n_elements=12)
+    assert (cal.EI_n_m2, cal.rotary_inertia_kg_m2, cal.geometry) == (ref.EI_n_m2, ref.rotary_inertia_kg_m2, ref.geometry)

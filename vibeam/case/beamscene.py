@@ -58,15 +58,15 @@ def geometry_of(spec):
 
 def scene_of(spec) -> BeamScene:
     """Calibrate (if asked), damping, gap and gain of a beam case table."""
-    from vibeam.models.beam import BeamFE
+    from vibeam.models.beam import shared_calibration, shared_fe
     from vibeam.reductions.static_mode import static_mode_shape
 
     g = geometry_of(spec)
     cal = None
     if spec.calibrate is not None:
-        cal = BeamFE(g, n_elements=spec.n_elements).calibrate(spec.calibrate.f1_hz, spec.calibrate.f2_hz)
+        cal = shared_calibration(g, spec.calibrate.f1_hz, spec.calibrate.f2_hz, n_elements=spec.n_elements)
         g = cal.geometry
-    f = BeamFE(g, n_elements=spec.n_elements).modes(1).frequencies_hz
+    f = shared_fe(g, n_elements=spec.n_elements).modes(1).frequencies_hz
     if f.size == 0 or not (np.isfinite(f[0]) and f[0] > 0.0):
         raise ValueError(f"the FE model has no positive finite first frequency (EI = {g.EI_n_m2:g} N m^2, rho A = "
                          f"{g.rhoA_kg_m:g} kg/m, m = {g.mass_kg:g} kg, L = {g.length_m:g} m)")
@@ -93,7 +93,7 @@ def scene_of(spec) -> BeamScene:
 
 def build_beam_model(spec):
     """The FE impact model of a beam case table (see :mod:`vibeam.models.beam_dynamics`)."""
-    from vibeam.models.beam import BeamFE
+    from vibeam.models.beam import shared_fe
     from vibeam.models.beam_dynamics import BeamImpactModel
 
     sc = scene_of(spec)
@@ -104,8 +104,8 @@ def build_beam_model(spec):
                                            base_amplitude_m=sc.base_amplitude_m,
                                            damping_D_s=sc.damping_D_s, f_ref_hz=sc.f1_hz,
                                            point_stops=point_stops(spec, sc), **lower_stop(spec, sc))
-    fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
-                rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
+    fe = shared_fe(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
+                   rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
     return BeamImpactModel.from_fe(fe, n_modes=spec.n_modes, R=spec.R, gap_contact_m=sc.Delta_C_m,
                                    base_amplitude_m=sc.base_amplitude_m, f_ref_hz=sc.f1_hz,
                                    point_stops=point_stops(spec, sc), **lower_stop(spec, sc))
