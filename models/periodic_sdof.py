@@ -118,7 +118,7 @@ class SDOFShooting(ModalShooting):
         self.law = getattr(model, "contact", None)
         #: a compliant stop in the scene: the continuation parameter's direction alone
         self.compliant = any(getattr(s.law, "kind", "") == "compliant" for s in model.stops())
-        R0 = float(model.R) if self.law is None else float(self.law.R)
+        R0 = float(model.stops()[0].law.R)      # Newton's R, or the compliant law's target R
         self.value = (float(Omega) if Omega is not None else math.nan) if parameter == "Omega" \
             else (R0 if parameter == "R" else float(model.stops()[1].law.R) if parameter == "R_lower"
                   else float(getattr(model, parameter)))

@@ -349,7 +349,7 @@ class EventSolver:
             Rk = self.model.restitution_coefficients(v, stops)
             rows[:, 3] = 0.5 * (1.0 - Rk ** 2) * v ** 2
         else:
-            R = float(self.model.R)
+            R = float(self.model.stops()[0].law.R)
             rows[:, 3] = 0.5 * (1.0 - R * R) * (v * v)     # (the same operations, one R)
         rows[:, 4] = v
         return rows

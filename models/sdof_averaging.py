@@ -269,12 +269,13 @@ class AveragingSolver:
             equations are degenerate (:func:`degenerate`).
         """
         m = self.model
-        why = degenerate(float(Omega), m.beta, m.B, m.R, m.Delta, self.k)
+        R = m.stops()[0].law.R
+        why = degenerate(float(Omega), m.beta, m.B, R, m.Delta, self.k)
         if why:
             nan = float("nan")
             return dict(amplitude=nan, amplitude_lower=nan, theta=nan, impact_phase=nan, stable=False,
                         Q_star=nan, Delta_max=nan, period=0, status="failed", message=why)
-        r = solve(float(Omega), m.beta, m.B, m.R, m.Delta, self.k)
+        r = solve(float(Omega), m.beta, m.B, R, m.Delta, self.k)
         up = float(r["amplitude"])
         return dict(amplitude=up, amplitude_lower=float(r["amplitude_lower"]),
                     theta=float(r["theta"]), impact_phase=float(r["impact_phase"]),
@@ -285,7 +286,7 @@ class AveragingSolver:
 
 def averaging_guess(model, Omega):
     """Initial guess ``(phi, v)`` from averaging (k = 1): impact phase ``-psi``, ``v ~ Q``."""
-    r = solve(float(Omega), model.beta, model.B, model.R, model.Delta, 1)
+    r = solve(float(Omega), model.beta, model.B, model.stops()[0].law.R, model.Delta, 1)
     Q = float(r["amplitude"])
     if not np.isfinite(Q):
         return None

@@ -494,8 +494,7 @@ class _ScipyMethod:
                     imp_t.append(0.0)
                     imp_v.append(U0)
                     imp_k.append(side)
-                law = m.stops()[side].law if two else None
-                v0 = sg * float(newton_restitution(U0, m.R if law is None else law.R))
+                v0 = sg * float(newton_restitution(U0, m.stops()[side].law.R))
             elif U0 == 0.0:  # resting on the stop: held until released
                 t0 = float(release_delay(0.0, F, Delta, Omega) if side == 0 else
                            release_delay_lower(0.0, F, Dl, Omega))
@@ -647,7 +646,7 @@ class DirectSolver(_ScipyMethod):
 
     def _jump(self):
         m = self.model
-        Delta, R = m.Delta, m.R
+        Delta, R = m.Delta, m.stops()[0].law.R
         if getattr(m, "two_sided", False):
             laws = [s.law for s in m.stops()]
             offsets = (Delta, -m.Delta_lower)
@@ -713,7 +712,7 @@ class ZhuravlevSolver(_ScipyMethod):
         return lambda mode: evs[mode]
 
     def _jump(self):
-        R = self.model.R
+        R = self.model.stops()[0].law.R
 
         def jump(t, y, mode):
             v_minus = -float(y[1]) * mode                 # Eq. 5 before the impact
@@ -762,9 +761,10 @@ class IvanovSolver(_ScipyMethod):
                  max_nfev_per_period: int = 50000):
         super().__init__(model, solver, rtol, atol, max_step, max_events_per_period,
                          max_nfev_per_period)
-        r = -float(newton_restitution(1.0, model.R))
+        R = model.stops()[0].law.R
+        r = -float(newton_restitution(1.0, R))
         if not r > 0.0:
-            raise ValueError(f"method 'ivanov' needs R > 0 (Eq. 15 divides by K_N = 0); got R={model.R!r}")
+            raise ValueError(f"method 'ivanov' needs R > 0 (Eq. 15 divides by K_N = 0); got R={R!r}")
         self.K = (1.0 - r) / (1.0 + r)
 
     def _to_internal(self, q, v):

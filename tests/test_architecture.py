@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ast
 import functools
+import re
 from pathlib import Path
 
 import pytest
@@ -422,6 +423,75 @@ def test_the_model_classes_carry_their_stops_not_law_fields():
     assert beam.mass_stops()[1].law == Restitution(0.5)
     with pytest.raises(ValueError, match="one law"):
         SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5, contact_lower=kv)
+
+
+# ---------------------------------------------------------------------------- who reads R
+#: the attributes that are a law's numbers: a restitution coefficient, a contact stiffness
+LAW_NUMBERS = {"R", "R_lower", "stiffness", "stiffness_n_m"}
+#: the laws' own modules; and the case package, which expands the case file's keys into laws
+#: once, at parse time
+LAW_HOLDERS = ("models/contact.py", "models/compliant.py", "models/core/laws.py", "models/impact.py")
+#: the reads of a law's number from an object that is not a law, outside :data:`LAW_HOLDERS`,
+#: per module, as measured (2026-11-26, issue 43, after the SDOF methods, the mapping, the
+#: shooting problem and the sensor read R through their stops' laws); the list may only shrink.
+#: What is left: the model classes that still hold R beside their laws (``SDOF.R``,
+#: ``BeamImpactModel.R``, ``PointStop.R``) and build the laws from it, the kernels' packed laws
+#: (``KernelStops.R``, the law's numbers in arrays), the shooting problem's lower-stop R, the
+#: sensor's constant R (given by the scene's law), the job's case table
+LAW_READS = {
+    "models/beam_dynamics.py": 6,
+    "models/core/integrator.py": 1,
+    "models/core/shooting.py": 1,
+    "models/periodic_sdof.py": 2,
+    "models/sdof.py": 2,
+    "vibeam/engine/jobs.py": 2,
+    "vibeam/engine/sensor.py": 1,
+}
+
+
+def law_reads(root: Path) -> dict:
+    """``{module: [(line, expression)]}`` of every read of :data:`LAW_NUMBERS` whose object is not
+    a law (an expression whose last name does not begin or end in ``law``, nor ends in
+    ``laws[...]``: ``model.R``, ``self.R``, ``spec.stiffness``), outside :data:`LAW_HOLDERS` and
+    ``vibeam/case/``."""
+    out = {}
+    for base in ("models", "reductions", "vibeam"):
+        for p in sorted((root / base).rglob("*.py")):
+            rel = p.relative_to(root).as_posix()
+            if rel in LAW_HOLDERS or rel.startswith("vibeam/case/"):
+                continue
+            src = p.read_text()
+            for node in ast.walk(ast.parse(src)):
+                if not (isinstance(node, ast.Attribute) and node.attr in LAW_NUMBERS
+                        and isinstance(node.ctx, ast.Load)):
+                    continue
+                obj = ast.get_source_segment(src, node.value) or ""
+                last = obj.rsplit(".", 1)[-1]
+                if last.startswith("law") or last.endswith("law") or re.search(r"\blaws\[[^]]*\]$", obj):
+                    continue
+                out.setdefault(rel, []).append((node.lineno, ast.get_source_segment(src, node)))
+    return out
+
+
+def test_a_laws_numbers_are_read_from_the_law():
+    """Issue 43, 'a law is the only holder of its parameters': outside the laws and the case
+    parser, a restitution coefficient or a contact stiffness is read from a law object (a stop's
+    ``.law``), not from a model or spec; the reads left (:data:`LAW_READS`) may only go."""
+    found = law_reads(ROOT)
+    grown = {m: f"{len(v)} > {LAW_READS.get(m, 0)}: {v}" for m, v in found.items() if len(v) > LAW_READS.get(m, 0)}
+    assert not grown, grown
+    gone = {m: n for m, n in LAW_READS.items() if len(found.get(m, ())) < n}
+    assert not gone, f"fewer reads than listed (lower LAW_READS): {gone}"
+
+
+def test_the_law_read_check_can_fail(tmp_path):
+    """The check finds a model's R and a spec's stiffness, and passes a stop's law's."""
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "x.py").write_text(
+        "def f(model, spec, stop, laws):\n"
+        "    return model.R + spec.stiffness + stop.law.R + laws[0].R + model.stops()[0].law.stiffness\n")
+    found = law_reads(tmp_path)
+    assert [e for _, e in found["models/x.py"]] == ["model.R", "spec.stiffness"]
 
 
 # ---------------------------------------------------------------------------- size and nesting

@@ -106,9 +106,10 @@ def paper_verdicts(model, Omega, phi, v, n, stable) -> dict:
     verdict ``stable``: ``det_full``, ``tr_full``, ``stable_full``, ``disagree_full`` and the
     same for ``simplified``."""
     F = Omega * Omega * model.B
+    R = model.stops()[0].law.R
     out = {}
     for form in ("full", "simplified"):
-        det, tr = paper_det_trace(form, model.beta, F, model.R, model.Delta, Omega, phi, v, v, v,
+        det, tr = paper_det_trace(form, model.beta, F, R, model.Delta, Omega, phi, v, v, v,
                                   n * TWO_PI / Omega, n)
         verdict = bool(stable_from_det_trace(det, tr))
         out.update({f"det_{form}": det, f"tr_{form}": tr, f"stable_{form}": verdict,
@@ -132,7 +133,7 @@ def monodromy(model, Omega, phi0, v_minus, tau):
     sc = Scene(model, Omega)
     pas = sc.passage(0, phi0 / sc.Omega, float(v_minus))
     _, w, acc = sc.flight(pas, pas.t + tau, 0)
-    return saltation_matrix(float(model.R), w, acc, sc.beta) @ flow_matrix(tau, sc.beta)
+    return saltation_matrix(float(sc.laws[0].R), w, acc, sc.beta) @ flow_matrix(tau, sc.beta)
 
 
 def _by_modulus(z):

@@ -76,7 +76,8 @@ def unresolved(model, Omega: float, Q: float, v: float, tol: float) -> str:
         return ""
     return (f"the orbit found (amplitude {Q:.3g}, impact velocity {v:.3g}) is {size / max(C, 1e-300):.2g} times the "
             f"forced amplitude C = {C:.3g}, beyond {limit:.0e} = 1e-3 / tol: the forcing is below Newton's tolerance, "
-            f"so no bounded orbit is resolved (beta = {model.beta:g}, R = {model.R:g}: an undamped resonance?)")
+            f"so no bounded orbit is resolved (beta = {model.beta:g}, R = {model.stops()[0].law.R:g}: an undamped "
+            f"resonance?)")
 
 
 def _contacts(records, on, suffix):
