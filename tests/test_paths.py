@@ -276,3 +276,49 @@ def test_a_continuation_range_the_scene_cannot_take_is_one_line(parameter, rng, 
     rng_ok = [rng[0], 175.0 if "position" in parameter else 0.95]
     d["run"][0]["range"] = rng_ok
     vibeam.load_case(d)                  # the same run with a range the scene takes loads
+
+
+@pytest.mark.slow
+def test_continuation_in_a_point_stops_position_on_the_beam_gives_orbits_of_the_scene_with_it_written(tmp_path):
+    """Issue 43, 'continue a parameter only a path can name' on the 2-mode beam: the position of a
+    Newton stop below the beam (tests/test_matrix.py's 'point' row, 0.6 mm gap, R 0.9) continued
+    at 15 Hz over [160, 178] mm from the sweep's orbit at 170 mm (d x / d position by central
+    differences of the scene's shots, each shot a scene rebuilt on the shared FE model).
+
+    Oracle: at four points along the branch, the scene built with that position *written* in its
+    [[model.stop]] table and its event integrator -- n forcing periods from the branch's state
+    return to it to 1e-8 of the state (tests/test_matrix.py's bound; measured 8e-16 to 3e-12).
+    The branch covers the range, and the results name the path with its unit, mm."""
+    from vibeam.models import make_solver
+
+    model = dict(BEAM, n_modes=2)
+    up = {"side": "upper", "R": model.pop("R"), "gap_mm": model.pop("gap_mm")}
+
+    def model_of(x):
+        return dict(model, stop=[up, {"side": "lower", "position_mm": x, "contact_gap_mm": 0.6, "R": 0.9}])
+
+    d = {"name": "paths-position", "model": model_of(170.0),
+         "sweep": {"frequency_hz": [14.5, 15.5, 3], "transient_periods": 300, "record_periods": 8},
+         "run": [{"name": "x", "method": "continuation", "parameter": "stops[1].position_mm", "at": 15.0,
+                  "range": [160.0, 178.0], "start": "sweep", "start_at": 170.0, "switch": False,
+                  "curves": False}]}
+    res = vibeam.continuation(d, jobs=1, out=tmp_path / "out")
+    r = res.branches[0]
+    assert r.parameter == "stops[1].position_mm" and r.status == "ok", (r.status, r.message)
+    b, n = r.branches[0]["data"], int(r.branches[0]["n"])
+    x_mm = np.asarray(b["parameter"])
+    assert x_mm.min() <= 160.0 + 1e-6 and x_mm.max() >= 178.0 - 1e-6, (x_mm.min(), x_mm.max())
+    assert len(x_mm) >= 5 and n >= 1
+    Om = float(r.attrs["Omega"])
+    for i in np.linspace(0, len(x_mm) - 1, 4).astype(int):
+        m = vibeam.load_case(dict(d, model=model_of(float(x_mm[i])))).model_spec().build()
+        x = np.asarray(b["state"][i])
+        one = make_solver(m, "event").point(Om, np.concatenate([x, [0.0]]), 0, n, 32)
+        assert one.status == "ok", (x_mm[i], one.status)
+        assert np.max(np.abs(one.final_state[:-1] - x)) <= 1e-8 * np.max(np.abs(x)), (x_mm[i], one.final_state, x)
+    import h5py
+
+    with h5py.File(tmp_path / "out" / "results.h5") as f:
+        g = f["branches/x"]
+        assert g.attrs["parameter"] == "stops[1].position_mm" and g.attrs["parameter_units"] == "mm"
+        assert g["parameter"].attrs["units"] == "mm"

@@ -569,7 +569,7 @@ def assemble(task: BranchTask, row: dict) -> ContinuationResult:
     spec = task.spec
     name = task.label or task.parameter
     attrs = {"parameter": name, "range": np.array([task.lo, task.hi]),
-             "parameter_units": units_of(name) if task.label else PARAMETER_UNITS.get(task.parameter, "")}
+             "parameter_units": units_of(name)}
     fn, L = _natural_frequency(spec), _length_m(spec)
     if fn:
         attrs["natural_frequency_hz"] = fn
