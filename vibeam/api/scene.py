@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 
 from vibeam.api.cases import case_and_source
@@ -163,8 +164,6 @@ def write_modes_files(res: Modes, folder) -> dict:
 def modes_figure(rep: dict, title: str = ""):
     """Free and contact mode shapes along the beam (the first four of each), normalised; a
     Figure (``modes.png`` of ``vibeam modes``).  ``rep``: :func:`vibeam.case.beamscene.modes_report`."""
-    import matplotlib.pyplot as plt     # 0.5 s: `vibeam derive` and modes() without out draw nothing
-
     fe, md, cm = rep["fe"], rep["modes"], rep["contact"]
     L = fe.geometry.length_m
     x = np.linspace(0, L, 361)
