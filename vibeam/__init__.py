@@ -26,7 +26,7 @@ __all__ = ["__version__", *_API]
 
 def __getattr__(name):
     if name in _API:
-        from vibeam import api
+        from vibeam import api  # lazy: keeps the API out of `import vibeam` (its names load on first use)
 
         return getattr(api, name)
     raise AttributeError(f"module 'vibeam' has no attribute {name!r}")

@@ -29,7 +29,8 @@ import sys
 from pathlib import Path
 
 from vibeam.case.arguments import case_value_option, jobs_option, path_option
-from vibeam.errors import Terminated  # noqa: F401 (re-exported)
+from vibeam.errors import CaseError, InputError, Terminated, one_line  # noqa: F401 (re-exported)
+from vibeam.version import __version__
 
 QUIET_HELP = ("no progress bar and no tables or reports (standard output stays empty; files are written as "
               "without it); errors are still one line on standard error")
@@ -53,8 +54,6 @@ class _Parser(argparse.ArgumentParser):
     """argparse with errors on one line: ``vibeam: error: <message> (vibeam <cmd> --help)``."""
 
     def error(self, message):
-        from vibeam.errors import one_line
-
         self.exit(2, f"vibeam: error: {one_line(message)} (see `{self.prog} --help`)\n")
 
 
@@ -111,12 +110,14 @@ class _QuietPipe:
 
 def run_case(*args, **kwargs):
     """:func:`vibeam.runner.run_case` (imported when called, so ``vibeam --help`` stays instant)."""
+    # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
     from vibeam.runner import run_case as run
 
     return run(*args, **kwargs)
 
 
 def _executor(args):
+    # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
     from vibeam.runner import open_executor
 
     return open_executor(getattr(args, "scheduler", None))
@@ -128,7 +129,7 @@ QUICK_SUFFIX = "@quick"
 
 
 def _out_dir(args, case) -> Path:
-    from vibeam.io.outdir import default_folder
+    from vibeam.io.outdir import default_folder  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam --help`
 
     return Path(args.out) if args.out else default_folder(case.name, QUICK_SUFFIX if args.quick else "")
 
@@ -146,7 +147,7 @@ def _interrupted_left(h5: Path, before, partial_before=None) -> str:
     """What an interrupted run left on the disk, as read afterwards (``before``,
     ``partial_before``: :func:`_file_state` of the results file and of its checkpoint
     ``results.h5.partial`` when the run started)."""
-    from vibeam.io.store import PARTIAL_SUFFIX
+    from vibeam.io.store import PARTIAL_SUFFIX  # lazy: keeps numpy and h5py (0.17 s) out of `vibeam --help`
 
     partial = h5.with_name(h5.name + PARTIAL_SUFFIX)
     now = _file_state(h5)
@@ -156,7 +157,7 @@ def _interrupted_left(h5: Path, before, partial_before=None) -> str:
     if pnow is None or pnow == partial_before:
         return f"no sweep line had finished; {kept}"
     try:
-        from vibeam.io.results import read_lines
+        from vibeam.io.results import read_lines  # lazy: keeps numpy and h5py (0.17 s) out of `vibeam --help`
 
         _, lines = read_lines(h5)
     except Exception:
@@ -167,16 +168,17 @@ def _interrupted_left(h5: Path, before, partial_before=None) -> str:
 
 
 def cmd_run(args, need_map=False, continuation_only=False) -> int:
+    # lazy: keeps the case schema (pydantic, numba: 0.4 s) out of `vibeam --help`
     from vibeam.case.schema import load_case
-    from vibeam.errors import CaseError
-    from vibeam.io.outdir import check_folder
+    from vibeam.io.outdir import check_folder  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam --help`
+    # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
     from vibeam.runner import failure_summary
 
     case, text = load_case(args.case)
     if need_map and case.map is None:
         raise CaseError(f"{args.case}: `vibeam map` needs a [map] table (parameter, values); "
                         f"use `vibeam run` for a plain sweep")
-    from vibeam.io.store import PARTIAL_SUFFIX, Store
+    from vibeam.io.store import PARTIAL_SUFFIX, Store  # lazy: keeps numpy and h5py (0.17 s) out of `vibeam --help`
 
     _check_fresh(args)
     out_dir = check_folder(_out_dir(args, case))
@@ -211,8 +213,6 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
 
 
 def _check_fresh(args) -> None:
-    from vibeam.errors import InputError
-
     if getattr(args, "fresh", False) and getattr(args, "resume", False):
         raise InputError("--fresh and --resume: choose one (--fresh starts a new results file, --resume "
                          "continues the checkpoint of an interrupted run)")
@@ -221,7 +221,7 @@ def _check_fresh(args) -> None:
 def _basins(args, case, text, out_dir, spec, store) -> int:
     """Basins of a case into ``out_dir``: ``/basins/<run>/`` of results.h5, plots, a table
     (:func:`vibeam.api.run_basins`), through the command's results store."""
-    from vibeam.api import run_basins
+    from vibeam.api import run_basins  # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
 
     ex, client = _executor(args)
     partial = store.partial
@@ -241,11 +241,11 @@ def _basins(args, case, text, out_dir, spec, store) -> int:
 
 
 def cmd_basins(args) -> int:
-    from pydantic import ValidationError
+    from pydantic import ValidationError  # lazy: keeps pydantic (43 modules) out of `vibeam --help`
 
+    # lazy: keeps the case schema (pydantic, numba: 0.4 s) out of `vibeam --help`
     from vibeam.case.schema import BasinsSpec, load_case, validation_message
-    from vibeam.errors import CaseError
-    from vibeam.io.outdir import check_folder
+    from vibeam.io.outdir import check_folder  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam --help`
 
     case, text = load_case(args.case)
     if args.quick:
@@ -275,7 +275,7 @@ def cmd_basins(args) -> int:
             spec.frequencies(case.sweep)
         except ValueError as e:
             raise CaseError(f"{args.case}: {e}") from None
-    from vibeam.io.store import Store
+    from vibeam.io.store import Store  # lazy: keeps numpy and h5py (0.17 s) out of `vibeam --help`
 
     _check_fresh(args)
     out_dir = check_folder(_out_dir(args, case))
@@ -284,7 +284,7 @@ def cmd_basins(args) -> int:
 
 
 def cmd_regress(args) -> int:
-    from vibeam.api import regress
+    from vibeam.api import regress  # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
 
     ex, client = _executor(args)
     try:
@@ -298,8 +298,10 @@ def cmd_regress(args) -> int:
 
 
 def cmd_cost(args) -> int:
+    # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
     from vibeam.analysis.cost import print_cost
-    from vibeam.api import cost
+    from vibeam.api import cost  # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
+    # lazy: keeps the case schema (pydantic, numba: 0.4 s) out of `vibeam --help`
     from vibeam.case.schema import load_case
 
     case, _ = load_case(args.case)
@@ -312,7 +314,7 @@ def cmd_cost(args) -> int:
 
 
 def cmd_derive(args) -> int:
-    from vibeam.api import derive
+    from vibeam.api import derive  # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
 
     d = derive(args.case)
     print(f"SDOF parameters of {d.case.name} by the assumed static mode (paper Eqs. 42-46)\n")
@@ -326,9 +328,10 @@ def cmd_derive(args) -> int:
 
 
 def cmd_modes(args) -> int:
-    from vibeam.api import modes
+    from vibeam.api import modes  # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
+    # lazy: keeps the case schema (pydantic, numba: 0.4 s) out of `vibeam --help`
     from vibeam.case.schema import load_case
-    from vibeam.io.outdir import default_folder
+    from vibeam.io.outdir import default_folder  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam --help`
 
     case, _ = load_case(args.case)
     rep = modes(case, n=args.n, out=Path(args.out) if args.out else default_folder(case.name))
@@ -350,10 +353,8 @@ def cmd_modes(args) -> int:
 
 
 def cmd_cases(args) -> int:
-    from pathlib import Path
-
+    # lazy: keeps the case schema (pydantic, numba: 0.4 s) out of `vibeam --help`
     from vibeam.case.reference import catalogue_text
-    from vibeam.errors import InputError
 
     folder = Path(args.folder) if args.folder else Path("cases")
     if args.folder is None and not folder.is_dir():    # the cases shipped beside the package
@@ -365,8 +366,7 @@ def cmd_cases(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from vibeam.api import export
-    from vibeam.errors import CaseError, InputError, one_line
+    from vibeam.api import export  # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
 
     try:
         files = export(args.results, args.csv)
@@ -384,10 +384,10 @@ def cmd_export(args) -> int:
 
 
 def cmd_poincare(args) -> int:
-    from vibeam.api import poincare
+    from vibeam.api import poincare  # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
+    # lazy: keeps the case schema (pydantic, numba: 0.4 s) out of `vibeam --help`
     from vibeam.case.schema import load_case
-    from vibeam.errors import CaseError
-    from vibeam.io.outdir import check_folder
+    from vibeam.io.outdir import check_folder  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam --help`
 
     case, _ = load_case(args.case)
     if (args.frequency_hz is None) == (args.Omega is None):
@@ -420,8 +420,6 @@ def cmd_poincare(args) -> int:
 
 
 def main(argv=None) -> int:
-    from vibeam.version import __version__
-
     ap = _Parser(prog="vibeam", description="Vibro-impact structural dynamics of an "
                  "impacting cantilever beam (multi-fidelity).",
                  epilog="exit codes: " + "; ".join(f"{k} {v}" for k, v in EXIT_CODES.items()))
@@ -670,8 +668,6 @@ def main(argv=None) -> int:
 
 def _dispatch(args) -> int:
     """Run a parsed command: errors as one line and exit 2, interrupts as 130/143."""
-    from vibeam.errors import CaseError, one_line
-
     stdout = sys.stdout
     dropped = open(os.devnull, "w") if getattr(args, "quiet", False) else None     # --quiet: no tables
     sys.stdout = dropped if dropped is not None else _QuietPipe(stdout)

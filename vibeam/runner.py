@@ -7,17 +7,29 @@ the final file holds the same data as an uninterrupted run.
 """
 from __future__ import annotations
 
+import os
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from pydantic import ValidationError
+import tqdm
 
+from vibeam.analysis.branches import assemble, plan, plot_continuation, plot_curves, print_results
+from vibeam.analysis.maps import agreement_text, assemble_map, plot_agreement, plot_map, print_map
+from vibeam.analysis.summary import print_summary
+from vibeam.case.schema import Case, check_time_series
 from vibeam.engine.compiling import CompileClock
-from vibeam.engine.sweep import load_kernels
+from vibeam.engine import assess, sweep
+from vibeam.engine.sweep import check_line, load_kernels, plan_lines, stack, unstack
 from vibeam.engine.jobs import (MAX_POINT_VALUES, MAX_WORK_STEPS, Job, case_jobs, check_model_size, check_work,  # noqa: F401
                                estimate_work, file_stem, make_job, point_work)
-from vibeam.errors import CaseError
+from vibeam.errors import CaseError, InputError, one_line
+from vibeam.io.results import case_hash, line_group, load_results, read_results, result_groups
+from vibeam.io.store import Store
+from vibeam.plots.sweep import plot_bifurcation, plot_frc, plot_impacts
 
 
 #: the name this module's own loops call :func:`make_job` by (a test replaces it to make points fail)
@@ -30,8 +42,6 @@ def _jobs(case) -> list[Job]:
 
 def _notes(case, jobs_) -> None:
     """One line per ``[assess]`` item that does not apply to a run (printed once)."""
-    from vibeam.engine import assess
-
     seen = []
     for job in jobs_:
         for msg in assess.not_applicable(case, job.run, job.solver.model, job.solver.time_domain):
@@ -42,18 +52,13 @@ def _notes(case, jobs_) -> None:
 
 def _tasks(case) -> list:
     """The continuation runs of a case as units of work (:class:`vibeam.analysis.branches.BranchTask`)."""
-    from vibeam.analysis.branches import plan
-
     return [plan(case, r, key="continuation") for r in case.run if r.method == "continuation"]
 
 
 def _lines(job: Job):
-    from vibeam.engine.sweep import plan_lines
-
     lines = plan_lines(job.solver, job.sweep, job.run.name)
     if job.j is None:
         return lines
-    from dataclasses import replace
 
     return [replace(l, key=f"{job.j:04d}-{l.key}") for l in lines]
 
@@ -69,14 +74,13 @@ def open_executor(scheduler: str | None):
     if not scheduler:
         return None, None
     try:
+        # lazy: optional (the dask extra); keeps it (0.3 s) out of `vibeam run` without --scheduler
         from distributed import Client
     except ImportError:
         raise CaseError("--scheduler needs dask.distributed: pip install 'vibeam[dask]'") from None
     try:
         client = Client(scheduler, timeout="20s")
     except Exception as e:   # OSError, TimeoutError, ValueError (not an address), ...
-        from vibeam.errors import one_line
-
         raise CaseError(one_line(f"--scheduler {scheduler!r}: cannot connect: {e}; give the address "
                                   f"of a dask scheduler, e.g. tcp://host:8786")) from None
     return client.get_executor(), client
@@ -151,10 +155,6 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
         written by another case or variant or a checkpoint this vibeam would not have
         written, an input is the results file, or the work is above the limit.
     """
-    from vibeam.io.store import Store
-
-    from vibeam.case.schema import check_time_series
-
     if quick:
         case = case.quick_variant()
     check_model_size(case, force=force, source=source)
@@ -195,10 +195,6 @@ def same_case(stored_json, case_json: str) -> bool:
     bool
         False also when ``stored_json`` is None or does not validate (never raises).
     """
-    from pydantic import ValidationError
-
-    from vibeam.case.schema import Case
-
     if stored_json is None:
         return False
     if str(stored_json) == case_json:
@@ -228,10 +224,6 @@ def _unit_paths(case) -> list:
 
 def _run_locked(case, text, store, jobs_, tasks, jobs, quiet, plots, resume, executor, checkpoint,
                 checkpoint_interval_s, continuation_only=False):
-    from vibeam.errors import InputError
-    from vibeam.io.results import line_group, result_groups
-    from vibeam.engine.sweep import run_lines, stack, unstack
-
     case_json = case.model_dump_json()
     h5 = store.path
     out_dir = store.folder
@@ -306,8 +298,8 @@ def _run_locked(case, text, store, jobs_, tasks, jobs, quiet, plots, resume, exe
         n_workers, why = plan_execution(case, jobs_, todo, jobs, executor) if not tasks else (jobs, "")
         t_run = last_flush[0] = time.perf_counter()
         with CompileClock(compile_notice) as cr:
-            run_lines(todo + tasks, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet,
-                      desc=case.name, stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
+            sweep.run_lines(todo + tasks, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet,
+                            desc=case.name, stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
         timing["run_s"] = time.perf_counter() - t_run - cr.seconds
         timing["kernel_load_s"] += cr.seconds
         announce_kernels(cc.seconds + cr.seconds, f"{len(todo)} sweep line(s)"
@@ -344,10 +336,7 @@ def _run_locked(case, text, store, jobs_, tasks, jobs, quiet, plots, resume, exe
 def _report(case, runs, maps, out_dir, plots, conts=()) -> None:
     """The tables (and the plots) of finished runs, maps and continuation runs."""
     if runs:
-        from vibeam.analysis.summary import print_summary
-
         print_summary(runs)     # timings, then the physics: peaks, period-n and status counts, jumps
-    from vibeam.analysis.maps import agreement_text, print_map
 
     for m in maps:
         print_map(m)
@@ -356,8 +345,6 @@ def _report(case, runs, maps, out_dir, plots, conts=()) -> None:
         if text is not None:
             print(f"  {text}")
     if conts:
-        from vibeam.analysis.branches import print_results
-
         print_results(conts)
     if plots:
         _plots(case, runs, maps, out_dir, conts)
@@ -374,9 +361,6 @@ def _resume_lines(store, case_json: str, all_lines) -> tuple[dict, str]:
         A checkpointed line whose structure, shape, type or values this vibeam would not have
         written (one line naming the file and the dataset).
     """
-    from vibeam.engine.sweep import check_line
-    from vibeam.io.results import case_hash
-
     by_run: dict = {}
     for _, l in all_lines:
         by_run.setdefault(l.run, {})[l.key] = l
@@ -399,16 +383,12 @@ def _resume_lines(store, case_json: str, all_lines) -> tuple[dict, str]:
             attrs, lines = read(str(old))
             case_json = str(old) if lines else case_json
     except OSError as e:
-        from vibeam.errors import InputError
-
         raise InputError(f"--resume: cannot read {store.path}: {e}") from None
     return lines, case_json
 
 
 def _finished(case, store, out_dir, plots, want):
     """``--resume`` of a complete run: nothing is recomputed; its runs are read back."""
-    from vibeam.io.results import load_results
-
     h5 = store.path
     runs, maps, _ = load_results(h5)
     runs = [r for r in runs if f"runs/{r.name}" in want]
@@ -450,9 +430,7 @@ def compile_notice() -> None:
     msg = ("compiling kernels for first use (numba: 10-60 s once per machine and vibeam version, "
            "then loaded from its cache in about a second) ...")
     try:
-        from tqdm import tqdm
-
-        tqdm.write(msg, file=sys.stderr)       # above a progress bar, if one is drawn
+        tqdm.tqdm.write(msg, file=sys.stderr)  # above a progress bar, if one is drawn
     except ImportError:                        # pragma: no cover - tqdm is a dependency
         print(msg, file=sys.stderr)
 
@@ -478,8 +456,6 @@ def plan_execution(case, jobs_, todo, jobs, executor) -> tuple:
     (chatter and impacts add work), so such a sweep starts inline and hands the lines left
     to the pool once it has run ``2 POOL_STARTUP_S`` (:func:`vibeam.engine.sweep.run_lines`,
     ``inline_first_s``)."""
-    import os
-
     if executor is not None:
         return jobs, ""
     n = min(jobs or os.cpu_count() or 1, len(todo))
@@ -512,8 +488,6 @@ def failure_summary(results) -> str | None:
 
 
 def _assemble_continuation(tasks, task_rows) -> list:
-    from vibeam.analysis.branches import assemble
-
     return [assemble(t, task_rows.get(t.run, dict(status="failed", message="not computed")))
             for t in tasks]
 
@@ -522,10 +496,6 @@ def _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plo
     """``vibeam continue``: the continuation runs alone, written as ``/branches/<run>`` of the
     results file through its store (every other group kept); the sweeps of the same case are
     overlaid in the plots."""
-    from vibeam.analysis.branches import print_results
-    from vibeam.io.results import result_groups
-    from vibeam.engine.sweep import run_lines
-
     if not tasks:
         raise CaseError(f"{case.name}: no run has method = \"continuation\"; add a [[run]] with "
                         f"method = \"continuation\" (parameter, start, ...) or use `vibeam run`")
@@ -541,7 +511,7 @@ def _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plo
     t_run = time.perf_counter()
     task_rows = {}
     with CompileClock(compile_notice) as cr:
-        done = run_lines(tasks, executor=executor, jobs=jobs, progress=not quiet, desc=case.name)
+        done = sweep.run_lines(tasks, executor=executor, jobs=jobs, progress=not quiet, desc=case.name)
     run_s = time.perf_counter() - t_run - cr.seconds
     announce_kernels(compiled + cr.seconds, f"{len(tasks)} continuation run(s)")
     for t in tasks:
@@ -569,15 +539,11 @@ class _StoredRun:
 
 
 def _stored_sweeps(h5) -> list:
-    from vibeam.io.results import read_results
-
     res = read_results(h5)
     return [_StoredRun(k, {kk: vv for kk, vv in v.items() if kk != "attrs"}) for k, v in res["runs"].items()]
 
 
 def _plot_continuation(case, conts, sweeps, out_dir, maps=()):
-    from vibeam.analysis.branches import plot_continuation, plot_curves
-
     scene = {r.name: dict(r.model) for r in case.run}      # each run's [run.model] overrides
     for r in conts:
         safe = file_stem(r.name)
@@ -593,10 +559,6 @@ def _plot_continuation(case, conts, sweeps, out_dir, maps=()):
 
 
 def _assemble(case, jobs_, rows_of):
-    from vibeam.engine import assess
-    from vibeam.analysis.maps import assemble_map
-    from vibeam.engine.sweep import assemble
-
     runs, maps = [], []
     for r in case.run:
         if r.method == "continuation":
@@ -607,7 +569,7 @@ def _assemble(case, jobs_, rows_of):
             lines = _lines(job)
             line_rows = [rows_of[f"{r.name}/{l.key}"] for l in lines]
             wall = float(sum(row.get("wall_time_s", 0.0) for rs in line_rows for row in rs))
-            res = assemble(job.solver, job.sweep, r.name, line_rows, wall)
+            res = sweep.assemble(job.solver, job.sweep, r.name, line_rows, wall)
             res.attrs["model"] = job.spec.model_dump()
             assess.collect(case, r, res)
             res.attrs.update(getattr(job.solver, "run_attrs", {}))
@@ -627,10 +589,6 @@ def _assemble(case, jobs_, rows_of):
 
 
 def _plots(case, runs, maps, out_dir, conts=()):
-    from vibeam.engine import assess
-    from vibeam.analysis.maps import plot_agreement, plot_map
-    from vibeam.plots.sweep import plot_bifurcation, plot_frc, plot_impacts
-
     curves = [c for c in conts if c.curves]
     for m in maps:
         p = plot_map(m, out_dir / f"map_{file_stem(m.name)}.png", title=case.name, case=case, curves=curves)

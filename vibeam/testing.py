@@ -10,6 +10,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
+
 
 class _Wrapped:
     def __init__(self, solver, Omegas):
@@ -76,8 +78,7 @@ def check_labelled(path) -> dict:
     AssertionError
         Naming the group and variable at fault.
     """
-    import numpy as np
-    import xarray as xr
+    import xarray as xr  # lazy: xarray (with pandas: 0.35 s) loads only when labelled data are asked for
 
     out = {}
     with xr.open_datatree(path, engine="h5netcdf", phony_dims="sort") as tree:

@@ -31,6 +31,7 @@ displacement and velocity), the other coordinates at rest.
 """
 from __future__ import annotations
 
+import json
 import math
 import os
 import time
@@ -38,8 +39,24 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from matplotlib.colors import ListedColormap
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
+from vibeam.engine.jobs import file_stem, make_job
+from vibeam.engine.records import summarize
+from vibeam.engine import sweep
+from vibeam.errors import CaseError
+from vibeam.io.netcdf import json_default, parameter_units, var, write_group
+from vibeam.io.results import case_hash
+from vibeam.io.store import Store
+from vibeam.models import shooting_problem
 from vibeam.models.attractors import FAILED, UNSETTLED, Recurrences, set_distance
+from vibeam.models.continuation import start_point
+from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
+from vibeam.models.sdof_flow import largest_gap, particular_coefficients
+from vibeam.models.system import from_beam, from_sdof
+from vibeam.plots.lazy import plt
 from vibeam.plots.style import NODIM, PALETTE, context, legend_outside
 
 TYPES = ("period", "sticking", "chaotic", "quasi_periodic", "non_periodic")
@@ -207,7 +224,7 @@ class BasinsResult:
 
     def to_xarray(self):
         """The result as an :class:`xarray.Dataset` (the variables of ``/basins/<run>/``)."""
-        import xarray as xr
+        import xarray as xr  # lazy: xarray (with pandas: 0.35 s) loads only when labelled data are asked for
 
         v = basins_variables(self)
         dims = {d for x in v.values() for d in x.dims}
@@ -276,8 +293,6 @@ def first_period_gap(model, Omega: float, q0, v0, samples: int = 256) -> np.ndar
     paper Eq. 28, :func:`vibeam.models.sdof_flow.largest_gap` on ``samples`` times): positive
     where the state meets the upper stop within a period, negative where it does not, zero on
     the states whose next period grazes it."""
-    from vibeam.models.sdof_flow import largest_gap, particular_coefficients
-
     beta, Delta = float(model.beta), float(model.Delta)
     a, b = particular_coefficients(beta, float(Omega) ** 2 * float(model.B), float(Omega))
     t = np.linspace(0.0, 2 * math.pi / float(Omega), int(samples))
@@ -305,8 +320,6 @@ def axes_of(model, coordinates=None) -> Axes:
     """
     n = int(getattr(model, "n_modes", 1))
     if hasattr(model, "n_modes") and coordinates == "sensor":
-        from vibeam.models.system import from_beam
-
         s = from_beam(model)
         u = s.contacts[0] / s.omega ** 2          # static deflection under a unit load at the contact
         shape = u / float(s.sensor @ u)            # ... scaled to 1 m at the sensor
@@ -343,8 +356,6 @@ def axes_of(model, coordinates=None) -> Axes:
 
 def _system(model):
     """The model's modal system (:mod:`vibeam.models.system`) and its stops."""
-    from vibeam.models.system import from_beam, from_sdof
-
     return (from_beam(model) if hasattr(model, "n_modes") else from_sdof(model)), tuple(model.stops())
 
 
@@ -451,8 +462,6 @@ def _admissible_interval(model, axes: Axes, k: int, span: float, centre: float =
 def _sensor_stop(model, axes: Axes):
     """The stop's position on a beam's ``U`` axis (mm): where the static shape closes the gap at
     the contact point; None where the contact row does not move in that shape."""
-    from vibeam.models.system import from_beam
-
     s = from_beam(model)
     n = s.omega.size
     wc = float(s.contacts[0] @ axes.write[0, :n])      # contact displacement (m) per mm at the sensor
@@ -471,8 +480,6 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
     beta = float(getattr(model, "beta", 0.0) or 0.0)
     Delta = float(model.Delta)
     if hasattr(model, "n_modes") and axes.write is not None:     # U, U' at the sensor
-        from vibeam.models.system import from_beam
-
         s = from_beam(model)
         resp = s.sensor * s.participation * Omega ** 2 * s.base_amplitude / (s.omega ** 2 - Omega ** 2
                                                                              + 1j * s.damping * Omega)
@@ -482,8 +489,6 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
         V = 8 * A * Omega / (s.time_unit_s * 1.0)              # mm/s: Omega per unit of kernel time
         return (_admissible_interval(model, axes, 0, 8 * A), (-V, V))
     if hasattr(model, "n_modes"):
-        from vibeam.models.system import from_beam
-
         s = from_beam(model)
         n = s.omega.size
         rng = []
@@ -642,7 +647,7 @@ def verify_labels(solver, Omega: float, d: int, states, labels, groups, width, n
 def mislabel_bound(wrong: int, checked: int) -> tuple[float, float]:
     """``(wrong / checked, upper)``: the estimated mislabel rate and its one-sided 95 %
     Clopper-Pearson upper bound (``1 - 0.05^(1/n)``, about ``3 / n``, when none was wrong)."""
-    from scipy.stats import beta
+    from scipy.stats import beta  # lazy: keeps scipy.stats (0.7 s) out of `vibeam run` and the API's start-up
 
     if checked <= 0:
         return math.nan, math.nan
@@ -699,11 +704,6 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
     motion is settled ``m`` more periods; the period test of the set (:func:`set_period`) is
     made on the ``m`` stroboscopic samples that follow, the record of ``record`` periods
     (:func:`vibeam.engine.records.summarize`) and the spectrum start at their end."""
-    from vibeam.models import shooting_problem
-    from vibeam.models.continuation import start_point
-    from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
-    from vibeam.engine.records import summarize
-
     model = solver.model
     if len(X) == 0:
         # a set the recurrence recorded without a sample (its states' integration failed): nothing
@@ -792,9 +792,6 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
 # ---------------------------------------------------------------------------- the computation
 def _pick_solver(case, run_name):
     """The job of the case's run ``run_name`` (default: the first time-domain run)."""
-    from vibeam.errors import CaseError
-    from vibeam.engine.jobs import make_job
-
     names = [r.name for r in case.run]
     if run_name is not None:
         r = next((x for x in case.run if x.name == run_name), None)
@@ -842,14 +839,10 @@ def _cell_widths(step, model, d, axes: Axes, xs, ys, x_state, Omega):
 
 def checkpoint_ident(case, spec, name: str) -> str:
     """What a basin checkpoint belongs to: the case as run, the ``[basins]`` table and the run."""
-    from vibeam.io.results import case_hash
-
     return case_hash(case.model_dump_json() + spec.model_dump_json() + name)
 
 
 def _line_variables(row: dict) -> dict:
-    from vibeam.io.netcdf import var
-
     keys = sorted(row["attractors"])
     sets = [row["attractors"][k] for k in keys]
     d = sets[0].shape[1] if sets else 1
@@ -953,9 +946,6 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
     vibeam.errors.CaseError
         No ``[basins]``, no time-domain run, or a key that does not fit the scene (one line).
     """
-    from vibeam.errors import CaseError
-    from vibeam.engine.sweep import run_lines
-
     spec = spec if spec is not None else case.basins
     if spec is None:
         raise CaseError(f"case {case.name}: no [basins] table (frequency_hz or Omega, grid or samples)")
@@ -1056,9 +1046,9 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
                 flush()
 
         try:
-            res = run_lines(todo, executor=executor, jobs=jobs, progress=progress, on_line=on_line,
-                            desc=f"basins {case.name} Omega={float(Omega):.4g}"
-                                 + ("" if value is None else f" {case.map.parameter}={value:.4g}"))
+            res = sweep.run_lines(todo, executor=executor, jobs=jobs, progress=progress, on_line=on_line,
+                                  desc=f"basins {case.name} Omega={float(Omega):.4g}"
+                                       + ("" if value is None else f" {case.map.parameter}={value:.4g}"))
         finally:
             flush()
         for l in lines:
@@ -1123,9 +1113,6 @@ def _slices(case, spec, name: str, job) -> list:
         ``along = "map"`` without a ``[map]`` table or with other than one frequency; a frequency
         in Hz for a nondimensional scene (one line each).
     """
-    from vibeam.errors import CaseError
-    from vibeam.engine.jobs import make_job
-
     def frequencies(model):
         try:
             return spec.frequencies(case.sweep, getattr(model, "natural_frequency_hz", None))
@@ -1222,10 +1209,6 @@ def _track(per_Omega: list, labels: np.ndarray) -> dict:
 # ---------------------------------------------------------------------------- file and plots
 def basins_variables(r: BasinsResult) -> dict:
     """The netCDF variables of ``/basins/<run>/`` (names and units of the module docstring)."""
-    from vibeam.io.netcdf import var
-
-    from vibeam.io.netcdf import parameter_units
-
     D = r.along
     if r.values is None:
         out = {"Omega": var(("Omega",), r.Omega, "1", "forcing frequency over the natural frequency")}
@@ -1305,8 +1288,6 @@ def basins_variables(r: BasinsResult) -> dict:
 def _axes_attrs(r: BasinsResult) -> dict:
     """What :func:`basins_from_dataset` needs to rebuild the result: the axes' state indices,
     factors and labels, the scales and the stop (``/basins/<run>/`` attributes)."""
-    import json
-
     a = {"axes_names": json.dumps(list(r.axes.names)), "axes_index": json.dumps([int(i) for i in r.axes.index]),
          "axes_factor": json.dumps([float(x) for x in r.axes.factor]),
          **({} if r.axes.write is None else {"axes_write": json.dumps(np.asarray(r.axes.write).tolist()),
@@ -1338,8 +1319,6 @@ def basins_from_dataset(ds, name: str | None = None) -> BasinsResult:
         ``attractors["samples"]`` as stored (NaN padded); ``settings`` from the group.  Files
         written before the axes attributes were stored get unit factors (axis = state).
     """
-    import json
-
     at = dict(ds.attrs)
     # ("coordinates" is taken by the CF decoding of xarray: the names are also in "axes_names")
     names = tuple(json.loads(at.get("axes_names", at.get("coordinates", '["x", "y"]'))))
@@ -1391,10 +1370,6 @@ def basins_from_dataset(ds, name: str | None = None) -> BasinsResult:
 def basins_group(r):
     """The writer of ``/basins/<run>/`` of one result (a ``fill(file)`` for
     :meth:`vibeam.io.store.Store.commit`)."""
-    import json
-
-    from vibeam.io.netcdf import json_default, write_group
-
     attrs = {"run": r.name, "coordinates": json.dumps(list(r.axes.names)), "along": r.along,
              "settings": json.dumps(r.settings, default=json_default), "kind": "grid" if r.grid else "census",
              **_axes_attrs(r)}
@@ -1408,12 +1383,8 @@ def write_basins(store, results: list, case_name: str = "", case_text: str = "",
     """Write each result to ``/basins/<run>/`` of the store's file (every other group kept; the
     checkpoint rows of these runs removed).  ``store`` is a held :class:`vibeam.io.store.Store`,
     or a path (a store is opened for the write)."""
-    from vibeam.io.store import Store
-
     if not isinstance(store, Store):
-        from pathlib import Path as _P
-
-        path = _P(store)
+        path = Path(store)
         with Store(path.parent, path.name) as st:
             return write_basins(st, results, case_name, case_text, case_json, aliases)
     return store.commit({f"basins/{r.name}": basins_group(r) for r in results}, case_name, case_text, case_json,
@@ -1422,7 +1393,7 @@ def write_basins(store, results: list, case_name: str = "", case_text: str = "",
 
 def read_basins(path, run: str):
     """``/basins/<run>/`` of a results file as an :class:`xarray.Dataset`."""
-    import xarray as xr
+    import xarray as xr  # lazy: xarray (with pandas: 0.35 s) loads only when labelled data are asked for
 
     with xr.open_dataset(path, group=f"basins/{run}", engine="h5netcdf") as ds:
         return ds.load()
@@ -1447,11 +1418,6 @@ def basins_figure(r: BasinsResult, i: int = 0, title: str = ""):
 
 
 def _basins_figure(r, i, title):
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import ListedColormap
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
-
     fig, ax = plt.subplots(figsize=(6.4, 5.0))
     nA = r.n_attractors
     present = [k for k in range(nA) if r.attractors["type"][i][k]]
@@ -1550,8 +1516,6 @@ def branch_distance(r: BasinsResult, branches: dict) -> np.ndarray:
 def census_figure(r: BasinsResult, title: str = "", branches: dict | None = None):
     """Basin fractions as a stacked area over the frequency, and each attractor's amplitude over
     the continuation branches of ``branches`` (``{run: group}``, stable solid, unstable dashed)."""
-    import matplotlib.pyplot as plt
-
     with context():
         x = r.values if r.values is not None else r.frequency_hz if r.frequency_hz is not None else r.Omega
         fig, (a1, a2) = plt.subplots(2, 1, sharex=True, figsize=(6.4, 6.0))
@@ -1583,8 +1547,6 @@ def _census_axes(r, x, a1, a2, title):
         a2.plot(x, amp[:, k], "o-", ms=3, color=PALETTE[k % len(PALETTE)], label=f"attractor {k}")
     a2.set_ylabel("amplitude Q (mm)" if r.amplitude_scale_mm else f"amplitude Q ({NODIM})")
     if r.values is not None:
-        from vibeam.io.netcdf import parameter_units
-
         unit = parameter_units(r.parameter)
         a2.set_xlabel(f"{r.parameter} ({NODIM if unit == '1' else unit})")
         where = f"{r.parameter} at {r.slice_text(0).split(' at ')[-1]}"
@@ -1599,10 +1561,6 @@ def _census_axes(r, x, a1, a2, title):
 def plot_basins(r: BasinsResult, out_dir, title: str = "", branches: dict | None = None) -> list:
     """Write ``basins_<run>[_<i>].png`` (and ``census_<run>.png`` for several frequencies, over
     the continuation ``branches`` when given)."""
-    import matplotlib.pyplot as plt
-
-    from vibeam.engine.jobs import file_stem
-
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []

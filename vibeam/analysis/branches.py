@@ -13,18 +13,32 @@ model spec's ``native_parameter``), so ``F_p`` follows by the chain rule.
 """
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 import time
-from dataclasses import dataclass, field
+import traceback
+from dataclasses import dataclass, field, replace as dc_replace
 
 import numpy as np
+from matplotlib import patheffects
 
 from vibeam.case.contact import model_with
 from vibeam.case.paths import alias_of, get_value, is_path, key_of
-from vibeam.io.netcdf import parameter_units
-from vibeam.io.results import branch_name
-
+from vibeam.engine.records import summarize
+from vibeam.engine.sweep import PointClock, Sweep, settle_transient
+from vibeam.io.h5check import open_checked
+from vibeam.io.netcdf import json_default, parameter_units, read_attrs, var, write_group
+from vibeam.io.results import branch_name, read_branch_group
 from vibeam.errors import CaseError
+from vibeam.models import SHOOTING, make_solver, shooting_problem
+from vibeam.models.continuation import (FOLD, GRAZING, PERIOD_DOUBLING, ContinuationError, FiniteDifferenceParameter,
+                                        ScaledParameter, Settings, trace, trace_curves)
+from vibeam.models.interrupts import reraise_interrupt
+from vibeam.plots import style
+from vibeam.plots.lazy import plt
+from vibeam.plots.style import label, proxy
+from vibeam.plots.sweep import save_close
 
 #: units of the continuation parameters (the HDF5 ``units`` attribute of ``parameter``)
 PARAMETER_UNITS = {"Omega": "1 (forcing frequency / natural frequency)", "voltage": "V", "gain": "1/V",
@@ -122,10 +136,6 @@ class BranchTask:
         try:
             out = run_continuation(self, report)
         except Exception as e:  # a bug or an unforeseen numerical failure: recorded, not fatal
-            import traceback
-
-            from vibeam.models.interrupts import reraise_interrupt
-
             reraise_interrupt(e)
             out = dict(branches=[], starts=[], curves=[], status="failed",
                        message=f"{type(e).__name__}: {e}; {traceback.format_exc(limit=3)}")
@@ -138,8 +148,6 @@ class BranchTask:
         at the high end compiled its kernels in the workers: the SDOF averaging start's impact
         map, vibeam bench --compile), so that a forked pool worker inherits them and compiles
         nothing.  Failures are ignored: the run records them."""
-        import dataclasses
-
         st = dict(self.settings, max_points=3, switch=False, curves=False)
         try:
             run_continuation(dataclasses.replace(self, settings=st, curve_key=None, curve_range=None))
@@ -161,8 +169,6 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
         If the run's fidelity has no registered shooting problem, or its start cannot be
         served by it (one message naming the key and what is allowed).
     """
-    from vibeam.models import SHOOTING
-
     i = case.run.index(r)
     spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
     fid = spec.fidelity
@@ -242,7 +248,6 @@ def task_problem(task: BranchTask, spec):
     with ``d x / d p`` by central differences (:class:`vibeam.models.continuation.FiniteDifferenceParameter`)."""
     if task.table is None:
         return problem(spec, task.parameter, task.at)
-    from vibeam.models.continuation import FiniteDifferenceParameter
 
     p0 = float(get_value(task.table, task.parameter))
     return FiniteDifferenceParameter(lambda p: problem(spec_at(task, spec, p), "Omega", task.at),
@@ -252,9 +257,6 @@ def task_problem(task: BranchTask, spec):
 def problem(spec, key: str, at: float | None):
     """The shooting problem of ``spec`` continued in ``key`` (physical keys through the scene's
     affine conversion, :class:`vibeam.models.continuation.ScaledParameter`)."""
-    from vibeam.models import shooting_problem
-    from vibeam.models.continuation import ScaledParameter
-
     model = spec.build()
     native, factor = spec.native_parameter(key) if hasattr(spec, "native_parameter") else (key, 1.0)
     prob = shooting_problem(model, native, Omega=at)
@@ -266,9 +268,6 @@ def problem(spec, key: str, at: float | None):
 # ----------------------------------------------------------------------------- the run
 def _sweep_start(task, spec, value):
     """Settled state and detected period of an event run at the start value (a sweep point)."""
-    from vibeam.models import make_solver
-    from vibeam.engine.records import summarize
-
     if task.parameter == "Omega":
         model, Omega = spec.build(), value
     else:
@@ -277,8 +276,6 @@ def _sweep_start(task, spec, value):
     n_tr = task.sweep_periods[0]
     if n_tr == "auto":
         # the sweep's own settling (transient_periods = "auto", e.g. a [quick] variant's)
-        from vibeam.engine.sweep import Sweep, PointClock, settle_transient
-
         sw = Sweep(Omega=np.array([float(Omega)]), transient_periods="auto", record_periods=task.sweep_periods[1],
                    samples_per_period=16)
         tr, n_tr, _ = settle_transient(solver, float(Omega), None, sw, model.Delta, PointClock())
@@ -339,8 +336,6 @@ def start_kinds(task: BranchTask) -> list:
 def run_continuation(task: BranchTask, report=None) -> dict:
     """Everything a continuation run computes, as plain arrays (see :func:`branch_arrays`).
     ``report()`` (optional) is called after each start and after the two-parameter curves."""
-    from vibeam.models.continuation import Settings
-
     st = task.settings
     settings = Settings(ds=st["ds"], ds_min=st["ds_min"], ds_max=st["ds_max"], max_points=st["max_points"],
                         max_period=st["max_period"], switch=st["switch"])
@@ -369,8 +364,6 @@ def run_continuation(task: BranchTask, report=None) -> dict:
 def _one_start(task, spec, prob, kind, value, direction, settings, branches, starts) -> None:
     """Trace the branches of one start (``kind`` at ``value``) into ``branches``; its record (its
     status: ok, not_available, failed_start, failed, duplicate, ...) into ``starts``."""
-    from vibeam.models.continuation import ContinuationError, trace
-
     if kind != "sweep" and kind not in getattr(prob, "starts", ()):
         return
     x0, n, why = _start(task, spec, prob, kind, value)
@@ -385,8 +378,6 @@ def _one_start(task, spec, prob, kind, value, direction, settings, branches, sta
         info.update(status="failed_start", message=str(e))
         return
     except Exception as e:       # an unforeseen numerical failure: this start only
-        from vibeam.models.interrupts import reraise_interrupt
-
         reraise_interrupt(e)
         info.update(status="failed", message=f"{type(e).__name__}: {e}")
         return
@@ -408,8 +399,6 @@ def _one_start(task, spec, prob, kind, value, direction, settings, branches, sta
 def _curves(task, spec, branches, settings) -> list:
     """Two-parameter curves of the folds, period doublings and grazings of ``branches``,
     seeded at ``slices`` values of the map parameter (see trace_curve)."""
-    from vibeam.models.continuation import FOLD, GRAZING, PERIOD_DOUBLING, trace_curves
-
     k2 = task.curve_key
     lo2, hi2 = task.curve_range
     st = task.settings
@@ -440,9 +429,6 @@ def _curves(task, spec, branches, settings) -> list:
 
 def _slice_bifurcations(task, spec, v, settings):
     """Bifurcations of the one-parameter branches at map value ``v`` (seeds of more curves)."""
-    from dataclasses import replace as dc_replace
-    from vibeam.models.continuation import trace
-
     sp2 = _with(spec, **{task.curve_key: float(v)})
     prob = problem(sp2, task.parameter, task.at)
     out = []
@@ -630,8 +616,6 @@ def branch_variables(r) -> tuple:
     """The variables of ``/branches/<run>/`` (:func:`vibeam.io.results.write_group`): every branch
     on the dimensions (branch, point), the bifurcations on (bifurcation), the two-parameter
     curves on (curve, curve_point).  Returns ``(variables, subgroups)``."""
-    from vibeam.io.netcdf import var
-
     B = r.branches
     lens = [len(b["data"].get("parameter", ())) for b in B]
     n_p = max(lens, default=0)
@@ -692,7 +676,6 @@ def branch_variables(r) -> tuple:
         u1, _ = _cf(units_of(r.parameter))
         cv["parameter"] = var(("curve", "curve_point"), _padded([c["p1"] for c in C], n_c, ()), u1,
                               f"continuation parameter {r.parameter}")
-        from vibeam.io.netcdf import parameter_units
 
         cv[key2] = var(("curve", "curve_point"), _padded([c["p2"] for c in C], n_c, ()), parameter_units(key2),
                        f"second parameter {key2}")
@@ -708,10 +691,6 @@ def write_branches(f, results: list) -> None:
     """``/branches/<run>/`` of every continuation run into the open HDF5 file ``f`` through the
     one labelled-data writer (:func:`vibeam.io.results.write_group`): the branches on
     (branch, point), ``bifurcations/`` on (bifurcation), ``curves/`` on (curve, curve_point)."""
-    import json
-
-    from vibeam.io.netcdf import json_default, write_group
-
     for r in results:
         v, groups = branch_variables(r)
         attrs = {"fidelity": r.fidelity, "method": "continuation",
@@ -820,9 +799,6 @@ CURVE_STYLES = {"grazing": "-", "fold": "--", "period_doubling": ":", "neimark_s
 
 
 def _param_label(r, use_hz):
-    from vibeam.io.netcdf import parameter_units
-    from vibeam.plots.style import label
-
     if use_hz:
         return label("forcing frequency f", "Hz")
     if r.parameter == "Omega":
@@ -851,10 +827,6 @@ def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = ""
     diamonds), one marker per point (:func:`_apart`); the case's sweep points are overlaid
     (up filled, down open, grey) when there are any, and only then does the subtitle give the
     sweep's settings.  A Figure."""
-    import matplotlib.pyplot as plt
-
-    from vibeam.plots import style
-
     fn, L = r.attrs.get("natural_frequency_hz"), r.attrs.get("length_m")
     use_hz = bool(fn) and r.parameter == "Omega"
     xs = fn if use_hz else 1.0
@@ -932,18 +904,12 @@ def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = ""
 
 def plot_continuation(r: ContinuationResult, sweep_runs: list, path, title: str = "", case=None):
     """:func:`continuation_figure` saved to ``path``; returns the path."""
-    from vibeam.plots.sweep import save_close
-
     return save_close(continuation_figure(r, sweep_runs, title, case), path)
 
 
 def plot_curves_on(ax, results: list, frequency_hz: bool) -> list:
     """Draw the two-parameter curves of ``results`` on a map axis (x: frequency, y: the map
     parameter); returns one legend handle per kind of curve (the figure's legend takes them)."""
-    from matplotlib import patheffects
-
-    from vibeam.plots.style import proxy
-
     halo = [patheffects.withStroke(linewidth=3.2, foreground="white")]
     seen, handles = set(), []
     for r in results:
@@ -964,11 +930,6 @@ def plot_curves_on(ax, results: list, frequency_hz: bool) -> list:
 
 def curves_figure(r: ContinuationResult, title: str = "", case=None):
     """The two-parameter curves of one run alone (frequency x the second parameter); a Figure."""
-    import matplotlib.pyplot as plt
-
-    from vibeam.plots import style
-    from vibeam.io.netcdf import parameter_units
-
     fn = r.attrs.get("natural_frequency_hz")
     with style.context():
         fig, ax = plt.subplots(figsize=(7.5, 4.6))
@@ -987,8 +948,6 @@ def curves_figure(r: ContinuationResult, title: str = "", case=None):
 
 def plot_curves(r: ContinuationResult, path, title: str = "", case=None):
     """:func:`curves_figure` saved to ``path``; returns the path."""
-    from vibeam.plots.sweep import save_close
-
     return save_close(curves_figure(r, title, case), path)
 
 
@@ -996,8 +955,6 @@ def plot_curves(r: ContinuationResult, path, title: str = "", case=None):
 def _decoded(attrs: dict) -> dict:
     """Group attributes as written by :func:`write_branches`: JSON ones (``json_attrs``, and
     ``settings``/``starts``) back to Python values, numpy scalars to Python numbers."""
-    import json
-
     a = dict(attrs)
     for k in set(str(a.pop("json_attrs", "")).split()) | {"settings", "starts"}:
         if isinstance(a.get(k), str):
@@ -1025,10 +982,6 @@ def read_continuation(path) -> list:
         lose their padding (``n_points``); the bifurcations' ``state`` and ``multipliers``
         (not stored) are absent.
     """
-    from vibeam.io.h5check import open_checked
-    from vibeam.io.netcdf import read_attrs
-    from vibeam.io.results import read_branch_group
-
     out = []
     with open_checked(path) as f:
         for name, g in f.get("branches", {}).items():

@@ -41,9 +41,20 @@ from __future__ import annotations
 import json
 import statistics
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+
+from vibeam.engine.jobs import check_work
+from vibeam.engine.records import summarize
+from vibeam.engine import sweep
+from vibeam.engine.sweep import Sweep, assemble, plan_lines, run_sweep
+from vibeam.io.netcdf import var
+from vibeam.models import SDOF, make_solver
+from vibeam.models.registry import fidelity
+from vibeam.plots import style
+from vibeam.plots.lazy import plt
+from vibeam.plots.sweep import save_close
 
 # the paper's own figures (Secs. 3.3 and 4.2): time saved against direct simulation
 PAPER_TIME_SAVED = {"ivanov": 0.80, "zhuravlev": 0.70, "mapping": 0.14, "averaging": 0.93}
@@ -112,8 +123,6 @@ def register_cost_method(method: str, handler) -> None:
 
 
 def _sweep_for(case, run_model: dict):
-    from vibeam.engine.sweep import Sweep
-
     spec = case.model_spec(run_model) if run_model else case.model_spec()
     model = spec.build()
     Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
@@ -122,8 +131,6 @@ def _sweep_for(case, run_model: dict):
 
 
 def _timed(solver, sw, repeats):
-    from vibeam.engine.sweep import Sweep, run_sweep
-
     warm = Sweep(Omega=sw.Omega[:1], transient_periods=2, record_periods=2)
     run_sweep(solver, warm, jobs=1)
     times = []
@@ -138,8 +145,6 @@ def _timed(solver, sw, repeats):
 def converged_sweep(sw):
     """The converged counterpart of a sweep: ``max(4 x transient, 2000)`` transient periods
     (with ``transient_periods = "auto"``: 4 x max_transient_periods)."""
-    from dataclasses import replace
-
     n = 4 * sw.max_transient_periods if sw.auto else max(4 * sw.transient_periods, 2000)
     return replace(sw, transient_periods=n)
 
@@ -147,10 +152,8 @@ def converged_sweep(sw):
 def _sweeps(tasks: dict, jobs) -> dict:
     """Several untimed sweeps at once through the one engine: ``{key: (solver, sweep)}`` ->
     ``{key: SweepResult}``; their lines share ``jobs`` workers."""
-    from vibeam.engine.sweep import assemble, plan_lines, run_lines
-
     plans = {k: plan_lines(s, sw, run=k) for k, (s, sw) in tasks.items()}
-    done = run_lines([l for ls in plans.values() for l in ls], jobs=jobs)
+    done = sweep.run_lines([l for ls in plans.values() for l in ls], jobs=jobs)
     out = {}
     for k, ls in plans.items():
         rows = [done[(k, l.key)] for l in ls]
@@ -177,8 +180,6 @@ def reference_model(case, run_model: dict):
 def check_cost_work(case, force: bool = False, source: str = "") -> dict:
     """Refuse unbounded work before timing (:func:`vibeam.runner.check_work`): the case as
     given, and its converged reference with max(4 x transient, 2000) transient periods."""
-    from vibeam.engine.jobs import check_work
-
     w = check_work(case, force=force, source=source)
     data = case.model_dump()
     sw = case.sweep
@@ -231,8 +232,6 @@ def run_cost(case, ladder: bool = False, repeats: int = 3, log=print, jobs: int 
         ``transient_periods`` and the ``claims`` of the paper beside the measurements
         (one per claim).
     """
-    from vibeam.models import make_solver
-
     if quick:
         case = case.quick_variant()
     rows: list[CostRow] = []
@@ -354,11 +353,6 @@ def paper_claims(rows, case) -> list[dict]:
                 why="" if ok else _why(row.method, saved)))
     # averaging accuracy at R = 0.6, Omega = 2 (Fig. 11), computed directly
     try:
-        from vibeam.models import SDOF, make_solver
-        from vibeam.engine.records import summarize
-
-        from vibeam.models.registry import fidelity
-
         spec = case.model_spec()
         if "averaging" not in fidelity(spec.fidelity).methods:
             return out
@@ -461,8 +455,6 @@ def print_cost(result: dict) -> None:
 def cost_tables(result: dict) -> dict:
     """Variables of the HDF5 group ``/cost`` (one row per line of the table; the error sources
     of each model in ``model_*``)."""
-    from vibeam.io.netcdf import var
-
     rows = result["rows"]
     ms = list(result.get("models", {}).values())
     d = ("row",)
@@ -513,10 +505,6 @@ def work_precision_figure(result: dict, title: str = "", case=None):
     the floor 1e-16.  The method's own error (against event with the same transient) is in the
     table and ``cost.h5`` (``error_method_max``): drawn here it put every event rung of a ladder
     at 1e-16 (each against itself)."""
-    import matplotlib.pyplot as plt
-
-    from vibeam.plots import style
-
     floor = 1e-16
     rows = result["rows"]
     models = result.get("models", {})
@@ -571,6 +559,4 @@ def work_precision_figure(result: dict, title: str = "", case=None):
 
 def plot_work_precision(result: dict, path, title: str = "", case=None):
     """:func:`work_precision_figure` saved to ``path`` (``work_precision.png``)."""
-    from vibeam.plots.sweep import save_close
-
     return save_close(work_precision_figure(result, title, case), path)

@@ -12,10 +12,17 @@ from __future__ import annotations
 
 
 import numpy as np
+from matplotlib.colors import BoundaryNorm, ListedColormap
+from matplotlib.patches import Patch
 
+from vibeam.analysis.branches import plot_curves_on
 from vibeam.engine.sweep import MM_KEYS, Sweep, stack
+from vibeam.io.netcdf import parameter_units
 from vibeam.io.objects import MapResult  # noqa: F401 (re-exported)
-from vibeam.plots.style import cell_edges
+from vibeam.plots import style
+from vibeam.plots.lazy import plt
+from vibeam.plots.style import cell_edges, label
+from vibeam.plots.sweep import save_close
 
 # classification codes of a map point (dataset ``classification``)
 NO_IMPACT, PERIOD_1, PERIOD_2, PERIOD_N, NON_PERIODIC, FAILED, HELD, CHAOTIC, QUASI_PERIODIC = range(9)
@@ -153,9 +160,6 @@ def _mesh(x, y):
 
 
 def _axes_labels(m):
-    from vibeam.io.netcdf import parameter_units
-    from vibeam.plots.style import label
-
     phys = "frequency_hz" in m.data
     xl = label("forcing frequency f", "Hz") if phys else label(r"forcing frequency $\Omega = f/f_n$", None)
     names = {"voltage": "voltage V", "gap_mm": "gap at the sensor", "gain": r"gain $\gamma$", "R": "R",
@@ -165,8 +169,6 @@ def _axes_labels(m):
 
 
 def _class_handles(present) -> list:
-    from matplotlib.patches import Patch
-
     return [Patch(facecolor=CLASS_COLOURS[i], edgecolor="0.5", lw=0.5, label=CLASSES[i])
             for i in sorted(present)]
 
@@ -175,12 +177,6 @@ def map_figure(m: MapResult, title: str = "", case=None, curves=()):
     """Fig. 18-style class map: one panel per direction and one of the hysteresis (points
     where up and down end on different orbits), class legend outside; two-parameter
     bifurcation curves of continuation runs (``curves``) overlaid.  A Figure."""
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import BoundaryNorm, ListedColormap
-    from matplotlib.patches import Patch
-
-    from vibeam.plots import style
-
     d = m.data
     phys, xl, yl = _axes_labels(m)
     x = np.asarray((d["frequency_hz"] if phys else d["Omega"])[0], float)
@@ -209,8 +205,6 @@ def map_figure(m: MapResult, title: str = "", case=None, curves=()):
                                Patch(facecolor=SAME_COLOUR, edgecolor="0.6", lw=0.5, label="same orbit")],
                       loc="upper left", bbox_to_anchor=(0.0, -0.2), fontsize=7)
         if curves:
-            from vibeam.analysis.branches import plot_curves_on
-
             for ax in axes[0]:
                 xl_, yl_ = ax.get_xlim(), ax.get_ylim()
                 h = plot_curves_on(ax, [c for c in curves if c.attrs.get("curve_parameter") == m.parameter], phys)
@@ -229,8 +223,6 @@ def map_figure(m: MapResult, title: str = "", case=None, curves=()):
 
 def plot_map(m: MapResult, path, title: str = "", case=None, curves=()):
     """:func:`map_figure` saved to ``path`` (``map_<run>.png``); returns the path."""
-    from vibeam.plots.sweep import save_close
-
     return save_close(map_figure(m, title, case, curves), path)
 
 
@@ -274,12 +266,6 @@ def agreement_figure(maps: list, title: str = "", case=None):
     where they differ (the legend says whose class the colour is).  Each panel's title gives
     its count, the figure's title the total over both directions -- the numbers the console
     prints (:func:`agreement_text`).  None if fewer than two maps share a grid.  A Figure."""
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import BoundaryNorm, ListedColormap
-    from matplotlib.patches import Patch
-
-    from vibeam.plots import style
-
     if not maps:
         return None
     ref = maps[0]
@@ -327,8 +313,6 @@ def agreement_figure(maps: list, title: str = "", case=None):
 def plot_agreement(maps: list, path, title: str = "", case=None):
     """:func:`agreement_figure` saved to ``path`` (``maps_agreement.png``); None if fewer than
     two maps share a grid."""
-    from vibeam.plots.sweep import save_close
-
     return save_close(agreement_figure(maps, title, case), path)
 
 

@@ -20,6 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vibeam.plots import style
+from vibeam.plots import sweep as plot_sweep
+from vibeam.plots.lazy import plt
+
 
 @dataclass
 class PoincareSection:
@@ -81,14 +85,12 @@ class PoincareSection:
         """The two sections (:func:`poincare_figure`); saved atomically when ``path`` is given."""
         fig = poincare_figure(self, title)
         if path is not None:
-            from vibeam.plots.sweep import save_figure
-
-            save_figure(fig, path)
+            plot_sweep.save_figure(fig, path)
         return fig
 
     def to_xarray(self):
         """An :class:`xarray.Dataset` on ``strobe`` (periods) and ``impact``, with units."""
-        import xarray as xr
+        import xarray as xr  # lazy: xarray (with pandas: 0.35 s) loads only when labelled data are asked for
 
         fx, fv = self.scales
         xu, vu = ("mm", "mm s-1") if self.physical else ("1", "1")
@@ -127,10 +129,6 @@ def section(sim) -> PoincareSection:
 
 def poincare_figure(p: PoincareSection, title: str = ""):
     """Stroboscopic section (left) and impact section (right); a Figure."""
-    import matplotlib.pyplot as plt
-
-    from vibeam.plots import style
-
     fx, fv = p.scales
     xu, vu = ("mm", "mm/s") if p.physical else (None, None)
     x_sym, v_sym = (style.DISPLACEMENT, style.VELOCITY) if p.physical else ("$q$", r"$\dot q$")

@@ -51,12 +51,17 @@ the spread datasets is compared by the amplitude at every point.
 """
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from vibeam.analysis.maps import all_runs
 from vibeam.engine.records import means_agree
+from vibeam.errors import InputError, quote_value
+from vibeam.io.inputs import FRCTable, check_input_file, read_frc_table
+from vibeam.io.results import read_results
 
 
 @dataclass
@@ -92,8 +97,6 @@ def read_csv_reference(path):
         ``frequency_hz,amplitude_mm`` or ``Omega,amplitude`` (optionally ``direction`` and
         ``sigma``), a row has missing or extra values, or a value is out of range.
     """
-    from vibeam.io.inputs import read_frc_table
-
     return read_frc_table(path, "reference file", "--reference")
 
 
@@ -106,17 +109,12 @@ def load_results(path, option: str = "--results") -> dict:
         If the file is missing, empty, truncated, not HDF5, or holds no runs or maps
         with amplitudes.
     """
-    from vibeam.errors import InputError
-    from vibeam.io.inputs import check_input_file
-    from vibeam.io.results import read_results
-
     path = check_input_file(path, "results file", option)
     try:
         res = read_results(path)
     except (OSError, KeyError, ValueError) as e:
         why = getattr(e, "strerror", None) or (str(e).splitlines()[0] if str(e) else type(e).__name__)
         raise InputError(f"{option} {path}: not a readable results file ({why})") from None
-    from vibeam.analysis.maps import all_runs
 
     runs = all_runs(res)
     if not runs:
@@ -154,8 +152,6 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
     Returns one :class:`RegressRow` per compared run or map line (or per new run
     for CSV).
     """
-    from vibeam.analysis.maps import all_runs
-
     ref_path = Path(ref_path)
     new = dict(new, runs=all_runs(new))
     rows = []
@@ -187,8 +183,6 @@ def compare(new: dict, ref_path, atol: float = 0.0, rtol: float = 1e-6, period: 
 def _compare_csv(new: dict, t, atol: float, rtol: float) -> list[RegressRow]:
     """Each run's FRC interpolated linearly at the table's points, on the sweep of each point's
     direction (``up`` without a ``direction`` column), against the table's amplitudes."""
-    from vibeam.errors import InputError
-
     rows = []
     where = f"--reference {t.source}"
     for name, run in new["runs"].items():
@@ -276,10 +270,6 @@ def check_results_of_case(case, res: dict, path, source: str = "", option: str =
     InputError
         Naming the option, the file, the first differing key and both values.
     """
-    import json
-
-    from vibeam.errors import InputError, quote_value
-
     attrs = res.get("attrs", {})
     where = f"{option} {path}"
     mine = _identity(json.loads(case.model_dump_json()))
@@ -311,9 +301,6 @@ def check_reference_of_case(case, ref, path, source: str = "") -> None:
     InputError
         Naming the file, the column or direction and what is allowed.
     """
-    from vibeam.errors import InputError
-    from vibeam.io.inputs import FRCTable
-
     if not isinstance(ref, FRCTable):
         return
     where = f"--reference {path}"

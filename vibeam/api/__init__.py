@@ -24,7 +24,7 @@ Its modules, by topic:
 A name's module is imported on its first use (``vibeam.api.run``, ``from vibeam.api import run``),
 with what that module needs: ``vibeam.load_case`` loads the case schema only, not the sweep engine,
 the results readers or the figures (0.4 s against 1.1 s with every module), and ``vibeam derive``
-no results reader; xarray and matplotlib load when labelled data or a figure are asked for.
+no results reader; xarray loads when labelled data are asked for.
 """
 from __future__ import annotations
 

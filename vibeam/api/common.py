@@ -8,7 +8,6 @@ import weakref
 
 from vibeam.case.arguments import check_flag, check_jobs, check_path
 from vibeam.errors import quote_value
-from vibeam.plots import sweep as plot_sweep     # by the module: its save_figure may be replaced (tests)
 
 
 class PrivateFolder:
@@ -26,6 +25,9 @@ class PrivateFolder:
 def saved(fig, path):
     """``fig``, saved atomically to ``path`` first when both are given."""
     if fig is not None and path is not None:
+        # by the module: its save_figure may be replaced (tests)
+        from vibeam.plots import sweep as plot_sweep  # lazy: matplotlib.pyplot (0.5 s) out of `vibeam derive`
+
         plot_sweep.save_figure(fig, path)
     return fig
 

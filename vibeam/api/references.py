@@ -140,7 +140,7 @@ class Cost:
 
     def to_xarray(self):
         """The cost table (the variables of ``cost.h5`` ``/cost``) as an :class:`xarray.Dataset`."""
-        import xarray as xr     # 0.5 s (with pandas): only when labelled data are asked for
+        import xarray as xr  # lazy: xarray (with pandas: 0.35 s) loads only when labelled data are asked for
 
         v = table_variables(cost_tables(self.result))
         return xr.Dataset({k: (x.dims, x.data, x.attrs) for k, x in v.items()})

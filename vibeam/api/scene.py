@@ -14,8 +14,6 @@ from vibeam.case.arguments import check_path, check_whole
 from vibeam.case.beamscene import beam_spec, derive as derive_scene, modes_report, sdof_case_text
 from vibeam.io.outdir import OutputLock, check_folder, replace_file, write_text_file
 from vibeam.models.beam import write_modes
-from vibeam.plots import style
-from vibeam.plots.sweep import save_close
 
 
 @dataclass
@@ -156,6 +154,8 @@ def write_modes_files(res: Modes, folder) -> dict:
     folder = Path(folder)
     vtu = replace_file(folder / "modes.vtu",
                        lambda p: write_modes(p, res.fe, n=min(res.n, len(res.modes.frequencies_hz))))
+    from vibeam.plots.sweep import save_close  # lazy: matplotlib.pyplot (0.6 s) out of `vibeam derive`
+
     png = save_close(modes_figure(res.report, res.case.name), folder / "modes.png")
     return {"vtu": vtu, "png": png}
 
@@ -163,11 +163,13 @@ def write_modes_files(res: Modes, folder) -> dict:
 def modes_figure(rep: dict, title: str = ""):
     """Free and contact mode shapes along the beam (the first four of each), normalised; a
     Figure (``modes.png`` of ``vibeam modes``).  ``rep``: :func:`vibeam.case.beamscene.modes_report`."""
-    import matplotlib.pyplot as plt     # 0.5 s: `vibeam derive` and modes() without out draw nothing
-
     fe, md, cm = rep["fe"], rep["modes"], rep["contact"]
     L = fe.geometry.length_m
     x = np.linspace(0, L, 361)
+    import matplotlib.pyplot as plt  # lazy: out of `vibeam derive` (0.6 s), which draws no figure
+
+    from vibeam.plots import style  # lazy: matplotlib, with pyplot above
+
     with style.context():
         fig, axes = plt.subplots(1, 2, figsize=(10, 4.4), sharey=True)
         for ax, m, lab in ((axes[0], md, "free"), (axes[1], cm, "contact (held at the stop)")):

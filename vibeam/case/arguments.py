@@ -15,6 +15,7 @@ exhaust the machine's memory and process table before any point is computed.
 """
 from __future__ import annotations
 
+import argparse
 import numbers
 import os
 
@@ -77,8 +78,6 @@ def check_whole(value, name: str, lo: int, hi: int) -> int:
 
 def jobs_option(text: str) -> int:
     """argparse type of ``--jobs``: :func:`check_jobs` of a whole number."""
-    import argparse
-
     try:
         v = int(text)
     except ValueError:
@@ -112,8 +111,6 @@ def check_path(value, name: str, optional: bool = True):
 
 def path_option(option: str):
     """argparse type of a path option (``--out``, ``--write``, ...): not empty."""
-    import argparse
-
     def conv(text: str) -> str:
         if not text.strip():
             raise argparse.ArgumentTypeError(f"{text!r} is an empty path; allowed: a folder or file name "
@@ -139,9 +136,9 @@ def check_flag(value, name: str) -> bool:
 
 def _describe(annotation, metadata=()) -> str:
     """What a case key's annotation allows, in words (``a whole number >= 1``)."""
-    import typing
+    import typing  # lazy: keeps typing out of `vibeam --help`
 
-    from annotated_types import Ge, Gt, Le, Lt
+    from annotated_types import Ge, Gt, Le, Lt  # lazy: keeps annotated_types and typing out of `vibeam --help`
 
     origin = typing.get_origin(annotation)
     if origin is typing.Annotated:
@@ -182,8 +179,9 @@ def check_case_value(value, name: str, table, key: str):
         A value out of the key's range; the message names the argument, the value, what is
         allowed and the case key whose rule it is.
     """
-    from typing import Annotated
+    from typing import Annotated  # lazy: keeps typing out of `vibeam --help`
 
+    # lazy: keeps pydantic (43 modules) out of `vibeam --help`
     from pydantic import ConfigDict, TypeAdapter, ValidationError
 
     value = _scalar(value)
@@ -208,10 +206,8 @@ def case_value_option(option: str, table: str, key: str):
     amplitude_atol``): a float checked by that key's own rule (:func:`check_case_value`), so
     ``nan``, ``inf`` and values out of range are refused in one line (exit 2) like in a case file.
     ``table`` is the name of a spec class of :mod:`vibeam.case.schema` (``"RegressSpec"``)."""
-    import argparse
-
     def conv(text: str) -> float:
-        from vibeam.case import schema
+        from vibeam.case import schema  # lazy: keeps the case schema (pydantic, numba: 0.4 s) out of `vibeam --help`
 
         try:
             v = float(text)
@@ -236,6 +232,7 @@ def check_frequency(value, name: str = "Omega", key: str = "Omega"):
     ValueError
         NaN, infinite, zero or negative.
     """
+    # lazy: keeps the case schema (pydantic, numba: 0.4 s) out of `vibeam --help`
     from vibeam.case.schema import OMEGA_MAX, check_grid
 
     value = _scalar(value)

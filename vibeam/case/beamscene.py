@@ -19,6 +19,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
+
+from vibeam.errors import CaseError
+from vibeam.models.beam import BeamFE, BeamGeometry, shared_calibration, shared_fe
+from vibeam.models.beam_dynamics import BeamImpactModel, PointStop
+from vibeam.models.registry import fidelity, with_capability
+from vibeam.reductions.modal import modal_reduction
+from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
 
 @dataclass(frozen=True)
@@ -39,8 +47,6 @@ class BeamScene:
 
 def geometry_of(spec):
     """BeamGeometry of a :class:`vibeam.case.schema.BeamModelSpec` before calibration."""
-    from vibeam.models.beam import BeamGeometry
-
     kw = dict(length_m=spec.length_mm * 1e-3, mass_position_m=spec.mass_position_mm * 1e-3,
               sensor_position_m=spec.sensor_position_mm * 1e-3)
     if spec.EI_n_m2 is not None:
@@ -58,9 +64,6 @@ def geometry_of(spec):
 
 def scene_of(spec) -> BeamScene:
     """Calibrate (if asked), damping, gap and gain of a beam case table."""
-    from vibeam.models.beam import shared_calibration, shared_fe
-    from vibeam.reductions.static_mode import static_mode_shape
-
     g = geometry_of(spec)
     cal = None
     if spec.calibrate is not None:
@@ -93,9 +96,6 @@ def scene_of(spec) -> BeamScene:
 
 def build_beam_model(spec):
     """The FE impact model of a beam case table (see :mod:`vibeam.models.beam_dynamics`)."""
-    from vibeam.models.beam import shared_fe
-    from vibeam.models.beam_dynamics import BeamImpactModel
-
     sc = scene_of(spec)
     if spec.n_modes == "static":
         # the paper's SDOF reduction as a one-shape model (Eqs. 42-47, beam mass excluded);
@@ -116,9 +116,6 @@ def point_stops(spec, sc) -> list:
     :class:`~vibeam.models.beam_dynamics.PointStop`: the gap at the stop is ``contact_gap_mm``, or
     ``gap_mm`` seen at the sensor times the static mode ``phi(x)`` at the stop's point (``phi(L_S)
     = 1``; Eq. 45 at another point)."""
-    from vibeam.models.beam_dynamics import PointStop
-    from vibeam.reductions.static_mode import static_mode_shape
-
     out = []
     g = sc.geometry
     L = g.length_m
@@ -161,9 +158,6 @@ def beam_spec(case, command: str = "derive"):
         If the scene's fidelity has no finite-element model (one line naming the key, the
         value and the fidelities allowed).
     """
-    from vibeam.errors import CaseError
-    from vibeam.models.registry import fidelity, with_capability
-
     spec = case.model_spec()
     if not fidelity(spec.fidelity).fe_model:
         fe = " or ".join(f'fidelity = "{n}"' for n in with_capability("fe_model"))
@@ -188,8 +182,6 @@ def derive(spec) -> dict:
         beam mass excluded as in the paper), ``with_beam_mass`` (the same with
         the beam's modal mass) and ``rows``: (name, value, unit, source).
     """
-    from vibeam.reductions.static_mode import reduce_static_mode
-
     if hasattr(spec, "model_spec"):            # a case
         spec = beam_spec(spec, "derive")
     sc = scene_of(spec)
@@ -274,8 +266,6 @@ def _lower_stop_text(spec, red, sc) -> str:
 
 def modes_report(spec, n: int = 8) -> dict:
     """Modes, participation and effective masses for base excitation, and contact modes."""
-    from vibeam.models.beam import BeamFE
-
     sc = scene_of(spec)
     fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
                 rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
@@ -289,8 +279,6 @@ def modes_report(spec, n: int = 8) -> dict:
 
 
 def _err(msg):
-    from vibeam.errors import CaseError
-
     return CaseError(msg)
 
 
@@ -311,10 +299,6 @@ def eccentric_contact_row(fe, shapes, offset_m: float) -> np.ndarray:
 def build_beam_model_with_effects(spec, effects, base_model=None):
     """BeamImpactModel of a beam scene with its structural effects (eccentric contact,
     coupled platform, R table); ``base_model`` is reused when none changes the structure."""
-    from vibeam.models.beam import BeamFE
-    from vibeam.models.beam_dynamics import BeamImpactModel
-    from vibeam.reductions.modal import modal_reduction
-
     ecc = effects.eccentric_impact
     plat = effects.platform
     coupled = plat is not None and plat.level == "coupled"
@@ -368,10 +352,6 @@ def build_beam_model_with_effects(spec, effects, base_model=None):
 
 def _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic):
     """Beam + platform DOF as one modal model (module doc)."""
-    import scipy.linalg
-
-    from vibeam.models.beam_dynamics import BeamImpactModel
-
     if plat.mass_kg is None:
         raise _err("effects.platform.mass_kg is required for level = \"coupled\" (the platform's mass, kg)")
     g = sc.geometry

@@ -27,14 +27,19 @@ key, the value and what is allowed.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 import tomllib
+import warnings
 from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
-from vibeam.case.contact import ContactSpec, StopSpec, model_with, stops_as_keys, target_R  # [model.contact] (issue 13), [[model.stop]]
-from vibeam.models.registry import is_compliant
+from vibeam.case.contact import (ContactSpec, StopSpec, beam_law,  # [model.contact] (issue 13), [[model.stop]]
+                                 model_with, sdof_law, stops_as_keys, target_R)
+from vibeam.case.paths import alias_of, get_value, is_path, parameter_paths
+from vibeam.io.inputs import read_input_text
+from vibeam.models.registry import contact_law_methods, fidelity, is_compliant, two_sided_methods
 from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
@@ -281,10 +286,7 @@ class SDOFModelSpec(_StopsSpec):
         return build_or_refuse(self, self._build)
 
     def _build(self):
-        import dataclasses
-
-        from vibeam.case.contact import sdof_law
-        from vibeam.models import SDOF
+        from vibeam.models import SDOF  # lazy: keeps the SDOF kernels (scipy.linalg: 0.2 s) out of load_case
 
         if self.physical:
             m = SDOF.from_physical(self.natural_frequency_hz, self.damping_ratio, self.R, self.gap_mm,
@@ -315,8 +317,6 @@ class SDOFModelSpec(_StopsSpec):
         """Checks beyond the table's validators: the ``[model.contact]`` law can be built, and
         the forcing amplitude (:data:`B_RANGE`) and the stop's stiffness
         (:data:`MAX_CONTACT_STIFFNESS`) can be computed in double precision."""
-        from vibeam.case.contact import sdof_law
-
         if self.physical:
             check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
         else:
@@ -367,7 +367,6 @@ class SDOFModelSpec(_StopsSpec):
         (``restitution_law``, sensor velocity in mm/s to ``q'``: ``U(L_S)' = q' L omega_n``)."""
         if effects.restitution_law is None:
             return model
-        import dataclasses
 
         t = effects.restitution_law
         scale = 1e-3 / (model.length_m * 2 * math.pi * model.natural_frequency_hz)  # mm/s -> q'
@@ -386,8 +385,6 @@ def build_or_refuse(spec, build):
     (``vibeam`` exit 2; a fit counts such a trial as a failed evaluation).  Warnings of a
     build that fails are dropped (the error says what went wrong); those of a build that
     succeeds are issued as they were."""
-    import warnings
-
     with warnings.catch_warnings(record=True) as caught:   # kept back: a refused build says one line
         warnings.simplefilter("always")
         try:
@@ -570,6 +567,7 @@ class BeamModelSpec(_StopsSpec):
             shapes, e.g. ``length_mm``, ``n_modes``), the gap key the scene does not use, or a
             key that is not a model key.
         """
+        # lazy: keeps the beam kernels (scipy.linalg: 0.3 s) out of load_case
         from vibeam.models.periodic_beam import REBUILD_KEYS, conversions
 
         gap_key = "gap_mm" if self.gap_mm is not None else "contact_gap_mm"
@@ -611,17 +609,19 @@ class BeamModelSpec(_StopsSpec):
         return build_or_refuse(self, self._build)
 
     def _build(self):
+        # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
         from vibeam.case.beamscene import build_beam_model
-        from vibeam.case.contact import beam_law
 
         m = build_beam_model(self)
         law = beam_law(self.contact, self.R)
         lo = lower_law_spec(self)
         lower = beam_law(lo, target_R(lo, self.R))
         if law is not None:   # a compliant stop (issue 13): the beam's compliant model
+            # lazy: keeps the beam kernels (scipy.linalg: 0.25 s) out of load_case
             from vibeam.models.beam_dynamics import CompliantBeamModel
 
             if self.mixed_stops:   # Newton's law below the compliant upper stop: its R, else [model] R
+                # lazy: keeps the impact kernels (vibeam.models.impact) out of load_case
                 from vibeam.models.contact import Restitution
 
                 lower = Restitution(self.R if self.contact_lower.R is None else self.contact_lower.R)
@@ -649,7 +649,6 @@ class BeamModelSpec(_StopsSpec):
         each node but the clamped one)."""
         n = self.n_modes
         dofs = 2 * int(self.n_elements)
-        from vibeam.case.contact import beam_law
 
         check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
 
@@ -665,7 +664,7 @@ class BeamModelSpec(_StopsSpec):
 
     def result_attrs(self) -> dict:
         """Calibrated and derived values of the scene, stored with its results."""
-        from vibeam.case.beamscene import scene_of
+        from vibeam.case.beamscene import scene_of  # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
 
         sc = scene_of(self)
         g = sc.geometry
@@ -688,6 +687,7 @@ class BeamModelSpec(_StopsSpec):
     def effect_model(self, effects, model):
         """``model`` with the structural effects of a run (eccentric contact, coupled
         platform, R table): :func:`vibeam.case.beamscene.build_beam_model_with_effects`."""
+        # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
         from vibeam.case.beamscene import build_beam_model_with_effects
 
         return build_beam_model_with_effects(self, effects, base_model=model)
@@ -710,8 +710,6 @@ def fidelity_methods(name: str) -> tuple:
     Python: validating a case loads no solver).  ``continuation`` is open to every fidelity
     here and checked against the shooting problems registered in ``vibeam.models.SHOOTING``
     when the run is planned."""
-    from vibeam.models.registry import fidelity
-
     return fidelity(name).method_names
 
 
@@ -1315,8 +1313,6 @@ class Case(_Strict):
         """What a ``[map]`` (and ``vibeam fit``) may vary: the numeric (float) keys set in
         ``[model]``, then the paths of the stops' numbers (:func:`vibeam.case.paths.parameter_paths`:
         ``stops[1].law.stiffness_n_m``, ``stops[0].gap_mm``, ...)."""
-        from vibeam.case.paths import parameter_paths
-
         spec = self.model_spec()
         return sorted(k for k, v in spec.model_dump().items()
                       if isinstance(v, float) and not isinstance(v, bool)) + parameter_paths(self.model)
@@ -1533,8 +1529,6 @@ def _check_resonance(case, i: int, r, spec, prefix: str) -> None:
 def _check_method_values(spec, i: int, r, prefix: str) -> None:
     """Values of the model a run's method cannot take (fidelity registry: ``positive_R_methods``
     need R > 0)."""
-    from vibeam.models.registry import fidelity
-
     fid = fidelity(spec.fidelity)
     R = getattr(spec, "R", None)
     if r.method in fid.positive_R_methods and R is not None and not R > 0.0:
@@ -1545,8 +1539,6 @@ def _check_method_values(spec, i: int, r, prefix: str) -> None:
 
 def _check_contact_method(spec, i: int, r) -> None:
     """The run's method simulates the scene's contact law (fidelity registry ``contact_laws``)."""
-    from vibeam.models.registry import contact_law_methods
-
     contact = getattr(spec, "contact", None)
     law = "restitution" if contact is None else contact.law
     if not is_compliant(law):
@@ -1614,8 +1606,6 @@ def check_time_series(case: Case, source: str = "", hz_per_omega: float | None =
 def _check_two_sided(case: Case, i: int, r) -> None:
     """A run of a two-sided scene (a lower stop) uses a method that simulates it (the fidelity's
     ``two_sided_methods`` in :mod:`vibeam.models.registry`) and no effect that assumes one stop."""
-    from vibeam.models.registry import two_sided_methods
-
     spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
     if not getattr(spec, "two_sided", False):
         return
@@ -1626,7 +1616,6 @@ def _check_two_sided(case: Case, i: int, r) -> None:
     lo = lower_law_spec(spec) if contact is not None else None
     if getattr(spec, "mixed_stops", False):
         # a restitution stop beside a compliant one: the registry's mixed_stop_methods
-        from vibeam.models.registry import fidelity
         allowed = tuple(m for m in allowed if m in fidelity(spec.fidelity).mixed_stop_methods)
         what += f" and contact_lower.law = \"{spec.contact_lower.law}\""
     if lo is not None and lo.law != law:
@@ -1667,9 +1656,7 @@ def _check_continuation(case: Case, i: int, r) -> None:
         raise CaseError(f"'run[{i}]' (continuation) cannot use [effects] ({', '.join(case.effects_for(r).active())}); "
                         f"continue the plain scene")
     native = getattr(spec, "native_parameter", None)
-    from vibeam.case.paths import alias_of, get_value, is_path
     if native is not None:
-
         table = model_with(case.model, dict(r.model))
         try:
             key = alias_of(table, r.parameter)
@@ -1758,7 +1745,5 @@ def load_case(path) -> tuple[Case, str]:
         If the file cannot be read (not a regular file, larger than 10 MB, not UTF-8:
         :func:`vibeam.io.inputs.read_input_text`) or is invalid (see :func:`parse_case`).
     """
-    from vibeam.io.inputs import read_input_text
-
     text = read_input_text(path, "case file")
     return parse_case(text, str(path)), text

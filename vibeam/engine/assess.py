@@ -42,8 +42,21 @@ Per-point outputs (HDF5 ``/runs/<run>/``):
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
+import matplotlib
 import numpy as np
+from matplotlib.patches import Patch
+from matplotlib.ticker import FixedLocator, LogLocator, NullFormatter, NullLocator
+
+from vibeam.engine.sensor import DEFAULT_LADDER_MM, SensorHook, required_samples_per_period
+from vibeam.errors import CaseError
+from vibeam.io.outdir import replace_file
+from vibeam.models.registry import fidelity
+from vibeam.plots import style
+from vibeam.plots.lazy import plt
+from vibeam.plots.style import cell_edges, colours, label, run_names
+from vibeam.plots.sweep import save_close
 
 N_MAP = 400                      # bins of the stored spectrum map
 TS_MAX_PER_PERIOD = 256          # time series: at most this many samples per period
@@ -67,8 +80,6 @@ def _units(model):
 
 def _caps(model):
     """The fidelity registry's entry of a model (capabilities, :mod:`vibeam.models.registry`)."""
-    from vibeam.models.registry import fidelity
-
     return fidelity(model)
 
 
@@ -350,9 +361,6 @@ class TimeSeriesHook:
 
 
 def _sensor_hook(case, spec, run, model):
-    from vibeam.errors import CaseError
-    from vibeam.engine.sensor import SensorHook
-
     eff = case.effects_for(run)
     sp = eff.sensor
     fn, L, phys = _scales(model)
@@ -393,8 +401,6 @@ def samples_per_period(case, run, model, Omega) -> int:
     sp = case.effects_for(run).sensor
     fn = getattr(model, "natural_frequency_hz", None)
     if sp is not None and fn:
-        from vibeam.engine.sensor import required_samples_per_period
-
         n = max(n, required_samples_per_period(sp.sampling_hz, float(np.min(Omega)) * fn, sp.oversample))
     return n
 
@@ -444,8 +450,6 @@ def collect(case, run, res) -> None:
         res.attrs["peaks_family_codes"] = "0 none, 1 free mode, 2 contact mode"
     sp = case.effects_for(run).sensor
     if sp is not None and sp.identify_R:
-        from vibeam.engine.sensor import DEFAULT_LADDER_MM
-
         res.attrs["noise_ladder_mm"] = np.asarray(sp.noise_ladder_mm if sp.noise_ladder_mm is not None
                                                   else DEFAULT_LADDER_MM, float)
         res.attrs["sensor"] = sp.model_dump()
@@ -454,10 +458,6 @@ def collect(case, run, res) -> None:
 # ============================================================================ finish
 def finish(case, runs, out_dir) -> list:
     """Case-level assessment outputs (plots, tables); returns the written paths."""
-    from pathlib import Path
-
-    from vibeam.plots.style import colours, run_names
-
     out_dir = Path(out_dir)
     paths = []
     a = case.assess
@@ -486,7 +486,6 @@ def finish(case, runs, out_dir) -> list:
         rows = sensor_table(runs)
         print_sensor_table(rows)
         csv = out_dir / "sensor_R_vs_noise.csv"
-        from vibeam.io.outdir import replace_file
 
         replace_file(csv, "run,noise_mm,points,identified,median_abs_error,max_abs_error,rms_error,"
                      "mean_R_identified,mean_R_model,mean_R_sensor_exact\n"
@@ -501,17 +500,13 @@ def finish(case, runs, out_dir) -> list:
 
 
 def _x(r):
-    from vibeam.plots.style import label
-
     d = r.data
     return ((np.asarray(d["frequency_hz"], float), label("forcing frequency f", "Hz")) if "frequency_hz" in d
             else (np.asarray(d["Omega"], float), label(r"forcing frequency $\Omega = f/f_n$", None)))
 
 
 def _plt():
-    import matplotlib
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     return plt
 
 
@@ -561,8 +556,6 @@ def sensor_figure(rows, title="", case=None, colours=None, runs=()):
     """Error of the identified R against the sensor noise, per run (median and max over the
     period-1 points; the noise-free error as a marker at the left edge); a Figure, or None
     when no row has a finite error."""
-    from vibeam.plots import style
-
     plt = _plt()
     names = list(dict.fromkeys(r[0] for r in rows))
     col = colours or style.colours(style.run_names(case) + names)
@@ -591,7 +584,6 @@ def sensor_figure(rows, title="", case=None, colours=None, runs=()):
             return None
         ax.set_xscale("log")
         ax.set_yscale("log")
-        from matplotlib.ticker import FixedLocator, LogLocator, NullFormatter, NullLocator
 
         # ticks at the noise levels of the ladder (labelled once each, no minor labels)
         levels = sorted({float(r[1]) for r in rows if float(r[1]) > 0})
@@ -613,16 +605,12 @@ def sensor_figure(rows, title="", case=None, colours=None, runs=()):
 
 def plot_sensor(rows, path, title="", case=None, colours=None, runs=()):
     """:func:`sensor_figure` saved to ``path`` (``sensor_R_vs_noise.png``); None if empty."""
-    from vibeam.plots.sweep import save_close
-
     return save_close(sensor_figure(rows, title, case, colours, runs), path)
 
 
 def spectra_figure(runs, title="", case=None):
     """Per run: velocity spectrum (colour, log10 of mm/s) against the forcing frequency
     (up branch), non-harmonic peaks as circles; a Figure, or None without spectra."""
-    from vibeam.plots import style
-
     plt = _plt()
     runs = [r for r in runs if "spectrum_velocity" in r.data]
     if not runs:
@@ -642,7 +630,6 @@ def spectra_figure(runs, title="", case=None):
             fy = np.asarray(r.attrs.get("spectrum_frequency"), float)
             with np.errstate(divide="ignore", invalid="ignore"):
                 Z = np.log10(np.where(S > 0, S, np.nan)).T
-            from vibeam.plots.style import cell_edges
 
             top = np.nanmax(Z) if np.isfinite(Z).any() else 0.0
             im = ax.pcolormesh(cell_edges(xs), cell_edges(fy), Z, cmap="viridis", vmin=top - 4, vmax=top)
@@ -663,8 +650,6 @@ def spectra_figure(runs, title="", case=None):
 
 def plot_spectra(runs, path, title="", case=None):
     """:func:`spectra_figure` saved to ``path`` (``spectra.png``)."""
-    from vibeam.plots.sweep import save_close
-
     return save_close(spectra_figure(runs, title, case), path)
 
 
@@ -698,8 +683,6 @@ def print_hfc(runs):
 def participation_figure(runs, title="", case=None):
     """Stacked shares of the modes against the forcing frequency (up branch), per run; a
     Figure, or None when no run has more than one mode."""
-    from vibeam.plots import style
-
     plt = _plt()
     runs = [r for r in runs if "participation_displacement" in r.data
             and r.data["participation_displacement"].shape[1] > 1]
@@ -726,7 +709,6 @@ def participation_figure(runs, title="", case=None):
                 hi = 1.0 - P[:, 0]
                 ax.text(0.03, 0.06, f"modes >= 2: {hi.min():.2e} .. {hi.max():.2e}", transform=ax.transAxes,
                         fontsize=7, bbox=dict(facecolor="w", alpha=0.8, lw=0))
-        from matplotlib.patches import Patch
 
         style.legend_outside(fig, [Patch(facecolor=style.PALETTE[i % len(style.PALETTE)], label=f"mode {i + 1}")
                                    for i in range(n_max)])
@@ -736,16 +718,12 @@ def participation_figure(runs, title="", case=None):
 
 def plot_participation(runs, path, title="", case=None):
     """:func:`participation_figure` saved to ``path`` (``participation.png``); None if nothing."""
-    from vibeam.plots.sweep import save_close
-
     return save_close(participation_figure(runs, title, case), path)
 
 
 def time_series_figure(runs, label, title="", case=None, colours=None):
     """Time series (displacement, velocity; last two periods) and phase portrait of every run
     at the grid frequency ``label`` (:func:`ts_label`); a Figure, or None."""
-    from vibeam.plots import style
-
     plt = _plt()
     label = label if isinstance(label, str) else ts_label(label)
     items = []
@@ -790,6 +768,4 @@ def time_series_figure(runs, label, title="", case=None, colours=None):
 
 def plot_time_series(runs, label, path, title="", case=None, colours=None):
     """:func:`time_series_figure` saved to ``path`` (``time_series_<label>.png``); None if none."""
-    from vibeam.plots.sweep import save_close
-
     return save_close(time_series_figure(runs, label, title, case, colours), path)

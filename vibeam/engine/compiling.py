@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import time
 
+from numba.core import event
+
 
 class CompileClock:
     """Context manager: ``seconds`` spent compiling (outermost compilations) and ``count`` of
@@ -36,8 +38,6 @@ class CompileClock:
         self._notice = notice
 
     def __enter__(self):
-        from numba.core import event
-
         clock = self
 
         class _Listener(event.Listener):
@@ -60,7 +60,5 @@ class CompileClock:
         return self
 
     def __exit__(self, *exc):
-        from numba.core import event
-
         event.unregister("numba:compile", self._listener)
         return False

@@ -80,6 +80,9 @@ import math
 
 import numpy as np
 
+from vibeam.errors import CaseError
+from vibeam.models.registry import fidelity, is_compliant, with_capability
+
 #: effects handled here (``sensor`` belongs to :mod:`vibeam.engine.sensor` / the assessments)
 HANDLED = ("platform", "eccentric_impact", "gap_drift", "restitution_law")
 #: gamma identified at 2 f_n in Sec. 7 over the 1.5e-3 /V near f_n of Sec. 6.1 (tight, neutral, loose)
@@ -87,8 +90,6 @@ PAPER_GAIN_RATIOS = (3.78e-4 / 1.5e-3, 5.16e-4 / 1.5e-3, 7.66e-4 / 1.5e-3)
 
 
 def _err(msg):
-    from vibeam.errors import CaseError
-
     return CaseError(msg)
 
 
@@ -104,7 +105,7 @@ def identify_platform(gains, zeta_p: float, f_p_default: float):
 
     Raises CaseError if g2/g1 cannot be reproduced.
     """
-    from scipy.optimize import brentq
+    from scipy.optimize import brentq  # lazy: keeps scipy.optimize (0.35 s) out of `vibeam run` (platform gains only)
 
     (f1, g1), (f2, g2) = sorted((tuple(p) for p in gains), key=lambda p: p[0])
     if not (f1 > 0 and f2 > f1 and g1 > 0 and g2 > 0):
@@ -224,6 +225,7 @@ class EffectSolver:
         return abs(z) / (V * self._phim() * self.spec.length_mm * 1e-3) if V > 0 else 0.0
 
     def _phim(self):
+        # lazy: keeps skfem and the FE beam (0.4 s) out of `vibeam run` of an SDOF case
         from vibeam.case.beamscene import scene_of
 
         if not hasattr(self, "_phim_v"):
@@ -332,8 +334,6 @@ def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
     vibeam.case.schema.CaseError
         If an effect does not make sense for the fidelity or method.
     """
-    from vibeam.models.registry import fidelity, is_compliant, with_capability
-
     active = [k for k in effects.active() if k in HANDLED]
     if not active:
         return solver

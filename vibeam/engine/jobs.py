@@ -12,7 +12,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vibeam.errors import CaseError
+from vibeam.engine import assess
+from vibeam.engine.effects import wrap_solver
+from vibeam.engine.sweep import Sweep
+from vibeam.errors import CaseError, InputError, one_line, quote_value
+from vibeam.models import make_solver
 
 
 @dataclass
@@ -29,11 +33,6 @@ class Job:
 def make_job(case, r, overrides: dict, j=None) -> Job:
     """The job of run ``r`` of ``case`` with the model keys ``overrides`` (map value ``j``): its
     model spec, its solver with effects and hooks, and its sweep."""
-    from vibeam.engine import assess
-    from vibeam.engine.effects import wrap_solver
-    from vibeam.models import make_solver
-    from vibeam.engine.sweep import Sweep
-
     spec = case.model_spec(overrides) if overrides else case.model_spec()
     model = spec.build()
     Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
@@ -44,8 +43,6 @@ def make_job(case, r, overrides: dict, j=None) -> Job:
     try:
         base = make_solver(model, r.method, **settings)
     except ValueError as e:         # a value the method's solver cannot take: bad input, one line
-        from vibeam.errors import one_line
-
         where = f" at {', '.join(f'{k} = {v!r}' for k, v in overrides.items())}" if overrides else ""
         raise CaseError(one_line(f"'run[{case.run.index(r)}].method' = {r.method!r}{where}: {e}")) from None
     solver = wrap_solver(base, model, spec, assess.solver_effects(case.effects_for(r)), settings)
@@ -267,8 +264,6 @@ def check_model_size(case, force: bool = False, source: str = "") -> None:
     InputError
         Naming the run's ``n_modes`` key, its value, the modes it gives and the limit.
     """
-    from vibeam.errors import InputError, quote_value
-
     if force:
         return
     sw = case.sweep
@@ -301,8 +296,6 @@ def check_work(case, jobs_=None, force: bool = False, source: str = "") -> dict:
     InputError
         Naming the key that contributes most, its value, the estimate and the limit.
     """
-    from vibeam.errors import InputError, quote_value
-
     with np.errstate(over="ignore"):      # an estimate beyond 1e308 is inf: refused, without a warning line
         w = estimate_work(case, jobs_)
     if force:

@@ -10,6 +10,7 @@ definitions exist once.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -313,7 +314,7 @@ def critical_value(sigmas, dof):
     freedom, 4.6 for 30, 5.5 for 15, 10 for 6.  Array arguments broadcast; ``dof <= 0``
     gives NaN (no error estimate).
     """
-    from scipy.stats import norm, t
+    from scipy.stats import norm, t  # lazy: keeps scipy.stats (0.7 s) out of `vibeam run` and the API's start-up
 
     dof = np.asarray(dof, float)
     with np.errstate(invalid="ignore"):
@@ -560,8 +561,6 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
     two = traj.impact_stops is not None
     if traj.status != "failed" and not (np.isfinite(traj.samples).all() and np.isfinite([traj.q_min, traj.q_max]).all()):
         # a state of 1e300 overflows the exact flows: no number of this record is a result
-        from dataclasses import replace
-
         traj = replace(traj, status="failed", message="the motion's numbers overflow double precision (a "
                        "non-finite state in the record)" + (f"; {traj.status}: {traj.message}"
                                                             if traj.status != "ok" else ""))
@@ -625,8 +624,6 @@ def summarize(traj: Trajectory, Delta: float, period_rtol: float = 1e-5) -> dict
     if over:
         # an output no double can hold (a start of 1e300: its energy, its spread): the point's
         # numbers are not results -- failed, never ok with a made-up amplitude
-        from dataclasses import replace
-
         why = f"the motion's numbers overflow double precision ({', '.join(over)} infinite)"
         return summarize(replace(traj, status="failed", message=why + (f"; {status}: {message}" if status != "ok"
                                                                         else "")), Delta, period_rtol)

@@ -70,6 +70,7 @@ def resample(t, x, v, sampling_hz: float, impact_times_s=()):
     xs : ndarray
         Displacement at ``ts`` (units of ``x``).
     """
+    # lazy: keeps scipy.interpolate (0.5 s) out of `vibeam run` (only the sensor needs it)
     from scipy.interpolate import CubicHermiteSpline
 
     dt = 1.0 / sampling_hz

@@ -12,18 +12,30 @@ can be dropped in).
 """
 from __future__ import annotations
 
+import concurrent.futures as cf
+import ctypes
 import math
+import multiprocessing
 import os
+import signal
+import threading
 import time
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
-from dataclasses import dataclass
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, replace
 
 import numpy as np
+import tqdm
 
 from vibeam.io.objects import SweepResult  # noqa: F401 (re-exported)
 from vibeam.io.outputs import MM_KEYS, UNITS  # noqa: F401 (re-exported)
-from vibeam.engine.records import (HARMONICS, SETTLED_MARGIN, amplitude_spread, period_minima, spread_agrees,
-                      summarize, transient_verdict, window_verdict)
+from vibeam.engine.records import (HARMONICS, SETTLED_MARGIN, STATUSES, amplitude_spread, period_minima, spread_agrees,
+                                   summarize, transient_verdict, window_verdict)
+from vibeam.models import shooting_problem
+from vibeam.models.continuation import start_point
+from vibeam.models.interrupts import reraise_interrupt
+from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
+from vibeam.models.trajectory import concatenate
 
 # the per-point outputs and their units: vibeam.io.outputs (re-exported here)
 
@@ -176,10 +188,6 @@ def simulate(solver, Omega, state, n_transient: int, n_record: int, samples_per_
     -------
     vibeam.models.trajectory.Trajectory
     """
-    from dataclasses import replace
-
-    from vibeam.models.trajectory import concatenate
-
     chunk = max(1, int(getattr(solver, "chunk_periods", CHUNK_PERIODS) or CHUNK_PERIODS))
     piece = max(chunk, RECORD_PIECE)
     clock = clock if clock is not None else PointClock()
@@ -238,8 +246,6 @@ def _failed_record(traj, n_record: int, samples_per_period: int, done: int | Non
     """A failed trajectory with the shapes of a record of ``n_record`` periods (NaN samples);
     ``done``: the transient periods before the failing chunk, ``done_rec``: the recorded ones
     (None: the message is kept as it is)."""
-    from dataclasses import replace
-
     n_s = n_record * samples_per_period
     n0 = traj.samples.shape[0]
     extra = {k: (np.full((n_s,) + v.shape[1:], np.nan)
@@ -317,8 +323,6 @@ def settle_transient(solver, Omega, state, sweep: Sweep, Delta: float, clock: Po
             return traj, used, ""
         limit = sweep.point_time_limit_s
         if clock.over(limit):
-            from dataclasses import replace
-
             msg = (f"point_time_limit_s = {limit:g} s passed after {used} transient periods "
                    f"(transient_periods = \"auto\")")
             return _failed_record(replace(traj, status="failed", message=msg), sweep.record_periods,
@@ -405,8 +409,6 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
             out = dict(solver.point(Omega, state, n_tr, sweep.record_periods, sweep.samples_per_period))
             new_state = out.pop("final_state", None)
     except Exception as e:  # a solver failure is recorded, never fatal to the sweep
-        from vibeam.models.interrupts import reraise_interrupt
-
         reraise_interrupt(e)         # Ctrl-C inside a compiled call: an interrupt, not a failed point
         out = dict(status="failed", message=f"{type(e).__name__}: {e}")
         new_state = None
@@ -418,9 +420,6 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
 
 def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
     """The point's Lyapunov spectrum (:data:`UNITS` ``lyapunov``) from its final state, in place."""
-    from vibeam.models import shooting_problem
-    from vibeam.models.lyapunov import classify_spectrum, lyapunov_spectrum
-
     model = solver.model
     d = 2 * int(getattr(model, "n_modes", 1))
     try:
@@ -458,10 +457,6 @@ def orbit_exponents(model, state, Omega: float, n: int, d: int):
     coordinates at forcing phase 0), refined by the shooting problem's Newton iteration
     (:func:`vibeam.models.continuation.start_point`), as
     :func:`vibeam.models.lyapunov.floquet_exponents`; None where the orbit is not refined."""
-    from vibeam.models import shooting_problem
-    from vibeam.models.continuation import start_point
-    from vibeam.models.lyapunov import floquet_exponents
-
     try:
         pt, _ = start_point(shooting_problem(model, "Omega"), np.asarray(state, float)[:d], float(Omega), int(n),
                             0.5 * Omega, 2.0 * Omega)
@@ -685,9 +680,6 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
     dict
         ``{(run, key): rows}``, rows being the per-point dicts in visiting order.
     """
-    from concurrent.futures import FIRST_COMPLETED, wait
-    from concurrent.futures.process import BrokenProcessPool
-
     lines = list(lines)
     own = executor is None
     queue = None
@@ -724,9 +716,8 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
     done_pts: dict = {}
     size = {(l.run, l.key): l.n_points for l in lines}
     if progress and lines:
-        from tqdm import tqdm
-        bar = tqdm(total=sum(l.n_points for l in lines), desc=desc or "sweep", unit="pt", leave=False,
-                   smoothing=0.1)
+        bar = tqdm.tqdm(total=sum(l.n_points for l in lines), desc=desc or "sweep", unit="pt", leave=False,
+                        smoothing=0.1)
 
     def advance(ident, k=1):
         """The bar by ``k`` points of line ``ident`` (never beyond the line's points: a retried
@@ -810,8 +801,8 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
         while pending or backlog:
             if not pending:
                 submit(backlog.pop(0))
-            done, _ = wait(list(pending), timeout=0.2 if queue is not None else None,
-                           return_when=FIRST_COMPLETED)
+            done, _ = cf.wait(list(pending), timeout=0.2 if queue is not None else None,
+                              return_when=FIRST_COMPLETED)
             drain()
             retry, broken = [], False
             for f in done:
@@ -928,9 +919,6 @@ def _worker_init(parent_pid: int, progress_queue=None) -> None:
     * With ``progress_queue`` each finished point is reported to the parent
       (:data:`_PROGRESS_QUEUE`); the worker never waits for the queue at exit.
     """
-    import signal
-    import threading
-
     global _PROGRESS_QUEUE
     if progress_queue is not None:
         progress_queue.cancel_join_thread()
@@ -939,8 +927,6 @@ def _worker_init(parent_pid: int, progress_queue=None) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)     # not the parent's handler (inherited by fork)
     try:
-        import ctypes
-
         libc = ctypes.CDLL(None, use_errno=True)
         PR_SET_PDEATHSIG = 1
         libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
@@ -970,8 +956,6 @@ def _pool(workers: int, progress_queue=None) -> ProcessPoolExecutor:
 
 
 def _progress_queue():
-    import multiprocessing
-
     return multiprocessing.get_context().Queue()
 
 
@@ -982,9 +966,7 @@ def _ready() -> int:
 def _start_workers(ex, n: int) -> None:
     """Start the pool's ``n`` workers now (a no-op task each), so that their start-up is
     measured apart from the sweep."""
-    from concurrent.futures import wait as _wait
-
-    _wait([ex.submit(_ready) for _ in range(n)])
+    cf.wait([ex.submit(_ready) for _ in range(n)])
 
 
 def _pool_size(jobs: int | None, n_tasks: int) -> int:
@@ -1184,8 +1166,6 @@ def check_line(meta: dict, data: dict | None, line) -> str | None:
     numbers; ``amplitude`` finite at every ``ok`` point (an ``ok`` point has the number it
     reports, never NaN).
     """
-    from vibeam.engine.records import STATUSES
-
     n = line.n_points
     for k in CORE_OUTPUTS + ("Omega",):
         if k not in meta:

@@ -69,6 +69,7 @@ import math
 import re
 import sys
 import time
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -77,12 +78,21 @@ import numpy as np
 from vibeam.case.contact import ContactSpec, StopSpec, model_with
 from vibeam.case.paths import get_value, is_path, key_of
 from vibeam.case.paths import parse as parse_path
+from vibeam.case.schema import AssessSpec, load_case, parse_case
 from vibeam.case.text import case_dump, to_toml  # noqa: F401 (re-exported)
-from vibeam.errors import case_error
+from vibeam.engine.jobs import make_job
+from vibeam.engine import sweep
+from vibeam.engine.sweep import assemble, default_executor, plan_lines, run_sweep
+from vibeam.errors import CaseError, case_error
 from vibeam.identify.linear import (CONVERGED_STEP_SE, NOISE_TEST_LEVEL, irls_weights, loss_cost, loss_psi,
-                                    noise_consistent,
-                                    noise_interval, param_unit, remaining_step, uncertainty)
+                                    noise_consistent, noise_interval, param_unit, remaining_step, report_decay,
+                                    report_linear, uncertainty)
+from vibeam.io.outdir import OutputLock, check_folder, default_folder, write_text_file
 from vibeam.io.reference import Reference, read_reference  # noqa: F401 (re-exported)
+from vibeam.io.results import write_results
+from vibeam.plots import style
+from vibeam.plots.lazy import plt
+from vibeam.plots.sweep import save_close
 
 DEFAULT_LOSS = "soft_l1"
 #: f_scale of the robust loss, in units of sigma
@@ -121,8 +131,6 @@ def owner_of(name: str, model_spec_cls) -> tuple:
 def schema_bounds(spec_cls, name: str) -> tuple[float, float, bool, bool]:
     """``(lower, upper, lower_open, upper_open)`` of a model key from the case schema
     (pydantic ``ge``/``gt``/``le``/``lt``); +-inf when unbounded."""
-    import typing
-
     lo, hi, lo_open, hi_open = -np.inf, np.inf, False, False
     f = spec_cls.model_fields[name]
     metas = list(f.metadata)
@@ -242,8 +250,6 @@ class FitProblem:
     """
 
     def __init__(self, case, run, ref: Reference, params, executor, source: str = ""):
-        from vibeam.case.schema import AssessSpec
-
         # the fit needs the FRC only: no assessments (spectra, sensor record) are computed
         self.case = case.model_copy(update={"assess": AssessSpec()})
         self.run = run
@@ -312,8 +318,6 @@ class FitProblem:
 
     def job(self, x):
         """The runner's job (solver and sweep) of the run at parameters ``x``."""
-        from vibeam.engine.jobs import make_job
-
         return make_job(self.case, self.run, self.overrides(x))
 
     def _sweeps(self, job, transient_factor: int = 1):
@@ -336,9 +340,6 @@ class FitProblem:
         """Sweep the model at each parameter vector in ``xs``: all lines go to the executor in
         one :func:`vibeam.engine.sweep.run_lines` call (``transient_factors``: per vector, a multiple
         of the case's transient periods; default 1)."""
-        from vibeam.errors import CaseError
-        from vibeam.engine.sweep import plan_lines, run_lines
-
         plans = []
         all_lines = []
         factors = list(transient_factors) if transient_factors is not None else [1] * len(xs)
@@ -357,7 +358,7 @@ class FitProblem:
                 lines.extend(plan_lines(job.solver, sw, run=tag))
             plans.append((x, job, sweeps, "", lines))
             all_lines.extend(lines)
-        done = run_lines(all_lines, executor=self.executor) if all_lines else {}
+        done = sweep.run_lines(all_lines, executor=self.executor) if all_lines else {}
         return [self._collect(x, job, sweeps, msg, lines, done) for x, job, sweeps, msg, lines in plans]
 
     def _collect(self, x, job, sweeps, msg, lines, done) -> Evaluation:
@@ -715,8 +716,6 @@ class FitResult:
     def write(self, out_dir, case_text: str = "", plots: bool = True) -> dict:
         """Write ``fit.h5`` (through :func:`vibeam.io.results.write_results`), ``fit.png`` and the
         fitted case ``<case>-fit.toml`` into ``out_dir``; returns their paths."""
-        from vibeam.io.results import write_results
-
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
         tables, attrs = self.h5_tables()
@@ -726,7 +725,6 @@ class FitResult:
         paths = {"h5": h5}
         if self.fitted_case_text:
             cp = out_dir / f"{self.case_name}-fit.toml"
-            from vibeam.io.outdir import write_text_file
             write_text_file(cp, self.fitted_case_text)
             paths["case"] = cp
         if plots:
@@ -782,9 +780,8 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
         On a parameter that is not a numeric model key, data outside the case's frequency
         range, an unknown run or loss, or unreadable data.
     """
+    # lazy: keeps scipy.optimize (0.35 s) out of `vibeam regress` and `vibeam cost`
     from scipy.optimize import least_squares
-
-    from vibeam.engine.sweep import assemble, default_executor
 
     t0 = time.perf_counter()
     if loss not in LOSSES:
@@ -998,8 +995,6 @@ def fitted_case_text(case, run, values: dict, source: str = "", reference: str =
     """The case with the fitted values: ``[model]`` updated, the fitted run alone (its overrides
     of fitted keys removed), a ``[map]`` of a fitted key dropped; validated before it is
     returned (:func:`vibeam.case.schema.parse_case`)."""
-    from vibeam.case.schema import parse_case
-
     data = case_dump(case)
     data["name"] = f"{case.name}-fit"
     fitted = ", ".join(f"{k} = {v:.6g}" + (f" +- {s:.2g}" if se is not None and np.isfinite(s) else "")
@@ -1058,10 +1053,6 @@ def fit_figure(res: FitResult, title: str = ""):
     dashed line drawn below it; units on both axes, the legend outside the data, and the
     estimates and the verdict (:func:`verdict`, with its reasons) written under the title.
     A Figure."""
-    import matplotlib.pyplot as plt
-
-    from vibeam.plots import style
-
     phys = res.x_name == "frequency_hz"
     xl = style.label("forcing frequency f", "Hz") if phys else style.label(r"forcing frequency $\Omega = f/f_n$", None)
     yl = (style.label(f"amplitude at the sensor, {style.DISPLACEMENT}", "mm") if phys else
@@ -1122,8 +1113,6 @@ def fit_figure(res: FitResult, title: str = ""):
 
 def plot_fit(res: FitResult, path, title: str = "") -> Path:
     """:func:`fit_figure` saved to ``path`` (``fit.png``); returns the path."""
-    from vibeam.plots.sweep import save_close
-
     return save_close(fit_figure(res, title), Path(path))
 
 
@@ -1168,8 +1157,6 @@ def fidelity_table(results: list[FitResult]) -> str:
 # ============================================================================ command line
 def main_fit(args) -> int:
     """``vibeam fit``: the linear steps (``--linear``, ``--decay``) or the vibro-impact fit."""
-    from vibeam.case.schema import load_case
-
     case, text = load_case(args.case)
     log = None if getattr(args, "quiet", False) else (lambda m: print(m, file=sys.stderr))
     if not args.reference and not args.decay:
@@ -1181,7 +1168,6 @@ def main_fit(args) -> int:
     if args.params is not None and not [p for p in args.params.split(",") if p.strip()]:
         raise case_error(f"{args.case}: '--params' = {args.params!r} names no parameter; allowed: "
                      f"{', '.join(case.map_parameters())}")
-    from vibeam.io.outdir import OutputLock, check_folder, default_folder
 
     out_dir = check_folder(Path(args.out) if args.out else default_folder(case.name, "@fit"))
     with OutputLock(out_dir):
@@ -1190,12 +1176,8 @@ def main_fit(args) -> int:
 
 def _main_fit_locked(args, case, text, out_dir, log) -> int:
     if args.decay:
-        from vibeam.identify.linear import report_decay
-
         report_decay(case, text, args.decay, out_dir, source=args.case)
     if args.reference and args.linear:
-        from vibeam.identify.linear import report_linear
-
         params = [p.strip() for p in args.params.split(",") if p.strip()] if args.params else None
         report_linear(case, text, args.reference, out_dir, params=params, loss=args.loss or "linear",
                       f_scale=args.f_scale, source=args.case)
@@ -1204,7 +1186,6 @@ def _main_fit_locked(args, case, text, out_dir, log) -> int:
         if args.quick:
             case = case.quick_variant()
         ref = read_reference(args.reference, args.reference_run)
-        from vibeam.engine.sweep import default_executor
 
         check_params(case, params or default_params(case), args.case)
         runs = [args.run] if args.run else None
@@ -1228,7 +1209,6 @@ def _main_fit_locked(args, case, text, out_dir, log) -> int:
             print(f"apparent parameters per run (fidelity) of {case.name}, against {ref.source}:")
             tab = fidelity_table(results)
             print(tab)
-            from vibeam.io.outdir import write_text_file
             write_text_file(out_dir / "fit_table.txt", tab + "\n")
     return 0
 
@@ -1248,12 +1228,9 @@ def synthetic_reference(case, frequencies, values: dict | None = None, run: str 
     Reference
         With ``sigma`` per point when ``sigma > 0`` (else no sigma column).
     """
-    from vibeam.engine.sweep import run_sweep
-
     r = _pick_run(case, run)
     spec0 = case.model_spec(dict(r.model)) if r.model else case.model_spec()
     phys = bool(getattr(spec0, "physical", False))
-    from vibeam.engine.jobs import make_job
 
     job = make_job(case, r, dict(r.model, **(values or {})))
     model = job.solver.model

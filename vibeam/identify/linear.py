@@ -23,13 +23,27 @@ Statistics*, 1981, Sec. 7.6), which uses the loss's psi and psi' in place of r a
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 
+from vibeam.case.contact import model_with
+from vibeam.case.schema import parse_case
+from vibeam.case.text import case_dump, to_toml
 from vibeam.errors import case_error
+from vibeam.io.inputs import column_floats as floats, read_csv_table
 from vibeam.io.netcdf import parameter_units
+from vibeam.io.outdir import write_text_file
+from vibeam.io.reference import read_reference
+from vibeam.io.results import write_results
+from vibeam.models import linear_amplitude
+from vibeam.plots import style
+from vibeam.plots import sweep as plot_sweep
+from vibeam.plots.lazy import plt
+from vibeam.plots.sweep import save_close
 
 #: a singular value of the column-scaled Jacobian below this fraction of the largest is
 #: treated as zero: finite-difference Jacobians carry relative errors of ~1e-7 (step ~ eps^(1/3)),
@@ -219,7 +233,7 @@ def noise_interval(dof: int, level: float = NOISE_TEST_LEVEL) -> tuple[float, fl
     the sum of the squared normalised residuals, chi-square distributed with ``dof`` degrees of
     freedom for a correct model and Gaussian noise of standard deviation sigma; e.g. dof = 48:
     [0.46, 1.81]).  ``(nan, nan)`` for ``dof < 1``."""
-    from scipy.stats import chi2
+    from scipy.stats import chi2  # lazy: keeps scipy.stats (0.7 s) out of `vibeam regress` and `vibeam cost`
 
     if dof < 1:
         return math.nan, math.nan
@@ -276,16 +290,12 @@ def read_csv_columns(path, kind: str = "data") -> tuple[list[str], list[list[str
     vibeam.case.schema.CaseError
         If the file cannot be read, has no header or a ragged row.
     """
-    from vibeam.io.inputs import read_csv_table
-
     return read_csv_table(path, f"{kind} file")
 
 
 def column_floats(path, head, rows, name: str, positive: bool = False, kind: str = "data") -> np.ndarray:
     """A numeric column by name; every value finite (and > 0 with ``positive``):
     :func:`vibeam.io.inputs.column_floats`."""
-    from vibeam.io.inputs import column_floats as floats
-
     return floats(path, head, rows, name, low=0.0 if positive else None, low_open=True, what=f"{kind} file")
 
 
@@ -366,8 +376,6 @@ def eq43_amplitude(f_hz, natural_frequency_hz, damping_ratio, gain, length_mm, v
     ndarray, shape (n,)
         Amplitude (half peak-to-peak) of the sensor displacement relative to the base (mm).
     """
-    from vibeam.models import linear_amplitude
-
     Om = np.asarray(f_hz, float) / natural_frequency_hz
     return length_mm * linear_amplitude(damping_ratio, gain * voltage, Om)
 
@@ -488,8 +496,7 @@ def fit_linear(f_hz, amplitude_mm, length_mm: float, voltage: float, sigma_mm=No
     vibeam.case.schema.CaseError
         On a parameter name outside Eq. 43's three, or fewer points than parameters.
     """
-    import time
-
+    # lazy: keeps scipy.optimize (0.35 s) out of `vibeam regress` and `vibeam cost`
     from scipy.optimize import least_squares
 
     t0 = time.perf_counter()
@@ -642,7 +649,7 @@ def _dominant_frequency(t, U) -> float:
 def _extrema(t, U, f_d: float):
     """Times and values of the alternating extrema of a decaying oscillation, each refined by
     a least-squares parabola over +-1/10 of a damped period (averages the noise)."""
-    from scipy.signal import find_peaks
+    from scipy.signal import find_peaks  # lazy: keeps scipy.signal (0.75 s) out of `vibeam regress` and `vibeam cost`
 
     dt = float(np.median(np.diff(t)))
     per = 1.0 / f_d
@@ -741,6 +748,7 @@ def log_decrement(t, U, min_snr: float = 10.0) -> DecayEstimate:
     # adjacent differences share an extremum (correlated errors): the decay rate and its error
     # come from the extrema themselves, E_k = c + s_k a exp(-sigma (t_k - t_0)), s_k = +-1,
     # whose errors are independent (disjoint parabola windows)
+    # lazy: keeps scipy.optimize (0.35 s) out of `vibeam regress` and `vibeam cost`
     from scipy.optimize import least_squares
 
     te_used = te[i0:i1 + 1]
@@ -808,6 +816,7 @@ def fit_decay(t, U, start: DecayEstimate | None = None) -> DecayEstimate:
         ``extra``: ``parameters``, ``estimate``, ``standard_error``, ``correlation``,
         ``residual_rms``, ``model`` (fitted record).
     """
+    # lazy: keeps scipy.optimize (0.35 s) out of `vibeam regress` and `vibeam cost`
     from scipy.optimize import least_squares
 
     t = np.asarray(t, float)
@@ -884,10 +893,6 @@ def _case_updates(spec, values: dict) -> tuple[dict, list]:
 
 
 def _write_case(case, updates, suffix, comment, out_dir) -> Path:
-    from vibeam.case.schema import parse_case
-    from vibeam.case.contact import model_with
-    from vibeam.case.text import case_dump, to_toml
-
     data = case_dump(case)
     data["name"] = f"{case.name}-{suffix}"
     model = model_with(case.model, updates)
@@ -898,7 +903,6 @@ def _write_case(case, updates, suffix, comment, out_dir) -> Path:
     text = f"# {comment}\n" + to_toml(data) + "\n"
     parse_case(text, f"{case.name}-{suffix}.toml")
     path = Path(out_dir) / f"{case.name}-{suffix}.toml"
-    from vibeam.io.outdir import write_text_file
     write_text_file(path, text)
     return path
 
@@ -907,9 +911,6 @@ def report_linear(case, case_text, reference, out_dir, params=None, loss="linear
                   source="") -> LinearFit:
     """``vibeam fit CASE --linear --reference FRC``: fit Eq. 43 around f_n, print, write
     ``linear.h5`` (``/fit``), ``linear.png`` and ``<case>-linear.toml``."""
-    from vibeam.io.reference import read_reference
-    from vibeam.io.results import write_results
-
     ref = read_reference(reference)
     if not ref.physical:
         raise case_error(f"{ref.source}: the linear fit needs 'frequency_hz,amplitude_mm' data")
@@ -964,9 +965,7 @@ def report_linear(case, case_text, reference, out_dir, params=None, loss="linear
 
 
 def _plot_linear(res: LinearFit, path, title=""):
-    import matplotlib
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     fig, (ax, axr) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1.2]})
     ff = np.linspace(res.frequency_hz.min(), res.frequency_hz.max(), 400)
@@ -985,8 +984,7 @@ def _plot_linear(res: LinearFit, path, title=""):
     axr.set_ylabel("model − data (mm)")
     axr.grid(alpha=0.3)
     fig.tight_layout()
-    from vibeam.plots.sweep import save_figure
-    save_figure(fig, path)
+    plot_sweep.save_figure(fig, path)
     plt.close(fig)
     return Path(path)
 
@@ -995,8 +993,6 @@ def report_decay(case, case_text, decay_csv, out_dir, source="") -> tuple[DecayE
     """``vibeam fit CASE --decay DECAY.csv``: beta_S (and f_n) from a free decay by the logarithmic
     decrement and by a fit of the damped response; print, write ``decay.h5`` (``/decay``),
     ``decay.png`` and ``<case>-decay.toml`` (``damping_ratio`` of the damped fit)."""
-    from vibeam.io.results import write_results
-
     t, U = read_decay(decay_csv)
     ld = log_decrement(t, U)
     fd = fit_decay(t, U, ld)
@@ -1048,10 +1044,6 @@ def decay_figure(t, U, ld, fd, title=""):
     """The free decay (top: the record as dots over the damped fit, a thin line beneath them) and
     the log decrement (bottom: the peak-to-peak differences over their straight line), in the
     house style (:mod:`vibeam.plots.style`: title and subtitle, units, legend outside); a Figure."""
-    import matplotlib.pyplot as plt
-
-    from vibeam.plots import style
-
     c_data, c_fit, c_skip = "0.15", style.PALETTE[1], "0.55"
     with style.context():
         fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8.0, 6.0), sharex=True)
@@ -1093,7 +1085,5 @@ def decay_figure(t, U, ld, fd, title=""):
 
 def _plot_decay(t, U, ld, fd, path, title=""):
     """:func:`decay_figure` saved to ``path`` (``decay.png``, atomically) and closed."""
-    from vibeam.plots.sweep import save_close
-
     save_close(decay_figure(t, U, ld, fd, title), path)
     return Path(path)

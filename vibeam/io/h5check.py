@@ -24,6 +24,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import h5py
 import numpy as np
 
 from vibeam.errors import InputError, one_line
@@ -103,8 +104,6 @@ def check_tree(path, group=None, where: str = "/", max_total: int = MAX_TOTAL_BY
         :data:`MAX_OBJECTS` objects, nesting deeper than :data:`MAX_DEPTH`, a root attribute of
         the wrong type (:func:`check_root_attrs`).
     """
-    import h5py
-
     hint = "vibeam never writes such a file; move it away or give another file"
     if group.name == "/":
         check_root_attrs(path, group.attrs)
@@ -154,8 +153,6 @@ def check_tree(path, group=None, where: str = "/", max_total: int = MAX_TOTAL_BY
 
 
 def _addr(obj):
-    import h5py
-
     try:
         info = h5py.h5o.get_info(obj.id)
         return getattr(info, "addr", None) or getattr(info, "token", None) or id(obj)
@@ -187,8 +184,6 @@ def open_checked(path, what: str = "results file", option: str = ""):
     InputError
         One line naming the file: not an HDF5 file, or what :func:`check_tree` refuses.
     """
-    import h5py
-
     where = f"{option} {path}" if option else str(path)
     try:
         f = h5py.File(path, "r")

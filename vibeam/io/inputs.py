@@ -38,10 +38,10 @@ import os
 import stat
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:          # annotations only: numpy is imported where it is used
-    import numpy as np
+import numpy as np
+
+from vibeam.errors import InputError, one_line, quote_value
 
 #: the largest input file read (bytes): case files, reference and measurement tables
 MAX_INPUT_BYTES = 10_000_000
@@ -52,8 +52,6 @@ _KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISCHR, "a character device"), (
 
 def _error(where: str, what: str, why: str, access: bool = True):
     """One line: ``<file>: cannot read <what>: <why>`` (``access``), else ``<file>: <why>``."""
-    from vibeam.errors import InputError, one_line
-
     return InputError(one_line(f"{where}: cannot read {what}: {why}" if access else f"{where}: {why}"))
 
 
@@ -180,8 +178,6 @@ def read_csv_table(path, what: str = "data file", option: str = "") -> tuple[lis
         unclosed quote); no header; an empty or repeated column name; a row with missing
         or extra values (naming the data row, its count and the header's).
     """
-    from vibeam.errors import quote_value
-
     text = read_input_text(path, what, option)
     where = _where(Path(path), option)
     try:
@@ -214,10 +210,6 @@ def column_floats(path, head, rows, name: str, low: float | None = None, low_ope
     vibeam.case.schema.InputError
         Naming the file, the column, the value, its data row and what is allowed.
     """
-    import numpy as np
-
-    from vibeam.errors import quote_value
-
     j = head.index(name)
     need = "a finite number" + ("" if low is None else f" {'>' if low_open else '>='} {low:g}")
     out = np.empty(len(rows))
@@ -297,10 +289,6 @@ def read_frc_table(path, what: str = "reference file", option: str = "") -> FRCT
     vibeam.case.schema.InputError
         One line naming the file and what is wrong (module docstring).
     """
-    import numpy as np
-
-    from vibeam.errors import quote_value
-
     head, rows = read_csv_table(path, what, option)
     where = _where(Path(path), option)
     allowed = "frequency_hz,amplitude_mm or Omega,amplitude, optionally direction and sigma"

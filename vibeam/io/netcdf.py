@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 
+import h5py
 import numpy as np
 
 _DIM_ONLY = "This is a netCDF dimension but not a netCDF variable"
@@ -110,8 +111,6 @@ def set_attrs(obj, attrs: dict) -> None:
             continue
         v = _attr_value(v)
         if isinstance(v, list):
-            import h5py
-
             v = np.array(v, dtype=h5py.string_dtype())
         obj.attrs[k] = v
 
@@ -130,8 +129,6 @@ def _next_dimid(f) -> int:
 
 def _find_scale(g, dim: str, size: int):
     """The dimension scale ``dim`` of ``size`` in ``g`` or its parents (netCDF scoping), or None."""
-    import h5py
-
     while True:
         d = g.get(dim)
         if isinstance(d, h5py.Dataset) and h5py.h5ds.is_scale(d.id) and d.shape == (size,):
@@ -257,8 +254,6 @@ def write_group(parent, name: str, variables: dict, attrs: dict | None = None, g
 
 def _create(g, name, v: Variable):
     """The HDF5 dataset of one variable (strings as UTF-8, bools as int8)."""
-    import h5py
-
     data = np.asarray(v.data)
     if data.dtype == bool:
         return g.create_dataset(name, data=data.astype(np.int8))
@@ -294,8 +289,6 @@ def is_dim_only(d) -> bool:
 
 def dataset_values(d):
     """A dataset's values: strings as ``str``, int8 flags written from bools as ``bool``."""
-    import h5py
-
     if d.dtype.kind == "O" or h5py.check_string_dtype(d.dtype):
         return d.asstr()[()]
     v = d[()]
@@ -308,8 +301,6 @@ def read_plain(g, attrs: bool = False) -> dict:
     """Datasets of a group as they are; subgroups (e.g. ``time_series/<f>/<direction>``) as
     nested dicts (with ``attrs``: each subgroup's attributes under ``"attrs"``, as for
     ``/branches``); netCDF dimension-only datasets left out."""
-    import h5py
-
     out = {}
     for k, d in g.items():
         if isinstance(d, h5py.Dataset):

@@ -31,6 +31,7 @@ import os
 import socket
 import stat
 import sys
+import tempfile
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -225,7 +226,6 @@ class OutputLock:
                 self._not_ours("is a symbolic link" + self._target())
             self._cannot(e)
         st = os.fstat(fd)
-        import stat
 
         if not stat.S_ISREG(st.st_mode) or st.st_nlink != 1:
             os.close(fd)
@@ -254,7 +254,7 @@ class OutputLock:
                          f"wait for it to end or use another --out (lock file {self.path})")
 
     def acquire(self) -> "OutputLock":
-        import fcntl
+        import fcntl  # lazy: fcntl is POSIX-only: vibeam.io.outdir imports on every platform
 
         check_folder(self.folder)
         key = os.path.realpath(self.folder)
@@ -433,8 +433,6 @@ def replace_file(path, content) -> Path:
         its ``filename`` is ``path``, not the temporary file, and the temporary file is gone.
         Any other error of ``write`` is raised as it is, after the same clean-up.
     """
-    import tempfile
-
     path = check_output_file(path)
     try:
         fd, tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=f"-{path.name}", dir=path.parent)

@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from vibeam.errors import case_error
+from vibeam.io.inputs import check_input_file, read_frc_table
+from vibeam.io.results import read_results
 
 
 @dataclass
@@ -74,16 +76,12 @@ def read_reference(path, run: str | None = None) -> Reference:
     if run is not None:
         raise case_error(f"{path}: '--reference-run' = {run!r} is not allowed with a CSV reference; allowed: "
                          f"--reference-run names a run of a results.h5 reference only (leave it out)")
-    from vibeam.io.inputs import read_frc_table
 
     t = read_frc_table(path, "reference file")
     return Reference(t.source, t.x_name, t.y_name, t.x, t.y, t.direction, t.sigma)
 
 
 def _read_h5_reference(path: Path, run: str | None) -> Reference:
-    from vibeam.io.inputs import check_input_file
-    from vibeam.io.results import read_results
-
     check_input_file(path, "results file")
     try:
         res = read_results(path)

@@ -35,16 +35,20 @@ Layout of the files: :mod:`vibeam.io.results`.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import io
 import os
+import signal
 import sys
+import threading
 from datetime import datetime, timezone
 from pathlib import Path
 
+import h5py
 import numpy as np
 
 from vibeam.errors import InputError, one_line
-from vibeam.io.h5check import check_tree, file_size_ok
+from vibeam.io.h5check import check_tree, file_size_ok, open_checked
 from vibeam.io.netcdf import DimIds, is_dim_only, read_attrs, read_plain, set_attrs, write_group
 from vibeam.io.outdir import OutputLock, check_output_file, holds_lock, replace_file
 from vibeam.version import __version__
@@ -68,8 +72,6 @@ def case_hash(case_json: str) -> str:
     Every unit of a results file and every checkpointed line carries it (attribute
     ``case_hash``), so a resume keeps only lines computed for the same case and variant, and
     a unit of another case is marked stale."""
-    import hashlib
-
     return hashlib.sha256(str(case_json).encode()).hexdigest()[:16]
 
 
@@ -77,9 +79,6 @@ def case_hash(case_json: str) -> str:
 def signals_deferred():
     """Hold SIGINT/SIGTERM back while a file is written (delivered right after), so Ctrl-C
     never interrupts HDF5 in the middle of a call; a no-op off the main thread or on Windows."""
-    import signal
-    import threading
-
     if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -108,8 +107,6 @@ def build_file(path: Path, fill, base: Path | None = None) -> Path:
     OSError
         The file cannot be written in full; its ``filename`` is ``path``.
     """
-    import h5py
-
     path = check_output_file(Path(path))
     path.parent.mkdir(parents=True, exist_ok=True)
     with signals_deferred():
@@ -146,8 +143,6 @@ def root_attrs(f, case_name: str, case_text: str, case_json: str = "", complete:
 
 def _hard(g, name):
     """The object ``name`` of group ``g`` if it is reached by a hard link, else None."""
-    import h5py
-
     try:
         link = g.get(name, getlink=True)
     except (KeyError, OSError, RuntimeError):
@@ -162,8 +157,6 @@ def _hard(g, name):
 
 def units_of(f) -> dict:
     """The units of an open file: ``{path: h5py.Group}`` (module docstring), links skipped."""
-    import h5py
-
     out = {}
     for top in list(f.keys()):
         obj = _hard(f, top)
@@ -272,8 +265,6 @@ class Store:
         InputError
             One line naming the file and what is wrong (``--fresh`` replaces it).
         """
-        from vibeam.io.h5check import open_checked
-
         try:
             file_size_ok(path, what=what)
             open_checked(path, what).close()
@@ -292,8 +283,6 @@ class Store:
 
     def _open(self, path: Path, what: str):
         """``path`` opened read-only after the structure check (caller closes)."""
-        from vibeam.io.h5check import open_checked
-
         return open_checked(path, what)
 
     def info(self) -> dict:
@@ -487,8 +476,6 @@ class Store:
             One line naming the file and the group or dataset that this vibeam would not have
             written; nothing is written.
         """
-        import h5py
-
         for path in (self.partial, self.path):
             if not path.is_file() or (path == self.path and self.fresh):
                 continue
@@ -544,7 +531,6 @@ class Store:
         the file itself when nothing is left in it."""
         if not self.partial.is_file():
             return
-        import h5py
 
         try:
             with self._open(self.partial, "checkpoint") as f:
@@ -587,8 +573,6 @@ def file_info(path) -> dict:
     InputError
         Not an HDF5 file vibeam can read, or a structure :mod:`vibeam.io.h5check` refuses.
     """
-    from vibeam.io.h5check import open_checked
-
     with open_checked(path, "results file") as f:
         attrs = read_attrs(f)
         units = {p: read_attrs(g) for p, g in units_of(f).items()}

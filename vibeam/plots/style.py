@@ -22,6 +22,14 @@ Every figure is built inside :func:`context` and returned as a
 from __future__ import annotations
 
 import contextlib
+import re
+import textwrap
+
+import matplotlib
+import numpy as np
+from cycler import cycler
+from matplotlib.lines import Line2D
+from matplotlib.ticker import MaxNLocator
 
 # Okabe & Ito (2008), colour-blind safe; yellow last (poor on white)
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#F0E442")
@@ -56,10 +64,7 @@ RC = {
 @contextlib.contextmanager
 def context():
     """matplotlib (Agg) with vibeam's style, for building one figure."""
-    import matplotlib
-
     matplotlib.use("Agg")
-    from cycler import cycler
 
     rc = dict(RC, **{"axes.prop_cycle": cycler(color=list(PALETTE))})
     with matplotlib.rc_context(rc):
@@ -75,8 +80,6 @@ def colours(names) -> dict:
     if len(names) <= len(PALETTE):
         pal = list(PALETTE)
     else:
-        import matplotlib
-
         cmap = matplotlib.colormaps["tab20" if len(names) <= 20 else "turbo"]
         pal = [matplotlib.colors.to_hex(cmap(i / max(len(names) - 1, 1) if len(names) > 20 else i))
                for i in range(len(names))]
@@ -273,8 +276,6 @@ def tick_labels_overlap(fig, ax, which: str = "x") -> bool:
 def thin_ticks(fig, axes, which=("x", "y")) -> None:
     """Fewer ticks where an axis's tick labels overlap (long labels of a collapsed section, e.g.
     -0.01825 ... -0.01675 without an offset): the locator's bins are halved until they clear."""
-    from matplotlib.ticker import MaxNLocator
-
     for ax in axes:
         for w in which:
             nb = 8
@@ -300,9 +301,6 @@ def wrap_phrases(text: str, width: int) -> list:
     """``text`` in lines of at most ``width`` characters, broken only between phrases: at the
     separators ``' · '`` and ``'; '`` first, within a phrase longer than a line at ``', '``,
     and only a clause longer than a line between words (:func:`textwrap.wrap`)."""
-    import re
-    import textwrap
-
     def pack(parts, seps, w):
         lines, cur = [], ""
         for part, sep in zip(parts, seps):
@@ -351,8 +349,6 @@ def legend_outside(fig, handles, loc: str = "outside right center", **kw):
 
 def proxy(colour="0.3", ls="none", marker=None, fill=True, label="", ms=5, lw=1.2):
     """A legend handle (a Line2D not drawn on any axes)."""
-    from matplotlib.lines import Line2D
-
     return Line2D([], [], color=colour, ls=ls, marker=marker, ms=ms, lw=lw,
                   mfc=colour if fill else "none", mec=colour, label=label)
 
@@ -360,8 +356,6 @@ def proxy(colour="0.3", ls="none", marker=None, fill=True, label="", ms=5, lw=1.
 def cell_edges(c):
     """Cell edges around increasing centres ``c`` (n,) -> (n + 1,); one centre gets a cell of
     +-5 % of its value (+-0.05 at 0), so a map with one value or one frequency is drawn."""
-    import numpy as np
-
     c = np.asarray(c, float)
     if c.size == 1:
         w = 0.05 * abs(c[0]) or 0.05

@@ -24,23 +24,21 @@ from pathlib import Path
 
 import numpy as np
 
+from vibeam.io.outdir import replace_file
 from vibeam.plots import style
+from vibeam.plots.lazy import plt
 
 
 def save_figure(fig, path, dpi: int = 150) -> Path:
     """Save a matplotlib figure atomically (:func:`vibeam.io.outdir.replace_file`: a temporary
     file beside ``path``, flushed, then renamed over it); on any error the temporary file is
     removed, ``path`` is left as it was and the error raised."""
-    from vibeam.io.outdir import replace_file
-
     path = Path(path)
     return replace_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png"))
 
 
 def save_close(fig, path):
     """Save ``fig`` to ``path`` (:func:`save_figure`) and close it; None for no figure."""
-    import matplotlib.pyplot as plt
-
     if fig is None:
         return None
     try:
@@ -96,8 +94,6 @@ def frc_figure(runs, title: str = "", case=None, colours: dict | None = None):
     colours : dict, optional
         Run name -> colour (default :func:`vibeam.plots.style.colours` of the case's runs).
     """
-    import matplotlib.pyplot as plt
-
     with style.context():
         n = len(runs)
         ncol = 1 if n <= 1 else 2
@@ -210,8 +206,6 @@ def impacts_figure(runs, title: str = "", case=None, colours: dict | None = None
     markers.  Where the lower stop is hit the amplitude ``Delta - min q`` saturates at
     ``Delta + Delta_lower``; these carry the information.  A Figure, or None when no run has a
     lower stop (``impacts_per_period_lower``)."""
-    import matplotlib.pyplot as plt
-
     runs = [r for r in runs if "impacts_per_period_lower" in r.data]
     if not runs:
         return None
@@ -272,8 +266,6 @@ def bifurcation_figure(runs, title: str = "", case=None, colours: dict | None = 
     small dot without an edge (:data:`vibeam.plots.style.DOT_SIZE`, as the field draws them: a
     chaotic band stays a cloud) in the run's colour; all panels share the frequency and the
     displacement axis, so the rungs of a ladder compare by eye.  A Figure, or None."""
-    import matplotlib.pyplot as plt
-
     runs = [r for r in runs if "strobe" in r.data and np.isfinite(r.data["strobe"]).any()]
     if not runs:
         return None
@@ -323,8 +315,6 @@ def plot_bifurcation(runs, path, title: str = "", case=None, colours=None) -> Pa
 def simulation_figure(sim):
     """Displacement and velocity of one frequency against time, with the impacts, and the
     phase portrait (:func:`vibeam.simulate`); a Figure."""
-    import matplotlib.pyplot as plt
-
     with style.context():
         fig, axes = plt.subplots(1, 3, figsize=(11.0, 3.4))
         phys = sim.physical
