@@ -88,8 +88,8 @@ class PointStop:
     gap_contact_m : float
         Its distance from the static equilibrium at the point, along its normal (m; negative:
         pre-stressed).
-    R : float
-        Newton's coefficient of restitution of the stop.
+    law : Restitution
+        The stop's law: Newton's, with its coefficient of restitution (the only holder of it).
     label : str
         Its name in outputs and messages.
     """
@@ -97,7 +97,7 @@ class PointStop:
     position_m: float
     sign: float = 1.0
     gap_contact_m: float = 0.0
-    R: float = 0.72
+    law: Restitution = Restitution(0.72)
     label: str = ""
 
 
@@ -204,8 +204,8 @@ class BeamImpactModel:
         for ps, row in self.point_stops:
             if row.shape != (n,) or not np.any(row != 0.0):
                 raise ValueError(f"the stop at x = {ps.position_m:g} m: no retained mode moves its point")
-            if not 0.0 <= ps.R <= 1.0:
-                raise ValueError(f"R of the stop at x = {ps.position_m:g} m must lie in [0, 1], got {ps.R}")
+            if not 0.0 <= ps.law.R <= 1.0:
+                raise ValueError(f"R of the stop at x = {ps.position_m:g} m must lie in [0, 1], got {ps.law.R}")
         self._constrained()
 
     # ---------------------------------------------------------------- constructors
@@ -316,7 +316,7 @@ class BeamImpactModel:
         ``w^T eta = Delta_C`` (normal ``w``) with Newton's law, ``R`` and ``R(U-)``, and for a
         two-sided scene the stop at ``w^T eta = -Delta_C,lower`` (normal ``-w``) with its law."""
         return self.mass_stops() + tuple(
-            Stop(Relation(ps.sign, ps.gap_contact_m, row=1 + i), Restitution(ps.R), ps.label)
+            Stop(Relation(ps.sign, ps.gap_contact_m, row=1 + i), ps.law, ps.label)
             for i, (ps, _) in enumerate(self.point_stops))
 
     def system_stops(self) -> tuple:

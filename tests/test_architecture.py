@@ -433,13 +433,14 @@ LAW_NUMBERS = {"R", "R_lower", "stiffness", "stiffness_n_m"}
 LAW_HOLDERS = ("models/contact.py", "models/compliant.py", "models/core/laws.py", "models/impact.py")
 #: the reads of a law's number from an object that is not a law, outside :data:`LAW_HOLDERS`,
 #: per module, as measured (2026-11-26, issue 43, after the SDOF methods, the mapping, the
-#: shooting problem and the sensor read R through their stops' laws); the list may only shrink.
+#: shooting problem and the sensor read R through their stops' laws, and a point stop on the beam
+#: holds its law, not R); the list may only shrink.
 #: What is left: the model classes that still hold R beside their laws (``SDOF.R``,
-#: ``BeamImpactModel.R``, ``PointStop.R``) and build the laws from it, the kernels' packed laws
+#: ``BeamImpactModel.R``) and build the laws from it, the kernels' packed laws
 #: (``KernelStops.R``, the law's numbers in arrays), the shooting problem's lower-stop R, the
 #: sensor's constant R (given by the scene's law), the job's case table
 LAW_READS = {
-    "models/beam_dynamics.py": 6,
+    "models/beam_dynamics.py": 3,
     "models/core/integrator.py": 1,
     "models/core/shooting.py": 1,
     "models/periodic_sdof.py": 2,

@@ -24,6 +24,7 @@ import scipy.linalg
 from vibeam.errors import CaseError
 from vibeam.models.beam import BeamFE, BeamGeometry, shared_calibration, shared_fe
 from vibeam.models.beam_dynamics import BeamImpactModel, PointStop
+from vibeam.models.contact import Restitution
 from vibeam.models.registry import fidelity, with_capability
 from vibeam.reductions.modal import modal_reduction
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
@@ -125,8 +126,8 @@ def point_stops(spec, sc) -> list:
             gap = p.contact_gap_mm * 1e-3
         else:
             gap = p.gap_mm * 1e-3 * float(static_mode_shape(x / L, g.mass_position_m / L, g.sensor_position_m / L))
-        out.append(PointStop(position_m=x, sign=1.0 if p.side == "upper" else -1.0, gap_contact_m=gap, R=p.R,
-                             label=f"{p.side} at {p.position_mm:g} mm"))
+        out.append(PointStop(position_m=x, sign=1.0 if p.side == "upper" else -1.0, gap_contact_m=gap,
+                             law=Restitution(p.R), label=f"{p.side} at {p.position_mm:g} mm"))
     return out
 
 
