@@ -25,6 +25,14 @@ SDOF = {"fidelity": "sdof", "beta": 0.015, "B": 5e-3, "R": 0.8, "Delta": 0.002, 
 BEAM = tomllib.loads((ROOT / "cases" / "rig-fe-neutral.toml").read_text())["model"]
 
 
+def beam_with_point_stop(position_mm: float) -> dict:
+    """The [model] table of the 2-mode rig beam with the paper's stop at the mass and a Newton stop
+    (R 0.9, 0.6 mm gap) below the beam at ``position_mm`` (tests/test_matrix.py's 'point' row)."""
+    model = dict(BEAM, n_modes=2)
+    up = {"side": "upper", "R": model.pop("R"), "gap_mm": model.pop("gap_mm")}
+    return dict(model, stop=[up, {"side": "lower", "position_mm": position_mm, "contact_gap_mm": 0.6, "R": 0.9}])
+
+
 def _sdof_case(model, **extra):
     return {"name": "paths", "model": model,
             "sweep": {"Omega": [0.75, 0.95, 3], "transient_periods": 60, "record_periods": 8},
@@ -139,11 +147,7 @@ def test_a_point_stops_position_on_the_beam_is_mapped_by_path(tmp_path):
     """The 2-mode rig beam with the paper's stop at the mass and a Newton stop below the tip
     (tests/test_matrix.py's 'point' row): the second stop's position_mm mapped over 160 and 175 mm
     equals the scene with position_mm written; coordinate unit mm."""
-    model = dict(BEAM, n_modes=2)
-    up = {"side": "upper", "R": model.pop("R"), "gap_mm": model.pop("gap_mm")}
-
-    def model_of(x):
-        return dict(model, stop=[up, {"side": "lower", "position_mm": x, "contact_gap_mm": 0.6, "R": 0.9}])
+    model_of = beam_with_point_stop
 
     d = {"name": "paths-beam", "model": model_of(180.0),
          "sweep": {"frequency_hz": [15.0, 15.5, 2], "transient_periods": 40, "record_periods": 4},
@@ -261,10 +265,7 @@ def test_a_continuation_range_the_scene_cannot_take_is_one_line(parameter, rng, 
     beyond the beam's end (180 mm) or R above 1 is refused when the case is loaded, in one line
     naming 'run[0].range', the parameter and the value (it was a branch that failed with the
     model's multi-line validation error as its message)."""
-    model = dict(BEAM, n_modes=2)
-    up = {"side": "upper", "R": model.pop("R"), "gap_mm": model.pop("gap_mm")}
-    model["stop"] = [up, {"side": "lower", "position_mm": 170.0, "contact_gap_mm": 0.6, "R": 0.9}]
-    d = {"name": "paths-range", "model": model,
+    d = {"name": "paths-range", "model": beam_with_point_stop(170.0),
          "sweep": {"frequency_hz": [15.0, 15.5, 2], "transient_periods": 40, "record_periods": 4},
          "run": [{"name": "c", "method": "continuation", "parameter": parameter, "at": 15.0, "range": rng,
                   "start": "sweep", "start_at": rng[0]}]}
@@ -291,11 +292,7 @@ def test_continuation_in_a_point_stops_position_on_the_beam_gives_orbits_of_the_
     The branch covers the range, and the results name the path with its unit, mm."""
     from vibeam.models import make_solver
 
-    model = dict(BEAM, n_modes=2)
-    up = {"side": "upper", "R": model.pop("R"), "gap_mm": model.pop("gap_mm")}
-
-    def model_of(x):
-        return dict(model, stop=[up, {"side": "lower", "position_mm": x, "contact_gap_mm": 0.6, "R": 0.9}])
+    model_of = beam_with_point_stop
 
     d = {"name": "paths-position", "model": model_of(170.0),
          "sweep": {"frequency_hz": [14.5, 15.5, 3], "transient_periods": 300, "record_periods": 8},
