@@ -18,7 +18,8 @@ A fidelity lists its methods, each as one :class:`Method`: its solver and the st
 simulates (the laws and families it serves, on one or two stops, mixed or not).  The methods of
 the one core (:mod:`vibeam.models.core`: event integrator, direct solver, shooting problem)
 serve every law on any stops (:func:`on_the_core`), as does the SDOF's pointwise mapping on its
-one or two stops (:mod:`vibeam.models.mapping`: a passage through a stop per kind and family);
+one or two stops (:mod:`vibeam.models.mapping`: a passage through a stop per kind and family; the
+beam's, :mod:`vibeam.models.mapping.modal`, passes Newton stops only);
 the SDOF's textbook methods say what they are limited to.  The method tables below
 (``modal_state_methods``, ``restitution_law_methods``, ``two_sided_methods``,
 ``two_sided_law_methods``, ``mixed_stop_methods``, ``contact_laws``, ``positive_R_methods``) are
@@ -332,6 +333,9 @@ register(Fidelity(
     model="beam_dynamics:BeamImpactModel",
     solvers={"event": on_the_core("beam_dynamics:BeamEventSolver", restitution_law=True, modal_states=True),
              "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
+             # the pointwise mapping of the N-mode system (paper Sec. 4.2): Newton stops anywhere on
+             # the beam, one or two at the mass
+             "mapping": Method("mapping.modal:ModalMappingSolver", {}, (IMPULSIVE,)),
              "continuation": on_the_core("periodic_beam:BeamContinuation")},
     modes=True,
     contact_modes=True,

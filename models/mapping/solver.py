@@ -80,7 +80,7 @@ def unresolved(model, Omega: float, Q: float, v: float, tol: float) -> str:
             f"resonance?)")
 
 
-def _contacts(records, on, suffix):
+def contact_means(records, on, suffix):
     """Contact outputs of one stop from the records of its sections (``on``: which are its)."""
     c = np.array([r for r, o in zip(records, on) if o], float).reshape(-1, 4)
     if not c.shape[0]:
@@ -255,14 +255,14 @@ class MappingSolver:
         out = dict(amplitude=float(self.model.Delta) - an["q_min"], q_min=an["q_min"], q_max=an["q_max"], period=n,
                    impacts_per_period=up.size / n, impact_velocity=float(np.mean(up)) if up.size else math.nan,
                    impact_phase=float(phis[0]), stable=stable, multipliers=mu,
-                   **_contacts(an["records"], st == 0, ""),
+                   **contact_means(an["records"], st == 0, ""),
                    final_state=(np.array([phis[0], v[0]]) if m == 1 and stops[0] == 0 else
                                 np.column_stack([phis, v, st]).ravel()), status="ok", message="")
         if self.n_stops == 2:
             lo = v[st == 1]
             out.update(impacts_per_period_lower=lo.size / n,
                        impact_velocity_lower=float(np.mean(lo)) if lo.size else math.nan,
-                       **_contacts(an["records"], st == 1, "_lower"))
+                       **contact_means(an["records"], st == 1, "_lower"))
         if self.impulsive:
             M = an["M"]
             out.update(map_eigenvalues=by_mod(np.linalg.eigvals(J)), det_true=float(np.linalg.det(M)),
