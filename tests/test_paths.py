@@ -179,6 +179,57 @@ def test_the_second_stops_stiffness_is_fitted_by_path():
     np.testing.assert_array_equal(synthetic_reference(case, Om, {"stops[1].law.stiffness": 4e3}).y, ref.y)
 
 
+def test_a_point_stops_position_on_the_beam_is_fitted_by_path():
+    """vibeam fit of ``stops[1].position_mm`` alone on the 2-mode beam (``beam_with_point_stop``):
+    exact synthetic data made at 125 mm (the position written in the [[model.stop]] table), started
+    at 124 mm, recover 125 mm within the first-order propagation of the sweep's measured accuracy
+    (x 2) plus 10 x xtol |x| for the optimizer's stop, and within 1e-10 relative (1.8e-13
+    measured; 2e-15 ... 1.8e-13 from starts 122 ... 127 mm).  The same data made through the path
+    instead of the written value are bit for bit the same.
+
+    The scene is where the fit's observable, the amplitude Q = Delta - min q, is smooth in the
+    position and sees it (maps at 0.1 mm with these sweep settings): swept up from 17.5 Hz, every
+    point of 17.5 ... 20 Hz is a period-1 orbit with one impact on each stop for positions
+    122 ... 126.5 mm, and Q is smooth over 123.5 ... 126.5 mm (slope -0.0048 ... -0.0058 mm/mm,
+    0.6 sigma a mm; below a kink at 123.1-123.4 mm the slope is -0.015; at 17.5 Hz the period
+    doubles from 126.6 mm).  Not the 170 mm of the continuation test: there the point stop takes
+    3-10 impacts a period, their number changes every 1-2 mm, and at 14.5-15.5 Hz the orbits are
+    period 2, 4, 8 or not periodic, the period-2 bands 1-2 mm wide, so the FRC is not smooth in
+    the position (a fit at 17-18 Hz stopped at 169.21 mm).  A sweep started at 18 Hz or above
+    stays on a coexisting orbit that never reaches the point stop, whose Q does not depend on the
+    position at all: the test asserts that the fitted orbits hit it and that every point sees
+    the position."""
+    from vibeam.identify.fit import fit_case, synthetic_reference
+
+    f_hz = [17.5, 18.0, 18.5, 19.0, 19.5, 20.0]
+
+    def case_at(position_mm):
+        return vibeam.load_case({"name": "paths-fit-beam", "model": beam_with_point_stop(position_mm),
+                                 "sweep": {"frequency_hz": [17.5, 20.0, 6], "transient_periods": 400,
+                                           "record_periods": 16},
+                                 "run": [{"name": "event", "method": "event"}]})
+
+    truth = 125.0
+    ref = synthetic_reference(case_at(truth), f_hz)
+    case = case_at(124.0)
+    res = fit_case(case, ref, ["stops[1].position_mm"], x0={"stops[1].position_mm": 124.0}, loss="linear",
+                   jobs=1)
+    assert res.parameters == ["stops[1].position_mm"] and res.units == ["mm"]
+    # every fitted point a period-1 orbit with one impact on the paper's stop and one on the point stop
+    assert list(res.model_period) == [1] * len(f_hz), res.model_period
+    hits = np.asarray(res.final.data["stop_impacts_per_period"])   # stops: 0 upper, 1 lower at the mass, 2 point
+    np.testing.assert_array_equal(hits[:, [0, 2]], 1.0)
+    # the data see the position: 1 mm moves every point by more than 0.3 sigma (0.61 ... 0.67 measured);
+    # all derivatives central (no period change or jump within a step)
+    assert np.all(np.abs(res.jacobian[:, 0]) > 0.3), res.jacobian
+    assert res.jacobian_info["one_sided"] == 0 and res.jacobian_info["zeroed"] == 0, res.jacobian_info
+    P = np.linalg.pinv(res.jacobian[res.used])
+    bound = np.abs(P) @ (np.nan_to_num(res.accuracy[res.used], nan=0.0) / res.sigma[res.used])
+    assert abs(res.estimate[0] - truth) <= 2 * bound[0] + 10 * 1e-8 * truth, (res.estimate, bound)
+    assert res.estimate[0] == pytest.approx(truth, rel=1e-10), res.estimate
+    np.testing.assert_array_equal(synthetic_reference(case, f_hz, {"stops[1].position_mm": truth}).y, ref.y)
+
+
 # ----------------------------------------------------------------------------- continuation by path
 def _continued(tmp_path, parameter, tag):
     """Continuation of the two-sided Fig. 7 scene (Newton stops, R = R_lower = 0.9) in
