@@ -333,9 +333,11 @@ register(Fidelity(
     model="beam_dynamics:BeamImpactModel",
     solvers={"event": on_the_core("beam_dynamics:BeamEventSolver", restitution_law=True, modal_states=True),
              "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
-             # the pointwise mapping of the N-mode system (paper Sec. 4.2): Newton stops anywhere on
-             # the beam, one or two at the mass
-             "mapping": Method("mapping.modal:ModalMappingSolver", {}, (IMPULSIVE,)),
+             # the pointwise mapping of the N-mode system (paper Sec. 4.2): Newton and Kelvin-Voigt
+             # stops (exact flows) anywhere on the beam, one or two at the mass, mixed ones included
+             "mapping": Method("mapping.modal:ModalMappingSolver",
+                               {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
+                               (IMPULSIVE, "kelvin_voigt"), True),
              "continuation": on_the_core("periodic_beam:BeamContinuation")},
     modes=True,
     contact_modes=True,

@@ -1,41 +1,47 @@
-"""The pointwise mapping of an ``N``-mode system with Newton stops (paper Sec. 4.2, the beam's modes).
+"""The pointwise mapping of an ``N``-mode system (paper Sec. 4.2, the beam's modes): Newton and
+Kelvin-Voigt stops.
 
 The one-mode map (:mod:`vibeam.models.mapping.orbit`) describes a section by ``(t, v)``: on the
 stop the position is known.  With ``N`` modes the state on a stop has ``2N - 1`` free components,
 so a section is here the arrival time ``t_j`` and the whole pre-impact state ``x_j^- = (eta,
-eta')`` (shape ``(2N,)``) on stop ``k_j``, whose gap ``g_k = s_k w_k^T eta - d_k`` is zero there
-(:mod:`vibeam.models.contact`).  From a section the map goes through
+eta')`` (shape ``(2N,)``) on stop ``k_j``, whose gap ``g_k = n_k^T eta - d_k`` is zero there
+(:mod:`vibeam.models.contact`, :func:`vibeam.models.core.stops.kernel_stops`).  From a section the
+map goes through
 
-impact (Newton's law, paper Eq. 2 and Eq. 41, a constant ``R``)
-    ``x^+ = P_k x^-``, ``P_k = diag(I, I - (1 + R_k) n_k n_k^T / |w_k|^2)``, ``n_k = s_k w_k``: the
-    impulse along ``n_k`` that maps the normal velocity ``U = n_k^T eta'`` to ``-R U`` (the event
-    integrator's :func:`vibeam.models.beam_dynamics.apply_impact`);
+passage (:meth:`ModalMap.passage`)
+    Newton's law (paper Eq. 2 and Eq. 41, a constant ``R``): ``x^+ = P_k x^-``, ``P_k = diag(I, I
+    - (1 + R_k) n_k n_k^T / |n_k|^2)``, the impulse along ``n_k`` that maps the normal velocity
+    ``U = n_k^T eta'`` to ``-R U`` (the event integrator's impact); a Kelvin-Voigt stop: the exact
+    linear contact phase ``eta'' = ... - n_k (k_c g + c_c g')`` (``expm`` of its state matrix,
+    harmonic and static particular solutions) up to the force's zero, located by a scan and
+    Brent's method;
 flight (the closed-form modal flow, paper Eq. 28 per mode, :func:`vibeam.models.system.modal_flow`)
-    to the next section's time, with the transition ``Phi`` (:func:`~vibeam.models.system.
-    modal_transition`).
+    from the exit to the next section's time, with the transition ``Phi``
+    (:func:`~vibeam.models.system.modal_transition`).
 
 A period-n orbit with ``m`` sections is a zero of the multiple-shooting residual in ``(t_0 ..
 t_{m-1}, x_0^- .. x_{m-1}^-)`` (``t_m = t_0 + n T``, ``x_m = x_0``)::
 
-    r_j = ( phi(t_{j+1}; t_j, P_{k_j} x_j^-) - x_{j+1}^-,   (s w^T eta_{j+1}^- - d) / |w| of stop k_{j+1} ),
+    r_j = ( phi(t_{j+1}; exit of section j) - x_{j+1}^-,   (n^T eta_{j+1}^- - d) / |n| of stop k_{j+1} ),
 
 square (``2N + 1`` unknowns and equations per section), solved by damped Newton with the exact
-Jacobian: ``d phi / d x_j = Phi P``, ``d phi / d t_j = -Phi f(t_j, x_j^+)``, ``d phi / d t_{j+1} =
-f(t_{j+1}, phi)`` for the affine flow ``x' = f(t, x)``.
+Jacobian: the passage's variation ``y = dx_e - f dt_e = Dx dx + Dt dt`` (the field at the exit is
+the free flow's: the reset is instantaneous, a contact phase ends at zero force; Newton: ``Dx =
+P``, ``Dt = -f(x^+)``; a contact phase: ``Dx = Phi_c``, ``Dt = -Phi_c f_c(x^-)``), then ``Phi y``,
+and ``d phi / d t_{j+1} = f(t_{j+1}, phi)`` for the affine flow ``x' = f(t, x)``.
 
 An orbit found is *checked by the one event integrator*, which shares no code with the residual
-but the flow: from the orbit's state at a forcing period's start, ``n`` periods of the certified
-event kernel must meet the same stops at the same times (1e-9 of the period) and return to the
-state (1e-8 of its size).  That is the admissibility test (no stop is crossed or grazed in a
-flight) and gives the record of the orbit (extremes of the sensor, contact rows).  Its Floquet
-multipliers are the eigenvalues of the monodromy ``S_{k_0} Phi_{m-1} ... S_{k_1} Phi_0``
-composed with the saltation matrices of the impacts (Müller, 1995; di Bernardo et al. 2008,
-Sec. 2.5)::
-
-    S = P + (f^+ - P f^-) grad g^T / (grad g^T f^-),   grad g = (n, 0),   det S = R^2,
-
-so that ``det M = prod R_k^2 exp(-n T sum_i c_i)`` (Liouville).  All quantities are in the
-system's units (:class:`vibeam.models.system.ModalSystem`).
+but the free flow: from the orbit's state at a forcing period's start (in a flight), ``n`` periods
+of the certified event kernel must meet the same stops at the same times (1e-9 of the period) and
+return to the state (1e-8 of its size).  That is the admissibility test (no stop crossed or grazed
+in a flight, no contact again inside a stop) and gives the record of the orbit (extremes of the
+sensor, contact rows).  Its Floquet multipliers are the eigenvalues of the monodromy composed of
+the flights' transitions and each passage's fixed-time variation ``S`` (Müller, 1995; di Bernardo
+et al. 2008, Sec. 2.5): Newton's saltation matrix ``S = P + (f^+ - P f^-) grad g^T / (grad g^T
+f^-)`` (``det S = R^2``), a contact phase's ``Phi_c S_in`` with the entry's saltation ``S_in = I +
+(f_c - f) grad g^T / (grad g^T f)`` (the dashpot's force jump, ``det S_in = 1``; the exit, at zero
+force, has none), so that ``det M = prod R_k^2 exp(-n T sum_i c_i - sum c_c |n_k|^2 tau_j)``
+(Liouville).  All quantities are in the system's units (:class:`vibeam.models.system.ModalSystem`).
 
 References
 ----------
@@ -49,8 +55,13 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
+from typing import NamedTuple
 
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+from ..core.stops import kernel_stops
 from ..system import from_beam, modal_flow, modal_transition
 from .phases import TWO_PI
 from .solver import CONTACT_KEYS, contact_means
@@ -62,47 +73,87 @@ GUESS_PERIODS = 200
 #: the event integrator's check of an orbit: section times (fraction of the period) and the return
 #: to the state after n periods (fraction of its size)
 TIME_RTOL, STATE_RTOL = 1e-9, 1e-8
+#: the families of compliant laws with a passage (their contact phase an exact linear flow)
+PASSED = ("kelvin_voigt",)
+
+
+class Passage(NamedTuple):
+    """The passage of a section through its stop: exit time and state, and the variation
+    ``y = dx_e - f(t_e, x_e) dt_e = Dx dx + Dt dt`` of the section's ``(t, x^-)`` (the exit's field
+    is the free flow's: Newton's reset is instantaneous, a Kelvin-Voigt phase ends at zero force),
+    and ``S``, the fixed-time variation from before the entry to after the exit (the monodromy's
+    factor: Newton's saltation matrix; ``Phi_c S_in`` of a contact phase)."""
+
+    t: float
+    x: np.ndarray
+    Dx: np.ndarray
+    Dt: np.ndarray
+    S: np.ndarray
 
 
 class ModalMap:
-    """The ``N``-mode system with Newton stops at one forcing frequency: impacts, flights, the
+    """The ``N``-mode system with its stops at one forcing frequency: passages, flights, the
     multiple-shooting residual and the monodromy (module docstring).
 
     Parameters
     ----------
     system : vibeam.models.system.ModalSystem
     stops : sequence of vibeam.models.contact.Stop
-        In the system's units (a relation's ``row`` indexes ``system.contacts``); Newton's law
-        with a constant ``R`` only.
+        In the system's units (a relation's ``row`` indexes ``system.contacts``): Newton's law
+        with a constant ``R`` or a Kelvin-Voigt law (family ``kelvin_voigt``).
     Omega : float
         Forcing frequency (per unit time of the system).
+    n : int, optional
+        Periods of the orbits sought: a contact phase longer than ``n + 1`` periods fails.
 
     Raises
     ------
     ValueError
-        For a compliant law or an ``R(U-)`` table.
+        For a law of another family or an ``R(U-)`` table.
     """
 
-    def __init__(self, system, stops, Omega):
+    def __init__(self, system, stops, Omega, n=1):
         for s in stops:
-            if s.law.kind != "impulsive":
-                raise ValueError(f"the N-mode mapping has no passage through a compliant stop "
-                                 f"({getattr(s.law, 'name', s.law.kind)!r}): Newton stops only")
+            if s.law.kind != "impulsive" and getattr(s.law, "family", None) not in PASSED:
+                raise ValueError(f"the N-mode mapping has no passage through a stop of law "
+                                 f"{getattr(s.law, 'name', s.law.kind)!r} (family {s.law.family!r})")
             if s.law.table_U:
                 raise ValueError("the mapping takes a constant R (no R(U-) table)")
         self.system, self.Omega = system, float(Omega)
         self.T = TWO_PI / self.Omega
+        self.t_max = (n + 1) * self.T
         self.N = N = system.omega.size
         self.k, self.c = system.omega ** 2, system.damping
         self.g = system.participation * self.Omega ** 2 * system.base_amplitude
-        self.normal = [s.relation.sign * system.contacts[s.relation.row] for s in stops]
-        self.offset = [float(s.relation.offset) for s in stops]
+        ks = kernel_stops(system, stops)
+        self.normal = list(ks.normal)
+        self.offset = [float(d) for d in ks.offset]
         self.size = [float(np.sqrt(n @ n)) for n in self.normal]
-        self.reset = []
-        for nk, s in zip(self.normal, stops):
+        self.impulsive = [s.law.kind == "impulsive" for s in stops]
+        self.reset, self.phase = [], []
+        for i, (nk, s) in enumerate(zip(self.normal, stops)):
             P = np.eye(2 * N)
-            P[N:, N:] -= (1.0 + float(s.law.R)) * np.outer(nk, nk) / (nk @ nk)
+            if self.impulsive[i]:
+                P[N:, N:] -= (1.0 + float(s.law.R)) * np.outer(nk, nk) / (nk @ nk)
             self.reset.append(P)
+            self.phase.append(None if self.impulsive[i] else self._contact_phase(nk, self.offset[i], ks.kc[i],
+                                                                                  ks.cc[i]))
+
+    def _contact_phase(self, nk, d, kc, cc):
+        """The linear flow of a Kelvin-Voigt contact: ``A``, its constant and harmonic particular
+        solutions ``x_c + a sin(Omega t) + b cos(Omega t)``, the force gradient and the scan step."""
+        N, Om = self.N, self.Omega
+        A = np.zeros((2 * N, 2 * N))
+        A[:N, N:] = np.eye(N)
+        A[N:, :N] = -np.diag(self.k) - kc * np.outer(nk, nk)
+        A[N:, N:] = -np.diag(self.c) - cc * np.outer(nk, nk)
+        const = np.concatenate([np.zeros(N), kc * d * nk])
+        xc = -np.linalg.solve(A, const)
+        z = np.linalg.solve(1j * Om * np.eye(2 * N) - A, np.concatenate([np.zeros(N), self.g]).astype(complex))
+        lam = np.linalg.eigvals(A)
+        fast = max(float(np.max(np.abs(lam))), Om)
+        return dict(A=A, const=const, xc=xc, a=z.real.copy(), b=z.imag.copy(), grad=np.concatenate([kc * nk, cc * nk]),
+                    d=d, kc=kc, cc=cc, h=min(TWO_PI / fast / 32.0, self.T / 64.0))
 
     # ------------------------------------------------------------------ the pieces
     def field(self, t, x) -> np.ndarray:
@@ -126,6 +177,54 @@ class ModalMap:
         grad = np.concatenate([self.normal[k], np.zeros(self.N)])
         return P + np.outer(fp - P @ fm, grad) / (grad @ fm)
 
+    def passage(self, k, t, xm):
+        """The passage of the section ``(t, x^-)`` through stop ``k`` (:class:`Passage`), or None
+        when a contact phase has no exit within ``n + 1`` periods."""
+        if self.impulsive[k]:
+            xp = self.reset[k] @ xm
+            return Passage(t, xp, self.reset[k], -self.field(t, xp), self.saltation(k, t, xm))
+        return self._kelvin_voigt(self.phase[k], k, t, xm)
+
+    def _particular(self, ph, t):
+        w = self.Omega * t
+        return ph["xc"] + ph["a"] * math.sin(w) + ph["b"] * math.cos(w)
+
+    def _kelvin_voigt(self, ph, k, t0, x0):
+        """The exact linear contact phase from ``x0`` (on the stop's surface) to the first zero of
+        the force ``h = k_c g + c_c g'`` (down through it), located by a scan of steps ``ph['h']``
+        and Brent's method; the variations by the phase's transition ``Phi_c = expm(A tau)``::
+
+            y = Phi_c (dx_0 - f_c(t_0, x_0) dt_0),   S = Phi_c S_in,
+            S_in = I + (f_c - f) grad g^T / (grad g^T f)   at the entry (the dashpot's jump).
+        """
+        A, grad, h = ph["A"], ph["grad"], ph["h"]
+        h0 = ph["kc"] * ph["d"]            # the force h = grad . x - k_c d
+        E = scipy.linalg.expm(A * h)
+        u = x0 - self._particular(ph, t0)
+        t, prev = t0, grad @ x0 - h0
+        for _ in range(int(self.t_max / h) + 1):
+            un = E @ u
+            xn = un + self._particular(ph, t + h)
+            hn = grad @ xn - h0
+            if hn <= 0.0 and (prev > 0.0 or t > t0):
+                break
+            t, u, prev = t + h, un, hn
+        else:
+            return None
+        u0 = x0 - self._particular(ph, t0)
+
+        def force(s):
+            return grad @ (scipy.linalg.expm(A * (s - t0)) @ u0 + self._particular(ph, s)) - h0
+
+        te = scipy.optimize.brentq(force, t, t + h, xtol=1e-15 * max(abs(t0), 1.0), rtol=4 * np.finfo(float).eps)
+        Pc = scipy.linalg.expm(A * (te - t0))
+        xe = Pc @ u0 + self._particular(ph, te)
+        fc0 = A @ x0 + ph["const"] + np.concatenate([np.zeros(self.N), self.g * math.sin(self.Omega * t0)])
+        f0 = self.field(t0, x0)
+        gg = np.concatenate([self.normal[k], np.zeros(self.N)])
+        S_in = np.eye(2 * self.N) + np.outer(fc0 - f0, gg) / (gg @ f0)
+        return Passage(te, xe, Pc, -Pc @ fc0, Pc @ S_in)
+
     # ------------------------------------------------------------------ the orbit
     def _end(self, t, j, m, n):
         j1 = (j + 1) % m
@@ -133,7 +232,8 @@ class ModalMap:
 
     def residual(self, X, stops, n, jac=True):
         """The residual (m (2N + 1),) at ``X = (t_0 .. t_{m-1}, x_0^- .. x_{m-1}^-)`` and its
-        Jacobian (module docstring); ``(None, None)`` when the section times do not increase."""
+        Jacobian (module docstring); ``(None, None)`` when a passage has no exit or ends after the
+        next section's time."""
         m, N2 = len(stops), 2 * self.N
         sz = N2 + 1
         t, xs = X[:m], X[m:].reshape(m, N2)
@@ -141,19 +241,19 @@ class ModalMap:
         J = np.zeros((m * sz, m * sz)) if jac else None
         for j in range(m):
             j1, t1 = self._end(t, j, m, n)
-            if not t1 > t[j]:
-                return None, None
             k, k1 = stops[j], stops[j1]
-            xp = self.reset[k] @ xs[j]
-            y = self.flow(t[j], t1, xp)
+            pas = self.passage(k, t[j], xs[j])
+            if pas is None or not t1 > pas.t:
+                return None, None
+            y = self.flow(pas.t, t1, pas.x)
             row = j * sz
             r[row:row + N2] = y - xs[j1]
             r[row + N2] = (self.normal[k1] @ xs[j1][:self.N] - self.offset[k1]) / self.size[k1]
             if jac:
-                Phi = modal_transition(self.system, t[j], t1)
+                Phi = modal_transition(self.system, pas.t, t1)
                 cj, cj1 = m + j * N2, m + j1 * N2
-                J[row:row + N2, j] -= Phi @ self.field(t[j], xp)
-                J[row:row + N2, cj:cj + N2] += Phi @ self.reset[k]
+                J[row:row + N2, j] += Phi @ pas.Dt
+                J[row:row + N2, cj:cj + N2] += Phi @ pas.Dx
                 J[row:row + N2, j1] += self.field(t1, y)
                 J[row:row + N2, cj1:cj1 + N2] -= np.eye(N2)
                 J[row + N2, cj1:cj1 + self.N] += self.normal[k1] / self.size[k1]
@@ -191,27 +291,34 @@ class ModalMap:
         return X, bool(small(r, X, 1e3))
 
     def monodromy(self, X, stops, n) -> np.ndarray:
-        """``S_{k_0} Phi_{m-1} ... S_{k_1} Phi_0`` (2N, 2N): the period-n map's Jacobian after the
-        impact of section 0, conjugate to the stroboscopic monodromy (same multipliers)."""
+        """``Phi_{m-1} S_{m-1} ... Phi_0 S_0`` (2N, 2N), ``S_j`` the passage's fixed-time variation and
+        ``Phi_j`` the flight's transition: the period-n map's Jacobian from before section 0,
+        conjugate to the stroboscopic monodromy (the same multipliers)."""
         m, N2 = len(stops), 2 * self.N
         t, xs = X[:m], X[m:].reshape(m, N2)
         M = np.eye(N2)
         for j in range(m):
-            j1, t1 = self._end(t, j, m, n)
-            M = self.saltation(stops[j1], t1, xs[j1]) @ modal_transition(self.system, t[j], t1) @ M
+            _, t1 = self._end(t, j, m, n)
+            pas = self.passage(stops[j], t[j], xs[j])
+            M = modal_transition(self.system, pas.t, t1) @ pas.S @ M
         return M
 
     def state_at_period_start(self, X, stops, n):
-        """``(tau, x(tau), j)``: the first multiple ``tau`` of the period at or after ``t_0`` and the
-        state there, reached from section ``j`` (``t_j <= tau < t_{j+1}``)."""
+        """``(tau, x(tau), j)``: a multiple ``tau`` of the period in ``[t_0, t_0 + n T)`` that lies in
+        a flight (from the exit of section ``j`` to section ``j + 1``) and the state there;
+        ``x`` None when every one lies in a contact phase."""
         m, N2 = len(stops), 2 * self.N
         t, xs = X[:m], X[m:].reshape(m, N2)
-        tau = self.T * math.ceil(t[0] / self.T - 1e-12)
-        for j in range(m):
-            _, t1 = self._end(t, j, m, n)
-            if t[j] <= tau < t1:
-                return tau, self.flow(t[j], tau, self.reset[stops[j]] @ xs[j]), j
-        return tau, None, -1
+        first = self.T * math.ceil(t[0] / self.T - 1e-12)
+        for i in range(n):
+            tau = first + i * self.T
+            for j in range(m):
+                _, t1 = self._end(t, j, m, n)
+                if t[j] <= tau < t1:
+                    pas = self.passage(stops[j], t[j], xs[j])
+                    if pas is not None and pas.t <= tau:
+                        return tau, self.flow(pas.t, tau, pas.x), j
+        return first, None, -1
 
 
 def minimal_period(X, stops, n, T, N, rtol=1e-9):
@@ -234,8 +341,8 @@ def minimal_period(X, stops, n, T, N, rtol=1e-9):
 
 
 class ModalMappingSolver:
-    """Method ``mapping`` of the modal beam: period-n orbits of the pointwise map with Newton
-    stops anywhere on the beam (module docstring; the SDOF's is
+    """Method ``mapping`` of the modal beam: period-n orbits of the pointwise map with Newton and
+    Kelvin-Voigt stops anywhere on the beam (module docstring; the SDOF's is
     :class:`vibeam.models.mapping.solver.MappingSolver`).
 
     Parameters
@@ -254,7 +361,8 @@ class ModalMappingSolver:
     Raises
     ------
     ValueError
-        For ``n`` outside 1..4 or stops that are not Newton's with a constant ``R``.
+        For ``n`` outside 1..4 or stops that are neither Newton's with a constant ``R`` nor
+        Kelvin-Voigt ones.
     """
 
     name = "mapping"
@@ -285,9 +393,14 @@ class ModalMappingSolver:
         out, t, x = [], 0.0, x0
         for ti, c in zip(tr.impact_times, ks):
             k = index[int(c)]
+            if float(ti) < t:
+                return None
             x = mp.flow(t, float(ti), x)
             out.append((float(ti), k, x.copy()))
-            x, t = mp.reset[k] @ x, float(ti)
+            pas = mp.passage(k, float(ti), x)
+            if pas is None:
+                return None
+            x, t = pas.x, pas.t
         return out
 
     def _guesses(self, mp, state0):
@@ -310,7 +423,11 @@ class ModalMappingSolver:
         if tr.status != "ok" or tr.n_impacts != tr.impact_times.size:
             yield f"the event run ends {tr.status}: no guess"
             return
-        sec = [s for s in self._sections(mp, tr, x0) if s[0] >= (1.0 - 1e-12) * n * mp.T]
+        sec = self._sections(mp, tr, x0)
+        if sec is None:
+            yield "the event run's contacts overlap or do not end: no guess"
+            return
+        sec = [s for s in sec if s[0] >= (1.0 - 1e-12) * n * mp.T]
         if not sec:
             yield "no impact in the event run's last periods: no orbit of the map"
             return
@@ -348,7 +465,7 @@ class ModalMappingSolver:
             is a status with its reasons, never an exception.
         """
         Omega = float(Omega)
-        mp = ModalMap(self.system, self.stops, Omega)
+        mp = ModalMap(self.system, self.stops, Omega, self.n)
         reasons = []
         for g in self._guesses(mp, state0):
             out = g if isinstance(g, str) else self._solve(mp, *g)
@@ -380,7 +497,7 @@ class ModalMappingSolver:
         n, m = self.n, len(stops)
         tau, x, j = mp.state_at_period_start(X, stops, n)
         if x is None:
-            return "no period start on the orbit"
+            return "every period start of the orbit lies in a contact phase (the event check starts at one)"
         tr = self.event.point(mp.Omega, np.concatenate([x, [0.0]]), 0, n, 32)
         order = [(j + 1 + i) % m for i in range(m)]
         want_t = np.array([X[i] + (n * mp.T if i <= j else 0.0) - tau for i in order])
