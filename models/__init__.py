@@ -17,7 +17,8 @@ from . import _cache
 
 _cache.install()   # before any kernel module: the cache key covers the whole package
 
-from .registry import FIDELITIES, fidelity, is_compliant, law_family, mixed_stops, resolve  # noqa: E402
+from .registry import (FIDELITIES, IMPULSIVE, fidelity, mass_law_keys, resolve,  # noqa: E402
+                       supported_methods)
 
 # public names -> their module (imported on first access, PEP 562)
 _LAZY = {
@@ -64,32 +65,19 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
     Raises
     ------
     ValueError
-        If no shooting problem is registered for the model's fidelity, or the parameter is not
-        one of the problem's. A scene with two stops is served (the restitution shooting problems
-        follow impacts on both). A model with a compliant stop gets its law's shooting problem
-        (registry ``contact_laws[family]["continuation"]`` of the law's family), or this error when
-        the family has none or the scene has two stops and the family's ``two_sided_law_methods``
-        lack ``"continuation"``.
+        If no shooting problem is registered for the model's fidelity, the parameter is not one
+        of the problem's, or its shooting problem does not serve the stops at the attached mass
+        (:func:`vibeam.models.registry.supported_methods`).  A compliant upper stop gets its
+        family's shooting problem (the ``continuation`` :class:`~vibeam.models.registry.Method`'s
+        ``laws``).
     """
-    law = getattr(model, "contact_law", "restitution")
-    if is_compliant(law):
-        # a compliant law: its shooting problem is its family's "continuation" entry of the registry
-        fam = law_family(law)
-        path = fidelity(model).contact_laws.get(fam, {}).get("continuation")
-        if path is None:
-            raise ValueError(f"continuation is not available for contact law {law!r} of fidelity "
-                             f"{model.fidelity!r} (no shooting problem registered); use method = \"event\"")
-        if mixed_stops(model) and "continuation" not in fidelity(model).mixed_stop_methods:
-            raise ValueError("continuation with a restitution stop beside a compliant one is not implemented; "
-                             "use method = \"event\"")
-        if getattr(model, "two_sided", False) and \
-                "continuation" not in fidelity(model).two_sided_law_methods.get(fam, ()):
-            raise ValueError(f"continuation with contact law {law!r} and a second (lower) stop is not "
-                             f"implemented for this law and fidelity; use method = \"event\"")
-        return resolve(path)(model, parameter, Omega=Omega)
-    if mixed_stops(model) and "continuation" not in fidelity(model).mixed_stop_methods:
-        raise ValueError("continuation with a compliant stop beside a restitution one is not implemented for "
-                         f"fidelity {model.fidelity!r}; use method = \"event\"")
+    why = _refusal(model, "continuation")
+    if why:
+        raise ValueError(f"continuation {why}; use method = \"event\"")
+    up, _ = mass_law_keys(model)
+    if up != IMPULSIVE:
+        # a compliant upper stop: its family's shooting problem (registry ``Method.laws``)
+        return resolve(fidelity(model).solvers["continuation"].laws[up])(model, parameter, Omega=Omega)
     shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
     cls = shooting.get(model.fidelity)
     if cls is None:
@@ -104,45 +92,41 @@ def make_solver(model, method: str, **settings):
     Raises
     ------
     ValueError
-        If the method does not exist for the model's fidelity, does not simulate the model's
-        contact law (registry ``contact_laws`` of its family), or cannot simulate the model's second stop
-        (``two_sided_methods`` of the registry).
+        If the method does not exist for the model's fidelity or does not simulate the stops at
+        its attached mass (their laws, two stops, mixed kinds: the one capability function
+        :func:`vibeam.models.registry.supported_methods`).
     """
     fid = fidelity(model)
-    law = getattr(model, "contact_law", "restitution")
-    if is_compliant(law):   # a compliant law: its family's solvers (registry ``contact_laws``)
-        fam = law_family(law)
-        if mixed_stops(model) and method not in fid.mixed_stop_methods:
-            raise ValueError(f"method {method!r} cannot simulate a restitution stop beside a compliant one; "
-                             f"allowed: {', '.join(fid.mixed_stop_methods) or 'none'}")
-        table = {k: v for k, v in fid.contact_laws.get(fam, {}).items() if k != "continuation"}
-        if method not in table:
-            allowed = ", ".join(table) or "none"
-            raise ValueError(f"method {method!r} does not simulate contact law {law!r} of fidelity "
-                             f"{fid.name!r}; allowed: {allowed}")
-        two = fid.two_sided_law_methods.get(fam, ())
-        if getattr(model, "two_sided", False) and method not in two:
-            raise ValueError(f"method {method!r} cannot simulate contact law {law!r} on a second (lower) stop; "
-                             f"allowed with two stops: {', '.join(two) or 'none'}")
-        lower = getattr(getattr(model, "lower_law", None), "name", law)
-        two_lower = fid.two_sided_law_methods.get(law_family(lower), ())
-        if getattr(model, "two_sided", False) and not mixed_stops(model) and lower != law and \
-                method not in two_lower:
-            raise ValueError(f"method {method!r} cannot simulate contact law {lower!r} on the lower stop; allowed: "
-                             f"{', '.join(two_lower) or 'none'}")
-        return resolve(table[method])(model, **settings)
-    path = fid.methods.get(method)
-    if path is None:
+    if method not in fid.methods:
         raise ValueError(f"method {method!r} is not available for fidelity {fid.name!r}; "
                          f"allowed: {', '.join(sorted(fid.methods))}")
-    if mixed_stops(model) and method not in fid.mixed_stop_methods:
-        # a restitution upper stop above a compliant lower one
-        raise ValueError(f"method {method!r} cannot simulate a compliant stop beside a restitution one; "
-                         f"allowed: {', '.join(fid.mixed_stop_methods) or 'none'}")
-    if getattr(model, "two_sided", False) and method not in fid.two_sided_methods:
-        raise ValueError(f"method {method!r} cannot simulate a second (lower) stop; allowed with two stops: "
-                         f"{', '.join(fid.two_sided_methods)}")
-    return resolve(path)(model, **settings)
+    why = _refusal(model, method)
+    if why:
+        raise ValueError(f"method {method!r} {why}")
+    up, _ = mass_law_keys(model)
+    x = fid.solvers[method]
+    return resolve(x.solver if up == IMPULSIVE else x.laws[up])(model, **settings)
+
+
+def _refusal(model, method: str) -> str:
+    """Why ``method`` cannot simulate the model's stops at its attached mass ('' when it can), by
+    the one capability function :func:`vibeam.models.registry.supported_methods`."""
+    fid = fidelity(model)
+    up, lo = mass_law_keys(model)
+    one = supported_methods(fid.name, up)
+    both = one if lo is None else supported_methods(fid.name, up, lo)
+    allowed = f"allowed with these stops: {', '.join(both) or 'none'}"
+    if lo is not None and (up == IMPULSIVE) != (lo == IMPULSIVE) and method not in both:
+        what = ("a compliant stop beside a restitution one" if up == IMPULSIVE else
+                "a restitution stop beside a compliant one")
+        return f"cannot simulate {what}; {allowed}"
+    if method not in one:
+        law = getattr(model, "contact_law", "restitution")
+        return (f"does not simulate contact law {law!r} of fidelity {fid.name!r}; allowed: "
+                f"{', '.join(m for m in one if m != 'continuation') or 'none'}")
+    if method not in both:
+        return f"cannot simulate a second (lower) stop{'' if lo == up else f' of another law ({lo})'}; {allowed}"
+    return ""
 
 
 __all__ = ["SDOF", "EventSolver", "linear_amplitude", "make_solver", "METHODS", "SHOOTING",

@@ -19,11 +19,12 @@ simulates (the laws and families it serves, on one or two stops, mixed or not). 
 the one core (:mod:`vibeam.models.core`: event integrator, direct solver, shooting problem)
 serve every law on any stops (:func:`on_the_core`), as does the SDOF's pointwise mapping on its
 one or two stops (:mod:`vibeam.models.mapping`: a passage through a stop per kind and family; the
-beam's, :mod:`vibeam.models.mapping.modal`, passes Newton stops only);
-the SDOF's textbook methods say what they are limited to.  The method tables below
-(``modal_state_methods``, ``restitution_law_methods``, ``two_sided_methods``,
-``two_sided_law_methods``, ``mixed_stop_methods``, ``contact_laws``, ``positive_R_methods``) are
-derived from these entries, never kept by hand; a refusal names what the table allows.
+beam's, :mod:`vibeam.models.mapping.modal`, passes Newton and Kelvin-Voigt stops); the SDOF's
+textbook methods say what they are limited to.  What a method simulates follows from these
+entries by one function, :func:`supported_methods` (the laws of the stops at the mass, their
+number, mixed kinds), used by :func:`vibeam.models.make_solver`, the shooting problem's builder
+and case validation; a refusal names what it allows.  The per-method flags give the tables
+``modal_state_methods``, ``restitution_law_methods`` and ``positive_R_methods``.
 
 Every model has ``fidelity`` (its registry name), ``Delta`` (the gap of the amplitude
 ``Q = Delta - min q``, paper Sec. 4.1), ``natural_frequency_hz`` and ``length_m`` (None for a
@@ -51,31 +52,15 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     A finite-element model stands behind it (``vibeam derive``, ``vibeam modes``).
 ``restitution_law_methods``
     Methods that take a velocity-dependent R (effect ``restitution_law``).
-``two_sided_methods``
-    Methods that simulate a second (lower) stop (two contact relations with opposite
-    normals, :mod:`vibeam.models.contact`); ``continuation`` when the shooting problem
-    follows orbits with impacts on both stops.  These are the restitution law's; a compliant
-    law's are ``two_sided_law_methods``.
-``two_sided_law_methods``
-    For each family of compliant laws (:data:`FAMILIES`), the methods that simulate its laws on
-    two stops (``{"kelvin_voigt": ("event", "direct", "mapping", "continuation")}``;
-    ``"continuation"``: its shooting problem follows both stops); a family not listed serves one
-    stop only.
-``mixed_stop_methods``
-    Methods that simulate a compliant upper stop beside a restitution (Newton) lower stop
-    (:func:`mixed_stops` of the model); refused elsewhere by :func:`vibeam.models.make_solver`.
-``contact_laws``
-    Families of compliant contact laws (:data:`FAMILIES`; the laws in :data:`LAWS`, their
-    classes in :mod:`vibeam.models.compliant`) and, for each, the methods that simulate its
-    laws with their solvers (``{"kelvin_voigt": {"event": "module:Class", ...}}``); the
-    model then has ``contact_law`` (its stop's law name, ``"restitution"`` by default) and
-    the law object ``contact`` (its ``family`` and numbers, e.g. ``chi``).  A method not
-    listed for a law's family is refused by :func:`vibeam.models.make_solver` (and by case
-    validation, :func:`contact_law_methods`).  The entry ``"continuation"`` names the
-    family's shooting problem (not a solver: :func:`vibeam.models.shooting_problem` builds it
-    as ``cls(model, parameter, Omega=Omega)``); without it the law cannot be continued.
-    The kernels of a family never ask a law's name: they read its numbers from the law
-    object (a new law of a family then costs one class and one :data:`LAWS` line).
+``solvers``
+    Method name -> :class:`Method`; for a compliant law the model has ``contact_law`` (its
+    stop's law name, ``"restitution"`` by default) and the law object ``contact`` (its
+    ``family`` and numbers, e.g. ``chi``).  A method's ``laws`` entry of a family names the
+    class that simulates that family's laws (for ``"continuation"`` its shooting problem,
+    built as ``cls(model, parameter, Omega=Omega)``); a family not listed is refused (by
+    :func:`supported_methods`).  The kernels of a family never ask a law's name: they read its
+    numbers from the law object (a new law of a family then costs one class and one
+    :data:`LAWS` line).
 ``positive_R_methods``
     Methods that need ``R > 0`` (Ivanov's transformation, Eqs. 14-15, divides by
     ``K_N = 0`` at ``R = 0``); case validation refuses such a run with ``R = 0`` (also a
@@ -105,8 +90,8 @@ class Law(NamedTuple):
     keys : tuple of str
         Keys of the law's ``[model.contact]`` table besides ``law``.
     family : str or None
-        A compliant law's family: the kernels that simulate it and the key of the fidelities'
-        ``contact_laws`` and ``two_sided_law_methods`` tables (:data:`FAMILIES`).
+        A compliant law's family: the kernels that simulate it and the key of a
+        :class:`Method`'s ``laws`` and ``two_sided`` (:data:`FAMILIES`).
     cls : str
         ``"module:Class"`` of the law (relative to ``vibeam.models``); a compliant law's class
         carries the same ``name`` and ``family`` and builds itself from a case's values
@@ -227,9 +212,9 @@ class Fidelity:
         ``"module:Class"`` of the model (relative to ``vibeam.models``).
     solvers : dict
         Method name -> :class:`Method` (``"continuation"``: the shooting problem).  The tables
-        ``methods``, ``shooting``, ``two_sided_methods``, ``two_sided_law_methods``,
-        ``mixed_stop_methods``, ``contact_laws``, ``restitution_law_methods``,
-        ``positive_R_methods`` and ``modal_state_methods`` are derived from it.
+        ``methods``, ``shooting``, ``restitution_law_methods``, ``positive_R_methods`` and
+        ``modal_state_methods`` are derived from it; what a method simulates by
+        :func:`supported_methods`.
     """
 
     name: str
@@ -261,29 +246,6 @@ class Fidelity:
         """Names of the methods a case may ask for (``continuation`` when it has a shooting
         problem registered in :data:`vibeam.models.SHOOTING`, checked when planned)."""
         return tuple(self.methods) + ("continuation",)
-
-    @property
-    def two_sided_methods(self) -> tuple:
-        """Methods that simulate two Newton stops (:data:`IMPULSIVE` in their ``two_sided``)."""
-        return tuple(m for m, x in self.solvers.items() if IMPULSIVE in x.two_sided)
-
-    @property
-    def two_sided_law_methods(self) -> dict:
-        """Family -> methods that simulate its laws on two stops (families with none left out)."""
-        return {f: ms for f in FAMILIES
-                if (ms := tuple(m for m, x in self.solvers.items() if f in x.two_sided and f in x.laws))}
-
-    @property
-    def mixed_stop_methods(self) -> tuple:
-        """Methods that simulate a compliant stop beside a Newton one."""
-        return self._with("mixed")
-
-    @property
-    def contact_laws(self) -> dict:
-        """Family -> {method: ``"module:Class"``} of the methods that simulate its laws
-        (``"continuation"``: the shooting problem)."""
-        return {f: tab for f in FAMILIES
-                if (tab := {m: x.laws[f] for m, x in self.solvers.items() if f in x.laws})}
 
     @property
     def restitution_law_methods(self) -> tuple:
@@ -362,24 +324,63 @@ def fidelity(name_or_model) -> Fidelity:
     return fid
 
 
-def contact_law_methods(name: str, law: str) -> tuple:
-    """Methods of fidelity ``name`` that simulate contact law ``law`` (all of them for an
-    impulsive law; for a compliant one those of its family, none for a family the fidelity
-    does not register)."""
-    fid = fidelity(name)
-    if not is_compliant(law):
-        return fid.method_names
-    return tuple(fid.contact_laws.get(law_family(law), {}))
+def law_key(law) -> str:
+    """:data:`IMPULSIVE` or the family of a compliant law: the key of a :class:`Method`'s tables.
+
+    ``law`` is a law object (its ``kind`` and ``family``) or a law's name in :data:`LAWS`.
+
+    Raises
+    ------
+    ValueError
+        For a name that is not registered (the message lists the registered ones).
+    """
+    if isinstance(law, str):
+        entry = LAWS.get(law)
+        if entry is None:
+            raise ValueError(f"contact law {law!r} is not registered; registered: {', '.join(LAWS)}")
+        return IMPULSIVE if entry.kind == "impulsive" else entry.family
+    return IMPULSIVE if getattr(law, "kind", "impulsive") == "impulsive" else law.family
 
 
-def two_sided_methods(name: str, law: str = "restitution") -> tuple:
-    """Methods of fidelity ``name`` that simulate a scene with two stops under contact law
-    ``law`` (``two_sided_methods`` for the restitution law, ``two_sided_law_methods[law]`` for a
-    compliant one; empty when the law serves one stop only)."""
+def supported_methods(name: str, upper: str = IMPULSIVE, lower: str | None = None) -> tuple:
+    """The methods of fidelity ``name`` that simulate the stops at its attached mass: the one
+    capability function (issue 43: derived, not tabulated).
+
+    A method simulates them when its :class:`Method` serves the law of each stop (Newton's, or a
+    family in its ``laws``), each on two stops when there are two (``two_sided``), and a Newton
+    stop beside a compliant one when they mix (``mixed``).  Stops elsewhere on a beam are Newton
+    stops of the one core, served by every method of the beam.
+
+    Parameters
+    ----------
+    name : str
+        The fidelity's registry name.
+    upper : str
+        :func:`law_key` of the upper stop's law (the paper's stop).
+    lower : str or None
+        :func:`law_key` of the lower stop's law at the mass; None without one.
+
+    Returns
+    -------
+    tuple of str
+        Method names in the fidelity's order, ``"continuation"`` among them when its shooting
+        problem serves the stops.
+    """
     fid = fidelity(name)
-    if not is_compliant(law):
-        return fid.two_sided_methods
-    return tuple(fid.two_sided_law_methods.get(law_family(law), ()))
+    keys = (upper,) if lower is None else (upper, lower)
+    mixed = len({k == IMPULSIVE for k in keys}) == 2
+    return tuple(m for m, x in fid.solvers.items()
+                 if all(k == IMPULSIVE or k in x.laws for k in keys)
+                 and (lower is None or all(k in x.two_sided for k in keys))
+                 and (x.mixed or not mixed))
+
+
+def mass_law_keys(model) -> tuple:
+    """``(upper, lower)``: the :func:`law_key` of the laws of a model's stops at the attached mass
+    (``mass_stops()``, else ``stops()``), ``lower`` None without a second stop there."""
+    stops = model.mass_stops() if hasattr(model, "mass_stops") else model.stops()
+    keys = [law_key(s.law) for s in stops]
+    return keys[0], (keys[1] if len(keys) > 1 else None)
 
 
 def with_capability(flag: str) -> list[str]:

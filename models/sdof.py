@@ -114,7 +114,7 @@ class SDOF:
     @property
     def contact_law(self) -> str:
         """Name of the stop's law (a key of :data:`vibeam.models.registry.LAWS`; the registry
-        finds the law's family, the key of the fidelity's ``contact_laws``)."""
+        finds the law's family, the key of its methods' ``laws``)."""
         return "restitution" if self.contact is None else self.contact.name
 
     @property

@@ -369,7 +369,7 @@ class _ScipyMethod:
 
     name = "scipy"
     time_domain = True
-    #: simulates a second (lower) stop (``SDOF.Delta_lower``); see ``two_sided_methods`` of the registry
+    #: simulates a second (lower) stop (``SDOF.Delta_lower``); see ``supported_methods`` of the registry
     two_sided = False
     # periods per call of the sweep engine (vibeam.engine.sweep._simulate); a restart of solve_ivp changes
     # the result at the level of its tolerance, so chunks are long (Python code is interruptible

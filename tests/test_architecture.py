@@ -387,7 +387,8 @@ def test_every_law_class_carries_its_registry_entry():
         if law.kind == "compliant":
             assert cls.name == n and cls.family == law.family, n
             for f in FIDELITIES.values():
-                assert set(f.contact_laws) | set(f.two_sided_law_methods) <= {x.family for x in LAWS.values()}
+                for x in f.solvers.values():     # the families a method serves, alone or on two stops
+                    assert set(x.laws) | (set(x.two_sided) - {"impulsive"}) <= {y.family for y in LAWS.values()}
 
 
 def test_the_model_classes_carry_their_stops_not_law_fields():

@@ -176,6 +176,48 @@ def test_the_matrix_accepts_exactly_the_working_cells_and_refuses_the_others_in_
     assert len(WORKING) == 121
 
 
+def _stop_law_keys(fid: str, law: str, stops: str) -> tuple:
+    """``(upper, lower)`` registry law keys of a row's stops at the attached mass (case_of)."""
+    from vibeam.models.registry import law_key
+
+    up = law_key(law)
+    if stops == "one" or (stops == "point" and fid == "beam"):     # the beam's point stop: elsewhere
+        return up, None
+    if stops == "two":
+        return up, up
+    if stops == "mixed":
+        return up, law_key("linear" if law == "restitution" else "restitution")
+    return up, law_key("restitution")          # the SDOF's point row: a Newton stop below the mass
+
+
+def test_the_working_cells_are_what_the_one_capability_function_says():
+    """Issue 43, capabilities derived: the registry's one function
+    (:func:`vibeam.models.registry.supported_methods`) from the laws and number of the stops at
+    the mass gives exactly the working cells, without a case or a model (the README's count)."""
+    from vibeam.models.registry import supported_methods
+
+    derived = {(f, law, st, m) for f, law, st, m in CELLS
+               if m in supported_methods(f, *_stop_law_keys(f, law, st))}
+    assert derived == WORKING, (sorted(derived - WORKING), sorted(WORKING - derived))
+    assert len(derived) == 121
+
+
+def test_a_method_that_does_not_serve_the_lower_stops_law_is_refused_at_load():
+    """A Newton stop above a Hertz-type lower stop on the beam: the N-mode mapping passes Newton and
+    Kelvin-Voigt stops only, so the case is refused when it loads, in one line naming the lower
+    law (it was accepted and failed when the solver was built: the mixed-stop check did not ask
+    for the lower stop's family); the same scene is served by event."""
+    d = case_of("beam", "restitution", "mixed", ["mapping"])
+    d["model"]["contact_lower"] = {"law": "hunt_crossley", "stiffness_n_m": 3e8}
+    with pytest.raises(CaseError) as e:
+        vibeam.load_case(d)
+    msg = str(e.value)
+    assert "\n" not in msg and "'run[0].method' = 'mapping'" in msg and 'contact_lower.law = "hunt_crossley"' in msg
+    assert "allowed with two stops: event, direct, continuation" in msg, msg
+    d["run"] = [{"name": "event", "method": "event"}]
+    vibeam.load_case(d)
+
+
 @pytest.mark.parametrize("row", sorted({c[:3] for c in WORKING if c[3] == "event"}), ids="-".join)
 def test_every_working_row_agrees_across_its_time_domain_methods(row):
     """Each row that has both ``event`` and ``direct`` from rest over 2 forcing periods at the

@@ -14,7 +14,7 @@
 
 The laws, their keys and their classes are the one table :data:`vibeam.models.registry.LAWS`
 (the classes in :mod:`vibeam.models.compliant`); which fidelities and methods simulate a law's
-family is in the fidelity registry (``contact_laws``).  Nothing here names a law.
+family is in the fidelity registry (``supported_methods``).  Nothing here names a law.
 """
 from __future__ import annotations
 

@@ -39,7 +39,7 @@ from vibeam.case.contact import (ContactSpec, StopSpec, beam_law,  # [model.cont
                                  model_with, sdof_law, stops_as_keys, target_R)
 from vibeam.case.paths import alias_of, get_value, is_path, parameter_paths
 from vibeam.io.inputs import read_input_text
-from vibeam.models.registry import contact_law_methods, fidelity, is_compliant, two_sided_methods
+from vibeam.models.registry import fidelity, is_compliant, law_key, supported_methods
 from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
 from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
@@ -106,7 +106,7 @@ def _check_stops(spec, lower_keys: tuple, gap_key: str, mixed: bool = False) -> 
     compliant = [k for k in ("contact", "contact_lower")
                  if getattr(spec, k) is not None and is_compliant(getattr(spec, k).law)]
     if mixed and compliant == ["contact"] and spec.contact_lower is not None:
-        return   # a compliant upper stop beside a restitution lower one (models.registry mixed_stop_methods)
+        return   # a compliant upper stop beside a restitution lower one (Method.mixed of the registry)
     if mixed and compliant == ["contact_lower"]:
         return   # a restitution upper stop ([model] R) above a compliant lower one
     if compliant and spec.contact_lower is not None and len(compliant) == 1:
@@ -1537,13 +1537,22 @@ def _check_method_values(spec, i: int, r, prefix: str) -> None:
                         f"divides by K_N = 0 at R = 0); allowed: 0 < R <= 1, or another method ({', '.join(others)})")
 
 
-def _check_contact_method(spec, i: int, r) -> None:
-    """The run's method simulates the scene's contact law (fidelity registry ``contact_laws``)."""
+def _stop_laws(spec) -> tuple:
+    """``(upper, lower)`` law names of the stops at the attached mass of a model spec (lower None
+    without a second stop; a lower stop without its own table takes the upper stop's law)."""
     contact = getattr(spec, "contact", None)
-    law = "restitution" if contact is None else contact.law
-    if not is_compliant(law):
-        return
-    allowed = contact_law_methods(spec.fidelity, law)
+    up = "restitution" if contact is None else contact.law
+    if not getattr(spec, "two_sided", False):
+        return up, None
+    lo = getattr(spec, "contact_lower", None)
+    return up, (up if lo is None else lo.law)
+
+
+def _check_contact_method(spec, i: int, r) -> None:
+    """The run's method simulates the upper stop's law (the one capability function,
+    :func:`vibeam.models.registry.supported_methods`)."""
+    law, _ = _stop_laws(spec)
+    allowed = supported_methods(spec.fidelity, law_key(law))
     if r.method not in allowed:
         raise CaseError(f"'run[{i}].method' = {r.method!r} does not simulate contact.law = \"{law}\" of fidelity "
                         f"{spec.fidelity!r}; allowed: {', '.join(allowed) or 'none'}")
@@ -1605,24 +1614,16 @@ def check_time_series(case: Case, source: str = "", hz_per_omega: float | None =
 
 def _check_two_sided(case: Case, i: int, r) -> None:
     """A run of a two-sided scene (a lower stop) uses a method that simulates it (the fidelity's
-    ``two_sided_methods`` in :mod:`vibeam.models.registry`) and no effect that assumes one stop."""
+    :func:`vibeam.models.registry.supported_methods` of its stops' laws) and no effect that assumes
+    one stop."""
     spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
-    if not getattr(spec, "two_sided", False):
+    law, low = _stop_laws(spec)
+    if low is None:
         return
-    contact = getattr(spec, "contact", None)
-    law = "restitution" if contact is None else contact.law
-    allowed = two_sided_methods(spec.fidelity, law)
+    allowed = supported_methods(spec.fidelity, law_key(law), law_key(low))
     what = "" if not is_compliant(law) else f" with contact.law = \"{law}\""
-    lo = lower_law_spec(spec) if contact is not None else None
-    if getattr(spec, "mixed_stops", False):
-        # a restitution stop beside a compliant one: the registry's mixed_stop_methods
-        allowed = tuple(m for m in allowed if m in fidelity(spec.fidelity).mixed_stop_methods)
-        what += f" and contact_lower.law = \"{spec.contact_lower.law}\""
-    if lo is not None and lo.law != law:
-        # a lower stop with another law: the methods that simulate both laws on two stops
-        low = two_sided_methods(spec.fidelity, lo.law)
-        allowed = tuple(m for m in allowed if m in low)
-        what += f" and contact_lower.law = \"{lo.law}\""
+    if low != law:
+        what += f" and contact_lower.law = \"{low}\""
     if r.method not in allowed:
         raise CaseError(f"'run[{i}].method' = {r.method!r} cannot simulate a second stop{what} (the scene has a "
                         f"lower stop: {_lower_key(spec)}); allowed with two stops: {', '.join(allowed) or 'none'}")
