@@ -370,3 +370,19 @@ def test_continuation_in_a_point_stops_position_on_the_beam_gives_orbits_of_the_
         g = f["branches/x"]
         assert g.attrs["parameter"] == "stops[1].position_mm" and g.attrs["parameter_units"] == "mm"
         assert g["parameter"].attrs["units"] == "mm"
+
+
+def test_a_continuation_range_in_a_flat_key_the_spec_has_no_field_of_is_checked_by_its_path():
+    """``R_lower`` (the flat name of ``stops[1].law.R``, which the SDOF spec holds in its lower
+    stop's table, not as a field) over [0.6, 1.5] is refused when the case loads, in one line naming
+    'run[0].range' and the value, as the path is; it was accepted and left to the branch."""
+    d = tomllib.loads((ROOT / "cases" / "paper-fig7-two-sided.toml").read_text())
+    for k in ("quick", "map", "basins"):
+        d.pop(k, None)
+    d["run"] = [{"name": "c", "method": "continuation", "parameter": "R_lower", "at": 2.0, "range": [0.6, 1.5]}]
+    with pytest.raises(CaseError) as e:
+        vibeam.load_case(d)
+    msg = str(e.value)
+    assert "'run[0].range' = [0.6, 1.5]: R_lower = 1.5 is not allowed" in msg and "\n" not in msg, msg
+    d["run"][0]["range"] = [0.6, 0.9]
+    vibeam.load_case(d)

@@ -1649,6 +1649,18 @@ def _lower_key(spec) -> str:
     return "a lower stop"
 
 
+def _path_of_alias(table: dict, name: str) -> str | None:
+    """The parameter path of a ``[model]`` table that the flat key ``name`` stands for
+    (:func:`vibeam.case.paths.alias_of`; ``R_lower`` -> ``stops[1].law.R``), or None."""
+    for p in parameter_paths(table):
+        try:
+            if alias_of(table, p) == name:
+                return p
+        except ValueError:
+            continue
+    return None
+
+
 def _check_continuation(case: Case, i: int, r) -> None:
     """A continuation run names a parameter its scene can continue, with a range and a
     frequency where they are needed, and no scene effects."""
@@ -1677,16 +1689,17 @@ def _check_continuation(case: Case, i: int, r) -> None:
                             f"frequency at which it runs ({unit})")
         if r.range is None and not (case.map is not None and case.map.parameter == r.parameter):
             raise CaseError(f"'run[{i}].range' is missing: give [low, high] of {r.parameter!r}")
-        if r.range is not None and native is not None and (is_path(r.parameter)
-                                                            or r.parameter in type(spec).model_fields):
+        table = model_with(case.model, dict(r.model))
+        name = r.parameter if is_path(r.parameter) or r.parameter in type(spec).model_fields else \
+            _path_of_alias(table, r.parameter)
+        if r.range is not None and native is not None and name is not None:
             # each end of the range is a scene the model must accept (a stop beyond the beam's
             # length, R above 1, a negative stiffness): refused here in one line, not found by the
-            # branch as a failed point (a name of the shooting problem's own, R_lower, is checked
-            # by it)
-            table = model_with(case.model, dict(r.model))
+            # branch as a failed point; a flat name the spec has no field of (R_lower) is checked
+            # through the path it stands for (stops[1].law.R)
             for v in r.range:
                 try:
-                    _validate_model(model_with(table, {r.parameter: float(v)}),
+                    _validate_model(model_with(table, {name: float(v)}),
                                     prefix=f"run[{i}].model" if r.model else "model")
                 except (CaseError, ValueError) as e:
                     raise CaseError(f"'run[{i}].range' = {quote_value(list(r.range))}: {r.parameter} = {v:g} is "
