@@ -144,6 +144,10 @@ class BeamImpactModel:
 
     Attributes
     ----------
+    upper_law : law
+        The upper stop's law, the one holder of its numbers (``R`` and the table above build a
+        :class:`vibeam.models.contact.Restitution`; :attr:`R`, :attr:`R_table_U` and
+        :attr:`R_table_R` read and replace it).
     lower_law : law or None
         The lower stop's own law (:mod:`vibeam.models.contact`: Newton's, or a compliant one in
         N/m^p at the contact point); None: the upper stop's.
@@ -175,7 +179,6 @@ class BeamImpactModel:
             raise ValueError("damping coefficients must be >= 0")
         if not np.any(self.contact_row != 0):
             raise ValueError("no retained mode moves the contact point")
-        self.R = float(R)
         self.gap_contact_m = float(gap_contact_m)
         self.base_amplitude_m = float(base_amplitude_m)
         self.f_ref_hz = float(f_ref_hz)
@@ -187,12 +190,11 @@ class BeamImpactModel:
                                   else np.asarray(modal_damping_1_s, dtype=float).copy())
         if self.modal_damping_1_s is not None and self.modal_damping_1_s.shape != (n,):
             raise ValueError("modal_damping_1_s must have one entry per mode")
-        if restitution_table is None:
-            self.R_table_U = np.zeros(0)
-            self.R_table_R = np.zeros(0)
-        else:
-            self.R_table_U = np.ascontiguousarray(restitution_table[0], dtype=float)
-            self.R_table_R = np.ascontiguousarray(restitution_table[1], dtype=float)
+        table = ((), ()) if restitution_table is None else \
+            tuple(tuple(float(x) for x in np.ascontiguousarray(c, dtype=float)) for c in restitution_table)
+        #: the upper stop's law, the one holder of its R (and R(U-) table): Newton's law here, the
+        #: compliant law of a :class:`CompliantBeamModel`
+        self.upper_law = Restitution(float(R), *table)
         self.gap_contact_lower_m = None if gap_contact_lower_m is None else float(gap_contact_lower_m)
         if R_lower is not None and not 0.0 <= float(R_lower) <= 1.0:
             raise ValueError("R_lower must lie in [0, 1]")
@@ -311,6 +313,34 @@ class BeamImpactModel:
         """A second stop below (``gap_contact_lower_m`` given)."""
         return getattr(self, "gap_contact_lower_m", None) is not None
 
+    # the upper stop's numbers, read from and written to its law (the model holds no copy)
+    @property
+    def R(self) -> float:
+        """The upper stop's ``R`` (its law's; a compliant law's target R)."""
+        return float(self.upper_law.R)
+
+    @R.setter
+    def R(self, value: float) -> None:
+        self.upper_law = dataclasses.replace(self.upper_law, R=float(value))
+
+    @property
+    def R_table_U(self) -> np.ndarray:
+        """Nodes ``U-`` of the upper stop's ``R(U-)`` table (kernel units), shape (k,); empty: constant R."""
+        return np.asarray(self.upper_law.table_U, dtype=float)
+
+    @R_table_U.setter
+    def R_table_U(self, value) -> None:
+        self.upper_law = dataclasses.replace(self.upper_law, table_U=tuple(float(x) for x in np.ravel(value)))
+
+    @property
+    def R_table_R(self) -> np.ndarray:
+        """Values ``R`` of the upper stop's ``R(U-)`` table, shape (k,)."""
+        return np.asarray(self.upper_law.table_R, dtype=float)
+
+    @R_table_R.setter
+    def R_table_R(self, value) -> None:
+        self.upper_law = dataclasses.replace(self.upper_law, table_R=tuple(float(x) for x in np.ravel(value)))
+
     def stops(self) -> tuple:
         """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
         ``w^T eta = Delta_C`` (normal ``w``) with Newton's law, ``R`` and ``R(U-)``, and for a
@@ -336,9 +366,9 @@ class BeamImpactModel:
 
     def mass_stops(self) -> tuple:
         """The stops at the attached mass (the paper's, and a lower one): the first of :meth:`stops`.
-        The upper stop has Newton's law with ``R`` (and its table); the lower one ``lower_law``
-        (None: the upper stop's law)."""
-        upper = Restitution(self.R, tuple(self.R_table_U), tuple(self.R_table_R))
+        The upper stop has its law ``upper_law`` (Newton's with ``R`` and its table, or a compliant
+        one); the lower one ``lower_law`` (None: the upper stop's law)."""
+        upper = self.upper_law
         out = (Stop(Relation(1.0, self.gap_contact_m), upper),)
         if self.two_sided:
             out += (Stop(Relation(-1.0, self.gap_contact_lower_m),
@@ -415,8 +445,9 @@ class BeamImpactModel:
         upper one): the law of the kernel, in its units."""
         v = np.asarray(velocities, float)
         if stops is None:
-            return np.array([restitution_at(float(x) * self.length_m, self.R, self.R_table_U, self.R_table_R)
-                             for x in v])
+            law = self.upper_law
+            U, Rt = np.asarray(law.table_U, float), np.asarray(law.table_R, float)
+            return np.array([restitution_at(float(x) * self.length_m, law.R, U, Rt) for x in v])
         codes = self.stop_codes()
         laws = {int(c): s.law for c, s in zip(range(len(self.stops())) if codes is None else codes, self.stops())}
         return np.array([laws[int(k)].coefficient(float(x) * self.length_m) for x, k in zip(v, stops)])
@@ -487,28 +518,28 @@ class CompliantBeamModel(BeamImpactModel):
         (``gap_contact_lower_m``) gets ``law_lower`` at its lower stop (None: ``law``)."""
         m = cls.__new__(cls)
         m.__dict__.update(copy.copy(base.__dict__))
-        m.contact = law
+        m.upper_law = law
         m.lower_law = law_lower
         return m
 
     @property
-    def contact_law(self) -> str:
-        return self.contact.name
+    def contact(self):
+        """The upper stop's compliant law (its ``upper_law``: the stops at the attached mass are
+        :meth:`BeamImpactModel.mass_stops`'s, the point stops, Newton's, follow in :meth:`stops`)."""
+        return self.upper_law
 
-    def mass_stops(self) -> tuple:
-        """The stops at the attached mass with their laws: the stop at ``w^T eta = Delta_C`` (law
-        ``contact``) and, for a two-sided scene, the one at ``w^T eta = -Delta_C,lower``
-        (``lower_law``, None: ``contact``); the point stops (Newton's law) follow in :meth:`stops`."""
-        out = (Stop(Relation(1.0, self.gap_contact_m), self.contact),)
-        if self.two_sided:
-            out += (Stop(Relation(-1.0, self.gap_contact_lower_m),
-                         self.contact if self.lower_law is None else self.lower_law),)
-        return out
+    @contact.setter
+    def contact(self, law) -> None:
+        self.upper_law = law
+
+    @property
+    def contact_law(self) -> str:
+        return self.upper_law.name
 
     @property
     def contact_damping_n_s_m(self) -> float:
         """The upper Kelvin-Voigt stop's dashpot ``c_c = 2 zeta_c sqrt(k_c m_eff)`` (N s/m)."""
-        return 2.0 * self.contact.damping_ratio * math.sqrt(self.contact.stiffness * self.m_eff)
+        return 2.0 * self.upper_law.damping_ratio * math.sqrt(self.upper_law.stiffness * self.m_eff)
 
 
 # ============================================================================ solvers

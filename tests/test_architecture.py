@@ -436,12 +436,11 @@ LAW_HOLDERS = ("models/contact.py", "models/compliant.py", "models/core/laws.py"
 #: per module, as measured (2026-11-26, issue 43, after the SDOF methods, the mapping, the
 #: shooting problem and the sensor read R through their stops' laws, and a point stop on the beam
 #: holds its law, not R); the list may only shrink.
-#: What is left: the model classes that still hold R beside their laws (``SDOF.R``,
-#: ``BeamImpactModel.R``) and build the laws from it, the kernels' packed laws
+#: What is left: the SDOF, which still holds R beside its laws (``SDOF.R``) and builds the laws
+#: from it (the beam holds its upper stop's law, ``upper_law``), the kernels' packed laws
 #: (``KernelStops.R``, the law's numbers in arrays), the shooting problem's lower-stop R, the
 #: sensor's constant R (given by the scene's law), the job's case table
 LAW_READS = {
-    "models/beam_dynamics.py": 3,
     "models/core/integrator.py": 1,
     "models/core/shooting.py": 1,
     "models/periodic_sdof.py": 2,
