@@ -26,6 +26,34 @@ from .system import from_sdof
 _EMPTY = np.zeros(0)
 
 
+def _upper_law(law, R, R_table, contact):
+    """The upper stop's law from the constructor's arguments: ``contact`` (a compliant law) when
+    given; else, when ``R`` or ``R_table`` is given, Newton's law with them (what is not given
+    taken from ``law``; a compliant ``law`` given ``R`` gets it as its target,
+    ``with_restitution``); else ``law``.
+
+    Raises
+    ------
+    TypeError
+        Without a law and without ``R``.
+    """
+    if contact is not None:
+        return contact
+    if R is None and R_table is None:
+        if law is None:
+            raise TypeError("SDOF needs R (or a law of its upper stop)")
+        return law
+    if law is not None and law.kind != "impulsive":
+        return law if R is None or float(R) == law.R else law.with_restitution(float(R))
+    if R is None:
+        R = law.R
+    if R_table is None:
+        table = ((), ()) if law is None else (law.table_U, law.table_R)
+    else:
+        table = (tuple(v for v, _ in R_table), tuple(r for _, r in R_table))
+    return Restitution(R, *table)
+
+
 @dataclass(frozen=True, init=False)
 class SDOF:
     """Parameters of the nondimensional SDOF impact oscillator.
@@ -80,31 +108,50 @@ class SDOF:
 
     beta: float
     B: float
-    R: float
     Delta: float
     natural_frequency_hz: float | None = None
     length_m: float | None = None
-    R_table: tuple = ()
     Delta_lower: float | None = None
-    contact: object = None
     mass_kg: float | None = None
     lower_law: object = None
+    upper_law: object = None
 
     fidelity = "sdof"
 
-    def __init__(self, beta, B, R, Delta, natural_frequency_hz=None, length_m=None, R_table=(), Delta_lower=None,
-                 R_lower=None, contact=None, mass_kg=None, contact_lower=None, lower_law=None):
+    def __init__(self, beta, B, R=None, Delta=None, natural_frequency_hz=None, length_m=None, R_table=None,
+                 Delta_lower=None, R_lower=None, contact=None, mass_kg=None, contact_lower=None, lower_law=None,
+                 upper_law=None):
+        if Delta is None:
+            raise TypeError("SDOF needs Delta (the gap to the upper stop)")
         if R_lower is not None and contact_lower is not None:
             raise ValueError("the lower stop takes one law: contact_lower (compliant) or R_lower (restitution)")
         if R_lower is not None:
             lower_law = Restitution(float(R_lower))
         elif contact_lower is not None:
             lower_law = contact_lower
-        for k, v in (("beta", beta), ("B", B), ("R", R), ("Delta", Delta),
-                     ("natural_frequency_hz", natural_frequency_hz), ("length_m", length_m), ("R_table", R_table),
-                     ("Delta_lower", Delta_lower), ("contact", contact), ("mass_kg", mass_kg),
-                     ("lower_law", lower_law)):
+        upper_law = _upper_law(upper_law, R, R_table, contact)
+        for k, v in (("beta", beta), ("B", B), ("Delta", Delta), ("natural_frequency_hz", natural_frequency_hz),
+                     ("length_m", length_m), ("Delta_lower", Delta_lower), ("mass_kg", mass_kg),
+                     ("lower_law", lower_law), ("upper_law", upper_law)):
             object.__setattr__(self, k, v)
+
+    # the upper stop's numbers, read from its law (the model holds no copy; ``replace(m, R=...)``,
+    # ``R_table=`` and ``contact=`` give a new law: :func:`_upper_law`)
+    @property
+    def R(self) -> float:
+        """The upper stop's ``R``: Newton's, or the compliant law's target restitution."""
+        return self.upper_law.R
+
+    @property
+    def R_table(self) -> tuple:
+        """``((q'-, R), ...)`` of the upper stop's ``R(q'-)`` table; empty: constant ``R``."""
+        law = self.upper_law
+        return tuple(zip(law.table_U, law.table_R)) if law.kind == "impulsive" else ()
+
+    @property
+    def contact(self):
+        """The upper stop's compliant law, or None for Newton's law."""
+        return None if self.upper_law.kind == "impulsive" else self.upper_law
 
     @property
     def two_sided(self) -> bool:
@@ -129,11 +176,7 @@ class SDOF:
         ``q = Delta`` (normal ``+1``) with Newton's law, ``R`` and ``R(q'-)``, or the compliant
         law ``contact``; for a two-sided scene the stop at ``q = -Delta_lower`` (normal ``-1``)
         with ``lower_law`` (None: the upper stop's)."""
-        if self.contact is None:
-            tv, tR = self.R_table and tuple(zip(*self.R_table)) or ((), ())
-            upper = Restitution(self.R, tuple(tv), tuple(tR))
-        else:
-            upper = self.contact
+        upper = self.upper_law
         out = (Stop(Relation(1.0, self.Delta), upper),)
         if self.Delta_lower is not None:
             out += (Stop(Relation(-1.0, self.Delta_lower), upper if self.lower_law is None else self.lower_law),)
@@ -163,7 +206,8 @@ class SDOF:
         v = np.asarray(velocities, float)
         if stops is None:
             tv, tR = self.restitution_table()
-            return np.array([restitution_at(float(x), self.R, tv, tR) for x in v])
+            R = self.upper_law.R
+            return np.array([restitution_at(float(x), R, tv, tR) for x in v])
         laws = [s.law for s in self.stops()]
         stops = np.asarray(stops, np.int64)
         out = np.empty(v.shape[0])

@@ -436,15 +436,14 @@ LAW_HOLDERS = ("models/contact.py", "models/compliant.py", "models/core/laws.py"
 #: per module, as measured (2026-11-26, issue 43, after the SDOF methods, the mapping, the
 #: shooting problem and the sensor read R through their stops' laws, and a point stop on the beam
 #: holds its law, not R); the list may only shrink.
-#: What is left: the SDOF, which still holds R beside its laws (``SDOF.R``) and builds the laws
-#: from it (the beam holds its upper stop's law, ``upper_law``), the kernels' packed laws
+#: What is left (the SDOF and the beam hold their upper stop's law, ``upper_law``, and no R):
+#: the kernels' packed laws
 #: (``KernelStops.R``, the law's numbers in arrays), the shooting problem's lower-stop R, the
 #: sensor's constant R (given by the scene's law), the job's case table
 LAW_READS = {
     "models/core/integrator.py": 1,
     "models/core/shooting.py": 1,
     "models/periodic_sdof.py": 2,
-    "models/sdof.py": 2,
     "vibeam/engine/jobs.py": 2,
     "vibeam/engine/sensor.py": 1,
 }
