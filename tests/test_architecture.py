@@ -501,8 +501,6 @@ def test_the_law_read_check_can_fail(tmp_path):
 SIZE_EXCEPTIONS = {
     "models/core/shooting.py:tangent": (400, 8),
     "models/core/integrator.py:_held_step": (304, 5),
-    "models/core/contact_phase.py:linear_step": (226, 3),
-    "models/core/signals.py:scan_from": (42, 6),
 }
 MAX_LINES = 150
 MAX_DEPTH = 5

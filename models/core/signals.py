@@ -391,22 +391,22 @@ def scan_from(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, g0, v0, g20
     if cert == 0:
         cert = 1 if g20 + g21 > 0.0 else -1
     if cert < 0:
-        if v0 > 0.0:
-            if v1 >= 0.0:
-                if g1 >= 0.0:
-                    s0 = hermite_guess(0.0, h, g0, v0, g1, v1)
-                    return root(ROOT_CROSS, 0.0, h, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
-            else:
-                bound = g0 + v0 * (g1 - g0 - v1 * h) / (v0 - v1) if v0 - v1 > 0.0 else g0
-                if bound >= 0.0:
-                    s0 = hermite_guess(0.0, h, -v0, -g20, -v1, -g21)
-                    sa = root(ROOT_APEX, 0.0, h, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-                    ga = signal(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
-                    if ga >= 0.0:
-                        if g0 < 0.0:
-                            s0 = hermite_guess(0.0, sa, g0, v0, ga, 0.0)
-                            return root(ROOT_CROSS, 0.0, sa, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
-                        return sa, h
+        # concave: rising at the start, a crossing before the slope turns (v1 >= 0) or before the apex
+        if v0 > 0.0 and v1 >= 0.0:
+            if g1 >= 0.0:
+                s0 = hermite_guess(0.0, h, g0, v0, g1, v1)
+                return root(ROOT_CROSS, 0.0, h, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
+        elif v0 > 0.0:
+            bound = g0 + v0 * (g1 - g0 - v1 * h) / (v0 - v1) if v0 - v1 > 0.0 else g0
+            if bound >= 0.0:
+                s0 = hermite_guess(0.0, h, -v0, -g20, -v1, -g21)
+                sa = root(ROOT_APEX, 0.0, h, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
+                ga = signal(sa, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)[0]
+                if ga >= 0.0:
+                    if g0 < 0.0:
+                        s0 = hermite_guess(0.0, sa, g0, v0, ga, 0.0)
+                        return root(ROOT_CROSS, 0.0, sa, s0, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m), h
+                    return sa, h
     else:
         if v1 > 0.0 or (v1 == 0.0 and g1 >= 0.0):
             if v0 < 0.0:
