@@ -501,6 +501,9 @@ def test_the_law_read_check_can_fail(tmp_path):
 SIZE_EXCEPTIONS = {
     "models/core/shooting.py:tangent": (400, 8),
     "models/core/integrator.py:_held_step": (304, 5),
+    # split into inlined phases (bit for bit), it compiled ~10 % longer (the Kelvin-Voigt tests:
+    # 193 s against 176 s with an empty cache): kept whole until the compile work of issue 44
+    "models/core/contact_phase.py:linear_step": (226, 3),
 }
 MAX_LINES = 150
 MAX_DEPTH = 5

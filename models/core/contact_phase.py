@@ -45,10 +45,6 @@ _X, _W = np.polynomial.legendre.leggauss(8)
 GL_X = 0.5 * (_X + 1.0)
 GL_W = 0.5 * _W
 
-#: the phases of :func:`linear_step`, inlined into it at numba's IR (compiled on their own, a call
-#: each with the phase tables' many array fields made a step ~10 % slower)
-_phase = njit(cache=True, _nrt=False, error_model="numpy", inline="always")
-
 
 @njit(cache=True, _nrt=False, error_model="numpy")
 def phase_harmonics(cp, Om, F, ax, bx, ay, by):
@@ -101,276 +97,10 @@ def _combo(a0, p0, r0, a1, p1, r1, wp, wr, m):
         wr[j] = a0 * r0[j] + a1 * r1[j]
 
 
-@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
-def _earliest(sk, hk2, hk, k, kd, s_ev, k_ev, kind, hh):
-    """The step's event ``(s_ev, k_ev, kind, hh)`` after a scan of stop ``k`` for an event of kind
-    ``kd`` over ``hk`` (:func:`vibeam.models.core.signals.scan`'s ``(sk, hk2)``): one found is the
-    earliest (the scan went no further than the event before); a scan that had to shorten the
-    step drops the event before (beyond the shorter step) and shortens the step."""
-    if sk >= 0.0:
-        return sk, k, kd, hh
-    if hk2 < hk:
-        return -1.0, -1, EK_NONE, hk2
-    return s_ev, k_ev, kind, hh
-
-
-@_phase
-def _start(q, phi, fresh, eta, etad, cp, ax, bx, ay, by, xh, yh, hb):
-    """The phase's homogeneous parts ``xh, yh`` (from the state when ``fresh``) and their bounds
-    ``hb`` at the step's start (arguments as :func:`linear_step`)."""
-    n = eta.shape[0]
-    m = cp.m[q]
-    mp = cp.mp[q]
-    sp0 = math.sin(phi)
-    cp0 = math.cos(phi)
-    axq = ax[q]
-    bxq = bx[q]
-    ayq = ay[q]
-    byq = by[q]
-    if fresh:
-        for j in range(m):
-            xs = 0.0
-            ys = 0.0
-            for i in range(n):
-                de = eta[i] - cp.ze[q, i]
-                dv = etad[i] - cp.ze[q, n + i]
-                xs += cp.Tix[q, j, i] * de + cp.Tix[q, j, n + i] * dv
-                ys += cp.Tiy[q, j, i] * de + cp.Tiy[q, j, n + i] * dv
-            xh[j] = xs - (axq[j] * sp0 + bxq[j] * cp0)
-            yh[j] = ys - (ayq[j] * sp0 + byq[j] * cp0)
-    for j in range(m):
-        homogeneous_bounds(xh[j], yh[j], mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3], mp[j, 4], mp[j, 5], hb[j])
-
-
-@_phase
-def _exit_events(q, C, hh, h_min, phi, Om, eta, etad, st, cp, ax, bx, ay, by, xh, yh, hb, wp, wr):
-    """The earliest exit on the step of at most ``hh``: the force of a stop in contact back down
-    through zero (arguments as :func:`linear_step`).
-
-    Returns
-    -------
-    s_ev, k_ev, kind, hh, now : float, int, int, float, bool
-        The event (``s_ev`` -1: none), the step, and ``now``: a contact ends at once (stop
-        ``k_ev``)."""
-    n = eta.shape[0]
-    ns = st.offset.shape[0]
-    m = cp.m[q]
-    mp = cp.mp[q]
-    axq = ax[q]
-    bxq = bx[q]
-    ayq = ay[q]
-    byq = by[q]
-    s_ev = -1.0
-    k_ev = -1
-    kind = EK_NONE
-    for k in range(ns):
-        if (C >> k) & 1 == 0:
-            continue
-        kc = st.kc[k]
-        cc = st.cc[k]
-        _combo(-kc, cp.pg[q, k], cp.rg[q, k], -cc, cp.pv[q, k], cp.rv[q, k], wp, wr, m)
-        Sa, Sb = _harm(wp, wr, axq, bxq, ayq, byq, m)
-        f0, fp0 = signal_start(phi, Om, xh, yh, mp, wp, wr, Sa, Sb, -kc * cp.gc[q, k], m)
-        Cs = math.sqrt(Sa * Sa + Sb * Sb)
-        # the force is known to the round-off of the gap n^T eta - D and the rate n^T eta' it is
-        # formed of: just after an entry (located on the free flow, the gap 0 there to that
-        # round-off) an undamped stop's force k g must not count as an exit
-        gsc = abs(st.offset[k])
-        vsc = 0.0
-        for i in range(n):
-            gsc += abs(st.normal[k, i] * eta[i])
-            vsc += abs(st.normal[k, i] * etad[i])
-        tol0 = 1e-13 * (_mag(hb, wp, wr, Cs, Om, m, 0) + abs(kc * cp.gc[q, k]) + kc * gsc + abs(cc) * vsc)
-        tol1 = 1e-13 * _mag(hb, wp, wr, Cs, Om, m, 1)
-        if f0 > tol0 or (f0 >= -tol0 and fp0 > tol1):
-            return 0.0, k, EK_EXIT, hh, True
-        if f0 >= -tol0 and fp0 >= -tol1:
-            # the force and its rate are zero to round-off (a contact entered at rest, g = g' = 0):
-            # the force's sign is round-off until it grows, so the exit is its fall below -tol0, not
-            # a crossing of zero by round-off (a contact of duration 5e-17, then entered again)
-            f0 -= tol0
-        M2, M3, M4 = bounds(hb, wp, wr, Cs, Om, m)
-        hk = hh if s_ev < 0.0 else s_ev
-        sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, M2, M3, M4, m)
-        s_ev, k_ev, kind, hh = _earliest(sk, hk2, hk, k, EK_EXIT, s_ev, k_ev, kind, hh)
-    return s_ev, k_ev, kind, hh, False
-
-
-@_phase
-def _other_events(q, H, C, inside, relaxed, s_ev, k_ev, kind, hh, h_min, phi, Om, F, st, hs, cp, ax, bx, ay, by,
-                  xh, yh, hb, vr, wp, wr, wp2, wr2):
-    """The earliest event of the stops not in contact on the step, after the exits
-    (:func:`_exit_events`'s ``s_ev, k_ev, kind, hh``): a held stop's release, an entry into a
-    compliant stop (its gap up through zero, or inside it the sign of its force), a Newton stop's
-    impact, the gap of a stop the body is inside of back down through zero (arguments as
-    :func:`linear_step`).  Returns as :func:`_exit_events` (``now``: at once, of ``kind``)."""
-    ns = st.offset.shape[0]
-    m = cp.m[q]
-    mp = cp.mp[q]
-    axq = ax[q]
-    bxq = bx[q]
-    ayq = ay[q]
-    byq = by[q]
-    for j in range(ns):
-        if (C >> j) & 1:
-            continue
-        if (H >> j) & 1:
-            # a held stop's constraint force up through zero: its release
-            for i in range(m):
-                wp[i] = cp.pl[q, j, i]
-                wr[i] = cp.rl[q, j, i]
-            Sa, Sb = _harm(wp, wr, axq, bxq, ayq, byq, m)
-            Sa += cp.lF[q, j] * F
-            f0, fp0 = signal_start(phi, Om, xh, yh, mp, wp, wr, Sa, Sb, cp.lc[q, j], m)
-            Cs = math.sqrt(Sa * Sa + Sb * Sb)
-            tol0 = 1e-13 * (_mag(hb, wp, wr, Cs, Om, m, 0) + abs(cp.lc[q, j]))
-            if f0 > tol0:
-                return 0.0, j, EK_RELEASE, hh, True
-            M2, M3, M4 = bounds(hb, wp, wr, Cs, Om, m)
-            hk = hh if s_ev < 0.0 else s_ev
-            sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, M2, M3, M4, m)
-            s_ev, k_ev, kind, hh = _earliest(sk, hk2, hk, j, EK_RELEASE, s_ev, k_ev, kind, hh)
-            continue
-        if H != 0 and hs.moves[H, j] == 0:
-            continue
-        for i in range(m):
-            wp2[i] = cp.pg[q, j, i]
-            wr2[i] = cp.rg[q, j, i]
-        Sg, Sgb = _harm(wp2, wr2, axq, bxq, ayq, byq, m)
-        g0, gp0 = signal_start(phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, cp.gc[q, j], m)
-        Cg = math.sqrt(Sg * Sg + Sgb * Sgb)
-        if (inside >> j) & 1:
-            r0, r1, roff = inside_sign(st.law[j], st.kc[j], st.cc[j], vr[j], (relaxed >> j) & 1 == 1)
-            _combo(r0, cp.pg[q, j], cp.rg[q, j], r1, cp.pv[q, j], cp.rv[q, j], wp, wr, m)
-            Sa, Sb = _harm(wp, wr, axq, bxq, ayq, byq, m)
-            Cs = math.sqrt(Sa * Sa + Sb * Sb)
-            c0 = r0 * cp.gc[q, j] + roff
-            f0, fp0 = signal_start(phi, Om, xh, yh, mp, wp, wr, Sa, Sb, c0, m)
-            tol0 = 1e-13 * (_mag(hb, wp, wr, Cs, Om, m, 0) + abs(c0))
-            tol1 = 1e-13 * _mag(hb, wp, wr, Cs, Om, m, 1)
-            if f0 > tol0 or (f0 >= -tol0 and fp0 > tol1):
-                return 0.0, j, EK_ENTRY, hh, True
-            M2, M3, M4 = bounds(hb, wp, wr, Cs, Om, m)
-            hk = hh if s_ev < 0.0 else s_ev
-            sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, M2, M3, M4, m)
-            s_ev, k_ev, kind, hh = _earliest(sk, hk2, hk, j, EK_ENTRY, s_ev, k_ev, kind, hh)
-            # the gap back down through zero
-            for i in range(m):
-                wp[i] = -wp2[i]
-                wr[i] = -wr2[i]
-            M2, M3, M4 = bounds(hb, wp, wr, Cg, Om, m)
-            hk = hh if s_ev < 0.0 else s_ev
-            sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp, wr, -Sg, -Sgb, -g0, -gp0, M2, M3, M4, m)
-            s_ev, k_ev, kind, hh = _earliest(sk, hk2, hk, j, EK_GAPDOWN, s_ev, k_ev, kind, hh)
-            continue
-        tolg = 1e-13 * (_mag(hb, wp2, wr2, Cg, Om, m, 0) + abs(cp.gc[q, j]))
-        if g0 >= -tolg and gp0 > 0.0:
-            return 0.0, j, EK_ENTRY if st.law[j] != 0 else EK_IMPACT, hh, True
-        M2, M3, M4 = bounds(hb, wp2, wr2, Cg, Om, m)
-        hk = hh if s_ev < 0.0 else s_ev
-        sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, g0, gp0, M2, M3, M4, m)
-        s_ev, k_ev, kind, hh = _earliest(sk, hk2, hk, j, EK_ENTRY if st.law[j] != 0 else EK_IMPACT, s_ev, k_ev,
-                                         kind, hh)
-    return s_ev, k_ev, kind, hh, False
-
-
-@_phase
-def _contact_records(q, C, s_mv, phi, Om, st, cp, ax, bx, ay, by, xh, yh, cs, wp, wr, wp2, wr2, ext2):
-    """The open contacts' records over the step ``[0, s_mv]``: peak force, largest penetration,
-    work (arguments as :func:`linear_step`)."""
-    ns = st.offset.shape[0]
-    m = cp.m[q]
-    mp = cp.mp[q]
-    axq = ax[q]
-    bxq = bx[q]
-    ayq = ay[q]
-    byq = by[q]
-    for k in range(ns):
-        if (C >> k) & 1 == 0:
-            continue
-        kc = st.kc[k]
-        cc = st.cc[k]
-        for i in range(m):
-            wp2[i] = cp.pg[q, k, i]
-            wr2[i] = cp.rg[q, k, i]
-        Sg, Sgb = _harm(wp2, wr2, axq, bxq, ayq, byq, m)
-        g0, gp0 = signal_start(phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, cp.gc[q, k], m)
-        # the force k g + c g' as a signal
-        _combo(kc, cp.pg[q, k], cp.rg[q, k], cc, cp.pv[q, k], cp.rv[q, k], wp, wr, m)
-        Sa, Sb = _harm(wp, wr, axq, bxq, ayq, byq, m)
-        f0, fp0 = signal_start(phi, Om, xh, yh, mp, wp, wr, Sa, Sb, kc * cp.gc[q, k], m)
-        f1, fp1, _a, _b, _c = signal(s_mv, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, m)
-        ext2[0] = np.inf
-        ext2[1] = max(f0, f1)
-        extremes(s_mv, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, fp0, fp1, ext2, m)
-        if ext2[1] > cs[k, 1]:
-            cs[k, 1] = ext2[1]
-        g1, gp1, _a, _b, _c = signal(s_mv, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, g0, gp0, m)
-        ext2[0] = np.inf
-        ext2[1] = max(g0, g1)
-        extremes(s_mv, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, g0, gp0, gp0, gp1, ext2, m)
-        if ext2[1] > cs[k, 2]:
-            cs[k, 2] = ext2[1]
-        acc = 0.0
-        for i in range(GL_X.shape[0]):
-            gi, gpi, _a, _b, _c = signal(GL_X[i] * s_mv, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, g0, gp0, m)
-            acc += GL_W[i] * (kc * gi + cc * gpi) * gpi
-        cs[k, 3] += acc * s_mv
-
-
-@_phase
-def _sensor_extremes(q, s_mv, phi, Om, cp, ax, bx, ay, by, xh, yh, wp2, wr2, pext):
-    """The sensor's interior extremes over the step ``[0, s_mv]`` into ``pext`` (arguments as
-    :func:`linear_step`)."""
-    m = cp.m[q]
-    mp = cp.mp[q]
-    for i in range(m):
-        wp2[i] = cp.ps[q, i]
-        wr2[i] = cp.rs[q, i]
-    Sg, Sgb = _harm(wp2, wr2, ax[q], bx[q], ay[q], by[q], m)
-    q0, qp0 = signal_start(phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, cp.sc[q], m)
-    q1, qp1, _a, _b, _c = signal(s_mv, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, q0, qp0, m)
-    extremes(s_mv, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, q0, qp0, qp0, qp1, pext, m)
-
-
-@_phase
-def _advance(q, s_mv, phi, Om, eta, etad, cp, ax, bx, ay, by, xh, yh):
-    """Advance the oscillators ``xh, yh`` by ``s_mv`` and recompose the state ``eta, etad``
-    (arguments as :func:`linear_step`)."""
-    n = eta.shape[0]
-    m = cp.m[q]
-    mp = cp.mp[q]
-    axq = ax[q]
-    bxq = bx[q]
-    ayq = ay[q]
-    byq = by[q]
-    for j in range(m):
-        a11, a12, a21, a22 = transition_increment(s_mv, mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3], mp[j, 4],
-                                                  mp[j, 5])
-        dx = a11 * xh[j] + a12 * yh[j]
-        dy = a21 * xh[j] + a22 * yh[j]
-        xh[j] += dx
-        yh[j] += dy
-    p1 = phi + Om * s_mv
-    sp1 = math.sin(p1)
-    cp1 = math.cos(p1)
-    for i in range(n):
-        eta[i] = cp.ze[q, i]
-        etad[i] = cp.ze[q, n + i]
-    for j in range(m):
-        xt = xh[j] + axq[j] * sp1 + bxq[j] * cp1
-        yt = yh[j] + ayq[j] * sp1 + byq[j] * cp1
-        for i in range(n):
-            eta[i] += cp.Tx[q, i, j] * xt + cp.Ty[q, i, j] * yt
-            etad[i] += cp.Tx[q, n + i, j] * xt + cp.Ty[q, n + i, j] * yt
-
-
 @njit(cache=True, _nrt=False, error_model="numpy")
 def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, hs, cp, ax, bx, ay, by, xh, yh,
                 fresh, vr, cs, recording, pext, hb, wp, wr, wp2, wr2, ext2):
-    """One step of the linear contact phase ``q`` (held set ``H``, contact set ``C``) of at most ``h``:
-    its phases :func:`_start`, :func:`_exit_events`, :func:`_other_events` (the earliest event
-    ends the step), :func:`_contact_records`, :func:`_sensor_extremes` and :func:`_advance`.
+    """One step of the linear contact phase ``q`` (held set ``H``, contact set ``C``) of at most ``h``.
 
     Parameters
     ----------
@@ -407,29 +137,229 @@ def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, h
     """
     if cp is None:
         return -1.0, EK_FAIL, -1, 0
+    n = eta.shape[0]
+    ns = st.offset.shape[0]
+    m = cp.m[q]
+    mp = cp.mp[q]
     if not cp.hcap[q] > 0.0:
         return -1.0, EK_FAIL, -1, 0       # a phase not resolved in double precision (phases.UnresolvedPhase)
-    _start(q, phi, fresh, eta, etad, cp, ax, bx, ay, by, xh, yh, hb)
+    sp0 = math.sin(phi)
+    cp0 = math.cos(phi)
+    axq = ax[q]
+    bxq = bx[q]
+    ayq = ay[q]
+    byq = by[q]
+    if fresh:
+        for j in range(m):
+            xs = 0.0
+            ys = 0.0
+            for i in range(n):
+                de = eta[i] - cp.ze[q, i]
+                dv = etad[i] - cp.ze[q, n + i]
+                xs += cp.Tix[q, j, i] * de + cp.Tix[q, j, n + i] * dv
+                ys += cp.Tiy[q, j, i] * de + cp.Tiy[q, j, n + i] * dv
+            xh[j] = xs - (axq[j] * sp0 + bxq[j] * cp0)
+            yh[j] = ys - (ayq[j] * sp0 + byq[j] * cp0)
+    for j in range(m):
+        homogeneous_bounds(xh[j], yh[j], mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3], mp[j, 4], mp[j, 5], hb[j])
     hh = min(h, cp.hcap[q])
+    s_ev = -1.0
+    k_ev = -1
+    kind = EK_NONE
     # ---- exits: the force of each stop in contact back down through zero
-    s_ev, k_ev, kind, hh, now = _exit_events(q, C, hh, h_min, phi, Om, eta, etad, st, cp, ax, bx, ay, by, xh, yh, hb,
-                                             wp, wr)
-    if now:
-        return 0.0, EK_EXIT, k_ev, 0
+    for k in range(ns):
+        if (C >> k) & 1 == 0:
+            continue
+        kc = st.kc[k]
+        cc = st.cc[k]
+        _combo(-kc, cp.pg[q, k], cp.rg[q, k], -cc, cp.pv[q, k], cp.rv[q, k], wp, wr, m)
+        Sa, Sb = _harm(wp, wr, axq, bxq, ayq, byq, m)
+        f0, fp0 = signal_start(phi, Om, xh, yh, mp, wp, wr, Sa, Sb, -kc * cp.gc[q, k], m)
+        Cs = math.sqrt(Sa * Sa + Sb * Sb)
+        # the force is known to the round-off of the gap n^T eta - D and the rate n^T eta' it is
+        # formed of: just after an entry (located on the free flow, the gap 0 there to that
+        # round-off) an undamped stop's force k g must not count as an exit
+        gsc = abs(st.offset[k])
+        vsc = 0.0
+        for i in range(n):
+            gsc += abs(st.normal[k, i] * eta[i])
+            vsc += abs(st.normal[k, i] * etad[i])
+        tol0 = 1e-13 * (_mag(hb, wp, wr, Cs, Om, m, 0) + abs(kc * cp.gc[q, k]) + kc * gsc + abs(cc) * vsc)
+        tol1 = 1e-13 * _mag(hb, wp, wr, Cs, Om, m, 1)
+        if f0 > tol0 or (f0 >= -tol0 and fp0 > tol1):
+            return 0.0, EK_EXIT, k, 0
+        if f0 >= -tol0 and fp0 >= -tol1:
+            # the force and its rate are zero to round-off (a contact entered at rest, g = g' = 0):
+            # the force's sign is round-off until it grows, so the exit is its fall below -tol0, not
+            # a crossing of zero by round-off (a contact of duration 5e-17, then entered again)
+            f0 -= tol0
+        M2, M3, M4 = bounds(hb, wp, wr, Cs, Om, m)
+        hk = hh if s_ev < 0.0 else s_ev
+        sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, M2, M3, M4, m)
+        if sk >= 0.0:
+            s_ev = sk
+            k_ev = k
+            kind = EK_EXIT
+        elif hk2 < hk:
+            s_ev = -1.0
+            k_ev = -1
+            kind = EK_NONE
+            hh = hk2
     # ---- the other stops: entries, impacts, releases
-    s_ev, k_ev, kind, hh, now = _other_events(q, H, C, inside, relaxed, s_ev, k_ev, kind, hh, h_min, phi, Om, F, st,
-                                              hs, cp, ax, bx, ay, by, xh, yh, hb, vr, wp, wr, wp2, wr2)
-    if now:
-        return 0.0, kind, k_ev, 0
+    for j in range(ns):
+        if (C >> j) & 1:
+            continue
+        if (H >> j) & 1:
+            # a held stop's constraint force up through zero: its release
+            for i in range(m):
+                wp[i] = cp.pl[q, j, i]
+                wr[i] = cp.rl[q, j, i]
+            Sa, Sb = _harm(wp, wr, axq, bxq, ayq, byq, m)
+            Sa += cp.lF[q, j] * F
+            f0, fp0 = signal_start(phi, Om, xh, yh, mp, wp, wr, Sa, Sb, cp.lc[q, j], m)
+            Cs = math.sqrt(Sa * Sa + Sb * Sb)
+            tol0 = 1e-13 * (_mag(hb, wp, wr, Cs, Om, m, 0) + abs(cp.lc[q, j]))
+            if f0 > tol0:
+                return 0.0, EK_RELEASE, j, 0
+            M2, M3, M4 = bounds(hb, wp, wr, Cs, Om, m)
+            hk = hh if s_ev < 0.0 else s_ev
+            sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, M2, M3, M4, m)
+            if sk >= 0.0:
+                s_ev = sk
+                k_ev = j
+                kind = EK_RELEASE
+            elif hk2 < hk:
+                s_ev = -1.0
+                k_ev = -1
+                kind = EK_NONE
+                hh = hk2
+            continue
+        if H != 0 and hs.moves[H, j] == 0:
+            continue
+        for i in range(m):
+            wp2[i] = cp.pg[q, j, i]
+            wr2[i] = cp.rg[q, j, i]
+        Sg, Sgb = _harm(wp2, wr2, axq, bxq, ayq, byq, m)
+        g0, gp0 = signal_start(phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, cp.gc[q, j], m)
+        Cg = math.sqrt(Sg * Sg + Sgb * Sgb)
+        if (inside >> j) & 1:
+            r0, r1, roff = inside_sign(st.law[j], st.kc[j], st.cc[j], vr[j], (relaxed >> j) & 1 == 1)
+            _combo(r0, cp.pg[q, j], cp.rg[q, j], r1, cp.pv[q, j], cp.rv[q, j], wp, wr, m)
+            Sa, Sb = _harm(wp, wr, axq, bxq, ayq, byq, m)
+            Cs = math.sqrt(Sa * Sa + Sb * Sb)
+            c0 = r0 * cp.gc[q, j] + roff
+            f0, fp0 = signal_start(phi, Om, xh, yh, mp, wp, wr, Sa, Sb, c0, m)
+            tol0 = 1e-13 * (_mag(hb, wp, wr, Cs, Om, m, 0) + abs(c0))
+            tol1 = 1e-13 * _mag(hb, wp, wr, Cs, Om, m, 1)
+            if f0 > tol0 or (f0 >= -tol0 and fp0 > tol1):
+                return 0.0, EK_ENTRY, j, 0
+            M2, M3, M4 = bounds(hb, wp, wr, Cs, Om, m)
+            hk = hh if s_ev < 0.0 else s_ev
+            sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, M2, M3, M4, m)
+            if sk >= 0.0:
+                s_ev = sk
+                k_ev = j
+                kind = EK_ENTRY
+            elif hk2 < hk:
+                s_ev = -1.0
+                k_ev = -1
+                kind = EK_NONE
+                hh = hk2
+            # the gap back down through zero
+            for i in range(m):
+                wp[i] = -wp2[i]
+                wr[i] = -wr2[i]
+            M2, M3, M4 = bounds(hb, wp, wr, Cg, Om, m)
+            hk = hh if s_ev < 0.0 else s_ev
+            sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp, wr, -Sg, -Sgb, -g0, -gp0, M2, M3, M4, m)
+            if sk >= 0.0:
+                s_ev = sk
+                k_ev = j
+                kind = EK_GAPDOWN
+            elif hk2 < hk:
+                s_ev = -1.0
+                k_ev = -1
+                kind = EK_NONE
+                hh = hk2
+            continue
+        tolg = 1e-13 * (_mag(hb, wp2, wr2, Cg, Om, m, 0) + abs(cp.gc[q, j]))
+        if g0 >= -tolg and gp0 > 0.0:
+            return 0.0, EK_ENTRY if st.law[j] != 0 else EK_IMPACT, j, 0
+        M2, M3, M4 = bounds(hb, wp2, wr2, Cg, Om, m)
+        hk = hh if s_ev < 0.0 else s_ev
+        sk, hk2 = scan(hk, h_min, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, g0, gp0, M2, M3, M4, m)
+        if sk >= 0.0:
+            s_ev = sk
+            k_ev = j
+            kind = EK_ENTRY if st.law[j] != 0 else EK_IMPACT
+        elif hk2 < hk:
+            s_ev = -1.0
+            k_ev = -1
+            kind = EK_NONE
+            hh = hk2
     s_mv = s_ev if s_ev >= 0.0 else hh
     if not s_mv >= 0.0:
         return -1.0, EK_FAIL, -1, 0
     # ---- the open contacts' records over [0, s_mv]: peak force, largest penetration, work
-    _contact_records(q, C, s_mv, phi, Om, st, cp, ax, bx, ay, by, xh, yh, cs, wp, wr, wp2, wr2, ext2)
+    for k in range(ns):
+        if (C >> k) & 1 == 0:
+            continue
+        kc = st.kc[k]
+        cc = st.cc[k]
+        for i in range(m):
+            wp2[i] = cp.pg[q, k, i]
+            wr2[i] = cp.rg[q, k, i]
+        Sg, Sgb = _harm(wp2, wr2, axq, bxq, ayq, byq, m)
+        g0, gp0 = signal_start(phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, cp.gc[q, k], m)
+        # the force k g + c g' as a signal
+        _combo(kc, cp.pg[q, k], cp.rg[q, k], cc, cp.pv[q, k], cp.rv[q, k], wp, wr, m)
+        Sa, Sb = _harm(wp, wr, axq, bxq, ayq, byq, m)
+        f0, fp0 = signal_start(phi, Om, xh, yh, mp, wp, wr, Sa, Sb, kc * cp.gc[q, k], m)
+        f1, fp1, _a, _b, _c = signal(s_mv, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, m)
+        ext2[0] = np.inf
+        ext2[1] = max(f0, f1)
+        extremes(s_mv, phi, Om, xh, yh, mp, wp, wr, Sa, Sb, f0, fp0, fp0, fp1, ext2, m)
+        if ext2[1] > cs[k, 1]:
+            cs[k, 1] = ext2[1]
+        g1, gp1, _a, _b, _c = signal(s_mv, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, g0, gp0, m)
+        ext2[0] = np.inf
+        ext2[1] = max(g0, g1)
+        extremes(s_mv, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, g0, gp0, gp0, gp1, ext2, m)
+        if ext2[1] > cs[k, 2]:
+            cs[k, 2] = ext2[1]
+        acc = 0.0
+        for i in range(GL_X.shape[0]):
+            gi, gpi, _a, _b, _c = signal(GL_X[i] * s_mv, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, g0, gp0, m)
+            acc += GL_W[i] * (kc * gi + cc * gpi) * gpi
+        cs[k, 3] += acc * s_mv
     if recording:
-        _sensor_extremes(q, s_mv, phi, Om, cp, ax, bx, ay, by, xh, yh, wp2, wr2, pext)
+        for i in range(m):
+            wp2[i] = cp.ps[q, i]
+            wr2[i] = cp.rs[q, i]
+        Sg, Sgb = _harm(wp2, wr2, axq, bxq, ayq, byq, m)
+        q0, qp0 = signal_start(phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, cp.sc[q], m)
+        q1, qp1, _a, _b, _c = signal(s_mv, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, q0, qp0, m)
+        extremes(s_mv, phi, Om, xh, yh, mp, wp2, wr2, Sg, Sgb, q0, qp0, qp0, qp1, pext, m)
     # ---- advance the oscillators and recompose the state
-    _advance(q, s_mv, phi, Om, eta, etad, cp, ax, bx, ay, by, xh, yh)
+    for j in range(m):
+        a11, a12, a21, a22 = transition_increment(s_mv, mp[j, 0], mp[j, 1], int(mp[j, 2]), mp[j, 3], mp[j, 4],
+                                                  mp[j, 5])
+        dx = a11 * xh[j] + a12 * yh[j]
+        dy = a21 * xh[j] + a22 * yh[j]
+        xh[j] += dx
+        yh[j] += dy
+    p1 = phi + Om * s_mv
+    sp1 = math.sin(p1)
+    cp1 = math.cos(p1)
+    for i in range(n):
+        eta[i] = cp.ze[q, i]
+        etad[i] = cp.ze[q, n + i]
+    for j in range(m):
+        xt = xh[j] + axq[j] * sp1 + bxq[j] * cp1
+        yt = yh[j] + ayq[j] * sp1 + byq[j] * cp1
+        for i in range(n):
+            eta[i] += cp.Tx[q, i, j] * xt + cp.Ty[q, i, j] * yt
+            etad[i] += cp.Tx[q, n + i, j] * xt + cp.Ty[q, n + i, j] * yt
     return s_mv, kind, k_ev, 0
 
 
