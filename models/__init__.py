@@ -71,10 +71,14 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
         family's shooting problem (the ``continuation`` :class:`~vibeam.models.registry.Method`'s
         ``laws``).
     """
+    up, _ = mass_law_keys(model)
+    if "continuation" not in supported_methods(model.fidelity, up):
+        law = getattr(model, "contact_law", "restitution")
+        raise ValueError(f"continuation is not available for contact law {law!r} of fidelity "
+                         f"{model.fidelity!r} (no shooting problem registered); use method = \"event\"")
     why = _refusal(model, "continuation")
     if why:
         raise ValueError(f"continuation {why}; use method = \"event\"")
-    up, _ = mass_law_keys(model)
     if up != IMPULSIVE:
         # a compliant upper stop: its family's shooting problem (registry ``Method.laws``)
         return resolve(fidelity(model).solvers["continuation"].laws[up])(model, parameter, Omega=Omega)
