@@ -48,7 +48,8 @@ from .contact import Relation, Restitution, Stop
 from .core.direct import DirectIntegrator
 from .core.event import EventIntegrator, fundamental_step, trajectory
 from .impact import newton_restitution, restitution_at, restitution_impulse
-from .system import advance_modes, from_beam, mode_table, particular, transition_increment
+from .scene import Scene, beam_scene
+from .system import advance_modes, mode_table, particular, transition_increment
 
 TWO_PI = 2.0 * math.pi
 
@@ -349,6 +350,11 @@ class BeamImpactModel:
             Stop(Relation(ps.sign, ps.gap_contact_m, row=1 + i), ps.law, ps.label)
             for i, (ps, _) in enumerate(self.point_stops))
 
+    def scene(self) -> Scene:
+        """The beam as a scene: its modal system and :meth:`system_stops`
+        (:func:`vibeam.models.scene.beam_scene`)."""
+        return beam_scene(self)
+
     def system_stops(self) -> tuple:
         """:meth:`stops` in the units of the modal system (:func:`vibeam.models.system.from_beam`): a
         compliant law's stiffness (N/m^p) over ``omega_ref^2`` (the system's time unit is
@@ -620,7 +626,7 @@ class BeamEventSolver:
         self.impact_buffer = int(impact_buffer)
         self.record_modal_states = bool(record_modal_states)
         # the one event integrator on the beam's modal system with its stops
-        self._core = EventIntegrator(from_beam(model), model.system_stops())
+        self._core = EventIntegrator(model.scene())
         self._h_cap = fundamental_step(self._core.system, self.steps_per_fundamental)
         # periods per call of the sweep engine (vibeam.engine.sweep.simulate): the cost per period grows
         # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
@@ -727,7 +733,7 @@ class BeamODESolver:
         self.solver = solver
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.chatter_velocity = float(chatter_velocity)
-        self._direct = DirectIntegrator(EventIntegrator(from_beam(model), model.system_stops()),
+        self._direct = DirectIntegrator(EventIntegrator(model.scene()),
                                         model.length_m * math.sqrt(model.m_eff), solver, rtol, atol,
                                         self.max_impacts_per_period, self.chatter_velocity, max_step)
         self.rtol = self._direct.rtol

@@ -67,7 +67,7 @@ from .core.integrator import EV_IMPACT, EV_STICK_IMPACT
 from .core.shooting import Direction, ModalShooting, Setup, directions, dtransition_dsig
 from .contact import Restitution
 from .impact import restitution_at
-from .system import from_beam, particular, transition_entries
+from .system import particular, transition_entries
 
 __all__ = ["BeamShooting", "BeamContinuation", "conversions", "NATIVE_PARAMETERS", "REBUILD_KEYS"]
 
@@ -248,7 +248,7 @@ class BeamShooting(ModalShooting):
         core_key = None if self.parameter == "Omega" else key
         if self._cache is None or self._cache["core_key"] != core_key:
             m = self.model_at(p)
-            core = EventIntegrator(from_beam(m), m.system_stops())
+            core = EventIntegrator(m.scene())
             ns = core.n_stops
             z = np.zeros(ns)
             N = m.n_modes

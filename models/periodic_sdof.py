@@ -54,7 +54,6 @@ from .contact import Restitution
 from .core.shooting import Direction, ModalShooting, Setup, directions
 from .periodic import Shot
 from .sdof_flow import particular_coefficients
-from .system import from_sdof
 
 TWO_PI = 2.0 * math.pi
 
@@ -157,7 +156,7 @@ class SDOFShooting(ModalShooting):
                                           else law.with_restitution(float(p)))
         return float(m.Delta_lower), m.lower_law
 
-    def R_lower(self, R: float, p: float | None = None) -> float:
+    def lower_restitution(self, R: float, p: float | None = None) -> float:
         """The lower stop's R when the upper stop's is ``R`` (at ``p`` for a continuation in
         ``R_lower``): its own law's, or ``R``; None for a compliant lower law of its own."""
         law = self.lower(self.value if p is None else p)[1] if self.two_sided else None
@@ -193,8 +192,8 @@ class SDOFShooting(ModalShooting):
         """The one-mode system at ``p`` with the directions of :data:`PARAMETERS` (cached: a
         continuation in Omega builds it once)."""
         beta, B, R, Delta, Omega = self.params(p)
-        Dl, lower = self.lower(p) if self.parameter in LOWER else (None, None)
-        key = (beta, B, R, Delta, Dl, None if lower is None else lower.R)
+        Dl, lower_law = self.lower(p) if self.parameter in LOWER else (None, None)
+        key = (beta, B, R, Delta, Dl, None if lower_law is None else lower_law.R)
         su = self._setups.get(key)
         if su is None:
             if self.invalid(p):
@@ -207,8 +206,8 @@ class SDOFShooting(ModalShooting):
             else:
                 m = replace(self.model, beta=beta, B=B, R=R, Delta=Delta)   # its lower_law kept (None: follows R)
             if Dl is not None and m is not self.model:
-                m = replace(m, Delta_lower=Dl, lower_law=lower)       # the lower stop at p
-            core = EventIntegrator(from_sdof(m), m.stops())
+                m = replace(m, Delta_lower=Dl, lower_law=lower_law)   # the lower stop at p
+            core = EventIntegrator(m.scene())
             ns = core.n_stops
             z = np.zeros(ns)
             up = np.eye(ns)[0]
@@ -292,7 +291,7 @@ class SDOFShooting(ModalShooting):
         def at(k):
             if stops[k] == 0:
                 return Delta, 1.0, R
-            return -self.lower(p)[0], -1.0, self.R_lower(R, p)
+            return -self.lower(p)[0], -1.0, self.lower_restitution(R, p)
 
         if t1 < 1e-6 * T:
             qs, sg, Rk = at(0) if where is None else where

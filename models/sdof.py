@@ -21,7 +21,7 @@ from .trajectory import Trajectory
 from .contact import Relation, Restitution, Stop
 from .core.event import EventIntegrator, fundamental_step, trajectory
 from .sdof_flow import undamped_resonance
-from .system import from_sdof
+from .scene import Scene, sdof_scene
 
 _EMPTY = np.zeros(0)
 
@@ -170,6 +170,11 @@ class SDOF:
         if self.mass_kg is None or self.natural_frequency_hz is None or self.length_m is None:
             return None
         return self.mass_kg * (2 * math.pi * self.natural_frequency_hz) ** 2 * self.length_m
+
+    def scene(self) -> Scene:
+        """The oscillator as a scene: the one-mode system and :meth:`stops`
+        (:func:`vibeam.models.scene.sdof_scene`)."""
+        return sdof_scene(self)
 
     def stops(self) -> tuple:
         """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
@@ -329,7 +334,7 @@ class EventSolver:
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.impact_buffer = int(impact_buffer)
         # the one event integrator on the one-mode modal system with the model's stops
-        self._core = EventIntegrator(from_sdof(model), model.stops())
+        self._core = EventIntegrator(model.scene())
         self._h_cap = fundamental_step(self._core.system)
 
     def settings(self) -> dict:

@@ -49,7 +49,6 @@ from .impact import newton_restitution
 from .contact_policy import release_now
 from .core.direct import ATOL_COMPLIANT, RTOL_COMPLIANT, DirectIntegrator
 from .core.event import EventIntegrator
-from .system import from_sdof
 
 TWO_PI = 2.0 * math.pi
 EPS = 2.220446049250313e-16
@@ -603,7 +602,7 @@ class DirectSolver(_ScipyMethod):
                          max_nfev_per_period)
         self._direct = None
         if compliant:
-            self._direct = DirectIntegrator(EventIntegrator(from_sdof(model), model.stops()), 1.0, self.solver,
+            self._direct = DirectIntegrator(EventIntegrator(model.scene()), 1.0, self.solver,
                                             self.rtol, self.atol, self.max_events_per_period, max_step=self.max_step)
             self._laws = [s.law for s in model.stops()]
 

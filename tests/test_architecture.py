@@ -433,20 +433,11 @@ LAW_NUMBERS = {"R", "R_lower", "stiffness", "stiffness_n_m"}
 #: once, at parse time
 LAW_HOLDERS = ("models/contact.py", "models/compliant.py", "models/core/laws.py", "models/impact.py")
 #: the reads of a law's number from an object that is not a law, outside :data:`LAW_HOLDERS`,
-#: per module, as measured (2026-11-26, issue 43, after the SDOF methods, the mapping, the
-#: shooting problem and the sensor read R through their stops' laws, and a point stop on the beam
-#: holds its law, not R); the list may only shrink.
-#: What is left (the SDOF and the beam hold their upper stop's law, ``upper_law``, and no R):
-#: the kernels' packed laws
-#: (``KernelStops.R``, the law's numbers in arrays), the shooting problem's lower-stop R, the
-#: sensor's constant R (given by the scene's law), the job's case table
-LAW_READS = {
-    "models/core/integrator.py": 1,
-    "models/core/shooting.py": 1,
-    "models/periodic_sdof.py": 2,
-    "vibeam/engine/jobs.py": 2,
-    "vibeam/engine/sensor.py": 1,
-}
+#: per module: none (2026-11-26, issue 43: the SDOF and the beam hold their stops' laws and no R;
+#: the kernels read a packed law through :func:`vibeam.models.core.laws.newton_coefficient`, the
+#: shooting problem its lower stop's law, the sensor hook the paper's stop's law, the work estimate
+#: the case key from the spec's ``stiffness_key``); the list may only shrink
+LAW_READS: dict = {}
 
 
 def law_reads(root: Path) -> dict:

@@ -256,12 +256,11 @@ def test_a_chatter_hold_that_ends_with_the_force_pulling_away_releases_at_once()
       -a(t + D) to 1e-9 (measured equal: the held flow in closed form)."""
     from vibeam.models.core.event import EventIntegrator
     from vibeam.models.core.integrator import EV_RELEASE, EV_STICK_IMPACT
-    from vibeam.models.system import from_sdof
 
     m = SDOF(beta=0.02, B=0.5, R=0.7, Delta=0.05)
     Om = 0.6
     F = Om * Om * m.B
-    core = EventIntegrator(from_sdof(m), m.stops())
+    core = EventIntegrator(m.scene())
     r = core.run(Om, [0.0], [0.0], 0, 0, 6, 2, 2, math.pi / Om, 10 ** 5, 10 ** 7, 10.0, log_events=4000)
     log = r.record.evlog[:int(r.record.nlog[0])]
     assert 0 < log.shape[0] < 4000
@@ -285,10 +284,9 @@ def test_held_at_the_exact_zero_of_a_rising_force_stays_held():
     force <= 0 leaves at t = 0 and chatters back onto the stop)."""
     from vibeam.models.core.event import EventIntegrator
     from vibeam.models.core.integrator import EV_RELEASE, EV_START
-    from vibeam.models.system import from_sdof
 
     m = SDOF(beta=0.05, B=0.2, R=0.5, Delta=0.0)
-    core = EventIntegrator(from_sdof(m), m.stops())
+    core = EventIntegrator(m.scene())
     Om = 1.5
     r = core.run(Om, [0.0], [0.0], 1, 0, 1, 1, 64, 2 * math.pi / 16, 1000, 10000, 1e-7, log_events=32)
     log = r.record.evlog[:r.record.nlog[0]]

@@ -18,7 +18,6 @@ import pytest
 from vibeam.case.schema import load_case
 from vibeam.models import SDOF, make_solver
 from vibeam.models.core.event import EventIntegrator
-from vibeam.models.system import from_beam, from_sdof
 
 ROOT = Path(__file__).resolve().parents[1]
 SCALARS = ("status", "n_impacts", "s_min", "s_max", "n_chatter", "stuck_time", "held_end", "n_impacts_total",
@@ -41,10 +40,10 @@ def _core(name):
     not under generic)."""
     if name == "beam-2-modes":
         m = load_case(ROOT / "cases" / "rig-fe-tight.toml")[0].model_spec({"n_modes": 2}).build()
-        return EventIntegrator(from_beam(m), m.system_stops()), 2, (16.0 / m.f_ref_hz, 16.5 / m.f_ref_hz)
+        return EventIntegrator(m.scene()), 2, (16.0 / m.f_ref_hz, 16.5 / m.f_ref_hz)
     m = _sdof(name)
     Om = {"fig7": (1.5, 2.1), "two-sided": (1.9, 2.1), "sticking": (14.0 / 7.6, 14.5 / 7.6)}[name]
-    return EventIntegrator(from_sdof(m), m.stops()), 1, Om
+    return EventIntegrator(m.scene()), 1, Om
 
 
 def _run(core, n, Om, n_transient, n_record, max_impacts=10**7, max_steps=4 * 10**6, **kw):
@@ -78,12 +77,12 @@ def test_work_arrays_kept_across_frequencies_give_a_fresh_integrators_outputs(na
     import pickle
 
     m = _sdof(name)
-    core = EventIntegrator(from_sdof(m), m.stops())
+    core = EventIntegrator(m.scene())
     h_cap = 2 * math.pi / 16
     z = np.zeros(1)
     for Om in (1.9, 1.5, 0.9, 0.5 * (1 + 1e-13), 0.5, 0.5 * (1 - 1e-13), 0.34, 1 / 3, 0.3, 1.0, 2.1):
         a = core.run(Om, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7)
-        b = EventIntegrator(from_sdof(m), m.stops()).run(Om, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7)
+        b = EventIntegrator(m.scene()).run(Om, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7)
         _assert_identical(a, b)
     c = pickle.loads(pickle.dumps(core))
     _assert_identical(c.run(1.7, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7),

@@ -104,7 +104,7 @@ def test_identify_impacts_on_a_synthetic_jump():
 def test_sensor_hook_ladder_and_case_validation():
     tr = _traj(15.0, 5000.0, 8)
     sp = SensorSpec(noise_ladder_mm=[0.0, 0.001])
-    out = SensorHook(sp, RIG.natural_frequency_hz, RIG.length_m, RIG.R)(tr)
+    out = SensorHook(sp, RIG.natural_frequency_hz, RIG.length_m, RIG.upper_law)(tr)
     assert out["R_identified_ladder"].shape == (2,) and out["R_identified"] == out["R_identified_ladder"][0]
     assert out["R_n_identified"] == 3
     from vibeam.case.schema import CaseError

@@ -120,9 +120,8 @@ def _kernel_events(m, W, x0, n, ns=64):
     stop, q, q']``, :mod:`vibeam.models.core.integrator`), the public route to its release times
     (method ``event`` does not return them)."""
     from vibeam.models.core.event import EventIntegrator, fundamental_step
-    from vibeam.models.system import from_sdof
 
-    core = EventIntegrator(from_sdof(m), m.stops())
+    core = EventIntegrator(m.scene())
     run = core.run(W, x0[:1], x0[1:2], core.held_set_of(x0[2]), 0, n, ns, ns, fundamental_step(core.system),
                    10000, 10 ** 8, 1e-6, log_events=1000)
     cnt = int(run.record.nlog[0])

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..contact import check_stops
+from ..scene import Scene
 from ..system import ModalSystem
 from .integrator import (ST_FAILED, STATUS_NAMES, Record, compliant_work, integrate_work, new_record, new_work,
                          substeps)
@@ -108,10 +109,9 @@ class EventIntegrator:
 
     Parameters
     ----------
-    system : ModalSystem
-    stops : sequence of vibeam.models.contact.Stop
-        Stops (relations on rows of ``system.contacts``) with Newton's law or a compliant law whose
-        numbers are in the system's units (:mod:`vibeam.models.core.laws`).
+    scene : vibeam.models.scene.Scene
+        The modal system and its stops (relations on rows of ``system.contacts``) with Newton's law
+        or a compliant law whose numbers are in the system's units (:mod:`vibeam.models.core.laws`).
 
     Raises
     ------
@@ -122,8 +122,10 @@ class EventIntegrator:
         system lacks, an unstable or defective contact phase).
     """
 
-    def __init__(self, system: ModalSystem, stops):
+    def __init__(self, scene: Scene):
+        system, stops = scene
         check_stops(stops)
+        self.scene = scene
         self.system = system
         self.stops = tuple(stops)
         self.ksys = kernel_system(system)

@@ -81,11 +81,11 @@ from numba import njit
 from ..contact_policy import (BURST_DT, CHATTER, CHATTER_GUARD, REBOUND, STICK, burst_limit, impact_outcome,
                               release_now, zeno_burst)
 from ..contact import LAW_LINEAR
-from ..impact import newton_restitution, restitution_coefficient
+from ..impact import newton_restitution
 from ..system import advance_count, increment_of, transition_increment
 from .contact_phase import (EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_NONE, EK_RELEASE, linear_step,
                             phase_harmonics, rk_phase_step, rk_scales)
-from .laws import force, hertz_floor, inside_sign, is_compliant
+from .laws import force, hertz_floor, inside_sign, is_compliant, newton_coefficient
 from .signals import (ROOT_APEX, bounds, extremes, extremes_from, hermite_guess, homogeneous, homogeneous_bounds,
                       mode_ends, root_value, scan, scan_from, signal, signal_start)
 
@@ -1423,8 +1423,7 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
     if logging:
         _log_event(evlog, nlog, _K_IMPACT, fs[_PT] + t_loc, Um, k_imp, eta, etad)
     # CONTACT EVENT: the stop's law (Newton's, impulsive), impulse along d
-    m_nodes = st.nodes[k_imp]
-    Rc = restitution_coefficient(Um, st.R[k_imp], st.tab_U[k_imp, :m_nodes], st.tab_R[k_imp, :m_nodes])
+    Rc = newton_coefficient(st, k_imp, Um)
     Up = newton_restitution(Um, Rc)
     # the impulse in two parts, the normal velocity first removed, then U+ added: a
     # rebound far slower than U- (R -> 0) is not lost to the rounding of U+ - U-

@@ -18,6 +18,7 @@ import numpy as np
 from ..contact import LAW_LINEAR, Relation, Stop
 from ..system import modal_system
 from .event import EventIntegrator
+from ..scene import Scene
 
 __all__ = ["isolated_contact"]
 
@@ -49,7 +50,7 @@ def isolated_contact(law, v_in: float, row=(1.0,)) -> tuple:
     w = np.atleast_1d(np.asarray(row, dtype=float))
     n = w.size
     sy = modal_system(np.zeros(n), np.zeros(n), np.zeros(n), w, w[None, :], 0.0)
-    core = EventIntegrator(sy, [Stop(Relation(1.0, 0.0), law)])
+    core = EventIntegrator(Scene(sy, (Stop(Relation(1.0, 0.0), law),)))
     nn = float(w @ w)
     # the contact's time scale: the undamped linear one, or the Hertz one (penetration over speed)
     p = 1.0 if law.code == LAW_LINEAR else float(law.exponent)

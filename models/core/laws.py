@@ -27,8 +27,9 @@ from __future__ import annotations
 from numba import njit
 
 from ..contact import LAW_HYSTERETIC_HERTZ, LAW_LINEAR
+from ..impact import restitution_coefficient
 
-__all__ = ["force", "force_partials", "inside_sign", "is_compliant", "V_FLOOR", "RTOL", "ATOL", "contact_scales"]
+__all__ = ["newton_coefficient", "force", "force_partials", "inside_sign", "is_compliant", "V_FLOOR", "RTOL", "ATOL", "contact_scales"]
 
 #: a hysteretic-Hertz contact entered below ``V_FLOOR`` times the base-velocity amplitude along the
 #: stop's normal (``Omega B |n^T Gamma|``) takes that floor as its ``v_in`` (the law's damping
@@ -38,6 +39,25 @@ V_FLOOR = 1e-2
 #: isolated contact's penetration and of its entry velocity
 RTOL = 1e-11
 ATOL = 1e-13
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def newton_coefficient(st, k, U_minus):
+    """``R(U-)`` of stop ``k``'s Newton law in its packed form (paper Eq. 2; the table ``R(U-)`` of
+    Fig. 26: :func:`vibeam.models.impact.restitution_coefficient`).
+
+    Parameters
+    ----------
+    st : vibeam.models.core.stops.KernelStops
+        The stops' laws packed as arrays (``R``, shape ``(n_stops,)``; ``nodes``, ``tab_U``,
+        ``tab_R``, shape ``(n_stops, max_nodes)``).
+    k : int
+        The stop.
+    U_minus : float
+        Pre-impact normal velocity (system units, positive approaching).
+    """
+    m = st.nodes[k]
+    return restitution_coefficient(U_minus, st.R[k], st.tab_U[k, :m], st.tab_R[k, :m])
 
 
 @njit(cache=True, _nrt=False)

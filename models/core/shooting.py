@@ -53,13 +53,12 @@ from numba import njit
 from ..compliant import R_MIN_LINEAR, damping_ratio_for_restitution
 from ..contact import LAW_LINEAR
 from ..continuation_kernels import SMALL_SPECTRUM, bordered_tangent, corrector_step, floquet_spectrum_small
-from ..impact import restitution_coefficient
 from ..periodic import Shot
 from ..system import advance_count, advance_state, transition_entries
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
                          ST_FAILED, compliant_work, integrate_work, new_record, new_work, work_fits)
-from .laws import force_partials, hertz_floor
+from .laws import force_partials, hertz_floor, newton_coefficient
 from .variational import contact_accel, contact_damping, flow_linear, flow_rk, pair_particular
 
 __all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "correct_frequency", "held_at_section",
@@ -771,7 +770,7 @@ def tangent(sy, st, hs, cp, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end
                                        int(evlog[k_ev + 1, 0]) == EV_STICK_IMPACT)
         if kind == EV_IMPACT and not plastic:
             m_nodes = st.nodes[k]
-            Rc = restitution_coefficient(U, st.R[k], st.tab_U[k, :m_nodes], st.tab_R[k, :m_nodes])
+            Rc = newton_coefficient(st, k, U)
             Rp = restitution_slope(U, st.tab_U[k, :m_nodes], st.tab_R[k, :m_nodes])
             _accel(H, eta, etad, te, Om, F, sy, hs, a0)
             if cp is not None and C != 0:

@@ -55,7 +55,6 @@ from vibeam.models.attractors import FAILED, UNSETTLED, Recurrences, set_distanc
 from vibeam.models.continuation import start_point
 from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
 from vibeam.models.sdof_flow import largest_gap, particular_coefficients
-from vibeam.models.system import from_beam, from_sdof
 from vibeam.plots.lazy import plt
 from vibeam.plots.style import NODIM, PALETTE, context, legend_outside
 
@@ -320,7 +319,7 @@ def axes_of(model, coordinates=None) -> Axes:
     """
     n = int(getattr(model, "n_modes", 1))
     if hasattr(model, "n_modes") and coordinates == "sensor":
-        s = from_beam(model)
+        s = model.scene().system
         u = s.contacts[0] / s.omega ** 2          # static deflection under a unit load at the contact
         shape = u / float(s.sensor @ u)            # ... scaled to 1 m at the sensor
         z = np.zeros(n)
@@ -354,11 +353,6 @@ def axes_of(model, coordinates=None) -> Axes:
     return Axes((0, 1), (1.0, 1.0), ("q", "q_dot"), ("1", "1"), (rf"$q$ ({NODIM})", rf"$\dot q$ ({NODIM})"))
 
 
-def _system(model):
-    """The model's modal system (:mod:`vibeam.models.system`) and its stops."""
-    return (from_beam(model) if hasattr(model, "n_modes") else from_sdof(model)), tuple(model.stops())
-
-
 def stop_gaps(model, states) -> np.ndarray:
     """The gap of every stop at each state: ``g_k = s_k W[row_k] @ eta - offset_k`` (< 0 free,
     > 0 behind the stop; paper Eq. 2's ``q - Delta`` for the SDOF's upper stop).
@@ -375,7 +369,7 @@ def stop_gaps(model, states) -> np.ndarray:
     ndarray, shape (m, n_stops)
         In the model's own units (the SDOF: nondimensional; the beam: metres).
     """
-    s, stops = _system(model)
+    s, stops = model.scene()
     n = s.omega.size
     S = np.atleast_2d(np.asarray(states, float))
     eta = S[:, :n]
@@ -402,7 +396,7 @@ def behind_stop(model, states) -> np.ndarray:
         True where some impulsive stop's gap (:func:`stop_gaps`) exceeds 1e-12 of the larger of
         the stop's offset and the contact coordinate (round-off of a state placed on the stop).
     """
-    s, stops = _system(model)
+    s, stops = model.scene()
     n = s.omega.size
     S = np.atleast_2d(np.asarray(states, float))
     g = stop_gaps(model, S)
@@ -420,7 +414,7 @@ def axis_stops(model, axes: Axes, k: int = 0) -> list:
     ``[(position, d)]`` in axis units, a state with ``d (x - position) > 0`` lying behind the
     stop (``d = +1``: an upper bound of the admissible region, ``-1`` a lower one).  Stops whose
     contact coordinate does not move along the axis (a velocity axis) are left out."""
-    s, stops = _system(model)
+    s, stops = model.scene()
     n = s.omega.size
     out = []
     for st in stops:
@@ -462,7 +456,7 @@ def _admissible_interval(model, axes: Axes, k: int, span: float, centre: float =
 def _sensor_stop(model, axes: Axes):
     """The stop's position on a beam's ``U`` axis (mm): where the static shape closes the gap at
     the contact point; None where the contact row does not move in that shape."""
-    s = from_beam(model)
+    s = model.scene().system
     n = s.omega.size
     wc = float(s.contacts[0] @ axes.write[0, :n])      # contact displacement (m) per mm at the sensor
     return float(model.gap_contact_m) / wc if wc != 0.0 else None
@@ -480,7 +474,7 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
     beta = float(getattr(model, "beta", 0.0) or 0.0)
     Delta = float(model.Delta)
     if hasattr(model, "n_modes") and axes.write is not None:     # U, U' at the sensor
-        s = from_beam(model)
+        s = model.scene().system
         resp = s.sensor * s.participation * Omega ** 2 * s.base_amplitude / (s.omega ** 2 - Omega ** 2
                                                                              + 1j * s.damping * Omega)
         X = abs(complex(np.sum(resp))) * 1e3                  # linear response at the sensor, mm
@@ -489,7 +483,7 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
         V = 8 * A * Omega / (s.time_unit_s * 1.0)              # mm/s: Omega per unit of kernel time
         return (_admissible_interval(model, axes, 0, 8 * A), (-V, V))
     if hasattr(model, "n_modes"):
-        s = from_beam(model)
+        s = model.scene().system
         n = s.omega.size
         rng = []
         for c_ in axes.index:

@@ -161,6 +161,15 @@ class _StopsSpec(_Strict):
     """What the model tables of both fidelities share: the stops' case keys as continuation
     parameters."""
 
+    def stiffness_key(self):
+        """``(case key, value)`` of the paper's stop's contact stiffness when the case gives it in
+        N/m^p (``model.contact.stiffness_n_m``); None otherwise (Newton's law, or a stiffness
+        given nondimensional, whose key is ``model.contact.stiffness``)."""
+        t = self.contact
+        if t is not None and t.stiffness is None and t.stiffness_n_m is not None:
+            return "model.contact.stiffness_n_m", float(t.stiffness_n_m)
+        return None
+
     def parameter_values(self, key: str, value: float) -> dict:
         """The keys of this table that give the continuation parameter ``key`` (of
         :meth:`native_parameter`) the value ``value``: the key itself, or for ``R_lower`` the

@@ -368,7 +368,7 @@ def _sensor_hook(case, spec, run, model):
         raise CaseError(f"run '{run.name}': [effects.sensor] needs a physical scene (frequency_hz, "
                         f"length_mm), the sensor samples in Hz and its noise is in mm")
     vf = 1.0 / float(model.phi_contact)    # the kernel's contact velocity -> the sensor's
-    return SensorHook(sp, fn, L, float(model.stops()[0].law.R), eff.restitution_law, velocity_factor=vf)
+    return SensorHook(sp, fn, L, model.stops()[0].law, eff.restitution_law, velocity_factor=vf)
 
 
 def hooks(case, spec, run, model) -> tuple:

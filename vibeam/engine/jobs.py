@@ -120,10 +120,8 @@ def _contact_steps(model, Omega, spec=None):
         return None
     w = np.sqrt(1.0 + float(k))
     steps = 8.0 * w / Omega if float(model.Delta) <= 0.0 else np.full(np.shape(Omega), 8.0)
-    table = getattr(spec, "contact", None)
-    if table is not None and getattr(table, "stiffness", None) is None and table.stiffness_n_m is not None:
-        return steps, "model.contact.stiffness_n_m", float(table.stiffness_n_m)
-    return steps, "model.contact.stiffness", float(k)
+    given = spec.stiffness_key() if hasattr(spec, "stiffness_key") else None
+    return (steps, *given) if given is not None else (steps, "model.contact.stiffness", float(k))
 
 
 def estimate_work(case, jobs_=None) -> dict:

@@ -243,15 +243,19 @@ class SensorHook:
     Trajectory).  Outputs ``R_identified``, ``R_identified_std``, ``R_true``, ``R_sensor_exact``,
     ``identified_velocity_mm_s``, ``true_velocity_mm_s``, ``R_n_identified``,
     ``R_n_false`` at the case's ``noise_mm``, and ``R_identified_ladder`` /
-    ``R_true_ladder`` (one entry per level of ``noise_ladder_mm``, same noise draw)."""
+    ``R_true_ladder`` (one entry per level of ``noise_ladder_mm``, same noise draw).
 
-    def __init__(self, sensor_spec, f_ref_hz: float, length_m: float, R: float, law=None,
+    ``stop_law`` is the paper's stop's law (:class:`vibeam.models.contact.Restitution` or a
+    compliant law: its ``R``, Newton's or the target, is the true R of an impact without
+    ``law``); ``law`` the ``[effects.restitution_law]`` table ``R(velocity_mm_s)``, or None."""
+
+    def __init__(self, sensor_spec, f_ref_hz: float, length_m: float, stop_law, law=None,
                  velocity_factor: float = 1.0):
         self.velocity_factor = float(velocity_factor)
         self.spec = sensor_spec
         self.f_ref_hz = float(f_ref_hz)
         self.length_m = float(length_m)
-        self.R = float(R)
+        self.stop_law = stop_law
         self.law = law
 
     @property
@@ -273,7 +277,7 @@ class SensorHook:
         n_max = traj.samples.shape[0] + 16
         z = rng.standard_normal(n_max)
         kw = dict(f_ref_hz=self.f_ref_hz, length_m=self.length_m, sampling_hz=sp.sampling_hz,
-                  impacts=sp.impacts, R_const=self.R, law=self.law, noise=z,
+                  impacts=sp.impacts, R_const=float(self.stop_law.R), law=self.law, noise=z,
                   velocity_factor=self.velocity_factor)
         main = identify(traj, noise_mm=sp.noise_mm, **kw)
         lad_id = np.full(nl, nan)
