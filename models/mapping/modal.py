@@ -63,8 +63,9 @@ import scipy.optimize
 
 from ..core.stops import kernel_stops
 from ..system import from_beam, modal_flow, modal_transition
+from .newton import damped_newton
 from .phases import TWO_PI
-from .solver import CONTACT_KEYS, contact_means
+from .solver import contact_means, failed_outputs
 
 #: Newton's tolerance on the residual relative to the orbit's state (exact flows: round-off)
 TOL = 1e-12
@@ -260,35 +261,11 @@ class ModalMap:
         return r, J
 
     def newton(self, X, stops, n, tol=TOL, max_iter=50):
-        """Damped Newton on :meth:`residual` from ``X``: the last iterate and whether it converged to
-        ``max |r| <= tol`` times the largest state component (1e3 ``tol`` after ``max_iter``)."""
-        X = np.array(X, float)
-        m = len(stops)
-        r, J = self.residual(X, stops, n)
-        if r is None:
-            return X, False
-
-        def small(r, X, f=1.0):
-            return np.max(np.abs(r)) <= f * tol * max(np.max(np.abs(X[m:])), 1e-300)
-
-        for _ in range(max_iter):
-            if small(r, X):
-                return X, True
-            try:
-                dX = np.linalg.solve(J, -r)
-            except np.linalg.LinAlgError:
-                return X, False
-            lam, nr = 1.0, np.max(np.abs(r))
-            while True:
-                Xn = X + lam * dX
-                rn, Jn = self.residual(Xn, stops, n)
-                if (rn is not None and np.max(np.abs(rn)) < nr) or lam < 2e-4:
-                    break
-                lam *= 0.5
-            if rn is None or not np.all(np.isfinite(Xn)):
-                return X, False
-            X, r, J = Xn, rn, Jn
-        return X, bool(small(r, X, 1e3))
+        """Damped Newton on :meth:`residual` from ``X``
+        (:func:`vibeam.models.mapping.newton.damped_newton`): the last iterate and whether it
+        converged to ``max |r| <= tol`` times the largest state component (1e3 ``tol`` after
+        ``max_iter``)."""
+        return damped_newton(lambda Y: self.residual(Y, stops, n), X, tol, len(stops), max_iter)
 
     def monodromy(self, X, stops, n) -> np.ndarray:
         """``Phi_{m-1} S_{m-1} ... Phi_0 S_0`` (2N, 2N), ``S_j`` the passage's fixed-time variation and
@@ -413,7 +390,6 @@ class ModalMappingSolver:
             if s.size and s.size % (N2 + 2) == 0 and np.all(np.isfinite(s)):
                 s = s.reshape(-1, N2 + 2)
                 yield np.concatenate([s[:, 0] / mp.Omega, s[:, 1:N2 + 1].ravel()]), tuple(int(k) for k in s[:, -1])
-        m = self.model
         warm = self.event.point(mp.Omega, None, self.guess_periods, 1, 8)
         if warm.status != "ok" or warm.final_state[-1] != 0.0:
             yield f"the event run from rest ends {warm.status} ({warm.message or 'held on a stop'}): no guess"
@@ -434,7 +410,6 @@ class ModalMappingSolver:
         if len(sec) > 16 * n:
             yield f"the event run has {len(sec)} arrivals in {n} period(s) (chatter?): not a guess of the map"
             return
-        del m
         t = np.array([s[0] for s in sec]) - n * mp.T
         yield np.concatenate([t, np.concatenate([s[2] for s in sec])]), tuple(s[1] for s in sec)
 
@@ -546,17 +521,10 @@ class ModalMappingSolver:
         return out
 
     def _failed(self, reasons) -> dict:
-        nan = math.nan
         N2 = 2 * self.system.omega.size
-        out = dict(amplitude=nan, q_min=nan, q_max=nan, period=0, impacts_per_period=nan, impact_velocity=nan,
-                   impact_phase=nan, stable=False, multipliers=np.full(N2, nan, dtype=complex), det_true=nan,
-                   tr_true=nan, **{k: nan for k in CONTACT_KEYS}, final_state=np.full(N2 + 2, nan),
-                   status="failed", message="; ".join(reasons) if reasons else "no initial guess (no impacts)")
-        if self.n_stops > 1:
-            out.update(impacts_per_period_lower=nan, impact_velocity_lower=nan,
-                       **{k + "_lower": nan for k in CONTACT_KEYS})
+        out = failed_outputs(reasons, N2, N2 + 2, self.n_stops > 1, det_trace=True)
         if self.model.stop_codes() is not None:
             size = int(np.max(self.codes)) + 1
-            out.update(stop_impacts_per_period=np.full(size, nan), stop_impact_velocity=np.full(size, nan))
+            out.update(stop_impacts_per_period=np.full(size, math.nan), stop_impact_velocity=np.full(size, math.nan))
         return out
 

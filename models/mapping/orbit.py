@@ -40,6 +40,7 @@ from scipy.integrate import solve_ivp
 from ..core.laws import V_FLOOR
 from ..impact import saltation_matrix
 from ..sdof_flow import flow_matrix, particular_coefficients, propagate
+from .newton import damped_newton
 from .phases import CONTACT, EV_ARRIVAL, EV_EXIT, EV_FAIL, EV_GAPDOWN, EV_NONE, EV_RECONTACT, FREE, TWO_PI, Phase
 
 #: tolerance of the integrated (hysteretic-Hertz) contact phase and its variational equations
@@ -400,7 +401,8 @@ class Scene:
         return r, J
 
     def newton(self, x, stops, n, tol, max_iter=50):
-        """Damped Newton on :meth:`residual` from ``x``.
+        """Damped Newton on :meth:`residual` from ``x``
+        (:func:`vibeam.models.mapping.newton.damped_newton`).
 
         Returns
         -------
@@ -408,29 +410,7 @@ class Scene:
             The last iterate and whether it converged to ``max |r| <= tol max |v|`` (1e3 ``tol``
             after ``max_iter`` iterations).
         """
-        x = np.array(x, float)
-        m = len(stops)
-        r, J = self.residual(x, stops, n)
-        if r is None:
-            return x, False
-        for _ in range(max_iter):
-            if np.max(np.abs(r)) <= tol * max(np.max(np.abs(x[m:])), 1e-300):
-                return x, True
-            try:
-                dx = np.linalg.solve(J, -r)
-            except np.linalg.LinAlgError:
-                return x, False
-            lam, nr = 1.0, np.max(np.abs(r))
-            while True:
-                xn = x + lam * dx
-                rn, Jn = self.residual(xn, stops, n)
-                if (rn is not None and np.max(np.abs(rn)) < nr) or lam < 2e-4:
-                    break
-                lam *= 0.5
-            if rn is None or not np.all(np.isfinite(xn)):
-                return x, False
-            x, r, J = xn, rn, Jn
-        return x, bool(np.max(np.abs(r)) <= 1e3 * tol * max(np.max(np.abs(x[m:])), 1e-300))
+        return damped_newton(lambda y: self.residual(y, stops, n), x, tol, len(stops), max_iter)
 
     def analyse(self, x, stops, n, rtol=1e-9):
         """Admissibility, extremes, records and stability of the orbit ``x`` (from :meth:`newton`).

@@ -90,6 +90,45 @@ def contact_means(records, on, suffix):
                     (float(np.mean(c[:, 0])), force, float(np.max(c[:, 2])), float(np.mean(c[:, 3])))))
 
 
+def failed_outputs(reasons, n_multipliers, state_size, lower, det_trace=False) -> dict:
+    """The outputs of a failed mapping point, every number NaN (one helper for the SDOF's
+    :class:`MappingSolver` and the N-mode map's
+    :class:`~vibeam.models.mapping.modal.ModalMappingSolver`).
+
+    Parameters
+    ----------
+    reasons : list of str
+        Why each guess failed, joined by ``"; "`` into ``message`` (none: no initial guess).
+    n_multipliers : int
+        Size of ``multipliers`` (complex NaN): the state's dimension.
+    state_size : int
+        Size of ``final_state`` (NaN).
+    lower : bool
+        Add the lower stop's ``impacts_per_period_lower``, ``impact_velocity_lower`` and the
+        ``_lower`` contact outputs (two stops).
+    det_trace : bool, optional
+        Add ``det_true`` and ``tr_true`` after ``multipliers`` (the N-mode map's order of the
+        outputs; the SDOF adds them with the paper's outputs of Newton stops).
+
+    Returns
+    -------
+    dict
+        ``amplitude`` ... ``message`` in the order of the solvers' outputs, ``period`` 0,
+        ``stable`` False and ``status`` ``"failed"``.
+    """
+    nan = math.nan
+    out = dict(amplitude=nan, q_min=nan, q_max=nan, period=0, impacts_per_period=nan, impact_velocity=nan,
+               impact_phase=nan, stable=False, multipliers=np.full(n_multipliers, nan, dtype=complex))
+    if det_trace:
+        out.update(det_true=nan, tr_true=nan)
+    out.update({k: nan for k in CONTACT_KEYS}, final_state=np.full(state_size, nan), status="failed",
+               message="; ".join(reasons) if reasons else "no initial guess (no impacts)")
+    if lower:
+        out.update(impacts_per_period_lower=nan, impact_velocity_lower=nan,
+                   **{k + "_lower": nan for k in CONTACT_KEYS})
+    return out
+
+
 class MappingSolver:
     """Method ``mapping``: period-n orbits of the pointwise map of the one-mode system, any laws
     on one or two stops (paper Sec. 4.2; :mod:`vibeam.models.mapping.orbit`).
@@ -276,13 +315,7 @@ class MappingSolver:
 
     def _failed(self, reasons) -> dict:
         nan = math.nan
-        out = dict(amplitude=nan, q_min=nan, q_max=nan, period=0, impacts_per_period=nan, impact_velocity=nan,
-                   impact_phase=nan, stable=False, multipliers=np.full(2, nan, dtype=complex),
-                   **{k: nan for k in CONTACT_KEYS}, final_state=np.full(2, nan), status="failed",
-                   message="; ".join(reasons) if reasons else "no initial guess (no impacts)")
-        if self.n_stops == 2:
-            out.update(impacts_per_period_lower=nan, impact_velocity_lower=nan,
-                       **{k + "_lower": nan for k in CONTACT_KEYS})
+        out = failed_outputs(reasons, 2, 2, self.n_stops == 2)
         if self.impulsive:
             out.update(map_eigenvalues=np.full(2, nan, dtype=complex), det_true=nan, tr_true=nan, stable_paper=False,
                        **{k: (False if k.startswith(("stable", "disagree")) else nan) for k in PAPER_KEYS})
