@@ -49,6 +49,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .blas import with_one_blas_thread
 from .continuation_kernels import SMALL_SPECTRUM, corrector_step, floquet_spectrum, floquet_spectrum_small, bordered_tangent
 
 FOLD = "fold"
@@ -1155,6 +1156,7 @@ def start_point(prob, x0, p0, n, lo, hi, settings: Settings = Settings(), s_x=No
     return eng.newton_fixed(x0, p0, n)
 
 
+@with_one_blas_thread
 def trace(prob, x0, p0, n, lo, hi, direction: int = 1, settings: Settings = Settings(),
           s_x: float | None = None) -> list:
     """Continue the period-n orbit through ``(x0, p0)`` over ``lo <= p <= hi``.
@@ -1363,6 +1365,7 @@ def _relocate(factory, kind, n, free, fixed, x_guess, p_guess, box, width, setti
     return bf.parameter, bf.x
 
 
+@with_one_blas_thread
 def trace_curve(factory, bif, p2, box1, box2, settings: Settings = Settings(), max_points: int = 200,
                 h0: float = 0.02, h_min: float = 2e-4, h_max: float = 0.05) -> Curve:
     """Continue the bifurcation ``bif`` (located at ``p2`` of the second parameter) in two

@@ -62,7 +62,7 @@ import scipy.linalg
 import scipy.optimize
 
 from ..core.stops import kernel_stops
-from ..system import from_beam, modal_flow, modal_transition
+from ..system import modal_flow, modal_transition
 from .newton import damped_newton
 from .phases import TWO_PI
 from .solver import contact_means, failed_outputs
@@ -325,7 +325,7 @@ class ModalMappingSolver:
     Parameters
     ----------
     model : vibeam.models.beam_dynamics.BeamImpactModel
-        Its modal system (:func:`vibeam.models.system.from_beam`) and :meth:`system_stops`.
+        Its scene (:meth:`scene`: the modal system and its stops in the system's units).
     n : int, optional
         Forcing periods of the orbit (1..4).
     form : str, optional
@@ -352,7 +352,7 @@ class ModalMappingSolver:
             raise ValueError(f"n must be an integer in 1..4, got {n!r}")
         self.model, self.n, self.form = model, int(n), form
         self.guess_periods, self.tol = int(guess_periods), float(tol)
-        self.system, self.stops = from_beam(model), model.system_stops()
+        self.system, self.stops = model.scene()
         ModalMap(self.system, self.stops, 1.0)          # the stops are checked once
         codes = model.stop_codes()
         self.codes = np.arange(len(self.stops)) if codes is None else np.asarray(codes)

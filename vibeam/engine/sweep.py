@@ -32,6 +32,7 @@ from vibeam.io.outputs import MM_KEYS, UNITS  # noqa: F401 (re-exported)
 from vibeam.engine.records import (HARMONICS, SETTLED_MARGIN, STATUSES, amplitude_spread, period_minima, spread_agrees,
                                    summarize, transient_verdict, window_verdict)
 from vibeam.models import shooting_problem
+from vibeam.models.blas import one_blas_thread
 from vibeam.models.continuation import start_point
 from vibeam.models.interrupts import reraise_interrupt
 from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
@@ -918,8 +919,11 @@ def _worker_init(parent_pid: int, progress_queue=None) -> None:
       thread exits the worker when its parent pid changes (elsewhere, and as a second guard).
     * With ``progress_queue`` each finished point is reported to the parent
       (:data:`_PROGRESS_QUEUE`); the worker never waits for the queue at exit.
+    * Its BLAS runs one thread (:mod:`vibeam.models.blas`: the workers are the parallelism, and
+      OpenBLAS's own threads on the methods' small matrices only compete with them).
     """
     global _PROGRESS_QUEUE
+    one_blas_thread()               # entered for the worker's life (threadpoolctl: set on creation)
     if progress_queue is not None:
         progress_queue.cancel_join_thread()
     _PROGRESS_QUEUE = progress_queue
