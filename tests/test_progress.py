@@ -264,11 +264,14 @@ def test_the_first_compilation_is_announced_before_the_wait():
     def fresh(x):
         return x + 1.0
 
-    with CompileClock(lambda: seen.append(("notice", c.count))) as c:
+    with CompileClock(lambda *a: seen.append(("notice", c.count, a[0])),
+                      lambda name, s: seen.append(("done", name, s > 0))) as c:
         fresh(1.0)
         fresh(2.0)                          # compiled already: no second notice
-    assert seen == [("notice", 0)] and c.count >= 1 and c.seconds > 0, (seen, c.count)
-    with CompileClock(lambda: seen.append("again")) as c2:
+    assert seen == [("notice", 0, "fresh"), ("done", "fresh", True)] and c.count >= 1 and c.seconds > 0, \
+        (seen, c.count)
+    assert c.entries[0][0] == "fresh"
+    with CompileClock(lambda *a: seen.append("again")) as c2:
         fresh(3.0)                          # nothing compiled: no notice
     assert "again" not in seen and c2.count == 0
     runner._NOTICED.clear()
@@ -281,6 +284,30 @@ def test_the_first_compilation_is_announced_before_the_wait():
         runner.compile_notice()
         runner.compile_notice()
         said = buf.getvalue().splitlines()
+        runner.compile_notice("integrate_work [Newton stops only]", 27.6, "last time on this machine")
+        runner.compile_done("integrate_work [Newton stops only]", 26.04)
+        more = buf.getvalue().splitlines()[len(said):]
     finally:
         runner.sys.stderr = real
     assert len(said) == 1 and said[0].startswith("compiling kernels for first use"), said
+    assert more == ["  compiling integrate_work [Newton stops only], about 28 s (last time on this machine) ...",
+                    "  compiled integrate_work [Newton stops only] in 26.0 s"], more
+
+
+def test_the_expected_compile_time_is_the_last_measured_on_this_machine(tmp_path, monkeypatch):
+    """Issue 44: the line before a compile gives the time it took the last time on this machine
+    (kept beside numba's cache, written whole), else the development machine's figure; a file that
+    cannot be read is no figure."""
+    from vibeam.engine import compiling
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    name = "integrate_work [Newton stops only]"
+    assert compiling.expected_seconds(name) == (compiling.MEASURED_S[name], "on a 2-core machine")
+    assert compiling.expected_seconds("unknown") == (None, "")
+    compiling.record_seconds(name, 12.345)
+    compiling.record_seconds("shoot", 3.0)
+    assert compiling.expected_seconds(name) == (12.35, "last time on this machine")
+    assert compiling.expected_seconds("shoot") == (3.0, "last time on this machine")
+    assert [p.name for p in tmp_path.iterdir()] == ["vibeam-compile-times.json"]     # no temporary left
+    compiling.times_file().write_text("{not json")
+    assert compiling.expected_seconds(name) == (compiling.MEASURED_S[name], "on a 2-core machine")

@@ -290,14 +290,14 @@ def _run_locked(case, text, store, jobs_, tasks, jobs, quiet, plots, resume, exe
         # continuation runs are warmed up (a cut-down run) only before a pool: inline, their
         # compile time is measured where it happens (CompileClock) and taken out of the run time
         pooled_tasks = tasks if (executor is None and jobs != 1 and len(todo) + len(tasks) > 1) else []
-        cc = CompileClock(compile_notice)
+        cc = CompileClock(compile_notice, compile_done)
         if (todo or pooled_tasks) and executor is None:
             # numba kernels loaded (or compiled) once, here: a forked worker inherits them
-            with CompileClock(compile_notice) as cc:
+            with CompileClock(compile_notice, compile_done) as cc:
                 timing["kernel_load_s"] = load_kernels(todo + pooled_tasks)
         n_workers, why = plan_execution(case, jobs_, todo, jobs, executor) if not tasks else (jobs, "")
         t_run = last_flush[0] = time.perf_counter()
-        with CompileClock(compile_notice) as cr:
+        with CompileClock(compile_notice, compile_done) as cr:
             sweep.run_lines(todo + tasks, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet,
                             desc=case.name, stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
         timing["run_s"] = time.perf_counter() - t_run - cr.seconds
@@ -420,27 +420,39 @@ COMPILE_NOTICE_S = 1.0
 _NOTICED = []
 
 
-def compile_notice() -> None:
-    """The line said when numba starts compiling a kernel in this process (once per process,
-    before the wait: :class:`vibeam.engine.compiling.CompileClock`'s ``notice``); the time it took
-    follows in :func:`announce_kernels`' line."""
-    if _NOTICED:
-        return
-    _NOTICED.append(True)
-    msg = ("compiling kernels for first use (numba: 10-60 s once per machine and vibeam version, "
-           "then loaded from its cache in about a second) ...")
+def _say(msg: str) -> None:
     try:
         tqdm.tqdm.write(msg, file=sys.stderr)  # above a progress bar, if one is drawn
     except ImportError:                        # pragma: no cover - tqdm is a dependency
         print(msg, file=sys.stderr)
 
 
+def compile_notice(name: str = "", expected_s: float | None = None, source: str = "") -> None:
+    """The lines said when numba starts compiling an entry point in this process, before the wait
+    (:class:`vibeam.engine.compiling.CompileClock`'s ``notice``): once per process a header, then a
+    line naming the entry point and the time it took the last time (on this machine, else on the
+    development machine); :func:`compile_done` says what it took."""
+    if not _NOTICED:
+        _NOTICED.append(True)
+        _say("compiling kernels for first use (numba: once per machine and vibeam version, then loaded "
+             "from its cache in about a second; kept out of the run times):")
+    if name and (expected_s is None or expected_s >= COMPILE_NOTICE_S):   # not the sub-second ones
+        about = f", about {expected_s:.0f} s ({source})" if expected_s is not None else ""
+        _say(f"  compiling {name}{about} ...")
+
+
+def compile_done(name: str, seconds: float) -> None:
+    """The line said when an entry point's compilation ends (those of a second and more)."""
+    if seconds >= COMPILE_NOTICE_S:
+        _say(f"  compiled {name} in {seconds:.1f} s")
+
+
 def announce_kernels(seconds: float, what: str) -> None:
     """The one line that says a first run compiled (or loaded) its kernels, and for how long,
     so that the time is not mistaken for the run's (it is kept out of every run time)."""
     if seconds >= COMPILE_NOTICE_S:
-        print(f"compiling kernels for first use ({what}): {seconds:.1f} s, kept out of the run times "
-              f"(numba caches them: later runs load them in about a second)", file=sys.stderr)
+        print(f"kernels compiled or loaded for first use ({what}): {seconds:.1f} s in all, kept out of the run "
+              f"times (numba caches them: later runs load them in about a second)", file=sys.stderr)
 
 
 def plan_execution(case, jobs_, todo, jobs, executor) -> tuple:
@@ -503,14 +515,15 @@ def _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plo
     t_all = time.perf_counter()
     print(f"[{case.name}] {len(tasks)} continuation run(s)", file=sys.stderr)
     compiled = 0.0
-    if executor is None and jobs != 1 and len(tasks) > 1:
-        # before a pool: load the kernels here, a forked worker inherits them
-        with CompileClock(compile_notice) as cc:
+    if executor is None:
+        # before the progress bar (whose ETA would count the compile) and a pool: load the kernels
+        # here (a cut-down run of each kind), a forked worker inherits them
+        with CompileClock(compile_notice, compile_done) as cc:
             load_kernels(tasks)
         compiled += cc.seconds
     t_run = time.perf_counter()
     task_rows = {}
-    with CompileClock(compile_notice) as cr:
+    with CompileClock(compile_notice, compile_done) as cr:
         done = sweep.run_lines(tasks, executor=executor, jobs=jobs, progress=not quiet, desc=case.name)
     run_s = time.perf_counter() - t_run - cr.seconds
     announce_kernels(compiled + cr.seconds, f"{len(tasks)} continuation run(s)")

@@ -11,16 +11,116 @@ workers inherit them.
 """
 from __future__ import annotations
 
+import json
+import os
+import tempfile
 import time
+from pathlib import Path
 
 from numba.core import event
+
+#: compile seconds of the entry points a first run meets, measured by ``vibeam bench --compile`` on
+#: the development machine (2 cores, 2026-11-26): the expected time said before a compile when this
+#: machine has measured none (:func:`expected_seconds`)
+MEASURED_S = {
+    "integrate_work [Newton stops only]": 27.6,
+    "integrate_work [with compliant stops (linear contact phases)]": 46.2,
+    "compliant_work": 3.0,
+    "substeps": 0.1,
+    "new_work": 0.6,
+    "shoot": 31.5,
+    "correct_frequency": 16.7,
+    "tangent": 20.0,
+}
+
+
+def specialisation(kernel: str, args) -> str:
+    """A readable name of a compiled specialisation: the event integrator's (``integrate_work``) by
+    its compliant data (``cw``: None for a scene of Newton stops only; else the kinds of contact
+    phase compiled, :class:`vibeam.models.core.phases.Compliant`'s ``lin`` and ``itab``: a second
+    ``ContactPhases`` or ``Tableau`` beside ``ph`` and ``tab``), any other by its signature.
+
+    Parameters
+    ----------
+    kernel : str
+        The kernel's qualified name (``vibeam.models.core.integrator.integrate_work``).
+    args : sequence of str
+        Its argument types as numba prints them.
+    """
+    args = [str(a) for a in args]
+    if kernel.endswith("integrate_work") and len(args) > 3:
+        if args[3] == "none":
+            return "Newton stops only"
+        kinds = [k for k, t in (("linear", "ContactPhases("), ("Runge-Kutta", "Tableau(")) if args[3].count(t) > 1]
+        return f"with compliant stops ({' and '.join(kinds) or 'no'} contact phases)"
+    sig = "(" + ", ".join(args) + ")"
+    return sig if len(sig) <= 120 else sig[:120] + " ...)"
+
+
+def entry_name(kernel: str, args) -> str:
+    """``"<function> [<specialisation>]"`` for the event integrator, else the function's name."""
+    short = kernel.rsplit(".", 1)[-1]
+    return f"{short} [{specialisation(kernel, args)}]" if short == "integrate_work" else short
+
+
+def times_file() -> Path:
+    """Where this machine's compile times are kept: beside numba's cache (``NUMBA_CACHE_DIR``), else
+    in ``$XDG_CACHE_HOME/vibeam`` (``~/.cache/vibeam``)."""
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "vibeam")
+    return Path(base) / "vibeam-compile-times.json"
+
+
+def _read_times() -> dict:
+    try:
+        d = json.loads(times_file().read_text())
+        return {str(k): float(v) for k, v in d.items()} if isinstance(d, dict) else {}
+    except (OSError, ValueError, TypeError):
+        return {}
+
+
+def expected_seconds(name: str) -> tuple[float | None, str]:
+    """``(seconds, source)`` expected to compile entry point ``name``: the last measurement on this
+    machine (``"measured here"``), else :data:`MEASURED_S` (``"measured on a 2-core machine"``), else
+    ``(None, "")``."""
+    t = _read_times().get(name)
+    if t is not None:
+        return t, "last time on this machine"
+    t = MEASURED_S.get(name)
+    return (t, "on a 2-core machine") if t is not None else (None, "")
+
+
+def record_seconds(name: str, seconds: float) -> None:
+    """Keep ``seconds`` as this machine's compile time of ``name`` (written whole: a temporary file,
+    fsync, rename; a file that cannot be written is skipped, the figure is only a hint)."""
+    path = times_file()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        d = _read_times()
+        d[name] = round(float(seconds), 2)
+        fd, tmp = tempfile.mkstemp(prefix=".compile-times-", dir=path.parent)
+        try:
+            with os.fdopen(fd, "w") as f:
+                json.dump(d, f, indent=1, sort_keys=True)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            os.unlink(tmp)
+            raise
+    except OSError:
+        pass
 
 
 class CompileClock:
     """Context manager: ``seconds`` spent compiling (outermost compilations) and ``count`` of
-    specialisations compiled while it was open; ``notice`` (a callable, optional) is called once
-    when the first compilation starts -- loading a kernel from numba's cache is not one -- so
-    that a first run can say it is compiling before the wait, not after it (issue 44).
+    specialisations compiled while it was open.
+
+    ``notice`` (a callable, optional) is called as ``notice(name, expected_s, source)`` when an
+    outermost compilation starts -- loading a kernel from numba's cache is not one -- so that a first
+    run says what it compiles, and about how long it takes, before the wait, not after it (issue 44);
+    ``done`` as ``done(name, seconds)`` when it ends.  Each entry point's time is kept
+    (:func:`record_seconds`) as the next expectation on this machine.
 
     Examples
     --------
@@ -29,13 +129,16 @@ class CompileClock:
     >>> c.seconds, c.count
     """
 
-    def __init__(self, notice=None):
+    def __init__(self, notice=None, done=None):
         self.seconds = 0.0
         self.count = 0
+        self.entries = []          # (name, seconds) of the outermost compilations, in order
         self._depth = 0
         self._t0 = 0.0
+        self._name = ""
         self._listener = None
         self._notice = notice
+        self._done = done
 
     def __enter__(self):
         clock = self
@@ -44,16 +147,24 @@ class CompileClock:
             def on_start(self, ev):
                 if clock._depth == 0:
                     clock._t0 = time.perf_counter()
-                    if clock._notice is not None:      # said once, when the first compilation starts
-                        notice, clock._notice = clock._notice, None
-                        notice()
+                    data = ev.data or {}
+                    py = getattr(data.get("dispatcher"), "py_func", None)
+                    kernel = f"{getattr(py, '__module__', '?')}.{getattr(py, '__qualname__', '?')}"
+                    clock._name = entry_name(kernel, data.get("args") or ())
+                    if clock._notice is not None:      # said when the compilation starts
+                        clock._notice(clock._name, *expected_seconds(clock._name))
                 clock._depth += 1
 
             def on_end(self, ev):
                 clock._depth -= 1
                 clock.count += 1
                 if clock._depth == 0:
-                    clock.seconds += time.perf_counter() - clock._t0
+                    dt = time.perf_counter() - clock._t0
+                    clock.seconds += dt
+                    clock.entries.append((clock._name, dt))
+                    record_seconds(clock._name, dt)
+                    if clock._done is not None:
+                        clock._done(clock._name, dt)
 
         self._listener = _Listener()
         event.register("numba:compile", self._listener)
