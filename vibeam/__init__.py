@@ -20,7 +20,7 @@ Its names are imported on first use, so ``import vibeam`` stays fast.
 from vibeam.version import __version__
 
 _API = ("load_case", "run", "simulate", "lyapunov", "basins", "open_results", "continuation", "continue_", "derive",
-        "modes", "regress", "cost", "fit", "export", "poincare", "Results", "Simulation", "Lyapunov")
+        "modes", "regress", "cost", "fit", "export", "poincare", "uncertainty", "Results", "Simulation", "Lyapunov")
 __all__ = ["__version__", *_API]
 
 

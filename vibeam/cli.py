@@ -240,6 +240,36 @@ def _basins(args, case, text, out_dir, spec, store) -> int:
     return 0
 
 
+def cmd_uncertainty(args) -> int:
+    """``vibeam uncertainty CASE``: the FRC bands of the case's ``[uncertainty]`` into
+    ``/uncertainty/<run>/`` of results.h5 (:func:`vibeam.api.uncertainty.uncertainty`)."""
+    # lazy: keeps the case schema (pydantic, numba: 0.4 s) out of `vibeam --help`
+    from vibeam.case.schema import load_case
+    from vibeam.io.outdir import check_folder  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam --help`
+
+    case, text = load_case(args.case)
+    if case.uncertainty is None:
+        raise CaseError(f"{args.case}: no [uncertainty] table; add one ([[uncertainty.parameter]] name, "
+                        f"distribution, ...)")
+    # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
+    from vibeam.api.uncertainty import uncertainty
+
+    out_dir = check_folder(_out_dir(args, case))
+    ex, client = _executor(args)
+    try:
+        uncertainty(case, samples=args.samples, jobs=args.jobs, executor=ex, out=out_dir, quick=args.quick,
+                    progress=not args.quiet, fresh=args.fresh, quiet=args.quiet, plots=not args.no_plots)
+    except KeyboardInterrupt as e:
+        sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
+        print(f"vibeam: interrupted ({sig}); {out_dir / 'results.h5'} is as it was (the samples are written "
+              f"only when all are done)", file=sys.stderr)
+        return _interrupt_code(e)
+    finally:
+        if client is not None:
+            client.close()
+    return 0
+
+
 def cmd_basins(args) -> int:
     from pydantic import ValidationError  # lazy: keeps pydantic (43 modules) out of `vibeam --help`
 
@@ -470,6 +500,23 @@ def main(argv=None) -> int:
                        formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam map cases/rig-map-gap.toml --quick")
     run_args(p)
     p.set_defaults(func=lambda a: cmd_run(a, need_map=True))
+    p = sub.add_parser("uncertainty", help="FRC bands from the case's [uncertainty] (scrambled Sobol' samples "
+                       "of its parameters' distributions): quantiles, outcome probabilities, jump frequencies, "
+                       "and per pair of runs the verdict", formatter_class=argparse.RawDescriptionHelpFormatter,
+                       epilog="Example:\n  vibeam uncertainty cases/rig-tight-uncertainty.toml --samples 64 --jobs 2")
+    p.add_argument("case", help="case file (TOML) with an [uncertainty] table")
+    p.add_argument("--samples", type=int, metavar="N", help="samples instead of [uncertainty] samples (a power of 2)")
+    p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/; its "
+                   "results.h5 keeps its other groups, /uncertainty/<run> is replaced)")
+    p.add_argument("--jobs", type=jobs_option, default=None,
+                   help="worker processes of the local pool (default: all cores; 1: inline)")
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    p.add_argument("--quick", action="store_true", help="the case's quick variant, at 8 samples")
+    p.add_argument("--no-plots", action="store_true", help="skip uncertainty.png (the FRC bands)")
+    p.add_argument("--fresh", action="store_true", help=FRESH_HELP)
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the samples' sweep lines on a dask.distributed scheduler (e.g. tcp://host:8786)")
+    p.set_defaults(func=cmd_uncertainty)
     p = sub.add_parser("basins", help="basins of attraction (or the census of attractors) at a forcing "
                        "frequency: every attractor, its type, period, amplitude, basin fraction and Lyapunov "
                        "exponents", formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -643,6 +690,10 @@ def main(argv=None) -> int:
     p.add_argument("--latency", action="store_true",
                    help="instead: seconds from SIGINT to exit of an inline long point and of a --jobs 2 map, "
                         "and the overshoot of point_time_limit_s (goal: each within 1 s)")
+    p.add_argument("--uncertainty", action="store_true",
+                   help="instead: sampled sweep points per second of [uncertainty] against the plain sweeps of the "
+                        "same samples (SDOF tight rig, R and gap sampled, 61 frequencies; goals: the layer costs "
+                        "<= 5 %%, 1024 samples on 2 cores in <= 60 s; --samples N)")
     p.add_argument("--compile", action="store_true",
                    help="instead: numba compile time of the quick start, a first compliant SDOF point, the first "
                         "FE 2- and 4-mode points and the first SDOF `vibeam continue` (inline, and on a pool of 2), "
@@ -657,7 +708,9 @@ def main(argv=None) -> int:
                    help="instead: the work estimate that decides inline against pool, against the run time it "
                         "estimates, on the cell matrix's scenes (SDOF and 2-mode beam, each law, one or two stops; "
                         "goal: every ratio within 10x)")
-    p.add_argument("--jobs", type=jobs_option, default=None, help="workers of --fit and --basins (default 2)")
+    p.add_argument("--jobs", type=jobs_option, default=None, help="workers of --fit, --basins and --uncertainty "
+                   "(default 2)")
+    p.add_argument("--samples", type=int, default=None, help="samples of --uncertainty (default 1024)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     for name, sp in sub.choices.items():          # --quiet means the same for every command (module doc)
         if name not in NOT_QUIET and not any("--quiet" in a.option_strings for a in sp._actions):

@@ -93,7 +93,7 @@ REFERENCE_TRANSIENT = {"sdof": 3000, "beam": 1000}
 # more transient periods than the quick run reaches other coexisting attractors there, so its
 # reference is the quick run itself (300 periods leave 2e-13 of the transient on its periodic
 # points, which the oracles check); regressions then detect changes of the code.
-REFERENCE_TRANSIENT_OVERRIDE: dict[str, int | str] = {"rig-fe-tight": "quick"}
+REFERENCE_TRANSIENT_OVERRIDE: dict[str, int | str] = {"rig-fe-tight": "quick", "rig-tight-uncertainty": "quick"}
 # quick variants with transient_periods = "auto": the reference runs "auto" too, with this many times
 # the quick variant's max_transient_periods (a non-periodic point is accepted after half of it)
 REFERENCE_AUTO_FACTOR = 4

@@ -19,7 +19,8 @@ Its modules, by topic:
 * :mod:`vibeam.api.simulation`: one frequency, :func:`simulate`, :func:`lyapunov`, :func:`poincare`;
 * :mod:`vibeam.api.scene`: a beam scene's :func:`derive` and :func:`modes`;
 * :mod:`vibeam.api.references`: :func:`regress`, :func:`cost`, :func:`fit`;
-* :mod:`vibeam.api.tables`: :func:`export`.
+* :mod:`vibeam.api.tables`: :func:`export`;
+* :mod:`vibeam.api.uncertainty`: :func:`uncertainty` (FRC bands of ``[uncertainty]``).
 
 A name's module is imported on its first use (``vibeam.api.run``, ``from vibeam.api import run``),
 with what that module needs: ``vibeam.load_case`` loads the case schema only, not the sweep engine,
@@ -43,6 +44,7 @@ WHERE = {
     "Regression": "references", "regress": "references", "Cost": "references", "cost": "references",
     "fit": "references",
     "export": "tables", "MAX_STEM_BYTES": "tables",
+    "uncertainty": "uncertainty",
 }
 __all__ = list(WHERE)
 

@@ -56,6 +56,7 @@ from vibeam.bench.latency import LATENCY_CASE, LATENCY_GOAL_S, LATENCY_PROBE, la
 from vibeam.bench.maps import map_goals, run_map_bench
 from vibeam.bench.scaling import run_scaling_bench, scaling_goals
 from vibeam.bench.shooting import run_shooting_bench, shooting_goals
+from vibeam.bench.uncertainty import run_uncertainty_bench, uncertainty_goals
 
 __all__ = ["main_bench",
            "run_bench", "bench_goals", "GOAL_POINTS", "GOAL_PERIODS",
@@ -71,6 +72,7 @@ __all__ = ["main_bench",
            "COMPILE_SCENARIOS", "FE_POINT", "COMPLIANT_POINT",
            "run_basins_bench", "basins_goals", "BASINS_GOAL_S",
            "run_estimate_bench", "estimate_goals", "ESTIMATE_GOAL_FACTOR",
+           "run_uncertainty_bench", "uncertainty_goals",
            "goal", "verdict_word", "print_verdicts"]
 
 
@@ -118,6 +120,10 @@ def main_bench(args) -> int:
     elif getattr(args, "estimate", False):
         out, mode = run_estimate_bench(log=log), "--estimate"
         out["goals"] = estimate_goals(out)
+    elif getattr(args, "uncertainty", False):
+        out, mode = run_uncertainty_bench(samples=getattr(args, "samples", None) or 1024,
+                                          jobs=getattr(args, "jobs", None) or 2, log=log), "--uncertainty"
+        out["goals"] = uncertainty_goals(out)
     elif getattr(args, "compile", False):
         out, mode = run_compile_bench(log=log), "--compile"
         out["goals"] = compile_goals(out)

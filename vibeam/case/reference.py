@@ -23,6 +23,7 @@ from vibeam.case.contact import ContactSpec, StopSpec
 from vibeam.errors import InputError
 from vibeam.io.outdir import write_text_file
 from vibeam.models.registry import IMPLEMENTED_LAWS
+from vibeam.case.uncertainty import UncertaintyParameterSpec, UncertaintySpec
 
 #: the tables of a case file in reading order: (heading, pydantic model, note)
 TABLES = (
@@ -59,6 +60,9 @@ TABLES = (
     ("[assess]", schema.AssessSpec, "assessments written by vibeam run when asked"),
     ("[map]", schema.MapSpec, "a parameter map over frequency x one model key (paper Fig. 18)"),
     ("[basins]", schema.BasinsSpec, "basins of attraction or a census of attractors"),
+    ("[uncertainty]", UncertaintySpec, "FRC bands from sampled parameters (vibeam uncertainty; Table 1's R spread)"),
+    ("[[uncertainty.parameter]]", UncertaintyParameterSpec,
+     "one sampled parameter and its distribution (scipy.stats), in the parameter's case unit"),
     ("[quick]", schema.QuickSpec, "the quick variant (vibeam run --quick; the tests regress it)"),
     ("[regress]", schema.RegressSpec, "tolerances of vibeam regress"),
 )
@@ -82,6 +86,7 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "quick": ("", "the [quick] table"),
         "map": ("", "the [map] table: a map instead of one sweep per run"),
         "basins": ("", "the [basins] table: basins of attraction written by vibeam run"),
+        "uncertainty": ("", "the [uncertainty] table: FRC bands written by vibeam uncertainty"),
     },
     "[model] (fidelity = \"sdof\")": {
         "fidelity": ("", "\"sdof\": the assumed static mode (Eqs. 39-47) or the paper's nondimensional oscillator"),
@@ -310,6 +315,21 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "lyapunov_periods": ("periods", "length of each attractor's Lyapunov spectrum (0: none)"),
         "along": ("", "\"frequency\": the census along the forcing frequency; \"map\": at one frequency along "
                   "the [map] parameter's values"),
+    },
+    "[uncertainty]": {
+        "samples": ("", "scrambled Sobol' samples, a power of 2 (default 64); each is a sweep of every sweep run"),
+        "seed": ("", "seed of the scrambling (the same seed, the same samples)"),
+        "sobol": ("", "Sobol' indices (not implemented in this version: false)"),
+        "parameter": ("", "the [[uncertainty.parameter]] tables: one per sampled parameter"),
+    },
+    "[[uncertainty.parameter]]": {
+        "name": ("", "a name or path that [map] accepts (R, gap_mm, stops[1].law.stiffness_n_m, ...)"),
+        "distribution": ("", "normal, truncnorm, uniform, lognormal or triangular; its support must stay in "
+                         "the parameter's allowed range"),
+        "mean": ("key's unit", "mean (normal, lognormal: of the parameter itself; truncnorm: before truncation)"),
+        "std": ("key's unit", "standard deviation (normal, truncnorm, lognormal)"),
+        "bounds": ("key's unit", f"{_RANGE} (truncnorm, uniform, triangular)"),
+        "mode": ("key's unit", "the most likely value (triangular)"),
     },
     "[quick]": {
         "points": ("", "frequency points of the quick variant"),

@@ -35,6 +35,7 @@ import warnings
 from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
+from vibeam.case.uncertainty import UncertaintySpec
 from vibeam.case.contact import (ContactSpec, StopSpec, beam_law,  # [model.contact] (issue 13), [[model.stop]]
                                  model_with, sdof_law, stops_as_keys, target_R)
 from vibeam.case.paths import alias_of, get_value, is_path, parameter_paths
@@ -1224,6 +1225,7 @@ class Case(_Strict):
     quick: QuickSpec = Field(default_factory=QuickSpec)
     map: MapSpec | None = None
     basins: BasinsSpec | None = None
+    uncertainty: UncertaintySpec | None = None
 
     @field_validator("name")
     @classmethod
@@ -1505,6 +1507,8 @@ def parse_case(text: str, source: str = "<case>") -> Case:
                 _check_continuation(case, i, r)
         if case.map is not None:
             _check_map(case)
+        if case.uncertainty is not None:
+            _check_uncertainty(case)
         check_time_series(case, hz_per_omega=getattr(spec, "natural_frequency_hz", None))
         if case.sweep.frequency_hz is not None and not getattr(spec, "physical", False):
             raise CaseError("'sweep.frequency_hz' needs a physical model (natural_frequency_hz, ...); "
@@ -1757,6 +1761,37 @@ def _check_map(case: Case) -> None:
             except CaseError as e:
                 raise CaseError(f"'map.values' = {quote_value(m.values)}: {m.parameter} = {v:g} is not "
                                 f"allowed ({e})") from None
+
+
+def _check_uncertainty(case: Case) -> None:
+    """Each ``[[uncertainty.parameter]]`` names what a ``[map]`` may vary, no run overrides it, and
+    every value its distribution can give (its support, an unbounded end at the
+    :data:`vibeam.case.uncertainty.SUPPORT_TAIL` quantile) makes a valid model for every run."""
+    allowed = case.map_parameters()
+    runs = [r for r in case.run if r.method != "continuation"]
+    if not runs:
+        raise CaseError("'uncertainty': the case has no sweep run to sample (continuation runs are not "
+                        "sampled); allowed: a [[run]] with a sweep method")
+    for k, p in enumerate(case.uncertainty.parameter):
+        key = f"uncertainty.parameter[{k}]"
+        if p.name not in allowed:
+            raise CaseError(f"'{key}.name' = {quote_value(p.name)} is not a parameter of this scene; allowed: "
+                            f"{', '.join(allowed)}")
+        for i, r in enumerate(runs):
+            if p.name in r.model:
+                raise CaseError(f"'run[{case.run.index(r)}].model.{p.name}' overrides the sampled parameter "
+                                f"'{key}.name'; remove it or sample another parameter")
+        for v in p.support():
+            for r in runs:
+                j = case.run.index(r)
+                try:
+                    spec = _validate_model(model_with(case.model, {**r.model, p.name: float(v)}),
+                                           prefix=f"run[{j}].model" if r.model else "model")
+                    _check_method_values(spec, j, r, f"run[{j}].model" if r.model else "model")
+                except CaseError as e:
+                    raise CaseError(f"'{key}.distribution' = {quote_value(p.distribution)}: its support reaches "
+                                    f"{p.name} = {v:g}, which is not allowed ({e}); allowed: a distribution "
+                                    f"inside the parameter's range (truncnorm or uniform with bounds)") from None
 
 
 def load_case(path) -> tuple[Case, str]:

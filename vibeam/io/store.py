@@ -58,7 +58,7 @@ PARTIAL_SUFFIX = ".partial"
 """The checkpoint of a file ``F`` is ``F.partial`` (``results.h5.partial``)."""
 LAYOUT_VERSION = 2
 #: top-level groups whose children are the units of a file (``runs/<run>``, ...)
-UNIT_PARENTS = ("runs", "maps", "branches", "basins")
+UNIT_PARENTS = ("runs", "maps", "branches", "basins", "uncertainty")
 #: checkpoint groups (in ``<file>.partial``; in the file itself only as an earlier vibeam wrote them)
 CHECKPOINTS = ("lines", "basin_lines")
 #: root attributes the store sets (not units' data)

@@ -1,0 +1,133 @@
+"""Frequency-response bands from a scene's measured parameter spread, as ``vibeam uncertainty``:
+:func:`uncertainty` (:mod:`vibeam.analysis.uncertainty`)."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from vibeam.analysis.uncertainty import QUANTILES, sample_runs, uncertainty_variables
+from vibeam.api.cases import case_text, load_case
+from vibeam.errors import CaseError
+from vibeam.io.netcdf import json_default, write_group
+from vibeam.io.store import Store
+from vibeam.plots.uncertainty import plot_bands
+from vibeam.runner import case_identity
+
+__all__ = ["uncertainty", "uncertainty_group", "print_uncertainty", "bands"]
+
+
+def uncertainty_group(r):
+    """The writer of ``/uncertainty/<run>/`` of one :class:`vibeam.analysis.uncertainty.UncertaintyResult`
+    (a ``fill(file)`` for :meth:`vibeam.io.store.Store.commit`)."""
+    attrs = {k: (json.dumps(v, default=json_default) if isinstance(v, (dict, list)) else v) for k, v in r.attrs.items()}
+
+    def fill(f):
+        write_group(f, f"uncertainty/{r.name}", uncertainty_variables(r), dict(attrs, run=r.name))
+    return fill
+
+
+def print_uncertainty(results, file=None) -> None:
+    """The table of :func:`uncertainty`: per run the samples, the median peak amplitude with its 90 %
+    band, and per pair of runs the verdict (:func:`vibeam.analysis.uncertainty.verdict`)."""
+    out = file or sys.stdout
+    for r in results:
+        q = r.quantiles()
+        scale, unit = (r.length_m * 1e3, "mm") if r.length_m else (1.0, "")
+        med = q[2]
+        i = divmod(int(_nanargmax(med)), med.shape[1]) if med.size else (0, 0)
+        x = r.frequency_hz if r.frequency_hz is not None else r.Omega
+        xu = "Hz" if r.frequency_hz is not None else "(Omega)"
+        print(f"  {r.name}: {r.amplitude.shape[0]} samples of {', '.join(r.parameters)}; median peak "
+              f"{med[i] * scale:.4g} {unit} (90 % band {q[0][i] * scale:.4g} ... {q[-1][i] * scale:.4g}) at "
+              f"{x[i[1]]:.4g} {xu} ({r.directions[i[0]]})", file=out)
+    for r in results:
+        for key, v in r.attrs.items():
+            if not key.startswith("verdict_") or v["a"] != r.name:
+                continue
+            print(f"  {v['a']} vs {v['b']}: the median of {v['a']} lies outside the 90 % band of {v['b']} at "
+                  f"{100 * v['outside_band_a_in_b']:.0f} % of {v['points']} points ({v['b']} in {v['a']}'s: "
+                  f"{100 * v['outside_band_b_in_a']:.0f} %); median down-sweep jump {v['jump_median_a']:.4g} "
+                  f"(5-95 %: {v['jump_band_a'][0]:.4g}-{v['jump_band_a'][1]:.4g}) against {v['jump_median_b']:.4g} "
+                  f"({v['jump_band_b'][0]:.4g}-{v['jump_band_b'][1]:.4g}) {'Hz' if v['unit'] == 'Hz' else '(Omega)'}", file=out)
+
+
+def _nanargmax(a):
+    return int(np.nanargmax(a)) if np.isfinite(a).any() else 0
+
+
+def bands(results) -> list:
+    """The band of each result for :func:`vibeam.plots.uncertainty.band_figure` (mm on a physical scene)."""
+    out = []
+    for r in results:
+        x, xu = r.axis
+        scale = r.length_m * 1e3 if r.length_m else 1.0
+        out.append({"name": r.name, "x": x, "x_unit": xu, "directions": list(r.directions),
+                    "q": r.quantiles() * scale, "unit": "mm" if r.length_m else "1"})
+    return out
+
+
+def uncertainty(case, samples: int | None = None, jobs: int | None = 1, executor=None, out=None,
+                quick: bool = False, progress: bool = False, fresh: bool = False, quiet: bool = False,
+                plots: bool = False) -> list:
+    """The FRC bands of a case's ``[uncertainty]`` (``vibeam uncertainty``).
+
+    Parameters
+    ----------
+    case : Case, str, Path or dict
+        Anything :func:`vibeam.load_case` takes, with an ``[uncertainty]`` table.
+    samples : int, optional
+        Instead of ``[uncertainty] samples`` (a power of 2).
+    jobs, executor :
+        Where the samples' sweep lines run (1: inline; None: every core).
+    out : str or Path, optional
+        Output folder: ``/uncertainty/<run>/`` of its ``results.h5`` (every other group kept); None:
+        nothing written.
+    quick : bool
+        The case's quick variant (its grid), at 8 samples unless ``samples`` is given.
+    progress, quiet : bool
+        A progress bar; no table.
+    plots : bool
+        With ``out``: ``uncertainty.png``, the FRC bands (:func:`vibeam.plots.uncertainty.band_figure`).
+    fresh : bool
+        Start a new results file.
+
+    Returns
+    -------
+    list of vibeam.analysis.uncertainty.UncertaintyResult
+        One per sweep run; ``to_xarray`` via :func:`vibeam.analysis.uncertainty.uncertainty_variables`.
+
+    Raises
+    ------
+    vibeam.errors.CaseError
+        No ``[uncertainty]`` table, or a bad case (one line).
+    """
+    c0 = c = load_case(case)
+    if c.uncertainty is None:
+        raise CaseError(f"{c.name}: no [uncertainty] table; add one ([[uncertainty.parameter]] name, "
+                        f"distribution, ...)")
+    if quick:
+        c = c.quick_variant()
+        samples = samples or min(8, c.uncertainty.samples)
+    if samples is not None and (samples < 2 or samples & (samples - 1)):
+        raise CaseError(f"--samples = {samples}: allowed a power of 2, at least 2")
+    results = sample_runs(c, samples=samples, jobs=jobs, executor=executor, progress=progress)
+    if not quiet:
+        print(f"[{c.name}] uncertainty: {len(results)} run(s), quantiles {list(QUANTILES)}")
+        print_uncertainty(results)
+    if out is not None:
+        text = case_text(c0)
+        with Store(Path(out), fresh=fresh) as st:
+            cj, aliases = case_identity(st, c.model_dump_json())
+            h5 = st.commit({f"uncertainty/{r.name}": uncertainty_group(r) for r in results}, c.name, text, cj,
+                           aliases=aliases)
+        if not quiet:
+            print(f"uncertainty -> {h5} (groups {', '.join('/uncertainty/' + r.name for r in results)})")
+        if plots:
+            png = plot_bands(bands(results), Path(out) / "uncertainty.png", title=f"{c.name}: FRC bands")
+            if png is not None and not quiet:
+                print(f"plot: {png}")
+    return results
+
