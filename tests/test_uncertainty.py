@@ -81,7 +81,6 @@ def test_the_verdict_of_two_runs_counts_the_points_outside_the_band():
 
 @pytest.mark.parametrize("change, words", [
     ({"samples": 12}, "'uncertainty.samples' = 12"),
-    ({"sobol": True}, "not implemented"),
     ({"parameter": [{"name": "nope", "distribution": "uniform", "bounds": [0, 1]}]}, "'uncertainty.parameter[0].name'"),
     ({"parameter": [{"name": "R", "distribution": "normal", "mean": 0.8, "std": 0.08}]}, "R = 1.36"),
     ({"parameter": [{"name": "R", "distribution": "uniform", "mean": 0.8, "bounds": [0.5, 0.9]}]}, "not mean"),
@@ -125,3 +124,48 @@ def test_the_command_line_writes_the_group_and_jobs_do_not_change_it(tmp_path):
         a1, a2 = f1["uncertainty/exact/sample_amplitude"][()], f2["uncertainty/exact/sample_amplitude"][()]
         assert a1.shape == (4, 2, 5) and np.array_equal(a1, a2)
         assert f1["uncertainty/exact/amplitude_quantile"].shape == (5, 2, 5)
+
+
+def _sobol_reference(Om, n=64):
+    """S1 and ST of f(B, beta) = B g(beta), g = Om^2 / |1 - Om^2 + 2 i beta Om|, B and beta uniform on
+    LINEAR's bounds, by a 64 x 64 Gauss-Legendre tensor quadrature (exact to round-off for this smooth
+    integrand: g is analytic on the beta interval)."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    Bs, ws = 0.010 + 0.005 * x, w / 2.0                        # uniform [0.005, 0.015]
+    bs = 0.05 + 0.01 * x                                      # uniform [0.04, 0.06]
+    F = DELTA + _X(Om, Bs[:, None], bs[None, :])              # (B, beta)
+    W = ws[:, None] * ws[None, :]
+    mean = np.sum(W * F)
+    var_ = np.sum(W * (F - mean) ** 2)
+    eB = F @ ws                                               # E[f | B]
+    eb = ws @ F                                               # E[f | beta]
+    S1 = np.array([np.sum(ws * (eB - mean) ** 2), np.sum(ws * (eb - mean) ** 2)]) / var_
+    # total: E_beta[Var_B(f | beta)] / Var and E_B[Var_beta(f | B)] / Var
+    var_B_given_b = ws @ (F - eb[None, :]) ** 2               # (beta,)
+    var_b_given_B = ((F - eB[:, None]) ** 2) @ ws             # (B,)
+    ST = np.array([np.sum(ws * var_B_given_b), np.sum(ws * var_b_given_B)]) / var_
+    return S1, ST
+
+
+def test_sobol_indices_equal_a_tensor_quadrature_of_the_closed_form():
+    """Issue 45: first-order and total Sobol' indices of the amplitude (B and beta uniform) on the
+    non-impacting scene, against a dense tensor-product quadrature of the closed-form linear FRC (no
+    scipy estimator in the reference), at 3 frequencies: the issue asks <= 0.02 absolute; measured
+    <= 4e-4 at 512 Saltelli samples, so 0.005 (a first-order index taken for a total one is off by 0.012
+    at Omega = 1 and fails)."""
+    case = copy.deepcopy(LINEAR)
+    case["sweep"]["Omega"] = [0.8, 1.2, 3]
+    case["sweep"]["direction"] = "up"
+    case["uncertainty"] = {"samples": 512, "seed": 5, "sobol": True,
+                           "parameter": [{"name": "B", "distribution": "uniform", "bounds": [0.005, 0.015]},
+                                         {"name": "beta", "distribution": "uniform", "bounds": [0.04, 0.06]}]}
+    r = vibeam.uncertainty(case, quiet=True, jobs=2)[0]
+    assert r.amplitude.shape[0] == 512 * 4 and r.base.sum() == 1024
+    si = r.sobol()
+    for k, Om in enumerate(np.linspace(0.8, 1.2, 3)):
+        S1, ST = _sobol_reference(Om)
+        np.testing.assert_allclose(si["first"][:, 0, k], S1, atol=0.005)
+        np.testing.assert_allclose(si["total"][:, 0, k], ST, atol=0.005)
+        assert (si["first_ci"][0, :, 0, k] <= si["first"][:, 0, k]).all()
+    # the reference is not trivial: near resonance beta matters, away from it B alone
+    assert _sobol_reference(1.0)[0][1] > 0.1 and _sobol_reference(0.8)[0][0] > 0.9

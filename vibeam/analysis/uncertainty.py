@@ -84,6 +84,14 @@ class UncertaintyResult:
     frequency_hz: np.ndarray | None = None
     length_m: float | None = None
     attrs: dict = field(default_factory=dict)
+    roles: tuple = ()
+
+    @property
+    def base(self) -> np.ndarray:
+        """The rows that sample the distributions (all, or Saltelli's ``A`` and ``B``): the rows of every
+        statistic but the Sobol' indices."""
+        r = np.asarray(self.roles if self.roles else ["A"] * self.amplitude.shape[0])
+        return (r == "A") | (r == "B")
 
     @property
     def axis(self) -> tuple[np.ndarray, str]:
@@ -99,7 +107,7 @@ class UncertaintyResult:
     def quantiles(self) -> np.ndarray:
         """Amplitude quantiles :data:`QUANTILES` over the samples with a finite amplitude, shape
         ``(n_quantiles, n_directions, n_Omega)``; NaN where no sample has one."""
-        a = self.amplitude
+        a = self.amplitude[self.base]
         out = np.full((len(QUANTILES),) + a.shape[1:], np.nan)
         ok = np.isfinite(a)
         for j in np.ndindex(a.shape[1:]):
@@ -110,7 +118,7 @@ class UncertaintyResult:
 
     def moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(mean, std, n)`` of the finite amplitudes per point (``std`` with ``n - 1``; NaN below 2)."""
-        a = self.amplitude
+        a = self.amplitude[self.base]
         ok = np.isfinite(a)
         n = ok.sum(axis=0)
         s = np.where(ok, a, 0.0)
@@ -123,10 +131,53 @@ class UncertaintyResult:
         """``(names, p)``: the fraction of samples in each outcome (the classes of
         :data:`vibeam.analysis.maps.CLASSES`, then the statuses :data:`STATUS_OUTCOMES`) per point,
         ``p`` of shape ``(n_outcomes, n_directions, n_Omega)``."""
-        c = self.classification
+        c, st = self.classification[self.base], self.status[self.base]
         names = list(CLASSES.values()) + list(STATUS_OUTCOMES)
-        p = [np.mean(c == k, axis=0) for k in CLASSES] + [np.mean(self.status == s, axis=0) for s in STATUS_OUTCOMES]
+        p = [np.mean(c == k, axis=0) for k in CLASSES] + [np.mean(st == s, axis=0) for s in STATUS_OUTCOMES]
         return names, np.asarray(p)
+
+    def sobol(self, confidence: float = 0.95, resamples: int = 199) -> dict | None:
+        """Sobol' indices of the amplitude at every point and of the down-sweep jump frequency (else the
+        up sweep's), by scipy.stats.sobol_indices (Saltelli et al. 2010's estimators) on Saltelli's design
+        of the rows; None without that design.
+
+        Returns
+        -------
+        dict
+            ``first``, ``total``: shape ``(n_parameters, n_directions, n_Omega)``; ``first_ci``,
+            ``total_ci``: shape ``(2, n_parameters, n_directions, n_Omega)`` (bootstrap, ``confidence``);
+            ``jump_first``, ``jump_total``: shape ``(n_parameters,)``.  A point where a run gave no
+            finite amplitude has NaN indices.
+        """
+        from scipy.stats import sobol_indices  # lazy: keeps scipy.stats out of the engine's start-up
+
+        roles = np.asarray(self.roles)
+        if not any(r.startswith("AB:") for r in roles):
+            return None
+        n, d = int(np.sum(roles == "A")), len(self.parameters)
+        shape = self.amplitude.shape[1:]
+
+        def indices(Y):                         # Y: (rows, s) -> (first, total, first_ci, total_ci), (d, s)
+            fA, fB = Y[roles == "A"].T, Y[roles == "B"].T
+            fAB = np.stack([Y[roles == f"AB:{p}"].T for p in self.parameters])
+            ok = np.isfinite(fA).all(axis=1) & np.isfinite(fB).all(axis=1) & np.isfinite(fAB).all(axis=(0, 2))
+            ok &= (np.var(np.concatenate([fA, fB], axis=1), axis=1) > 0)
+            out = [np.full((d, Y.shape[1]), np.nan) for _ in range(2)] + \
+                  [np.full((2, d, Y.shape[1]), np.nan) for _ in range(2)]
+            if ok.any():
+                res = sobol_indices(func={"f_A": fA[ok], "f_B": fB[ok], "f_AB": fAB[:, ok]}, n=n)
+                ci = res.bootstrap(confidence_level=confidence, n_resamples=resamples)
+                out[0][:, ok], out[1][:, ok] = res.first_order.T, res.total_order.T
+                for k, c in ((2, ci.first_order), (3, ci.total_order)):
+                    out[k][0][:, ok], out[k][1][:, ok] = c.confidence_interval.low.T, c.confidence_interval.high.T
+            return out
+
+        first, total, first_ci, total_ci = indices(self.amplitude.reshape(len(roles), -1))
+        d_jump = self.directions.index("down") if "down" in self.directions else 0
+        jf, jt, _, _ = indices(self.jumps()[:, d_jump:d_jump + 1])
+        return {"first": first.reshape((d,) + shape), "total": total.reshape((d,) + shape),
+                "first_ci": first_ci.reshape((2, d) + shape), "total_ci": total_ci.reshape((2, d) + shape),
+                "jump_first": jf[:, 0], "jump_total": jt[:, 0]}
 
     def jumps(self) -> np.ndarray:
         """The jump frequency (on :attr:`axis`: Hz, else Omega) of each sample and direction, shape
@@ -177,7 +228,7 @@ def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = 
         A run whose solver cannot take a sampled value (one line naming the run and the values).
     """
     spec = case.uncertainty if spec is None else spec
-    design = spec.design(samples)
+    design, roles = spec.saltelli(samples) if spec.sobol else (spec.design(samples), [])
     names = tuple(p.name for p in spec.parameter)
     runs = [r for r in case.run if r.method != "continuation"]
     plan = []                                       # (run, sample, job, lines)
@@ -193,6 +244,7 @@ def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = 
         mine = [(i, job, ls) for rr, i, job, ls in plan if rr is r]
         res = [assemble(job.solver, job.sweep, r.name, [done[(l.run, l.key)] for l in ls], 0.0) for _, job, ls in mine]
         out.append(_result(r, names, design, res, spec))
+        out[-1].roles = tuple(roles)
     verdict(out)
     return out
 
@@ -253,11 +305,11 @@ def verdict(results: list) -> dict:
              "outside_band_b_in_a": float(np.mean((med_b[ok] < lo_a[ok]) | (med_b[ok] > hi_a[ok]))) if ok.any() else np.nan}
         for tag, r in (("a", a), ("b", b)):
             d = r.directions.index("down") if "down" in r.directions else 0
-            j = r.jumps()[:, d]
+            j = r.jumps()[r.base, d]
             j = j[np.isfinite(j)]
             v[f"jump_median_{tag}"] = float(np.median(j)) if j.size else np.nan
             v[f"jump_band_{tag}"] = [float(x) for x in np.quantile(j, (0.05, 0.95))] if j.size else [np.nan, np.nan]
-            v[f"jump_fraction_{tag}"] = float(j.size / r.amplitude.shape[0])
+            v[f"jump_fraction_{tag}"] = float(j.size / np.sum(r.base))
         v["jump_difference"] = v["jump_median_b"] - v["jump_median_a"]
         out[f"{a.name} vs {b.name}"] = dict(v, a=a.name, b=b.name)
         for r, other in ((a, b), (b, a)):
@@ -291,6 +343,17 @@ def uncertainty_variables(r: UncertaintyResult) -> dict:
         "jump_frequency": var(("sample", "direction"), r.jumps(), r.axis[1],
                               "jump frequency of each sample, Hz or Omega (NaN: none)"),
     }
+    if r.roles:
+        v["sample_role"] = var(("sample",), np.asarray(r.roles, dtype=object),
+                               long_name="Saltelli's design: A, B, or AB:<parameter> (A with that column from B)")
+    si = r.sobol()
+    if si is not None:
+        v["sobol_first"] = var(("parameter",) + g, si["first"], "1", "first-order Sobol' index of the amplitude")
+        v["sobol_total"] = var(("parameter",) + g, si["total"], "1", "total Sobol' index of the amplitude")
+        v["sobol_first_ci"] = var(("bound", "parameter") + g, si["first_ci"], "1", "95 % bootstrap interval")
+        v["sobol_total_ci"] = var(("bound", "parameter") + g, si["total_ci"], "1", "95 % bootstrap interval")
+        v["jump_sobol_first"] = var(("parameter",), si["jump_first"], "1", "first-order index of the jump frequency")
+        v["jump_sobol_total"] = var(("parameter",), si["jump_total"], "1", "total index of the jump frequency")
     if r.frequency_hz is not None:
         v["frequency_hz"] = var(("Omega",), r.frequency_hz, "Hz", "forcing frequency")
     if r.length_m:

@@ -40,9 +40,19 @@ def print_uncertainty(results, file=None) -> None:
         i = divmod(int(_nanargmax(med)), med.shape[1]) if med.size else (0, 0)
         x = r.frequency_hz if r.frequency_hz is not None else r.Omega
         xu = "Hz" if r.frequency_hz is not None else "(Omega)"
-        print(f"  {r.name}: {r.amplitude.shape[0]} samples of {', '.join(r.parameters)}; median peak "
+        print(f"  {r.name}: {int(r.base.sum())} samples of {', '.join(r.parameters)}; median peak "
               f"{med[i] * scale:.4g} {unit} (90 % band {q[0][i] * scale:.4g} ... {q[-1][i] * scale:.4g}) at "
               f"{x[i[1]]:.4g} {xu} ({r.directions[i[0]]})", file=out)
+    for r in results:
+        si = r.sobol()
+        if si is not None:
+            with np.errstate(all="ignore"):
+                peak = [float(np.nanmax(si["first"][k])) if np.isfinite(si["first"][k]).any() else float("nan")
+                        for k in range(len(r.parameters))]
+            print(f"  {r.name}: Sobol' first-order index of the amplitude, largest over the grid: "
+                  + ", ".join(f"{p} {x:.2f}" for p, x in zip(r.parameters, peak))
+                  + "; of the jump frequency: "
+                  + ", ".join(f"{p} {x:.2f}" for p, x in zip(r.parameters, si["jump_first"])), file=out)
     for r in results:
         for key, v in r.attrs.items():
             if not key.startswith("verdict_") or v["a"] != r.name:

@@ -319,7 +319,8 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
     "[uncertainty]": {
         "samples": ("", "scrambled Sobol' samples, a power of 2 (default 64); each is a sweep of every sweep run"),
         "seed": ("", "seed of the scrambling (the same seed, the same samples)"),
-        "sobol": ("", "Sobol' indices (not implemented in this version: false)"),
+        "sobol": ("", "first-order and total Sobol' indices of the amplitude and the jump frequency (Saltelli's "
+                  "design: samples x (parameters + 2) sweeps; scipy.stats.sobol_indices)"),
         "parameter": ("", "the [[uncertainty.parameter]] tables: one per sampled parameter"),
     },
     "[[uncertainty.parameter]]": {
