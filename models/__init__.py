@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import importlib
 
-from . import _cache
+from . import _cache, _inline_copy
 
 _cache.install()   # before any kernel module: the cache key covers the whole package
+_inline_copy.install()   # numba's inliner copies a callee's scope once, not once per block
 
 from .registry import (FIDELITIES, IMPULSIVE, fidelity, mass_law_keys, resolve,  # noqa: E402
                        supported_methods)
