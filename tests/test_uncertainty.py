@@ -161,6 +161,7 @@ def test_sobol_indices_equal_a_tensor_quadrature_of_the_closed_form():
                                          {"name": "beta", "distribution": "uniform", "bounds": [0.04, 0.06]}]}
     r = vibeam.uncertainty(case, quiet=True, jobs=2)[0]
     assert r.amplitude.shape[0] == 512 * 4 and r.base.sum() == 1024
+    assert r.attrs["samples"] == 512               # the design's N, not its N (d + 2) rows
     si = r.sobol()
     for k, Om in enumerate(np.linspace(0.8, 1.2, 3)):
         S1, ST = _sobol_reference(Om)
@@ -169,3 +170,43 @@ def test_sobol_indices_equal_a_tensor_quadrature_of_the_closed_form():
         assert (si["first_ci"][0, :, 0, k] <= si["first"][:, 0, k]).all()
     # the reference is not trivial: near resonance beta matters, away from it B alone
     assert _sobol_reference(1.0)[0][1] > 0.1 and _sobol_reference(0.8)[0][0] > 0.9
+
+
+def test_the_api_takes_the_command_lines_default_jobs(monkeypatch):
+    """``vibeam uncertainty`` without --jobs uses every core (None), as ``vibeam.run`` does: the API's
+    default is the same, and it checks ``jobs`` by the rule of --jobs."""
+    import inspect
+
+    import vibeam.cli as cli
+
+    assert inspect.signature(vibeam.uncertainty).parameters["jobs"].default is None
+    assert inspect.signature(vibeam.run).parameters["jobs"].default is None
+    seen = []
+    monkeypatch.setattr(cli, "cmd_uncertainty", lambda a: seen.append(a.jobs) or 0)
+    assert cli.main(["uncertainty", "any.toml"]) == 0 and seen == [None]
+    with pytest.raises(ValueError, match="jobs = 0"):
+        vibeam.uncertainty(LINEAR, jobs=0, quiet=True)
+
+
+def test_samples_build_their_solvers_one_at_a_time(monkeypatch):
+    """Memory stays bounded: a solver is built where its sample runs and dropped after it, so 16
+    samples swept inline never hold more than two solvers at once (the first sample's, kept for the
+    layout, and the running one); building every sample's solver up front held 16."""
+    import gc
+    import weakref
+
+    import vibeam.analysis.uncertainty as unc
+
+    alive, peak, real = [], [0], unc.make_job
+
+    def counted(*a, **k):
+        job = real(*a, **k)
+        gc.collect()
+        alive.append(weakref.ref(job.solver))
+        peak[0] = max(peak[0], sum(w() is not None for w in alive))
+        return job
+
+    monkeypatch.setattr(unc, "make_job", counted)
+    r = vibeam.uncertainty(LINEAR, jobs=1, quiet=True)[0]
+    assert len(alive) == 17 and peak[0] <= 2, (len(alive), peak[0])
+    assert r.amplitude.shape == (16, 2, 5)

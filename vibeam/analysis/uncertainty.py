@@ -24,18 +24,20 @@ default, their definition 7).
 """
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from itertools import combinations
 
 import numpy as np
 
 from vibeam.analysis.maps import CLASSES, classify
+from vibeam.engine import sweep          # by the module: its run_lines may be replaced (tests)
 from vibeam.engine.jobs import make_job
-from vibeam.engine.sweep import assemble, plan_lines, run_lines
+from vibeam.engine.sweep import load_kernels, plan_lines, run_line, stack
+from vibeam.errors import CaseError
 from vibeam.io.netcdf import var
 
-__all__ = ["QUANTILES", "JUMP_FRACTION", "UncertaintyResult", "sample_runs", "verdict", "uncertainty_variables"]
+__all__ = ["QUANTILES", "JUMP_FRACTION", "UncertaintyResult", "SampleTask", "sample_arrays", "sample_runs", "verdict",
+           "uncertainty_variables"]
 
 #: the stored quantiles of the amplitude
 QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
@@ -166,7 +168,14 @@ class UncertaintyResult:
                   [np.full((2, d, Y.shape[1]), np.nan) for _ in range(2)]
             if ok.any():
                 res = sobol_indices(func={"f_A": fA[ok], "f_B": fB[ok], "f_AB": fAB[:, ok]}, n=n)
-                ci = res.bootstrap(confidence_level=confidence, n_resamples=resamples)
+                # its bootstrap draws from numpy's global RandomState (scipy 1.17 takes no rng there):
+                # seeded by the design's seed, so the intervals are reproducible, and restored after
+                state = np.random.get_state()
+                np.random.seed(int(self.attrs.get("seed", 0)))
+                try:
+                    ci = res.bootstrap(confidence_level=confidence, n_resamples=resamples)
+                finally:
+                    np.random.set_state(state)
                 out[0][:, ok], out[1][:, ok] = res.first_order.T, res.total_order.T
                 for k, c in ((2, ci.first_order), (3, ci.total_order)):
                     out[k][0][:, ok], out[k][1][:, ok] = c.confidence_interval.low.T, c.confidence_interval.high.T
@@ -200,9 +209,92 @@ class UncertaintyResult:
         return out
 
 
-def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = 1, executor=None,
-                progress: bool = False) -> list[UncertaintyResult]:
+@dataclass(frozen=True)
+class SampleTask:
+    """One sample's sweep of one run: a unit of work of :func:`vibeam.engine.sweep.run_lines`.
+
+    The solver is built where the unit runs (a worker of the pool, or this process inline) and
+    dropped when its sweep is done, so a design of many samples never holds more solvers than
+    there are workers; what comes back is :func:`sample_arrays` of the sweep, not its per-point
+    records.
+
+    Attributes
+    ----------
+    key : str
+        ``"<sample index, 6 digits>"`` (unique within the run).
+    run : str
+        The run's name.
+    case : vibeam.case.schema.Case
+        The case as run.
+    spec_run : object
+        Its ``[[run]]`` entry.
+    values : tuple of (str, float)
+        The sampled names or paths and values.
+    index : int
+        The sample (row of the design).
+    n_points : int
+        Points of the sweep (every direction).
+    """
+
+    key: str
+    run: str
+    case: object
+    spec_run: object
+    values: tuple
+    index: int
+    n_points: int
+    #: the progress bar advances per point (run_line's protocol)
+    reports_progress = True
+
+    def compute(self, report=None) -> list:
+        """The sample's sweep: ``[sample_arrays(...)]`` (one row).  A solver that refuses the
+        sampled values (:class:`vibeam.errors.CaseError` of :func:`vibeam.engine.jobs.make_job`) gives
+        every point ``status = 'failed'`` (each parameter's support was checked against its range
+        when the case was read; only a combination of values can be refused)."""
+        try:
+            job = make_job(self.case, self.spec_run, dict(self.spec_run.model, **dict(self.values)), self.index)
+        except CaseError:
+            return self.lost_rows(None, 0)
+        rows = [row for line in plan_lines(job.solver, job.sweep, self.run) for row in run_line(line, report)]
+        return [sample_arrays(rows, job.sweep)]
+
+    def lost_rows(self, err, attempts) -> list:
+        """Every point failed (a worker lost ``attempts`` times, or a refused solver): the row of
+        :meth:`compute` with NaN amplitudes, period 0 and status ``failed``."""
+        shape = self.case_shape
+        return [{"amplitude": np.full(shape, np.nan), "period": np.zeros(shape, np.int64),
+                 "status": np.full(shape, "failed", dtype=object)}]
+
+    @property
+    def case_shape(self) -> tuple:
+        """``(n_directions, n_Omega)`` of the sample's arrays."""
+        nd = 2 if self.case.sweep.direction == "both" else 1
+        return nd, self.n_points // nd
+
+
+def sample_arrays(rows: list, sw) -> dict:
+    """One sampled sweep's per-point records (:func:`vibeam.engine.sweep.run_line`, every line in
+    plan order) as ``{"amplitude", "period", "status"}``, each of shape ``(n_directions, n_Omega)``
+    along the increasing ``Omega`` (directions in visiting order: up, then down)."""
+    data = stack(rows, sw)
+    direc = np.asarray([str(x) for x in data["direction"]])
+    om = np.asarray(data["Omega"], float)
+    dirs = list(dict.fromkeys(direc.tolist()))
+    order = [np.flatnonzero(direc == d)[np.argsort(om[direc == d], kind="stable")] for d in dirs]
+    st = np.asarray(data["status"], dtype=object)
+    return {"amplitude": np.stack([np.asarray(data["amplitude"], float)[o] for o in order]),
+            "period": np.stack([np.asarray(data["period"], np.int64)[o] for o in order]),
+            "status": np.stack([st[o] for o in order]).astype(object)}
+
+
+def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = None, executor=None,
+                progress: bool = False, done: dict | None = None, on_sample=None) -> list[UncertaintyResult]:
     """Sweep every sweep run of ``case`` at every sample of its ``[uncertainty]`` design.
+
+    Each (run, sample) is one unit of work (:class:`SampleTask`) on the one engine
+    (:func:`vibeam.engine.sweep.run_lines`); its solver is built where it runs, and only the sample's
+    amplitude, period and status per (direction, Omega) come back: memory holds those arrays (about
+    17 bytes per sampled point) and one solver per worker, whatever the number of samples.
 
     Parameters
     ----------
@@ -213,9 +305,14 @@ def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = 
     samples : int, optional
         Instead of the spec's ``samples`` (a power of 2).
     jobs, executor :
-        Where the lines run (:func:`vibeam.engine.sweep.run_lines`: inline for ``jobs = 1``).
+        Where the samples run (:func:`vibeam.engine.sweep.run_lines`: None all cores, 1 inline).
     progress : bool
-        A progress bar over all points.
+        A progress bar over all sampled points.
+    done : dict, optional
+        ``{run: {sample: arrays}}`` computed before (a checkpoint, ``--resume``): not computed again.
+    on_sample : callable, optional
+        ``on_sample(run, sample, arrays)`` in this process as each sample's sweep finishes (in any
+        order), ``arrays`` as :func:`sample_arrays` (the checkpoint writer).
 
     Returns
     -------
@@ -225,54 +322,53 @@ def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = 
     Raises
     ------
     vibeam.errors.CaseError
-        A run whose solver cannot take a sampled value (one line naming the run and the values).
+        A run whose solver cannot be built at the first sample (one line naming the run and the values).
     """
     spec = case.uncertainty if spec is None else spec
     design, roles = spec.saltelli(samples) if spec.sobol else (spec.design(samples), [])
     names = tuple(p.name for p in spec.parameter)
     runs = [r for r in case.run if r.method != "continuation"]
-    plan = []                                       # (run, sample, job, lines)
+    done = {r.name: dict((done or {}).get(r.name, {})) for r in runs}
+    tasks, firsts, meta = [], [], {}
     for r in runs:
-        for i, row in enumerate(design):
-            job = make_job(case, r, dict(r.model, **{n: float(v) for n, v in zip(names, row)}), i)
-            lines = [dataclasses.replace(l, key=f"{i:05d}-{l.key}") for l in plan_lines(job.solver, job.sweep, r.name)]
-            plan.append((r, i, job, lines))
-    done = run_lines([l for *_, ls in plan for l in ls], executor=executor, jobs=jobs, progress=progress,
-                     desc=f"{case.name} uncertainty")
+        # the first sample's job: the grid, the layout, the scene's units and the kernels to load
+        job = make_job(case, r, dict(r.model, **{n: float(v) for n, v in zip(names, design[0])}), 0)
+        lines = plan_lines(job.solver, job.sweep, r.name)
+        model = job.solver.model
+        meta[r.name] = {"dirs": tuple(dict.fromkeys(l.direction for l in lines)),
+                        "Omega": np.sort(np.asarray(job.sweep.Omega, float)),
+                        "fn": getattr(model, "natural_frequency_hz", None), "L": getattr(model, "length_m", None),
+                        "fidelity": model.fidelity, "method": job.solver.name}
+        n_pts = sum(l.n_points for l in lines)
+        todo = [i for i in range(design.shape[0]) if i not in done[r.name]]
+        if todo:
+            firsts += lines
+        tasks += [SampleTask(f"{i:06d}", r.name, case, r, tuple((n, float(v)) for n, v in zip(names, design[i])), i,
+                             n_pts) for i in todo]
+    if tasks and executor is None:
+        load_kernels(firsts)        # before the pool forks: its workers inherit the kernels
+
+    def on_line(task, rows):
+        done[task.run][task.index] = rows[0]
+        if on_sample is not None:
+            on_sample(task.run, task.index, rows[0])
+
+    sweep.run_lines(tasks, executor=executor, jobs=jobs, on_line=on_line, progress=progress,
+                    desc=f"{case.name} uncertainty")
+    n_base = design.shape[0] // spec.runs_per_sample()
     out = []
     for r in runs:
-        mine = [(i, job, ls) for rr, i, job, ls in plan if rr is r]
-        res = [assemble(job.solver, job.sweep, r.name, [done[(l.run, l.key)] for l in ls], 0.0) for _, job, ls in mine]
-        out.append(_result(r, names, design, res, spec))
-        out[-1].roles = tuple(roles)
+        m, got = meta[r.name], done[r.name]
+        rows = [got[i] for i in range(design.shape[0])]
+        out.append(UncertaintyResult(
+            name=r.name, parameters=names, design=np.asarray(design, float), directions=m["dirs"], Omega=m["Omega"],
+            amplitude=np.stack([x["amplitude"] for x in rows]), period=np.stack([x["period"] for x in rows]),
+            status=np.stack([x["status"] for x in rows]).astype(object),
+            frequency_hz=m["Omega"] * m["fn"] if m["fn"] else None, length_m=m["L"],
+            attrs={"fidelity": m["fidelity"], "method": m["method"], "samples": n_base, "seed": spec.seed},
+            roles=tuple(roles)))
     verdict(out)
     return out
-
-
-def _result(run, names, design, res, spec) -> UncertaintyResult:
-    """The samples' sweep results of one run on one (direction, Omega) layout."""
-    first = res[0].data
-    direc = np.asarray([str(x) for x in first["direction"]])
-    dirs = tuple(dict.fromkeys(direc.tolist()))
-    om = np.asarray(first["Omega"], float)
-    order = {d: np.flatnonzero(direc == d)[np.argsort(om[direc == d], kind="stable")] for d in dirs}
-    grid = om[order[dirs[0]]]
-
-    def lay(key, fill, dtype=float):
-        a = np.full((len(res), len(dirs), grid.size), fill, dtype=dtype)
-        for i, r in enumerate(res):
-            v = np.asarray(r.data[key])
-            for j, d in enumerate(dirs):
-                a[i, j] = v[order[d]]
-        return a
-
-    amp = lay("amplitude", np.nan)
-    fn = res[0].attrs.get("natural_frequency_hz")
-    return UncertaintyResult(
-        name=run.name, parameters=names, design=np.asarray(design, float), directions=dirs, Omega=grid,
-        amplitude=amp, period=lay("period", 0, np.int64), status=lay("status", "", object),
-        frequency_hz=grid * fn if fn else None, length_m=res[0].attrs.get("length_m"),
-        attrs={"fidelity": res[0].fidelity, "method": res[0].method, "samples": len(res), "seed": spec.seed})
 
 
 def verdict(results: list) -> dict:

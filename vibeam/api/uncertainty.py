@@ -10,6 +10,7 @@ import numpy as np
 
 from vibeam.analysis.uncertainty import QUANTILES, sample_runs, uncertainty_variables
 from vibeam.api.cases import case_text, load_case
+from vibeam.api.common import check_run_args
 from vibeam.errors import CaseError
 from vibeam.io.netcdf import json_default, write_group
 from vibeam.io.store import Store
@@ -79,7 +80,7 @@ def bands(results) -> list:
     return out
 
 
-def uncertainty(case, samples: int | None = None, jobs: int | None = 1, executor=None, out=None,
+def uncertainty(case, samples: int | None = None, jobs: int | None = None, executor=None, out=None,
                 quick: bool = False, progress: bool = False, fresh: bool = False, quiet: bool = False,
                 plots: bool = False) -> list:
     """The FRC bands of a case's ``[uncertainty]`` (``vibeam uncertainty``).
@@ -90,8 +91,11 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = 1, executor
         Anything :func:`vibeam.load_case` takes, with an ``[uncertainty]`` table.
     samples : int, optional
         Instead of ``[uncertainty] samples`` (a power of 2).
-    jobs, executor :
-        Where the samples' sweep lines run (1: inline; None: every core).
+    jobs : int or None
+        Workers of the local process pool (None, the default as ``vibeam uncertainty`` and
+        :func:`vibeam.run`: all cores; 1: in this process).
+    executor : concurrent.futures.Executor, optional
+        Where the samples run instead, e.g. ``distributed.Client(...).get_executor()``.
     out : str or Path, optional
         Output folder: ``/uncertainty/<run>/`` of its ``results.h5`` (every other group kept); None:
         nothing written.
@@ -113,7 +117,11 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = 1, executor
     ------
     vibeam.errors.CaseError
         No ``[uncertainty]`` table, or a bad case (one line).
+    TypeError, ValueError
+        An argument of the wrong type or out of range (``jobs`` by the rule of ``--jobs``; one line).
     """
+    jobs, out = check_run_args(jobs, out, executor, quick=quick, progress=progress, fresh=fresh, quiet=quiet,
+                               plots=plots)
     c0 = c = load_case(case)
     if c.uncertainty is None:
         raise CaseError(f"{c.name}: no [uncertainty] table; add one ([[uncertainty.parameter]] name, "
