@@ -36,7 +36,7 @@ from vibeam.engine.sweep import load_kernels, plan_lines, run_line, stack
 from vibeam.errors import CaseError
 from vibeam.io.netcdf import var
 
-__all__ = ["QUANTILES", "JUMP_FRACTION", "UncertaintyResult", "SampleTask", "sample_arrays", "sample_runs", "verdict",
+__all__ = ["QUANTILES", "JUMP_FRACTION", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_CONFIDENCE", "UncertaintyResult", "SampleTask", "sample_arrays", "sample_runs", "verdict",
            "uncertainty_variables"]
 
 #: the stored quantiles of the amplitude
@@ -46,6 +46,12 @@ QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
 JUMP_FRACTION = 0.2
 #: the statuses whose probability is stored beside the classes
 STATUS_OUTCOMES = ("chatter", "sticking", "failed")
+#: resamples of the bootstrap intervals of the quantiles, mean and std (:meth:`UncertaintyResult.bootstrap`)
+BOOTSTRAP_RESAMPLES = 999
+#: their confidence level
+BOOTSTRAP_CONFIDENCE = 0.95
+#: the most values one batch of bootstrap resamples holds (resamples x samples; 32 MB of float64)
+BOOTSTRAP_BATCH = 1 << 22
 
 
 @dataclass
@@ -128,6 +134,77 @@ class UncertaintyResult:
             mean = s.sum(axis=0) / n
             var_ = np.where(ok, (a - mean) ** 2, 0.0).sum(axis=0) / (n - 1)
         return np.where(n > 0, mean, np.nan), np.where(n > 1, np.sqrt(var_), np.nan), n
+
+    def bootstrap(self, resamples: int = BOOTSTRAP_RESAMPLES, confidence: float = BOOTSTRAP_CONFIDENCE,
+                  seed: int | None = None) -> dict:
+        """Percentile-bootstrap confidence intervals of :meth:`quantiles` and of :meth:`moments`'
+        mean and std, per point.
+
+        At each point the samples with a finite amplitude (``m`` of them, the rows of :attr:`base`)
+        are resampled with replacement ``resamples`` times; each resample gives the quantiles
+        :data:`QUANTILES` (numpy's definition 7, as :meth:`quantiles`), the mean and the std (``n - 1``),
+        and the interval is the ``(1 - confidence) / 2`` and ``(1 + confidence) / 2`` quantiles of
+        those ``resamples`` values (Efron's percentile interval).  The draws are
+        ``numpy.random.default_rng([seed, k])`` at the ``k``-th point (row-major over (direction,
+        Omega)): the same intervals on every machine, whatever order points are computed in.
+
+        The resampling treats the samples as independent: for scrambled Sobol' points, whose
+        estimates err less than independent draws do, the intervals are conservative (wider than the
+        estimates' actual error); they shrink as ``1 / sqrt(m)``.
+
+        Parameters
+        ----------
+        resamples : int
+            Bootstrap resamples (default :data:`BOOTSTRAP_RESAMPLES`).
+        confidence : float
+            Confidence level, in (0, 1) (default :data:`BOOTSTRAP_CONFIDENCE`).
+        seed : int, optional
+            Default: the design's ``seed`` (``attrs``).
+
+        Returns
+        -------
+        dict
+            ``quantile_ci``: shape ``(2, n_quantiles, n_directions, n_Omega)``; ``mean_ci``,
+            ``std_ci``: shape ``(2, n_directions, n_Omega)``; bound 0 the lower end, 1 the upper.
+            NaN where fewer than 2 samples have a finite amplitude.  In the amplitude's unit (Q, 1).
+
+        Raises
+        ------
+        ValueError
+            ``resamples`` below 1 or ``confidence`` outside (0, 1).
+
+        References
+        ----------
+        B. Efron, R. J. Tibshirani, *An Introduction to the Bootstrap*, Chapman & Hall 1993, Ch. 13
+        (the percentile interval).
+        """
+        if int(resamples) < 1 or not 0.0 < float(confidence) < 1.0:
+            raise ValueError(f"resamples = {resamples}, confidence = {confidence}: allowed resamples >= 1 and "
+                             f"0 < confidence < 1")
+        seed = int(self.attrs.get("seed", 0)) if seed is None else int(seed)
+        a = self.amplitude[self.base]
+        shape = a.shape[1:]
+        q_ci = np.full((2, len(QUANTILES)) + shape, np.nan)
+        m_ci, s_ci = np.full((2,) + shape, np.nan), np.full((2,) + shape, np.nan)
+        ends = (0.5 * (1.0 - confidence), 0.5 * (1.0 + confidence))
+        for k, j in enumerate(np.ndindex(shape)):
+            v = a[(slice(None),) + j]
+            v = v[np.isfinite(v)]
+            m = v.size
+            if m < 2:
+                continue
+            rng = np.random.default_rng([seed, k])
+            qs, means, stds = [], [], []
+            batch = max(1, BOOTSTRAP_BATCH // m)
+            for start in range(0, int(resamples), batch):
+                x = v[rng.integers(0, m, size=(min(batch, int(resamples) - start), m))]
+                qs.append(np.quantile(x, QUANTILES, axis=1))
+                means.append(x.mean(axis=1))
+                stds.append(x.std(axis=1, ddof=1))
+            q_ci[(slice(None), slice(None)) + j] = np.quantile(np.concatenate(qs, axis=1), ends, axis=1)
+            m_ci[(slice(None),) + j] = np.quantile(np.concatenate(means), ends)
+            s_ci[(slice(None),) + j] = np.quantile(np.concatenate(stds), ends)
+        return {"quantile_ci": q_ci, "mean_ci": m_ci, "std_ci": s_ci}
 
     def probabilities(self) -> tuple[list, np.ndarray]:
         """``(names, p)``: the fraction of samples in each outcome (the classes of
@@ -416,9 +493,13 @@ def verdict(results: list) -> dict:
 def uncertainty_variables(r: UncertaintyResult) -> dict:
     """The variables of ``/uncertainty/<run>/`` (:func:`vibeam.io.netcdf.write_group`): the design on
     (sample, parameter), every sampled sweep on (sample, direction, Omega), and the statistics on
-    (direction, Omega) with the extra dimensions ``quantile`` and ``outcome``."""
+    (direction, Omega) with the extra dimensions ``quantile``, ``outcome`` and ``bound`` (the lower and
+    upper end of an interval: the bootstrap intervals of :meth:`UncertaintyResult.bootstrap`, the Sobol'
+    indices' intervals)."""
     mean, std, n = r.moments()
     names, p = r.probabilities()
+    ci = r.bootstrap()
+    ci_text = f"{100 * BOOTSTRAP_CONFIDENCE:.0f} % percentile-bootstrap interval ({BOOTSTRAP_RESAMPLES} resamples)"
     g = ("direction", "Omega")
     v = {
         "sample": var(("sample",), np.arange(r.design.shape[0]), long_name="sample of the design"),
@@ -427,6 +508,7 @@ def uncertainty_variables(r: UncertaintyResult) -> dict:
         "Omega": var(("Omega",), r.Omega, "1", "forcing frequency over the natural frequency"),
         "quantile": var(("quantile",), np.asarray(QUANTILES), "1", "probability of the amplitude quantile"),
         "outcome": var(("outcome",), np.asarray(names, dtype=object), long_name="outcome class or status"),
+        "bound": var(("bound",), np.asarray(["low", "high"], dtype=object), long_name="end of an interval"),
         "design": var(("sample", "parameter"), r.design, long_name="sampled values (case units)"),
         "sample_amplitude": var(("sample",) + g, r.amplitude, "1", "amplitude Q of each sample (Sec. 4.1)"),
         "sample_period": var(("sample",) + g, r.period, "1", "period of the stroboscopic map (-1 no impact)"),
@@ -435,6 +517,9 @@ def uncertainty_variables(r: UncertaintyResult) -> dict:
         "amplitude_std": var(g, std, "1", "standard deviation of the amplitude over the samples"),
         "amplitude_samples": var(g, n, "1", "samples with a finite amplitude"),
         "amplitude_quantile": var(("quantile",) + g, r.quantiles(), "1", "amplitude quantiles over the samples"),
+        "amplitude_quantile_ci": var(("bound", "quantile") + g, ci["quantile_ci"], "1", ci_text + " of the quantiles"),
+        "amplitude_mean_ci": var(("bound",) + g, ci["mean_ci"], "1", ci_text + " of the mean"),
+        "amplitude_std_ci": var(("bound",) + g, ci["std_ci"], "1", ci_text + " of the standard deviation"),
         "outcome_probability": var(("outcome",) + g, p, "1", "fraction of the samples in each outcome"),
         "jump_frequency": var(("sample", "direction"), r.jumps(), r.axis[1],
                               "jump frequency of each sample, Hz or Omega (NaN: none)"),
@@ -455,4 +540,6 @@ def uncertainty_variables(r: UncertaintyResult) -> dict:
     if r.length_m:
         v["amplitude_quantile_mm"] = var(("quantile",) + g, r.quantiles() * r.length_m * 1e3, "mm",
                                          "amplitude quantiles over the samples")
+        v["amplitude_quantile_ci_mm"] = var(("bound", "quantile") + g, ci["quantile_ci"] * r.length_m * 1e3, "mm",
+                                            ci_text + " of the quantiles")
     return v

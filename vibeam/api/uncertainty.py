@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibeam.analysis.uncertainty import QUANTILES, sample_runs, uncertainty_variables
+from vibeam.analysis.uncertainty import BOOTSTRAP_CONFIDENCE, QUANTILES, sample_runs, uncertainty_variables
 from vibeam.api.cases import case_text, load_case
 from vibeam.api.common import check_run_args
 from vibeam.errors import CaseError
@@ -39,10 +39,12 @@ def print_uncertainty(results, file=None) -> None:
         scale, unit = (r.length_m * 1e3, "mm") if r.length_m else (1.0, "")
         med = q[2]
         i = divmod(int(_nanargmax(med)), med.shape[1]) if med.size else (0, 0)
+        ci = r.bootstrap()["quantile_ci"][:, 2][(slice(None),) + i] * scale
         x = r.frequency_hz if r.frequency_hz is not None else r.Omega
         xu = "Hz" if r.frequency_hz is not None else "(Omega)"
         print(f"  {r.name}: {int(r.base.sum())} samples of {', '.join(r.parameters)}; median peak "
-              f"{med[i] * scale:.4g} {unit} (90 % band {q[0][i] * scale:.4g} ... {q[-1][i] * scale:.4g}) at "
+              f"{med[i] * scale:.4g} {unit} ({100 * BOOTSTRAP_CONFIDENCE:.0f} % bootstrap interval {ci[0]:.4g} ... {ci[1]:.4g}; "
+              f"90 % band {q[0][i] * scale:.4g} ... {q[-1][i] * scale:.4g}) at "
               f"{x[i[1]]:.4g} {xu} ({r.directions[i[0]]})", file=out)
     for r in results:
         si = r.sobol()
