@@ -271,3 +271,112 @@ def test_bootstrap_intervals_hold_the_exact_quantiles_and_shrink_as_one_over_sqr
     assert 1.7 < np.median(ratio) < 2.4, ratio
     # reproducible: the same draws on every call (seeded per point)
     np.testing.assert_array_equal(r.bootstrap()["quantile_ci"], ci["quantile_ci"])
+
+
+def _arrays(h5) -> dict:
+    """Every dataset of every group of ``/uncertainty`` as bytes (numbers) or text, and each group's
+    attributes: what an interrupted and resumed run must reproduce bit for bit."""
+    out = {}
+    with h5py.File(h5, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset):
+                v = obj[()]
+                out[name] = (v.dtype.str, v.shape, v.tobytes()) if isinstance(v, np.ndarray) and v.dtype != object \
+                    else repr(obj.asstr()[()] if v.dtype == object else v)
+            else:
+                out[name + "/@"] = {k: repr(v) for k, v in obj.attrs.items() if k not in ("DIMENSION_LIST",
+                                                                                             "REFERENCE_LIST")}
+        f["uncertainty"].visititems(visit)
+    return out
+
+
+def test_an_interrupted_uncertainty_resumes_to_the_same_file_bit_for_bit(tmp_path, monkeypatch, capsys):
+    """Ctrl-C after 7 of 32 sampled sweeps (the Saltelli design of 8 samples of B and beta: the Sobol'
+    indices and their intervals too): results.h5 (a sweep written before) is byte for byte as it was,
+    the 7 samples are in results.h5.partial, and --resume computes only the other 25 and gives a file
+    whose /uncertainty arrays and attributes equal an uninterrupted run's bit for bit (the sweep kept);
+    the checkpoint is then gone.  Interrupts are injected as tests/test_store.py does (the engine
+    finishes some units, hands them on, raises KeyboardInterrupt)."""
+    from vibeam.cli import main
+    from vibeam.engine import sweep
+
+    case = copy.deepcopy(LINEAR)
+    case["uncertainty"] = dict(case["uncertainty"], samples=8, sobol=True)
+    path = tmp_path / "band.toml"
+    path.write_text(_toml(case))
+    whole, part = tmp_path / "whole", tmp_path / "part"
+    for out in (whole, part):
+        assert main(["run", str(path), "--out", str(out), "--jobs", "1", "--quiet", "--no-plots"]) == 0
+    assert main(["uncertainty", str(path), "--out", str(whole), "--jobs", "1", "--quiet", "--no-plots"]) == 0
+    before = (part / "results.h5").read_bytes()
+    real = sweep.run_lines
+
+    def interrupted(units, on_line=None, **kw):
+        for u in list(units)[:7]:
+            for _, rows in real([u], jobs=1).items():
+                on_line(u, rows)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep, "run_lines", interrupted)
+    assert main(["uncertainty", str(path), "--out", str(part), "--jobs", "1", "--quiet", "--no-plots"]) == 130
+    err = capsys.readouterr().err
+    assert "is as it was" in err and "--resume" in err and "results.h5.partial" in err, err
+    assert (part / "results.h5").read_bytes() == before
+    with h5py.File(part / "results.h5.partial") as f:
+        kept = f["uncertainty_samples/exact"]
+        assert sum(g["sample"].shape[0] for g in kept.values()) == 7
+    calls = []
+
+    def counted(units, **kw):
+        calls.extend(units)
+        return real(units, **kw)
+
+    monkeypatch.setattr(sweep, "run_lines", counted)
+    assert main(["uncertainty", str(path), "--out", str(part), "--jobs", "2", "--quiet", "--no-plots",
+                 "--resume"]) == 0
+    assert len(calls) == 25 and "resuming: 7 sampled sweeps done" in capsys.readouterr().err
+    assert not (part / "results.h5.partial").exists()
+    a, b = _arrays(whole / "results.h5"), _arrays(part / "results.h5")
+    assert "exact/sobol_first_ci" in a and "exact/amplitude_quantile_ci" in a and a["exact/sample_amplitude"][1] == (32, 2, 5)
+    assert a.keys() == b.keys() and all(a[k] == b[k] for k in a), [k for k in a if a[k] != b[k]]
+    with h5py.File(part / "results.h5") as f:
+        assert "runs/exact" in f and not int(f["runs/exact"].attrs.get("stale", 0))
+
+
+def test_resume_refuses_a_checkpoint_vibeam_did_not_write(tmp_path, monkeypatch):
+    """A checkpointed block with a status vibeam never writes: --resume refuses it in one line naming
+    the file and the dataset, and writes nothing."""
+    from vibeam.cli import main
+    from vibeam.engine import sweep
+
+    path = tmp_path / "band.toml"
+    path.write_text(_toml(LINEAR))
+    real = sweep.run_lines
+
+    def interrupted(units, on_line=None, **kw):
+        for u in list(units)[:3]:
+            for _, rows in real([u], jobs=1).items():
+                on_line(u, rows)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep, "run_lines", interrupted)
+    assert main(["uncertainty", str(path), "--out", str(tmp_path), "--jobs", "1", "--quiet", "--no-plots"]) == 130
+    with h5py.File(tmp_path / "results.h5.partial", "r+") as f:
+        (g,) = f["uncertainty_samples/exact"].values()
+        g["status"][0, 0, 0] = "bogus"
+    monkeypatch.setattr(sweep, "run_lines", real)
+    partial = (tmp_path / "results.h5.partial").read_bytes()
+    with pytest.raises(vibeam.errors.InputError) as e:
+        vibeam.uncertainty(str(path), out=tmp_path, resume=True, quiet=True)
+    msg = str(e.value)
+    assert "\n" not in msg and "results.h5.partial" in msg and "status" in msg and "'bogus'" in msg, msg
+    assert (tmp_path / "results.h5.partial").read_bytes() == partial and not (tmp_path / "results.h5").exists()
+
+
+def test_vibeam_uncertainty_stays_the_function_once_its_module_is_imported():
+    """``vibeam.uncertainty`` is the API function although its module has the same name: after the
+    command line imported ``vibeam.api.uncertainty`` (the package attribute is then that module),
+    ``vibeam.uncertainty(...)`` failed with "'module' object is not callable"."""
+    code = ("import vibeam.api.uncertainty, vibeam, sys\n"
+            "sys.exit(0 if callable(vibeam.uncertainty) and vibeam.uncertainty.__name__ == 'uncertainty' else 1)\n")
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0

@@ -32,11 +32,14 @@ import numpy as np
 from vibeam.analysis.maps import CLASSES, classify
 from vibeam.engine import sweep          # by the module: its run_lines may be replaced (tests)
 from vibeam.engine.jobs import make_job
+from vibeam.engine.records import STATUSES
 from vibeam.engine.sweep import load_kernels, plan_lines, run_line, stack
 from vibeam.errors import CaseError
 from vibeam.io.netcdf import var
+from vibeam.io.store import case_hash
 
 __all__ = ["QUANTILES", "JUMP_FRACTION", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_CONFIDENCE", "UncertaintyResult", "SampleTask", "sample_arrays", "sample_runs", "verdict",
+           "CHECKPOINT", "checkpoint_ident", "checkpoint_groups", "check_block", "samples_from_checkpoint",
            "uncertainty_variables"]
 
 #: the stored quantiles of the amplitude
@@ -445,6 +448,78 @@ def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = 
             attrs={"fidelity": m["fidelity"], "method": m["method"], "samples": n_base, "seed": spec.seed},
             roles=tuple(roles)))
     verdict(out)
+    return out
+
+
+#: the checkpoint group of finished samples (``results.h5.partial``: ``/uncertainty_samples/<run>/<block>/``)
+CHECKPOINT = "uncertainty_samples"
+
+
+def checkpoint_ident(case_json: str, samples: int) -> str:
+    """What marks a checkpointed sample as this computation's: the case as run (its JSON) and the
+    number of samples of the design (``--samples`` changes the design, not the case)."""
+    return case_hash(f"{case_json}\n[uncertainty] samples = {int(samples)}")
+
+
+def checkpoint_groups(finished: dict, ident: str) -> dict:
+    """Finished samples of one run, ``{sample: arrays}`` (:func:`sample_arrays`), as one checkpoint
+    block ``{"<ident>-<first sample>": (variables, attrs)}`` for
+    :meth:`vibeam.io.store.Store.checkpoint` of ``uncertainty_samples/<run>``: ``sample`` (k,) and
+    ``amplitude``, ``period``, ``status`` of shape (k, n_directions, n_Omega); attribute ``case_hash``
+    the ident (:func:`checkpoint_ident`).  A sample is in one block only, so the key is unique."""
+    idx = sorted(finished)
+    if not idx:
+        return {}
+    dims = ("sample", "direction", "Omega")
+    variables = {
+        "sample": var(("sample",), np.asarray(idx, np.int64), long_name="sample of the design"),
+        "amplitude": var(dims, np.stack([finished[i]["amplitude"] for i in idx]), "1", "amplitude Q"),
+        "period": var(dims, np.stack([finished[i]["period"] for i in idx]), "1", "period (-1 no impact)"),
+        "status": var(dims, np.stack([finished[i]["status"] for i in idx]).astype(str).astype(object),
+                      long_name="status"),
+    }
+    return {f"{ident}-{idx[0]:06d}": (variables, {"case_hash": ident})}
+
+
+def check_block(meta: dict, data: dict | None, rows: int, shape: tuple) -> str | None:
+    """What is wrong with a checkpointed block of samples, or None (what :func:`checkpoint_groups`
+    writes: ``sample`` whole numbers from 0 to ``rows - 1``, once each; ``amplitude`` numbers,
+    ``period`` whole numbers and ``status`` one of :data:`vibeam.engine.records.STATUSES`, each of shape
+    ``(k,) + shape``).  ``meta`` ``{dataset: (shape, dtype)}``, ``data`` the values (None: shapes only)."""
+    for k in ("sample", "amplitude", "period", "status"):
+        if k not in meta:
+            return f"dataset {k} is missing"
+    k_ = meta["sample"][0]
+    if len(k_) != 1 or np.dtype(meta["sample"][1]).kind not in "iu":
+        return f"dataset sample has shape {tuple(k_)} and type {np.dtype(meta['sample'][1])}; allowed: whole numbers"
+    for k, kinds in (("amplitude", "f"), ("period", "iu"), ("status", "OSU")):
+        sh, dt = meta[k]
+        if tuple(sh) != tuple(k_) + tuple(shape):
+            return f"dataset {k} has shape {tuple(sh)}; allowed: {tuple(k_) + tuple(shape)} (sample, direction, Omega)"
+        if np.dtype(dt).kind not in kinds:
+            return f"dataset {k} holds {np.dtype(dt)} values, not what vibeam writes"
+    if data is None:
+        return None
+    i = np.asarray(data["sample"])
+    if i.size and (i.min() < 0 or i.max() >= rows or np.unique(i).size != i.size):
+        return f"dataset sample holds a value outside 0 ... {rows - 1} or one twice"
+    bad = [x for x in np.asarray(data["status"]).astype(str).ravel() if x not in STATUSES]
+    if bad:
+        return f"dataset status holds {bad[0]!r}; allowed: {', '.join(STATUSES)}"
+    return None
+
+
+def samples_from_checkpoint(got: dict) -> dict:
+    """``{sample: arrays}`` (:func:`sample_arrays`) of checkpointed blocks ``{key: {dataset: array}}``
+    (checked by :func:`check_block`); a sample in two blocks is refused there only within a block, so
+    a later block's sample replaces an earlier one's (both computed from the same design)."""
+    out = {}
+    for key in sorted(got):
+        d = got[key]
+        for j, i in enumerate(np.asarray(d["sample"], np.int64)):
+            out[int(i)] = {"amplitude": np.asarray(d["amplitude"][j], float),
+                           "period": np.asarray(d["period"][j], np.int64),
+                           "status": np.asarray(d["status"][j]).astype(str).astype(object)}
     return out
 
 

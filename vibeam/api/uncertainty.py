@@ -4,18 +4,20 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 
-from vibeam.analysis.uncertainty import BOOTSTRAP_CONFIDENCE, QUANTILES, sample_runs, uncertainty_variables
+from vibeam.analysis.uncertainty import (BOOTSTRAP_CONFIDENCE, CHECKPOINT, QUANTILES, check_block, checkpoint_groups,
+                                         checkpoint_ident, sample_runs, samples_from_checkpoint, uncertainty_variables)
 from vibeam.api.cases import case_text, load_case
 from vibeam.api.common import check_run_args
-from vibeam.errors import CaseError
+from vibeam.errors import CaseError, InputError
 from vibeam.io.netcdf import json_default, write_group
 from vibeam.io.store import Store
 from vibeam.plots.uncertainty import plot_bands
-from vibeam.runner import case_identity
+from vibeam.runner import case_identity, same_case
 
 __all__ = ["uncertainty", "uncertainty_group", "print_uncertainty", "bands"]
 
@@ -84,7 +86,7 @@ def bands(results) -> list:
 
 def uncertainty(case, samples: int | None = None, jobs: int | None = None, executor=None, out=None,
                 quick: bool = False, progress: bool = False, fresh: bool = False, quiet: bool = False,
-                plots: bool = False) -> list:
+                plots: bool = False, resume: bool = False, checkpoint_interval_s: float = 0.5) -> list:
     """The FRC bands of a case's ``[uncertainty]`` (``vibeam uncertainty``).
 
     Parameters
@@ -109,6 +111,15 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
         With ``out``: ``uncertainty.png``, the FRC bands (:func:`vibeam.plots.uncertainty.band_figure`).
     fresh : bool
         Start a new results file.
+    resume : bool
+        With ``out``: take the samples already in its checkpoint (``results.h5.partial``,
+        ``/uncertainty_samples/<run>/``) that were computed for this case and number of samples
+        (validated: :func:`vibeam.analysis.uncertainty.check_block`), and compute only the rest; the
+        results are those of an uninterrupted run, bit for bit.
+    checkpoint_interval_s : float
+        With ``out``: finished samples go to the checkpoint as they finish, those finishing within
+        this time of the last write together (and on an interrupt, every finished one), so an
+        interrupted computation loses at most this much finished work.
 
     Returns
     -------
@@ -119,11 +130,21 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
     ------
     vibeam.errors.CaseError
         No ``[uncertainty]`` table, or a bad case (one line).
+    vibeam.errors.InputError
+        ``resume`` finds a checkpointed block this vibeam would not have written, or a checkpoint of
+        another case (one line naming the file; nothing is written).
     TypeError, ValueError
-        An argument of the wrong type or out of range (``jobs`` by the rule of ``--jobs``; one line).
+        An argument of the wrong type or out of range (``jobs`` by the rule of ``--jobs``; one line),
+        or both ``fresh`` and ``resume``.
+    KeyboardInterrupt
+        Ctrl-C: the samples finished by then are in the checkpoint (``--resume`` takes them); the
+        results file is as it was.
     """
     jobs, out = check_run_args(jobs, out, executor, quick=quick, progress=progress, fresh=fresh, quiet=quiet,
-                               plots=plots)
+                               plots=plots, resume=resume)
+    if fresh and resume:
+        raise ValueError("fresh = True and resume = True: choose one (fresh starts a new results file, resume "
+                         "continues the checkpoint of an interrupted run)")
     c0 = c = load_case(case)
     if c.uncertainty is None:
         raise CaseError(f"{c.name}: no [uncertainty] table; add one ([[uncertainty.parameter]] name, "
@@ -133,21 +154,87 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
         samples = samples or min(8, c.uncertainty.samples)
     if samples is not None and (samples < 2 or samples & (samples - 1)):
         raise CaseError(f"--samples = {samples}: allowed a power of 2, at least 2")
-    results = sample_runs(c, samples=samples, jobs=jobs, executor=executor, progress=progress)
-    if not quiet:
-        print(f"[{c.name}] uncertainty: {len(results)} run(s), quantiles {list(QUANTILES)}")
-        print_uncertainty(results)
-    if out is not None:
-        text = case_text(c0)
-        with Store(Path(out), fresh=fresh) as st:
-            cj, aliases = case_identity(st, c.model_dump_json())
-            h5 = st.commit({f"uncertainty/{r.name}": uncertainty_group(r) for r in results}, c.name, text, cj,
-                           aliases=aliases)
+    if out is None:
+        results = sample_runs(c, samples=samples, jobs=jobs, executor=executor, progress=progress)
         if not quiet:
-            print(f"uncertainty -> {h5} (groups {', '.join('/uncertainty/' + r.name for r in results)})")
-        if plots:
-            png = plot_bands(bands(results), Path(out) / "uncertainty.png", title=f"{c.name}: FRC bands")
-            if png is not None and not quiet:
-                print(f"plot: {png}")
+            _print(c, results)
+        return results
+    text = case_text(c0)
+    with Store(Path(out), fresh=fresh) as st:
+        cj, aliases = case_identity(st, c.model_dump_json())
+        n = int(samples or c.uncertainty.samples)
+        ident = checkpoint_ident(cj, n)
+        stored = _resumed(st, c, cj, aliases, ident, n) if resume else {}
+        buffer: dict = {}
+        last = [time.perf_counter()]
+
+        def flush():
+            if buffer:
+                groups = {f"{run}/{k}": v for run, got in buffer.items() for k, v in checkpoint_groups(got, ident).items()}
+                st.checkpoint(CHECKPOINT, groups, c.name, text, cj, start=not resume)
+                buffer.clear()
+            last[0] = time.perf_counter()
+
+        def on_sample(run, i, arrays):
+            buffer.setdefault(run, {})[i] = arrays
+            if time.perf_counter() - last[0] >= checkpoint_interval_s:
+                flush()
+
+        if stored:
+            print(f"[{c.name}] uncertainty: resuming: {sum(len(v) for v in stored.values())} sampled sweeps done",
+                  file=sys.stderr)
+        try:
+            results = sample_runs(c, samples=samples, jobs=jobs, executor=executor, progress=progress, done=stored,
+                                  on_sample=on_sample)
+        finally:
+            flush()          # on an interrupt too: every finished sample is kept
+        # the successor of results.h5 (every group kept); the consumed checkpoint is then removed
+        h5 = st.commit({f"uncertainty/{r.name}": uncertainty_group(r) for r in results}, c.name, text, cj,
+                       done=[CHECKPOINT], aliases=aliases)
+    if not quiet:
+        _print(c, results)
+        print(f"uncertainty -> {h5} (groups {', '.join('/uncertainty/' + r.name for r in results)})")
+    if plots:
+        png = plot_bands(bands(results), Path(out) / "uncertainty.png", title=f"{c.name}: FRC bands")
+        if png is not None and not quiet:
+            print(f"plot: {png}")
     return results
 
+
+def _print(c, results) -> None:
+    print(f"[{c.name}] uncertainty: {len(results)} run(s), quantiles {list(QUANTILES)}")
+    print_uncertainty(results)
+
+
+def _resumed(st, c, cj, aliases, ident, n) -> dict:
+    """``{run: {sample: arrays}}`` of the checkpoint of ``st`` for this case and design (validated).
+
+    Raises
+    ------
+    InputError
+        A block this vibeam would not have written; or no sample of this case while the
+        checkpoint or the file was written by another case (``--resume`` would compute afresh over it).
+    """
+    rows = n * c.uncertainty.runs_per_sample()
+    points = (c.sweep.Omega or c.sweep.frequency_hz)[2]
+    shape = (2 if c.sweep.direction == "both" else 1, int(points))      # (direction, Omega) of every sample
+
+    def check(key, meta, data):
+        return check_block(meta, data, rows, shape)
+
+    out = {}
+    for r in c.run:
+        if r.method == "continuation":
+            continue
+        try:
+            _, got = st.read_checkpoint(f"{CHECKPOINT}/{r.name}", "case_hash", ident, check)
+        except OSError as e:
+            raise InputError(f"--resume: cannot read {st.partial}: {e}") from None
+        if got:
+            out[r.name] = samples_from_checkpoint(got)
+    if not out:
+        roots = [a.get("case_json") for a in (st.checkpoint_attrs(), st.info()["attrs"]) if a]
+        if roots and not any(same_case(x, cj) or str(x) in aliases for x in roots):
+            raise InputError(f"--resume: {st.path} was written by another case or variant; run without --resume "
+                             f"(its groups are kept, marked stale) or use another --out")
+    return out
