@@ -380,3 +380,60 @@ def test_vibeam_uncertainty_stays_the_function_once_its_module_is_imported():
     code = ("import vibeam.api.uncertainty, vibeam, sys\n"
             "sys.exit(0 if callable(vibeam.uncertainty) and vibeam.uncertainty.__name__ == 'uncertainty' else 1)\n")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+def test_results_uncertainty_round_trips_the_stored_arrays_and_draws_its_figures(tmp_path, monkeypatch):
+    """``vibeam uncertainty`` writes uncertainty.png, uncertainty_sobol.png and uncertainty_outcomes.png
+    beside results.h5; ``open_results(...).uncertainty`` reads every run back: its ``to_xarray()`` holds
+    every dataset of ``/uncertainty/<run>/`` with the values h5py reads (numbers bit for bit), the
+    in-memory result of ``vibeam.uncertainty`` gives the same Dataset, and ``plot(kind=...)`` draws the
+    band, Sobol' and outcome figures.  ``--resume`` of the complete computation recomputes nothing."""
+    from vibeam.cli import main
+    from vibeam.engine import sweep
+
+    case = copy.deepcopy(LINEAR)
+    case["uncertainty"] = dict(case["uncertainty"], samples=8, sobol=True)
+    path = tmp_path / "band.toml"
+    path.write_text(_toml(case))
+    assert main(["uncertainty", str(path), "--out", str(tmp_path), "--jobs", "1", "--quiet"]) == 0
+    for png in ("uncertainty.png", "uncertainty_sobol.png", "uncertainty_outcomes.png"):
+        assert (tmp_path / png).stat().st_size > 10_000, png
+    res = vibeam.open_results(tmp_path / "results.h5")
+    (u,) = res.uncertainty
+    assert u.name == "exact" and res.groups["uncertainty/exact"] is u and "uncertainty: 'exact'" in repr(res)
+    ds = u.to_xarray()
+    with h5py.File(tmp_path / "results.h5") as f:
+        g = f["uncertainty/exact"]
+        stored = {k: (d.asstr()[()] if d.dtype == object else d[()]) for k, d in g.items()}
+        attrs = dict(g.attrs)
+    assert set(stored) == set(ds.variables), set(stored) ^ set(ds.variables)
+    assert {"sample_amplitude", "amplitude_quantile_ci", "sobol_first_ci", "outcome_probability", "design"} <= set(stored)
+    for k, v in stored.items():
+        x = ds[k].values
+        if np.asarray(v).dtype.kind in "fiu":
+            assert x.dtype == v.dtype and x.tobytes() == v.tobytes(), k
+        else:
+            assert np.array_equal(x.astype(str), np.asarray(v).astype(str)), k
+    assert ds["amplitude_quantile_ci"].dims == ("bound", "quantile", "direction", "Omega")
+    assert list(ds["bound"].values) == ["low", "high"] and ds.attrs["samples"] == attrs["samples"] == 8
+    # the result read back is the result computed; the in-memory one gives the same Dataset
+    mem = vibeam.uncertainty(case, jobs=1, quiet=True)[0]
+    for k in ("amplitude", "period", "design"):
+        assert np.array_equal(getattr(u, k), getattr(mem, k), equal_nan=k != "period"), k
+    assert list(u.status.ravel()) == list(mem.status.ravel()) and u.roles == mem.roles and u.attrs == mem.attrs
+    dm = mem.to_xarray()
+    for k in stored:
+        assert np.array_equal(dm[k].values, ds[k].values, equal_nan=dm[k].dtype.kind == "f"), k
+    import matplotlib.figure
+
+    for kind in ("bands", "sobol", "outcomes"):
+        assert isinstance(u.plot(tmp_path / f"{kind}.png", kind=kind), matplotlib.figure.Figure)
+        assert (tmp_path / f"{kind}.png").is_file()
+    with pytest.raises(ValueError, match="allowed: bands, sobol, outcomes"):
+        u.plot(kind="nope")
+    assert vibeam.uncertainty(LINEAR, jobs=1, quiet=True)[0].plot(kind="sobol") is None   # no Saltelli design
+    stamp = (tmp_path / "results.h5").stat().st_mtime_ns
+    monkeypatch.setattr(sweep, "run_lines", lambda *a, **k: pytest.fail("--resume of a complete run computed"))
+    assert main(["uncertainty", str(path), "--out", str(tmp_path), "--jobs", "1", "--quiet", "--no-plots",
+                 "--resume"]) == 0
+    assert (tmp_path / "results.h5").stat().st_mtime_ns == stamp

@@ -27,19 +27,23 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from itertools import combinations
 
+import json
+
 import numpy as np
 
-from vibeam.analysis.maps import CLASSES, classify
+from vibeam.analysis.maps import CLASS_COLOURS, CLASSES, classify
 from vibeam.engine import sweep          # by the module: its run_lines may be replaced (tests)
 from vibeam.engine.jobs import make_job
 from vibeam.engine.records import STATUSES
 from vibeam.engine.sweep import load_kernels, plan_lines, run_line, stack
 from vibeam.errors import CaseError
-from vibeam.io.netcdf import var
+from vibeam.io.h5check import open_checked
+from vibeam.io.netcdf import json_default, read_attrs, read_plain, var, write_group
 from vibeam.io.store import case_hash
 
 __all__ = ["QUANTILES", "JUMP_FRACTION", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_CONFIDENCE", "UncertaintyResult", "SampleTask", "sample_arrays", "sample_runs", "verdict",
            "CHECKPOINT", "checkpoint_ident", "checkpoint_groups", "check_block", "samples_from_checkpoint",
+           "uncertainty_group", "read_uncertainty", "bands", "sobol_entries", "outcome_entries", "OUTCOME_COLOURS",
            "uncertainty_variables"]
 
 #: the stored quantiles of the amplitude
@@ -49,6 +53,9 @@ QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
 JUMP_FRACTION = 0.2
 #: the statuses whose probability is stored beside the classes
 STATUS_OUTCOMES = ("chatter", "sticking", "failed")
+#: the colour of each outcome in the outcome figure: the map's class colours (vibeam.analysis.maps), then the
+#: statuses chatter (bluish green), sticking (sky blue), failed (black)
+OUTCOME_COLOURS = tuple(CLASS_COLOURS[:len(CLASSES)]) + ("#009E73", "#56B4E9", "#000000")
 #: resamples of the bootstrap intervals of the quantiles, mean and std (:meth:`UncertaintyResult.bootstrap`)
 BOOTSTRAP_RESAMPLES = 999
 #: their confidence level
@@ -618,3 +625,92 @@ def uncertainty_variables(r: UncertaintyResult) -> dict:
         v["amplitude_quantile_ci_mm"] = var(("bound", "quantile") + g, ci["quantile_ci"] * r.length_m * 1e3, "mm",
                                             ci_text + " of the quantiles")
     return v
+
+
+#: attributes of ``/uncertainty/<run>/`` that are the store's or the writer's, not the result's
+_STORE_ATTRS = ("run", "case_hash", "case_name", "stale", "stale_reason", "case_text", "case_json", "length_m")
+
+
+def uncertainty_group(r: UncertaintyResult):
+    """The writer of ``/uncertainty/<run>/`` of one result (a ``fill(file)`` for
+    :meth:`vibeam.io.store.Store.commit`): :func:`uncertainty_variables`, the result's ``attrs`` (a
+    dict or list as JSON text), ``run`` and, on a physical scene, ``length_m`` (m)."""
+    attrs = {k: (json.dumps(v, default=json_default) if isinstance(v, (dict, list)) else v) for k, v in r.attrs.items()}
+    if r.length_m:
+        attrs["length_m"] = float(r.length_m)
+
+    def fill(f):
+        write_group(f, f"uncertainty/{r.name}", uncertainty_variables(r), dict(attrs, run=r.name))
+    return fill
+
+
+def read_uncertainty(path) -> list:
+    """Every ``/uncertainty/<run>/`` of a results file as :class:`UncertaintyResult` (what
+    :func:`uncertainty_group` wrote: the design, every sampled sweep, ``attrs`` with the verdicts);
+    the statistics are computed again from the samples (they equal the stored ones).
+
+    Raises
+    ------
+    vibeam.errors.InputError
+        Not an HDF5 file vibeam can read, or a structure :mod:`vibeam.io.h5check` refuses.
+    """
+    out = []
+    with open_checked(path, "results file") as f:
+        top = f.get("uncertainty")
+        groups = {k: (read_plain(g), read_attrs(g)) for k, g in top.items()} if top is not None else {}
+    for name, (d, a) in groups.items():
+        attrs = {}
+        for k, v in a.items():
+            if k in _STORE_ATTRS:
+                continue
+            if k.startswith("verdict_") and isinstance(v, str):
+                v = json.loads(v)
+            attrs[k] = v.item() if isinstance(v, np.generic) else v
+        length = a.get("length_m")
+        out.append(UncertaintyResult(
+            name=name, parameters=tuple(str(x) for x in d["parameter"]), design=np.asarray(d["design"], float),
+            directions=tuple(str(x) for x in d["direction"]), Omega=np.asarray(d["Omega"], float),
+            amplitude=np.asarray(d["sample_amplitude"], float), period=np.asarray(d["sample_period"], np.int64),
+            status=np.asarray(d["sample_status"]).astype(str).astype(object),
+            frequency_hz=np.asarray(d["frequency_hz"], float) if "frequency_hz" in d else None,
+            length_m=float(length) if length is not None else None, attrs=attrs,
+            roles=tuple(str(x) for x in d["sample_role"]) if "sample_role" in d else ()))
+    return out
+
+
+def bands(results) -> list:
+    """The band of each result for :func:`vibeam.plots.uncertainty.band_figure` (mm on a physical scene)."""
+    out = []
+    for r in results:
+        x, xu = r.axis
+        scale = r.length_m * 1e3 if r.length_m else 1.0
+        out.append({"name": r.name, "x": x, "x_unit": xu, "directions": list(r.directions),
+                    "q": r.quantiles() * scale, "unit": "mm" if r.length_m else "1"})
+    return out
+
+
+def sobol_entries(results) -> list:
+    """The Sobol' indices of each result with Saltelli's design for
+    :func:`vibeam.plots.uncertainty.sobol_figure` (none without that design)."""
+    out = []
+    for r in results:
+        si = r.sobol()
+        if si is None:
+            continue
+        x, xu = r.axis
+        out.append({"name": r.name, "x": x, "x_unit": xu, "directions": list(r.directions),
+                    "parameters": list(r.parameters), "first": si["first"], "total": si["total"],
+                    "first_ci": si["first_ci"], "total_ci": si["total_ci"]})
+    return out
+
+
+def outcome_entries(results) -> list:
+    """The outcome probabilities of each result for :func:`vibeam.plots.uncertainty.outcome_figure`:
+    the classes stacked, the statuses (:data:`STATUS_OUTCOMES`) as lines."""
+    out = []
+    for r in results:
+        names, p = r.probabilities()
+        x, xu = r.axis
+        out.append({"name": r.name, "x": x, "x_unit": xu, "directions": list(r.directions), "outcomes": names,
+                    "p": p, "colours": list(OUTCOME_COLOURS), "stacked": [n not in STATUS_OUTCOMES for n in names]})
+    return out

@@ -2,34 +2,24 @@
 :func:`uncertainty` (:mod:`vibeam.analysis.uncertainty`)."""
 from __future__ import annotations
 
-import json
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from vibeam.analysis.uncertainty import (BOOTSTRAP_CONFIDENCE, CHECKPOINT, QUANTILES, check_block, checkpoint_groups,
-                                         checkpoint_ident, sample_runs, samples_from_checkpoint, uncertainty_variables)
+from vibeam.analysis.uncertainty import (BOOTSTRAP_CONFIDENCE, CHECKPOINT, QUANTILES, bands, check_block,  # noqa: F401
+                                         checkpoint_groups, checkpoint_ident, outcome_entries, read_uncertainty, sample_runs,
+                                         samples_from_checkpoint, sobol_entries, uncertainty_group)
 from vibeam.api.cases import case_text, load_case
 from vibeam.api.common import check_run_args
+from vibeam.api.results import Results
 from vibeam.errors import CaseError, InputError
-from vibeam.io.netcdf import json_default, write_group
 from vibeam.io.store import Store
-from vibeam.plots.uncertainty import plot_bands
+from vibeam.plots.uncertainty import plot_bands, plot_outcomes, plot_sobol
 from vibeam.runner import case_identity, same_case
 
-__all__ = ["uncertainty", "uncertainty_group", "print_uncertainty", "bands"]
-
-
-def uncertainty_group(r):
-    """The writer of ``/uncertainty/<run>/`` of one :class:`vibeam.analysis.uncertainty.UncertaintyResult`
-    (a ``fill(file)`` for :meth:`vibeam.io.store.Store.commit`)."""
-    attrs = {k: (json.dumps(v, default=json_default) if isinstance(v, (dict, list)) else v) for k, v in r.attrs.items()}
-
-    def fill(f):
-        write_group(f, f"uncertainty/{r.name}", uncertainty_variables(r), dict(attrs, run=r.name))
-    return fill
+__all__ = ["uncertainty", "uncertainty_group", "print_uncertainty", "bands", "plot_uncertainty"]
 
 
 def print_uncertainty(results, file=None) -> None:
@@ -73,17 +63,6 @@ def _nanargmax(a):
     return int(np.nanargmax(a)) if np.isfinite(a).any() else 0
 
 
-def bands(results) -> list:
-    """The band of each result for :func:`vibeam.plots.uncertainty.band_figure` (mm on a physical scene)."""
-    out = []
-    for r in results:
-        x, xu = r.axis
-        scale = r.length_m * 1e3 if r.length_m else 1.0
-        out.append({"name": r.name, "x": x, "x_unit": xu, "directions": list(r.directions),
-                    "q": r.quantiles() * scale, "unit": "mm" if r.length_m else "1"})
-    return out
-
-
 def uncertainty(case, samples: int | None = None, jobs: int | None = None, executor=None, out=None,
                 quick: bool = False, progress: bool = False, fresh: bool = False, quiet: bool = False,
                 plots: bool = False, resume: bool = False, checkpoint_interval_s: float = 0.5) -> list:
@@ -108,7 +87,8 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
     progress, quiet : bool
         A progress bar; no table.
     plots : bool
-        With ``out``: ``uncertainty.png``, the FRC bands (:func:`vibeam.plots.uncertainty.band_figure`).
+        With ``out``: ``uncertainty.png`` (the FRC bands), ``uncertainty_outcomes.png`` and, with
+        ``sobol = true``, ``uncertainty_sobol.png`` (:func:`plot_uncertainty`).
     fresh : bool
         Start a new results file.
     resume : bool
@@ -123,8 +103,9 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
 
     Returns
     -------
-    list of vibeam.analysis.uncertainty.UncertaintyResult
-        One per sweep run; ``to_xarray`` via :func:`vibeam.analysis.uncertainty.uncertainty_variables`.
+    list of vibeam.api.results.Uncertainty
+        One per sweep run (a :class:`vibeam.analysis.uncertainty.UncertaintyResult` with ``to_xarray()``,
+        the group ``/uncertainty/<run>/``, and ``plot(kind=...)``).
 
     Raises
     ------
@@ -158,7 +139,7 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
         results = sample_runs(c, samples=samples, jobs=jobs, executor=executor, progress=progress)
         if not quiet:
             _print(c, results)
-        return results
+        return _bound(results, c)
     text = case_text(c0)
     with Store(Path(out), fresh=fresh) as st:
         cj, aliases = case_identity(st, c.model_dump_json())
@@ -180,25 +161,60 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
             if time.perf_counter() - last[0] >= checkpoint_interval_s:
                 flush()
 
-        if stored:
-            print(f"[{c.name}] uncertainty: resuming: {sum(len(v) for v in stored.values())} sampled sweeps done",
-                  file=sys.stderr)
-        try:
-            results = sample_runs(c, samples=samples, jobs=jobs, executor=executor, progress=progress, done=stored,
-                                  on_sample=on_sample)
-        finally:
-            flush()          # on an interrupt too: every finished sample is kept
-        # the successor of results.h5 (every group kept); the consumed checkpoint is then removed
-        h5 = st.commit({f"uncertainty/{r.name}": uncertainty_group(r) for r in results}, c.name, text, cj,
-                       done=[CHECKPOINT], aliases=aliases)
+        results = _complete(st, c, cj, aliases, n) if resume and not stored else None
+        if results is not None:
+            print(f"[{c.name}] {st.path} is complete; resuming recomputes nothing", file=sys.stderr)
+            h5 = st.path
+        else:
+            if stored:
+                print(f"[{c.name}] uncertainty: resuming: {sum(len(v) for v in stored.values())} sampled sweeps "
+                      f"done", file=sys.stderr)
+            try:
+                results = sample_runs(c, samples=samples, jobs=jobs, executor=executor, progress=progress,
+                                      done=stored, on_sample=on_sample)
+            finally:
+                flush()          # on an interrupt too: every finished sample is kept
+            # the successor of results.h5 (every group kept); the consumed checkpoint is then removed
+            h5 = st.commit({f"uncertainty/{r.name}": uncertainty_group(r) for r in results}, c.name, text, cj,
+                           done=[CHECKPOINT], aliases=aliases)
     if not quiet:
         _print(c, results)
         print(f"uncertainty -> {h5} (groups {', '.join('/uncertainty/' + r.name for r in results)})")
     if plots:
-        png = plot_bands(bands(results), Path(out) / "uncertainty.png", title=f"{c.name}: FRC bands")
-        if png is not None and not quiet:
-            print(f"plot: {png}")
-    return results
+        for png in plot_uncertainty(results, out, c.name):
+            if not quiet:
+                print(f"plot: {png}")
+    return _bound(results, c, h5)
+
+
+def plot_uncertainty(results, folder, title: str = "") -> list:
+    """The figures of ``vibeam uncertainty`` written into ``folder``: ``uncertainty.png`` (the FRC
+    bands), ``uncertainty_outcomes.png`` (outcome probabilities against frequency) and, with Saltelli's
+    design, ``uncertainty_sobol.png`` (Sobol' indices against frequency).  Returns the paths written."""
+    folder = Path(folder)
+    made = [plot_bands(bands(results), folder / "uncertainty.png", title=f"{title}: FRC bands"),
+            plot_sobol(sobol_entries(results), folder / "uncertainty_sobol.png", title=f"{title}: Sobol' indices"),
+            plot_outcomes(outcome_entries(results), folder / "uncertainty_outcomes.png",
+                          title=f"{title}: outcome probabilities")]
+    return [p for p in made if p is not None]
+
+
+def _bound(results, case, h5=None) -> list:
+    """The results as the API's :class:`vibeam.api.results.Uncertainty` groups (``to_xarray()``,
+    ``plot()``) of one :class:`vibeam.api.results.Results`."""
+    return Results(case=case, path=h5, uncertainty=list(results)).uncertainty
+
+
+def _complete(st, c, cj, aliases, n):
+    """``--resume`` of a complete computation: the results of every sweep run read back from the
+    file when it holds them for this case (not stale) and this number of samples, else None."""
+    names = [r.name for r in c.run if r.method != "continuation"]
+    if not set(f"uncertainty/{x}" for x in names) <= set(st.current(cj, aliases)):
+        return None
+    back = {u.name: u for u in read_uncertainty(st.path)}
+    if any(int(back[x].attrs.get("samples", -1)) != n for x in names):
+        return None
+    return [back[x] for x in names]
 
 
 def _print(c, results) -> None:
