@@ -88,7 +88,8 @@ class UncertaintyResult:
     length_m : float or None
         The scene's normalising length (amplitudes in mm are ``Q L 1e3``).
     attrs : dict
-        Fidelity, method, samples, seed, wall time and the verdicts (:func:`verdict`).
+        Fidelity, method, ``samples`` (the design's N: its rows, or the N of Saltelli's N (d + 2)
+        rows), seed and the verdicts (:func:`verdict`).
     """
 
     name: str
@@ -236,7 +237,9 @@ class UncertaintyResult:
             ``first``, ``total``: shape ``(n_parameters, n_directions, n_Omega)``; ``first_ci``,
             ``total_ci``: shape ``(2, n_parameters, n_directions, n_Omega)`` (bootstrap, ``confidence``);
             ``jump_first``, ``jump_total``: shape ``(n_parameters,)``.  A point where a run gave no
-            finite amplitude has NaN indices.
+            finite amplitude has NaN indices.  The intervals are scipy's BCa bootstrap, whose draws come
+            from numpy's global RandomState: seeded here by the design's ``seed`` (and restored), so
+            they are the same on every call.
         """
         from scipy.stats import sobol_indices  # lazy: keeps scipy.stats out of the engine's start-up
 
