@@ -28,7 +28,9 @@ def __getattr__(name):
     if name in _API:
         from vibeam import api  # lazy: keeps the API out of `import vibeam` (its names load on first use)
 
-        return getattr(api, name)
+        # through the API's own lookup, not getattr: once its module vibeam.api.uncertainty is imported
+        # (the command line does), the package attribute of that name is the module, not the function
+        return api.__getattr__(name)
     raise AttributeError(f"module 'vibeam' has no attribute {name!r}")
 
 

@@ -254,15 +254,28 @@ def cmd_uncertainty(args) -> int:
     # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
     from vibeam.api.uncertainty import uncertainty
 
+    from vibeam.io.store import PARTIAL_SUFFIX  # lazy: keeps numpy and h5py (0.17 s) out of `vibeam --help`
+
+    _check_fresh(args)
     out_dir = check_folder(_out_dir(args, case))
+    h5 = out_dir / "results.h5"
+    partial = h5.with_name(h5.name + PARTIAL_SUFFIX)
+    before, partial_before = _file_state(h5), _file_state(partial)
     ex, client = _executor(args)
     try:
         uncertainty(case, samples=args.samples, jobs=args.jobs, executor=ex, out=out_dir, quick=args.quick,
-                    progress=not args.quiet, fresh=args.fresh, quiet=args.quiet, plots=not args.no_plots)
+                    progress=not args.quiet, fresh=args.fresh, quiet=args.quiet, plots=not args.no_plots,
+                    resume=args.resume)
     except KeyboardInterrupt as e:
         sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
-        print(f"vibeam: interrupted ({sig}); {out_dir / 'results.h5'} is as it was (the samples are written "
-              f"only when all are done)", file=sys.stderr)
+        now = _file_state(h5)
+        kept = ("no results file was written" if now is None else f"{h5} is as it was" if now == before else
+                f"the results are complete in {h5}")
+        pnow = _file_state(partial)
+        left = ("no sample had finished" if pnow is None or pnow == partial_before else
+                f"the finished samples are kept in {partial} (/uncertainty_samples); rerun with --resume to "
+                f"compute only the rest")
+        print(f"vibeam: interrupted ({sig}); {kept}; {left}", file=sys.stderr)
         return _interrupt_code(e)
     finally:
         if client is not None:
@@ -514,8 +527,11 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true", help="the case's quick variant, at 8 samples")
     p.add_argument("--no-plots", action="store_true", help="skip uncertainty.png (the FRC bands)")
     p.add_argument("--fresh", action="store_true", help=FRESH_HELP)
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted run: keep the samples already in the checkpoint results.h5.partial "
+                        "(of this case and number of samples); the results are those of an uninterrupted run")
     p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run the samples' sweep lines on a dask.distributed scheduler (e.g. tcp://host:8786)")
+                   help="run the samples on a dask.distributed scheduler (e.g. tcp://host:8786)")
     p.set_defaults(func=cmd_uncertainty)
     p = sub.add_parser("basins", help="basins of attraction (or the census of attractors) at a forcing "
                        "frequency: every attractor, its type, period, amplitude, basin fraction and Lyapunov "

@@ -24,18 +24,27 @@ default, their definition 7).
 """
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from itertools import combinations
 
+import json
+
 import numpy as np
 
-from vibeam.analysis.maps import CLASSES, classify
+from vibeam.analysis.maps import CLASS_COLOURS, CLASSES, classify
+from vibeam.engine import sweep          # by the module: its run_lines may be replaced (tests)
 from vibeam.engine.jobs import make_job
-from vibeam.engine.sweep import assemble, plan_lines, run_lines
-from vibeam.io.netcdf import var
+from vibeam.engine.records import STATUSES
+from vibeam.engine.sweep import load_kernels, plan_lines, run_line, stack
+from vibeam.errors import CaseError
+from vibeam.io.h5check import open_checked
+from vibeam.io.netcdf import json_default, read_attrs, read_plain, var, write_group
+from vibeam.io.store import case_hash
 
-__all__ = ["QUANTILES", "JUMP_FRACTION", "UncertaintyResult", "sample_runs", "verdict", "uncertainty_variables"]
+__all__ = ["QUANTILES", "JUMP_FRACTION", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_CONFIDENCE", "UncertaintyResult", "SampleTask", "sample_arrays", "sample_runs", "verdict",
+           "CHECKPOINT", "checkpoint_ident", "checkpoint_groups", "check_block", "samples_from_checkpoint",
+           "uncertainty_group", "read_uncertainty", "bands", "sobol_entries", "outcome_entries", "OUTCOME_COLOURS",
+           "uncertainty_variables"]
 
 #: the stored quantiles of the amplitude
 QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
@@ -44,6 +53,15 @@ QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
 JUMP_FRACTION = 0.2
 #: the statuses whose probability is stored beside the classes
 STATUS_OUTCOMES = ("chatter", "sticking", "failed")
+#: the colour of each outcome in the outcome figure: the map's class colours (vibeam.analysis.maps), then the
+#: statuses chatter (bluish green), sticking (sky blue), failed (black)
+OUTCOME_COLOURS = tuple(CLASS_COLOURS[:len(CLASSES)]) + ("#009E73", "#56B4E9", "#000000")
+#: resamples of the bootstrap intervals of the quantiles, mean and std (:meth:`UncertaintyResult.bootstrap`)
+BOOTSTRAP_RESAMPLES = 999
+#: their confidence level
+BOOTSTRAP_CONFIDENCE = 0.95
+#: the most values one batch of bootstrap resamples holds (resamples x samples; 32 MB of float64)
+BOOTSTRAP_BATCH = 1 << 22
 
 
 @dataclass
@@ -70,7 +88,8 @@ class UncertaintyResult:
     length_m : float or None
         The scene's normalising length (amplitudes in mm are ``Q L 1e3``).
     attrs : dict
-        Fidelity, method, samples, seed, wall time and the verdicts (:func:`verdict`).
+        Fidelity, method, ``samples`` (the design's N: its rows, or the N of Saltelli's N (d + 2)
+        rows), seed and the verdicts (:func:`verdict`).
     """
 
     name: str
@@ -127,6 +146,77 @@ class UncertaintyResult:
             var_ = np.where(ok, (a - mean) ** 2, 0.0).sum(axis=0) / (n - 1)
         return np.where(n > 0, mean, np.nan), np.where(n > 1, np.sqrt(var_), np.nan), n
 
+    def bootstrap(self, resamples: int = BOOTSTRAP_RESAMPLES, confidence: float = BOOTSTRAP_CONFIDENCE,
+                  seed: int | None = None) -> dict:
+        """Percentile-bootstrap confidence intervals of :meth:`quantiles` and of :meth:`moments`'
+        mean and std, per point.
+
+        At each point the samples with a finite amplitude (``m`` of them, the rows of :attr:`base`)
+        are resampled with replacement ``resamples`` times; each resample gives the quantiles
+        :data:`QUANTILES` (numpy's definition 7, as :meth:`quantiles`), the mean and the std (``n - 1``),
+        and the interval is the ``(1 - confidence) / 2`` and ``(1 + confidence) / 2`` quantiles of
+        those ``resamples`` values (Efron's percentile interval).  The draws are
+        ``numpy.random.default_rng([seed, k])`` at the ``k``-th point (row-major over (direction,
+        Omega)): the same intervals on every machine, whatever order points are computed in.
+
+        The resampling treats the samples as independent: for scrambled Sobol' points, whose
+        estimates err less than independent draws do, the intervals are conservative (wider than the
+        estimates' actual error); they shrink as ``1 / sqrt(m)``.
+
+        Parameters
+        ----------
+        resamples : int
+            Bootstrap resamples (default :data:`BOOTSTRAP_RESAMPLES`).
+        confidence : float
+            Confidence level, in (0, 1) (default :data:`BOOTSTRAP_CONFIDENCE`).
+        seed : int, optional
+            Default: the design's ``seed`` (``attrs``).
+
+        Returns
+        -------
+        dict
+            ``quantile_ci``: shape ``(2, n_quantiles, n_directions, n_Omega)``; ``mean_ci``,
+            ``std_ci``: shape ``(2, n_directions, n_Omega)``; bound 0 the lower end, 1 the upper.
+            NaN where fewer than 2 samples have a finite amplitude.  In the amplitude's unit (Q, 1).
+
+        Raises
+        ------
+        ValueError
+            ``resamples`` below 1 or ``confidence`` outside (0, 1).
+
+        References
+        ----------
+        B. Efron, R. J. Tibshirani, *An Introduction to the Bootstrap*, Chapman & Hall 1993, Ch. 13
+        (the percentile interval).
+        """
+        if int(resamples) < 1 or not 0.0 < float(confidence) < 1.0:
+            raise ValueError(f"resamples = {resamples}, confidence = {confidence}: allowed resamples >= 1 and "
+                             f"0 < confidence < 1")
+        seed = int(self.attrs.get("seed", 0)) if seed is None else int(seed)
+        a = self.amplitude[self.base]
+        shape = a.shape[1:]
+        q_ci = np.full((2, len(QUANTILES)) + shape, np.nan)
+        m_ci, s_ci = np.full((2,) + shape, np.nan), np.full((2,) + shape, np.nan)
+        ends = (0.5 * (1.0 - confidence), 0.5 * (1.0 + confidence))
+        for k, j in enumerate(np.ndindex(shape)):
+            v = a[(slice(None),) + j]
+            v = v[np.isfinite(v)]
+            m = v.size
+            if m < 2:
+                continue
+            rng = np.random.default_rng([seed, k])
+            qs, means, stds = [], [], []
+            batch = max(1, BOOTSTRAP_BATCH // m)
+            for start in range(0, int(resamples), batch):
+                x = v[rng.integers(0, m, size=(min(batch, int(resamples) - start), m))]
+                qs.append(np.quantile(x, QUANTILES, axis=1))
+                means.append(x.mean(axis=1))
+                stds.append(x.std(axis=1, ddof=1))
+            q_ci[(slice(None), slice(None)) + j] = np.quantile(np.concatenate(qs, axis=1), ends, axis=1)
+            m_ci[(slice(None),) + j] = np.quantile(np.concatenate(means), ends)
+            s_ci[(slice(None),) + j] = np.quantile(np.concatenate(stds), ends)
+        return {"quantile_ci": q_ci, "mean_ci": m_ci, "std_ci": s_ci}
+
     def probabilities(self) -> tuple[list, np.ndarray]:
         """``(names, p)``: the fraction of samples in each outcome (the classes of
         :data:`vibeam.analysis.maps.CLASSES`, then the statuses :data:`STATUS_OUTCOMES`) per point,
@@ -147,7 +237,9 @@ class UncertaintyResult:
             ``first``, ``total``: shape ``(n_parameters, n_directions, n_Omega)``; ``first_ci``,
             ``total_ci``: shape ``(2, n_parameters, n_directions, n_Omega)`` (bootstrap, ``confidence``);
             ``jump_first``, ``jump_total``: shape ``(n_parameters,)``.  A point where a run gave no
-            finite amplitude has NaN indices.
+            finite amplitude has NaN indices.  The intervals are scipy's BCa bootstrap, whose draws come
+            from numpy's global RandomState: seeded here by the design's ``seed`` (and restored), so
+            they are the same on every call.
         """
         from scipy.stats import sobol_indices  # lazy: keeps scipy.stats out of the engine's start-up
 
@@ -166,7 +258,14 @@ class UncertaintyResult:
                   [np.full((2, d, Y.shape[1]), np.nan) for _ in range(2)]
             if ok.any():
                 res = sobol_indices(func={"f_A": fA[ok], "f_B": fB[ok], "f_AB": fAB[:, ok]}, n=n)
-                ci = res.bootstrap(confidence_level=confidence, n_resamples=resamples)
+                # its bootstrap draws from numpy's global RandomState (scipy 1.17 takes no rng there):
+                # seeded by the design's seed, so the intervals are reproducible, and restored after
+                state = np.random.get_state()
+                np.random.seed(int(self.attrs.get("seed", 0)))
+                try:
+                    ci = res.bootstrap(confidence_level=confidence, n_resamples=resamples)
+                finally:
+                    np.random.set_state(state)
                 out[0][:, ok], out[1][:, ok] = res.first_order.T, res.total_order.T
                 for k, c in ((2, ci.first_order), (3, ci.total_order)):
                     out[k][0][:, ok], out[k][1][:, ok] = c.confidence_interval.low.T, c.confidence_interval.high.T
@@ -200,9 +299,92 @@ class UncertaintyResult:
         return out
 
 
-def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = 1, executor=None,
-                progress: bool = False) -> list[UncertaintyResult]:
+@dataclass(frozen=True)
+class SampleTask:
+    """One sample's sweep of one run: a unit of work of :func:`vibeam.engine.sweep.run_lines`.
+
+    The solver is built where the unit runs (a worker of the pool, or this process inline) and
+    dropped when its sweep is done, so a design of many samples never holds more solvers than
+    there are workers; what comes back is :func:`sample_arrays` of the sweep, not its per-point
+    records.
+
+    Attributes
+    ----------
+    key : str
+        ``"<sample index, 6 digits>"`` (unique within the run).
+    run : str
+        The run's name.
+    case : vibeam.case.schema.Case
+        The case as run.
+    spec_run : object
+        Its ``[[run]]`` entry.
+    values : tuple of (str, float)
+        The sampled names or paths and values.
+    index : int
+        The sample (row of the design).
+    n_points : int
+        Points of the sweep (every direction).
+    """
+
+    key: str
+    run: str
+    case: object
+    spec_run: object
+    values: tuple
+    index: int
+    n_points: int
+    #: the progress bar advances per point (run_line's protocol)
+    reports_progress = True
+
+    def compute(self, report=None) -> list:
+        """The sample's sweep: ``[sample_arrays(...)]`` (one row).  A solver that refuses the
+        sampled values (:class:`vibeam.errors.CaseError` of :func:`vibeam.engine.jobs.make_job`) gives
+        every point ``status = 'failed'`` (each parameter's support was checked against its range
+        when the case was read; only a combination of values can be refused)."""
+        try:
+            job = make_job(self.case, self.spec_run, dict(self.spec_run.model, **dict(self.values)), self.index)
+        except CaseError:
+            return self.lost_rows(None, 0)
+        rows = [row for line in plan_lines(job.solver, job.sweep, self.run) for row in run_line(line, report)]
+        return [sample_arrays(rows, job.sweep)]
+
+    def lost_rows(self, err, attempts) -> list:
+        """Every point failed (a worker lost ``attempts`` times, or a refused solver): the row of
+        :meth:`compute` with NaN amplitudes, period 0 and status ``failed``."""
+        shape = self.case_shape
+        return [{"amplitude": np.full(shape, np.nan), "period": np.zeros(shape, np.int64),
+                 "status": np.full(shape, "failed", dtype=object)}]
+
+    @property
+    def case_shape(self) -> tuple:
+        """``(n_directions, n_Omega)`` of the sample's arrays."""
+        nd = 2 if self.case.sweep.direction == "both" else 1
+        return nd, self.n_points // nd
+
+
+def sample_arrays(rows: list, sw) -> dict:
+    """One sampled sweep's per-point records (:func:`vibeam.engine.sweep.run_line`, every line in
+    plan order) as ``{"amplitude", "period", "status"}``, each of shape ``(n_directions, n_Omega)``
+    along the increasing ``Omega`` (directions in visiting order: up, then down)."""
+    data = stack(rows, sw)
+    direc = np.asarray([str(x) for x in data["direction"]])
+    om = np.asarray(data["Omega"], float)
+    dirs = list(dict.fromkeys(direc.tolist()))
+    order = [np.flatnonzero(direc == d)[np.argsort(om[direc == d], kind="stable")] for d in dirs]
+    st = np.asarray(data["status"], dtype=object)
+    return {"amplitude": np.stack([np.asarray(data["amplitude"], float)[o] for o in order]),
+            "period": np.stack([np.asarray(data["period"], np.int64)[o] for o in order]),
+            "status": np.stack([st[o] for o in order]).astype(object)}
+
+
+def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = None, executor=None,
+                progress: bool = False, done: dict | None = None, on_sample=None) -> list[UncertaintyResult]:
     """Sweep every sweep run of ``case`` at every sample of its ``[uncertainty]`` design.
+
+    Each (run, sample) is one unit of work (:class:`SampleTask`) on the one engine
+    (:func:`vibeam.engine.sweep.run_lines`); its solver is built where it runs, and only the sample's
+    amplitude, period and status per (direction, Omega) come back: memory holds those arrays (about
+    17 bytes per sampled point) and one solver per worker, whatever the number of samples.
 
     Parameters
     ----------
@@ -213,9 +395,14 @@ def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = 
     samples : int, optional
         Instead of the spec's ``samples`` (a power of 2).
     jobs, executor :
-        Where the lines run (:func:`vibeam.engine.sweep.run_lines`: inline for ``jobs = 1``).
+        Where the samples run (:func:`vibeam.engine.sweep.run_lines`: None all cores, 1 inline).
     progress : bool
-        A progress bar over all points.
+        A progress bar over all sampled points.
+    done : dict, optional
+        ``{run: {sample: arrays}}`` computed before (a checkpoint, ``--resume``): not computed again.
+    on_sample : callable, optional
+        ``on_sample(run, sample, arrays)`` in this process as each sample's sweep finishes (in any
+        order), ``arrays`` as :func:`sample_arrays` (the checkpoint writer).
 
     Returns
     -------
@@ -225,54 +412,125 @@ def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = 
     Raises
     ------
     vibeam.errors.CaseError
-        A run whose solver cannot take a sampled value (one line naming the run and the values).
+        A run whose solver cannot be built at the first sample (one line naming the run and the values).
     """
     spec = case.uncertainty if spec is None else spec
     design, roles = spec.saltelli(samples) if spec.sobol else (spec.design(samples), [])
     names = tuple(p.name for p in spec.parameter)
     runs = [r for r in case.run if r.method != "continuation"]
-    plan = []                                       # (run, sample, job, lines)
+    done = {r.name: dict((done or {}).get(r.name, {})) for r in runs}
+    tasks, firsts, meta = [], [], {}
     for r in runs:
-        for i, row in enumerate(design):
-            job = make_job(case, r, dict(r.model, **{n: float(v) for n, v in zip(names, row)}), i)
-            lines = [dataclasses.replace(l, key=f"{i:05d}-{l.key}") for l in plan_lines(job.solver, job.sweep, r.name)]
-            plan.append((r, i, job, lines))
-    done = run_lines([l for *_, ls in plan for l in ls], executor=executor, jobs=jobs, progress=progress,
-                     desc=f"{case.name} uncertainty")
+        # the first sample's job: the grid, the layout, the scene's units and the kernels to load
+        job = make_job(case, r, dict(r.model, **{n: float(v) for n, v in zip(names, design[0])}), 0)
+        lines = plan_lines(job.solver, job.sweep, r.name)
+        model = job.solver.model
+        meta[r.name] = {"dirs": tuple(dict.fromkeys(l.direction for l in lines)),
+                        "Omega": np.sort(np.asarray(job.sweep.Omega, float)),
+                        "fn": getattr(model, "natural_frequency_hz", None), "L": getattr(model, "length_m", None),
+                        "fidelity": model.fidelity, "method": job.solver.name}
+        n_pts = sum(l.n_points for l in lines)
+        todo = [i for i in range(design.shape[0]) if i not in done[r.name]]
+        if todo:
+            firsts += lines
+        tasks += [SampleTask(f"{i:06d}", r.name, case, r, tuple((n, float(v)) for n, v in zip(names, design[i])), i,
+                             n_pts) for i in todo]
+    if tasks and executor is None:
+        load_kernels(firsts)        # before the pool forks: its workers inherit the kernels
+
+    def on_line(task, rows):
+        done[task.run][task.index] = rows[0]
+        if on_sample is not None:
+            on_sample(task.run, task.index, rows[0])
+
+    sweep.run_lines(tasks, executor=executor, jobs=jobs, on_line=on_line, progress=progress,
+                    desc=f"{case.name} uncertainty")
+    n_base = design.shape[0] // spec.runs_per_sample()
     out = []
     for r in runs:
-        mine = [(i, job, ls) for rr, i, job, ls in plan if rr is r]
-        res = [assemble(job.solver, job.sweep, r.name, [done[(l.run, l.key)] for l in ls], 0.0) for _, job, ls in mine]
-        out.append(_result(r, names, design, res, spec))
-        out[-1].roles = tuple(roles)
+        m, got = meta[r.name], done[r.name]
+        rows = [got[i] for i in range(design.shape[0])]
+        out.append(UncertaintyResult(
+            name=r.name, parameters=names, design=np.asarray(design, float), directions=m["dirs"], Omega=m["Omega"],
+            amplitude=np.stack([x["amplitude"] for x in rows]), period=np.stack([x["period"] for x in rows]),
+            status=np.stack([x["status"] for x in rows]).astype(object),
+            frequency_hz=m["Omega"] * m["fn"] if m["fn"] else None, length_m=m["L"],
+            attrs={"fidelity": m["fidelity"], "method": m["method"], "samples": n_base, "seed": spec.seed},
+            roles=tuple(roles)))
     verdict(out)
     return out
 
 
-def _result(run, names, design, res, spec) -> UncertaintyResult:
-    """The samples' sweep results of one run on one (direction, Omega) layout."""
-    first = res[0].data
-    direc = np.asarray([str(x) for x in first["direction"]])
-    dirs = tuple(dict.fromkeys(direc.tolist()))
-    om = np.asarray(first["Omega"], float)
-    order = {d: np.flatnonzero(direc == d)[np.argsort(om[direc == d], kind="stable")] for d in dirs}
-    grid = om[order[dirs[0]]]
+#: the checkpoint group of finished samples (``results.h5.partial``: ``/uncertainty_samples/<run>/<block>/``)
+CHECKPOINT = "uncertainty_samples"
 
-    def lay(key, fill, dtype=float):
-        a = np.full((len(res), len(dirs), grid.size), fill, dtype=dtype)
-        for i, r in enumerate(res):
-            v = np.asarray(r.data[key])
-            for j, d in enumerate(dirs):
-                a[i, j] = v[order[d]]
-        return a
 
-    amp = lay("amplitude", np.nan)
-    fn = res[0].attrs.get("natural_frequency_hz")
-    return UncertaintyResult(
-        name=run.name, parameters=names, design=np.asarray(design, float), directions=dirs, Omega=grid,
-        amplitude=amp, period=lay("period", 0, np.int64), status=lay("status", "", object),
-        frequency_hz=grid * fn if fn else None, length_m=res[0].attrs.get("length_m"),
-        attrs={"fidelity": res[0].fidelity, "method": res[0].method, "samples": len(res), "seed": spec.seed})
+def checkpoint_ident(case_json: str, samples: int) -> str:
+    """What marks a checkpointed sample as this computation's: the case as run (its JSON) and the
+    number of samples of the design (``--samples`` changes the design, not the case)."""
+    return case_hash(f"{case_json}\n[uncertainty] samples = {int(samples)}")
+
+
+def checkpoint_groups(finished: dict, ident: str) -> dict:
+    """Finished samples of one run, ``{sample: arrays}`` (:func:`sample_arrays`), as one checkpoint
+    block ``{"<ident>-<first sample>": (variables, attrs)}`` for
+    :meth:`vibeam.io.store.Store.checkpoint` of ``uncertainty_samples/<run>``: ``sample`` (k,) and
+    ``amplitude``, ``period``, ``status`` of shape (k, n_directions, n_Omega); attribute ``case_hash``
+    the ident (:func:`checkpoint_ident`).  A sample is in one block only, so the key is unique."""
+    idx = sorted(finished)
+    if not idx:
+        return {}
+    dims = ("sample", "direction", "Omega")
+    variables = {
+        "sample": var(("sample",), np.asarray(idx, np.int64), long_name="sample of the design"),
+        "amplitude": var(dims, np.stack([finished[i]["amplitude"] for i in idx]), "1", "amplitude Q"),
+        "period": var(dims, np.stack([finished[i]["period"] for i in idx]), "1", "period (-1 no impact)"),
+        "status": var(dims, np.stack([finished[i]["status"] for i in idx]).astype(str).astype(object),
+                      long_name="status"),
+    }
+    return {f"{ident}-{idx[0]:06d}": (variables, {"case_hash": ident})}
+
+
+def check_block(meta: dict, data: dict | None, rows: int, shape: tuple) -> str | None:
+    """What is wrong with a checkpointed block of samples, or None (what :func:`checkpoint_groups`
+    writes: ``sample`` whole numbers from 0 to ``rows - 1``, once each; ``amplitude`` numbers,
+    ``period`` whole numbers and ``status`` one of :data:`vibeam.engine.records.STATUSES`, each of shape
+    ``(k,) + shape``).  ``meta`` ``{dataset: (shape, dtype)}``, ``data`` the values (None: shapes only)."""
+    for k in ("sample", "amplitude", "period", "status"):
+        if k not in meta:
+            return f"dataset {k} is missing"
+    k_ = meta["sample"][0]
+    if len(k_) != 1 or np.dtype(meta["sample"][1]).kind not in "iu":
+        return f"dataset sample has shape {tuple(k_)} and type {np.dtype(meta['sample'][1])}; allowed: whole numbers"
+    for k, kinds in (("amplitude", "f"), ("period", "iu"), ("status", "OSU")):
+        sh, dt = meta[k]
+        if tuple(sh) != tuple(k_) + tuple(shape):
+            return f"dataset {k} has shape {tuple(sh)}; allowed: {tuple(k_) + tuple(shape)} (sample, direction, Omega)"
+        if np.dtype(dt).kind not in kinds:
+            return f"dataset {k} holds {np.dtype(dt)} values, not what vibeam writes"
+    if data is None:
+        return None
+    i = np.asarray(data["sample"])
+    if i.size and (i.min() < 0 or i.max() >= rows or np.unique(i).size != i.size):
+        return f"dataset sample holds a value outside 0 ... {rows - 1} or one twice"
+    bad = [x for x in np.asarray(data["status"]).astype(str).ravel() if x not in STATUSES]
+    if bad:
+        return f"dataset status holds {bad[0]!r}; allowed: {', '.join(STATUSES)}"
+    return None
+
+
+def samples_from_checkpoint(got: dict) -> dict:
+    """``{sample: arrays}`` (:func:`sample_arrays`) of checkpointed blocks ``{key: {dataset: array}}``
+    (checked by :func:`check_block`); a sample in two blocks is refused there only within a block, so
+    a later block's sample replaces an earlier one's (both computed from the same design)."""
+    out = {}
+    for key in sorted(got):
+        d = got[key]
+        for j, i in enumerate(np.asarray(d["sample"], np.int64)):
+            out[int(i)] = {"amplitude": np.asarray(d["amplitude"][j], float),
+                           "period": np.asarray(d["period"][j], np.int64),
+                           "status": np.asarray(d["status"][j]).astype(str).astype(object)}
+    return out
 
 
 def verdict(results: list) -> dict:
@@ -320,9 +578,13 @@ def verdict(results: list) -> dict:
 def uncertainty_variables(r: UncertaintyResult) -> dict:
     """The variables of ``/uncertainty/<run>/`` (:func:`vibeam.io.netcdf.write_group`): the design on
     (sample, parameter), every sampled sweep on (sample, direction, Omega), and the statistics on
-    (direction, Omega) with the extra dimensions ``quantile`` and ``outcome``."""
+    (direction, Omega) with the extra dimensions ``quantile``, ``outcome`` and ``bound`` (the lower and
+    upper end of an interval: the bootstrap intervals of :meth:`UncertaintyResult.bootstrap`, the Sobol'
+    indices' intervals)."""
     mean, std, n = r.moments()
     names, p = r.probabilities()
+    ci = r.bootstrap()
+    ci_text = f"{100 * BOOTSTRAP_CONFIDENCE:.0f} % percentile-bootstrap interval ({BOOTSTRAP_RESAMPLES} resamples)"
     g = ("direction", "Omega")
     v = {
         "sample": var(("sample",), np.arange(r.design.shape[0]), long_name="sample of the design"),
@@ -331,6 +593,7 @@ def uncertainty_variables(r: UncertaintyResult) -> dict:
         "Omega": var(("Omega",), r.Omega, "1", "forcing frequency over the natural frequency"),
         "quantile": var(("quantile",), np.asarray(QUANTILES), "1", "probability of the amplitude quantile"),
         "outcome": var(("outcome",), np.asarray(names, dtype=object), long_name="outcome class or status"),
+        "bound": var(("bound",), np.asarray(["low", "high"], dtype=object), long_name="end of an interval"),
         "design": var(("sample", "parameter"), r.design, long_name="sampled values (case units)"),
         "sample_amplitude": var(("sample",) + g, r.amplitude, "1", "amplitude Q of each sample (Sec. 4.1)"),
         "sample_period": var(("sample",) + g, r.period, "1", "period of the stroboscopic map (-1 no impact)"),
@@ -339,6 +602,9 @@ def uncertainty_variables(r: UncertaintyResult) -> dict:
         "amplitude_std": var(g, std, "1", "standard deviation of the amplitude over the samples"),
         "amplitude_samples": var(g, n, "1", "samples with a finite amplitude"),
         "amplitude_quantile": var(("quantile",) + g, r.quantiles(), "1", "amplitude quantiles over the samples"),
+        "amplitude_quantile_ci": var(("bound", "quantile") + g, ci["quantile_ci"], "1", ci_text + " of the quantiles"),
+        "amplitude_mean_ci": var(("bound",) + g, ci["mean_ci"], "1", ci_text + " of the mean"),
+        "amplitude_std_ci": var(("bound",) + g, ci["std_ci"], "1", ci_text + " of the standard deviation"),
         "outcome_probability": var(("outcome",) + g, p, "1", "fraction of the samples in each outcome"),
         "jump_frequency": var(("sample", "direction"), r.jumps(), r.axis[1],
                               "jump frequency of each sample, Hz or Omega (NaN: none)"),
@@ -359,4 +625,95 @@ def uncertainty_variables(r: UncertaintyResult) -> dict:
     if r.length_m:
         v["amplitude_quantile_mm"] = var(("quantile",) + g, r.quantiles() * r.length_m * 1e3, "mm",
                                          "amplitude quantiles over the samples")
+        v["amplitude_quantile_ci_mm"] = var(("bound", "quantile") + g, ci["quantile_ci"] * r.length_m * 1e3, "mm",
+                                            ci_text + " of the quantiles")
     return v
+
+
+#: attributes of ``/uncertainty/<run>/`` that are the store's or the writer's, not the result's
+_STORE_ATTRS = ("run", "case_hash", "case_name", "stale", "stale_reason", "case_text", "case_json", "length_m")
+
+
+def uncertainty_group(r: UncertaintyResult):
+    """The writer of ``/uncertainty/<run>/`` of one result (a ``fill(file)`` for
+    :meth:`vibeam.io.store.Store.commit`): :func:`uncertainty_variables`, the result's ``attrs`` (a
+    dict or list as JSON text), ``run`` and, on a physical scene, ``length_m`` (m)."""
+    attrs = {k: (json.dumps(v, default=json_default) if isinstance(v, (dict, list)) else v) for k, v in r.attrs.items()}
+    if r.length_m:
+        attrs["length_m"] = float(r.length_m)
+
+    def fill(f):
+        write_group(f, f"uncertainty/{r.name}", uncertainty_variables(r), dict(attrs, run=r.name))
+    return fill
+
+
+def read_uncertainty(path) -> list:
+    """Every ``/uncertainty/<run>/`` of a results file as :class:`UncertaintyResult` (what
+    :func:`uncertainty_group` wrote: the design, every sampled sweep, ``attrs`` with the verdicts);
+    the statistics are computed again from the samples (they equal the stored ones).
+
+    Raises
+    ------
+    vibeam.errors.InputError
+        Not an HDF5 file vibeam can read, or a structure :mod:`vibeam.io.h5check` refuses.
+    """
+    out = []
+    with open_checked(path, "results file") as f:
+        top = f.get("uncertainty")
+        groups = {k: (read_plain(g), read_attrs(g)) for k, g in top.items()} if top is not None else {}
+    for name, (d, a) in groups.items():
+        attrs = {}
+        for k, v in a.items():
+            if k in _STORE_ATTRS:
+                continue
+            if k.startswith("verdict_") and isinstance(v, str):
+                v = json.loads(v)
+            attrs[k] = v.item() if isinstance(v, np.generic) else v
+        length = a.get("length_m")
+        out.append(UncertaintyResult(
+            name=name, parameters=tuple(str(x) for x in d["parameter"]), design=np.asarray(d["design"], float),
+            directions=tuple(str(x) for x in d["direction"]), Omega=np.asarray(d["Omega"], float),
+            amplitude=np.asarray(d["sample_amplitude"], float), period=np.asarray(d["sample_period"], np.int64),
+            status=np.asarray(d["sample_status"]).astype(str).astype(object),
+            frequency_hz=np.asarray(d["frequency_hz"], float) if "frequency_hz" in d else None,
+            length_m=float(length) if length is not None else None, attrs=attrs,
+            roles=tuple(str(x) for x in d["sample_role"]) if "sample_role" in d else ()))
+    return out
+
+
+def bands(results) -> list:
+    """The band of each result for :func:`vibeam.plots.uncertainty.band_figure` (mm on a physical scene)."""
+    out = []
+    for r in results:
+        x, xu = r.axis
+        scale = r.length_m * 1e3 if r.length_m else 1.0
+        out.append({"name": r.name, "x": x, "x_unit": xu, "directions": list(r.directions),
+                    "q": r.quantiles() * scale, "unit": "mm" if r.length_m else "1"})
+    return out
+
+
+def sobol_entries(results) -> list:
+    """The Sobol' indices of each result with Saltelli's design for
+    :func:`vibeam.plots.uncertainty.sobol_figure` (none without that design)."""
+    out = []
+    for r in results:
+        si = r.sobol()
+        if si is None:
+            continue
+        x, xu = r.axis
+        out.append({"name": r.name, "x": x, "x_unit": xu, "directions": list(r.directions),
+                    "parameters": list(r.parameters), "first": si["first"], "total": si["total"],
+                    "first_ci": si["first_ci"], "total_ci": si["total_ci"]})
+    return out
+
+
+def outcome_entries(results) -> list:
+    """The outcome probabilities of each result for :func:`vibeam.plots.uncertainty.outcome_figure`:
+    the classes stacked, the statuses (:data:`STATUS_OUTCOMES`) as lines."""
+    out = []
+    for r in results:
+        names, p = r.probabilities()
+        x, xu = r.axis
+        out.append({"name": r.name, "x": x, "x_unit": xu, "directions": list(r.directions), "outcomes": names,
+                    "p": p, "colours": list(OUTCOME_COLOURS), "stacked": [n not in STATUS_OUTCOMES for n in names]})
+    return out

@@ -13,7 +13,7 @@ Its modules, by topic:
 
 * :mod:`vibeam.api.cases`: :func:`load_case`, :func:`case_text`;
 * :mod:`vibeam.api.results`: :class:`Results` (with its groups ``Run``, ``Map``, ``Branches``,
-  ``Basins``, ``Bifurcations``, ``Curves``) and :func:`open_results`;
+  ``Basins``, ``Bifurcations``, ``Curves``, ``Uncertainty``) and :func:`open_results`;
 * :mod:`vibeam.api.runs`: :func:`run`, :func:`continuation` (``continue_``), :func:`basins`,
   :func:`run_basins`;
 * :mod:`vibeam.api.simulation`: one frequency, :func:`simulate`, :func:`lyapunov`, :func:`poincare`;
@@ -35,7 +35,7 @@ import importlib
 WHERE = {
     "load_case": "cases", "case_text": "cases",
     "Results": "results", "open_results": "results", "Run": "results", "Map": "results", "Branches": "results",
-    "Basins": "results", "Bifurcations": "results", "Curves": "results",
+    "Basins": "results", "Bifurcations": "results", "Curves": "results", "Uncertainty": "results",
     "run": "runs", "continuation": "runs", "continue_": "runs", "basins": "runs", "run_basins": "runs",
     "Simulation": "simulation", "simulate": "simulation", "Lyapunov": "simulation", "lyapunov": "simulation",
     "poincare": "simulation", "STATE_MAX": "simulation",

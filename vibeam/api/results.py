@@ -12,6 +12,8 @@ from vibeam.analysis.attractors import (BasinsResult, basins_figure, basins_from
                                         census_figure, read_basins)
 from vibeam.analysis.branches import ContinuationResult, continuation_figure, curves_figure, read_continuation
 from vibeam.analysis.maps import agreement_figure, map_figure
+from vibeam.analysis.uncertainty import (UncertaintyResult, bands, outcome_entries, read_uncertainty, sobol_entries,
+                                         uncertainty_group)
 from vibeam.api.cases import case_text, load_case, remember
 from vibeam.api.common import PrivateFolder, saved
 from vibeam.case.schema import Case
@@ -23,6 +25,7 @@ from vibeam.io.objects import MapResult, SweepResult
 from vibeam.io.results import LAYOUT_VERSION, branch_name, layout_of, load_results, result_groups
 from vibeam.io.store import write_file
 from vibeam.plots.sweep import bifurcation_figure, frc_figure
+from vibeam.plots.uncertainty import band_figure, outcome_figure, sobol_figure
 
 
 class _Group:
@@ -61,7 +64,8 @@ class _Group:
     def __repr__(self) -> str:
         """``Run('exact': runs/exact, 202 points, 25 variables)``: the group, its name and sizes,
         never its arrays."""
-        kind = {"runs": "Run", "maps": "Map", "branches": "Branches", "basins": "Basins"}.get(
+        kind = {"runs": "Run", "maps": "Map", "branches": "Branches", "basins": "Basins",
+                "uncertainty": "Uncertainty"}.get(
             self._kind, type(self).__name__.lstrip("_"))
         return f"{kind}({self.name!r}: {self.group}, {self._sizes()})"
 
@@ -151,6 +155,26 @@ class Basins(BasinsResult, _Group):
         return saved(basins_figure(self, i or 0, r._title()), path)
 
 
+class Uncertainty(UncertaintyResult, _Group):
+    """The sampled sweeps of one run of ``[uncertainty]``
+    (:class:`vibeam.analysis.uncertainty.UncertaintyResult`: the design, every sample's amplitude,
+    period and status, the statistics); group ``uncertainty/<name>`` on (sample, direction, Omega),
+    (quantile | outcome | bound | parameter, direction, Omega)."""
+
+    _kind = "uncertainty"
+    __repr__ = _Group.__repr__
+
+    def _sizes(self):
+        n, nd, nO = self.amplitude.shape
+        return f"{int(self.base.sum())} samples of {', '.join(self.parameters)}, {nd} x {nO} points"
+
+    def plot(self, path=None, kind: str = "bands"):
+        """The FRC band (``kind="bands"``: median, 50 % and 90 % bands), the Sobol' indices against
+        frequency (``"sobol"``; None without Saltelli's design) or the outcome probabilities against
+        frequency (``"outcomes"``) of this run."""
+        return self._results().plot_uncertainty(path, kind=kind, names=[self.name])
+
+
 def _branch_dicts(b) -> dict:
     """A continuation run in the shape of :func:`vibeam.io.results.read_branch_group` (what the
     census figure overlays)."""
@@ -232,6 +256,10 @@ class Results:
     basins : list of Basins
         Basins of attraction or census of attractors (``[basins]``, :func:`basins`;
         :class:`vibeam.analysis.attractors.BasinsResult`).
+    uncertainty : list of Uncertainty
+        The sampled sweeps of ``[uncertainty]``, one per run (:func:`vibeam.uncertainty`;
+        :class:`vibeam.analysis.uncertainty.UncertaintyResult`), each with ``to_xarray()`` and
+        ``plot(kind="bands" | "sobol" | "outcomes")``.
 
     ``bifurcations`` and ``curves`` (properties) give each continuation run's bifurcations and
     two-parameter curves; ``groups`` all of them by their path in ``results.h5``;
@@ -245,6 +273,7 @@ class Results:
     path: Path | None = None
     branches: list = field(default_factory=list)
     basins: list = field(default_factory=list)
+    uncertainty: list = field(default_factory=list)
 
     def __repr__(self) -> str:
         """The groups by kind with their names and sizes (never their arrays), e.g.
@@ -252,7 +281,7 @@ class Results:
         maps: none; branches: none; basins: none)``."""
         name = getattr(self.case, "name", None)
         parts = [repr(name) if name else "case unknown", f"path={str(self.path)!r}" if self.path else "in memory"]
-        for kind in ("runs", "maps", "branches", "basins"):
+        for kind in ("runs", "maps", "branches", "basins") + (("uncertainty",) if self.uncertainty else ()):
             gs = getattr(self, kind)
             parts.append(f"{kind}: " + (", ".join(f"{g.name!r} ({g._sizes()})" for g in gs) if gs else "none"))
         return "Results(" + ", ".join(parts[:2]) + "; " + "; ".join(parts[2:]) + ")"
@@ -262,6 +291,7 @@ class Results:
         self.maps = [_as(Map, m, self) for m in self.maps]
         self.branches = [_as(Branches, b, self) for b in self.branches]
         self.basins = [_as(Basins, b, self) for b in self.basins]
+        self.uncertainty = [_as(Uncertainty, u, self) for u in self.uncertainty]
         self._tree = None
         self._file = None        # a file holding the groups (self.path, or a private temporary one)
         self._tmp = None
@@ -269,7 +299,7 @@ class Results:
     @classmethod
     def from_file(cls, path) -> "Results":
         """Every group of a results file (``results.h5``): runs, maps, continuation branches
-        (with bifurcations and curves) and basins."""
+        (with bifurcations and curves), basins and the sampled sweeps of ``[uncertainty]``."""
         check_input_file(path, "results file")
         runs, maps, attrs = load_results(path)
         case = None
@@ -280,13 +310,14 @@ class Results:
                 case = load_case(str(attrs["case_text"]))
         except Exception:      # a case of an older vibeam: the data are still readable
             case = None
-        branches, basins = [], []
+        branches, basins, unc = [], [], []
         if layout_of(path) >= 2:
             branches = read_continuation(path)
             with open_checked(path) as f:
                 names = list(f.get("basins", {}))
             basins = [basins_from_dataset(read_basins(path, n), n) for n in names]
-        return cls(runs, maps, case, Path(path), branches, basins)
+            unc = read_uncertainty(path)
+        return cls(runs, maps, case, Path(path), branches, basins, unc)
 
     def _source(self, name: str):
         for r in self.runs + self.maps + self.branches + self.basins:
@@ -321,11 +352,11 @@ class Results:
     def groups(self) -> dict:
         """Every group by its path in ``results.h5``: ``runs/<run>``, ``maps/<run>``,
         ``branches/<run>``, ``branches/<run>/bifurcations``, ``branches/<run>/curves``,
-        ``basins/<run>``."""
+        ``basins/<run>``, ``uncertainty/<run>``."""
         out = {}
         for g in self.runs + self.maps + self.branches:
             out[g.group] = g
-        for g in self.bifurcations + self.curves + self.basins:
+        for g in self.bifurcations + self.curves + self.basins + self.uncertainty:
             out[g.group] = g
         return out
 
@@ -343,6 +374,7 @@ class Results:
         cj = self.case.model_dump_json() if self.case is not None else ""
         groups = result_groups(self.runs, self.maps, self.branches)
         groups.update({f"basins/{b.name}": basins_group(b) for b in self.basins})
+        groups.update({f"uncertainty/{u.name}": uncertainty_group(u) for u in self.uncertainty})
         f = write_file(Path(self._tmp.name) / "results.h5", groups, name, text, cj)
         self._file = f
         return f
@@ -421,6 +453,25 @@ class Results:
         b = next(b for b in self.basins if name is None or b.name == name)
         return b.plot(path, i=i)
 
+    def plot_uncertainty(self, path=None, kind: str = "bands", names=None):
+        """The figures of ``vibeam uncertainty`` over the runs (default all; ``names`` some): the FRC
+        bands of a ladder overlaid (``kind="bands"``, ``uncertainty.png``), the Sobol' indices against
+        frequency (``"sobol"``, ``uncertainty_sobol.png``; None without Saltelli's design) or the
+        outcome probabilities against frequency (``"outcomes"``, ``uncertainty_outcomes.png``).
+
+        Raises
+        ------
+        ValueError
+            ``kind`` not one of bands, sobol, outcomes.
+        """
+        figures = {"bands": (band_figure, bands, "FRC bands"), "sobol": (sobol_figure, sobol_entries, "Sobol' indices"),
+                   "outcomes": (outcome_figure, outcome_entries, "outcome probabilities")}
+        if kind not in figures:
+            raise ValueError(f"kind = {kind!r}: allowed: {', '.join(figures)}")
+        fig, data, what = figures[kind]
+        us = [u for u in self.uncertainty if names is None or u.name in names]
+        return saved(fig(data(us), title=f"{self._title()}: {what}"), path)
+
     def plot_spectra(self, path=None):
         """Sensor velocity spectra against the forcing frequency (``[assess] spectra``)."""
         return saved(spectra_figure(self.runs, self._title(), case=self.case), path)
@@ -436,7 +487,7 @@ class Results:
 
 def open_results(path) -> Results:
     """A results file (``results.h5``) as :class:`Results`: every group (runs, maps, continuation
-    branches with their bifurcations and curves, basins), each with ``to_xarray()`` and
+    branches with their bifurcations and curves, basins, uncertainty), each with ``to_xarray()`` and
     ``plot()``; ``res["runs/<run>"]`` is the node of the file's :class:`xarray.DataTree`.
 
     Raises
@@ -450,10 +501,10 @@ def open_results(path) -> Results:
     p = check_input_file(path, "results file")
     with open_checked(p) as f:
         layout = f.attrs.get("vibeam_layout")
-        groups = [g for g in ("runs", "maps", "branches", "basins") if g in f]
+        groups = [g for g in ("runs", "maps", "branches", "basins", "uncertainty") if g in f]
     if layout is None and not groups:
         raise InputError(f"{p}: not a vibeam results file (an HDF5 file without vibeam_layout and without runs, "
-                         f"maps, branches or basins); allowed: a results.h5 written by vibeam")
+                         f"maps, branches, basins or uncertainty); allowed: a results.h5 written by vibeam")
     if int(layout if layout is not None else 1) < LAYOUT_VERSION:
         raise InputError(f"{p}: a results file of the first layout (no dimensions); rewrite it with "
                          f"vibeam.io.results.load_results and write_results")

@@ -49,6 +49,8 @@ The checkpoint of a running command is a file of its own beside the results file
     /lines/<run>/<line>/         each finished sweep line's per-point arrays along ``point``
                                  (visiting order); attrs: case_hash
     /basin_lines/<run>/<row>/    finished rows of a basin computation; attrs: basins_ident
+    /uncertainty_samples/<run>/<block>/   finished samples of ``vibeam uncertainty``: sample (sample);
+                                 amplitude, period, status (sample, direction, Omega); attrs: case_hash
 
 A run's points of every direction lie on one grid: ``up`` visits the ``Omega``
 coordinate in increasing order and ``down`` in decreasing order; both are stored

@@ -21,7 +21,7 @@ whole command, computation included:
    and the text of its own case (``case_name``, ``case_text``, ``case_json``); the command
    prints one line naming such units.  ``fresh=True`` (``--fresh``) starts a new file.
 4. **Checkpoints beside the file.**  Finished work of a running command (sweep lines,
-   basin rows) goes to ``<file>.partial`` (:meth:`Store.checkpoint`), never into the
+   basin rows, sampled sweeps) goes to ``<file>.partial`` (:meth:`Store.checkpoint`), never into the
    complete file; the command's commit removes what it consumed.  ``--resume`` reads a
    checkpoint through :meth:`Store.read_checkpoint`, which refuses links, sizes beyond the
    bounds of :mod:`vibeam.io.h5check` and -- through the caller's check -- any dataset whose
@@ -59,8 +59,9 @@ PARTIAL_SUFFIX = ".partial"
 LAYOUT_VERSION = 2
 #: top-level groups whose children are the units of a file (``runs/<run>``, ...)
 UNIT_PARENTS = ("runs", "maps", "branches", "basins", "uncertainty")
-#: checkpoint groups (in ``<file>.partial``; in the file itself only as an earlier vibeam wrote them)
-CHECKPOINTS = ("lines", "basin_lines")
+#: checkpoint groups (in ``<file>.partial``; in the file itself only as an earlier vibeam wrote them):
+#: sweep lines, basin rows, finished samples of ``vibeam uncertainty``
+CHECKPOINTS = ("lines", "basin_lines", "uncertainty_samples")
 #: root attributes the store sets (not units' data)
 _ROOT_KEYS = ("Conventions", "vibeam_version", "vibeam_layout", "case_name", "case_text", "case_json",
               "created", "modified", "complete")
@@ -416,7 +417,9 @@ class Store:
         Parameters
         ----------
         kind : str
-            ``"lines"`` (sweep lines) or ``"basin_lines/<run>"`` (basin rows).
+            ``"lines"`` (sweep lines), ``"basin_lines/<run>"`` (basin rows) or
+            ``"uncertainty_samples"`` (the finished samples of ``vibeam uncertainty``, keys
+            ``<run>/<block>``).
         groups : dict
             ``{path below kind: (variables, attrs)}``, each written by
             :func:`vibeam.io.netcdf.write_group` (an old group at that path is replaced).

@@ -1,5 +1,7 @@
-"""The FRC band figure of ``vibeam uncertainty``: per run the median amplitude over the samples with
-its 50 % and 90 % bands, the runs of a ladder overlaid, one panel per sweep direction."""
+"""The figures of ``vibeam uncertainty``: the FRC bands (per run the median amplitude over the samples
+with its 50 % and 90 % bands, the runs of a ladder overlaid, one panel per sweep direction), the
+Sobol' indices against frequency and the outcome probabilities against frequency (one panel per run
+and direction)."""
 from __future__ import annotations
 
 import numpy as np
@@ -8,7 +10,7 @@ from vibeam.plots import style
 from vibeam.plots.lazy import plt
 from vibeam.plots.sweep import save_close
 
-__all__ = ["band_figure", "plot_bands"]
+__all__ = ["band_figure", "plot_bands", "sobol_figure", "plot_sobol", "outcome_figure", "plot_outcomes"]
 
 
 def band_figure(bands, title: str = ""):
@@ -58,3 +60,121 @@ def band_figure(bands, title: str = ""):
 def plot_bands(bands, path, title: str = ""):
     """:func:`band_figure` saved to ``path`` (``uncertainty.png``); returns the path, or None."""
     return save_close(band_figure(bands, title), path)
+
+
+def _grid(entries, dirs, height=2.6):
+    """A figure of one row per entry (run) and one column per direction, sharing the frequency axis."""
+    fig, axes = plt.subplots(len(entries), len(dirs), figsize=(4.6 * len(dirs) + 2.4, height * len(entries) + 1.0),
+                             squeeze=False, sharex=True)
+    for i, e in enumerate(entries):
+        for j, d in enumerate(dirs):
+            ax = axes[i][j]
+            ax.set_title(f"{e['name']}: {d} sweep", loc="right")
+            if i == len(entries) - 1:
+                ax.set_xlabel(style.label("frequency" if e["x_unit"] == "Hz" else "Omega",
+                                          "Hz" if e["x_unit"] == "Hz" else None))
+    return fig, axes
+
+
+def sobol_figure(entries, title: str = ""):
+    """Sobol' indices of the amplitude against frequency, or None without a finite index.
+
+    Parameters
+    ----------
+    entries : sequence of dict
+        One per run: ``name``, ``x`` (shape ``(n,)``), ``x_unit`` (``"Hz"`` or ``"1"``),
+        ``directions``, ``parameters`` (``d`` names), ``first`` and ``total`` (shape
+        ``(d, n_directions, n)``), ``first_ci`` and ``total_ci`` (shape ``(2, d, n_directions, n)``:
+        the intervals' lower and upper ends).  First-order indices are solid lines with their
+        interval shaded, total indices dashed.
+    title : str
+        The figure's title.
+    """
+    entries = [e for e in entries if np.isfinite(e["first"]).any() or np.isfinite(e["total"]).any()]
+    if not entries:
+        return None
+    dirs = [d for d in ("up", "down") if any(d in e["directions"] for e in entries)]
+    names = list(dict.fromkeys(p for e in entries for p in e["parameters"]))
+    with style.context():
+        col = style.colours(names)
+        fig, axes = _grid(entries, dirs)
+        for i, e in enumerate(entries):
+            for j, d in enumerate(dirs):
+                ax = axes[i][j]
+                if d not in e["directions"]:
+                    ax.set_visible(False)
+                    continue
+                k = e["directions"].index(d)
+                for p, name in enumerate(e["parameters"]):
+                    c = col[name]
+                    ax.fill_between(e["x"], e["first_ci"][0, p, k], e["first_ci"][1, p, k], color=c, alpha=0.2, lw=0)
+                    ax.plot(e["x"], e["first"][p, k], color=c, lw=1.4)
+                    ax.plot(e["x"], e["total"][p, k], color=c, lw=1.2, ls="--")
+                ax.set_ylim(-0.05, 1.05)
+                if j == 0:
+                    ax.set_ylabel(style.label("Sobol' index", None))
+        handles = [style.proxy(col[n], ls="-", label=n) for n in names]
+        handles += [style.proxy("0.3", ls="-", label="first order (95 % interval shaded)"),
+                    style.proxy("0.3", ls="--", label="total")]
+        style.legend_outside(fig, handles)
+        style.titles(fig, title, "Sobol' indices of the amplitude over Saltelli's design of [uncertainty]")
+    return fig
+
+
+def plot_sobol(entries, path, title: str = ""):
+    """:func:`sobol_figure` saved to ``path`` (``uncertainty_sobol.png``); returns the path, or None."""
+    return save_close(sobol_figure(entries, title), path)
+
+
+def outcome_figure(entries, title: str = ""):
+    """Outcome probabilities against frequency, or None without samples.
+
+    Parameters
+    ----------
+    entries : sequence of dict
+        One per run: ``name``, ``x`` (shape ``(n,)``), ``x_unit``, ``directions``, ``outcomes``
+        (names), ``p`` (shape ``(n_outcomes, n_directions, n)``: the fraction of the samples in each),
+        ``colours`` (one per outcome) and ``stacked`` (one bool per outcome: the classes, which add up
+        to 1, are stacked areas; the statuses, which overlap them, dashed lines).  Outcomes that no
+        sample reaches are left out.
+    title : str
+        The figure's title.
+    """
+    entries = [e for e in entries if np.size(e["p"])]
+    if not entries:
+        return None
+    dirs = [d for d in ("up", "down") if any(d in e["directions"] for e in entries)]
+    with style.context():
+        fig, axes = _grid(entries, dirs)
+        seen = {}
+        for i, e in enumerate(entries):
+            for j, d in enumerate(dirs):
+                ax = axes[i][j]
+                if d not in e["directions"]:
+                    ax.set_visible(False)
+                    continue
+                k = e["directions"].index(d)
+                used = [m for m in range(len(e["outcomes"])) if np.nanmax(e["p"][m, k]) > 0]
+                areas = [m for m in used if e["stacked"][m]]
+                if areas:
+                    ax.stackplot(e["x"], *[e["p"][m, k] for m in areas], colors=[e["colours"][m] for m in areas],
+                                 lw=0, alpha=0.85)
+                for m in used:
+                    if not e["stacked"][m]:
+                        ax.plot(e["x"], e["p"][m, k], color=e["colours"][m], lw=1.3, ls="--")
+                    seen.setdefault((e["outcomes"][m], e["stacked"][m]), e["colours"][m])
+                ax.set_ylim(0.0, 1.0)
+                if j == 0:
+                    ax.set_ylabel(style.label("probability", None))
+        from matplotlib.patches import Patch  # lazy: the legend's area patches (matplotlib loads with the figure)
+
+        handles = [Patch(color=c, label=n) if area else style.proxy(c, ls="--", label=f"status {n}")
+                   for (n, area), c in seen.items()]
+        style.legend_outside(fig, handles)
+        style.titles(fig, title, "fraction of the samples of [uncertainty] in each outcome")
+    return fig
+
+
+def plot_outcomes(entries, path, title: str = ""):
+    """:func:`outcome_figure` saved to ``path`` (``uncertainty_outcomes.png``); returns the path, or None."""
+    return save_close(outcome_figure(entries, title), path)
