@@ -377,6 +377,70 @@ def sample_arrays(rows: list, sw) -> dict:
             "status": np.stack([st[o] for o in order]).astype(object)}
 
 
+@dataclass(frozen=True)
+class SamplePlan:
+    """The work of an ``[uncertainty]`` design (:func:`plan_samples`).
+
+    Attributes
+    ----------
+    design : ndarray, shape (rows, d)
+        The sampled values (the base design, or Saltelli's rows with ``sobol = true``).
+    roles : list of str
+        The role of each Saltelli row (empty without ``sobol``).
+    names : tuple of str
+        The sampled names or paths.
+    runs : list
+        The case's sweep runs (``[[run]]`` entries), in order.
+    tasks : list of SampleTask
+        The (run, sample) units not yet done.
+    firsts : list
+        The first sample's lines of each run with work left (their kernels are loaded first).
+    meta : dict
+        Per run: directions, Omega, natural frequency (Hz), length (m), fidelity, method.
+    """
+
+    design: np.ndarray
+    roles: list
+    names: tuple
+    runs: list
+    tasks: list
+    firsts: list
+    meta: dict
+
+
+def plan_samples(case, spec=None, samples: int | None = None, done: dict | None = None) -> SamplePlan:
+    """The units of work of every sweep run of ``case`` at every sample of its design not in ``done``
+    (arguments as :func:`sample_runs`).
+
+    Raises
+    ------
+    vibeam.errors.CaseError
+        A run whose solver cannot be built at the first sample (one line naming the run and the values).
+    """
+    spec = case.uncertainty if spec is None else spec
+    design, roles = spec.saltelli(samples) if spec.sobol else (spec.design(samples), [])
+    names = tuple(p.name for p in spec.parameter)
+    runs = [r for r in case.run if r.method != "continuation"]
+    done = done or {}
+    tasks, firsts, meta = [], [], {}
+    for r in runs:
+        # the first sample's job: the grid, the layout, the scene's units and the kernels to load
+        job = make_job(case, r, dict(r.model, **{n: float(v) for n, v in zip(names, design[0])}), 0)
+        lines = plan_lines(job.solver, job.sweep, r.name)
+        model = job.solver.model
+        meta[r.name] = {"dirs": tuple(dict.fromkeys(l.direction for l in lines)),
+                        "Omega": np.sort(np.asarray(job.sweep.Omega, float)),
+                        "fn": getattr(model, "natural_frequency_hz", None), "L": getattr(model, "length_m", None),
+                        "fidelity": model.fidelity, "method": job.solver.name}
+        n_pts = sum(l.n_points for l in lines)
+        todo = [i for i in range(design.shape[0]) if i not in done.get(r.name, {})]
+        if todo:
+            firsts += lines
+        tasks += [SampleTask(f"{i:06d}", r.name, case, r, tuple((n, float(v)) for n, v in zip(names, design[i])), i,
+                             n_pts) for i in todo]
+    return SamplePlan(design, roles, names, runs, tasks, firsts, meta)
+
+
 def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = None, executor=None,
                 progress: bool = False, done: dict | None = None, on_sample=None) -> list[UncertaintyResult]:
     """Sweep every sweep run of ``case`` at every sample of its ``[uncertainty]`` design.
@@ -415,28 +479,11 @@ def sample_runs(case, spec=None, samples: int | None = None, jobs: int | None = 
         A run whose solver cannot be built at the first sample (one line naming the run and the values).
     """
     spec = case.uncertainty if spec is None else spec
-    design, roles = spec.saltelli(samples) if spec.sobol else (spec.design(samples), [])
-    names = tuple(p.name for p in spec.parameter)
-    runs = [r for r in case.run if r.method != "continuation"]
+    plan = plan_samples(case, spec, samples, done)
+    design, roles, names, runs, tasks, meta = plan.design, plan.roles, plan.names, plan.runs, plan.tasks, plan.meta
     done = {r.name: dict((done or {}).get(r.name, {})) for r in runs}
-    tasks, firsts, meta = [], [], {}
-    for r in runs:
-        # the first sample's job: the grid, the layout, the scene's units and the kernels to load
-        job = make_job(case, r, dict(r.model, **{n: float(v) for n, v in zip(names, design[0])}), 0)
-        lines = plan_lines(job.solver, job.sweep, r.name)
-        model = job.solver.model
-        meta[r.name] = {"dirs": tuple(dict.fromkeys(l.direction for l in lines)),
-                        "Omega": np.sort(np.asarray(job.sweep.Omega, float)),
-                        "fn": getattr(model, "natural_frequency_hz", None), "L": getattr(model, "length_m", None),
-                        "fidelity": model.fidelity, "method": job.solver.name}
-        n_pts = sum(l.n_points for l in lines)
-        todo = [i for i in range(design.shape[0]) if i not in done[r.name]]
-        if todo:
-            firsts += lines
-        tasks += [SampleTask(f"{i:06d}", r.name, case, r, tuple((n, float(v)) for n, v in zip(names, design[i])), i,
-                             n_pts) for i in todo]
     if tasks and executor is None:
-        load_kernels(firsts)        # before the pool forks: its workers inherit the kernels
+        load_kernels(plan.firsts)   # before the pool forks: its workers inherit the kernels
 
     def on_line(task, rows):
         done[task.run][task.index] = rows[0]

@@ -2,15 +2,13 @@
 runs (:func:`run_uncertainty_bench`)."""
 from __future__ import annotations
 
-import dataclasses
 import os
 import time
 
-from vibeam.analysis.uncertainty import sample_runs
+from vibeam.analysis.uncertainty import plan_samples, sample_runs
 from vibeam.bench.common import goal
 from vibeam.case.schema import parse_case
-from vibeam.engine.jobs import make_job
-from vibeam.engine.sweep import load_kernels, plan_lines, run_lines
+from vibeam.engine.sweep import load_kernels, run_lines
 
 #: issue 45: the sampling layer costs at most this fraction over the sweeps themselves
 OVERHEAD_GOAL = 0.05
@@ -57,25 +55,21 @@ method = "event"
 def run_uncertainty_bench(samples: int = 1024, jobs: int | None = 2, log=None) -> dict:
     """Sampled sweep points per second against the plain sweeps of the same samples, in one run.
 
-    The plain sweeps: the same lines (one per sample: the model with the sampled R and gap, its
-    solver, the 61-point up sweep) built beforehand and run by :func:`vibeam.engine.sweep.run_lines`
-    alone; the sampled ones: :func:`vibeam.analysis.uncertainty.sample_runs`, which builds the lines,
-    runs them the same way and computes every statistic.  Kernels are loaded first (not timed).
+    The plain sweeps: the design's units of work (:func:`vibeam.analysis.uncertainty.plan_samples`:
+    per sample, the model with the sampled R and gap, its solver built where the unit runs, the
+    61-point up sweep) run by :func:`vibeam.engine.sweep.run_lines` alone; the sampled ones:
+    :func:`vibeam.analysis.uncertainty.sample_runs`, which draws the design, plans the same units,
+    runs them the same way and computes every statistic and the verdicts.  The difference is what
+    the sampling layer costs.  Kernels are loaded first (not timed).
     """
     say = log or (lambda *_: None)
     case = parse_case(CASE.format(samples=samples))
-    r = case.run[0]
-    first = make_job(case, r, dict(r.model))
-    load_kernels(plan_lines(first.solver, first.sweep, r.name))
-    design = case.uncertainty.design()
-    names = [p.name for p in case.uncertainty.parameter]
-    lines = []
-    for i, row in enumerate(design):
-        job = make_job(case, r, {n: float(v) for n, v in zip(names, row)}, i)
-        lines += [dataclasses.replace(l, key=f"{i:05d}-{l.key}") for l in plan_lines(job.solver, job.sweep, r.name)]
-    points = sum(l.n_points for l in lines)
+    plan = plan_samples(case)
+    load_kernels(plan.firsts)
+    run_lines(plan.tasks[:1], jobs=1)       # first-call costs (imports, the first model build), untimed
+    points = sum(t.n_points for t in plan.tasks)
     t0 = time.perf_counter()
-    run_lines(lines, jobs=jobs)
+    run_lines(plan.tasks, jobs=jobs)
     t_plain = time.perf_counter() - t0
     say(f"plain sweeps: {points} points in {t_plain:.2f} s")
     t0 = time.perf_counter()
