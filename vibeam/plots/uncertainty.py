@@ -76,6 +76,18 @@ def _grid(entries, dirs, height=2.6):
     return fig, axes
 
 
+def _panels(entries, dirs, axes):
+    """``(e, k, ax, first_column)`` for every panel of :func:`_grid` whose run has the direction
+    (``k``: its index in the run's directions); a panel of a direction the run lacks is hidden."""
+    for i, e in enumerate(entries):
+        for j, d in enumerate(dirs):
+            ax = axes[i][j]
+            if d not in e["directions"]:
+                ax.set_visible(False)
+                continue
+            yield e, e["directions"].index(d), ax, j == 0
+
+
 def sobol_figure(entries, title: str = ""):
     """Sobol' indices of the amplitude against frequency, or None without a finite index.
 
@@ -98,21 +110,15 @@ def sobol_figure(entries, title: str = ""):
     with style.context():
         col = style.colours(names)
         fig, axes = _grid(entries, dirs)
-        for i, e in enumerate(entries):
-            for j, d in enumerate(dirs):
-                ax = axes[i][j]
-                if d not in e["directions"]:
-                    ax.set_visible(False)
-                    continue
-                k = e["directions"].index(d)
-                for p, name in enumerate(e["parameters"]):
-                    c = col[name]
-                    ax.fill_between(e["x"], e["first_ci"][0, p, k], e["first_ci"][1, p, k], color=c, alpha=0.2, lw=0)
-                    ax.plot(e["x"], e["first"][p, k], color=c, lw=1.4)
-                    ax.plot(e["x"], e["total"][p, k], color=c, lw=1.2, ls="--")
-                ax.set_ylim(-0.05, 1.05)
-                if j == 0:
-                    ax.set_ylabel(style.label("Sobol' index", None))
+        for e, k, ax, first_column in _panels(entries, dirs, axes):
+            for p, name in enumerate(e["parameters"]):
+                c = col[name]
+                ax.fill_between(e["x"], e["first_ci"][0, p, k], e["first_ci"][1, p, k], color=c, alpha=0.2, lw=0)
+                ax.plot(e["x"], e["first"][p, k], color=c, lw=1.4)
+                ax.plot(e["x"], e["total"][p, k], color=c, lw=1.2, ls="--")
+            ax.set_ylim(-0.05, 1.05)
+            if first_column:
+                ax.set_ylabel(style.label("Sobol' index", None))
         handles = [style.proxy(col[n], ls="-", label=n) for n in names]
         handles += [style.proxy("0.3", ls="-", label="first order (95 % interval shaded)"),
                     style.proxy("0.3", ls="--", label="total")]
@@ -147,25 +153,19 @@ def outcome_figure(entries, title: str = ""):
     with style.context():
         fig, axes = _grid(entries, dirs)
         seen = {}
-        for i, e in enumerate(entries):
-            for j, d in enumerate(dirs):
-                ax = axes[i][j]
-                if d not in e["directions"]:
-                    ax.set_visible(False)
-                    continue
-                k = e["directions"].index(d)
-                used = [m for m in range(len(e["outcomes"])) if np.nanmax(e["p"][m, k]) > 0]
-                areas = [m for m in used if e["stacked"][m]]
-                if areas:
-                    ax.stackplot(e["x"], *[e["p"][m, k] for m in areas], colors=[e["colours"][m] for m in areas],
-                                 lw=0, alpha=0.85)
-                for m in used:
-                    if not e["stacked"][m]:
-                        ax.plot(e["x"], e["p"][m, k], color=e["colours"][m], lw=1.3, ls="--")
-                    seen.setdefault((e["outcomes"][m], e["stacked"][m]), e["colours"][m])
-                ax.set_ylim(0.0, 1.0)
-                if j == 0:
-                    ax.set_ylabel(style.label("probability", None))
+        for e, k, ax, first_column in _panels(entries, dirs, axes):
+            used = [m for m in range(len(e["outcomes"])) if np.nanmax(e["p"][m, k]) > 0]
+            areas = [m for m in used if e["stacked"][m]]
+            if areas:
+                ax.stackplot(e["x"], *[e["p"][m, k] for m in areas], colors=[e["colours"][m] for m in areas],
+                             lw=0, alpha=0.85)
+            for m in used:
+                if not e["stacked"][m]:
+                    ax.plot(e["x"], e["p"][m, k], color=e["colours"][m], lw=1.3, ls="--")
+                seen.setdefault((e["outcomes"][m], e["stacked"][m]), e["colours"][m])
+            ax.set_ylim(0.0, 1.0)
+            if first_column:
+                ax.set_ylabel(style.label("probability", None))
         from matplotlib.patches import Patch  # lazy: the legend's area patches (matplotlib loads with the figure)
 
         handles = [Patch(color=c, label=n) if area else style.proxy(c, ls="--", label=f"status {n}")
