@@ -270,6 +270,10 @@ class _Engine:
         # the spectrum: compiled for small d (no Python dispatch per point), LAPACK beyond
         self.spectrum = floquet_spectrum_small if self.d <= SMALL_SPECTRUM else floquet_spectrum
         self._tangent_at = None      # (point, t_ref, tangent) of the compiled corrector's last point
+        # the compiled corrector of a first run compiles in a second process meanwhile (issue 44)
+        ahead = getattr(prob, "compile_corrector_ahead", None)
+        if ahead is not None:
+            ahead(0.5 * (self.lo + self.hi))
 
     # ------------------------------------------------------------------ basic evaluations
     def shot(self, x, p, n):
@@ -1048,6 +1052,10 @@ class ScaledParameter:
     def start(self, kind, p, n=1):
         return self.prob.start(kind, self.native(p), n)
 
+    def compile_corrector_ahead(self, p, n=1, before_start=False):
+        f = getattr(self.prob, "compile_corrector_ahead", None)
+        return False if f is None else f(self.native(p), n, before_start)
+
     def resect(self, x0, p, n):
         f = getattr(self.prob, "resect", None)
         return None if f is None else f(x0, self.native(p), n)
@@ -1081,6 +1089,9 @@ class FiniteDifferenceParameter:
     rel_step : float
         Relative step of the central differences.
     """
+
+    def compile_corrector_ahead(self, p, n=1, before_start=False):
+        return False            # no compiled corrector to compile (its problems' shots only)
 
     def __init__(self, make, parameter: str, native: float, p0: float, rel_step: float = 1e-5):
         if not (math.isfinite(p0) and math.isfinite(native)):

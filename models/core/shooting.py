@@ -55,6 +55,7 @@ from ..contact import LAW_LINEAR
 from ..continuation_kernels import SMALL_SPECTRUM, bordered_tangent, corrector_step, floquet_spectrum_small
 from ..periodic import Shot
 from ..system import advance_count, advance_state, transition_entries
+from . import ahead
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
                          ST_FAILED, compliant_work, integrate_work, new_record, new_work, work_fits)
@@ -1735,6 +1736,60 @@ class ModalShooting:
         pre = ((mu, float(pd), float(nsv)) if mu.shape[0] else None, tan if tan.shape[0] else None)
         return int(code), int(it), u, x, p, float(nr), shot, int(n_shots), pre
 
+    def compile_corrector_ahead(self, p: float, n: int = 1, before_start: bool = False) -> bool:
+        """Compile :func:`correct_frequency` (and the :func:`tangent` it shares with the shots) for
+        this problem's argument types in a second process while this one compiles the start and
+        the shots (:mod:`vibeam.models.core.ahead`); the corrector's first call (:meth:`correct`)
+        waits for it.
+
+        A continuation calls it once its start is found (:class:`vibeam.models.continuation`'s
+        engine); a caller that knows it will continue may call it before the start too
+        (``before_start``): the child then compiles the tangent at once and the corrector only
+        after the second call, when the integrator is compiled and cached (the child loads it
+        instead of compiling it a second time).
+
+        Parameters
+        ----------
+        p : float
+            A value of the parameter (native units) at which :meth:`setup` builds the arguments
+            (only their types matter).
+        n : int, optional
+            Periods of the shots (the buffers' sizes do not change the types).
+        before_start : bool, optional
+            The first of two calls (above).
+
+        Returns
+        -------
+        bool
+            Whether a child compiles them (False: not served by :meth:`correct`, already compiled
+            or cached, or compiling ahead is off: :func:`vibeam.models.core.ahead.enabled`).
+        """
+        if correct_frequency in ahead.pending():
+            ahead.proceed(correct_frequency)
+            return True
+        try:
+            if not self.frequency_corrector() or self.invalid(float(p)) or not ahead.enabled():
+                return False
+            set_ = self.setup(float(p))
+            core = set_.core
+            d = int(self.dim)
+            N = d // 2
+            rec, J, rel = self._buffers(set_, int(n))
+            u = np.zeros(d + 1)
+            x = np.zeros(d)
+            sys_ = (core.ksys, core.kstops, core.held, core.compliant, set_.dirs)
+            tw = tangent_work.py_func(N, core.kstops.offset.shape[0], core.held.valid.shape[0],
+                                      set_.dirs.dOm.shape[0])
+            # the types of _shot's call of the tangent and of the continuation's corrector calls
+            t_args = sys_ + (1.0, rec.evlog, np.int64(0), np.int64(0), x, x.copy(), np.int64(0), 1.0, J, rel,
+                             np.zeros(d), tw)
+            c_args = (sys_ + (1.0, 0.0, int(self.column), u, u.copy(), int(n), 1.0, 1.0, 1e-10, 1, -1.0)
+                      + (1.0, 1, 1, self.chatter_tol, rec, J, rel, float(set_.scale)))
+            gate = [ahead.GATE] if before_start else []
+            return ahead.start([(tangent, t_args)] + gate + [(correct_frequency, c_args)])
+        except Exception:       # only a head start: the corrector compiles at its first call anyway
+            return False
+
     def invalid(self, p: float) -> str:
         """Why ``p`` is not a value of the parameter ('' if it is)."""
         return ""
@@ -1788,6 +1843,7 @@ def _phase_kinds(cp):
 def _call_correct(args):
     """:func:`correct_frequency` through its compiled entry point (as :func:`_call_shoot`)."""
     from .event import compiled_call, entry_point
+    ahead.wait(correct_frequency, args)     # compiled by a child of :meth:`compile_corrector_ahead`
     out = compiled_call(correct_frequency, args)
     _ENTRY["correct"] = entry_point(correct_frequency, args)
     return out

@@ -341,6 +341,9 @@ def run_continuation(task: BranchTask, report=None) -> dict:
                         max_period=st["max_period"], switch=st["switch"])
     spec = task.spec
     prob = task_problem(task, spec)
+    ahead = getattr(prob, "compile_corrector_ahead", None)
+    if ahead is not None:       # a first run: its corrector compiles in a second process meanwhile
+        ahead(0.5 * (task.lo + task.hi), 1, True)
     tick = report if report is not None else (lambda: None)
     branches, starts = [], []
     kinds = start_kinds(task)
