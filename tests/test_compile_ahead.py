@@ -192,7 +192,8 @@ def test_a_first_continuation_compiles_its_corrector_beside_and_gives_the_same_b
         assert r.returncode == 0, r.stderr
         runs[mode] = (json.loads(r.stdout.strip().splitlines()[-1]), out / "results.h5")
     ahead_, plain = runs["1"][0]["compiled"], runs["0"][0]["compiled"]
-    assert "tangent" in plain and "tangent" not in ahead_
+    for k in ("tangent", "floquet_spectrum_small", "bordered_tangent", "_bordered_step"):
+        assert k in plain and k not in ahead_, k
     i = ahead_.index("correct_frequency")
     assert ahead_[i + 1:i + 2] != ["correct_frequency"]
     arrays = {}

@@ -6,8 +6,8 @@ frequency compiles the event integrator (for its start), then
 :func:`~vibeam.models.core.shooting.correct_frequency` (its corrector, which links and emits the
 integrator and the tangent again).  :func:`start` forks a child that compiles kernels of a plan
 into numba's on-disk cache while the parent goes on: for the continuation
-(:meth:`~vibeam.models.core.shooting.ModalShooting.compile_corrector_ahead`) the tangent at once,
-then, past a :data:`GATE` the parent opens once it has compiled and cached the integrator
+(:meth:`~vibeam.models.core.shooting.ModalShooting.compile_corrector_ahead`) the tangent and the
+corrector's callees that do not call the integrator at once, then, past a :data:`GATE` the parent opens once it has compiled and cached the integrator
 (:func:`proceed`), the corrector.  The parent's shots then load the tangent instead of compiling
 it, and :func:`wait` (before the corrector's first call) waits for the child and loads the
 corrector.  On a 2-core machine the compilations overlap (issue 44's "compile independent entry

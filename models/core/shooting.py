@@ -1737,15 +1737,16 @@ class ModalShooting:
         return int(code), int(it), u, x, p, float(nr), shot, int(n_shots), pre
 
     def compile_corrector_ahead(self, p: float, n: int = 1, before_start: bool = False) -> bool:
-        """Compile :func:`correct_frequency` (and the :func:`tangent` it shares with the shots) for
-        this problem's argument types in a second process while this one compiles the start and
+        """Compile :func:`correct_frequency` (and the :func:`tangent` it shares with the shots, and
+        its own callees: the bordered Newton step, the small Floquet spectrum, the bordered tangent)
+        for this problem's argument types in a second process while this one compiles the start and
         the shots (:mod:`vibeam.models.core.ahead`); the corrector's first call (:meth:`correct`)
         waits for it.
 
         A continuation calls it once its start is found (:class:`vibeam.models.continuation`'s
         engine); a caller that knows it will continue may call it before the start too
-        (``before_start``): the child then compiles the tangent at once and the corrector only
-        after the second call, when the integrator is compiled and cached (the child loads it
+        (``before_start``): the child then compiles the tangent and the corrector's callees at once
+        and the corrector only after the second call, when the integrator is compiled and cached (the child loads it
         instead of compiling it a second time).
 
         Parameters
@@ -1785,8 +1786,12 @@ class ModalShooting:
                              np.zeros(d), tw)
             c_args = (sys_ + (1.0, 0.0, int(self.column), u, u.copy(), int(n), 1.0, 1.0, 1e-10, 1, -1.0)
                       + (1.0, 1, 1, self.chatter_tol, rec, J, rel, float(set_.scale)))
+            M = np.zeros((d, d))
+            # the corrector's callees that do not call the integrator: before the gate too
+            own = [(_bordered_step, (J[:, :d], x, x, x, u, u, u, 1.0, 1.0)), (floquet_spectrum_small, (M,)),
+                   (bordered_tangent, (M, x, 1.0, 1.0, u))]
             gate = [ahead.GATE] if before_start else []
-            return ahead.start([(tangent, t_args)] + gate + [(correct_frequency, c_args)])
+            return ahead.start([(tangent, t_args)] + own + gate + [(correct_frequency, c_args)])
         except Exception:       # only a head start: the corrector compiles at its first call anyway
             return False
 

@@ -278,8 +278,9 @@ def compile_goals(out: dict) -> list:
             want = "with compliant stops" if "compliant" in k else "Newton stops only"
             got = [f"{s['kernel'].rsplit('.', 1)[-1]} [{s['specialisation']}]" for s in v["cold"]["kernel_specialisations"]]
             # the event integrator (integrate_work) once, of the kind the scene needs; beside it only
-            # the sizing and allocation of its work arrays (substeps, new_work, compliant_work)
-            integ = [s for s in got if not s.startswith(("substeps [", "new_work [", "compliant_work ["))]
+            # the sizing and allocation of its work arrays (substeps, _snap_fs, new_work, compliant_work;
+            # the allocations run as Python and compile only the sizes they call)
+            integ = [s for s in got if not s.startswith(("substeps [", "_snap_fs [", "new_work [", "compliant_work ["))]
             g.append(goal(f"{k.split(':')[0].split(' (')[0]} compiles the event integrator's specialisation it uses "
                           f"({want}) and no other", ", ".join(got) or "nothing",
                           len(integ) == 1 and integ[0].startswith("integrate_work [" + want)))
