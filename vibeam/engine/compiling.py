@@ -20,13 +20,14 @@ from pathlib import Path
 from numba.core import event
 
 #: compile seconds of the entry points a first run meets, measured by ``vibeam bench --compile`` on
-#: the development machine (2 cores, 2026-11-26, after the allocations ran as Python and the
-#: continuation's tangent and corrector compiled in a second process: ``shoot`` then loads the
-#: tangent and ``correct_frequency`` is the wait for the rest): the expected time said before a
-#: compile when this machine has measured none (:func:`expected_seconds`)
+#: the development machine (2 cores, 2026-11-26, with a second process compiling beside the first
+#: (:mod:`vibeam.models.core.ahead`): the integrator's callees, the continuation's tangent and
+#: corrector; ``shoot`` then loads the tangent and ``correct_frequency`` is the wait for the rest):
+#: the expected time said before a compile when this machine has measured none
+#: (:func:`expected_seconds`)
 MEASURED_S = {
-    "integrate_work [Newton stops only]": 19.7,
-    "integrate_work [with compliant stops (linear contact phases)]": 37.8,
+    "integrate_work [Newton stops only]": 15.7,
+    "integrate_work [with compliant stops (linear contact phases)]": 30.7,
     "substeps": 0.1,
     "new_work": 0.6,
     "shoot": 9.0,
