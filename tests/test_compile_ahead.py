@@ -28,6 +28,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+#: compiling ahead forks (:func:`vibeam.models.core.ahead.enabled`): elsewhere the parent compiles all
+LINUX_ONLY = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="compiling ahead forks: Linux only")
+
 KERNELS = textwrap.dedent('''
     import numpy as np
     from numba import njit
@@ -111,9 +114,8 @@ def _expected():
     return float(np.sum(a ** 2) + 1.0), float(np.sum(a ** 3) * 2.0)
 
 
+@LINUX_ONLY
 def test_the_child_compiles_and_the_parent_only_loads(tmp_path):
-    if not sys.platform.startswith("linux"):
-        pytest.skip("compiling ahead forks: Linux only")
     out = _run(tmp_path, "plain")
     assert out["started"] is True
     assert out["pending"] == ["first", "second"]
@@ -156,12 +158,11 @@ RECORD = textwrap.dedent('''
 ''')
 
 
+@LINUX_ONLY
 def test_a_first_compile_records_its_callees_and_the_next_compiles_them_beside(tmp_path):
     """With no recorded plan the compile of a kernel of ``RECORDED`` records the callees it meets
     (this machine's manifest, beside numba's cache); on another empty cache with that manifest a
     child compiles them while the parent compiles the kernel, which then loads them."""
-    if not sys.platform.startswith("linux"):
-        pytest.skip("compiling ahead forks: Linux only")
     mod = tmp_path / "mod"
     mod.mkdir()
     (mod / "toy.py").write_text(KERNELS)
@@ -231,9 +232,8 @@ def test_the_shipped_manifest_serves_the_integrators_of_the_shipped_kinds(tmp_pa
     assert "linear_step" in plans[1] and "rk_phase_step" in plans[2]
 
 
+@LINUX_ONLY
 def test_a_gate_holds_what_follows_it_until_proceed(tmp_path):
-    if not sys.platform.startswith("linux"):
-        pytest.skip("compiling ahead forks: Linux only")
     out = _run(tmp_path, "gate", 3.0)
     assert out["started"] is True
     # 3 s is ample for the child to have compiled ``second`` had the gate not held it
@@ -242,9 +242,8 @@ def test_a_gate_holds_what_follows_it_until_proceed(tmp_path):
     assert (out["first"], out["second"]) == _expected()
 
 
+@LINUX_ONLY
 def test_a_child_that_dies_leaves_the_compile_to_the_parent(tmp_path):
-    if not sys.platform.startswith("linux"):
-        pytest.skip("compiling ahead forks: Linux only")
     out = _run(tmp_path, "killed")
     assert out["started"] is True
     # the wait's event, then the parent's own compilation of ``second`` and of its callee inside it
@@ -277,87 +276,74 @@ CONTINUE = textwrap.dedent('''
 ''')
 
 
-@pytest.mark.slow
-def test_a_first_continuation_compiles_its_corrector_beside_and_gives_the_same_bits(tmp_path):
-    """The Fig. 13 continuation, cold, with and without compiling ahead: the same arrays in
-    results.h5 bit for bit; with it, the parent never compiles the tangent (the child did), and its
-    corrector's compile event is the wait alone (nothing nested)."""
-    if not sys.platform.startswith("linux"):
-        pytest.skip("compiling ahead forks: Linux only")
-    import h5py
-
-    root = Path(__file__).resolve().parents[1]
-    case = root / "cases" / "paper-fig13-continuation.toml"
+def _cold_with_and_without(driver, case, tmp_path):
+    """``driver`` on ``case`` in two fresh processes on empty caches, compiling ahead and not:
+    ``(events with, events without, results.h5 with, results.h5 without)``."""
     runs = {}
     for mode in ("1", "0"):
         e = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / f"cache{mode}"), VIBEAM_COMPILE_AHEAD=mode)
         out = tmp_path / f"out{mode}"
-        r = subprocess.run([sys.executable, "-c", CONTINUE, str(case), str(out)], env=e, capture_output=True,
+        r = subprocess.run([sys.executable, "-c", driver, str(case), str(out)], env=e, capture_output=True,
                            text=True, timeout=1800)
         assert r.returncode == 0, r.stderr
-        runs[mode] = (json.loads(r.stdout.strip().splitlines()[-1]), out / "results.h5")
-    ahead_, plain = runs["1"][0]["compiled"], runs["0"][0]["compiled"]
-    for k in ("tangent", "floquet_spectrum_small", "bordered_tangent", "_bordered_step"):
-        assert k in plain and k not in ahead_, k
-    i = ahead_.index("correct_frequency")
-    assert ahead_[i + 1:i + 2] != ["correct_frequency"]
-    arrays = {}
-    for mode, (_, h5) in runs.items():
+        runs[mode] = (json.loads(r.stdout.strip().splitlines()[-1])["compiled"], out / "results.h5")
+    return runs["1"][0], runs["0"][0], runs["1"][1], runs["0"][1]
+
+
+def _assert_same_arrays(h5_a, h5_b):
+    """Every dataset of the two files equal bit for bit (NaN equal to NaN), the points' wall times
+    (timings, not results) apart."""
+    import h5py
+
+    arrays = []
+    for h5 in (h5_a, h5_b):
         with h5py.File(h5, "r") as f:
             got = {}
             f.visititems(lambda name, obj: got.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
-        arrays[mode] = got
-    assert arrays["1"].keys() == arrays["0"].keys() and len(arrays["1"]) > 0
-    for k in arrays["1"]:
-        a, b = np.asarray(arrays["1"][k]), np.asarray(arrays["0"][k])
+        arrays.append(got)
+    assert arrays[0].keys() == arrays[1].keys() and len(arrays[0]) > 0
+    for k in arrays[0]:
+        if k.endswith("wall_time_s"):
+            continue
+        a, b = np.asarray(arrays[0][k]), np.asarray(arrays[1][k])
         if a.dtype.kind in "fc":
             assert np.array_equal(a, b, equal_nan=True), k
         else:
             assert np.array_equal(a, b), k
+
+
+@LINUX_ONLY
+@pytest.mark.slow
+def test_a_first_continuation_compiles_its_corrector_beside_and_gives_the_same_bits(tmp_path):
+    """The Fig. 13 continuation, cold, with and without compiling ahead: the same arrays in
+    results.h5 bit for bit; with it, the parent never compiles the tangent and the corrector's own
+    callees (the child did), and its corrector's compile event is the wait alone (nothing
+    nested)."""
+    case = Path(__file__).resolve().parents[1] / "cases" / "paper-fig13-continuation.toml"
+    ahead_, plain, h5_a, h5_b = _cold_with_and_without(CONTINUE, case, tmp_path)
+    for k in ("tangent", "floquet_spectrum_small", "bordered_tangent", "_bordered_step"):
+        assert k in plain and k not in ahead_, k
+    i = ahead_.index("correct_frequency")
+    assert ahead_[i + 1:i + 2] != ["correct_frequency"]
+    _assert_same_arrays(h5_a, h5_b)
 
 
 RUN = CONTINUE.replace('["continue", sys.argv[1], "--quick", "--out", sys.argv[2], "--no-plots", "--quiet", "--jobs", "1"]',
                        '["run", sys.argv[1], "--out", sys.argv[2], "--no-plots", "--quiet", "--jobs", "1"]')
 
 
+@LINUX_ONLY
 @pytest.mark.slow
 def test_a_cold_quick_start_compiles_the_integrators_callees_beside_and_gives_the_same_bits(tmp_path):
     """The quick start (Fig. 7), cold, with the shipped manifest and without compiling ahead: the
     same arrays in results.h5 bit for bit; with it, the parent leaves callees to the child (fewer
     compile events of its own; the last ones the integrator reaches, which the child compiles
     first, never)."""
-    if not sys.platform.startswith("linux"):
-        pytest.skip("compiling ahead forks: Linux only")
-    import h5py
-
     assert RUN != CONTINUE
-    root = Path(__file__).resolve().parents[1]
-    case = root / "cases" / "paper-fig7.toml"
-    runs = {}
-    for mode in ("1", "0"):
-        e = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / f"cache{mode}"), VIBEAM_COMPILE_AHEAD=mode)
-        out = tmp_path / f"out{mode}"
-        r = subprocess.run([sys.executable, "-c", RUN, str(case), str(out)], env=e, capture_output=True,
-                           text=True, timeout=1800)
-        assert r.returncode == 0, r.stderr
-        runs[mode] = (json.loads(r.stdout.strip().splitlines()[-1]), out / "results.h5")
-    ahead_, plain = runs["1"][0]["compiled"], runs["0"][0]["compiled"]
+    case = Path(__file__).resolve().parents[1] / "cases" / "paper-fig7.toml"
+    ahead_, plain, h5_a, h5_b = _cold_with_and_without(RUN, case, tmp_path)
     # the two processes meet about halfway (the parent compiled 23 events of its own, against 50,
     # in a run on the development machine); which callee each compiled depends on their timing
     assert len(ahead_) < 0.8 * len(plain)
     assert {"_impact", "_sensor_extreme", "_dense_samples"} <= set(plain) - set(ahead_)
-    arrays = {}
-    for mode, (_, h5) in runs.items():
-        with h5py.File(h5, "r") as f:
-            got = {}
-            f.visititems(lambda name, obj: got.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
-        arrays[mode] = got
-    assert arrays["1"].keys() == arrays["0"].keys() and len(arrays["1"]) > 0
-    for k in arrays["1"]:
-        if k.endswith("wall_time_s"):          # the points' timings, not results
-            continue
-        a, b = np.asarray(arrays["1"][k]), np.asarray(arrays["0"][k])
-        if a.dtype.kind in "fc":
-            assert np.array_equal(a, b, equal_nan=True), k
-        else:
-            assert np.array_equal(a, b), k
+    _assert_same_arrays(h5_a, h5_b)

@@ -56,8 +56,13 @@ from numba.core import event
 
 #: dispatcher -> its child's record: {"pid", "gate" (the write end of its pipe, None once opened)}
 _PENDING: dict = {}
+class _Gate:
+    def __repr__(self):
+        return "GATE"
+
+
 #: in a plan (:func:`start`), the child waits here until the parent calls :func:`proceed`
-GATE = "gate"
+GATE = _Gate()
 
 
 def enabled() -> bool:
@@ -262,8 +267,9 @@ def _read_manifest(path) -> dict:
 
 
 def _write_manifest(path, entries) -> None:
-    """Write ``entries`` whole (a temporary file, fsync, rename); a file that cannot be written is
-    skipped (it is only a head start)."""
+    """Write ``entries`` whole (a temporary file, fsync, rename: what
+    :func:`vibeam.io.outdir.replace_file` does, which this layer cannot import); a file that cannot
+    be written is skipped (it is only a head start)."""
     try:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)

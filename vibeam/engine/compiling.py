@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import time
 from pathlib import Path
 
 from numba.core import event
+
+from vibeam.errors import InputError
+from vibeam.io.outdir import replace_file
 
 #: compile seconds of the entry points a first run meets, measured by ``vibeam bench --compile`` on
 #: the development machine (2 cores, 2026-11-26, with a second process compiling beside the first
@@ -93,24 +95,16 @@ def expected_seconds(name: str) -> tuple[float | None, str]:
 
 
 def record_seconds(name: str, seconds: float) -> None:
-    """Keep ``seconds`` as this machine's compile time of ``name`` (written whole: a temporary file,
-    fsync, rename; a file that cannot be written is skipped, the figure is only a hint)."""
+    """Keep ``seconds`` as this machine's compile time of ``name`` (written whole by
+    :func:`vibeam.io.outdir.replace_file`; a file that cannot be written is skipped, the figure is
+    only a hint)."""
     path = times_file()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         d = _read_times()
         d[name] = round(float(seconds), 2)
-        fd, tmp = tempfile.mkstemp(prefix=".compile-times-", dir=path.parent)
-        try:
-            with os.fdopen(fd, "w") as f:
-                json.dump(d, f, indent=1, sort_keys=True)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            os.unlink(tmp)
-            raise
-    except OSError:
+        replace_file(path, json.dumps(d, indent=1, sort_keys=True))
+    except (OSError, InputError):
         pass
 
 
