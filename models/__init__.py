@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import importlib
 
-from . import _cache, _flags_key, _inline_copy
+from . import _cache, _inline_copy
 
 _cache.install()   # before any kernel module: the cache key covers the whole package
 _inline_copy.install()   # numba's inliner copies a callee's scope once, not once per block
-_flags_key.install()     # numba's compile flags hashed and compared without reading all options
 
 from .registry import (FIDELITIES, IMPULSIVE, fidelity, mass_law_keys, resolve,  # noqa: E402
                        supported_methods)

@@ -29,6 +29,9 @@ from __future__ import annotations
 
 import copy
 
+#: the modules whose inlined callees get the shared scope: vibeam's kernels only
+OURS = "vibeam.models"
+
 
 def install() -> bool:
     """Patch numba's inliner so that the blocks of one inlined copy share one scope (idempotent).
@@ -64,12 +67,15 @@ def install() -> bool:
         new.__dict__.update(copy.deepcopy(scope.__dict__, memo))
         return new
 
-    def inline_ir(self, *args, **kwargs):
+    def inline_ir(self, caller_ir, block, i, callee_ir, *args, **kwargs):
+        func = getattr(getattr(callee_ir, "func_id", None), "func", None)
+        if not str(getattr(func, "__module__", "")).startswith(OURS):   # another library's inlining: numba's own
+            return original(self, caller_ir, block, i, callee_ir, *args, **kwargs)
         if state["depth"] == 0:
             ir.Scope.__deepcopy__ = scope_deepcopy
         state["depth"] += 1
         try:
-            return original(self, *args, **kwargs)
+            return original(self, caller_ir, block, i, callee_ir, *args, **kwargs)
         finally:
             state["depth"] -= 1
             if state["depth"] == 0:

@@ -98,6 +98,76 @@ def test_editing_newton_restitution_reaches_the_cached_sdof_kernel(tmp_path):
     assert float(_run(pkg, EVENT.format(pkg=str(pkg), R=0.9))) == after
 
 
+def _run_plain(pkg: Path, code: str, env: dict):
+    """``code`` in a fresh interpreter with the copy ``pkg`` first on the path: ``(rc, stdout, stderr)``."""
+    e = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    e.update(env, PYTHONPATH=str(pkg))
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=e, cwd=pkg, timeout=600)
+    return p.returncode, p.stdout, p.stderr
+
+
+def _add_probe(pkg: Path) -> None:
+    (pkg / "vibeam" / "models" / "_probe.py").write_text(
+        "from numba import njit\n\n@njit(cache=True)\ndef probe(x):\n    return 2.0 * (x + 1.0)\n")
+
+
+RENAMED = ("import numba.core.caching as c\n"
+           "{rename}\n"
+           "from vibeam.cli import main\n"
+           "assert main(['cases', {cases!r}]) == 0\n"
+           "import vibeam.models._probe as m\n"
+           "print(m.probe(1.0))\n")
+
+
+@pytest.mark.parametrize("rename", [
+    "c.CacheImplRenamed = c.CacheImpl; del c.CacheImpl",
+    "c.CacheImpl._locators = c.CacheImpl._locator_classes; del c.CacheImpl._locator_classes",
+    "del c.UserWideCacheLocator",
+])
+def test_a_numba_with_other_cache_internals_runs_on_its_own_cache_with_one_warning(tmp_path, rename):
+    """Issue 56: ``_cache.install`` ran unguarded at ``import vibeam.models``, so a numba that renames
+    ``CacheImpl`` or ``_locator_classes`` failed every command at import, ``vibeam cases`` included.
+    With the internal renamed (simulated before vibeam is imported), ``vibeam cases`` works, a
+    ``cache=True`` kernel of the package compiles and runs, and stderr has exactly one line, the
+    warning naming numba's own cache."""
+    pkg = _copy(tmp_path)
+    _add_probe(pkg)
+    if "_locator_classes" in rename:            # numba's own CacheImpl reads it: keep numba working
+        rename += "; c.CacheImpl._locator_classes = property(lambda self: type(self)._locators)"
+    rc, out, err = _run_plain(pkg, RENAMED.format(rename=rename, cases=str(ROOT / "cases")), {"NUMBA_CACHE_DIR": str(tmp_path / "cache")})
+    assert rc == 0, err
+    assert out.strip().splitlines()[-1] == "4.0"
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("vibeam: warning: numba ") and "numba's own cache" in lines[0], err
+
+
+def test_no_writable_cache_runs_uncached_with_one_warning(tmp_path):
+    """Issue 57 (9): with no writable numba cache anywhere (``NUMBA_CACHE_DIR``, the sources'
+    ``__pycache__``, the user cache folder) numba refused to decorate the first ``cache=True``
+    kernel: a 30-line "cannot cache function ...: no locator available" at import, exit 1.  Here the
+    kernel runs, stderr has one warning line, and the temporary cache is removed at exit.  (The
+    places are made unusable by regular files where folders must go: root ignores permissions.)"""
+    pkg = _copy(tmp_path)
+    _add_probe(pkg)
+    for d in (pkg / "vibeam" / "models").rglob("*"):
+        if d.is_dir():
+            (d / "__pycache__").write_text("not a folder")
+    (pkg / "vibeam" / "models" / "__pycache__").write_text("not a folder")
+    blocker = tmp_path / "blocker"
+    blocker.write_text("a file, not a folder")
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    env = {"NUMBA_CACHE_DIR": str(blocker / "numba"), "XDG_CACHE_HOME": str(blocker / "xdg"),
+           "HOME": str(blocker / "home"), "TMPDIR": str(tmp)}
+    code = "import vibeam.models._probe as m\nprint(m.probe(1.0))\n"
+    rc, out, err = _run_plain(pkg, code, env)
+    assert rc == 0, err
+    assert out.strip().splitlines()[-1] == "4.0"
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("vibeam: warning: no writable numba cache"), err
+    assert list(tmp.iterdir()) == []                     # the temporary cache is gone
+
+
 def _scenario(outer):
     run = {"compile_s": 1.0, "specialisations": len(outer), "process_wall_s": 2.0, "specialisations_in_workers": 0,
            "forked_workers": 0, "cache_loads_in_workers": 0,

@@ -1,6 +1,8 @@
 """The run's execution: per-point progress, inline or pool, the timing the CLI reports."""
 from __future__ import annotations
 
+import os
+import stat
 import time
 
 import numpy as np
@@ -301,13 +303,43 @@ def test_the_expected_compile_time_is_the_last_measured_on_this_machine(tmp_path
     from vibeam.engine import compiling
 
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(compiling, "load", lambda: (0.4, 2))
     name = "integrate_work [Newton stops only]"
-    assert compiling.expected_seconds(name) == (compiling.MEASURED_S[name], "on a 2-core machine")
+    dev = "on the development machine: 2 cores at load 1"
+    assert compiling.expected_seconds(name) == (compiling.MEASURED_S[name], dev)
     assert compiling.expected_seconds("unknown") == (None, "")
     compiling.record_seconds(name, 12.345)
+    monkeypatch.setattr(compiling, "load", lambda: (3.25, 2))
     compiling.record_seconds("shoot", 3.0)
-    assert compiling.expected_seconds(name) == (12.35, "last time on this machine")
-    assert compiling.expected_seconds("shoot") == (3.0, "last time on this machine")
+    assert compiling.expected_seconds(name) == (12.35, "last time here, 2 cores at load 0.4")
+    assert compiling.expected_seconds("shoot") == (3.0, "last time here, 2 cores at load 3.2")
+    # issue 56: "compiling shoot, about 9 s" then "compiled shoot in 49.8 s" on a busy machine; a
+    # load over twice the cores is said beside the figure
+    monkeypatch.setattr(compiling, "load", lambda: (5.0, 2))
+    assert compiling.expected_seconds("shoot") == (3.0, "last time here, 2 cores at load 3.2; load now 5.0")
+    assert compiling.expected_seconds(name)[1] == "last time here, 2 cores at load 0.4; load now 5.0"
     assert [p.name for p in tmp_path.iterdir()] == ["vibeam-compile-times.json"]     # no temporary left
     compiling.times_file().write_text("{not json")
-    assert compiling.expected_seconds(name) == (compiling.MEASURED_S[name], "on a 2-core machine")
+    assert compiling.expected_seconds(name) == (compiling.MEASURED_S[name], dev + "; load now 5.0")
+    # a file of the former format (seconds alone) is read with the load unknown
+    compiling.times_file().write_text('{"shoot": 7.5}')
+    assert compiling.expected_seconds("shoot") == (7.5, "last time here, load unknown; load now 5.0")
+
+
+def test_a_fifo_in_place_of_the_compile_times_does_not_block(tmp_path, monkeypatch):
+    """Issue 57 (8): a FIFO at ``$NUMBA_CACHE_DIR/vibeam-compile-times.json`` blocked vibeam forever
+    before its first compile (the open of a FIFO waits for a writer).  Only a regular file is read;
+    the FIFO is left as it is (recording skips it: it is not vibeam's to replace)."""
+    import threading
+
+    from vibeam.engine import compiling
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    os.mkfifo(compiling.times_file())
+    out = []
+    t = threading.Thread(target=lambda: out.append(compiling.expected_seconds("shoot")), daemon=True)
+    t.start()
+    t.join(20.0)
+    assert out == [(compiling.MEASURED_S["shoot"], out[0][1] if out else None)] and not t.is_alive()
+    compiling.record_seconds("shoot", 1.0)
+    assert stat.S_ISFIFO(os.stat(compiling.times_file()).st_mode)

@@ -22,7 +22,6 @@ import numpy as np
 from ..contact import check_stops
 from ..scene import Scene
 from ..system import ModalSystem
-from . import ahead
 from .integrator import (ST_FAILED, STATUS_NAMES, Record, compliant_work, integrate_work, new_record, new_work,
                          substeps)
 from .phases import compliant_data
@@ -385,8 +384,7 @@ def compiled_call(dispatcher, args):
     key = (id(dispatcher),) + tuple(_key(a) for a in args)
     entry = _ENTRIES.get(key)
     if entry is None:
-        with ahead.beside(dispatcher, args):       # a first compile: its callees in a second process
-            out = dispatcher(*args)
+        out = dispatcher(*args)
         from numba import typeof
         sig = tuple(typeof(a) for a in args)
         cres = dispatcher.overloads.get(sig)

@@ -83,7 +83,6 @@ from ..contact_policy import (BURST_DT, CHATTER, CHATTER_GUARD, REBOUND, STICK, 
 from ..contact import LAW_LINEAR
 from ..impact import newton_restitution
 from ..system import advance_count, increment_of, transition_increment
-from . import ahead
 from .contact_phase import (EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_NONE, EK_RELEASE, linear_step,
                             phase_harmonics, rk_phase_step, rk_scales)
 from .laws import force, hertz_floor, inside_sign, is_compliant, newton_coefficient
@@ -2424,7 +2423,6 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
             fs[_GMAX], ist[_NSTEPS], fs[_TCON], lp[_LSKIP])
 
 
-ahead.RECORDED.add(integrate_work)     # a first compile's callees compile beside it (core/ahead.py)
 
 
 @_kernel

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 import time
 from pathlib import Path
 
@@ -22,20 +23,21 @@ from vibeam.errors import InputError
 from vibeam.io.outdir import replace_file
 
 #: compile seconds of the entry points a first run meets, measured by ``vibeam bench --compile`` on
-#: the development machine (2 cores, 2026-11-26, with a second process compiling beside the first
-#: (:mod:`vibeam.models.core.ahead`): the integrator's callees, the continuation's tangent and
-#: corrector; ``shoot`` then loads the tangent and ``correct_frequency`` is the wait for the rest):
-#: the expected time said before a compile when this machine has measured none
-#: (:func:`expected_seconds`)
+#: the development machine (2 cores, 1-minute load average about 1, 2026-11-26, numba 0.68.1, with
+#: the continuation's tangent and corrector compiled beside it (:mod:`vibeam.models.core.ahead`);
+#: ``shoot`` then loads the tangent and ``correct_frequency`` is the wait for the rest): the expected
+#: time said before a compile when this machine has measured none (:func:`expected_seconds`)
 MEASURED_S = {
-    "integrate_work [Newton stops only]": 15.7,
-    "integrate_work [with compliant stops (linear contact phases)]": 30.7,
+    "integrate_work [Newton stops only]": 19.8,
+    "integrate_work [with compliant stops (linear contact phases)]": 37.9,
     "substeps": 0.1,
     "new_work": 0.6,
     "shoot": 9.0,
     "correct_frequency": 3.7,
     "tangent": 20.0,
 }
+#: the host of :data:`MEASURED_S`
+MEASURED_ON = "the development machine: 2 cores at load 1"
 
 
 def specialisation(kernel: str, args) -> str:
@@ -69,40 +71,87 @@ def entry_name(kernel: str, args) -> str:
 
 def times_file() -> Path:
     """Where this machine's compile times are kept: beside numba's cache (``NUMBA_CACHE_DIR``), else
-    in ``$XDG_CACHE_HOME/vibeam`` (``~/.cache/vibeam``)."""
+    in the user cache folder ``$XDG_CACHE_HOME/vibeam`` (``~/.cache/vibeam``; README, "Cold
+    compile")."""
     base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "vibeam")
     return Path(base) / "vibeam-compile-times.json"
 
 
-def _read_times() -> dict:
+def load() -> tuple[float | None, int]:
+    """``(1-minute load average or None where the platform has none, cores this process may use)``."""
     try:
-        d = json.loads(times_file().read_text())
-        return {str(k): float(v) for k, v in d.items()} if isinstance(d, dict) else {}
-    except (OSError, ValueError, TypeError):
+        la = os.getloadavg()[0]
+    except (AttributeError, OSError):
+        la = None
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    return la, cores
+
+
+def _read_times() -> dict:
+    """``{name: {"seconds", "load", "cores"}}`` of this machine's file; {} if it is missing, not a
+    regular file (a FIFO would block the open: issue 57), too large or unreadable."""
+    path = times_file()
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except OSError:
         return {}
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode) or st.st_size > 1 << 20:
+            return {}
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            d = json.loads(f.read().decode())
+    except (OSError, ValueError, TypeError, UnicodeDecodeError):
+        return {}
+    finally:
+        os.close(fd)
+    out = {}
+    if isinstance(d, dict):
+        for k, v in d.items():
+            try:
+                v = v if isinstance(v, dict) else {"seconds": v}
+                la = v.get("load")
+                out[str(k)] = {"seconds": float(v["seconds"]), "load": None if la is None else float(la),
+                               "cores": int(v.get("cores") or 0)}
+            except (KeyError, TypeError, ValueError, AttributeError):
+                continue
+    return out
+
+
+def _host(la, cores) -> str:
+    return f"{cores} cores at load {la:.1f}" if la is not None and cores else "load unknown"
 
 
 def expected_seconds(name: str) -> tuple[float | None, str]:
     """``(seconds, source)`` expected to compile entry point ``name``: the last measurement on this
-    machine (``"measured here"``), else :data:`MEASURED_S` (``"measured on a 2-core machine"``), else
-    ``(None, "")``."""
+    machine, with the load it had then (``"last time here, 2 cores at load 0.4"``), else
+    :data:`MEASURED_S` (``"on the development machine: 2 cores at load 1"``), else ``(None, "")``.
+    The load average now is added where it is more than twice the cores' (the wait grows with it)."""
+    la_now, cores_now = load()
+    now = f"; load now {la_now:.1f}" if la_now is not None and la_now > 2 * cores_now else ""
     t = _read_times().get(name)
     if t is not None:
-        return t, "last time on this machine"
-    t = MEASURED_S.get(name)
-    return (t, "on a 2-core machine") if t is not None else (None, "")
+        return t["seconds"], f"last time here, {_host(t['load'], t['cores'])}{now}"
+    s = MEASURED_S.get(name)
+    return (s, f"on {MEASURED_ON}{now}") if s is not None else (None, "")
 
 
-def record_seconds(name: str, seconds: float) -> None:
-    """Keep ``seconds`` as this machine's compile time of ``name`` (written whole by
-    :func:`vibeam.io.outdir.replace_file`; a file that cannot be written is skipped, the figure is
+def record_seconds(name: str, seconds: float, at_load: tuple | None = None) -> None:
+    """Keep ``seconds`` as this machine's compile time of ``name``, with the load average and cores
+    ``at_load`` (:func:`load` at the compile's start; now if None), written whole by
+    :func:`vibeam.io.outdir.replace_file`; a file that cannot be written is skipped (the figure is
     only a hint)."""
     path = times_file()
+    la, cores = at_load if at_load is not None else load()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         d = _read_times()
-        d[name] = round(float(seconds), 2)
+        d[name] = {"seconds": round(float(seconds), 2), "load": None if la is None else round(la, 2),
+                   "cores": int(cores)}
         replace_file(path, json.dumps(d, indent=1, sort_keys=True))
     except (OSError, InputError):
         pass
@@ -132,6 +181,7 @@ class CompileClock:
         self._depth = 0
         self._t0 = 0.0
         self._name = ""
+        self._load = (None, 1)
         self._listener = None
         self._notice = notice
         self._done = done
@@ -143,6 +193,7 @@ class CompileClock:
             def on_start(self, ev):
                 if clock._depth == 0:
                     clock._t0 = time.perf_counter()
+                    clock._load = load()
                     data = ev.data or {}
                     py = getattr(data.get("dispatcher"), "py_func", None)
                     kernel = f"{getattr(py, '__module__', '?')}.{getattr(py, '__qualname__', '?')}"
@@ -158,7 +209,7 @@ class CompileClock:
                     dt = time.perf_counter() - clock._t0
                     clock.seconds += dt
                     clock.entries.append((clock._name, dt))
-                    record_seconds(clock._name, dt)
+                    record_seconds(clock._name, dt, clock._load)
                     if clock._done is not None:
                         clock._done(clock._name, dt)
 
