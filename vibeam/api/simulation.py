@@ -164,8 +164,12 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         (0 free, 1 held on the upper stop, -1 on the lower one; left out: 0, and a state on a
         stop with zero relative velocity is held by the solver's own sticking test).  Finite
         numbers, on the free side of every rigid stop (a state behind one is refused: the
-        kernels would project it onto the stop); ``Simulation.final_state`` has the flag and
-        can be passed back.
+        kernels would project it onto the stop), with a flag that names stops of the scene
+        (-1 needs a lower stop) and holds the state only where it is on them: gap 0 and no
+        velocity along a rigid stop's normal, gap >= 0 in contact with a compliant one (to
+        ``HELD_RTOL``; else refused: the kernels would snap it onto the stop, or read a flag
+        naming a missing stop as free); ``Simulation.final_state`` has the flag and can be
+        passed back.
     force : bool
         Simulate even if the work is above the limit of ``vibeam run`` (as ``--force``).
     **settings
@@ -184,7 +188,8 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         ``periods`` as ``[sweep] record_periods`` (a whole number >= 1), ``transient`` as
         ``transient_periods`` (a whole number >= 0; ``"auto"`` is the sweep's and is
         refused here), ``samples_per_period`` as ``[sweep] samples_per_period``; ``run`` a
-        run's index or name; ``state`` 2 d or 2 d + 1 finite numbers.  Also: neither
+        run's index or name; ``state`` 2 d or 2 d + 1 finite numbers with a consistent held
+        flag, not behind a rigid stop.  Also: neither
         or both of ``Omega`` and ``frequency_hz`` given, ``frequency_hz`` for a
         nondimensional scene, a method without a time history (averaging, mapping).
     vibeam.case.schema.InputError
@@ -388,7 +393,9 @@ def _check_state(state, model) -> np.ndarray:
     """An initial state (TypeError/ValueError): the model's displacements and velocities
     (``(q, q')``, or ``(eta, eta')`` of a modal beam: ``n - 1`` numbers), optionally followed by the
     held flag (``n`` numbers, :meth:`initial_state`'s layout); returned with the flag (0, free,
-    when it was left out)."""
+    when it was left out).  The one check of every initial state a user gives (:func:`simulate`,
+    and through it :func:`poincare` and :func:`lyapunov`): finite numbers, the held flag
+    consistent with the state (:func:`_check_held`), nothing behind a rigid stop."""
     n = int(np.size(model.initial_state()))
     allowed = (f"{n - 1} or {n} finite numbers: the displacements and velocities{' (q, dq)' if n == 3 else ''}, "
                f"optionally followed by the held flag (0 free, 1 held on the upper stop, -1 on the lower one)")
@@ -402,6 +409,8 @@ def _check_state(state, model) -> np.ndarray:
         raise ValueError(f"state = {quote_value(state)}: allowed: |values| <= {STATE_MAX:g} (the record's energies "
                          f"and spreads square them: 1e300 overflows double precision)")
     x = np.append(x, 0.0) if x.size == n - 1 else x
+    if hasattr(model, "stops"):
+        _check_held(state, model, x)
 
     if hasattr(model, "stops") and behind_stop(model, x[None, :])[0]:
         # the kernels would project it onto the stop and report a motion it never had
@@ -411,6 +420,77 @@ def _check_state(state, model) -> np.ndarray:
                          f"{'upper' if k == 0 else 'lower' if k == 1 else 'point'} stop); allowed: a state the "
                          f"motion can reach, every rigid stop's gap <= 0")
     return x
+
+
+#: how far (relative to the stop's offset and the contact coordinate, or to the velocity's size) a
+#: held state may lie off its stop or move along its normal: the kernels put a held state on its
+#: stop to round-off (1e-16 relative); 1e-9 takes a state written out with ten digits
+HELD_RTOL = 1e-9
+
+
+def _stop_name(k: int, n_stops: int) -> str:
+    return ("the stop" if n_stops == 1 else "the upper stop (stop 0)" if k == 0 else
+            "the lower stop (stop 1)" if k == 1 else f"stop {k}")
+
+
+def _held_codes(n_stops: int) -> str:
+    """The held flags a scene of ``n_stops`` stops allows (:func:`vibeam.models.core.stops.held_code`)."""
+    if n_stops == 0:
+        return "0 (free: the scene has no stop)"
+    if n_stops == 1:
+        return "0 (free) or 1 (on the stop)"
+    return (f"0 (free), 1 (on the upper stop), -1 (on the lower stop), or the sum of 2^k over the stops k it is on "
+            f"(at most {2 ** n_stops - 1})")
+
+
+def _check_held(state, model, x) -> None:
+    """The held flag ``x[-1]`` of an initial state against its coordinates (ValueError, one line).
+
+    The flag names the stops the state is on (:func:`vibeam.models.core.stops.held_code`: 0 free,
+    1 stop 0, -1 stop 1, else the bit mask).  The kernels take a flag as given: a held flag on a
+    free state snapped it onto the stop (``q = -0.001`` held on the stop at 0 started at ``q =
+    0``), and a flag naming a stop the scene lacks was read as free (issue 56).  So the flag must
+    be a whole number naming stops of the scene; on a rigid (Newton) stop the state must lie on it
+    (gap 0) with no velocity along its normal; in contact with a compliant stop, not outside it
+    (gap >= 0); all to :data:`HELD_RTOL`.
+    """
+    sc = model.scene()
+    stops, system = sc.stops, sc.system
+    ns = len(stops)
+    code = float(x[-1])
+    allowed = _held_codes(ns)
+    c = int(round(code))
+    mask = 2 if c == -1 and ns >= 2 else c if c >= 0 else -1
+    if code != c or mask < 0 or mask >= (1 << ns):
+        why = "not a whole number" if code != c else f"names a stop the scene does not have ({ns} stop{'s' * (ns != 1)})"
+        raise ValueError(f"state = {quote_value(state)}: held flag {code:g} {why}; allowed: {allowed}")
+    if mask == 0:
+        return
+    n = system.omega.size
+    eta, etad = x[:n], x[n:2 * n]
+    for k, st in enumerate(stops):
+        if not (mask >> k) & 1:
+            continue
+        r = st.relation
+        w = system.contacts[r.row]
+        g = r.sign * float(eta @ w) - r.offset
+        g_scale = max(abs(r.offset), abs(float(eta @ w)), 1e-300)
+        name = _stop_name(k, ns)
+        if getattr(st.law, "kind", "") == "compliant":
+            if g < -HELD_RTOL * g_scale:
+                raise ValueError(f"state = {quote_value(state)}: held flag {code:g} puts it in contact with {name} "
+                                 f"(compliant), but it lies outside it (gap {g:.6g} < 0); allowed: a contact state "
+                                 f"at or inside its stop (gap >= 0), or flag 0")
+            continue
+        if abs(g) > HELD_RTOL * g_scale:
+            raise ValueError(f"state = {quote_value(state)}: held flag {code:g} holds it on {name}, but it is not on "
+                             f"it (gap {g:.6g}, {'free of' if g < 0 else 'behind'} it); allowed: a held state on its "
+                             f"stop (gap 0) with no velocity along its normal, or flag 0 (free); flags: {allowed}")
+        v = r.sign * float(etad @ w)
+        if abs(v) > HELD_RTOL * max(float(np.linalg.norm(w) * np.linalg.norm(etad)), 1e-300):
+            raise ValueError(f"state = {quote_value(state)}: held flag {code:g} holds it on {name}, but it moves "
+                             f"along the stop's normal (velocity {v:.6g}); allowed: a held state on its stop with "
+                             f"no velocity along its normal, or flag 0 (free: the motion decides)")
 
 
 _WORK_ARGS = {"sweep.record_periods": "periods", "sweep.transient_periods": "transient",
