@@ -719,3 +719,24 @@ def test_every_public_command_is_in_the_api():
                  "simulate", "open_results", "basins", "load_case"):
         assert callable(getattr(vibeam, name)), name
 
+
+def test_a_script_beside_a_vibeam_folder_imports_the_package_with_P(tmp_path):
+    """README (a): a script run from a folder holding a ``vibeam/`` folder (the clone's parent,
+    issue 56 item 9) imports the installed package with ``python -P`` (and ``PYTHONSAFEPATH=1``),
+    in a child process started there.  Without it, an editable install loses to the folder:
+    setuptools' finder is asked after Python's path search, which makes the folder an empty
+    namespace package (setuptools#3557; its strict and compat modes do not serve the
+    package-dir mapping of models/ from inside the clone) -- the limit README states."""
+    (tmp_path / "vibeam").mkdir()
+    (tmp_path / "s.py").write_text("import vibeam\nprint(vibeam.__file__)\nprint(vibeam.open_results.__name__)\n")
+    run = lambda *args, **env: subprocess.run([sys.executable, *args, "s.py"], cwd=tmp_path, capture_output=True,
+                                              text=True, timeout=600, env={**__import__("os").environ, **env})
+    for p in (run("-P"), run(PYTHONSAFEPATH="1")):
+        assert p.returncode == 0, p.stderr[-2000:]
+        where, name = p.stdout.split()
+        assert name == "open_results" and Path(where).name == "__init__.py" and tmp_path not in Path(where).parents
+    if Path(vibeam.__file__).resolve().is_relative_to(ROOT):       # an editable install: the limit
+        p = run()
+        assert p.returncode != 0 and "has no attribute 'open_results'" in p.stderr
+    readme = (ROOT / "README.md").read_text()
+    assert "`python -P`" in readme and "empty namespace package" in readme
