@@ -773,6 +773,8 @@ class _Tracer:
                         a = br.points[-1]
                         ds, curv = S.ds, None
                         continue
+                    if br.status == "grazing":
+                        return       # graze_end's own status and message: the grazing is the reason
                     br.status = "no_convergence"
                     br.message = (f"step below ds_min = {S.ds_min:g} at {eng.prob_name} = {a.p:.10g}: "
                                   f"{reason}")
@@ -1006,9 +1008,18 @@ class _Tracer:
         kind, detail = _graze_detail(g.signature, sig_new)
         br.bifurcations.append(_bif(kind, g, n, bi, len(br.points),
                                     detail + "; no orbit of another signature found next to it", at=at))
+        # how close the last point is to the grazing: the apex's distance to the stop (an impact
+        # born) or the smallest impact velocity (one dying), against the orbit's own scale
+        s = g.shot
+        if born and not dies:
+            how = f"the last point's apex {-s.apex_gap:.2g} from the stop ({-s.apex_gap / size:.1g} of the orbit's size)"
+        else:
+            how = (f"the last point's smallest impact velocity {s.min_impact_velocity:.2g} "
+                   f"({s.min_impact_velocity / v_scale:.1g} of the largest)")
         br.status = "grazing"
-        br.message = (f"ended at a grazing at {eng.prob_name} = {at[1]:.10g}: the impact map has a square-root "
-                      f"singularity there and no branch of another impact signature was found ({reason})")
+        br.message = (f"ended at a grazing at {eng.prob_name} = {at[1]:.10g}, {detail}, {how}: the impact map "
+                      f"has a square-root singularity there, the corrector cannot step across it ({reason}) "
+                      f"and no branch of {sig_new[0]} impacts per orbit was found next to it")
         return False
 
 

@@ -279,6 +279,18 @@ BAD_SIMULATE = [
     (dict(Omega=2.0, run="nope"), ValueError, ["run = 'nope'", "'exact'"]),
     (dict(Omega=2.0, run=1.0), TypeError, ["run = 1.0"]),
     (dict(Omega=2.0, state=[0.0, float("nan"), 0.0]), ValueError, ["state = ", "3 finite numbers"]),
+    # the held flag against the state (issue 56, item 8): a held flag on a free state was snapped
+    # onto the stop (q = -0.001 started at q = 0), one naming a stop the one-sided scene lacks was
+    # read as free, a fraction was rounded, a held state moving off its stop was stopped
+    (dict(Omega=2.0, state=[-0.001, 0.0, 1.0]), ValueError,
+     ["state = [-0.001, 0.0, 1.0]", "held flag 1 holds it on the stop", "gap -0.001, free of it", "flag 0"]),
+    (dict(Omega=2.0, state=[0.0, 0.0, -1.0]), ValueError,
+     ["state = [0.0, 0.0, -1.0]", "held flag -1 names a stop the scene does not have (1 stop)",
+      "0 (free) or 1 (on the stop)"]),
+    (dict(Omega=2.0, state=[0.0, 0.0, 0.5]), ValueError, ["held flag 0.5 not a whole number"]),
+    (dict(Omega=2.0, state=[0.0, 0.0, 2.0]), ValueError, ["held flag 2 names a stop the scene does not have"]),
+    (dict(Omega=2.0, state=[0.0, -0.01, 1.0]), ValueError,
+     ["held flag 1 holds it on the stop", "moves along the stop's normal (velocity -0.01)"]),
     (dict(Omega=2.0, force="yes"), TypeError, ["force = 'yes'", "True or False"]),
 ]
 
@@ -291,6 +303,36 @@ def test_simulate_refuses_bad_arguments_in_one_line(kw, exc, needles):
         vibeam.simulate(case, **kw)
     msg = str(e.value)
     assert "\n" not in msg and all(n in msg for n in needles), msg
+
+
+def test_every_entry_taking_a_state_refuses_an_inconsistent_held_flag_and_takes_a_consistent_one():
+    """One check for every initial state (vibeam.api.simulation._check_state): simulate, poincare
+    and lyapunov refuse the held flag on a free state with the same one line, before any kernel
+    runs; a state held on its stop (gap 0, no velocity) is taken -- on the upper stop of the
+    one-sided scene and on the lower stop of a two-sided one (flag -1) -- and so is the final
+    state of a simulation held on a pre-stressed stop (Delta = -0.1, forcing Omega^2 B = 0.017
+    below the preload: the mass stays on the stop, flag 1), passed back as it was returned."""
+    from vibeam.models import SDOF
+
+    bad = [-0.001, 0.0, 1.0]
+    lines = []
+    for f in (vibeam.simulate, vibeam.poincare, vibeam.lyapunov):
+        with pytest.raises(ValueError) as e:
+            f(vibeam.load_case(SMALL), Omega=2.0, state=bad)
+        lines.append(str(e.value))
+    assert len(set(lines)) == 1 and "held flag 1 holds it on the stop" in lines[0], lines
+    sim = vibeam.simulate(vibeam.load_case(SMALL), Omega=2.0, periods=2, transient=0, state=[0.0, 0.0, 1.0])
+    assert sim.status != "failed"
+    two = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=2e-3)
+    sim = vibeam.simulate(two, Omega=2.0, periods=2, state=[-2e-3, 0.0, -1.0])
+    assert sim.status != "failed"
+    with pytest.raises(ValueError, match=r"held flag -1 holds it on the lower stop \(stop 1\), but it is not on it"):
+        vibeam.simulate(two, Omega=2.0, periods=2, state=[-1e-3, 0.0, -1.0])
+    pre = SDOF(beta=0.05, B=0.01, R=0.8, Delta=-0.1)
+    held = vibeam.simulate(pre, Omega=1.3, periods=2)
+    assert held.final_state[-1] == 1.0 and held.final_state[0] == pytest.approx(-0.1, abs=1e-15)
+    again = vibeam.simulate(pre, Omega=1.3, periods=2, state=held.final_state)
+    assert again.final_state[-1] == 1.0
 
 
 def test_simulate_refuses_periods_above_the_work_limit():
@@ -676,3 +718,25 @@ def test_every_public_command_is_in_the_api():
     for name in ("derive", "modes", "regress", "cost", "fit", "continuation", "export", "poincare", "run",
                  "simulate", "open_results", "basins", "load_case"):
         assert callable(getattr(vibeam, name)), name
+
+
+def test_a_script_beside_a_vibeam_folder_imports_the_package_with_P(tmp_path):
+    """README (a): a script run from a folder holding a ``vibeam/`` folder (the clone's parent,
+    issue 56 item 9) imports the installed package with ``python -P`` (and ``PYTHONSAFEPATH=1``),
+    in a child process started there.  Without it, an editable install loses to the folder:
+    setuptools' finder is asked after Python's path search, which makes the folder an empty
+    namespace package (setuptools#3557; its strict and compat modes do not serve the
+    package-dir mapping of models/ from inside the clone) -- the limit README states."""
+    (tmp_path / "vibeam").mkdir()
+    (tmp_path / "s.py").write_text("import vibeam\nprint(vibeam.__file__)\nprint(vibeam.open_results.__name__)\n")
+    run = lambda *args, **env: subprocess.run([sys.executable, *args, "s.py"], cwd=tmp_path, capture_output=True,
+                                              text=True, timeout=600, env={**__import__("os").environ, **env})
+    for p in (run("-P"), run(PYTHONSAFEPATH="1")):
+        assert p.returncode == 0, p.stderr[-2000:]
+        where, name = p.stdout.split()
+        assert name == "open_results" and Path(where).name == "__init__.py" and tmp_path not in Path(where).parents
+    if Path(vibeam.__file__).resolve().is_relative_to(ROOT):       # an editable install: the limit
+        p = run()
+        assert p.returncode != 0 and "has no attribute 'open_results'" in p.stderr
+    readme = (ROOT / "README.md").read_text()
+    assert "`python -P`" in readme and "empty namespace package" in readme

@@ -541,3 +541,15 @@ def test_the_basin_image_spans_the_grid_cells_and_the_summary_names_each_attract
     print_basins(r)
     out = capsys.readouterr().out
     assert out.count("lambda_1 = ") == r.n_attractors >= 1, out
+    # each lambda_1 with its error (issue 56, item 4: it was printed without): the batch-means
+    # error of the QR estimate, or 0 for the Floquet exponent of a refined periodic orbit
+    import re
+
+    for k in range(r.n_attractors):
+        line = next(ln for ln in out.splitlines() if ln.strip().startswith(f"{k}: "))
+        m = re.search(r"lambda_1 = (\S+) \+- (\S+) \((Floquet exponent of the orbit|QR, batch-means standard error)\)",
+                      line)
+        assert m, line
+        assert float(m.group(1)) == pytest.approx(float(r.attractors["lyapunov"][0, k, 0]), rel=1e-3)
+        assert float(m.group(2)) == pytest.approx(float(r.attractors["lyapunov_error"][0, k, 0]), rel=0.05, abs=0)
+        assert (m.group(3).startswith("Floquet")) == (r.attractors["lyapunov_error"][0, k, 0] == 0)

@@ -1393,6 +1393,21 @@ def read_basins(path, run: str):
         return ds.load()
 
 
+def _lambda_text(r: BasinsResult, i: int, k: int) -> str:
+    """``lambda_1`` of attractor ``k`` at frequency ``i`` with its error: the batch-means standard
+    error of the QR estimate, or 0 for the Floquet exponent of a refined periodic orbit (its
+    stored error, :func:`describe`); "not computed" without a spectrum (``lyapunov_periods = 0``)."""
+    lam = float(r.attractors["lyapunov"][i, k, 0])
+    err = float(r.attractors["lyapunov_error"][i, k, 0])
+    if not np.isfinite(lam) and not lam == -np.inf:
+        return "lambda_1 not computed"
+    unit = " 1/s" if r.time_scale_s else ""
+    if r.time_scale_s:
+        lam, err = lam / r.time_scale_s, err / r.time_scale_s
+    how = "Floquet exponent of the orbit" if err == 0 else "QR, batch-means standard error"
+    return f"lambda_1 = {lam:.4g} +- {err:.2g}{unit} ({how})"
+
+
 def _legend_text(r: BasinsResult, i: int, k: int) -> str:
     a = r.attractors
     t = a["type"][i][k]
@@ -1582,11 +1597,8 @@ def print_basins(r: BasinsResult) -> None:
               f"{r.wall_time_s[i]:.2f} s")
         for k in range(r.n_attractors):
             if r.attractors["type"][i][k]:
-                lam = r.attractors["lyapunov"][i, k, 0]
-                if r.time_scale_s:
-                    lam = lam / r.time_scale_s
                 print(f"  {_legend_text(r, i, k)} (+- {100 * r.attractors['fraction_se'][i, k]:.1f} %), "
-                      f"lambda_1 = {lam:.4g}{' 1/s' if r.time_scale_s else ''}")
+                      f"{_lambda_text(r, i, k)}")
         n_ok = max(int(np.sum(lab != BEHIND_STOP)), 1)
         for code in (UNSETTLED, FAILED):
             if np.any(lab == code):

@@ -18,6 +18,7 @@ from vibeam.api.common import saved
 from vibeam.case.arguments import check_case_value, check_flag, check_frequency, check_path, check_whole
 from vibeam.case.schema import Case, SweepSpec
 from vibeam.engine.records import summarize
+from vibeam.engine.sweep import orbit_exponents
 from vibeam.engine.sweep import simulate as simulate_point
 from vibeam.errors import InputError, quote_value
 from vibeam.models import make_solver, shooting_problem
@@ -163,8 +164,12 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         (0 free, 1 held on the upper stop, -1 on the lower one; left out: 0, and a state on a
         stop with zero relative velocity is held by the solver's own sticking test).  Finite
         numbers, on the free side of every rigid stop (a state behind one is refused: the
-        kernels would project it onto the stop); ``Simulation.final_state`` has the flag and
-        can be passed back.
+        kernels would project it onto the stop), with a flag that names stops of the scene
+        (-1 needs a lower stop) and holds the state only where it is on them: gap 0 and no
+        velocity along a rigid stop's normal, gap >= 0 in contact with a compliant one (to
+        ``HELD_RTOL``; else refused: the kernels would snap it onto the stop, or read a flag
+        naming a missing stop as free); ``Simulation.final_state`` has the flag and can be
+        passed back.
     force : bool
         Simulate even if the work is above the limit of ``vibeam run`` (as ``--force``).
     **settings
@@ -183,7 +188,8 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         ``periods`` as ``[sweep] record_periods`` (a whole number >= 1), ``transient`` as
         ``transient_periods`` (a whole number >= 0; ``"auto"`` is the sweep's and is
         refused here), ``samples_per_period`` as ``[sweep] samples_per_period``; ``run`` a
-        run's index or name; ``state`` 2 d or 2 d + 1 finite numbers.  Also: neither
+        run's index or name; ``state`` 2 d or 2 d + 1 finite numbers with a consistent held
+        flag, not behind a rigid stop.  Also: neither
         or both of ``Omega`` and ``frequency_hz`` given, ``frequency_hz`` for a
         nondimensional scene, a method without a time history (averaging, mapping).
     vibeam.case.schema.InputError
@@ -267,7 +273,10 @@ class Lyapunov:
         Forcing frequency over the natural (reference) frequency.
     exponents, error : ndarray, shape (d,)
         ``lambda_1 >= ... >= lambda_d`` and their error estimates per unit of the model's
-        nondimensional time (:class:`vibeam.models.lyapunov.LyapunovSpectrum`).
+        nondimensional time: on a periodic orbit its Floquet exponents ``ln |mu_i| / (n T)``
+        (``method = "floquet"``, error 0: exact to the shooting refinement, as a sweep's
+        ``lyapunov``), else the QR estimate and its batch-means standard error
+        (``method = "qr"``, :class:`vibeam.models.lyapunov.LyapunovSpectrum`).
     exponents_per_s, error_per_s : ndarray, shape (d,) or None
         The same per second for a physical scene (1/s), else None.
     status, message : str
@@ -275,6 +284,13 @@ class Lyapunov:
     impacts_per_period : float
         Impacts (contacts) per forcing period on the attractor.
     spectrum : vibeam.models.lyapunov.LyapunovSpectrum
+        The QR estimate (kept as the check on a periodic orbit: its bias there falls like
+        ``1 / shots`` and its batch-means error does not see it).
+    method : str
+        ``"floquet"`` or ``"qr"``: where ``exponents`` come from.
+    period : int
+        The orbit's period in forcing periods (0: not periodic within the record's test,
+        :func:`vibeam.engine.records.summarize`).
     """
 
     Omega: float
@@ -286,6 +302,8 @@ class Lyapunov:
     message: str
     impacts_per_period: float
     spectrum: object
+    method: str = "qr"
+    period: int = 0
 
 
 def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, transient: int | None = None,
@@ -296,7 +314,13 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
     periods (default: the case's ``transient_periods``), then ``shots`` shots of ``n`` periods of
     the model's shooting problem (:func:`vibeam.models.shooting_problem`) give the spectrum by
     the QR method (:func:`vibeam.models.lyapunov.lyapunov_spectrum`: exact flows, saltation
-    matrices at impacts, Müller 1995; Benettin et al. 1980).
+    matrices at impacts, Müller 1995; Benettin et al. 1980).  As in a sweep (``[sweep] lyapunov``),
+    the state the shots end on is then simulated over the case's ``record_periods`` (16 for a
+    model): where that record is periodic (period ``n``) and the shooting
+    problem refines its orbit, the exponents returned are the orbit's Floquet exponents
+    ``ln |mu_i| / (n T)`` with error 0 (``method = "floquet"``), the QR estimate kept in
+    ``spectrum`` -- on Fig. 7 at Omega = 2.0 it is off by 9e-5, three times its batch-means error
+    (issue 56); elsewhere the QR estimate and its error (``method = "qr"``).
 
     Parameters
     ----------
@@ -337,13 +361,28 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
     problem = shooting_problem(model, "Omega")
     d = 2 * int(getattr(model, "n_modes", 1))
     sp = lyapunov_spectrum(problem, np.asarray(sim.final_state, float)[:d], sim.Omega, shots, 0, n)
+    lam, err, method, period = sp.exponents, sp.error, "qr", 0
+    if sp.status == "ok":
+        # the sweep's rule (vibeam.engine.sweep): a periodic record reports its orbit's Floquet
+        # exponents; the record starts where the shots ended (free: the shooting state has no flag)
+        try:
+            rec = simulate(case_or_model, Omega=sim.Omega, transient=0, run=run,
+                           state=np.append(sp.final_state, 0.0), samples_per_period=16)
+            period = max(int(rec.summary.get("period", 0)), 0)
+        except ValueError:      # the shots' state refused (behind a stop by round-off): QR stands
+            period = 0
+        if period > 0:
+            fl = orbit_exponents(model, rec.final_state, sim.Omega, period, d)
+            if fl is not None:
+                lam, err, method = fl, np.zeros(d), "floquet"
     # the model's time unit: 1 / (2 pi f) of its natural (SDOF) or reference (beam) frequency
     f = getattr(model, "natural_frequency_hz", None) or getattr(model, "f_ref_hz", None)
     scale = 2.0 * math.pi * f if f else None
-    return Lyapunov(Omega=float(sim.Omega), exponents=sp.exponents, error=sp.error,
-                    exponents_per_s=None if scale is None else sp.exponents * scale,
-                    error_per_s=None if scale is None else sp.error * scale, status=sp.status, message=sp.message,
-                    impacts_per_period=sp.impacts / max(sp.shots * sp.periods_per_shot, 1), spectrum=sp)
+    return Lyapunov(Omega=float(sim.Omega), exponents=lam, error=err,
+                    exponents_per_s=None if scale is None else lam * scale,
+                    error_per_s=None if scale is None else err * scale, status=sp.status, message=sp.message,
+                    impacts_per_period=sp.impacts / max(sp.shots * sp.periods_per_shot, 1), spectrum=sp,
+                    method=method, period=period)
 
 
 #: the largest magnitude of an initial state's numbers (:func:`simulate`): squares stay finite
@@ -354,7 +393,9 @@ def _check_state(state, model) -> np.ndarray:
     """An initial state (TypeError/ValueError): the model's displacements and velocities
     (``(q, q')``, or ``(eta, eta')`` of a modal beam: ``n - 1`` numbers), optionally followed by the
     held flag (``n`` numbers, :meth:`initial_state`'s layout); returned with the flag (0, free,
-    when it was left out)."""
+    when it was left out).  The one check of every initial state a user gives (:func:`simulate`,
+    and through it :func:`poincare` and :func:`lyapunov`): finite numbers, the held flag
+    consistent with the state (:func:`_check_held`), nothing behind a rigid stop."""
     n = int(np.size(model.initial_state()))
     allowed = (f"{n - 1} or {n} finite numbers: the displacements and velocities{' (q, dq)' if n == 3 else ''}, "
                f"optionally followed by the held flag (0 free, 1 held on the upper stop, -1 on the lower one)")
@@ -368,6 +409,8 @@ def _check_state(state, model) -> np.ndarray:
         raise ValueError(f"state = {quote_value(state)}: allowed: |values| <= {STATE_MAX:g} (the record's energies "
                          f"and spreads square them: 1e300 overflows double precision)")
     x = np.append(x, 0.0) if x.size == n - 1 else x
+    if hasattr(model, "stops"):
+        _check_held(state, model, x)
 
     if hasattr(model, "stops") and behind_stop(model, x[None, :])[0]:
         # the kernels would project it onto the stop and report a motion it never had
@@ -377,6 +420,77 @@ def _check_state(state, model) -> np.ndarray:
                          f"{'upper' if k == 0 else 'lower' if k == 1 else 'point'} stop); allowed: a state the "
                          f"motion can reach, every rigid stop's gap <= 0")
     return x
+
+
+#: how far (relative to the stop's offset and the contact coordinate, or to the velocity's size) a
+#: held state may lie off its stop or move along its normal: the kernels put a held state on its
+#: stop to round-off (1e-16 relative); 1e-9 takes a state written out with ten digits
+HELD_RTOL = 1e-9
+
+
+def _stop_name(k: int, n_stops: int) -> str:
+    return ("the stop" if n_stops == 1 else "the upper stop (stop 0)" if k == 0 else
+            "the lower stop (stop 1)" if k == 1 else f"stop {k}")
+
+
+def _held_codes(n_stops: int) -> str:
+    """The held flags a scene of ``n_stops`` stops allows (:func:`vibeam.models.core.stops.held_code`)."""
+    if n_stops == 0:
+        return "0 (free: the scene has no stop)"
+    if n_stops == 1:
+        return "0 (free) or 1 (on the stop)"
+    return (f"0 (free), 1 (on the upper stop), -1 (on the lower stop), or the sum of 2^k over the stops k it is on "
+            f"(at most {2 ** n_stops - 1})")
+
+
+def _check_held(state, model, x) -> None:
+    """The held flag ``x[-1]`` of an initial state against its coordinates (ValueError, one line).
+
+    The flag names the stops the state is on (:func:`vibeam.models.core.stops.held_code`: 0 free,
+    1 stop 0, -1 stop 1, else the bit mask).  The kernels take a flag as given: a held flag on a
+    free state snapped it onto the stop (``q = -0.001`` held on the stop at 0 started at ``q =
+    0``), and a flag naming a stop the scene lacks was read as free (issue 56).  So the flag must
+    be a whole number naming stops of the scene; on a rigid (Newton) stop the state must lie on it
+    (gap 0) with no velocity along its normal; in contact with a compliant stop, not outside it
+    (gap >= 0); all to :data:`HELD_RTOL`.
+    """
+    sc = model.scene()
+    stops, system = sc.stops, sc.system
+    ns = len(stops)
+    code = float(x[-1])
+    allowed = _held_codes(ns)
+    c = int(round(code))
+    mask = 2 if c == -1 and ns >= 2 else c if c >= 0 else -1
+    if code != c or mask < 0 or mask >= (1 << ns):
+        why = "not a whole number" if code != c else f"names a stop the scene does not have ({ns} stop{'s' * (ns != 1)})"
+        raise ValueError(f"state = {quote_value(state)}: held flag {code:g} {why}; allowed: {allowed}")
+    if mask == 0:
+        return
+    n = system.omega.size
+    eta, etad = x[:n], x[n:2 * n]
+    for k, st in enumerate(stops):
+        if not (mask >> k) & 1:
+            continue
+        r = st.relation
+        w = system.contacts[r.row]
+        g = r.sign * float(eta @ w) - r.offset
+        g_scale = max(abs(r.offset), abs(float(eta @ w)), 1e-300)
+        name = _stop_name(k, ns)
+        if getattr(st.law, "kind", "") == "compliant":
+            if g < -HELD_RTOL * g_scale:
+                raise ValueError(f"state = {quote_value(state)}: held flag {code:g} puts it in contact with {name} "
+                                 f"(compliant), but it lies outside it (gap {g:.6g} < 0); allowed: a contact state "
+                                 f"at or inside its stop (gap >= 0), or flag 0")
+            continue
+        if abs(g) > HELD_RTOL * g_scale:
+            raise ValueError(f"state = {quote_value(state)}: held flag {code:g} holds it on {name}, but it is not on "
+                             f"it (gap {g:.6g}, {'free of' if g < 0 else 'behind'} it); allowed: a held state on its "
+                             f"stop (gap 0) with no velocity along its normal, or flag 0 (free); flags: {allowed}")
+        v = r.sign * float(etad @ w)
+        if abs(v) > HELD_RTOL * max(float(np.linalg.norm(w) * np.linalg.norm(etad)), 1e-300):
+            raise ValueError(f"state = {quote_value(state)}: held flag {code:g} holds it on {name}, but it moves "
+                             f"along the stop's normal (velocity {v:.6g}); allowed: a held state on its stop with "
+                             f"no velocity along its normal, or flag 0 (free: the motion decides)")
 
 
 _WORK_ARGS = {"sweep.record_periods": "periods", "sweep.transient_periods": "transient",
