@@ -18,12 +18,14 @@ other blocks.  The copied IR is the one numba would build, except that its block
 share one scope object instead of equal copies (numba's inliner already treats
 them as one: it asserts a single scope, by equality, and afterwards points every
 inlined block at the caller's scope).  The machine code is unchanged; the cache
-key of a kernel does not depend on it.  Measured on the quick start's first point
-(2-core machine, cold cache): 24.7 s -> 21.1 s of compiling.
+key of a kernel does not depend on it.  It acts only when the inlined callee is a
+function of ``vibeam.models``: another library's inlining in the same process is
+numba's own.  Measured: :data:`GAINS_FROM`.
 
-Used only where numba has the internals this was written against (0.58-0.68):
-``InlineWorker.inline_ir`` exists and ``Scope`` defines no ``__deepcopy__`` of its
-own; otherwise :func:`install` leaves numba alone.
+Used only where numba has the internals this was written against and where it
+was measured to pay (:data:`GAINS_FROM`: numba 0.68 of the pinned range
+0.61-0.68): ``InlineWorker.inline_ir`` exists and ``Scope`` defines no
+``__deepcopy__`` of its own; otherwise :func:`install` leaves numba alone.
 """
 from __future__ import annotations
 
@@ -31,6 +33,11 @@ import copy
 
 #: the modules whose inlined callees get the shared scope: vibeam's kernels only
 OURS = "vibeam.models"
+#: the first numba release it is installed on: a cold quick start's process CPU, with and without,
+#: alternately on one loaded 2-core machine (2026-11-26, two pairs each): numba 0.68.1 48.8 / 52.7 s
+#: against 57.5 / 63.1 s (16 % less), numba 0.61.2 64.1 / 62.4 s against 67.8 / 64.7 s (5 %: below
+#: the 10 % for which vibeam patches another library's internals, so numba is left alone there)
+GAINS_FROM = (0, 68)
 
 
 def install() -> bool:
@@ -43,8 +50,11 @@ def install() -> bool:
         from those it was written against (nothing is changed then).
     """
     try:
+        import numba
         from numba.core import inline_closurecall as icc, ir
     except ImportError:
+        return False
+    if tuple(int(x) for x in numba.__version__.split(".")[:2]) < GAINS_FROM:
         return False
     worker = getattr(icc, "InlineWorker", None)
     original = getattr(worker, "inline_ir", None)
