@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from matplotlib.colors import ListedColormap
+from matplotlib.colors import ListedColormap, to_rgb
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
@@ -1417,8 +1417,6 @@ BASIN_TINT = 0.55
 
 def _tint(colour, white: float = BASIN_TINT):
     """``colour`` mixed with ``white`` parts of white (an RGB tuple)."""
-    from matplotlib.colors import to_rgb  # lazy: matplotlib is loaded with the figure
-
     return tuple((1.0 - white) * c + white for c in to_rgb(colour))
 
 

@@ -3,6 +3,7 @@ lines; a timing goal FAILed on a busy machine is NOT CHECKED unless ``--strict``
 builds it."""
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -38,8 +39,6 @@ def goal(text: str, measured: str, ok: bool, not_checked: str = "", timing: bool
 def machine_state() -> dict:
     """``{"cores": os.cpu_count(), "load_average": [1, 5, 15 min] or None}`` now (None where the
     system has no load average)."""
-    import os
-
     return {"cores": os.cpu_count(), "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None}
 
 
