@@ -354,7 +354,9 @@ def test_bench_latency_runs_and_emits_its_json():
     ``point_time_limit_s``."""
     import json
 
-    p = subprocess.run(_vibeam("bench", "--latency", "--repeats", "1"), capture_output=True, text=True,
+    # --strict: each line PASS or FAIL even on a busy machine (issue 56 item 10 makes a timing that fails
+    # there NOT CHECKED without it)
+    p = subprocess.run(_vibeam("bench", "--latency", "--repeats", "1", "--strict"), capture_output=True, text=True,
                        timeout=600)
     assert p.returncode == (1 if ": FAIL  " in p.stderr else 0), p.stderr     # exit 1 after a FAIL line
     data = json.loads(p.stdout, parse_constant=lambda c: pytest.fail(f"non-finite JSON value {c}"))
@@ -401,7 +403,7 @@ def test_bench_compile_machinery_on_a_tiny_scenario(monkeypatch, capsys):
     from vibeam.cli import main
 
     monkeypatch.setattr(compilation, "COMPILE_SCENARIOS", (("tiny", "code", TINY_COMPILE),))
-    code = main(["bench", "--compile"])
+    code = main(["bench", "--compile", "--strict"])     # --strict: PASS or FAIL on a busy machine too (issue 56)
     cap = capsys.readouterr()
     assert code == (1 if ": FAIL  " in cap.err else 0), cap.err       # exit 1 after a FAIL line
     data = json.loads(cap.out, parse_constant=lambda c: pytest.fail(f"non-finite JSON value {c}"))

@@ -1221,19 +1221,20 @@ def test_decay_figure_house_style_and_data_above_the_fit(tmp_path):
 def test_basin_plot_attractor_dots_are_in_the_legend():
     """Issue 42 item 10: the basin plot drew each attractor's stroboscopic samples as black dots
     over the basins without a legend entry.  Every kind of artist drawn has its entry: the
-    basins' colours (patches), the attractors' dots (a black dot handle), the stops; the grid's
-    velocity is q-dot as in every other figure."""
+    basins' colours, the attractors' dots (issue 56: in each attractor's colour, a handle with the
+    dots' marker and colour naming the attractor), the stops; the grid's velocity is q-dot as in
+    every other figure."""
     import vibeam
     from vibeam.analysis.attractors import basins_figure
 
     r = vibeam.basins(ROOT / "cases" / "paper-fig7-two-sided.toml", Omega=2.0, grid=(6, 5), lyapunov_periods=0)
     fig = basins_figure(r, 0)
     try:
-        dots = [l for l in fig.axes[0].lines if l.get_marker() == "." and l.get_linestyle() in ("None", "none")]
+        dots = [l for l in fig.axes[0].lines if l.get_gid() == "attractor" and l.get_linestyle() in ("None", "none")]
         assert dots, "no attractor dots drawn"
         hs = [(h, t.get_text()) for leg in fig.legends for h, t in zip(leg.legend_handles, leg.get_texts())]
-        dot_entries = [t for h, t in hs if hasattr(h, "get_marker") and h.get_marker() == "."
-                       and _hex(h.get_color()) == _hex(dots[0].get_color())]
+        dot_entries = [t for h, t in hs if hasattr(h, "get_marker") and h.get_marker() == dots[0].get_marker()
+                       and _hex(h.get_markerfacecolor()) == _hex(dots[0].get_markerfacecolor())]
         assert dot_entries and "attractor" in dot_entries[0], [t for _, t in hs]
         assert fig.axes[0].get_ylabel() == r"$\dot q$ (–)"
     finally:

@@ -15,9 +15,10 @@ finishes its files.
 
 ``--quiet`` (every command but ``cases`` and ``bench``, whose output is what they are for): no
 progress bar and no tables or reports -- standard output stays empty; the files are written as
-without it, and what goes to standard error stays: an error is still its one line ``vibeam:
-error: ...`` (exit 2), and notes (``vibeam: note: ...``), an interruption's report and the one-line
-``[case] ...`` header of a run are kept.
+without it.  Standard error keeps only what the user must know: an error is still its one line
+``vibeam: error: ...`` (exit 2), and notes (``vibeam: note: ...``), an interruption's report and
+what a ``--resume`` takes from the checkpoint are kept; the ``[case] 1 run(s), ...`` header of a
+run and the lines about compiling kernels are not said (issue 56).
 """
 from __future__ import annotations
 
@@ -332,7 +333,7 @@ def cmd_regress(args) -> int:
     ex, client = _executor(args)
     try:
         res = regress(args.case, args.reference, results=args.results, out=args.out, jobs=args.jobs, executor=ex,
-                      atol=args.atol, rtol=args.rtol, quick=args.quick, force=args.force)
+                      atol=args.atol, rtol=args.rtol, quick=args.quick, force=args.force, quiet=args.quiet)
     finally:
         if client is not None:
             client.close()
@@ -350,9 +351,11 @@ def cmd_cost(args) -> int:
     case, _ = load_case(args.case)
     out_dir = _out_dir(args, case.quick_variant() if args.quick else case)
     res = cost(args.case, out=out_dir, ladder=args.ladder, repeats=args.repeats, quick=args.quick, jobs=args.jobs,
-               force=args.force, log=(lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr)))
+               force=args.force, log=(lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr)),
+               plots=not args.no_plots)
     print_cost(res.result)
-    print(f"\ncost table -> {res.paths['h5']} (/cost), plot -> {res.paths['png']}")
+    png = f", plot -> {res.paths['png']}" if res.paths.get("png") else ""
+    print(f"\ncost table -> {res.paths['h5']} (/cost){png}")
     return 0
 
 
@@ -377,7 +380,7 @@ def cmd_modes(args) -> int:
     from vibeam.io.outdir import default_folder  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam --help`
 
     case, _ = load_case(args.case)
-    rep = modes(case, n=args.n, out=Path(args.out) if args.out else default_folder(case.name))
+    rep = modes(case, n=args.n, out=Path(args.out) if args.out else default_folder(case.name), plots=not args.no_plots)
     md, cm = rep.modes, rep.contact
     tot = rep.total_mass_kg
     print(f"modes of {case.name} (FE, {rep.fe.ndof} DOFs); base excitation, total mass {tot:.4g} kg\n")
@@ -391,7 +394,7 @@ def cmd_modes(args) -> int:
               f"{me:>12.4g}{100 * me / tot:>9.2f}{100 * cum / tot:>8.2f}")
     print("\ncontact modes (beam held at the stop, w(L_m) = 0): " +
           ", ".join(f"{f:.2f}" for f in cm.frequencies_hz[: args.n]) + " Hz")
-    print(f"mode shapes -> {rep.paths['vtu']} (ParaView), {rep.paths['png']}")
+    print(f"mode shapes -> {rep.paths['vtu']} (ParaView)" + (f", {rep.paths['png']}" if rep.paths.get("png") else ""))
     return 0
 
 
@@ -437,13 +440,14 @@ def cmd_poincare(args) -> int:
         raise CaseError(f"{args.case}: `vibeam poincare` needs one of --frequency-hz F or --Omega W")
     if args.quick:                   # the quick variant's transient (and its folder), as run --quick
         case = case.quick_variant()
-    out_dir = check_folder(_out_dir(args, case))
+    # --no-plots: the sections are printed and nothing is written (the folder is not even created)
+    out_dir = check_folder(_out_dir(args, case)) if not args.no_plots else None
     f = args.frequency_hz if args.frequency_hz is not None else args.Omega
     stem = f"poincare_{'f' if args.frequency_hz is not None else 'Omega'}{f:g}"
     try:
         sec = poincare(case, Omega=args.Omega, frequency_hz=args.frequency_hz, periods=args.periods,
                        transient=args.transient, run=args.run if args.run is not None else 0,
-                       out=out_dir / f"{stem}.png", force=args.force)
+                       out=out_dir / f"{stem}.png" if out_dir is not None else None, force=args.force)
     except (TypeError, ValueError) as e:
         raise CaseError(f"{args.case}: {e}") from None
     fx, fv = sec.scales
@@ -458,7 +462,8 @@ def cmd_poincare(args) -> int:
               f"{sec.impact_velocity.max() * fv:.6g}] {vu}")
     else:
         print("  impacts: none")
-    print(f"plot: {out_dir / (stem + '.png')}")
+    if out_dir is not None:
+        print(f"plot: {out_dir / (stem + '.png')}")
     return 0
 
 
@@ -598,6 +603,7 @@ def main(argv=None) -> int:
                    help="worker processes for the converged references (default: all cores); the timed "
                         "sweeps always run inline, one at a time")
     p.add_argument("--force", action="store_true", help=force_help)
+    p.add_argument("--no-plots", action="store_true", help="skip work_precision.png (cost.h5 is written)")
     p.set_defaults(func=cmd_cost)
     p = sub.add_parser("derive", help="SDOF parameters of a beam scene by the assumed static mode",
                        formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam derive cases/rig-fe-tight.toml --write rig-sdof.toml")
@@ -610,6 +616,7 @@ def main(argv=None) -> int:
     p.add_argument("case", help="beam case file (TOML)")
     p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/)")
     p.add_argument("-n", type=_int_at_least(1), default=6, help="number of modes (default 6)")
+    p.add_argument("--no-plots", action="store_true", help="skip modes.png (modes.vtu is written)")
     p.set_defaults(func=cmd_modes)
     # ---- vibeam fit (vibeam.identify.fit, vibeam.identify.linear): identification from measurements, paper Secs. 6-7
     p = sub.add_parser("fit", help="fit model parameters to a measured FRC (with standard errors), or the "
@@ -667,9 +674,11 @@ def main(argv=None) -> int:
     p.add_argument("--run", help="the run whose model and solver are used (default: the first)")
     p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>/)")
     p.add_argument("--force", action="store_true", help=force_help)
+    p.add_argument("--no-plots", action="store_true", help="print the sections only: no PNG, nothing written")
     p.set_defaults(func=cmd_poincare)
     p = sub.add_parser("bench", help="speed and accuracy against the stated goals: JSON on stdout, a PASS/FAIL "
-                       "line per goal on stderr (NOT CHECKED outside the goal's configuration); exit 1 after a FAIL",
+                       "line per goal on stderr (NOT CHECKED outside the goal's configuration, and for a timing that fails on a "
+                       "busy machine unless --strict); exit 1 after a FAIL",
                        description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
                        "atol 1e-8) on the Fig. 7 scene, inline, with the goals: event sweep under 1 s, >= 300x "
                        "faster, >= 1000x smaller error.  The other modes (--cli, --map, --scaling, --effects, "
@@ -727,6 +736,10 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=jobs_option, default=None, help="workers of --fit, --basins and --uncertainty "
                    "(default 2)")
     p.add_argument("--samples", type=int, default=None, help="samples of --uncertainty (default 1024)")
+    p.add_argument("--strict", action="store_true",
+                   help="judge timing goals on a busy machine too (default: a timing goal that fails while the "
+                        "1-minute load average, the benchmark's own process included, is above 1.25 per core is "
+                        "NOT CHECKED, the load said; the JSON's 'machine' records it)")
     p.set_defaults(func=lambda a: __import__("vibeam.bench", fromlist=["main_bench"]).main_bench(a))
     for name, sp in sub.choices.items():          # --quiet means the same for every command (module doc)
         if name not in NOT_QUIET and not any("--quiet" in a.option_strings for a in sp._actions):

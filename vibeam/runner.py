@@ -88,7 +88,7 @@ def open_executor(scheduler: str | None):
 
 def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=False, resume=False,
              executor=None, checkpoint=True, checkpoint_interval_s=0.5, force=False, source="",
-             continuation_only=False, store=None, fresh=False, inputs=()):
+             continuation_only=False, store=None, fresh=False, inputs=(), announce=None):
     """Run a case: its runs, or its parameter map; write ``results.h5``, plots and a table.
 
     Parameters
@@ -103,7 +103,10 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     jobs : int or None
         Workers of the local process pool (None: all cores; 1: inline).
     quiet : bool
-        No progress bar.
+        No progress bar (``--quiet``); and, unless ``announce`` says otherwise, no header line
+        (``[case] 1 run(s), 2 sweep lines, 22 points``) and no lines about compiling kernels on
+        standard error.  Errors, notes (``vibeam: note: ...``) and what a resume takes from the
+        checkpoint are still said.
     plots : bool
         Write the PNG plots and assessments.
     quick : bool
@@ -136,6 +139,9 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
         Start a new results file (``--fresh``): the old file's groups are not kept.
     inputs : iterable of (path, option)
         Files the command reads (a reference): never the results file it writes.
+    announce : bool, optional
+        The header line and the compile lines on standard error (default: ``not quiet``; the API
+        says them without a progress bar).
 
     Continuation runs (``method = "continuation"``) go to the same executor as the sweep
     lines, one unit of work each; they are not checkpointed (``--resume`` computes them again).
@@ -171,9 +177,10 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     tasks = _tasks(case)          # planned first: a continuation the scene cannot serve fails here
     if store is not None and Path(store.folder).resolve() != Path(out_dir).resolve():
         raise ValueError(f"run_case: the store of {store.folder} given for out_dir {out_dir}")
+    silent = not announce if announce is not None else quiet
     with (store if store is not None else Store(out_dir, fresh=fresh, inputs=inputs)) as st:
         return _run_locked(case, text, st, jobs_, tasks, jobs, quiet, plots, resume, executor,
-                           checkpoint, checkpoint_interval_s, continuation_only)
+                           checkpoint, checkpoint_interval_s, continuation_only, silent)
 
 
 def same_case(stored_json, case_json: str) -> bool:
@@ -223,13 +230,15 @@ def _unit_paths(case) -> list:
 
 
 def _run_locked(case, text, store, jobs_, tasks, jobs, quiet, plots, resume, executor, checkpoint,
-                checkpoint_interval_s, continuation_only=False):
+                checkpoint_interval_s, continuation_only=False, silent=None):
+    silent = quiet if silent is None else silent        # no header, no compile lines (--quiet)
     case_json = case.model_dump_json()
     h5 = store.path
     out_dir = store.folder
     case_json, aliases = case_identity(store, case_json)
     if continuation_only:
-        return _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plots, executor, aliases)
+        return _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plots, executor, aliases,
+                                      silent)
     all_lines = [(job, l) for job in jobs_ for l in _lines(job)]
     stored = {}
     if resume:
@@ -241,7 +250,7 @@ def _run_locked(case, text, store, jobs_, tasks, jobs, quiet, plots, resume, exe
             if want and set(want) <= set(store.current(case_json, aliases)):
                 if tasks:          # continuation runs are not checkpointed: computed again, sweeps kept
                     _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plots, executor,
-                                           aliases)
+                                           aliases, silent)
                 return _finished(case, store, out_dir, plots, want)
             roots = [a.get("case_json") for a in (store.checkpoint_attrs(), store.info()["attrs"]) if a]
             if roots and not any(same_case(r, case_json) for r in roots):
@@ -258,10 +267,14 @@ def _run_locked(case, text, store, jobs_, tasks, jobs, quiet, plots, resume, exe
     sweep_of = {(l.run, l.key): job.sweep for job, l in all_lines}
     n_pts = sum(l.n_points for _, l in all_lines)
     what = f"map of {case.map.parameter} x frequency, " if case.map else ""
-    print(f"[{case.name}] {what}{len(case.run)} run(s), {len(all_lines)} sweep lines, {n_pts} points"
-          + (f", {len(tasks)} continuation run(s)" if tasks else "")
-          + (f"; resuming: {len(all_lines) - len(todo)} lines done" if resume and stored else ""),
-          file=sys.stderr)
+    if not silent:
+        print(f"[{case.name}] {what}{len(case.run)} run(s), {len(all_lines)} sweep lines, {n_pts} points"
+              + (f", {len(tasks)} continuation run(s)" if tasks else "")
+              + (f"; resuming: {len(all_lines) - len(todo)} lines done" if resume and stored else ""),
+              file=sys.stderr)
+    elif resume and stored:     # --quiet keeps what changes the work done: the lines taken from the checkpoint
+        print(f"[{case.name}] resuming: {len(all_lines) - len(todo)} of {len(all_lines)} sweep lines done",
+              file=sys.stderr)
     buffer: dict = {}
     last_flush = [time.perf_counter()]
 
@@ -290,20 +303,22 @@ def _run_locked(case, text, store, jobs_, tasks, jobs, quiet, plots, resume, exe
         # continuation runs are warmed up (a cut-down run) only before a pool: inline, their
         # compile time is measured where it happens (CompileClock) and taken out of the run time
         pooled_tasks = tasks if (executor is None and jobs != 1 and len(todo) + len(tasks) > 1) else []
-        cc = CompileClock(compile_notice, compile_done)
+        said = _compile_talk(silent)
+        cc = CompileClock(*said)
         if (todo or pooled_tasks) and executor is None:
             # numba kernels loaded (or compiled) once, here: a forked worker inherits them
-            with CompileClock(compile_notice, compile_done) as cc:
+            with CompileClock(*said) as cc:
                 timing["kernel_load_s"] = load_kernels(todo + pooled_tasks)
         n_workers, why = plan_execution(case, jobs_, todo, jobs, executor) if not tasks else (jobs, "")
         t_run = last_flush[0] = time.perf_counter()
-        with CompileClock(compile_notice, compile_done) as cr:
+        with CompileClock(*said) as cr:
             sweep.run_lines(todo + tasks, executor=executor, jobs=n_workers, on_line=on_line, progress=not quiet,
                             desc=case.name, stats=timing, inline_first_s=2 * POOL_STARTUP_S if why else None)
         timing["run_s"] = time.perf_counter() - t_run - cr.seconds
         timing["kernel_load_s"] += cr.seconds
-        announce_kernels(cc.seconds + cr.seconds, f"{len(todo)} sweep line(s)"
-                         + (f", {len(tasks)} continuation run(s)" if tasks else ""))
+        if not silent:
+            announce_kernels(cc.seconds + cr.seconds, f"{len(todo)} sweep line(s)"
+                             + (f", {len(tasks)} continuation run(s)" if tasks else ""))
         timing["why"] = why
     finally:
         flush()              # on an interrupt too: every finished line is kept
@@ -447,6 +462,12 @@ def compile_done(name: str, seconds: float) -> None:
         _say(f"  compiled {name} in {seconds:.1f} s")
 
 
+def _compile_talk(quiet: bool) -> tuple:
+    """The ``(notice, done)`` of :class:`vibeam.engine.compiling.CompileClock` for a run: the lines
+    of :func:`compile_notice` and :func:`compile_done`, or none under ``--quiet``."""
+    return (None, None) if quiet else (compile_notice, compile_done)
+
+
 def announce_kernels(seconds: float, what: str) -> None:
     """The one line that says a first run compiled (or loaded) its kernels, and for how long,
     so that the time is not mistaken for the run's (it is kept out of every run time)."""
@@ -504,7 +525,8 @@ def _assemble_continuation(tasks, task_rows) -> list:
             for t in tasks]
 
 
-def _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plots, executor, aliases=()):
+def _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plots, executor, aliases=(),
+                           silent=None):
     """``vibeam continue``: the continuation runs alone, written as ``/branches/<run>`` of the
     results file through its store (every other group kept); the sweeps of the same case are
     overlaid in the plots."""
@@ -512,21 +534,25 @@ def _run_continuation_only(case, text, store, tasks, case_json, jobs, quiet, plo
         raise CaseError(f"{case.name}: no run has method = \"continuation\"; add a [[run]] with "
                         f"method = \"continuation\" (parameter, start, ...) or use `vibeam run`")
     h5, out_dir = store.path, store.folder
+    silent = quiet if silent is None else silent
     t_all = time.perf_counter()
-    print(f"[{case.name}] {len(tasks)} continuation run(s)", file=sys.stderr)
+    if not silent:
+        print(f"[{case.name}] {len(tasks)} continuation run(s)", file=sys.stderr)
+    said = _compile_talk(silent)
     compiled = 0.0
     if executor is None:
         # before the progress bar (whose ETA would count the compile) and a pool: load the kernels
         # here (a cut-down run of each kind), a forked worker inherits them
-        with CompileClock(compile_notice, compile_done) as cc:
+        with CompileClock(*said) as cc:
             load_kernels(tasks)
         compiled += cc.seconds
     t_run = time.perf_counter()
     task_rows = {}
-    with CompileClock(compile_notice, compile_done) as cr:
+    with CompileClock(*said) as cr:
         done = sweep.run_lines(tasks, executor=executor, jobs=jobs, progress=not quiet, desc=case.name)
     run_s = time.perf_counter() - t_run - cr.seconds
-    announce_kernels(compiled + cr.seconds, f"{len(tasks)} continuation run(s)")
+    if not silent:
+        announce_kernels(compiled + cr.seconds, f"{len(tasks)} continuation run(s)")
     for t in tasks:
         task_rows[t.run] = done[(t.run, t.key)][0]
     conts = _assemble_continuation(tasks, task_rows)

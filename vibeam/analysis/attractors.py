@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from matplotlib.colors import ListedColormap
+from matplotlib.colors import ListedColormap, to_rgb
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
@@ -1408,7 +1408,9 @@ def _lambda_text(r: BasinsResult, i: int, k: int) -> str:
     return f"lambda_1 = {lam:.4g} +- {err:.2g}{unit} ({how})"
 
 
-def _legend_text(r: BasinsResult, i: int, k: int) -> str:
+def _legend_text(r: BasinsResult, i: int, k: int, se: bool = False) -> str:
+    """``k: period-1, Q = 0.753 mm, 68.7 %`` (``se``, the figure's legend: ``k: period-1 attractor, Q =
+    0.753 mm, basin 68.7 ± 1.2 %``, with the fraction's standard error)."""
     a = r.attractors
     t = a["type"][i][k]
     n = int(a["period"][i, k])
@@ -1416,12 +1418,29 @@ def _legend_text(r: BasinsResult, i: int, k: int) -> str:
             "sticking": f"sticking, period-{n}" if n else "sticking, not periodic"}.get(t, t.replace("_", "-"))
     amp = a["amplitude"][i, k] * (r.amplitude_scale_mm or 1.0)
     unit = " mm" if r.amplitude_scale_mm else ""
+    if se:
+        return (f"{k}: {name} attractor, Q = {amp:.3g}{unit}, basin {100 * a['fraction'][i, k]:.1f} ± "
+                f"{100 * a['fraction_se'][i, k]:.1f} %")
     return f"{k}: {name}, Q = {amp:.3g}{unit}, {100 * a['fraction'][i, k]:.1f} %"
 
 
+#: how much of white a basin's cells mix into their attractor's colour: the cells are a light tint, the
+#: attractor's own stroboscopic samples over them the full colour (with a thin black rim), so each
+#: attractor is seen on its basin and no two attractors share a colour
+BASIN_TINT = 0.55
+
+
+def _tint(colour, white: float = BASIN_TINT):
+    """``colour`` mixed with ``white`` parts of white (an RGB tuple)."""
+    return tuple((1.0 - white) * c + white for c in to_rgb(colour))
+
+
 def basins_figure(r: BasinsResult, i: int = 0, title: str = ""):
-    """The basin image at frequency ``i``: one colour per attractor, unsettled/failed grey,
-    each attractor's stroboscopic set drawn over it, the stop's position marked (SDOF)."""
+    """The basin image at frequency ``i``: each attractor its own colour (:data:`PALETTE`), its basin
+    in a light tint of it and its stroboscopic set in the full colour over it; unsettled/failed grey;
+    the stop's position marked (SDOF).  The legend gives each attractor's basin fraction with its
+    standard error and, where the labels were checked by long simulation, the mislabel rate's upper
+    bound (:meth:`BasinsResult.mislabel_rate`)."""
     with context():
         return _basins_figure(r, i, title)
 
@@ -1430,7 +1449,8 @@ def _basins_figure(r, i, title):
     fig, ax = plt.subplots(figsize=(6.4, 5.0))
     nA = r.n_attractors
     present = [k for k in range(nA) if r.attractors["type"][i][k]]
-    colours = ["0.55", "0.8"] + [PALETTE[k % len(PALETTE)] for k in range(nA)]
+    full = [PALETTE[k % len(PALETTE)] for k in range(nA)]
+    colours = ["0.55", "0.8"] + [_tint(c) for c in full]
     # image values: 0 failed, 1 unsettled, 2 behind a stop (white), 3 + k attractor k
     img = np.where(r.labels[i] == BEHIND_STOP, -1, r.labels[i]) + 3 if r.grid else None
     handles = []
@@ -1449,14 +1469,23 @@ def _basins_figure(r, i, title):
         S = r.attractors["samples"][i, k]
         S = S[np.isfinite(S[:, 0])]
         XY = r.axes.values(S)
-        ax.plot(XY[:, 0], XY[:, 1], ".", ms=1.5, color="k", gid="attractor")
-        handles.append(Patch(color=colours[k + 2], label=_legend_text(r, i, k)))
+        few = len(np.unique(np.round(XY, 12), axis=0)) <= 16        # a periodic orbit's few points: larger
+        ax.plot(XY[:, 0], XY[:, 1], ls="none", marker="o", ms=5 if few else 2.5, color=full[k], mfc=full[k], mec="k",
+                mew=0.4, zorder=3, gid="attractor")
+        # one entry per attractor: its basin's tint as a broad bar, its dots' colour as the marker on it
+        handles.append(Line2D([], [], ls="-", lw=7, color=colours[k + 2], marker="o", ms=6, mfc=full[k], mec="k",
+                              mew=0.4, label=_legend_text(r, i, k, se=True)))
     if not r.grid:  # sampled states: coloured dots, not cells
         handles.append(Line2D([], [], ls="none", marker="o", ms=3, color="0.45",
                               label="starting state, coloured by the attractor it reaches"))
-    if present:     # the black dots over the basins: each attractor's stroboscopic set
-        handles.append(Line2D([], [], ls="none", marker=".", ms=5, color="k",
-                              label="attractor: its stroboscopic samples (black dots)"))
+    if present:     # what the entries above show
+        handles.append(Line2D([], [], ls="none", label="dots: an attractor's stroboscopic samples; basin: its colour, "
+                                                       "lighter (fraction ± standard error)"))
+    rate, upper = r.mislabel_rate(i)
+    if math.isfinite(rate):
+        handles.append(Line2D([], [], ls="none", label=f"labels checked by long simulation: "
+                                                      f"{int(r.labels_wrong[i])} of {int(r.labels_checked[i])} wrong, "
+                                                      f"mislabelled at most {100 * upper:.1f} % (95 %)"))
     lab = r.labels[i]
     for code, c in ((UNSETTLED, colours[1]), (FAILED, colours[0])):
         if np.any(lab == code):

@@ -792,6 +792,11 @@ MARKERS = {"fold": ("s", "#777777", "fold"), "period_doubling": ("D", "#000000",
            "neimark_sacker": ("*", "#F0E442", "Neimark-Sacker"), "grazing": ("v", "#882255", "grazing"),
            "sticking": ("P", "#56B4E9", "sticking")}
 BIFURCATION_MS = 5.5
+#: the end of a branch the corrector could not continue (status ``no_convergence``: the step fell
+#: below ``ds_min``): a white cross rimmed in black, apart from every branch colour and from the
+#: bifurcation markers; the continuation does not say that the branch ends there, only that it was
+#: not followed further
+END_MARKER = ("X", "#FFFFFF", "branch not continued past here: no convergence (step below ds_min)")
 #: bifurcation points of one type nearer than this fraction of the axes are drawn once
 MARKER_SPACING = 0.015
 
@@ -829,7 +834,8 @@ def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = ""
     bifurcations are marked in colours apart from every branch colour (period doubling black
     diamonds), one marker per point (:func:`_apart`); the case's sweep points are overlaid
     (up filled, down open, grey) when there are any, and only then does the subtitle give the
-    sweep's settings.  A Figure."""
+    sweep's settings.  The last point of a branch that ended in ``no_convergence`` is marked
+    (:data:`END_MARKER`): the corrector gave up there, the branch may go on.  A Figure."""
     fn, L = r.attrs.get("natural_frequency_hz"), r.attrs.get("length_m")
     use_hz = bool(fn) and r.parameter == "Omega"
     xs = fn if use_hz else 1.0
@@ -869,6 +875,19 @@ def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = ""
                     k0 = k
             if b["n"] not in periods:
                 periods.append(b["n"])
+        ends = [(b["data"]["parameter"][-1] * xs, b["data"]["amplitude"][-1] * ys) for b in r.branches
+                if str(b.get("status", "")) == "no_convergence" and b["data"] and len(b["data"]["parameter"])]
+        if ends:
+            mk, c, lab = END_MARKER
+            ax.plot([p[0] for p in ends], [p[1] for p in ends], ls="none", marker=mk, color="k", mfc=c, mec="k",
+                    mew=1.0, ms=BIFURCATION_MS + 2.5, zorder=6 + len(MARKERS), gid="no_convergence")
+            end = style.proxy("k", marker=mk, ms=BIFURCATION_MS + 2.5,
+                              label=f"{lab}{f' ({len(ends)} branches)' if len(ends) > 1 else ''}")
+            end.set_markerfacecolor(c)
+            end.set_markeredgewidth(1.0)
+            handles_end = [end]
+        else:
+            handles_end = []
         for n in sorted(periods):
             c, mk = style.branch_style(n)
             handles.append(style.proxy(c, ls="-", marker=mk, ms=4, label=f"period-{n} branch"))
@@ -895,6 +914,7 @@ def continuation_figure(r: ContinuationResult, sweep_runs: list, title: str = ""
             ax.plot(px, py, ls="none", marker=mk, color=c, mfc=c, ms=BIFURCATION_MS, mec="k", mew=0.5,
                     zorder=5 + list(MARKERS).index(kind) if kind in MARKERS else 5)
             handles.append(style.proxy(c, marker=mk, label=lab, ms=BIFURCATION_MS))
+        handles += handles_end
         ax.set_xlabel(_param_label(r, use_hz))
         ax.set_ylabel(style.label(r"amplitude at the sensor, $U(L_S)$", "mm") if L else
                       style.label(r"amplitude $Q = \Delta - \min q$", None))

@@ -47,6 +47,9 @@ class PoincareSection:
         ``unsettled``, ``chatter``, ...); :attr:`period_text` says the period in words.
     name : str
         The case (and run) simulated, the figure's title ('' for a model).
+    impact_stop : ndarray of int, shape (k,), or None
+        A scene with several stops: the stop of each impact (0 the upper stop, 1 the lower one, 2 + i
+        the beam's point stop i; ``models.trajectory.Trajectory.impact_stops``); None with one stop.
     """
 
     Omega: float
@@ -59,6 +62,7 @@ class PoincareSection:
     period: int = 0
     status: str = "ok"
     name: str = ""
+    impact_stop: np.ndarray | None = None
 
     @property
     def period_text(self) -> str:
@@ -118,17 +122,27 @@ def section(sim) -> PoincareSection:
         spp = int(round(2.0 * math.pi / sim.Omega / (sim.t[1] - sim.t[0])))
     idx = np.arange(0, sim.t.size, spp)
     ti = np.asarray(sim.impact_times, float)
+    stops = getattr(getattr(sim, "trajectory", None), "impact_stops", None)
+    stops = np.asarray(stops, np.int64).copy() if stops is not None and len(stops) == ti.size else None
     return PoincareSection(Omega=float(sim.Omega), strobe_q=np.asarray(sim.q)[idx].copy(),
                            strobe_dq=np.asarray(sim.dq)[idx].copy(),
                            impact_phase=np.mod(sim.Omega * ti, 2.0 * math.pi),
                            impact_velocity=np.asarray(sim.impact_velocities, float).copy(),
                            length_m=sim.length_m, natural_frequency_hz=sim.natural_frequency_hz,
                            period=int(sim.summary.get("period", 0)), status=str(sim.status),
-                           name=str(getattr(sim, "name", "") or ""))
+                           name=str(getattr(sim, "name", "") or ""), impact_stop=stops)
+
+
+def stop_name(code: int) -> str:
+    """The stop of an impact code (:attr:`PoincareSection.impact_stop`): ``upper stop``, ``lower stop``,
+    ``point stop i``."""
+    return {0: "upper stop", 1: "lower stop"}.get(int(code), f"point stop {int(code) - 1}")
 
 
 def poincare_figure(p: PoincareSection, title: str = ""):
-    """Stroboscopic section (left) and impact section (right); a Figure."""
+    """Stroboscopic section (left) and impact section (right); a Figure.  With several stops the
+    impacts on each stop have their own colour and marker (a legend names them); tick labels are
+    thinned until neighbouring ones stand apart (:func:`vibeam.plots.style.thin_ticks`)."""
     fx, fv = p.scales
     xu, vu = ("mm", "mm/s") if p.physical else (None, None)
     x_sym, v_sym = (style.DISPLACEMENT, style.VELOCITY) if p.physical else ("$q$", r"$\dot q$")
@@ -139,17 +153,27 @@ def poincare_figure(p: PoincareSection, title: str = ""):
         axes[0].set_xlabel(style.label(x_sym, xu))
         axes[0].set_ylabel(style.label(v_sym, vu))
         axes[0].set_title(f"stroboscopic section ({p.strobe_q.size} periods)", loc="left")
-        axes[1].plot(p.impact_phase, p.impact_velocity * fv, ls="none", marker="o", ms=3, color=c1)
+        several = p.impact_stop is not None
+        codes = sorted(set(int(c) for c in p.impact_stop)) if several else [None]
+        for j, code in enumerate(codes):    # one colour and marker per stop (the palette after the strobe's)
+            sel = slice(None) if code is None else np.asarray(p.impact_stop) == code
+            c = style.PALETTE[(1 + (code if code is not None else 0)) % len(style.PALETTE)]
+            n = int(np.sum(sel)) if code is not None else p.impact_phase.size
+            axes[1].plot(p.impact_phase[sel], p.impact_velocity[sel] * fv, ls="none", marker="os^vD"[j % 5], ms=3,
+                         color=c, label=f"{stop_name(code)} ({n} impacts)" if code is not None else None)
         axes[1].set_xlim(0.0, 2.0 * math.pi)
         axes[1].set_xlabel(style.label(r"impact phase $\Omega t$ mod $2\pi$", "rad"))
-        axes[1].set_ylabel(style.label(r"pre-impact speed at the stop $|v^-|$" if p.physical else
+        axes[1].set_ylabel(style.label((r"pre-impact speed at a stop $|v^-|$" if several else
+                                        r"pre-impact speed at the stop $|v^-|$") if p.physical else
                                        r"pre-impact speed $|\dot q^-|$", vu))
         axes[1].set_title(f"impact section ({p.impact_phase.size} impacts)", loc="left")
+        if several and p.impact_phase.size:
+            axes[1].legend(loc="best", fontsize=8)
         for ax in axes:
             ax.ticklabel_format(useOffset=False)       # a collapsed section: its values, not offsets
-        style.thin_ticks(fig, axes)
         f = f"{p.frequency_hz:.4g} Hz, " if p.frequency_hz else ""
         head = f"{p.name}: " if p.name else ""
         style.titles(fig, title or f"{head}Poincaré sections at {f}$\\Omega$ = {p.Omega:.6g}",
                      style.motion_text(p.period, p.status))
+        style.thin_ticks(fig, axes)                    # after the titles: on the final layout
     return fig

@@ -42,6 +42,7 @@ from vibeam.io.netcdf import json_default, read_attrs, read_plain, var, write_gr
 from vibeam.io.store import case_hash
 
 __all__ = ["QUANTILES", "JUMP_FRACTION", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_CONFIDENCE", "UncertaintyResult", "SampleTask", "sample_arrays", "sample_runs", "verdict",
+           "RESOLVED_FRACTION", "verdict_text", "jump_share",
            "CHECKPOINT", "checkpoint_ident", "checkpoint_groups", "check_block", "samples_from_checkpoint",
            "uncertainty_group", "read_uncertainty", "bands", "sobol_entries", "outcome_entries", "OUTCOME_COLOURS",
            "uncertainty_variables"]
@@ -51,6 +52,11 @@ QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
 #: a jump is a change of the amplitude between neighbouring points larger than this fraction of the
 #: run's peak (the run summary's rule, :mod:`vibeam.analysis.summary`)
 JUMP_FRACTION = 0.2
+#: a pair of runs is told apart by its amplitude (:func:`verdict_text`) when one run's median lies
+#: outside the other's 90 % band at more than this fraction of the points: with one model the median
+#: leaves the 5-95 % band only by sampling error, at isolated points (a jump, where the band is
+#: bimodal), so a tenth of the grid is beyond chance and below it no difference is claimed
+RESOLVED_FRACTION = 0.1
 #: the statuses whose probability is stored beside the classes
 STATUS_OUTCOMES = ("chatter", "sticking", "failed")
 #: the colour of each outcome in the outcome figure: the map's class colours (vibeam.analysis.maps), then the
@@ -622,6 +628,51 @@ def verdict(results: list) -> dict:
     return out
 
 
+def verdict_text(v: dict) -> str:
+    """The conclusion of one pair's verdict (:func:`verdict`) in words.
+
+    ``model-form difference resolved (...)`` when the runs differ beyond the scatter of the sampled
+    parameters: the amplitude when one run's median lies outside the other's 90 % band at more than
+    :data:`RESOLVED_FRACTION` of the points, the jump frequency when one run's median down-sweep
+    jump lies outside the other's 5-95 % spread of jumps; ``model-form difference hidden by the
+    scatter of the sampled parameters`` otherwise; ``no conclusion`` without a point where both
+    runs have a finite band.
+
+    Parameters
+    ----------
+    v : dict
+        One value of :func:`verdict` (or an ``attrs["verdict_<run>"]``).
+
+    Returns
+    -------
+    str
+    """
+    amp = [v.get("outside_band_a_in_b"), v.get("outside_band_b_in_a")]
+    amp = [float(x) for x in amp if x is not None and np.isfinite(x)]
+    if not v.get("points") or not amp:
+        return "no conclusion (no point where both runs have a finite band)"
+    ja, jb = v.get("jump_median_a", np.nan), v.get("jump_median_b", np.nan)
+    (la, ha), (lb, hb) = v.get("jump_band_a", (np.nan, np.nan)), v.get("jump_band_b", (np.nan, np.nan))
+    jumps = all(np.isfinite(x) for x in (ja, jb, la, ha, lb, hb))
+    resolved = [what for what, yes in (("amplitude", max(amp) > RESOLVED_FRACTION),
+                                       ("jump frequency", jumps and not (lb <= ja <= hb and la <= jb <= ha)))
+                if yes]
+    if resolved:
+        return f"model-form difference resolved ({' and '.join(resolved)} beyond the scatter of the sampled parameters)"
+    return "model-form difference hidden by the scatter of the sampled parameters"
+
+
+def jump_share(r: UncertaintyResult) -> tuple[float, str]:
+    """The fraction of the samples whose sweep jumps (:meth:`UncertaintyResult.jumps`: a change of the
+    amplitude between neighbouring points above :data:`JUMP_FRACTION` of the sample's peak), in the
+    down sweep when there is one (else the up sweep), and that direction: ``(fraction, direction)``.
+    The value :func:`verdict` stores as ``jump_fraction_a`` / ``_b``."""
+    d = r.directions.index("down") if "down" in r.directions else 0
+    base = np.asarray(r.base, bool)
+    j = r.jumps()[base, d]
+    return (float(np.isfinite(j).sum() / base.sum()) if base.any() else float("nan")), r.directions[d]
+
+
 def uncertainty_variables(r: UncertaintyResult) -> dict:
     """The variables of ``/uncertainty/<run>/`` (:func:`vibeam.io.netcdf.write_group`): the design on
     (sample, parameter), every sampled sweep on (sample, direction, Omega), and the statistics on
@@ -735,7 +786,8 @@ def bands(results) -> list:
         x, xu = r.axis
         scale = r.length_m * 1e3 if r.length_m else 1.0
         out.append({"name": r.name, "x": x, "x_unit": xu, "directions": list(r.directions),
-                    "q": r.quantiles() * scale, "unit": "mm" if r.length_m else "1"})
+                    "q": r.quantiles() * scale, "unit": "mm" if r.length_m else "1",
+                    "samples": int(np.sum(r.base)), "parameters": list(r.parameters)})
     return out
 
 

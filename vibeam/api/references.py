@@ -60,7 +60,7 @@ class Regression:
 
 def regress(case, reference, results=None, out=None, jobs: int | None = None, executor=None,
             atol: float | None = None, rtol: float | None = None, quick: bool = False,
-            force: bool = False) -> Regression:
+            force: bool = False, quiet: bool = False) -> Regression:
     """Compare a case's FRCs with reference FRCs (``vibeam regress``): rerun the case (or take
     ``results``) and compare amplitudes point by point (``[regress]`` tolerances).
 
@@ -78,6 +78,9 @@ def regress(case, reference, results=None, out=None, jobs: int | None = None, ex
     atol, rtol : float, optional
         Override ``[regress] amplitude_atol`` / ``amplitude_rtol``; checked by those keys' rule
         (a finite number >= 0).
+    quiet : bool
+        The rerun says nothing on standard error (``--quiet``: no header line, no lines about
+        compiling kernels); it never draws a progress bar.
 
     Returns
     -------
@@ -92,7 +95,7 @@ def regress(case, reference, results=None, out=None, jobs: int | None = None, ex
     TypeError, ValueError
         ``atol`` / ``rtol`` not a finite number >= 0 (NaN, infinite, negative).
     """
-    jobs, out = check_run_args(jobs, out, executor, quick=quick, force=force)
+    jobs, out = check_run_args(jobs, out, executor, quick=quick, force=force, quiet=quiet)
     if atol is not None:
         atol = check_case_value(atol, "atol", RegressSpec, "amplitude_atol")
     if rtol is not None:
@@ -113,7 +116,7 @@ def regress(case, reference, results=None, out=None, jobs: int | None = None, ex
         # into the reference it is compared with
         with tempfile.TemporaryDirectory(prefix=f"vibeam-regress-{c.name}-") as tmp:
             out_dir = check_folder(Path(out) if out else Path(tmp))
-            run_case(c, case_text(c), out_dir, jobs=jobs, quiet=True, plots=False, quick=quick,
+            run_case(c, case_text(c), out_dir, jobs=jobs, quiet=True, announce=not quiet, plots=False, quick=quick,
                      executor=executor, force=force, source=source, inputs=[(reference, "--reference")])
             new = load_results(out_dir / "results.h5", "results")
     tol = c.regress
@@ -151,7 +154,7 @@ class Cost:
 
 
 def cost(case, out=None, ladder: bool = False, repeats: int = 3, quick: bool = False, jobs: int | None = None,
-         force: bool = False, log=None) -> Cost:
+         force: bool = False, log=None, plots: bool = True) -> Cost:
     """Accuracy against time of every run (``vibeam cost``): each run's sweep timed (median of
     ``repeats``, inline) and its error against a converged reference.
 
@@ -168,6 +171,8 @@ def cost(case, out=None, ladder: bool = False, repeats: int = 3, quick: bool = F
         As :func:`run` (``jobs``: the workers of the converged references).
     log : callable, optional
         Progress messages (default: none).
+    plots : bool
+        With ``out``: also ``work_precision.png`` (``--no-plots``: ``cost.h5`` only).
 
     Returns
     -------
@@ -178,7 +183,7 @@ def cost(case, out=None, ladder: bool = False, repeats: int = 3, quick: bool = F
     vibeam.case.schema.CaseError
         Work above the limit without ``force``; a bad case.
     """
-    jobs, out = check_run_args(jobs, out, None, ladder=ladder, quick=quick, force=force)
+    jobs, out = check_run_args(jobs, out, None, ladder=ladder, quick=quick, force=force, plots=plots)
     repeats = check_whole(repeats, "repeats", 1, 10 ** 6)
     c, source = case_and_source(case)
     text = case_text(c)
@@ -194,8 +199,8 @@ def cost(case, out=None, ladder: bool = False, repeats: int = 3, quick: bool = F
         res = run_cost(c, ladder=ladder, repeats=repeats, jobs=jobs, log=log)
         h5 = write_results(folder / "cost.h5", [], c.name, text, extra={"cost": cost_tables(res)},
                            case_json=c.model_dump_json())
-        png = plot_work_precision(res, folder / "work_precision.png", title=c.name, case=c)
-    return Cost(c, res, {"h5": h5, "png": png})
+        png = plot_work_precision(res, folder / "work_precision.png", title=c.name, case=c) if plots else None
+    return Cost(c, res, {"h5": h5, "png": png} if png is not None else {"h5": h5})
 
 
 def fit(case, reference=None, params=None, run: str | None = None, out=None, jobs: int | None = 1,

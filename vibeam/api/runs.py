@@ -108,7 +108,7 @@ def run(case, jobs: int | None = None, executor=None, out=None, quick: bool = Fa
     found = []
     # one results store for the whole call: the sweeps, then the [basins], under one lock
     with ctx, Store(folder, fresh=fresh) as store:
-        res = run_case(c, text, folder, jobs=jobs, quiet=not progress, plots=plots and out is not None,
+        res = run_case(c, text, folder, jobs=jobs, quiet=not progress, announce=True, plots=plots and out is not None,
                        quick=quick, resume=resume and out is not None, executor=executor,
                        checkpoint=out is not None, force=force, source=source, store=store)
         if basins and c.basins is not None:
@@ -183,8 +183,8 @@ def continuation(case, jobs: int | None = None, executor=None, out=None, quick: 
         folder = Path(out)
     ctx = contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO())
     with ctx:
-        run_case(c, text, folder, jobs=jobs, quiet=not progress, plots=plots and out is not None, quick=quick,
-                 executor=executor, force=force, source=source, continuation_only=True, fresh=fresh)
+        run_case(c, text, folder, jobs=jobs, quiet=not progress, announce=True, plots=plots and out is not None,
+                 quick=quick, executor=executor, force=force, source=source, continuation_only=True, fresh=fresh)
     return _collect(c.quick_variant() if quick else c, folder / "results.h5", out, tmp)
 
 

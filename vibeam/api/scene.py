@@ -10,7 +10,7 @@ import numpy as np
 
 from vibeam.api.cases import case_and_source
 from vibeam.api.common import saved
-from vibeam.case.arguments import check_path, check_whole
+from vibeam.case.arguments import check_flag, check_path, check_whole
 from vibeam.case.beamscene import beam_spec, derive as derive_scene, modes_report, sdof_case_text
 from vibeam.io.outdir import OutputLock, check_folder, replace_file, write_text_file
 from vibeam.models.beam import write_modes
@@ -111,7 +111,7 @@ class Modes:
         return saved(modes_figure(self.report, self.case.name), path)
 
 
-def modes(case, n: int = 6, out=None) -> Modes:
+def modes(case, n: int = 6, out=None, plots: bool = True) -> Modes:
     """Natural frequencies, participation, effective masses and contact modes of a beam scene
     (``vibeam modes``; Hermite FE cantilever with point mass and rotary inertia, base excitation).
 
@@ -123,6 +123,8 @@ def modes(case, n: int = 6, out=None) -> Modes:
         Number of modes (>= 1; at most the FE model's degrees of freedom).
     out : str or Path, optional
         A folder: ``modes.vtu`` (ParaView) and ``modes.png`` are written there atomically.
+    plots : bool
+        With ``out``: also ``modes.png`` (``--no-plots``: ``modes.vtu`` only).
 
     Returns
     -------
@@ -137,6 +139,7 @@ def modes(case, n: int = 6, out=None) -> Modes:
     """
     n = check_whole(n, "n", 1, 10 ** 6)
     out = check_path(out, "out")
+    check_flag(plots, "plots")
     c, _ = case_and_source(case)
     spec = beam_spec(c, "modes")
     rep = modes_report(spec, n=n)
@@ -145,15 +148,17 @@ def modes(case, n: int = 6, out=None) -> Modes:
     if out is not None:
         folder = check_folder(Path(out))
         with OutputLock(folder):          # like every writer: one vibeam process per folder
-            res.paths = write_modes_files(res, folder)
+            res.paths = write_modes_files(res, folder, plots=plots)
     return res
 
 
-def write_modes_files(res: Modes, folder) -> dict:
-    """``modes.vtu`` and ``modes.png`` of :func:`modes` into ``folder`` (atomically)."""
+def write_modes_files(res: Modes, folder, plots: bool = True) -> dict:
+    """``modes.vtu`` and (``plots``) ``modes.png`` of :func:`modes` into ``folder`` (atomically)."""
     folder = Path(folder)
     vtu = replace_file(folder / "modes.vtu",
                        lambda p: write_modes(p, res.fe, n=min(res.n, len(res.modes.frequencies_hz))))
+    if not plots:
+        return {"vtu": vtu}
     from vibeam.plots.sweep import save_close  # lazy: matplotlib.pyplot (0.6 s) out of `vibeam derive`
 
     png = save_close(modes_figure(res.report, res.case.name), folder / "modes.png")

@@ -1,6 +1,7 @@
 """A results file as tidy CSV tables, as ``vibeam export RESULTS.h5 --csv DIR``: :func:`export`."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -8,7 +9,9 @@ import pandas as pd
 
 from vibeam.api.results import open_results
 from vibeam.case.arguments import check_path
-from vibeam.io.outdir import check_output_file, replace_file
+from vibeam.errors import InputError
+from vibeam.io.outdir import check_folder, check_output_file, replace_file
+from vibeam.io.store import UNIT_PARENTS
 
 
 def export(path, csv_dir) -> list:
@@ -18,10 +21,14 @@ def export(path, csv_dir) -> list:
     per variable.  A group whose variables lie on several sets of dimensions (a run's per-point
     outputs on (direction, Omega), its strobe on (direction, Omega, record_period, state), ...)
     gives one file per set: ``<group>.csv`` for the set with most variables, else
-    ``<group>@<dim>-<dim>.csv`` (``/`` in a group's path is ``.``); where two groups would give one
-    file name (run names ``a`` and ``a.units``, or ``a@direction-Omega-harmonic``), the later one
-    gets ``~2``, ``~3``, ... before ``.csv``, so every table has a file of its own.
-    ``index.csv`` lists each file once, with its group, dimensions and rows.  Complex values are
+    ``<group>__<dim>-<dim>.csv`` (``/`` in a group's path is ``.``).  File names are portable: only
+    ``A-Z a-z 0-9 . _ -`` (:func:`portable_stem`: any other character of a run's name -- a space,
+    parentheses, ``@``, a non-ASCII letter -- becomes ``_``, ``runs.static_mode_SDOF.csv`` for the
+    run ``static mode (SDOF)``); where two tables would get one name (run names ``a`` and
+    ``a.units``, ``a b`` and ``a_b``, names that differ only in case), the later one gets ``-2``,
+    ``-3``, ... before ``.csv``, so every table has a file of its own.  ``index.csv`` lists each
+    file once, with its group, the run's own name as written in the case (``run``; empty for a
+    table that is not a run's), dimensions and rows.  Complex values are
     two columns ``<name>_real``, ``<name>_imag``.  Units and long names are in a sidecar
     ``<file>.units.csv`` (``column,units,long_name``; ``1`` is nondimensional).  Padding (NaN
     beyond a branch's ``n_points``) is kept as empty cells, so every row maps to one stored
@@ -34,7 +41,7 @@ def export(path, csv_dir) -> list:
     path : str or Path
         A results file (layout 2).
     csv_dir : str or Path
-        Output folder (created if missing).
+        Output folder (created if missing; a file there is refused).
 
     Returns
     -------
@@ -46,28 +53,36 @@ def export(path, csv_dir) -> list:
     ValueError
         Not a results file of layout 2, or one whose structure vibeam refuses (links, data
         beyond the size bounds; :mod:`vibeam.io.h5check`): one line naming the file
-        (:class:`vibeam.errors.InputError`).
+        (:class:`vibeam.errors.InputError`); ``csv_dir`` names a file, or a folder that cannot
+        be created or written (:class:`vibeam.errors.InputError`, naming ``--csv``).
     """
     csv_dir = check_path(csv_dir, "csv_dir", optional=False)
+    folder = Path(csv_dir)
+    if folder.exists() and not folder.is_dir():        # refused before the results file is read
+        raise InputError(f"--csv {folder}: is a file, not a folder; give a folder for the CSV files (created "
+                         f"if missing)")
     res = open_results(path)
     tree = res.tree()
-    folder = Path(csv_dir)
 
     files, index, used = [], [], set()
     for node in tree.subtree:
         ds = node.to_dataset(inherit=False)
         if not ds.data_vars:
             continue
-        gname = node.path.strip("/").replace("/", ".")
+        group = node.path.strip("/")
+        parts = group.split("/")
+        run = parts[1] if len(parts) > 1 and parts[0] in UNIT_PARENTS else ""
+        gname = ".".join(portable_stem(x) for x in parts)
         for stem, dims, table, units in _tidy_tables(node.to_dataset(), ds, gname):
             stem = _unique_stem(stem, used)
             files.append((f"{stem}.csv", table.to_csv(index=False)))
             files.append((f"{stem}.units.csv", units.to_csv(index=False)))
-            index.append((f"{stem}.csv", node.path.strip("/"), " ".join(dims), len(table)))
-    # what each file holds: its group in results.h5 and its dimensions (the coordinate columns)
-    files.append(("index.csv", pd.DataFrame(index, columns=["file", "group", "dimensions", "rows"])
+            index.append((f"{stem}.csv", group, run, " ".join(dims), len(table)))
+    # what each file holds: its group in results.h5, the run's own name and its dimensions (the
+    # coordinate columns)
+    files.append(("index.csv", pd.DataFrame(index, columns=["file", "group", "run", "dimensions", "rows"])
                   .to_csv(index=False)))
-    folder.mkdir(parents=True, exist_ok=True)
+    check_folder(folder, "--csv")
     for name, _ in files:
         check_output_file(folder / name)
     written = []
@@ -78,22 +93,29 @@ def export(path, csv_dir) -> list:
     return written
 
 
-#: the longest file stem export writes (bytes of UTF-8; file systems allow 255 per name)
+#: the longest file stem export writes (characters, all ASCII; file systems allow 255 bytes per name)
 MAX_STEM_BYTES = 200
 
 
+def portable_stem(name: str) -> str:
+    """``name`` in the portable file-name characters ``A-Z a-z 0-9 . _ -`` (POSIX's portable
+    filename character set): every run of other characters becomes one ``_``, and ``_`` at
+    either end is dropped (``static mode (SDOF)`` -> ``static_mode_SDOF``); a name with none
+    left is ``_``.  Not unique by itself: :func:`_unique_stem` makes the file names so."""
+    out = re.sub(r"[^A-Za-z0-9._-]+", "_", str(name)).strip("_")
+    return out if out.strip(".") else "_"
+
+
 def _unique_stem(stem: str, used: set) -> str:
-    """``stem`` made unique among ``used`` (and added to it): no two tables share a data file,
-    and no data file is another's ``.units.csv`` sidecar; cut to :data:`MAX_STEM_BYTES` on a
-    character boundary."""
-    raw = stem.encode("utf-8")
-    if len(raw) > MAX_STEM_BYTES:
-        stem = raw[:MAX_STEM_BYTES].decode("utf-8", "ignore")
+    """``stem`` made unique among ``used`` (and added to it), compared without regard to case (a
+    file system that ignores it): no two tables share a data file, and no data file is another's
+    ``.units.csv`` sidecar; cut to :data:`MAX_STEM_BYTES`."""
+    stem = stem[:MAX_STEM_BYTES]
     names = lambda s: {s.lower(), f"{s}.units".lower()}
     cand, k = stem, 1
     while names(cand) & used or cand.lower() == "index" or any(cand.lower() == f"{u}.units" for u in used):
         k += 1
-        cand = f"{stem}~{k}"
+        cand = f"{stem}-{k}"
     used |= names(cand)
     return cand
 
@@ -105,7 +127,7 @@ def _tidy_tables(full, own, gname: str):
         sets.setdefault(tuple(v.dims), []).append(k)
     main = max(sets, key=lambda d: (len(sets[d]), -len(d)))
     for dims, names in sets.items():
-        stem = gname if dims == main else f"{gname}@{'-'.join(dims) or 'scalar'}"
+        stem = gname if dims == main else f"{gname}__{'-'.join(portable_stem(d) for d in dims) or 'scalar'}"
         # the coordinates on exactly these dimensions (e.g. frequency_hz on Omega) as columns too
         coords = [c for c in full.coords if set(full[c].dims) <= set(dims) and c not in dims]
         cols, meta = {}, []

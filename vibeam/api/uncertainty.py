@@ -8,9 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from vibeam.analysis.uncertainty import (BOOTSTRAP_CONFIDENCE, CHECKPOINT, QUANTILES, bands, check_block,  # noqa: F401
-                                         checkpoint_groups, checkpoint_ident, outcome_entries, read_uncertainty, sample_runs,
-                                         samples_from_checkpoint, sobol_entries, uncertainty_group)
+from vibeam.analysis.uncertainty import (BOOTSTRAP_CONFIDENCE, CHECKPOINT, JUMP_FRACTION, QUANTILES, bands,  # noqa: F401
+                                         check_block, checkpoint_groups, checkpoint_ident, jump_share, outcome_entries,
+                                         read_uncertainty, sample_runs, samples_from_checkpoint, sobol_entries,
+                                         uncertainty_group, verdict_text)
 from vibeam.api.cases import case_text, load_case
 from vibeam.api.common import check_run_args
 from vibeam.api.results import Results
@@ -22,10 +23,21 @@ from vibeam.runner import case_identity, same_case
 __all__ = ["uncertainty", "uncertainty_group", "print_uncertainty", "bands", "plot_uncertainty"]
 
 
+#: what the printed quantiles, bands and jumps are (one line above the table)
+LEGEND = (f"quantiles of the amplitude over the samples: the median (50 %), the 50 % band (25-75 %) and the 90 % "
+          f"band (5-95 %); the {100 * BOOTSTRAP_CONFIDENCE:.0f} % bootstrap interval is the median's sampling "
+          f"error; a sample jumps where its amplitude changes between neighbouring points by more than "
+          f"{100 * JUMP_FRACTION:.0f} % of its peak")
+
+
 def print_uncertainty(results, file=None) -> None:
-    """The table of :func:`uncertainty`: per run the samples, the median peak amplitude with its 90 %
-    band, and per pair of runs the verdict (:func:`vibeam.analysis.uncertainty.verdict`)."""
+    """The table of :func:`uncertainty`: a line saying what the quantiles, bands and jumps are
+    (:data:`LEGEND`), per run the samples, the median peak amplitude with its 90 % band and the share
+    of the samples that jump, and per pair of runs the verdict in words
+    (:func:`vibeam.analysis.uncertainty.verdict_text`) with its figures
+    (:func:`vibeam.analysis.uncertainty.verdict`)."""
     out = file or sys.stdout
+    print(f"  {LEGEND}", file=out)
     for r in results:
         q = r.quantiles()
         scale, unit = (r.length_m * 1e3, "mm") if r.length_m else (1.0, "")
@@ -38,6 +50,11 @@ def print_uncertainty(results, file=None) -> None:
               f"{med[i] * scale:.4g} {unit} ({100 * BOOTSTRAP_CONFIDENCE:.0f} % bootstrap interval {ci[0]:.4g} ... {ci[1]:.4g}; "
               f"90 % band {q[0][i] * scale:.4g} ... {q[-1][i] * scale:.4g}) at "
               f"{x[i[1]]:.4g} {xu} ({r.directions[i[0]]})", file=out)
+        share, d = jump_share(r)
+        j = r.jumps()[np.asarray(r.base, bool), r.directions.index(d)]
+        j = j[np.isfinite(j)]
+        where = f", median jump at {np.median(j):.4g} {xu}" if j.size else ""
+        print(f"  {r.name}: {100 * share:.0f} % of the samples jump in the {d} sweep{where}", file=out)
     for r in results:
         si = r.sobol()
         if si is not None:
@@ -52,11 +69,14 @@ def print_uncertainty(results, file=None) -> None:
         for key, v in r.attrs.items():
             if not key.startswith("verdict_") or v["a"] != r.name:
                 continue
-            print(f"  {v['a']} vs {v['b']}: the median of {v['a']} lies outside the 90 % band of {v['b']} at "
-                  f"{100 * v['outside_band_a_in_b']:.0f} % of {v['points']} points ({v['b']} in {v['a']}'s: "
-                  f"{100 * v['outside_band_b_in_a']:.0f} %); median down-sweep jump {v['jump_median_a']:.4g} "
-                  f"(5-95 %: {v['jump_band_a'][0]:.4g}-{v['jump_band_a'][1]:.4g}) against {v['jump_median_b']:.4g} "
-                  f"({v['jump_band_b'][0]:.4g}-{v['jump_band_b'][1]:.4g}) {'Hz' if v['unit'] == 'Hz' else '(Omega)'}", file=out)
+            unit = "Hz" if v["unit"] == "Hz" else "(Omega)"
+            ja, jb = v["jump_median_a"], v["jump_median_b"]
+            jumps = ("no sample of either run jumps" if not (np.isfinite(ja) or np.isfinite(jb)) else
+                     f"median down-sweep jump {ja:.4g} (5-95 %: {v['jump_band_a'][0]:.4g}-{v['jump_band_a'][1]:.4g}) "
+                     f"against {jb:.4g} ({v['jump_band_b'][0]:.4g}-{v['jump_band_b'][1]:.4g}) {unit}")
+            print(f"  {v['a']} vs {v['b']}: {verdict_text(v)}: the median of {v['a']} lies outside the 90 % band "
+                  f"of {v['b']} at {100 * v['outside_band_a_in_b']:.0f} % of {v['points']} points ({v['b']} in "
+                  f"{v['a']}'s: {100 * v['outside_band_b_in_a']:.0f} %); {jumps}", file=out)
 
 
 def _nanargmax(a):
@@ -218,7 +238,9 @@ def _complete(st, c, cj, aliases, n):
 
 
 def _print(c, results) -> None:
-    print(f"[{c.name}] uncertainty: {len(results)} run(s), quantiles {list(QUANTILES)}")
+    n = sorted({int(np.sum(r.base)) for r in results})
+    print(f"[{c.name}] uncertainty: {len(results)} run(s), {' or '.join(map(str, n))} samples each, quantiles "
+          f"{list(QUANTILES)}")
     print_uncertainty(results)
 
 

@@ -84,4 +84,5 @@ def estimate_goals(out: dict) -> list:
     f = out["goal_factor"]
     return [goal(f"every scene's run time within {f:g}x of the work estimate (inline or pool decided on it)",
                  f"ratios {out['ratio_min']:.2g} to {out['ratio_max']:.2g} (geometric mean "
-                 f"{out['ratio_geomean']:.2g})", 1.0 / f <= out["ratio_min"] and out["ratio_max"] <= f)]
+                 f"{out['ratio_geomean']:.2g})", 1.0 / f <= out["ratio_min"] and out["ratio_max"] <= f,
+                 timing=True)]

@@ -101,9 +101,9 @@ def bench_goals(out: dict) -> list:
              f"--periods {GOAL_PERIODS})")
     return [goal(f"event sweep well under 1 s ({GOAL_POINTS} points x {GOAL_PERIODS} periods, one core)",
                  f"{out['event_time_s']:.3f} s for {pts} points x {per} periods", out["event_time_s"] < 1.0,
-                 not_checked=other),
+                 not_checked=other, timing=True),
             goal(">= 300x faster than direct (solve_ivp RK23, rtol 1e-4, atol 1e-8, with events)",
-                 f"{out['speedup_event_vs_direct']:.0f}x", out["speedup_event_vs_direct"] >= 300),
+                 f"{out['speedup_event_vs_direct']:.0f}x", out["speedup_event_vs_direct"] >= 300, timing=True),
             goal(">= 1000x smaller amplitude error than direct",
                  f"{out['error_ratio_direct_over_event']:.3g}x", out["error_ratio_direct_over_event"] >= 1000),
             goal("event kernel <= 1 us per impact (issue 20; the whole sweep's time over its impacts)",
@@ -112,4 +112,4 @@ def bench_goals(out: dict) -> list:
                  f"{out['event_us_per_impact_every_period']:.2f} us integrating every period, the "
                  f"exact recurrence off: {out['recurrence_speedup']:.2f}x, outputs identical: "
                  f"{out['recurrence_outputs_identical']})",
-                 out["event_us_per_impact"] <= 1.0)]
+                 out["event_us_per_impact"] <= 1.0, timing=True)]

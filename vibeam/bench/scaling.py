@@ -238,10 +238,10 @@ def scaling_goals(out: dict) -> list:
     retained modes."""
     g = [goal(f"cost linear in the periods simulated ({k}: exponent 0.9 .. 1.1 from {n0} periods, where a "
               f"point's fixed cost is below 10 %; {out['summary']['exponent_periods'][k]:.3f} over the whole ladder)",
-              f"{p:.3f}", 0.9 <= p <= 1.1)
+              f"{p:.3f}", 0.9 <= p <= 1.1, timing=True)
          for k, (p, n0) in out["summary"]["exponent_periods_beyond_overhead"].items()]
     e = out["summary"].get("exponent_modes_n_ge_4")
     if e is not None:
         g.append(goal("cost at most linear in the retained modes (exponent <= 1.1 from 4 modes)", f"{e:.3f}",
-                      e <= 1.1))
+                      e <= 1.1, timing=True))
     return g

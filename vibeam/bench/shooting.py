@@ -133,4 +133,5 @@ def shooting_goals(out: dict) -> list:
     return [goal("Newton on the beam's shot converges at every FRC point (all modes)",
                  f"{f['converged']} of {f['points']}", f["converged"] == f["points"]),
             goal("an FRC point by Newton costs less than the sweep's point (transient + record)",
-                 f"{f['ratio_sweep_to_newton_per_point']:.2f}x", f["ratio_sweep_to_newton_per_point"] > 1)]
+                 f"{f['ratio_sweep_to_newton_per_point']:.2f}x", f["ratio_sweep_to_newton_per_point"] > 1,
+                 timing=True)]

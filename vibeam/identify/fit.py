@@ -1104,8 +1104,8 @@ def fit_figure(res: FitResult, title: str = ""):
         axr.set_ylabel(style.label("model − data", ru))
         order = ["data (up)", "model (up)", "data (down)", "model (down)", "np", "failed", "sigma"]
         style.legend_outside(fig, [handles[k] for k in order if k in handles])
-        ests = ", ".join(f"{n} = {x:.4g} ± {s:.2g}" for n, x, s in zip(res.parameters, res.estimate,
-                                                                        res.standard_error))
+        ests = ", ".join(style.estimate_text(n, x, s, u) for n, x, s, u in zip(res.parameters, res.estimate,
+                                                                                res.standard_error, res.units))
         style.titles(fig, title or f"{res.case_name}: fit of run '{res.run}' against {res.reference}",
                      f"{ests}; {verdict(res)}")
     return fig

@@ -974,7 +974,7 @@ def _plot_linear(res: LinearFit, path, title=""):
     ax.plot(ff, eq43_amplitude(ff, v["natural_frequency_hz"], v["damping_ratio"], v["gain"], res.length_mm,
                                res.voltage), "-", lw=1.2, label="Eq. 43 fitted")
     ax.set_ylabel("amplitude at the sensor (mm)")
-    ax.set_title(title + "\n" + ", ".join(f"{n} = {x:.4g} ± {s:.2g}" for n, x, s in
+    ax.set_title(title + "\n" + ", ".join(style.estimate_text(n, x, s, parameter_units(n)) for n, x, s in
                                            zip(res.parameters, res.estimate, res.standard_error)), fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)

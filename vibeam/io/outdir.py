@@ -126,8 +126,14 @@ def default_folder(name: str, suffix: str = "", root="results") -> Path:
     return Path(root) / leaf
 
 
-def check_folder(folder) -> Path:
+def check_folder(folder, option: str = "--out") -> Path:
     """``folder`` exists (created if needed) and is a writable folder.
+
+    Parameters
+    ----------
+    folder : str or Path
+    option : str
+        The option that named it, for the message (default ``--out``).
 
     Raises
     ------
@@ -136,13 +142,13 @@ def check_folder(folder) -> Path:
     """
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
-        raise InputError(f"--out {folder}: is a file, not a folder")
+        raise InputError(f"{option} {folder}: is a file, not a folder")
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise InputError(f"--out {folder}: cannot create the folder: {e.strerror or e}") from None
+        raise InputError(f"{option} {folder}: cannot create the folder: {e.strerror or e}") from None
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise InputError(f"--out {folder}: cannot write in the folder: permission denied")
+        raise InputError(f"{option} {folder}: cannot write in the folder: permission denied")
     return folder
 
 

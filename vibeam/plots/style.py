@@ -106,6 +106,28 @@ def branch_style(n: int) -> tuple:
     return _OTHER_BRANCH_STYLES[n % len(_OTHER_BRANCH_STYLES)]
 
 
+def unit_text(udunits: str | None) -> str:
+    """A UDUNITS unit as read in a figure: ``V-1`` -> ``1/V``, ``kg m-3`` -> ``kg/m^3``, ``N m2`` ->
+    ``N m^2``, ``mm`` as it is; ``1`` (nondimensional), ``""`` and None -> ``""``."""
+    if not udunits or udunits.strip() == "1":
+        return ""
+    num, den = [], []
+    for tok in udunits.split():
+        m = re.fullmatch(r"([A-Za-z]+)(-?\d+)?", tok)
+        if m is None:
+            return udunits                    # not a product of powers: as written
+        sym, p = m.group(1), int(m.group(2) or 1)
+        (num if p > 0 else den).append(sym if abs(p) == 1 else f"{sym}^{abs(p)}")
+    return (" ".join(num) or "1") + ("/" + (den[0] if len(den) == 1 else "(" + " ".join(den) + ")") if den else "")
+
+
+def estimate_text(name: str, value: float, se: float, udunits: str | None = None) -> str:
+    """``gain = 5.4e-04 ± 2.1e-06 1/V``: a fitted parameter with its standard error and unit
+    (:func:`unit_text`; none for a nondimensional one)."""
+    u = unit_text(udunits)
+    return f"{name} = {value:.4g} ± {se:.2g}" + (f" {u}" if u else "")
+
+
 def label(quantity: str, unit: str | None) -> str:
     """An axis label ``quantity (unit)``; ``unit`` None or '1': ``(–)``."""
     return f"{quantity} ({NODIM if unit in (None, '', '1') else unit})"
@@ -264,18 +286,30 @@ def motion_text(period, status: str = "ok") -> str:
     return f"{'no impact' if p == -1 else f'period-{p}'}, {status}"
 
 
-def tick_labels_overlap(fig, ax, which: str = "x") -> bool:
-    """Whether two visible tick labels of ``ax``'s ``which`` axis overlap (drawn ``fig``)."""
+#: the least gap between neighbouring tick labels, in ems of their font: labels closer than this read
+#: as one number ("-0.0016-0.0014", 1.5 pixels apart, did in the two-sided Poincaré section)
+TICK_GAP_EM = 0.5
+
+
+def tick_labels_overlap(fig, ax, which: str = "x", gap_em: float = TICK_GAP_EM) -> bool:
+    """Whether two visible tick labels of ``ax``'s ``which`` axis inside its view overlap, or stand
+    closer than ``gap_em`` ems of their font (drawn ``fig``)."""
     fig.canvas.draw()
     r = fig.canvas.get_renderer()
-    boxes = [t.get_window_extent(r) for t in getattr(ax, f"get_{which}ticklabels")()
-             if t.get_visible() and t.get_text()]
+    lo, hi = sorted(getattr(ax, f"get_{which}lim")())
+    labels = [t for t in getattr(ax, f"get_{which}ticklabels")() if t.get_visible() and t.get_text()
+              and lo <= t.get_position()[0 if which == "x" else 1] <= hi]
+    if not labels:
+        return False
+    pad = 0.5 * gap_em * labels[0].get_fontsize() * fig.dpi / 72.0        # half the gap on each label
+    boxes = [t.get_window_extent(r).padded(pad) for t in labels]
     return any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
 
 
 def thin_ticks(fig, axes, which=("x", "y")) -> None:
-    """Fewer ticks where an axis's tick labels overlap (long labels of a collapsed section, e.g.
-    -0.01825 ... -0.01675 without an offset): the locator's bins are halved until they clear."""
+    """Fewer ticks where an axis's tick labels overlap or run together (long labels of a collapsed
+    section, e.g. -0.01825 ... -0.01675 without an offset; :func:`tick_labels_overlap`): the
+    locator's bins are halved until they clear."""
     for ax in axes:
         for w in which:
             nb = 8

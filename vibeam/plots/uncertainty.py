@@ -1,5 +1,6 @@
 """The figures of ``vibeam uncertainty``: the FRC bands (per run the median amplitude over the samples
-with its 50 % and 90 % bands, the runs of a ladder overlaid, one panel per sweep direction), the
+with its 50 % and 90 % bands, one row per run and one panel per sweep direction, the other runs'
+medians over each band), the
 Sobol' indices against frequency and the outcome probabilities against frequency (one panel per run
 and direction)."""
 from __future__ import annotations
@@ -13,15 +14,28 @@ from vibeam.plots.sweep import save_close
 __all__ = ["band_figure", "plot_bands", "sobol_figure", "plot_sobol", "outcome_figure", "plot_outcomes"]
 
 
+#: the opacity of a run's 90 % band (5-95 %) and of its 50 % band (25-75 %) over it
+BAND_ALPHA = {90: 0.22, 50: 0.45}
+
+
 def band_figure(bands, title: str = ""):
     """The figure of ``bands``, or None without a finite quantile.
+
+    One row of panels per run and one column per sweep direction, sharing both axes: each panel holds
+    its run's 90 % band (5-95 %), its 50 % band (25-75 %) and its median in the run's colour, so no
+    two runs' bands are ever drawn over each other (their translucent colours would mix into a colour
+    of neither); the other runs' medians are drawn over it as thin dashed lines of their colours, to
+    compare against the band.  The legend's band patches are the bands' own colours.  Amplitude at the
+    sensor ``U(L_S)`` in mm on a physical scene (the quantiles of ``Q`` times ``L``), else ``Q``.
 
     Parameters
     ----------
     bands : sequence of dict
         One per run: ``name``, ``x`` (shape ``(n,)``, the frequency grid), ``x_unit`` (``"Hz"`` or
         ``"1"``), ``directions`` (``up``/``down``), ``q`` (shape ``(5, n_directions, n)``: the 5, 25,
-        50, 75 and 95 % quantiles of the amplitude) and ``unit`` (``"mm"`` or ``"1"``).
+        50, 75 and 95 % quantiles of the amplitude), ``unit`` (``"mm"`` or ``"1"``) and, optionally,
+        ``samples`` (the number of samples) and ``parameters`` (the sampled names), said in the
+        subtitle.
     title : str
         The figure's title.
     """
@@ -29,31 +43,47 @@ def band_figure(bands, title: str = ""):
     if not bands:
         return None
     dirs = [d for d in ("up", "down") if any(d in b["directions"] for b in bands)]
+    from matplotlib.patches import Patch  # lazy: the legend's band patches (matplotlib loads with the figure)
+
     with style.context():
         col = style.colours([b["name"] for b in bands])
-        fig, axes = plt.subplots(1, len(dirs), figsize=(4.6 * len(dirs) + 2.4, 3.6), squeeze=False, sharey=True)
+        fig, axes = plt.subplots(len(bands), len(dirs), figsize=(4.6 * len(dirs) + 2.6, 2.7 * len(bands) + 1.2),
+                                 squeeze=False, sharex=True, sharey=True)
         handles = []
-        for ax, d in zip(axes[0], dirs):
-            ax.set_title(f"{d} sweep", loc="right")
-            for b in bands:
+        for i, b in enumerate(bands):
+            c = col[b["name"]]
+            n = f", {b['samples']} samples" if b.get("samples") else ""
+            handles += [style.proxy(c, ls="-", lw=1.6, label=f"{b['name']}: median{n} (thin dashed in the other "
+                                                             f"runs' panels)" if len(bands) > 1 else
+                                    f"{b['name']}: median{n}"),
+                        Patch(facecolor=c, alpha=BAND_ALPHA[50], lw=0, label=f"{b['name']}: 50 % band (25-75 %)"),
+                        Patch(facecolor=c, alpha=BAND_ALPHA[90], lw=0, label=f"{b['name']}: 90 % band (5-95 %)")]
+            for j, d in enumerate(dirs):
+                ax = axes[i][j]
+                ax.set_title(f"{b['name']}: {d} sweep", loc="right", color=c)
                 if d not in b["directions"]:
+                    ax.set_visible(False)
                     continue
                 q = b["q"][:, b["directions"].index(d)]
-                c = col[b["name"]]
-                ax.fill_between(b["x"], q[0], q[4], color=c, alpha=0.15, lw=0, zorder=1)
-                ax.fill_between(b["x"], q[1], q[3], color=c, alpha=0.35, lw=0, zorder=2)
-                line, = ax.plot(b["x"], q[2], color=c, lw=1.4, zorder=3, label=b["name"])
-                if d == dirs[0]:
-                    handles.append(line)
-            ax.set_xlabel(style.label("frequency" if bands[0]["x_unit"] == "Hz" else "Omega",
-                                      "Hz" if bands[0]["x_unit"] == "Hz" else None))
-        unit = bands[0]["unit"]
-        axes[0][0].set_ylabel(style.label("amplitude Q", "mm" if unit == "mm" else None))
-        from matplotlib.patches import Patch  # lazy: the legend's band patches (matplotlib loads with the figure)
-
-        handles += [Patch(color="0.5", alpha=0.35, label="50 % band"), Patch(color="0.5", alpha=0.15, label="90 % band")]
-        style.legend_outside(fig, handles)
-        style.titles(fig, title, "median line; bands over the samples of [uncertainty]")
+                ax.fill_between(b["x"], q[0], q[4], facecolor=c, alpha=BAND_ALPHA[90], lw=0, zorder=1)
+                ax.fill_between(b["x"], q[1], q[3], facecolor=c, alpha=BAND_ALPHA[50], lw=0, zorder=2)
+                ax.plot(b["x"], q[2], color=c, lw=1.6, zorder=4, label=f"{b['name']} median")
+                for o in bands:               # the other runs' medians over this run's band
+                    if o is not b and d in o["directions"]:
+                        ax.plot(o["x"], o["q"][2, o["directions"].index(d)], color=col[o["name"]], lw=0.9,
+                                ls="--", zorder=3, label=f"{o['name']} median")
+                if i == len(bands) - 1:
+                    ax.set_xlabel(style.label("forcing frequency f", "Hz") if b["x_unit"] == "Hz" else
+                                  style.label(r"forcing frequency $\Omega = f/f_n$", None))
+            axes[i][0].set_ylabel(style.label(r"amplitude at the sensor, $U(L_S)$", "mm") if b["unit"] == "mm"
+                                  else style.label(r"amplitude $Q = \Delta - \min q$", None))
+        style.legend_outside(fig, handles, loc="outside lower center", ncol=len(bands))   # a column per run
+        ns = sorted({b["samples"] for b in bands if b.get("samples")})
+        params = list(dict.fromkeys(p for b in bands for p in b.get("parameters", ())))
+        over = (f"over {' or '.join(map(str, ns))} samples" if ns else "over the samples") + \
+            (f" of {', '.join(params)}" if params else "")
+        style.titles(fig, title, f"median and bands of the amplitude {over}; 50 % band: 25-75 %, 90 % band: 5-95 % "
+                                 f"of the samples at each frequency")
     return fig
 
 
@@ -123,7 +153,7 @@ def sobol_figure(entries, title: str = ""):
         handles += [style.proxy("0.3", ls="-", label="first order (95 % interval shaded)"),
                     style.proxy("0.3", ls="--", label="total")]
         style.legend_outside(fig, handles)
-        style.titles(fig, title, "Sobol' indices of the amplitude over Saltelli's design of [uncertainty]")
+        style.titles(fig, title, "Sobol' indices of the amplitude over Saltelli's design of the sampled parameters")
     return fig
 
 
@@ -171,7 +201,7 @@ def outcome_figure(entries, title: str = ""):
         handles = [Patch(color=c, label=n) if area else style.proxy(c, ls="--", label=f"status {n}")
                    for (n, area), c in seen.items()]
         style.legend_outside(fig, handles)
-        style.titles(fig, title, "fraction of the samples of [uncertainty] in each outcome")
+        style.titles(fig, title, "fraction of the samples in each outcome")
     return fig
 
 
