@@ -322,6 +322,7 @@ class MatrixModel:
 
     @property
     def n_modes(self) -> int:
+        """``n``, the modes kept."""
         return int(self.system.omega.shape[0])
 
     def index(self, name: str) -> int:
@@ -434,7 +435,8 @@ def build_matrices(M, K, C=None, damping_ratios=None, r="all", Mr=None, dofs=Non
         (default: the sensor's).
     n_modes : int, "all" or None
         The lowest modes kept, ``1 <= n_modes <= d`` (None or ``"all"``: all; a number is required
-        for sparse input of more than ``dense_max`` DOFs).  Its last kept frequency must not be repeated by the next.
+        for sparse input of more than ``dense_max`` DOFs).  Its last kept frequency must not be
+        repeated by the next.
     base_amplitude_m : float
         ``B`` (m, the DOFs' unit).
     f_ref_hz : float or None
