@@ -40,6 +40,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numba
+
 _DIR = Path(__file__).resolve().parent
 _stamp: str | None = None
 _state: dict = {"installed": None, "temp": None}
@@ -122,8 +124,6 @@ def install() -> bool:
         _install(caching, bases, impl)
         _state["installed"] = True
     except Exception as exc:        # another numba: never fail the import of vibeam for a cache
-        import numba
-
         _say(f"numba {numba.__version__}'s cache internals differ from those vibeam was written for "
              f"(0.61-0.68; {type(exc).__name__}: {exc}); using numba's own cache: after editing a module "
              f"of vibeam.models, clear its cache (NUMBA_CACHE_DIR or models/__pycache__)")

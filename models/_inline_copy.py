@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import copy
 
+import numba
+
 #: the modules whose inlined callees get the shared scope: vibeam's kernels only
 OURS = "vibeam.models"
 #: the first numba release it is installed on: a cold quick start's process CPU, with and without,
@@ -50,7 +52,6 @@ def install() -> bool:
         from those it was written against (nothing is changed then).
     """
     try:
-        import numba
         from numba.core import inline_closurecall as icc, ir
     except ImportError:
         return False

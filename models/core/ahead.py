@@ -40,6 +40,7 @@ time a user waits is still announced and measured as compiling.  It reads numba'
 from __future__ import annotations
 
 import atexit
+import ctypes
 import os
 import signal
 import sys
@@ -102,8 +103,6 @@ def _tie_to(parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)     # a Ctrl-C of the terminal ends the child too
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     try:
-        import ctypes
-
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # 1: PR_SET_PDEATHSIG
     except (OSError, AttributeError):                # not Linux's libc: the atexit hook alone
