@@ -13,6 +13,8 @@ from vibeam.analysis.uncertainty import (BOOTSTRAP_CONFIDENCE, CHECKPOINT, QUANT
                                          samples_from_checkpoint, sobol_entries, uncertainty_group)
 from vibeam.api.cases import case_text, load_case
 from vibeam.api.common import check_run_args
+from vibeam.engine.jobs import make_job
+from vibeam.engine.records import PERIOD_MAX
 from vibeam.api.results import Results
 from vibeam.errors import CaseError, InputError
 from vibeam.io.store import Store
@@ -235,19 +237,24 @@ def _resumed(st, c, cj, aliases, ident, n) -> dict:
     points = (c.sweep.Omega or c.sweep.frequency_hz)[2]
     shape = (2 if c.sweep.direction == "both" else 1, int(points))      # (direction, Omega) of every sample
 
-    def check(key, meta, data):
-        return check_block(meta, data, rows, shape)
-
     out = {}
     for r in c.run:
         if r.method == "continuation":
             continue
+        solver = make_job(c, r, dict(r.model), 0).solver      # what its points can hold (no computing)
+        td = bool(getattr(solver, "time_domain", True))
+        p_max = PERIOD_MAX if td else max(PERIOD_MAX, int(getattr(solver, "k", 0) or 0),
+                                          int(getattr(solver, "n", 0) or 0))
+
+        def check(key, meta, data, td=td, p_max=p_max):
+            return check_block(meta, data, rows, shape, time_domain=td, period_max=p_max)
+
         try:
             _, got = st.read_checkpoint(f"{CHECKPOINT}/{r.name}", "case_hash", ident, check)
         except OSError as e:
             raise InputError(f"--resume: cannot read {st.partial}: {e}") from None
         if got:
-            out[r.name] = samples_from_checkpoint(got)
+            out[r.name] = samples_from_checkpoint(got, f"{st.partial} (/{CHECKPOINT}/{r.name})")
     if not out:
         roots = [a.get("case_json") for a in (st.checkpoint_attrs(), st.info()["attrs"]) if a]
         if roots and not any(same_case(x, cj) or str(x) in aliases for x in roots):
