@@ -16,6 +16,7 @@ from vibeam.api.common import check_run_args
 from vibeam.engine.jobs import make_job
 from vibeam.engine.records import PERIOD_MAX
 from vibeam.api.results import Results
+from vibeam.case.uncertainty import MAX_SAMPLES
 from vibeam.errors import CaseError, InputError
 from vibeam.io.store import Store
 from vibeam.plots.uncertainty import plot_bands, plot_outcomes, plot_sobol
@@ -75,7 +76,8 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
     case : Case, str, Path or dict
         Anything :func:`vibeam.load_case` takes, with an ``[uncertainty]`` table.
     samples : int, optional
-        Instead of ``[uncertainty] samples`` (a power of 2).
+        Instead of ``[uncertainty] samples``: a power of 2 from 2 to
+        :data:`vibeam.case.uncertainty.MAX_SAMPLES` (65536), as that key.
     jobs : int or None
         Workers of the local process pool (None, the default as ``vibeam uncertainty`` and
         :func:`vibeam.run`: all cores; 1: in this process).
@@ -132,11 +134,10 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
     if c.uncertainty is None:
         raise CaseError(f"{c.name}: no [uncertainty] table; add one ([[uncertainty.parameter]] name, "
                         f"distribution, ...)")
+    samples = check_samples(samples)
     if quick:
         c = c.quick_variant()
-        samples = samples or min(8, c.uncertainty.samples)
-    if samples is not None and (samples < 2 or samples & (samples - 1)):
-        raise CaseError(f"--samples = {samples}: allowed a power of 2, at least 2")
+        samples = samples if samples is not None else min(8, c.uncertainty.samples)
     if out is None:
         results = sample_runs(c, samples=samples, jobs=jobs, executor=executor, progress=progress)
         if not quiet:
@@ -187,6 +188,28 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
             if not quiet:
                 print(f"plot: {png}")
     return _bound(results, c, h5)
+
+
+def check_samples(samples):
+    """``samples`` (``--samples``) in the range of ``[uncertainty] samples``: a power of 2 from 2 to
+    :data:`vibeam.case.uncertainty.MAX_SAMPLES` (0 was the case's count, 2^40 a MemoryError); None
+    passes (the case's count).
+
+    Raises
+    ------
+    TypeError
+        Not a whole number.
+    vibeam.errors.CaseError
+        Out of that range, one line.
+    """
+    if samples is None:
+        return None
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)):
+        raise TypeError(f"samples = {samples!r}: not a whole number; allowed: a power of 2 from 2 to {MAX_SAMPLES}")
+    if not 2 <= samples <= MAX_SAMPLES or samples & (samples - 1):
+        raise CaseError(f"'--samples' = {samples}: allowed: a power of 2 from 2 to {MAX_SAMPLES} (as [uncertainty] "
+                        f"samples)")
+    return int(samples)
 
 
 def plot_uncertainty(results, folder, title: str = "") -> list:
