@@ -596,7 +596,7 @@ def _hostile_tampers(names: dict):
                                                                          "text"])).map(lambda kd: retype(*kd)))
 
 
-@pytest.mark.parametrize("n", [12])
+@pytest.mark.parametrize("n", [20])
 def test_any_tampering_of_a_checkpoint_is_refused_or_changes_nothing(stored, baseline, tmp_path_factory, n):
     """Property (bounded in the default step; the slow step draws many more): with its digest,
     any dataset of a real checkpoint changed in shape, type or values, or overwritten by another's,
@@ -605,7 +605,7 @@ def test_any_tampering_of_a_checkpoint_is_refused_or_changes_nothing(stored, bas
     _property(stored, baseline, tmp_path_factory, n, digest=True)
 
 
-@pytest.mark.parametrize("n", [12])
+@pytest.mark.parametrize("n", [20])
 def test_values_vibeam_never_writes_are_refused_without_a_digest(stored, baseline, tmp_path_factory, n):
     """Property: without the digest (an earlier vibeam's checkpoint), values, trailing axes and
     types vibeam never writes in any dataset: refused in one line, or the untampered results."""
