@@ -221,6 +221,19 @@ def test_resume_refuses_trailing_axes_before_computing(stored, tmp_path, monkeyp
     _refused(capsys, monkeypatch, case, out, LINE, f"dataset {name} has shape {sh}")
 
 
+def test_lines_of_one_run_with_per_point_arrays_of_two_shapes_are_refused(stored, tmp_path, monkeypatch, capsys):
+    """An output whose trailing axes the line does not fix (here a peak table) has one shape in a
+    run: two stored lines that differ would fail in stack() once the rest is computed; refused
+    first, naming both lines."""
+    case, out = _copy(stored, tmp_path)
+    with h5py.File(out / "results.h5.partial", "r+") as h:
+        for key, n in (("0000-up", 4), ("0000-down", 5)):
+            g = h[f"lines/exact/{key}"]
+            g.create_dataset("peaks_frequency", data=np.full((3, n), np.nan))
+            del g.attrs[DIGEST_ATTR]
+    _refused(capsys, monkeypatch, case, out, "peaks_frequency", "0000-down", "0000-up")
+
+
 # ----------------------------------------------------------------------------- the digest
 def test_a_plausible_value_or_a_copied_line_is_refused_by_the_digest(stored, tmp_path, monkeypatch, capsys):
     """What no value rule can tell -- an amplitude changed by 1e-6 of itself (and q_min with it),
