@@ -253,11 +253,12 @@ def cmd_uncertainty(args) -> int:
         raise CaseError(f"{args.case}: no [uncertainty] table; add one ([[uncertainty.parameter]] name, "
                         f"distribution, ...)")
     # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
-    from vibeam.api.uncertainty import uncertainty
+    from vibeam.api.uncertainty import check_samples, uncertainty
 
     from vibeam.io.store import PARTIAL_SUFFIX  # lazy: keeps numpy and h5py (0.17 s) out of `vibeam --help`
 
     _check_fresh(args)
+    check_samples(args.samples)      # before the folder is made
     out_dir = check_folder(_out_dir(args, case))
     h5 = out_dir / "results.h5"
     partial = h5.with_name(h5.name + PARTIAL_SUFFIX)

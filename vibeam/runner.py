@@ -387,6 +387,7 @@ def _resume_lines(store, case_json: str, all_lines) -> tuple[dict, str]:
                 return check_line(meta, got, lines[key]) if key in lines else None
             attrs, got = store.read_checkpoint(f"lines/{run}", "case_hash", case_hash(cj), check)
             got = {k: v for k, v in got.items() if k in lines}
+            _same_trailing(store, run, got)
             if got:
                 out[run] = got
         return attrs, out
@@ -400,6 +401,27 @@ def _resume_lines(store, case_json: str, all_lines) -> tuple[dict, str]:
     except OSError as e:
         raise InputError(f"--resume: cannot read {store.path}: {e}") from None
     return lines, case_json
+
+
+def _same_trailing(store, run: str, got: dict) -> None:
+    """The per-point arrays of a run's checkpointed lines have one shape (each output's trailing
+    axes depend on the run, never on the line: :func:`vibeam.engine.sweep.stack` joins them).
+
+    Raises
+    ------
+    InputError
+        One line naming the checkpoint, the dataset and two lines whose shapes differ.
+    """
+    seen: dict = {}
+    for key in sorted(got):
+        for k, v in got[key].items():
+            sh = np.shape(v)[1:]
+            if k in seen and seen[k][1] != sh:
+                raise InputError(f"--resume: {store.partial}: /lines/{run}: dataset {k} has per-point shape "
+                                 f"{seen[k][1]} in line {seen[k][0]} and {sh} in line {key}; this vibeam never "
+                                 f"writes that: remove {store.partial.name} (or run without --resume) to compute "
+                                 f"afresh")
+            seen.setdefault(k, (key, sh))
 
 
 def _finished(case, store, out_dir, plots, want):

@@ -857,10 +857,17 @@ def checkpoint_groups(rows: dict, ident: str) -> dict:
     return {key: (_line_variables(row), {"basins_ident": ident}) for key, row in rows.items()}
 
 
-def check_row(meta: dict, data: dict | None, n_states: int | None) -> str | None:
-    """What is wrong with a checkpointed basin row, or None (what :func:`_line_variables` writes:
-    ``labels`` one whole number per state, the sets' lengths adding up to their samples, finite
-    samples); ``meta`` ``{dataset: (shape, dtype)}``, ``data`` the values (None: shapes only)."""
+def check_row(meta: dict, data: dict | None, n_states: int | None, n_coordinates: int | None = None) -> str | None:
+    """What is wrong with a checkpointed basin row, or None: what :func:`_line_variables` writes.
+
+    ``labels`` one whole number per state, each an attractor index the row has a set of or one of
+    the codes ``BEHIND_STOP``, ``UNSETTLED``, ``FAILED``; the sets those of the row's process
+    (``set_pid`` = ``pid``), one per attractor index the labels use (``set_index`` once each),
+    ``n_coordinates`` numbers per sample (the model's state), their lengths adding up to the
+    samples, finite; ``periods`` and ``pid`` not negative; ``wall_time_s`` finite, not negative, at
+    most the time since 1970.  ``meta`` ``{dataset: (shape, dtype)}``, ``data`` the values (None:
+    shapes only); ``n_states`` the row's states, ``n_coordinates`` the model's state size (None:
+    not checked)."""
     need = {"labels": 1, "set_pid": 1, "set_index": 1, "set_length": 1, "sets": 2, "pid": 0, "periods": 0,
             "wall_time_s": 0}
     for k, nd in need.items():
@@ -869,11 +876,17 @@ def check_row(meta: dict, data: dict | None, n_states: int | None) -> str | None
         shape, dtype = meta[k]
         if len(shape) != nd or np.dtype(dtype).kind not in ("iu" if k != "wall_time_s" and k != "sets" else "f"):
             return f"dataset {k} has shape {tuple(shape)} and type {np.dtype(dtype)}, not what vibeam writes"
+    extra = sorted(set(meta) - set(need))
+    if extra:
+        return f"dataset {extra[0]} is not one vibeam writes there ({', '.join(need)})"
     if n_states is not None and meta["labels"][0] != (n_states,):
         return f"dataset labels has shape {tuple(meta['labels'][0])}; the row has {n_states} state(s)"
     ns = meta["set_length"][0]
     if meta["set_pid"][0] != ns or meta["set_index"][0] != ns:
         return "datasets set_pid, set_index and set_length differ in length"
+    cols = meta["sets"][0][1]
+    if n_coordinates is not None and cols != n_coordinates and not (ns == (0,) and cols == 1):
+        return f"dataset sets has {cols} coordinate(s) per sample; the model's state has {n_coordinates}"
     if data is None:
         return None
     lengths = np.asarray(data["set_length"])
@@ -883,6 +896,24 @@ def check_row(meta: dict, data: dict | None, n_states: int | None) -> str | None
         return "dataset sets holds a value that is not finite"
     if int(data["periods"]) < 0:
         return "dataset periods is negative"
+    pid = int(data["pid"])
+    if pid < 0:
+        return "dataset pid is negative"
+    w = float(data["wall_time_s"])
+    if not (0.0 <= w <= time.time()):
+        return f"dataset wall_time_s is {w:g}; allowed: a finite time, at most the time since 1970"
+    if np.any(np.asarray(data["set_pid"]) != pid):
+        return f"dataset set_pid holds another process than the row's pid = {pid}"
+    index = np.asarray(data["set_index"], np.int64)
+    labels = np.asarray(data["labels"], np.int64)
+    used = np.unique(labels[labels >= 0])
+    if np.unique(index).size != index.size or not np.array_equal(np.sort(index), used):
+        return (f"dataset set_index ({np.sort(index)[:6].tolist()}) is not one set per attractor index the labels "
+                f"use ({used[:6].tolist()})")
+    codes = (BEHIND_STOP, UNSETTLED, FAILED)
+    bad = labels[(labels < 0) & ~np.isin(labels, codes)]
+    if bad.size:
+        return f"dataset labels holds {int(bad[0])}; allowed: an attractor index or {', '.join(map(str, codes))}"
     return None
 
 
@@ -969,7 +1000,7 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
     stored = {}
     if checkpoint is not None and resume:
         _, got = checkpoint.read_checkpoint(f"basin_lines/{name}", "basins_ident", ident,
-                                            lambda key, meta, data: check_row(meta, data, n_states(key)))
+                                            lambda key, meta, data: check_row(meta, data, n_states(key), d))
         stored = rows_from_checkpoint(got)
     rng = np.random.default_rng(spec.seed)
     labels = np.zeros((len(Omegas), ny, nx) if grid else (len(Omegas), int(spec.samples or 0)), np.int64)

@@ -25,6 +25,7 @@ from matplotlib import patheffects
 
 from vibeam.case.contact import model_with
 from vibeam.case.paths import alias_of, get_value, is_path, key_of
+from vibeam.case.schema import check_frequency_range
 from vibeam.engine.records import summarize
 from vibeam.engine.sweep import PointClock, Sweep, settle_transient
 from vibeam.io.h5check import open_checked
@@ -185,6 +186,11 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
                             f"'Omega' only")
     fn = _natural_frequency(spec)
     hz = case.sweep.frequency_hz is not None      # frequencies of the case in Hz
+    # the frequencies against Omega's limit (a beam's natural frequency is known here, not at load)
+    if r.parameter == "Omega" and r.range is not None:
+        check_frequency_range(r.range, f"run[{i}].range", hz, fn if hz else 1.0)
+    if r.at is not None:
+        check_frequency_range([r.at, r.at], f"run[{i}].at", hz, fn if hz else 1.0)
     settings = case.run_settings(r)
     if r.parameter == "Omega":
         # range and start_at in the units of [sweep] (Hz for physical scenes)

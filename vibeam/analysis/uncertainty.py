@@ -34,9 +34,9 @@ import numpy as np
 from vibeam.analysis.maps import CLASS_COLOURS, CLASSES, classify
 from vibeam.engine import sweep          # by the module: its run_lines may be replaced (tests)
 from vibeam.engine.jobs import make_job
-from vibeam.engine.records import STATUSES
-from vibeam.engine.sweep import load_kernels, plan_lines, run_line, stack
-from vibeam.errors import CaseError
+from vibeam.engine.records import PERIOD_MAX, STATUSES
+from vibeam.engine.sweep import MOTION_MAX, load_kernels, plan_lines, run_line, stack
+from vibeam.errors import CaseError, InputError
 from vibeam.io.h5check import open_checked
 from vibeam.io.netcdf import json_default, read_attrs, read_plain, var, write_group
 from vibeam.io.store import case_hash
@@ -544,14 +544,47 @@ def checkpoint_groups(finished: dict, ident: str) -> dict:
     return {f"{ident}-{idx[0]:06d}": (variables, {"case_hash": ident})}
 
 
-def check_block(meta: dict, data: dict | None, rows: int, shape: tuple) -> str | None:
-    """What is wrong with a checkpointed block of samples, or None (what :func:`checkpoint_groups`
-    writes: ``sample`` whole numbers from 0 to ``rows - 1``, once each; ``amplitude`` numbers,
-    ``period`` whole numbers and ``status`` one of :data:`vibeam.engine.records.STATUSES`, each of shape
-    ``(k,) + shape``).  ``meta`` ``{dataset: (shape, dtype)}``, ``data`` the values (None: shapes only)."""
+def check_block(meta: dict, data: dict | None, rows: int, shape: tuple, time_domain: bool = True,
+                period_max: int = PERIOD_MAX) -> str | None:
+    """What is wrong with a checkpointed block of samples, or None: what :func:`checkpoint_groups`
+    writes.
+
+    Parameters
+    ----------
+    meta : dict
+        ``{dataset: (shape, dtype)}`` of the block (read before any value).
+    data : dict or None
+        ``{dataset: array}`` once read (None: shapes and types only).
+    rows : int
+        Sampled sweeps of the design (``sample`` is below it).
+    shape : tuple
+        ``(directions, frequencies)`` of one sampled sweep.
+    time_domain : bool
+        The run's method integrates the motion: every point that is not ``failed`` has a finite
+        amplitude (else, as the averaging's "no solution", NaN with period -1).
+    period_max : int
+        The largest period the run's method reports (:data:`vibeam.engine.records.PERIOD_MAX`; the
+        averaging's and mapping's own ``k``/``n`` where larger).
+
+    Returns
+    -------
+    str or None
+        One phrase naming the dataset and what is wrong.
+
+    The rules: exactly the datasets ``sample`` (whole numbers from 0 to ``rows - 1``, once each),
+    ``amplitude`` (float64), ``period`` (whole numbers, -1 ... ``period_max``) and ``status`` (one of
+    :data:`vibeam.engine.records.STATUSES`), each of shape ``(k,) + shape``; at a point that is not
+    ``failed`` the amplitude is a number (NaN only with period -1 of a method that is not
+    time-domain), never infinite, at most :data:`vibeam.engine.sweep.MOTION_MAX` in magnitude (as a
+    sweep line's: :func:`vibeam.engine.sweep.check_line`).  A sample in two blocks is refused by the
+    caller (:func:`samples_from_checkpoint` sees every block).
+    """
     for k in ("sample", "amplitude", "period", "status"):
         if k not in meta:
             return f"dataset {k} is missing"
+    extra = sorted(set(meta) - {"sample", "amplitude", "period", "status"})
+    if extra:
+        return f"dataset {extra[0]} is not one vibeam writes there (sample, amplitude, period, status)"
     k_ = meta["sample"][0]
     if len(k_) != 1 or np.dtype(meta["sample"][1]).kind not in "iu":
         return f"dataset sample has shape {tuple(k_)} and type {np.dtype(meta['sample'][1])}; allowed: whole numbers"
@@ -559,27 +592,53 @@ def check_block(meta: dict, data: dict | None, rows: int, shape: tuple) -> str |
         sh, dt = meta[k]
         if tuple(sh) != tuple(k_) + tuple(shape):
             return f"dataset {k} has shape {tuple(sh)}; allowed: {tuple(k_) + tuple(shape)} (sample, direction, Omega)"
-        if np.dtype(dt).kind not in kinds:
+        if np.dtype(dt).kind not in kinds or (k == "amplitude" and np.dtype(dt).itemsize != 8):
             return f"dataset {k} holds {np.dtype(dt)} values, not what vibeam writes"
     if data is None:
         return None
     i = np.asarray(data["sample"])
     if i.size and (i.min() < 0 or i.max() >= rows or np.unique(i).size != i.size):
         return f"dataset sample holds a value outside 0 ... {rows - 1} or one twice"
-    bad = [x for x in np.asarray(data["status"]).astype(str).ravel() if x not in STATUSES]
+    st = np.asarray(data["status"]).astype(str)
+    bad = [x for x in st.ravel() if x not in STATUSES]
     if bad:
-        return f"dataset status holds {bad[0]!r}; allowed: {', '.join(STATUSES)}"
+        return f"dataset status holds {bad[0][:40]!r}; allowed: {', '.join(STATUSES)}"
+    per = np.asarray(data["period"])
+    if per.size and (per.min() < -1 or per.max() > period_max):
+        v = per.min() if per.min() < -1 else per.max()
+        return f"dataset period holds {int(v)}; allowed: -1 (no impact), 0 (not periodic) ... {period_max}"
+    a = np.asarray(data["amplitude"], float)
+    live = st != "failed"
+    checks = ((live & np.isinf(a), "infinite"),
+              (live & np.isnan(a) & ((per != -1) | time_domain), "nan"),
+              (live & (np.abs(a) > MOTION_MAX), f"beyond {MOTION_MAX:g} in magnitude (its square overflows)"))
+    for mask, what in checks:
+        if np.any(mask):
+            j = tuple(int(x[0]) for x in np.nonzero(mask))
+            return (f"dataset amplitude is {what} ({a[j]:g}) at sample {int(i[j[0]])}, direction {j[1]}, point "
+                    f"{j[2]} whose status is {st[j]!r} and period {int(per[j])}; allowed there: a finite number")
     return None
 
 
-def samples_from_checkpoint(got: dict) -> dict:
+def samples_from_checkpoint(got: dict, where: str = "") -> dict:
     """``{sample: arrays}`` (:func:`sample_arrays`) of checkpointed blocks ``{key: {dataset: array}}``
-    (checked by :func:`check_block`); a sample in two blocks is refused there only within a block, so
-    a later block's sample replaces an earlier one's (both computed from the same design)."""
-    out = {}
+    (checked by :func:`check_block`).
+
+    Raises
+    ------
+    InputError
+        A sample in two blocks (vibeam writes each sample once): one line naming ``where`` (the
+        file and group) and both blocks.
+    """
+    out, seen = {}, {}
     for key in sorted(got):
         d = got[key]
         for j, i in enumerate(np.asarray(d["sample"], np.int64)):
+            if int(i) in seen:
+                raise InputError(f"--resume: {where}: sample {int(i)} is in block {seen[int(i)]} and in block {key}; "
+                                 f"this vibeam writes each sample once: remove the checkpoint (or run without "
+                                 f"--resume) to compute afresh")
+            seen[int(i)] = key
             out[int(i)] = {"amplitude": np.asarray(d["amplitude"][j], float),
                            "period": np.asarray(d["period"][j], np.int64),
                            "status": np.asarray(d["status"][j]).astype(str).astype(object)}

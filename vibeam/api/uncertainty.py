@@ -14,7 +14,10 @@ from vibeam.analysis.uncertainty import (BOOTSTRAP_CONFIDENCE, CHECKPOINT, JUMP_
                                          uncertainty_group, verdict_text)
 from vibeam.api.cases import case_text, load_case
 from vibeam.api.common import check_run_args
+from vibeam.engine.jobs import make_job
+from vibeam.engine.records import PERIOD_MAX
 from vibeam.api.results import Results
+from vibeam.case.uncertainty import MAX_SAMPLES
 from vibeam.errors import CaseError, InputError
 from vibeam.io.store import Store
 from vibeam.plots.uncertainty import plot_bands, plot_outcomes, plot_sobol
@@ -93,7 +96,8 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
     case : Case, str, Path or dict
         Anything :func:`vibeam.load_case` takes, with an ``[uncertainty]`` table.
     samples : int, optional
-        Instead of ``[uncertainty] samples`` (a power of 2).
+        Instead of ``[uncertainty] samples``: a power of 2 from 2 to
+        :data:`vibeam.case.uncertainty.MAX_SAMPLES` (65536), as that key.
     jobs : int or None
         Workers of the local process pool (None, the default as ``vibeam uncertainty`` and
         :func:`vibeam.run`: all cores; 1: in this process).
@@ -150,11 +154,10 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
     if c.uncertainty is None:
         raise CaseError(f"{c.name}: no [uncertainty] table; add one ([[uncertainty.parameter]] name, "
                         f"distribution, ...)")
+    samples = check_samples(samples)
     if quick:
         c = c.quick_variant()
-        samples = samples or min(8, c.uncertainty.samples)
-    if samples is not None and (samples < 2 or samples & (samples - 1)):
-        raise CaseError(f"--samples = {samples}: allowed a power of 2, at least 2")
+        samples = samples if samples is not None else min(8, c.uncertainty.samples)
     if out is None:
         results = sample_runs(c, samples=samples, jobs=jobs, executor=executor, progress=progress)
         if not quiet:
@@ -207,6 +210,28 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
     return _bound(results, c, h5)
 
 
+def check_samples(samples):
+    """``samples`` (``--samples``) in the range of ``[uncertainty] samples``: a power of 2 from 2 to
+    :data:`vibeam.case.uncertainty.MAX_SAMPLES` (0 was the case's count, 2^40 a MemoryError); None
+    passes (the case's count).
+
+    Raises
+    ------
+    TypeError
+        Not a whole number.
+    vibeam.errors.CaseError
+        Out of that range, one line.
+    """
+    if samples is None:
+        return None
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)):
+        raise TypeError(f"samples = {samples!r}: not a whole number; allowed: a power of 2 from 2 to {MAX_SAMPLES}")
+    if not 2 <= samples <= MAX_SAMPLES or samples & (samples - 1):
+        raise CaseError(f"'--samples' = {samples}: allowed: a power of 2 from 2 to {MAX_SAMPLES} (as [uncertainty] "
+                        f"samples)")
+    return int(samples)
+
+
 def plot_uncertainty(results, folder, title: str = "") -> list:
     """The figures of ``vibeam uncertainty`` written into ``folder``: ``uncertainty.png`` (the FRC
     bands), ``uncertainty_outcomes.png`` (outcome probabilities against frequency) and, with Saltelli's
@@ -257,19 +282,24 @@ def _resumed(st, c, cj, aliases, ident, n) -> dict:
     points = (c.sweep.Omega or c.sweep.frequency_hz)[2]
     shape = (2 if c.sweep.direction == "both" else 1, int(points))      # (direction, Omega) of every sample
 
-    def check(key, meta, data):
-        return check_block(meta, data, rows, shape)
-
     out = {}
     for r in c.run:
         if r.method == "continuation":
             continue
+        solver = make_job(c, r, dict(r.model), 0).solver      # what its points can hold (no computing)
+        td = bool(getattr(solver, "time_domain", True))
+        p_max = PERIOD_MAX if td else max(PERIOD_MAX, int(getattr(solver, "k", 0) or 0),
+                                          int(getattr(solver, "n", 0) or 0))
+
+        def check(key, meta, data, td=td, p_max=p_max):
+            return check_block(meta, data, rows, shape, time_domain=td, period_max=p_max)
+
         try:
             _, got = st.read_checkpoint(f"{CHECKPOINT}/{r.name}", "case_hash", ident, check)
         except OSError as e:
             raise InputError(f"--resume: cannot read {st.partial}: {e}") from None
         if got:
-            out[r.name] = samples_from_checkpoint(got)
+            out[r.name] = samples_from_checkpoint(got, f"{st.partial} (/{CHECKPOINT}/{r.name})")
     if not out:
         roots = [a.get("case_json") for a in (st.checkpoint_attrs(), st.info()["attrs"]) if a]
         if roots and not any(same_case(x, cj) or str(x) in aliases for x in roots):

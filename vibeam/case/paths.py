@@ -78,6 +78,50 @@ def parse(name: str) -> tuple:
     raise ValueError(f"{name!r} is not a parameter path; allowed forms: {_FORMS}")
 
 
+def flat_key(name):
+    """The flat ``[model]`` key a ``system.<key>`` or ``excitation.<key>`` path names (``excitation.voltage``
+    -> ``voltage``): the key a ``[map]``, ``[[uncertainty.parameter]]`` or ``vibeam fit --params`` then
+    varies, the same as with the flat name.  Any other name is returned as it is.
+
+    Raises
+    ------
+    ValueError
+        A key of the other group (``excitation.beta``) or a stop's key (``system.R``), one line.
+    """
+    if isinstance(name, str) and _GROUP.match(name):
+        try:
+            return parse(name)[2]
+        except ValueError as e:          # the caller names the key and the value
+            msg = str(e)
+            raise ValueError(msg[len(repr(name)) + 2:] if msg.startswith(f"{name!r}: ") else msg) from None
+    return name
+
+
+def canonical(model: dict, name: str) -> str:
+    """The one path a parameter stands for in the ``[model]`` table ``model``, however it is named:
+    ``R`` and ``stops[0].law.R`` -> ``stops[0].law.R``, ``beta`` and ``system.beta`` ->
+    ``system.beta``, ``voltage`` and ``excitation.voltage`` -> ``excitation.voltage``; two names
+    with one canonical path are one parameter.  A name that is no valid path is returned as it is
+    (refused elsewhere, naming its own key)."""
+    if is_path(name):
+        try:
+            kind, i, key = parse(name)
+        except ValueError:
+            return name
+        if kind == "model":
+            return f"{'excitation' if key in EXCITATION_KEYS else 'system'}.{key}"
+        return f"stops[{i}].law.{key}" if kind == "law" else f"stops[{i}].{key}"
+    for p in parameter_paths(model):
+        try:
+            if alias_of(model, p) == name:
+                return p
+        except ValueError:
+            continue
+    if name in _SHORTHAND or name.endswith("_lower"):
+        return name
+    return f"{'excitation' if name in EXCITATION_KEYS else 'system'}.{name}"
+
+
 def _law_keys() -> tuple:
     """Every law's numeric keys (the registry's), R first."""
     out = ["R"]

@@ -38,7 +38,7 @@ import numpy as np
 from vibeam.case.uncertainty import UncertaintySpec
 from vibeam.case.contact import (ContactSpec, StopSpec, beam_law,  # [model.contact] (issue 13), [[model.stop]]
                                  model_with, sdof_law, stops_as_keys, target_R)
-from vibeam.case.paths import alias_of, get_value, is_path, parameter_paths
+from vibeam.case.paths import alias_of, canonical, flat_key, get_value, is_path, parameter_paths
 from vibeam.io.inputs import read_input_text
 from vibeam.models.registry import fidelity, is_compliant, law_key, supported_methods
 from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
@@ -84,6 +84,33 @@ def check_scale(value: float, key: str) -> None:
         raise CaseError(f"{key} = {value:.6g}: not computable in double precision; allowed: 0 or "
                         f"{lo:g} <= |B| <= {hi:g} (the model is homogeneous in B and Delta: rescale "
                         f"the scene's lengths instead)")
+
+
+#: the largest gap of a stop in the model's own units (the nondimensional ``Delta``; a physical gap
+#: over the beam's length): the model is homogeneous in ``(B, Delta, q)`` (Eqs. 1-2), so a gap is
+#: computable exactly where a forcing amplitude is (:data:`B_RANGE`): the kernels square the
+#: motion's scale, which the gap sets once the stop is far (``Delta = 1e308``: every point failed
+#: with infinite spreads, exit 3; ``1e200`` an amplitude no later check can tell from an overflow)
+GAP_MAX = B_RANGE[1]
+
+
+def check_gap(value, key: str, length_mm: float | None = None) -> None:
+    """Refuse a stop's gap beyond :data:`GAP_MAX` (``value`` nondimensional, or in mm over
+    ``length_mm``); None passes.
+
+    Raises
+    ------
+    CaseError
+        Naming ``key``, the value and the allowed range.
+    """
+    if value is None:
+        return
+    g = value / length_mm if length_mm else value
+    if not abs(g) <= GAP_MAX:
+        what = f" ({g:.3g} beam lengths)" if length_mm else ""
+        raise CaseError(f"{key} = {value:.6g}{what}: not computable in double precision; allowed: |gap| <= "
+                        f"{GAP_MAX:g}{' lengths' if length_mm else ''} (the model is homogeneous in B and Delta, "
+                        f"as B's range: rescale the scene instead)")
 
 
 def check_stiffness(law, key: str) -> None:
@@ -325,12 +352,14 @@ class SDOFModelSpec(_StopsSpec):
 
     def check(self, prefix: str) -> None:
         """Checks beyond the table's validators: the ``[model.contact]`` law can be built, and
-        the forcing amplitude (:data:`B_RANGE`) and the stop's stiffness
+        the forcing amplitude (:data:`B_RANGE`), the gaps (:data:`GAP_MAX`) and the stop's stiffness
         (:data:`MAX_CONTACT_STIFFNESS`) can be computed in double precision."""
         if self.physical:
             check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
         else:
             check_scale(self.B, f"'{prefix}.B'")
+        for k in ("Delta", "Delta_lower", "gap_mm", "gap_lower_mm"):
+            check_gap(getattr(self, k), f"'{prefix}.{k}'", self.length_mm if k.endswith("_mm") else None)
         for key, table in (("contact", self.contact), ("contact_lower", lower_law_spec(self))):
             try:
                 law = sdof_law(table, target_R(table, self.R), self.physical, self.natural_frequency_hz,
@@ -661,6 +690,12 @@ class BeamModelSpec(_StopsSpec):
         dofs = 2 * int(self.n_elements)
 
         check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
+        for k in ("gap_mm", "contact_gap_mm", "gap_lower_mm", "contact_gap_lower_mm"):
+            check_gap(getattr(self, k), f"'{prefix}.{k}'", self.length_mm)
+        for j, st in enumerate(self.stop or []):
+            for k in ("gap_mm", "contact_gap_mm"):
+                check_gap(getattr(st, k, None), f"'{prefix}.stop[{j}].{k}'", self.length_mm)
+            check_gap(getattr(st, "Delta", None), f"'{prefix}.stop[{j}].Delta'")
 
         for key, table in (("contact", self.contact), ("contact_lower", lower_law_spec(self))):
             try:
@@ -1069,13 +1104,19 @@ class MapSpec(_Strict):
 
     ``parameter`` is a numeric key of the ``[model]`` table (e.g. ``voltage``,
     ``gap_mm``, ``R`` for a rig scene; ``B``, ``Delta``, ``R``, ``beta`` for a
-    nondimensional one) and ``values = [start, stop, number of points]`` its
+    nondimensional one; ``system.<key>`` / ``excitation.<key>`` name the same key, and a stop's
+    number its path, :mod:`vibeam.case.paths`) and ``values = [start, stop, number of points]`` its
     grid.  Every value gives one up and/or down sweep line along the frequency
     axis (``[sweep] direction``), so hysteresis shows.
     """
 
     parameter: Annotated[str, Field(min_length=1)]
     values: list[float]
+
+    @field_validator("parameter")
+    @classmethod
+    def _flat(cls, v):
+        return flat_key(v)          # system.<key> / excitation.<key>: the flat key (vibeam.case.paths)
 
     @field_validator("values")
     @classmethod
@@ -1681,6 +1722,12 @@ def _check_continuation(case: Case, i: int, r) -> None:
     if case.effects_for(r).active():
         raise CaseError(f"'run[{i}]' (continuation) cannot use [effects] ({', '.join(case.effects_for(r).active())}); "
                         f"continue the plain scene")
+    hz = case.sweep.frequency_hz is not None
+    fn = getattr(spec, "natural_frequency_hz", None) if hz else 1.0    # a beam's: at planning (its modes)
+    if r.parameter == "Omega" and r.range is not None:
+        check_frequency_range(r.range, f"run[{i}].range", hz, fn)
+    if r.at is not None:
+        check_frequency_range([r.at, r.at], f"run[{i}].at", hz, fn)
     native = getattr(spec, "native_parameter", None)
     if native is not None:
         table = model_with(case.model, dict(r.model))
@@ -1733,6 +1780,28 @@ def _check_continuation(case: Case, i: int, r) -> None:
             raise CaseError(f"'run[{i}].start_at' = {quote_value(r.start_at)} lies outside the range [{lo}, {hi}]")
 
 
+def check_frequency_range(values, key: str, hz: bool, fn: float | None) -> None:
+    """The forcing frequencies of a continuation (``range`` in Omega, ``at``): finite, positive,
+    Omega at most :data:`OMEGA_MAX` (as a ``[sweep]`` grid); ``hz``: given in Hz, ``fn`` the scene's
+    natural frequency in Hz (None: the upper bound is left to the caller that knows it).
+
+    Raises
+    ------
+    CaseError
+        ``'<key>' = <values>: <what is allowed>``, one line.
+    """
+    unit = " Hz" if hz else ""
+    shown = quote_value(values[0] if values[0] == values[-1] and key.endswith(".at") else list(values))
+    for v in values:
+        if not (math.isfinite(v) and v > 0.0):
+            raise CaseError(f"'{key}' = {shown}: {v:g}{unit} is not a forcing frequency; allowed: positive finite "
+                            f"frequencies{' (Hz)' if hz else ' (Omega)'}")
+        if fn is not None and not v / fn <= OMEGA_MAX:
+            top = OMEGA_MAX * fn
+            raise CaseError(f"'{key}' = {shown}: {v:g}{unit} is above Omega's limit; allowed: at most {top:g}{unit} "
+                            f"(Omega <= {OMEGA_MAX:g}: the exact flows' Omega^4 terms overflow double precision)")
+
+
 def _check_map(case: Case) -> None:
     """A ``[map]`` names a numeric model key, no run overrides it, and every value is valid."""
     m = case.map
@@ -1741,9 +1810,10 @@ def _check_map(case: Case) -> None:
         raise CaseError(f"'map.parameter' = {quote_value(m.parameter)} is not a numeric key of [model]; "
                         f"allowed: {', '.join(allowed)}")
     for i, r in enumerate(case.run):
-        if m.parameter in r.model:
-            raise CaseError(f"'run[{i}].model.{m.parameter}' overrides the mapped parameter; "
-                            f"remove it or map another parameter")
+        for k in r.model:            # by any name of the same parameter (R, stops[0].law.R)
+            if canonical(case.model, k) == canonical(case.model, m.parameter):
+                raise CaseError(f"'run[{i}].model.{k}' overrides the mapped parameter ({m.parameter}); "
+                                f"remove it or map another parameter")
     grid = m.grid()
     values = [grid[0], grid[-1], *grid[1:-1]]     # the ends first: most bad ranges fail there
     overrides = []                                # one model per distinct [run.model]
@@ -1772,15 +1842,24 @@ def _check_uncertainty(case: Case) -> None:
     if not runs:
         raise CaseError("'uncertainty': the case has no sweep run to sample (continuation runs are not "
                         "sampled); allowed: a [[run]] with a sweep method")
+    seen: dict = {}
     for k, p in enumerate(case.uncertainty.parameter):
         key = f"uncertainty.parameter[{k}]"
         if p.name not in allowed:
             raise CaseError(f"'{key}.name' = {quote_value(p.name)} is not a parameter of this scene; allowed: "
                             f"{', '.join(allowed)}")
+        c = canonical(case.model, p.name)
+        if c in seen:          # an alias and its path (R, stops[0].law.R): one parameter sampled twice
+            raise CaseError(f"'{key}.name' = {quote_value(p.name)} is the parameter of "
+                            f"'uncertainty.parameter[{seen[c]}].name' = "
+                            f"{quote_value(case.uncertainty.parameter[seen[c]].name)} ({c}); allowed: each "
+                            f"parameter once")
+        seen[c] = k
         for i, r in enumerate(runs):
-            if p.name in r.model:
-                raise CaseError(f"'run[{case.run.index(r)}].model.{p.name}' overrides the sampled parameter "
-                                f"'{key}.name'; remove it or sample another parameter")
+            for o in r.model:
+                if canonical(case.model, o) == c:
+                    raise CaseError(f"'run[{case.run.index(r)}].model.{o}' overrides the sampled parameter "
+                                    f"'{key}.name' = {quote_value(p.name)}; remove it or sample another parameter")
         for v in p.support():
             for r in runs:
                 j = case.run.index(r)

@@ -42,6 +42,8 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from vibeam.case.paths import flat_key
+
 __all__ = ["UncertaintyParameterSpec", "UncertaintySpec", "DISTRIBUTIONS", "MAX_SAMPLES", "MAX_PARAMETERS",
            "SUPPORT_TAIL"]
 
@@ -70,6 +72,11 @@ class UncertaintyParameterSpec(BaseModel):
     std: Annotated[float, Field(gt=0.0)] | None = None
     bounds: list[float] | None = None
     mode: float | None = None
+
+    @field_validator("name")
+    @classmethod
+    def _flat(cls, v):
+        return flat_key(v)          # system.<key> / excitation.<key>: the flat key (vibeam.case.paths)
 
     @field_validator("bounds")
     @classmethod

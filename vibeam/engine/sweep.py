@@ -29,7 +29,7 @@ import tqdm
 
 from vibeam.io.objects import SweepResult  # noqa: F401 (re-exported)
 from vibeam.io.outputs import MM_KEYS, UNITS  # noqa: F401 (re-exported)
-from vibeam.engine.records import (HARMONICS, SETTLED_MARGIN, STATUSES, amplitude_spread, period_minima, spread_agrees,
+from vibeam.engine.records import (HARMONICS, PERIOD_MAX, SETTLED_MARGIN, STATUSES, amplitude_spread, period_minima, spread_agrees,
                                    summarize, transient_verdict, window_verdict)
 from vibeam.models import shooting_problem
 from vibeam.models.blas import one_blas_thread
@@ -1080,7 +1080,8 @@ def unstack(data: dict) -> list[dict]:
 
 
 def stack(rows: list[dict], sweep: Sweep) -> dict:
-    """Stack per-point dicts into arrays; missing entries become NaN (or '' for text)."""
+    """Stack per-point dicts into arrays; missing entries become NaN (or '' for text); a text longer
+    than :data:`TEXT_MAX` characters is cut there (its last character an ellipsis)."""
     n_rec = sweep.record_periods
     defaults = {"strobe": np.full((n_rec, 2), np.nan), "harmonics": np.full(HARMONICS, np.nan)}
     keys = []
@@ -1092,7 +1093,8 @@ def stack(rows: list[dict], sweep: Sweep) -> dict:
     for k in keys:
         vals = [r.get(k) for r in rows]
         if all(isinstance(v, str) or v is None for v in vals):
-            data[k] = np.array(["" if v is None else v for v in vals], dtype=object)
+            data[k] = np.array(["" if v is None else v if len(v) <= TEXT_MAX else v[:TEXT_MAX - 1] + "\u2026"
+                                for v in vals], dtype=object)
             continue
         col = _scalar_column(vals)
         if col is not None:
@@ -1143,6 +1145,59 @@ CORE_OUTPUTS = ("amplitude", "q_max", "q_min", "period", "impacts_per_period", "
 TEXT_OUTPUTS = ("status", "message", "direction", "lyapunov_message", "lyapunov_class", "lyapunov_method")
 #: per-point outputs that are numbers in every line this vibeam writes
 NUMBER_OUTPUTS = ("Omega", "amplitude", "q_max", "q_min", "period", "impacts_per_period", "impact_velocity")
+#: the longest text of one point :func:`stack` keeps (a message is a sentence or two; an exception's
+#: text that is longer is cut there, so no checkpoint or results file holds a longer one)
+TEXT_MAX = 4000
+#: per-point outputs of complex numbers (the mapping method's Floquet multipliers and map eigenvalues);
+#: every other number vibeam writes is real
+COMPLEX_OUTPUTS = ("multipliers", "map_eigenvalues")
+#: whole numbers (stored as integers, or as floats with NaN at a point that failed before it had them)
+WHOLE_OUTPUTS = ("period", "record_periods", "transient_periods_used", "amplitude_sem_dof")
+#: outputs in units of the motion (displacements, velocities, amplitudes and their spreads): at a
+#: point that is not ``failed`` each is at most :data:`MOTION_MAX` in magnitude
+MOTION_OUTPUTS = ("amplitude", "amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max",
+                  "amplitude_sem", "amplitude_lower", "q_min", "q_max", "strobe", "harmonics", "impact_velocity",
+                  "impact_velocity_lower", "stop_impact_velocity", "penetration_max", "penetration_max_lower",
+                  "contact_gap_max", "mode_amplitudes", "mode_contact_amplitudes")
+#: the largest magnitude of the motion at a point that is not ``failed``: the kernels square the
+#: motion's numbers (energies ``(1 - R^2) v^2 / 2``, the envelope ``sqrt(x^2 + w^2)``, spreads;
+#: :data:`vibeam.case.schema.B_RANGE`), and beyond ``sqrt(1.8e308) = 1.3e154`` those squares are
+#: infinite: such a point is failed (:func:`vibeam.engine.records.summarize`), never reported
+MOTION_MAX = 1e154
+#: outputs that are shares of the record (0 ... 1)
+FRACTION_OUTPUTS = ("stuck_fraction", "contact_fraction")
+#: outputs that are never negative (counts per period, durations, largest penetrations, amplitudes of
+#: harmonics, spreads)
+NONNEGATIVE_OUTPUTS = ("impacts_per_period", "impacts_per_period_lower", "stop_impacts_per_period",
+                       "contact_duration", "contact_duration_lower", "penetration_max", "penetration_max_lower",
+                       "harmonics", "amplitude_std", "amplitude_sem", "wall_time_s", *FRACTION_OUTPUTS)
+#: what :func:`vibeam.engine.records.summarize` gives a time-domain point: never infinite at a point that
+#: is not failed (an infinite output makes it failed)
+SUMMARY_OUTPUTS = ("amplitude", "amplitude_mean", "amplitude_std", "amplitude_min", "amplitude_max", "amplitude_sem",
+                   "q_max", "q_min", "impacts_per_period", "impact_velocity", "strobe", "harmonics",
+                   "contact_duration", "contact_force_max", "penetration_max", "energy_per_impact",
+                   "impacts_per_period_lower", "impact_velocity_lower", "contact_duration_lower",
+                   "contact_force_max_lower", "penetration_max_lower", "energy_per_impact_lower",
+                   "stop_impacts_per_period", "stop_impact_velocity")
+#: outputs of one number (or text) per point
+SCALAR_OUTPUTS = frozenset(TEXT_OUTPUTS + NUMBER_OUTPUTS + SUMMARY_OUTPUTS + WHOLE_OUTPUTS + FRACTION_OUTPUTS
+                           + ("wall_time_s",)) - {"strobe", "harmonics", "stop_impacts_per_period",
+                                                  "stop_impact_velocity"}
+#: outputs that are numbers wherever they are written (every output with a unit, :data:`UNITS`)
+NUMERIC_OUTPUTS = frozenset(NUMBER_OUTPUTS + SUMMARY_OUTPUTS + MOTION_OUTPUTS + WHOLE_OUTPUTS + FRACTION_OUTPUTS
+                            + NONNEGATIVE_OUTPUTS + COMPLEX_OUTPUTS + tuple(UNITS)) - set(TEXT_OUTPUTS)
+#: names of the dimensions of a stored line (coordinates, never per-point outputs)
+LINE_DIMS = ("point", "record_period", "state", "harmonic", "mode", "peak", "multiplier", "eigenvalue",
+             "exponent", "stop", "spectrum_frequency", "noise_level")
+
+
+def _trailing(line) -> dict:
+    """The trailing shape of the per-point arrays whose shape the line fixes: ``strobe`` (one
+    ``(q, q')`` per recorded period), ``harmonics``, the Lyapunov exponents (one per state of the
+    mechanical system: 2 per mode)."""
+    d = 2 * int(getattr(getattr(line.solver, "model", None), "n_modes", 1) or 1)
+    return {"strobe": (int(line.sweep.record_periods), 2), "harmonics": (HARMONICS,),
+            "lyapunov": (d,), "lyapunov_error": (d,), "lyapunov_qr": (d,)}
 
 
 def check_line(meta: dict, data: dict | None, line) -> str | None:
@@ -1161,46 +1216,260 @@ def check_line(meta: dict, data: dict | None, line) -> str | None:
     Returns
     -------
     str or None
-        One phrase naming the dataset and what is wrong.
+        One phrase naming the dataset (and the point) and what is wrong.
 
-    The rules: every output of :data:`CORE_OUTPUTS` and ``Omega`` present; every dataset one
-    value (or one array) per point of the line; :data:`NUMBER_OUTPUTS` numbers and
-    :data:`TEXT_OUTPUTS` text; ``Omega`` the line's frequencies in its visiting order (within
-    1e-12 relative); ``status`` one of :data:`vibeam.engine.records.STATUSES`; ``period`` whole
-    numbers; ``amplitude`` finite at every ``ok`` point (an ``ok`` point has the number it
-    reports, never NaN).
+    Shapes and types (before any value is read): every output of :data:`CORE_OUTPUTS` and
+    ``Omega`` present; every dataset one value or one array per point of the line, a scalar
+    output one value (no trailing axis), ``strobe`` ``(record_periods, 2)``, ``harmonics``
+    ``(6,)`` and the Lyapunov exponents one per state (:func:`_trailing`) per point; no dataset
+    named as a dimension (:data:`LINE_DIMS`); :data:`TEXT_OUTPUTS` text, :data:`NUMERIC_OUTPUTS`
+    numbers; real numbers in 64 bits (complex only for :data:`COMPLEX_OUTPUTS`).
+
+    Values (each what :func:`_point` and :func:`vibeam.engine.records.summarize` can give):
+
+    * ``Omega`` the line's frequencies in its visiting order (within 1e-12 relative),
+      ``direction`` the line's, ``status`` one of :data:`vibeam.engine.records.STATUSES`, texts at
+      most :data:`TEXT_MAX` characters;
+    * whole numbers (:data:`WHOLE_OUTPUTS`): ``period`` -1 ... 8 (or the method's own ``k``/``n``),
+      ``record_periods`` the sweep's ``record_periods`` or ``statistics_periods``,
+      ``transient_periods_used`` the sweep's (``auto``: at most ``max_transient_periods`` and a
+      record), ``amplitude_sem_dof`` below ``record_periods``;
+    * ranges: shares (:data:`FRACTION_OUTPUTS`) in 0 ... 1, :data:`NONNEGATIVE_OUTPUTS` not
+      negative, ``wall_time_s`` finite and no longer than the time since 1970;
+    * status against finiteness, at a point that is not ``failed``: no infinite number (but the
+      Lyapunov exponents' -inf) of a time-domain method (``amplitude``, ``q_min``, ``q_max`` of every
+      method: :func:`_not_finite`), ``amplitude``
+      a number (NaN only with ``period`` -1, a method's "no solution"), the motion
+      (:data:`MOTION_OUTPUTS`) at most :data:`MOTION_MAX`; for a time-domain method also ``q_min``,
+      ``q_max``, ``impacts_per_period`` and the per-period amplitudes finite;
+    * consistency at such a time-domain point: ``q_min <= q_max``, ``amplitude`` = ``Delta - q_min``
+      (without scene effects, which move the stop per point), the per-period amplitudes
+      ``amplitude - (q_max - q_min) <= amplitude_min <= amplitude_mean <= amplitude_max <=
+      amplitude``, their spread at most their range, ``impacts_per_period`` a whole number of
+      impacts over the record and at most what the method's ``max_impacts_per_period`` lets a call
+      hold, the stroboscopic ``q`` within ``[q_min, q_max]``, each harmonic's
+      amplitude at most twice the largest ``|q|``.
+    Comparisons allow the rounding of the numbers compared (1e-9 of their scale).
     """
     n = line.n_points
     for k in CORE_OUTPUTS + ("Omega",):
         if k not in meta:
             return f"dataset {k} is missing"
+    fixed = _trailing(line)
     for k, (shape, dtype) in meta.items():
+        shape = tuple(shape)
         if not shape or shape[0] != n:
-            return f"dataset {k} has shape {tuple(shape)}; the line has {n} point(s)"
-        kind = np.dtype(dtype).kind
+            return f"dataset {k} has shape {shape}; the line has {n} point(s)"
+        if k in LINE_DIMS:
+            return f"dataset {k} is a dimension of the line, not an output"
+        dt = np.dtype(dtype)
+        kind = dt.kind
         text = kind in "OSU"
-        if k in NUMBER_OUTPUTS and kind not in "biuf":
-            return f"dataset {k} holds {np.dtype(dtype)} values; allowed: numbers"
+        if k in NUMERIC_OUTPUTS and kind not in "biufc":
+            return f"dataset {k} holds {dt} values; allowed: numbers"
         if k in TEXT_OUTPUTS and not text:
-            return f"dataset {k} holds {np.dtype(dtype)} values; allowed: text"
+            return f"dataset {k} holds {dt} values; allowed: text"
         if not text and kind not in "biufc":
-            return f"dataset {k} holds {np.dtype(dtype)} values; allowed: numbers or text"
+            return f"dataset {k} holds {dt} values; allowed: numbers or text"
+        if kind == "c" and k not in COMPLEX_OUTPUTS:
+            return f"dataset {k} holds {dt} values; allowed: real numbers"
+        if kind in "fc" and dt.itemsize != (8 if kind == "f" else 16):
+            return f"dataset {k} holds {dt} values; allowed: {'float64' if kind == 'f' else 'complex128'}"
+        want = fixed.get(k, () if k in SCALAR_OUTPUTS else None)
+        if want is not None and shape[1:] != want:
+            return (f"dataset {k} has shape {shape}; allowed: {(n,) + want} (one {'value' if not want else want} "
+                    f"per point)")
     if data is None:
         return None
+    return _line_values(data, line)
+
+
+def _first(mask) -> int:
+    return int(np.flatnonzero(np.asarray(mask).reshape(len(mask), -1).any(axis=1))[0])
+
+
+def _line_values(data: dict, line) -> str | None:
+    """The value rules of :func:`check_line` (the shapes and types already checked)."""
+    n = line.n_points
+    sw = line.sweep
     om = np.asarray(data["Omega"], float)
     want = np.asarray(line.Omega, float)
     if om.shape != want.shape or not np.allclose(om, want, rtol=1e-12, atol=0):
         return f"dataset Omega is not the line's frequencies ({want[:3].tolist()}...)"
-    st = np.asarray(data["status"]).astype(str)
+    texts = {}
+    for k, v in data.items():
+        a = np.asarray(v)
+        if a.dtype.kind in "OSU":
+            t = np.array([x.decode("utf-8", "replace") if isinstance(x, bytes) else str(x) for x in a.ravel()],
+                         dtype=object).reshape(a.shape)
+            long = [len(x) > TEXT_MAX for x in t.ravel()]
+            if any(long):
+                i = int(np.flatnonzero(long)[0])
+                return f"dataset {k} holds a text of {len(t.ravel()[i])} characters; allowed: at most {TEXT_MAX}"
+            texts[k] = t
+    st = texts["status"].astype(str)
     bad = [x for x in st if x not in STATUSES]
     if bad:
-        return f"dataset status holds {bad[0]!r}; allowed: {', '.join(STATUSES)}"
-    per = np.asarray(data["period"], float)
-    if not np.all(per == np.round(per)):
-        return "dataset period holds a value that is not a whole number"
-    amp = np.asarray(data["amplitude"], float)
-    ok = st == "ok"
-    if np.any(ok & ~np.isfinite(amp)):
-        i = int(np.flatnonzero(ok & ~np.isfinite(amp))[0])
-        return f"dataset amplitude is {amp[i]} at point {i} whose status is 'ok'"
+        return f"dataset status holds {bad[0][:40]!r}; allowed: {', '.join(STATUSES)}"
+    if "direction" in texts and np.any(texts["direction"].astype(str) != line.direction):
+        i = _first(texts["direction"].astype(str) != line.direction)
+        return f"dataset direction is {texts['direction'][i][:20]!r} at point {i}; the line is {line.direction!r}"
+    live = st != "failed"
+    td = bool(getattr(line.solver, "time_domain", True))
+    num = {k: np.asarray(v) for k, v in data.items() if k not in texts and np.asarray(v).dtype.kind in "biufc"}
+    f = {k: v.astype(complex if v.dtype.kind == "c" else float) for k, v in num.items()}
+
+    def at(k, mask):
+        """The first point of ``mask`` (per point, any element), for the message."""
+        i = _first(mask)
+        v = f[k][i]
+        return i, (v if np.ndim(v) == 0 else v[np.asarray(mask[i])][0] if np.any(mask[i]) else v.ravel()[0])
+
+    def live_(a):
+        return live.reshape((n,) + (1,) * (np.ndim(a) - 1))
+
+    # whole numbers
+    s = line.solver
+    p_max = max(PERIOD_MAX, int(getattr(s, "k", 0) or 0), int(getattr(s, "n", 0) or 0)) if not td else PERIOD_MAX
+    for k in WHOLE_OUTPUTS:
+        if k not in f:
+            continue
+        a = f[k]
+        fin = np.isfinite(a)
+        if np.any(fin & (a != np.round(np.where(fin, a, 0)))):
+            i, v = at(k, fin & (a != np.round(np.where(fin, a, 0))))
+            return f"dataset {k} is {v:g} at point {i}; allowed: whole numbers"
+        if np.any(~np.isnan(a) & ~fin):
+            i, v = at(k, ~np.isnan(a) & ~fin)
+            return f"dataset {k} is {v} at point {i}; allowed: whole numbers"
+    per = f["period"]
+    if np.any((per < -1) | (per > p_max)):
+        i, v = at("period", (per < -1) | (per > p_max))
+        return f"dataset period is {v:.0f} at point {i}; allowed: -1 (no impact), 0 (not periodic) ... {p_max}"
+    if td and "record_periods" in f:
+        rp = f["record_periods"]
+        allowed = {int(sw.record_periods), max(int(sw.record_periods), int(getattr(sw, "statistics_periods", 0) or 0))}
+        bad_ = ~np.isnan(rp) & ~np.isin(rp, sorted(allowed))
+        if np.any(bad_):
+            i, v = at("record_periods", bad_)
+            return (f"dataset record_periods is {v:g} at point {i}; allowed: "
+                    f"{' or '.join(str(x) for x in sorted(allowed))} (record_periods, statistics_periods)")
+    if td and "transient_periods_used" in f:
+        tp = f["transient_periods_used"]
+        if sw.auto:
+            hi = int(sw.max_transient_periods) + int(sw.record_periods)
+            bad_ = ~np.isnan(tp) & ((tp < 0) | (tp > hi))
+            allowed = f"0 ... {hi} (transient_periods = \"auto\", max_transient_periods and a record)"
+        else:
+            bad_ = ~np.isnan(tp) & (tp != int(sw.transient_periods))
+            allowed = f"{int(sw.transient_periods)} (transient_periods)"
+        if np.any(bad_):
+            i, v = at("transient_periods_used", bad_)
+            return f"dataset transient_periods_used is {v:g} at point {i}; allowed: {allowed}"
+    if "amplitude_sem_dof" in f and "record_periods" in f:
+        d, rp = f["amplitude_sem_dof"], f["record_periods"]
+        bad_ = ~np.isnan(d) & ((d < 0) | (~np.isnan(rp) & (d >= np.maximum(rp, 1))))
+        if np.any(bad_):
+            i, v = at("amplitude_sem_dof", bad_)
+            return f"dataset amplitude_sem_dof is {v:g} at point {i}; allowed: 0 ... record_periods - 1"
+    # ranges
+    for k in NONNEGATIVE_OUTPUTS:
+        if k in f and f[k].dtype.kind != "c" and np.any(f[k] < 0):
+            i, v = at(k, f[k] < 0)
+            return f"dataset {k} is {v:g} at point {i}; allowed: not negative"
+    for k in FRACTION_OUTPUTS:
+        if k in f and np.any(f[k] > 1 + 1e-9):
+            i, v = at(k, f[k] > 1 + 1e-9)
+            return f"dataset {k} is {v:g} at point {i}; allowed: a share of the record, 0 ... 1"
+    if "wall_time_s" in f:
+        w = f["wall_time_s"]
+        bad_ = ~np.isfinite(w) | (w > time.time())
+        if np.any(bad_):
+            i, v = at("wall_time_s", bad_)
+            return f"dataset wall_time_s is {v:g} at point {i}; allowed: a finite time, at most the time since 1970"
+    # status against finiteness: a time-domain point that is not failed has no infinite number but
+    # its Lyapunov exponents (-inf: a direction a sticking phase collapses); any method's amplitude
+    # and extremes (vibeam.engine.sweep._not_finite)
+    finite = [k for k in f if f[k].dtype.kind == "f" and not k.startswith("lyapunov")] if td else \
+        ["amplitude", "q_min", "q_max"]
+    for k in finite:
+        if k in f:
+            bad_ = live_(f[k]) & np.isinf(f[k])
+            if np.any(bad_):
+                i, v = at(k, bad_)
+                return f"dataset {k} is {v} at point {i} whose status is {st[i]!r}; allowed there: finite numbers"
+    amp = f["amplitude"]
+    bad_ = live & np.isnan(amp) & (per != -1)
+    if np.any(bad_):
+        i = _first(bad_)
+        return (f"dataset amplitude is nan at point {i} whose status is {st[i]!r} and period {per[i]:.0f}; "
+                f"allowed there: a number")
+    for k in MOTION_OUTPUTS:
+        if k in f:
+            bad_ = live_(f[k]) & (np.abs(f[k]) > MOTION_MAX)
+            if np.any(bad_):
+                i, v = at(k, bad_)
+                return (f"dataset {k} is {v:g} at point {i} whose status is {st[i]!r}; allowed there: at most "
+                        f"{MOTION_MAX:g} in magnitude (its square overflows)")
+    if not td:
+        return None
+    need = ["amplitude", "q_min", "q_max", "impacts_per_period"] + \
+        [k for k in ("amplitude_mean", "amplitude_min", "amplitude_max") if k in f]
+    for k in need:
+        bad_ = live & np.isnan(f[k])
+        if np.any(bad_):
+            i = _first(bad_)
+            return f"dataset {k} is nan at point {i} whose status is {st[i]!r}; allowed there: a number"
+    # consistency of one record's numbers, at the points that are not failed
+    qn, qx = f["q_min"], f["q_max"]
+    with np.errstate(invalid="ignore", over="ignore"):
+        scale = np.maximum.reduce([np.abs(amp), np.abs(qn), np.abs(qx), np.full(n, abs(float(line.Delta)))])
+        tol = 1e-9 * np.where(np.isfinite(scale), scale, 0) + 1e-300
+
+        def check(cond, what):
+            bad_ = live & ~cond
+            if np.any(bad_):
+                return _first(bad_), what
+            return None
+
+        rules = [(qn <= qx + tol, "q_min is above q_max")]
+        if getattr(s, "inner", None) is None:          # no scene effects: the stop is the line's
+            rules.append((np.abs(amp - (float(line.Delta) - qn)) <= tol,
+                          f"amplitude is not Delta - q_min (Delta = {float(line.Delta):.10g})"))
+        if "amplitude_max" in f:
+            lo, mean, hi = f["amplitude_min"], f["amplitude_mean"], f["amplitude_max"]
+            rules += [(lo >= amp - (qx - qn) - tol, "amplitude_min is below amplitude - (q_max - q_min)"),
+                      (lo <= mean + tol, "amplitude_min is above amplitude_mean"),
+                      (mean <= hi + tol, "amplitude_mean is above amplitude_max"),
+                      (hi <= amp + tol, "amplitude_max is above amplitude")]
+            for k in ("amplitude_std", "amplitude_sem"):
+                if k in f:
+                    rules.append((np.isnan(f[k]) | (f[k] <= (hi - lo) + tol), f"{k} is larger than the range of "
+                                                                               f"the per-period amplitudes"))
+        n_rec = int(sw.record_periods)
+        ipp = f["impacts_per_period"] * n_rec
+        rules.append((np.abs(ipp - np.round(ipp)) <= 1e-9 * np.abs(np.round(ipp)),      # 0 impacts: exactly 0
+                      f"impacts_per_period is not a whole number of impacts over {n_rec} periods"))
+        inner = getattr(s, "inner", None) or s
+        most = getattr(inner, "max_impacts_per_period", None)
+        if most:
+            # a call of a periods may hold most * a impacts (else it fails): a record that shares its
+            # call with the last chunk of the transient has at most most * (chunk + n_rec) / n_rec per period
+            chunk = max(1, int(getattr(s, "chunk_periods", None) or CHUNK_PERIODS))
+            top = float(most) * (chunk + n_rec) / n_rec
+            rules.append((f["impacts_per_period"] <= top,
+                          f"impacts_per_period is above {top:g} (max_impacts_per_period = {most} of the method)"))
+        if "strobe" in f:
+            q = f["strobe"][:, :, 0]
+            rules.append((np.all(np.isnan(q) | ((q >= (qn - tol)[:, None]) & (q <= (qx + tol)[:, None])), axis=1),
+                          "strobe holds a q outside [q_min, q_max]"))
+        if "harmonics" in f:
+            h = f["harmonics"]
+            big = 2 * np.maximum(np.abs(qn), np.abs(qx)) * (1 + 1e-9) + tol
+            rules.append((np.all(np.isnan(h) | (h <= big[:, None]), axis=1),
+                          "harmonics holds an amplitude above twice the largest |q|"))
+        for cond, what in rules:
+            got = check(cond, what)
+            if got is not None:
+                return f"at point {got[0]} (status {st[got[0]]!r}) {what}"
     return None

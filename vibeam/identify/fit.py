@@ -76,7 +76,7 @@ from pathlib import Path
 import numpy as np
 
 from vibeam.case.contact import ContactSpec, StopSpec, model_with
-from vibeam.case.paths import get_value, is_path, key_of
+from vibeam.case.paths import canonical, flat_key, get_value, is_path, key_of
 from vibeam.case.paths import parse as parse_path
 from vibeam.case.schema import AssessSpec, load_case, parse_case
 from vibeam.case.text import case_dump, to_toml  # noqa: F401 (re-exported)
@@ -158,7 +158,10 @@ def schema_bounds(spec_cls, name: str) -> tuple[float, float, bool, bool]:
 
 
 def check_params(case, params, source: str = "") -> list[str]:
-    """Validate ``--params`` against the numeric keys of the case's ``[model]``.
+    """Validate ``--params`` against the numeric keys of the case's ``[model]``: the names as the fit
+    uses them (``system.<key>`` / ``excitation.<key>`` as their flat key), each parameter once
+    (an alias and its path, ``R`` and ``stops[0].law.R``, are one parameter:
+    :func:`vibeam.case.paths.canonical`).
 
     Raises
     ------
@@ -169,14 +172,24 @@ def check_params(case, params, source: str = "") -> list[str]:
     where = f"{source}: " if source else ""
     if not params:
         raise case_error(f"{where}'--params' is empty; allowed: {', '.join(allowed)}")
+    out = []
     for p in params:
-        if p not in allowed:
+        try:
+            q = flat_key(p)          # system.<key> / excitation.<key>: the flat key
+        except ValueError as e:
+            raise case_error(f"{where}'--params' = {p!r}: {e}") from None
+        if q not in allowed:
             raise case_error(f"{where}'--params' = {p!r} is not a numeric key of [model]; allowed: "
-                         f"{', '.join(allowed)}")
-    dup = sorted({p for p in params if params.count(p) > 1})
-    if dup:
-        raise case_error(f"{where}'--params': {', '.join(dup)} repeated")
-    return list(params)
+                             f"{', '.join(allowed)}")
+        out.append(q)
+    seen: dict = {}
+    for p, q in zip(params, out):
+        c = canonical(case.model, q)
+        if c in seen:
+            same = "repeated" if seen[c] == p else f"names the same parameter as {seen[c]!r} ({c})"
+            raise case_error(f"{where}'--params' = {p!r} {same}; allowed: each parameter once")
+        seen[c] = p
+    return out
 
 
 def default_params(case) -> list[str]:
@@ -1169,6 +1182,8 @@ def main_fit(args) -> int:
         raise case_error(f"{args.case}: '--params' = {args.params!r} names no parameter; allowed: "
                      f"{', '.join(case.map_parameters())}")
 
+    if args.reference and not args.linear and args.params is not None:     # before the folder is made
+        check_params(case, [p.strip() for p in args.params.split(",") if p.strip()], args.case)
     out_dir = check_folder(Path(args.out) if args.out else default_folder(case.name, "@fit"))
     with OutputLock(out_dir):
         return _main_fit_locked(args, case, text, out_dir, log)

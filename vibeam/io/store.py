@@ -24,8 +24,9 @@ whole command, computation included:
    basin rows, sampled sweeps) goes to ``<file>.partial`` (:meth:`Store.checkpoint`), never into the
    complete file; the command's commit removes what it consumed.  ``--resume`` reads a
    checkpoint through :meth:`Store.read_checkpoint`, which refuses links, sizes beyond the
-   bounds of :mod:`vibeam.io.h5check` and -- through the caller's check -- any dataset whose
-   shape, type or values this vibeam would not have written.
+   bounds of :mod:`vibeam.io.h5check`, -- through the caller's check -- any dataset whose
+   shape, type or values this vibeam would not have written, and a group whose contents differ
+   from what was written there (:func:`checkpoint_digest`).
 5. **Only regular files.**  The file, its checkpoint and every other output name must be a
    regular file or a new name (:func:`vibeam.io.outdir.check_output_file`); a command never
    writes into a file it reads (``inputs``).
@@ -74,6 +75,56 @@ def case_hash(case_json: str) -> str:
     ``case_hash``), so a resume keeps only lines computed for the same case and variant, and
     a unit of another case is marked stale."""
     return hashlib.sha256(str(case_json).encode()).hexdigest()[:16]
+
+
+#: the attribute of a checkpointed group holding :func:`checkpoint_digest` of its contents
+DIGEST_ATTR = "vibeam_digest"
+#: attributes left out of the digest: HDF5 object references (dimension scales), which name
+#: objects by their address in the file, not by their contents
+_UNDIGESTED = ("DIMENSION_LIST", "REFERENCE_LIST", DIGEST_ATTR)
+
+
+def _digest_value(h, v) -> None:
+    """Feed one dataset's or attribute's value to the hash ``h``: its type, shape and bytes (texts
+    element by element, each with its length, so that no two arrays of texts share a digest)."""
+    a = np.asarray(v)
+    h.update(f"{a.dtype.kind}{a.dtype.itemsize}{a.shape}".encode())
+    if a.dtype.kind == "O":
+        for x in a.ravel():
+            b = x if isinstance(x, bytes) else str(x).encode("utf-8", "surrogatepass")
+            h.update(len(b).to_bytes(8, "little") + b)
+    else:
+        h.update(np.ascontiguousarray(a).tobytes())
+
+
+def checkpoint_digest(group, path: str) -> str:
+    """SHA-256 of a checkpointed group as it is stored: its path in the file (``lines/<run>/<key>``),
+    its attributes (but :data:`DIGEST_ATTR` and object references), and every object below it --
+    name, attributes, and for a dataset its type, shape and bytes -- in the order of their names.
+
+    :meth:`Store.checkpoint` keeps it in the group's attribute :data:`DIGEST_ATTR`;
+    :meth:`Store.read_checkpoint` refuses a group whose contents no longer give it: a value, type
+    or shape changed after vibeam wrote it, a group copied under another key, a sample's rows
+    copied into another block.  It guards against a careless edit or a damaged copy, not against
+    someone who recomputes it: the values are checked on their own as well (the caller's check).
+    A group without the attribute (an earlier vibeam's) is judged by those checks alone."""
+    h = hashlib.sha256(str(path).strip("/").encode())
+
+    def attrs(obj):
+        for k in sorted(obj.attrs.keys()):
+            if k not in _UNDIGESTED:
+                h.update(b"\x00@" + k.encode())
+                _digest_value(h, obj.attrs[k])
+
+    attrs(group)
+    objs = []
+    group.visititems(lambda name, obj: objs.append((name, obj)) and None)
+    for name, obj in sorted(objs, key=lambda x: x[0]):
+        h.update(b"\x00/" + name.encode())
+        attrs(obj)
+        if isinstance(obj, h5py.Dataset):
+            _digest_value(h, obj[()])
+    return h.hexdigest()
 
 
 @contextlib.contextmanager
@@ -451,6 +502,9 @@ class Store:
                 if p in f:
                     del f[p]
                 write_group(f, p, variables, attrs, _ids=ids)
+            for key in groups:      # once every group is written (a later one may share a dimension)
+                p = f"{kind}/{key}"
+                f[p].attrs[DIGEST_ATTR] = checkpoint_digest(f[p], p)
 
         if self.fresh and not self._started:
             base = None                           # --fresh: the old checkpoint is not kept
@@ -465,7 +519,8 @@ class Store:
         (an earlier vibeam kept its checkpoint there).  Each group's structure is checked first
         (:func:`vibeam.io.h5check.check_tree`: no links, bounded sizes), then ``check(key, meta,
         None)`` with ``meta = {dataset: (shape, dtype)}`` before any value is read, then
-        ``check(key, meta, data)`` with the values (``check`` returns None or what is wrong).
+        ``check(key, meta, data)`` with the values (``check`` returns None or what is wrong), then
+        the group's digest (:func:`checkpoint_digest`, where it has one).
 
         Returns
         -------
@@ -507,6 +562,10 @@ class Store:
                             bad = f"cannot be read ({one_line(str(e))[:80]})"
                         else:
                             bad = check(key, meta, data) if check is not None else None
+                    if bad is None and DIGEST_ATTR in sub.attrs and \
+                            _text(sub.attrs[DIGEST_ATTR]) != checkpoint_digest(sub, f"{kind}/{key}"):
+                        bad = ("its contents differ from what vibeam wrote there (the digest in its attribute "
+                               f"{DIGEST_ATTR} does not match: changed, or copied from another group)")
                     if bad is not None:
                         raise InputError(one_line(f"--resume: {path}: /{kind}/{key}: {bad}; this vibeam never "
                                                   f"writes that: remove {path.name} (or run without --resume) to "
