@@ -33,10 +33,14 @@ is below it (CI's small fixed sample).
 from __future__ import annotations
 
 import argparse
+import ast
+import csv
+import hashlib
 import json
 import os
 import random
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -48,7 +52,13 @@ ROOT = Path(__file__).resolve().parents[1]
 #: module (path in the repository) -> the tests that exercise it (run from the copy's root)
 MODULES = {
     "vibeam/io/store.py": [
-        "tests/test_store.py",
+        "tests/test_store.py::test_an_earlier_vibeams_file_gives_every_group_its_case",
+        "tests/test_store.py::test_a_group_whose_object_header_is_damaged_is_not_a_traceback",
+        "tests/test_store.py::test_the_tree_walk_counts_every_object_and_names_its_limits",
+        "tests/test_store.py::test_fresh_starts_a_new_file",
+        "tests/test_store.py::test_an_interrupted_rerun_leaves_the_complete_file_byte_for_byte",
+        "tests/test_store.py::test_continue_after_an_edit_keeps_the_sweeps_marked_stale",
+        "tests/test_store_units.py",
     ],
     "vibeam/io/h5check.py": [
         "tests/test_store.py",
@@ -67,7 +77,30 @@ MODULES = {
         "tests/test_effects.py",
     ],
     "vibeam/case/paths.py": [
-        "tests/test_paths.py",
+        "tests/test_paths.py::test_a_path_sets_the_one_key_it_stands_for",
+        "tests/test_paths.py::test_a_path_stands_for_the_flat_key_of_its_stop",
+        "tests/test_paths.py::test_a_path_the_scene_does_not_have_is_one_line",
+        "tests/test_paths.py::test_continuation_in_a_path_the_scene_does_not_set_is_one_line",
+        "tests/test_paths.py::test_a_continuation_range_the_scene_cannot_take_is_one_line",
+        "tests/test_paths.py::test_a_continuation_range_in_a_flat_key_the_spec_has_no_field_of_is_checked_by_its_path",
+        "tests/test_paths_resolver.py",
+    ],
+    # the default suite's tests of the uncertainty layer that run no more than a few sampled sweeps
+    # (the sdof event kernel, compiled once by the clean run), then the property tests on synthetic
+    # samples (no kernel)
+    "vibeam/case/uncertainty.py": [
+        "tests/test_uncertainty.py::test_bad_uncertainty_input_is_refused_in_one_line_naming_the_key",
+        "tests/test_uncertainty.py::test_a_truncated_normal_R_inside_its_range_is_accepted",
+        "tests/test_uncertainty.py::test_every_sample_and_statistic_equals_the_closed_form_linear_frc",
+        "tests/test_uncertainty_spec.py",
+    ],
+    "vibeam/analysis/uncertainty.py": [
+        "tests/test_uncertainty.py::test_every_sample_and_statistic_equals_the_closed_form_linear_frc",
+        "tests/test_uncertainty.py::test_the_verdict_of_two_runs_counts_the_points_outside_the_band",
+        "tests/test_uncertainty.py::test_samples_build_their_solvers_one_at_a_time",
+        "tests/test_uncertainty.py::test_resume_refuses_a_checkpoint_vibeam_did_not_write",
+        "tests/test_uncertainty.py::test_an_interrupted_uncertainty_resumes_to_the_same_file_bit_for_bit",
+        "tests/test_uncertainty_properties.py",
     ],
     "models/lyapunov.py": [
         "tests/test_oracles.py::test_lyapunov_exponents_of_period_2_and_3_orbits_are_their_floquet_exponents",
@@ -242,81 +275,394 @@ def annotation_only(spec, src: list) -> bool:
     return line.find("(") < col and (close < 0 or col < close or "->" in line[:col])
 
 
-def run(modules, sample: int, seed: int, timeout: float, out: Path | None, verbose: bool) -> dict:
+def _statement_lines(src_text: str) -> dict:
+    """``{line: lines}``: for each line of a module, the lines of the innermost statement that holds
+    it, without the lines of statements nested in its body (for a compound statement: its header,
+    decorators included).  A mutant changes the program only if one of those lines runs."""
+    tree = ast.parse(src_text)
+    out: dict = {}
+
+    def visit(node, depth=0):
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.stmt):
+                lo = min([child.lineno] + [d.lineno for d in getattr(child, "decorator_list", [])])
+                hi = child.end_lineno or child.lineno
+                nested = set()
+                for f in ("body", "orelse", "finalbody", "handlers"):
+                    for sub in getattr(child, f, None) or []:
+                        nested |= set(range(sub.lineno, (sub.end_lineno or sub.lineno) + 1))
+                own = frozenset(set(range(lo, hi + 1)) - nested) or frozenset({lo})
+                for line in own:
+                    out[line] = own
+            visit(child, depth + 1)
+
+    visit(tree)
+    return out
+
+
+def _line_tracer(filename: str, lines: set):
+    """A ``sys.settrace`` function that adds to ``lines`` every line of ``filename`` that runs."""
+    def local(frame, event, arg):
+        if event == "line":
+            lines.add(frame.f_lineno)
+        return local
+
+    def glob(frame, event, arg):
+        if frame.f_code.co_filename == filename:
+            lines.add(frame.f_lineno)
+            return local
+        return None
+    return glob
+
+
+def _import_graph(pkg: Path) -> dict:
+    """``{module: modules of vibeam it imports at its top level}`` of the copy (imports inside a
+    function run at call time through ``sys.modules``, so they bind nothing at import)."""
+    files = {}
+    for py in (pkg / "vibeam").rglob("*.py"):
+        parts = list(py.relative_to(pkg).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        files[".".join(parts)] = py
+
+    def top(body):
+        for n in body:
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+                continue
+            yield n
+            for f in ("body", "orelse", "finalbody", "handlers"):
+                sub = getattr(n, f, None)
+                if isinstance(sub, list):
+                    yield from top(sub)
+
+    graph = {}
+    for name, py in files.items():
+        deps = set()
+        for n in top(ast.parse(py.read_text()).body):
+            if isinstance(n, ast.Import):
+                deps |= {a.name for a in n.names}
+            elif isinstance(n, ast.ImportFrom):
+                if n.level:
+                    base = name.split(".") if py.name == "__init__.py" else name.split(".")[:-1]
+                    base = base[:len(base) - (n.level - 1)]
+                    mod = ".".join(base + ([n.module] if n.module else []))
+                else:
+                    mod = n.module or ""
+                deps.add(mod)
+                deps |= {f"{mod}.{a.name}" for a in n.names}
+        graph[name] = {d for d in deps if d in files}
+    return graph
+
+
+def _dependents(graph: dict, target: str) -> set:
+    """``target`` and every module that imports it at its top level, directly or through others,
+    and every submodule of a package among them: what a process must import afresh to run the
+    mutated ``target``."""
+    out = {target}
+    grew = True
+    while grew:
+        grew = False
+        for m, deps in graph.items():
+            if m not in out and (deps & out or any(m.startswith(p + ".") for p in out if p != target)):
+                out.add(m)
+                grew = True
+    return out
+
+
+class _FirstFailure:
+    """A pytest plugin that writes the node id of the first failing test to a file."""
+
+    def __init__(self, path: str):
+        self.path = path
+
+    def pytest_runtest_logreport(self, report):
+        if report.failed and not os.path.exists(self.path):
+            with open(self.path, "w") as fh:
+                fh.write(report.nodeid)
+
+    def pytest_collectreport(self, report):
+        if report.failed and not os.path.exists(self.path):
+            with open(self.path, "w") as fh:
+                fh.write("collecting " + str(report.nodeid))
+
+
+class ForkRunner:
+    """Runs a module's tests once in this process on the clean source (the kernels they use
+    compile once, here), then each mutant's tests in a forked child that imports afresh the
+    mutated module, every module that imports it (:func:`_dependents`) and the test files: the
+    rest (numpy, scipy, h5py, numba and the compiled kernels of ``vibeam.models``, which never
+    import the framework) is inherited, so a mutant costs its tests' own time, not the 10-20 s
+    of starting Python and importing them.  For the framework's pure-Python modules only (a
+    kernel module's mutant must be compiled from its mutated source: :func:`run` runs those in a
+    fresh process each, with an empty numba cache)."""
+
+    def __init__(self, pkg: Path, root: Path):
+        self.pkg, self.root = pkg, root
+        self.graph = _import_graph(pkg)
+
+    def args(self, tests) -> list:
+        """pytest's arguments: stop at the first failure; no plugin but hypothesis' (no xdist: one
+        process), and none of the plugins that run a full garbage collection at the end (1 s of
+        the numba-sized heap, more than the tests of a killed mutant)."""
+        os.environ["PYTEST_DISABLE_PLUGIN_AUTOLOAD"] = "1"
+        return ["-x", "-q", "-p", "no:cacheprovider", "-p", "no:unraisableexception", "-p", "no:threadexception",
+                "-p", "_hypothesis_pytestplugin", "--no-header", "-o", "addopts=-m 'not slow'", *tests]
+
+    def baseline(self, module: str, tests, trace: bool) -> tuple[float, set | None]:
+        """The clean source's run (must pass) in this process; its seconds and, with ``trace``,
+        the module's lines that ran."""
+        import pytest
+
+        filename = str((self.root / copied(module)).resolve())
+        tdir = str(self.root / "tests")
+        for k, m in list(sys.modules.items()):      # an earlier module's test files: collected afresh
+            if k == "conftest" or (getattr(m, "__file__", None) or "").startswith(tdir):
+                del sys.modules[k]
+        lines: set = set()
+        t0 = time.perf_counter()
+        if trace:
+            import threading
+            tracer = _line_tracer(filename, lines)
+            threading.settrace(tracer)
+            sys.settrace(tracer)
+        try:
+            rc = pytest.main(self.args(tests))
+        finally:
+            if trace:
+                sys.settrace(None)
+                import threading
+                threading.settrace(None)
+        if rc != 0:
+            raise SystemExit(f"tests.mutation: the clean source fails its tests ({' '.join(tests)}): exit {rc}")
+        return time.perf_counter() - t0, (lines if trace else None)
+
+    def purge(self, module: str) -> None:
+        """Drop from ``sys.modules`` (and from their packages' attributes) what a child imports
+        afresh."""
+        name = ".".join(Path(copied(module)).relative_to("pkg").with_suffix("").parts)
+        fresh = _dependents(self.graph, name)
+        tests = str(self.root / "tests")
+        for k, m in list(sys.modules.items()):
+            f = getattr(m, "__file__", None) or ""
+            if k in fresh or k == "conftest" or k == "tests" or k.startswith("tests.") or f.startswith(tests):
+                del sys.modules[k]
+                parent, _, leaf = k.rpartition(".")
+                if parent in sys.modules and getattr(sys.modules[parent], leaf, None) is m:
+                    delattr(sys.modules[parent], leaf)
+
+    def mutant(self, module: str, spec, tests, timeout: float):
+        """``(outcome, diff, first failing test)`` of one mutant: killed, survived, incompetent
+        (the mutated module does not import: counted as killed) or timeout (killed)."""
+        from cosmic_ray.mutating import use_mutation
+        import cosmic_ray.plugins
+
+        op = cosmic_ray.plugins.get_operator(spec.operator_name)(**(getattr(spec, "operator_args", None) or {}))
+        with use_mutation(spec.module_path, op, spec.occurrence) as (orig, mutated):
+            if mutated is None:
+                return "no-test", "", ""
+            diff = "".join(__import__("difflib").unified_diff(orig.splitlines(True), mutated.splitlines(True),
+                                                              str(spec.module_path), str(spec.module_path)))
+            try:
+                compile(mutated, str(spec.module_path), "exec")
+            except SyntaxError:
+                return "incompetent", diff, "syntax"
+            fd, fail = tempfile.mkstemp(prefix="first-failure-")
+            os.close(fd)
+            os.unlink(fail)
+            sys.stdout.flush()
+            sys.stderr.flush()
+            import gc
+            gc.collect()
+            gc.freeze()                  # the inherited heap: never scanned again, never copied by the gc
+            pid = os.fork()
+            if pid == 0:                                       # the child: never returns
+                code = 3
+                try:
+                    os.setpgid(0, 0)
+                    null = os.open(os.devnull, os.O_WRONLY)
+                    os.dup2(null, 1)
+                    os.dup2(null, 2)
+                    sys.dont_write_bytecode = True             # never a stale .pyc of another mutant
+                    self.purge(module)
+                    import pytest
+                    code = int(pytest.main(self.args(tests), plugins=[_FirstFailure(fail)]))
+                except BaseException:
+                    code = 4
+                finally:
+                    os._exit(code)
+            t_end = time.monotonic() + timeout
+            status = None
+            while time.monotonic() < t_end:
+                done, status = os.waitpid(pid, os.WNOHANG)
+                if done:
+                    break
+                time.sleep(0.05)
+            else:
+                for sig in (signal.SIGTERM, signal.SIGKILL):
+                    try:
+                        os.killpg(pid, sig)
+                    except ProcessLookupError:
+                        pass
+                    time.sleep(0.5)
+                os.waitpid(pid, 0)
+                return "killed", diff, "timeout"
+            rc = os.waitstatus_to_exitcode(status)
+            first = Path(fail).read_text() if os.path.exists(fail) else ""
+            if os.path.exists(fail):
+                os.unlink(fail)
+            if rc == 0:
+                return "survived", diff, ""
+            if rc == 1:
+                return "killed", diff, first
+            return "incompetent", diff, first or f"exit {rc}"
+
+
+def workdir_default() -> Path:
+    """The scratch copy's folder, the same on every run of this checkout (its numba cache, beside
+    it, stays valid across runs: the kernels' source does not change)."""
+    tag = hashlib.sha256(str(ROOT).encode()).hexdigest()[:8]
+    return Path(tempfile.gettempdir()) / f"vibeam-mutation-{os.getuid()}-{tag}"
+
+
+def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None, verbose: bool,
+        runner: str = "auto", workdir: Path | None = None, retest: dict | None = None, trace: bool = True,
+        csv_out: Path | None = None) -> dict:
+    """Mutants of ``modules`` against their tests (:data:`MODULES`); ``sample`` None: every
+    mutant.  ``retest``: an earlier report (same module source) whose killed and equivalent mutants
+    are carried over and whose other mutants run again (after tests were added)."""
     from cosmic_ray.mutating import mutate_and_test
 
     report = {"date": time.strftime("%Y-%m-%d"), "commit": _commit(), "seed": seed, "sample": sample,
               "tool": "cosmic-ray " + _version(), "modules": {}}
-    with tempfile.TemporaryDirectory(prefix="vibeam-mutation-") as tmp:
-        tmp = Path(tmp)
-        pkg = layout(tmp)
-        old_cwd = os.getcwd()
-        os.chdir(tmp)
-        env_keep = {k: os.environ.get(k) for k in ("PYTHONPATH", "NUMBA_CACHE_DIR")}
-        try:
-            os.environ["PYTHONPATH"] = str(pkg)
-            where = subprocess.run([sys.executable, "-c", "import vibeam.models.sdof as m, vibeam.io.store as s; "
-                                    "print(m.__file__); print(s.__file__)"], capture_output=True, text=True).stdout
-            if any(not line.startswith(str(pkg)) for line in where.split()) or not where.strip():
-                raise SystemExit(f"tests.mutation: the copy is not what Python imports ({where.split()}); "
-                                 f"a mutant would run the checkout's code")
-            for module in modules:
-                specs = mutants_of(Path(copied(module)))
-                rng = random.Random(f"{seed}:{module}")
-                chosen = sorted(rng.sample(range(len(specs)), min(sample, len(specs))))
-                tests = " ".join(MODULES[module])
-                rows = []
-                # a mutant of a kernel module gets an empty numba cache (no kernel compiled from
-                # other source can run in its place); the pure-Python modules' mutants share one,
-                # filled by the first mutant from the clean kernels' source
-                kernel = Path(module).parts[0] in ("models", "reductions")
-                shared = None if kernel else tempfile.mkdtemp(prefix="numba-shared-", dir=tmp)
-                src = Path(copied(module)).read_text().splitlines()
-                for i in chosen:
-                    spec = specs[i]
-                    if annotation_only(spec, src):
-                        rows.append({"index": i, "operator": spec.operator_name, "line": spec.start_pos[0],
-                                     "outcome": "equivalent", "seconds": 0.0,
-                                     "diff": f"(a '|' of a function's annotations, line {spec.start_pos[0]}: "
-                                             f"{src[spec.start_pos[0] - 1].strip()})"})
-                        if verbose:
-                            print(f"{module}:{spec.start_pos[0]} {spec.operator_name}: equivalent (annotation)",
-                                  flush=True)
-                        continue
-                    os.environ["NUMBA_CACHE_DIR"] = shared or tempfile.mkdtemp(prefix="numba-", dir=tmp)
-                    cmd = f"{sys.executable} -m pytest -x -q -n 0 -p no:cacheprovider {tests}"
-                    t0 = time.perf_counter()
+    workdir = Path(workdir or workdir_default())
+    tmp = workdir / "copy"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    cache = workdir / "numba-cache"
+    cache.mkdir(exist_ok=True)
+    pkg = layout(tmp)
+    old_cwd = os.getcwd()
+    os.chdir(tmp)
+    keep = ("PYTHONPATH", "NUMBA_CACHE_DIR", "VIBEAM_COMPILE_AHEAD", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+    env_keep = {k: os.environ.get(k) for k in keep}
+    try:
+        os.environ["PYTHONPATH"] = str(pkg)
+        # one process at a time per mutant (the 2-core machine; compile-ahead's child off)
+        os.environ.update(VIBEAM_COMPILE_AHEAD="0", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+        where = subprocess.run([sys.executable, "-c", "import vibeam.models.sdof as m, vibeam.io.store as s; "
+                                "print(m.__file__); print(s.__file__)"], capture_output=True, text=True).stdout
+        if any(not line.startswith(str(pkg)) for line in where.split()) or not where.strip():
+            raise SystemExit(f"tests.mutation: the copy is not what Python imports ({where.split()}); "
+                             f"a mutant would run the checkout's code")
+        forked = None
+        for module in modules:
+            specs = mutants_of(Path(copied(module)))
+            rng = random.Random(f"{seed}:{module}")
+            chosen = (list(range(len(specs))) if sample is None
+                      else sorted(rng.sample(range(len(specs)), min(sample, len(specs)))))
+            tests = MODULES[module]
+            rows = []
+            kernel = Path(module).parts[0] in ("models", "reductions")
+            use_fork = (runner == "fork" or (runner == "auto" and not kernel)) and hasattr(os, "fork")
+            if kernel and use_fork:
+                raise SystemExit(f"tests.mutation: {module} holds kernels: its mutants run in a fresh process each")
+            src_text = Path(copied(module)).read_text()
+            src = src_text.splitlines()
+            earlier = {}
+            if retest is not None and module in retest["modules"]:
+                earlier = {r["index"]: r for r in retest["modules"][module]["rows"]}
+            os.environ["NUMBA_CACHE_DIR"] = str(cache)
+            ran_lines = None
+            base_s = None
+            if use_fork:
+                if forked is None:
+                    sys.path.insert(0, str(pkg))
+                    exec(SITECUSTOMIZE, {})                  # the editable install's finder out of this process
+                    forked = ForkRunner(pkg, tmp)
+                base_s, ran_lines = forked.baseline(module, tests, trace)
+                stmt = _statement_lines(src_text)
+                if verbose:
+                    print(f"{module}: clean run {base_s:.1f} s (traced), {len(chosen)} mutants, "
+                          f"{len(ran_lines or ())} lines ran", flush=True)
+            t_module = time.perf_counter()
+            for n_done, i in enumerate(chosen):
+                spec = specs[i]
+                row = {"index": i, "operator": spec.operator_name, "line": spec.start_pos[0],
+                       "column": spec.start_pos[1], "outcome": "", "seconds": 0.0, "killed_by": "", "diff": ""}
+                prev = earlier.get(i)
+                if prev is not None and prev["operator"] == spec.operator_name and prev["line"] == spec.start_pos[0] \
+                        and prev["outcome"] in ("killed", "incompetent", "equivalent") \
+                        and prev.get("why", "") != "not executed":
+                    rows.append(dict(prev, carried=True))
+                    continue
+                if annotation_only(spec, src):
+                    row.update(outcome="equivalent", why="annotation",
+                               diff=f"(a '|' of a function's annotations, line {spec.start_pos[0]}: "
+                                    f"{src[spec.start_pos[0] - 1].strip()})")
+                    rows.append(row)
+                    continue
+                t0 = time.perf_counter()
+                if use_fork:
+                    own = stmt.get(spec.start_pos[0], frozenset({spec.start_pos[0]}))
+                    if ran_lines is not None and not (own & ran_lines):
+                        outcome, diff, first = "survived", "", ""
+                        row["why"] = "not executed"
+                        line_text = src[spec.start_pos[0] - 1].strip()
+                        diff = f"(line {spec.start_pos[0]} never runs in the tests: {line_text})"
+                    else:
+                        outcome, diff, first = forked.mutant(module, spec, tests, timeout)
+                else:
+                    os.environ["NUMBA_CACHE_DIR"] = str(cache) if not kernel else \
+                        tempfile.mkdtemp(prefix="numba-", dir=workdir)
+                    cmd = f"{sys.executable} -m pytest -x -q -n 0 -p no:cacheprovider {' '.join(tests)}"
                     res = mutate_and_test([spec], cmd, timeout)
                     outcome = (res.test_outcome.value if res.test_outcome is not None
                                else res.worker_outcome.value)
-                    line = _original_line(res.diff or "")
-                    if ((module, spec.operator_name, line) in EQUIVALENT
-                            or (module, spec.operator_name, line, spec.start_pos[1]) in EQUIVALENT):
-                        outcome = "equivalent"
-                    rows.append({"index": i, "operator": spec.operator_name, "line": spec.start_pos[0],
-                                 "outcome": outcome, "seconds": round(time.perf_counter() - t0, 1),
-                                 "diff": res.diff or ""})
+                    diff, first = res.diff or "", ""
                     if kernel:
                         shutil.rmtree(os.environ["NUMBA_CACHE_DIR"], ignore_errors=True)
-                    if verbose:
-                        print(f"{module}:{spec.start_pos[0]} {spec.operator_name}: {outcome} "
-                              f"({rows[-1]['seconds']} s)", flush=True)
-                scored = [r for r in rows if r["outcome"] in ("killed", "survived", "incompetent")]
-                killed = sum(r["outcome"] != "survived" for r in scored)
-                report["modules"][module] = {"mutants": len(specs), "sampled": len(rows), "killed": killed,
-                                             "survived": len(scored) - killed,
-                                             "equivalent": sum(r["outcome"] == "equivalent" for r in rows),
-                                             "score": killed / len(scored) if scored else None,
-                                             "tests": MODULES[module], "rows": rows}
-        finally:
-            os.chdir(old_cwd)
-            for k, v in env_keep.items():
-                if v is None:
-                    os.environ.pop(k, None)
-                else:
-                    os.environ[k] = v
+                line = _original_line(diff)
+                if outcome == "survived" and ((module, spec.operator_name, line) in EQUIVALENT
+                                              or (module, spec.operator_name, line, spec.start_pos[1]) in EQUIVALENT):
+                    outcome = "equivalent"
+                    row["why"] = EQUIVALENT.get((module, spec.operator_name, line)) or \
+                        EQUIVALENT[(module, spec.operator_name, line, spec.start_pos[1])]
+                row.update(outcome=outcome, seconds=round(time.perf_counter() - t0, 2), killed_by=first, diff=diff)
+                rows.append(row)
+                if verbose:
+                    left = (time.perf_counter() - t_module) / (n_done + 1) * (len(chosen) - n_done - 1)
+                    print(f"[{n_done + 1}/{len(chosen)}, ~{left / 60:.0f} min left] {module}:{spec.start_pos[0]} "
+                          f"{spec.operator_name}: {outcome} ({row['seconds']} s) {first}", flush=True)
+            scored = [r for r in rows if r["outcome"] in ("killed", "survived", "incompetent")]
+            killed = sum(r["outcome"] != "survived" for r in scored)
+            report["modules"][module] = {
+                "mutants": len(specs), "sampled": len(rows), "killed": killed,
+                "survived": len(scored) - killed,
+                "not_executed": sum(r.get("why") == "not executed" for r in rows),
+                "equivalent": sum(r["outcome"] == "equivalent" for r in rows),
+                "score": killed / len(scored) if scored else None, "clean_seconds": base_s,
+                "seconds": round(time.perf_counter() - t_module, 1), "tests": tests, "rows": rows}
+            if out is not None:                           # after each module: a long run keeps what it did
+                out.write_text(json.dumps(report, indent=1))
+    finally:
+        os.chdir(old_cwd)
+        for k, v in env_keep.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
     if out is not None:
         out.write_text(json.dumps(report, indent=1))
+    if csv_out is not None:
+        with open(csv_out, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["module", "index", "line", "column", "operator", "outcome", "why", "killed_by", "change"])
+            for m, r in report["modules"].items():
+                for row in r["rows"]:
+                    change = " | ".join(x[1:].strip() for x in row["diff"].splitlines()
+                                        if x[:1] in "+-" and not x.startswith(("---", "+++")))
+                    w.writerow([m, row["index"], row["line"], row.get("column", ""), row["operator"],
+                                row["outcome"], row.get("why", ""), row.get("killed_by", ""), change or row["diff"]])
     return report
 
 
@@ -335,9 +681,20 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tests.mutation", description=__doc__.split("\n\n")[0])
     ap.add_argument("--modules", nargs="+", default=list(MODULES), choices=list(MODULES))
     ap.add_argument("--sample", type=int, default=20, help="mutants drawn per module (fixed seed)")
+    ap.add_argument("--all", action="store_true", help="every mutant of each module, not a sample")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant's tests (kernels compile)")
     ap.add_argument("--out", type=Path, help="the JSON report")
+    ap.add_argument("--csv", type=Path, help="one row per mutant: module, line, operator, outcome, ...")
+    ap.add_argument("--runner", choices=("auto", "fork", "subprocess"), default="auto",
+                    help="auto: a forked child per mutant of a pure-Python module, a fresh process per kernel "
+                         "module's mutant")
+    ap.add_argument("--workdir", type=Path, help="the scratch copy and its numba cache (default: a fixed folder "
+                                                 "of the temporary directory, reused by every run)")
+    ap.add_argument("--retest", type=Path, help="an earlier JSON report: its killed and equivalent mutants are "
+                                                "kept, the others run again")
+    ap.add_argument("--no-trace", action="store_true",
+                    help="run every mutant, also those on lines the clean run never reaches")
     ap.add_argument("--min-score", type=float, default=None, help="exit 1 if a module scores below this")
     ap.add_argument("--list", action="store_true", help="the number of mutants per module, nothing run")
     a = ap.parse_args(argv)
@@ -347,16 +704,19 @@ def main(argv=None) -> int:
             for m in a.modules:
                 print(f"{m}: {len(mutants_of(Path(tmp) / copied(m)))} mutants")
         return 0
-    rep = run(a.modules, a.sample, a.seed, a.timeout, a.out, verbose=True)
+    retest = json.loads(a.retest.read_text()) if a.retest else None
+    rep = run(a.modules, None if a.all else a.sample, a.seed, a.timeout, a.out, verbose=True, runner=a.runner,
+              workdir=a.workdir, retest=retest, trace=not a.no_trace, csv_out=a.csv)
     bad = False
     for m, r in rep["modules"].items():
         score = r["score"]
-        print(f"{m}: {r['killed']} of {r['killed'] + r['survived']} sampled non-equivalent mutants killed"
-              f" ({r['equivalent']} equivalent, {r['mutants']} in all)"
+        print(f"{m}: {r['killed']} of {r['killed'] + r['survived']} non-equivalent mutants killed"
+              f" ({r['equivalent']} equivalent, {r['sampled']} run of {r['mutants']}; "
+              f"{r['not_executed']} survivors on lines the tests never reach)"
               + (f", score {score:.2f}" if score is not None else ""))
         for row in r["rows"]:
             if row["outcome"] == "survived":
-                print("  survived:", row["operator"], "line", row["line"])
+                print("  survived:", row["operator"], "line", row["line"], row.get("why", ""))
                 print("    " + "\n    ".join(row["diff"].splitlines()[2:]))
         if a.min_score is not None and score is not None and score < a.min_score:
             bad = True
