@@ -19,8 +19,25 @@ as the installed package (``models/`` as ``vibeam/models``, ``reductions/`` as
     .venv/bin/python -m tests.mutation --sample 6 --seed 1 --modules vibeam/io/store.py
     .venv/bin/python -m tests.mutation --list                          # mutants per module
 
+Every mutant of the named modules (issue 56), not a sample, one run each::
+
+    .venv/bin/python -m tests.mutation --all --modules vibeam/case/paths.py --out paths.json --csv paths.csv
+    .venv/bin/python -m tests.mutation --all --modules vibeam/case/paths.py --retest paths.json --out paths2.json
+
+A mutant of a framework module (pure Python) runs in a forked child of the driver
+(:class:`ForkRunner`): the driver runs the module's tests once on the clean source (compiling the
+kernels they meet, with a numba cache under ``--workdir`` that stays valid from run to run), and
+each child imports afresh only the mutated module, the modules that import it and the test files,
+so a mutant costs its tests' own time (1-3 s on the 2 busy cores), not the 15-20 s of starting
+Python and importing numba, scipy and the framework.  The clean run is traced (``sys.settrace``
+on the module's file): a mutant on a line no test reaches is recorded ``survived`` (``why``: not
+executed) without a run.  ``--retest REPORT`` keeps the killed and equivalent mutants of an
+earlier report (matched by what they change, so the module may have changed since) and runs the
+others again: after tests were written for the survivors.  A kernel module's mutant still runs in
+a fresh process with an empty numba cache (``--runner subprocess``).
+
 Each mutant's tests are its module's test files (:data:`MODULES`: a selection by what the
-tests exercise, written down here, not by measured coverage) run with ``pytest -x -q -n 0``;
+tests exercise, written down here, not by measured coverage) run with ``pytest -x -q``;
 a mutant is *killed* when they fail or exceed the time limit (an endless loop), *survived* when
 they pass, *equivalent* when it is listed in :data:`EQUIVALENT` with the reason (left out of the
 score); *incompetent* (the mutated module does not import) counts as killed, as cosmic-ray
@@ -52,13 +69,13 @@ ROOT = Path(__file__).resolve().parents[1]
 #: module (path in the repository) -> the tests that exercise it (run from the copy's root)
 MODULES = {
     "vibeam/io/store.py": [
+        "tests/test_store_units.py",
         "tests/test_store.py::test_an_earlier_vibeams_file_gives_every_group_its_case",
         "tests/test_store.py::test_a_group_whose_object_header_is_damaged_is_not_a_traceback",
         "tests/test_store.py::test_the_tree_walk_counts_every_object_and_names_its_limits",
         "tests/test_store.py::test_fresh_starts_a_new_file",
         "tests/test_store.py::test_an_interrupted_rerun_leaves_the_complete_file_byte_for_byte",
         "tests/test_store.py::test_continue_after_an_edit_keeps_the_sweeps_marked_stale",
-        "tests/test_store_units.py",
     ],
     "vibeam/io/h5check.py": [
         "tests/test_store.py",
@@ -85,22 +102,20 @@ MODULES = {
         "tests/test_paths.py::test_a_continuation_range_in_a_flat_key_the_spec_has_no_field_of_is_checked_by_its_path",
         "tests/test_paths_resolver.py",
     ],
-    # the default suite's tests of the uncertainty layer that run no more than a few sampled sweeps
-    # (the sdof event kernel, compiled once by the clean run), then the property tests on synthetic
-    # samples (no kernel)
+    # the property tests on synthetic samples (no kernel; first: a mutant's run stops at its first
+    # failure), then the default suite's tests of the uncertainty layer that run no more than a few
+    # dozen sampled sweeps (the sdof event kernel, compiled once by the clean run)
     "vibeam/case/uncertainty.py": [
+        "tests/test_uncertainty_spec.py",
         "tests/test_uncertainty.py::test_bad_uncertainty_input_is_refused_in_one_line_naming_the_key",
         "tests/test_uncertainty.py::test_a_truncated_normal_R_inside_its_range_is_accepted",
         "tests/test_uncertainty.py::test_every_sample_and_statistic_equals_the_closed_form_linear_frc",
-        "tests/test_uncertainty_spec.py",
     ],
     "vibeam/analysis/uncertainty.py": [
+        "tests/test_uncertainty_properties.py",
         "tests/test_uncertainty.py::test_every_sample_and_statistic_equals_the_closed_form_linear_frc",
         "tests/test_uncertainty.py::test_the_verdict_of_two_runs_counts_the_points_outside_the_band",
-        "tests/test_uncertainty.py::test_samples_build_their_solvers_one_at_a_time",
         "tests/test_uncertainty.py::test_resume_refuses_a_checkpoint_vibeam_did_not_write",
-        "tests/test_uncertainty.py::test_an_interrupted_uncertainty_resumes_to_the_same_file_bit_for_bit",
-        "tests/test_uncertainty_properties.py",
     ],
     "models/lyapunov.py": [
         "tests/test_oracles.py::test_lyapunov_exponents_of_period_2_and_3_orbits_are_their_floquet_exponents",
@@ -183,6 +198,67 @@ EQUIVALENT = {
     ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_GtE", 'if key == "position_mm":'):
         "key is one of STOP_KEYS here (parse refused the rest): position_mm, gap_mm, contact_gap_mm, Delta; "
         "of these only position_mm is >= 'position_mm' ('g', 'c', 'D' sort before 'p')",
+    # vibeam/case/paths.py (issue 56: every mutant run; each of these survived, and no input the resolver is given tells it apart)
+    ("vibeam/case/paths.py", "core/ReplaceBinaryOperator_Add_LShift", 'n = 1 + any(lo in model for _, lo in _SHORT_GAPS.values())'):
+        '1 << b equals 1 + b for a bool b (1 or 2 stops)',
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_LtE", 'if (group == "excitation") != (key in EXCITATION_KEYS):', 18):
+        "group is 'system' or 'excitation' (the regex): 'system' <= 'excitation' is False",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_NotEq_IsNot", 'if (group == "excitation") != (key in EXCITATION_KEYS):', 35):
+        "both sides are bools, singletons: 'is not' is '!='",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_LtE", 'if i == 0:', 9):
+        'i is a parsed index (\\d+), never negative: i <= 0 is i == 0',
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_LtE", 'if i == 0:', 13):
+        'i is a parsed index (\\d+), never negative: i <= 0 is i == 0',
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_LtE", 'where = "contact" if i == 0 else "contact_lower"     # the lower stop\'s own table from now on'):
+        'i is a parsed index (\\d+), never negative: i <= 0 is i == 0',
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_LtE", 'if key == "R":'):
+        "key is a law key (parse): only 'R' sorts <= 'R', the others being lower case",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_Is", 'if key == "R":'):
+        "CPython keeps one object per one-character string: a key 'R' cut from the path is the literal 'R'",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_LtE", 'if i == 1 and where == "contact_lower" and table.get("R") is not None:', 13):
+        "a shorthand stop's index is 0 or 1, and at 0 where is 'contact', so the condition is False either way",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_GtE", 'if i == 1 and where == "contact_lower" and table.get("R") is not None:', 13):
+        "a shorthand stop's index is 0 or 1: i >= 1 is i == 1",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_GtE", 'if i == 1 and where == "contact_lower" and table.get("R") is not None:', 28):
+        "where is 'contact' or 'contact_lower': 'contact' >= 'contact_lower' is False",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_Is", 'if i == 1 and where == "contact_lower" and table.get("R") is not None:', 28):
+        "where is one of the module's two literals (interned, the same objects)",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_LtE", 'lo = [j for j in at_mass if stops[j].get("side", "upper") == "lower"]'):
+        "side is 'upper' or 'lower' (the schema): 'upper' <= 'lower' is False",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_GtE", 'up = [j for j in at_mass if stops[j].get("side", "upper") == "upper"]'):
+        "side is 'upper' or 'lower' (the schema): 'lower' >= 'upper' is False",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_LtE", 'if kind == "stop" and key in _SHORT_GAPS:'):
+        "kind is 'stop' or 'law' here, and no law key is a gap key (parse): the 'and' is False for a law either way",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_GtE", 'if kind == "stop" and key in _SHORT_GAPS:'):
+        "kind is 'stop' or 'law' here: 'law' >= 'stop' is False",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_Is", 'if kind == "stop" and key in _SHORT_GAPS:'):
+        'kind is a literal parse returns (interned, the same object)',
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_LtE", 'if kind == "law" and key == "R":', 12):
+        "kind is 'stop' or 'law' here: 'stop' <= 'law' is False",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_GtE", 'if kind == "law" and key == "R":', 12):
+        "kind is 'stop' or 'law' here, and a stop's own keys (parse) are never 'R': the 'and' is False for a stop either way",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_Is", 'if kind == "law" and key == "R":', 12):
+        'kind is a literal parse returns (interned, the same object)',
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_LtE", 'if kind == "law" and key == "R":', 29):
+        "key is a law key (parse): only 'R' sorts <= 'R'",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_Is", 'if kind == "law" and key == "R":', 29):
+        "CPython keeps one object per one-character string: a key 'R' cut from the path is the literal 'R'",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_GtE", 'if kind == "stop":'):
+        "kind is 'stop' or 'law' here ('model' returned before): 'law' >= 'stop' is False",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_Is", 'if kind == "stop":'):
+        'kind is a literal parse returns (interned, the same object)',
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_Eq_Is", 'if kind == "model":'):
+        'kind is a literal parse returns (interned, the same object)',
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_NotEq_Gt", 'return ("R",) + tuple(k for k in LAWS[law].keys if k != "R")'):
+        "the registry's keys are 'R' or lower case, and lower case sorts after 'R'",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_NotEq_IsNot", 'return ("R",) + tuple(k for k in LAWS[law].keys if k != "R")'):
+        "the registry's keys are literals (interned): 'R' there is the literal 'R'",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_NotEq_Gt", 'elif key != "R" and key not in LAWS[law].keys:'):
+        "key is a law key (parse): 'R' or lower case, which sorts after 'R'",
+    ("vibeam/case/paths.py", "core/ReplaceComparisonOperator_NotEq_IsNot", 'elif key != "R" and key not in LAWS[law].keys:'):
+        "a key 'R' cut from the path is the cached one-character string 'R'; every other key differs from it by identity as by value",
+    ("vibeam/case/paths.py", "core/NumberReplacer", 'return name.rsplit(".", 1)[-1] if is_path(name) else name', 28):
+        'the last part is the same for any maxsplit >= 1',
     ("vibeam/engine/effects.py", "core/ReplaceBinaryOperator_Mul_Mod", "lo, hi = 1e-6 * f1, f1 * (1 - 1e-9)", 18):
         "the scan for f_p starts at 1e-6 % f1 = 1e-6 Hz instead of 1e-6 f1 (f1 > 1e-6 Hz): below 1e-6 f1 "
         "the gain ratio is flat ((f1 / f2)^2 to 1e-12), so the same first sign change is bracketed and "
@@ -297,6 +373,26 @@ def _statement_lines(src_text: str) -> dict:
             visit(child, depth + 1)
 
     visit(tree)
+    return out
+
+
+def _import_lines(src_text: str) -> set:
+    """The lines that run when the module is imported (before any test, so untraced): its top-level
+    statements, those of its classes' bodies, and the headers (decorators, defaults) of its
+    functions."""
+    out: set = set()
+
+    def visit(body):
+        for n in body:
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                lo = min([n.lineno] + [d.lineno for d in n.decorator_list])
+                out.update(range(lo, n.body[0].lineno))
+                if isinstance(n, ast.ClassDef):
+                    visit(n.body)
+            else:
+                out.update(range(n.lineno, (n.end_lineno or n.lineno) + 1))
+
+    visit(ast.parse(src_text).body)
     return out
 
 
@@ -419,6 +515,12 @@ class ForkRunner:
             if k == "conftest" or (getattr(m, "__file__", None) or "").startswith(tdir):
                 del sys.modules[k]
         lines: set = set()
+        if trace:                   # the kernels compile untraced first (numba's compiler is Python)
+            if pytest.main(self.args(tests)) != 0:
+                raise SystemExit(f"tests.mutation: the clean source fails its tests ({' '.join(tests)})")
+            for k, m in list(sys.modules.items()):
+                if k == "conftest" or (getattr(m, "__file__", None) or "").startswith(tdir):
+                    del sys.modules[k]
         t0 = time.perf_counter()
         if trace:
             import threading
@@ -517,6 +619,26 @@ class ForkRunner:
             return "incompetent", diff, first or f"exit {rc}"
 
 
+def _change_key(operator: str, diff: str) -> tuple:
+    """A mutant by what it changes: its operator and its diff's removed and added lines."""
+    return (operator, tuple(x for x in diff.splitlines() if x[:1] in "+-" and not x.startswith(("---", "+++"))))
+
+
+def _diff_of(spec, src_text: str) -> str:
+    """The diff of a mutant, made in memory (nothing written)."""
+    import difflib
+
+    import cosmic_ray.plugins
+    from cosmic_ray.mutating import mutate_code
+
+    op = cosmic_ray.plugins.get_operator(spec.operator_name)(**(getattr(spec, "operator_args", None) or {}))
+    mutated = mutate_code(src_text, op, spec.occurrence)
+    if mutated is None:
+        return ""
+    return "".join(difflib.unified_diff(src_text.splitlines(True), mutated.splitlines(True),
+                                        str(spec.module_path), str(spec.module_path)))
+
+
 def workdir_default() -> Path:
     """The scratch copy's folder, the same on every run of this checkout (its numba cache, beside
     it, stays valid across runs: the kernels' source does not change)."""
@@ -570,7 +692,9 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
             src = src_text.splitlines()
             earlier = {}
             if retest is not None and module in retest["modules"]:
-                earlier = {r["index"]: r for r in retest["modules"][module]["rows"]}
+                # by what the mutant changes (operator, line, text): the module may have changed since
+                earlier = {_change_key(r["operator"], r["diff"]): r for r in retest["modules"][module]["rows"]
+                           if r.get("why") != "not executed" and r["outcome"] in ("killed", "incompetent", "equivalent")}
             os.environ["NUMBA_CACHE_DIR"] = str(cache)
             ran_lines = None
             base_s = None
@@ -580,6 +704,8 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
                     exec(SITECUSTOMIZE, {})                  # the editable install's finder out of this process
                     forked = ForkRunner(pkg, tmp)
                 base_s, ran_lines = forked.baseline(module, tests, trace)
+                if ran_lines is not None:
+                    ran_lines |= _import_lines(src_text)
                 stmt = _statement_lines(src_text)
                 if verbose:
                     print(f"{module}: clean run {base_s:.1f} s (traced), {len(chosen)} mutants, "
@@ -589,12 +715,11 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
                 spec = specs[i]
                 row = {"index": i, "operator": spec.operator_name, "line": spec.start_pos[0],
                        "column": spec.start_pos[1], "outcome": "", "seconds": 0.0, "killed_by": "", "diff": ""}
-                prev = earlier.get(i)
-                if prev is not None and prev["operator"] == spec.operator_name and prev["line"] == spec.start_pos[0] \
-                        and prev["outcome"] in ("killed", "incompetent", "equivalent") \
-                        and prev.get("why", "") != "not executed":
-                    rows.append(dict(prev, carried=True))
-                    continue
+                if earlier:
+                    prev = earlier.get(_change_key(spec.operator_name, _diff_of(spec, src_text)))
+                    if prev is not None:
+                        rows.append(dict(prev, index=i, line=spec.start_pos[0], carried=True))
+                        continue
                 if annotation_only(spec, src):
                     row.update(outcome="equivalent", why="annotation",
                                diff=f"(a '|' of a function's annotations, line {spec.start_pos[0]}: "

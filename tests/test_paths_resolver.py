@@ -208,3 +208,50 @@ def test_alias_of_names_the_flat_key_of_the_stops_role():
         "stops[1].Delta"
     only_upper = {"stop": ["nope", {"Delta": 0.1, "R": 0.5}]}
     assert alias_of(only_upper, "stops[1].law.R") == "R" and alias_of(only_upper, "stops[0].law.R") == "stops[0].law.R"
+
+
+def test_stop_sides_and_indices_compare_by_value_not_identity():
+    """Texts read from a case file and indices parsed from a path are new objects, not the literals
+    the resolver compares them with: a side written 'upper' at run time, and a stop index past 256
+    (beyond CPython's small-integer cache), resolve as the literal ones do."""
+    upper, lower = "".join(["up", "per"]), "".join(["lo", "wer"])
+    listed = {"stop": [{"side": upper, "Delta": 0.1, "R": 0.5}, {"side": lower, "Delta": 0.2, "R": 0.6}]}
+    assert alias_of(listed, "stops[0].law.R") == "R" and alias_of(listed, "stops[1].law.R") == "R_lower"
+    assert alias_of(listed, "stops[1].Delta") == "Delta_lower"
+    many = {"stop": [{"side": "lower", "position_mm": 10.0, "R": 0.5, "contact_gap_mm": 0.1}] * 299
+            + [{"side": "upper", "Delta": 0.1, "R": 0.5}, {"side": "lower", "Delta": 0.3, "R": 0.4}]}
+    assert alias_of(many, "stops[299].law.R") == "R" and alias_of(many, "stops[300].Delta") == "Delta_lower"
+    assert alias_of(many, "stops[298].law.R") == "stops[298].law.R"
+    assert get_value(many, "stops[300].law.R") == 0.4
+
+
+def test_a_second_stop_of_a_side_and_an_index_far_past_the_stops():
+    two_up = {"stop": [{"side": "upper", "Delta": 0.1, "R": 0.5}, {"Delta": 0.2, "R": 0.6},
+                       {"side": "lower", "Delta": 0.3, "R": 0.7}]}
+    assert alias_of(two_up, "stops[1].law.R") == "stops[1].law.R" and alias_of(two_up, "stops[2].law.R") == "R_lower"
+    assert alias_of(two_up, "stops[0].Delta") == "Delta"
+    for path in ("stops[7].law.R", "stops[7].Delta", "stops[3].law.stiffness"):
+        with pytest.raises(ValueError, match=r"the scene has 2 stop\(s\) \(stops\[0\] \.\.\. stops\[1\]\)"):
+            get_value(SHORT_TWO, path)
+        with pytest.raises(ValueError, match=r"the scene has 2 stop\(s\)"):
+            set_value(SHORT_TWO, path, 1.0)
+
+
+def test_the_lower_stop_on_the_upper_stops_table_reads_the_models_R():
+    """A lower stop without its own table takes the upper stop's law, and its R is [model] R, not a
+    target R the upper table gives; a table's own R is listed once."""
+    m = {"R": 0.8, "Delta": 0.1, "Delta_lower": 0.2, "contact": {"law": "linear", "stiffness": 1e4, "R": 0.3}}
+    assert get_value(m, "stops[1].law.R") == 0.8
+    assert parameter_paths(m) == ["stops[0].Delta", "stops[0].law.R", "stops[0].law.stiffness",
+                                  "stops[1].Delta", "stops[1].law.R", "stops[1].law.stiffness"]
+    # a gap given under two keys (not a case vibeam accepts, but a table the resolver may be handed):
+    # the first one it gives is named
+    two = {"R": 0.8, "Delta": 0.1, "gap_mm": 0.1}
+    assert _refused(two, "stops[0].contact_gap_mm").endswith("stop[0] gives its gap as Delta, gap_mm (stops[0].Delta)")
+
+
+def test_an_empty_stop_list_and_a_name_without_a_dot():
+    with pytest.raises(ValueError) as e:
+        get_value({"stop": []}, "stops[0].law.R")
+    assert "the scene has 0 stop(s)" in str(e.value) and "stops[-1]" not in str(e.value)
+    assert key_of("stops") == "stops" and key_of("system.") == ""
