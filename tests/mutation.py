@@ -396,19 +396,35 @@ def _import_lines(src_text: str) -> set:
     return out
 
 
-def _line_tracer(filename: str, lines: set):
-    """A ``sys.settrace`` function that adds to ``lines`` every line of ``filename`` that runs."""
+def _line_tracer(filename: str, per_test: dict, current: list):
+    """A ``sys.settrace`` function that adds every line of ``filename`` that runs to
+    ``per_test[current[0]]`` (the node id of the test running, None outside tests)."""
     def local(frame, event, arg):
         if event == "line":
-            lines.add(frame.f_lineno)
+            per_test.setdefault(current[0], set()).add(frame.f_lineno)
         return local
 
     def glob(frame, event, arg):
         if frame.f_code.co_filename == filename:
-            lines.add(frame.f_lineno)
+            per_test.setdefault(current[0], set()).add(frame.f_lineno)
             return local
         return None
     return glob
+
+
+class _CurrentTest:
+    """A pytest plugin that keeps the node id of the test running in ``current[0]`` and the order
+    in which the tests ran."""
+
+    def __init__(self, current: list, order: list):
+        self.current, self.order = current, order
+
+    def pytest_runtest_logstart(self, nodeid, location):
+        self.current[0] = nodeid
+        self.order.append(nodeid)
+
+    def pytest_runtest_logfinish(self, nodeid, location):
+        self.current[0] = None
 
 
 def _import_graph(pkg: Path) -> dict:
@@ -504,31 +520,36 @@ class ForkRunner:
         return ["-x", "-q", "-p", "no:cacheprovider", "-p", "no:unraisableexception", "-p", "no:threadexception",
                 "-p", "_hypothesis_pytestplugin", "--no-header", "-o", "addopts=-m 'not slow'", *tests]
 
-    def baseline(self, module: str, tests, trace: bool) -> tuple[float, set | None]:
-        """The clean source's run (must pass) in this process; its seconds and, with ``trace``,
-        the module's lines that ran."""
+    def baseline(self, module: str, tests, trace: bool) -> tuple[float, dict | None, list]:
+        """The clean source's run (must pass) in this process: its seconds, with ``trace`` the
+        module's lines each test ran (``{node id or None: lines}``, None: outside a test), and the
+        node ids in the order they ran."""
         import pytest
 
         filename = str((self.root / copied(module)).resolve())
         tdir = str(self.root / "tests")
-        for k, m in list(sys.modules.items()):      # an earlier module's test files: collected afresh
-            if k == "conftest" or (getattr(m, "__file__", None) or "").startswith(tdir):
-                del sys.modules[k]
-        lines: set = set()
-        if trace:                   # the kernels compile untraced first (numba's compiler is Python)
-            if pytest.main(self.args(tests)) != 0:
-                raise SystemExit(f"tests.mutation: the clean source fails its tests ({' '.join(tests)})")
+
+        def forget_tests():                          # test files are collected afresh by each run
             for k, m in list(sys.modules.items()):
                 if k == "conftest" or (getattr(m, "__file__", None) or "").startswith(tdir):
                     del sys.modules[k]
+
+        forget_tests()
+        per_test: dict = {}
+        current: list = [None]
+        order: list = []
+        if trace:                   # the kernels compile untraced first (numba's compiler is Python)
+            if pytest.main(self.args(tests)) != 0:
+                raise SystemExit(f"tests.mutation: the clean source fails its tests ({' '.join(tests)})")
+            forget_tests()
         t0 = time.perf_counter()
         if trace:
             import threading
-            tracer = _line_tracer(filename, lines)
+            tracer = _line_tracer(filename, per_test, current)
             threading.settrace(tracer)
             sys.settrace(tracer)
         try:
-            rc = pytest.main(self.args(tests))
+            rc = pytest.main(self.args(tests), plugins=[_CurrentTest(current, order)])
         finally:
             if trace:
                 sys.settrace(None)
@@ -536,7 +557,7 @@ class ForkRunner:
                 threading.settrace(None)
         if rc != 0:
             raise SystemExit(f"tests.mutation: the clean source fails its tests ({' '.join(tests)}): exit {rc}")
-        return time.perf_counter() - t0, (lines if trace else None)
+        return time.perf_counter() - t0, (per_test if trace else None), order
 
     def purge(self, module: str) -> None:
         """Drop from ``sys.modules`` (and from their packages' attributes) what a child imports
@@ -698,14 +719,17 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
             os.environ["NUMBA_CACHE_DIR"] = str(cache)
             ran_lines = None
             base_s = None
+            everyone: set = set()
             if use_fork:
                 if forked is None:
                     sys.path.insert(0, str(pkg))
                     exec(SITECUSTOMIZE, {})                  # the editable install's finder out of this process
                     forked = ForkRunner(pkg, tmp)
-                base_s, ran_lines = forked.baseline(module, tests, trace)
-                if ran_lines is not None:
-                    ran_lines |= _import_lines(src_text)
+                base_s, per_test, order = forked.baseline(module, tests, trace)
+                if per_test is not None:
+                    # lines run at import or outside a test reach every test: those mutants run them all
+                    everyone = _import_lines(src_text) | per_test.get(None, set())
+                    ran_lines = set().union(everyone, *per_test.values())
                 stmt = _statement_lines(src_text)
                 if verbose:
                     print(f"{module}: clean run {base_s:.1f} s (traced), {len(chosen)} mutants, "
@@ -735,7 +759,11 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
                         line_text = src[spec.start_pos[0] - 1].strip()
                         diff = f"(line {spec.start_pos[0]} never runs in the tests: {line_text})"
                     else:
-                        outcome, diff, first = forked.mutant(module, spec, tests, timeout)
+                        # the tests that reach the mutant's statement, in their order (all of them for a
+                        # line run at import): a line no test reaches cannot change a test's outcome
+                        chosen_tests = tests if ran_lines is None or own & everyone else \
+                            [t for t in order if per_test.get(t, set()) & own]
+                        outcome, diff, first = forked.mutant(module, spec, chosen_tests, timeout)
                 else:
                     os.environ["NUMBA_CACHE_DIR"] = str(cache) if not kernel else \
                         tempfile.mkdtemp(prefix="numba-", dir=workdir)
@@ -822,7 +850,17 @@ def main(argv=None) -> int:
                     help="run every mutant, also those on lines the clean run never reaches")
     ap.add_argument("--min-score", type=float, default=None, help="exit 1 if a module scores below this")
     ap.add_argument("--list", action="store_true", help="the number of mutants per module, nothing run")
+    ap.add_argument("--table", type=Path, nargs="+", metavar="REPORT",
+                    help="print tests/README.md's table rows of JSON reports (of --all runs), nothing run")
     a = ap.parse_args(argv)
+    if a.table:
+        print("| module | mutants | killed | survived, equivalent | survived, other | score |")
+        print("|---|---|---|---|---|---|")
+        for path in a.table:
+            for m, r in json.loads(path.read_text())["modules"].items():
+                print(f"| `{m}` | {r['mutants']} | {r['killed']} | {r['equivalent']} | {r['survived']} | "
+                      f"{r['score']:.3f} |")
+        return 0
     if a.list:
         with tempfile.TemporaryDirectory() as tmp:
             layout(Path(tmp))

@@ -111,20 +111,6 @@ def test_the_bootstrap_is_its_documented_draws_and_brackets_its_statistics():
             r.bootstrap(**bad)
 
 
-def test_the_bootstraps_batches_do_not_change_its_draws(monkeypatch):
-    """The resamples are drawn in batches of at most BOOTSTRAP_BATCH values: batches of another size
-    (here of 3 resamples and a bit) give the same intervals, bit for bit."""
-    r = make(np.random.default_rng(1).uniform(size=(13, 1, 3)))
-    whole = r.bootstrap(resamples=40)
-    monkeypatch.setattr(unc, "BOOTSTRAP_BATCH", 3 * 13 + 5)
-    part = r.bootstrap(resamples=40)
-    for k in whole:
-        np.testing.assert_array_equal(whole[k], part[k])
-    monkeypatch.setattr(unc, "BOOTSTRAP_BATCH", 1)              # fewer values than one resample: one at a time
-    for k, v in r.bootstrap(resamples=40).items():
-        np.testing.assert_array_equal(whole[k], v)
-
-
 def test_outcome_fractions_count_each_sampling_row_in_one_class():
     period = np.array([[[1, 2, -1, 0]], [[1, 1, -1, 3]], [[2, 1, -1, 0]], [[1, 1, 1, 1]], [[9, 9, 9, 9]]])
     status = np.array([[["ok", "chatter", "ok", "failed"]], [["ok", "ok", "sticking", "ok"]],
@@ -163,61 +149,6 @@ def test_the_jump_is_the_largest_change_above_a_fifth_of_the_peak():
     assert r2.axis[1] == "Hz" and r.axis[1] == "1" and r.axis[0] is r.Omega
     # one point: no neighbour, no jump
     assert np.isnan(make(np.ones((2, 1, 1)), Omega=[1.0]).jumps()).all()
-
-
-def _additive(n=256, seed=3):
-    """Saltelli's design of two uniform parameters on [0, 1] and f = a x1 + b x2 at 3 points with
-    (a, b) = (1, 0), (1, 2), (3, 1): S1 = ST = (a^2, b^2) / (a^2 + b^2); a 4th point constant, a 5th
-    with one NaN sample."""
-    from vibeam.case.uncertainty import UncertaintySpec
-
-    spec = UncertaintySpec(samples=n, seed=seed, sobol=True, parameter=[
-        {"name": "x1", "distribution": "uniform", "bounds": [0.0, 1.0]},
-        {"name": "x2", "distribution": "uniform", "bounds": [0.0, 1.0]}])
-    rows, roles = spec.saltelli()
-    ab = np.array([(1.0, 0.0), (1.0, 2.0), (3.0, 1.0)])
-    f = rows @ ab.T                                            # (rows, 3)
-    amp = np.concatenate([f, np.ones((len(rows), 1)), f[:, :1].copy()], axis=1)
-    amp[5, 4] = np.nan
-    return make(amp[:, None, :], roles=roles, params=("x1", "x2"), design=rows, seed=seed), ab
-
-
-def test_sobol_indices_of_additive_functions_are_their_closed_form():
-    """For f = a x1 + b x2 (independent uniforms) S1_i = ST_i = a_i^2 / (a^2 + b^2): Saltelli's
-    estimators at 256 samples are within 0.05 of it (their error is about 1 / sqrt(n) of the
-    indices' spread: 0.02 measured); a constant amplitude and a point with a NaN sample have none."""
-    r, ab = _additive()
-    state = np.random.get_state()
-    si = r.sobol()
-    after = np.random.get_state()
-    assert state[0] == after[0] and np.array_equal(state[1], after[1]) and state[2:] == after[2:]   # restored
-    exact = ab ** 2 / (ab ** 2).sum(axis=1, keepdims=True)
-    assert si["first"].shape == si["total"].shape == (2, 1, 5) and si["first_ci"].shape == (2, 2, 1, 5)
-    np.testing.assert_allclose(si["first"][:, 0, :3], exact.T, atol=0.05)
-    np.testing.assert_allclose(si["total"][:, 0, :3], exact.T, atol=0.05)
-    assert np.isnan(si["first"][:, 0, 3:]).all() and np.isnan(si["total_ci"][:, :, 0, 3:]).all()
-    lo, hi = si["first_ci"][0, :, 0, 1], si["first_ci"][1, :, 0, 1]
-    assert (lo < hi).all() and (lo <= si["first"][:, 0, 1] + 1e-12).all()
-    assert si["jump_first"].shape == si["jump_total"].shape == (2,)
-    again = r.sobol()
-    for k in si:
-        np.testing.assert_array_equal(si[k], again[k])        # the same intervals on every call
-    assert make(np.ones((4, 1, 2))).sobol() is None and make(np.ones((4, 1, 2)), roles="AABB").sobol() is None
-
-
-def test_the_jump_frequencys_sobol_indices_follow_the_parameter_that_moves_it():
-    """A jump placed by x1 alone (down sweep: between points 0-1 when x1 < 1/2, 2-3 otherwise) has
-    first-order index ~ 1 for x1 and ~ 0 for x2; the up sweep (no jump) is not the one taken."""
-    r, _ = _additive(n=128)
-    x1 = r.design[:, 0]
-    n = len(x1)
-    down = np.where(x1[:, None] < 0.5, [5.0, 1.0, 1.0, 1.0], [5.0, 5.0, 5.0, 1.0])
-    up = np.full((n, 4), 1.0) + 1e-3 * r.design[:, 1:2]
-    r = make(np.stack([up, down], axis=1), roles=r.roles, params=("x1", "x2"), design=r.design,
-             directions=("up", "down"), Omega=[1.0, 2.0, 3.0, 4.0])
-    si = r.sobol()
-    assert si["jump_first"][0] == pytest.approx(1.0, abs=0.1) and abs(si["jump_first"][1]) < 0.1
-    assert si["jump_total"][0] == pytest.approx(1.0, abs=0.1) and abs(si["jump_total"][1]) < 0.1
 
 
 def _run(name, shift, jump_at=None, directions=("up", "down"), n=20, Omega=None, fhz=None):
@@ -442,3 +373,73 @@ def test_a_sweeps_records_become_arrays_along_increasing_omega():
     assert out["status"].tolist() == [["ok", "ok", "chatter"], ["ok", "sticking", "ok"]]
     down_first = unc.sample_arrays(rows[3:] + rows[:3], SimpleNamespace(record_periods=4))
     np.testing.assert_array_equal(down_first["amplitude"], [[51.0, 42.0, 33.0], [1.0, 12.0, 23.0]])
+
+
+
+def test_the_bootstraps_batches_do_not_change_its_draws(monkeypatch):
+    """The resamples are drawn in batches of at most BOOTSTRAP_BATCH values: batches of another size
+    (here of 3 resamples and a bit) give the same intervals, bit for bit."""
+    r = make(np.random.default_rng(1).uniform(size=(13, 1, 3)))
+    whole = r.bootstrap(resamples=40)
+    monkeypatch.setattr(unc, "BOOTSTRAP_BATCH", 3 * 13 + 5)
+    part = r.bootstrap(resamples=40)
+    for k in whole:
+        np.testing.assert_array_equal(whole[k], part[k])
+    monkeypatch.setattr(unc, "BOOTSTRAP_BATCH", 1)              # fewer values than one resample: one at a time
+    for k, v in r.bootstrap(resamples=40).items():
+        np.testing.assert_array_equal(whole[k], v)
+
+
+def _additive(n=256, seed=3):
+    """Saltelli's design of two uniform parameters on [0, 1] and f = a x1 + b x2 at 3 points with
+    (a, b) = (1, 0), (1, 2), (3, 1): S1 = ST = (a^2, b^2) / (a^2 + b^2); a 4th point constant, a 5th
+    with one NaN sample."""
+    from vibeam.case.uncertainty import UncertaintySpec
+
+    spec = UncertaintySpec(samples=n, seed=seed, sobol=True, parameter=[
+        {"name": "x1", "distribution": "uniform", "bounds": [0.0, 1.0]},
+        {"name": "x2", "distribution": "uniform", "bounds": [0.0, 1.0]}])
+    rows, roles = spec.saltelli()
+    ab = np.array([(1.0, 0.0), (1.0, 2.0), (3.0, 1.0)])
+    f = rows @ ab.T                                            # (rows, 3)
+    amp = np.concatenate([f, np.ones((len(rows), 1)), f[:, :1].copy()], axis=1)
+    amp[5, 4] = np.nan
+    return make(amp[:, None, :], roles=roles, params=("x1", "x2"), design=rows, seed=seed), ab
+
+
+def test_sobol_indices_of_additive_functions_are_their_closed_form():
+    """For f = a x1 + b x2 (independent uniforms) S1_i = ST_i = a_i^2 / (a^2 + b^2): Saltelli's
+    estimators at 256 samples are within 0.05 of it (their error is about 1 / sqrt(n) of the
+    indices' spread: 0.02 measured); a constant amplitude and a point with a NaN sample have none."""
+    r, ab = _additive()
+    state = np.random.get_state()
+    si = r.sobol()
+    after = np.random.get_state()
+    assert state[0] == after[0] and np.array_equal(state[1], after[1]) and state[2:] == after[2:]   # restored
+    exact = ab ** 2 / (ab ** 2).sum(axis=1, keepdims=True)
+    assert si["first"].shape == si["total"].shape == (2, 1, 5) and si["first_ci"].shape == (2, 2, 1, 5)
+    np.testing.assert_allclose(si["first"][:, 0, :3], exact.T, atol=0.05)
+    np.testing.assert_allclose(si["total"][:, 0, :3], exact.T, atol=0.05)
+    assert np.isnan(si["first"][:, 0, 3:]).all() and np.isnan(si["total_ci"][:, :, 0, 3:]).all()
+    lo, hi = si["first_ci"][0, :, 0, 1], si["first_ci"][1, :, 0, 1]
+    assert (lo < hi).all() and (lo <= si["first"][:, 0, 1] + 1e-12).all()
+    assert si["jump_first"].shape == si["jump_total"].shape == (2,)
+    again = r.sobol()
+    for k in si:
+        np.testing.assert_array_equal(si[k], again[k])        # the same intervals on every call
+    assert make(np.ones((4, 1, 2))).sobol() is None and make(np.ones((4, 1, 2)), roles="AABB").sobol() is None
+
+
+def test_the_jump_frequencys_sobol_indices_follow_the_parameter_that_moves_it():
+    """A jump placed by x1 alone (down sweep: between points 0-1 when x1 < 1/2, 2-3 otherwise) has
+    first-order index ~ 1 for x1 and ~ 0 for x2; the up sweep (no jump) is not the one taken."""
+    r, _ = _additive(n=128)
+    x1 = r.design[:, 0]
+    n = len(x1)
+    down = np.where(x1[:, None] < 0.5, [5.0, 1.0, 1.0, 1.0], [5.0, 5.0, 5.0, 1.0])
+    up = np.full((n, 4), 1.0) + 1e-3 * r.design[:, 1:2]
+    r = make(np.stack([up, down], axis=1), roles=r.roles, params=("x1", "x2"), design=r.design,
+             directions=("up", "down"), Omega=[1.0, 2.0, 3.0, 4.0])
+    si = r.sobol()
+    assert si["jump_first"][0] == pytest.approx(1.0, abs=0.1) and abs(si["jump_first"][1]) < 0.1
+    assert si["jump_total"][0] == pytest.approx(1.0, abs=0.1) and abs(si["jump_total"][1]) < 0.1

@@ -146,3 +146,33 @@ def test_the_spec_takes_a_power_of_two_of_samples_and_each_parameter_once():
     UncertaintySpec(parameter=many[:MAX_PARAMETERS])
     with pytest.raises(ValidationError):
         UncertaintySpec(parameter=many)
+
+
+def test_the_limits_cases_readme_states():
+    """cases/README.md's [uncertainty] table: samples a power of 2 in [2, 65536], seed >= 0, 1 to 32
+    parameters (the constants are read here as literals: a limit moved without its documentation
+    fails)."""
+    par = [{"name": "R", "distribution": "uniform", "bounds": [0.5, 0.9]}]
+    assert (MAX_SAMPLES, MAX_PARAMETERS) == (65536, 32)
+    assert UncertaintySpec(samples=65536, parameter=par).samples == 65536
+    with pytest.raises(ValidationError):
+        UncertaintySpec(samples=131072, parameter=par)
+    assert UncertaintySpec(seed=0, parameter=par).seed == 0
+    with pytest.raises(ValidationError):
+        UncertaintySpec(seed=-1, parameter=par)
+    with pytest.raises(ValidationError):
+        UncertaintySpec(parameter=[])
+
+
+def test_a_truncated_normal_is_refused_below_1e_12_of_probability_in_its_bounds():
+    """The probability the normal puts in the bounds, 0.5 (erf(hi) - erf(lo)) with the bounds in units
+    of std sqrt(2), against scipy's tail: [7.13, 9] std holds 5.0e-13 (refused), [7.0, 9] 1.28e-12
+    (accepted); the threshold is 1e-12."""
+    assert stats.norm.sf(7.13) - stats.norm.sf(9) == pytest.approx(5.018e-13, rel=1e-3)
+    assert stats.norm.sf(7.0) - stats.norm.sf(9) == pytest.approx(1.2798e-12, rel=1e-3)
+    with pytest.raises(ValidationError, match="hold no probability of the normal"):
+        P(name="x", distribution="truncnorm", mean=1.0, std=2.0, bounds=[1.0 + 2 * 7.13, 1.0 + 2 * 9.0])
+    P(name="x", distribution="truncnorm", mean=1.0, std=2.0, bounds=[1.0 + 2 * 7.0, 1.0 + 2 * 9.0])
+    P(name="x", distribution="truncnorm", mean=1.0, std=2.0, bounds=[1.0 - 2 * 9.0, 1.0 - 2 * 7.0])
+    with pytest.raises(ValidationError, match="hold no probability"):
+        P(name="x", distribution="truncnorm", mean=1.0, std=2.0, bounds=[1.0 - 2 * 9.0, 1.0 - 2 * 7.13])
