@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import contextlib
 import csv
 import hashlib
 import json
@@ -573,14 +574,25 @@ class ForkRunner:
                 if parent in sys.modules and getattr(sys.modules[parent], leaf, None) is m:
                     delattr(sys.modules[parent], leaf)
 
-    def mutant(self, module: str, spec, tests, timeout: float):
+    @contextlib.contextmanager
+    def _applied(self, spec, mutator):
+        """The mutant written over the module's file for the block, the file restored after."""
+        path = Path(spec.module_path)
+        orig = path.read_text()
+        mutated = mutator.mutated(spec)
+        try:
+            if mutated is not None:
+                path.write_text(mutated)
+            yield orig, mutated
+        finally:
+            path.write_text(orig)
+
+    def mutant(self, module: str, spec, tests, timeout: float, mutator=None):
         """``(outcome, diff, first failing test)`` of one mutant: killed, survived, incompetent
         (the mutated module does not import: counted as killed) or timeout (killed)."""
-        from cosmic_ray.mutating import use_mutation
-        import cosmic_ray.plugins
-
-        op = cosmic_ray.plugins.get_operator(spec.operator_name)(**(getattr(spec, "operator_args", None) or {}))
-        with use_mutation(spec.module_path, op, spec.occurrence) as (orig, mutated):
+        if mutator is None:
+            mutator = _Mutator(Path(spec.module_path).read_text())
+        with self._applied(spec, mutator) as (orig, mutated):
             if mutated is None:
                 return "no-test", "", ""
             diff = "".join(__import__("difflib").unified_diff(orig.splitlines(True), mutated.splitlines(True),
@@ -645,19 +657,62 @@ def _change_key(operator: str, diff: str) -> tuple:
     return (operator, tuple(x for x in diff.splitlines() if x[:1] in "+-" and not x.startswith(("---", "+++"))))
 
 
-def _diff_of(spec, src_text: str) -> str:
+def _diff_of(spec, src_text: str, mutator=None) -> str:
     """The diff of a mutant, made in memory (nothing written)."""
     import difflib
 
-    import cosmic_ray.plugins
-    from cosmic_ray.mutating import mutate_code
-
-    op = cosmic_ray.plugins.get_operator(spec.operator_name)(**(getattr(spec, "operator_args", None) or {}))
-    mutated = mutate_code(src_text, op, spec.occurrence)
+    mutated = (mutator or _Mutator(src_text)).mutated(spec)
     if mutated is None:
         return ""
     return "".join(difflib.unified_diff(src_text.splitlines(True), mutated.splitlines(True),
                                         str(spec.module_path), str(spec.module_path)))
+
+
+class _Mutator:
+    """Mutated sources of one module without re-parsing it per mutant (cosmic-ray's own
+    ``mutate_code`` parses and walks the whole file each time: about 1 s of a busy core for a
+    700-line module, more than a killed mutant's tests).  The file is parsed once; the k-th
+    mutation of an operator is its k-th position in the tree's pre-order, as cosmic-ray's visitor
+    counts them; the operator mutates a copy of that node and the copy's code replaces the
+    node's (prefix included) in the text.  Checked against ``mutate_code`` by
+    tests/test_mutation_driver.py."""
+
+    def __init__(self, src: str):
+        from cosmic_ray.ast import ast_nodes, get_ast
+
+        self.src = src
+        self.lines = src.splitlines(keepends=True)
+        self.nodes = list(ast_nodes(get_ast(src)))
+        self.positions: dict = {}
+
+    def _offset(self, pos) -> int:
+        line, col = pos
+        return sum(len(x) for x in self.lines[:line - 1]) + col
+
+    def mutated(self, spec) -> str | None:
+        import copy
+
+        import cosmic_ray.plugins
+
+        op = cosmic_ray.plugins.get_operator(spec.operator_name)(**(getattr(spec, "operator_args", None) or {}))
+        if spec.operator_name not in self.positions:
+            self.positions[spec.operator_name] = [(n, i) for n in self.nodes
+                                                  for i, _ in enumerate(op.mutation_positions(n))]
+        found = self.positions[spec.operator_name]
+        if spec.occurrence >= len(found):
+            return None
+        node, index = found[spec.occurrence]
+        parent = node.parent
+        node.parent = None
+        try:
+            twin = copy.deepcopy(node)
+        finally:
+            node.parent = parent
+        twin.parent = parent
+        new = op.mutate(twin, index)
+        text = "" if new is None else new.get_code()
+        a, b = self._offset(node.get_start_pos_of_prefix()), self._offset(node.end_pos)
+        return self.src[:a] + text + self.src[b:]
 
 
 def workdir_default() -> Path:
@@ -711,6 +766,7 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
                 raise SystemExit(f"tests.mutation: {module} holds kernels: its mutants run in a fresh process each")
             src_text = Path(copied(module)).read_text()
             src = src_text.splitlines()
+            mutator = _Mutator(src_text)
             earlier = {}
             if retest is not None and module in retest["modules"]:
                 # by what the mutant changes (operator, line, text): the module may have changed since
@@ -740,7 +796,7 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
                 row = {"index": i, "operator": spec.operator_name, "line": spec.start_pos[0],
                        "column": spec.start_pos[1], "outcome": "", "seconds": 0.0, "killed_by": "", "diff": ""}
                 if earlier:
-                    prev = earlier.get(_change_key(spec.operator_name, _diff_of(spec, src_text)))
+                    prev = earlier.get(_change_key(spec.operator_name, _diff_of(spec, src_text, mutator)))
                     if prev is not None:
                         rows.append(dict(prev, index=i, line=spec.start_pos[0], carried=True))
                         continue
@@ -763,7 +819,7 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
                         # line run at import): a line no test reaches cannot change a test's outcome
                         chosen_tests = tests if ran_lines is None or own & everyone else \
                             [t for t in order if per_test.get(t, set()) & own]
-                        outcome, diff, first = forked.mutant(module, spec, chosen_tests, timeout)
+                        outcome, diff, first = forked.mutant(module, spec, chosen_tests, timeout, mutator)
                 else:
                     os.environ["NUMBA_CACHE_DIR"] = str(cache) if not kernel else \
                         tempfile.mkdtemp(prefix="numba-", dir=workdir)
