@@ -376,6 +376,19 @@ def test_a_sweeps_records_become_arrays_along_increasing_omega():
 
 
 
+def test_the_bootstraps_defaults_and_their_labels():
+    """The documented defaults (999 resamples, 95 %) are what a call without arguments uses, and the
+    stored intervals' long names say them."""
+    r = make(np.random.default_rng(4).uniform(size=(9, 1, 2)))
+    d, e = r.bootstrap(), r.bootstrap(resamples=999, confidence=0.95, seed=5)
+    for k in d:
+        np.testing.assert_array_equal(d[k], e[k])
+    assert not np.array_equal(r.bootstrap(resamples=998)["mean_ci"], d["mean_ci"])
+    v = uncertainty_variables(r)
+    for k in ("amplitude_quantile_ci", "amplitude_mean_ci", "amplitude_std_ci"):
+        assert v[k].attrs["long_name"].startswith("95 % percentile-bootstrap interval (999 resamples) of the"), k
+
+
 def test_the_bootstraps_batches_do_not_change_its_draws(monkeypatch):
     """The resamples are drawn in batches of at most BOOTSTRAP_BATCH values: batches of another size
     (here of 3 resamples and a bit) give the same intervals, bit for bit."""
