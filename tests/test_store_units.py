@@ -365,3 +365,66 @@ def test_write_file_gives_each_group_the_case(tmp_path):
     assert info["attrs"]["case_name"] == "n" and bool(info["attrs"]["complete"])
     assert {k: u["case_hash"] for k, u in info["units"].items()} == {"runs/a": case_hash("J"), "cost": case_hash("J")}
     assert {u["case_name"] for u in info["units"].values()} == {"n"}
+
+
+def test_the_hold_of_a_store_and_its_notes_on_stderr(tmp_path, capsys):
+    s = Store(tmp_path)
+    with s:
+        with s:                                     # a step of the command: the hold is shared
+            s.commit({"/runs/a/": unit("runs/a")}, "A", "", "A")
+        s.commit({"runs/b": unit("runs/b")}, "B", "", "B")          # still held after the inner exit
+    assert "vibeam: note: " in capsys.readouterr().err
+    with pytest.raises(RuntimeError, match="written only inside"):
+        s.commit({}, "A", "", "A")                  # after the outer exit: not held
+    with pytest.raises(RuntimeError, match="written only inside"):
+        s.checkpoint("lines", {})
+    # a refused entry releases the folder's lock: the next store enters
+    with pytest.raises(InputError):
+        Store(tmp_path, inputs=[(tmp_path / RESULTS_NAME, "--reference")]).__enter__()
+    with Store(tmp_path) as t:
+        assert t.exists() and sorted(t.info()["units"]) == ["runs/a", "runs/b"]
+    with h5py.File(tmp_path / RESULTS_NAME) as f:
+        assert f.attrs["Conventions"] == "CF-1.10" and "vibeam_version" in f.attrs and "modified" in f.attrs
+
+
+def test_text_attributes_of_an_earlier_vibeam_as_bytes_or_one_element_arrays(tmp_path):
+    p = tmp_path / RESULTS_NAME
+    with h5py.File(p, "w") as f:
+        f.attrs["case_json"] = np.bytes_(b"json old")
+        f.attrs["case_name"] = np.array([b"old"])
+        f.attrs["case_text"] = np.array(["text old"], dtype=h5py.string_dtype())
+        f.attrs["created"] = np.bytes_(b"2020-01-01")
+        f.create_group("runs/a").create_dataset("x", data=[5.0])
+    assert file_info(p)["units"]["runs/a"]["case_hash"] == case_hash("json old")
+    with Store(tmp_path) as s:
+        s.commit({"runs/b": unit("runs/b")}, "new", "", "json new")
+    with h5py.File(p) as f:
+        a = f["runs/a"].attrs
+        assert a["case_name"] == "old" and a["case_text"] == "text old" and a["case_json"] == "json old"
+        assert int(a["stale"]) == 1 and f.attrs["created"] == "2020-01-01"
+
+
+def test_a_damaged_checkpoint_is_left_for_a_later_resume_to_judge(tmp_path):
+    v = {"x": var(("n",), np.arange(3.0))}
+    with Store(tmp_path) as s:
+        s.checkpoint("lines", {"a": (v, {"case_hash": "h"})})
+    partial = tmp_path / (RESULTS_NAME + PARTIAL_SUFFIX)
+    partial.write_bytes(b"damaged" * 50)
+    with Store(tmp_path, fresh=True) as s:           # (not kept: --fresh)
+        s.commit({"runs/a": unit("runs/a")}, "A", "", "A", done=["lines"])
+    assert partial.read_bytes() == b"damaged" * 50
+
+
+def test_signals_are_not_touched_off_the_main_thread():
+    import threading
+
+    out = []
+
+    def body():
+        with signals_deferred():
+            out.append(signal.pthread_sigmask(signal.SIG_BLOCK, []))
+
+    t = threading.Thread(target=body)
+    t.start()
+    t.join()
+    assert out and signal.SIGTERM not in out[0] and signal.SIGINT not in out[0]
