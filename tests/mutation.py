@@ -730,6 +730,13 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
     report = {"date": time.strftime("%Y-%m-%d"), "commit": _commit(), "seed": seed, "sample": sample,
               "tool": "cosmic-ray " + _version(), "modules": {}}
     workdir = Path(workdir or workdir_default())
+    workdir.mkdir(parents=True, exist_ok=True)
+    import fcntl
+    lock = open(workdir / "lock", "w")
+    try:                                # one run per scratch folder: a second would delete the copy
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        raise SystemExit(f"tests.mutation: {workdir} is in use by another run; give another --workdir") from None
     tmp = workdir / "copy"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
@@ -835,6 +842,9 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
                         EQUIVALENT[(module, spec.operator_name, line, spec.start_pos[1])]
                 row.update(outcome=outcome, seconds=round(time.perf_counter() - t0, 2), killed_by=first, diff=diff)
                 rows.append(row)
+                if out is not None and len(rows) % 50 == 0:      # a long run keeps what it did
+                    report["modules"][module] = {"mutants": len(specs), "partial": True, "rows": rows}
+                    out.write_text(json.dumps(report, indent=1))
                 if verbose:
                     left = (time.perf_counter() - t_module) / (n_done + 1) * (len(chosen) - n_done - 1)
                     print(f"[{n_done + 1}/{len(chosen)}, ~{left / 60:.0f} min left] {module}:{spec.start_pos[0]} "
