@@ -574,3 +574,20 @@ def test_sample_runs_inline_gives_every_run_its_rows_roles_and_attrs():
     assert len(calls) == 2 + 12
     assert (again[0].amplitude[:10] == -1.0).all() and np.array_equal(again[0].amplitude[10:], a.amplitude[10:])
     np.testing.assert_array_equal(again[1].amplitude, b.amplitude)
+
+
+def test_sample_runs_of_a_physical_scene_are_on_its_frequency_axis():
+    """A physical SDOF (fig. 18's rig numbers, the gap opened to 50 mm: no impact): the samples'
+    frequency axis is Omega f_n in Hz and the normalising length the scene's, 0.18 m."""
+    from vibeam.analysis.uncertainty import sample_runs
+
+    d = {"name": "phys", "model": {"fidelity": "sdof", "natural_frequency_hz": 7.6, "damping_ratio": 0.017,
+                                   "R": 0.72, "gap_mm": 50.0, "length_mm": 180.0, "gain": 5.16e-4, "voltage": 0.6},
+         "sweep": {"frequency_hz": [4.0, 6.0, 3], "direction": "up", "transient_periods": 100, "record_periods": 4},
+         "run": [{"name": "p", "method": "event"}],
+         "uncertainty": {"samples": 2, "parameter": [{"name": "voltage", "distribution": "uniform",
+                                                      "bounds": [0.5, 0.7]}]}}
+    (r,) = sample_runs(vibeam.load_case(d), jobs=1)
+    assert r.length_m == pytest.approx(0.18, rel=1e-15) and r.axis[1] == "Hz"
+    np.testing.assert_allclose(r.frequency_hz, [4.0, 5.0, 6.0], rtol=1e-14)
+    np.testing.assert_allclose(r.frequency_hz, r.Omega * 7.6, rtol=1e-15)

@@ -100,6 +100,12 @@ def test_the_bootstrap_is_its_documented_draws_and_brackets_its_statistics():
     # a wider confidence, a wider interval, holding the narrower one
     wide = r.bootstrap(resamples=301, confidence=0.99)["mean_ci"]
     assert (wide[0, :, :2] <= ci["mean_ci"][0, :, :2]).all() and (wide[1, :, :2] >= ci["mean_ci"][1, :, :2]).all()
+    # a confidence below one half: the 35 and 65 % quantiles of the resampled means
+    k, (d, j) = 1, (0, 1)
+    v = base[:, d, j][np.isfinite(base[:, d, j])]
+    x = v[np.random.default_rng([5, k]).integers(0, v.size, size=(301, v.size))]
+    np.testing.assert_allclose(r.bootstrap(resamples=301, confidence=0.3)["mean_ci"][:, d, j],
+                               np.quantile(x.mean(axis=1), (0.35, 0.65)), rtol=1e-14)
     # one resample: the interval is that resample's statistic at both ends
     one = r.bootstrap(resamples=1)["mean_ci"]
     assert (one[0, :, :2] == one[1, :, :2]).all()
@@ -177,6 +183,7 @@ def test_the_verdict_counts_medians_outside_the_other_runs_band_and_compares_jum
     assert ab["jump_median_a"] == pytest.approx(0.5 * (Om[1] + Om[2])) and ab["jump_median_b"] == pytest.approx(
         0.5 * (Om[2] + Om[3]))
     assert ab["jump_difference"] == pytest.approx(0.25) and ab["jump_band_a"] == pytest.approx([1.375, 1.375])
+    assert verdict([b, a])["b vs a"]["jump_difference"] == pytest.approx(-0.25)     # b's jump minus a's
     nj = verdict([a, _run("nj", 0.0)])["a vs nj"]                  # a run whose samples never jump
     assert ab["jump_fraction_a"] == 1.0 and nj["jump_fraction_b"] == 0.0 and np.isnan(nj["jump_median_b"])
     assert all(np.isnan(nj["jump_band_b"])) and np.isnan(nj["jump_difference"])
