@@ -257,6 +257,69 @@ EQUIVALENT = {
         "a key 'R' cut from the path is the cached one-character string 'R'; every other key differs from it by identity as by value",
     ("vibeam/case/paths.py", "core/NumberReplacer", 'return name.rsplit(".", 1)[-1] if is_path(name) else name', 28):
         'the last part is the same for any maxsplit >= 1',
+    # vibeam/analysis/uncertainty.py (issue 56): the bootstrap's batch size only says how many resamples
+    # are drawn at once (memory); the draws are one stream whatever the batches
+    # (test_uncertainty_properties.py::test_the_bootstraps_batches_do_not_change_its_draws)
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_Add", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_Sub", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_Mul", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_Div", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_Mod", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_Pow", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_RShift", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_LShift", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_BitOr", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_BitAnd", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_FloorDiv_BitXor", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "the batch size changes how many resamples are drawn at once, not the draws (one stream): the "
+        "intervals are the same bit for bit; max(1, .) keeps any result a valid size",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", "batch = max(1, BOOTSTRAP_BATCH // m)"):
+        "max(1, .)'s 1 as 2 or 0: BOOTSTRAP_BATCH // m >= 64 for the at most 65536 samples, so the batch "
+        "is the same",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_Add", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_Sub", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_Mul", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_Div", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_FloorDiv", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_Mod", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_Pow", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_RShift", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_BitOr", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_BitAnd", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_LShift_BitXor", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", "BOOTSTRAP_BATCH = 1 << 22"):
+        "the largest batch of resample values (memory): any size gives the same draws (one stream)",
     ("vibeam/engine/effects.py", "core/ReplaceBinaryOperator_Mul_Mod", "lo, hi = 1e-6 * f1, f1 * (1 - 1e-9)", 18):
         "the scan for f_p starts at 1e-6 % f1 = 1e-6 Hz instead of 1e-6 f1 (f1 > 1e-6 Hz): below 1e-6 f1 "
         "the gain ratio is flat ((f1 / f2)^2 to 1e-12), so the same first sign change is bracketed and "

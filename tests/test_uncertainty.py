@@ -549,6 +549,7 @@ def test_sample_runs_inline_gives_every_run_its_rows_roles_and_attrs():
     assert a.roles == tuple(roles) and a.parameters == ("B",) and a.directions == ("up", "down")
     assert {k: v for k, v in a.attrs.items() if k != "verdict_b"} == {"fidelity": "sdof", "method": "event",
                                                                      "samples": 4, "seed": 2}
+    assert isinstance(a.attrs["samples"], int)                  # a count of samples, not 4.0
     assert a.frequency_hz is None and a.length_m is None and a.axis[1] == "1"
     np.testing.assert_allclose(a.Omega, [0.6, 1.0, 1.4], rtol=0, atol=1e-15)
     Om = a.Omega
