@@ -320,6 +320,26 @@ EQUIVALENT = {
         "the largest batch of resample values (memory): any size gives the same draws (one stream)",
     ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", "BOOTSTRAP_BATCH = 1 << 22"):
         "the largest batch of resample values (memory): any size gives the same draws (one stream)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitOr_Add", 'return (r == "A") | (r == "B")'):
+        "a row's role is one value: the masks 'A' and 'B' are never both true, where numpy's bool + (or) "
+        "and ^ equal |",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitOr_Add",
+     '"outside_band_a_in_b": float(np.mean((med_a[ok] < lo_b[ok]) | (med_a[ok] > hi_b[ok]))) if ok.any() else np.nan,'):
+        "a median below the band's 5 % end is never above its 95 % end (quantiles are ordered): never both "
+        "true, where numpy's bool + (or) and ^ equal |",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitOr_Add",
+     '"outside_band_b_in_a": float(np.mean((med_b[ok] < lo_a[ok]) | (med_b[ok] > hi_a[ok]))) if ok.any() else np.nan}'):
+        "as the line above: below the 5 % and above the 95 % end are never both true",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitOr_BitXor", 'return (r == "A") | (r == "B")'):
+        "a row's role is one value: the masks 'A' and 'B' are never both true, where numpy's bool + (or) "
+        "and ^ equal |",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitOr_BitXor",
+     '"outside_band_a_in_b": float(np.mean((med_a[ok] < lo_b[ok]) | (med_a[ok] > hi_b[ok]))) if ok.any() else np.nan,'):
+        "a median below the band's 5 % end is never above its 95 % end (quantiles are ordered): never both "
+        "true, where numpy's bool + (or) and ^ equal |",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitOr_BitXor",
+     '"outside_band_b_in_a": float(np.mean((med_b[ok] < lo_a[ok]) | (med_b[ok] > hi_a[ok]))) if ok.any() else np.nan}'):
+        "as the line above: below the 5 % and above the 95 % end are never both true",
     ("vibeam/engine/effects.py", "core/ReplaceBinaryOperator_Mul_Mod", "lo, hi = 1e-6 * f1, f1 * (1 - 1e-9)", 18):
         "the scan for f_p starts at 1e-6 % f1 = 1e-6 Hz instead of 1e-6 f1 (f1 > 1e-6 Hz): below 1e-6 f1 "
         "the gain ratio is flat ((f1 / f2)^2 to 1e-12), so the same first sign change is bracketed and "
@@ -397,19 +417,41 @@ def mutants_of(path: Path) -> list:
 
 def annotation_only(spec, src: list) -> bool:
     """Whether a mutant replaces the ``|`` of a union in a function's annotations (``x: float |
-    None``) in a module with ``from __future__ import annotations``: such annotations are strings
-    (PEP 563) that nothing in vibeam evaluates (no pydantic model and no ``get_type_hints`` on
-    functions; numba reads the types of the arguments, not the annotations), so the mutant is
-    equivalent.  Decided from the source, without running it (each would cost a full test run)."""
-    if "BitOr" not in spec.operator_name or "from __future__ import annotations" not in src:
+    None``, on any line of a signature) or in a dataclass field's, in a module with ``from
+    __future__ import annotations``: such annotations are strings (PEP 563) that nothing in vibeam
+    evaluates (no ``get_type_hints``; numba reads the types of the arguments, dataclasses only look
+    for ``ClassVar`` in the text; a pydantic model's fields are evaluated, and are not classed
+    here), so the mutant is equivalent.  Decided from the source, without running it."""
+    if "BitOr" not in spec.operator_name:
         return False
-    line = src[spec.start_pos[0] - 1]
-    head = line.lstrip()
-    if not head.startswith("def "):
+    text = "\n".join(src)
+    if "from __future__ import annotations" not in text:
         return False
-    col = spec.start_pos[1]
-    close = line.rfind(")")
-    return line.find("(") < col and (close < 0 or col < close or "->" in line[:col])
+    pos = tuple(spec.start_pos)
+    return any(a <= pos < b for a, b in _annotation_spans(text))
+
+
+_SPANS: dict = {}
+
+
+def _annotation_spans(text: str) -> list:
+    """``[((line, col), (end line, end col))]`` of the annotations of every function's arguments
+    and return, and of the fields of classes decorated ``@dataclass``."""
+    if text not in _SPANS:
+        spans = []
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                a = node.args
+                anns = [x.annotation for x in a.posonlyargs + a.args + a.kwonlyargs + [a.vararg, a.kwarg]
+                        if x is not None and x.annotation is not None] + ([node.returns] if node.returns else [])
+            elif isinstance(node, ast.ClassDef) and any(
+                    "dataclass" in ast.unparse(d) for d in node.decorator_list):
+                anns = [x.annotation for x in node.body if isinstance(x, ast.AnnAssign)]
+            else:
+                continue
+            spans += [((x.lineno, x.col_offset), (x.end_lineno, x.end_col_offset)) for x in anns]
+        _SPANS[text] = spans
+    return _SPANS[text]
 
 
 def _statement_lines(src_text: str) -> dict:

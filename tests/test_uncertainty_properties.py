@@ -185,6 +185,7 @@ def test_the_verdict_counts_medians_outside_the_other_runs_band_and_compares_jum
     assert ab["jump_difference"] == pytest.approx(0.25) and ab["jump_band_a"] == pytest.approx([1.375, 1.375])
     rev = verdict([_run("b2", 10.0, jump_at=2), _run("a2", 0.0, jump_at=1)])["b2 vs a2"]
     assert rev["jump_difference"] == pytest.approx(-0.25)                    # b's jump minus a's, signed
+    assert rev["outside_band_a_in_b"] == 1.0 and rev["outside_band_b_in_a"] == 1.0   # above, then below
     nj = verdict([a, _run("nj", 0.0)])["a vs nj"]                  # a run whose samples never jump
     assert ab["jump_fraction_a"] == 1.0 and nj["jump_fraction_b"] == 0.0 and np.isnan(nj["jump_median_b"])
     assert all(np.isnan(nj["jump_band_b"])) and np.isnan(nj["jump_difference"])
