@@ -6,7 +6,22 @@ import pytest
 
 pytest.importorskip("cosmic_ray")
 
-from tests.mutation import _Mutator, _dependents, _import_lines, _statement_lines  # noqa: E402
+
+def _driver():
+    """tests/mutation.py, loaded from its file (``tests`` is not a package on every pytest path)."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location("vibeam_tests_mutation", Path(__file__).with_name("mutation.py"))
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+_d = _driver()
+_Mutator, _dependents, _import_lines, _statement_lines = _d._Mutator, _d._dependents, _d._import_lines, _d._statement_lines
 
 SOURCE = '''"""A module with a site for every operator."""
 import math
