@@ -338,6 +338,42 @@ EQUIVALENT = {
     ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitOr_BitXor",
      '"outside_band_b_in_a": float(np.mean((med_b[ok] < lo_a[ok]) | (med_b[ok] > hi_a[ok]))) if ok.any() else np.nan}'):
         "as the line above: below the 5 % and above the 95 % end are never both true",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Mul", 'ok = np.isfinite(fA).all(axis=1) & np.isfinite(fB).all(axis=1) & np.isfinite(fAB).all(axis=(0, 2))', 45):
+        "numpy's * of two bool arrays is their and",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Mul", 'ok = np.isfinite(fA).all(axis=1) & np.isfinite(fB).all(axis=1) & np.isfinite(fAB).all(axis=(0, 2))', 75):
+        "numpy's * of two bool arrays is their and",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Add", 'ok = np.isfinite(fA).all(axis=1) & np.isfinite(fB).all(axis=1) & np.isfinite(fAB).all(axis=(0, 2))', 45):
+        "(A ok + B ok) & AB ok differs only where A or B holds a NaN, and the next line's variance of A and "
+        "B is then NaN, not > 0: the point is left out either way",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Add", 'ok = np.isfinite(med_a) & np.isfinite(med_b) & np.isfinite(lo_a) & np.isfinite(lo_b)', 32):
+        "a run's median and its 5 % quantile are NaN at the same points (no finite sample there), so the "
+        "four tests are two, each twice: any and/or/+/* of them that keeps one of each pair is the same mask",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Add", 'ok = np.isfinite(med_a) & np.isfinite(med_b) & np.isfinite(lo_a) & np.isfinite(lo_b)', 53):
+        "a run's median and its 5 % quantile are NaN at the same points (no finite sample there), so the "
+        "four tests are two, each twice: any and/or/+/* of them that keeps one of each pair is the same mask",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Add", 'ok = np.isfinite(med_a) & np.isfinite(med_b) & np.isfinite(lo_a) & np.isfinite(lo_b)', 73):
+        "a run's median and its 5 % quantile are NaN at the same points (no finite sample there), so the "
+        "four tests are two, each twice: any and/or/+/* of them that keeps one of each pair is the same mask",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Mul", 'ok = np.isfinite(med_a) & np.isfinite(med_b) & np.isfinite(lo_a) & np.isfinite(lo_b)', 32):
+        "a run's median and its 5 % quantile are NaN at the same points (no finite sample there), so the "
+        "four tests are two, each twice: any and/or/+/* of them that keeps one of each pair is the same mask",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Mul", 'ok = np.isfinite(med_a) & np.isfinite(med_b) & np.isfinite(lo_a) & np.isfinite(lo_b)', 53):
+        "a run's median and its 5 % quantile are NaN at the same points (no finite sample there), so the "
+        "four tests are two, each twice: any and/or/+/* of them that keeps one of each pair is the same mask",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Mul", 'ok = np.isfinite(med_a) & np.isfinite(med_b) & np.isfinite(lo_a) & np.isfinite(lo_b)', 73):
+        "a run's median and its 5 % quantile are NaN at the same points (no finite sample there), so the "
+        "four tests are two, each twice: any and/or/+/* of them that keeps one of each pair is the same mask",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_BitOr", 'ok = np.isfinite(med_a) & np.isfinite(med_b) & np.isfinite(lo_a) & np.isfinite(lo_b)', 32):
+        "a run's median and its 5 % quantile are NaN at the same points (no finite sample there), so the "
+        "four tests are two, each twice: any and/or/+/* of them that keeps one of each pair is the same mask",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_BitOr", 'ok = np.isfinite(med_a) & np.isfinite(med_b) & np.isfinite(lo_a) & np.isfinite(lo_b)', 53):
+        "a run's median and its 5 % quantile are NaN at the same points (no finite sample there), so the "
+        "four tests are two, each twice: any and/or/+/* of them that keeps one of each pair is the same mask",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_BitOr", 'ok = np.isfinite(med_a) & np.isfinite(med_b) & np.isfinite(lo_a) & np.isfinite(lo_b)', 73):
+        "a run's median and its 5 % quantile are NaN at the same points (no finite sample there), so the "
+        "four tests are two, each twice: any and/or/+/* of them that keeps one of each pair is the same mask",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Eq_LtE", 'cols = np.repeat(cols, 2) if cols.size == 1 else cols'):
+        "cols holds at least one column (ok.any()): size <= 1 is size == 1",
     ("vibeam/engine/effects.py", "core/ReplaceBinaryOperator_Mul_Mod", "lo, hi = 1e-6 * f1, f1 * (1 - 1e-9)", 18):
         "the scan for f_p starts at 1e-6 % f1 = 1e-6 Hz instead of 1e-6 f1 (f1 > 1e-6 Hz): below 1e-6 f1 "
         "the gain ratio is flat ((f1 / f2)^2 to 1e-12), so the same first sign change is bracketed and "

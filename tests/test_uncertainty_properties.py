@@ -465,3 +465,24 @@ def test_the_jump_frequencys_sobol_indices_follow_the_parameter_that_moves_it():
     si = r.sobol()
     assert si["jump_first"][0] == pytest.approx(1.0, abs=0.1) and abs(si["jump_first"][1]) < 0.1
     assert si["jump_total"][0] == pytest.approx(1.0, abs=0.1) and abs(si["jump_total"][1]) < 0.1
+
+
+def test_sobol_indices_of_one_parameter_and_of_a_sample_lost_in_an_ab_row():
+    """One parameter, every sample jumping (a single output, which scipy squeezes to a scalar and
+    failed on): the jump frequency is a function of x alone, S1 = ST = 1.  A NaN in one A_B row at a
+    point leaves that point without indices, the others with theirs."""
+    from vibeam.case.uncertainty import UncertaintySpec
+
+    spec = UncertaintySpec(samples=64, seed=1, sobol=True,
+                           parameter=[{"name": "x", "distribution": "uniform", "bounds": [0.0, 1.0]}])
+    rows, roles = spec.saltelli()
+    x = rows[:, 0]
+    down = np.where(x[:, None] < 0.5, [5.0, 1.0, 1.0, 1.0], [5.0, 5.0, 5.0, 1.0])
+    r = make(down[:, None, :] + x[:, None, None] * [0.0, 0.0, 0.1, 0.0], roles=roles, params=("x",),
+             design=rows, directions=("down",), Omega=[1.0, 2.0, 3.0, 4.0])
+    si = r.sobol()
+    assert si["jump_first"][0] == pytest.approx(1.0, abs=0.1) and si["jump_total"][0] == pytest.approx(1.0, abs=0.1)
+    r.amplitude[roles.index("AB:x") + 3, 0, 2] = np.nan
+    si = r.sobol()
+    assert np.isnan(si["first"][0, 0, 2]) and np.isnan(si["total"][0, 0, 2])
+    assert np.isfinite(si["first"][0, 0, 1]) and np.isfinite(si["total"][0, 0, 1])
