@@ -112,6 +112,8 @@ MODULES = {
         "tests/test_uncertainty.py::test_every_sample_and_statistic_equals_the_closed_form_linear_frc",
         "tests/test_uncertainty.py::test_the_verdict_of_two_runs_counts_the_points_outside_the_band",
         "tests/test_uncertainty.py::test_resume_refuses_a_checkpoint_vibeam_did_not_write",
+        "tests/test_uncertainty.py::test_sample_runs_inline_gives_every_run_its_rows_roles_and_attrs",
+        "tests/test_uncertainty.py::test_sample_runs_of_a_physical_scene_are_on_its_frequency_axis",
     ],
     "models/lyapunov.py": [
         "tests/test_oracles.py::test_lyapunov_exponents_of_period_2_and_3_orbits_are_their_floquet_exponents",
