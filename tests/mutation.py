@@ -376,6 +376,20 @@ EQUIVALENT = {
         "four tests are two, each twice: any and/or/+/* of them that keeps one of each pair is the same mask",
     ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Eq_LtE", 'cols = np.repeat(cols, 2) if cols.size == 1 else cols'):
         "cols holds at least one column (ok.any()): size <= 1 is size == 1",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Eq_LtE", 'return (r == "A") | (r == "B")', 18):
+        "a row's role is 'A', 'B' or 'AB:<name>': only 'A' sorts <= 'A' ('AB:...' after it), and nothing sorts after 'B' but 'B' (its >= is its ==)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Eq_GtE", 'return (r == "A") | (r == "B")', 31):
+        "a row's role is 'A', 'B' or 'AB:<name>': only 'A' sorts <= 'A' ('AB:...' after it), and nothing sorts after 'B' but 'B' (its >= is its ==)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Eq_LtE", 'n, d = int(np.sum(roles == "A")), len(self.parameters)'):
+        "a row's role is 'A', 'B' or 'AB:<name>': only 'A' sorts <= 'A' ('AB:...' after it), and nothing sorts after 'B' but 'B' (its >= is its ==)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Eq_LtE", 'fA, fB = Y[roles == "A"].T, Y[roles == "B"].T', 29):
+        "a row's role is 'A', 'B' or 'AB:<name>': only 'A' sorts <= 'A' ('AB:...' after it), and nothing sorts after 'B' but 'B' (its >= is its ==)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Eq_GtE", 'fA, fB = Y[roles == "A"].T, Y[roles == "B"].T', 48):
+        "a row's role is 'A', 'B' or 'AB:<name>': only 'A' sorts <= 'A' ('AB:...' after it), and nothing sorts after 'B' but 'B' (its >= is its ==)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Eq_LtE", 'nd = 2 if self.case.sweep.direction == "both" else 1'):
+        "the direction is 'up', 'down' or 'both' (the schema): only 'both' sorts <= 'both'",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_NotEq_Lt", 'if i.size and (i.min() < 0 or i.max() >= rows or np.unique(i).size != i.size):'):
+        'np.unique(i) never has more elements than i: != is <',
     ("vibeam/engine/effects.py", "core/ReplaceBinaryOperator_Mul_Mod", "lo, hi = 1e-6 * f1, f1 * (1 - 1e-9)", 18):
         "the scan for f_p starts at 1e-6 % f1 = 1e-6 Hz instead of 1e-6 f1 (f1 > 1e-6 Hz): below 1e-6 f1 "
         "the gain ratio is flat ((f1 / f2)^2 to 1e-12), so the same first sign change is bracketed and "

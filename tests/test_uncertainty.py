@@ -535,7 +535,8 @@ def test_sample_runs_inline_gives_every_run_its_rows_roles_and_attrs():
     d = copy.deepcopy(LINEAR)
     d["sweep"]["Omega"] = [0.6, 1.4, 3]
     d["run"] = [{"name": "a", "method": "event"}, {"name": "b", "method": "event", "model": {"Delta": 2.0}},
-                {"name": "c", "method": "continuation", "parameter": "B", "at": 0.8, "range": [0.005, 0.02]}]
+                {"name": "c", "method": "".join(["contin", "uation"]), "parameter": "B", "at": 0.8,
+                 "range": [0.005, 0.02]}]                       # (a method read from a file: not the literal)
     d["uncertainty"] = {"samples": 4, "seed": 2, "sobol": True,
                         "parameter": [{"name": "B", "distribution": "uniform", "bounds": [0.005, 0.015]}]}
     case = vibeam.load_case(d)

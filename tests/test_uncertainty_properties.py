@@ -223,6 +223,12 @@ def test_runs_on_other_grids_or_directions_are_not_compared():
     assert verdict([a, _run("b", 0.0, fhz=np.linspace(1.0, 2.0, 5))]) == {}            # Hz against Omega
     assert verdict([_run("a", 0.0, fhz=np.linspace(10, 20, 5)), _run("b", 0.0, fhz=np.linspace(10, 20, 5))]) != {}
     assert set(verdict([a, _run("b", 0.0, Omega=np.linspace(1.0, 2.0, 5) * (1 + 1e-13))])) == {"a vs b"}
+    # in either order
+    others = [_run("b", 0.0, fhz=np.linspace(1.0, 2.0, 5)), _run("b", 0.0, n=20, Omega=np.linspace(1.0, 2.0, 6)),
+              _run("b", 0.0, directions=("down", "up"))]
+    others[1].amplitude = np.ones((20, 2, 6))
+    for o in others:
+        assert verdict([a, o]) == {} and verdict([o, a]) == {}
 
 
 def test_checkpoint_blocks_hold_the_finished_samples_and_refuse_what_vibeam_never_writes():
@@ -267,6 +273,13 @@ def test_checkpoint_blocks_hold_the_finished_samples_and_refuse_what_vibeam_neve
     bad[1, 1, 2] = "bogus"
     assert check_block(meta, dict(data, status=bad), 8, (2, 3)) == \
         f"dataset status holds 'bogus'; allowed: {', '.join(STATUSES)}"
+    assert check_block(dict(meta, sample=((), np.int64)), None, 8, (2, 3)).startswith("dataset sample has shape ()")
+    assert check_block(meta, None, 8, (2, 2)) == \
+        "dataset amplitude has shape (2, 2, 3); allowed: (2, 2, 2) (sample, direction, Omega)"
+    many = np.arange(300)
+    big = {k: ((300, 2, 3), m[1]) for k, m in meta.items()}
+    big["sample"] = ((300,), np.int64)
+    assert check_block(big, dict(data, sample=many), 300, (2, 3)) is None        # 300 distinct samples
     empty = dict(data, sample=np.zeros(0, np.int64))
     assert check_block(dict(meta, sample=((0,), np.int64)), empty, 8, (2, 3)) is None or True
     # read back: a later block's sample replaces an earlier one's
@@ -365,6 +378,9 @@ def test_a_refused_sample_and_a_lost_one_fail_every_point(monkeypatch):
     monkeypatch.setattr(unc, "make_job", refuse)
     (row,) = t.compute()
     assert seen == [({"R": 0.9}, 3)] and (row["status"] == "failed").all()
+    both = "".join(["bo", "th"])                  # a direction read from a case file: not the literal
+    assert unc.SampleTask("0", "r", SimpleNamespace(sweep=SimpleNamespace(direction=both)), None, (), 0, 10
+                          ).case_shape == (2, 5)
     up = unc.SampleTask("000000", "r", SimpleNamespace(sweep=SimpleNamespace(direction="up")), None, (), 0, 10)
     assert up.case_shape == (1, 10)
 
