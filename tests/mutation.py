@@ -1069,12 +1069,22 @@ def main(argv=None) -> int:
     ap.add_argument("--min-score", type=float, default=None, help="exit 1 if a module scores below this")
     ap.add_argument("--list", action="store_true", help="the number of mutants per module, nothing run")
     ap.add_argument("--table", type=Path, nargs="+", metavar="REPORT",
-                    help="print tests/README.md's table rows of JSON reports (of --all runs), nothing run")
+                    help="print tests/README.md's table rows of JSON reports or CSV records (of --all runs), nothing run")
     a = ap.parse_args(argv)
     if a.table:
         print("| module | mutants | killed | survived, equivalent | survived, other | score |")
         print("|---|---|---|---|---|---|")
         for path in a.table:
+            if path.suffix == ".csv":            # the per-mutant record (--csv): counted here
+                mods: dict = {}
+                with open(path, newline="") as fh:
+                    for row in csv.DictReader(fh):
+                        mods.setdefault(row["module"], []).append(row["outcome"])
+                for m, outs in mods.items():
+                    k = sum(o in ("killed", "incompetent") for o in outs)
+                    e, sv = outs.count("equivalent"), outs.count("survived")
+                    print(f"| `{m}` | {len(outs)} | {k} | {e} | {sv} | {k / (k + sv):.3f} |")
+                continue
             for m, r in json.loads(path.read_text())["modules"].items():
                 print(f"| `{m}` | {r['mutants']} | {r['killed']} | {r['equivalent']} | {r['survived']} | "
                       f"{r['score']:.3f} |")
