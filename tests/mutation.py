@@ -390,6 +390,11 @@ EQUIVALENT = {
         "the direction is 'up', 'down' or 'both' (the schema): only 'both' sorts <= 'both'",
     ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_NotEq_Lt", 'if i.size and (i.min() < 0 or i.max() >= rows or np.unique(i).size != i.size):'):
         'np.unique(i) never has more elements than i: != is <',
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Gt_NotEq", 'return np.where(n > 0, mean, np.nan), np.where(n > 1, np.sqrt(var_), np.nan), n', 24):
+        "n counts samples, never negative: n != 0 is n > 0",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Gt_NotEq", 'ok &= (np.var(np.concatenate([fA, fB], axis=1), axis=1) > 0)'):
+        "a variance is >= 0, or NaN where A or B holds a NaN, and those points are out already (the line "
+        "above): != 0 is > 0 on what is left",
     ("vibeam/engine/effects.py", "core/ReplaceBinaryOperator_Mul_Mod", "lo, hi = 1e-6 * f1, f1 * (1 - 1e-9)", 18):
         "the scan for f_p starts at 1e-6 % f1 = 1e-6 Hz instead of 1e-6 f1 (f1 > 1e-6 Hz): below 1e-6 f1 "
         "the gain ratio is flat ((f1 / f2)^2 to 1e-12), so the same first sign change is bracketed and "

@@ -502,3 +502,22 @@ def test_sobol_indices_of_one_parameter_and_of_a_sample_lost_in_an_ab_row():
     si = r.sobol()
     assert np.isnan(si["first"][0, 0, 2]) and np.isnan(si["total"][0, 0, 2])
     assert np.isfinite(si["first"][0, 0, 1]) and np.isfinite(si["total"][0, 0, 1])
+
+
+def test_edges_of_the_jump_rule_the_bootstrap_and_the_band():
+    """A jump on a 2-point grid; a point with exactly 2 finite samples has a bootstrap interval; a
+    confidence of 1.5 is refused; a median exactly at the other run's 5 % quantile is inside its band
+    (both directions of the comparison)."""
+    two = make(np.array([[[5.0, 1.0]], [[5.0, 5.0]]]), Omega=[1.0, 2.0])
+    np.testing.assert_array_equal(two.jumps()[:, 0], [1.5, np.nan])
+    a = np.full((5, 1, 2), np.nan)
+    a[:2, 0, 0] = [1.0, 2.0]
+    ci = make(a).bootstrap(resamples=20)
+    assert np.isfinite(ci["mean_ci"][:, 0, 0]).all() and np.isnan(ci["mean_ci"][:, 0, 1]).all()
+    with pytest.raises(ValueError, match="0 < confidence < 1"):
+        make(a).bootstrap(confidence=1.5)
+    ref = _run("ref", 0.0)
+    e = _run("e", 0.0)
+    e.amplitude[:] = ref.quantiles()[0][None]
+    assert verdict([e, ref])["e vs ref"]["outside_band_a_in_b"] == 0.0
+    assert verdict([ref, e])["ref vs e"]["outside_band_b_in_a"] == 0.0
