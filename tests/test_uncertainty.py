@@ -521,3 +521,75 @@ def test_samples_on_a_dask_cluster_give_the_local_file(tmp_path):
                 assert np.array_equal(a, b, equal_nan=True), k
             else:
                 assert np.array_equal(a, b), k
+
+
+def test_sample_runs_inline_gives_every_run_its_rows_roles_and_attrs():
+    """:func:`vibeam.analysis.uncertainty.sample_runs` inline (jobs=1) on the non-impacting scene with
+    Saltelli's design (4 samples of B: 4 x 3 rows), two runs (a continuation run left out): each run's
+    rows, roles, the design's N as ``samples`` (not its rows), the grid, no physical units on the
+    nondimensional SDOF; ``done`` rows are not computed again and ``on_sample`` sees each computed
+    one once, in this process."""
+    from vibeam.analysis.uncertainty import sample_runs
+    from vibeam.engine import sweep
+
+    d = copy.deepcopy(LINEAR)
+    d["sweep"]["Omega"] = [0.6, 1.4, 3]
+    d["run"] = [{"name": "a", "method": "event"}, {"name": "b", "method": "event", "model": {"Delta": 2.0}},
+                {"name": "c", "method": "".join(["contin", "uation"]), "parameter": "B", "at": 0.8,
+                 "range": [0.005, 0.02]}]                       # (a method read from a file: not the literal)
+    d["uncertainty"] = {"samples": 4, "seed": 2, "sobol": True,
+                        "parameter": [{"name": "B", "distribution": "uniform", "bounds": [0.005, 0.015]}]}
+    case = vibeam.load_case(d)
+    seen = []
+    res = sample_runs(case, jobs=1, on_sample=lambda run, i, arr: seen.append((run, i, arr["amplitude"].shape)))
+    assert [r.name for r in res] == ["a", "b"]
+    a, b = res
+    assert sorted(seen) == sorted([(r, i, (2, 3)) for r in "ab" for i in range(12)])
+    rows, roles = case.uncertainty.saltelli()
+    np.testing.assert_array_equal(a.design, rows)
+    assert a.roles == tuple(roles) and a.parameters == ("B",) and a.directions == ("up", "down")
+    assert {k: v for k, v in a.attrs.items() if k != "verdict_b"} == {"fidelity": "sdof", "method": "event",
+                                                                     "samples": 4, "seed": 2}
+    assert isinstance(a.attrs["samples"], int)                  # a count of samples, not 4.0
+    assert a.frequency_hz is None and a.length_m is None and a.axis[1] == "1"
+    np.testing.assert_allclose(a.Omega, [0.6, 1.0, 1.4], rtol=0, atol=1e-15)
+    Om = a.Omega
+    exact = DELTA + _X(Om[None, :], rows[:, :1], BETA)
+    np.testing.assert_allclose(a.amplitude[:, 0], exact, rtol=RTOL)
+    np.testing.assert_allclose(b.amplitude[:, 1], exact + 1.0, rtol=RTOL)
+    assert "verdict_b" in a.attrs and a.attrs["verdict_b"]["outside_band_a_in_b"] == 1.0
+    # resumed: the rows given are kept as they are, only the others computed
+    done = {"a": {i: {"amplitude": np.full((2, 3), -1.0), "period": np.full((2, 3), -1, np.int64),
+                      "status": np.full((2, 3), "ok", dtype=object)} for i in range(10)}}
+    calls = []
+    real = sweep.run_lines
+
+    def counted(units, **kw):
+        calls.extend(u.key for u in units)
+        return real(units, **kw)
+
+    sweep.run_lines = counted
+    try:
+        again = sample_runs(case, jobs=1, done=done)
+    finally:
+        sweep.run_lines = real
+    assert len(calls) == 2 + 12
+    assert (again[0].amplitude[:10] == -1.0).all() and np.array_equal(again[0].amplitude[10:], a.amplitude[10:])
+    np.testing.assert_array_equal(again[1].amplitude, b.amplitude)
+
+
+def test_sample_runs_of_a_physical_scene_are_on_its_frequency_axis():
+    """A physical SDOF (fig. 18's rig numbers, the gap opened to 50 mm: no impact): the samples'
+    frequency axis is Omega f_n in Hz and the normalising length the scene's, 0.18 m."""
+    from vibeam.analysis.uncertainty import sample_runs
+
+    d = {"name": "phys", "model": {"fidelity": "sdof", "natural_frequency_hz": 7.6, "damping_ratio": 0.017,
+                                   "R": 0.72, "gap_mm": 50.0, "length_mm": 180.0, "gain": 5.16e-4, "voltage": 0.6},
+         "sweep": {"frequency_hz": [4.0, 6.0, 3], "direction": "up", "transient_periods": 100, "record_periods": 4},
+         "run": [{"name": "p", "method": "event"}],
+         "uncertainty": {"samples": 2, "parameter": [{"name": "voltage", "distribution": "uniform",
+                                                      "bounds": [0.5, 0.7]}]}}
+    (r,) = sample_runs(vibeam.load_case(d), jobs=1)
+    assert r.length_m == pytest.approx(0.18, rel=1e-15) and r.axis[1] == "Hz"
+    np.testing.assert_allclose(r.frequency_hz, [4.0, 5.0, 6.0], rtol=1e-14)
+    np.testing.assert_allclose(r.frequency_hz, r.Omega * 7.6, rtol=1e-15)

@@ -263,7 +263,12 @@ class UncertaintyResult:
             out = [np.full((d, Y.shape[1]), np.nan) for _ in range(2)] + \
                   [np.full((2, d, Y.shape[1]), np.nan) for _ in range(2)]
             if ok.any():
-                res = sobol_indices(func={"f_A": fA[ok], "f_B": fB[ok], "f_AB": fAB[:, ok]}, n=n)
+                # scipy squeezes its (outputs, parameters) results: a single output gave shape (d,), which
+                # does not fit (d, 1), and with one parameter too a scalar it fails on; the single output
+                # goes in twice and the copy is dropped (every sample jumps: the jump frequency's indices)
+                cols = np.flatnonzero(ok)
+                cols = np.repeat(cols, 2) if cols.size == 1 else cols
+                res = sobol_indices(func={"f_A": fA[cols], "f_B": fB[cols], "f_AB": fAB[:, cols]}, n=n)
                 # its bootstrap draws from numpy's global RandomState (scipy 1.17 takes no rng there):
                 # seeded by the design's seed, so the intervals are reproducible, and restored after
                 state = np.random.get_state()
@@ -272,9 +277,12 @@ class UncertaintyResult:
                     ci = res.bootstrap(confidence_level=confidence, n_resamples=resamples)
                 finally:
                     np.random.set_state(state)
-                out[0][:, ok], out[1][:, ok] = res.first_order.T, res.total_order.T
+                def put(x):                     # scipy's (outputs, parameters), squeezed -> (d, outputs ok)
+                    return np.reshape(x, (cols.size, d)).T[:, :int(ok.sum())]
+
+                out[0][:, ok], out[1][:, ok] = put(res.first_order), put(res.total_order)
                 for k, c in ((2, ci.first_order), (3, ci.total_order)):
-                    out[k][0][:, ok], out[k][1][:, ok] = c.confidence_interval.low.T, c.confidence_interval.high.T
+                    out[k][0][:, ok], out[k][1][:, ok] = put(c.confidence_interval.low), put(c.confidence_interval.high)
             return out
 
         first, total, first_ci, total_ci = indices(self.amplitude.reshape(len(roles), -1))
@@ -600,7 +608,7 @@ def check_block(meta: dict, data: dict | None, rows: int, shape: tuple, time_dom
     if i.size and (i.min() < 0 or i.max() >= rows or np.unique(i).size != i.size):
         return f"dataset sample holds a value outside 0 ... {rows - 1} or one twice"
     st = np.asarray(data["status"]).astype(str)
-    bad = [x for x in st.ravel() if x not in STATUSES]
+    bad = [str(x) for x in st.ravel() if x not in STATUSES]
     if bad:
         return f"dataset status holds {bad[0][:40]!r}; allowed: {', '.join(STATUSES)}"
     per = np.asarray(data["period"])
@@ -873,5 +881,7 @@ def outcome_entries(results) -> list:
         names, p = r.probabilities()
         x, xu = r.axis
         out.append({"name": r.name, "x": x, "x_unit": xu, "directions": list(r.directions), "outcomes": names,
-                    "p": p, "colours": list(OUTCOME_COLOURS), "stacked": [n not in STATUS_OUTCOMES for n in names]})
+                    "p": p, "colours": list(OUTCOME_COLOURS),
+                    # by position: the class "failed" and the status "failed" share a name
+                    "stacked": [i < len(CLASSES) for i in range(len(names))]})
     return out
