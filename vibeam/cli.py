@@ -727,6 +727,10 @@ def main(argv=None) -> int:
                         "of each kernel specialisation a scenario uses (key kernel_specialisations) and of every "
                         "compiled function (goals: quick start <= 5 s; each scenario compiles only the event "
                         "integrator's specialisation it uses; pool workers and warm runs compile nothing)")
+    p.add_argument("--settling", action="store_true",
+                   help="instead: forcing periods simulated per sweep point (mean, max) with the fixed transient and "
+                   "with [sweep] settle = true: the Fig. 7 sweep, the tight rig's ladder (quick), the --uncertainty "
+                   "scene (--samples, default 16)")
     p.add_argument("--basins", action="store_true",
                    help="instead: a 200 x 200 SDOF basin of the tight rig at 16.5 Hz (goal < 20 s on 2 cores), "
                         "basin hits against full trajectories, and a 50 x 50 basin of the 4-mode FE rig")

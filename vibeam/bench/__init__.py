@@ -125,6 +125,12 @@ def main_bench(args) -> int:
     elif getattr(args, "estimate", False):
         out, mode = run_estimate_bench(log=log), "--estimate"
         out["goals"] = estimate_goals(out)
+    elif getattr(args, "settling", False):
+        from vibeam.bench.periods import periods_goals, run_periods_bench
+
+        out, mode = run_periods_bench(samples=getattr(args, "samples", None) or 16,
+                                      jobs=getattr(args, "jobs", None) or 1, log=log), "--settling"
+        out["goals"] = periods_goals(out)
     elif getattr(args, "uncertainty", False):
         out, mode = run_uncertainty_bench(samples=getattr(args, "samples", None) or 1024,
                                           jobs=getattr(args, "jobs", None) or 2, log=log), "--uncertainty"

@@ -820,7 +820,10 @@ class SweepSpec(_Strict):
 
     ``transient_periods = "auto"`` extends each point's transient until the
     stroboscopic map settles, up to ``max_transient_periods`` (default 10000;
-    :func:`vibeam.engine.sweep.settle_transient`); ``point_time_limit_s`` ends a point that runs
+    :func:`vibeam.engine.sweep.settle_transient`); ``settle = true`` ends it as soon as the map has
+    settled, after at least ``min_transient_periods`` (default 16) and at most
+    ``transient_periods`` (:func:`vibeam.engine.sweep.settle_early`; a point that does not settle
+    runs the whole transient, as without it); ``point_time_limit_s`` ends a point that runs
     longer as ``failed`` (default: no limit).  A point whose record is not periodic is
     continued until its spread is measured over ``statistics_periods`` periods (default
     256; 0 or at most ``record_periods``: the record alone), the sample its regression
@@ -835,6 +838,8 @@ class SweepSpec(_Strict):
     direction: Literal["up", "down", "both"] = "up"
     transient_periods: Annotated[int, Field(ge=0)] | Literal["auto"] = 400
     max_transient_periods: Annotated[int, Field(ge=1)] = 10000
+    settle: bool = False
+    min_transient_periods: Annotated[int, Field(ge=0)] = 16
     record_periods: Annotated[int, Field(ge=1)] = 64
     statistics_periods: Annotated[int, Field(ge=0)] = 256
     samples_per_period: Annotated[int, Field(ge=16, le=4096)] = 64
@@ -848,6 +853,7 @@ class SweepSpec(_Strict):
         """The :class:`vibeam.engine.sweep.Sweep` settings of this table (all but the grid)."""
         return dict(direction=self.direction, transient_periods=self.transient_periods,
                     max_transient_periods=self.max_transient_periods, record_periods=self.record_periods,
+                    settle=self.settle, min_transient_periods=self.min_transient_periods,
                     statistics_periods=self.statistics_periods,
                     samples_per_period=self.samples_per_period, continuation=self.continuation,
                     period_rtol=self.period_rtol, point_time_limit_s=self.point_time_limit_s,
@@ -866,6 +872,9 @@ class SweepSpec(_Strict):
     def _exactly_one_grid(self):
         if (self.Omega is None) == (self.frequency_hz is None):
             raise ValueError("give exactly one of 'Omega' (nondimensional) or 'frequency_hz'")
+        if self.settle and self.transient_periods == "auto":
+            raise ValueError("settle = true ends a transient of at most transient_periods early; allowed: an "
+                             "integer transient_periods with it (\"auto\" lengthens the transient instead)")
         return self
 
     def grid(self, natural_frequency_hz=None) -> np.ndarray:

@@ -192,6 +192,8 @@ def estimate_work(case, jobs_=None) -> dict:
             worst_contact = (con[1], con[2], float(np.max(con[0])))
         con = 0.0 if con is None else con[0]
         n_tr = job.sweep.max_transient_periods if job.sweep.auto else job.sweep.transient_periods
+        # ``settle``: a settled point's transient may be as short as min_transient_periods (the lower bound)
+        n_tr_min = min(n_tr, job.sweep.min_transient_periods) if job.sweep.settle else n_tr
         n_rec = max(job.sweep.record_periods, job.sweep.statistics_periods)   # a non-periodic point's window
         # the Lyapunov spectrum's shots: one event run each, with its tangent (counted twice)
         n_ly = 2 * int(getattr(job.sweep, "lyapunov_shots", 0))
@@ -200,7 +202,7 @@ def estimate_work(case, jobs_=None) -> dict:
         cost = ODE_STEP_COST if r.method in ("direct", "zhuravlev", "ivanov") else 1.0
         factor = _work_factor(job.solver.model) if cost == 1.0 else 1.0
         steps += n_dir * float(per.sum()) * dofs * cost
-        per_min = (n_tr * (np.maximum(ts, sub) + con) + job.sweep.record_periods * (np.maximum(spp, sub) + con)
+        per_min = (n_tr_min * (np.maximum(ts, sub) + con) + job.sweep.record_periods * (np.maximum(spp, sub) + con)
                    + n_ly * (np.maximum(ts, sub) + con))
         steps_min += n_dir * float(per_min.sum()) * dofs * cost
         work_min += n_dir * float(per_min.sum()) * dofs * cost * factor

@@ -64,6 +64,11 @@ class Sweep:
         ``record_periods``: no extension.
     max_transient_periods : int
         Most transient periods of ``'auto'``.
+    settle : bool
+        End the transient (of at most ``transient_periods``) as soon as the stroboscopic map has
+        settled, after at least ``min_transient_periods`` (:func:`settle_early`).
+    min_transient_periods : int
+        The shortest transient of ``settle``.
     point_time_limit_s : float or None
         Wall time after which a point is ended as ``failed`` (checked between
         the calls of a time-domain point, each of bounded work: :func:`simulate`); None: no
@@ -100,6 +105,8 @@ class Sweep:
     max_transient_periods: int = 10000
     point_time_limit_s: float | None = None
     lyapunov_shots: int = 0
+    settle: bool = False
+    min_transient_periods: int = 16
 
     @property
     def auto(self) -> bool:
@@ -334,6 +341,108 @@ def settle_transient(solver, Omega, state, sweep: Sweep, Delta: float, clock: Po
         stage = max(1, min(used, max_tr - used))
 
 
+#: ``settle``: a period-n record whose returns grow by more than this factor from the first half of
+#: the window to the second (above :data:`GROWTH_FLOOR` of the orbit) is leaving an unstable orbit,
+#: not settled on a stable one
+GROWTH_FACTOR = 2.0
+GROWTH_FLOOR = 1e-13
+
+
+def growing(strobe: np.ndarray, n: int, scale: float) -> bool:
+    """Whether the period-``n`` returns of the stroboscopic map grow over the window (a start near an
+    unstable orbit, e.g. the previous point's orbit past a period doubling): the largest return of
+    the second half is above ``GROWTH_FLOOR`` of the orbit and ``GROWTH_FACTOR`` times that of the
+    first half.
+
+    Parameters
+    ----------
+    strobe : ndarray, shape (m, 2)
+        Stroboscopic samples of the window.
+    n : int
+        The period found (>= 1).
+    scale : float
+        Size of the orbit.
+    """
+    m = strobe.shape[0]
+    if n < 1 or m - n < 4:
+        return False
+    e = np.max(np.abs(strobe[n:] - strobe[:-n]), axis=1) / max(scale, 1e-300)
+    h = e.shape[0] // 2
+    first, last = float(np.max(e[:h])), float(np.max(e[h:]))
+    return last > GROWTH_FLOOR and last > GROWTH_FACTOR * first
+
+
+def settle_early(solver, Omega, state, sweep: Sweep, clock: PointClock):
+    """``settle = true``: end the transient once the stroboscopic map has settled, after at least
+    ``min_transient_periods`` and at most ``transient_periods`` (issue 60).
+
+    After ``min_transient_periods`` periods, probe windows of ``record_periods`` periods follow,
+    each integrated exactly as the transient is (the solver's ``transient_samples`` grid: the same
+    numbers, bit for bit, as a call that records nothing).  The point has settled when a probe
+    repeats with some period n (1..8, or no impact) within ``SETTLED_MARGIN x period_rtol`` of the
+    orbit, its returns do not still shrink steadily (:func:`vibeam.engine.records.transient_verdict`,
+    as ``"auto"`` decides) and do not grow (:func:`growing`: a start near an unstable orbit); the
+    record is then simulated from the probe's start.  Otherwise the next probe follows while two
+    windows are left; then the rest of the transient and the record are one call.  A point that
+    does not settle (chaos, chatter at a grazing, a slow drift) therefore runs exactly the
+    ``transient_periods`` of the fixed transient along the same integration; its record differs
+    from the fixed one only where the kernel's results depend on where calls are cut (at round-off,
+    which a chaotic motion amplifies: its record is then another sample of the same attractor).  A
+    settled orbit's distance to the orbit is about its returns over ``1 - rho`` (``rho`` the
+    largest Floquet multiplier), so its amplitude is settled to about ``1e-3 period_rtol /
+    (1 - rho)``, within the record's own tolerance for the orbits of the shipped scenes.
+
+    Returns
+    -------
+    (Trajectory, int)
+        The record and the transient periods before it.
+    """
+    max_tr = int(sweep.transient_periods)
+    n_rec = int(sweep.record_periods)
+    spp = int(sweep.samples_per_period)
+    spp_p = int(getattr(solver, "transient_samples", 0) or spp)
+    limit = sweep.point_time_limit_s
+    used = min(int(sweep.min_transient_periods), max_tr)     # transient periods before the probe
+    if max_tr - used < n_rec:                 # no room for a probe: the fixed transient
+        return _simulate(solver, Omega, state, max_tr, sweep, clock), max_tr
+    start = state
+    if used:
+        pre = simulate(solver, Omega, state, used, 0, spp_p, limit, clock)
+        if pre.status == "failed":
+            return _failed_record(pre, n_rec, spp, 0), used
+        start = pre.final_state
+    while True:
+        probe = simulate(solver, Omega, start, 0, n_rec, spp_p, limit, clock)
+        if probe.status == "failed":
+            return (probe if spp_p == spp else _failed_record(probe, n_rec, spp, used)), used
+        scale = max(probe.q_max - probe.q_min, float(np.max(np.abs(probe.samples[:, 1]))) if probe.samples.size
+                    else 0.0, 1e-300)
+        period, why = transient_verdict(probe.strobe, scale, sweep.period_rtol, probe.n_impacts == 0,
+                                        margin=SETTLED_MARGIN, Omega=float(Omega))
+        if period != 0 and not why and not growing(probe.strobe, max(period, 1), scale):
+            rec = probe if spp_p == spp else _simulate(solver, Omega, start, 0, sweep, clock)
+            return _in_phase(solver, Omega, rec, (max_tr - used) % max(period, 1), sweep, clock), used
+        if clock.over(limit):
+            msg = f"point_time_limit_s = {limit:g} s passed after {used} transient periods (settle = true)"
+            return _failed_record(replace(probe, status="failed", message=msg), n_rec, spp, None), used
+        end = used + n_rec                    # the periods behind probe.final_state
+        if max_tr - end >= 2 * n_rec:         # the probe was transient: the next one follows it
+            used, start = end, probe.final_state
+            continue
+        # the last: the rest of the transient and the record in one call, as the fixed transient's
+        return _simulate(solver, Omega, probe.final_state, max_tr - end, sweep, clock), max_tr
+
+
+def _in_phase(solver, Omega, traj, k: int, sweep: Sweep, clock: PointClock):
+    """``traj`` whose final state (the next point's start) is advanced by ``k`` periods (``k`` < the
+    orbit's period n): the point of a period-n orbit a record after the whole transient would end
+    on, so that the next point of a chain starts where it would without ``settle``."""
+    if k <= 0:
+        return traj
+    adv = simulate(solver, Omega, traj.final_state, k, 0, sweep.samples_per_period, sweep.point_time_limit_s, clock)
+    return traj if adv.status == "failed" else replace(traj, final_state=adv.final_state)
+
+
 def _statistics(solver, Omega, traj, out: dict, sweep: Sweep, Delta: float, clock: PointClock) -> None:
     """Continue a non-periodic record until it holds ``sweep.statistics_periods`` per-period
     amplitudes, and measure the spread over all of them.
@@ -389,6 +498,8 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
             clock = PointClock()
             if sweep.auto:
                 traj, used, why = settle_transient(solver, Omega, state, sweep, Delta, clock)
+            elif sweep.settle:
+                traj, used = settle_early(solver, Omega, state, sweep, clock)
             else:
                 used = int(sweep.transient_periods)
                 traj = _simulate(solver, Omega, state, used, sweep, clock)
