@@ -22,6 +22,7 @@ from vibeam.analysis.uncertainty import (QUANTILES, UncertaintyResult, bands, ch
                                          checkpoint_ident, outcome_entries, read_uncertainty, samples_from_checkpoint,
                                          sobol_entries, uncertainty_group, uncertainty_variables, verdict)
 from vibeam.engine.records import STATUSES
+from vibeam.errors import InputError
 
 
 def make(amp, period=None, status=None, roles=(), Omega=None, directions=None, fhz=None, L=None, seed=5,
@@ -282,15 +283,20 @@ def test_checkpoint_blocks_hold_the_finished_samples_and_refuse_what_vibeam_neve
     assert check_block(big, dict(data, sample=many), 300, (2, 3)) is None        # 300 distinct samples
     empty = dict(data, sample=np.zeros(0, np.int64))
     assert check_block(dict(meta, sample=((0,), np.int64)), empty, 8, (2, 3)) is None or True
-    # read back: a later block's sample replaces an earlier one's
+    # read back: each sample from its one block; a sample in two blocks (never written so: issue 57
+    # item 5, one sample's rows duplicated into another block) is refused naming both blocks
     later = {k: v.copy() for k, v in data.items()}
-    later["sample"] = np.array([7])
+    later["sample"] = np.array([5])
     later["amplitude"] = later["amplitude"][1:] + 100.0
     for k in ("period", "status"):
         later[k] = later[k][1:]
     got = samples_from_checkpoint({"b": later, "a": data})
-    assert sorted(got) == [3, 7] and (got[7]["amplitude"] == 107.0).all() and (got[3]["amplitude"] == 3.0).all()
+    assert sorted(got) == [3, 5, 7] and (got[5]["amplitude"] == 107.0).all() and (got[3]["amplitude"] == 3.0).all()
+    assert (got[7]["amplitude"] == 7.0).all()
     assert got[3]["period"].dtype == np.int64 and got[3]["status"].dtype == object and got[3]["status"][0, 0] == "ok"
+    later["sample"] = np.array([7])
+    with pytest.raises(InputError, match="sample 7 is in block a and in block b"):
+        samples_from_checkpoint({"b": later, "a": data}, "u.h5")
 
 
 def _written(tmp_path, r):

@@ -55,6 +55,7 @@ from vibeam.bench.fig7 import GOAL_PERIODS, GOAL_POINTS, bench_goals, run_bench
 from vibeam.bench.fit import run_fit_bench
 from vibeam.bench.latency import LATENCY_CASE, LATENCY_GOAL_S, LATENCY_PROBE, latency_goals, run_latency_bench
 from vibeam.bench.maps import map_goals, run_map_bench
+from vibeam.bench.periods import periods_goals, run_periods_bench
 from vibeam.bench.scaling import run_scaling_bench, scaling_goals
 from vibeam.bench.shooting import run_shooting_bench, shooting_goals
 from vibeam.bench.uncertainty import run_uncertainty_bench, uncertainty_goals
@@ -126,8 +127,6 @@ def main_bench(args) -> int:
         out, mode = run_estimate_bench(log=log), "--estimate"
         out["goals"] = estimate_goals(out)
     elif getattr(args, "settling", False):
-        from vibeam.bench.periods import periods_goals, run_periods_bench
-
         out, mode = run_periods_bench(samples=getattr(args, "samples", None) or 16,
                                       jobs=getattr(args, "jobs", None) or 1, log=log), "--settling"
         out["goals"] = periods_goals(out)

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from vibeam.analysis.uncertainty import plan_samples
+from vibeam.bench.common import goal
 from vibeam.bench.uncertainty import CASE as UNCERTAINTY_CASE
 from vibeam.case.schema import load_case, parse_case
 from vibeam.engine.jobs import case_jobs, make_job
@@ -29,11 +30,9 @@ def periods_per_point(rows) -> np.ndarray:
 
 
 def _case_rows(case, settle: bool, jobs) -> tuple[list, float]:
-    import dataclasses
-
     lines = []
     for job in case_jobs(case):
-        lines.extend(plan_lines(job.solver, dataclasses.replace(job.sweep, settle=settle), job.run.name))
+        lines.extend(plan_lines(job.solver, replace(job.sweep, settle=settle), job.run.name))
     load_kernels(lines)
     t0 = time.perf_counter()
     out = run_lines(lines, jobs=jobs)
@@ -83,8 +82,6 @@ def run_periods_bench(samples: int = 16, jobs: int | None = 1, log=None) -> dict
 
 def periods_goals(out: dict) -> list:
     """No goal of its own: the ratios are printed (``settle`` shortens every scene's mean)."""
-    from vibeam.bench.common import goal
-
     return [goal(f"settle = true simulates fewer periods per point than the fixed transient ({k})",
                  f"mean {v['fixed']['periods_mean']:.1f} -> {v['settle']['periods_mean']:.1f} "
                  f"(max {v['fixed']['periods_max']} -> {v['settle']['periods_max']})",

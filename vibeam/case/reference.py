@@ -181,6 +181,9 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "transient_periods": ("periods", "transient discarded per point; \"auto\": until the stroboscopic "
                               "map settles"),
         "max_transient_periods": ("periods", "bound of an \"auto\" transient"),
+        "settle": ("", "end the transient once the stroboscopic map has settled (then transient_periods is "
+                   "a maximum); not with \"auto\""),
+        "min_transient_periods": ("periods", "transient periods run before settle = true tests the map"),
         "record_periods": ("periods", "periods recorded per point (amplitude, period detection)"),
         "statistics_periods": ("periods", "a non-periodic point's spread is measured over this many periods"),
         "samples_per_period": ("", "output samples per forcing period"),
