@@ -184,6 +184,8 @@ def test_a_signal_inside_the_basins_compiled_calls_stops_the_basins(tmp_path, si
 
 
 # ----------------------------------------------------------------------------- signals at many times
+# a sweep of minutes: 322 points of 20000 transient periods each, every period integrated
+# (recurrence = false: a transient that recurs exactly would end early)
 RUN = """
 name = "long-sweep"
 [model]
@@ -198,11 +200,12 @@ voltage = 0.6
 [sweep]
 frequency_hz = [14.0, 18.0, 161]
 direction = "both"
-transient_periods = 400
+transient_periods = 20000
 record_periods = 32
 [[run]]
 name = "exact"
 method = "event"
+recurrence = false
 """
 
 
