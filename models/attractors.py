@@ -48,6 +48,8 @@ import numpy as np
 from numba import njit, types
 from numba.typed import Dict
 
+from .interrupts import check as check_interrupt
+
 #: labels of :meth:`Recurrences.label` that are not an attractor's index
 UNSETTLED = -2
 FAILED = -3
@@ -282,6 +284,7 @@ class Recurrences:
         feed(x[None, :], self.origin, self.width, self.cells, self.mine, st, self.visited, self.located, self.par)
         n = max(1, int(chunk))
         while st[_MODE] != _DONE:
+            check_interrupt()     # a signal swallowed inside compiled code (numba's typed dict) stops here
             want = n
             if st[_MODE] == _LOCATE:
                 want = max(1, min(int(self.par[_N_LOCATE] - st[_LOCATED]), 256))

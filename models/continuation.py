@@ -50,6 +50,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .blas import with_one_blas_thread
+from .interrupts import check as check_interrupt
+from .interrupts import reraise_interrupt
 from .continuation_kernels import SMALL_SPECTRUM, corrector_step, floquet_spectrum, floquet_spectrum_small, bordered_tangent
 
 FOLD = "fold"
@@ -277,11 +279,11 @@ class _Engine:
 
     # ------------------------------------------------------------------ basic evaluations
     def shot(self, x, p, n):
+        check_interrupt()              # a signal swallowed inside compiled code stops here (issue 57)
         self.n_shots += 1
         try:
             s = self.prob.shot(x, p, n)
         except Exception as e:  # a problem must not raise; if it does, it is a failed shot
-            from .interrupts import reraise_interrupt
             from .periodic import Shot
 
             reraise_interrupt(e)       # Ctrl-C inside the compiled shot: an interrupt, not a failure
@@ -416,8 +418,12 @@ class _Engine:
             # shot; :meth:`vibeam.models.core.shooting.ModalShooting.correct`); None: not served
             try:
                 r = fast(u_pred, t, n, self.sx, self.sp, S.tol, S.max_newton, radius)
-            except Exception:       # noqa: BLE001 - the loop below meets the same shots and reports
+            except Exception as e:  # noqa: BLE001 - the loop below meets the same shots and reports
+                reraise_interrupt(e)
                 r = None
+            # a signal whose handler ran inside the compiled corrector (numba's _numba_unpickle,
+            # caught by the kernel's own try): recorded, so it stops here (issue 57)
+            check_interrupt()
             if r is not None:
                 code, it, u, x, p, nr, s, n_shots, (spectrum, tan) = r
                 self.n_shots += n_shots
@@ -444,7 +450,8 @@ class _Engine:
                 # x_p contiguous: the types of the compiled corrector's own call (one specialisation)
                 nr, ndu_new, un, dist_new = corrector_step(s.M, np.ascontiguousarray(s.x_p), s.x, x, u, u_pred, t,
                                                            sx, sp)
-            except Exception:       # numba's solve raises on an exactly singular matrix
+            except Exception as e:  # numba's solve raises on an exactly singular matrix
+                reraise_interrupt(e)
                 return None, "singular bordered Jacobian"
             # converged: residual at tolerance, or (near a grazing, where the impact time is
             # ill-conditioned and the residual has a round-off floor) a negligible Newton step
@@ -472,7 +479,8 @@ class _Engine:
                 # contiguous: the compiled corrector's own call has C arrays (one specialisation)
                 t = bordered_tangent(np.ascontiguousarray(pt.shot.M), np.ascontiguousarray(pt.shot.x_p),
                                      self.sx, self.sp, np.ascontiguousarray(t_ref))
-            except Exception:
+            except Exception as e:
+                reraise_interrupt(e)
                 t = None
             if t is not None and not np.isfinite(t).all():
                 t = None
@@ -744,6 +752,7 @@ class _Tracer:
         reason = ""
         curv = None          # curvature estimate (change of the tangent per arclength)
         while True:
+            check_interrupt()        # every step: a signal swallowed inside compiled code stops here
             if len(br.points) >= S.max_points:
                 br.status, br.message = "max_points", f"{S.max_points} points"
                 return
@@ -841,7 +850,8 @@ class _Tracer:
             return False
         try:
             x1 = f(a.x, a.p, n)
-        except Exception:
+        except Exception as e:
+            reraise_interrupt(e)
             return False
         if x1 is None:
             return False
@@ -953,7 +963,8 @@ class _Tracer:
         dist = float(np.linalg.norm(b.u - u_g))
         try:
             _, _, u2 = eng.locate_graze(back, n, max(dist, 10 * self.S.locate_tol), sig_old)
-        except Exception:
+        except Exception as e:
+            reraise_interrupt(e)
             return u_g
         return u2 if np.linalg.norm(u2 - u_g) < 10 * dist + 1e-9 else u_g
 
@@ -1265,6 +1276,7 @@ def trace(prob, x0, p0, n, lo, hi, direction: int = 1, settings: Settings = Sett
             try:
                 child = switch_period_doubling(eng, tr, bf, parent, bi)
             except Exception as e:   # never lose the branches already traced
+                reraise_interrupt(e)
                 child = Branch(n=2 * parent.n, origin=f"period doubling of branch {bi} at "
                                f"{eng.prob_name} = {bf.parameter:.10g}", status="failed_start",
                                message=f"branch switching failed: {type(e).__name__}: {e}")

@@ -124,7 +124,7 @@ MUTANTS: list[Mutant] = [
            "vibeam/io/outdir.py", "        try:\n            os.unlink(tmp)\n        except OSError:\n            pass\n",
            "", ("tests/test_faults_data.py",)),
     Mutant("the results store writes a checkpoint over the complete file (results.h5) instead of beside it",
-           "vibeam/io/store.py", "out = build_file(self.partial, fill, base)", "out = build_file(self.path, fill, base)",
+           "vibeam/io/store.py", "out = build_file(self.partial, fill, base,", "out = build_file(self.path, fill, base,",
            ("tests/test_store.py",)),
     Mutant("results writer: the mm datasets of a physical scene in units of 0.1 mm",
            "vibeam/engine/sweep.py", "data[k + \"_mm\"] = data[k] * L * 1e3", "data[k + \"_mm\"] = data[k] * L * 1e4",

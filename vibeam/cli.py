@@ -23,6 +23,7 @@ run and the lines about compiling kernels are not said (issue 56).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import os
 import signal
@@ -31,6 +32,7 @@ from pathlib import Path
 
 from vibeam.case.arguments import case_value_option, jobs_option, path_option
 from vibeam.errors import CaseError, InputError, Terminated, one_line  # noqa: F401 (re-exported)
+from vibeam.errors import recording_signals
 from vibeam.version import __version__
 
 QUIET_HELP = ("no progress bar and no tables or reports (standard output stays empty; files are written as "
@@ -41,6 +43,17 @@ FRESH_HELP = ("start a new results file: the groups of the one in the output fol
               "every group is kept; those of another case are marked stale)")
 EXIT_CODES = {0: "done", 1: "regression found (regress), a goal FAILed (bench)", 2: "bad input", 3: "every point failed",
               130: "interrupted (SIGINT, Ctrl-C)", 143: "terminated (SIGTERM)"}
+
+
+#: the arguments that name files a command reads, and how a message names each: no command
+#: writes one of them, under any name (:func:`vibeam.io.outdir.reading`)
+INPUT_ARGS = (("case", "case file"), ("reference", "--reference file"), ("results", "results file"),
+              ("decay", "--decay file"))
+
+
+def _inputs(args) -> list:
+    """``(path, what)`` of the files the parsed command reads (:data:`INPUT_ARGS`)."""
+    return [(getattr(args, k), what) for k, what in INPUT_ARGS if isinstance(getattr(args, k, None), str)]
 
 
 def _on_sigterm(signum, frame):
@@ -173,7 +186,7 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
     from vibeam.case.schema import load_case
     from vibeam.io.outdir import check_folder  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam --help`
     # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
-    from vibeam.runner import failure_summary
+    from vibeam.runner import failure_summary, output_names
 
     case, text = load_case(args.case)
     if need_map and case.map is None:
@@ -184,8 +197,11 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
     _check_fresh(args)
     out_dir = check_folder(_out_dir(args, case))
     h5 = out_dir / "results.h5"
-    # the results store holds the folder for the whole command: the sweeps, then the [basins]
-    with Store(out_dir, fresh=getattr(args, "fresh", False)) as store:
+    basins = case.basins is not None and not need_map and not continuation_only
+    outputs = output_names(plots=not args.no_plots, basins=basins)
+    # the results store holds the folder for the whole command: the sweeps, then the [basins];
+    # every name the command writes is checked before it computes
+    with Store(out_dir, fresh=getattr(args, "fresh", False), outputs=outputs) as store:
         before = _file_state(h5)
         partial_before = _file_state(h5.with_name(h5.name + PARTIAL_SUFFIX))
         ex, client = _executor(args)
@@ -201,7 +217,7 @@ def cmd_run(args, need_map=False, continuation_only=False) -> int:
         finally:
             if client is not None:
                 client.close()
-        if case.basins is not None and not need_map and not continuation_only:
+        if basins:
             code = _basins(args, case.quick_variant() if args.quick else case, text, out_dir, None, store)
             if code:
                 return code
@@ -226,14 +242,21 @@ def _basins(args, case, text, out_dir, spec, store) -> int:
 
     ex, client = _executor(args)
     partial = store.partial
+    before, partial_before = _file_state(store.path), _file_state(partial)
     try:
         run_basins(case, text, out_dir, spec, jobs=args.jobs, executor=ex, progress=not args.quiet,
                    resume=getattr(args, "resume", False), plots=not args.no_plots, store=store)
     except KeyboardInterrupt as e:
         sig = "SIGTERM" if isinstance(e, Terminated) else "Ctrl-C"
-        print(f"vibeam: interrupted ({sig}); {store.path} is as it was; the finished rows of the basins are kept "
-              f"in {partial} (/basin_lines); rerun `vibeam basins` with --resume to compute only the rest",
-              file=sys.stderr)
+        now, pnow = _file_state(store.path), _file_state(partial)
+        kept = (f"{store.path} is as it was" if now == before and now is not None else
+                "no results file was written" if now is None else f"the results are complete in {store.path}")
+        # the rows are said to be kept only where the checkpoint holds them (written by this command)
+        left = ("no row of the basins had finished" if pnow is None else
+                f"no row of the basins had finished; {partial} is as it was" if pnow == partial_before else
+                f"the finished rows of the basins are kept in {partial} (/basin_lines); rerun `vibeam basins` "
+                f"with --resume to compute only the rest")
+        print(f"vibeam: interrupted ({sig}); {kept}; {left}", file=sys.stderr)
         return _interrupt_code(e)
     finally:
         if client is not None:
@@ -363,13 +386,12 @@ def cmd_cost(args) -> int:
 def cmd_derive(args) -> int:
     from vibeam.api import derive  # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
 
-    d = derive(args.case)
+    d = derive(args.case, write=args.write)
     print(f"SDOF parameters of {d.case.name} by the assumed static mode (paper Eqs. 42-46)\n")
     print(f"{'parameter':<20}{'value':>14}  {'unit':<8}source")
     for name, val, unit, src in d.rows:
         print(f"{name:<20}{val:>14.6g}  {unit:<8}{src}")
     if args.write:
-        d.write(args.write)
         print(f"\nSDOF case written to {args.write}")
     return 0
 
@@ -434,7 +456,8 @@ def cmd_poincare(args) -> int:
     from vibeam.api import poincare  # lazy: keeps the engine (numba, scipy, matplotlib: 1.2 s) out of `vibeam --help`
     # lazy: keeps the case schema (pydantic, numba: 0.4 s) out of `vibeam --help`
     from vibeam.case.schema import load_case
-    from vibeam.io.outdir import check_folder  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam --help`
+    # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam --help`
+    from vibeam.io.outdir import check_folder, check_output_file
 
     case, _ = load_case(args.case)
     if (args.frequency_hz is None) == (args.Omega is None):
@@ -445,6 +468,7 @@ def cmd_poincare(args) -> int:
     out_dir = check_folder(_out_dir(args, case)) if not args.no_plots else None
     f = args.frequency_hz if args.frequency_hz is not None else args.Omega
     stem = f"poincare_{'f' if args.frequency_hz is not None else 'Omega'}{f:g}"
+    check_output_file(out_dir / f"{stem}.png")      # before anything is computed
     try:
         sec = poincare(case, Omega=args.Omega, frequency_hz=args.frequency_hz, periods=args.periods,
                        transient=args.transient, run=args.run if args.run is not None else 0,
@@ -753,19 +777,45 @@ def main(argv=None) -> int:
     return _dispatch(args)
 
 
+def _reading(args):
+    """The command's input files, for :func:`vibeam.io.outdir.check_output_file` (no command
+    writes a file it reads)."""
+    inputs = _inputs(args)
+    if not inputs:
+        return contextlib.nullcontext()
+    from vibeam.io.outdir import reading  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam cases`
+
+    return reading(inputs)
+
+
+def _interrupted_by(exc: type) -> int:
+    """The one line and exit code of a recorded signal whose interrupt was lost on its way."""
+    print(f"vibeam: interrupted ({'SIGTERM' if issubclass(exc, Terminated) else 'Ctrl-C'})", file=sys.stderr)
+    return 143 if issubclass(exc, Terminated) else 130
+
+
 def _dispatch(args) -> int:
     """Run a parsed command: errors as one line and exit 2, interrupts as 130/143."""
     stdout = sys.stdout
     dropped = open(os.devnull, "w") if getattr(args, "quiet", False) else None     # --quiet: no tables
     sys.stdout = dropped if dropped is not None else _QuietPipe(stdout)
-    old_term = None
+    # SIGINT and SIGTERM are recorded before they raise: an interrupt that compiled code or a
+    # broad except swallowed still stops the work at its next step and wins over success below
+    installed: list = []
+
+    def recorded():
+        return next((h.recorded for h in installed if h.recorded is not None), None)
+
     try:
-        old_term = signal.signal(signal.SIGTERM, _on_sigterm)
-    except ValueError:        # not the main thread (an embedding program): leave SIGTERM alone
-        pass
-    try:
-        return args.func(args)
+        with recording_signals({signal.SIGTERM: lambda signum, frame: _on_sigterm(signum, frame)}) as installed, \
+                _reading(args):
+            code = args.func(args)
+        if recorded() is not None and code not in (130, 143):     # swallowed on its way: it still wins
+            return _interrupted_by(recorded())
+        return code
     except CaseError as e:
+        if recorded() is not None:
+            return _interrupted_by(recorded())
         print(f"vibeam: error: {one_line(str(e))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as e:
@@ -774,6 +824,8 @@ def _dispatch(args) -> int:
     except OSError as e:
         # a file system error (full disk, permissions, a folder where a file should be): one line
         # naming the file; nothing written is partial (every writer goes through a temporary file)
+        if recorded() is not None:
+            return _interrupted_by(recorded())
         if isinstance(e, BrokenPipeError):
             return 0
         what = e.filename or ""
@@ -786,6 +838,12 @@ def _dispatch(args) -> int:
             why = "disk quota exceeded"
         print(f"vibeam: error: {one_line(f'{what}: {why}' if what else why)}", file=sys.stderr)
         return 2
+    except Exception:
+        # the error of a signal's handler that ran inside compiled code (numba's unboxing turned the
+        # interrupt into a TypeError): the recorded signal wins over it
+        if recorded() is None:
+            raise
+        return _interrupted_by(recorded())
     finally:
         try:
             sys.stdout.flush()
@@ -794,8 +852,6 @@ def _dispatch(args) -> int:
         sys.stdout = stdout
         if dropped is not None:
             dropped.close()
-        if old_term is not None:
-            signal.signal(signal.SIGTERM, old_term)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -5,8 +5,15 @@ re-exported where they were defined first (``vibeam.case.schema.CaseError``,
 ``vibeam.case.schema.InputError``, ``vibeam.io.results.ForeignFileError``, ``vibeam.cli.Terminated``).
 :class:`vibeam.models.continuation.ContinuationError` stays with the models, which never import
 the framework.
+
+The signal a command records (:class:`RecordingHandler`, :func:`recording_signals`) is here too:
+every layer of the framework asks :func:`signal_recorded` before it replaces a complete file.
 """
 from __future__ import annotations
+
+import contextlib
+import signal
+import threading
 
 
 class CaseError(ValueError):
@@ -25,6 +32,114 @@ class ForeignFileError(ValueError):
 
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised like Ctrl-C so that the same clean-up runs (exit code 143)."""
+
+
+# ----------------------------------------------------------------------------- signals
+class RecordingHandler:
+    """The handler of SIGINT or SIGTERM while a command runs: it records the signal, then
+    raises its interrupt (through ``then(signum, frame)`` when given, e.g. Python's
+    :func:`signal.default_int_handler`).
+
+    The record outlives the exception: where compiled code or a broad ``except`` swallows
+    the interrupt, :func:`vibeam.models.interrupts.check` (the models' loops) and
+    :func:`signal_recorded` (the commit of a results file, the command's exit code) still
+    see it (issue 57).
+
+    Attributes
+    ----------
+    recorded : type or None
+        ``exc`` once the signal has arrived (the protocol :mod:`vibeam.models.interrupts`
+        reads through :func:`signal.getsignal`), None before.
+    """
+
+    def __init__(self, exc: type, then=None):
+        self.exc = exc
+        self.then = then
+        self.recorded: type | None = None
+
+    def __call__(self, signum, frame):
+        self.recorded = self.exc            # first: whatever happens to the exception below
+        if self.then is not None:
+            self.then(signum, frame)
+        raise self.exc()
+
+
+#: the signals a command records, and the interrupt of each
+_SIGNALS = tuple((getattr(signal, name), exc) for name, exc in (("SIGINT", KeyboardInterrupt), ("SIGTERM", Terminated))
+                 if hasattr(signal, name))
+
+
+@contextlib.contextmanager
+def recording_signals(then=None):
+    """Install a :class:`RecordingHandler` for SIGINT and SIGTERM for the block, then restore
+    the handlers it found.
+
+    SIGINT keeps what it was when ignored (``SIG_IGN``: a background job) or left to the
+    system (``SIG_DFL``), and calls the handler it found after recording (Python's own
+    raises ``KeyboardInterrupt``).  SIGTERM raises :class:`Terminated` (exit code 143),
+    after ``then[SIGTERM](signum, frame)`` when given.  Off the main thread (a program that
+    embeds vibeam) nothing is installed.
+
+    Parameters
+    ----------
+    then : dict, optional
+        ``{signal number: callable(signum, frame)}`` run after recording, before the raise.
+
+    Yields
+    ------
+    list of RecordingHandler
+        The handlers installed (what they recorded stays readable after the block).
+    """
+    installed: list = []
+    if threading.current_thread() is not threading.main_thread():
+        yield installed
+        return
+    then = dict(then or {})
+    old = {}
+    try:
+        for s, exc in _SIGNALS:
+            prev = signal.getsignal(s)
+            if s == signal.SIGINT:
+                if not callable(prev):
+                    continue
+                then.setdefault(s, prev)
+            old[s] = prev
+            installed.append(RecordingHandler(exc, then.get(s)))
+            signal.signal(s, installed[-1])
+        yield installed
+    finally:
+        for s, prev in old.items():
+            signal.signal(s, prev if prev is not None else signal.SIG_DFL)
+
+
+def signal_recorded() -> type | None:
+    """The interrupt (``KeyboardInterrupt`` or :class:`Terminated`) of a signal that the
+    installed :class:`RecordingHandler` recorded, or None."""
+    for s, _ in _SIGNALS:
+        exc = getattr(signal.getsignal(s), "recorded", None)
+        if exc is not None:
+            return exc
+    return None
+
+
+def stop_if_signalled() -> None:
+    """Raise the interrupt of a recorded signal, or of one that arrived while SIGINT/SIGTERM
+    are blocked (:func:`signal.sigpending`; its handler runs now): the last look before a
+    complete file replaces the old one, so that a signal never ends in a replaced file.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        Or :class:`Terminated`.
+    """
+    if hasattr(signal, "sigpending") and threading.current_thread() is threading.main_thread():
+        held = signal.sigpending() & {s for s, _ in _SIGNALS}
+        if held:
+            # unblocked, its handler runs at once (CPython checks the signals on return)
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, held)
+    exc = signal_recorded()
+    if exc is not None:
+        raise exc()
 
 
 # ----------------------------------------------------------------------------- message wording

@@ -18,6 +18,7 @@ from pydantic import ValidationError
 import tqdm
 
 from vibeam.analysis.branches import assemble, plan, plot_continuation, plot_curves, print_results
+from vibeam.analysis.attractors import OUTPUT_NAMES as BASIN_PLOTS
 from vibeam.analysis.maps import agreement_text, assemble_map, plot_agreement, plot_map, print_map
 from vibeam.analysis.summary import print_summary
 from vibeam.case.schema import Case, check_time_series
@@ -181,6 +182,22 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
     with (store if store is not None else Store(out_dir, fresh=fresh, inputs=inputs)) as st:
         return _run_locked(case, text, st, jobs_, tasks, jobs, quiet, plots, resume, executor,
                            checkpoint, checkpoint_interval_s, continuation_only, silent)
+
+
+#: the plots a run, map or continuation writes beside results.h5 (:func:`vibeam.io.outdir.check_outputs`
+#: patterns; the names of the per-run ones depend on the runs)
+PLOT_NAMES = ("frc.png", "bifurcation.png", "impacts.png", "map_*.png", "maps_agreement.png",
+              "continuation_*.png", "curves_*.png")
+
+
+def output_names(plots: bool = True, basins: bool = False) -> list:
+    """The files besides ``results.h5`` and its checkpoint that :func:`run_case` (and with
+    ``basins`` the basins after it) may write into the output folder: names and :mod:`fnmatch`
+    patterns, for :func:`vibeam.io.outdir.check_outputs` before anything is computed.  None
+    without ``plots``."""
+    if not plots:
+        return []
+    return [*PLOT_NAMES, *assess.OUTPUT_NAMES, *(BASIN_PLOTS if basins else ())]
 
 
 def same_case(stored_json, case_json: str) -> bool:

@@ -56,6 +56,7 @@ from vibeam.models.continuation import start_point
 from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
 from vibeam.models.sdof_flow import largest_gap, particular_coefficients
 from vibeam.plots.lazy import plt
+from vibeam.plots.sweep import save_figure
 from vibeam.plots.style import NODIM, PALETTE, context, legend_outside
 
 TYPES = ("period", "sticking", "chaotic", "quasi_periodic", "non_periodic")
@@ -649,18 +650,23 @@ def mislabel_bound(wrong: int, checked: int) -> tuple[float, float]:
     return wrong / checked, upper
 
 
-def merge_attractors(sets: dict, width) -> tuple:
+def merge_attractors(sets: dict, width, first: dict | None = None) -> tuple:
     """Group the stroboscopic sets found by different workers (``{key: (m, d) array}``, keys
-    ``(origin, pid, index)`` tuples: sortable, so the grouping does not depend on the order the
-    lines finished in) into
-    distinct attractors: two sets are one attractor when their distance (in cells) is at most
-    one cell plus twice the larger self-distance.  Returns ``(groups, mapping)``: the list of
-    one set per attractor and ``{key: index}``."""
+    ``(origin, pid, index)`` tuples) into distinct attractors: two sets are one attractor when
+    their distance (in cells) is at most one cell plus twice the larger self-distance.  The sets
+    are taken in the order of ``first`` (``{key: (line, state)}``: where the grid first meets
+    each set's label), else of their keys; the first set of a group is its attractor's set.
+    Returns ``(groups, mapping)``: the list of one set per attractor and ``{key: index}``.
+
+    Ordered by ``first``, neither the groups nor their sets depend on which worker computed which
+    line (a key's process id does; issue 57: ``basins --jobs 2`` described its attractors from
+    other sets from run to run)."""
     width = np.asarray(width, float)
     groups: list = []
     spreads: list = []
     mapping: dict = {}
-    for key in sorted(sets):
+    first = first or {}
+    for key in sorted(sets, key=lambda k: (first.get(k, (math.inf, math.inf)), k)):
         X = sets[key]
         sx = _spread(X / width)
         for g, (Y, sy) in enumerate(zip(groups, spreads)):
@@ -1079,10 +1085,16 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
         for l in lines:
             if l.key in stored:
                 res[(l.run, l.key)] = [stored[l.key]]
-        sets = {}
-        for l in lines:
-            sets.update(res[(l.run, l.key)][0]["attractors"])
-        groups, mapping = merge_attractors(sets, width)
+        sets, first = {}, {}
+        for li, l in enumerate(lines):         # the grid's order, not the workers'
+            row = res[(l.run, l.key)][0]
+            origin = "stored" if row.get("stored") else "new"
+            lab = np.asarray(row["labels"])
+            for key, X in row["attractors"].items():
+                sets.setdefault(key, X)         # the set of the line that meets it first
+            for k in np.unique(lab[lab >= 0]):
+                first.setdefault((origin, row["pid"], int(k)), (li, int(np.argmax(lab == k))))
+        groups, mapping = merge_attractors(sets, width, first)
         flat = []
         for l in lines:
             row = res[(l.run, l.key)][0]
@@ -1627,6 +1639,10 @@ def _census_axes(r, x, a1, a2, title):
     a1.set_title(title or f"attractors along {where} (run {r.name})")
 
 
+#: the files :func:`plot_basins` writes (:func:`vibeam.io.outdir.check_outputs` patterns)
+OUTPUT_NAMES = ("basins_*.png", "census_*.png")
+
+
 def plot_basins(r: BasinsResult, out_dir, title: str = "", branches: dict | None = None) -> list:
     """Write ``basins_<run>[_<i>].png`` (and ``census_<run>.png`` for several frequencies, over
     the continuation ``branches`` when given)."""
@@ -1637,15 +1653,16 @@ def plot_basins(r: BasinsResult, out_dir, title: str = "", branches: dict | None
     for i in range(len(r.Omega)):
         fig = basins_figure(r, i, title)
         p = out_dir / (f"basins_{stem}.png" if len(r.Omega) == 1 else f"basins_{stem}_{i:03d}.png")
-        fig.savefig(p, dpi=120)
-        plt.close(fig)
-        paths.append(p)
+        try:
+            paths.append(save_figure(fig, p, dpi=120))       # atomically, never into a pipe or a link
+        finally:
+            plt.close(fig)
     if len(r.Omega) > 1:
         fig = census_figure(r, title, branches)
-        p = out_dir / f"census_{stem}.png"
-        fig.savefig(p, dpi=120)
-        plt.close(fig)
-        paths.append(p)
+        try:
+            paths.append(save_figure(fig, out_dir / f"census_{stem}.png", dpi=120))
+        finally:
+            plt.close(fig)
     return paths
 
 

@@ -152,8 +152,8 @@ class BranchTask:
         st = dict(self.settings, max_points=3, switch=False, curves=False)
         try:
             run_continuation(dataclasses.replace(self, settings=st, curve_key=None, curve_range=None))
-        except Exception:
-            pass
+        except Exception as e:
+            reraise_interrupt(e)
 
     def lost_rows(self, err, attempts) -> list:
         return [dict(branches=[], starts=[], curves=[], status="failed", wall_time_s=0.0,
@@ -458,7 +458,8 @@ def _slice_bifurcations(task, spec, v, settings):
         try:
             got = trace(prob, x0, value, n, task.lo, task.hi, direction,
                         dc_replace(settings, max_branches=2, max_period=task.settings.get("curve_max_period", 2)))
-        except Exception:
+        except Exception as e:
+            reraise_interrupt(e)
             continue
         for b in got:
             out.extend(b.bifurcations)

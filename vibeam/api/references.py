@@ -20,7 +20,7 @@ from vibeam.engine.sweep import default_executor
 from vibeam.errors import CaseError
 from vibeam.identify.fit import DEFAULT_LOSS, check_params, default_params, fit_runs
 from vibeam.identify.fit import read_reference as read_measurement
-from vibeam.io.outdir import OutputLock, check_folder
+from vibeam.io.outdir import OutputLock, check_folder, check_outputs
 from vibeam.io.results import table_variables, write_results
 from vibeam.runner import run_case
 
@@ -196,6 +196,7 @@ def cost(case, out=None, ladder: bool = False, repeats: int = 3, quick: bool = F
 
     folder = check_folder(Path(out))
     with OutputLock(folder):
+        check_outputs(folder, ("cost.h5", "cost.h5.partial", "work_precision.png"))   # before computing
         res = run_cost(c, ladder=ladder, repeats=repeats, jobs=jobs, log=log)
         h5 = write_results(folder / "cost.h5", [], c.name, text, extra={"cost": cost_tables(res)},
                            case_json=c.model_dump_json())

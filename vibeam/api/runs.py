@@ -18,6 +18,7 @@ from vibeam.api.common import PrivateFolder, check_run_args
 from vibeam.api.results import Results
 from vibeam.case.schema import BasinsSpec, validation_message
 from vibeam.errors import CaseError
+from vibeam.io.outdir import check_outputs
 from vibeam.io.results import read_results
 from vibeam.io.store import Store, current_units
 from vibeam.runner import case_identity, run_case
@@ -128,6 +129,8 @@ def run_basins(case, text, folder, spec, jobs=None, executor=None, progress=Fals
     ``store``: the results store of ``folder`` the command holds (default: one is opened).
     Returns the BasinsResult."""
     with (store if store is not None else Store(folder)) as st:
+        if plots:                         # every name written, checked before anything is computed
+            check_outputs(folder, attractors.OUTPUT_NAMES)
         r = attractors.compute(case, jobs=jobs, executor=executor, progress=progress, spec=spec, checkpoint=st,
                                resume=resume, case_text=text)
         cj, aliases = case_identity(st, case.model_dump_json())

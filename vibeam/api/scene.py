@@ -12,7 +12,8 @@ from vibeam.api.cases import case_and_source
 from vibeam.api.common import saved
 from vibeam.case.arguments import check_flag, check_path, check_whole
 from vibeam.case.beamscene import beam_spec, derive as derive_scene, modes_report, sdof_case_text
-from vibeam.io.outdir import OutputLock, check_folder, replace_file, write_text_file
+from vibeam.io.outdir import (OutputLock, check_folder, check_output_file, check_outputs, reading, replace_file,
+                              write_text_file)
 from vibeam.models.beam import write_modes
 
 
@@ -67,6 +68,9 @@ def derive(case, write=None) -> Derived:
     write = check_path(write, "write")
     c, _ = case_and_source(case)
     spec = beam_spec(c, "derive")
+    if write is not None:     # before anything is computed: a name that may be written, never the case file
+        with reading([(case, "case file")] if isinstance(case, (str, Path)) else []):
+            check_output_file(write, "--write")
     d = derive_scene(spec)
     res = Derived(c, d["rows"], d["reduction"], d["with_beam_mass"], d["scene"],
                   sdof_case_text(c, spec, d["reduction"], d["scene"]))
@@ -142,6 +146,8 @@ def modes(case, n: int = 6, out=None, plots: bool = True) -> Modes:
     check_flag(plots, "plots")
     c, _ = case_and_source(case)
     spec = beam_spec(c, "modes")
+    if out is not None:                   # every name written, checked before anything is computed
+        check_outputs(out, MODES_FILES if plots else MODES_FILES[:1])
     rep = modes_report(spec, n=n)
     res = Modes(c, rep["fe"], rep["modes"], rep["contact"], rep["total_mass_kg"], rep["sensor_modal_mass_kg"],
                 n, rep)
@@ -150,6 +156,10 @@ def modes(case, n: int = 6, out=None, plots: bool = True) -> Modes:
         with OutputLock(folder):          # like every writer: one vibeam process per folder
             res.paths = write_modes_files(res, folder, plots=plots)
     return res
+
+
+#: the files :func:`write_modes_files` writes
+MODES_FILES = ("modes.vtu", "modes.png")
 
 
 def write_modes_files(res: Modes, folder, plots: bool = True) -> dict:

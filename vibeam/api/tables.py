@@ -10,7 +10,7 @@ import pandas as pd
 from vibeam.api.results import open_results
 from vibeam.case.arguments import check_path
 from vibeam.errors import InputError
-from vibeam.io.outdir import check_folder, check_output_file, replace_file
+from vibeam.io.outdir import OutputLock, check_folder, check_output_file, replace_file
 from vibeam.io.store import UNIT_PARENTS
 
 
@@ -34,7 +34,9 @@ def export(path, csv_dir) -> list:
     beyond a branch's ``n_points``) is kept as empty cells, so every row maps to one stored
     value.  Every table is built before any file is written; then each file goes to a
     temporary file, flushed and renamed (:func:`vibeam.io.outdir.replace_file`): a file is never
-    left partial, and a results file that cannot be read in full writes no file at all.
+    left partial, and a results file that cannot be read in full writes no file at all.  The
+    folder is held while the files are written (:class:`vibeam.io.outdir.OutputLock`): a folder
+    another vibeam command writes into is refused in one line.
 
     Parameters
     ----------
@@ -83,13 +85,15 @@ def export(path, csv_dir) -> list:
     files.append(("index.csv", pd.DataFrame(index, columns=["file", "group", "run", "dimensions", "rows"])
                   .to_csv(index=False)))
     check_folder(folder, "--csv")
-    for name, _ in files:
-        check_output_file(folder / name)
     written = []
-    for name, text in files:
-        p = replace_file(folder / name, text)
-        if name != "index.csv" and not name.endswith(".units.csv"):
-            written.append(p)
+    # the folder held as every writer holds its folder: never into one another vibeam command writes
+    with OutputLock(folder, option="--csv"):
+        for name, _ in files:
+            check_output_file(folder / name)
+        for name, text in files:
+            p = replace_file(folder / name, text)
+            if name != "index.csv" and not name.endswith(".units.csv"):
+                written.append(p)
     return written
 
 

@@ -164,7 +164,7 @@ def uncertainty(case, samples: int | None = None, jobs: int | None = None, execu
             _print(c, results)
         return _bound(results, c)
     text = case_text(c0)
-    with Store(Path(out), fresh=fresh) as st:
+    with Store(Path(out), fresh=fresh, outputs=PLOT_NAMES if plots else ()) as st:
         cj, aliases = case_identity(st, c.model_dump_json())
         n = int(samples or c.uncertainty.samples)
         ident = checkpoint_ident(cj, n)
@@ -230,6 +230,10 @@ def check_samples(samples):
         raise CaseError(f"'--samples' = {samples}: allowed: a power of 2 from 2 to {MAX_SAMPLES} (as [uncertainty] "
                         f"samples)")
     return int(samples)
+
+
+#: the figures :func:`plot_uncertainty` writes
+PLOT_NAMES = ("uncertainty.png", "uncertainty_sobol.png", "uncertainty_outcomes.png")
 
 
 def plot_uncertainty(results, folder, title: str = "") -> list:

@@ -37,6 +37,7 @@ first ``2^m`` points).
 from __future__ import annotations
 
 import math
+import sys
 from typing import Annotated, Literal
 
 import numpy as np
@@ -83,6 +84,9 @@ class UncertaintyParameterSpec(BaseModel):
     def _bounds(cls, v):
         if v is not None and (len(v) != 2 or not v[0] < v[1]):
             raise ValueError(f"allowed: [lo, hi] with lo < hi, got {v}")
+        if v is not None and not math.isfinite(v[1] - v[0]):     # the distributions' scale hi - lo
+            raise ValueError(f"allowed: [lo, hi] with hi - lo a finite number (at most {sys.float_info.max:.4g}), "
+                             f"got {v}")
         return v
 
     @model_validator(mode="after")
@@ -128,11 +132,12 @@ class UncertaintyParameterSpec(BaseModel):
         """The values a sample can take: the distribution's support, an unbounded end replaced by its
         :data:`SUPPORT_TAIL` quantile."""
         dist = self.frozen()
-        lo, hi = dist.support()
-        if not math.isfinite(lo):
-            lo = float(dist.ppf(SUPPORT_TAIL))
-        if not math.isfinite(hi):
-            hi = float(dist.ppf(1.0 - SUPPORT_TAIL))
+        with np.errstate(over="ignore", invalid="ignore"):     # beyond double precision: +-inf, refused by the caller
+            lo, hi = dist.support()
+            if not math.isfinite(lo):
+                lo = float(dist.ppf(SUPPORT_TAIL))
+            if not math.isfinite(hi):
+                hi = float(dist.ppf(1.0 - SUPPORT_TAIL))
         return float(lo), float(hi)
 
 

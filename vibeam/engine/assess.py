@@ -456,6 +456,11 @@ def collect(case, run, res) -> None:
 
 
 # ============================================================================ finish
+#: the files :func:`finish` may write (:func:`vibeam.io.outdir.check_outputs` patterns)
+OUTPUT_NAMES = ("spectra.png", "participation.png", "time_series_*.png", "sensor_R_vs_noise.csv",
+                "sensor_R_vs_noise.png")
+
+
 def finish(case, runs, out_dir) -> list:
     """Case-level assessment outputs (plots, tables); returns the written paths."""
     out_dir = Path(out_dir)

@@ -34,6 +34,7 @@ from vibeam.engine.records import (HARMONICS, PERIOD_MAX, SETTLED_MARGIN, STATUS
 from vibeam.models import shooting_problem
 from vibeam.models.blas import one_blas_thread
 from vibeam.models.continuation import start_point
+from vibeam.models.interrupts import check as check_interrupt
 from vibeam.models.interrupts import reraise_interrupt
 from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
 from vibeam.models.trajectory import concatenate
@@ -215,6 +216,7 @@ def simulate(solver, Omega, state, n_transient: int, n_record: int, samples_per_
         if a + b == 0 and traj is not None:
             break
         traj = solver.point(Omega, state, a, b, spp)
+        check_interrupt()           # a signal whose exception the compiled call swallowed (issue 57)
         clock.tick()
         if traj.incomplete and a + b > 1:
             limit = max(1, (a + b) // 2)    # the same state again, in shorter calls
@@ -491,6 +493,7 @@ def _statistics(solver, Omega, traj, out: dict, sweep: Sweep, Delta: float, cloc
 
 def _point(solver, Omega, state, sweep: Sweep, Delta: float):
     """Simulate one point; dynamical outcomes and solver errors become a status."""
+    check_interrupt()           # a signal recorded in the point before: no further point (issue 57)
     t0 = time.perf_counter()
     try:
         if solver.time_domain:
@@ -670,6 +673,7 @@ def run_line(line: Line, report=None) -> list[dict]:
     same executor, retries and progress bar: advancing when it finishes, or, for a unit with
     ``reports_progress = True``, by ``compute(report=...)`` calling ``report()`` once per step
     (at most ``n_points`` steps: a continuation run's starts)."""
+    check_interrupt()       # a signal swallowed in the line before (issue 57): no further line
     if report is None and _PROGRESS_QUEUE is not None:
         q, ident = _PROGRESS_QUEUE, (line.run, line.key)
 
@@ -913,8 +917,8 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
         while pending or backlog:
             if not pending:
                 submit(backlog.pop(0))
-            done, _ = cf.wait(list(pending), timeout=0.2 if queue is not None else None,
-                              return_when=FIRST_COMPLETED)
+            done, _ = cf.wait(list(pending), timeout=0.2, return_when=FIRST_COMPLETED)
+            check_interrupt()           # a signal whose exception was swallowed on its way (issue 57)
             drain()
             retry, broken = [], False
             for f in done:
@@ -965,7 +969,7 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
             else:
                 for line in retry:
                     submit(line)
-    except BaseException:
+    except BaseException as e:
         # interrupted (Ctrl-C, SIGTERM) or failing: report every line that has finished, then
         # stop the rest at once -- queued lines cancelled, the own pool's workers terminated
         try:
@@ -983,6 +987,7 @@ def run_lines(lines, executor: Executor | None = None, jobs: int | None = 1, on_
             else:
                 for f in pending:
                     f.cancel()
+        reraise_interrupt(e)      # an error a signal caused inside compiled code (numba's unboxing) is that interrupt
         raise
     finally:
         if bar is not None:

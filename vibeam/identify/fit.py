@@ -87,7 +87,7 @@ from vibeam.errors import CaseError, case_error
 from vibeam.identify.linear import (CONVERGED_STEP_SE, NOISE_TEST_LEVEL, irls_weights, loss_cost, loss_psi,
                                     noise_consistent, noise_interval, param_unit, remaining_step, report_decay,
                                     report_linear, uncertainty)
-from vibeam.io.outdir import OutputLock, check_folder, default_folder, write_text_file
+from vibeam.io.outdir import OutputLock, check_folder, check_outputs, default_folder, write_text_file
 from vibeam.io.reference import Reference, read_reference  # noqa: F401 (re-exported)
 from vibeam.io.results import write_results
 from vibeam.plots import style
@@ -1186,7 +1186,21 @@ def main_fit(args) -> int:
         check_params(case, [p.strip() for p in args.params.split(",") if p.strip()], args.case)
     out_dir = check_folder(Path(args.out) if args.out else default_folder(case.name, "@fit"))
     with OutputLock(out_dir):
+        check_outputs(out_dir, fit_outputs(case.name, args))     # before anything is computed
         return _main_fit_locked(args, case, text, out_dir, log)
+
+
+def fit_outputs(name: str, args) -> list:
+    """The files ``vibeam fit`` (``args``: its options) writes into its folder for the case
+    ``name``: the results file, its plot, the fitted case file (and the table of several runs)."""
+    out = []
+    if args.decay:
+        out += ["decay.h5", "decay.png", f"{name}-decay.toml"]
+    if args.reference and args.linear:
+        out += ["linear.h5", "linear.png", f"{name}-linear.toml"]
+    elif args.reference:
+        out += ["fit.h5", "fit.h5.partial", "fit.png", "fit_table.txt", f"{name}-fit.toml"]
+    return out
 
 
 def _main_fit_locked(args, case, text, out_dir, log) -> int:

@@ -22,10 +22,19 @@ process removes the temporary files that a killed write leaves behind (:data:`TM
 
 :func:`default_folder` is where a command writes without ``--out``: ``results/<name>``,
 never outside ``results/``.
+
+No command writes a file it reads (issue 57): the command line names the files a command
+reads (:func:`reading`: its case file, ``--reference``, ``--results``, ...) and
+:func:`check_output_file` -- through which :func:`replace_file` and the results store pass
+every name -- refuses any of them, by identity (device and inode: a hard link, another
+spelling of the path), whatever the name.  A command checks every name it will write
+before it computes anything (:func:`check_outputs`).
 """
 from __future__ import annotations
 
+import contextlib
 import errno
+import fnmatch
 import json
 import os
 import socket
@@ -36,7 +45,7 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
-from vibeam.errors import InputError
+from vibeam.errors import InputError, stop_if_signalled
 
 LOCK_NAME = ".vibeam.lock"
 TMP_PREFIX = ".vibeam-tmp-"
@@ -161,6 +170,8 @@ class OutputLock:
         The output folder (created if needed).
     command : str, optional
         What runs (stored in the lock; default the command line).
+    option : str
+        The option that named the folder, for messages (``--csv`` of ``vibeam export``).
 
     Attributes
     ----------
@@ -184,8 +195,9 @@ class OutputLock:
     outermost holder releases it.
     """
 
-    def __init__(self, folder, command: str | None = None):
+    def __init__(self, folder, command: str | None = None, option: str = "--out"):
         self.folder = Path(folder)
+        self.option = option
         self.path = self.folder / LOCK_NAME
         self.command = command if command is not None else " ".join([Path(sys.argv[0]).name, *sys.argv[1:]])
         self.fd: int | None = None
@@ -248,21 +260,21 @@ class OutputLock:
             return ""
 
     def _not_ours(self, what: str):
-        raise InputError(f"--out {self.folder}: the lock file {self.path} {what}; vibeam writes its lock "
-                         f"only into a plain file of its own: remove {self.path} or use another --out")
+        raise InputError(f"{self.option} {self.folder}: the lock file {self.path} {what}; vibeam writes its lock "
+                         f"only into a plain file of its own: remove {self.path} or use another {self.option}")
 
     def _cannot(self, e: OSError):
-        raise InputError(f"--out {self.folder}: cannot write the lock file {self.path}: "
+        raise InputError(f"{self.option} {self.folder}: cannot write the lock file {self.path}: "
                          f"{e.strerror or e}") from None
 
     def _refuse(self, info):
-        raise InputError(f"--out {self.folder} is in use by another vibeam process ({describe(info)}); "
-                         f"wait for it to end or use another --out (lock file {self.path})")
+        raise InputError(f"{self.option} {self.folder} is in use by another vibeam process ({describe(info)}); "
+                         f"wait for it to end or use another {self.option} (lock file {self.path})")
 
     def acquire(self) -> "OutputLock":
         import fcntl  # lazy: fcntl is POSIX-only: vibeam.io.outdir imports on every platform
 
-        check_folder(self.folder)
+        check_folder(self.folder, self.option)
         key = os.path.realpath(self.folder)
         outer = _held_locks.get(key)
         if outer is not None and outer.fd is not None:     # this process holds it already
@@ -360,6 +372,52 @@ class OutputLock:
         return False
 
 
+#: the files the running command reads: ``(st_dev, st_ino) -> (path, option)`` (:func:`reading`)
+_READING: dict = {}
+
+
+@contextlib.contextmanager
+def reading(inputs):
+    """The files a command reads, for the block: :func:`check_output_file` refuses to write any
+    of them (by device and inode, so under any name: a hard link, ``./`` or ``../`` spellings).
+
+    Parameters
+    ----------
+    inputs : iterable of (str or Path or None, str)
+        ``(path, option)``: the file and the option or argument that named it (``"--reference"``,
+        ``"case file"``); None or a name that does not exist (yet) is skipped.
+    """
+    added = []
+    for path, option in inputs:
+        if path is None:
+            continue
+        try:
+            st = os.stat(path)
+        except (OSError, ValueError):
+            continue
+        key = (st.st_dev, st.st_ino)
+        if key not in _READING:
+            _READING[key] = (str(path), str(option))
+            added.append(key)
+    try:
+        yield
+    finally:
+        for key in added:
+            _READING.pop(key, None)
+
+
+def read_by_command(path) -> tuple | None:
+    """``(path, option)`` of the input of the running command that ``path`` is (the same file,
+    :func:`reading`), or None."""
+    if not _READING:
+        return None
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return _READING.get((st.st_dev, st.st_ino))
+
+
 _OUT_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
               (stat.S_ISFIFO, "a named pipe"), (stat.S_ISSOCK, "a socket"))
 
@@ -406,17 +464,61 @@ def check_output_file(path, option: str = "") -> Path:
         kind = next((name for test, name in _OUT_KINDS if test(st.st_mode)), "not a regular file")
         what = "not a file" if kind == "a folder" else "not a regular file"
         raise InputError(f"{opt}{path}: is {kind}, {what}; vibeam would replace it; {allowed}")
+    read = read_by_command(path)
+    if read is not None:
+        same = "" if os.path.abspath(read[0]) == os.path.abspath(path) else f" ({read[0]}, the same file)"
+        raise InputError(f"{opt}{path}: is the {read[1]} this command reads{same}; a command never writes a "
+                         f"file it reads: give another name or folder")
     return path
 
 
-def replace_file(path, content) -> Path:
+def check_outputs(folder, names) -> None:
+    """Every file a command will write in ``folder`` may be written (:func:`check_output_file`):
+    checked before anything is computed, so a command never computes (or replaces one file)
+    and then fails on the next name.
+
+    Parameters
+    ----------
+    folder : str or Path
+    names : iterable of str
+        File names, or :mod:`fnmatch` patterns for names that depend on the results
+        (``map_*.png``): every existing entry of ``folder`` that matches is checked.
+
+    Raises
+    ------
+    InputError
+        One line naming the first file that is not a regular file or a new name, or that
+        the command reads.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        return                  # nothing is there yet (or not a folder: the folder's own check says so)
+    names = list(names)
+    exact = [n for n in names if not any(c in n for c in "*?[")]
+    patterns = [n for n in names if n not in exact]
+    for n in exact:
+        check_output_file(folder / n)
+    if patterns:
+        try:
+            entries = sorted(os.listdir(folder))
+        except OSError:
+            return
+        for e in entries:
+            if any(fnmatch.fnmatchcase(e, p) for p in patterns):
+                check_output_file(folder / e)
+
+
+def replace_file(path, content, keep_on_signal: bool = False) -> Path:
     """Replace ``path`` by a complete successor: the one way vibeam writes a file.
 
     ``content`` goes to a temporary file in the same folder (``.vibeam-tmp-XXXXXXXX-<name>``,
     so its suffix is that of ``path``), which is flushed to the disk (``fsync``), given the
     mode ``0666 & ~umask`` and renamed over ``path`` (:func:`os.replace`, atomic); the folder
     is then flushed too.  Until the rename ``path`` is untouched, byte for byte; a rename
-    replaces a symbolic link at ``path`` itself, never the file it points to.
+    replaces a symbolic link at ``path`` itself, never the file it points to.  Right before
+    the rename a signal the command recorded (:func:`vibeam.errors.stop_if_signalled`, also
+    one held back while the signals are blocked) stops the write: an interrupted command
+    never replaces a file, even where the interrupt itself was swallowed (issue 57).
 
     Parameters
     ----------
@@ -424,6 +526,9 @@ def replace_file(path, content) -> Path:
         The file to write; its folder must exist.
     content : bytes, bytearray, memoryview, str or callable
         The new content (a str is written as UTF-8), or ``write(tmp_path)`` writing it.
+    keep_on_signal : bool
+        Write it even after a signal: a checkpoint of finished work, which an interrupted
+        command writes on its way out.
 
     Returns
     -------
@@ -433,6 +538,9 @@ def replace_file(path, content) -> Path:
     ------
     InputError
         If ``path`` is not a regular file or a new name (:func:`check_output_file`): nothing is
+        written.
+    KeyboardInterrupt
+        A signal was recorded (:class:`vibeam.errors.Terminated` for SIGTERM): nothing is
         written.
     OSError
         If the file cannot be written in full (a full disk, a file-size limit, permissions);
@@ -462,6 +570,8 @@ def replace_file(path, content) -> Path:
             if fd >= 0:
                 os.close(fd)
         os.chmod(tmp, 0o666 & ~_umask())       # mkstemp makes 0600; results are shared
+        if not keep_on_signal:
+            stop_if_signalled()
         os.replace(tmp, path)
     except BaseException as e:
         try:
