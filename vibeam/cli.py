@@ -468,7 +468,8 @@ def cmd_poincare(args) -> int:
     out_dir = check_folder(_out_dir(args, case)) if not args.no_plots else None
     f = args.frequency_hz if args.frequency_hz is not None else args.Omega
     stem = f"poincare_{'f' if args.frequency_hz is not None else 'Omega'}{f:g}"
-    check_output_file(out_dir / f"{stem}.png")      # before anything is computed
+    if out_dir is not None:
+        check_output_file(out_dir / f"{stem}.png")  # before anything is computed
     try:
         sec = poincare(case, Omega=args.Omega, frequency_hz=args.frequency_hz, periods=args.periods,
                        transient=args.transient, run=args.run if args.run is not None else 0,
