@@ -208,9 +208,14 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
 (_H, _C, _INSIDE, _RELAXED, _CMASK, _FRESH, _BSTALE, _ATGRID, _JSTUCK, _JREL, _QFRESH, _QLAST, _BURST,
  _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _RP, _NIS) = range(21)
 # ``lp`` (_NLP,)    the period loop's counters (period, the recurrence's snapshot periods, samples
-#                   taken, periods skipped) and the current grid step's (sub-step, its tables, the
-#                   dense record's next and last sample, recording)
-(_LPP, _LSNAP, _LSNAPB, _LKS, _LSKIP, _LJNEXT, _LJEND, _LBASE, _LKG, _LFINE, _LNSREC, _LREC, _NLP) = range(13)
+#                   taken, periods skipped, samples per recorded period), read and written at
+#                   period starts.  The counters of a step (the grid's sub-step and its tables, the
+#                   dense record's next and last sample) are the loop's local variables, handed to
+#                   the phases and returned by them: kept in ``lp`` they were stored and reloaded
+#                   on every step (numba's arrays may alias: LLVM keeps no array element in a
+#                   register across a store to another array), +24 M instructions (+5 %) in the
+#                   event kernel's Fig. 7 sweep
+(_LPP, _LSNAP, _LSNAPB, _LKS, _LSKIP, _LNSREC, _NLP) = range(7)
 #: longest exact cycle of the period-start state that the recurrence finds (periods; skipped in a
 #: transient, copied in a record): the cadence of its first snapshot
 RECUR_MAX = 16
@@ -1671,14 +1676,17 @@ def _period_start(fs, ist, pmin, pp, n_transient, T):
 
 
 @_inline
-def _held_phase(hs, st, cw, work, rec, eta, etad, lp, Om, T, recording):
+def _held_phase(hs, st, cw, work, rec, eta, etad, dense, Om, T, recording):
     """Phase *held* on the set ``ist[_H]``: one step (:func:`_held_step`), with a dense record up to
-    the record's next sample, as on its own grid.  Returns the stop of a contact, or -1."""
+    the record's next sample, as on its own grid.  ``dense``: ``(j_next, j_end, base, h_rs)``, the
+    dense record's next sample ``base + j_next`` (none when ``j_next >= j_end``), ``h_rs`` apart.
+    Returns the stop of a contact, or -1."""
     (wn, wk, hb, hab, hsig, hss, _P_r, _tab_r, _P_t, _tab_t, fs, ist, _sub_r, _sub_t, _snap_f, _snap_i, _lp) = work
+    j_next, j_end, base, h_rs = dense
     rem_full = fs[_REM]
     cut = rem_full
-    if lp[_LJNEXT] < lp[_LJEND]:
-        cut = min(rem_full, (lp[_LBASE] + lp[_LJNEXT]) * (T / lp[_LNSREC]) - fs[_TLOC])
+    if j_next < j_end:
+        cut = min(rem_full, (base + j_next) * h_rs - fs[_TLOC])
         fs[_REM] = cut
     k_imp = _held_step(hs, st.normal, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, rec.evlog, rec.aplog, rec.nlog,
                        Om, T, recording, cw)
@@ -1689,20 +1697,21 @@ def _held_phase(hs, st, cw, work, rec, eta, etad, lp, Om, T, recording):
 
 
 @_inline
-def _contact_event(sy, st, hs, cw, work, rec, eta, etad, lp, k_imp, Om, guards):
+def _contact_event(sy, st, hs, cw, work, rec, eta, etad, dense, recording, k_imp, Om, guards):
     """Phase *contact* at the current time on stop ``k_imp``: a compliant stop's contact begins
     (:func:`_entry`), or a Newton stop's impact and the chatter / sticking policy act
     (:func:`_impact`; a dense record: the policy sees the rest of the record's grid step).
-    ``guards``: ``(max_impacts, chatter_tol)``.  True when the call failed."""
+    ``dense``: ``(j_next, j_end, base, h_rs)`` as :func:`_held_phase`'s; ``guards``:
+    ``(max_impacts, chatter_tol)``.  True when the call failed."""
     (wn, wk, _hb, _hab, _hsig, _hss, _P_r, _tab_r, _P_t, _tab_t, fs, ist, _sub_r, _sub_t, _snap_f, _snap_i, _lp) = work
     max_impacts, chatter_tol = guards
-    recording = lp[_LREC] != 0
+    j_next, j_end, base, h_rs = dense
     if cw is not None and (ist[_CMASK] >> k_imp) & 1:
         return _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, k_imp, max_impacts, recording)
     T = TWO_PI / Om
     rem_full = fs[_REM]
-    if lp[_LJNEXT] < lp[_LJEND]:
-        fs[_REM] = min(rem_full, (lp[_LBASE] + lp[_LJNEXT]) * (T / lp[_LNSREC]) - fs[_TLOC])
+    if j_next < j_end:
+        fs[_REM] = min(rem_full, (base + j_next) * h_rs - fs[_TLOC])
     failed = _impact(st, hs.dirn, hs.meff, hs.ceff, hs.keff, hs.valid, wn, wk, eta, etad, fs, ist, rec, Om, T,
                      k_imp, max_impacts, chatter_tol, recording, cw)
     fs[_REM] = rem_full
@@ -1737,36 +1746,44 @@ def _free_touch(st, cw, wn, wk, fs, ist, rec, eta, etad, Om):
     if cw is not None and inside != 0:
         touched, inside, relaxed = _inside_touch(cw, Nrm, Nrm, off, eta, etad, g, v, inside,
                                                  relaxed, ist[_EXITED], phi, Om, wn, GF)
+    # the stops reached, each in turn, only where one is: _contact_acc's sin and cos of the forcing
+    # phase are loop-invariant and speculatable, and LLVM hoists them before the loop, where they
+    # cost a sincos call on every free step (~200 instructions: 9 % of a Fig. 7 sweep's) though
+    # most steps reach no stop
+    reached = False
     for k in range(ns):
-        if touched >= 0:
-            break
-        if (inside >> k) & 1 or not (g[k] >= 0.0 and v[k] >= 0.0):
-            continue
-        g[k] = 0.0
-        if v[k] > 0.0:
-            touched = k
-            break
-        if just_released:
-            continue
-        acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
-        if (cmask >> k) & 1:
-            if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
-                touched = k     # pressed onto a compliant stop: a contact
+        reached = reached or ((inside >> k) & 1 == 0 and g[k] >= 0.0 and v[k] >= 0.0)
+    if reached:
+        for k in range(ns):
+            if touched >= 0:
                 break
-        elif not release_now(acc, jerk):     # pressed (the release rule)
-            if logging:
-                _log_event(evlog, nlog, _K_STICK, pT + t_loc, 0.0, k, eta, etad)
-            ist[_H] = 1 << k
-            ist[_JSTUCK] = 1
-            corr = v[k] * wk[_MEFF, k]
-            for i in range(n):
-                etad[i] -= Nrm[k, i] * corr
-            v[k] = 0.0
-            for j in range(ns):
-                if j != k:
-                    v[j] = _dot(Nrm[j], etad)
-            touched = -2
-            break
+            if (inside >> k) & 1 or not (g[k] >= 0.0 and v[k] >= 0.0):
+                continue
+            g[k] = 0.0
+            if v[k] > 0.0:
+                touched = k
+                break
+            if just_released:
+                continue
+            acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
+            if (cmask >> k) & 1:
+                if acc > 0.0 or (acc == 0.0 and jerk > 0.0):
+                    touched = k     # pressed onto a compliant stop: a contact
+                    break
+            elif not release_now(acc, jerk):     # pressed (the release rule)
+                if logging:
+                    _log_event(evlog, nlog, _K_STICK, pT + t_loc, 0.0, k, eta, etad)
+                ist[_H] = 1 << k
+                ist[_JSTUCK] = 1
+                corr = v[k] * wk[_MEFF, k]
+                for i in range(n):
+                    etad[i] -= Nrm[k, i] * corr
+                v[k] = 0.0
+                for j in range(ns):
+                    if j != k:
+                        v[j] = _dot(Nrm[j], etad)
+                touched = -2
+                break
     ist[_INSIDE] = inside
     ist[_RELAXED] = relaxed
     if touched == -2:
@@ -2045,11 +2062,12 @@ def _flow_at(sy, st, wn, wk, Ptab, phi, Om, s_mv):
 
 
 @_inline
-def _free_outputs(sy, st, work, rec, eta, etad, lp, Om, T, recording, step, flags):
-    """A free step's outputs before the state moves: the record's samples inside it (dense output,
-    ``lp`` advanced), the apexes of the gaps (no event) and the sensor's extremes (root-found where
-    its slope turns).  ``step``: ``(phi, t_loc, s_mv, dsin, dcos)``; ``flags``: ``(s_ev, at_grid,
-    inside)``."""
+def _free_outputs(sy, st, work, rec, eta, etad, samp, Om, T, recording, step, flags):
+    """A free step's outputs before the state moves: the record's samples inside it (dense output),
+    the apexes of the gaps (no event) and the sensor's extremes (root-found where its slope turns).
+    ``samp``: ``(k_sample, j_next, j_end, base, h_rs)``, the samples taken and the dense record's
+    next sample (:func:`_held_phase`); ``step``: ``(phi, t_loc, s_mv, dsin, dcos)``; ``flags``:
+    ``(s_ev, at_grid, inside)``.  Returns ``(k_sample, j_next)`` advanced past the samples taken."""
     (wn, wk, _hb, _hab, _hsig, _hss, P_r, tab_r, _P_t, _tab_t, fs, _ist, _sub_r, _sub_t, _sf, _si, _lp) = work
     phi, t_loc, s_mv, dsin, dcos = step
     s_ev, at_grid, inside = flags
@@ -2068,10 +2086,7 @@ def _free_outputs(sy, st, work, rec, eta, etad, lp, Om, T, recording, step, flag
     SbSF = fs[_SBSF]
     pext = fs[_PEXT:_PEXT1 + 1]
     sens = wn[_SENS]
-    k_sample = lp[_LKS]
-    j_next = lp[_LJNEXT]
-    j_end = lp[_LJEND]
-    h_rs = T / lp[_LNSREC]
+    k_sample, j_next, j_end, base, h_rs = samp
     aF = wn[_AF]
     bF = wn[_BF]
     zeroN = wn[_ZERO]
@@ -2089,7 +2104,7 @@ def _free_outputs(sy, st, work, rec, eta, etad, lp, Om, T, recording, step, flag
     G21 = wk[_G21]
     if j_next < j_end:
         # the record's samples inside the step: the flow evaluated there
-        taken = _dense_samples(samples, msamp, modamp, fs, k_sample, j_next, j_end, lp[_LBASE],
+        taken = _dense_samples(samples, msamp, modamp, fs, k_sample, j_next, j_end, base,
                                sens, aF, bF, xF, yF, mp, P_r, tab_r, t_loc, s_mv, h_rs,
                                at_grid, Om, n)
         k_sample += taken
@@ -2108,8 +2123,7 @@ def _free_outputs(sy, st, work, rec, eta, etad, lp, Om, T, recording, step, flag
         if (qp0s < 0.0 < qp1s) or (qp0s > 0.0 > qp1s):
             _sensor_extreme(s_mv, phi, Om, xF, yF, mp, sens, zeroN, SaSF, SbSF, q0s, qp0s,
                             qp1s, x2v, pext, n)
-    lp[_LKS] = k_sample
-    lp[_LJNEXT] = j_next
+    return k_sample, j_next
 
 
 @_inline
@@ -2186,20 +2200,20 @@ def _carry_gaps(st, wk, eta, etad, inside, s_ev, k_ev, gmax):
 
 
 @_inline
-def _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording):
+def _free_step(sy, st, cw, work, rec, eta, etad, grid, samp, Om, T, recording):
     """Phase *free flight* (held set empty, no compliant contact): one step of at most the rest of
-    the grid's sub-step ``lp[_LKG]`` (its tables by ``lp[_LFINE]``): the stops touched at its start
+    the grid's sub-step ``kg`` of ``grid = (tab, Ptab, kg)`` (the forcing's and the modes' tables of
+    the grid; ``samp`` as :func:`_free_outputs`'s): the stops touched at its start
     (:func:`_free_touch`), else the arc and the step (:func:`_free_arc`), every stop's event scanned
     with certified bounds (:func:`_scan_inside`, :func:`_scan_stops`), the flow moved to the first
     event or the step's end (:func:`_flow_at`, :func:`_free_outputs`, :func:`_free_advance`,
-    :func:`_carry_gaps`).  Returns the stop of a contact at the step's end, or -1."""
-    (wn, wk, hb, _hab, _hsig, _hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, _snap_f, _snap_i, _lp) = work
+    :func:`_carry_gaps`).  Returns ``(k_imp, k_sample, j_next)``: the stop of a contact at the
+    step's end (or -1) and the record's counters advanced."""
+    (wn, wk, hb, _hab, _hsig, _hss, _P_r, _tab_r, _P_t, _tab_t, fs, ist, _sub_r, _sub_t, _snap_f, _snap_i, _lp) = work
+    tab, Ptab, kg = grid
     touched = _free_touch(st, cw, wn, wk, fs, ist, rec, eta, etad, Om)
     if touched != -1:
-        return touched if touched >= 0 else -1
-    fine = lp[_LFINE] != 0
-    Ptab = P_r if fine else P_t
-    tab = tab_r if fine else tab_t
+        return (touched if touched >= 0 else -1), samp[0], samp[1]
     phi = fs[_PHI]
     t_loc = fs[_TLOC]
     rem = fs[_REM]
@@ -2207,7 +2221,7 @@ def _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording):
     inside = ist[_INSIDE]
     relaxed = ist[_RELAXED]
     at_grid = ist[_ATGRID] != 0
-    h, dsin, dcos, sp1, cp1, bstale = _free_arc(sy, st, work, eta, etad, tab, Ptab, lp[_LKG], Om)
+    h, dsin, dcos, sp1, cp1, bstale = _free_arc(sy, st, work, eta, etad, tab, Ptab, kg, Om)
     s_ev = -1.0
     k_ev = -1
     ev_in = 0
@@ -2222,8 +2236,8 @@ def _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording):
         h_last = h_ok if h_ok < h else max(h_last, h)
     if s_mv != h:
         dsin, dcos, sp1, cp1 = _flow_at(sy, st, wn, wk, Ptab, phi, Om, s_mv)
-    _free_outputs(sy, st, work, rec, eta, etad, lp, Om, T, recording, (phi, t_loc, s_mv, dsin, dcos),
-                  (s_ev, at_grid, inside))
+    k_sample, j_next = _free_outputs(sy, st, work, rec, eta, etad, samp, Om, T, recording,
+                                     (phi, t_loc, s_mv, dsin, dcos), (s_ev, at_grid, inside))
     _free_advance(st, wn, wk, fs, eta, etad, inside, Om, recording, sp1, cp1)
     if s_mv != rem:
         at_grid = False
@@ -2253,7 +2267,7 @@ def _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording):
     ist[_FRESH] = fresh
     ist[_BSTALE] = True
     ist[_ATGRID] = at_grid
-    return k_imp
+    return k_imp, k_sample, j_next
 
 
 
@@ -2340,6 +2354,7 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
     lp[_LKS] = 0
     lp[_LSKIP] = 0
     lp[_LNSREC] = ns_record
+    # a step's counters are local variables, handed to the phases and returned (see ``lp``)
     # the record on the transient's grid, its samples inside a free step by dense output (module
     # docstring): r_d samples per grid step of the transient, h_rs apart
     r_d = ns_record // ns_transient
@@ -2360,29 +2375,29 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
         h_grid = T / ns_grid
         sub = sub_r if fine else sub_t
         h_sub = h_grid / sub
-        lp[_LFINE] = 1 if fine else 0
-        lp[_LJEND] = r_d if recording and dense else 0
-        lp[_LREC] = 1 if recording else 0
+        Ptab = P_r if fine else P_t         # the grid's tables
+        tab = tab_r if fine else tab_t
+        j_end = r_d if recording and dense else 0
+        k_sample = lp[_LKS]
         _period_start(fs, ist, rec.pmin, pp, n_transient, T)
         for jg in range(ns_grid):
             if recording:
-                _state_sample(rec.samples, rec.msamp, rec.modamp, fs, lp[_LKS], wn[_SENS], eta, etad, n)
-                lp[_LKS] += 1
-            lp[_LJNEXT] = 1     # the next sample inside the grid step (dense record: < lp[_LJEND])
-            lp[_LBASE] = jg * r_d
+                _state_sample(rec.samples, rec.msamp, rec.modamp, fs, k_sample, wn[_SENS], eta, etad, n)
+                k_sample += 1
+            j_next = 1      # the next sample inside the grid step (dense record: < j_end)
+            base = jg * r_d
             for isub in range(sub):
                 kg = jg * sub + isub
-                lp[_LKG] = kg
                 fs[_PHI] = TWO_PI * kg / (ns_grid * sub)
                 fs[_TLOC] = jg * h_grid + isub * h_sub
                 fs[_REM] = h_sub
                 ist[_ATGRID] = 1          # still on the tabulated sub-step (no event yet)
                 while fs[_REM] > 0.0:
-                    while lp[_LJNEXT] < lp[_LJEND] and (lp[_LBASE] + lp[_LJNEXT]) * h_rs <= fs[_TLOC] + eps_t:
+                    while j_next < j_end and (base + j_next) * h_rs <= fs[_TLOC] + eps_t:
                         # a sample reached by a step's end (a held step cut there, an event on it)
-                        _state_sample(rec.samples, rec.msamp, rec.modamp, fs, lp[_LKS], wn[_SENS], eta, etad, n)
-                        lp[_LKS] += 1
-                        lp[_LJNEXT] += 1
+                        _state_sample(rec.samples, rec.msamp, rec.modamp, fs, k_sample, wn[_SENS], eta, etad, n)
+                        k_sample += 1
+                        j_next += 1
                     ist[_NSTEPS] += 1
                     if ist[_NSTEPS] > max_steps:
                         failed = True
@@ -2392,12 +2407,15 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                         k_imp = _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, rec.evlog, rec.nlog, Om, T,
                                                recording)
                     elif ist[_H] != 0:
-                        k_imp = _held_phase(hs, st, cw, work, rec, eta, etad, lp, Om, T, recording)
+                        k_imp = _held_phase(hs, st, cw, work, rec, eta, etad, (j_next, j_end, base, h_rs), Om, T,
+                                            recording)
                     else:
-                        k_imp = _free_step(sy, st, cw, work, rec, eta, etad, lp, Om, T, recording)
+                        k_imp, k_sample, j_next = _free_step(sy, st, cw, work, rec, eta, etad, (tab, Ptab, kg),
+                                                             (k_sample, j_next, j_end, base, h_rs), Om, T, recording)
                     # a contact at the current time on stop k_imp
-                    failed = k_imp == -2 or (k_imp >= 0 and _contact_event(sy, st, hs, cw, work, rec, eta, etad, lp,
-                                                                           k_imp, Om, guards))
+                    failed = k_imp == -2 or (k_imp >= 0 and _contact_event(
+                        sy, st, hs, cw, work, rec, eta, etad, (j_next, j_end, base, h_rs), recording, k_imp, Om,
+                        guards))
                     if failed:
                         break
                 if failed:
@@ -2406,6 +2424,7 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
                 break
         if failed:
             break
+        lp[_LKS] = k_sample
         lp[_LPP] += 1
     if failed:
         return _failed(fs, ist, lp[_LSKIP])
