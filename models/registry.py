@@ -309,6 +309,22 @@ register(Fidelity(
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 
+register(Fidelity(
+    name="matrices",
+    model="beam_dynamics:MatrixImpactModel",
+    # the N-mode modal system of any linear structure given by its matrices (issue 58): the same
+    # methods as the beam's modal model (BeamImpactModel.from_matrix_model)
+    solvers={"event": on_the_core("beam_dynamics:BeamEventSolver", restitution_law=True, modal_states=True),
+             "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
+             "mapping": Method("mapping.modal:ModalMappingSolver",
+                               {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
+                               (IMPULSIVE, "kelvin_voigt"), True),
+             "continuation": on_the_core("periodic_beam:BeamContinuation")},
+    modes=True,
+    contact_modes=True,
+    description="a linear structure given by its mass, stiffness and damping matrices, in modal coordinates"))
+
+
 def fidelity(name_or_model) -> Fidelity:
     """The :class:`Fidelity` of a registry name, or of a model or spec (its ``fidelity``).
 

@@ -159,7 +159,7 @@ def test_reference_passes_its_oracles_recomputed(ref):
     assert sum(c.n for c in checks) > 0, f"{ref.name}: no oracle checked any point of this reference"
     plain = [r.name for r in case.run
              if r.method == "event" and not set(case.effects_for(r).active()) - {"sensor"}
-             and (case.model["fidelity"] == "sdof" or r.model.get("n_modes") == "static")]
+             and (case.model.get("fidelity") == "sdof" or r.model.get("n_modes") == "static")]
     runs = all_runs(read_results(ref))
     plain = [n for n in runs if n.split("@")[0] in plain]
     ok = [(np.isin(runs[n]["period"], (1, -1)) & (runs[n]["status"] == "ok")).any() for n in plain]

@@ -87,7 +87,8 @@ CASES = ROOT / "cases"
 # transient periods of the references: the slowest decay is exp(-beta t) of the first mode, so
 # SDOF (beta >= 0.015, Omega <= 2.5): exp(-0.015 * 3000 * 2 pi / 2.5) < 1e-49; beam (beta_1 =
 # 0.017, Omega <= 2.3, higher modes damped more by Eq. 39): exp(-0.017 * 1000 * 2 pi / 2.3) < 1e-20
-REFERENCE_TRANSIENT = {"sdof": 3000, "beam": 1000}
+REFERENCE_TRANSIENT = {"sdof": 3000, "beam": 1000, "matrices": 1000}
+# matrices (cases/chain-3dof: zeta_1 = 0.02, Omega <= 1.35): exp(-0.02 * 1000 * 2 pi / 1.35) < 1e-40
 # per-case exceptions: "quick" = the quick variant's own transient.  The pre-stressed FE rig is
 # multistable on its down sweep (1.84-1.94 Hz: chaos, period-1, -2 and -6 coexist): a reference with
 # more transient periods than the quick run reaches other coexisting attractors there, so its
@@ -742,12 +743,29 @@ def _sdof_oracles(name, spec, model, d, sweep, expensive, is_map):
     return out
 
 
+def _matrices_checks(name, spec, model, d, sweep, expensive=True):
+    """A structure given by its matrices: its no-impact points against the modal linear steady
+    state, its period-1 impacting points against the direct solver (solve_ivp DOP853); the
+    independent physical integration is tests/test_chain_matrices.py's."""
+    c_lin = Check(name, "no-impact points vs modal linear_sensor_amplitude_m", TOL_LINEAR)
+    for i, W in enumerate(d["Omega"]):
+        if int(d["period"][i]) == -1 and str(d["status"][i]) == "ok":
+            lin = float(np.abs(model.linear_sensor_amplitude_m(float(W)))) / model.length_m
+            c_lin.add(float(W), str(d["direction"][i]), float(d["amplitude"][i]), model.Delta + lin)
+    out = [c_lin]
+    if model.n_modes <= DIRECT_MAX_MODES:
+        out.append(_direct_check(name, model, d, sweep, DIRECT_POINTS if expensive else 1))
+    return out
+
+
 # the oracles of each fidelity's plain event runs (a fidelity without an entry gets the generic
 # checks only): (name, spec, model, datasets, sweep, expensive, is a map line) -> [Check]
 ORACLES = {
     "sdof": _sdof_oracles,
     "beam": lambda name, spec, model, d, sweep, expensive, is_map: _beam_checks(name, spec, model, d, sweep,
                                                                                 expensive),
+    "matrices": lambda name, spec, model, d, sweep, expensive, is_map: _matrices_checks(name, spec, model, d, sweep,
+                                                                                        expensive),
 }
 
 
@@ -764,7 +782,7 @@ def check_stored(path, expensive: bool = False) -> list[Check]:
     from vibeam.io.results import read_results
 
     with h5py.File(path, "r") as f:
-        case = parse_case(f.attrs["case_text"])
+        case = parse_case(f.attrs["case_text"], base=CASES)   # the shipped cases: their files beside them
     return check_runs(reference_case(case), all_runs(read_results(path)), expensive)
 
 

@@ -313,7 +313,8 @@ def model_with(model: dict, values: dict | None) -> dict:
     mass), the ``*_lower`` keys and ``contact_lower`` into the lower stop there (added if there is
     none); a gap replaces the stop's gap, a law table replaces its law keys.  A key written as a
     parameter path (``stops[1].law.stiffness_n_m``: :mod:`vibeam.case.paths`) sets the one key it
-    stands for.  A new dict; the tables given are not changed.
+    stands for; a ``system`` or ``excitation`` table (the canonical tables) is merged key by key
+    into the model's.  A new dict; the tables given are not changed.
 
     Raises
     ------
@@ -326,6 +327,10 @@ def model_with(model: dict, values: dict | None) -> dict:
     values = {k: v for k, v in (values or {}).items() if k not in paths}
     out = dict(model)
     out.update(values)
+    for k in ("system", "excitation"):
+        # a canonical table (issue 58) is overridden key by key: [run.model.system] n_modes = 1
+        if isinstance(values.get(k), dict) and isinstance(model.get(k), dict):
+            out[k] = {**model[k], **values[k]}
     stops = model.get("stop")
     if not isinstance(stops, list) or not values:
         return out

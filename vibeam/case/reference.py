@@ -42,6 +42,16 @@ TABLES = (
      "one table per stop, each complete: where, its gap, its law with the law's keys and its R (instead of "
      "the shorthand keys R, Delta, gap_mm, ... and [model.contact]); the first upper stop at the attached "
      "mass is the paper's, a beam takes Newton stops at any other point"),
+    ("[model] (canonical: [model.system] builder = \"matrices\")", schema.MatricesModelSpec,
+     "a structure of your own given by its matrices (issue 58): three tables, the system, its stops and the "
+     "drive; the first stop is the reference (upper) stop, from which Q is measured"),
+    ("[model.system] (builder = \"matrices\")", schema.SystemSpec,
+     "M, K and C (or damping ratios) in SI over named DOFs: inline rows, MatrixMarket files or one .npz "
+     "archive, paths relative to the case file; reduced to its lowest modes"),
+    ("[[model.stop]] (builder = \"matrices\")", schema.StructureStopSpec,
+     "a stop at a named DOF: the reference stop first, a lower stop at its DOF (any law), Newton stops at "
+     "other DOFs"),
+    ("[model.excitation]", schema.ExcitationSpec, "the harmonic drive of the structure"),
     ("[sweep]", schema.SweepSpec, "the forcing-frequency grid and how each point is simulated"),
     ("[[run]] (every method)", schema.EventRun, "one table per run; keys common to every method"),
     ("[[run]] method = \"event\"", schema.EventRun, "the exact event-driven solver"),
@@ -173,6 +183,45 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "gap_mm": ("mm", "gap seen at the sensor (at another point: times the static mode there, Eq. 45)"),
         "contact_gap_mm": ("mm", "beam: gap at the stop itself"),
         "Delta": ("1", "nondimensional SDOF: the gap from the equilibrium (the lower stop's downwards)"),
+    },
+    "[model] (canonical: [model.system] builder = \"matrices\")": {
+        "system": ("", "[model.system]: the structure (below)"),
+        "stop": ("", "[[model.stop]]: one table per stop (below), at least one"),
+        "excitation": ("", "[model.excitation]: the drive (below)"),
+    },
+    "[model.system] (builder = \"matrices\")": {
+        "builder": ("", "\"matrices\": a structure given by its mass, stiffness and damping matrices"),
+        "matrices": ("", "an .npz archive holding M, K and optionally C, dofs, r (path relative to the case file)"),
+        "M": ("kg", "mass matrix: inline rows, or a MatrixMarket file"),
+        "K": ("N/m", "stiffness matrix: inline rows, or a MatrixMarket file"),
+        "C": ("N s/m", "damping matrix (classical: the undamped modes diagonalise it), instead of damping_ratios"),
+        "dofs": ("", "the DOFs' names, one per row of M"),
+        "damping_ratios": ("1", "modal damping ratios: one for every mode, or one per kept mode"),
+        "base": ("", "influence vector of the base translation: \"all\" (every DOF moves with it) or d numbers"),
+        "sensor": ("", "the DOF whose displacement is reported (q = its displacement / length_mm)"),
+        "n_modes": ("", "the lowest modes kept, or \"all\""),
+        "f_ref_hz": ("Hz", "reference frequency of Omega = f / f_ref (default: the first kept mode's)"),
+        "length_mm": ("mm", "normalising length of the reported q (default 1 mm)"),
+    },
+    "[[model.stop]] (builder = \"matrices\")": {
+        "law": ("", "the stop's law (default \"restitution\", Newton's); at other DOFs than the reference "
+                "stop's only \"restitution\""),
+        "R": ("1", "Newton's coefficient of restitution, or a compliant law's target R"),
+        "stiffness": ("1", "not for structures (a ratio of the SDOF's)"),
+        "stiffness_n_m": ("N/m (N/m^p)", "compliant law: contact stiffness at the DOF"),
+        "damping_ratio": ("1", "linear law: damping ratio of the contact phase (else set by R)"),
+        "exponent": ("1", "Hertz-type laws: the force exponent p, 1 <= p <= 3"),
+        "mass_kg": ("kg", "not for structures (the effective mass is the structure's at the DOF)"),
+        "side": ("", "\"upper\": above the DOF, \"lower\": below it; the first stop is upper"),
+        "position_mm": ("mm", "not for structures (at places the stop)"),
+        "gap_mm": ("mm", "gap seen at the sensor (times the DOF's static ratio K^-1 M r, Eq. 45)"),
+        "contact_gap_mm": ("mm", "gap at the DOF itself"),
+        "Delta": ("1", "not for structures (nondimensional SDOF scenes)"),
+        "at": ("", "the DOF the stop acts on, by name (default the sensor's)"),
+    },
+    "[model.excitation]": {
+        "kind": ("", "\"base_displacement\": the base moves as Y sin(2 pi f t)"),
+        "amplitude_mm": ("mm", "Y, the base's displacement amplitude"),
     },
     "[sweep]": {
         "Omega": ("1", "frequency grid [start, stop, number of points] in Omega = f / f_n"),

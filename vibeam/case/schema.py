@@ -32,6 +32,7 @@ import math
 import re
 import tomllib
 import warnings
+from pathlib import Path
 from typing import Annotated, ClassVar, Literal, Union
 
 import numpy as np
@@ -747,7 +748,232 @@ class BeamModelSpec(_StopsSpec):
         return {key: float(value)}, []
 
 
-ModelSpec = Union[SDOFModelSpec, BeamModelSpec]
+class SystemSpec(_Strict):
+    """``[model.system]`` with ``builder = "matrices"``: a linear structure given by its mass,
+    stiffness and damping matrices (issue 58; :func:`vibeam.models.builders.matrices.build_matrices`)
+    in SI units over named DOFs (m for a translation), base-excited along ``base`` and reduced to its
+    ``n_modes`` lowest undamped modes.
+
+    The matrices are inline tables of rows (``M = [[...], ...]``), MatrixMarket files (``M = "M.mtx"``,
+    :func:`scipy.io.mmread`) or one ``.npz`` archive (``matrices = "chain.npz"`` holding ``M``, ``K``
+    and optionally ``C``, ``dofs``, ``r``); file paths are relative to the case file's folder.  The
+    damping is ``C`` (classically damped: refused when the modes do not diagonalise it) or
+    ``damping_ratios`` (one per kept mode, or one for all).
+    """
+
+    builder: Literal["matrices"]
+    matrices: str | None = None
+    M: str | list[list[float]] | None = None
+    K: str | list[list[float]] | None = None
+    C: str | list[list[float]] | None = None
+    dofs: list[str] | None = None
+    damping_ratios: Annotated[float, Field(ge=0.0, lt=1.0)] | list[Annotated[float, Field(ge=0.0, lt=1.0)]] | None = None
+    base: Literal["all"] | list[float] = "all"
+    sensor: str
+    n_modes: Annotated[int, Field(ge=1)] | Literal["all"] = "all"
+    f_ref_hz: Annotated[float, Field(gt=0.0)] | None = None
+    length_mm: Annotated[float, Field(gt=0.0, le=1e8)] = 1.0
+
+    @model_validator(mode="after")
+    def _one_source(self):
+        inline = [k for k in ("M", "K", "C") if getattr(self, k) is not None]
+        if (self.matrices is None) == (not inline):
+            raise ValueError("give the matrices either as matrices = \"<file>.npz\" or as M and K (inline rows or "
+                             "MatrixMarket files), exactly one of them")
+        if self.matrices is None and (self.M is None or self.K is None):
+            raise ValueError("give both M and K")
+        return self
+
+
+class StructureStopSpec(StopSpec):
+    """One ``[[model.stop]]`` of a structure given by its matrices: ``at`` names the DOF it acts on
+    (default the sensor's), ``side`` which way, ``contact_gap_mm`` its gap at that DOF (or ``gap_mm``
+    seen at the sensor: times the static ratio of the DOF, Eq. 45), and its law with the law's
+    keys (``R``: Newton's, or a compliant law's target)."""
+
+    at: str | None = None
+
+
+class ExcitationSpec(_Strict):
+    """``[model.excitation]``: the harmonic drive.  ``kind = "base_displacement"`` with
+    ``amplitude_mm`` (the base's displacement amplitude ``Y``, mm)."""
+
+    kind: Literal["base_displacement"] = "base_displacement"
+    amplitude_mm: Annotated[float, Field(ge=0.0)]
+
+
+@register_model_spec("matrices")
+class MatricesModelSpec(_StopsSpec):
+    """``[model]`` of a structure given by its matrices (issue 58): the canonical tables
+    ``[model.system]`` (:class:`SystemSpec`), ``[[model.stop]]`` (:class:`StructureStopSpec`, one
+    or more) and ``[model.excitation]`` (:class:`ExcitationSpec`).
+
+    The first stop is the reference stop (the paper's: the amplitude ``Q`` is measured from it),
+    an upper one; a lower stop at its DOF is the scene's second stop (any law); stops at other DOFs
+    are Newton's.  Physical: the sweep in Hz (``Omega = f / f_ref``, ``f_ref`` the first kept mode's
+    unless given), the reported displacement the sensor's over ``length_mm``.
+    """
+
+    system: SystemSpec
+    stop: Annotated[list[StructureStopSpec], Field(min_length=1)]
+    excitation: ExcitationSpec
+
+    fidelity: ClassVar[str] = "matrices"
+    physical: ClassVar[bool] = True
+
+    @model_validator(mode="after")
+    def _stops_consistent(self):
+        first = self.stop[0]
+        if first.side != "upper":
+            raise ValueError("stop[0] is the reference stop (the amplitude Q is measured from it): give an upper "
+                             "stop first")
+        at0 = first.at or self.system.sensor
+        lower = 0
+        for i, st in enumerate(self.stop):
+            if st.position_mm is not None or st.Delta is not None:
+                raise ValueError(f"stop[{i}]: a structure's stop is placed by at = \"<DOF>\" and given its gap by "
+                                 f"contact_gap_mm (at the DOF) or gap_mm (seen at the sensor); position_mm and Delta "
+                                 f"are for beams and SDOF scenes")
+            at = st.at or self.system.sensor
+            if i == 0:
+                continue
+            if at == at0 and st.side == "lower":
+                lower += 1
+                if lower > 1:
+                    raise ValueError(f"stop[{i}]: a second lower stop at {at0!r}; allowed: one upper and one lower "
+                                     f"stop at the reference stop's DOF")
+                if i != 1:
+                    raise ValueError(f"stop[{i}]: the lower stop at the reference stop's DOF comes second (stop[1])")
+            elif at == at0:
+                raise ValueError(f"stop[{i}]: a second upper stop at {at0!r}; allowed: one upper and one lower stop "
+                                 f"there, further stops at other DOFs")
+            elif is_compliant(st.law):
+                raise ValueError(f"stop[{i}] at {at!r}: law = {st.law!r}; allowed at a DOF other than the reference "
+                                 f"stop's: \"restitution\" (Newton's law)")
+        if self.two_sided:
+            up, lo = self.stop[0], self.stop[1]
+            if (up.gap_mm is None) != (lo.gap_mm is None):
+                raise ValueError("give both stops at the reference DOF their gap the same way: gap_mm (at the "
+                                 "sensor) or contact_gap_mm (at the stop)")
+            tot = (up.gap_mm if up.gap_mm is not None else up.contact_gap_mm) + \
+                (lo.gap_mm if lo.gap_mm is not None else lo.contact_gap_mm)
+            if not tot > 0.0:
+                raise ValueError(f"the stops overlap: the upper and lower gaps add to {tot:g} mm; allowed: > 0 (both "
+                                 f"are distances from the static equilibrium, the lower one downwards)")
+        return self
+
+    # ---- the shorthand's names of the stops at the reference DOF, read by the case checks
+    @property
+    def two_sided(self) -> bool:
+        """A lower stop at the reference stop's DOF (``stop[1]``)."""
+        at0 = self.stop[0].at or self.system.sensor
+        return len(self.stop) > 1 and self.stop[1].side == "lower" and (self.stop[1].at or self.system.sensor) == at0
+
+    @property
+    def R(self) -> float:
+        """The reference stop's R."""
+        return float(self.stop[0].R)
+
+    @property
+    def contact(self):
+        """The reference stop's law table (:class:`vibeam.case.contact.ContactSpec`), None for Newton's."""
+        st = self.stop[0]
+        return None if not is_compliant(st.law) else ContactSpec(**st.law_table())
+
+    @property
+    def contact_lower(self):
+        """The lower stop's law table with its own R, or None."""
+        if not self.two_sided:
+            return None
+        st = self.stop[1]
+        return ContactSpec(**st.law_table(), R=st.R)
+
+    @property
+    def mixed_stops(self) -> bool:
+        """A restitution stop beside a compliant one at the reference DOF (:func:`mixed_stops`)."""
+        return mixed_stops(self)
+
+    def native_parameter(self, key: str):
+        """``(native key, factor)`` of a continuation parameter: the frequency only (``Omega``)
+        in this release (the stops' and the drive's numbers by their paths: not yet).
+
+        Raises
+        ------
+        ValueError
+            Any other key, naming what is allowed.
+        """
+        if key == "Omega":
+            return "Omega", 1.0
+        raise ValueError("cannot be continued in a structure given by its matrices; allowed: Omega")
+
+    def build(self):
+        """The :class:`vibeam.models.beam_dynamics.MatrixImpactModel` of this scene.
+
+        Raises
+        ------
+        CaseError
+            The matrices cannot be read or reduced, a DOF name that does not exist, a stop whose
+            DOF no kept mode moves (one line, :func:`build_or_refuse`).
+        """
+        return build_or_refuse(self, self._build)
+
+    def matrix_model(self):
+        """The reduced structure, :class:`vibeam.models.builders.matrices.MatrixModel` (contact
+        rows: the reference stop's DOF, then each further stop's; :mod:`vibeam.case.structure`)."""
+        return _structure().matrix_model(self)
+
+    def _build(self):
+        return _structure().impact_model(self)
+
+    def dofs(self) -> int:
+        """Degrees of freedom simulated (work estimate): the kept modes (``"all"``: a bound, the
+        matrices' size is read when built)."""
+        n = self.system.n_modes
+        return int(n) if n != "all" else max(1, len(self.system.dofs or ()) or 4)
+
+    def check(self, prefix: str) -> None:
+        """The stops' gaps and laws computable (:func:`check_gap`, the compliant law built)."""
+        L = self.system.length_mm
+        for j, st in enumerate(self.stop):
+            for k in ("gap_mm", "contact_gap_mm"):
+                check_gap(getattr(st, k, None), f"'{prefix}.stop[{j}].{k}'", L)
+            if is_compliant(st.law):
+                try:
+                    beam_law(ContactSpec(**st.law_table()), st.R)
+                except ValueError as e:
+                    raise CaseError(f"'{prefix}.stop[{j}]': {e}") from None
+        check_gap(self.excitation.amplitude_mm, f"'{prefix}.excitation.amplitude_mm'", L)
+
+    def result_attrs(self) -> dict:
+        """The structure's kept frequencies (Hz) and damping ratios, stored with its results."""
+        mm = build_or_refuse(self, self.matrix_model)
+        return {"frequencies_hz": np.asarray(mm.frequencies_hz), "damping_ratios": np.asarray(mm.damping_ratios),
+                "dofs": ",".join(mm.dofs), "contact_static": np.asarray(mm.contact_static)}
+
+    def converged_reference(self, table: dict, overrides: dict):
+        """Model table of a cost table's converged reference: every mode of the structure."""
+        fine = model_with(table, overrides)
+        fine["system"] = dict(fine["system"], n_modes="all")
+        return fine
+
+    def effect_model(self, effects, model):
+        """``model`` unchanged: the structural effects of the rig (eccentric contact, platform)
+        are the beam's; a velocity-dependent R is not yet wired here."""
+        return model
+
+    def case_update(self, key: str, value: float) -> tuple[dict, list]:
+        """A fitted value written back: not yet for this builder (noted)."""
+        return {}, [f"{key} not written: a structure given by its matrices takes fitted values by path"]
+
+
+def _structure():
+    """:mod:`vibeam.case.structure`, the builder of a structure's model from its tables."""
+    from vibeam.case import structure  # lazy: keeps scipy.io, scipy.sparse.linalg and the N-mode kernels out of load_case
+
+    return structure
+
+
+ModelSpec = Union[SDOFModelSpec, BeamModelSpec, MatricesModelSpec]
 
 
 def fidelity_methods(name: str) -> tuple:
@@ -1383,6 +1609,19 @@ def _validate_model(data: dict, prefix: str = "model"):
     allowed = ", ".join(repr(k) for k in MODEL_SPECS)
     if not isinstance(data, dict):
         raise CaseError(f"'{prefix}' = {quote_value(data)}: must be a table with fidelity = {allowed}")
+    system = data.get("system")
+    if "fidelity" not in data and isinstance(system, dict) and "builder" in system:
+        # the canonical tables (issue 58): [model.system] builder = ...
+        fid = system["builder"]
+        if not isinstance(fid, str) or fid not in MODEL_SPECS or fid in ("sdof", "beam"):
+            raise CaseError(f"'{prefix}.system.builder' = {quote_value(fid)} is not allowed; allowed: \"matrices\" "
+                            f"(the SDOF and the beam: [model] fidelity = \"sdof\" or \"beam\")")
+        try:
+            spec = MODEL_SPECS[fid].model_validate(data)
+        except ValidationError as e:
+            raise CaseError(validation_message(e, prefix, MODEL_SPECS[fid])) from None
+        spec.check(prefix)
+        return spec
     if "fidelity" not in data:
         raise CaseError(f"missing key '{prefix}.fidelity'; allowed: {allowed}")
     fid = data["fidelity"]
@@ -1503,7 +1742,33 @@ def validation_message(err: ValidationError, prefix: str, root_cls) -> str:
     return "; ".join(msgs)
 
 
-def parse_case(text: str, source: str = "<case>") -> Case:
+#: keys of ``[model.system]`` that name files (relative to the case file's folder)
+FILE_KEYS = ("matrices", "M", "K", "C")
+
+
+def with_absolute_files(data: dict, base) -> dict:
+    """``data`` (a case's TOML tables) with the relative file names of ``[model.system]`` (and of
+    each run's ``[run.model.system]``) made absolute against ``base``, the case file's folder, so
+    that the case reads the same files from any working directory."""
+    def fix(model):
+        if not isinstance(model, dict) or not isinstance(model.get("system"), dict):
+            return model
+        sy = dict(model["system"])
+        for k in FILE_KEYS:
+            v = sy.get(k)
+            if isinstance(v, str) and v and not Path(v).is_absolute():
+                sy[k] = str(Path(base) / v)
+        return dict(model, system=sy)
+
+    out = dict(data)
+    out["model"] = fix(data.get("model"))
+    if isinstance(data.get("run"), list):
+        out["run"] = [dict(r, model=fix(r["model"])) if isinstance(r, dict) and "model" in r else r
+                      for r in data["run"]]
+    return out
+
+
+def parse_case(text: str, source: str = "<case>", base=None) -> Case:
     """Parse and validate the text of a case file.
 
     Parameters
@@ -1512,6 +1777,9 @@ def parse_case(text: str, source: str = "<case>") -> Case:
         TOML text.
     source : str
         Name used in error messages.
+    base : str or Path, optional
+        The case file's folder: relative file names in the case (``[model.system]`` matrices)
+        are made absolute against it (:func:`with_absolute_files`).
 
     Returns
     -------
@@ -1531,6 +1799,8 @@ def parse_case(text: str, source: str = "<case>") -> Case:
         raise CaseError(one_line(f"{source}: not valid TOML: arrays or tables nested too deeply")) from None
     try:
         _check_ints(data)
+        if base is not None:
+            data = with_absolute_files(data, base)
         try:
             case = Case.model_validate(data)
         except ValidationError as e:
@@ -1892,4 +2162,4 @@ def load_case(path) -> tuple[Case, str]:
         :func:`vibeam.io.inputs.read_input_text`) or is invalid (see :func:`parse_case`).
     """
     text = read_input_text(path, "case file")
-    return parse_case(text, str(path)), text
+    return parse_case(text, str(path), base=Path(path).resolve().parent), text

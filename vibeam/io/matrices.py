@@ -40,7 +40,7 @@ from vibeam.errors import InputError, one_line
 from vibeam.io.inputs import check_input_file
 from vibeam.models.builders.matrices import as_matrix, matrix_problem
 
-__all__ = ["Matrices", "read_matrices", "KEYS"]
+__all__ = ["Matrices", "read_matrices", "inline_matrices", "KEYS"]
 
 #: the arrays a matrices file may hold, and what each is
 KEYS = {"M": "mass matrix (kg), d x d, symmetric positive definite",
@@ -213,6 +213,43 @@ def read_matrices(source, base=None) -> Matrices:
             if k not in raw:
                 raise _fail(path, k, "missing", f"allowed: the {KEYS[k]} (arrays of the archive: "
                             f"{', '.join(raw) or 'none'})")
+    return _checked(raw, files)
+
+
+def inline_matrices(tables: Mapping, where: str = "model.system") -> Matrices:
+    """Check matrices given inline in a case (``M = [[...], ...]``), as :func:`read_matrices` checks
+    a file's.
+
+    Parameters
+    ----------
+    tables : mapping
+        ``{key: rows}`` with keys of :data:`KEYS` (``M``, ``K`` required; ``C`` optional), each a
+        list of rows of numbers (a matrix) or of numbers (``r``, ``Mr``).
+    where : str
+        The case's table, named in messages.
+
+    Raises
+    ------
+    vibeam.errors.InputError
+        One line naming the key and what is allowed (as :func:`read_matrices`).
+    """
+    raw, files = {}, {}
+    for k, v in tables.items():
+        if k not in KEYS or k == "dofs":
+            raise InputError(one_line(f"'{where}.{k}': no such matrix key; allowed: M, K, C"))
+        try:
+            raw[k] = np.array(v, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(one_line(f"'{where}.{k}': not a table of numbers; allowed: a list of rows of "
+                                      f"numbers ({KEYS[k]})")) from None
+        files[k] = f"'{where}.{k}'"
+    for k in ("M", "K"):
+        if k not in raw:
+            raise InputError(one_line(f"'{where}.{k}': missing; allowed: the {KEYS[k]}"))
+    return _checked(raw, files)
+
+
+def _checked(raw: dict, files: dict) -> Matrices:
     out = {}
     d = None
     for k, definite in (("M", "positive"), ("K", "semi"), ("C", None)):
