@@ -190,12 +190,28 @@ def test_rigid_body_mass_matrix_is_the_stacks():
     np.testing.assert_allclose(Mb, Mb.T, atol=0.0)
 
 
+def test_the_tie_is_a_rigid_motion_and_the_tied_model_keeps_it_strain_free():
+    # u(p) = U + theta x (p - p0) against numpy's cross product, and the transformation's image in
+    # the assembled model: a tied strip moved as one rigid body (no clamp) stores no strain energy
+    from vibeam.models.builders.continuum import assemble, rigid_motion
+
+    rng = np.random.default_rng(59)
+    pts, p0, q = rng.normal(size=(5, 3)), rng.normal(size=3), rng.normal(size=6)
+    u = rigid_motion(pts, p0) @ q
+    np.testing.assert_allclose(u.reshape(-1, 3), q[:3] + np.cross(q[3:], pts - p0), rtol=1e-14, atol=1e-15)
+    mesh = box_mesh(0.1, 0.02, 0.001, 4, 2, 1)
+    K, M, basis = assemble(mesh, STEEL)
+    x = rigid_motion(basis.doflocs.T, p0) @ q
+    assert abs(x @ (K @ x)) < 1e-12 * (q @ q) * abs(K).max()
+
+
 def test_cache_hit_returns_identical_arrays_and_vtu(tmp_path):
     g = RigGeometry()
     model, info, mesh = build_rig(g, h_m=0.01, nz=1, n_modes=3, cache=tmp_path)
     assert info.built and info.cache_path is not None
     again, info2, _ = build_rig(g, h_m=0.01, nz=1, n_modes=3, cache=tmp_path, vtu=tmp_path / "modes.vtu")
     assert not info2.built and info2.cache_path == info.cache_path
+    assert "loaded from the cache" in info2.summary() and "built in" in info.summary()
     for k in model.system._fields:
         np.testing.assert_array_equal(getattr(again.system, k), getattr(model.system, k))
     for k in ("shapes", "frequencies_hz", "damping_ratios", "static", "contact_static"):

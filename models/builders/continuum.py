@@ -96,7 +96,7 @@ from skfem import Basis, ElementHex2, ElementHexS2, ElementTetP2, MeshHex, MeshT
 from ..system import ModalSystem
 from .matrices import MatrixModel, build_matrices
 
-__all__ = ["Material", "STEEL", "RigGeometry", "ContinuumMesh", "rig_mesh", "read_mesh", "rigid_body_mass", "box_mesh", "write_mesh",
+__all__ = ["Material", "STEEL", "RigGeometry", "ContinuumMesh", "rig_mesh", "read_mesh", "rigid_body_mass", "rigid_motion", "box_mesh", "write_mesh",
            "assemble", "build_continuum", "build_rig", "effective_mass", "write_modes", "cache_dir", "ContinuumInfo"]
 
 
@@ -690,6 +690,16 @@ class ContinuumInfo:
     nodal_shapes: np.ndarray
     frequencies_hz: np.ndarray
 
+    def summary(self) -> str:
+        """One line: built (and how long each stage took) or loaded from the cache, and where."""
+        t = self.timings_s
+        how = (f"built in {self.build_s:.2f} s (assemble {t['assemble']:.2f} s, reduce {t['reduce']:.2f} s, "
+               f"modes {t['modes']:.2f} s)" if self.built else
+               f"loaded from the cache in {self.build_s:.3f} s (its build took "
+               f"{t['assemble'] + t['reduce'] + t['modes']:.2f} s)")
+        return (f"continuum model: {self.n_cells} cells, {self.n_nodes} nodes, {self.n_dofs} DOFs ({self.element}); "
+                f"{how}" + (f"; cache {self.cache_path}" if self.cache_path else ""))
+
 
 def effective_mass(M, w) -> float:
     """``1 / (w M^-1 w^T)`` (kg): the mass an impulse along row ``w`` meets.
@@ -706,21 +716,37 @@ def effective_mass(M, w) -> float:
     return 1.0 / float(w @ x)
 
 
+def rigid_motion(points, p0) -> np.ndarray:
+    """The rigid-body motion matrix ``R`` (3 n x 6): ``u(p_k) = U + theta x (p_k - p_0)`` for
+    ``q = (U, theta)``, rows ``3 k + i`` (component ``i`` of point ``k``).
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 3)
+        Points (m).
+    p0 : array_like, shape (3,)
+        The reference point (m).
+
+    Returns
+    -------
+    ndarray, shape (3 n, 6)
+        Dimensionless on ``U``, metres on ``theta`` (rad).
+    """
+    pts = np.asarray(points, float).reshape(-1, 3)
+    Rm = np.zeros((3 * len(pts), 6))
+    for k, r in enumerate(pts - np.asarray(p0, float)):
+        Rm[3 * k:3 * k + 3, :3] = np.eye(3)
+        Rm[3 * k:3 * k + 3, 3:] = -_cross(r)                 # theta x r = -r x theta
+    return Rm
+
+
 def _tie(basis, slave_sdofs, p0):
-    """The master-slave transformation over the non-clamped DOFs."""
-    loc = basis.doflocs[:, slave_sdofs].T - np.asarray(p0)[None, :]          # (ns, 3)
-    rows, cols, vals = [], [], []
-    ns = len(slave_sdofs)
-    for c in range(3):
-        rows.append(3 * slave_sdofs + c)
-        cols.append(np.full(ns, c))
-        vals.append(np.ones(ns))
-    # u = U + theta x r: x: th_y r_z - th_z r_y; y: th_z r_x - th_x r_z; z: th_x r_y - th_y r_x
-    for c, (a, ka, bb, kb) in enumerate(((1, 2, 2, 1), (2, 0, 0, 2), (0, 1, 1, 0))):
-        rows += [3 * slave_sdofs + c, 3 * slave_sdofs + c]
-        cols += [np.full(ns, 3 + a), np.full(ns, 3 + bb)]
-        vals += [loc[:, ka], -loc[:, kb]]
-    return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+    """The master-slave transformation over the slave DOFs: the nonzero triplets of
+    :func:`rigid_motion` at their locations, rows the global DOFs, columns the body's 0..5."""
+    Rm = rigid_motion(basis.doflocs[:, slave_sdofs].T, p0)                  # (3 ns, 6)
+    glob = (3 * np.asarray(slave_sdofs)[:, None] + np.arange(3)).ravel()
+    r, c = np.nonzero(Rm)
+    return glob[r], c, Rm[r, c]
 
 
 def _source_stamp():
