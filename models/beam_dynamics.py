@@ -297,7 +297,7 @@ class BeamImpactModel:
         omega = TWO_PI * np.asarray(mm.frequencies_hz, dtype=float)
         m = cls(omega, s.participation, s.contacts[0], s.sensor, R, gap_contact_m, base_amplitude_m, f_ref,
                 s.length_unit_m, phim, modal_damping_1_s=np.asarray(s.damping, float) / s.time_unit_s,
-                label=f"matrices, {mm.n_modes} modes", gap_contact_lower_m=gap_contact_lower_m, R_lower=R_lower,
+                label=f"{cls.fidelity}, {mm.n_modes} modes", gap_contact_lower_m=gap_contact_lower_m, R_lower=R_lower,
                 point_stops=[(ps, s.contacts[k]) for ps, k in point_stops])
         return m
 
@@ -626,6 +626,14 @@ class MatrixImpactModel(BeamImpactModel):
     :meth:`BeamImpactModel.from_matrix_model`; every method of the N-mode model serves it."""
 
     fidelity = "matrices"
+
+
+class ContinuumImpactModel(MatrixImpactModel):
+    """The rig as a 3D elastic continuum in ``N`` modal coordinates, the stop on its rigid disc
+    stack (fidelity ``"continuum"``, issue 59; :mod:`vibeam.models.builders.continuum`): built by
+    :meth:`BeamImpactModel.from_matrix_model`; every method of the N-mode model serves it."""
+
+    fidelity = "continuum"
 
 
 class BeamEventSolver:

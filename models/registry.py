@@ -49,7 +49,10 @@ model, whose coordinate is the sensor's), ``restitution_coefficients(velocities,
     The effects ``eccentric_impact`` and ``platform`` with ``level = "coupled"`` can be
     built for it (by its spec's ``effect_model``).
 ``fe_model``
-    A finite-element model stands behind it (``vibeam derive``, ``vibeam modes``).
+    A finite-element beam stands behind it (``vibeam derive``: the static-mode reduction).
+``mode_shapes``
+    Its spec reports its modes and writes their shapes (``vibeam modes``: the spec's
+    ``modes_report(n)``).
 ``restitution_law_methods``
     Methods that take a velocity-dependent R (effect ``restitution_law``).
 ``solvers``
@@ -225,6 +228,7 @@ class Fidelity:
     eccentric_contact: bool = False
     coupled_platform: bool = False
     fe_model: bool = False
+    mode_shapes: bool = False
     description: str = field(default="", compare=False)
 
     def _with(self, flag: str) -> tuple:
@@ -306,6 +310,7 @@ register(Fidelity(
     eccentric_contact=True,
     coupled_platform=True,
     fe_model=True,
+    mode_shapes=True,
     description="FE cantilever in modal coordinates (paper Sec. 6, Eqs. 39-41)"))
 
 
@@ -323,6 +328,22 @@ register(Fidelity(
     modes=True,
     contact_modes=True,
     description="a linear structure given by its mass, stiffness and damping matrices, in modal coordinates"))
+
+register(Fidelity(
+    name="continuum",
+    model="beam_dynamics:ContinuumImpactModel",
+    # the rig as a 3D elastic continuum (issue 59, vibeam.models.builders.continuum) reduced to its
+    # modes: the N-mode modal system, the same methods as a structure given by its matrices
+    solvers={"event": on_the_core("beam_dynamics:BeamEventSolver", restitution_law=True, modal_states=True),
+             "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
+             "mapping": Method("mapping.modal:ModalMappingSolver",
+                               {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
+                               (IMPULSIVE, "kelvin_voigt"), True),
+             "continuation": on_the_core("periodic_beam:BeamContinuation")},
+    modes=True,
+    contact_modes=True,
+    mode_shapes=True,
+    description="the rig as a 3D linear-elastic continuum (scikit-fem) with a rigid disc stack, in modal coordinates"))
 
 
 def fidelity(name_or_model) -> Fidelity:

@@ -406,7 +406,11 @@ def cmd_modes(args) -> int:
     rep = modes(case, n=args.n, out=Path(args.out) if args.out else default_folder(case.name), plots=not args.no_plots)
     md, cm = rep.modes, rep.contact
     tot = rep.total_mass_kg
-    print(f"modes of {case.name} (FE, {rep.fe.ndof} DOFs); base excitation, total mass {tot:.4g} kg\n")
+    r = rep.report
+    kind = r.get("kind") or f"FE, {rep.fe.ndof} DOFs"
+    if r.get("info") is not None:          # a continuum: built now or loaded from its cache, how long
+        print(r["info"].summary())
+    print(f"modes of {case.name} ({kind}); base excitation, total mass {tot:.4g} kg\n")
     print(f"{'mode':>4}{'f (Hz)':>12}{'m at sensor (kg)':>18}{'Gamma (kg^.5)':>15}{'m_eff (kg)':>12}"
           f"{'m_eff %':>9}{'cum. %':>8}")
     cum = 0.0
@@ -415,7 +419,7 @@ def cmd_modes(args) -> int:
         cum += me
         print(f"{i + 1:>4}{f:>12.4f}{rep.sensor_modal_mass_kg[i]:>18.4g}{md.participation[i]:>15.4g}"
               f"{me:>12.4g}{100 * me / tot:>9.2f}{100 * cum / tot:>8.2f}")
-    print("\ncontact modes (beam held at the stop, w(L_m) = 0): " +
+    print(f"\ncontact modes ({r.get('contact_note', 'beam held at the stop, w(L_m) = 0')}): " +
           ", ".join(f"{f:.2f}" for f in cm.frequencies_hz[: args.n]) + " Hz")
     print(f"mode shapes -> {rep.paths['vtu']} (ParaView)" + (f", {rep.paths['png']}" if rep.paths.get("png") else ""))
     return 0

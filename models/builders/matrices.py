@@ -251,7 +251,11 @@ def lowest_modes_of(K, M, n, dense_max=DENSE_MAX):
         Md = M.toarray() if scipy.sparse.issparse(M) else M
         return lowest_modes(Kd, Md, n)
     Ks, Ms = scipy.sparse.csc_matrix(K), scipy.sparse.csc_matrix(M)
-    lam, V = scipy.sparse.linalg.eigsh(Ks, k=n, M=Ms, sigma=0.0, which="LM")
+    # a fixed start vector (ARPACK's default is random): the same matrices give the same modes bit for
+    # bit, so a model rebuilt (another cache, another machine's first run) is the one its references
+    # were computed with; its components are nonzero on every DOF (no mode orthogonal to it by symmetry)
+    v0 = np.random.default_rng(0).uniform(0.5, 1.5, Ks.shape[0])
+    lam, V = scipy.sparse.linalg.eigsh(Ks, k=n, M=Ms, sigma=0.0, which="LM", v0=v0)
     order = np.argsort(lam)
     lam, V = lam[order], V[:, order]
     V = V / np.sqrt(np.einsum("ij,ij->j", V, Ms @ V))

@@ -87,14 +87,17 @@ CASES = ROOT / "cases"
 # transient periods of the references: the slowest decay is exp(-beta t) of the first mode, so
 # SDOF (beta >= 0.015, Omega <= 2.5): exp(-0.015 * 3000 * 2 pi / 2.5) < 1e-49; beam (beta_1 =
 # 0.017, Omega <= 2.3, higher modes damped more by Eq. 39): exp(-0.017 * 1000 * 2 pi / 2.3) < 1e-20
-REFERENCE_TRANSIENT = {"sdof": 3000, "beam": 1000, "matrices": 1000}
+REFERENCE_TRANSIENT = {"sdof": 3000, "beam": 1000, "matrices": 1000, "continuum": 1000}
 # matrices (cases/chain-3dof: zeta_1 = 0.02, Omega <= 1.35): exp(-0.02 * 1000 * 2 pi / 1.35) < 1e-40
 # per-case exceptions: "quick" = the quick variant's own transient.  The pre-stressed FE rig is
 # multistable on its down sweep (1.84-1.94 Hz: chaos, period-1, -2 and -6 coexist): a reference with
 # more transient periods than the quick run reaches other coexisting attractors there, so its
 # reference is the quick run itself (300 periods leave 2e-13 of the transient on its periodic
 # points, which the oracles check); regressions then detect changes of the code.
-REFERENCE_TRANSIENT_OVERRIDE: dict[str, int | str] = {"rig-fe-tight": "quick", "rig-tight-uncertainty": "quick"}
+# The rig as a continuum (cases/rig-continuum) with the same pre-stressed stop: chaotic points among its
+# periodic ones as well (13-17 Hz), so the same choice.
+REFERENCE_TRANSIENT_OVERRIDE: dict[str, int | str] = {"rig-fe-tight": "quick", "rig-tight-uncertainty": "quick",
+                                                      "rig-continuum": "quick"}
 # quick variants with transient_periods = "auto": the reference runs "auto" too, with this many times
 # the quick variant's max_transient_periods (a non-periodic point is accepted after half of it)
 REFERENCE_AUTO_FACTOR = 4
@@ -564,9 +567,10 @@ def _direct_check(name, model, d, sweep, n_points=DIRECT_POINTS):
     c = Check(name, "FE periodic points vs direct solve_ivp DOP853 (rtol 1e-10)", TOL_DIRECT)
     cand = [i for i in range(len(d["Omega"])) if int(d["period"][i]) == 1 and str(d["status"][i]) == "ok"
             and float(d["impacts_per_period"][i]) == 1.0]
-    # spread the checked points over the grid
+    # spread the checked points over the grid; the others after them, should these land elsewhere from rest
     picks = [cand[j] for j in sorted(set(np.linspace(0, len(cand) - 1, min(len(cand), 2 * n_points))
                                          .round().astype(int)))] if cand else []
+    picks += [i for i in cand if i not in picks][:2 * n_points]
     spp = sweep.samples_per_period
     for i in picks:
         if c.n >= n_points:
@@ -766,6 +770,9 @@ ORACLES = {
                                                                                 expensive),
     "matrices": lambda name, spec, model, d, sweep, expensive, is_map: _matrices_checks(name, spec, model, d, sweep,
                                                                                         expensive),
+    # the continuum is a structure in modal coordinates too (the rig's solid reduced to its modes)
+    "continuum": lambda name, spec, model, d, sweep, expensive, is_map: _matrices_checks(name, spec, model, d, sweep,
+                                                                                         expensive),
 }
 
 

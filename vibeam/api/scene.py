@@ -111,8 +111,8 @@ class Modes:
     paths: dict = field(default_factory=dict)
 
     def plot(self, path=None):
-        """Free and contact mode shapes along the beam (``modes.png``)."""
-        return saved(modes_figure(self.report, self.case.name), path)
+        """Free and contact mode shapes along the beam, or a continuum's shapes (``modes.png``)."""
+        return saved(shapes_figure(self.report, self.case.name), path)
 
 
 def modes(case, n: int = 6, out=None, plots: bool = True) -> Modes:
@@ -148,8 +148,9 @@ def modes(case, n: int = 6, out=None, plots: bool = True) -> Modes:
     spec = beam_spec(c, "modes")
     if out is not None:                   # every name written, checked before anything is computed
         check_outputs(out, MODES_FILES if plots else MODES_FILES[:1])
-    rep = modes_report(spec, n=n)
-    res = Modes(c, rep["fe"], rep["modes"], rep["contact"], rep["total_mass_kg"], rep["sensor_modal_mass_kg"],
+    # a spec with its own report (a continuum's), else the FE beam's
+    rep = spec.modes_report(n) if hasattr(spec, "modes_report") else modes_report(spec, n=n)
+    res = Modes(c, rep.get("fe"), rep["modes"], rep["contact"], rep["total_mass_kg"], rep["sensor_modal_mass_kg"],
                 n, rep)
     if out is not None:
         folder = check_folder(Path(out))
@@ -165,14 +166,26 @@ MODES_FILES = ("modes.vtu", "modes.png")
 def write_modes_files(res: Modes, folder, plots: bool = True) -> dict:
     """``modes.vtu`` and (``plots``) ``modes.png`` of :func:`modes` into ``folder`` (atomically)."""
     folder = Path(folder)
-    vtu = replace_file(folder / "modes.vtu",
-                       lambda p: write_modes(p, res.fe, n=min(res.n, len(res.modes.frequencies_hz))))
+    rep = res.report
+    # a scene's report may carry its own writer (a continuum: its mesh through meshio)
+    vtu = replace_file(folder / "modes.vtu", rep.get("write_vtu") or
+                       (lambda p: write_modes(p, res.fe, n=min(res.n, len(res.modes.frequencies_hz)))))
     if not plots:
         return {"vtu": vtu}
     from vibeam.plots.sweep import save_close  # lazy: matplotlib.pyplot (0.6 s) out of `vibeam derive`
 
-    png = save_close(modes_figure(res.report, res.case.name), folder / "modes.png")
+    png = save_close(shapes_figure(rep, res.case.name), folder / "modes.png")
     return {"vtu": vtu, "png": png}
+
+
+def shapes_figure(rep: dict, title: str = ""):
+    """``modes.png`` of a modes report: :func:`modes_figure` of a beam's, or of a solid's (a report
+    with its ``mesh``) :func:`vibeam.plots.modes.continuum_modes_figure`."""
+    if rep.get("mesh") is None:
+        return modes_figure(rep, title)
+    from vibeam.plots.modes import continuum_modes_figure  # lazy: matplotlib (0.6 s) out of `vibeam derive`
+
+    return continuum_modes_figure(rep, title)
 
 
 def modes_figure(rep: dict, title: str = ""):

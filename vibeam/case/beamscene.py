@@ -145,7 +145,8 @@ def lower_stop(spec, sc, phi_c=None) -> dict:
 
 
 def beam_spec(case, command: str = "derive"):
-    """The model spec of a scene with a finite-element model (capability ``fe_model``).
+    """The model spec of a scene with a finite-element beam (capability ``fe_model``: ``vibeam
+    derive``) or whose modes can be reported (``mode_shapes``: ``vibeam modes``).
 
     Parameters
     ----------
@@ -160,10 +161,12 @@ def beam_spec(case, command: str = "derive"):
         value and the fidelities allowed).
     """
     spec = case.model_spec()
-    if not fidelity(spec.fidelity).fe_model:
-        fe = " or ".join(f'fidelity = "{n}"' for n in with_capability("fe_model"))
-        raise CaseError(f"'model.fidelity' = {spec.fidelity!r}: `vibeam {command}` needs a beam scene, "
-                        f"one with a finite-element model ({fe})")
+    flag = "mode_shapes" if command == "modes" else "fe_model"
+    if not getattr(fidelity(spec.fidelity), flag):
+        fe = " or ".join(f'fidelity = "{n}"' for n in with_capability(flag))
+        what = ("a scene whose modes it can report (" if flag == "mode_shapes" else
+                "a beam scene, one with a finite-element model (")
+        raise CaseError(f"'model.fidelity' = {spec.fidelity!r}: `vibeam {command}` needs {what}{fe})")
     return spec
 
 

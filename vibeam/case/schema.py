@@ -827,14 +827,14 @@ class MatricesModelSpec(_StopsSpec):
         if first.side != "upper":
             raise ValueError("stop[0] is the reference stop (the amplitude Q is measured from it): give an upper "
                              "stop first")
-        at0 = first.at or self.system.sensor
+        at0 = self.stop_at(first)
         lower = 0
         for i, st in enumerate(self.stop):
             if st.position_mm is not None or st.Delta is not None:
                 raise ValueError(f"stop[{i}]: a structure's stop is placed by at = \"<DOF>\" and given its gap by "
                                  f"contact_gap_mm (at the DOF) or gap_mm (seen at the sensor); position_mm and Delta "
                                  f"are for beams and SDOF scenes")
-            at = st.at or self.system.sensor
+            at = self.stop_at(st)
             if i == 0:
                 continue
             if at == at0 and st.side == "lower":
@@ -866,8 +866,13 @@ class MatricesModelSpec(_StopsSpec):
     @property
     def two_sided(self) -> bool:
         """A lower stop at the reference stop's DOF (``stop[1]``)."""
-        at0 = self.stop[0].at or self.system.sensor
-        return len(self.stop) > 1 and self.stop[1].side == "lower" and (self.stop[1].at or self.system.sensor) == at0
+        at0 = self.stop_at(self.stop[0])
+        return len(self.stop) > 1 and self.stop[1].side == "lower" and self.stop_at(self.stop[1]) == at0
+
+    def stop_at(self, st) -> str:
+        """Where stop ``st`` (a :class:`StructureStopSpec` of this table) acts: its ``at`` (a DOF's
+        name), else the sensor's DOF."""
+        return st.at or self.system.sensor
 
     @property
     def R(self) -> float:
@@ -966,6 +971,129 @@ class MatricesModelSpec(_StopsSpec):
         return {}, [f"{key} not written: a structure given by its matrices takes fitted values by path"]
 
 
+class ContinuumSystemSpec(_Strict):
+    """``[model.system]`` with ``builder = "continuum"``: the rig (paper Sec. 5, Fig. 15) as a 3D
+    linear-elastic continuum from its geometry alone (issue 59;
+    :func:`vibeam.models.builders.continuum.build_rig`): a strip clamped at ``x = 0`` (steel unless
+    given), the disc stack a rigid body tied to it over its footprint (the stops act on it, well
+    posed), the sensor the strip's mid-plane at ``sensor_position_mm``; quadratic hexahedra of size
+    ``element_size_mm`` in the strip's plane and ``layers`` through its thickness; its ``n_modes``
+    lowest modes kept; the base translates along the bending direction.  Built once per geometry
+    and mesh (cached by content hash: ``$VIBEAM_CACHE_DIR/continuum``).  Lengths in mm, as the beam
+    case gives them; no calibration (the point of this rung).
+    """
+
+    builder: Literal["continuum"]
+    length_mm: Annotated[float, Field(gt=0.0, le=1e5)]
+    width_mm: Annotated[float, Field(gt=0.0, le=1e5)]
+    thickness_mm: Annotated[float, Field(gt=0.0, le=1e5)]
+    sensor_position_mm: Annotated[float, Field(gt=0.0)]
+    mass_position_mm: Annotated[float, Field(gt=0.0)]
+    youngs_modulus_gpa: Annotated[float, Field(gt=0.0, le=1e4)] = 200.0
+    poisson_ratio: Annotated[float, Field(gt=-1.0, lt=0.5)] = 0.3
+    density_kg_m3: Annotated[float, Field(gt=0.0, le=1e6)] = 7850.0
+    discs: DiscsSpec
+    discs_above: Annotated[int, Field(ge=0)] | None = None
+    contact_offset_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [0.0, 0.0]
+    element_size_mm: Annotated[float, Field(gt=0.0)] = 2.5
+    layers: Annotated[int, Field(ge=1, le=8)] = 1
+    n_modes: Annotated[int, Field(ge=1, le=200)] = 4
+    damping_ratios: Annotated[float, Field(ge=0.0, lt=1.0)] | list[Annotated[float, Field(ge=0.0, lt=1.0)]] | None = None
+    rayleigh: Annotated[list[Annotated[float, Field(ge=0.0)]], Field(min_length=2, max_length=2)] | None = None
+    f_ref_hz: Annotated[float, Field(gt=0.0)] | None = None
+
+    #: the most hexahedra of a mesh (``ceil(L / h) ceil(b / h) layers``): 20,000 is ~330,000 DOFs,
+    #: minutes and GBs of a sparse factorisation on 2 cores (h = 1.25 mm, one layer: 2,300 cells, 23 s)
+    MAX_CELLS: ClassVar[int] = 20_000
+
+    @model_validator(mode="after")
+    def _a_rig(self):
+        L, R = self.length_mm, 0.5 * self.discs.diameter_mm
+        if (self.damping_ratios is None) == (self.rayleigh is None):
+            raise ValueError("give the damping as damping_ratios (one for every mode, or one per kept mode) or as "
+                             "rayleigh = [a, b] (C = a M + b K), exactly one of them")
+        if isinstance(self.damping_ratios, list) and len(self.damping_ratios) != self.n_modes:
+            raise ValueError(f"damping_ratios: {len(self.damping_ratios)} values for n_modes = {self.n_modes}; "
+                             f"allowed: one per kept mode, or one for all")
+        if not self.sensor_position_mm <= L:
+            raise ValueError(f"sensor_position_mm = {self.sensor_position_mm:g}: allowed on the strip, <= length_mm "
+                             f"= {L:g}")
+        if not (self.mass_position_mm - R > 0.0 and self.mass_position_mm + R <= L):
+            raise ValueError(f"mass_position_mm = {self.mass_position_mm:g}: the discs' footprint (diameter "
+                             f"{self.discs.diameter_mm:g} mm) must lie on the strip, 0 < x <= length_mm = {L:g}")
+        if self.discs_above is not None and self.discs_above > self.discs.count:
+            raise ValueError(f"discs_above = {self.discs_above}: allowed 0 ... discs.count = {self.discs.count}")
+        h = self.element_size_mm
+        cells = math.ceil(L / h) * math.ceil(self.width_mm / h) * self.layers
+        if not (h <= min(self.width_mm, L) and cells <= self.MAX_CELLS):
+            raise ValueError(f"element_size_mm = {h:g}: {cells} cells; allowed: at most the strip's width and at "
+                             f"most {self.MAX_CELLS} cells (ceil(length / h) ceil(width / h) layers)")
+        return self
+
+
+@register_model_spec("continuum")
+class ContinuumModelSpec(MatricesModelSpec):
+    """``[model]`` of the rig as a 3D elastic continuum (issue 59): the canonical tables
+    ``[model.system]`` (:class:`ContinuumSystemSpec`, ``builder = "continuum"``), ``[[model.stop]]``
+    and ``[model.excitation]`` as for a structure given by its matrices (:class:`MatricesModelSpec`),
+    the stops on the disc stack (``at = "stack"`` or none): the reference (upper) stop on its top
+    face at ``contact_offset_mm`` from its axis, a lower stop at the same point.  ``gap_mm`` is seen
+    at the sensor (times the stack's static ratio ``K^-1 M r``, Eq. 45), ``contact_gap_mm`` at the
+    stack.
+    """
+
+    system: ContinuumSystemSpec
+
+    fidelity: ClassVar[str] = "continuum"
+
+    @model_validator(mode="after")
+    def _stops_on_the_stack(self):
+        for i, st in enumerate(self.stop):
+            if st.at not in (None, "stack"):
+                raise ValueError(f"stop[{i}]: at = {st.at!r}; allowed: \"stack\" (the default: a continuum's stops "
+                                 f"act on the rigid disc stack, a point of the solid itself has no finite effective "
+                                 f"mass)")
+        if len(self.stop) > 1 + int(self.two_sided):
+            raise ValueError(f"{len(self.stop)} stops; allowed on a continuum: an upper stop on the disc stack and "
+                             f"optionally a lower one (stop[1])")
+        return self
+
+    def stop_at(self, st) -> str:
+        """``"stack"``: every stop of a continuum acts on its rigid disc stack."""
+        return "stack"
+
+    def matrix_model(self):
+        """The continuum reduced to its modes, :class:`vibeam.models.builders.matrices.MatrixModel`
+        (contact row 0: the stack's top face at the contact point; :func:`vibeam.case.structure.continuum_model`)."""
+        return _structure().continuum_model(self)[0]
+
+    def dofs(self) -> int:
+        """Degrees of freedom simulated (work estimate): the kept modes."""
+        return int(self.system.n_modes)
+
+    def result_attrs(self) -> dict:
+        """The continuum's kept frequencies (Hz) and damping ratios, the stack's static ratio and the mesh."""
+        mm = build_or_refuse(self, self.matrix_model)
+        sy = self.system
+        return {"frequencies_hz": np.asarray(mm.frequencies_hz), "damping_ratios": np.asarray(mm.damping_ratios),
+                "contact_static": np.asarray(mm.contact_static),
+                "mesh": f"element_size_mm = {sy.element_size_mm:g}, layers = {sy.layers}, {len(mm.dofs)} DOFs"}
+
+    def converged_reference(self, table: dict, overrides: dict):
+        """Model table of a cost table's converged reference: twice the modes (at least 12) on a mesh
+        half as coarse (one size down: the f1, f2 of the rig move < 0.3 % from 2.5 to 1.25 mm)."""
+        fine = model_with(table, overrides)
+        sy = fine["system"]
+        fine["system"] = dict(sy, n_modes=max(12, 2 * int(sy.get("n_modes", 4))),
+                              element_size_mm=0.5 * float(sy.get("element_size_mm", 2.5)))
+        return fine
+
+    def modes_report(self, n: int = 8) -> dict:
+        """Modes, participation, effective masses and the contact modes within the kept modes
+        (``vibeam modes``; :func:`vibeam.case.structure.modes_report`)."""
+        return _structure().modes_report(self, n)
+
+
 def _structure():
     """:mod:`vibeam.case.structure`, the builder of a structure's model from its tables."""
     from vibeam.case import structure  # lazy: keeps scipy.io, scipy.sparse.linalg and the N-mode kernels out of load_case
@@ -973,7 +1101,7 @@ def _structure():
     return structure
 
 
-ModelSpec = Union[SDOFModelSpec, BeamModelSpec, MatricesModelSpec]
+ModelSpec = Union[SDOFModelSpec, BeamModelSpec, MatricesModelSpec, ContinuumModelSpec]
 
 
 def fidelity_methods(name: str) -> tuple:
@@ -1614,7 +1742,8 @@ def _validate_model(data: dict, prefix: str = "model"):
         # the canonical tables (issue 58): [model.system] builder = ...
         fid = system["builder"]
         if not isinstance(fid, str) or fid not in MODEL_SPECS or fid in ("sdof", "beam"):
-            raise CaseError(f"'{prefix}.system.builder' = {quote_value(fid)} is not allowed; allowed: \"matrices\" "
+            raise CaseError(f"'{prefix}.system.builder' = {quote_value(fid)} is not allowed; allowed: \"matrices\", "
+                            f"\"continuum\" "
                             f"(the SDOF and the beam: [model] fidelity = \"sdof\" or \"beam\")")
         try:
             spec = MODEL_SPECS[fid].model_validate(data)

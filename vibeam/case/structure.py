@@ -10,14 +10,20 @@ Loaded only when a structure is built (``load_case`` stays free of scipy.io and 
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
 from vibeam.case.contact import ContactSpec, beam_law
 from vibeam.io.matrices import inline_matrices, read_matrices
-from vibeam.models.beam_dynamics import CompliantBeamModel, MatrixImpactModel, PointStop
+from vibeam.models.beam_dynamics import CompliantBeamModel, PointStop
+from vibeam.models.builders.continuum import Material, RigGeometry, build_rig, write_modes
 from vibeam.models.builders.matrices import MatrixModel, build_matrices
 from vibeam.models.contact import Restitution
-from vibeam.models.registry import is_compliant
+from vibeam.models.registry import fidelity, is_compliant, resolve
 
-__all__ = ["arrays", "matrix_model", "impact_model"]
+__all__ = ["arrays", "matrix_model", "impact_model", "rig_geometry", "continuum_model", "modes_report"]
 
 
 def arrays(system) -> dict:
@@ -43,7 +49,7 @@ def arrays(system) -> dict:
 
 
 def _at(spec, st) -> str:
-    return st.at or spec.system.sensor
+    return spec.stop_at(st)
 
 
 def matrix_model(spec) -> MatrixModel:
@@ -77,9 +83,11 @@ def impact_model(spec):
     Returns
     -------
     vibeam.models.beam_dynamics.MatrixImpactModel or CompliantBeamModel
-        Fidelity ``"matrices"`` either way.
+        Of the spec's fidelity either way (``"matrices"``; ``"continuum"``:
+        :class:`~vibeam.models.beam_dynamics.ContinuumImpactModel`), the registry's model class.
     """
-    mm = matrix_model(spec)
+    mm = spec.matrix_model()
+    impact_class = resolve(fidelity(spec.fidelity).model)
 
     def gap_m(st, k):
         mm_gap = st.contact_gap_mm if st.contact_gap_mm is not None else st.gap_mm * float(mm.contact_static[k])
@@ -95,9 +103,9 @@ def impact_model(spec):
                          gap_contact_m=gap_m(st, 1 + j), law=Restitution(st.R),
                          label=f"{st.side} at {_at(spec, st)}"), 1 + j)
               for j, st in enumerate(spec.stop[first_point:])]
-    m = MatrixImpactModel.from_matrix_model(mm, R=up.R, gap_contact_m=gap_m(up, 0),
-                                            base_amplitude_m=spec.excitation.amplitude_mm * 1e-3,
-                                            point_stops=points, **kw)
+    m = impact_class.from_matrix_model(mm, R=up.R, gap_contact_m=gap_m(up, 0),
+                                       base_amplitude_m=spec.excitation.amplitude_mm * 1e-3,
+                                       point_stops=points, **kw)
     law = beam_law(spec.contact, up.R)
     lower = None
     if spec.two_sided and is_compliant(spec.stop[1].law):
@@ -106,7 +114,139 @@ def impact_model(spec):
         if spec.two_sided and lower is None:
             lower = Restitution(spec.stop[1].R)
         m = CompliantBeamModel.from_model(m, law, lower)
-        m.fidelity = "matrices"      # the compliant modal model of this structure
+        m.fidelity = spec.fidelity      # the compliant modal model of this structure
     elif lower is not None:
         m.lower_law = lower
     return m
+
+
+# ============================================================================ the continuum (issue 59)
+def rig_geometry(system):
+    """The :class:`vibeam.models.builders.continuum.RigGeometry` of a ``[model.system]`` table with
+    ``builder = "continuum"`` (:class:`vibeam.case.schema.ContinuumSystemSpec`; mm to m, GPa to Pa).
+
+    Raises
+    ------
+    ValueError
+        A geometry :class:`~vibeam.models.builders.continuum.RigGeometry` refuses (one line).
+    """
+    sy, d = system, system.discs
+    above = d.count // 2 if sy.discs_above is None else sy.discs_above
+    return RigGeometry(length_m=sy.length_mm * 1e-3, width_m=sy.width_mm * 1e-3, thickness_m=sy.thickness_mm * 1e-3,
+                       sensor_position_m=sy.sensor_position_mm * 1e-3, mass_position_m=sy.mass_position_mm * 1e-3,
+                       disc_count=d.count, discs_above=above, disc_thickness_m=d.thickness_mm * 1e-3,
+                       disc_diameter_m=d.diameter_mm * 1e-3, disc_mass_kg=d.mass_kg, disc_density_kg_m3=d.density_kg_m3,
+                       material=Material(sy.youngs_modulus_gpa * 1e9, sy.poisson_ratio, sy.density_kg_m3),
+                       contact_offset_m=tuple(1e-3 * float(v) for v in sy.contact_offset_mm))
+
+
+def continuum_model(spec, vtu=None, cache=True):
+    """The continuum of ``spec`` (:class:`vibeam.case.schema.ContinuumModelSpec`) reduced to its
+    modes: :func:`vibeam.models.builders.continuum.build_rig` on :func:`rig_geometry`, its mesh
+    (``element_size_mm``, ``layers``), ``n_modes``, damping, the drive's amplitude, ``f_ref_hz``;
+    cached per content hash (a second build loads it).
+
+    Parameters
+    ----------
+    spec : ContinuumModelSpec
+    vtu : str or Path, optional
+        Also write the mode shapes there (meshio).
+    cache : bool or path
+        As :func:`~vibeam.models.builders.continuum.build_continuum`.
+
+    Returns
+    -------
+    model : vibeam.models.builders.matrices.MatrixModel
+        Contact row 0: the stack's top face at the contact point, along ``z``.
+    info : vibeam.models.builders.continuum.ContinuumInfo
+    mesh : vibeam.models.builders.continuum.ContinuumMesh
+
+    Raises
+    ------
+    ValueError
+        The geometry or the damping refused (one line).
+    """
+    sy = spec.system
+    damping = (dict(damping_ratios=sy.damping_ratios) if sy.rayleigh is None else
+               dict(damping_ratios=None, rayleigh=(float(sy.rayleigh[0]), float(sy.rayleigh[1]))))
+    return build_rig(rig_geometry(sy), h_m=sy.element_size_mm * 1e-3, nz=sy.layers, n_modes=sy.n_modes,
+                     cache=cache, vtu=vtu, base_amplitude_m=spec.excitation.amplitude_mm * 1e-3, f_ref_hz=sy.f_ref_hz,
+                     **damping)
+
+
+@dataclass
+class ContinuumModes:
+    """The modes of a continuum (:func:`modes_report`): the arrays ``vibeam modes`` prints.
+
+    Attributes
+    ----------
+    frequencies_hz : ndarray, shape (n,)
+    participation : ndarray, shape (n,)
+        ``Gamma_i = phi_i^T M r`` (sqrt(kg)): the base load per unit base acceleration on mode i.
+    effective_mass_kg : ndarray, shape (n,)
+        ``Gamma_i^2`` (kg).
+    shapes : ndarray, shape (n_nodes, 3, n)
+        At the mesh's vertices (1/sqrt(kg)).
+    """
+
+    frequencies_hz: np.ndarray
+    participation: np.ndarray
+    effective_mass_kg: np.ndarray
+    shapes: np.ndarray
+
+
+def _held_modes(omega, w) -> np.ndarray:
+    """Frequencies (Hz) of the kept modes held at the contact row ``w`` (``w . xi = 0``): the
+    eigenvalues of ``diag(omega^2)`` on the null space of ``w``."""
+    Z = scipy.linalg.null_space(np.asarray(w, float).reshape(1, -1))
+    lam = np.linalg.eigvalsh(Z.T @ np.diag(np.asarray(omega, float) ** 2) @ Z)
+    return np.sqrt(np.maximum(lam, 0.0)) / (2.0 * np.pi)
+
+
+def modes_report(spec, n: int = 8) -> dict:
+    """``vibeam modes`` of a continuum: its ``n`` lowest modes (participation, effective masses,
+    the modal mass at the sensor), the contact modes within them and writers of the shapes.
+
+    Parameters
+    ----------
+    spec : vibeam.case.schema.ContinuumModelSpec
+    n : int
+        Modes (>= 1; the case's damping ratios, when a list, give way to their first value).
+
+    Returns
+    -------
+    dict
+        ``modes`` (:class:`ContinuumModes`), ``contact`` (``frequencies_hz`` of the kept modes held at
+        the stack's contact point: Rayleigh-Ritz upper bounds of the continuum's own), ``total_mass_kg``
+        (the strip and the discs), ``sensor_modal_mass_kg`` ``1 / (s phi_i)^2`` (kg), ``ndof``,
+        ``kind`` (a line naming the model and its mesh), ``info``
+        (:class:`~vibeam.models.builders.continuum.ContinuumInfo`: built or loaded, how long),
+        ``mesh``, ``model`` (the :class:`~vibeam.models.builders.matrices.MatrixModel`),
+        and ``write_vtu(path)`` (the shapes through meshio; the figure:
+        :func:`vibeam.api.scene.continuum_modes_figure`).
+
+    Raises
+    ------
+    ValueError
+        From the build (one line).
+    """
+    sy = spec.system
+    ratios = sy.damping_ratios if not isinstance(sy.damping_ratios, list) else float(sy.damping_ratios[0])
+    spec = spec.model_copy(update={"system": sy.model_copy(update={"n_modes": int(n), "damping_ratios": ratios})})
+    mm, info, mesh = continuum_model(spec)
+    s = mm.system
+    G = np.asarray(s.participation, float)
+    f = np.asarray(mm.frequencies_hz, float)
+    g = rig_geometry(spec.system)
+    strip = g.material.density_kg_m3 * g.length_m * g.width_m * g.thickness_m
+    discs = sum(p[0] for p in g.body_parts())
+    sphi = np.asarray(s.sensor, float)
+    return {"modes": ContinuumModes(f, G, G ** 2, info.nodal_shapes),
+            "contact": ContinuumModes(_held_modes(2.0 * np.pi * f, s.contacts[0]), np.zeros(0), np.zeros(0),
+                                      np.zeros((0, 3, 0))),
+            "total_mass_kg": strip + discs, "sensor_modal_mass_kg": 1.0 / np.maximum(sphi ** 2, 1e-300),
+            "ndof": len(mm.dofs), "info": info, "mesh": mesh, "model": mm,
+            "kind": f"3D continuum, {info.n_cells} hexahedra of {spec.system.element_size_mm:g} mm, "
+                    f"{spec.system.layers} layer(s), {len(mm.dofs)} DOFs",
+            "contact_note": "within the kept modes, the stack held at its contact point",
+            "write_vtu": lambda path: write_modes(path, mesh, info)}
