@@ -67,7 +67,7 @@ from .core.integrator import EV_IMPACT, EV_STICK_IMPACT
 from .core.shooting import Direction, ModalShooting, Setup, directions, dtransition_dsig
 from .contact import Restitution
 from .impact import restitution_at
-from .system import particular, transition_entries
+from .system import forcing, particular, transition_entries
 
 __all__ = ["BeamShooting", "BeamContinuation", "conversions", "NATIVE_PARAMETERS", "REBUILD_KEYS"]
 
@@ -274,7 +274,7 @@ class BeamShooting(ModalShooting):
                 "R_lower": Direction("R_lower", 0.0, 0.0, z, low, np.zeros(N))}[self.parameter]])
         else:
             m, core, dirs = self._cache["m"], self._cache["core"], self._cache["dirs"]
-        aF, bF = particular(m.c_nd, m.k_nd, m.participation, Om ** 2 * m.base_amplitude_m, Om)
+        aF, bF = particular(m.c_nd, m.k_nd, m.participation, forcing(core.system, Om), Om)
         self._cache_key = key
         self._cache = dict(m=m, core=core, dirs=dirs, core_key=core_key, Om=Om, aF=aF, bF=bF,
                            mpF=core.ksys.mp)

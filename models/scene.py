@@ -7,6 +7,10 @@ of :class:`vibeam.models.contact.Stop` (relation, law), each law the only holder
 in the system's units.  The units (seconds, metres and kilograms per unit of time, displacement
 and effective mass) are the system's own fields, so nothing holds them twice: :func:`units`.
 
+The drive is the system's (its forcing vector, amplitude and exponent ``p``: ``f Omega^p A
+sin(Omega t)``); :func:`driven` sets it from an :class:`Excitation` in SI units: a harmonic base
+displacement (the paper's shaker), base acceleration or point force.
+
 The fidelities are builders of scenes: :func:`sdof_scene` (paper Eqs. 1-2, 43-46) and
 :func:`beam_scene` (the modal FE beam, Eqs. 39-42, with any number of modes or the static mode);
 a model object's ``scene()`` calls its builder.  The event integrator
@@ -20,11 +24,18 @@ Ch. 3 and 7 (relations, laws, the event-driven scheme); Siconos' ``NonSmoothDyna
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+import math
+from numbers import Integral
+from typing import NamedTuple, Optional
+
+import numpy as np
 
 from .system import ModalSystem, from_beam, from_sdof
 
-__all__ = ["Scene", "sdof_scene", "beam_scene", "units"]
+__all__ = ["Scene", "sdof_scene", "beam_scene", "units", "Excitation", "EXCITATION_KINDS", "driven"]
+
+#: the harmonic drives of a scene (:class:`Excitation`)
+EXCITATION_KINDS = ("base_displacement", "base_acceleration", "force")
 
 
 class Scene(NamedTuple):
@@ -78,3 +89,117 @@ def units(sc: Scene) -> dict:
     s = sc.system
     return {"time_s": s.time_unit_s, "length_m": s.length_unit_m, "mass_kg": s.mass_unit_kg,
             "coordinate_scale": s.coordinate_scale}
+
+
+class Excitation(NamedTuple):
+    """A harmonic drive ``amplitude sin(Omega t)`` in SI units (plain data; :func:`driven` applies it).
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`EXCITATION_KINDS`:
+
+        ``"base_displacement"``
+            The base moves by ``b = Y sin(Omega t)`` (the paper's shaker, Eqs. 38, 43); every DOF
+            translates with it (the system's participation ``Gamma``); the forcing grows as
+            ``Omega^2``.
+        ``"base_acceleration"``
+            The base accelerates by ``b'' = -a sin(Omega t)`` (the acceleration of the displacement
+            drive above with ``a = Omega^2 Y``, so both drives have the same phase), of fixed
+            amplitude at every frequency (what a shaker controller holds in a sine sweep).
+        ``"force"``
+            A force ``F0 sin(Omega t)`` on the structure at one output row, along the row's
+            positive direction (the displacement it reads).
+    amplitude : float
+        ``Y`` (m), ``a`` (m/s^2) or ``F0`` (N).
+    at : int or None
+        A force's point: the index ``j`` of the system's contact row ``contacts[j]`` (the SDOF: 0,
+        its coordinate; a matrix model: the row of a DOF named among its ``contacts``, which need
+        not carry a stop); None for a base drive.
+    """
+
+    kind: str
+    amplitude: float
+    at: Optional[int] = None
+
+
+def driven(system: ModalSystem, excitation: Excitation) -> ModalSystem:
+    """``system`` driven by ``excitation``: its forcing vector ``f`` (``participation``), amplitude
+    ``A`` (``base_amplitude``) and exponent ``p`` (``drive_power``) in system units.
+
+    With the system's row unit ``u = length_unit_m / coordinate_scale`` metres (the SDOF: ``L``;
+    the beam and a matrix model: 1 m) and ``T = time_unit_s`` (the forcing of mode ``i`` is ``f_i
+    Omega^p A sin(Omega t)`` in the nondimensional time ``t = t~ / T``):
+
+    ====================  =========  ================================  =====
+    kind                  ``f``      ``A``                             ``p``
+    ====================  =========  ================================  =====
+    base displacement Y   ``Gamma``  ``Y / u``                         2
+    base acceleration a   ``Gamma``  ``a T^2 / u``                     0
+    force F0 at row j     ``W[j]``   ``F0 T^2 / (mass_unit_kg u)``     0
+    ====================  =========  ================================  =====
+
+    (``M x~'' + C x~' + K x = -M r b''`` or ``= e_j F0 sin``, reduced by the mass-normalised modes
+    and ``d/dt = T d/dt~``; the SDOF ``q'' + 2 beta q' + q = F0 / (m omega_n^2 L) sin(Omega t)``.)
+    A base acceleration ``a = Omega^2 Y`` gives the displacement drive's forcing at that
+    ``Omega``.
+
+    Parameters
+    ----------
+    system : ModalSystem
+        As built (:func:`vibeam.models.system.from_sdof`, :func:`~vibeam.models.system.from_beam`,
+        :func:`vibeam.models.builders.matrices.build_matrices`): its ``participation`` is the base
+        participation ``Gamma`` (a system already driven by a force has lost it: drive the built
+        system).
+    excitation : Excitation
+
+    Returns
+    -------
+    ModalSystem
+        A copy with ``participation``, ``base_amplitude`` and ``drive_power`` set; the rest shared.
+
+    Raises
+    ------
+    ValueError
+        One line naming the kind and what is allowed: an unknown kind; a non-finite amplitude; a
+        point ``at`` for a base drive, or a force without a contact row ``0 <= at < n_c``; a drive in
+        SI units on a system without them (``length_unit_m``, and ``time_unit_s`` for an
+        acceleration or force, NaN: a nondimensional scene); a force on a system without a mass
+        unit (``mass_unit_kg`` NaN: an SDOF without ``mass_kg``).
+    """
+    kind, amp, at = excitation
+    if kind not in EXCITATION_KINDS:
+        raise ValueError(f"excitation kind {kind!r}; allowed: {', '.join(EXCITATION_KINDS)}")
+    try:
+        amp = float(amp)
+    except (TypeError, ValueError):
+        amp = math.nan
+    if not math.isfinite(amp):
+        raise ValueError(f"excitation {kind}: amplitude = {excitation.amplitude!r}; allowed: a finite number "
+                         f"({'m' if kind == 'base_displacement' else 'm/s^2' if kind == 'base_acceleration' else 'N'})")
+    u = float(system.length_unit_m) / float(system.coordinate_scale)
+    T = float(system.time_unit_s)
+    if not (math.isfinite(u) and u > 0):
+        raise ValueError(f"excitation {kind}: the system has no length unit (length_unit_m = "
+                         f"{system.length_unit_m!r}); allowed: a physical system (an SDOF with length_m, a beam, "
+                         f"matrices)")
+    if kind != "base_displacement" and not (math.isfinite(T) and T > 0):
+        raise ValueError(f"excitation {kind}: the system has no time unit (time_unit_s = {system.time_unit_s!r}); "
+                         f"allowed: a physical system (an SDOF with natural_frequency_hz, a beam, matrices)")
+    if kind != "force":
+        if at is not None:
+            raise ValueError(f"excitation {kind}: at = {at!r}; allowed: none (a base drive moves every DOF; "
+                             f"'at' is a force's point)")
+        if kind == "base_displacement":
+            return system._replace(base_amplitude=amp / u, drive_power=2)
+        return system._replace(base_amplitude=amp * T * T / u, drive_power=0)
+    n_c = system.contacts.shape[0]
+    if isinstance(at, bool) or not isinstance(at, Integral) or not 0 <= int(at) < n_c:
+        raise ValueError(f"excitation force: at = {at!r}; allowed: the index of one of the system's {n_c} "
+                         f"contact row(s), 0 to {n_c - 1}")
+    mu = float(system.mass_unit_kg)
+    if not (math.isfinite(mu) and mu > 0):
+        raise ValueError(f"excitation force: the system has no mass unit (mass_unit_kg = {system.mass_unit_kg!r}); "
+                         f"allowed: a system with masses (an SDOF with mass_kg, a beam, matrices)")
+    f = np.array(system.contacts[int(at)], dtype=float, order="C")
+    return system._replace(participation=f, base_amplitude=amp * T * T / (mu * u), drive_power=0)

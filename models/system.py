@@ -10,7 +10,9 @@ sensor reading ``y = s^T eta`` and the contact points ``u_k = W[k] @ eta`` (the 
 stops' relations reference by index).  Here ``c_i = 2 zeta_i omega_i`` (modal, i.e. proportional
 damping), ``Gamma_i`` the base-excitation participation factor and ``B`` the base displacement
 amplitude ``b = B sin(Omega t)``: the load ``-M r b''`` of the physical model becomes
-``Gamma Omega^2 B sin(Omega t)`` in the modes.
+``Gamma Omega^2 B sin(Omega t)`` in the modes.  The other drives (a base acceleration, a point
+force) give ``f A sin(Omega t)`` instead: ``Gamma Omega^2 B`` is generalised to ``f Omega^p A``
+(:attr:`ModalSystem.drive_power`, :func:`forcing`), ``p = 2`` being the displacement drive.
 
 * The paper's SDOF (Eqs. 43-47; :class:`vibeam.models.sdof.SDOF`) is the one-mode case
   ``omega = 1``, ``c = 2 beta``, ``Gamma = s = W = 1``: :func:`from_sdof`.
@@ -59,17 +61,28 @@ from numba import njit
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["ModalSystem", "modal_system", "from_sdof", "from_beam", "from_matrices", "modal_flow",
+__all__ = ["ModalSystem", "modal_system", "from_sdof", "from_beam", "from_matrices", "modal_flow", "forcing",
+           "DRIVE_POWERS", "drive_force", "drive_slope", "drive_displacement", "drive_velocity_slope",
            "modal_transition", "damping_ratios", "lowest_modes", "mode_table", "particular",
            "transition_increment", "increment_of", "transition_entries", "advance_modes", "advance_count"]
 
 
-class ModalSystem(NamedTuple):
-    """A base-excited linear system in ``n`` decoupled modal coordinates (plain data).
+#: the drive exponents ``p`` of ``F(Omega) = Omega^p A`` (:attr:`ModalSystem.drive_power`): 2, a base
+#: displacement; 0, a base acceleration or a force of fixed amplitude
+DRIVE_POWERS = (0, 2)
 
-    ``eta_i'' + damping_i eta_i' + omega_i^2 eta_i = participation_i Omega^2 base_amplitude
-    sin(Omega t)``; a ``typing.NamedTuple`` of float64 arrays and floats, so numba kernels take it
-    as an argument (no methods, no behaviour).
+
+class ModalSystem(NamedTuple):
+    """A harmonically driven linear system in ``n`` decoupled modal coordinates (plain data).
+
+    ``eta_i'' + damping_i eta_i' + omega_i^2 eta_i = participation_i Omega^p base_amplitude
+    sin(Omega t)`` with ``p = drive_power``: the forcing vector ``f = participation`` times the
+    forcing amplitude ``F(Omega) = Omega^p A`` (:func:`forcing`), ``A = base_amplitude``.  As built
+    (:func:`from_sdof`, :func:`from_beam`, :func:`from_matrices`) the drive is the paper's base
+    displacement, ``f = Gamma``, ``A = B``, ``p = 2``; :func:`vibeam.models.scene.driven` sets a base
+    acceleration (``f = Gamma``, ``p = 0``) or a point force (``f = W[j]``, ``p = 0``).  A
+    ``typing.NamedTuple`` of float64 arrays and numbers, so numba kernels take it as an argument (no
+    methods, no behaviour).
 
     Attributes
     ----------
@@ -82,7 +95,8 @@ class ModalSystem(NamedTuple):
         ``2 beta``; the beam: ``(alpha + D omega_i^2) / omega_ref`` (Rayleigh, Eq. 39's ``D EI
         U''''`` for ``alpha = 0``) or its per-mode ``modal_damping_1_s / omega_ref``.
     participation : ndarray, shape (n,)
-        Base-excitation participation ``Gamma_i = phi_i^T M r`` (the beam: sqrt(kg); the SDOF: 1).
+        The forcing vector ``f``: for a base drive the base-excitation participation ``Gamma_i =
+        phi_i^T M r`` (the beam: sqrt(kg); the SDOF: 1), for a point force the forced row ``W[j]``.
     sensor : ndarray, shape (n,)
         Sensor row ``s``: the sensor displacement is ``s @ eta`` (row unit; the beam: 1/sqrt(kg),
         giving metres).
@@ -91,9 +105,12 @@ class ModalSystem(NamedTuple):
         A stop's relation references a row by its index ``k``, with its own side and gap.  The
         SDOF and the beam have one (the sensor's coordinate; the attached mass at ``L_m``).
     base_amplitude : float
-        ``B``: base displacement amplitude in the row unit (the SDOF: ``B = gamma V``, Eq. 43;
-        the beam: ``Y = gamma~ V`` in metres, Eq. 38).  The forcing of mode ``i`` is
-        ``Gamma_i Omega^2 B sin(Omega t)``.
+        The drive's amplitude ``A`` in system units.  A base displacement (``p = 2``): ``B`` in the
+        row unit (the SDOF: ``B = gamma V``, Eq. 43; the beam: ``Y = gamma~ V`` in metres, Eq. 38),
+        the forcing of mode ``i`` ``Gamma_i Omega^2 B sin(Omega t)``.  With ``p = 0`` the forcing
+        is ``f_i A sin(Omega t)`` (a base acceleration ``a``: ``A = a time_unit_s^2 / row unit``;
+        a force ``F0``: ``A = F0 time_unit_s^2 / (mass_unit_kg row unit)``, the row unit being
+        ``length_unit_m / coordinate_scale`` metres; :func:`vibeam.models.scene.driven`).
     time_unit_s : float
         Seconds per unit of ``t``: ``1 / (2 pi f_ref)`` (the SDOF: ``f_n``; the beam: ``f_ref``);
         NaN for a nondimensional scene.
@@ -109,6 +126,10 @@ class ModalSystem(NamedTuple):
         Kilograms per unit of the effective mass ``m_eff = 1 / |W[k]|^2`` at a contact (the beam:
         1, its rows are 1/sqrt(kg); the SDOF: its ``mass_kg``, NaN without it).  Forces in newtons
         are ``m_eff mass_unit_kg length_unit_m / time_unit_s^2`` per unit nondimensional force.
+    drive_power : int
+        ``p`` in :data:`DRIVE_POWERS`: the forcing amplitude is ``Omega^p A`` (default 2, the base
+        displacement drive).  Its equivalent base displacement at ``Omega`` is ``Omega^(p - 2) A``
+        (:func:`drive_displacement`), the base-velocity amplitude ``Omega^(p - 1) A``.
     """
 
     omega: np.ndarray
@@ -121,6 +142,7 @@ class ModalSystem(NamedTuple):
     length_unit_m: float
     coordinate_scale: float
     mass_unit_kg: float
+    drive_power: int = 2
 
 
 def _vec(x, n, name):
@@ -131,7 +153,8 @@ def _vec(x, n, name):
 
 
 def modal_system(omega, damping, participation, sensor, contacts, base_amplitude, time_unit_s=math.nan,
-                 length_unit_m=math.nan, coordinate_scale=1.0, mass_unit_kg=math.nan) -> ModalSystem:
+                 length_unit_m=math.nan, coordinate_scale=1.0, mass_unit_kg=math.nan,
+                 drive_power=2) -> ModalSystem:
     """A :class:`ModalSystem` from modal data, checked, its arrays contiguous float64.
 
     Parameters
@@ -145,6 +168,9 @@ def modal_system(omega, damping, participation, sensor, contacts, base_amplitude
     time_unit_s, length_unit_m, coordinate_scale, mass_unit_kg : float, optional
         The scales (:class:`ModalSystem`); NaN: a nondimensional scene; ``coordinate_scale``
         defaults to 1 (the rows give ``q``).
+    drive_power : int, optional
+        ``p`` of the forcing amplitude ``Omega^p A`` (:data:`DRIVE_POWERS`; default 2, a base
+        displacement ``A = B``).
 
     Returns
     -------
@@ -153,8 +179,9 @@ def modal_system(omega, damping, participation, sensor, contacts, base_amplitude
     Raises
     ------
     ValueError
-        On no mode, shapes that do not match, negative or non-finite frequencies or damping, or a
-        ``coordinate_scale`` that is not positive and finite.
+        On no mode, shapes that do not match, negative or non-finite frequencies or damping, a
+        ``coordinate_scale`` that is not positive and finite, or a ``drive_power`` not in
+        :data:`DRIVE_POWERS`.
     """
     om = np.array(omega, dtype=float, order="C").reshape(-1)
     n = om.size
@@ -170,9 +197,11 @@ def modal_system(omega, damping, participation, sensor, contacts, base_amplitude
         raise ValueError("modal damping coefficients must be finite and >= 0")
     if not (coordinate_scale > 0 and math.isfinite(coordinate_scale)):
         raise ValueError(f"coordinate_scale must be positive and finite, got {coordinate_scale!r}")
+    if drive_power not in DRIVE_POWERS:
+        raise ValueError(f"drive_power = {drive_power!r}; allowed: {' or '.join(map(str, DRIVE_POWERS))}")
     return ModalSystem(om, c, _vec(participation, n, "participation"), _vec(sensor, n, "sensor"), W,
                        float(base_amplitude), float(time_unit_s), float(length_unit_m),
-                       float(coordinate_scale), float(mass_unit_kg))
+                       float(coordinate_scale), float(mass_unit_kg), int(drive_power))
 
 
 def damping_ratios(system: ModalSystem) -> np.ndarray:
@@ -436,6 +465,65 @@ def mode_table(c, k):
     return out
 
 
+# ============================================================================ the drive
+# F(Omega) = Omega^p A, p in DRIVE_POWERS: one branch per call (per frequency or contact phase, never per
+# step); p = 2 is the expressions of the base-displacement drive bit for bit (``Om * Om * B``,
+# ``2 Om B dOm + Om^2 dB``, the floor's ``Om B``)
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def drive_force(p, A, Om):
+    """The forcing amplitude ``F = Omega^p A`` (the forcing of mode ``i`` is ``f_i F sin(Omega t)``)."""
+    if p == 2:
+        return Om * Om * A
+    return A
+
+
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def drive_slope(p, A, Om, dOm, dA):
+    """``dF = p Omega^(p-1) A dOmega + Omega^p dA``: the forcing amplitude's change along a
+    direction that moves ``Omega`` by ``dOm`` and ``A`` by ``dA``."""
+    if p == 2:
+        return 2.0 * Om * A * dOm + Om * Om * dA
+    return dA
+
+
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def drive_displacement(p, A, Om):
+    """The equivalent base-displacement amplitude ``B_eq = Omega^(p-2) A`` (``Omega^2 B_eq = F``);
+    ``Omega B_eq = Omega^(p-1) A`` is the base-velocity amplitude (the compliant stops' entry
+    velocity floor, :func:`vibeam.models.core.laws.hertz_floor`)."""
+    if p == 2:
+        return A
+    return A / (Om * Om)
+
+
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def drive_velocity_slope(p, A, Om, dOm, dA):
+    """``dv / v = (p - 1) dOmega / Omega + dA / A``: the relative change of the base-velocity
+    amplitude ``v = Omega^(p-1) A`` along ``(dOm, dA)`` (``A != 0``)."""
+    if p == 2:
+        return dOm / Om + dA / A
+    return dA / A - dOm / Om
+
+
+def forcing(system: ModalSystem, Omega) -> float:
+    """The forcing amplitude ``F(Omega) = Omega^p A`` of ``system`` (``p = drive_power``, ``A =
+    base_amplitude``): mode ``i`` is forced by ``participation_i F sin(Omega t)``.
+
+    Parameters
+    ----------
+    system : ModalSystem
+    Omega : float
+        Forcing frequency (per unit nondimensional time).
+
+    Returns
+    -------
+    float
+        ``Omega^2 B`` for the base-displacement drive (bit for bit the kernels' ``Om * Om * B``),
+        ``A`` for ``p = 0`` (system units: the kernels' ``F``).
+    """
+    return drive_force.py_func(int(system.drive_power), float(system.base_amplitude), float(Omega))
+
+
 def particular(c, k, G, F, Omega):
     """Steady response ``a sin + b cos`` of ``x'' + c x' + k x = G F sin(Omega t)``.
 
@@ -444,7 +532,7 @@ def particular(c, k, G, F, Omega):
     c, k, G : array_like, shape (n,)
         Damping coefficients, stiffnesses, participation factors.
     F : float
-        Forcing amplitude (``Omega^2 B`` for base excitation).
+        Forcing amplitude (``Omega^2 B`` for base excitation; in general :func:`forcing`).
     Omega : float
         Forcing frequency.
 
@@ -625,7 +713,7 @@ def modal_flow(system: ModalSystem, t0, t1, eta, etad, Omega=0.0):
     zd = _vec(etad, n, "etad")
     Om = float(Omega)
     k = system.omega ** 2
-    F = Om ** 2 * system.base_amplitude
+    F = forcing(system, Om)
     if F != 0.0:
         bad = (k - Om ** 2 == 0.0) & (system.damping * Om == 0.0) & (system.participation != 0.0)
         if np.any(bad):

@@ -65,6 +65,7 @@ import numpy as np
 
 from ..contact import LAW_HYSTERETIC_HERTZ, LAW_LINEAR
 from ..impact import newton_restitution
+from ..system import drive_displacement, drive_force
 from ..trajectory import Trajectory
 from .event import EventIntegrator
 from . import laws
@@ -94,6 +95,8 @@ _partials = laws.force_partials.py_func
 _inside_sign = laws.inside_sign.py_func
 _scales = laws.contact_scales.py_func
 _floor = laws.hertz_floor.py_func
+_drive_force = drive_force.py_func
+_drive_displacement = drive_displacement.py_func
 
 # terminal event kinds
 RELEASE, EXIT, EXIT_DAMPING, ENTRY_INSIDE, GAP_DOWN, GAP, TURN = range(7)
@@ -354,7 +357,7 @@ class _Run:
         self.Om = Om = float(Omega)
         self.sc = sc = di.sc
         self.T = T = TWO_PI / Om
-        self.F = Om * Om * self.sy.B
+        self.F = _drive_force(self.sy.p, self.sy.B, Om)
         self.Nrm = st.normal
         self.D = st.offset / sc
         self.law = [int(c) for c in st.law]
@@ -363,7 +366,8 @@ class _Run:
         self.cmask = sum(1 << k for k in range(self.ns) if self.comp[k])
         cp = core.compliant
         vfall, vfac = (cp.vfall, cp.vfac) if cp is not None else (0.0, 0.0)
-        self.vfl = [_floor(Om, float(self.sy.B), float(st.normal[k] @ self.sy.gam), vfall, vfac) if self.comp[k] else 0.0
+        Beq = _drive_displacement(self.sy.p, float(self.sy.B), Om)
+        self.vfl = [_floor(Om, Beq, float(st.normal[k] @ self.sy.gam), vfall, vfac) if self.comp[k] else 0.0
                     for k in range(self.ns)]
         self.vr = [0.0] * self.ns
         self.inside = self.relaxed = 0

@@ -82,7 +82,7 @@ from ..contact_policy import (BURST_DT, CHATTER, CHATTER_GUARD, REBOUND, STICK, 
                               release_now, zeno_burst)
 from ..contact import LAW_LINEAR
 from ..impact import newton_restitution
-from ..system import advance_count, increment_of, transition_increment
+from ..system import advance_count, drive_displacement, drive_force, increment_of, transition_increment
 from .contact_phase import (EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_NONE, EK_RELEASE, linear_step,
                             phase_harmonics, rk_phase_step, rk_scales)
 from .laws import force, hertz_floor, inside_sign, is_compliant, newton_coefficient
@@ -660,7 +660,7 @@ def _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
     T = TWO_PI / Om
-    F = Om * Om * sy.B
+    F = drive_force(sy.p, sy.B, Om)
     mp = sy.mp
     nt_t = ns_transient * sub_t
     nt_r = ns_record * sub_r
@@ -811,7 +811,7 @@ def _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec):
     state as given, before any projection) and the stops the body starts inside of."""
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
-    F = Om * Om * sy.B
+    F = drive_force(sy.p, sy.B, Om)
     cp = cw.cp
     # ---- compliant stops (a contact phase each; vibeam.models.core.contact_phase): the set in
     # contact C, the stops the body is inside of without contact, those left by a hysteretic-Hertz
@@ -840,7 +840,8 @@ def _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec):
     for k in range(ns):
         if is_compliant(st.law[k]):
             cmask |= 1 << k
-            vfl[k] = hertz_floor(Om, sy.B, _dot(st.normal[k], sy.gam), cp.vfall, cp.vfac)
+            vfl[k] = hertz_floor(Om, drive_displacement(sy.p, sy.B, Om), _dot(st.normal[k], sy.gam), cp.vfall,
+                                  cp.vfac)
     rkc = cw.rkc
     rkc[:] = 0.0
     con = rec.con
@@ -1241,7 +1242,7 @@ def _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T, r
     pext = fs[_PEXT:_PEXT1 + 1]
     g = wk[_G]
     v = wk[_V]
-    F = Om * Om * sy.B
+    F = drive_force(sy.p, sy.B, Om)
     ist[_FRESH] = 1
     ist[_ATGRID] = 0
     qq = lph.index[H, C]

@@ -32,8 +32,8 @@ from ..impact import restitution_coefficient
 __all__ = ["newton_coefficient", "force", "force_partials", "inside_sign", "is_compliant", "V_FLOOR", "RTOL", "ATOL", "contact_scales"]
 
 #: a hysteretic-Hertz contact entered below ``V_FLOOR`` times the base-velocity amplitude along the
-#: stop's normal (``Omega B |n^T Gamma|``) takes that floor as its ``v_in`` (the law's damping
-#: ``chi / v_in`` is undefined at rest)
+#: stop's normal (``Omega B |n^T Gamma|``; ``Omega^(p-1) A |n^T f|`` for any drive) takes that floor
+#: as its ``v_in`` (the law's damping ``chi / v_in`` is undefined at rest)
 V_FLOOR = 1e-2
 #: the Runge-Kutta contact phase: relative tolerance, and the absolute ones as fractions of the
 #: isolated contact's penetration and of its entry velocity
@@ -127,6 +127,8 @@ def contact_scales(code, kc, pe, nn, vr):
 def hertz_floor(Om, B, gn, fallback, factor):
     """``v_in`` floor of a hysteretic-Hertz stop: ``factor Omega B |n^T Gamma|`` (``gn``; ``factor``
     is :data:`V_FLOOR` as read when the scene's kernel data were built), or ``fallback`` without
-    forcing."""
+    forcing.  ``B`` is the drive's equivalent base displacement ``Omega^(p-2) A``
+    (:func:`vibeam.models.system.drive_displacement`), so ``Omega B = Omega^(p-1) A`` is the
+    base-velocity amplitude of any drive."""
     v = factor * Om * B * abs(gn)
     return v if v > 0.0 else fallback

@@ -54,7 +54,8 @@ from ..compliant import R_MIN_LINEAR, damping_ratio_for_restitution
 from ..contact import LAW_LINEAR
 from ..continuation_kernels import SMALL_SPECTRUM, bordered_tangent, corrector_step, floquet_spectrum_small
 from ..periodic import Shot
-from ..system import advance_count, advance_state, transition_entries
+from ..system import (advance_count, advance_state, drive_displacement, drive_force, drive_slope,
+                      drive_velocity_slope, transition_entries)
 from . import ahead
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
@@ -538,10 +539,10 @@ def tangent(sy, st, hs, cp, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end
     P = dd.dOm.shape[0]
     ncol = 2 * n + P
     ip0 = 2 * n
-    F = Om * Om * sy.B
+    F = drive_force(sy.p, sy.B, Om)
     (dF, aF, bF, daF, dbF, aC, bC, daC, dbC, dcC, Z, Zd, eta, etad, a0, a1, cd, hrow, lrow, vr, dvr) = tw
     for p in range(P):
-        dF[p] = 2.0 * Om * sy.B * dd.dOm[p] + Om * Om * dd.dB[p]
+        dF[p] = drive_slope(sy.p, sy.B, Om, dd.dOm[p], dd.dB[p])
     _particular_d(sy.c, sy.k, sy.gam, F, Om, dF, dd.dOm, dd.dc, aF, bF, daF, dbF, n)
     aC[:] = 0.0
     bC[:] = 0.0
@@ -599,10 +600,10 @@ def tangent(sy, st, hs, cp, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end
                 gn = 0.0
                 for i in range(n):
                     gn += st.normal[k, i] * sy.gam[i]
-                vfl[k] = hertz_floor(Om, sy.B, gn, cp.vfall, cp.vfac)
+                vfl[k] = hertz_floor(Om, drive_displacement(sy.p, sy.B, Om), gn, cp.vfall, cp.vfac)
                 if Om * sy.B > 0.0:
                     for p in range(P):
-                        dfl[k, p] = vfl[k] * (dd.dOm[p] / Om + dd.dB[p] / sy.B)
+                        dfl[k, p] = vfl[k] * drive_velocity_slope(sy.p, sy.B, Om, dd.dOm[p], dd.dB[p])
         C = held0 & cmask
         for k in range(ns):
             if (C >> k) & 1:

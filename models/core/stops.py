@@ -12,11 +12,13 @@ in ``eta = eta_c + Psi zeta``, ``Psi`` an orthonormal basis of the null space of
 ``W_H`` diagonalising ``Psi^T K Psi = diag(nu^2)``, ``eta_c = W_H^T (W_H W_H^T)^-1 D_H`` the
 nearest point of the constraint.  Each ``zeta_j`` is again a damped forced oscillator::
 
-    zeta_j'' + c_j zeta_j' + nu_j^2 (zeta_j - e_j) = (Psi^T Gamma)_j Omega^2 B sin(Omega t)
+    zeta_j'' + c_j zeta_j' + nu_j^2 (zeta_j - e_j) = (Psi^T Gamma)_j F sin(Omega t)
 
-with ``e = -(Psi^T K eta_c) / nu^2`` and the constrained damping ``c = diag(Psi^T C Psi)`` (exact
-for Rayleigh damping ``C = alpha + D K``, where ``Psi^T C Psi`` is diagonal; the off-diagonal
-remainder of other modal damping is dropped, and returned by :func:`held_sets` as ``mismatch``).
+(``Gamma`` the forcing vector, ``F = Omega^p A`` the drive's amplitude:
+:func:`vibeam.models.system.drive_force`) with ``e = -(Psi^T K eta_c) / nu^2`` and the constrained
+damping ``c = diag(Psi^T C Psi)`` (exact for Rayleigh damping ``C = alpha + D K``, where ``Psi^T
+C Psi`` is diagonal; the off-diagonal remainder of other modal damping is dropped, and returned by
+:func:`held_sets` as ``mismatch``).
 The constraint forces are ``lambda_H = -(W_H W_H^T)^-1 W_H a_free`` with the free acceleration
 ``a_free = Gamma F sin - C eta' - K eta``; the stops push (hold) while ``lambda_k <= 0`` and
 release stop ``k`` when ``lambda_k`` turns positive (:mod:`vibeam.models.contact_policy`).  An
@@ -44,7 +46,7 @@ import numpy as np
 import scipy.linalg
 
 from ..contact import LAW, LAW_LINEAR, NODES, OFFSET, R as RCOL, pack
-from ..system import ModalSystem, mode_table
+from ..system import DRIVE_POWERS, ModalSystem, mode_table
 
 __all__ = ["KernelSystem", "KernelStops", "HeldSets", "kernel_system", "kernel_stops", "held_sets",
            "MAX_STOPS", "held_code", "held_mask"]
@@ -63,7 +65,11 @@ class KernelSystem(NamedTuple):
     c, k, gam, sensor : ndarray, shape (n,)
         Damping coefficients, stiffnesses ``omega_i^2``, participation, sensor row.
     B : float
-        Base displacement amplitude (row unit); the forcing is ``gam Omega^2 B sin(Omega t)``.
+        The drive's amplitude ``A`` (system units; a base displacement's ``B`` in the row unit).
+    p : int
+        The drive exponent (:data:`vibeam.models.system.DRIVE_POWERS`): the forcing is ``gam
+        Omega^p B sin(Omega t)`` (:func:`vibeam.models.system.drive_force`), ``p = 2`` the base
+        displacement drive.
     """
 
     mp: np.ndarray
@@ -72,6 +78,7 @@ class KernelSystem(NamedTuple):
     gam: np.ndarray
     sensor: np.ndarray
     B: float
+    p: int
 
 
 class KernelStops(NamedTuple):
@@ -137,7 +144,7 @@ class HeldSets(NamedTuple):
     pL, rL : ndarray, shape (S, n_s, n)
         Weights of ``zeta`` and ``zeta'`` in the constraint force ``lambda_k`` of each held stop.
     cL, lamF : ndarray, shape (S, n_s)
-        Its constant (``e`` included) and the coefficient of ``Omega^2 B sin(Omega t)``.
+        Its constant (``e`` included) and the coefficient of ``F sin(Omega t)`` (``F = Omega^p B``).
     pG : ndarray, shape (S, n_s, n)
         Weights of ``zeta`` in the gap of each stop (``Psi^T n_j``).
     cG : ndarray, shape (S, n_s)
@@ -189,11 +196,21 @@ class HeldSets(NamedTuple):
 
 
 def kernel_system(system: ModalSystem) -> KernelSystem:
-    """The kernels' view of a :class:`~vibeam.models.system.ModalSystem`."""
+    """The kernels' view of a :class:`~vibeam.models.system.ModalSystem` (its forcing vector,
+    amplitude and drive exponent as ``gam``, ``B``, ``p``).
+
+    Raises
+    ------
+    ValueError
+        On a ``drive_power`` not in :data:`vibeam.models.system.DRIVE_POWERS`.
+    """
+    p = int(system.drive_power)
+    if p not in DRIVE_POWERS:
+        raise ValueError(f"drive_power = {system.drive_power!r}; allowed: {' or '.join(map(str, DRIVE_POWERS))}")
     k = np.ascontiguousarray(system.omega ** 2)
     c = np.ascontiguousarray(system.damping, dtype=float)
     return KernelSystem(mode_table(c, k), c, k, np.ascontiguousarray(system.participation, dtype=float),
-                        np.ascontiguousarray(system.sensor, dtype=float), float(system.base_amplitude))
+                        np.ascontiguousarray(system.sensor, dtype=float), float(system.base_amplitude), p)
 
 
 def _rows(system: ModalSystem, stops) -> np.ndarray:

@@ -62,7 +62,7 @@ import scipy.linalg
 import scipy.optimize
 
 from ..core.stops import kernel_stops
-from ..system import modal_flow, modal_transition
+from ..system import forcing, modal_flow, modal_transition
 from .newton import damped_newton
 from .phases import TWO_PI
 from .solver import contact_means, failed_outputs
@@ -125,7 +125,7 @@ class ModalMap:
         self.t_max = (n + 1) * self.T
         self.N = N = system.omega.size
         self.k, self.c = system.omega ** 2, system.damping
-        self.g = system.participation * self.Omega ** 2 * system.base_amplitude
+        self.g = system.participation * forcing(system, self.Omega)
         ks = kernel_stops(system, stops)
         self.normal = list(ks.normal)
         self.offset = [float(d) for d in ks.offset]
