@@ -48,8 +48,8 @@ from .contact import Relation, Restitution, Stop
 from .core.direct import DirectIntegrator
 from .core.event import EventIntegrator, fundamental_step, trajectory
 from .impact import newton_restitution, restitution_at, restitution_impulse
-from .scene import Scene, beam_scene
-from .system import advance_modes, mode_table, particular, transition_increment
+from .scene import Excitation, Scene, beam_scene, driven
+from .system import advance_modes, forcing, mode_table, particular, transition_increment
 
 TWO_PI = 2.0 * math.pi
 
@@ -391,10 +391,27 @@ class BeamImpactModel:
             Stop(Relation(ps.sign, ps.gap_contact_m, row=1 + i), ps.law, ps.label)
             for i, (ps, _) in enumerate(self.point_stops))
 
+    #: the drive when it is not the base displacement ``base_amplitude_m``
+    #: (:class:`vibeam.models.scene.Excitation`, SI; a force acts along :attr:`drive_row`)
+    excitation = None
+    #: the modal row (N,) of a force's point (1/sqrt(kg))
+    drive_row = None
+
     def scene(self) -> Scene:
         """The beam as a scene: its modal system and :meth:`system_stops`
-        (:func:`vibeam.models.scene.beam_scene`)."""
-        return beam_scene(self)
+        (:func:`vibeam.models.scene.beam_scene`), driven by :attr:`excitation` when one is set
+        (:func:`vibeam.models.scene.driven`: a base acceleration, or a force along :attr:`drive_row`)."""
+        sc = beam_scene(self)
+        ex = self.excitation
+        if ex is None:
+            return sc
+        sy = sc.system
+        if ex.kind != "force":
+            return Scene(driven(sy, ex), sc.stops)
+        n_c = sy.contacts.shape[0]
+        with_row = sy._replace(contacts=np.vstack([sy.contacts, np.asarray(self.drive_row, float)[None, :]]))
+        return Scene(driven(with_row, Excitation("force", ex.amplitude, n_c))._replace(contacts=sy.contacts),
+                     sc.stops)
 
     def system_stops(self) -> tuple:
         """:meth:`stops` in the units of the modal system (:func:`vibeam.models.system.from_beam`): a
@@ -533,6 +550,10 @@ class BeamImpactModel:
 
     def linear_sensor_amplitude_m(self, Omega):
         """Steady-state sensor amplitude without the stop (m), from the modal sum."""
+        if self.excitation is not None:      # the driven system's forcing F(Omega) = Omega^p A
+            sy = self.scene().system
+            H = sy.participation * forcing(sy, Omega) / (sy.omega ** 2 - Omega ** 2 + 1j * Omega * sy.damping)
+            return float(abs(sy.sensor @ H))
         W = Omega * self.omega_ref
         H = self.participation * W**2 * self.base_amplitude_m / (
             self.omega_rad_s**2 - W**2 + 1j * W * self.c_phys)

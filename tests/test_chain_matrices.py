@@ -44,13 +44,14 @@ def _physical():
     return M, K, C
 
 
-def _orbit(x0, v0, f_hz, periods, Y=0.05e-3, gap=0.5e-3, R=0.8):
+def _orbit(x0, v0, f_hz, periods, Y=0.05e-3, gap=0.5e-3, R=0.8, load=None):
     """The physical chain's motion from (x0, v0) over ``periods`` forcing periods: the state at
-    each period's end and the lowest/highest x_3 of the last period."""
+    each period's end and the lowest/highest x_3 of the last period.  ``load``: the amplitude (N)
+    of the force ``load sin(W t)`` on the masses (default the base displacement's ``M 1 W^2 Y``)."""
     M, K, C = _physical()
     Minv = np.linalg.inv(M)
     W = TWO_PI * f_hz
-    load = M @ np.ones(3) * W * W * Y
+    load = M @ np.ones(3) * W * W * Y if load is None else np.asarray(load, float)
 
     def rhs(t, y):
         x, v = y[:3], y[3:]
@@ -209,3 +210,56 @@ def test_continuation_multipliers_equal_finite_differences_of_the_physical_perio
     assert fd_big.size == an_big.size
     dist = max(np.min(np.abs(an_big - z)) for z in fd_big)
     assert dist < 1e-4, (np.sort_complex(fd_big), np.sort_complex(an_big))
+
+
+def _drive(kind, **amp):
+    text = CASE.read_text().replace('kind = "base_displacement"\namplitude_mm = 0.05', f'kind = "{kind}"\n' + "".join(
+        f"{k} = {v!r}\n" for k, v in amp.items()))
+    return parse_case(text.replace('"chain-3dof/', f'"{ROOT}/cases/chain-3dof/')).model_spec().build()
+
+
+def test_a_base_acceleration_of_omega_squared_y_is_the_displacement_drive_at_that_frequency():
+    """``[model.excitation] kind = "base_acceleration"``, ``a = (2 pi f)^2 Y``: at that frequency the
+    forcing is the displacement drive's (the same double up to the rounding of a and A), so the
+    event integrator's orbit is the same to round-off (1e-12 of the gap); at another frequency it
+    differs (the acceleration is held, the displacement's forcing grows as f^2)."""
+    f = 7.1
+    a = (TWO_PI * f) ** 2 * 0.05e-3
+    acc = _drive("base_acceleration", amplitude_m_s2=a)
+    disp = load_case(CASE)[0].model_spec().build()
+    for W, same in ((f / disp.f_ref_hz, True), (6.0 / disp.f_ref_hz, False)):
+        ta = make_solver(acc, "event").point(W, None, 300, 4, 64)
+        td = make_solver(disp, "event").point(W, None, 300, 4, 64)
+        diff = np.max(np.abs(ta.samples - td.samples))
+        assert (diff < 1e-12 * 0.5) == same, diff
+    lin = acc.linear_sensor_amplitude_m(6.0 / acc.f_ref_hz)
+    M, K, C = _physical()
+    w = TWO_PI * 6.0
+    exact = np.linalg.solve(K - w * w * M + 1j * w * C, M @ np.ones(3) * a)[2]
+    assert abs(lin - abs(exact)) < 1e-12 * abs(exact)
+
+
+def test_a_point_force_orbit_equals_the_independent_physical_integration():
+    """``kind = "force"``, 1.5 N on m2 (``at = "m2"``): the settled impacting orbit of the event
+    integrator is a fixed point of the physical integration with the force ``e_2 F0 sin(W t)``
+    and Newton's law on mass 3, to 1e-9 of the gap (as the base drive's test)."""
+    m = _drive("force", amplitude_n=1.5, at="m2")
+    mm = load_case(CASE)[0].model_spec().matrix_model()
+    f_hz = 7.1
+    tr = make_solver(m, "event").point(f_hz / m.f_ref_hz, None, 600, 8, 64)
+    assert tr.status == "ok" and tr.n_impacts >= 8
+    N = m.n_modes
+    x0 = mm.shapes @ tr.final_state[:N]
+    v0 = mm.shapes @ tr.final_state[N:2 * N] * (TWO_PI * m.f_ref_hz)
+    ends, lo, hi = _orbit(x0, v0, f_hz, 1, load=[0.0, 1.5, 0.0])
+    assert np.max(np.abs(ends[-1][:3] - x0)) < 1e-9 * 0.5e-3
+    assert np.max(np.abs(ends[-1][3:] - v0)) < 1e-9 * 0.5e-3 * TWO_PI * f_hz
+    assert abs(hi - 0.5e-3) < 1e-12
+
+
+def test_bad_excitations_are_refused_in_one_line():
+    for kind, amp, msg in (("force", {"amplitude_n": 1.0}, "at"), ("force", {"amplitude_n": 1.0, "at": "m9"}, "m9"),
+                           ("base_acceleration", {"amplitude_mm": 1.0}, "amplitude_m_s2")):
+        with pytest.raises(CaseError) as e:
+            _drive(kind, **amp)
+        assert msg in str(e.value) and "\n" not in str(e.value), str(e.value)

@@ -257,8 +257,12 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "f_ref_hz": ("Hz", "reference frequency of Omega = f / f_ref (default: the first kept mode's)"),
     },
     "[model.excitation]": {
-        "kind": ("", "\"base_displacement\": the base moves as Y sin(2 pi f t)"),
-        "amplitude_mm": ("mm", "Y, the base's displacement amplitude"),
+        "kind": ("", "\"base_displacement\" (Y sin 2 pi f t, the paper's shaker), \"base_acceleration\" (a held "
+                 "at every frequency) or \"force\" (F0 sin 2 pi f t at the DOF at)"),
+        "amplitude_mm": ("mm", "Y, the base's displacement amplitude (base_displacement)"),
+        "amplitude_m_s2": ("m/s^2", "a, the base's acceleration amplitude (base_acceleration)"),
+        "amplitude_n": ("N", "F0, the force's amplitude (force)"),
+        "at": ("", "the DOF the force acts on, along it (force)"),
     },
     "[sweep]": {
         "Omega": ("1", "frequency grid [start, stop, number of points] in Omega = f / f_n"),

@@ -795,11 +795,39 @@ class StructureStopSpec(StopSpec):
 
 
 class ExcitationSpec(_Strict):
-    """``[model.excitation]``: the harmonic drive.  ``kind = "base_displacement"`` with
-    ``amplitude_mm`` (the base's displacement amplitude ``Y``, mm)."""
+    """``[model.excitation]``: the harmonic drive at the sweep's frequency ``f``.
+    ``kind = "base_displacement"`` with ``amplitude_mm`` (the base moves as ``Y sin(2 pi f t)``:
+    the forcing grows as ``f^2``, the paper's shaker); ``"base_acceleration"`` with
+    ``amplitude_m_s2`` (``b'' = -a sin(2 pi f t)``, a fixed amplitude at every frequency, what a
+    shaker controller holds); ``"force"`` with ``amplitude_n`` at the DOF ``at`` (``F0 sin(2 pi f t)``
+    along the DOF) (:func:`vibeam.models.scene.driven`)."""
 
-    kind: Literal["base_displacement"] = "base_displacement"
-    amplitude_mm: Annotated[float, Field(ge=0.0)]
+    kind: Literal["base_displacement", "base_acceleration", "force"] = "base_displacement"
+    amplitude_mm: Annotated[float, Field(ge=0.0)] | None = None
+    amplitude_m_s2: Annotated[float, Field(ge=0.0)] | None = None
+    amplitude_n: Annotated[float, Field(ge=0.0)] | None = None
+    at: str | None = None
+
+    #: the amplitude key of each kind
+    AMPLITUDE_KEYS: ClassVar[dict] = {"base_displacement": "amplitude_mm", "base_acceleration": "amplitude_m_s2",
+                                      "force": "amplitude_n"}
+
+    @model_validator(mode="after")
+    def _one_amplitude(self):
+        key = self.AMPLITUDE_KEYS[self.kind]
+        given = [k for k in self.AMPLITUDE_KEYS.values() if getattr(self, k) is not None]
+        if given != [key]:
+            raise ValueError(f"kind = \"{self.kind}\" takes its amplitude as {key} (and no other amplitude); got "
+                             f"{', '.join(given) or 'none'}")
+        if (self.kind == "force") != (self.at is not None):
+            raise ValueError("at = \"<DOF>\" names a force's point; allowed: at with kind = \"force\" only (and "
+                             "always with it)")
+        return self
+
+    @property
+    def base_amplitude_m(self) -> float:
+        """The base displacement amplitude ``Y`` (m); 0 for the other kinds."""
+        return self.amplitude_mm * 1e-3 if self.kind == "base_displacement" else 0.0
 
 
 @register_model_spec("matrices")
@@ -948,6 +976,8 @@ class MatricesModelSpec(_StopsSpec):
                 except ValueError as e:
                     raise CaseError(f"'{prefix}.stop[{j}]': {e}") from None
         check_gap(self.excitation.amplitude_mm, f"'{prefix}.excitation.amplitude_mm'", L)
+        for k in ("amplitude_m_s2", "amplitude_n"):
+            check_scale(getattr(self.excitation, k) or 0.0, f"'{prefix}.excitation.{k}'")
 
     def result_attrs(self) -> dict:
         """The structure's kept frequencies (Hz) and damping ratios, stored with its results."""

@@ -21,6 +21,7 @@ from vibeam.models.beam_dynamics import CompliantBeamModel, PointStop
 from vibeam.models.builders.continuum import Material, RigGeometry, build_rig, write_modes
 from vibeam.models.builders.matrices import MatrixModel, build_matrices
 from vibeam.models.contact import Restitution
+from vibeam.models.scene import Excitation
 from vibeam.models.registry import fidelity, is_compliant, resolve
 
 __all__ = ["arrays", "matrix_model", "impact_model", "rig_geometry", "continuum_model", "modes_report"]
@@ -70,7 +71,7 @@ def matrix_model(spec) -> MatrixModel:
     return build_matrices(a["M"], a["K"], C=a["C"], damping_ratios=sy.damping_ratios if a["C"] is None else None,
                           r=a["r"], Mr=a["Mr"], dofs=a["dofs"], sensor=sy.sensor,
                           contacts=[_at(spec, spec.stop[0]), *others], n_modes=sy.n_modes,
-                          base_amplitude_m=spec.excitation.amplitude_mm * 1e-3, f_ref_hz=sy.f_ref_hz,
+                          base_amplitude_m=spec.excitation.base_amplitude_m, f_ref_hz=sy.f_ref_hz,
                           length_m=sy.length_mm * 1e-3)
 
 
@@ -104,7 +105,7 @@ def impact_model(spec):
                          label=f"{st.side} at {_at(spec, st)}"), 1 + j)
               for j, st in enumerate(spec.stop[first_point:])]
     m = impact_class.from_matrix_model(mm, R=up.R, gap_contact_m=gap_m(up, 0),
-                                       base_amplitude_m=spec.excitation.amplitude_mm * 1e-3,
+                                       base_amplitude_m=spec.excitation.base_amplitude_m,
                                        point_stops=points, **kw)
     law = beam_law(spec.contact, up.R)
     lower = None
@@ -117,6 +118,15 @@ def impact_model(spec):
         m.fidelity = spec.fidelity      # the compliant modal model of this structure
     elif lower is not None:
         m.lower_law = lower
+    ex = spec.excitation
+    if ex.kind != "base_displacement":
+        # a base acceleration or a point force: the model's scene is driven by it
+        # (vibeam.models.scene.driven: F = A at every frequency, p = 0)
+        m.excitation = Excitation(ex.kind, ex.amplitude_m_s2 if ex.kind == "base_acceleration" else ex.amplitude_n)
+        if ex.kind == "force":
+            if ex.at not in mm.dofs:
+                raise ValueError(f"excitation.at = {ex.at!r} names no DOF; allowed: one of {', '.join(mm.dofs[:20])}")
+            m.drive_row = mm.modal_row(ex.at)
     return m
 
 
@@ -170,7 +180,7 @@ def continuum_model(spec, vtu=None, cache=True):
     damping = (dict(damping_ratios=sy.damping_ratios) if sy.rayleigh is None else
                dict(damping_ratios=None, rayleigh=(float(sy.rayleigh[0]), float(sy.rayleigh[1]))))
     return build_rig(rig_geometry(sy), h_m=sy.element_size_mm * 1e-3, nz=sy.layers, n_modes=sy.n_modes,
-                     cache=cache, vtu=vtu, base_amplitude_m=spec.excitation.amplitude_mm * 1e-3, f_ref_hz=sy.f_ref_hz,
+                     cache=cache, vtu=vtu, base_amplitude_m=spec.excitation.base_amplitude_m, f_ref_hz=sy.f_ref_hz,
                      **damping)
 
 
