@@ -270,7 +270,9 @@ def test_map_tables_are_valid_or_one_line_errors(m):
 
 
 @settings(FUZZ, max_examples=60)
-@given(st.sampled_from(sorted(SEED_DATA)), st.data())
+# the shipped cases with a flat numeric [model] key (the canonical tables of a structure, chain-3dof and
+# rig-continuum, have none: their numbers are mapped by path, stops[0].law.R)
+@given(st.sampled_from(sorted(n for n, d in SEED_DATA.items() if _numeric_model_keys(d))), st.data())
 def test_good_maps_are_accepted_and_bad_values_name_map_values(name, draw):
     """A map over a numeric model key: accepted inside the key's range, rejected outside
     with 'map.values' (or the run that overrides the key) in the message."""
