@@ -26,6 +26,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numba
 import numpy as np
 import pytest
 
@@ -116,6 +117,10 @@ def _expected():
 
 
 @LINUX_ONLY
+@pytest.mark.xfail(tuple(int(x) for x in numba.__version__.split(".")[:2]) < (0, 68), strict=False,
+                   reason="numba 0.61.2 (the pinned range's low end, CI's last step, 2026-11-27): a second process "
+                          "forks and compiles again instead of loading the child's cache entries (a wasted compile, "
+                          "not a wrong result); left open")
 def test_the_child_compiles_and_the_parent_only_loads(tmp_path):
     out = _run(tmp_path, "plain")
     assert out["started"] is True

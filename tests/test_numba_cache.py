@@ -13,6 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numba
+import numba.core.caching as caching
 import pytest
 
 import vibeam
@@ -130,6 +132,8 @@ def test_a_numba_with_other_cache_internals_runs_on_its_own_cache_with_one_warni
     With the internal renamed (simulated before vibeam is imported), ``vibeam cases`` works, a
     ``cache=True`` kernel of the package compiles and runs, and stderr has exactly one line, the
     warning naming numba's own cache."""
+    if rename.startswith("del c.") and "." not in rename[len("del c."):] and not hasattr(caching, rename[6:]):
+        pytest.skip(f"numba {numba.__version__} has no caching.{rename[6:]} to remove")   # 0.61 of the pinned range
     pkg = _copy(tmp_path)
     _add_probe(pkg)
     if "_locator_classes" in rename:            # numba's own CacheImpl reads it: keep numba working
