@@ -72,6 +72,8 @@ MODULES = {
     "vibeam/io/store.py": [
         "tests/test_store_units.py",
         "tests/test_store.py",
+        # the successor's compaction (issue 57 item 4): a rerun keeps the file's size
+        "tests/test_files_read_written.py::test_a_successor_holds_only_live_objects",
     ],
     "vibeam/io/h5check.py": [
         "tests/test_store.py",
