@@ -294,17 +294,20 @@ register(Fidelity(
              "continuation": on_the_core("periodic_sdof:SDOFShooting")},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
+#: the methods of the N-mode modal model (beam_dynamics.BeamImpactModel and its subclasses): the event
+#: and direct integrators, the N-mode pointwise mapping (paper Sec. 4.2: Newton and Kelvin-Voigt stops,
+#: exact flows, anywhere, one or two at the mass, mixed ones included) and the shooting problem
+N_MODE_SOLVERS = {"event": on_the_core("beam_dynamics:BeamEventSolver", restitution_law=True, modal_states=True),
+                  "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
+                  "mapping": Method("mapping.modal:ModalMappingSolver",
+                                    {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
+                                    (IMPULSIVE, "kelvin_voigt"), True),
+                  "continuation": on_the_core("periodic_beam:BeamContinuation")}
+
 register(Fidelity(
     name="beam",
     model="beam_dynamics:BeamImpactModel",
-    solvers={"event": on_the_core("beam_dynamics:BeamEventSolver", restitution_law=True, modal_states=True),
-             "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
-             # the pointwise mapping of the N-mode system (paper Sec. 4.2): Newton and Kelvin-Voigt
-             # stops (exact flows) anywhere on the beam, one or two at the mass, mixed ones included
-             "mapping": Method("mapping.modal:ModalMappingSolver",
-                               {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
-                               (IMPULSIVE, "kelvin_voigt"), True),
-             "continuation": on_the_core("periodic_beam:BeamContinuation")},
+    solvers=dict(N_MODE_SOLVERS),
     modes=True,
     contact_modes=True,
     eccentric_contact=True,
@@ -319,12 +322,7 @@ register(Fidelity(
     model="beam_dynamics:MatrixImpactModel",
     # the N-mode modal system of any linear structure given by its matrices (issue 58): the same
     # methods as the beam's modal model (BeamImpactModel.from_matrix_model)
-    solvers={"event": on_the_core("beam_dynamics:BeamEventSolver", restitution_law=True, modal_states=True),
-             "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
-             "mapping": Method("mapping.modal:ModalMappingSolver",
-                               {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
-                               (IMPULSIVE, "kelvin_voigt"), True),
-             "continuation": on_the_core("periodic_beam:BeamContinuation")},
+    solvers=dict(N_MODE_SOLVERS),
     modes=True,
     contact_modes=True,
     description="a linear structure given by its mass, stiffness and damping matrices, in modal coordinates"))
@@ -334,12 +332,7 @@ register(Fidelity(
     model="beam_dynamics:ContinuumImpactModel",
     # the rig as a 3D elastic continuum (issue 59, vibeam.models.builders.continuum) reduced to its
     # modes: the N-mode modal system, the same methods as a structure given by its matrices
-    solvers={"event": on_the_core("beam_dynamics:BeamEventSolver", restitution_law=True, modal_states=True),
-             "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
-             "mapping": Method("mapping.modal:ModalMappingSolver",
-                               {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
-                               (IMPULSIVE, "kelvin_voigt"), True),
-             "continuation": on_the_core("periodic_beam:BeamContinuation")},
+    solvers=dict(N_MODE_SOLVERS),
     modes=True,
     contact_modes=True,
     mode_shapes=True,
