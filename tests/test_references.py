@@ -37,7 +37,8 @@ REFS = ROOT / "tests" / "references"
 
 #: cases with continuation runs only: a reference FRC compares sweeps, so their branches are
 #: regressed by the named test module instead (against its oracles)
-BRANCH_REGRESSED = {"rig-fe-tight-continuation": "tests/test_continuation_beam.py"}
+BRANCH_REGRESSED = {"rig-fe-tight-continuation": "tests/test_continuation_beam.py",
+                    "rig-continuum-continuation": "tests/test_continuum_branches.py"}
 
 
 def _has_sweeps(path) -> bool:

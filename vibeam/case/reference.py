@@ -543,7 +543,7 @@ def catalogue(cases_dir) -> list[tuple[str, str, str]]:
     out = []
     for path in sorted(Path(cases_dir).glob("*.toml")):
         case, _ = schema.load_case(path)
-        out.append((path.name, str(case.model.get("fidelity", "")), case.description))
+        out.append((path.name, str(case.model_spec().fidelity), case.description))   # canonical tables: the builder's
     return out
 
 
