@@ -169,3 +169,24 @@ def test_commands_a_continuum_or_a_structure_cannot_serve_are_refused(tmp_path, 
     err = capsys.readouterr().err
     assert "continuum" in err and "beam" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow   # the shipped 2.5 mm continuum built cold (~5 s) and two warm sweeps: slow step
+def test_the_continuum_bench_builds_cold_loads_cached_and_compares_like_with_like():
+    """``vibeam bench --continuum`` (issue 59, done-when 5): the first build really builds (into an
+    empty cache, whatever the user's cache holds), the second loads; the two sweeps integrate the
+    same motion (the neutral scene on the same Omega band: period-1, one impact per period at every
+    point of both models), so their per-impact times compare the kernels' cost on the two modal
+    systems, not two different motions.  Times are reported, never asserted."""
+    from vibeam.bench.continuum import continuum_goals, run_continuum_bench
+
+    out = run_continuum_bench(points=5, repeats=1)
+    b, s = out["build"], out["sweep"]
+    assert b["cold_built"] and b["cached_loaded"] and b["n_dofs"] == 11178
+    assert b["frequencies_hz"][0] == pytest.approx(7.13, abs=0.01)
+    for k in ("continuum", "beam"):
+        assert s[k]["points"] == 5 and s[k]["status_ok"] == 5
+    assert s["continuum"]["impacts"] == s["beam"]["impacts"] == sum(s["beam"]["periods"])
+    assert np.isfinite(s["ratio_per_impact"]) and s["ratio_per_impact"] > 0
+    goals = continuum_goals(out)
+    assert len(goals) == 3 and all(isinstance(g["pass"], bool) and g["timing"] for g in goals)

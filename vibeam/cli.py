@@ -712,7 +712,7 @@ def main(argv=None) -> int:
                        description="Default: the exact event solver against solve_ivp (direct RK23, rtol 1e-4, "
                        "atol 1e-8) on the Fig. 7 scene, inline, with the goals: event sweep under 1 s, >= 300x "
                        "faster, >= 1000x smaller error.  The other modes (--cli, --map, --scaling, --effects, "
-                       "--shooting, --continuation, --fit, --latency, --compile, --basins, --estimate) replace it.",
+                       "--shooting, --continuation, --fit, --latency, --compile, --basins, --continuum, --estimate) replace it.",
                        formatter_class=argparse.RawDescriptionHelpFormatter, epilog="Example:\n  vibeam bench --points 21 --repeats 1\n  vibeam bench --continuation")
     p.add_argument("--points", type=_int_at_least(1), default=101,
                    help="frequencies of the Fig. 7 sweep (default 101)")
@@ -763,6 +763,10 @@ def main(argv=None) -> int:
     p.add_argument("--basins", action="store_true",
                    help="instead: a 200 x 200 SDOF basin of the tight rig at 16.5 Hz (goal < 20 s on 2 cores), "
                         "basin hits against full trajectories, and a 50 x 50 basin of the 4-mode FE rig")
+    p.add_argument("--continuum", action="store_true",
+                   help="instead: the rig's continuum (cases/rig-continuum.toml) built cold into an empty model cache "
+                        "(goal <= 30 s on 2 cores) and loaded from it (<= 1 s), and its sweep cost per impact against "
+                        "the FE beam with as many modes (neutral gap, same Omega band; goal within 1.25x)")
     p.add_argument("--estimate", action="store_true",
                    help="instead: the work estimate that decides inline against pool, against the run time it "
                         "estimates, on the cell matrix's scenes (SDOF and 2-mode beam, each law, one or two stops; "

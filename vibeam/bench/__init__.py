@@ -47,6 +47,8 @@ from vibeam.bench.common import (BUSY_LOAD_PER_CORE, busy_reason, goal, judge_ti
                                  verdict_word)
 from vibeam.bench.compilation import (COMPILE_GOAL_S, COMPILE_PROBE, COMPILE_SCENARIOS, COMPLIANT_POINT, FE_POINT,
                                       compile_goals, probe_compile, run_compile_bench)
+from vibeam.bench.continuum import (BUILD_GOAL_S, LOAD_GOAL_S, SWEEP_RATIO_GOAL, continuum_goals,
+                                    run_continuum_bench)
 from vibeam.bench.continuation import (BEAM_CONTINUATION_GOAL_S, CONTINUATION_GOAL_S, run_beam_continuation_bench,
                                        run_continuation_bench)
 from vibeam.bench.effects import EFFECTS_BENCH, effects_goals, run_effects_bench
@@ -73,6 +75,7 @@ __all__ = ["main_bench",
            "run_compile_bench", "compile_goals", "probe_compile", "COMPILE_GOAL_S", "COMPILE_PROBE",
            "COMPILE_SCENARIOS", "FE_POINT", "COMPLIANT_POINT",
            "run_basins_bench", "basins_goals", "BASINS_GOAL_S",
+           "run_continuum_bench", "continuum_goals", "BUILD_GOAL_S", "LOAD_GOAL_S", "SWEEP_RATIO_GOAL",
            "run_estimate_bench", "estimate_goals", "ESTIMATE_GOAL_FACTOR",
            "run_uncertainty_bench", "uncertainty_goals",
            "goal", "verdict_word", "print_verdicts", "BUSY_LOAD_PER_CORE", "busy_reason", "judge_timings",
@@ -123,6 +126,9 @@ def main_bench(args) -> int:
     elif getattr(args, "basins", False):
         out, mode = run_basins_bench(jobs=getattr(args, "jobs", None) or 2, log=log), "--basins"
         out["goals"] = basins_goals(out)
+    elif getattr(args, "continuum", False):
+        out, mode = run_continuum_bench(repeats=min(3, getattr(args, "repeats", 3)), log=log), "--continuum"
+        out["goals"] = continuum_goals(out)
     elif getattr(args, "estimate", False):
         out, mode = run_estimate_bench(log=log), "--estimate"
         out["goals"] = estimate_goals(out)
