@@ -120,7 +120,7 @@ def point_stops(spec, sc) -> list:
     out = []
     g = sc.geometry
     L = g.length_m
-    for i, p in enumerate(getattr(spec, "stop", None) or ()):
+    for i, p in enumerate(spec.point_stop_tables):
         x = p.position_mm * 1e-3
         if p.contact_gap_mm is not None:
             gap = p.contact_gap_mm * 1e-3

@@ -57,6 +57,19 @@ TABLES = (
     ("[model.system] (builder = \"continuum\")", schema.ContinuumSystemSpec,
      "the strip, its material, the disc stack ([model.system.discs], as [model.discs]) and the mesh; "
      "lengths in mm; built once per geometry and mesh (cached)"),
+    ("[model] (canonical: [model.system] builder = \"sdof\" or \"beam\")", schema.SDOFSceneSpec,
+     "the paper's two models in the canonical tables (issue 58), what the shorthand above means "
+     "(vibeam.case.expand): the system, its stops (the upper stop at the attached mass first, a lower one there "
+     "second, a beam's point stops after them) and the drive"),
+    ("[model.system] (builder = \"sdof\")", schema.SDOFSystemSpec,
+     "the one-mode oscillator: damping_ratio alone (nondimensional, the paper's beta) or with "
+     "natural_frequency_hz and length_mm (physical, Eqs. 43-46)"),
+    ("[model.system] (builder = \"beam\")", schema.BeamSystemSpec,
+     "the FE cantilever: the keys of [model] (fidelity = \"beam\") but its stops and drive; "
+     "[model.system.discs], [model.system.calibrate] as [model.discs], [model.calibrate]"),
+    ("[[model.stop]] (builder = \"sdof\" or \"beam\")", schema.SceneStopSpec,
+     "as [[model.stop]] above; the lower stop at the attached mass (stop[1]) without R nor law has the upper "
+     "stop's law"),
     ("[model.excitation]", schema.ExcitationSpec, "the harmonic drive of the structure"),
     ("[sweep]", schema.SweepSpec, "the forcing-frequency grid and how each point is simulated"),
     ("[[run]] (every method)", schema.EventRun, "one table per run; keys common to every method"),
@@ -263,6 +276,9 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "amplitude_m_s2": ("m/s^2", "a, the base's acceleration amplitude (base_acceleration)"),
         "amplitude_n": ("N", "F0, the force's amplitude (force)"),
         "at": ("", "the DOF the force acts on, along it (force)"),
+        "amplitude": ("1", "builder \"sdof\", nondimensional: B, the base's amplitude over L (paper Eq. 1)"),
+        "gain": ("1/V", "builders \"sdof\", \"beam\": the shaker's normalised gain gamma (Eq. 46), with voltage"),
+        "voltage": ("V", "builders \"sdof\", \"beam\": the shaker's voltage amplitude V (B = gamma V)"),
     },
     "[sweep]": {
         "Omega": ("1", "frequency grid [start, stop, number of points] in Omega = f / f_n"),
@@ -441,6 +457,30 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "spread_range": ("1", "non-periodic points: extremes within this fraction of the range"),
     },
 }
+
+_BEAM_SHORT = MEANINGS["[model] (fidelity = \"beam\")"]
+MEANINGS.update({
+    "[model] (canonical: [model.system] builder = \"sdof\" or \"beam\")": {
+        "system": ("", "[model.system]: the oscillator or the beam (below)"),
+        "stop": ("", "[[model.stop]]: the SDOF's upper stop and optionally a lower one; the beam's also point stops"),
+        "excitation": ("", "[model.excitation]: a base displacement, amplitude (B) or gain and voltage; the "
+                       "physical SDOF also amplitude_mm"),
+    },
+    "[model.system] (builder = \"sdof\")": {
+        "builder": ("", "\"sdof\": the paper's one-degree-of-freedom impact oscillator"),
+        "damping_ratio": ("1", "the damping ratio, the paper's beta (beta_S of the rig)"),
+        "natural_frequency_hz": ("Hz", "f_n of a physical scene (Omega = f / f_n)"),
+        "length_mm": ("mm", "normalising length L of a physical scene (gaps and amplitude over L)"),
+    },
+    "[model.system] (builder = \"beam\")": {
+        "builder": ("", "\"beam\": the paper's FE cantilever with its attached mass"),
+        **{k: _BEAM_SHORT[k] for k in schema.BeamSystemSpec.model_fields if k != "builder"},
+    },
+    "[[model.stop]] (builder = \"sdof\" or \"beam\")": dict(
+        MEANINGS["[[model.stop]]"],
+        R=("1", "Newton's R of the stop, or a compliant law's target R; the lower stop at the attached mass "
+                "may omit it (then the upper stop's law)")),
+})
 
 
 def table_keys(heading: str, model: type[BaseModel]) -> list[str]:

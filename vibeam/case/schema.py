@@ -209,31 +209,10 @@ class _StopsSpec(_Strict):
         return {key: value}
 
 
-@register_model_spec("sdof")
-class SDOFModelSpec(_StopsSpec):
-    """``[model]`` of an SDOF scene: nondimensional (paper Eqs. 1-2) or physical (Eqs. 43-46)."""
-
-    fidelity: Literal["sdof"]
-    beta: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
-    B: Annotated[float, Field(ge=0.0)] | None = None
-    R: Annotated[float, Field(ge=0.0, le=1.0)]
-    Delta: float | None = None
-    natural_frequency_hz: Annotated[float, Field(gt=0.0)] | None = None
-    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
-    gap_mm: float | None = None
-    length_mm: Annotated[float, Field(gt=0.0)] | None = None
-    gain: Annotated[float, Field(ge=0.0)] | None = None
-    voltage: Annotated[float, Field(ge=0.0)] | None = None
-    Delta_lower: float | None = None
-    gap_lower_mm: float | None = None
-    contact: ContactSpec | None = None
-    contact_lower: ContactSpec | None = None
-
-    @model_validator(mode="before")
-    @classmethod
-    def _stops(cls, data):
-        """``[[model.stop]]`` tables written as the shorthand keys (:func:`vibeam.case.contact.stops_as_keys`)."""
-        return stops_as_keys(data, "sdof") if isinstance(data, dict) else data
+class _SDOFSpec(_StopsSpec):
+    """What the SDOF's ``[model]`` spec forms share (the shorthand keys, :class:`SDOFModelSpec`;
+    the canonical tables, :class:`SDOFSceneSpec`): the checks, the build and the fidelity's hooks,
+    reading the table's numbers by the shorthand's names (fields or properties)."""
 
     @model_validator(mode="after")
     def _one_parameter_set(self):
@@ -417,6 +396,34 @@ class SDOFModelSpec(_StopsSpec):
         return {key: float(value)}, []
 
 
+
+@register_model_spec("sdof")
+class SDOFModelSpec(_SDOFSpec):
+    """``[model]`` of an SDOF scene: nondimensional (paper Eqs. 1-2) or physical (Eqs. 43-46)."""
+
+    fidelity: Literal["sdof"]
+    beta: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
+    B: Annotated[float, Field(ge=0.0)] | None = None
+    R: Annotated[float, Field(ge=0.0, le=1.0)]
+    Delta: float | None = None
+    natural_frequency_hz: Annotated[float, Field(gt=0.0)] | None = None
+    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
+    gap_mm: float | None = None
+    length_mm: Annotated[float, Field(gt=0.0)] | None = None
+    gain: Annotated[float, Field(ge=0.0)] | None = None
+    voltage: Annotated[float, Field(ge=0.0)] | None = None
+    Delta_lower: float | None = None
+    gap_lower_mm: float | None = None
+    contact: ContactSpec | None = None
+    contact_lower: ContactSpec | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _stops(cls, data):
+        """``[[model.stop]]`` tables written as the shorthand keys (:func:`vibeam.case.contact.stops_as_keys`)."""
+        return stops_as_keys(data, "sdof") if isinstance(data, dict) else data
+
+
 def build_or_refuse(spec, build):
     """``build()``, the model of a ``[model]`` spec; a value the model's constructors cannot
     use (they raise ValueError, or an arithmetic error such as an overflow) becomes a
@@ -456,50 +463,20 @@ class CalibrateSpec(_Strict):
     f2_hz: Annotated[float, Field(gt=0.0)] | None = None
 
 
-@register_model_spec("beam")
-class BeamModelSpec(_StopsSpec):
-    """``[model]`` of a finite-element beam scene (paper Eqs. 39-41, Fig. 15).
+def _beam_length(v):
+    """A beam's ``length_mm`` within :attr:`_BeamSpec.LENGTH_RANGE_MM` (ValueError otherwise)."""
+    lo, hi = _BeamSpec.LENGTH_RANGE_MM
+    if not lo <= v <= hi:
+        raise ValueError(f"allowed: {lo:g} ... {hi:g} mm (the FE mesh locates nodes to 1e-8 m: a shorter "
+                         f"beam's elements cannot be resolved)")
+    return v
 
-    Lengths in mm, masses in kg; section either ``width_mm``/``thickness_mm``
-    (+ ``youngs_modulus_gpa``, ``density_kg_m3``) or ``EI_n_m2``/``rhoA_kg_m``;
-    attached mass either ``mass_kg`` (+ ``rotary_inertia_kg_m2``) or
-    ``[model.discs]``; gap either ``gap_mm`` (grazing gap seen at the sensor,
-    Delta_G, as for the SDOF rig scenes) or ``contact_gap_mm`` (Delta_C at the
-    stop); excitation ``gain`` (the paper's normalised gamma, 1/V) and
-    ``voltage``; damping ``damping_ratio`` (of the first mode, giving the
-    stiffness-proportional D of Eq. 39) and optional ``rayleigh_alpha_1_s``;
-    ``n_modes`` retained modes (an integer, ``"all"``, or ``"static"`` for the
-    paper's single assumed static mode, i.e. the SDOF model of Eqs. 42-47).
-    """
 
-    fidelity: Literal["beam"]
-    length_mm: Annotated[float, Field(gt=0.0)]   # and within LENGTH_RANGE_MM (_length_in_range)
-    sensor_position_mm: Annotated[float, Field(gt=0.0)]
-    mass_position_mm: Annotated[float, Field(gt=0.0)]
-    width_mm: Annotated[float, Field(gt=0.0)] | None = None
-    thickness_mm: Annotated[float, Field(gt=0.0)] | None = None
-    youngs_modulus_gpa: Annotated[float, Field(gt=0.0)] = 200.0
-    density_kg_m3: Annotated[float, Field(gt=0.0)] = 7850.0
-    EI_n_m2: Annotated[float, Field(gt=0.0)] | None = None
-    rhoA_kg_m: Annotated[float, Field(gt=0.0)] | None = None
-    mass_kg: Annotated[float, Field(ge=0.0)] | None = None
-    rotary_inertia_kg_m2: Annotated[float, Field(ge=0.0)] = 0.0
-    discs: DiscsSpec | None = None
-    calibrate: CalibrateSpec | None = None
-    R: Annotated[float, Field(ge=0.0, le=1.0)]
-    gap_mm: float | None = None
-    contact_gap_mm: float | None = None
-    gap_lower_mm: float | None = None
-    contact_gap_lower_mm: float | None = None
-    contact: ContactSpec | None = None
-    contact_lower: ContactSpec | None = None
-    stop: list[StopSpec] | None = None     # [[model.stop]] away from the attached mass (the others: keys)
-    gain: Annotated[float, Field(ge=0.0)]
-    voltage: Annotated[float, Field(ge=0.0)]
-    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
-    rayleigh_alpha_1_s: Annotated[float, Field(ge=0.0)] = 0.0
-    n_modes: Annotated[int, Field(ge=1)] | Literal["all", "static"] = 4
-    n_elements: Annotated[int, Field(ge=2, le=2000)] = 36
+class _BeamSpec(_StopsSpec):
+    """What the beam's ``[model]`` spec forms share (the shorthand keys, :class:`BeamModelSpec`;
+    the canonical tables, :class:`BeamSceneSpec`): the checks, the build and the fidelity's hooks,
+    reading the table's numbers by the shorthand's names (fields or properties); the stops away
+    from the attached mass are :attr:`point_stop_tables`."""
 
     #: allowed ``length_mm``: the FE mesh (scikit-fem) locates the clamp and the attached mass
     #: by position to an absolute 1e-8 m, so its elements (down to L / 2000 with ``n_elements``
@@ -512,28 +489,6 @@ class BeamModelSpec(_StopsSpec):
     #: eigenvalue scale, which stays a normal double within this range (a subnormal EI, e.g.
     #: width_mm = 5e-320, leaves the eigensolver without any mode)
     SECTION_RANGE: ClassVar[tuple] = (1e-100, 1e100)
-
-    @field_validator("length_mm")
-    @classmethod
-    def _length_in_range(cls, v):
-        lo, hi = cls.LENGTH_RANGE_MM
-        if not lo <= v <= hi:
-            raise ValueError(f"allowed: {lo:g} ... {hi:g} mm (the FE mesh locates nodes to 1e-8 m: a shorter "
-                             f"beam's elements cannot be resolved)")
-        return v
-
-    @model_validator(mode="before")
-    @classmethod
-    def _stops(cls, data):
-        """``[[model.stop]]`` tables: those at the attached mass written as the shorthand keys, the
-        others kept as point stops (:func:`vibeam.case.contact.stops_as_keys`)."""
-        if not isinstance(data, dict):
-            return data
-        data = stops_as_keys(data, "beam")
-        if "point_stops" in data:
-            data = dict(data)
-            data["stop"] = data.pop("point_stops")
-        return data
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -563,7 +518,7 @@ class BeamModelSpec(_StopsSpec):
         for k in ("sensor_position_mm", "mass_position_mm"):
             if getattr(self, k) > self.length_mm:
                 raise ValueError(f"{k} = {getattr(self, k)} lies beyond length_mm = {self.length_mm}")
-        for i, p in enumerate(self.stop or ()):
+        for i, p in enumerate(self.point_stop_tables):
             if p.position_mm > self.length_mm:
                 raise ValueError(f"stop at position_mm = {p.position_mm:g} lies beyond length_mm = {self.length_mm}")
             if (p.gap_mm is None) == (p.contact_gap_mm is None):
@@ -693,7 +648,7 @@ class BeamModelSpec(_StopsSpec):
         check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
         for k in ("gap_mm", "contact_gap_mm", "gap_lower_mm", "contact_gap_lower_mm"):
             check_gap(getattr(self, k), f"'{prefix}.{k}'", self.length_mm)
-        for j, st in enumerate(self.stop or []):
+        for j, st in enumerate(self.point_stop_tables):
             for k in ("gap_mm", "contact_gap_mm"):
                 check_gap(getattr(st, k, None), f"'{prefix}.stop[{j}].{k}'", self.length_mm)
             check_gap(getattr(st, "Delta", None), f"'{prefix}.stop[{j}].Delta'")
@@ -746,6 +701,75 @@ class BeamModelSpec(_StopsSpec):
                 return {"calibrate": dict(self.calibrate.model_dump(exclude_none=True), f1_hz=float(value))}, []
             return {}, ["f_n not written: the beam has no [model.calibrate] (its f_n follows from EI)"]
         return {key: float(value)}, []
+
+
+@register_model_spec("beam")
+class BeamModelSpec(_BeamSpec):
+    """``[model]`` of a finite-element beam scene (paper Eqs. 39-41, Fig. 15).
+
+    Lengths in mm, masses in kg; section either ``width_mm``/``thickness_mm``
+    (+ ``youngs_modulus_gpa``, ``density_kg_m3``) or ``EI_n_m2``/``rhoA_kg_m``;
+    attached mass either ``mass_kg`` (+ ``rotary_inertia_kg_m2``) or
+    ``[model.discs]``; gap either ``gap_mm`` (grazing gap seen at the sensor,
+    Delta_G, as for the SDOF rig scenes) or ``contact_gap_mm`` (Delta_C at the
+    stop); excitation ``gain`` (the paper's normalised gamma, 1/V) and
+    ``voltage``; damping ``damping_ratio`` (of the first mode, giving the
+    stiffness-proportional D of Eq. 39) and optional ``rayleigh_alpha_1_s``;
+    ``n_modes`` retained modes (an integer, ``"all"``, or ``"static"`` for the
+    paper's single assumed static mode, i.e. the SDOF model of Eqs. 42-47).
+    """
+
+    fidelity: Literal["beam"]
+    length_mm: Annotated[float, Field(gt=0.0)]   # and within LENGTH_RANGE_MM (_length_in_range)
+    sensor_position_mm: Annotated[float, Field(gt=0.0)]
+    mass_position_mm: Annotated[float, Field(gt=0.0)]
+    width_mm: Annotated[float, Field(gt=0.0)] | None = None
+    thickness_mm: Annotated[float, Field(gt=0.0)] | None = None
+    youngs_modulus_gpa: Annotated[float, Field(gt=0.0)] = 200.0
+    density_kg_m3: Annotated[float, Field(gt=0.0)] = 7850.0
+    EI_n_m2: Annotated[float, Field(gt=0.0)] | None = None
+    rhoA_kg_m: Annotated[float, Field(gt=0.0)] | None = None
+    mass_kg: Annotated[float, Field(ge=0.0)] | None = None
+    rotary_inertia_kg_m2: Annotated[float, Field(ge=0.0)] = 0.0
+    discs: DiscsSpec | None = None
+    calibrate: CalibrateSpec | None = None
+    R: Annotated[float, Field(ge=0.0, le=1.0)]
+    gap_mm: float | None = None
+    contact_gap_mm: float | None = None
+    gap_lower_mm: float | None = None
+    contact_gap_lower_mm: float | None = None
+    contact: ContactSpec | None = None
+    contact_lower: ContactSpec | None = None
+    stop: list[StopSpec] | None = None     # [[model.stop]] away from the attached mass (the others: keys)
+    gain: Annotated[float, Field(ge=0.0)]
+    voltage: Annotated[float, Field(ge=0.0)]
+    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
+    rayleigh_alpha_1_s: Annotated[float, Field(ge=0.0)] = 0.0
+    n_modes: Annotated[int, Field(ge=1)] | Literal["all", "static"] = 4
+    n_elements: Annotated[int, Field(ge=2, le=2000)] = 36
+
+    @field_validator("length_mm")
+    @classmethod
+    def _length_in_range(cls, v):
+        return _beam_length(v)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _stops(cls, data):
+        """``[[model.stop]]`` tables: those at the attached mass written as the shorthand keys, the
+        others kept as point stops (:func:`vibeam.case.contact.stops_as_keys`)."""
+        if not isinstance(data, dict):
+            return data
+        data = stops_as_keys(data, "beam")
+        if "point_stops" in data:
+            data = dict(data)
+            data["stop"] = data.pop("point_stops")
+        return data
+
+    @property
+    def point_stop_tables(self) -> list:
+        """The stops away from the attached mass (:class:`vibeam.case.contact.StopSpec`)."""
+        return list(self.stop or ())
 
 
 class SystemSpec(_Strict):
@@ -807,6 +831,11 @@ class ExcitationSpec(_Strict):
     amplitude_m_s2: Annotated[float, Field(ge=0.0)] | None = None
     amplitude_n: Annotated[float, Field(ge=0.0)] | None = None
     at: str | None = None
+    # the SDOF's and the beam's base displacement (builders "sdof", "beam"): the nondimensional
+    # amplitude B (in lengths L, paper Eq. 1), or the paper's shaker gamma V (Eqs. 43, 46)
+    amplitude: Annotated[float, Field(ge=0.0)] | None = None
+    gain: Annotated[float, Field(ge=0.0)] | None = None
+    voltage: Annotated[float, Field(ge=0.0)] | None = None
 
     #: the amplitude key of each kind
     AMPLITUDE_KEYS: ClassVar[dict] = {"base_displacement": "amplitude_mm", "base_acceleration": "amplitude_m_s2",
@@ -814,6 +843,14 @@ class ExcitationSpec(_Strict):
 
     @model_validator(mode="after")
     def _one_amplitude(self):
+        shaker = [k for k in ("amplitude", "gain", "voltage") if getattr(self, k) is not None]
+        if shaker:      # the paper's forms of a base displacement (the SDOF's and the beam's builders)
+            others = [k for k in self.AMPLITUDE_KEYS.values() if getattr(self, k) is not None]
+            if self.kind != "base_displacement" or others or shaker not in (["amplitude"], ["gain", "voltage"]):
+                raise ValueError(f"a base displacement takes its amplitude as one of amplitude_mm, amplitude "
+                                 f"(nondimensional B) or gain and voltage (the shaker's gamma V); got "
+                                 f"{', '.join(others + shaker)} with kind = \"{self.kind}\"")
+            return self
         key = self.AMPLITUDE_KEYS[self.kind]
         given = [k for k in self.AMPLITUDE_KEYS.values() if getattr(self, k) is not None]
         if given != [key]:
@@ -851,6 +888,10 @@ class MatricesModelSpec(_StopsSpec):
 
     @model_validator(mode="after")
     def _stops_consistent(self):
+        paper = [k for k in ("amplitude", "gain", "voltage") if getattr(self.excitation, k) is not None]
+        if paper:
+            raise ValueError(f"excitation: {', '.join(paper)} give the SDOF's and the beam's drive; allowed here: "
+                             f"amplitude_mm, amplitude_m_s2 or amplitude_n")
         first = self.stop[0]
         if first.side != "upper":
             raise ValueError("stop[0] is the reference stop (the amplitude Q is measured from it): give an upper "
@@ -1122,6 +1163,302 @@ class ContinuumModelSpec(MatricesModelSpec):
         """Modes, participation, effective masses and the contact modes within the kept modes
         (``vibeam modes``; :func:`vibeam.case.structure.modes_report`)."""
         return _structure().modes_report(self, n)
+
+
+# ----------------------------------------------------------------------------- the paper's builders
+#: the law keys of a stop table (:class:`vibeam.case.contact.ContactSpec`'s fields)
+_LAW_KEYS = tuple(ContactSpec.model_fields)
+
+
+def _law_of(st, with_R: bool):
+    """The ``[model.contact]``-style table of stop table ``st`` (its law keys as given, ``R`` with
+    ``with_R``), None when it gives none."""
+    keys = [k for k in _LAW_KEYS if k in st.model_fields_set and (with_R or k != "R")]
+    return ContactSpec(**{k: getattr(st, k) for k in keys}) if keys else None
+
+
+class SceneStopSpec(StopSpec):
+    """One ``[[model.stop]]`` of the SDOF or the beam (``builder = "sdof"`` / ``"beam"``): as
+    :class:`vibeam.case.contact.StopSpec`; the lower stop at the attached mass (``stop[1]``) may give
+    neither ``R`` nor a law: it then has the upper stop's law (and follows it: an R table, a
+    continuation in R), as the shorthand's ``Delta_lower`` without ``[model.contact_lower]``."""
+
+    @model_validator(mode="after")
+    def _gap(self):
+        given = [k for k in ("gap_mm", "contact_gap_mm", "Delta") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError(f"give the stop's gap once: one of gap_mm (at the sensor), contact_gap_mm (at the "
+                             f"stop, beam scenes) or Delta (nondimensional SDOF scenes); got {given or 'none'}")
+        return self
+
+
+def _scene_stops(spec, at_mass) -> int:
+    """Check the order of a canonical SDOF or beam spec's stops (``at_mass(st)``: the stop is at
+    the attached mass): ``stop[0]`` the upper one there, ``stop[1]`` optionally the lower one there,
+    the others away from it; every stop but that lower one with its ``R``.  Returns the number
+    of stops at the mass (1 or 2); raises ValueError naming the stop."""
+    st = spec.stop
+    if st[0].side != "upper" or not at_mass(st[0]):
+        raise ValueError("stop[0] is the paper's stop (the amplitude Q is measured from it): the upper stop at the "
+                         "attached mass (side = \"upper\", no position_mm)")
+    n = 2 if len(st) > 1 and st[1].side == "lower" and at_mass(st[1]) else 1
+    for i, s in enumerate(st):
+        if i >= n and at_mass(s):
+            raise ValueError(f"stop[{i}]: a second {s.side} stop at the attached mass; allowed: one upper stop there "
+                             f"(stop[0]) and one lower (stop[1])")
+        if s.R is None and i != 1:
+            raise ValueError(f"stop[{i}]: give the stop's R (Newton's coefficient of restitution, or a compliant "
+                             f"law's target)")
+    return n
+
+
+class SDOFSystemSpec(_Strict):
+    """``[model.system]`` with ``builder = "sdof"``: the paper's one-degree-of-freedom impact
+    oscillator (Eqs. 1-2), nondimensional (``damping_ratio`` alone: the paper's beta) or the rig's
+    physical form (Eqs. 43-46: with ``natural_frequency_hz`` and ``length_mm``, the normalising
+    length L of the gaps and the amplitude)."""
+
+    builder: Literal["sdof"]
+    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)]
+    natural_frequency_hz: Annotated[float, Field(gt=0.0)] | None = None
+    length_mm: Annotated[float, Field(gt=0.0)] | None = None
+
+    @model_validator(mode="after")
+    def _units(self):
+        if (self.natural_frequency_hz is None) != (self.length_mm is None):
+            raise ValueError("give natural_frequency_hz and length_mm together (a physical scene, paper Eqs. 43-46) "
+                             "or neither (nondimensional, Eqs. 1-2)")
+        return self
+
+
+class SDOFSceneSpec(_SDOFSpec):
+    """``[model]`` of the SDOF in the canonical tables (``[model.system] builder = "sdof"``,
+    :class:`SDOFSystemSpec`): ``[[model.stop]]`` (:class:`SceneStopSpec`: the upper stop, then
+    optionally the lower one; ``Delta`` or, physical, ``gap_mm``) and ``[model.excitation]`` (a base
+    displacement: ``amplitude`` = B nondimensional; physical ``gain`` and ``voltage``, B = gamma V,
+    or ``amplitude_mm``, B = Y / L).  What the shorthand (``fidelity = "sdof"``, ``beta``, ``B``,
+    ``R``, ``Delta``, ...) expands into (:func:`vibeam.case.expand.expand`); the SDOF's checks and
+    build read the tables through the shorthand's names (the properties below)."""
+
+    system: SDOFSystemSpec
+    stop: Annotated[list[SceneStopSpec], Field(min_length=1, max_length=2)]
+    excitation: ExcitationSpec
+
+    fidelity: ClassVar[str] = "sdof"
+
+    @model_validator(mode="after")
+    def _one_parameter_set(self):
+        # the tables' own checks first (naming the canonical keys), then the SDOF's
+        for i, st in enumerate(self.stop):
+            if st.position_mm is not None or st.contact_gap_mm is not None:
+                raise ValueError(f"stop[{i}]: position_mm and contact_gap_mm are beam keys (the SDOF has one "
+                                 f"coordinate, at the sensor); allowed: side, Delta or gap_mm, R and the law's keys")
+        _scene_stops(self, lambda st: True)
+        ex = self.excitation
+        allowed = ("gain", "amplitude_mm") if self.physical else ("amplitude",)
+        if ex.kind != "base_displacement" or all(getattr(ex, k) is None for k in allowed):
+            raise ValueError(f"excitation: the SDOF is driven by a base displacement given as "
+                             f"{' and voltage, or '.join(allowed)}"
+                             f"{'' if self.physical else ' (nondimensional B)'}")
+        return _SDOFSpec._one_parameter_set(self)
+
+    # the shorthand's names of the tables' numbers (read by the SDOF's checks, build and hooks)
+    @property
+    def beta(self):
+        return None if self.physical else self.system.damping_ratio
+
+    @property
+    def damping_ratio(self):
+        return self.system.damping_ratio if self.physical else None
+
+    @property
+    def natural_frequency_hz(self):
+        return self.system.natural_frequency_hz
+
+    @property
+    def length_mm(self):
+        return self.system.length_mm
+
+    @property
+    def B(self):
+        return None if self.physical else self.excitation.amplitude
+
+    @property
+    def gain(self):
+        ex = self.excitation
+        if not self.physical:
+            return None
+        return ex.gain if ex.amplitude_mm is None else ex.amplitude_mm / self.system.length_mm
+
+    @property
+    def voltage(self):
+        if not self.physical:
+            return None
+        return self.excitation.voltage if self.excitation.amplitude_mm is None else 1.0
+
+    @property
+    def R(self):
+        return self.stop[0].R
+
+    @property
+    def Delta(self):
+        return self.stop[0].Delta
+
+    @property
+    def gap_mm(self):
+        return self.stop[0].gap_mm
+
+    @property
+    def Delta_lower(self):
+        return self.stop[1].Delta if len(self.stop) > 1 else None
+
+    @property
+    def gap_lower_mm(self):
+        return self.stop[1].gap_mm if len(self.stop) > 1 else None
+
+    @property
+    def contact(self):
+        return _law_of(self.stop[0], with_R=False)
+
+    @property
+    def contact_lower(self):
+        return _law_of(self.stop[1], with_R=True) if len(self.stop) > 1 else None
+
+
+class BeamSystemSpec(_Strict):
+    """``[model.system]`` with ``builder = "beam"``: the clamped FE cantilever with its attached
+    mass (paper Eqs. 39-41, Fig. 15): geometry, section (``width_mm``/``thickness_mm`` with
+    ``youngs_modulus_gpa``, ``density_kg_m3``, or ``EI_n_m2``/``rhoA_kg_m``), attached mass
+    (``mass_kg`` with ``rotary_inertia_kg_m2``, or ``[model.system.discs]``), calibration
+    (``[model.system.calibrate]``), damping (``damping_ratio`` of the first mode, Eq. 39, and
+    ``rayleigh_alpha_1_s``) and the kept modes (``n_modes``: a number, ``"all"`` or ``"static"``, on
+    ``n_elements`` elements); the keys of :class:`BeamModelSpec`."""
+
+    builder: Literal["beam"]
+    length_mm: Annotated[float, Field(gt=0.0)]
+    sensor_position_mm: Annotated[float, Field(gt=0.0)]
+    mass_position_mm: Annotated[float, Field(gt=0.0)]
+    width_mm: Annotated[float, Field(gt=0.0)] | None = None
+    thickness_mm: Annotated[float, Field(gt=0.0)] | None = None
+    youngs_modulus_gpa: Annotated[float, Field(gt=0.0)] = 200.0
+    density_kg_m3: Annotated[float, Field(gt=0.0)] = 7850.0
+    EI_n_m2: Annotated[float, Field(gt=0.0)] | None = None
+    rhoA_kg_m: Annotated[float, Field(gt=0.0)] | None = None
+    mass_kg: Annotated[float, Field(ge=0.0)] | None = None
+    rotary_inertia_kg_m2: Annotated[float, Field(ge=0.0)] = 0.0
+    discs: DiscsSpec | None = None
+    calibrate: CalibrateSpec | None = None
+    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
+    rayleigh_alpha_1_s: Annotated[float, Field(ge=0.0)] = 0.0
+    n_modes: Annotated[int, Field(ge=1)] | Literal["all", "static"] = 4
+    n_elements: Annotated[int, Field(ge=2, le=2000)] = 36
+
+    @field_validator("length_mm")
+    @classmethod
+    def _length_in_range(cls, v):
+        return _beam_length(v)
+
+
+#: the keys of ``[model.system] builder = "beam"`` the beam's spec reads by their own names
+_BEAM_SYSTEM_KEYS = tuple(k for k in BeamSystemSpec.model_fields if k != "builder")
+
+
+class BeamSceneSpec(_BeamSpec):
+    """``[model]`` of the FE beam in the canonical tables (``[model.system] builder = "beam"``,
+    :class:`BeamSystemSpec`): ``[[model.stop]]`` (:class:`SceneStopSpec`: the upper stop at the
+    attached mass, optionally the lower one there, then Newton stops at other points by
+    ``position_mm``, output codes 0, 1, 2 + i as the shorthand's) and ``[model.excitation]`` (a base
+    displacement by the shaker's ``gain`` and ``voltage``: ``gamma~ V``, ``gamma~ = gain phi(x_m)
+    L``).  What the shorthand (``fidelity = "beam"`` and its keys) expands into
+    (:func:`vibeam.case.expand.expand`); the beam's checks and build read the tables through the
+    shorthand's names (the properties below)."""
+
+    system: BeamSystemSpec
+    stop: Annotated[list[SceneStopSpec], Field(min_length=1)]
+    excitation: ExcitationSpec
+
+    fidelity: ClassVar[str] = "beam"
+
+    def at_mass(self, st) -> bool:
+        """Stop table ``st`` acts at the attached mass (no ``position_mm``, or the mass's)."""
+        mass = self.system.mass_position_mm
+        return st.position_mm is None or abs(st.position_mm - mass) <= 1e-9 * max(mass, 1.0)
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        # the tables' own checks first (naming the canonical keys), then the beam's
+        for i, st in enumerate(self.stop):
+            if st.Delta is not None:
+                raise ValueError(f"stop[{i}]: Delta is an SDOF key; give gap_mm (at the sensor) or contact_gap_mm "
+                                 f"(at the stop)")
+            if not self.at_mass(st) and is_compliant(st.law):
+                raise ValueError(f"stop at position_mm = {st.position_mm:g}: law = {st.law!r} away from the attached "
+                                 f"mass is not implemented; allowed there: law = \"restitution\"")
+        _scene_stops(self, self.at_mass)
+        ex = self.excitation
+        if ex.kind != "base_displacement" or ex.gain is None:
+            raise ValueError("excitation: the beam is driven by a base displacement given as gain and voltage (the "
+                             "shaker's gamma V)")
+        return _BeamSpec._consistent(self)
+
+    @property
+    def _n_at_mass(self) -> int:
+        return 2 if len(self.stop) > 1 and self.stop[1].side == "lower" and self.at_mass(self.stop[1]) else 1
+
+    @property
+    def point_stop_tables(self) -> list:
+        """The stops away from the attached mass (after ``stop[0]`` and the lower one there)."""
+        return list(self.stop[self._n_at_mass:])
+
+    # the shorthand's names of the tables' numbers (read by the beam's checks, build and hooks)
+    @property
+    def R(self):
+        return self.stop[0].R
+
+    @property
+    def gap_mm(self):
+        return self.stop[0].gap_mm
+
+    @property
+    def contact_gap_mm(self):
+        return self.stop[0].contact_gap_mm
+
+    @property
+    def gap_lower_mm(self):
+        return self.stop[1].gap_mm if self._n_at_mass == 2 else None
+
+    @property
+    def contact_gap_lower_mm(self):
+        return self.stop[1].contact_gap_mm if self._n_at_mass == 2 else None
+
+    @property
+    def contact(self):
+        return _law_of(self.stop[0], with_R=False)
+
+    @property
+    def contact_lower(self):
+        return _law_of(self.stop[1], with_R=True) if self._n_at_mass == 2 else None
+
+    @property
+    def gain(self):
+        return self.excitation.gain
+
+    @property
+    def voltage(self):
+        return self.excitation.voltage
+
+
+def _system_key(name):
+    return property(lambda self: getattr(self.system, name), doc=f"``[model.system] {name}``.")
+
+
+for _name in _BEAM_SYSTEM_KEYS:
+    setattr(BeamSceneSpec, _name, _system_key(_name))
+del _name
+
+#: the spec class of each ``[model.system] builder`` (the canonical tables, issue 58)
+CANONICAL_SPECS = {"sdof": SDOFSceneSpec, "beam": BeamSceneSpec, "matrices": MatricesModelSpec,
+                   "continuum": ContinuumModelSpec}
 
 
 def _structure():
@@ -1771,14 +2108,13 @@ def _validate_model(data: dict, prefix: str = "model"):
     if "fidelity" not in data and isinstance(system, dict) and "builder" in system:
         # the canonical tables (issue 58): [model.system] builder = ...
         fid = system["builder"]
-        if not isinstance(fid, str) or fid not in MODEL_SPECS or fid in ("sdof", "beam"):
-            raise CaseError(f"'{prefix}.system.builder' = {quote_value(fid)} is not allowed; allowed: \"matrices\", "
-                            f"\"continuum\" "
-                            f"(the SDOF and the beam: [model] fidelity = \"sdof\" or \"beam\")")
+        if not isinstance(fid, str) or fid not in CANONICAL_SPECS:
+            raise CaseError(f"'{prefix}.system.builder' = {quote_value(fid)} is not allowed; allowed: "
+                            f"{', '.join(chr(34) + k + chr(34) for k in CANONICAL_SPECS)}")
         try:
-            spec = MODEL_SPECS[fid].model_validate(data)
+            spec = CANONICAL_SPECS[fid].model_validate(data)
         except ValidationError as e:
-            raise CaseError(validation_message(e, prefix, MODEL_SPECS[fid])) from None
+            raise CaseError(validation_message(e, prefix, CANONICAL_SPECS[fid])) from None
         spec.check(prefix)
         return spec
     if "fidelity" not in data:

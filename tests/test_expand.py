@@ -1,0 +1,258 @@
+"""The shorthand expanded into the canonical tables (issue 58, vibeam/case/expand.py).
+
+The proof that the canonical path can replace the shorthand one: for every shipped case and every
+``[[run]]`` override (and the ends of its ``[map]``), the model built from ``expand(table)`` by the
+canonical specs (``[model.system] builder = "sdof"`` / ``"beam"``) packs to the same kernel arrays,
+bit for bit, as the model built today from the shorthand (``KernelSystem``, ``KernelStops``,
+``HeldSets``: what the kernels read; :mod:`vibeam.models.core.stops`), with the same output codes,
+units and initial state; and the canonical spec answers the framework's questions (the shorthand's
+names, continuation parameters, work estimate) as the shorthand spec does.
+"""
+from __future__ import annotations
+
+import copy
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vibeam.api.cases import load_case
+from vibeam.case.contact import model_with
+from vibeam.case.expand import expand, expanded, user_key
+from vibeam.case.schema import (BeamModelSpec, BeamSceneSpec, CaseError, SDOFModelSpec, SDOFSceneSpec,
+                                _validate_model)
+from vibeam.io.store import case_hash
+from vibeam.models.core.stops import held_sets, kernel_stops, kernel_system
+
+CASES = sorted((Path(__file__).resolve().parent.parent / "cases").glob("*.toml"))
+
+
+def _variants(case):
+    """``(label, overrides)`` of a case: none, each run's ``[run.model]``, and the ends of its
+    ``[map]`` (with each run's overrides, as the map is run)."""
+    out = [("model", None)]
+    for r in case.run:
+        if r.model:
+            out.append((f"run {r.name}", dict(r.model)))
+    if case.map is not None:
+        lo, hi, _ = case.map.values
+        for r in case.run[:1]:
+            for v in (lo, hi):
+                out.append((f"map {case.map.parameter} = {v:g}", {**r.model, case.map.parameter: float(v)}))
+    return out
+
+
+def _equal(a, b) -> bool:
+    """Bitwise equality of two packed fields (arrays: dtype, shape and bits; NaN equal to NaN)."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    if isinstance(a, float) and isinstance(b, float):
+        return a == b or (math.isnan(a) and math.isnan(b))
+    return type(a) is type(b) and a == b
+
+
+def _packed(model) -> dict:
+    """Everything the kernels and the drivers read of a model: its scene packed (system, stops,
+    held sets), the modal system's fields, the output codes, units and initial state."""
+    system, stops = model.scene()
+    ks = kernel_stops(system, stops)
+    held, mismatch = held_sets(system, ks)
+    out = {f"KernelSystem.{k}": v for k, v in kernel_system(system)._asdict().items()}
+    out.update({f"KernelStops.{k}": v for k, v in ks._asdict().items()})
+    out.update({f"HeldSets.{k}": v for k, v in held._asdict().items()})
+    out["damping_mismatch"] = np.asarray(mismatch)
+    out.update({f"ModalSystem.{k}": v for k, v in system._asdict().items()})
+    out["stops"] = repr(stops)
+    out["class"] = type(model).__name__
+    out["initial_state"] = np.asarray(model.initial_state())
+    codes = getattr(model, "stop_codes", None)
+    out["stop_codes"] = None if codes is None or codes() is None else np.asarray(codes())
+    out["R_table"] = repr(getattr(model, "R_table", None))
+    for k in ("natural_frequency_hz", "f_ref_hz", "length_m", "mass_kg", "n_modes", "fidelity"):
+        if hasattr(model, k):
+            out[k] = getattr(model, k)
+    return out
+
+
+def _both(table):
+    """``(spec by the shorthand, spec by the canonical tables)`` of a ``[model]`` table."""
+    old = _validate_model(table)
+    new = _validate_model(expand(table))
+    return old, new
+
+
+def _shorthand_names(spec) -> list:
+    return [k for k in type(spec).model_fields if k not in ("fidelity", "stop")]
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_the_expanded_shipped_case_packs_to_the_same_kernel_arrays(path):
+    """Every shipped case and run override: ``expand`` then the canonical spec builds the model
+    today's shorthand spec builds, bit for bit in every array the kernels read."""
+    case = load_case(path)
+    before = case.model_dump_json()
+    for label, overrides in _variants(case):
+        table = model_with(case.model, overrides)
+        kept = copy.deepcopy(table)
+        canonical = expand(table)
+        assert table == kept, f"{path.stem} {label}: expand changed its input"
+        if "fidelity" not in table:          # canonical already: passed through as it is
+            assert canonical is table
+            continue
+        assert canonical["system"]["builder"] == table["fidelity"] and "fidelity" not in canonical
+        old, new = _both(table)
+        assert type(old) in (SDOFModelSpec, BeamModelSpec) and type(new) in (SDOFSceneSpec, BeamSceneSpec)
+        # the framework's questions: the shorthand's names and the hooks answer the same
+        for k in _shorthand_names(old):
+            assert getattr(new, k) == getattr(old, k), f"{path.stem} {label}: {k}"
+        for k in ("physical", "two_sided", "mixed_stops", "fidelity"):
+            assert getattr(new, k) == getattr(old, k), f"{path.stem} {label}: {k}"
+        assert new.dofs() == old.dofs() and new.stiffness_key() == old.stiffness_key()
+        if isinstance(old, BeamModelSpec):
+            assert [s.model_dump() for s in new.point_stop_tables] == [s.model_dump() for s in old.stop or ()]
+        if isinstance(old, SDOFModelSpec):
+            for k in ("Omega", "B", "Delta", "R", "beta", "voltage", "gain", "gap_mm", "damping_ratio", "R_lower",
+                      "Delta_lower", "gap_lower_mm"):
+                try:
+                    want = old.native_parameter(k)
+                except ValueError as e:
+                    with pytest.raises(ValueError, match=str(e)[:30]):
+                        new.native_parameter(k)
+                    continue
+                assert new.native_parameter(k) == want
+        a, b = _packed(old.build()), _packed(new.build())
+        assert a.keys() == b.keys()
+        for k in a:
+            assert _equal(a[k], b[k]), f"{path.stem} {label}: {k} differs: {a[k]!r} vs {b[k]!r}"
+    # the case as run (its JSON, whose hash marks its results) is the table as written
+    assert case.model_dump_json() == before
+    assert case_hash(load_case(path).model_dump_json()) == case_hash(before)
+
+
+def test_the_lower_stop_comes_second_and_point_stops_keep_their_codes():
+    """``[[model.stop]]`` beside ``fidelity = "beam"`` in any order: the upper stop at the mass
+    first, the lower one second, the point stops after them; the output codes are those of the
+    shorthand path (rig-fe-tip-stop: (0, 2) with no lower stop)."""
+    case = load_case(next(p for p in CASES if p.stem == "rig-fe-tip-stop"))
+    table = case.model
+    stops = table["stop"]
+    assert len(stops) == 2
+    old, new = _both(table)
+    assert list(new.build().stop_codes()) == list(old.build().stop_codes()) == [0, 2]
+    # a lower stop at the mass given last, a point stop first: reordered, codes 0, 1, 2
+    lower = {"side": "lower", "gap_mm": 0.5, "R": 0.6}
+    shuffled = dict(table, stop=[stops[1], lower, stops[0]])
+    canonical, origins = expanded(shuffled)
+    assert [s.get("position_mm") for s in canonical["stop"]] == [None, None, stops[1]["position_mm"]]
+    assert [s["side"] for s in canonical["stop"]] == ["upper", "lower", stops[1].get("side", "upper")]
+    assert origins[("stop", 0)] == "stop[2]" and origins[("stop", 1)] == "stop[1]" and origins[("stop", 2)] == "stop[0]"
+    old, new = _both(shuffled)
+    assert list(new.build().stop_codes()) == list(old.build().stop_codes()) == [0, 1, 2]
+    a, b = _packed(old.build()), _packed(new.build())
+    assert all(_equal(a[k], b[k]) for k in a)
+
+
+# shorthand tables beyond the shipped cases: two-sided, compliant, mixed laws, physical
+_SDOF = {"fidelity": "sdof", "beta": 0.015, "B": 0.5e-3, "R": 0.9, "Delta": 0.0}
+_RIG = {"fidelity": "sdof", "natural_frequency_hz": 7.6, "damping_ratio": 0.017, "R": 0.72, "gap_mm": 0.1,
+        "length_mm": 180.0, "gain": 5.16e-4, "voltage": 0.6}
+_HC = {"law": "hunt_crossley", "stiffness": 1e4, "exponent": 1.5}
+_TABLES = {
+    "sdof two-sided, the upper law": dict(_SDOF, Delta_lower=2e-3),
+    "sdof two-sided, its own R": dict(_SDOF, Delta_lower=2e-3, contact_lower={"R": 0.5}),
+    "sdof compliant": dict(_SDOF, contact={"law": "linear", "stiffness": 1e4}),
+    "sdof compliant two-sided": dict(_SDOF, Delta_lower=2e-3, contact={"law": "linear", "stiffness": 1e4}),
+    "sdof compliant lower": dict(_SDOF, Delta_lower=2e-3, contact_lower=dict(_HC, R=0.7)),
+    "sdof mixed": dict(_SDOF, Delta_lower=2e-3, contact=_HC, contact_lower={"law": "restitution", "R": 0.6}),
+    "rig two-sided": dict(_RIG, gap_lower_mm=0.4, contact_lower={"R": 0.5}),
+    "rig physical law": dict(_RIG, contact={"law": "lankarani_nikravesh", "stiffness_n_m": 2e5, "exponent": 1.5, "mass_kg": 0.2}),
+    "sdof stop tables": {"fidelity": "sdof", "beta": 0.015, "B": 0.5e-3,
+                         "stop": [{"side": "lower", "Delta": 2e-3, "R": 0.5, **_HC},
+                                  {"side": "upper", "Delta": 0.0, "R": 0.9, **_HC}]},
+}
+
+
+_BEAM = {"fidelity": "beam", "length_mm": 180.0, "sensor_position_mm": 100.0, "mass_position_mm": 132.0,
+         "width_mm": 20.0, "thickness_mm": 1.0, "R": 0.72, "gain": 5.16e-4, "voltage": 0.6, "damping_ratio": 0.017,
+         "n_modes": 2, "n_elements": 12, "mass_kg": 0.2}
+_TABLES.update({
+    "beam contact gaps two-sided": dict(_BEAM, contact_gap_mm=0.05, contact_gap_lower_mm=0.3),
+    "beam two-sided, its own R": dict(_BEAM, gap_mm=0.1, gap_lower_mm=0.4, contact_lower={"R": 0.5}),
+    "beam compliant two-sided": dict(_BEAM, gap_mm=0.1, gap_lower_mm=0.4, n_modes="static",
+                                     contact={"law": "linear", "stiffness_n_m": 2e5}),
+    "beam mixed": dict(_BEAM, gap_mm=0.1, gap_lower_mm=0.4, contact={"law": "linear", "stiffness_n_m": 2e5},
+                       contact_lower={"law": "restitution", "R": 0.6}),
+    "beam stop tables": dict({k: v for k, v in _BEAM.items() if k != "R"}, n_modes="all",
+                             stop=[{"side": "upper", "position_mm": 170.0, "contact_gap_mm": 1.0, "R": 0.5},
+                                   {"side": "lower", "contact_gap_mm": 0.3, "R": 0.6},
+                                   {"side": "upper", "position_mm": 132.0, "contact_gap_mm": 0.05, "R": 0.7},
+                                   {"side": "lower", "position_mm": 60.0, "gap_mm": 1.0, "R": 0.4}]),
+})
+
+
+@pytest.mark.parametrize("name", list(_TABLES))
+def test_shorthand_tables_pack_the_same(name):
+    """Two-sided, compliant, mixed, physical SDOF and beam tables, stop tables in any order: the
+    expanded tables build the same kernel arrays as the shorthand."""
+    table = _TABLES[name]
+    old, new = _both(table)
+    for k in _shorthand_names(old):
+        assert getattr(new, k) == getattr(old, k), k
+    assert (new.two_sided, new.mixed_stops) == (old.two_sided, old.mixed_stops)
+    a, b = _packed(old.build()), _packed(new.build())
+    for k in a:
+        assert _equal(a[k], b[k]), f"{name}: {k}"
+
+
+def test_canonical_tables_pass_through_and_origins_name_the_users_keys():
+    canonical = {"system": {"builder": "sdof", "damping_ratio": 0.015}, "stop": [{"Delta": 0.0, "R": 0.9}],
+                 "excitation": {"amplitude": 5e-4}}
+    assert expand(canonical) is canonical
+    out, origins = expanded(dict(_SDOF, Delta_lower=2e-3, contact_lower={"law": "restitution", "R": 0.5}))
+    assert out == {"system": {"builder": "sdof", "damping_ratio": 0.015},
+                   "excitation": {"kind": "base_displacement", "amplitude": 0.5e-3},
+                   "stop": [{"side": "upper", "Delta": 0.0, "R": 0.9},
+                            {"side": "lower", "Delta": 2e-3, "law": "restitution", "R": 0.5}]}
+    assert user_key(origins, ("system", "damping_ratio")) == "beta"
+    assert user_key(origins, ("excitation", "amplitude")) == "B"
+    assert user_key(origins, ("stop", 0, "R")) == "R"
+    assert user_key(origins, ("stop", 1, "R")) == "contact_lower.R"
+    assert user_key(origins, ("stop", 1, "Delta")) == "Delta_lower"
+    assert user_key(origins, ("stop", 0)) == ""
+    assert user_key(origins, ("excitation", "kind")) == "excitation.kind"    # written by the expansion
+    beam = {"fidelity": "beam", "discs": {"count": 4}, "gap_mm": 0.1}
+    assert user_key(expanded(beam)[1], ("system", "discs", "count")) == "discs.count"
+    with pytest.raises(ValueError, match="'contact.R'"):
+        expand(dict(_SDOF, contact={"law": "linear", "R": 0.5}))
+    with pytest.raises(ValueError, match="not both"):
+        expand(dict(_SDOF, stop=[{"Delta": 0.0, "R": 0.9}]))
+
+
+def test_canonical_sdof_and_beam_tables_refuse_in_one_line():
+    """The canonical tables of the paper's builders refuse a bad table naming the key (the stop's
+    order, the drive's form)."""
+    sdof = {"system": {"builder": "sdof", "damping_ratio": 0.015}, "stop": [{"Delta": 0.0, "R": 0.9}],
+            "excitation": {"amplitude": 5e-4}}
+    assert _validate_model(sdof).build().B == 5e-4
+    bad = [
+        (dict(sdof, stop=[{"side": "lower", "Delta": 0.0, "R": 0.9}]), r"stop\[0\] is the paper's stop"),
+        (dict(sdof, excitation={"amplitude_mm": 0.1}), "excitation"),
+        (dict(sdof, excitation={"amplitude": 5e-4, "gain": 1.0, "voltage": 1.0}), "excitation"),
+        (dict(sdof, system={"builder": "sdof", "damping_ratio": 0.01, "length_mm": 180.0}), "together"),
+        (dict(sdof, system={"builder": "sdofs"}), "system.builder"),
+    ]
+    for table, what in bad:
+        with pytest.raises(CaseError, match=what) as e:
+            _validate_model(table)
+        assert "\n" not in str(e.value)
+    # a structure's drive takes none of the SDOF's and the beam's amplitude forms
+    chain = load_case(next(p for p in CASES if p.stem == "chain-3dof")).model
+    with pytest.raises(CaseError, match="SDOF's and the beam's drive"):
+        _validate_model(dict(chain, excitation={"gain": 1.0, "voltage": 0.5}))
+    # the physical SDOF's drive as a base displacement amplitude: B = Y / L
+    rig = expand(_RIG)
+    rig["excitation"] = {"amplitude_mm": 0.09288}
+    m = _validate_model(rig).build()
+    assert m.B == 0.09288 / 180.0
