@@ -18,7 +18,7 @@ from . import _cache, _inline_copy
 _cache.install()   # before any kernel module: the cache key covers the whole package
 _inline_copy.install()   # numba's inliner copies a callee's scope once, not once per block
 
-from .registry import (FIDELITIES, IMPULSIVE, fidelity, mass_law_keys, resolve,  # noqa: E402
+from .registry import (FIDELITIES, IMPULSIVE, fidelity, law_key, mass_law_keys, resolve,  # noqa: E402
                        supported_methods)
 
 # public names -> their module (imported on first access, PEP 562)
@@ -131,6 +131,12 @@ def _refusal(model, method: str) -> str:
                 f"{', '.join(m for m in one if m != 'continuation') or 'none'}")
     if method not in both:
         return f"cannot simulate a second (lower) stop{'' if lo == up else f' of another law ({lo})'}; {allowed}"
+    # the stops away from the attached mass (a structure's, each its own law): each law with the upper one's
+    away = model.stops()[len(model.mass_stops()):] if hasattr(model, "mass_stops") else ()
+    for k in dict.fromkeys(law_key(s.law) for s in away):
+        ok = supported_methods(fid.name, up, k)
+        if method not in ok:
+            return f"cannot simulate a stop of law family {k!r} away from the attached mass; allowed: {', '.join(ok) or 'none'}"
     return ""
 
 

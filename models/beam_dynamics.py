@@ -89,8 +89,11 @@ class PointStop:
     gap_contact_m : float
         Its distance from the static equilibrium at the point, along its normal (m; negative:
         pre-stressed).
-    law : Restitution
-        The stop's law: Newton's, with its coefficient of restitution (the only holder of it).
+    law : Restitution or compliant law
+        The stop's law, the only holder of its numbers: Newton's, with its coefficient of
+        restitution, or a compliant law of :mod:`vibeam.models.compliant` (stiffness in N/m^p at
+        the point, converted to the system's units with the other stops' by
+        :meth:`BeamImpactModel.system_stops`).
     label : str
         Its name in outputs and messages.
     """
@@ -155,7 +158,7 @@ class BeamImpactModel:
     point_stops : sequence of (PointStop, ndarray (N,)), optional
         Further stops at other points of the beam, each with its contact row ``w(x)`` in the
         retained modes (:meth:`from_fe` and :meth:`static_mode` compute them from positions);
-        Newton's law with their own R.  They are relations on the system's contact rows 1, 2, ...
+        each with its own law (Newton's; a structure's may be compliant).  They are relations on the system's contact rows 1, 2, ...
         (:meth:`contact_rows`).
     """
 
@@ -275,7 +278,7 @@ class BeamImpactModel:
         R, gap_contact_m, base_amplitude_m, gap_contact_lower_m, R_lower
             As for the constructor (m at contact row 0; ``base_amplitude_m`` in the DOFs' unit).
         point_stops : sequence of (PointStop, int)
-            Further Newton stops, each with the index ``k >= 1`` of its contact row in ``mm``.
+            Further stops (each its own law), each with the index ``k >= 1`` of its contact row in ``mm``.
         Returns
         -------
         BeamImpactModel

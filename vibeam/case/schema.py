@@ -875,7 +875,7 @@ class MatricesModelSpec(_StopsSpec):
 
     The first stop is the reference stop (the paper's: the amplitude ``Q`` is measured from it),
     an upper one; a lower stop at its DOF is the scene's second stop (any law); stops at other DOFs
-    are Newton's.  Physical: the sweep in Hz (``Omega = f / f_ref``, ``f_ref`` the first kept mode's
+    take any law too (a compliant one in N/m^p at their DOF).  Physical: the sweep in Hz (``Omega = f / f_ref``, ``f_ref`` the first kept mode's
     unless given), the reported displacement the sensor's over ``length_mm``.
     """
 
@@ -916,9 +916,6 @@ class MatricesModelSpec(_StopsSpec):
             elif at == at0:
                 raise ValueError(f"stop[{i}]: a second upper stop at {at0!r}; allowed: one upper and one lower stop "
                                  f"there, further stops at other DOFs")
-            elif is_compliant(st.law):
-                raise ValueError(f"stop[{i}] at {at!r}: law = {st.law!r}; allowed at a DOF other than the reference "
-                                 f"stop's: \"restitution\" (Newton's law)")
         if self.two_sided:
             up, lo = self.stop[0], self.stop[1]
             if (up.gap_mm is None) != (lo.gap_mm is None):
@@ -942,6 +939,12 @@ class MatricesModelSpec(_StopsSpec):
         """Where stop ``st`` (a :class:`StructureStopSpec` of this table) acts: its ``at`` (a DOF's
         name), else the sensor's DOF."""
         return st.at or self.system.sensor
+
+    @property
+    def further_stops(self) -> list:
+        """The stops away from the reference stop's DOF (after ``stop[0]`` and a lower stop there),
+        each with its own law."""
+        return list(self.stop[1 + int(self.two_sided):])
 
     @property
     def R(self) -> float:
@@ -2377,13 +2380,21 @@ def _stop_laws(spec) -> tuple:
 
 
 def _check_contact_method(spec, i: int, r) -> None:
-    """The run's method simulates the upper stop's law (the one capability function,
+    """The run's method simulates the upper stop's law and the laws of the stops away from the
+    reference stop's point (``further_stops``; the one capability function,
     :func:`vibeam.models.registry.supported_methods`)."""
     law, _ = _stop_laws(spec)
     allowed = supported_methods(spec.fidelity, law_key(law))
     if r.method not in allowed:
         raise CaseError(f"'run[{i}].method' = {r.method!r} does not simulate contact.law = \"{law}\" of fidelity "
                         f"{spec.fidelity!r}; allowed: {', '.join(allowed) or 'none'}")
+    further = getattr(spec, "further_stops", ())
+    for j, st in enumerate(further):
+        allowed = supported_methods(spec.fidelity, law_key(law), law_key(st.law))
+        if r.method not in allowed:
+            raise CaseError(f"'run[{i}].method' = {r.method!r} does not simulate law = \"{st.law}\" of "
+                            f"stop[{len(spec.stop) - len(further) + j}] beside the reference stop's law; allowed: "
+                            f"{', '.join(allowed) or 'none'}")
 
 
 def check_time_series(case: Case, source: str = "", hz_per_omega: float | None = None) -> None:

@@ -77,9 +77,9 @@ def matrix_model(spec) -> MatrixModel:
 
 def impact_model(spec):
     """The N-mode impact model of ``spec``: the reference stop (upper) at contact row 0 with its
-    law, a lower stop at its DOF with its own (any law), Newton stops at other DOFs; gaps
-    ``contact_gap_mm`` at the stop, or ``gap_mm`` at the sensor times the DOF's static ratio
-    (paper Eq. 45's ``Delta_C = phi Delta_G``).
+    law, a lower stop at its DOF with its own (any law), stops at other DOFs with theirs (Newton's
+    or compliant); gaps ``contact_gap_mm`` at the stop, or ``gap_mm`` at the sensor times the DOF's
+    static ratio (paper Eq. 45's ``Delta_C = phi Delta_G``).
 
     Returns
     -------
@@ -100,8 +100,11 @@ def impact_model(spec):
         lo = spec.stop[1]
         kw = dict(gap_contact_lower_m=gap_m(lo, 0), R_lower=None if is_compliant(lo.law) else lo.R)
     first_point = 1 + int(spec.two_sided)
+    # a stop at another DOF holds its own law: Newton's, or a compliant one in N/m^p at its DOF
+    # (beam_law, as the stops at the reference DOF; the system's units by system_stops)
     points = [(PointStop(position_m=float("nan"), sign=1.0 if st.side == "upper" else -1.0,
-                         gap_contact_m=gap_m(st, 1 + j), law=Restitution(st.R),
+                         gap_contact_m=gap_m(st, 1 + j),
+                         law=beam_law(ContactSpec(**st.law_table()), st.R) if is_compliant(st.law) else Restitution(st.R),
                          label=f"{st.side} at {_at(spec, st)}"), 1 + j)
               for j, st in enumerate(spec.stop[first_point:])]
     m = impact_class.from_matrix_model(mm, R=up.R, gap_contact_m=gap_m(up, 0),
