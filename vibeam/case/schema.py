@@ -1174,6 +1174,16 @@ class MeshSystemSpec(_Strict):
     f_ref_hz: Annotated[float, Field(gt=0.0)] | None = None
     element: Literal["serendipity", "lagrange"] = "serendipity"
 
+    @field_validator("clamp", mode="before")
+    @classmethod
+    def _clamp_kind(cls, v):
+        ok = ((isinstance(v, str) and v) or (isinstance(v, list) and v and all(isinstance(x, str) and x for x in v))
+              or (isinstance(v, dict) and v and all(isinstance(x, str) for x in v.values())))
+        if not ok:
+            raise ValueError("allowed: a region's name, a list of names, or a table {region = \"<components>\"} "
+                             "(a non-empty subset of \"xyz\")")
+        return v
+
     @model_validator(mode="after")
     def _a_part(self):
         if (self.damping_ratios is None) == (self.rayleigh is None):
