@@ -660,6 +660,15 @@ class ContinuumImpactModel(MatrixImpactModel):
     fidelity = "continuum"
 
 
+class MeshImpactModel(ContinuumImpactModel):
+    """A user's part read from a mesh file (meshio: Gmsh ``.msh``, ``.vtu``, ...) as a 3D elastic
+    continuum in ``N`` modal coordinates (fidelity ``"mesh"``, issue 59;
+    :func:`vibeam.models.builders.continuum.build_continuum`): the stop on a region tied as a rigid
+    body, or a compliant stop on a point of the solid; every method of the N-mode model serves it."""
+
+    fidelity = "mesh"
+
+
 class BeamEventSolver:
     """Method ``event`` for the beam: exact event-driven modal solver (numba core).
 

@@ -338,6 +338,18 @@ register(Fidelity(
     mode_shapes=True,
     description="the rig as a 3D linear-elastic continuum (scikit-fem) with a rigid disc stack, in modal coordinates"))
 
+register(Fidelity(
+    name="mesh",
+    model="beam_dynamics:MeshImpactModel",
+    # a user's part from a mesh file (meshio) as a 3D elastic continuum (issue 59), reduced to its
+    # modes by the continuum's builder: the N-mode modal system, the same methods again
+    solvers=dict(N_MODE_SOLVERS),
+    modes=True,
+    contact_modes=True,
+    mode_shapes=True,
+    description="a user's part from a mesh file (meshio: Gmsh .msh, .vtu, ...) as a 3D linear-elastic continuum, "
+                "in modal coordinates"))
+
 
 def fidelity(name_or_model) -> Fidelity:
     """The :class:`Fidelity` of a registry name, or of a model or spec (its ``fidelity``).

@@ -108,13 +108,13 @@ import meshio
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
-from skfem import Basis, ElementHex2, ElementHexS2, ElementTetP2, MeshHex, MeshTet
+from skfem import Basis, ElementHex1, ElementHex2, ElementHexS2, ElementTetP1, ElementTetP2, MeshHex, MeshTet
 
 from ..system import ModalSystem
 from .matrices import MatrixModel, build_matrices
 
 __all__ = ["Material", "STEEL", "RigGeometry", "ContinuumMesh", "rig_mesh", "read_mesh", "rigid_body_mass", "rigid_motion", "box_mesh", "write_mesh",
-           "assemble", "build_continuum", "build_rig", "effective_mass", "write_modes", "cache_dir", "ContinuumInfo"]
+           "assemble", "mesh_mass", "build_continuum", "build_rig", "effective_mass", "write_modes", "cache_dir", "ContinuumInfo"]
 
 
 # ============================================================================ data
@@ -618,6 +618,35 @@ def assemble(mesh: ContinuumMesh, materials, element: str = "serendipity", chunk
         mr, mc = np.broadcast_arrays(mr, mc, Mfull)[:2]
         M = M + scipy.sparse.csr_array((Mfull.ravel(), (mr.ravel(), mc.ravel())), shape=(N3, N3))
     return K, M, basis
+
+
+def mesh_mass(mesh: ContinuumMesh, materials=STEEL) -> float:
+    """The solid's mass ``int rho dV`` (kg), by Gauss quadrature on its (trilinear or linear) cells.
+
+    Parameters
+    ----------
+    mesh : ContinuumMesh
+    materials : Material or dict of str -> Material
+        As :func:`assemble` (``"*"``: the cells in no named set).
+
+    Raises
+    ------
+    ValueError
+        A cell without a material.
+    """
+    sk = _skfem_mesh(mesh)
+    vol = Basis(sk, ElementHex1() if mesh.cell_type == "hexahedron" else ElementTetP1(), intorder=2).dx.sum(axis=1)
+    if isinstance(materials, Material):
+        materials = {"*": materials}
+    rho = np.full(len(vol), np.nan)
+    for name, mat in materials.items():
+        if name != "*":
+            rho[np.asarray(mesh.cell_sets[name], dtype=np.int64)] = mat.density_kg_m3
+    if "*" in materials:
+        rho[np.isnan(rho)] = materials["*"].density_kg_m3
+    if np.any(np.isnan(rho)):
+        raise ValueError(f"{int(np.isnan(rho).sum())} cells in no cell set with a material")
+    return float(rho @ vol)
 
 
 def _entity_dofs(basis, nodes: np.ndarray) -> np.ndarray:

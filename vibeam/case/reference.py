@@ -70,6 +70,16 @@ TABLES = (
     ("[[model.stop]] (builder = \"sdof\" or \"beam\")", schema.SceneStopSpec,
      "as [[model.stop]] above; the lower stop at the attached mass (stop[1]) without R nor law has the upper "
      "stop's law"),
+    ("[model] (canonical: [model.system] builder = \"mesh\")", schema.MeshModelSpec,
+     "a part of your own from a mesh file (issue 59): the same three tables, a Newton stop on a region tied as a "
+     "rigid body, a compliant one on a point of the solid too"),
+    ("[model.system] (builder = \"mesh\")", schema.MeshSystemSpec,
+     "the mesh file (meshio: Gmsh .msh, .vtu, .xdmf, ...; relative to the case file) and its named regions: the "
+     "clamp, the materials, a rigid region; points in mm; built once per file and table (cached)"),
+    ("[model.system.materials.<region>]", schema.MaterialSpec,
+     "the material of a volume region of the mesh (the regions not named: steel)"),
+    ("[[model.stop]] (builder = \"mesh\")", schema.MeshStopSpec,
+     "where the stop acts: a point of the rigid region or of the solid, and the direction it is met in"),
     ("[model.excitation]", schema.ExcitationSpec, "the harmonic drive of the structure"),
     ("[sweep]", schema.SweepSpec, "the forcing-frequency grid and how each point is simulated"),
     ("[[run]] (every method)", schema.EventRun, "one table per run; keys common to every method"),
@@ -268,6 +278,54 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "damping_ratios": ("1", "modal damping ratios: one for every mode, or one per kept mode"),
         "rayleigh": ("1/s, s", "[a, b] of C = a M + b K (paper Eq. 39: [0, D]), instead of damping_ratios"),
         "f_ref_hz": ("Hz", "reference frequency of Omega = f / f_ref (default: the first kept mode's)"),
+    },
+    "[model] (canonical: [model.system] builder = \"mesh\")": {
+        "system": ("", "[model.system]: the part's mesh and regions (below)"),
+        "stop": ("", "[[model.stop]]: an upper stop, optionally a lower one at the same point (below)"),
+        "excitation": ("", "[model.excitation]: the drive (below)"),
+    },
+    "[model.system] (builder = \"mesh\")": {
+        "builder": ("", "\"mesh\": a part from a mesh file as a 3D linear-elastic solid (scikit-fem, quadratic "
+                    "elements on the mesh's hexahedra or tetrahedra)"),
+        "file": ("", "the mesh (coordinates in m), any format meshio reads; its named regions (Gmsh physical "
+                 "groups, meshio cell sets) name the clamp, materials and rigid region"),
+        "clamp": ("", "the held region(s): a name, a list of names (every displacement component held), or a table "
+                  "{region = \"<components>\"} holding only those (\"yz\": free along x)"),
+        "materials": ("", "[model.system.materials.<region>]: a volume region's material (the rest steel)"),
+        "rigid": ("", "a region tied as one rigid body (a pad, a tip mass): where a Newton stop acts, well posed"),
+        "body_point_mm": ("mm", "the rigid body's reference point (default the centroid of its region's nodes)"),
+        "sensor_mm": ("mm", "the point whose displacement is reported (inside the part)"),
+        "sensor_direction": ("1", "the direction the sensor reads along (unit after scaling)"),
+        "drive_direction": ("1", "the direction the base translates along"),
+        "length_mm": ("mm", "normalising length of the reported q (default 1 mm)"),
+        "n_modes": ("", "the lowest modes kept"),
+        "damping_ratios": ("1", "modal damping ratios: one for every mode, or one per kept mode"),
+        "rayleigh": ("1/s, s", "[a, b] of C = a M + b K (paper Eq. 39: [0, D]), instead of damping_ratios"),
+        "f_ref_hz": ("Hz", "reference frequency of Omega = f / f_ref (default: the first kept mode's)"),
+        "element": ("", "hexahedra with 20 nodes (\"serendipity\") or 27 (\"lagrange\"); tetrahedra: 10 nodes"),
+    },
+    "[model.system.materials.<region>]": {
+        "youngs_modulus_gpa": ("GPa", "Young's modulus E"),
+        "poisson_ratio": ("1", "Poisson's ratio nu"),
+        "density_kg_m3": ("kg/m^3", "density"),
+    },
+    "[[model.stop]] (builder = \"mesh\")": {
+        "law": ("", "the stop's law (default \"restitution\", Newton's: on the rigid region only)"),
+        "R": ("1", "Newton's coefficient of restitution, or a compliant law's target R"),
+        "stiffness": ("1", "not for structures (a ratio of the SDOF's)"),
+        "stiffness_n_m": ("N/m (N/m^p)", "compliant law: contact stiffness at the stop's point"),
+        "damping_ratio": ("1", "linear law: damping ratio of the contact phase (else set by R)"),
+        "exponent": ("1", "Hertz-type laws: the force exponent p, 1 <= p <= 3"),
+        "mass_kg": ("kg", "not for structures (the effective mass is the part's at the point)"),
+        "side": ("", "\"upper\": met moving along normal, \"lower\": against it; the first stop is upper"),
+        "position_mm": ("mm", "not for structures (point_mm places the stop)"),
+        "gap_mm": ("mm", "gap seen at the sensor (times the point's static ratio K^-1 M r, Eq. 45)"),
+        "contact_gap_mm": ("mm", "gap at the stop's point, along normal"),
+        "Delta": ("1", "not for structures (nondimensional SDOF scenes)"),
+        "at": ("", "\"body\": a point of the rigid region (default with one), \"node\": the solid's displacement "
+               "there (compliant laws only: its effective mass vanishes under refinement)"),
+        "point_mm": ("mm", "where the stop acts (the reference stop; a lower stop acts at the same point)"),
+        "normal": ("1", "the direction the part moves in towards the stop (default the sensor's)"),
     },
     "[model.excitation]": {
         "kind": ("", "\"base_displacement\" (Y sin 2 pi f t, the paper's shaker), \"base_acceleration\" (a held "
@@ -532,6 +590,8 @@ def describe_type(ann, meta=()) -> str:
         return " | ".join(f'"{a}"' if isinstance(a, str) else str(a) for a in args)
     if origin is list:
         return f"list of {describe_type(args[0])}" + tail if args else "list" + tail
+    if origin is dict and args:
+        return f"table of {describe_type(args[1])} by name" + tail
     if isinstance(ann, type) and issubclass(ann, BaseModel):
         return "table"
     name = {float: "number", int: "integer", str: "string", bool: "true/false", dict: "table"}.get(ann, str(ann))

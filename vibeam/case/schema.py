@@ -1168,6 +1168,203 @@ class ContinuumModelSpec(MatricesModelSpec):
         return _structure().modes_report(self, n)
 
 
+#: three numbers: a point (mm) or a direction
+Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+
+
+def _nonzero(v, what):
+    if v is not None and not (all(math.isfinite(x) for x in v) and any(x != 0.0 for x in v)):
+        raise ValueError(f"{what} = {v}: allowed: three finite numbers, not all 0 (a direction)")
+    return v
+
+
+class MaterialSpec(_Strict):
+    """``[model.system.materials.<region>]``: the isotropic linear-elastic material of a region of
+    a user's mesh (steel unless given: 200 GPa, 0.3, 7850 kg/m^3, as the rig's cases assume it)."""
+
+    youngs_modulus_gpa: Annotated[float, Field(gt=0.0, le=1e4)] = 200.0
+    poisson_ratio: Annotated[float, Field(gt=-1.0, lt=0.5)] = 0.3
+    density_kg_m3: Annotated[float, Field(gt=0.0, le=1e6)] = 7850.0
+
+
+class MeshSystemSpec(_Strict):
+    """``[model.system]`` with ``builder = "mesh"``: a user's part as a 3D linear-elastic continuum
+    (issue 59), its mesh read by meshio from ``file`` (Gmsh ``.msh``, ``.vtu``, ``.xdmf``, ...:
+    :func:`vibeam.models.builders.continuum.read_mesh`; the path relative to the case file's folder),
+    its named regions (Gmsh physical groups, meshio cell sets) naming the clamp, the materials and a
+    rigid region; built by :func:`vibeam.models.builders.continuum.build_continuum` (quadratic
+    elements on the mesh's hexahedra or tetrahedra) and reduced to its ``n_modes`` lowest modes;
+    cached per content hash (the file's bytes in the key: ``$VIBEAM_CACHE_DIR/continuum``).
+
+    The mesh's coordinates are in metres (points of the case in mm).  The base translates along
+    ``drive_direction``; the sensor reads the displacement at ``sensor_mm`` along
+    ``sensor_direction``, over ``length_mm`` for ``q``.  Regions are checked against the mesh when
+    the model is built (a name the mesh does not have is refused, listing the mesh's regions).
+    """
+
+    builder: Literal["mesh"]
+    file: Annotated[str, Field(min_length=1)]
+    clamp: Annotated[str, Field(min_length=1)] | Annotated[list[str], Field(min_length=1)] | dict[str, str]
+    materials: dict[str, MaterialSpec] = {}
+    rigid: Annotated[str, Field(min_length=1)] | None = None
+    body_point_mm: Vec3 | None = None
+    sensor_mm: Vec3
+    sensor_direction: Vec3 = [0.0, 0.0, 1.0]
+    drive_direction: Vec3 = [0.0, 0.0, 1.0]
+    length_mm: Annotated[float, Field(gt=0.0, le=1e8)] = 1.0
+    n_modes: Annotated[int, Field(ge=1, le=200)] = 4
+    damping_ratios: Annotated[float, Field(ge=0.0, lt=1.0)] | list[Annotated[float, Field(ge=0.0, lt=1.0)]] | None = None
+    rayleigh: Annotated[list[Annotated[float, Field(ge=0.0)]], Field(min_length=2, max_length=2)] | None = None
+    f_ref_hz: Annotated[float, Field(gt=0.0)] | None = None
+    element: Literal["serendipity", "lagrange"] = "serendipity"
+
+    @field_validator("clamp", mode="before")
+    @classmethod
+    def _clamp_kind(cls, v):
+        ok = ((isinstance(v, str) and v) or (isinstance(v, list) and v and all(isinstance(x, str) and x for x in v))
+              or (isinstance(v, dict) and v and all(isinstance(x, str) for x in v.values())))
+        if not ok:
+            raise ValueError("allowed: a region's name, a list of names, or a table {region = \"<components>\"} "
+                             "(a non-empty subset of \"xyz\")")
+        return v
+
+    @model_validator(mode="after")
+    def _a_part(self):
+        if (self.damping_ratios is None) == (self.rayleigh is None):
+            raise ValueError("give the damping as damping_ratios (one for every mode, or one per kept mode) or as "
+                             "rayleigh = [a, b] (C = a M + b K), exactly one of them")
+        if isinstance(self.damping_ratios, list) and len(self.damping_ratios) != self.n_modes:
+            raise ValueError(f"damping_ratios: {len(self.damping_ratios)} values for n_modes = {self.n_modes}; "
+                             f"allowed: one per kept mode, or one for all")
+        for k in ("sensor_direction", "drive_direction"):
+            _nonzero(getattr(self, k), k)
+        for k in ("sensor_mm", "body_point_mm"):
+            v = getattr(self, k)
+            if v is not None and not all(math.isfinite(x) and abs(x) <= 1e8 for x in v):
+                raise ValueError(f"{k} = {v}: allowed: three finite numbers (mm), |x| <= 1e8")
+        if isinstance(self.clamp, dict):
+            for r, c in self.clamp.items():
+                if not c or any(ch not in "xyz" for ch in c) or len(set(c)) != len(c):
+                    raise ValueError(f"clamp.{r} = {c!r}: the components held; allowed: a non-empty subset of "
+                                     f"\"xyz\" (\"xyz\": clamped; \"yz\": free along x)")
+        if self.body_point_mm is not None and self.rigid is None:
+            raise ValueError("body_point_mm is the rigid region's reference point; allowed only with rigid = "
+                             "\"<region>\"")
+        return self
+
+    def clamp_supports(self) -> list:
+        """``[(region, components), ...]`` of :attr:`clamp` (a name or a list of names: every
+        component held)."""
+        if isinstance(self.clamp, str):
+            return [(self.clamp, "xyz")]
+        if isinstance(self.clamp, list):
+            return [(r, "xyz") for r in self.clamp]
+        return list(self.clamp.items())
+
+
+class MeshStopSpec(StopSpec):
+    """One ``[[model.stop]]`` of a user's mesh: ``at = "body"`` (a point of the rigid region, the
+    default when there is one: its effective mass is finite, so Newton's law is well posed) or
+    ``"node"`` (the displacement of the solid interpolated at a point: its effective mass goes to 0
+    as the mesh is refined, so only a compliant law, whose contact force stays finite); ``point_mm``
+    where it acts (on the reference stop: a lower stop acts at the same point) and ``normal`` the
+    direction in which the part moves towards the stop (default the sensor's); the stop is met when
+    the displacement there along ``normal`` reaches the gap (``contact_gap_mm``, or ``gap_mm`` at the
+    sensor times the static ratio, Eq. 45)."""
+
+    at: Literal["body", "node"] | None = None
+    point_mm: Vec3 | None = None
+    normal: Vec3 | None = None
+
+    @model_validator(mode="after")
+    def _a_direction(self):
+        _nonzero(self.normal, "normal")
+        if self.point_mm is not None and not all(math.isfinite(x) and abs(x) <= 1e8 for x in self.point_mm):
+            raise ValueError(f"point_mm = {self.point_mm}: allowed: three finite numbers (mm), |x| <= 1e8")
+        return self
+
+
+@register_model_spec("mesh")
+class MeshModelSpec(ContinuumModelSpec):
+    """``[model]`` of a user's part read from a mesh file (issue 59): ``[model.system]``
+    (:class:`MeshSystemSpec`, ``builder = "mesh"``), ``[[model.stop]]`` (:class:`MeshStopSpec`: an upper
+    stop, optionally a lower one at the same point) and ``[model.excitation]`` as for a structure given
+    by its matrices.  A Newton stop acts on the rigid region (``rigid``); a stop on a point of the solid
+    (``at = "node"``) takes a compliant law only (its effective mass vanishes under refinement: the
+    impulse of Newton's law there is not defined).
+    """
+
+    system: MeshSystemSpec
+    stop: Annotated[list[MeshStopSpec], Field(min_length=1)]
+
+    fidelity: ClassVar[str] = "mesh"
+
+    @model_validator(mode="after")
+    def _stops_on_the_stack(self):      # replaces the continuum's (stops on its disc stack) by name
+        first = self.stop[0]
+        if first.point_mm is None:
+            raise ValueError("stop[0]: point_mm = [x, y, z] (mm), where the stop acts, is required")
+        at = self.stop_kind(first)
+        if at == "body" and self.system.rigid is None:
+            raise ValueError("stop[0]: at = \"body\" needs a rigid region; allowed: [model.system] rigid = "
+                             "\"<region>\", or at = \"node\" with a compliant law")
+        for i, st in enumerate(self.stop):
+            if i and any(getattr(st, k) not in (None, getattr(first, k)) for k in ("at", "point_mm", "normal")):
+                raise ValueError(f"stop[{i}]: at, point_mm and normal are the reference stop's (stop[0]): a lower "
+                                 f"stop acts at the same point; allowed: omit them, or give stop[0]'s")
+            if at == "node" and not is_compliant(st.law):
+                raise ValueError(f"stop[{i}]: at = \"node\" with law = {st.law!r}: Newton's law on a point of "
+                                 f"the solid meets an effective mass that goes to 0 as the mesh is refined (its "
+                                 f"impulse is not defined); allowed: at = \"body\" (a rigid region, [model.system] "
+                                 f"rigid) or a compliant law (law = \"kelvin_voigt\", \"hertz\", ...)")
+        if len(self.stop) > 1 + int(self.two_sided):
+            raise ValueError(f"{len(self.stop)} stops; allowed on a mesh: an upper stop and optionally a lower one "
+                             f"at the same point (stop[1])")
+        return self
+
+    def stop_kind(self, st) -> str:
+        """``"body"`` or ``"node"``: where the reference stop acts (``at``, default ``"body"`` when
+        there is a rigid region); every stop acts where the reference stop does."""
+        at = self.stop[0].at
+        return at if at is not None else ("body" if self.system.rigid is not None else "node")
+
+    def stop_normal(self) -> list:
+        """The reference stop's ``normal`` (default the sensor's direction)."""
+        n = self.stop[0].normal
+        return list(n) if n is not None else list(self.system.sensor_direction)
+
+    def stop_at(self, st) -> str:
+        """Where every stop acts: the reference stop's point, on the rigid body or the solid."""
+        p = self.stop[0].point_mm or [float("nan")] * 3
+        return f"{self.stop_kind(st)} at ({p[0]:g}, {p[1]:g}, {p[2]:g}) mm"
+
+    def matrix_model(self):
+        """The part reduced to its modes, :class:`vibeam.models.builders.matrices.MatrixModel`
+        (contact row 0: the reference stop's point along its normal; :func:`vibeam.case.structure.mesh_model`)."""
+        return _structure().mesh_model(self)[0]
+
+    def result_attrs(self) -> dict:
+        """The part's kept frequencies (Hz) and damping ratios, the stop's static ratio and the mesh."""
+        mm, info, _ = build_or_refuse(self, lambda: _structure().mesh_model(self))
+        return {"frequencies_hz": np.asarray(mm.frequencies_hz), "damping_ratios": np.asarray(mm.damping_ratios),
+                "contact_static": np.asarray(mm.contact_static),
+                "contact_effective_mass_kg": np.asarray(info.contact_effective_mass_kg),
+                "mesh": f"{Path(self.system.file).name}, {info.n_cells} cells, {info.n_dofs} DOFs"}
+
+    def converged_reference(self, table: dict, overrides: dict):
+        """Model table of a cost table's converged reference: twice the modes (at least 12) on the
+        same mesh (a user's mesh is not refined here: converge it in the mesh generator)."""
+        fine = model_with(table, overrides)
+        sy = fine["system"]
+        fine["system"] = dict(sy, n_modes=max(12, 2 * int(sy.get("n_modes", 4))))
+        return fine
+
+    def modes_report(self, n: int = 8) -> dict:
+        """Modes, participation, effective masses and the contact modes within the kept modes
+        (``vibeam modes``; :func:`vibeam.case.structure.mesh_modes_report`)."""
+        return _structure().mesh_modes_report(self, n)
+
+
 # ----------------------------------------------------------------------------- the paper's builders
 #: the law keys of a stop table (:class:`vibeam.case.contact.ContactSpec`'s fields)
 _LAW_KEYS = tuple(ContactSpec.model_fields)
@@ -1461,7 +1658,7 @@ del _name
 
 #: the spec class of each ``[model.system] builder`` (the canonical tables, issue 58)
 CANONICAL_SPECS = {"sdof": SDOFSceneSpec, "beam": BeamSceneSpec, "matrices": MatricesModelSpec,
-                   "continuum": ContinuumModelSpec}
+                   "continuum": ContinuumModelSpec, "mesh": MeshModelSpec}
 
 
 def _structure():
@@ -1471,7 +1668,7 @@ def _structure():
     return structure
 
 
-ModelSpec = Union[SDOFModelSpec, BeamModelSpec, MatricesModelSpec, ContinuumModelSpec]
+ModelSpec = Union[SDOFModelSpec, BeamModelSpec, MatricesModelSpec, ContinuumModelSpec, MeshModelSpec]
 
 
 def fidelity_methods(name: str) -> tuple:
@@ -2241,7 +2438,7 @@ def validation_message(err: ValidationError, prefix: str, root_cls) -> str:
 
 
 #: keys of ``[model.system]`` that name files (relative to the case file's folder)
-FILE_KEYS = ("matrices", "M", "K", "C")
+FILE_KEYS = ("matrices", "M", "K", "C", "file")
 
 
 def with_absolute_files(data: dict, base) -> dict:

@@ -11,6 +11,7 @@ Loaded only when a structure is built (``load_case`` stays free of scipy.io and 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import scipy.linalg
@@ -18,13 +19,16 @@ import scipy.linalg
 from vibeam.case.contact import ContactSpec, beam_law
 from vibeam.io.matrices import inline_matrices, read_matrices
 from vibeam.models.beam_dynamics import CompliantBeamModel, PointStop
-from vibeam.models.builders.continuum import Material, RigGeometry, build_rig, write_modes
+from vibeam.errors import CaseError, quote_value
+from vibeam.models.builders.continuum import (STEEL, Material, RigGeometry, build_continuum, build_rig, mesh_mass,
+                                              read_mesh, write_modes)
 from vibeam.models.builders.matrices import MatrixModel, build_matrices
 from vibeam.models.contact import Restitution
 from vibeam.models.scene import Excitation
 from vibeam.models.registry import fidelity, is_compliant, resolve
 
-__all__ = ["arrays", "matrix_model", "impact_model", "rig_geometry", "continuum_model", "modes_report"]
+__all__ = ["arrays", "matrix_model", "impact_model", "rig_geometry", "continuum_model", "modes_report",
+           "mesh_model", "mesh_modes_report"]
 
 
 def arrays(system) -> dict:
@@ -216,6 +220,27 @@ def _held_modes(omega, w) -> np.ndarray:
     return np.sqrt(np.maximum(lam, 0.0)) / (2.0 * np.pi)
 
 
+def _with_modes(spec, n: int):
+    """``spec`` with ``n`` modes kept (the damping ratios, when a list, give way to their first value)."""
+    sy = spec.system
+    ratios = sy.damping_ratios if not isinstance(sy.damping_ratios, list) else float(sy.damping_ratios[0])
+    return spec.model_copy(update={"system": sy.model_copy(update={"n_modes": int(n), "damping_ratios": ratios})})
+
+
+def _report(mm, info, mesh, total_mass_kg: float, kind: str, note: str) -> dict:
+    """The modes report of a reduced continuum (:func:`modes_report`, :func:`mesh_modes_report`)."""
+    s = mm.system
+    G = np.asarray(s.participation, float)
+    f = np.asarray(mm.frequencies_hz, float)
+    sphi = np.asarray(s.sensor, float)
+    return {"modes": ContinuumModes(f, G, G ** 2, info.nodal_shapes),
+            "contact": ContinuumModes(_held_modes(2.0 * np.pi * f, s.contacts[0]), np.zeros(0), np.zeros(0),
+                                      np.zeros((0, 3, 0))),
+            "total_mass_kg": total_mass_kg, "sensor_modal_mass_kg": 1.0 / np.maximum(sphi ** 2, 1e-300),
+            "ndof": len(mm.dofs), "info": info, "mesh": mesh, "model": mm, "kind": kind, "contact_note": note,
+            "write_vtu": lambda path: write_modes(path, mesh, info)}
+
+
 def modes_report(spec, n: int = 8) -> dict:
     """``vibeam modes`` of a continuum: its ``n`` lowest modes (participation, effective masses,
     the modal mass at the sensor), the contact modes within them and writers of the shapes.
@@ -243,23 +268,138 @@ def modes_report(spec, n: int = 8) -> dict:
     ValueError
         From the build (one line).
     """
-    sy = spec.system
-    ratios = sy.damping_ratios if not isinstance(sy.damping_ratios, list) else float(sy.damping_ratios[0])
-    spec = spec.model_copy(update={"system": sy.model_copy(update={"n_modes": int(n), "damping_ratios": ratios})})
+    spec = _with_modes(spec, n)
     mm, info, mesh = continuum_model(spec)
-    s = mm.system
-    G = np.asarray(s.participation, float)
-    f = np.asarray(mm.frequencies_hz, float)
     g = rig_geometry(spec.system)
     strip = g.material.density_kg_m3 * g.length_m * g.width_m * g.thickness_m
     discs = sum(p[0] for p in g.body_parts())
-    sphi = np.asarray(s.sensor, float)
-    return {"modes": ContinuumModes(f, G, G ** 2, info.nodal_shapes),
-            "contact": ContinuumModes(_held_modes(2.0 * np.pi * f, s.contacts[0]), np.zeros(0), np.zeros(0),
-                                      np.zeros((0, 3, 0))),
-            "total_mass_kg": strip + discs, "sensor_modal_mass_kg": 1.0 / np.maximum(sphi ** 2, 1e-300),
-            "ndof": len(mm.dofs), "info": info, "mesh": mesh, "model": mm,
-            "kind": f"3D continuum, {info.n_cells} hexahedra of {spec.system.element_size_mm:g} mm, "
-                    f"{spec.system.layers} layer(s), {len(mm.dofs)} DOFs",
-            "contact_note": "within the kept modes, the stack held at its contact point",
-            "write_vtu": lambda path: write_modes(path, mesh, info)}
+    return _report(mm, info, mesh, strip + discs,
+                   f"3D continuum, {info.n_cells} hexahedra of {spec.system.element_size_mm:g} mm, "
+                   f"{spec.system.layers} layer(s), {len(mm.dofs)} DOFs",
+                   "within the kept modes, the stack held at its contact point")
+
+
+# ============================================================================ a user's mesh (issue 59)
+def _refuse(key: str, value, what: str):
+    return CaseError(f"'model.system.{key}' = {quote_value(value)}: {what}")
+
+
+def mesh_of(system):
+    """The :class:`~vibeam.models.builders.continuum.ContinuumMesh` of a ``[model.system]`` table with
+    ``builder = "mesh"`` (:class:`vibeam.case.schema.MeshSystemSpec`), read by meshio, its region
+    names checked (the clamp's, the rigid region's, the materials').
+
+    Raises
+    ------
+    vibeam.errors.CaseError
+        A file that does not exist or that meshio cannot read as a volume mesh; a region the mesh
+        does not have (one line naming the key, the value and the mesh's regions).
+    """
+    sy = system
+    path = Path(sy.file)
+    if not path.is_file():
+        raise _refuse("file", sy.file, "no such file; allowed: a volume mesh meshio reads (Gmsh .msh, .vtu, "
+                                       ".xdmf, ...), its path relative to the case file's folder")
+    try:
+        mesh = read_mesh(path)
+    except Exception as e:           # meshio raises its own errors (and others) on a file it cannot parse
+        raise _refuse("file", sy.file, f"cannot be read as a volume mesh ({type(e).__name__}: {e}); allowed: a "
+                                       f"volume mesh meshio reads (Gmsh .msh, .vtu, .xdmf, ...)") from None
+    regions = ", ".join(sorted(mesh.regions)) or "none"
+    for r, _ in sy.clamp_supports():
+        if r not in mesh.regions:
+            raise _refuse("clamp", r, f"{path.name} has no region of that name; allowed: one of its regions "
+                                      f"({regions})")
+    if sy.rigid is not None and sy.rigid not in mesh.regions:
+        raise _refuse("rigid", sy.rigid, f"{path.name} has no region of that name; allowed: one of its regions "
+                                         f"({regions})")
+    for r in sy.materials:
+        if r not in mesh.cell_sets:
+            raise _refuse("materials", r, f"{path.name} has no volume region of that name; allowed: one of its "
+                                          f"volume regions ({', '.join(sorted(mesh.cell_sets)) or 'none'}), "
+                                          f"the rest steel")
+    lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
+    tol = 1e-9 * max(float(np.max(hi - lo)), 1e-300)
+    p = np.asarray(sy.sensor_mm, float) * 1e-3
+    if np.any(p < lo - tol) or np.any(p > hi + tol):
+        raise _refuse("sensor_mm", sy.sensor_mm, f"outside {path.name}; allowed: a point of the part, within "
+                                                 f"{np.round(lo * 1e3, 6).tolist()} ... {np.round(hi * 1e3, 6).tolist()} mm")
+    return mesh
+
+
+def mesh_materials(system) -> dict:
+    """``{region: Material}`` of ``[model.system.materials]`` (GPa to Pa), the rest (``"*"``) steel."""
+    out = {r: Material(m.youngs_modulus_gpa * 1e9, m.poisson_ratio, m.density_kg_m3)
+           for r, m in system.materials.items()}
+    out["*"] = STEEL
+    return out
+
+
+def mesh_model(spec, vtu=None, cache=True):
+    """The part of ``spec`` (:class:`vibeam.case.schema.MeshModelSpec`) reduced to its modes:
+    :func:`vibeam.models.builders.continuum.build_continuum` on the mesh file (its bytes in the cache
+    key), the clamp's regions and components, the materials (steel unless given), the rigid region,
+    the sensor, the reference stop's contact (``"body"``: a point of the rigid region; ``"node"``: the
+    solid's displacement there) along its normal, ``n_modes``, the damping, the drive.
+
+    Parameters
+    ----------
+    spec : MeshModelSpec
+    vtu : str or Path, optional
+        Also write the mode shapes there (meshio).
+    cache : bool or path
+        As :func:`~vibeam.models.builders.continuum.build_continuum`.
+
+    Returns
+    -------
+    model : vibeam.models.builders.matrices.MatrixModel
+        Contact row 0: the reference stop's point along its normal.
+    info : vibeam.models.builders.continuum.ContinuumInfo
+    mesh : vibeam.models.builders.continuum.ContinuumMesh
+
+    Raises
+    ------
+    vibeam.errors.CaseError
+        From :func:`mesh_of` (the file, a region, the sensor outside the part); a stop's point
+        outside the part (``"node"``).
+    ValueError
+        From the build (one line: a clamp that touches the rigid region, a damping refused, ...).
+    """
+    sy = spec.system
+    mesh = mesh_of(sy)
+    kind, st = spec.stop_kind(spec.stop[0]), spec.stop[0]
+    point = np.asarray(st.point_mm, float) * 1e-3
+    if kind == "node":
+        lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
+        if np.any(point < lo - 1e-9) or np.any(point > hi + 1e-9):
+            raise CaseError(f"'model.stop[0].point_mm' = {quote_value(st.point_mm)}: outside {Path(sy.file).name}; "
+                            f"allowed with at = \"node\": a point of the part")
+    damping = (dict(damping_ratios=sy.damping_ratios) if sy.rayleigh is None else
+               dict(damping_ratios=None, rayleigh=(float(sy.rayleigh[0]), float(sy.rayleigh[1]))))
+    model, info = build_continuum(
+        Path(sy.file), mesh_materials(sy), n_modes=sy.n_modes,
+        clamp=sy.clamp if isinstance(sy.clamp, str) else sy.clamp_supports(),
+        rigid=sy.rigid, body_point=None if sy.body_point_mm is None else np.asarray(sy.body_point_mm, float) * 1e-3,
+        sensor=(np.asarray(sy.sensor_mm, float) * 1e-3, np.asarray(sy.sensor_direction, float)),
+        contacts=[(kind, point, np.asarray(spec.stop_normal(), float))],
+        drive=np.asarray(sy.drive_direction, float), element=sy.element,
+        base_amplitude_m=spec.excitation.base_amplitude_m, f_ref_hz=sy.f_ref_hz, length_m=sy.length_mm * 1e-3,
+        cache=cache, vtu=vtu, **damping)
+    return model, info, mesh
+
+
+def mesh_modes_report(spec, n: int = 8) -> dict:
+    """``vibeam modes`` of a user's mesh: as :func:`modes_report` (the contact modes: the kept modes
+    held at the reference stop's point; the total mass ``int rho dV`` of the mesh).
+
+    Raises
+    ------
+    vibeam.errors.CaseError, ValueError
+        From :func:`mesh_model`.
+    """
+    spec = _with_modes(spec, n)
+    mm, info, mesh = mesh_model(spec)
+    cells = "hexahedra" if mesh.cell_type == "hexahedron" else "tetrahedra"
+    return _report(mm, info, mesh, mesh_mass(mesh, mesh_materials(spec.system)),
+                   f"3D continuum from {Path(spec.system.file).name}, {info.n_cells} {cells}, {len(mm.dofs)} DOFs",
+                   f"within the kept modes, held at the stop's point ({spec.stop_at(spec.stop[0])})")
