@@ -233,7 +233,13 @@ def _natural_frequency(spec):
 
 def _with(spec, **over):
     """The spec with some keys (or continuation parameters, through the spec's
-    ``parameter_values``) replaced (validated again)."""
+    ``parameter_values``; on the canonical tables through their paths) replaced (validated
+    again)."""
+    if "system" in type(spec).model_fields:
+        # the canonical tables (vibeam.case.expand): the table as written, each key set through the
+        # path it stands for (R -> stops[0].law.R, R_lower -> stops[1].law.R, voltage ->
+        # excitation.voltage: vibeam.case.paths.path_of)
+        return type(spec).model_validate(model_with(spec.model_dump(exclude_unset=True), over))
     data = spec.model_dump()
     for k, v in over.items():
         data.update(spec.parameter_values(k, v) if hasattr(spec, "parameter_values") else {k: v})
@@ -577,7 +583,7 @@ def assemble(task: BranchTask, row: dict) -> ContinuationResult:
             attrs["frequency_hz"] = task.at * fn
     if task.curve_key:
         attrs["curve_parameter"] = task.curve_key
-    attrs["model"] = spec.model_dump()
+    attrs["model"] = spec.model_dump(exclude_unset=True) if "system" in type(spec).model_fields else spec.model_dump()
     return ContinuationResult(name=task.run, fidelity=spec.fidelity, parameter=name,
                               settings=task.settings, branches=row.get("branches", []),
                               starts=row.get("starts", []), curves=row.get("curves", []),

@@ -23,7 +23,7 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from vibeam.case.paths import is_path, set_value
+from vibeam.case.paths import is_canonical, is_path, path_of, set_value
 from vibeam.models.registry import IMPLEMENTED_LAWS, LAWS, is_compliant, law_class
 
 
@@ -321,7 +321,17 @@ def model_with(model: dict, values: dict | None) -> dict:
     ValueError
         A parameter path that is not valid for this table (:func:`vibeam.case.paths.set_value`).
     """
-    paths = {k: v for k, v in (values or {}).items() if is_path(k)}
+    values = dict(values or {})
+    if is_canonical(model):
+        # a flat key on the canonical tables: an alias of the path it stands for (beta ->
+        # system.damping_ratio, voltage -> excitation.voltage, R_lower -> stops[1].law.R); the
+        # stops' shorthand keys (R, the gaps, contact tables) go into their stops below
+        for k in [k for k in values if k not in ("system", "stop", "excitation", "R", "contact", "contact_lower",
+                                                 *_UPPER_GAPS, *_LOWER_GAPS)]:
+            p = path_of(model, k)
+            if p is not None:
+                values[p] = values.pop(k)
+    paths = {k: v for k, v in values.items() if is_path(k)}
     for k, v in paths.items():             # a parameter path sets the one key it stands for
         model = set_value(model, k, v)
     values = {k: v for k, v in (values or {}).items() if k not in paths}

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import copy
 
-__all__ = ["expand", "expanded", "user_key", "SHORTHAND_FIDELITIES"]
+__all__ = ["expand", "expanded", "alias", "aliases", "user_key", "SHORTHAND_FIDELITIES"]
 
 #: the fidelities whose ``[model]`` table has a shorthand (``fidelity = ...``), expanded into the
 #: ``[model.system] builder`` of the same name
@@ -216,6 +216,39 @@ def _stop_tables(model: dict, fid: str) -> tuple[list, dict]:
         for k in s:
             origins[("stop", j, k)] = f"stop[{i}].{k}"
     return out, origins
+
+
+def alias(builder: str, key: str) -> str | None:
+    """The parameter path (:mod:`vibeam.case.paths`) the flat shorthand key ``key`` stands for in the
+    canonical tables of a ``[model.system] builder``, as :func:`expand` maps it: ``R`` ->
+    ``stops[0].law.R``, ``Delta`` / ``gap_mm`` / ``contact_gap_mm`` -> ``stops[0].<key>``,
+    ``Delta_lower`` -> ``stops[1].Delta`` (``gap_lower_mm``, ``contact_gap_lower_mm`` alike), ``beta``
+    -> ``system.damping_ratio``, ``B`` -> ``excitation.amplitude``, ``voltage`` ->
+    ``excitation.voltage``, a system key of the builder's shorthand -> ``system.<key>``.  None for a
+    key the shorthand does not have (or a builder without one, or a table key: ``contact``)."""
+    if builder not in SHORTHAND_FIDELITIES or not isinstance(key, str) or key not in _flat_keys(builder):
+        return None
+    _, origins = expanded({"fidelity": builder, key: 0.0})
+    loc = next((loc for loc, k in origins.items() if k == key), None)
+    if loc is None:
+        return None
+    if loc[0] == "stop":
+        return f"stops[{loc[1]}].{'law.' if loc[2] == 'R' else ''}{loc[2]}"
+    return f"{loc[0]}.{loc[1]}"
+
+
+def aliases(builder: str) -> dict:
+    """``{flat shorthand key: path}`` of every flat key of the shorthand of ``builder``
+    (:func:`alias`); {} for a builder without a shorthand."""
+    if builder not in SHORTHAND_FIDELITIES:
+        return {}
+    return {k: alias(builder, k) for k in _flat_keys(builder)}
+
+
+def _flat_keys(builder: str) -> tuple:
+    """The flat keys of the shorthand of ``builder`` that name one number (not a table)."""
+    return (*(k for k in _SYSTEM[builder] if k not in ("discs", "calibrate")), *_EXCITATION, "R", *_UPPER_GAPS,
+            *_LOWER_GAPS)
 
 
 def user_key(origins: dict, loc: tuple) -> str:

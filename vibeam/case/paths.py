@@ -26,12 +26,14 @@ from __future__ import annotations
 
 import re
 
+from vibeam.case.expand import alias as shorthand_alias
 from vibeam.models.registry import LAWS, is_compliant
 
 #: a stop table's own numbers (where it is and its gap); the rest of its numbers are its law's
 STOP_KEYS = ("position_mm", "gap_mm", "contact_gap_mm", "Delta")
-#: the model keys of the excitation (``excitation.<key>``); every other model key is the system's
-EXCITATION_KEYS = ("voltage", "gain", "B")
+#: the model keys of the excitation (``excitation.<key>``: the shorthand's and the canonical
+#: ``[model.excitation]`` table's numbers); every other model key is the system's
+EXCITATION_KEYS = ("voltage", "gain", "B", "amplitude", "amplitude_mm", "amplitude_m_s2", "amplitude_n")
 #: the shorthand keys of the two stops at the attached mass: (upper, lower) per stop key
 _SHORT_GAPS = {"Delta": ("Delta", "Delta_lower"), "gap_mm": ("gap_mm", "gap_lower_mm"),
                "contact_gap_mm": ("contact_gap_mm", "contact_gap_lower_mm")}
@@ -46,6 +48,47 @@ def is_path(name) -> bool:
     rather than a flat ``[model]`` key."""
     return isinstance(name, str) and (name.startswith("stops") or _GROUP.match(name) is not None
                                       or name.startswith(("system.", "excitation.")))
+
+
+def is_canonical(model) -> bool:
+    """Whether ``model`` (a ``[model]`` table) is written in the canonical tables (``[model.system]
+    builder``, no ``fidelity``: :mod:`vibeam.case.expand`), where ``system.<key>`` and
+    ``excitation.<key>`` name the keys of those tables."""
+    return (isinstance(model, dict) and "fidelity" not in model and isinstance(model.get("system"), dict)
+            and "builder" in model["system"])
+
+
+def path_of(model: dict, name: str) -> str | None:
+    """The path a flat key stands for in the canonical tables ``model`` (:func:`is_canonical`): a key
+    of ``[model.system]`` or ``[model.excitation]`` given there (``n_modes`` -> ``system.n_modes``),
+    a shorthand key as the expansion maps it (:func:`vibeam.case.expand.alias`: ``beta`` ->
+    ``system.damping_ratio``, ``B`` -> ``excitation.amplitude``, ``R`` -> ``stops[0].law.R``,
+    ``Delta_lower`` -> ``stops[1].Delta``), or the flat name of a stop's number (``R_lower`` ->
+    ``stops[1].law.R``, :func:`alias_of`); a path is returned as it is.  None where nothing maps
+    ``name`` (or ``model`` is not canonical)."""
+    if is_path(name):
+        return name
+    if not is_canonical(model) or not isinstance(name, str):
+        return None
+    for group in ("system", "excitation"):
+        t = model.get(group)
+        if isinstance(t, dict) and name in t and name != "builder" and (group == "excitation") == (name in EXCITATION_KEYS):
+            return f"{group}.{name}"
+    p = shorthand_alias(model["system"]["builder"], name)
+    if p is not None:
+        return p
+    stops = model.get("stop")
+    for i, s in enumerate(stops if isinstance(stops, list) else []):
+        if not isinstance(s, dict):
+            continue
+        for q in (*(f"stops[{i}].{k}" for k in STOP_KEYS if k in s), f"stops[{i}].law.R"):
+            if alias_of(model, q) == name:
+                return q
+    return None
+
+
+def _group(key: str) -> str:
+    return "excitation" if key in EXCITATION_KEYS else "system"
 
 
 def parse(name: str) -> tuple:
@@ -103,6 +146,8 @@ def canonical(model: dict, name: str) -> str:
     ``system.beta``, ``voltage`` and ``excitation.voltage`` -> ``excitation.voltage``; two names
     with one canonical path are one parameter.  A name that is no valid path is returned as it is
     (refused elsewhere, naming its own key)."""
+    if not is_path(name) and is_canonical(model):
+        name = path_of(model, name) or name
     if is_path(name):
         try:
             kind, i, key = parse(name)
@@ -176,9 +221,13 @@ def get_value(model: dict, name: str):
         A path that is not valid or names a stop or key the scene does not have (one line).
     """
     if not is_path(name):
-        return model.get(name)
+        p = path_of(model, name)
+        return model.get(name) if p is None else get_value(model, p)
     kind, i, key = parse(name)
     if kind == "model":
+        if is_canonical(model):
+            t = model.get(_group(key))
+            return t.get(key) if isinstance(t, dict) else None
         return model.get(key)
     _refuse_index(name, i, model)
     stops = model.get("stop")
@@ -209,7 +258,11 @@ def set_value(model: dict, name: str, value) -> dict:
     kind, i, key = parse(name)
     out = dict(model)
     if kind == "model":
-        out[key] = value
+        if is_canonical(model):
+            group = _group(key)
+            out[group] = {**(model.get(group) or {}), key: value}
+        else:
+            out[key] = value
         return out
     _refuse_index(name, i, model)
     stops = model.get("stop")

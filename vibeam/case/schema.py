@@ -39,7 +39,8 @@ import numpy as np
 from vibeam.case.uncertainty import UncertaintySpec
 from vibeam.case.contact import (ContactSpec, StopSpec, beam_law,  # [model.contact] (issue 13), [[model.stop]]
                                  model_with, sdof_law, stops_as_keys, target_R)
-from vibeam.case.paths import alias_of, canonical, flat_key, get_value, is_path, parameter_paths
+from vibeam.case.expand import aliases
+from vibeam.case.paths import alias_of, canonical, flat_key, get_value, is_canonical, is_path, parameter_paths
 from vibeam.io.inputs import read_input_text
 from vibeam.models.registry import fidelity, is_compliant, law_key, supported_methods
 from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
@@ -2296,8 +2297,27 @@ class Case(_Strict):
         ``[model]``, then the paths of the stops' numbers (:func:`vibeam.case.paths.parameter_paths`:
         ``stops[1].law.stiffness_n_m``, ``stops[0].gap_mm``, ...)."""
         spec = self.model_spec()
+        if is_canonical(self.model):
+            # the canonical tables: the numbers of [model.system] and [model.excitation] by their keys,
+            # and the flat keys that are aliases of a number the table gives (R, gap_mm, beta, B, ...)
+            flat = {k for t in (spec.system, getattr(spec, "excitation", None)) if t is not None
+                    for k, v in t.model_dump().items() if isinstance(v, float) and not isinstance(v, bool)}
+            paths = parameter_paths(self.model)
+            given = [*aliases(self.model["system"]["builder"]).items(),
+                     *((alias_of(self.model, p), p) for p in paths)]
+            flat |= {k for k, p in given if not is_path(k) and k not in flat and _is_number(self.model, p)}
+            return sorted(flat) + paths
         return sorted(k for k, v in spec.model_dump().items()
                       if isinstance(v, float) and not isinstance(v, bool)) + parameter_paths(self.model)
+
+
+def _is_number(model: dict, path: str) -> bool:
+    """The number ``path`` names is given in ``model`` (a ``[model]`` table)."""
+    try:
+        v = get_value(model, path)
+    except ValueError:          # a stop the scene does not have
+        return False
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
 def _validate_model(data: dict, prefix: str = "model"):
