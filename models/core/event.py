@@ -22,7 +22,7 @@ import numpy as np
 from ..contact import check_stops
 from ..scene import Scene
 from ..system import ModalSystem
-from .integrator import (ST_FAILED, STATUS_NAMES, Record, compliant_work, integrate_work, new_record, new_work,
+from .integrator import (ST_FAILED, STATUS_NAMES, Record, RunScalars, compliant_work, integrate_work, new_record, new_work,
                          substeps)
 from .phases import compliant_data
 from .stops import held_code, held_mask, held_sets, kernel_stops, kernel_system
@@ -237,6 +237,7 @@ class EventIntegrator:
             out = compiled_call(integrate_work, args)
             if own:
                 self._entry = entry_point(integrate_work, args)
+        out = RunScalars(*out)
         return Run(record, int(out.status), int(out.n_imp_record), float(out.s_min), float(out.s_max),
                    int(out.n_chatter), float(out.stuck_time), int(out.held_end), int(out.n_imp_total),
                    float(out.gmax), int(out.n_steps), eta, etad, int(max_steps), int(max_impacts),

@@ -89,7 +89,7 @@ from .laws import force, hertz_floor, inside_sign, is_compliant, newton_coeffici
 from .signals import (ROOT_APEX, bounds, extremes, extremes_from, hermite_guess, homogeneous, homogeneous_bounds,
                       mode_ends, root_value, scan, scan_from, signal, signal_start)
 
-__all__ = ["Record", "RunScalars", "integrate_work", "new_work", "compliant_work", "work_fits", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
+__all__ = ["Record", "RunScalars", "integrate_work", "run_work", "new_work", "compliant_work", "work_fits", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
            "STATUS_NAMES", "EV_START", "EV_IMPACT", "EV_STICK", "EV_STICK_IMPACT", "EV_RELEASE", "EV_ENTRY",
            "EV_EXIT", "LOG_HEAD", "C_DURATION", "C_FORCE", "C_PENETRATION", "C_ENERGY", "C_VELOCITY"]
 
@@ -2321,6 +2321,23 @@ def _free_step(sy, st, cw, work, rec, eta, etad, grid, samp, Om, T, recording):
 @njit(cache=True, _nrt=False, error_model="numpy", no_cfunc_wrapper=True)
 def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
                    max_impacts, max_steps, chatter_tol, rec, work):
+    """:func:`run_work` for a caller in Python: the same arguments, its :class:`RunScalars` as a
+    plain tuple in field order (``RunScalars(*out)`` names them).
+
+    numba boxes a NamedTuple by calling its Python class; a signal handler that runs there (Ctrl-C
+    during a run) raises inside the boxing, which numba does not check: the process died of a
+    segmentation fault instead of stopping with the interrupt.  A plain tuple is boxed without
+    running Python code.
+    """
+    r = run_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+                 max_impacts, max_steps, chatter_tol, rec, work)
+    return (r.status, r.n_imp_record, r.s_min, r.s_max, r.n_chatter, r.stuck_time, r.held_end, r.n_imp_total,
+            r.gmax, r.n_steps, r.contact_time, r.periods_skipped)
+
+
+@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def run_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+             max_impacts, max_steps, chatter_tol, rec, work):
     """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core), in the
     caller's work arrays: no allocation and no reference counting.
 
