@@ -580,10 +580,11 @@ def plain(x):
 
 
 def test_the_event_loop_reads_as_its_algorithm():
-    """``integrate_work`` is its phases in at most 150 lines, nested at most 5 deep (issue 43)."""
+    """The event loop (``run_work``, behind ``integrate_work``) is its phases in at most 150 lines,
+    nested at most 5 deep (issue 43)."""
     p = ROOT / "models/core/integrator.py"
     sizes = {n: (lines, depth) for n, lines, depth, _ in function_sizes(ast.parse(p.read_text()))}
-    lines, depth = sizes["integrate_work"]
+    lines, depth = sizes["run_work"]
     assert lines <= 150 and depth <= 5, (lines, depth)
     for phase in ("_initial_state", "_recurrence", "_period_start", "_free_step", "_held_phase", "_contact_event"):
         assert phase in sizes
@@ -657,3 +658,92 @@ def test_the_local_import_checks_can_fail(tmp_path):
     found = local_imports(tmp_path, ("vibeam",))
     assert [line for _, line, _ in found] == [4, 6, 10, 12]
     assert [b.rsplit(":", 1)[1] for b in undocumented_lazy_imports(found)] == ["4", "6"]
+
+
+# ----------------------------------------------------------------------------- kernels take records
+#: the most positional parameters a function of ``models/`` may take (issue 58: the kernels take
+#: records; 32 before, ``linear_step``)
+MAX_POSITIONAL = 20
+
+
+def wide_functions(root: Path, limit: int = MAX_POSITIONAL) -> list:
+    """``"<file>:<line> <name> (<count>)"`` of every function (lambdas included) of ``models/`` with
+    more than ``limit`` positional parameters (``self`` and ``cls`` not counted)."""
+    wide = []
+    for p in sorted((root / "models").rglob("*.py")):
+        rel = p.relative_to(root).as_posix()
+        for node in ast.walk(ast.parse(p.read_text(), rel)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+                names = [a.arg for a in node.args.posonlyargs + node.args.args if a.arg not in ("self", "cls")]
+                if len(names) > limit:
+                    wide.append(f"{rel}:{node.lineno} {getattr(node, 'name', '<lambda>')} ({len(names)})")
+    return wide
+
+
+def test_no_function_in_models_takes_more_than_20_positional_arguments():
+    """Arrays a callee unpacks anyway travel as the record that holds them (the compliant work
+    ``cw``, the work arrays, a shot's :class:`~vibeam.models.core.shooting.ShotSettings`), scalars
+    that go together as a tuple (numba passes a tuple's members as separate arguments: free)."""
+    wide = wide_functions(ROOT)
+    assert not wide, wide
+
+
+def test_the_positional_argument_check_can_fail(tmp_path):
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "m.py").write_text(
+        "def wide(" + ", ".join(f"a{i}" for i in range(21)) + "):\n    pass\n\n\n"
+        "class C:\n    def ok(self, " + ", ".join(f"a{i}" for i in range(20)) + ", *, k=1):\n        pass\n\n\n"
+        "f = lambda " + ", ".join(f"b{i}" for i in range(22)) + ": 0\n")
+    assert wide_functions(tmp_path) == ["models/m.py:1 wide (21)", "models/m.py:10 <lambda> (22)"]
+
+
+def named_returns(tree, function: str) -> list:
+    """What each ``return`` of ``function`` (a module-level function of ``tree``) returns, followed
+    through the module's own functions it returns the call of: the name of the class called, or
+    the returned expression's source when it is not a call of a ``NamedTuple`` class of the module."""
+    defs = {n.name: n for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    named = {name for name, n in defs.items() if isinstance(n, ast.ClassDef)
+             and any(ast.unparse(b) in ("NamedTuple", "typing.NamedTuple") for b in n.bases)}
+    out, seen = [], set()
+
+    def walk(name):
+        if name in seen:
+            return
+        seen.add(name)
+        for r in ast.walk(defs[name]):
+            if not isinstance(r, ast.Return):
+                continue
+            v = r.value
+            called = ast.unparse(v.func) if isinstance(v, ast.Call) else None
+            if called in named:
+                out.append(called)
+            elif called in defs and isinstance(defs[called], ast.FunctionDef):
+                walk(called)
+            else:
+                out.append(ast.unparse(v) if v is not None else "None")
+    walk(function)
+    return out
+
+
+def test_the_event_integrator_returns_a_named_record():
+    """The event loop ``run_work`` (what the shots call) returns its scalars by name, a
+    ``RunScalars``, at every return: an unnamed 12-tuple read by position in two modules before.
+    ``integrate_work`` (what Python calls) hands them to Python as one plain tuple in field order:
+    numba boxes a NamedTuple by calling its Python class, and a Ctrl-C handler that runs there
+    made the process die of a segmentation fault (tests/test_interrupts.py, inline run)."""
+    p = ROOT / "models/core/integrator.py"
+    tree = ast.parse(p.read_text())
+    got = named_returns(tree, "run_work")
+    assert got and set(got) == {"RunScalars"}, got
+    entry = named_returns(tree, "integrate_work")
+    assert len(entry) == 1 and entry[0].startswith("(r.status, r.n_imp_record,"), entry
+    from vibeam.models.core.integrator import RunScalars
+
+    assert issubclass(RunScalars, tuple) and len(RunScalars._fields) == 12
+
+
+def test_the_named_return_check_can_fail():
+    src = ("from typing import NamedTuple\n\nclass R(NamedTuple):\n    a: int\n\n"
+           "def f(x):\n    if x:\n        return R(1)\n    return g(x)\n\n"
+           "def g(x):\n    return (x, 1)\n")
+    assert sorted(named_returns(ast.parse(src), "f")) == ["(x, 1)", "R"]

@@ -98,8 +98,7 @@ def _combo(a0, p0, r0, a1, p1, r1, wp, wr, m):
 
 
 @njit(cache=True, _nrt=False, error_model="numpy")
-def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, hs, cp, ax, bx, ay, by, xh, yh,
-                fresh, vr, cs, recording, pext, hb, wp, wr, wp2, wr2, ext2):
+def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, hs, cp, cw, fresh, recording, pext):
     """One step of the linear contact phase ``q`` (held set ``H``, contact set ``C``) of at most ``h``.
 
     Parameters
@@ -114,21 +113,16 @@ def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, h
     st, hs, cp : KernelStops, HeldSets, ContactPhases
         (``cp`` None: the scene reaches no linear phase, :class:`vibeam.models.core.phases.Compliant`;
         the step fails, and numba compiles nothing of it.)
-    ax, bx, ay, by : ndarray, shape (Q, n)
-        :func:`phase_harmonics` at this frequency.
-    xh, yh : ndarray, shape (n,)
-        The oscillators' homogeneous parts, carried from step to step of one phase (recomputed
-        from the state when ``fresh``), advanced in place.
-    vr : ndarray, shape (n_s,)
-        Entry velocities of the open contacts.
-    cs : ndarray, shape (n_s, 5)
-        Records of the open contacts, updated.
+    cw : vibeam.models.core.integrator._CompliantWork
+        The compliant stops' work record of the call, whose arrays this step reads and writes:
+        ``pax, pbx, pay, pby`` (Q, n) :func:`phase_harmonics` at this frequency; ``xq, yq`` (n,)
+        the oscillators' homogeneous parts, carried from step to step of one phase (recomputed
+        from the state when ``fresh``), advanced in place; ``vr`` (n_s,) the entry velocities of
+        the open contacts; ``cs`` (n_s, 5) their records, updated; ``hbq`` (n, 6) the
+        oscillators' bounds, ``wpa, wra, wpb, wrb`` (n,) signal weights and ``ext2`` (2,): work
+        arrays.
     pext : ndarray, shape (2,)
         Sensor extremes of the period, updated while ``recording``.
-    hb : ndarray, shape (n, 6)
-        Work array (bounds of the oscillators).
-    wp, wr, wp2, wr2 : ndarray, shape (n,)
-        Work arrays (signal weights); ``ext2`` (2,) another.
 
     Returns
     -------
@@ -145,10 +139,9 @@ def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, h
         return -1.0, EK_FAIL, -1, 0       # a phase not resolved in double precision (phases.UnresolvedPhase)
     sp0 = math.sin(phi)
     cp0 = math.cos(phi)
-    axq = ax[q]
-    bxq = bx[q]
-    ayq = ay[q]
-    byq = by[q]
+    axq, bxq, ayq, byq = cw.pax[q], cw.pbx[q], cw.pay[q], cw.pby[q]
+    xh, yh, hb, vr, cs = cw.xq, cw.yq, cw.hbq, cw.vr, cw.cs
+    wp, wr, wp2, wr2, ext2 = cw.wpa, cw.wra, cw.wpb, cw.wrb, cw.ext2
     if fresh:
         for j in range(m):
             xs = 0.0
@@ -364,8 +357,7 @@ def linear_step(q, H, C, inside, relaxed, h, h_min, phi, Om, F, eta, etad, st, h
 
 
 @njit(cache=True, _nrt=False, error_model="numpy")
-def rk_phase_step(H, C, inside, relaxed, h, phi, Om, F, eta, etad, sy, st, hs, tab, vr, rk, cs, recording, pext,
-                  y0, y1, K, tmp, yt, yw, ye, acc):
+def rk_phase_step(H, C, inside, relaxed, h, phi, Om, F, eta, etad, sy, st, hs, tab, cw, recording, pext):
     """One accepted Runge-Kutta step of at most ``h`` of the contact phase ``(H, C)`` (any
     compliant laws; :mod:`vibeam.models.core.rk`).
 
@@ -375,10 +367,11 @@ def rk_phase_step(H, C, inside, relaxed, h, phi, Om, F, eta, etad, sy, st, hs, t
         The Runge-Kutta pair (None: the scene reaches no phase that is not linear,
         :class:`vibeam.models.core.phases.Compliant`; the step fails, and numba compiles nothing
         of it).
-    rk : ndarray, shape (4,)
-        The phase's step control (:func:`vibeam.models.core.rk.rk_step`), carried.
-    y0, y1, tmp, yt, yw, ye, acc : ndarray, shape (2n + n_s,)
-        Work arrays; ``K`` (stages, 2n + n_s).
+    cw : vibeam.models.core.integrator._CompliantWork
+        The compliant stops' work record of the call: ``rkc`` (4,) the phase's step control
+        (:func:`vibeam.models.core.rk.rk_step`), carried; ``ry0, ry1, rtmp, ryt, ryw, rye, racc``
+        (2n + n_s,) and ``rK`` (stages, 2n + n_s) work arrays; ``vr``, ``cs`` as in
+        :func:`linear_step`.
     (others)
         As :func:`linear_step`.
 
@@ -389,6 +382,8 @@ def rk_phase_step(H, C, inside, relaxed, h, phi, Om, F, eta, etad, sy, st, hs, t
     """
     if tab is None:
         return -1.0, EK_FAIL, -1, 0
+    vr, rk, cs = cw.vr, cw.rkc, cw.cs
+    y0, y1, K, tmp, yt, yw, ye, acc = cw.ry0, cw.ry1, cw.rK, cw.rtmp, cw.ryt, cw.ryw, cw.rye, cw.racc
     n = eta.shape[0]
     ns = st.offset.shape[0]
     m = n if H == 0 else hs.nc[H]

@@ -22,7 +22,7 @@ import numpy as np
 from ..contact import check_stops
 from ..scene import Scene
 from ..system import ModalSystem
-from .integrator import (ST_FAILED, STATUS_NAMES, Record, compliant_work, integrate_work, new_record, new_work,
+from .integrator import (ST_FAILED, STATUS_NAMES, Record, RunScalars, compliant_work, integrate_work, new_record, new_work,
                          substeps)
 from .phases import compliant_data
 from .stops import held_code, held_mask, held_sets, kernel_stops, kernel_system
@@ -237,10 +237,11 @@ class EventIntegrator:
             out = compiled_call(integrate_work, args)
             if own:
                 self._entry = entry_point(integrate_work, args)
-        status, n_imp, smin, smax, n_chat, stuck_time, H, n_tot, gmax, n_steps, t_con, skipped = out
-        return Run(record, int(status), int(n_imp), float(smin), float(smax), int(n_chat), float(stuck_time),
-                   int(H), int(n_tot), float(gmax), int(n_steps), eta, etad, int(max_steps), int(max_impacts),
-                   int(n_transient) + int(n_record), float(t_con), int(skipped))
+        out = RunScalars(*out)
+        return Run(record, int(out.status), int(out.n_imp_record), float(out.s_min), float(out.s_max),
+                   int(out.n_chatter), float(out.stuck_time), int(out.held_end), int(out.n_imp_total),
+                   float(out.gmax), int(out.n_steps), eta, etad, int(max_steps), int(max_impacts),
+                   int(n_transient) + int(n_record), float(out.contact_time), int(out.periods_skipped))
 
 
 def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buffer, contacts, messages=None,

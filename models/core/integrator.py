@@ -53,7 +53,7 @@ after one cycle instead of waiting for the orbit to settle anew on a finer grid.
 
 Outputs go to one :class:`Record` (arrays allocated by the caller: samples at the phase grid of
 the recorded periods, impacts, per-period minima, chatter points, an optional event log for the
-shooting problem); the kernel returns a tuple of scalars (:func:`integrate_work`, in work arrays
+shooting problem); the kernel returns its scalars as a :class:`RunScalars` (:func:`integrate_work`, in work arrays
 of the caller's, :func:`new_work` and :func:`compliant_work`).
 
 Event log (rows ``[kind, t, aux, stop, eta (n), eta' (n)]``, ``t`` from the start of the call)
@@ -89,7 +89,7 @@ from .laws import force, hertz_floor, inside_sign, is_compliant, newton_coeffici
 from .signals import (ROOT_APEX, bounds, extremes, extremes_from, hermite_guess, homogeneous, homogeneous_bounds,
                       mode_ends, root_value, scan, scan_from, signal, signal_start)
 
-__all__ = ["Record", "integrate_work", "new_work", "compliant_work", "work_fits", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
+__all__ = ["Record", "RunScalars", "integrate_work", "run_work", "new_work", "compliant_work", "work_fits", "new_record", "ST_OK", "ST_CHATTER", "ST_STICKING", "ST_FAILED",
            "STATUS_NAMES", "EV_START", "EV_IMPACT", "EV_STICK", "EV_STICK_IMPACT", "EV_RELEASE", "EV_ENTRY",
            "EV_EXIT", "LOG_HEAD", "C_DURATION", "C_FORCE", "C_PENETRATION", "C_ENERGY", "C_VELOCITY"]
 
@@ -161,6 +161,52 @@ class Record(NamedTuple):
     con: np.ndarray
 
 
+class RunScalars(NamedTuple):
+    """The scalars one call of :func:`integrate_work` returns (its arrays are in the :class:`Record`).
+
+    Attributes
+    ----------
+    status : int
+        :data:`ST_OK`, :data:`ST_CHATTER`, :data:`ST_STICKING` or :data:`ST_FAILED`.
+    n_imp_record : int
+        Impacts and contacts in the record.
+    s_min, s_max : float
+        Sensor extremes over the record (row units).
+    n_chatter : int
+        Chatter sequences in the record.
+    stuck_time : float
+        Time held in the record (nondimensional; chatter holds excluded).
+    held_end : int
+        Bit mask of the stops held or in contact at the end.
+    n_imp_total : int
+        All impacts and contacts (-1: the forced response is not finite; -2: the motion's scale
+        is subnormal, below 1e-290).
+    gmax : float
+        The largest gap of a Newton stop at the end of an event-free step (a certificate: positive
+        beyond round-off only if a crossing had been stepped over).
+    n_steps : int
+        Steps taken.
+    contact_time : float
+        Time in compliant contact during the record.
+    periods_skipped : int
+        Periods not integrated thanks to the exact recurrence (module docstring; the counters and
+        the record include them).
+    """
+
+    status: int
+    n_imp_record: int
+    s_min: float
+    s_max: float
+    n_chatter: int
+    stuck_time: float
+    held_end: int
+    n_imp_total: int
+    gmax: float
+    n_steps: int
+    contact_time: float
+    periods_skipped: int
+
+
 def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states=False, log_events=0,
                log_apexes=0, compliant=False) -> Record:
     """A :class:`Record` for ``n`` modes, ``n_stops`` stops and ``n_record`` recorded periods of
@@ -222,6 +268,9 @@ RECUR_MAX = 16
 #: the cadence of its second snapshot (periods): a cycle of at most this length is found at most
 #: ``RECUR_FAST + L`` periods after it began, not ``RECUR_MAX + L``
 RECUR_FAST = 4
+# the statuses and a zero as int64 constants: every field of a RunScalars one type at every return
+_ST_OK, _ST_CHATTER, _ST_STICKING, _ST_FAILED, _I0 = (np.int64(k) for k in (ST_OK, ST_CHATTER, ST_STICKING,
+                                                                         ST_FAILED, 0))
 # the event kinds and the root kind of an apex as int64 constants: a literal int argument would
 # compile the callee once per value
 _K_START, _K_IMPACT, _K_STICK, _K_STICK_IMPACT, _K_RELEASE, _K_ENTRY, _K_EXIT = (np.int64(k) for k in range(7))
@@ -432,9 +481,9 @@ def _particular(c, k, G, F, Om, a, b, m):
 
 @njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def _failed(fs, ist, skipped):
-    """The return tuple of a call that gave up (:data:`ST_FAILED`)."""
-    return (ST_FAILED, ist[_NIMPR], min(fs[_EXT], fs[_PEXT]), max(fs[_EXT1], fs[_PEXT1]), ist[_NCHAT], fs[_STUCK],
-            ist[_H] | ist[_C], ist[_NIMPT], fs[_GMAX], ist[_NSTEPS], fs[_TCON], skipped)
+    """The :class:`RunScalars` of a call that gave up (:data:`ST_FAILED`)."""
+    return RunScalars(_ST_FAILED, ist[_NIMPR], min(fs[_EXT], fs[_PEXT]), max(fs[_EXT1], fs[_PEXT1]), ist[_NCHAT],
+                      fs[_STUCK], ist[_H] | ist[_C], ist[_NIMPT], fs[_GMAX], ist[_NSTEPS], fs[_TCON], skipped)
 
 
 # ============================================================================ preparing a call
@@ -493,19 +542,22 @@ def _state_sample(samples, msamp, modamp, fs, k, sens, eta, etad, n):
 
 
 @_kernel
-def _dense_samples(samples, msamp, modamp, fs, k0, j_next, j_end, base, sens, aF, bF, xF, yF, mp, P_r, tab_r,
-                   t_loc, s_mv, h_rs, from_grid, Om, n):
-    """The record's samples inside one free step (dense output; module docstring): samples
-    ``base + j`` of the period for ``j = j_next ..`` below ``j_end`` whose time ``(base + j) h_rs``
-    (from the period's start) lies before the step's end ``t_loc + s_mv``, into rows ``k0 ..`` of
-    the record, as :func:`_state_sample` takes them.
+def _dense_samples(samples, msamp, modamp, fs, wn, mp, P_r, tab_r, samp, step, Om, n):
+    """The record's samples inside one free step (dense output; module docstring): ``samp = (k0,
+    j_next, j_end, base)``, ``step = (t_loc, s_mv, h_rs, from_grid)``; samples ``base + j`` of the
+    period for ``j = j_next ..`` below ``j_end`` whose time ``(base + j) h_rs`` (from the period's
+    start) lies before the step's end ``t_loc + s_mv``, into rows ``k0 ..`` of the record, as
+    :func:`_state_sample` takes them.
 
-    Each mode's homogeneous part ``xF, yF`` (shape ``(n,)``, at the step's start ``t_loc``) is
+    Each mode's homogeneous part ``xF, yF`` (rows of ``wn``, at the step's start ``t_loc``) is
     carried to the first sample by the transition increment over the time to it (the tabulated
     one ``P_r`` when the step starts at the grid point, ``from_grid``), then from sample to sample
     by ``P_r``, as steps on the record's own grid would carry it; the particular part is read at the
     sample's phase (``tab_r``, the record grid's sines and cosines).  The closed form of paper
     Eq. 28 per mode, the formula of a step's end.  Returns the number of samples taken."""
+    k0, j_next, j_end, base = samp
+    t_loc, s_mv, h_rs, from_grid = step
+    sens, aF, bF, xF, yF = wn[_SENS], wn[_AF], wn[_BF], wn[_XF], wn[_YF]
     m = 0
     while j_next + m < j_end and (base + j_next + m) * h_rs - t_loc < s_mv:
         m += 1
@@ -650,12 +702,12 @@ def _repeat_record(rec, r0, L, m, ns_record, q0, d_rec, stop0, T, pext):
 
 
 @_kernel
-def _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
-               ns_transient, ns_record, h_cap, fs, ist):
+def _frequency(sy, st, hs, Om, eta, etad, rec, work, sub_r, sub_t, ns_transient, ns_record, h_cap):
     """Per-frequency data (particular solutions, the harmonic parts of every signal, the tables of
-    the sub-steps) into the work arrays of :func:`new_work`; the record and the loop's state reset.
-    Returns 0, or -1 (the forced response is not finite) / -2 (the motion's scale is subnormal),
-    the record then untouched."""
+    the sub-steps ``sub_r, sub_t`` at ``Om``) into the work arrays ``work`` of :func:`new_work`;
+    the record and the loop's state reset.  Returns 0, or -1 (the forced response is not finite)
+    / -2 (the motion's scale is subnormal), the record then untouched."""
+    (wn, wk, _hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, _sf, _si, _lp) = work
     n = eta.shape[0]
     ns = st.offset.shape[0]
     S = hs.valid.shape[0]
@@ -1251,15 +1303,12 @@ def _contact_phase(sy, st, hs, cw, wk, eta, etad, fs, ist, evlog, nlog, Om, T, r
             qfresh = True
             q_last = qq
         s_mv, ekind, kk, eaux = linear_step(qq, H, C, inside, relaxed, rem, 1e-13 * T, phi, Om, F,
-                                            eta, etad, st, hs, cp.lin, cw.pax, cw.pbx, cw.pay, cw.pby, cw.xq, cw.yq,
-                                            qfresh, vr, cs, recording, pext, cw.hbq, cw.wpa, cw.wra, cw.wpb,
-                                            cw.wrb, cw.ext2)
+                                            eta, etad, st, hs, cp.lin, cw, qfresh, recording, pext)
         qfresh = False
     else:
         q_last = -1
         s_mv, ekind, kk, eaux = rk_phase_step(H, C, inside, relaxed, rem, phi, Om, F, eta, etad, sy,
-                                              st, hs, cp.itab, vr, cw.rkc, cs, recording, pext, cw.ry0,
-                                              cw.ry1, cw.rK, cw.rtmp, cw.ryt, cw.ryw, cw.rye, cw.racc)
+                                              st, hs, cp.itab, cw, recording, pext)
     ist[_QFRESH] = qfresh
     ist[_QLAST] = q_last
     if ekind == EK_FAIL:
@@ -2007,8 +2056,8 @@ def _scan_stops(sy, st, wn, wk, hb, inside, Om, T, step, ev, bstale):
                 hk2 = hk
             else:
                 sk, hk2 = scan_from(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN,
-                                    SaF[k], SbF[k], g[k], v[k], g[k], v[k], G2[k], G3[k], g1[k], v1[k],
-                                    G21[k], G31[k], M2F[k], M3F[k], M4F[k], n)
+                                    SaF[k], SbF[k], g[k], v[k], (g[k], v[k], G2[k], G3[k]), (g1[k], v1[k],
+                                    G21[k], G31[k]), M2F[k], M3F[k], M4F[k], n)
         else:
             sk, hk2 = scan(hk, 1e-13 * T, phi, Om, xF, yF, mp, Nrm[k], zeroN, SaF[k],
                            SbF[k], g[k], v[k], M2F[k], M3F[k], M4F[k], n)
@@ -2088,8 +2137,6 @@ def _free_outputs(sy, st, work, rec, eta, etad, samp, Om, T, recording, step, fl
     pext = fs[_PEXT:_PEXT1 + 1]
     sens = wn[_SENS]
     k_sample, j_next, j_end, base, h_rs = samp
-    aF = wn[_AF]
-    bF = wn[_BF]
     zeroN = wn[_ZERO]
     xF = wn[_XF]
     yF = wn[_YF]
@@ -2105,9 +2152,8 @@ def _free_outputs(sy, st, work, rec, eta, etad, samp, Om, T, recording, step, fl
     G21 = wk[_G21]
     if j_next < j_end:
         # the record's samples inside the step: the flow evaluated there
-        taken = _dense_samples(samples, msamp, modamp, fs, k_sample, j_next, j_end, base,
-                               sens, aF, bF, xF, yF, mp, P_r, tab_r, t_loc, s_mv, h_rs,
-                               at_grid, Om, n)
+        taken = _dense_samples(samples, msamp, modamp, fs, wn, mp, P_r, tab_r, (k_sample, j_next, j_end, base),
+                               (t_loc, s_mv, h_rs, at_grid), Om, n)
         k_sample += taken
         j_next += taken
     if apexes and s_ev < 0.0:
@@ -2275,6 +2321,23 @@ def _free_step(sy, st, cw, work, rec, eta, etad, grid, samp, Om, T, recording):
 @njit(cache=True, _nrt=False, error_model="numpy", no_cfunc_wrapper=True)
 def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
                    max_impacts, max_steps, chatter_tol, rec, work):
+    """:func:`run_work` for a caller in Python: the same arguments, its :class:`RunScalars` as a
+    plain tuple in field order (``RunScalars(*out)`` names them).
+
+    numba boxes a NamedTuple by calling its Python class; a signal handler that runs there (Ctrl-C
+    during a run) raises inside the boxing, which numba does not check: the process died of a
+    segmentation fault instead of stopping with the interrupt.  A plain tuple is boxed without
+    running Python code.
+    """
+    r = run_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+                 max_impacts, max_steps, chatter_tol, rec, work)
+    return (r.status, r.n_imp_record, r.s_min, r.s_max, r.n_chatter, r.stuck_time, r.held_end, r.n_imp_total,
+            r.gmax, r.n_steps, r.contact_time, r.periods_skipped)
+
+
+@njit(cache=True, _nrt=False, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def run_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, ns_transient, ns_record, h_cap,
+             max_impacts, max_steps, chatter_tol, rec, work):
     """Integrate ``n_transient + n_record`` forcing periods from phase 0 (numba core), in the
     caller's work arrays: no allocation and no reference counting.
 
@@ -2324,23 +2387,15 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
 
     Returns
     -------
-    tuple
-        ``(status, n_imp_record, s_min, s_max, n_chatter, stuck_time, held_end, n_imp_total,
-        gmax, n_steps, contact_time, periods_skipped)``: status code, recorded impacts and contacts, sensor extremes
-        over the record (row units), chatter sequences, time held (excluding chatter holds), the
-        final mask of held stops and stops in contact, all impacts and contacts (-1: the forced
-        response is not finite; -2: the motion's scale is subnormal, below 1e-290), the largest
-        gap of a Newton stop at the end of an event-free step (a certificate: positive beyond
-        round-off only if a crossing had been stepped over), steps taken, time in compliant contact
-        during the record, periods not integrated thanks to the exact recurrence (module docstring;
-        the counters and the record include them).
+    RunScalars
+        The call's scalars by name (status, impacts, sensor extremes, ...).
     """
-    (wn, wk, hb, hab, hsig, hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, snap_f, snap_i, lp) = work
+    (wn, wk, _hb, _hab, _hsig, _hss, P_r, tab_r, P_t, tab_t, fs, ist, _sub_r, _sub_t, snap_f, _snap_i, lp) = work
     sub_r, sub_t = substeps(Om, ns_transient, ns_record, h_cap)
-    status = _frequency(sy, st, hs, Om, eta, etad, rec, wn, wk, hab, hsig, hss, P_r, tab_r, P_t, tab_t, sub_r, sub_t,
-                        ns_transient, ns_record, h_cap, fs, ist)
+    status = _frequency(sy, st, hs, Om, eta, etad, rec, work, sub_r, sub_t, ns_transient, ns_record, h_cap)
     if status != 0:
-        return (ST_FAILED, 0, np.inf, -np.inf, 0, 0.0, held0, status, -np.inf, 0, 0.0, 0)
+        return RunScalars(_ST_FAILED, _I0, np.inf, -np.inf, _I0, 0.0, np.int64(held0), np.int64(status), -np.inf,
+                          _I0, 0.0, _I0)
     if cw is not None:
         _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec)
     _initial_state(st, hs, eta, etad, held0, wn, wk, ist, rec)
@@ -2433,14 +2488,14 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
         rec.pmin[n_record - 1] = fs[_PEXT]
         fs[_EXT] = min(fs[_EXT], fs[_PEXT])
         fs[_EXT1] = max(fs[_EXT1], fs[_PEXT1])
-    status = ST_OK
+    status = _ST_OK
     if n_record > 0:
         if ist[_NCHAT] > 0:
-            status = ST_CHATTER
+            status = _ST_CHATTER
         elif fs[_STUCK] > 0.0:
-            status = ST_STICKING
-    return (status, ist[_NIMPR], fs[_EXT], fs[_EXT1], ist[_NCHAT], fs[_STUCK], ist[_H] | ist[_C], ist[_NIMPT],
-            fs[_GMAX], ist[_NSTEPS], fs[_TCON], lp[_LSKIP])
+            status = _ST_STICKING
+    return RunScalars(status, ist[_NIMPR], fs[_EXT], fs[_EXT1], ist[_NCHAT], fs[_STUCK], ist[_H] | ist[_C],
+                      ist[_NIMPT], fs[_GMAX], ist[_NSTEPS], fs[_TCON], lp[_LSKIP])
 
 
 

@@ -59,12 +59,12 @@ from ..system import (advance_count, advance_state, drive_displacement, drive_fo
 from . import ahead
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
-                         ST_FAILED, compliant_work, integrate_work, new_record, new_work, work_fits)
+                         ST_FAILED, RunScalars, compliant_work, run_work, new_record, new_work, work_fits)
 from .laws import force_partials, hertz_floor, newton_coefficient
 from .variational import contact_accel, contact_damping, flow_linear, flow_rk, pair_particular
 
 __all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "correct_frequency", "held_at_section",
-           "restitution_slope", "dtransition_dsig", "ModalShooting", "Setup", "LazyExtra", "CORRECT_CONVERGED",
+           "ShotSettings", "NewtonSettings", "restitution_slope", "dtransition_dsig", "ModalShooting", "Setup", "LazyExtra", "CORRECT_CONVERGED",
            "CORRECT_LEFT", "CORRECT_SINGULAR", "CORRECT_NONFINITE", "CORRECT_NO_CONVERGENCE", "CORRECT_FALLBACK"]
 
 TWO_PI = 2.0 * math.pi
@@ -75,6 +75,37 @@ _ONE = np.int64(1)
 _MINUS_ONE = np.int64(-1)
 _TRUE = np.bool_(True)
 _FALSE = np.bool_(False)
+
+
+class ShotSettings(NamedTuple):
+    """The integrator's step cap and guards of a shot (:func:`shoot`, :func:`correct_frequency`;
+    :func:`vibeam.models.core.integrator.integrate_work`'s arguments of the same names).  Build it
+    with :func:`shot_settings` (one type per field: one compiled specialisation)."""
+
+    h_cap: float
+    max_impacts: int
+    max_steps: int
+    chatter_tol: float
+
+
+def shot_settings(h_cap, max_impacts, max_steps, chatter_tol) -> ShotSettings:
+    """A :class:`ShotSettings` with its fields as Python float and int."""
+    return ShotSettings(float(h_cap), int(max_impacts), int(max_steps), float(chatter_tol))
+
+
+class NewtonSettings(NamedTuple):
+    """The stopping rules of :func:`correct_frequency`'s Newton iterations: the residual
+    tolerance ``tol``, at most ``max_newton`` steps, the neighbourhood ``radius`` of the predictor
+    (< 0: none).  Build it with :func:`newton_settings`."""
+
+    tol: float
+    max_newton: int
+    radius: float
+
+
+def newton_settings(tol, max_newton, radius) -> NewtonSettings:
+    """A :class:`NewtonSettings` with its fields as Python float and int (``radius`` None: -1)."""
+    return NewtonSettings(float(tol), int(max_newton), -1.0 if radius is None else float(radius))
 
 
 class Direction(NamedTuple):
@@ -1079,15 +1110,15 @@ HEAD = 18
 
 
 @njit(cache=True, error_model="numpy")
-def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel,
-          derivatives, scale):
+def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, settings, rec, J, rel, derivatives, scale):
     """``P^n(x0)``: the integrator's run of ``n_periods`` from phase 0 with its event log, then
     (``derivatives``) the tangent, in one compiled call, its outputs packed in two new arrays.
 
     ``held0 < 0``: start held where :func:`held_at_section` finds the state held, in contact with
     the compliant stops :func:`contact_at_section` finds.  ``rec``, ``J`` and ``rel`` are work
     buffers (:class:`~vibeam.models.core.integrator.Record` with an event and an apex log, the
-    tangent ``[M | x_p]``, the releases); ``scale``: row value per unit of the output coordinate.
+    tangent ``[M | x_p]``, the releases); ``scale``: row value per unit of the output coordinate;
+    ``settings``: the integrator's step cap and guards (:class:`ShotSettings`).
 
     Returns
     -------
@@ -1109,27 +1140,26 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
     d = 2 * n
     xe = np.empty(d)
     rst = np.zeros(d)
-    work = new_work(n, st.offset.shape[0], hs.valid.shape[0], Om, _ONE, _ONE, h_cap, _FALSE)
+    work = new_work(n, st.offset.shape[0], hs.valid.shape[0], Om, _ONE, _ONE, settings.h_cap, _FALSE)
     tw = tangent_work(n, st.offset.shape[0], hs.valid.shape[0], dd.dOm.shape[0])
-    out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts,
-                                                 max_steps, chatter_tol, rec, J, rel, derivatives, xe, rst, work, tw)
+    out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, settings, rec, J, rel,
+                                                 derivatives, xe, rst, work, tw)
     return _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, derivatives, scale)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel,
-          derivatives, xe, rst, work, tw):
+def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, settings, rec, J, rel, derivatives, xe, rst, work, tw):
     """The run and tangent of :func:`shoot` into the buffers (``xe``: the final state, shape (2n,);
     ``rst``: the rebuilt state; ``work``: the integrator's work arrays for a grid of one point per
     period at ``Om``, :func:`~vibeam.models.core.integrator.work_fits`;
     ``tw``: the tangent's, :func:`tangent_work`),
-    without packing them: ``(out, held0, n_rel, n_inexact, finite)``, ``out`` the tuple of
-    :func:`vibeam.models.core.integrator.integrate_work`.  Inlined into its two callers
-    (:func:`shoot`, :func:`correct_frequency`): numba links a compiled callee's code into each
-    caller and optimises and emits it again there, so every compiled level between them and the
-    integrator and tangent cost a cold continuation seconds (this one and the former Newton-only
-    level without reference counting: a cold first continuation 51-53 -> 45-47 s, no measurable
-    run-time difference)."""
+    without packing them: ``(out, held0, n_rel, n_inexact, finite)``, ``out`` the
+    :class:`~vibeam.models.core.integrator.RunScalars` of
+    :func:`vibeam.models.core.integrator.integrate_work`.  Inlined into its two callers (:func:`shoot`,
+    :func:`correct_frequency`): numba links a compiled callee's code into each caller and optimises
+    and emits it again there, so every compiled level between them and the integrator and tangent
+    cost a cold continuation seconds (this one and the former Newton-only level without reference
+    counting: a cold first continuation 51-53 -> 45-47 s, no measurable run-time difference)."""
     n = sy.k.shape[0]
     d = 2 * n
     ncol = J.shape[1]
@@ -1142,18 +1172,19 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, h_cap, max_impacts, max_
         xe[i] = x0[i]
     eta = xe[:n]
     etad = xe[n:]
+    h_cap, max_impacts, max_steps, chatter_tol = settings
     if cp is None:
-        out = integrate_work(sy, st, hs, None, Om, eta, etad, held0, _ZERO, n_periods, _ONE, _ONE, h_cap, max_impacts,
+        out = run_work(sy, st, hs, None, Om, eta, etad, held0, _ZERO, n_periods, _ONE, _ONE, h_cap, max_impacts,
                              max_steps, chatter_tol, rec, work)
     else:
-        out = integrate_work(sy, st, hs, compliant_work(cp, st, n, rec), Om, eta, etad, held0, _ZERO, n_periods, _ONE,
+        out = run_work(sy, st, hs, compliant_work(cp, st, n, rec), Om, eta, etad, held0, _ZERO, n_periods, _ONE,
                              _ONE, h_cap, max_impacts, max_steps, chatter_tol, rec, work)
     n_rel = -1
     n_inexact = -1
     finite = _TRUE
     n_ev = rec.nlog[0]
-    if derivatives and out[0] != 3 and n_ev <= rec.evlog.shape[0]:
-        n_rel, n_inexact = tangent(sy, st, hs, cp, dd, Om, rec.evlog, n_ev, held0, x0, xe, out[6],
+    if derivatives and out.status != ST_FAILED and n_ev <= rec.evlog.shape[0]:
+        n_rel, n_inexact = tangent(sy, st, hs, cp, dd, Om, rec.evlog, n_ev, held0, x0, xe, out.held_end,
                                    n_periods * TWO_PI / Om, J, rel, rst, tw)
         for i in range(d):
             for c in range(ncol):
@@ -1169,23 +1200,23 @@ def _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, derivative
     ncol = J.shape[1]
     n_ev = rec.nlog[0]
     n_ap = rec.nlog[1]
-    m = min(out[1], rec.imp_t.shape[0])
+    m = min(out.n_imp_record, rec.imp_t.shape[0])
     e = min(n_ev, rec.evlog.shape[0])
     a = min(n_ap, rec.aplog.shape[0])
     r = max(n_rel, 0)
     w = rec.evlog.shape[1]
     f = np.empty(HEAD + 2 * d + d * ncol + 2 * m + e * w + 3 * a + r * (ncol + 1))
-    f[H_STATUS] = out[0]
-    f[H_NIMP] = out[1]
-    f[H_SMIN] = out[2] / scale
-    f[H_SMAX] = out[3] / scale
-    f[H_NCHAT] = out[4]
-    f[H_STUCK] = out[5]
-    f[H_HELD_END] = out[6]
-    f[H_NTOT] = out[7]
-    f[H_GMAX] = out[8]
-    f[H_NSTEPS] = out[9]
-    f[H_TCON] = out[10]
+    f[H_STATUS] = out.status
+    f[H_NIMP] = out.n_imp_record
+    f[H_SMIN] = out.s_min / scale
+    f[H_SMAX] = out.s_max / scale
+    f[H_NCHAT] = out.n_chatter
+    f[H_STUCK] = out.stuck_time
+    f[H_HELD_END] = out.held_end
+    f[H_NTOT] = out.n_imp_total
+    f[H_GMAX] = out.gmax
+    f[H_NSTEPS] = out.n_steps
+    f[H_TCON] = out.contact_time
     f[H_NREL] = n_rel
     f[H_NINEXACT] = n_inexact
     f[H_FINITE] = 1.0 if finite else 0.0
@@ -1249,8 +1280,8 @@ def _bordered_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
 
 
 @njit(cache=True, error_model="numpy")
-def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_periods, sx, sp, tol, max_newton, radius,
-                      h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel, scale):
+def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_periods, sx, sp, newton, settings, rec, J,
+                      rel, scale):
     """The pseudo-arclength corrector of :mod:`vibeam.models.continuation` in the forcing
     frequency, its Newton iterations and their shots (:func:`shoot`) in one compiled call.
 
@@ -1273,9 +1304,11 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
     u_pred, t : ndarray, shape (d + 1,)
         Predictor and tangent (scaled).
     n_periods : int
-    sx, sp, tol, max_newton, radius :
-        Scales, tolerance and limits of the corrector.
-    h_cap, max_impacts, max_steps, chatter_tol, rec, J, rel, scale :
+    sx, sp : float
+        Scales of the state and the parameter.
+    newton : NewtonSettings
+        Tolerance and limits of the corrector (``tol, max_newton, radius``).
+    settings, rec, J, rel, scale :
         As :func:`shoot`.
 
     Returns
@@ -1300,6 +1333,8 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
         (:func:`vibeam.models.continuation_kernels.bordered_tangent`; empty when not computed or
         not finite).  The engine's own calls of the two functions on the point give the same bits.
     """
+    tol, max_newton, radius = newton
+    h_cap = settings.h_cap
     d = u_pred.shape[0] - 1
     u = u_pred.copy()
     dist = 0.0
@@ -1312,7 +1347,7 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
     it_out = max_newton
     # the last shot's outcome, packed once at the end (:func:`_pack`; the iterations' shots before
     # it only need the state and the tangent, which stay in the buffers)
-    out = (0, 0, 0.0, 0.0, 0, 0.0, 0, 0, 0.0, 0, 0.0, 0)
+    out = RunScalars(_ZERO, _ZERO, 0.0, 0.0, _ZERO, 0.0, _ZERO, _ZERO, 0.0, _ZERO, 0.0, _ZERO)
     held0 = 0
     n_rel = -1
     n_inexact = -1
@@ -1337,11 +1372,10 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
             break
         if not work_fits(work, Om, 1, h_cap):
             work = new_work(d // 2, st.offset.shape[0], hs.valid.shape[0], Om, _ONE, _ONE, h_cap, _FALSE)
-        out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x, _MINUS_ONE, n_periods, h_cap,
-                                                     max_impacts, max_steps, chatter_tol, rec, J, rel, _TRUE, xe, rst,
-                                                     work, tw)
+        out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x, _MINUS_ONE, n_periods, settings, rec,
+                                                     J, rel, _TRUE, xe, rst, work, tw)
         n_shots += 1
-        if out[0] == ST_FAILED or n_inexact != 0 or not finite:
+        if out.status == ST_FAILED or n_inexact != 0 or not finite:
             code, it_out = CORRECT_FALLBACK, it
             break
         for i in range(d):
@@ -1580,8 +1614,7 @@ class ModalShooting:
         while True:
             rec, J, rel = self._buffers(set_, n)
             args = (core.ksys, core.kstops, core.held, cp, set_.dirs, float(Om), x0, held, n,
-                    2.0 * math.pi / core.lowest_omega / self.steps_per_fundamental, self.max_impacts_per_period * n,
-                    self.max_steps_per_period * n, self.chatter_tol, rec, J, rel, bool(derivatives), float(set_.scale))
+                    self._settings(core, n), rec, J, rel, bool(derivatives), float(set_.scale))
             kinds = _phase_kinds(cp)
             if self._entry is None or self._entry[0] != kinds:
                 f, iv = _call_shoot(args)
@@ -1592,6 +1625,11 @@ class ModalShooting:
                 f, iv = self._entry[1](*args)
             if self._fits(f):
                 return self._unpack(set_, f, iv, n, derivatives)
+
+    def _settings(self, core, n: int) -> ShotSettings:
+        """The integrator's step cap and guards of a shot of ``n`` periods."""
+        return shot_settings(2.0 * math.pi / core.lowest_omega / self.steps_per_fundamental,
+                             self.max_impacts_per_period * n, self.max_steps_per_period * n, self.chatter_tol)
 
     def _buffers(self, set_: Setup, n: int):
         """The work buffers of a shot of ``n`` periods: a :class:`Record` with event and apex logs,
@@ -1704,16 +1742,14 @@ class ModalShooting:
         set_ = self.setup(p0)
         core = set_.core
         mid = (float(factor), float(offset), int(self.column), u_pred, np.ascontiguousarray(t, dtype=float), n,
-               float(sx), float(sp), float(tol), int(max_newton), -1.0 if radius is None else float(radius))
+               float(sx), float(sp), newton_settings(tol, max_newton, radius))
         while True:
             c = self._correct_args
             if c is None or c[0] is not core or c[1] != n:
                 # the arguments that stay along a branch (the cache holds the core: its id stays its own)
                 rec, J, rel = self._buffers(set_, n)
                 c = self._correct_args = (core, n, (core.ksys, core.kstops, core.held, core.compliant, set_.dirs),
-                                          (2.0 * math.pi / core.lowest_omega / self.steps_per_fundamental,
-                                           self.max_impacts_per_period * n, self.max_steps_per_period * n,
-                                           self.chatter_tol, rec, J, rel, float(set_.scale)))
+                                          (self._settings(core, n), rec, J, rel, float(set_.scale)))
             args = c[2] + mid + c[3]
             kinds = _phase_kinds(core.compliant)
             if self._correct_entry is None or self._correct_entry[0] != kinds:
@@ -1785,8 +1821,9 @@ class ModalShooting:
             # the types of _shot's call of the tangent and of the continuation's corrector calls
             t_args = sys_ + (1.0, rec.evlog, np.int64(0), np.int64(0), x, x.copy(), np.int64(0), 1.0, J, rel,
                              np.zeros(d), tw)
-            c_args = (sys_ + (1.0, 0.0, int(self.column), u, u.copy(), int(n), 1.0, 1.0, 1e-10, 1, -1.0)
-                      + (1.0, 1, 1, self.chatter_tol, rec, J, rel, float(set_.scale)))
+            c_args = (sys_ + (1.0, 0.0, int(self.column), u, u.copy(), int(n), 1.0, 1.0,
+                              newton_settings(1e-10, 1, -1.0), shot_settings(1.0, 1, 1, self.chatter_tol), rec, J,
+                              rel, float(set_.scale)))
             M = np.zeros((d, d))
             # the corrector's callees that do not call the integrator: before the gate too
             own = [(_bordered_step, (J[:, :d], x, x, x, u, u, u, 1.0, 1.0)), (floquet_spectrum_small, (M,)),

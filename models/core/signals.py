@@ -333,8 +333,8 @@ def scan(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, M2, M3, M4, m):
     if M2 <= 1e-290 and M3 <= 1e-290 and g0 <= 0.0:
         return -1.0, h          # a constant signal (every bound zero): it never rises through zero
     g1, v1, g21, g31, _ = signal(h, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, m)
-    return scan_from(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, g0, v0, g20, g30, g1, v1, g21, g31, M2,
-                     M3, M4, m)
+    return scan_from(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, (g0, v0, g20, g30), (g1, v1, g21, g31),
+                     M2, M3, M4, m)
 
 
 @_kernel
@@ -370,12 +370,14 @@ def homogeneous(phi0, Om, z, zd, a, b, e, x0, y0, m):
 
 
 @_kernel
-def scan_from(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, g0, v0, g20, g30, g1, v1, g21, g31, M2, M3, M4,
-              m):
-    """:func:`scan` with the signal's value, slope and derivatives at ``0`` (``g0, v0, g20, g30``;
-    ``f0, fp0`` the signal's own start, :func:`signal`) and at ``h`` given (the caller's tabulated
-    flow, or :func:`scan`'s evaluation): no transcendental call unless the step must be halved or
-    an event is located."""
+def scan_from(h, h_min, phi0, Om, x0, y0, mp, p, r, Sa, Sb, f0, fp0, start, end, M2, M3, M4, m):
+    """:func:`scan` with the signal's value, slope and derivatives at ``0`` (``start = (g0, v0,
+    g20, g30)``; ``f0, fp0`` the signal's own start, :func:`signal`) and at ``h`` given (``end =
+    (g1, v1, g21, g31)``: the caller's tabulated flow, or :func:`scan`'s evaluation): no
+    transcendental call unless the step must be halved or an event is located.  (The two tuples
+    cost nothing: numba passes a tuple's members as separate arguments.)"""
+    g0, v0, g20, g30 = start
+    g1, v1, g21, g31 = end
     tol2 = 1e-13 * M2
     if max(g0, g1) + 0.125 * M2 * h * h < 0.0:
         return -1.0, h
