@@ -113,3 +113,20 @@ def test_closed_loop_fit_of_R_and_the_base_amplitude_by_their_paths(tmp_path, ca
     c2 = parse_case(fitted)
     assert c2.model["stop"][0]["R"] == pytest.approx(0.85, rel=1e-6)
     assert c2.model["excitation"]["amplitude_mm"] == pytest.approx(0.065, rel=1e-6)
+
+
+def test_the_default_parameters_are_the_drives_amplitude_and_the_first_stops_R():
+    """Without --params the fit varies the paper's pair, the drive's amplitude and R (Sec. 7); on the
+    canonical tables of a continuum or a structure they are ``excitation.<its amplitude key>`` and
+    ``stops[0].law.R``.  Before: ``gain, R``, refused as "'--params' = 'gain' is not a numeric key"
+    though the user gave no --params."""
+    from vibeam.identify.fit import default_params
+
+    cont = parse_case(_text())
+    assert default_params(cont) == ["excitation.amplitude_mm", "stops[0].law.R"]
+    assert check_params(cont, default_params(cont)) == ["amplitude_mm", "stops[0].law.R"]
+    chain, _ = load_case(ROOT / "cases" / "chain-3dof.toml")
+    assert default_params(chain) == ["excitation.amplitude_m_s2", "stops[0].law.R"]
+    assert check_params(chain, default_params(chain)) == ["amplitude_m_s2", "stops[0].law.R"]
+    rig, _ = load_case(ROOT / "cases" / "rig-tight.toml")
+    assert default_params(rig) == ["gain", "R"]

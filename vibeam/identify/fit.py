@@ -234,8 +234,14 @@ def check_params(case, params, source: str = "") -> list[str]:
 
 
 def default_params(case) -> list[str]:
-    """``gain, R`` for a physical scene, ``B, R`` for a nondimensional one (Sec. 7 fitted gamma)."""
+    """The drive's amplitude and R (Sec. 7 fitted gamma and R): ``gain, R`` for a physical scene,
+    ``B, R`` for a nondimensional one; on nested canonical tables (a structure given by its
+    matrices, a continuum, a mesh: :func:`_nested_tables`) ``excitation.<the amplitude key of its
+    kind>`` and ``stops[0].law.R``."""
     spec = case.model_spec()
+    if _nested_tables(spec):
+        ex = spec.excitation
+        return [f"excitation.{ex.AMPLITUDE_KEYS[ex.kind]}", "stops[0].law.R"]
     return ["gain", "R"] if getattr(spec, "physical", False) else ["B", "R"]
 
 
