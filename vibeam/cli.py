@@ -657,7 +657,8 @@ def main(argv=None) -> int:
                    help="measured FRC: CSV 'frequency_hz,amplitude_mm' (or 'Omega,amplitude'), "
                    "optional columns 'direction' (up/down) and 'sigma'; or a results.h5")
     p.add_argument("--reference-run", help="run of an HDF5 reference with several runs")
-    p.add_argument("--params", help="comma-separated numeric [model] keys to fit (default gain,R; with "
+    p.add_argument("--params", help="comma-separated numeric [model] keys to fit (default gain,R; on a "
+                   "structure's or continuum's tables the excitation's amplitude and stops[0].law.R; with "
                    "--linear natural_frequency_hz,damping_ratio,gain)")
     p.add_argument("--run", help="fit this run only (default: every run of the case, one by one)")
     p.add_argument("--out", type=path_option("--out"), help="output folder (default results/<case name>@fit/)")

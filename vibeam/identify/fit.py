@@ -128,6 +128,47 @@ def owner_of(name: str, model_spec_cls) -> tuple:
     return {"law": ContactSpec, "stop": StopSpec}.get(kind, model_spec_cls), key
 
 
+def _nested_tables(spec) -> bool:
+    """Whether the validated ``[model]`` ``spec`` keeps the canonical tables as tables (a structure
+    given by its matrices, the continuum, a mesh: ``spec.system``, ``spec.stop``,
+    ``spec.excitation``) rather than expanding them into flat keys (the SDOF's and the beam's)."""
+    return all(k in type(spec).model_fields for k in ("system", "stop", "excitation"))
+
+
+def start_and_owner(spec, table: dict, name: str) -> tuple[float, type, str]:
+    """``(value, pydantic class, field)`` of the fitted number ``name`` (a flat key or a path, as
+    :func:`check_params` returns it): its start value, the case's (as written, else the
+    validated default), and the class and field whose schema bounds bound it
+    (:func:`schema_bounds`).  On nested canonical tables (:func:`_nested_tables`) a flat key is
+    the alias of the path it stands for (``amplitude_mm`` -> ``excitation.amplitude_mm``, ``R``
+    -> ``stops[0].law.R``) and a system's or excitation's key is bounded by its own table's class.
+
+    Raises
+    ------
+    vibeam.case.schema.CaseError
+        A number the case does not give and has no default for (one line naming ``name``).
+    """
+    nested = _nested_tables(spec)
+    path = canonical(table, name) if nested else name
+    v = get_value(table, path) if is_path(path) else None
+    cls, key = owner_of(path, type(spec))
+    if is_path(path) and nested:
+        kind, i, key = parse_path(path)
+        if kind == "model":
+            owner = spec.excitation if path.startswith("excitation.") else spec.system
+            cls = type(owner)
+            if v is None:
+                v = getattr(owner, key, None)
+        elif v is None:
+            v = getattr(spec.stop[i], key, None)
+    elif not is_path(path):
+        v = spec.model_dump().get(name)
+    if not isinstance(v, (int, float)) or isinstance(v, bool):
+        raise case_error(f"'--params' = {name!r}: the case gives no number for it (value {v!r}); allowed: a "
+                         f"number the case's [model] gives")
+    return float(v), cls, key
+
+
 def schema_bounds(spec_cls, name: str) -> tuple[float, float, bool, bool]:
     """``(lower, upper, lower_open, upper_open)`` of a model key from the case schema
     (pydantic ``ge``/``gt``/``le``/``lt``); +-inf when unbounded."""
@@ -193,8 +234,14 @@ def check_params(case, params, source: str = "") -> list[str]:
 
 
 def default_params(case) -> list[str]:
-    """``gain, R`` for a physical scene, ``B, R`` for a nondimensional one (Sec. 7 fitted gamma)."""
+    """The drive's amplitude and R (Sec. 7 fitted gamma and R): ``gain, R`` for a physical scene,
+    ``B, R`` for a nondimensional one; on nested canonical tables (a structure given by its
+    matrices, a continuum, a mesh: :func:`_nested_tables`) ``excitation.<the amplitude key of its
+    kind>`` and ``stops[0].law.R``."""
     spec = case.model_spec()
+    if _nested_tables(spec):
+        ex = spec.excitation
+        return [f"excitation.{ex.AMPLITUDE_KEYS[ex.kind]}", "stops[0].law.R"]
     return ["gain", "R"] if getattr(spec, "physical", False) else ["B", "R"]
 
 
@@ -273,11 +320,11 @@ class FitProblem:
         self.base = dict(run.model)
         spec = case.model_spec(self.base) if self.base else case.model_spec()
         self.spec_cls = type(spec)
-        values = spec.model_dump()
         table = model_with(case.model, self.base)
         # a flat key from the validated table; a parameter path from the table as written
-        self.x0 = np.array([float(get_value(table, p) if is_path(p) else values[p]) for p in self.params])
-        b = [schema_bounds(*owner_of(p, self.spec_cls)) for p in self.params]
+        starts = [start_and_owner(spec, table, p) for p in self.params]
+        self.x0 = np.array([v for v, _, _ in starts])
+        b = [schema_bounds(cls, key) for _, cls, key in starts]
         self.lb = np.array([v[0] for v in b])
         self.ub = np.array([v[1] for v in b])
         typ = np.array([abs(v) if v != 0 else TYPICAL_SCALE.get(key_of(p), 1.0) for p, v in zip(self.params, self.x0)])
@@ -811,8 +858,8 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
             raise case_error(f"{ref.source}: {ref.n} points cannot determine {len(params)} parameters")
         start = prob.x0.copy()
         if x0:
-            for k, v in x0.items():
-                start[params.index(k)] = float(v)
+            for k, v in x0.items():          # by the name check_params gives (excitation.gain -> gain)
+                start[params.index(flat_key(k))] = float(v)
         start = np.clip(start, prob.lb_eff, prob.ub_eff)
         if log:
             log(f"[fit {case.name} / {r.name}] {ref.n} points, parameters {', '.join(params)}: measuring the "
