@@ -787,15 +787,23 @@ def main(argv=None) -> int:
     return _dispatch(args)
 
 
+@contextlib.contextmanager
 def _reading(args):
     """The command's input files, for :func:`vibeam.io.outdir.check_output_file` (no command
-    writes a file it reads)."""
+    writes a file it reads); and a command with an output folder leaves no empty folder it
+    created: one that fails (or is interrupted) before its first file changes nothing on the disk
+    (:func:`vibeam.io.outdir.removing_empty_folders`)."""
     inputs = _inputs(args)
-    if not inputs:
-        return contextlib.nullcontext()
-    from vibeam.io.outdir import reading  # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam cases`
+    writes = hasattr(args, "out")
+    if not inputs and not writes:
+        yield
+        return
+    # lazy: keeps vibeam.io.outdir (32 modules) out of `vibeam cases`
+    from vibeam.io.outdir import reading, removing_empty_folders
 
-    return reading(inputs)
+    with reading(inputs) if inputs else contextlib.nullcontext(), \
+            removing_empty_folders() if writes else contextlib.nullcontext():
+        yield
 
 
 def _interrupted_by(exc: type) -> int:

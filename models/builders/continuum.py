@@ -94,8 +94,10 @@ References
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
+import io
 import json
 import math
 import os
@@ -414,7 +416,11 @@ def read_mesh(path) -> ContinuumMesh:
     OSError, meshio.ReadError
         From meshio when the file cannot be read.
     """
-    msh = meshio.read(path)
+    # meshio tries each reader of the suffix (".msh": ANSYS, then Gmsh) and prints the error of each
+    # that fails, an empty line on stdout for a Gmsh file: kept out of the command's output (the
+    # last reader's ReadError still says why a file cannot be read)
+    with contextlib.redirect_stdout(io.StringIO()):
+        msh = meshio.read(path)
     vol = {"hexahedron": ("hexahedron", 8), "hexahedron20": ("hexahedron", 8), "hexahedron27": ("hexahedron", 8),
            "tetra": ("tetra", 4), "tetra10": ("tetra", 4)}
     kinds = {vol[b.type][0] for b in msh.cells if b.type in vol}

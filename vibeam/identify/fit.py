@@ -336,7 +336,12 @@ class FitProblem:
         self._cache: dict = {}
         self.eps_rel = EPS_FLOOR
         self.accuracy = np.zeros(ref.n)
-        model0 = spec.build()
+        try:
+            model0 = spec.build()
+        except CaseError as e:      # a model that cannot be built: name the case file, as `vibeam run`
+            if source and not str(e).startswith(f"{source}: "):
+                raise case_error(f"{source}: {e}") from None
+            raise
         self.physical = bool(getattr(model0, "natural_frequency_hz", None) and getattr(model0, "length_m", None))
         if ref.physical and not self.physical:
             raise case_error(f"{ref.source}: 'frequency_hz,amplitude_mm' data need a physical scene; "

@@ -21,7 +21,10 @@ folder, an interrupt) leaves the previous file byte for byte.  While it holds th
 process removes the temporary files that a killed write leaves behind (:data:`TMP_PATTERNS`).
 
 :func:`default_folder` is where a command writes without ``--out``: ``results/<name>``,
-never outside ``results/``.
+never outside ``results/``.  A folder :func:`check_folder` made for a command that then fails
+before its first file (a model that cannot be built) is removed again, with the parents it made
+(:func:`removing_empty_folders`, around every command of ``vibeam`` with an output folder): a
+failed command changes nothing on the disk.
 
 No command writes a file it reads (issue 57): the command line names the files a command
 reads (:func:`reading`: its case file, ``--reference``, ``--results``, ...) and
@@ -135,8 +138,46 @@ def default_folder(name: str, suffix: str = "", root="results") -> Path:
     return Path(root) / leaf
 
 
+#: the scopes of :func:`removing_empty_folders` open in this process, innermost last: each the list
+#: of the folders :func:`check_folder` created while it was open
+_made_scopes: list[list[Path]] = []
+
+
+@contextlib.contextmanager
+def removing_empty_folders():
+    """Folders :func:`check_folder` creates inside the block are removed when it ends if still empty.
+
+    A command that fails before it writes its first file (a model that cannot be built, an
+    interrupt) leaves nothing on the disk: the output folder it made (``results/<case>``, and
+    ``results/`` if that was made too) goes again.  Only folders this process created (its own
+    ``mkdir`` succeeded) are removed, deepest first, and only when empty (``os.rmdir``): a folder
+    that was there before, or holds anything, stays as it is.
+
+    Yields
+    ------
+    list of Path
+        The folders created so far inside the block (absolute).
+    """
+    made: list[Path] = []
+    _made_scopes.append(made)
+    try:
+        yield made
+    finally:
+        for i in range(len(_made_scopes) - 1, -1, -1):
+            if _made_scopes[i] is made:
+                del _made_scopes[i]
+                break
+        for p in sorted(set(made), key=lambda q: len(q.parts), reverse=True):
+            try:
+                os.rmdir(p)            # only an empty folder; anything else stays
+            except OSError:
+                pass
+
+
 def check_folder(folder, option: str = "--out") -> Path:
     """``folder`` exists (created if needed) and is a writable folder.
+
+    The folders it creates are recorded for :func:`removing_empty_folders`.
 
     Parameters
     ----------
@@ -152,8 +193,20 @@ def check_folder(folder, option: str = "--out") -> Path:
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise InputError(f"{option} {folder}: is a file, not a folder")
+    missing = []                       # the folder and its parents that are not there, deepest first
+    p = Path(os.path.abspath(folder))
+    while not os.path.lexists(p) and p.parent != p:
+        missing.append(p)
+        p = p.parent
     try:
-        folder.mkdir(parents=True, exist_ok=True)
+        for p in reversed(missing):    # one level at a time: a folder is ours only if our mkdir made it
+            try:
+                os.mkdir(p)
+            except FileExistsError:
+                continue
+            if _made_scopes:
+                _made_scopes[-1].append(p)
+        folder.mkdir(parents=True, exist_ok=True)     # exists now; a name in the way raises as before
     except OSError as e:
         raise InputError(f"{option} {folder}: cannot create the folder: {e.strerror or e}") from None
     if not os.access(folder, os.W_OK | os.X_OK):
