@@ -638,24 +638,7 @@ def tangent(sy, st, hs, cp, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end
         C = held0 & cmask
         for k in range(ns):
             if (C >> k) & 1:
-                U = 0.0
-                gk = -st.offset[k]
-                for i in range(n):
-                    U += st.normal[k, i] * etad[i]
-                    gk += st.normal[k, i] * eta[i]
-                # the run's v_in of a contact it starts inside of (laws.start_velocity) and its row
-                v, vg, vU, vk = start_velocity(st.law[k], gk, U, st.kc[k], st.pe[k], 1.0 / st.m_eff[k])
-                if v > vfl[k]:
-                    vr[k] = v
-                    for i in range(n):
-                        dvr[k, i] = st.normal[k, i] * vg
-                        dvr[k, n + i] = st.normal[k, i] * vU
-                    for p in range(P):
-                        dvr[k, ip0 + p] = vk * dd.dkc[p, k] - vg * dd.dD[p, k]
-                else:
-                    vr[k] = vfl[k]
-                    for p in range(P):
-                        dvr[k, ip0 + p] = dfl[k, p]
+                _start_row(st, dd, k, eta, etad, vfl[k], dfl[k], vr, dvr[k], ip0)
     H = held0 & ~cmask
     if H != 0:
         # the run put the state on the held set's constraint: J_eta -> Pi J_eta + d eta_c / dp,
@@ -1150,6 +1133,31 @@ def shoot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, settings, rec, J, rel, d
     out, held0, n_rel, n_inexact, finite = _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, settings, rec, J, rel,
                                                  derivatives, xe, rst, work, tw)
     return _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, derivatives, scale)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _start_row(st, dd, k, eta, etad, vfl, dfl, vr, row, ip0):
+    """``v_in`` of a compliant contact a shot starts inside of (stop ``k``; :func:`~vibeam.models.core.
+    laws.start_velocity`, at least the floor ``vfl``) into ``vr[k]``, and its tangent row ``row``
+    (shape ``(2n + P,)``: partials in ``eta``, ``eta'`` and the parameters; the floor's ``dfl``)."""
+    n = eta.shape[0]
+    U = 0.0
+    gk = -st.offset[k]
+    for i in range(n):
+        U += st.normal[k, i] * etad[i]
+        gk += st.normal[k, i] * eta[i]
+    v, vg, vU, vk = start_velocity(st.law[k], gk, U, st.kc[k], st.pe[k], 1.0 / st.m_eff[k])
+    if v > vfl:
+        vr[k] = v
+        for i in range(n):
+            row[i] = st.normal[k, i] * vg
+            row[n + i] = st.normal[k, i] * vU
+        for p in range(dfl.shape[0]):
+            row[ip0 + p] = vk * dd.dkc[p, k] - vg * dd.dD[p, k]
+    else:
+        vr[k] = vfl
+        for p in range(dfl.shape[0]):
+            row[ip0 + p] = dfl[p]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
