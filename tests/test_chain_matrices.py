@@ -60,13 +60,14 @@ def _physical():
     return M, K, C
 
 
-def _orbit(x0, v0, f_hz, periods, load=None, hc=True, v_floor=None):
+def _orbit(x0, v0, f_hz, periods, load=None, hc=True, v_floor=None, v_in0=None):
     """The physical chain's motion from (x0, v0) at t = 0 (mass 1 not inside the Hunt-Crossley
     stop) over ``periods`` forcing periods: the state at each period's end, the lowest/highest x_3
     of the last period and the contacts ``(stop, count)`` of the last period.  ``load``: the
     amplitude (N) of the force ``load sin(W t)`` on the masses (default the base acceleration's
     ``M 1 a``); ``hc`` False: without the Hunt-Crossley stop; ``v_floor`` the entry-velocity floor
-    (default ``V_FLOOR a / W``, the base velocity's amplitude along mass 1's normal)."""
+    (default ``V_FLOOR a / W``, the base velocity's amplitude along mass 1's normal); ``v_in0``: the
+    entry velocity of a contact the motion starts inside of (mass 1 inside the stop)."""
     M, K, C = _physical()
     Minv = np.linalg.inv(M)
     W = TWO_PI * f_hz
@@ -75,7 +76,9 @@ def _orbit(x0, v0, f_hz, periods, load=None, hc=True, v_floor=None):
     FREE, CONTACT, INSIDE = 0, 1, 2
     mode, v_in = FREE, 0.0
     if hc and -x0[0] - GAP1 > 0.0:
-        raise ValueError("the orbit starts inside the Hunt-Crossley stop (its v_in unknown here)")
+        if v_in0 is None:
+            raise ValueError("the orbit starts inside the Hunt-Crossley stop (its v_in unknown here)")
+        mode, v_in = CONTACT, v_in0
 
     def hc_force(y):
         d, dd = -y[0] - GAP1, -y[3]
@@ -224,6 +227,41 @@ def test_event_orbit_equals_an_independent_physical_integration(f_hz):
         assert abs(hi - GAP3) < 1e-12                                  # it reaches the stop every period
     else:
         assert hi < GAP3
+
+
+def test_a_run_starting_inside_the_hunt_crossley_contact_on_a_rebound_takes_its_entry_velocity():
+    """A run that starts inside a Hunt-Crossley contact (a sweep point continuing from a state in
+    contact, a shot from a section inside it) has not seen its entry: it takes the entry velocity
+    of the isolated conservative contact through its state (vibeam.models.core.laws.start_velocity),
+    ``v_in^2 = U^2 + 2 k d^(p+1) / ((p + 1) m_eff)``, ``m_eff = 1 / (M^-1)_11`` with all modes.  With
+    that ``v_in`` the independent physical integration (``_orbit``) and the event integrator agree
+    over one period (1e-8 of the gap, as the period-1 test).  Before, a start on a rebound (``U <
+    0``) took the floor ``V_FLOOR a / W`` (~2e-5 m/s instead of ~1e-2): a damping ~500 times too large
+    (cases/chain-3dof.toml's up sweep failed at 8.2-8.5 Hz with a step collapse)."""
+    case, _ = load_case(CASE)
+    m = case.model_spec().build()
+    sol = make_solver(m, "event")
+    f_hz = 8.3
+    M, _K, _C = _physical()
+    mm = case.model_spec().matrix_model()
+    d, u = 1.5e-5, 0.01                    # penetration (m) and rebound speed (m/s) of mass 1
+    x0 = np.array([-GAP1 - d, -0.05e-3, 0.1e-3])
+    v0 = np.array([u, 0.0, -0.02])
+    m_eff = 1.0 / np.linalg.inv(M)[0, 0]
+    v_in = math.sqrt(u * u + 2.0 * K_HC * d ** (P_HC + 1.0) / ((P_HC + 1.0) * m_eff))
+    assert v_in > 1.1 * u                  # the spring's energy counts: not |U| alone
+    ends, lo, hi, counts = _orbit(x0, v0, f_hz, 1, v_in0=v_in)
+    eta = np.linalg.solve(mm.shapes, x0)
+    etad = np.linalg.solve(mm.shapes, v0) / (TWO_PI * m.f_ref_hz)
+    start = np.concatenate([eta, etad, [-1.0]])          # held code -1: in contact with stop 1
+    tr = sol.point(f_hz / m.f_ref_hz, start, 0, 1, 64)
+    assert tr.status == "ok", tr.status
+    N = m.n_modes
+    x1 = mm.shapes @ tr.final_state[:N]
+    v1 = mm.shapes @ tr.final_state[N:2 * N] * (TWO_PI * m.f_ref_hz)
+    tol = 1e-8 * GAP3
+    assert np.max(np.abs(x1 - ends[-1][:3])) < tol, np.abs(x1 - ends[-1][:3])
+    assert np.max(np.abs(v1 - ends[-1][3:])) < tol * TWO_PI * f_hz
 
 
 def test_bad_structure_tables_are_refused_in_one_line(tmp_path):
@@ -380,3 +418,28 @@ def test_a_method_that_does_not_simulate_the_compliant_stop_is_refused_in_one_li
     with pytest.raises(ValueError, match="hysteretic_hertz.*allowed: event, direct, continuation"):
         make_solver(m, "mapping")
     parse_case(text.replace('method = "event"', 'method = "direct"', 1))
+
+
+@pytest.mark.parametrize("U", [-0.3, 0.2, 0.0])
+def test_the_start_velocity_partials_equal_central_differences(U):
+    """``laws.start_velocity``'s partials (the shot's tangent row of ``v_in``, shooting.tangent) equal
+    central differences of its value (step 1e-6 relative: truncation ~1e-12, round-off ~1e-10 of the
+    value; tolerance 1e-7 relative); Kelvin-Voigt has no ``v_in`` (``|U|``, no g or k partial)."""
+    from vibeam.models.core.laws import start_velocity
+    from vibeam.models.contact import LAW_HYSTERETIC_HERTZ, LAW_LINEAR
+
+    sv = start_velocity.py_func
+    g, k, p, nn = 0.04, 7.0, 1.5, 2.5
+    v, vg, vU, vk = sv(LAW_HYSTERETIC_HERTZ, g, U, k, p, nn)
+    assert math.isclose(v * v, U * U + 2 * k * nn * g ** 2.5 / 2.5, rel_tol=1e-14)
+    for i, dv in ((0, vg), (1, vU), (2, vk)):
+        x = [g, U, k]
+        h = 1e-6 * max(abs(x[i]), 1e-3)
+        hi, lo = list(x), list(x)
+        hi[i] += h
+        lo[i] -= h
+        fd = (sv(LAW_HYSTERETIC_HERTZ, hi[0], hi[1], hi[2], p, nn)[0]
+              - sv(LAW_HYSTERETIC_HERTZ, lo[0], lo[1], lo[2], p, nn)[0]) / (2 * h)
+        assert math.isclose(dv, fd, rel_tol=1e-7, abs_tol=1e-9), (i, dv, fd)
+    assert sv(LAW_HYSTERETIC_HERTZ, -0.01, U, k, p, nn)[:3] == (U, 0.0, 1.0)      # outside: U itself
+    assert sv(LAW_LINEAR, g, U, k, p, nn)[0] == abs(U) and sv(LAW_LINEAR, g, U, k, p, nn)[1] == 0.0

@@ -94,6 +94,7 @@ _force = laws.force.py_func
 _partials = laws.force_partials.py_func
 _inside_sign = laws.inside_sign.py_func
 _scales = laws.contact_scales.py_func
+_start_velocity = laws.start_velocity.py_func
 _floor = laws.hertz_floor.py_func
 _drive_force = drive_force.py_func
 _drive_displacement = drive_displacement.py_func
@@ -419,7 +420,7 @@ class _Run:
         z = ph.of(y)
         for k in range(ns):
             if C >> k & 1:
-                self.open_contact(k, ph, z, 0.0, record=False)
+                self.open_contact(k, ph, z, 0.0, record=False, start=True)
             elif self.comp[k] and ph.gap(k, z)[0] > 0.0:
                 self.inside |= 1 << k
         guard = 0
@@ -613,10 +614,15 @@ class _Run:
         self.ext[1] = max(self.ext[1], qv)
 
     # ------------------------------------------------------------------ contacts and impacts
-    def open_contact(self, k, ph, z, t, record):
+    def open_contact(self, k, ph, z, t, record, start=False):
         """A compliant contact of stop ``k`` begins at ``t`` (state ``z`` of a phase with it in contact)."""
         g, U = ph.gap(k, z)
-        self.vr[k] = max(U if self.law[k] == LAW_HYSTERETIC_HERTZ else abs(U), self.vfl[k])
+        if start:
+            # a contact the run starts inside of: its entry is not seen (laws.start_velocity)
+            v = _start_velocity(self.law[k], g, U, self.kc[k], self.pe[k], 1.0 / float(self.st.m_eff[k]))[0]
+            self.vr[k] = max(v, self.vfl[k])
+        else:
+            self.vr[k] = max(U if self.law[k] == LAW_HYSTERETIC_HERTZ else abs(U), self.vfl[k])
         self.cs[k] = (t, ph.force(k, g, U), g, 0.0, U)
         self.crow[k] = -1
         if not record:

@@ -85,7 +85,7 @@ from ..impact import newton_restitution
 from ..system import advance_count, drive_displacement, drive_force, increment_of, transition_increment
 from .contact_phase import (EK_EXIT, EK_FAIL, EK_GAPDOWN, EK_NONE, EK_RELEASE, linear_step,
                             phase_harmonics, rk_phase_step, rk_scales)
-from .laws import force, hertz_floor, inside_sign, is_compliant, newton_coefficient
+from .laws import force, hertz_floor, inside_sign, is_compliant, newton_coefficient, start_velocity
 from .signals import (ROOT_APEX, bounds, extremes, extremes_from, hermite_guess, homogeneous, homogeneous_bounds,
                       mode_ends, root_value, scan, scan_from, signal, signal_start)
 
@@ -908,8 +908,9 @@ def _start_compliant(cw, sy, st, hs, Om, eta, etad, held0, ist, rec):
     for k in range(ns):
         if (C >> k) & 1:
             U = _dot(st.normal[k], etad)
-            vr[k] = max(U if st.law[k] != LAW_LINEAR else abs(U), vfl[k])
             gk = _dot(st.normal[k], eta) - st.offset[k]
+            # the entry this run has not seen: v_in of the state's isolated contact (laws.start_velocity)
+            vr[k] = max(start_velocity(st.law[k], gk, U, st.kc[k], st.pe[k], 1.0 / st.m_eff[k])[0], vfl[k])
             cs[k, 0] = 0.0
             cs[k, 1] = force(st.law[k], gk, U, st.kc[k], st.cc[k], st.pe[k], vr[k])
             cs[k, 2] = gk

@@ -29,7 +29,7 @@ from numba import njit
 from ..contact import LAW_HYSTERETIC_HERTZ, LAW_LINEAR
 from ..impact import restitution_coefficient
 
-__all__ = ["newton_coefficient", "force", "force_partials", "inside_sign", "is_compliant", "V_FLOOR", "RTOL", "ATOL", "contact_scales"]
+__all__ = ["newton_coefficient", "force", "force_partials", "inside_sign", "is_compliant", "V_FLOOR", "RTOL", "ATOL", "contact_scales", "start_velocity"]
 
 #: a hysteretic-Hertz contact entered below ``V_FLOOR`` times the base-velocity amplitude along the
 #: stop's normal (``Omega B |n^T Gamma|``; ``Omega^(p-1) A |n^T f|`` for any drive) takes that floor
@@ -121,6 +121,44 @@ def contact_scales(code, kc, pe, nn, vr):
     v = max(abs(vr), 1e-300)
     pen = ((p + 1.0) * v * v / (2.0 * kc * nn)) ** (1.0 / (p + 1.0))
     return pen, pen / v
+
+
+@njit(cache=True, _nrt=False, error_model="numpy")
+def start_velocity(code, g, U, kc, pe, nn):
+    """``v_in`` of a contact a run starts inside of (penetration ``g``, rate ``U``), whose entry the
+    run has not seen, and its partials: ``(v, dv/dg, dv/dU, dv/dk)``.
+
+    Kelvin-Voigt: ``|U|`` (the law has no ``v_in``).  Hysteretic Hertz: the entry velocity of the
+    isolated conservative contact through this state, ``v^2 = U^2 + 2 k nn g^(p+1) / (p + 1)``
+    (``nn = 1 / m_eff``; the energy of the contact's spring added back to the kinetic energy, as
+    :func:`contact_scales`): a state on a rebound (``U < 0``) has entered at about ``|U|`` or more,
+    not at rest.  The law's own dissipation since the entry is not known, so this is a lower bound
+    of the true ``v_in`` (Hunt & Crossley 1975: the loss per contact is ``O(chi v_in)``); taken
+    as ``max(U, floor)`` before, a start on a rebound had ``v_in`` at the floor, a damping
+    ``chi g' / v_in`` hundreds of times too large and a collapsed step (cases/chain-3dof.toml).
+    ``v`` is a function of the state, so a shot's map from the section is one (a periodic orbit
+    through a contact is a fixed point of it).
+
+    Parameters
+    ----------
+    code : int
+        Law code.
+    g, U : float
+        Penetration and its rate at the start (system units).
+    kc, pe : float
+        Stiffness and exponent.
+    nn : float
+        ``|n|^2 = 1 / m_eff`` of the stop.
+    """
+    if code == LAW_LINEAR:
+        return abs(U), 0.0, (1.0 if U >= 0.0 else -1.0), 0.0
+    if g <= 0.0:
+        return U, 0.0, 1.0, 0.0
+    e = 2.0 * nn * g ** (pe + 1.0) / (pe + 1.0)
+    v = (U * U + kc * e) ** 0.5
+    if v <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    return v, kc * nn * g ** pe / v, U / v, 0.5 * e / v
 
 
 @njit(cache=True, _nrt=False, error_model="numpy")

@@ -60,7 +60,7 @@ from . import ahead
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
                          ST_FAILED, RunScalars, compliant_work, run_work, new_record, new_work, work_fits)
-from .laws import force_partials, hertz_floor, newton_coefficient
+from .laws import force_partials, hertz_floor, newton_coefficient, start_velocity
 from .variational import contact_accel, contact_damping, flow_linear, flow_rk, pair_particular
 
 __all__ = ["Direction", "Directions", "directions", "tangent", "shoot", "correct_frequency", "held_at_section",
@@ -639,14 +639,19 @@ def tangent(sy, st, hs, cp, dd, Om, evlog, n_ev, held0, x_start, x_end, held_end
         for k in range(ns):
             if (C >> k) & 1:
                 U = 0.0
+                gk = -st.offset[k]
                 for i in range(n):
                     U += st.normal[k, i] * etad[i]
-                if st.law[k] == LAW_LINEAR:
-                    vr[k] = max(abs(U), vfl[k])
-                elif U > vfl[k]:
-                    vr[k] = U
+                    gk += st.normal[k, i] * eta[i]
+                # the run's v_in of a contact it starts inside of (laws.start_velocity) and its row
+                v, vg, vU, vk = start_velocity(st.law[k], gk, U, st.kc[k], st.pe[k], 1.0 / st.m_eff[k])
+                if v > vfl[k]:
+                    vr[k] = v
                     for i in range(n):
-                        dvr[k, n + i] = st.normal[k, i]
+                        dvr[k, i] = st.normal[k, i] * vg
+                        dvr[k, n + i] = st.normal[k, i] * vU
+                    for p in range(P):
+                        dvr[k, ip0 + p] = vk * dd.dkc[p, k] - vg * dd.dD[p, k]
                 else:
                     vr[k] = vfl[k]
                     for p in range(P):
