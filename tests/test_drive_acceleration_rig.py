@@ -98,3 +98,25 @@ def test_the_shipped_case_loads():
     case, _ = load_case(CASE)
     spec = case.model_spec()
     assert spec.drive == ("base_acceleration", 0.8214037257202843)
+
+
+def test_derive_shows_the_held_acceleration_and_refuses_to_write_a_gamma_v_sdof(tmp_path, capsys):
+    """``vibeam derive`` of the acceleration-driven beam: the static-mode numbers of the same beam
+    (``f_n`` as rig-fe-neutral's, to round-off), the drive as ``a`` (not ``gamma = B = 0``, which
+    read as an undriven SDOF), and ``--write`` refused in one line (the SDOF scene's drive is
+    ``gamma V``, Eq. 43), exit 2, nothing written."""
+    from vibeam.api import derive
+    from vibeam.cli import main
+
+    acc = derive(str(CASE))
+    rows = {r[0]: r[1] for r in acc.rows}
+    neutral = {r[0]: r[1] for r in derive(str(CASE.parent / "rig-fe-neutral.toml")).rows}
+    assert rows["f_n"] == pytest.approx(neutral["f_n"], rel=1e-12)
+    assert rows["a"] == 0.8214037257202843 and not {"gamma", "gamma~", "B"} & set(rows)
+    assert acc.sdof_case_text == ""
+    out = tmp_path / "sdof.toml"
+    capsys.readouterr()
+    assert main(["derive", str(CASE), "--write", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'model.excitation.kind' = 'base_acceleration'" in err[0] and "allowed" in err[0]
+    assert not out.exists()

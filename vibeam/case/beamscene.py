@@ -217,6 +217,11 @@ def derive(spec) -> dict:
          f"{(red.f_n_hz / sc.f1_hz - 1) * 100:+.2f} % (static mode neglects the beam's mass)"),
         ("f_n with beam mass", red_b.f_n_hz, "Hz", f"{(red_b.f_n_hz / sc.f1_hz - 1) * 100:+.2f} % vs FE"),
     ]
+    drive = getattr(spec, "drive", None)
+    if drive is not None:    # a base acceleration: no gamma V; the SDOF's B = a / ((2 pi f)^2 L) follows f
+        rows = [r for r in rows if r[0] not in ("gamma~", "gamma", "B")]
+        rows.insert(11, ("a", drive[1], "m/s^2", "base acceleration held at every f ([model.excitation]; "
+                                                 "B = a / ((2 pi f)^2 L) at f, not Eq. 43)"))
     if sc.Delta_C_lower_m is not None:   # a second stop below: the same static-mode conversion
         DGl = sc.Delta_C_lower_m / red.phi_at_mass
         rows += [("Delta_C,lower", sc.Delta_C_lower_m * 1e3, "mm", "lower stop's gap at the stop"),
