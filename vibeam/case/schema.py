@@ -610,7 +610,7 @@ class _BeamSpec(_StopsSpec):
 
     def _build(self):
         # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
-        from vibeam.case.beamscene import build_beam_model
+        from vibeam.case.beamscene import build_beam_model, with_drive
 
         m = build_beam_model(self)
         law = beam_law(self.contact, self.R)
@@ -628,13 +628,7 @@ class _BeamSpec(_StopsSpec):
             m = CompliantBeamModel.from_model(m, law, lower)
         elif lower is not None:   # a compliant lower stop below Newton's upper one
             m.lower_law = lower
-        drive = getattr(self, "drive", None)
-        if drive is not None:     # a base acceleration: the model's scene is driven by it (F = a at every f, p = 0)
-            # lazy: the scene's kernels stay out of load_case
-            from vibeam.models.scene import Excitation
-
-            m.excitation = Excitation(*drive)
-        return m
+        return with_drive(self, m)
 
     @property
     def mixed_stops(self) -> bool:
