@@ -12,6 +12,7 @@ from vibeam.api.cases import case_and_source
 from vibeam.api.common import saved
 from vibeam.case.arguments import check_flag, check_path, check_whole
 from vibeam.case.beamscene import beam_spec, derive as derive_scene, modes_report, sdof_case_text
+from vibeam.errors import CaseError
 from vibeam.io.outdir import (OutputLock, check_folder, check_output_file, check_outputs, reading, replace_file,
                               write_text_file)
 from vibeam.models.beam import write_modes
@@ -63,17 +64,25 @@ def derive(case, write=None) -> Derived:
     Raises
     ------
     vibeam.case.schema.CaseError
-        Not a beam scene (one line naming ``model.fidelity``), or a bad case.
+        Not a beam scene (one line naming ``model.fidelity``), or a bad case; ``write`` for a beam
+        driven by a base acceleration (its :attr:`Derived.sdof_case_text` is empty: the SDOF scene
+        takes a base displacement ``gamma V``).
     """
     write = check_path(write, "write")
-    c, _ = case_and_source(case)
+    c, src = case_and_source(case)
     spec = beam_spec(c, "derive")
+    drive = getattr(spec, "drive", None)
+    if write is not None and drive is not None:     # the SDOF scene's drive is gamma V (Eq. 43)
+        where = f"{src}: " if src else ""
+        raise CaseError(f"{where}'model.excitation.kind' = {drive[0]!r}: `vibeam derive --write` writes the SDOF "
+                        f"scene of a base displacement (gain and voltage, Eq. 43); allowed: a beam driven by gain "
+                        f"and voltage")
     if write is not None:     # before anything is computed: a name that may be written, never the case file
         with reading([(case, "case file")] if isinstance(case, (str, Path)) else []):
             check_output_file(write, "--write")
     d = derive_scene(spec)
     res = Derived(c, d["rows"], d["reduction"], d["with_beam_mass"], d["scene"],
-                  sdof_case_text(c, spec, d["reduction"], d["scene"]))
+                  "" if drive is not None else sdof_case_text(c, spec, d["reduction"], d["scene"]))
     if write is not None:
         res.write(write)
     return res

@@ -26,6 +26,7 @@ from vibeam.models.beam import BeamFE, BeamGeometry, shared_calibration, shared_
 from vibeam.models.beam_dynamics import BeamImpactModel, PointStop
 from vibeam.models.contact import Restitution
 from vibeam.models.registry import fidelity, with_capability
+from vibeam.models.scene import Excitation
 from vibeam.reductions.modal import modal_reduction
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
@@ -110,6 +111,17 @@ def build_beam_model(spec):
     return BeamImpactModel.from_fe(fe, n_modes=spec.n_modes, R=spec.R, gap_contact_m=sc.Delta_C_m,
                                    base_amplitude_m=sc.base_amplitude_m, f_ref_hz=sc.f1_hz,
                                    point_stops=point_stops(spec, sc), **lower_stop(spec, sc))
+
+
+def with_drive(spec, model):
+    """``model`` driven as ``spec`` says: unchanged for the shaker's base displacement ``gamma V``
+    (already its ``base_amplitude_m``); for ``[model.excitation] kind = "base_acceleration"`` (the
+    spec's ``drive``, ``(kind, a)`` in m/s^2) its :attr:`~vibeam.models.beam_dynamics.BeamImpactModel.excitation`
+    set, so its scene is driven by ``F = a`` at every frequency (:func:`vibeam.models.scene.driven`)."""
+    drive = getattr(spec, "drive", None)
+    if drive is not None:
+        model.excitation = Excitation(*drive)
+    return model
 
 
 def point_stops(spec, sc) -> list:
@@ -217,6 +229,11 @@ def derive(spec) -> dict:
          f"{(red.f_n_hz / sc.f1_hz - 1) * 100:+.2f} % (static mode neglects the beam's mass)"),
         ("f_n with beam mass", red_b.f_n_hz, "Hz", f"{(red_b.f_n_hz / sc.f1_hz - 1) * 100:+.2f} % vs FE"),
     ]
+    drive = getattr(spec, "drive", None)
+    if drive is not None:    # a base acceleration: no gamma V; the SDOF's B = a / ((2 pi f)^2 L) follows f
+        rows = [r for r in rows if r[0] not in ("gamma~", "gamma", "B")]
+        rows.insert(11, ("a", drive[1], "m/s^2", "base acceleration held at every f ([model.excitation]; "
+                                                 "B = a / ((2 pi f)^2 L) at f, not Eq. 43)"))
     if sc.Delta_C_lower_m is not None:   # a second stop below: the same static-mode conversion
         DGl = sc.Delta_C_lower_m / red.phi_at_mass
         rows += [("Delta_C,lower", sc.Delta_C_lower_m * 1e3, "mm", "lower stop's gap at the stop"),

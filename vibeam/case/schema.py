@@ -27,6 +27,7 @@ key, the value and what is allowed.
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import re
@@ -583,6 +584,9 @@ class _BeamSpec(_StopsSpec):
             raise ValueError(f"is continued as 'Omega' (range and start_at in Hz); allowed: {', '.join(allowed)}")
         if key not in allowed:
             raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(allowed)}")
+        if getattr(self, "drive", None) is not None and key != "Omega":
+            # the shooting problem's drive is gamma V; an acceleration-driven beam: the frequency only
+            raise ValueError("cannot be continued in a beam driven by a base acceleration; allowed: Omega")
         if key == "Omega":
             return "Omega", 1.0
         return conversions(self.build(), gain_per_V=self.gain, voltage=self.voltage)[key]
@@ -606,7 +610,7 @@ class _BeamSpec(_StopsSpec):
 
     def _build(self):
         # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
-        from vibeam.case.beamscene import build_beam_model
+        from vibeam.case.beamscene import build_beam_model, with_drive
 
         m = build_beam_model(self)
         law = beam_law(self.contact, self.R)
@@ -624,7 +628,7 @@ class _BeamSpec(_StopsSpec):
             m = CompliantBeamModel.from_model(m, law, lower)
         elif lower is not None:   # a compliant lower stop below Newton's upper one
             m.lower_law = lower
-        return m
+        return with_drive(self, m)
 
     @property
     def mixed_stops(self) -> bool:
@@ -647,6 +651,8 @@ class _BeamSpec(_StopsSpec):
         dofs = 2 * int(self.n_elements)
 
         check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
+        if getattr(self, "drive", None) is not None:
+            check_scale(self.drive[1], f"'{prefix}.excitation.amplitude_m_s2'")
         for k in ("gap_mm", "contact_gap_mm", "gap_lower_mm", "contact_gap_lower_mm"):
             check_gap(getattr(self, k), f"'{prefix}.{k}'", self.length_mm)
         for j, st in enumerate(self.point_stop_tables):
@@ -692,7 +698,11 @@ class _BeamSpec(_StopsSpec):
         # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
         from vibeam.case.beamscene import build_beam_model_with_effects
 
-        return build_beam_model_with_effects(self, effects, base_model=model)
+        out = build_beam_model_with_effects(self, effects, base_model=model)
+        if getattr(model, "excitation", None) is not None and out.excitation is None:
+            out = copy.copy(out)       # a rebuilt structure keeps the drive (a base acceleration)
+            out.excitation = model.excitation
+        return out
 
     def case_update(self, key: str, value: float) -> tuple[dict, list]:
         """``[model]`` keys that set a fitted value, and notes: f_n is ``calibrate.f1_hz`` of a
@@ -1597,9 +1607,10 @@ class BeamSceneSpec(_BeamSpec):
                                  f"mass is not implemented; allowed there: law = \"restitution\"")
         _scene_stops(self, self.at_mass)
         ex = self.excitation
-        if ex.kind != "base_displacement" or ex.gain is None:
+        if not (ex.kind == "base_displacement" and ex.gain is not None or ex.kind == "base_acceleration"):
             raise ValueError("excitation: the beam is driven by a base displacement given as gain and voltage (the "
-                             "shaker's gamma V)")
+                             "shaker's gamma V) or by a base acceleration (kind = \"base_acceleration\", "
+                             "amplitude_m_s2)")
         return _BeamSpec._consistent(self)
 
     @property
@@ -1642,11 +1653,21 @@ class BeamSceneSpec(_BeamSpec):
 
     @property
     def gain(self):
-        return self.excitation.gain
+        """The shaker's gain (1/V); 0 when the base is driven by an acceleration (no base displacement
+        ``gamma V``: the drive is :attr:`drive`)."""
+        return self.excitation.gain if self.drive is None else 0.0
 
     @property
     def voltage(self):
-        return self.excitation.voltage
+        """The shaker's voltage (V); 0 when the base is driven by an acceleration."""
+        return self.excitation.voltage if self.drive is None else 0.0
+
+    @property
+    def drive(self):
+        """The drive when it is not the shaker's base displacement: ``(kind, amplitude)`` in SI
+        (``("base_acceleration", a)``, m/s^2, :func:`vibeam.models.scene.driven`); None for ``gamma V``."""
+        ex = self.excitation
+        return None if ex.kind == "base_displacement" else (ex.kind, float(ex.amplitude_m_s2))
 
 
 def _system_key(name):
