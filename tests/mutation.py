@@ -442,6 +442,12 @@ EQUIVALENT = {
         "vibeam.io.h5check.open_checked, which every reader and the commit open the file with and which "
         "refuses such a file in one line (test_store.py::test_a_group_whose_object_header_is_damaged_"
         "is_not_a_traceback): the handler is a second guard no reachable file reaches",
+    ("vibeam/io/store.py", "core/NumberReplacer", "v = v.ravel()[0]"):
+        "v.size == 1 (the line above): its first element is its last, [-1] is [0]",
+    ("vibeam/io/store.py", "core/NumberReplacer", 'parent = d.rsplit("/", 1)[0] if "/" in d else None'):
+        "a consumed checkpoint is 'lines', 'uncertainty_samples' or 'basin_lines/<run>' (runner.py, "
+        "analysis/attractors.py, api/uncertainty.py) and a run's name has no '/' (vibeam/case/schema.py, the run name field of _RunBase): "
+        "d has at most one '/', where rsplit's maxsplit 1 and 2 give the same first part",
     ("vibeam/analysis/regress.py", "core/ReplaceBinaryOperator_BitOr_BitXor",
      "bad = ~((d <= atol + rtol * np.abs(a_ref)) | both_nan)"):
         "| and ^ differ only where both sides are true: a point within the tolerance (d <= ..., so d "
