@@ -454,3 +454,25 @@ def test_signals_are_not_touched_off_the_main_thread():
     t.start()
     t.join()
     assert out and signal.SIGTERM not in out[0] and signal.SIGINT not in out[0]
+
+
+def test_a_checkpoint_dataset_hdf5_cannot_read_is_refused_in_one_line(tmp_path):
+    """A dataset the structure check accepts but HDF5 cannot read (chunks of a compression filter this
+    machine lacks): one line naming the group and HDF5's reason, cut at 80 characters."""
+    from vibeam.errors import one_line
+
+    partial = tmp_path / (RESULTS_NAME + PARTIAL_SUFFIX)
+    with h5py.File(partial, "w") as f:
+        g = f.create_group("lines/k")
+        g.attrs["case_hash"] = "h"
+        ds = g.create_dataset("x", shape=(4,), dtype="f8", chunks=(4,), compression=32001, allow_unknown_filter=True)
+        ds.id.write_direct_chunk((0,), b"bytes no filter wrote")
+    with h5py.File(partial) as f:
+        with pytest.raises(OSError) as hdf5:
+            f["lines/k/x"][()]
+    reason = one_line(str(hdf5.value))[:80]
+    with Store(tmp_path) as s:
+        with pytest.raises(InputError) as e:
+            s.read_checkpoint("lines", "case_hash", "h")
+    msg = str(e.value)
+    assert "\n" not in msg and f"/lines/k: cannot be read ({reason}); this vibeam never writes that" in msg
