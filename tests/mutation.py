@@ -397,6 +397,37 @@ EQUIVALENT = {
     ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Gt_NotEq", 'ok &= (np.var(np.concatenate([fA, fB], axis=1), axis=1) > 0)'):
         "a variance is >= 0, or NaN where A or B holds a NaN, and those points are out already (the line "
         "above): != 0 is > 0 on what is left",
+    # vibeam/case/uncertainty.py (issue 56: every mutant run; these survived and no input tells them apart)
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_LtE', 'if self.distribution == "lognormal" and not self.mean > 0.0:'):
+        "the distribution is one of the Literal's five names, and every other one ('normal', 'truncnorm', 'uniform', 'triangular') sorts after 'lognormal': <= is ==",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_LtE', 'if d == "lognormal":         # the parameter\'s own mean and std: sigma^2 = ln(1 + (s/m)^2)'):
+        "normal, truncnorm and uniform returned above: d is 'lognormal' or 'triangular', which sorts after it",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_GtE', 'if d == "uniform":'):
+        "normal and truncnorm returned above: d is 'uniform', 'lognormal' or 'triangular', the last two sort before 'uniform'",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_Is', 'if self.distribution == "lognormal" and not self.mean > 0.0:'):
+        "pydantic's Literal check returns the annotation's own string (interned), not the one it was given (test_uncertainty_spec.py::test_a_distributions_name_is_the_modules_own_string): 'is' is '=='",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_Is', 'if self.distribution == "triangular" and not self.bounds[0] <= self.mode <= self.bounds[1]:'):
+        "pydantic's Literal check returns the annotation's own string (interned), not the one it was given (test_uncertainty_spec.py::test_a_distributions_name_is_the_modules_own_string): 'is' is '=='",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_Is', 'if self.distribution == "truncnorm":'):
+        "pydantic's Literal check returns the annotation's own string (interned), not the one it was given (test_uncertainty_spec.py::test_a_distributions_name_is_the_modules_own_string): 'is' is '=='",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_Is', 'if d == "normal":'):
+        "pydantic's Literal check returns the annotation's own string (interned), not the one it was given (test_uncertainty_spec.py::test_a_distributions_name_is_the_modules_own_string): 'is' is '=='",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_Is', 'if d == "truncnorm":'):
+        "pydantic's Literal check returns the annotation's own string (interned), not the one it was given (test_uncertainty_spec.py::test_a_distributions_name_is_the_modules_own_string): 'is' is '=='",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_Is', 'if d == "uniform":'):
+        "pydantic's Literal check returns the annotation's own string (interned), not the one it was given (test_uncertainty_spec.py::test_a_distributions_name_is_the_modules_own_string): 'is' is '=='",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_Is', 'if d == "lognormal":         # the parameter\'s own mean and std: sigma^2 = ln(1 + (s/m)^2)'):
+        "pydantic's Literal check returns the annotation's own string (interned), not the one it was given (test_uncertainty_spec.py::test_a_distributions_name_is_the_modules_own_string): 'is' is '=='",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Gt_NotEq', 'dup = sorted({n for n in names if names.count(n) > 1})'):
+        'n is taken from names, so names.count(n) >= 1: != 1 is > 1',
+    ('vibeam/case/uncertainty.py', 'core/NumberReplacer', 'if v & (v - 1):'):
+        'v >= 2 here (Field(ge=2) is checked before the validator), and for v >= 2 v & (v - 2) is 0 exactly for the powers of 2, as v & (v - 1) (an even v that is not one keeps a set bit above the one v - 2 borrows from; an odd v shares bit 0 with v - 2)',
+    ('vibeam/case/uncertainty.py', 'core/NumberReplacer', 'if n < 2 or n & (n - 1):'):
+        "n >= 2 past 'n < 2 or': for n >= 2, n & (n - 2) is 0 exactly for the powers of 2, as n & (n - 1)",
+    ('vibeam/case/uncertainty.py', 'core/RemoveDecorator', '@classmethod'):
+        "pydantic's field_validator makes a function whose first parameter is cls a classmethod itself (pydantic._internal._decorators.ensure_classmethod_based_on_signature)",
+    ('vibeam/case/uncertainty.py', 'core/ReplaceFalseWithTrue', 'model_config = ConfigDict(extra="forbid", strict=True, frozen=True, allow_inf_nan=False)'):
+        "UncertaintySpec's own fields are ints, a bool and a list of UncertaintyParameterSpec, which has its own config: allow_inf_nan has no float to act on there (the same line of UncertaintyParameterSpec, whose fields are floats, is killed by test_uncertainty_spec.py::test_a_spec_is_strict_frozen_and_finite_and_its_names_are_flat_keys: this entry applies only to a survivor)",
     ("vibeam/engine/effects.py", "core/ReplaceBinaryOperator_Mul_Mod", "lo, hi = 1e-6 * f1, f1 * (1 - 1e-9)", 18):
         "the scan for f_p starts at 1e-6 % f1 = 1e-6 Hz instead of 1e-6 f1 (f1 > 1e-6 Hz): below 1e-6 f1 "
         "the gain ratio is flat ((f1 / f2)^2 to 1e-12), so the same first sign change is bracketed and "
@@ -411,6 +442,12 @@ EQUIVALENT = {
         "vibeam.io.h5check.open_checked, which every reader and the commit open the file with and which "
         "refuses such a file in one line (test_store.py::test_a_group_whose_object_header_is_damaged_"
         "is_not_a_traceback): the handler is a second guard no reachable file reaches",
+    ("vibeam/io/store.py", "core/NumberReplacer", "v = v.ravel()[0]"):
+        "v.size == 1 (the line above): its first element is its last, [-1] is [0]",
+    ("vibeam/io/store.py", "core/NumberReplacer", 'parent = d.rsplit("/", 1)[0] if "/" in d else None'):
+        "a consumed checkpoint is 'lines', 'uncertainty_samples' or 'basin_lines/<run>' (runner.py, "
+        "analysis/attractors.py, api/uncertainty.py) and a run's name has no '/' (vibeam/case/schema.py, the run name field of _RunBase): "
+        "d has at most one '/', where rsplit's maxsplit 1 and 2 give the same first part",
     ("vibeam/analysis/regress.py", "core/ReplaceBinaryOperator_BitOr_BitXor",
      "bad = ~((d <= atol + rtol * np.abs(a_ref)) | both_nan)"):
         "| and ^ differ only where both sides are true: a point within the tolerance (d <= ..., so d "

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import signal
 
 import h5py
@@ -206,6 +207,12 @@ def test_consumed_checkpoints_are_removed_group_by_group(tmp_path):
             assert sorted(f) == ["basin_lines"] and sorted(f["basin_lines"]) == ["q"]
         s.commit({}, "A", "", "A", done=["basin_lines/q"])
         assert not partial.exists()
+        # a consumed group the checkpoint does not hold does not stop the ones after it from going
+        s.checkpoint("lines", {"k": (v, {"case_hash": "h"})})
+        s.checkpoint("basin_lines/r", {"row0": (v, {"case_hash": "h"})})
+        s.commit({}, "A", "", "A", done=["basin_lines/absent", "uncertainty_samples", "lines"])
+        with h5py.File(partial) as f:
+            assert sorted(f) == ["basin_lines"]
         # an earlier vibeam kept a checkpoint in the file itself: a commit that consumes it removes it
     p = tmp_path / RESULTS_NAME
     with h5py.File(p, "a") as f:
@@ -291,6 +298,9 @@ def test_build_file_writes_a_whole_file_or_leaves_the_old_one(tmp_path):
     with pytest.raises(InputError) as e:
         build_file(tmp_path / "z.h5", lambda f: None, base=junk)
     assert "not an HDF5 file vibeam can keep" in str(e.value) and "\n" not in str(e.value) and "--fresh" in str(e.value)
+    # the reason is HDF5's message without its parenthesised detail ("Unable to [synchronously ]open file
+    # (file signature not found)"): the text before the first "("
+    assert re.search(r"can keep \(Unable to [a-z ]*open file\); move it away", str(e.value)), str(e.value)
 
     def fails(f):
         raise OSError(28, "No space left on device")
@@ -305,6 +315,14 @@ def test_build_file_writes_a_whole_file_or_leaves_the_old_one(tmp_path):
     with pytest.raises(OSError) as e:
         build_file(p, fails_named)
     assert e.value.filename == str(p)
+
+    class DiskFull(OSError):
+        pass
+
+    err = DiskFull(28, "No space left on device", str(p))    # names the file already: passed on as it is
+    with pytest.raises(DiskFull) as e:
+        build_file(p, lambda f: (_ for _ in ()).throw(err))
+    assert e.value is err and e.value.__cause__ is None
 
     def fails_bare(f):
         raise OSError("h5py says: unable to write\nsecond line")
@@ -353,6 +371,14 @@ def test_a_store_refuses_an_input_that_is_its_own_file_and_files_it_cannot_keep(
     with pytest.raises(InputError) as e:
         Store(tmp_path).__enter__()
     assert "results.h5 is kept as it is: move it away, use another --out, or --fresh to replace it" in str(e.value)
+    # a folder the lock refuses (a file): the inputs noted for the command are released with it
+    from vibeam.io.outdir import read_by_command
+    ref, not_a_folder = tmp_path / "ref.h5", tmp_path / "a-file"
+    ref.write_bytes(b"x")
+    not_a_folder.write_text("")
+    with pytest.raises(InputError, match="is a file, not a folder"):
+        Store(not_a_folder, inputs=[(ref, "--reference")]).__enter__()
+    assert read_by_command(ref) is None
     with Store(tmp_path, fresh=True) as s:           # --fresh replaces it
         s.commit({"runs/a": unit("runs/a")}, "A", "", "A")
     assert sorted(state(tmp_path / RESULTS_NAME)) == ["runs/a"]
@@ -428,3 +454,25 @@ def test_signals_are_not_touched_off_the_main_thread():
     t.start()
     t.join()
     assert out and signal.SIGTERM not in out[0] and signal.SIGINT not in out[0]
+
+
+def test_a_checkpoint_dataset_hdf5_cannot_read_is_refused_in_one_line(tmp_path):
+    """A dataset the structure check accepts but HDF5 cannot read (chunks of a compression filter this
+    machine lacks): one line naming the group and HDF5's reason, cut at 80 characters."""
+    from vibeam.errors import one_line
+
+    partial = tmp_path / (RESULTS_NAME + PARTIAL_SUFFIX)
+    with h5py.File(partial, "w") as f:
+        g = f.create_group("lines/k")
+        g.attrs["case_hash"] = "h"
+        ds = g.create_dataset("x", shape=(4,), dtype="f8", chunks=(4,), compression=32001, allow_unknown_filter=True)
+        ds.id.write_direct_chunk((0,), b"bytes no filter wrote")
+    with h5py.File(partial) as f:
+        with pytest.raises(OSError) as hdf5:
+            f["lines/k/x"][()]
+    reason = one_line(str(hdf5.value))[:80]
+    with Store(tmp_path) as s:
+        with pytest.raises(InputError) as e:
+            s.read_checkpoint("lines", "case_hash", "h")
+    msg = str(e.value)
+    assert "\n" not in msg and f"/lines/k: cannot be read ({reason}); this vibeam never writes that" in msg

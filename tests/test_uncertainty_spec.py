@@ -44,6 +44,12 @@ def test_each_distribution_has_the_moments_and_support_its_numbers_say():
     assert tr.frozen().mean() == pytest.approx((0.04 + 0.07 + 0.05) / 3, rel=1e-12)
     assert tr.frozen().pdf(0.05) == pytest.approx(2 / 0.03, rel=1e-12)           # the peak at the mode
     assert tr.support() == (0.04, 0.07)
+    # a mode at more than twice lo from 0 and hi beyond 2 lo (the shape c = (mode - lo) / (hi - lo) and the
+    # scale hi - lo, not mode % lo or hi % lo): [1, 4] with mode 3, c = 2/3, mean 8/3, peak 2/3 at 3
+    tr = P(name="beta", distribution="triangular", bounds=[1.0, 4.0], mode=3.0)
+    assert tr.frozen().mean() == pytest.approx(8.0 / 3.0, rel=1e-12)
+    assert tr.frozen().pdf(3.0) == pytest.approx(2.0 / 3.0, rel=1e-12)
+    assert tr.frozen().cdf(3.0) == pytest.approx(2.0 / 3.0, rel=1e-12) and tr.support() == (1.0, 4.0)
     # an unbounded end: its SUPPORT_TAIL quantile (the normal's: mean -+ 7.034 std)
     lo, hi = P(name="R", distribution="normal", mean=0.8, std=0.08).support()
     z = -stats.norm.ppf(SUPPORT_TAIL)
@@ -63,7 +69,7 @@ def test_the_design_is_the_sobol_points_through_the_inverse_distribution_functio
     assert spec.design(2).shape == (2, 2) and spec.design(32).shape == (32, 2)
     np.testing.assert_array_equal(spec.design(1), spec.design(1))
     assert spec.design(1).shape == (1, 2)
-    for n in (0, 3, 12):
+    for n in (0, 3, 5, 10, 12):      # 5 and 10: n & (n >> 1) and n & (n << 1) are 0, n & (n - 1) is not
         with pytest.raises(ValueError, match=f"samples = {n}: allowed a power of 2"):
             spec.design(n)
     assert spec.runs_per_sample() == 1
@@ -90,7 +96,15 @@ def test_saltellis_rows_are_a_b_and_a_with_one_column_from_b():
         np.testing.assert_array_equal(np.delete(ab, i, axis=1), np.delete(A, i, axis=1))
         np.testing.assert_array_equal(ab[:, i], B[:, i])
     assert spec.saltelli(2)[0].shape == (2 * (d + 2), d)
-    for bad in (1, 6):
+    # two parameters: A's column k is point column k, B's column k is point column d + k (k % d, for
+    # every d; with d = 3 the bits of k < d are those of d, so k & d = k too: d = 2 tells them apart)
+    two = UncertaintySpec(samples=8, seed=5, sobol=True, parameter=pars[:2])
+    u = stats.qmc.Sobol(4, scramble=True, seed=5).random_base2(3)
+    rows, roles = two.saltelli()
+    ppf = [q.frozen().ppf for q in two.parameter]
+    np.testing.assert_allclose(rows[:n], np.column_stack([ppf[k](u[:, k]) for k in range(2)]), rtol=1e-15)
+    np.testing.assert_allclose(rows[n:2 * n], np.column_stack([ppf[k](u[:, 2 + k]) for k in range(2)]), rtol=1e-15)
+    for bad in (1, 5, 6, 10):       # 5 and 10: n & (n >> 1) and n & (n << 1) are 0, n & (n - 1) is not
         with pytest.raises(ValueError, match=f"samples = {bad}: allowed a power of 2"):
             spec.saltelli(bad)
 
@@ -104,13 +118,22 @@ def test_refusals_say_what_is_allowed():
     assert "allowed: [lo, hi] with lo < hi, got [1.0, 1.0]" in refused(name="R", distribution="uniform", bounds=[1.0, 1.0])
     assert "allowed: [lo, hi] with lo < hi, got [0.5]" in refused(name="R", distribution="uniform", bounds=[0.5])
     assert "allowed: [lo, hi]" in refused(name="R", distribution="uniform", bounds=[0.1, 0.5, 0.9])
+    assert "allowed: [lo, hi] with lo < hi, got [0.9, 0.5]" in refused(name="R", distribution="uniform",
+                                                                         bounds=[0.9, 0.5])
     P(name="R", distribution="uniform", bounds=[0.5, 0.5000001])                 # lo < hi: accepted
+    # hi - lo must be a finite double (the scale): 2e308 overflows, 2e200 does not (while the sum
+    # hi + lo of the first is 0, the product of the second -inf and 1e308 ** -1e308 is 0.0)
+    assert "allowed: [lo, hi] with hi - lo a finite number" in refused(name="R", distribution="uniform",
+                                                                         bounds=[-1e308, 1e308])
+    assert P(name="R", distribution="uniform", bounds=[-1e200, 1e200]).support() == (-1e200, 1e200)
+    P(name="R", distribution="uniform", bounds=[1e308, 1.7e308])                 # hi + lo overflows, hi - lo not
     msg = refused(name="R", distribution="truncnorm", mean=0.8, bounds=[0.0, 1.0], mode=0.5)
     assert "distribution 'truncnorm' takes mean, std, bounds; missing std; not mode" in msg
     assert "distribution 'normal' takes mean, std; not bounds" in refused(name="R", distribution="normal", mean=0.8,
                                                                           std=0.1, bounds=[0, 1])
     assert "distribution 'uniform' takes bounds; missing bounds" in refused(name="R", distribution="uniform")
     assert "its mean must be > 0, got 0.0" in refused(name="k", distribution="lognormal", mean=0.0, std=1.0)
+    assert "its mean must be > 0, got -1.0" in refused(name="k", distribution="lognormal", mean=-1.0, std=1.0)
     P(name="k", distribution="lognormal", mean=1e-9, std=1.0)
     assert "mode = 0.3 lies outside bounds = [0.4, 0.6]" in refused(name="x", distribution="triangular",
                                                                     bounds=[0.4, 0.6], mode=0.3)
@@ -123,6 +146,7 @@ def test_refusals_say_what_is_allowed():
     P(name="x", distribution="truncnorm", mean=0.0, std=1.0, bounds=[6.0, 9.0])
     P(name="x", distribution="truncnorm", mean=0.0, std=1.0, bounds=[-9.0, -6.0])
     assert "std" in refused(name="x", distribution="normal", mean=0.0, std=0.0)
+    assert "at least 1 character" in refused(name="", distribution="normal", mean=0.0, std=1.0)
     assert set(DISTRIBUTIONS) == {"normal", "truncnorm", "uniform", "lognormal", "triangular"}
 
 
@@ -133,6 +157,9 @@ def test_the_spec_takes_a_power_of_two_of_samples_and_each_parameter_once():
         UncertaintySpec(samples=12, parameter=par)
     with pytest.raises(ValidationError, match="e.g. 64 or 128"):
         UncertaintySpec(samples=100, parameter=par)
+    for n, near in ((5, "4 or 8"), (10, "8 or 16")):   # n & (n >> 1) and n & (n << 1) are 0, n & (n - 1) not
+        with pytest.raises(ValidationError, match=f"allowed: a power of 2 .*e.g. {near}"):
+            UncertaintySpec(samples=n, parameter=par)
     for n in (2, 4, MAX_SAMPLES):
         assert UncertaintySpec(samples=n, parameter=par).samples == n
     for n in (1, 2 * MAX_SAMPLES):
@@ -176,3 +203,53 @@ def test_a_truncated_normal_is_refused_below_1e_12_of_probability_in_its_bounds(
     P(name="x", distribution="truncnorm", mean=1.0, std=2.0, bounds=[1.0 - 2 * 9.0, 1.0 - 2 * 7.0])
     with pytest.raises(ValidationError, match="hold no probability"):
         P(name="x", distribution="truncnorm", mean=1.0, std=2.0, bounds=[1.0 - 2 * 9.0, 1.0 - 2 * 7.13])
+
+
+def test_a_truncated_normal_with_exactly_1e_12_of_probability_in_its_bounds_is_refused():
+    """The threshold is strict: bounds [0, x] of the normal (0, 1/sqrt 2), x the double whose erf is
+    exactly 2e-12 (erf is 2 x / sqrt(pi) to 1e-24 there), hold 0.5 erf(x) = 1e-12 exactly."""
+    x, std = 1.772453850905516e-12, 0.7071067811865475
+    assert std * math.sqrt(2.0) == 1.0 and 0.5 * (math.erf(x) - math.erf(0.0)) == 1e-12
+    with pytest.raises(ValidationError, match="hold no probability"):
+        P(name="x", distribution="truncnorm", mean=0.0, std=std, bounds=[0.0, x])
+    P(name="x", distribution="truncnorm", mean=0.0, std=std, bounds=[0.0, 2 * x])     # 2e-12: accepted
+
+
+def test_a_spec_is_strict_frozen_and_finite_and_its_names_are_flat_keys():
+    """Types as given (no "64" for 64, no 1 for true, no "0.8" for 0.8), no change after validation,
+    no NaN or infinity; a system.<key> / excitation.<key> path stands for its flat key (and is then
+    the same parameter), a key of the other group is refused."""
+    par = {"name": "R", "distribution": "normal", "mean": 0.8, "std": 0.1}
+    for bad in ({"samples": "64"}, {"samples": 64.0}, {"sobol": 1}, {"seed": "1"}):
+        with pytest.raises(ValidationError):
+            UncertaintySpec(parameter=[par], **bad)
+    for bad in ({"mean": "0.8"}, {"mean": float("nan")}, {"mean": float("inf")}, {"std": float("inf")},
+                {"distribution": "uniform", "mean": None, "std": None, "bounds": [0.0, float("inf")]}):
+        with pytest.raises(ValidationError):
+            P(**dict(par, **bad))
+    spec = UncertaintySpec(parameter=[par])
+    with pytest.raises(ValidationError, match="frozen"):
+        spec.samples = 8
+    with pytest.raises(ValidationError, match="frozen"):
+        spec.parameter[0].mean = 0.5
+    assert (spec.samples, spec.parameter[0].mean) == (64, 0.8)
+    assert P(**dict(par, name="system.beta")).name == "beta"
+    assert P(**dict(par, name="excitation.voltage")).name == "voltage"
+    with pytest.raises(ValidationError, match="beta is a key of the system"):
+        P(**dict(par, name="excitation.beta"))
+    with pytest.raises(ValidationError, match=r"each parameter once; \['beta'\] given twice"):
+        UncertaintySpec(parameter=[dict(par, name="beta"), dict(par, name="system.beta")])
+
+
+def test_a_distributions_name_is_the_modules_own_string():
+    """What makes ``d is "normal"`` the same as ``d == "normal"`` (tests/mutation.py, EQUIVALENT):
+    pydantic's Literal check returns the annotation's own string, not the one it was given (a TOML
+    parser's, a joined one)."""
+    import tomllib
+
+    for name in DISTRIBUTIONS:
+        given = tomllib.loads(f'd = "{name}"')["d"]
+        own = next(k for k in DISTRIBUTIONS if k == name)
+        kw = {"mean": 1.0, "std": 0.5, "bounds": [0.0, 2.0], "mode": 1.0}
+        p = P(name="x", distribution="".join(given), **{k: kw[k] for k in DISTRIBUTIONS[name]})
+        assert p.distribution == name and p.distribution is own
