@@ -580,11 +580,11 @@ def plain(x):
 
 
 def test_the_event_loop_reads_as_its_algorithm():
-    """The event loop (``run_work``, behind ``integrate_work``) is its phases in at most 150 lines,
-    nested at most 5 deep (issue 43)."""
+    """The event loop (``integrate_work``) is its phases in at most 150 lines, nested at most 5
+    deep (issue 43)."""
     p = ROOT / "models/core/integrator.py"
     sizes = {n: (lines, depth) for n, lines, depth, _ in function_sizes(ast.parse(p.read_text()))}
-    lines, depth = sizes["run_work"]
+    lines, depth = sizes["integrate_work"]
     assert lines <= 150 and depth <= 5, (lines, depth)
     for phase in ("_initial_state", "_recurrence", "_period_start", "_free_step", "_held_phase", "_contact_event"):
         assert phase in sizes
@@ -726,17 +726,31 @@ def named_returns(tree, function: str) -> list:
 
 
 def test_the_event_integrator_returns_a_named_record():
-    """The event loop ``run_work`` (what the shots call) returns its scalars by name, a
-    ``RunScalars``, at every return: an unnamed 12-tuple read by position in two modules before.
-    ``integrate_work`` (what Python calls) hands them to Python as one plain tuple in field order:
-    numba boxes a NamedTuple by calling its Python class, and a Ctrl-C handler that runs there
-    made the process die of a segmentation fault (tests/test_interrupts.py, inline run)."""
+    """The event loop ``integrate_work`` names its scalars, a ``RunScalars``, at every return: an
+    unnamed 12-tuple read by position in two modules before.  It hands them over as one plain
+    tuple in field order (``as_tuple``): numba boxes a NamedTuple by calling its Python class, and
+    a Ctrl-C handler that runs there made the process die of a segmentation fault
+    (tests/test_interrupts.py, inline run).  The shots name them again (``scalars``)."""
     p = ROOT / "models/core/integrator.py"
     tree = ast.parse(p.read_text())
-    got = named_returns(tree, "run_work")
-    assert got and set(got) == {"RunScalars"}, got
-    entry = named_returns(tree, "integrate_work")
+    defs = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
+    returns = [r.value for r in ast.walk(defs["integrate_work"]) if isinstance(r, ast.Return)]
+    assert returns and all(isinstance(v, ast.Call) and ast.unparse(v.func) == "as_tuple" and len(v.args) == 1
+                           for v in returns), [ast.unparse(v) for v in returns]
+    names = []
+    for v in returns:
+        a = v.args[0]
+        assert isinstance(a, ast.Call), ast.unparse(a)
+        f = ast.unparse(a.func)
+        names += [f] if f == "RunScalars" else named_returns(tree, f)
+    assert set(names) == {"RunScalars"}, names
+    entry = named_returns(tree, "as_tuple")
     assert len(entry) == 1 and entry[0].startswith("(r.status, r.n_imp_record,"), entry
+    assert set(named_returns(tree, "scalars")) == {"RunScalars"}
+    shots = ast.parse((ROOT / "models/core/shooting.py").read_text())
+    calls = [c for c in ast.walk(shots) if isinstance(c, ast.Call) and ast.unparse(c.func) == "integrate_work"]
+    parents = {id(ch): n for n in ast.walk(shots) for ch in ast.iter_child_nodes(n)}
+    assert calls and all(ast.unparse(parents[id(c)].func) == "scalars" for c in calls)
     from vibeam.models.core.integrator import RunScalars
 
     assert issubclass(RunScalars, tuple) and len(RunScalars._fields) == 12

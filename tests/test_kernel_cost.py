@@ -42,7 +42,7 @@ def test_a_step_keeps_its_counters_in_local_variables():
     fns = _functions()
     for name in ("_free_step", "_free_outputs", "_free_arc", "_held_phase", "_contact_event"):
         assert not _reads_lp(fns[name]), f"{name} reads or takes lp"
-    loops = [n for n in ast.walk(fns["run_work"]) if isinstance(n, ast.While)
+    loops = [n for n in ast.walk(fns["integrate_work"]) if isinstance(n, ast.While)
              and ast.unparse(n.test) == "fs[_REM] > 0.0"]
     assert len(loops) == 1
     assert not _reads_lp(loops[0]), "the step loop reads lp"

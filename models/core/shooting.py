@@ -59,7 +59,7 @@ from ..system import (advance_count, advance_state, drive_displacement, drive_fo
 from . import ahead
 from .contact_phase import rk_scales
 from .integrator import (EV_ENTRY, EV_EXIT, EV_IMPACT, EV_RELEASE, EV_START, EV_STICK, EV_STICK_IMPACT, LOG_HEAD,
-                         ST_FAILED, RunScalars, compliant_work, run_work, new_record, new_work, work_fits)
+                         ST_FAILED, RunScalars, compliant_work, integrate_work, scalars, new_record, new_work, work_fits)
 from .laws import force_partials, hertz_floor, newton_coefficient, start_velocity
 from .variational import contact_accel, contact_damping, flow_linear, flow_rk, pair_particular
 
@@ -1187,11 +1187,11 @@ def _shot(sy, st, hs, cp, dd, Om, x0, held0, n_periods, settings, rec, J, rel, d
     etad = xe[n:]
     h_cap, max_impacts, max_steps, chatter_tol = settings
     if cp is None:
-        out = run_work(sy, st, hs, None, Om, eta, etad, held0, _ZERO, n_periods, _ONE, _ONE, h_cap, max_impacts,
-                             max_steps, chatter_tol, rec, work)
+        out = scalars(integrate_work(sy, st, hs, None, Om, eta, etad, held0, _ZERO, n_periods, _ONE, _ONE, h_cap,
+                                     max_impacts, max_steps, chatter_tol, rec, work))
     else:
-        out = run_work(sy, st, hs, compliant_work(cp, st, n, rec), Om, eta, etad, held0, _ZERO, n_periods, _ONE,
-                             _ONE, h_cap, max_impacts, max_steps, chatter_tol, rec, work)
+        out = scalars(integrate_work(sy, st, hs, compliant_work(cp, st, n, rec), Om, eta, etad, held0, _ZERO,
+                                     n_periods, _ONE, _ONE, h_cap, max_impacts, max_steps, chatter_tol, rec, work))
     n_rel = -1
     n_inexact = -1
     finite = _TRUE
