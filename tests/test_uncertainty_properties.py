@@ -661,3 +661,151 @@ def test_check_block_refuses_each_value_a_sweep_never_writes_and_names_it():
     a[1, 0, 1] = np.inf
     assert " at sample 7, direction 0, point 1 " in check_block(
         meta, dict(data, amplitude=a, sample=np.array([3, 7])), 8, (2, 3))
+
+
+def test_moments_of_two_samples_have_a_std_and_a_missing_seed_is_zero():
+    """Two finite samples have a std (n - 1 = 1); without a design seed in attrs the bootstrap and
+    the Sobol' intervals draw with seed 0 (their documented default)."""
+    r = make(np.array([[[1.0, 3.0]], [[2.0, np.nan]]]))
+    mean, std, n = r.moments()
+    assert list(n[0]) == [2, 1] and std[0, 0] == pytest.approx(np.sqrt(0.5), rel=1e-15) and np.isnan(std[0, 1])
+    r.attrs.clear()
+    b = make(np.random.default_rng(3).uniform(size=(6, 1, 2)))
+    b.attrs.clear()
+    for k, v in b.bootstrap(resamples=30).items():
+        np.testing.assert_array_equal(v, b.bootstrap(resamples=30, seed=0)[k])
+    s, _ = _additive(n=16)
+    s0 = s.sobol(resamples=20)
+    s.attrs.clear()
+    unseeded = s.sobol(resamples=20)
+    s.attrs["seed"] = 0
+    for k, v in s.sobol(resamples=20).items():
+        np.testing.assert_array_equal(v, unseeded[k])
+    assert not np.array_equal(s0["first_ci"][:, :, :, :3], unseeded["first_ci"][:, :, :, :3])   # the seed matters
+
+
+def test_sobols_default_resamples_and_its_total_order_intervals():
+    """sobol() draws 199 bootstrap resamples (its signature's default); the total-order intervals are
+    the total indices' own (bracketing them, not the first-order intervals)."""
+    s, _ = _additive(n=32)
+    d, e = s.sobol(), s.sobol(resamples=199)
+    for k in d:
+        np.testing.assert_array_equal(d[k], e[k])
+    assert not np.array_equal(s.sobol(resamples=200)["first_ci"][..., :3], d["first_ci"][..., :3])
+    lo, hi = d["total_ci"][0, :, 0, 1:3], d["total_ci"][1, :, 0, 1:3]   # point 0: x2 has no effect, BCa NaN
+    assert np.isfinite(lo).all() and np.isfinite(hi).all() and (lo <= hi).all()
+    assert not np.array_equal(d["total_ci"][..., :3], d["first_ci"][..., :3])
+
+
+def test_the_verdict_takes_the_median_and_the_5_and_95_percent_ends():
+    """Medians against bands built so that any other quantile in their place moves a point across:
+    a constant run c at each point at a value between the spread run s's 5 and 25 % quantiles (point
+    0), between its 75 and 95 % (point 1), at its median (point 2); a median at the 95 % end is
+    inside; a later pair is compared after one that is not."""
+    s = _run("s", 0.0, directions=("up",))
+    q = s.quantiles()[:, 0, 0]
+    v = np.array([0.5 * (q[0] + q[1]), 0.5 * (q[3] + q[4]), q[2], q[4], q[0]])
+    c = make(np.repeat(v[None, None, :], 20, axis=0), name="c", directions=("up",))
+    cs, sc = verdict([c, s])["c vs s"], verdict([s, c])["s vs c"]
+    assert cs["outside_band_a_in_b"] == 0.0 and sc["outside_band_b_in_a"] == 0.0     # c's values in s's band
+    # s's median is inside c's (zero-width) band only at point 2
+    assert cs["outside_band_b_in_a"] == pytest.approx(0.8) and sc["outside_band_a_in_b"] == pytest.approx(0.8)
+    # a later pair is compared after a pair on other grids
+    other = _run("o", 0.0, directions=("up",), Omega=np.linspace(1.0, 3.0, 5))
+    assert set(verdict([s, other, c])) == {"s vs c"}
+
+
+def _fake_case(methods=("event", "averaging", "continuation"), samples=3):
+    """A case of runs with the given methods (names read as a case file's, not the literals) and a
+    design of ``samples`` rows of one parameter R; make_job and plan_lines replaced (no kernel)."""
+    runs = [SimpleNamespace(name=f"r{i}", method="".join(list(m)), model={"beta": 0.01}) for i, m in enumerate(methods)]
+    spec = SimpleNamespace(sobol=False, design=lambda n=None: np.linspace(0.5, 0.9, samples)[:, None],
+                           parameter=[SimpleNamespace(name="R")], runs_per_sample=lambda: 1, seed=11)
+    return SimpleNamespace(name="fake", run=runs, uncertainty=spec, sweep=SimpleNamespace(direction="up")), spec
+
+
+def _fakes(monkeypatch, seen):
+    model = SimpleNamespace(natural_frequency_hz=None, length_m=None, fidelity="sdof")
+
+    def make_job(case, r, m, index):
+        seen.append((r.name, dict(m), index))
+        return SimpleNamespace(solver=SimpleNamespace(model=model, name=r.method), sweep=SimpleNamespace(Omega=[1.0, 2.0]))
+
+    def plan_lines(solver, sw, name):
+        return [SimpleNamespace(direction="up", n_points=2, run=name)]
+
+    monkeypatch.setattr(unc, "make_job", make_job)
+    monkeypatch.setattr(unc, "plan_lines", plan_lines)
+
+
+def test_the_plan_samples_every_sweep_run_from_its_first_sample(monkeypatch):
+    """plan_samples: every run but continuation's (an averaging run too), each laid out from the
+    first sample's job (its values, index 0); a run all done has no task and loads no kernel."""
+    seen = []
+    _fakes(monkeypatch, seen)
+    case, spec = _fake_case()
+    plan = unc.plan_samples(case)                        # spec: the case's own
+    assert [r.name for r in plan.runs] == ["r0", "r1"]
+    assert seen == [("r0", {"beta": 0.01, "R": 0.5}, 0), ("r1", {"beta": 0.01, "R": 0.5}, 0)]
+    assert [(t.run, t.index) for t in plan.tasks] == [("r0", 0), ("r0", 1), ("r0", 2), ("r1", 0), ("r1", 1), ("r1", 2)]
+    assert plan.tasks[2].values == (("R", 0.9),) and plan.tasks[0].n_points == 2
+    assert [l.run for l in plan.firsts] == ["r0", "r1"]
+    part = unc.plan_samples(case, done={"r0": {0: None, 1: None, 2: None}, "r1": {1: None}})
+    assert [(t.run, t.index) for t in part.tasks] == [("r1", 0), ("r1", 2)] and [l.run for l in part.firsts] == ["r1"]
+    # a spec given is the one planned, not the case's
+    other = SimpleNamespace(**dict(vars(spec), design=lambda n=None: np.array([[0.6], [0.7]])))
+    assert [t.values for t in unc.plan_samples(case, other).tasks][:2] == [(("R", 0.6),), (("R", 0.7),)]
+    with pytest.raises(dataclasses_frozen()):
+        plan.tasks = []
+    with pytest.raises(dataclasses_frozen()):
+        plan.tasks[0].index = 5
+
+
+def dataclasses_frozen():
+    import dataclasses
+
+    return dataclasses.FrozenInstanceError
+
+
+def test_sample_runs_loads_kernels_only_for_an_inline_or_local_pool_with_work(monkeypatch):
+    """The kernels are loaded before the pool forks when there is work and no executor was given;
+    the progress bar is off unless asked; every sample's row comes back in its result."""
+    seen, loaded, calls = [], [], []
+    _fakes(monkeypatch, seen)
+    monkeypatch.setattr(unc, "load_kernels", lambda lines: loaded.append([l.run for l in lines]))
+
+    def run_lines(tasks, executor=None, jobs=None, on_line=None, progress=False, desc=""):
+        calls.append((executor, progress))
+        for t in tasks:
+            on_line(t, [{"amplitude": np.full((1, 2), t.index + 1.0), "period": np.ones((1, 2), np.int64),
+                         "status": np.full((1, 2), "ok", dtype=object)}])
+
+    monkeypatch.setattr(unc.sweep, "run_lines", run_lines)
+    case, _ = _fake_case(methods=("event",))
+    got = []
+    (res,) = unc.sample_runs(case, on_sample=lambda run, i, row: got.append((run, i, row["amplitude"][0, 0])))
+    assert loaded == [["r0"]] and calls == [(None, False)]
+    assert sorted(got) == [("r0", 0, 1.0), ("r0", 1, 2.0), ("r0", 2, 3.0)]
+    np.testing.assert_array_equal(res.amplitude[:, 0, 0], [1.0, 2.0, 3.0])
+    loaded.clear()
+    unc.sample_runs(case, executor="pool", progress=True)
+    assert loaded == [] and calls[-1] == ("pool", True)
+    done = {"r0": {i: {"amplitude": np.zeros((1, 2)), "period": np.ones((1, 2), np.int64),
+                       "status": np.full((1, 2), "ok", dtype=object)} for i in range(3)}}
+    unc.sample_runs(case, done=done)
+    assert loaded == []
+
+
+def test_a_sample_task_reports_progress_per_point(monkeypatch):
+    """A SampleTask is a unit whose progress advances per point: run_line hands it the report
+    callable, which reaches the sweep's own run_line."""
+    got = []
+    monkeypatch.setattr(unc, "make_job", lambda *a: SimpleNamespace(solver=None, sweep=None))
+    monkeypatch.setattr(unc, "plan_lines", lambda *a: ["line"])
+    monkeypatch.setattr(unc, "run_line", lambda line, report: got.append(report) or [])
+    monkeypatch.setattr(unc, "sample_arrays", lambda rows, sw: {})
+    from vibeam.engine.sweep import run_line
+
+    t = unc.SampleTask("000000", "r", None, SimpleNamespace(model={}), (), 0, 2)
+    report = lambda: None                                   # noqa: E731
+    assert run_line(t, report=report) == [{}] and got == [report]
