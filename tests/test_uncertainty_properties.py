@@ -625,6 +625,10 @@ def test_check_block_refuses_each_value_a_sweep_never_writes_and_names_it():
         assert got is None if ok else got == \
             f"dataset period holds {p}; allowed: -1 (no impact), 0 (not periodic) ... 64", (p, got)
     per = data["period"].copy()
+    per[0, 0, 0], per[1, 0, 0] = -1, 70                             # -1 allowed: the high one named
+    assert check_block(meta, dict(data, period=per), 2, (2, 3), period_max=64).startswith("dataset period holds 70;")
+    per[0, 0, 0] = 0
+    assert check_block(meta, dict(data, period=per), 2, (2, 3), period_max=64).startswith("dataset period holds 70;")
     per[0, 0, 0], per[1, 0, 0] = -3, 70                             # both: the low one named
     assert check_block(meta, dict(data, period=per), 2, (2, 3), period_max=64).startswith("dataset period holds -3;")
     from vibeam.engine.records import PERIOD_MAX
@@ -656,6 +660,10 @@ def test_check_block_refuses_each_value_a_sweep_never_writes_and_names_it():
     assert amp(-2 * MOTION_MAX).startswith("dataset amplitude is beyond")
     for v in (np.inf, np.nan, 2 * MOTION_MAX):
         assert amp(v, status="failed") is None and amp(v, status="failed", period=-1) is None
+    # two bad points: the first in (sample, direction, Omega) order is named
+    a = data["amplitude"].copy()
+    a[0, 1, 1], a[1, 0, 2] = np.inf, np.inf
+    assert " at sample 0, direction 1, point 1 " in check_block(meta, dict(data, amplitude=a), 2, (2, 3))
     # the sample named is the block's own, not the row's index
     a = data["amplitude"].copy()
     a[1, 0, 1] = np.inf
