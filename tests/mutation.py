@@ -397,6 +397,71 @@ EQUIVALENT = {
     ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Gt_NotEq", 'ok &= (np.var(np.concatenate([fA, fB], axis=1), axis=1) > 0)'):
         "a variance is >= 0, or NaN where A or B holds a NaN, and those points are out already (the line "
         "above): != 0 is > 0 on what is left",
+    # vibeam/analysis/uncertainty.py, the survivors of its full pass (issue 56) that no reachable input tells apart
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Gt_NotEq", 'return np.where(n > 0, mean, np.nan), np.where(n > 1, np.sqrt(var_), np.nan), n', 26):
+        "n counts samples, never negative: n != 0 is n > 0",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Gt_GtE", 'return np.where(n > 0, mean, np.nan), np.where(n > 1, np.sqrt(var_), np.nan), n', 26):
+        "where n == 0 the mean is 0 / 0, NaN (the errstate above), the value np.where puts there",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", 'return np.where(n > 0, mean, np.nan), np.where(n > 1, np.sqrt(var_), np.nan), n', 28):
+        "n > -1 keeps n == 0 too, where the mean is 0 / 0, NaN already",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Gt_GtE", 'return np.where(n > 0, mean, np.nan), np.where(n > 1, np.sqrt(var_), np.nan), n', 57):
+        "where n == 1 the variance is 0 / (n - 1) = 0 / 0, NaN already (n == 2 is tested: a std)",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", 'return np.where(n > 0, mean, np.nan), np.where(n > 1, np.sqrt(var_), np.nan), n', 59):
+        "n > 0 keeps n == 1, where the variance is 0 / 0, NaN already (n > 2 is killed: two samples have a std)",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", 'cols = np.repeat(cols, 2) if cols.size == 1 else cols'):
+        "the single output goes in 3 times instead of 2 and only the first is kept: scipy's estimates are per "
+        "output and its bootstrap resamples the rows, common to all outputs; checked bit for bit (indices and "
+        "intervals of a one-point result, 2 against 3 copies)",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceUnaryOperator_USub_Invert", 'first, total, first_ci, total_ci = indices(self.amplitude.reshape(len(roles), -1))'):
+        "numpy (2.4 here) infers a dimension given as any negative number, not only -1: reshape(n, -2) is reshape(n, -1)",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", 'first, total, first_ci, total_ci = indices(self.amplitude.reshape(len(roles), -1))'):
+        "numpy (2.4 here) infers a dimension given as any negative number, not only -1: reshape(n, -2) is reshape(n, -1)",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", 'jf, jt, _, _ = indices(self.jumps()[:, d_jump:d_jump + 1])'):
+        "a sweep's directions are ('up',), ('down',) or ('up', 'down') (visiting order): with down d_jump is the "
+        "last column, without it there is one; d_jump + 2 slices the same single column",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", '"jump_first": jf[:, 0], "jump_total": jt[:, 0]}'):
+        "jf and jt have one column (the jump frequency of one direction): [:, -1] is [:, 0]",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceOrWithAnd", 'if x.size < 2 or not np.isfinite(x).any():'):
+        "either way the next test stops such a sample: one point has no neighbour (np.diff is empty) and a sample "
+        "without a finite amplitude has no finite change, so 'not np.isfinite(dA).any()' continues",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", 'if x.size < 2 or not np.isfinite(x).any():', 24):
+        "x.size < 1 lets a one-point sweep through to np.diff, empty, which the next test stops (size < 3 is killed: "
+        "a 2-point jump is tested)",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", 'return self.lost_rows(None, 0)'):
+        "lost_rows reads neither its error nor its attempts (a refused solver's row is the same whatever they are)",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", 'done[task.run][task.index] = rows[0]'):
+        "a SampleTask's compute and lost_rows return exactly one row (its arrays): rows[-1] is rows[0]",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", 'on_sample(task.run, task.index, rows[0])'):
+        "a SampleTask's compute and lost_rows return exactly one row (its arrays): rows[-1] is rows[0]",
+    ("vibeam/analysis/uncertainty.py", "core/NumberReplacer", 'd = r.directions.index("down") if "down" in r.directions else 0'):
+        "without 'down' the directions are ('up',), one: index -1 is index 0",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_Sub_BitXor", 'extra = sorted(set(meta) - {"sample", "amplitude", "period", "status"})'):
+        "the four names are in meta here (the loop above returned otherwise): the symmetric difference is the difference",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Eq_LtE", 'if np.dtype(dt).kind not in kinds or (k == "amplitude" and np.dtype(dt).itemsize != 8):'):
+        "k is 'amplitude', 'period' or 'status' (the loop's literals): only 'amplitude' sorts <= 'amplitude'",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_Eq_Is", 'if np.dtype(dt).kind not in kinds or (k == "amplitude" and np.dtype(dt).itemsize != 8):'):
+        "k is one of the module's literals (interned, the same object as 'amplitude')",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitOr_Add", '(live & np.isnan(a) & ((per != -1) | time_domain), "nan"),'):
+        "numpy's + of a bool array and a bool is their or",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_NotEq_Gt", '(live & np.isnan(a) & ((per != -1) | time_domain), "nan"),'):
+        "a period below -1 was refused above: per > -1 is per != -1 on what is left",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Mul", 'checks = ((live & np.isinf(a), "infinite"),'):
+        "numpy's * of two bool arrays is their and",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Mul", '(live & np.isnan(a) & ((per != -1) | time_domain), "nan"),'):
+        "numpy's * of two bool arrays is their and",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_Mul", '(live & (np.abs(a) > MOTION_MAX), f"beyond {MOTION_MAX:g} in magnitude (its square overflows)"))'):
+        "numpy's * of two bool arrays is their and",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_FloorDiv", 'checks = ((live & np.isinf(a), "infinite"),'):
+        "numpy's // of two bool arrays is their and as integers (x // False is 0, with a divide warning): np.any "
+        "of it is the same",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_FloorDiv", '(live & np.isnan(a) & ((per != -1) | time_domain), "nan"),'):
+        "numpy's // of two bool arrays is their and as integers (x // False is 0, with a divide warning): np.any "
+        "of it is the same",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceBinaryOperator_BitAnd_FloorDiv", '(live & (np.abs(a) > MOTION_MAX), f"beyond {MOTION_MAX:g} in magnitude (its square overflows)"))'):
+        "numpy's // of two bool arrays is their and as integers (x // False is 0, with a divide warning): np.any "
+        "of it is the same",
+    ("vibeam/analysis/uncertainty.py", "core/ReplaceComparisonOperator_NotEq_IsNot", 'if ua != ub or xa.shape != xb.shape or not np.allclose(xa, xb, rtol=1e-12, atol=0) \\'):
+        "the units are the literals 'Hz' or '1' of UncertaintyResult.axis (interned, one object each): 'is not' is '!='",
     # vibeam/case/uncertainty.py (issue 56: every mutant run; these survived and no input tells them apart)
     ('vibeam/case/uncertainty.py', 'core/ReplaceComparisonOperator_Eq_LtE', 'if self.distribution == "lognormal" and not self.mean > 0.0:'):
         "the distribution is one of the Literal's five names, and every other one ('normal', 'truncnorm', 'uniform', 'triangular') sorts after 'lognormal': <= is ==",

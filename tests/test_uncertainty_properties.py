@@ -527,3 +527,293 @@ def test_edges_of_the_jump_rule_the_bootstrap_and_the_band():
     e.amplitude[:] = ref.quantiles()[0][None]
     assert verdict([e, ref])["e vs ref"]["outside_band_a_in_b"] == 0.0
     assert verdict([ref, e])["ref vs e"]["outside_band_b_in_a"] == 0.0
+
+
+# --- issue 56, section 2: the survivors of the full cosmic-ray pass of the module, killed here ---
+
+def test_verdict_text_reads_the_band_fractions_and_the_jump_spreads():
+    """verdict_text's rule: 'resolved' when a median leaves the other's band at more than
+    RESOLVED_FRACTION (0.1, strictly) of the points or a median jump leaves the other's closed 5-95 %
+    spread of jumps (compared only when all six are finite); 'no conclusion' without points or
+    finite fractions."""
+    from vibeam.analysis.uncertainty import RESOLVED_FRACTION, verdict_text
+
+    assert RESOLVED_FRACTION == 0.1
+    hidden, amp = "model-form difference hidden by the scatter of the sampled parameters", \
+        "model-form difference resolved (amplitude beyond the scatter of the sampled parameters)"
+    jump = "model-form difference resolved (jump frequency beyond the scatter of the sampled parameters)"
+    both = "model-form difference resolved (amplitude and jump frequency beyond the scatter of the sampled parameters)"
+    base = {"points": 10, "outside_band_a_in_b": 0.05, "outside_band_b_in_a": 0.0, "jump_median_a": 15.0,
+            "jump_median_b": 15.5, "jump_band_a": [14.0, 16.0], "jump_band_b": [15.0, 16.0]}
+    assert verdict_text(base) == hidden
+    assert verdict_text(dict(base, outside_band_a_in_b=0.1)) == hidden                 # a tenth: not beyond
+    assert verdict_text(dict(base, outside_band_b_in_a=0.2)) == amp
+    assert verdict_text(dict(base, outside_band_a_in_b=np.nan, outside_band_b_in_a=0.2)) == amp   # the finite one
+    assert verdict_text(dict(base, outside_band_a_in_b=None, outside_band_b_in_a=0.0)) == hidden
+    # the jump spreads are closed: a median on either end of the other's spread is inside it
+    for ja, jb in ((15.0, 15.5), (16.0, 14.0), (15.0, 16.0)):
+        assert verdict_text(dict(base, jump_median_a=ja, jump_median_b=jb)) == hidden, (ja, jb)
+    for ja, jb in ((14.9, 15.5), (16.1, 15.5), (15.5, 13.9), (15.5, 16.1)):
+        assert verdict_text(dict(base, jump_median_a=ja, jump_median_b=jb)) == jump, (ja, jb)
+    assert verdict_text(dict(base, jump_median_a=14.9, outside_band_a_in_b=0.5)) == both
+    for k in ("jump_median_a", "jump_median_b"):                     # a NaN anywhere: jumps not compared
+        assert verdict_text(dict(base, jump_median_a=14.9, **{k: np.nan} if k != "jump_median_a" else {})) \
+            == (hidden if k == "jump_median_b" else jump)
+    assert verdict_text(dict(base, jump_median_a=14.9, jump_band_b=[np.nan, 16.0])) == hidden
+    assert verdict_text(dict(base, jump_median_a=14.9, jump_band_a=[14.0, np.nan])) == hidden
+    assert verdict_text({k: v for k, v in base.items() if not k.startswith("jump")}) == hidden
+    none = "no conclusion (no point where both runs have a finite band)"
+    assert verdict_text(dict(base, points=0)) == none
+    assert verdict_text(dict(base, outside_band_a_in_b=np.nan, outside_band_b_in_a=np.nan)) == none
+    assert verdict_text({"points": 3}) == none
+
+
+def test_the_jump_share_counts_the_sampling_rows_that_jump_in_the_down_sweep():
+    """jump_share: the jumping fraction of the rows that sample the distributions (Saltelli's AB rows
+    left out, NaN jumps in the count's denominator), of the down sweep when there is one."""
+    a = np.ones((6, 2, 4))
+    a[[0, 1, 2], 1, 2:] = 0.1            # 3 of the 4 sampling rows jump down
+    a[4:, 1, 2:] = 0.1                   # the AB rows jump too: not counted
+    a[3, 1, :] = np.nan                  # the fourth has no finite amplitude: no jump, still a row
+    a[:, 0, 3] = 0.1                     # every row jumps up
+    r = make(a, roles=["A", "B", "A", "B", "AB:B", "AB:B"], directions=("up", "down"))
+    assert unc.jump_share(r) == (0.75, "down")
+    up = make(a[:, :1], roles=r.roles, directions=("up",))
+    assert unc.jump_share(up) == (1.0, "up")
+    none = make(a[:, :1], roles=["AB:B"] * 6, directions=("up",))
+    f, d = unc.jump_share(none)
+    assert np.isnan(f) and d == "up"
+    assert unc.jump_share(make(np.ones((4, 1, 3)))) == (0.0, "up")
+
+
+def _block(n=2, shape=(2, 3)):
+    data = {"sample": np.arange(n, dtype=np.int64), "amplitude": np.full((n,) + shape, 0.5),
+            "period": np.ones((n,) + shape, np.int64), "status": np.full((n,) + shape, "ok", dtype=object)}
+    return data, {k: (v.shape, v.dtype) for k, v in data.items()}
+
+
+def test_check_block_refuses_each_value_a_sweep_never_writes_and_names_it():
+    """check_block's rules one at a time, each against a block that breaks only it: the types and
+    widths of the datasets, the range of sample and period, a status text cut at 40 characters,
+    and the amplitude at live points (finite, NaN only with period -1 of a method that is not
+    time-domain, within MOTION_MAX) -- while a failed point holds anything."""
+    data, meta = _block()
+    assert check_block(meta, data, 2, (2, 3)) is None
+    # widths: the amplitude float64 only; period and status of any width
+    assert check_block(dict(meta, amplitude=(meta["amplitude"][0], np.float32)), None, 2, (2, 3)) == \
+        "dataset amplitude holds float32 values, not what vibeam writes"
+    assert check_block(dict(meta, amplitude=(meta["amplitude"][0], np.longdouble)), None, 2, (2, 3)) == \
+        f"dataset amplitude holds {np.dtype(np.longdouble)} values, not what vibeam writes"
+    assert check_block(dict(meta, period=(meta["period"][0], np.int32), status=(meta["status"][0], np.dtype("S4"))),
+                       None, 2, (2, 3)) is None
+    # datasets vibeam does not write there: the first in order named
+    assert check_block(dict(meta, foo=((2,), np.int64), bar=((2,), np.int64)), None, 2, (2, 3)) == \
+        "dataset bar is not one vibeam writes there (sample, amplitude, period, status)"
+    # a sample beyond the design (not only its next row)
+    assert check_block(meta, dict(data, sample=np.array([0, 9])), 8, (2, 3)) == \
+        "dataset sample holds a value outside 0 ... 7 or one twice"
+    # the first status vibeam does not know, cut at 40 characters
+    st = data["status"].copy()
+    st[0, 1, 1], st[1, 0, 0] = "x" * 45 + "y", "other"
+    assert check_block(meta, dict(data, status=st), 2, (2, 3)) == \
+        f"dataset status holds {'x' * 40!r}; allowed: {', '.join(STATUSES)}"
+    # period: -1 ... period_max
+    for p, ok in ((-1, True), (0, True), (64, True), (-2, False), (65, False)):
+        per = data["period"].copy()
+        per[1, 1, 2] = p
+        got = check_block(meta, dict(data, period=per), 2, (2, 3), period_max=64)
+        assert got is None if ok else got == \
+            f"dataset period holds {p}; allowed: -1 (no impact), 0 (not periodic) ... 64", (p, got)
+    per = data["period"].copy()
+    per[0, 0, 0], per[1, 0, 0] = -1, 70                             # -1 allowed: the high one named
+    assert check_block(meta, dict(data, period=per), 2, (2, 3), period_max=64).startswith("dataset period holds 70;")
+    per[0, 0, 0] = 0
+    assert check_block(meta, dict(data, period=per), 2, (2, 3), period_max=64).startswith("dataset period holds 70;")
+    per[0, 0, 0], per[1, 0, 0] = -3, 70                             # both: the low one named
+    assert check_block(meta, dict(data, period=per), 2, (2, 3), period_max=64).startswith("dataset period holds -3;")
+    from vibeam.engine.records import PERIOD_MAX
+    per[0, 0, 0], per[1, 0, 0] = PERIOD_MAX, PERIOD_MAX + 1        # the default: PERIOD_MAX
+    assert check_block(meta, dict(data, period=per), 2, (2, 3)).startswith(f"dataset period holds {PERIOD_MAX + 1};")
+    # an empty block holds nothing wrong
+    empty, emeta = _block(0)
+    assert check_block(emeta, empty, 2, (2, 3)) is None
+    # the amplitude at a live point; a failed point's is not checked
+    from vibeam.engine.sweep import MOTION_MAX
+
+    def amp(value, period=1, status="ok", **kw):
+        a, per, s = data["amplitude"].copy(), data["period"].copy(), data["status"].copy()
+        a[1, 1, 2], per[1, 1, 2], s[1, 1, 2] = value, period, status
+        return check_block(meta, dict(data, amplitude=a, period=per, status=s), 2, (2, 3), **kw)
+
+    assert amp(np.inf) == ("dataset amplitude is infinite (inf) at sample 1, direction 1, point 2 whose status is "
+                           "'ok' and period 1; allowed there: a finite number")
+    assert amp(-np.inf, status="chatter").startswith("dataset amplitude is infinite (-inf) at sample 1, direction 1, "
+                                                     "point 2 whose status is 'chatter'")
+    assert amp(np.nan).startswith("dataset amplitude is nan (nan) at sample 1")
+    assert amp(np.nan, period=-1).startswith("dataset amplitude is nan")                  # time-domain by default
+    assert amp(np.nan, period=-1, time_domain=False) is None          # the averaging's "no solution"
+    assert amp(np.nan, period=1, time_domain=False).startswith("dataset amplitude is nan")
+    assert amp(np.nan, period=2, time_domain=False).startswith("dataset amplitude is nan")
+    assert amp(MOTION_MAX) is None and amp(-MOTION_MAX) is None
+    assert amp(2 * MOTION_MAX).startswith(f"dataset amplitude is beyond {MOTION_MAX:g} in magnitude (its square "
+                                          f"overflows) (2e+154) at sample 1")
+    assert amp(-2 * MOTION_MAX).startswith("dataset amplitude is beyond")
+    for v in (np.inf, np.nan, 2 * MOTION_MAX):
+        assert amp(v, status="failed") is None and amp(v, status="failed", period=-1) is None
+    # two bad points: the first in (sample, direction, Omega) order is named
+    a = data["amplitude"].copy()
+    a[0, 1, 1], a[1, 0, 2] = np.inf, np.inf
+    assert " at sample 0, direction 1, point 1 " in check_block(meta, dict(data, amplitude=a), 2, (2, 3))
+    # the sample named is the block's own, not the row's index
+    a = data["amplitude"].copy()
+    a[1, 0, 1] = np.inf
+    assert " at sample 7, direction 0, point 1 " in check_block(
+        meta, dict(data, amplitude=a, sample=np.array([3, 7])), 8, (2, 3))
+
+
+def test_moments_of_two_samples_have_a_std_and_a_missing_seed_is_zero():
+    """Two finite samples have a std (n - 1 = 1); without a design seed in attrs the bootstrap and
+    the Sobol' intervals draw with seed 0 (their documented default)."""
+    r = make(np.array([[[1.0, 3.0]], [[2.0, np.nan]]]))
+    mean, std, n = r.moments()
+    assert list(n[0]) == [2, 1] and std[0, 0] == pytest.approx(np.sqrt(0.5), rel=1e-15) and np.isnan(std[0, 1])
+    r.attrs.clear()
+    b = make(np.random.default_rng(3).uniform(size=(6, 1, 2)))
+    b.attrs.clear()
+    for k, v in b.bootstrap(resamples=30).items():
+        np.testing.assert_array_equal(v, b.bootstrap(resamples=30, seed=0)[k])
+    s, _ = _additive(n=16)
+    s0 = s.sobol(resamples=20)
+    s.attrs.clear()
+    unseeded = s.sobol(resamples=20)
+    s.attrs["seed"] = 0
+    for k, v in s.sobol(resamples=20).items():
+        np.testing.assert_array_equal(v, unseeded[k])
+    assert not np.array_equal(s0["first_ci"][:, :, :, :3], unseeded["first_ci"][:, :, :, :3])   # the seed matters
+
+
+def test_sobols_default_resamples_and_its_total_order_intervals():
+    """sobol() draws 199 bootstrap resamples (its signature's default); the total-order intervals are
+    the total indices' own (bracketing them, not the first-order intervals)."""
+    s, _ = _additive(n=32)
+    d, e = s.sobol(), s.sobol(resamples=199)
+    for k in d:
+        np.testing.assert_array_equal(d[k], e[k])
+    assert not np.array_equal(s.sobol(resamples=200)["first_ci"][..., :3], d["first_ci"][..., :3])
+    lo, hi = d["total_ci"][0, :, 0, 1:3], d["total_ci"][1, :, 0, 1:3]   # point 0: x2 has no effect, BCa NaN
+    assert np.isfinite(lo).all() and np.isfinite(hi).all() and (lo <= hi).all()
+    assert not np.array_equal(d["total_ci"][..., :3], d["first_ci"][..., :3])
+
+
+def test_the_verdict_takes_the_median_and_the_5_and_95_percent_ends():
+    """Medians against bands built so that any other quantile in their place moves a point across:
+    a constant run c at each point at a value between the spread run s's 5 and 25 % quantiles (point
+    0), between its 75 and 95 % (point 1), at its median (point 2); a median at the 95 % end is
+    inside; a later pair is compared after one that is not."""
+    s = _run("s", 0.0, directions=("up",))
+    q = s.quantiles()[:, 0, 0]
+    v = np.array([0.5 * (q[0] + q[1]), 0.5 * (q[3] + q[4]), q[2], q[4], q[0]])
+    c = make(np.repeat(v[None, None, :], 20, axis=0), name="c", directions=("up",))
+    cs, sc = verdict([c, s])["c vs s"], verdict([s, c])["s vs c"]
+    assert cs["outside_band_a_in_b"] == 0.0 and sc["outside_band_b_in_a"] == 0.0     # c's values in s's band
+    # s's median is inside c's (zero-width) band only at point 2
+    assert cs["outside_band_b_in_a"] == pytest.approx(0.8) and sc["outside_band_a_in_b"] == pytest.approx(0.8)
+    # a later pair is compared after a pair on other grids
+    other = _run("o", 0.0, directions=("up",), Omega=np.linspace(1.0, 3.0, 5))
+    assert set(verdict([s, other, c])) == {"s vs c"}
+
+
+def _fake_case(methods=("event", "averaging", "continuation"), samples=3):
+    """A case of runs with the given methods (names read as a case file's, not the literals) and a
+    design of ``samples`` rows of one parameter R; make_job and plan_lines replaced (no kernel)."""
+    runs = [SimpleNamespace(name=f"r{i}", method="".join(list(m)), model={"beta": 0.01}) for i, m in enumerate(methods)]
+    spec = SimpleNamespace(sobol=False, design=lambda n=None: np.linspace(0.5, 0.9, samples)[:, None],
+                           parameter=[SimpleNamespace(name="R")], runs_per_sample=lambda: 1, seed=11)
+    return SimpleNamespace(name="fake", run=runs, uncertainty=spec, sweep=SimpleNamespace(direction="up")), spec
+
+
+def _fakes(monkeypatch, seen):
+    model = SimpleNamespace(natural_frequency_hz=None, length_m=None, fidelity="sdof")
+
+    def make_job(case, r, m, index):
+        seen.append((r.name, dict(m), index))
+        return SimpleNamespace(solver=SimpleNamespace(model=model, name=r.method), sweep=SimpleNamespace(Omega=[1.0, 2.0]))
+
+    def plan_lines(solver, sw, name):
+        return [SimpleNamespace(direction="up", n_points=2, run=name)]
+
+    monkeypatch.setattr(unc, "make_job", make_job)
+    monkeypatch.setattr(unc, "plan_lines", plan_lines)
+
+
+def test_the_plan_samples_every_sweep_run_from_its_first_sample(monkeypatch):
+    """plan_samples: every run but continuation's (an averaging run too), each laid out from the
+    first sample's job (its values, index 0); a run all done has no task and loads no kernel."""
+    seen = []
+    _fakes(monkeypatch, seen)
+    case, spec = _fake_case()
+    plan = unc.plan_samples(case)                        # spec: the case's own
+    assert [r.name for r in plan.runs] == ["r0", "r1"]
+    assert seen == [("r0", {"beta": 0.01, "R": 0.5}, 0), ("r1", {"beta": 0.01, "R": 0.5}, 0)]
+    assert [(t.run, t.index) for t in plan.tasks] == [("r0", 0), ("r0", 1), ("r0", 2), ("r1", 0), ("r1", 1), ("r1", 2)]
+    assert plan.tasks[2].values == (("R", 0.9),) and plan.tasks[0].n_points == 2
+    assert [l.run for l in plan.firsts] == ["r0", "r1"]
+    part = unc.plan_samples(case, done={"r0": {0: None, 1: None, 2: None}, "r1": {1: None}})
+    assert [(t.run, t.index) for t in part.tasks] == [("r1", 0), ("r1", 2)] and [l.run for l in part.firsts] == ["r1"]
+    # a spec given is the one planned, not the case's
+    other = SimpleNamespace(**dict(vars(spec), design=lambda n=None: np.array([[0.6], [0.7]])))
+    assert [t.values for t in unc.plan_samples(case, other).tasks][:2] == [(("R", 0.6),), (("R", 0.7),)]
+    with pytest.raises(dataclasses_frozen()):
+        plan.tasks = []
+    with pytest.raises(dataclasses_frozen()):
+        plan.tasks[0].index = 5
+
+
+def dataclasses_frozen():
+    import dataclasses
+
+    return dataclasses.FrozenInstanceError
+
+
+def test_sample_runs_loads_kernels_only_for_an_inline_or_local_pool_with_work(monkeypatch):
+    """The kernels are loaded before the pool forks when there is work and no executor was given;
+    the progress bar is off unless asked; every sample's row comes back in its result."""
+    seen, loaded, calls = [], [], []
+    _fakes(monkeypatch, seen)
+    monkeypatch.setattr(unc, "load_kernels", lambda lines: loaded.append([l.run for l in lines]))
+
+    def run_lines(tasks, executor=None, jobs=None, on_line=None, progress=False, desc=""):
+        calls.append((executor, progress))
+        for t in tasks:
+            on_line(t, [{"amplitude": np.full((1, 2), t.index + 1.0), "period": np.ones((1, 2), np.int64),
+                         "status": np.full((1, 2), "ok", dtype=object)}])
+
+    monkeypatch.setattr(unc.sweep, "run_lines", run_lines)
+    case, _ = _fake_case(methods=("event",))
+    got = []
+    (res,) = unc.sample_runs(case, on_sample=lambda run, i, row: got.append((run, i, row["amplitude"][0, 0])))
+    assert loaded == [["r0"]] and calls == [(None, False)]
+    assert sorted(got) == [("r0", 0, 1.0), ("r0", 1, 2.0), ("r0", 2, 3.0)]
+    np.testing.assert_array_equal(res.amplitude[:, 0, 0], [1.0, 2.0, 3.0])
+    loaded.clear()
+    unc.sample_runs(case, executor="pool", progress=True)
+    assert loaded == [] and calls[-1] == ("pool", True)
+    done = {"r0": {i: {"amplitude": np.zeros((1, 2)), "period": np.ones((1, 2), np.int64),
+                       "status": np.full((1, 2), "ok", dtype=object)} for i in range(3)}}
+    unc.sample_runs(case, done=done)
+    assert loaded == []
+
+
+def test_a_sample_task_reports_progress_per_point(monkeypatch):
+    """A SampleTask is a unit whose progress advances per point: run_line hands it the report
+    callable, which reaches the sweep's own run_line."""
+    got = []
+    monkeypatch.setattr(unc, "make_job", lambda *a: SimpleNamespace(solver=None, sweep=None))
+    monkeypatch.setattr(unc, "plan_lines", lambda *a: ["line"])
+    monkeypatch.setattr(unc, "run_line", lambda line, report: got.append(report) or [])
+    monkeypatch.setattr(unc, "sample_arrays", lambda rows, sw: {})
+    from vibeam.engine.sweep import run_line
+
+    t = unc.SampleTask("000000", "r", None, SimpleNamespace(model={}), (), 0, 2)
+    report = lambda: None                                   # noqa: E731
+    assert run_line(t, report=report) == [{}] and got == [report]

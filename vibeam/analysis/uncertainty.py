@@ -624,7 +624,7 @@ def check_block(meta: dict, data: dict | None, rows: int, shape: tuple, time_dom
         if np.any(mask):
             j = tuple(int(x[0]) for x in np.nonzero(mask))
             return (f"dataset amplitude is {what} ({a[j]:g}) at sample {int(i[j[0]])}, direction {j[1]}, point "
-                    f"{j[2]} whose status is {st[j]!r} and period {int(per[j])}; allowed there: a finite number")
+                    f"{j[2]} whose status is {str(st[j])!r} and period {int(per[j])}; allowed there: a finite number")
     return None
 
 
