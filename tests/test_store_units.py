@@ -476,3 +476,32 @@ def test_a_checkpoint_dataset_hdf5_cannot_read_is_refused_in_one_line(tmp_path):
             s.read_checkpoint("lines", "case_hash", "h")
     msg = str(e.value)
     assert "\n" not in msg and f"/lines/k: cannot be read ({reason}); this vibeam never writes that" in msg
+
+
+class _Unreadable:
+    """A file (the part :func:`units_of` reads) with one top-level name that h5py cannot resolve:
+    its link (``stage = "link"``) or, behind a hard link, its object raises ``exc``."""
+
+    def __init__(self, exc, stage):
+        self.exc, self.stage = exc, stage
+
+    def keys(self):
+        return ["broken"]
+
+    def get(self, name, getlink=False):
+        if self.stage == "link":
+            raise self.exc(f"cannot read the link of {name}")
+        return h5py.HardLink()
+
+    def __getitem__(self, name):
+        raise self.exc(f"cannot read the object {name}")
+
+
+@pytest.mark.parametrize("stage, exc", [("link", KeyError), ("link", OSError), ("link", RuntimeError),
+                                        ("object", KeyError), ("object", OSError), ("object", RuntimeError),
+                                        ("object", ValueError)])
+def test_a_name_whose_link_or_object_h5py_cannot_read_is_not_a_unit(stage, exc):
+    """A top-level name whose link or object h5py cannot resolve (each error h5py raises for a
+    damaged or foreign file) is skipped by ``units_of``, not a traceback: the file's other units
+    are still read (the seven mutants of ``_hard``'s two handlers that no real file reached)."""
+    assert units_of(_Unreadable(exc, stage)) == {}
