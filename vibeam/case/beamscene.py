@@ -324,7 +324,7 @@ def build_beam_model_with_effects(spec, effects, base_model=None):
     plat = effects.platform
     coupled = plat is not None and plat.level == "coupled"
     e = ecc.offset_mm * 1e-3 if ecc is not None else 0.0
-    if (ecc is not None or coupled) and getattr(spec, "stop", None):
+    if (ecc is not None or coupled) and spec.point_stop_tables:
         which = "effects.eccentric_impact" if ecc is not None else "effects.platform (level = \"coupled\")"
         raise _err(f"{which} with stops away from the attached mass ([[model.stop]] with position_mm) is not "
                    f"implemented; allowed: these effects with the stops at the mass")

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import copy
 
-__all__ = ["expand", "expanded", "alias", "aliases", "user_key", "SHORTHAND_FIDELITIES"]
+__all__ = ["expand", "expanded", "alias", "aliases", "user_key", "SHORTHAND_FIDELITIES", "SHORTHAND_KEYS"]
 
 #: the fidelities whose ``[model]`` table has a shorthand (``fidelity = ...``), expanded into the
 #: ``[model.system] builder`` of the same name
@@ -59,6 +59,13 @@ _LOWER_GAPS = {"Delta_lower": "Delta", "gap_lower_mm": "gap_mm", "contact_gap_lo
 #: the shorthand keys of the stops (refused beside ``[[model.stop]]``)
 _STOP_KEYS = ("R", *_UPPER_GAPS, *_LOWER_GAPS, "contact", "contact_lower")
 #: a law's keys in a stop table besides ``law`` and ``R``
+#: the keys a shorthand ``[model]`` table of each fidelity may have (others are refused by name)
+SHORTHAND_KEYS = {
+    "sdof": ("fidelity", *_SYSTEM["sdof"], "B", "gain", "voltage", "R", "Delta", "gap_mm", "Delta_lower",
+             "gap_lower_mm", "contact", "contact_lower", "stop"),
+    "beam": ("fidelity", *_SYSTEM["beam"], "gain", "voltage", "R", "gap_mm", "contact_gap_mm", "gap_lower_mm",
+             "contact_gap_lower_mm", "contact", "contact_lower", "stop"),
+}
 _LAW_NUMBERS = ("stiffness", "stiffness_n_m", "damping_ratio", "exponent", "mass_kg")
 
 
@@ -251,12 +258,17 @@ def _flat_keys(builder: str) -> tuple:
             *_LOWER_GAPS)
 
 
-def user_key(origins: dict, loc: tuple) -> str:
+def user_key(origins: dict, loc: tuple, builder: str | None = None) -> str:
     """The key the user wrote for canonical location ``loc`` (a pydantic error location inside
     ``[model]``, e.g. ``("system", "damping_ratio")``, ``("stop", 1, "R")``): the origin of its
     longest mapped prefix with the rest appended (``("system", "discs", "count")`` ->
-    ``"discs.count"``); ``loc`` written as a dotted key where nothing maps it."""
+    ``"discs.count"``); with ``builder`` (a shorthand fidelity), a location the user did not write
+    (a missing key) by the shorthand key that gives it (``("stop", 0, "R")`` -> ``"R"``); ``loc``
+    written as a dotted key where nothing maps it."""
     loc = tuple(loc)
+    if builder in SHORTHAND_FIDELITIES:
+        full = expanded({"fidelity": builder, **{k: 0.0 for k in _flat_keys(builder)}})[1]
+        origins = {**{k: v for k, v in full.items() if len(k) > 1 or k == ("stop",)}, **origins}
     for n in range(len(loc), 0, -1):
         if loc[:n] in origins:
             head = origins[loc[:n]]

@@ -40,12 +40,12 @@ import numpy as np
 from vibeam.case.uncertainty import UncertaintySpec
 from vibeam.case.contact import (ContactSpec, StopSpec, beam_law,  # [model.contact] (issue 13), [[model.stop]]
                                  model_with, sdof_law, stops_as_keys, target_R)
-from vibeam.case.expand import aliases
+from vibeam.case.expand import SHORTHAND_FIDELITIES, SHORTHAND_KEYS, aliases, expanded, user_key
 from vibeam.case.paths import alias_of, canonical, flat_key, get_value, is_canonical, is_path, parameter_paths
 from vibeam.io.inputs import read_input_text
 from vibeam.models.registry import fidelity, is_compliant, law_key, supported_methods
 from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
-from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
+from pydantic import (BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator,
                       model_validator)
 
 
@@ -192,6 +192,24 @@ class _StopsSpec(_Strict):
     """What the model tables of both fidelities share: the stops' case keys as continuation
     parameters."""
 
+    #: the fidelity of the shorthand the table was written in (:func:`_validate_model`), else None
+    _shorthand: str | None = PrivateAttr(default=None)
+
+    def as_written(self, exclude_unset: bool = False) -> dict:
+        """The validated ``[model]`` a run stores with its results (``attrs["model"]``, read by the
+        figures' subtitles): the canonical tables, or, written in the shorthand, its keys with the
+        scene's values (:data:`vibeam.case.expand.SHORTHAND_KEYS`; the stops away from the attached
+        mass as ``stop``)."""
+        if self._shorthand is None:
+            return self.model_dump(exclude_unset=exclude_unset)
+        out = {"fidelity": self._shorthand}
+        for k in SHORTHAND_KEYS[self._shorthand][1:]:      # after fidelity
+            v = getattr(self, k, None) if k != "stop" else None
+            out[k] = v.model_dump() if isinstance(v, BaseModel) else v
+        points = getattr(self, "point_stop_tables", None)
+        out["stop"] = [st.model_dump() for st in points] or None if points is not None else None
+        return out
+
     def stiffness_key(self):
         """``(case key, value)`` of the paper's stop's contact stiffness when the case gives it in
         N/m^p (``model.contact.stiffness_n_m``); None otherwise (Newton's law, or a stiffness
@@ -201,14 +219,6 @@ class _StopsSpec(_Strict):
             return "model.contact.stiffness_n_m", float(t.stiffness_n_m)
         return None
 
-    def parameter_values(self, key: str, value: float) -> dict:
-        """The keys of this table that give the continuation parameter ``key`` (of
-        :meth:`native_parameter`) the value ``value``: the key itself, or for ``R_lower`` the
-        ``R`` of ``[model.contact_lower]`` (the lower stop's own law from then on)."""
-        if key == "R_lower":
-            lo = self.contact_lower.model_dump() if self.contact_lower is not None else {}
-            return {"contact_lower": {**lo, "R": float(value)}}
-        return {key: value}
 
 
 class _SDOFSpec(_StopsSpec):
@@ -2328,8 +2338,9 @@ class Case(_Strict):
                      *((alias_of(self.model, p), p) for p in paths)]
             flat |= {k for k, p in given if not is_path(k) and k not in flat and _is_number(self.model, p)}
             return sorted(flat) + paths
-        return sorted(k for k, v in spec.model_dump().items()
-                      if isinstance(v, float) and not isinstance(v, bool)) + parameter_paths(self.model)
+        # the shorthand: its flat keys whose number the scene has (given, or a default: youngs_modulus_gpa)
+        return sorted(k for k in aliases(self.model["fidelity"]) if isinstance(getattr(spec, k, None), float)
+                      and not isinstance(getattr(spec, k), bool)) + parameter_paths(self.model)
 
 
 def _is_number(model: dict, path: str) -> bool:
@@ -2342,33 +2353,68 @@ def _is_number(model: dict, path: str) -> bool:
 
 
 def _validate_model(data: dict, prefix: str = "model"):
-    allowed = ", ".join(repr(k) for k in MODEL_SPECS)
+    """The spec of a ``[model]`` table: the shorthand (``fidelity = "sdof"`` / ``"beam"``) expanded
+    into the canonical tables (:func:`vibeam.case.expand.expanded`), which the spec of their
+    ``[model.system] builder`` validates; a message names the key the user wrote
+    (:func:`vibeam.case.expand.user_key`).  Raises CaseError in one line."""
+    allowed = ", ".join(repr(k) for k in CANONICAL_SPECS)
     if not isinstance(data, dict):
         raise CaseError(f"'{prefix}' = {quote_value(data)}: must be a table with fidelity = {allowed}")
-    system = data.get("system")
-    if "fidelity" not in data and isinstance(system, dict) and "builder" in system:
-        # the canonical tables (issue 58): [model.system] builder = ...
-        fid = system["builder"]
+    origins, shorthand, refused = {}, None, []
+    if "fidelity" in data:
+        fid = data["fidelity"]
         if not isinstance(fid, str) or fid not in CANONICAL_SPECS:
-            raise CaseError(f"'{prefix}.system.builder' = {quote_value(fid)} is not allowed; allowed: "
-                            f"{', '.join(chr(34) + k + chr(34) for k in CANONICAL_SPECS)}")
+            raise CaseError(f"'{prefix}.fidelity' = {quote_value(fid)} is not allowed; allowed: {allowed}")
+        if fid not in SHORTHAND_FIDELITIES:     # a builder without a shorthand: its spec names the wrong key
+            try:
+                return CANONICAL_SPECS[fid].model_validate(data)
+            except ValidationError as e:
+                raise CaseError(validation_message(e, prefix, CANONICAL_SPECS[fid])) from None
+        refused = [f"unknown key '{prefix}.{one_line(str(k))}' (value {quote_value(v)}); allowed keys: "
+                   f"{', '.join(sorted(SHORTHAND_KEYS[fid]))}" for k, v in data.items() if k not in SHORTHAND_KEYS[fid]]
+        data = {k: v for k, v in data.items() if k in SHORTHAND_KEYS[fid]}
+        # a required number the shorthand lacks is named by its key; a stand-in lets the other errors show
+        for k in _required(fid, data):
+            if k not in data:
+                refused.append(f"missing key '{prefix}.{k}'")
+                data[k] = 1.0 if k in ("R", "natural_frequency_hz", "length_mm") else 0.0
         try:
-            spec = CANONICAL_SPECS[fid].model_validate(data)
-        except ValidationError as e:
-            raise CaseError(validation_message(e, prefix, CANONICAL_SPECS[fid])) from None
-        spec.check(prefix)
-        return spec
-    if "fidelity" not in data:
+            data, origins = expanded(data)
+            origins = {("system",): "model", ("excitation",): "model", **origins}
+        except ValueError as e:
+            raise CaseError(f"'{prefix}': {one_line(str(e))}") from None
+        shorthand = fid
+    system = data.get("system")
+    if not (isinstance(system, dict) and "builder" in system):
         raise CaseError(f"missing key '{prefix}.fidelity'; allowed: {allowed}")
-    fid = data["fidelity"]
-    if not isinstance(fid, str) or fid not in MODEL_SPECS:
-        raise CaseError(f"'{prefix}.fidelity' = {quote_value(fid)} is not allowed; allowed: {allowed}")
+    # the canonical tables (issue 58): [model.system] builder = ...
+    fid = system["builder"]
+    if not isinstance(fid, str) or fid not in CANONICAL_SPECS:
+        raise CaseError(f"'{prefix}.system.builder' = {quote_value(fid)} is not allowed; allowed: "
+                        f"{', '.join(chr(34) + k + chr(34) for k in CANONICAL_SPECS)}")
     try:
-        spec = MODEL_SPECS[fid].model_validate(data)
+        spec = CANONICAL_SPECS[fid].model_validate(data)
     except ValidationError as e:
-        raise CaseError(validation_message(e, prefix, MODEL_SPECS[fid])) from None
+        raise CaseError("; ".join([validation_message(e, prefix, CANONICAL_SPECS[fid], origins=origins,
+                                                      shorthand=shorthand), *refused])) from None
+    if refused:
+        raise CaseError("; ".join(refused))
     spec.check(prefix)
+    if shorthand is not None:
+        spec._shorthand = shorthand
     return spec
+
+
+def _required(fid: str, data: dict) -> tuple:
+    """The keys a shorthand ``[model]`` table of fidelity ``fid`` must give: the drive, R and (the
+    SDOF) the damping and the gap, of the nondimensional or the physical form it is written in."""
+    out = ("gain", "voltage")
+    if fid == "sdof":
+        phys = ("natural_frequency_hz", "damping_ratio", "gap_mm", "length_mm", "gain", "voltage")
+        nondim = ("beta", "B", "Delta")
+        given_p, given_n = any(k in data for k in phys), any(k in data for k in nondim)
+        out = phys if given_p and not given_n else () if given_p else nondim
+    return tuple(k for k in (*out, "R") if "stop" not in data or k not in ("R", "Delta", "gap_mm"))
 
 
 _RUN_BY_METHOD = {m: c for c in (EventRun, ODERun, AveragingRun, MappingRun, ContinuationRun)
@@ -2383,9 +2429,6 @@ def _allowed_keys(model_cls, loc) -> list[str]:
             continue
         if part in _RUN_BY_METHOD and cls is Case:
             cls = _RUN_BY_METHOD[part]
-            continue
-        if part in ("discs", "calibrate") and cls is BeamModelSpec:
-            cls = DiscsSpec if part == "discs" else CalibrateSpec
             continue
         if cls is EffectsSpec and part in EffectsSpec.model_fields:
             ann = EffectsSpec.model_fields[part].annotation
@@ -2407,17 +2450,21 @@ def _allowed_keys(model_cls, loc) -> list[str]:
     return sorted(getattr(cls, "model_fields", {}))
 
 
+def _untagged(loc) -> tuple:
+    """A pydantic error location without the method tag pydantic inserts after a run's index and
+    the member names of a scalar union (e.g. transient_periods: int or "auto")."""
+    return tuple(p for i, p in enumerate(loc)
+                 if not (i >= 2 and loc[i - 2] == "run" and isinstance(loc[i - 1], int) and p in _RUN_BY_METHOD)
+                 and not (isinstance(p, str) and (p.startswith("literal[") or p in _UNION_MEMBERS)))
+
+
 def _key(loc, tags: bool = True) -> str:
     """Dotted key of a pydantic error location, e.g. ``run[0].chatter_tol`` (with ``tags``, the
     method tag that pydantic inserts after a run's index is left out)."""
     parts = []
-    for i, p in enumerate(loc):
+    for p in (_untagged(loc) if tags else loc):
         if isinstance(p, int):
             parts.append(f"[{p}]")
-        elif tags and i >= 2 and loc[i - 2] == "run" and isinstance(loc[i - 1], int) and p in _RUN_BY_METHOD:
-            continue
-        elif tags and isinstance(p, str) and (p.startswith("literal[") or p in _UNION_MEMBERS):
-            continue   # the member of a scalar union (e.g. transient_periods: int or "auto")
         else:
             parts.append(("." if parts else "") + one_line(str(p)))
     return "".join(parts)
@@ -2447,11 +2494,15 @@ def _check_ints(data, loc=()) -> None:
 _METHODS = ", ".join(repr(m) for m in _RUN_BY_METHOD)
 
 
-def validation_message(err: ValidationError, prefix: str, root_cls) -> str:
-    """One line naming, for every error, the key, the value and what is allowed."""
+def validation_message(err: ValidationError, prefix: str, root_cls, origins: dict | None = None,
+                       shorthand: str | None = None) -> str:
+    """One line naming, for every error, the key, the value and what is allowed; for a ``[model]``
+    table written in the shorthand of fidelity ``shorthand``, the key the user wrote (``origins`` of
+    its expansion, :func:`vibeam.case.expand.user_key`)."""
     msgs = []
     for e in err.errors():
-        key = _key(e["loc"])
+        key = _key(e["loc"]) if shorthand is None else one_line(user_key(origins or {}, _untagged(e["loc"]),
+                                                                          shorthand))
         if prefix and key:
             where = prefix + ("" if key.startswith("[") else ".") + key
         else:
@@ -2459,6 +2510,10 @@ def validation_message(err: ValidationError, prefix: str, root_cls) -> str:
         val = e.get("input")
         if e["type"] == "extra_forbidden":
             allowed = _allowed_keys(root_cls, e["loc"])
+            if shorthand is not None and re.fullmatch(r"contact(_lower)?\.[^.\[]+", key):
+                allowed = sorted(ContactSpec.model_fields)      # a law table of the shorthand
+            elif shorthand is not None and "." not in key and "[" not in key:
+                allowed = sorted(SHORTHAND_KEYS[shorthand])
             msgs.append(f"unknown key '{where}' (value {quote_value(val)}); allowed keys: {', '.join(allowed)}")
         elif e["type"] == "missing":
             msgs.append(f"missing key '{where}'")
