@@ -36,7 +36,8 @@ from __future__ import annotations
 
 import copy
 
-__all__ = ["expand", "expanded", "alias", "aliases", "user_key", "SHORTHAND_FIDELITIES", "SHORTHAND_KEYS"]
+__all__ = ["expand", "expanded", "alias", "aliases", "user_key", "required_keys", "SHORTHAND_FIDELITIES",
+           "SHORTHAND_KEYS"]
 
 #: the fidelities whose ``[model]`` table has a shorthand (``fidelity = ...``), expanded into the
 #: ``[model.system] builder`` of the same name
@@ -285,3 +286,18 @@ def _dotted(parts, lead: bool) -> str:
         else:
             out += ("." if out or lead else "") + str(p)
     return out
+
+
+def required_keys(fidelity: str, model: dict) -> tuple:
+    """The keys a shorthand ``[model]`` table of ``fidelity`` (``"sdof"`` or ``"beam"``) must give,
+    by their shorthand names: the drive (``gain``, ``voltage``), ``R`` and, for the SDOF, the
+    damping and the gap of the nondimensional (``beta``, ``B``, ``Delta``: paper Eqs. 1-2) or the
+    physical form (Eqs. 43-46) the table is written in; the stops' keys not where ``[[model.stop]]``
+    tables give the stops."""
+    out = ("gain", "voltage")
+    if fidelity == "sdof":
+        phys = ("natural_frequency_hz", "damping_ratio", "gap_mm", "length_mm", "gain", "voltage")
+        nondim = ("beta", "B", "Delta")
+        given_p, given_n = any(k in model for k in phys), any(k in model for k in nondim)
+        out = phys if given_p and not given_n else () if given_p else nondim
+    return tuple(k for k in (*out, "R") if "stop" not in model or k not in ("R", "Delta", "gap_mm"))

@@ -40,7 +40,7 @@ import numpy as np
 from vibeam.case.uncertainty import UncertaintySpec
 from vibeam.case.contact import (ContactSpec, StopSpec, beam_law,  # [model.contact] (issue 13), [[model.stop]]
                                  model_with, sdof_law, stops_as_keys, target_R)
-from vibeam.case.expand import SHORTHAND_FIDELITIES, SHORTHAND_KEYS, aliases, expanded, user_key
+from vibeam.case.expand import SHORTHAND_FIDELITIES, SHORTHAND_KEYS, aliases, expanded, required_keys, user_key
 from vibeam.case.paths import alias_of, canonical, flat_key, get_value, is_canonical, is_path, parameter_paths
 from vibeam.io.inputs import read_input_text
 from vibeam.models.registry import fidelity, is_compliant, law_key, supported_methods
@@ -2374,7 +2374,7 @@ def _validate_model(data: dict, prefix: str = "model"):
                    f"{', '.join(sorted(SHORTHAND_KEYS[fid]))}" for k, v in data.items() if k not in SHORTHAND_KEYS[fid]]
         data = {k: v for k, v in data.items() if k in SHORTHAND_KEYS[fid]}
         # a required number the shorthand lacks is named by its key; a stand-in lets the other errors show
-        for k in _required(fid, data):
+        for k in required_keys(fid, data):
             if k not in data:
                 refused.append(f"missing key '{prefix}.{k}'")
                 data[k] = 1.0 if k in ("R", "natural_frequency_hz", "length_mm") else 0.0
@@ -2403,18 +2403,6 @@ def _validate_model(data: dict, prefix: str = "model"):
     if shorthand is not None:
         spec._shorthand = shorthand
     return spec
-
-
-def _required(fid: str, data: dict) -> tuple:
-    """The keys a shorthand ``[model]`` table of fidelity ``fid`` must give: the drive, R and (the
-    SDOF) the damping and the gap, of the nondimensional or the physical form it is written in."""
-    out = ("gain", "voltage")
-    if fid == "sdof":
-        phys = ("natural_frequency_hz", "damping_ratio", "gap_mm", "length_mm", "gain", "voltage")
-        nondim = ("beta", "B", "Delta")
-        given_p, given_n = any(k in data for k in phys), any(k in data for k in nondim)
-        out = phys if given_p and not given_n else () if given_p else nondim
-    return tuple(k for k in (*out, "R") if "stop" not in data or k not in ("R", "Delta", "gap_mm"))
 
 
 _RUN_BY_METHOD = {m: c for c in (EventRun, ODERun, AveragingRun, MappingRun, ContinuationRun)
