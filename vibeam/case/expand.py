@@ -94,7 +94,7 @@ def expand(model: dict) -> dict:
     ValueError
         Only where the shorthand cannot be expanded, naming the key: the stops given both as
         ``[[model.stop]]`` tables and by shorthand keys, ``[model.contact] R`` (the upper stop's R
-        is ``[model] R``).  A value that is not valid is left for the canonical validation.
+        is ``[model] R``), ``[model.contact_lower]`` without a lower gap.  A value that is not valid is left for the canonical validation.
     """
     return expanded(model)[0]
 
@@ -165,6 +165,8 @@ def _shorthand_stops(model: dict) -> tuple[list, dict]:
     origins[("stop", 0)] = "model"
     lower_keys = [k for k in _LOWER_GAPS if k in model]
     lower = model.get("contact_lower")
+    if lower is not None and not lower_keys:
+        raise ValueError(f"[model.contact_lower] needs a lower stop: give one of {list(_LOWER_GAPS)}")
     if lower_keys or lower is not None:
         lo: dict = {"side": "lower"}
         for k in lower_keys:

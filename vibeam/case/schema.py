@@ -1408,8 +1408,8 @@ class SceneStopSpec(StopSpec):
     def _gap(self):
         given = [k for k in ("gap_mm", "contact_gap_mm", "Delta") if getattr(self, k) is not None]
         if len(given) != 1:
-            raise ValueError(f"give the stop's gap once: one of gap_mm (at the sensor), contact_gap_mm (at the "
-                             f"stop, beam scenes) or Delta (nondimensional SDOF scenes); got {given or 'none'}")
+            raise ValueError(f"give the stop's gap once: exactly one of gap_mm (at the sensor), contact_gap_mm (at "
+                             f"the stop, beam scenes) or Delta (nondimensional SDOF scenes); got {given or 'none'}")
         return self
 
 
@@ -1420,14 +1420,18 @@ def _scene_stops(spec, at_mass) -> int:
     of stops at the mass (1 or 2); raises ValueError naming the stop."""
     st = spec.stop
     if st[0].side != "upper" or not at_mass(st[0]):
-        raise ValueError("stop[0] is the paper's stop (the amplitude Q is measured from it): the upper stop at the "
-                         "attached mass (side = \"upper\", no position_mm)")
+        missing = "" if any(s.side == "upper" and at_mass(s) for s in st) else "no upper stop at the attached mass: "
+        raise ValueError(f"{missing}stop[0] is the paper's stop (the amplitude Q is measured from it): the upper stop "
+                         f"at the attached mass (side = \"upper\", no position_mm)")
     n = 2 if len(st) > 1 and st[1].side == "lower" and at_mass(st[1]) else 1
     for i, s in enumerate(st):
         if i >= n and at_mass(s):
-            raise ValueError(f"stop[{i}]: a second {s.side} stop at the attached mass; allowed: one upper stop there "
-                             f"(stop[0]) and one lower (stop[1])")
-        if s.R is None and i != 1:
+            if s.side == "lower" and n == 1:
+                raise ValueError(f"stop[{i}]: the lower stop at the attached mass comes second (stop[1])")
+            first = 0 if s.side == "upper" else 1
+            raise ValueError(f"stop[{i}]: two {s.side} stops at the attached mass (stop[{first}] and stop[{i}]); "
+                             f"allowed: one upper stop there (stop[0]) and one lower (stop[1])")
+        if s.R is None and not (i == 1 and n == 2):
             raise ValueError(f"stop[{i}]: give the stop's R (Newton's coefficient of restitution, or a compliant "
                              f"law's target)")
     return n
@@ -1471,9 +1475,10 @@ class SDOFSceneSpec(_SDOFSpec):
     def _one_parameter_set(self):
         # the tables' own checks first (naming the canonical keys), then the SDOF's
         for i, st in enumerate(self.stop):
-            if st.position_mm is not None or st.contact_gap_mm is not None:
-                raise ValueError(f"stop[{i}]: position_mm and contact_gap_mm are beam keys (the SDOF has one "
-                                 f"coordinate, at the sensor); allowed: side, Delta or gap_mm, R and the law's keys")
+            for key in ("position_mm", "contact_gap_mm"):
+                if getattr(st, key) is not None:
+                    raise ValueError(f"stop[{i}]: {key} is a beam key (the SDOF has one coordinate, at the sensor); "
+                                     f"allowed: side, Delta or gap_mm, R and the law's keys")
         _scene_stops(self, lambda st: True)
         ex = self.excitation
         allowed = ("gain", "amplitude_mm") if self.physical else ("amplitude",)
@@ -2378,6 +2383,12 @@ def _validate_model(data: dict, prefix: str = "model"):
             if k not in data:
                 refused.append(f"missing key '{prefix}.{k}'")
                 data[k] = 1.0 if k in ("R", "natural_frequency_hz", "length_mm") else 0.0
+        for k in ("contact", "contact_lower"):      # the shorthand's law tables, named as written
+            if isinstance(data.get(k), dict):
+                try:
+                    ContactSpec.model_validate(data[k])
+                except ValidationError as e:
+                    raise CaseError(validation_message(e, f"{prefix}.{k}", ContactSpec)) from None
         try:
             data, origins = expanded(data)
             origins = {("system",): "model", ("excitation",): "model", **origins}
