@@ -29,7 +29,7 @@ import pytest
 
 from vibeam.api.cases import load_case
 from vibeam.case.contact import model_with
-from vibeam.case.expand import expand, expanded, user_key
+from vibeam.case.expand import SHORTHAND_FIDELITIES, SHORTHAND_KEYS, expand, expanded, user_key
 from vibeam.case.schema import BeamSceneSpec, CaseError, SDOFSceneSpec, _validate_model
 from vibeam.io.store import case_hash
 from vibeam.models.core.stops import held_sets, kernel_stops, kernel_system
@@ -263,6 +263,25 @@ def test_every_recorded_table_is_built_as_recorded():
     assert len(entries) == 63   # as recorded: 48 tables of the shipped cases, the shuffled one, 14 above
     for rec in entries:
         _as_recorded(rec, _canonical(rec["table"]), rec["label"])
+
+
+def test_the_shorthand_keys_are_those_of_the_shorthand_classes():
+    """``SHORTHAND_KEYS`` (the keys a shorthand table may have, documented in cases/README.md) are the
+    fields the shorthand spec classes had (recorded: their names; ``stop``, which both took, the SDOF's
+    through its before-validator), and each expands into the canonical tables (a location whose
+    origin is the key)."""
+    by_fidelity = {}
+    for rec in _oracle()[0].values():
+        by_fidelity.setdefault(rec["hooks"]["fidelity"]["v"], set(rec["names"]))
+    assert set(by_fidelity) == set(SHORTHAND_FIDELITIES)
+    for fid, names in by_fidelity.items():
+        keys = SHORTHAND_KEYS[fid]
+        assert len(keys) == len(set(keys)) and set(keys) == names | {"fidelity", "stop"}, fid
+        for k in names:
+            value = {"law": "restitution"} if k in ("contact", "contact_lower", "discs", "calibrate") else 0.5
+            extra = {"Delta_lower": 0.5} if k == "contact_lower" else {}
+            origins = expanded({"fidelity": fid, k: value, **extra})[1]
+            assert any(o == k or o.startswith(k + ".") for o in origins.values()), (fid, k, origins)
 
 
 def test_canonical_tables_pass_through_and_origins_name_the_users_keys():

@@ -48,7 +48,7 @@ class BeamScene:
 
 
 def geometry_of(spec):
-    """BeamGeometry of a :class:`vibeam.case.schema.BeamModelSpec` before calibration."""
+    """BeamGeometry of a :class:`vibeam.case.schema.BeamSceneSpec` before calibration."""
     kw = dict(length_m=spec.length_mm * 1e-3, mass_position_m=spec.mass_position_mm * 1e-3,
               sensor_position_m=spec.sensor_position_mm * 1e-3)
     if spec.EI_n_m2 is not None:

@@ -59,14 +59,20 @@ _UPPER_GAPS = ("Delta", "gap_mm", "contact_gap_mm")
 _LOWER_GAPS = {"Delta_lower": "Delta", "gap_lower_mm": "gap_mm", "contact_gap_lower_mm": "contact_gap_mm"}
 #: the shorthand keys of the stops (refused beside ``[[model.stop]]``)
 _STOP_KEYS = ("R", *_UPPER_GAPS, *_LOWER_GAPS, "contact", "contact_lower")
-#: a law's keys in a stop table besides ``law`` and ``R``
-#: the keys a shorthand ``[model]`` table of each fidelity may have (others are refused by name)
+#: the keys a shorthand ``[model]`` table of each fidelity may have (others are refused by name), in
+#: the order the case-file reference (``cases/README.md``, :mod:`vibeam.case.reference`) lists them and
+#: a run stores them (``attrs["model"]``): ``fidelity``, the system's keys, the stops' and the drive's
+#: (each in the table :func:`expand` puts it in; ``tests/test_expand.py`` checks they are these)
 SHORTHAND_KEYS = {
-    "sdof": ("fidelity", *_SYSTEM["sdof"], "B", "gain", "voltage", "R", "Delta", "gap_mm", "Delta_lower",
-             "gap_lower_mm", "contact", "contact_lower", "stop"),
-    "beam": ("fidelity", *_SYSTEM["beam"], "gain", "voltage", "R", "gap_mm", "contact_gap_mm", "gap_lower_mm",
-             "contact_gap_lower_mm", "contact", "contact_lower", "stop"),
+    "sdof": ("fidelity", "beta", "B", "R", "Delta", "natural_frequency_hz", "damping_ratio", "gap_mm", "length_mm",
+             "gain", "voltage", "Delta_lower", "gap_lower_mm", "contact", "contact_lower", "stop"),
+    "beam": ("fidelity", "length_mm", "sensor_position_mm", "mass_position_mm", "width_mm", "thickness_mm",
+             "youngs_modulus_gpa", "density_kg_m3", "EI_n_m2", "rhoA_kg_m", "mass_kg", "rotary_inertia_kg_m2", "discs",
+             "calibrate", "R", "gap_mm", "contact_gap_mm", "gap_lower_mm", "contact_gap_lower_mm", "contact",
+             "contact_lower", "stop", "gain", "voltage", "damping_ratio", "rayleigh_alpha_1_s", "n_modes",
+             "n_elements"),
 }
+#: a law's keys in a stop table besides ``law`` and ``R``
 _LAW_NUMBERS = ("stiffness", "stiffness_n_m", "damping_ratio", "exponent", "mass_kg")
 
 

@@ -39,7 +39,7 @@ from typing import Annotated, ClassVar, Literal, Union
 import numpy as np
 from vibeam.case.uncertainty import UncertaintySpec
 from vibeam.case.contact import (ContactSpec, StopSpec, beam_law,  # [model.contact] (issue 13), [[model.stop]]
-                                 model_with, sdof_law, stops_as_keys, target_R)
+                                 model_with, sdof_law, target_R)
 from vibeam.case.expand import SHORTHAND_FIDELITIES, SHORTHAND_KEYS, aliases, expanded, required_keys, user_key
 from vibeam.case.paths import alias_of, canonical, flat_key, get_value, is_canonical, is_path, parameter_paths
 from vibeam.io.inputs import read_input_text
@@ -166,28 +166,6 @@ def lower_law_spec(spec):
     return lo
 
 
-#: spec class of each fidelity's ``[model]`` table, by its name in the fidelity registry
-#: (:mod:`vibeam.models.registry`); filled by :func:`register_model_spec`
-MODEL_SPECS: dict = {}
-
-
-def register_model_spec(name: str):
-    """Class decorator: the spec class of the ``[model]`` table of fidelity ``name``.
-
-    A spec class validates the table (pydantic) and is the framework's one place for what
-    is specific to its fidelity: ``build()`` (the model), ``physical``, ``dofs()`` (degrees of
-    freedom, for the work estimate), ``result_attrs()`` (derived values stored with a run),
-    ``converged_reference(table)`` (the model table a cost table measures errors against),
-    ``effect_model(effects, model)`` (the model with the structural effects of a run),
-    ``case_update(key, value)`` (a fitted value written back as case keys) and
-    ``check(prefix)`` (checks beyond the table itself).
-    """
-    def deco(cls):
-        MODEL_SPECS[name] = cls
-        return cls
-    return deco
-
-
 class _StopsSpec(_Strict):
     """What the model tables of both fidelities share: the stops' case keys as continuation
     parameters."""
@@ -222,9 +200,9 @@ class _StopsSpec(_Strict):
 
 
 class _SDOFSpec(_StopsSpec):
-    """What the SDOF's ``[model]`` spec forms share (the shorthand keys, :class:`SDOFModelSpec`;
-    the canonical tables, :class:`SDOFSceneSpec`): the checks, the build and the fidelity's hooks,
-    reading the table's numbers by the shorthand's names (fields or properties)."""
+    """The SDOF's ``[model]`` spec (base of :class:`SDOFSceneSpec`, the canonical tables, which the
+    shorthand expands into): the checks, the build and the fidelity's hooks, reading the table's
+    numbers by the shorthand's names (properties of the spec)."""
 
     @model_validator(mode="after")
     def _one_parameter_set(self):
@@ -337,7 +315,7 @@ class _SDOFSpec(_StopsSpec):
                                                               self.length_mm * 1e-3 if self.physical else None))
         return m
 
-    # ---- what is specific to this fidelity (see register_model_spec)
+    # ---- what is specific to this fidelity (see CANONICAL_SPECS)
     def dofs(self) -> int:
         """Degrees of freedom simulated (work estimate)."""
         return 1
@@ -409,33 +387,6 @@ class _SDOFSpec(_StopsSpec):
 
 
 
-@register_model_spec("sdof")
-class SDOFModelSpec(_SDOFSpec):
-    """``[model]`` of an SDOF scene: nondimensional (paper Eqs. 1-2) or physical (Eqs. 43-46)."""
-
-    fidelity: Literal["sdof"]
-    beta: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
-    B: Annotated[float, Field(ge=0.0)] | None = None
-    R: Annotated[float, Field(ge=0.0, le=1.0)]
-    Delta: float | None = None
-    natural_frequency_hz: Annotated[float, Field(gt=0.0)] | None = None
-    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
-    gap_mm: float | None = None
-    length_mm: Annotated[float, Field(gt=0.0)] | None = None
-    gain: Annotated[float, Field(ge=0.0)] | None = None
-    voltage: Annotated[float, Field(ge=0.0)] | None = None
-    Delta_lower: float | None = None
-    gap_lower_mm: float | None = None
-    contact: ContactSpec | None = None
-    contact_lower: ContactSpec | None = None
-
-    @model_validator(mode="before")
-    @classmethod
-    def _stops(cls, data):
-        """``[[model.stop]]`` tables written as the shorthand keys (:func:`vibeam.case.contact.stops_as_keys`)."""
-        return stops_as_keys(data, "sdof") if isinstance(data, dict) else data
-
-
 def build_or_refuse(spec, build):
     """``build()``, the model of a ``[model]`` spec; a value the model's constructors cannot
     use (they raise ValueError, or an arithmetic error such as an overflow) becomes a
@@ -485,10 +436,10 @@ def _beam_length(v):
 
 
 class _BeamSpec(_StopsSpec):
-    """What the beam's ``[model]`` spec forms share (the shorthand keys, :class:`BeamModelSpec`;
-    the canonical tables, :class:`BeamSceneSpec`): the checks, the build and the fidelity's hooks,
-    reading the table's numbers by the shorthand's names (fields or properties); the stops away
-    from the attached mass are :attr:`point_stop_tables`."""
+    """The beam's ``[model]`` spec (base of :class:`BeamSceneSpec`, the canonical tables, which the
+    shorthand expands into): the checks, the build and the fidelity's hooks, reading the table's
+    numbers by the shorthand's names (properties of the spec); the stops away from the attached
+    mass are :attr:`point_stop_tables`."""
 
     #: allowed ``length_mm``: the FE mesh (scikit-fem) locates the clamp and the attached mass
     #: by position to an absolute 1e-8 m, so its elements (down to L / 2000 with ``n_elements``
@@ -645,7 +596,7 @@ class _BeamSpec(_StopsSpec):
         """A restitution stop beside a compliant one (:func:`mixed_stops`)."""
         return mixed_stops(self)
 
-    # ---- what is specific to this fidelity (see register_model_spec)
+    # ---- what is specific to this fidelity (see CANONICAL_SPECS)
     def dofs(self) -> int:
         """Degrees of freedom simulated (work estimate): the retained modes (1 for the static
         mode, the mesh's ``2 n_elements`` for ``"all"``)."""
@@ -722,75 +673,6 @@ class _BeamSpec(_StopsSpec):
                 return {"calibrate": dict(self.calibrate.model_dump(exclude_none=True), f1_hz=float(value))}, []
             return {}, ["f_n not written: the beam has no [model.calibrate] (its f_n follows from EI)"]
         return {key: float(value)}, []
-
-
-@register_model_spec("beam")
-class BeamModelSpec(_BeamSpec):
-    """``[model]`` of a finite-element beam scene (paper Eqs. 39-41, Fig. 15).
-
-    Lengths in mm, masses in kg; section either ``width_mm``/``thickness_mm``
-    (+ ``youngs_modulus_gpa``, ``density_kg_m3``) or ``EI_n_m2``/``rhoA_kg_m``;
-    attached mass either ``mass_kg`` (+ ``rotary_inertia_kg_m2``) or
-    ``[model.discs]``; gap either ``gap_mm`` (grazing gap seen at the sensor,
-    Delta_G, as for the SDOF rig scenes) or ``contact_gap_mm`` (Delta_C at the
-    stop); excitation ``gain`` (the paper's normalised gamma, 1/V) and
-    ``voltage``; damping ``damping_ratio`` (of the first mode, giving the
-    stiffness-proportional D of Eq. 39) and optional ``rayleigh_alpha_1_s``;
-    ``n_modes`` retained modes (an integer, ``"all"``, or ``"static"`` for the
-    paper's single assumed static mode, i.e. the SDOF model of Eqs. 42-47).
-    """
-
-    fidelity: Literal["beam"]
-    length_mm: Annotated[float, Field(gt=0.0)]   # and within LENGTH_RANGE_MM (_length_in_range)
-    sensor_position_mm: Annotated[float, Field(gt=0.0)]
-    mass_position_mm: Annotated[float, Field(gt=0.0)]
-    width_mm: Annotated[float, Field(gt=0.0)] | None = None
-    thickness_mm: Annotated[float, Field(gt=0.0)] | None = None
-    youngs_modulus_gpa: Annotated[float, Field(gt=0.0)] = 200.0
-    density_kg_m3: Annotated[float, Field(gt=0.0)] = 7850.0
-    EI_n_m2: Annotated[float, Field(gt=0.0)] | None = None
-    rhoA_kg_m: Annotated[float, Field(gt=0.0)] | None = None
-    mass_kg: Annotated[float, Field(ge=0.0)] | None = None
-    rotary_inertia_kg_m2: Annotated[float, Field(ge=0.0)] = 0.0
-    discs: DiscsSpec | None = None
-    calibrate: CalibrateSpec | None = None
-    R: Annotated[float, Field(ge=0.0, le=1.0)]
-    gap_mm: float | None = None
-    contact_gap_mm: float | None = None
-    gap_lower_mm: float | None = None
-    contact_gap_lower_mm: float | None = None
-    contact: ContactSpec | None = None
-    contact_lower: ContactSpec | None = None
-    stop: list[StopSpec] | None = None     # [[model.stop]] away from the attached mass (the others: keys)
-    gain: Annotated[float, Field(ge=0.0)]
-    voltage: Annotated[float, Field(ge=0.0)]
-    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
-    rayleigh_alpha_1_s: Annotated[float, Field(ge=0.0)] = 0.0
-    n_modes: Annotated[int, Field(ge=1)] | Literal["all", "static"] = 4
-    n_elements: Annotated[int, Field(ge=2, le=2000)] = 36
-
-    @field_validator("length_mm")
-    @classmethod
-    def _length_in_range(cls, v):
-        return _beam_length(v)
-
-    @model_validator(mode="before")
-    @classmethod
-    def _stops(cls, data):
-        """``[[model.stop]]`` tables: those at the attached mass written as the shorthand keys, the
-        others kept as point stops (:func:`vibeam.case.contact.stops_as_keys`)."""
-        if not isinstance(data, dict):
-            return data
-        data = stops_as_keys(data, "beam")
-        if "point_stops" in data:
-            data = dict(data)
-            data["stop"] = data.pop("point_stops")
-        return data
-
-    @property
-    def point_stop_tables(self) -> list:
-        """The stops away from the attached mass (:class:`vibeam.case.contact.StopSpec`)."""
-        return list(self.stop or ())
 
 
 class SystemSpec(_Strict):
@@ -888,7 +770,6 @@ class ExcitationSpec(_Strict):
         return self.amplitude_mm * 1e-3 if self.kind == "base_displacement" else 0.0
 
 
-@register_model_spec("matrices")
 class MatricesModelSpec(_StopsSpec):
     """``[model]`` of a structure given by its matrices (issue 58): the canonical tables
     ``[model.system]`` (:class:`SystemSpec`), ``[[model.stop]]`` (:class:`StructureStopSpec`, one
@@ -1126,7 +1007,6 @@ class ContinuumSystemSpec(_Strict):
         return self
 
 
-@register_model_spec("continuum")
 class ContinuumModelSpec(MatricesModelSpec):
     """``[model]`` of the rig as a 3D elastic continuum (issue 59): the canonical tables
     ``[model.system]`` (:class:`ContinuumSystemSpec`, ``builder = "continuum"``), ``[[model.stop]]``
@@ -1305,7 +1185,6 @@ class MeshStopSpec(StopSpec):
         return self
 
 
-@register_model_spec("mesh")
 class MeshModelSpec(ContinuumModelSpec):
     """``[model]`` of a user's part read from a mesh file (issue 59): ``[model.system]``
     (:class:`MeshSystemSpec`, ``builder = "mesh"``), ``[[model.stop]]`` (:class:`MeshStopSpec`: an upper
@@ -1556,9 +1435,11 @@ class BeamSystemSpec(_Strict):
     mass (paper Eqs. 39-41, Fig. 15): geometry, section (``width_mm``/``thickness_mm`` with
     ``youngs_modulus_gpa``, ``density_kg_m3``, or ``EI_n_m2``/``rhoA_kg_m``), attached mass
     (``mass_kg`` with ``rotary_inertia_kg_m2``, or ``[model.system.discs]``), calibration
-    (``[model.system.calibrate]``), damping (``damping_ratio`` of the first mode, Eq. 39, and
-    ``rayleigh_alpha_1_s``) and the kept modes (``n_modes``: a number, ``"all"`` or ``"static"``, on
-    ``n_elements`` elements); the keys of :class:`BeamModelSpec`."""
+    (``[model.system.calibrate]``), damping (``damping_ratio`` of the first mode, giving the
+    stiffness-proportional D of Eq. 39, and ``rayleigh_alpha_1_s``) and the kept modes (``n_modes``: a
+    number, ``"all"`` or ``"static"``: the paper's single assumed static mode, i.e. the SDOF model of
+    Eqs. 42-47; on ``n_elements`` elements); lengths in mm, masses in kg.  The shorthand's
+    (``fidelity = "beam"``) keys of the structure."""
 
     builder: Literal["beam"]
     length_mm: Annotated[float, Field(gt=0.0)]
@@ -1595,7 +1476,9 @@ class BeamSceneSpec(_BeamSpec):
     attached mass, optionally the lower one there, then Newton stops at other points by
     ``position_mm``, output codes 0, 1, 2 + i as the shorthand's) and ``[model.excitation]`` (a base
     displacement by the shaker's ``gain`` and ``voltage``: ``gamma~ V``, ``gamma~ = gain phi(x_m)
-    L``).  What the shorthand (``fidelity = "beam"`` and its keys) expands into
+    L``, the paper's normalised gain in 1/V).  A stop's gap is ``gap_mm`` (the grazing gap seen at the
+    sensor, Delta_G, as for the SDOF rig scenes) or ``contact_gap_mm`` (Delta_C at the stop).  What the
+    shorthand (``fidelity = "beam"`` and its keys) expands into
     (:func:`vibeam.case.expand.expand`); the beam's checks and build read the tables through the
     shorthand's names (the properties below)."""
 
@@ -1693,7 +1576,15 @@ for _name in _BEAM_SYSTEM_KEYS:
     setattr(BeamSceneSpec, _name, _system_key(_name))
 del _name
 
-#: the spec class of each ``[model.system] builder`` (the canonical tables, issue 58)
+#: the spec class of each ``[model.system] builder`` (the canonical tables, issue 58), by its
+#: fidelity's name in the fidelity registry (:mod:`vibeam.models.registry`; a shorthand ``[model]``
+#: is validated by the spec of the builder it expands into, :func:`_validate_model`).  A spec class
+#: validates the table (pydantic) and is the framework's one place for what is specific to its
+#: fidelity: ``build()`` (the model), ``physical``, ``dofs()`` (degrees of freedom, for the work
+#: estimate), ``result_attrs()`` (derived values stored with a run), ``converged_reference(table)``
+#: (the model table a cost table measures errors against), ``effect_model(effects, model)`` (the
+#: model with the structural effects of a run), ``case_update(key, value)`` (a fitted value written
+#: back as case keys) and ``check(prefix)`` (checks beyond the table itself)
 CANONICAL_SPECS = {"sdof": SDOFSceneSpec, "beam": BeamSceneSpec, "matrices": MatricesModelSpec,
                    "continuum": ContinuumModelSpec, "mesh": MeshModelSpec}
 
@@ -1705,7 +1596,7 @@ def _structure():
     return structure
 
 
-ModelSpec = Union[SDOFModelSpec, BeamModelSpec, MatricesModelSpec, ContinuumModelSpec, MeshModelSpec]
+ModelSpec = Union[SDOFSceneSpec, BeamSceneSpec, MatricesModelSpec, ContinuumModelSpec, MeshModelSpec]
 
 
 def fidelity_methods(name: str) -> tuple:
