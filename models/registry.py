@@ -5,7 +5,7 @@ branches on a fidelity's name; it asks this registry.  Adding a fidelity (e.g. a
 model) means writing its module(s) under ``models/`` -- the model class, its solvers and,
 optionally, its shooting problem -- plus one :class:`Fidelity` entry here, plus the spec
 class of its ``[model]`` table, registered in the framework under the same name
-(``vibeam.case.schema.MODEL_SPECS``, by the decorator ``vibeam.case.schema.model_spec``).
+(``vibeam.case.schema.CANONICAL_SPECS``, by its ``[model.system] builder``).
 
 This module is pure Python (no numba, numpy or scipy): the case validator imports it to
 check a run's method without loading any solver.  Classes are named by

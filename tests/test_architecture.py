@@ -191,20 +191,39 @@ def test_the_checks_find_a_cycle_and_a_private_import(tmp_path):
 
 # ----------------------------------------------------------------------------- the fidelity registry
 def test_every_registered_fidelity_has_a_spec_and_every_spec_a_fidelity():
-    from vibeam.case.schema import MODEL_SPECS
+    from vibeam.case.schema import CANONICAL_SPECS
     from vibeam.models.registry import FIDELITIES, resolve
 
-    assert set(MODEL_SPECS) == set(FIDELITIES)
+    assert set(CANONICAL_SPECS) == set(FIDELITIES)
     for name, f in FIDELITIES.items():
         assert resolve(f.model).fidelity == name
         for method, path in f.methods.items():
             assert resolve(path).name == method, (name, method)
         assert set(f.modal_state_methods) <= set(f.methods)
         assert set(f.restitution_law_methods) <= set(f.methods)
-        spec = MODEL_SPECS[name]
+        spec = CANONICAL_SPECS[name]
         for attr in ("build", "dofs", "check", "result_attrs", "converged_reference", "effect_model",
                      "case_update"):
             assert callable(getattr(spec, attr, None)), (name, attr)
+
+
+def test_the_shorthand_round_trip_is_gone():
+    """Issue 58, done-when 4: no ``stops_as_keys`` (``[[model.stop]]`` rewritten into the shorthand
+    keys) and no spec class of the shorthand (``SDOFModelSpec``, ``BeamModelSpec``): a shorthand
+    ``[model]`` is expanded into the canonical tables (:mod:`vibeam.case.expand`) and validated by
+    their spec.  No function or class of these names is defined in the framework, the models or the
+    reductions."""
+    import ast
+
+    gone = {"stops_as_keys", "SDOFModelSpec", "BeamModelSpec", "register_model_spec", "MODEL_SPECS"}
+    found = []
+    for folder in ("vibeam", "models", "reductions"):
+        for p in sorted((ROOT / folder).rglob("*.py")):
+            for node in ast.walk(ast.parse(p.read_text(), str(p))):
+                names = [node.name] if isinstance(node, (ast.FunctionDef, ast.ClassDef)) else \
+                    [t.id for t in getattr(node, "targets", [getattr(node, "target", None)]) if isinstance(t, ast.Name)]
+                found += [f"{p.relative_to(ROOT)}:{node.lineno}: {n}" for n in names if n in gone]
+    assert not found, found
 
 
 def test_the_framework_has_no_fidelity_branches():

@@ -1,16 +1,26 @@
 """The shorthand expanded into the canonical tables (issue 58, vibeam/case/expand.py).
 
-The proof that the canonical path can replace the shorthand one: for every shipped case and every
+The proof that the canonical path replaces the shorthand one: for every shipped case and every
 ``[[run]]`` override (and the ends of its ``[map]``), the model built from ``expand(table)`` by the
 canonical specs (``[model.system] builder = "sdof"`` / ``"beam"``) packs to the same kernel arrays,
-bit for bit, as the model built today from the shorthand (``KernelSystem``, ``KernelStops``,
+bit for bit, as the model the shorthand spec classes built (``KernelSystem``, ``KernelStops``,
 ``HeldSets``: what the kernels read; :mod:`vibeam.models.core.stops`), with the same output codes,
 units and initial state; and the canonical spec answers the framework's questions (the shorthand's
-names, continuation parameters, work estimate) as the shorthand spec does.
+names, continuation parameters, work estimate) as the shorthand spec did.
+
+The shorthand spec classes (``SDOFModelSpec``, ``BeamModelSpec``, with
+``vibeam.case.contact.stops_as_keys``) are deleted (issue 58, "delete what the Scene replaces");
+what they built for each of these tables was recorded before the deletion, at commit 8b2d1b3, by
+``tests/references/make_expand_oracle.py`` into ``tests/references/expand_oracle.npz`` (arrays as
+they were: dtype, shape and bits; every other value with its type), and the canonical path is
+compared with that recording, with the tolerances the two paths were compared with (none: bit for
+bit, NaN equal to NaN).
 """
 from __future__ import annotations
 
 import copy
+import functools
+import json
 import math
 from pathlib import Path
 
@@ -19,9 +29,8 @@ import pytest
 
 from vibeam.api.cases import load_case
 from vibeam.case.contact import model_with
-from vibeam.case.expand import expand, expanded, user_key
-from vibeam.case.schema import (BeamModelSpec, BeamSceneSpec, CaseError, SDOFModelSpec, SDOFSceneSpec,
-                                _validate_model)
+from vibeam.case.expand import SHORTHAND_FIDELITIES, SHORTHAND_KEYS, expand, expanded, user_key
+from vibeam.case.schema import BeamSceneSpec, CaseError, SDOFSceneSpec, _validate_model
 from vibeam.io.store import case_hash
 from vibeam.models.core.stops import held_sets, kernel_stops, kernel_system
 
@@ -76,21 +85,87 @@ def _packed(model) -> dict:
     return out
 
 
-def _both(table):
-    """``(spec by the shorthand, spec by the canonical tables)`` of a ``[model]`` table."""
-    old = _validate_model(table)
+ORACLE = Path(__file__).resolve().parent / "references" / "expand_oracle.npz"
+
+
+def _table_key(table: dict) -> str:
+    """The lookup key of a ``[model]`` table in the recording: its JSON with sorted keys."""
+    return json.dumps(table, sort_keys=True)
+
+
+@functools.cache
+def _oracle() -> tuple[dict, list]:
+    """``({table key: entry}, arrays)`` of the recording of the shorthand spec classes
+    (``tests/references/make_expand_oracle.py``, its docstring says what an entry holds)."""
+    with np.load(ORACLE) as z:
+        entries = json.loads(str(z["meta"]))["entries"]
+        arrays = [z[f"a{i}"] for i in range(len(z.files) - 1)]
+    return {_table_key(e["table"]): e for e in entries}, arrays
+
+
+def _recorded(table: dict) -> dict:
+    """The recording of ``table`` (what the shorthand spec class made of it)."""
+    entry = _oracle()[0].get(_table_key(table))
+    assert entry is not None, ("no recording of this shorthand table by the shorthand spec classes (deleted after "
+                               "commit 8b2d1b3; tests/references/make_expand_oracle.py): " + _table_key(table))
+    return entry
+
+
+def _same(rec: dict, v) -> bool:
+    """``v`` equals the recorded value ``rec`` as the two paths were compared: arrays bit for bit
+    (:func:`_equal`), floats exactly (NaN equal to NaN), anything else by its type and value."""
+    t, r = rec["t"], rec["v"]
+    if t == "ndarray":
+        return isinstance(v, np.ndarray) and _equal(_oracle()[1][r], v)
+    if t == "float":
+        return isinstance(v, float) and _equal(float(r), float(v))
+    if t != type(v).__name__:
+        return False
+    if t in ("tuple", "list"):
+        return len(r) == len(v) and all(_same(x, y) for x, y in zip(r, v))
+    if t == "dict":
+        return r.keys() == {str(k) for k in v} and all(_same(r[str(k)], w) for k, w in v.items())
+    if hasattr(v, "model_dump"):                     # a table (ContactSpec, DiscsSpec, ...)
+        return _same(r, v.model_dump())
+    return r == (v.item() if isinstance(v, np.generic) else v)
+
+
+def _canonical(table):
+    """The spec of a shorthand ``[model]`` table by its expansion (the canonical spec), checked to be
+    what the case loader makes of the table as written."""
     new = _validate_model(expand(table))
-    return old, new
+    assert _validate_model(table).model_dump() == new.model_dump()     # what the loader makes of it
+    assert type(new) in (SDOFSceneSpec, BeamSceneSpec)
+    return new
 
 
-def _shorthand_names(spec) -> list:
-    return [k for k in type(spec).model_fields if k not in ("fidelity", "stop")]
+def _as_recorded(rec: dict, new, label: str) -> None:
+    """The canonical spec ``new`` of the recorded table answers as the shorthand spec did: the
+    shorthand's names, the hooks, the point stops, the continuation parameters, and its model packs
+    to the recorded kernel arrays bit for bit."""
+    for k, r in rec["names"].items():
+        assert _same(r, getattr(new, k)), f"{label}: {k}: {getattr(new, k)!r} vs recorded {r!r}"
+    for k, r in rec["hooks"].items():
+        assert _same(r, getattr(new, k)), f"{label}: {k}"
+    assert _same(rec["dofs"], new.dofs()) and _same(rec["stiffness_key"], new.stiffness_key()), label
+    if "point_stops" in rec:
+        assert _same(rec["point_stops"], [s.model_dump() for s in new.point_stop_tables]), label
+    for k, r in rec.get("native", {}).items():
+        if "err" in r:
+            with pytest.raises(ValueError, match=r["err"][:30]):
+                new.native_parameter(k)
+            continue
+        assert _same(r["ok"], new.native_parameter(k)), f"{label}: native_parameter({k!r})"
+    b = _packed(new.build())
+    assert rec["packed"].keys() == b.keys()
+    for k, r in rec["packed"].items():
+        assert _same(r, b[k]), f"{label}: {k} differs: {b[k]!r} vs recorded {r!r}"
 
 
 @pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
 def test_the_expanded_shipped_case_packs_to_the_same_kernel_arrays(path):
     """Every shipped case and run override: ``expand`` then the canonical spec builds the model
-    today's shorthand spec builds, bit for bit in every array the kernels read."""
+    the shorthand spec built, bit for bit in every array the kernels read."""
     case = load_case(path)
     before = case.model_dump_json()
     for label, overrides in _variants(case):
@@ -102,30 +177,9 @@ def test_the_expanded_shipped_case_packs_to_the_same_kernel_arrays(path):
             assert canonical is table
             continue
         assert canonical["system"]["builder"] == table["fidelity"] and "fidelity" not in canonical
-        old, new = _both(table)
-        assert type(old) in (SDOFModelSpec, BeamModelSpec) and type(new) in (SDOFSceneSpec, BeamSceneSpec)
-        # the framework's questions: the shorthand's names and the hooks answer the same
-        for k in _shorthand_names(old):
-            assert getattr(new, k) == getattr(old, k), f"{path.stem} {label}: {k}"
-        for k in ("physical", "two_sided", "mixed_stops", "fidelity"):
-            assert getattr(new, k) == getattr(old, k), f"{path.stem} {label}: {k}"
-        assert new.dofs() == old.dofs() and new.stiffness_key() == old.stiffness_key()
-        if isinstance(old, BeamModelSpec):
-            assert [s.model_dump() for s in new.point_stop_tables] == [s.model_dump() for s in old.stop or ()]
-        if isinstance(old, SDOFModelSpec):
-            for k in ("Omega", "B", "Delta", "R", "beta", "voltage", "gain", "gap_mm", "damping_ratio", "R_lower",
-                      "Delta_lower", "gap_lower_mm"):
-                try:
-                    want = old.native_parameter(k)
-                except ValueError as e:
-                    with pytest.raises(ValueError, match=str(e)[:30]):
-                        new.native_parameter(k)
-                    continue
-                assert new.native_parameter(k) == want
-        a, b = _packed(old.build()), _packed(new.build())
-        assert a.keys() == b.keys()
-        for k in a:
-            assert _equal(a[k], b[k]), f"{path.stem} {label}: {k} differs: {a[k]!r} vs {b[k]!r}"
+        rec = _recorded(table)
+        assert rec["hooks"]["fidelity"]["v"] in ("sdof", "beam")
+        _as_recorded(rec, _canonical(table), f"{path.stem} {label}")
     # the case as run (its JSON, whose hash marks its results) is the table as written
     assert case.model_dump_json() == before
     assert case_hash(load_case(path).model_dump_json()) == case_hash(before)
@@ -139,8 +193,9 @@ def test_the_lower_stop_comes_second_and_point_stops_keep_their_codes():
     table = case.model
     stops = table["stop"]
     assert len(stops) == 2
-    old, new = _both(table)
-    assert list(new.build().stop_codes()) == list(old.build().stop_codes()) == [0, 2]
+    new = _canonical(table)
+    assert list(new.build().stop_codes()) == list(_oracle()[1][_recorded(table)["packed"]["stop_codes"]["v"]]) \
+        == [0, 2]
     # a lower stop at the mass given last, a point stop first: reordered, codes 0, 1, 2
     lower = {"side": "lower", "gap_mm": 0.5, "R": 0.6}
     shuffled = dict(table, stop=[stops[1], lower, stops[0]])
@@ -148,10 +203,10 @@ def test_the_lower_stop_comes_second_and_point_stops_keep_their_codes():
     assert [s.get("position_mm") for s in canonical["stop"]] == [None, None, stops[1]["position_mm"]]
     assert [s["side"] for s in canonical["stop"]] == ["upper", "lower", stops[1].get("side", "upper")]
     assert origins[("stop", 0)] == "stop[2]" and origins[("stop", 1)] == "stop[1]" and origins[("stop", 2)] == "stop[0]"
-    old, new = _both(shuffled)
-    assert list(new.build().stop_codes()) == list(old.build().stop_codes()) == [0, 1, 2]
-    a, b = _packed(old.build()), _packed(new.build())
-    assert all(_equal(a[k], b[k]) for k in a)
+    new, rec = _canonical(shuffled), _recorded(shuffled)
+    assert list(new.build().stop_codes()) == list(_oracle()[1][rec["packed"]["stop_codes"]["v"]]) == [0, 1, 2]
+    b = _packed(new.build())
+    assert all(_same(r, b[k]) for k, r in rec["packed"].items())
 
 
 # shorthand tables beyond the shipped cases: two-sided, compliant, mixed laws, physical
@@ -195,15 +250,38 @@ _TABLES.update({
 @pytest.mark.parametrize("name", list(_TABLES))
 def test_shorthand_tables_pack_the_same(name):
     """Two-sided, compliant, mixed, physical SDOF and beam tables, stop tables in any order: the
-    expanded tables build the same kernel arrays as the shorthand."""
+    expanded tables build the same kernel arrays as the shorthand did."""
     table = _TABLES[name]
-    old, new = _both(table)
-    for k in _shorthand_names(old):
-        assert getattr(new, k) == getattr(old, k), k
-    assert (new.two_sided, new.mixed_stops) == (old.two_sided, old.mixed_stops)
-    a, b = _packed(old.build()), _packed(new.build())
-    for k in a:
-        assert _equal(a[k], b[k]), f"{name}: {k}"
+    _as_recorded(_recorded(table), _canonical(table), name)
+
+
+def test_every_recorded_table_is_built_as_recorded():
+    """Every table of the recording (the shipped cases' as they were at the recording, whatever
+    became of them since, and the tables above): the canonical path builds what the shorthand spec
+    classes built."""
+    entries = list(_oracle()[0].values())
+    assert len(entries) == 63   # as recorded: 48 tables of the shipped cases, the shuffled one, 14 above
+    for rec in entries:
+        _as_recorded(rec, _canonical(rec["table"]), rec["label"])
+
+
+def test_the_shorthand_keys_are_those_of_the_shorthand_classes():
+    """``SHORTHAND_KEYS`` (the keys a shorthand table may have, documented in cases/README.md) are the
+    fields the shorthand spec classes had (recorded: their names; ``stop``, which both took, the SDOF's
+    through its before-validator), and each expands into the canonical tables (a location whose
+    origin is the key)."""
+    by_fidelity = {}
+    for rec in _oracle()[0].values():
+        by_fidelity.setdefault(rec["hooks"]["fidelity"]["v"], set(rec["names"]))
+    assert set(by_fidelity) == set(SHORTHAND_FIDELITIES)
+    for fid, names in by_fidelity.items():
+        keys = SHORTHAND_KEYS[fid]
+        assert len(keys) == len(set(keys)) and set(keys) == names | {"fidelity", "stop"}, fid
+        for k in names:
+            value = {"law": "restitution"} if k in ("contact", "contact_lower", "discs", "calibrate") else 0.5
+            extra = {"Delta_lower": 0.5} if k == "contact_lower" else {}
+            origins = expanded({"fidelity": fid, k: value, **extra})[1]
+            assert any(o == k or o.startswith(k + ".") for o in origins.values()), (fid, k, origins)
 
 
 def test_canonical_tables_pass_through_and_origins_name_the_users_keys():

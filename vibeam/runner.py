@@ -648,7 +648,7 @@ def _assemble(case, jobs_, rows_of):
             line_rows = [rows_of[f"{r.name}/{l.key}"] for l in lines]
             wall = float(sum(row.get("wall_time_s", 0.0) for rs in line_rows for row in rs))
             res = sweep.assemble(job.solver, job.sweep, r.name, line_rows, wall)
-            res.attrs["model"] = job.spec.model_dump()
+            res.attrs["model"] = job.spec.as_written()
             assess.collect(case, r, res)
             res.attrs.update(getattr(job.solver, "run_attrs", {}))
             res.attrs.update(job.spec.result_attrs())
@@ -661,7 +661,7 @@ def _assemble(case, jobs_, rows_of):
                     line_rows.setdefault((job.j, l.direction), []).extend(rows_of[f"{r.name}/{l.key}"])
             m = assemble_map(r.name, [j.solver for j in js], js[0].sweep, case.map.parameter,
                              case.map.grid(), dirs, line_rows)
-            m.attrs["model"] = js[0].spec.model_dump()
+            m.attrs["model"] = js[0].spec.as_written()
             maps.append(m)
     return runs, maps
 

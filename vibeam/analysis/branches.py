@@ -24,6 +24,7 @@ import numpy as np
 from matplotlib import patheffects
 
 from vibeam.case.contact import model_with
+from vibeam.case.expand import expand
 from vibeam.case.paths import alias_of, get_value, is_path, key_of
 from vibeam.case.schema import check_frequency_range
 from vibeam.engine.records import summarize
@@ -232,18 +233,11 @@ def _natural_frequency(spec):
 
 
 def _with(spec, **over):
-    """The spec with some keys (or continuation parameters, through the spec's
-    ``parameter_values``; on the canonical tables through their paths) replaced (validated
-    again)."""
-    if "system" in type(spec).model_fields:
-        # the canonical tables (vibeam.case.expand): the table as written, each key set through the
-        # path it stands for (R -> stops[0].law.R, R_lower -> stops[1].law.R, voltage ->
-        # excitation.voltage: vibeam.case.paths.path_of)
-        return type(spec).model_validate(model_with(spec.model_dump(exclude_unset=True), over))
-    data = spec.model_dump()
-    for k, v in over.items():
-        data.update(spec.parameter_values(k, v) if hasattr(spec, "parameter_values") else {k: v})
-    return type(spec).model_validate(data)
+    """The spec with some keys (or continuation parameters) replaced, validated again: the
+    canonical tables as written (every ``[model]`` is validated in them: :mod:`vibeam.case.expand`),
+    each key set through the path it stands for (R -> stops[0].law.R, R_lower -> stops[1].law.R,
+    voltage -> excitation.voltage: :func:`vibeam.case.paths.path_of`)."""
+    return type(spec).model_validate(model_with(spec.model_dump(exclude_unset=True), over))
 
 
 def spec_at(task: BranchTask, spec, value: float):
@@ -251,7 +245,7 @@ def spec_at(task: BranchTask, spec, value: float):
     the spec (:func:`_with`), a path set in the table as written (``task.table``)."""
     if task.table is None:
         return _with(spec, **{task.parameter: value})
-    return type(spec).model_validate(model_with(task.table, {task.parameter: float(value)}))
+    return type(spec).model_validate(expand(model_with(task.table, {task.parameter: float(value)})))
 
 
 def task_problem(task: BranchTask, spec):
@@ -583,7 +577,7 @@ def assemble(task: BranchTask, row: dict) -> ContinuationResult:
             attrs["frequency_hz"] = task.at * fn
     if task.curve_key:
         attrs["curve_parameter"] = task.curve_key
-    attrs["model"] = spec.model_dump(exclude_unset=True) if "system" in type(spec).model_fields else spec.model_dump()
+    attrs["model"] = spec.as_written(exclude_unset=True)
     return ContinuationResult(name=task.run, fidelity=spec.fidelity, parameter=name,
                               settings=task.settings, branches=row.get("branches", []),
                               starts=row.get("starts", []), curves=row.get("curves", []),

@@ -48,7 +48,7 @@ class BeamScene:
 
 
 def geometry_of(spec):
-    """BeamGeometry of a :class:`vibeam.case.schema.BeamModelSpec` before calibration."""
+    """BeamGeometry of a :class:`vibeam.case.schema.BeamSceneSpec` before calibration."""
     kw = dict(length_m=spec.length_mm * 1e-3, mass_position_m=spec.mass_position_mm * 1e-3,
               sensor_position_m=spec.sensor_position_mm * 1e-3)
     if spec.EI_n_m2 is not None:
@@ -324,7 +324,7 @@ def build_beam_model_with_effects(spec, effects, base_model=None):
     plat = effects.platform
     coupled = plat is not None and plat.level == "coupled"
     e = ecc.offset_mm * 1e-3 if ecc is not None else 0.0
-    if (ecc is not None or coupled) and getattr(spec, "stop", None):
+    if (ecc is not None or coupled) and spec.point_stop_tables:
         which = "effects.eccentric_impact" if ecc is not None else "effects.platform (level = \"coupled\")"
         raise _err(f"{which} with stops away from the attached mass ([[model.stop]] with position_mm) is not "
                    f"implemented; allowed: these effects with the stops at the mass")

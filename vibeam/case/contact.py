@@ -209,96 +209,15 @@ class StopSpec(ContactSpec):
         if len(given) != 1:
             raise ValueError(f"give the stop's gap once: one of gap_mm (at the sensor), contact_gap_mm (at the "
                              f"stop, beam scenes) or Delta (nondimensional SDOF scenes); got {given or 'none'}")
-        if self.stop_R is None:
+        if self.R is None:
             raise ValueError("give the stop's R (Newton's coefficient of restitution, or a compliant law's target)")
         return self
-
-    @property
-    def stop_R(self):
-        """The stop's R: Newton's, or the compliant law's target."""
-        return self.R
 
     def law_table(self) -> dict:
         """The ``[model.contact]``-style table of its law (no geometry, no R of a compliant law)."""
         d = {k: v for k, v in self.model_dump(exclude_none=True).items()
              if k in ContactSpec.model_fields and k != "R"}
         return d
-
-
-def stops_as_keys(data: dict, fidelity: str) -> dict:
-    """A ``[model]`` table with ``[[model.stop]]`` written with the shorthand keys (the paper's
-    stop and a lower one at the attached mass) and, for a beam, ``point_stops`` (the others).
-
-    Raises
-    ------
-    ValueError
-        Naming the stop and key: a stop table that is not valid, a shorthand key beside
-        ``[[model.stop]]``, no upper stop at the attached mass, two stops of one side there, a
-        ``position_mm`` on an SDOF, a compliant law away from the attached mass.
-    """
-    stops = data.get("stop")
-    if stops is None:
-        return data
-    if not isinstance(stops, list) or not stops:
-        raise ValueError("[[model.stop]] must be a list of tables, one per stop")
-    short = [k for k in ("R", "Delta", "Delta_lower", "gap_mm", "contact_gap_mm", "gap_lower_mm",
-                         "contact_gap_lower_mm", "contact", "contact_lower") if k in data]
-    if short:
-        raise ValueError(f"give the stops either as [[model.stop]] tables or by the shorthand keys, not both "
-                         f"(got [[model.stop]] and {short})")
-    specs = []
-    for i, s in enumerate(stops):
-        try:
-            specs.append(StopSpec(**s) if isinstance(s, dict) else StopSpec.model_validate(s))
-        except Exception as e:          # pydantic's ValidationError: one line naming the stop
-            msg = str(e).splitlines()
-            detail = "; ".join(line.strip() for line in msg[1:] if line.strip() and not line.strip().startswith("For "))
-            raise ValueError(f"stop[{i}]: {detail or msg[0]}") from None
-    out = {k: v for k, v in data.items() if k != "stop"}
-    mass = data.get("mass_position_mm")
-    at_mass = [s.position_mm is None or (mass is not None and abs(s.position_mm - mass) <= 1e-9 * max(mass, 1.0))
-               for s in specs]
-    if fidelity == "sdof" and any(s.position_mm is not None for s in specs):
-        raise ValueError("stop: position_mm is a beam key (the SDOF has one coordinate, at the sensor); allowed "
-                         "in an SDOF stop table: side, Delta or gap_mm, R and the law's keys")
-    up = [i for i, s in enumerate(specs) if at_mass[i] and s.side == "upper"]
-    lo = [i for i, s in enumerate(specs) if at_mass[i] and s.side == "lower"]
-    if not up:
-        raise ValueError("stop: no upper stop at the attached mass: the first one there is the paper's stop, "
-                         "from which the amplitude Q is measured; give one (side = \"upper\", no position_mm)")
-    if len(up) > 1 or len(lo) > 1:
-        side = "upper" if len(up) > 1 else "lower"
-        raise ValueError(f"stop: two {side} stops at the attached mass (stops {up if len(up) > 1 else lo}); "
-                         f"allowed: one of each side there")
-    u = specs[up[0]]
-    gap_keys = {"gap_mm": ("gap_mm", "gap_lower_mm"), "contact_gap_mm": ("contact_gap_mm", "contact_gap_lower_mm"),
-                "Delta": ("Delta", "Delta_lower")}
-    for key, (k_up, k_lo) in gap_keys.items():
-        if getattr(u, key) is not None:
-            out[k_up] = getattr(u, key)
-    out["R"] = u.stop_R
-    if u.law != "restitution":
-        out["contact"] = u.law_table()
-    if lo:
-        w = specs[lo[0]]
-        for key, (k_up, k_lo) in gap_keys.items():
-            if getattr(w, key) is not None:
-                out[k_lo] = getattr(w, key)
-        table = w.law_table()
-        if w.law == "restitution" or w.stop_R != u.stop_R:
-            table["R"] = w.stop_R        # Newton's R, or a compliant law's own target R
-        out["contact_lower"] = table
-    points = [s for i, s in enumerate(specs) if not at_mass[i]]
-    for s in points:
-        if s.law != "restitution":
-            raise ValueError(f"stop at position_mm = {s.position_mm:g}: law = {s.law!r} away from the attached mass "
-                             f"is not implemented; allowed there: law = \"restitution\"")
-        if s.Delta is not None:
-            raise ValueError(f"stop at position_mm = {s.position_mm:g}: Delta is an SDOF key; give gap_mm (at the "
-                             f"sensor) or contact_gap_mm (at the stop)")
-    if points:
-        out["point_stops"] = [s.model_dump(exclude_none=True) for s in points]
-    return out
 
 
 _UPPER_GAPS = ("gap_mm", "contact_gap_mm", "Delta")
@@ -356,7 +275,7 @@ def model_with(model: dict, values: dict | None) -> dict:
             if isinstance(s, dict) and s.get("side", "upper") == side and "position_mm" not in s:
                 return s
         if side == "upper":
-            return None                       # refused by stops_as_keys in one line
+            return None                       # refused by the canonical validation in one line
         up = at_mass("upper")                 # a new lower stop takes the paper's R, as R_lower does
         s = {"side": "lower", **({"R": up["R"]} if up is not None and "R" in up else {})}
         stops.append(s)

@@ -36,7 +36,8 @@ from __future__ import annotations
 
 import copy
 
-__all__ = ["expand", "expanded", "alias", "aliases", "user_key", "SHORTHAND_FIDELITIES"]
+__all__ = ["expand", "expanded", "alias", "aliases", "user_key", "required_keys", "SHORTHAND_FIDELITIES",
+           "SHORTHAND_KEYS"]
 
 #: the fidelities whose ``[model]`` table has a shorthand (``fidelity = ...``), expanded into the
 #: ``[model.system] builder`` of the same name
@@ -58,6 +59,19 @@ _UPPER_GAPS = ("Delta", "gap_mm", "contact_gap_mm")
 _LOWER_GAPS = {"Delta_lower": "Delta", "gap_lower_mm": "gap_mm", "contact_gap_lower_mm": "contact_gap_mm"}
 #: the shorthand keys of the stops (refused beside ``[[model.stop]]``)
 _STOP_KEYS = ("R", *_UPPER_GAPS, *_LOWER_GAPS, "contact", "contact_lower")
+#: the keys a shorthand ``[model]`` table of each fidelity may have (others are refused by name), in
+#: the order the case-file reference (``cases/README.md``, :mod:`vibeam.case.reference`) lists them and
+#: a run stores them (``attrs["model"]``): ``fidelity``, the system's keys, the stops' and the drive's
+#: (each in the table :func:`expand` puts it in; ``tests/test_expand.py`` checks they are these)
+SHORTHAND_KEYS = {
+    "sdof": ("fidelity", "beta", "B", "R", "Delta", "natural_frequency_hz", "damping_ratio", "gap_mm", "length_mm",
+             "gain", "voltage", "Delta_lower", "gap_lower_mm", "contact", "contact_lower", "stop"),
+    "beam": ("fidelity", "length_mm", "sensor_position_mm", "mass_position_mm", "width_mm", "thickness_mm",
+             "youngs_modulus_gpa", "density_kg_m3", "EI_n_m2", "rhoA_kg_m", "mass_kg", "rotary_inertia_kg_m2", "discs",
+             "calibrate", "R", "gap_mm", "contact_gap_mm", "gap_lower_mm", "contact_gap_lower_mm", "contact",
+             "contact_lower", "stop", "gain", "voltage", "damping_ratio", "rayleigh_alpha_1_s", "n_modes",
+             "n_elements"),
+}
 #: a law's keys in a stop table besides ``law`` and ``R``
 _LAW_NUMBERS = ("stiffness", "stiffness_n_m", "damping_ratio", "exponent", "mass_kg")
 
@@ -86,7 +100,7 @@ def expand(model: dict) -> dict:
     ValueError
         Only where the shorthand cannot be expanded, naming the key: the stops given both as
         ``[[model.stop]]`` tables and by shorthand keys, ``[model.contact] R`` (the upper stop's R
-        is ``[model] R``).  A value that is not valid is left for the canonical validation.
+        is ``[model] R``), ``[model.contact_lower]`` without a lower gap.  A value that is not valid is left for the canonical validation.
     """
     return expanded(model)[0]
 
@@ -157,6 +171,8 @@ def _shorthand_stops(model: dict) -> tuple[list, dict]:
     origins[("stop", 0)] = "model"
     lower_keys = [k for k in _LOWER_GAPS if k in model]
     lower = model.get("contact_lower")
+    if lower is not None and not lower_keys:
+        raise ValueError(f"[model.contact_lower] needs a lower stop: give one of {list(_LOWER_GAPS)}")
     if lower_keys or lower is not None:
         lo: dict = {"side": "lower"}
         for k in lower_keys:
@@ -251,12 +267,17 @@ def _flat_keys(builder: str) -> tuple:
             *_LOWER_GAPS)
 
 
-def user_key(origins: dict, loc: tuple) -> str:
+def user_key(origins: dict, loc: tuple, builder: str | None = None) -> str:
     """The key the user wrote for canonical location ``loc`` (a pydantic error location inside
     ``[model]``, e.g. ``("system", "damping_ratio")``, ``("stop", 1, "R")``): the origin of its
     longest mapped prefix with the rest appended (``("system", "discs", "count")`` ->
-    ``"discs.count"``); ``loc`` written as a dotted key where nothing maps it."""
+    ``"discs.count"``); with ``builder`` (a shorthand fidelity), a location the user did not write
+    (a missing key) by the shorthand key that gives it (``("stop", 0, "R")`` -> ``"R"``); ``loc``
+    written as a dotted key where nothing maps it."""
     loc = tuple(loc)
+    if builder in SHORTHAND_FIDELITIES:
+        full = expanded({"fidelity": builder, **{k: 0.0 for k in _flat_keys(builder)}})[1]
+        origins = {**{k: v for k, v in full.items() if len(k) > 1 or k == ("stop",)}, **origins}
     for n in range(len(loc), 0, -1):
         if loc[:n] in origins:
             head = origins[loc[:n]]
@@ -273,3 +294,18 @@ def _dotted(parts, lead: bool) -> str:
         else:
             out += ("." if out or lead else "") + str(p)
     return out
+
+
+def required_keys(fidelity: str, model: dict) -> tuple:
+    """The keys a shorthand ``[model]`` table of ``fidelity`` (``"sdof"`` or ``"beam"``) must give,
+    by their shorthand names: the drive (``gain``, ``voltage``), ``R`` and, for the SDOF, the
+    damping and the gap of the nondimensional (``beta``, ``B``, ``Delta``: paper Eqs. 1-2) or the
+    physical form (Eqs. 43-46) the table is written in; the stops' keys not where ``[[model.stop]]``
+    tables give the stops."""
+    out = ("gain", "voltage")
+    if fidelity == "sdof":
+        phys = ("natural_frequency_hz", "damping_ratio", "gap_mm", "length_mm", "gain", "voltage")
+        nondim = ("beta", "B", "Delta")
+        given_p, given_n = any(k in model for k in phys), any(k in model for k in nondim)
+        out = phys if given_p and not given_n else () if given_p else nondim
+    return tuple(k for k in (*out, "R") if "stop" not in model or k not in ("R", "Delta", "gap_mm"))

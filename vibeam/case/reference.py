@@ -16,22 +16,64 @@ import typing
 from pathlib import Path
 
 import annotated_types as at
-from pydantic import BaseModel
+from pydantic import BaseModel, create_model
 
 from vibeam.case import schema
 from vibeam.case.contact import ContactSpec, StopSpec
+from vibeam.case.expand import SHORTHAND_KEYS, alias, required_keys
 from vibeam.errors import InputError
 from vibeam.io.outdir import write_text_file
 from vibeam.models.registry import IMPLEMENTED_LAWS
 from vibeam.case.uncertainty import UncertaintyParameterSpec, UncertaintySpec
 
+def shorthand_table(fidelity: str) -> type[BaseModel]:
+    """The shorthand ``[model]`` table of ``fidelity`` (``"sdof"``, ``"beam"``) as a pydantic model
+    for the key reference (not a validator: a shorthand table is validated by its expansion with the
+    canonical spec, :func:`vibeam.case.schema._validate_model`).
+
+    Its keys are :data:`vibeam.case.expand.SHORTHAND_KEYS`, each with the type, allowed range and
+    default of the canonical key it expands into (:func:`vibeam.case.expand.alias`: ``[model.system]``,
+    ``[model.excitation]``, a ``[[model.stop]]`` of :data:`vibeam.case.schema.CANONICAL_SPECS`); the
+    law tables ``contact``, ``contact_lower`` are :class:`ContactSpec`, ``stop`` a list of
+    :class:`StopSpec`.  A key is required when the table must give it whichever form it is written
+    in (:func:`vibeam.case.expand.required_keys`), or when its canonical key is required and no other
+    shorthand key gives it (``beta`` and ``damping_ratio`` both give the SDOF's damping ratio: neither
+    is required by itself); the others default to the canonical key's default, or none.
+    """
+    spec = schema.CANONICAL_SPECS[fidelity]
+    keys = SHORTHAND_KEYS[fidelity]
+    flat = {k: (alias(fidelity, k) or f"system.{k}") for k in keys if k not in ("contact", "contact_lower", "stop")}
+    flat["fidelity"] = "system.builder"
+
+    def field(path):
+        table, name = path.split(".")[0], path.split(".")[-1]    # stops[i].law.R: a stop table's R
+        ann = spec.model_fields["stop" if table.startswith("stops[") else table].annotation
+        return (typing.get_args(ann)[0] if table.startswith("stops[") else ann).model_fields[name]
+
+    every_form = set(required_keys(fidelity, {})) & set(required_keys(fidelity, dict.fromkeys(flat, 0.0)))
+    fields = {}
+    for k in keys:
+        if k in ("contact", "contact_lower"):
+            fields[k] = (ContactSpec | None, None)
+            continue
+        if k == "stop":
+            fields[k] = (list[StopSpec] | None, None)
+            continue
+        f = field(flat[k])
+        alone = [q for q in flat if flat[q] == flat[k]] == [k]
+        required = k in every_form or (f.is_required() and alone)
+        ann = typing.Annotated[(f.annotation, *f.metadata)] if f.metadata else f.annotation
+        fields[k] = (ann, ...) if required else (ann | None, None if f.is_required() else f.default)
+    return create_model(f"{spec.__name__}Shorthand", **fields)
+
+
 #: the tables of a case file in reading order: (heading, pydantic model, note)
 TABLES = (
     ("top level", schema.Case, "the scene's name and what it shows; the tables below"),
-    ("[model] (fidelity = \"sdof\")", schema.SDOFModelSpec,
+    ("[model] (fidelity = \"sdof\")", shorthand_table("sdof"),
      "the coefficient-of-restitution oscillator: nondimensional (paper Eqs. 1-2: beta, B, Delta) or "
      "physical (Eqs. 43-46: natural_frequency_hz, damping_ratio, gap_mm, length_mm, gain, voltage), not both"),
-    ("[model] (fidelity = \"beam\")", schema.BeamModelSpec,
+    ("[model] (fidelity = \"beam\")", shorthand_table("beam"),
      "the finite-element cantilever with its attached mass (paper Eqs. 39-41, Fig. 15); lengths in mm"),
     ("[model.discs]", schema.DiscsSpec, "the attached mass as a stack of discs (paper Sec. 5)"),
     ("[model.calibrate]", schema.CalibrateSpec, "EI (and J) fitted to measured bending frequencies"),
@@ -144,6 +186,8 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
         "gap_lower_mm": ("mm", "a second stop gap_lower_mm below the equilibrium, at the sensor"),
         "contact": ("", "[model.contact]: the stop's law (default Newton's restitution)"),
         "contact_lower": ("", "[model.contact_lower]: the lower stop's law"),
+        "stop": ("", "[[model.stop]]: the stops, one table each (below), instead of R, Delta, gap_mm, the lower "
+                 "stop's keys and the contact tables"),
     },
     "[model] (fidelity = \"beam\")": {
         "fidelity": ("", "\"beam\": Euler-Bernoulli cantilever (scikit-fem Hermite elements), modal flow"),

@@ -39,13 +39,13 @@ from typing import Annotated, ClassVar, Literal, Union
 import numpy as np
 from vibeam.case.uncertainty import UncertaintySpec
 from vibeam.case.contact import (ContactSpec, StopSpec, beam_law,  # [model.contact] (issue 13), [[model.stop]]
-                                 model_with, sdof_law, stops_as_keys, target_R)
-from vibeam.case.expand import aliases
+                                 model_with, sdof_law, target_R)
+from vibeam.case.expand import SHORTHAND_FIDELITIES, SHORTHAND_KEYS, aliases, expanded, required_keys, user_key
 from vibeam.case.paths import alias_of, canonical, flat_key, get_value, is_canonical, is_path, parameter_paths
 from vibeam.io.inputs import read_input_text
 from vibeam.models.registry import fidelity, is_compliant, law_key, supported_methods
 from vibeam.errors import CaseError, InputError, one_line, quote_value  # noqa: F401 (re-exported)
-from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_validator,
+from pydantic import (BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator,
                       model_validator)
 
 
@@ -166,31 +166,27 @@ def lower_law_spec(spec):
     return lo
 
 
-#: spec class of each fidelity's ``[model]`` table, by its name in the fidelity registry
-#: (:mod:`vibeam.models.registry`); filled by :func:`register_model_spec`
-MODEL_SPECS: dict = {}
-
-
-def register_model_spec(name: str):
-    """Class decorator: the spec class of the ``[model]`` table of fidelity ``name``.
-
-    A spec class validates the table (pydantic) and is the framework's one place for what
-    is specific to its fidelity: ``build()`` (the model), ``physical``, ``dofs()`` (degrees of
-    freedom, for the work estimate), ``result_attrs()`` (derived values stored with a run),
-    ``converged_reference(table)`` (the model table a cost table measures errors against),
-    ``effect_model(effects, model)`` (the model with the structural effects of a run),
-    ``case_update(key, value)`` (a fitted value written back as case keys) and
-    ``check(prefix)`` (checks beyond the table itself).
-    """
-    def deco(cls):
-        MODEL_SPECS[name] = cls
-        return cls
-    return deco
-
-
 class _StopsSpec(_Strict):
     """What the model tables of both fidelities share: the stops' case keys as continuation
     parameters."""
+
+    #: the fidelity of the shorthand the table was written in (:func:`_validate_model`), else None
+    _shorthand: str | None = PrivateAttr(default=None)
+
+    def as_written(self, exclude_unset: bool = False) -> dict:
+        """The validated ``[model]`` a run stores with its results (``attrs["model"]``, read by the
+        figures' subtitles): the canonical tables, or, written in the shorthand, its keys with the
+        scene's values (:data:`vibeam.case.expand.SHORTHAND_KEYS`; the stops away from the attached
+        mass as ``stop``)."""
+        if self._shorthand is None:
+            return self.model_dump(exclude_unset=exclude_unset)
+        out = {"fidelity": self._shorthand}
+        for k in SHORTHAND_KEYS[self._shorthand][1:]:      # after fidelity
+            v = getattr(self, k, None) if k != "stop" else None
+            out[k] = v.model_dump() if isinstance(v, BaseModel) else v
+        points = getattr(self, "point_stop_tables", None)
+        out["stop"] = [st.model_dump() for st in points] or None if points is not None else None
+        return out
 
     def stiffness_key(self):
         """``(case key, value)`` of the paper's stop's contact stiffness when the case gives it in
@@ -201,20 +197,12 @@ class _StopsSpec(_Strict):
             return "model.contact.stiffness_n_m", float(t.stiffness_n_m)
         return None
 
-    def parameter_values(self, key: str, value: float) -> dict:
-        """The keys of this table that give the continuation parameter ``key`` (of
-        :meth:`native_parameter`) the value ``value``: the key itself, or for ``R_lower`` the
-        ``R`` of ``[model.contact_lower]`` (the lower stop's own law from then on)."""
-        if key == "R_lower":
-            lo = self.contact_lower.model_dump() if self.contact_lower is not None else {}
-            return {"contact_lower": {**lo, "R": float(value)}}
-        return {key: value}
 
 
 class _SDOFSpec(_StopsSpec):
-    """What the SDOF's ``[model]`` spec forms share (the shorthand keys, :class:`SDOFModelSpec`;
-    the canonical tables, :class:`SDOFSceneSpec`): the checks, the build and the fidelity's hooks,
-    reading the table's numbers by the shorthand's names (fields or properties)."""
+    """The SDOF's ``[model]`` spec (base of :class:`SDOFSceneSpec`, the canonical tables, which the
+    shorthand expands into): the checks, the build and the fidelity's hooks, reading the table's
+    numbers by the shorthand's names (properties of the spec)."""
 
     @model_validator(mode="after")
     def _one_parameter_set(self):
@@ -327,7 +315,7 @@ class _SDOFSpec(_StopsSpec):
                                                               self.length_mm * 1e-3 if self.physical else None))
         return m
 
-    # ---- what is specific to this fidelity (see register_model_spec)
+    # ---- what is specific to this fidelity (see CANONICAL_SPECS)
     def dofs(self) -> int:
         """Degrees of freedom simulated (work estimate)."""
         return 1
@@ -399,33 +387,6 @@ class _SDOFSpec(_StopsSpec):
 
 
 
-@register_model_spec("sdof")
-class SDOFModelSpec(_SDOFSpec):
-    """``[model]`` of an SDOF scene: nondimensional (paper Eqs. 1-2) or physical (Eqs. 43-46)."""
-
-    fidelity: Literal["sdof"]
-    beta: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
-    B: Annotated[float, Field(ge=0.0)] | None = None
-    R: Annotated[float, Field(ge=0.0, le=1.0)]
-    Delta: float | None = None
-    natural_frequency_hz: Annotated[float, Field(gt=0.0)] | None = None
-    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
-    gap_mm: float | None = None
-    length_mm: Annotated[float, Field(gt=0.0)] | None = None
-    gain: Annotated[float, Field(ge=0.0)] | None = None
-    voltage: Annotated[float, Field(ge=0.0)] | None = None
-    Delta_lower: float | None = None
-    gap_lower_mm: float | None = None
-    contact: ContactSpec | None = None
-    contact_lower: ContactSpec | None = None
-
-    @model_validator(mode="before")
-    @classmethod
-    def _stops(cls, data):
-        """``[[model.stop]]`` tables written as the shorthand keys (:func:`vibeam.case.contact.stops_as_keys`)."""
-        return stops_as_keys(data, "sdof") if isinstance(data, dict) else data
-
-
 def build_or_refuse(spec, build):
     """``build()``, the model of a ``[model]`` spec; a value the model's constructors cannot
     use (they raise ValueError, or an arithmetic error such as an overflow) becomes a
@@ -475,10 +436,10 @@ def _beam_length(v):
 
 
 class _BeamSpec(_StopsSpec):
-    """What the beam's ``[model]`` spec forms share (the shorthand keys, :class:`BeamModelSpec`;
-    the canonical tables, :class:`BeamSceneSpec`): the checks, the build and the fidelity's hooks,
-    reading the table's numbers by the shorthand's names (fields or properties); the stops away
-    from the attached mass are :attr:`point_stop_tables`."""
+    """The beam's ``[model]`` spec (base of :class:`BeamSceneSpec`, the canonical tables, which the
+    shorthand expands into): the checks, the build and the fidelity's hooks, reading the table's
+    numbers by the shorthand's names (properties of the spec); the stops away from the attached
+    mass are :attr:`point_stop_tables`."""
 
     #: allowed ``length_mm``: the FE mesh (scikit-fem) locates the clamp and the attached mass
     #: by position to an absolute 1e-8 m, so its elements (down to L / 2000 with ``n_elements``
@@ -635,7 +596,7 @@ class _BeamSpec(_StopsSpec):
         """A restitution stop beside a compliant one (:func:`mixed_stops`)."""
         return mixed_stops(self)
 
-    # ---- what is specific to this fidelity (see register_model_spec)
+    # ---- what is specific to this fidelity (see CANONICAL_SPECS)
     def dofs(self) -> int:
         """Degrees of freedom simulated (work estimate): the retained modes (1 for the static
         mode, the mesh's ``2 n_elements`` for ``"all"``)."""
@@ -712,75 +673,6 @@ class _BeamSpec(_StopsSpec):
                 return {"calibrate": dict(self.calibrate.model_dump(exclude_none=True), f1_hz=float(value))}, []
             return {}, ["f_n not written: the beam has no [model.calibrate] (its f_n follows from EI)"]
         return {key: float(value)}, []
-
-
-@register_model_spec("beam")
-class BeamModelSpec(_BeamSpec):
-    """``[model]`` of a finite-element beam scene (paper Eqs. 39-41, Fig. 15).
-
-    Lengths in mm, masses in kg; section either ``width_mm``/``thickness_mm``
-    (+ ``youngs_modulus_gpa``, ``density_kg_m3``) or ``EI_n_m2``/``rhoA_kg_m``;
-    attached mass either ``mass_kg`` (+ ``rotary_inertia_kg_m2``) or
-    ``[model.discs]``; gap either ``gap_mm`` (grazing gap seen at the sensor,
-    Delta_G, as for the SDOF rig scenes) or ``contact_gap_mm`` (Delta_C at the
-    stop); excitation ``gain`` (the paper's normalised gamma, 1/V) and
-    ``voltage``; damping ``damping_ratio`` (of the first mode, giving the
-    stiffness-proportional D of Eq. 39) and optional ``rayleigh_alpha_1_s``;
-    ``n_modes`` retained modes (an integer, ``"all"``, or ``"static"`` for the
-    paper's single assumed static mode, i.e. the SDOF model of Eqs. 42-47).
-    """
-
-    fidelity: Literal["beam"]
-    length_mm: Annotated[float, Field(gt=0.0)]   # and within LENGTH_RANGE_MM (_length_in_range)
-    sensor_position_mm: Annotated[float, Field(gt=0.0)]
-    mass_position_mm: Annotated[float, Field(gt=0.0)]
-    width_mm: Annotated[float, Field(gt=0.0)] | None = None
-    thickness_mm: Annotated[float, Field(gt=0.0)] | None = None
-    youngs_modulus_gpa: Annotated[float, Field(gt=0.0)] = 200.0
-    density_kg_m3: Annotated[float, Field(gt=0.0)] = 7850.0
-    EI_n_m2: Annotated[float, Field(gt=0.0)] | None = None
-    rhoA_kg_m: Annotated[float, Field(gt=0.0)] | None = None
-    mass_kg: Annotated[float, Field(ge=0.0)] | None = None
-    rotary_inertia_kg_m2: Annotated[float, Field(ge=0.0)] = 0.0
-    discs: DiscsSpec | None = None
-    calibrate: CalibrateSpec | None = None
-    R: Annotated[float, Field(ge=0.0, le=1.0)]
-    gap_mm: float | None = None
-    contact_gap_mm: float | None = None
-    gap_lower_mm: float | None = None
-    contact_gap_lower_mm: float | None = None
-    contact: ContactSpec | None = None
-    contact_lower: ContactSpec | None = None
-    stop: list[StopSpec] | None = None     # [[model.stop]] away from the attached mass (the others: keys)
-    gain: Annotated[float, Field(ge=0.0)]
-    voltage: Annotated[float, Field(ge=0.0)]
-    damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] = 0.0
-    rayleigh_alpha_1_s: Annotated[float, Field(ge=0.0)] = 0.0
-    n_modes: Annotated[int, Field(ge=1)] | Literal["all", "static"] = 4
-    n_elements: Annotated[int, Field(ge=2, le=2000)] = 36
-
-    @field_validator("length_mm")
-    @classmethod
-    def _length_in_range(cls, v):
-        return _beam_length(v)
-
-    @model_validator(mode="before")
-    @classmethod
-    def _stops(cls, data):
-        """``[[model.stop]]`` tables: those at the attached mass written as the shorthand keys, the
-        others kept as point stops (:func:`vibeam.case.contact.stops_as_keys`)."""
-        if not isinstance(data, dict):
-            return data
-        data = stops_as_keys(data, "beam")
-        if "point_stops" in data:
-            data = dict(data)
-            data["stop"] = data.pop("point_stops")
-        return data
-
-    @property
-    def point_stop_tables(self) -> list:
-        """The stops away from the attached mass (:class:`vibeam.case.contact.StopSpec`)."""
-        return list(self.stop or ())
 
 
 class SystemSpec(_Strict):
@@ -878,7 +770,6 @@ class ExcitationSpec(_Strict):
         return self.amplitude_mm * 1e-3 if self.kind == "base_displacement" else 0.0
 
 
-@register_model_spec("matrices")
 class MatricesModelSpec(_StopsSpec):
     """``[model]`` of a structure given by its matrices (issue 58): the canonical tables
     ``[model.system]`` (:class:`SystemSpec`), ``[[model.stop]]`` (:class:`StructureStopSpec`, one
@@ -1116,7 +1007,6 @@ class ContinuumSystemSpec(_Strict):
         return self
 
 
-@register_model_spec("continuum")
 class ContinuumModelSpec(MatricesModelSpec):
     """``[model]`` of the rig as a 3D elastic continuum (issue 59): the canonical tables
     ``[model.system]`` (:class:`ContinuumSystemSpec`, ``builder = "continuum"``), ``[[model.stop]]``
@@ -1295,7 +1185,6 @@ class MeshStopSpec(StopSpec):
         return self
 
 
-@register_model_spec("mesh")
 class MeshModelSpec(ContinuumModelSpec):
     """``[model]`` of a user's part read from a mesh file (issue 59): ``[model.system]``
     (:class:`MeshSystemSpec`, ``builder = "mesh"``), ``[[model.stop]]`` (:class:`MeshStopSpec`: an upper
@@ -1398,8 +1287,8 @@ class SceneStopSpec(StopSpec):
     def _gap(self):
         given = [k for k in ("gap_mm", "contact_gap_mm", "Delta") if getattr(self, k) is not None]
         if len(given) != 1:
-            raise ValueError(f"give the stop's gap once: one of gap_mm (at the sensor), contact_gap_mm (at the "
-                             f"stop, beam scenes) or Delta (nondimensional SDOF scenes); got {given or 'none'}")
+            raise ValueError(f"give the stop's gap once: exactly one of gap_mm (at the sensor), contact_gap_mm (at "
+                             f"the stop, beam scenes) or Delta (nondimensional SDOF scenes); got {given or 'none'}")
         return self
 
 
@@ -1410,14 +1299,18 @@ def _scene_stops(spec, at_mass) -> int:
     of stops at the mass (1 or 2); raises ValueError naming the stop."""
     st = spec.stop
     if st[0].side != "upper" or not at_mass(st[0]):
-        raise ValueError("stop[0] is the paper's stop (the amplitude Q is measured from it): the upper stop at the "
-                         "attached mass (side = \"upper\", no position_mm)")
+        missing = "" if any(s.side == "upper" and at_mass(s) for s in st) else "no upper stop at the attached mass: "
+        raise ValueError(f"{missing}stop[0] is the paper's stop (the amplitude Q is measured from it): the upper stop "
+                         f"at the attached mass (side = \"upper\", no position_mm)")
     n = 2 if len(st) > 1 and st[1].side == "lower" and at_mass(st[1]) else 1
     for i, s in enumerate(st):
         if i >= n and at_mass(s):
-            raise ValueError(f"stop[{i}]: a second {s.side} stop at the attached mass; allowed: one upper stop there "
-                             f"(stop[0]) and one lower (stop[1])")
-        if s.R is None and i != 1:
+            if s.side == "lower" and n == 1:
+                raise ValueError(f"stop[{i}]: the lower stop at the attached mass comes second (stop[1])")
+            first = 0 if s.side == "upper" else 1
+            raise ValueError(f"stop[{i}]: two {s.side} stops at the attached mass (stop[{first}] and stop[{i}]); "
+                             f"allowed: one upper stop there (stop[0]) and one lower (stop[1])")
+        if s.R is None and not (i == 1 and n == 2):
             raise ValueError(f"stop[{i}]: give the stop's R (Newton's coefficient of restitution, or a compliant "
                              f"law's target)")
     return n
@@ -1461,9 +1354,10 @@ class SDOFSceneSpec(_SDOFSpec):
     def _one_parameter_set(self):
         # the tables' own checks first (naming the canonical keys), then the SDOF's
         for i, st in enumerate(self.stop):
-            if st.position_mm is not None or st.contact_gap_mm is not None:
-                raise ValueError(f"stop[{i}]: position_mm and contact_gap_mm are beam keys (the SDOF has one "
-                                 f"coordinate, at the sensor); allowed: side, Delta or gap_mm, R and the law's keys")
+            for key in ("position_mm", "contact_gap_mm"):
+                if getattr(st, key) is not None:
+                    raise ValueError(f"stop[{i}]: {key} is a beam key (the SDOF has one coordinate, at the sensor); "
+                                     f"allowed: side, Delta or gap_mm, R and the law's keys")
         _scene_stops(self, lambda st: True)
         ex = self.excitation
         allowed = ("gain", "amplitude_mm") if self.physical else ("amplitude",)
@@ -1541,9 +1435,11 @@ class BeamSystemSpec(_Strict):
     mass (paper Eqs. 39-41, Fig. 15): geometry, section (``width_mm``/``thickness_mm`` with
     ``youngs_modulus_gpa``, ``density_kg_m3``, or ``EI_n_m2``/``rhoA_kg_m``), attached mass
     (``mass_kg`` with ``rotary_inertia_kg_m2``, or ``[model.system.discs]``), calibration
-    (``[model.system.calibrate]``), damping (``damping_ratio`` of the first mode, Eq. 39, and
-    ``rayleigh_alpha_1_s``) and the kept modes (``n_modes``: a number, ``"all"`` or ``"static"``, on
-    ``n_elements`` elements); the keys of :class:`BeamModelSpec`."""
+    (``[model.system.calibrate]``), damping (``damping_ratio`` of the first mode, giving the
+    stiffness-proportional D of Eq. 39, and ``rayleigh_alpha_1_s``) and the kept modes (``n_modes``: a
+    number, ``"all"`` or ``"static"``: the paper's single assumed static mode, i.e. the SDOF model of
+    Eqs. 42-47; on ``n_elements`` elements); lengths in mm, masses in kg.  The shorthand's
+    (``fidelity = "beam"``) keys of the structure."""
 
     builder: Literal["beam"]
     length_mm: Annotated[float, Field(gt=0.0)]
@@ -1580,7 +1476,9 @@ class BeamSceneSpec(_BeamSpec):
     attached mass, optionally the lower one there, then Newton stops at other points by
     ``position_mm``, output codes 0, 1, 2 + i as the shorthand's) and ``[model.excitation]`` (a base
     displacement by the shaker's ``gain`` and ``voltage``: ``gamma~ V``, ``gamma~ = gain phi(x_m)
-    L``).  What the shorthand (``fidelity = "beam"`` and its keys) expands into
+    L``, the paper's normalised gain in 1/V).  A stop's gap is ``gap_mm`` (the grazing gap seen at the
+    sensor, Delta_G, as for the SDOF rig scenes) or ``contact_gap_mm`` (Delta_C at the stop).  What the
+    shorthand (``fidelity = "beam"`` and its keys) expands into
     (:func:`vibeam.case.expand.expand`); the beam's checks and build read the tables through the
     shorthand's names (the properties below)."""
 
@@ -1678,7 +1576,15 @@ for _name in _BEAM_SYSTEM_KEYS:
     setattr(BeamSceneSpec, _name, _system_key(_name))
 del _name
 
-#: the spec class of each ``[model.system] builder`` (the canonical tables, issue 58)
+#: the spec class of each ``[model.system] builder`` (the canonical tables, issue 58), by its
+#: fidelity's name in the fidelity registry (:mod:`vibeam.models.registry`; a shorthand ``[model]``
+#: is validated by the spec of the builder it expands into, :func:`_validate_model`).  A spec class
+#: validates the table (pydantic) and is the framework's one place for what is specific to its
+#: fidelity: ``build()`` (the model), ``physical``, ``dofs()`` (degrees of freedom, for the work
+#: estimate), ``result_attrs()`` (derived values stored with a run), ``converged_reference(table)``
+#: (the model table a cost table measures errors against), ``effect_model(effects, model)`` (the
+#: model with the structural effects of a run), ``case_update(key, value)`` (a fitted value written
+#: back as case keys) and ``check(prefix)`` (checks beyond the table itself)
 CANONICAL_SPECS = {"sdof": SDOFSceneSpec, "beam": BeamSceneSpec, "matrices": MatricesModelSpec,
                    "continuum": ContinuumModelSpec, "mesh": MeshModelSpec}
 
@@ -1690,7 +1596,7 @@ def _structure():
     return structure
 
 
-ModelSpec = Union[SDOFModelSpec, BeamModelSpec, MatricesModelSpec, ContinuumModelSpec, MeshModelSpec]
+ModelSpec = Union[SDOFSceneSpec, BeamSceneSpec, MatricesModelSpec, ContinuumModelSpec, MeshModelSpec]
 
 
 def fidelity_methods(name: str) -> tuple:
@@ -2328,8 +2234,9 @@ class Case(_Strict):
                      *((alias_of(self.model, p), p) for p in paths)]
             flat |= {k for k, p in given if not is_path(k) and k not in flat and _is_number(self.model, p)}
             return sorted(flat) + paths
-        return sorted(k for k, v in spec.model_dump().items()
-                      if isinstance(v, float) and not isinstance(v, bool)) + parameter_paths(self.model)
+        # the shorthand: its flat keys whose number the scene has (given, or a default: youngs_modulus_gpa)
+        return sorted(k for k in aliases(self.model["fidelity"]) if isinstance(getattr(spec, k, None), float)
+                      and not isinstance(getattr(spec, k), bool)) + parameter_paths(self.model)
 
 
 def _is_number(model: dict, path: str) -> bool:
@@ -2342,32 +2249,61 @@ def _is_number(model: dict, path: str) -> bool:
 
 
 def _validate_model(data: dict, prefix: str = "model"):
-    allowed = ", ".join(repr(k) for k in MODEL_SPECS)
+    """The spec of a ``[model]`` table: the shorthand (``fidelity = "sdof"`` / ``"beam"``) expanded
+    into the canonical tables (:func:`vibeam.case.expand.expanded`), which the spec of their
+    ``[model.system] builder`` validates; a message names the key the user wrote
+    (:func:`vibeam.case.expand.user_key`).  Raises CaseError in one line."""
+    allowed = ", ".join(repr(k) for k in CANONICAL_SPECS)
     if not isinstance(data, dict):
         raise CaseError(f"'{prefix}' = {quote_value(data)}: must be a table with fidelity = {allowed}")
-    system = data.get("system")
-    if "fidelity" not in data and isinstance(system, dict) and "builder" in system:
-        # the canonical tables (issue 58): [model.system] builder = ...
-        fid = system["builder"]
+    origins, shorthand, refused = {}, None, []
+    if "fidelity" in data:
+        fid = data["fidelity"]
         if not isinstance(fid, str) or fid not in CANONICAL_SPECS:
-            raise CaseError(f"'{prefix}.system.builder' = {quote_value(fid)} is not allowed; allowed: "
-                            f"{', '.join(chr(34) + k + chr(34) for k in CANONICAL_SPECS)}")
+            raise CaseError(f"'{prefix}.fidelity' = {quote_value(fid)} is not allowed; allowed: {allowed}")
+        if fid not in SHORTHAND_FIDELITIES:     # a builder without a shorthand: its spec names the wrong key
+            try:
+                return CANONICAL_SPECS[fid].model_validate(data)
+            except ValidationError as e:
+                raise CaseError(validation_message(e, prefix, CANONICAL_SPECS[fid])) from None
+        refused = [f"unknown key '{prefix}.{one_line(str(k))}' (value {quote_value(v)}); allowed keys: "
+                   f"{', '.join(sorted(SHORTHAND_KEYS[fid]))}" for k, v in data.items() if k not in SHORTHAND_KEYS[fid]]
+        data = {k: v for k, v in data.items() if k in SHORTHAND_KEYS[fid]}
+        # a required number the shorthand lacks is named by its key; a stand-in lets the other errors show
+        for k in required_keys(fid, data):
+            if k not in data:
+                refused.append(f"missing key '{prefix}.{k}'")
+                data[k] = 1.0 if k in ("R", "natural_frequency_hz", "length_mm") else 0.0
+        for k in ("contact", "contact_lower"):      # the shorthand's law tables, named as written
+            if isinstance(data.get(k), dict):
+                try:
+                    ContactSpec.model_validate(data[k])
+                except ValidationError as e:
+                    raise CaseError(validation_message(e, f"{prefix}.{k}", ContactSpec)) from None
         try:
-            spec = CANONICAL_SPECS[fid].model_validate(data)
-        except ValidationError as e:
-            raise CaseError(validation_message(e, prefix, CANONICAL_SPECS[fid])) from None
-        spec.check(prefix)
-        return spec
-    if "fidelity" not in data:
+            data, origins = expanded(data)
+            origins = {("system",): "model", ("excitation",): "model", **origins}
+        except ValueError as e:
+            raise CaseError(f"'{prefix}': {one_line(str(e))}") from None
+        shorthand = fid
+    system = data.get("system")
+    if not (isinstance(system, dict) and "builder" in system):
         raise CaseError(f"missing key '{prefix}.fidelity'; allowed: {allowed}")
-    fid = data["fidelity"]
-    if not isinstance(fid, str) or fid not in MODEL_SPECS:
-        raise CaseError(f"'{prefix}.fidelity' = {quote_value(fid)} is not allowed; allowed: {allowed}")
+    # the canonical tables (issue 58): [model.system] builder = ...
+    fid = system["builder"]
+    if not isinstance(fid, str) or fid not in CANONICAL_SPECS:
+        raise CaseError(f"'{prefix}.system.builder' = {quote_value(fid)} is not allowed; allowed: "
+                        f"{', '.join(chr(34) + k + chr(34) for k in CANONICAL_SPECS)}")
     try:
-        spec = MODEL_SPECS[fid].model_validate(data)
+        spec = CANONICAL_SPECS[fid].model_validate(data)
     except ValidationError as e:
-        raise CaseError(validation_message(e, prefix, MODEL_SPECS[fid])) from None
+        raise CaseError("; ".join([validation_message(e, prefix, CANONICAL_SPECS[fid], origins=origins,
+                                                      shorthand=shorthand), *refused])) from None
+    if refused:
+        raise CaseError("; ".join(refused))
     spec.check(prefix)
+    if shorthand is not None:
+        spec._shorthand = shorthand
     return spec
 
 
@@ -2383,9 +2319,6 @@ def _allowed_keys(model_cls, loc) -> list[str]:
             continue
         if part in _RUN_BY_METHOD and cls is Case:
             cls = _RUN_BY_METHOD[part]
-            continue
-        if part in ("discs", "calibrate") and cls is BeamModelSpec:
-            cls = DiscsSpec if part == "discs" else CalibrateSpec
             continue
         if cls is EffectsSpec and part in EffectsSpec.model_fields:
             ann = EffectsSpec.model_fields[part].annotation
@@ -2407,17 +2340,21 @@ def _allowed_keys(model_cls, loc) -> list[str]:
     return sorted(getattr(cls, "model_fields", {}))
 
 
+def _untagged(loc) -> tuple:
+    """A pydantic error location without the method tag pydantic inserts after a run's index and
+    the member names of a scalar union (e.g. transient_periods: int or "auto")."""
+    return tuple(p for i, p in enumerate(loc)
+                 if not (i >= 2 and loc[i - 2] == "run" and isinstance(loc[i - 1], int) and p in _RUN_BY_METHOD)
+                 and not (isinstance(p, str) and (p.startswith("literal[") or p in _UNION_MEMBERS)))
+
+
 def _key(loc, tags: bool = True) -> str:
     """Dotted key of a pydantic error location, e.g. ``run[0].chatter_tol`` (with ``tags``, the
     method tag that pydantic inserts after a run's index is left out)."""
     parts = []
-    for i, p in enumerate(loc):
+    for p in (_untagged(loc) if tags else loc):
         if isinstance(p, int):
             parts.append(f"[{p}]")
-        elif tags and i >= 2 and loc[i - 2] == "run" and isinstance(loc[i - 1], int) and p in _RUN_BY_METHOD:
-            continue
-        elif tags and isinstance(p, str) and (p.startswith("literal[") or p in _UNION_MEMBERS):
-            continue   # the member of a scalar union (e.g. transient_periods: int or "auto")
         else:
             parts.append(("." if parts else "") + one_line(str(p)))
     return "".join(parts)
@@ -2447,11 +2384,15 @@ def _check_ints(data, loc=()) -> None:
 _METHODS = ", ".join(repr(m) for m in _RUN_BY_METHOD)
 
 
-def validation_message(err: ValidationError, prefix: str, root_cls) -> str:
-    """One line naming, for every error, the key, the value and what is allowed."""
+def validation_message(err: ValidationError, prefix: str, root_cls, origins: dict | None = None,
+                       shorthand: str | None = None) -> str:
+    """One line naming, for every error, the key, the value and what is allowed; for a ``[model]``
+    table written in the shorthand of fidelity ``shorthand``, the key the user wrote (``origins`` of
+    its expansion, :func:`vibeam.case.expand.user_key`)."""
     msgs = []
     for e in err.errors():
-        key = _key(e["loc"])
+        key = _key(e["loc"]) if shorthand is None else one_line(user_key(origins or {}, _untagged(e["loc"]),
+                                                                          shorthand))
         if prefix and key:
             where = prefix + ("" if key.startswith("[") else ".") + key
         else:
@@ -2459,6 +2400,10 @@ def validation_message(err: ValidationError, prefix: str, root_cls) -> str:
         val = e.get("input")
         if e["type"] == "extra_forbidden":
             allowed = _allowed_keys(root_cls, e["loc"])
+            if shorthand is not None and re.fullmatch(r"contact(_lower)?\.[^.\[]+", key):
+                allowed = sorted(ContactSpec.model_fields)      # a law table of the shorthand
+            elif shorthand is not None and "." not in key and "[" not in key:
+                allowed = sorted(SHORTHAND_KEYS[shorthand])
             msgs.append(f"unknown key '{where}' (value {quote_value(val)}); allowed keys: {', '.join(allowed)}")
         elif e["type"] == "missing":
             msgs.append(f"missing key '{where}'")

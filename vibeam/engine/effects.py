@@ -322,8 +322,8 @@ def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
         Solver from :func:`vibeam.models.make_solver`.
     model : object
         Its model.
-    spec : vibeam.case.schema.SDOFModelSpec or vibeam.case.schema.BeamModelSpec
-        The validated model table.
+    spec : vibeam.case.schema.SDOFSceneSpec or vibeam.case.schema.BeamSceneSpec
+        The validated model table (a shorthand table is validated as the spec it expands into).
     effects : vibeam.case.schema.EffectsSpec
         Active effects of the run.
     run_settings : dict, optional

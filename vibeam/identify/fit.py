@@ -76,7 +76,8 @@ from pathlib import Path
 import numpy as np
 
 from vibeam.case.contact import ContactSpec, StopSpec, model_with
-from vibeam.case.paths import canonical, flat_key, get_value, is_path, key_of
+from vibeam.case.expand import alias
+from vibeam.case.paths import canonical, flat_key, get_value, is_canonical, is_path, key_of
 from vibeam.case.paths import parse as parse_path
 from vibeam.case.schema import AssessSpec, load_case, parse_case
 from vibeam.case.text import case_dump, to_toml  # noqa: F401 (re-exported)
@@ -149,8 +150,14 @@ def start_and_owner(spec, table: dict, name: str) -> tuple[float, type, str]:
         A number the case does not give and has no default for (one line naming ``name``).
     """
     nested = _nested_tables(spec)
-    path = canonical(table, name) if nested else name
-    v = get_value(table, path) if is_path(path) else None
+    if nested and not is_canonical(table) and not is_path(name):
+        # a flat key of the shorthand (vibeam.case.expand): its value as the scene reads it (given, or
+        # the validated default), bounded by the canonical table it expands into (R -> stops[0].law.R)
+        path = alias(spec.fidelity, name) or name
+        v = getattr(spec, name, None)
+    else:
+        path = canonical(table, name) if nested else name
+        v = get_value(table, path) if is_path(path) else None
     cls, key = owner_of(path, type(spec))
     if is_path(path) and nested:
         kind, i, key = parse_path(path)
@@ -239,7 +246,7 @@ def default_params(case) -> list[str]:
     matrices, a continuum, a mesh: :func:`_nested_tables`) ``excitation.<the amplitude key of its
     kind>`` and ``stops[0].law.R``."""
     spec = case.model_spec()
-    if _nested_tables(spec):
+    if _nested_tables(spec) and is_canonical(case.model):
         ex = spec.excitation
         return [f"excitation.{ex.AMPLITUDE_KEYS[ex.kind]}", "stops[0].law.R"]
     return ["gain", "R"] if getattr(spec, "physical", False) else ["B", "R"]
@@ -980,7 +987,7 @@ def fit_case(case, reference, params=None, run=None, executor=None, jobs: int | 
         if ev.line_rows is not None:
             final = assemble(ev.job.solver, ev.sweeps[0][2], r.name, ev.line_rows,
                              float(time.perf_counter() - t0))
-            final.attrs["model"] = ev.job.spec.model_dump()
+            final.attrs["model"] = ev.job.spec.as_written()
         text = fitted_case_text(case, r, dict(zip(params, map(float, x))), source, ref.source,
                                 unc.standard_error)
         return FitResult(
