@@ -177,8 +177,6 @@ class BeamImpactModel:
             raise ValueError("modal arrays must have the same length >= 1")
         if not np.all(self.omega_rad_s > 0):
             raise ValueError("modal frequencies must be positive")
-        if not 0.0 <= R <= 1.0:
-            raise ValueError("R must lie in [0, 1]")
         if damping_D_s < 0 or rayleigh_alpha_1_s < 0:
             raise ValueError("damping coefficients must be >= 0")
         if not np.any(self.contact_row != 0):
@@ -200,8 +198,6 @@ class BeamImpactModel:
         #: compliant law of a :class:`CompliantBeamModel`
         self.upper_law = Restitution(float(R), *table)
         self.gap_contact_lower_m = None if gap_contact_lower_m is None else float(gap_contact_lower_m)
-        if R_lower is not None and not 0.0 <= float(R_lower) <= 1.0:
-            raise ValueError("R_lower must lie in [0, 1]")
         self.lower_law = None if R_lower is None else Restitution(float(R_lower))
         if self.gap_contact_lower_m is not None and not self.gap_contact_m + self.gap_contact_lower_m > 0.0:
             raise ValueError("the stops overlap: gap_contact_m + gap_contact_lower_m must be > 0")
@@ -210,8 +206,6 @@ class BeamImpactModel:
         for ps, row in self.point_stops:
             if row.shape != (n,) or not np.any(row != 0.0):
                 raise ValueError(f"the stop at x = {ps.position_m:g} m: no retained mode moves its point")
-            if not 0.0 <= ps.law.R <= 1.0:
-                raise ValueError(f"R of the stop at x = {ps.position_m:g} m must lie in [0, 1], got {ps.law.R}")
         self._constrained()
 
     # ---------------------------------------------------------------- constructors
