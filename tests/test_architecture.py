@@ -419,7 +419,7 @@ def test_the_model_classes_carry_their_stops_not_law_fields():
     import dataclasses
 
     from vibeam.models import SDOF
-    from vibeam.models.beam_dynamics import BeamImpactModel, CompliantBeamModel
+    from vibeam.models.beam_dynamics import BeamImpactModel
     from vibeam.models.compliant import LinearContact
     from vibeam.models.contact import Restitution
     from vibeam.models.registry import mixed_stops
@@ -432,7 +432,7 @@ def test_the_model_classes_carry_their_stops_not_law_fields():
     same = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003)
     beam = BeamImpactModel([10.0], [1.0], [1.0], [1.0], 0.8, 1e-3, 1e-4, 1.6, 1.0, 1.0,
                            gap_contact_lower_m=2e-3, R_lower=0.5)
-    for m in (newton_below, kv_below, same, beam, CompliantBeamModel.from_model(beam, kv)):
+    for m in (newton_below, kv_below, same, beam, beam.with_laws(kv)):
         assert not any(hasattr(m, k) for k in gone), type(m)
     assert newton_below.lower_law == Restitution(0.5) and newton_below.stops()[1].law == Restitution(0.5)
     assert kv_below.stops()[1].law is kv and mixed_stops(kv_below) and not mixed_stops(newton_below)
