@@ -53,7 +53,7 @@ from .system import advance_modes, forcing, mode_table, particular, transition_i
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["BeamImpactModel", "CompliantBeamModel", "MatrixImpactModel", "PointStop", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
+__all__ = ["BeamImpactModel", "MatrixImpactModel", "PointStop", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
 
 # the closed-form modal flow lives in vibeam.models.system (the one dynamical system); the kernels
 # below call it by these names (mode_table and particular are re-exported from there)
@@ -177,8 +177,6 @@ class BeamImpactModel:
             raise ValueError("modal arrays must have the same length >= 1")
         if not np.all(self.omega_rad_s > 0):
             raise ValueError("modal frequencies must be positive")
-        if not 0.0 <= R <= 1.0:
-            raise ValueError("R must lie in [0, 1]")
         if damping_D_s < 0 or rayleigh_alpha_1_s < 0:
             raise ValueError("damping coefficients must be >= 0")
         if not np.any(self.contact_row != 0):
@@ -197,11 +195,9 @@ class BeamImpactModel:
         table = ((), ()) if restitution_table is None else \
             tuple(tuple(float(x) for x in np.ascontiguousarray(c, dtype=float)) for c in restitution_table)
         #: the upper stop's law, the one holder of its R (and R(U-) table): Newton's law here, the
-        #: compliant law of a :class:`CompliantBeamModel`
+        #: compliant law (:meth:`with_laws`)
         self.upper_law = Restitution(float(R), *table)
         self.gap_contact_lower_m = None if gap_contact_lower_m is None else float(gap_contact_lower_m)
-        if R_lower is not None and not 0.0 <= float(R_lower) <= 1.0:
-            raise ValueError("R_lower must lie in [0, 1]")
         self.lower_law = None if R_lower is None else Restitution(float(R_lower))
         if self.gap_contact_lower_m is not None and not self.gap_contact_m + self.gap_contact_lower_m > 0.0:
             raise ValueError("the stops overlap: gap_contact_m + gap_contact_lower_m must be > 0")
@@ -210,8 +206,6 @@ class BeamImpactModel:
         for ps, row in self.point_stops:
             if row.shape != (n,) or not np.any(row != 0.0):
                 raise ValueError(f"the stop at x = {ps.position_m:g} m: no retained mode moves its point")
-            if not 0.0 <= ps.law.R <= 1.0:
-                raise ValueError(f"R of the stop at x = {ps.position_m:g} m must lie in [0, 1], got {ps.law.R}")
         self._constrained()
 
     # ---------------------------------------------------------------- constructors
@@ -431,6 +425,37 @@ class BeamImpactModel:
     #: the lower stop's own law (None: the upper stop's); set by ``R_lower`` or a compliant law
     lower_law = None
 
+    def with_laws(self, law, law_lower=None) -> "BeamImpactModel":
+        """A copy of this model (of its class) whose stops at the attached mass have the laws
+        ``law`` (upper) and ``law_lower`` (the lower stop of a two-sided model; None: ``law``):
+        Newton's (:class:`vibeam.models.contact.Restitution`) or compliant
+        (:mod:`vibeam.models.compliant`, ``stiffness`` in N/m^p at the contact point, the damping
+        ratio of the isolated contact of mass ``m_eff`` or ``chi``)."""
+        m = copy.copy(self)
+        m.upper_law = law
+        m.lower_law = law_lower
+        return m
+
+    @property
+    def contact(self):
+        """The upper stop's compliant law (its ``upper_law``), None when it is Newton's."""
+        return None if getattr(self.upper_law, "kind", "") == "impulsive" else self.upper_law
+
+    @contact.setter
+    def contact(self, law) -> None:
+        self.upper_law = law
+
+    @property
+    def contact_law(self) -> str:
+        """The name of the upper stop's law (``"restitution"`` for Newton's)."""
+        return "restitution" if self.contact is None else self.upper_law.name
+
+    @property
+    def contact_damping_n_s_m(self) -> float:
+        """The upper Kelvin-Voigt stop's dashpot ``c_c = 2 zeta_c sqrt(k_c m_eff)`` (N s/m); raises
+        AttributeError for a law without a damping ratio."""
+        return 2.0 * self.upper_law.damping_ratio * math.sqrt(self.upper_law.stiffness * self.m_eff)
+
     def mass_stops(self) -> tuple:
         """The stops at the attached mass (the paper's, and a lower one): the first of :meth:`stops`.
         The upper stop has its law ``upper_law`` (Newton's with ``R`` and its table, or a compliant
@@ -562,55 +587,6 @@ class BeamImpactModel:
             self.omega_rad_s**2 - W**2 + 1j * W * self.c_phys)
         return float(abs(self.sensor_row @ H))
 
-
-
-class CompliantBeamModel(BeamImpactModel):
-    """A :class:`BeamImpactModel` whose stops at the attached mass have compliant laws.
-
-    The same beam; :meth:`stops` gives the stop at ``w^T eta = Delta_C`` (and a lower one at
-    ``w^T eta = -Delta_C,lower``) with the laws of :mod:`vibeam.models.compliant`, which every
-    solver of the beam (:class:`BeamEventSolver`, :class:`BeamODESolver`,
-    :class:`vibeam.models.periodic_beam.BeamContinuation`) simulates through
-    :meth:`BeamImpactModel.system_stops`.
-
-    Attributes (beyond the base model's)
-    ------------------------------------
-    contact : vibeam.models.compliant.LinearContact or HystereticHertz
-        The upper stop's law: ``stiffness`` in N/m^p at the contact point, the damping ratio (of
-        the isolated contact of mass ``m_eff``) or ``chi``.
-    lower_law : law or None
-        The lower stop's own law (None: ``contact``): compliant, or Newton's
-        (:class:`vibeam.models.contact.Restitution`) beside the compliant upper stop.
-    """
-
-    @classmethod
-    def from_model(cls, base: BeamImpactModel, law, law_lower=None) -> "CompliantBeamModel":
-        """The compliant model of ``base`` with the stop's law ``law``; a two-sided ``base``
-        (``gap_contact_lower_m``) gets ``law_lower`` at its lower stop (None: ``law``)."""
-        m = cls.__new__(cls)
-        m.__dict__.update(copy.copy(base.__dict__))
-        m.upper_law = law
-        m.lower_law = law_lower
-        return m
-
-    @property
-    def contact(self):
-        """The upper stop's compliant law (its ``upper_law``: the stops at the attached mass are
-        :meth:`BeamImpactModel.mass_stops`'s, the point stops, Newton's, follow in :meth:`stops`)."""
-        return self.upper_law
-
-    @contact.setter
-    def contact(self, law) -> None:
-        self.upper_law = law
-
-    @property
-    def contact_law(self) -> str:
-        return self.upper_law.name
-
-    @property
-    def contact_damping_n_s_m(self) -> float:
-        """The upper Kelvin-Voigt stop's dashpot ``c_c = 2 zeta_c sqrt(k_c m_eff)`` (N s/m)."""
-        return 2.0 * self.upper_law.damping_ratio * math.sqrt(self.upper_law.stiffness * self.m_eff)
 
 
 # ============================================================================ solvers

@@ -115,6 +115,13 @@ class Relation:
         return float(1.0 / np.sum(w * w))
 
 
+def restitution_problem(R, name: str = "R") -> str:
+    """What is wrong with ``R`` as a coefficient of restitution (Newton's, paper Eq. 2), ``""`` if
+    nothing: ``0 <= R <= 1`` (a NaN is refused).  The one range check of R in :mod:`vibeam.models`:
+    :class:`Restitution` calls it when it is made, a continuation in R before it makes one."""
+    return "" if 0.0 <= R <= 1.0 else f"{name} must lie in [0, 1], got {R}"
+
+
 @dataclass(frozen=True)
 class Restitution:
     """Newton's impact law (impulsive): ``U+ = -R(U-) U-`` (paper Eq. 2, Eq. 41).
@@ -131,6 +138,13 @@ class Restitution:
     R: float
     table_U: tuple = ()
     table_R: tuple = ()
+
+    def __post_init__(self):
+        """Raises ValueError unless ``0 <= R <= 1`` (:func:`restitution_problem`): the law holds
+        and checks its number."""
+        problem = restitution_problem(self.R)
+        if problem:
+            raise ValueError(problem)
 
     kind = "impulsive"
     code = LAW_RESTITUTION
@@ -186,8 +200,9 @@ def pack(stops) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def check_stops(stops) -> None:
-    """Raise ValueError for stops the kernels cannot simulate (a law not implemented, an
-    R out of [0, 1], a lower stop overlapping the upper one)."""
+    """Raise ValueError for stops the kernels cannot simulate (a law not implemented, a compliant
+    law's numbers out of range, a lower stop overlapping the upper one; Newton's R is checked by
+    :class:`Restitution` itself)."""
     for s in stops:
         if getattr(s.law, "kind", "") == "compliant" and s.law.code in (LAW_LINEAR, LAW_HYSTERETIC_HERTZ):
             s.law.check(s.name)    # the law's own ranges (vibeam.models.compliant)
@@ -195,8 +210,6 @@ def check_stops(stops) -> None:
         if getattr(s.law, "kind", "") != "impulsive" or s.law.code != LAW_RESTITUTION:
             raise ValueError(f"contact law of the {s.name} stop is not implemented; implemented: "
                              f"{', '.join(IMPLEMENTED_LAWS)}")
-        if not 0.0 <= s.law.R <= 1.0:
-            raise ValueError(f"R of the {s.name} stop must lie in [0, 1], got {s.law.R}")
     if len(stops) == 2:
         up, lo = stops[0].relation, stops[1].relation
         if not up.offset + lo.offset > 0.0 or not math.isfinite(up.offset + lo.offset):

@@ -65,7 +65,7 @@ from .beam_dynamics import TWO_PI, BeamImpactModel
 from .core.event import EventIntegrator
 from .core.integrator import EV_IMPACT, EV_STICK_IMPACT
 from .core.shooting import Direction, ModalShooting, Setup, directions, dtransition_dsig
-from .contact import Restitution
+from .contact import Restitution, restitution_problem
 from .impact import restitution_at
 from .system import forcing, particular, transition_entries
 
@@ -305,8 +305,8 @@ class BeamShooting(ModalShooting):
 
     @staticmethod
     def _invalid(p, name):
-        if name in ("R", "R_lower") and not 0.0 <= p <= 1.0:
-            return f"{name} must lie in [0, 1]"
+        if name in ("R", "R_lower") and restitution_problem(p, name):
+            return restitution_problem(p, name)
         if name in ("damping_D_s", "rayleigh_alpha_1_s") and p < 0.0:
             return f"{name} must be >= 0"
         if name == "Omega" and not p > 0.0:

@@ -50,7 +50,7 @@ from dataclasses import replace
 import numpy as np
 
 from .core.event import EventIntegrator
-from .contact import Restitution
+from .contact import Restitution, restitution_problem
 from .core.shooting import Direction, ModalShooting, Setup, directions
 from .periodic import Shot
 from .sdof_flow import particular_coefficients
@@ -166,8 +166,8 @@ class SDOFShooting(ModalShooting):
 
     def invalid(self, p: float) -> str:
         beta, B, R, Delta, Omega = self.params(p)
-        if not (0.0 <= beta < 1.0 and 0.0 <= R <= 1.0 and Omega is not None and Omega > 0.0
-                and math.isfinite(B) and math.isfinite(Delta)):
+        if restitution_problem(R) or not (0.0 <= beta < 1.0 and Omega is not None and Omega > 0.0
+                                          and math.isfinite(B) and math.isfinite(Delta)):
             return f"parameters out of range (beta {beta}, R {R}, Omega {Omega})"
         if self.law is not None and R != float(self.law.R):
             try:
@@ -180,8 +180,8 @@ class SDOFShooting(ModalShooting):
         if self.two_sided and not Delta + Dl > 0.0:
             return f"the stops overlap: Delta + Delta_lower = {Delta + Dl} must be > 0"
         if self.parameter == "R_lower":
-            if not 0.0 <= p <= 1.0:
-                return f"R_lower must lie in [0, 1], got {p}"
+            if restitution_problem(p, "R_lower"):
+                return restitution_problem(p, "R_lower")
             try:
                 lower.check() if hasattr(lower, "check") else None
             except ValueError as e:

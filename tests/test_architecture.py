@@ -212,10 +212,12 @@ def test_the_shorthand_round_trip_is_gone():
     keys) and no spec class of the shorthand (``SDOFModelSpec``, ``BeamModelSpec``): a shorthand
     ``[model]`` is expanded into the canonical tables (:mod:`vibeam.case.expand`) and validated by
     their spec.  No function or class of these names is defined in the framework, the models or the
-    reductions."""
+    reductions.  Nor the model classes the Scene replaces that are gone so far (``CompliantBeamModel``:
+    a beam model's laws are its stops', :meth:`BeamImpactModel.with_laws`)."""
     import ast
 
-    gone = {"stops_as_keys", "SDOFModelSpec", "BeamModelSpec", "register_model_spec", "MODEL_SPECS"}
+    gone = {"stops_as_keys", "SDOFModelSpec", "BeamModelSpec", "register_model_spec", "MODEL_SPECS",
+            "CompliantBeamModel"}
     found = []
     for folder in ("vibeam", "models", "reductions"):
         for p in sorted((ROOT / folder).rglob("*.py")):
@@ -419,7 +421,7 @@ def test_the_model_classes_carry_their_stops_not_law_fields():
     import dataclasses
 
     from vibeam.models import SDOF
-    from vibeam.models.beam_dynamics import BeamImpactModel, CompliantBeamModel
+    from vibeam.models.beam_dynamics import BeamImpactModel
     from vibeam.models.compliant import LinearContact
     from vibeam.models.contact import Restitution
     from vibeam.models.registry import mixed_stops
@@ -432,7 +434,7 @@ def test_the_model_classes_carry_their_stops_not_law_fields():
     same = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003)
     beam = BeamImpactModel([10.0], [1.0], [1.0], [1.0], 0.8, 1e-3, 1e-4, 1.6, 1.0, 1.0,
                            gap_contact_lower_m=2e-3, R_lower=0.5)
-    for m in (newton_below, kv_below, same, beam, CompliantBeamModel.from_model(beam, kv)):
+    for m in (newton_below, kv_below, same, beam, beam.with_laws(kv)):
         assert not any(hasattr(m, k) for k in gone), type(m)
     assert newton_below.lower_law == Restitution(0.5) and newton_below.stops()[1].law == Restitution(0.5)
     assert kv_below.stops()[1].law is kv and mixed_stops(kv_below) and not mixed_stops(newton_below)

@@ -480,10 +480,9 @@ def test_beam_isolated_contact_restitution_and_case_keys():
     """The beam's dashpot realises the target R for the relation's effective mass m_eff =
     1 / |w|^2: c_c = 2 zeta sqrt(k_c m_eff); case keys: stiffness_n_m required, the ratio
     refused, hunt_crossley with two stops accepted by event and direct, continuation accepted for both laws."""
-    from vibeam.models.beam_dynamics import CompliantBeamModel
-
     m = _rig(2, 1e6)
-    assert isinstance(m, CompliantBeamModel) and m.contact_law == "linear"
+    # the beam model with a compliant law at its stop (BeamImpactModel.with_laws)
+    assert m.contact is m.upper_law and m.contact_law == "linear"
     zeta = damping_ratio_for_restitution(0.72)
     assert m.contact_damping_n_s_m == pytest.approx(2 * zeta * math.sqrt(1e6 * m.m_eff))
     # per unit effective mass: stiffness 1e6 / m_eff, the model's dashpot as damping ratio c_c / (2 sqrt(1e6 m_eff))
@@ -642,3 +641,23 @@ def test_compliant_map_fixed_point_jacobian_and_multipliers(k, W):
     det = math.exp(-2 * m.beta * T - m.contact.damping * out["contact_duration"])
     assert np.linalg.det(J) == pytest.approx(det, rel=1e-10)
     assert np.prod(np.abs(out["multipliers"])) == pytest.approx(det, rel=1e-10)
+
+
+def test_a_beam_model_names_its_law_and_with_laws_copies_it():
+    """BeamImpactModel.with_laws (which replaced the CompliantBeamModel subclass, issue 58): a copy
+    of the model's own class with the laws at the attached mass replaced; the original keeps its
+    laws; ``contact`` is the upper compliant law, None for Newton's, and ``contact_law`` its name."""
+    from vibeam.models.beam_dynamics import BeamImpactModel, MatrixImpactModel
+    from vibeam.models.contact import Restitution
+
+    beam = BeamImpactModel([10.0], [1.0], [1.0], [1.0], 0.8, 1e-3, 1e-4, 1.6, 1.0, 1.0,
+                           gap_contact_lower_m=2e-3, R_lower=0.5)
+    assert beam.contact is None and beam.contact_law == "restitution"
+    kv = LinearContact.from_restitution(1e4, 0.7)
+    m = beam.with_laws(kv)
+    assert type(m) is BeamImpactModel and m.contact is kv and m.contact_law == "linear"
+    assert [s.law for s in m.mass_stops()] == [kv, kv]                 # law_lower None: the upper law
+    assert [s.law for s in beam.mass_stops()] == [Restitution(0.8), Restitution(0.5)]
+    assert [s.law for s in beam.with_laws(kv, Restitution(0.3)).mass_stops()] == [kv, Restitution(0.3)]
+    mm = MatrixImpactModel([10.0], [1.0], [1.0], [1.0], 0.8, 1e-3, 1e-4, 1.6, 1.0, 1.0)
+    assert type(mm.with_laws(kv)) is MatrixImpactModel and mm.with_laws(kv).fidelity == "matrices"

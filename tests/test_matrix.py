@@ -378,7 +378,7 @@ def _one_mode_beam_of(sd):
     import dataclasses
     import math
 
-    from vibeam.models.beam_dynamics import BeamImpactModel, CompliantBeamModel
+    from vibeam.models.beam_dynamics import BeamImpactModel
 
     f = 10.0
     om = 2.0 * math.pi * f
@@ -394,7 +394,7 @@ def _one_mode_beam_of(sd):
                            gap_contact_lower_m=None if lo is None else lo.relation.offset,
                            R_lower=lo.law.R if newton_pair else None)
     if up.law.kind == "compliant":
-        return CompliantBeamModel.from_model(base, si(up.law), None if lo is None else si(lo.law))
+        return base.with_laws(si(up.law), None if lo is None else si(lo.law))
     if lo is not None and lo.law.kind == "compliant":
         base.lower_law = si(lo.law)
     return base

@@ -577,16 +577,13 @@ class _BeamSpec(_StopsSpec):
         law = beam_law(self.contact, self.R)
         lo = lower_law_spec(self)
         lower = beam_law(lo, target_R(lo, self.R))
-        if law is not None:   # a compliant stop (issue 13): the beam's compliant model
-            # lazy: keeps the beam kernels (scipy.linalg: 0.25 s) out of load_case
-            from vibeam.models.beam_dynamics import CompliantBeamModel
-
+        if law is not None:   # a compliant stop (issue 13): the beam with its compliant laws
             if self.mixed_stops:   # Newton's law below the compliant upper stop: its R, else [model] R
                 # lazy: keeps the impact kernels (vibeam.models.impact) out of load_case
                 from vibeam.models.contact import Restitution
 
                 lower = Restitution(self.R if self.contact_lower.R is None else self.contact_lower.R)
-            m = CompliantBeamModel.from_model(m, law, lower)
+            m = m.with_laws(law, lower)
         elif lower is not None:   # a compliant lower stop below Newton's upper one
             m.lower_law = lower
         return with_drive(self, m)

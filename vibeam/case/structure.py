@@ -18,7 +18,7 @@ import scipy.linalg
 
 from vibeam.case.contact import ContactSpec, beam_law
 from vibeam.io.matrices import inline_matrices, read_matrices
-from vibeam.models.beam_dynamics import CompliantBeamModel, PointStop
+from vibeam.models.beam_dynamics import PointStop
 from vibeam.errors import CaseError, quote_value
 from vibeam.models.builders.continuum import (STEEL, Material, RigGeometry, build_continuum, build_rig, mesh_mass,
                                               read_mesh, write_modes)
@@ -87,7 +87,7 @@ def impact_model(spec):
 
     Returns
     -------
-    vibeam.models.beam_dynamics.MatrixImpactModel or CompliantBeamModel
+    vibeam.models.beam_dynamics.MatrixImpactModel (its laws by :meth:`~vibeam.models.beam_dynamics.BeamImpactModel.with_laws`)
         Of the spec's fidelity either way (``"matrices"``; ``"continuum"``:
         :class:`~vibeam.models.beam_dynamics.ContinuumImpactModel`), the registry's model class.
     """
@@ -121,7 +121,7 @@ def impact_model(spec):
     if law is not None:
         if spec.two_sided and lower is None:
             lower = Restitution(spec.stop[1].R)
-        m = CompliantBeamModel.from_model(m, law, lower)
+        m = m.with_laws(law, lower)
         m.fidelity = spec.fidelity      # the compliant modal model of this structure
     elif lower is not None:
         m.lower_law = lower

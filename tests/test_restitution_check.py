@@ -1,0 +1,50 @@
+"""Newton's R is held and checked by its law (issue 58: "R's range checked in one place"):
+:class:`vibeam.models.contact.Restitution` refuses an R outside [0, 1] when it is made, through
+:func:`vibeam.models.contact.restitution_problem`, and no other range check of an R is left in
+the dynamics (the case layer's pydantic bounds stay: they name the key the user wrote)."""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import pytest
+
+from vibeam.models.contact import Restitution, restitution_problem
+from vibeam.models.sdof import SDOF
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize("R", [-1e-300, -0.1, 1.0 + 2.0**-52, 1.5, math.nan, math.inf, -math.inf])
+def test_restitution_refuses_an_R_outside_0_1(R):
+    with pytest.raises(ValueError, match=r"R must lie in \[0, 1\], got"):
+        Restitution(R)
+    assert restitution_problem(R, "R_lower").startswith("R_lower must lie in [0, 1]")
+
+
+@pytest.mark.parametrize("R", [0.0, -0.0, 1e-300, 0.5, 1.0])
+def test_restitution_takes_every_R_in_0_1(R):
+    assert Restitution(R).R == R and restitution_problem(R) == ""
+
+
+def test_a_model_with_a_bad_R_is_refused_when_it_is_made():
+    with pytest.raises(ValueError, match=r"R must lie in \[0, 1\], got 1.2"):
+        SDOF(beta=0.02, B=0.5, R=0.8, Delta=0.0, Delta_lower=1.0, R_lower=1.2)
+    with pytest.raises(ValueError, match=r"R must lie in \[0, 1\], got -0.5"):
+        SDOF(beta=0.02, B=0.5, R=-0.5, Delta=0.0)
+
+
+#: a range check of an R (``0 <= R <= 1``, ``not 0.0 <= x.R <= 1.0``, ...) in source text
+_CHECK = re.compile(r"0(\.0)?\s*<=\s*[\w.\[\]()]*\bR(_lower)?\b[\w.\[\]()]*\s*<=\s*1(\.0)?")
+
+
+def test_no_other_range_check_of_R_in_the_dynamics():
+    hits = []
+    for path in sorted((ROOT / "models").rglob("*.py")):
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            code = line.split("#")[0]
+            if _CHECK.search(code) and "``" not in code and "restitution_problem" not in code \
+                    and 'else f"{name} must lie' not in code:
+                hits.append(f"{path.relative_to(ROOT)}:{n}: {line.strip()}")
+    assert hits == [], "\n".join(hits)
