@@ -762,7 +762,8 @@ def main(argv=None) -> int:
                    "with [sweep] settle = true: the Fig. 7 sweep, the tight rig's ladder (quick), the --uncertainty "
                    "scene (--samples, default 16)")
     p.add_argument("--basins", action="store_true",
-                   help="instead: a 200 x 200 SDOF basin of the tight rig at 16.5 Hz (goal < 20 s on 2 cores), "
+                   help="instead: a 200 x 200 SDOF basin of the tight rig at 16.5 Hz and one of the two-sided Fig. 7 "
+                        "scene's symmetric run at Omega 2.0 (goal < 20 s on 2 cores each), "
                         "basin hits against full trajectories, and a 50 x 50 basin of the 4-mode FE rig")
     p.add_argument("--continuum", action="store_true",
                    help="instead: the rig's continuum (cases/rig-continuum.toml) built cold into an empty model cache "

@@ -9,6 +9,7 @@ definitions exist once.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import replace
 
@@ -55,6 +56,21 @@ def natural_time_factors(Omega: float | None) -> np.ndarray:
     if Omega is None or not np.isfinite(Omega) or Omega <= 0:
         return np.ones(PERIOD_MAX)
     return np.minimum(1.0, 2.0 * np.pi * np.arange(1, PERIOD_MAX + 1) / float(Omega))
+
+
+def own_time_factor(Omega: float | None, n: int) -> float:
+    """``natural_time_factors(Omega)[n - 1]`` as a float (the same number), without the array.
+
+    Parameters
+    ----------
+    Omega : float or None
+        Forcing frequency over the natural frequency; None: no correction (1).
+    n : int
+        The period, 1..8.
+    """
+    if Omega is None or not np.isfinite(Omega) or Omega <= 0:
+        return 1.0
+    return min(1.0, 2.0 * np.pi * n / float(Omega))
 
 
 def strobe_returns(strobe: np.ndarray, scale: float, Omega: float | None = None) -> np.ndarray:
@@ -107,10 +123,16 @@ def converging(strobe: np.ndarray, n: int, scale: float, rtol: float,
     m = strobe.shape[0]
     if m - n < 8:
         return False, np.nan, np.nan
-    e = np.max(np.abs(strobe[n:] - strobe[:-n]), axis=1) / max(scale, 1e-300) / natural_time_factors(Omega)[n - 1]
-    qmax = np.array([np.max(c) for c in np.array_split(e, 4)])
-    conv = bool(np.all(np.diff(qmax) < 0.0) and qmax[-1] < 0.25 * qmax[0] and qmax[-1] > rtol)
-    return conv, float(qmax[0]), float(qmax[-1])
+    d = strobe[n:] - strobe[:-n]
+    e = np.maximum.reduce(np.abs(d, out=d), axis=1) / max(scale, 1e-300) / own_time_factor(Omega, n)
+    # the maxima of np.array_split(e, 4)'s quarters (the first len % 4 one longer), by one reduceat:
+    # the same numbers without array_split's Python layers (it and np.max per quarter were a quarter
+    # of a settle = true sweep's time on the rig's chattering points, issue 60)
+    k, r = divmod(e.shape[0], 4)
+    q0, q1, q2, q3 = np.maximum.reduceat(e, [0, k + (r > 0), 2 * k + min(r, 2), 3 * k + min(r, 3)]).tolist()
+    # (q_{i+1} < q_i is np.diff(qmax) < 0 for every float, inf and NaN included)
+    conv = q1 < q0 and q2 < q1 and q3 < q2 and q3 < 0.25 * q0 and q3 > rtol
+    return conv, q0, q3
 
 
 def transient_verdict(strobe: np.ndarray, scale: float, rtol: float, no_impact: bool,
@@ -314,12 +336,26 @@ def critical_value(sigmas, dof):
     freedom, 4.6 for 30, 5.5 for 15, 10 for 6.  Array arguments broadcast; ``dof <= 0``
     gives NaN (no error estimate).
     """
+    dof = np.asarray(dof, float)
+    if dof.ndim == 0 and np.ndim(sigmas) == 0:
+        return _critical_scalar(float(sigmas), float(dof))
+    return _critical(sigmas, dof)
+
+
+def _critical(sigmas, dof: np.ndarray):
+    """:func:`critical_value` of a float array ``dof``."""
     from scipy.stats import norm, t  # lazy: keeps scipy.stats (0.7 s) out of `vibeam run` and the API's start-up
 
-    dof = np.asarray(dof, float)
     with np.errstate(invalid="ignore"):
         out = t.isf(norm.sf(sigmas), np.where(dof > 0, dof, np.nan))
     return out if out.ndim else float(out)
+
+
+@functools.lru_cache(maxsize=4096)
+def _critical_scalar(sigmas: float, dof: float) -> float:
+    """:func:`critical_value` of one ``dof``, remembered: scipy's t.isf costs ~1 ms a call, and a
+    sweep's settling and statistics tests ask for the same few values at every point (issue 60)."""
+    return _critical(sigmas, np.asarray(dof, float))
 
 
 def means_agree(mean_a, sem_a, dof_a, mean_b, sem_b, dof_b, sigmas: float = 4.0):
