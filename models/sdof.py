@@ -336,12 +336,6 @@ class EventSolver:
         # the one event integrator on the one-mode modal system with the model's stops
         self._core = EventIntegrator(model.scene())
         self._h_cap = fundamental_step(self._core.system)
-        # R of each stop when every stop's law is Newton's with a constant R (what
-        # SDOF.restitution_coefficients gives there), else None: the contact rows of a two-stop
-        # point without rebuilding the stops and looping over them per call (issue 60)
-        laws = [st.law for st in model.stops()]
-        self._R_stops = (np.array([float(law.R) for law in laws])
-                         if all(getattr(law, "kind", "") == "impulsive" and not law.table_U for law in laws) else None)
 
     def settings(self) -> dict:
         return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
@@ -400,14 +394,11 @@ class EventSolver:
         k = v.shape[0]
         rows = np.zeros((k, 5))
         rows[:, 1] = np.nan
-        if stops is not None and self._R_stops is not None and not self.model.R_table:
-            Rk = self._R_stops[np.asarray(stops, np.int64)]       # (restitution_coefficients' numbers)
-            rows[:, 3] = 0.5 * (1.0 - Rk ** 2) * v ** 2
-        elif stops is not None or self.model.R_table:
+        if stops is not None or self.model.R_table:
             Rk = self.model.restitution_coefficients(v, stops)
             rows[:, 3] = 0.5 * (1.0 - Rk ** 2) * v ** 2
         else:
-            R = float(self._R_stops[0]) if self._R_stops is not None else float(self.model.stops()[0].law.R)
+            R = float(self.model.stops()[0].law.R)
             rows[:, 3] = 0.5 * (1.0 - R * R) * (v * v)     # (the same operations, one R)
         rows[:, 4] = v
         return rows
