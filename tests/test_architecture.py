@@ -228,6 +228,18 @@ def test_the_shorthand_round_trip_is_gone():
     assert not found, found
 
 
+def test_one_class_named_scene():
+    """Issue 58, done-when 4: one class named ``Scene`` (``vibeam.models.scene.Scene``, the model);
+    the one-mode impact map's per-frequency object is :class:`vibeam.models.mapping.orbit.SectionMap`."""
+    import ast
+
+    found = [f"{p.relative_to(ROOT)}"
+             for folder in ("vibeam", "models", "reductions") for p in sorted((ROOT / folder).rglob("*.py"))
+             for node in ast.walk(ast.parse(p.read_text(), str(p)))
+             if isinstance(node, ast.ClassDef) and node.name == "Scene"]
+    assert found == ["models/scene.py"], found
+
+
 def test_the_framework_has_no_fidelity_branches():
     """``fidelity == "beam"`` and the like: the framework asks the registry instead."""
     import re

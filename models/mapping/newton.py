@@ -1,5 +1,5 @@
 """Damped Newton with a halving line search: the root finder of both multiple-shooting residuals
-of the pointwise mapping (the one-mode map's :meth:`vibeam.models.mapping.orbit.Scene.newton`, the
+of the pointwise mapping (the one-mode map's :meth:`vibeam.models.mapping.orbit.SectionMap.newton`, the
 N-mode map's :meth:`vibeam.models.mapping.modal.ModalMap.newton`).
 
 Here *Newton* is the root-finding method, not Newton's law of restitution at a stop.

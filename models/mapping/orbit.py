@@ -4,7 +4,7 @@ A *section* is an arrival at a stop ``k`` of the one-mode system (paper Eq. 1 wi
 :meth:`vibeam.models.sdof.SDOF.stops`): time ``t`` (forcing phase ``Omega t``) and normal arrival
 speed ``v = s_k q'(t) > 0`` at ``q = s_k d_k``.  From it the map goes through two pieces:
 
-passage (the stop's law, :meth:`Scene.passage`; in the stop's normal coordinate ``u = s_k q``)
+passage (the stop's law, :meth:`SectionMap.passage`; in the stop's normal coordinate ``u = s_k q``)
     Newton (``law.kind == "impulsive"``, paper Eq. 2): the instantaneous reset ``u' -> -R u'``;
     Kelvin-Voigt (family ``kelvin_voigt``): the exact linear contact phase up to its force-zero
     exit (:class:`~vibeam.models.mapping.phases.Phase`, certified scans); hysteretic Hertz (family
@@ -13,7 +13,7 @@ passage (the stop's law, :meth:`Scene.passage`; in the stop's normal coordinate 
     derivatives ``D = d(t_e, u_e, u_e') / d(t, v)``, shape (3, 2);
 flight (the closed-form free flow, paper Eq. 28)
     from the exit to the next arrival at *any* stop, located by the certified scans of
-    :func:`~vibeam.models.mapping.phases.phase_step` (:meth:`Scene.fly`).
+    :func:`~vibeam.models.mapping.phases.phase_step` (:meth:`SectionMap.fly`).
 
 Its Jacobian is composed over the pieces (paper Sec. 4.2, the time of each event varied): for a
 flight with transition matrix ``Phi`` from the exit ``(t_e, x_e)`` (free field ``f_e``) to the
@@ -22,13 +22,13 @@ arrival at ``t_1`` (field ``f_1 = (q', q'')``) on stop ``k'``::
     Y = Phi (D_x - f_e D_t),   dt_1 = -Y_q / q'(t_1),   dv_1 = s_k' (Y_q' + q''(t_1) dt_1).
 
 A period-n orbit with ``m`` sections on the stops ``k_0 .. k_{m-1}`` is a zero of the
-multiple-shooting residual (:meth:`Scene.residual`) in ``(t_0 .. t_{m-1}, v_0 .. v_{m-1})``
+multiple-shooting residual (:meth:`SectionMap.residual`) in ``(t_0 .. t_{m-1}, v_0 .. v_{m-1})``
 (``t_m = t_0 + n T``)::
 
     r_j = ( s_k' q_j(t_{j+1}) - d_k',  s_k' q_j'(t_{j+1}) - v_{j+1} ),   k' = k_{j+1},
 
 ``q_j`` the flight from the exit of section ``j``, solved by damped Newton with the analytic
-Jacobian (:meth:`Scene.newton`).  All quantities are nondimensional.
+Jacobian (:meth:`SectionMap.newton`).  All quantities are nondimensional.
 """
 from __future__ import annotations
 
@@ -92,7 +92,7 @@ def newton_passage(law, d, scene, t0, v0, F):
         :mod:`vibeam.models.compliant`).
     d : float
         The stop's offset along its normal (the section is at ``u = d``).
-    scene : Scene
+    scene : SectionMap
         The frequency, damping and time limit ``t_max`` of a passage.
     t0, v0 : float
         The section's time and normal arrival speed (``> 0``).
@@ -242,7 +242,7 @@ def check_stops(model):
     return stops
 
 
-class Scene:
+class SectionMap:
     """The one-mode system with its stops at one forcing frequency: passages, flights, the
     multiple-shooting residual and the analysis of an orbit (module docstring).
 
@@ -470,7 +470,7 @@ class Scene:
 
 def minimal_period(x, stops, n, rtol=1e-9):
     """The least ``p`` dividing ``n`` after which the orbit's sections repeat (same stops, times
-    ``+ p T`` to ``rtol`` of the period, speeds to ``rtol``); ``x`` as :meth:`Scene.residual`'s with
+    ``+ p T`` to ``rtol`` of the period, speeds to ``rtol``); ``x`` as :meth:`SectionMap.residual`'s with
     ``T = 2 pi`` (forcing phases)."""
     m = len(stops)
     phi, v = x[:m], x[m:]

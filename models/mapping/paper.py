@@ -25,7 +25,7 @@ import numpy as np
 
 from ..impact import saltation_matrix
 from ..sdof_flow import flow_matrix
-from .orbit import DEFAULT_TOL, Scene
+from .orbit import DEFAULT_TOL, SectionMap
 from .phases import TWO_PI
 
 
@@ -120,8 +120,8 @@ def paper_verdicts(model, Omega, phi, v, n, stable) -> dict:
 def impact_map_jacobian(model, Omega, phi0, v_minus, tau):
     """Exact Jacobian ``d(phi1, v1) / d(phi0, v0)`` (2, 2) of the impact map at ``(phi0, v_minus)``
     with flight time ``tau`` (the flight's end ``q(tau) = Delta`` varied: ``d tau = -dq / q'(tau)``;
-    :meth:`vibeam.models.mapping.orbit.Scene.section_map` in forcing phases)."""
-    sc = Scene(model, Omega)
+    :meth:`vibeam.models.mapping.orbit.SectionMap.section_map` in forcing phases)."""
+    sc = SectionMap(model, Omega)
     pas = sc.passage(0, phi0 / sc.Omega, float(v_minus))
     J = sc.arrival(pas, pas.t + tau, 0)[2]
     return np.array([[J[0, 0], sc.Omega * J[0, 1]], [J[1, 0] / sc.Omega, J[1, 1]]])
@@ -130,7 +130,7 @@ def impact_map_jacobian(model, Omega, phi0, v_minus, tau):
 def monodromy(model, Omega, phi0, v_minus, tau):
     """Monodromy ``S Phi(tau)`` (2, 2) over one flight, from just after one impact to just after
     the next; for a period-n one-impact orbit (``tau = n T``) its eigenvalues are the multipliers."""
-    sc = Scene(model, Omega)
+    sc = SectionMap(model, Omega)
     pas = sc.passage(0, phi0 / sc.Omega, float(v_minus))
     _, w, acc = sc.flight(pas, pas.t + tau, 0)
     return saltation_matrix(float(sc.laws[0].R), w, acc, sc.beta) @ flow_matrix(tau, sc.beta)
@@ -159,7 +159,7 @@ def fixed_point_analysis(model, Omega, x, n=1):
     mult = _by_modulus(np.linalg.eigvals(M))
     Jm = impact_map_jacobian(model, Omega, phi, v, tau)
     stable = bool(np.max(np.abs(mult)) < 1.0)
-    sc = Scene(model, Omega)
+    sc = SectionMap(model, Omega)
     _, _, a1 = sc.flight(sc.passage(0, phi / Omega, v), (phi / Omega) + tau, 0)
     return dict(multipliers=mult, map_jacobian=Jm, map_eigenvalues=_by_modulus(np.linalg.eigvals(Jm)), stable=stable,
                 **paper_verdicts(model, Omega, phi, v, n, stable), det_true=float(np.linalg.det(M)),
@@ -170,19 +170,19 @@ def newton_fixed_point(model, Omega, guess, n=1, tol=DEFAULT_TOL["impulsive"], m
     """Period-n one-impact fixed point ``(phi mod 2 pi, v)`` (ndarray (2,)) by Newton's method on
     the closed form (Eqs. 33-34: ``q(nT) = Delta``, ``q'(nT-) = v`` after ``q' = -R v``), or None.
     Admissibility is not checked here (:func:`is_admissible`)."""
-    sc = Scene(model, Omega, n)
+    sc = SectionMap(model, Omega, n)
     x, ok = sc.newton(np.array([guess[0] / sc.Omega, guess[1]], float), (0,), n, tol, max_iter)
     return np.array([(sc.Omega * x[0]) % TWO_PI, x[1]]) if ok else None
 
 
 def _analyse(model, Omega, x, n):
-    sc = Scene(model, Omega, n)
+    sc = SectionMap(model, Omega, n)
     return sc.analyse(np.array([x[0] / sc.Omega, x[1]], float), (0,), n)
 
 
 def is_admissible(model, Omega, x, n=1):
     """Whether ``x = (phi, v)`` is a true one-impact period-n orbit: ``(ok, reason)``
-    (:meth:`vibeam.models.mapping.orbit.Scene.analyse`: ``v > 0``, no earlier arrival at a stop,
+    (:meth:`vibeam.models.mapping.orbit.SectionMap.analyse`: ``v > 0``, no earlier arrival at a stop,
     no grazing)."""
     an = _analyse(model, Omega, x, n)
     return (False, an) if isinstance(an, str) else (True, "")
@@ -211,7 +211,7 @@ def next_impact(model, Omega, phi0, v_minus, max_periods=50.0):
         ``(tau, phi1, v1, a1)``: flight time, forcing phase of the next arrival (mod 2 pi), its
         normal speed and ``q''`` before it; None without an arrival within ``max_periods``.
     """
-    sc = Scene(model, Omega)
+    sc = SectionMap(model, Omega)
     t0 = phi0 / sc.Omega
     r = sc.section_map(0, t0, float(v_minus), max_periods * sc.T)
     if isinstance(r, str):

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..sdof_averaging import averaging_guess
 from ..sdof_flow import undamped_resonance
-from .orbit import DEFAULT_TOL, Scene, check_stops, law_key, minimal_period
+from .orbit import DEFAULT_TOL, SectionMap, check_stops, law_key, minimal_period
 from .paper import paper_verdicts
 from .phases import TWO_PI
 
@@ -155,7 +155,7 @@ class MappingSolver:
     ------
     ValueError
         For ``n`` outside 1..4, an unknown ``form`` or ``guess``, or stops the map cannot pass
-        (:class:`vibeam.models.mapping.orbit.Scene`).
+        (:class:`vibeam.models.mapping.orbit.SectionMap`).
     """
 
     name = "mapping"
@@ -247,7 +247,7 @@ class MappingSolver:
         why = undamped_resonance(self.model.beta, Omega)
         if why:
             return self._failed([why])
-        scene = Scene(self.model, Omega, self.n)
+        scene = SectionMap(self.model, Omega, self.n)
         reasons = []
         for g in self._guesses(Omega, state0):
             out = g if isinstance(g, str) else self._solve(scene, g)
@@ -333,7 +333,7 @@ class MappingSolver:
             periods or with contact again before the body leaves the stop.  ``want_record`` is
             accepted for compatibility (the record is always given).
         """
-        sc = Scene(self.model, Omega, self.n)
+        sc = SectionMap(self.model, Omega, self.n)
         r = sc.section_map(stop, float(t0), float(v0), sc.t_max)
         if isinstance(r, str):
             return None

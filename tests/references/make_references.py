@@ -368,13 +368,13 @@ def k_fold_fixed_point(model, W, phi0, v0, k, n):
 
     Each flight is found by :func:`vibeam.models.mapping.next_impact` (the mapping's flight search,
     independent of the event kernel's stepping); ``fsolve`` on ``(phase, velocity)``; the exact
-    minimum from the flights' extremes (:meth:`vibeam.models.mapping.orbit.Scene.fly`).  Returns
+    minimum from the flights' extremes (:meth:`vibeam.models.mapping.orbit.SectionMap.fly`).  Returns
     ``(q_min of the orbit, (phi, v))`` or None.
     """
     from scipy.optimize import fsolve
 
     from vibeam.models.mapping import next_impact
-    from vibeam.models.mapping.orbit import Scene
+    from vibeam.models.mapping.orbit import SectionMap
 
     T = 2 * math.pi / W
 
@@ -401,7 +401,7 @@ def k_fold_fixed_point(model, W, phi0, v0, k, n):
     if np.max(np.abs(resid(x))) > 1e-11:
         return None
     fl, _, _ = flights(x)
-    sc = Scene(model, W, n)
+    sc = SectionMap(model, W, n)
     ext = np.array([np.inf, -np.inf, np.inf, -np.inf])
     for phi, v, tau in fl:       # each flight to its next impact, its extremes in ext
         pas = sc.passage(0, phi / W, v)
