@@ -53,7 +53,7 @@ from .system import advance_modes, forcing, mode_table, particular, transition_i
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["BeamImpactModel", "MatrixImpactModel", "PointStop", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
+__all__ = ["BeamImpactModel", "MatrixImpactModel", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
 
 # the closed-form modal flow lives in vibeam.models.system (the one dynamical system); the kernels
 # below call it by these names (mode_table and particular are re-exported from there)
@@ -76,35 +76,6 @@ def apply_impact(etad, w, U_minus, R, m_eff):
 
 
 # ============================================================================ model
-@dataclass(frozen=True)
-class PointStop:
-    """A stop at any point of the beam besides the attached mass's (case key ``[[model.stop]]``).
-
-    Attributes
-    ----------
-    position_m : float
-        Axial position ``x`` of the stop's contact point (m from the clamp).
-    sign : float
-        ``+1``: above the point (upper), ``-1``: below it (lower).
-    gap_contact_m : float
-        Its distance from the static equilibrium at the point, along its normal (m; negative:
-        pre-stressed).
-    law : Restitution or compliant law
-        The stop's law, the only holder of its numbers: Newton's, with its coefficient of
-        restitution, or a compliant law of :mod:`vibeam.models.compliant` (stiffness in N/m^p at
-        the point, converted to the system's units with the other stops' by
-        :meth:`BeamImpactModel.system_stops`).
-    label : str
-        Its name in outputs and messages.
-    """
-
-    position_m: float
-    sign: float = 1.0
-    gap_contact_m: float = 0.0
-    law: Restitution = Restitution(0.72)
-    label: str = ""
-
-
 class BeamImpactModel:
     """Impacting cantilever in ``N`` modal coordinates (fidelity ``"beam"``).
 
@@ -155,10 +126,13 @@ class BeamImpactModel:
     lower_law : law or None
         The lower stop's own law (:mod:`vibeam.models.contact`: Newton's, or a compliant one in
         N/m^p at the contact point); None: the upper stop's.
-    point_stops : sequence of (PointStop, ndarray (N,)), optional
-        Further stops at other points of the beam, each with its contact row ``w(x)`` in the
-        retained modes (:meth:`from_fe` and :meth:`static_mode` compute them from positions);
-        each with its own law (Newton's; a structure's may be compliant).  They are relations on the system's contact rows 1, 2, ...
+    point_stops : sequence of (Stop, ndarray (N,)), optional
+        Further stops at other points of the beam (:class:`vibeam.models.contact.Stop`: its
+        relation's sign and offset, the gap along its normal in m, negative pre-stressed; its law,
+        the only holder of its numbers, Newton's or compliant in N/m^p at the point; its label,
+        its name in outputs and messages), each with its contact row ``w(x)`` in the retained
+        modes (:meth:`from_fe` and :meth:`static_mode` compute them from positions; the
+        relation's ``row`` is set by :meth:`stops`).  They are relations on the system's contact rows 1, 2, ...
         (:meth:`contact_rows`).
     """
 
@@ -202,10 +176,10 @@ class BeamImpactModel:
         if self.gap_contact_lower_m is not None and not self.gap_contact_m + self.gap_contact_lower_m > 0.0:
             raise ValueError("the stops overlap: gap_contact_m + gap_contact_lower_m must be > 0")
         self.label = label
-        self.point_stops = tuple((ps, np.ascontiguousarray(row, dtype=float)) for ps, row in point_stops)
-        for ps, row in self.point_stops:
+        self.point_stops = tuple((st, np.ascontiguousarray(row, dtype=float)) for st, row in point_stops)
+        for st, row in self.point_stops:
             if row.shape != (n,) or not np.any(row != 0.0):
-                raise ValueError(f"the stop at x = {ps.position_m:g} m: no retained mode moves its point")
+                raise ValueError(f"the {st.name} stop: no retained mode moves its point")
         self._constrained()
 
     # ---------------------------------------------------------------- constructors
@@ -215,7 +189,8 @@ class BeamImpactModel:
                 R_lower=None, point_stops=()):
         """Modal truncation of a :class:`vibeam.models.beam.BeamFE` to ``n_modes`` (int or
         ``"all"``).  Damping defaults to the FE model's; ``f_ref`` to its ``f_1``;
-        ``point_stops`` (:class:`PointStop`) get their rows from the FE shapes at their points."""
+        ``point_stops``, ``(x, stop)`` pairs (position in m from the clamp, a
+        :class:`vibeam.models.contact.Stop`), get their rows from the FE shapes at their points."""
         from vibeam.reductions.modal import modal_reduction
         from vibeam.reductions.static_mode import static_mode_shape
 
@@ -231,7 +206,7 @@ class BeamImpactModel:
                    fe.damping_D_s if damping_D_s is None else damping_D_s,
                    fe.rayleigh_alpha_1_s if rayleigh_alpha_1_s is None else rayleigh_alpha_1_s,
                    label=f"FE {red.n_modes} modes", gap_contact_lower_m=gap_contact_lower_m, R_lower=R_lower,
-                   point_stops=[(ps, fe.point_rows([ps.position_m])[0] @ red.shapes) for ps in point_stops])
+                   point_stops=[(st, fe.point_rows([x])[0] @ red.shapes) for x, st in point_stops])
 
     @classmethod
     def static_mode(cls, geometry, R=0.72, gap_contact_m=0.0, base_amplitude_m=0.0,
@@ -255,7 +230,7 @@ class BeamImpactModel:
                    red.f_n_hz if f_ref_hz is None else f_ref_hz, geometry.length_m, phim,
                    damping_D_s, 0.0, label="static mode", gap_contact_lower_m=gap_contact_lower_m,
                    R_lower=R_lower,
-                   point_stops=[(ps, [float(static_mode_shape(ps.position_m / L, xm, xs)) / sq]) for ps in point_stops])
+                   point_stops=[(st, [float(static_mode_shape(x / L, xm, xs)) / sq]) for x, st in point_stops])
 
     @classmethod
     def from_matrix_model(cls, mm, R=0.72, gap_contact_m=0.0, base_amplitude_m=0.0, gap_contact_lower_m=None,
@@ -271,7 +246,7 @@ class BeamImpactModel:
             further contact rows are those of ``point_stops``.
         R, gap_contact_m, base_amplitude_m, gap_contact_lower_m, R_lower
             As for the constructor (m at contact row 0; ``base_amplitude_m`` in the DOFs' unit).
-        point_stops : sequence of (PointStop, int)
+        point_stops : sequence of (Stop, int)
             Further stops (each its own law), each with the index ``k >= 1`` of its contact row in ``mm``.
         Returns
         -------
@@ -295,7 +270,7 @@ class BeamImpactModel:
         m = cls(omega, s.participation, s.contacts[0], s.sensor, R, gap_contact_m, base_amplitude_m, f_ref,
                 s.length_unit_m, phim, modal_damping_1_s=np.asarray(s.damping, float) / s.time_unit_s,
                 label=f"{cls.fidelity}, {mm.n_modes} modes", gap_contact_lower_m=gap_contact_lower_m, R_lower=R_lower,
-                point_stops=[(ps, s.contacts[k]) for ps, k in point_stops])
+                point_stops=[(st, s.contacts[k]) for st, k in point_stops])
         return m
 
     # ---------------------------------------------------------------- derived data
@@ -385,8 +360,8 @@ class BeamImpactModel:
         ``w^T eta = Delta_C`` (normal ``w``) with Newton's law, ``R`` and ``R(U-)``, and for a
         two-sided scene the stop at ``w^T eta = -Delta_C,lower`` (normal ``-w``) with its law."""
         return self.mass_stops() + tuple(
-            Stop(Relation(ps.sign, ps.gap_contact_m, row=1 + i), ps.law, ps.label)
-            for i, (ps, _) in enumerate(self.point_stops))
+            Stop(Relation(st.relation.sign, st.relation.offset, row=1 + i), st.law, st.label)
+            for i, (st, _) in enumerate(self.point_stops))
 
     #: the drive when it is not the base displacement ``base_amplitude_m``
     #: (:class:`vibeam.models.scene.Excitation`, SI; a force acts along :attr:`drive_row`)

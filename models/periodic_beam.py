@@ -369,11 +369,11 @@ class BeamShooting(ModalShooting):
                           f"reaches the lower stop Delta_C,lower = {mp.gap_contact_lower_m:.6g} m at "
                           f"{self.parameter} = {p:.6g}")
         D = self._data(p)
-        for ps, row in mp.point_stops:      # the stops at other points
+        for st, row in mp.point_stops:      # the stops at other points
             Ak = float(abs(row @ (D["aF"] + 1j * D["bF"])))
-            if not Ak < ps.gap_contact_m:
-                return None, (f"the non-impacting orbit does not exist: its amplitude {Ak:.6g} m at "
-                              f"x = {ps.position_m:g} m reaches the stop there ({ps.gap_contact_m:.6g} m) at "
+            if not Ak < st.relation.offset:
+                return None, (f"the non-impacting orbit does not exist: its amplitude {Ak:.6g} m at the "
+                              f"{st.name} stop reaches it ({st.relation.offset:.6g} m) at "
                               f"{self.parameter} = {p:.6g}")
         return self.linear_orbit(p), ""
 

@@ -213,11 +213,12 @@ def test_the_shorthand_round_trip_is_gone():
     ``[model]`` is expanded into the canonical tables (:mod:`vibeam.case.expand`) and validated by
     their spec.  No function or class of these names is defined in the framework, the models or the
     reductions.  Nor the model classes the Scene replaces that are gone so far (``CompliantBeamModel``:
-    a beam model's laws are its stops', :meth:`BeamImpactModel.with_laws`)."""
+    a beam model's laws are its stops', :meth:`BeamImpactModel.with_laws`; ``PointStop``: a stop
+    away from the attached mass is a :class:`vibeam.models.contact.Stop`)."""
     import ast
 
     gone = {"stops_as_keys", "SDOFModelSpec", "BeamModelSpec", "register_model_spec", "MODEL_SPECS",
-            "CompliantBeamModel"}
+            "CompliantBeamModel", "PointStop"}
     found = []
     for folder in ("vibeam", "models", "reductions"):
         for p in sorted((ROOT / folder).rglob("*.py")):

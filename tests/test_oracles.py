@@ -474,7 +474,7 @@ def test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration(n_mo
     phi_x = _phi_static(x / L, xm / L, xs / L)
     gap = gap_mm * 1e-3 * phi_x
     ps, _ = m.point_stops[0]
-    assert ps.gap_contact_m == pytest.approx(gap, rel=1e-12)
+    assert ps.relation.offset == pytest.approx(gap, rel=1e-12)
     f_hz, f_ref = 15.0, m.f_ref_hz
     tr = BeamEventSolver(m).point(f_hz / f_ref, None, 0, 4, 32)
     assert tr.status == "ok" and tr.impact_stops.size > 0 and tr.impact_stops[0] == 2  # the point stop first

@@ -23,8 +23,8 @@ import scipy.linalg
 
 from vibeam.errors import CaseError
 from vibeam.models.beam import BeamFE, BeamGeometry, shared_calibration, shared_fe
-from vibeam.models.beam_dynamics import BeamImpactModel, PointStop
-from vibeam.models.contact import Restitution
+from vibeam.models.beam_dynamics import BeamImpactModel
+from vibeam.models.contact import Relation, Restitution, Stop
 from vibeam.models.registry import fidelity, with_capability
 from vibeam.models.scene import Excitation
 from vibeam.reductions.modal import modal_reduction
@@ -126,7 +126,7 @@ def with_drive(spec, model):
 
 def point_stops(spec, sc) -> list:
     """The scene's stops away from the attached mass (``[[model.stop]]`` with ``position_mm``) as
-    :class:`~vibeam.models.beam_dynamics.PointStop`: the gap at the stop is ``contact_gap_mm``, or
+    ``(x, stop)`` pairs (position in m, :class:`~vibeam.models.contact.Stop`): the gap at the stop is ``contact_gap_mm``, or
     ``gap_mm`` seen at the sensor times the static mode ``phi(x)`` at the stop's point (``phi(L_S)
     = 1``; Eq. 45 at another point)."""
     out = []
@@ -138,8 +138,8 @@ def point_stops(spec, sc) -> list:
             gap = p.contact_gap_mm * 1e-3
         else:
             gap = p.gap_mm * 1e-3 * float(static_mode_shape(x / L, g.mass_position_m / L, g.sensor_position_m / L))
-        out.append(PointStop(position_m=x, sign=1.0 if p.side == "upper" else -1.0, gap_contact_m=gap,
-                             law=Restitution(p.R), label=f"{p.side} at {p.position_mm:g} mm"))
+        out.append((x, Stop(Relation(1.0 if p.side == "upper" else -1.0, gap), Restitution(p.R),
+                            f"{p.side} at {p.position_mm:g} mm")))
     return out
 
 

@@ -18,12 +18,11 @@ import scipy.linalg
 
 from vibeam.case.contact import ContactSpec, beam_law
 from vibeam.io.matrices import inline_matrices, read_matrices
-from vibeam.models.beam_dynamics import PointStop
 from vibeam.errors import CaseError, quote_value
 from vibeam.models.builders.continuum import (STEEL, Material, RigGeometry, build_continuum, build_rig, mesh_mass,
                                               read_mesh, write_modes)
 from vibeam.models.builders.matrices import MatrixModel, build_matrices
-from vibeam.models.contact import Restitution
+from vibeam.models.contact import Relation, Restitution, Stop
 from vibeam.models.scene import Excitation
 from vibeam.models.registry import fidelity, is_compliant, resolve
 
@@ -106,10 +105,9 @@ def impact_model(spec):
     first_point = 1 + int(spec.two_sided)
     # a stop at another DOF holds its own law: Newton's, or a compliant one in N/m^p at its DOF
     # (beam_law, as the stops at the reference DOF; the system's units by system_stops)
-    points = [(PointStop(position_m=float("nan"), sign=1.0 if st.side == "upper" else -1.0,
-                         gap_contact_m=gap_m(st, 1 + j),
-                         law=beam_law(ContactSpec(**st.law_table()), st.R) if is_compliant(st.law) else Restitution(st.R),
-                         label=f"{st.side} at {_at(spec, st)}"), 1 + j)
+    points = [(Stop(Relation(1.0 if st.side == "upper" else -1.0, gap_m(st, 1 + j)),
+                    beam_law(ContactSpec(**st.law_table()), st.R) if is_compliant(st.law) else Restitution(st.R),
+                    f"{st.side} at {_at(spec, st)}"), 1 + j)
               for j, st in enumerate(spec.stop[first_point:])]
     m = impact_class.from_matrix_model(mm, R=up.R, gap_contact_m=gap_m(up, 0),
                                        base_amplitude_m=spec.excitation.base_amplitude_m,
