@@ -93,13 +93,24 @@ def _table_key(table: dict) -> str:
     return json.dumps(table, sort_keys=True)
 
 
+#: model classes deleted after the recording (8b2d1b3) -> the class that builds the same model now
+#: (issue 58, 97d0172: a beam with compliant laws is a BeamImpactModel made by its with_laws); the
+#: model itself is still compared bit for bit, its packed arrays and its stops' repr
+CLASS_NOW = {"CompliantBeamModel": "BeamImpactModel"}
+
+
 @functools.cache
 def _oracle() -> tuple[dict, list]:
     """``({table key: entry}, arrays)`` of the recording of the shorthand spec classes
-    (``tests/references/make_expand_oracle.py``, its docstring says what an entry holds)."""
+    (``tests/references/make_expand_oracle.py``, its docstring says what an entry holds), with a
+    recorded model class that was deleted since named by its successor (:data:`CLASS_NOW`)."""
     with np.load(ORACLE) as z:
         entries = json.loads(str(z["meta"]))["entries"]
         arrays = [z[f"a{i}"] for i in range(len(z.files) - 1)]
+    for e in entries:
+        cls = e.get("packed", {}).get("class")
+        if isinstance(cls, dict) and cls.get("v") in CLASS_NOW:
+            cls["v"] = CLASS_NOW[cls["v"]]
     return {_table_key(e["table"]): e for e in entries}, arrays
 
 
