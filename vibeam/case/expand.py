@@ -151,7 +151,7 @@ def _shorthand_stops(model: dict) -> tuple[list, dict]:
     origins: dict = {}
     up: dict = {"side": "upper"}
     for k in _UPPER_GAPS:
-        if k in model:
+        if model.get(k) is not None:        # None (an override in Python): the key not given
             up[k] = model[k]
             origins[("stop", 0, k)] = k
     if "R" in model:
@@ -169,7 +169,7 @@ def _shorthand_stops(model: dict) -> tuple[list, dict]:
         origins[("stop", 0, "contact")] = "contact"
     stops = [up]
     origins[("stop", 0)] = "model"
-    lower_keys = [k for k in _LOWER_GAPS if k in model]
+    lower_keys = [k for k in _LOWER_GAPS if model.get(k) is not None]
     lower = model.get("contact_lower")
     if lower is not None and not lower_keys:
         raise ValueError(f"[model.contact_lower] needs a lower stop: give one of {list(_LOWER_GAPS)}")
