@@ -72,8 +72,6 @@ SHORTHAND_KEYS = {
              "contact_lower", "stop", "gain", "voltage", "damping_ratio", "rayleigh_alpha_1_s", "n_modes",
              "n_elements"),
 }
-#: a law's keys in a stop table besides ``law`` and ``R``
-_LAW_NUMBERS = ("stiffness", "stiffness_n_m", "damping_ratio", "exponent", "mass_kg")
 
 
 def expand(model: dict) -> dict:
