@@ -452,3 +452,39 @@ def test_the_start_velocity_partials_equal_central_differences(U):
         assert math.isclose(dv, fd, rel_tol=1e-7, abs_tol=1e-9), (i, dv, fd)
     assert sv(LAW_HYSTERETIC_HERTZ, -0.01, U, k, p, nn)[:3] == (U, 0.0, 1.0)      # outside: U itself
     assert sv(LAW_LINEAR, g, U, k, p, nn)[0] == abs(U) and sv(LAW_LINEAR, g, U, k, p, nn)[1] == 0.0
+
+
+def test_continuation_in_the_drive_amplitude_gives_orbits_of_the_scene_with_it_written(tmp_path):
+    """Issue 58, 'one parameter vocabulary': a matrix scene continued in a path its shooting
+    problem does not carry (``excitation.amplitude_m_s2``, d x / d a by central differences of the
+    scene's shots), at 7.5 Hz over [0.144, 0.15] m/s^2 from the sweep's orbit at 0.15 (the upper
+    period-1 branch, which folds back at 0.1424).  Before: refused at load ('cannot be continued in
+    a structure given by its matrices; allowed: Omega').
+
+    Oracle: at four points along the branch, the chain with that amplitude *written* in its
+    [model.excitation] table and its event integrator -- one forcing period from the branch's state
+    returns to it to 1e-8 of the state (tests/test_paths.py's bound: the shot converges to 1e-10,
+    one period grows an error by at most max|mu|).  The results name the path."""
+    import contextlib
+    import io
+
+    from vibeam.runner import run_case
+
+    text = _case_text().replace('"chain-3dof/', f'"{ROOT}/cases/chain-3dof/')
+    head = text.split("\n[[run]]\n")[0]
+    text = head + ('\n[[run]]\nname = "in a"\nmethod = "continuation"\nparameter = "excitation.amplitude_m_s2"\n'
+                   'at = 7.5\nrange = [0.144, 0.15]\nstart = "sweep"\nstart_at = 0.15\nswitch = false\n')
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        conts = run_case(parse_case(text), text, tmp_path, jobs=1, quiet=True, plots=False, continuation_only=True)
+    (r,) = conts
+    assert r.parameter == "excitation.amplitude_m_s2" and r.status == "ok", (r.status, r.message)
+    b = r.branches[0]["data"]
+    a = np.asarray(b["parameter"])
+    assert a.min() <= 0.144 + 1e-9 and a.max() >= 0.15 - 1e-9 and len(a) >= 4, (a.min(), a.max(), len(a))
+    for i in np.linspace(0, len(a) - 1, 4).astype(int):
+        written = text.replace("amplitude_m_s2 = 0.1\n", f"amplitude_m_s2 = {float(a[i])!r}\n", 1)
+        assert written != text
+        model = parse_case(written).model_spec().build()
+        x = np.asarray(b["state"][i])
+        one = make_solver(model, "event").point(7.5 / model.f_ref_hz, np.concatenate([x, [0.0]]), 0, 1, 32)
+        assert np.max(np.abs(one.final_state[:-1] - x)) <= 1e-8 * np.max(np.abs(x)), (a[i], one.final_state, x)

@@ -25,8 +25,8 @@ from matplotlib import patheffects
 
 from vibeam.case.contact import model_with
 from vibeam.case.expand import expand
-from vibeam.case.paths import alias_of, get_value, is_path, key_of
-from vibeam.case.schema import check_frequency_range
+from vibeam.case.paths import get_value, is_path, key_of
+from vibeam.case.schema import check_frequency_range, continued_key
 from vibeam.engine.records import summarize
 from vibeam.engine.sweep import PointClock, Sweep, settle_transient
 from vibeam.io.h5check import open_checked
@@ -216,7 +216,7 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
         v = case.map.grid()
         curve_range = (float(np.min(v)), float(np.max(v)))
     table = model_with(case.model, dict(r.model))
-    key_ = alias_of(table, r.parameter)
+    key_ = continued_key(spec, table, r.parameter) if hasattr(spec, "native_parameter") else r.parameter
     return BranchTask(key=key, run=r.name, spec=spec, parameter=key_, label=r.parameter if key_ != r.parameter else None,
                       table=table if is_path(key_) else None, lo=float(lo), hi=float(hi),
                       at=at, settings=settings,

@@ -870,8 +870,9 @@ class MatricesModelSpec(_StopsSpec):
         return mixed_stops(self)
 
     def native_parameter(self, key: str):
-        """``(native key, factor)`` of a continuation parameter: the frequency only (``Omega``)
-        in this release (the stops' and the drive's numbers by their paths: not yet).
+        """``(native key, factor)`` of a continuation parameter: the frequency only (``Omega``);
+        the stops' and the drive's numbers are continued by their paths (``stops[0].law.R``,
+        ``excitation.amplitude_m_s2``: :func:`continued_key`).
 
         Raises
         ------
@@ -880,7 +881,8 @@ class MatricesModelSpec(_StopsSpec):
         """
         if key == "Omega":
             return "Omega", 1.0
-        raise ValueError("cannot be continued in a structure given by its matrices; allowed: Omega")
+        raise ValueError("cannot be continued in a structure given by its matrices; allowed: Omega, or the path "
+                         "of a stop's or the drive's number (stops[0].law.R, excitation.amplitude_m_s2)")
 
     def build(self):
         """The :class:`vibeam.models.beam_dynamics.MatrixImpactModel` of this scene.
@@ -2680,6 +2682,44 @@ def _path_of_alias(table: dict, name: str) -> str | None:
     return None
 
 
+def continued_key(spec, table: dict, name: str) -> str:
+    """The key a continuation in ``name`` runs in: the flat key the scene's shooting problem
+    carries (its ``native_parameter``, with ``d x / d p`` of its own), else, for a path into a
+    stop or the excitation (``stops[1].law.stiffness_n_m``, ``excitation.amplitude_m_s2``, a
+    matrix scene's ``stops[0].law.R``), the path itself, continued by central differences of
+    the scene's shots (:class:`vibeam.models.continuation.FiniteDifferenceParameter`).  A path
+    into ``system`` that the shooting problem does not carry changes the structure's modes (their
+    signs and order, not smooth in the parameter) and stays refused.
+
+    Parameters
+    ----------
+    spec : the run's model spec (with ``native_parameter``)
+    table : dict
+        The run's ``[model]`` table as written (overrides applied).
+    name : str
+        The run's ``parameter``: a flat key or a path (:mod:`vibeam.case.paths`).
+
+    Raises
+    ------
+    ValueError
+        What the scene allows (the spec's message), a path it does not have, or a path whose
+        value the table does not give as a number.
+    """
+    key = alias_of(table, name)
+    if not is_path(key):
+        try:
+            spec.native_parameter(key)
+            return key
+        except ValueError:
+            if not (is_path(name) and name.startswith(("stops", "excitation."))):
+                raise
+        key = name
+    # a number only a path names (a law's stiffness, a stop's position, a drive's amplitude)
+    if not isinstance(get_value(table, key), (int, float)) or isinstance(get_value(table, key), bool):
+        raise ValueError("is not set in this scene's [model]; continue a number the case gives")
+    return key
+
+
 def _check_continuation(case: Case, i: int, r) -> None:
     """A continuation run names a parameter its scene can continue, with a range and a
     frequency where they are needed, and no scene effects."""
@@ -2697,14 +2737,7 @@ def _check_continuation(case: Case, i: int, r) -> None:
     if native is not None:
         table = model_with(case.model, dict(r.model))
         try:
-            key = alias_of(table, r.parameter)
-            if is_path(key):
-                # a number only a path names (a law's stiffness, a stop's position): continued by
-                # finite differences of the scene's shots (vibeam.models.continuation.FiniteDifferenceParameter)
-                if not isinstance(get_value(table, key), (int, float)):
-                    raise ValueError("is not set in this scene's [model]; continue a number the case gives")
-            else:
-                native(key)
+            continued_key(spec, table, r.parameter)
         except ValueError as e:
             raise CaseError(f"'run[{i}].parameter' = {quote_value(r.parameter)} {e}") from None
     if r.parameter != "Omega":
