@@ -115,11 +115,18 @@ class Relation:
         return float(1.0 / np.sum(w * w))
 
 
+#: the range of a coefficient of restitution (Newton's, paper Eq. 2): 0 plastic, 1 elastic
+R_RANGE = (0.0, 1.0)
+
+
 def restitution_problem(R, name: str = "R") -> str:
     """What is wrong with ``R`` as a coefficient of restitution (Newton's, paper Eq. 2), ``""`` if
-    nothing: ``0 <= R <= 1`` (a NaN is refused).  The one range check of R in :mod:`vibeam.models`:
-    :class:`Restitution` calls it when it is made, a continuation in R before it makes one."""
-    return "" if 0.0 <= R <= 1.0 else f"{name} must lie in [0, 1], got {R}"
+    nothing: ``0 <= R <= 1`` (a NaN is refused).  The one range check of R in vibeam:
+    :class:`Restitution` calls it for its R and its table's values when it is made, a continuation
+    in R before it makes one, the case tables (:mod:`vibeam.case.contact`) for the key the user
+    wrote."""
+    why = ": a coefficient of restitution is greater than or equal to 0 (plastic) and less than or equal to 1 (elastic)"
+    return "" if R_RANGE[0] <= R <= R_RANGE[1] else f"{name} must lie in [{R_RANGE[0]:g}, {R_RANGE[1]:g}], got {R}{why}"
 
 
 @dataclass(frozen=True)
@@ -140,9 +147,10 @@ class Restitution:
     table_R: tuple = ()
 
     def __post_init__(self):
-        """Raises ValueError unless ``0 <= R <= 1`` (:func:`restitution_problem`): the law holds
-        and checks its number."""
-        problem = restitution_problem(self.R)
+        """Raises ValueError unless ``0 <= R <= 1`` and every ``table_R`` value too
+        (:func:`restitution_problem`): the law holds and checks its numbers."""
+        problem = restitution_problem(self.R) or next(
+            (p for p in (restitution_problem(r, "R(U-)") for r in self.table_R) if p), "")
         if problem:
             raise ValueError(problem)
 

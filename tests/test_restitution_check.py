@@ -1,7 +1,8 @@
 """Newton's R is held and checked by its law (issue 58: "R's range checked in one place"):
 :class:`vibeam.models.contact.Restitution` refuses an R outside [0, 1] when it is made, through
 :func:`vibeam.models.contact.restitution_problem`, and no other range check of an R is left in
-the dynamics (the case layer's pydantic bounds stay: they name the key the user wrote)."""
+the dynamics; the case tables call the same function for the key the user wrote
+(:func:`vibeam.case.contact.check_restitution`), so no second range of R is written anywhere."""
 from __future__ import annotations
 
 import math
@@ -48,3 +49,36 @@ def test_no_other_range_check_of_R_in_the_dynamics():
                     and 'else f"{name} must lie' not in code:
                 hits.append(f"{path.relative_to(ROOT)}:{n}: {line.strip()}")
     assert hits == [], "\n".join(hits)
+
+
+def test_the_laws_table_values_are_checked_by_the_law():
+    """A velocity-dependent R (paper Fig. 26) is Newton's law too: each table value in [0, 1]."""
+    assert Restitution(0.8, (0.0, 1.0), (0.5, 1.0)).table_R == (0.5, 1.0)
+    with pytest.raises(ValueError, match=r"R\(U-\) must lie in \[0, 1\], got 1.2"):
+        Restitution(0.8, (0.0, 1.0), (0.5, 1.2))
+
+
+#: a pydantic range bound written beside an R field (``R: Annotated[float, Field(ge=0.0, le=1.0)]``)
+_BOUND = re.compile(r"\bR(_lower)?\b.*Field\(\s*ge\s*=\s*0(\.0)?\s*,\s*le\s*=\s*1(\.0)?\s*\)")
+
+
+def test_the_case_layer_checks_R_by_the_laws_function():
+    """The case layer writes no range of its own for R: its fields use
+    :data:`vibeam.case.contact.RestitutionValue`, which calls :func:`restitution_problem`
+    (two bounds ``Field(ge=0.0, le=1.0)`` before: ``[model.contact] R`` and
+    ``[effects.restitution_law] R``).  The messages still name the key and the value."""
+    from vibeam.case.schema import parse_case
+    from vibeam.errors import CaseError
+
+    hits = []
+    for path in sorted((ROOT / "vibeam").rglob("*.py")):
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            if _BOUND.search(line.split("#")[0]):
+                hits.append(f"{path.relative_to(ROOT)}:{n}: {line.strip()}")
+    assert hits == [], "\n".join(hits)
+    text = (ROOT / "cases" / "paper-fig7.toml").read_text()
+    assert "\nR = 0.9\n" in text
+    with pytest.raises(CaseError) as e:
+        parse_case(text.replace("\nR = 0.9\n", "\nR = 1.25\n", 1), "bad.toml")
+    msg = str(e.value)
+    assert msg.startswith("bad.toml: 'model.R' = 1.25: R must lie in [0, 1], got 1.25") and "\n" not in msg, msg

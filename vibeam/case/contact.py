@@ -19,16 +19,45 @@ family is in the fidelity registry (``supported_methods``).  Nothing here names 
 from __future__ import annotations
 
 import math
-from typing import Annotated
+from typing import Annotated, NamedTuple
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from vibeam.case.paths import is_canonical, is_path, path_of, set_value
+from vibeam.models.contact import R_RANGE, restitution_problem
 from vibeam.models.registry import IMPLEMENTED_LAWS, LAWS, is_compliant, law_class
 
 
 #: the force exponents ``p`` of a Hertz-family law a case accepts (:func:`check_exponent`)
 EXPONENT_RANGE = (1.0, 3.0)
+
+
+def check_restitution(v: float) -> float:
+    """A case's coefficient of restitution, checked by the law's own test
+    (:func:`vibeam.models.contact.restitution_problem`: the one range check of R).
+
+    Raises
+    ------
+    ValueError
+        Outside ``[0, 1]``; pydantic names the key the user wrote.
+    """
+    problem = restitution_problem(v)
+    if problem:
+        raise ValueError(problem)
+    return v
+
+
+class Bounds(NamedTuple):
+    """A key's closed range as data, for what reads a schema's bounds (the fit's start and box:
+    :func:`vibeam.identify.fit.schema_bounds`) where a validator, not a pydantic bound, checks it."""
+
+    ge: float
+    le: float
+
+
+#: a case's coefficient of restitution (``[model] R``, a stop's ``R``, ``[effects.restitution_law] R``):
+#: checked by the law's function, its range the law module's (:data:`vibeam.models.contact.R_RANGE`)
+RestitutionValue = Annotated[float, AfterValidator(check_restitution), Bounds(*R_RANGE)]
 
 
 def check_exponent(v):
@@ -62,7 +91,7 @@ class ContactSpec(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True, allow_inf_nan=False)
 
     law: str = "restitution"
-    R: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    R: RestitutionValue | None = None
     stiffness: Annotated[float, Field(gt=0.0)] | None = None
     stiffness_n_m: Annotated[float, Field(gt=0.0)] | None = None
     damping_ratio: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None

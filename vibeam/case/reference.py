@@ -19,7 +19,7 @@ import annotated_types as at
 from pydantic import BaseModel, create_model
 
 from vibeam.case import schema
-from vibeam.case.contact import ContactSpec, StopSpec
+from vibeam.case.contact import Bounds, ContactSpec, StopSpec
 from vibeam.case.expand import SHORTHAND_KEYS, alias, required_keys
 from vibeam.errors import InputError
 from vibeam.io.outdir import write_text_file
@@ -599,6 +599,8 @@ def table_keys(heading: str, model: type[BaseModel]) -> list[str]:
 def _bounds(meta) -> list[str]:
     out, lengths = [], {}
     for m in meta:
+        if isinstance(m, Bounds):      # a range a validator checks (R: the law's own function)
+            out += [f">= {m.ge:g}", f"<= {m.le:g}"]
         for cls, op, attr in ((at.Ge, ">=", "ge"), (at.Gt, ">", "gt"), (at.Le, "<=", "le"), (at.Lt, "<", "lt")):
             if isinstance(m, cls):
                 out.append(f"{op} {getattr(m, attr):g}")

@@ -39,7 +39,7 @@ from typing import Annotated, ClassVar, Literal, Union
 import numpy as np
 from vibeam.case.uncertainty import UncertaintySpec
 from vibeam.case.contact import (ContactSpec, StopSpec, beam_law,  # [model.contact] (issue 13), [[model.stop]]
-                                 model_with, sdof_law, target_R)
+                                 RestitutionValue, model_with, sdof_law, target_R)
 from vibeam.case.expand import SHORTHAND_FIDELITIES, SHORTHAND_KEYS, aliases, expanded, required_keys, user_key
 from vibeam.case.paths import alias_of, canonical, flat_key, get_value, is_canonical, is_path, parameter_paths
 from vibeam.io.inputs import read_input_text
@@ -1894,7 +1894,7 @@ class RestitutionLawSpec(_Strict):
     velocity at the sensor (paper Fig. 26), constant beyond the table's ends."""
 
     velocity_mm_s: Annotated[list[float], Field(min_length=2)]
-    R: Annotated[list[Annotated[float, Field(ge=0.0, le=1.0)]], Field(min_length=2)]
+    R: Annotated[list[RestitutionValue], Field(min_length=2)]
 
     @model_validator(mode="after")
     def _table(self):
