@@ -553,3 +553,46 @@ def test_the_basin_image_spans_the_grid_cells_and_the_summary_names_each_attract
         assert float(m.group(1)) == pytest.approx(float(r.attractors["lyapunov"][0, k, 0]), rel=1e-3)
         assert float(m.group(2)) == pytest.approx(float(r.attractors["lyapunov_error"][0, k, 0]), rel=0.05, abs=0)
         assert (m.group(3).startswith("Floquet")) == (r.attractors["lyapunov_error"][0, k, 0] == 0)
+
+
+# ------------------------------------------------------------------- the lean stroboscopic map (issue 60)
+def test_the_lean_stroboscopic_map_is_points_samples_and_final_state_bit_for_bit():
+    """EventSolver.stroboscopic(Omega) is point(Omega, x, 0, n, 1) without the Trajectory: its
+    samples and final state are the same numbers (array_equal, no tolerance: one kernel call
+    with the same arguments) from free states, from states held on either stop, over the
+    chunk lengths the recurrence asks for and with its records reused; None exactly where point
+    is failed (a step budget too small for one period)."""
+    W = 2.0
+    solver = EventSolver(SDOF(BETA, 0.5e-3, R, 2e-3, Delta_lower=2e-3))
+    sections = solver.stroboscopic(W)
+    rng = np.random.default_rng(5)
+    states = [np.array([q, v, 0.0]) for q, v in zip(rng.uniform(-2e-3, 2e-3, 6), rng.uniform(-2e-2, 2e-2, 6))]
+    states += [np.array([2e-3, 0.0, 1.0]), np.array([-2e-3, 0.0, -1.0])]
+    for x in states:
+        for n in (1, 16, 37, 16, 256):          # 16 twice: a reused record
+            tr = solver.point(W, x, 0, n, 1)
+            got = sections(x, n)
+            assert tr.status != "failed" and got is not None
+            S, final = got
+            assert np.array_equal(S, tr.samples) and np.array_equal(final, tr.final_state), (x, n)
+    tight = EventSolver(SDOF(BETA, 0.5e-3, R, 2e-3, Delta_lower=2e-3), max_steps_per_call=3)
+    x = states[0]
+    assert tight.point(W, x, 0, 4, 1).status == "failed" and tight.stroboscopic(W)(x, 4) is None
+
+
+def test_the_basin_grid_is_the_same_with_and_without_the_lean_map(monkeypatch):
+    """The two-sided scene's basins (issue 60's case, symmetric stops at Omega = 2: two period-1
+    attractors) on a 40 x 40 grid: the per-cell labels, the map iterations, the fractions and the
+    attractors' sets are equal (array_equal, no tolerance) with the lean stroboscopic map and
+    with point's trajectories (the lean map taken away); the census does not depend on it."""
+    kw = dict(Omega=2.0, grid=(40, 40), run="symmetric stops at 2e-3", lyapunov_periods=0, verify=0)
+    lean = vibeam.basins("cases/paper-fig7-two-sided.toml", **kw)
+    monkeypatch.delattr(EventSolver, "stroboscopic")
+    old = vibeam.basins("cases/paper-fig7-two-sided.toml", **kw)
+    assert lean.labels.shape == (1, 40, 40) and lean.n_attractors == 2
+    assert np.array_equal(lean.labels, old.labels)
+    assert np.array_equal(lean.periods, old.periods)
+    np.testing.assert_array_equal(lean.attractors["fraction"], old.attractors["fraction"])
+    for a, b in zip(lean.attractors["samples"], old.attractors["samples"]):
+        for x, y in zip(a, b):
+            np.testing.assert_array_equal(x, y)

@@ -245,7 +245,9 @@ def strobe(solver, Omega: float, d: int):
     When the solver's samples are the whole state but its flag (the SDOF's ``(q, q')``, ``d =
     3``), one call gives ``n`` periods and the flag of the intermediate states is read from the
     state (held on a stop: exactly at the stop with zero velocity); otherwise one call per
-    period (the beam's samples are the sensor's, not the modes')."""
+    period (the beam's samples are the sensor's, not the modes').  A solver with a lean
+    stroboscopic map (``solver.stroboscopic(Omega)``, :meth:`vibeam.models.sdof.EventSolver.stroboscopic`)
+    gives those samples and final states without a trajectory per call: the same numbers."""
     Omega = float(Omega)
     model = solver.model
     Delta = float(model.Delta)
@@ -261,11 +263,21 @@ def strobe(solver, Omega: float, d: int):
             x = out[k] = tr.final_state
         return out
 
+    # the solver's lean map where it has one (the same kernel call as point's, without building a
+    # trajectory per call: issue 60), else point's samples and final state
+    sections = solver.stroboscopic(Omega) if hasattr(solver, "stroboscopic") else None
+
     def many(x, n):
-        tr = solver.point(Omega, x, 0, n, 1)
-        if tr.status == "failed":
-            return None
-        S = tr.samples
+        if sections is not None:
+            got = sections(x, n)
+            if got is None:
+                return None
+            S, final = got
+        else:
+            tr = solver.point(Omega, x, 0, n, 1)
+            if tr.status == "failed":
+                return None
+            S, final = tr.samples, tr.final_state
         out = np.empty((n, d))
         out[:-1, :2] = S[1:, :2]
         flag = np.zeros(n - 1)
@@ -274,7 +286,7 @@ def strobe(solver, Omega: float, d: int):
         if Dl is not None:
             flag[held & (S[1:, 0] == -Dl)] = -1.0
         out[:-1, 2] = flag
-        out[-1] = tr.final_state
+        out[-1] = final
         return out
 
     probe = solver.point(Omega, np.asarray(model.initial_state(), float), 0, 1, 1)
