@@ -596,3 +596,27 @@ def test_the_basin_grid_is_the_same_with_and_without_the_lean_map(monkeypatch):
     for a, b in zip(lean.attractors["samples"], old.attractors["samples"]):
         for x, y in zip(a, b):
             np.testing.assert_array_equal(x, y)
+
+
+def test_the_mislabel_bound_is_the_clopper_pearson_quantile_without_scipy_stats():
+    """mislabel_bound's upper bound is scipy.stats.beta.ppf(0.95, w + 1, n - w) exactly (the
+    independent implementation; compared as numbers, no tolerance) and 1 - 0.05^(1/n) for
+    none wrong (closed form, to 1e-12 relative: round-off of the power), and computing it does
+    not import scipy.stats (3-5 s of a basin command's start on a loaded host, issue 60)."""
+    import subprocess
+    import sys
+
+    from scipy.stats import beta
+
+    from vibeam.analysis.attractors import mislabel_bound
+
+    for n in (1, 2, 7, 50, 333, 2000):
+        for w in range(0, min(n, 12)):
+            rate, upper = mislabel_bound(w, n)
+            assert rate == w / n and upper == float(beta.ppf(0.95, w + 1, n - w)), (w, n)
+        assert mislabel_bound(0, n)[1] == pytest.approx(1 - 0.05 ** (1 / n), rel=1e-12)
+        assert mislabel_bound(n, n) == (1.0, 1.0)
+    code = ("import sys; from vibeam.analysis.attractors import mislabel_bound; mislabel_bound(1, 50); "
+            "print('scipy.stats' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
