@@ -657,7 +657,7 @@ def mislabel_bound(wrong: int, checked: int) -> tuple[float, float]:
     # the Beta(wrong + 1, checked - wrong) quantile is the inverse of the regularized incomplete beta
     # function, scipy.stats.beta.ppf's own numbers (equal on every checked <= 2000, wrong < 30);
     # scipy.special, not scipy.stats, whose import cost 3-5 s of a basin command (issue 60)
-    from scipy.special import betaincinv
+    from scipy.special import betaincinv  # lazy: keeps scipy.special out of `vibeam run` and the API's start-up
 
     if checked <= 0:
         return math.nan, math.nan
