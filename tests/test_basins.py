@@ -620,3 +620,23 @@ def test_the_mislabel_bound_is_the_clopper_pearson_quantile_without_scipy_stats(
             "print('scipy.stats' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
+
+
+def test_the_maps_calls_at_one_frequency_find_the_work_sizes_once(monkeypatch):
+    """EventIntegrator.run keeps the sub-step counts of the last grids (work_sizes, a pure
+    function of Omega, the grids and the largest step): a basin's map calls it once, not per call
+    (issue 60); the samples are those of a solver that asks every time (array_equal)."""
+    import vibeam.models.core.event as event
+
+    calls = []
+    real = event.work_sizes
+    monkeypatch.setattr(event, "work_sizes", lambda *a: calls.append(a) or real(*a))
+    model = SDOF(BETA, 0.5e-3, R, 2e-3, Delta_lower=2e-3)
+    sections = EventSolver(model).stroboscopic(2.0)
+    x = np.array([1e-3, 5e-3, 0.0])
+    got = [sections(x, n)[0] for n in (16, 32, 16, 64)]
+    assert len(calls) == 1
+    for n, S in zip((16, 32, 16, 64), got):
+        fresh = EventSolver(model)            # a new integrator: no sizes kept
+        assert np.array_equal(S, fresh.point(2.0, x, 0, n, 1).samples)
+    assert len(calls) == 5

@@ -144,6 +144,7 @@ class EventIntegrator:
         # per call), and the compiled entry of integrate_work for this integrator's argument types
         self._work = None
         self._entry = None
+        self._sizes = None          # (grids, work_sizes(*grids)) of the last call
 
     def __getstate__(self):
         """Pickled (to a pool worker) without the cached work arrays and compiled entry, which
@@ -223,8 +224,13 @@ class EventIntegrator:
         ns_record = int(ns_record)
         h_cap = float(h_cap)
         recur = bool(recurrence)
-        key = (threading.get_ident(), work_sizes(Om, ns_transient, ns_record, h_cap), ns_transient, ns_record,
-               h_cap, recur)
+        grids = (Om, ns_transient, ns_record, h_cap)
+        sizes = self._sizes
+        if sizes is None or sizes[0] != grids:
+            # (a pure function of the grids: kept for the next call at the same ones, one compiled
+            # call less per call of a basin's map, issue 60)
+            sizes = self._sizes = (grids, work_sizes(Om, ns_transient, ns_record, h_cap))
+        key = (threading.get_ident(), sizes[1], ns_transient, ns_record, h_cap, recur)
         if self._work is not None and self._work[0] == key:
             work = self._work[1]        # integrate_work writes every entry before reading it
         else:
