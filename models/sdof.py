@@ -20,6 +20,7 @@ from .trajectory import Trajectory
 
 from .contact import Relation, Restitution, Stop
 from .core.event import EventIntegrator, fundamental_step, trajectory
+from .core.integrator import ST_FAILED, new_record
 from .sdof_flow import undamped_resonance
 from .scene import Scene, sdof_scene
 
@@ -387,6 +388,53 @@ class EventSolver:
                           messages=msgs, core=self._core)
         del traj.extra["steps_per_period"]
         return traj
+
+    def stroboscopic(self, Omega: float):
+        """The stroboscopic map at ``Omega`` as ``sections(x, n)``: the kernel call of
+        ``point(Omega, x, 0, n, 1)`` without the :class:`Trajectory` around it.
+
+        For the basins (:func:`vibeam.analysis.attractors.strobe`), which read only the
+        stroboscopic samples and the final state of each call: the impacts' contact rows, the
+        status messages and the per-call records are not built.  The records (one per ``n``)
+        are allocated once per map and reused (the kernel resets every entry it reads,
+        :func:`vibeam.models.core.integrator.integrate_work`); the stops, their laws and the
+        system are the integrator's packed kernel data (:attr:`_core`), as in :meth:`point`.
+
+        Parameters
+        ----------
+        Omega : float
+            Forcing frequency (nondimensional).
+
+        Returns
+        -------
+        callable
+            ``sections(x, n) -> (S, final)`` or None: ``x`` the state ``(q, q', stuck)`` (shape
+            (3,)) at forcing phase 0, ``n >= 1`` periods; ``S`` (shape (n, 2), a copy) the
+            ``(q, q')`` at the start of each period (``S[0]`` is ``x``'s), ``final`` (shape
+            (3,)) the state after ``n`` periods: ``point``'s ``samples`` and ``final_state``,
+            the same numbers.  None where ``point`` would be ``failed`` (not finite, out of
+            the step budget, the impact guard).
+        """
+        core = self._core
+        Om = float(Omega)
+        args = (self.transient_samples, 1, self._h_cap)
+        records: dict = {}
+        compliant = core.compliant is not None
+
+        def sections(x, n):
+            n = int(n)
+            rec = records.get(n)
+            if rec is None:
+                rec = records[n] = new_record(core.n, core.n_stops, n, 1, self.impact_buffer, compliant=compliant)
+            held = core.held_set_of(x[2]) if x.shape[0] > 2 else 0
+            run = core.run(Om, x[:1], x[1:2], held, 0, n, *args, self.max_impacts_per_period * n,
+                           self.max_steps_per_call, self.chatter_tol, record=rec, recurrence=self.recurrence,
+                           record_of_new_types=True)
+            if run.status == ST_FAILED:
+                return None
+            return rec.samples.copy(), run.final_state
+
+        return sections
 
     def _contacts(self, v, stops):
         """Per impact (Newton's law): no duration, an impulse (no finite force), no penetration,

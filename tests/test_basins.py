@@ -553,3 +553,90 @@ def test_the_basin_image_spans_the_grid_cells_and_the_summary_names_each_attract
         assert float(m.group(1)) == pytest.approx(float(r.attractors["lyapunov"][0, k, 0]), rel=1e-3)
         assert float(m.group(2)) == pytest.approx(float(r.attractors["lyapunov_error"][0, k, 0]), rel=0.05, abs=0)
         assert (m.group(3).startswith("Floquet")) == (r.attractors["lyapunov_error"][0, k, 0] == 0)
+
+
+# ------------------------------------------------------------------- the lean stroboscopic map (issue 60)
+def test_the_lean_stroboscopic_map_is_points_samples_and_final_state_bit_for_bit():
+    """EventSolver.stroboscopic(Omega) is point(Omega, x, 0, n, 1) without the Trajectory: its
+    samples and final state are the same numbers (array_equal, no tolerance: one kernel call
+    with the same arguments) from free states, from states held on either stop, over the
+    chunk lengths the recurrence asks for and with its records reused; None exactly where point
+    is failed (a step budget too small for one period)."""
+    W = 2.0
+    solver = EventSolver(SDOF(BETA, 0.5e-3, R, 2e-3, Delta_lower=2e-3))
+    sections = solver.stroboscopic(W)
+    rng = np.random.default_rng(5)
+    states = [np.array([q, v, 0.0]) for q, v in zip(rng.uniform(-2e-3, 2e-3, 6), rng.uniform(-2e-2, 2e-2, 6))]
+    states += [np.array([2e-3, 0.0, 1.0]), np.array([-2e-3, 0.0, -1.0])]
+    for x in states:
+        for n in (1, 16, 37, 16, 256):          # 16 twice: a reused record
+            tr = solver.point(W, x, 0, n, 1)
+            got = sections(x, n)
+            assert tr.status != "failed" and got is not None
+            S, final = got
+            assert np.array_equal(S, tr.samples) and np.array_equal(final, tr.final_state), (x, n)
+    tight = EventSolver(SDOF(BETA, 0.5e-3, R, 2e-3, Delta_lower=2e-3), max_steps_per_call=3)
+    x = states[0]
+    assert tight.point(W, x, 0, 4, 1).status == "failed" and tight.stroboscopic(W)(x, 4) is None
+
+
+def test_the_basin_grid_is_the_same_with_and_without_the_lean_map(monkeypatch):
+    """The two-sided scene's basins (issue 60's case, symmetric stops at Omega = 2: two period-1
+    attractors) on a 40 x 40 grid: the per-cell labels, the map iterations, the fractions and the
+    attractors' sets are equal (array_equal, no tolerance) with the lean stroboscopic map and
+    with point's trajectories (the lean map taken away); the census does not depend on it."""
+    kw = dict(Omega=2.0, grid=(40, 40), run="symmetric stops at 2e-3", lyapunov_periods=0, verify=0)
+    lean = vibeam.basins("cases/paper-fig7-two-sided.toml", **kw)
+    monkeypatch.delattr(EventSolver, "stroboscopic")
+    old = vibeam.basins("cases/paper-fig7-two-sided.toml", **kw)
+    assert lean.labels.shape == (1, 40, 40) and lean.n_attractors == 2
+    assert np.array_equal(lean.labels, old.labels)
+    assert np.array_equal(lean.periods, old.periods)
+    np.testing.assert_array_equal(lean.attractors["fraction"], old.attractors["fraction"])
+    for a, b in zip(lean.attractors["samples"], old.attractors["samples"]):
+        for x, y in zip(a, b):
+            np.testing.assert_array_equal(x, y)
+
+
+def test_the_mislabel_bound_is_the_clopper_pearson_quantile_without_scipy_stats():
+    """mislabel_bound's upper bound is scipy.stats.beta.ppf(0.95, w + 1, n - w) exactly (the
+    independent implementation; compared as numbers, no tolerance) and 1 - 0.05^(1/n) for
+    none wrong (closed form, to 1e-12 relative: round-off of the power), and computing it does
+    not import scipy.stats (3-5 s of a basin command's start on a loaded host, issue 60)."""
+    import subprocess
+    import sys
+
+    from scipy.stats import beta
+
+    from vibeam.analysis.attractors import mislabel_bound
+
+    for n in (1, 2, 7, 50, 333, 2000):
+        for w in range(0, min(n, 12)):
+            rate, upper = mislabel_bound(w, n)
+            assert rate == w / n and upper == float(beta.ppf(0.95, w + 1, n - w)), (w, n)
+        assert mislabel_bound(0, n)[1] == pytest.approx(1 - 0.05 ** (1 / n), rel=1e-12)
+        assert mislabel_bound(n, n) == (1.0, 1.0)
+    code = ("import sys; from vibeam.analysis.attractors import mislabel_bound; mislabel_bound(1, 50); "
+            "print('scipy.stats' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
+
+
+def test_the_maps_calls_at_one_frequency_find_the_work_sizes_once(monkeypatch):
+    """EventIntegrator.run keeps the sub-step counts of the last grids (work_sizes, a pure
+    function of Omega, the grids and the largest step): a basin's map calls it once, not per call
+    (issue 60); the samples are those of a solver that asks every time (array_equal)."""
+    import vibeam.models.core.event as event
+
+    calls = []
+    real = event.work_sizes
+    monkeypatch.setattr(event, "work_sizes", lambda *a: calls.append(a) or real(*a))
+    model = SDOF(BETA, 0.5e-3, R, 2e-3, Delta_lower=2e-3)
+    sections = EventSolver(model).stroboscopic(2.0)
+    x = np.array([1e-3, 5e-3, 0.0])
+    got = [sections(x, n)[0] for n in (16, 32, 16, 64)]
+    assert len(calls) == 1
+    for n, S in zip((16, 32, 16, 64), got):
+        fresh = EventSolver(model)            # a new integrator: no sizes kept
+        assert np.array_equal(S, fresh.point(2.0, x, 0, n, 1).samples)
+    assert len(calls) == 5

@@ -195,6 +195,62 @@ def test_checkpoints_add_up_drop_their_kind_once_and_are_read_by_identity(tmp_pa
         assert not partial.exists()
 
 
+def _dimids(path):
+    out = []
+    with h5py.File(path) as f:
+        f.visititems(lambda name, obj: out.append((name, int(np.asarray(obj.attrs["_Netcdf4Dimid"]).ravel()[0])))
+                     if "_Netcdf4Dimid" in obj.attrs else None)
+    return sorted(out)
+
+
+def test_checkpoints_count_their_dimension_ids_on_instead_of_visiting_the_file(tmp_path, monkeypatch):
+    """A checkpoint onto the file the store wrote last starts from the next free netCDF dimension
+    id it counted (issue 60: visiting every object of the growing checkpoint for the largest id
+    made a 200 x 200 basin grid's flushes O(rows^2), 41 of 95 s of a profiled run): the file is
+    visited once, for the first checkpoint, and every group gets the ids of a visit each time
+    (exact integers: netCDF needs them unique in the file); a checkpoint file this store did not
+    write last (another process's, replaced) is visited again."""
+    import vibeam.io.netcdf as netcdf
+    import vibeam.io.store as store
+
+    visits = []
+    real = netcdf._next_dimid
+    monkeypatch.setattr(netcdf, "_next_dimid", lambda f: visits.append(1) or real(f))
+    v = {"x": var(("n",), np.arange(3.0)), "y": var(("n", "m"), np.zeros((3, 2)))}
+
+    def fill(folder):
+        with Store(folder) as s:
+            s.checkpoint("lines", {"a": (v, {"case_hash": "h"})}, start=True)
+            for k in "bcd":
+                s.checkpoint("lines", {k: (v, {"case_hash": "h"})})
+            s.checkpoint("basin_lines/r", {"row0": (v, {"case_hash": "h"})}, start=True)
+        return _dimids(folder / (RESULTS_NAME + PARTIAL_SUFFIX))
+
+    counted = fill(tmp_path / "counted")
+    assert len(visits) == 1
+    visits.clear()
+    monkeypatch.setattr(store, "_signature", lambda path: object())      # never the same file: visit each time
+    visited = fill(tmp_path / "visited")
+    assert len(visits) == 5
+    assert counted == visited and len(counted) == 10
+    assert len({i for _, i in counted}) == len(counted)                    # unique in the file
+    # another writer's file in between: visited again
+    monkeypatch.undo()
+    monkeypatch.setattr(netcdf, "_next_dimid", lambda f: visits.append(1) or real(f))
+    visits.clear()
+    folder = tmp_path / "counted"
+    with Store(folder) as s:
+        s.checkpoint("lines", {"e": (v, {"case_hash": "h"})})
+        partial = folder / (RESULTS_NAME + PARTIAL_SUFFIX)
+        data = partial.read_bytes()
+        partial.unlink()
+        partial.write_bytes(data)                # a successor (a new inode) with the same content
+        s.checkpoint("lines", {"f": (v, {"case_hash": "h"})})
+    assert len(visits) == 2
+    ids = [i for _, i in _dimids(partial)]
+    assert len(set(ids)) == len(ids) == 14
+
+
 def test_consumed_checkpoints_are_removed_group_by_group(tmp_path):
     v = {"x": var(("n",), np.arange(3.0))}
     partial = tmp_path / (RESULTS_NAME + PARTIAL_SUFFIX)

@@ -144,6 +144,7 @@ class EventIntegrator:
         # per call), and the compiled entry of integrate_work for this integrator's argument types
         self._work = None
         self._entry = None
+        self._sizes = None          # (grids, work_sizes(*grids)) of the last call
 
     def __getstate__(self):
         """Pickled (to a pool worker) without the cached work arrays and compiled entry, which
@@ -172,7 +173,7 @@ class EventIntegrator:
 
     def run(self, Omega, eta, etad, held, n_transient, n_record, ns_transient, ns_record, h_cap,
             max_impacts, max_steps, chatter_tol, record: Record | None = None, impact_buffer=4096,
-            modal_states=False, log_events=0, log_apexes=0, recurrence=True) -> Run:
+            modal_states=False, log_events=0, log_apexes=0, recurrence=True, record_of_new_types=False) -> Run:
         """Integrate one forcing frequency from phase 0 (:func:`~vibeam.models.core.integrator.integrate_work`).
 
         Parameters
@@ -199,6 +200,11 @@ class EventIntegrator:
             same outputs bit for bit
             (:mod:`vibeam.models.core.integrator`; off with the event or apex log or compliant
             stops); False integrates every period.
+        record_of_new_types : bool
+            ``record`` was made by :func:`~vibeam.models.core.integrator.new_record` with this
+            integrator's sizes (``compliant`` as it has compliant stops, no logs, no modal
+            states): the cached compiled entry serves it as it serves a record of its own
+            (a caller that reuses its records, :meth:`vibeam.models.sdof.EventSolver.stroboscopic`).
 
         Returns
         -------
@@ -206,8 +212,8 @@ class EventIntegrator:
         """
         eta = np.array(eta, dtype=float)
         etad = np.array(etad, dtype=float)
-        own = record is None        # a record of new_record's types: the cached entry serves it
-        if own:
+        own = record is None or record_of_new_types     # a record of new_record's types: the cached entry serves it
+        if record is None:
             record = new_record(self.n, self.n_stops, n_record, ns_record, impact_buffer, modal_states,
                                 log_events, log_apexes, compliant=self.compliant is not None)
         record.nlog[:] = 0
@@ -218,8 +224,13 @@ class EventIntegrator:
         ns_record = int(ns_record)
         h_cap = float(h_cap)
         recur = bool(recurrence)
-        key = (threading.get_ident(), work_sizes(Om, ns_transient, ns_record, h_cap), ns_transient, ns_record,
-               h_cap, recur)
+        grids = (Om, ns_transient, ns_record, h_cap)
+        sizes = self._sizes
+        if sizes is None or sizes[0] != grids:
+            # (a pure function of the grids: kept for the next call at the same ones, one compiled
+            # call less per call of a basin's map, issue 60)
+            sizes = self._sizes = (grids, work_sizes(Om, ns_transient, ns_record, h_cap))
+        key = (threading.get_ident(), sizes[1], ns_transient, ns_record, h_cap, recur)
         if self._work is not None and self._work[0] == key:
             work = self._work[1]        # integrate_work writes every entry before reading it
         else:

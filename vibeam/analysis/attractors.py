@@ -245,7 +245,9 @@ def strobe(solver, Omega: float, d: int):
     When the solver's samples are the whole state but its flag (the SDOF's ``(q, q')``, ``d =
     3``), one call gives ``n`` periods and the flag of the intermediate states is read from the
     state (held on a stop: exactly at the stop with zero velocity); otherwise one call per
-    period (the beam's samples are the sensor's, not the modes')."""
+    period (the beam's samples are the sensor's, not the modes').  A solver with a lean
+    stroboscopic map (``solver.stroboscopic(Omega)``, :meth:`vibeam.models.sdof.EventSolver.stroboscopic`)
+    gives those samples and final states without a trajectory per call: the same numbers."""
     Omega = float(Omega)
     model = solver.model
     Delta = float(model.Delta)
@@ -261,11 +263,21 @@ def strobe(solver, Omega: float, d: int):
             x = out[k] = tr.final_state
         return out
 
+    # the solver's lean map where it has one (the same kernel call as point's, without building a
+    # trajectory per call: issue 60), else point's samples and final state
+    sections = solver.stroboscopic(Omega) if hasattr(solver, "stroboscopic") else None
+
     def many(x, n):
-        tr = solver.point(Omega, x, 0, n, 1)
-        if tr.status == "failed":
-            return None
-        S = tr.samples
+        if sections is not None:
+            got = sections(x, n)
+            if got is None:
+                return None
+            S, final = got
+        else:
+            tr = solver.point(Omega, x, 0, n, 1)
+            if tr.status == "failed":
+                return None
+            S, final = tr.samples, tr.final_state
         out = np.empty((n, d))
         out[:-1, :2] = S[1:, :2]
         flag = np.zeros(n - 1)
@@ -274,7 +286,7 @@ def strobe(solver, Omega: float, d: int):
         if Dl is not None:
             flag[held & (S[1:, 0] == -Dl)] = -1.0
         out[:-1, 2] = flag
-        out[-1] = tr.final_state
+        out[-1] = final
         return out
 
     probe = solver.point(Omega, np.asarray(model.initial_state(), float), 0, 1, 1)
@@ -642,11 +654,14 @@ def verify_labels(solver, Omega: float, d: int, states, labels, groups, width, n
 def mislabel_bound(wrong: int, checked: int) -> tuple[float, float]:
     """``(wrong / checked, upper)``: the estimated mislabel rate and its one-sided 95 %
     Clopper-Pearson upper bound (``1 - 0.05^(1/n)``, about ``3 / n``, when none was wrong)."""
-    from scipy.stats import beta  # lazy: keeps scipy.stats (0.7 s) out of `vibeam run` and the API's start-up
+    # the Beta(wrong + 1, checked - wrong) quantile is the inverse of the regularized incomplete beta
+    # function, scipy.stats.beta.ppf's own numbers (equal on every checked <= 2000, wrong < 30);
+    # scipy.special, not scipy.stats, whose import cost 3-5 s of a basin command (issue 60)
+    from scipy.special import betaincinv  # lazy: keeps scipy.special out of `vibeam run` and the API's start-up
 
     if checked <= 0:
         return math.nan, math.nan
-    upper = 1.0 if wrong >= checked else float(beta.ppf(0.95, wrong + 1, checked - wrong))
+    upper = 1.0 if wrong >= checked else float(betaincinv(wrong + 1, checked - wrong, 0.95))
     return wrong / checked, upper
 
 

@@ -139,10 +139,14 @@ def _find_scale(g, dim: str, size: int):
 
 
 class DimIds:
-    """The next free netCDF dimension id of an open file (found once, then counted)."""
+    """The next free netCDF dimension id of an open file (found once, then counted).
 
-    def __init__(self):
-        self.next = None
+    ``start``: the next free id when the caller knows it (the file is one it wrote itself and
+    counted: :meth:`vibeam.io.store.Store.checkpoint`); None finds it by visiting the file
+    (:func:`_next_dimid`, every object: O(file) per call)."""
+
+    def __init__(self, start: int | None = None):
+        self.next = None if start is None else int(start)
 
     def take(self, g) -> int:
         if self.next is None:

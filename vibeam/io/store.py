@@ -195,6 +195,12 @@ def live_image(f) -> io.BytesIO:
     return out
 
 
+def _signature(path: Path) -> tuple:
+    """What tells a file apart from its successors: inode, size and modification time (ns)."""
+    st = os.stat(path)
+    return (st.st_ino, st.st_size, st.st_mtime_ns)
+
+
 def build_file(path: Path, fill, base: Path | None = None, keep_on_signal: bool = False,
                compact: bool = False) -> Path:
     """Write ``path`` as a whole: ``fill(file)`` on an :class:`h5py.File` built in memory (from
@@ -338,6 +344,11 @@ class Store:
         self._lock: OutputLock | None = None
         self._depth = 0                    # nested entries of this store still open
         self._started: set = set()         # checkpoint kinds started afresh by this command
+        # the checkpoint this store wrote last, ((inode, size, mtime), its next free netCDF dimension
+        # id): the next checkpoint onto that very file counts on from there instead of visiting every
+        # object of it for the largest id (an O(lines) visit per flush, O(lines^2) a computation:
+        # 41 of 95 s of a profiled 200 x 200 basin grid, issue 60)
+        self._dimids: tuple | None = None
         self.stale_noted: list = []        # units this command's commits found or made stale
 
     # ------------------------------------------------------------------ the hold
@@ -570,6 +581,10 @@ class Store:
         self._held()
         drop = (start or self.fresh) and kind not in self._started
         base = self.partial if self.partial.is_file() else None
+        known = self._dimids
+        self._dimids = None
+        ids = DimIds(known[1] if known is not None and base is not None and _signature(base) == known[0]
+                     else None)
 
         def fill(f):
             if drop and kind in f:
@@ -578,7 +593,6 @@ class Store:
                 if k in f.attrs:
                     del f.attrs[k]
             root_attrs(f, case_name, case_text, case_json, complete=False)
-            ids = DimIds()
             for key, (variables, attrs) in groups.items():
                 p = f"{kind}/{key}"
                 if p in f:
@@ -590,9 +604,12 @@ class Store:
 
         if self.fresh and not self._started:
             base = None                           # --fresh: the old checkpoint is not kept
+            ids = DimIds()
         # a checkpoint that dropped its old content is written without it (only appended to, it is not)
         out = build_file(self.partial, fill, base, keep_on_signal=True, compact=drop and base is not None)
         self._started.add(kind)
+        if ids.next is not None:
+            self._dimids = (_signature(out), ids.next)
         return out
 
     def read_checkpoint(self, kind: str, attr: str, ident: str, check=None) -> tuple[dict, dict]:
