@@ -110,7 +110,12 @@ def make_solver(model, method: str, **settings):
         raise ValueError(f"method {method!r} {why}")
     up, _ = mass_law_keys(model)
     x = fid.solvers[method]
-    return resolve(x.solver if up == IMPULSIVE else x.laws[up])(model, **settings)
+    cls = resolve(x.solver if up == IMPULSIVE else x.laws[up])
+    if not x.scene:
+        return cls(model, **settings)
+    solver = cls(model.scene(), **settings)
+    solver.model = model      # what the framework reads (units, outputs) until the model classes go (issue 58)
+    return solver
 
 
 def _refusal(model, method: str) -> str:

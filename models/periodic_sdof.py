@@ -361,7 +361,7 @@ class SDOFShooting(ModalShooting):
             phi, v = float(r["impact_phase"]), Q
             # refine on the impact map (Newton on the closed form, paper Eqs. 33-34): averaging is
             # a first-order guess, poor for R well below 1
-            m = replace(self.model, beta=beta, B=B, R=R, Delta=Delta)
+            m = replace(self.model, beta=beta, B=B, R=R, Delta=Delta).scene()
             fp = newton_fixed_point(m, Omega, (phi, v), 1)
             if fp is not None and is_admissible(m, Omega, fp, 1)[0]:
                 phi, v = float(fp[0]), float(fp[1])

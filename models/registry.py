@@ -185,6 +185,8 @@ class Method(NamedTuple):
         It simulates a compliant stop beside a Newton one.
     restitution_law, positive_R, modal_states : bool
         It takes a velocity-dependent R; it needs ``R > 0``; it records the modal states.
+    scene : bool
+        Its solver is built from the model's scene (``cls(model.scene(), **settings)``), not the model.
     """
 
     solver: str
@@ -194,6 +196,7 @@ class Method(NamedTuple):
     restitution_law: bool = False
     positive_R: bool = False
     modal_states: bool = False
+    scene: bool = False
 
 
 def on_the_core(solver: str, **flags) -> Method:
@@ -282,15 +285,15 @@ register(Fidelity(
     name="sdof",
     model="sdof:SDOF",
     solvers={"event": on_the_core("sdof:EventSolver", restitution_law=True),
-             "direct": on_the_core("sdof_ode:DirectSolver"),
+             "direct": on_the_core("sdof_ode:DirectSolver", scene=True),
              # the textbook methods of one Newton stop (paper Sec. 3)
-             "zhuravlev": Method("sdof_ode:ZhuravlevSolver"),
-             "ivanov": Method("sdof_ode:IvanovSolver", positive_R=True),
-             "averaging": Method("sdof_averaging:AveragingSolver"),
+             "zhuravlev": Method("sdof_ode:ZhuravlevSolver", scene=True),
+             "ivanov": Method("sdof_ode:IvanovSolver", positive_R=True, scene=True),
+             "averaging": Method("sdof_averaging:AveragingSolver", scene=True),
              # the one pointwise mapping (paper Sec. 4.2): a passage through a stop of each law, on
              # one or two stops, mixed ones included
              "mapping": Method("mapping:MappingSolver", {f: "mapping:MappingSolver" for f in _MAPPED},
-                               (IMPULSIVE,) + _MAPPED, True),
+                               (IMPULSIVE,) + _MAPPED, True, scene=True),
              "continuation": on_the_core("periodic_sdof:SDOFShooting")},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 

@@ -32,7 +32,8 @@ import numpy as np
 
 from .system import ModalSystem, from_beam, from_sdof
 
-__all__ = ["Scene", "sdof_scene", "beam_scene", "units", "Excitation", "EXCITATION_KINDS", "driven"]
+__all__ = ["Scene", "sdof_scene", "beam_scene", "units", "one_mode", "OneMode", "Excitation", "EXCITATION_KINDS",
+           "driven"]
 
 #: the harmonic drives of a scene (:class:`Excitation`)
 EXCITATION_KINDS = ("base_displacement", "base_acceleration", "force")
@@ -89,6 +90,46 @@ def units(sc: Scene) -> dict:
     s = sc.system
     return {"time_s": s.time_unit_s, "length_m": s.length_unit_m, "mass_kg": s.mass_unit_kg,
             "coordinate_scale": s.coordinate_scale}
+
+
+class OneMode(NamedTuple):
+    """The paper's oscillator ``q'' + 2 beta q' + q = Omega^2 B sin(Omega t)`` and its ``stops`` (paper
+    Eqs. 1-2) read from a scene (:func:`one_mode`); the gaps are the relations' offsets, ``R`` the laws'."""
+
+    beta: float
+    B: float
+    stops: tuple
+
+    Delta = property(lambda self: self.stops[0].relation.offset, doc="The upper stop's gap.")
+    Delta_lower = property(lambda self: self.stops[1].relation.offset if len(self.stops) > 1 else None,
+                           doc="The lower stop's gap (None: one stop).")
+
+    def initial_state(self) -> np.ndarray:
+        """``(q, q', 0)``: rest at ``q = 0``, or on a pre-stressed stop (``Delta < 0``, ``Delta_lower < 0``)."""
+        q = min(0.0, self.Delta)
+        return np.array([q if len(self.stops) < 2 else max(q, -self.Delta_lower), 0.0, 0.0])
+
+
+def one_mode(sc: Scene, method: str = "the method") -> OneMode:
+    """The one-mode oscillator of ``sc``, what the SDOF methods (mapping, averaging, Zhuravlev, Ivanov,
+    direct) take: ``beta = damping / 2`` (the SDOF builder's ``2 beta``, bit for bit), ``B`` and the stops.
+
+    Raises
+    ------
+    ValueError
+        One line naming ``method`` and what is allowed, unless the scene is :func:`sdof_scene`'s kind:
+        one mode, ``omega = Gamma = s = W = coordinate_scale = 1``, a base displacement drive and a
+        stop at ``q = Delta`` (sign +1), optionally one at ``q = -Delta_lower`` (sign -1), on row 0.
+    """
+    s, st = sc.system, tuple(sc.stops)
+    signs = tuple(float(x.relation.sign) for x in st)
+    if not (s.contacts.shape == (1, 1) and s.omega[0] == s.participation[0] == s.sensor[0] == s.contacts[0, 0] == 1.0
+            and s.coordinate_scale == 1.0 and s.drive_power == 2 and signs in ((1.0,), (1.0, -1.0))
+            and all(x.relation.row == 0 for x in st)):
+        raise ValueError(f"{method} takes the one-mode oscillator of paper Eqs. 1-2, got {s.omega.shape[0]} mode(s), "
+                         f"drive power {s.drive_power}, stops of signs {signs}; allowed: one mode with omega = 1 and "
+                         f"unit rows, a base displacement drive, a stop at q = Delta and optionally one at q = -Delta_lower")
+    return OneMode(float(s.damping[0]) / 2.0, float(s.base_amplitude), st)
 
 
 class Excitation(NamedTuple):

@@ -31,6 +31,8 @@ import math
 
 import numpy as np
 
+from .scene import one_mode
+
 
 def _coefficients(Omega, beta, B, R, Delta, k):
     Omega = np.asarray(Omega, dtype=float)
@@ -229,22 +231,23 @@ class AveragingSolver:
 
     Parameters
     ----------
-    model : SDOF
-        The oscillator (uses ``beta``, ``B``, ``R``, ``Delta``).
+    scene : vibeam.models.scene.Scene
+        The one-mode oscillator (:func:`vibeam.models.scene.one_mode`: ``beta``, ``B``, the stop's
+        ``Delta`` and its law's ``R``).
     k : int, optional
         Resonance index (``Omega ~ 2k``).
 
     Raises
     ------
     ValueError
-        If ``k`` is not a positive integer.
+        If ``k`` is not a positive integer or the scene not the one-mode oscillator.
     """
 
     name = "averaging"
     time_domain = False
 
-    def __init__(self, model, k: int = 1):
-        self.model = model
+    def __init__(self, scene, k: int = 1):
+        self.one = one_mode(scene, "method 'averaging'")
         self.k = _check_k(k)
 
     def settings(self) -> dict:
@@ -268,8 +271,8 @@ class AveragingSolver:
             ``message`` ``""``; ``status`` ``"failed"`` with the reason where the averaged
             equations are degenerate (:func:`degenerate`).
         """
-        m = self.model
-        R = m.stops()[0].law.R
+        m = self.one
+        R = m.stops[0].law.R
         why = degenerate(float(Omega), m.beta, m.B, R, m.Delta, self.k)
         if why:
             nan = float("nan")
@@ -284,9 +287,10 @@ class AveragingSolver:
                     period=self.k if np.isfinite(up) else -1, status="ok", message="")
 
 
-def averaging_guess(model, Omega):
-    """Initial guess ``(phi, v)`` from averaging (k = 1): impact phase ``-psi``, ``v ~ Q``."""
-    r = solve(float(Omega), model.beta, model.B, model.stops()[0].law.R, model.Delta, 1)
+def averaging_guess(om, Omega):
+    """Initial guess ``(phi, v)`` from averaging (k = 1): impact phase ``-psi``, ``v ~ Q``; ``om`` the
+    scene's :func:`vibeam.models.scene.one_mode`."""
+    r = solve(float(Omega), om.beta, om.B, om.stops[0].law.R, om.Delta, 1)
     Q = float(r["amplitude"])
     if not np.isfinite(Q):
         return None

@@ -49,6 +49,7 @@ from .impact import newton_restitution
 from .contact_policy import release_now
 from .core.direct import ATOL_COMPLIANT, RTOL_COMPLIANT, DirectIntegrator
 from .core.event import EventIntegrator
+from .scene import one_mode
 
 TWO_PI = 2.0 * math.pi
 EPS = 2.220446049250313e-16
@@ -341,8 +342,8 @@ class _ScipyMethod:
 
     Parameters
     ----------
-    model : SDOF
-        The oscillator (:class:`vibeam.models.sdof.SDOF`).
+    scene : vibeam.models.scene.Scene
+        The one-mode oscillator and its stops (:func:`vibeam.models.scene.one_mode`).
     solver : str, optional
         ``solve_ivp`` method, one of ``RK23`` (the paper's ``ode23``), ``RK45``,
         ``DOP853``, ``Radau``, ``LSODA``.
@@ -362,22 +363,24 @@ class _ScipyMethod:
     Raises
     ------
     ValueError
-        If ``solver`` is not one of the allowed methods, or a tolerance is not
-        positive.
+        If ``solver`` is not one of the allowed methods, a tolerance is not
+        positive, the scene is not the one-mode oscillator or has a second stop the method does not
+        simulate.
     """
 
     name = "scipy"
     time_domain = True
-    #: simulates a second (lower) stop (``SDOF.Delta_lower``); see ``supported_methods`` of the registry
+    #: simulates a second (lower) stop (at ``q = -Delta_lower``); see ``supported_methods`` of the registry
     two_sided = False
     # periods per call of the sweep engine (vibeam.engine.sweep._simulate); a restart of solve_ivp changes
     # the result at the level of its tolerance, so chunks are long (Python code is interruptible
     # anyway; the chunk only sets how often the wall-time limit is checked)
     chunk_periods = 1000
 
-    def __init__(self, model, solver: str = "RK23", rtol: float = 1e-4, atol: float = 1e-8,
+    def __init__(self, scene, solver: str = "RK23", rtol: float = 1e-4, atol: float = 1e-8,
                  max_step=None, max_events_per_period: int = 20000,
                  max_nfev_per_period: int = 50000):
+        one = one_mode(scene, f"method {self.name!r}")
         if solver not in SOLVERS:
             raise ValueError(f"setting solver={solver!r} is not allowed for method {self.name!r}; "
                              f"allowed: {', '.join(SOLVERS)}")
@@ -386,9 +389,9 @@ class _ScipyMethod:
                 raise ValueError(f"setting {key}={val!r} must be a positive float")
         if max_step is not None and not (float(max_step) > 0.0):
             raise ValueError(f"setting max_step={max_step!r} must be positive or None")
-        if getattr(model, "two_sided", False) and not self.two_sided:
+        if len(one.stops) > 1 and not self.two_sided:
             raise ValueError(f"method {self.name!r} cannot simulate a second (lower) stop")
-        self.model = model
+        self.scene, self.one = scene, one
         self.solver = solver
         self.rtol = float(rtol)
         self.atol = float(atol)
@@ -435,7 +438,7 @@ class _ScipyMethod:
             Forcing frequency over the natural frequency (nondimensional).
         state0 : array_like, shape (2,) or (3,), or None
             ``(q, q'[, stuck])``; only ``(q, q')`` is used.  None starts from
-            :meth:`SDOF.initial_state` (on the stop when ``Delta < 0``).  A
+            :meth:`vibeam.models.scene.OneMode.initial_state` (on the stop when ``Delta < 0``).  A
             ``q`` beyond the stop is put on it; on the stop a positive ``q'``
             is an impact at ``t = 0`` and ``q' = 0`` is held in contact until
             the contact force releases the mass.
@@ -454,13 +457,13 @@ class _ScipyMethod:
             ``Delta`` when an impact occurs), ``final_state`` ``(q, q', 0.0)``
             (for ``failed``: the last state reached, so a continuation can go
             on) and ``extra["nfev"]`` (right-hand-side evaluations).  A
-            non-finite ``state0`` is replaced by :meth:`SDOF.initial_state`.  ``status`` is ``ok``; ``failed`` (with a
+            non-finite ``state0`` is replaced by :meth:`vibeam.models.scene.OneMode.initial_state`.  ``status`` is ``ok``; ``failed`` (with a
             message) when the integrator fails, an accumulation point of
             impacts is reached or more than ``max_events_per_period`` events
             per period occur; ``sticking`` only if the initial contact lasts
             into the recorded window.
         """
-        m = self.model
+        m = self.one
         Omega = float(Omega)
         T = TWO_PI / Omega
         n_transient, n_record, spp = int(n_transient), int(n_record), int(samples_per_period)
@@ -474,7 +477,7 @@ class _ScipyMethod:
             s0 = m.initial_state()
         q0, v0 = float(s0[0]), float(s0[1])
         Delta, F = m.Delta, Omega * Omega * m.B
-        two = getattr(m, "two_sided", False) and self.two_sided
+        two = len(m.stops) > 1 and self.two_sided
         Dl = m.Delta_lower if two else math.inf
         imp_t, imp_v, imp_k = [], [], []
         n_pre = 0
@@ -493,7 +496,7 @@ class _ScipyMethod:
                     imp_t.append(0.0)
                     imp_v.append(U0)
                     imp_k.append(side)
-                v0 = sg * float(newton_restitution(U0, m.stops()[side].law.R))
+                v0 = sg * float(newton_restitution(U0, m.stops[side].law.R))
             elif U0 == 0.0:  # resting on the stop: held until released
                 t0 = float(release_delay(0.0, F, Delta, Omega) if side == 0 else
                            release_delay_lower(0.0, F, Dl, Omega))
@@ -593,18 +596,18 @@ class DirectSolver(_ScipyMethod):
     PAPER = dict(solver="RK23", rtol=1e-4, atol=1e-8, max_events_per_period=20000)
     REFERENCE = dict(solver="DOP853", rtol=RTOL_COMPLIANT, atol=ATOL_COMPLIANT, max_events_per_period=200)
 
-    def __init__(self, model, solver: str | None = None, rtol: float | None = None, atol: float | None = None,
+    def __init__(self, scene, solver: str | None = None, rtol: float | None = None, atol: float | None = None,
                  max_step=None, max_events_per_period: int | None = None, max_nfev_per_period: int = 50000):
-        compliant = any(getattr(s.law, "kind", "") == "compliant" for s in model.stops())
+        compliant = any(getattr(s.law, "kind", "") == "compliant" for s in scene.stops)
         given = dict(solver=solver, rtol=rtol, atol=atol, max_events_per_period=max_events_per_period)
         kw = {k: (self.REFERENCE if compliant else self.PAPER)[k] if v is None else v for k, v in given.items()}
-        super().__init__(model, kw["solver"], kw["rtol"], kw["atol"], max_step, kw["max_events_per_period"],
+        super().__init__(scene, kw["solver"], kw["rtol"], kw["atol"], max_step, kw["max_events_per_period"],
                          max_nfev_per_period)
         self._direct = None
         if compliant:
-            self._direct = DirectIntegrator(EventIntegrator(model.scene()), 1.0, self.solver,
+            self._direct = DirectIntegrator(EventIntegrator(scene), 1.0, self.solver,
                                             self.rtol, self.atol, self.max_events_per_period, max_step=self.max_step)
-            self._laws = [s.law for s in model.stops()]
+            self._laws = [s.law for s in scene.stops]
 
     def point(self, Omega: float, state0, n_transient: int, n_record: int,
               samples_per_period: int = 64) -> Trajectory:
@@ -613,7 +616,7 @@ class DirectSolver(_ScipyMethod):
         contact with the upper / lower stop)."""
         if self._direct is None:
             return super().point(Omega, state0, n_transient, n_record, samples_per_period)
-        m = self.model
+        m = self.one
         s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
         if not np.all(np.isfinite(s0)):  # e.g. handed on from a failed point
             s0 = m.initial_state()
@@ -624,7 +627,7 @@ class DirectSolver(_ScipyMethod):
         return np.array([q, v]), 0.0
 
     def _rhs(self, Omega):
-        m = self.model
+        m = self.one
         b2, F = 2.0 * m.beta, Omega * Omega * m.B
 
         def f(t, y):
@@ -633,10 +636,10 @@ class DirectSolver(_ScipyMethod):
         return lambda mode: f
 
     def _event(self):
-        m = self.model
+        m = self.one
         Delta = m.Delta
         ev = _event_fn(lambda t, y: y[0] - Delta, 1.0)
-        if getattr(m, "two_sided", False):
+        if len(m.stops) > 1:
             # the lower stop's gap -q - Delta_lower, rising (vibeam.models.contact: normal -1)
             Dl = m.Delta_lower
             evs = [ev, _event_fn(lambda t, y: -y[0] - Dl, 1.0)]
@@ -644,10 +647,10 @@ class DirectSolver(_ScipyMethod):
         return lambda mode: ev
 
     def _jump(self):
-        m = self.model
-        Delta, R = m.Delta, m.stops()[0].law.R
-        if getattr(m, "two_sided", False):
-            laws = [s.law for s in m.stops()]
+        m = self.one
+        Delta, R = m.Delta, m.stops[0].law.R
+        if len(m.stops) > 1:
+            laws = [s.law for s in m.stops]
             offsets = (Delta, -m.Delta_lower)
 
             def jump2(t, y, mode, j):
@@ -686,10 +689,10 @@ class ZhuravlevSolver(_ScipyMethod):
     name = "zhuravlev"
 
     def _to_internal(self, q, v):
-        return np.array([q - self.model.Delta, v]), -1.0
+        return np.array([q - self.one.Delta, v]), -1.0
 
     def _rhs(self, Omega):
-        m = self.model
+        m = self.one
         b2, F, Delta = 2.0 * m.beta, Omega * Omega * m.B, m.Delta
         cache = {}
 
@@ -711,7 +714,7 @@ class ZhuravlevSolver(_ScipyMethod):
         return lambda mode: evs[mode]
 
     def _jump(self):
-        R = self.model.stops()[0].law.R
+        R = self.one.stops[0].law.R
 
         def jump(t, y, mode):
             v_minus = -float(y[1]) * mode                 # Eq. 5 before the impact
@@ -722,7 +725,7 @@ class ZhuravlevSolver(_ScipyMethod):
         return jump
 
     def _to_q(self):
-        Delta = self.model.Delta
+        Delta = self.one.Delta
         return lambda Y, mode: (Delta - np.abs(Y[0]), -Y[1] * mode)
 
 
@@ -755,12 +758,12 @@ class IvanovSolver(_ScipyMethod):
 
     name = "ivanov"
 
-    def __init__(self, model, solver: str = "RK23", rtol: float = 1e-4, atol: float = 1e-8,
+    def __init__(self, scene, solver: str = "RK23", rtol: float = 1e-4, atol: float = 1e-8,
                  max_step=None, max_events_per_period: int = 20000,
                  max_nfev_per_period: int = 50000):
-        super().__init__(model, solver, rtol, atol, max_step, max_events_per_period,
+        super().__init__(scene, solver, rtol, atol, max_step, max_events_per_period,
                          max_nfev_per_period)
-        R = model.stops()[0].law.R
+        R = self.one.stops[0].law.R
         r = -float(newton_restitution(1.0, R))
         if not r > 0.0:
             raise ValueError(f"method 'ivanov' needs R > 0 (Eq. 15 divides by K_N = 0); got R={R!r}")
@@ -768,10 +771,10 @@ class IvanovSolver(_ScipyMethod):
 
     def _to_internal(self, q, v):
         K = self.K
-        return np.array([q - self.model.Delta, v / (1.0 + K * (1.0 if v > 0.0 else -1.0))]), 0.0
+        return np.array([q - self.one.Delta, v / (1.0 + K * (1.0 if v > 0.0 else -1.0))]), 0.0
 
     def _rhs(self, Omega):
-        m = self.model
+        m = self.one
         b2, F, Delta, K = 2.0 * m.beta, Omega * Omega * m.B, m.Delta, self.K
 
         def f(t, y):
@@ -783,7 +786,7 @@ class IvanovSolver(_ScipyMethod):
         return lambda mode: f
 
     def _to_q(self):
-        Delta, K = self.model.Delta, self.K
+        Delta, K = self.one.Delta, self.K
 
         def to_q(Y, mode):
             z, s = Y[0], Y[1]

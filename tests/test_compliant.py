@@ -112,7 +112,7 @@ def test_event_agrees_with_the_direct_reference(k, W, Delta, B):
     maximisation)."""
     m = _model(k, Delta=Delta, B=B)
     a = EventSolver(m).point(W, None, 4, 4, 32)
-    b = DirectSolver(m).point(W, None, 4, 4, 32)
+    b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
     scale = np.max(np.abs(a.samples))
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-8 * scale
     assert a.n_impacts == b.n_impacts
@@ -426,7 +426,7 @@ def test_hunt_crossley_event_agrees_with_the_direct_reference(k, W, Delta):
 
     m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=Delta, contact=HuntCrossley(k, 0.9))
     a = EventSolver(m).point(W, None, 4, 4, 32)
-    b = DirectSolver(m).point(W, None, 4, 4, 32)
+    b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-7 * np.max(np.abs(a.samples))
     n = min(a.contacts.shape[0], b.contacts.shape[0])
@@ -622,7 +622,7 @@ def test_compliant_map_fixed_point_jacobian_and_multipliers(k, W):
     from vibeam.models.mapping import MappingSolver
 
     m = _model(k)
-    s = MappingSolver(m)
+    s = MappingSolver(m.scene())
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
     ev = EventSolver(m).point(W, None, 2000, 8, 64)

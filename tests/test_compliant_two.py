@@ -44,7 +44,7 @@ def test_sdof_event_agrees_with_the_direct_reference_on_two_stops(law, law_lower
     (measured <= 2.0e-9)."""
     m = _two(law, law_lower, Delta, Delta_lower)
     a = EventSolver(m).point(W, None, 4, 4, 32)
-    b = DirectSolver(m).point(W, None, 4, 4, 32)
+    b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower >= 3
     np.testing.assert_array_equal(a.impact_stops, b.impact_stops)

@@ -39,7 +39,7 @@ def test_two_compliant_stops_of_different_stiffness_give_each_stop_its_contact_o
     solve_ivp reference's rows of the same stop: 1e-6 relative (measured ~1e-9)."""
     m = _kv_two()
     a = EventSolver(m).point(1.0, None, 4, 4, 32)
-    b = DirectSolver(m).point(1.0, None, 4, 4, 32)
+    b = DirectSolver(m.scene()).point(1.0, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     np.testing.assert_array_equal(a.contact_stops, b.contact_stops)
     sa, sb = summarize(a, m.Delta), summarize(b, m.Delta)

@@ -103,7 +103,7 @@ def test_liouville_and_the_map_of_sec_4_2(fig8_kv):
         T = 2 * math.pi / pt.p
         det = math.exp(-2 * m.beta * T - cc * pt.shot.extra["contact_time"])
         assert np.linalg.det(pt.shot.M) == pytest.approx(det, rel=1e-10)
-    ms = MappingSolver(m)
+    ms = MappingSolver(m.scene())
     checked = 0
     for pt in b.points[::40]:
         if pt.shot.n_impacts != 1 or not np.max(np.abs(pt.mu)) < 1.0:

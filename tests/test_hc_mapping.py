@@ -41,7 +41,7 @@ def test_hc_map_fixed_point_is_the_event_orbit_and_multipliers_match(k, W, R):
     the state; measured 1.1e-7 with 8 samples per period on the event integrator, and 1.1e-7 / 2.4e-7
     with 16 / 32 on the former compliant kernel, which passed with its 8 by where its grid fell)."""
     m = _model(k, R)
-    s = MappingSolver(m)
+    s = MappingSolver(m.scene())
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
     ev = EventSolver(m).point(W, None, 400, 8, 64)

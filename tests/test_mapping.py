@@ -74,32 +74,32 @@ def test_multiplier_product_and_map_jacobian(m):
         assert p["stable"] == bool(np.max(np.abs(mu)) < 1)
         # finite-difference cross-check of the exact map Jacobian through the root-finding map
         tau = T
-        J = impact_map_jacobian(m, Omega, x[0], x[1], tau)
+        J = impact_map_jacobian(m.scene(), Omega, x[0], x[1], tau)
         h = np.array([1e-6, 1e-6 * x[1]])
         Jfd = np.empty((2, 2))
         for j in range(2):
             dx = np.zeros(2)
             dx[j] = h[j]
-            fp = np.array(impact_map(m, Omega, *(x + dx)))
-            fm = np.array(impact_map(m, Omega, *(x - dx)))
+            fp = np.array(impact_map(m.scene(), Omega, *(x + dx)))
+            fm = np.array(impact_map(m.scene(), Omega, *(x - dx)))
             d = fp - fm
             d[0] = (d[0] + math.pi) % TWO_PI - math.pi
             Jfd[:, j] = d / (2 * h[j])
         assert np.allclose(Jfd, J, rtol=1e-4, atol=1e-4 * np.abs(J).max())
         # the fixed point is a fixed point of the root-finding impact map
-        y = impact_map(m, Omega, x[0], x[1])
+        y = impact_map(m.scene(), Omega, x[0], x[1])
         assert _phase_diff(y[0], x[0]) < 1e-9 and abs(y[1] - x[1]) < 1e-9 * x[1]
     assert n_ok >= 8
 
 
 def test_next_impact_finds_first_crossing():
     m, Omega = FIG13, 2.0
-    x = newton_fixed_point(m, Omega, [3.9, 0.012])
-    tau, ph, v, acc = next_impact(m, Omega, x[0], x[1])
+    x = newton_fixed_point(m.scene(), Omega, [3.9, 0.012])
+    tau, ph, v, acc = next_impact(m.scene(), Omega, x[0], x[1])
     assert tau == pytest.approx(TWO_PI / Omega, rel=1e-12)
     # off the fixed point: the returned impact is the first upward crossing (dense check)
     for ph0, v0 in ((x[0], 1e-3 * x[1]), (x[0] + 1.0, 0.3 * x[1]), (x[0] - 0.5, 2 * x[1])):
-        tau2, ph2, v2, _ = next_impact(m, Omega, ph0, v0)
+        tau2, ph2, v2, _ = next_impact(m.scene(), Omega, ph0, v0)
         F = Omega**2 * m.B
         a, b = particular_coefficients(m.beta, F, Omega)
         ss = np.linspace(0, tau2, 200001)[1:-1]
@@ -165,8 +165,8 @@ def test_fig13_period1_loses_stability_near_2p3(capsys):
 def test_paper_formulas_at_fixed_points():
     """Eqs. 29-32 vs 35-37 vs the monodromy, at one stable fixed point."""
     m, Omega = FIG13, 2.1
-    x = newton_fixed_point(m, Omega, [4.6, 0.002])
-    an = fixed_point_analysis(m, Omega, x)
+    x = newton_fixed_point(m.scene(), Omega, [4.6, 0.002])
+    an = fixed_point_analysis(m.scene(), Omega, x)
     T = TWO_PI / Omega
     assert an["det_true"] == pytest.approx(m.R**2 * math.exp(-2 * m.beta * T), rel=1e-12)
     assert an["det_full"] == pytest.approx(an["det_true"], rel=1e-12)

@@ -62,7 +62,7 @@ def test_mapping_finds_the_settled_event_orbit(up, low, W, tol):
     n = ev["period"]
     assert ev["status"] == "ok" and 1 <= n <= 4
     assert np.max(np.abs(tr.strobe[n:] - tr.strobe[:-n])) < 1e-11 * np.max(np.abs(tr.strobe))
-    out = MappingSolver(m, n=n).point(W, None, 0, 0)
+    out = MappingSolver(m.scene(), n=n).point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == n and out["stable"], out["message"]
     assert out["impacts_per_period"] == ev["impacts_per_period"] > 0
     assert out["impacts_per_period_lower"] == ev["impacts_per_period_lower"] > 0
@@ -72,7 +72,7 @@ def test_mapping_finds_the_settled_event_orbit(up, low, W, tol):
         else:
             assert out[key] == pytest.approx(ev[key], rel=tol, abs=1e-300), key
     # continuation: the orbit is its own guess
-    again = MappingSolver(m, n=n).point(W, {"final_state": out["final_state"]}, 0, 0)
+    again = MappingSolver(m.scene(), n=n).point(W, {"final_state": out["final_state"]}, 0, 0)
     assert again["amplitude"] == pytest.approx(out["amplitude"], rel=1e-12)
 
 
@@ -88,7 +88,7 @@ def test_multipliers_against_the_event_stroboscopic_map(up, low, W, tol):
     m = _model(up, low)
     tr, ev = _settled(m, W)
     n = ev["period"]
-    out = MappingSolver(m, n=n).point(W, None, 0, 0)
+    out = MappingSolver(m.scene(), n=n).point(W, None, 0, 0)
     assert out["status"] == "ok", out["message"]
     x0, held = tr.final_state[:2], tr.final_state[2]
     h = 1e-5 * np.max(np.abs(tr.strobe))
@@ -112,7 +112,7 @@ def test_liouville_on_the_composed_section_map(up, low, W):
     m = _model(up, low)
     _, ev = _settled(m, W)
     n = ev["period"]
-    out = MappingSolver(m, n=n).point(W, None, 0, 0)
+    out = MappingSolver(m.scene(), n=n).point(W, None, 0, 0)
     assert out["status"] == "ok", out["message"]
     T = 2 * math.pi / W
     log_det = -2 * m.beta * n * T
@@ -133,7 +133,7 @@ def test_section_map_jacobian_against_finite_differences(up, low, stop):
     <= 1e-8).  The section is one of the orbit's (the event run's period n)."""
     m = _model(up, low)
     W = 0.8
-    s = MappingSolver(m, n=_settled(m, W)[1]["period"])
+    s = MappingSolver(m.scene(), n=_settled(m, W)[1]["period"])
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok", out["message"]
     fs = out["final_state"]
@@ -155,6 +155,6 @@ def test_a_chatter_orbit_is_a_failed_point_with_its_reason():
     in each period, accumulating: the map is not defined on an accumulating sequence), the point is
     ``failed`` with the reasons (the chatter named), never an exception or an ``ok``."""
     m = _model(KV, Restitution(0.5))
-    out = MappingSolver(m).point(1.6, None, 0, 0)
+    out = MappingSolver(m.scene()).point(1.6, None, 0, 0)
     assert out["status"] == "failed" and "chatter" in out["message"], out["message"]
     assert np.isnan(out["amplitude"]) and out["multipliers"].shape == (2,) and np.isnan(out["impact_velocity_lower"])

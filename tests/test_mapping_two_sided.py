@@ -56,7 +56,7 @@ def test_two_sided_mapping_equals_the_event_kernel(D, Dl, Rl, W, q0):
     st = tr.strobe
     scale = np.max(np.abs(st))
     assert np.max(np.abs(st[n:] - st[:-n])) < 1e-11 * scale
-    s = MappingSolver(m, n=n)
+    s = MappingSolver(m.scene(), n=n)
     if q0 is None:
         out = s.point(W, None, 0, 0)
     else:   # the free orbit coexists: the guess is the event run's impact sequence
@@ -93,7 +93,7 @@ def test_two_sided_multipliers_against_the_event_stroboscopic_map(D, Dl, Rl, W, 
     x0 = tr.final_state[:2]
     seq = np.column_stack([W * tr.impact_times, tr.impact_velocities, tr.impact_stops]).ravel()
     k = int(round(ev["impacts_per_period"] * n + ev["impacts_per_period_lower"] * n))
-    out = MappingSolver(m, n=n).point(W, seq[-3 * k:], 0, 0)
+    out = MappingSolver(m.scene(), n=n).point(W, seq[-3 * k:], 0, 0)
     assert out["status"] == "ok", out["message"]
     h = 1e-6 * np.max(np.abs(tr.strobe))
     J = np.column_stack([(_strobe_map(m, W, n, x0 + h * e) - _strobe_map(m, W, n, x0 - h * e)) / (2 * h)
@@ -116,8 +116,8 @@ def test_far_lower_stop_reproduces_the_one_stop_mapping(W, n):
     one-impact route), the lower stop's counts 0 / NaN."""
     one = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
     two = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e3, R_lower=0.5)
-    a = MappingSolver(one, n=n).point(W, None, 0, 0)
-    b = MappingSolver(two, n=n).point(W, None, 0, 0)
+    a = MappingSolver(one.scene(), n=n).point(W, None, 0, 0)
+    b = MappingSolver(two.scene(), n=n).point(W, None, 0, 0)
     assert a["status"] == b["status"]
     for key, val in a.items():
         if isinstance(val, str):

@@ -36,7 +36,7 @@ def test_event_agrees_with_the_direct_reference_on_a_mixed_scene(W):
     stop's rows are impulses whose energy is (1 - R_l^2) v^2 / 2 (round-off)."""
     m = _mixed()
     a = EventSolver(m).point(W, None, 4, 4, 32)
-    b = DirectSolver(m).point(W, None, 4, 4, 32)
+    b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower >= 3
     np.testing.assert_array_equal(a.impact_stops, b.impact_stops)
@@ -82,7 +82,7 @@ def test_chatter_on_the_restitution_stop_ends_in_sticking_as_in_the_direct_refer
     assert t.status == "chatter" and "ending in sticking" in t.message
     s = summarize(t, m.Delta)
     assert s["status"] == "chatter"
-    d = DirectSolver(m).point(0.5, None, 20, 4, 32)
+    d = DirectSolver(m.scene()).point(0.5, None, 20, 4, 32)
     assert d.status == "chatter"
     assert np.max(np.abs(t.samples - d.samples)) <= 1e-8 * np.max(np.abs(t.samples))
     assert t.extra["stuck_fraction"] == pytest.approx(d.extra["stuck_fraction"], rel=1e-6)

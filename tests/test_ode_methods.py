@@ -59,7 +59,7 @@ def test_tight_tolerances_match_exact(cls, reference):
     across a kink of ``z`` is about ``h |Delta z'|``), so 1e-5 is reached
     (measured ~1e-8) at the cost of ~5x more evaluations than ``direct``.
     """
-    solver = cls(SCENE, **TIGHT)
+    solver = cls(SCENE.scene(), **TIGHT)
     for Om in OMEGAS:
         ref, s_ref, t_ref = reference[Om]
         traj, dt = _run(solver, Om)
@@ -97,7 +97,7 @@ def test_paper_tolerances_error_is_measured(reference):
     """
     worst = {}
     for cls in CLASSES:
-        solver = cls(SCENE, **PAPER)
+        solver = cls(SCENE.scene(), **PAPER)
         errs = []
         for Om in OMEGAS:
             ref, s_ref, t_ref = reference[Om]
@@ -118,7 +118,7 @@ def test_paper_tolerances_error_is_measured(reference):
 @pytest.mark.parametrize("cls", CLASSES, ids=lambda c: c.name)
 def test_bad_solver_setting_raises(cls):
     with pytest.raises(ValueError, match=r"solver='ode23'.*RK23, RK45, DOP853, Radau, LSODA"):
-        cls(SCENE, solver="ode23")
+        cls(SCENE.scene(), solver="ode23")
     with pytest.raises(ValueError, match="solver"):
         make_solver(SCENE, cls.name, solver="euler")
 
@@ -133,7 +133,7 @@ def test_registered_methods():
 def test_ivanov_rejects_plastic_impacts():
     """R = 0 gives K = 1 and K_N = 0 in Eq. 15: the method does not apply."""
     with pytest.raises(ValueError, match="R"):
-        IvanovSolver(SDOF(beta=0.015, B=0.5e-3, R=0.0, Delta=0.0))
+        IvanovSolver(SDOF(beta=0.015, B=0.5e-3, R=0.0, Delta=0.0).scene())
 
 
 @pytest.mark.parametrize("cls", CLASSES, ids=lambda c: c.name)
@@ -146,7 +146,7 @@ def test_chatter_fails_fast_without_raising(cls):
     more (measured 211, 423 and 50108 for direct, zhuravlev and ivanov) of the 24 periods'."""
     m = SDOF(beta=0.015, B=0.5e-3, R=0.5, Delta=-0.0015)
     assert EventSolver(m).point(2.0, None, 20, 4).status == "chatter"
-    traj = cls(m, **PAPER).point(2.0, None, 20, 4)
+    traj = cls(m.scene(), **PAPER).point(2.0, None, 20, 4)
     assert traj.status == "failed" and traj.message
     assert np.isnan(summarize(traj, m.Delta)["amplitude"])
     assert 0 < traj.extra["nfev"] <= 51000, traj.extra
@@ -158,7 +158,7 @@ def test_start_on_prestressed_stop(cls):
     until the contact force releases it, then the motion matches ``event``."""
     m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=-0.0005)
     ref = EventSolver(m).point(1.8, None, 60, 8)
-    traj = cls(m, **TIGHT).point(1.8, None, 60, 8)
+    traj = cls(m.scene(), **TIGHT).point(1.8, None, 60, 8)
     assert traj.status == ref.status == "ok"
     A_ref = summarize(ref, m.Delta)["amplitude"]
     assert abs(summarize(traj, m.Delta)["amplitude"] - A_ref) < 1e-5 * A_ref
@@ -168,7 +168,7 @@ def test_start_on_prestressed_stop(cls):
 def test_failed_point_hands_on_a_usable_state():
     """A failed point returns a finite end state; a continuation from it runs."""
     m = SDOF(beta=0.015, B=0.5e-3, R=0.5, Delta=-0.0015)
-    bad = DirectSolver(m, **PAPER).point(2.0, None, 20, 4)
+    bad = DirectSolver(m.scene(), **PAPER).point(2.0, None, 20, 4)
     assert bad.status == "failed" and np.all(np.isfinite(bad.final_state))
-    nxt = DirectSolver(SCENE, **PAPER).point(2.0, np.full(3, np.nan), 5, 2)
+    nxt = DirectSolver(SCENE.scene(), **PAPER).point(2.0, np.full(3, np.nan), 5, 2)
     assert nxt.status == "ok" and np.all(np.isfinite(nxt.samples))

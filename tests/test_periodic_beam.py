@@ -288,9 +288,9 @@ def test_static_mode_beam_equals_sdof_fixed_point(case):
     assert m.Delta == pytest.approx(sd.Delta, rel=1e-13, abs=1e-16)
     for f in (14.5, 15.5, 16.5):
         Ws, Wb = f / red.f_n_hz, f / m.f_ref_hz
-        xs = newton_fixed_point(sd, Ws, event_guess(sd, Ws))
-        an = fixed_point_analysis(sd, Ws, xs)
-        q_min, _ = orbit_extremes(sd, Ws, xs)
+        xs = newton_fixed_point(sd.scene(), Ws, event_guess(sd.scene(), Ws))
+        an = fixed_point_analysis(sd.scene(), Ws, xs)
+        q_min, _ = orbit_extremes(sd.scene(), Ws, xs)
         prob = BeamShooting(m, Wb)
         x, s = newton(prob, transient(m, Wb, 20), Wb)
         assert s.n_impacts == 1

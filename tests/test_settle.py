@@ -44,9 +44,9 @@ class _From(EventSolver):
 def _period1_amplitude(model, W, guess_point):
     """Amplitude of the period-1 orbit by Newton on the impact map (independent oracle)."""
     tr = EventSolver(model).point(W, np.array([*guess_point["strobe"][-1], 0.0]), 0, 1, 8)
-    x = newton_fixed_point(model, W, [(W * tr.impact_times[0]) % (2 * math.pi), tr.impact_velocities[0]], 1)
-    assert x is not None and is_admissible(model, W, x, 1)[0]
-    return model.Delta - orbit_extremes(model, W, x, 1)[0]
+    x = newton_fixed_point(model.scene(), W, [(W * tr.impact_times[0]) % (2 * math.pi), tr.impact_velocities[0]], 1)
+    assert x is not None and is_admissible(model.scene(), W, x, 1)[0]
+    return model.Delta - orbit_extremes(model.scene(), W, x, 1)[0]
 
 
 # ----------------------------------------------------------------------------- spread
@@ -102,9 +102,9 @@ def test_period2_orbit_spread_is_its_two_amplitudes():
     out = summarize(tr, m.Delta)
     assert out["period"] == 2 and out["impacts_per_period"] == 0.5
     phase = (W * tr.impact_times[0]) % (2 * math.pi)
-    x = newton_fixed_point(m, W, [phase, tr.impact_velocities[0]], 2)
-    assert x is not None and is_admissible(m, W, x, 2)[0]
-    q_min, _ = orbit_extremes(m, W, x, 2)
+    x = newton_fixed_point(m.scene(), W, [phase, tr.impact_velocities[0]], 2)
+    assert x is not None and is_admissible(m.scene(), W, x, 2)[0]
+    q_min, _ = orbit_extremes(m.scene(), W, x, 2)
     assert out["amplitude_max"] == pytest.approx(m.Delta - q_min, rel=1e-9)
     Q = m.Delta - tr.period_min
     np.testing.assert_allclose(Q[::2], Q[0], rtol=1e-9)

@@ -1,7 +1,7 @@
 """Sections, passages, flights and the multiple-shooting problem of the pointwise mapping.
 
 A *section* is an arrival at a stop ``k`` of the one-mode system (paper Eq. 1 with the stops of
-:meth:`vibeam.models.sdof.SDOF.stops`): time ``t`` (forcing phase ``Omega t``) and normal arrival
+:func:`vibeam.models.scene.one_mode`): time ``t`` (forcing phase ``Omega t``) and normal arrival
 speed ``v = s_k q'(t) > 0`` at ``q = s_k d_k``.  From it the map goes through two pieces:
 
 passage (the stop's law, :meth:`SectionMap.passage`; in the stop's normal coordinate ``u = s_k q``)
@@ -39,6 +39,7 @@ from scipy.integrate import solve_ivp
 
 from ..core.laws import V_FLOOR
 from ..impact import saltation_matrix
+from ..scene import one_mode
 from ..sdof_flow import flow_matrix, particular_coefficients, propagate
 from .newton import damped_newton
 from .phases import CONTACT, EV_ARRIVAL, EV_EXIT, EV_FAIL, EV_GAPDOWN, EV_NONE, EV_RECONTACT, FREE, TWO_PI, Phase
@@ -224,8 +225,8 @@ def hertz_passage(law, d, scene, t0, v0, F):
 PASSAGES = {"impulsive": newton_passage, "kelvin_voigt": kelvin_voigt_passage, "hysteretic_hertz": hertz_passage}
 
 
-def check_stops(model):
-    """The model's stops, once checked to have passages.
+def check_stops(stops):
+    """``stops``, once checked to have passages.
 
     Raises
     ------
@@ -233,7 +234,6 @@ def check_stops(model):
         For a law without a passage (:data:`PASSAGES`) or a velocity-dependent ``R`` (the map
         takes a constant one).
     """
-    stops = model.stops()
     for s in stops:
         if law_key(s.law) not in PASSAGES:
             raise ValueError(f"the mapping has no passage through a stop of family {law_key(s.law)!r}")
@@ -248,8 +248,9 @@ class SectionMap:
 
     Parameters
     ----------
-    model : vibeam.models.SDOF
-        Its :meth:`~vibeam.models.sdof.SDOF.stops` are the stops (one or two, any laws).
+    scene : vibeam.models.scene.Scene
+        The one-mode oscillator and its stops (one or two, any laws with a passage;
+        :func:`vibeam.models.scene.one_mode`).
     Omega : float
         Forcing frequency.
     n : int, optional
@@ -258,17 +259,19 @@ class SectionMap:
     Raises
     ------
     ValueError
-        For stops without a passage (:func:`check_stops`).
+        For a scene that is not the one-mode oscillator (:func:`vibeam.models.scene.one_mode`) or
+        stops without a passage (:func:`check_stops`).
     """
 
-    def __init__(self, model, Omega, n=1):
-        self.beta, self.Omega, self.B = float(model.beta), float(Omega), float(model.B)
+    def __init__(self, scene, Omega, n=1):
+        om = one_mode(scene, "the mapping")
+        self.beta, self.Omega, self.B = om.beta, float(Omega), om.B
         self.F = self.Omega ** 2 * self.B
         self.T = TWO_PI / self.Omega
         self.t_max = (n + 1) * self.T
         self.a, self.b = particular_coefficients(self.beta, self.F, self.Omega)
         self.free = Phase(self.beta, self.F, self.Omega)
-        stops = check_stops(model)
+        stops = check_stops(om.stops)
         self.laws = [s.law for s in stops]
         self.sign = [float(s.relation.sign) for s in stops]
         self.d = [float(s.relation.offset) for s in stops]

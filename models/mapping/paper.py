@@ -14,8 +14,9 @@ is computed three ways (:func:`fixed_point_analysis`):
   printed (:func:`paper_det_trace`), judged by :func:`stable_from_det_trace`.
 
 Everything but the formulas is the general mapping's (:mod:`vibeam.models.mapping.orbit`) on one
-section of stop 0; a model with a second stop is allowed (its arrivals end a flight too).  All
-quantities are nondimensional; ``F = Omega^2 B`` plays the role of the paper's ``gamma V Omega^2``.
+section of stop 0; every function takes the scene (:class:`vibeam.models.scene.Scene`, the one-mode
+oscillator: :func:`vibeam.models.scene.one_mode`), a second stop allowed (its arrivals end a flight
+too).  All quantities are nondimensional; ``F = Omega^2 B`` plays the role of the paper's ``gamma V Omega^2``.
 """
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ import math
 import numpy as np
 
 from ..impact import saltation_matrix
+from ..scene import one_mode
 from ..sdof_flow import flow_matrix
 from .orbit import DEFAULT_TOL, SectionMap
 from .phases import TWO_PI
@@ -101,15 +103,16 @@ def paper_det_trace(form, beta, F, R, Delta, Omega, phi_prev, v_prev_minus, v_mi
     raise ValueError(f"form must be 'full' or 'simplified', got {form!r}")
 
 
-def paper_verdicts(model, Omega, phi, v, n, stable) -> dict:
+def paper_verdicts(scene, Omega, phi, v, n, stable) -> dict:
     """Eqs. 29-32 and 35-37 at the period-n fixed point ``(phi, v)`` beside the multipliers'
     verdict ``stable``: ``det_full``, ``tr_full``, ``stable_full``, ``disagree_full`` and the
     same for ``simplified``."""
-    F = Omega * Omega * model.B
-    R = model.stops()[0].law.R
+    om = one_mode(scene, "the paper's map")
+    F = Omega * Omega * om.B
+    R = om.stops[0].law.R
     out = {}
     for form in ("full", "simplified"):
-        det, tr = paper_det_trace(form, model.beta, F, R, model.Delta, Omega, phi, v, v, v,
+        det, tr = paper_det_trace(form, om.beta, F, R, om.Delta, Omega, phi, v, v, v,
                                   n * TWO_PI / Omega, n)
         verdict = bool(stable_from_det_trace(det, tr))
         out.update({f"det_{form}": det, f"tr_{form}": tr, f"stable_{form}": verdict,
@@ -117,20 +120,20 @@ def paper_verdicts(model, Omega, phi, v, n, stable) -> dict:
     return out
 
 
-def impact_map_jacobian(model, Omega, phi0, v_minus, tau):
+def impact_map_jacobian(scene, Omega, phi0, v_minus, tau):
     """Exact Jacobian ``d(phi1, v1) / d(phi0, v0)`` (2, 2) of the impact map at ``(phi0, v_minus)``
     with flight time ``tau`` (the flight's end ``q(tau) = Delta`` varied: ``d tau = -dq / q'(tau)``;
     :meth:`vibeam.models.mapping.orbit.SectionMap.section_map` in forcing phases)."""
-    sc = SectionMap(model, Omega)
+    sc = SectionMap(scene, Omega)
     pas = sc.passage(0, phi0 / sc.Omega, float(v_minus))
     J = sc.arrival(pas, pas.t + tau, 0)[2]
     return np.array([[J[0, 0], sc.Omega * J[0, 1]], [J[1, 0] / sc.Omega, J[1, 1]]])
 
 
-def monodromy(model, Omega, phi0, v_minus, tau):
+def monodromy(scene, Omega, phi0, v_minus, tau):
     """Monodromy ``S Phi(tau)`` (2, 2) over one flight, from just after one impact to just after
     the next; for a period-n one-impact orbit (``tau = n T``) its eigenvalues are the multipliers."""
-    sc = SectionMap(model, Omega)
+    sc = SectionMap(scene, Omega)
     pas = sc.passage(0, phi0 / sc.Omega, float(v_minus))
     _, w, acc = sc.flight(pas, pas.t + tau, 0)
     return saltation_matrix(float(sc.laws[0].R), w, acc, sc.beta) @ flow_matrix(tau, sc.beta)
@@ -141,7 +144,7 @@ def _by_modulus(z):
     return z[np.argsort(-np.abs(z))]
 
 
-def fixed_point_analysis(model, Omega, x, n=1):
+def fixed_point_analysis(scene, Omega, x, n=1):
     """Stability of the period-n fixed point ``x = (phi, v)`` by every route.
 
     Returns
@@ -155,40 +158,40 @@ def fixed_point_analysis(model, Omega, x, n=1):
     """
     phi, v = float(x[0]), float(x[1])
     tau = n * TWO_PI / Omega
-    M = monodromy(model, Omega, phi, v, tau)
+    M = monodromy(scene, Omega, phi, v, tau)
     mult = _by_modulus(np.linalg.eigvals(M))
-    Jm = impact_map_jacobian(model, Omega, phi, v, tau)
+    Jm = impact_map_jacobian(scene, Omega, phi, v, tau)
     stable = bool(np.max(np.abs(mult)) < 1.0)
-    sc = SectionMap(model, Omega)
+    sc = SectionMap(scene, Omega)
     _, _, a1 = sc.flight(sc.passage(0, phi / Omega, v), (phi / Omega) + tau, 0)
     return dict(multipliers=mult, map_jacobian=Jm, map_eigenvalues=_by_modulus(np.linalg.eigvals(Jm)), stable=stable,
-                **paper_verdicts(model, Omega, phi, v, n, stable), det_true=float(np.linalg.det(M)),
+                **paper_verdicts(scene, Omega, phi, v, n, stable), det_true=float(np.linalg.det(M)),
                 tr_true=float(np.trace(M)), a_minus=a1)
 
 
-def newton_fixed_point(model, Omega, guess, n=1, tol=DEFAULT_TOL["impulsive"], max_iter=50):
+def newton_fixed_point(scene, Omega, guess, n=1, tol=DEFAULT_TOL["impulsive"], max_iter=50):
     """Period-n one-impact fixed point ``(phi mod 2 pi, v)`` (ndarray (2,)) by Newton's method on
     the closed form (Eqs. 33-34: ``q(nT) = Delta``, ``q'(nT-) = v`` after ``q' = -R v``), or None.
     Admissibility is not checked here (:func:`is_admissible`)."""
-    sc = SectionMap(model, Omega, n)
+    sc = SectionMap(scene, Omega, n)
     x, ok = sc.newton(np.array([guess[0] / sc.Omega, guess[1]], float), (0,), n, tol, max_iter)
     return np.array([(sc.Omega * x[0]) % TWO_PI, x[1]]) if ok else None
 
 
-def _analyse(model, Omega, x, n):
-    sc = SectionMap(model, Omega, n)
+def _analyse(scene, Omega, x, n):
+    sc = SectionMap(scene, Omega, n)
     return sc.analyse(np.array([x[0] / sc.Omega, x[1]], float), (0,), n)
 
 
-def is_admissible(model, Omega, x, n=1):
+def is_admissible(scene, Omega, x, n=1):
     """Whether ``x = (phi, v)`` is a true one-impact period-n orbit: ``(ok, reason)``
     (:meth:`vibeam.models.mapping.orbit.SectionMap.analyse`: ``v > 0``, no earlier arrival at a stop,
     no grazing)."""
-    an = _analyse(model, Omega, x, n)
+    an = _analyse(scene, Omega, x, n)
     return (False, an) if isinstance(an, str) else (True, "")
 
 
-def orbit_extremes(model, Omega, x, n=1):
+def orbit_extremes(scene, Omega, x, n=1):
     """Exact ``(q_min, q_max)`` over the fixed-point orbit ``x = (phi, v)``.
 
     Raises
@@ -196,13 +199,13 @@ def orbit_extremes(model, Omega, x, n=1):
     ValueError
         If the orbit is not admissible (the reason).
     """
-    an = _analyse(model, Omega, x, n)
+    an = _analyse(scene, Omega, x, n)
     if isinstance(an, str):
         raise ValueError(an)
     return an["q_min"], an["q_max"]
 
 
-def next_impact(model, Omega, phi0, v_minus, max_periods=50.0):
+def next_impact(scene, Omega, phi0, v_minus, max_periods=50.0):
     """One application of the impact map from the impact ``(phi0, v_minus)`` on stop 0.
 
     Returns
@@ -211,7 +214,7 @@ def next_impact(model, Omega, phi0, v_minus, max_periods=50.0):
         ``(tau, phi1, v1, a1)``: flight time, forcing phase of the next arrival (mod 2 pi), its
         normal speed and ``q''`` before it; None without an arrival within ``max_periods``.
     """
-    sc = SectionMap(model, Omega)
+    sc = SectionMap(scene, Omega)
     t0 = phi0 / sc.Omega
     r = sc.section_map(0, t0, float(v_minus), max_periods * sc.T)
     if isinstance(r, str):
@@ -219,8 +222,8 @@ def next_impact(model, Omega, phi0, v_minus, max_periods=50.0):
     return r["t"] - t0, (sc.Omega * r["t"]) % TWO_PI, r["v"], r["a"]
 
 
-def impact_map(model, Omega, phi0, v_minus, **kw):
+def impact_map(scene, Omega, phi0, v_minus, **kw):
     """The 2D impact map ``(phi_i, v_i) -> (phi_{i+1}, v_{i+1})`` (Shaw & Holmes; Sec. 4.2), or None
     (:func:`next_impact` for the parameters)."""
-    r = next_impact(model, Omega, phi0, v_minus, **kw)
+    r = next_impact(scene, Omega, phi0, v_minus, **kw)
     return None if r is None else (r[1], r[2])

@@ -12,6 +12,8 @@ import math
 
 import numpy as np
 
+from ..core.event import EventIntegrator, fundamental_step, trajectory
+from ..scene import one_mode
 from ..sdof_averaging import averaging_guess
 from ..sdof_flow import undamped_resonance
 from .orbit import DEFAULT_TOL, SectionMap, check_stops, law_key, minimal_period
@@ -27,14 +29,18 @@ PAPER_KEYS = ("det_full", "tr_full", "stable_full", "disagree_full", "det_simpli
 CONTACT_KEYS = ("contact_duration", "contact_force_max", "penetration_max", "energy_per_impact")
 
 
-def event_sections(model, Omega, n, n_transient):
+def event_sections(scene, Omega, n, n_transient):
     """The sections of the last ``n`` periods of an event run from rest (``n_transient`` periods
-    first, then ``2 n`` recorded): ndarray (m, 3) of ``(phase, normal speed, stop)`` and whether
+    first, then ``2 n`` recorded; the event method's run with its default settings, on the one
+    event integrator of ``scene``): ndarray (m, 3) of ``(phase, normal speed, stop)`` and whether
     the run has settled on them (the ``n`` periods before had the same sections, phases and
     speeds to 1e-6); None without a section (or a failed run)."""
-    from ..sdof import EventSolver
-
-    tr = EventSolver(model).point(float(Omega), None, int(n_transient), 2 * n, 8)
+    core = EventIntegrator(scene)
+    s0 = one_mode(scene, "the mapping").initial_state()
+    n_rec = 2 * n
+    run = core.run(float(Omega), s0[:1], s0[1:2], core.held_set_of(s0[2]), int(n_transient), n_rec, 16, 8,
+                   fundamental_step(core.system), 20000 * (int(n_transient) + n_rec), 4_000_000, 1e-7)
+    tr = trajectory(run, float(Omega), 8, n_rec, 1.0, 4096, lambda v, k: np.zeros((v.shape[0], 5)), core=core)
     k = min(tr.n_impacts, tr.impact_times.shape[0])
     if k == 0 or tr.status == "failed" or k != tr.n_impacts:
         return None
@@ -50,13 +56,13 @@ def event_sections(model, Omega, n, n_transient):
     return last, settled
 
 
-def event_guess(model, Omega, n=1, n_transient=200):
+def event_guess(scene, Omega, n=1, n_transient=200):
     """``(phase, velocity)`` of the last section of a short event run (a guess), or None."""
-    s = event_sections(model, Omega, n, n_transient)
+    s = event_sections(scene, Omega, n, n_transient)
     return None if s is None else np.array([s[0][-1, 0] % TWO_PI, s[0][-1, 1]])
 
 
-def unresolved(model, Omega: float, Q: float, v: float, tol: float) -> str:
+def unresolved(om, Omega: float, Q: float, v: float, tol: float) -> str:
     """Why an orbit of amplitude ``Q`` and speed ``v`` is not resolved by the forcing, or ''.
 
     Newton's residual is accepted at ``tol`` times the arrival speed, so the forcing's effect on one
@@ -65,18 +71,19 @@ def unresolved(model, Omega: float, Q: float, v: float, tol: float) -> str:
     orbit's scale (``Q`` or ``v / Omega``).  An orbit beyond that -- more than ``1e-3 / tol`` times
     ``C``, or not finite -- is Newton losing the forcing in round-off: e.g. the undamped, elastic
     scene (``beta = 0``, ``R = 1``) at its impacting resonance ``Omega = 2k``, where no bounded
-    orbit exists and Newton drifts to ``v ~ 1e13 ... 1e22``.
+    orbit exists and Newton drifts to ``v ~ 1e13 ... 1e22``.  ``om``: the scene's
+    :func:`vibeam.models.scene.one_mode`.
     """
     from ..sdof import linear_amplitude
 
-    C = float(linear_amplitude(model.beta, model.B, Omega))
+    C = float(linear_amplitude(om.beta, om.B, Omega))
     size = np.nanmax([abs(Q), abs(v) / Omega])
     limit = 1e-3 / tol
     if np.isfinite(size) and size <= limit * max(C, 1e-300):
         return ""
     return (f"the orbit found (amplitude {Q:.3g}, impact velocity {v:.3g}) is {size / max(C, 1e-300):.2g} times the "
             f"forced amplitude C = {C:.3g}, beyond {limit:.0e} = 1e-3 / tol: the forcing is below Newton's tolerance, "
-            f"so no bounded orbit is resolved (beta = {model.beta:g}, R = {model.stops()[0].law.R:g}: an undamped "
+            f"so no bounded orbit is resolved (beta = {om.beta:g}, R = {om.stops[0].law.R:g}: an undamped "
             f"resonance?)")
 
 
@@ -135,8 +142,9 @@ class MappingSolver:
 
     Parameters
     ----------
-    model : vibeam.models.SDOF
-        The oscillator and its stops (Newton's law with a constant ``R``, or compliant laws).
+    scene : vibeam.models.scene.Scene
+        The one-mode oscillator and its stops (:func:`vibeam.models.scene.one_mode`; Newton's law
+        with a constant ``R``, or compliant laws).
     n : int, optional
         Forcing periods of the orbit (1..4).
     form : {"full", "simplified"}, optional
@@ -154,14 +162,14 @@ class MappingSolver:
     Raises
     ------
     ValueError
-        For ``n`` outside 1..4, an unknown ``form`` or ``guess``, or stops the map cannot pass
-        (:class:`vibeam.models.mapping.orbit.SectionMap`).
+        For ``n`` outside 1..4, an unknown ``form`` or ``guess``, a scene that is not the one-mode
+        oscillator or stops the map cannot pass (:class:`vibeam.models.mapping.orbit.SectionMap`).
     """
 
     name = "mapping"
     time_domain = False
 
-    def __init__(self, model, n: int = 1, form: str = "full", guess: str = "event", guess_periods: int | None = None,
+    def __init__(self, scene, n: int = 1, form: str = "full", guess: str = "event", guess_periods: int | None = None,
                  tol: float | None = None):
         if int(n) != n or not 1 <= n <= 4:
             raise ValueError(f"n must be an integer in 1..4, got {n!r}")
@@ -169,13 +177,14 @@ class MappingSolver:
             raise ValueError(f"form must be 'full' or 'simplified', got {form!r}")
         if guess not in ("event", "averaging"):
             raise ValueError(f"guess must be 'event' or 'averaging', got {guess!r}")
-        keys = {law_key(s.law) for s in model.stops()}
-        check_stops(model)
-        self.model, self.n, self.form, self.guess = model, int(n), form, guess
+        self.one = one_mode(scene, "the mapping")
+        keys = {law_key(s.law) for s in self.one.stops}
+        check_stops(self.one.stops)
+        self.scene, self.n, self.form, self.guess = scene, int(n), form, guess
         self.guess_periods = int(max(GUESS_PERIODS[k] for k in keys) if guess_periods is None else guess_periods)
         self.tol = float(max(DEFAULT_TOL[k] for k in keys) if tol is None else tol)
         self.impulsive = keys == {"impulsive"}
-        self.n_stops = len(model.stops())
+        self.n_stops = len(self.one.stops)
 
     def settings(self) -> dict:
         return dict(n=self.n, form=self.form, guess=self.guess, guess_periods=self.guess_periods, tol=self.tol)
@@ -196,11 +205,11 @@ class MappingSolver:
                 yield s.reshape(-1, 3)
         for source in (("event", "averaging") if self.guess == "event" else ("averaging", "event")):
             if source == "averaging":
-                x = averaging_guess(self.model, Omega) if self.n == 1 else None
+                x = averaging_guess(self.one, Omega) if self.n == 1 else None
                 if x is not None:
                     yield np.array([[x[0], x[1], 0.0]])
                 continue
-            ev = event_sections(self.model, Omega, self.n, self.guess_periods)
+            ev = event_sections(self.scene, Omega, self.n, self.guess_periods)
             if ev is None:
                 continue
             seq, settled = ev
@@ -244,16 +253,16 @@ class MappingSolver:
             an exception.
         """
         Omega = float(Omega)
-        why = undamped_resonance(self.model.beta, Omega)
+        why = undamped_resonance(self.one.beta, Omega)
         if why:
             return self._failed([why])
-        scene = SectionMap(self.model, Omega, self.n)
+        scene = SectionMap(self.scene, Omega, self.n)
         reasons = []
         for g in self._guesses(Omega, state0):
             out = g if isinstance(g, str) else self._solve(scene, g)
             if isinstance(out, dict):
                 v = out["impact_velocity"] if np.isfinite(out["impact_velocity"]) else out.get("impact_velocity_lower")
-                why = unresolved(self.model, Omega, out["amplitude"], v, self.tol)
+                why = unresolved(self.one, Omega, out["amplitude"], v, self.tol)
                 return self._failed([why]) if why else out
             reasons.append(out)
         return self._failed(reasons)
@@ -270,7 +279,7 @@ class MappingSolver:
         m, n = len(stops), self.n
         x, ok = scene.newton(np.concatenate([phi / Om, seq[:, 1]]), stops, n, self.tol)
         if not ok:
-            return (unresolved(self.model, Om, math.nan, np.max(np.abs(x[m:])), self.tol) or
+            return (unresolved(self.one, Om, math.nan, np.max(np.abs(x[m:])), self.tol) or
                     f"Newton did not converge from {np.array2string(seq[:, :2].ravel(), precision=4)} (sections on "
                     f"stops {stops} in {n} periods)")
         p = minimal_period(np.concatenate([Om * x[:m], x[m:]]), stops, n)
@@ -291,7 +300,7 @@ class MappingSolver:
         mu = by_mod(np.linalg.eigvals(an["M"] if an["M"] is not None else J))
         stable = bool(np.max(np.abs(mu)) < 1.0)
         up = v[st == 0]
-        out = dict(amplitude=float(self.model.Delta) - an["q_min"], q_min=an["q_min"], q_max=an["q_max"], period=n,
+        out = dict(amplitude=float(self.one.Delta) - an["q_min"], q_min=an["q_min"], q_max=an["q_max"], period=n,
                    impacts_per_period=up.size / n, impact_velocity=float(np.mean(up)) if up.size else math.nan,
                    impact_phase=float(phis[0]), stable=stable, multipliers=mu,
                    **contact_means(an["records"], st == 0, ""),
@@ -307,7 +316,7 @@ class MappingSolver:
             out.update(map_eigenvalues=by_mod(np.linalg.eigvals(J)), det_true=float(np.linalg.det(M)),
                        tr_true=float(np.trace(M)))
             if m == 1 and stops[0] == 0:
-                out.update(paper_verdicts(self.model, Om, phis[0], v[0], n, stable))
+                out.update(paper_verdicts(self.scene, Om, phis[0], v[0], n, stable))
             else:
                 out.update({k: (False if k.startswith(("stable", "disagree")) else math.nan) for k in PAPER_KEYS})
             out["stable_paper"] = out["stable_" + self.form]
@@ -333,7 +342,7 @@ class MappingSolver:
             periods or with contact again before the body leaves the stop.  ``want_record`` is
             accepted for compatibility (the record is always given).
         """
-        sc = SectionMap(self.model, Omega, self.n)
+        sc = SectionMap(self.scene, Omega, self.n)
         r = sc.section_map(stop, float(t0), float(v0), sc.t_max)
         if isinstance(r, str):
             return None

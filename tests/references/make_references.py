@@ -381,7 +381,7 @@ def k_fold_fixed_point(model, W, phi0, v0, k, n):
     def flights(x):
         phi, v, out = x[0], x[1], []
         for _ in range(k):
-            r = next_impact(model, W, phi, v, max_periods=n + 1.0)
+            r = next_impact(model.scene(), W, phi, v, max_periods=n + 1.0)
             if r is None:
                 return None
             out.append((phi, v, r[0]))
@@ -401,7 +401,7 @@ def k_fold_fixed_point(model, W, phi0, v0, k, n):
     if np.max(np.abs(resid(x))) > 1e-11:
         return None
     fl, _, _ = flights(x)
-    sc = SectionMap(model, W, n)
+    sc = SectionMap(model.scene(), W, n)
     ext = np.array([np.inf, -np.inf, np.inf, -np.inf])
     for phi, v, tau in fl:       # each flight to its next impact, its extremes in ext
         pas = sc.passage(0, phi / W, v)
@@ -433,12 +433,12 @@ def _sdof_checks(name, model, d):
                 c_map.failures.append(f"Omega {W:.6g} ({direc}): {tr.n_impacts} impacts in the period "
                                       f"after the last strobe sample")
                 continue
-            x = newton_fixed_point(model, W, np.array([ph[0], vv[0]]), 1)
-            ok, why = (False, "Newton did not converge") if x is None else is_admissible(model, W, x, 1)
+            x = newton_fixed_point(model.scene(), W, np.array([ph[0], vv[0]]), 1)
+            ok, why = (False, "Newton did not converge") if x is None else is_admissible(model.scene(), W, x, 1)
             if not ok:
                 c_map.failures.append(f"Omega {W:.6g} ({direc}): no admissible fixed point ({why})")
                 continue
-            q_min, _ = orbit_extremes(model, W, x, 1)
+            q_min, _ = orbit_extremes(model.scene(), W, x, 1)
             c_map.add(W, direc, A, model.Delta - q_min)
             if model.R >= 0.99 and abs(W - 2.0) <= 0.1 + 1e-9:
                 avg = averaging(W, model.beta, model.B, model.R, model.Delta, 1)

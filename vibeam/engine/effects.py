@@ -81,6 +81,7 @@ import math
 import numpy as np
 
 from vibeam.errors import CaseError
+from vibeam.models import make_solver
 from vibeam.models.registry import fidelity, is_compliant, with_capability
 
 #: effects handled here (``sensor`` belongs to :mod:`vibeam.engine.sensor` / the assessments)
@@ -308,8 +309,8 @@ class EffectSolver:
 
 
 def _rebuild(inner, model, settings):
-    """The plain solver of ``inner``'s kind for another model (same settings)."""
-    return type(inner)(model, **settings)
+    """The plain solver of ``inner``'s method for another model (same settings)."""
+    return make_solver(model, inner.name, **settings)
 
 
 # ============================================================================ entry point
