@@ -250,7 +250,7 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
 (_SAF, _SBF, _CSF, _G, _V, _G1, _V1, _G2, _G3, _G21, _G31, _M2F, _M3F, _M4F, _LAM0, _LAMP0, _OFF, _MEFF,
  _NWK) = range(19)
 (_PHI, _TLOC, _REM, _HLAST, _HOLD, _GMAX, _STUCK, _TCON, _TLAST, _PT, _T0, _SASF, _SBSF, _PEXT, _PEXT1,
- _EXT, _EXT1, _NFS) = range(18)
+ _EXT, _EXT1, _WAIT, _NFS) = range(19)
 (_H, _C, _INSIDE, _RELAXED, _CMASK, _FRESH, _BSTALE, _ATGRID, _JSTUCK, _JREL, _QFRESH, _QLAST, _BURST,
  _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _RP, _NIS) = range(21)
 # ``lp`` (_NLP,)    the period loop's counters (period, the recurrence's snapshot periods, samples
@@ -1063,7 +1063,13 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
             continue
         l0, lp0 = signal_start(phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k], SaL[k],
                                SbL[k], hs.cL[H, k], nc)
-        if release_now(-l0, -lp0) and not just_stuck and hold <= 0.0:
+        pulls = release_now(-l0, -lp0)
+        if not pulls and (ist[_RDEL] >> k) & 1 and hold <= 0.0:
+            # a release waited for (below): lambda can stay a round-off below zero after the wait;
+            # the free flow's normal acceleration decides (the wait was for it to turn)
+            acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
+            pulls = release_now(acc, jerk)
+        if pulls and not just_stuck and hold <= 0.0:
             lam0[k] = l0
             if logging:
                 # a release held back by a round-off (below) is its located zero crossing: aux 0
@@ -1079,8 +1085,12 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
             return -1
         lam0[k] = l0 if l0 <= 0.0 else 0.0
         lamp0[k] = lp0
-    if hold <= 0.0:
-        ist[_RDEL] = 0
+    # a release waited for (below) stays marked until its stop is released (above): clearing the
+    # mark when the wait ended left a lambda a round-off below zero to be found crossing again
+    # ~1e-10 T ahead and waited for again, a creep of ~5e4 steps per period with some BLAS kernels
+    ist[_RDEL] &= H
+    if ist[_RDEL] == 0:
+        fs[_WAIT] = 0.0
     for j in range(nc):
         homogeneous_bounds(x0[j], y0[j], mpC[j, 0], mpC[j, 1], int(mpC[j, 2]), mpC[j, 3],
                            mpC[j, 4], mpC[j, 5], hb[j])
@@ -1226,7 +1236,7 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
     k_imp = -1
     if s_ev >= 0.0:
         early = 0.0
-        if ev_release and H == 1 << k_ev and (ist[_RDEL] >> k_ev) & 1 == 0:
+        if ev_release and H == 1 << k_ev:
             # into free flight: the free flow's normal acceleration must pull away.  The force
             # lambda (the held set's coordinates) and that acceleration are one quantity in two
             # representations; where they differ by their round-off (many modes), lambda can
@@ -1235,18 +1245,24 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
             # the next step's start.
             acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k_ev], wn[_CM], wn[_KM], GF)
             if acc > 0.0 and jerk < 0.0:
-                early = 2.0 * acc / -jerk
+                # a wait again for the same release at least doubles the last one: where both
+                # quantities are within their round-off of zero (their signs noise for ~1e-10 T),
+                # the wait grows until the free flow has turned beyond it
+                early = max(2.0 * acc / -jerk, 2.0 * fs[_WAIT])
                 if not 1e-14 * T <= early <= 1e-9 * T:
                     # below the clock's resolution, or not a round-off disagreement: released
-                    # where lambda says (and once only: a second crossing is released at once)
+                    # where lambda says
                     early = 0.0
         if ev_release and early > 0.0:
             hold = early
             ist[_RDEL] = 1 << k_ev
+            fs[_WAIT] = early
         elif ev_release:
             if logging:
                 _log_event(evlog, nlog, _K_RELEASE, pT + t_loc, 0.0, k_ev, eta, etad)
             H = H & ~(1 << k_ev)
+            ist[_RDEL] &= ~(1 << k_ev)
+            fs[_WAIT] = 0.0
             ist[_JREL] = 1
             g[k_ev] = 0.0
             v[k_ev] = 0.0
