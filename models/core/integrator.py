@@ -343,6 +343,30 @@ def _contact_acc(phi, Om, eta, etad, d, c, k, GF):
     return acc, jerk
 
 
+@_kernel
+def _release_wait(phi, Om, eta, etad, d, wn, GF, wait, T):
+    """How long a release into free flight along ``d`` waits (``T`` the forcing period): 0, none;
+    > 0, hold on that long (no release check) and release at the next step's start; < 0, the free
+    flow pulls away now.
+
+    The force lambda (the held set's coordinates) and the free flow's normal acceleration ``a``
+    (:func:`_contact_acc`) are one quantity in two representations; where they differ by their
+    round-off (many modes), lambda can cross zero a hair before the free flow turns, which would
+    touch the stop again at zero speed.  While ``a`` presses (``a > 0``) and turns (``a' < 0``)
+    the wait is ``2 a / -a'``, at least twice the last wait ``wait`` for the same release: where
+    both are within their round-off of zero (their signs noise for ~1e-10 T) the wait grows until
+    the free flow has turned beyond it (re-waiting the same short wait crept ~1e-10 T a crossing,
+    ~5e4 steps a period, with some BLAS kernels).  Not a wait (0): below the clock's resolution
+    (1e-14 T) or longer than a round-off disagreement (1e-9 T); released where lambda says."""
+    acc, jerk = _contact_acc(phi, Om, eta, etad, d, wn[_CM], wn[_KM], GF)
+    if release_now(acc, jerk):
+        return -1.0
+    if not (acc > 0.0 and jerk < 0.0):
+        return 0.0
+    early = max(2.0 * acc / -jerk, 2.0 * wait)
+    return early if 1e-14 * T <= early <= 1e-9 * T else 0.0
+
+
 @njit(cache=True, _nrt=False, error_model="numpy", inline="always")
 def _far(g0, g1, M2, h):
     """A gap negative at both ends of a step stays negative inside when it is far from zero:
@@ -1063,13 +1087,9 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
             continue
         l0, lp0 = signal_start(phi, Om, x0, y0, mpC, hs.pL[H, k], hs.rL[H, k], SaL[k],
                                SbL[k], hs.cL[H, k], nc)
-        pulls = release_now(-l0, -lp0)
-        if not pulls and (ist[_RDEL] >> k) & 1 and hold <= 0.0:
-            # a release waited for (below): lambda can stay a round-off below zero after the wait;
-            # the free flow's normal acceleration decides (the wait was for it to turn)
-            acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k], wn[_CM], wn[_KM], GF)
-            pulls = release_now(acc, jerk)
-        if pulls and not just_stuck and hold <= 0.0:
+        waited = (ist[_RDEL] >> k) & 1 == 1 and hold <= 0.0     # after a wait the free flow decides
+        if (release_now(-l0, -lp0) or waited and _release_wait(phi, Om, eta, etad, Nrm[k], wn, GF, -1.0, T) < 0.0) \
+                and not just_stuck and hold <= 0.0:
             lam0[k] = l0
             if logging:
                 # a release held back by a round-off (below) is its located zero crossing: aux 0
@@ -1085,12 +1105,8 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
             return -1
         lam0[k] = l0 if l0 <= 0.0 else 0.0
         lamp0[k] = lp0
-    # a release waited for (below) stays marked until its stop is released (above): clearing the
-    # mark when the wait ended left a lambda a round-off below zero to be found crossing again
-    # ~1e-10 T ahead and waited for again, a creep of ~5e4 steps per period with some BLAS kernels
-    ist[_RDEL] &= H
-    if ist[_RDEL] == 0:
-        fs[_WAIT] = 0.0
+    ist[_RDEL] &= H     # a release waited for stays marked until its stop is released (_release_wait)
+    fs[_WAIT] = fs[_WAIT] if ist[_RDEL] else 0.0
     for j in range(nc):
         homogeneous_bounds(x0[j], y0[j], mpC[j, 0], mpC[j, 1], int(mpC[j, 2]), mpC[j, 3],
                            mpC[j, 4], mpC[j, 5], hb[j])
@@ -1237,22 +1253,7 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
     if s_ev >= 0.0:
         early = 0.0
         if ev_release and H == 1 << k_ev:
-            # into free flight: the free flow's normal acceleration must pull away.  The force
-            # lambda (the held set's coordinates) and that acceleration are one quantity in two
-            # representations; where they differ by their round-off (many modes), lambda can
-            # cross zero a hair before the free flow turns, which would touch the stop again at
-            # zero speed.  Then hold on (no release check) until it has turned, and release at
-            # the next step's start.
-            acc, jerk = _contact_acc(phi, Om, eta, etad, Nrm[k_ev], wn[_CM], wn[_KM], GF)
-            if acc > 0.0 and jerk < 0.0:
-                # a wait again for the same release at least doubles the last one: where both
-                # quantities are within their round-off of zero (their signs noise for ~1e-10 T),
-                # the wait grows until the free flow has turned beyond it
-                early = max(2.0 * acc / -jerk, 2.0 * fs[_WAIT])
-                if not 1e-14 * T <= early <= 1e-9 * T:
-                    # below the clock's resolution, or not a round-off disagreement: released
-                    # where lambda says
-                    early = 0.0
+            early = max(_release_wait(phi, Om, eta, etad, Nrm[k_ev], wn, GF, fs[_WAIT], T), 0.0)
         if ev_release and early > 0.0:
             hold = early
             ist[_RDEL] = 1 << k_ev
