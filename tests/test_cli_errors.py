@@ -504,3 +504,16 @@ def test_a_mesh_case_with_a_missing_region_leaves_no_folder(tmp_path):
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("vibeam: error: bad.toml: 'model.system.rigid' = 'pads'"), lines
     assert (_snapshot(tmp_path), sorted(str(p) for p in tmp_path.rglob("*"))) == before
+
+
+def test_a_native_crash_prints_where_it_happened():
+    """A command that dies in native code (SIGSEGV here, on purpose) prints the Python traceback
+    to stderr (:mod:`faulthandler`, enabled by the command line), so that a crash reported by a
+    user or CI says where it happened (CI on c21ef3b: a signalled continuation died with exit -11
+    and an empty stderr)."""
+    code = ("import argparse, faulthandler, vibeam.cli as cli\n"
+            "def boom(args):\n    faulthandler._sigsegv()\n"
+            "cli._dispatch(argparse.Namespace(func=boom, quiet=True))\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.returncode != 0
+    assert "Segmentation fault" in p.stderr and "in boom" in p.stderr, p.stderr

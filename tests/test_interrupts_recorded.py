@@ -322,3 +322,42 @@ def test_a_signal_during_the_commit_leaves_the_file_as_it_was(tmp_path, sig):
     assert p.returncode == CODES[sig], p.stderr
     assert (out / "results.h5").read_bytes() == before
     assert not [q.name for q in out.iterdir() if q.name.startswith(".vibeam-tmp-")]
+
+
+# ----------------------------------------------------------------------------- where the handler raises
+def test_a_signal_inside_an_import_is_recorded_and_raised_after_it(tmp_path, monkeypatch):
+    """A signal whose handler runs while a module is being imported (numba's own Python code
+    likewise: a cache load, a boxing's ``_numba_unpickle``) is recorded, not raised there: the
+    import completes (no module's numba extensions half registered), and the interrupt is raised
+    at the next look (:func:`vibeam.errors.stop_if_signalled`, the models' ``check``).  In the
+    command's own code the handler raises at once.  (CI, c21ef3b: one ``vibeam continue`` signalled
+    as its first correctors ran, while it was importing the SDOF's start-up modules, died of
+    SIGSEGV, exit -11, instead of 130.)"""
+    from vibeam.errors import inside_internals, recording_signals, signal_recorded, stop_if_signalled
+    from vibeam.models import interrupts
+
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)    # an xdist worker may ignore it
+    try:
+        (tmp_path / "vibeam_signal_probe.py").write_text(
+            "import os, signal\nos.kill(os.getpid(), signal.SIGINT)\nAFTER_THE_SIGNAL = True\n")
+        monkeypatch.syspath_prepend(str(tmp_path))
+        with recording_signals():
+            try:
+                import vibeam_signal_probe                   # noqa: F401 - its import sends the signal
+            except KeyboardInterrupt:
+                pytest.fail("the interrupt was raised inside the import")
+            assert vibeam_signal_probe.AFTER_THE_SIGNAL      # the module ran to its end
+            assert signal_recorded() is KeyboardInterrupt
+            with pytest.raises(KeyboardInterrupt):
+                interrupts.check()
+            with pytest.raises(KeyboardInterrupt):
+                stop_if_signalled()
+        assert not inside_internals(sys._getframe())
+        with recording_signals():
+            with pytest.raises(KeyboardInterrupt):
+                os.kill(os.getpid(), signal.SIGINT)
+                for _ in range(1000):                        # the handler runs at a bytecode boundary
+                    pass
+    finally:
+        signal.signal(signal.SIGINT, old)
+        sys.modules.pop("vibeam_signal_probe", None)

@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import errno
+import faulthandler
 import os
 import signal
 import sys
@@ -813,8 +814,21 @@ def _interrupted_by(exc: type) -> int:
     return 143 if issubclass(exc, Terminated) else 130
 
 
+def _report_crashes() -> None:
+    """A crash in native code (SIGSEGV, SIGFPE, SIGABRT, SIGBUS, SIGILL) prints the Python
+    traceback of every thread to stderr before the process dies (:mod:`faulthandler`), so that a
+    user's report, or CI's, says where; nothing where stderr has no file descriptor."""
+    if faulthandler.is_enabled() or sys.__stderr__ is None:
+        return
+    try:
+        faulthandler.enable(file=sys.__stderr__, all_threads=True)
+    except (AttributeError, ValueError, OSError):    # io.UnsupportedOperation is an OSError and a ValueError
+        pass
+
+
 def _dispatch(args) -> int:
     """Run a parsed command: errors as one line and exit 2, interrupts as 130/143."""
+    _report_crashes()
     stdout = sys.stdout
     dropped = open(os.devnull, "w") if getattr(args, "quiet", False) else None     # --quiet: no tables
     sys.stdout = dropped if dropped is not None else _QuietPipe(stdout)

@@ -12,7 +12,9 @@ every layer of the framework asks :func:`signal_recorded` before it replaces a c
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
+import sys
 import threading
 
 
@@ -59,9 +61,44 @@ class RecordingHandler:
 
     def __call__(self, signum, frame):
         self.recorded = self.exc            # first: whatever happens to the exception below
+        if inside_internals(frame):
+            # not raised inside a module being imported or numba's / llvmlite's own Python code
+            # (a cache load, a boxing's _numba_unpickle): recorded only, it is raised at the next
+            # check of the models' loops and numba's compiler passes (vibeam.models.interrupts), of
+            # a file's commit (stop_if_signalled) and at the command's end
+            return
         if self.then is not None:
             self.then(signum, frame)
         raise self.exc()
+
+
+def _library_dirs() -> tuple:
+    dirs = []
+    for name in ("numba", "llvmlite"):
+        mod = sys.modules.get(name)
+        for d in getattr(mod, "__path__", None) or ():
+            dirs.append(os.path.join(d, ""))
+    return tuple(dirs)
+
+
+def inside_internals(frame) -> bool:
+    """Whether ``frame`` (where a signal's handler runs) or one of its callers is a module being
+    imported or numba's or llvmlite's own Python code, where an exception raised by a signal
+    could leave native state half made (a module's numba extensions half registered, a cache entry
+    half loaded, a boxed result half built).
+
+    Parameters
+    ----------
+    frame : frame or None
+        The frame the handler received.
+    """
+    dirs = _library_dirs()
+    while frame is not None:
+        name = frame.f_code.co_filename
+        if name.startswith("<frozen importlib") or (dirs and name.startswith(dirs)):
+            return True
+        frame = frame.f_back
+    return False
 
 
 #: the signals a command records, and the interrupt of each
