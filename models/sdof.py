@@ -451,12 +451,3 @@ class EventSolver:
         rows[:, 4] = v
         return rows
 
-
-def linear_amplitude(beta: float, B: float, Omega):
-    """Steady-state amplitude ``C = Omega^2 B / sqrt((1 - Omega^2)^2 + (2 beta Omega)^2)``.
-
-    Nondimensional response of the oscillator without the stop (paper Eq. 28,
-    the particular part).  ``Omega`` may be an array.
-    """
-    Omega = np.asarray(Omega, dtype=float)
-    return Omega**2 * B / np.sqrt((1 - Omega**2) ** 2 + (2 * beta * Omega) ** 2)

@@ -190,3 +190,27 @@ def largest_gap(s, q0, v0, beta, a, b, Omega, Delta):
                 g = gi
         out[k] = g
     return out
+
+
+def linear_amplitude(beta: float, B: float, Omega):
+    """Steady-state amplitude ``C = Omega^2 B / sqrt((1 - Omega^2)^2 + (2 beta Omega)^2)``.
+
+    Nondimensional response of the oscillator without the stop (paper Eq. 28, the particular
+    part).
+
+    Parameters
+    ----------
+    beta : float
+        Damping ratio.
+    B : float
+        Base-displacement amplitude (nondimensional).
+    Omega : float or ndarray, shape (n,)
+        Forcing frequency over the natural frequency.
+
+    Returns
+    -------
+    ndarray, shape () or (n,)
+        ``C`` at each ``Omega`` (nondimensional, in units of the normalising length).
+    """
+    Omega = np.asarray(Omega, dtype=float)
+    return Omega**2 * B / np.sqrt((1 - Omega**2) ** 2 + (2 * beta * Omega) ** 2)

@@ -37,7 +37,7 @@ import pytest
 import vibeam
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import SDOF, EventSolver, make_solver
-from vibeam.models.sdof import linear_amplitude
+from vibeam.models.sdof_flow import linear_amplitude
 from vibeam.engine.records import summarize
 from vibeam.engine.sweep import Sweep, run_sweep
 

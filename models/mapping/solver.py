@@ -74,7 +74,7 @@ def unresolved(om, Omega: float, Q: float, v: float, tol: float) -> str:
     orbit exists and Newton drifts to ``v ~ 1e13 ... 1e22``.  ``om``: the scene's
     :func:`vibeam.models.scene.one_mode`.
     """
-    from ..sdof import linear_amplitude
+    from ..sdof_flow import linear_amplitude
 
     C = float(linear_amplitude(om.beta, om.B, Omega))
     size = np.nanmax([abs(Q), abs(v) / Omega])
