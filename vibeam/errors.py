@@ -40,7 +40,10 @@ class Terminated(KeyboardInterrupt):
 class RecordingHandler:
     """The handler of SIGINT or SIGTERM while a command runs: it records the signal, then
     raises its interrupt (through ``then(signum, frame)`` when given, e.g. Python's
-    :func:`signal.default_int_handler`).
+    :func:`signal.default_int_handler`) -- except inside an import or numba's / llvmlite's own
+    Python code (:func:`inside_internals`), where it only records: the interrupt is raised at
+    the next check (the models' loops and numba's compiler passes, a file's commit, the
+    command's end).
 
     The record outlives the exception: where compiled code or a broad ``except`` swallows
     the interrupt, :func:`vibeam.models.interrupts.check` (the models' loops) and
@@ -91,6 +94,11 @@ def inside_internals(frame) -> bool:
     ----------
     frame : frame or None
         The frame the handler received.
+
+    Returns
+    -------
+    bool
+        True where the handler should only record the signal.
     """
     dirs = _library_dirs()
     while frame is not None:
