@@ -23,7 +23,7 @@ from .registry import (FIDELITIES, IMPULSIVE, fidelity, law_key, mass_law_keys, 
 
 # public names -> their module (imported on first access, PEP 562)
 _LAZY = {
-    "SDOF": "sdof", "EventSolver": "sdof", "linear_amplitude": "sdof_flow",
+    "SDOF": "sdof", "EventSolver": "core.event", "linear_amplitude": "sdof_flow",
     "AveragingSolver": "sdof_averaging", "MappingSolver": "mapping",
     "BeamEventSolver": "beam_dynamics", "BeamImpactModel": "beam_dynamics",
     "BeamODESolver": "beam_dynamics",

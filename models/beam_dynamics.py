@@ -44,10 +44,10 @@ from numba import njit
 
 from .trajectory import Trajectory, call_budget
 
-from .contact import Relation, Restitution, Stop
+from .contact import Relation, Restitution, Stop, restitution_coefficients
 from .core.direct import DirectIntegrator
 from .core.event import EventIntegrator, fundamental_step, trajectory
-from .impact import newton_restitution, restitution_at, restitution_impulse
+from .impact import newton_restitution, restitution_impulse
 from .scene import Excitation, Scene, beam_scene, driven
 from .system import advance_modes, forcing, mode_table, particular, transition_increment
 
@@ -510,14 +510,11 @@ class BeamImpactModel:
         nondimensional time, the trajectory's unit), shape (k,), on the stops ``stops`` (k,)
         (their codes, :meth:`stop_codes`: 0 upper, 1 lower, 2 + i the point stop i; None: all on the
         upper one): the law of the kernel, in its units."""
-        v = np.asarray(velocities, float)
-        if stops is None:
-            law = self.upper_law
-            U, Rt = np.asarray(law.table_U, float), np.asarray(law.table_R, float)
-            return np.array([restitution_at(float(x) * self.length_m, law.R, U, Rt) for x in v])
         codes = self.stop_codes()
         laws = {int(c): s.law for c, s in zip(range(len(self.stops())) if codes is None else codes, self.stops())}
-        return np.array([laws[int(k)].coefficient(float(x) * self.length_m) for x, k in zip(v, stops)])
+        if stops is None:
+            laws[0] = self.upper_law
+        return restitution_coefficients(laws, velocities, stops, self.length_m)
 
     def with_gain(self, gain_per_V: float, scene_gain_per_V: float, voltage: float) -> "BeamImpactModel":
         """The model at excitation gain ``gamma`` (1/V) instead of the scene's: the base
@@ -574,7 +571,7 @@ def newton_contact_rows(model: BeamImpactModel, velocities, stops=None) -> np.nd
     ``(1 - R^2) m_eff U-^2 / 2`` of the modal state (``|eta'|^2 / 2``) and nothing else.  In
     the units of the compliant contacts' rows (:func:`vibeam.models.core.event.trajectory`: work per
     ``m_eff L^2``, time unit ``1 / omega_ref``) that is ``(1 - R^2) v^2 / 2`` with ``v = U- / L``,
-    the SDOF's expression (:class:`vibeam.models.sdof.EventSolver`).
+    the SDOF's expression (:class:`vibeam.models.core.event.EventSolver`).
 
     Parameters
     ----------
@@ -629,7 +626,7 @@ class BeamEventSolver:
     transient_samples : int
         Grid points per forcing period in the transient (the steps are sub-steps of at most
         ``h_cap``; efficiency only, but for integrated contact phases, as
-        :class:`~vibeam.models.sdof.EventSolver`).
+        :class:`~vibeam.models.core.event.EventSolver`).
     chatter_tol : float
         Accuracy required of the chatter accumulation estimate before sticking.
     max_impacts_per_period : int

@@ -183,6 +183,39 @@ class Stop:
         return self.label or ("upper" if self.relation.sign > 0 else "lower")
 
 
+def restitution_coefficients(laws, velocities, stops=None, scale: float = 1.0) -> np.ndarray:
+    """R of impacts by Newton's law, each by its stop's law (the kernel's law in Python,
+    :func:`vibeam.models.impact.restitution_at`).
+
+    Parameters
+    ----------
+    laws : sequence or dict
+        The law of each stop, indexed by the stop's code (``laws[0]`` the upper stop's).
+    velocities : ndarray, shape (k,)
+        Pre-impact normal speeds, in units whose ``scale`` multiple is the laws' (a table's
+        ``U-``): the trajectory's, with ``scale`` the row value per unit of ``q``.
+    stops : ndarray of int, shape (k,), or None
+        The code of each impact's stop; None: all on ``laws[0]``.
+    scale : float
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        ``R`` of a constant law itself, else ``R(scale U-)`` of its table.
+
+    Raises
+    ------
+    KeyError, IndexError
+        A code without a law.
+    """
+    v = np.asarray(velocities, float)
+    out = np.empty(v.shape[0])
+    for i, x in enumerate(v):
+        law = laws[0 if stops is None else int(stops[i])]
+        out[i] = float(law.R) if law.kind == "impulsive" and not law.table_U else law.coefficient(float(x) * scale)
+    return out
+
+
 def pack(stops) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Kernel arrays of a sequence of :class:`Stop` (module docstring).
 

@@ -284,7 +284,7 @@ def register(fid: Fidelity) -> Fidelity:
 register(Fidelity(
     name="sdof",
     model="sdof:SDOF",
-    solvers={"event": on_the_core("sdof:EventSolver", restitution_law=True),
+    solvers={"event": on_the_core("core.event:EventSolver", restitution_law=True, scene=True),
              "direct": on_the_core("sdof_ode:DirectSolver", scene=True),
              # the textbook methods of one Newton stop (paper Sec. 3)
              "zhuravlev": Method("sdof_ode:ZhuravlevSolver", scene=True),

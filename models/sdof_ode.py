@@ -27,7 +27,7 @@ as ``ode23``):
 
 All three share one driver, :func:`integrate_piecewise`, which takes the
 right-hand side, the event and the jump as functions.  Unlike the exact
-method ``event`` (:class:`vibeam.models.sdof.EventSolver`), these event
+method ``event`` (:class:`vibeam.models.core.event.EventSolver`), these event
 solvers cannot pass the accumulation point of a chatter sequence (nor, for
 ``ivanov``, slide along ``z = 0``): such a point ends with status ``failed``.
 The only sticking they handle is a start at rest on the stop, which is held

@@ -6,7 +6,7 @@ import pytest
 from scipy.optimize import brentq
 
 from vibeam.models import make_solver
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.models.sdof_averaging import (Delta_max, P_of_Q, Q_star, amplitudes, discriminant,
                                           phase, polynomial_coefficients, solve)
 
@@ -99,7 +99,7 @@ def test_averaging_vs_event_as_R_falls(capsys):
     phases = []
     for R in Rs:
         m = SDOF(BETA, B, R, 0.0)
-        tr = EventSolver(m).point(2.0, None, 800, 4, 64)
+        tr = EventSolver(m.scene()).point(2.0, None, 800, 4, 64)
         assert tr.status == "ok"
         Qe = m.Delta - tr.q_min
         Qa = float(make_solver(m, "averaging").point(2.0, None, 0, 0)["amplitude"])

@@ -111,9 +111,9 @@ P1_FIXED_POINT = np.array([-0.00137751, 0.00126769])   # the period-1 orbit at O
 def _reaches_period_one(model, state, periods=20000):
     """An independent label: the event kernel followed up to ``periods`` periods (chunks of 2000,
     no cells, no recurrence) ends on the period-1 fixed point (to 1e-5 relative)."""
-    from vibeam.models.sdof import EventSolver
+    from vibeam.models import EventSolver
 
-    sol = EventSolver(model)
+    sol = EventSolver(model.scene())
     x = np.array([state[0], state[1], 0.0])
     for _ in range(periods // 2000):
         x = sol.point(2.38, x, 2000, 1, 16).final_state

@@ -116,7 +116,7 @@ def test_static_mode_model_reproduces_sdof_event(R, gap):
     for f in (14.0, 15.3, 16.1, 17.0):
         W = f / sm.f_ref_hz
         a = BeamEventSolver(sm).point(W, None, 300, 16, 64)
-        b = EventSolver(sd).point(W, None, 300, 16, 64)
+        b = EventSolver(sd.scene()).point(W, None, 300, 16, 64)
         assert a.status == b.status
         assert a.n_impacts == b.n_impacts
         Qa, Qb = summarize(a, sm.Delta)["amplitude"], summarize(b, sd.Delta)["amplitude"]
@@ -148,7 +148,7 @@ def test_one_mode_beam_chatters_like_the_sdof(f_hz):
     assert abs(beam.f_ref_hz / red.f_n_hz - 1) > 0.04    # different time units
     Wb, Ws = f_hz / beam.f_ref_hz, f_hz / red.f_n_hz
     a = BeamEventSolver(beam).point(Wb, None, 0, 16, 64)
-    b = EventSolver(sdof).point(Ws, None, 0, 16, 64)
+    b = EventSolver(sdof.scene()).point(Ws, None, 0, 16, 64)
     assert a.status == b.status == "chatter"
     assert a.n_impacts == b.n_impacts > 100
     assert a.chatter_times.size == b.chatter_times.size >= 1

@@ -18,7 +18,7 @@ from vibeam.models import make_solver
 from vibeam.models.compliant import HuntCrossley
 from vibeam.models.beam_dynamics import BeamEventSolver, BeamODESolver
 from vibeam.models.core.isolated import isolated_contact
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop
 # kernels are compiled by these tests alone (~4 min of cold compile on 2 cores); .ci/run runs them
@@ -118,7 +118,7 @@ def test_one_mode_beam_is_the_sdof_hunt_crossley_scene():
     assert sd.B > 0.0
     W = 15.4 / 7.6
     a = make_solver(m, "event").point(W, None, 20, 4, 32)
-    b = EventSolver(sd).point(W / sq, None, 20, 4, 32)
+    b = EventSolver(sd.scene()).point(W / sq, None, 20, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     scale = np.max(np.abs(a.samples[:, 0]))
     assert np.max(np.abs(a.samples[:, 0] - b.samples[:, 0])) <= 1e-10 * scale

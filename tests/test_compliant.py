@@ -18,7 +18,7 @@ from vibeam.models import make_solver
 from vibeam.models.compliant import (R_MIN_LINEAR, LinearContact, contact_duration,
                                      damping_ratio_for_restitution, restitution_of_damping_ratio)
 from vibeam.models.beam_dynamics import BeamEventSolver
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.models.core.integrator import C_DURATION, C_ENERGY, C_FORCE, C_PENETRATION
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.sdof_ode import DirectSolver
@@ -70,7 +70,7 @@ def test_undamped_contact_lasts_pi_over_omega_c(k):
     assert pen == pytest.approx(1.0 / math.sqrt(k), rel=1e-13)       # v / omega_c
     assert fmax == pytest.approx(math.sqrt(k), rel=1e-13)            # k v / omega_c
     m = SDOF(beta=0.0, B=0.0, R=1.0, Delta=0.0, contact=LinearContact.from_damping_ratio(k, 0.0))
-    tr = EventSolver(m).point(1.3, np.array([0.0, 1e-2, 0.0]), 0, 4, 32)
+    tr = EventSolver(m.scene()).point(1.3, np.array([0.0, 1e-2, 0.0]), 0, 4, 32)
     assert tr.contacts.shape[0] >= 3
     np.testing.assert_allclose(tr.contacts[:, C_DURATION], math.pi / math.sqrt(1.0 + k), rtol=1e-12)
 
@@ -111,7 +111,7 @@ def test_event_agrees_with_the_direct_reference(k, W, Delta, B):
     contact records to 1e-6 relative (the reference's event location and dense-output
     maximisation)."""
     m = _model(k, Delta=Delta, B=B)
-    a = EventSolver(m).point(W, None, 4, 4, 32)
+    a = EventSolver(m.scene()).point(W, None, 4, 4, 32)
     b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
     scale = np.max(np.abs(a.samples))
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-8 * scale
@@ -135,14 +135,14 @@ def test_frc_converges_to_the_cor_frc_as_the_stiffness_grows():
     chaotic attractor, confirmed by the direct reference)."""
     base = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
     for W in (1.8, 2.2, 2.6):
-        cor = EventSolver(base).point(W, None, 600, 16, 64)
+        cor = EventSolver(base.scene()).point(W, None, 600, 16, 64)
         Q0 = summarize(cor, 0.0)["amplitude"]
         s0 = cor.final_state.copy()
         s0[2] = 0.0
         errs = []
         ks = np.array([1e5, 1e6, 1e7])
         for k in ks:
-            sm = summarize(EventSolver(_model(k)).point(W, s0, 600, 16, 64), 0.0)
+            sm = summarize(EventSolver(_model(k).scene()).point(W, s0, 600, 16, 64), 0.0)
             assert sm["period"] == 1 and sm["status"] == "ok"
             errs.append(abs(sm["amplitude"] - Q0))
         slope = np.polyfit(np.log10(ks), np.log10(errs), 1)[0]
@@ -366,7 +366,7 @@ def test_physical_scene_outputs_in_si_against_an_si_reference(two):
 def test_cor_runs_record_zero_duration_and_the_impact_energy():
     """Newton's law: no duration, no penetration, an impulse (force NaN), energy (1 - R^2) U^2 / 2."""
     m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
-    tr = EventSolver(m).point(2.0, None, 400, 8, 64)
+    tr = EventSolver(m.scene()).point(2.0, None, 400, 8, 64)
     out = summarize(tr, 0.0)
     assert out["contact_duration"] == 0.0 and out["penetration_max"] == 0.0
     assert math.isnan(out["contact_force_max"])
@@ -374,7 +374,7 @@ def test_cor_runs_record_zero_duration_and_the_impact_energy():
     # and the compliant law converges to it
     s0 = tr.final_state.copy()
     s0[2] = 0.0
-    kv = summarize(EventSolver(_model(1e7)).point(2.0, s0, 400, 8, 64), 0.0)
+    kv = summarize(EventSolver(_model(1e7).scene()).point(2.0, s0, 400, 8, 64), 0.0)
     assert kv["energy_per_impact"] == pytest.approx(out["energy_per_impact"], rel=1e-2)
     # the isolated contact's duration (pi - psi) / omega_d (vibeam.models.compliant), to the
     # oscillator's share 1 / k_c and the forcing
@@ -425,7 +425,7 @@ def test_hunt_crossley_event_agrees_with_the_direct_reference(k, W, Delta):
     from vibeam.models.compliant import HuntCrossley
 
     m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=Delta, contact=HuntCrossley(k, 0.9))
-    a = EventSolver(m).point(W, None, 4, 4, 32)
+    a = EventSolver(m.scene()).point(W, None, 4, 4, 32)
     b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-7 * np.max(np.abs(a.samples))
@@ -625,7 +625,7 @@ def test_compliant_map_fixed_point_jacobian_and_multipliers(k, W):
     s = MappingSolver(m.scene())
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
-    ev = EventSolver(m).point(W, None, 2000, 8, 64)
+    ev = EventSolver(m.scene()).point(W, None, 2000, 8, 64)
     sm = summarize(ev, 0.0)
     assert sm["period"] == 1
     assert out["amplitude"] == pytest.approx(sm["amplitude"], rel=1e-12)

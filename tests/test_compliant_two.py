@@ -16,7 +16,7 @@ from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import make_solver
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.registry import mixed_stops
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
 
@@ -43,7 +43,7 @@ def test_sdof_event_agrees_with_the_direct_reference_on_two_stops(law, law_lower
     carried by the free flights, as for one stop), contact records to 1e-6 relative
     (measured <= 2.0e-9)."""
     m = _two(law, law_lower, Delta, Delta_lower)
-    a = EventSolver(m).point(W, None, 4, 4, 32)
+    a = EventSolver(m.scene()).point(W, None, 4, 4, 32)
     b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower >= 3
@@ -63,8 +63,8 @@ def test_a_far_lower_stop_gives_the_one_stop_results_identically(law):
     are bit-for-bit those of the one-stop run; no contact on the lower stop."""
     one = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, contact=law)
     two = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, Delta_lower=1.0, contact=law)
-    a = EventSolver(one).point(2.0, None, 8, 8, 32)
-    b = EventSolver(two).point(2.0, None, 8, 8, 32)
+    a = EventSolver(one.scene()).point(2.0, None, 8, 8, 32)
+    b = EventSolver(two.scene()).point(2.0, None, 8, 8, 32)
     assert a.n_impacts >= 8 and b.n_impacts_lower == 0 and np.all(b.impact_stops == 0)
     for x, y in ((a.samples, b.samples), (a.contacts, b.contacts), (a.period_min, b.period_min),
                  (a.impact_times, b.impact_times), (a.final_state, b.final_state)):
@@ -81,7 +81,7 @@ def test_symmetric_stops_give_a_symmetric_orbit(law, W):
     takes one contact per period with the same entry velocity.  (Hunt-Crossley at k_c = 1e5 is
     not periodic at W = 1.0, hence W = 0.9 there.)"""
     m = _two(law)
-    t = EventSolver(m).point(W, None, 300, 4, 32)
+    t = EventSolver(m.scene()).point(W, None, 300, 4, 32)
     q = t.samples[:, 0].reshape(4, 32)
     v = t.samples[:, 1].reshape(4, 32)
     tol = 1e-9 * np.max(np.abs(q))
@@ -102,7 +102,7 @@ def test_two_stop_frc_converges_to_the_two_stop_cor_frc():
     CoR's.  Each compliant run starts from the CoR orbit, which hits each stop once per period."""
     base = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.0025, Delta_lower=0.003)
     for W in (0.7, 0.9):
-        cor = EventSolver(base).point(W, None, 300, 8, 64)
+        cor = EventSolver(base.scene()).point(W, None, 300, 8, 64)
         s_cor = summarize(cor, base.Delta)
         assert s_cor["period"] == 1 and s_cor["impacts_per_period_lower"] == 1.0
         s0 = cor.final_state.copy()
@@ -111,7 +111,7 @@ def test_two_stop_frc_converges_to_the_two_stop_cor_frc():
         ks = np.array([1e5, 1e6, 1e7])
         for k in ks:
             m = _two(LinearContact.from_restitution(k, 0.8), None, 0.0025, 0.003)
-            sm = summarize(EventSolver(m).point(W, s0, 300, 8, 64), m.Delta)
+            sm = summarize(EventSolver(m.scene()).point(W, s0, 300, 8, 64), m.Delta)
             assert sm["status"] == "ok" and sm["period"] == 1 and sm["impacts_per_period_lower"] == 1.0
             errs.append(abs(sm["amplitude"] - s_cor["amplitude"]))
             ev.append(abs(sm["impact_velocity_lower"] - s_cor["impact_velocity_lower"]))
@@ -195,7 +195,7 @@ def test_case_builds_two_compliant_stops_and_records_contacts_per_stop():
     text = CASE.replace("[sweep]", '[model.contact_lower]\nlaw = "hunt_crossley"\nstiffness = 3e4\n\n[sweep]')
     m2 = parse_case(text).model_spec().build()
     assert m2.stops()[1].law.name == "hunt_crossley" and m2.stops()[1].law.R == 0.8
-    sm = summarize(EventSolver(m2).point(1.1, None, 100, 8, 32), m2.Delta)
+    sm = summarize(EventSolver(m2.scene()).point(1.1, None, 100, 8, 32), m2.Delta)
     assert sm["status"] == "ok" and sm["impacts_per_period"] >= 1 and sm["impacts_per_period_lower"] >= 1
     # what simulates a compliant law on two stops is the registry's two_sided_law_methods: mapping
     # (the one pointwise mapping, vibeam.models.mapping; refused here before it served two stops, now

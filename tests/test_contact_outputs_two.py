@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from vibeam.models.compliant import LinearContact
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import CONTACT_OUTPUTS, CONTACT_OUTPUTS_LOWER, summarize
@@ -38,7 +38,7 @@ def test_two_compliant_stops_of_different_stiffness_give_each_stop_its_contact_o
     undamped lower stop takes no energy (its work is round-off, <= 1e-12).  Against the
     solve_ivp reference's rows of the same stop: 1e-6 relative (measured ~1e-9)."""
     m = _kv_two()
-    a = EventSolver(m).point(1.0, None, 4, 4, 32)
+    a = EventSolver(m.scene()).point(1.0, None, 4, 4, 32)
     b = DirectSolver(m.scene()).point(1.0, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     np.testing.assert_array_equal(a.contact_stops, b.contact_stops)
@@ -71,7 +71,7 @@ def test_two_restitution_stops_give_each_stop_its_energy_per_impact():
     each stop is the mean of (1 - R_k^2) v_k^2 / 2 over that stop's impacts (the impulse's
     closed form; rel 1e-12, round-off), duration and penetration 0, force NaN (an impulse)."""
     m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5)
-    t = EventSolver(m).point(1.0, None, 20, 8, 32)
+    t = EventSolver(m.scene()).point(1.0, None, 20, 8, 32)
     s = summarize(t, m.Delta)
     v, k = t.impact_velocities, t.impact_stops
     assert np.sum(k == 0) >= 8 and np.sum(k == 1) >= 8
@@ -137,10 +137,10 @@ def test_each_stop_rebounds_with_its_own_R_in_the_trajectory(mixed):
     if mixed:
         m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5,
                  contact=LinearContact.from_restitution(1e4, 0.8))
-        t = EventSolver(m).point(Omega, None, 20, 8, ns)
+        t = EventSolver(m.scene()).point(Omega, None, 20, 8, ns)
     else:
         m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5)
-        t = EventSolver(m).point(Omega, None, 20, 8, ns)
+        t = EventSolver(m.scene()).point(Omega, None, 20, 8, ns)
     assert t.status == "ok"
     s = summarize(t, m.Delta)
     for stop, R, sfx in ((0, 0.8, ""), (1, 0.5, "_lower")):
@@ -159,7 +159,7 @@ def test_each_stop_rebounds_with_its_own_R_in_the_trajectory(mixed):
 def test_one_stop_results_have_no_lower_contact_outputs():
     """One stop: the unprefixed outputs cover its contacts as before, no ``*_lower`` keys."""
     m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, contact=LinearContact.from_restitution(1e4, 0.9))
-    t = EventSolver(m).point(2.0, None, 8, 8, 32)
+    t = EventSolver(m.scene()).point(2.0, None, 8, 8, 32)
     s = summarize(t, m.Delta)
     assert not any(k in s for k in CONTACT_OUTPUTS_LOWER)
     assert s["energy_per_impact"] == pytest.approx(np.mean(t.contacts[:, 3]), rel=1e-15)

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from vibeam.models import linear_amplitude
+from vibeam.models import linear_amplitude, make_solver
 from vibeam.models.continuation import (ContinuationError, Settings, start_point, trace)
 from vibeam.models.periodic_sdof import PARAMETERS, SDOFShooting
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.models.sdof_averaging import solve as averaging
 from vibeam.engine.records import summarize
 
@@ -22,7 +22,7 @@ RIG_STICK = SDOF.from_physical(FN, 0.017, 0.72, -0.1, 180.0, 5.16e-4, 0.35)    #
 
 
 def _settled(m, Omega, n_transient=1000):
-    tr = EventSolver(m).point(Omega, None, n_transient, 16, 8)
+    tr = EventSolver(m.scene()).point(Omega, None, n_transient, 16, 8)
     return tr.final_state[:2], summarize(tr, m.Delta)
 
 
@@ -200,7 +200,7 @@ def test_period_doubling_cascade_and_stable_period2_equals_simulation(fig13_bran
     k = int(np.argmin(np.abs(a["parameter"] - 2.29)))
     assert a["stable"][k]
     W, x = a["parameter"][k], a["state"][k]
-    tr = EventSolver(FIG13).point(W, np.r_[x * (1 + 1e-4), 0.0], 3000, 4, 8)
+    tr = EventSolver(FIG13.scene()).point(W, np.r_[x * (1 + 1e-4), 0.0], 3000, 4, 8)
     assert np.max(np.abs(tr.final_state[:2] - x)) < 1e-10 * np.max(np.abs(x)) or \
         np.max(np.abs(tr.strobe[1] - x)) < 1e-10 * np.max(np.abs(x))   # either phase of the orbit
     # the PD cascade of the Fig. 13 scene accumulates (Feigenbaum): successive gaps shrink
@@ -216,14 +216,14 @@ def test_stable_branch_points_equal_long_event_simulations(fig8_branch):
     stable_idx = np.flatnonzero(a["stable"] & (a["impacts"] == 1))
     for k in stable_idx[:: max(1, len(stable_idx) // 6)]:
         W, x = a["parameter"][k], a["state"][k]
-        tr = EventSolver(FIG8).point(W, np.r_[x * (1 + 1e-6), 0.0], 2000, 2, 8)
+        tr = EventSolver(FIG8.scene()).point(W, np.r_[x * (1 + 1e-6), 0.0], 2000, 2, 8)
         assert np.max(np.abs(tr.final_state[:2] - x)) < 1e-8 * np.max(np.abs(x))
         assert tr.q_min == pytest.approx(a["q_min"][k], rel=1e-8)
     # a clearly unstable point (largest multiplier ~2): round-off grows like 2^periods
     mu = np.max(np.abs(a["multipliers"]), axis=1)
     k = int(np.argmin(np.abs(mu - 2.0)))
     assert not a["stable"][k] and 1.5 < mu[k] < 3
-    tr = EventSolver(FIG8).point(a["parameter"][k], np.r_[a["state"][k], 0.0], 2000, 2, 8)
+    tr = EventSolver(FIG8.scene()).point(a["parameter"][k], np.r_[a["state"][k], 0.0], 2000, 2, 8)
     assert np.max(np.abs(tr.final_state[:2] - a["state"][k])) > 1e-6
 
 
@@ -235,7 +235,7 @@ def test_fold_lies_between_the_jumps_of_fine_up_and_down_sweeps(fig8_branch):
     W_graze = [f.parameter for f in b.bifurcations if f.type == "grazing"][0]
     a = b.arrays()
     k0 = int(np.argmin(np.abs(a["parameter"][:50] - 1.975)))
-    solver = EventSolver(FIG8)
+    solver = make_solver(FIG8, "event")
     state = np.r_[a["state"][k0], 0.0]
     up = []
     # 2000 periods per step: 1e-4 past the fold the passage through its ghost (time ~ 1/sqrt(W -
@@ -267,7 +267,7 @@ def test_rig_tight_fold_brackets_the_down_sweep_jump():
     (b,) = trace(SDOFShooting(RIG_TIGHT), x0, 17 / FN, 1, 14 / FN, 17 / FN, -1)
     folds = [f.parameter * FN for f in b.bifurcations if f.type == "fold"]
     assert len(folds) == 1 and 16.2 < folds[0] < 16.35
-    solver = EventSolver(RIG_TIGHT)
+    solver = make_solver(RIG_TIGHT, "event")
     state = np.r_[x0, 0.0]
     last_p1, first_other = None, None
     for f in np.arange(16.40, 16.10, -0.005):

@@ -247,8 +247,8 @@ curve_points = 40
     gap_k, W_k = float(c["gap_mm"][k]), float(c["parameter"][k])
     m = SDOF.from_physical(7.6, 0.017, 0.72, gap_k, 180.0, 5.16e-4, 0.6)
     pr = SDOFShooting(m, "Omega")
-    from vibeam.models.sdof import EventSolver
-    tr = EventSolver(m).point(14 / 7.6, None, 1000, 4, 8)
+    from vibeam.models import EventSolver
+    tr = EventSolver(m.scene()).point(14 / 7.6, None, 1000, 4, 8)
     bs = trace(pr, tr.final_state[:2], 14 / 7.6, 1, 14 / 7.6, 16 / 7.6, +1)
     folds = [f.parameter for b in bs for f in b.bifurcations if f.type == "fold"]
     assert folds and min(abs(f - W_k) for f in folds) < 1e-8

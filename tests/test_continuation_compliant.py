@@ -12,7 +12,7 @@ from vibeam.models import shooting_problem
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import start_point, trace
 from vibeam.models.periodic_sdof import SDOFShooting
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.engine.records import summarize
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop
@@ -29,7 +29,7 @@ def _kv(m, k, R=0.9):
 
 def _settled(m, Omega, periods=1500, x0=None):
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = EventSolver(m).point(Omega, s0, periods, 16, 16)
+    tr = EventSolver(m.scene()).point(Omega, s0, periods, 16, 16)
     return np.asarray(tr.final_state[:2], float), summarize(tr, m.Delta)
 
 

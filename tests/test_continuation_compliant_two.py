@@ -7,11 +7,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from vibeam.models import shooting_problem
+from vibeam.models import shooting_problem, make_solver
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import Settings, start_point, trace
 from vibeam.models.periodic_sdof import SDOFShooting
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.engine.records import summarize
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop
@@ -31,7 +31,7 @@ SOFT = _kv(SDOF(0.015, 0.5e-3, 0.9, 0.2e-3), 1e2, 0.3e-3)     # soft, long conta
 
 def _settled(m, Omega, periods=1500, x0=None):
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = EventSolver(m).point(Omega, s0, periods, 16, 16)
+    tr = EventSolver(m.scene()).point(Omega, s0, periods, 16, 16)
     return np.asarray(tr.final_state[:2], float), tr
 
 
@@ -180,7 +180,7 @@ def test_own_lower_law_branch_equals_event_runs_and_map_jacobian(own_branch):
     a = own_branch[0].arrays()
     assert a["parameter"][-1] == pytest.approx(2.4)
     assert np.all(a["impacts_lower"] == 1) and np.all(a["impacts"] == 2) and np.all(a["stable"])
-    solver = EventSolver(OWN)
+    solver = make_solver(OWN, "event")
     idx = range(0, len(a["parameter"]), 5)
     assert len(idx) >= 4
     for i in idx:
@@ -477,10 +477,10 @@ NEWTON_ABOVE = replace(FIG8, Delta_lower=0.9e-3, contact_lower=LinearContact.fro
 
 
 def _settled_any(m, W, periods, x0=None):
-    from vibeam.models.sdof import EventSolver
+    from vibeam.models import EventSolver
 
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = EventSolver(m).point(W, s0, periods, 16, 16)
+    tr = EventSolver(m.scene()).point(W, s0, periods, 16, 16)
     return np.asarray(tr.final_state[:2], float), tr
 
 

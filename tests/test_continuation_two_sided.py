@@ -35,7 +35,7 @@ NO_SWITCH = Settings(switch=False)
 
 
 def _settled(m, W, n_tr=3000):
-    tr = EventSolver(m).point(W, None, n_tr, 16, 16)
+    tr = EventSolver(m.scene()).point(W, None, n_tr, 16, 16)
     return np.asarray(tr.final_state[:2], float)
 
 
@@ -100,7 +100,7 @@ def test_stable_branch_points_equal_long_event_runs():
     assert set(a["impacts_lower"][taken]) == {0, 1}          # both kinds of orbit are checked
     for k in taken:
         W, x = a["parameter"][k], a["state"][k]
-        tr = EventSolver(LOW).point(W, np.r_[x * (1 + 1e-6), 0.0], 2000, 4, 8)
+        tr = EventSolver(LOW.scene()).point(W, np.r_[x * (1 + 1e-6), 0.0], 2000, 4, 8)
         assert np.max(np.abs(tr.final_state[:2] - x)) < 1e-8 * np.max(np.abs(x))
         assert LOW.Delta - tr.q_min == pytest.approx(a["amplitude"][k], rel=1e-8)
         assert tr.n_impacts_lower == 4 * a["impacts_lower"][k]
@@ -109,7 +109,7 @@ def test_stable_branch_points_equal_long_event_runs():
     # period doubling) leaves under the same run: the check can fail
     k = int(np.argmin(np.abs(mu - 4.0)))
     assert not a["stable"][k] and 3 < mu[k] < 5 and a["impacts_lower"][k] == 1
-    tr = EventSolver(LOW).point(a["parameter"][k], np.r_[a["state"][k] * (1 + 1e-6), 0.0], 2000, 4, 8)
+    tr = EventSolver(LOW.scene()).point(a["parameter"][k], np.r_[a["state"][k] * (1 + 1e-6), 0.0], 2000, 4, 8)
     assert np.max(np.abs(tr.final_state[:2] - a["state"][k])) > 1e-6 * np.max(np.abs(a["state"][k]))
 
 
@@ -121,8 +121,8 @@ def _event_map_jacobian(m, W, x, n, rel=1e-7):
     for j in range(2):
         e = np.zeros(2)
         e[j] = h
-        xp = EventSolver(m).point(W, np.r_[x + e, 0.0], 0, n, 8).final_state[:2]
-        xm = EventSolver(m).point(W, np.r_[x - e, 0.0], 0, n, 8).final_state[:2]
+        xp = EventSolver(m.scene()).point(W, np.r_[x + e, 0.0], 0, n, 8).final_state[:2]
+        xm = EventSolver(m.scene()).point(W, np.r_[x - e, 0.0], 0, n, 8).final_state[:2]
         J[:, j] = (np.asarray(xp) - np.asarray(xm)) / (2 * h)
     return J
 
@@ -186,7 +186,7 @@ def test_symmetric_orbit_of_symmetric_stops():
         assert v[0] == pytest.approx(v[1], rel=1e-9)
         assert abs(abs(s.impact_times[1] - s.impact_times[0]) - T / 2) < 1e-9 * T
         assert s.q_max == pytest.approx(-s.q_min, rel=1e-9)
-        tr = EventSolver(SYM).point(pt.p, np.r_[pt.x, 0.0], 0, 1, 16)
+        tr = EventSolver(SYM.scene()).point(pt.p, np.r_[pt.x, 0.0], 0, 1, 16)
         assert np.max(np.abs(tr.samples[8] + pt.x)) < 1e-9 * np.max(np.abs(pt.x))
         assert np.max(np.abs(pt.mu)) < 1.0
 
@@ -479,7 +479,7 @@ def test_a_branch_in_R_lower_is_made_of_event_orbits_and_obeys_liouville():
             assert abs(np.linalg.det(s.M) / want - 1.0) <= 1e-9, (pt.p, np.linalg.det(s.M), want)
         if np.max(np.abs(pt.mu)) < 0.95:
             m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e-3, R_lower=pt.p)
-            one = EventSolver(m).point(W, np.concatenate([pt.x, [0.0]]), 0, 1, 16)
+            one = EventSolver(m.scene()).point(W, np.concatenate([pt.x, [0.0]]), 0, 1, 16)
             assert np.max(np.abs(one.final_state[:2] - pt.x)) <= 1e-9 * np.max(np.abs(pt.x)), pt.p
             checked += 1
     assert checked >= 5

@@ -213,7 +213,7 @@ def test_constant_restitution_table_equals_constant_R(beam):
 
 
 def _sequence(solver_cls, model, v0, state):
-    s = solver_cls(model, impact_buffer=64)
+    s = solver_cls(model.scene() if solver_cls is EventSolver else model, impact_buffer=64)
     tr = s.point(0.77, state, 0, 6, 64)
     return tr.impact_velocities
 

@@ -79,7 +79,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from vibeam.models.compliant import HuntCrossley, LinearContact, damping_ratio_for_restitution
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver, make_solver
 from vibeam.engine.records import summarize
 
 N_FINE, N_COARSE = 8192, 2048     # samples per forcing period
@@ -138,7 +138,7 @@ def _sdof(contact=None, contact_lower=None, lower=None, R_lower=None):
     elif isinstance(contact, HuntCrossley):
         up = _hc(*HC_UP)
     stops = [(1.0, DELTA, up)] + ([(-1.0, DELTA_L, lower)] if two else [])
-    solver = EventSolver(m)
+    solver = make_solver(m, "event")
     W = 0.9 if two else 0.75
     return System(k=np.array([1.0]), c=np.array([2.0 * BETA]), G=np.array([1.0]), Y=B, w=np.array([1.0]),
                   scale=1.0, stops=stops, Omega=W, period=2 if two else 1, counts=(3, 2) if two else (2,),

@@ -13,7 +13,7 @@ from vibeam.engine.records import summarize
 
 
 def _run(model, Omega, n_transient, n_record, state0=None, ns=64, **kw):
-    return EventSolver(model, **kw).point(Omega, state0, n_transient, n_record, ns)
+    return EventSolver(model.scene(), **kw).point(Omega, state0, n_transient, n_record, ns)
 
 
 # --------------------------------------------------------------------------- linear limit

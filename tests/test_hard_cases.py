@@ -63,7 +63,7 @@ def _one_mode_beam(beta, B, R, Delta):
 
 def _sdof_solver(m, method, **kw):
     if method == "event":
-        return EventSolver(m)
+        return make_solver(m, "event")
     return make_solver(m, method, **{**ODE_TIGHT, **kw})
 
 
@@ -133,7 +133,7 @@ def test_grazing_event_sdof_every_decade_and_square_root_law():
         eps_l.append(eps), v_l.append(v), v_ex_l.append(v_ex)
         # miss side: the peak stays a relative eps short of the stop
         a, b, C, _ = _sdof_linear_orbit()
-        miss = EventSolver(SDOF(SD_BETA, SD_B, 0.9, C * (1 + eps))).point(
+        miss = EventSolver((SDOF(SD_BETA, SD_B, 0.9, C * (1 + eps))).scene()).point(
             SD_OM, np.array([b, SD_OM * a, 0.0]), 0, 1, 64)
         assert miss.n_impacts == 0, eps
     slope, slope_ex = _fit_slope(eps_l, v_l), _fit_slope(eps_l, v_ex_l)
@@ -300,7 +300,7 @@ def test_zeno_accumulation_time_forced(fidelity, R, Delta, F, u0):
     n_rec = 3
     s0 = np.array([Delta, -u0, 0.0])
     if fidelity == "sdof":
-        tr = EventSolver(SDOF(beta, B, R, Delta)).point(Omega, s0, 0, n_rec, 64)
+        tr = EventSolver(SDOF(beta, B, R, Delta).scene()).point(Omega, s0, 0, n_rec, 64)
     else:
         tr = BeamEventSolver(_one_mode_beam(beta, B, R, Delta)).point(Omega, s0, 0, n_rec, 64)
     window = n_rec * TWO_PI / Omega
@@ -333,7 +333,7 @@ def test_plastic_impact_sticks_at_first_impact(fidelity):
     tau, v = _flight(0.0, q0 - Delta, 0.0, beta, F, Omega, Delta, 0.5)
     s0 = np.array([q0, 0.0, 0.0])
     if fidelity == "sdof":
-        tr = EventSolver(SDOF(beta, B, 0.0, Delta)).point(Omega, s0, 0, 4, 256)
+        tr = EventSolver(SDOF(beta, B, 0.0, Delta).scene()).point(Omega, s0, 0, 4, 256)
     else:
         tr = BeamEventSolver(_one_mode_beam(beta, B, 0.0, Delta)).point(Omega, s0, 0, 4, 256)
     assert tr.status == "sticking", tr.message
@@ -516,7 +516,7 @@ def test_long_run_sdof_event_no_drift(Om):
         s = ((TWO_PI - x[0]) % TWO_PI) / Om
         g, v, *_ = propagate(s, x[0], FIG13.Delta, -FIG13.R * x[1], FIG13.beta, a, b, Om, FIG13.Delta)
         s0 = np.array([(FIG13.Delta + g) * (1 + 1e-3), v * (1 + 1e-3), 0.0])
-    ev = EventSolver(FIG13)
+    ev = make_solver(FIG13, "event")
     errs = {}
     for n in (10**3, 10**5):
         tr = ev.point(Om, s0, n, 4, 64)
@@ -557,7 +557,7 @@ def test_long_run_energy_conserved_elastic():
     Delta = 0.3
     s0 = np.array([0.0, 1.0, 0.0])
     n = 10**5
-    for name, solver in (("sdof", EventSolver(SDOF(0.0, 0.0, 1.0, Delta))),
+    for name, solver in (("sdof", make_solver(SDOF(0.0, 0.0, 1.0, Delta), "event")),
                          ("beam-1-mode", BeamEventSolver(_one_mode_beam(0.0, 0.0, 1.0, Delta)))):
         tr = solver.point(1.3, s0, 0, n, 8)
         E = 0.5 * (tr.samples[:, 0] ** 2 + tr.samples[:, 1] ** 2)
@@ -721,7 +721,7 @@ def test_property_energy_never_increases_sdof(beta, R, Delta, u0, q0):
     q0 = min(q0, Delta)
     m = SDOF(beta, 0.0, R, Delta)
     spp = 128
-    tr = EventSolver(m).point(1.0, np.array([q0, u0, 0.0]), 0, 3, spp)
+    tr = EventSolver(m.scene()).point(1.0, np.array([q0, u0, 0.0]), 0, 3, spp)
     assert tr.status != "failed"
     E = 0.5 * (tr.samples[:, 0] ** 2 + tr.samples[:, 1] ** 2)
     E0 = E[0]
@@ -801,7 +801,7 @@ def test_property_event_and_direct_agree(beta, R, B, Delta, Om):
     ``direct`` cannot pass) are discarded: they are covered by the tests above."""
     m = SDOF(beta, B, R, Delta)
     T = TWO_PI / Om
-    ev = EventSolver(m).point(Om, None, 0, 4, 64)
+    ev = EventSolver(m.scene()).point(Om, None, 0, 4, 64)
     assume(ev.status in ("ok", "sticking"))   # sticking: held on a pre-stressed stop at first
     scale = max(np.max(np.abs(ev.samples)), abs(Delta), 1e-12)
     assume(ev.n_impacts == 0 or np.min(ev.impact_velocities) > 1e-2 * scale * Om)
@@ -829,7 +829,7 @@ def test_an_elastic_stop_a_hair_above_rest_is_held_not_a_failure(fidelity, gap_r
     Om = 1.5
     if fidelity == "sdof":
         def run(gap):
-            return EventSolver(SDOF(beta=0.015, B=0.5e-3, R=1.0, Delta=gap)).point(Om, None, 20, 3, 64)
+            return EventSolver(SDOF(beta=0.015, B=0.5e-3, R=1.0, Delta=gap).scene()).point(Om, None, 20, 3, 64)
         A = 0.5e-3 * Om**2 / abs(1.0 - Om**2)
     else:
         fe = _fe(12)

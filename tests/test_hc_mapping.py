@@ -14,7 +14,7 @@ import pytest
 
 from vibeam.models import make_solver
 from vibeam.models.compliant import HuntCrossley
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.models.mapping import MappingSolver
 from vibeam.engine.records import summarize
 
@@ -44,7 +44,7 @@ def test_hc_map_fixed_point_is_the_event_orbit_and_multipliers_match(k, W, R):
     s = MappingSolver(m.scene())
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
-    ev = EventSolver(m).point(W, None, 400, 8, 64)
+    ev = EventSolver(m.scene()).point(W, None, 400, 8, 64)
     se = summarize(ev, 0.0)
     assert se["period"] == 1 and se["status"] == "ok"
     for key in KEYS:
@@ -54,7 +54,7 @@ def test_hc_map_fixed_point_is_the_event_orbit_and_multipliers_match(k, W, R):
     h = 1e-5 * np.max(np.abs(ev.strobe))
 
     def strobe(z):
-        return EventSolver(m).point(W, np.array([z[0], z[1], s0[2]]), 0, 1, 1).final_state[:2]
+        return EventSolver(m.scene()).point(W, np.array([z[0], z[1], s0[2]]), 0, 1, 1).final_state[:2]
     J = np.column_stack([(strobe(s0[:2] + h * e) - strobe(s0[:2] - h * e)) / (2 * h) for e in np.eye(2)])
     fd = np.sort_complex(np.linalg.eigvals(J).astype(complex))
     assert np.max(np.abs(fd - np.sort_complex(out["multipliers"]))) < 1e-7
@@ -97,5 +97,5 @@ method = "mapping"
     W = np.array([1.8, 2.0])
     d = run_sweep(solver, Sweep(Omega=W, direction="up"), jobs=1).data
     assert np.all(d["status"] == "ok") and np.all(d["period"] == 1)
-    se = summarize(EventSolver(m).point(W[-1], None, 400, 8, 64), 0.0)   # the last, continued point
+    se = summarize(EventSolver(m.scene()).point(W[-1], None, 400, 8, 64), 0.0)   # the last, continued point
     assert d["amplitude"][-1] == pytest.approx(se["amplitude"], rel=1e-8)

@@ -28,7 +28,7 @@ from vibeam.models.compliant import HuntCrossley, LankaraniNikravesh
 from vibeam.models.contact import DAMPING, EXPONENT, LAW, STIFFNESS, Relation, Stop, pack
 from vibeam.models.beam_dynamics import BeamEventSolver
 from vibeam.models.periodic_sdof import SDOFShooting
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.core.laws import force
 from vibeam.models.sdof_ode import DirectSolver
@@ -128,7 +128,7 @@ def test_sdof_impact_from_rest_event_kernel_against_solve_ivp():
     R_eff = sqrt(1 - 2 E / v^2), to 1e-8."""
     law = LankaraniNikravesh(1e6, 0.9)
     m = SDOF(beta=0.0, B=0.0, R=0.9, Delta=0.0, contact=law)
-    tr = EventSolver(m).point(1.0, np.array([-0.01, 0.0, 0.0]), 0, 1, 64)
+    tr = EventSolver(m.scene()).point(1.0, np.array([-0.01, 0.0, 0.0]), 0, 1, 64)
     assert tr.status == "ok" and tr.n_impacts >= 2
     v0, v1 = tr.impact_velocities[:2]
     assert v0 == pytest.approx(0.01, rel=1e-12)
@@ -158,7 +158,7 @@ def test_event_agrees_with_direct_on_a_frequency_response_point(k, W, Delta):
 # ---------------------------------------------------------------------------- (d) continuation
 def _settled(m, W, periods=1500, x0=None):
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = EventSolver(m).point(W, s0, periods, 16, 16)
+    tr = EventSolver(m.scene()).point(W, s0, periods, 16, 16)
     return np.asarray(tr.final_state[:2], float), summarize(tr, m.Delta)
 
 
@@ -212,7 +212,7 @@ def test_one_mode_beam_is_the_sdof_scene():
     ev = make_solver(m, "event")
     assert isinstance(ev, BeamEventSolver)
     a = ev.point(W, None, 20, 4, 32)
-    b = EventSolver(sd).point(W / sq, None, 20, 4, 32)
+    b = EventSolver(sd.scene()).point(W / sq, None, 20, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples[:, 0] - b.samples[:, 0])) <= 1e-10 * np.max(np.abs(a.samples[:, 0]))
     assert np.max(np.abs(a.samples[:, 1] - sq * b.samples[:, 1])) <= 1e-10 * np.max(np.abs(a.samples[:, 1]))
@@ -338,7 +338,7 @@ def test_mapping_fixed_point_is_the_settled_event_orbit():
     assert isinstance(s, MappingSolver)
     out = s.point(1.8, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
-    se = summarize(EventSolver(m).point(1.8, None, 400, 8, 64), 0.0)
+    se = summarize(EventSolver(m.scene()).point(1.8, None, 400, 8, 64), 0.0)
     assert se["period"] == 1 and se["status"] == "ok"
     for key in ("amplitude", "q_max", "impact_velocity", "contact_duration", "contact_force_max",
                 "penetration_max", "energy_per_impact"):

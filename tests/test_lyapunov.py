@@ -18,7 +18,7 @@ from scipy.linalg import expm
 
 from vibeam.models.lyapunov import lyapunov_spectrum
 from vibeam.models.periodic_sdof import SDOFShooting
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 
 BETA, R = 0.015, 0.9
 FIG8 = SDOF(BETA, 0.5e-3, R, 0.7e-3)                             # paper Fig. 8
@@ -27,7 +27,7 @@ CHAOS_OMEGA = 2.38                                              # "not periodic 
 
 
 def _attractor(m, W, periods=400):
-    tr = EventSolver(m).point(W, None, periods, 1, 16)
+    tr = EventSolver(m.scene()).point(W, None, periods, 1, 16)
     assert tr.status == "ok"
     return tr.final_state[:2]
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from vibeam.models import make_solver
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.models.sdof_flow import propagate, particular_coefficients
 from vibeam.models.mapping import (fixed_point_analysis, impact_map, impact_map_jacobian, newton_fixed_point,
                                    next_impact)
@@ -41,7 +41,7 @@ def test_fixed_point_matches_long_event_run(m, Omega, n, from_rest):
         # start 1e-3 away from the orbit instead
         s0 = _state_at_phase_zero(m, Omega, p["final_state"], n)
         s0[:2] *= 1 + 1e-3
-    tr = EventSolver(m).point(Omega, s0, 1500, 2 * n, 256)
+    tr = EventSolver(m.scene()).point(Omega, s0, 1500, 2 * n, 256)
     assert tr.status == "ok" and tr.n_impacts == 2
     ph = (Omega * tr.impact_times[-1]) % TWO_PI
     assert _phase_diff(ph, p["impact_phase"]) < 1e-8
@@ -144,12 +144,12 @@ def test_fig13_period1_loses_stability_near_2p3(capsys):
     assert not p["stable"]
     s0 = _state_at_phase_zero(FIG13, Omega, p["final_state"])
     s0[1] *= 1 + 1e-7
-    tr = EventSolver(FIG13).point(Omega, s0, 400, 16, 64)
+    tr = EventSolver(FIG13.scene()).point(Omega, s0, 400, 16, 64)
     iv = tr.impact_velocities[: tr.n_impacts]
     assert tr.n_impacts > 0
     assert np.max(np.abs(iv - p["impact_velocity"])) > 1e-2 * p["impact_velocity"]
     # ... nor does a sweep from rest settle on it
-    tr2 = EventSolver(FIG13).point(Omega, None, 1500, 16, 64)
+    tr2 = EventSolver(FIG13.scene()).point(Omega, None, 1500, 16, 64)
     iv2 = tr2.impact_velocities[: tr2.n_impacts]
     assert tr2.n_impacts != 16 or np.max(np.abs(iv2 - p["impact_velocity"])) > 1e-2 * p["impact_velocity"]
     # contrast: below the onset the same perturbed start returns to the orbit
@@ -157,7 +157,7 @@ def test_fig13_period1_loses_stability_near_2p3(capsys):
     p = pts[int(np.argmin(np.abs(W - Omega)))]
     s0 = _state_at_phase_zero(FIG13, Omega, p["final_state"])
     s0[1] *= 1 + 1e-7
-    tr = EventSolver(FIG13).point(Omega, s0, 400, 16, 64)
+    tr = EventSolver(FIG13.scene()).point(Omega, s0, 400, 16, 64)
     assert tr.n_impacts == 16
     assert np.max(np.abs(tr.impact_velocities[:16] - p["impact_velocity"])) < 1e-8 * p["impact_velocity"]
 

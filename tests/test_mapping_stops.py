@@ -18,7 +18,7 @@ from vibeam.engine.records import summarize
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.contact import Restitution
 from vibeam.models.mapping import MappingSolver
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 
 KV = LinearContact.from_restitution(1e4, 0.8)
 KV_LOW = LinearContact.from_damping_ratio(3e3, 0.05)
@@ -46,7 +46,7 @@ def _model(up, low):
 
 
 def _settled(m, W):
-    tr = EventSolver(m).point(W, None, 2000, 12, 32)
+    tr = EventSolver(m.scene()).point(W, None, 2000, 12, 32)
     return tr, summarize(tr, m.Delta)
 
 
@@ -94,7 +94,7 @@ def test_multipliers_against_the_event_stroboscopic_map(up, low, W, tol):
     h = 1e-5 * np.max(np.abs(tr.strobe))
 
     def strobe(z):
-        return EventSolver(m).point(W, np.array([z[0], z[1], held]), 0, n, 8).final_state[:2]
+        return EventSolver(m.scene()).point(W, np.array([z[0], z[1], held]), 0, n, 8).final_state[:2]
 
     J = np.column_stack([(strobe(x0 + h * e) - strobe(x0 - h * e)) / (2 * h) for e in np.eye(2)])
     fd = np.sort_complex(np.linalg.eigvals(J).astype(complex))

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.models.mapping import MappingSolver
 from vibeam.engine.records import summarize
 
@@ -36,7 +36,7 @@ def _model(D, Dl, Rl):
 
 def _settled(m, W, q0):
     s0 = None if q0 is None else np.array([q0, 0.0, 0.0])
-    tr = EventSolver(m).point(W, s0, 3000, N_REC, 64)
+    tr = EventSolver(m.scene()).point(W, s0, 3000, N_REC, 64)
     out = summarize(tr, m.Delta)
     return tr, out
 
@@ -77,7 +77,7 @@ def test_two_sided_mapping_equals_the_event_kernel(D, Dl, Rl, W, q0):
 
 
 def _strobe_map(m, W, n, x):
-    return EventSolver(m).point(W, np.array([x[0], x[1], 0.0]), 0, n, 8).final_state[:2]
+    return EventSolver(m.scene()).point(W, np.array([x[0], x[1], 0.0]), 0, n, 8).final_state[:2]
 
 
 @pytest.mark.parametrize("D, Dl, Rl, W, q0", [SCENES[1], SCENES[2], SCENES[3], SCENES[4], SCENES[5]])
@@ -162,6 +162,6 @@ n = 2
     assert np.all(d["status"] == "ok") and np.all(d["period"] == 2)
     np.testing.assert_array_equal(d["impacts_per_period_lower"], 0.5)
     for i, w in enumerate(W):
-        ev = summarize(EventSolver(m).point(w, None, 3000, N_REC, 64), m.Delta)
+        ev = summarize(EventSolver(m.scene()).point(w, None, 3000, N_REC, 64), m.Delta)
         assert d["impact_velocity_lower"][i] == pytest.approx(ev["impact_velocity_lower"], rel=1e-9)
         assert d["impact_velocity"][i] == pytest.approx(ev["impact_velocity"], rel=1e-9)

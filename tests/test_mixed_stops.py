@@ -16,7 +16,7 @@ import pytest
 from vibeam.models import make_solver, shooting_problem
 from vibeam.models.registry import mixed_stops
 from vibeam.models.compliant import LinearContact
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
 
@@ -35,7 +35,7 @@ def test_event_agrees_with_the_direct_reference_on_a_mixed_scene(W):
     DOP853 at rtol 1e-11), contact rows to 1e-6 relative (measured <= 3.0e-11); the lower
     stop's rows are impulses whose energy is (1 - R_l^2) v^2 / 2 (round-off)."""
     m = _mixed()
-    a = EventSolver(m).point(W, None, 4, 4, 32)
+    a = EventSolver(m.scene()).point(W, None, 4, 4, 32)
     b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower >= 3
@@ -59,8 +59,8 @@ def test_a_far_restitution_stop_gives_the_one_stop_compliant_run_identically():
     one = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, contact=LinearContact.from_restitution(1e4, 0.9))
     two = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, Delta_lower=1.0, R_lower=0.5,
                contact=LinearContact.from_restitution(1e4, 0.9))
-    a = EventSolver(one).point(2.0, None, 8, 8, 32)
-    b = EventSolver(two).point(2.0, None, 8, 8, 32)
+    a = EventSolver(one.scene()).point(2.0, None, 8, 8, 32)
+    b = EventSolver(two.scene()).point(2.0, None, 8, 8, 32)
     assert a.n_impacts >= 8 and b.n_impacts_lower == 0 and np.all(b.impact_stops == 0)
     for x, y in ((a.samples, b.samples), (a.contacts, b.contacts), (a.period_min, b.period_min),
                  (a.impact_times, b.impact_times), (a.final_state, b.final_state)):
@@ -78,7 +78,7 @@ def test_chatter_on_the_restitution_stop_ends_in_sticking_as_in_the_direct_refer
     release event): samples to 1e-8 of the orbit (measured 2e-11), stuck fraction to 1e-6
     relative (measured 8e-8)."""
     m = _mixed(Delta_lower=0.0, R_lower=0.5, Delta=0.05)
-    t = EventSolver(m).point(0.5, None, 20, 4, 32)
+    t = EventSolver(m.scene()).point(0.5, None, 20, 4, 32)
     assert t.status == "chatter" and "ending in sticking" in t.message
     s = summarize(t, m.Delta)
     assert s["status"] == "chatter"
@@ -110,7 +110,7 @@ def test_mixed_stops_are_served_by_the_mapping_and_refused_by_the_textbook_metho
         solver = make_solver(scene, "mapping")
         assert isinstance(solver, MappingSolver)
         out = solver.point(0.75, None, 0, 0)
-        ev = summarize(EventSolver(scene).point(0.75, None, 1500, 4, 32), scene.Delta)
+        ev = summarize(EventSolver(scene.scene()).point(0.75, None, 1500, 4, 32), scene.Delta)
         assert out["status"] == "ok" and ev["period"] == out["period"] == 1, out["message"]
         for key in ("amplitude", "impact_velocity", "impact_velocity_lower"):
             assert out[key] == pytest.approx(ev[key], rel=1e-9), key

@@ -15,7 +15,7 @@ import pytest
 
 from vibeam.models.beam import BeamFE, BeamGeometry
 from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel, BeamODESolver
-from vibeam.models.sdof import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver
 from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
@@ -93,7 +93,7 @@ def test_one_mode_beam_energy_is_the_sdof_energy(R, R_lower, gap, gap_lower, f):
               Delta_lower=None if gap_lower is None else gap_lower / PHIM / L, R_lower=R_lower)
     W = f / sm.f_ref_hz
     a = BeamEventSolver(sm).point(W, None, 200, 8, 64)
-    b = EventSolver(sd).point(W, None, 200, 8, 64)
+    b = EventSolver(sd.scene()).point(W, None, 200, 8, 64)
     assert a.n_impacts == b.n_impacts > 0
     if gap_lower is not None:
         assert a.n_impacts_lower > 0

@@ -37,7 +37,7 @@ def _run(solver, Omega):
 @pytest.fixture(scope="module")
 def reference():
     """Exact trajectories (method ``event``) and their timing per Omega."""
-    ev = EventSolver(SCENE)
+    ev = make_solver(SCENE, "event")
     ev.point(OMEGAS[0], STATE0, 2, 1, SPP)  # numba warm-up, not timed
     out = {}
     for Om in OMEGAS:
@@ -145,7 +145,7 @@ def test_chatter_fails_fast_without_raising(cls):
     timed: at most the per-period budget of right-hand-side evaluations (50000) and a little
     more (measured 211, 423 and 50108 for direct, zhuravlev and ivanov) of the 24 periods'."""
     m = SDOF(beta=0.015, B=0.5e-3, R=0.5, Delta=-0.0015)
-    assert EventSolver(m).point(2.0, None, 20, 4).status == "chatter"
+    assert EventSolver(m.scene()).point(2.0, None, 20, 4).status == "chatter"
     traj = cls(m.scene(), **PAPER).point(2.0, None, 20, 4)
     assert traj.status == "failed" and traj.message
     assert np.isnan(summarize(traj, m.Delta)["amplitude"])
@@ -157,7 +157,7 @@ def test_start_on_prestressed_stop(cls):
     """Delta < 0 starts on the stop at rest (``initial_state``); it is held
     until the contact force releases it, then the motion matches ``event``."""
     m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=-0.0005)
-    ref = EventSolver(m).point(1.8, None, 60, 8)
+    ref = EventSolver(m.scene()).point(1.8, None, 60, 8)
     traj = cls(m.scene(), **TIGHT).point(1.8, None, 60, 8)
     assert traj.status == ref.status == "ok"
     A_ref = summarize(ref, m.Delta)["amplitude"]

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from vibeam.case.schema import CaseError, parse_case
-from vibeam.models import SDOF, EventSolver, linear_amplitude
+from vibeam.models import SDOF, EventSolver, linear_amplitude, make_solver
 from vibeam.models.mapping import is_admissible, newton_fixed_point, orbit_extremes
 from vibeam.engine.records import (MARGINAL, SETTLED_MARGIN, STATUSES, amplitude_spread, converging, spread_agrees,
                             strobe_returns, summarize, transient_verdict, verdict_from_returns)
@@ -26,7 +26,7 @@ FIG13 = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3)
 def _one(model, W, start=None, **kw):
     """One point from rest (or from the state ``start``; no continuation), inline."""
     sw = Sweep(Omega=np.array([W]), continuation=False, **kw)
-    solver = EventSolver(model) if start is None else _From(model, start)
+    solver = make_solver(model, "event") if start is None else _From(model, start)
     return {k: v[0] for k, v in run_sweep(solver, sw).data.items()}
 
 
@@ -34,7 +34,8 @@ class _From(EventSolver):
     """The event solver with another initial state than rest."""
 
     def __init__(self, model, start):
-        super().__init__(model)
+        super().__init__(model.scene())
+        self.model = model          # what the sweep engine reads (as make_solver attaches it)
         self.start = np.asarray(start, float)
 
     def point(self, Omega, state0, *args, **kw):
@@ -43,7 +44,7 @@ class _From(EventSolver):
 
 def _period1_amplitude(model, W, guess_point):
     """Amplitude of the period-1 orbit by Newton on the impact map (independent oracle)."""
-    tr = EventSolver(model).point(W, np.array([*guess_point["strobe"][-1], 0.0]), 0, 1, 8)
+    tr = EventSolver(model.scene()).point(W, np.array([*guess_point["strobe"][-1], 0.0]), 0, 1, 8)
     x = newton_fixed_point(model.scene(), W, [(W * tr.impact_times[0]) % (2 * math.pi), tr.impact_velocities[0]], 1)
     assert x is not None and is_admissible(model.scene(), W, x, 1)[0]
     return model.Delta - orbit_extremes(model.scene(), W, x, 1)[0]
@@ -57,7 +58,7 @@ def test_per_period_minima_are_exact_and_the_spread_brackets_them():
     max|q'|, h = T / 4096).  The spread brackets the mean, its maximum is the exact amplitude,
     and a coarse record's sample minima (64 per period) lie above the exact ones."""
     W = 2.5
-    ev = EventSolver(FIG13)
+    ev = make_solver(FIG13, "event")
     tr0 = ev.point(W, None, 1000, 1, 64)
     s0 = tr0.final_state
     fine = ev.point(W, s0, 0, 24, 4096)
@@ -98,7 +99,7 @@ def test_period2_orbit_spread_is_its_two_amplitudes():
     halves of the orbit, and the largest is the amplitude of the n = 2 Newton fixed point of
     the impact map (independent closed form, 1e-9)."""
     m, W = FIG13, 4.0
-    tr = EventSolver(m).point(W, None, 3000, 16, 64)
+    tr = EventSolver(m.scene()).point(W, None, 3000, 16, 64)
     out = summarize(tr, m.Delta)
     assert out["period"] == 2 and out["impacts_per_period"] == 0.5
     phase = (W * tr.impact_times[0]) % (2 * math.pi)
@@ -306,7 +307,7 @@ def test_chunked_calls_equal_one_call_on_a_periodic_point(fidelity):
     same period-1 orbit as one call of 1500 periods: strobe and amplitude to 1e-12 (round-off
     of restarting the closed-form flow; the orbit is attracting, so it does not grow)."""
     if fidelity == "sdof":
-        solver = EventSolver(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0))
+        solver = make_solver(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), "event")
         W = 2.0
     else:
         from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel
@@ -347,7 +348,7 @@ def test_point_time_limit_ends_a_point_as_failed_and_the_sweep_goes_on(monkeypat
 
     import vibeam.engine.sweep as sweep_module
 
-    solver = EventSolver(FIG13)
+    solver = make_solver(FIG13, "event")
     assert solver.chunk_periods == 2000
     now = [0.0]
     calls = []
@@ -391,11 +392,11 @@ def test_ctrl_c_interrupts_a_long_inline_point_between_chunks(tmp_path):
     script = tmp_path / "long.py"
     script.write_text(textwrap.dedent("""
         import os, signal, sys, numpy as np
-        from vibeam.models import SDOF, EventSolver
+        from vibeam.models import SDOF, make_solver
         from vibeam.engine.sweep import Sweep, run_sweep
         # every period integrated: with the exact recurrence a settled chunk ends within a few
         # periods, and the 5000 calls could all be over before the signal arrives
-        s = EventSolver(SDOF(0.015, 0.5e-3, 0.9, 0.5e-3), recurrence=False)
+        s = make_solver(SDOF(0.015, 0.5e-3, 0.9, 0.5e-3), "event", recurrence=False)
         run_sweep(s, Sweep(Omega=np.array([2.0]), transient_periods=2, record_periods=2))  # compile
         inner = s.point
         def point(*a):

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import SDOF, make_solver
 from vibeam.engine.records import (amplitude_spread, batch_means, critical_value, mean_std, means_agree,
                             spread_agrees, window_verdict)
 from vibeam.analysis.regress import compare
@@ -133,8 +133,8 @@ def test_a_non_periodic_point_is_measured_over_statistics_periods_without_changi
     record's end).  The window's mean lies within the record's range."""
     W = np.array([2.5, 1.5, 1.2])
     kw = dict(Omega=W, transient_periods=1500, record_periods=16, direction="down")
-    a = run_sweep(EventSolver(FIG13), Sweep(**kw, statistics_periods=256)).data
-    b = run_sweep(EventSolver(FIG13), Sweep(**kw)).data
+    a = run_sweep(make_solver(FIG13, "event"), Sweep(**kw, statistics_periods=256)).data
+    b = run_sweep(make_solver(FIG13, "event"), Sweep(**kw)).data
     i = list(a["Omega"]).index(2.5)
     assert a["period"][i] == b["period"][i] == 0                    # the scenario: chaos at 2.5
     assert a["record_periods"][i] == 256 and b["record_periods"][i] == 16

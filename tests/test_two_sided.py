@@ -68,7 +68,7 @@ def test_sdof_two_sided_impacts_match_solve_ivp(D, Dl, W, B, R, Rl):
     m = SDOF(beta=0.015, B=B, R=R, Delta=D, Delta_lower=Dl, R_lower=Rl)
     x0 = np.array([-0.5 * Dl + 0.5 * D, 0.0, 0.0])
     n = 20
-    a = EventSolver(m).point(W, x0, 0, n, 64)
+    a = EventSolver(m.scene()).point(W, x0, 0, n, 64)
     ref = two_sided_ode(m, W, x0, n, rtol=1e-13)
     imp = ref["impacts"]
     assert a.status == "ok"
@@ -97,7 +97,7 @@ def test_sdof_two_sided_chatter_and_sticking_match_solve_ivp(D, Dl, W, B, R, Rl,
     m = SDOF(beta=0.015, B=B, R=R, Delta=D, Delta_lower=Dl, R_lower=Rl)
     x0 = m.initial_state()
     n = 10
-    a = EventSolver(m).point(W, x0, 0, n, 64)
+    a = EventSolver(m.scene()).point(W, x0, 0, n, 64)
     ref = two_sided_ode(m, W, x0, n)
     assert a.status == "chatter" and a.extra["stuck_fraction"] > 0.05
     stick_t = np.array([t for t, _ in ref["sticks"] if t > 0.0])
@@ -181,7 +181,7 @@ def test_sdof_prestressed_lower_stop_holds_and_releases_exactly():
     np.testing.assert_allclose(rel, t_rel, rtol=0, atol=1e-12)
     # the reference releases by brentq on the force: the same instants
     np.testing.assert_allclose([t for t, _ in ref["releases"]], t_rel, rtol=0, atol=1e-12)
-    a = EventSolver(m).point(W, x0, 0, n, 64)
+    a = EventSolver(m.scene()).point(W, x0, 0, n, 64)
     assert a.status == "sticking" and a.n_impacts_lower == a.n_impacts == 2 * n
     # the kernel's stuck time: held from 0 to the first release, from each landing to the next release
     ends = np.append(t_rel[1:], n * T)
@@ -228,7 +228,7 @@ def test_symmetric_stops_give_a_symmetric_orbit(gap, W):
     of the transient; measured <= 5e-15), each stop takes the same impacts per period with the
     same speed (summarize's per-stop outputs)."""
     m = SDOF(beta=0.015, B=0.5e-3, R=0.8, Delta=gap, Delta_lower=gap)
-    tr = EventSolver(m).point(W, None, 3000, 8, 64)
+    tr = EventSolver(m.scene()).point(W, None, 3000, 8, 64)
     q = tr.samples[:, 0]
     scale = np.max(np.abs(q))
     assert np.max(np.abs(q[32:] + q[:-32])) < 1e-12 * scale
@@ -247,7 +247,7 @@ def test_mirrored_start_gives_the_mirrored_motion(gap, W, B):
     Over 6 periods with many impacts, to 1e-10 of the orbit's size (round-off of the two runs,
     amplified by the impacts; measured <= 2.5e-13)."""
     m = SDOF(beta=0.015, B=B, R=0.8, Delta=gap, Delta_lower=gap)
-    s = EventSolver(m)
+    s = make_solver(m, "event")
     a = s.point(W, None, 200, 7, 64)
     x_half = a.samples[32]
     b = s.point(W, np.array([-x_half[0], -x_half[1], 0.0]), 0, 6, 64)
@@ -291,8 +291,8 @@ def test_far_lower_stop_is_the_one_sided_result_bit_for_bit(D, W, B, R):
     state, bit for bit, including chatter and sticking (the pre-stressed case)."""
     one = SDOF(beta=0.015, B=B, R=R, Delta=D)
     two = SDOF(beta=0.015, B=B, R=R, Delta=D, Delta_lower=1e3)
-    a = EventSolver(one).point(W, None, 50, 16, 64)
-    b = EventSolver(two).point(W, None, 50, 16, 64)
+    a = EventSolver(one.scene()).point(W, None, 50, 16, 64)
+    b = EventSolver(two.scene()).point(W, None, 50, 16, 64)
     _same(a, b)
     assert b.n_impacts_lower == 0
     np.testing.assert_array_equal(a.chatter_times, b.chatter_times)
@@ -350,7 +350,7 @@ def test_static_mode_beam_with_a_lower_stop_is_the_sdof(R, gap, gap_lower, load)
     for f in (3.0, 14.0, 15.3):
         W = f / sm.f_ref_hz
         a = BeamEventSolver(sm).point(W, None, 100, 16, 64)
-        b = EventSolver(sd).point(W, None, 100, 16, 64)
+        b = EventSolver(sd.scene()).point(W, None, 100, 16, 64)
         assert a.status == b.status
         assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower
         np.testing.assert_array_equal(a.impact_stops, b.impact_stops)

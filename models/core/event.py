@@ -3,7 +3,7 @@
 :class:`EventIntegrator` holds a :class:`~vibeam.models.system.ModalSystem` and its stops in
 kernel form (:mod:`vibeam.models.core.stops`) and runs :func:`vibeam.models.core.integrator.integrate_work`
 for one forcing frequency (:meth:`EventIntegrator.run`), returning the raw :class:`Run` (record
-and scalars, row units).  The fidelities' ``event`` solvers (:class:`vibeam.models.sdof.EventSolver`,
+and scalars, row units).  The ``event`` method's solvers (:class:`EventSolver` of the one-mode oscillator's scene,
 :class:`vibeam.models.beam_dynamics.BeamEventSolver`) turn it into a
 :class:`~vibeam.models.trajectory.Trajectory` in their units.
 
@@ -19,8 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contact import check_stops
-from ..scene import Scene
+from ..contact import check_stops, restitution_coefficients
+from ..scene import Scene, one_mode
+from ..sdof_flow import undamped_resonance
 from ..system import ModalSystem
 from .integrator import (ST_FAILED, STATUS_NAMES, Record, RunScalars, compliant_work, integrate_work, new_record, new_work,
                          substeps)
@@ -446,3 +447,179 @@ def fundamental_step(system: ModalSystem, steps_per_fundamental: int = 16) -> fl
     """The largest step: ``1 / steps_per_fundamental`` of the lowest modal period."""
     om = float(np.min(system.omega[system.omega > 0])) if np.any(system.omega > 0) else 1.0
     return 2.0 * math.pi / om / int(steps_per_fundamental)
+
+
+class EventSolver:
+    """Method ``event``: the exact event-driven solver (closed-form flow, numba core).
+
+    Parameters
+    ----------
+    scene : Scene
+        The one-mode oscillator and its stops (:func:`vibeam.models.scene.one_mode`: ``beta``,
+        ``B``, a stop at ``q = Delta``, optionally one at ``q = -Delta_lower``, each with its law).
+    transient_samples : int, optional
+        Grid points per forcing period during the discarded transient (the steps are
+        sub-steps of it of at most 1/16 of the natural period).  Only the efficiency of
+        impact detection depends on it, except for a contact phase that is integrated
+        (hysteretic-Hertz stops): its Runge-Kutta steps end on the grid too, so the
+        transient's numerical orbit differs from the record's within the integration
+        tolerance (measured 5e-11 relative with 4 points, 5e-14 with 16).  With Newton
+        stops, a record whose samples per period are a multiple of it steps on this grid
+        too (one sub-step per grid step), its samples inside a step evaluated from the
+        closed-form flow (:mod:`vibeam.models.core.integrator`): the same numbers to
+        round-off, and a settled record is copied after one cycle.
+    chatter_tol : float, optional
+        Relative error allowed in the constant-acceleration estimate of the
+        chatter accumulation time before the solver jumps to it.
+    max_impacts_per_period : int, optional
+        Beyond this many impacts per forcing period on average the point is
+        recorded as ``failed`` instead of looping.
+    impact_buffer : int, optional
+        Most impacts whose time and velocity are stored per point.
+    max_steps_per_call : int, optional
+        Work budget of one call of the kernel (its steps, the integrator's ``max_steps``):
+        a call that needs more returns ``incomplete`` (:class:`Trajectory`), and the sweep
+        engine repeats it in shorter calls; one forcing period that needs more fails.
+    recurrence : bool, optional
+        Stop integrating a transient or a record once its state recurs exactly (skip or copy
+        whole cycles), with the same outputs bit for bit
+        (:mod:`vibeam.models.core.integrator`); False integrates every period (a check, a timing).
+    """
+
+    name = "event"
+    time_domain = True
+    # periods per call of the sweep engine (vibeam.engine.sweep.simulate): ~5 ms at 2.5 us per period,
+    # ~0.3 s on chatter-heavy points, so Ctrl-C and the wall-time limit act within a second
+    chunk_periods = 2000
+    #: default work budget of one kernel call: 0.3-2.5 s at the measured 0.06-0.65 us per step
+    #: (the cost grows with the share of impacts); a usual period takes 25-80 steps, so a chunk
+    #: of 2000 periods uses 5e4-2e5 of it
+    MAX_STEPS_PER_CALL = 4_000_000
+
+    def __init__(self, scene: Scene, transient_samples: int = 16, chatter_tol: float = 1e-7,
+                 max_impacts_per_period: int = 20000, impact_buffer: int = 4096,
+                 max_steps_per_call: int | None = None, recurrence: bool = True):
+        self.one = one_mode(scene, "method 'event' of the one-mode oscillator")
+        self.recurrence = bool(recurrence)
+        self.max_steps_per_call = int(self.MAX_STEPS_PER_CALL if max_steps_per_call is None else max_steps_per_call)
+        self.transient_samples = int(transient_samples)
+        self.chatter_tol = float(chatter_tol)
+        self.max_impacts_per_period = int(max_impacts_per_period)
+        self.impact_buffer = int(impact_buffer)
+        # the one event integrator on the one-mode modal system with the model's stops
+        self._core = EventIntegrator(scene)
+        self._h_cap = fundamental_step(self._core.system)
+
+    def settings(self) -> dict:
+        return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
+                    max_impacts_per_period=self.max_impacts_per_period)
+
+    def point(self, Omega: float, state0, n_transient: int, n_record: int,
+              samples_per_period: int = 64) -> Trajectory:
+        """Simulate one forcing frequency from ``state0`` at forcing phase 0.
+
+        The one event integrator of the modal system (:mod:`vibeam.models.core.integrator`) on
+        the oscillator as its one-mode case (:func:`vibeam.models.system.from_sdof`).
+
+        Parameters
+        ----------
+        Omega : float
+            Forcing frequency (nondimensional).
+        state0 : array_like, shape (3,) or None
+            ``(q, q', stuck)`` (stuck: 0 free, 1 held on the upper stop, -1 on the lower one);
+            None starts from rest (:meth:`vibeam.models.scene.OneMode.initial_state`).
+        n_transient, n_record : int
+            Forcing periods discarded, then recorded.
+        samples_per_period : int
+            Recorded samples per period.
+
+        Returns
+        -------
+        Trajectory
+            With ``final_state`` ``(q, q', stuck)`` at the end of the record and
+            ``period_min``, the exact minimum of ``q`` over each recorded period,
+            ``chatter_times``, the accumulation points of the chatter sequences,
+            and ``extra["contact_gap_max"]``, the largest unclamped gap ``q - Delta``
+            at the end of an event-free step over the whole run (<= round-off).
+        """
+        m = self.one
+        s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
+        held = self._core.held_set_of(s0[2]) if s0.shape[0] > 2 else 0
+        n_per = int(n_transient) + int(n_record)
+        max_imp = self.max_impacts_per_period * n_per
+        run = self._core.run(float(Omega), s0[:1], s0[1:2], held, int(n_transient), int(n_record),
+                             self.transient_samples, int(samples_per_period), self._h_cap, max_imp,
+                             self.max_steps_per_call, self.chatter_tol, impact_buffer=self.impact_buffer,
+                             recurrence=self.recurrence)
+        msgs = {"not_finite": (undamped_resonance(m.beta, Omega) or
+                               f"the forced response is not finite (F = Omega^2 B = {Omega * Omega * m.B:g})"),
+                "incomplete": (f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} "
+                               f"period(s) (no step could be certified at the scale of the motion?)"),
+                "failed": f"more than {max_imp} impacts in {n_per} periods (chatter that does not accumulate?)"}
+        traj = trajectory(run, Omega, samples_per_period, n_record, 1.0, self.impact_buffer, self._contacts,
+                          messages=msgs, core=self._core)
+        del traj.extra["steps_per_period"]
+        return traj
+
+    def stroboscopic(self, Omega: float):
+        """The stroboscopic map at ``Omega`` as ``sections(x, n)``: the kernel call of
+        ``point(Omega, x, 0, n, 1)`` without the :class:`Trajectory` around it.
+
+        For the basins (:func:`vibeam.analysis.attractors.strobe`), which read only the
+        stroboscopic samples and the final state of each call: the impacts' contact rows, the
+        status messages and the per-call records are not built.  The records (one per ``n``)
+        are allocated once per map and reused (the kernel resets every entry it reads,
+        :func:`vibeam.models.core.integrator.integrate_work`); the stops, their laws and the
+        system are the integrator's packed kernel data (:attr:`_core`), as in :meth:`point`.
+
+        Parameters
+        ----------
+        Omega : float
+            Forcing frequency (nondimensional).
+
+        Returns
+        -------
+        callable
+            ``sections(x, n) -> (S, final)`` or None: ``x`` the state ``(q, q', stuck)`` (shape
+            (3,)) at forcing phase 0, ``n >= 1`` periods; ``S`` (shape (n, 2), a copy) the
+            ``(q, q')`` at the start of each period (``S[0]`` is ``x``'s), ``final`` (shape
+            (3,)) the state after ``n`` periods: ``point``'s ``samples`` and ``final_state``,
+            the same numbers.  None where ``point`` would be ``failed`` (not finite, out of
+            the step budget, the impact guard).
+        """
+        core = self._core
+        Om = float(Omega)
+        args = (self.transient_samples, 1, self._h_cap)
+        records: dict = {}
+        compliant = core.compliant is not None
+
+        def sections(x, n):
+            n = int(n)
+            rec = records.get(n)
+            if rec is None:
+                rec = records[n] = new_record(core.n, core.n_stops, n, 1, self.impact_buffer, compliant=compliant)
+            held = core.held_set_of(x[2]) if x.shape[0] > 2 else 0
+            run = core.run(Om, x[:1], x[1:2], held, 0, n, *args, self.max_impacts_per_period * n,
+                           self.max_steps_per_call, self.chatter_tol, record=rec, recurrence=self.recurrence,
+                           record_of_new_types=True)
+            if run.status == ST_FAILED:
+                return None
+            return rec.samples.copy(), run.final_state
+
+        return sections
+
+    def _contacts(self, v, stops):
+        """Per impact (Newton's law): no duration, an impulse (no finite force), no penetration,
+        energy lost ``(1 - R^2) U-^2 / 2`` per unit mass (``U-`` the normal pre-impact speed)."""
+        k = v.shape[0]
+        rows = np.zeros((k, 5))
+        rows[:, 1] = np.nan
+        law = self.one.stops[0].law
+        if stops is not None or (law.kind == "impulsive" and law.table_U):
+            Rk = restitution_coefficients([st.law for st in self.one.stops], v, stops)
+            rows[:, 3] = 0.5 * (1.0 - Rk ** 2) * v ** 2
+        else:
+            R = float(law.R)
+            rows[:, 3] = 0.5 * (1.0 - R * R) * (v * v)     # (the same operations, one R)
+        rows[:, 4] = v
+        return rows

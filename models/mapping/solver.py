@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from ..core.event import EventIntegrator, fundamental_step, trajectory
+from ..core.event import EventSolver
 from ..scene import one_mode
 from ..sdof_averaging import averaging_guess
 from ..sdof_flow import undamped_resonance
@@ -31,16 +31,11 @@ CONTACT_KEYS = ("contact_duration", "contact_force_max", "penetration_max", "ene
 
 def event_sections(scene, Omega, n, n_transient):
     """The sections of the last ``n`` periods of an event run from rest (``n_transient`` periods
-    first, then ``2 n`` recorded; the event method's run with its default settings, on the one
-    event integrator of ``scene``): ndarray (m, 3) of ``(phase, normal speed, stop)`` and whether
+    first, then ``2 n`` recorded: the event method, :class:`vibeam.models.core.event.EventSolver`,
+    with its default settings): ndarray (m, 3) of ``(phase, normal speed, stop)`` and whether
     the run has settled on them (the ``n`` periods before had the same sections, phases and
     speeds to 1e-6); None without a section (or a failed run)."""
-    core = EventIntegrator(scene)
-    s0 = one_mode(scene, "the mapping").initial_state()
-    n_rec = 2 * n
-    run = core.run(float(Omega), s0[:1], s0[1:2], core.held_set_of(s0[2]), int(n_transient), n_rec, 16, 8,
-                   fundamental_step(core.system), 20000 * (int(n_transient) + n_rec), 4_000_000, 1e-7)
-    tr = trajectory(run, float(Omega), 8, n_rec, 1.0, 4096, lambda v, k: np.zeros((v.shape[0], 5)), core=core)
+    tr = EventSolver(scene).point(float(Omega), None, int(n_transient), 2 * n, 8)
     k = min(tr.n_impacts, tr.impact_times.shape[0])
     if k == 0 or tr.status == "failed" or k != tr.n_impacts:
         return None

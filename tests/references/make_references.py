@@ -359,7 +359,7 @@ def _impacts_from_strobe(model, W, d, i, n):
     from vibeam.models import EventSolver
 
     q0, v0 = d["strobe"][i][-1]
-    tr = EventSolver(model).point(W, np.array([q0, v0, 0.0]), 0, n, 8)
+    tr = EventSolver(model.scene()).point(W, np.array([q0, v0, 0.0]), 0, n, 8)
     return tr, (W * tr.impact_times) % (2 * math.pi), tr.impact_velocities
 
 
@@ -479,7 +479,7 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
         f = np.asarray(d["frequency_hz"], float)
         up = np.unique(f)
         sw = replace(sweep, Omega=up / red.f_n_hz, assess=())
-        res = run_sweep(EventSolver(sdof), sw, jobs=1)
+        res = run_sweep(make_solver(sdof, "event"), sw, jobs=1)
         # relative to max(|A|, |Delta|): a mass held on a pre-stressed stop has A = Delta - q_min = 0
         # up to the round-off of the modal coordinates (1e-19 here)
         c_st = Check(name, "static mode vs SDOF event solver of the derived parameters", TOL_STATIC,

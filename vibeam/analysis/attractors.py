@@ -246,7 +246,7 @@ def strobe(solver, Omega: float, d: int):
     3``), one call gives ``n`` periods and the flag of the intermediate states is read from the
     state (held on a stop: exactly at the stop with zero velocity); otherwise one call per
     period (the beam's samples are the sensor's, not the modes').  A solver with a lean
-    stroboscopic map (``solver.stroboscopic(Omega)``, :meth:`vibeam.models.sdof.EventSolver.stroboscopic`)
+    stroboscopic map (``solver.stroboscopic(Omega)``, :meth:`vibeam.models.core.event.EventSolver.stroboscopic`)
     gives those samples and final states without a trajectory per call: the same numbers."""
     Omega = float(Omega)
     model = solver.model
