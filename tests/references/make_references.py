@@ -460,7 +460,7 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
     from dataclasses import replace
 
     from vibeam.case.beamscene import derive
-    from vibeam.models import SDOF, EventSolver
+    from vibeam.models import SDOF, make_solver
     from vibeam.engine.sweep import run_sweep
 
     c_lin = Check(name, "no-impact points vs modal linear_sensor_amplitude_m", TOL_LINEAR)
