@@ -25,7 +25,7 @@ from .registry import (FIDELITIES, IMPULSIVE, fidelity, law_key, mass_law_keys, 
 _LAZY = {
     "SDOF": "sdof", "EventSolver": "core.event", "linear_amplitude": "sdof_flow",
     "AveragingSolver": "sdof_averaging", "MappingSolver": "mapping",
-    "BeamEventSolver": "beam_dynamics", "BeamImpactModel": "beam_dynamics",
+    "BeamEventSolver": "core.event", "BeamImpactModel": "beam_dynamics",
     "BeamODESolver": "beam_dynamics",
     "DirectSolver": "sdof_ode", "IvanovSolver": "sdof_ode", "ZhuravlevSolver": "sdof_ode",
     "SDOFShooting": "periodic_sdof", "BeamContinuation": "periodic_beam", "Trajectory": "trajectory",

@@ -53,7 +53,7 @@ from .system import advance_modes, forcing, mode_table, particular, transition_i
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["BeamImpactModel", "MatrixImpactModel", "BeamEventSolver", "BeamODESolver", "mode_table", "apply_impact"]
+__all__ = ["BeamImpactModel", "MatrixImpactModel", "BeamODESolver", "mode_table", "apply_impact"]
 
 # the closed-form modal flow lives in vibeam.models.system (the one dynamical system); the kernels
 # below call it by these names (mode_table and particular are re-exported from there)
@@ -562,36 +562,6 @@ class BeamImpactModel:
 
 
 # ============================================================================ solvers
-def newton_contact_rows(model: BeamImpactModel, velocities, stops=None) -> np.ndarray:
-    """Contact rows (:attr:`vibeam.models.trajectory.Trajectory.contacts`) of Newton impacts.
-
-    An impact with normal pre-impact speed ``U-`` on the relation ``g = n^T eta - Delta`` of the
-    mass-normalised modal beam receives the impulse ``P = -m_eff (1 + R) U-`` along ``n``
-    (the event integrator's impact, ``m_eff = 1 / |w|^2``), which removes the kinetic energy
-    ``(1 - R^2) m_eff U-^2 / 2`` of the modal state (``|eta'|^2 / 2``) and nothing else.  In
-    the units of the compliant contacts' rows (:func:`vibeam.models.core.event.trajectory`: work per
-    ``m_eff L^2``, time unit ``1 / omega_ref``) that is ``(1 - R^2) v^2 / 2`` with ``v = U- / L``,
-    the SDOF's expression (:class:`vibeam.models.core.event.EventSolver`).
-
-    Parameters
-    ----------
-    model : BeamImpactModel
-    velocities : ndarray, shape (k,)
-        Recorded pre-impact normal speeds ``U- / L`` (per nondimensional time).
-    stops : ndarray of int, shape (k,), or None
-        Stop of each impact (0 upper, 1 lower), each with its own law; None: one stop.
-
-    Returns
-    -------
-    ndarray, shape (k, 5)
-        Duration 0, peak force NaN (an impulse), penetration 0, energy lost, ``v``.
-    """
-    v = np.asarray(velocities, float)
-    k = v.shape[0]
-    Rk = model.restitution_coefficients(v, stops) if k else np.zeros(0)
-    return np.column_stack([np.zeros(k), np.full(k, np.nan), np.zeros(k), 0.5 * (1.0 - Rk ** 2) * v ** 2, v])
-
-
 class MatrixImpactModel(BeamImpactModel):
     """A linear structure given by its matrices in ``N`` modal coordinates, with its stops (fidelity
     ``"matrices"``, issue 58): the beam's modal impact model built by
@@ -615,111 +585,6 @@ class MeshImpactModel(ContinuumImpactModel):
     body, or a compliant stop on a point of the solid; every method of the N-mode model serves it."""
 
     fidelity = "mesh"
-
-
-class BeamEventSolver:
-    """Method ``event`` for the beam: exact event-driven modal solver (numba core).
-
-    Parameters
-    ----------
-    model : BeamImpactModel
-    transient_samples : int
-        Grid points per forcing period in the transient (the steps are sub-steps of at most
-        ``h_cap``; efficiency only, but for integrated contact phases, as
-        :class:`~vibeam.models.core.event.EventSolver`).
-    chatter_tol : float
-        Accuracy required of the chatter accumulation estimate before sticking.
-    max_impacts_per_period : int
-        Guard against non-accumulating chatter (status ``failed``).
-    max_steps_per_period : int
-        Guard against step-size collapse (status ``failed``; never hangs).
-    steps_per_fundamental : int
-        Largest step is ``1 / steps_per_fundamental`` of the first modal period.
-    impact_buffer : int
-        Most impacts stored per point.
-    record_modal_states : bool
-        Also record the modal state at the samples.
-    recurrence : bool
-        Stop integrating a transient or a record once its state recurs exactly (skip or copy
-        whole cycles), with the same outputs bit for bit
-        (:mod:`vibeam.models.core.integrator`); False integrates every period (a check, a timing).
-    """
-
-    name = "event"
-    time_domain = True
-    #: work budget of one kernel call in steps x modes (``max_steps_per_call`` = this / n_modes)
-    MAX_STEP_MODES_PER_CALL = 20_000_000
-
-    def __init__(self, model: BeamImpactModel, transient_samples: int = 16, chatter_tol: float = 1e-7,
-                 max_impacts_per_period: int = 20000, max_steps_per_period: int = 20000,
-                 steps_per_fundamental: int = 16, impact_buffer: int = 4096,
-                 record_modal_states: bool = False, recurrence: bool = True):
-        self.model = model
-        self.recurrence = bool(recurrence)
-        self.transient_samples = int(transient_samples)
-        self.chatter_tol = float(chatter_tol)
-        self.max_impacts_per_period = int(max_impacts_per_period)
-        self.max_steps_per_period = int(max_steps_per_period)
-        self.steps_per_fundamental = int(steps_per_fundamental)
-        self.impact_buffer = int(impact_buffer)
-        self.record_modal_states = bool(record_modal_states)
-        # the one event integrator on the beam's modal system with its stops
-        self._core = EventIntegrator(model.scene())
-        self._h_cap = fundamental_step(self._core.system, self.steps_per_fundamental)
-        # periods per call of the sweep engine (vibeam.engine.sweep.simulate): the cost per period grows
-        # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
-        # so a call lasts well under a second
-        self.chunk_periods = max(16, 2000 // model.n_modes)
-        # work budget of one kernel call (steps; a step costs more with more modes): beyond it the
-        # call is ``incomplete`` and the sweep engine repeats it in shorter calls
-        self.max_steps_per_call = max(100_000, self.MAX_STEP_MODES_PER_CALL // model.n_modes)
-
-    def settings(self) -> dict:
-        return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
-                    max_impacts_per_period=self.max_impacts_per_period,
-                    max_steps_per_period=self.max_steps_per_period,
-                    steps_per_fundamental=self.steps_per_fundamental,
-                    n_modes=self.model.n_modes)
-
-    def point(self, Omega: float, state0, n_transient: int, n_record: int,
-              samples_per_period: int = 64) -> Trajectory:
-        """Simulate one forcing frequency ``Omega = f / f_ref`` from ``state0`` (phase 0).
-
-        The one event integrator of the modal system (:mod:`vibeam.models.core.integrator`) on
-        the beam's modes (:func:`vibeam.models.system.from_beam`).
-
-        ``state0``: ``(eta (N), eta' (N), stuck)`` or None (:meth:`BeamImpactModel.initial_state`).
-        """
-        m = self.model
-        N = m.n_modes
-        Om = float(Omega)
-        s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
-        if s0.shape != (2 * N + 1,):
-            raise ValueError(f"state0 must have shape ({2 * N + 1},), got {s0.shape}")
-        n_per = n_transient + n_record
-        max_steps, budget = call_budget(self.max_steps_per_period, n_per, self.max_steps_per_call)
-        max_imp = self.max_impacts_per_period * n_per
-        run = self._core.run(Om, s0[:N], s0[N:2 * N], self._core.held_set_of(s0[2 * N]), int(n_transient),
-                             int(n_record), self.transient_samples, int(samples_per_period), self._h_cap, max_imp,
-                             max_steps, self.chatter_tol, impact_buffer=self.impact_buffer,
-                             modal_states=self.record_modal_states, recurrence=self.recurrence)
-        L = m.length_m
-        msgs = {"incomplete": f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} period(s)",
-                "failed": (f"gave up after {run.n_impacts_total} impacts / {run.n_steps} steps in {n_per} periods "
-                           f"(non-accumulating chatter or step collapse)")}
-        codes = m.stop_codes()
-        traj = trajectory(run, Om, samples_per_period, n_record, L, self.impact_buffer,
-                          lambda v, ks: newton_contact_rows(m, v, ks), messages=msgs, budget=budget,
-                          stop_codes=codes, core=self._core)
-        iv = traj.impact_velocities
-        iv_up = iv[traj.impact_stops == 0] if traj.impact_stops is not None else iv
-        modamp = run.record.modamp
-        traj.extra.update({"mode_amplitudes": modamp,
-                           "mode_contact_amplitudes": np.abs(m.contact_row) * modamp / L,
-                           "impact_velocity_m_s": float(np.mean(iv_up) * L * m.omega_ref) if iv_up.size else np.nan})
-        if self.record_modal_states:
-            traj.extra["modal_states"] = run.record.msamp
-        return traj
 
 
 class BeamODESolver:

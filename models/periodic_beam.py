@@ -167,7 +167,7 @@ class BeamShooting(ModalShooting):
         ``rayleigh_alpha_1_s`` (1/s)) or, with a lower stop, :data:`LOWER`
         (``gap_contact_lower_m`` (m), ``R_lower``).  Physical keys go through :func:`conversions`.
     chatter_tol, steps_per_fundamental, max_impacts_per_period, max_steps_per_period :
-        Settings of the event kernel, as :class:`~vibeam.models.beam_dynamics.BeamEventSolver`
+        Settings of the event kernel, as :class:`~vibeam.models.core.event.BeamEventSolver`
         (same defaults, so that a stable fixed point is what a sweep lands on).
 
     Attributes

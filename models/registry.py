@@ -300,7 +300,8 @@ register(Fidelity(
 #: the methods of the N-mode modal model (beam_dynamics.BeamImpactModel and its subclasses): the event
 #: and direct integrators, the N-mode pointwise mapping (paper Sec. 4.2: Newton and Kelvin-Voigt stops,
 #: exact flows, anywhere, one or two at the mass, mixed ones included) and the shooting problem
-N_MODE_SOLVERS = {"event": on_the_core("beam_dynamics:BeamEventSolver", restitution_law=True, modal_states=True),
+N_MODE_SOLVERS = {"event": on_the_core("core.event:BeamEventSolver", restitution_law=True, modal_states=True,
+                                       scene=True),
                   "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
                   "mapping": Method("mapping.modal:ModalMappingSolver",
                                     {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},

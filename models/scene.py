@@ -30,9 +30,11 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
+import scipy.linalg
+
 from .system import ModalSystem, from_beam, from_sdof
 
-__all__ = ["Scene", "sdof_scene", "beam_scene", "units", "one_mode", "OneMode", "Excitation", "EXCITATION_KINDS",
+__all__ = ["Scene", "sdof_scene", "beam_scene", "units", "one_mode", "OneMode", "rest_state", "Excitation", "EXCITATION_KINDS",
            "driven"]
 
 #: the harmonic drives of a scene (:class:`Excitation`)
@@ -130,6 +132,52 @@ def one_mode(sc: Scene, method: str = "the method") -> OneMode:
                          f"drive power {s.drive_power}, stops of signs {signs}; allowed: one mode with omega = 1 and "
                          f"unit rows, a base displacement drive, a stop at q = Delta and optionally one at q = -Delta_lower")
     return OneMode(float(s.damping[0]) / 2.0, float(s.base_amplitude), st)
+
+
+def rest_state(sc: Scene) -> np.ndarray:
+    """The state a run starts from by default: rest at the origin, or held on a pre-stressed stop
+    of the system's first contact row (the attached mass).
+
+    When the first stop on row 0 has a negative offset (pre-stressed: the structure at rest would
+    be beyond it), the state is the static equilibrium held on it, ``eta = eta_c + Psi e`` with
+    ``eta_c = s w Delta / |w|^2`` on the relation ``s w^T eta = Delta``, ``Psi`` (shape (n, n - 1))
+    the modes of the held system (the null space of ``w``, made K-orthogonal) and ``e = -Psi^T K
+    eta_c / nu^2`` its static coordinates (``K = diag(omega^2)``); else the same on the second stop
+    of row 0 when it is pre-stressed.  The one-mode oscillator's is ``q = Delta`` (or
+    ``-Delta_lower``), :meth:`OneMode.initial_state`.  (Reduction of the held system: Acary &
+    Brogliato 2008, Sec. 7.2; the beam's held phase, paper Sec. 6.)
+
+    Parameters
+    ----------
+    sc : Scene
+
+    Returns
+    -------
+    ndarray, shape (2 n + 1,)
+        ``(eta, eta', 0)``: the held code 0 (the integrator finds the contact at its first step).
+    """
+    s = sc.system
+    w = np.asarray(s.contacts[0], float)
+    N = w.size
+    out = np.zeros(2 * N + 1)
+    at_mass = [st for st in sc.stops if st.relation.row == 0][:2]
+    held = next((st for st in at_mass if st.relation.offset < 0), None)
+    if held is None:
+        return out
+    w2 = float(w @ w)
+    Q, _ = np.linalg.qr(np.column_stack([w, np.eye(N)]))
+    Tn = Q[:, 1:N]
+    K = np.diag(np.asarray(s.omega, float) ** 2)
+    if N > 1:
+        nu2, V = scipy.linalg.eigh(Tn.T @ K @ Tn)
+        Psi = Tn @ V
+    else:
+        nu2, Psi = np.zeros(0), np.zeros((1, 0))
+    D = held.relation.offset
+    eta_c = w * D / w2 if held.relation.sign > 0 else w * (-D) / w2
+    eC = -(Psi.T @ (K @ eta_c)) / np.where(nu2 > 0, nu2, 1.0)
+    out[:N] = eta_c + Psi @ eC
+    return out
 
 
 class Excitation(NamedTuple):

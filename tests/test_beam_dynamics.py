@@ -5,10 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import SDOF, BeamEventSolver, EventSolver
 from vibeam.models.beam import BeamFE, BeamGeometry
-from vibeam.models.beam_dynamics import (BeamEventSolver, BeamImpactModel, BeamODESolver,
-                                         apply_impact)
+from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver, apply_impact
 from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
@@ -64,7 +63,7 @@ def test_far_from_stop_equals_fe_frequency_response(f_hz):
     The homogeneous part decays as exp(-0.017 omega_1 t) < 1e-12 after 700 periods."""
     fe = BeamFE(_geom(), n_elements=6, damping_D_s=D, rayleigh_alpha_1_s=0.3)
     m = BeamImpactModel.from_fe(fe, "all", gap_contact_m=1.0, base_amplitude_m=Y)
-    tr = BeamEventSolver(m).point(f_hz / m.f_ref_hz, None, 700, 4, 64)
+    tr = BeamEventSolver(m.scene()).point(f_hz / m.f_ref_hz, None, 700, 4, 64)
     W = 2 * math.pi * f_hz
     u = np.linalg.solve(fe.K - W**2 * fe.M + 1j * W * fe.C, fe.base_load * (-W**2 * Y))
     ref = abs(fe.sensor_row @ u)
@@ -87,7 +86,7 @@ def test_event_matches_solve_ivp_two_modes(fe):
     s0 = np.zeros(5)
     s0[0] = -0.5e-3 / m.contact_row[0]
     W = 15.5 / m.f_ref_hz
-    a = BeamEventSolver(m).point(W, s0, 60, 8, 32)
+    a = BeamEventSolver(m.scene()).point(W, s0, 60, 8, 32)
     b = BeamODESolver(m, rtol=1e-9, atol=1e-12).point(W, s0, 60, 8, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts == 8
@@ -115,7 +114,7 @@ def test_static_mode_model_reproduces_sdof_event(R, gap):
     assert sm.m_eff == pytest.approx(g.mass_kg, rel=1e-13)
     for f in (14.0, 15.3, 16.1, 17.0):
         W = f / sm.f_ref_hz
-        a = BeamEventSolver(sm).point(W, None, 300, 16, 64)
+        a = BeamEventSolver(sm.scene()).point(W, None, 300, 16, 64)
         b = EventSolver(sd.scene()).point(W, None, 300, 16, 64)
         assert a.status == b.status
         assert a.n_impacts == b.n_impacts
@@ -147,7 +146,7 @@ def test_one_mode_beam_chatters_like_the_sdof(f_hz):
     sdof = SDOF(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, R=spec.R, Delta=red.Delta)
     assert abs(beam.f_ref_hz / red.f_n_hz - 1) > 0.04    # different time units
     Wb, Ws = f_hz / beam.f_ref_hz, f_hz / red.f_n_hz
-    a = BeamEventSolver(beam).point(Wb, None, 0, 16, 64)
+    a = BeamEventSolver(beam.scene()).point(Wb, None, 0, 16, 64)
     b = EventSolver(sdof.scene()).point(Ws, None, 0, 16, 64)
     assert a.status == b.status == "chatter"
     assert a.n_impacts == b.n_impacts > 100
@@ -211,7 +210,7 @@ def test_contact_never_beyond_stop():
         amp = abs(m0.contact_row @ H)
         gap = amp * (1 - 10 ** rng.uniform(-7, -2)) if trial % 2 == 0 else amp * rng.uniform(0.0, 0.8)
         m = BeamImpactModel.from_fe(fe, n, R=R, gap_contact_m=gap, base_amplitude_m=Y)
-        tr = BeamEventSolver(m, record_modal_states=True).point(Om, None, 150, 8, ns)
+        tr = BeamEventSolver(m.scene(), record_modal_states=True).point(Om, None, 150, 8, ns)
         assert tr.status in ("ok", "chatter", "sticking")
         X = tr.extra["modal_states"]
         U = X[:, :n] @ m.contact_row
@@ -252,7 +251,7 @@ def test_grazing_impacts_are_not_missed(n):
             H = m0.participation * W**2 * Y / (m0.omega_rad_s**2 - W**2 + 1j * W * D * m0.omega_rad_s**2)
             gap = abs(m0.contact_row @ H) * (1 - eps)
             m = BeamImpactModel.from_fe(fe, n, R=0.7, gap_contact_m=gap, base_amplitude_m=Y)
-            tr = BeamEventSolver(m).point(Om, None, 400, 8, 64)
+            tr = BeamEventSolver(m.scene()).point(Om, None, 400, 8, 64)
             assert tr.status != "failed"
             assert tr.n_impacts > 0, (eps, Om)
             assert tr.extra["contact_gap_max"] * L <= 1e-12 * gap
@@ -265,7 +264,7 @@ def test_prestressed_stop_sticks_or_chatters(fe, f_hz, expected):
     permanent sticking at 8 Hz (the constrained beam is held, its contact force never
     changes sign); runs to completion, never beyond the stop."""
     m = BeamImpactModel.from_fe(fe, 2, R=0.5, gap_contact_m=-0.2e-3, base_amplitude_m=Y)
-    tr = BeamEventSolver(m).point(f_hz / m.f_ref_hz, None, 150, 16, 32)
+    tr = BeamEventSolver(m.scene()).point(f_hz / m.f_ref_hz, None, 150, 16, 32)
     assert tr.status == expected
     assert tr.extra["stuck_fraction"] > 0
     assert np.all(np.isfinite(tr.samples))
@@ -288,7 +287,7 @@ def test_held_beam_is_the_constrained_linear_response(fe):
     stays on the pressing side (lambda <= 0) over the period."""
     m = BeamImpactModel.from_fe(fe, 3, R=0.5, gap_contact_m=-0.2e-3, base_amplitude_m=Y)
     Om = 8.0 / m.f_ref_hz
-    tr = BeamEventSolver(m).point(Om, None, 400, 2, 32)
+    tr = BeamEventSolver(m.scene()).point(Om, None, 400, 2, 32)
     assert tr.status == "sticking" and tr.extra["stuck_fraction"] == pytest.approx(1.0)
     N = m.n_modes
     w, k, c = m.contact_row, m.k_nd, m.c_nd
@@ -321,7 +320,7 @@ def test_sticking_and_release_match_solve_ivp(fe, gap):
     force formula gives O(1e-2..1) differences)."""
     m = BeamImpactModel.from_fe(fe, 2, R=0.0, gap_contact_m=gap, base_amplitude_m=Y)
     W = 10.0 / m.f_ref_hz
-    a = BeamEventSolver(m).point(W, None, 40, 4, 32)
+    a = BeamEventSolver(m.scene()).point(W, None, 40, 4, 32)
     b = BeamODESolver(m).point(W, None, 40, 4, 32)
     assert a.status == b.status == "sticking"
     assert a.n_impacts == b.n_impacts == 4

@@ -16,7 +16,8 @@ import pytest
 
 from vibeam.models import make_solver
 from vibeam.models.compliant import HuntCrossley
-from vibeam.models.beam_dynamics import BeamEventSolver, BeamODESolver
+from vibeam.models.beam_dynamics import BeamODESolver
+from vibeam.models import BeamEventSolver
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models import SDOF, EventSolver
 

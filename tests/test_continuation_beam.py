@@ -29,7 +29,7 @@ from vibeam.case.beamscene import derive
 from vibeam.case.schema import load_case, parse_case
 from vibeam.cli import main
 from vibeam.models import SDOF, shooting_problem
-from vibeam.models.beam_dynamics import BeamEventSolver
+from vibeam.models import BeamEventSolver, make_solver
 from vibeam.models.continuation import Settings, start_point, trace
 from vibeam.models.periodic_beam import BeamContinuation
 from vibeam.models.periodic_sdof import SDOFShooting
@@ -260,7 +260,7 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     W = 18.0 / m.f_ref_hz
     pv = problem(spec, "voltage", W)
     py = BeamContinuation(m, "base_amplitude_m", Omega=W)
-    x = BeamEventSolver(m).point(W, None, 300, 1, 1).final_state[:-1]
+    x = BeamEventSolver(m.scene()).point(W, None, 300, 1, 1).final_state[:-1]
     sv, sy = pv.shot(x, 0.6, 1), py.shot(x, m.base_amplitude_m, 1)
     g = spec.native_parameter("voltage")[1]
     assert g == pytest.approx(m.base_amplitude_m / 0.6, rel=1e-12)
@@ -275,7 +275,7 @@ def neutral_all():
     m = rig("rig-fe-neutral", "all")
     prob = shooting_problem(m, "Omega")
     lo, hi = 14 / m.f_ref_hz, 17 / m.f_ref_hz
-    x0 = BeamEventSolver(m).point(lo, None, 400, 1, 1).final_state[:-1]
+    x0 = BeamEventSolver(m.scene()).point(lo, None, 400, 1, 1).final_state[:-1]
     (b,) = trace(prob, x0, lo, 1, lo, hi, +1, Settings(switch=False))
     return m, prob, b
 
@@ -298,7 +298,7 @@ def test_stable_branch_points_equal_long_event_simulations(ladder, neutral_all):
         idx = np.flatnonzero(a["stable"] & (mu < 0.95))
         for k in idx[:: max(1, len(idx) // 4)]:
             W, x = a["parameter"][k], a["state"][k]
-            tr = BeamEventSolver(mm).point(W, np.r_[x * (1 + 1e-6), 0.0], 400, 2, 16)
+            tr = BeamEventSolver(mm.scene()).point(W, np.r_[x * (1 + 1e-6), 0.0], 400, 2, 16)
             assert np.max(np.abs(tr.final_state[:-1] - x)) < 1e-9 * np.max(np.abs(x)), (mm.n_modes, W)
             assert tr.q_min == pytest.approx(a["q_min"][k], rel=1e-9)
             checked += 1
@@ -306,7 +306,7 @@ def test_stable_branch_points_equal_long_event_simulations(ladder, neutral_all):
     mu = np.max(np.abs(d2["multipliers"]), axis=1)
     k = int(np.argmin(np.abs(mu - 4.0)))
     assert not d2["stable"][k] and 2 < mu[k] < 10
-    tr = BeamEventSolver(m2).point(d2["parameter"][k], np.r_[d2["state"][k], 0.0], 400, 2, 16)
+    tr = BeamEventSolver(m2.scene()).point(d2["parameter"][k], np.r_[d2["state"][k], 0.0], 400, 2, 16)
     assert np.max(np.abs(tr.final_state[:-1] - d2["state"][k])) > 1e-6 * np.max(np.abs(d2["state"][k]))
 
 
@@ -326,7 +326,7 @@ def test_fe2_fold_lies_between_the_jumps_of_fine_up_and_down_sweeps(ladder):
     d = r.branches[0]["data"]
     up_orbit = d["stable"] & (d["amplitude"] * m.length_m > 0.3e-3)
     k0 = np.flatnonzero(up_orbit)[np.argmin(np.abs(d["parameter"][up_orbit] * m.f_ref_hz - 16.6))]
-    solver = BeamEventSolver(m)
+    solver = make_solver(m, "event")
     state = np.r_[d["state"][k0], 0.0]
     on, off = [], []
     for f in np.arange(d["parameter"][k0] * m.f_ref_hz, 16.38, -0.005):
@@ -399,7 +399,7 @@ def test_resect_moves_an_impact_across_the_section(n_modes):
     w = m.contact_row
     W = 16.5 / m.f_ref_hz
     T = 2 * math.pi / W
-    x = BeamEventSolver(m).point(W, None, 300, 1, 1).final_state[:-1]
+    x = BeamEventSolver(m.scene()).point(W, None, 300, 1, 1).final_state[:-1]
     eta = x[:N] + w * (m.gap_contact_m - w @ x[:N]) / (w @ w)          # on the stop
     approach = x[N:] + w * (W * np.max(np.abs(x)) - w @ x[N:]) / (w @ w)
     x0 = prob._free_flow(eta, approach, 1e-9 * T, 0.0, prob._data(W))

@@ -247,12 +247,12 @@ def test_beam_shot_jacobian_liouville_and_state(n_modes):
       of M for its columns (the stiff high modes' columns are ~1e-30 of it: absolute
       comparison) and of the parameter column's own scale; measured <= 4e-10);
     * Liouville: det M = exp(trace(A_free) T - c |w|^2 T_c) to 1e-9 (measured ~1e-15)."""
-    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models import BeamEventSolver
     from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig(n_modes)
     W = 16.0 / m.f_ref_hz
-    x0 = BeamEventSolver(m).point(W, None, 200, 4, 16).final_state[:2 * n_modes] * 1.001
+    x0 = BeamEventSolver(m.scene()).point(W, None, 200, 4, 16).final_state[:2 * n_modes] * 1.001
     d = 2 * n_modes
     sc = float(np.max(np.abs(x0)))
     for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
@@ -300,14 +300,14 @@ def test_one_mode_beam_branch_equals_its_sdof_branch():
     fixed point of the SDOF problem (another flow, another derivative assembly, other units) to
     1e-9 of the state (measured 1e-11), with the same multipliers to 1e-9 (measured 1e-13) and
     contact count; the SDOF branch has the same fold to 1e-10 in frequency (measured 1e-15)."""
-    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models import BeamEventSolver
     from vibeam.models.continuation import Settings
     from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig(1, gap_mm=0.1)
     sd, sk, to_sdof = _one_dof(m)
     lo, hi = 13.0 / m.f_ref_hz, 19.0 / m.f_ref_hz
-    x0 = BeamEventSolver(m).point(lo, None, 600, 4, 16).final_state[:2]
+    x0 = BeamEventSolver(m.scene()).point(lo, None, 600, 4, 16).final_state[:2]
     bb = trace(BeamContinuation(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
     assert len(bb.points) > 10
     prob = SDOFShooting(sd)
@@ -329,7 +329,7 @@ def test_beam_grazing_indicator_and_event_runs():
     of the 2-mode contacting branch (12.5-16 Hz, neutral gap) are the attractors of long event runs
     of the compliant beam kernel started 1 % off the orbit (amplitude to 1e-9 relative:
     max|mu|^800 is negligible; measured ~1e-14)."""
-    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models import BeamEventSolver
     from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig(2, gap_mm=0.1)
@@ -341,7 +341,7 @@ def test_beam_grazing_indicator_and_event_runs():
     assert s.apex_gap == pytest.approx(prob.linear_amplitude(W) - m.gap_contact_m, abs=1e-12)
     m = _rig(2)
     lo, hi = 12.5 / m.f_ref_hz, 16.0 / m.f_ref_hz
-    x0 = BeamEventSolver(m).point(lo, None, 400, 4, 16).final_state[:4]
+    x0 = BeamEventSolver(m.scene()).point(lo, None, 400, 4, 16).final_state[:4]
     b = trace(BeamContinuation(m), x0, lo, 1, lo, hi, +1)[0]
     assert b.status == "range_end"
     A = b.arrays()
@@ -349,7 +349,7 @@ def test_beam_grazing_indicator_and_event_runs():
     assert idx.size > 10
     for i in idx[[0, idx.size // 2, -1]]:
         pt = b.points[i]
-        tr = BeamEventSolver(m).point(pt.p, np.concatenate([pt.x * 1.01, [0.0]]), 800, 4, 64)
+        tr = BeamEventSolver(m.scene()).point(pt.p, np.concatenate([pt.x * 1.01, [0.0]]), 800, 4, 64)
         sm = summarize(tr, m.Delta)
         assert sm["period"] == 1
         assert sm["amplitude"] == pytest.approx(A["amplitude"][i], rel=1e-9)

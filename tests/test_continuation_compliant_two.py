@@ -333,13 +333,13 @@ def test_beam_shot_jacobian_and_liouville(n_modes):
     a state off the orbit and from one inside the lower stop: the Jacobian equals central
     differences (bound 1e-7 relative; measured <= 1.3e-9) and det M = exp(trace(A_free) T -
     |w|^2 (c T_up + c_l T_low)) to round-off (1e-12)."""
-    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models import BeamEventSolver
     from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig2(n_modes)
     N = m.n_modes
     W = 15.4 / 7.6
-    tr = BeamEventSolver(m, record_modal_states=True).point(W, None, 40, 1, 64)
+    tr = BeamEventSolver(m.scene(), record_modal_states=True).point(W, None, 40, 1, 64)
     prob = BeamContinuation(m)
     w = m.contact_row
     lo = m.mass_stops()[1].law      # the lower stop's law in kernel units: k_l / omega_ref^2, c_l / omega_ref, its gap
@@ -351,7 +351,7 @@ def test_beam_shot_jacobian_and_liouville(n_modes):
     inside = np.flatnonzero((gl > 0) & (kl * gl - cl * (ms[:, N:] @ w) > 0))
     assert inside.size
     # near the 18 Hz orbit (one contact on each stop), and inside the lower stop at 15.4 Hz
-    x18 = BeamEventSolver(m).point(18.0 / 7.6, None, 100, 1, 4).final_state[:2 * N] * (1 + 1e-3)
+    x18 = BeamEventSolver(m.scene()).point(18.0 / 7.6, None, 100, 1, 4).final_state[:2 * N] * (1 + 1e-3)
     for x, W in ((x18, 18.0 / 7.6), (ms[inside[inside.size // 2]], W)):
         s, J = _beam_jacobian(prob, x, W)
         assert s.status == "ok" and s.extra["contact_time_lower"] > 0 and s.extra["contact_time_upper"] > 0
@@ -372,12 +372,12 @@ def test_beam_two_stop_branch_period_doubling_and_event_runs():
     fixed points of the two-stop beam kernel (400-period `event` runs from the branch state end
     on it to 1e-9: the slowest multiplier used, 0.99, leaves 400 periods of decay ~1e-2 of a
     1e-9 perturbation)."""
-    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models import BeamEventSolver
     from vibeam.models import shooting_problem
 
     m = _rig2(2)
     W = 18.0 / 7.6
-    tr = BeamEventSolver(m).point(W, None, 400, 4, 32)
+    tr = BeamEventSolver(m.scene()).point(W, None, 400, 4, 32)
     brs = trace(shooting_problem(m, "Omega"), tr.final_state[:4], W, 1, 17.0 / 7.6, 19.0 / 7.6, -1)
     assert [b.n for b in brs] == [1, 2]
     pd = [f for f in brs[0].bifurcations if f.type == "period_doubling"]
@@ -389,7 +389,7 @@ def test_beam_two_stop_branch_period_doubling_and_event_runs():
         assert idx
         for i in idx[:: max(1, len(idx) // 2)]:
             x = a["state"][i]
-            t = BeamEventSolver(m).point(a["parameter"][i], np.concatenate([x, [0.0]]), 400, 4, 32)
+            t = BeamEventSolver(m.scene()).point(a["parameter"][i], np.concatenate([x, [0.0]]), 400, 4, 32)
             assert np.max(np.abs(t.final_state[:4] - x)) < 1e-9 * np.max(np.abs(x))
             assert t.n_impacts_lower == 4 and t.n_impacts == 8
 
@@ -407,12 +407,12 @@ def test_beam_own_lower_law_branch_equals_event_runs_and_map_jacobian():
     * Floquet multipliers = eigenvalues of a central-difference Jacobian of the kernel's
       one-period map (step 1e-5 relative; measured <= 1.2e-9 of max|mu|; bound 1e-6).
     Both fail if the shooting problem's lower stop takes the upper law."""
-    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models import BeamEventSolver
 
     m = _rig2(2, lower={"law": "linear", "stiffness_n_m": 3e4, "damping_ratio": 0.15})
     up, lo = (st.law for st in m.stops())
     assert (lo.stiffness, lo.damping_ratio) == (3e4, 0.15) and up.stiffness == 1e5
-    solver = BeamEventSolver(m)
+    solver = make_solver(m, "event")
     W = 18.0 / 7.6
     tr = solver.point(W, None, 400, 4, 32)
     brs = trace(shooting_problem(m, "Omega"), tr.final_state[:4], W, 1, 17.0 / 7.6, W, -1)
@@ -436,12 +436,12 @@ def test_beam_own_lower_law_branch_equals_event_runs_and_map_jacobian():
 def test_beam_far_lower_stop_gives_the_one_stop_shot():
     """A lower stop 100 mm away changes nothing the orbit sees: the two-stop shot equals the
     one-stop shot (state, monodromy, d/dOmega) to round-off (measured: bit for bit)."""
-    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models import BeamEventSolver
     from vibeam.models.periodic_beam import BeamContinuation
 
     one, far = _rig2(2, None), _rig2(2, 100.0)
     W = 15.4 / 7.6
-    x = BeamEventSolver(one).point(W, None, 40, 4, 32).final_state[:4]
+    x = BeamEventSolver(one.scene()).point(W, None, 40, 4, 32).final_state[:4]
     a, b = BeamContinuation(one).shot(x, W, 1), BeamContinuation(far).shot(x, W, 1)
     assert a.n_impacts >= 1 and list(b.extra["impact_stops"]) == [0] * a.n_impacts
     np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-15 * np.max(np.abs(a.x)))

@@ -35,9 +35,9 @@ def _rig(n_modes, k=1e8, gap_mm=None):
 
 
 def _settled(m, W, periods=100):
-    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models import BeamEventSolver
 
-    tr = BeamEventSolver(m).point(W, None, periods, 4, 16)
+    tr = BeamEventSolver(m.scene()).point(W, None, periods, 4, 16)
     assert tr.status == "ok" and tr.final_state[-1] == 0.0
     return tr.final_state[:2 * m.n_modes]
 
@@ -108,7 +108,8 @@ def test_shot_end_state_is_the_event_kernels(n_modes):
     which moves the steps; measured ~1e-12), the independent solve_ivp reference (method
     ``direct``, DOP853 rtol 1e-11) to 1e-8 (measured ~1e-10), and the derivatives' own DOP853
     trajectory ends within 1e-8 of it (measured ~1e-11)."""
-    from vibeam.models.beam_dynamics import BeamEventSolver, BeamODESolver
+    from vibeam.models.beam_dynamics import BeamODESolver
+    from vibeam.models import BeamEventSolver
 
     m = _rig(n_modes)
     W = 16.0 / m.f_ref_hz
@@ -117,7 +118,7 @@ def test_shot_end_state_is_the_event_kernels(n_modes):
     s = BeamContinuation(m).shot(x0, W, 2)
     assert s.status == "ok" and s.n_impacts == 2
     s0 = np.concatenate([x0, [0.0]])
-    ev = BeamEventSolver(m).point(W, s0, 0, 2, 16)
+    ev = BeamEventSolver(m.scene()).point(W, s0, 0, 2, 16)
     ref = BeamODESolver(m).point(W, s0, 0, 2, 16)
     assert np.max(np.abs(ev.final_state[:-1] - s.x)) < 1e-10 * sc
     assert np.max(np.abs(ref.final_state[:-1] - s.x)) < 1e-8 * sc
@@ -224,7 +225,7 @@ def test_stable_branch_points_are_long_event_runs():
     the branch's to 1e-8 of the state (Newton converges to the shot's ~1e-10 smoothness and the
     slowest multiplier decays to < 1e-9 over the run; measured 2.3e-11) with as many contacts
     per period."""
-    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models import BeamEventSolver
     from vibeam.models.continuation import Settings, trace
 
     m = _rig(2)
@@ -237,7 +238,7 @@ def test_stable_branch_points_are_long_event_runs():
     worst = 0.0
     for i in idx[:: max(1, len(idx) // 4)]:
         x = np.asarray(a["state"][i], float)
-        t = BeamEventSolver(m).point(float(a["parameter"][i]), np.concatenate([x * 1.01, [0.0]]), 600, 1, 16)
+        t = BeamEventSolver(m.scene()).point(float(a["parameter"][i]), np.concatenate([x * 1.01, [0.0]]), 600, 1, 16)
         assert t.status == "ok" and t.n_impacts == int(a["impacts"][i])
         worst = max(worst, np.max(np.abs(t.final_state[:4] - x)) / np.max(np.abs(x)))
     print(f"stable HC beam points vs 600-period event runs: {worst:.2e}")

@@ -21,7 +21,8 @@ from scipy.optimize import brentq
 
 from vibeam.case.schema import parse_case
 from vibeam.models import SDOF, EventSolver, linear_amplitude, shooting_problem
-from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel
+from vibeam.models.beam_dynamics import BeamImpactModel
+from vibeam.models import BeamEventSolver
 from vibeam.models.continuation import Settings, trace
 from vibeam.models.periodic_beam import BeamContinuation
 from vibeam.models.periodic_sdof import SDOFShooting
@@ -292,7 +293,7 @@ def test_two_mode_beam_derivatives_against_central_differences(Dl, R_lower, Y, W
     central difference measured 1.6e-8 at one such state and 1.5e-6 at another (its error h^2
     times the curvature: 1.6e-8 at h = 1e-7 there)."""
     m = _beam2(Dl, R_lower, Y)
-    x0 = np.asarray(BeamEventSolver(m).point(W, None, 400, 8, 16).final_state[:4])
+    x0 = np.asarray(BeamEventSolver(m.scene()).point(W, None, 400, 8, 16).final_state[:4])
 
     def central(f, h):
         """Central difference extrapolated to h -> 0 from h and h / 2 (Richardson)."""
@@ -412,7 +413,7 @@ switch = false
         assert "impacts_lower" in d
         for k in np.flatnonzero(d["stable"] & (d["impacts_lower"] > 0))[::10][:3]:
             W, x = d["parameter"][k], d["state"][k]
-            tr = BeamEventSolver(model).point(W, np.r_[x, 0.0], 400, 2, 16)
+            tr = BeamEventSolver(model.scene()).point(W, np.r_[x, 0.0], 400, 2, 16)
             assert np.max(np.abs(np.asarray(tr.final_state[:4]) - x)) < 1e-8 * np.max(np.abs(x))
             # independent of the case's gap conversion: the stops at 0.1 mm and 0.3 mm (at the
             # sensor) times phi(x_m) of the static mode written out (phi(x_S) = 1), the period

@@ -79,7 +79,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from vibeam.models.compliant import HuntCrossley, LinearContact, damping_ratio_for_restitution
-from vibeam.models import SDOF, EventSolver, make_solver
+from vibeam.models import SDOF, make_solver
 from vibeam.engine.records import summarize
 
 N_FINE, N_COARSE = 8192, 2048     # samples per forcing period
@@ -150,7 +150,6 @@ def _beam(law, two, lower=None):
     two stops, the lower stop's own law ``lower`` (None: the upper stop's; "hunt_crossley": the
     lower Hertzian stop of BEAM_HC_K_LO, the target R of [model] R)."""
     from vibeam.case.schema import load_case
-    from vibeam.models.beam_dynamics import BeamEventSolver
     from vibeam.models.core.laws import V_FLOOR, hertz_floor
 
     case, _ = load_case(Path(__file__).resolve().parents[1] / "cases" / "rig-fe-neutral.toml")
@@ -173,14 +172,14 @@ def _beam(law, two, lower=None):
     me = m.m_eff
     if law == "restitution":
         up, lo = ("newton", BEAM_R), ("newton", BEAM_R_LO)
-        solver = BeamEventSolver(m, record_modal_states=True)
+        solver = make_solver(m, "event", record_modal_states=True)
     elif law == "linear":   # kernel units: k_c / omega_ref^2, c_c / omega_ref, c_c = 2 zeta sqrt(k_c m_eff)
         up = ("linear", BEAM_K / wr ** 2, 2.0 * damping_ratio_for_restitution(BEAM_R) * math.sqrt(BEAM_K * me) / wr)
         lo = ("linear", BEAM_K_LO / wr ** 2, 2.0 * BEAM_ZETA_LO * math.sqrt(BEAM_K_LO * me) / wr)
-        solver = BeamEventSolver(m, record_modal_states=True)
+        solver = make_solver(m, "event", record_modal_states=True)
     else:
         up, lo = _hc(BEAM_HC_K / wr ** 2, BEAM_R), None
-        solver = BeamEventSolver(m, record_modal_states=True)
+        solver = make_solver(m, "event", record_modal_states=True)
     if lower == "hunt_crossley":
         lo = _hc(BEAM_HC_K_LO / wr ** 2, BEAM_R)
     stops = [(1.0, m.gap_contact_m, up)] + ([(-1.0, m.gap_contact_lower_m, lo)] if two else [])

@@ -23,7 +23,8 @@ from scipy.optimize import brentq
 
 from vibeam.models import SDOF, EventSolver, make_solver
 from vibeam.models.beam import BeamFE, BeamGeometry
-from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel, BeamODESolver
+from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver
+from vibeam.models import BeamEventSolver
 from vibeam.reductions.static_mode import static_mode_shape
 
 TWO_PI = 2.0 * math.pi
@@ -213,7 +214,7 @@ def test_grazing_beam_every_decade_and_square_root_law(kind):
         m = _beam_grazing_model(kind, gap)
         v_ex = Om * math.sqrt((A - gap) * (A + gap)) / L
         t_ex = ((math.asin(gap / A) - math.atan2(Z.imag, Z.real)) % TWO_PI) / Om
-        tr = BeamEventSolver(m).point(Om, s0, 0, 1, 64)
+        tr = BeamEventSolver(m.scene()).point(Om, s0, 0, 1, 64)
         assert tr.n_impacts == 1, (kind, eps)
         v = tr.impact_velocities[0]
         assert abs(v / v_ex - 1) < tol_ev(eps), (kind, eps, v / v_ex - 1)
@@ -302,7 +303,7 @@ def test_zeno_accumulation_time_forced(fidelity, R, Delta, F, u0):
     if fidelity == "sdof":
         tr = EventSolver(SDOF(beta, B, R, Delta).scene()).point(Omega, s0, 0, n_rec, 64)
     else:
-        tr = BeamEventSolver(_one_mode_beam(beta, B, R, Delta)).point(Omega, s0, 0, n_rec, 64)
+        tr = BeamEventSolver(_one_mode_beam(beta, B, R, Delta).scene()).point(Omega, s0, 0, n_rec, 64)
     window = n_rec * TWO_PI / Omega
     t_stick = window * (1 - tr.extra["stuck_fraction"])
     print(f"Zeno {fidelity} R={R}: t_acc ref {t_acc:.15f}, solver {t_stick:.15f}, "
@@ -335,7 +336,7 @@ def test_plastic_impact_sticks_at_first_impact(fidelity):
     if fidelity == "sdof":
         tr = EventSolver(SDOF(beta, B, 0.0, Delta).scene()).point(Omega, s0, 0, 4, 256)
     else:
-        tr = BeamEventSolver(_one_mode_beam(beta, B, 0.0, Delta)).point(Omega, s0, 0, 4, 256)
+        tr = BeamEventSolver(_one_mode_beam(beta, B, 0.0, Delta).scene()).point(Omega, s0, 0, 4, 256)
     assert tr.status == "sticking", tr.message
     assert tr.n_impacts == 1
     assert tr.impact_times[0] == pytest.approx(tau, abs=1e-12)
@@ -464,7 +465,7 @@ def test_prestressed_beam_release_threshold_three_modes():
                                     base_amplitude_m=ratio * Y_star)
         _, xh = _kkt(m, Om)
         s0 = np.concatenate([x0[:N] + xh[:N].imag, Om * xh[:N].real, [1.0]])
-        tr = BeamEventSolver(m).point(Om, s0, 0, n_rec, spp)
+        tr = BeamEventSolver(m.scene()).point(Om, s0, 0, n_rec, spp)
         eta = x0[:N, None] + np.imag(xh[:N, None] * np.exp(1j * ph))
         q = m.sensor_row @ eta / L
         push = x0[N] + np.imag(xh[N] * np.exp(1j * ph))
@@ -558,7 +559,7 @@ def test_long_run_energy_conserved_elastic():
     s0 = np.array([0.0, 1.0, 0.0])
     n = 10**5
     for name, solver in (("sdof", make_solver(SDOF(0.0, 0.0, 1.0, Delta), "event")),
-                         ("beam-1-mode", BeamEventSolver(_one_mode_beam(0.0, 0.0, 1.0, Delta)))):
+                         ("beam-1-mode", make_solver(_one_mode_beam(0.0, 0.0, 1.0, Delta), "event"))):
         tr = solver.point(1.3, s0, 0, n, 8)
         E = 0.5 * (tr.samples[:, 0] ** 2 + tr.samples[:, 1] ** 2)
         dE = np.max(np.abs(E - 0.5))
@@ -596,7 +597,7 @@ def test_long_run_beam_no_drift():
     be drift -- and no sample is beyond the stop."""
     Om = 2.0
     fp = make_solver(FIG13, "mapping", n=1).point(Om, None, 0, 0)
-    b1 = BeamEventSolver(_one_mode_beam(FIG13.beta, FIG13.B, FIG13.R, FIG13.Delta))
+    b1 = make_solver(_one_mode_beam(FIG13.beta, FIG13.B, FIG13.R, FIG13.Delta), "event")
     final = []
     for n in (10**3, 10**5):
         tr = b1.point(Om, None, n, 4, 64)
@@ -610,7 +611,7 @@ def test_long_run_beam_no_drift():
     assert d_final <= 1e-16
     m = BeamImpactModel.from_fe(_fe(24), 4, R=0.72, gap_contact_m=0.0, base_amplitude_m=Y_RIG)
     W = 15.5 / m.f_ref_hz
-    s = BeamEventSolver(m)
+    s = make_solver(m, "event")
     t0 = time.perf_counter()
     a = s.point(W, None, 10**3, 2, 64)
     b = s.point(W, a.final_state, 10**5 - 10**3, 2, 64)
@@ -655,7 +656,7 @@ def test_many_modes_all_modes_fine_mesh_stable():
         s0[N] = 2.0e-3 / m.contact_row[0]
         Om = 0.7   # only sets the sampling period (free run)
         t0 = time.perf_counter()
-        tr = BeamEventSolver(m, record_modal_states=True, max_steps_per_period=200000).point(
+        tr = BeamEventSolver(m.scene(), record_modal_states=True, max_steps_per_period=200000).point(
             Om, s0, 0, n_rec, spp)
         dt = time.perf_counter() - t0
         X = tr.extra["modal_states"]
@@ -687,7 +688,7 @@ def test_many_modes_all_modes_fine_mesh_stable():
         assert checked > 0.8 * (X.shape[0] - 1)
     m = BeamImpactModel.from_fe(fe, "all", R=0.72, gap_contact_m=0.0, base_amplitude_m=Y_RIG)
     W = 15.5 / m.f_ref_hz
-    s = BeamEventSolver(m)
+    s = make_solver(m, "event")
     t0 = time.perf_counter()
     tr = s.point(W, None, 20, 4, 64)
     dt = time.perf_counter() - t0
@@ -754,7 +755,7 @@ def test_property_energy_never_increases_beam(n, beta, R, gap_rel, seed):
     gap = gap_rel * amp
     m = BeamImpactModel.from_fe(fe, n, R=R, gap_contact_m=gap, base_amplitude_m=0.0, damping_D_s=Dd)
     s0 = np.concatenate([np.zeros(n), etad, [0.0]])
-    tr = BeamEventSolver(m, record_modal_states=True).point(0.7, s0, 0, 3, 64)
+    tr = BeamEventSolver(m.scene(), record_modal_states=True).point(0.7, s0, 0, 3, 64)
     assert tr.status != "failed"
     E = _modal_energy(m, tr.extra["modal_states"])
     assert np.all(np.diff(E) <= 1e-13 * E[0])
@@ -779,7 +780,7 @@ def test_property_beam_never_beyond_stop(n, R, Om, gap_rel, near, graze):
     A = abs(m0.contact_row @ H)
     gap = A * (1 - 10.0**near) if graze else gap_rel * A
     m = BeamImpactModel.from_fe(fe, n, R=R, gap_contact_m=gap, base_amplitude_m=Y_RIG)
-    tr = BeamEventSolver(m, record_modal_states=True).point(Om, None, 20, 3, 64)
+    tr = BeamEventSolver(m.scene(), record_modal_states=True).point(Om, None, 20, 3, 64)
     assert tr.status in ("ok", "chatter", "sticking")
     U = tr.extra["modal_states"][:, :n] @ m.contact_row
     tol = 1e-12 * (abs(gap) + A)
@@ -839,7 +840,7 @@ def test_an_elastic_stop_a_hair_above_rest_is_held_not_a_failure(fidelity, gap_r
 
         def run(gap):
             m = BeamImpactModel.from_fe(fe, 1, R=1.0, gap_contact_m=gap, base_amplitude_m=Y_RIG)
-            return BeamEventSolver(m).point(Om, None, 20, 3, 64)
+            return BeamEventSolver(m.scene()).point(Om, None, 20, 3, 64)
     tr, ref = run(gap_rel * A), run(0.0)
     assert tr.status == "ok" and ref.status == "ok", (tr.status, tr.message)
     scale = np.max(np.abs(ref.samples[:, 0]))

@@ -26,7 +26,7 @@ from vibeam.models import make_solver, shooting_problem
 from vibeam.models.registry import mixed_stops
 from vibeam.models.compliant import HuntCrossley, LankaraniNikravesh
 from vibeam.models.contact import DAMPING, EXPONENT, LAW, STIFFNESS, Relation, Stop, pack
-from vibeam.models.beam_dynamics import BeamEventSolver
+from vibeam.models import BeamEventSolver
 from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models import SDOF, EventSolver
 from vibeam.models.core.isolated import isolated_contact

@@ -3,7 +3,7 @@
 Oracle: the jump of the modal kinetic energy ``|eta'|^2 / 2`` (mass-normalised modes) over each
 impact, measured on the state of the solve_ivp solver (method ``direct``) before and after the
 impulse; the event kernel's rows come from the closed form ``(1 - R^2) m_eff U-^2 / 2``
-(:func:`vibeam.models.beam_dynamics.newton_contact_rows`); for the one-mode rung the SDOF's
+(:func:`vibeam.models.core.event.newton_contact_rows`); for the one-mode rung the SDOF's
 ``(1 - R^2) U-^2 / 2`` (paper Eqs. 42-46).
 """
 from __future__ import annotations
@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from vibeam.models.beam import BeamFE, BeamGeometry
-from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel, BeamODESolver
+from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver
+from vibeam.models import BeamEventSolver
 from vibeam.models import SDOF, EventSolver
 from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
@@ -53,7 +54,7 @@ def test_beam_newton_energy_is_the_modal_kinetic_energy_jump(fe, gap, gap_lower,
     s0 = np.zeros(5)
     s0[0] = -0.05e-3 / m.contact_row[0]
     W = f_hz / m.f_ref_hz
-    a = BeamEventSolver(m).point(W, s0, 20, 8, 32)
+    a = BeamEventSolver(m.scene()).point(W, s0, 20, 8, 32)
     b = BeamODESolver(m, solver="DOP853", rtol=1e-10, atol=1e-14).point(W, s0, 20, 8, 32)
     assert a.n_impacts == b.n_impacts >= 8 and a.status == b.status == "ok"
     Rk = np.full(b.n_impacts, 0.72)
@@ -92,7 +93,7 @@ def test_one_mode_beam_energy_is_the_sdof_energy(R, R_lower, gap, gap_lower, f):
     sd = SDOF(beta=red.beta_S, B=red.gamma_per_V, R=R, Delta=red.Delta,
               Delta_lower=None if gap_lower is None else gap_lower / PHIM / L, R_lower=R_lower)
     W = f / sm.f_ref_hz
-    a = BeamEventSolver(sm).point(W, None, 200, 8, 64)
+    a = BeamEventSolver(sm.scene()).point(W, None, 200, 8, 64)
     b = EventSolver(sd.scene()).point(W, None, 200, 8, 64)
     assert a.n_impacts == b.n_impacts > 0
     if gap_lower is not None:

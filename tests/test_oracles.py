@@ -462,7 +462,7 @@ def test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration(n_mo
 
     from vibeam.case.beamscene import scene_of
     from vibeam.models.beam import BeamFE
-    from vibeam.models.beam_dynamics import BeamEventSolver
+    from vibeam.models import BeamEventSolver
 
     nm = '"static"' if n_modes == "static" else n_modes
     gap_mm = 0.15
@@ -476,7 +476,7 @@ def test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration(n_mo
     ps, _ = m.point_stops[0]
     assert ps.relation.offset == pytest.approx(gap, rel=1e-12)
     f_hz, f_ref = 15.0, m.f_ref_hz
-    tr = BeamEventSolver(m).point(f_hz / f_ref, None, 0, 4, 32)
+    tr = BeamEventSolver(m.scene()).point(f_hz / f_ref, None, 0, 4, 32)
     assert tr.status == "ok" and tr.impact_stops.size > 0 and tr.impact_stops[0] == 2  # the point stop first
     Wt = 2 * math.pi * f_hz
     Y = m.base_amplitude_m

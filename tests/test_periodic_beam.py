@@ -12,7 +12,8 @@ import pytest
 from vibeam.case.beamscene import derive, scene_of
 from vibeam.case.schema import load_case
 from vibeam.models import SDOF
-from vibeam.models.beam_dynamics import BeamEventSolver, _trans, mode_table
+from vibeam.models.beam_dynamics import _trans, mode_table
+from vibeam.models import BeamEventSolver, make_solver
 from vibeam.models.periodic_beam import (NATIVE_PARAMETERS, REBUILD_KEYS, BeamShooting,
                                          _dtrans_dsig, conversions)
 from vibeam.models.mapping import event_guess, fixed_point_analysis, newton_fixed_point, orbit_extremes
@@ -45,7 +46,7 @@ def newton(prob, x, p, n=1, tol=1e-13, max_iter=40):
 
 def transient(m, Omega, periods, state=None):
     """State after ``periods`` forcing periods of the event solver (from rest by default)."""
-    return BeamEventSolver(m).point(Omega, state, periods, 1, 4).final_state[:-1]
+    return BeamEventSolver(m.scene()).point(Omega, state, periods, 1, 4).final_state[:-1]
 
 
 def linear_orbit(m, Omega):
@@ -316,11 +317,11 @@ def test_stable_fixed_point_is_the_event_attractor(n_modes):
     prob = BeamShooting(m, W)
     x, s = newton(prob, linear_orbit(m, W)[0], W)
     assert s.n_impacts == 1 and s.q_min < 0
-    tr = BeamEventSolver(m).point(W, None, 400, 4, 64)
+    tr = BeamEventSolver(m.scene()).point(W, None, 400, 4, 64)
     assert np.max(np.abs(tr.final_state[:-1] - x)) < 1e-10 * np.max(np.abs(x))
     assert m.Delta - tr.q_min == pytest.approx(m.Delta - s.q_min, rel=1e-9)
     assert tr.impact_velocities[-1] == pytest.approx(s.impact_velocities[0], rel=1e-9)
-    sol = BeamEventSolver(m)
+    sol = make_solver(m, "event")
     P = lambda y: sol.point(W, np.concatenate([y, [0.0]]), 0, 1, 1).final_state[:-1]
     h = 1e-6 * np.max(np.abs(x))
     Mfd = np.column_stack([(P(x + h * e) - P(x - h * e)) / (2 * h) for e in np.eye(prob.dim)])

@@ -310,11 +310,11 @@ def test_chunked_calls_equal_one_call_on_a_periodic_point(fidelity):
         solver = make_solver(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), "event")
         W = 2.0
     else:
-        from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel
+        from vibeam.models.beam_dynamics import BeamImpactModel
 
         m = BeamImpactModel([2 * math.pi * 7.6, 2 * math.pi * 98.75], [0.4, 0.1], [1.5, -0.6],
                             [1.0, 0.3], 0.72, 0.0, 3e-4, 7.6, 0.18, 1.0, 2 * 0.017 / (2 * math.pi * 7.6))
-        solver = BeamEventSolver(m)
+        solver = make_solver(m, "event")
         W = 15.0 / 7.6
     sw = Sweep(Omega=np.array([W]), transient_periods=1500, record_periods=8)
     one = _simulate(solver, W, None, 1500, sw)

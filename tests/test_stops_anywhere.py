@@ -20,8 +20,9 @@ import pytest
 
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.engine.records import summarize
-from vibeam.models import SDOF, EventSolver, shooting_problem
-from vibeam.models.beam_dynamics import BeamEventSolver, BeamODESolver
+from vibeam.models import SDOF, shooting_problem
+from vibeam.models.beam_dynamics import BeamODESolver
+from vibeam.models import BeamEventSolver
 
 RIG = """name = "tip"
 [model]
@@ -89,7 +90,7 @@ contact_lower = {R = 0.6}
     a, b = _model(tables), _model("", keys=keys)
     assert a.stops() == b.stops() and not a.point_stops
     W = 15.5 / a.f_ref_hz
-    ta, tb = BeamEventSolver(a).point(W, None, 50, 4, 16), BeamEventSolver(b).point(W, None, 50, 4, 16)
+    ta, tb = BeamEventSolver(a.scene()).point(W, None, 50, 4, 16), BeamEventSolver(b.scene()).point(W, None, 50, 4, 16)
     assert np.array_equal(ta.samples, tb.samples) and ta.n_impacts == tb.n_impacts
     sd = """name = "s"
 [model]
@@ -119,7 +120,7 @@ def test_a_stop_below_the_tip_against_solve_ivp(f_hz):
     m = _model()
     assert [s.name for s in m.stops()] == ["upper", "lower at 180 mm"] and m.contact_rows().shape == (2, 2)
     W = f_hz / m.f_ref_hz
-    a = BeamEventSolver(m).point(W, None, 400, 16, 64)
+    a = BeamEventSolver(m.scene()).point(W, None, 400, 16, 64)
     b = BeamODESolver(m).point(W, None, 400, 16, 64)
     sa, sb = summarize(a, m.Delta), summarize(b, m.Delta)
     assert sa["period"] == sb["period"] == 1 and a.status == b.status == "ok"
@@ -141,8 +142,8 @@ def test_one_mode_a_tip_stop_is_a_stop_at_the_mass():
     at_mass = _model(tip.replace('position_mm = 180.0\ncontact_gap_mm = 1.2',
                                  f'contact_gap_mm = {1.2 * ratio!r}'), n_modes=1)
     W = 16.5 / m.f_ref_hz       # a period-3 orbit (at 14.5-16 Hz the one-mode motion is chaotic)
-    a = BeamEventSolver(m).point(W, None, 300, 8, 32)
-    b = BeamEventSolver(at_mass).point(W, None, 300, 8, 32)
+    a = BeamEventSolver(m.scene()).point(W, None, 300, 8, 32)
+    b = BeamEventSolver(at_mass.scene()).point(W, None, 300, 8, 32)
     assert a.n_impacts == b.n_impacts > 8 and summarize(a, m.Delta)["period"] == 3
     assert np.max(np.abs(a.samples - b.samples)) < 1e-12 * np.max(np.abs(a.samples))   # measured 7e-14
 
@@ -156,7 +157,7 @@ def test_continued_tip_branch_against_event_runs_and_liouville():
 
     m = _model()
     W0 = 15.5 / m.f_ref_hz
-    x0 = BeamEventSolver(m).point(W0, None, 400, 1, 1).final_state[:-1]
+    x0 = BeamEventSolver(m.scene()).point(W0, None, 400, 1, 1).final_state[:-1]
     prob = shooting_problem(m, "Omega")
     br = trace(prob, x0, W0, 1, W0, 16.5 / m.f_ref_hz, +1, Settings(switch=False, max_points=40))[0]
     stable = [p for p in br.points if np.max(np.abs(p.mu)) < 1.0]
@@ -164,7 +165,7 @@ def test_continued_tip_branch_against_event_runs_and_liouville():
     c = m.c_nd
     checked = 0
     for p in stable[::4]:
-        ev = BeamEventSolver(m).point(p.p, np.concatenate([p.x, [0.0]]), 300, 1, 1)
+        ev = BeamEventSolver(m.scene()).point(p.p, np.concatenate([p.x, [0.0]]), 300, 1, 1)
         scale = np.max(np.abs(p.x))
         assert np.max(np.abs(ev.final_state[:-1] - p.x)) < 1e-8 * scale
         s = prob.shot(p.x, p.p, 1)

@@ -10,7 +10,8 @@ from scipy.integrate import solve_ivp
 
 from vibeam.models import system as msys
 from vibeam.models.beam import BeamFE, BeamGeometry
-from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel
+from vibeam.models.beam_dynamics import BeamImpactModel
+from vibeam.models import BeamEventSolver
 from vibeam.models.sdof import SDOF
 from vibeam.models.sdof_flow import particular_coefficients, propagate
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
@@ -109,7 +110,7 @@ def test_flow_is_the_beam_event_kernel_flow():
     W = 15.5 / m.f_ref_hz
     eta0 = np.array([2e-4, -3e-6]) / np.abs(m.sensor_row)
     etad0 = np.array([-1e-4, 5e-6]) / np.abs(m.sensor_row)
-    tr = BeamEventSolver(m).point(W, np.concatenate([eta0, etad0, [0.0]]), 0, 1, 16)
+    tr = BeamEventSolver(m.scene()).point(W, np.concatenate([eta0, etad0, [0.0]]), 0, 1, 16)
     assert tr.n_impacts == 0 and tr.status == "ok"
     T = 2 * math.pi / W
     got = []

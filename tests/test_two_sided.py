@@ -19,7 +19,8 @@ import pytest
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import SDOF, EventSolver, make_solver
 from vibeam.models.beam import BeamFE, BeamGeometry
-from vibeam.models.beam_dynamics import BeamEventSolver, BeamImpactModel, BeamODESolver
+from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver
+from vibeam.models import BeamEventSolver
 from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
@@ -268,7 +269,7 @@ def test_symmetric_stops_give_a_symmetric_beam_orbit(fe):
     Y = 5.16e-4 * PHIM * L * 0.6
     m = BeamImpactModel.from_fe(fe, 2, R=0.72, gap_contact_m=0.2e-3, base_amplitude_m=Y,
                                 gap_contact_lower_m=0.2e-3)
-    tr = BeamEventSolver(m).point(15.0 / m.f_ref_hz, None, 1000, 4, 64)
+    tr = BeamEventSolver(m.scene()).point(15.0 / m.f_ref_hz, None, 1000, 4, 64)
     q = tr.samples[:, 0]
     assert tr.n_impacts_lower > 0 and tr.n_impacts == 2 * tr.n_impacts_lower
     assert np.max(np.abs(q[32:] + q[:-32])) < 1e-10 * np.max(np.abs(q))
@@ -311,8 +312,8 @@ def test_far_lower_stop_is_the_one_sided_beam_bit_for_bit(fe):
         two = BeamImpactModel.from_fe(fe, 2, R=0.8, gap_contact_m=gap, base_amplitude_m=Y,
                                       gap_contact_lower_m=1e3)
         W = f / one.f_ref_hz
-        a = BeamEventSolver(one).point(W, None, 20, 8, 64)
-        b = BeamEventSolver(two).point(W, None, 20, 8, 64)
+        a = BeamEventSolver(one.scene()).point(W, None, 20, 8, 64)
+        b = BeamEventSolver(two.scene()).point(W, None, 20, 8, 64)
         _same(a, b)
         assert a.n_impacts > 0 and b.n_impacts_lower == 0
 
@@ -349,7 +350,7 @@ def test_static_mode_beam_with_a_lower_stop_is_the_sdof(R, gap, gap_lower, load)
     sd = SDOF(beta=red.beta_S, B=red.gamma_per_V, R=R, Delta=red.Delta, Delta_lower=gap_lower / PHIM / L)
     for f in (3.0, 14.0, 15.3):
         W = f / sm.f_ref_hz
-        a = BeamEventSolver(sm).point(W, None, 100, 16, 64)
+        a = BeamEventSolver(sm.scene()).point(W, None, 100, 16, 64)
         b = EventSolver(sd.scene()).point(W, None, 100, 16, 64)
         assert a.status == b.status
         assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower
@@ -371,7 +372,7 @@ def test_beam_two_sided_matches_the_direct_solver(fe, gap, gap_lower, f_hz):
     s0 = np.zeros(5)
     s0[0] = -0.05e-3 / m.contact_row[0]
     W = f_hz / m.f_ref_hz
-    a = BeamEventSolver(m).point(W, s0, 20, 8, 32)
+    a = BeamEventSolver(m.scene()).point(W, s0, 20, 8, 32)
     b = BeamODESolver(m, solver="DOP853", rtol=1e-10, atol=1e-14).point(W, s0, 20, 8, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower > 0

@@ -4,7 +4,7 @@
 kernel form (:mod:`vibeam.models.core.stops`) and runs :func:`vibeam.models.core.integrator.integrate_work`
 for one forcing frequency (:meth:`EventIntegrator.run`), returning the raw :class:`Run` (record
 and scalars, row units).  The ``event`` method's solvers (:class:`EventSolver` of the one-mode oscillator's scene,
-:class:`vibeam.models.beam_dynamics.BeamEventSolver`) turn it into a
+:class:`BeamEventSolver` of an N-mode scene) turn it into a
 :class:`~vibeam.models.trajectory.Trajectory` in their units.
 
 The state of a point is ``(eta (n), eta' (n), held)`` with ``held`` the code of
@@ -20,14 +20,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..contact import check_stops, restitution_coefficients
-from ..scene import Scene, one_mode
+from ..scene import Scene, one_mode, rest_state
 from ..sdof_flow import undamped_resonance
 from ..system import ModalSystem
 from .integrator import (ST_FAILED, STATUS_NAMES, Record, RunScalars, compliant_work, integrate_work, new_record, new_work,
                          substeps)
 from .phases import compliant_data
 from .stops import held_code, held_mask, held_sets, kernel_stops, kernel_system
-from ..trajectory import Trajectory
+from ..trajectory import Trajectory, call_budget
 
 __all__ = ["EventIntegrator", "Run"]
 
@@ -282,7 +282,7 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
         (then ``failed``).
     stop_codes : ndarray of int, shape (n_s,), optional
         The output code of each stop (0 upper and 1 lower at the attached mass, 2 + i the point
-        stop i: :meth:`vibeam.models.beam_dynamics.BeamImpactModel.stop_codes`); given, the
+        stop i: :func:`stop_codes`); given, the
         trajectory's ``impact_stops`` are these codes and ``extra["stop_impacts"]`` (shape
         (max code + 1,)) counts the recorded impacts of each.
     core : EventIntegrator, optional
@@ -623,3 +623,171 @@ class EventSolver:
             rows[:, 3] = 0.5 * (1.0 - R * R) * (v * v)     # (the same operations, one R)
         rows[:, 4] = v
         return rows
+
+
+def stop_codes(scene: Scene) -> np.ndarray | None:
+    """The output code of each of the scene's stops: those on the system's first contact row (the
+    attached mass) their index (0 the upper stop, 1 a lower one), the others ``2 + i`` (point stop
+    ``i``); the numbering of the trajectories' ``impact_stops`` and of the per-stop outputs.
+
+    Returns
+    -------
+    ndarray of int, shape (n_s,), or None
+        None when every stop is on row 0 (the codes are the indices).
+    """
+    at_mass = [st.relation.row == 0 for st in scene.stops]
+    if all(at_mass):
+        return None
+    n = sum(at_mass)
+    return np.array(list(range(n)) + [2 + i for i in range(len(at_mass) - n)], np.int64)
+
+
+def newton_contact_rows(laws, velocities, stops=None, scale: float = 1.0) -> np.ndarray:
+    """Contact rows (:attr:`vibeam.models.trajectory.Trajectory.contacts`) of Newton impacts.
+
+    An impact with normal pre-impact speed ``U-`` on the relation ``g = n^T eta - Delta`` of the
+    mass-normalised modal beam receives the impulse ``P = -m_eff (1 + R) U-`` along ``n``
+    (the event integrator's impact, ``m_eff = 1 / |w|^2``), which removes the kinetic energy
+    ``(1 - R^2) m_eff U-^2 / 2`` of the modal state (``|eta'|^2 / 2``) and nothing else.  In
+    the units of the compliant contacts' rows (:func:`vibeam.models.core.event.trajectory`: work per
+    ``m_eff L^2``, time unit ``1 / omega_ref``) that is ``(1 - R^2) v^2 / 2`` with ``v = U- / L``,
+    the one-mode oscillator's expression (:class:`EventSolver`).
+
+    Parameters
+    ----------
+    laws : dict or sequence
+        The law of each stop by its output code (:func:`stop_codes`).
+    velocities : ndarray, shape (k,)
+        Recorded pre-impact normal speeds ``U- / L`` (per nondimensional time).
+    stops : ndarray of int, shape (k,), or None
+        The code of each impact's stop (0 upper, 1 lower, 2 + i point stop i), each with its own
+        law; None: all on the upper one.
+    scale : float
+        ``L``, the row value per unit of ``q`` (the laws' tables are in ``U-``).
+
+    Returns
+    -------
+    ndarray, shape (k, 5)
+        Duration 0, peak force NaN (an impulse), penetration 0, energy lost, ``v``.
+    """
+    v = np.asarray(velocities, float)
+    k = v.shape[0]
+    Rk = restitution_coefficients(laws, v, stops, scale) if k else np.zeros(0)
+    return np.column_stack([np.zeros(k), np.full(k, np.nan), np.zeros(k), 0.5 * (1.0 - Rk ** 2) * v ** 2, v])
+
+
+class BeamEventSolver:
+    """Method ``event`` of an N-mode scene (the FE beam, a user's matrices, a continuum): the exact
+    event-driven modal solver (numba core).
+
+    Parameters
+    ----------
+    scene : Scene
+        Its modal system (``n`` modes; row 0 of its contacts the attached mass, whose
+        ``coordinate_scale`` ``L`` makes ``q = s eta / L``) and stops: those on row 0 first (the
+        mass's upper and lower stops, output codes 0 and 1), then the point stops (codes 2 + i).
+    transient_samples : int
+        Grid points per forcing period in the transient (the steps are sub-steps of at most
+        ``h_cap``; efficiency only, but for integrated contact phases, as
+        :class:`EventSolver`).
+    chatter_tol : float
+        Accuracy required of the chatter accumulation estimate before sticking.
+    max_impacts_per_period : int
+        Guard against non-accumulating chatter (status ``failed``).
+    max_steps_per_period : int
+        Guard against step-size collapse (status ``failed``; never hangs).
+    steps_per_fundamental : int
+        Largest step is ``1 / steps_per_fundamental`` of the first modal period.
+    impact_buffer : int
+        Most impacts stored per point.
+    record_modal_states : bool
+        Also record the modal state at the samples.
+    recurrence : bool
+        Stop integrating a transient or a record once its state recurs exactly (skip or copy
+        whole cycles), with the same outputs bit for bit
+        (:mod:`vibeam.models.core.integrator`); False integrates every period (a check, a timing).
+    """
+
+    name = "event"
+    time_domain = True
+    #: work budget of one kernel call in steps x modes (``max_steps_per_call`` = this / n_modes)
+    MAX_STEP_MODES_PER_CALL = 20_000_000
+
+    def __init__(self, scene: Scene, transient_samples: int = 16, chatter_tol: float = 1e-7,
+                 max_impacts_per_period: int = 20000, max_steps_per_period: int = 20000,
+                 steps_per_fundamental: int = 16, impact_buffer: int = 4096,
+                 record_modal_states: bool = False, recurrence: bool = True):
+        sy = scene.system
+        self.n_modes = int(sy.omega.shape[0])
+        self._scale = float(sy.coordinate_scale)
+        self._omega_ref = 1.0 / float(sy.time_unit_s)
+        self._contact_row = np.asarray(sy.contacts[0], float)
+        self._codes = stop_codes(scene)
+        codes = range(len(scene.stops)) if self._codes is None else self._codes
+        self._laws = {int(c): st.law for c, st in zip(codes, scene.stops)}
+        self._rest = rest_state(scene)
+        self.recurrence = bool(recurrence)
+        self.transient_samples = int(transient_samples)
+        self.chatter_tol = float(chatter_tol)
+        self.max_impacts_per_period = int(max_impacts_per_period)
+        self.max_steps_per_period = int(max_steps_per_period)
+        self.steps_per_fundamental = int(steps_per_fundamental)
+        self.impact_buffer = int(impact_buffer)
+        self.record_modal_states = bool(record_modal_states)
+        # the one event integrator on the beam's modal system with its stops
+        self._core = EventIntegrator(scene)
+        self._h_cap = fundamental_step(self._core.system, self.steps_per_fundamental)
+        # periods per call of the sweep engine (vibeam.engine.sweep.simulate): the cost per period grows
+        # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
+        # so a call lasts well under a second
+        self.chunk_periods = max(16, 2000 // self.n_modes)
+        # work budget of one kernel call (steps; a step costs more with more modes): beyond it the
+        # call is ``incomplete`` and the sweep engine repeats it in shorter calls
+        self.max_steps_per_call = max(100_000, self.MAX_STEP_MODES_PER_CALL // self.n_modes)
+
+    def settings(self) -> dict:
+        return dict(transient_samples=self.transient_samples, chatter_tol=self.chatter_tol,
+                    max_impacts_per_period=self.max_impacts_per_period,
+                    max_steps_per_period=self.max_steps_per_period,
+                    steps_per_fundamental=self.steps_per_fundamental,
+                    n_modes=self.n_modes)
+
+    def point(self, Omega: float, state0, n_transient: int, n_record: int,
+              samples_per_period: int = 64) -> Trajectory:
+        """Simulate one forcing frequency ``Omega = f / f_ref`` from ``state0`` (phase 0).
+
+        The one event integrator of the modal system (:mod:`vibeam.models.core.integrator`) on
+        the scene's modes.
+
+        ``state0``: ``(eta (N), eta' (N), stuck)`` or None (rest, or held on a pre-stressed stop at
+        the mass: :func:`vibeam.models.scene.rest_state`).
+        """
+        N = self.n_modes
+        Om = float(Omega)
+        s0 = self._rest.copy() if state0 is None else np.asarray(state0, dtype=float)
+        if s0.shape != (2 * N + 1,):
+            raise ValueError(f"state0 must have shape ({2 * N + 1},), got {s0.shape}")
+        n_per = n_transient + n_record
+        max_steps, budget = call_budget(self.max_steps_per_period, n_per, self.max_steps_per_call)
+        max_imp = self.max_impacts_per_period * n_per
+        run = self._core.run(Om, s0[:N], s0[N:2 * N], self._core.held_set_of(s0[2 * N]), int(n_transient),
+                             int(n_record), self.transient_samples, int(samples_per_period), self._h_cap, max_imp,
+                             max_steps, self.chatter_tol, impact_buffer=self.impact_buffer,
+                             modal_states=self.record_modal_states, recurrence=self.recurrence)
+        L = self._scale
+        msgs = {"incomplete": f"more than max_steps_per_call = {self.max_steps_per_call} steps in {n_per} period(s)",
+                "failed": (f"gave up after {run.n_impacts_total} impacts / {run.n_steps} steps in {n_per} periods "
+                           f"(non-accumulating chatter or step collapse)")}
+        laws = self._laws
+        traj = trajectory(run, Om, samples_per_period, n_record, L, self.impact_buffer,
+                          lambda v, ks: newton_contact_rows(laws, v, ks, L), messages=msgs, budget=budget,
+                          stop_codes=self._codes, core=self._core)
+        iv = traj.impact_velocities
+        iv_up = iv[traj.impact_stops == 0] if traj.impact_stops is not None else iv
+        modamp = run.record.modamp
+        traj.extra.update({"mode_amplitudes": modamp,
+                           "mode_contact_amplitudes": np.abs(self._contact_row) * modamp / L,
+                           "impact_velocity_m_s": float(np.mean(iv_up) * L * self._omega_ref) if iv_up.size else np.nan})
+        if self.record_modal_states:
+            traj.extra["modal_states"] = run.record.msamp
+        return traj

@@ -61,6 +61,7 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
+from ..core.event import BeamEventSolver
 from ..core.stops import kernel_stops
 from ..system import forcing, modal_flow, modal_transition
 from .newton import damped_newton
@@ -346,8 +347,6 @@ class ModalMappingSolver:
     time_domain = False
 
     def __init__(self, model, n: int = 1, form: str = "full", guess_periods: int = GUESS_PERIODS, tol: float = TOL):
-        from ..beam_dynamics import BeamEventSolver      # lazy: beam_dynamics imports the one core
-
         if int(n) != n or not 1 <= n <= 4:
             raise ValueError(f"n must be an integer in 1..4, got {n!r}")
         self.model, self.n, self.form = model, int(n), form
@@ -356,7 +355,7 @@ class ModalMappingSolver:
         ModalMap(self.system, self.stops, 1.0)          # the stops are checked once
         codes = model.stop_codes()
         self.codes = np.arange(len(self.stops)) if codes is None else np.asarray(codes)
-        self.event = BeamEventSolver(model)
+        self.event = BeamEventSolver(model.scene())
         self.n_stops = len(self.stops)
 
     def settings(self) -> dict:

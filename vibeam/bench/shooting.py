@@ -8,7 +8,8 @@ import time
 import numpy as np
 
 from vibeam.bench.common import build_scene, goal
-from vibeam.models.beam_dynamics import BeamEventSolver, particular
+from vibeam.models.beam_dynamics import particular
+from vibeam.models import BeamEventSolver, make_solver
 from vibeam.models.periodic_beam import BeamShooting
 
 
@@ -65,7 +66,7 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
         for nm in modes:
             case, model, settings, _ = scene(fname, nm)
             W = f_hz / model.f_ref_hz
-            x0 = BeamEventSolver(model).point(W, None, 300, 1, 1).final_state[:-1]
+            x0 = BeamEventSolver(model.scene()).point(W, None, 300, 1, 1).final_state[:-1]
             prob = BeamShooting(model, W)
             s = prob.shot(x0, W, 1)
             prob.shot(x0, W, 1, derivatives=False)
@@ -85,7 +86,7 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
         x, s, it = _newton(prob, np.concatenate([b, W * a]), W)
         t_newton = time.perf_counter() - t0
         K = 400
-        sol = BeamEventSolver(model, record_modal_states=True)
+        sol = make_solver(model, "event", record_modal_states=True)
         t0 = time.perf_counter()
         tr = sol.point(W, None, 0, K, 1)
         t_ev = time.perf_counter() - t0
@@ -99,7 +100,7 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
     case, model, settings, _ = scene("rig-fe-neutral.toml", "all")
     grid = np.linspace(14.0, 17.0, frc_points) / model.f_ref_hz
     prob = BeamShooting(model, grid[0])
-    x = BeamEventSolver(model).point(grid[0], None, 300, 1, 1).final_state[:-1]
+    x = BeamEventSolver(model.scene()).point(grid[0], None, 300, 1, 1).final_state[:-1]
     its, ok, stable = [], 0, 0
     t0 = time.perf_counter()
     for W in grid:
@@ -111,7 +112,7 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
             stable += bool(np.max(np.abs(s.multipliers())) < 1)
     t_frc = time.perf_counter() - t0
     cs = case.sweep
-    sol = BeamEventSolver(model, **settings)
+    sol = make_solver(model, "event", **settings)
     sol.point(grid[0], None, 2, 2, cs.samples_per_period)
     t0 = time.perf_counter()
     for W in grid[:3]:

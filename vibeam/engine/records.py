@@ -524,7 +524,7 @@ def contact_stops(traj: Trajectory) -> np.ndarray | None:
     one-stop trajectory or one whose rows cannot be assigned to a stop.
 
     ``traj.contact_stops`` where the solver gives it, else ``traj.impact_stops`` when the rows
-    are one per impact (Newton's law: :func:`vibeam.models.beam_dynamics.newton_contact_rows`).
+    are one per impact (Newton's law: :func:`vibeam.models.core.event.newton_contact_rows`).
     """
     if traj.impact_stops is None or traj.contacts is None:
         return None
