@@ -279,6 +279,36 @@ def test_prestressed_stop_sticks_or_chatters(fe, f_hz, expected):
         assert m.contact_row @ eta == pytest.approx(m.gap_contact_m, rel=1e-12)
 
 
+@pytest.mark.parametrize("gaps", [(-0.2e-3, None), (0.3e-3, -0.1e-3), (0.3e-3, 0.2e-3)])
+def test_the_scenes_rest_state_is_the_static_equilibrium_held_on_a_prestressed_stop(fe, gaps):
+    """The event solver's default start (:func:`vibeam.models.scene.rest_state`, from the scene
+    alone) is the state held statically on a pre-stressed stop at the mass: the contact exactly on
+    its stop (``s w^T eta = Delta``) and ``K eta`` along ``w`` (a contact force only: the KKT
+    system [K, w; w^T, 0] solved here), zero velocities; rest at the origin when no stop is
+    pre-stressed.  The SDOF's scene gives ``q = Delta`` (paper Eq. 2 at rest on the stop)."""
+    from vibeam.models.scene import rest_state
+
+    up, lo = gaps
+    m = BeamImpactModel.from_fe(fe, 3, R=0.5, gap_contact_m=up, gap_contact_lower_m=lo, base_amplitude_m=Y)
+    x = rest_state(m.scene())
+    N = m.n_modes
+    assert x.shape == (2 * N + 1,) and not np.any(x[N:])
+    if up > 0 and (lo is None or lo > 0):
+        assert not np.any(x)
+        return
+    sign, D = (1.0, up) if up < 0 else (-1.0, lo)
+    w, k = m.contact_row, m.k_nd
+    S = np.zeros((N + 1, N + 1))
+    S[:N, :N] = np.diag(k)
+    S[:N, N] = S[N, :N] = sign * w
+    ref = np.linalg.solve(S, np.concatenate([np.zeros(N), [D]]))[:N]
+    np.testing.assert_allclose(x[:N], ref, rtol=1e-12, atol=1e-15 * abs(D))
+    assert sign * (w @ x[:N]) == pytest.approx(D, rel=1e-13)
+    # the model's own start, the same algorithm: the same numbers bit for bit
+    np.testing.assert_array_equal(x, m.initial_state())
+    assert rest_state(SDOF(beta=0.02, B=0.01, R=0.8, Delta=-0.2).scene())[0] == -0.2
+
+
 def test_held_beam_is_the_constrained_linear_response(fe):
     """Permanently held on a pre-stressed stop (3 modes, 8 Hz): the steady state is the
     linear response of the constrained system, computed here independently from the
