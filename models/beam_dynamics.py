@@ -36,19 +36,17 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
-from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 from numba import njit
 
-from .trajectory import Trajectory, call_budget
+from .trajectory import Trajectory
 
 from .contact import Relation, Restitution, Stop, restitution_coefficients
 from .core.direct import DirectIntegrator
-from .core.event import EventIntegrator, fundamental_step, trajectory
+from .core.event import EventIntegrator, stop_codes
 from .impact import newton_restitution, restitution_impulse
-from .scene import Excitation, Scene, beam_scene, driven
+from .scene import Excitation, Scene, beam_scene, driven, held_modes, rest_state
 from .system import advance_modes, forcing, mode_table, particular, transition_increment
 
 TWO_PI = 2.0 * math.pi
@@ -457,38 +455,14 @@ class BeamImpactModel:
         return np.vstack([self.contact_row] + [row for _, row in self.point_stops])
 
     def _constrained(self):
-        """The beam held on a stop at the mass: null-space basis and static offsets.
-
-        The beam held on stop k (``s_k w^T eta = Delta_k``) moves in ``eta = eta_c,k + Psi
-        zeta``: ``Psi`` (shape (N, N - 1)) and the constrained modes (squared frequencies ``nu2``)
-        are the same for every stop (the null space of ``w``), the offsets ``eta_c,k`` and the
-        static constrained coordinates ``eC_k`` differ; they are the rows of :attr:`stop_rows`
-        (``eta_c``, ``eC`` are the upper stop's).  The event integrator derives its own held
-        sets from the system (:func:`vibeam.models.core.stops.held_sets`); these serve the
-        pre-stressed start (:meth:`initial_state`) and :meth:`contact_mode_frequencies`."""
-        w = self.contact_row
-        N = w.size
-        w2 = float(w @ w)
-        Q, _ = np.linalg.qr(np.column_stack([w, np.eye(N)]))
-        Tn = Q[:, 1:N]
-        K = np.diag(self.k_nd)
-        if N > 1:
-            nu2, V = scipy.linalg.eigh(Tn.T @ K @ Tn)
-            Psi = Tn @ V
-        else:
-            nu2, Psi = np.zeros(0), np.zeros((1, 0))
+        """The beam held on a stop at the mass: ``eta = eta_c + Psi zeta``, ``Psi`` (shape (N, N - 1))
+        and the squared frequencies ``nu2`` of the constrained modes, the same for every stop (the
+        null space of ``w``: :func:`vibeam.models.scene.held_modes`); for
+        :meth:`contact_mode_frequencies`.  The event integrator derives its own held sets from the
+        system (:func:`vibeam.models.core.stops.held_sets`), the pre-stressed start its offsets
+        (:func:`vibeam.models.scene.rest_state`)."""
+        Psi, self.nu2 = held_modes(self.contact_row, np.diag(self.k_nd))
         self.Psi = np.ascontiguousarray(Psi)
-        self.nu2 = nu2
-        rows = {k: [] for k in ("eta_c", "eC")}
-        for st in self.mass_stops():
-            s, D = st.relation.sign, st.relation.offset
-            eta_c = w * D / w2 if s > 0 else w * (-D) / w2
-            rows["eta_c"].append(eta_c)
-            rows["eC"].append(-(Psi.T @ (K @ eta_c)) / np.where(nu2 > 0, nu2, 1.0))
-        #: per-stop data of the beam held on each stop at the mass (row k: stop k)
-        self.stop_rows = {k: np.ascontiguousarray(np.stack(v)) for k, v in rows.items()}
-        self.eta_c = self.stop_rows["eta_c"][0].copy()
-        self.eC = self.stop_rows["eC"][0].copy()
 
     # ---- the model protocol of the fidelity registry (vibeam.models.registry)
     @property
@@ -533,20 +507,12 @@ class BeamImpactModel:
         """The model with the grazing gap ``gap_mm`` at the sensor: ``Delta_C = phi_c Delta_G``."""
         m = copy.copy(self)
         m.gap_contact_m = (gap_mm * 1e-3) * self.phi_contact
-        m._constrained()
         return m
 
     def initial_state(self) -> np.ndarray:
         """``(eta, eta', stuck)``: rest at the origin, or on a pre-stressed stop at the
-        static constrained equilibrium ``eta_c + Psi e``."""
-        N = self.n_modes
-        s = np.zeros(2 * N + 1)
-        if self.gap_contact_m < 0:
-            s[:N] = self.eta_c + self.Psi @ self.eC
-        elif self.two_sided and self.gap_contact_lower_m < 0:
-            r = self.stop_rows
-            s[:N] = r["eta_c"][1] + self.Psi @ r["eC"][1]
-        return s
+        static constrained equilibrium (:func:`vibeam.models.scene.rest_state`)."""
+        return rest_state(self.scene())
 
     def linear_sensor_amplitude_m(self, Omega):
         """Steady-state sensor amplitude without the stop (m), from the modal sum."""
@@ -611,7 +577,8 @@ class BeamODESolver:
 
     Parameters
     ----------
-    model : BeamImpactModel
+    scene : Scene
+        As :class:`~vibeam.models.core.event.BeamEventSolver`'s.
     solver : str
         ``solve_ivp`` method (DOP853 default).
     rtol, atol : float or None
@@ -628,30 +595,34 @@ class BeamODESolver:
     time_domain = True
     chunk_periods = 200   # a restart of solve_ivp changes the result at the level of rtol
 
-    def __init__(self, model: BeamImpactModel, solver: str = "DOP853", rtol: float | None = None,
+    def __init__(self, scene: Scene, solver: str = "DOP853", rtol: float | None = None,
                  atol: float | None = None, max_impacts_per_period: int = 200,
                  chatter_velocity: float = 1e-6, max_step: float | None = None):
-        self.model = model
+        sy = scene.system
+        self.n_modes = int(sy.omega.shape[0])
+        self._scale = float(sy.coordinate_scale)
+        self._codes = stop_codes(scene)
+        self._laws = [st.law for st in scene.stops]
+        self._rest = rest_state(scene)
+        m_eff = float(1.0 / np.sum(np.asarray(sy.contacts[0], float) ** 2))
         self.max_step = max_step
         self.solver = solver
         self.max_impacts_per_period = int(max_impacts_per_period)
         self.chatter_velocity = float(chatter_velocity)
-        self._direct = DirectIntegrator(EventIntegrator(model.scene()),
-                                        model.length_m * math.sqrt(model.m_eff), solver, rtol, atol,
+        self._direct = DirectIntegrator(EventIntegrator(scene), self._scale * math.sqrt(m_eff), solver, rtol, atol,
                                         self.max_impacts_per_period, self.chatter_velocity, max_step)
         self.rtol = self._direct.rtol
         self.atol = self._direct.atol
 
     def settings(self) -> dict:
-        return dict(solver=self.solver, rtol=self.rtol, atol=self.atol, n_modes=self.model.n_modes,
+        return dict(solver=self.solver, rtol=self.rtol, atol=self.atol, n_modes=self.n_modes,
                     chatter_velocity=self.chatter_velocity)
 
     def point(self, Omega, state0, n_transient, n_record, samples_per_period=64) -> Trajectory:
         """One forcing frequency by the one direct solver (:mod:`vibeam.models.core.direct`) on the
         beam's modal system and stops; ``state0`` as :meth:`BeamEventSolver.point` (its last entry
         the held code of the Newton stops held and the compliant stops in contact)."""
-        m = self.model
-        s0 = m.initial_state() if state0 is None else np.asarray(state0, dtype=float)
-        laws = [st.law for st in m.stops()]
-        return self._direct.run(float(Omega), s0, n_transient, n_record, samples_per_period, m.length_m,
-                                lambda k: laws[k], m.stop_codes())
+        s0 = self._rest.copy() if state0 is None else np.asarray(state0, dtype=float)
+        laws = self._laws
+        return self._direct.run(float(Omega), s0, n_transient, n_record, samples_per_period, self._scale,
+                                lambda k: laws[k], self._codes)

@@ -302,7 +302,7 @@ register(Fidelity(
 #: exact flows, anywhere, one or two at the mass, mixed ones included) and the shooting problem
 N_MODE_SOLVERS = {"event": on_the_core("core.event:BeamEventSolver", restitution_law=True, modal_states=True,
                                        scene=True),
-                  "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
+                  "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True, scene=True),
                   "mapping": Method("mapping.modal:ModalMappingSolver",
                                     {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
                                     (IMPULSIVE, "kelvin_voigt"), True),

@@ -34,7 +34,7 @@ import scipy.linalg
 
 from .system import ModalSystem, from_beam, from_sdof
 
-__all__ = ["Scene", "sdof_scene", "beam_scene", "units", "one_mode", "OneMode", "rest_state", "Excitation", "EXCITATION_KINDS",
+__all__ = ["Scene", "sdof_scene", "beam_scene", "units", "one_mode", "OneMode", "rest_state", "held_modes", "Excitation", "EXCITATION_KINDS",
            "driven"]
 
 #: the harmonic drives of a scene (:class:`Excitation`)
@@ -134,6 +134,33 @@ def one_mode(sc: Scene, method: str = "the method") -> OneMode:
     return OneMode(float(s.damping[0]) / 2.0, float(s.base_amplitude), st)
 
 
+def held_modes(w, K) -> tuple[np.ndarray, np.ndarray]:
+    """The modes of a modal system held on a stop of row ``w``: ``eta = eta_c + Psi zeta`` with
+    ``Psi`` an orthonormal basis of the null space of ``w`` in which the held stiffness ``Psi^T K
+    Psi = diag(nu^2)`` is diagonal (Acary & Brogliato 2008, Sec. 7.2).
+
+    Parameters
+    ----------
+    w : ndarray, shape (n,)
+        The contact row.
+    K : ndarray, shape (n, n)
+        The modal stiffness ``diag(omega^2)`` (system units).
+
+    Returns
+    -------
+    Psi : ndarray, shape (n, n - 1)
+    nu2 : ndarray, shape (n - 1,)
+        The held system's squared frequencies, ascending.
+    """
+    N = w.size
+    if N < 2:
+        return np.zeros((1, 0)), np.zeros(0)
+    Q, _ = np.linalg.qr(np.column_stack([w, np.eye(N)]))
+    Tn = Q[:, 1:N]
+    nu2, V = scipy.linalg.eigh(Tn.T @ K @ Tn)
+    return Tn @ V, nu2
+
+
 def rest_state(sc: Scene) -> np.ndarray:
     """The state a run starts from by default: rest at the origin, or held on a pre-stressed stop
     of the system's first contact row (the attached mass).
@@ -165,14 +192,8 @@ def rest_state(sc: Scene) -> np.ndarray:
     if held is None:
         return out
     w2 = float(w @ w)
-    Q, _ = np.linalg.qr(np.column_stack([w, np.eye(N)]))
-    Tn = Q[:, 1:N]
     K = np.diag(np.asarray(s.omega, float) ** 2)
-    if N > 1:
-        nu2, V = scipy.linalg.eigh(Tn.T @ K @ Tn)
-        Psi = Tn @ V
-    else:
-        nu2, Psi = np.zeros(0), np.zeros((1, 0))
+    Psi, nu2 = held_modes(w, K)
     D = held.relation.offset
     eta_c = w * D / w2 if held.relation.sign > 0 else w * (-D) / w2
     eC = -(Psi.T @ (K @ eta_c)) / np.where(nu2 > 0, nu2, 1.0)

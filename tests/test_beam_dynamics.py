@@ -87,7 +87,7 @@ def test_event_matches_solve_ivp_two_modes(fe):
     s0[0] = -0.5e-3 / m.contact_row[0]
     W = 15.5 / m.f_ref_hz
     a = BeamEventSolver(m.scene()).point(W, s0, 60, 8, 32)
-    b = BeamODESolver(m, rtol=1e-9, atol=1e-12).point(W, s0, 60, 8, 32)
+    b = BeamODESolver(m.scene(), rtol=1e-9, atol=1e-12).point(W, s0, 60, 8, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts == 8
     Qa, Qb = m.Delta - a.q_min, m.Delta - b.q_min
@@ -351,7 +351,7 @@ def test_sticking_and_release_match_solve_ivp(fe, gap):
     m = BeamImpactModel.from_fe(fe, 2, R=0.0, gap_contact_m=gap, base_amplitude_m=Y)
     W = 10.0 / m.f_ref_hz
     a = BeamEventSolver(m.scene()).point(W, None, 40, 4, 32)
-    b = BeamODESolver(m).point(W, None, 40, 4, 32)
+    b = BeamODESolver(m.scene()).point(W, None, 40, 4, 32)
     assert a.status == b.status == "sticking"
     assert a.n_impacts == b.n_impacts == 4
     assert 0.05 < a.extra["stuck_fraction"] < 0.95

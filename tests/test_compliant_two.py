@@ -144,7 +144,7 @@ def test_beam_event_agrees_with_the_direct_reference_on_two_stops(n_modes, k_low
     m = _rig(n_modes, k_lower=k_lower)
     W = 15.4 / 7.6
     a = BeamEventSolver(m.scene()).point(W, None, 4, 4, 32)
-    b = BeamODESolver(m).point(W, None, 4, 4, 32)
+    b = BeamODESolver(m.scene()).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower >= 2
     np.testing.assert_array_equal(a.impact_stops, b.impact_stops)
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-9 * np.max(np.abs(a.samples))

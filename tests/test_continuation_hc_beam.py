@@ -119,7 +119,7 @@ def test_shot_end_state_is_the_event_kernels(n_modes):
     assert s.status == "ok" and s.n_impacts == 2
     s0 = np.concatenate([x0, [0.0]])
     ev = BeamEventSolver(m.scene()).point(W, s0, 0, 2, 16)
-    ref = BeamODESolver(m).point(W, s0, 0, 2, 16)
+    ref = BeamODESolver(m.scene()).point(W, s0, 0, 2, 16)
     assert np.max(np.abs(ev.final_state[:-1] - s.x)) < 1e-10 * sc
     assert np.max(np.abs(ref.final_state[:-1] - s.x)) < 1e-8 * sc
     assert np.max(np.abs(s.extra["rebuilt_state"] - s.x)) < 1e-8 * sc

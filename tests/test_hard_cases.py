@@ -222,7 +222,7 @@ def test_grazing_beam_every_decade_and_square_root_law(kind):
         assert tr.extra["contact_gap_max"] * L <= 1e-13 * gap   # round-off of w^T eta
         eps_l.append(eps), v_l.append(v), v_ex_l.append(v_ex)
         if e <= 5:
-            r = BeamODESolver(m, rtol=1e-12, atol=1e-15, max_step=T / 1000).point(Om, s0, 0, 1, 64)
+            r = BeamODESolver(m.scene(), rtol=1e-12, atol=1e-15, max_step=T / 1000).point(Om, s0, 0, 1, 64)
             assert r.status == "ok" and r.n_impacts == 1, (kind, eps)
             assert abs(r.impact_velocities[0] / v_ex - 1) < 1e-10 / eps
             v_ode.append(r.impact_velocities[0])

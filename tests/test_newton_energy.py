@@ -55,7 +55,7 @@ def test_beam_newton_energy_is_the_modal_kinetic_energy_jump(fe, gap, gap_lower,
     s0[0] = -0.05e-3 / m.contact_row[0]
     W = f_hz / m.f_ref_hz
     a = BeamEventSolver(m.scene()).point(W, s0, 20, 8, 32)
-    b = BeamODESolver(m, solver="DOP853", rtol=1e-10, atol=1e-14).point(W, s0, 20, 8, 32)
+    b = BeamODESolver(m.scene(), solver="DOP853", rtol=1e-10, atol=1e-14).point(W, s0, 20, 8, 32)
     assert a.n_impacts == b.n_impacts >= 8 and a.status == b.status == "ok"
     Rk = np.full(b.n_impacts, 0.72)
     if gap_lower is not None:

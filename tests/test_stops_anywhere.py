@@ -121,7 +121,7 @@ def test_a_stop_below_the_tip_against_solve_ivp(f_hz):
     assert [s.name for s in m.stops()] == ["upper", "lower at 180 mm"] and m.contact_rows().shape == (2, 2)
     W = f_hz / m.f_ref_hz
     a = BeamEventSolver(m.scene()).point(W, None, 400, 16, 64)
-    b = BeamODESolver(m).point(W, None, 400, 16, 64)
+    b = BeamODESolver(m.scene()).point(W, None, 400, 16, 64)
     sa, sb = summarize(a, m.Delta), summarize(b, m.Delta)
     assert sa["period"] == sb["period"] == 1 and a.status == b.status == "ok"
     assert sa["stop_impacts_per_period"][0] == 1.0 and sa["stop_impacts_per_period"][2] >= 4.0

@@ -373,7 +373,7 @@ def test_beam_two_sided_matches_the_direct_solver(fe, gap, gap_lower, f_hz):
     s0[0] = -0.05e-3 / m.contact_row[0]
     W = f_hz / m.f_ref_hz
     a = BeamEventSolver(m.scene()).point(W, s0, 20, 8, 32)
-    b = BeamODESolver(m, solver="DOP853", rtol=1e-10, atol=1e-14).point(W, s0, 20, 8, 32)
+    b = BeamODESolver(m.scene(), solver="DOP853", rtol=1e-10, atol=1e-14).point(W, s0, 20, 8, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower > 0
     np.testing.assert_array_equal(a.impact_stops, b.impact_stops)
