@@ -443,11 +443,9 @@ class BeamImpactModel:
     def stop_codes(self) -> np.ndarray | None:
         """The output code of each of :meth:`stops` (0 the upper stop at the mass, 1 a lower one
         there, 2 + i the point stop i): the stop numbering of the trajectories' ``impact_stops``
-        and of the per-stop outputs; None without point stops (the codes are the indices)."""
-        if not self.point_stops:
-            return None
-        return np.array(list(range(len(self.mass_stops()))) + [2 + i for i in range(len(self.point_stops))],
-                        np.int64)
+        and of the per-stop outputs; None without point stops (the codes are the indices):
+        :func:`vibeam.models.core.event.stop_codes`."""
+        return stop_codes(self.stops())
 
     def contact_rows(self) -> np.ndarray:
         """The contact rows of the system, shape (1 + len(point_stops), N): the attached mass's,
@@ -601,7 +599,7 @@ class BeamODESolver:
         sy = scene.system
         self.n_modes = int(sy.omega.shape[0])
         self._scale = float(sy.coordinate_scale)
-        self._codes = stop_codes(scene)
+        self._codes = stop_codes(scene.stops)
         self._laws = [st.law for st in scene.stops]
         self._rest = rest_state(scene)
         m_eff = float(1.0 / np.sum(np.asarray(sy.contacts[0], float) ** 2))

@@ -19,9 +19,6 @@ import numpy as np
 from .contact import Relation, Restitution, Stop, restitution_coefficients
 from .scene import Scene, sdof_scene
 
-_EMPTY = np.zeros(0)
-
-
 def _upper_law(law, R, R_table, contact):
     """The upper stop's law from the constructor's arguments: ``contact`` (a compliant law) when
     given; else, when ``R`` or ``R_table`` is given, Newton's law with them (what is not given
@@ -184,15 +181,6 @@ class SDOF:
         elif getattr(self.lower_law, "kind", "") == "compliant":
             raise ValueError("contact_lower needs a lower stop (Delta_lower)")
         return out
-
-    def restitution_table(self):
-        """``(velocity, R)`` arrays of a velocity-dependent R (``R_table = ((q'-, R), ...)``,
-        nondimensional q'-, increasing; :func:`vibeam.models.impact.restitution_coefficient`);
-        empty arrays for the constant ``R`` (the plain model)."""
-        if not self.R_table:
-            return _EMPTY, _EMPTY
-        t = np.asarray(self.R_table, dtype=float)
-        return np.ascontiguousarray(t[:, 0]), np.ascontiguousarray(t[:, 1])
 
     # ---- the model protocol of the fidelity registry (vibeam.models.registry)
     #: static-mode value at the contact point over the sensor's: 1, the coordinate is the sensor's

@@ -625,17 +625,22 @@ class EventSolver:
         return rows
 
 
-def stop_codes(scene: Scene) -> np.ndarray | None:
-    """The output code of each of the scene's stops: those on the system's first contact row (the
-    attached mass) their index (0 the upper stop, 1 a lower one), the others ``2 + i`` (point stop
-    ``i``); the numbering of the trajectories' ``impact_stops`` and of the per-stop outputs.
+def stop_codes(stops) -> np.ndarray | None:
+    """The output code of each stop: those on the system's first contact row (the attached mass)
+    their index (0 the upper stop, 1 a lower one), the others ``2 + i`` (point stop ``i``); the
+    numbering of the trajectories' ``impact_stops`` and of the per-stop outputs.
+
+    Parameters
+    ----------
+    stops : sequence of vibeam.models.contact.Stop
+        A scene's stops, those on row 0 first.
 
     Returns
     -------
     ndarray of int, shape (n_s,), or None
         None when every stop is on row 0 (the codes are the indices).
     """
-    at_mass = [st.relation.row == 0 for st in scene.stops]
+    at_mass = [st.relation.row == 0 for st in stops]
     if all(at_mass):
         return None
     n = sum(at_mass)
@@ -722,7 +727,7 @@ class BeamEventSolver:
         self._scale = float(sy.coordinate_scale)
         self._omega_ref = 1.0 / float(sy.time_unit_s)
         self._contact_row = np.asarray(sy.contacts[0], float)
-        self._codes = stop_codes(scene)
+        self._codes = stop_codes(scene.stops)
         codes = range(len(scene.stops)) if self._codes is None else self._codes
         self._laws = {int(c): st.law for c, st in zip(codes, scene.stops)}
         self._rest = rest_state(scene)

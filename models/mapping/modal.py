@@ -61,7 +61,7 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from ..core.event import BeamEventSolver
+from ..core.event import BeamEventSolver, stop_codes
 from ..core.stops import kernel_stops
 from ..system import forcing, modal_flow, modal_transition
 from .newton import damped_newton
@@ -351,11 +351,14 @@ class ModalMappingSolver:
             raise ValueError(f"n must be an integer in 1..4, got {n!r}")
         self.model, self.n, self.form = model, int(n), form
         self.guess_periods, self.tol = int(guess_periods), float(tol)
-        self.system, self.stops = model.scene()
+        scene = model.scene()
+        self.system, self.stops = scene
         ModalMap(self.system, self.stops, 1.0)          # the stops are checked once
-        codes = model.stop_codes()
+        codes = stop_codes(self.stops)
+        #: the stops have codes of their own (point stops): the per-stop outputs are reported
+        self.coded = codes is not None
         self.codes = np.arange(len(self.stops)) if codes is None else np.asarray(codes)
-        self.event = BeamEventSolver(model.scene())
+        self.event = BeamEventSolver(scene)
         self.n_stops = len(self.stops)
 
     def settings(self) -> dict:
@@ -512,7 +515,7 @@ class ModalMappingSolver:
             out.update(impacts_per_period_lower=int(np.sum(lo)) / n,
                        impact_velocity_lower=float(np.mean(v[lo])) if np.any(lo) else math.nan,
                        **contact_means(rows[:, :4], rk == 1, "_lower"))
-        if self.model.stop_codes() is not None:
+        if self.coded:
             size = int(np.max(self.codes)) + 1
             out["stop_impacts_per_period"] = np.array([np.sum(codes == c) / n for c in range(size)], float)
             out["stop_impact_velocity"] = np.array([float(np.mean(v[codes == c])) if np.any(codes == c) else math.nan
@@ -522,7 +525,7 @@ class ModalMappingSolver:
     def _failed(self, reasons) -> dict:
         N2 = 2 * self.system.omega.size
         out = failed_outputs(reasons, N2, N2 + 2, self.n_stops > 1, det_trace=True)
-        if self.model.stop_codes() is not None:
+        if self.coded:
             size = int(np.max(self.codes)) + 1
             out.update(stop_impacts_per_period=np.full(size, math.nan), stop_impact_velocity=np.full(size, math.nan))
         return out
