@@ -596,6 +596,7 @@ class BeamODESolver:
     def __init__(self, scene: Scene, solver: str = "DOP853", rtol: float | None = None,
                  atol: float | None = None, max_impacts_per_period: int = 200,
                  chatter_velocity: float = 1e-6, max_step: float | None = None):
+        self.scene = scene
         sy = scene.system
         self.n_modes = int(sy.omega.shape[0])
         self._scale = float(sy.coordinate_scale)

@@ -34,7 +34,7 @@ import scipy.linalg
 
 from .system import ModalSystem, from_beam, from_sdof
 
-__all__ = ["Scene", "sdof_scene", "beam_scene", "units", "one_mode", "OneMode", "rest_state", "held_modes", "Excitation", "EXCITATION_KINDS",
+__all__ = ["Scene", "sdof_scene", "beam_scene", "units", "outputs", "Outputs", "one_mode", "OneMode", "rest_state", "held_modes", "Excitation", "EXCITATION_KINDS",
            "driven"]
 
 #: the harmonic drives of a scene (:class:`Excitation`)
@@ -92,6 +92,59 @@ def units(sc: Scene) -> dict:
     s = sc.system
     return {"time_s": s.time_unit_s, "length_m": s.length_unit_m, "mass_kg": s.mass_unit_kg,
             "coordinate_scale": s.coordinate_scale}
+
+
+class Outputs(NamedTuple):
+    """What a scene's results are reported in (:func:`outputs`): its physical units and the gap
+    ``Delta`` the amplitude is measured from (paper Sec. 4.1, ``Q = Delta - min q``).
+
+    Attributes
+    ----------
+    natural_frequency_hz : float or None
+        Hz per unit of ``Omega``, ``1 / (2 pi time_unit_s)`` (the SDOF's ``f_n``, the beam's
+        ``f_ref``); None for a nondimensional scene.
+    length_m : float or None
+        Metres per unit of the reported ``q`` (``L``); None for a nondimensional scene.
+    force_scale_n : float or None
+        Newtons per unit of the nondimensional contact force ``F / (m_eff omega_ref^2 L)``,
+        ``mass_unit_kg m_eff length_unit_m / time_unit_s^2`` with ``m_eff = 1 / |W[0]|^2``
+        (joules per unit of energy: this times ``length_m``); None without a known mass.
+    Delta : float
+        The first stop's gap seen at the sensor, in units of ``q``: its offset over the contact
+        row's static ratio (``contact_static``, paper Eq. 45's ``Delta_G = Delta_C / phi(x_m)``)
+        and ``coordinate_scale``; NaN for a scene without stops.
+    n_modes : int
+        The modes of the system.
+    m_eff : float
+        Effective mass at the first contact row, ``1 / |W[0]|^2`` (units of ``mass_unit_kg``).
+    phi_contact : float
+        The first contact row's static ratio to the sensor (1 for the SDOF).
+    """
+
+    natural_frequency_hz: Optional[float]
+    length_m: Optional[float]
+    force_scale_n: Optional[float]
+    Delta: float
+    n_modes: int
+    m_eff: float
+    phi_contact: float
+
+
+def outputs(sc: Scene) -> Outputs:
+    """The units and reference gap of ``sc``'s results (:class:`Outputs`), from its system and
+    first stop alone: what the sweep engine, the attractors and the fit report in."""
+    s = sc.system
+    cs = np.ones(s.contacts.shape[0]) if s.contact_static is None else s.contact_static
+    T, L, mu = s.time_unit_s, s.length_unit_m, s.mass_unit_kg
+    m_eff = float(1.0 / np.sum(np.asarray(s.contacts[0], float) ** 2))
+    fn = None if math.isnan(T) else 1.0 / (2.0 * math.pi * T)
+    fs = None if math.isnan(T) or math.isnan(L) or math.isnan(mu) else mu * m_eff * L / (T * T)
+    Delta = math.nan
+    if sc.stops:
+        rel = sc.stops[0].relation
+        Delta = rel.offset / float(cs[rel.row]) / s.coordinate_scale
+    return Outputs(fn, None if math.isnan(L) else float(L), fs, float(Delta), int(s.omega.shape[0]), m_eff,
+                   float(cs[0]))
 
 
 class OneMode(NamedTuple):

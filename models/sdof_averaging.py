@@ -247,6 +247,7 @@ class AveragingSolver:
     time_domain = False
 
     def __init__(self, scene, k: int = 1):
+        self.scene = scene
         self.one = one_mode(scene, "method 'averaging'")
         self.k = _check_k(k)
 

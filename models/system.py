@@ -53,7 +53,7 @@ References
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 import scipy.linalg
@@ -130,6 +130,13 @@ class ModalSystem(NamedTuple):
         ``p`` in :data:`DRIVE_POWERS`: the forcing amplitude is ``Omega^p A`` (default 2, the base
         displacement drive).  Its equivalent base displacement at ``Omega`` is ``Omega^(p - 2) A``
         (:func:`drive_displacement`), the base-velocity amplitude ``Omega^(p - 1) A``.
+    contact_static : ndarray, shape (n_c,)
+        Each contact row's static deflection under the base load over the sensor's (paper Eq. 45's
+        ``phi(x_m)``: a gap ``Delta_C`` at contact ``k`` is seen at the sensor as ``Delta_C /
+        contact_static[k]``); what the reported gap ``Delta`` of a scene is referred to the
+        sensor by (:func:`vibeam.models.scene.outputs`).  The SDOF: 1; the beam: its ``phi_contact``
+        at the mass (NaN for the rows of stops elsewhere); a matrix model: ``W_k K^-1 M r / s K^-1
+        M r``.  ``None`` only for a system built without :func:`modal_system` (read as ones).
     """
 
     omega: np.ndarray
@@ -143,6 +150,7 @@ class ModalSystem(NamedTuple):
     coordinate_scale: float
     mass_unit_kg: float
     drive_power: int = 2
+    contact_static: Optional[np.ndarray] = None
 
 
 def _vec(x, n, name):
@@ -154,7 +162,7 @@ def _vec(x, n, name):
 
 def modal_system(omega, damping, participation, sensor, contacts, base_amplitude, time_unit_s=math.nan,
                  length_unit_m=math.nan, coordinate_scale=1.0, mass_unit_kg=math.nan,
-                 drive_power=2) -> ModalSystem:
+                 drive_power=2, contact_static=None) -> ModalSystem:
     """A :class:`ModalSystem` from modal data, checked, its arrays contiguous float64.
 
     Parameters
@@ -171,6 +179,9 @@ def modal_system(omega, damping, participation, sensor, contacts, base_amplitude
     drive_power : int, optional
         ``p`` of the forcing amplitude ``Omega^p A`` (:data:`DRIVE_POWERS`; default 2, a base
         displacement ``A = B``).
+    contact_static : array_like, shape (n_c,), optional
+        Each contact's static ratio to the sensor (:class:`ModalSystem`); default ones (a contact
+        row read as the sensor).
 
     Returns
     -------
@@ -199,9 +210,11 @@ def modal_system(omega, damping, participation, sensor, contacts, base_amplitude
         raise ValueError(f"coordinate_scale must be positive and finite, got {coordinate_scale!r}")
     if drive_power not in DRIVE_POWERS:
         raise ValueError(f"drive_power = {drive_power!r}; allowed: {' or '.join(map(str, DRIVE_POWERS))}")
+    n_c = W.shape[0]
+    cs = np.ones(n_c) if contact_static is None else _vec(contact_static, n_c, "contact_static")
     return ModalSystem(om, c, _vec(participation, n, "participation"), _vec(sensor, n, "sensor"), W,
                        float(base_amplitude), float(time_unit_s), float(length_unit_m),
-                       float(coordinate_scale), float(mass_unit_kg), int(drive_power))
+                       float(coordinate_scale), float(mass_unit_kg), int(drive_power), cs)
 
 
 def damping_ratios(system: ModalSystem) -> np.ndarray:
@@ -266,15 +279,17 @@ def from_beam(model) -> ModalSystem:
     -------
     ModalSystem
         ``time_unit_s = 1 / omega_ref``, ``length_unit_m = coordinate_scale = L``,
-        ``mass_unit_kg = 1``.
+        ``mass_unit_kg = 1``, ``contact_static[0] = phi_contact`` (NaN for the other rows).
     """
     om_ref = float(model.omega_ref)
     rows = model.contact_rows() if hasattr(model, "contact_rows") else np.asarray(model.contact_row, float)[None, :]
+    static = np.full(rows.shape[0], math.nan)
+    static[0] = float(model.phi_contact)
     return modal_system(np.asarray(model.omega_rad_s, dtype=float) / om_ref, model.c_nd, model.participation,
                          model.sensor_row, rows,
                          float(model.base_amplitude_m), time_unit_s=1.0 / om_ref,
                          length_unit_m=float(model.length_m), coordinate_scale=float(model.length_m),
-                         mass_unit_kg=1.0)
+                         mass_unit_kg=1.0, contact_static=static)
 
 
 def from_matrices(M, C, K, r=None, sensor=None, contacts=None, base_amplitude_m=0.0, n_modes=None,

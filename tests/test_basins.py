@@ -483,7 +483,7 @@ def test_beam_basins_on_the_sensor_coordinates():
 
     case = load_case("cases/rig-fe-tight.toml")
     beam4 = case.model_spec({"n_modes": 4}).build()
-    ax = axes_of(beam4, "sensor")
+    ax = axes_of(beam4.scene(), "sensor")
     P = np.array([[-0.3, 40.0], [0.2, -15.0]])
     S = ax.to_state(P, np.zeros(9))
     np.testing.assert_allclose(ax.values(S), P, rtol=1e-12, atol=1e-12)
@@ -521,7 +521,7 @@ def test_cell_widths_are_a_200th_of_each_coordinates_range():
     from vibeam.analysis.attractors import _cell_widths
 
     X = np.array([[0.0, -1.0, 0.0, 0.0, 0.0], [2.0, 3.0, 0.0, 0.0, 1.0], [1.0, 0.0, 0.0, 0.0, 0.0]])
-    w = _cell_widths(lambda x, n: X, SimpleNamespace(n_modes=2), 5, SimpleNamespace(write=True), [], [],
+    w = _cell_widths(lambda x, n: X, 5, SimpleNamespace(write=True), [], [],
                      [np.zeros(5)], 2.0)
     np.testing.assert_array_equal(w, [2.0 / 200, 4.0 / 200, 1e-9, 1e-9, 1.0])
 

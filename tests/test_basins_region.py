@@ -34,7 +34,7 @@ def test_the_default_box_lies_between_the_stops():
         m = _model(run=run)
         lo, hi = -float(m.Delta_lower), float(m.Delta)
         for W in (1.6, 2.0, 2.38):
-            (q0, q1), _ = default_ranges(m, axes_of(m, None), W)
+            (q0, q1), _ = default_ranges(m.scene(), axes_of(m.scene(), None), W)
             assert lo <= q0 < q1 <= hi, (run, W, q0, q1, lo, hi)
             assert q1 == hi and q0 == lo            # the span 8 A is larger than the gap here
 
@@ -49,17 +49,17 @@ def test_behind_stop_is_the_closed_form_region():
     S = np.column_stack([rng.uniform(-5e-3, 2e-3, 2000), rng.uniform(-1e-2, 1e-2, 2000), np.zeros(2000)])
     want = (S[:, 0] > m.Delta) | (S[:, 0] < -m.Delta_lower)
     assert want.any() and (~want).any()
-    np.testing.assert_array_equal(behind_stop(m, S), want)
-    g = stop_gaps(m, S)
+    np.testing.assert_array_equal(behind_stop(m.scene(), S), want)
+    g = stop_gaps(m.scene(), S)
     np.testing.assert_allclose(g[:, 0], S[:, 0] - m.Delta, rtol=0, atol=1e-18)
     np.testing.assert_allclose(g[:, 1], -S[:, 0] - m.Delta_lower, rtol=0, atol=1e-18)
     # a state exactly on a stop (the box's edge) is admissible
-    assert not behind_stop(m, [[0.0, 1e-3, 0.0], [-m.Delta_lower, -1e-3, 0.0]]).any()
+    assert not behind_stop(m.scene(), [[0.0, 1e-3, 0.0], [-m.Delta_lower, -1e-3, 0.0]]).any()
     kv = vibeam.api.load_case({"name": "kv", "model": {"fidelity": "sdof", "beta": 0.015, "B": 5e-4, "Delta": 0.0,
                                                        "R": 0.9, "contact": {"law": "linear", "stiffness": 1e4}},
                                "sweep": {"Omega": [2.0, 2.1, 2]}, "run": [{"name": "e", "method": "event"}]})
     mk = make_job(kv, kv.run[0], {}).solver.model
-    assert not behind_stop(mk, S).any()
+    assert not behind_stop(mk.scene(), S).any()
 
 
 def test_states_behind_a_stop_are_excluded_counted_and_not_simulated(tmp_path, monkeypatch):

@@ -72,7 +72,12 @@ def _packed(model) -> dict:
     out.update({f"KernelStops.{k}": v for k, v in ks._asdict().items()})
     out.update({f"HeldSets.{k}": v for k, v in held._asdict().items()})
     out["damping_mismatch"] = np.asarray(mismatch)
-    out.update({f"ModalSystem.{k}": v for k, v in system._asdict().items()})
+    fields = system._asdict()
+    # added after the recording (issue 58: each contact's static ratio to the sensor, read by the
+    # reports, not the kernels): the model's own ratio at its first contact, bit for bit
+    added = fields.pop("contact_static")
+    assert float(added[0]) == float(model.phi_contact), (added, model.phi_contact)
+    out.update({f"ModalSystem.{k}": v for k, v in fields.items()})
     out["stops"] = repr(stops)
     out["class"] = type(model).__name__
     out["initial_state"] = np.asarray(model.initial_state())

@@ -372,6 +372,7 @@ class _Infinite:
 
     def __init__(self):
         self.model = SDOF(**FIG7)
+        self.scene = self.model.scene()
 
     def settings(self):
         return {}

@@ -200,7 +200,7 @@ class _Interrupted:
     chunk_periods = 2000
 
     def __init__(self, model):
-        self.model = model
+        self.model, self.scene = model, model.scene()
 
     def point(self, *a, **k):
         raise _wrapped_interrupt()

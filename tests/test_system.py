@@ -348,3 +348,39 @@ def test_the_system_owns_its_arrays():
     sm.participation[:] = 7.0
     assert np.array_equal(s.contacts, before[0]) and np.array_equal(s.participation, before[1])
     assert all(a.flags.c_contiguous and a.dtype == np.float64 for a in s[:5])
+
+
+def test_the_scenes_outputs_are_its_units_and_the_gap_seen_at_the_sensor():
+    """:func:`vibeam.models.scene.outputs` reads the report's units and the gap ``Delta`` of a
+    scene from its system and first stop alone, against closed forms: the physical SDOF's ``f_n``,
+    ``L`` and force scale ``m (2 pi f_n)^2 L`` and its ``Delta`` bit for bit; a nondimensional
+    SDOF has none of the units; a two-mass chain base--k1--m1--k2--m2 (all modes kept, sensor on
+    m1, the stop on m2) has ``m_eff = m2`` (``1 / (M^-1)_22``) and the static ratio of paper Eq. 45
+    under the base load, ``u2 / u1 = 1 + m2 k1 / ((m1 + m2) k2)`` (the springs carry ``(m1 + m2)
+    a`` and ``m2 a``), so a gap ``g`` at m2 is ``g / (u2 / u1) / L`` at the sensor."""
+    from vibeam.models.beam_dynamics import MatrixImpactModel
+    from vibeam.models.builders.matrices import build_matrices
+    from vibeam.models.scene import outputs
+
+    o = outputs(SDOF(beta=0.02, B=0.01, R=0.8, Delta=0.013, natural_frequency_hz=7.6, length_m=0.18,
+                     mass_kg=0.25).scene())
+    assert o.natural_frequency_hz == pytest.approx(7.6, rel=2e-16) and o.length_m == 0.18
+    assert o.force_scale_n == pytest.approx(0.25 * (2 * math.pi * 7.6) ** 2 * 0.18, rel=1e-15)
+    assert (o.Delta, o.n_modes, o.m_eff, o.phi_contact) == (0.013, 1, 1.0, 1.0)
+    o = outputs(SDOF(beta=0.02, B=0.01, R=0.8, Delta=-0.2).scene())
+    assert (o.natural_frequency_hz, o.length_m, o.force_scale_n, o.Delta) == (None, None, None, -0.2)
+
+    m1, m2, k1, k2, g, Lq = 2.0, 0.5, 3.0e4, 1.2e4, 1.5e-3, 0.1
+    M = np.diag([m1, m2])
+    K = np.array([[k1 + k2, -k2], [-k2, k2]])
+    mm = build_matrices(M, K, damping_ratios=0.02, dofs=["m1", "m2"], sensor="m1", contacts=["m2"], length_m=Lq)
+    sc = MatrixImpactModel.from_matrix_model(mm, R=0.7, gap_contact_m=g, base_amplitude_m=1e-4).scene()
+    o = outputs(sc)
+    ratio = 1.0 + m2 * k1 / ((m1 + m2) * k2)
+    assert float(sc.system.contact_static[0]) == pytest.approx(ratio, rel=1e-13)
+    assert o.phi_contact == pytest.approx(ratio, rel=1e-13)
+    assert o.Delta == pytest.approx(g / ratio / Lq, rel=1e-13)
+    assert o.m_eff == pytest.approx(m2, rel=1e-13) and o.n_modes == 2 and o.length_m == Lq
+    f1 = float(mm.frequencies_hz[0])
+    assert o.natural_frequency_hz == pytest.approx(f1, rel=1e-15)
+    assert o.force_scale_n == pytest.approx(m2 * (2 * math.pi * f1) ** 2 * Lq, rel=1e-13)

@@ -733,11 +733,15 @@ def _fake_case(methods=("event", "averaging", "continuation"), samples=3):
 
 
 def _fakes(monkeypatch, seen):
+    from vibeam.models import SDOF
+
     model = SimpleNamespace(natural_frequency_hz=None, length_m=None, fidelity="sdof")
+    scene = SDOF(beta=0.01, B=0.1, R=0.8, Delta=0.0).scene()      # nondimensional: no units
 
     def make_job(case, r, m, index):
         seen.append((r.name, dict(m), index))
-        return SimpleNamespace(solver=SimpleNamespace(model=model, name=r.method), sweep=SimpleNamespace(Omega=[1.0, 2.0]))
+        return SimpleNamespace(solver=SimpleNamespace(model=model, scene=scene, name=r.method),
+                               sweep=SimpleNamespace(Omega=[1.0, 2.0]))
 
     def plan_lines(solver, sw, name):
         return [SimpleNamespace(direction="up", n_points=2, run=name)]

@@ -30,6 +30,7 @@ from vibeam.engine.jobs import (MAX_POINT_VALUES, MAX_WORK_STEPS, Job, case_jobs
 from vibeam.errors import CaseError, InputError, one_line
 from vibeam.io.results import case_hash, line_group, load_results, read_results, result_groups
 from vibeam.io.store import Store
+from vibeam.models.scene import outputs
 from vibeam.plots.sweep import plot_bifurcation, plot_frc, plot_impacts
 
 
@@ -171,7 +172,7 @@ def run_case(case, text, out_dir, jobs=None, quiet=False, plots=True, quick=Fals
         if source and not str(e).startswith(f"{source}: "):
             raise CaseError(f"{source}: {e}") from None
         raise
-    for fn in {getattr(j.solver.model, "natural_frequency_hz", None) for j in jobs_}:
+    for fn in {outputs(j.solver.scene).natural_frequency_hz for j in jobs_}:
         check_time_series(case, source, fn)
     _notes(case, jobs_)
     check_work(case, jobs_, force=force, source=source)

@@ -850,12 +850,12 @@ def _write_atomic(path: Path, arrays: dict):
 
 _SYSTEM_FIELDS = ("omega", "damping", "participation", "sensor", "contacts", "base_amplitude", "time_unit_s",
                   "length_unit_m", "coordinate_scale", "mass_unit_kg")
-_MODEL_ARRAYS = ("shapes", "frequencies_hz", "damping_ratios", "static", "contact_static")
+_MODEL_ARRAYS = ("shapes", "frequencies_hz", "damping_ratios", "static")
 
 
 def _save(path, model: MatrixModel, extra: dict):
     arrays = {f"system.{k}": np.asarray(getattr(model.system, k)) for k in _SYSTEM_FIELDS}
-    arrays.update({k: getattr(model, k) for k in _MODEL_ARRAYS})
+    arrays.update({k: getattr(model, k) for k in _MODEL_ARRAYS + ("contact_static",)})
     arrays["dofs"] = np.array(model.dofs)
     arrays["names"] = np.array([model.sensor_name, *model.contact_names])
     arrays["caughey_ratio"] = np.array(model.caughey_ratio)
@@ -870,6 +870,7 @@ def _load(path):
             v = z[f"system.{k}"]
             sysd[k] = float(v) if v.ndim == 0 else v
         names = [str(s) for s in z["names"]]
+        sysd["contact_static"] = np.asarray(z["contact_static"], float)
         model = MatrixModel(ModalSystem(**sysd), tuple(str(s) for s in z["dofs"]), names[0], tuple(names[1:]),
                             *(z[k] for k in _MODEL_ARRAYS), float(z["caughey_ratio"]))
         extra = {k[2:]: z[k] for k in z.files if k.startswith("x.")}

@@ -306,8 +306,6 @@ class MatrixModel:
         which is the paper's static mode, a point load at the mass, Eq. 42: for the rig's beam
         ``K^-1 M r`` gives 1.5526 at the mass, the point-load mode 1.5540).  NaN where the sensor
         does not move under that load.
-    contact_static : ndarray, shape (n_c,)
-        The same for each contact row: ``W_k K^-1 M r / s K^-1 M r``.
     caughey_ratio : float
         Largest coupling of a kept mode by ``C`` relative to its own damping,
         ``|C phi_i - c_i M phi_i|_{M^-1} / c_i`` (0 with damping ratios given).
@@ -321,8 +319,13 @@ class MatrixModel:
     frequencies_hz: np.ndarray
     damping_ratios: np.ndarray
     static: np.ndarray
-    contact_static: np.ndarray
     caughey_ratio: float
+
+    @property
+    def contact_static(self) -> np.ndarray:
+        """The same for each contact row, ``W_k K^-1 M r / s K^-1 M r``, shape (n_c,): the system's
+        :attr:`~vibeam.models.system.ModalSystem.contact_static`."""
+        return self.system.contact_static
 
     @property
     def n_modes(self) -> int:
@@ -611,9 +614,10 @@ def build_matrices(M, K, C=None, damping_ratios=None, r="all", Mr=None, dofs=Non
     with np.errstate(divide="ignore", invalid="ignore"):
         static = us / ys if ys != 0.0 else np.full(d, math.nan)
         cstatic = W_phys @ us / ys if ys != 0.0 else np.full(W_phys.shape[0], math.nan)
+    system = system._replace(contact_static=np.asarray(cstatic, float))
     if C is not None:
         with np.errstate(divide="ignore", invalid="ignore"):
             zeta = np.where(c == 0.0, 0.0, c / (2.0 * om))
     return MatrixModel(system, names, s_name, tuple(lab if lab != "row" else f"row {k}" for k, (_, lab) in
                                                     enumerate(rows)),
-                       V, om / TWO_PI, zeta, static, cstatic, ratio_max)
+                       V, om / TWO_PI, zeta, static, ratio_max)

@@ -499,6 +499,7 @@ class EventSolver:
     def __init__(self, scene: Scene, transient_samples: int = 16, chatter_tol: float = 1e-7,
                  max_impacts_per_period: int = 20000, impact_buffer: int = 4096,
                  max_steps_per_call: int | None = None, recurrence: bool = True):
+        self.scene = scene
         self.one = one_mode(scene, "method 'event' of the one-mode oscillator")
         self.recurrence = bool(recurrence)
         self.max_steps_per_call = int(self.MAX_STEPS_PER_CALL if max_steps_per_call is None else max_steps_per_call)
@@ -722,6 +723,7 @@ class BeamEventSolver:
                  max_impacts_per_period: int = 20000, max_steps_per_period: int = 20000,
                  steps_per_fundamental: int = 16, impact_buffer: int = 4096,
                  record_modal_states: bool = False, recurrence: bool = True):
+        self.scene = scene
         sy = scene.system
         self.n_modes = int(sy.omega.shape[0])
         self._scale = float(sy.coordinate_scale)

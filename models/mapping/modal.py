@@ -351,7 +351,7 @@ class ModalMappingSolver:
             raise ValueError(f"n must be an integer in 1..4, got {n!r}")
         self.model, self.n, self.form = model, int(n), form
         self.guess_periods, self.tol = int(guess_periods), float(tol)
-        scene = model.scene()
+        self.scene = scene = model.scene()
         self.system, self.stops = scene
         ModalMap(self.system, self.stops, 1.0)          # the stops are checked once
         codes = stop_codes(self.stops)

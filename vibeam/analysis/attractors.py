@@ -54,6 +54,7 @@ from vibeam.models import shooting_problem
 from vibeam.models.attractors import FAILED, UNSETTLED, Recurrences, set_distance
 from vibeam.models.continuation import start_point
 from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
+from vibeam.models.scene import one_mode, outputs, rest_state
 from vibeam.models.sdof_flow import largest_gap, particular_coefficients
 from vibeam.plots.lazy import plt
 from vibeam.plots.sweep import save_figure
@@ -249,9 +250,9 @@ def strobe(solver, Omega: float, d: int):
     stroboscopic map (``solver.stroboscopic(Omega)``, :meth:`vibeam.models.core.event.EventSolver.stroboscopic`)
     gives those samples and final states without a trajectory per call: the same numbers."""
     Omega = float(Omega)
-    model = solver.model
-    Delta = float(model.Delta)
-    Dl = getattr(model, "Delta_lower", None)
+    osc = _oscillator(solver.scene)      # the one-mode oscillator: its samples are its state but the flag
+    Delta = math.nan if osc is None else float(osc.Delta)
+    Dl = None if osc is None else osc.Delta_lower
     Dl = None if Dl is None or not math.isfinite(Dl) else float(Dl)
 
     def one(x, n):
@@ -289,24 +290,37 @@ def strobe(solver, Omega: float, d: int):
         out[-1] = final
         return out
 
-    probe = solver.point(Omega, np.asarray(model.initial_state(), float), 0, 1, 1)
-    if d == 3 and probe.samples.shape[1] == 2 and not hasattr(model, "n_modes"):
+    if osc is None:
+        return one
+    probe = solver.point(Omega, rest_state(solver.scene), 0, 1, 1)
+    if d == 3 and probe.samples.shape[1] == 2:
         return many
     return one
 
 
+def _oscillator(scene):
+    """The scene's one-mode oscillator (:func:`vibeam.models.scene.one_mode`), or None for a modal
+    structure: what the SDOF's grid, map and grazing curve are read from."""
+    try:
+        return one_mode(scene)
+    except ValueError:
+        return None
+
+
 def state_size(solver) -> int:
-    return int(np.asarray(solver.model.initial_state()).size)
+    """The size ``2 n + 1`` of the solver's state (``n`` modes and the held flag)."""
+    return 2 * outputs(solver.scene).n_modes + 1
 
 
-def first_period_gap(model, Omega: float, q0, v0, samples: int = 256) -> np.ndarray:
+def first_period_gap(osc, Omega: float, q0, v0, samples: int = 256) -> np.ndarray:
     """The largest ``q - Delta`` over one forcing period of the SDOF's free flight (no stop) from
     each initial state ``(q0, v0)`` at forcing phase 0 (arrays of one shape, nondimensional;
     paper Eq. 28, :func:`vibeam.models.sdof_flow.largest_gap` on ``samples`` times): positive
     where the state meets the upper stop within a period, negative where it does not, zero on
-    the states whose next period grazes it."""
-    beta, Delta = float(model.beta), float(model.Delta)
-    a, b = particular_coefficients(beta, float(Omega) ** 2 * float(model.B), float(Omega))
+    the states whose next period grazes it.  ``osc``: the oscillator
+    (:func:`vibeam.models.scene.one_mode`)."""
+    beta, Delta = float(osc.beta), float(osc.Delta)
+    a, b = particular_coefficients(beta, float(Omega) ** 2 * float(osc.B), float(Omega))
     t = np.linspace(0.0, 2 * math.pi / float(Omega), int(samples))
     q0, v0 = np.broadcast_arrays(np.asarray(q0, float), np.asarray(v0, float))
     out = largest_gap(t, np.ascontiguousarray(q0.ravel()), np.ascontiguousarray(v0.ravel()), beta, a, b,
@@ -315,8 +329,8 @@ def first_period_gap(model, Omega: float, q0, v0, samples: int = 256) -> np.ndar
 
 
 # ---------------------------------------------------------------------------- grid of states
-def axes_of(model, coordinates=None) -> Axes:
-    """The grid's coordinates for ``model`` (module docstring).
+def axes_of(scene, coordinates=None) -> Axes:
+    """The grid's coordinates for ``scene`` (module docstring).
 
     A beam takes two of its modal state coordinates (``coordinates = [i, j]``, default the
     first mode's displacement and velocity, the other modes at rest) or ``"sensor"``: the
@@ -330,9 +344,10 @@ def axes_of(model, coordinates=None) -> Axes:
     ValueError
         ``coordinates`` out of range, or modal indices for the SDOF (one line).
     """
-    n = int(getattr(model, "n_modes", 1))
-    if hasattr(model, "n_modes") and coordinates == "sensor":
-        s = model.scene().system
+    n = outputs(scene).n_modes
+    modal = _oscillator(scene) is None
+    if modal and coordinates == "sensor":
+        s = scene.system
         u = s.contacts[0] / s.omega ** 2          # static deflection under a unit load at the contact
         shape = u / float(s.sensor @ u)            # ... scaled to 1 m at the sensor
         z = np.zeros(n)
@@ -341,7 +356,7 @@ def axes_of(model, coordinates=None) -> Axes:
         read = np.array([np.r_[s.sensor * mm, z], np.r_[z, s.sensor * mm_s]])
         return Axes((0, n), (1.0, 1.0), ("U", "U_dot"), ("mm", "mm/s"), (r"$U(L_S)$ (mm)", r"$\dot U(L_S)$ (mm/s)"),
                     write=write, read=read)
-    if hasattr(model, "n_modes"):
+    if modal:
         i, j = (0, n) if coordinates is None else (int(coordinates[0]), int(coordinates[1]))
         for c in (i, j):
             if not 0 <= c < 2 * n:
@@ -354,8 +369,7 @@ def axes_of(model, coordinates=None) -> Axes:
     if coordinates is not None and coordinates != "sensor":
         raise ValueError(f"[basins] coordinates = {list(coordinates)}: modal indices are keys of beam scenes "
                          f"only (the SDOF's grid is (q, q'), or (U, U') at the sensor)")
-    L = getattr(model, "length_m", None)
-    fn = getattr(model, "natural_frequency_hz", None)
+    L, fn = outputs(scene).length_m, outputs(scene).natural_frequency_hz
     if L and fn:
         s = L * 1e3
         return Axes((0, 1), (s, s * 2 * math.pi * fn), ("U", "U_dot"), ("mm", "mm/s"),
@@ -366,23 +380,23 @@ def axes_of(model, coordinates=None) -> Axes:
     return Axes((0, 1), (1.0, 1.0), ("q", "q_dot"), ("1", "1"), (rf"$q$ ({NODIM})", rf"$\dot q$ ({NODIM})"))
 
 
-def stop_gaps(model, states) -> np.ndarray:
+def stop_gaps(scene, states) -> np.ndarray:
     """The gap of every stop at each state: ``g_k = s_k W[row_k] @ eta - offset_k`` (< 0 free,
     > 0 behind the stop; paper Eq. 2's ``q - Delta`` for the SDOF's upper stop).
 
     Parameters
     ----------
-    model : SDOF or beam model
+    scene : vibeam.models.scene.Scene
     states : array_like, shape (m, d) or (d,)
-        Model states ``(eta, eta', ...)``; the first ``n_modes`` entries are the modal
+        States ``(eta, eta', ...)``; the first ``n_modes`` entries are the modal
         coordinates (the SDOF's ``q``).
 
     Returns
     -------
     ndarray, shape (m, n_stops)
-        In the model's own units (the SDOF: nondimensional; the beam: metres).
+        In the system's row units (the SDOF: nondimensional; the beam: metres).
     """
-    s, stops = model.scene()
+    s, stops = scene
     n = s.omega.size
     S = np.atleast_2d(np.asarray(states, float))
     eta = S[:, :n]
@@ -393,14 +407,14 @@ def stop_gaps(model, states) -> np.ndarray:
     return out
 
 
-def behind_stop(model, states) -> np.ndarray:
+def behind_stop(scene, states) -> np.ndarray:
     """Whether each state lies behind a rigid (impulsive, Newton's law) stop: outside the region
     the motion can reach, so the event kernels would project it onto the stop.  A compliant
     stop admits penetration (its contact phase), so a state behind it is admissible.
 
     Parameters
     ----------
-    model : SDOF or beam model
+    scene : vibeam.models.scene.Scene
     states : array_like, shape (m, d) or (d,)
 
     Returns
@@ -409,10 +423,10 @@ def behind_stop(model, states) -> np.ndarray:
         True where some impulsive stop's gap (:func:`stop_gaps`) exceeds 1e-12 of the larger of
         the stop's offset and the contact coordinate (round-off of a state placed on the stop).
     """
-    s, stops = model.scene()
+    s, stops = scene
     n = s.omega.size
     S = np.atleast_2d(np.asarray(states, float))
-    g = stop_gaps(model, S)
+    g = stop_gaps(scene, S)
     out = np.zeros(S.shape[0], bool)
     for k, st in enumerate(stops):
         if getattr(st.law, "kind", "") == "compliant":
@@ -422,12 +436,12 @@ def behind_stop(model, states) -> np.ndarray:
     return out
 
 
-def axis_stops(model, axes: Axes, k: int = 0) -> list:
+def axis_stops(scene, axes: Axes, k: int = 0) -> list:
     """Where each stop closes on axis ``k`` of a basin grid, the other coordinates at rest:
     ``[(position, d)]`` in axis units, a state with ``d (x - position) > 0`` lying behind the
     stop (``d = +1``: an upper bound of the admissible region, ``-1`` a lower one).  Stops whose
     contact coordinate does not move along the axis (a velocity axis) are left out."""
-    s, stops = model.scene()
+    s, stops = scene
     n = s.omega.size
     out = []
     for st in stops:
@@ -447,11 +461,11 @@ def axis_stops(model, axes: Axes, k: int = 0) -> list:
     return out
 
 
-def _admissible_interval(model, axes: Axes, k: int, span: float, centre: float = 0.0) -> tuple:
+def _admissible_interval(scene, axes: Axes, k: int, span: float, centre: float = 0.0) -> tuple:
     """The default range of axis ``k``: from the nearest upper bound (a stop) ``span`` down, not
     past a lower bound (a second stop), or from a lower bound ``span`` up; ``centre +- span``
     without a stop on the axis."""
-    st = axis_stops(model, axes, k)
+    st = axis_stops(scene, axes, k)
     upper = [p for p, d in st if d > 0]
     lower = [p for p, d in st if d < 0]
     if upper:
@@ -466,16 +480,16 @@ def _admissible_interval(model, axes: Axes, k: int, span: float, centre: float =
     return (centre - span, centre + span)
 
 
-def _sensor_stop(model, axes: Axes):
-    """The stop's position on a beam's ``U`` axis (mm): where the static shape closes the gap at
-    the contact point; None where the contact row does not move in that shape."""
-    s = model.scene().system
+def _sensor_stop(scene, axes: Axes):
+    """The first stop's position on a beam's ``U`` axis (mm): where the static shape closes its
+    gap at the contact point; None where the contact row does not move in that shape."""
+    s = scene.system
     n = s.omega.size
     wc = float(s.contacts[0] @ axes.write[0, :n])      # contact displacement (m) per mm at the sensor
-    return float(model.gap_contact_m) / wc if wc != 0.0 else None
+    return float(scene.stops[0].relation.offset) / wc if wc != 0.0 else None
 
 
-def default_ranges(model, axes: Axes, Omega: float) -> tuple:
+def default_ranges(scene, axes: Axes, Omega: float) -> tuple:
     """A box around the stop holding the attractors of a usual scene, inside the admissible
     region: for the SDOF ``q`` over ``[Delta - 8 A, Delta]``, ``q'`` over ``[-8 A Omega, 8 A
     Omega]`` with ``A = max(|Delta|, X)`` (``X`` the linear response amplitude without the
@@ -483,20 +497,19 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
     which it alone closes the gap at the contact row.  A second stop (a two-sided scene) bounds
     the range from the other side (:func:`axis_stops`): no state of the default box lies behind
     a stop."""
-    B = float(getattr(model, "B", 0.0) or 0.0)
-    beta = float(getattr(model, "beta", 0.0) or 0.0)
-    Delta = float(model.Delta)
-    if hasattr(model, "n_modes") and axes.write is not None:     # U, U' at the sensor
-        s = model.scene().system
+    osc = _oscillator(scene)
+    gap = float(scene.stops[0].relation.offset)      # the first stop's offset (the contact row's unit)
+    if osc is None and axes.write is not None:     # U, U' at the sensor
+        s = scene.system
         resp = s.sensor * s.participation * Omega ** 2 * s.base_amplitude / (s.omega ** 2 - Omega ** 2
                                                                              + 1j * s.damping * Omega)
         X = abs(complex(np.sum(resp))) * 1e3                  # linear response at the sensor, mm
-        stop = _sensor_stop(model, axes)
+        stop = _sensor_stop(scene, axes)
         A = max(X, abs(stop) if stop is not None else 0.0, 1e-300)
         V = 8 * A * Omega / (s.time_unit_s * 1.0)              # mm/s: Omega per unit of kernel time
-        return (_admissible_interval(model, axes, 0, 8 * A), (-V, V))
-    if hasattr(model, "n_modes"):
-        s = model.scene().system
+        return (_admissible_interval(scene, axes, 0, 8 * A), (-V, V))
+    if osc is None:
+        s = scene.system
         n = s.omega.size
         rng = []
         for c_ in axes.index:
@@ -504,18 +517,18 @@ def default_ranges(model, axes: Axes, Omega: float) -> tuple:
             w, c, G = float(s.omega[i]), float(s.damping[i]), float(s.participation[i])
             X = abs(G) * Omega ** 2 * s.base_amplitude / math.hypot(w * w - Omega ** 2, c * Omega)
             wc = float(s.contacts[0, i])
-            stop = float(model.gap_contact_m) / wc if wc != 0.0 else math.nan
+            stop = gap / wc if wc != 0.0 else math.nan
             A = max(X, abs(stop) if math.isfinite(stop) else 0.0, 1e-300)
             if vel:
                 rng.append((-8 * A * Omega, 8 * A * Omega))
             else:
                 # the admissible side of the stops: the mode's contact-row entries set it
-                rng.append(_admissible_interval(model, axes, len(rng), 8 * A))
+                rng.append(_admissible_interval(scene, axes, len(rng), 8 * A))
         return tuple(rng)
-    X = Omega ** 2 * B / max(math.hypot(1 - Omega ** 2, 2 * beta * Omega), 1e-300)
-    A = max(abs(Delta), X, 1e-12)
+    X = Omega ** 2 * osc.B / max(math.hypot(1 - Omega ** 2, 2 * osc.beta * Omega), 1e-300)
+    A = max(abs(osc.Delta), X, 1e-12)
     f0, f1 = axes.factor
-    return (_admissible_interval(model, axes, 0, f0 * 8 * A), (-f1 * 8 * A * Omega, f1 * 8 * A * Omega))
+    return (_admissible_interval(scene, axes, 0, f0 * 8 * A), (-f1 * 8 * A * Omega, f1 * 8 * A * Omega))
 
 
 # ---------------------------------------------------------------------------- the work
@@ -723,7 +736,7 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
     if len(X) == 0:
         # a set the recurrence recorded without a sample (its states' integration failed): nothing
         # of it can be described, and a number for it would be made up
-        dprob = 2 * int(getattr(model, "n_modes", 1))
+        dprob = 2 * outputs(solver.scene).n_modes
         nan = np.nan
         return dict(period=0, impacts_per_period=nan, amplitude=nan, amplitude_min=nan, amplitude_max=nan,
                     stable=-1, fixed_point=np.full(dprob + 1, nan), status="failed",
@@ -757,7 +770,7 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
                            f"and not on another: round-off decides the period (not periodic to machine "
                            f"precision)")
                 n = 0
-    dprob = 2 * int(getattr(model, "n_modes", 1))
+    dprob = 2 * outputs(solver.scene).n_modes
     out = dict(period=max(n, 1) if periodic else 0, impacts_per_period=float(s["impacts_per_period"]), amplitude=float(s["amplitude"]),
                amplitude_min=float(s["amplitude_min"]), amplitude_max=float(s["amplitude_max"]),
                stable=-1, fixed_point=np.full(x.size, np.nan), status=s["status"], message=s["message"],
@@ -827,14 +840,14 @@ def _pick_solver(case, run_name):
                     f"name it with [basins] run")
 
 
-def _cell_widths(step, model, d, axes: Axes, xs, ys, x_state, Omega):
+def _cell_widths(step, d, axes: Axes, xs, ys, x_state, Omega):
     """Cell widths: the grid's spacing in its two coordinates, 1 in the flag, and in every other
     coordinate 1/200 of its range over 200 periods from three states of the box."""
     w = np.full(d, np.nan)
     if axes.write is None:       # physical axes: every modal coordinate's width from its range
         w[axes.index[0]] = (xs[1] - xs[0]) / axes.factor[0] if len(xs) > 1 else abs(xs[0]) / 100 or 1e-6
         w[axes.index[1]] = (ys[1] - ys[0]) / axes.factor[1] if len(ys) > 1 else abs(ys[0]) / 100 or 1e-6
-    n_mech = 2 * int(getattr(model, "n_modes", 1))
+    n_mech = d - 1               # the state (eta, eta', flag)
     if d > n_mech:
         w[n_mech:] = 1.0
     rest = [i for i in range(n_mech) if not np.isfinite(w[i])]
@@ -998,11 +1011,10 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
     name, job = _pick_solver(case, spec.run if run is None else run)
     slices = _slices(case, spec, name, job)
     solver = job.solver
-    model = solver.model
     Omegas = np.array([W for W, _, _ in slices])
-    fns = [getattr(j.solver.model, "natural_frequency_hz", None) for _, j, _ in slices]
+    fns = [outputs(j.solver.scene).natural_frequency_hz for _, j, _ in slices]
     try:
-        axes = axes_of(model, spec.coordinates)
+        axes = axes_of(solver.scene, spec.coordinates)
     except ValueError as e:
         raise CaseError(str(e)) from None
     d = state_size(solver)
@@ -1036,8 +1048,7 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
     for iO, (Omega, job_i, value) in enumerate(slices):
         t0 = time.perf_counter()
         solver = job_i.solver
-        model = solver.model
-        r0 = default_ranges(model, axes, float(Omega))
+        r0 = default_ranges(solver.scene, axes, float(Omega))
         xr = tuple(spec.x_range) if spec.x_range is not None else r0[0]
         yr = tuple(spec.y_range) if spec.y_range is not None else r0[1]
         if grid:
@@ -1051,17 +1062,16 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
             pts = [initial[k:k + per] for k in range(0, len(initial), per)]
             wx, wy = (xr[1] - xr[0]) / 200, (yr[1] - yr[0]) / 200
             xs, ys = np.array([xr[0], xr[0] + wx]), np.array([yr[0], yr[0] + wy])
-        base = np.asarray(model.initial_state(), float).copy()
-        base[:] = 0.0
+        base = np.zeros(d)
 
         def to_state(P):
             return axes.to_state(P, base)
 
         step = strobe(solver, float(Omega), d)
         corners = to_state(np.array([[xr[0], yr[0]], [xr[1], yr[1]], [0.5 * (xr[0] + xr[1]), 0.0]]))
-        width = _cell_widths(step, model, d, axes, xs, ys, corners, Omega)
+        width = _cell_widths(step, d, axes, xs, ys, corners, Omega)
         origin = np.zeros(d)
-        n_mech = 2 * int(getattr(model, "n_modes", 1))
+        n_mech = d - 1
         if axes.write is None:
             origin[axes.index[0]] = xs[0] / axes.factor[0] - 0.5 * width[axes.index[0]]
             origin[axes.index[1]] = ys[0] / axes.factor[1] - 0.5 * width[axes.index[1]]
@@ -1073,7 +1083,7 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
                           max_periods=spec.max_periods, basin_hits=spec.basin_hits)
         token = f"{case.name}/{name}/{float(Omega)!r}/{value!r}/{os.getpid()}/{time.time_ns()}"
         lines = [BasinLine(key=f"{iO:04d}-{k:04d}", run=name, token=token, solver=solver, Omega=float(Omega),
-                           states=to_state(P), recurrence=recurrence, skip=behind_stop(model, to_state(P)))
+                           states=to_state(P), recurrence=recurrence, skip=behind_stop(solver.scene, to_state(P)))
                  for k, P in enumerate(pts)]
         todo = [l for l in lines if l.key not in stored]
         buffer: dict = {}
@@ -1119,7 +1129,7 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
             periods[iO] += row["periods"]
         lab = np.concatenate(flat)
         labels[iO] = lab.reshape(ny, nx) if grid else lab
-        desc = [describe_attractor(solver, X, float(Omega), float(model.Delta), spec.record_periods,
+        desc = [describe_attractor(solver, X, float(Omega), outputs(solver.scene).Delta, spec.record_periods,
                                    spec.lyapunov_periods, case.sweep.period_rtol) for X in groups]
         checked[iO], wrong[iO] = verify_labels(solver, float(Omega), d, np.concatenate([l.states for l in lines]),
                                                lab, groups, width, spec.verify, spec.verify_periods,
@@ -1131,12 +1141,13 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
             dsc["fraction_se"] = (math.sqrt(dsc["fraction"] * (1 - dsc["fraction"]) / counted.size)
                                   if counted.size else math.nan)
         per_Omega.append((desc, width))
-        if grid and axes.names[0] in ("q", "U") and not hasattr(model, "n_modes"):
+        osc = _oscillator(solver.scene)
+        if grid and axes.names[0] in ("q", "U") and osc is not None:
             Q0, V0 = np.meshgrid(xs / axes.factor[0], ys / axes.factor[1])
-            grazing.append(first_period_gap(model, float(Omega), Q0, V0))
+            grazing.append(first_period_gap(osc, float(Omega), Q0, V0))
         wall[iO] = time.perf_counter() - t0
     attractors = _track(per_Omega, labels)
-    L = getattr(model, "length_m", None)
+    L = outputs(solver.scene).length_m
     fn = fns[-1]
     return BasinsResult(name=name, Omega=np.asarray(Omegas, float),
                         frequency_hz=np.asarray(Omegas) * np.asarray(fns, float) if fn else None,
@@ -1145,10 +1156,10 @@ def compute(case, run: str | None = None, jobs: int | None = 1, executor=None, p
                         amplitude_scale_mm=L * 1e3 if L else None,
                         time_scale_s=1.0 / (2 * math.pi * fn) if fn else None,
                         settings=spec.model_dump(),
-                        stop=(_sensor_stop(model, axes) if axes.write is not None else
-                              float(model.Delta) * axes.factor[0] if axes.names[0] in ("q", "U") else None),
+                        stop=(_sensor_stop(solver.scene, axes) if axes.write is not None else
+                              outputs(solver.scene).Delta * axes.factor[0] if axes.names[0] in ("q", "U") else None),
                         grazing=np.array(grazing) if grazing else None,
-                        stops=tuple(axis_stops(model, axes, 0)),
+                        stops=tuple(axis_stops(solver.scene, axes, 0)),
                         labels_checked=checked, labels_wrong=wrong,
                         parameter=case.map.parameter if spec.along == "map" else "Omega",
                         values=np.array([v for _, _, v in slices], float) if spec.along == "map" else None)
@@ -1165,14 +1176,14 @@ def _slices(case, spec, name: str, job) -> list:
         ``along = "map"`` without a ``[map]`` table or with other than one frequency; a frequency
         in Hz for a nondimensional scene (one line each).
     """
-    def frequencies(model):
+    def frequencies(solver):
         try:
-            return spec.frequencies(case.sweep, getattr(model, "natural_frequency_hz", None))
+            return spec.frequencies(case.sweep, outputs(solver.scene).natural_frequency_hz)
         except ValueError as e:
             raise CaseError(f"case {case.name}: {e}") from None
 
     if spec.along == "frequency":
-        return [(float(W), job, None) for W in frequencies(job.solver.model)]
+        return [(float(W), job, None) for W in frequencies(job.solver)]
     if case.map is None:
         raise CaseError(f"case {case.name}: [basins] along = \"map\": the case has no [map] table; "
                         f"allowed: along = \"frequency\", or add a [map]")
@@ -1180,7 +1191,7 @@ def _slices(case, spec, name: str, job) -> list:
     out = []
     for j, v in enumerate(case.map.grid()):
         jb = make_job(case, r, dict(r.model, **{case.map.parameter: float(v)}), j)
-        W = frequencies(jb.solver.model)
+        W = frequencies(jb.solver)
         if len(W) != 1:
             raise CaseError(f"case {case.name}: [basins] along = \"map\" needs one forcing frequency "
                             f"(frequency_hz or Omega), got {len(W)}; allowed: one value")

@@ -37,6 +37,7 @@ from vibeam.models import SHOOTING, make_solver, shooting_problem
 from vibeam.models.continuation import (FOLD, GRAZING, PERIOD_DOUBLING, ContinuationError, FiniteDifferenceParameter,
                                         ScaledParameter, Settings, trace, trace_curves)
 from vibeam.models.interrupts import reraise_interrupt
+from vibeam.models.scene import outputs
 from vibeam.plots import style
 from vibeam.plots.lazy import plt
 from vibeam.plots.style import label, proxy
@@ -284,10 +285,10 @@ def _sweep_start(task, spec, value):
         # the sweep's own settling (transient_periods = "auto", e.g. a [quick] variant's)
         sw = Sweep(Omega=np.array([float(Omega)]), transient_periods="auto", record_periods=task.sweep_periods[1],
                    samples_per_period=16)
-        tr, n_tr, _ = settle_transient(solver, float(Omega), None, sw, model.Delta, PointClock())
+        tr, n_tr, _ = settle_transient(solver, float(Omega), None, sw, outputs(solver.scene).Delta, PointClock())
     else:
         tr = solver.point(float(Omega), None, n_tr, task.sweep_periods[1], 16)
-    sm = summarize(tr, model.Delta)
+    sm = summarize(tr, outputs(solver.scene).Delta)
     if tr.status == "failed":
         return None, 0, f"the event run failed: {tr.message}"
     n = int(sm["period"])

@@ -40,6 +40,7 @@ from vibeam.errors import CaseError, InputError
 from vibeam.io.h5check import open_checked
 from vibeam.io.netcdf import json_default, read_attrs, read_plain, var, write_group
 from vibeam.io.store import case_hash
+from vibeam.models.scene import outputs
 
 __all__ = ["QUANTILES", "JUMP_FRACTION", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_CONFIDENCE", "UncertaintyResult", "SampleTask", "sample_arrays", "sample_runs", "verdict",
            "RESOLVED_FRACTION", "verdict_text", "jump_share",
@@ -441,11 +442,11 @@ def plan_samples(case, spec=None, samples: int | None = None, done: dict | None 
         # the first sample's job: the grid, the layout, the scene's units and the kernels to load
         job = make_job(case, r, dict(r.model, **{n: float(v) for n, v in zip(names, design[0])}), 0)
         lines = plan_lines(job.solver, job.sweep, r.name)
-        model = job.solver.model
+        out = outputs(job.solver.scene)
         meta[r.name] = {"dirs": tuple(dict.fromkeys(l.direction for l in lines)),
                         "Omega": np.sort(np.asarray(job.sweep.Omega, float)),
-                        "fn": getattr(model, "natural_frequency_hz", None), "L": getattr(model, "length_m", None),
-                        "fidelity": model.fidelity, "method": job.solver.name}
+                        "fn": out.natural_frequency_hz, "L": out.length_m,
+                        "fidelity": job.solver.model.fidelity, "method": job.solver.name}
         n_pts = sum(l.n_points for l in lines)
         todo = [i for i in range(design.shape[0]) if i not in done.get(r.name, {})]
         if todo:

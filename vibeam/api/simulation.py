@@ -23,6 +23,7 @@ from vibeam.engine.sweep import simulate as simulate_point
 from vibeam.errors import InputError, quote_value
 from vibeam.models import make_solver, shooting_problem
 from vibeam.models.lyapunov import lyapunov_spectrum
+from vibeam.models.scene import outputs
 from vibeam.plots.lazy import plt
 from vibeam.plots.sweep import simulation_figure
 from vibeam.runner import MAX_POINT_VALUES, MAX_WORK_STEPS, check_work, make_job, point_work
@@ -237,9 +238,8 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
     if transient == "auto":
         raise ValueError("transient = 'auto': simulate runs a fixed transient (the sweep settles 'auto'); "
                          "allowed: a whole number >= 0")
-    model = solver.model
-    fn = getattr(model, "natural_frequency_hz", None)
-    L = getattr(model, "length_m", None)
+    out = outputs(solver.scene)
+    fn, L = out.natural_frequency_hz, out.length_m
     if frequency_hz is not None:
         if not fn:
             raise ValueError(f"frequency_hz = {frequency_hz!r}: needs a physical scene (natural_frequency_hz); "
@@ -249,13 +249,13 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
         raise ValueError(f"method {solver.name!r} computes no time history; use a time-domain method "
                          f"(event, direct, zhuravlev, ivanov)")
     if state is not None:
-        state = _check_state(state, model)
+        state = _check_state(state, solver.scene)
     _check_point_work(case, job if case is not None else None, solver, Omega, int(transient), int(periods),
                       int(spp), force, settings)
 
     # the sweep engine's calls of bounded work: Ctrl-C stops a long simulation between them
     traj = simulate_point(solver, float(Omega), state, int(transient), int(periods), int(spp))
-    summ = summarize(traj, float(model.Delta), period_rtol)
+    summ = summarize(traj, out.Delta, period_rtol)
     return Simulation(Omega=float(Omega), t=traj.t, q=traj.samples[:, 0].copy(), dq=traj.samples[:, 1].copy(),
                       impact_times=np.asarray(traj.impact_times), impact_velocities=np.asarray(traj.impact_velocities),
                       summary=summ, status=summ["status"], message=summ["message"], final_state=traj.final_state,
@@ -389,14 +389,14 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
 STATE_MAX = 1e100
 
 
-def _check_state(state, model) -> np.ndarray:
-    """An initial state (TypeError/ValueError): the model's displacements and velocities
+def _check_state(state, scene) -> np.ndarray:
+    """An initial state (TypeError/ValueError): the scene's displacements and velocities
     (``(q, q')``, or ``(eta, eta')`` of a modal beam: ``n - 1`` numbers), optionally followed by the
     held flag (``n`` numbers, :meth:`initial_state`'s layout); returned with the flag (0, free,
     when it was left out).  The one check of every initial state a user gives (:func:`simulate`,
     and through it :func:`poincare` and :func:`lyapunov`): finite numbers, the held flag
     consistent with the state (:func:`_check_held`), nothing behind a rigid stop."""
-    n = int(np.size(model.initial_state()))
+    n = 2 * outputs(scene).n_modes + 1
     allowed = (f"{n - 1} or {n} finite numbers: the displacements and velocities{' (q, dq)' if n == 3 else ''}, "
                f"optionally followed by the held flag (0 free, 1 held on the upper stop, -1 on the lower one)")
     try:
@@ -409,12 +409,10 @@ def _check_state(state, model) -> np.ndarray:
         raise ValueError(f"state = {quote_value(state)}: allowed: |values| <= {STATE_MAX:g} (the record's energies "
                          f"and spreads square them: 1e300 overflows double precision)")
     x = np.append(x, 0.0) if x.size == n - 1 else x
-    if hasattr(model, "stops"):
-        _check_held(state, model, x)
-
-    if hasattr(model, "stops") and behind_stop(model, x[None, :])[0]:
+    _check_held(state, scene, x)
+    if behind_stop(scene, x[None, :])[0]:
         # the kernels would project it onto the stop and report a motion it never had
-        g = stop_gaps(model, x[None, :])[0]
+        g = stop_gaps(scene, x[None, :])[0]
         k = int(np.argmax(g))
         raise ValueError(f"state = {quote_value(state)}: lies behind stop {k} (gap {g[k]:.6g} > 0, the "
                          f"{'upper' if k == 0 else 'lower' if k == 1 else 'point'} stop); allowed: a state the "
@@ -443,7 +441,7 @@ def _held_codes(n_stops: int) -> str:
             f"(at most {2 ** n_stops - 1})")
 
 
-def _check_held(state, model, x) -> None:
+def _check_held(state, scene, x) -> None:
     """The held flag ``x[-1]`` of an initial state against its coordinates (ValueError, one line).
 
     The flag names the stops the state is on (:func:`vibeam.models.core.stops.held_code`: 0 free,
@@ -454,8 +452,7 @@ def _check_held(state, model, x) -> None:
     (gap 0) with no velocity along its normal; in contact with a compliant stop, not outside it
     (gap >= 0); all to :data:`HELD_RTOL`.
     """
-    sc = model.scene()
-    stops, system = sc.stops, sc.system
+    stops, system = scene.stops, scene.system
     ns = len(stops)
     code = float(x[-1])
     allowed = _held_codes(ns)
@@ -522,9 +519,9 @@ def _check_point_work(case, job, solver, Omega, transient, periods, spp, force, 
             raise InputError(msg.replace("the case needs", "the point needs")
                              .replace("pass --force", "pass force=True")) from None
         return
-    w = point_work(Omega, transient, periods, spp, dofs=max(1, int(np.size(solver.model.initial_state())) // 2),
+    w = point_work(Omega, transient, periods, spp, dofs=outputs(solver.scene).n_modes,
                    method=solver.name, transient_samples=int(settings.get("transient_samples", 16)),
-                   model=solver.model)
+                   scene=solver.scene)
     if w["point_values"] > MAX_POINT_VALUES:
         raise InputError(f"simulate: periods = {periods}, samples_per_period = {spp}: the point would record "
                          f"{w['point_values']:.3g} values (limit {MAX_POINT_VALUES:.0e}); record fewer periods or "

@@ -150,6 +150,7 @@ class EffectSolver:
     def __init__(self, inner, spec, effects, settings, active, f_n_hz):
         self.inner = inner
         self.model = inner.model
+        self.scene = inner.scene
         self.name = inner.name
         self.time_domain = inner.time_domain
         self.chunk_periods = getattr(inner, "chunk_periods", None)

@@ -17,6 +17,7 @@ from vibeam.engine.effects import wrap_solver
 from vibeam.engine.sweep import Sweep
 from vibeam.errors import CaseError, InputError, one_line, quote_value
 from vibeam.models import make_solver
+from vibeam.models.scene import one_mode, outputs
 
 
 @dataclass
@@ -93,18 +94,17 @@ def _dofs(spec) -> int:
     return int(spec.dofs())
 
 
-def _work_factor(model) -> float:
-    """The largest ``work_factor`` of the model's stop laws (1 without stops): what one point
+def _work_factor(scene) -> float:
+    """The largest ``work_factor`` of the scene's stop laws (1 without stops): what one point
     costs against the event grid's step count (a Newton stop 1, Kelvin-Voigt about 12, the
     hysteretic-Hertz family about 300: their contact phases are integrated; measured on the
     cell matrix by ``vibeam bench --estimate``)."""
-    stops = getattr(model, "stops", None)
-    laws = [s.law for s in stops()] if callable(stops) else []
-    return max([float(getattr(law, "work_factor", 1.0)) for law in laws], default=1.0)
+    return max([float(getattr(s.law, "work_factor", 1.0)) for s in scene.stops], default=1.0)
 
 
-def _contact_steps(model, Omega, spec=None):
-    """Steps per forcing period that a compliant stop adds, or None (Newton's law, a beam).
+def _contact_steps(scene, Omega, spec=None):
+    """Steps per forcing period that a compliant first stop of the one-mode oscillator adds
+    (:func:`vibeam.models.scene.one_mode`), or None (Newton's law, a modal structure).
 
     The contact phase is stepped at 1/16 of its own natural period ``2 pi / sqrt(1 + k_c)``
     (about: the event integrator's ``hcap``, :class:`vibeam.models.core.phases.ContactPhases`), so its
@@ -114,12 +114,15 @@ def _contact_steps(model, Omega, spec=None):
     (``8 sqrt(1 + k_c) / Omega`` steps); a stop with a gap is met in impacts of half a contact
     period (8 steps each, one per period counted).  Returns ``(steps, key, value)``, steps of
     the shape of ``Omega``, with the case key that sets the stiffness."""
-    law = getattr(model, "contact", None)
-    k = getattr(law, "stiffness", None)
-    if k is None or getattr(model, "fidelity", "") != "sdof":
+    k = getattr(scene.stops[0].law, "stiffness", None) if scene.stops else None
+    if k is None:
+        return None
+    try:
+        one_mode(scene)
+    except ValueError:
         return None
     w = np.sqrt(1.0 + float(k))
-    steps = 8.0 * w / Omega if float(model.Delta) <= 0.0 else np.full(np.shape(Omega), 8.0)
+    steps = 8.0 * w / Omega if outputs(scene).Delta <= 0.0 else np.full(np.shape(Omega), 8.0)
     given = spec.stiffness_key() if hasattr(spec, "stiffness_key") else None
     return (steps, *given) if given is not None else (steps, "model.contact.stiffness", float(k))
 
@@ -187,7 +190,7 @@ def estimate_work(case, jobs_=None) -> dict:
         ts = getattr(r, "transient_samples", 16)
         spp = job.sweep.samples_per_period
         sub = _STEPS_PER_NATURAL_PERIOD / Om
-        con = _contact_steps(job.solver.model, Om, job.spec)
+        con = _contact_steps(job.solver.scene, Om, job.spec)
         if con is not None and float(np.max(con[0])) > worst_contact[2]:
             worst_contact = (con[1], con[2], float(np.max(con[0])))
         con = 0.0 if con is None else con[0]
@@ -200,7 +203,7 @@ def estimate_work(case, jobs_=None) -> dict:
         per = (n_tr * (np.maximum(ts, sub) + con) + n_rec * (np.maximum(spp, sub) + con)
                + n_ly * (np.maximum(ts, sub) + con))
         cost = ODE_STEP_COST if r.method in ("direct", "zhuravlev", "ivanov") else 1.0
-        factor = _work_factor(job.solver.model) if cost == 1.0 else 1.0
+        factor = _work_factor(job.solver.scene) if cost == 1.0 else 1.0
         steps += n_dir * float(per.sum()) * dofs * cost
         per_min = (n_tr_min * (np.maximum(ts, sub) + con) + job.sweep.record_periods * (np.maximum(spp, sub) + con)
                    + n_ly * (np.maximum(ts, sub) + con))
@@ -236,14 +239,14 @@ def estimate_work(case, jobs_=None) -> dict:
 
 
 def point_work(Omega: float, transient_periods: int, record_periods: int, samples_per_period: int,
-               dofs: int = 1, method: str = "event", transient_samples: int = 16, model=None) -> dict:
+               dofs: int = 1, method: str = "event", transient_samples: int = 16, scene=None) -> dict:
     """The work of one time-domain point as :func:`estimate_work` counts it (its per-point
-    term, with a compliant stop's contact steps of ``model``): ``steps`` and
+    term, with a compliant stop's contact steps of ``scene``): ``steps`` and
     ``point_values``, for a point simulated outside a case's sweep (:func:`vibeam.api.simulate`
     with a model), checked against the same limits."""
     Om = max(float(Omega), 1e-300)
     sub = _STEPS_PER_NATURAL_PERIOD / Om
-    con = _contact_steps(model, np.array([Om])) if model is not None else None
+    con = _contact_steps(scene, np.array([Om])) if scene is not None else None
     con = float(con[0][0]) if con is not None else 0.0
     cost = ODE_STEP_COST if method in ("direct", "zhuravlev", "ivanov") else 1.0
     steps = (transient_periods * (max(transient_samples, sub) + con)

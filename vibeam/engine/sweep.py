@@ -37,6 +37,7 @@ from vibeam.models.continuation import start_point
 from vibeam.models.interrupts import check as check_interrupt
 from vibeam.models.interrupts import reraise_interrupt
 from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
+from vibeam.models.scene import outputs
 from vibeam.models.trajectory import concatenate
 
 # the per-point outputs and their units: vibeam.io.outputs (re-exported here)
@@ -536,7 +537,7 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
 def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
     """The point's Lyapunov spectrum (:data:`UNITS` ``lyapunov``) from its final state, in place."""
     model = solver.model
-    d = 2 * int(getattr(model, "n_modes", 1))
+    d = 2 * outputs(solver.scene).n_modes
     try:
         sp = lyapunov_spectrum(shooting_problem(model, "Omega"), np.asarray(traj.final_state, float)[:d],
                                float(Omega), shots)
@@ -1111,7 +1112,7 @@ def _plan(sweep: Sweep):
 
 def plan_lines(solver, sweep: Sweep, run: str = "run") -> list[Line]:
     """The lines of one sweep, in the order their points are reported (up, then down)."""
-    Delta = float(solver.model.Delta)
+    Delta = outputs(solver.scene).Delta
     return [Line(key, solver, grid, d, sweep, Delta, run) for key, d, grid in _plan(sweep)]
 
 
@@ -1130,7 +1131,9 @@ def run_sweep(solver, sweep: Sweep, name: str = "run", executor: Executor | None
     ----------
     solver : object
         A solver from :func:`vibeam.models.make_solver` (has ``point``,
-        ``time_domain``, ``name``, ``settings()`` and ``model``).
+        ``time_domain``, ``name``, ``settings()``, ``scene`` (the units and the gap ``Delta`` of
+        its results, :func:`vibeam.models.scene.outputs`) and ``model`` (its fidelity name and
+        shooting problem)).
     sweep : Sweep
         Grid, direction and windows.
     name : str
@@ -1163,11 +1166,10 @@ def run_sweep(solver, sweep: Sweep, name: str = "run", executor: Executor | None
 
 def assemble(solver, sweep: Sweep, name: str, line_rows: list, wall_time_s: float) -> SweepResult:
     """The :class:`SweepResult` of a run from its lines' rows (in plan order)."""
-    model = solver.model
+    out = outputs(solver.scene)
     rows = [r for rs in line_rows for r in rs]
     data = stack(rows, sweep)
-    fn = getattr(model, "natural_frequency_hz", None)
-    L = getattr(model, "length_m", None)
+    fn, L = out.natural_frequency_hz, out.length_m
     attrs = {}
     if fn:
         data["frequency_hz"] = data["Omega"] * fn
@@ -1177,14 +1179,14 @@ def assemble(solver, sweep: Sweep, name: str, line_rows: list, wall_time_s: floa
             if k in data:
                 data[k + "_mm"] = data[k] * L * 1e3
         attrs["length_m"] = L
-    fs = getattr(model, "force_scale_n", None)      # N per nondimensional force (a known mass)
+    fs = out.force_scale_n                           # N per nondimensional force (a known mass)
     for sfx in ("", "_lower"):                       # "_lower": the lower stop of a two-sided scene
         if fn and "contact_duration" + sfx in data:
             data["contact_duration" + sfx + "_s"] = data["contact_duration" + sfx] / (2 * np.pi * fn)
         if fs and L and "contact_force_max" + sfx in data:
             data["contact_force_max" + sfx + "_n"] = data["contact_force_max" + sfx] * fs
             data["energy_per_impact" + sfx + "_j"] = data["energy_per_impact" + sfx] * fs * L
-    return SweepResult(name=name, fidelity=model.fidelity, method=solver.name, settings=solver.settings(),
+    return SweepResult(name=name, fidelity=solver.model.fidelity, method=solver.name, settings=solver.settings(),
                        data=data, wall_time_s=wall_time_s, attrs=attrs)
 
 
@@ -1311,7 +1313,7 @@ def _trailing(line) -> dict:
     """The trailing shape of the per-point arrays whose shape the line fixes: ``strobe`` (one
     ``(q, q')`` per recorded period), ``harmonics``, the Lyapunov exponents (one per state of the
     mechanical system: 2 per mode)."""
-    d = 2 * int(getattr(getattr(line.solver, "model", None), "n_modes", 1) or 1)
+    d = 2 * outputs(line.solver.scene).n_modes
     return {"strobe": (int(line.sweep.record_periods), 2), "harmonics": (HARMONICS,),
             "lyapunov": (d,), "lyapunov_error": (d,), "lyapunov_qr": (d,)}
 

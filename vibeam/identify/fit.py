@@ -91,6 +91,7 @@ from vibeam.identify.linear import (CONVERGED_STEP_SE, NOISE_TEST_LEVEL, irls_we
 from vibeam.io.outdir import OutputLock, check_folder, check_outputs, default_folder, write_text_file
 from vibeam.io.reference import Reference, read_reference  # noqa: F401 (re-exported)
 from vibeam.io.results import write_results
+from vibeam.models.scene import outputs
 from vibeam.plots import style
 from vibeam.plots.lazy import plt
 from vibeam.plots.sweep import save_close
@@ -394,8 +395,7 @@ class FitProblem:
 
     def _sweeps(self, job, transient_factor: int = 1):
         """One :class:`vibeam.engine.sweep.Sweep` per measured direction, at the data's frequencies."""
-        model = job.solver.model
-        fn = getattr(model, "natural_frequency_hz", None)
+        fn = outputs(job.solver.scene).natural_frequency_hz
         out = []
         for d in self.directions:
             sel = self.ref.direction == d
@@ -442,8 +442,7 @@ class FitProblem:
         msgs = np.array([""] * n, dtype=object)
         if job is None:
             return Evaluation(x, amp, per, st, spread, msg or "model could not be built")
-        model = job.solver.model
-        yf = model.length_m * 1e3 if self.ref.y_name == "amplitude_mm" else 1.0
+        yf = outputs(job.solver.scene).length_m * 1e3 if self.ref.y_name == "amplitude_mm" else 1.0
         value = {}
         line_rows = []
         for l in lines:
@@ -451,7 +450,7 @@ class FitProblem:
             line_rows.append(rows)
             for W, row in zip(l.Omega, rows):
                 value[(l.direction, float(W))] = row
-        fn = getattr(model, "natural_frequency_hz", None)
+        fn = outputs(job.solver.scene).natural_frequency_hz
         for i in range(n):
             xi = self.ref.x[i]
             W = xi / fn if self.ref.x_name == "frequency_hz" else xi
@@ -1321,8 +1320,7 @@ def synthetic_reference(case, frequencies, values: dict | None = None, run: str 
     phys = bool(getattr(spec0, "physical", False))
 
     job = make_job(case, r, dict(r.model, **(values or {})))
-    model = job.solver.model
-    fn = getattr(model, "natural_frequency_hz", None) if phys else None
+    fn = outputs(job.solver.scene).natural_frequency_hz if phys else None
     xs = np.asarray(frequencies, float)
     rng = np.random.default_rng(seed)
     X, Y, D = [], [], []
