@@ -305,7 +305,7 @@ N_MODE_SOLVERS = {"event": on_the_core("core.event:BeamEventSolver", restitution
                   "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True, scene=True),
                   "mapping": Method("mapping.modal:ModalMappingSolver",
                                     {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
-                                    (IMPULSIVE, "kelvin_voigt"), True),
+                                    (IMPULSIVE, "kelvin_voigt"), True, scene=True),
                   "continuation": on_the_core("periodic_beam:BeamContinuation")}
 
 register(Fidelity(

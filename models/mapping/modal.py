@@ -63,6 +63,7 @@ import scipy.optimize
 
 from ..core.event import BeamEventSolver, stop_codes
 from ..core.stops import kernel_stops
+from ..scene import outputs
 from ..system import forcing, modal_flow, modal_transition
 from .newton import damped_newton
 from .phases import TWO_PI
@@ -325,8 +326,9 @@ class ModalMappingSolver:
 
     Parameters
     ----------
-    model : vibeam.models.beam_dynamics.BeamImpactModel
-        Its scene (:meth:`scene`: the modal system and its stops in the system's units).
+    scene : vibeam.models.scene.Scene
+        The modal system and its stops in the system's units (the beam's
+        :func:`vibeam.models.scene.beam_scene`; any number of modes).
     n : int, optional
         Forcing periods of the orbit (1..4).
     form : str, optional
@@ -346,13 +348,16 @@ class ModalMappingSolver:
     name = "mapping"
     time_domain = False
 
-    def __init__(self, model, n: int = 1, form: str = "full", guess_periods: int = GUESS_PERIODS, tol: float = TOL):
+    def __init__(self, scene, n: int = 1, form: str = "full", guess_periods: int = GUESS_PERIODS, tol: float = TOL):
         if int(n) != n or not 1 <= n <= 4:
             raise ValueError(f"n must be an integer in 1..4, got {n!r}")
-        self.model, self.n, self.form = model, int(n), form
+        self.n, self.form = int(n), form
         self.guess_periods, self.tol = int(guess_periods), float(tol)
-        self.scene = scene = model.scene()
+        self.scene = scene
         self.system, self.stops = scene
+        #: the reported gap (the first stop's, seen at the sensor) and the row value per unit of ``q``
+        self.Delta = outputs(scene).Delta
+        self.scale = float(scene.system.coordinate_scale)
         ModalMap(self.system, self.stops, 1.0)          # the stops are checked once
         codes = stop_codes(self.stops)
         #: the stops have codes of their own (point stops): the per-stop outputs are reported
@@ -491,9 +496,8 @@ class ModalMappingSolver:
 
     def _outputs(self, mp, X, stops, U, tr):
         n, m = self.n, len(stops)
-        L = self.model.length_m
         codes = self.codes[list(stops)]
-        v = U / L
+        v = U / self.scale
         M = mp.monodromy(X, stops, n)
         mu = np.linalg.eigvals(M)
         mu = mu[np.argsort(-np.abs(mu))]
@@ -502,7 +506,7 @@ class ModalMappingSolver:
         # the record's rows in the order of the orbit's sections from the period start
         rk = np.zeros(rows.shape[0], int) if tr.impact_stops is None else tr.impact_stops
         xs = X[m:].reshape(m, 2 * mp.N)
-        out = dict(amplitude=float(self.model.Delta) - tr.q_min, q_min=tr.q_min, q_max=tr.q_max, period=n,
+        out = dict(amplitude=self.Delta - tr.q_min, q_min=tr.q_min, q_max=tr.q_max, period=n,
                    impacts_per_period=int(np.sum(codes == 0)) / n,
                    impact_velocity=float(np.mean(v[codes == 0])) if np.any(codes == 0) else math.nan,
                    impact_phase=float(phis[0] % TWO_PI), stable=bool(np.max(np.abs(mu)) < 1.0),

@@ -704,8 +704,8 @@ _LOADED: set = set()
 
 def _kernel_key(line):
     """What decides the compiled kernels a unit of work runs: its solver (or continuation run)
-    kind and whether its model has a compliant stop (the event integrator's compliant
-    specialisation); None for work without a solver."""
+    kind and its scene's stop laws (the event integrator's compliant specialisations); None for
+    work without a solver."""
     if hasattr(line, "warm_up"):          # a continuation run
         sp = getattr(line, "spec", None)
         return ("task", getattr(sp, "fidelity", ""), str(getattr(sp, "contact", None)),
@@ -713,13 +713,9 @@ def _kernel_key(line):
     s = getattr(line, "solver", None)
     if s is None:
         return None
-    model = getattr(s, "model", None)
-    stops = getattr(model, "system_stops", None) or getattr(model, "stops", None)
-    try:
-        laws = tuple(type(getattr(st, "law", None)).__name__ for st in stops())
-    except Exception:      # no stops of that form (or a model its solver refuses): the classes decide
-        laws = ()
-    return ("solver", type(s), type(getattr(s, "solver", None)), getattr(s, "name", ""), type(model), laws)
+    scene = getattr(s, "scene", None)
+    laws = () if scene is None else tuple(type(st.law).__name__ for st in scene.stops)
+    return ("solver", type(s), type(getattr(s, "solver", None)), getattr(s, "name", ""), laws)
 
 
 def load_kernels(lines) -> float:
