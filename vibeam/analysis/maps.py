@@ -19,6 +19,7 @@ from vibeam.analysis.branches import plot_curves_on
 from vibeam.engine.sweep import MM_KEYS, Sweep, stack
 from vibeam.io.netcdf import parameter_units
 from vibeam.io.objects import MapResult  # noqa: F401 (re-exported)
+from vibeam.models.scene import outputs
 from vibeam.plots import style
 from vibeam.plots.lazy import plt
 from vibeam.plots.style import cell_edges, label
@@ -112,9 +113,9 @@ def assemble_map(name: str, solvers: list, sweep: Sweep, parameter: str, values,
     data["classification"] = classify(data["period"], data["status"] if "status" in data else
                                       np.full(data["period"].shape, "ok", dtype=object),
                                       data.get("lyapunov_class"))
-    models = [s.model for s in solvers]
-    fn = [getattr(m, "natural_frequency_hz", None) for m in models]
-    L = [getattr(m, "length_m", None) for m in models]
+    outs = [outputs(s.scene) for s in solvers]
+    fn = [o.natural_frequency_hz for o in outs]
+    L = [o.length_m for o in outs]
     if all(fn):
         data["frequency_hz"] = data["Omega"] * np.asarray(fn)[None, :, None]
     if all(L):
