@@ -5,7 +5,8 @@ and its ``Interaction``\\ s): ``system``, the base-excited linear system in moda
 (:class:`vibeam.models.system.ModalSystem`; the SDOF is its one-mode case), and ``stops``, a tuple
 of :class:`vibeam.models.contact.Stop` (relation, law), each law the only holder of its numbers,
 in the system's units.  The units (seconds, metres and kilograms per unit of time, displacement
-and effective mass) are the system's own fields, so nothing holds them twice: :func:`units`.
+and effective mass) are the system's own fields, so nothing holds them twice; :func:`outputs`
+reads what results are reported in.
 
 The drive is the system's (its forcing vector, amplitude and exponent ``p``: ``f Omega^p A
 sin(Omega t)``); :func:`driven` sets it from an :class:`Excitation` in SI units: a harmonic base
@@ -34,7 +35,7 @@ import scipy.linalg
 
 from .system import ModalSystem, from_beam, from_sdof
 
-__all__ = ["Scene", "sdof_scene", "beam_scene", "units", "outputs", "Outputs", "one_mode", "OneMode", "rest_state", "held_modes", "Excitation", "EXCITATION_KINDS",
+__all__ = ["Scene", "sdof_scene", "beam_scene", "outputs", "Outputs", "one_mode", "OneMode", "rest_state", "held_modes", "Excitation", "EXCITATION_KINDS",
            "driven"]
 
 #: the harmonic drives of a scene (:class:`Excitation`)
@@ -83,15 +84,6 @@ def beam_scene(model) -> Scene:
         Or its compliant subclass; any number of modes, the static-mode model included.
     """
     return Scene(from_beam(model), tuple(model.system_stops()))
-
-
-def units(sc: Scene) -> dict:
-    """The scene's units: ``{"time_s", "length_m", "mass_kg", "coordinate_scale"}`` (seconds per
-    unit of ``t``, metres per unit of the reported ``q``, kilograms per unit of effective mass, row
-    value per unit of ``q``); NaN for what a nondimensional scene does not have."""
-    s = sc.system
-    return {"time_s": s.time_unit_s, "length_m": s.length_unit_m, "mass_kg": s.mass_unit_kg,
-            "coordinate_scale": s.coordinate_scale}
 
 
 class Outputs(NamedTuple):

@@ -344,7 +344,8 @@ def axes_of(scene, coordinates=None) -> Axes:
     ValueError
         ``coordinates`` out of range, or modal indices for the SDOF (one line).
     """
-    n = outputs(scene).n_modes
+    out = outputs(scene)
+    n = out.n_modes
     modal = _oscillator(scene) is None
     if modal and coordinates == "sensor":
         s = scene.system
@@ -369,7 +370,7 @@ def axes_of(scene, coordinates=None) -> Axes:
     if coordinates is not None and coordinates != "sensor":
         raise ValueError(f"[basins] coordinates = {list(coordinates)}: modal indices are keys of beam scenes "
                          f"only (the SDOF's grid is (q, q'), or (U, U') at the sensor)")
-    L, fn = outputs(scene).length_m, outputs(scene).natural_frequency_hz
+    L, fn = out.length_m, out.natural_frequency_hz
     if L and fn:
         s = L * 1e3
         return Axes((0, 1), (s, s * 2 * math.pi * fn), ("U", "U_dot"), ("mm", "mm/s"),
