@@ -70,8 +70,10 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
         of the problem's, or its shooting problem does not serve the stops at the attached mass
         (:func:`vibeam.models.registry.supported_methods`).  A compliant upper stop gets its
         family's shooting problem (the ``continuation`` :class:`~vibeam.models.registry.Method`'s
-        ``laws``).
+        ``laws``); or ``model`` is None (a run whose scene changes from point to point).
     """
+    if model is None:      # a run whose effects change its scene point by point (vibeam.engine.effects)
+        raise ValueError("no shooting problem for a scene that changes from point to point (platform, gap drift)")
     up, _ = mass_law_keys(model)
     if "continuation" not in supported_methods(model.fidelity, up):
         law = getattr(model, "contact_law", "restitution")

@@ -377,11 +377,10 @@ class BeamImpactModel:
             return sc
         sy = sc.system
         if ex.kind != "force":
-            return Scene(driven(sy, ex), sc.stops)
+            return sc._replace(system=driven(sy, ex))
         n_c = sy.contacts.shape[0]
         with_row = sy._replace(contacts=np.vstack([sy.contacts, np.asarray(self.drive_row, float)[None, :]]))
-        return Scene(driven(with_row, Excitation("force", ex.amplitude, n_c))._replace(contacts=sy.contacts),
-                     sc.stops)
+        return sc._replace(system=driven(with_row, Excitation("force", ex.amplitude, n_c))._replace(contacts=sy.contacts))
 
     def system_stops(self) -> tuple:
         """:meth:`stops` in the units of the modal system (:func:`vibeam.models.system.from_beam`): a

@@ -25,6 +25,7 @@ Ch. 3 and 7 (relations, laws, the event-driven scheme); Siconos' ``NonSmoothDyna
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from numbers import Integral
 from typing import NamedTuple, Optional
@@ -55,10 +56,14 @@ class Scene(NamedTuple):
         :func:`vibeam.models.contact.check_stops`), at most :data:`vibeam.models.core.stops.MAX_STOPS`; a compliant
         law's stiffness in the system's units (force per row unit over the effective mass, per unit
         time squared).
+    builder : str
+        The name of the builder that made it (``"sdof"``, ``"beam"``, ``"matrices"``,
+        ``"continuum"``, ``"mesh"``; ``""`` unknown): provenance the results record, never a branch.
     """
 
     system: ModalSystem
     stops: tuple
+    builder: str = ""
 
 
 def sdof_scene(sdof) -> Scene:
@@ -70,7 +75,7 @@ def sdof_scene(sdof) -> Scene:
     sdof : vibeam.models.sdof.SDOF
         Nondimensional or physical (then the scene's units are ``1 / (2 pi f_n)`` s and ``L`` m).
     """
-    return Scene(from_sdof(sdof), tuple(sdof.stops()))
+    return Scene(from_sdof(sdof), tuple(sdof.stops()), "sdof")
 
 
 def beam_scene(model) -> Scene:
@@ -83,7 +88,7 @@ def beam_scene(model) -> Scene:
     model : vibeam.models.beam_dynamics.BeamImpactModel
         Or its compliant subclass; any number of modes, the static-mode model included.
     """
-    return Scene(from_beam(model), tuple(model.system_stops()))
+    return Scene(from_beam(model), tuple(model.system_stops()), str(model.fidelity))
 
 
 class Outputs(NamedTuple):
@@ -137,6 +142,33 @@ def outputs(sc: Scene) -> Outputs:
         Delta = rel.offset / float(cs[rel.row]) / s.coordinate_scale
     return Outputs(fn, None if math.isnan(L) else float(L), fs, float(Delta), int(s.omega.shape[0]), m_eff,
                    float(cs[0]))
+
+
+def with_amplitude(sc: Scene, amplitude: float) -> Scene:
+    """``sc`` driven at the amplitude ``amplitude`` (``system.base_amplitude``: the base
+    displacement ``B`` in coordinate units, ``B length_unit_m / coordinate_scale`` metres, or the
+    drive's ``A``, :func:`vibeam.models.system.forcing`); the rows, stops and units unchanged."""
+    return sc._replace(system=sc.system._replace(base_amplitude=float(amplitude)))
+
+
+def with_gap(sc: Scene, Delta: float) -> Scene:
+    """``sc`` with its first stop at the gap ``Delta`` seen at the sensor (units of ``q``): the
+    inverse of :func:`outputs`' ``Delta``, offset ``= Delta contact_static[row] coordinate_scale``
+    (paper Eq. 45, ``Delta_C = phi(x_m) Delta_G``); its other stops unchanged.
+
+    Raises
+    ------
+    ValueError
+        If the scene has no stop, or the first stop's row has no known static ratio (NaN).
+    """
+    if not sc.stops:
+        raise ValueError("with_gap: the scene has no stop to place")
+    s, st = sc.system, sc.stops[0]
+    cs = 1.0 if s.contact_static is None else float(s.contact_static[st.relation.row])
+    if math.isnan(cs):
+        raise ValueError(f"with_gap: contact row {st.relation.row} has no static ratio to the sensor (NaN)")
+    rel = dataclasses.replace(st.relation, offset=float(Delta) * cs * s.coordinate_scale)
+    return sc._replace(stops=(dataclasses.replace(st, relation=rel),) + tuple(sc.stops[1:]))
 
 
 class OneMode(NamedTuple):

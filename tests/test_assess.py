@@ -96,7 +96,7 @@ def test_participation_of_a_beam_far_from_the_stop_is_the_modal_frequency_respon
     W = 1.7
     tr = BeamEventSolver(m.scene(), record_modal_states=True).point(W, None, 300, 4, 64)
     assert tr.n_impacts == 0
-    out = assess.ParticipationHook(m)(tr)
+    out = assess.ParticipationHook(m.scene())(tr)
     F = W**2 * m.base_amplitude_m
     H = m.participation * F / (m.k_nd - W**2 + 1j * m.c_nd * W)
     rms = np.abs(m.sensor_row * H) / math.sqrt(2)
@@ -135,9 +135,9 @@ def test_plain_case_has_no_hooks_and_no_extra_datasets(tmp_path):
     case = parse_case(PLAIN)
     spec = case.model_spec()
     model = spec.build()
-    assert assess.hooks(case, spec, case.run[0], model) == ()
-    assert assess.solver_options(case, case.run[0], model) == {}
-    assert assess.samples_per_period(case, case.run[0], model, np.array([1.9])) == case.sweep.samples_per_period
+    assert assess.hooks(case, spec, case.run[0], model.scene()) == ()
+    assert assess.solver_options(case, case.run[0], spec) == {}
+    assert assess.samples_per_period(case, case.run[0], model.scene(), np.array([1.9])) == case.sweep.samples_per_period
     run_case(case, PLAIN, tmp_path, jobs=1, quiet=True, plots=False)
     with h5py.File(tmp_path / "results.h5") as f:
         keys = set(f["runs/exact"].keys())
@@ -159,8 +159,8 @@ time_series = [15.0]
     spec = case.model_spec()
     model = spec.build()
     # spectra, time series, sensor; participation does not apply to an SDOF scene
-    assert len(assess.hooks(case, spec, case.run[0], model)) == 3
-    spp = assess.samples_per_period(case, case.run[0], model, case.sweep.grid(7.6))
+    assert len(assess.hooks(case, spec, case.run[0], model.scene())) == 3
+    spp = assess.samples_per_period(case, case.run[0], model.scene(), case.sweep.grid(7.6))
     assert spp >= 2 * 5000 / 14.8
     runs = run_case(case, text, tmp_path, jobs=1, quiet=True, plots=True)
     d = runs[0].data

@@ -15,6 +15,7 @@ from vibeam.models import SDOF, BeamEventSolver, EventSolver, make_solver
 from vibeam.models.beam_dynamics import BeamImpactModel, apply_impact
 from vibeam.models.impact import restitution_coefficient
 from vibeam.engine.sweep import Sweep, run_sweep
+from vibeam.models.scene import outputs
 
 CASES = Path(__file__).resolve().parent.parent / "cases"
 SW = dict(transient_periods=60, record_periods=8, continuation=False)
@@ -39,7 +40,7 @@ def _wrap(spec, model, effects, method="event"):
 
 def _run(solver, f_hz, **kw):
     f = np.atleast_1d(np.asarray(f_hz, float))
-    return run_sweep(solver, Sweep(Omega=f / solver.model.natural_frequency_hz, **dict(SW, **kw)), jobs=1)
+    return run_sweep(solver, Sweep(Omega=f / outputs(solver.scene).natural_frequency_hz, **dict(SW, **kw)), jobs=1)
 
 
 # ----------------------------------------------------------------------------- plain scenes

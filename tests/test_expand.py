@@ -65,7 +65,8 @@ def _equal(a, b) -> bool:
 def _packed(model) -> dict:
     """Everything the kernels and the drivers read of a model: its scene packed (system, stops,
     held sets), the modal system's fields, the output codes, units and initial state."""
-    system, stops = model.scene()
+    sc = model.scene()
+    system, stops = sc.system, sc.stops
     ks = kernel_stops(system, stops)
     held, mismatch = held_sets(system, ks)
     out = {f"KernelSystem.{k}": v for k, v in kernel_system(system)._asdict().items()}

@@ -46,7 +46,7 @@ def _notes(case, jobs_) -> None:
     """One line per ``[assess]`` item that does not apply to a run (printed once)."""
     seen = []
     for job in jobs_:
-        for msg in assess.not_applicable(case, job.run, job.solver.model, job.solver.time_domain):
+        for msg in assess.not_applicable(case, job.run, job.spec, job.solver.time_domain):
             if msg not in seen:
                 seen.append(msg)
                 print(f"vibeam: note: {msg}; skipped", file=sys.stderr)

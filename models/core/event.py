@@ -124,7 +124,7 @@ class EventIntegrator:
     """
 
     def __init__(self, scene: Scene):
-        system, stops = scene
+        system, stops = scene.system, scene.stops
         check_stops(stops)
         self.scene = scene
         self.system = system

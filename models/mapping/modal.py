@@ -354,7 +354,7 @@ class ModalMappingSolver:
         self.n, self.form = int(n), form
         self.guess_periods, self.tol = int(guess_periods), float(tol)
         self.scene = scene
-        self.system, self.stops = scene
+        self.system, self.stops = scene.system, scene.stops
         #: the reported gap (the first stop's, seen at the sensor) and the row value per unit of ``q``
         self.Delta = outputs(scene).Delta
         self.scale = float(scene.system.coordinate_scale)

@@ -397,7 +397,7 @@ def stop_gaps(scene, states) -> np.ndarray:
     ndarray, shape (m, n_stops)
         In the system's row units (the SDOF: nondimensional; the beam: metres).
     """
-    s, stops = scene
+    s, stops = scene.system, scene.stops
     n = s.omega.size
     S = np.atleast_2d(np.asarray(states, float))
     eta = S[:, :n]
@@ -424,7 +424,7 @@ def behind_stop(scene, states) -> np.ndarray:
         True where some impulsive stop's gap (:func:`stop_gaps`) exceeds 1e-12 of the larger of
         the stop's offset and the contact coordinate (round-off of a state placed on the stop).
     """
-    s, stops = scene
+    s, stops = scene.system, scene.stops
     n = s.omega.size
     S = np.atleast_2d(np.asarray(states, float))
     g = stop_gaps(scene, S)
@@ -442,7 +442,7 @@ def axis_stops(scene, axes: Axes, k: int = 0) -> list:
     ``[(position, d)]`` in axis units, a state with ``d (x - position) > 0`` lying behind the
     stop (``d = +1``: an upper bound of the admissible region, ``-1`` a lower one).  Stops whose
     contact coordinate does not move along the axis (a velocity axis) are left out."""
-    s, stops = scene
+    s, stops = scene.system, scene.stops
     n = s.omega.size
     out = []
     for st in stops:

@@ -127,7 +127,7 @@ def assemble_map(name: str, solvers: list, sweep: Sweep, parameter: str, values,
     wall = float(np.nansum(flat.get("wall_time_s", 0.0)))
     s0 = solvers[0]
     attrs = {"parameter": parameter, "classes": "; ".join(f"{k} {v}" for k, v in CLASSES.items())}
-    return MapResult(name=name, fidelity=s0.model.fidelity, method=s0.name, settings=s0.settings(),
+    return MapResult(name=name, fidelity=s0.scene.builder, method=s0.name, settings=s0.settings(),
                      parameter=parameter, data=data, wall_time_s=wall, attrs=attrs)
 
 

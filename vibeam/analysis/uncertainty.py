@@ -446,7 +446,7 @@ def plan_samples(case, spec=None, samples: int | None = None, done: dict | None 
         meta[r.name] = {"dirs": tuple(dict.fromkeys(l.direction for l in lines)),
                         "Omega": np.sort(np.asarray(job.sweep.Omega, float)),
                         "fn": out.natural_frequency_hz, "L": out.length_m,
-                        "fidelity": job.solver.model.fidelity, "method": job.solver.name}
+                        "fidelity": job.solver.scene.builder, "method": job.solver.name}
         n_pts = sum(l.n_points for l in lines)
         todo = [i for i in range(design.shape[0]) if i not in done.get(r.name, {})]
         if todo:

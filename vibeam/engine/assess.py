@@ -53,6 +53,7 @@ from vibeam.engine.sensor import DEFAULT_LADDER_MM, SensorHook, required_samples
 from vibeam.errors import CaseError
 from vibeam.io.outdir import replace_file
 from vibeam.models.registry import fidelity
+from vibeam.models.scene import held_modes, outputs
 from vibeam.plots import style
 from vibeam.plots.lazy import plt
 from vibeam.plots.style import cell_edges, colours, label, run_names
@@ -63,36 +64,36 @@ TS_MAX_PER_PERIOD = 256          # time series: at most this many samples per pe
 
 
 # ============================================================================ helpers
-def _scales(model):
-    """(f_ref in Hz or None, L in m or None, physical?)."""
-    fn = getattr(model, "natural_frequency_hz", None)
-    L = getattr(model, "length_m", None)
+def _scales(scene):
+    """(f_ref in Hz or None, L in m or None, physical?) of a scene (:func:`vibeam.models.scene.outputs`)."""
+    o = outputs(scene)
+    fn, L = o.natural_frequency_hz, o.length_m
     return fn, L, bool(fn and L)
 
 
-def _units(model):
+def _units(scene):
     """Frequency unit factor (Omega -> output), displacement and velocity factors."""
-    fn, L, phys = _scales(model)
+    fn, L, phys = _scales(scene)
     if phys:
         return fn, L * 1e3, L * 1e3 * 2 * math.pi * fn
     return 1.0, 1.0, 1.0
 
 
-def _caps(model):
-    """The fidelity registry's entry of a model (capabilities, :mod:`vibeam.models.registry`)."""
-    return fidelity(model)
+def _caps(spec):
+    """The fidelity registry's entry of a model spec (capabilities, :mod:`vibeam.models.registry`)."""
+    return fidelity(spec)
 
 
-def _mode_freqs(model):
-    """Free and contact modal frequencies in output units: the modes of a fidelity with
-    modes (capabilities ``modes``, ``contact_modes``), else its natural frequency alone."""
-    fu, _, _ = _units(model)
-    caps = _caps(model)
-    if caps.modes:
-        free = np.asarray(model.free_mode_frequencies()) * fu
-        contact = np.asarray(model.contact_mode_frequencies()) * fu if caps.contact_modes else np.zeros(0)
-        return free, contact
-    return np.array([fu]), np.zeros(0)
+def _mode_freqs(scene):
+    """Free and contact modal frequencies in output units, shapes (n,) and (n - 1,): the
+    system's ``omega`` and those of the system held on its first contact row (the attached
+    mass; :func:`vibeam.models.scene.held_modes`).  The one-mode oscillator gives its natural
+    frequency and no contact mode."""
+    fu, _, _ = _units(scene)
+    s = scene.system
+    om = np.asarray(s.omega, float)
+    _, nu2 = held_modes(np.asarray(s.contacts, float)[0], np.diag(om ** 2))
+    return om * fu, np.sqrt(np.maximum(nu2, 0.0)) * fu
 
 
 def hann_spectrum(y, fs):
@@ -209,19 +210,20 @@ def ts_label(x: float) -> str:
     return f"{float(x):.10g}"
 
 
-def not_applicable(case, run, model, time_domain: bool = True) -> list[str]:
+def not_applicable(case, run, spec, time_domain: bool = True) -> list[str]:
     """Messages for the ``[assess]`` items a run asks for that do not apply to it (one line
-    each; the runner prints them once and those items are not computed for the run)."""
+    each; the runner prints them once and those items are not computed for the run); ``spec``
+    is the run's model spec (its fidelity's capabilities)."""
     a = case.assess
     out = []
-    what = f"run '{run.name}' ({getattr(model, 'fidelity', '?')}, {run.method})"
+    what = f"run '{run.name}' ({_caps(spec).name}, {run.method})"
     if not time_domain:
         for k in ("spectra", "participation", "time_series"):
             if getattr(a, k):
                 out.append(f"[assess] {k} does not apply to {what}: the method computes no time history")
         return out
-    if a.participation and not _participation_applies(model, run.method):
-        caps = _caps(model)
+    if a.participation and not _participation_applies(spec, run.method):
+        caps = _caps(spec)
         ms = caps.modal_state_methods
         why = ("a single degree of freedom has no modes to share" if not caps.modes else
                f"only the {caps.name}'s {' and '.join(ms) or 'no'} method{'s' if len(ms) > 1 else ''} "
@@ -230,8 +232,8 @@ def not_applicable(case, run, model, time_domain: bool = True) -> list[str]:
     return out
 
 
-def _participation_applies(model, method) -> bool:
-    caps = _caps(model)
+def _participation_applies(spec, method) -> bool:
+    caps = _caps(spec)
     return caps.modes and method in caps.modal_state_methods
 
 
@@ -239,18 +241,18 @@ def _participation_applies(model, method) -> bool:
 class SpectraHook:
     """Per-point spectra, non-harmonic peaks and the high-frequency component (picklable)."""
 
-    def __init__(self, assess, model):
+    def __init__(self, assess, scene, modes: bool):
         self.a = assess
-        self.fu, self.xu, self.vu = _units(model)
-        self.free, self.contact = _mode_freqs(model)
-        fn, _, phys = _scales(model)
+        self.fu, self.xu, self.vu = _units(scene)
+        self.free, self.contact = _mode_freqs(scene)
+        fn, L, phys = _scales(scene)
         self.phys = phys
         self.fmax = assess.spectrum_max or (250.0 if phys else 30.0)
         band = assess.hfc_band or ((50.0, 500.0) if phys else (6.0, 60.0))
         self.band = (float(band[0]), float(band[1]))
-        self.beam = _caps(model).modes   # the high-frequency component needs modes
-        self.sensor_row = np.asarray(getattr(model, "sensor_row", [1.0]), float)
-        self.L = getattr(model, "length_m", None) or 1.0
+        self.beam = bool(modes)   # the high-frequency component needs modes
+        self.sensor_row = np.asarray(scene.system.sensor, float)
+        self.L = L or 1.0
 
     def __call__(self, traj) -> dict:
         P = self.a.peaks
@@ -318,11 +320,11 @@ class SpectraHook:
 class ParticipationHook:
     """Per-point modal shares in the sensor displacement and the energy (picklable)."""
 
-    def __init__(self, model):
-        self.beam = _caps(model).modes
-        self.N = int(getattr(model, "n_modes", 1)) if self.beam else 1
-        self.sensor_row = np.asarray(getattr(model, "sensor_row", [1.0]), float)
-        self.k_nd = np.asarray(getattr(model, "k_nd", [1.0]), float)
+    def __init__(self, scene):
+        s = scene.system
+        self.N = int(s.omega.size)
+        self.sensor_row = np.asarray(s.sensor, float)
+        self.k_nd = np.asarray(s.omega, float) ** 2
 
     def __call__(self, traj) -> dict:
         ms = traj.extra.get("modal_states")
@@ -336,8 +338,8 @@ class ParticipationHook:
 class TimeSeriesHook:
     """Keeps the last periods of the grid points nearest to the requested frequencies (picklable)."""
 
-    def __init__(self, targets, grid, model, periods):
-        self.fu, self.xu, self.vu = _units(model)
+    def __init__(self, targets, grid, scene, periods):
+        self.fu, self.xu, self.vu = _units(scene)
         grid = np.asarray(grid, float)
         self.keep = []
         for i, f in enumerate(targets):
@@ -360,32 +362,33 @@ class TimeSeriesHook:
         return out
 
 
-def _sensor_hook(case, spec, run, model):
+def _sensor_hook(case, run, scene):
     eff = case.effects_for(run)
     sp = eff.sensor
-    fn, L, phys = _scales(model)
+    fn, L, phys = _scales(scene)
     if not phys:
         raise CaseError(f"run '{run.name}': [effects.sensor] needs a physical scene (frequency_hz, "
                         f"length_mm), the sensor samples in Hz and its noise is in mm")
-    vf = 1.0 / float(model.phi_contact)    # the kernel's contact velocity -> the sensor's
-    return SensorHook(sp, fn, L, model.stops()[0].law, eff.restitution_law, velocity_factor=vf)
+    vf = 1.0 / float(outputs(scene).phi_contact)    # the kernel's contact velocity -> the sensor's
+    return SensorHook(sp, fn, L, scene.stops[0].law, eff.restitution_law, velocity_factor=vf)
 
 
-def hooks(case, spec, run, model) -> tuple:
-    """Per-point assessment callables for one run (empty: nothing extra is computed)."""
+def hooks(case, spec, run, scene) -> tuple:
+    """Per-point assessment callables for one run (empty: nothing extra is computed): its
+    model ``spec`` (the fidelity's capabilities) and ``scene`` (units, modes, rows, stops)."""
     a = case.assess
     out = []
     if a.spectra:
-        out.append(SpectraHook(a, model))
-    if a.participation and _participation_applies(model, run.method):
-        out.append(ParticipationHook(model))
+        out.append(SpectraHook(a, scene, _caps(spec).modes))
+    if a.participation and _participation_applies(spec, run.method):
+        out.append(ParticipationHook(scene))
     if a.time_series:
-        grid = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
-        out.append(TimeSeriesHook(a.time_series, grid, model, a.time_series_periods))
+        grid = case.sweep.grid(outputs(scene).natural_frequency_hz)
+        out.append(TimeSeriesHook(a.time_series, grid, scene, a.time_series_periods))
     sp = case.effects_for(run).sensor
     if sp is not None and sp.identify_R:
-        out.append(_sensor_hook(case, spec, run, model))
-    if solver_options(case, run, model):
+        out.append(_sensor_hook(case, run, scene))
+    if solver_options(case, run, spec):
         out.append(_drop_modal_states)   # recorded for the hooks only: not stored per point
     return tuple(out)
 
@@ -395,25 +398,21 @@ def _drop_modal_states(traj) -> dict:
     return {"modal_states": None}
 
 
-def samples_per_period(case, run, model, Omega) -> int:
+def samples_per_period(case, run, scene, Omega) -> int:
     """Recorded samples per period the run needs (the sweep's unless the sensor needs more)."""
     n = case.sweep.samples_per_period
     sp = case.effects_for(run).sensor
-    fn = getattr(model, "natural_frequency_hz", None)
+    fn = outputs(scene).natural_frequency_hz
     if sp is not None and fn:
         n = max(n, required_samples_per_period(sp.sampling_hz, float(np.min(Omega)) * fn, sp.oversample))
     return n
 
 
-class _Fid:
-    def __init__(self, fidelity, method):
-        self.fidelity = fidelity
-
-
-def solver_options(case, run, model) -> dict:
-    """Extra solver settings the assessments need (modal states of the beam event solver)."""
+def solver_options(case, run, spec) -> dict:
+    """Extra solver settings the assessments need (modal states of the beam event solver);
+    ``spec``: the run's model spec or its fidelity's name."""
     a = case.assess
-    if (a.spectra or a.participation) and run.method in _caps(model).modal_state_methods:
+    if (a.spectra or a.participation) and run.method in _caps(spec).modal_state_methods:
         return {"record_modal_states": True}
     return {}
 
@@ -430,7 +429,7 @@ def collect(case, run, res) -> None:
     datasets, add the axes of the per-point assessments as run attributes."""
     a = case.assess
     d = res.data
-    if solver_options(case, run, _Fid(res.fidelity, run.method)):
+    if solver_options(case, run, res.fidelity):
         d.pop("modal_states", None)
     for i, f in enumerate(a.time_series):
         key = f"_ts_{i}"

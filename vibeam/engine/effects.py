@@ -82,7 +82,9 @@ import numpy as np
 
 from vibeam.errors import CaseError
 from vibeam.models import make_solver
+from vibeam.models.contact import restitution_coefficients
 from vibeam.models.registry import fidelity, is_compliant, with_capability
+from vibeam.models.scene import outputs, with_amplitude, with_gap
 
 #: effects handled here (``sensor`` belongs to :mod:`vibeam.engine.sensor` / the assessments)
 HANDLED = ("platform", "eccentric_impact", "gap_drift", "restitution_law")
@@ -141,16 +143,24 @@ def identify_platform(gains, zeta_p: float, f_p_default: float):
 
 # ============================================================================ the wrapper
 class EffectSolver:
-    """A solver with scene effects: per point it builds the point's model (forcing
-    amplitude, gap) and runs the plain solver of that model; adds the effects' per-point
-    outputs.  Picklable (runs in worker processes)."""
+    """A solver with scene effects: per point it edits the scene of its plain solver (forcing
+    amplitude, gap: :func:`vibeam.models.scene.with_amplitude`, :func:`~vibeam.models.scene.with_gap`)
+    and runs the plain solver of that scene; adds the effects' per-point outputs.  Picklable
+    (runs in worker processes).
+
+    ``model`` is the run's model with the effects that do not change from point to point
+    (eccentric contact, coupled platform); its shooting problem is the run's (Lyapunov and Floquet
+    exponents) unless the scene changes per point (platform, gap drift): then ``self.model`` is
+    None and no exponent is computed (a base model's would be another scene's).  ``coupled`` is
+    the model of a coupled platform (its modes and the shaker force), else None."""
 
     time_domain = True
 
-    def __init__(self, inner, spec, effects, settings, active, f_n_hz):
+    def __init__(self, inner, spec, effects, settings, active, f_n_hz, model=None, coupled=None):
         self.inner = inner
-        self.model = inner.model
         self.scene = inner.scene
+        per_point = effects.platform is not None or effects.gap_drift is not None
+        self.model = None if per_point else model   # the shooting problem's, until it takes the scene (issue 58)
         self.name = inner.name
         self.time_domain = inner.time_domain
         self.chunk_periods = getattr(inner, "chunk_periods", None)
@@ -164,9 +174,10 @@ class EffectSolver:
         L_mm = spec.length_mm
         self._L_mm = L_mm
         # static-mode value at the contact point over the sensor's (1 for the SDOF model)
-        self._phic = float(self.model.phi_contact)
+        out = outputs(self.scene)
+        self._phic = out.phi_contact
         if plat is not None:
-            self._setup_platform(plat)
+            self._setup_platform(plat, coupled)
         gd = effects.gap_drift
         if gd is not None:
             self.run_attrs["gap_drift"] = "table" if gd.table is not None else gd.law
@@ -179,13 +190,13 @@ class EffectSolver:
         if effects.eccentric_impact is not None:
             self.run_attrs["eccentric_offset_mm"] = effects.eccentric_impact.offset_mm
             self.run_attrs["contact_static_factor"] = self._phic
-            self.run_attrs["contact_effective_mass_kg"] = float(self.model.m_eff)
+            self.run_attrs["contact_effective_mass_kg"] = float(out.m_eff)
         if effects.restitution_law is not None:
             self.run_attrs["restitution_velocity_mm_s"] = np.asarray(effects.restitution_law.velocity_mm_s)
             self.run_attrs["restitution_R"] = np.asarray(effects.restitution_law.R)
 
     # ------------------------------------------------------------------ platform
-    def _setup_platform(self, plat):
+    def _setup_platform(self, plat, m):
         a = self.run_attrs
         a["platform_level"] = plat.level
         gain = float(self.spec.gain)
@@ -205,7 +216,8 @@ class EffectSolver:
             a.update(platform_frequency_hz=fp, platform_damping_ratio=zp, platform_reference_frequency_hz=f_ref,
                      platform_reference_gain_per_V=g_ref)
         else:
-            m = self.model
+            self._coupled = (np.asarray(m.platform_row, float), np.asarray(m.omega_rad_s, float),
+                             np.asarray(m.c_phys, float))
             self._coupled_fs = m.platform_force_n
             a.update(platform_frequency_hz=plat.frequency_hz, platform_damping_ratio=plat.damping_ratio,
                      platform_mass_kg=plat.mass_kg, platform_force_n=m.platform_force_n,
@@ -220,9 +232,9 @@ class EffectSolver:
         if plat.level == "filter":
             fp, zp, f_ref, g_ref, H_ref = self._filter
             return g_ref * abs(platform_H(f_hz, fp, zp)) / H_ref
-        m = self.model
+        row, om, c = self._coupled
         W = 2 * math.pi * np.asarray(f_hz, float)
-        z = np.sum(m.platform_row ** 2 / (m.omega_rad_s ** 2 - W ** 2 + 1j * W * m.c_phys)) * self._coupled_fs
+        z = np.sum(row ** 2 / (om ** 2 - W ** 2 + 1j * W * c)) * self._coupled_fs
         V = self.spec.voltage
         return abs(z) / (V * self._phim() * self.spec.length_mm * 1e-3) if V > 0 else 0.0
 
@@ -247,26 +259,29 @@ class EffectSolver:
         return self.spec.gap_mm + drift if self.spec.gap_mm is not None else (
             getattr(self.spec, "contact_gap_mm") / self._phic + drift)
 
-    def point_model(self, Omega, drift=0.0):
-        """The model of one point (and the extras it implies)."""
-        m = self.inner.model
+    def point_scene(self, Omega, drift=0.0):
+        """The scene of one point (and the extras it implies): the filtered platform scales the
+        drive amplitude with the gain (paper Eq. 46), the coupled one drives by the shaker force
+        over ``Omega~^2`` (metres, over the system's ``length_unit_m / coordinate_scale``), the
+        gap drift places the first stop at the sensor gap ``gap_mm / length_mm`` (Eq. 45)."""
+        sc = self.inner.scene
         f = float(Omega) * self.f_n_hz
         extra = {}
         plat = self.effects.platform
         gap = self._gap_mm(f, drift)
-        pm = m
         if plat is not None:
             g = float(self.effective_gain(f))
             extra["effective_gain"] = g
             if plat.level == "filter":
-                pm = pm.with_gain(g, float(self.spec.gain), self.spec.voltage)
+                sc = with_amplitude(sc, sc.system.base_amplitude * (g / float(self.spec.gain)))
             else:   # coupled (capability coupled_platform): the shaker force over Omega~^2
                 W = 2 * math.pi * f
-                pm = pm.with_base_amplitude_m(self._coupled_fs / (W * W))
+                s = sc.system
+                sc = with_amplitude(sc, self._coupled_fs / (W * W) / (s.length_unit_m / s.coordinate_scale))
         if gap is not None:
-            pm = pm.with_sensor_gap_mm(gap, self._L_mm)
+            sc = with_gap(sc, gap / self._L_mm)
             extra["gap_mm"] = gap
-        return pm, extra
+        return sc, extra
 
     def point(self, Omega, state0, n_transient, n_record, samples_per_period=64):
         sliding = self.effects.gap_drift is not None and self.effects.gap_drift.law == "sliding"
@@ -274,8 +289,8 @@ class EffectSolver:
         if sliding and state0 is not None:
             state0 = np.asarray(state0, dtype=float)
             state0, drift = state0[:-1], float(state0[-1])
-        pm, extra = self.point_model(Omega, drift)
-        solver = self.inner if pm is self.inner.model else _rebuild(self.inner, pm, self._settings)
+        ps, extra = self.point_scene(Omega, drift)
+        solver = self.inner if ps is self.inner.scene else _rebuild(self.inner, ps, self._settings)
         out = solver.point(Omega, state0, n_transient, n_record, samples_per_period)
         if not self.time_domain:
             out = dict(out)
@@ -283,17 +298,17 @@ class EffectSolver:
             return out
         out.extra.update(extra)
         if "gap_mm" in extra:
-            out.Delta = float(pm.Delta)   # Q (and its spread) against this point's gap
+            out.Delta = outputs(ps).Delta   # Q (and its spread) against this point's gap
         if sliding:
             gd = self.effects.gap_drift
-            imp = self._impulse_per_period(out, pm, n_record)
+            imp = self._impulse_per_period(out, ps, n_record)
             out.extra["gap_drift_mm"] = drift
             out.extra["impulse_per_period"] = imp
             new = min(drift + gd.slide_mm_per_impulse * imp, gd.max_drift_mm)
             out.final_state = np.concatenate([np.asarray(out.final_state, float), [new]])
         return out
 
-    def _impulse_per_period(self, traj, pm, n_record):
+    def _impulse_per_period(self, traj, ps, n_record):
         """Normalised impulse per forcing period, ``sum (1 + R(U-)) U-`` / periods (sensor units)."""
         v = np.asarray(traj.impact_velocities, float)   # q'- (SDOF) or contact velocity / L (beam)
         if v.size == 0 or n_record <= 0 or traj.status == "failed":
@@ -303,15 +318,16 @@ class EffectSolver:
             v = v[k == 0]
             if v.size == 0:
                 return 0.0
-        Rs = pm.restitution_coefficients(v)
+        Rs = restitution_coefficients([ps.stops[0].law], v, None, ps.system.coordinate_scale)
         vs = v / self._phic            # sensor velocity
         tot = float(np.sum((1.0 + Rs) * vs)) * ((traj.n_impacts - traj.n_impacts_lower) / v.size)
         return tot / n_record
 
 
-def _rebuild(inner, model, settings):
-    """The plain solver of ``inner``'s method for another model (same settings)."""
-    return make_solver(model, inner.name, **settings)
+def _rebuild(inner, scene, settings):
+    """The plain solver of ``inner``'s method for another scene of the same stops' laws (same
+    class, same settings)."""
+    return type(inner)(scene, **settings)
 
 
 # ============================================================================ entry point
@@ -367,8 +383,9 @@ def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
                    f"(not {method!r})")
     new = spec.effect_model(effects, model)
     f_n = model.natural_frequency_hz
-    inner = solver if new is model else _rebuild(solver, new, settings)
-    return EffectSolver(inner, spec, effects, settings, active, f_n)
+    inner = solver if new is model else make_solver(new, solver.name, **settings)
+    coupled = new if effects.platform is not None and effects.platform.level == "coupled" else None
+    return EffectSolver(inner, spec, effects, settings, active, f_n, new, coupled)
 
 
 def run_attrs(solver) -> dict:

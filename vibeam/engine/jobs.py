@@ -36,11 +36,15 @@ def make_job(case, r, overrides: dict, j=None) -> Job:
     model spec, its solver with effects and hooks, and its sweep."""
     spec = case.model_spec(overrides) if overrides else case.model_spec()
     model = spec.build()
+    scene = model.scene()
+    # the grid from the builder's own frequency: outputs' 1 / (2 pi time_unit_s) can be an ulp off it,
+    # and a chaotic point of a quick variant moves with an ulp of Omega (issue 58: until a scene
+    # carries its reference frequency exactly)
     Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
     sw = Sweep(Omega=Omega, **dict(case.sweep.engine_options(),
-                                   samples_per_period=assess.samples_per_period(case, r, model, Omega),
-                                   assess=assess.hooks(case, spec, r, model)))
-    settings = dict(case.run_settings(r), **assess.solver_options(case, r, model))
+                                   samples_per_period=assess.samples_per_period(case, r, scene, Omega),
+                                   assess=assess.hooks(case, spec, r, scene)))
+    settings = dict(case.run_settings(r), **assess.solver_options(case, r, spec))
     try:
         base = make_solver(model, r.method, **settings)
     except ValueError as e:         # a value the method's solver cannot take: bad input, one line

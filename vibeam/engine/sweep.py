@@ -1182,7 +1182,7 @@ def assemble(solver, sweep: Sweep, name: str, line_rows: list, wall_time_s: floa
         if fs and L and "contact_force_max" + sfx in data:
             data["contact_force_max" + sfx + "_n"] = data["contact_force_max" + sfx] * fs
             data["energy_per_impact" + sfx + "_j"] = data["energy_per_impact" + sfx] * fs * L
-    return SweepResult(name=name, fidelity=solver.model.fidelity, method=solver.name, settings=solver.settings(),
+    return SweepResult(name=name, fidelity=solver.scene.builder, method=solver.name, settings=solver.settings(),
                        data=data, wall_time_s=wall_time_s, attrs=attrs)
 
 
