@@ -70,10 +70,8 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
         of the problem's, or its shooting problem does not serve the stops at the attached mass
         (:func:`vibeam.models.registry.supported_methods`).  A compliant upper stop gets its
         family's shooting problem (the ``continuation`` :class:`~vibeam.models.registry.Method`'s
-        ``laws``); or ``model`` is None (a run whose scene changes from point to point).
+        ``laws``).
     """
-    if model is None:      # a run whose effects change its scene point by point (vibeam.engine.effects)
-        raise ValueError("no shooting problem for a scene that changes from point to point (platform, gap drift)")
     up, _ = mass_law_keys(model)
     if "continuation" not in supported_methods(model.fidelity, up):
         law = getattr(model, "contact_law", "restitution")
@@ -115,9 +113,7 @@ def make_solver(model, method: str, **settings):
     cls = resolve(x.solver if up == IMPULSIVE else x.laws[up])
     if not x.scene:
         return cls(model, **settings)
-    solver = cls(model.scene(), **settings)
-    solver.model = model      # what the framework reads (units, outputs) until the model classes go (issue 58)
-    return solver
+    return cls(model.scene(), **settings)
 
 
 def _refusal(model, method: str) -> str:

@@ -145,6 +145,9 @@ MODULES = {
         "tests/test_continuation.py",
         "tests/test_continuation_compliant.py",
     ],
+    "models/core/scene_shooting.py": [
+        "tests/test_scene_shooting.py",
+    ],
     "models/core/variational.py": [
         "tests/test_continuation_compliant.py",
         "tests/test_continuation_hc_beam.py",

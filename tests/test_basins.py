@@ -18,6 +18,7 @@ from vibeam.api import load_case
 from vibeam.analysis.attractors import FAILED, UNSETTLED, read_basins, set_period
 from vibeam.models.attractors import Recurrences
 from vibeam.models import SDOF, EventSolver, make_solver
+from vibeam.models.scene import outputs
 
 BETA, R = 0.015, 0.9
 
@@ -128,7 +129,7 @@ def test_the_period_one_attractor_is_the_event_kernels_orbit_to_1e_8(tight):
     assert tr.status == "ok" and tr.n_impacts == 1
     size = np.max(np.abs(x[:2]))
     assert np.max(np.abs(tr.final_state[:2] - x[:2])) <= 1e-10 * size
-    Q = solver.model.Delta - tr.period_min[0]
+    Q = outputs(solver.scene).Delta - tr.period_min[0]
     assert abs(Q - a["amplitude"][0, k1]) <= 1e-8 * Q
 
 
@@ -140,7 +141,7 @@ def test_liouville_holds_for_the_period_one_attractor(tight):
     m = load_case("cases/rig-tight.toml")
     from vibeam.runner import make_job
 
-    model = make_job(m, m.run[0], {}).solver.model
+    model = make_job(m, m.run[0], {}).spec.build()
     W = float(tight.Omega[0])
     rate = a["lyapunov_impacts_per_period"][0, k1] * W / (2 * math.pi)
     assert a["lyapunov_impacts_per_period"][0, k1] == 1.0

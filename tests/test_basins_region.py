@@ -21,7 +21,7 @@ TWO = "cases/paper-fig7-two-sided.toml"
 def _model(path=TWO, run=0):
     c = load_case(path)
     r = [x for x in c.run if x.method != "continuation"][run]
-    return make_job(c, r, dict(r.model)).solver.model
+    return make_job(c, r, dict(r.model)).spec.build()
 
 
 def test_the_default_box_lies_between_the_stops():
@@ -58,7 +58,7 @@ def test_behind_stop_is_the_closed_form_region():
     kv = vibeam.api.load_case({"name": "kv", "model": {"fidelity": "sdof", "beta": 0.015, "B": 5e-4, "Delta": 0.0,
                                                        "R": 0.9, "contact": {"law": "linear", "stiffness": 1e4}},
                                "sweep": {"Omega": [2.0, 2.1, 2]}, "run": [{"name": "e", "method": "event"}]})
-    mk = make_job(kv, kv.run[0], {}).solver.model
+    mk = make_job(kv, kv.run[0], {}).spec.build()
     assert not behind_stop(mk.scene(), S).any()
 
 

@@ -50,13 +50,14 @@ def test_plain_scene_is_the_plain_solver(beam):
         assert wrap_solver(s, model, spec, EffectsSpec(), {}) is s
     # an effect that changes no structure keeps exactly the plain model's DOFs and modal arrays
     spec, model = beam
-    w = _wrap(spec, model, {"platform": {}})
+    s = make_solver(model, "event")
+    w = wrap_solver(s, model, spec, EffectsSpec.model_validate({"platform": {}}), {})
     assert isinstance(w, EffectSolver) and type(w.inner) is BeamEventSolver
-    assert w.inner.model is model
-    fresh = spec.build()
-    for k in ("omega_rad_s", "participation", "contact_row", "sensor_row"):
-        np.testing.assert_array_equal(getattr(w.inner.model, k), getattr(fresh, k))
-    assert w.inner.model.R_table_U.size == 0
+    assert w.inner is s
+    fresh = spec.build().scene().system
+    for k in ("omega", "participation", "contacts", "sensor"):
+        np.testing.assert_array_equal(getattr(w.inner.scene.system, k), getattr(fresh, k))
+    assert len(w.inner.scene.stops[0].law.table_U) == 0
 
 
 def test_sdof_eccentric_impact_is_a_case_error():
@@ -111,8 +112,9 @@ def test_platform_identified_from_two_gains():
 def test_platform_coupled_heavy_platform_is_the_filter(beam):
     spec, model = beam
     s = _wrap(spec, model, {"platform": {"level": "coupled", "mass_kg": 1e7}})
-    assert s.inner.model.n_modes == model.n_modes + 1
-    fz = s.inner.model.omega_rad_s / (2 * math.pi)
+    sy = s.inner.scene.system
+    assert sy.omega.size == model.n_modes + 1
+    fz = sy.omega / sy.time_unit_s / (2 * math.pi)
     assert fz[0] == pytest.approx(3.25, rel=1e-3)
     np.testing.assert_allclose(fz[1:], model.omega_rad_s / (2 * math.pi), rtol=1e-4)
     fn = model.natural_frequency_hz
@@ -226,10 +228,11 @@ def test_restitution_law_each_impact_sdof():
     vt = [0.0, 30.0, 100.0]
     Rt = [0.85, 0.55, 0.8]
     w = _wrap(spec, model, {"restitution_law": {"velocity_mm_s": vt, "R": Rt}})
-    m = w.inner.model
+    law = w.inner.scene.stops[0].law       # the law the run's solver simulates
+    R_table = tuple(zip(law.table_U, law.table_R))
     scale = model.length_m * 2 * math.pi * model.natural_frequency_hz * 1e3   # q' -> mm/s at the sensor
-    np.testing.assert_allclose(np.array(m.R_table)[:, 0] * scale, vt, rtol=1e-14)
-    free = SDOF(beta=0.0, B=0.0, R=0.72, Delta=0.0, R_table=m.R_table)
+    np.testing.assert_allclose(np.array(R_table)[:, 0] * scale, vt, rtol=1e-14)
+    free = SDOF(beta=0.0, B=0.0, R=0.72, Delta=0.0, R_table=R_table)
     v0 = 140.0 / scale
     v = _sequence(EventSolver, free, v0, np.array([-1e-300, v0, 0.0]))
     assert v.size >= 5

@@ -50,7 +50,6 @@ from vibeam.errors import CaseError
 from vibeam.io.netcdf import json_default, parameter_units, var, write_group
 from vibeam.io.results import case_hash
 from vibeam.io.store import Store
-from vibeam.models import shooting_problem
 from vibeam.models.attractors import FAILED, UNSETTLED, Recurrences, set_distance
 from vibeam.models.continuation import start_point
 from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
@@ -733,7 +732,6 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
     motion is settled ``m`` more periods; the period test of the set (:func:`set_period`) is
     made on the ``m`` stroboscopic samples that follow, the record of ``record`` periods
     (:func:`vibeam.engine.records.summarize`) and the spectrum start at their end."""
-    model = solver.model
     if len(X) == 0:
         # a set the recurrence recorded without a sample (its states' integration failed): nothing
         # of it can be described, and a number for it would be made up
@@ -778,7 +776,7 @@ def describe_attractor(solver, X, Omega, Delta, record: int, shots: int, period_
                lyapunov=np.full(dprob, np.nan), lyapunov_error=np.full(dprob, np.nan),
                lyapunov_impacts_per_period=np.nan)
     try:
-        prob = shooting_problem(model, "Omega")
+        prob = sweep.shooting_at(solver, float(Omega))
     except ValueError as e:
         prob = None
         out["message"] = (out["message"] + "; " if out["message"] else "") + f"no shooting problem: {e}"

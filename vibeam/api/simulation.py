@@ -18,10 +18,11 @@ from vibeam.api.common import saved
 from vibeam.case.arguments import check_case_value, check_flag, check_frequency, check_path, check_whole
 from vibeam.case.schema import Case, SweepSpec
 from vibeam.engine.records import summarize
-from vibeam.engine.sweep import orbit_exponents
+from vibeam.engine.sweep import orbit_exponents, shooting_at
 from vibeam.engine.sweep import simulate as simulate_point
 from vibeam.errors import InputError, quote_value
-from vibeam.models import make_solver, shooting_problem
+from vibeam.models import make_solver
+from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.lyapunov import lyapunov_spectrum
 from vibeam.models.scene import outputs
 from vibeam.plots.lazy import plt
@@ -312,7 +313,7 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
 
     The state from ``state`` (default: rest) is simulated by :func:`simulate` for ``transient``
     periods (default: the case's ``transient_periods``), then ``shots`` shots of ``n`` periods of
-    the model's shooting problem (:func:`vibeam.models.shooting_problem`) give the spectrum by
+    the scene's shooting problem (:class:`vibeam.models.core.scene_shooting.SceneShooting`) give the spectrum by
     the QR method (:func:`vibeam.models.lyapunov.lyapunov_spectrum`: exact flows, saltation
     matrices at impacts, Müller 1995; Benettin et al. 1980).  As in a sweep (``[sweep] lyapunov``),
     the state the shots end on is then simulated over the case's ``record_periods`` (16 for a
@@ -355,11 +356,10 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
     if isinstance(case_or_model, (Case, str, Path, dict)):
         case = load_case(case_or_model)
         r = pick_run(case, run)
-        model = make_job(case, r, dict(r.model)).solver.model
+        problem = shooting_at(make_job(case, r, dict(r.model)).solver, sim.Omega)
     else:
-        model = case_or_model
-    problem = shooting_problem(model, "Omega")
-    d = 2 * int(getattr(model, "n_modes", 1))
+        problem = SceneShooting(case_or_model.scene())
+    d = problem.dim
     sp = lyapunov_spectrum(problem, np.asarray(sim.final_state, float)[:d], sim.Omega, shots, 0, n)
     lam, err, method, period = sp.exponents, sp.error, "qr", 0
     if sp.status == "ok":
@@ -372,11 +372,11 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
         except ValueError:      # the shots' state refused (behind a stop by round-off): QR stands
             period = 0
         if period > 0:
-            fl = orbit_exponents(model, rec.final_state, sim.Omega, period, d)
+            fl = orbit_exponents(problem, rec.final_state, sim.Omega, period, d)
             if fl is not None:
                 lam, err, method = fl, np.zeros(d), "floquet"
-    # the model's time unit: 1 / (2 pi f) of its natural (SDOF) or reference (beam) frequency
-    f = getattr(model, "natural_frequency_hz", None) or getattr(model, "f_ref_hz", None)
+    # the scene's time unit: 1 / (2 pi f) of its natural (SDOF) or reference (beam) frequency
+    f = outputs(problem.scene).natural_frequency_hz
     scale = 2.0 * math.pi * f if f else None
     return Lyapunov(Omega=float(sim.Omega), exponents=lam, error=err,
                     exponents_per_s=None if scale is None else lam * scale,

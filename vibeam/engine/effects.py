@@ -148,19 +148,15 @@ class EffectSolver:
     and runs the plain solver of that scene; adds the effects' per-point outputs.  Picklable
     (runs in worker processes).
 
-    ``model`` is the run's model with the effects that do not change from point to point
-    (eccentric contact, coupled platform); its shooting problem is the run's (Lyapunov and Floquet
-    exponents) unless the scene changes per point (platform, gap drift): then ``self.model`` is
-    None and no exponent is computed (a base model's would be another scene's).  ``coupled`` is
-    the model of a coupled platform (its modes and the shaker force), else None."""
+    The scene of a point, :meth:`scene_at`, is what the Lyapunov and Floquet exponents of the
+    point are computed on.  ``coupled`` is the model of a coupled platform (its modes and the
+    shaker force), else None."""
 
     time_domain = True
 
-    def __init__(self, inner, spec, effects, settings, active, f_n_hz, model=None, coupled=None):
+    def __init__(self, inner, spec, effects, settings, active, f_n_hz, coupled=None):
         self.inner = inner
         self.scene = inner.scene
-        per_point = effects.platform is not None or effects.gap_drift is not None
-        self.model = None if per_point else model   # the shooting problem's, until it takes the scene (issue 58)
         self.name = inner.name
         self.time_domain = inner.time_domain
         self.chunk_periods = getattr(inner, "chunk_periods", None)
@@ -283,6 +279,14 @@ class EffectSolver:
             extra["gap_mm"] = gap
         return sc, extra
 
+    def scene_at(self, Omega):
+        """The scene simulated at ``Omega`` (:meth:`point_scene` without drift); None when it
+        depends on the state (a gap that slides with the impacts)."""
+        gd = self.effects.gap_drift
+        if gd is not None and gd.law == "sliding":
+            return None
+        return self.point_scene(Omega)[0]
+
     def point(self, Omega, state0, n_transient, n_record, samples_per_period=64):
         sliding = self.effects.gap_drift is not None and self.effects.gap_drift.law == "sliding"
         drift = 0.0
@@ -385,7 +389,7 @@ def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
     f_n = model.natural_frequency_hz
     inner = solver if new is model else make_solver(new, solver.name, **settings)
     coupled = new if effects.platform is not None and effects.platform.level == "coupled" else None
-    return EffectSolver(inner, spec, effects, settings, active, f_n, new, coupled)
+    return EffectSolver(inner, spec, effects, settings, active, f_n, coupled)
 
 
 def run_attrs(solver) -> dict:

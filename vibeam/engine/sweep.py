@@ -31,7 +31,7 @@ from vibeam.io.objects import SweepResult  # noqa: F401 (re-exported)
 from vibeam.io.outputs import MM_KEYS, UNITS  # noqa: F401 (re-exported)
 from vibeam.engine.records import (HARMONICS, PERIOD_MAX, SETTLED_MARGIN, STATUSES, amplitude_spread, period_minima, spread_agrees,
                                    summarize, transient_verdict, window_verdict)
-from vibeam.models import shooting_problem
+from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.blas import one_blas_thread
 from vibeam.models.continuation import start_point
 from vibeam.models.interrupts import check as check_interrupt
@@ -534,13 +534,29 @@ def _point(solver, Omega, state, sweep: Sweep, Delta: float):
     return out, new_state
 
 
+def shooting_at(solver, Omega: float) -> SceneShooting:
+    """The shooting problem (in ``Omega``) of the scene a solver simulates at ``Omega``: its
+    ``scene``, or the point's scene of a solver whose effects change it per point (``scene_at``).
+
+    Raises
+    ------
+    ValueError
+        If the point's scene depends on the state (a gap that slides with the impacts), or the
+        event integrator refuses the scene's stops.
+    """
+    at = getattr(solver, "scene_at", None)
+    sc = solver.scene if at is None else at(float(Omega))
+    if sc is None:
+        raise ValueError("the scene changes with the state (a sliding gap): no shooting problem of its own")
+    return SceneShooting(sc)
+
+
 def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
     """The point's Lyapunov spectrum (:data:`UNITS` ``lyapunov``) from its final state, in place."""
-    model = solver.model
     d = 2 * outputs(solver.scene).n_modes
     try:
-        sp = lyapunov_spectrum(shooting_problem(model, "Omega"), np.asarray(traj.final_state, float)[:d],
-                               float(Omega), shots)
+        prob = shooting_at(solver, Omega)
+        sp = lyapunov_spectrum(prob, np.asarray(traj.final_state, float)[:d], float(Omega), shots)
         ok, why = sp.status == "ok", sp.message
     except ValueError as e:       # a model without a shooting problem
         ok, why = False, str(e)
@@ -552,7 +568,7 @@ def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
         if n > 0:
             # a periodic orbit: its Floquet exponents are exact, the QR estimate (biased like 1/K)
             # stays as the check; where the orbit cannot be refined, the QR values are reported
-            lam = orbit_exponents(model, traj.final_state, float(Omega), n, d)
+            lam = orbit_exponents(prob, traj.final_state, float(Omega), n, d)
             if lam is not None:
                 out["lyapunov"], out["lyapunov_error"] = lam, np.zeros(d)
                 out["lyapunov_method"] = "floquet"
@@ -568,13 +584,13 @@ def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
         out["lyapunov_message"] = why
 
 
-def orbit_exponents(model, state, Omega: float, n: int, d: int):
+def orbit_exponents(prob, state, Omega: float, n: int, d: int):
     """The Floquet exponents of the period-``n`` orbit through ``state`` (its first ``d``
-    coordinates at forcing phase 0), refined by the shooting problem's Newton iteration
+    coordinates at forcing phase 0), refined by Newton on the shooting problem ``prob`` (in ``Omega``)
     (:func:`vibeam.models.continuation.start_point`), as
     :func:`vibeam.models.lyapunov.floquet_exponents`; None where the orbit is not refined."""
     try:
-        pt, _ = start_point(shooting_problem(model, "Omega"), np.asarray(state, float)[:d], float(Omega), int(n),
+        pt, _ = start_point(prob, np.asarray(state, float)[:d], float(Omega), int(n),
                             0.5 * Omega, 2.0 * Omega)
     except (ValueError, np.linalg.LinAlgError):
         return None
