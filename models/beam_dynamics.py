@@ -42,7 +42,7 @@ from numba import njit
 
 from .trajectory import Trajectory
 
-from .contact import Relation, Restitution, Stop, restitution_coefficients
+from .contact import Relation, Restitution, Stop
 from .core.direct import DirectIntegrator
 from .core.event import EventIntegrator, stop_codes
 from .impact import newton_restitution, restitution_impulse
@@ -454,8 +454,7 @@ class BeamImpactModel:
     def _constrained(self):
         """The beam held on a stop at the mass: ``eta = eta_c + Psi zeta``, ``Psi`` (shape (N, N - 1))
         and the squared frequencies ``nu2`` of the constrained modes, the same for every stop (the
-        null space of ``w``: :func:`vibeam.models.scene.held_modes`); for
-        :meth:`contact_mode_frequencies`.  The event integrator derives its own held sets from the
+        null space of ``w``: :func:`vibeam.models.scene.held_modes`).  The event integrator derives its own held sets from the
         system (:func:`vibeam.models.core.stops.held_sets`), the pre-stressed start its offsets
         (:func:`vibeam.models.scene.rest_state`)."""
         Psi, self.nu2 = held_modes(self.contact_row, np.diag(self.k_nd))
@@ -467,44 +466,6 @@ class BeamImpactModel:
         """Static-mode value at the contact point over the sensor's (``phi(x_m)``, or
         ``phi_c`` of an eccentric contact): contact displacements over it are the sensor's."""
         return self.phi_at_mass
-
-    def free_mode_frequencies(self) -> np.ndarray:
-        """Frequencies of the retained modes over the reference frequency, shape (N,)."""
-        return np.asarray(self.omega_rad_s) / (2 * math.pi) / self.f_ref_hz
-
-    def contact_mode_frequencies(self) -> np.ndarray:
-        """Frequencies of the modes of the beam held on the stop over the reference, (N - 1,)."""
-        return np.sqrt(np.maximum(np.asarray(self.nu2), 0.0))
-
-    def restitution_coefficients(self, velocities, stops=None) -> np.ndarray:
-        """R of impacts with recorded pre-impact normal velocities ``U- / L`` (per
-        nondimensional time, the trajectory's unit), shape (k,), on the stops ``stops`` (k,)
-        (their codes, :meth:`stop_codes`: 0 upper, 1 lower, 2 + i the point stop i; None: all on the
-        upper one): the law of the kernel, in its units."""
-        codes = self.stop_codes()
-        laws = {int(c): s.law for c, s in zip(range(len(self.stops())) if codes is None else codes, self.stops())}
-        if stops is None:
-            laws[0] = self.upper_law
-        return restitution_coefficients(laws, velocities, stops, self.length_m)
-
-    def with_gain(self, gain_per_V: float, scene_gain_per_V: float, voltage: float) -> "BeamImpactModel":
-        """The model at excitation gain ``gamma`` (1/V) instead of the scene's: the base
-        amplitude ``Y = gamma~ V`` scales with it (Eq. 46)."""
-        m = copy.copy(self)
-        m.base_amplitude_m = self.base_amplitude_m * (gain_per_V / scene_gain_per_V)
-        return m
-
-    def with_base_amplitude_m(self, Y: float) -> "BeamImpactModel":
-        """The model with base displacement amplitude ``Y`` (m)."""
-        m = copy.copy(self)
-        m.base_amplitude_m = float(Y)
-        return m
-
-    def with_sensor_gap_mm(self, gap_mm: float, length_mm: float) -> "BeamImpactModel":
-        """The model with the grazing gap ``gap_mm`` at the sensor: ``Delta_C = phi_c Delta_G``."""
-        m = copy.copy(self)
-        m.gap_contact_m = (gap_mm * 1e-3) * self.phi_contact
-        return m
 
     def initial_state(self) -> np.ndarray:
         """``(eta, eta', stuck)``: rest at the origin, or on a pre-stressed stop at the

@@ -30,18 +30,14 @@ Every model has ``fidelity`` (its registry name), ``Delta`` (the gap of the ampl
 ``Q = Delta - min q``, paper Sec. 4.1), ``natural_frequency_hz`` and ``length_m`` (None for a
 nondimensional scene), ``phi_contact`` (static-mode value at the contact point over the
 sensor's: contact displacements and velocities over it are the sensor's; 1 for the SDOF
-model, whose coordinate is the sensor's), ``restitution_coefficients(velocities, stops)``
-(R of each recorded impact, from its pre-impact velocity in the units of the trajectory),
-``with_gain(gain, scene_gain, voltage)`` and ``with_sensor_gap_mm(gap_mm, length_mm)``
-(the model of one point of an effect: another excitation gain, another gap at the sensor),
-``stops()`` (its contact relations and laws, :mod:`vibeam.models.contact`), ``two_sided`` and
+model, whose coordinate is the sensor's), ``stops()`` (its contact relations and laws, :mod:`vibeam.models.contact`), ``two_sided`` and
 ``initial_state()``.
 
 ``modes``
-    Several modes: ``free_mode_frequencies()`` (ratios to the reference frequency) label
-    spectral peaks; modal participation is defined.
+    Several modes: the scene's frequencies label spectral peaks; modal participation is defined.
 ``contact_modes``
-    The constrained system on the stop has modes: ``contact_mode_frequencies()``.
+    The constrained system on the stop has modes (the scene's held on its first contact row,
+    :func:`vibeam.models.scene.held_modes`).
 ``modal_state_methods``
     Methods whose solver records the modal states at the samples
     (``record_modal_states = True``): participation shares and the high-frequency component.

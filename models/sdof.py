@@ -12,11 +12,11 @@ displacement at the sensor is ``U(L_S) = q L``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from .contact import Relation, Restitution, Stop, restitution_coefficients
+from .contact import Relation, Restitution, Stop
 from .scene import Scene, sdof_scene
 
 def _upper_law(law, R, R_table, contact):
@@ -185,20 +185,6 @@ class SDOF:
     # ---- the model protocol of the fidelity registry (vibeam.models.registry)
     #: static-mode value at the contact point over the sensor's: 1, the coordinate is the sensor's
     phi_contact = 1.0
-
-    def restitution_coefficients(self, velocities, stops=None) -> np.ndarray:
-        """R of impacts with pre-impact normal velocities ``|q'-|`` (shape (k,)) on the stops
-        ``stops`` (k,) (0 upper, 1 lower; None: all on the upper one), the kernel's law
-        (:func:`vibeam.models.contact.restitution_coefficients`)."""
-        return restitution_coefficients([s.law for s in self.stops()], velocities, stops)
-
-    def with_gain(self, gain_per_V: float, scene_gain_per_V: float, voltage: float) -> "SDOF":
-        """The model at excitation gain ``gamma`` (1/V): ``B = gamma V`` (paper Eq. 43)."""
-        return replace(self, B=gain_per_V * voltage)
-
-    def with_sensor_gap_mm(self, gap_mm: float, length_mm: float) -> "SDOF":
-        """The model with the grazing gap ``gap_mm`` at the sensor: ``Delta = Delta_G / L`` (Eq. 45)."""
-        return replace(self, Delta=gap_mm / length_mm)
 
     def initial_state(self) -> np.ndarray:
         """Rest at the unloaded equilibrium, or on the stop if it is pre-stressed.
