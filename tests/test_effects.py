@@ -281,3 +281,23 @@ def test_rig_effects_case_runs():
         assert res.data["status"][0] != "failed"
         names += eff.active()
     assert {"platform", "gap_drift", "restitution_law"} <= set(names)
+
+
+def test_the_shooting_problem_of_a_point_runs_the_points_scene():
+    """A platform filter changes the drive per point: the shooting problem of a point (the
+    sweep's and the basins' Lyapunov and Floquet exponents, engine.sweep.shooting_at) runs that
+    point's scene, amplitude ``gamma(f) / gamma_ref`` times the base one (1e-15: one product),
+    not the base scene; a sliding gap depends on the state and has none (one line)."""
+    from vibeam.engine.sweep import shooting_at
+
+    spec, model = _sdof()
+    w = _wrap(spec, model, {"platform": {}})
+    Om = 1.9
+    g = w.effective_gain(Om * w.f_n_hz)
+    assert abs(g / spec.gain - 1.0) > 1e-3            # the point's amplitude is not the base's
+    B = shooting_at(w, Om).scene.system.base_amplitude
+    assert B == pytest.approx(model.scene().system.base_amplitude * g / spec.gain, rel=1e-15)
+    assert shooting_at(make_solver(model, "event"), Om).scene.system.base_amplitude == model.scene().system.base_amplitude
+    sl = _wrap(spec, model, {"gap_drift": {"law": "sliding", "slide_mm_per_impulse": 5.0, "max_drift_mm": 0.05}})
+    with pytest.raises(ValueError, match="sliding"):
+        shooting_at(sl, Om)
