@@ -179,6 +179,10 @@ MODULES = {
 #: sites of the operator --, with the reason; they are reported as ``equivalent`` and left out of
 #: the score (tests/README.md, "Tool-generated mutants")
 EQUIVALENT = {
+    ("models/core/scene_shooting.py", "core/ReplaceComparisonOperator_Eq_LtE",
+     "self._undamped = np.asarray(s.damping, float) == 0.0"):
+        "a modal system's damping coefficients are >= 0 (models.system.modal_system refuses others): "
+        "c <= 0 is c == 0",
     ("models/continuation.py", "core/NumberReplacer", "tr.run(br, 0, br.points[0], settings.ds)"):
         "the branch has exactly one point when it is run (appended on the line before, to an empty "
         "branch): points[0] is points[-1]",
