@@ -61,7 +61,9 @@ def __dir__():
 
 def shooting_problem(model, parameter: str, Omega: float | None = None):
     """The shooting problem of ``model`` in the native ``parameter`` (``Omega``: forcing
-    frequency of a continuation in another parameter).
+    frequency of a continuation in another parameter): the scene's problem
+    (:class:`~vibeam.models.core.scene_shooting.SceneShooting`) in the path the native name stands
+    for (the model's ``scene_parameter``).
 
     Raises
     ------
@@ -82,13 +84,15 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
         raise ValueError(f"continuation {why}; use method = \"event\"")
     if up != IMPULSIVE:
         # a compliant upper stop: its family's shooting problem (registry ``Method.laws``)
-        return resolve(fidelity(model).solvers["continuation"].laws[up])(model, parameter, Omega=Omega)
-    shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
-    cls = shooting.get(model.fidelity)
-    if cls is None:
-        raise ValueError(f"continuation is not available for fidelity {model.fidelity!r} (no shooting "
-                         f"problem registered); available: {', '.join(sorted(shooting))}")
-    return cls(model, parameter, Omega=Omega)
+        cls = resolve(fidelity(model).solvers["continuation"].laws[up])
+    else:
+        shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
+        cls = shooting.get(model.fidelity)
+        if cls is None:
+            raise ValueError(f"continuation is not available for fidelity {model.fidelity!r} (no shooting "
+                             f"problem registered); available: {', '.join(sorted(shooting))}")
+    path, damping = model.scene_parameter(parameter)
+    return cls(model.scene(), path, Omega=Omega, damping=damping)
 
 
 def make_solver(model, method: str, **settings):

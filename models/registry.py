@@ -290,7 +290,7 @@ register(Fidelity(
              # one or two stops, mixed ones included
              "mapping": Method("mapping:MappingSolver", {f: "mapping:MappingSolver" for f in _MAPPED},
                                (IMPULSIVE,) + _MAPPED, True, scene=True),
-             "continuation": on_the_core("periodic_sdof:SDOFShooting")},
+             "continuation": on_the_core("core.scene_shooting:SceneShooting")},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 #: the methods of the N-mode modal model (beam_dynamics.BeamImpactModel and its subclasses): the event
@@ -302,7 +302,7 @@ N_MODE_SOLVERS = {"event": on_the_core("core.event:BeamEventSolver", restitution
                   "mapping": Method("mapping.modal:ModalMappingSolver",
                                     {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
                                     (IMPULSIVE, "kelvin_voigt"), True, scene=True),
-                  "continuation": on_the_core("periodic_beam:BeamContinuation")}
+                  "continuation": on_the_core("core.scene_shooting:SceneShooting")}
 
 register(Fidelity(
     name="beam",

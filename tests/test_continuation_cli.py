@@ -11,6 +11,7 @@ from vibeam.case.schema import CaseError, parse_case
 from vibeam.cli import main
 from vibeam.models import linear_amplitude
 from vibeam.models.continuation import trace
+from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models.sdof import SDOF
 from vibeam.io.results import read_results
@@ -282,8 +283,8 @@ def test_a_fidelity_or_start_that_cannot_be_served(tmp_path, capsys, monkeypatch
     assert main(["run", str(case), "--out", str(tmp_path / "o"), "--jobs", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "'run[1].method' = 'continuation' is not available for fidelity 'sdof'" in err[0]
-    monkeypatch.setitem(models.SHOOTING, "sdof", SDOFShooting)
-    monkeypatch.setattr(SDOFShooting, "starts", ("linear",))
+    monkeypatch.setitem(models.SHOOTING, "sdof", SceneShooting)
+    monkeypatch.setattr(SceneShooting, "offered_starts", staticmethod(lambda scene: ("linear",)))
     case = _write(tmp_path, FIG8.replace('start_at = "low"', 'start = "averaging"'))
     assert main(["continue", str(case), "--out", str(tmp_path / "o2"), "--jobs", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()

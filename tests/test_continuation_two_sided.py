@@ -26,6 +26,7 @@ from vibeam.models import BeamEventSolver
 from vibeam.models.continuation import Settings, trace
 from vibeam.models.periodic_beam import BeamContinuation
 from vibeam.models.periodic_sdof import SDOFShooting
+from vibeam.models.core.scene_shooting import SceneShooting
 
 #: the first scene of cases/paper-fig7-two-sided.toml: Fig. 7's stop at Delta = 0 and a lower stop at
 #: q = -2e-3 (an impact on it is born at Omega = 1.6976)
@@ -52,8 +53,10 @@ def low_branch():
 def test_the_shooting_problem_serves_two_stops_and_the_case_allows_it():
     """The refusal is gone: vibeam.models.shooting_problem builds both fidelities' problems for a
     two-sided scene, and a case with method = "continuation" and a lower stop validates."""
-    assert isinstance(shooting_problem(LOW, "Omega"), SDOFShooting)
-    assert isinstance(shooting_problem(_beam1(0.0, 2e-3), "Omega"), BeamContinuation)
+    # the scene's one problem (vibeam.models.core.scene_shooting), on both stops
+    for m in (LOW, _beam1(0.0, 2e-3)):
+        p = shooting_problem(m, "Omega")
+        assert isinstance(p, SceneShooting) and len(p.scene.stops) == 2
     case = parse_case('name = "x"\n[model]\nfidelity = "sdof"\nbeta = 0.015\nB = 0.5e-3\nR = 0.9\n'
                       'Delta = 0.0\nDelta_lower = 2e-3\n[sweep]\nOmega = [1.5, 2.5, 3]\n[[run]]\nname = "a"\n'
                       'method = "continuation"\n', "x.toml")

@@ -178,7 +178,10 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
     if fid not in SHOOTING:
         raise CaseError(f"'run[{i}].method' = 'continuation' is not available for fidelity {fid!r} (no shooting "
                         f"problem registered in vibeam.models.SHOOTING); available for: {', '.join(sorted(SHOOTING))}")
-    starts = ("sweep", "auto") + tuple(getattr(SHOOTING[fid], "starts", ()))
+    starts = ("sweep", "auto")
+    if r.start not in starts:
+        # the closed-form starts the scene offers (the averaging start: the one-mode oscillator's)
+        starts += tuple(SHOOTING[fid].offered_starts(spec.build().scene()))
     if r.start not in starts:
         raise CaseError(f"'run[{i}].start' = {r.start!r} is not available for fidelity {fid!r}; allowed: "
                         f"{', '.join(starts)}")
