@@ -28,7 +28,7 @@ _LAZY = {
     "BeamEventSolver": "core.event", "BeamImpactModel": "beam_dynamics",
     "BeamODESolver": "beam_dynamics",
     "DirectSolver": "sdof_ode", "IvanovSolver": "sdof_ode", "ZhuravlevSolver": "sdof_ode",
-    "SDOFShooting": "periodic_sdof", "BeamContinuation": "periodic_beam", "Trajectory": "trajectory",
+    "SceneShooting": "core.scene_shooting", "Trajectory": "trajectory",
 }
 
 
@@ -59,11 +59,12 @@ def __dir__():
     return sorted(set(globals()) | set(_LAZY) | {"SHOOTING", "METHODS"})
 
 
-def shooting_problem(model, parameter: str, Omega: float | None = None):
+def shooting_problem(model, parameter: str = "Omega", Omega: float | None = None, **settings):
     """The shooting problem of ``model`` in the native ``parameter`` (``Omega``: forcing
     frequency of a continuation in another parameter): the scene's problem
     (:class:`~vibeam.models.core.scene_shooting.SceneShooting`) in the path the native name stands
-    for (the model's ``scene_parameter``).
+    for (the model's ``scene_parameter``); ``settings`` are its event integrator's
+    (``chatter_tol``, ``max_steps_per_period``, ...).
 
     Raises
     ------
@@ -92,7 +93,7 @@ def shooting_problem(model, parameter: str, Omega: float | None = None):
             raise ValueError(f"continuation is not available for fidelity {model.fidelity!r} (no shooting "
                              f"problem registered); available: {', '.join(sorted(shooting))}")
     path, damping = model.scene_parameter(parameter)
-    return cls(model.scene(), path, Omega=Omega, damping=damping)
+    return cls(model.scene(), path, Omega=Omega, damping=damping, **settings)
 
 
 def make_solver(model, method: str, **settings):
@@ -148,4 +149,4 @@ def _refusal(model, method: str) -> str:
 
 
 __all__ = ["SDOF", "EventSolver", "linear_amplitude", "make_solver", "METHODS", "SHOOTING",
-           "shooting_problem", "SDOFShooting", "BeamContinuation", "FIDELITIES", "fidelity", "Trajectory"]
+           "shooting_problem", "SceneShooting", "FIDELITIES", "fidelity", "Trajectory"]

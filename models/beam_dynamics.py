@@ -403,6 +403,8 @@ class BeamImpactModel:
                  "damping_D_s": "system.damping", "rayleigh_alpha_1_s": "system.damping"}
         if two:
             table.update(gap_contact_lower_m="stops[1].relation.offset", R_lower="stops[1].law.R")
+        if native in ("gap_contact_lower_m", "R_lower") and not two:
+            raise ValueError(f"continuation in {native!r} needs a lower stop (gap_contact_lower_m)")
         if native not in table:
             raise ValueError(f"parameter {native!r} is not a native beam parameter; allowed: {', '.join(table)}")
         if native in ("damping_D_s", "rayleigh_alpha_1_s"):

@@ -30,10 +30,12 @@ periods.  ``shot`` never raises for a dynamical outcome: an orbit the problem ca
 represent (more events than its buffer, a non-accumulating chatter, an unsupported
 configuration) comes back with ``status != "ok"`` and a ``message``.
 
-Construction and registration: the framework builds a problem as ``cls(model, parameter,
-Omega=Omega)`` from ``vibeam.models.SHOOTING[fidelity]`` (``parameter`` a native key;
-``Omega`` the forcing frequency of a continuation in another key, None for ``"Omega"``); the
-model spec's ``native_parameter(key) -> (native key, factor)`` maps physical keys.
+Construction and registration: the framework builds a problem as ``cls(scene, path,
+Omega=Omega, damping=damping)`` from ``vibeam.models.SHOOTING[fidelity]``
+(:func:`vibeam.models.shooting_problem`: ``path`` a scene path, the one a model's native key
+stands for, its ``scene_parameter``; ``Omega`` the forcing frequency of a continuation in another
+key, None for ``"Omega"``); the model spec's ``native_parameter(key) -> (native key, factor)``
+maps physical keys.
 
 Optional capabilities (duck-typed; used when present):
 

@@ -56,7 +56,7 @@ model, whose coordinate is the sensor's), ``stops()`` (its contact relations and
     stop's law name, ``"restitution"`` by default) and the law object ``contact`` (its
     ``family`` and numbers, e.g. ``chi``).  A method's ``laws`` entry of a family names the
     class that simulates that family's laws (for ``"continuation"`` its shooting problem,
-    built as ``cls(model, parameter, Omega=Omega)``); a family not listed is refused (by
+    built as ``cls(scene, path, Omega=Omega, damping=damping)``); a family not listed is refused (by
     :func:`supported_methods`).  The kernels of a family never ask a law's name: they read its
     numbers from the law object (a new law of a family then costs one class and one
     :data:`LAWS` line).
@@ -66,7 +66,7 @@ model, whose coordinate is the sensor's), ``stops()`` (its contact relations and
     ``[run.model]`` override or a ``[map]`` value of ``R``).
 ``shooting``
     Its periodic-orbit shooting problem (contract: :mod:`vibeam.models.periodic`), the
-    class the continuation builds as ``cls(model, parameter, Omega=Omega)``; None: cannot
+    class the continuation builds as ``cls(scene, path, Omega=Omega, damping=damping)`` (:func:`vibeam.models.shooting_problem`); None: cannot
     be continued.
 """
 from __future__ import annotations
@@ -171,7 +171,7 @@ class Method(NamedTuple):
     ----------
     solver : str
         ``"module:Class"`` of its solver for Newton's law (built as ``cls(model, **settings)``);
-        for ``continuation`` the shooting problem (``cls(model, parameter, Omega=Omega)``).
+        for ``continuation`` the shooting problem (``cls(scene, path, Omega=Omega, damping=damping)``).
     laws : dict
         Family of compliant laws (:data:`FAMILIES`) -> ``"module:Class"`` of the solver of its
         laws; a family not listed is refused by this method.

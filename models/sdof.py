@@ -186,6 +186,8 @@ class SDOF:
                  "beta": "system.damping"}
         if two:
             table.update(Delta_lower="stops[1].relation.offset", R_lower="stops[1].law.R")
+        if native in ("Delta_lower", "R_lower") and not two:
+            raise ValueError(f"continuation in {native!r} needs a lower stop (Delta_lower)")
         if native not in table:
             raise ValueError(f"parameter {native!r} is not a parameter of this SDOF model; allowed: {', '.join(table)}")
         return table[native], ((float(self.beta), np.array([2.0])) if native == "beta" else None)

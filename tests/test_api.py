@@ -1,5 +1,6 @@
 """The Python API (vibeam.load_case, run, simulate, open_results) and README's notebook example."""
 from __future__ import annotations
+from vibeam.models import shooting_problem
 
 import re
 import subprocess
@@ -610,13 +611,12 @@ def test_poincare_of_a_period_one_orbit_against_the_shooting_solution(tmp_path):
     P(x) - x, models.continuation.start_point) to 1e-8 rad and with its velocity to 1e-8."""
     from vibeam.cli import main
     from vibeam.models.continuation import start_point
-    from vibeam.models.periodic_sdof import SDOFShooting
 
     sec = vibeam.poincare(FIG7, Omega=2.0, periods=32)
     assert sec.strobe_q.shape == (32,) and sec.period == 1
     assert np.ptp(sec.strobe_q) < 1e-8 and np.ptp(sec.strobe_dq) < 1e-8
     case = vibeam.load_case(FIG7)
-    prob = SDOFShooting(case.model_spec().build(), "Omega")
+    prob = shooting_problem(case.model_spec().build(), "Omega")
     pt, why = start_point(prob, np.array([sec.strobe_q[0], sec.strobe_dq[0]]), 2.0, 1, 1.5, 2.5)
     assert pt is not None, why
     phase = np.mod(2.0 * np.asarray(pt.shot.impact_times), 2 * np.pi)

@@ -38,7 +38,7 @@ from scipy.integrate import solve_ivp
 
 from vibeam.case.schema import load_case, parse_case
 from vibeam.errors import CaseError
-from vibeam.models import make_solver
+from vibeam.models import make_solver, shooting_problem
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "cases" / "chain-3dof.toml"
@@ -323,9 +323,8 @@ def test_continuation_multipliers_equal_finite_differences_of_the_physical_perio
     case, _ = load_case(CASE)
     m = case.model_spec().build()
     mm = case.model_spec().matrix_model()
-    from vibeam.models.periodic_beam import BeamContinuation
 
-    prob = BeamContinuation(m)
+    prob = shooting_problem(m)
     d = r.branches[0]["data"]
     k = len(d["parameter"]) // 2
     assert int(d["impacts"][k]) >= 1                                  # an impacting orbit

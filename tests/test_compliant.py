@@ -502,7 +502,7 @@ def test_beam_isolated_contact_restitution_and_case_keys():
     two = parse_case(hc.replace("[model.contact]", "gap_lower_mm = 0.3\n[model.contact]")
                      .replace('method = "event"', 'method = "direct"', 1))
     assert two.run[0].method == "direct"
-    # hunt_crossley on the beam continues too (the one shooting problem, vibeam.models.periodic_beam)
+    # hunt_crossley on the beam continues too (the scene's one shooting problem, vibeam.models.core.scene_shooting)
     parse_case(hc.replace('method = "event"', 'method = "continuation"\nparameter = "Omega"', 1))
     # continuation: the one shooting problem (vibeam.models.core.shooting), in the frequency and
     # the excitation only

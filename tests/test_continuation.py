@@ -1,4 +1,4 @@
-"""Continuation of periodic orbits (models.periodic_sdof, models.continuation): exact derivatives,
+"""Continuation of periodic orbits (the SDOF scene's shooting problem, models.core.scene_shooting; models.continuation): exact derivatives,
 branches through folds, bifurcations located against independent oracles."""
 import math
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from vibeam.models import linear_amplitude, make_solver
+from vibeam.models import linear_amplitude, make_solver, shooting_problem
 from vibeam.models.continuation import (ContinuationError, Settings, start_point, trace)
-from vibeam.models.periodic_sdof import PARAMETERS, SDOFShooting
+from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models import SDOF, EventSolver
 from vibeam.models.sdof_averaging import solve as averaging
 from vibeam.engine.records import summarize
@@ -30,19 +30,19 @@ def _settled(m, Omega, n_transient=1000):
 def fig8_branch():
     """Fig. 8 period-1 branch from the impacting orbit at Omega = 1.5 upwards."""
     x0, _ = _settled(FIG8, 1.5)
-    return trace(SDOFShooting(FIG8), x0, 1.5, 1, 1.5, 2.5, +1)
+    return trace(shooting_problem(FIG8), x0, 1.5, 1, 1.5, 2.5, +1)
 
 
 @pytest.fixture(scope="module")
 def fig13_branches():
     x0, _ = _settled(FIG13, 1.5)
-    return trace(SDOFShooting(FIG13), x0, 1.5, 1, 1.5, 2.5, +1)
+    return trace(shooting_problem(FIG13), x0, 1.5, 1, 1.5, 2.5, +1)
 
 
 # ------------------------------------------------------------------ exact derivatives
 def _orbit(m, Omega, n, x0=None, periods=3000):
     """A settled state at phase 0 (or ``x0`` corrected by Newton) and the problem."""
-    pr = SDOFShooting(m, "Omega")
+    pr = shooting_problem(m, "Omega")
     if x0 is None:
         x0, _ = _settled(m, Omega)
     pt, why = start_point(pr, x0, Omega, n, Omega - 1, Omega + 1)
@@ -64,6 +64,32 @@ ORBITS = {
 GUESS = {"pre-stressed": np.array([-2.2492e-3, 5.4533e-4])}
 
 
+#: the SDOF's parameters (paper Eqs. 1-2) in the order of :class:`EveryDirection`'s columns
+PARAMETERS = ("Omega", "B", "Delta", "R", "beta")
+
+
+class EveryDirection(SceneShooting):
+    """The scene's problem with the five SDOF directions in the kernel at once (Omega, B, the stop's
+    offset, its R, beta: ``c = 2 beta``), in this order or reversed: the tangent's columns of one
+    shot, to compare with the one-column problems of each parameter."""
+
+    reverse = False
+
+    def setup(self, p):
+        from vibeam.models.core.shooting import Direction, Setup, directions
+        su = super().setup(p)
+        z = np.zeros(su.core.n_stops)
+        up = np.eye(su.core.n_stops)[0]
+        every = [Direction("Omega", 1.0, 0.0, z, z, np.zeros(1)), Direction("B", 0.0, 1.0, z, z, np.zeros(1)),
+                 Direction("Delta", 0.0, 0.0, up, z, np.zeros(1)), Direction("R", 0.0, 0.0, z, up, np.zeros(1)),
+                 Direction("beta", 0.0, 0.0, z, z, np.array([2.0]))]
+        return Setup(su.core, su.Omega, directions(su.core, every[::-1] if self.reverse else every), su.gap, su.scale)
+
+    @property
+    def column(self):
+        return 4 if self.reverse else 0       # Omega's
+
+
 @pytest.mark.parametrize("name", sorted(ORBITS))
 def test_monodromy_and_parameter_derivatives_against_central_differences(name):
     m, Omega, n = ORBITS[name]
@@ -73,8 +99,8 @@ def test_monodromy_and_parameter_derivatives_against_central_differences(name):
     if name == "sticking":
         assert s.stuck_time > 0 and np.all(s.M == 0.0)
     if name == "period-2":
-        assert s.n_impacts == 2 and np.max(np.abs(SDOFShooting(m).shot(x, Omega, 1).x - x)) > 1e-4
-    pr = SDOFShooting(m, "Omega")
+        assert s.n_impacts == 2 and np.max(np.abs(shooting_problem(m).shot(x, Omega, 1).x - x)) > 1e-4
+    pr = shooting_problem(m, "Omega")
     # central differences with relative steps 1e-6: truncation ~1e-12, round-off ~1e-16/1e-6
     # amplified by the orbit's sensitivity (|M| up to ~10): agreement to 1e-7 of the scale
     h = 1e-6 * np.max(np.abs(x))
@@ -84,13 +110,14 @@ def test_monodromy_and_parameter_derivatives_against_central_differences(name):
         e[j] = h
         Mfd[:, j] = (pr.shot(x + e, Omega, n).x - pr.shot(x - e, Omega, n).x) / (2 * h)
     assert np.max(np.abs(Mfd - s.M)) <= 1e-7 * max(1.0, np.max(np.abs(s.M)))
+    every = EveryDirection(m.scene(), "Omega").shot(x, Omega, n).extra["x_all_p"]
     for key in PARAMETERS:
         val = Omega if key == "Omega" else getattr(m, key)
-        pp = SDOFShooting(m, key, Omega=Omega)
+        pp = shooting_problem(m, key, Omega=Omega)
         hp = 1e-6 * max(abs(val), 1e-3)
         fd = (pp.shot(x, val + hp, n).x - pp.shot(x, val - hp, n).x) / (2 * hp)
         an = pp.shot(x, val, n).x_p
-        assert np.allclose(an, s.extra["x_all_p"][:, PARAMETERS.index(key)], rtol=0, atol=0)
+        assert np.allclose(an, every[:, PARAMETERS.index(key)], rtol=0, atol=0)
         scale = max(np.max(np.abs(an)), np.max(np.abs(x)))
         assert np.max(np.abs(fd - an)) <= 2e-6 * scale, (key, fd, an)
 
@@ -138,7 +165,7 @@ def test_grazing_where_the_linear_amplitude_equals_the_gap():
     """Start on the non-impacting orbit (closed form) and continue down in Omega: the grazing
     is where C(Omega) = Delta (closed form, brentq to 1e-15), and the branch goes on, on the
     impacting orbit born there (a non-smooth fold: the impacting branch turns back up)."""
-    pr = SDOFShooting(FIG8, "Omega")
+    pr = shooting_problem(FIG8, "Omega")
     x0, why = pr.start("linear", 2.5)
     assert why == ""
     (b,) = trace(pr, x0, 2.5, 1, 1.5, 2.5, -1)
@@ -154,7 +181,7 @@ def test_grazing_where_the_linear_amplitude_equals_the_gap():
 def test_grazing_in_the_gap_at_fixed_frequency():
     """Continuation in Delta of the non-impacting orbit: grazing at Delta = C(Omega)."""
     Omega = 2.3
-    pr = SDOFShooting(FIG8, "Delta", Omega=Omega)
+    pr = shooting_problem(FIG8, "Delta", Omega=Omega)
     C = float(linear_amplitude(FIG8.beta, FIG8.B, Omega))
     x0, why = pr.start("linear", 2 * C)
     branches = trace(pr, x0, 2 * C, 1, 0.5 * C, 2 * C, -1)
@@ -170,7 +197,7 @@ def test_period_doubling_of_fig13_against_finite_difference_multipliers(fig13_br
     assert len(pd) == 1
     W = pd[0].parameter
     assert W == pytest.approx(2.281, abs=1e-3)          # README: Floquet puts it at ~2.281
-    pr = SDOFShooting(FIG13, "Omega")
+    pr = shooting_problem(FIG13, "Omega")
 
     def fd_multipliers(Wq):
         pt, why = start_point(pr, pd[0].x, Wq, 1, 1.5, 2.5)
@@ -250,7 +277,7 @@ def test_fold_lies_between_the_jumps_of_fine_up_and_down_sweeps(fig8_branch):
     state = None
     down = []
     for W in np.arange(1.88, 1.86, -1e-4):
-        tr = solver.point(W, state if state is not None else np.r_[SDOFShooting(FIG8).start("linear", W)[0], 0.0],
+        tr = solver.point(W, state if state is not None else np.r_[shooting_problem(FIG8).start("linear", W)[0], 0.0],
                           600, 4, 8)
         state = tr.final_state
         down.append((W, FIG8.Delta - tr.q_min))
@@ -264,7 +291,7 @@ def test_rig_tight_fold_brackets_the_down_sweep_jump():
     period-1 orbit down to its fold and jumps within one grid step (0.005 Hz) below it."""
     x0, sm = _settled(RIG_TIGHT, 17 / FN)
     assert sm["period"] == 1
-    (b,) = trace(SDOFShooting(RIG_TIGHT), x0, 17 / FN, 1, 14 / FN, 17 / FN, -1)
+    (b,) = trace(shooting_problem(RIG_TIGHT), x0, 17 / FN, 1, 14 / FN, 17 / FN, -1)
     folds = [f.parameter * FN for f in b.bifurcations if f.type == "fold"]
     assert len(folds) == 1 and 16.2 < folds[0] < 16.35
     solver = make_solver(RIG_TIGHT, "event")
@@ -286,7 +313,7 @@ def test_branch_agrees_with_averaging_at_R_1_near_Omega_2():
     (measured 3e-5) and its error grows with the detuning sigma = Omega/2 - 1 (first order:
     measured 0.3 % at |sigma| = 0.025, 0.7 % at 0.05): |Q - Q_avg| / Q <= 1e-4 + 0.2 |sigma|."""
     m = SDOF(0.015, 0.5e-3, 1.0, 0.0)
-    pr = SDOFShooting(m, "Omega")
+    pr = shooting_problem(m, "Omega")
     x0, why = pr.start("averaging", 2.0)
     (b,) = trace(pr, x0, 2.0, 1, 1.9, 2.1, 0)
     a = b.arrays()
@@ -317,7 +344,7 @@ def test_sticking_orbits_are_continued_and_their_end_located():
     superstable) are continued; where the sticking phase vanishes the end of sticking is
     located, and points on either side have / have not a sticking phase."""
     x0, sm = _settled(RIG_STICK, 15 / FN)
-    pr = SDOFShooting(RIG_STICK, "Omega")
+    pr = shooting_problem(RIG_STICK, "Omega")
     branches = trace(pr, x0, 15 / FN, 1, 14 / FN, 16 / FN, +1, Settings(switch=False))
     b = branches[0]
     a = b.arrays()
@@ -334,24 +361,24 @@ def test_section_crossing_impact_is_passed():
     """When an impact moves through forcing phase 0 the stroboscopic state jumps between pre-
     and post-impact values; the branch goes on from the other representation (resect)."""
     x0, _ = _settled(RIG_STICK, 15 / FN)
-    (b,) = trace(SDOFShooting(RIG_STICK), x0, 15 / FN, 1, 14 / FN, 16 / FN, -1, Settings(switch=False))
+    (b,) = trace(shooting_problem(RIG_STICK), x0, 15 / FN, 1, 14 / FN, 16 / FN, -1, Settings(switch=False))
     assert b.status == "range_end" and b.points[-1].p == pytest.approx(14 / FN)
     assert b.resections >= 1
 
 
 def test_bad_requests():
     with pytest.raises(ValueError, match="'Gamma' is not a parameter"):
-        SDOFShooting(FIG8, "Gamma")
+        shooting_problem(FIG8, "Gamma")
     with pytest.raises(ValueError, match="needs the forcing frequency"):
-        SDOFShooting(FIG8, "B")
-    x, why = SDOFShooting(FIG8).start("linear", 1.6)
+        shooting_problem(FIG8, "B")
+    x, why = shooting_problem(FIG8).start("linear", 1.6)
     assert x is None and "does not exist" in why
     with pytest.raises(ContinuationError, match="outside the range"):
-        trace(SDOFShooting(FIG8), np.zeros(2), 3.0, 1, 1.5, 2.5)
+        trace(shooting_problem(FIG8), np.zeros(2), 3.0, 1, 1.5, 2.5)
     with pytest.raises(ContinuationError, match="empty"):
-        trace(SDOFShooting(FIG8), np.zeros(2), 2.0, 1, 2.5, 1.5)
+        trace(shooting_problem(FIG8), np.zeros(2), 2.0, 1, 2.5, 1.5)
     # a start the problem cannot represent is a status, not an exception (R > 1)
-    (b,) = trace(SDOFShooting(FIG8, "R", Omega=2.0), np.array([0.0, 0.0]), 1.2, 1, 0.5, 1.5)
+    (b,) = trace(shooting_problem(FIG8, "R", Omega=2.0), np.array([0.0, 0.0]), 1.2, 1, 0.5, 1.5)
     assert b.status == "failed_start" and "out of range" in b.message
 
 
@@ -363,8 +390,8 @@ def test_two_parameter_period_doubling_curve(fig13_branches):
 
     def factory(free, fixed):
         if free == "p1":
-            return SDOFShooting(dc_replace(FIG13, Delta=fixed), "Omega")
-        return SDOFShooting(FIG13, "Delta", Omega=fixed)
+            return shooting_problem(dc_replace(FIG13, Delta=fixed), "Omega")
+        return shooting_problem(FIG13, "Delta", Omega=fixed)
 
     bf = [f for f in fig13_branches[0].bifurcations if f.type == "period_doubling"][0]
     c = trace_curve(factory, bf, FIG13.Delta, (1.5, 2.5), (0.4e-3, 0.6e-3), max_points=16)
@@ -372,7 +399,7 @@ def test_two_parameter_period_doubling_curve(fig13_branches):
     assert min(c.p2) < 0.45e-3 and max(c.p2) > 0.55e-3          # both halves went somewhere
     k = int(np.argmax(np.abs(np.asarray(c.p2) - FIG13.Delta)))
     m = dc_replace(FIG13, Delta=c.p2[k])
-    pr = SDOFShooting(m)
+    pr = shooting_problem(m)
     pt, why = start_point(pr, c.x[k], c.p1[k] - 0.01, 1, 1.5, 2.5)
     assert pt is not None, why
     (b,) = trace(pr, pt.x, c.p1[k] - 0.01, 1, 1.5, c.p1[k] + 0.01, +1, Settings(switch=False))
@@ -409,16 +436,15 @@ def test_the_compiled_corrector_serves_a_frequency_continuation(fidelity, monkey
     monkeypatch.setattr(ModalShooting, "correct", counting)
     if fidelity == "sdof":
         m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
-        prob, W0, W1 = SDOFShooting(m), 1.5, 1.7
+        prob, W0, W1 = shooting_problem(m), 1.5, 1.7
         x0 = _settled(m, W0)[0]
     else:
         from vibeam.models import BeamEventSolver
-        from vibeam.models.periodic_beam import BeamContinuation
 
         root = Path(__file__).resolve().parents[1]
         m = load_case(root / "cases" / "rig-fe-neutral.toml")[0].model_spec({"n_modes": 2}).build()
         W0, W1 = 14.0 / m.f_ref_hz, 14.5 / m.f_ref_hz
-        prob = BeamContinuation(m, "Omega")
+        prob = shooting_problem(m, "Omega")
         x0 = BeamEventSolver(m.scene()).point(W0, None, 400, 1, 1).final_state[:-1]
     trace(prob, x0, W0, 1, W0, W1, +1, Settings())
     assert calls and not raised, raised[:1]
@@ -479,26 +505,14 @@ def test_the_parameter_derivatives_do_not_depend_on_the_order_of_the_directions(
     is otherwise unseen) gives the columns of the usual order, reversed, and its own column is
     the central difference of the shot in Omega (relative steps 1e-6: as above, 2e-6 of the
     scale)."""
-    from vibeam.models.core.shooting import Direction, Setup, directions
-
     m, Omega, n = ORBITS["two impacts"]
     x, s = _orbit(m, Omega, n, None)
-    usual = s.extra["x_all_p"]
+    usual = EveryDirection(m.scene(), "Omega").shot(x, Omega, n).extra["x_all_p"]
 
-    class Reversed(SDOFShooting):
-        def setup(self, p):
-            su = super().setup(p)
-            z = np.zeros(1)
-            every = [Direction("Omega", 1.0, 0.0, z, z, z), Direction("B", 0.0, 1.0, z, z, z),
-                     Direction("Delta", 0.0, 0.0, np.ones(1), z, z), Direction("R", 0.0, 0.0, z, np.ones(1), z),
-                     Direction("beta", 0.0, 0.0, z, z, np.array([2.0]))]
-            return Setup(su.core, su.Omega, directions(su.core, every[::-1]), su.gap, su.scale)
+    class Reversed(EveryDirection):
+        reverse = True
 
-        @property
-        def column(self):
-            return 4        # Omega, last
-
-    pr = Reversed(m, "Omega")
+    pr = Reversed(m.scene(), "Omega")
     got = pr.shot(x, Omega, n)
     assert got.status == "ok" and got.n_impacts == s.n_impacts
     scale = max(np.max(np.abs(usual)), np.max(np.abs(x)))

@@ -1,4 +1,4 @@
-"""Continuation of the modal FE beam (``vibeam.models.SHOOTING["beam"]``, models/periodic_beam.py
+"""Continuation of the modal FE beam (``vibeam.models.SHOOTING["beam"]``, models/core/scene_shooting.py
 driven by models/continuation.py and vibeam/branches.py) against independent oracles:
 
 * the one-mode rungs of the shipped ladder (cases/rig-fe-tight-continuation.toml) against the
@@ -30,9 +30,8 @@ from vibeam.case.schema import load_case, parse_case
 from vibeam.cli import main
 from vibeam.models import SDOF, shooting_problem
 from vibeam.models import BeamEventSolver, make_solver
+from vibeam.models.system import modal_flow
 from vibeam.models.continuation import Settings, start_point, trace
-from vibeam.models.periodic_beam import BeamContinuation
-from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.engine.records import summarize
 from vibeam.runner import run_case
 from vibeam.io.results import read_results
@@ -121,8 +120,8 @@ def _one_dof(m, name):
 @pytest.mark.parametrize("name, n_modes", [("static mode (SDOF)", "static"), ("FE 1 mode", 1)])
 def test_one_mode_rung_equals_its_sdof_branch(ladder, name, n_modes):
     """The one-mode rungs of the ladder (the paper's static-mode SDOF as a one-shape beam, and FE 1
-    mode) against the SDOF continuation of the same oscillator (models/periodic_sdof.py, another
-    kernel, another derivative assembly, its own time and length units):
+    mode) against the SDOF continuation of the same oscillator (the SDOF scene's problem: its own
+    time and length units, one mode where the beam's shape carries the rows):
 
     * every branch point, mapped to the SDOF's coordinates, is a fixed point of the SDOF's
       stroboscopic map at the same frequency in Hz (to the engine's residual), with the same
@@ -140,7 +139,7 @@ def test_one_mode_rung_equals_its_sdof_branch(ladder, name, n_modes):
     (b,) = r.branches
     d = b["data"]
     assert b["status"] == "range_end" and r.attrs["natural_frequency_hz"] == m.f_ref_hz
-    prob = SDOFShooting(sd, "Omega")
+    prob = shooting_problem(sd, "Omega")
     lo, hi = 14 / fn, 21 / fn
     for k in range(len(d["parameter"])):
         Ws = d["parameter"][k] * m.f_ref_hz / fn
@@ -219,7 +218,7 @@ def test_continuation_in_the_gap_through_a_case_file(tmp_path, capsys):
     assert "gap_mm =" in out and "grazing" in out
     m = rig("rig-fe-loose", 2)
     W = 18.0 / m.f_ref_hz
-    gap = BeamContinuation(m, "gap_contact_m", Omega=W).linear_amplitude(W) / m.phi_at_mass * 1e3
+    gap = shooting_problem(m, "gap_contact_m", Omega=W).linear_amplitude(W) / m.phi_at_mass * 1e3
     with h5py.File(tmp_path / "out" / "results.h5") as f:
         g = f["branches/FE 2 modes/bifurcations"]
         types = list(g["type"].asstr()[()])
@@ -259,7 +258,7 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     m = spec.build()
     W = 18.0 / m.f_ref_hz
     pv = problem(spec, "voltage", W)
-    py = BeamContinuation(m, "base_amplitude_m", Omega=W)
+    py = shooting_problem(m, "base_amplitude_m", Omega=W)
     x = BeamEventSolver(m.scene()).point(W, None, 300, 1, 1).final_state[:-1]
     sv, sy = pv.shot(x, 0.6, 1), py.shot(x, m.base_amplitude_m, 1)
     g = spec.native_parameter("voltage")[1]
@@ -365,7 +364,7 @@ def test_multipliers_against_finite_differences_of_the_shot(ladder, neutral_all)
     res, _, _ = ladder
     r = res["FE 2 modes"]
     m2 = rig("rig-fe-tight-continuation", 2)
-    prob = BeamContinuation(m2)
+    prob = shooting_problem(m2)
     fold = sorted(_bifs(r, "fold"), key=lambda bf: -bf["amplitude"])[0]
     pd = _bifs(r, "period_doubling")[0]
     for bf, target in ((fold, 1.0), (pd, -1.0)):
@@ -394,7 +393,7 @@ def test_resect_moves_an_impact_across_the_section(n_modes):
       brentq so that its next impact comes at T - 1e-9 T): the pre-impact state, whose next
       period (impact at 0+ included) is the original's next period."""
     m = rig("rig-fe-neutral", n_modes)
-    prob = BeamContinuation(m)
+    prob = shooting_problem(m)
     N = m.n_modes
     w = m.contact_row
     W = 16.5 / m.f_ref_hz
@@ -402,7 +401,7 @@ def test_resect_moves_an_impact_across_the_section(n_modes):
     x = BeamEventSolver(m.scene()).point(W, None, 300, 1, 1).final_state[:-1]
     eta = x[:N] + w * (m.gap_contact_m - w @ x[:N]) / (w @ w)          # on the stop
     approach = x[N:] + w * (W * np.max(np.abs(x)) - w @ x[N:]) / (w @ w)
-    x0 = prob._free_flow(eta, approach, 1e-9 * T, 0.0, prob._data(W))
+    x0 = np.concatenate(modal_flow(m.scene().system, 1e-9 * T, 0.0, eta, approach, W))   # the free flow back
     s0 = prob.shot(x0, W, 1)
     assert s0.n_impacts >= 1 and abs(s0.impact_times[0] - 1e-9 * T) < 1e-12 * T
     x1 = prob.resect(x0, W, 1)

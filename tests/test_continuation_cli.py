@@ -9,10 +9,9 @@ from scipy.optimize import brentq
 
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.cli import main
-from vibeam.models import linear_amplitude
+from vibeam.models import linear_amplitude, shooting_problem
 from vibeam.models.continuation import trace
 from vibeam.models.core.scene_shooting import SceneShooting
-from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models.sdof import SDOF
 from vibeam.io.results import read_results
 
@@ -172,7 +171,7 @@ def test_voltage_continuation_is_the_chain_rule_of_B():
     x0, why = prob_v.start("linear", V0)
     assert why == ""
     (bv,) = trace(prob_v, x0, V0, 1, 0.1, 1.5, +1)
-    (bB,) = trace(SDOFShooting(m, "B", Omega=Omega), x0, gamma * V0, 1, 0.1 * gamma, 1.5 * gamma, +1)
+    (bB,) = trace(shooting_problem(m, "B", Omega=Omega), x0, gamma * V0, 1, 0.1 * gamma, 1.5 * gamma, +1)
     gv = [f.parameter for f in bv.bifurcations if f.type == "grazing"]
     gB = [f.parameter for f in bB.bifurcations if f.type == "grazing"]
     assert gv and gB and gB[0] == pytest.approx(gamma * gv[0], rel=1e-10)
@@ -247,7 +246,7 @@ curve_points = 40
     k = len(c["parameter"]) // 2
     gap_k, W_k = float(c["gap_mm"][k]), float(c["parameter"][k])
     m = SDOF.from_physical(7.6, 0.017, 0.72, gap_k, 180.0, 5.16e-4, 0.6)
-    pr = SDOFShooting(m, "Omega")
+    pr = shooting_problem(m, "Omega")
     from vibeam.models import EventSolver
     tr = EventSolver(m.scene()).point(14 / 7.6, None, 1000, 4, 8)
     bs = trace(pr, tr.final_state[:2], 14 / 7.6, 1, 14 / 7.6, 16 / 7.6, +1)

@@ -1,5 +1,5 @@
 """Continuation of periodic orbits with a compliant (Kelvin-Voigt) stop: the one shooting problem
-(vibeam.models.core.shooting, served by SDOFShooting) against finite differences, the event kernel, the
+(vibeam.models.core.shooting, served by the scene's SceneShooting) against finite differences, the event kernel, the
 entry-to-entry map of Sec. 4.2, Liouville's formula, the CoR limit and the command line."""
 import math
 from dataclasses import replace
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from vibeam.case.schema import CaseError, parse_case
+from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models import shooting_problem
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import start_point, trace
-from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models import SDOF, EventSolver
 from vibeam.engine.records import summarize
 
@@ -39,7 +39,7 @@ def fig8_kv():
     from the contacting orbit at Omega = 1.5 up to 2.5."""
     m = _kv(FIG8, 1e4)
     x0, _ = _settled(m, 1.5)
-    brs = trace(SDOFShooting(m), x0, 1.5, 1, 1.5, 2.5, +1)
+    brs = trace(shooting_problem(m), x0, 1.5, 1, 1.5, 2.5, +1)
     return m, brs
 
 
@@ -64,7 +64,7 @@ def test_shot_jacobian_equals_central_differences(name):
     x, _ = _settled(m, W, 400)
     x = x * (1.0 + 1e-3)
     for par in ("Omega", "B", "Delta"):
-        prob = SDOFShooting(m, par, Omega=W)
+        prob = shooting_problem(m, par, Omega=W)
         p = W if par == "Omega" else float(getattr(m, par))
         s = prob.shot(x, p, n)
         assert s.status == "ok" and s.n_impacts >= 1, s.message
@@ -155,7 +155,7 @@ def test_branch_tends_to_the_cor_branch_as_the_stiffness_grows():
     for k in (1e6, 1e7):
         m = _kv(FIG8, k)
         x0, _ = _settled(m, 1.9, 600)
-        b = trace(SDOFShooting(m), x0, 1.9, 1, 1.8, 2.05, +1)[0]
+        b = trace(shooting_problem(m), x0, 1.9, 1, 1.8, 2.05, +1)[0]
         folds = [f for f in b.bifurcations if f.type == "fold"]
         assert len(folds) == 1
         shifts.append(FOLD_COR - folds[0].parameter)
@@ -194,11 +194,11 @@ def test_registry_dispatch_and_case_validation(monkeypatch):
     from vibeam.models.registry import FIDELITIES
 
     m = parse_case(CASE).model_spec().build()
-    assert isinstance(shooting_problem(m, "Omega"), SDOFShooting)
+    assert isinstance(shooting_problem(m, "Omega"), SceneShooting)
     with pytest.raises(ValueError, match="allowed: Omega, B, Delta, R, beta"):
         shooting_problem(m, "gamma", Omega=2.0)
     hc = CASE.replace('law = "linear"', 'law = "hunt_crossley"').replace("stiffness = 1e4", "stiffness = 1e6")
-    assert isinstance(shooting_problem(parse_case(hc).model_spec().build(), "Omega"), SDOFShooting)
+    assert isinstance(shooting_problem(parse_case(hc).model_spec().build(), "Omega"), SceneShooting)
     # the registry's tables derive from each method's entry, keyed by the law's family
     # (vibeam.models.registry.Method, LAWS): a shooting problem without the hysteretic-Hertz family
     cont = FIDELITIES["sdof"].solvers["continuation"]
@@ -248,7 +248,6 @@ def test_beam_shot_jacobian_liouville_and_state(n_modes):
       comparison) and of the parameter column's own scale; measured <= 4e-10);
     * Liouville: det M = exp(trace(A_free) T - c |w|^2 T_c) to 1e-9 (measured ~1e-15)."""
     from vibeam.models import BeamEventSolver
-    from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig(n_modes)
     W = 16.0 / m.f_ref_hz
@@ -256,7 +255,7 @@ def test_beam_shot_jacobian_liouville_and_state(n_modes):
     d = 2 * n_modes
     sc = float(np.max(np.abs(x0)))
     for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
-        prob = BeamContinuation(m, par, Omega=W)
+        prob = shooting_problem(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
         assert np.max(np.abs(s.extra["rebuilt_state"] - s.x)) < 1e-13 * sc
@@ -302,15 +301,14 @@ def test_one_mode_beam_branch_equals_its_sdof_branch():
     contact count; the SDOF branch has the same fold to 1e-10 in frequency (measured 1e-15)."""
     from vibeam.models import BeamEventSolver
     from vibeam.models.continuation import Settings
-    from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig(1, gap_mm=0.1)
     sd, sk, to_sdof = _one_dof(m)
     lo, hi = 13.0 / m.f_ref_hz, 19.0 / m.f_ref_hz
     x0 = BeamEventSolver(m.scene()).point(lo, None, 600, 4, 16).final_state[:2]
-    bb = trace(BeamContinuation(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
+    bb = trace(shooting_problem(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
     assert len(bb.points) > 10
-    prob = SDOFShooting(sd)
+    prob = shooting_problem(sd)
     for pt in bb.points:
         xs = to_sdof(pt.x)
         s = prob.shot(xs, pt.p / sk, 1)
@@ -330,10 +328,9 @@ def test_beam_grazing_indicator_and_event_runs():
     of the compliant beam kernel started 1 % off the orbit (amplitude to 1e-9 relative:
     max|mu|^800 is negligible; measured ~1e-14)."""
     from vibeam.models import BeamEventSolver
-    from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig(2, gap_mm=0.1)
-    prob = BeamContinuation(m)
+    prob = shooting_problem(m)
     W = 19.0 / m.f_ref_hz
     x, why = prob.start("linear", W)
     s = prob.shot(x, W, 1)
@@ -342,7 +339,7 @@ def test_beam_grazing_indicator_and_event_runs():
     m = _rig(2)
     lo, hi = 12.5 / m.f_ref_hz, 16.0 / m.f_ref_hz
     x0 = BeamEventSolver(m.scene()).point(lo, None, 400, 4, 16).final_state[:4]
-    b = trace(BeamContinuation(m), x0, lo, 1, lo, hi, +1)[0]
+    b = trace(shooting_problem(m), x0, lo, 1, lo, hi, +1)[0]
     assert b.status == "range_end"
     A = b.arrays()
     idx = np.flatnonzero(A["stable"])
@@ -368,9 +365,9 @@ def test_hunt_crossley_shot_against_differences_and_the_kernel():
     W = 1.9
     x0, sm = _settled(m, W, 1500)
     assert sm["period"] == 1
-    assert isinstance(shooting_problem(m, "Omega"), SDOFShooting)
+    assert isinstance(shooting_problem(m, "Omega"), SceneShooting)
     for par in ("Omega", "B", "Delta"):
-        prob = SDOFShooting(m, par, Omega=W)
+        prob = shooting_problem(m, par, Omega=W)
         p = W if par == "Omega" else float(getattr(m, par))
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
@@ -386,7 +383,7 @@ def test_hunt_crossley_shot_against_differences_and_the_kernel():
                 col = (prob.shot(x0, p + h, 1).x - prob.shot(x0, p - h, 1).x) / (2 * h)
             assert np.max(np.abs(A[:, c] - col)) < 1e-6 * np.max(np.abs(A[:, c]))
     # a section inside the stop is not a state of this law: a status, not a crash
-    s = SDOFShooting(m).shot(np.array([m.Delta + 1e-6, 0.01]), W, 1)
+    s = shooting_problem(m).shot(np.array([m.Delta + 1e-6, 0.01]), W, 1)
     assert s.status == "failed" and "inside the stop" in s.message
 
 
@@ -400,7 +397,7 @@ def test_hunt_crossley_branch_fold_grazing_and_event_runs():
 
     m = replace(FIG8, contact=HuntCrossley(1e6, 0.9))
     x0, _ = _settled(m, 1.8, 1500)
-    b = trace(SDOFShooting(m), x0, 1.8, 1, 1.8, 2.1, +1, Settings(switch=False))[0]
+    b = trace(shooting_problem(m), x0, 1.8, 1, 1.8, 2.1, +1, Settings(switch=False))[0]
     assert b.status == "range_end"
     folds = [f for f in b.bifurcations if f.type == "fold" and f.amplitude > 3e-3]
     assert len(folds) == 1 and np.min(np.abs(folds[0].multipliers - 1.0)) < 1e-6

@@ -1,5 +1,5 @@
 """Continuation of periodic orbits with two Kelvin-Voigt stops (SDOF, law "linear"): the shooting
-problem of vibeam.models.core.shooting (SDOFShooting with a lower stop) against
+problem of vibeam.models.core.shooting (the scene's SceneShooting with a lower stop) against
 finite differences, Liouville's formula, the two-stop event kernel, the one-stop problem and
 the mirror symmetry of a symmetric scene."""
 from dataclasses import replace
@@ -10,7 +10,6 @@ import pytest
 from vibeam.models import shooting_problem, make_solver
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import Settings, start_point, trace
-from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models import SDOF, EventSolver
 from vibeam.engine.records import summarize
 
@@ -47,10 +46,10 @@ CASES = {
 
 
 def _check_shot_jacobian(m, par, W, x, n):
-    """The shot of ``SDOFShooting(m, par)`` from ``x`` (status ok, contacts on both stops) and
+    """The shot of ``shooting_problem(m, par)`` from ``x`` (status ok, contacts on both stops) and
     its ``[M, d P^n / d par]`` against central differences (step 1e-6 relative; the same number
     of impacts on both sides; bound 1e-6 of the largest entry)."""
-    prob = SDOFShooting(m, par, Omega=W)
+    prob = shooting_problem(m, par, Omega=W)
     p = W if par == "Omega" else float(getattr(m, par))
     s = prob.shot(x, p, n)
     assert s.status == "ok", s.message
@@ -93,7 +92,7 @@ def test_liouville(name):
     matrix, det S = 1 at every entry); closed-form flows: agreement to round-off (1e-12)."""
     m, W, n, x0 = CASES[name]
     x = _settled(m, W, 400)[0] if x0 is None else np.array(x0)
-    prob = SDOFShooting(m)
+    prob = shooting_problem(m)
     s = prob.shot(x, W, n)
     e = s.extra
     assert e["contact_time_upper"] > 0.0 and e["contact_time_lower"] > 0.0
@@ -201,8 +200,8 @@ def test_far_lower_stop_gives_the_one_stop_branch():
     one = replace(FIG8, contact=LinearContact.from_restitution(1e4, 0.9))
     far = replace(one, Delta_lower=1.0)
     x0, _ = _settled(one, 2.3)
-    b1 = trace(SDOFShooting(one), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
-    b2 = trace(SDOFShooting(far), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
+    b1 = trace(shooting_problem(one), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
+    b2 = trace(shooting_problem(far), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
     assert len(b1["parameter"]) == len(b2["parameter"]) >= 5
     assert np.all(b2["impacts_lower"] == 0)
     np.testing.assert_allclose(b2["parameter"], b1["parameter"], rtol=1e-13, atol=0)
@@ -216,7 +215,7 @@ def test_symmetric_stops_give_a_symmetric_orbit():
     velocity, duration, peak force, penetration and energy (relative 1e-9: Newton tolerance)."""
     m = _kv(FIG8, 1e4, FIG8.Delta)
     x0, _ = _settled(m, 1.9)
-    prob = SDOFShooting(m)
+    prob = shooting_problem(m)
     pt, why = start_point(prob, x0, 1.9, 1, 1.5, 2.5)
     assert pt is not None, why
     s = prob.shot(pt.x, 1.9, 1)
@@ -334,13 +333,12 @@ def test_beam_shot_jacobian_and_liouville(n_modes):
     differences (bound 1e-7 relative; measured <= 1.3e-9) and det M = exp(trace(A_free) T -
     |w|^2 (c T_up + c_l T_low)) to round-off (1e-12)."""
     from vibeam.models import BeamEventSolver
-    from vibeam.models.periodic_beam import BeamContinuation
 
     m = _rig2(n_modes)
     N = m.n_modes
     W = 15.4 / 7.6
     tr = BeamEventSolver(m.scene(), record_modal_states=True).point(W, None, 40, 1, 64)
-    prob = BeamContinuation(m)
+    prob = shooting_problem(m)
     w = m.contact_row
     lo = m.mass_stops()[1].law      # the lower stop's law in kernel units: k_l / omega_ref^2, c_l / omega_ref, its gap
     kl = lo.stiffness / m.omega_ref ** 2
@@ -437,12 +435,11 @@ def test_beam_far_lower_stop_gives_the_one_stop_shot():
     """A lower stop 100 mm away changes nothing the orbit sees: the two-stop shot equals the
     one-stop shot (state, monodromy, d/dOmega) to round-off (measured: bit for bit)."""
     from vibeam.models import BeamEventSolver
-    from vibeam.models.periodic_beam import BeamContinuation
 
     one, far = _rig2(2, None), _rig2(2, 100.0)
     W = 15.4 / 7.6
     x = BeamEventSolver(one.scene()).point(W, None, 40, 4, 32).final_state[:4]
-    a, b = BeamContinuation(one).shot(x, W, 1), BeamContinuation(far).shot(x, W, 1)
+    a, b = shooting_problem(one).shot(x, W, 1), shooting_problem(far).shot(x, W, 1)
     assert a.n_impacts >= 1 and list(b.extra["impact_stops"]) == [0] * a.n_impacts
     np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-15 * np.max(np.abs(a.x)))
     np.testing.assert_allclose(b.M, a.M, rtol=0, atol=1e-13 * np.max(np.abs(a.M)))
@@ -497,7 +494,7 @@ def test_newton_above_compliant_shot_jacobian_and_liouville():
     x = x * (1.0 + 1e-3)
     for par in ("Omega", "B", "Delta", "R"):
         _check_shot_jacobian(m, par, W, x, 1)
-    s = SDOFShooting(m).shot(x, W, 1)
+    s = shooting_problem(m).shot(x, W, 1)
     m_up = int(np.sum(np.asarray(s.extra["impact_stops"]) == 0))
     want = m.R ** (2 * m_up) * np.exp(-2 * m.beta * 2 * np.pi / W
                                       - m.lower_law.damping * s.extra["contact_time_lower"])

@@ -1,5 +1,5 @@
 """Continuation of the modal FE beam on a Hunt-Crossley stop (issue 13):
-:class:`vibeam.models.periodic_beam.BeamContinuation`.
+:class:`vibeam.models.core.scene_shooting.SceneShooting` of the beam.
 
 Oracles: central differences of the shot (its Jacobian), the solve_ivp reference
 (:class:`vibeam.models.beam_dynamics.BeamODESolver`, no shared code with the kernel or
@@ -7,13 +7,14 @@ the variational integration), the SDOF Hunt-Crossley shooting problem on the map
 flow, another derivative assembly, other units) and long event runs.
 """
 from __future__ import annotations
+from vibeam.models.core.scene_shooting import SceneShooting
+from vibeam.models import shooting_problem
 
 import math
 
 import numpy as np
 import pytest
 
-from vibeam.models.periodic_beam import BeamContinuation
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop
 # kernels are compiled by these tests alone (~4 min of cold compile on 2 cores); .ci/run runs them
@@ -56,7 +57,7 @@ def test_two_mode_shot_jacobian_in_omega_against_central_differences():
     x0 = _settled(m, W) * 1.001
     d = 4
     sc = float(np.max(np.abs(x0)))
-    prob = BeamContinuation(m, "Omega", Omega=W)
+    prob = shooting_problem(m, "Omega", Omega=W)
     s = prob.shot(x0, W, 1)
     assert s.status == "ok" and s.n_impacts == 1, s.message
     J = np.empty((d, d + 1))
@@ -84,7 +85,7 @@ def test_shot_jacobian_against_central_differences(n_modes):
     d = 2 * n_modes
     sc = float(np.max(np.abs(x0)))
     for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
-        prob = BeamContinuation(m, par, Omega=W)
+        prob = shooting_problem(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1, s.message
         J = np.empty((d, d + 1))
@@ -115,7 +116,7 @@ def test_shot_end_state_is_the_event_kernels(n_modes):
     W = 16.0 / m.f_ref_hz
     x0 = _settled(m, W) * 1.001
     sc = float(np.max(np.abs(x0)))
-    s = BeamContinuation(m).shot(x0, W, 2)
+    s = shooting_problem(m).shot(x0, W, 2)
     assert s.status == "ok" and s.n_impacts == 2
     s0 = np.concatenate([x0, [0.0]])
     ev = BeamEventSolver(m.scene()).point(W, s0, 0, 2, 16)
@@ -133,15 +134,15 @@ def test_refusals():
     m = _rig(1)
     W = 16.0 / m.f_ref_hz
     x = np.array([2.0 * m.gap_contact_m / m.contact_row[0], 0.0])
-    s = BeamContinuation(m).shot(x, W, 1)
+    s = shooting_problem(m).shot(x, W, 1)
     assert s.status == "failed" and "inside the stop" in s.message
     with pytest.raises(ValueError, match="parameter"):
-        BeamContinuation(m, "gap_mm", Omega=W)
+        shooting_problem(m, "gap_mm", Omega=W)
     from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     lin = case.model_spec({"n_modes": 1, "contact": {"law": "linear", "stiffness_n_m": 1e8}}).build()
-    assert BeamContinuation(lin).model.contact.name == "linear"
+    assert shooting_problem(lin).scene.stops[0].law.name == "linear"
 
 
 def _case_text(lo=16.5, hi=17.0):
@@ -165,7 +166,7 @@ def test_registry_dispatch_and_case_validation():
     case = parse_case(_case_text())
     assert [r.method for r in case.run] == ["continuation"]
     m = case.model_spec().build()
-    assert isinstance(shooting_problem(m, "Omega"), BeamContinuation)
+    assert isinstance(shooting_problem(m, "Omega"), SceneShooting)
 
 
 def _one_dof(m):
@@ -198,15 +199,14 @@ def test_one_mode_beam_branch_equals_its_sdof_branch():
     of the state (both are accurate to their integrators, ~1e-10; measured 2e-11), with the
     same multipliers to 1e-8 (measured 1e-11) and contact count."""
     from vibeam.models.continuation import Settings, trace
-    from vibeam.models.periodic_sdof import SDOFShooting
 
     m = _rig(1)
     sd, sk, to_sdof = _one_dof(m)
     lo, hi = 16.5 / m.f_ref_hz, 17.0 / m.f_ref_hz
     x0 = _settled(m, lo, 100)
-    bb = trace(BeamContinuation(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
+    bb = trace(shooting_problem(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
     assert len(bb.points) > 5
-    prob = SDOFShooting(sd)
+    prob = shooting_problem(sd)
     err_x = err_mu = 0.0
     for pt in bb.points:
         xs = to_sdof(pt.x)
@@ -231,7 +231,7 @@ def test_stable_branch_points_are_long_event_runs():
     m = _rig(2)
     lo, hi = 15.0 / m.f_ref_hz, 17.0 / m.f_ref_hz
     x0 = _settled(m, hi, 300)
-    b = trace(BeamContinuation(m), x0, hi, 1, lo, hi, -1, Settings(switch=False))[0]
+    b = trace(shooting_problem(m), x0, hi, 1, lo, hi, -1, Settings(switch=False))[0]
     a = b.arrays()
     idx = [i for i in np.flatnonzero(a["stable"]) if np.abs(a["multipliers"][i]).max() < 0.95]
     assert len(idx) >= 3
@@ -267,7 +267,7 @@ def test_grazing_indicator_of_the_contact_free_orbit():
     closed-form contact amplitude minus the gap (to 1e-12 m: a located extremum of the exact
     free flow), and the shot of that orbit returns it (no contact; 1e-12 of the state)."""
     m = _rig(2, gap_mm=0.1)
-    prob = BeamContinuation(m)
+    prob = shooting_problem(m)
     W = 19.0 / m.f_ref_hz
     x, why = prob.start("linear", W)
     assert x is not None, why
@@ -292,7 +292,7 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     x = _settled(m, W) * 1.001
     V = float(spec.voltage)
     sv = problem(spec, "voltage", W).shot(x, V, 1)
-    sy = BeamContinuation(m, "base_amplitude_m", Omega=W).shot(x, m.base_amplitude_m, 1)
+    sy = shooting_problem(m, "base_amplitude_m", Omega=W).shot(x, m.base_amplitude_m, 1)
     g = spec.native_parameter("voltage")[1]
     assert sv.status == sy.status == "ok" and sv.n_impacts == 1
     np.testing.assert_allclose(sv.x, sy.x, rtol=0, atol=1e-14 * np.max(np.abs(x)))
@@ -314,7 +314,7 @@ def test_jacobian_with_the_velocity_floor(monkeypatch):
     d = 4
     h0 = 1e-6 * float(np.max(np.abs(x0)))
     for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
-        prob = BeamContinuation(m, par, Omega=W)
+        prob = shooting_problem(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
         Y = p if par == "base_amplitude_m" else m.base_amplitude_m

@@ -1,5 +1,5 @@
 """Continuation of periodic orbits between two stops (restitution law on each stop; SDOF
-models/periodic_sdof.py and modal beam models/periodic_beam.py) against independent oracles:
+and modal beam: the scene's shooting problem, models/core/scene_shooting.py) against independent oracles:
 
 * stable branch points against long runs of the event solver (amplitude and impacts per stop);
 * Floquet multipliers against finite differences of the stroboscopic map iterated by the event
@@ -24,8 +24,6 @@ from vibeam.models import SDOF, EventSolver, linear_amplitude, shooting_problem
 from vibeam.models.beam_dynamics import BeamImpactModel
 from vibeam.models import BeamEventSolver
 from vibeam.models.continuation import Settings, trace
-from vibeam.models.periodic_beam import BeamContinuation
-from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models.core.scene_shooting import SceneShooting
 
 #: the first scene of cases/paper-fig7-two-sided.toml: Fig. 7's stop at Delta = 0 and a lower stop at
@@ -46,7 +44,7 @@ def low_branch():
     """The period-1 branch of LOW from the settled orbit at Omega = 1.5 (one impact on the upper
     stop) up to 2.5: through the grazing of the lower stop at 1.6976 and the period doubling at
     2.0846 (no switching)."""
-    (b,) = trace(SDOFShooting(LOW, "Omega"), _settled(LOW, 1.5), 1.5, 1, 1.5, 2.5, +1, NO_SWITCH)
+    (b,) = trace(shooting_problem(LOW, "Omega"), _settled(LOW, 1.5), 1.5, 1, 1.5, 2.5, +1, NO_SWITCH)
     return b
 
 
@@ -159,7 +157,7 @@ def test_liouville_with_impact_contraction():
     seen = set()
     for W in (1.8, 2.0, 2.3):
         x = _settled(m, W)
-        pr = SDOFShooting(m, "Omega")
+        pr = shooting_problem(m, "Omega")
         n = 1 if np.max(np.abs(pr.shot(x, W, 1).x - x)) < 1e-9 * np.max(np.abs(x)) else 2
         s = pr.shot(x, W, n)
         st = s.extra["impact_stops"]
@@ -179,7 +177,7 @@ def test_symmetric_orbit_of_symmetric_stops():
     point is symmetric: the impacts alternate between the stops half a period apart with equal
     velocities, q_max = -q_min, and the event solver started from the section state is at
     -x0 half a period later (tolerances: the corrector's residual, 1e-9 relative)."""
-    pr = SDOFShooting(SYM, "Omega")
+    pr = shooting_problem(SYM, "Omega")
     (b,) = trace(pr, _settled(SYM, 1.5), 1.5, 1, 1.5, 2.5, +1, NO_SWITCH)
     assert b.status == "range_end" and not b.bifurcations
     for pt in b.points[::4]:
@@ -204,8 +202,8 @@ def test_a_far_lower_stop_gives_the_one_stop_branch_identically():
     two = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3, Delta_lower=1.0)
     x0 = _settled(one, 2.0)
     st = Settings(max_period=2)
-    b1 = trace(SDOFShooting(one, "Omega"), x0, 2.0, 1, 1.9, 2.4, +1, st)
-    b2 = trace(SDOFShooting(two, "Omega"), x0, 2.0, 1, 1.9, 2.4, +1, st)
+    b1 = trace(shooting_problem(one, "Omega"), x0, 2.0, 1, 1.9, 2.4, +1, st)
+    b2 = trace(shooting_problem(two, "Omega"), x0, 2.0, 1, 1.9, 2.4, +1, st)
     assert len(b1) == len(b2) == 2 and [b.n for b in b2] == [1, 2]
     for a, b in zip(b1, b2):
         assert (a.status, len(a)) == (b.status, len(b))
@@ -224,7 +222,7 @@ def test_lower_grazing_where_the_linear_minimum_reaches_the_lower_stop():
     impact per period on the lower stop.  The scene is the mirror image (q -> -q, t -> t + T/2) of
     Fig. 8's one-stop scene: its fold is the one-stop branch's (1e-8)."""
     m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=1.0, Delta_lower=0.7e-3)
-    pr = SDOFShooting(m, "Omega")
+    pr = shooting_problem(m, "Omega")
     x0, why = pr.start("linear", 2.5)
     assert why == ""
     (b,) = trace(pr, x0, 2.5, 1, 1.5, 2.5, -1, NO_SWITCH)
@@ -236,7 +234,7 @@ def test_lower_grazing_where_the_linear_minimum_reaches_the_lower_stop():
     assert b.status == "range_end" and a["impacts"][0] == 0 and a["impacts"][-1] == 1
     assert a["impacts_lower"][-1] == 1
     one = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
-    p1 = SDOFShooting(one, "Omega")
+    p1 = shooting_problem(one, "Omega")
     (b1,) = trace(p1, p1.start("linear", 2.5)[0], 2.5, 1, 1.5, 2.5, -1, NO_SWITCH)
     assert abs(b1.bifurcations[1].parameter - fold.parameter) < 1e-8
     # the linear start refuses an orbit that would reach the lower stop
@@ -261,12 +259,12 @@ def test_one_mode_beam_equals_the_sdof_branch():
     ~-120 next to the grazing), and the same grazing and period doubling (1e-8 in Omega: the
     location tolerances).  Measured over all 66 points: 3.6e-12, 5e-9 (4e-11 relative), 4e-16."""
     sd = low_branch()
-    (bm,) = trace(BeamContinuation(_beam1(0.0, 2e-3), "Omega"), sd.points[0].x, 1.5, 1, 1.5, 2.5, +1, NO_SWITCH)
+    (bm,) = trace(shooting_problem(_beam1(0.0, 2e-3), "Omega"), sd.points[0].x, 1.5, 1, 1.5, 2.5, +1, NO_SWITCH)
     assert [f.type for f in bm.bifurcations] == [f.type for f in sd.bifurcations]
     for f, g in zip(bm.bifurcations, sd.bifurcations):
         assert abs(f.parameter - g.parameter) < 1e-8
     scale = np.max(np.abs([p.x for p in sd.points]))
-    pr = SDOFShooting(LOW, "Omega")
+    pr = shooting_problem(LOW, "Omega")
     for pt in bm.points[::5]:
         s = pr.shot(pt.x, pt.p, 1)          # the beam's fixed point is the SDOF's
         assert np.max(np.abs(s.x - pt.x)) < 1e-10 * scale
@@ -308,7 +306,7 @@ def test_two_mode_beam_derivatives_against_central_differences(Dl, R_lower, Y, W
     # is the corner of its range (R_lower < 0 is refused), left out
     lower = (("gap_contact_lower_m", Dl),) + ((("R_lower", R_lower),) if R_lower > 0 else ())
     for par, p in (("Omega", W), ("gap_contact_m", 0.0), ("R", 0.8)) + lower:
-        pr = BeamContinuation(m, par, Omega=W)
+        pr = shooting_problem(m, par, Omega=W)
         s = pr.shot(x0, p, 2)
         assert s.status == "ok" and 1 in s.extra["impact_stops"] and (s.stuck_time > 0) == sticks
         if par == "Omega":
@@ -449,7 +447,7 @@ def test_the_lower_stops_offset_and_R_are_continuation_parameters(parameter, W):
     parameter): ``x_p`` of the shot against central differences of the shot itself (h = 1e-6 of
     the value; bound 1e-7 relative, measured <= 5e-10), on orbits that hit both stops."""
     x0 = _settled(OWN, W, 800)
-    prob = SDOFShooting(OWN, parameter, Omega=W)
+    prob = shooting_problem(OWN, parameter, Omega=W)
     p0 = prob.value
     assert p0 == (1e-3 if parameter == "Delta_lower" else 0.6)
     s = prob.shot(x0, p0, 1)
@@ -458,7 +456,7 @@ def test_the_lower_stops_offset_and_R_are_continuation_parameters(parameter, W):
     fd = (prob.shot(x0, p0 + h, 1).x - prob.shot(x0, p0 - h, 1).x) / (2 * h)
     assert np.max(np.abs(s.x_p - fd)) <= 1e-7 * np.max(np.abs(fd)), (s.x_p, fd)
     with pytest.raises(ValueError, match="needs a lower stop"):
-        SDOFShooting(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), parameter, Omega=W)
+        shooting_problem(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), parameter, Omega=W)
 
 
 def test_a_branch_in_R_lower_is_made_of_event_orbits_and_obeys_liouville():
@@ -469,7 +467,7 @@ def test_a_branch_in_R_lower_is_made_of_event_orbits_and_obeys_liouville():
     the saltation products).  A case continues in ``R_lower`` too, and refuses it without a
     lower stop, naming what it allows."""
     W = 1.8
-    prob = SDOFShooting(OWN, "R_lower", Omega=W)
+    prob = shooting_problem(OWN, "R_lower", Omega=W)
     (b, *_) = trace(prob, _settled(OWN, W, 800), 0.6, 1, 0.3, 0.9, 0, NO_SWITCH)
     assert len(b) > 10
     checked = 0

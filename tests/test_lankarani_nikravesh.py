@@ -22,12 +22,12 @@ from scipy.integrate import solve_ivp
 
 from vibeam.case.schema import CaseError, load_case, parse_case
 from vibeam.engine.records import summarize
+from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models import make_solver, shooting_problem
 from vibeam.models.registry import mixed_stops
 from vibeam.models.compliant import HuntCrossley, LankaraniNikravesh
 from vibeam.models.contact import DAMPING, EXPONENT, LAW, STIFFNESS, Relation, Stop, pack
 from vibeam.models import BeamEventSolver
-from vibeam.models.periodic_sdof import SDOFShooting
 from vibeam.models import SDOF, EventSolver
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.core.laws import force
@@ -175,7 +175,7 @@ def test_continued_orbit_is_the_settled_event_orbit():
     x0, sm = _settled(m, 1.9)
     assert sm["period"] == 1
     prob = shooting_problem(m, "Omega")
-    assert isinstance(prob, SDOFShooting) and prob.setup(1.9).core.kstops.cc[0] == pytest.approx(chi_ln(0.9))
+    assert isinstance(prob, SceneShooting) and prob.setup(1.9).core.kstops.cc[0] == pytest.approx(chi_ln(0.9))
     s = prob.shot(x0, 1.9, 1)
     assert s.status == "ok" and s.n_impacts == 1
     assert np.max(np.abs(s.x - x0)) < 1e-9 * np.max(np.abs(x0))

@@ -17,8 +17,7 @@ import pytest
 from scipy.linalg import expm
 
 from vibeam.models.lyapunov import lyapunov_spectrum
-from vibeam.models.periodic_sdof import SDOFShooting
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import SDOF, EventSolver, shooting_problem
 
 BETA, R = 0.015, 0.9
 FIG8 = SDOF(BETA, 0.5e-3, R, 0.7e-3)                             # paper Fig. 8
@@ -48,7 +47,7 @@ def test_a_scene_without_impacts_has_both_exponents_minus_beta():
     (measured 1.9e-7 against a bound of 1.3e-6 after 4000 shots)."""
     W = 2.2
     free = SDOF(BETA, 0.5e-3, R, 1.0)
-    prob = SDOFShooting(free, "Omega")
+    prob = shooting_problem(free, "Omega")
     sp = lyapunov_spectrum(prob, _attractor(free, W), W, 4000)
     assert sp.status == "ok" and sp.impacts == 0
     T = 2 * math.pi / W
@@ -64,7 +63,7 @@ def test_a_stable_period_one_orbit_has_the_exponents_of_its_floquet_multipliers(
     the shot, one impact per period): ``lambda_i = ln |mu_i| / T`` for the multipliers of the
     continuation's monodromy, within ``ln cond(V) / t`` (measured 5.5e-6 against 1.7e-5)."""
     W = 1.8
-    prob = SDOFShooting(FIG8, "Omega")
+    prob = shooting_problem(FIG8, "Omega")
     x = _fixed_point(prob, _attractor(FIG8, W, 2000), W)
     s = prob.shot(x, W, 1)
     assert s.status == "ok" and s.impact_times.size == 1 and np.max(np.abs(s.x - x)) < 1e-14
@@ -84,7 +83,7 @@ def test_liouville_the_sum_is_damping_plus_the_impacts_restitution(scene):
     ``det e^{A T} = e^{-2 beta T}``), on Fig. 8's period-1 orbit and on the chaotic attractor of
     the two-sided Fig. 7 scene (both stops R = 0.9), to 1e-11 (measured <= 5e-14)."""
     m, W = (FIG8, 1.8) if scene == "period-1" else (TWO_SIDED, CHAOS_OMEGA)
-    prob = SDOFShooting(m, "Omega")
+    prob = shooting_problem(m, "Omega")
     sp = lyapunov_spectrum(prob, _attractor(m, W), W, 2000)
     assert sp.status == "ok" and sp.impacts > 0
     assert abs(sp.exponents.sum() - (-2 * BETA + 2 * math.log(R) * sp.impacts / sp.time)) < 1e-11
@@ -103,7 +102,7 @@ def test_a_chaotic_attractor_has_a_positive_exponent_equal_to_the_two_trajectory
     halves) 0.0004-0.0026.  So the significance is that of the six orbits' mean over their
     standard error (measured 0.0124 +- 0.0007)."""
     W = CHAOS_OMEGA
-    prob = SDOFShooting(TWO_SIDED, "Omega")
+    prob = shooting_problem(TWO_SIDED, "Omega")
     x0 = _attractor(TWO_SIDED, W)
     K = 2000
     sp = lyapunov_spectrum(prob, x0, W, K)
@@ -152,7 +151,7 @@ def test_the_beam_on_a_kelvin_voigt_stop_obeys_liouville():
 
 def test_arguments_are_checked():
     with pytest.raises(ValueError, match="shots"):
-        lyapunov_spectrum(SDOFShooting(FIG8, "Omega"), [0.0, 0.0], 1.8, 1)
+        lyapunov_spectrum(shooting_problem(FIG8, "Omega"), [0.0, 0.0], 1.8, 1)
 
 
 def test_the_api_settles_the_case_and_converts_to_seconds():
@@ -165,7 +164,7 @@ def test_the_api_settles_the_case_and_converts_to_seconds():
     import vibeam
 
     res = vibeam.lyapunov("cases/paper-fig7-two-sided.toml", Omega=CHAOS_OMEGA, shots=400, transient=400)
-    sp = lyapunov_spectrum(SDOFShooting(TWO_SIDED, "Omega"), _attractor(TWO_SIDED, CHAOS_OMEGA), CHAOS_OMEGA, 400)
+    sp = lyapunov_spectrum(shooting_problem(TWO_SIDED, "Omega"), _attractor(TWO_SIDED, CHAOS_OMEGA), CHAOS_OMEGA, 400)
     assert res.status == "ok" and res.exponents_per_s is None
     np.testing.assert_allclose(res.exponents, sp.exponents, rtol=1e-9, atol=1e-15)
     # independent of the function it calls: Liouville's formula (both stops R = 0.9, beta = 0.015
@@ -255,7 +254,7 @@ def test_lambda_1_tends_to_zero_at_the_period_doubling_located_by_continuation()
     from vibeam.models.continuation import start_point, trace
 
     fig13 = SDOF(BETA, 0.5e-3, R, 0.5e-3)
-    prob = SDOFShooting(fig13, "Omega")
+    prob = shooting_problem(fig13, "Omega")
     x0 = _attractor(fig13, 1.5)
     branches = trace(prob, x0, 1.5, 1, 1.5, 2.5, +1)
     pd = [f for f in branches[0].bifurcations if f.type == "period_doubling"][0]

@@ -15,8 +15,7 @@ import numpy as np
 import pytest
 
 from vibeam.models.lyapunov import lyapunov_spectrum
-from vibeam.models.periodic_sdof import SDOFShooting
-from vibeam.models import SDOF, EventSolver, make_solver
+from vibeam.models import SDOF, EventSolver, make_solver, shooting_problem
 
 BETA, R = 0.015, 0.9
 TWO_SIDED = SDOF(BETA, 0.5e-3, R, 0.0, Delta_lower=2e-3)         # cases/paper-fig7-two-sided.toml
@@ -52,7 +51,7 @@ def test_the_error_of_a_chaotic_record_matches_the_scatter_of_independent_record
     error to a few per cent.  The halves' difference (6b53e11) quoted 0.00005-0.0028 on these
     records (mean ratio 0.76, 9 of 12 covered): right on average, useless one by one."""
     W = 2.38
-    prob = SDOFShooting(TWO_SIDED, "Omega")
+    prob = shooting_problem(TWO_SIDED, "Omega")
     x = EventSolver(TWO_SIDED.scene()).point(W, None, 400, 1, 16).final_state[:2]
     lam, err = [], []
     for _ in range(12):

@@ -1,4 +1,4 @@
-"""Shooting problem of the modal FE beam (vibeam.models.periodic_beam): the exact monodromy
+"""Shooting problem of the modal FE beam (the beam scene's, vibeam.models.core.scene_shooting): the exact monodromy
 and parameter derivatives against finite differences of the shot, Liouville's formula,
 the static-mode beam against the SDOF fixed point of the derived parameters, and fixed
 points against long runs of the event solver (the sweep's own solver)."""
@@ -14,8 +14,9 @@ from vibeam.case.schema import load_case
 from vibeam.models import SDOF
 from vibeam.models.beam_dynamics import _trans, mode_table
 from vibeam.models import BeamEventSolver, make_solver
-from vibeam.models.periodic_beam import (NATIVE_PARAMETERS, REBUILD_KEYS, BeamShooting,
-                                         _dtrans_dsig, conversions)
+from vibeam.case.beamscene import NATIVE_PARAMETERS, REBUILD_KEYS, conversions
+from vibeam.models import shooting_problem
+from vibeam.models.core.shooting import dtransition_dsig as _dtrans_dsig
 from vibeam.models.mapping import event_guess, fixed_point_analysis, newton_fixed_point, orbit_extremes
 
 CASES = Path(__file__).parent.parent / "cases"
@@ -56,6 +57,15 @@ def linear_orbit(m, Omega):
     return np.concatenate([b, Omega * a]), a, b
 
 
+def beam_problem(m, Omega, parameter="Omega", **settings):
+    """The beam's shooting problem (the scene's, :func:`vibeam.models.shooting_problem`) in a
+    native parameter at the frequency ``Omega``, with the model and the native name kept for
+    :func:`fd_check`."""
+    prob = shooting_problem(m, parameter, Omega=Omega, **settings)
+    prob.model, prob.native = m, parameter
+    return prob
+
+
 def fd_check(prob, x0, n=1, rh=(1e-4, 1e-5, 1e-6), rp=(1e-3, 1e-4, 1e-5), dirs=None, M=True):
     """Relative errors of M (along ``dirs``, default every coordinate) and of x_p against
     5-point central differences of the shot, the smallest over the steps ``rh`` (of the
@@ -87,11 +97,11 @@ def fd_check(prob, x0, n=1, rh=(1e-4, 1e-5, 1e-6), rp=(1e-3, 1e-4, 1e-5), dirs=N
     N = m.n_modes
     fallback = {"gap_contact_m": float(np.abs(m.contact_row) @ np.abs(x0[:N])),
                 "rayleigh_alpha_1_s": float(m.c_phys[0])}
-    ps = abs(p) if p != 0 else fallback.get(prob.parameter, 1.0)
+    ps = abs(p) if p != 0 else fallback.get(prob.native, 1.0)
     ep = np.inf
     for r in rp:
         hp = r * ps
-        if prob._invalid(p - 2 * hp, prob.parameter):
+        if prob.invalid(p - 2 * hp):
             xpfd = (-3 * s.x + 4 * f(x0, p + hp) - f(x0, p + 2 * hp)) / (2 * hp)
         else:
             xpfd = cd(lambda e: f(x0, p + e), hp)
@@ -178,7 +188,7 @@ def test_monodromy_and_parameter_derivatives_against_finite_differences(kind, n_
     (5-point stencil, best of three steps, see :func:`fd_check`; measured <= 3e-8).  A missing saltation term, a wrong event-time sensitivity or
     a wrong particular-solution derivative gives O(1e-3..1) errors."""
     m, W, x0, n = _scenario(kind, n_modes)
-    s0 = BeamShooting(m, W).shot(x0, W, n)
+    s0 = beam_problem(m, W).shot(x0, W, n)
     kinds = s0.extra["event_kinds"]
     if kind == "free":
         assert kinds.size == 0 and s0.apex_gap < 0
@@ -192,7 +202,7 @@ def test_monodromy_and_parameter_derivatives_against_finite_differences(kind, n_
     for par in NATIVE_PARAMETERS:
         if par == "R" and m.R == 0.0:
             continue   # R = 0 is a corner (R > 0 impacts chatter before sticking)
-        prob = BeamShooting(m, W, par)
+        prob = beam_problem(m, W, par)
         if kind == "free" and par in ("R", "gap_contact_m"):
             assert np.all(prob.shot(x0, prob.value, n).x_p == 0.0)   # no contact, no effect
             continue
@@ -216,7 +226,7 @@ def test_stuck_section_tangent_derivatives():
     _, _, Vt = np.linalg.svd(A)
     T = Vt[2:].T
     for par in ("Omega", "base_amplitude_m", "damping_D_s"):
-        prob = BeamShooting(m, W, par)
+        prob = beam_problem(m, W, par)
         s, eM, ep = fd_check(prob, x0, 1, dirs=T, M=par == "Omega")
         assert s.extra["stuck_start"] and list(s.extra["event_kinds"][:3]) == [0, 4, 1]
         assert eM < 1e-7 and ep < 1e-7, (par, eM, ep)
@@ -234,14 +244,14 @@ def test_chatter_sticking_orbit_of_the_tight_rig(n_modes):
     the chatter cut moves: measured agreement ~1e-7; tolerance 1e-6)."""
     m = rig("rig-fe-tight", n_modes)
     W = 13.0 / m.f_ref_hz
-    prob = BeamShooting(m, W)
+    prob = beam_problem(m, W)
     x, s = newton(prob, transient(m, W, 3), W)
     assert s.extra["n_chatter"] == 1 and s.stuck_time > 0
     assert list(s.extra["event_kinds"][-2:]) == [3, 4]
     ref = transient(m, W, 500)
     assert np.max(np.abs(ref - x)) < 1e-12 * np.max(np.abs(x))
     for par in ("Omega", "gap_contact_m", "R", "damping_D_s"):
-        _, eM, ep = fd_check(BeamShooting(m, W, par), x, 1, M=par == "Omega")
+        _, eM, ep = fd_check(beam_problem(m, W, par), x, 1, M=par == "Omega")
         assert eM < 1e-6 and ep < 1e-6, (par, eM, ep)
 
 
@@ -258,7 +268,7 @@ def test_liouville_determinant(n_modes):
     W = 15.5 / m.f_ref_hz
     periods = (1, 3) if n_modes < 4 else (1,)   # exp(-sum c_i n T) underflows beyond
     for n in periods:
-        s = BeamShooting(m, W).shot(linear_orbit(m, W)[0] * 1.2, W, n)
+        s = beam_problem(m, W).shot(linear_orbit(m, W)[0] * 1.2, W, n)
         assert s.n_impacts == 0
         sign, ld = np.linalg.slogdet(s.M)
         ref = -np.sum(m.c_nd) * n * 2 * np.pi / W
@@ -267,7 +277,7 @@ def test_liouville_determinant(n_modes):
     W = 15.5 / m.f_ref_hz
     x0 = transient(m, W, 30)
     for n in periods:
-        s = BeamShooting(m, W).shot(x0, W, n)
+        s = beam_problem(m, W).shot(x0, W, n)
         assert s.n_impacts == n
         sign, ld = np.linalg.slogdet(s.M)
         ref = -np.sum(m.c_nd) * n * 2 * np.pi / W + 2 * n * math.log(m.R)
@@ -292,7 +302,7 @@ def test_static_mode_beam_equals_sdof_fixed_point(case):
         xs = newton_fixed_point(sd.scene(), Ws, event_guess(sd.scene(), Ws))
         an = fixed_point_analysis(sd.scene(), Ws, xs)
         q_min, _ = orbit_extremes(sd.scene(), Ws, xs)
-        prob = BeamShooting(m, Wb)
+        prob = beam_problem(m, Wb)
         x, s = newton(prob, transient(m, Wb, 20), Wb)
         assert s.n_impacts == 1
         assert m.Delta - s.q_min == pytest.approx(sd.Delta - q_min, rel=1e-10)
@@ -314,7 +324,7 @@ def test_stable_fixed_point_is_the_event_attractor(n_modes):
     the two dominant ones to 1e-7)."""
     m = rig("rig-fe-neutral", n_modes)
     W = 15.5 / m.f_ref_hz
-    prob = BeamShooting(m, W)
+    prob = beam_problem(m, W)
     x, s = newton(prob, linear_orbit(m, W)[0], W)
     assert s.n_impacts == 1 and s.q_min < 0
     tr = BeamEventSolver(m.scene()).point(W, None, 400, 4, 64)
@@ -343,9 +353,9 @@ def test_apex_gap_of_the_linear_orbit(n_modes):
     W = 14.0 / m0.f_ref_hz
     x0, a, b = linear_orbit(m0, W)
     amp = abs(m0.contact_row @ (a + 1j * b))
-    np.testing.assert_allclose(BeamShooting(m0, W).linear_orbit(), x0, rtol=1e-15)
+    np.testing.assert_allclose(beam_problem(m0, W, "gap_contact_m").start("linear", 1.5 * amp)[0], x0, rtol=1e-15)
     for frac in (1.5, 1.01):
-        prob = BeamShooting(m0, W, "gap_contact_m")
+        prob = beam_problem(m0, W, "gap_contact_m")
         s = prob.shot(x0, frac * amp, 1)
         assert s.n_impacts == 0
         assert np.max(np.abs(s.x - x0)) < 1e-13 * np.max(np.abs(x0))
@@ -368,15 +378,17 @@ def test_conversions_and_refused_keys():
     assert tab["frequency_hz"] == ("Omega", pytest.approx(1 / m.f_ref_hz))
     for key in REBUILD_KEYS:
         with pytest.raises(ValueError, match=key):
-            BeamShooting(m, 2.0, key)
+            beam_problem(m, 2.0, key)
+        with pytest.raises(ValueError, match="changes the FE model"):
+            spec.native_parameter(key)
     with pytest.raises(ValueError, match="voltage"):
-        BeamShooting(m, 2.0, "voltage")   # physical: converted by the caller
+        beam_problem(m, 2.0, "voltage")   # physical: converted by the caller
 
 
 def test_bad_input_is_a_status():
     """A shot never raises for a state or parameter value: failed status, NaN derivatives."""
     m = rig("rig-fe-neutral", 2)
-    prob = BeamShooting(m, 2.0, "R")
+    prob = beam_problem(m, 2.0, "R")
     s = prob.shot(np.full(prob.dim, np.nan), 0.5, 1)
     assert s.status == "failed" and np.all(np.isnan(s.M))
     s = prob.shot(np.zeros(prob.dim), 1.5, 1)
@@ -397,12 +409,12 @@ def test_velocity_dependent_restitution_and_modal_damping():
     m.R_table_U, m.R_table_R = np.array([0.0, 3e-3]), np.array([0.9, 0.5])
     W = 15.5 / m.f_ref_hz
     x0 = transient(m, W, 100)
-    assert 0 < BeamShooting(m, W).shot(x0, W).impact_velocities[0] * m.length_m < 3e-3
+    assert 0 < beam_problem(m, W).shot(x0, W).impact_velocities[0] * m.length_m < 3e-3
     for par in ("Omega", "gap_contact_m"):
-        _, eM, ep = fd_check(BeamShooting(m, W, par), x0, 1, M=par == "Omega")
+        _, eM, ep = fd_check(beam_problem(m, W, par), x0, 1, M=par == "Omega")
         assert eM < 1e-7 and ep < 1e-7, (par, eM, ep)
     with pytest.raises(ValueError, match="tabulated"):
-        BeamShooting(m, W, "R")
+        beam_problem(m, W, "R")
     mm = rig("rig-fe-tight", 4, R=0.0)
     c = mm.c_phys * np.linspace(1.0, 0.5, mm.n_modes) + 0.3
     m = BeamImpactModel(mm.omega_rad_s, mm.participation, mm.contact_row, mm.sensor_row, 0.0,
@@ -411,11 +423,11 @@ def test_velocity_dependent_restitution_and_modal_damping():
     W = 14.0 / m.f_ref_hz
     x0 = transient(m, W, 40)
     for par in ("Omega", "gap_contact_m"):
-        s, eM, ep = fd_check(BeamShooting(m, W, par), x0, 1, M=par == "Omega")
+        s, eM, ep = fd_check(beam_problem(m, W, par), x0, 1, M=par == "Omega")
         assert list(s.extra["event_kinds"]) == [1, 3, 4]
         assert eM < 1e-7 and ep < 1e-7, (par, eM, ep)
     with pytest.raises(ValueError, match="per-mode damping"):
-        BeamShooting(m, W, "damping_D_s")
+        beam_problem(m, W, "damping_D_s")
 
 
 def test_a_release_into_free_flight_does_not_touch_the_stop_again_at_zero_speed():
@@ -434,7 +446,7 @@ def test_a_release_into_free_flight_does_not_touch_the_stop_again_at_zero_speed(
     releases = 0
     for f in (13.0, 14.0, 15.0, 16.0):
         W = f / m.f_ref_hz
-        s = BeamShooting(m, W).shot(transient(m, W, 20), W, 8)
+        s = beam_problem(m, W).shot(transient(m, W, 20), W, 8)
         assert s.status == "ok", (f, s.message)
         # no creeping release wait (below): ~300 steps a period natively; 2e4 and more per period
         # while each crossing was waited for again
@@ -450,10 +462,10 @@ _PRESCOTT = """
 import json, sys
 sys.path.insert(0, sys.argv[1])
 from test_periodic_beam import rig, transient
-from vibeam.models.periodic_beam import BeamShooting
+from test_periodic_beam import beam_problem
 m = rig("rig-fe-tight", "all", R=0.0)
 W = 15.0 / m.f_ref_hz
-s = BeamShooting(m, W, max_steps_per_period=10**6).shot(transient(m, W, 20), W, 1)
+s = beam_problem(m, W, max_steps_per_period=10**6).shot(transient(m, W, 20), W, 1)
 print(json.dumps([s.status, int(s.extra["n_steps"])]))
 """
 

@@ -1,11 +1,11 @@
 """The shooting problem of a scene (vibeam.models.core.scene_shooting.SceneShooting, issue 58)
-against closed forms and against the fidelities' own shooting problems."""
+against closed forms, the paper's impact map, central differences and the direct integrator."""
 import math
 
 import numpy as np
 import pytest
 
-from vibeam.models import SDOF, make_solver, shooting_problem
+from vibeam.models import SDOF, make_solver
 from vibeam.models.continuation import start_point
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.sdof_flow import particular_coefficients
@@ -58,12 +58,28 @@ def test_a_chain_of_masses_has_each_modes_multipliers():
     np.testing.assert_allclose(_multipliers(s), expected, rtol=1e-11)
 
 
-def test_an_impacting_orbit_obeys_liouville_and_equals_the_sdofs_problem():
+def _central_monodromy(prob, x, p, n=1, rel=1e-6):
+    """``d P^n / d x0`` by central differences of the shots (steps ``rel max |x|``)."""
+    h = rel * np.max(np.abs(x))
+    cols = []
+    for j in range(x.size):
+        e = np.zeros(x.size)
+        e[j] = h
+        cols.append((prob.shot(x + e, p, n, derivatives=False).x - prob.shot(x - e, p, n, derivatives=False).x) / (2 * h))
+    return np.column_stack(cols)
+
+
+def test_an_impacting_orbit_obeys_liouville_and_is_the_impact_maps_fixed_point():
     """A period-1 orbit with one impact per period (Fig. 7 values, Omega = 1.8), refined by
     Newton on the scene's problem: ``det M = R^2 exp(-2 beta T)`` (Liouville with the
-    saltation matrix's determinant ``R^2``; 1e-10) and the SDOF's own shooting problem
-    (periodic_sdof.SDOFShooting, its own parametrisation) gives the same state and monodromy
-    (1e-12: the same integrator on the same scene)."""
+    saltation matrix's determinant ``R^2``; 1e-10); its state is the paper's impact map's fixed
+    point (Eqs. 33-34, Newton on the closed form) carried by the closed-form flow (Eq. 28) to
+    phase 0 (1e-10: two independent codes, each exact to round-off; measured 8e-16); its
+    monodromy equals the central differences of the shots (steps 1e-6: truncation ~1e-12,
+    round-off ~1e-10 amplified by |M| ~ 1: 1e-7; measured 1.7e-10)."""
+    from vibeam.models.mapping import newton_fixed_point
+    from vibeam.models.sdof_flow import propagate
+
     m = SDOF(beta=0.015, B=0.01, R=0.8, Delta=0.0)
     Om = 1.8
     x = make_solver(m, "event").point(Om, None, 400, 1, 8).final_state[:2]
@@ -74,26 +90,35 @@ def test_an_impacting_orbit_obeys_liouville_and_equals_the_sdofs_problem():
     assert s.n_impacts == 1
     T = 2 * math.pi / Om
     assert np.linalg.det(s.M) == pytest.approx(0.8 ** 2 * math.exp(-2 * 0.015 * T), rel=1e-10)
-    ref = shooting_problem(m, "Omega").shot(pt.x, Om, 1)
-    np.testing.assert_allclose(s.x, ref.x, rtol=1e-12, atol=1e-15)
-    np.testing.assert_allclose(s.M, ref.M, rtol=1e-12, atol=1e-14)
+    fp = newton_fixed_point(m.scene(), Om, ((Om * s.impact_times[0]) % (2 * math.pi), s.impact_velocities[0]), 1)
+    assert fp is not None
+    phi, v = fp
+    a, b = particular_coefficients(0.015, Om * Om * 0.01, Om)
+    g, w, _, _, _ = propagate(((2 * math.pi - phi) % (2 * math.pi)) / Om, phi, 0.0, -0.8 * v, 0.015, a, b, Om, 0.0)
+    np.testing.assert_allclose(s.x, [g, w], rtol=1e-10, atol=1e-13)
+    Mfd = _central_monodromy(prob, pt.x, Om)
+    assert np.max(np.abs(Mfd - s.M)) <= 1e-7 * max(1.0, np.max(np.abs(s.M)))
 
 
-def test_the_beam_scene_equals_the_beams_problem():
-    """The FE rig (2 modes) on its stop at 15.2 Hz: the scene's problem and the beam's own
-    (periodic_beam.BeamContinuation) give the same shot, state and monodromy (1e-12 of their
-    norms: the same integrator on the same scene)."""
+def test_the_beam_scenes_shot_equals_the_direct_integrator_and_central_differences():
+    """The FE rig (2 modes) on its stop at 15.2 Hz: the scene's shot from a settled state equals
+    one period of the direct integrator (scipy's event-located ODE solution, an independent
+    integrator; 1e-9 of the state's norm, its tolerances; measured 1.5e-11), and the shot's
+    monodromy the central differences of the shots (steps 1e-6 of the state: truncation ~1e-12,
+    round-off ~1e-10; 1e-8 of the norm, measured 1.2e-10)."""
     from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     m = case.model_spec({"n_modes": 2}).build()
     W = 15.2 / m.f_ref_hz
     x = make_solver(m, "event").point(W, None, 300, 1, 8).final_state[:4]
-    s = SceneShooting(m.scene()).shot(x, W, 1)
-    ref = shooting_problem(m, "Omega").shot(x, W, 1)
-    assert s.status == ref.status == "ok" and s.n_impacts == ref.n_impacts >= 1
-    np.testing.assert_allclose(s.x, ref.x, rtol=0, atol=1e-12 * np.linalg.norm(ref.x))
-    np.testing.assert_allclose(s.M, ref.M, rtol=0, atol=1e-12 * np.linalg.norm(ref.M))
+    prob = SceneShooting(m.scene())
+    s = prob.shot(x, W, 1)
+    assert s.status == "ok" and s.n_impacts >= 1
+    ref = make_solver(m, "direct").point(W, np.r_[x, 0.0], 0, 1, 8).final_state[:4]
+    np.testing.assert_allclose(s.x, ref, rtol=0, atol=1e-9 * np.linalg.norm(ref))
+    Mfd = _central_monodromy(prob, x, W)
+    np.testing.assert_allclose(s.M, Mfd, rtol=0, atol=1e-8 * np.linalg.norm(s.M))
 
 
 def test_what_has_no_shot_is_said():
@@ -136,3 +161,73 @@ def test_a_tabulated_restitution_obeys_liouville_with_its_slope():
     assert inside == sp.impacts
     expected = -2 * 0.015 + S / (K * 2 * math.pi / Om)
     assert abs(sp.exponents.sum() - expected) < 1e-10 * abs(expected)
+
+
+def _chain_on_two_stops(R_lower=0.7):
+    """The two-mass chain with a stop on each side of mass 2, at 0.6 and 0.8 of its contact-free
+    amplitude at Omega = 1.3 (so both are hit), Newton's law on each."""
+    from vibeam.models.beam_dynamics import MatrixImpactModel
+    from vibeam.models.builders.matrices import build_matrices
+    from vibeam.models.contact import Relation, Restitution, Stop
+
+    M = np.diag([2.0, 0.5])
+    K = np.array([[4.2e4, -1.2e4], [-1.2e4, 1.2e4]])
+    mm = build_matrices(M, K, damping_ratios=0.02, dofs=["m1", "m2"], sensor="m1", contacts=["m2"], length_m=0.1)
+    sc = MatrixImpactModel.from_matrix_model(mm, R=0.7, gap_contact_m=1.0, base_amplitude_m=1e-5).scene()
+    A = SceneShooting(sc).linear_amplitude(1.3)
+    return sc._replace(stops=(Stop(Relation(1.0, 0.6 * A, 0), Restitution(0.7)),
+                              Stop(Relation(-1.0, 0.8 * A, 0), Restitution(R_lower)))), A
+
+
+@pytest.mark.parametrize("path", ["Omega", "system.base_amplitude", "stops[0].relation.offset",
+                                  "stops[1].relation.offset", "stops[1].law.R",
+                                  ("stops[0].law.R", "stops[1].law.R"), "system.damping"])
+def test_every_scene_path_has_the_exact_parameter_derivative(path):
+    """A structure given by its matrices on two stops, each path of the scene's problem: ``d x /
+    d p`` of the shot against central differences of the shots at ``p +- 1e-6 p`` (truncation
+    ~1e-12, round-off ~1e-16 / 1e-6 amplified by the orbit: 1e-7 of the scale; measured <= 3e-9).
+    The damping path moves every mode's coefficient along the scene's own (``slope = c``: ``p =
+    1`` is the scene)."""
+    sc, _ = _chain_on_two_stops()
+    Om = 1.3
+    kw = dict(damping=(1.0, sc.system.damping)) if path == "system.damping" else {}
+    prob = SceneShooting(sc, path, Omega=Om, **kw)
+    p = Om if path == "Omega" else prob.value
+    x = np.zeros(4)
+    for _ in range(30):
+        x = prob.shot(x, p, 1, derivatives=False).x
+    s = prob.shot(x, p, 1)
+    assert s.status == "ok" and set(s.extra["impact_stops"]) == {0, 1}
+    h = 1e-6 * abs(p)
+    fd = (prob.shot(x, p + h, 1).x - prob.shot(x, p - h, 1).x) / (2 * h)
+    scale = max(np.max(np.abs(fd)), np.max(np.abs(x)))
+    assert np.max(np.abs(fd - s.x_p)) <= 1e-7 * scale, (fd, s.x_p)
+
+
+def test_the_scene_at_a_value_and_what_a_path_refuses():
+    """``scene_at`` sets the path's numbers and nothing else; the starts follow the scene (the
+    averaging start is the one-mode oscillator's); what cannot be continued is said in one line."""
+    sc, A = _chain_on_two_stops()
+    both = SceneShooting(sc, ("stops[0].law.R", "stops[1].law.R"), Omega=1.3)
+    at = both.scene_at(0.4)
+    assert [st.law.R for st in at.stops] == [0.4, 0.4] and at.system is sc.system
+    off = SceneShooting(sc, "stops[1].relation.offset", Omega=1.3).scene_at(2 * A)
+    assert off.stops[1].relation.offset == 2 * A and off.stops[0] == sc.stops[0]
+    assert SceneShooting.offered_starts(sc) == ("linear",)
+    assert SceneShooting.offered_starts(SDOF(beta=0.01, B=0.01, R=0.8, Delta=0.5).scene()) == ("linear", "averaging")
+    x, why = SceneShooting(sc).start("linear", 1.3)
+    assert x is None and "upper stop reaches its offset" in why
+    far = SceneShooting(sc, "stops[0].relation.offset", Omega=1.3)
+    assert far.start("linear", 0.7 * A)[0] is None
+    with pytest.raises(ValueError, match="not available"):
+        SceneShooting(sc).start("averaging", 1.3)
+    assert "out of range" in both.invalid(1.2)
+    assert "overlap" in SceneShooting(sc, "stops[0].relation.offset", Omega=1.3).invalid(-0.9 * A)
+    with pytest.raises(ValueError, match="must hold one value"):
+        SceneShooting(_chain_on_two_stops(0.5)[0], ("stops[0].law.R", "stops[1].law.R"), Omega=1.3)
+    with pytest.raises(ValueError, match="needs the forcing frequency"):
+        SceneShooting(sc, "stops[0].law.R")
+    with pytest.raises(ValueError, match="2 stop"):
+        SceneShooting(sc, "stops[2].law.R", Omega=1.3)
+    with pytest.raises(ValueError, match="damping = "):
+        SceneShooting(sc, "system.damping", Omega=1.3)

@@ -67,7 +67,11 @@ def _parse(scene: Scene, parameter) -> tuple[str, tuple]:
         ks.append(k)
     if len(kinds) != 1 or len(set(ks)) != len(ks):
         raise ValueError(f"parameter {parameter!r}: paths moved together must be distinct stops' numbers of one kind")
-    return kinds.pop(), tuple(ks)
+    kind = kinds.pop()
+    vals = {float(scene.stops[k].relation.offset if kind == "relation.offset" else scene.stops[k].law.R) for k in ks}
+    if len(vals) > 1:
+        raise ValueError(f"parameter {parameter!r}: paths moved together must hold one value, got {sorted(vals)}")
+    return kind, tuple(ks)
 
 
 class SceneShooting(ModalShooting):
@@ -214,7 +218,7 @@ class SceneShooting(ModalShooting):
         if kind == "law.R":
             bad = restitution_problem(p, "R")
             if bad:
-                return bad
+                return f"out of range: {bad}"
         if kind in ("law.R", "relation.offset"):
             try:
                 check_stops(self.scene_at(p).stops)
@@ -259,6 +263,14 @@ class SceneShooting(ModalShooting):
         a, b = particular(np.asarray(s.damping, float), om * om, np.asarray(s.participation, float),
                           forcing(s, Om), Om)
         return s, Om, a, b
+
+    def linear_amplitude(self, p: float, stop: int = 0) -> float:
+        """Amplitude ``|W_k (a + i b)|`` (row units: the beam's metres) at stop ``stop``'s contact
+        row of the contact-free harmonic steady state at ``p`` (closed form; its grazing is where it
+        equals the stop's offset)."""
+        s, _, a, b = self._free(p)
+        row = np.asarray(s.contacts, float)[self.scene.stops[stop].relation.row]
+        return float(abs(row @ (a + 1j * b)))
 
     def start(self, kind: str, p: float, n: int = 1):
         """Initial state ``(eta, eta')`` at forcing phase 0 of a closed-form or averaged orbit.

@@ -13,7 +13,6 @@ from vibeam.bench.common import build_scene
 from vibeam.models import SDOF, EventSolver, shooting_problem, make_solver
 from vibeam.models import BeamEventSolver
 from vibeam.models.continuation import Settings, start_point, trace
-from vibeam.models.periodic_sdof import SDOFShooting
 
 
 CONTINUATION_GOAL_S = 0.1   # issue 10: ~500-point SDOF branch with stability, after warm-up
@@ -63,7 +62,7 @@ def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_erro
     """
     log = log or (lambda m: None)
     m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
-    prob = SDOFShooting(m)
+    prob = shooting_problem(m)
     x0 = EventSolver(m.scene()).point(1.5, None, 400, 4, 8).final_state[:2]
     st = Settings()
     trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st)  # warm-up (compiled kernels, cache load)

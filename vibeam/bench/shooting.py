@@ -10,7 +10,7 @@ import numpy as np
 from vibeam.bench.common import build_scene, goal
 from vibeam.models.beam_dynamics import particular
 from vibeam.models import BeamEventSolver, make_solver
-from vibeam.models.periodic_beam import BeamShooting
+from vibeam.models import shooting_problem
 
 
 def _median_time(f, repeats: int = 5, min_total_s: float = 0.2, max_repeats: int = 200) -> float:
@@ -36,7 +36,7 @@ def _newton(prob, x, p, n=1, tol=1e-12, max_iter=30):
 
 
 def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int = 31) -> dict:
-    """Cost of the beam's periodic-orbit shooting (:class:`vibeam.models.periodic_beam.BeamShooting`).
+    """Cost of the beam's periodic-orbit shooting (the scene's :class:`vibeam.models.core.scene_shooting.SceneShooting`).
 
     * ``shot``: one ``P^1`` with and without the monodromy and ``d x / d Omega``, for the
       period-1 one-impact orbit of ``rig-fe-neutral`` at 15.5 Hz and the period-1 chatter +
@@ -67,7 +67,7 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
             case, model, settings, _ = scene(fname, nm)
             W = f_hz / model.f_ref_hz
             x0 = BeamEventSolver(model.scene()).point(W, None, 300, 1, 1).final_state[:-1]
-            prob = BeamShooting(model, W)
+            prob = shooting_problem(model, Omega=W)
             s = prob.shot(x0, W, 1)
             prob.shot(x0, W, 1, derivatives=False)
             t_no = _median_time(lambda: prob.shot(x0, W, 1, derivatives=False), repeats)
@@ -81,7 +81,7 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
         case, model, settings, _ = scene("rig-fe-neutral.toml", nm)
         W = 15.5 / model.f_ref_hz
         a, b = particular(model.c_nd, model.k_nd, model.participation, W**2 * model.base_amplitude_m, W)
-        prob = BeamShooting(model, W)
+        prob = shooting_problem(model, Omega=W)
         t0 = time.perf_counter()
         x, s, it = _newton(prob, np.concatenate([b, W * a]), W)
         t_newton = time.perf_counter() - t0
@@ -99,7 +99,7 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
             "ratio_event_to_newton": (t_ev * k / K) / t_newton if k > 0 else None}
     case, model, settings, _ = scene("rig-fe-neutral.toml", "all")
     grid = np.linspace(14.0, 17.0, frc_points) / model.f_ref_hz
-    prob = BeamShooting(model, grid[0])
+    prob = shooting_problem(model, Omega=grid[0])
     x = BeamEventSolver(model.scene()).point(grid[0], None, 300, 1, 1).final_state[:-1]
     its, ok, stable = [], 0, 0
     t0 = time.perf_counter()

@@ -47,6 +47,69 @@ class BeamScene:
     Delta_C_lower_m: float | None = None    # a second stop below (at the contact point)
 
 
+# ----------------------------------------------------------------------------- continuation keys
+#: native continuation parameters of the beam and the model attribute each one sets
+NATIVE_PARAMETERS = ("Omega", "base_amplitude_m", "gap_contact_m", "R", "damping_D_s",
+                     "rayleigh_alpha_1_s")
+#: the lower stop's parameters: its offset (m, at the contact point) and its R (Newton's, or a
+#: compliant law's target R); native parameters of a two-sided model only
+NATIVE_LOWER = ("gap_contact_lower_m", "R_lower")
+
+#: case keys of a beam scene that change the FE model (modes, shapes): not continuable
+REBUILD_KEYS = ("length_mm", "sensor_position_mm", "mass_position_mm", "width_mm",
+                "thickness_mm", "youngs_modulus_gpa", "density_kg_m3", "EI_n_m2", "rhoA_kg_m",
+                "mass_kg", "rotary_inertia_kg_m2", "discs", "calibrate", "n_modes", "n_elements")
+
+
+def conversions(model, gain_per_V: float | None = None,
+                voltage: float | None = None) -> dict:
+    """Affine map of the physical case keys onto the native parameters.
+
+    ``native = scale * key`` for every key in the table, so a derivative with respect
+    to the key is ``scale`` times the native one (chain rule).
+
+    Parameters
+    ----------
+    model : BeamImpactModel
+        The model (built by :func:`vibeam.case.beamscene.build_beam_model` for a case).
+    gain_per_V : float, optional
+        The case's ``gain`` (the paper's normalised gamma, 1/V); needed for ``voltage``.
+    voltage : float, optional
+        The case's ``voltage`` (V); needed for ``gain``.
+
+    Returns
+    -------
+    dict
+        ``key -> (native name, scale)``:
+
+        * ``Omega`` -> ``Omega``, 1; ``frequency_hz`` -> ``Omega``, ``1 / f_ref``;
+        * ``voltage`` -> ``base_amplitude_m``, ``gamma~ = gain phi(x_m) L`` (m/V, Eq. 46
+          inverted, :func:`vibeam.case.beamscene.scene_of`); ``gain`` -> ``base_amplitude_m``,
+          ``V phi(x_m) L``;
+        * ``gap_mm`` (grazing gap at the sensor) -> ``gap_contact_m``, ``1e-3 phi(x_m)``
+          (Eq. 45: ``Delta_C = phi(x_m) Delta_G``); ``contact_gap_mm`` -> ``gap_contact_m``,
+          ``1e-3``;
+        * ``damping_ratio`` -> ``damping_D_s``, ``2 / omega_ref`` (``D = 2 beta / omega_1``
+          with ``omega_1 = 2 pi f_ref``, the first FE mode of a built scene);
+        * ``R`` -> ``R``, 1; ``rayleigh_alpha_1_s`` -> itself, 1; and every native name
+          to itself.
+    """
+    L = model.length_m
+    phim = model.phi_at_mass
+    tab = {name: (name, 1.0) for name in NATIVE_PARAMETERS + NATIVE_LOWER}
+    tab["frequency_hz"] = ("Omega", 1.0 / model.f_ref_hz)
+    tab["gap_mm"] = ("gap_contact_m", 1e-3 * phim)
+    tab["contact_gap_mm"] = ("gap_contact_m", 1e-3)
+    tab["gap_lower_mm"] = ("gap_contact_lower_m", 1e-3 * phim)
+    tab["contact_gap_lower_mm"] = ("gap_contact_lower_m", 1e-3)
+    tab["damping_ratio"] = ("damping_D_s", 2.0 / model.omega_ref)
+    if gain_per_V is not None:
+        tab["voltage"] = ("base_amplitude_m", float(gain_per_V) * phim * L)
+    if voltage is not None:
+        tab["gain"] = ("base_amplitude_m", float(voltage) * phim * L)
+    return tab
+
+
 def geometry_of(spec):
     """BeamGeometry of a :class:`vibeam.case.schema.BeamSceneSpec` before calibration."""
     kw = dict(length_m=spec.length_mm * 1e-3, mass_position_m=spec.mass_position_mm * 1e-3,

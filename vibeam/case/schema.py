@@ -507,13 +507,13 @@ class _BeamSpec(_StopsSpec):
     physical: ClassVar[bool] = True
 
     # continuation parameters besides the frequency (Omega, with its range in Hz): keys that
-    # act on the modal model without changing its modes (vibeam.models.periodic_beam.conversions)
+    # act on the modal model without changing its modes (vibeam.case.beamscene.conversions)
     _CONTINUABLE: ClassVar[tuple] = ("voltage", "gain", "gap_mm", "contact_gap_mm", "damping_ratio", "R",
                                      "rayleigh_alpha_1_s")
 
     def native_parameter(self, key: str):
         """``(native key, factor)`` of a continuation parameter of the beam's shooting problem
-        (:func:`vibeam.models.periodic_beam.conversions`: ``base_amplitude_m = gamma~ V`` with
+        (:func:`vibeam.case.beamscene.conversions`: ``base_amplitude_m = gamma~ V`` with
         ``gamma~ = gain phi(x_m) L``, ``gap_contact_m = phi(x_m) gap_mm 1e-3`` (Eq. 45),
         ``damping_D_s = 2 beta / omega_1`` (Eq. 39), ``R``): the native value is ``factor *
         value``.
@@ -526,7 +526,7 @@ class _BeamSpec(_StopsSpec):
             key that is not a model key.
         """
         # lazy: keeps the beam kernels (scipy.linalg: 0.3 s) out of load_case
-        from vibeam.models.periodic_beam import REBUILD_KEYS, conversions
+        from vibeam.case.beamscene import REBUILD_KEYS, conversions
 
         gap_key = "gap_mm" if self.gap_mm is not None else "contact_gap_mm"
         allowed = ("Omega",) + tuple(k for k in self._CONTINUABLE
