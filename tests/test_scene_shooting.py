@@ -231,3 +231,59 @@ def test_the_scene_at_a_value_and_what_a_path_refuses():
         SceneShooting(sc, "stops[2].law.R", Omega=1.3)
     with pytest.raises(ValueError, match="damping = "):
         SceneShooting(sc, "system.damping", Omega=1.3)
+
+
+def test_resect_carries_a_one_mode_impact_across_the_section_exactly():
+    """The one-mode oscillator (Fig. 7 values, Omega = 1.8): ``resect`` moves an impact that
+    coincides with the section to its other side and carries the state there by the exact free
+    flow: the state it returns is the post-impact (pre-impact) state flown to the section in closed
+    form (1e-15 of the state: round-off; measured 1e-17), and the motions agree from the next
+    period on to the event location's tolerance (1e-7, as the beam's first-order version in
+    test_continuation_beam; measured 6e-9):
+
+    * first impact 1e-9 T after phase 0: the post-impact state; one period later both are the same
+      state, one impact fewer;
+    * last impact 1e-9 T before the end (a state receding from the stop, Omega tuned by brentq):
+      the pre-impact state carried to the end, whose next period (impact at 0+ included) is the
+      original's next period."""
+    from scipy.optimize import brentq
+
+    from vibeam.models.system import modal_flow
+
+    m = SDOF(beta=0.015, B=0.01, R=0.8, Delta=0.0)
+    prob = SceneShooting(m.scene())
+    sy = m.scene().system
+    W = 1.8
+    T = 2 * math.pi / W
+    x0 = np.concatenate(modal_flow(sy, 1e-9 * T, 0.0, np.zeros(1), np.array([0.05]), W))
+    s0 = prob.shot(x0, W, 1)
+    assert s0.n_impacts >= 1 and abs(s0.impact_times[0] - 1e-9 * T) < 1e-12 * T
+    x1 = prob.resect(x0, W, 1)
+    assert x1 is not None and x1[1] < 0 < x0[1]
+    post = np.concatenate(modal_flow(sy, 1e-9 * T, 0.0, np.zeros(1), np.array([-0.8 * 0.05]), W))
+    np.testing.assert_allclose(x1, post, rtol=0, atol=1e-15 * np.max(np.abs(post)))
+    s1 = prob.shot(x1, W, 1)
+    assert s1.n_impacts == s0.n_impacts - 1
+    np.testing.assert_allclose(s1.x, s0.x, rtol=0, atol=1e-7 * np.max(np.abs(s0.x)))
+    xa = np.array([0.0, -0.1])
+
+    def late(Wq):
+        s = prob.shot(xa, Wq, 1, derivatives=False)
+        return (s.impact_times[0] * Wq / (2 * math.pi) if s.n_impacts else 2.0) - (1 - 1e-9)
+
+    grid = np.linspace(1.0, 3.0, 41)
+    vals = [late(w) for w in grid]
+    i = next(k for k in range(40) if vals[k] < 0 < vals[k + 1])
+    W2 = brentq(late, grid[i], grid[i + 1], xtol=1e-15, rtol=1e-15)
+    if late(W2) > 0.5:        # brentq may end on the side without an impact: take the other neighbour
+        W2 = np.nextafter(W2, 0.0)
+    T2 = 2 * math.pi / W2
+    s2 = prob.shot(xa, W2, 1)
+    assert s2.n_impacts == 1 and T2 - 1e-6 * T2 < s2.impact_times[0] < T2
+    y = prob.resect(xa, W2, 1)
+    assert y is not None
+    pre = np.concatenate(modal_flow(sy, s2.impact_times[0], T2, np.zeros(1), np.array([s2.impact_velocities[0]]), W2))
+    np.testing.assert_allclose(y, pre, rtol=0, atol=1e-15 * np.max(np.abs(pre)))
+    nxt_a, nxt_b = prob.shot(s2.x, W2, 1), prob.shot(y, W2, 1)
+    assert nxt_b.n_impacts == nxt_a.n_impacts + 1 and nxt_b.impact_times[0] < 1e-9 * T2
+    np.testing.assert_allclose(nxt_b.x, nxt_a.x, rtol=0, atol=1e-7 * np.max(np.abs(nxt_a.x)))
