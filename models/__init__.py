@@ -59,73 +59,94 @@ def __dir__():
     return sorted(set(globals()) | set(_LAZY) | {"SHOOTING", "METHODS"})
 
 
-def shooting_problem(model, parameter: str = "Omega", Omega: float | None = None, **settings):
-    """The shooting problem of ``model`` in the native ``parameter`` (``Omega``: forcing
-    frequency of a continuation in another parameter): the scene's problem
-    (:class:`~vibeam.models.core.scene_shooting.SceneShooting`) in the path the native name stands
-    for (the model's ``scene_parameter``); ``settings`` are its event integrator's
-    (``chatter_tol``, ``max_steps_per_period``, ...).
+def _scene_of(model):
+    """``model`` as a scene: a :class:`~vibeam.models.scene.Scene` itself, else its ``scene()``."""
+    return model.scene() if hasattr(model, "scene") else model
+
+
+def shooting_problem(model, parameter="Omega", Omega: float | None = None, damping=None, **settings):
+    """The shooting problem of a scene (or a model's scene) continued in ``parameter``: the
+    scene's one problem, :class:`~vibeam.models.core.scene_shooting.SceneShooting`.
+
+    Parameters
+    ----------
+    model : Scene or a model with ``scene()``
+        Its builder (``scene.builder``) names its fidelity in the registry.
+    parameter : str or tuple of str
+        A path into the scene (``SceneShooting.PATHS``: ``"Omega"``, ``"system.base_amplitude"``,
+        ``"stops[k].relation.offset"``, ``"stops[k].law.R"``, ``"system.damping"``), in the scene's
+        units; a tuple of stop paths of one kind moves them together.
+    Omega : float or None
+        The forcing frequency of a continuation in another parameter (the scene's units).
+    damping : (float, array of shape (n,)) or None
+        For ``"system.damping"``: the parameter's value and ``d c / d p`` of each mode.
+    settings
+        The event integrator's (``chatter_tol``, ``max_steps_per_period``, ...).
 
     Raises
     ------
     ValueError
-        If no shooting problem is registered for the model's fidelity, the parameter is not one
-        of the problem's, or its shooting problem does not serve the stops at the attached mass
+        If no shooting problem is registered for the scene's fidelity, the parameter is not one
+        of the scene's paths, or the problem does not serve the stops at the attached mass
         (:func:`vibeam.models.registry.supported_methods`).  A compliant upper stop gets its
         family's shooting problem (the ``continuation`` :class:`~vibeam.models.registry.Method`'s
         ``laws``).
     """
-    up, _ = mass_law_keys(model)
-    if "continuation" not in supported_methods(model.fidelity, up):
-        law = getattr(model, "contact_law", "restitution")
-        raise ValueError(f"continuation is not available for contact law {law!r} of fidelity "
-                         f"{model.fidelity!r} (no shooting problem registered); use method = \"event\"")
-    why = _refusal(model, "continuation")
+    sc = _scene_of(model)
+    fid = fidelity(sc.builder)
+    up, _ = mass_law_keys(sc)
+    if "continuation" not in supported_methods(fid.name, up):
+        raise ValueError(f"continuation is not available for contact law {_law_name(sc)!r} of fidelity "
+                         f"{fid.name!r} (no shooting problem registered); use method = \"event\"")
+    why = _refusal(sc, "continuation")
     if why:
         raise ValueError(f"continuation {why}; use method = \"event\"")
     if up != IMPULSIVE:
         # a compliant upper stop: its family's shooting problem (registry ``Method.laws``)
-        cls = resolve(fidelity(model).solvers["continuation"].laws[up])
+        cls = resolve(fid.solvers["continuation"].laws[up])
     else:
         shooting = globals()["SHOOTING"] if "SHOOTING" in globals() else __getattr__("SHOOTING")
-        cls = shooting.get(model.fidelity)
+        cls = shooting.get(fid.name)
         if cls is None:
-            raise ValueError(f"continuation is not available for fidelity {model.fidelity!r} (no shooting "
+            raise ValueError(f"continuation is not available for fidelity {fid.name!r} (no shooting "
                              f"problem registered); available: {', '.join(sorted(shooting))}")
-    path, damping = model.scene_parameter(parameter)
-    return cls(model.scene(), path, Omega=Omega, damping=damping, **settings)
+    return cls(sc, parameter, Omega=Omega, damping=damping, **settings)
 
 
 def make_solver(model, method: str, **settings):
-    """Solver for ``model`` by ``method`` (e.g. ``"event"``) with its settings.
+    """Solver for a scene (or a model's scene) by ``method`` (e.g. ``"event"``) with its settings.
 
     Raises
     ------
     ValueError
-        If the method does not exist for the model's fidelity or does not simulate the stops at
-        its attached mass (their laws, two stops, mixed kinds: the one capability function
-        :func:`vibeam.models.registry.supported_methods`).
+        If the method does not exist for the scene's fidelity (its ``builder``) or does not
+        simulate the stops at its attached mass (their laws, two stops, mixed kinds: the one
+        capability function :func:`vibeam.models.registry.supported_methods`).
     """
-    fid = fidelity(model)
+    sc = _scene_of(model)
+    fid = fidelity(sc.builder)
     if method not in fid.methods:
         raise ValueError(f"method {method!r} is not available for fidelity {fid.name!r}; "
                          f"allowed: {', '.join(sorted(fid.methods))}")
-    why = _refusal(model, method)
+    why = _refusal(sc, method)
     if why:
         raise ValueError(f"method {method!r} {why}")
-    up, _ = mass_law_keys(model)
+    up, _ = mass_law_keys(sc)
     x = fid.solvers[method]
-    cls = resolve(x.solver if up == IMPULSIVE else x.laws[up])
-    if not x.scene:
-        return cls(model, **settings)
-    return cls(model.scene(), **settings)
+    return resolve(x.solver if up == IMPULSIVE else x.laws[up])(sc, **settings)
 
 
-def _refusal(model, method: str) -> str:
-    """Why ``method`` cannot simulate the model's stops at its attached mass ('' when it can), by
+def _law_name(sc) -> str:
+    """The name of the law of the scene's first stop (``"restitution"``: Newton's)."""
+    law = sc.stops[0].law
+    return "restitution" if law.kind == "impulsive" else law.name
+
+
+def _refusal(sc, method: str) -> str:
+    """Why ``method`` cannot simulate the scene's stops at its attached mass ('' when it can), by
     the one capability function :func:`vibeam.models.registry.supported_methods`."""
-    fid = fidelity(model)
-    up, lo = mass_law_keys(model)
+    fid = fidelity(sc.builder)
+    up, lo = mass_law_keys(sc)
     one = supported_methods(fid.name, up)
     both = one if lo is None else supported_methods(fid.name, up, lo)
     allowed = f"allowed with these stops: {', '.join(both) or 'none'}"
@@ -134,13 +155,12 @@ def _refusal(model, method: str) -> str:
                 "a restitution stop beside a compliant one")
         return f"cannot simulate {what}; {allowed}"
     if method not in one:
-        law = getattr(model, "contact_law", "restitution")
-        return (f"does not simulate contact law {law!r} of fidelity {fid.name!r}; allowed: "
+        return (f"does not simulate contact law {_law_name(sc)!r} of fidelity {fid.name!r}; allowed: "
                 f"{', '.join(m for m in one if m != 'continuation') or 'none'}")
     if method not in both:
         return f"cannot simulate a second (lower) stop{'' if lo == up else f' of another law ({lo})'}; {allowed}"
     # the stops away from the attached mass (a structure's, each its own law): each law with the upper one's
-    away = model.stops()[len(model.mass_stops()):] if hasattr(model, "mass_stops") else ()
+    away = tuple(s for s in sc.stops if s.relation.row != 0)
     for k in dict.fromkeys(law_key(s.law) for s in away):
         ok = supported_methods(fid.name, up, k)
         if method not in ok:

@@ -382,39 +382,6 @@ class BeamImpactModel:
         with_row = sy._replace(contacts=np.vstack([sy.contacts, np.asarray(self.drive_row, float)[None, :]]))
         return sc._replace(system=driven(with_row, Excitation("force", ex.amplitude, n_c))._replace(contacts=sy.contacts))
 
-    def scene_parameter(self, native: str):
-        """``(path, damping)``: the :class:`~vibeam.models.core.scene_shooting.SceneShooting`
-        parameter of a native continuation parameter: ``Omega``; ``base_amplitude_m`` (m) the drive's
-        amplitude; ``gap_contact_m`` and ``gap_contact_lower_m`` (m) the mass stops' offsets; ``R``
-        (the lower stop's too when it follows the upper stop's law) and ``R_lower``; ``damping_D_s``
-        (s) and ``rayleigh_alpha_1_s`` (1/s) the modal damping ``c_i = (alpha + D omega_i^2) /
-        omega_ref`` (paper Eq. 39) along ``omega_ref (omega_i / omega_ref)^2`` and ``1 / omega_ref``.
-
-        Raises
-        ------
-        ValueError
-            Another name, a lower stop's parameter without a lower stop, or a damping parameter of
-            a model with per-mode damping (``modal_damping_1_s``).
-        """
-        two = self.two_sided
-        table = {"Omega": "Omega", "base_amplitude_m": "system.base_amplitude",
-                 "gap_contact_m": "stops[0].relation.offset",
-                 "R": ("stops[0].law.R", "stops[1].law.R") if two and self.lower_law is None else "stops[0].law.R",
-                 "damping_D_s": "system.damping", "rayleigh_alpha_1_s": "system.damping"}
-        if two:
-            table.update(gap_contact_lower_m="stops[1].relation.offset", R_lower="stops[1].law.R")
-        if native in ("gap_contact_lower_m", "R_lower") and not two:
-            raise ValueError(f"continuation in {native!r} needs a lower stop (gap_contact_lower_m)")
-        if native not in table:
-            raise ValueError(f"parameter {native!r} is not a native beam parameter; allowed: {', '.join(table)}")
-        if native in ("damping_D_s", "rayleigh_alpha_1_s"):
-            if self.modal_damping_1_s is not None:
-                raise ValueError(f"parameter {native!r} does not act on a model with per-mode damping "
-                                 f"(modal_damping_1_s)")
-            slope = self.omega_ref * self.k_nd if native == "damping_D_s" else np.full(self.n_modes, 1.0 / self.omega_ref)
-            return table[native], (float(getattr(self, native)), slope)
-        return table[native], None
-
     def system_stops(self) -> tuple:
         """:meth:`stops` in the units of the modal system (:func:`vibeam.models.system.from_beam`): a
         compliant law's stiffness (N/m^p) over ``omega_ref^2`` (the system's time unit is

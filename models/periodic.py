@@ -20,22 +20,21 @@ Finite differences are used only as a test oracle.
 Contract of a shooting problem ``prob`` (one class per fidelity)::
 
     prob.dim          int, size d of the state at the section
-    prob.parameter    str, name of the continuation parameter (a native model key)
+    prob.parameter    str, name of the continuation parameter (a path into the scene, or a case key)
     prob.value        float, its value in the model the problem was built from
     prob.shot(x0, p, n) -> Shot
 
 ``x0`` has shape (d,) (SDOF: ``(q, q')``; modal beam: ``(eta, eta')``), ``p`` is the value of
-the continuation parameter in the problem's native units, ``n`` the number of forcing
+the continuation parameter in the scene's units, ``n`` the number of forcing
 periods.  ``shot`` never raises for a dynamical outcome: an orbit the problem cannot
 represent (more events than its buffer, a non-accumulating chatter, an unsupported
 configuration) comes back with ``status != "ok"`` and a ``message``.
 
 Construction and registration: the framework builds a problem as ``cls(scene, path,
 Omega=Omega, damping=damping)`` from ``vibeam.models.SHOOTING[fidelity]``
-(:func:`vibeam.models.shooting_problem`: ``path`` a scene path, the one a model's native key
-stands for, its ``scene_parameter``; ``Omega`` the forcing frequency of a continuation in another
-key, None for ``"Omega"``); the model spec's ``native_parameter(key) -> (native key, factor)``
-maps physical keys.
+(:func:`vibeam.models.shooting_problem`: ``path`` a path into the scene; ``Omega`` the forcing
+frequency of a continuation in another path, None for ``"Omega"``); the model spec's
+``scene_parameter(key) -> (path, factor, damping)`` maps a case's keys onto paths.
 
 Optional capabilities (duck-typed; used when present):
 

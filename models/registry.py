@@ -170,7 +170,7 @@ class Method(NamedTuple):
     Attributes
     ----------
     solver : str
-        ``"module:Class"`` of its solver for Newton's law (built as ``cls(model, **settings)``);
+        ``"module:Class"`` of its solver for Newton's law (built as ``cls(scene, **settings)``);
         for ``continuation`` the shooting problem (``cls(scene, path, Omega=Omega, damping=damping)``).
     laws : dict
         Family of compliant laws (:data:`FAMILIES`) -> ``"module:Class"`` of the solver of its
@@ -181,8 +181,6 @@ class Method(NamedTuple):
         It simulates a compliant stop beside a Newton one.
     restitution_law, positive_R, modal_states : bool
         It takes a velocity-dependent R; it needs ``R > 0``; it records the modal states.
-    scene : bool
-        Its solver is built from the model's scene (``cls(model.scene(), **settings)``), not the model.
     """
 
     solver: str
@@ -192,7 +190,6 @@ class Method(NamedTuple):
     restitution_law: bool = False
     positive_R: bool = False
     modal_states: bool = False
-    scene: bool = False
 
 
 def on_the_core(solver: str, **flags) -> Method:
@@ -280,28 +277,27 @@ def register(fid: Fidelity) -> Fidelity:
 register(Fidelity(
     name="sdof",
     model="sdof:SDOF",
-    solvers={"event": on_the_core("core.event:EventSolver", restitution_law=True, scene=True),
-             "direct": on_the_core("sdof_ode:DirectSolver", scene=True),
+    solvers={"event": on_the_core("core.event:EventSolver", restitution_law=True),
+             "direct": on_the_core("sdof_ode:DirectSolver"),
              # the textbook methods of one Newton stop (paper Sec. 3)
-             "zhuravlev": Method("sdof_ode:ZhuravlevSolver", scene=True),
-             "ivanov": Method("sdof_ode:IvanovSolver", positive_R=True, scene=True),
-             "averaging": Method("sdof_averaging:AveragingSolver", scene=True),
+             "zhuravlev": Method("sdof_ode:ZhuravlevSolver"),
+             "ivanov": Method("sdof_ode:IvanovSolver", positive_R=True),
+             "averaging": Method("sdof_averaging:AveragingSolver"),
              # the one pointwise mapping (paper Sec. 4.2): a passage through a stop of each law, on
              # one or two stops, mixed ones included
              "mapping": Method("mapping:MappingSolver", {f: "mapping:MappingSolver" for f in _MAPPED},
-                               (IMPULSIVE,) + _MAPPED, True, scene=True),
+                               (IMPULSIVE,) + _MAPPED, True),
              "continuation": on_the_core("core.scene_shooting:SceneShooting")},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
 #: the methods of the N-mode modal model (beam_dynamics.BeamImpactModel and its subclasses): the event
 #: and direct integrators, the N-mode pointwise mapping (paper Sec. 4.2: Newton and Kelvin-Voigt stops,
 #: exact flows, anywhere, one or two at the mass, mixed ones included) and the shooting problem
-N_MODE_SOLVERS = {"event": on_the_core("core.event:BeamEventSolver", restitution_law=True, modal_states=True,
-                                       scene=True),
-                  "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True, scene=True),
+N_MODE_SOLVERS = {"event": on_the_core("core.event:BeamEventSolver", restitution_law=True, modal_states=True),
+                  "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
                   "mapping": Method("mapping.modal:ModalMappingSolver",
                                     {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
-                                    (IMPULSIVE, "kelvin_voigt"), True, scene=True),
+                                    (IMPULSIVE, "kelvin_voigt"), True),
                   "continuation": on_the_core("core.scene_shooting:SceneShooting")}
 
 register(Fidelity(
@@ -417,11 +413,11 @@ def supported_methods(name: str, upper: str = IMPULSIVE, lower: str | None = Non
                  and (x.mixed or not mixed))
 
 
-def mass_law_keys(model) -> tuple:
-    """``(upper, lower)``: the :func:`law_key` of the laws of a model's stops at the attached mass
-    (``mass_stops()``, else ``stops()``), ``lower`` None without a second stop there."""
-    stops = model.mass_stops() if hasattr(model, "mass_stops") else model.stops()
-    keys = [law_key(s.law) for s in stops]
+def mass_law_keys(scene) -> tuple:
+    """``(upper, lower)``: the :func:`law_key` of the laws of a scene's stops at the attached mass
+    (those on its first contact row, ``relation.row == 0``), ``lower`` None without a second stop
+    there."""
+    keys = [law_key(s.law) for s in scene.stops if s.relation.row == 0]
     return keys[0], (keys[1] if len(keys) > 1 else None)
 
 

@@ -169,29 +169,6 @@ class SDOF:
         (:func:`vibeam.models.scene.sdof_scene`)."""
         return sdof_scene(self)
 
-    def scene_parameter(self, native: str):
-        """``(path, damping)``: the :class:`~vibeam.models.core.scene_shooting.SceneShooting`
-        parameter of a native continuation parameter (``Omega``, ``B``, ``Delta``, ``R``, ``beta``,
-        ``Delta_lower``, ``R_lower``; nondimensional, paper Eqs. 1-2).  ``R`` moves the lower stop's
-        R too when it follows the upper stop's law; ``beta`` is the damping ``c = 2 beta``.
-
-        Raises
-        ------
-        ValueError
-            Another name, or a lower stop's parameter without a lower stop.
-        """
-        two = self.Delta_lower is not None
-        table = {"Omega": "Omega", "B": "system.base_amplitude", "Delta": "stops[0].relation.offset",
-                 "R": ("stops[0].law.R", "stops[1].law.R") if two and self.lower_law is None else "stops[0].law.R",
-                 "beta": "system.damping"}
-        if two:
-            table.update(Delta_lower="stops[1].relation.offset", R_lower="stops[1].law.R")
-        if native in ("Delta_lower", "R_lower") and not two:
-            raise ValueError(f"continuation in {native!r} needs a lower stop (Delta_lower)")
-        if native not in table:
-            raise ValueError(f"parameter {native!r} is not a parameter of this SDOF model; allowed: {', '.join(table)}")
-        return table[native], ((float(self.beta), np.array([2.0])) if native == "beta" else None)
-
     def stops(self) -> tuple:
         """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at
         ``q = Delta`` (normal ``+1``) with Newton's law, ``R`` and ``R(q'-)``, or the compliant

@@ -66,6 +66,14 @@ GUESS = {"pre-stressed": np.array([-2.2492e-3, 5.4533e-4])}
 
 #: the SDOF's parameters (paper Eqs. 1-2) in the order of :class:`EveryDirection`'s columns
 PARAMETERS = ("Omega", "B", "Delta", "R", "beta")
+#: the SDOF's parameters (paper Eqs. 1-2) as paths into its scene (beta along c = 2 beta)
+PATHS = {"Omega": "Omega", "B": "system.base_amplitude", "Delta": "stops[0].relation.offset", "R": "stops[0].law.R",
+         "beta": "system.damping"}
+
+
+def _problem(m, key, Omega):
+    """The scene's shooting problem of the SDOF ``m`` in its parameter ``key`` at ``Omega``."""
+    return shooting_problem(m, PATHS[key], Omega=Omega, damping=(m.beta, np.array([2.0])) if key == "beta" else None)
 
 
 class EveryDirection(SceneShooting):
@@ -113,7 +121,7 @@ def test_monodromy_and_parameter_derivatives_against_central_differences(name):
     every = EveryDirection(m.scene(), "Omega").shot(x, Omega, n).extra["x_all_p"]
     for key in PARAMETERS:
         val = Omega if key == "Omega" else getattr(m, key)
-        pp = shooting_problem(m, key, Omega=Omega)
+        pp = _problem(m, key, Omega)
         hp = 1e-6 * max(abs(val), 1e-3)
         fd = (pp.shot(x, val + hp, n).x - pp.shot(x, val - hp, n).x) / (2 * hp)
         an = pp.shot(x, val, n).x_p
@@ -181,7 +189,7 @@ def test_grazing_where_the_linear_amplitude_equals_the_gap():
 def test_grazing_in_the_gap_at_fixed_frequency():
     """Continuation in Delta of the non-impacting orbit: grazing at Delta = C(Omega)."""
     Omega = 2.3
-    pr = shooting_problem(FIG8, "Delta", Omega=Omega)
+    pr = shooting_problem(FIG8, "stops[0].relation.offset", Omega=Omega)
     C = float(linear_amplitude(FIG8.beta, FIG8.B, Omega))
     x0, why = pr.start("linear", 2 * C)
     branches = trace(pr, x0, 2 * C, 1, 0.5 * C, 2 * C, -1)
@@ -370,7 +378,7 @@ def test_bad_requests():
     with pytest.raises(ValueError, match="'Gamma' is not a parameter"):
         shooting_problem(FIG8, "Gamma")
     with pytest.raises(ValueError, match="needs the forcing frequency"):
-        shooting_problem(FIG8, "B")
+        shooting_problem(FIG8, "system.base_amplitude")
     x, why = shooting_problem(FIG8).start("linear", 1.6)
     assert x is None and "does not exist" in why
     with pytest.raises(ContinuationError, match="outside the range"):
@@ -378,7 +386,7 @@ def test_bad_requests():
     with pytest.raises(ContinuationError, match="empty"):
         trace(shooting_problem(FIG8), np.zeros(2), 2.0, 1, 2.5, 1.5)
     # a start the problem cannot represent is a status, not an exception (R > 1)
-    (b,) = trace(shooting_problem(FIG8, "R", Omega=2.0), np.array([0.0, 0.0]), 1.2, 1, 0.5, 1.5)
+    (b,) = trace(shooting_problem(FIG8, "stops[0].law.R", Omega=2.0), np.array([0.0, 0.0]), 1.2, 1, 0.5, 1.5)
     assert b.status == "failed_start" and "out of range" in b.message
 
 
@@ -391,7 +399,7 @@ def test_two_parameter_period_doubling_curve(fig13_branches):
     def factory(free, fixed):
         if free == "p1":
             return shooting_problem(dc_replace(FIG13, Delta=fixed), "Omega")
-        return shooting_problem(FIG13, "Delta", Omega=fixed)
+        return shooting_problem(FIG13, "stops[0].relation.offset", Omega=fixed)
 
     bf = [f for f in fig13_branches[0].bifurcations if f.type == "period_doubling"][0]
     c = trace_curve(factory, bf, FIG13.Delta, (1.5, 2.5), (0.4e-3, 0.6e-3), max_points=16)

@@ -218,7 +218,7 @@ def test_continuation_in_the_gap_through_a_case_file(tmp_path, capsys):
     assert "gap_mm =" in out and "grazing" in out
     m = rig("rig-fe-loose", 2)
     W = 18.0 / m.f_ref_hz
-    gap = shooting_problem(m, "gap_contact_m", Omega=W).linear_amplitude(W) / m.phi_at_mass * 1e3
+    gap = shooting_problem(m, "stops[0].relation.offset", Omega=W).linear_amplitude(W) / m.phi_at_mass * 1e3
     with h5py.File(tmp_path / "out" / "results.h5") as f:
         g = f["branches/FE 2 modes/bifurcations"]
         types = list(g["type"].asstr()[()])
@@ -258,10 +258,10 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     m = spec.build()
     W = 18.0 / m.f_ref_hz
     pv = problem(spec, "voltage", W)
-    py = shooting_problem(m, "base_amplitude_m", Omega=W)
+    py = shooting_problem(m, "system.base_amplitude", Omega=W)
     x = BeamEventSolver(m.scene()).point(W, None, 300, 1, 1).final_state[:-1]
     sv, sy = pv.shot(x, 0.6, 1), py.shot(x, m.base_amplitude_m, 1)
-    g = spec.native_parameter("voltage")[1]
+    g = spec.scene_parameter("voltage")[1]
     assert g == pytest.approx(m.base_amplitude_m / 0.6, rel=1e-12)
     np.testing.assert_allclose(sv.x, sy.x, rtol=0, atol=1e-14 * np.max(np.abs(x)))
     np.testing.assert_allclose(sv.x_p, g * sy.x_p, rtol=1e-12)

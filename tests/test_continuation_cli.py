@@ -171,7 +171,7 @@ def test_voltage_continuation_is_the_chain_rule_of_B():
     x0, why = prob_v.start("linear", V0)
     assert why == ""
     (bv,) = trace(prob_v, x0, V0, 1, 0.1, 1.5, +1)
-    (bB,) = trace(shooting_problem(m, "B", Omega=Omega), x0, gamma * V0, 1, 0.1 * gamma, 1.5 * gamma, +1)
+    (bB,) = trace(shooting_problem(m, "system.base_amplitude", Omega=Omega), x0, gamma * V0, 1, 0.1 * gamma, 1.5 * gamma, +1)
     gv = [f.parameter for f in bv.bifurcations if f.type == "grazing"]
     gB = [f.parameter for f in bB.bifurcations if f.type == "grazing"]
     assert gv and gB and gB[0] == pytest.approx(gamma * gv[0], rel=1e-10)

@@ -63,9 +63,9 @@ def test_shot_jacobian_equals_central_differences(name):
     m = _kv(base, k)
     x, _ = _settled(m, W, 400)
     x = x * (1.0 + 1e-3)
-    for par in ("Omega", "B", "Delta"):
+    for par in ("Omega", "system.base_amplitude", "stops[0].relation.offset"):
         prob = shooting_problem(m, par, Omega=W)
-        p = W if par == "Omega" else float(getattr(m, par))
+        p = W if par == "Omega" else prob.value
         s = prob.shot(x, p, n)
         assert s.status == "ok" and s.n_impacts >= 1, s.message
         scale = max(float(np.max(np.abs(x))), 1e-4)
@@ -195,7 +195,7 @@ def test_registry_dispatch_and_case_validation(monkeypatch):
 
     m = parse_case(CASE).model_spec().build()
     assert isinstance(shooting_problem(m, "Omega"), SceneShooting)
-    with pytest.raises(ValueError, match="allowed: Omega, B, Delta, R, beta"):
+    with pytest.raises(ValueError, match="'gamma' is not a parameter of the scene's shooting problem"):
         shooting_problem(m, "gamma", Omega=2.0)
     hc = CASE.replace('law = "linear"', 'law = "hunt_crossley"').replace("stiffness = 1e4", "stiffness = 1e6")
     assert isinstance(shooting_problem(parse_case(hc).model_spec().build(), "Omega"), SceneShooting)
@@ -254,7 +254,7 @@ def test_beam_shot_jacobian_liouville_and_state(n_modes):
     x0 = BeamEventSolver(m.scene()).point(W, None, 200, 4, 16).final_state[:2 * n_modes] * 1.001
     d = 2 * n_modes
     sc = float(np.max(np.abs(x0)))
-    for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
+    for par, p in (("Omega", W), ("system.base_amplitude", m.base_amplitude_m)):
         prob = shooting_problem(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
@@ -366,9 +366,9 @@ def test_hunt_crossley_shot_against_differences_and_the_kernel():
     x0, sm = _settled(m, W, 1500)
     assert sm["period"] == 1
     assert isinstance(shooting_problem(m, "Omega"), SceneShooting)
-    for par in ("Omega", "B", "Delta"):
+    for par in ("Omega", "system.base_amplitude", "stops[0].relation.offset"):
         prob = shooting_problem(m, par, Omega=W)
-        p = W if par == "Omega" else float(getattr(m, par))
+        p = W if par == "Omega" else prob.value
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
         assert np.max(np.abs(s.x - x0)) < 1e-9 * np.max(np.abs(x0))
@@ -419,10 +419,11 @@ def test_continuation_in_the_laws_restitution_and_the_damping(law):
     m = replace(FIG8, contact=law)
     W = 1.9
     x0 = _settled(m, W, 400)[0] * (1.0 + 1e-3)
-    for par in ("R", "beta"):
-        prob = shooting_problem(m, par, Omega=W)
+    for par in ("stops[0].law.R", "system.damping"):
+        # beta along c = 2 beta (paper Eq. 1)
+        prob = shooting_problem(m, par, Omega=W, damping=(m.beta, np.array([2.0])) if par == "system.damping" else None)
         p = prob.value
-        assert p == (law.R if par == "R" else m.beta)
+        assert p == (law.R if par == "stops[0].law.R" else m.beta)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1, s.message
         A = np.column_stack([s.M, s.x_p])

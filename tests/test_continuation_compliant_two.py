@@ -50,7 +50,7 @@ def _check_shot_jacobian(m, par, W, x, n):
     its ``[M, d P^n / d par]`` against central differences (step 1e-6 relative; the same number
     of impacts on both sides; bound 1e-6 of the largest entry)."""
     prob = shooting_problem(m, par, Omega=W)
-    p = W if par == "Omega" else float(getattr(m, par))
+    p = W if par == "Omega" else prob.value
     s = prob.shot(x, p, n)
     assert s.status == "ok", s.message
     assert set(s.extra["impact_stops"]) == {0, 1}
@@ -82,7 +82,7 @@ def test_shot_jacobian_equals_central_differences(name):
         x = x * (1.0 + 1e-3)
     else:
         x = np.array(x0)
-    for par in ("Omega", "B", "Delta"):
+    for par in ("Omega", "system.base_amplitude", "stops[0].relation.offset"):
         _check_shot_jacobian(m, par, W, x, n)
 
 
@@ -492,7 +492,7 @@ def test_newton_above_compliant_shot_jacobian_and_liouville():
     x, tr = _settled_any(m, W, 400)
     assert tr.status == "ok" and set(tr.impact_stops) == {0, 1}
     x = x * (1.0 + 1e-3)
-    for par in ("Omega", "B", "Delta", "R"):
+    for par in ("Omega", "system.base_amplitude", "stops[0].relation.offset", "stops[0].law.R"):
         _check_shot_jacobian(m, par, W, x, 1)
     s = shooting_problem(m).shot(x, W, 1)
     m_up = int(np.sum(np.asarray(s.extra["impact_stops"]) == 0))

@@ -84,7 +84,7 @@ def test_shot_jacobian_against_central_differences(n_modes):
     x0 = _settled(m, W) * 1.001
     d = 2 * n_modes
     sc = float(np.max(np.abs(x0)))
-    for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
+    for par, p in (("Omega", W), ("system.base_amplitude", m.base_amplitude_m)):
         prob = shooting_problem(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1, s.message
@@ -292,8 +292,8 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     x = _settled(m, W) * 1.001
     V = float(spec.voltage)
     sv = problem(spec, "voltage", W).shot(x, V, 1)
-    sy = shooting_problem(m, "base_amplitude_m", Omega=W).shot(x, m.base_amplitude_m, 1)
-    g = spec.native_parameter("voltage")[1]
+    sy = shooting_problem(m, "system.base_amplitude", Omega=W).shot(x, m.base_amplitude_m, 1)
+    g = spec.scene_parameter("voltage")[1]
     assert sv.status == sy.status == "ok" and sv.n_impacts == 1
     np.testing.assert_allclose(sv.x, sy.x, rtol=0, atol=1e-14 * np.max(np.abs(x)))
     np.testing.assert_allclose(sv.x_p, g * sy.x_p, rtol=1e-12)
@@ -313,11 +313,11 @@ def test_jacobian_with_the_velocity_floor(monkeypatch):
     monkeypatch.setattr(laws, "V_FLOOR", 10.0)     # the floor of the compliant laws (read when a model's kernel data are built)
     d = 4
     h0 = 1e-6 * float(np.max(np.abs(x0)))
-    for par, p in (("Omega", W), ("base_amplitude_m", m.base_amplitude_m)):
+    for par, p in (("Omega", W), ("system.base_amplitude", m.base_amplitude_m)):
         prob = shooting_problem(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
-        Y = p if par == "base_amplitude_m" else m.base_amplitude_m
+        Y = p if par == "system.base_amplitude" else m.base_amplitude_m
         v_floor = 10.0 * W * Y * abs(float(m.contact_row @ m.participation))
         assert s.impact_velocities[0] * m.length_m < v_floor
         J = np.empty((d, d + 1))

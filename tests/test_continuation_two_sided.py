@@ -304,8 +304,8 @@ def test_two_mode_beam_derivatives_against_central_differences(Dl, R_lower, Y, W
 
     # the lower stop's offset and R too (issue 20: continuation in any numeric parameter); R_lower = 0
     # is the corner of its range (R_lower < 0 is refused), left out
-    lower = (("gap_contact_lower_m", Dl),) + ((("R_lower", R_lower),) if R_lower > 0 else ())
-    for par, p in (("Omega", W), ("gap_contact_m", 0.0), ("R", 0.8)) + lower:
+    lower = (("stops[1].relation.offset", Dl),) + ((("stops[1].law.R", R_lower),) if R_lower > 0 else ())
+    for par, p in (("Omega", W), ("stops[0].relation.offset", 0.0), ("stops[0].law.R", 0.8)) + lower:
         pr = shooting_problem(m, par, Omega=W)
         s = pr.shot(x0, p, 2)
         assert s.status == "ok" and 1 in s.extra["impact_stops"] and (s.stuck_time > 0) == sticks
@@ -440,7 +440,7 @@ switch = false
 OWN = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e-3, R_lower=0.6)
 
 
-@pytest.mark.parametrize("parameter", ["Delta_lower", "R_lower"])
+@pytest.mark.parametrize("parameter", ["stops[1].relation.offset", "stops[1].law.R"])
 @pytest.mark.parametrize("W", [1.8, 2.2])
 def test_the_lower_stops_offset_and_R_are_continuation_parameters(parameter, W):
     """Continuation in the lower stop's offset and R (issue 20: continuation in any numeric
@@ -449,13 +449,13 @@ def test_the_lower_stops_offset_and_R_are_continuation_parameters(parameter, W):
     x0 = _settled(OWN, W, 800)
     prob = shooting_problem(OWN, parameter, Omega=W)
     p0 = prob.value
-    assert p0 == (1e-3 if parameter == "Delta_lower" else 0.6)
+    assert p0 == (1e-3 if parameter == "stops[1].relation.offset" else 0.6)
     s = prob.shot(x0, p0, 1)
     assert s.status == "ok" and set(s.extra["impact_stops"]) == {0, 1}
     h = 1e-6 * p0
     fd = (prob.shot(x0, p0 + h, 1).x - prob.shot(x0, p0 - h, 1).x) / (2 * h)
     assert np.max(np.abs(s.x_p - fd)) <= 1e-7 * np.max(np.abs(fd)), (s.x_p, fd)
-    with pytest.raises(ValueError, match="needs a lower stop"):
+    with pytest.raises(ValueError, match=r"stops\[1\]"):
         shooting_problem(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), parameter, Omega=W)
 
 
@@ -467,7 +467,7 @@ def test_a_branch_in_R_lower_is_made_of_event_orbits_and_obeys_liouville():
     the saltation products).  A case continues in ``R_lower`` too, and refuses it without a
     lower stop, naming what it allows."""
     W = 1.8
-    prob = shooting_problem(OWN, "R_lower", Omega=W)
+    prob = shooting_problem(OWN, "stops[1].law.R", Omega=W)
     (b, *_) = trace(prob, _settled(OWN, W, 800), 0.6, 1, 0.3, 0.9, 0, NO_SWITCH)
     assert len(b) > 10
     checked = 0

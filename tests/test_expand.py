@@ -128,6 +128,12 @@ def _recorded(table: dict) -> dict:
     return entry
 
 
+#: the SDOF model's continuation names (as recorded) and the paths into its scene they stand for
+SDOF_PATHS = {"Omega": "Omega", "B": "system.base_amplitude", "Delta": "stops[0].relation.offset",
+              "Delta_lower": "stops[1].relation.offset", "R": "stops[0].law.R", "R_lower": "stops[1].law.R",
+              "beta": "system.damping"}
+
+
 def _same(rec: dict, v) -> bool:
     """``v`` equals the recorded value ``rec`` as the two paths were compared: arrays bit for bit
     (:func:`_equal`), floats exactly (NaN equal to NaN), anything else by its type and value."""
@@ -170,9 +176,17 @@ def _as_recorded(rec: dict, new, label: str) -> None:
     for k, r in rec.get("native", {}).items():
         if "err" in r:
             with pytest.raises(ValueError, match=r["err"][:30]):
-                new.native_parameter(k)
+                new.scene_parameter(k)
             continue
-        assert _same(r["ok"], new.native_parameter(k)), f"{label}: native_parameter({k!r})"
+        # recorded as (the SDOF model's name, factor): the name is the path's (R: both stops' when
+        # the lower one's law follows the upper one's)
+        native, factor = r["ok"]["v"]
+        path, f, _ = new.scene_parameter(k)
+        if native["v"] == "R" and new.two_sided and new.build().lower_law is None:
+            assert path == ("stops[0].law.R", "stops[1].law.R"), f"{label}: scene_parameter({k!r})"
+        else:
+            assert path == SDOF_PATHS[native["v"]], f"{label}: scene_parameter({k!r})"
+        assert _same(factor, f), f"{label}: scene_parameter({k!r})"
     b = _packed(new.build())
     assert rec["packed"].keys() == b.keys()
     for k, r in rec["packed"].items():

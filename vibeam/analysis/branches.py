@@ -9,7 +9,7 @@ orbits, runs :func:`vibeam.models.continuation.trace` and, for a ``[map]`` case,
 two-parameter curves of :func:`vibeam.models.continuation.trace_curve`.
 
 Physical keys are continued through the scene's affine conversions (paper Eqs. 43-46; the
-model spec's ``native_parameter``), so ``F_p`` follows by the chain rule.
+model spec's ``scene_parameter``), so ``F_p`` follows by the chain rule.
 """
 from __future__ import annotations
 
@@ -185,7 +185,7 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
     if r.start not in starts:
         raise CaseError(f"'run[{i}].start' = {r.start!r} is not available for fidelity {fid!r}; allowed: "
                         f"{', '.join(starts)}")
-    if not hasattr(spec, "native_parameter"):
+    if not hasattr(spec, "scene_parameter"):
         if r.parameter != "Omega":
             raise CaseError(f"'run[{i}].parameter' = {r.parameter!r}: fidelity {fid!r} can be continued in "
                             f"'Omega' only")
@@ -220,7 +220,7 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
         v = case.map.grid()
         curve_range = (float(np.min(v)), float(np.max(v)))
     table = model_with(case.model, dict(r.model))
-    key_ = continued_key(spec, table, r.parameter) if hasattr(spec, "native_parameter") else r.parameter
+    key_ = continued_key(spec, table, r.parameter) if hasattr(spec, "scene_parameter") else r.parameter
     return BranchTask(key=key, run=r.name, spec=spec, parameter=key_, label=r.parameter if key_ != r.parameter else None,
                       table=table if is_path(key_) else None, lo=float(lo), hi=float(hi),
                       at=at, settings=settings,
@@ -267,10 +267,9 @@ def task_problem(task: BranchTask, spec):
 def problem(spec, key: str, at: float | None):
     """The shooting problem of ``spec`` continued in ``key`` (physical keys through the scene's
     affine conversion, :class:`vibeam.models.continuation.ScaledParameter`)."""
-    model = spec.build()
-    native, factor = spec.native_parameter(key) if hasattr(spec, "native_parameter") else (key, 1.0)
-    prob = shooting_problem(model, native, Omega=at)
-    if native == key and factor == 1.0:
+    path, factor, damping = spec.scene_parameter(key) if hasattr(spec, "scene_parameter") else (key, 1.0, None)
+    prob = shooting_problem(spec.build(), path, Omega=at, damping=damping)
+    if path == key and factor == 1.0:
         return prob
     return ScaledParameter(prob, key, factor)
 

@@ -48,13 +48,6 @@ class BeamScene:
 
 
 # ----------------------------------------------------------------------------- continuation keys
-#: native continuation parameters of the beam and the model attribute each one sets
-NATIVE_PARAMETERS = ("Omega", "base_amplitude_m", "gap_contact_m", "R", "damping_D_s",
-                     "rayleigh_alpha_1_s")
-#: the lower stop's parameters: its offset (m, at the contact point) and its R (Newton's, or a
-#: compliant law's target R); native parameters of a two-sided model only
-NATIVE_LOWER = ("gap_contact_lower_m", "R_lower")
-
 #: case keys of a beam scene that change the FE model (modes, shapes): not continuable
 REBUILD_KEYS = ("length_mm", "sensor_position_mm", "mass_position_mm", "width_mm",
                 "thickness_mm", "youngs_modulus_gpa", "density_kg_m3", "EI_n_m2", "rhoA_kg_m",
@@ -63,10 +56,11 @@ REBUILD_KEYS = ("length_mm", "sensor_position_mm", "mass_position_mm", "width_mm
 
 def conversions(model, gain_per_V: float | None = None,
                 voltage: float | None = None) -> dict:
-    """Affine map of the physical case keys onto the native parameters.
+    """Affine map of the physical case keys onto paths into the model's scene, the parameters of
+    its shooting problem (:class:`vibeam.models.core.scene_shooting.SceneShooting`).
 
-    ``native = scale * key`` for every key in the table, so a derivative with respect
-    to the key is ``scale`` times the native one (chain rule).
+    ``value at the path = scale * key`` for every key in the table, so a derivative with respect
+    to the key is ``scale`` times the path's (chain rule).
 
     Parameters
     ----------
@@ -80,33 +74,45 @@ def conversions(model, gain_per_V: float | None = None,
     Returns
     -------
     dict
-        ``key -> (native name, scale)``:
+        ``key -> (path, scale, damping)``, ``damping`` the ``(value, d c / d p)`` of a
+        ``system.damping`` path (None for the others):
 
-        * ``Omega`` -> ``Omega``, 1; ``frequency_hz`` -> ``Omega``, ``1 / f_ref``;
-        * ``voltage`` -> ``base_amplitude_m``, ``gamma~ = gain phi(x_m) L`` (m/V, Eq. 46
-          inverted, :func:`vibeam.case.beamscene.scene_of`); ``gain`` -> ``base_amplitude_m``,
-          ``V phi(x_m) L``;
-        * ``gap_mm`` (grazing gap at the sensor) -> ``gap_contact_m``, ``1e-3 phi(x_m)``
-          (Eq. 45: ``Delta_C = phi(x_m) Delta_G``); ``contact_gap_mm`` -> ``gap_contact_m``,
-          ``1e-3``;
-        * ``damping_ratio`` -> ``damping_D_s``, ``2 / omega_ref`` (``D = 2 beta / omega_1``
-          with ``omega_1 = 2 pi f_ref``, the first FE mode of a built scene);
-        * ``R`` -> ``R``, 1; ``rayleigh_alpha_1_s`` -> itself, 1; and every native name
-          to itself.
+        * ``frequency_hz`` -> ``Omega``, ``1 / f_ref``;
+        * ``voltage`` -> ``system.base_amplitude`` (m), ``gamma~ = gain phi(x_m) L`` (m/V, Eq. 46
+          inverted, :func:`vibeam.case.beamscene.scene_of`); ``gain`` -> the same, ``V phi(x_m) L``;
+        * ``gap_mm`` (grazing gap at the sensor) -> ``stops[0].relation.offset`` (m),
+          ``1e-3 phi(x_m)`` (Eq. 45: ``Delta_C = phi(x_m) Delta_G``); ``contact_gap_mm`` -> the
+          same, ``1e-3``; the lower stop's ``gap_lower_mm``, ``contact_gap_lower_mm`` ->
+          ``stops[1].relation.offset``;
+        * ``damping_ratio`` -> ``system.damping`` in ``D = 2 beta / omega_1`` (Eq. 39, ``omega_1 =
+          omega_ref``, the first FE mode of a built scene), ``2 / omega_ref``: the modal damping
+          ``c_i = (alpha + D omega_i^2) / omega_ref`` moves along ``omega_ref (omega_i /
+          omega_ref)^2``; ``rayleigh_alpha_1_s`` -> ``system.damping`` in alpha, 1, along
+          ``1 / omega_ref``;
+        * ``R`` -> ``stops[0].law.R`` (and the lower stop's R when its law follows the upper
+          stop's), 1; ``R_lower`` -> ``stops[1].law.R``, 1.
     """
     L = model.length_m
     phim = model.phi_at_mass
-    tab = {name: (name, 1.0) for name in NATIVE_PARAMETERS + NATIVE_LOWER}
-    tab["frequency_hz"] = ("Omega", 1.0 / model.f_ref_hz)
-    tab["gap_mm"] = ("gap_contact_m", 1e-3 * phim)
-    tab["contact_gap_mm"] = ("gap_contact_m", 1e-3)
-    tab["gap_lower_mm"] = ("gap_contact_lower_m", 1e-3 * phim)
-    tab["contact_gap_lower_mm"] = ("gap_contact_lower_m", 1e-3)
-    tab["damping_ratio"] = ("damping_D_s", 2.0 / model.omega_ref)
+    two = model.two_sided
+    R = ("stops[0].law.R", "stops[1].law.R") if two and model.lower_law is None else "stops[0].law.R"
+    tab = {"Omega": ("Omega", 1.0, None), "frequency_hz": ("Omega", 1.0 / model.f_ref_hz, None),
+           "gap_mm": ("stops[0].relation.offset", 1e-3 * phim, None),
+           "contact_gap_mm": ("stops[0].relation.offset", 1e-3, None), "R": (R, 1.0, None)}
+    if two:
+        tab.update(gap_lower_mm=("stops[1].relation.offset", 1e-3 * phim, None),
+                   contact_gap_lower_mm=("stops[1].relation.offset", 1e-3, None),
+                   R_lower=("stops[1].law.R", 1.0, None))
+    if model.modal_damping_1_s is None:
+        # the Rayleigh damping of Eq. 39 (a model with per-mode damping has no such parameter)
+        tab["damping_ratio"] = ("system.damping", 2.0 / model.omega_ref,
+                                (float(model.damping_D_s), model.omega_ref * model.k_nd))
+        tab["rayleigh_alpha_1_s"] = ("system.damping", 1.0, (float(model.rayleigh_alpha_1_s),
+                                                             np.full(model.n_modes, 1.0 / model.omega_ref)))
     if gain_per_V is not None:
-        tab["voltage"] = ("base_amplitude_m", float(gain_per_V) * phim * L)
+        tab["voltage"] = ("system.base_amplitude", float(gain_per_V) * phim * L, None)
     if voltage is not None:
-        tab["gain"] = ("base_amplitude_m", float(voltage) * phim * L)
+        tab["gain"] = ("system.base_amplitude", float(voltage) * phim * L, None)
     return tab
 
 

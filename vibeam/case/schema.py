@@ -258,26 +258,34 @@ class _SDOFSpec(_StopsSpec):
         """A restitution stop beside a compliant one (:func:`mixed_stops`)."""
         return mixed_stops(self)
 
-    # continuation parameters: key -> (native key of the SDOF model, factor d native / d key)
-    def native_parameter(self, key: str):
-        """``(native key, factor)`` of a continuation parameter (paper Eqs. 43-46: ``B = gamma
-        V``, ``Delta = gap / L``, ``beta = damping ratio``, ``Omega = f / f_n``): the native value
-        is ``factor * value``.  Raises ValueError naming the allowed keys."""
+    # continuation parameters: key -> (path into the scene, factor d path / d key, damping)
+    def scene_parameter(self, key: str):
+        """``(path, factor, damping)`` of a continuation parameter: the path into the scene its
+        shooting problem continues (:class:`vibeam.models.core.scene_shooting.SceneShooting`), the
+        path's value being ``factor * value`` (paper Eqs. 43-46: ``B = gamma V``, ``Delta = gap /
+        L``, ``beta = damping ratio``, ``Omega = f / f_n``), and for the damping ratio its
+        direction ``(beta, [2])`` (``c = 2 beta``, Eq. 1).  ``R`` moves the lower stop's R too
+        when its law follows the upper stop's.  Raises ValueError naming the allowed keys."""
+        R = ("stops[0].law.R", "stops[1].law.R") if self.two_sided and self._R_lower() is None \
+            and lower_law_spec(self) is None else "stops[0].law.R"
+        beta = ("system.damping", 1.0, (float(self.damping_ratio if self.physical else self.beta), np.array([2.0])))
         if self.physical:
-            table = {"Omega": ("Omega", 1.0), "voltage": ("B", self.gain), "gain": ("B", self.voltage),
-                     "gap_mm": ("Delta", 1.0 / self.length_mm), "damping_ratio": ("beta", 1.0),
-                     "R": ("R", 1.0)}
+            table = {"Omega": ("Omega", 1.0, None), "voltage": ("system.base_amplitude", self.gain, None),
+                     "gain": ("system.base_amplitude", self.voltage, None),
+                     "gap_mm": ("stops[0].relation.offset", 1.0 / self.length_mm, None), "damping_ratio": beta,
+                     "R": (R, 1.0, None)}
         else:
-            table = {k: (k, 1.0) for k in ("Omega", "B", "Delta", "R", "beta")}
+            table = {"Omega": ("Omega", 1.0, None), "B": ("system.base_amplitude", 1.0, None),
+                     "Delta": ("stops[0].relation.offset", 1.0, None), "R": (R, 1.0, None), "beta": beta}
         if self.two_sided:
             # the lower stop's offset and R (its Newton R, or a compliant law's target R)
-            table.update({"gap_lower_mm": ("Delta_lower", 1.0 / self.length_mm)} if self.physical
-                         else {"Delta_lower": ("Delta_lower", 1.0)})
-            table["R_lower"] = ("R_lower", 1.0)
+            table["gap_lower_mm" if self.physical else "Delta_lower"] = (
+                "stops[1].relation.offset", 1.0 / self.length_mm if self.physical else 1.0, None)
+            table["R_lower"] = ("stops[1].law.R", 1.0, None)
         if self.contact is not None and is_compliant(self.contact.law):
-            # a compliant stop: a case continues it in the forcing and the gaps only (the one shooting
-            # problem, vibeam.models.core.shooting)
-            table = {k: v for k, v in table.items() if v[0] in ("Omega", "B", "Delta", "Delta_lower")}
+            # a compliant stop: a case continues it in the forcing and the gaps only
+            table = {k: v for k, v in table.items() if v[0] in ("Omega", "system.base_amplitude")
+                     or str(v[0]).endswith(".relation.offset")}
         if key not in table:
             raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(table)}")
         return table[key]
@@ -511,12 +519,12 @@ class _BeamSpec(_StopsSpec):
     _CONTINUABLE: ClassVar[tuple] = ("voltage", "gain", "gap_mm", "contact_gap_mm", "damping_ratio", "R",
                                      "rayleigh_alpha_1_s")
 
-    def native_parameter(self, key: str):
-        """``(native key, factor)`` of a continuation parameter of the beam's shooting problem
-        (:func:`vibeam.case.beamscene.conversions`: ``base_amplitude_m = gamma~ V`` with
-        ``gamma~ = gain phi(x_m) L``, ``gap_contact_m = phi(x_m) gap_mm 1e-3`` (Eq. 45),
-        ``damping_D_s = 2 beta / omega_1`` (Eq. 39), ``R``): the native value is ``factor *
-        value``.
+    def scene_parameter(self, key: str):
+        """``(path, factor, damping)`` of a continuation parameter: the path into the scene its
+        shooting problem continues, the path's value being ``factor * value``, and a damping
+        path's direction (:func:`vibeam.case.beamscene.conversions`: the base amplitude ``gamma~
+        V`` with ``gamma~ = gain phi(x_m) L``, the stop's offset ``phi(x_m) gap_mm 1e-3`` (Eq.
+        45), ``D = 2 beta / omega_1`` (Eq. 39), ``R``).
 
         Raises
         ------
@@ -549,7 +557,7 @@ class _BeamSpec(_StopsSpec):
             # the shooting problem's drive is gamma V; an acceleration-driven beam: the frequency only
             raise ValueError("cannot be continued in a beam driven by a base acceleration; allowed: Omega")
         if key == "Omega":
-            return "Omega", 1.0
+            return "Omega", 1.0, None
         return conversions(self.build(), gain_per_V=self.gain, voltage=self.voltage)[key]
 
     @property
@@ -869,8 +877,8 @@ class MatricesModelSpec(_StopsSpec):
         """A restitution stop beside a compliant one at the reference DOF (:func:`mixed_stops`)."""
         return mixed_stops(self)
 
-    def native_parameter(self, key: str):
-        """``(native key, factor)`` of a continuation parameter: the frequency only (``Omega``);
+    def scene_parameter(self, key: str):
+        """``(path, factor, damping)`` of a continuation parameter: the frequency only (``Omega``);
         the stops' and the drive's numbers are continued by their paths (``stops[0].law.R``,
         ``excitation.amplitude_m_s2``: :func:`continued_key`).
 
@@ -880,7 +888,7 @@ class MatricesModelSpec(_StopsSpec):
             Any other key, naming what is allowed.
         """
         if key == "Omega":
-            return "Omega", 1.0
+            return "Omega", 1.0, None
         raise ValueError("cannot be continued in a structure given by its matrices; allowed: Omega, or the path "
                          "of a stop's or the drive's number (stops[0].law.R, excitation.amplitude_m_s2)")
 
@@ -2684,7 +2692,7 @@ def _path_of_alias(table: dict, name: str) -> str | None:
 
 def continued_key(spec, table: dict, name: str) -> str:
     """The key a continuation in ``name`` runs in: the flat key the scene's shooting problem
-    carries (its ``native_parameter``, with ``d x / d p`` of its own), else, for a path into a
+    carries (its ``scene_parameter``, with ``d x / d p`` of its own), else, for a path into a
     stop or the excitation (``stops[1].law.stiffness_n_m``, ``excitation.amplitude_m_s2``, a
     matrix scene's ``stops[0].law.R``), the path itself, continued by central differences of
     the scene's shots (:class:`vibeam.models.continuation.FiniteDifferenceParameter`).  A path
@@ -2693,7 +2701,7 @@ def continued_key(spec, table: dict, name: str) -> str:
 
     Parameters
     ----------
-    spec : the run's model spec (with ``native_parameter``)
+    spec : the run's model spec (with ``scene_parameter``)
     table : dict
         The run's ``[model]`` table as written (overrides applied).
     name : str
@@ -2708,7 +2716,7 @@ def continued_key(spec, table: dict, name: str) -> str:
     key = alias_of(table, name)
     if not is_path(key):
         try:
-            spec.native_parameter(key)
+            spec.scene_parameter(key)
             return key
         except ValueError:
             if not (is_path(name) and name.startswith(("stops", "excitation."))):
@@ -2733,7 +2741,7 @@ def _check_continuation(case: Case, i: int, r) -> None:
         check_frequency_range(r.range, f"run[{i}].range", hz, fn)
     if r.at is not None:
         check_frequency_range([r.at, r.at], f"run[{i}].at", hz, fn)
-    native = getattr(spec, "native_parameter", None)
+    native = getattr(spec, "scene_parameter", None)
     if native is not None:
         table = model_with(case.model, dict(r.model))
         try:
