@@ -454,9 +454,9 @@ def test_the_start_velocity_partials_equal_central_differences(U):
 
 
 def test_continuation_in_the_drive_amplitude_gives_orbits_of_the_scene_with_it_written(tmp_path):
-    """Issue 58, 'one parameter vocabulary': a matrix scene continued in a path its shooting
-    problem does not carry (``excitation.amplitude_m_s2``, d x / d a by central differences of the
-    scene's shots), at 7.5 Hz over [0.144, 0.15] m/s^2 from the sweep's orbit at 0.15 (the upper
+    """Issue 58, 'one parameter vocabulary': a matrix scene continued in the path of its drive's
+    amplitude (``excitation.amplitude_m_s2``; first by central differences of the scene's shots,
+    now the scene's problem's own path, ``system.base_amplitude``), at 7.5 Hz over [0.144, 0.15] m/s^2 from the sweep's orbit at 0.15 (the upper
     period-1 branch, which folds back at 0.1424).  Before: refused at load ('cannot be continued in
     a structure given by its matrices; allowed: Omega').
 
@@ -487,3 +487,40 @@ def test_continuation_in_the_drive_amplitude_gives_orbits_of_the_scene_with_it_w
         x = np.asarray(b["state"][i])
         one = make_solver(model, "event").point(7.5 / model.f_ref_hz, np.concatenate([x, [0.0]]), 0, 1, 32)
         assert np.max(np.abs(one.final_state[:-1] - x)) <= 1e-8 * np.max(np.abs(x)), (a[i], one.final_state, x)
+
+
+@pytest.mark.parametrize("key", ["stops[0].law.R", "stops[0].contact_gap_mm", "stops[1].contact_gap_mm",
+                                 "excitation.amplitude_m_s2"])
+def test_the_scene_problem_carries_a_stop_and_the_drive_of_the_case_exactly(key):
+    """Issue 58, 'one parameter vocabulary': the case's paths of the Newton stop's R, a stop's gap
+    and the drive's amplitude are paths of the scene's shooting problem (its exact ``d x / d p``;
+    before: central differences of shots, FiniteDifferenceParameter), the compliant stop's R is
+    not (its law's numbers stay finite-difference paths).
+
+    Oracle: ``d P / d p`` at a settled 7.5 Hz state against central differences of one period of
+    the chain rebuilt from the case with the value *written* (h = 1e-5 of the value: truncation
+    ~1e-10, the event location's 1e-12 over h ~1e-7 of the entries), 1e-5 of the largest entry
+    (measured: R and the amplitude 9e-10, 7e-10; the gaps 5e-8, 1.7e-7).  A gap's factor off by 1 %
+    fails it."""
+    from vibeam.analysis.branches import _carried, problem
+    from vibeam.case.contact import model_with
+    from vibeam.case.expand import expand
+    from vibeam.case.paths import get_value
+
+    case = parse_case(_case_text().replace('"chain-3dof/', f'"{ROOT}/cases/chain-3dof/'))
+    spec = case.model_spec()
+    table = case.model
+    assert _carried(spec, key) and not _carried(spec, "stops[1].law.R")
+    W = 7.5 / spec.build().f_ref_hz
+    x = make_solver(spec.build(), "event").point(W, None, 300, 1, 1).final_state[:-1]
+    p0 = float(get_value(table, key))
+    s = problem(spec, key, W).shot(x, p0, 1)
+    assert s.status == "ok" and s.n_impacts >= 1, s.message
+
+    def written(v):
+        sp = type(spec).model_validate(expand(model_with(table, {key: float(v)})))
+        return problem(sp, "Omega", W).shot(x, W, 1).x
+
+    h = 1e-5 * p0
+    fd = (written(p0 + h) - written(p0 - h)) / (2 * h)
+    assert np.max(np.abs(s.x_p - fd)) <= 1e-5 * np.max(np.abs(fd)), (key, s.x_p, fd)

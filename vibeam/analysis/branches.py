@@ -222,10 +222,20 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
     table = model_with(case.model, dict(r.model))
     key_ = continued_key(spec, table, r.parameter) if hasattr(spec, "scene_parameter") else r.parameter
     return BranchTask(key=key, run=r.name, spec=spec, parameter=key_, label=r.parameter if key_ != r.parameter else None,
-                      table=table if is_path(key_) else None, lo=float(lo), hi=float(hi),
+                      table=table if is_path(key_) and not _carried(spec, key_) else None, lo=float(lo), hi=float(hi),
                       at=at, settings=settings,
                       sweep_periods=(case.sweep.transient_periods, max(16, case.sweep.record_periods)),
                       curve_key=curve_key, curve_range=curve_range)
+
+
+def _carried(spec, key: str) -> bool:
+    """The scene's shooting problem carries ``key`` with its exact ``d x / d p`` (the spec's
+    ``scene_parameter`` takes it)."""
+    try:
+        spec.scene_parameter(key)
+    except (ValueError, AttributeError):
+        return False
+    return True
 
 
 def _natural_frequency(spec):

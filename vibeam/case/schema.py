@@ -878,9 +878,13 @@ class MatricesModelSpec(_StopsSpec):
         return mixed_stops(self)
 
     def scene_parameter(self, key: str):
-        """``(path, factor, damping)`` of a continuation parameter: the frequency only (``Omega``);
-        the stops' and the drive's numbers are continued by their paths (``stops[0].law.R``,
-        ``excitation.amplitude_m_s2``: :func:`continued_key`).
+        """``(path, factor, damping)`` of a continuation parameter its scene's shooting problem
+        carries with its exact ``d x / d p``: ``Omega``; a Newton stop's ``stops[k].law.R``; a stop's
+        ``stops[k].contact_gap_mm`` (its ``relation.offset``, 1e-3 m/mm); a base drive's amplitude
+        (``excitation.amplitude_mm``, ``excitation.amplitude_m_s2``: the system's ``base_amplitude``
+        per unit, :func:`vibeam.models.scene.driven`).  The case's ``[[model.stop]]`` are the scene's
+        stops in order (:func:`vibeam.case.structure.impact_model`).  The other numbers of the stops
+        and the drive are continued by their paths with central differences (:func:`continued_key`).
 
         Raises
         ------
@@ -889,6 +893,21 @@ class MatricesModelSpec(_StopsSpec):
         """
         if key == "Omega":
             return "Omega", 1.0, None
+        ex = self.excitation
+        m = re.fullmatch(r"stops\[(\d+)\]\.(law\.R|contact_gap_mm)", key)
+        if m is not None and int(m.group(1)) < len(self.stop):
+            k, what = int(m.group(1)), m.group(2)
+            st = self.stop[k]
+            if what == "law.R" and not is_compliant(st.law):
+                return key, 1.0, None
+            if what == "contact_gap_mm" and st.contact_gap_mm is not None:
+                return f"stops[{k}].relation.offset", 1e-3, None
+        if ex.kind != "force" and key == f"excitation.{ex.AMPLITUDE_KEYS[ex.kind]}":
+            from vibeam.models.scene import Excitation, driven   # lazy: keeps numpy-heavy models out of load_case
+
+            unit = 1e-3 if ex.kind == "base_displacement" else 1.0      # mm to m
+            per = driven(self.build().scene().system, Excitation(ex.kind, unit)).base_amplitude
+            return "system.base_amplitude", float(per), None
         raise ValueError("cannot be continued in a structure given by its matrices; allowed: Omega, or the path "
                          "of a stop's or the drive's number (stops[0].law.R, excitation.amplitude_m_s2)")
 
@@ -2693,9 +2712,10 @@ def _path_of_alias(table: dict, name: str) -> str | None:
 def continued_key(spec, table: dict, name: str) -> str:
     """The key a continuation in ``name`` runs in: the flat key the scene's shooting problem
     carries (its ``scene_parameter``, with ``d x / d p`` of its own), else, for a path into a
-    stop or the excitation (``stops[1].law.stiffness_n_m``, ``excitation.amplitude_m_s2``, a
-    matrix scene's ``stops[0].law.R``), the path itself, continued by central differences of
-    the scene's shots (:class:`vibeam.models.continuation.FiniteDifferenceParameter`).  A path
+    stop or the excitation (``stops[1].law.stiffness_n_m``, a force's ``excitation.amplitude_n``),
+    the path itself: carried by the scene's problem when the spec's ``scene_parameter`` takes it
+    (a matrix scene's ``stops[0].law.R``), else continued by central differences of the scene's
+    shots (:class:`vibeam.models.continuation.FiniteDifferenceParameter`).  A path
     into ``system`` that the shooting problem does not carry changes the structure's modes (their
     signs and order, not smooth in the parameter) and stays refused.
 
