@@ -34,7 +34,7 @@ import numpy as np
 
 import scipy.linalg
 
-from .system import ModalSystem, from_beam, from_sdof
+from .system import ModalSystem, from_beam, from_sdof, reference_hz
 
 __all__ = ["Scene", "sdof_scene", "beam_scene", "outputs", "Outputs", "one_mode", "OneMode", "rest_state", "held_modes", "Excitation", "EXCITATION_KINDS",
            "driven"]
@@ -98,8 +98,8 @@ class Outputs(NamedTuple):
     Attributes
     ----------
     natural_frequency_hz : float or None
-        Hz per unit of ``Omega``, ``1 / (2 pi time_unit_s)`` (the SDOF's ``f_n``, the beam's
-        ``f_ref``); None for a nondimensional scene.
+        Hz per unit of ``Omega``, the builder's own (the SDOF's ``f_n``, the beam's ``f_ref``;
+        :func:`vibeam.models.system.reference_hz`); None for a nondimensional scene.
     length_m : float or None
         Metres per unit of the reported ``q`` (``L``); None for a nondimensional scene.
     force_scale_n : float or None
@@ -134,7 +134,7 @@ def outputs(sc: Scene) -> Outputs:
     cs = np.ones(s.contacts.shape[0]) if s.contact_static is None else s.contact_static
     T, L, mu = s.time_unit_s, s.length_unit_m, s.mass_unit_kg
     m_eff = float(1.0 / np.sum(np.asarray(s.contacts[0], float) ** 2))
-    fn = None if math.isnan(T) else 1.0 / (2.0 * math.pi * T)
+    fn = None if math.isnan(T) else reference_hz(s)
     fs = None if math.isnan(T) or math.isnan(L) or math.isnan(mu) else mu * m_eff * L / (T * T)
     Delta = math.nan
     if sc.stops:

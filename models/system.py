@@ -64,7 +64,8 @@ TWO_PI = 2.0 * math.pi
 __all__ = ["ModalSystem", "modal_system", "from_sdof", "from_beam", "from_matrices", "modal_flow", "forcing",
            "DRIVE_POWERS", "drive_force", "drive_slope", "drive_displacement", "drive_velocity_slope",
            "modal_transition", "damping_ratios", "lowest_modes", "mode_table", "particular",
-           "transition_increment", "increment_of", "transition_entries", "advance_modes", "advance_count"]
+           "transition_increment", "increment_of", "transition_entries", "advance_modes", "advance_count",
+           "reference_hz"]
 
 
 #: the drive exponents ``p`` of ``F(Omega) = Omega^p A`` (:attr:`ModalSystem.drive_power`): 2, a base
@@ -137,6 +138,10 @@ class ModalSystem(NamedTuple):
         sensor by (:func:`vibeam.models.scene.outputs`).  The SDOF: 1; the beam: its ``phi_contact``
         at the mass (NaN for the rows of stops elsewhere); a matrix model: ``W_k K^-1 M r / s K^-1
         M r``.  ``None`` only for a system built without :func:`modal_system` (read as ones).
+    reference_hz : float
+        Hz per unit of ``Omega``, exactly as the builder was given it (the SDOF's ``f_n``, the
+        beam's ``f_ref``): ``1 / (2 pi time_unit_s)`` can be an ulp off it, and the frequency grid
+        of a case is built from it; NaN: ``1 / (2 pi time_unit_s)`` (:func:`reference_hz`).
     """
 
     omega: np.ndarray
@@ -151,6 +156,17 @@ class ModalSystem(NamedTuple):
     mass_unit_kg: float
     drive_power: int = 2
     contact_static: Optional[np.ndarray] = None
+    reference_hz: float = math.nan
+
+
+def reference_hz(system: ModalSystem) -> float:
+    """Hz per unit of ``Omega``: the builder's own frequency (``system.reference_hz``), else ``1 /
+    (2 pi time_unit_s)``; NaN for a nondimensional system."""
+    f = float(system.reference_hz)
+    if math.isfinite(f):
+        return f
+    T = float(system.time_unit_s)
+    return 1.0 / (TWO_PI * T) if math.isfinite(T) else math.nan
 
 
 def _vec(x, n, name):
@@ -162,7 +178,7 @@ def _vec(x, n, name):
 
 def modal_system(omega, damping, participation, sensor, contacts, base_amplitude, time_unit_s=math.nan,
                  length_unit_m=math.nan, coordinate_scale=1.0, mass_unit_kg=math.nan,
-                 drive_power=2, contact_static=None) -> ModalSystem:
+                 drive_power=2, contact_static=None, reference_hz=math.nan) -> ModalSystem:
     """A :class:`ModalSystem` from modal data, checked, its arrays contiguous float64.
 
     Parameters
@@ -182,6 +198,9 @@ def modal_system(omega, damping, participation, sensor, contacts, base_amplitude
     contact_static : array_like, shape (n_c,), optional
         Each contact's static ratio to the sensor (:class:`ModalSystem`); default ones (a contact
         row read as the sensor).
+    reference_hz : float, optional
+        The builder's frequency per unit of ``Omega`` (Hz), ``1 / (2 pi time_unit_s)`` up to
+        round-off; NaN (default): that quotient.
 
     Returns
     -------
@@ -214,7 +233,7 @@ def modal_system(omega, damping, participation, sensor, contacts, base_amplitude
     cs = np.ones(n_c) if contact_static is None else _vec(contact_static, n_c, "contact_static")
     return ModalSystem(om, c, _vec(participation, n, "participation"), _vec(sensor, n, "sensor"), W,
                        float(base_amplitude), float(time_unit_s), float(length_unit_m),
-                       float(coordinate_scale), float(mass_unit_kg), int(drive_power), cs)
+                       float(coordinate_scale), float(mass_unit_kg), int(drive_power), cs, float(reference_hz))
 
 
 def damping_ratios(system: ModalSystem) -> np.ndarray:
@@ -257,7 +276,8 @@ def from_sdof(sdof) -> ModalSystem:
     return modal_system([1.0], [2.0 * beta], [1.0], [1.0], [[1.0]], float(sdof.B),
                          time_unit_s=math.nan if f_n is None else 1.0 / (TWO_PI * float(f_n)),
                          length_unit_m=math.nan if L is None else float(L), coordinate_scale=1.0,
-                         mass_unit_kg=math.nan if mass is None else float(mass))
+                         mass_unit_kg=math.nan if mass is None else float(mass),
+                         reference_hz=math.nan if f_n is None else float(f_n))
 
 
 def from_beam(model) -> ModalSystem:
@@ -289,7 +309,7 @@ def from_beam(model) -> ModalSystem:
                          model.sensor_row, rows,
                          float(model.base_amplitude_m), time_unit_s=1.0 / om_ref,
                          length_unit_m=float(model.length_m), coordinate_scale=float(model.length_m),
-                         mass_unit_kg=1.0, contact_static=static)
+                         mass_unit_kg=1.0, contact_static=static, reference_hz=float(model.f_ref_hz))
 
 
 def from_matrices(M, C, K, r=None, sensor=None, contacts=None, base_amplitude_m=0.0, n_modes=None,

@@ -383,3 +383,24 @@ def test_the_scenes_outputs_are_its_units_and_the_gap_seen_at_the_sensor():
     f1 = float(mm.frequencies_hz[0])
     assert o.natural_frequency_hz == pytest.approx(f1, rel=1e-15)
     assert o.force_scale_n == pytest.approx(m2 * (2 * math.pi * f1) ** 2 * Lq, rel=1e-13)
+
+
+def test_a_built_scene_carries_its_builders_frequency_exactly():
+    """The rig's f_n = 7.6 Hz through the time unit, ``1 / (2 pi (1 / (2 pi 7.6)))``, is not 7.6 in
+    binary floating point; the scene carries the builder's frequency itself (``reference_hz``), so
+    the case's grid (``Omega = f / f_n``) and the reported frequencies are the builder's bit for
+    bit (issue 58: the grid no longer reads the model).  A system without it falls back to the
+    quotient; a nondimensional one has none."""
+    import math
+
+    from vibeam.models.scene import outputs
+    from vibeam.models.system import reference_hz
+
+    for m in (SDOF.from_physical(7.6, 0.02, 0.8, 0.1, 150.0, 0.2, 0.5),
+              SDOF(beta=0.02, B=0.01, R=0.8, Delta=0.1, natural_frequency_hz=7.6, length_m=0.15)):
+        sy = m.scene().system
+        assert 1.0 / (2 * math.pi * sy.time_unit_s) != 7.6
+        assert sy.reference_hz == 7.6 and outputs(m.scene()).natural_frequency_hz == 7.6
+        assert reference_hz(sy._replace(reference_hz=math.nan)) == 1.0 / (2 * math.pi * sy.time_unit_s)
+    nd = SDOF(beta=0.02, B=0.01, R=0.8, Delta=0.1).scene()
+    assert math.isnan(reference_hz(nd.system)) and outputs(nd).natural_frequency_hz is None

@@ -37,10 +37,9 @@ def make_job(case, r, overrides: dict, j=None) -> Job:
     spec = case.model_spec(overrides) if overrides else case.model_spec()
     model = spec.build()
     scene = model.scene()
-    # the grid from the builder's own frequency: outputs' 1 / (2 pi time_unit_s) can be an ulp off it,
-    # and a chaotic point of a quick variant moves with an ulp of Omega (issue 58: until a scene
-    # carries its reference frequency exactly)
-    Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
+    # the grid from the builder's own frequency (the scene carries it exactly: 1 / (2 pi time_unit_s)
+    # can be an ulp off it, and a chaotic point of a quick variant moves with an ulp of Omega)
+    Omega = case.sweep.grid(outputs(scene).natural_frequency_hz)
     sw = Sweep(Omega=Omega, **dict(case.sweep.engine_options(),
                                    samples_per_period=assess.samples_per_period(case, r, scene, Omega),
                                    assess=assess.hooks(case, spec, r, scene)))
