@@ -78,6 +78,11 @@ def _packed(model) -> dict:
     # reports, not the kernels): the model's own ratio at its first contact, bit for bit
     added = fields.pop("contact_static")
     assert float(added[0]) == float(model.phi_contact), (added, model.phi_contact)
+    # added after the recording too (issue 58: the builder's frequency carried exactly, read by the
+    # grid and the reports): the model's own, bit for bit (NaN for a nondimensional one)
+    ref = fields.pop("reference_hz")
+    fn = getattr(model, "natural_frequency_hz", None)
+    assert (math.isnan(ref) and fn is None) or ref == fn, (ref, fn)
     out.update({f"ModalSystem.{k}": v for k, v in fields.items()})
     out["stops"] = repr(stops)
     out["class"] = type(model).__name__
