@@ -18,7 +18,7 @@ from . import _cache, _inline_copy
 _cache.install()   # before any kernel module: the cache key covers the whole package
 _inline_copy.install()   # numba's inliner copies a callee's scope once, not once per block
 
-from .registry import (FIDELITIES, IMPULSIVE, fidelity, law_key, mass_law_keys, resolve,  # noqa: E402
+from .registry import (FIDELITIES, IMPULSIVE, fidelity, law_key, law_name, mass_law_keys, resolve,  # noqa: E402
                        supported_methods)
 
 # public names -> their module (imported on first access, PEP 562)
@@ -96,7 +96,7 @@ def shooting_problem(model, parameter="Omega", Omega: float | None = None, dampi
     fid = fidelity(sc.builder)
     up, _ = mass_law_keys(sc)
     if "continuation" not in supported_methods(fid.name, up):
-        raise ValueError(f"continuation is not available for contact law {_law_name(sc)!r} of fidelity "
+        raise ValueError(f"continuation is not available for contact law {law_name(sc)!r} of fidelity "
                          f"{fid.name!r} (no shooting problem registered); use method = \"event\"")
     why = _refusal(sc, "continuation")
     if why:
@@ -136,12 +136,6 @@ def make_solver(model, method: str, **settings):
     return resolve(x.solver if up == IMPULSIVE else x.laws[up])(sc, **settings)
 
 
-def _law_name(sc) -> str:
-    """The name of the law of the scene's first stop (``"restitution"``: Newton's)."""
-    law = sc.stops[0].law
-    return "restitution" if law.kind == "impulsive" else law.name
-
-
 def _refusal(sc, method: str) -> str:
     """Why ``method`` cannot simulate the scene's stops at its attached mass ('' when it can), by
     the one capability function :func:`vibeam.models.registry.supported_methods`."""
@@ -155,7 +149,7 @@ def _refusal(sc, method: str) -> str:
                 "a restitution stop beside a compliant one")
         return f"cannot simulate {what}; {allowed}"
     if method not in one:
-        return (f"does not simulate contact law {_law_name(sc)!r} of fidelity {fid.name!r}; allowed: "
+        return (f"does not simulate contact law {law_name(sc)!r} of fidelity {fid.name!r}; allowed: "
                 f"{', '.join(m for m in one if m != 'continuation') or 'none'}")
     if method not in both:
         return f"cannot simulate a second (lower) stop{'' if lo == up else f' of another law ({lo})'}; {allowed}"

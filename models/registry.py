@@ -43,7 +43,7 @@ model, whose coordinate is the sensor's), ``stops()`` (its contact relations and
     (``record_modal_states = True``): participation shares and the high-frequency component.
 ``eccentric_contact``, ``coupled_platform``
     The effects ``eccentric_impact`` and ``platform`` with ``level = "coupled"`` can be
-    built for it (by its spec's ``effect_model``).
+    built for it (by its spec's ``effect_scene``).
 ``fe_model``
     A finite-element beam stands behind it (``vibeam derive``: the static-mode reduction).
 ``mode_shapes``
@@ -419,6 +419,13 @@ def mass_law_keys(scene) -> tuple:
     there."""
     keys = [law_key(s.law) for s in scene.stops if s.relation.row == 0]
     return keys[0], (keys[1] if len(keys) > 1 else None)
+
+
+def law_name(scene) -> str:
+    """The name of the law of a scene's first stop: ``"restitution"`` for Newton's, else the
+    compliant law's ``name`` (a key of :data:`LAWS`)."""
+    law = scene.stops[0].law
+    return "restitution" if law.kind == "impulsive" else law.name
 
 
 def with_capability(flag: str) -> list[str]:

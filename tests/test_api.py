@@ -146,6 +146,24 @@ def test_simulate_a_physical_scene_in_mm_and_seconds():
         vibeam.simulate(vibeam.load_case(SMALL), frequency_hz=15.0)
 
 
+def test_simulate_and_lyapunov_take_the_scene_of_a_case():
+    """A case's scene (``model_spec().scene()``, what every method takes) simulated directly gives
+    the case's own record bit for bit (the same solver of the same scene: no effects, no settings
+    in rig-neutral's event run), in its units; ``lyapunov`` of the scene equals that of the case
+    (the same shooting problem from the same state: exact equality, a difference means the two
+    entries built different scenes)."""
+    case = vibeam.load_case(ROOT / "cases" / "rig-neutral.toml")
+    scene = case.model_spec().scene()
+    a = vibeam.simulate(case, frequency_hz=15.0, periods=2, transient=50)
+    b = vibeam.simulate(scene, frequency_hz=15.0, periods=2, transient=50, samples_per_period=a.t.size // 2)
+    assert b.natural_frequency_hz == a.natural_frequency_hz and b.length_m == a.length_m
+    np.testing.assert_array_equal(b.q, a.q)
+    np.testing.assert_array_equal(b.impact_times, a.impact_times)
+    la = vibeam.lyapunov(case, frequency_hz=15.0, shots=20, transient=50)
+    lb = vibeam.lyapunov(scene, frequency_hz=15.0, shots=20, transient=50)
+    np.testing.assert_array_equal(lb.exponents, la.exponents)
+
+
 def _python_blocks(text: str) -> list:
     return re.findall(r"```python\n(.*?)```", text, flags=re.S)
 

@@ -202,7 +202,7 @@ def test_every_registered_fidelity_has_a_spec_and_every_spec_a_fidelity():
         assert set(f.modal_state_methods) <= set(f.methods)
         assert set(f.restitution_law_methods) <= set(f.methods)
         spec = CANONICAL_SPECS[name]
-        for attr in ("build", "dofs", "check", "result_attrs", "converged_reference", "effect_model",
+        for attr in ("build", "scene", "dofs", "check", "result_attrs", "converged_reference", "effect_scene",
                      "case_update"):
             assert callable(getattr(spec, attr, None)), (name, attr)
 

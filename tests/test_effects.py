@@ -35,7 +35,7 @@ def beam():
 
 
 def _wrap(spec, model, effects, method="event"):
-    return wrap_solver(make_solver(model, method), model, spec, EffectsSpec.model_validate(effects), {})
+    return wrap_solver(make_solver(model, method), model.scene(), spec, EffectsSpec.model_validate(effects), {})
 
 
 def _run(solver, f_hz, **kw):
@@ -47,11 +47,11 @@ def _run(solver, f_hz, **kw):
 def test_plain_scene_is_the_plain_solver(beam):
     for spec, model in (_sdof(), beam):
         s = make_solver(model, "event")
-        assert wrap_solver(s, model, spec, EffectsSpec(), {}) is s
+        assert wrap_solver(s, s.scene, spec, EffectsSpec(), {}) is s
     # an effect that changes no structure keeps exactly the plain model's DOFs and modal arrays
     spec, model = beam
     s = make_solver(model, "event")
-    w = wrap_solver(s, model, spec, EffectsSpec.model_validate({"platform": {}}), {})
+    w = wrap_solver(s, s.scene, spec, EffectsSpec.model_validate({"platform": {}}), {})
     assert isinstance(w, EffectSolver) and type(w.inner) is BeamEventSolver
     assert w.inner is s
     fresh = spec.build().scene().system
@@ -276,7 +276,7 @@ def test_rig_effects_case_runs():
         model = spec.build()
         eff = case.effects_for(r)
         assert eff.platform is not None and eff.platform.frequency_hz == 3.25
-        s = wrap_solver(make_solver(model, r.method), model, spec, eff, case.run_settings(r))
+        s = wrap_solver(make_solver(model, r.method), model.scene(), spec, eff, case.run_settings(r))
         res = _run(s, [15.2], transient_periods=40, record_periods=4)
         assert res.data["status"][0] != "failed"
         names += eff.active()

@@ -352,7 +352,7 @@ def test_the_platform_filter_is_normalised_at_its_reference_frequency():
     assert abs(fn - 12.0) > 1.0
     eff = EffectsSpec.model_validate({"platform": {"frequency_hz": 3.25, "damping_ratio": 0.05,
                                                    "reference_frequency_hz": 12.0}})
-    s = wrap_solver(make_solver(model, "event"), model, spec, eff, {})
+    s = wrap_solver(make_solver(model, "event"), model.scene(), spec, eff, {})
     f = np.array([12.0, 14.0, 16.5])
     sw = dict(transient_periods=60, record_periods=8, continuation=False)
     res = run_sweep(s, Sweep(Omega=f / fn, **sw), jobs=1)

@@ -181,7 +181,7 @@ def plan(case, r, key: str = "continuation") -> BranchTask:
     starts = ("sweep", "auto")
     if r.start not in starts:
         # the closed-form starts the scene offers (the averaging start: the one-mode oscillator's)
-        starts += tuple(SHOOTING[fid].offered_starts(spec.build().scene()))
+        starts += tuple(SHOOTING[fid].offered_starts(spec.scene()))
     if r.start not in starts:
         raise CaseError(f"'run[{i}].start' = {r.start!r} is not available for fidelity {fid!r}; allowed: "
                         f"{', '.join(starts)}")
@@ -239,10 +239,10 @@ def _carried(spec, key: str) -> bool:
 
 
 def _natural_frequency(spec):
-    """``f_n`` of a physical scene's model (as the sweeps use it), None otherwise."""
+    """``f_n`` of a physical scene (its builder's frequency, as the sweeps use it), None otherwise."""
     fn = getattr(spec, "natural_frequency_hz", None)
     if fn is None and getattr(spec, "physical", False):
-        fn = getattr(spec.build(), "natural_frequency_hz", None)
+        fn = outputs(spec.scene()).natural_frequency_hz
     return fn
 
 
@@ -278,7 +278,7 @@ def problem(spec, key: str, at: float | None):
     """The shooting problem of ``spec`` continued in ``key`` (physical keys through the scene's
     affine conversion, :class:`vibeam.models.continuation.ScaledParameter`)."""
     path, factor, damping = spec.scene_parameter(key) if hasattr(spec, "scene_parameter") else (key, 1.0, None)
-    prob = shooting_problem(spec.build(), path, Omega=at, damping=damping)
+    prob = shooting_problem(spec.scene(), path, Omega=at, damping=damping)
     if path == key and factor == 1.0:
         return prob
     return ScaledParameter(prob, key, factor)
@@ -288,10 +288,10 @@ def problem(spec, key: str, at: float | None):
 def _sweep_start(task, spec, value):
     """Settled state and detected period of an event run at the start value (a sweep point)."""
     if task.parameter == "Omega":
-        model, Omega = spec.build(), value
+        scene, Omega = spec.scene(), value
     else:
-        model, Omega = spec_at(task, spec, value).build(), task.at
-    solver = make_solver(model, "event")
+        scene, Omega = spec_at(task, spec, value).scene(), task.at
+    solver = make_solver(scene, "event")
     n_tr = task.sweep_periods[0]
     if n_tr == "auto":
         # the sweep's own settling (transient_periods = "auto", e.g. a [quick] variant's)
@@ -507,7 +507,7 @@ def _gap_fallback(spec, task):
     if task.parameter != "Omega":
         return None
     try:
-        return float(spec.build().Delta)
+        return float(outputs(spec.scene()).Delta)
     except Exception:
         return None
 
@@ -519,10 +519,10 @@ def _bif_amplitude(b, f, gap):
 
 
 def _length_m(spec):
-    """``L`` of a physical scene's model (``amplitude_mm = Q L``, as the sweeps), None otherwise."""
+    """``L`` of a physical scene (``amplitude_mm = Q L``, as the sweeps), None otherwise."""
     if not getattr(spec, "physical", False):
         return None
-    return getattr(spec.build(), "length_m", None)
+    return outputs(spec.scene()).length_m
 
 
 # ----------------------------------------------------------------------------- results

@@ -52,6 +52,7 @@ from vibeam.engine.sweep import Sweep, assemble, plan_lines, run_sweep
 from vibeam.io.netcdf import var
 from vibeam.models import SDOF, make_solver
 from vibeam.models.registry import fidelity
+from vibeam.models.scene import one_mode, outputs
 from vibeam.plots import style
 from vibeam.plots.lazy import plt
 from vibeam.plots.sweep import save_close
@@ -124,10 +125,10 @@ def register_cost_method(method: str, handler) -> None:
 
 def _sweep_for(case, run_model: dict):
     spec = case.model_spec(run_model) if run_model else case.model_spec()
-    model = spec.build()
-    Omega = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
+    scene = spec.scene()
+    Omega = case.sweep.grid(outputs(scene).natural_frequency_hz)
     sw = Sweep(Omega=Omega, **case.sweep.engine_options())
-    return model, sw
+    return scene, sw
 
 
 def _timed(solver, sw, repeats):
@@ -162,10 +163,10 @@ def _sweeps(tasks: dict, jobs) -> dict:
     return out
 
 
-def reference_model(case, run_model: dict):
-    """The model the errors of a run are measured against.
+def reference_scene(case, run_model: dict):
+    """The scene the errors of a run are measured against, and its key.
 
-    SDOF: the run's own model (the reference differs only in its transient).
+    SDOF: the run's own scene (the reference differs only in its transient).
     Beam: the finest FE model of the scene, all modes on a mesh twice as fine
     (``n_elements`` doubled), so every rung of the fidelity ladder (static mode,
     1, 2, 4 ... modes, coarser meshes) is measured against the same thing.
@@ -173,8 +174,8 @@ def reference_model(case, run_model: dict):
     spec = case.model_spec(run_model) if run_model else case.model_spec()
     fine = spec.converged_reference(dict(case.model), dict(run_model or {}))
     if fine is None:
-        return spec.build(), json.dumps(run_model, sort_keys=True)
-    return case.model_spec(fine).build(), json.dumps(fine, sort_keys=True)
+        return spec.scene(), json.dumps(run_model, sort_keys=True)
+    return case.model_spec(fine).scene(), json.dumps(fine, sort_keys=True)
 
 
 def check_cost_work(case, force: bool = False, source: str = "") -> dict:
@@ -244,7 +245,7 @@ def run_cost(case, ladder: bool = False, repeats: int = 3, log=print, jobs: int 
         mkey = json.dumps(r.model, sort_keys=True)
         if mkey not in plan:
             model, sw = _sweep_for(case, r.model)
-            ref_model, rkey = reference_model(case, r.model)
+            ref_model, rkey = reference_scene(case, r.model)
             plan[mkey] = (model, sw, rkey, r.name)
             ref_models.setdefault(rkey, (ref_model, sw))
     # converged sweeps (references of the reference models, and of each rung for a beam): untimed, on `jobs`
@@ -356,7 +357,7 @@ def paper_claims(rows, case) -> list[dict]:
         spec = case.model_spec()
         if "averaging" not in fidelity(spec.fidelity).methods:
             return out
-        m0 = spec.build()
+        m0 = one_mode(spec.scene(), "the averaging claim")
         m = SDOF(beta=m0.beta, B=m0.B, R=0.6, Delta=m0.Delta)
         ev = summarize(make_solver(m, "event").point(2.0, None, 2000, 16), m.Delta)["amplitude"]
         av = make_solver(m, "averaging").point(2.0, None, 0, 1)["amplitude"]

@@ -136,10 +136,10 @@ def simulate(case_or_model, Omega: float | None = None, periods: int | None = No
 
     Parameters
     ----------
-    case_or_model : Case, str, Path, dict, or a model
+    case_or_model : Case, str, Path, dict, or a Scene
         A case (anything :func:`load_case` takes; its run ``run`` with its method,
-        settings and effects), or a model (:class:`vibeam.models.SDOF`, a beam model)
-        simulated by ``method``.
+        settings and effects), or a :class:`vibeam.models.scene.Scene` (a case's
+        ``model_spec().scene()``, or a model's ``scene()``) simulated by ``method``.
     Omega : float
         Forcing frequency over the natural frequency (or give ``frequency_hz`` for a
         physical scene).
@@ -325,8 +325,8 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
 
     Parameters
     ----------
-    case_or_model : Case, str, Path, dict, or a model
-        As :func:`simulate` (a case's run ``run`` gives the model).
+    case_or_model : Case, str, Path, dict, or a Scene
+        As :func:`simulate` (a case's run ``run`` gives the scene).
     Omega, frequency_hz : float
         The forcing frequency (one of them), as :func:`simulate`.
     shots : int
@@ -358,7 +358,7 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
         r = pick_run(case, run)
         problem = shooting_at(make_job(case, r, dict(r.model)).solver, sim.Omega)
     else:
-        problem = SceneShooting(case_or_model.scene())
+        problem = SceneShooting(make_solver(case_or_model, "event").scene)
     d = problem.dim
     sp = lyapunov_spectrum(problem, np.asarray(sim.final_state, float)[:d], sim.Omega, shots, 0, n)
     lam, err, method, period = sp.exponents, sp.error, "qr", 0

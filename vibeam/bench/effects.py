@@ -45,7 +45,7 @@ def run_effects_bench(points: int = 61, transient: int = 400, record: int = 64, 
         sw = Sweep(Omega=grid, direction="both", transient_periods=transient, record_periods=record)
 
         def timed(effects):
-            solver = wrap_solver(make_solver(model, "event"), model, spec, EffectsSpec.model_validate(effects), {})
+            solver = wrap_solver(make_solver(model, "event"), model.scene(), spec, EffectsSpec.model_validate(effects), {})
             run_sweep(solver, Sweep(Omega=grid[:2], transient_periods=2, record_periods=2), jobs=1)  # warm-up
             ts = []
             for _ in range(repeats):

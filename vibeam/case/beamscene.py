@@ -17,6 +17,7 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg
@@ -386,9 +387,9 @@ def eccentric_contact_row(fe, shapes, offset_m: float) -> np.ndarray:
     return fe.contact_row @ shapes + offset_m * shapes[fe.mass_dof_slope, :]
 
 
-def build_beam_model_with_effects(spec, effects, base_model=None):
+def build_beam_model_with_effects(spec, effects):
     """BeamImpactModel of a beam scene with its structural effects (eccentric contact,
-    coupled platform, R table); ``base_model`` is reused when none changes the structure."""
+    coupled platform, R table), built from ``spec``."""
     ecc = effects.eccentric_impact
     plat = effects.platform
     coupled = plat is not None and plat.level == "coupled"
@@ -401,7 +402,7 @@ def build_beam_model_with_effects(spec, effects, base_model=None):
     phic = contact_factor(spec, e) if ecc is not None else sc.phi_at_mass
     DC = sc.Delta_C_m if spec.gap_mm is None else (spec.gap_mm * 1e-3) * phic
     if not (ecc or coupled):
-        m = base_model if base_model is not None else spec.build()
+        m = spec.build()
         if effects.restitution_law is None:
             return m
         m = copy.copy(m)
@@ -409,7 +410,7 @@ def build_beam_model_with_effects(spec, effects, base_model=None):
         if coupled:
             raise _err("effects.platform: level = \"coupled\" needs FE modes (n_modes an integer or "
                        "\"all\"), not the static mode")
-        m0 = base_model if base_model is not None else spec.build()
+        m0 = spec.build()
         m = BeamImpactModel(m0.omega_rad_s, m0.participation, m0.contact_row * (phic / sc.phi_at_mass),
                             m0.sensor_row, m0.R, DC, m0.base_amplitude_m, m0.f_ref_hz, m0.length_m, phic,
                             m0.damping_D_s, m0.rayleigh_alpha_1_s, label="static mode, eccentric contact",
@@ -438,6 +439,25 @@ def build_beam_model_with_effects(spec, effects, base_model=None):
         m.R_table_U = np.asarray(t.velocity_mm_s, float) * 1e-3 * phic / m.omega_ref
         m.R_table_R = np.asarray(t.R, float)
     return m
+
+
+class CoupledPlatform(NamedTuple):
+    """What the coupled platform's gain (:meth:`vibeam.engine.effects.EffectSolver.effective_gain`)
+    reads of the beam + platform model (:func:`_coupled_model`): the platform's row of the coupled
+    modes ``platform_row`` (shape ``(n,)``, ``z_p = platform_row @ xi``), their circular
+    frequencies ``omega_rad_s`` (rad/s, shape ``(n,)``) and modal damping ``c_phys`` (1/s, shape
+    ``(n,)``), and the shaker force ``platform_force_n`` (N) holding the reference amplitude."""
+
+    platform_row: np.ndarray
+    omega_rad_s: np.ndarray
+    c_phys: np.ndarray
+    platform_force_n: float
+
+    @classmethod
+    def of(cls, m) -> "CoupledPlatform":
+        """The record of a model built by :func:`_coupled_model`."""
+        return cls(np.asarray(m.platform_row, float), np.asarray(m.omega_rad_s, float),
+                   np.asarray(m.c_phys, float), float(m.platform_force_n))
 
 
 def _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic):

@@ -27,7 +27,6 @@ key, the value and what is allowed.
 """
 from __future__ import annotations
 
-import copy
 import dataclasses
 import math
 import re
@@ -197,6 +196,16 @@ class _StopsSpec(_Strict):
             return "model.contact.stiffness_n_m", float(t.stiffness_n_m)
         return None
 
+    def scene(self):
+        """The :class:`vibeam.models.scene.Scene` this table describes: what every method takes
+        (its ``builder`` names the fidelity; :func:`vibeam.models.make_solver`).
+
+        Raises
+        ------
+        CaseError
+            If the scene cannot be built from these values (:func:`build_or_refuse`).
+        """
+        return build_or_refuse(self, lambda: self._build().scene())
 
 
 class _SDOFSpec(_StopsSpec):
@@ -379,15 +388,23 @@ class _SDOFSpec(_StopsSpec):
         model (the SDOF reference differs only in its transient)."""
         return None
 
-    def effect_model(self, effects, model):
-        """``model`` with the structural effects of a run: a velocity-dependent R
-        (``restitution_law``, sensor velocity in mm/s to ``q'``: ``U(L_S)' = q' L omega_n``)."""
+    def effect_scene(self, effects, scene):
+        """``(scene, None)``: ``scene`` with the structural effects of a run, a velocity-dependent
+        R (``restitution_law``: Newton's law of the upper stop, and of the lower one when its law
+        follows the upper's, with the ``R(q'-)`` table; sensor velocity in mm/s to ``q'``:
+        ``U(L_S)' = q' L omega_n``, paper Eq. 43); no coupled platform (the beam's)."""
         if effects.restitution_law is None:
-            return model
+            return scene, None
+        from vibeam.models.contact import Restitution  # lazy: keeps the impact kernels out of load_case
+        from vibeam.models.scene import outputs        # lazy: as above
 
         t = effects.restitution_law
-        scale = 1e-3 / (model.length_m * 2 * math.pi * model.natural_frequency_hz)  # mm/s -> q'
-        return dataclasses.replace(model, R_table=tuple((v * scale, R) for v, R in zip(t.velocity_mm_s, t.R)))
+        out = outputs(scene)
+        scale = 1e-3 / (out.length_m * 2 * math.pi * out.natural_frequency_hz)  # mm/s -> q'
+        up = scene.stops[0].law
+        law = Restitution(up.R, tuple(v * scale for v in t.velocity_mm_s), tuple(t.R))
+        stops = tuple(dataclasses.replace(s, law=law) if s.law is up else s for s in scene.stops)
+        return scene._replace(stops=stops), None
 
     def case_update(self, key: str, value: float) -> tuple[dict, list]:
         """``[model]`` keys that set a fitted value (``vibeam fit --linear``), and notes."""
@@ -658,17 +675,21 @@ class _BeamSpec(_StopsSpec):
         fine.update(n_modes="all", n_elements=2 * int(fine.get("n_elements", 36)))
         return fine
 
-    def effect_model(self, effects, model):
-        """``model`` with the structural effects of a run (eccentric contact, coupled
-        platform, R table): :func:`vibeam.case.beamscene.build_beam_model_with_effects`."""
+    def effect_scene(self, effects, scene):
+        """``(scene, coupled)``: ``scene`` with the structural effects of a run (eccentric contact,
+        coupled platform, R table: :func:`vibeam.case.beamscene.build_beam_model_with_effects`,
+        driven as the case says), and the coupled platform's record
+        (:class:`vibeam.case.beamscene.CoupledPlatform`) or None; ``scene`` itself when no effect
+        changes the structure."""
+        plat = effects.platform
+        coupled = plat is not None and plat.level == "coupled"
+        if effects.eccentric_impact is None and not coupled and effects.restitution_law is None:
+            return scene, None
         # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
-        from vibeam.case.beamscene import build_beam_model_with_effects
+        from vibeam.case.beamscene import CoupledPlatform, build_beam_model_with_effects, with_drive
 
-        out = build_beam_model_with_effects(self, effects, base_model=model)
-        if getattr(model, "excitation", None) is not None and out.excitation is None:
-            out = copy.copy(out)       # a rebuilt structure keeps the drive (a base acceleration)
-            out.excitation = model.excitation
-        return out
+        m = with_drive(self, build_beam_model_with_effects(self, effects))   # a rebuilt structure keeps the drive
+        return m.scene(), (CoupledPlatform.of(m) if coupled else None)
 
     def case_update(self, key: str, value: float) -> tuple[dict, list]:
         """``[model]`` keys that set a fitted value, and notes: f_n is ``calibrate.f1_hz`` of a
@@ -963,10 +984,10 @@ class MatricesModelSpec(_StopsSpec):
         fine["system"] = dict(fine["system"], n_modes="all")
         return fine
 
-    def effect_model(self, effects, model):
-        """``model`` unchanged: the structural effects of the rig (eccentric contact, platform)
-        are the beam's; a velocity-dependent R is not yet wired here."""
-        return model
+    def effect_scene(self, effects, scene):
+        """``(scene, None)``, unchanged: the structural effects of the rig (eccentric contact,
+        platform) are the beam's; a velocity-dependent R is not yet wired here."""
+        return scene, None
 
     def case_update(self, key: str, value: float) -> tuple[dict, list]:
         """A fitted value written back: not yet for this builder (noted)."""
@@ -1608,9 +1629,10 @@ del _name
 #: validates the table (pydantic) and is the framework's one place for what is specific to its
 #: fidelity: ``build()`` (the model), ``physical``, ``dofs()`` (degrees of freedom, for the work
 #: estimate), ``result_attrs()`` (derived values stored with a run), ``converged_reference(table)``
-#: (the model table a cost table measures errors against), ``effect_model(effects, model)`` (the
-#: model with the structural effects of a run), ``case_update(key, value)`` (a fitted value written
-#: back as case keys) and ``check(prefix)`` (checks beyond the table itself)
+#: (the model table a cost table measures errors against), ``scene()`` (the scene every method
+#: takes), ``effect_scene(effects, scene)`` (the scene with the structural effects of a run),
+#: ``case_update(key, value)`` (a fitted value written back as case keys) and ``check(prefix)``
+#: (checks beyond the table itself)
 CANONICAL_SPECS = {"sdof": SDOFSceneSpec, "beam": BeamSceneSpec, "matrices": MatricesModelSpec,
                    "continuum": ContinuumModelSpec, "mesh": MeshModelSpec}
 

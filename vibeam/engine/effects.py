@@ -83,7 +83,7 @@ import numpy as np
 from vibeam.errors import CaseError
 from vibeam.models import make_solver
 from vibeam.models.contact import restitution_coefficients
-from vibeam.models.registry import fidelity, is_compliant, with_capability
+from vibeam.models.registry import fidelity, is_compliant, law_name, with_capability
 from vibeam.models.scene import outputs, with_amplitude, with_gap
 
 #: effects handled here (``sensor`` belongs to :mod:`vibeam.engine.sensor` / the assessments)
@@ -149,8 +149,8 @@ class EffectSolver:
     (runs in worker processes).
 
     The scene of a point, :meth:`scene_at`, is what the Lyapunov and Floquet exponents of the
-    point are computed on.  ``coupled`` is the model of a coupled platform (its modes and the
-    shaker force), else None."""
+    point are computed on.  ``coupled`` is the record of a coupled platform (its modes and the
+    shaker force, :class:`vibeam.case.beamscene.CoupledPlatform`), else None."""
 
     time_domain = True
 
@@ -212,8 +212,7 @@ class EffectSolver:
             a.update(platform_frequency_hz=fp, platform_damping_ratio=zp, platform_reference_frequency_hz=f_ref,
                      platform_reference_gain_per_V=g_ref)
         else:
-            self._coupled = (np.asarray(m.platform_row, float), np.asarray(m.omega_rad_s, float),
-                             np.asarray(m.c_phys, float))
+            self._coupled = (m.platform_row, m.omega_rad_s, m.c_phys)
             self._coupled_fs = m.platform_force_n
             a.update(platform_frequency_hz=plat.frequency_hz, platform_damping_ratio=plat.damping_ratio,
                      platform_mass_kg=plat.mass_kg, platform_force_n=m.platform_force_n,
@@ -335,21 +334,21 @@ def _rebuild(inner, scene, settings):
 
 
 # ============================================================================ entry point
-def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
+def wrap_solver(solver, scene, spec, effects, run_settings: dict | None = None):
     """Solver of a run with its effects applied (the plain solver when none is active).
 
     Parameters
     ----------
     solver : object
         Solver from :func:`vibeam.models.make_solver`.
-    model : object
-        Its model.
+    scene : vibeam.models.scene.Scene
+        Its scene (``spec.scene()``).
     spec : vibeam.case.schema.SDOFSceneSpec or vibeam.case.schema.BeamSceneSpec
         The validated model table (a shorthand table is validated as the spec it expands into).
     effects : vibeam.case.schema.EffectsSpec
         Active effects of the run.
     run_settings : dict, optional
-        The run's method settings (to build the solver of a changed model).
+        The run's method settings (to build the solver of a changed scene).
 
     Raises
     ------
@@ -359,7 +358,7 @@ def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
     active = [k for k in effects.active() if k in HANDLED]
     if not active:
         return solver
-    law = getattr(model, "contact_law", "restitution")
+    law = law_name(scene)
     if is_compliant(law):   # the effect models are built for Newton's law (issue 13: not yet)
         raise _err(f"effects.{active[0]}: not available with contact.law = \"{law}\" yet; use law = \"restitution\"")
     caps = fidelity(spec.fidelity)
@@ -385,11 +384,9 @@ def wrap_solver(solver, model, spec, effects, run_settings: dict | None = None):
     if effects.gap_drift is not None and effects.gap_drift.law == "sliding" and not solver.time_domain:
         raise _err(f"effects.gap_drift: law = \"sliding\" needs impacts, i.e. a time-domain method "
                    f"(not {method!r})")
-    new = spec.effect_model(effects, model)
-    f_n = model.natural_frequency_hz
-    inner = solver if new is model else make_solver(new, solver.name, **settings)
-    coupled = new if effects.platform is not None and effects.platform.level == "coupled" else None
-    return EffectSolver(inner, spec, effects, settings, active, f_n, coupled)
+    new, coupled = spec.effect_scene(effects, scene)
+    inner = solver if new is scene else make_solver(new, solver.name, **settings)
+    return EffectSolver(inner, spec, effects, settings, active, outputs(scene).natural_frequency_hz, coupled)
 
 
 def run_attrs(solver) -> dict:

@@ -35,8 +35,7 @@ def make_job(case, r, overrides: dict, j=None) -> Job:
     """The job of run ``r`` of ``case`` with the model keys ``overrides`` (map value ``j``): its
     model spec, its solver with effects and hooks, and its sweep."""
     spec = case.model_spec(overrides) if overrides else case.model_spec()
-    model = spec.build()
-    scene = model.scene()
+    scene = spec.scene()
     # the grid from the builder's own frequency (the scene carries it exactly: 1 / (2 pi time_unit_s)
     # can be an ulp off it, and a chaotic point of a quick variant moves with an ulp of Omega)
     Omega = case.sweep.grid(outputs(scene).natural_frequency_hz)
@@ -45,11 +44,11 @@ def make_job(case, r, overrides: dict, j=None) -> Job:
                                    assess=assess.hooks(case, spec, r, scene)))
     settings = dict(case.run_settings(r), **assess.solver_options(case, r, spec))
     try:
-        base = make_solver(model, r.method, **settings)
+        base = make_solver(scene, r.method, **settings)
     except ValueError as e:         # a value the method's solver cannot take: bad input, one line
         where = f" at {', '.join(f'{k} = {v!r}' for k, v in overrides.items())}" if overrides else ""
         raise CaseError(one_line(f"'run[{case.run.index(r)}].method' = {r.method!r}{where}: {e}")) from None
-    solver = wrap_solver(base, model, spec, assess.solver_effects(case.effects_for(r)), settings)
+    solver = wrap_solver(base, scene, spec, assess.solver_effects(case.effects_for(r)), settings)
     return Job(r, spec, solver, sw, j)
 
 

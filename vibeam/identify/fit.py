@@ -345,16 +345,16 @@ class FitProblem:
         self.eps_rel = EPS_FLOOR
         self.accuracy = np.zeros(ref.n)
         try:
-            model0 = spec.build()
+            out0 = outputs(spec.scene())
         except CaseError as e:      # a model that cannot be built: name the case file, as `vibeam run`
             if source and not str(e).startswith(f"{source}: "):
                 raise case_error(f"{source}: {e}") from None
             raise
-        self.physical = bool(getattr(model0, "natural_frequency_hz", None) and getattr(model0, "length_m", None))
+        self.physical = bool(out0.natural_frequency_hz and out0.length_m)
         if ref.physical and not self.physical:
             raise case_error(f"{ref.source}: 'frequency_hz,amplitude_mm' data need a physical scene; "
                          f"{source or case.name} is nondimensional (use 'Omega,amplitude')")
-        self._check_range(model0)
+        self._check_range(out0.natural_frequency_hz)
         if ref.sigma is None and not float(np.max(np.abs(ref.y))) > 0.0:
             raise case_error(f"{ref.source}: every '{ref.y_name}' is 0: without a 'sigma' column the residuals are "
                          f"scaled by {DEFAULT_SIGMA_FRACTION:.0%} of the largest amplitude, which is 0; give a "
@@ -364,9 +364,8 @@ class FitProblem:
         self.directions = [d for d in ("up", "down") if (ref.direction == d).any()]
 
     # ------------------------------------------------------------------ checks
-    def _check_range(self, model):
+    def _check_range(self, fn):
         sw = self.case.sweep
-        fn = getattr(model, "natural_frequency_hz", None)
         if sw.frequency_hz is not None:
             a, b, _ = sw.frequency_hz
             key, unit = "frequency_hz", "Hz"

@@ -40,6 +40,7 @@ from vibeam.io.outdir import write_text_file
 from vibeam.io.reference import read_reference
 from vibeam.io.results import write_results
 from vibeam.models import linear_amplitude
+from vibeam.models.scene import outputs
 from vibeam.plots import style
 from vibeam.plots import sweep as plot_sweep
 from vibeam.plots.lazy import plt
@@ -875,9 +876,8 @@ def _model_values(case):
     if not getattr(spec, "physical", False):
         raise case_error(f"{case.name}: the linear steps need a physical scene (natural_frequency_hz or a beam, "
                      f"length_mm, gain, voltage), not the nondimensional keys")
-    model = spec.build()
     return spec, float(spec.length_mm), float(spec.voltage), {
-        "natural_frequency_hz": float(model.natural_frequency_hz), "damping_ratio": float(spec.damping_ratio),
+        "natural_frequency_hz": float(outputs(spec.scene()).natural_frequency_hz), "damping_ratio": float(spec.damping_ratio),
         "gain": float(spec.gain)}
 
 
