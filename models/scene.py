@@ -12,7 +12,7 @@ The drive is the system's (its forcing vector, amplitude and exponent ``p``: ``f
 sin(Omega t)``); :func:`driven` sets it from an :class:`Excitation` in SI units: a harmonic base
 displacement (the paper's shaker), base acceleration or point force.
 
-The fidelities are builders of scenes: :func:`sdof_scene` (paper Eqs. 1-2, 43-46) and
+The fidelities are builders of scenes: :func:`vibeam.models.builders.sdof.sdof` (paper Eqs. 1-2, 43-46) and
 :func:`beam_scene` (the modal FE beam, Eqs. 39-42, with any number of modes or the static mode);
 a model object's ``scene()`` calls its builder.  The event integrator
 (:class:`vibeam.models.core.event.EventIntegrator`), the direct integrator, the shooting problems,
@@ -34,9 +34,9 @@ import numpy as np
 
 import scipy.linalg
 
-from .system import ModalSystem, from_beam, from_sdof, reference_hz
+from .system import ModalSystem, from_beam, reference_hz
 
-__all__ = ["Scene", "sdof_scene", "beam_scene", "outputs", "Outputs", "one_mode", "OneMode", "rest_state", "held_modes", "Excitation", "EXCITATION_KINDS",
+__all__ = ["Scene", "beam_scene", "outputs", "Outputs", "one_mode", "OneMode", "rest_state", "held_modes", "Excitation", "EXCITATION_KINDS",
            "driven"]
 
 #: the harmonic drives of a scene (:class:`Excitation`)
@@ -64,18 +64,6 @@ class Scene(NamedTuple):
     system: ModalSystem
     stops: tuple
     builder: str = ""
-
-
-def sdof_scene(sdof) -> Scene:
-    """The SDOF impact oscillator as a scene: the one-mode system (paper Eqs. 1, 43-46,
-    :func:`vibeam.models.system.from_sdof`) and its stops at ``q = Delta`` (and ``q = -Delta_lower``).
-
-    Parameters
-    ----------
-    sdof : vibeam.models.sdof.SDOF
-        Nondimensional or physical (then the scene's units are ``1 / (2 pi f_n)`` s and ``L`` m).
-    """
-    return Scene(from_sdof(sdof), tuple(sdof.stops()), "sdof")
 
 
 def beam_scene(model) -> Scene:
@@ -196,7 +184,7 @@ def one_mode(sc: Scene, method: str = "the method") -> OneMode:
     Raises
     ------
     ValueError
-        One line naming ``method`` and what is allowed, unless the scene is :func:`sdof_scene`'s kind:
+        One line naming ``method`` and what is allowed, unless the scene is the SDOF builder's kind:
         one mode, ``omega = Gamma = s = W = coordinate_scale = 1``, a base displacement drive and a
         stop at ``q = Delta`` (sign +1), optionally one at ``q = -Delta_lower`` (sign -1), on row 0.
     """

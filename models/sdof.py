@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .contact import Relation, Restitution, Stop
-from .scene import Scene, sdof_scene
+from .builders.sdof import sdof
+from .scene import Scene
 
 def _upper_law(law, R, R_table, contact):
     """The upper stop's law from the constructor's arguments: ``contact`` (a compliant law) when
@@ -165,9 +166,13 @@ class SDOF:
         return self.mass_kg * (2 * math.pi * self.natural_frequency_hz) ** 2 * self.length_m
 
     def scene(self) -> Scene:
-        """The oscillator as a scene: the one-mode system and :meth:`stops`
-        (:func:`vibeam.models.scene.sdof_scene`)."""
-        return sdof_scene(self)
+        """The oscillator as a scene (:func:`vibeam.models.builders.sdof.sdof`), its stops those
+        of :meth:`stops`."""
+        compliant = getattr(self.lower_law, "kind", "") == "compliant"
+        lower = self.lower_law if self.Delta_lower is not None or compliant else None
+        return sdof(self.beta, self.B, self.Delta, law=self.upper_law, Delta_lower=self.Delta_lower,
+                    lower_law=lower, natural_frequency_hz=self.natural_frequency_hz,
+                    length_m=self.length_m, mass_kg=self.mass_kg)
 
     def stops(self) -> tuple:
         """The contact relations and laws (:mod:`vibeam.models.contact`): the stop at

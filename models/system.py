@@ -61,7 +61,7 @@ from numba import njit
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["ModalSystem", "modal_system", "from_sdof", "from_beam", "from_matrices", "modal_flow", "forcing",
+__all__ = ["ModalSystem", "modal_system", "sdof_system", "from_sdof", "from_beam", "from_matrices", "modal_flow", "forcing",
            "DRIVE_POWERS", "drive_force", "drive_slope", "drive_displacement", "drive_velocity_slope",
            "modal_transition", "damping_ratios", "lowest_modes", "mode_table", "particular",
            "transition_increment", "increment_of", "transition_entries", "advance_modes", "advance_count",
@@ -245,6 +245,14 @@ def damping_ratios(system: ModalSystem) -> np.ndarray:
 
 # ============================================================================ constructors
 def from_sdof(sdof) -> ModalSystem:
+    """:func:`sdof_system` of an object with ``beta``, ``B`` and optionally
+    ``natural_frequency_hz`` (Hz), ``length_m`` (m) and ``mass_kg`` (kg)
+    (:class:`vibeam.models.sdof.SDOF`)."""
+    return sdof_system(sdof.beta, sdof.B, getattr(sdof, "natural_frequency_hz", None),
+                       getattr(sdof, "length_m", None), getattr(sdof, "mass_kg", None))
+
+
+def sdof_system(beta, B, natural_frequency_hz=None, length_m=None, mass_kg=None) -> ModalSystem:
     """The SDOF impact oscillator as the one-mode system (paper Eqs. 43-46).
 
     ``q'' + 2 beta q' + q = Omega^2 B sin(Omega t)``: ``omega = 1``, ``damping = 2 beta``,
@@ -252,9 +260,10 @@ def from_sdof(sdof) -> ModalSystem:
 
     Parameters
     ----------
-    sdof : vibeam.models.sdof.SDOF
-        Or any object with ``beta``, ``B`` and optionally ``natural_frequency_hz`` (Hz),
-        ``length_m`` (m) and ``mass_kg`` (kg).
+    beta, B : float
+        Damping ratio and base-displacement amplitude (nondimensional).
+    natural_frequency_hz, length_m, mass_kg : float or None
+        ``f_n`` (Hz), ``L`` (m) and the effective mass (kg) of a physical scene.
 
     Returns
     -------
@@ -267,13 +276,11 @@ def from_sdof(sdof) -> ModalSystem:
     ValueError
         If ``beta`` is negative or not finite.
     """
-    beta = float(sdof.beta)
+    beta = float(beta)
     if not (math.isfinite(beta) and beta >= 0.0):
         raise ValueError(f"beta must be finite and >= 0, got {beta!r}")
-    f_n = getattr(sdof, "natural_frequency_hz", None)
-    L = getattr(sdof, "length_m", None)
-    mass = getattr(sdof, "mass_kg", None)
-    return modal_system([1.0], [2.0 * beta], [1.0], [1.0], [[1.0]], float(sdof.B),
+    f_n, L, mass = natural_frequency_hz, length_m, mass_kg
+    return modal_system([1.0], [2.0 * beta], [1.0], [1.0], [[1.0]], float(B),
                          time_unit_s=math.nan if f_n is None else 1.0 / (TWO_PI * float(f_n)),
                          length_unit_m=math.nan if L is None else float(L), coordinate_scale=1.0,
                          mass_unit_kg=math.nan if mass is None else float(mass),
