@@ -14,6 +14,7 @@ import numpy as np
 
 from vibeam.bench.common import goal, root, timed_sweep
 from vibeam.case.schema import load_case
+from vibeam.models.scene import outputs
 
 
 def _direct_time_per_period(points: int, periods: int = 500, record: int = 64, case: str | None = None) -> dict:
@@ -21,8 +22,8 @@ def _direct_time_per_period(points: int, periods: int = 500, record: int = 64, c
     with events) on ``points`` frequencies spread over the case's grid (Fig. 7 scene),
     ``periods - record`` transient periods each, from rest (inline, one core)."""
     case, _ = load_case(case or root() / "cases" / "paper-fig7.toml")
-    model = case.model_spec().build()
-    grid = case.sweep.grid(getattr(model, "natural_frequency_hz", None))
+    model = case.model_spec().scene()
+    grid = case.sweep.grid(outputs(model).natural_frequency_hz)
     Om = np.linspace(grid.min(), grid.max(), points)
     t, res = timed_sweep(model, "direct", Om, periods - record, record, solver="RK23", rtol=1e-4, atol=1e-8)
     return {"time_s": t, "points": points, "periods_per_point": periods, "s_per_point_period": t / (points * periods),

@@ -95,9 +95,10 @@ make_solver(model, "event", **case.run_settings(run)).point(W, None, 2, 2, case.
 #: compliant stop, as ``vibeam run`` builds its solver: Kelvin-Voigt, stiffness 1e4, the dashpot of an
 #: isolated impact's R = 0.8 (the event integrator's compliant specialisation)
 COMPLIANT_POINT = """
-from vibeam.models import SDOF, make_solver
+from vibeam.models import make_solver
+from vibeam.models.builders.sdof import sdof
 from vibeam.models.compliant import LinearContact
-m = SDOF(beta=0.015, B=0.5e-3, R=0.8, Delta=0.0, contact=LinearContact.from_restitution(1e4, 0.8))
+m = sdof(0.015, 0.5e-3, 0.0, law=LinearContact.from_restitution(1e4, 0.8))
 make_solver(m, "event").point(1.8, None, 2, 2, 64)
 """
 

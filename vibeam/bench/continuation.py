@@ -10,7 +10,8 @@ import time
 import numpy as np
 
 from vibeam.bench.common import build_scene
-from vibeam.models import SDOF, EventSolver, shooting_problem, make_solver
+from vibeam.models import EventSolver, shooting_problem, make_solver
+from vibeam.models.builders.sdof import sdof
 from vibeam.models import BeamEventSolver
 from vibeam.models.continuation import Settings, start_point, trace
 
@@ -61,9 +62,9 @@ def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_erro
     per point of the continuation.  The unstable part has no sweep counterpart at any cost.
     """
     log = log or (lambda m: None)
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
+    m = sdof(0.015, 0.5e-3, 0.7e-3, R=0.9)      # beta, B, Delta, R
     prob = shooting_problem(m)
-    x0 = EventSolver(m.scene()).point(1.5, None, 400, 4, 8).final_state[:2]
+    x0 = EventSolver(m).point(1.5, None, 400, 4, 8).final_state[:2]
     st = Settings()
     trace(prob, x0, 1.5, 1, 1.5, 2.5, +1, st)  # warm-up (compiled kernels, cache load)
     times, cpu = [], []
@@ -89,7 +90,7 @@ def run_continuation_bench(repeats: int = 5, sweep_points: int = 41, target_erro
         k = int(np.argmin(np.abs(W_b - W)))
         pt, _ = start_point(prob, a["state"][upper][k], W, 1, 1.5, 2.5)
         Q_ref[i] = pt.shot.gap - pt.shot.q_min
-    rows, equal = _sweep_at_equal_accuracy(make_solver(m, "event"), m.Delta, grid, Q_ref,
+    rows, equal = _sweep_at_equal_accuracy(make_solver(m, "event"), 0.7e-3, grid, Q_ref,
                                            (50, 100, 200, 400, 800, 1600, 3200), target_error,
                                            lambda msg: log(msg))
     per_point = t / n_pts

@@ -16,7 +16,8 @@ import numpy as np
 from vibeam.bench.common import goal, root
 from vibeam.case.schema import load_case, parse_case
 from vibeam.engine.sweep import Sweep, run_sweep
-from vibeam.models import SDOF, make_solver
+from vibeam.models import make_solver
+from vibeam.models.builders.sdof import sdof
 
 
 #: the scene of the interrupt figures (tests/test_interrupts.py): the rig's SDOF on a pre-stressed
@@ -215,11 +216,11 @@ def run_latency_bench(repeats: int = 3, limit_s: float = 0.5, beam: bool = True,
                     "sigint_to_handler_s": statistics.median(hand) if hand else None,
                     "exit_codes": sorted({r["exit_code"] for r in runs}), "runs": runs}
     chatter = parse_case(LATENCY_CASE.split("[map]")[0] + '[[run]]\nname = "exact"\nmethod = "event"\n')
-    scenes = [("sdof fig13 Omega 2.0", SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3), 2.0),
-              ("sdof chatter 15.5 Hz", chatter.model_spec().build(), 15.5 / 7.6)]
+    scenes = [("sdof fig13 Omega 2.0", sdof(0.015, 0.5e-3, 0.5e-3, R=0.9), 2.0),
+              ("sdof chatter 15.5 Hz", chatter.model_spec().scene(), 15.5 / 7.6)]
     if beam:
         case, _ = load_case(root() / "cases" / "rig-fe-neutral.toml")
-        scenes.append(("beam rig-fe-neutral all modes 15.4 Hz", case.model_spec().build(), 15.4 / 7.6))
+        scenes.append(("beam rig-fe-neutral all modes 15.4 Hz", case.model_spec().scene(), 15.4 / 7.6))
     out["time_limit"] = {}
     for name, model, W in scenes:
         r = _time_limit_overshoot(name, model, W, limit_s)
