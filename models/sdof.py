@@ -206,29 +206,9 @@ class SDOF:
     @classmethod
     def from_physical(cls, natural_frequency_hz, damping_ratio, R, gap_mm, length_mm, gain, voltage,
                       gap_lower_mm=None, R_lower=None):
-        """Build the nondimensional model of a rig scene (paper Eqs. 43-46).
-
-        Parameters
-        ----------
-        natural_frequency_hz : float
-            ``f_n`` (Hz).
-        damping_ratio : float
-            ``beta_S``.
-        R : float
-            Coefficient of restitution.
-        gap_mm : float
-            Grazing gap at the sensor ``Delta_G`` (mm).
-        length_mm : float
-            Normalising beam length ``L`` (mm).
-        gain : float
-            Normalised unit conversion gain ``gamma`` (1/V).
-        voltage : float
-            Excitation voltage amplitude ``V`` (V).
-        gap_lower_mm : float or None
-            Gap to a second (lower) stop at the sensor (mm), ``Delta_lower = gap_lower_mm / L``.
-        R_lower : float or None
-            Its coefficient of restitution (None: ``R``).
-        """
+        """Build the nondimensional model of a rig scene (paper Eqs. 43-46): the arguments of
+        :func:`vibeam.models.builders.sdof.sdof_physical`, and ``R_lower``, the lower stop's
+        coefficient of restitution (None: ``R``)."""
         return cls(beta=damping_ratio, B=gain * voltage, R=R, Delta=gap_mm / length_mm,
                    natural_frequency_hz=natural_frequency_hz, length_m=length_mm * 1e-3,
                    Delta_lower=None if gap_lower_mm is None else gap_lower_mm / length_mm, R_lower=R_lower)
