@@ -205,7 +205,10 @@ class _StopsSpec(_Strict):
         CaseError
             If the scene cannot be built from these values (:func:`build_or_refuse`).
         """
-        return build_or_refuse(self, lambda: self._build().scene())
+        return build_or_refuse(self, self._scene)
+
+    def _scene(self):
+        return self._build().scene()
 
 
 class _SDOFSpec(_StopsSpec):
@@ -309,19 +312,8 @@ class _SDOFSpec(_StopsSpec):
         """
         return build_or_refuse(self, self._build)
 
-    def scene(self):
-        """The scene this table describes, built straight from its values by the SDOF builder
-        (:func:`vibeam.models.builders.sdof.sdof`; a physical table by paper Eqs. 43-46,
-        :func:`~vibeam.models.builders.sdof.sdof_physical`).
-
-        Raises
-        ------
-        CaseError
-            If the scene cannot be built from these values (:func:`build_or_refuse`).
-        """
-        return build_or_refuse(self, self._scene)
-
     def _scene(self):
+        # straight from the table's values by the SDOF builder (a physical table by paper Eqs. 43-46)
         from vibeam.models.builders.sdof import sdof, sdof_physical  # lazy: keeps scipy.linalg (0.2 s) out of load_case
         from vibeam.models.contact import Restitution  # lazy: keeps the impact kernels out of load_case
 
@@ -331,18 +323,15 @@ class _SDOFSpec(_StopsSpec):
         lower = None if lo is None else sdof_law(lo, target_R(lo, self.R), self.physical, self.natural_frequency_hz, L)
         if lower is None and self._R_lower() is not None:
             lower = Restitution(self._R_lower())
-        if self.physical:
-            Dl = None if self.gap_lower_mm is None else self.gap_lower_mm / self.length_mm
-        else:
-            Dl = self.Delta_lower if self.two_sided else None
-        if Dl is None and getattr(lower, "kind", "") != "compliant":
+        lower_gap = self.gap_lower_mm if self.physical else (self.Delta_lower if self.two_sided else None)
+        if lower_gap is None and getattr(lower, "kind", "") != "compliant":
             lower = None        # Newton's law of a lower stop that is not there
         stop = dict(R=self.R) if law is None else dict(law=law)
         mass = None if self.contact is None else self.contact.mass_kg
         if self.physical:
             return sdof_physical(self.natural_frequency_hz, self.damping_ratio, self.gap_mm, self.length_mm, self.gain,
                                  self.voltage, gap_lower_mm=self.gap_lower_mm, lower_law=lower, mass_kg=mass, **stop)
-        return sdof(self.beta, self.B, self.Delta, Delta_lower=Dl, lower_law=lower, mass_kg=mass, **stop)
+        return sdof(self.beta, self.B, self.Delta, Delta_lower=lower_gap, lower_law=lower, mass_kg=mass, **stop)
 
     def _build(self):
         from vibeam.models import SDOF  # lazy: keeps the SDOF kernels (scipy.linalg: 0.2 s) out of load_case
