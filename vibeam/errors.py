@@ -75,6 +75,13 @@ class RecordingHandler:
         raise self.exc()
 
 
+def _generated_new(code) -> bool:
+    """Whether ``code`` is a generated ``__new__``: a NamedTuple's (``collections.namedtuple``
+    evaluates ``lambda _cls, ...`` in ``<string>``) or another one made by ``exec``."""
+    return code.co_filename.startswith("<") and (
+        code.co_name == "__new__" or (code.co_name == "<lambda>" and code.co_varnames[:1] == ("_cls",)))
+
+
 def _library_dirs() -> tuple:
     dirs = []
     for name in ("numba", "llvmlite"):
@@ -86,9 +93,18 @@ def _library_dirs() -> tuple:
 
 def inside_internals(frame) -> bool:
     """Whether ``frame`` (where a signal's handler runs) or one of its callers is a module being
-    imported or numba's or llvmlite's own Python code, where an exception raised by a signal
-    could leave native state half made (a module's numba extensions half registered, a cache entry
-    half loaded, a boxed result half built).
+    imported or numba's or llvmlite's own Python code, or ``frame`` is a generated ``__new__`` (a
+    NamedTuple's, which numba's boxing of a record result calls), where an exception raised by a
+    signal could leave native state half made (a module's numba extensions half registered, a cache
+    entry half loaded, a boxed result half built).
+
+    A boxed result half built is a crash, not an error: the exception raised in a Python function
+    that compiled code calls while it boxes its results (numba's ``_numba_unpickle`` for each
+    array's type) can be cleared by the next such call, and the result tuple then reaches Python
+    with a NULL item and no exception set: unpacking it dereferences NULL (SIGSEGV: once in 300
+    SIGTERMs sent to ``vibeam continue`` under a test's wrapper of ``_numba_unpickle`` that lay
+    outside numba's directory; the core held the compiled corrector's result with its fifth item
+    NULL).
 
     Parameters
     ----------
@@ -101,6 +117,8 @@ def inside_internals(frame) -> bool:
         True where the handler should only record the signal.
     """
     dirs = _library_dirs()
+    if frame is not None and _generated_new(frame.f_code):
+        return True
     while frame is not None:
         name = frame.f_code.co_filename
         if name.startswith("<frozen importlib") or (dirs and name.startswith(dirs)):
