@@ -103,10 +103,11 @@ def test_event_orbit_without_impacts_equals_the_modal_closed_form():
     scale = np.max(np.abs(H))
     assert np.max(np.abs(eta - H.imag)) < 1e-8 * scale
     assert np.max(np.abs(etad - W * H.real)) < 1e-8 * scale * W
-    # the sensor's swing: 2 |s . H| (sampled at 64 a period: within (pi / 64)^2 / 2 below it)
+    # the sensor's swing: 2 |s . H| (sampled at 64 a period: within (pi / 64)^2 / 2 below it, and above
+    # it by no more than the model's round-off above: measured 6.7e-11 above on a Sapphire Rapids host)
     amp = abs(mm.system.sensor @ H)
     assert 0.05e-3 < amp < 1e-3
-    assert 0.0 <= 2 * amp - (tr.q_max - tr.q_min) * m.length_m < 1.3e-3 * 2 * amp
+    assert -1e-8 * 2 * amp <= 2 * amp - (tr.q_max - tr.q_min) * m.length_m < 1.3e-3 * 2 * amp
 
 
 def test_impacting_period_one_orbit_equals_the_direct_solver():

@@ -75,15 +75,19 @@ def test_quick_variant_regresses_against_its_reference(path, quick_results, caps
     # periodic points with the same period: the amplitude to amplitude_rtol alone
     case, _ = load_case(path)
     rtol = case.regress.amplitude_rtol
+    sparse_modes = case.model_spec().fidelity in ("continuum", "mesh")
     new, old = all_runs(read_results(tmp_path / "results.h5")), all_runs(read_results(ref))
     assert set(new) == set(old) and new
     for name, r in old.items():
         n = new[name]
         # the same grid point by point (physical grids in Hz; Omega = f / f_n of a calibrated FE
-        # model carries ~1e-11 of library-dependent round-off, see vibeam.analysis.regress.match_points)
+        # model carries ~1e-11 of library-dependent round-off, see vibeam.analysis.regress.match_points;
+        # a continuum's or a mesh's f_n comes from ARPACK in shift-invert mode on a factorised K of
+        # 10^4-10^5 DOFs, ~cond(K) eps: 2.8e-8 between OpenBLAS's Haswell and Sapphire Rapids kernels
+        # on one host, 3.6e-9 between two hosts)
         i_n, i_r = match_points(n, r)
         assert i_n == list(range(len(n["Omega"]))) and i_r == list(range(len(r["Omega"])))
-        np.testing.assert_allclose(n["Omega"], r["Omega"], rtol=1e-9)
+        np.testing.assert_allclose(n["Omega"], r["Omega"], rtol=1e-7 if sparse_modes else 1e-9)
         same = (n["period"] == r["period"]) & ((r["period"] >= 1) | (r["period"] == -1))
         same &= np.array([str(a) == "ok" and str(b) == "ok" for a, b in zip(n["status"], r["status"])])
         a, a_ref = n["amplitude"][same], r["amplitude"][same]

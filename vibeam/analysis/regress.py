@@ -37,8 +37,12 @@ chaotic transient at another time.  A point whose predecessor on its sweep line
 is non-periodic or unsettled in either file, and whose attractor differs
 (another period classification) or which is unsettled in either file, is
 therefore reported as *multistable* (another attractor, or a transient, reached
-from an irreproducible state), counted, and not a regression; every other
-point is compared as above.  The first point of each
+from an irreproducible state), counted, and not a regression.  So is a point that
+is non-periodic in both files and unsettled in either, wherever it starts: the
+length of a chaotic transient is not reproducible from one machine to another (a
+model's round-off, e.g. a continuum's modes from ARPACK on another BLAS kernel,
+grows exponentially along it), so one file may record its attractor and the other
+the transient.  Every other point is compared as above.  The first point of each
 line and every point after a periodic one start from reproducible states and
 are compared strictly.
 
@@ -364,16 +368,19 @@ def _irreproducible(run: dict, j: np.ndarray) -> np.ndarray:
 def _other_attractor(n: dict, r: dict, idx_n, idx_r) -> np.ndarray:
     """Points whose predecessor on the sweep line is non-periodic or unsettled in either run and
     whose period classification differs, or which are unsettled in either: another attractor of
-    a multistable point, or a chaotic transient, reached from a state that no two machines share
-    (module docstring)."""
+    a multistable point, or a chaotic transient, reached from a state that no two machines share;
+    and points non-periodic in both runs and unsettled in either, wherever they start: a chaotic
+    transient whose length no two machines share (module docstring)."""
     if "period" not in n or "period" not in r or "direction" not in n or "direction" not in r:
         return np.zeros(len(idx_n), bool)
     after = _irreproducible(n, _line_predecessors(n, idx_n)) | _irreproducible(r, _line_predecessors(r, idx_r))
     differ = np.asarray(n["period"])[idx_n] != np.asarray(r["period"])[idx_r]
+    unsettled = np.zeros(len(idx_n), bool)
     for run, idx in ((n, idx_n), (r, idx_r)):
         if "status" in run:
-            differ |= np.array([str(x) == "unsettled" for x in np.asarray(run["status"])[idx]], bool)
-    return after & differ
+            unsettled |= np.array([str(x) == "unsettled" for x in np.asarray(run["status"])[idx]], bool)
+    transient = unsettled & _irreproducible(n, np.asarray(idx_n)) & _irreproducible(r, np.asarray(idx_r))
+    return (after & (differ | unsettled)) | transient
 
 
 def _standard_errors(g: dict, h: dict) -> tuple:
