@@ -94,9 +94,8 @@ MUTANTS: list[Mutant] = [
            "models/contact_policy.py", "D = 2.0 * u / (a * (1.0 - R))", "D = 2.0 * u / (a * (1.0 + R))",
            ("tests/test_event.py",)),
     # --- unit conversions
-    Mutant("SI contact force of the SDOF: force_scale_n 1.4 times too large",
-           "models/sdof.py", "return self.mass_kg * (2 * math.pi * self.natural_frequency_hz) ** 2 * self.length_m",
-           "return 1.4 * self.mass_kg * (2 * math.pi * self.natural_frequency_hz) ** 2 * self.length_m",
+    Mutant("SI contact force of the SDOF scene: its outputs' force_scale_n 1.4 times too large",
+           "models/scene.py", "else mu * m_eff * L / (T * T)", "else 1.4 * mu * m_eff * L / (T * T)",
            ("tests/test_compliant.py",)),
     Mutant("SI contact force of the beam: force_scale_n 1.4 times too large",
            "models/beam_dynamics.py", "return self.m_eff * self.omega_ref ** 2 * self.length_m",

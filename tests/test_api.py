@@ -12,6 +12,7 @@ import pytest
 
 import vibeam
 from vibeam.case.schema import CaseError
+from vibeam.models.builders.sdof import sdof
 
 ROOT = Path(__file__).resolve().parents[1]
 FIG7 = ROOT / "cases" / "paper-fig7.toml"
@@ -97,9 +98,7 @@ def test_simulate_time_base_against_the_linear_steady_state():
     / ((1 - Omega^2)^2 + (2 beta Omega)^2) (Eq. 28, particular part), with t = 0 at forcing phase 0:
     the time vector is in phase with the forcing to 1e-10 (the transient left: exp(-0.05 * 3000 *
     2 pi / 1.3) < 1e-300)."""
-    from vibeam.models import SDOF
-
-    m = SDOF(beta=0.05, B=0.01, R=0.8, Delta=10.0)
+    m = sdof(beta=0.05, B=0.01, Delta=10.0, R=0.8)
     W = 1.3
     sim = vibeam.simulate(m, Omega=W, periods=3, transient=3000, samples_per_period=50)
     assert sim.t.shape == (150,) and sim.t[1] == pytest.approx(2 * np.pi / W / 50, rel=1e-15)
@@ -331,8 +330,6 @@ def test_every_entry_taking_a_state_refuses_an_inconsistent_held_flag_and_takes_
     one-sided scene and on the lower stop of a two-sided one (flag -1) -- and so is the final
     state of a simulation held on a pre-stressed stop (Delta = -0.1, forcing Omega^2 B = 0.017
     below the preload: the mass stays on the stop, flag 1), passed back as it was returned."""
-    from vibeam.models import SDOF
-
     bad = [-0.001, 0.0, 1.0]
     lines = []
     for f in (vibeam.simulate, vibeam.poincare, vibeam.lyapunov):
@@ -342,12 +339,12 @@ def test_every_entry_taking_a_state_refuses_an_inconsistent_held_flag_and_takes_
     assert len(set(lines)) == 1 and "held flag 1 holds it on the stop" in lines[0], lines
     sim = vibeam.simulate(vibeam.load_case(SMALL), Omega=2.0, periods=2, transient=0, state=[0.0, 0.0, 1.0])
     assert sim.status != "failed"
-    two = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=2e-3)
+    two = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9, Delta_lower=2e-3)
     sim = vibeam.simulate(two, Omega=2.0, periods=2, state=[-2e-3, 0.0, -1.0])
     assert sim.status != "failed"
     with pytest.raises(ValueError, match=r"held flag -1 holds it on the lower stop \(stop 1\), but it is not on it"):
         vibeam.simulate(two, Omega=2.0, periods=2, state=[-1e-3, 0.0, -1.0])
-    pre = SDOF(beta=0.05, B=0.01, R=0.8, Delta=-0.1)
+    pre = sdof(beta=0.05, B=0.01, Delta=-0.1, R=0.8)
     held = vibeam.simulate(pre, Omega=1.3, periods=2)
     assert held.final_state[-1] == 1.0 and held.final_state[0] == pytest.approx(-0.1, abs=1e-15)
     again = vibeam.simulate(pre, Omega=1.3, periods=2, state=held.final_state)
@@ -360,9 +357,9 @@ def test_simulate_refuses_periods_above_the_work_limit():
     until the kernel's OOM killer ended the process at 24 GB: in a child process whose address
     space is capped at 2 GB, the run bounded (guards only)."""
     code = ("import vibeam\n"
-            "from vibeam.models import SDOF\n"
+            "from vibeam.models.builders.sdof import sdof\n"
             f"case = vibeam.load_case({SMALL!r})\n"
-            "for what in (case, SDOF(beta=0.05, B=0.01, R=0.8, Delta=10.0)):\n"
+            "for what in (case, sdof(beta=0.05, B=0.01, Delta=10.0, R=0.8)):\n"
             "    try:\n        vibeam.simulate(what, Omega=2.0, periods=10**12)\n"
             "    except ValueError as e:\n        print('refused:', e)\n")
 
@@ -378,9 +375,7 @@ def test_simulate_refuses_periods_above_the_work_limit():
 
 
 def test_simulate_of_a_model_checks_its_arguments_too():
-    from vibeam.models import SDOF
-
-    m = SDOF(beta=0.05, B=0.01, R=0.8, Delta=10.0)
+    m = sdof(beta=0.05, B=0.01, Delta=10.0, R=0.8)
     with pytest.raises(ValueError, match="Omega = 0.0"):
         vibeam.simulate(m, Omega=0.0)
     with pytest.raises(TypeError, match="method = 3"):
@@ -393,10 +388,9 @@ def test_simulate_of_a_compliant_model_counts_its_contact_steps():
     forcing period at Omega = 2: 40 periods are 1.6e11 steps, above the limit of 1e11 (the
     event grid alone, 40 x 64 samples, is not).  Refused before any kernel runs, like the same
     scene through ``vibeam run`` (runner.estimate_work counts the same contact steps)."""
-    from vibeam.models import SDOF
     from vibeam.models.compliant import LinearContact
 
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=-0.1, contact=LinearContact.from_restitution(1e18, 0.9))
+    m = sdof(beta=0.015, B=0.5e-3, Delta=-0.1, law=LinearContact.from_restitution(1e18, 0.9))
     with pytest.raises(ValueError, match="about 1.6e\\+11 solver steps.*force=True"):
         vibeam.simulate(m, Omega=2.0, periods=40)
 

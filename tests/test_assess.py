@@ -7,7 +7,6 @@ import pytest
 
 from vibeam.engine import assess
 from vibeam.case.schema import parse_case
-from vibeam.engine.records import Trajectory
 
 F = 15.0          # forcing (Hz)
 N_REC, SPP = 64, 64

@@ -6,8 +6,9 @@ import pytest
 from scipy.optimize import brentq
 
 from vibeam.models import make_solver
-from vibeam.models import SDOF, EventSolver
-from vibeam.models.sdof_averaging import (Delta_max, P_of_Q, Q_star, amplitudes, discriminant,
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.sdof_averaging import (Delta_max, P_of_Q, amplitudes, discriminant,
                                           phase, polynomial_coefficients, solve)
 
 BETA, B = 0.015, 0.5e-3
@@ -74,7 +75,7 @@ def test_Q_star_and_stability():
 
 
 def test_solver_interface():
-    m = SDOF(BETA, B, 0.9, 0.7e-3)
+    m = sdof(BETA, B, 0.7e-3, 0.9)
     s = make_solver(m, "averaging")
     assert s.name == "averaging" and s.time_domain is False and s.settings() == {"k": 1}
     p = s.point(1.95, None, 0, 0)
@@ -82,12 +83,12 @@ def test_solver_interface():
         assert key in p
     assert p["status"] == "ok" and p["message"] == "" and p["period"] == 1 and p["stable"] is True
     # sigma Delta > 0 and Delta > B Omega^2 / 3 (g1, g0 > 0): no positive root
-    far = make_solver(SDOF(BETA, B, 0.9, 2e-3), "averaging").point(2.2, None, 0, 0)
+    far = make_solver(sdof(BETA, B, 2e-3, 0.9), "averaging").point(2.2, None, 0, 0)
     assert far["period"] == -1 and math.isnan(far["amplitude"])
     assert p["amplitude"] > p["Q_star"] > p["amplitude_lower"] > 0
     # at Omega = 2 this gap exceeds Delta_max = B Omega^2 / 3 (Eq. 27): no solution
     assert s.point(2.0, None, 0, 0)["period"] == -1
-    assert make_solver(SDOF(BETA, B, 0.9, 0.0), "averaging", k=2).point(4.0, None, 0, 0)["period"] == 2
+    assert make_solver(sdof(BETA, B, 0.0, 0.9), "averaging", k=2).point(4.0, None, 0, 0)["period"] == 2
     with pytest.raises(ValueError):
         make_solver(m, "averaging", k=0)
 
@@ -98,10 +99,11 @@ def test_averaging_vs_event_as_R_falls(capsys):
     rel = []
     phases = []
     for R in Rs:
-        m = SDOF(BETA, B, R, 0.0)
-        tr = EventSolver(m.scene()).point(2.0, None, 800, 4, 64)
+        Delta = 0.0
+        m = sdof(BETA, B, Delta, R)
+        tr = EventSolver(m).point(2.0, None, 800, 4, 64)
         assert tr.status == "ok"
-        Qe = m.Delta - tr.q_min
+        Qe = Delta - tr.q_min
         Qa = float(make_solver(m, "averaging").point(2.0, None, 0, 0)["amplitude"])
         rel.append(abs(Qa - Qe) / Qe)
         phases.append(((2.0 * tr.impact_times[-1]) % (2 * math.pi),

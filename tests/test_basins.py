@@ -17,7 +17,8 @@ import vibeam
 from vibeam.api import load_case
 from vibeam.analysis.attractors import FAILED, UNSETTLED, read_basins, set_period
 from vibeam.models.attractors import Recurrences
-from vibeam.models import SDOF, EventSolver, make_solver
+from vibeam.models import EventSolver, make_solver
+from vibeam.models.builders.sdof import sdof
 from vibeam.models.scene import outputs
 
 BETA, R = 0.015, 0.9
@@ -227,7 +228,7 @@ def test_fig7_two_sided_at_2_38_has_chaos_beside_a_stable_period_one_orbit():
         assert abs(a["lyapunov"][0, k].sum() - (-2 * BETA + 2 * math.log(R) * rate)) < 1e-10
     # the period-1 orbit hits both stops: the event kernel from its fixed point
     x = a["fixed_point"][0, kp]
-    tr = EventSolver(SDOF(BETA, 0.5e-3, R, 0.0, Delta_lower=2e-3).scene()).point(W, np.array([x[0], x[1], 0.0]), 0, 1, 64)
+    tr = EventSolver(sdof(BETA, 0.5e-3, 0.0, R, Delta_lower=2e-3)).point(W, np.array([x[0], x[1], 0.0]), 0, 1, 64)
     assert tr.status == "ok" and tr.n_impacts - tr.n_impacts_lower >= 1 and tr.n_impacts_lower >= 1
 
 
@@ -564,7 +565,7 @@ def test_the_lean_stroboscopic_map_is_points_samples_and_final_state_bit_for_bit
     chunk lengths the recurrence asks for and with its records reused; None exactly where point
     is failed (a step budget too small for one period)."""
     W = 2.0
-    solver = make_solver(SDOF(BETA, 0.5e-3, R, 2e-3, Delta_lower=2e-3), "event")
+    solver = make_solver(sdof(BETA, 0.5e-3, 2e-3, R, Delta_lower=2e-3), "event")
     sections = solver.stroboscopic(W)
     rng = np.random.default_rng(5)
     states = [np.array([q, v, 0.0]) for q, v in zip(rng.uniform(-2e-3, 2e-3, 6), rng.uniform(-2e-2, 2e-2, 6))]
@@ -576,7 +577,7 @@ def test_the_lean_stroboscopic_map_is_points_samples_and_final_state_bit_for_bit
             assert tr.status != "failed" and got is not None
             S, final = got
             assert np.array_equal(S, tr.samples) and np.array_equal(final, tr.final_state), (x, n)
-    tight = make_solver(SDOF(BETA, 0.5e-3, R, 2e-3, Delta_lower=2e-3), "event", max_steps_per_call=3)
+    tight = make_solver(sdof(BETA, 0.5e-3, 2e-3, R, Delta_lower=2e-3), "event", max_steps_per_call=3)
     x = states[0]
     assert tight.point(W, x, 0, 4, 1).status == "failed" and tight.stroboscopic(W)(x, 4) is None
 
@@ -632,8 +633,8 @@ def test_the_maps_calls_at_one_frequency_find_the_work_sizes_once(monkeypatch):
     calls = []
     real = event.work_sizes
     monkeypatch.setattr(event, "work_sizes", lambda *a: calls.append(a) or real(*a))
-    model = SDOF(BETA, 0.5e-3, R, 2e-3, Delta_lower=2e-3)
-    sections = EventSolver(model.scene()).stroboscopic(2.0)
+    model = sdof(BETA, 0.5e-3, 2e-3, R, Delta_lower=2e-3)
+    sections = EventSolver(model).stroboscopic(2.0)
     x = np.array([1e-3, 5e-3, 0.0])
     got = [sections(x, n)[0] for n in (16, 32, 16, 64)]
     assert len(calls) == 1

@@ -5,9 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from vibeam.models import SDOF, BeamEventSolver, EventSolver
+from vibeam.models import BeamEventSolver, EventSolver
 from vibeam.models.beam import BeamFE, BeamGeometry
 from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver, apply_impact
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
@@ -109,16 +111,16 @@ def test_static_mode_model_reproduces_sdof_event(R, gap):
     g = _geom()
     sm = BeamImpactModel.static_mode(g, R=R, gap_contact_m=gap, base_amplitude_m=Y, damping_D_s=D)
     red = reduce_static_mode(g, damping_D_s=D, gap_contact_m=gap, gamma_tilde_m_per_V=Y)
-    sd = SDOF(beta=red.beta_S, B=red.gamma_per_V, R=R, Delta=red.Delta)
-    assert sm.Delta == pytest.approx(sd.Delta, abs=1e-15)
+    sd = sdof(beta=red.beta_S, B=red.gamma_per_V, Delta=red.Delta, R=R)
+    assert sm.Delta == pytest.approx(one_mode(sd).Delta, abs=1e-15)
     assert sm.m_eff == pytest.approx(g.mass_kg, rel=1e-13)
     for f in (14.0, 15.3, 16.1, 17.0):
         W = f / sm.f_ref_hz
         a = BeamEventSolver(sm.scene()).point(W, None, 300, 16, 64)
-        b = EventSolver(sd.scene()).point(W, None, 300, 16, 64)
+        b = EventSolver(sd).point(W, None, 300, 16, 64)
         assert a.status == b.status
         assert a.n_impacts == b.n_impacts
-        Qa, Qb = summarize(a, sm.Delta)["amplitude"], summarize(b, sd.Delta)["amplitude"]
+        Qa, Qb = summarize(a, sm.Delta)["amplitude"], summarize(b, one_mode(sd).Delta)["amplitude"]
         assert Qa == pytest.approx(Qb, rel=1e-9)
         assert np.max(np.abs(a.samples - b.samples)) < 1e-9 * np.max(np.abs(b.samples))
         assert a.extra["stuck_fraction"] == pytest.approx(b.extra["stuck_fraction"], abs=1e-9)
@@ -143,11 +145,11 @@ def test_one_mode_beam_chatters_like_the_sdof(f_hz):
     spec = case.model_spec({"n_modes": "static"})
     beam = spec.build()
     red = derive(spec)["reduction"]
-    sdof = SDOF(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, R=spec.R, Delta=red.Delta)
+    sd = sdof(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, Delta=red.Delta, R=spec.R)
     assert abs(beam.f_ref_hz / red.f_n_hz - 1) > 0.04    # different time units
     Wb, Ws = f_hz / beam.f_ref_hz, f_hz / red.f_n_hz
     a = BeamEventSolver(beam.scene()).point(Wb, None, 0, 16, 64)
-    b = EventSolver(sdof.scene()).point(Ws, None, 0, 16, 64)
+    b = EventSolver(sd).point(Ws, None, 0, 16, 64)
     assert a.status == b.status == "chatter"
     assert a.n_impacts == b.n_impacts > 100
     assert a.chatter_times.size == b.chatter_times.size >= 1
@@ -306,7 +308,7 @@ def test_the_scenes_rest_state_is_the_static_equilibrium_held_on_a_prestressed_s
     assert sign * (w @ x[:N]) == pytest.approx(D, rel=1e-13)
     # the model's own start, the same algorithm: the same numbers bit for bit
     np.testing.assert_array_equal(x, m.initial_state())
-    assert rest_state(SDOF(beta=0.02, B=0.01, R=0.8, Delta=-0.2).scene())[0] == -0.2
+    assert rest_state(sdof(beta=0.02, B=0.01, Delta=-0.2, R=0.8))[0] == -0.2
 
 
 def test_held_beam_is_the_constrained_linear_response(fe):

@@ -1,5 +1,4 @@
 """Case validation, the sweep interface and `vibeam run` end to end."""
-import math
 import subprocess
 import sys
 from pathlib import Path
@@ -10,7 +9,9 @@ import pytest
 
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.cli import main
-from vibeam.models import SDOF, linear_amplitude, make_solver
+from vibeam.models import linear_amplitude, make_solver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 from vibeam.io.results import read_results
 from vibeam.engine.sweep import Sweep, run_sweep
 
@@ -104,20 +105,21 @@ def test_cli_exits_nonzero_with_the_message_and_no_traceback(tmp_path):
 
 def test_sweep_both_directions_and_linear_limit():
     """Far from the stop every point of an up/down sweep equals the linear FRC."""
-    m = SDOF(beta=0.05, B=0.01, R=0.8, Delta=10.0)
+    m = sdof(beta=0.05, B=0.01, Delta=10.0, R=0.8)
+    om = one_mode(m)
     Om = np.linspace(0.5, 1.5, 6)
     res = run_sweep(make_solver(m, "event"), Sweep(Omega=Om, direction="both", transient_periods=500,
                                                    record_periods=8), name="lin")
     d = res.data
     assert res.n_points == 12
     assert list(d["direction"][:6]) == ["up"] * 6 and list(d["direction"][6:]) == ["down"] * 6
-    assert np.allclose(d["amplitude"] - m.Delta, linear_amplitude(m.beta, m.B, d["Omega"]), rtol=1e-9)
+    assert np.allclose(d["amplitude"] - om.Delta, linear_amplitude(om.beta, om.B, d["Omega"]), rtol=1e-9)
     assert np.all(d["period"] == -1)
     assert d["strobe"].shape == (12, 8, 2) and d["harmonics"].shape == (12, 6)
 
 
 def test_independent_points_in_a_process_pool_equal_inline():
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    m = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9)
     sw = Sweep(Omega=np.array([1.9, 2.0, 2.1]), transient_periods=300, record_periods=8, continuation=False)
     a = run_sweep(make_solver(m, "event"), sw, jobs=1)
     b = run_sweep(make_solver(m, "event"), sw, jobs=2)

@@ -18,16 +18,18 @@ from vibeam.models import make_solver
 from vibeam.models.compliant import (R_MIN_LINEAR, LinearContact, contact_duration,
                                      damping_ratio_for_restitution, restitution_of_damping_ratio)
 from vibeam.models import BeamEventSolver
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
 from vibeam.models.core.integrator import C_DURATION, C_ENERGY, C_FORCE, C_PENETRATION
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
+from vibeam.models.scene import one_mode
 
 
 def _model(k, R=0.9, beta=0.015, B=0.5e-3, Delta=0.0, zeta=None):
     law = LinearContact.from_restitution(k, R) if zeta is None else LinearContact.from_damping_ratio(k, zeta)
-    return SDOF(beta=beta, B=B, R=R, Delta=Delta, contact=law)
+    return sdof(beta=beta, B=B, Delta=Delta, law=law)
 
 
 # ------------------------------------------------------------------ isolated impacts
@@ -69,8 +71,8 @@ def test_undamped_contact_lasts_pi_over_omega_c(k):
     assert Rk == pytest.approx(1.0, abs=1e-13) and abs(E) < 1e-13
     assert pen == pytest.approx(1.0 / math.sqrt(k), rel=1e-13)       # v / omega_c
     assert fmax == pytest.approx(math.sqrt(k), rel=1e-13)            # k v / omega_c
-    m = SDOF(beta=0.0, B=0.0, R=1.0, Delta=0.0, contact=LinearContact.from_damping_ratio(k, 0.0))
-    tr = EventSolver(m.scene()).point(1.3, np.array([0.0, 1e-2, 0.0]), 0, 4, 32)
+    sc = sdof(beta=0.0, B=0.0, Delta=0.0, law=LinearContact.from_damping_ratio(k, 0.0))
+    tr = EventSolver(sc).point(1.3, np.array([0.0, 1e-2, 0.0]), 0, 4, 32)
     assert tr.contacts.shape[0] >= 3
     np.testing.assert_allclose(tr.contacts[:, C_DURATION], math.pi / math.sqrt(1.0 + k), rtol=1e-12)
 
@@ -110,9 +112,9 @@ def test_event_agrees_with_the_direct_reference(k, W, Delta, B):
     <= 7.3e-11),
     contact records to 1e-6 relative (the reference's event location and dense-output
     maximisation)."""
-    m = _model(k, Delta=Delta, B=B)
-    a = EventSolver(m.scene()).point(W, None, 4, 4, 32)
-    b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
+    sc = _model(k, Delta=Delta, B=B)
+    a = EventSolver(sc).point(W, None, 4, 4, 32)
+    b = DirectSolver(sc).point(W, None, 4, 4, 32)
     scale = np.max(np.abs(a.samples))
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-8 * scale
     assert a.n_impacts == b.n_impacts
@@ -133,16 +135,16 @@ def test_frc_converges_to_the_cor_frc_as_the_stiffness_grows():
     [-0.6, -0.4] at three frequencies (measured -0.50 ... -0.51).  Each compliant point starts
     from the CoR orbit (Omega = 2.6 is multistable: from rest the stiff stop settles on a
     chaotic attractor, confirmed by the direct reference)."""
-    base = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    base = sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
     for W in (1.8, 2.2, 2.6):
-        cor = EventSolver(base.scene()).point(W, None, 600, 16, 64)
+        cor = EventSolver(base).point(W, None, 600, 16, 64)
         Q0 = summarize(cor, 0.0)["amplitude"]
         s0 = cor.final_state.copy()
         s0[2] = 0.0
         errs = []
         ks = np.array([1e5, 1e6, 1e7])
         for k in ks:
-            sm = summarize(EventSolver(_model(k).scene()).point(W, s0, 600, 16, 64), 0.0)
+            sm = summarize(EventSolver(_model(k)).point(W, s0, 600, 16, 64), 0.0)
             assert sm["period"] == 1 and sm["status"] == "ok"
             errs.append(abs(sm["amplitude"] - Q0))
         slope = np.polyfit(np.log10(ks), np.log10(errs), 1)[0]
@@ -365,8 +367,8 @@ def test_physical_scene_outputs_in_si_against_an_si_reference(two):
 
 def test_cor_runs_record_zero_duration_and_the_impact_energy():
     """Newton's law: no duration, no penetration, an impulse (force NaN), energy (1 - R^2) U^2 / 2."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
-    tr = EventSolver(m.scene()).point(2.0, None, 400, 8, 64)
+    sc = sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    tr = EventSolver(sc).point(2.0, None, 400, 8, 64)
     out = summarize(tr, 0.0)
     assert out["contact_duration"] == 0.0 and out["penetration_max"] == 0.0
     assert math.isnan(out["contact_force_max"])
@@ -374,11 +376,11 @@ def test_cor_runs_record_zero_duration_and_the_impact_energy():
     # and the compliant law converges to it
     s0 = tr.final_state.copy()
     s0[2] = 0.0
-    kv = summarize(EventSolver(_model(1e7).scene()).point(2.0, s0, 400, 8, 64), 0.0)
+    kv = summarize(EventSolver(_model(1e7)).point(2.0, s0, 400, 8, 64), 0.0)
     assert kv["energy_per_impact"] == pytest.approx(out["energy_per_impact"], rel=1e-2)
     # the isolated contact's duration (pi - psi) / omega_d (vibeam.models.compliant), to the
     # oscillator's share 1 / k_c and the forcing
-    law = _model(1e7).contact
+    law = _model(1e7).stops[0].law
     assert kv["contact_duration"] == pytest.approx(contact_duration(law.damping_ratio, math.sqrt(1e7)), rel=1e-4)
 
 
@@ -424,9 +426,9 @@ def test_hunt_crossley_event_agrees_with_the_direct_reference(k, W, Delta):
     to 1e-7 relative (measured <= 1.7e-9)."""
     from vibeam.models.compliant import HuntCrossley
 
-    m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=Delta, contact=HuntCrossley(k, 0.9))
-    a = EventSolver(m.scene()).point(W, None, 4, 4, 32)
-    b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
+    sc = sdof(beta=0.015, B=5e-4, Delta=Delta, law=HuntCrossley(k, 0.9))
+    a = EventSolver(sc).point(W, None, 4, 4, 32)
+    b = DirectSolver(sc).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-7 * np.max(np.abs(a.samples))
     n = min(a.contacts.shape[0], b.contacts.shape[0])
@@ -621,11 +623,11 @@ def test_compliant_map_fixed_point_jacobian_and_multipliers(k, W):
       (the divergence of the free and the contact flow), to 1e-10 (measured ~1e-14)."""
     from vibeam.models.mapping import MappingSolver
 
-    m = _model(k)
-    s = MappingSolver(m.scene())
+    sc = _model(k)
+    s = MappingSolver(sc)
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
-    ev = EventSolver(m.scene()).point(W, None, 2000, 8, 64)
+    ev = EventSolver(sc).point(W, None, 2000, 8, 64)
     sm = summarize(ev, 0.0)
     assert sm["period"] == 1
     assert out["amplitude"] == pytest.approx(sm["amplitude"], rel=1e-12)
@@ -638,7 +640,7 @@ def test_compliant_map_fixed_point_jacobian_and_multipliers(k, W):
         a, b = s.evaluate(W, t0 + dt, v0 + dv), s.evaluate(W, t0 - dt, v0 - dv)
         Jfd[:, c] = [(a[0] - b[0]) / (2 * (dt + dv)), (a[1] - b[1]) / (2 * (dt + dv))]
     np.testing.assert_allclose(J, Jfd, rtol=1e-6, atol=1e-6 * np.max(np.abs(J)))
-    det = math.exp(-2 * m.beta * T - m.contact.damping * out["contact_duration"])
+    det = math.exp(-2 * one_mode(sc).beta * T - sc.stops[0].law.damping * out["contact_duration"])
     assert np.linalg.det(J) == pytest.approx(det, rel=1e-10)
     assert np.prod(np.abs(out["multipliers"])) == pytest.approx(det, rel=1e-10)
 

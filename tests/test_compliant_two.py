@@ -16,7 +16,9 @@ from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import make_solver
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.registry import mixed_stops
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
 
@@ -25,8 +27,8 @@ from vibeam.engine.records import summarize
 pytestmark = pytest.mark.slow
 
 
-def _two(law, law_lower=None, Delta=0.002, Delta_lower=0.002, B=5e-3, R=0.8, beta=0.015):
-    return SDOF(beta=beta, B=B, R=R, Delta=Delta, Delta_lower=Delta_lower, contact=law, contact_lower=law_lower)
+def _two(law, law_lower=None, Delta=0.002, Delta_lower=0.002, B=5e-3, beta=0.015):
+    return sdof(beta=beta, B=B, Delta=Delta, law=law, Delta_lower=Delta_lower, lower_law=law_lower)
 
 
 # ------------------------------------------------------------------ event vs direct (SDOF)
@@ -42,9 +44,9 @@ def test_sdof_event_agrees_with_the_direct_reference_on_two_stops(law, law_lower
     1e-11) and 1e-6 for Hunt-Crossley (measured 1.1e-8: the DOPRI5 contact phases' errors
     carried by the free flights, as for one stop), contact records to 1e-6 relative
     (measured <= 2.0e-9)."""
-    m = _two(law, law_lower, Delta, Delta_lower)
-    a = EventSolver(m.scene()).point(W, None, 4, 4, 32)
-    b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
+    sc = _two(law, law_lower, Delta, Delta_lower)
+    a = EventSolver(sc).point(W, None, 4, 4, 32)
+    b = DirectSolver(sc).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower >= 3
     np.testing.assert_array_equal(a.impact_stops, b.impact_stops)
@@ -61,10 +63,10 @@ def test_a_far_lower_stop_gives_the_one_stop_results_identically(law):
     """A lower stop that is never reached leaves every step of the one-stop kernel as it was
     (the free step ends at the upper stop's event): samples, extremes and contact records
     are bit-for-bit those of the one-stop run; no contact on the lower stop."""
-    one = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, contact=law)
-    two = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, Delta_lower=1.0, contact=law)
-    a = EventSolver(one.scene()).point(2.0, None, 8, 8, 32)
-    b = EventSolver(two.scene()).point(2.0, None, 8, 8, 32)
+    one = sdof(beta=0.015, B=5e-4, Delta=0.0, law=law)
+    two = sdof(beta=0.015, B=5e-4, Delta=0.0, law=law, Delta_lower=1.0)
+    a = EventSolver(one).point(2.0, None, 8, 8, 32)
+    b = EventSolver(two).point(2.0, None, 8, 8, 32)
     assert a.n_impacts >= 8 and b.n_impacts_lower == 0 and np.all(b.impact_stops == 0)
     for x, y in ((a.samples, b.samples), (a.contacts, b.contacts), (a.period_min, b.period_min),
                  (a.impact_times, b.impact_times), (a.final_state, b.final_state)):
@@ -80,8 +82,8 @@ def test_symmetric_stops_give_a_symmetric_orbit(law, W):
     (to 1e-9 of the orbit after 300 periods, measured <= 1e-12 for both laws), and each stop
     takes one contact per period with the same entry velocity.  (Hunt-Crossley at k_c = 1e5 is
     not periodic at W = 1.0, hence W = 0.9 there.)"""
-    m = _two(law)
-    t = EventSolver(m.scene()).point(W, None, 300, 4, 32)
+    sc = _two(law)
+    t = EventSolver(sc).point(W, None, 300, 4, 32)
     q = t.samples[:, 0].reshape(4, 32)
     v = t.samples[:, 1].reshape(4, 32)
     tol = 1e-9 * np.max(np.abs(q))
@@ -100,18 +102,18 @@ def test_two_stop_frc_converges_to_the_two_stop_cor_frc():
     over k_c = 1e5 ... 1e7 in [-0.6, -0.4], measured -0.500 and -0.501 at W = 0.7 and 0.9;
     |dQ| / Q = 1.1e-4 and 2.5e-4 at 1e7), and the lower stop's entry velocity tends to the
     CoR's.  Each compliant run starts from the CoR orbit, which hits each stop once per period."""
-    base = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.0025, Delta_lower=0.003)
+    base = sdof(beta=0.015, B=5e-3, R=0.8, Delta=0.0025, Delta_lower=0.003)
     for W in (0.7, 0.9):
-        cor = EventSolver(base.scene()).point(W, None, 300, 8, 64)
-        s_cor = summarize(cor, base.Delta)
+        cor = EventSolver(base).point(W, None, 300, 8, 64)
+        s_cor = summarize(cor, one_mode(base).Delta)
         assert s_cor["period"] == 1 and s_cor["impacts_per_period_lower"] == 1.0
         s0 = cor.final_state.copy()
         s0[2] = 0.0
         errs, ev = [], []
         ks = np.array([1e5, 1e6, 1e7])
         for k in ks:
-            m = _two(LinearContact.from_restitution(k, 0.8), None, 0.0025, 0.003)
-            sm = summarize(EventSolver(m.scene()).point(W, s0, 300, 8, 64), m.Delta)
+            sc = _two(LinearContact.from_restitution(k, 0.8), None, 0.0025, 0.003)
+            sm = summarize(EventSolver(sc).point(W, s0, 300, 8, 64), one_mode(sc).Delta)
             assert sm["status"] == "ok" and sm["period"] == 1 and sm["impacts_per_period_lower"] == 1.0
             errs.append(abs(sm["amplitude"] - s_cor["amplitude"]))
             ev.append(abs(sm["impact_velocity_lower"] - s_cor["impact_velocity_lower"]))

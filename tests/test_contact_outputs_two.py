@@ -15,8 +15,11 @@ import numpy as np
 import pytest
 
 from vibeam.models.compliant import LinearContact
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.contact import Restitution
 from vibeam.models.core.isolated import isolated_contact
+from vibeam.models.scene import one_mode
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import CONTACT_OUTPUTS, CONTACT_OUTPUTS_LOWER, summarize
 
@@ -25,9 +28,8 @@ K_UP, K_LO = 1e4, 3e3
 
 def _kv_two():
     """Upper stop Kelvin-Voigt k_c = 1e4 with target R = 0.8; lower stop undamped, k_c = 3e3."""
-    return SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003,
-                contact=LinearContact.from_restitution(K_UP, 0.8),
-                contact_lower=LinearContact.from_damping_ratio(K_LO, 0.0))
+    return sdof(beta=0.015, B=5e-3, Delta=0.002, law=LinearContact.from_restitution(K_UP, 0.8), Delta_lower=0.003,
+                lower_law=LinearContact.from_damping_ratio(K_LO, 0.0))
 
 
 def test_two_compliant_stops_of_different_stiffness_give_each_stop_its_contact_outputs():
@@ -38,18 +40,19 @@ def test_two_compliant_stops_of_different_stiffness_give_each_stop_its_contact_o
     undamped lower stop takes no energy (its work is round-off, <= 1e-12).  Against the
     solve_ivp reference's rows of the same stop: 1e-6 relative (measured ~1e-9)."""
     m = _kv_two()
-    a = EventSolver(m.scene()).point(1.0, None, 4, 4, 32)
-    b = DirectSolver(m.scene()).point(1.0, None, 4, 4, 32)
+    a = EventSolver(m).point(1.0, None, 4, 4, 32)
+    b = DirectSolver(m).point(1.0, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     np.testing.assert_array_equal(a.contact_stops, b.contact_stops)
-    sa, sb = summarize(a, m.Delta), summarize(b, m.Delta)
+    Delta = one_mode(m).Delta
+    sa, sb = summarize(a, Delta), summarize(b, Delta)
     for k in CONTACT_OUTPUTS + CONTACT_OUTPUTS_LOWER:
         assert sa[k] == pytest.approx(sb[k], rel=1e-6, abs=1e-12), k
     c, ks = b.contacts, b.contact_stops            # the reference's rows, per stop
     up, lo = c[ks == 0], c[ks == 1]
     assert up.shape[0] >= 4 and lo.shape[0] >= 3
     # upper stop: damped, target R = 0.8
-    law = m.contact
+    law = m.stops[0].law
     iso = np.array([isolated_contact(law, v) for v in up[:, 4]])
     assert sa["contact_force_max"] == pytest.approx(np.max(iso[:, 2]), rel=3e-2)
     assert sa["contact_duration"] == pytest.approx(np.mean(iso[:, 1]), rel=3e-2)
@@ -70,9 +73,9 @@ def test_two_restitution_stops_give_each_stop_its_energy_per_impact():
     """Newton's law with R = 0.8 above and R_lower = 0.5 below: the energy lost per impact on
     each stop is the mean of (1 - R_k^2) v_k^2 / 2 over that stop's impacts (the impulse's
     closed form; rel 1e-12, round-off), duration and penetration 0, force NaN (an impulse)."""
-    m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5)
-    t = EventSolver(m.scene()).point(1.0, None, 20, 8, 32)
-    s = summarize(t, m.Delta)
+    m = sdof(beta=0.015, B=5e-3, Delta=0.002, R=0.8, Delta_lower=0.003, lower_law=Restitution(0.5))
+    t = EventSolver(m).point(1.0, None, 20, 8, 32)
+    s = summarize(t, one_mode(m).Delta)
     v, k = t.impact_velocities, t.impact_stops
     assert np.sum(k == 0) >= 8 and np.sum(k == 1) >= 8
     assert s["energy_per_impact"] == pytest.approx(np.mean(0.5 * (1 - 0.8 ** 2) * v[k == 0] ** 2), rel=1e-12)
@@ -82,7 +85,7 @@ def test_two_restitution_stops_give_each_stop_its_energy_per_impact():
         assert math.isnan(s["contact_force_max" + sfx])
 
 
-def _impact_jumps(m, t, Omega, ns, stop):
+def _impact_jumps(sc, t, Omega, ns, stop):
     """Pre- and post-impact speeds of the recorded impacts on ``stop`` (0 upper, 1 lower) from the
     kernel's *samples*, not its impact records: solve_ivp (DOP853, rtol 1e-12) of the free flight
     q'' + 2 beta q' + q = Omega^2 B sin(Omega t) forward from the sample before each impact and
@@ -91,6 +94,7 @@ def _impact_jumps(m, t, Omega, ns, stop):
     ``(t_impact, forward crossing time, backward crossing time, |q'-|, q'+ normal)``."""
     from scipy.integrate import solve_ivp
 
+    m = one_mode(sc)
     T = 2 * math.pi / Omega
     ts = np.arange(t.samples.shape[0]) * T / ns
     F = Omega * Omega * m.B
@@ -135,14 +139,14 @@ def test_each_stop_rebounds_with_its_own_R_in_the_trajectory(mixed):
     upper stop's R (the samples after it then leave at 0.8 v-)."""
     Omega, ns = 1.0, 32
     if mixed:
-        m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5,
-                 contact=LinearContact.from_restitution(1e4, 0.8))
-        t = EventSolver(m.scene()).point(Omega, None, 20, 8, ns)
+        m = sdof(beta=0.015, B=5e-3, Delta=0.002, law=LinearContact.from_restitution(1e4, 0.8), Delta_lower=0.003,
+                 lower_law=Restitution(0.5))
+        t = EventSolver(m).point(Omega, None, 20, 8, ns)
     else:
-        m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5)
-        t = EventSolver(m.scene()).point(Omega, None, 20, 8, ns)
+        m = sdof(beta=0.015, B=5e-3, Delta=0.002, R=0.8, Delta_lower=0.003, lower_law=Restitution(0.5))
+        t = EventSolver(m).point(Omega, None, 20, 8, ns)
     assert t.status == "ok"
-    s = summarize(t, m.Delta)
+    s = summarize(t, one_mode(m).Delta)
     for stop, R, sfx in ((0, 0.8, ""), (1, 0.5, "_lower")):
         if mixed and stop == 0:
             continue                               # the compliant stop: contacts of finite duration
@@ -158,9 +162,9 @@ def test_each_stop_rebounds_with_its_own_R_in_the_trajectory(mixed):
 
 def test_one_stop_results_have_no_lower_contact_outputs():
     """One stop: the unprefixed outputs cover its contacts as before, no ``*_lower`` keys."""
-    m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, contact=LinearContact.from_restitution(1e4, 0.9))
-    t = EventSolver(m.scene()).point(2.0, None, 8, 8, 32)
-    s = summarize(t, m.Delta)
+    m = sdof(beta=0.015, B=5e-4, Delta=0.0, law=LinearContact.from_restitution(1e4, 0.9))
+    t = EventSolver(m).point(2.0, None, 8, 8, 32)
+    s = summarize(t, one_mode(m).Delta)
     assert not any(k in s for k in CONTACT_OUTPUTS_LOWER)
     assert s["energy_per_impact"] == pytest.approx(np.mean(t.contacts[:, 3]), rel=1e-15)
     assert s["contact_force_max"] == np.max(t.contacts[:, 1])

@@ -9,21 +9,29 @@ from scipy.optimize import brentq
 from vibeam.models import linear_amplitude, make_solver, shooting_problem
 from vibeam.models.continuation import (ContinuationError, Settings, start_point, trace)
 from vibeam.models.core.scene_shooting import SceneShooting
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof, sdof_physical
+from vibeam.models.scene import one_mode, with_gap
 from vibeam.models.sdof_averaging import solve as averaging
 from vibeam.engine.records import summarize
 
 TWO_PI = 2 * math.pi
-FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8: fold and grazing in 1.5..2.5
-FIG13 = SDOF(0.015, 0.5e-3, 0.9, 0.5e-3)     # paper Fig. 13: period doubling near 2.28
+FIG8 = sdof(0.015, 0.5e-3, 0.7e-3, 0.9)      # paper Fig. 8: fold and grazing in 1.5..2.5
+FIG13 = sdof(0.015, 0.5e-3, 0.5e-3, 0.9)     # paper Fig. 13: period doubling near 2.28
 FN = 7.6
-RIG_TIGHT = SDOF.from_physical(FN, 0.017, 0.80, -0.1, 180.0, 3.78e-4, 0.6)     # cases/rig-tight.toml
-RIG_STICK = SDOF.from_physical(FN, 0.017, 0.72, -0.1, 180.0, 5.16e-4, 0.35)    # sticks every period
+RIG_TIGHT = sdof_physical(FN, 0.017, -0.1, 180.0, 3.78e-4, 0.6, 0.80)     # cases/rig-tight.toml
+RIG_STICK = sdof_physical(FN, 0.017, -0.1, 180.0, 5.16e-4, 0.35, 0.72)    # sticks every period
+
+
+def _value(sc, key):
+    """The SDOF parameter ``key`` (``beta``, ``B``, ``Delta`` or ``R``, paper Eqs. 1-2) of the scene ``sc``."""
+    om = one_mode(sc)
+    return om.stops[0].law.R if key == "R" else getattr(om, key)
 
 
 def _settled(m, Omega, n_transient=1000):
-    tr = EventSolver(m.scene()).point(Omega, None, n_transient, 16, 8)
-    return tr.final_state[:2], summarize(tr, m.Delta)
+    tr = EventSolver(m).point(Omega, None, n_transient, 16, 8)
+    return tr.final_state[:2], summarize(tr, _value(m, "Delta"))
 
 
 @pytest.fixture(scope="module")
@@ -53,7 +61,7 @@ def _orbit(m, Omega, n, x0=None, periods=3000):
 ORBITS = {
     "period-1": (FIG13, 2.0, 1),
     "period-2": (FIG13, 2.29, 2),           # on the period-2 branch born at 2.2808 (stable there)
-    "two impacts": (SDOF(0.015, 0.5e-3, 0.5, 0.0), 1.0, 1),
+    "two impacts": (sdof(0.015, 0.5e-3, 0.0, 0.5), 1.0, 1),
     "pre-stressed": (RIG_TIGHT, 16.5 / FN, 1),
     "sticking": (RIG_STICK, 15.0 / FN, 1),
 }
@@ -72,8 +80,9 @@ PATHS = {"Omega": "Omega", "B": "system.base_amplitude", "Delta": "stops[0].rela
 
 
 def _problem(m, key, Omega):
-    """The scene's shooting problem of the SDOF ``m`` in its parameter ``key`` at ``Omega``."""
-    return shooting_problem(m, PATHS[key], Omega=Omega, damping=(m.beta, np.array([2.0])) if key == "beta" else None)
+    """The shooting problem of the SDOF scene ``m`` in its parameter ``key`` at ``Omega``."""
+    damping = (_value(m, "beta"), np.array([2.0])) if key == "beta" else None
+    return shooting_problem(m, PATHS[key], Omega=Omega, damping=damping)
 
 
 class EveryDirection(SceneShooting):
@@ -118,9 +127,9 @@ def test_monodromy_and_parameter_derivatives_against_central_differences(name):
         e[j] = h
         Mfd[:, j] = (pr.shot(x + e, Omega, n).x - pr.shot(x - e, Omega, n).x) / (2 * h)
     assert np.max(np.abs(Mfd - s.M)) <= 1e-7 * max(1.0, np.max(np.abs(s.M)))
-    every = EveryDirection(m.scene(), "Omega").shot(x, Omega, n).extra["x_all_p"]
+    every = EveryDirection(m, "Omega").shot(x, Omega, n).extra["x_all_p"]
     for key in PARAMETERS:
-        val = Omega if key == "Omega" else getattr(m, key)
+        val = Omega if key == "Omega" else _value(m, key)
         pp = _problem(m, key, Omega)
         hp = 1e-6 * max(abs(val), 1e-3)
         fd = (pp.shot(x, val + hp, n).x - pp.shot(x, val - hp, n).x) / (2 * hp)
@@ -135,7 +144,7 @@ def test_det_monodromy_is_R_to_2m_times_damping(name):
     """Liouville with the saltation matrices: det M = R^(2m) exp(-2 beta n T) (d = 2)."""
     m, Omega, n = ORBITS[name]
     _, s = _orbit(m, Omega, n, GUESS.get(name))
-    expected = m.R ** (2 * s.n_impacts) * math.exp(-2 * m.beta * n * TWO_PI / Omega)
+    expected = _value(m, "R") ** (2 * s.n_impacts) * math.exp(-2 * _value(m, "beta") * n * TWO_PI / Omega)
     assert np.linalg.det(s.M) == pytest.approx(expected, rel=1e-10)
 
 
@@ -143,7 +152,7 @@ def test_det_monodromy_along_a_whole_branch(fig8_branch):
     b = fig8_branch[0]
     for pt in b.points:
         T = TWO_PI / pt.p
-        expected = FIG8.R ** (2 * pt.shot.n_impacts) * math.exp(-2 * FIG8.beta * T)
+        expected = _value(FIG8, "R") ** (2 * pt.shot.n_impacts) * math.exp(-2 * _value(FIG8, "beta") * T)
         # grows with the condition of M near the grazing (|mu| up to ~1e5): relative to |M|^2
         assert abs(np.linalg.det(pt.shot.M) - expected) <= 1e-12 * max(1.0, np.max(np.abs(pt.shot.M)) ** 2)
 
@@ -177,10 +186,11 @@ def test_grazing_where_the_linear_amplitude_equals_the_gap():
     x0, why = pr.start("linear", 2.5)
     assert why == ""
     (b,) = trace(pr, x0, 2.5, 1, 1.5, 2.5, -1)
-    Wg = brentq(lambda W: linear_amplitude(FIG8.beta, FIG8.B, W) - FIG8.Delta, 1.5, 2.5, xtol=1e-15)
+    beta, B, Delta = (_value(FIG8, k) for k in ("beta", "B", "Delta"))
+    Wg = brentq(lambda W: linear_amplitude(beta, B, W) - Delta, 1.5, 2.5, xtol=1e-15)
     g = [f for f in b.bifurcations if f.type == "grazing"]
     assert len(g) == 1 and abs(g[0].parameter - Wg) < 1e-8
-    assert g[0].amplitude == pytest.approx(2 * FIG8.Delta, rel=1e-6)   # Q = Delta + C = 2 Delta
+    assert g[0].amplitude == pytest.approx(2 * Delta, rel=1e-6)   # Q = Delta + C = 2 Delta
     a = b.arrays()
     assert b.status == "range_end" and a["impacts"][0] == 0 and a["impacts"][-1] == 1
     assert [f.type for f in b.bifurcations] == ["grazing", "fold"]
@@ -190,7 +200,7 @@ def test_grazing_in_the_gap_at_fixed_frequency():
     """Continuation in Delta of the non-impacting orbit: grazing at Delta = C(Omega)."""
     Omega = 2.3
     pr = shooting_problem(FIG8, "stops[0].relation.offset", Omega=Omega)
-    C = float(linear_amplitude(FIG8.beta, FIG8.B, Omega))
+    C = float(linear_amplitude(_value(FIG8, "beta"), _value(FIG8, "B"), Omega))
     x0, why = pr.start("linear", 2 * C)
     branches = trace(pr, x0, 2 * C, 1, 0.5 * C, 2 * C, -1)
     g = [f for f in branches[0].bifurcations if f.type == "grazing"]
@@ -235,7 +245,7 @@ def test_period_doubling_cascade_and_stable_period2_equals_simulation(fig13_bran
     k = int(np.argmin(np.abs(a["parameter"] - 2.29)))
     assert a["stable"][k]
     W, x = a["parameter"][k], a["state"][k]
-    tr = EventSolver(FIG13.scene()).point(W, np.r_[x * (1 + 1e-4), 0.0], 3000, 4, 8)
+    tr = EventSolver(FIG13).point(W, np.r_[x * (1 + 1e-4), 0.0], 3000, 4, 8)
     assert np.max(np.abs(tr.final_state[:2] - x)) < 1e-10 * np.max(np.abs(x)) or \
         np.max(np.abs(tr.strobe[1] - x)) < 1e-10 * np.max(np.abs(x))   # either phase of the orbit
     # the PD cascade of the Fig. 13 scene accumulates (Feigenbaum): successive gaps shrink
@@ -251,14 +261,14 @@ def test_stable_branch_points_equal_long_event_simulations(fig8_branch):
     stable_idx = np.flatnonzero(a["stable"] & (a["impacts"] == 1))
     for k in stable_idx[:: max(1, len(stable_idx) // 6)]:
         W, x = a["parameter"][k], a["state"][k]
-        tr = EventSolver(FIG8.scene()).point(W, np.r_[x * (1 + 1e-6), 0.0], 2000, 2, 8)
+        tr = EventSolver(FIG8).point(W, np.r_[x * (1 + 1e-6), 0.0], 2000, 2, 8)
         assert np.max(np.abs(tr.final_state[:2] - x)) < 1e-8 * np.max(np.abs(x))
         assert tr.q_min == pytest.approx(a["q_min"][k], rel=1e-8)
     # a clearly unstable point (largest multiplier ~2): round-off grows like 2^periods
     mu = np.max(np.abs(a["multipliers"]), axis=1)
     k = int(np.argmin(np.abs(mu - 2.0)))
     assert not a["stable"][k] and 1.5 < mu[k] < 3
-    tr = EventSolver(FIG8.scene()).point(a["parameter"][k], np.r_[a["state"][k], 0.0], 2000, 2, 8)
+    tr = EventSolver(FIG8).point(a["parameter"][k], np.r_[a["state"][k], 0.0], 2000, 2, 8)
     assert np.max(np.abs(tr.final_state[:2] - a["state"][k])) > 1e-6
 
 
@@ -279,7 +289,7 @@ def test_fold_lies_between_the_jumps_of_fine_up_and_down_sweeps(fig8_branch):
     for W in np.arange(1.975, 1.99, 1e-4):
         tr = solver.point(W, state, 2000, 4, 8)
         state = tr.final_state
-        up.append((W, FIG8.Delta - tr.q_min))
+        up.append((W, _value(FIG8, "Delta") - tr.q_min))
     upper = [W for W, Q in up if Q > 3e-3]        # upper branch: Q > 6e-3; linear: Q ~ 1.3e-3
     assert upper[-1] <= W_fold < min(W for W, Q in up if Q <= 3e-3)
     state = None
@@ -288,7 +298,7 @@ def test_fold_lies_between_the_jumps_of_fine_up_and_down_sweeps(fig8_branch):
         tr = solver.point(W, state if state is not None else np.r_[shooting_problem(FIG8).start("linear", W)[0], 0.0],
                           600, 4, 8)
         state = tr.final_state
-        down.append((W, FIG8.Delta - tr.q_min))
+        down.append((W, _value(FIG8, "Delta") - tr.q_min))
     lin = [W for W, Q in down if Q < 3e-3]
     assert min(lin) >= W_graze > max(W for W, Q in down if Q >= 3e-3)
     assert min(lin) - W_graze < 1.5e-4
@@ -308,7 +318,7 @@ def test_rig_tight_fold_brackets_the_down_sweep_jump():
     for f in np.arange(16.40, 16.10, -0.005):
         tr = solver.point(f / FN, state, 600, 16, 8)
         state = tr.final_state
-        if summarize(tr, RIG_TIGHT.Delta)["period"] == 1:
+        if summarize(tr, _value(RIG_TIGHT, "Delta"))["period"] == 1:
             last_p1 = f
         else:
             first_other = f
@@ -320,13 +330,13 @@ def test_branch_agrees_with_averaging_at_R_1_near_Omega_2():
     """R = 1 (paper Fig. 11 scene): first-order averaging is exact to O(beta, B) at Omega = 2
     (measured 3e-5) and its error grows with the detuning sigma = Omega/2 - 1 (first order:
     measured 0.3 % at |sigma| = 0.025, 0.7 % at 0.05): |Q - Q_avg| / Q <= 1e-4 + 0.2 |sigma|."""
-    m = SDOF(0.015, 0.5e-3, 1.0, 0.0)
+    m = sdof(0.015, 0.5e-3, 0.0, 1.0)
     pr = shooting_problem(m, "Omega")
     x0, why = pr.start("averaging", 2.0)
     (b,) = trace(pr, x0, 2.0, 1, 1.9, 2.1, 0)
     a = b.arrays()
     W, Q = a["parameter"], a["amplitude"]
-    Qa = averaging(W, m.beta, m.B, m.R, m.Delta, 1)["amplitude"]
+    Qa = averaging(W, _value(m, "beta"), _value(m, "B"), _value(m, "R"), _value(m, "Delta"), 1)["amplitude"]
     sigma = np.abs(W / 2 - 1)
     assert W.min() == pytest.approx(1.9) and W.max() == pytest.approx(2.1)
     assert np.all(np.abs(Q - Qa) / Q <= 1e-4 + 0.2 * sigma)
@@ -393,20 +403,19 @@ def test_bad_requests():
 def test_two_parameter_period_doubling_curve(fig13_branches):
     """The period doubling of Fig. 13 continued in (Omega, Delta): a point of the curve is the
     period doubling of a one-parameter continuation at that Delta (to 1e-8)."""
-    from dataclasses import replace as dc_replace
     from vibeam.models.continuation import trace_curve
 
     def factory(free, fixed):
         if free == "p1":
-            return shooting_problem(dc_replace(FIG13, Delta=fixed), "Omega")
+            return shooting_problem(with_gap(FIG13, fixed), "Omega")
         return shooting_problem(FIG13, "stops[0].relation.offset", Omega=fixed)
 
     bf = [f for f in fig13_branches[0].bifurcations if f.type == "period_doubling"][0]
-    c = trace_curve(factory, bf, FIG13.Delta, (1.5, 2.5), (0.4e-3, 0.6e-3), max_points=16)
+    c = trace_curve(factory, bf, _value(FIG13, "Delta"), (1.5, 2.5), (0.4e-3, 0.6e-3), max_points=16)
     assert c.type == "period_doubling" and len(c.p1) >= 5
     assert min(c.p2) < 0.45e-3 and max(c.p2) > 0.55e-3          # both halves went somewhere
-    k = int(np.argmax(np.abs(np.asarray(c.p2) - FIG13.Delta)))
-    m = dc_replace(FIG13, Delta=c.p2[k])
+    k = int(np.argmax(np.abs(np.asarray(c.p2) - _value(FIG13, "Delta"))))
+    m = with_gap(FIG13, c.p2[k])
     pr = shooting_problem(m)
     pt, why = start_point(pr, c.x[k], c.p1[k] - 0.01, 1, 1.5, 2.5)
     assert pt is not None, why
@@ -443,7 +452,7 @@ def test_the_compiled_corrector_serves_a_frequency_continuation(fidelity, monkey
 
     monkeypatch.setattr(ModalShooting, "correct", counting)
     if fidelity == "sdof":
-        m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+        m = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9)
         prob, W0, W1 = shooting_problem(m), 1.5, 1.7
         x0 = _settled(m, W0)[0]
     else:
@@ -515,12 +524,12 @@ def test_the_parameter_derivatives_do_not_depend_on_the_order_of_the_directions(
     scale)."""
     m, Omega, n = ORBITS["two impacts"]
     x, s = _orbit(m, Omega, n, None)
-    usual = EveryDirection(m.scene(), "Omega").shot(x, Omega, n).extra["x_all_p"]
+    usual = EveryDirection(m, "Omega").shot(x, Omega, n).extra["x_all_p"]
 
     class Reversed(EveryDirection):
         reverse = True
 
-    pr = Reversed(m.scene(), "Omega")
+    pr = Reversed(m, "Omega")
     got = pr.shot(x, Omega, n)
     assert got.status == "ok" and got.n_impacts == s.n_impacts
     scale = max(np.max(np.abs(usual)), np.max(np.abs(x)))

@@ -28,10 +28,12 @@ from scipy.optimize import brentq
 from vibeam.case.beamscene import derive
 from vibeam.case.schema import load_case, parse_case
 from vibeam.cli import main
-from vibeam.models import SDOF, shooting_problem
+from vibeam.models import shooting_problem
 from vibeam.models import BeamEventSolver, make_solver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 from vibeam.models.system import modal_flow
-from vibeam.models.continuation import Settings, start_point, trace
+from vibeam.models.continuation import Settings, trace
 from vibeam.engine.records import summarize
 from vibeam.runner import run_case
 from vibeam.io.results import read_results
@@ -87,6 +89,12 @@ def _bifs(r, kind=None):
 
 
 # ------------------------------------------------------------------ one mode = SDOF
+def _parameters(sc):
+    """``beta``, ``B``, ``R`` and ``Delta`` of the SDOF oscillator's scene ``sc``."""
+    o = one_mode(sc)
+    return {"beta": o.beta, "B": o.B, "R": sc.stops[0].law.R, "Delta": o.Delta}
+
+
 def _one_dof(m, name):
     """The SDOF oscillator (paper Eqs. 1-2) of a one-mode beam model and the maps between them.
 
@@ -100,15 +108,16 @@ def _one_dof(m, name):
     (k,), (c,) = m.k_nd, m.c_nd
     (w,), (G,), (s,) = m.contact_row, m.participation, m.sensor_row
     a = w / (m.phi_at_mass * m.length_m)
-    sd = SDOF(beta=c / (2 * math.sqrt(k)), B=w * G * m.base_amplitude_m / (m.phi_at_mass * m.length_m),
-              R=m.R, Delta=m.Delta)
+    sd = sdof(beta=c / (2 * math.sqrt(k)), B=w * G * m.base_amplitude_m / (m.phi_at_mass * m.length_m),
+              Delta=m.Delta, R=m.R)
     fn = m.f_ref_hz * math.sqrt(k)
     if name.startswith("static"):
         spec = _case("rig-fe-tight-continuation").model_spec({"n_modes": "static"})
         red = derive(spec)["reduction"]
-        ref = SDOF(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, R=spec.R, Delta=red.Delta)
+        ref = sdof(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, Delta=red.Delta, R=spec.R)
+        got, want = _parameters(sd), _parameters(ref)
         for key in ("beta", "B", "R", "Delta"):
-            assert getattr(sd, key) == pytest.approx(getattr(ref, key), rel=1e-12)
+            assert got[key] == pytest.approx(want[key], rel=1e-12)
         assert fn == pytest.approx(red.f_n_hz, rel=1e-12)
         sd, fn = ref, red.f_n_hz
     r = s / (m.length_m * a)

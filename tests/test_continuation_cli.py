@@ -1,18 +1,15 @@
 """Continuation runs in the framework: case files, `vibeam run` / `vibeam continue`, the HDF5
 layout, physical keys (chain rule), two-parameter curves against closed forms, bad requests."""
-import math
-
 import h5py
 import numpy as np
 import pytest
-from scipy.optimize import brentq
 
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.cli import main
 from vibeam.models import linear_amplitude, shooting_problem
 from vibeam.models.continuation import trace
 from vibeam.models.core.scene_shooting import SceneShooting
-from vibeam.models.sdof import SDOF
+from vibeam.models.builders.sdof import sdof_physical
 from vibeam.io.results import read_results
 
 FIG8 = """
@@ -245,10 +242,10 @@ curve_points = 40
     c = fold[0]
     k = len(c["parameter"]) // 2
     gap_k, W_k = float(c["gap_mm"][k]), float(c["parameter"][k])
-    m = SDOF.from_physical(7.6, 0.017, 0.72, gap_k, 180.0, 5.16e-4, 0.6)
+    m = sdof_physical(7.6, 0.017, gap_k, 180.0, 5.16e-4, 0.6, 0.72)
     pr = shooting_problem(m, "Omega")
     from vibeam.models import EventSolver
-    tr = EventSolver(m.scene()).point(14 / 7.6, None, 1000, 4, 8)
+    tr = EventSolver(m).point(14 / 7.6, None, 1000, 4, 8)
     bs = trace(pr, tr.final_state[:2], 14 / 7.6, 1, 14 / 7.6, 16 / 7.6, +1)
     folds = [f.parameter for b in bs for f in b.bifurcations if f.type == "fold"]
     assert folds and min(abs(f - W_k) for f in folds) < 1e-8

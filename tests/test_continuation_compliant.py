@@ -2,7 +2,6 @@
 (vibeam.models.core.shooting, served by the scene's SceneShooting) against finite differences, the event kernel, the
 entry-to-entry map of Sec. 4.2, Liouville's formula, the CoR limit and the command line."""
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -11,26 +10,29 @@ from vibeam.case.schema import CaseError, parse_case
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models import shooting_problem
 from vibeam.models.compliant import HuntCrossley, LinearContact
-from vibeam.models.continuation import start_point, trace
-from vibeam.models import SDOF, EventSolver
+from vibeam.models.continuation import trace
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 from vibeam.engine.records import summarize
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop
 # kernels are compiled by these tests alone (~4 min of cold compile on 2 cores); .ci/run runs them
 pytestmark = pytest.mark.slow
 
-FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8: fold and grazing in 1.5..2.5 (CoR)
+FIG8 = dict(beta=0.015, B=0.5e-3, Delta=0.7e-3)      # paper Fig. 8: fold and grazing in 1.5..2.5 (CoR, R = 0.9)
+NEUTRAL = dict(beta=0.015, B=0.5e-3, Delta=0.0)     # the same at Delta = 0
 FOLD_COR = 1.9850022038952106                # its CoR fold (tests/test_continuation.py branch)
 
 
-def _kv(m, k, R=0.9):
-    return replace(m, contact=LinearContact.from_restitution(k, R))
+def _kv(p, k, R=0.9):
+    return sdof(**p, law=LinearContact.from_restitution(k, R))
 
 
-def _settled(m, Omega, periods=1500, x0=None):
+def _settled(sc, Omega, periods=1500, x0=None):
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = EventSolver(m.scene()).point(Omega, s0, periods, 16, 16)
-    return np.asarray(tr.final_state[:2], float), summarize(tr, m.Delta)
+    tr = EventSolver(sc).point(Omega, s0, periods, 16, 16)
+    return np.asarray(tr.final_state[:2], float), summarize(tr, one_mode(sc).Delta)
 
 
 @pytest.fixture(scope="module")
@@ -45,11 +47,11 @@ def fig8_kv():
 
 # ------------------------------------------------------------------ exact derivatives
 CASES = {
-    "one contact, Delta = 0": (SDOF(0.015, 0.5e-3, 0.9, 0.0), 1e4, 2.2, 1, None),
+    "one contact, Delta = 0": (NEUTRAL, 1e4, 2.2, 1, None),
     "Fig. 8 gap, upper branch": (FIG8, 1e4, 1.9, 1, None),
-    "period 2 (two contacts), soft": (SDOF(0.015, 0.5e-3, 0.9, 0.0), 1e4, 2.8, 2, None),
+    "period 2 (two contacts), soft": (NEUTRAL, 1e4, 2.8, 2, None),
     "stiff stop": (FIG8, 1e6, 1.8, 1, None),
-    "in contact at the section": (SDOF(0.015, 0.5e-3, 0.9, 0.0), 1e2, 2.9, 2, None),   # period 2
+    "in contact at the section": (NEUTRAL, 1e2, 2.9, 2, None),   # period 2
 }
 
 
@@ -98,12 +100,12 @@ def test_liouville_and_the_map_of_sec_4_2(fig8_kv):
 
     m, brs = fig8_kv
     b = brs[0]
-    cc = m.contact.damping
+    cc = m.stops[0].law.damping
     for pt in b.points:
         T = 2 * math.pi / pt.p
-        det = math.exp(-2 * m.beta * T - cc * pt.shot.extra["contact_time"])
+        det = math.exp(-2 * one_mode(m).beta * T - cc * pt.shot.extra["contact_time"])
         assert np.linalg.det(pt.shot.M) == pytest.approx(det, rel=1e-10)
-    ms = MappingSolver(m.scene())
+    ms = MappingSolver(m)
     checked = 0
     for pt in b.points[::40]:
         if pt.shot.n_impacts != 1 or not np.max(np.abs(pt.mu)) < 1.0:
@@ -207,7 +209,7 @@ def test_registry_dispatch_and_case_validation(monkeypatch):
     with pytest.raises(CaseError, match="allowed: event, direct, mapping$"):
         parse_case(hc)
     with pytest.raises(ValueError, match="no shooting problem registered"):
-        shooting_problem(replace(m, contact=HuntCrossley(1e6, 0.9)), "Omega")
+        shooting_problem(sdof(**NEUTRAL, law=HuntCrossley(1e6, 0.9)), "Omega")
 
 
 def test_vibeam_continue_end_to_end(tmp_path):
@@ -225,7 +227,7 @@ def test_vibeam_continue_end_to_end(tmp_path):
     m = parse_case(CASE).model_spec().build()
     i = int(np.flatnonzero(np.asarray(b["stable"]))[-1])
     x = np.asarray(b["state"][i], float)
-    _, sm = _settled(m, float(b["parameter"][i]), 1500, x0=x * 1.01)
+    _, sm = _settled(m.scene(), float(b["parameter"][i]), 1500, x0=x * 1.01)
     assert sm["amplitude"] == pytest.approx(float(b["amplitude"][i]), rel=1e-9)
 
 
@@ -287,9 +289,9 @@ def _one_dof(m):
     a = w / (m.phi_at_mass * m.length_m)
     sk = math.sqrt(k)
     kc = m.contact.stiffness / m.omega_ref ** 2
-    sd = SDOF(beta=c / (2 * sk), B=w * G * m.base_amplitude_m / (m.phi_at_mass * m.length_m), R=m.R,
+    sd = sdof(beta=c / (2 * sk), B=w * G * m.base_amplitude_m / (m.phi_at_mass * m.length_m),
               Delta=a * m.gap_contact_m / w,
-              contact=LinearContact.from_damping_ratio(w * w * kc / k, m.contact.damping_ratio))
+              law=LinearContact.from_damping_ratio(w * w * kc / k, m.contact.damping_ratio))
     return sd, sk, (lambda x: np.array([a * x[0], a * x[1] / sk]))
 
 
@@ -361,7 +363,7 @@ def test_hunt_crossley_shot_against_differences_and_the_kernel():
     Delta) agree with central differences (step 1e-5, larger than the integrator's noise
     1e-12 / 1e-5; tolerance 1e-6 of each column, measured ~1e-9)."""
 
-    m = replace(FIG8, contact=HuntCrossley(1e6, 0.9))
+    m = sdof(**FIG8, law=HuntCrossley(1e6, 0.9))
     W = 1.9
     x0, sm = _settled(m, W, 1500)
     assert sm["period"] == 1
@@ -383,7 +385,7 @@ def test_hunt_crossley_shot_against_differences_and_the_kernel():
                 col = (prob.shot(x0, p + h, 1).x - prob.shot(x0, p - h, 1).x) / (2 * h)
             assert np.max(np.abs(A[:, c] - col)) < 1e-6 * np.max(np.abs(A[:, c]))
     # a section inside the stop is not a state of this law: a status, not a crash
-    s = shooting_problem(m).shot(np.array([m.Delta + 1e-6, 0.01]), W, 1)
+    s = shooting_problem(m).shot(np.array([one_mode(m).Delta + 1e-6, 0.01]), W, 1)
     assert s.status == "failed" and "inside the stop" in s.message
 
 
@@ -395,7 +397,7 @@ def test_hunt_crossley_branch_fold_grazing_and_event_runs():
     measured ~1e-10)."""
     from vibeam.models.continuation import Settings
 
-    m = replace(FIG8, contact=HuntCrossley(1e6, 0.9))
+    m = sdof(**FIG8, law=HuntCrossley(1e6, 0.9))
     x0, _ = _settled(m, 1.8, 1500)
     b = trace(shooting_problem(m), x0, 1.8, 1, 1.8, 2.1, +1, Settings(switch=False))[0]
     assert b.status == "range_end"
@@ -416,14 +418,15 @@ def test_continuation_in_the_laws_restitution_and_the_damping(law):
     refused for compliant laws: the contact phases then carry their variational equations (the
     Runge-Kutta pair; M and d/dp against central differences of the shot, step 1e-5, tolerance
     1e-6 of each column, the Hunt-Crossley checks' above)."""
-    m = replace(FIG8, contact=law)
+    m = sdof(**FIG8, law=law)
+    o = one_mode(m)
     W = 1.9
     x0 = _settled(m, W, 400)[0] * (1.0 + 1e-3)
     for par in ("stops[0].law.R", "system.damping"):
         # beta along c = 2 beta (paper Eq. 1)
-        prob = shooting_problem(m, par, Omega=W, damping=(m.beta, np.array([2.0])) if par == "system.damping" else None)
+        prob = shooting_problem(m, par, Omega=W, damping=(o.beta, np.array([2.0])) if par == "system.damping" else None)
         p = prob.value
-        assert p == (law.R if par == "stops[0].law.R" else m.beta)
+        assert p == (law.R if par == "stops[0].law.R" else o.beta)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1, s.message
         A = np.column_stack([s.M, s.x_p])

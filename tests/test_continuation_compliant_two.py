@@ -2,7 +2,6 @@
 problem of vibeam.models.core.shooting (the scene's SceneShooting with a lower stop) against
 finite differences, Liouville's formula, the two-stop event kernel, the one-stop problem and
 the mirror symmetry of a symmetric scene."""
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -10,27 +9,29 @@ import pytest
 from vibeam.models import shooting_problem, make_solver
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import Settings, start_point, trace
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 from vibeam.engine.records import summarize
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop
 # kernels are compiled by these tests alone (~4 min of cold compile on 2 cores); .ci/run runs them
 pytestmark = pytest.mark.slow
 
-FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8 scene
+FIG8 = dict(beta=0.015, B=0.5e-3, Delta=0.7e-3)      # paper Fig. 8 scene (its Newton stop: R = 0.9)
 
 
-def _kv(m, k, Delta_lower, R=0.9):
-    return replace(m, contact=LinearContact.from_restitution(k, R), Delta_lower=Delta_lower)
+def _kv(p, k, Delta_lower, R=0.9, lower_law=None):
+    return sdof(**p, law=LinearContact.from_restitution(k, R), Delta_lower=Delta_lower, lower_law=lower_law)
 
 
 TWO = _kv(FIG8, 1e4, 0.9e-3)                                   # contacts on both stops each period
-SOFT = _kv(SDOF(0.015, 0.5e-3, 0.9, 0.2e-3), 1e2, 0.3e-3)     # soft, long contacts, 2-3 per period
+SOFT = _kv(dict(beta=0.015, B=0.5e-3, Delta=0.2e-3), 1e2, 0.3e-3)     # soft, long contacts, 2-3 per period
 
 
 def _settled(m, Omega, periods=1500, x0=None):
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = EventSolver(m.scene()).point(Omega, s0, periods, 16, 16)
+    tr = EventSolver(m).point(Omega, s0, periods, 16, 16)
     return np.asarray(tr.final_state[:2], float), tr
 
 
@@ -40,8 +41,8 @@ CASES = {
     "soft, three contacts": (SOFT, 2.0, 1, None),
     "soft, period 2": (SOFT, 2.9, 2, None),
     "in contact with the lower stop at the section": (SOFT, 2.9, 1, (-0.3e-3 - 2e-5, -1e-4)),
-    "a lower stop with its own law": (replace(TWO, contact_lower=LinearContact.from_restitution(3e3, 0.7)), 1.9, 1,
-                                      None),
+    "a lower stop with its own law": (_kv(FIG8, 1e4, 0.9e-3, lower_law=LinearContact.from_restitution(3e3, 0.7)),
+                                      1.9, 1, None),
 }
 
 
@@ -96,8 +97,8 @@ def test_liouville(name):
     s = prob.shot(x, W, n)
     e = s.extra
     assert e["contact_time_upper"] > 0.0 and e["contact_time_lower"] > 0.0
-    low = m.stops()[1].law     # the lower stop's law
-    want = np.exp(-2 * m.beta * n * 2 * np.pi / W - m.contact.damping * e["contact_time_upper"]
+    low = m.stops[1].law     # the lower stop's law
+    want = np.exp(-2 * one_mode(m).beta * n * 2 * np.pi / W - m.stops[0].law.damping * e["contact_time_upper"]
                   - low.damping * e["contact_time_lower"])
     assert abs(np.linalg.det(s.M) / want - 1.0) < 1e-12
 
@@ -123,13 +124,13 @@ def test_branch_points_equal_event_runs(two_branch):
         W, x = a["parameter"][i], a["state"][i]
         y, tr = _settled(TWO, W, 1500, x)
         assert np.max(np.abs(y - x)) < 1e-9 * np.max(np.abs(x)), (W, x, y)
-        rec = summarize(tr, TWO.Delta)
+        rec = summarize(tr, one_mode(TWO).Delta)
         assert tr.n_impacts == 32 and np.sum(tr.impact_stops == 1) == 16
         assert rec["q_max"] == pytest.approx(a["q_max"][i], rel=1e-9)
 
 
 #: a lower stop of its own law: softer (k_l = 3e3 against 1e4) and lossier (R_l = 0.7 against 0.9)
-OWN = replace(TWO, contact_lower=LinearContact.from_restitution(3e3, 0.7))
+OWN = _kv(FIG8, 1e4, 0.9e-3, lower_law=LinearContact.from_restitution(3e3, 0.7))
 
 
 def _event_map_jacobian(solver, W, x, phase=0.0, rel=1e-5):
@@ -197,8 +198,9 @@ def test_far_lower_stop_gives_the_one_stop_branch():
     """A lower stop the orbit never reaches changes nothing: the two-stop problem's free steps
     run the one-stop step up to the same step ends, so the branch agrees with the one-stop
     branch to round-off (measured: bit for bit in states and multipliers)."""
-    one = replace(FIG8, contact=LinearContact.from_restitution(1e4, 0.9))
-    far = replace(one, Delta_lower=1.0)
+    law = LinearContact.from_restitution(1e4, 0.9)
+    one = sdof(**FIG8, law=law)
+    far = sdof(**FIG8, law=law, Delta_lower=1.0)
     x0, _ = _settled(one, 2.3)
     b1 = trace(shooting_problem(one), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
     b2 = trace(shooting_problem(far), x0, 2.3, 1, 2.0, 2.5, +1, Settings(max_points=12))[0].arrays()
@@ -213,7 +215,7 @@ def test_symmetric_stops_give_a_symmetric_orbit():
     """Delta_lower = Delta and the same law: the period-1 orbit is invariant under (q, t) ->
     (-q, t + T/2), so q_min = -q_max and the upper and lower contacts have the same entry
     velocity, duration, peak force, penetration and energy (relative 1e-9: Newton tolerance)."""
-    m = _kv(FIG8, 1e4, FIG8.Delta)
+    m = _kv(FIG8, 1e4, FIG8["Delta"])
     x0, _ = _settled(m, 1.9)
     prob = shooting_problem(m)
     pt, why = start_point(prob, x0, 1.9, 1, 1.5, 2.5)
@@ -236,8 +238,8 @@ def test_hertz_stops_are_continued_with_exact_jacobians():
     once refused, are one shooting problem (the integrator's Runge-Kutta contact phases with their
     variational equations): M and d/dOmega against central differences of the shot (step 1e-5,
     tolerance 1e-6 of each column, the Hunt-Crossley checks' of tests/test_continuation_compliant.py)."""
-    for m, W in ((replace(FIG8, contact=HuntCrossley(1e4, 0.9), Delta_lower=0.9e-3), 2.0),
-                 (replace(TWO, contact_lower=HuntCrossley(1e4, 0.9)), 2.0)):
+    for m, W in ((sdof(**FIG8, law=HuntCrossley(1e4, 0.9), Delta_lower=0.9e-3), 2.0),
+                 (_kv(FIG8, 1e4, 0.9e-3, lower_law=HuntCrossley(1e4, 0.9)), 2.0)):
         prob = shooting_problem(m, "Omega")
         x = _settled(m, W, 400)[0] * (1.0 + 1e-3)
         s = prob.shot(x, W, 1)
@@ -405,8 +407,6 @@ def test_beam_own_lower_law_branch_equals_event_runs_and_map_jacobian():
     * Floquet multipliers = eigenvalues of a central-difference Jacobian of the kernel's
       one-period map (step 1e-5 relative; measured <= 1.2e-9 of max|mu|; bound 1e-6).
     Both fail if the shooting problem's lower stop takes the upper law."""
-    from vibeam.models import BeamEventSolver
-
     m = _rig2(2, lower={"law": "linear", "stiffness_n_m": 3e4, "damping_ratio": 0.15})
     up, lo = (st.law for st in m.stops())
     assert (lo.stiffness, lo.damping_ratio) == (3e4, 0.15) and up.stiffness == 1e5
@@ -470,14 +470,14 @@ def test_vibeam_continue_beam_two_stops(tmp_path):
 
 # ------------------------------------------------------------------ Newton above a compliant stop
 #: a Newton upper stop (R = 0.9, [model] R) above a Kelvin-Voigt lower one of its own (k 1e4, R 0.7)
-NEWTON_ABOVE = replace(FIG8, Delta_lower=0.9e-3, contact_lower=LinearContact.from_restitution(1e4, 0.7))
+NEWTON_ABOVE = sdof(**FIG8, R=0.9, Delta_lower=0.9e-3, lower_law=LinearContact.from_restitution(1e4, 0.7))
 
 
 def _settled_any(m, W, periods, x0=None):
     from vibeam.models import EventSolver
 
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = EventSolver(m.scene()).point(W, s0, periods, 16, 16)
+    tr = EventSolver(m).point(W, s0, periods, 16, 16)
     return np.asarray(tr.final_state[:2], float), tr
 
 
@@ -496,8 +496,8 @@ def test_newton_above_compliant_shot_jacobian_and_liouville():
         _check_shot_jacobian(m, par, W, x, 1)
     s = shooting_problem(m).shot(x, W, 1)
     m_up = int(np.sum(np.asarray(s.extra["impact_stops"]) == 0))
-    want = m.R ** (2 * m_up) * np.exp(-2 * m.beta * 2 * np.pi / W
-                                      - m.lower_law.damping * s.extra["contact_time_lower"])
+    want = m.stops[0].law.R ** (2 * m_up) * np.exp(-2 * one_mode(m).beta * 2 * np.pi / W
+                                                   - m.stops[1].law.damping * s.extra["contact_time_lower"])
     assert abs(np.linalg.det(s.M) / want - 1.0) < 1e-10
 
 

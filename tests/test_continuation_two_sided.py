@@ -20,22 +20,25 @@ import pytest
 from scipy.optimize import brentq
 
 from vibeam.case.schema import parse_case
-from vibeam.models import SDOF, EventSolver, linear_amplitude, shooting_problem
+from vibeam.models import EventSolver, linear_amplitude, shooting_problem
 from vibeam.models.beam_dynamics import BeamImpactModel
 from vibeam.models import BeamEventSolver
 from vibeam.models.continuation import Settings, trace
 from vibeam.models.core.scene_shooting import SceneShooting
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.contact import Restitution
+from vibeam.models.scene import one_mode
 
 #: the first scene of cases/paper-fig7-two-sided.toml: Fig. 7's stop at Delta = 0 and a lower stop at
 #: q = -2e-3 (an impact on it is born at Omega = 1.6976)
-LOW = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=2e-3)
+LOW = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9, Delta_lower=2e-3)
 #: its symmetric scene: both stops 2e-3 from the equilibrium
-SYM = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=2e-3, Delta_lower=2e-3)
+SYM = sdof(beta=0.015, B=0.5e-3, Delta=2e-3, R=0.9, Delta_lower=2e-3)
 NO_SWITCH = Settings(switch=False)
 
 
-def _settled(m, W, n_tr=3000):
-    tr = EventSolver(m.scene()).point(W, None, n_tr, 16, 16)
+def _settled(sc, W, n_tr=3000):
+    tr = EventSolver(sc).point(W, None, n_tr, 16, 16)
     return np.asarray(tr.final_state[:2], float)
 
 
@@ -102,20 +105,20 @@ def test_stable_branch_points_equal_long_event_runs():
     assert set(a["impacts_lower"][taken]) == {0, 1}          # both kinds of orbit are checked
     for k in taken:
         W, x = a["parameter"][k], a["state"][k]
-        tr = EventSolver(LOW.scene()).point(W, np.r_[x * (1 + 1e-6), 0.0], 2000, 4, 8)
+        tr = EventSolver(LOW).point(W, np.r_[x * (1 + 1e-6), 0.0], 2000, 4, 8)
         assert np.max(np.abs(tr.final_state[:2] - x)) < 1e-8 * np.max(np.abs(x))
-        assert LOW.Delta - tr.q_min == pytest.approx(a["amplitude"][k], rel=1e-8)
+        assert one_mode(LOW).Delta - tr.q_min == pytest.approx(a["amplitude"][k], rel=1e-8)
         assert tr.n_impacts_lower == 4 * a["impacts_lower"][k]
         assert tr.n_impacts - tr.n_impacts_lower == 4 * (a["impacts"][k] - a["impacts_lower"][k])
     # an unstable point (the orbit born at the grazing, multiplier ~ -4, stable only beyond the
     # period doubling) leaves under the same run: the check can fail
     k = int(np.argmin(np.abs(mu - 4.0)))
     assert not a["stable"][k] and 3 < mu[k] < 5 and a["impacts_lower"][k] == 1
-    tr = EventSolver(LOW.scene()).point(a["parameter"][k], np.r_[a["state"][k] * (1 + 1e-6), 0.0], 2000, 4, 8)
+    tr = EventSolver(LOW).point(a["parameter"][k], np.r_[a["state"][k] * (1 + 1e-6), 0.0], 2000, 4, 8)
     assert np.max(np.abs(tr.final_state[:2] - a["state"][k])) > 1e-6 * np.max(np.abs(a["state"][k]))
 
 
-def _event_map_jacobian(m, W, x, n, rel=1e-7):
+def _event_map_jacobian(sc, W, x, n, rel=1e-7):
     """Central differences of ``P^n`` iterated by the event solver (its own kernel call, no event
     log, no derivative assembly)."""
     h = rel * np.max(np.abs(x))
@@ -123,8 +126,8 @@ def _event_map_jacobian(m, W, x, n, rel=1e-7):
     for j in range(2):
         e = np.zeros(2)
         e[j] = h
-        xp = EventSolver(m.scene()).point(W, np.r_[x + e, 0.0], 0, n, 8).final_state[:2]
-        xm = EventSolver(m.scene()).point(W, np.r_[x - e, 0.0], 0, n, 8).final_state[:2]
+        xp = EventSolver(sc).point(W, np.r_[x + e, 0.0], 0, n, 8).final_state[:2]
+        xm = EventSolver(sc).point(W, np.r_[x - e, 0.0], 0, n, 8).final_state[:2]
         J[:, j] = (np.asarray(xp) - np.asarray(xm)) / (2 * h)
     return J
 
@@ -151,9 +154,9 @@ def test_liouville_with_impact_contraction():
     solver); 1e-10 relative (round-off of the products; measured <= 5.3e-12 on the branch)."""
     for pt in low_branch().points:
         st = pt.shot.extra["impact_stops"]
-        expect = 0.9 ** (2 * st.size) * math.exp(-2 * LOW.beta * 2 * math.pi / pt.p)
+        expect = 0.9 ** (2 * st.size) * math.exp(-2 * one_mode(LOW).beta * 2 * math.pi / pt.p)
         assert np.linalg.det(pt.shot.M) == pytest.approx(expect, rel=1e-10)
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=2e-3, R_lower=0.6)
+    m = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9, Delta_lower=2e-3, lower_law=Restitution(0.6))
     seen = set()
     for W in (1.8, 2.0, 2.3):
         x = _settled(m, W)
@@ -163,7 +166,7 @@ def test_liouville_with_impact_contraction():
         st = s.extra["impact_stops"]
         up, lo = int(np.sum(st == 0)), int(np.sum(st == 1))
         seen.add(lo > 0)
-        expect = 0.9 ** (2 * up) * 0.6 ** (2 * lo) * math.exp(-2 * m.beta * n * 2 * math.pi / W)
+        expect = 0.9 ** (2 * up) * 0.6 ** (2 * lo) * math.exp(-2 * one_mode(m).beta * n * 2 * math.pi / W)
         assert np.linalg.det(s.M) == pytest.approx(expect, rel=1e-10)
     # every one of the three orbits meets the lower stop (measured: period 2, one lower impact
     # each), so R_low's factor is checked in each determinant, not only in one
@@ -188,7 +191,7 @@ def test_symmetric_orbit_of_symmetric_stops():
         assert v[0] == pytest.approx(v[1], rel=1e-9)
         assert abs(abs(s.impact_times[1] - s.impact_times[0]) - T / 2) < 1e-9 * T
         assert s.q_max == pytest.approx(-s.q_min, rel=1e-9)
-        tr = EventSolver(SYM.scene()).point(pt.p, np.r_[pt.x, 0.0], 0, 1, 16)
+        tr = EventSolver(SYM).point(pt.p, np.r_[pt.x, 0.0], 0, 1, 16)
         assert np.max(np.abs(tr.samples[8] + pt.x)) < 1e-9 * np.max(np.abs(pt.x))
         assert np.max(np.abs(pt.mu)) < 1.0
 
@@ -198,8 +201,8 @@ def test_a_far_lower_stop_gives_the_one_stop_branch_identically():
     the continuation from the same start gives the one-stop branches, the period-2 branch of the
     period doubling included, point for point and bifurcation for bifurcation, bit for bit (the
     kernel takes the same steps; only the log of minima is added)."""
-    one = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3)
-    two = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3, Delta_lower=1.0)
+    one = sdof(beta=0.015, B=0.5e-3, Delta=0.5e-3, R=0.9)
+    two = sdof(beta=0.015, B=0.5e-3, Delta=0.5e-3, R=0.9, Delta_lower=1.0)
     x0 = _settled(one, 2.0)
     st = Settings(max_period=2)
     b1 = trace(shooting_problem(one, "Omega"), x0, 2.0, 1, 1.9, 2.4, +1, st)
@@ -221,19 +224,20 @@ def test_lower_grazing_where_the_linear_minimum_reaches_the_lower_stop():
     as the one-stop test), and the branch goes on through a non-smooth fold on the orbit with one
     impact per period on the lower stop.  The scene is the mirror image (q -> -q, t -> t + T/2) of
     Fig. 8's one-stop scene: its fold is the one-stop branch's (1e-8)."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=1.0, Delta_lower=0.7e-3)
+    m = sdof(beta=0.015, B=0.5e-3, Delta=1.0, R=0.9, Delta_lower=0.7e-3)
+    o = one_mode(m)
     pr = shooting_problem(m, "Omega")
     x0, why = pr.start("linear", 2.5)
     assert why == ""
     (b,) = trace(pr, x0, 2.5, 1, 1.5, 2.5, -1, NO_SWITCH)
-    Wg = brentq(lambda W: linear_amplitude(m.beta, m.B, W) - m.Delta_lower, 1.5, 2.5, xtol=1e-15)
+    Wg = brentq(lambda W: linear_amplitude(o.beta, o.B, W) - o.Delta_lower, 1.5, 2.5, xtol=1e-15)
     assert [f.type for f in b.bifurcations] == ["grazing", "fold"]
     g, fold = b.bifurcations
     assert abs(g.parameter - Wg) < 1e-8
     a = b.arrays()
     assert b.status == "range_end" and a["impacts"][0] == 0 and a["impacts"][-1] == 1
     assert a["impacts_lower"][-1] == 1
-    one = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
+    one = sdof(beta=0.015, B=0.5e-3, Delta=0.7e-3, R=0.9)
     p1 = shooting_problem(one, "Omega")
     (b1,) = trace(p1, p1.start("linear", 2.5)[0], 2.5, 1, 1.5, 2.5, -1, NO_SWITCH)
     assert abs(b1.bifurcations[1].parameter - fold.parameter) < 1e-8
@@ -437,7 +441,7 @@ switch = false
 # --------------------------------------------------------------------------- the lower stop's parameters
 #: Fig. 7's upper stop and a lower stop at q = -1e-3 with its own R = 0.6: at these frequencies the
 #: settled period-1 orbit hits both stops (once above, once or twice below)
-OWN = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e-3, R_lower=0.6)
+OWN = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9, Delta_lower=1e-3, lower_law=Restitution(0.6))
 
 
 @pytest.mark.parametrize("parameter", ["stops[1].relation.offset", "stops[1].law.R"])
@@ -456,7 +460,7 @@ def test_the_lower_stops_offset_and_R_are_continuation_parameters(parameter, W):
     fd = (prob.shot(x0, p0 + h, 1).x - prob.shot(x0, p0 - h, 1).x) / (2 * h)
     assert np.max(np.abs(s.x_p - fd)) <= 1e-7 * np.max(np.abs(fd)), (s.x_p, fd)
     with pytest.raises(ValueError, match=r"stops\[1\]"):
-        shooting_problem(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), parameter, Omega=W)
+        shooting_problem(sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9), parameter, Omega=W)
 
 
 def test_a_branch_in_R_lower_is_made_of_event_orbits_and_obeys_liouville():
@@ -480,8 +484,8 @@ def test_a_branch_in_R_lower_is_made_of_event_orbits_and_obeys_liouville():
             want = 0.9 ** (2 * np.sum(stops == 0)) * pt.p ** (2 * np.sum(stops == 1)) * np.exp(-2 * 0.015 * 2 * np.pi / W)
             assert abs(np.linalg.det(s.M) / want - 1.0) <= 1e-9, (pt.p, np.linalg.det(s.M), want)
         if np.max(np.abs(pt.mu)) < 0.95:
-            m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e-3, R_lower=pt.p)
-            one = EventSolver(m.scene()).point(W, np.concatenate([pt.x, [0.0]]), 0, 1, 16)
+            m = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9, Delta_lower=1e-3, lower_law=Restitution(float(pt.p)))
+            one = EventSolver(m).point(W, np.concatenate([pt.x, [0.0]]), 0, 1, 16)
             assert np.max(np.abs(one.final_state[:2] - pt.x)) <= 1e-9 * np.max(np.abs(pt.x)), pt.p
             checked += 1
     assert checked >= 5

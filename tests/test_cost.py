@@ -8,6 +8,7 @@ import pytest
 from vibeam.case.schema import parse_case
 from vibeam.cli import main
 from vibeam.analysis.cost import run_cost
+from vibeam.models.builders.sdof import sdof
 
 CASE = """
 name = "tiny-cost"
@@ -54,9 +55,9 @@ def test_cost_rows_errors_and_claims(tmp_path):
     assert ladder[-1].err_max < 1e-2 * ladder[0].err_max
     # averaging has no time integration (no timed assertion: its speed is the bench's figure): its
     # solver is not a time-domain one and its row has a time like every other
-    from vibeam.models import SDOF, make_solver
+    from vibeam.models import make_solver
 
-    assert not make_solver(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), "averaging").time_domain
+    assert not make_solver(sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9), "averaging").time_domain
     assert by["averaging"][0].time_s > 0 and by["averaging"][0].n_points == ladder[0].n_points
     claims = {c["claim"].split(":")[0]: c for c in res["claims"]}
     assert "averaging" in claims

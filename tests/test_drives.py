@@ -17,8 +17,8 @@ import math
 import numpy as np
 import pytest
 
-from vibeam.models import SDOF
 from vibeam.models.builders.matrices import build_matrices
+from vibeam.models.builders.sdof import sdof
 from vibeam.models.compliant import HuntCrossley
 from vibeam.models.contact import Relation, Restitution, Stop
 from vibeam.models.core.event import EventIntegrator, fundamental_step
@@ -72,7 +72,7 @@ def test_drive_helpers_against_their_formulas(p):
 def test_forcing_and_the_drive_power_field():
     """``forcing`` reads ``Omega^p A``; the default drive is the displacement drive; a drive power
     other than 0 or 2 is refused where a system is built and where the kernels' view is."""
-    s = SDOF(**FIG7).scene().system
+    s = sdof(**FIG7).system
     assert s.drive_power == 2 and forcing(s, 2.1) == 2.1 * 2.1 * s.base_amplitude
     assert forcing(s._replace(drive_power=0), 2.1) == s.base_amplitude
     with pytest.raises(ValueError, match="drive_power = 1; allowed: 0 or 2"):
@@ -88,8 +88,7 @@ def test_fig7_acceleration_drive_equals_displacement_drive_by_the_event_integrat
     up the sweep): ``p = 0`` with ``A = Omega^2 B`` per point against ``p = 2``.  Tolerance 0: both
     runs reach the kernels with the same ``F`` double, and the kernels read the drive only through
     ``F`` (and the compliant floor, absent here), so every output is the same bit for bit."""
-    m = SDOF(**FIG7)
-    sc = m.scene()
+    sc = sdof(**FIG7)
     core2 = EventIntegrator(sc)
     x2 = x0 = (np.zeros(1), np.zeros(1))
     impacts = 0
@@ -112,8 +111,7 @@ def test_fig7_physical_acceleration_through_driven():
     :func:`driven`: ``A = a T^2 / L`` equals ``Omega^2 B`` to round-off (three roundings, 1e-15
     relative), and the event run's extremes agree to 1e-12 relative (an F that differs by ulps
     moves the period-1 orbit by as much, times the conditioning of the impact map)."""
-    m = SDOF(**FIG7, natural_frequency_hz=10.0, length_m=0.1)
-    sc = m.scene()
+    sc = sdof(**FIG7, natural_frequency_hz=10.0, length_m=0.1)
     s = sc.system
     Om = 2.0
     a = (Om / s.time_unit_s) ** 2 * (s.base_amplitude * s.length_unit_m)
@@ -137,8 +135,7 @@ def test_direct_integrator_acceleration_drive_equals_displacement_drive():
     end state to 1e-13 relative (measured: equal)."""
     from vibeam.models.core.direct import DirectIntegrator
 
-    m = SDOF(**FIG7, contact=HuntCrossley(1e4, 0.9))
-    sc = m.scene()
+    sc = sdof(FIG7["beta"], FIG7["B"], FIG7["Delta"], law=HuntCrossley(1e4, 0.9))
     Om = 2.0
     laws_ = [s_.law for s_ in sc.stops]
     out = []
@@ -185,7 +182,7 @@ def test_fig7_shot_state_and_monodromy_equal_at_both_drives():
     that of ``p = 0`` (``dF/dB = Omega^2``, ``dF/dA = 1``: 1e-13 relative, one rounding of the
     product and the ulp of ``Omega^2``); the ``Omega`` column differs by design (``dF = 2 Omega B
     dOmega`` against 0)."""
-    sc = SDOF(**FIG7).scene()
+    sc = sdof(**FIG7)
     Om = 2.0
     x0 = _on_orbit(sc, Om)
     s2 = _Shots(sc).shot(x0, Om)
@@ -212,7 +209,7 @@ def test_acceleration_drive_tangent_in_omega_by_central_differences():
     ~h^2 |P'''| ~ 1e-10, round-off ~eps |P| / h ~ 1e-10 relative to |x_p| ~ 1: rtol 1e-6); the
     tangent of the displacement drive's ``dF`` (``2 Omega A``) would be off by the forcing's share,
     checked to be far above the tolerance."""
-    sc = SDOF(**FIG7).scene()
+    sc = sdof(**FIG7)
     Om = 2.0
     sa = Scene(_accelerated(sc.system, Om), sc.stops)
     x0 = _on_orbit(sa, Om)
@@ -239,9 +236,7 @@ def test_acceleration_driven_compliant_sdof_tangent_by_central_differences(floor
     import vibeam.models.core.laws as laws
 
     monkeypatch.setattr(laws, "V_FLOOR", floor)     # read when the scene's kernel data are built
-    m = SDOF(beta=0.015, B=0.0, R=0.9, Delta=0.0, natural_frequency_hz=10.0, length_m=0.1,
-             contact=HuntCrossley(1e4, 0.9))
-    sc = m.scene()
+    sc = sdof(beta=0.015, B=0.0, Delta=0.0, law=HuntCrossley(1e4, 0.9), natural_frequency_hz=10.0, length_m=0.1)
     sa = Scene(driven(sc.system, Excitation("base_acceleration", 40.0)), sc.stops)
     assert sa.system.drive_power == 0
     Om = 1.8
@@ -307,7 +302,7 @@ def test_chain_linear_response_against_the_physical_closed_form(kind):
 def test_driven_units_for_the_sdof():
     """The physical SDOF (f_n 10 Hz, L 0.1 m, m 2 kg): a force F0 gives ``F0 / (m omega_n^2 L)``,
     an acceleration ``a / (omega_n^2 L)``, a displacement ``Y / L`` (1e-15 relative)."""
-    s = SDOF(**FIG7, natural_frequency_hz=10.0, length_m=0.1, mass_kg=2.0).scene().system
+    s = sdof(**FIG7, natural_frequency_hz=10.0, length_m=0.1, mass_kg=2.0).system
     wn = 2 * math.pi * 10.0
     f = driven(s, Excitation("force", 3.0, 0))
     assert f.drive_power == 0 and f.base_amplitude == pytest.approx(3.0 / (2.0 * wn ** 2 * 0.1), rel=1e-15)
@@ -331,7 +326,7 @@ def test_driven_units_for_the_sdof():
 def test_driven_refuses_in_one_line(exc, system, message):
     kw = dict(sdof=dict(natural_frequency_hz=10.0, length_m=0.1, mass_kg=2.0),
               no_mass=dict(natural_frequency_hz=10.0, length_m=0.1), nondim={})[system]
-    s = SDOF(**FIG7, **kw).scene().system
+    s = sdof(**FIG7, **kw).system
     with pytest.raises(ValueError, match=None) as e:
         driven(s, exc)
     assert str(e.value).startswith(message) and "\n" not in str(e.value)

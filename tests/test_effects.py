@@ -11,8 +11,10 @@ from vibeam.case.schema import CaseError, EffectsSpec, load_case
 from vibeam.case.beamscene import build_beam_model_with_effects as build_beam_model
 from vibeam.case.beamscene import contact_factor, eccentric_contact_row
 from vibeam.engine.effects import EffectSolver, identify_platform, platform_H, wrap_solver
-from vibeam.models import SDOF, BeamEventSolver, EventSolver, make_solver
+from vibeam.models import BeamEventSolver, EventSolver, make_solver
 from vibeam.models.beam_dynamics import BeamImpactModel, apply_impact
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.contact import Restitution
 from vibeam.models.impact import restitution_coefficient
 from vibeam.engine.sweep import Sweep, run_sweep
 from vibeam.models.scene import outputs
@@ -215,8 +217,8 @@ def test_constant_restitution_table_equals_constant_R(beam):
             np.testing.assert_array_equal(res.data[k], ref.data[k])
 
 
-def _sequence(solver_cls, model, v0, state):
-    s = solver_cls(model.scene(), impact_buffer=64)
+def _sequence(solver_cls, scene, v0, state):
+    s = solver_cls(scene, impact_buffer=64)
     tr = s.point(0.77, state, 0, 6, 64)
     return tr.impact_velocities
 
@@ -232,7 +234,8 @@ def test_restitution_law_each_impact_sdof():
     R_table = tuple(zip(law.table_U, law.table_R))
     scale = model.length_m * 2 * math.pi * model.natural_frequency_hz * 1e3   # q' -> mm/s at the sensor
     np.testing.assert_allclose(np.array(R_table)[:, 0] * scale, vt, rtol=1e-14)
-    free = SDOF(beta=0.0, B=0.0, R=0.72, Delta=0.0, R_table=R_table)
+    table = (tuple(v for v, _ in R_table), tuple(r for _, r in R_table))
+    free = sdof(beta=0.0, B=0.0, Delta=0.0, law=Restitution(0.72, *table))
     v0 = 140.0 / scale
     v = _sequence(EventSolver, free, v0, np.array([-1e-300, v0, 0.0]))
     assert v.size >= 5
@@ -252,7 +255,7 @@ def test_restitution_law_each_impact_beam(beam):
     to_mm_s = m.omega_ref * 1e3 / m.phi_at_mass          # contact velocity (kernel) -> sensor mm/s
     U0 = 140.0 / to_mm_s
     eta_d = U0 / one.contact_row[0]
-    v = _sequence(BeamEventSolver, one, U0, np.array([0.0, eta_d, 0.0])) * m.length_m   # contact U-
+    v = _sequence(BeamEventSolver, one.scene(), U0, np.array([0.0, eta_d, 0.0])) * m.length_m   # contact U-
     assert v.size >= 5
     Rs = np.array([restitution_coefficient(x, 0.72, m.R_table_U, m.R_table_R) for x in v])
     np.testing.assert_allclose(Rs, np.interp(v * to_mm_s, vt, Rt), rtol=1e-12)

@@ -8,12 +8,14 @@ from hypothesis import given, settings, strategies as st
 from scipy.linalg import expm
 from scipy.optimize import fsolve
 
-from vibeam.models import SDOF, EventSolver, linear_amplitude
+from vibeam.models import EventSolver, linear_amplitude
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 from vibeam.engine.records import summarize
 
 
-def _run(model, Omega, n_transient, n_record, state0=None, ns=64, **kw):
-    return EventSolver(model.scene(), **kw).point(Omega, state0, n_transient, n_record, ns)
+def _run(scene, Omega, n_transient, n_record, state0=None, ns=64, **kw):
+    return EventSolver(scene, **kw).point(Omega, state0, n_transient, n_record, ns)
 
 
 # --------------------------------------------------------------------------- linear limit
@@ -25,8 +27,9 @@ def test_far_from_stop_equals_linear_steady_state(Omega):
     homogeneous part has decayed by exp(-0.05 * 600 * 2 pi / Omega) < 1e-24
     (worst case Omega = 3.3), so only round-off remains: rtol 1e-10.
     """
-    m = SDOF(beta=0.05, B=0.01, R=0.8, Delta=100.0)
-    tr = _run(m, Omega, 600, 8)
+    sc = sdof(beta=0.05, B=0.01, Delta=100.0, R=0.8)
+    m = one_mode(sc)
+    tr = _run(sc, Omega, 600, 8)
     out = summarize(tr, m.Delta)
     C = linear_amplitude(m.beta, m.B, Omega)
     assert out["period"] == -1  # no impact
@@ -71,14 +74,16 @@ def _shaw_holmes_fixed_point(beta, B, R, Delta, Omega, guess):
 @pytest.mark.parametrize("Omega", [1.9, 2.0, 2.1])
 def test_period_one_orbit_matches_independent_fixed_point(Omega):
     """Steady impact velocity and phase equal the fixed point of the impact map to 1e-8."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
-    tr = _run(m, Omega, 1500, 4)
+    R = 0.9
+    sc = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=R)
+    m = one_mode(sc)
+    tr = _run(sc, Omega, 1500, 4)
     assert summarize(tr, m.Delta)["period"] == 1
     assert tr.n_impacts == 4
     T = 2 * math.pi / Omega
     phase = (Omega * tr.impact_times[-1]) % (2 * math.pi)
     v = tr.impact_velocities[-1]
-    psi, v_fp = _shaw_holmes_fixed_point(m.beta, m.B, m.R, m.Delta, Omega, [phase, v])
+    psi, v_fp = _shaw_holmes_fixed_point(m.beta, m.B, R, m.Delta, Omega, [phase, v])
     assert v == pytest.approx(v_fp, rel=1e-8)
     dpsi = (phase - psi + math.pi) % (2 * math.pi) - math.pi
     assert abs(dpsi) < 1e-8
@@ -89,9 +94,9 @@ def test_period_one_orbit_matches_independent_fixed_point(Omega):
 # --------------------------------------------------------------------------- energy
 def test_energy_conserved_with_elastic_impacts():
     """R = 1, beta = 0, B = 0: E = (q^2 + q'^2) / 2 is constant through many impacts."""
-    m = SDOF(beta=0.0, B=0.0, R=1.0, Delta=0.3)
+    sc = sdof(beta=0.0, B=0.0, Delta=0.3, R=1.0)
     state0 = np.array([0.0, 1.0, 0.0])
-    tr = _run(m, 1.3, 0, 200, state0=state0)
+    tr = _run(sc, 1.3, 0, 200, state0=state0)
     E = 0.5 * (tr.samples[:, 0] ** 2 + tr.samples[:, 1] ** 2)
     assert tr.n_impacts > 150
     assert np.max(np.abs(E - 0.5)) < 1e-12
@@ -100,9 +105,10 @@ def test_energy_conserved_with_elastic_impacts():
 def test_each_impact_removes_restitution_energy():
     """beta = 0, B = 0: between impacts E is constant; impact i removes (1 - R^2) v_i^2 / 2."""
     R = 0.7
-    m = SDOF(beta=0.0, B=0.0, R=R, Delta=0.2)
+    Delta = 0.2
+    sc = sdof(beta=0.0, B=0.0, Delta=Delta, R=R)
     state0 = np.array([0.0, 1.0, 0.0])
-    tr = _run(m, 1.0, 0, 30, state0=state0, ns=256)
+    tr = _run(sc, 1.0, 0, 30, state0=state0, ns=256)
     t = np.arange(tr.samples.shape[0]) * (2 * math.pi / 1.0) / 256
     E = 0.5 * (tr.samples[:, 0] ** 2 + tr.samples[:, 1] ** 2)
     dE = 0.5 * (1 - R**2) * tr.impact_velocities**2
@@ -116,7 +122,7 @@ def test_each_impact_removes_restitution_energy():
     # and the velocity by Delta dg / v, i.e. a relative error ~ eps (Delta / v)^2
     v = tr.impact_velocities
     rel = np.abs(v[1:] / v[:-1] / R - 1)
-    assert np.all(rel < 1e-13 + 32 * np.finfo(float).eps * (m.Delta / v[1:]) ** 2)
+    assert np.all(rel < 1e-13 + 32 * np.finfo(float).eps * (Delta / v[1:]) ** 2)
 
 
 # --------------------------------------------------------------------------- chatter
@@ -129,10 +135,10 @@ def test_chatter_accumulation_time_equals_sum_of_flight_times(R):
     accumulation point once the neglected terms are below chatter_tol, so the
     time agrees to ~1e-9 relative."""
     Delta, u0 = -0.5, 0.3
-    m = SDOF(beta=0.0, B=0.0, R=R, Delta=Delta)
+    sc = sdof(beta=0.0, B=0.0, Delta=Delta, R=R)
     Omega = 1.0
     n_rec = 4
-    tr = _run(m, Omega, 0, n_rec, state0=np.array([Delta, -u0, 0.0]))
+    tr = _run(sc, Omega, 0, n_rec, state0=np.array([Delta, -u0, 0.0]))
     k = np.arange(4000)
     t_acc = np.sum(2 * np.arctan(R**k * u0 / abs(Delta)))
     window = n_rec * 2 * math.pi / Omega
@@ -150,8 +156,8 @@ def test_sticking_with_zero_restitution_releases_when_force_pulls_away():
     phi = pi - asin(Delta / F) (closed form); the q = Delta samples run up to it.
     """
     B, Omega, Delta = 0.2, 1.5, 0.05
-    m = SDOF(beta=0.05, B=B, R=0.0, Delta=Delta)
-    tr = _run(m, Omega, 100, 4, ns=512)
+    sc = sdof(beta=0.05, B=B, Delta=Delta, R=0.0)
+    tr = _run(sc, Omega, 100, 4, ns=512)
     F = Omega**2 * B
     phi_rel = math.pi - math.asin(Delta / F)
     assert tr.status == "sticking"
@@ -167,10 +173,11 @@ def test_sticking_with_zero_restitution_releases_when_force_pulls_away():
 
 def test_prestressed_stop_without_enough_forcing_stays_stuck():
     """Delta < -F: the contact force never changes sign; the run ends stuck, not hanging."""
-    m = SDOF(beta=0.02, B=0.01, R=0.8, Delta=-0.2)
-    tr = _run(m, 2.0, 10, 4)
+    Delta = -0.2
+    sc = sdof(beta=0.02, B=0.01, Delta=Delta, R=0.8)
+    tr = _run(sc, 2.0, 10, 4)
     assert tr.status == "sticking"
-    assert np.all(tr.samples[:, 0] == m.Delta)
+    assert np.all(tr.samples[:, 0] == Delta)
     assert tr.extra["stuck_fraction"] == pytest.approx(1.0)
 
 
@@ -186,8 +193,8 @@ def test_grazing_orbit_is_detected(delta):
     a, b = F * k / (k * k + c * c), -F * c / (k * k + c * c)
     C = math.hypot(a, b)
     state0 = np.array([b, Omega * a, 0.0])  # exactly on the steady orbit at phase 0
-    hit = _run(SDOF(beta, B, 0.9, C * (1 - delta)), Omega, 0, 1, state0=state0)
-    miss = _run(SDOF(beta, B, 0.9, C * (1 + delta)), Omega, 0, 1, state0=state0)
+    hit = _run(sdof(beta, B, C * (1 - delta), 0.9), Omega, 0, 1, state0=state0)
+    miss = _run(sdof(beta, B, C * (1 + delta), 0.9), Omega, 0, 1, state0=state0)
     assert hit.n_impacts >= 1
     assert miss.n_impacts == 0
 
@@ -207,9 +214,9 @@ def test_no_state_beyond_the_stop(beta, B, R, Delta, Omega):
         # (nearly) undamped exact resonance has no steady state; at beta ~ 1e-189 (found by
         # hypothesis) (1 - Omega^2)^2 + (2 beta Omega)^2 underflows to 0 in the particular solution
         Omega = 1.01
-    m = SDOF(beta, B, R, Delta)
+    sc = sdof(beta, B, Delta, R)
     ns = 64
-    tr = _run(m, Omega, 30, 4, ns=ns, max_impacts_per_period=2000)
+    tr = _run(sc, Omega, 30, 4, ns=ns, max_impacts_per_period=2000)
     if tr.status == "failed":
         return  # recorded as data; not a constraint violation
     scale = 1.0 + abs(Delta) + Omega**2 * B
@@ -257,10 +264,11 @@ def test_a_chatter_hold_that_ends_with_the_force_pulling_away_releases_at_once()
     from vibeam.models.core.event import EventIntegrator
     from vibeam.models.core.integrator import EV_RELEASE, EV_STICK_IMPACT
 
-    m = SDOF(beta=0.02, B=0.5, R=0.7, Delta=0.05)
+    sc = sdof(beta=0.02, B=0.5, Delta=0.05, R=0.7)
+    m = one_mode(sc)
     Om = 0.6
     F = Om * Om * m.B
-    core = EventIntegrator(m.scene())
+    core = EventIntegrator(sc)
     r = core.run(Om, [0.0], [0.0], 0, 0, 6, 2, 2, math.pi / Om, 10 ** 5, 10 ** 7, 10.0, log_events=4000)
     log = r.record.evlog[:int(r.record.nlog[0])]
     assert 0 < log.shape[0] < 4000
@@ -285,8 +293,7 @@ def test_held_at_the_exact_zero_of_a_rising_force_stays_held():
     from vibeam.models.core.event import EventIntegrator
     from vibeam.models.core.integrator import EV_RELEASE, EV_START
 
-    m = SDOF(beta=0.05, B=0.2, R=0.5, Delta=0.0)
-    core = EventIntegrator(m.scene())
+    core = EventIntegrator(sdof(beta=0.05, B=0.2, Delta=0.0, R=0.5))
     Om = 1.5
     r = core.run(Om, [0.0], [0.0], 1, 0, 1, 1, 64, 2 * math.pi / 16, 1000, 10000, 1e-7, log_events=32)
     log = r.record.evlog[:r.record.nlog[0]]

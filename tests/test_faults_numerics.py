@@ -35,8 +35,9 @@ import numpy as np
 import pytest
 
 import vibeam
-from vibeam.case.schema import CaseError, parse_case
-from vibeam.models import SDOF, EventSolver, make_solver
+from vibeam.case.schema import CaseError
+from vibeam.models import EventSolver, make_solver
+from vibeam.models.builders.sdof import sdof
 from vibeam.models.sdof_flow import linear_amplitude
 from vibeam.engine.records import summarize
 from vibeam.engine.sweep import Sweep, run_sweep
@@ -137,8 +138,8 @@ def test_a_call_over_its_work_budget_is_repeated_in_shorter_calls_with_the_same_
     period-1 orbit, as tests/test_settle.py's chunk test)."""
     W = 2.0
     sw = Sweep(Omega=np.array([W]), transient_periods=400, record_periods=16)
-    one = run_sweep(make_solver(SDOF(**FIG7), "event"), sw).data
-    solver = make_solver(SDOF(**FIG7), "event", max_steps_per_call=3000)
+    one = run_sweep(make_solver(sdof(**FIG7), "event"), sw).data
+    solver = make_solver(sdof(**FIG7), "event", max_steps_per_call=3000)
     calls = []
     inner = solver.point
 
@@ -163,7 +164,7 @@ def test_a_subnormal_model_built_past_validation_returns_failed_within_its_budge
     call's budget, here 20000 steps): :func:`vibeam.simulate` ends the point as failed, now at
     once with the reason, a motion at the scale of subnormal numbers (fewer than 53 significant
     bits), not with a number of a few bits."""
-    sim = vibeam.simulate(SDOF(beta=0.015, B=5e-320, R=0.9, Delta=0.0), Omega=2.0, periods=2,
+    sim = vibeam.simulate(sdof(beta=0.015, B=5e-320, R=0.9, Delta=0.0), Omega=2.0, periods=2,
                           max_steps_per_call=20000)
     assert sim.status == "failed" and "subnormal" in sim.message, sim.message
     assert np.all(np.isnan(sim.q))
@@ -174,8 +175,8 @@ def test_a_subnormal_model_with_the_default_budget_returns():
     """As above with the default budget, in a child process (a hang guard of 300 s)."""
     out = _child("""
         import json, vibeam
-        from vibeam.models import SDOF
-        sim = vibeam.simulate(SDOF(beta=0.015, B=5e-320, R=0.9, Delta=0.0), Omega=2.0, periods=1)
+        from vibeam.models.builders.sdof import sdof
+        sim = vibeam.simulate(sdof(beta=0.015, B=5e-320, R=0.9, Delta=0.0), Omega=2.0, periods=1)
         print(json.dumps({"status": sim.status, "message": sim.message}))
     """, timeout=300)
     assert out["status"] == "failed" and "subnormal" in out["message"]
@@ -187,11 +188,11 @@ def test_a_stop_of_stiffness_1e300_built_past_validation_fails_at_once():
     fails with the reason.  In a child process: the timeout only guards against the hang."""
     out = _child("""
         import json
-        from vibeam.models import SDOF
+        from vibeam.models.builders.sdof import sdof
         from vibeam.models.compliant import LinearContact
         from vibeam.models import EventSolver
-        m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, contact=LinearContact.from_restitution(1e300, 0.9))
-        tr = EventSolver(m.scene()).point(2.0, None, 0, 1, 64)
+        sc = sdof(beta=0.015, B=0.5e-3, Delta=0.0, law=LinearContact.from_restitution(1e300, 0.9))
+        tr = EventSolver(sc).point(2.0, None, 0, 1, 64)
         print(json.dumps({"status": tr.status, "message": tr.message}))
     """)
     assert out["status"] == "failed" and "double precision" in out["message"], out
@@ -208,12 +209,12 @@ def test_point_time_limit_is_honoured_inside_a_compliant_point():
     out = _child("""
         import json
         import numpy as np
-        from vibeam.models import SDOF
+        from vibeam.models.builders.sdof import sdof
         from vibeam.models.compliant import LinearContact
         from vibeam.models import make_solver
         from vibeam.engine.sweep import Sweep, run_sweep
-        m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=-0.1, contact=LinearContact.from_restitution(1e8, 0.9))
-        s = make_solver(m, "event")
+        sc = sdof(beta=0.015, B=0.5e-3, Delta=-0.1, law=LinearContact.from_restitution(1e8, 0.9))
+        s = make_solver(sc, "event")
         s.point(2.0, None, 0, 1, 16)                 # compile or load the kernel first
         s.max_steps_per_call = 100_000
         calls = []
@@ -252,8 +253,8 @@ def test_long_records_and_statistics_windows_are_cut_into_bounded_calls():
         solver.point = counting
         return calls
 
-    one = summarize(EventSolver(SDOF(**FIG7).scene()).point(2.0, None, 100, 600, 32), 0.0)
-    solver = make_solver(SDOF(**FIG7), "event")
+    one = summarize(EventSolver(sdof(**FIG7)).point(2.0, None, 100, 600, 32), 0.0)
+    solver = make_solver(sdof(**FIG7), "event")
     solver.chunk_periods = 37
     calls = counted(solver)
     d = run_sweep(solver, Sweep(Omega=np.array([2.0]), transient_periods=100, record_periods=600,
@@ -264,7 +265,7 @@ def test_long_records_and_statistics_windows_are_cut_into_bounded_calls():
     for k in ("amplitude", "amplitude_mean", "amplitude_max", "impact_velocity"):
         assert abs(d[k][0] - one[k]) <= 1e-12 * abs(one[k]), k
 
-    fig13 = make_solver(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3), "event")
+    fig13 = make_solver(sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3), "event")
     fig13.chunk_periods = 37
     calls = counted(fig13)
     sw = Sweep(Omega=np.array([2.5]), transient_periods=400, record_periods=32, statistics_periods=700)
@@ -301,7 +302,7 @@ def test_an_undecayed_free_vibration_at_very_high_omega_is_unsettled():
     reported ok, no impact, amplitude 100-2000 B).  With transient_periods = "auto" (up to
     10000 periods, 0.06 time units at 1e6) it stays unsettled."""
     for tr in (200, "auto"):
-        res = run_sweep(make_solver(SDOF(**FIG7), "event"),
+        res = run_sweep(make_solver(sdof(**FIG7), "event"),
                         Sweep(Omega=np.array([5e5, 1e6]), transient_periods=tr, record_periods=64))
         d = res.data
         assert list(d["status"]) == ["unsettled", "unsettled"], (tr, d["status"], d["message"])
@@ -312,7 +313,7 @@ def test_a_settled_no_impact_orbit_at_omega_10_stays_ok():
     """Control for the natural-time verdict: the linear orbit below a far stop (Delta = 1) at
     Omega = 10 after 3000 periods (1885 time units, exp(-beta t) = 5e-13) is ok, no impact, and
     its amplitude is the linear steady state's (paper Eq. 28) to 1e-9."""
-    d = run_sweep(make_solver(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=1.0), "event"),
+    d = run_sweep(make_solver(sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=1.0), "event"),
                   Sweep(Omega=np.array([10.0]), transient_periods=3000, record_periods=16)).data
     assert d["status"][0] == "ok" and d["period"][0] == -1, d["message"]
     C = float(linear_amplitude(0.015, 0.5e-3, 10.0))
@@ -333,10 +334,10 @@ def test_averaging_of_the_undamped_elastic_resonance_fails_with_the_reason():
     """The averaged polynomial degenerates (g2 = pi^2 (sigma^2 + beta_k^2) = 0): the base
     branch reported amplitude NaN with status ok; a NaN from no real root (a scene far from
     resonance) stays ok with period -1."""
-    m = SDOF(beta=0.0, B=0.5e-3, R=1.0, Delta=0.0)
-    out = make_solver(m, "averaging").point(2.0, None, 0, 1)
+    sc = sdof(beta=0.0, B=0.5e-3, R=1.0, Delta=0.0)
+    out = make_solver(sc, "averaging").point(2.0, None, 0, 1)
     assert out["status"] == "failed" and "g2 = 0" in out["message"], out
-    far = make_solver(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.1), "averaging").point(2.0, None, 0, 1)
+    far = make_solver(sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.1), "averaging").point(2.0, None, 0, 1)
     assert far["status"] == "ok" and far["period"] == -1 and math.isnan(far["amplitude"])
 
 
@@ -357,10 +358,10 @@ def test_undamped_exact_resonance_is_refused_in_one_line(tmp_path):
 def test_a_model_at_undamped_exact_resonance_fails_with_the_reason():
     """Built past validation, the event and mapping methods fail the point with the reason
     instead of raising ZeroDivisionError (the base branch)."""
-    m = SDOF(beta=0.0, B=0.5e-3, R=0.9, Delta=0.0)
-    tr = EventSolver(m.scene()).point(1.0, None, 10, 4, 16)
+    sc = sdof(beta=0.0, B=0.5e-3, R=0.9, Delta=0.0)
+    tr = EventSolver(sc).point(1.0, None, 10, 4, 16)
     assert tr.status == "failed" and "undamped exact resonance" in tr.message, tr.message
-    out = make_solver(m, "mapping").point(1.0, None, 0, 1)
+    out = make_solver(sc, "mapping").point(1.0, None, 0, 1)
     assert out["status"] == "failed" and "undamped exact resonance" in out["message"]
 
 
@@ -371,8 +372,7 @@ class _Infinite:
     time_domain = False
 
     def __init__(self):
-        self.model = SDOF(**FIG7)
-        self.scene = self.model.scene()
+        self.scene = sdof(**FIG7)
 
     def settings(self):
         return {}

@@ -21,10 +21,11 @@ import pytest
 from hypothesis import HealthCheck, assume, example, given, settings, strategies as st
 from scipy.optimize import brentq
 
-from vibeam.models import SDOF, EventSolver, make_solver
+from vibeam.models import EventSolver, make_solver
 from vibeam.models.beam import BeamFE, BeamGeometry
 from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver
 from vibeam.models import BeamEventSolver
+from vibeam.models.builders.sdof import sdof
 from vibeam.reductions.static_mode import static_mode_shape
 
 TWO_PI = 2.0 * math.pi
@@ -107,7 +108,7 @@ def _sdof_linear_orbit():
 def _sdof_grazing(method, eps, R=0.9, **kw):
     a, b, C, theta = _sdof_linear_orbit()
     Delta = C / (1 + eps)
-    tr = _sdof_solver(SDOF(SD_BETA, SD_B, R, Delta), method, **kw).point(
+    tr = _sdof_solver(sdof(SD_BETA, SD_B, Delta, R), method, **kw).point(
         SD_OM, np.array([b, SD_OM * a, 0.0]), 0, 1, 64)
     v_ex = SD_OM * math.sqrt((C - Delta) * (C + Delta))   # C - Delta exact (Sterbenz)
     t_ex = ((math.asin(Delta / C) - theta) % TWO_PI) / SD_OM
@@ -134,7 +135,7 @@ def test_grazing_event_sdof_every_decade_and_square_root_law():
         eps_l.append(eps), v_l.append(v), v_ex_l.append(v_ex)
         # miss side: the peak stays a relative eps short of the stop
         a, b, C, _ = _sdof_linear_orbit()
-        miss = EventSolver((SDOF(SD_BETA, SD_B, 0.9, C * (1 + eps))).scene()).point(
+        miss = EventSolver(sdof(SD_BETA, SD_B, C * (1 + eps), 0.9)).point(
             SD_OM, np.array([b, SD_OM * a, 0.0]), 0, 1, 64)
         assert miss.n_impacts == 0, eps
     slope, slope_ex = _fit_slope(eps_l, v_l), _fit_slope(eps_l, v_ex_l)
@@ -301,7 +302,7 @@ def test_zeno_accumulation_time_forced(fidelity, R, Delta, F, u0):
     n_rec = 3
     s0 = np.array([Delta, -u0, 0.0])
     if fidelity == "sdof":
-        tr = EventSolver(SDOF(beta, B, R, Delta).scene()).point(Omega, s0, 0, n_rec, 64)
+        tr = EventSolver(sdof(beta, B, Delta, R)).point(Omega, s0, 0, n_rec, 64)
     else:
         tr = BeamEventSolver(_one_mode_beam(beta, B, R, Delta).scene()).point(Omega, s0, 0, n_rec, 64)
     window = n_rec * TWO_PI / Omega
@@ -334,7 +335,7 @@ def test_plastic_impact_sticks_at_first_impact(fidelity):
     tau, v = _flight(0.0, q0 - Delta, 0.0, beta, F, Omega, Delta, 0.5)
     s0 = np.array([q0, 0.0, 0.0])
     if fidelity == "sdof":
-        tr = EventSolver(SDOF(beta, B, 0.0, Delta).scene()).point(Omega, s0, 0, 4, 256)
+        tr = EventSolver(sdof(beta, B, Delta, 0.0)).point(Omega, s0, 0, 4, 256)
     else:
         tr = BeamEventSolver(_one_mode_beam(beta, B, 0.0, Delta).scene()).point(Omega, s0, 0, 4, 256)
     assert tr.status == "sticking", tr.message
@@ -357,8 +358,8 @@ def test_plastic_impact_ode_methods_report_failure(method):
     bounded number of evaluations, as ``failed`` with a message, after the same first
     impact.  (``ivanov`` rejects R = 0 at construction, tested in test_ode_methods.)"""
     beta, Omega, Delta, F = 0.02, 1.7, -0.01, 0.003
-    m = SDOF(beta, F / Omega**2, 0.0, Delta)
-    tr = make_solver(m, method, **ODE_TIGHT).point(Omega, np.array([-0.05, 0.0, 0.0]), 0, 4, 256)
+    sc = sdof(beta, F / Omega**2, Delta, 0.0)
+    tr = make_solver(sc, method, **ODE_TIGHT).point(Omega, np.array([-0.05, 0.0, 0.0]), 0, 4, 256)
     print(f"R = 0 {method}: status {tr.status}: {tr.message}")
     assert tr.status == "failed" and "accumulation" in tr.message
     assert np.all(np.isfinite(tr.final_state))
@@ -378,8 +379,8 @@ ABOVE = [1 + 1e-6, 1.001, 1.1, 2.0, 5.0]
 @pytest.mark.parametrize("method", ["event", "direct", "zhuravlev", "ivanov"])
 def test_prestressed_stop_stays_stuck_below_release_threshold(method):
     for ratio in BELOW:
-        m = SDOF(PS_BETA, ratio * abs(PS_DELTA) / PS_OM**2, 0.8, PS_DELTA)
-        tr = _sdof_solver(m, method).point(PS_OM, None, 2, 4, 64)
+        sc = sdof(PS_BETA, ratio * abs(PS_DELTA) / PS_OM**2, PS_DELTA, 0.8)
+        tr = _sdof_solver(sc, method).point(PS_OM, None, 2, 4, 64)
         assert tr.status == "sticking", (method, ratio, tr.status, tr.message)
         assert tr.n_impacts == 0
         assert np.all(tr.samples[:, 0] == PS_DELTA) and np.all(tr.samples[:, 1] == 0.0)
@@ -402,9 +403,9 @@ def test_prestressed_stop_lifts_off_above_release_threshold(method):
     spp = 512
     for ratio in ABOVE:
         F = ratio * abs(PS_DELTA)
-        m = SDOF(PS_BETA, F / PS_OM**2, 0.8, PS_DELTA)
+        sc = sdof(PS_BETA, F / PS_OM**2, PS_DELTA, 0.8)
         t_r = (math.pi + math.asin(abs(PS_DELTA) / F)) / PS_OM
-        tr = _sdof_solver(m, method).point(PS_OM, None, 0, 3, spp)
+        tr = _sdof_solver(sc, method).point(PS_OM, None, 0, 3, spp)
         t_s = np.arange(tr.samples.shape[0]) * (TWO_PI / PS_OM / spp)
         before = t_s < t_r - 1e-12
         print(f"pre-stressed {method} F/|Delta| = {ratio}: {tr.status} {tr.message[:70]}")
@@ -484,7 +485,8 @@ def test_prestressed_beam_release_threshold_three_modes():
 
 
 # ============================================================================= long runs
-FIG13 = SDOF(0.015, 0.5e-3, 0.9, 0.5e-3)
+FIG13_BETA, FIG13_B, FIG13_R, FIG13_DELTA = 0.015, 0.5e-3, 0.9, 0.5e-3
+FIG13 = sdof(FIG13_BETA, FIG13_B, FIG13_DELTA, FIG13_R)
 
 
 def _phase_diff(a, b):
@@ -510,13 +512,13 @@ def test_long_run_sdof_event_no_drift(Om):
     assert fp["status"] == "ok" and fp["stable"]
     s0 = None
     if Om == 2.2:
-        F = Om**2 * FIG13.B
+        F = Om**2 * FIG13_B
         from vibeam.models.sdof_flow import particular_coefficients, propagate
-        a, b = particular_coefficients(FIG13.beta, F, Om)
+        a, b = particular_coefficients(FIG13_BETA, F, Om)
         x = fp["final_state"]
         s = ((TWO_PI - x[0]) % TWO_PI) / Om
-        g, v, *_ = propagate(s, x[0], FIG13.Delta, -FIG13.R * x[1], FIG13.beta, a, b, Om, FIG13.Delta)
-        s0 = np.array([(FIG13.Delta + g) * (1 + 1e-3), v * (1 + 1e-3), 0.0])
+        g, v, *_ = propagate(s, x[0], FIG13_DELTA, -FIG13_R * x[1], FIG13_BETA, a, b, Om, FIG13_DELTA)
+        s0 = np.array([(FIG13_DELTA + g) * (1 + 1e-3), v * (1 + 1e-3), 0.0])
     ev = make_solver(FIG13, "event")
     errs = {}
     for n in (10**3, 10**5):
@@ -525,7 +527,7 @@ def test_long_run_sdof_event_no_drift(Om):
         dph, dv = _steady_vs_fixed_point(tr, Om, fp)
         errs[n] = (dph, dv)
         assert dph < 1e-10 and dv < 1e-10, (n, dph, dv)
-        assert np.max(tr.samples[:, 0]) <= FIG13.Delta and tr.q_max <= FIG13.Delta
+        assert np.max(tr.samples[:, 0]) <= FIG13_DELTA and tr.q_max <= FIG13_DELTA
     print(f"SDOF event Omega={Om}: (phase, velocity) error vs fixed point after 1e3 periods "
           f"{errs[10**3][0]:.1e}, {errs[10**3][1]:.1e}; after 1e5 {errs[10**5][0]:.1e}, {errs[10**5][1]:.1e}")
 
@@ -546,7 +548,7 @@ def test_long_run_sdof_direct_no_drift():
     print(f"SDOF direct: error vs fixed point after 1e3 periods {e1}, after 1e4 {e2}")
     assert max(e1) < 1e-7 and max(e2) < 1e-7
     assert abs(tr1.impact_velocities[-1] - tr2.impact_velocities[-1]) < 1e-8 * fp["impact_velocity"]
-    assert np.max(tr2.samples[:, 0]) <= FIG13.Delta + 1e-12
+    assert np.max(tr2.samples[:, 0]) <= FIG13_DELTA + 1e-12
 
 
 @pytest.mark.slow
@@ -558,7 +560,7 @@ def test_long_run_energy_conserved_elastic():
     Delta = 0.3
     s0 = np.array([0.0, 1.0, 0.0])
     n = 10**5
-    for name, solver in (("sdof", make_solver(SDOF(0.0, 0.0, 1.0, Delta), "event")),
+    for name, solver in (("sdof", make_solver(sdof(0.0, 0.0, Delta, 1.0), "event")),
                          ("beam-1-mode", make_solver(_one_mode_beam(0.0, 0.0, 1.0, Delta), "event"))):
         tr = solver.point(1.3, s0, 0, n, 8)
         E = 0.5 * (tr.samples[:, 0] ** 2 + tr.samples[:, 1] ** 2)
@@ -597,14 +599,14 @@ def test_long_run_beam_no_drift():
     be drift -- and no sample is beyond the stop."""
     Om = 2.0
     fp = make_solver(FIG13, "mapping", n=1).point(Om, None, 0, 0)
-    b1 = make_solver(_one_mode_beam(FIG13.beta, FIG13.B, FIG13.R, FIG13.Delta), "event")
+    b1 = make_solver(_one_mode_beam(FIG13_BETA, FIG13_B, FIG13_R, FIG13_DELTA), "event")
     final = []
     for n in (10**3, 10**5):
         tr = b1.point(Om, None, n, 4, 64)
         dph, dv = _steady_vs_fixed_point(tr, Om, fp)
         print(f"one-mode beam after {n} periods: phase error {dph:.1e}, velocity error {dv:.1e}")
         assert dph < 1e-12 and dv < 1e-12
-        assert np.max(tr.samples[:, 0]) <= FIG13.Delta
+        assert np.max(tr.samples[:, 0]) <= FIG13_DELTA
         final.append(tr.final_state)
     d_final = np.max(np.abs(final[1] - final[0]))
     print(f"one-mode beam: final states after 1e3 and 1e5 periods differ by {d_final:.1e}")
@@ -720,9 +722,9 @@ def test_property_energy_never_increases_sdof(beta, R, Delta, u0, q0):
     by exactly -(1 - R^2) v^2 / 2 each (8e-13 E0 with the same round-off over up to
     ~10^2 impacts)."""
     q0 = min(q0, Delta)
-    m = SDOF(beta, 0.0, R, Delta)
+    sc = sdof(beta, 0.0, Delta, R)
     spp = 128
-    tr = EventSolver(m.scene()).point(1.0, np.array([q0, u0, 0.0]), 0, 3, spp)
+    tr = EventSolver(sc).point(1.0, np.array([q0, u0, 0.0]), 0, 3, spp)
     assert tr.status != "failed"
     E = 0.5 * (tr.samples[:, 0] ** 2 + tr.samples[:, 1] ** 2)
     E0 = E[0]
@@ -800,16 +802,16 @@ def test_property_event_and_direct_agree(beta, R, B, Delta, Om):
     (measured ~1e-9).  Orbits with a near-grazing impact (velocity < 1e-2 of the scale,
     where a tiny error decides impact or no impact) or with chatter/sticking (which
     ``direct`` cannot pass) are discarded: they are covered by the tests above."""
-    m = SDOF(beta, B, R, Delta)
+    sc = sdof(beta, B, Delta, R)
     T = TWO_PI / Om
-    ev = EventSolver(m.scene()).point(Om, None, 0, 4, 64)
+    ev = EventSolver(sc).point(Om, None, 0, 4, 64)
     assume(ev.status in ("ok", "sticking"))   # sticking: held on a pre-stressed stop at first
     scale = max(np.max(np.abs(ev.samples)), abs(Delta), 1e-12)
     assume(ev.n_impacts == 0 or np.min(ev.impact_velocities) > 1e-2 * scale * Om)
     # also discard a run without impacts whose exact maximum comes within 1e-6 of the
     # scale of the stop (the other near-grazing case)
     assume(ev.n_impacts > 0 or Delta - ev.q_max > 1e-6 * scale)
-    di = make_solver(m, "direct", solver="DOP853", rtol=1e-10, atol=1e-13, max_step=T / 64).point(
+    di = make_solver(sc, "direct", solver="DOP853", rtol=1e-10, atol=1e-13, max_step=T / 64).point(
         Om, None, 0, 4, 64)
     assert di.status == ev.status, di.message
     assert di.n_impacts == ev.n_impacts
@@ -830,7 +832,7 @@ def test_an_elastic_stop_a_hair_above_rest_is_held_not_a_failure(fidelity, gap_r
     Om = 1.5
     if fidelity == "sdof":
         def run(gap):
-            return EventSolver(SDOF(beta=0.015, B=0.5e-3, R=1.0, Delta=gap).scene()).point(Om, None, 20, 3, 64)
+            return EventSolver(sdof(beta=0.015, B=0.5e-3, R=1.0, Delta=gap)).point(Om, None, 20, 3, 64)
         A = 0.5e-3 * Om**2 / abs(1.0 - Om**2)
     else:
         fe = _fe(12)

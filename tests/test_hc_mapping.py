@@ -14,7 +14,8 @@ import pytest
 
 from vibeam.models import make_solver
 from vibeam.models.compliant import HuntCrossley
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
 from vibeam.models.mapping import MappingSolver
 from vibeam.engine.records import summarize
 
@@ -23,7 +24,7 @@ KEYS = ("amplitude", "q_max", "impact_velocity", "contact_duration", "contact_fo
 
 
 def _model(k, R):
-    return SDOF(beta=0.015, B=0.5e-3, R=R, Delta=0.0, contact=HuntCrossley(k, R))
+    return sdof(beta=0.015, B=0.5e-3, Delta=0.0, law=HuntCrossley(k, R))
 
 
 @pytest.mark.parametrize("k, W, R", [(1e4, 1.8, 0.9), (1e5, 1.8, 0.3)])
@@ -41,10 +42,10 @@ def test_hc_map_fixed_point_is_the_event_orbit_and_multipliers_match(k, W, R):
     the state; measured 1.1e-7 with 8 samples per period on the event integrator, and 1.1e-7 / 2.4e-7
     with 16 / 32 on the former compliant kernel, which passed with its 8 by where its grid fell)."""
     m = _model(k, R)
-    s = MappingSolver(m.scene())
+    s = MappingSolver(m)
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
-    ev = EventSolver(m.scene()).point(W, None, 400, 8, 64)
+    ev = EventSolver(m).point(W, None, 400, 8, 64)
     se = summarize(ev, 0.0)
     assert se["period"] == 1 and se["status"] == "ok"
     for key in KEYS:
@@ -54,7 +55,7 @@ def test_hc_map_fixed_point_is_the_event_orbit_and_multipliers_match(k, W, R):
     h = 1e-5 * np.max(np.abs(ev.strobe))
 
     def strobe(z):
-        return EventSolver(m.scene()).point(W, np.array([z[0], z[1], s0[2]]), 0, 1, 1).final_state[:2]
+        return EventSolver(m).point(W, np.array([z[0], z[1], s0[2]]), 0, 1, 1).final_state[:2]
     J = np.column_stack([(strobe(s0[:2] + h * e) - strobe(s0[:2] - h * e)) / (2 * h) for e in np.eye(2)])
     fd = np.sort_complex(np.linalg.eigvals(J).astype(complex))
     assert np.max(np.abs(fd - np.sort_complex(out["multipliers"]))) < 1e-7

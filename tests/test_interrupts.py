@@ -354,9 +354,10 @@ def test_lines_finished_before_the_interrupt_are_kept(monkeypatch):
     import numpy as np
 
     from vibeam.engine import sweep as sw
-    from vibeam.models import SDOF, make_solver
+    from vibeam.models import make_solver
+    from vibeam.models.builders.sdof import sdof  # lazy: as the imports above, the models load in this test only
 
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    m = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9)
     lines = sw.plan_lines(make_solver(m, "event"), sw.Sweep(Omega=np.array([1.9, 2.0]), direction="both",
                                                             transient_periods=10, record_periods=4))
 

@@ -14,7 +14,6 @@ periodic orbit; the SDOF against the one-mode beam (another kernel in other unit
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -26,14 +25,16 @@ from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models import make_solver, shooting_problem
 from vibeam.models.registry import mixed_stops
 from vibeam.models.compliant import HuntCrossley, LankaraniNikravesh
-from vibeam.models.contact import DAMPING, EXPONENT, LAW, STIFFNESS, Relation, Stop, pack
+from vibeam.models.contact import DAMPING, EXPONENT, LAW, STIFFNESS, Relation, Restitution, Stop, pack
 from vibeam.models import BeamEventSolver
 from vibeam.models import SDOF, EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.core.laws import force
 from vibeam.models.sdof_ode import DirectSolver
 
-FIG8 = SDOF(0.015, 0.5e-3, 0.9, 0.7e-3)      # paper Fig. 8 scene (as tests/test_continuation_compliant.py)
+FIG8 = dict(beta=0.015, B=0.5e-3, Delta=0.7e-3)      # paper Fig. 8 scene (as tests/test_continuation_compliant.py)
 
 
 def chi_ln(R):
@@ -127,8 +128,8 @@ def test_sdof_impact_from_rest_event_kernel_against_solve_ivp():
     spring (rtol 1e-10) to 1e-7 (measured ~1e-10), and against the work recorded by the kernel,
     R_eff = sqrt(1 - 2 E / v^2), to 1e-8."""
     law = LankaraniNikravesh(1e6, 0.9)
-    m = SDOF(beta=0.0, B=0.0, R=0.9, Delta=0.0, contact=law)
-    tr = EventSolver(m.scene()).point(1.0, np.array([-0.01, 0.0, 0.0]), 0, 1, 64)
+    sc = sdof(beta=0.0, B=0.0, Delta=0.0, law=law)
+    tr = EventSolver(sc).point(1.0, np.array([-0.01, 0.0, 0.0]), 0, 1, 64)
     assert tr.status == "ok" and tr.n_impacts >= 2
     v0, v1 = tr.impact_velocities[:2]
     assert v0 == pytest.approx(0.01, rel=1e-12)
@@ -144,8 +145,8 @@ def test_event_agrees_with_direct_on_a_frequency_response_point(k, W, Delta):
     """Free flight exact, contact by DOPRI5 (rtol 1e-11) against solve_ivp DOP853 (rtol 1e-11):
     samples to 1e-7 of the orbit and contact records to 1e-7 relative, the Hunt-Crossley
     test's tolerances (tests/test_compliant.py), through make_solver (the registry's family)."""
-    m = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=Delta, contact=LankaraniNikravesh(k, 0.9))
-    ev, di = make_solver(m, "event"), make_solver(m, "direct")
+    sc = sdof(beta=0.015, B=5e-4, Delta=Delta, law=LankaraniNikravesh(k, 0.9))
+    ev, di = make_solver(sc, "event"), make_solver(sc, "direct")
     assert isinstance(ev, EventSolver) and isinstance(di, DirectSolver)
     a = ev.point(W, None, 4, 4, 32)
     b = di.point(W, None, 4, 4, 32)
@@ -156,10 +157,10 @@ def test_event_agrees_with_direct_on_a_frequency_response_point(k, W, Delta):
 
 
 # ---------------------------------------------------------------------------- (d) continuation
-def _settled(m, W, periods=1500, x0=None):
+def _settled(sc, W, periods=1500, x0=None):
     s0 = None if x0 is None else np.array([x0[0], x0[1], 0.0])
-    tr = EventSolver(m.scene()).point(W, s0, periods, 16, 16)
-    return np.asarray(tr.final_state[:2], float), summarize(tr, m.Delta)
+    tr = EventSolver(sc).point(W, s0, periods, 16, 16)
+    return np.asarray(tr.final_state[:2], float), summarize(tr, one_mode(sc).Delta)
 
 
 @pytest.mark.slow     # the Lankarani-Nikravesh shooting tangent: compiled by this test alone (~1 min cold)
@@ -171,10 +172,10 @@ def test_continued_orbit_is_the_settled_event_orbit():
     (measured 1.4e-10), the Hunt-Crossley checks' tolerance."""
     from vibeam.models.continuation import Settings, trace
 
-    m = replace(FIG8, contact=LankaraniNikravesh(1e6, 0.9))
-    x0, sm = _settled(m, 1.9)
+    sc = sdof(**FIG8, law=LankaraniNikravesh(1e6, 0.9))
+    x0, sm = _settled(sc, 1.9)
     assert sm["period"] == 1
-    prob = shooting_problem(m, "Omega")
+    prob = shooting_problem(sc, "Omega")
     assert isinstance(prob, SceneShooting) and prob.setup(1.9).core.kstops.cc[0] == pytest.approx(chi_ln(0.9))
     s = prob.shot(x0, 1.9, 1)
     assert s.status == "ok" and s.n_impacts == 1
@@ -184,7 +185,7 @@ def test_continued_orbit_is_the_settled_event_orbit():
     A = b.arrays()
     pt = b.points[-1]
     assert A["stable"][-1] and pt.p == pytest.approx(1.95)
-    _, sm = _settled(m, pt.p, x0=pt.x * 1.01)
+    _, sm = _settled(sc, pt.p, x0=pt.x * 1.01)
     assert sm["period"] == 1 and sm["amplitude"] == pytest.approx(A["amplitude"][-1], rel=1e-9)
 
 
@@ -206,13 +207,13 @@ def test_one_mode_beam_is_the_sdof_scene():
     p, kc = 1.5, 1e8 / m.omega_ref ** 2
     Lq = w1 * L / s1
     sq = math.sqrt(k1)
-    sd = SDOF(beta=c1 / (2 * sq), B=w1 * G1 * Y / Lq, R=m.contact.R, Delta=D / Lq,
-              contact=LankaraniNikravesh(w1 ** 2 * kc * Lq ** (p - 1) / k1, m.contact.R, p))
+    sd = sdof(beta=c1 / (2 * sq), B=w1 * G1 * Y / Lq, Delta=D / Lq,
+              law=LankaraniNikravesh(w1 ** 2 * kc * Lq ** (p - 1) / k1, m.contact.R, p))
     W = 15.4 / 7.6
     ev = make_solver(m, "event")
     assert isinstance(ev, BeamEventSolver)
     a = ev.point(W, None, 20, 4, 32)
-    b = EventSolver(sd.scene()).point(W / sq, None, 20, 4, 32)
+    b = EventSolver(sd).point(W / sq, None, 20, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples[:, 0] - b.samples[:, 0])) <= 1e-10 * np.max(np.abs(a.samples[:, 0]))
     assert np.max(np.abs(a.samples[:, 1] - sq * b.samples[:, 1])) <= 1e-10 * np.max(np.abs(a.samples[:, 1]))
@@ -244,9 +245,12 @@ def test_sdof_two_stops_and_beside_a_newton_stop(lower):
     kw = {"R_lower": 0.5} if lower == "newton" else \
         {"contact_lower": (LankaraniNikravesh if lower == "lankarani_nikravesh" else HuntCrossley)(3e4, 0.9)}
     m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact=LankaraniNikravesh(1e5, 0.8), **kw)
-    assert mixed_stops(m) == (lower == "newton")
-    a = make_solver(m, "event").point(0.75, None, 4, 4, 32)
-    b = make_solver(m, "direct").point(0.75, None, 4, 4, 32)
+    assert mixed_stops(m) == (lower == "newton")      # mixed_stops reads m.stops(): the class's method
+    lower_law = Restitution(0.5) if lower == "newton" else kw["contact_lower"]
+    sc = sdof(beta=0.015, B=5e-3, Delta=0.002, law=LankaraniNikravesh(1e5, 0.8), Delta_lower=0.003,
+              lower_law=lower_law)
+    a = make_solver(sc, "event").point(0.75, None, 4, 4, 32)
+    b = make_solver(sc, "direct").point(0.75, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts > a.n_impacts_lower >= 1
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-7 * np.max(np.abs(a.samples))
 
@@ -333,12 +337,12 @@ def test_mapping_fixed_point_is_the_settled_event_orbit():
     relative, the Hunt-Crossley test's tolerance (tests/test_hc_mapping.py)."""
     from vibeam.models.mapping import MappingSolver
 
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, contact=LankaraniNikravesh(1e4, 0.9))
-    s = make_solver(m, "mapping")
+    sc = sdof(beta=0.015, B=0.5e-3, Delta=0.0, law=LankaraniNikravesh(1e4, 0.9))
+    s = make_solver(sc, "mapping")
     assert isinstance(s, MappingSolver)
     out = s.point(1.8, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == 1 and out["stable"]
-    se = summarize(EventSolver(m.scene()).point(1.8, None, 400, 8, 64), 0.0)
+    se = summarize(EventSolver(sc).point(1.8, None, 400, 8, 64), 0.0)
     assert se["period"] == 1 and se["status"] == "ok"
     for key in ("amplitude", "q_max", "impact_velocity", "contact_duration", "contact_force_max",
                 "penetration_max", "energy_per_impact"):

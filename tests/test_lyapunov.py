@@ -17,16 +17,17 @@ import pytest
 from scipy.linalg import expm
 
 from vibeam.models.lyapunov import lyapunov_spectrum
-from vibeam.models import SDOF, EventSolver, shooting_problem
+from vibeam.models import EventSolver, shooting_problem
+from vibeam.models.builders.sdof import sdof
 
 BETA, R = 0.015, 0.9
-FIG8 = SDOF(BETA, 0.5e-3, R, 0.7e-3)                             # paper Fig. 8
-TWO_SIDED = SDOF(BETA, 0.5e-3, R, 0.0, Delta_lower=2e-3)         # cases/paper-fig7-two-sided.toml
+FIG8 = sdof(BETA, 0.5e-3, 0.7e-3, R)                             # paper Fig. 8
+TWO_SIDED = sdof(BETA, 0.5e-3, 0.0, R, Delta_lower=2e-3)         # cases/paper-fig7-two-sided.toml
 CHAOS_OMEGA = 2.38                                              # "not periodic (chaos)" there
 
 
 def _attractor(m, W, periods=400):
-    tr = EventSolver(m.scene()).point(W, None, periods, 1, 16)
+    tr = EventSolver(m).point(W, None, periods, 1, 16)
     assert tr.status == "ok"
     return tr.final_state[:2]
 
@@ -46,7 +47,7 @@ def test_a_scene_without_impacts_has_both_exponents_minus_beta():
     ``-2 beta`` to 1e-12 (measured 4.5e-16) and each lies within ``ln cond(V) / t`` of ``-beta``
     (measured 1.9e-7 against a bound of 1.3e-6 after 4000 shots)."""
     W = 2.2
-    free = SDOF(BETA, 0.5e-3, R, 1.0)
+    free = sdof(BETA, 0.5e-3, 1.0, R)
     prob = shooting_problem(free, "Omega")
     sp = lyapunov_spectrum(prob, _attractor(free, W), W, 4000)
     assert sp.status == "ok" and sp.impacts == 0
@@ -253,7 +254,7 @@ def test_lambda_1_tends_to_zero_at_the_period_doubling_located_by_continuation()
     1e-3 at 1e-5 before the doubling."""
     from vibeam.models.continuation import start_point, trace
 
-    fig13 = SDOF(BETA, 0.5e-3, R, 0.5e-3)
+    fig13 = sdof(BETA, 0.5e-3, 0.5e-3, R)
     prob = shooting_problem(fig13, "Omega")
     x0 = _attractor(fig13, 1.5)
     branches = trace(prob, x0, 1.5, 1, 1.5, 2.5, +1)

@@ -12,13 +12,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 
 from vibeam.models.lyapunov import lyapunov_spectrum
-from vibeam.models import SDOF, EventSolver, make_solver, shooting_problem
+from vibeam.models import EventSolver, make_solver, shooting_problem
+from vibeam.models.builders.sdof import sdof
 
 BETA, R = 0.015, 0.9
-TWO_SIDED = SDOF(BETA, 0.5e-3, R, 0.0, Delta_lower=2e-3)         # cases/paper-fig7-two-sided.toml
+TWO_SIDED = sdof(BETA, 0.5e-3, 0.0, R, Delta_lower=2e-3)         # cases/paper-fig7-two-sided.toml
 
 
 def test_batch_error_of_independent_rates_is_their_standard_error():
@@ -52,7 +52,7 @@ def test_the_error_of_a_chaotic_record_matches_the_scatter_of_independent_record
     records (mean ratio 0.76, 9 of 12 covered): right on average, useless one by one."""
     W = 2.38
     prob = shooting_problem(TWO_SIDED, "Omega")
-    x = EventSolver(TWO_SIDED.scene()).point(W, None, 400, 1, 16).final_state[:2]
+    x = EventSolver(TWO_SIDED).point(W, None, 400, 1, 16).final_state[:2]
     lam, err = [], []
     for _ in range(12):
         sp = lyapunov_spectrum(prob, x, W, 2000)
@@ -98,7 +98,7 @@ def test_a_periodic_point_reports_the_floquet_exponents_of_its_orbit(tmp_path):
     lam = np.asarray(ds["lyapunov"].values, float)
     assert np.all(np.asarray(ds["lyapunov_error"].values) == 0.0)
     # the independent monodromy: finite differences of the event kernel's map over one period
-    solver = make_solver(SDOF(BETA, 0.5e-3, R, 0.0), "event")
+    solver = make_solver(sdof(BETA, 0.5e-3, 0.0, R), "event")
     x = solver.point(2.0, None, 4000, 1, 16).final_state[:2].copy()
     P = lambda z: solver.point(2.0, np.array([z[0], z[1], 0.0]), 0, 1, 16).final_state[:2]
     for _ in range(3):
@@ -155,7 +155,7 @@ def test_the_api_returns_the_floquet_exponents_of_a_periodic_orbit():
 
     res = vibeam.lyapunov("cases/paper-fig7.toml", Omega=2.0)
     assert res.status == "ok"
-    solver = make_solver(SDOF(BETA, 0.5e-3, R, 0.0), "event")
+    solver = make_solver(sdof(BETA, 0.5e-3, 0.0, R), "event")
     x = solver.point(2.0, None, 4000, 1, 16).final_state[:2].copy()
     P = lambda z: solver.point(2.0, np.array([z[0], z[1], 0.0]), 0, 1, 16).final_state[:2]
     for _ in range(3):

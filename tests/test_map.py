@@ -4,7 +4,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import h5py
 import numpy as np
@@ -12,7 +11,8 @@ import pytest
 
 from vibeam.case.schema import parse_case
 from vibeam.analysis.maps import FAILED, HELD, NO_IMPACT, PERIOD_1, classify
-from vibeam.models import SDOF, make_solver
+from vibeam.models import make_solver
+from vibeam.models.builders.sdof import sdof
 from vibeam.io.results import read_lines, read_results
 from vibeam.runner import run_case
 from vibeam.engine.sweep import Sweep, plan_lines, run_lines, run_sweep
@@ -117,7 +117,7 @@ def test_prestressed_map_held_region_matches_closed_form(tmp_path):
 def test_failed_line_is_recorded_and_the_map_goes_on():
     """A numerical failure at one frequency is a recorded status with its message; the chain
     carries on from the last good state and the other lines are untouched."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    m = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9)
     Om = np.linspace(1.8, 2.2, 5)
     sw = Sweep(Omega=Om, direction="both", transient_periods=100, record_periods=8)
     good = run_sweep(make_solver(m, "event"), sw, jobs=1)
@@ -137,7 +137,7 @@ def test_killed_worker_line_is_retried(tmp_path, jobs):
     """A worker killed in the middle of a line (os._exit: no exception, no cleanup, as a killed
     process) breaks the process pool; the engine rebuilds the pool, reruns the lost lines and
     the results equal those of an undisturbed run exactly."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    m = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9)
     Om = np.linspace(1.8, 2.2, 6)
     sw = Sweep(Omega=Om, direction="both", transient_periods=100, record_periods=8)
     good = run_sweep(make_solver(m, "event"), sw, jobs=1)
@@ -153,7 +153,7 @@ def test_killed_worker_line_is_retried(tmp_path, jobs):
 def test_line_lost_too_often_is_recorded_failed(tmp_path):
     """A line whose worker dies on every attempt ends as 'failed' with the reason after
     max_attempts, and the other lines complete."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    m = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9)
     Om = np.linspace(1.8, 2.2, 3)
     sw = Sweep(Omega=Om, direction="up", transient_periods=50, record_periods=8, continuation=False)
 
@@ -202,7 +202,7 @@ def test_dask_killed_worker_line_is_retried(tmp_path, cluster):
     restarted or the other worker) and the sweep equals an undisturbed one exactly."""
     import distributed
 
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    m = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9)
     Om = np.linspace(1.8, 2.2, 6)
     sw = Sweep(Omega=Om, direction="both", transient_periods=100, record_periods=8)
     good = run_sweep(make_solver(m, "event"), sw, jobs=1)

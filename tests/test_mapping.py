@@ -5,14 +5,21 @@ import numpy as np
 import pytest
 
 from vibeam.models import make_solver
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 from vibeam.models.sdof_flow import propagate, particular_coefficients
 from vibeam.models.mapping import (fixed_point_analysis, impact_map, impact_map_jacobian, newton_fixed_point,
                                    next_impact)
 
 TWO_PI = 2 * math.pi
-FIG13 = SDOF(0.015, 0.5e-3, 0.9, 0.5e-3)   # paper Fig. 13 scene
-NEUTRAL = SDOF(0.015, 0.5e-3, 0.9, 0.0)
+FIG13 = sdof(0.015, 0.5e-3, 0.5e-3, 0.9)   # paper Fig. 13 scene
+NEUTRAL = sdof(0.015, 0.5e-3, 0.0, 0.9)
+
+
+def _read(sc):
+    """The one-mode oscillator (paper Eqs. 1-2) of the SDOF scene ``sc`` and its stop's ``R``."""
+    return one_mode(sc), sc.stops[0].law.R
 
 
 def _phase_diff(a, b):
@@ -21,17 +28,19 @@ def _phase_diff(a, b):
 
 def _state_at_phase_zero(m, Omega, x, n=1):
     """``(q, q', 0)`` of the fixed-point orbit at the next forcing phase 0 (start for EventSolver)."""
-    F = Omega**2 * m.B
-    a, b = particular_coefficients(m.beta, F, Omega)
+    om, R = _read(m)
+    F = Omega**2 * om.B
+    a, b = particular_coefficients(om.beta, F, Omega)
     s = ((TWO_PI - x[0]) % TWO_PI) / Omega
-    g, v, *_ = propagate(s, x[0], m.Delta, -m.R * x[1], m.beta, a, b, Omega, m.Delta)
-    return np.array([m.Delta + g, v, 0.0])
+    g, v, *_ = propagate(s, x[0], om.Delta, -R * x[1], om.beta, a, b, Omega, om.Delta)
+    return np.array([om.Delta + g, v, 0.0])
 
 
 @pytest.mark.parametrize("m,Omega,n,from_rest", [(FIG13, 1.95, 1, True), (FIG13, 2.0, 1, True),
                                                  (FIG13, 2.2, 1, False), (NEUTRAL, 2.0, 1, True),
                                                  (FIG13, 3.9, 2, True)])
 def test_fixed_point_matches_long_event_run(m, Omega, n, from_rest):
+    om, R = _read(m)
     p = make_solver(m, "mapping", n=n).point(Omega, None, 0, 0)
     assert p["status"] == "ok" and p["period"] == n and p["stable"]
     if from_rest:
@@ -41,19 +50,20 @@ def test_fixed_point_matches_long_event_run(m, Omega, n, from_rest):
         # start 1e-3 away from the orbit instead
         s0 = _state_at_phase_zero(m, Omega, p["final_state"], n)
         s0[:2] *= 1 + 1e-3
-    tr = EventSolver(m.scene()).point(Omega, s0, 1500, 2 * n, 256)
+    tr = EventSolver(m).point(Omega, s0, 1500, 2 * n, 256)
     assert tr.status == "ok" and tr.n_impacts == 2
     ph = (Omega * tr.impact_times[-1]) % TWO_PI
     assert _phase_diff(ph, p["impact_phase"]) < 1e-8
     assert abs(tr.impact_velocities[-1] - p["impact_velocity"]) < 1e-8 * p["impact_velocity"] + 1e-14
     # exact minimum of the orbit (both solvers locate it on the closed form)
     assert p["q_min"] == pytest.approx(tr.q_min, rel=1e-7)
-    assert p["amplitude"] == pytest.approx(m.Delta - tr.q_min, rel=1e-7)
-    assert p["q_max"] == pytest.approx(m.Delta, abs=1e-15)
+    assert p["amplitude"] == pytest.approx(om.Delta - tr.q_min, rel=1e-7)
+    assert p["q_max"] == pytest.approx(om.Delta, abs=1e-15)
 
 
-@pytest.mark.parametrize("m", [FIG13, NEUTRAL, SDOF(0.05, 1e-3, 0.6, -0.2e-3)])
+@pytest.mark.parametrize("m", [FIG13, NEUTRAL, sdof(0.05, 1e-3, -0.2e-3, 0.6)])
 def test_multiplier_product_and_map_jacobian(m):
+    om, R = _read(m)
     s = make_solver(m, "mapping")
     x = None
     n_ok = 0
@@ -67,43 +77,44 @@ def test_multiplier_product_and_map_jacobian(m):
         mu = p["multipliers"]
         assert mu.shape == (2,) and mu.dtype == complex
         T = TWO_PI / Omega
-        assert abs(np.prod(mu) - m.R**2 * math.exp(-2 * m.beta * T)) < 1e-10
+        assert abs(np.prod(mu) - R**2 * math.exp(-2 * om.beta * T)) < 1e-10
         # eigenvalues of the exact impact-map Jacobian = Floquet multipliers
         ev = p["map_eigenvalues"]
         assert np.max(np.abs(np.sort_complex(ev) - np.sort_complex(mu))) < 1e-8 * max(1.0, np.max(np.abs(mu)))
         assert p["stable"] == bool(np.max(np.abs(mu)) < 1)
         # finite-difference cross-check of the exact map Jacobian through the root-finding map
         tau = T
-        J = impact_map_jacobian(m.scene(), Omega, x[0], x[1], tau)
+        J = impact_map_jacobian(m, Omega, x[0], x[1], tau)
         h = np.array([1e-6, 1e-6 * x[1]])
         Jfd = np.empty((2, 2))
         for j in range(2):
             dx = np.zeros(2)
             dx[j] = h[j]
-            fp = np.array(impact_map(m.scene(), Omega, *(x + dx)))
-            fm = np.array(impact_map(m.scene(), Omega, *(x - dx)))
+            fp = np.array(impact_map(m, Omega, *(x + dx)))
+            fm = np.array(impact_map(m, Omega, *(x - dx)))
             d = fp - fm
             d[0] = (d[0] + math.pi) % TWO_PI - math.pi
             Jfd[:, j] = d / (2 * h[j])
         assert np.allclose(Jfd, J, rtol=1e-4, atol=1e-4 * np.abs(J).max())
         # the fixed point is a fixed point of the root-finding impact map
-        y = impact_map(m.scene(), Omega, x[0], x[1])
+        y = impact_map(m, Omega, x[0], x[1])
         assert _phase_diff(y[0], x[0]) < 1e-9 and abs(y[1] - x[1]) < 1e-9 * x[1]
     assert n_ok >= 8
 
 
 def test_next_impact_finds_first_crossing():
     m, Omega = FIG13, 2.0
-    x = newton_fixed_point(m.scene(), Omega, [3.9, 0.012])
-    tau, ph, v, acc = next_impact(m.scene(), Omega, x[0], x[1])
+    om, R = _read(m)
+    x = newton_fixed_point(m, Omega, [3.9, 0.012])
+    tau, ph, v, acc = next_impact(m, Omega, x[0], x[1])
     assert tau == pytest.approx(TWO_PI / Omega, rel=1e-12)
     # off the fixed point: the returned impact is the first upward crossing (dense check)
     for ph0, v0 in ((x[0], 1e-3 * x[1]), (x[0] + 1.0, 0.3 * x[1]), (x[0] - 0.5, 2 * x[1])):
-        tau2, ph2, v2, _ = next_impact(m.scene(), Omega, ph0, v0)
-        F = Omega**2 * m.B
-        a, b = particular_coefficients(m.beta, F, Omega)
+        tau2, ph2, v2, _ = next_impact(m, Omega, ph0, v0)
+        F = Omega**2 * om.B
+        a, b = particular_coefficients(om.beta, F, Omega)
         ss = np.linspace(0, tau2, 200001)[1:-1]
-        g = np.array([propagate(t, ph0, m.Delta, -m.R * v0, m.beta, a, b, Omega, m.Delta)[0] for t in ss])
+        g = np.array([propagate(t, ph0, om.Delta, -R * v0, om.beta, a, b, Omega, om.Delta)[0] for t in ss])
         assert np.all(g < 0) and v2 > 0
         assert _phase_diff(ph2, ph0 + Omega * tau2) < 1e-12
 
@@ -144,12 +155,12 @@ def test_fig13_period1_loses_stability_near_2p3(capsys):
     assert not p["stable"]
     s0 = _state_at_phase_zero(FIG13, Omega, p["final_state"])
     s0[1] *= 1 + 1e-7
-    tr = EventSolver(FIG13.scene()).point(Omega, s0, 400, 16, 64)
+    tr = EventSolver(FIG13).point(Omega, s0, 400, 16, 64)
     iv = tr.impact_velocities[: tr.n_impacts]
     assert tr.n_impacts > 0
     assert np.max(np.abs(iv - p["impact_velocity"])) > 1e-2 * p["impact_velocity"]
     # ... nor does a sweep from rest settle on it
-    tr2 = EventSolver(FIG13.scene()).point(Omega, None, 1500, 16, 64)
+    tr2 = EventSolver(FIG13).point(Omega, None, 1500, 16, 64)
     iv2 = tr2.impact_velocities[: tr2.n_impacts]
     assert tr2.n_impacts != 16 or np.max(np.abs(iv2 - p["impact_velocity"])) > 1e-2 * p["impact_velocity"]
     # contrast: below the onset the same perturbed start returns to the orbit
@@ -157,7 +168,7 @@ def test_fig13_period1_loses_stability_near_2p3(capsys):
     p = pts[int(np.argmin(np.abs(W - Omega)))]
     s0 = _state_at_phase_zero(FIG13, Omega, p["final_state"])
     s0[1] *= 1 + 1e-7
-    tr = EventSolver(FIG13.scene()).point(Omega, s0, 400, 16, 64)
+    tr = EventSolver(FIG13).point(Omega, s0, 400, 16, 64)
     assert tr.n_impacts == 16
     assert np.max(np.abs(tr.impact_velocities[:16] - p["impact_velocity"])) < 1e-8 * p["impact_velocity"]
 
@@ -165,26 +176,27 @@ def test_fig13_period1_loses_stability_near_2p3(capsys):
 def test_paper_formulas_at_fixed_points():
     """Eqs. 29-32 vs 35-37 vs the monodromy, at one stable fixed point."""
     m, Omega = FIG13, 2.1
-    x = newton_fixed_point(m.scene(), Omega, [4.6, 0.002])
-    an = fixed_point_analysis(m.scene(), Omega, x)
+    om, R = _read(m)
+    x = newton_fixed_point(m, Omega, [4.6, 0.002])
+    an = fixed_point_analysis(m, Omega, x)
     T = TWO_PI / Omega
-    assert an["det_true"] == pytest.approx(m.R**2 * math.exp(-2 * m.beta * T), rel=1e-12)
+    assert an["det_true"] == pytest.approx(R**2 * math.exp(-2 * om.beta * T), rel=1e-12)
     assert an["det_full"] == pytest.approx(an["det_true"], rel=1e-12)
     # Eq. 35 as printed has exp(-beta n T), not exp(-2 beta n T)
-    assert an["det_simplified"] == pytest.approx(m.R**2 * math.exp(-m.beta * T), rel=1e-12)
+    assert an["det_simplified"] == pytest.approx(R**2 * math.exp(-om.beta * T), rel=1e-12)
     # at a fixed point the printed full trace (Eq. 30) is minus the simplified one (Eq. 36)
     assert an["tr_full"] == pytest.approx(-an["tr_simplified"], rel=1e-12)
     # Eq. 36 is the trace of Phi(T) premultiplied by a saltation matrix without the
     # R a- term: [[-R, 0], [a+ / v-, -R]]; the true one has (a+ + R a-) / v-
     from vibeam.models.sdof_flow import flow_matrix
-    a_plus = an["a_minus"] + 2 * m.beta * (1 + m.R) * x[1]
-    S_paper = np.array([[-m.R, 0.0], [a_plus / x[1], -m.R]])
-    assert an["tr_simplified"] == pytest.approx(np.trace(S_paper @ flow_matrix(T, m.beta)), rel=1e-10)
+    a_plus = an["a_minus"] + 2 * om.beta * (1 + R) * x[1]
+    S_paper = np.array([[-R, 0.0], [a_plus / x[1], -R]])
+    assert an["tr_simplified"] == pytest.approx(np.trace(S_paper @ flow_matrix(T, om.beta)), rel=1e-10)
     assert abs(an["tr_true"] - an["tr_simplified"]) > 0.1  # 1.338 vs 1.514 here
 
 
 def test_failure_is_recorded_and_settings():
-    m = SDOF(0.015, 0.5e-3, 0.9, 0.02)  # gap far beyond the response: no impacts
+    m = sdof(0.015, 0.5e-3, 0.02, 0.9)  # gap far beyond the response: no impacts
     s = make_solver(m, "mapping")
     p = s.point(1.5, None, 0, 0)
     assert p["status"] == "failed" and p["period"] == 0 and p["message"]

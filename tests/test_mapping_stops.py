@@ -18,7 +18,9 @@ from vibeam.engine.records import summarize
 from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.contact import Restitution
 from vibeam.models.mapping import MappingSolver
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 
 KV = LinearContact.from_restitution(1e4, 0.8)
 KV_LOW = LinearContact.from_damping_ratio(3e3, 0.05)
@@ -42,12 +44,14 @@ KEYS = ("amplitude", "q_max", "impact_velocity", "impact_velocity_lower", "conta
 
 
 def _model(up, low):
-    return SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact=up, lower_law=low)
+    # up None: Newton's law with R = 0.8
+    return sdof(beta=0.015, B=5e-3, Delta=0.002, law=Restitution(0.8) if up is None else up, Delta_lower=0.003,
+                lower_law=low)
 
 
 def _settled(m, W):
-    tr = EventSolver(m.scene()).point(W, None, 2000, 12, 32)
-    return tr, summarize(tr, m.Delta)
+    tr = EventSolver(m).point(W, None, 2000, 12, 32)
+    return tr, summarize(tr, one_mode(m).Delta)
 
 
 @pytest.mark.parametrize("up, low, W, tol", SCENES)
@@ -62,7 +66,7 @@ def test_mapping_finds_the_settled_event_orbit(up, low, W, tol):
     n = ev["period"]
     assert ev["status"] == "ok" and 1 <= n <= 4
     assert np.max(np.abs(tr.strobe[n:] - tr.strobe[:-n])) < 1e-11 * np.max(np.abs(tr.strobe))
-    out = MappingSolver(m.scene(), n=n).point(W, None, 0, 0)
+    out = MappingSolver(m, n=n).point(W, None, 0, 0)
     assert out["status"] == "ok" and out["period"] == n and out["stable"], out["message"]
     assert out["impacts_per_period"] == ev["impacts_per_period"] > 0
     assert out["impacts_per_period_lower"] == ev["impacts_per_period_lower"] > 0
@@ -72,7 +76,7 @@ def test_mapping_finds_the_settled_event_orbit(up, low, W, tol):
         else:
             assert out[key] == pytest.approx(ev[key], rel=tol, abs=1e-300), key
     # continuation: the orbit is its own guess
-    again = MappingSolver(m.scene(), n=n).point(W, {"final_state": out["final_state"]}, 0, 0)
+    again = MappingSolver(m, n=n).point(W, {"final_state": out["final_state"]}, 0, 0)
     assert again["amplitude"] == pytest.approx(out["amplitude"], rel=1e-12)
 
 
@@ -88,13 +92,13 @@ def test_multipliers_against_the_event_stroboscopic_map(up, low, W, tol):
     m = _model(up, low)
     tr, ev = _settled(m, W)
     n = ev["period"]
-    out = MappingSolver(m.scene(), n=n).point(W, None, 0, 0)
+    out = MappingSolver(m, n=n).point(W, None, 0, 0)
     assert out["status"] == "ok", out["message"]
     x0, held = tr.final_state[:2], tr.final_state[2]
     h = 1e-5 * np.max(np.abs(tr.strobe))
 
     def strobe(z):
-        return EventSolver(m.scene()).point(W, np.array([z[0], z[1], held]), 0, n, 8).final_state[:2]
+        return EventSolver(m).point(W, np.array([z[0], z[1], held]), 0, n, 8).final_state[:2]
 
     J = np.column_stack([(strobe(x0 + h * e) - strobe(x0 - h * e)) / (2 * h) for e in np.eye(2)])
     fd = np.sort_complex(np.linalg.eigvals(J).astype(complex))
@@ -112,12 +116,12 @@ def test_liouville_on_the_composed_section_map(up, low, W):
     m = _model(up, low)
     _, ev = _settled(m, W)
     n = ev["period"]
-    out = MappingSolver(m.scene(), n=n).point(W, None, 0, 0)
+    out = MappingSolver(m, n=n).point(W, None, 0, 0)
     assert out["status"] == "ok", out["message"]
     T = 2 * math.pi / W
-    log_det = -2 * m.beta * n * T
-    for law, ipp, dur in ((m.stops()[0].law, out["impacts_per_period"], out["contact_duration"]),
-                          (m.stops()[1].law, out["impacts_per_period_lower"], out["contact_duration_lower"])):
+    log_det = -2 * one_mode(m).beta * n * T
+    for law, ipp, dur in ((m.stops[0].law, out["impacts_per_period"], out["contact_duration"]),
+                          (m.stops[1].law, out["impacts_per_period_lower"], out["contact_duration_lower"])):
         k = int(round(ipp * n))
         log_det += 2 * k * math.log(law.R) if law.kind == "impulsive" else -law.damping * k * dur
     assert np.prod(out["multipliers"]).real == pytest.approx(math.exp(log_det), rel=1e-10)
@@ -133,7 +137,7 @@ def test_section_map_jacobian_against_finite_differences(up, low, stop):
     <= 1e-8).  The section is one of the orbit's (the event run's period n)."""
     m = _model(up, low)
     W = 0.8
-    s = MappingSolver(m.scene(), n=_settled(m, W)[1]["period"])
+    s = MappingSolver(m, n=_settled(m, W)[1]["period"])
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok", out["message"]
     fs = out["final_state"]
@@ -155,6 +159,6 @@ def test_a_chatter_orbit_is_a_failed_point_with_its_reason():
     in each period, accumulating: the map is not defined on an accumulating sequence), the point is
     ``failed`` with the reasons (the chatter named), never an exception or an ``ok``."""
     m = _model(KV, Restitution(0.5))
-    out = MappingSolver(m.scene()).point(1.6, None, 0, 0)
+    out = MappingSolver(m).point(1.6, None, 0, 0)
     assert out["status"] == "failed" and "chatter" in out["message"], out["message"]
     assert np.isnan(out["amplitude"]) and out["multipliers"].shape == (2,) and np.isnan(out["impact_velocity_lower"])

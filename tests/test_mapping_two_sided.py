@@ -13,7 +13,10 @@ import math
 import numpy as np
 import pytest
 
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.contact import Restitution
+from vibeam.models.scene import one_mode
 from vibeam.models.mapping import MappingSolver
 from vibeam.engine.records import summarize
 
@@ -31,13 +34,14 @@ N_REC = 12   # recorded periods: a multiple of every period above
 
 
 def _model(D, Dl, Rl):
-    return SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=D, Delta_lower=Dl, R_lower=Rl)
+    return sdof(beta=0.015, B=0.5e-3, Delta=D, R=0.9, Delta_lower=Dl,
+                lower_law=None if Rl is None else Restitution(float(Rl)))
 
 
 def _settled(m, W, q0):
     s0 = None if q0 is None else np.array([q0, 0.0, 0.0])
-    tr = EventSolver(m.scene()).point(W, s0, 3000, N_REC, 64)
-    out = summarize(tr, m.Delta)
+    tr = EventSolver(m).point(W, s0, 3000, N_REC, 64)
+    out = summarize(tr, one_mode(m).Delta)
     return tr, out
 
 
@@ -56,7 +60,7 @@ def test_two_sided_mapping_equals_the_event_kernel(D, Dl, Rl, W, q0):
     st = tr.strobe
     scale = np.max(np.abs(st))
     assert np.max(np.abs(st[n:] - st[:-n])) < 1e-11 * scale
-    s = MappingSolver(m.scene(), n=n)
+    s = MappingSolver(m, n=n)
     if q0 is None:
         out = s.point(W, None, 0, 0)
     else:   # the free orbit coexists: the guess is the event run's impact sequence
@@ -77,7 +81,7 @@ def test_two_sided_mapping_equals_the_event_kernel(D, Dl, Rl, W, q0):
 
 
 def _strobe_map(m, W, n, x):
-    return EventSolver(m.scene()).point(W, np.array([x[0], x[1], 0.0]), 0, n, 8).final_state[:2]
+    return EventSolver(m).point(W, np.array([x[0], x[1], 0.0]), 0, n, 8).final_state[:2]
 
 
 @pytest.mark.parametrize("D, Dl, Rl, W, q0", [SCENES[1], SCENES[2], SCENES[3], SCENES[4], SCENES[5]])
@@ -93,7 +97,7 @@ def test_two_sided_multipliers_against_the_event_stroboscopic_map(D, Dl, Rl, W, 
     x0 = tr.final_state[:2]
     seq = np.column_stack([W * tr.impact_times, tr.impact_velocities, tr.impact_stops]).ravel()
     k = int(round(ev["impacts_per_period"] * n + ev["impacts_per_period_lower"] * n))
-    out = MappingSolver(m.scene(), n=n).point(W, seq[-3 * k:], 0, 0)
+    out = MappingSolver(m, n=n).point(W, seq[-3 * k:], 0, 0)
     assert out["status"] == "ok", out["message"]
     h = 1e-6 * np.max(np.abs(tr.strobe))
     J = np.column_stack([(_strobe_map(m, W, n, x0 + h * e) - _strobe_map(m, W, n, x0 - h * e)) / (2 * h)
@@ -114,10 +118,10 @@ def test_far_lower_stop_reproduces_the_one_stop_mapping(W, n):
     """Fig. 7 (Delta = 0) with a lower stop at 1e3 that is never reached: every output of the
     one-stop mapping, bit for bit (the same guess from the bit-identical event kernel, the same
     one-impact route), the lower stop's counts 0 / NaN."""
-    one = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
-    two = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e3, R_lower=0.5)
-    a = MappingSolver(one.scene(), n=n).point(W, None, 0, 0)
-    b = MappingSolver(two.scene(), n=n).point(W, None, 0, 0)
+    one = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9)
+    two = sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.9, Delta_lower=1e3, lower_law=Restitution(0.5))
+    a = MappingSolver(one, n=n).point(W, None, 0, 0)
+    b = MappingSolver(two, n=n).point(W, None, 0, 0)
     assert a["status"] == b["status"]
     for key, val in a.items():
         if isinstance(val, str):

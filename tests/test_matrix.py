@@ -359,9 +359,9 @@ def test_every_continuation_row_gives_periodic_orbits_of_the_event_integrator(ro
         # Liouville: det M = prod R_k^2 exp(-T sum c_i) (each Newton impact's saltation has det
         # R^2; the flow the trace of its state matrix); measured <= 5.8e-12 (the point row's 13
         # impacts), bound 1e-9
-        from vibeam.models.system import from_beam, from_sdof
+        from vibeam.models.system import from_beam
 
-        damping = (from_sdof(model) if fid == "sdof" else from_beam(model)).damping
+        damping = (model.scene().system if fid == "sdof" else from_beam(model)).damping
         R = np.array([st.law.R for st in model.stops()])
         hit = np.asarray(pt.shot.extra.get("impact_stops", np.zeros(pt.shot.n_impacts, int)), int)
         want = np.prod(R[hit] ** 2) * np.exp(-np.sum(damping) * 2.0 * np.pi / W)

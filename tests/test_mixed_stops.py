@@ -17,6 +17,9 @@ from vibeam.models import make_solver, shooting_problem
 from vibeam.models.registry import mixed_stops
 from vibeam.models.compliant import LinearContact
 from vibeam.models import SDOF, EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.contact import Restitution
+from vibeam.models.scene import one_mode
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
 
@@ -24,7 +27,7 @@ KV = LinearContact.from_restitution(1e4, 0.8)
 
 
 def _mixed(Delta_lower=0.003, R_lower=0.6, B=5e-3, Delta=0.002):
-    return SDOF(beta=0.015, B=B, R=0.8, Delta=Delta, Delta_lower=Delta_lower, R_lower=R_lower, contact=KV)
+    return sdof(beta=0.015, B=B, Delta=Delta, law=KV, Delta_lower=Delta_lower, lower_law=Restitution(float(R_lower)))
 
 
 @pytest.mark.parametrize("W", [0.9, 1.0, 1.1])
@@ -35,15 +38,15 @@ def test_event_agrees_with_the_direct_reference_on_a_mixed_scene(W):
     DOP853 at rtol 1e-11), contact rows to 1e-6 relative (measured <= 3.0e-11); the lower
     stop's rows are impulses whose energy is (1 - R_l^2) v^2 / 2 (round-off)."""
     m = _mixed()
-    a = EventSolver(m.scene()).point(W, None, 4, 4, 32)
-    b = DirectSolver(m.scene()).point(W, None, 4, 4, 32)
+    a = EventSolver(m).point(W, None, 4, 4, 32)
+    b = DirectSolver(m).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower >= 3
     np.testing.assert_array_equal(a.impact_stops, b.impact_stops)
     np.testing.assert_array_equal(a.contact_stops, b.contact_stops)
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-8 * np.max(np.abs(a.samples))
     np.testing.assert_allclose(a.contacts, b.contacts, rtol=1e-6)
-    s = summarize(a, m.Delta)
+    s = summarize(a, one_mode(m).Delta)
     lo = a.contacts[a.contact_stops == 1]
     assert s["energy_per_impact_lower"] == pytest.approx(np.mean(0.5 * (1 - 0.6 ** 2) * lo[:, 4] ** 2), rel=1e-12)
     assert s["contact_duration_lower"] == 0.0 and math.isnan(s["contact_force_max_lower"])
@@ -56,11 +59,11 @@ def test_event_agrees_with_the_direct_reference_on_a_mixed_scene(W):
 def test_a_far_restitution_stop_gives_the_one_stop_compliant_run_identically():
     """A restitution stop that is never reached leaves every step of the one-stop kernel as it
     was: samples, extremes, contact rows and final state bit-for-bit."""
-    one = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, contact=LinearContact.from_restitution(1e4, 0.9))
-    two = SDOF(beta=0.015, B=5e-4, R=0.9, Delta=0.0, Delta_lower=1.0, R_lower=0.5,
-               contact=LinearContact.from_restitution(1e4, 0.9))
-    a = EventSolver(one.scene()).point(2.0, None, 8, 8, 32)
-    b = EventSolver(two.scene()).point(2.0, None, 8, 8, 32)
+    one = sdof(beta=0.015, B=5e-4, Delta=0.0, law=LinearContact.from_restitution(1e4, 0.9))
+    two = sdof(beta=0.015, B=5e-4, Delta=0.0, Delta_lower=1.0, lower_law=Restitution(0.5),
+               law=LinearContact.from_restitution(1e4, 0.9))
+    a = EventSolver(one).point(2.0, None, 8, 8, 32)
+    b = EventSolver(two).point(2.0, None, 8, 8, 32)
     assert a.n_impacts >= 8 and b.n_impacts_lower == 0 and np.all(b.impact_stops == 0)
     for x, y in ((a.samples, b.samples), (a.contacts, b.contacts), (a.period_min, b.period_min),
                  (a.impact_times, b.impact_times), (a.final_state, b.final_state)):
@@ -78,11 +81,11 @@ def test_chatter_on_the_restitution_stop_ends_in_sticking_as_in_the_direct_refer
     release event): samples to 1e-8 of the orbit (measured 2e-11), stuck fraction to 1e-6
     relative (measured 8e-8)."""
     m = _mixed(Delta_lower=0.0, R_lower=0.5, Delta=0.05)
-    t = EventSolver(m.scene()).point(0.5, None, 20, 4, 32)
+    t = EventSolver(m).point(0.5, None, 20, 4, 32)
     assert t.status == "chatter" and "ending in sticking" in t.message
-    s = summarize(t, m.Delta)
+    s = summarize(t, one_mode(m).Delta)
     assert s["status"] == "chatter"
-    d = DirectSolver(m.scene()).point(0.5, None, 20, 4, 32)
+    d = DirectSolver(m).point(0.5, None, 20, 4, 32)
     assert d.status == "chatter"
     assert np.max(np.abs(t.samples - d.samples)) <= 1e-8 * np.max(np.abs(t.samples))
     assert t.extra["stuck_fraction"] == pytest.approx(d.extra["stuck_fraction"], rel=1e-6)
@@ -99,8 +102,9 @@ def test_mixed_stops_are_served_by_the_mapping_and_refused_by_the_textbook_metho
     above the law of contact_lower (tests/test_continuation_compliant_two.py checks its shots)."""
     from vibeam.models.mapping import MappingSolver
 
-    up = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact_lower=KV)
-    assert [s.law.kind for s in up.stops()] == ["impulsive", "compliant"] and mixed_stops(up)
+    up = sdof(beta=0.015, B=5e-3, Delta=0.002, R=0.8, Delta_lower=0.003, lower_law=KV)
+    assert [s.law.kind for s in up.stops] == ["impulsive", "compliant"]
+    assert mixed_stops(SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact_lower=KV))
     with pytest.raises(ValueError, match="cannot simulate a compliant stop beside a restitution one"):
         make_solver(up, "averaging")
     m = _mixed()
@@ -110,7 +114,7 @@ def test_mixed_stops_are_served_by_the_mapping_and_refused_by_the_textbook_metho
         solver = make_solver(scene, "mapping")
         assert isinstance(solver, MappingSolver)
         out = solver.point(0.75, None, 0, 0)
-        ev = summarize(EventSolver(scene.scene()).point(0.75, None, 1500, 4, 32), scene.Delta)
+        ev = summarize(EventSolver(scene).point(0.75, None, 1500, 4, 32), one_mode(scene).Delta)
         assert out["status"] == "ok" and ev["period"] == out["period"] == 1, out["message"]
         for key in ("amplitude", "impact_velocity", "impact_velocity_lower"):
             assert out[key] == pytest.approx(ev[key], rel=1e-9), key

@@ -69,11 +69,13 @@ def test_editing_a_callee_reaches_its_cached_caller_and_damaged_files_recompile(
     assert _run(pkg, code) == "6.0"
 
 
-EVENT = ("from vibeam.models import SDOF, make_solver; from vibeam.engine.records import summarize\n"
+EVENT = ("from vibeam.models import make_solver; from vibeam.engine.records import summarize\n"
+         "from vibeam.models.builders.sdof import sdof\n"
          "import vibeam.models as vm; assert vm.__file__.startswith({pkg!r})\n"
-         "m = SDOF(beta=0.015, B=0.5e-3, R={R}, Delta=0.0)\n"
+         "Delta = 0.0\n"
+         "m = sdof(beta=0.015, B=0.5e-3, Delta=Delta, R={R})\n"
          "tr = make_solver(m, 'event').point(2.0, None, 300, 8)\n"
-         "print(repr(summarize(tr, m.Delta)['amplitude']))")
+         "print(repr(summarize(tr, Delta)['amplitude']))")
 
 
 @pytest.mark.slow
@@ -234,9 +236,10 @@ def test_a_compliant_scene_compiles_only_the_contact_phases_it_reaches(tmp_path,
     is the same)."""
     from vibeam.bench import probe_compile
 
-    code = ("from vibeam.models import SDOF, make_solver\n"
+    code = ("from vibeam.models import make_solver\n"
+            "from vibeam.models.builders.sdof import sdof\n"
             "from vibeam.models.compliant import HuntCrossley, LinearContact\n"
-            f"m = SDOF(beta=0.015, B=0.5e-3, R=0.8, Delta=0.0, contact={law})\n"
+            f"m = sdof(beta=0.015, B=0.5e-3, Delta=0.0, law={law})\n"
             "make_solver(m, 'event').point(1.8, None, 2, 2, 64)\n")
     cache = tmp_path / "cache"
     cache.mkdir()

@@ -15,11 +15,13 @@ import time
 import numpy as np
 import pytest
 
-from vibeam.models import SDOF, EventSolver, make_solver
+from vibeam.models import EventSolver, make_solver
+from vibeam.models.builders.sdof import sdof
 from vibeam.models.sdof_ode import DirectSolver, IvanovSolver, ZhuravlevSolver
 from vibeam.engine.records import summarize
 
-SCENE = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+DELTA = 0.0
+SCENE = sdof(beta=0.015, B=0.5e-3, Delta=DELTA, R=0.9)
 OMEGAS = (1.9, 2.0, 2.1)
 N_TRANSIENT, N_RECORD, SPP = 150, 16, 64
 STATE0 = np.array([-0.01, 0.0, 0.0])   # (q, q', stuck), shared by all methods
@@ -42,7 +44,7 @@ def reference():
     out = {}
     for Om in OMEGAS:
         traj, dt = _run(ev, Om)
-        s = summarize(traj, SCENE.Delta)
+        s = summarize(traj, DELTA)
         assert traj.status == "ok" and s["period"] == 1 and s["impacts_per_period"] == 1.0
         out[Om] = (traj, s, dt)
     return out
@@ -59,11 +61,11 @@ def test_tight_tolerances_match_exact(cls, reference):
     across a kink of ``z`` is about ``h |Delta z'|``), so 1e-5 is reached
     (measured ~1e-8) at the cost of ~5x more evaluations than ``direct``.
     """
-    solver = cls(SCENE.scene(), **TIGHT)
+    solver = cls(SCENE, **TIGHT)
     for Om in OMEGAS:
         ref, s_ref, t_ref = reference[Om]
         traj, dt = _run(solver, Om)
-        s = summarize(traj, SCENE.Delta)
+        s = summarize(traj, DELTA)
         assert traj.status == "ok", traj.message
         assert traj.samples.shape == (N_RECORD * SPP, 2)
         assert traj.final_state.shape == (3,) and traj.final_state[2] == 0.0
@@ -81,7 +83,7 @@ def test_tight_tolerances_match_exact(cls, reference):
         scale = A_ref
         assert np.max(np.abs(traj.samples - ref.samples)) < 1e-5 * scale
         assert np.max(np.abs(traj.final_state[:2] - ref.final_state[:2])) < 1e-5 * scale
-        assert traj.q_max == SCENE.Delta
+        assert traj.q_max == DELTA
 
 
 def test_paper_tolerances_error_is_measured(reference):
@@ -97,14 +99,14 @@ def test_paper_tolerances_error_is_measured(reference):
     """
     worst = {}
     for cls in CLASSES:
-        solver = cls(SCENE.scene(), **PAPER)
+        solver = cls(SCENE, **PAPER)
         errs = []
         for Om in OMEGAS:
             ref, s_ref, t_ref = reference[Om]
             traj, dt = _run(solver, Om)
             assert traj.status == "ok", traj.message
             A_ref = s_ref["amplitude"]
-            rel = abs(summarize(traj, SCENE.Delta)["amplitude"] - A_ref) / A_ref
+            rel = abs(summarize(traj, DELTA)["amplitude"] - A_ref) / A_ref
             print(f"{cls.name:9s} RK23 1e-4/1e-8 Omega={Om}: amplitude rel.err={rel:.2e} "
                   f"time {dt:.3f}s (event {t_ref * 1e3:.1f} ms) impacts={traj.n_impacts}")
             assert np.isfinite(rel) and rel < 1e-2
@@ -118,7 +120,7 @@ def test_paper_tolerances_error_is_measured(reference):
 @pytest.mark.parametrize("cls", CLASSES, ids=lambda c: c.name)
 def test_bad_solver_setting_raises(cls):
     with pytest.raises(ValueError, match=r"solver='ode23'.*RK23, RK45, DOP853, Radau, LSODA"):
-        cls(SCENE.scene(), solver="ode23")
+        cls(SCENE, solver="ode23")
     with pytest.raises(ValueError, match="solver"):
         make_solver(SCENE, cls.name, solver="euler")
 
@@ -133,7 +135,7 @@ def test_registered_methods():
 def test_ivanov_rejects_plastic_impacts():
     """R = 0 gives K = 1 and K_N = 0 in Eq. 15: the method does not apply."""
     with pytest.raises(ValueError, match="R"):
-        IvanovSolver(SDOF(beta=0.015, B=0.5e-3, R=0.0, Delta=0.0).scene())
+        IvanovSolver(sdof(beta=0.015, B=0.5e-3, Delta=0.0, R=0.0))
 
 
 @pytest.mark.parametrize("cls", CLASSES, ids=lambda c: c.name)
@@ -144,11 +146,12 @@ def test_chatter_fails_fast_without_raising(cls):
     ``failed`` with a message, quickly and without an exception.  "Quickly" is counted, not
     timed: at most the per-period budget of right-hand-side evaluations (50000) and a little
     more (measured 211, 423 and 50108 for direct, zhuravlev and ivanov) of the 24 periods'."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.5, Delta=-0.0015)
-    assert EventSolver(m.scene()).point(2.0, None, 20, 4).status == "chatter"
-    traj = cls(m.scene(), **PAPER).point(2.0, None, 20, 4)
+    Delta = -0.0015
+    m = sdof(beta=0.015, B=0.5e-3, Delta=Delta, R=0.5)
+    assert EventSolver(m).point(2.0, None, 20, 4).status == "chatter"
+    traj = cls(m, **PAPER).point(2.0, None, 20, 4)
     assert traj.status == "failed" and traj.message
-    assert np.isnan(summarize(traj, m.Delta)["amplitude"])
+    assert np.isnan(summarize(traj, Delta)["amplitude"])
     assert 0 < traj.extra["nfev"] <= 51000, traj.extra
 
 
@@ -156,19 +159,20 @@ def test_chatter_fails_fast_without_raising(cls):
 def test_start_on_prestressed_stop(cls):
     """Delta < 0 starts on the stop at rest (``initial_state``); it is held
     until the contact force releases it, then the motion matches ``event``."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=-0.0005)
-    ref = EventSolver(m.scene()).point(1.8, None, 60, 8)
-    traj = cls(m.scene(), **TIGHT).point(1.8, None, 60, 8)
+    Delta = -0.0005
+    m = sdof(beta=0.015, B=0.5e-3, Delta=Delta, R=0.9)
+    ref = EventSolver(m).point(1.8, None, 60, 8)
+    traj = cls(m, **TIGHT).point(1.8, None, 60, 8)
     assert traj.status == ref.status == "ok"
-    A_ref = summarize(ref, m.Delta)["amplitude"]
-    assert abs(summarize(traj, m.Delta)["amplitude"] - A_ref) < 1e-5 * A_ref
+    A_ref = summarize(ref, Delta)["amplitude"]
+    assert abs(summarize(traj, Delta)["amplitude"] - A_ref) < 1e-5 * A_ref
     assert traj.n_impacts == ref.n_impacts
 
 
 def test_failed_point_hands_on_a_usable_state():
     """A failed point returns a finite end state; a continuation from it runs."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.5, Delta=-0.0015)
-    bad = DirectSolver(m.scene(), **PAPER).point(2.0, None, 20, 4)
+    m = sdof(beta=0.015, B=0.5e-3, Delta=-0.0015, R=0.5)
+    bad = DirectSolver(m, **PAPER).point(2.0, None, 20, 4)
     assert bad.status == "failed" and np.all(np.isfinite(bad.final_state))
-    nxt = DirectSolver(SCENE.scene(), **PAPER).point(2.0, np.full(3, np.nan), 5, 2)
+    nxt = DirectSolver(SCENE, **PAPER).point(2.0, np.full(3, np.nan), 5, 2)
     assert nxt.status == "ok" and np.all(np.isfinite(nxt.samples))

@@ -16,6 +16,7 @@ from scipy.integrate import solve_ivp
 
 from vibeam.analysis.regress import compare
 from vibeam.case.schema import parse_case
+from vibeam.models.builders.sdof import sdof
 
 # ------------------------------------------------------------------ 1. a Hertz-family exponent
 
@@ -193,11 +194,11 @@ def test_the_multipliers_of_a_continued_branch_through_its_period_doubling_again
     -0.96 ... -2.9): complex pairs before the doubling, a real pair beyond (-1.26 and -0.59 at
     2.285, mu_1 < -1), so both halves of the closed form's negative-trace case are exercised."""
     from vibeam.models.continuation import Settings, trace
-    from vibeam.models import SDOF, EventSolver
+    from vibeam.models import EventSolver
 
-    fig13 = SDOF(0.015, 0.5e-3, 0.9, 0.5e-3)
+    fig13 = sdof(0.015, 0.5e-3, 0.5e-3, 0.9)
     prob = shooting_problem(fig13, "Omega")
-    x0 = EventSolver(fig13.scene()).point(2.25, None, 1000, 1, 16).final_state[:2]
+    x0 = EventSolver(fig13).point(2.25, None, 1000, 1, 16).final_state[:2]
     branches = trace(prob, x0, 2.25, 1, 2.2, 2.32, +1, Settings(switch=False, max_points=60))
     pts = branches[0].points
     assert [f.type for f in branches[0].bifurcations] == ["period_doubling"]
@@ -225,11 +226,11 @@ def test_lyapunov_exponents_of_period_2_and_3_orbits_are_their_floquet_exponents
     the exponents by the periods per shot."""
     import vibeam
     from vibeam.models.lyapunov import lyapunov_spectrum
-    from vibeam.models import SDOF, EventSolver
+    from vibeam.models import EventSolver
 
-    fig13 = SDOF(0.015, 0.5e-3, 0.9, 0.5e-3)
+    fig13 = sdof(0.015, 0.5e-3, 0.5e-3, 0.9)
     prob = shooting_problem(fig13, "Omega")
-    x = EventSolver(fig13.scene()).point(W, None, 2000, 1, 16).final_state[:2]
+    x = EventSolver(fig13).point(W, None, 2000, 1, 16).final_state[:2]
     for _ in range(6):
         s = prob.shot(x, W, n)
         x = x - np.linalg.solve(s.M - np.eye(2), s.x - x)
@@ -517,11 +518,11 @@ def test_the_continuation_step_is_capped_at_ds_max():
     more steps within 1e-4 of it), and the branch needs at least its arclength over ds_max
     steps.  Without the cap the steps grow by 1.6 to 0.05 and beyond."""
     from vibeam.models.continuation import Settings, trace
-    from vibeam.models import SDOF, EventSolver
+    from vibeam.models import EventSolver
 
-    fig13 = SDOF(0.015, 0.5e-3, 0.9, 0.5e-3)
+    fig13 = sdof(0.015, 0.5e-3, 0.5e-3, 0.9)
     prob = shooting_problem(fig13, "Omega")
-    x0 = EventSolver(fig13.scene()).point(1.5, None, 400, 1, 16).final_state[:2]
+    x0 = EventSolver(fig13).point(1.5, None, 400, 1, 16).final_state[:2]
     ds_max = 0.02
     (br,) = trace(prob, x0, 1.5, 1, 1.5, 2.0, +1, Settings(switch=False, ds_max=ds_max))
     assert br.status == "range_end" and not br.bifurcations

@@ -18,6 +18,8 @@ import pytest
 
 import vibeam
 from vibeam.errors import CaseError
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 from test_probe_ux import _exit, _one_error_line   # the command's exit code, its one error line
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -89,14 +91,14 @@ def test_a_state_that_overflows_is_refused_or_a_failed_point_not_ok():
     line, and the engine's summary of such a record is ``failed``, never ``ok``."""
     from vibeam.engine.records import summarize
     from vibeam.engine.sweep import simulate as run_point
-    from vibeam.models import SDOF, make_solver
+    from vibeam.models import make_solver
 
     with pytest.raises(ValueError, match=r"state = .*allowed: \|values\| <= 1e\+100"):
         vibeam.simulate(str(CASES / "paper-fig7.toml"), Omega=2.0, periods=8, transient=0, state=[-1e300, 1e300, 0])
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.8, Delta=0.7e-3)
+    sc = sdof(beta=0.015, B=0.5e-3, R=0.8, Delta=0.7e-3)
     with np.errstate(over="ignore", invalid="ignore"):
-        traj = run_point(make_solver(m, "event"), 2.0, np.array([-1e300, 1e300, 0.0]), 0, 8, 64)
-        s = summarize(traj, m.Delta)
+        traj = run_point(make_solver(sc, "event"), 2.0, np.array([-1e300, 1e300, 0.0]), 0, 8, 64)
+        s = summarize(traj, one_mode(sc).Delta)
     assert s["status"] == "failed" and "overflow double precision" in s["message"], (s["status"], s["message"])
     assert np.isnan(s["amplitude"])
     # a large state that double precision carries is a result: the linear flow of 1e100
@@ -199,8 +201,8 @@ class _Interrupted:
     time_domain = True
     chunk_periods = 2000
 
-    def __init__(self, model):
-        self.model, self.scene = model, model.scene()
+    def __init__(self, sc):
+        self.scene = sc
 
     def point(self, *a, **k):
         raise _wrapped_interrupt()
@@ -210,20 +212,19 @@ def test_ctrl_c_inside_a_compiled_call_stops_the_sweep():
     """The SystemError was recorded as a ``failed`` point and the run went on to exit 0 with a
     file marked complete (3 of 4 Ctrl-C during a Lyapunov computation): it is the interrupt."""
     from vibeam.engine.sweep import Sweep, run_sweep
-    from vibeam.models import SDOF
 
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.8, Delta=0.7e-3)
+    sc = sdof(beta=0.015, B=0.5e-3, R=0.8, Delta=0.7e-3)
     with pytest.raises(KeyboardInterrupt):
-        run_sweep(_Interrupted(m), Sweep(Omega=np.array([2.0, 2.1]), transient_periods=1, record_periods=1))
+        run_sweep(_Interrupted(sc), Sweep(Omega=np.array([2.0, 2.1]), transient_periods=1, record_periods=1))
 
 
 def test_ctrl_c_inside_a_compiled_shot_is_not_a_failed_shot():
     """The continuation engine turned any exception of a shot into a failed shot, so the
     interrupt became a failed start; it is handed on."""
-    from vibeam.models import SDOF, shooting_problem
+    from vibeam.models import shooting_problem
     from vibeam.models.continuation import trace
 
-    prob = shooting_problem(SDOF(beta=0.015, B=0.5e-3, R=0.8, Delta=0.7e-3), "Omega")
+    prob = shooting_problem(sdof(beta=0.015, B=0.5e-3, R=0.8, Delta=0.7e-3), "Omega")
 
     class Wrapped:
         def __getattr__(self, k):

@@ -8,7 +8,8 @@ import time
 import numpy as np
 import pytest
 
-from vibeam.models import SDOF, make_solver
+from vibeam.models import make_solver
+from vibeam.models.builders.sdof import sdof
 from vibeam.engine.sweep import Sweep, plan_lines, run_lines
 
 
@@ -45,8 +46,8 @@ class _Bar:
 
 
 def _lines(n_points, delay=0.0, direction="both"):
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
-    s = make_solver(m, "event")
+    sc = sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    s = make_solver(sc, "event")
     sw = Sweep(Omega=np.linspace(1.8, 2.2, n_points), direction=direction, transient_periods=20, record_periods=8)
     return plan_lines(SlowSolver(s, delay) if delay else s, sw)
 

@@ -16,8 +16,11 @@ import numpy as np
 import pytest
 
 from vibeam.case.schema import load_case
-from vibeam.models import SDOF, make_solver
+from vibeam.models import make_solver
+from vibeam.models.builders.sdof import sdof, sdof_physical
+from vibeam.models.contact import Restitution
 from vibeam.models.core.event import EventIntegrator
+from vibeam.models.scene import one_mode
 
 ROOT = Path(__file__).resolve().parents[1]
 SCALARS = ("status", "n_impacts", "s_min", "s_max", "n_chatter", "stuck_time", "held_end", "n_impacts_total",
@@ -26,10 +29,10 @@ SCALARS = ("status", "n_impacts", "s_min", "s_max", "n_chatter", "stuck_time", "
 
 def _sdof(name):
     return {
-        "fig7": SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0),
-        "two-sided": SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e-3, R_lower=0.6),
-        # the rig's SDOF in its sticking band: chatter sequences and holds in every period
-        "sticking": SDOF.from_physical(7.6, 0.017, 0.72, -0.1, 180.0, 5.16e-4, 0.35),
+        "fig7": sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0),
+        "two-sided": sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0, Delta_lower=1e-3, lower_law=Restitution(0.6)),
+        # the rig's SDOF oscillator in its sticking band: chatter sequences and holds in every period
+        "sticking": sdof_physical(7.6, 0.017, -0.1, 180.0, 5.16e-4, 0.35, 0.72),
     }[name]
 
 
@@ -41,9 +44,9 @@ def _core(name):
     if name == "beam-2-modes":
         m = load_case(ROOT / "cases" / "rig-fe-tight.toml")[0].model_spec({"n_modes": 2}).build()
         return EventIntegrator(m.scene()), 2, (16.0 / m.f_ref_hz, 16.5 / m.f_ref_hz)
-    m = _sdof(name)
+    sc = _sdof(name)
     Om = {"fig7": (1.5, 2.1), "two-sided": (1.9, 2.1), "sticking": (14.0 / 7.6, 14.5 / 7.6)}[name]
-    return EventIntegrator(m.scene()), 1, Om
+    return EventIntegrator(sc), 1, Om
 
 
 def _run(core, n, Om, n_transient, n_record, max_impacts=10**7, max_steps=4 * 10**6, **kw):
@@ -76,13 +79,13 @@ def test_work_arrays_kept_across_frequencies_give_a_fresh_integrators_outputs(na
     bit; a used integrator pickles (to a pool worker) and runs the same."""
     import pickle
 
-    m = _sdof(name)
-    core = EventIntegrator(m.scene())
+    sc = _sdof(name)
+    core = EventIntegrator(sc)
     h_cap = 2 * math.pi / 16
     z = np.zeros(1)
     for Om in (1.9, 1.5, 0.9, 0.5 * (1 + 1e-13), 0.5, 0.5 * (1 - 1e-13), 0.34, 1 / 3, 0.3, 1.0, 2.1):
         a = core.run(Om, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7)
-        b = EventIntegrator(m.scene()).run(Om, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7)
+        b = EventIntegrator(sc).run(Om, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7)
         _assert_identical(a, b)
     c = pickle.loads(pickle.dumps(core))
     _assert_identical(c.run(1.7, z, z, 0, 60, 6, 16, 64, h_cap, 10 ** 6, 10 ** 7, 1e-7),
@@ -163,11 +166,11 @@ def test_the_sweep_outputs_do_not_depend_on_the_recurrence():
     """Through the solver and the per-point summary: every output of the Fig. 7 scene's points."""
     from vibeam.engine.records import summarize
 
-    m = _sdof("fig7")
-    on, off = make_solver(m, "event"), make_solver(m, "event", recurrence=False)
+    sc = _sdof("fig7")
+    on, off = make_solver(sc, "event"), make_solver(sc, "event", recurrence=False)
     for W in (1.5, 1.8, 2.2):
         a, b = on.point(W, None, 436, 64), off.point(W, None, 436, 64)
-        sa, sb = summarize(a, m.Delta), summarize(b, m.Delta)
+        sa, sb = summarize(a, one_mode(sc).Delta), summarize(b, one_mode(sc).Delta)
         assert sa.keys() == sb.keys()
         for k in sa:
             np.testing.assert_array_equal(np.asarray(sa[k]), np.asarray(sb[k]), err_msg=k)

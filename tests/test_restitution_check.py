@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from vibeam.models.contact import Restitution, restitution_problem
-from vibeam.models.sdof import SDOF
+from vibeam.models.builders.sdof import sdof
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -31,9 +31,9 @@ def test_restitution_takes_every_R_in_0_1(R):
 
 def test_a_model_with_a_bad_R_is_refused_when_it_is_made():
     with pytest.raises(ValueError, match=r"R must lie in \[0, 1\], got 1.2"):
-        SDOF(beta=0.02, B=0.5, R=0.8, Delta=0.0, Delta_lower=1.0, R_lower=1.2)
+        sdof(beta=0.02, B=0.5, Delta=0.0, R=0.8, Delta_lower=1.0, lower_law=Restitution(float(1.2)))
     with pytest.raises(ValueError, match=r"R must lie in \[0, 1\], got -0.5"):
-        SDOF(beta=0.02, B=0.5, R=-0.5, Delta=0.0)
+        sdof(beta=0.02, B=0.5, Delta=0.0, R=-0.5)
 
 
 #: a range check of an R (``0 <= R <= 1``, ``not 0.0 <= x.R <= 1.0``, ...) in source text

@@ -5,7 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from vibeam.models import SDOF, make_solver
+from vibeam.models import make_solver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.contact import Restitution
 from vibeam.models.continuation import start_point
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.sdof_flow import particular_coefficients
@@ -20,7 +22,7 @@ def test_the_contact_free_orbit_has_the_damped_oscillators_multipliers():
     Eq. 28) and its monodromy is ``exp(A T)``: multipliers ``exp((-beta +- i sqrt(1 - beta^2))
     T)``, ``T = 2 pi / Omega`` (closed form; 1e-12, round-off of the exact flow is ~1e-15)."""
     beta, B, Om = 0.03, 0.02, 1.7
-    prob = SceneShooting(SDOF(beta=beta, B=B, R=0.8, Delta=10.0).scene())
+    prob = SceneShooting(sdof(beta=beta, B=B, R=0.8, Delta=10.0))
     a, b = particular_coefficients(beta, Om * Om * B, Om)
     x0 = np.array([b, Om * a])
     s = prob.shot(x0, Om, 1)
@@ -80,17 +82,17 @@ def test_an_impacting_orbit_obeys_liouville_and_is_the_impact_maps_fixed_point()
     from vibeam.models.mapping import newton_fixed_point
     from vibeam.models.sdof_flow import propagate
 
-    m = SDOF(beta=0.015, B=0.01, R=0.8, Delta=0.0)
+    sc = sdof(beta=0.015, B=0.01, R=0.8, Delta=0.0)
     Om = 1.8
-    x = make_solver(m, "event").point(Om, None, 400, 1, 8).final_state[:2]
-    prob = SceneShooting(m.scene())
+    x = make_solver(sc, "event").point(Om, None, 400, 1, 8).final_state[:2]
+    prob = SceneShooting(sc)
     pt, why = start_point(prob, x, Om, 1, 0.5 * Om, 2 * Om)
     assert pt is not None, why
     s = prob.shot(pt.x, Om, 1)
     assert s.n_impacts == 1
     T = 2 * math.pi / Om
     assert np.linalg.det(s.M) == pytest.approx(0.8 ** 2 * math.exp(-2 * 0.015 * T), rel=1e-10)
-    fp = newton_fixed_point(m.scene(), Om, ((Om * s.impact_times[0]) % (2 * math.pi), s.impact_velocities[0]), 1)
+    fp = newton_fixed_point(sc, Om, ((Om * s.impact_times[0]) % (2 * math.pi), s.impact_velocities[0]), 1)
     assert fp is not None
     phi, v = fp
     a, b = particular_coefficients(0.015, Om * Om * 0.01, Om)
@@ -122,14 +124,14 @@ def test_the_beam_scenes_shot_equals_the_direct_integrator_and_central_differenc
 
 
 def test_what_has_no_shot_is_said():
-    prob = SceneShooting(SDOF(beta=0.0, B=0.01, R=0.8, Delta=0.5).scene())
+    prob = SceneShooting(sdof(beta=0.0, B=0.01, R=0.8, Delta=0.5))
     assert "positive" in prob.invalid(0.0) and "positive" in prob.invalid(-1.0)
     assert "resonance" in prob.invalid(1.0) and prob.invalid(1.1) == ""
     assert not prob.frequency_corrector()
     assert prob.shot(np.zeros(2), 1.0, 1).status == "failed"
-    assert SceneShooting(SDOF(beta=0.01, B=0.01, R=0.8, Delta=0.5).scene()).frequency_corrector()
+    assert SceneShooting(sdof(beta=0.01, B=0.01, R=0.8, Delta=0.5)).frequency_corrector()
     with pytest.raises(ValueError, match="allowed: Omega"):
-        SceneShooting(SDOF(beta=0.01, B=0.01, R=0.8, Delta=0.5).scene(), "R")
+        SceneShooting(sdof(beta=0.01, B=0.01, R=0.8, Delta=0.5), "R")
 
 
 def test_a_tabulated_restitution_obeys_liouville_with_its_slope():
@@ -141,10 +143,10 @@ def test_a_tabulated_restitution_obeys_liouville_with_its_slope():
     from vibeam.models.lyapunov import lyapunov_spectrum
 
     tU, tR = (0.0, 0.05, 0.15), (0.85, 0.55, 0.8)
-    m = SDOF(beta=0.015, B=0.01, R=0.8, Delta=0.0, R_table=tuple(zip(tU, tR)))
+    sc = sdof(beta=0.015, B=0.01, Delta=0.0, law=Restitution(0.8, tU, tR))
     Om = 1.8
-    x = make_solver(m, "event").point(Om, None, 300, 1, 8).final_state[:2]
-    prob = SceneShooting(m.scene())
+    x = make_solver(sc, "event").point(Om, None, 300, 1, 8).final_state[:2]
+    prob = SceneShooting(sc)
     K = 100
     sp = lyapunov_spectrum(prob, x, Om, K)
     assert sp.status == "ok" and sp.impacts >= K
@@ -214,7 +216,7 @@ def test_the_scene_at_a_value_and_what_a_path_refuses():
     off = SceneShooting(sc, "stops[1].relation.offset", Omega=1.3).scene_at(2 * A)
     assert off.stops[1].relation.offset == 2 * A and off.stops[0] == sc.stops[0]
     assert SceneShooting.offered_starts(sc) == ("linear",)
-    assert SceneShooting.offered_starts(SDOF(beta=0.01, B=0.01, R=0.8, Delta=0.5).scene()) == ("linear", "averaging")
+    assert SceneShooting.offered_starts(sdof(beta=0.01, B=0.01, R=0.8, Delta=0.5)) == ("linear", "averaging")
     x, why = SceneShooting(sc).start("linear", 1.3)
     assert x is None and "upper stop reaches its offset" in why
     far = SceneShooting(sc, "stops[0].relation.offset", Omega=1.3)
@@ -250,9 +252,9 @@ def test_resect_carries_a_one_mode_impact_across_the_section_exactly():
 
     from vibeam.models.system import modal_flow
 
-    m = SDOF(beta=0.015, B=0.01, R=0.8, Delta=0.0)
-    prob = SceneShooting(m.scene())
-    sy = m.scene().system
+    sc = sdof(beta=0.015, B=0.01, R=0.8, Delta=0.0)
+    prob = SceneShooting(sc)
+    sy = sc.system
     W = 1.8
     T = 2 * math.pi / W
     x0 = np.concatenate(modal_flow(sy, 1e-9 * T, 0.0, np.zeros(1), np.array([0.05]), W))

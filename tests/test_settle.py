@@ -1,7 +1,6 @@
 """Honest numbers: the spread of non-periodic points, unsettled transients, ``transient_periods =
 "auto"``, chunked kernel calls (interruptible points, the wall-time limit)."""
 import math
-import os
 import signal
 import subprocess
 import sys
@@ -13,14 +12,16 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from vibeam.case.schema import CaseError, parse_case
-from vibeam.models import SDOF, EventSolver, linear_amplitude, make_solver
+from vibeam.models import EventSolver, linear_amplitude, make_solver
+from vibeam.models.builders.sdof import sdof
 from vibeam.models.mapping import is_admissible, newton_fixed_point, orbit_extremes
 from vibeam.engine.records import (MARGINAL, SETTLED_MARGIN, STATUSES, amplitude_spread, converging, spread_agrees,
                             strobe_returns, summarize, transient_verdict, verdict_from_returns)
 from vibeam.engine.sweep import UNITS, Sweep, _simulate, run_sweep, stack
+from vibeam.models.scene import one_mode
 
-FIG8 = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
-FIG13 = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3)
+FIG8 = sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.7e-3)
+FIG13 = sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3)
 
 
 def _one(model, W, start=None, **kw):
@@ -33,21 +34,20 @@ def _one(model, W, start=None, **kw):
 class _From(EventSolver):
     """The event solver with another initial state than rest."""
 
-    def __init__(self, model, start):
-        super().__init__(model.scene())
-        self.model = model          # what the sweep engine reads (as make_solver attaches it)
+    def __init__(self, sc, start):
+        super().__init__(sc)
         self.start = np.asarray(start, float)
 
     def point(self, Omega, state0, *args, **kw):
         return super().point(Omega, self.start if state0 is None else state0, *args, **kw)
 
 
-def _period1_amplitude(model, W, guess_point):
+def _period1_amplitude(sc, W, guess_point):
     """Amplitude of the period-1 orbit by Newton on the impact map (independent oracle)."""
-    tr = EventSolver(model.scene()).point(W, np.array([*guess_point["strobe"][-1], 0.0]), 0, 1, 8)
-    x = newton_fixed_point(model.scene(), W, [(W * tr.impact_times[0]) % (2 * math.pi), tr.impact_velocities[0]], 1)
-    assert x is not None and is_admissible(model.scene(), W, x, 1)[0]
-    return model.Delta - orbit_extremes(model.scene(), W, x, 1)[0]
+    tr = EventSolver(sc).point(W, np.array([*guess_point["strobe"][-1], 0.0]), 0, 1, 8)
+    x = newton_fixed_point(sc, W, [(W * tr.impact_times[0]) % (2 * math.pi), tr.impact_velocities[0]], 1)
+    assert x is not None and is_admissible(sc, W, x, 1)[0]
+    return one_mode(sc).Delta - orbit_extremes(sc, W, x, 1)[0]
 
 
 # ----------------------------------------------------------------------------- spread
@@ -58,20 +58,21 @@ def test_per_period_minima_are_exact_and_the_spread_brackets_them():
     max|q'|, h = T / 4096).  The spread brackets the mean, its maximum is the exact amplitude,
     and a coarse record's sample minima (64 per period) lie above the exact ones."""
     W = 2.5
+    m = one_mode(FIG13)
     ev = make_solver(FIG13, "event")
     tr0 = ev.point(W, None, 1000, 1, 64)
     s0 = tr0.final_state
     fine = ev.point(W, s0, 0, 24, 4096)
     coarse = ev.point(W, s0, 0, 24, 64)
-    out = summarize(fine, FIG13.Delta)
+    out = summarize(fine, m.Delta)
     assert out["period"] == 0 and out["record_periods"] == 24
     pm = fine.period_min
     # the closed period [kT, (k + 1) T]: its samples and the first one of the next period
     q = np.r_[fine.samples[:, 0], fine.final_state[0]]
     dense = np.array([q[k * 4096:(k + 1) * 4096 + 1].min() for k in range(24)])
     T = 2 * math.pi / W
-    F = W ** 2 * FIG13.B
-    M2 = abs(fine.q_min) + F + 2 * FIG13.beta * np.max(np.abs(fine.samples[:, 1]))
+    F = W ** 2 * m.B
+    M2 = abs(fine.q_min) + F + 2 * m.beta * np.max(np.abs(fine.samples[:, 1]))
     assert np.all(pm <= dense) and np.all(dense - pm <= M2 * (T / 4096) ** 2 / 8)
     # the same trajectory at 64 samples per period has the same exact minima, far below the sample
     # error of 64 samples per period (~M2 (T/64)^2 / 8 = 1e-6): each period of the fine record run
@@ -84,7 +85,7 @@ def test_per_period_minima_are_exact_and_the_spread_brackets_them():
     np.testing.assert_allclose(pc, pm, rtol=0, atol=1e-12)
     qc = np.r_[coarse.samples[:, 0], coarse.final_state[0]]
     assert np.all(np.array([qc[k * 64:(k + 1) * 64 + 1].min() for k in range(24)]) >= coarse.period_min)
-    Q = FIG13.Delta - pm
+    Q = m.Delta - pm
     assert out["amplitude_max"] == out["amplitude"] == pytest.approx(np.max(Q), rel=1e-15)
     assert out["amplitude_min"] == pytest.approx(np.min(Q), rel=1e-15)
     assert out["amplitude_mean"] == pytest.approx(np.mean(Q), rel=1e-14)
@@ -98,16 +99,17 @@ def test_period2_orbit_spread_is_its_two_amplitudes():
     (the k = 2 subharmonic): its per-period amplitudes alternate between the minima of the two
     halves of the orbit, and the largest is the amplitude of the n = 2 Newton fixed point of
     the impact map (independent closed form, 1e-9)."""
-    m, W = FIG13, 4.0
-    tr = EventSolver(m.scene()).point(W, None, 3000, 16, 64)
-    out = summarize(tr, m.Delta)
+    sc, W = FIG13, 4.0
+    Delta = one_mode(sc).Delta
+    tr = EventSolver(sc).point(W, None, 3000, 16, 64)
+    out = summarize(tr, Delta)
     assert out["period"] == 2 and out["impacts_per_period"] == 0.5
     phase = (W * tr.impact_times[0]) % (2 * math.pi)
-    x = newton_fixed_point(m.scene(), W, [phase, tr.impact_velocities[0]], 2)
-    assert x is not None and is_admissible(m.scene(), W, x, 2)[0]
-    q_min, _ = orbit_extremes(m.scene(), W, x, 2)
-    assert out["amplitude_max"] == pytest.approx(m.Delta - q_min, rel=1e-9)
-    Q = m.Delta - tr.period_min
+    x = newton_fixed_point(sc, W, [phase, tr.impact_velocities[0]], 2)
+    assert x is not None and is_admissible(sc, W, x, 2)[0]
+    q_min, _ = orbit_extremes(sc, W, x, 2)
+    assert out["amplitude_max"] == pytest.approx(Delta - q_min, rel=1e-9)
+    Q = Delta - tr.period_min
     np.testing.assert_allclose(Q[::2], Q[0], rtol=1e-9)
     np.testing.assert_allclose(Q[1::2], Q[1], rtol=1e-9)
     assert abs(Q[0] - Q[1]) > 1e-3 * out["amplitude"]     # two different halves
@@ -232,12 +234,12 @@ def test_a_transient_cut_short_is_unsettled_and_a_long_one_is_not(W, n_short, wh
     on the strobe (a marginal period-1 test at 2.0; returns shrinking over the window at 2.5):
     status ``unsettled``; after 3000 the point is period-1, ``ok``, on the Newton fixed point
     of the impact map (1e-9)."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
-    short = _one(m, W, transient_periods=n_short, record_periods=16)
+    sc = sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0)
+    short = _one(sc, W, transient_periods=n_short, record_periods=16)
     assert short["status"] == "unsettled" and why in short["message"]
-    long = _one(m, W, transient_periods=3000, record_periods=16)
+    long = _one(sc, W, transient_periods=3000, record_periods=16)
     assert long["status"] == "ok" and long["period"] == 1
-    assert long["amplitude"] == pytest.approx(_period1_amplitude(m, W, long), rel=1e-9)
+    assert long["amplitude"] == pytest.approx(_period1_amplitude(sc, W, long), rel=1e-9)
 
 
 # ----------------------------------------------------------------------------- auto
@@ -271,7 +273,8 @@ def test_auto_transient_reaches_the_converged_orbit(model, W, kind):
     assert 400 < auto["transient_periods_used"] <= 30000
     if kind == "no impact":
         assert auto["period"] == -1
-        expected = model.Delta + float(linear_amplitude(model.beta, model.B, W))
+        m = one_mode(model)
+        expected = m.Delta + float(linear_amplitude(m.beta, m.B, W))
     else:
         assert auto["period"] == 1
         expected = _period1_amplitude(model, W, auto)
@@ -307,7 +310,7 @@ def test_chunked_calls_equal_one_call_on_a_periodic_point(fidelity):
     same period-1 orbit as one call of 1500 periods: strobe and amplitude to 1e-12 (round-off
     of restarting the closed-form flow; the orbit is attracting, so it does not grow)."""
     if fidelity == "sdof":
-        solver = make_solver(SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), "event")
+        solver = make_solver(sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), "event")
         W = 2.0
     else:
         from vibeam.models.beam_dynamics import BeamImpactModel
@@ -392,11 +395,12 @@ def test_ctrl_c_interrupts_a_long_inline_point_between_chunks(tmp_path):
     script = tmp_path / "long.py"
     script.write_text(textwrap.dedent("""
         import os, signal, sys, numpy as np
-        from vibeam.models import SDOF, make_solver
+        from vibeam.models import make_solver
+        from vibeam.models.builders.sdof import sdof
         from vibeam.engine.sweep import Sweep, run_sweep
         # every period integrated: with the exact recurrence a settled chunk ends within a few
         # periods, and the 5000 calls could all be over before the signal arrives
-        s = make_solver(SDOF(0.015, 0.5e-3, 0.9, 0.5e-3), "event", recurrence=False)
+        s = make_solver(sdof(0.015, 0.5e-3, 0.5e-3, 0.9), "event", recurrence=False)
         run_sweep(s, Sweep(Omega=np.array([2.0]), transient_periods=2, record_periods=2))  # compile
         inner = s.point
         def point(*a):

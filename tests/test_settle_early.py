@@ -18,6 +18,8 @@ import pytest
 
 import vibeam
 from vibeam.engine.sweep import growing
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 
@@ -172,22 +174,23 @@ def test_a_start_on_an_orbit_that_has_lost_its_stability_is_not_settled():
     classification (without that guard it settled on period 1 after 16 periods)."""
     from vibeam.engine.records import summarize
     from vibeam.engine.sweep import PointClock, Sweep, settle_early, simulate
-    from vibeam.models import SDOF, make_solver, shooting_problem
+    from vibeam.models import make_solver, shooting_problem
     from vibeam.models.continuation import start_point
 
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3)
-    solver = make_solver(m, "event")
+    sc = sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3)
+    Delta = one_mode(sc).Delta
+    solver = make_solver(sc, "event")
     Om = 2.2815
     near = simulate(solver, 2.27, None, 400, 1).final_state        # the stable period-1 orbit nearby
-    pt, why = start_point(shooting_problem(m, "Omega"), np.asarray(near, float)[:2], Om, 1, 2.0, 2.5)
+    pt, why = start_point(shooting_problem(sc, "Omega"), np.asarray(near, float)[:2], Om, 1, 2.0, 2.5)
     assert pt is not None, why
     assert -1.1 < np.min(np.real(pt.mu)) < -1.05                     # unstable: the flip multiplier
     state = np.concatenate([pt.x, np.asarray(near, float)[2:]])
-    fixed = summarize(simulate(solver, Om, state, 400, 64), m.Delta)
+    fixed = summarize(simulate(solver, Om, state, 400, 64), Delta)
     assert fixed["period"] != 1
     sw = Sweep(Omega=np.array([Om]), transient_periods=400, record_periods=64, settle=True)
     traj, used = settle_early(solver, Om, state, sw, PointClock())
-    got = summarize(traj, m.Delta)
+    got = summarize(traj, Delta)
     assert (got["period"], got["status"]) == (fixed["period"], fixed["status"]) and used == 400, (got, used)
 
 

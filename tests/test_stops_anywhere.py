@@ -20,7 +20,7 @@ import pytest
 
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.engine.records import summarize
-from vibeam.models import SDOF, shooting_problem
+from vibeam.models import shooting_problem
 from vibeam.models.beam_dynamics import BeamODESolver
 from vibeam.models import BeamEventSolver
 

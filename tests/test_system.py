@@ -12,11 +12,10 @@ from vibeam.models import system as msys
 from vibeam.models.beam import BeamFE, BeamGeometry
 from vibeam.models.beam_dynamics import BeamImpactModel
 from vibeam.models import BeamEventSolver
-from vibeam.models.sdof import SDOF
+from vibeam.models.builders.sdof import sdof, sdof_physical
 from vibeam.models.sdof_flow import particular_coefficients, propagate
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
-from vibeam.models.system import (ModalSystem, from_beam, from_matrices, from_sdof, modal_flow,
-                                  modal_transition)
+from vibeam.models.system import ModalSystem, from_beam, from_matrices, modal_flow, modal_transition
 
 # the rig of tests/test_beam_dynamics.py: 7.6 Hz, beta = 0.017 on the first mode
 L, LS, LM = 0.180, 0.100, 0.132
@@ -60,9 +59,9 @@ def test_one_mode_beam_system_equals_the_sdof_system_flow():
     g = _geom()
     sm = BeamImpactModel.static_mode(g, R=0.8, gap_contact_m=0.0, base_amplitude_m=Y, damping_D_s=D)
     red = reduce_static_mode(g, damping_D_s=D, gap_contact_m=0.0, gamma_tilde_m_per_V=Y)
-    sd = SDOF(beta=red.beta_S, B=red.gamma_per_V, R=0.8, Delta=red.Delta, natural_frequency_hz=red.f_n_hz,
+    sd = sdof(beta=red.beta_S, B=red.gamma_per_V, Delta=red.Delta, R=0.8, natural_frequency_hz=red.f_n_hz,
               length_m=L)
-    a, b = from_beam(sm), from_sdof(sd)
+    a, b = from_beam(sm), sd.system
     assert a.omega.shape == a.damping.shape == a.sensor.shape == (1,) and a.contacts.shape == (1, 1)
     assert a.omega[0] == pytest.approx(1.0, rel=1e-15) and b.omega[0] == 1.0
     assert a.damping[0] == pytest.approx(b.damping[0], rel=1e-14)
@@ -86,11 +85,11 @@ def test_one_mode_beam_system_equals_the_sdof_system_flow():
 
 
 def test_sdof_system_flow_equals_the_sdof_closed_form():
-    """from_sdof's flow against the SDOF's own closed form (vibeam.models.sdof_flow.propagate,
+    """The SDOF scene's system flow against the SDOF's own closed form (vibeam.models.sdof_flow.propagate,
     its own particular solution and transition): two implementations of Eq. 28, 1e-14 of the
     state (measured a few ulps)."""
     beta, B, Om = 0.05, 0.02, 0.8
-    s = from_sdof(SDOF(beta=beta, B=B, R=0.8, Delta=0.0))
+    s = sdof(beta=beta, B=B, Delta=0.0, R=0.8).system
     assert np.isnan(s.time_unit_s) and np.isnan(s.length_unit_m) and np.isnan(s.mass_unit_kg)
     a, b = particular_coefficients(beta, Om * Om * B, Om)
     for t0, t1 in ((0.0, 0.3), (1.7, 6.2), (-2.0, 9.5)):
@@ -361,12 +360,12 @@ def test_the_scenes_outputs_are_its_units_and_the_gap_seen_at_the_sensor():
     from vibeam.models.builders.matrices import build_matrices
     from vibeam.models.scene import outputs
 
-    o = outputs(SDOF(beta=0.02, B=0.01, R=0.8, Delta=0.013, natural_frequency_hz=7.6, length_m=0.18,
-                     mass_kg=0.25).scene())
+    o = outputs(sdof(beta=0.02, B=0.01, Delta=0.013, R=0.8, natural_frequency_hz=7.6, length_m=0.18,
+                     mass_kg=0.25))
     assert o.natural_frequency_hz == pytest.approx(7.6, rel=2e-16) and o.length_m == 0.18
     assert o.force_scale_n == pytest.approx(0.25 * (2 * math.pi * 7.6) ** 2 * 0.18, rel=1e-15)
     assert (o.Delta, o.n_modes, o.m_eff, o.phi_contact) == (0.013, 1, 1.0, 1.0)
-    o = outputs(SDOF(beta=0.02, B=0.01, R=0.8, Delta=-0.2).scene())
+    o = outputs(sdof(beta=0.02, B=0.01, Delta=-0.2, R=0.8))
     assert (o.natural_frequency_hz, o.length_m, o.force_scale_n, o.Delta) == (None, None, None, -0.2)
 
     m1, m2, k1, k2, g, Lq = 2.0, 0.5, 3.0e4, 1.2e4, 1.5e-3, 0.1
@@ -396,11 +395,11 @@ def test_a_built_scene_carries_its_builders_frequency_exactly():
     from vibeam.models.scene import outputs
     from vibeam.models.system import reference_hz
 
-    for m in (SDOF.from_physical(7.6, 0.02, 0.8, 0.1, 150.0, 0.2, 0.5),
-              SDOF(beta=0.02, B=0.01, R=0.8, Delta=0.1, natural_frequency_hz=7.6, length_m=0.15)):
-        sy = m.scene().system
+    for sc in (sdof_physical(7.6, 0.02, 0.1, 150.0, 0.2, 0.5, 0.8),
+               sdof(beta=0.02, B=0.01, Delta=0.1, R=0.8, natural_frequency_hz=7.6, length_m=0.15)):
+        sy = sc.system
         assert 1.0 / (2 * math.pi * sy.time_unit_s) != 7.6
-        assert sy.reference_hz == 7.6 and outputs(m.scene()).natural_frequency_hz == 7.6
+        assert sy.reference_hz == 7.6 and outputs(sc).natural_frequency_hz == 7.6
         assert reference_hz(sy._replace(reference_hz=math.nan)) == 1.0 / (2 * math.pi * sy.time_unit_s)
-    nd = SDOF(beta=0.02, B=0.01, R=0.8, Delta=0.1).scene()
+    nd = sdof(beta=0.02, B=0.01, Delta=0.1, R=0.8)
     assert math.isnan(reference_hz(nd.system)) and outputs(nd).natural_frequency_hz is None

@@ -17,8 +17,11 @@ import numpy as np
 import pytest
 
 from vibeam.case.schema import CaseError, parse_case
-from vibeam.models import SDOF, EventSolver, make_solver
+from vibeam.models import EventSolver, make_solver
 from vibeam.models.beam import BeamFE, BeamGeometry
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.contact import Restitution
+from vibeam.models.scene import one_mode
 from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver
 from vibeam.models import BeamEventSolver
 from vibeam.engine.records import summarize
@@ -66,10 +69,10 @@ def test_sdof_two_sided_impacts_match_solve_ivp(D, Dl, W, B, R, Rl):
     from 5e-9 to 5e-10 to 4e-11 as its rtol goes from 1e-11 to 1e-12 to 1e-13; measured here
     <= 5e-11 for the strobe and the impact times, 1e-12 elsewhere); a missed impact, a wrong
     stop or a wrong law gives O(1) differences."""
-    m = SDOF(beta=0.015, B=B, R=R, Delta=D, Delta_lower=Dl, R_lower=Rl)
+    m = sdof(0.015, B, D, R, Delta_lower=Dl, lower_law=None if Rl is None else Restitution(Rl))
     x0 = np.array([-0.5 * Dl + 0.5 * D, 0.0, 0.0])
     n = 20
-    a = EventSolver(m.scene()).point(W, x0, 0, n, 64)
+    a = EventSolver(m).point(W, x0, 0, n, 64)
     ref = two_sided_ode(m, W, x0, n, rtol=1e-13)
     imp = ref["impacts"]
     assert a.status == "ok"
@@ -95,10 +98,10 @@ def test_sdof_two_sided_chatter_and_sticking_match_solve_ivp(D, Dl, W, B, R, Rl,
     period agrees to 1e-9 of the orbit's size (measured <= 3e-13: mostly on the stop).  Resolving
     the sequence further by events is not possible: below a rebound speed sqrt(2 a eps |Delta|) ~
     4e-12 the flight's apex is within the round-off of q (the reference then sticks ~4e-8 early)."""
-    m = SDOF(beta=0.015, B=B, R=R, Delta=D, Delta_lower=Dl, R_lower=Rl)
-    x0 = m.initial_state()
+    m = sdof(0.015, B, D, R, Delta_lower=Dl, lower_law=None if Rl is None else Restitution(Rl))
+    x0 = one_mode(m).initial_state()
     n = 10
-    a = EventSolver(m.scene()).point(W, x0, 0, n, 64)
+    a = EventSolver(m).point(W, x0, 0, n, 64)
     ref = two_sided_ode(m, W, x0, n)
     assert a.status == "chatter" and a.extra["stuck_fraction"] > 0.05
     stick_t = np.array([t for t, _ in ref["sticks"] if t > 0.0])
@@ -122,7 +125,7 @@ def _kernel_events(m, W, x0, n, ns=64):
     (method ``event`` does not return them)."""
     from vibeam.models.core.event import EventIntegrator, fundamental_step
 
-    core = EventIntegrator(m.scene())
+    core = EventIntegrator(m)
     run = core.run(W, x0[:1], x0[1:2], core.held_set_of(x0[2]), 0, n, ns, ns, fundamental_step(core.system),
                    10000, 10 ** 8, 1e-6, log_events=1000)
     cnt = int(run.record.nlog[0])
@@ -157,8 +160,8 @@ def test_sdof_prestressed_lower_stop_holds_and_releases_exactly():
     F = W * W * B
     n = 4
     T = 2 * math.pi / W
-    m = SDOF(beta=0.015, B=B, R=0.9, Delta=5e-2, Delta_lower=Dl, R_lower=0.0)
-    x0 = m.initial_state()
+    m = sdof(0.015, B, 5e-2, 0.9, Delta_lower=Dl, lower_law=Restitution(0.0))
+    x0 = one_mode(m).initial_state()
     assert x0[0] == -Dl      # on the lower stop, at rest: the kernel holds it from t = 0
     # the scenario, from the reference (no code shared with the kernel)
     ref = two_sided_ode(m, W, x0, n)
@@ -182,7 +185,7 @@ def test_sdof_prestressed_lower_stop_holds_and_releases_exactly():
     np.testing.assert_allclose(rel, t_rel, rtol=0, atol=1e-12)
     # the reference releases by brentq on the force: the same instants
     np.testing.assert_allclose([t for t, _ in ref["releases"]], t_rel, rtol=0, atol=1e-12)
-    a = EventSolver(m.scene()).point(W, x0, 0, n, 64)
+    a = EventSolver(m).point(W, x0, 0, n, 64)
     assert a.status == "sticking" and a.n_impacts_lower == a.n_impacts == 2 * n
     # the kernel's stuck time: held from 0 to the first release, from each landing to the next release
     ends = np.append(t_rel[1:], n * T)
@@ -206,7 +209,7 @@ def test_sdof_direct_method_two_sided_matches_event(D, Dl, W, B):
     over 20 periods: the same impacts per stop, impact times to 1e-8 and the samples to 1e-8 of
     the orbit (the tolerance of the integration, amplified over 20 periods of flights; measured
     <= 3.3e-11 and 4.4e-11)."""
-    m = SDOF(beta=0.015, B=B, R=0.8, Delta=D, Delta_lower=Dl)
+    m = sdof(beta=0.015, B=B, Delta=D, R=0.8, Delta_lower=Dl)
     x0 = np.array([0.5 * (D - Dl), 0.0, 0.0])
     a = make_solver(m, "event").point(W, x0, 0, 20, 64)
     b = make_solver(m, "direct", solver="DOP853", rtol=1e-11, atol=1e-14).point(W, x0, 0, 20, 64)
@@ -228,12 +231,12 @@ def test_symmetric_stops_give_a_symmetric_orbit(gap, W):
     1e-12 of the orbit's size (3000 transient periods leave exp(-0.015 * 3000 * 2 pi / 2) < 1e-60
     of the transient; measured <= 5e-15), each stop takes the same impacts per period with the
     same speed (summarize's per-stop outputs)."""
-    m = SDOF(beta=0.015, B=0.5e-3, R=0.8, Delta=gap, Delta_lower=gap)
-    tr = EventSolver(m.scene()).point(W, None, 3000, 8, 64)
+    m = sdof(beta=0.015, B=0.5e-3, Delta=gap, R=0.8, Delta_lower=gap)
+    tr = EventSolver(m).point(W, None, 3000, 8, 64)
     q = tr.samples[:, 0]
     scale = np.max(np.abs(q))
     assert np.max(np.abs(q[32:] + q[:-32])) < 1e-12 * scale
-    s = summarize(tr, m.Delta)
+    s = summarize(tr, gap)
     assert s["period"] == 1
     assert s["impacts_per_period"] == s["impacts_per_period_lower"] > 0
     assert s["impact_velocity"] == pytest.approx(s["impact_velocity_lower"], rel=1e-12)
@@ -247,7 +250,7 @@ def test_mirrored_start_gives_the_mirrored_motion(gap, W, B):
     t = T/2, (-q(T/2), -q'(T/2)), the kernel follows -q(t + T/2), each impact on the other stop.
     Over 6 periods with many impacts, to 1e-10 of the orbit's size (round-off of the two runs,
     amplified by the impacts; measured <= 2.5e-13)."""
-    m = SDOF(beta=0.015, B=B, R=0.8, Delta=gap, Delta_lower=gap)
+    m = sdof(beta=0.015, B=B, Delta=gap, R=0.8, Delta_lower=gap)
     s = make_solver(m, "event")
     a = s.point(W, None, 200, 7, 64)
     x_half = a.samples[32]
@@ -290,10 +293,10 @@ def test_far_lower_stop_is_the_one_sided_result_bit_for_bit(D, W, B, R):
     """A lower stop that is never reached (Delta_lower = 1e3) leaves every arithmetic operation of
     the one-sided event kernel (and of `direct`) as it was: identical samples, impacts and final
     state, bit for bit, including chatter and sticking (the pre-stressed case)."""
-    one = SDOF(beta=0.015, B=B, R=R, Delta=D)
-    two = SDOF(beta=0.015, B=B, R=R, Delta=D, Delta_lower=1e3)
-    a = EventSolver(one.scene()).point(W, None, 50, 16, 64)
-    b = EventSolver(two.scene()).point(W, None, 50, 16, 64)
+    one = sdof(beta=0.015, B=B, Delta=D, R=R)
+    two = sdof(beta=0.015, B=B, Delta=D, R=R, Delta_lower=1e3)
+    a = EventSolver(one).point(W, None, 50, 16, 64)
+    b = EventSolver(two).point(W, None, 50, 16, 64)
     _same(a, b)
     assert b.n_impacts_lower == 0
     np.testing.assert_array_equal(a.chatter_times, b.chatter_times)
@@ -347,11 +350,11 @@ def test_static_mode_beam_with_a_lower_stop_is_the_sdof(R, gap, gap_lower, load)
     sm = BeamImpactModel.static_mode(g, R=R, gap_contact_m=gap, base_amplitude_m=Y, damping_D_s=D_S,
                                      gap_contact_lower_m=gap_lower)
     red = reduce_static_mode(g, damping_D_s=D_S, gap_contact_m=gap, gamma_tilde_m_per_V=Y)
-    sd = SDOF(beta=red.beta_S, B=red.gamma_per_V, R=R, Delta=red.Delta, Delta_lower=gap_lower / PHIM / L)
+    sd = sdof(beta=red.beta_S, B=red.gamma_per_V, Delta=red.Delta, R=R, Delta_lower=gap_lower / PHIM / L)
     for f in (3.0, 14.0, 15.3):
         W = f / sm.f_ref_hz
         a = BeamEventSolver(sm.scene()).point(W, None, 100, 16, 64)
-        b = EventSolver(sd.scene()).point(W, None, 100, 16, 64)
+        b = EventSolver(sd).point(W, None, 100, 16, 64)
         assert a.status == b.status
         assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower
         np.testing.assert_array_equal(a.impact_stops, b.impact_stops)

@@ -23,6 +23,7 @@ from vibeam.analysis.uncertainty import (QUANTILES, UncertaintyResult, bands, ch
                                          sobol_entries, uncertainty_group, uncertainty_variables, verdict)
 from vibeam.engine.records import STATUSES
 from vibeam.errors import InputError
+from vibeam.models.builders.sdof import sdof
 
 
 def make(amp, period=None, status=None, roles=(), Omega=None, directions=None, fhz=None, L=None, seed=5,
@@ -733,10 +734,8 @@ def _fake_case(methods=("event", "averaging", "continuation"), samples=3):
 
 
 def _fakes(monkeypatch, seen):
-    from vibeam.models import SDOF
-
     model = SimpleNamespace(natural_frequency_hz=None, length_m=None, fidelity="sdof")
-    scene = SDOF(beta=0.01, B=0.1, R=0.8, Delta=0.0).scene()      # nondimensional: no units
+    scene = sdof(beta=0.01, B=0.1, Delta=0.0, R=0.8)      # nondimensional: no units
 
     def make_job(case, r, m, index):
         seen.append((r.name, dict(m), index))
