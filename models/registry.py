@@ -124,12 +124,16 @@ LAWS = {
 IMPLEMENTED_LAWS = tuple(n for n, law in LAWS.items() if law.implemented)
 
 
-def mixed_stops(model) -> bool:
-    """Whether the stops at the model's attached mass mix the two kinds of law: a Newton stop
-    beside a compliant one, either above (from its ``mass_stops()``, else ``stops()``: the (relation,
-    law) pairs of :mod:`vibeam.models.contact`)."""
-    stops = model.mass_stops() if hasattr(model, "mass_stops") else model.stops()
-    return len({getattr(s.law, "kind", "") for s in stops}) == 2
+def mixed_stops(sc) -> bool:
+    """Whether the stops at the scene's attached mass (contact row 0) mix the two kinds of law: a
+    Newton stop beside a compliant one, either above.
+
+    Parameters
+    ----------
+    sc : vibeam.models.scene.Scene
+        Its stops, (relation, law) pairs (:mod:`vibeam.models.contact`).
+    """
+    return len({getattr(s.law, "kind", "") for s in sc.stops if s.relation.row == 0}) == 2
 
 
 def law_family(law: str) -> str | None:

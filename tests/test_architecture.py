@@ -450,7 +450,7 @@ def test_the_model_classes_carry_their_stops_not_law_fields():
     for m in (newton_below, kv_below, same, beam, beam.with_laws(kv)):
         assert not any(hasattr(m, k) for k in gone), type(m)
     assert newton_below.lower_law == Restitution(0.5) and newton_below.stops()[1].law == Restitution(0.5)
-    assert kv_below.stops()[1].law is kv and mixed_stops(kv_below) and not mixed_stops(newton_below)
+    assert kv_below.stops()[1].law is kv and mixed_stops(kv_below.scene()) and not mixed_stops(newton_below.scene())
     assert same.lower_law is None and same.stops()[1].law == same.stops()[0].law
     # R moves the lower stop that has no law of its own, and not the one that has
     assert dataclasses.replace(same, R=0.6).stops()[1].law.R == 0.6

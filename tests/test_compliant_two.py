@@ -220,7 +220,7 @@ def test_case_builds_two_compliant_stops_and_records_contacts_per_stop():
     # (tests/test_mixed_stops.py); a compliant lower stop beside a restitution upper one, refused
     # before the one shooting problem, is served: Newton's law above, the lower table's law below
     mixed = parse_case(CASE.replace("[sweep]", "[model.contact_lower]\nR = 0.5\n\n[sweep]")).model_spec().build()
-    assert mixed_stops(mixed) and [s.law.code for s in mixed.stops()] == [1, 0] and mixed.stops()[1].law.R == 0.5
+    assert mixed_stops(mixed.scene()) and [s.law.code for s in mixed.stops()] == [1, 0] and mixed.stops()[1].law.R == 0.5
     up = parse_case(CASE.replace("[model.contact]\nlaw = \"linear\"\nstiffness = 1e4\n", "").replace(
         "[sweep]", "[model.contact_lower]\nlaw = \"linear\"\nstiffness = 1e4\n\n[sweep]")).model_spec().build()
-    assert mixed_stops(up) and [s.law.kind for s in up.stops()] == ["impulsive", "compliant"]
+    assert mixed_stops(up.scene()) and [s.law.kind for s in up.stops()] == ["impulsive", "compliant"]

@@ -27,7 +27,7 @@ from vibeam.models.registry import mixed_stops
 from vibeam.models.compliant import HuntCrossley, LankaraniNikravesh
 from vibeam.models.contact import DAMPING, EXPONENT, LAW, STIFFNESS, Relation, Restitution, Stop, pack
 from vibeam.models import BeamEventSolver
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.scene import one_mode
 from vibeam.models.core.isolated import isolated_contact
@@ -244,11 +244,10 @@ def test_sdof_two_stops_and_beside_a_newton_stop(lower):
     1.0e-8, 2.5e-10, 1.3e-10)."""
     kw = {"R_lower": 0.5} if lower == "newton" else \
         {"contact_lower": (LankaraniNikravesh if lower == "lankarani_nikravesh" else HuntCrossley)(3e4, 0.9)}
-    m = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact=LankaraniNikravesh(1e5, 0.8), **kw)
-    assert mixed_stops(m) == (lower == "newton")      # mixed_stops reads m.stops(): the class's method
     lower_law = Restitution(0.5) if lower == "newton" else kw["contact_lower"]
     sc = sdof(beta=0.015, B=5e-3, Delta=0.002, law=LankaraniNikravesh(1e5, 0.8), Delta_lower=0.003,
               lower_law=lower_law)
+    assert mixed_stops(sc) == (lower == "newton")
     a = make_solver(sc, "event").point(0.75, None, 4, 4, 32)
     b = make_solver(sc, "direct").point(0.75, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts > a.n_impacts_lower >= 1
