@@ -6,7 +6,7 @@ What each fidelity is and can do is declared once, in :mod:`vibeam.models.regist
 has ``point(Omega, state0, n_transient, n_record, samples_per_period)`` returning a
 :class:`~vibeam.models.trajectory.Trajectory`, so that the one sweep engine drives them all.
 
-Submodules are imported on first use (``vibeam.models.SDOF`` loads :mod:`.sdof`), so that
+Submodules are imported on first use (``vibeam.models.EventSolver`` loads :mod:`.core.event`), so that
 the case validator can read the registry without loading numba kernels or scipy.
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ from .registry import (FIDELITIES, IMPULSIVE, fidelity, law_key, law_name, mass_
 
 # public names -> their module (imported on first access, PEP 562)
 _LAZY = {
-    "SDOF": "sdof", "EventSolver": "core.event", "linear_amplitude": "sdof_flow",
+    "EventSolver": "core.event", "linear_amplitude": "sdof_flow",
     "AveragingSolver": "sdof_averaging", "MappingSolver": "mapping",
     "BeamEventSolver": "core.event", "BeamImpactModel": "beam_dynamics",
     "BeamODESolver": "beam_dynamics",
@@ -162,5 +162,5 @@ def _refusal(sc, method: str) -> str:
     return ""
 
 
-__all__ = ["SDOF", "EventSolver", "linear_amplitude", "make_solver", "METHODS", "SHOOTING",
+__all__ = ["EventSolver", "linear_amplitude", "make_solver", "METHODS", "SHOOTING",
            "shooting_problem", "SceneShooting", "FIDELITIES", "fidelity", "Trajectory"]

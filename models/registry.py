@@ -212,7 +212,8 @@ class Fidelity:
     name : str
         Registry name, the ``fidelity`` key of a case's ``[model]`` table.
     model : str
-        ``"module:Class"`` of the model (relative to ``vibeam.models``).
+        ``"module:name"`` of the model (relative to ``vibeam.models``): its class, or the builder
+        of its scene (the SDOF's, :func:`vibeam.models.builders.sdof.sdof`).
     solvers : dict
         Method name -> :class:`Method` (``"continuation"``: the shooting problem).  The tables
         ``methods``, ``shooting``, ``restitution_law_methods``, ``positive_R_methods`` and
@@ -280,7 +281,7 @@ def register(fid: Fidelity) -> Fidelity:
 
 register(Fidelity(
     name="sdof",
-    model="sdof:SDOF",
+    model="builders.sdof:sdof",
     solvers={"event": on_the_core("core.event:EventSolver", restitution_law=True),
              "direct": on_the_core("sdof_ode:DirectSolver"),
              # the textbook methods of one Newton stop (paper Sec. 3)

@@ -322,7 +322,7 @@ def driven(system: ModalSystem, excitation: Excitation) -> ModalSystem:
     Parameters
     ----------
     system : ModalSystem
-        As built (:func:`vibeam.models.system.from_sdof`, :func:`~vibeam.models.system.from_beam`,
+        As built (:func:`vibeam.models.system.sdof_system`, :func:`~vibeam.models.system.from_beam`,
         :func:`vibeam.models.builders.matrices.build_matrices`): its ``participation`` is the base
         participation ``Gamma`` (a system already driven by a force has lost it: drive the built
         system).

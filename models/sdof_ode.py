@@ -581,7 +581,7 @@ class DirectSolver(_ScipyMethod):
     :class:`_ScipyMethod`.
 
     A compliant stop (Kelvin-Voigt or hysteretic Hertz, on one or two stops, or beside a Newton
-    stop): the oscillator as the one-mode modal system (:func:`vibeam.models.system.from_sdof`)
+    stop): the oscillator as the one-mode modal system (:func:`vibeam.models.system.sdof_system`)
     on :class:`vibeam.models.core.direct.DirectIntegrator`, whose outputs are the event method's
     (contacts' rows, ``final_state`` ``(q, q', code)`` with code 1 / -1 in contact with the upper /
     lower stop); defaults ``DOP853``, ``rtol = 1e-11``, ``atol = 1e-15`` (the reference of the event

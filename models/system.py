@@ -14,8 +14,8 @@ amplitude ``b = B sin(Omega t)``: the load ``-M r b''`` of the physical model be
 force) give ``f A sin(Omega t)`` instead: ``Gamma Omega^2 B`` is generalised to ``f Omega^p A``
 (:attr:`ModalSystem.drive_power`, :func:`forcing`), ``p = 2`` being the displacement drive.
 
-* The paper's SDOF (Eqs. 43-47; :class:`vibeam.models.sdof.SDOF`) is the one-mode case
-  ``omega = 1``, ``c = 2 beta``, ``Gamma = s = W = 1``: :func:`from_sdof`.
+* The paper's SDOF (Eqs. 43-47; the scene of :func:`vibeam.models.builders.sdof.sdof`) is the
+  one-mode case ``omega = 1``, ``c = 2 beta``, ``Gamma = s = W = 1``: :func:`sdof_system`.
 * The FE cantilever (Eqs. 39-42; :class:`vibeam.models.beam_dynamics.BeamImpactModel`, modes of
   :class:`vibeam.models.beam.BeamFE`) is the ``N``-mode case in its own kernel units:
   :func:`from_beam`.
@@ -61,7 +61,7 @@ from numba import njit
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["ModalSystem", "modal_system", "sdof_system", "from_sdof", "from_beam", "from_matrices", "modal_flow", "forcing",
+__all__ = ["ModalSystem", "modal_system", "sdof_system", "from_beam", "from_matrices", "modal_flow", "forcing",
            "DRIVE_POWERS", "drive_force", "drive_slope", "drive_displacement", "drive_velocity_slope",
            "modal_transition", "damping_ratios", "lowest_modes", "mode_table", "particular",
            "transition_increment", "increment_of", "transition_entries", "advance_modes", "advance_count",
@@ -79,7 +79,7 @@ class ModalSystem(NamedTuple):
     ``eta_i'' + damping_i eta_i' + omega_i^2 eta_i = participation_i Omega^p base_amplitude
     sin(Omega t)`` with ``p = drive_power``: the forcing vector ``f = participation`` times the
     forcing amplitude ``F(Omega) = Omega^p A`` (:func:`forcing`), ``A = base_amplitude``.  As built
-    (:func:`from_sdof`, :func:`from_beam`, :func:`from_matrices`) the drive is the paper's base
+    (:func:`sdof_system`, :func:`from_beam`, :func:`from_matrices`) the drive is the paper's base
     displacement, ``f = Gamma``, ``A = B``, ``p = 2``; :func:`vibeam.models.scene.driven` sets a base
     acceleration (``f = Gamma``, ``p = 0``) or a point force (``f = W[j]``, ``p = 0``).  A
     ``typing.NamedTuple`` of float64 arrays and numbers, so numba kernels take it as an argument (no
@@ -244,14 +244,6 @@ def damping_ratios(system: ModalSystem) -> np.ndarray:
 
 
 # ============================================================================ constructors
-def from_sdof(sdof) -> ModalSystem:
-    """:func:`sdof_system` of an object with ``beta``, ``B`` and optionally
-    ``natural_frequency_hz`` (Hz), ``length_m`` (m) and ``mass_kg`` (kg)
-    (:class:`vibeam.models.sdof.SDOF`)."""
-    return sdof_system(sdof.beta, sdof.B, getattr(sdof, "natural_frequency_hz", None),
-                       getattr(sdof, "length_m", None), getattr(sdof, "mass_kg", None))
-
-
 def sdof_system(beta, B, natural_frequency_hz=None, length_m=None, mass_kg=None) -> ModalSystem:
     """The SDOF impact oscillator as the one-mode system (paper Eqs. 43-46).
 

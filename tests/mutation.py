@@ -1022,7 +1022,7 @@ def run(modules, sample: int | None, seed: int, timeout: float, out: Path | None
         os.environ["PYTHONPATH"] = str(pkg)
         # one process at a time per mutant (the 2-core machine; compile-ahead's child off)
         os.environ.update(VIBEAM_COMPILE_AHEAD="0", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
-        where = subprocess.run([sys.executable, "-c", "import vibeam.models.sdof as m, vibeam.io.store as s; "
+        where = subprocess.run([sys.executable, "-c", "import vibeam.models.scene as m, vibeam.io.store as s; "
                                 "print(m.__file__); print(s.__file__)"], capture_output=True, text=True).stdout
         if any(not line.startswith(str(pkg)) for line in where.split()) or not where.strip():
             raise SystemExit(f"tests.mutation: the copy is not what Python imports ({where.split()}); "

@@ -118,7 +118,7 @@ def test_simulate_equals_the_sweep_point_and_lists_the_impacts():
 
     case = vibeam.load_case(SMALL)
     sim = vibeam.simulate(case, Omega=2.0)
-    tr = make_solver(case.model_spec().build(), "event").point(2.0, None, 100, 8, 64)
+    tr = make_solver(case.model_spec().scene(), "event").point(2.0, None, 100, 8, 64)
     assert sim.summary["amplitude"] == summarize(tr, 0.0)["amplitude"]
     np.testing.assert_array_equal(sim.q, tr.samples[:, 0])
     assert sim.impact_times.size == sim.summary["impacts_per_period"] * 8
@@ -628,7 +628,7 @@ def test_poincare_of_a_period_one_orbit_against_the_shooting_solution(tmp_path):
     assert sec.strobe_q.shape == (32,) and sec.period == 1
     assert np.ptp(sec.strobe_q) < 1e-8 and np.ptp(sec.strobe_dq) < 1e-8
     case = vibeam.load_case(FIG7)
-    prob = shooting_problem(case.model_spec().build(), "Omega")
+    prob = shooting_problem(case.model_spec().scene(), "Omega")
     pt, why = start_point(prob, np.array([sec.strobe_q[0], sec.strobe_dq[0]]), 2.0, 1, 1.5, 2.5)
     assert pt is not None, why
     phase = np.mod(2.0 * np.asarray(pt.shot.impact_times), 2 * np.pi)

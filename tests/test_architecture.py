@@ -196,15 +196,18 @@ def test_every_registered_fidelity_has_a_spec_and_every_spec_a_fidelity():
 
     assert set(CANONICAL_SPECS) == set(FIDELITIES)
     for name, f in FIDELITIES.items():
-        assert resolve(f.model).fidelity == name
+        model = resolve(f.model)      # a model class, or the builder of the fidelity's scene
+        assert getattr(model, "fidelity", None) == name if isinstance(model, type) else model.__name__ == name
         for method, path in f.methods.items():
             assert resolve(path).name == method, (name, method)
         assert set(f.modal_state_methods) <= set(f.methods)
         assert set(f.restitution_law_methods) <= set(f.methods)
         spec = CANONICAL_SPECS[name]
-        for attr in ("build", "scene", "dofs", "check", "result_attrs", "converged_reference", "effect_scene",
-                     "case_update"):
+        for attr in ("build",) * isinstance(model, type) + ("scene", "dofs", "check", "result_attrs",
+                                                             "converged_reference", "effect_scene", "case_update"):
             assert callable(getattr(spec, attr, None)), (name, attr)
+        # a fidelity built by its scene's builder has no model to build
+        assert isinstance(model, type) or not hasattr(spec, "build"), name
 
 
 def test_the_shorthand_round_trip_is_gone():
@@ -214,11 +217,12 @@ def test_the_shorthand_round_trip_is_gone():
     their spec.  No function or class of these names is defined in the framework, the models or the
     reductions.  Nor the model classes the Scene replaces that are gone so far (``CompliantBeamModel``:
     a beam model's laws are its stops', :meth:`BeamImpactModel.with_laws`; ``PointStop``: a stop
-    away from the attached mass is a :class:`vibeam.models.contact.Stop`)."""
+    away from the attached mass is a :class:`vibeam.models.contact.Stop`; ``SDOF``: the oscillator is
+    the scene of its builder, :func:`vibeam.models.builders.sdof.sdof`)."""
     import ast
 
     gone = {"stops_as_keys", "SDOFModelSpec", "BeamModelSpec", "register_model_spec", "MODEL_SPECS",
-            "CompliantBeamModel", "PointStop"}
+            "CompliantBeamModel", "PointStop", "SDOF"}
     found = []
     for folder in ("vibeam", "models", "reductions"):
         for p in sorted((ROOT / folder).rglob("*.py")):
@@ -268,10 +272,11 @@ def test_validating_a_case_loads_no_solver():
 
 
 def test_make_solver_and_shooting_come_from_the_registry():
-    from vibeam.models import SHOOTING, SDOF, make_solver
+    from vibeam.models import SHOOTING, make_solver
+    from vibeam.models.builders.sdof import sdof
     from vibeam.models.registry import FIDELITIES, resolve
 
-    m = SDOF(beta=0.01, B=1e-3, R=0.8, Delta=0.0)
+    m = sdof(0.01, 1e-3, 0.0, 0.8)
     for method, path in FIDELITIES["sdof"].methods.items():
         assert type(make_solver(m, method)) is resolve(path)
     assert set(SHOOTING) == {n for n, f in FIDELITIES.items() if f.shooting}
@@ -425,39 +430,48 @@ def test_every_law_class_carries_its_registry_entry():
                     assert set(x.laws) | (set(x.two_sided) - {"impulsive"}) <= {y.family for y in LAWS.values()}
 
 
-def test_the_model_classes_carry_their_stops_not_law_fields():
+def test_the_models_carry_their_stops_not_law_fields():
     """Issue 20: a model's stops are (relation, law) pairs; the lower stop's law is one law object
     (``lower_law``, None: the upper stop's), not per-law fields (``R_lower``, ``contact_lower``)
     nor a ``mixed_stops`` flag (the registry's :func:`mixed_stops` reads it off the stops).  The
-    shorthands ``R_lower`` and ``contact_lower`` stay keywords of the constructors, as they stay
-    keys of a case file, and build the same stops."""
-    import dataclasses
-
-    from vibeam.models import SDOF
+    shorthands ``R_lower`` and ``contact_lower`` stay keys of a case file and of the beam's
+    constructor, and build the same stops; the SDOF is its builder's scene (issue 58: no class)."""
+    from vibeam.case.schema import parse_case
+    from vibeam.models import builders
     from vibeam.models.beam_dynamics import BeamImpactModel
+    from vibeam.models.builders.sdof import sdof
     from vibeam.models.compliant import LinearContact
     from vibeam.models.contact import Restitution
     from vibeam.models.registry import mixed_stops
+    from vibeam.models.scene import Scene
 
     gone = {"R_lower", "contact_lower", "mixed_stops"}
-    assert not gone & {f.name for f in dataclasses.fields(SDOF)}
+    assert not hasattr(builders, "SDOF") and "SDOF" not in dir(__import__("vibeam.models").models)
     kv = LinearContact.from_restitution(1e4, 0.7)
-    newton_below = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5)
-    kv_below = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, contact_lower=kv)
-    same = SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003)
+    newton_below = sdof(0.015, 5e-3, 0.002, 0.8, Delta_lower=0.003, lower_law=Restitution(0.5))
+    kv_below = sdof(0.015, 5e-3, 0.002, 0.8, Delta_lower=0.003, lower_law=kv)
+    same = sdof(0.015, 5e-3, 0.002, 0.8, Delta_lower=0.003)
     beam = BeamImpactModel([10.0], [1.0], [1.0], [1.0], 0.8, 1e-3, 1e-4, 1.6, 1.0, 1.0,
                            gap_contact_lower_m=2e-3, R_lower=0.5)
-    for m in (newton_below, kv_below, same, beam, beam.with_laws(kv)):
+    assert set(Scene._fields) == {"system", "stops", "builder"}
+    for m in (beam, beam.with_laws(kv)):
         assert not any(hasattr(m, k) for k in gone), type(m)
-    assert newton_below.lower_law == Restitution(0.5) and newton_below.stops()[1].law == Restitution(0.5)
-    assert kv_below.stops()[1].law is kv and mixed_stops(kv_below.scene()) and not mixed_stops(newton_below.scene())
-    assert same.lower_law is None and same.stops()[1].law == same.stops()[0].law
-    # R moves the lower stop that has no law of its own, and not the one that has
-    assert dataclasses.replace(same, R=0.6).stops()[1].law.R == 0.6
-    assert dataclasses.replace(newton_below, R=0.6).stops()[1].law.R == 0.5
+    assert newton_below.stops[1].law == Restitution(0.5)
+    assert kv_below.stops[1].law is kv and mixed_stops(kv_below) and not mixed_stops(newton_below)
+    assert same.stops[1].law is same.stops[0].law
+    # R moves the lower stop that has no law of its own, and not the one that has: the case's
+    # parameter R is a path to both laws, or to the upper's only
+    text = "name = \"x\"\n[model]\nfidelity = \"sdof\"\nbeta = 0.015\nB = 5e-3\nR = 0.8\nDelta = 0.002\nDelta_lower = 0.003\n{}" \
+           "[sweep]\nOmega = [0.9, 1.0, 2]\n[[run]]\nname = \"e\"\nmethod = \"event\"\n"
+    follows = parse_case(text.format("")).model_spec()
+    own = parse_case(text.format("[model.contact_lower]\nR = 0.5\n")).model_spec()
+    assert follows.scene_parameter("R")[0] == ("stops[0].law.R", "stops[1].law.R")
+    assert own.scene_parameter("R")[0] == "stops[0].law.R"
+    fs = follows.scene()
+    assert own.scene().stops[1].law == Restitution(0.5) and fs.stops[1].law is fs.stops[0].law
     assert beam.mass_stops()[1].law == Restitution(0.5)
-    with pytest.raises(ValueError, match="one law"):
-        SDOF(beta=0.015, B=5e-3, R=0.8, Delta=0.002, Delta_lower=0.003, R_lower=0.5, contact_lower=kv)
+    with pytest.raises(ValueError, match="needs a lower stop"):
+        sdof(0.015, 5e-3, 0.002, 0.8, lower_law=kv)
 
 
 # ---------------------------------------------------------------------------- who reads R

@@ -133,10 +133,10 @@ def test_plain_case_has_no_hooks_and_no_extra_datasets(tmp_path):
 
     case = parse_case(PLAIN)
     spec = case.model_spec()
-    model = spec.build()
-    assert assess.hooks(case, spec, case.run[0], model.scene()) == ()
+    sc = spec.scene()
+    assert assess.hooks(case, spec, case.run[0], sc) == ()
     assert assess.solver_options(case, case.run[0], spec) == {}
-    assert assess.samples_per_period(case, case.run[0], model.scene(), np.array([1.9])) == case.sweep.samples_per_period
+    assert assess.samples_per_period(case, case.run[0], sc, np.array([1.9])) == case.sweep.samples_per_period
     run_case(case, PLAIN, tmp_path, jobs=1, quiet=True, plots=False)
     with h5py.File(tmp_path / "results.h5") as f:
         keys = set(f["runs/exact"].keys())
@@ -156,10 +156,10 @@ time_series = [15.0]
 '''
     case = parse_case(text)
     spec = case.model_spec()
-    model = spec.build()
+    sc = spec.scene()
     # spectra, time series, sensor; participation does not apply to an SDOF scene
-    assert len(assess.hooks(case, spec, case.run[0], model.scene())) == 3
-    spp = assess.samples_per_period(case, case.run[0], model.scene(), case.sweep.grid(7.6))
+    assert len(assess.hooks(case, spec, case.run[0], sc)) == 3
+    spp = assess.samples_per_period(case, case.run[0], sc, case.sweep.grid(7.6))
     assert spp >= 2 * 5000 / 14.8
     runs = run_case(case, text, tmp_path, jobs=1, quiet=True, plots=True)
     d = runs[0].data

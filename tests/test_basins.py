@@ -19,7 +19,7 @@ from vibeam.analysis.attractors import FAILED, UNSETTLED, read_basins, set_perio
 from vibeam.models.attractors import Recurrences
 from vibeam.models import EventSolver, make_solver
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.scene import outputs
+from vibeam.models.scene import one_mode, outputs
 
 BETA, R = 0.015, 0.9
 
@@ -142,11 +142,11 @@ def test_liouville_holds_for_the_period_one_attractor(tight):
     m = load_case("cases/rig-tight.toml")
     from vibeam.runner import make_job
 
-    model = make_job(m, m.run[0], {}).spec.build()
+    sc = make_job(m, m.run[0], {}).spec.scene()
     W = float(tight.Omega[0])
     rate = a["lyapunov_impacts_per_period"][0, k1] * W / (2 * math.pi)
     assert a["lyapunov_impacts_per_period"][0, k1] == 1.0
-    assert abs(a["lyapunov"][0, k1].sum() - (-2 * model.beta + 2 * math.log(model.R) * rate)) < 1e-10
+    assert abs(a["lyapunov"][0, k1].sum() - (-2 * one_mode(sc).beta + 2 * math.log(sc.stops[0].law.R) * rate)) < 1e-10
 
 
 def test_basin_hits_change_few_labels(tight):

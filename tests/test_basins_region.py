@@ -14,14 +14,15 @@ import pytest
 import vibeam
 from vibeam.api import load_case
 from vibeam.engine.jobs import make_job
+from vibeam.models.scene import one_mode
 
 TWO = "cases/paper-fig7-two-sided.toml"
 
 
-def _model(path=TWO, run=0):
+def _scene(path=TWO, run=0):
     c = load_case(path)
     r = [x for x in c.run if x.method != "continuation"][run]
-    return make_job(c, r, dict(r.model)).spec.build()
+    return make_job(c, r, dict(r.model)).spec.scene()
 
 
 def test_the_default_box_lies_between_the_stops():
@@ -31,10 +32,11 @@ def test_the_default_box_lies_between_the_stops():
     from vibeam.analysis.attractors import axes_of, default_ranges
 
     for run in (0, 1):
-        m = _model(run=run)
+        sc = _scene(run=run)
+        m = one_mode(sc)
         lo, hi = -float(m.Delta_lower), float(m.Delta)
         for W in (1.6, 2.0, 2.38):
-            (q0, q1), _ = default_ranges(m.scene(), axes_of(m.scene(), None), W)
+            (q0, q1), _ = default_ranges(sc, axes_of(sc, None), W)
             assert lo <= q0 < q1 <= hi, (run, W, q0, q1, lo, hi)
             assert q1 == hi and q0 == lo            # the span 8 A is larger than the gap here
 
@@ -45,21 +47,22 @@ def test_behind_stop_is_the_closed_form_region():
     from vibeam.analysis.attractors import behind_stop, stop_gaps
 
     rng = np.random.default_rng(3)
-    m = _model()
+    sc = _scene()
+    m = one_mode(sc)
     S = np.column_stack([rng.uniform(-5e-3, 2e-3, 2000), rng.uniform(-1e-2, 1e-2, 2000), np.zeros(2000)])
     want = (S[:, 0] > m.Delta) | (S[:, 0] < -m.Delta_lower)
     assert want.any() and (~want).any()
-    np.testing.assert_array_equal(behind_stop(m.scene(), S), want)
-    g = stop_gaps(m.scene(), S)
+    np.testing.assert_array_equal(behind_stop(sc, S), want)
+    g = stop_gaps(sc, S)
     np.testing.assert_allclose(g[:, 0], S[:, 0] - m.Delta, rtol=0, atol=1e-18)
     np.testing.assert_allclose(g[:, 1], -S[:, 0] - m.Delta_lower, rtol=0, atol=1e-18)
     # a state exactly on a stop (the box's edge) is admissible
-    assert not behind_stop(m.scene(), [[0.0, 1e-3, 0.0], [-m.Delta_lower, -1e-3, 0.0]]).any()
+    assert not behind_stop(sc, [[0.0, 1e-3, 0.0], [-m.Delta_lower, -1e-3, 0.0]]).any()
     kv = vibeam.api.load_case({"name": "kv", "model": {"fidelity": "sdof", "beta": 0.015, "B": 5e-4, "Delta": 0.0,
                                                        "R": 0.9, "contact": {"law": "linear", "stiffness": 1e4}},
                                "sweep": {"Omega": [2.0, 2.1, 2]}, "run": [{"name": "e", "method": "event"}]})
-    mk = make_job(kv, kv.run[0], {}).spec.build()
-    assert not behind_stop(mk.scene(), S).any()
+    mk = make_job(kv, kv.run[0], {}).spec.scene()
+    assert not behind_stop(mk, S).any()
 
 
 def test_states_behind_a_stop_are_excluded_counted_and_not_simulated(tmp_path, monkeypatch):
@@ -108,12 +111,12 @@ def test_the_basin_plot_draws_every_stop(tmp_path):
 P1_FIXED_POINT = np.array([-0.00137751, 0.00126769])   # the period-1 orbit at Omega = 2.38 (q, q')
 
 
-def _reaches_period_one(model, state, periods=20000):
+def _reaches_period_one(sc, state, periods=20000):
     """An independent label: the event kernel followed up to ``periods`` periods (chunks of 2000,
     no cells, no recurrence) ends on the period-1 fixed point (to 1e-5 relative)."""
     from vibeam.models import EventSolver
 
-    sol = EventSolver(model.scene())
+    sol = EventSolver(sc)
     x = np.array([state[0], state[1], 0.0])
     for _ in range(periods // 2000):
         x = sol.point(2.38, x, 2000, 1, 16).final_state
@@ -128,12 +131,12 @@ def test_states_on_their_way_to_period_one_are_labelled_period_one():
     10 consecutive basin cells of earlier states (the old hit_basin), were labelled chaotic (their
     transients cross cells of the chaotic attractor's basin).  The default (50) labels them
     period-1, and the census reports its own check: 50 labels followed 5000 periods, none wrong."""
-    m = _model()
+    sc = _scene()
     r = vibeam.basins(TWO, Omega=2.38, samples=400, seed=1, lyapunov_periods=0)
     p1 = [k for k in range(r.n_attractors) if r.attractors["type"][0][k] == "period"]
     assert len(p1) == 1
     for i in (41, 288):
-        assert _reaches_period_one(m, r.initial[i])
+        assert _reaches_period_one(sc, r.initial[i])
         assert r.labels[0][i] == p1[0], i
     assert int(r.labels_checked[0]) == 50 and int(r.labels_wrong[0]) == 0
     rate, upper = r.mislabel_rate(0)
@@ -151,10 +154,10 @@ def test_the_default_mislabels_at_most_one_in_two_thousand():
     them, and at most 2 more (it tells every attractor apart, the independent check only period-1
     or not, so a label between two other attractors is wrong to it alone: 13 against 12 on CI's
     first run of this test, 12 against 12 before)."""
-    m = _model()
+    sc = _scene()
     r = vibeam.basins(TWO, Omega=2.38, samples=2000, seed=1, lyapunov_periods=0, verify=0)
     p1 = [k for k in range(r.n_attractors) if r.attractors["type"][0][k] == "period"][0]
-    truth = np.array([_reaches_period_one(m, s) for s in r.initial])
+    truth = np.array([_reaches_period_one(sc, s) for s in r.initial])
     wrong = int(np.sum((r.labels[0] == p1) != truth))
     assert wrong <= 1, wrong
     old = vibeam.basins(TWO, Omega=2.38, samples=2000, seed=1, lyapunov_periods=0, hit_basin=10, verify=2000,

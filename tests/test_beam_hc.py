@@ -19,7 +19,9 @@ from vibeam.models.compliant import HuntCrossley
 from vibeam.models.beam_dynamics import BeamODESolver
 from vibeam.models import BeamEventSolver
 from vibeam.models.core.isolated import isolated_contact
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop
 # kernels are compiled by these tests alone (~4 min of cold compile on 2 cores); .ci/run runs them
@@ -114,12 +116,12 @@ def test_one_mode_beam_is_the_sdof_hunt_crossley_scene():
     p, kc = 1.5, 1e8 / m.omega_ref ** 2
     Lq = w1 * L / s1
     sq = math.sqrt(k1)
-    sd = SDOF(beta=c1 / (2 * sq), B=w1 * G1 * Y / Lq, R=m.contact.R, Delta=D / Lq,
-              contact=HuntCrossley(w1 ** 2 * kc * Lq ** (p - 1) / k1, m.contact.R, p))
-    assert sd.B > 0.0
+    sd = sdof(c1 / (2 * sq), w1 * G1 * Y / Lq, D / Lq,
+              law=HuntCrossley(w1 ** 2 * kc * Lq ** (p - 1) / k1, m.contact.R, p))
+    assert one_mode(sd).B > 0.0
     W = 15.4 / 7.6
     a = make_solver(m, "event").point(W, None, 20, 4, 32)
-    b = EventSolver(sd.scene()).point(W / sq, None, 20, 4, 32)
+    b = EventSolver(sd).point(W / sq, None, 20, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     scale = np.max(np.abs(a.samples[:, 0]))
     assert np.max(np.abs(a.samples[:, 0] - b.samples[:, 0])) <= 1e-10 * scale

@@ -8,6 +8,8 @@ import pytest
 from vibeam.case.beamscene import derive, modes_report, scene_of
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.cli import main
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import one_mode, outputs
 
 RIG = """
 name = "rig-fe"
@@ -65,11 +67,11 @@ def test_derive_write_emits_a_valid_sdof_case(tmp_path):
     out = tmp_path / "sdof.toml"
     assert main(["derive", str(path), "--write", str(out)]) == 0
     case = parse_case(out.read_text(), str(out))
-    m = case.model_spec().build()
+    sc = case.model_spec().scene()
     red = derive(parse_case(RIG).model_spec())["reduction"]
-    assert m.natural_frequency_hz == pytest.approx(red.f_n_hz, rel=1e-9)
-    assert m.Delta == pytest.approx(red.Delta, rel=1e-9)
-    assert m.B == pytest.approx(red.gamma_per_V * 0.6, rel=1e-9)
+    assert outputs(sc).natural_frequency_hz == pytest.approx(red.f_n_hz, rel=1e-9)
+    assert one_mode(sc).Delta == pytest.approx(red.Delta, rel=1e-9)
+    assert one_mode(sc).B == pytest.approx(red.gamma_per_V * 0.6, rel=1e-9)
 
 
 def test_calibration_in_a_case_reaches_the_targets():
@@ -124,7 +126,7 @@ def test_beam_case_runs_the_fidelity_ladder_and_costs_it(tmp_path):
     """
     from vibeam.case.schema import parse_case as pc
     from vibeam.analysis.cost import run_cost
-    from vibeam.models import SDOF, make_solver
+    from vibeam.models import make_solver
     from vibeam.engine.records import summarize
     from vibeam.io.results import read_results
 
@@ -146,10 +148,10 @@ def test_beam_case_runs_the_fidelity_ladder_and_costs_it(tmp_path):
     # static mode == SDOF model with the derived parameters
     red = derive(pc(text).model_spec())["reduction"]
     sc = scene_of(pc(text).model_spec())
-    sdof = SDOF(beta=red.beta_S, B=red.gamma_per_V * 0.6, R=0.72, Delta=red.Delta)
+    sd = sdof(red.beta_S, red.gamma_per_V * 0.6, red.Delta, 0.72)
     for i, f in enumerate(r["runs"]["static"]["frequency_hz"]):
-        tr = make_solver(sdof, "event").point(f / red.f_n_hz, None, 150, 8)
-        A = summarize(tr, sdof.Delta)["amplitude"]
+        tr = make_solver(sd, "event").point(f / red.f_n_hz, None, 150, 8)
+        A = summarize(tr, one_mode(sd).Delta)["amplitude"]
         assert r["runs"]["static"]["amplitude"][i] == pytest.approx(A, rel=1e-9)
     # cost: errors of each rung against the finest FE model (all modes, 2x mesh)
     res = run_cost(pc(text), repeats=1, log=lambda m: None)

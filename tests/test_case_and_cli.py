@@ -11,7 +11,7 @@ from vibeam.case.schema import CaseError, parse_case
 from vibeam.cli import main
 from vibeam.models import linear_amplitude, make_solver
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.scene import one_mode
+from vibeam.models.scene import one_mode, outputs
 from vibeam.io.results import read_results
 from vibeam.engine.sweep import Sweep, run_sweep
 
@@ -58,16 +58,18 @@ def test_good_case_parses():
     case = parse_case(GOOD)
     assert case.name == "t"
     assert case.sweep.grid().tolist() == pytest.approx([1.8, 1.9, 2.0, 2.1, 2.2])
-    m = case.model_spec().build()
-    assert (m.beta, m.B, m.R, m.Delta) == (0.015, 0.5e-3, 0.9, 0.0)
+    sc = case.model_spec().scene()
+    m = one_mode(sc)
+    assert (m.beta, m.B, sc.stops[0].law.R, m.Delta) == (0.015, 0.5e-3, 0.9, 0.0)
 
 
 def test_physical_scene_converts_by_paper_eqs_43_46():
     case = parse_case(PHYSICAL)
-    m = case.model_spec().build()
+    sc = case.model_spec().scene()
+    m = one_mode(sc)
     assert m.B == pytest.approx(5.16e-4 * 0.6)
     assert m.Delta == 0.0 and m.beta == 0.017
-    assert case.sweep.grid(m.natural_frequency_hz)[0] == pytest.approx(15.0 / 7.6)
+    assert case.sweep.grid(outputs(sc).natural_frequency_hz)[0] == pytest.approx(15.0 / 7.6)
 
 
 @pytest.mark.parametrize("old,new,needles", [

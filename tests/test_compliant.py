@@ -32,6 +32,18 @@ def _model(k, R=0.9, beta=0.015, B=0.5e-3, Delta=0.0, zeta=None):
     return sdof(beta=beta, B=B, Delta=Delta, law=law)
 
 
+def _contact(sc):
+    """The upper stop's compliant law of an SDOF scene, None for Newton's law."""
+    law = sc.stops[0].law
+    return None if law.kind == "impulsive" else law
+
+
+def _contact_law(sc):
+    """The name of the upper stop's law of an SDOF scene (``"restitution"`` for Newton's)."""
+    c = _contact(sc)
+    return "restitution" if c is None else c.name
+
+
 # ------------------------------------------------------------------ isolated impacts
 @pytest.mark.parametrize("R", [1.0, 0.95, 0.9, 0.72, 0.5, 0.3, 0.15])
 @pytest.mark.parametrize("k", [1e2, 1e4, 1e7])
@@ -176,13 +188,13 @@ method = "event"
 
 def test_case_builds_the_law_and_refuses_other_methods():
     case = parse_case(CASE)
-    m = case.model_spec().build()
-    assert m.contact_law == "linear" and m.contact.R == 0.9
-    assert m.contact.damping_ratio == pytest.approx(damping_ratio_for_restitution(0.9))
-    assert isinstance(make_solver(m, "event"), EventSolver)
-    assert isinstance(make_solver(m, "direct"), DirectSolver)
+    sc = case.model_spec().scene()
+    assert _contact_law(sc) == "linear" and _contact(sc).R == 0.9
+    assert _contact(sc).damping_ratio == pytest.approx(damping_ratio_for_restitution(0.9))
+    assert isinstance(make_solver(sc, "event"), EventSolver)
+    assert isinstance(make_solver(sc, "direct"), DirectSolver)
     with pytest.raises(ValueError, match="does not simulate contact law 'linear'"):
-        make_solver(m, "averaging")
+        make_solver(sc, "averaging")
     for method in ("averaging", "zhuravlev"):
         with pytest.raises(CaseError, match="allowed: event, direct, mapping"):
             parse_case(CASE.replace('method = "event"', f'method = "{method}"'))
@@ -195,8 +207,8 @@ def test_case_builds_the_law_and_refuses_other_methods():
         parse_case(CASE.replace("R = 0.9", "R = 0.1"))
     with pytest.raises(CaseError, match="stiffness_n_m needs a physical scene"):
         parse_case(CASE.replace("stiffness = 1e4", "stiffness_n_m = 1e4"))
-    m2 = parse_case(CASE.replace("stiffness = 1e4", "stiffness = 1e4\ndamping_ratio = 0.0")).model_spec().build()
-    assert m2.contact.R == 1.0
+    sc2 = parse_case(CASE.replace("stiffness = 1e4", "stiffness = 1e4\ndamping_ratio = 0.0")).model_spec().scene()
+    assert _contact(sc2).R == 1.0
 
 
 def _si_contacts(eta0, etad0, t_end, acc_free, stops):
@@ -337,16 +349,16 @@ def test_physical_scene_outputs_in_si_against_an_si_reference(two):
         text = text.replace("length_mm", f"gap_lower_mm = {gap_l!r}\nlength_mm").replace(
             "[sweep]", f"[model.contact_lower]\nlaw = \"linear\"\nstiffness_n_m = {k_lo!r}\ndamping_ratio = 0.2\n"
                        "[sweep]")
-    m = parse_case(text).model_spec().build()
-    assert m.contact.stiffness == pytest.approx(1e4, rel=1e-12)
+    sc = parse_case(text).model_spec().scene()
+    assert _contact(sc).stiffness == pytest.approx(1e4, rel=1e-12)
     f = 15.0
     W = f / fn
-    res = run_sweep(make_solver(m, "event"), Sweep(Omega=np.array([W]), transient_periods=200, record_periods=4),
+    res = run_sweep(make_solver(sc, "event"), Sweep(Omega=np.array([W]), transient_periods=200, record_periods=4),
                     jobs=1)
     d = res.data
     assert d["period"][0] == 1 and d["impacts_per_period"][0] == 1       # the upper stop's
     assert not two or d["impacts_per_period_lower"][0] == 1
-    q, qd, ph = make_solver(m, "event").point(W, None, 200, 1, 16).final_state
+    q, qd, ph = make_solver(sc, "event").point(W, None, 200, 1, 16).final_state
     assert ph == 0.0
     Wt = 2 * math.pi * f
     sm = math.sqrt(m_kg)                    # eta = sqrt(m) x: the reference's normal rows are 1 / sqrt(m)
@@ -356,7 +368,7 @@ def test_physical_scene_outputs_in_si_against_an_si_reference(two):
 
     stops = [(np.array([1 / sm]), gap * 1e-3, k_up, 2 * 0.1 * math.sqrt(k_up * m_kg))]
     if two:
-        assert m.lower_law.stiffness == pytest.approx(3e3, rel=1e-12)
+        assert sc.stops[1].law.stiffness == pytest.approx(3e3, rel=1e-12)
         stops.append((np.array([-1 / sm]), gap_l * 1e-3, k_lo, 2 * 0.2 * math.sqrt(k_lo * m_kg)))
     con = _si_contacts(np.array([sm * q * L]), np.array([sm * qd * L * wn]), 1.0 / f, acc, stops)
     assert [r[0] for r in con] in ([0, 1], [1, 0]) if two else [r[0] for r in con] == [0]
@@ -438,9 +450,9 @@ def test_hunt_crossley_event_agrees_with_the_direct_reference(k, W, Delta):
 def test_hunt_crossley_case():
     text = CASE.replace('law = "linear"', 'law = "hunt_crossley"\nexponent = 1.5').replace("stiffness = 1e4",
                                                                                           "stiffness = 1e6")
-    m = parse_case(text).model_spec().build()
-    assert m.contact_law == "hunt_crossley" and m.contact.chi == pytest.approx(8 * 0.1 / (5 * 0.9))
-    assert isinstance(make_solver(m, "event"), EventSolver)
+    sc = parse_case(text).model_spec().scene()
+    assert _contact_law(sc) == "hunt_crossley" and _contact(sc).chi == pytest.approx(8 * 0.1 / (5 * 0.9))
+    assert isinstance(make_solver(sc, "event"), EventSolver)
     with pytest.raises(CaseError, match="damping_ratio is a key of law = \"linear\" only"):
         parse_case(text.replace("exponent = 1.5", "damping_ratio = 0.1"))
     with pytest.raises(CaseError, match="allowed: event, direct, mapping"):

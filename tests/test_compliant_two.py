@@ -190,15 +190,15 @@ method = "event"
 def test_case_builds_two_compliant_stops_and_records_contacts_per_stop():
     """Without [model.contact_lower] the lower stop takes the upper stop's law; with it, its own
     stiffness (target R from [model] R); the records give each stop's contact count."""
-    m = parse_case(CASE).model_spec().build()
-    st = m.stops()
+    sc = parse_case(CASE).model_spec().scene()
+    st = sc.stops
     assert [s.law.name for s in st] == ["linear", "linear"] and st[1].law is st[0].law
-    assert isinstance(make_solver(m, "event"), EventSolver)
+    assert isinstance(make_solver(sc, "event"), EventSolver)
 
     text = CASE.replace("[sweep]", '[model.contact_lower]\nlaw = "hunt_crossley"\nstiffness = 3e4\n\n[sweep]')
-    m2 = parse_case(text).model_spec().build()
-    assert m2.stops()[1].law.name == "hunt_crossley" and m2.stops()[1].law.R == 0.8
-    sm = summarize(EventSolver(m2.scene()).point(1.1, None, 100, 8, 32), m2.Delta)
+    sc2 = parse_case(text).model_spec().scene()
+    assert sc2.stops[1].law.name == "hunt_crossley" and sc2.stops[1].law.R == 0.8
+    sm = summarize(EventSolver(sc2).point(1.1, None, 100, 8, 32), one_mode(sc2).Delta)
     assert sm["status"] == "ok" and sm["impacts_per_period"] >= 1 and sm["impacts_per_period_lower"] >= 1
     # what simulates a compliant law on two stops is the registry's two_sided_law_methods: mapping
     # (the one pointwise mapping, vibeam.models.mapping; refused here before it served two stops, now
@@ -213,14 +213,15 @@ def test_case_builds_two_compliant_stops_and_records_contacts_per_stop():
     assert parse_case(text.replace('method = "event"', 'method = "continuation"')).run[0].method == "continuation"
     assert parse_case(text.replace('method = "event"', 'method = "mapping"')).run[0].method == "mapping"
     from vibeam.models.mapping import MappingSolver
-    assert isinstance(make_solver(m, "mapping"), MappingSolver) and isinstance(make_solver(m2, "mapping"), MappingSolver)
+    assert isinstance(make_solver(sc, "mapping"), MappingSolver) and isinstance(
+        make_solver(sc2, "mapping"), MappingSolver)
     with pytest.raises(ValueError, match="does not simulate contact law 'linear'"):
-        make_solver(m, "averaging")
+        make_solver(sc, "averaging")
     # a restitution lower stop beside the compliant upper one: SDOF event/direct
     # (tests/test_mixed_stops.py); a compliant lower stop beside a restitution upper one, refused
     # before the one shooting problem, is served: Newton's law above, the lower table's law below
-    mixed = parse_case(CASE.replace("[sweep]", "[model.contact_lower]\nR = 0.5\n\n[sweep]")).model_spec().build()
-    assert mixed_stops(mixed.scene()) and [s.law.code for s in mixed.stops()] == [1, 0] and mixed.stops()[1].law.R == 0.5
+    mixed = parse_case(CASE.replace("[sweep]", "[model.contact_lower]\nR = 0.5\n\n[sweep]")).model_spec().scene()
+    assert mixed_stops(mixed) and [s.law.code for s in mixed.stops] == [1, 0] and mixed.stops[1].law.R == 0.5
     up = parse_case(CASE.replace("[model.contact]\nlaw = \"linear\"\nstiffness = 1e4\n", "").replace(
-        "[sweep]", "[model.contact_lower]\nlaw = \"linear\"\nstiffness = 1e4\n\n[sweep]")).model_spec().build()
-    assert mixed_stops(up.scene()) and [s.law.kind for s in up.stops()] == ["impulsive", "compliant"]
+        "[sweep]", "[model.contact_lower]\nlaw = \"linear\"\nstiffness = 1e4\n\n[sweep]")).model_spec().scene()
+    assert mixed_stops(up) and [s.law.kind for s in up.stops] == ["impulsive", "compliant"]

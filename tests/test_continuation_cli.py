@@ -10,6 +10,7 @@ from vibeam.models import linear_amplitude, shooting_problem
 from vibeam.models.continuation import trace
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.builders.sdof import sdof_physical
+from vibeam.models.scene import one_mode
 from vibeam.io.results import read_results
 
 FIG8 = """
@@ -162,19 +163,20 @@ def test_voltage_continuation_is_the_chain_rule_of_B():
     Omega = 2.0
     prob_v = problem(spec, "voltage", Omega)
     gamma = spec.gain
-    m = spec.build()
+    sc = spec.scene()
     # the non-impacting orbit at low voltage grazes where C(Omega) B / B0 = Delta
     V0 = 0.2
     x0, why = prob_v.start("linear", V0)
     assert why == ""
     (bv,) = trace(prob_v, x0, V0, 1, 0.1, 1.5, +1)
-    (bB,) = trace(shooting_problem(m, "system.base_amplitude", Omega=Omega), x0, gamma * V0, 1, 0.1 * gamma, 1.5 * gamma, +1)
+    (bB,) = trace(shooting_problem(sc, "system.base_amplitude", Omega=Omega), x0, gamma * V0, 1, 0.1 * gamma,
+                  1.5 * gamma, +1)
     gv = [f.parameter for f in bv.bifurcations if f.type == "grazing"]
     gB = [f.parameter for f in bB.bifurcations if f.type == "grazing"]
     assert gv and gB and gB[0] == pytest.approx(gamma * gv[0], rel=1e-10)
     # closed form: C(Omega; B) = Delta
-    C1 = float(linear_amplitude(m.beta, 1.0, Omega))
-    assert gB[0] == pytest.approx(m.Delta / C1, rel=1e-8)
+    C1 = float(linear_amplitude(one_mode(sc).beta, 1.0, Omega))
+    assert gB[0] == pytest.approx(one_mode(sc).Delta / C1, rel=1e-8)
 
 
 def test_map_curves_follow_the_closed_form_grazing_and_the_one_parameter_fold(tmp_path):

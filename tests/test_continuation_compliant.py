@@ -195,12 +195,12 @@ def test_registry_dispatch_and_case_validation(monkeypatch):
     law without one is refused with one line; R and beta are not continuation keys here."""
     from vibeam.models.registry import FIDELITIES
 
-    m = parse_case(CASE).model_spec().build()
-    assert isinstance(shooting_problem(m, "Omega"), SceneShooting)
+    sc = parse_case(CASE).model_spec().scene()
+    assert isinstance(shooting_problem(sc, "Omega"), SceneShooting)
     with pytest.raises(ValueError, match="'gamma' is not a parameter of the scene's shooting problem"):
-        shooting_problem(m, "gamma", Omega=2.0)
+        shooting_problem(sc, "gamma", Omega=2.0)
     hc = CASE.replace('law = "linear"', 'law = "hunt_crossley"').replace("stiffness = 1e4", "stiffness = 1e6")
-    assert isinstance(shooting_problem(parse_case(hc).model_spec().build(), "Omega"), SceneShooting)
+    assert isinstance(shooting_problem(parse_case(hc).model_spec().scene(), "Omega"), SceneShooting)
     # the registry's tables derive from each method's entry, keyed by the law's family
     # (vibeam.models.registry.Method, LAWS): a shooting problem without the hysteretic-Hertz family
     cont = FIDELITIES["sdof"].solvers["continuation"]
@@ -224,10 +224,10 @@ def test_vibeam_continue_end_to_end(tmp_path):
     g = read_results(tmp_path / "out" / "results.h5")["branches"]["branches"]
     b = g["00-period1"]
     assert len(b["parameter"]) > 50 and b["parameter"][0] == 1.5 and b["parameter"][-1] == pytest.approx(2.6)
-    m = parse_case(CASE).model_spec().build()
+    sc = parse_case(CASE).model_spec().scene()
     i = int(np.flatnonzero(np.asarray(b["stable"]))[-1])
     x = np.asarray(b["state"][i], float)
-    _, sm = _settled(m.scene(), float(b["parameter"][i]), 1500, x0=x * 1.01)
+    _, sm = _settled(sc, float(b["parameter"][i]), 1500, x0=x * 1.01)
     assert sm["amplitude"] == pytest.approx(float(b["amplitude"][i]), rel=1e-9)
 
 

@@ -9,6 +9,7 @@ flow, another derivative assembly, other units) and long event runs.
 from __future__ import annotations
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models import shooting_problem
+from vibeam.models.builders.sdof import sdof
 
 import math
 
@@ -176,7 +177,6 @@ def _one_dof(m):
     with stiffness ``w^2 k_c (phi L)^(p - 1) / k`` and the same chi; the velocity floors agree
     (``1e-2 Omega B`` both)."""
     from vibeam.models.compliant import HuntCrossley
-    from vibeam.models.sdof import SDOF
 
     (k,), (c,) = m.k_nd, m.c_nd
     (w,), (G,) = m.contact_row, m.participation
@@ -186,8 +186,8 @@ def _one_dof(m):
     law = m.contact
     kc = law.stiffness / m.omega_ref ** 2
     p = float(law.exponent)
-    sd = SDOF(beta=c / (2 * sk), B=w * G * m.base_amplitude_m / s, R=m.R, Delta=m.gap_contact_m / s,
-              contact=HuntCrossley(w * w * kc * s ** (p - 1.0) / k, law.R, p))
+    sd = sdof(c / (2 * sk), w * G * m.base_amplitude_m / s, m.gap_contact_m / s,
+              law=HuntCrossley(w * w * kc * s ** (p - 1.0) / k, law.R, p))
     return sd, sk, (lambda x: np.array([a * x[0], a * x[1] / sk]))
 
 

@@ -79,7 +79,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from vibeam.models.compliant import HuntCrossley, LinearContact, damping_ratio_for_restitution
-from vibeam.models import SDOF, make_solver
+from vibeam.models import make_solver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.contact import Restitution
 from vibeam.engine.records import summarize
 
 N_FINE, N_COARSE = 8192, 2048     # samples per forcing period
@@ -130,8 +132,8 @@ def _kv(k, R):
 def _sdof(contact=None, contact_lower=None, lower=None, R_lower=None):
     """An SDOF scene: ``lower`` the lower stop's declared law (None: one stop)."""
     two = lower is not None
-    m = SDOF(beta=BETA, B=B, R=R_UP, Delta=DELTA, Delta_lower=DELTA_L if two else None, R_lower=R_lower,
-             contact=contact, contact_lower=contact_lower)
+    m = sdof(BETA, B, DELTA, None if contact is not None else R_UP, law=contact, Delta_lower=DELTA_L if two else None,
+             lower_law=Restitution(R_lower) if R_lower is not None else contact_lower)
     up = ("newton", R_UP)
     if isinstance(contact, LinearContact):
         up = _kv(*KV_UP)

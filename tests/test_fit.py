@@ -16,6 +16,7 @@ from vibeam.case.schema import CaseError, load_case, parse_case
 from vibeam.cli import main
 from vibeam.identify.fit import (Evaluation, Reference, finite_difference_jacobian, fit_case, fit_runs, fitted_case_text,
                         read_reference, synthetic_reference)
+from vibeam.models.builders.sdof import sdof
 from vibeam.identify.linear import (damped_response, eq43_amplitude, eq43_jacobian, fit_decay, fit_linear,
                              log_decrement, uncertainty)
 
@@ -233,10 +234,10 @@ def test_free_decay_recovers_beta_from_the_event_solver():
     damped-response fit gives beta_S to 1e-7 and f_n to 1e-9 noise-free; the logarithmic
     decrement to 1e-4 (the parabola through each extremum over +-T/10 is the only
     approximation).  With 5 um noise both are within 3 SE of the truth."""
-    from vibeam.models import SDOF, make_solver
+    from vibeam.models import make_solver
 
     beta, fn, L = 0.017, 7.6, 180.0
-    m = SDOF(beta=beta, B=0.0, R=0.7, Delta=10.0)
+    m = sdof(beta, 0.0, 10.0, 0.7)
     spp, n_per = 400, 30
     traj = make_solver(m, "event").point(1.0, np.array([0.01, 0.0]), 0, n_per, spp)
     t = np.arange(traj.samples.shape[0]) * (2 * math.pi / spp) / (2 * math.pi * fn)

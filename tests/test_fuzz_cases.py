@@ -250,7 +250,7 @@ def check(text: str, touched=None) -> str:
         assert case.map.parameter in case.map_parameters()
     case.quick_variant()
     if spec.fidelity == "sdof":
-        spec.build()
+        spec.scene()
     event("accepted" + (" with a [map]" if case.map is not None else ""))
     return "ok"
 

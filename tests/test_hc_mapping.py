@@ -92,11 +92,11 @@ Omega = [1.8, 2.0, 2]
 name = "map"
 method = "mapping"
 """
-    m = parse_case(text, "x.toml").model_spec().build()
-    solver = make_solver(m, "mapping")
+    sc = parse_case(text, "x.toml").model_spec().scene()
+    solver = make_solver(sc, "mapping")
     assert isinstance(solver, MappingSolver)
     W = np.array([1.8, 2.0])
     d = run_sweep(solver, Sweep(Omega=W, direction="up"), jobs=1).data
     assert np.all(d["status"] == "ok") and np.all(d["period"] == 1)
-    se = summarize(EventSolver(m.scene()).point(W[-1], None, 400, 8, 64), 0.0)   # the last, continued point
+    se = summarize(EventSolver(sc).point(W[-1], None, 400, 8, 64), 0.0)   # the last, continued point
     assert d["amplitude"][-1] == pytest.approx(se["amplitude"], rel=1e-8)

@@ -306,8 +306,10 @@ def test_case_file_validates_and_wrong_keys_are_one_line(tmp_path):
     p = tmp_path / "ln.toml"
     p.write_text(CASE)
     case, _ = load_case(str(p))
-    m = case.model_spec().build()
-    assert m.contact == LankaraniNikravesh(1e6, 0.9, 1.5) and m.contact_law == "lankarani_nikravesh"
+    sc = case.model_spec().scene()
+    law = sc.stops[0].law
+    contact = None if law.kind == "impulsive" else law
+    assert contact == LankaraniNikravesh(1e6, 0.9, 1.5) and contact.name == "lankarani_nikravesh"
     for method in ("direct", "mapping", "continuation"):
         parse_case(CASE.replace('method = "event"', f'method = "{method}"'))
     bad = {
@@ -326,7 +328,7 @@ def test_case_file_validates_and_wrong_keys_are_one_line(tmp_path):
         msg = str(e.value)
         assert "\n" not in msg and all(s in msg for s in parts), msg
     with pytest.raises(CaseError, match="needs R > 0 .chi = 3 .1 - R\\^2. / 4"):
-        parse_case(CASE.replace("R = 0.9", "R = 0.0")).model_spec().build()
+        parse_case(CASE.replace("R = 0.9", "R = 0.0")).model_spec().scene()
 
 
 def test_mapping_fixed_point_is_the_settled_event_orbit():

@@ -14,7 +14,7 @@ import pytest
 import vibeam
 from vibeam.models import make_solver
 from vibeam.models.mapping.modal import ModalMap
-from vibeam.models.system import from_sdof
+from vibeam.models.scene import one_mode
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_matrix import case_of  # noqa: E402
@@ -24,12 +24,12 @@ def _sdof(R=0.8):
     return vibeam.load_case({"name": "m", "model": {"fidelity": "sdof", "beta": 0.015, "B": 5e-3, "R": R,
                                                     "Delta": 0.002},
                              "sweep": {"Omega": [0.75, 0.8, 2]}, "run": [{"name": "m", "method": "mapping"}]}
-                            ).model_spec().build()
+                            ).model_spec().scene()
 
 
 @pytest.mark.parametrize("Omega", [0.75, 1.2])
 def test_the_one_mode_map_is_the_sdofs_map(Omega):
-    """On the SDOF as the one-mode system (``from_sdof``), Newton on the N-mode residual from a
+    """On the SDOF as the one-mode system (its builder's scene), Newton on the N-mode residual from a
     guess 1 % off the SDOF mapping's orbit converges to it: the section's time to 1e-10 of the
     period and its arrival speed to 1e-10 relative (measured <= 9e-16), and the monodromy's Floquet
     multipliers equal the SDOF map's (saltation of paper Eq. 2 times the flow of Eq. 28) to 1e-9
@@ -42,14 +42,14 @@ def test_the_one_mode_map_is_the_sdofs_map(Omega):
     fs = fs.reshape(1, 2) if fs.size == 2 else fs.reshape(-1, 3)[:, :2]     # (phase, v) per section
     m = fs.shape[0]
     phi, v = fs[:, 0], fs[:, 1]
-    mp = ModalMap(from_sdof(model), model.stops(), Omega)
+    mp = ModalMap(model.system, model.stops, Omega)
     stops = (0,) * m
-    X0 = np.concatenate([phi / Omega * 1.01, np.column_stack([np.full(m, model.Delta), 1.01 * v]).ravel()])
+    X0 = np.concatenate([phi / Omega * 1.01, np.column_stack([np.full(m, one_mode(model).Delta), 1.01 * v]).ravel()])
     X, ok = mp.newton(X0, stops, 1)
     assert ok
     xs = X[m:].reshape(m, 2)
     assert np.max(np.abs(X[:m] - phi / Omega)) <= 1e-10 * mp.T
-    np.testing.assert_allclose(xs[:, 0], model.Delta, rtol=1e-12)
+    np.testing.assert_allclose(xs[:, 0], one_mode(model).Delta, rtol=1e-12)
     np.testing.assert_allclose(xs[:, 1], v, rtol=1e-10)
     mu = np.linalg.eigvals(mp.monodromy(X, stops, 1))
     mu = mu[np.argsort(-np.abs(mu))]

@@ -159,13 +159,13 @@ method = "mapping"
 n = 2
 """
     case = parse_case(text, "x.toml")
-    m = case.model_spec().build()
+    sc = case.model_spec().scene()
     W = np.linspace(1.9, 2.2, 4)
-    res = run_sweep(make_solver(m, "mapping", n=2), Sweep(Omega=W, direction="up"), jobs=1)
+    res = run_sweep(make_solver(sc, "mapping", n=2), Sweep(Omega=W, direction="up"), jobs=1)
     d = res.data
     assert np.all(d["status"] == "ok") and np.all(d["period"] == 2)
     np.testing.assert_array_equal(d["impacts_per_period_lower"], 0.5)
     for i, w in enumerate(W):
-        ev = summarize(EventSolver(m.scene()).point(w, None, 3000, N_REC, 64), m.Delta)
+        ev = summarize(EventSolver(sc).point(w, None, 3000, N_REC, 64), one_mode(sc).Delta)
         assert d["impact_velocity_lower"][i] == pytest.approx(ev["impact_velocity_lower"], rel=1e-9)
         assert d["impact_velocity"][i] == pytest.approx(ev["impact_velocity"], rel=1e-9)

@@ -147,9 +147,9 @@ def test_a_compliant_lower_stop_has_its_own_target_R():
                                           "rtol": 1e-10, "atol": 1e-13}]})
 
     a, b = case(listed), case(short)
-    m = a.model_spec().build()
-    lo = m.stops()[1].law
-    assert m.R == 0.9 and m.stops()[0].law.R == 0.9 and lo.R == 0.8
+    sc = a.model_spec().scene()
+    lo = sc.stops[1].law
+    assert sc.stops[0].law.R == 0.9 and sc.stops[0].law.R == 0.9 and lo.R == 0.8
     w, z = math.sqrt(lo.stiffness), lo.damping_ratio
 
     def rhs(t, y):

@@ -16,7 +16,9 @@ import pytest
 from vibeam.models.beam import BeamFE, BeamGeometry
 from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver
 from vibeam.models import BeamEventSolver
-from vibeam.models import SDOF, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.builders.sdof import sdof
+from vibeam.models.contact import Restitution
 from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
@@ -90,11 +92,12 @@ def test_one_mode_beam_energy_is_the_sdof_energy(R, R_lower, gap, gap_lower, f):
     lower = {} if gap_lower is None else dict(gap_contact_lower_m=gap_lower, R_lower=R_lower)
     sm = BeamImpactModel.static_mode(g, R=R, gap_contact_m=gap, base_amplitude_m=Y, damping_D_s=D_S, **lower)
     red = reduce_static_mode(g, damping_D_s=D_S, gap_contact_m=gap, gamma_tilde_m_per_V=Y)
-    sd = SDOF(beta=red.beta_S, B=red.gamma_per_V, R=R, Delta=red.Delta,
-              Delta_lower=None if gap_lower is None else gap_lower / PHIM / L, R_lower=R_lower)
+    sd = sdof(red.beta_S, red.gamma_per_V, red.Delta, R,
+              Delta_lower=None if gap_lower is None else gap_lower / PHIM / L,
+              lower_law=None if R_lower is None else Restitution(R_lower))
     W = f / sm.f_ref_hz
     a = BeamEventSolver(sm.scene()).point(W, None, 200, 8, 64)
-    b = EventSolver(sd.scene()).point(W, None, 200, 8, 64)
+    b = EventSolver(sd).point(W, None, 200, 8, 64)
     assert a.n_impacts == b.n_impacts > 0
     if gap_lower is not None:
         assert a.n_impacts_lower > 0
@@ -102,7 +105,7 @@ def test_one_mode_beam_energy_is_the_sdof_energy(R, R_lower, gap, gap_lower, f):
     np.testing.assert_allclose(a.impact_velocities, sm.phi_contact * b.impact_velocities, rtol=1e-9)
     np.testing.assert_allclose(a.contacts[:, 3], pc2 * b.contacts[:, 3], rtol=1e-9)
     assert summarize(a, sm.Delta)["energy_per_impact"] == pytest.approx(
-        pc2 * summarize(b, sd.Delta)["energy_per_impact"], rel=1e-9)
+        pc2 * summarize(b, red.Delta)["energy_per_impact"], rel=1e-9)
 
 
 def test_physical_beam_scene_records_joules():

@@ -17,6 +17,7 @@ from scipy.integrate import solve_ivp
 from vibeam.analysis.regress import compare
 from vibeam.case.schema import parse_case
 from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import outputs
 
 # ------------------------------------------------------------------ 1. a Hertz-family exponent
 
@@ -124,9 +125,9 @@ def test_a_hertz_exponent_of_the_case_is_the_power_of_the_force(p):
     from vibeam.models import make_solver
 
     k, R = 1e4, 0.9
-    m = parse_case(HC_CASE.format(k=k, p=p)).model_spec().build()
+    sc = parse_case(HC_CASE.format(k=k, p=p)).model_spec().scene()
     W, periods, spp = 2.0, 6, 32
-    tr = make_solver(m, "event").point(W, np.array([0.0, 0.0, 0.0]), 0, periods, spp)
+    tr = make_solver(sc, "event").point(W, np.array([0.0, 0.0, 0.0]), 0, periods, spp)
     chi = 8 * (1 - R) / (5 * R)
     ref, con = _hertz_sdof_ivp(0.015, 0.5e-3, 0.2e-3, W, k, p, chi, periods, spp)
     assert tr.status == "ok" and con.shape[0] >= 4
@@ -138,7 +139,7 @@ def test_a_hertz_exponent_of_the_case_is_the_power_of_the_force(p):
     np.testing.assert_allclose(tr.contacts[:, 0], con[:, 1], rtol=1e-6)   # duration
     np.testing.assert_allclose(tr.contacts[:, 2], con[:, 2], rtol=1e-6)   # largest penetration
     np.testing.assert_allclose(tr.contacts[:, 4], con[:, 3], rtol=1e-6)   # entry speed
-    assert m.contact.exponent == p
+    assert (None if sc.stops[0].law.kind == "impulsive" else sc.stops[0].law).exponent == p
 
 
 # ------------------------------------------------------------------ 2. Floquet multipliers' order
@@ -348,12 +349,12 @@ def test_the_platform_filter_is_normalised_at_its_reference_frequency():
 
     case, _ = load_case("cases/rig-neutral.toml")
     spec = case.model_spec({"gain": 1.5e-3})
-    model = spec.build()
-    fn = model.natural_frequency_hz
+    sc = spec.scene()
+    fn = outputs(sc).natural_frequency_hz
     assert abs(fn - 12.0) > 1.0
     eff = EffectsSpec.model_validate({"platform": {"frequency_hz": 3.25, "damping_ratio": 0.05,
                                                    "reference_frequency_hz": 12.0}})
-    s = wrap_solver(make_solver(model, "event"), model.scene(), spec, eff, {})
+    s = wrap_solver(make_solver(sc, "event"), sc, spec, eff, {})
     f = np.array([12.0, 14.0, 16.5])
     sw = dict(transient_periods=60, record_periods=8, continuation=False)
     res = run_sweep(s, Sweep(Omega=f / fn, **sw), jobs=1)
@@ -362,7 +363,7 @@ def test_the_platform_filter_is_normalised_at_its_reference_frequency():
     assert s.run_attrs["gain_ratio_2fn_to_fn"] == pytest.approx(float(H(2 * fn) / H(fn)), rel=1e-13)
     assert s.run_attrs["platform_reference_frequency_hz"] == 12.0
     g14 = float(1.5e-3 * H(14.0) / H(12.0))
-    m14 = case.model_spec({"gain": g14}).build()
+    m14 = case.model_spec({"gain": g14}).scene()
     plain = run_sweep(make_solver(m14, "event"), Sweep(Omega=np.array([14.0 / fn]), **sw), jobs=1)
     assert plain.data["amplitude"][0] == pytest.approx(res.data["amplitude"][1], rel=1e-12)
 
@@ -632,14 +633,14 @@ def test_a_start_inside_a_compliant_stop_without_contact_follows_the_force_sign(
     ignored "inside" would see a free body beyond the stop's surface."""
     from vibeam.models import make_solver
 
-    m = parse_case(KV_INSIDE_CASE).model_spec().build()
-    law = m.contact
+    sc = parse_case(KV_INSIDE_CASE).model_spec().scene()
+    law = None if sc.stops[0].law.kind == "impulsive" else sc.stops[0].law
     k = float(law.stiffness)
     c = 2.0 * float(law.damping_ratio) * math.sqrt(k)
     W, periods, spp = 2.0, 2, 64
     y0 = np.array([-0.4, -0.15])
     assert 0.1 * k - 0.15 * c < 0.0                      # inside, the stop would pull: no contact
-    tr = make_solver(m, "event").point(W, np.array([y0[0], y0[1], 0.0]), 0, periods, spp)
+    tr = make_solver(sc, "event").point(W, np.array([y0[0], y0[1], 0.0]), 0, periods, spp)
     ref, entries = _kelvin_voigt_sdof_ivp(0.015, 0.05, -0.5, W, k, c, y0, periods, spp)
     assert tr.status == "ok" and entries.size >= 1 and 0.0 < entries[0] < 1.0
     assert np.max(np.abs(tr.samples - ref)) <= 1e-9 * np.max(np.abs(ref))

@@ -300,10 +300,10 @@ def test_continuation_in_the_second_stops_stiffness_gives_orbits_of_the_scene_wi
     assert k.min() <= 2.0e3 + 1e-6 and k.max() >= 6.0e3 - 1e-6, (k.min(), k.max())   # the whole range
     assert len(k) >= 5 and n >= 1
     for i in np.linspace(0, len(k) - 1, 4).astype(int):
-        model = vibeam.load_case(_sdof_case(dict(SDOF, contact_lower={"law": "linear", "stiffness": float(k[i])}))
-                                 ).model_spec().build()
+        sc = vibeam.load_case(_sdof_case(dict(SDOF, contact_lower={"law": "linear", "stiffness": float(k[i])}))
+                              ).model_spec().scene()
         x = np.asarray(b["state"][i])
-        one = make_solver(model, "event").point(0.8, np.concatenate([x, [0.0]]), 0, n, 32)
+        one = make_solver(sc, "event").point(0.8, np.concatenate([x, [0.0]]), 0, n, 32)
         assert np.max(np.abs(one.final_state[:-1] - x)) <= 1e-8 * np.max(np.abs(x)), (k[i], one.final_state, x)
 
 

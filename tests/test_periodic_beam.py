@@ -11,7 +11,7 @@ import pytest
 
 from vibeam.case.beamscene import derive, scene_of
 from vibeam.case.schema import load_case
-from vibeam.models import SDOF
+from vibeam.models.builders.sdof import sdof
 from vibeam.models.beam_dynamics import _trans, mode_table
 from vibeam.models import BeamEventSolver, make_solver
 from vibeam.case.beamscene import REBUILD_KEYS, conversions
@@ -306,17 +306,17 @@ def test_static_mode_beam_equals_sdof_fixed_point(case):
     spec = _case(case).model_spec({"n_modes": "static"})
     m = spec.build()
     red = derive(spec)["reduction"]
-    sd = SDOF(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, R=spec.R, Delta=red.Delta)
-    assert m.Delta == pytest.approx(sd.Delta, rel=1e-13, abs=1e-16)
+    sd = sdof(red.beta_S, red.gamma_per_V * spec.voltage, red.Delta, spec.R)
+    assert m.Delta == pytest.approx(red.Delta, rel=1e-13, abs=1e-16)
     for f in (14.5, 15.5, 16.5):
         Ws, Wb = f / red.f_n_hz, f / m.f_ref_hz
-        xs = newton_fixed_point(sd.scene(), Ws, event_guess(sd.scene(), Ws))
-        an = fixed_point_analysis(sd.scene(), Ws, xs)
-        q_min, _ = orbit_extremes(sd.scene(), Ws, xs)
+        xs = newton_fixed_point(sd, Ws, event_guess(sd, Ws))
+        an = fixed_point_analysis(sd, Ws, xs)
+        q_min, _ = orbit_extremes(sd, Ws, xs)
         prob = beam_problem(m, Wb)
         x, s = newton(prob, transient(m, Wb, 20), Wb)
         assert s.n_impacts == 1
-        assert m.Delta - s.q_min == pytest.approx(sd.Delta - q_min, rel=1e-10)
+        assert m.Delta - s.q_min == pytest.approx(red.Delta - q_min, rel=1e-10)
         mu_b, mu_s = s.multipliers(), an["multipliers"]
         assert np.max(np.abs(np.sort_complex(mu_b) - np.sort_complex(mu_s))) < 1e-10
         # impact velocity: U = phi(x_m) L q, beam time runs f_n / f_ref faster

@@ -105,10 +105,10 @@ name = "event"
 method = "event"
 """
     s1 = parse_case(sd.format('[[model.stop]]\nDelta = 0.0\nR = 0.9\n[[model.stop]]\nside = "lower"\n'
-                              'Delta = 2e-3\nR = 0.7\n')).model_spec().build()
+                              'Delta = 2e-3\nR = 0.7\n')).model_spec().scene()
     s2 = parse_case(sd.format('R = 0.9\nDelta = 0.0\nDelta_lower = 2e-3\n[model.contact_lower]\nR = 0.7\n')
-                    ).model_spec().build()
-    assert s1 == s2 and s1.stops() == s2.stops()
+                    ).model_spec().scene()
+    assert s1 == s2 and s1.stops == s2.stops
 
 
 @pytest.mark.parametrize("f_hz", [15.5, 16.5])

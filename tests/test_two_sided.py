@@ -436,22 +436,22 @@ def test_two_sided_mapping_cases_are_accepted(model):
 
     case = parse_case(BASE.format(model=model, method="mapping"), "x.toml")
     assert case.run[0].method == "mapping"
-    assert isinstance(make_solver(case.model_spec().build(), "mapping"), MappingSolver)
+    assert isinstance(make_solver(case.model_spec().scene(), "mapping"), MappingSolver)
 
 
 def test_two_sided_case_builds_both_stops():
     """[model.contact_lower] R sets the lower stop's law; without it the lower stop takes the upper
     one's; gap_lower_mm of a physical scene is Delta_lower = gap_lower_mm / length_mm."""
     case = parse_case(BASE.format(model="Delta_lower = 2e-3\n[model.contact_lower]\nR = 0.5", method="event"))
-    st = case.model_spec().build().stops()
+    st = case.model_spec().scene().stops
     assert [(s.relation.sign, s.relation.offset, s.law.R) for s in st] == [(1.0, 0.0, 0.9), (-1.0, 2e-3, 0.5)]
     case = parse_case(BASE.format(model="Delta_lower = 2e-3", method="direct"))
-    assert case.model_spec().build().stops()[1].law.R == 0.9
+    assert case.model_spec().scene().stops[1].law.R == 0.9
     phys = BASE.replace("beta = 0.015\nB = 0.5e-3\nR = 0.9\nDelta = 0.0\n",
                         "natural_frequency_hz = 7.6\ndamping_ratio = 0.017\nR = 0.72\ngap_mm = 0.0\n"
                         "length_mm = 180.0\ngain = 5.16e-4\nvoltage = 0.6\n")
-    m = parse_case(phys.format(model="gap_lower_mm = 0.36", method="event")).model_spec().build()
-    assert m.Delta_lower == pytest.approx(0.36 / 180.0, rel=1e-15)
+    sc = parse_case(phys.format(model="gap_lower_mm = 0.36", method="event")).model_spec().scene()
+    assert one_mode(sc).Delta_lower == pytest.approx(0.36 / 180.0, rel=1e-15)
 
 
 def test_sensor_effect_refuses_two_stops():
@@ -478,9 +478,9 @@ def test_derive_carries_the_lower_stop_to_the_sdof_case():
     case = parse_case(text)
     spec = case.model_spec()
     d = derive(spec)
-    sd = parse_case(sdof_case_text(case, spec, d["reduction"], scene_of(spec))).model_spec().build()
-    assert sd.Delta_lower == pytest.approx(0.3 / 180.0, rel=1e-12)
-    assert sd.stops()[1].law.R == 0.5
+    sd = parse_case(sdof_case_text(case, spec, d["reduction"], scene_of(spec))).model_spec().scene()
+    assert one_mode(sd).Delta_lower == pytest.approx(0.3 / 180.0, rel=1e-12)
+    assert sd.stops[1].law.R == 0.5
     beam = spec.build()
     assert beam.gap_contact_lower_m == pytest.approx(0.3e-3 * d["reduction"].phi_at_mass, rel=1e-12)
 

@@ -205,7 +205,7 @@ class EventIntegrator:
             ``record`` was made by :func:`~vibeam.models.core.integrator.new_record` with this
             integrator's sizes (``compliant`` as it has compliant stops, no logs, no modal
             states): the cached compiled entry serves it as it serves a record of its own
-            (a caller that reuses its records, :meth:`vibeam.models.sdof.EventSolver.stroboscopic`).
+            (a caller that reuses its records, :meth:`EventSolver.stroboscopic`).
 
         Returns
         -------
@@ -520,7 +520,7 @@ class EventSolver:
         """Simulate one forcing frequency from ``state0`` at forcing phase 0.
 
         The one event integrator of the modal system (:mod:`vibeam.models.core.integrator`) on
-        the oscillator as its one-mode case (:func:`vibeam.models.system.from_sdof`).
+        the oscillator as its one-mode case (:func:`vibeam.models.system.sdof_system`).
 
         Parameters
         ----------

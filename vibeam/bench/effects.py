@@ -11,6 +11,7 @@ from vibeam.case.schema import EffectsSpec, load_case
 from vibeam.engine.effects import wrap_solver
 from vibeam.engine.sweep import Sweep, run_sweep
 from vibeam.models import make_solver
+from vibeam.models.scene import outputs
 
 
 #: effects timed by :func:`run_effects_bench` (name, [effects] table, fidelities)
@@ -39,13 +40,13 @@ def run_effects_bench(points: int = 61, transient: int = 400, record: int = 64, 
     for fid, (fname, over) in scenes.items():
         case, _ = load_case(cases / fname)
         spec = case.model_spec(over)
-        model = spec.build()
-        f_n = model.natural_frequency_hz
+        scene = spec.scene()
+        f_n = outputs(scene).natural_frequency_hz
         grid = np.linspace(case.sweep.frequency_hz[0], case.sweep.frequency_hz[1], points) / f_n
         sw = Sweep(Omega=grid, direction="both", transient_periods=transient, record_periods=record)
 
         def timed(effects):
-            solver = wrap_solver(make_solver(model, "event"), model.scene(), spec, EffectsSpec.model_validate(effects), {})
+            solver = wrap_solver(make_solver(scene, "event"), scene, spec, EffectsSpec.model_validate(effects), {})
             run_sweep(solver, Sweep(Omega=grid[:2], transient_periods=2, record_periods=2), jobs=1)  # warm-up
             ts = []
             for _ in range(repeats):

@@ -302,16 +302,6 @@ class _SDOFSpec(_StopsSpec):
             raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(table)}")
         return table[key]
 
-    def build(self):
-        """The :class:`vibeam.models.SDOF` this table describes.
-
-        Raises
-        ------
-        CaseError
-            If the model cannot be built from these values (:func:`build_or_refuse`).
-        """
-        return build_or_refuse(self, self._build)
-
     def _scene(self):
         # straight from the table's values by the SDOF builder (a physical table by paper Eqs. 43-46)
         from vibeam.models.builders.sdof import sdof, sdof_physical  # lazy: keeps scipy.linalg (0.2 s) out of load_case
@@ -332,29 +322,6 @@ class _SDOFSpec(_StopsSpec):
             return sdof_physical(self.natural_frequency_hz, self.damping_ratio, self.gap_mm, self.length_mm, self.gain,
                                  self.voltage, gap_lower_mm=self.gap_lower_mm, lower_law=lower, mass_kg=mass, **stop)
         return sdof(self.beta, self.B, self.Delta, Delta_lower=lower_gap, lower_law=lower, mass_kg=mass, **stop)
-
-    def _build(self):
-        from vibeam.models import SDOF  # lazy: keeps the SDOF kernels (scipy.linalg: 0.2 s) out of load_case
-
-        if self.physical:
-            m = SDOF.from_physical(self.natural_frequency_hz, self.damping_ratio, self.R, self.gap_mm,
-                                   self.length_mm, self.gain, self.voltage, gap_lower_mm=self.gap_lower_mm,
-                                   R_lower=self._R_lower())
-        elif self.two_sided:
-            m = SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta, Delta_lower=self.Delta_lower,
-                     R_lower=self._R_lower())
-        else:
-            m = SDOF(beta=self.beta, B=self.B, R=self.R, Delta=self.Delta)
-        law = sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz,
-                       self.length_mm * 1e-3 if self.physical else None)
-        if law is not None or (self.contact is not None and self.contact.mass_kg is not None):
-            m = dataclasses.replace(m, contact=law, mass_kg=self.contact.mass_kg)
-        lo = lower_law_spec(self)
-        if lo is not None:   # a compliant lower stop with its own [model.contact_lower] table
-            m = dataclasses.replace(m, contact_lower=sdof_law(lo, target_R(lo, self.R), self.physical,
-                                                              self.natural_frequency_hz,
-                                                              self.length_mm * 1e-3 if self.physical else None))
-        return m
 
     # ---- what is specific to this fidelity (see CANONICAL_SPECS)
     def dofs(self) -> int:
