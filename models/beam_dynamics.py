@@ -51,7 +51,7 @@ from .system import advance_modes, forcing, mode_table, particular, transition_i
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["BeamImpactModel", "MatrixImpactModel", "BeamODESolver", "mode_table", "apply_impact"]
+__all__ = ["BeamImpactModel", "BeamODESolver", "mode_table", "apply_impact"]
 
 # the closed-form modal flow lives in vibeam.models.system (the one dynamical system); the kernels
 # below call it by these names (mode_table and particular are re-exported from there)
@@ -229,47 +229,6 @@ class BeamImpactModel:
                    damping_D_s, 0.0, label="static mode", gap_contact_lower_m=gap_contact_lower_m,
                    R_lower=R_lower,
                    point_stops=[(st, [float(static_mode_shape(x / L, xm, xs)) / sq]) for x, st in point_stops])
-
-    @classmethod
-    def from_matrix_model(cls, mm, R=0.72, gap_contact_m=0.0, base_amplitude_m=0.0, gap_contact_lower_m=None,
-                          R_lower=None, point_stops=()):
-        """A structure given by its matrices, reduced to its modes
-        (:func:`vibeam.models.builders.matrices.build_matrices`), as the N-mode impact model.
-
-        Parameters
-        ----------
-        mm : vibeam.models.builders.matrices.MatrixModel
-            Its contact row 0 is the first stop's point (the attached mass's role: the gap there
-            seen at the sensor is ``gap_contact_m / mm.contact_static[0]``, Eq. 45's ratio); its
-            further contact rows are those of ``point_stops``.
-        R, gap_contact_m, base_amplitude_m, gap_contact_lower_m, R_lower
-            As for the constructor (m at contact row 0; ``base_amplitude_m`` in the DOFs' unit).
-        point_stops : sequence of (Stop, int)
-            Further stops (each its own law), each with the index ``k >= 1`` of its contact row in ``mm``.
-        Returns
-        -------
-        BeamImpactModel
-            Of the class it is called on (:class:`MatrixImpactModel`: fidelity ``"matrices"``); modal damping ``c_i = 2 zeta_i omega_i`` (1/s) of the structure's own damping (ratios
-            or a classically damped ``C``), ``f_ref`` and ``L`` the matrix model's.
-
-        Raises
-        ------
-        ValueError
-            As the constructor (no kept mode moves a stop's point, R outside [0, 1], ...); the
-            sensor not moved by the base load (no static ratio to refer the gap to).
-        """
-        s = mm.system
-        phim = float(mm.contact_static[0])
-        if not (math.isfinite(phim) and phim != 0.0):
-            raise ValueError("the sensor or the first stop's point does not move under the base load K^-1 M r: "
-                             "no static ratio refers the gap to the sensor (paper Eq. 45)")
-        f_ref = 1.0 / (TWO_PI * s.time_unit_s)
-        omega = TWO_PI * np.asarray(mm.frequencies_hz, dtype=float)
-        m = cls(omega, s.participation, s.contacts[0], s.sensor, R, gap_contact_m, base_amplitude_m, f_ref,
-                s.length_unit_m, phim, modal_damping_1_s=np.asarray(s.damping, float) / s.time_unit_s,
-                label=f"{cls.fidelity}, {mm.n_modes} modes", gap_contact_lower_m=gap_contact_lower_m, R_lower=R_lower,
-                point_stops=[(st, s.contacts[k]) for st, k in point_stops])
-        return m
 
     # ---------------------------------------------------------------- derived data
     @property
@@ -486,31 +445,6 @@ class BeamImpactModel:
 
 
 # ============================================================================ solvers
-class MatrixImpactModel(BeamImpactModel):
-    """A linear structure given by its matrices in ``N`` modal coordinates, with its stops (fidelity
-    ``"matrices"``, issue 58): the beam's modal impact model built by
-    :meth:`BeamImpactModel.from_matrix_model`; every method of the N-mode model serves it."""
-
-    fidelity = "matrices"
-
-
-class ContinuumImpactModel(MatrixImpactModel):
-    """The rig as a 3D elastic continuum in ``N`` modal coordinates, the stop on its rigid disc
-    stack (fidelity ``"continuum"``, issue 59; :mod:`vibeam.models.builders.continuum`): built by
-    :meth:`BeamImpactModel.from_matrix_model`; every method of the N-mode model serves it."""
-
-    fidelity = "continuum"
-
-
-class MeshImpactModel(ContinuumImpactModel):
-    """A user's part read from a mesh file (meshio: Gmsh ``.msh``, ``.vtu``, ...) as a 3D elastic
-    continuum in ``N`` modal coordinates (fidelity ``"mesh"``, issue 59;
-    :func:`vibeam.models.builders.continuum.build_continuum`): the stop on a region tied as a rigid
-    body, or a compliant stop on a point of the solid; every method of the N-mode model serves it."""
-
-    fidelity = "mesh"
-
-
 class BeamODESolver:
     """Method ``direct`` for the beam, every contact law: the same modal system and stops integrated
     by :func:`scipy.integrate.solve_ivp` (the reference solver), through the one direct solver

@@ -213,7 +213,8 @@ class Fidelity:
         Registry name, the ``fidelity`` key of a case's ``[model]`` table.
     model : str
         ``"module:name"`` of the model (relative to ``vibeam.models``): its class, or the builder
-        of its scene (the SDOF's, :func:`vibeam.models.builders.sdof.sdof`).
+        of its scene (the SDOF's, :func:`vibeam.models.builders.sdof.sdof`; a structure's,
+        :func:`vibeam.models.builders.matrices.structure_scene`), whose module's ``BUILDERS`` names it.
     solvers : dict
         Method name -> :class:`Method` (``"continuation"``: the shooting problem).  The tables
         ``methods``, ``shooting``, ``restitution_law_methods``, ``positive_R_methods`` and
@@ -320,9 +321,9 @@ register(Fidelity(
 
 register(Fidelity(
     name="matrices",
-    model="beam_dynamics:MatrixImpactModel",
+    model="builders.matrices:structure_scene",
     # the N-mode modal system of any linear structure given by its matrices (issue 58): the same
-    # methods as the beam's modal model (BeamImpactModel.from_matrix_model)
+    # methods as the beam's modal model (its scene: builders.matrices.structure_scene)
     solvers=dict(N_MODE_SOLVERS),
     modes=True,
     contact_modes=True,
@@ -330,7 +331,7 @@ register(Fidelity(
 
 register(Fidelity(
     name="continuum",
-    model="beam_dynamics:ContinuumImpactModel",
+    model="builders.matrices:structure_scene",
     # the rig as a 3D elastic continuum (issue 59, vibeam.models.builders.continuum) reduced to its
     # modes: the N-mode modal system, the same methods as a structure given by its matrices
     solvers=dict(N_MODE_SOLVERS),
@@ -341,7 +342,7 @@ register(Fidelity(
 
 register(Fidelity(
     name="mesh",
-    model="beam_dynamics:MeshImpactModel",
+    model="builders.matrices:structure_scene",
     # a user's part from a mesh file (meshio) as a 3D elastic continuum (issue 59), reduced to its
     # modes by the continuum's builder: the N-mode modal system, the same methods again
     solvers=dict(N_MODE_SOLVERS),

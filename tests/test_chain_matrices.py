@@ -39,6 +39,8 @@ from scipy.integrate import solve_ivp
 from vibeam.case.schema import load_case, parse_case
 from vibeam.errors import CaseError
 from vibeam.models import make_solver, shooting_problem
+from vibeam.models.scene import outputs
+from vibeam.models.system import forcing
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "cases" / "chain-3dof.toml"
@@ -58,6 +60,14 @@ def _case_text():
     text = CASE.read_text()
     i = text.index("\n[uncertainty]\n")
     return text[:i] + text[text.index("\n[[run]]\n", i):]
+
+
+def _linear_sensor_amplitude_m(sc, Omega):
+    """Steady-state sensor amplitude (m) of the scene without its stops, from the modal sum of its
+    driven system (the forcing ``f F(Omega)`` of :func:`vibeam.models.system.forcing`)."""
+    sy = sc.system
+    H = sy.participation * forcing(sy, Omega) / (sy.omega ** 2 - Omega ** 2 + 1j * Omega * sy.damping)
+    return float(abs(sy.sensor @ H))
 
 
 def _physical():
@@ -169,25 +179,33 @@ def _orbit(x0, v0, f_hz, periods, load=None, hc=True, v_floor=None, v_in0=None):
 def test_the_case_reads_the_canonical_tables_and_builds_the_structure():
     case, _ = load_case(CASE)
     spec = case.model_spec()
-    m = spec.build()
-    assert m.fidelity == "matrices" and m.n_modes == 3
+    sc = spec.scene()
+    s = sc.system
+    assert sc.builder == "matrices" and s.omega.shape[0] == 3
+    w_ref = 2 * math.pi * s.reference_hz
     # the chain's closed-form frequencies: 2 sqrt(k/m) sin((2j-1) pi / 14), j = 1, 2, 3
-    f = np.sort(m.omega_rad_s) / TWO_PI
+    f = np.sort(s.omega * w_ref) / TWO_PI
     exact = 2 * math.sqrt(2000 / 0.2) * np.sin(np.array([1, 3, 5]) * math.pi / 14) / TWO_PI
     assert np.allclose(f, exact, rtol=1e-12, atol=0)
-    assert np.allclose(m.c_phys, 2 * 0.02 * 2 * math.pi * exact, rtol=1e-12)
-    assert math.isclose(m.f_ref_hz, exact[0], rel_tol=1e-12)
-    assert m.gap_contact_m == 0.5e-3 and m.base_amplitude_m == 0.0
-    assert (m.excitation.kind, m.excitation.amplitude) == ("base_acceleration", A_BASE)
+    assert np.allclose(s.damping * w_ref, 2 * 0.02 * 2 * math.pi * exact, rtol=1e-12)
+    assert math.isclose(outputs(sc).natural_frequency_hz, exact[0], rel_tol=1e-12)
+    assert sc.stops[0].relation.offset == 0.5e-3 and spec.excitation.base_amplitude_m == 0.0
+    # the base acceleration folded into the system (vibeam.models.scene.driven): f = Gamma, p = 0,
+    # A = a T^2 / u (u = length_unit_m / coordinate_scale, 1 m)
+    mm = case.model_spec().matrix_model()
+    assert np.array_equal(s.participation, mm.system.participation) and s.drive_power == 0
+    assert s.base_amplitude == A_BASE * s.time_unit_s * s.time_unit_s / (s.length_unit_m / s.coordinate_scale)
     # the second stop: Hunt-Crossley below m1 (contact row 1, normal -w_1), its law's numbers as given
-    (up, lo) = m.stops()
+    # (the scene's stiffness in the system's units: N/m^p over omega_ref^2)
+    (up, lo) = sc.stops
     assert (up.relation.sign, up.relation.offset, up.law.R) == (1.0, GAP3, R3)
     assert (lo.relation.sign, lo.relation.offset, lo.relation.row) == (-1.0, GAP1, 1)
-    assert (lo.law.name, lo.law.stiffness, lo.law.exponent, lo.law.R) == ("hunt_crossley", K_HC, P_HC, R_HC)
-    shapes = case.model_spec().matrix_model().shapes
-    assert np.array_equal(m.contact_rows(), shapes[[2, 0]])           # the rows of m3 and m1
+    assert (lo.law.name, lo.law.stiffness, lo.law.exponent, lo.law.R) == ("hunt_crossley", K_HC / w_ref ** 2, P_HC,
+                                                                          R_HC)
+    shapes = mm.shapes
+    assert np.array_equal(s.contacts, shapes[[2, 0]])           # the rows of m3 and m1
     one = case.model_spec(dict(case.run[1].model))   # [run.model.system] n_modes = 1, merged key by key
-    assert one.system.builder == "matrices" and one.build().n_modes == 1
+    assert one.system.builder == "matrices" and one.scene().system.omega.shape[0] == 1
 
 
 #: period-1 points of the sweep (cases/chain-3dof.toml; from rest, 8.0 Hz on the up sweep from 7.5 Hz:
@@ -206,19 +224,20 @@ def test_event_orbit_equals_an_independent_physical_integration(f_hz):
     events and integrates a Hunt-Crossley contact by its own Runge-Kutta phase at rtol 1e-11
     (vibeam.models.core.laws.RTOL), ~1e-10 of the motion after a few contacts."""
     case, _ = load_case(CASE)
-    m = case.model_spec().build()
-    sol = make_solver(m, "event")
-    Om = f_hz / m.f_ref_hz
-    start = None if f_hz < 8.0 else sol.point(7.5 / m.f_ref_hz, None, 600, 8, 64).final_state
+    sc = case.model_spec().scene()
+    f_ref = outputs(sc).natural_frequency_hz
+    sol = make_solver(sc, "event")
+    Om = f_hz / f_ref
+    start = None if f_hz < 8.0 else sol.point(7.5 / f_ref, None, 600, 8, 64).final_state
     tr = sol.point(Om, start, 600, 8, 64)
     assert tr.status == "ok"
-    N = m.n_modes
+    N = outputs(sc).n_modes
     assert tr.final_state[2 * N] == 0                                  # free at the period's start
     eta, etad = tr.final_state[:N], tr.final_state[N:2 * N]
     # modal -> physical: x = Phi eta, the shapes of the reduction (t = omega_ref t~)
     mm = case.model_spec().matrix_model()
     x0 = mm.shapes @ eta
-    v0 = mm.shapes @ etad * (TWO_PI * m.f_ref_hz)
+    v0 = mm.shapes @ etad * (TWO_PI * f_ref)
     ends, lo, hi, counts = _orbit(x0, v0, f_hz, 1)
     tol = 1e-8 * GAP3
     assert np.max(np.abs(ends[-1][:3] - x0)) < tol
@@ -248,8 +267,9 @@ def test_a_run_starting_inside_the_hunt_crossley_contact_on_a_rebound_takes_its_
     0``) took the floor ``V_FLOOR a / W`` (~2e-5 m/s instead of ~1e-2): a damping ~500 times too large
     (cases/chain-3dof.toml's up sweep failed at 8.2-8.5 Hz with a step collapse)."""
     case, _ = load_case(CASE)
-    m = case.model_spec().build()
-    sol = make_solver(m, "event")
+    sc = case.model_spec().scene()
+    f_ref = outputs(sc).natural_frequency_hz
+    sol = make_solver(sc, "event")
     f_hz = 8.3
     M, _K, _C = _physical()
     mm = case.model_spec().matrix_model()
@@ -261,13 +281,13 @@ def test_a_run_starting_inside_the_hunt_crossley_contact_on_a_rebound_takes_its_
     assert v_in > 1.1 * u                  # the spring's energy counts: not |U| alone
     ends, lo, hi, counts = _orbit(x0, v0, f_hz, 1, v_in0=v_in)
     eta = np.linalg.solve(mm.shapes, x0)
-    etad = np.linalg.solve(mm.shapes, v0) / (TWO_PI * m.f_ref_hz)
+    etad = np.linalg.solve(mm.shapes, v0) / (TWO_PI * f_ref)
     start = np.concatenate([eta, etad, [-1.0]])          # held code -1: in contact with stop 1
-    tr = sol.point(f_hz / m.f_ref_hz, start, 0, 1, 64)
+    tr = sol.point(f_hz / f_ref, start, 0, 1, 64)
     assert tr.status == "ok", tr.status
-    N = m.n_modes
+    N = outputs(sc).n_modes
     x1 = mm.shapes @ tr.final_state[:N]
-    v1 = mm.shapes @ tr.final_state[N:2 * N] * (TWO_PI * m.f_ref_hz)
+    v1 = mm.shapes @ tr.final_state[N:2 * N] * (TWO_PI * f_ref)
     tol = 1e-8 * GAP3
     assert np.max(np.abs(x1 - ends[-1][:3])) < tol, np.abs(x1 - ends[-1][:3])
     assert np.max(np.abs(v1 - ends[-1][3:])) < tol * TWO_PI * f_hz
@@ -288,7 +308,7 @@ def test_bad_structure_tables_are_refused_in_one_line(tmp_path):
             (tmp_path / "chain-3dof" / f).write_bytes((ROOT / "cases" / "chain-3dof" / f).read_bytes())
         with pytest.raises(CaseError) as e:
             c, _ = load_case(bad)
-            c.model_spec().build()
+            c.model_spec().scene()
         assert msg in str(e.value) and "\n" not in str(e.value), str(e.value)
 
 
@@ -296,9 +316,11 @@ def test_inline_matrices_give_the_same_structure():
     text = CASE.read_text().replace('M = "chain-3dof/M.mtx"', "M = [[0.2, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 0.2]]")
     text = text.replace('K = "chain-3dof/K.mtx"', "K = [[4000.0, -2000.0, 0.0], [-2000.0, 4000.0, -2000.0], "
                                                   "[0.0, -2000.0, 2000.0]]")
-    a = parse_case(text).model_spec().build()
-    b = load_case(CASE)[0].model_spec().build()
-    assert np.array_equal(a.omega_rad_s, b.omega_rad_s) and np.array_equal(a.contact_row, b.contact_row)
+    a = parse_case(text).model_spec().scene().system
+    b = load_case(CASE)[0].model_spec().scene().system
+    # the frequencies as the scene holds them: omega per unit time and the reference frequency
+    assert np.array_equal(a.omega, b.omega) and a.reference_hz == b.reference_hz
+    assert np.array_equal(a.contacts[0], b.contacts[0])
 
 
 def test_continuation_multipliers_equal_finite_differences_of_the_physical_period_map(tmp_path):
@@ -321,19 +343,20 @@ def test_continuation_multipliers_equal_finite_differences_of_the_physical_perio
         conts = run_case(parse_case(text), text, tmp_path, jobs=1, quiet=True, plots=False, continuation_only=True)
     (r,) = conts
     case, _ = load_case(CASE)
-    m = case.model_spec().build()
+    sc = case.model_spec().scene()
+    f_ref = outputs(sc).natural_frequency_hz
     mm = case.model_spec().matrix_model()
 
-    prob = shooting_problem(m)
+    prob = shooting_problem(sc)
     d = r.branches[0]["data"]
     k = len(d["parameter"]) // 2
     assert int(d["impacts"][k]) >= 1                                  # an impacting orbit
     x, W = np.asarray(d["state"][k], float), float(d["parameter"][k])
-    f_hz = W * m.f_ref_hz
+    f_hz = W * f_ref
     shot = prob.shot(x, W, 1, derivatives=False)
     assert np.max(np.abs(shot.x - x)) < 1e-9 * np.max(np.abs(x))     # a periodic orbit
-    N = m.n_modes
-    w_ref = TWO_PI * m.f_ref_hz
+    N = outputs(sc).n_modes
+    w_ref = TWO_PI * f_ref
     to_phys = np.block([[mm.shapes, np.zeros((3, N))], [np.zeros((3, N)), mm.shapes * w_ref]])
     y0 = to_phys @ x[:2 * N]
     h = 1e-7 * np.max(np.abs(y0))
@@ -358,7 +381,7 @@ def _drive(kind, hc=True, **amp):
     text = (text if hc else text.replace(HC_STOP, "")).replace(
         'kind = "base_acceleration"\namplitude_m_s2 = 0.1', f'kind = "{kind}"\n' + "".join(
             f"{k} = {v!r}\n" for k, v in amp.items()))
-    return parse_case(text.replace('"chain-3dof/', f'"{ROOT}/cases/chain-3dof/')).model_spec().build()
+    return parse_case(text.replace('"chain-3dof/', f'"{ROOT}/cases/chain-3dof/')).model_spec().scene()
 
 
 def test_a_base_acceleration_of_omega_squared_y_is_the_displacement_drive_at_that_frequency():
@@ -370,12 +393,13 @@ def test_a_base_acceleration_of_omega_squared_y_is_the_displacement_drive_at_tha
     a = (TWO_PI * f) ** 2 * 0.05e-3
     acc = _drive("base_acceleration", amplitude_m_s2=a)
     disp = _drive("base_displacement", amplitude_mm=0.05)
-    for W, same in ((f / disp.f_ref_hz, True), (6.0 / disp.f_ref_hz, False)):
+    f_ref = outputs(disp).natural_frequency_hz
+    for W, same in ((f / f_ref, True), (6.0 / f_ref, False)):
         ta = make_solver(acc, "event").point(W, None, 300, 4, 64)
         td = make_solver(disp, "event").point(W, None, 300, 4, 64)
         diff = np.max(np.abs(ta.samples - td.samples))
         assert (diff < 1e-12 * 0.5) == same, diff
-    lin = acc.linear_sensor_amplitude_m(6.0 / acc.f_ref_hz)
+    lin = _linear_sensor_amplitude_m(acc, 6.0 / outputs(acc).natural_frequency_hz)
     M, K, C = _physical()
     w = TWO_PI * 6.0
     exact = np.linalg.solve(K - w * w * M + 1j * w * C, M @ np.ones(3) * a)[2]
@@ -392,11 +416,12 @@ def test_a_point_force_orbit_equals_the_independent_physical_integration():
     m = _drive("force", hc=False, amplitude_n=1.5, at="m2")
     mm = load_case(CASE)[0].model_spec().matrix_model()
     f_hz = 7.1
-    tr = make_solver(m, "event").point(f_hz / m.f_ref_hz, None, 600, 8, 64)
+    f_ref = outputs(m).natural_frequency_hz
+    tr = make_solver(m, "event").point(f_hz / f_ref, None, 600, 8, 64)
     assert tr.status == "ok" and tr.n_impacts >= 8
-    N = m.n_modes
+    N = outputs(m).n_modes
     x0 = mm.shapes @ tr.final_state[:N]
-    v0 = mm.shapes @ tr.final_state[N:2 * N] * (TWO_PI * m.f_ref_hz)
+    v0 = mm.shapes @ tr.final_state[N:2 * N] * (TWO_PI * f_ref)
     assert tr.final_state[2 * N] == 0                                  # free at the period's start
     ends, lo, hi, counts = _orbit(x0, v0, f_hz, 1, load=[0.0, 1.5, 0.0], hc=False)
     assert np.max(np.abs(ends[-1][:3] - x0)) < 1e-9 * GAP3
@@ -422,7 +447,7 @@ def test_a_method_that_does_not_simulate_the_compliant_stop_is_refused_in_one_li
         parse_case(text.replace('method = "event"', 'method = "mapping"', 1))
     msg = str(e.value)
     assert "hunt_crossley" in msg and "stop[1]" in msg and "event, direct, continuation" in msg and "\n" not in msg
-    m = load_case(CASE)[0].model_spec().build()
+    m = load_case(CASE)[0].model_spec().scene()
     with pytest.raises(ValueError, match="hysteretic_hertz.*allowed: event, direct, continuation"):
         make_solver(m, "mapping")
     parse_case(text.replace('method = "event"', 'method = "direct"', 1))
@@ -483,9 +508,10 @@ def test_continuation_in_the_drive_amplitude_gives_orbits_of_the_scene_with_it_w
     for i in np.linspace(0, len(a) - 1, 4).astype(int):
         written = text.replace("amplitude_m_s2 = 0.1\n", f"amplitude_m_s2 = {float(a[i])!r}\n", 1)
         assert written != text
-        model = parse_case(written).model_spec().build()
+        model = parse_case(written).model_spec().scene()
         x = np.asarray(b["state"][i])
-        one = make_solver(model, "event").point(7.5 / model.f_ref_hz, np.concatenate([x, [0.0]]), 0, 1, 32)
+        one = make_solver(model, "event").point(7.5 / outputs(model).natural_frequency_hz,
+                                                np.concatenate([x, [0.0]]), 0, 1, 32)
         assert np.max(np.abs(one.final_state[:-1] - x)) <= 1e-8 * np.max(np.abs(x)), (a[i], one.final_state, x)
 
 
@@ -511,8 +537,9 @@ def test_the_scene_problem_carries_a_stop_and_the_drive_of_the_case_exactly(key)
     spec = case.model_spec()
     table = case.model
     assert _carried(spec, key) and not _carried(spec, "stops[1].law.R")
-    W = 7.5 / spec.build().f_ref_hz
-    x = make_solver(spec.build(), "event").point(W, None, 300, 1, 1).final_state[:-1]
+    sc = spec.scene()
+    W = 7.5 / outputs(sc).natural_frequency_hz
+    x = make_solver(sc, "event").point(W, None, 300, 1, 1).final_state[:-1]
     p0 = float(get_value(table, key))
     s = problem(spec, key, W).shot(x, p0, 1)
     assert s.status == "ok" and s.n_impacts >= 1, s.message

@@ -661,8 +661,9 @@ def test_a_beam_model_names_its_law_and_with_laws_copies_it():
     """BeamImpactModel.with_laws (which replaced the CompliantBeamModel subclass, issue 58): a copy
     of the model's own class with the laws at the attached mass replaced; the original keeps its
     laws; ``contact`` is the upper compliant law, None for Newton's, and ``contact_law`` its name."""
-    from vibeam.models.beam_dynamics import BeamImpactModel, MatrixImpactModel
-    from vibeam.models.contact import Restitution
+    from vibeam.models.beam_dynamics import BeamImpactModel
+    from vibeam.models.builders.matrices import build_matrices, structure_scene
+    from vibeam.models.contact import Relation, Restitution, Stop
 
     beam = BeamImpactModel([10.0], [1.0], [1.0], [1.0], 0.8, 1e-3, 1e-4, 1.6, 1.0, 1.0,
                            gap_contact_lower_m=2e-3, R_lower=0.5)
@@ -673,5 +674,7 @@ def test_a_beam_model_names_its_law_and_with_laws_copies_it():
     assert [s.law for s in m.mass_stops()] == [kv, kv]                 # law_lower None: the upper law
     assert [s.law for s in beam.mass_stops()] == [Restitution(0.8), Restitution(0.5)]
     assert [s.law for s in beam.with_laws(kv, Restitution(0.3)).mass_stops()] == [kv, Restitution(0.3)]
-    mm = MatrixImpactModel([10.0], [1.0], [1.0], [1.0], 0.8, 1e-3, 1e-4, 1.6, 1.0, 1.0)
-    assert type(mm.with_laws(kv)) is MatrixImpactModel and mm.with_laws(kv).fidelity == "matrices"
+    # a structure is its builder's scene (issue 58: no model class): its name survives a law's change
+    mm = build_matrices([[1.0]], [[100.0]], damping_ratios=0.01)
+    sc = structure_scene(mm, (Stop(Relation(1.0, 1e-3), Restitution(0.8)),), 1e-4)
+    assert sc.builder == "matrices" and sc._replace(stops=(Stop(Relation(1.0, 1e-3), kv),)).builder == "matrices"

@@ -24,6 +24,7 @@ import pytest
 
 from vibeam.case.schema import parse_case
 from vibeam.models import make_solver
+from vibeam.models.scene import outputs
 from vibeam.runner import run_case
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,7 +36,7 @@ FOLD_HZ = 15.444948
 
 @pytest.fixture(scope="module")
 def four_modes(tmp_path_factory):
-    """The shipped case's 4-mode run through the framework, its model and its case."""
+    """The shipped case's 4-mode run through the framework, its scene and its case."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("VIBEAM_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
         text = CASE.read_text()
@@ -47,18 +48,18 @@ def four_modes(tmp_path_factory):
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             conts = run_case(case, text, tmp_path_factory.mktemp("out"), jobs=1, quiet=True, plots=False,
                              continuation_only=True)
-        model = case.model_spec(case.run[0].model).build()
-        yield conts[0], model, case
+        sc = case.model_spec(case.run[0].model).scene()
+        yield conts[0], sc, case
 
 
 @pytest.mark.slow   # the continuum's build (~5 s) and a 110-point continuation (~2 s after compiling): slow step
 def test_the_fold_is_where_a_multiplier_crosses_one_and_is_regressed(four_modes):
-    res, model, case = four_modes
+    res, sc, case = four_modes
     br = res.branches[0]
     assert br["status"] == "range_end"
     folds = [bf for bf in res.bifurcations if bf["type"] == "fold"]
     assert len(folds) == 1
-    f_ref = model.f_ref_hz
+    f_ref = outputs(sc).natural_frequency_hz
     # the fold's Omega is a converged zero of t_p (the corrector's 1e-10); 1e-6 relative allows for
     # the machine's round-off in the continuum's ARPACK modes (fixed start vector) and nothing more
     assert folds[0]["parameter"] * f_ref == pytest.approx(FOLD_HZ, rel=1e-6)
@@ -76,12 +77,12 @@ def test_the_fold_is_where_a_multiplier_crosses_one_and_is_regressed(four_modes)
 def test_stable_branch_points_equal_long_event_simulations(four_modes):
     """State and q_min to 1e-9 after 400 periods from 1e-6 off (the corrector's residual amplified
     by 1 / (1 - max|mu|) <= 20 at the points tested; the perturbation decays below 1e-40)."""
-    res, model, case = four_modes
+    res, sc, case = four_modes
     d = res.branches[0]["data"]
     mu = np.max(np.abs(np.asarray(d["multipliers"])), axis=1)
     idx = np.flatnonzero(np.asarray(d["stable"]) & (mu < 0.95))
     assert len(idx) >= 8
-    solver = make_solver(model, "event")
+    solver = make_solver(sc, "event")
     for k in idx[:: max(1, len(idx) // 4)]:
         W, x = float(d["parameter"][k]), np.asarray(d["state"][k])
         tr = solver.point(W, np.r_[x * (1 + 1e-6), 0.0], 400, 2, 16)

@@ -25,6 +25,7 @@ from vibeam.engine.records import summarize
 from vibeam.errors import CaseError
 from vibeam.models import make_solver
 from vibeam.models.builders.continuum import RigGeometry, build_rig
+from vibeam.models.scene import outputs
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "cases" / "rig-continuum.toml"
@@ -51,20 +52,24 @@ def _case(*edits):
 def test_the_case_builds_build_rigs_continuum_bit_for_bit():
     case = _case()
     spec = case.model_spec(dict(case.run[1].model))        # "continuum 4 modes"
-    m = spec.build()
-    assert type(spec).__name__ == "ContinuumModelSpec" and m.fidelity == "continuum" and m.n_modes == 4
+    sc = spec.scene()
+    s, out = sc.system, outputs(sc)
+    assert type(spec).__name__ == "ContinuumModelSpec" and sc.builder == "continuum" and s.omega.shape[0] == 4
     mm, info, _ = build_rig(RigGeometry(), h_m=0.005, nz=1, n_modes=4, damping_ratios=None, rayleigh=(0.0, 7.59e-4),
                             base_amplitude_m=0.063442e-3, cache=False)
-    assert np.array_equal(m.omega_rad_s, TWO_PI * mm.frequencies_hz)
-    assert np.array_equal(m.contact_row, mm.system.contacts[0]) and np.array_equal(m.sensor_row, mm.system.sensor)
-    assert np.array_equal(m.participation, mm.system.participation)
+    # the scene holds omega_i / omega_ref (omega_ref = 2 pi f_ref): compared bit for bit against that
+    assert np.array_equal(s.omega, TWO_PI * mm.frequencies_hz / (TWO_PI * s.reference_hz))
+    assert np.array_equal(s.contacts[0], mm.system.contacts[0]) and np.array_equal(s.sensor, mm.system.sensor)
+    assert np.array_equal(s.participation, mm.system.participation)
     # the stop: gap_mm seen at the sensor times the stack's static ratio (Eq. 45); the drive Y
-    assert m.phi_at_mass == float(mm.contact_static[0]) and 1.55 < m.phi_at_mass < 1.56
-    assert m.gap_contact_m == -0.1e-3 * m.phi_at_mass and m.base_amplitude_m == 0.063442e-3
-    assert m.R == 0.8 and m.length_m == 0.18 and math.isclose(m.f_ref_hz, mm.frequencies_hz[0], rel_tol=1e-15)
+    phi = float(s.contact_static[0])
+    assert phi == float(mm.contact_static[0]) and 1.55 < phi < 1.56
+    assert sc.stops[0].relation.offset == -0.1e-3 * phi and s.base_amplitude == 0.063442e-3
+    assert sc.stops[0].law.R == 0.8 and out.length_m == 0.18
+    assert math.isclose(out.natural_frequency_hz, mm.frequencies_hz[0], rel_tol=1e-15)
     # the run override [run.model.system] n_modes = 2, merged key by key
-    two = case.model_spec(dict(case.run[0].model)).build()
-    assert two.n_modes == 2 and np.array_equal(two.omega_rad_s, m.omega_rad_s[:2])
+    two = case.model_spec(dict(case.run[0].model)).scene()
+    assert two.system.omega.shape[0] == 2 and np.array_equal(two.system.omega, s.omega[:2])
     attrs = spec.result_attrs()
     assert np.array_equal(attrs["frequencies_hz"], mm.frequencies_hz) and "5 " in attrs["mesh"]
 
@@ -91,14 +96,15 @@ def test_event_orbit_without_impacts_equals_the_modal_closed_form():
     ~2.5e-9 of ``|H_1|`` (measured 2.4e-9)."""
     case = _case(("gap_mm = -0.1", "gap_mm = 5.0"))
     spec = case.model_spec(dict(case.run[1].model))
-    m = spec.build()
+    sc = spec.scene()
+    out = outputs(sc)
     mm = spec.matrix_model()
     f = 10.0
-    tr = make_solver(m, "event").point(f / m.f_ref_hz, None, 600, 4, 64)
+    tr = make_solver(sc, "event").point(f / out.natural_frequency_hz, None, 600, 4, 64)
     assert tr.status == "ok" and tr.n_impacts == 0
     W, om, D, Y = TWO_PI * f, TWO_PI * mm.frequencies_hz, 7.59e-4, 0.063442e-3
     H = mm.system.participation * W ** 2 * Y / (om ** 2 - W ** 2 + 1j * W * D * om ** 2)
-    N, w_ref = m.n_modes, TWO_PI * m.f_ref_hz
+    N, w_ref = out.n_modes, TWO_PI * out.natural_frequency_hz
     eta, etad = tr.final_state[:N], tr.final_state[N:2 * N] * w_ref     # d/dt~ = w_ref d/dt
     scale = np.max(np.abs(H))
     assert np.max(np.abs(eta - H.imag)) < 1e-8 * scale
@@ -107,7 +113,7 @@ def test_event_orbit_without_impacts_equals_the_modal_closed_form():
     # it by no more than the model's round-off above: measured 6.7e-11 above on a Sapphire Rapids host)
     amp = abs(mm.system.sensor @ H)
     assert 0.05e-3 < amp < 1e-3
-    assert -1e-8 * 2 * amp <= 2 * amp - (tr.q_max - tr.q_min) * m.length_m < 1.3e-3 * 2 * amp
+    assert -1e-8 * 2 * amp <= 2 * amp - (tr.q_max - tr.q_min) * out.length_m < 1.3e-3 * 2 * amp
 
 
 def test_impacting_period_one_orbit_equals_the_direct_solver():
@@ -115,13 +121,14 @@ def test_impacting_period_one_orbit_equals_the_direct_solver():
     reference's quick run); the direct solver (solve_ivp DOP853, rtol 1e-10, the impact by event
     location) from its final state stays on it: amplitudes to 1e-7 (make_references' TOL_DIRECT)."""
     case = _case()
-    m = case.model_spec(dict(case.run[1].model)).build()
-    W = 17.0 / m.f_ref_hz
-    ev = make_solver(m, "event").point(W, None, 300, 2, 64)
-    a_ev = summarize(ev, m.Delta)
+    sc = case.model_spec(dict(case.run[1].model)).scene()
+    out = outputs(sc)
+    W = 17.0 / out.natural_frequency_hz
+    ev = make_solver(sc, "event").point(W, None, 300, 2, 64)
+    a_ev = summarize(ev, out.Delta)
     assert a_ev["period"] == 1 and ev.n_impacts >= 2
-    di = make_solver(m, "direct", solver="DOP853", rtol=1e-10, atol=1e-14).point(W, ev.final_state, 20, 4, 64)
-    a_di = summarize(di, m.Delta)
+    di = make_solver(sc, "direct", solver="DOP853", rtol=1e-10, atol=1e-14).point(W, ev.final_state, 20, 4, 64)
+    a_di = summarize(di, out.Delta)
     assert a_di["period"] == 1
     assert abs(a_di["amplitude"] - a_ev["amplitude"]) < 1e-7 * abs(a_ev["amplitude"])
 
@@ -156,7 +163,7 @@ def test_vibeam_modes_prints_the_modes_and_writes_the_shapes(tmp_path, capsys):
 ])
 def test_bad_continuum_tables_are_refused_in_one_line(old, new, msg):
     with pytest.raises(CaseError) as e:
-        _case((old, new)).model_spec().build()
+        _case((old, new)).model_spec().scene()
     assert msg in str(e.value) and "\n" not in str(e.value), str(e.value)
 
 

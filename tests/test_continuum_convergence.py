@@ -41,6 +41,7 @@ import scipy.optimize
 from vibeam.case.schema import parse_case
 from vibeam.engine.records import summarize
 from vibeam.models import make_solver
+from vibeam.models.scene import outputs
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "cases" / "rig-continuum.toml"
@@ -58,32 +59,33 @@ def _cache(tmp_path_factory):
 
 
 def _model(h_mm: float, n_modes: int):
-    """The shipped case's model at ``element_size_mm = h_mm`` and ``n_modes``, by the case API."""
+    """The shipped case's scene at ``element_size_mm = h_mm`` and ``n_modes``, by the case API."""
     text = CASE.read_text()
     for old, new in (("element_size_mm = 2.5", f"element_size_mm = {h_mm!r}"),
                      ("n_modes = 4\nrayleigh", f"n_modes = {n_modes}\nrayleigh")):
         assert old in text, old
         text = text.replace(old, new)
     case = parse_case(text)
-    return case.model_spec().build()
+    return case.model_spec().scene()
 
 
-def _frc(m) -> np.ndarray:
+def _frc(sc) -> np.ndarray:
     """``Q`` (mm) of the settled period-1 orbit at :data:`FREQS_HZ` and the model's f1 (Hz).
 
     600 periods from rest, then 200 more from the final state: ``Q`` must not move by more than
     1e-7 relative (the orbit is settled: the differences tested below are 1e-3 relative and more)."""
     out = []
-    solver = make_solver(m, "event")
+    o = outputs(sc)
+    solver = make_solver(sc, "event")
     for f in FREQS_HZ:
-        W = f / m.f_ref_hz
+        W = f / o.natural_frequency_hz
         tr = solver.point(W, None, 600, 2, 64)
-        a = summarize(tr, m.Delta)
+        a = summarize(tr, o.Delta)
         assert a["period"] == 1 and a["impacts_per_period"] == 1, (f, a["period"])
-        b = summarize(solver.point(W, tr.final_state, 200, 2, 64), m.Delta)
+        b = summarize(solver.point(W, tr.final_state, 200, 2, 64), o.Delta)
         assert abs(b["amplitude"] - a["amplitude"]) < 1e-7 * a["amplitude"], f
-        out.append(a["amplitude"] * m.length_m * 1e3)
-    return np.array(out + [m.f_ref_hz])
+        out.append(a["amplitude"] * o.length_m * 1e3)
+    return np.array(out + [o.natural_frequency_hz])
 
 
 def williams_exponent(nu: float = 0.3) -> float:

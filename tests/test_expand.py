@@ -128,16 +128,20 @@ def _built(spec):
 
 
 def _scene_fields(sc) -> dict:
-    """What the SDOF class gave the recording (made when the SDOF was a class), read off its
-    builder's scene: its class by the builder, the rest state, no point stops' codes, the upper
-    stop's ``R(q'-)`` table, the units, the fidelity."""
+    """What the model classes gave the recording (made when the SDOF and the structures were
+    classes), read off a builder's scene: the class by the builder, the rest state, the stops' output
+    codes, the units, the fidelity; the SDOF's upper stop's ``R(q'-)`` table, a structure's modes."""
     law = sc.stops[0].law
     s, out = sc.system, outputs(sc)
-    return {"class": {"sdof": "SDOF"}[sc.builder], "initial_state": rest_state(sc),
-            "stop_codes": stop_codes(sc.stops),
-            "R_table": repr(tuple(zip(law.table_U, law.table_R)) if law.kind == "impulsive" else ()),
-            "natural_frequency_hz": out.natural_frequency_hz, "length_m": out.length_m,
-            "mass_kg": None if math.isnan(s.mass_unit_kg) else s.mass_unit_kg, "fidelity": sc.builder}
+    own = {"initial_state": rest_state(sc), "stop_codes": stop_codes(sc.stops), "natural_frequency_hz":
+           out.natural_frequency_hz, "length_m": out.length_m, "fidelity": sc.builder}
+    if sc.builder == "sdof":
+        return {**own, "class": "SDOF", "mass_kg": None if math.isnan(s.mass_unit_kg) else s.mass_unit_kg,
+                "R_table": repr(tuple(zip(law.table_U, law.table_R)) if law.kind == "impulsive" else ())}
+    # a structure's (the N-mode model's subclasses): no R table attribute, f_ref and the modes kept
+    classes = {"matrices": "MatrixImpactModel", "continuum": "ContinuumImpactModel", "mesh": "MeshImpactModel"}
+    return {**own, "class": classes[sc.builder], "R_table": "None", "f_ref_hz": out.natural_frequency_hz,
+            "n_modes": out.n_modes}
 
 
 def _lower_follows(sc) -> bool:
@@ -160,7 +164,8 @@ def _packed(model) -> dict:
     # added after the recording (issue 58: each contact's static ratio to the sensor, read by the
     # reports, not the kernels): the model's own ratio at its first contact, bit for bit
     added = fields.pop("contact_static")
-    phi = 1.0 if isinstance(model, Scene) else model.phi_contact
+    phi = (1.0 if model.builder == "sdof" else outputs(model).phi_contact) if isinstance(model, Scene) else \
+        model.phi_contact
     assert float(added[0]) == float(phi), (added, phi)
     # added after the recording too (issue 58: the builder's frequency carried exactly, read by the
     # grid and the reports): the model's own, bit for bit (NaN for a nondimensional one)

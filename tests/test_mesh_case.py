@@ -31,6 +31,7 @@ from vibeam.engine.records import summarize
 from vibeam.errors import CaseError
 from vibeam.models import make_solver
 from vibeam.models.builders.continuum import STEEL, Material, build_continuum, read_mesh
+from vibeam.models.scene import outputs
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = ROOT / "cases"
@@ -91,17 +92,20 @@ def test_the_shipped_mesh_is_its_scripts_gmsh_file_with_its_regions(tmp_path):
 def test_the_case_builds_build_continuums_model_bit_for_bit():
     case = _case()
     spec = case.model_spec()
-    m = spec.build()
-    assert type(spec).__name__ == "MeshModelSpec" and m.fidelity == "mesh" and m.n_modes == 4
+    sc = spec.scene()
+    s, out = sc.system, outputs(sc)
+    assert type(spec).__name__ == "MeshModelSpec" and sc.builder == "mesh" and s.omega.shape[0] == 4
     mm, info = _build(base_amplitude_m=0.005e-3)
-    assert np.array_equal(m.omega_rad_s, TWO_PI * mm.frequencies_hz)
-    assert np.array_equal(m.contact_row, mm.system.contacts[0]) and np.array_equal(m.sensor_row, mm.system.sensor)
-    assert np.array_equal(m.participation, mm.system.participation)
-    assert m.gap_contact_m == 0.05e-3 and m.R == 0.7 and m.length_m == 0.12 and m.base_amplitude_m == 0.005e-3
-    assert math.isclose(m.f_ref_hz, mm.frequencies_hz[0], rel_tol=1e-15)
+    # the scene holds omega_i / omega_ref (omega_ref = 2 pi f_ref): compared bit for bit against that
+    assert np.array_equal(s.omega, TWO_PI * mm.frequencies_hz / (TWO_PI * s.reference_hz))
+    assert np.array_equal(s.contacts[0], mm.system.contacts[0]) and np.array_equal(s.sensor, mm.system.sensor)
+    assert np.array_equal(s.participation, mm.system.participation)
+    assert sc.stops[0].relation.offset == 0.05e-3 and sc.stops[0].law.R == 0.7 and out.length_m == 0.12
+    assert s.base_amplitude == 0.005e-3
+    assert math.isclose(out.natural_frequency_hz, mm.frequencies_hz[0], rel_tol=1e-15)
     # the run override [run.model.system] n_modes = 2, merged key by key
-    two = case.model_spec(dict(case.run[0].model)).build()
-    assert two.n_modes == 2 and np.array_equal(two.omega_rad_s, m.omega_rad_s[:2])
+    two = case.model_spec(dict(case.run[0].model)).scene()
+    assert two.system.omega.shape[0] == 2 and np.array_equal(two.system.omega, s.omega[:2])
     attrs = spec.result_attrs()
     assert np.array_equal(attrs["frequencies_hz"], mm.frequencies_hz) and attrs["mesh"].startswith("plate.msh, 52 cells")
     # the brass pad's density is the case's: steel would make it 11 % lighter and f1 higher
@@ -193,14 +197,15 @@ def test_event_orbit_without_impacts_equals_the_modal_closed_form():
     the closed form of the modal equations, exact to round-off (measured ~1e-13)."""
     case = _case(("contact_gap_mm = 0.05", "contact_gap_mm = 5.0"))
     spec = case.model_spec()
-    m = spec.build()
+    sc = spec.scene()
+    out = outputs(sc)
     mm = spec.matrix_model()
     f = 60.0
-    tr = make_solver(m, "event").point(f / m.f_ref_hz, None, 400, 4, 64)
+    tr = make_solver(sc, "event").point(f / out.natural_frequency_hz, None, 400, 4, 64)
     assert tr.status == "ok" and tr.n_impacts == 0
     W, om, Y = TWO_PI * f, TWO_PI * mm.frequencies_hz, 0.005e-3
     H = mm.system.participation * W ** 2 * Y / (om ** 2 - W ** 2 + 2j * 0.02 * W * om)
-    N, w_ref = m.n_modes, TWO_PI * m.f_ref_hz
+    N, w_ref = out.n_modes, TWO_PI * out.natural_frequency_hz
     eta, etad = tr.final_state[:N], tr.final_state[N:2 * N] * w_ref     # d/dt~ = w_ref d/dt
     scale = np.max(np.abs(H))
     assert np.max(np.abs(eta - H.imag)) < 1e-9 * scale
@@ -209,7 +214,7 @@ def test_event_orbit_without_impacts_equals_the_modal_closed_form():
     # round-off when a sample falls on the extremes)
     amp = abs(mm.system.sensor @ H)
     assert 2e-6 < amp < 2e-5
-    assert -1e-9 * 2 * amp <= 2 * amp - (tr.q_max - tr.q_min) * m.length_m < 1.3e-3 * 2 * amp
+    assert -1e-9 * 2 * amp <= 2 * amp - (tr.q_max - tr.q_min) * out.length_m < 1.3e-3 * 2 * amp
 
 
 def test_impacting_period_one_orbit_equals_the_direct_solver():
@@ -217,13 +222,14 @@ def test_impacting_period_one_orbit_equals_the_direct_solver():
     under its pad (the FRC's branch, 82-96 Hz going up); the direct solver (solve_ivp DOP853, rtol
     1e-10, the impact by event location) from its final state stays on it: amplitudes to 1e-7
     (make_references' TOL_DIRECT)."""
-    m = _case().model_spec().build()
-    W = 90.0 / m.f_ref_hz
-    ev = make_solver(m, "event").point(W, None, 300, 2, 64)
-    a_ev = summarize(ev, m.Delta)
+    sc = _case().model_spec().scene()
+    out = outputs(sc)
+    W = 90.0 / out.natural_frequency_hz
+    ev = make_solver(sc, "event").point(W, None, 300, 2, 64)
+    a_ev = summarize(ev, out.Delta)
     assert a_ev["period"] == 1 and ev.n_impacts >= 2
-    di = make_solver(m, "direct", solver="DOP853", rtol=1e-10, atol=1e-14).point(W, ev.final_state, 20, 4, 64)
-    a_di = summarize(di, m.Delta)
+    di = make_solver(sc, "direct", solver="DOP853", rtol=1e-10, atol=1e-14).point(W, ev.final_state, 20, 4, 64)
+    a_di = summarize(di, out.Delta)
     assert a_di["period"] == 1 and di.n_impacts >= 4
     assert abs(a_di["amplitude"] - a_ev["amplitude"]) < 1e-7 * abs(a_ev["amplitude"])
 
@@ -266,7 +272,7 @@ def test_vibeam_modes_prints_the_modes_and_writes_the_shapes(tmp_path, capsys):
 ])
 def test_bad_mesh_tables_are_refused_in_one_line(edits, msg):
     with pytest.raises(CaseError) as e:
-        _case(*edits).model_spec().build()
+        _case(*edits).model_spec().scene()
     assert msg in str(e.value) and "\n" not in str(e.value), str(e.value)
 
 
@@ -277,9 +283,11 @@ def test_a_compliant_stop_on_a_node_is_accepted_and_a_missing_file_refused_by_th
     model is built, as for every structure: left empty)."""
     spec = _case(("point_mm = [115.0, 0.0, -7.0]", 'at = "node"\nlaw = "linear"\nstiffness_n_m = 1e6\n'
                   'point_mm = [115.0, 0.0, -7.0]')).model_spec()
-    m = spec.build()
+    sc = spec.scene()
     mm, _ = _build(contacts=[("node", (0.115, 0.0, -0.007), (0.0, 0.0, -1.0))], base_amplitude_m=0.005e-3)
-    assert m.contact_law == "linear" and np.array_equal(m.contact_row, mm.system.contacts[0])
+    law = sc.stops[0].law
+    contact_law = "restitution" if law.kind == "impulsive" else law.name      # the old model's contact_law
+    assert contact_law == "linear" and np.array_equal(sc.system.contacts[0], mm.system.contacts[0])
     path = tmp_path / "plate.toml"
     path.write_text(CASE.read_text())                   # plate-tip-stop/plate.msh is not beside it
     assert main(["run", str(path), "--quick", "--out", str(tmp_path / "out")]) == 2

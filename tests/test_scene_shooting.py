@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from vibeam.models import make_solver
+from vibeam.models.builders.matrices import build_matrices, structure_scene
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.contact import Restitution
+from vibeam.models.contact import Relation, Restitution, Stop
 from vibeam.models.continuation import start_point
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.sdof_flow import particular_coefficients
@@ -40,13 +41,10 @@ def test_a_chain_of_masses_has_each_modes_multipliers():
     """A two-mass chain given by its matrices (modal damping 2 %, stop out of reach): the
     contact-free monodromy is block-diagonal in the modes, multipliers ``exp(lambda_i T)`` with
     ``lambda_i = -c_i / 2 +- i sqrt(omega_i^2 - c_i^2 / 4)`` of the system's own modes (1e-11)."""
-    from vibeam.models.beam_dynamics import MatrixImpactModel
-    from vibeam.models.builders.matrices import build_matrices
-
     M = np.diag([2.0, 0.5])
     K = np.array([[4.2e4, -1.2e4], [-1.2e4, 1.2e4]])
     mm = build_matrices(M, K, damping_ratios=0.02, dofs=["m1", "m2"], sensor="m1", contacts=["m2"], length_m=0.1)
-    sc = MatrixImpactModel.from_matrix_model(mm, R=0.7, gap_contact_m=1.0, base_amplitude_m=1e-5).scene()
+    sc = structure_scene(mm, (Stop(Relation(1.0, 1.0), Restitution(0.7)),), 1e-5)
     prob = SceneShooting(sc)
     assert prob.dim == 4
     Om = 1.3
@@ -168,14 +166,10 @@ def test_a_tabulated_restitution_obeys_liouville_with_its_slope():
 def _chain_on_two_stops(R_lower=0.7):
     """The two-mass chain with a stop on each side of mass 2, at 0.6 and 0.8 of its contact-free
     amplitude at Omega = 1.3 (so both are hit), Newton's law on each."""
-    from vibeam.models.beam_dynamics import MatrixImpactModel
-    from vibeam.models.builders.matrices import build_matrices
-    from vibeam.models.contact import Relation, Restitution, Stop
-
     M = np.diag([2.0, 0.5])
     K = np.array([[4.2e4, -1.2e4], [-1.2e4, 1.2e4]])
     mm = build_matrices(M, K, damping_ratios=0.02, dofs=["m1", "m2"], sensor="m1", contacts=["m2"], length_m=0.1)
-    sc = MatrixImpactModel.from_matrix_model(mm, R=0.7, gap_contact_m=1.0, base_amplitude_m=1e-5).scene()
+    sc = structure_scene(mm, (Stop(Relation(1.0, 1.0), Restitution(0.7)),), 1e-5)
     A = SceneShooting(sc).linear_amplitude(1.3)
     return sc._replace(stops=(Stop(Relation(1.0, 0.6 * A, 0), Restitution(0.7)),
                               Stop(Relation(-1.0, 0.8 * A, 0), Restitution(R_lower)))), A

@@ -12,7 +12,9 @@ from vibeam.models import system as msys
 from vibeam.models.beam import BeamFE, BeamGeometry
 from vibeam.models.beam_dynamics import BeamImpactModel
 from vibeam.models import BeamEventSolver
+from vibeam.models.builders.matrices import build_matrices, structure_scene
 from vibeam.models.builders.sdof import sdof, sdof_physical
+from vibeam.models.contact import Relation, Restitution, Stop
 from vibeam.models.sdof_flow import particular_coefficients, propagate
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 from vibeam.models.system import ModalSystem, from_beam, from_matrices, modal_flow, modal_transition
@@ -356,8 +358,6 @@ def test_the_scenes_outputs_are_its_units_and_the_gap_seen_at_the_sensor():
     m1, the stop on m2) has ``m_eff = m2`` (``1 / (M^-1)_22``) and the static ratio of paper Eq. 45
     under the base load, ``u2 / u1 = 1 + m2 k1 / ((m1 + m2) k2)`` (the springs carry ``(m1 + m2)
     a`` and ``m2 a``), so a gap ``g`` at m2 is ``g / (u2 / u1) / L`` at the sensor."""
-    from vibeam.models.beam_dynamics import MatrixImpactModel
-    from vibeam.models.builders.matrices import build_matrices
     from vibeam.models.scene import outputs
 
     o = outputs(sdof(beta=0.02, B=0.01, Delta=0.013, R=0.8, natural_frequency_hz=7.6, length_m=0.18,
@@ -372,7 +372,7 @@ def test_the_scenes_outputs_are_its_units_and_the_gap_seen_at_the_sensor():
     M = np.diag([m1, m2])
     K = np.array([[k1 + k2, -k2], [-k2, k2]])
     mm = build_matrices(M, K, damping_ratios=0.02, dofs=["m1", "m2"], sensor="m1", contacts=["m2"], length_m=Lq)
-    sc = MatrixImpactModel.from_matrix_model(mm, R=0.7, gap_contact_m=g, base_amplitude_m=1e-4).scene()
+    sc = structure_scene(mm, (Stop(Relation(1.0, g), Restitution(0.7)),), 1e-4)
     o = outputs(sc)
     ratio = 1.0 + m2 * k1 / ((m1 + m2) * k2)
     assert float(sc.system.contact_static[0]) == pytest.approx(ratio, rel=1e-13)

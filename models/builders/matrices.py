@@ -52,6 +52,7 @@ References
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -60,12 +61,16 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
+from ..contact import Stop
+from ..scene import Excitation, Scene, driven
 from ..system import ModalSystem, lowest_modes, modal_system
 
-__all__ = ["MatrixModel", "build_matrices", "lowest_modes_of", "matrix_problem", "as_matrix", "DENSE_MAX",
+__all__ = ["MatrixModel", "build_matrices", "structure_scene", "BUILDERS", "lowest_modes_of", "matrix_problem", "as_matrix", "DENSE_MAX",
            "CAUGHEY_RTOL", "SYMMETRY_RTOL", "REPEATED_RTOL"]
 
 TWO_PI = 2.0 * math.pi
+#: the builder names of the scenes :func:`structure_scene` makes (the registry's fidelities)
+BUILDERS = ("matrices", "continuum", "mesh")
 #: largest size solved densely (LAPACK); larger sparse matrices go to ARPACK (eigsh, shift-invert)
 DENSE_MAX = 2000
 #: largest coupling of a mode by ``C`` accepted, relative to its own damping (beyond the round-off
@@ -621,3 +626,78 @@ def build_matrices(M, K, C=None, damping_ratios=None, r="all", Mr=None, dofs=Non
     return MatrixModel(system, names, s_name, tuple(lab if lab != "row" else f"row {k}" for k, (_, lab) in
                                                     enumerate(rows)),
                        V, om / TWO_PI, zeta, static, ratio_max)
+
+
+# ============================================================================ the scene
+def structure_scene(mm, stops, base_amplitude_m, builder="matrices", excitation=None, drive_row=None):
+    """The structure reduced to its modes, with its stops and its drive, as a scene (issue 58):
+    what every method of the N-mode model takes.
+
+    The system is the reduced one in its own units (time ``1 / omega_ref``, ``omega_ref = 2 pi
+    f_ref``; modal coordinates in sqrt(kg) m, rows giving metres; ``B = base_amplitude_m``), its
+    frequencies and damping carried in that unit as the FE beam's (:func:`vibeam.models.system.from_beam`:
+    ``omega_i = 2 pi f_i / omega_ref``, ``c_i`` per second over ``omega_ref``); the first contact
+    row's static ratio to the sensor is kept (paper Eq. 45's ``phi(x_m)``: the gap the results are
+    reported from), the others' are NaN.
+
+    Parameters
+    ----------
+    mm : MatrixModel
+        Its contact row 0 is the first stop's point; its further rows those of the further stops.
+    stops : sequence of vibeam.models.contact.Stop
+        The stops at row 0 first (the upper one, then a lower one), then one per further row; each
+        relation's offset in metres along its normal (negative: pre-stressed), each law in SI (a
+        compliant stiffness in N/m^p at its point): the scene holds it over ``omega_ref^2``.
+    base_amplitude_m : float
+        ``B`` (m) of the base-displacement drive, the DOFs' unit.
+    builder : str
+        The scene's builder name (``"matrices"``, ``"continuum"``, ``"mesh"``: :data:`BUILDERS`).
+    excitation : vibeam.models.scene.Excitation or None
+        Another drive (SI): a base acceleration, or a force along ``drive_row``
+        (:func:`vibeam.models.scene.driven`); None: the base displacement.
+    drive_row : array_like, shape (n,), optional
+        The modal row of a force's DOF (:meth:`MatrixModel.modal_row`).
+
+    Returns
+    -------
+    vibeam.models.scene.Scene
+
+    Raises
+    ------
+    ValueError
+        The sensor or the first stop's point not moved by the base load (no static ratio refers
+        the gap to the sensor); no kept mode moving a stop's point; two stops at row 0 that overlap.
+    """
+    s = mm.system
+    phim = float(mm.contact_static[0])
+    if not (math.isfinite(phim) and phim != 0.0):
+        raise ValueError("the sensor or the first stop's point does not move under the base load K^-1 M r: "
+                         "no static ratio refers the gap to the sensor (paper Eq. 45)")
+    rows = np.array(s.contacts, dtype=float)
+    for st in stops:
+        if not np.any(rows[st.relation.row] != 0.0):
+            raise ValueError("no retained mode moves the contact point" if st.relation.row == 0 else
+                             f"the {st.name} stop: no retained mode moves its point")
+    mass = [st for st in stops if st.relation.row == 0]
+    if len(mass) == 2 and not mass[0].relation.offset + mass[1].relation.offset > 0.0:
+        raise ValueError("the stops overlap: gap_contact_m + gap_contact_lower_m must be > 0")
+    f_ref = float(1.0 / (TWO_PI * s.time_unit_s))
+    om_ref = TWO_PI * f_ref
+    omega_rad_s = TWO_PI * np.asarray(mm.frequencies_hz, dtype=float)
+    static = np.full(rows.shape[0], math.nan)
+    static[0] = phim
+    system = modal_system(omega_rad_s / om_ref, (np.asarray(s.damping, float) / s.time_unit_s) / om_ref,
+                          np.array(s.participation, dtype=float), np.array(s.sensor, dtype=float), rows,
+                          float(base_amplitude_m), time_unit_s=1.0 / om_ref, length_unit_m=float(s.length_unit_m),
+                          coordinate_scale=float(s.length_unit_m), mass_unit_kg=1.0, contact_static=static,
+                          reference_hz=f_ref)
+    own = tuple(Stop(st.relation, dataclasses.replace(st.law, stiffness=st.law.stiffness / om_ref ** 2)
+                     if getattr(st.law, "kind", "") == "compliant" else st.law, st.label) for st in stops)
+    sc = Scene(system, own, builder)
+    if excitation is None:
+        return sc
+    if excitation.kind != "force":
+        return sc._replace(system=driven(system, excitation))
+    n_c = rows.shape[0]
+    with_row = system._replace(contacts=np.vstack([rows, np.asarray(drive_row, float)[None, :]]))
+    return sc._replace(system=driven(with_row, Excitation("force", excitation.amplitude, n_c))._replace(contacts=rows))

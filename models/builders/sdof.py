@@ -18,7 +18,10 @@ from ..contact import Relation, Restitution, Stop
 from ..scene import Scene
 from ..system import sdof_system
 
-__all__ = ["sdof", "sdof_physical"]
+__all__ = ["sdof", "sdof_physical", "BUILDERS"]
+
+#: the builder name of the scenes :func:`sdof` makes (the registry's fidelity)
+BUILDERS = ("sdof",)
 
 
 def sdof(beta, B, Delta, R=None, *, law=None, Delta_lower=None, lower_law=None, natural_frequency_hz=None,

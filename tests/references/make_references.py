@@ -576,8 +576,10 @@ def _direct_check(name, model, d, sweep, n_points=DIRECT_POINTS):
     ARPACK on a factorised K, differ between BLAS kernels by ~3e-8 in frequency, ~2e-7 in such an
     amplitude; another orbit differs by far more)."""
     from vibeam.models import make_solver
+    from vibeam.models.scene import outputs
     from vibeam.engine.records import summarize
 
+    Delta = model.Delta if hasattr(model, "Delta") else outputs(model).Delta     # a beam model, or a scene
     c = Check(name, "FE periodic points vs direct solve_ivp DOP853 (rtol 1e-10)", TOL_DIRECT)
     cand = [i for i in range(len(d["Omega"])) if int(d["period"][i]) == 1 and str(d["status"][i]) == "ok"
             and float(d["impacts_per_period"][i]) == 1.0]
@@ -594,12 +596,12 @@ def _direct_check(name, model, d, sweep, n_points=DIRECT_POINTS):
         # the model's own event and direct solvers (a compliant stop has its own: the registry's
         # contact_laws; vibeam.models.make_solver)
         ev = make_solver(model, "event").point(W, None, n_tr, 2, spp)
-        a_ev = summarize(ev, model.Delta)
+        a_ev = summarize(ev, Delta)
         stored = float(d["amplitude"][i])
         if a_ev["period"] != 1 or abs(a_ev["amplitude"] - stored) > SAME_ORBIT * abs(a_ev["amplitude"]):
             continue   # from rest this point lands on another orbit than the sweep: try another
         di = make_solver(model, "direct", solver="DOP853", rtol=1e-10, atol=1e-14).point(W, ev.final_state, 20, 4, spp)
-        a_di = summarize(di, model.Delta)
+        a_di = summarize(di, Delta)
         if a_di["period"] != 1:
             c.failures.append(f"Omega {W:.6g}: the direct solver leaves the event solver's period-1 orbit "
                               f"(period {a_di['period']}, {di.status})")
@@ -768,17 +770,29 @@ def _sdof_oracles(name, spec, d, sweep, expensive, is_map):
     return out
 
 
+def _linear_sensor_q(sc, W: float) -> float:
+    """The steady-state sensor amplitude of ``sc`` without its stops, in units of q: the modal sum
+    ``|s^T H|`` with ``H_i = Gamma_i F(W) / (omega_i^2 - W^2 + i W c_i)`` (metres) over ``L``."""
+    from vibeam.models.system import forcing   # lazy: the kernels' module, loaded by the checks only
+
+    sy = sc.system
+    H = sy.participation * forcing(sy, W) / (sy.omega ** 2 - W ** 2 + 1j * W * sy.damping)
+    return float(abs(sy.sensor @ H)) / float(sy.length_unit_m)
+
+
 def _matrices_checks(name, spec, model, d, sweep, expensive=True):
-    """A structure given by its matrices: its no-impact points against the modal linear steady
-    state, its period-1 impacting points against the direct solver (solve_ivp DOP853); the
-    independent physical integration is tests/test_chain_matrices.py's."""
+    """A structure given by its matrices (``model`` its scene): its no-impact points against the
+    modal linear steady state, its period-1 impacting points against the direct solver (solve_ivp
+    DOP853); the independent physical integration is tests/test_chain_matrices.py's."""
+    from vibeam.models.scene import outputs   # lazy: the kernels' package, loaded by the checks only
+
     c_lin = Check(name, "no-impact points vs modal linear_sensor_amplitude_m", TOL_LINEAR)
+    Delta = outputs(model).Delta
     for i, W in enumerate(d["Omega"]):
         if int(d["period"][i]) == -1 and str(d["status"][i]) == "ok":
-            lin = float(np.abs(model.linear_sensor_amplitude_m(float(W)))) / model.length_m
-            c_lin.add(float(W), str(d["direction"][i]), float(d["amplitude"][i]), model.Delta + lin)
+            c_lin.add(float(W), str(d["direction"][i]), float(d["amplitude"][i]), Delta + _linear_sensor_q(model, float(W)))
     out = [c_lin]
-    if model.n_modes <= DIRECT_MAX_MODES:
+    if outputs(model).n_modes <= DIRECT_MAX_MODES:
         out.append(_direct_check(name, model, d, sweep, DIRECT_POINTS if expensive else 1))
     return out
 
@@ -789,13 +803,13 @@ ORACLES = {
     "sdof": _sdof_oracles,
     "beam": lambda name, spec, d, sweep, expensive, is_map: _beam_checks(name, spec, spec.build(), d, sweep,
                                                                          expensive),
-    "matrices": lambda name, spec, d, sweep, expensive, is_map: _matrices_checks(name, spec, spec.build(), d, sweep,
+    "matrices": lambda name, spec, d, sweep, expensive, is_map: _matrices_checks(name, spec, spec.scene(), d, sweep,
                                                                                  expensive),
     # the continuum is a structure in modal coordinates too (the rig's solid reduced to its modes)
-    "continuum": lambda name, spec, d, sweep, expensive, is_map: _matrices_checks(name, spec, spec.build(), d, sweep,
+    "continuum": lambda name, spec, d, sweep, expensive, is_map: _matrices_checks(name, spec, spec.scene(), d, sweep,
                                                                                   expensive),
     # a user's mesh likewise (cases/plate-tip-stop: a part from a Gmsh file reduced to its modes)
-    "mesh": lambda name, spec, d, sweep, expensive, is_map: _matrices_checks(name, spec, spec.build(), d, sweep,
+    "mesh": lambda name, spec, d, sweep, expensive, is_map: _matrices_checks(name, spec, spec.scene(), d, sweep,
                                                                              expensive),
 }
 

@@ -238,7 +238,7 @@ def run_compile_bench(scenarios=None, log=None) -> dict:
                 f"{warm['cache_loads']} cache loads in {warm['cache_load_s']:.2f} s")
         out["scenarios"][name] = {"kind": kind, "command": "vibeam " + " ".join(payload) if kind == "cli" else
                                   payload.strip(), "cold": cold, "warm": warm}
-        say(f"  biggest: " + ", ".join(f"{r['kernel'].rsplit('.', 1)[-1]} {r['self_s']:.2f} s" for r in biggest(cold)))
+        say("  biggest: " + ", ".join(f"{r['kernel'].rsplit('.', 1)[-1]} {r['self_s']:.2f} s" for r in biggest(cold)))
         for k in cold["kernel_specialisations"]:
             say(f"  cold: {k['kernel'].rsplit('.', 1)[-1]} [{k['specialisation']}] {k['compile_s']:.2f} s "
                 f"({k['nested_compilations']} nested compilations, {k['process']})")

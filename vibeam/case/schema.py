@@ -895,7 +895,7 @@ class MatricesModelSpec(_StopsSpec):
         ``stops[k].contact_gap_mm`` (its ``relation.offset``, 1e-3 m/mm); a base drive's amplitude
         (``excitation.amplitude_mm``, ``excitation.amplitude_m_s2``: the system's ``base_amplitude``
         per unit, :func:`vibeam.models.scene.driven`).  The case's ``[[model.stop]]`` are the scene's
-        stops in order (:func:`vibeam.case.structure.impact_model`).  The other numbers of the stops
+        stops in order (:func:`vibeam.case.structure.scene`).  The other numbers of the stops
         and the drive are continued by their paths with central differences (:func:`continued_key`).
 
         Raises
@@ -918,29 +918,20 @@ class MatricesModelSpec(_StopsSpec):
             from vibeam.models.scene import Excitation, driven   # lazy: keeps numpy-heavy models out of load_case
 
             unit = 1e-3 if ex.kind == "base_displacement" else 1.0      # mm to m
-            per = driven(self.build().scene().system, Excitation(ex.kind, unit)).base_amplitude
+            per = driven(self.scene().system, Excitation(ex.kind, unit)).base_amplitude
             return "system.base_amplitude", float(per), None
         raise ValueError("cannot be continued in a structure given by its matrices; allowed: Omega, or the path "
                          "of a stop's or the drive's number (stops[0].law.R, excitation.amplitude_m_s2)")
 
-    def build(self):
-        """The :class:`vibeam.models.beam_dynamics.MatrixImpactModel` of this scene.
-
-        Raises
-        ------
-        CaseError
-            The matrices cannot be read or reduced, a DOF name that does not exist, a stop whose
-            DOF no kept mode moves (one line, :func:`build_or_refuse`).
-        """
-        return build_or_refuse(self, self._build)
 
     def matrix_model(self):
         """The reduced structure, :class:`vibeam.models.builders.matrices.MatrixModel` (contact
         rows: the reference stop's DOF, then each further stop's; :mod:`vibeam.case.structure`)."""
         return _structure().matrix_model(self)
 
-    def _build(self):
-        return _structure().impact_model(self)
+    def _scene(self):
+        # straight from the tables (vibeam.case.structure.scene): the reduced structure, its stops, its drive
+        return _structure().scene(self)
 
     def dofs(self) -> int:
         """Degrees of freedom simulated (work estimate): the kept modes (``"all"``: a bound, the

@@ -3,8 +3,8 @@
 The canonical tables of :class:`vibeam.case.schema.MatricesModelSpec` -- ``[model.system]``
 (``builder = "matrices"``), ``[[model.stop]]`` and ``[model.excitation]`` -- to the reduced
 structure (:func:`matrix_model`: :func:`vibeam.models.builders.matrices.build_matrices` on the
-matrices read by :mod:`vibeam.io.matrices`) and to its N-mode impact model (:func:`impact_model`:
-:class:`vibeam.models.beam_dynamics.MatrixImpactModel`, every method of the N-mode model).
+matrices read by :mod:`vibeam.io.matrices`) and to its scene (:func:`scene`:
+:func:`vibeam.models.builders.matrices.structure_scene`, every method of the N-mode model).
 
 Loaded only when a structure is built (``load_case`` stays free of scipy.io and the kernels).
 """
@@ -21,12 +21,12 @@ from vibeam.io.matrices import inline_matrices, read_matrices
 from vibeam.errors import CaseError, quote_value
 from vibeam.models.builders.continuum import (STEEL, Material, RigGeometry, build_continuum, build_rig, mesh_mass,
                                               read_mesh, write_modes)
-from vibeam.models.builders.matrices import MatrixModel, build_matrices
+from vibeam.models.builders.matrices import MatrixModel, build_matrices, structure_scene
 from vibeam.models.contact import Relation, Restitution, Stop
 from vibeam.models.scene import Excitation
-from vibeam.models.registry import fidelity, is_compliant, resolve
+from vibeam.models.registry import is_compliant
 
-__all__ = ["arrays", "matrix_model", "impact_model", "rig_geometry", "continuum_model", "modes_report",
+__all__ = ["arrays", "matrix_model", "scene", "rig_geometry", "continuum_model", "modes_report",
            "mesh_model", "mesh_modes_report"]
 
 
@@ -78,61 +78,53 @@ def matrix_model(spec) -> MatrixModel:
                           length_m=sy.length_mm * 1e-3)
 
 
-def impact_model(spec):
-    """The N-mode impact model of ``spec``: the reference stop (upper) at contact row 0 with its
-    law, a lower stop at its DOF with its own (any law), stops at other DOFs with theirs (Newton's
-    or compliant); gaps ``contact_gap_mm`` at the stop, or ``gap_mm`` at the sensor times the DOF's
-    static ratio (paper Eq. 45's ``Delta_C = phi Delta_G``).
+def scene(spec):
+    """The scene of ``spec`` (:func:`vibeam.models.builders.matrices.structure_scene` on
+    :func:`matrix_model`): the reference stop (upper) at contact row 0 with its law, a lower stop at
+    its DOF with its own (Newton's with its R, or compliant), stops at other DOFs with theirs;
+    gaps ``contact_gap_mm`` at the stop, or ``gap_mm`` at the sensor times the DOF's static ratio
+    (paper Eq. 45's ``Delta_C = phi Delta_G``); a compliant law in N/m^p (:func:`beam_law`); the
+    drive of ``[model.excitation]``.
 
     Returns
     -------
-    vibeam.models.beam_dynamics.MatrixImpactModel (its laws by :meth:`~vibeam.models.beam_dynamics.BeamImpactModel.with_laws`)
-        Of the spec's fidelity either way (``"matrices"``; ``"continuum"``:
-        :class:`~vibeam.models.beam_dynamics.ContinuumImpactModel`), the registry's model class.
+    vibeam.models.scene.Scene
+        Builder ``spec.fidelity`` (``"matrices"``, ``"continuum"``, ``"mesh"``).
+
+    Raises
+    ------
+    ValueError
+        From the reduction or the scene's builder (one line), a force's DOF that does not exist.
     """
     mm = spec.matrix_model()
-    impact_class = resolve(fidelity(spec.fidelity).model)
 
     def gap_m(st, k):
         mm_gap = st.contact_gap_mm if st.contact_gap_mm is not None else st.gap_mm * float(mm.contact_static[k])
         return mm_gap * 1e-3
 
+    def law_of(st):
+        return beam_law(ContactSpec(**st.law_table()), st.R) if is_compliant(st.law) else Restitution(float(st.R))
+
     up = spec.stop[0]
-    kw = {}
+    compliant = beam_law(spec.contact, up.R)
+    stops = [Stop(Relation(1.0, gap_m(up, 0)), Restitution(float(up.R)) if compliant is None else compliant)]
     if spec.two_sided:
         lo = spec.stop[1]
-        kw = dict(gap_contact_lower_m=gap_m(lo, 0), R_lower=None if is_compliant(lo.law) else lo.R)
+        stops.append(Stop(Relation(-1.0, gap_m(lo, 0)), law_of(lo)))
     first_point = 1 + int(spec.two_sided)
     # a stop at another DOF holds its own law: Newton's, or a compliant one in N/m^p at its DOF
-    # (beam_law, as the stops at the reference DOF; the system's units by system_stops)
-    points = [(Stop(Relation(1.0 if st.side == "upper" else -1.0, gap_m(st, 1 + j)),
-                    beam_law(ContactSpec(**st.law_table()), st.R) if is_compliant(st.law) else Restitution(st.R),
-                    f"{st.side} at {_at(spec, st)}"), 1 + j)
+    stops += [Stop(Relation(1.0 if st.side == "upper" else -1.0, gap_m(st, 1 + j), row=1 + j), law_of(st),
+                   f"{st.side} at {_at(spec, st)}")
               for j, st in enumerate(spec.stop[first_point:])]
-    m = impact_class.from_matrix_model(mm, R=up.R, gap_contact_m=gap_m(up, 0),
-                                       base_amplitude_m=spec.excitation.base_amplitude_m,
-                                       point_stops=points, **kw)
-    law = beam_law(spec.contact, up.R)
-    lower = None
-    if spec.two_sided and is_compliant(spec.stop[1].law):
-        lower = beam_law(ContactSpec(**spec.stop[1].law_table()), spec.stop[1].R)
-    if law is not None:
-        if spec.two_sided and lower is None:
-            lower = Restitution(spec.stop[1].R)
-        m = m.with_laws(law, lower)
-        m.fidelity = spec.fidelity      # the compliant modal model of this structure
-    elif lower is not None:
-        m.lower_law = lower
-    ex = spec.excitation
+    ex, excitation, row = spec.excitation, None, None
     if ex.kind != "base_displacement":
-        # a base acceleration or a point force: the model's scene is driven by it
-        # (vibeam.models.scene.driven: F = A at every frequency, p = 0)
-        m.excitation = Excitation(ex.kind, ex.amplitude_m_s2 if ex.kind == "base_acceleration" else ex.amplitude_n)
+        # a base acceleration or a point force (vibeam.models.scene.driven: F = A at every frequency, p = 0)
+        excitation = Excitation(ex.kind, ex.amplitude_m_s2 if ex.kind == "base_acceleration" else ex.amplitude_n)
         if ex.kind == "force":
             if ex.at not in mm.dofs:
                 raise ValueError(f"excitation.at = {ex.at!r} names no DOF; allowed: one of {', '.join(mm.dofs[:20])}")
-            m.drive_row = mm.modal_row(ex.at)
-    return m
+            row = mm.modal_row(ex.at)
+    return structure_scene(mm, stops, spec.excitation.base_amplitude_m, spec.fidelity, excitation, row)
 
 
 # ============================================================================ the continuum (issue 59)
