@@ -91,6 +91,12 @@ MODULES = {
         "tests/test_oracles.py::test_the_platform_filter_is_normalised_at_its_reference_frequency",
         "tests/test_effects.py",
     ],
+    # a structure's tables to its scene (issue 58): the chain's stops, drives and refusals, the mesh's
+    "vibeam/case/structure.py": [
+        "tests/test_chain_matrices.py",
+        "tests/test_mesh_case.py",
+        "tests/test_continuum_case.py",
+    ],
     "vibeam/case/paths.py": [
         "tests/test_paths.py::test_a_path_sets_the_one_key_it_stands_for",
         "tests/test_paths.py::test_a_path_stands_for_the_flat_key_of_its_stop",

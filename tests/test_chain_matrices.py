@@ -551,3 +551,24 @@ def test_the_scene_problem_carries_a_stop_and_the_drive_of_the_case_exactly(key)
     h = 1e-5 * p0
     fd = (written(p0 + h) - written(p0 - h)) / (2 * h)
     assert np.max(np.abs(s.x_p - fd)) <= 1e-5 * np.max(np.abs(fd)), (key, s.x_p, fd)
+
+
+def test_a_lower_stop_at_the_reference_dof_is_the_second_relation_on_its_row():
+    """A lower stop at the first stop's DOF (m3), Newton's with its own R, given at the stop
+    (``contact_gap_mm``) or at the sensor (``gap_mm``, times the DOF's static ratio, paper Eq. 45):
+    the scene's stops are the upper one (+1, row 0), the lower one (-1, row 0, its own law, not
+    the upper's), then the Hunt-Crossley stop below m1 on row 1; the gap at the sensor is m3's own
+    (the sensor is m3: ratio 1)."""
+    text = CASE.read_text().replace('"chain-3dof/', f'"{ROOT}/cases/chain-3dof/')
+    upper = 'side = "upper"\ncontact_gap_mm = 0.5\nR = 0.8\n'
+    assert upper in text
+    for key in ("contact_gap_mm", "gap_mm"):           # both stops at m3 give their gap the same way
+        lower = f'\n[[model.stop]]\nat = "m3"\nside = "lower"\n{key} = 0.4\nR = 0.6\n'
+        both = upper.replace("contact_gap_mm", key) + lower
+        sc = parse_case(text.replace(upper, both)).model_spec().scene()
+        (up, lo, hc) = sc.stops
+        assert (up.relation.sign, up.relation.row, up.law.R) == (1.0, 0, R3)
+        assert up.relation.offset == pytest.approx(GAP3, rel=1e-15)
+        assert (lo.relation.sign, lo.relation.row, lo.law.kind, lo.law.R) == (-1.0, 0, "impulsive", 0.6)
+        assert lo.relation.offset == pytest.approx(0.4e-3, rel=1e-15)
+        assert lo.law is not up.law and (hc.relation.sign, hc.relation.row, hc.law.name) == (-1.0, 1, "hunt_crossley")

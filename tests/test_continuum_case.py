@@ -198,3 +198,29 @@ def test_the_continuum_bench_builds_cold_loads_cached_and_compares_like_with_lik
     assert np.isfinite(s["ratio_per_impact"]) and s["ratio_per_impact"] > 0
     goals = continuum_goals(out)
     assert len(goals) == 3 and all(isinstance(g["pass"], bool) and g["timing"] for g in goals)
+
+
+def test_the_contact_modes_of_vibeam_modes_solve_the_secular_equation_of_the_held_stack():
+    """``vibeam modes``' contact modes (the kept modes held at the stack's contact point, row ``w``):
+    each held ``lam = (2 pi f_c)^2`` is a root of ``sum_i w_i^2 / (omega_i^2 - lam) = 0`` with the
+    report's own free frequencies ``omega_i = 2 pi f_i`` of the modes that move the point (a rank-one
+    constraint on ``diag(omega^2)``: Golub 1973); a mode that does not move it (``w_i`` below 1e-6 of
+    the largest: torsion, a lateral mode) is held as it is (shifted by ``w_i^2``), its ``omega_i^2`` a held root itself; they interlace the free
+    ones.  The residual is relative to the sum of the terms' moduli (1e-9: one small eigenproblem in
+    Hz, squared back)."""
+    from vibeam.case.structure import modes_report
+
+    rep = modes_report(_case().model_spec(), 4)
+    om = 2 * math.pi * np.asarray(rep["modes"].frequencies_hz)
+    w = np.asarray(rep["model"].system.contacts[0], float)
+    lam = (2 * math.pi * np.asarray(rep["contact"].frequencies_hz)) ** 2
+    assert lam.shape == (3,) and np.all(om[:-1] ** 2 <= lam) and np.all(lam <= om[1:] ** 2)
+    moving = np.abs(w) > 1e-6 * np.max(np.abs(w))    # the others: 2e-9 of it (the mesh's round-off)
+    still = np.array([np.any(np.abs(om[~moving] ** 2 - x) <= 1e-9 * x) for x in lam])
+    # torsion and a lateral mode: held as they are
+    assert np.count_nonzero(still) == np.count_nonzero(~moving) >= 1
+    roots = lam[~still]
+    assert len(roots) == np.count_nonzero(moving) - 1
+    for x in roots:
+        terms = w[moving] ** 2 / (om[moving] ** 2 - x)
+        assert abs(np.sum(terms)) <= 1e-9 * np.sum(np.abs(terms)), (x, terms)

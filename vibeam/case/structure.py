@@ -205,7 +205,7 @@ class ContinuumModes:
 def _held_modes(omega, w) -> np.ndarray:
     """Frequencies (Hz) of the kept modes held at the contact row ``w`` (``w . xi = 0``): the
     eigenvalues of ``diag(omega^2)`` on the null space of ``w``."""
-    Z = scipy.linalg.null_space(np.asarray(w, float).reshape(1, -1))
+    Z = scipy.linalg.null_space(np.asarray(w, float)[None, :])
     lam = np.linalg.eigvalsh(Z.T @ np.diag(np.asarray(omega, float) ** 2) @ Z)
     return np.sqrt(np.maximum(lam, 0.0)) / (2.0 * np.pi)
 
