@@ -25,8 +25,8 @@ from .registry import (FIDELITIES, IMPULSIVE, fidelity, law_key, law_name, mass_
 _LAZY = {
     "EventSolver": "core.event", "linear_amplitude": "sdof_flow",
     "AveragingSolver": "sdof_averaging", "MappingSolver": "mapping",
-    "BeamEventSolver": "core.event", "BeamImpactModel": "beam_dynamics",
-    "BeamODESolver": "beam_dynamics",
+    "BeamEventSolver": "core.event",
+    "BeamODESolver": "core.direct",
     "DirectSolver": "sdof_ode", "IvanovSolver": "sdof_ode", "ZhuravlevSolver": "sdof_ode",
     "SceneShooting": "core.scene_shooting", "Trajectory": "trajectory",
 }

@@ -296,11 +296,11 @@ register(Fidelity(
              "continuation": on_the_core("core.scene_shooting:SceneShooting")},
     description="SDOF coefficient-of-restitution oscillator (paper Eqs. 1-2, 43-47)"))
 
-#: the methods of the N-mode modal model (beam_dynamics.BeamImpactModel and its subclasses): the event
+#: the methods of an N-mode scene (the beam's, a structure's given by matrices): the event
 #: and direct integrators, the N-mode pointwise mapping (paper Sec. 4.2: Newton and Kelvin-Voigt stops,
 #: exact flows, anywhere, one or two at the mass, mixed ones included) and the shooting problem
 N_MODE_SOLVERS = {"event": on_the_core("core.event:BeamEventSolver", restitution_law=True, modal_states=True),
-                  "direct": on_the_core("beam_dynamics:BeamODESolver", restitution_law=True),
+                  "direct": on_the_core("core.direct:BeamODESolver", restitution_law=True),
                   "mapping": Method("mapping.modal:ModalMappingSolver",
                                     {"kelvin_voigt": "mapping.modal:ModalMappingSolver"},
                                     (IMPULSIVE, "kelvin_voigt"), True),
@@ -308,7 +308,7 @@ N_MODE_SOLVERS = {"event": on_the_core("core.event:BeamEventSolver", restitution
 
 register(Fidelity(
     name="beam",
-    model="beam_dynamics:BeamImpactModel",
+    model="builders.beam:fe_beam",
     solvers=dict(N_MODE_SOLVERS),
     modes=True,
     contact_modes=True,

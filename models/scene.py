@@ -13,8 +13,8 @@ sin(Omega t)``); :func:`driven` sets it from an :class:`Excitation` in SI units:
 displacement (the paper's shaker), base acceleration or point force.
 
 The fidelities are builders of scenes: :func:`vibeam.models.builders.sdof.sdof` (paper Eqs. 1-2, 43-46) and
-:func:`beam_scene` (the modal FE beam, Eqs. 39-42, with any number of modes or the static mode);
-a model object's ``scene()`` calls its builder.  The event integrator
+:mod:`vibeam.models.builders.beam` (the modal FE beam, Eqs. 39-42, with any number of modes or the
+static mode), :mod:`vibeam.models.builders.matrices` (a structure given by matrices, a continuum).  The event integrator
 (:class:`vibeam.models.core.event.EventIntegrator`), the direct integrator, the shooting problems,
 the N-mode mapping and the basins take a Scene.
 
@@ -34,9 +34,9 @@ import numpy as np
 
 import scipy.linalg
 
-from .system import ModalSystem, from_beam, reference_hz
+from .system import ModalSystem, reference_hz
 
-__all__ = ["Scene", "beam_scene", "outputs", "Outputs", "one_mode", "OneMode", "rest_state", "held_modes", "Excitation", "EXCITATION_KINDS",
+__all__ = ["Scene", "outputs", "Outputs", "one_mode", "OneMode", "rest_state", "held_modes", "Excitation", "EXCITATION_KINDS",
            "driven"]
 
 #: the harmonic drives of a scene (:class:`Excitation`)
@@ -64,19 +64,6 @@ class Scene(NamedTuple):
     system: ModalSystem
     stops: tuple
     builder: str = ""
-
-
-def beam_scene(model) -> Scene:
-    """The modal FE beam as a scene: its retained modes (paper Eqs. 39-42,
-    :func:`vibeam.models.system.from_beam`) and its stops (at the attached mass, and at other points
-    of the beam) with the laws in the system's units (a compliant stiffness over ``omega_ref^2``).
-
-    Parameters
-    ----------
-    model : vibeam.models.beam_dynamics.BeamImpactModel
-        Or its compliant subclass; any number of modes, the static-mode model included.
-    """
-    return Scene(from_beam(model), tuple(model.system_stops()), str(model.fidelity))
 
 
 class Outputs(NamedTuple):
@@ -322,7 +309,7 @@ def driven(system: ModalSystem, excitation: Excitation) -> ModalSystem:
     Parameters
     ----------
     system : ModalSystem
-        As built (:func:`vibeam.models.system.sdof_system`, :func:`~vibeam.models.system.from_beam`,
+        As built (:func:`vibeam.models.system.sdof_system`, :func:`~vibeam.models.builders.matrices.modal_scene`,
         :func:`vibeam.models.builders.matrices.build_matrices`): its ``participation`` is the base
         participation ``Gamma`` (a system already driven by a force has lost it: drive the built
         system).

@@ -16,9 +16,9 @@ force) give ``f A sin(Omega t)`` instead: ``Gamma Omega^2 B`` is generalised to 
 
 * The paper's SDOF (Eqs. 43-47; the scene of :func:`vibeam.models.builders.sdof.sdof`) is the
   one-mode case ``omega = 1``, ``c = 2 beta``, ``Gamma = s = W = 1``: :func:`sdof_system`.
-* The FE cantilever (Eqs. 39-42; :class:`vibeam.models.beam_dynamics.BeamImpactModel`, modes of
-  :class:`vibeam.models.beam.BeamFE`) is the ``N``-mode case in its own kernel units:
-  :func:`from_beam`.
+* The FE cantilever (Eqs. 39-42; modes of :class:`vibeam.models.beam.BeamFE`) is the ``N``-mode
+  case in its own kernel units: :func:`vibeam.models.builders.beam.fe_beam` (through
+  :func:`vibeam.models.builders.matrices.modal_scene`).
 * A lumped ``n``-DOF model ``M x'' + C x' + K x = -M r b''`` reduces to it by the generalized
   eigenproblem ``K phi = omega^2 M phi`` when ``C`` is proportional: :func:`from_matrices`.
 
@@ -61,7 +61,7 @@ from numba import njit
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["ModalSystem", "modal_system", "sdof_system", "from_beam", "from_matrices", "modal_flow", "forcing",
+__all__ = ["ModalSystem", "modal_system", "sdof_system", "from_matrices", "modal_flow", "forcing",
            "DRIVE_POWERS", "drive_force", "drive_slope", "drive_displacement", "drive_velocity_slope",
            "modal_transition", "damping_ratios", "lowest_modes", "mode_table", "particular",
            "transition_increment", "increment_of", "transition_entries", "advance_modes", "advance_count",
@@ -79,8 +79,8 @@ class ModalSystem(NamedTuple):
     ``eta_i'' + damping_i eta_i' + omega_i^2 eta_i = participation_i Omega^p base_amplitude
     sin(Omega t)`` with ``p = drive_power``: the forcing vector ``f = participation`` times the
     forcing amplitude ``F(Omega) = Omega^p A`` (:func:`forcing`), ``A = base_amplitude``.  As built
-    (:func:`sdof_system`, :func:`from_beam`, :func:`from_matrices`) the drive is the paper's base
-    displacement, ``f = Gamma``, ``A = B``, ``p = 2``; :func:`vibeam.models.scene.driven` sets a base
+    (:func:`sdof_system`, :func:`from_matrices`, :func:`vibeam.models.builders.matrices.modal_scene`) the
+    drive is the paper's base displacement, ``f = Gamma``, ``A = B``, ``p = 2``; :func:`vibeam.models.scene.driven` sets a base
     acceleration (``f = Gamma``, ``p = 0``) or a point force (``f = W[j]``, ``p = 0``).  A
     ``typing.NamedTuple`` of float64 arrays and numbers, so numba kernels take it as an argument (no
     methods, no behaviour).
@@ -277,38 +277,6 @@ def sdof_system(beta, B, natural_frequency_hz=None, length_m=None, mass_kg=None)
                          length_unit_m=math.nan if L is None else float(L), coordinate_scale=1.0,
                          mass_unit_kg=math.nan if mass is None else float(mass),
                          reference_hz=math.nan if f_n is None else float(f_n))
-
-
-def from_beam(model) -> ModalSystem:
-    """The modal FE beam (paper Eqs. 39-42) in its own kernel units.
-
-    Exactly the numbers the beam's event kernel uses: ``omega = omega_rad_s / omega_ref`` (so
-    ``omega**2`` is the kernel's ``k_nd`` bit for bit), ``damping = c_nd``, ``Gamma`` =
-    ``participation``, ``s`` = ``sensor_row``, ``W`` = its :meth:`contact_rows` (the attached mass
-    at ``L_m``, a lower stop being a second relation on that row, then the rows of its stops at
-    other points), ``B =
-    base_amplitude_m``; modal coordinates in sqrt(kg) m, rows giving metres.
-
-    Parameters
-    ----------
-    model : vibeam.models.beam_dynamics.BeamImpactModel
-        Or a subclass (the compliant beam); any number of modes, the static-mode model included.
-
-    Returns
-    -------
-    ModalSystem
-        ``time_unit_s = 1 / omega_ref``, ``length_unit_m = coordinate_scale = L``,
-        ``mass_unit_kg = 1``, ``contact_static[0] = phi_contact`` (NaN for the other rows).
-    """
-    om_ref = float(model.omega_ref)
-    rows = model.contact_rows() if hasattr(model, "contact_rows") else np.asarray(model.contact_row, float)[None, :]
-    static = np.full(rows.shape[0], math.nan)
-    static[0] = float(model.phi_contact)
-    return modal_system(np.asarray(model.omega_rad_s, dtype=float) / om_ref, model.c_nd, model.participation,
-                         model.sensor_row, rows,
-                         float(model.base_amplitude_m), time_unit_s=1.0 / om_ref,
-                         length_unit_m=float(model.length_m), coordinate_scale=float(model.length_m),
-                         mass_unit_kg=1.0, contact_static=static, reference_hz=float(model.f_ref_hz))
 
 
 def from_matrices(M, C, K, r=None, sensor=None, contacts=None, base_amplitude_m=0.0, n_modes=None,

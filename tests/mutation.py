@@ -91,6 +91,15 @@ MODULES = {
         "tests/test_oracles.py::test_the_platform_filter_is_normalised_at_its_reference_frequency",
         "tests/test_effects.py",
     ],
+    # a beam's table to its scene (issue 58): gaps, laws, point stops, effects, continuation conversions
+    "vibeam/case/beamscene.py": [
+        "tests/test_beamscene.py",
+        "tests/test_periodic_beam.py::test_conversions_and_refused_keys",
+        "tests/test_expand.py",
+        "tests/test_oracles.py::test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration",
+        "tests/test_oracles.py::test_the_beams_lower_gap_is_converted_to_the_contact_point",
+        "tests/test_effects.py",
+    ],
     # a structure's tables to its scene (issue 58): the chain's stops, drives and refusals, the mesh's
     "vibeam/case/structure.py": [
         "tests/test_chain_matrices.py",

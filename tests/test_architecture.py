@@ -217,8 +217,9 @@ def test_the_shorthand_round_trip_is_gone():
     keys) and no spec class of the shorthand (``SDOFModelSpec``, ``BeamModelSpec``): a shorthand
     ``[model]`` is expanded into the canonical tables (:mod:`vibeam.case.expand`) and validated by
     their spec.  No function or class of these names is defined in the framework, the models or the
-    reductions.  Nor the model classes the Scene replaces that are gone so far (``CompliantBeamModel``:
-    a beam model's laws are its stops', :meth:`BeamImpactModel.with_laws`; ``PointStop``: a stop
+    reductions.  Nor the model classes the Scene replaces (``CompliantBeamModel``:
+    a beam's laws are its stops'; ``BeamImpactModel``: the beam is the scene of its builder,
+    :mod:`vibeam.models.builders.beam`, and ``beam_scene``/``from_beam`` went with it; ``PointStop``: a stop
     away from the attached mass is a :class:`vibeam.models.contact.Stop`; ``SDOF``: the oscillator is
     the scene of its builder, :func:`vibeam.models.builders.sdof.sdof`; ``MatrixImpactModel`` and its
     continuum and mesh subclasses: a structure is the scene of
@@ -227,7 +228,8 @@ def test_the_shorthand_round_trip_is_gone():
 
     gone = {"stops_as_keys", "SDOFModelSpec", "BeamModelSpec", "register_model_spec", "MODEL_SPECS",
             "CompliantBeamModel", "PointStop", "SDOF", "MatrixImpactModel", "ContinuumImpactModel",
-            "MeshImpactModel", "from_matrix_model", "impact_model"}
+            "MeshImpactModel", "from_matrix_model", "impact_model", "BeamImpactModel", "beam_scene", "from_beam",
+            "build_beam_model", "build_beam_model_with_effects"}
     found = []
     for folder in ("vibeam", "models", "reductions"):
         for p in sorted((ROOT / folder).rglob("*.py")):
@@ -439,11 +441,12 @@ def test_the_models_carry_their_stops_not_law_fields():
     """Issue 20: a model's stops are (relation, law) pairs; the lower stop's law is one law object
     (``lower_law``, None: the upper stop's), not per-law fields (``R_lower``, ``contact_lower``)
     nor a ``mixed_stops`` flag (the registry's :func:`mixed_stops` reads it off the stops).  The
-    shorthands ``R_lower`` and ``contact_lower`` stay keys of a case file and of the beam's
-    constructor, and build the same stops; the SDOF is its builder's scene (issue 58: no class)."""
+    shorthands ``R_lower`` and ``contact_lower`` stay keys of a case file and build the same stops;
+    the SDOF and the beam are their builders' scenes (issue 58: no class)."""
     from vibeam.case.schema import parse_case
     from vibeam.models import builders
-    from vibeam.models.beam_dynamics import BeamImpactModel
+    from vibeam.models.builders.beam import mass_stops
+    from vibeam.models.builders.matrices import modal_scene
     from vibeam.models.builders.sdof import sdof
     from vibeam.models.compliant import LinearContact
     from vibeam.models.contact import Restitution
@@ -456,10 +459,12 @@ def test_the_models_carry_their_stops_not_law_fields():
     newton_below = sdof(0.015, 5e-3, 0.002, 0.8, Delta_lower=0.003, lower_law=Restitution(0.5))
     kv_below = sdof(0.015, 5e-3, 0.002, 0.8, Delta_lower=0.003, lower_law=kv)
     same = sdof(0.015, 5e-3, 0.002, 0.8, Delta_lower=0.003)
-    beam = BeamImpactModel([10.0], [1.0], [1.0], [1.0], 0.8, 1e-3, 1e-4, 1.6, 1.0, 1.0,
-                           gap_contact_lower_m=2e-3, R_lower=0.5)
+    beam = modal_scene([10.0], [0.0], [1.0], [1.0], [[1.0]], mass_stops(1e-3, Restitution(0.8), 2e-3, Restitution(0.5)),
+                       1e-4, 1.6, 1.0, 1.0, "beam")
+    beam_kv = modal_scene([10.0], [0.0], [1.0], [1.0], [[1.0]], mass_stops(1e-3, kv, 2e-3, Restitution(0.5)),
+                          1e-4, 1.6, 1.0, 1.0, "beam")
     assert set(Scene._fields) == {"system", "stops", "builder"}
-    for m in (beam, beam.with_laws(kv)):
+    for m in (beam, beam_kv):
         assert not any(hasattr(m, k) for k in gone), type(m)
     assert newton_below.stops[1].law == Restitution(0.5)
     assert kv_below.stops[1].law is kv and mixed_stops(kv_below) and not mixed_stops(newton_below)
@@ -474,7 +479,8 @@ def test_the_models_carry_their_stops_not_law_fields():
     assert own.scene_parameter("R")[0] == "stops[0].law.R"
     fs = follows.scene()
     assert own.scene().stops[1].law == Restitution(0.5) and fs.stops[1].law is fs.stops[0].law
-    assert beam.mass_stops()[1].law == Restitution(0.5)
+    assert beam.stops[1].law == Restitution(0.5) and beam.stops[1].relation.row == 0
+    assert mass_stops(1e-3, kv, 2e-3)[1].law is kv     # no law of its own: the upper stop's
     with pytest.raises(ValueError, match="needs a lower stop"):
         sdof(0.015, 5e-3, 0.002, 0.8, lower_law=kv)
 

@@ -86,20 +86,24 @@ def test_participation_of_a_beam_far_from_the_stop_is_the_modal_frequency_respon
     Gamma_i F / (k_i - Omega^2 + i c_i Omega) (closed form, independent of the kernel), so the
     hook's shares must be the closed-form shares above with those amplitudes (1e-9: the
     remaining transient after 300 periods is below exp(-c_1 300 T / 2) ~ 1e-14)."""
-    from vibeam.models.beam_dynamics import BeamImpactModel
     from vibeam.models import BeamEventSolver
+    from vibeam.models.builders.beam import mass_stops
+    from vibeam.models.builders.matrices import modal_scene
+    from vibeam.models.contact import Restitution
 
     w_hz = np.array([7.6, 47.0, 130.0])
-    m = BeamImpactModel(2 * math.pi * w_hz, [0.4, -0.15, 0.05], [1.5, 0.8, -0.6], [2.0, -1.1, 0.7],
-                        0.7, 1.0, 2e-4, 7.6, 0.18, 1.0, 2 * 0.02 / (2 * math.pi * 7.6))
+    om = 2 * math.pi * w_hz
+    m = modal_scene(om, 0.0 + 2 * 0.02 / (2 * math.pi * 7.6) * om ** 2, [0.4, -0.15, 0.05], [2.0, -1.1, 0.7],
+                    np.atleast_2d([1.5, 0.8, -0.6]), mass_stops(1.0, Restitution(0.7)), 2e-4, 7.6, 0.18, 1.0, "beam")
+    sy = m.system
     W = 1.7
-    tr = BeamEventSolver(m.scene(), record_modal_states=True).point(W, None, 300, 4, 64)
+    tr = BeamEventSolver(m, record_modal_states=True).point(W, None, 300, 4, 64)
     assert tr.n_impacts == 0
-    out = assess.ParticipationHook(m.scene())(tr)
-    F = W**2 * m.base_amplitude_m
-    H = m.participation * F / (m.k_nd - W**2 + 1j * m.c_nd * W)
-    rms = np.abs(m.sensor_row * H) / math.sqrt(2)
-    en = np.abs(H) ** 2 * (W**2 + m.k_nd) / 2
+    out = assess.ParticipationHook(m)(tr)
+    F = W**2 * sy.base_amplitude
+    H = sy.participation * F / (sy.omega ** 2 - W**2 + 1j * sy.damping * W)
+    rms = np.abs(sy.sensor * H) / math.sqrt(2)
+    en = np.abs(H) ** 2 * (W**2 + sy.omega ** 2) / 2
     np.testing.assert_allclose(out["participation_displacement"], rms / rms.sum(), rtol=1e-9)
     np.testing.assert_allclose(out["participation_energy"], en / en.sum(), rtol=1e-9)
     assert out["participation_energy"][2] < out["participation_energy"][0]

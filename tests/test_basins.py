@@ -287,19 +287,18 @@ def test_the_one_mode_beam_has_the_basins_of_its_sdof():
     ``eta' = q' L / s x f_n / f_ref``): the same attractors, every label equal (measured: all
     900), fractions equal, amplitudes to 1e-9 relative."""
     from vibeam.case.beamscene import derive
-    from vibeam.models.system import from_beam
 
     case = load_case("cases/rig-fe-tight.toml")
     spec = case.model_spec({"n_modes": "static"})
-    beam = spec.build()
+    beam = spec.scene()
     red = derive(spec)["reduction"]
     f = 16.5 * red.f_n_hz / 7.6          # where this SDOF has two attractors (rig-tight's 16.5 Hz)
     sd = {"name": "s", "model": {"fidelity": "sdof", "beta": red.beta_S, "B": red.gamma_per_V * spec.voltage,
                                  "R": spec.R, "Delta": red.Delta},
           "sweep": {"Omega": [2.0, 2.4, 3]}, "run": [{"name": "exact", "method": "event"}]}
     a = vibeam.basins(sd, Omega=f / red.f_n_hz, grid=(30, 30), lyapunov_periods=0)
-    k = beam.length_m / from_beam(beam).sensor[0]
-    wr = red.f_n_hz / beam.f_ref_hz
+    k = beam.system.length_unit_m / beam.system.sensor[0]
+    wr = red.f_n_hz / beam.system.reference_hz
     b = vibeam.basins(case, run="static mode (SDOF)", frequency_hz=f, grid=(30, 30), lyapunov_periods=0,
                       x_range=[a.x[0] * k, a.x[-1] * k], y_range=[a.y[0] * k * wr, a.y[-1] * k * wr])
     assert sorted(a.attractors["type"][0]) == ["period", "sticking"]
@@ -481,21 +480,20 @@ def test_beam_basins_on_the_sensor_coordinates():
     the grid spacing on modal axes, from each coordinate's range on physical ones; the 97 % is the
     basin-hit agreement bound of test_basin_hits_change_few_labels)."""
     from vibeam.analysis.attractors import axes_of
-    from vibeam.models.system import from_beam
 
     case = load_case("cases/rig-fe-tight.toml")
-    beam4 = case.model_spec({"n_modes": 4}).build()
-    ax = axes_of(beam4.scene(), "sensor")
+    beam4 = case.model_spec({"n_modes": 4}).scene()
+    ax = axes_of(beam4, "sensor")
     P = np.array([[-0.3, 40.0], [0.2, -15.0]])
     S = ax.to_state(P, np.zeros(9))
     np.testing.assert_allclose(ax.values(S), P, rtol=1e-12, atol=1e-12)
-    s = from_beam(beam4)
+    s = beam4.system
     ratio = S[0, :4] * s.omega ** 2 / s.contacts[0]
     np.testing.assert_allclose(ratio, ratio[0], rtol=1e-10)
     assert ax.labels[0].startswith("$U(L_S)$") and ax.units == ("mm", "mm/s")
 
-    beam = case.model_spec({"n_modes": "static"}).build()
-    sm = from_beam(beam)
+    beam = case.model_spec({"n_modes": "static"}).scene()
+    sm = beam.system
     kx, kv = 1e3 * sm.sensor[0], 1e3 * sm.sensor[0] / sm.time_unit_s
     kw = dict(run="static mode (SDOF)", frequency_hz=16.5 * 7.97 / 7.6, grid=(24, 24), lyapunov_periods=0)
     a = vibeam.basins(case, **kw)
@@ -510,7 +508,7 @@ def test_beam_basins_on_the_sensor_coordinates():
     # described from whichever of its samples the cells keep: sticking, non-periodic or long-period)
     same = np.mean((a.labels[0] == p1(a)[0]) == (b.labels[0] == p1(b)[0]))
     assert same >= 0.97, same
-    assert b.stop is not None and abs(b.stop - float(beam.gap_contact_m) / (sm.contacts[0, 0] / sm.sensor[0]) * 1e3) < 1e-9
+    assert b.stop is not None and abs(b.stop - float(beam.stops[0].relation.offset) / (sm.contacts[0, 0] / sm.sensor[0]) * 1e3) < 1e-9
 
 
 # ------------------------------------------------------------------- what the tool's mutants found

@@ -1,4 +1,4 @@
-"""Modal vibro-impact beam solver (vibeam.models.beam_dynamics) against closed forms, the
+"""Modal vibro-impact beam solvers (the beam builder's scene, its event and direct methods) against closed forms, the
 SDOF event solver, a solve_ivp reference and conservation laws (rig of paper Sec. 5-6)."""
 import math
 
@@ -7,9 +7,13 @@ import pytest
 
 from vibeam.models import BeamEventSolver, EventSolver
 from vibeam.models.beam import BeamFE, BeamGeometry
-from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver, apply_impact
+from vibeam.models.core.direct import BeamODESolver
+from vibeam.models.builders.beam import fe_beam, mass_stops, static_mode_beam
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.scene import one_mode
+from vibeam.models.contact import Restitution
+from vibeam.models.impact import newton_restitution, restitution_impulse
+from vibeam.models.scene import one_mode, outputs
+from vibeam.models.system import forcing
 from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
@@ -29,6 +33,31 @@ def _geom(sensor=LS):
 @pytest.fixture(scope="module")
 def fe():
     return BeamFE(_geom(), n_elements=24, damping_D_s=D)
+
+
+def _beam(fe, n, R=0.72, gap=0.0, gap_lower=None):
+    """The FE beam truncated to ``n`` modes with Newton stops at the mass (the builder's scene)."""
+    return fe_beam(fe, n, mass_stops(gap, Restitution(R), gap_lower), base_amplitude_m=Y)
+
+
+def apply_impact(etad, w, U_minus, R, m_eff):
+    """Newton's impact along ``w``: ``P = restitution_impulse(U-, R, m_eff)``, ``eta' += w P`` in
+    place; returns ``U+`` (the body of the former ``apply_impact`` of vibeam.models.beam_dynamics)."""
+    P = restitution_impulse(U_minus, R, m_eff)
+    etad += w * P
+    return newton_restitution(U_minus, R)
+
+
+def _omega_rad_s(sy):
+    """The modal circular frequencies (rad/s) of a scene's system."""
+    return sy.omega / sy.time_unit_s
+
+
+def _linear_sensor_amplitude_m(sc, Omega):
+    """Steady-state sensor amplitude without the stop (m), from the modal sum of the scene's system."""
+    sy = sc.system
+    H = sy.participation * forcing(sy, Omega) / (sy.omega ** 2 - Omega ** 2 + 1j * Omega * sy.damping)
+    return float(abs(sy.sensor @ H))
 
 
 # --------------------------------------------------------------------------- impact law
@@ -64,15 +93,16 @@ def test_far_from_stop_equals_fe_frequency_response(f_hz):
     steady state (K - W^2 M + i W C) u = -W^2 Y (-M r), solved with complex numpy.
     The homogeneous part decays as exp(-0.017 omega_1 t) < 1e-12 after 700 periods."""
     fe = BeamFE(_geom(), n_elements=6, damping_D_s=D, rayleigh_alpha_1_s=0.3)
-    m = BeamImpactModel.from_fe(fe, "all", gap_contact_m=1.0, base_amplitude_m=Y)
-    tr = BeamEventSolver(m.scene()).point(f_hz / m.f_ref_hz, None, 700, 4, 64)
+    m = _beam(fe, "all", gap=1.0)
+    f_ref = m.system.reference_hz
+    tr = BeamEventSolver(m).point(f_hz / f_ref, None, 700, 4, 64)
     W = 2 * math.pi * f_hz
     u = np.linalg.solve(fe.K - W**2 * fe.M + 1j * W * fe.C, fe.base_load * (-W**2 * Y))
     ref = abs(fe.sensor_row @ u)
     assert tr.n_impacts == 0 and tr.status == "ok"
     assert 0.5 * (tr.q_max - tr.q_min) * L == pytest.approx(ref, rel=1e-9)
     assert -tr.q_min * L == pytest.approx(ref, rel=1e-9)
-    assert m.linear_sensor_amplitude_m(f_hz / m.f_ref_hz) == pytest.approx(ref, rel=1e-10)
+    assert _linear_sensor_amplitude_m(m, f_hz / f_ref) == pytest.approx(ref, rel=1e-10)
 
 
 # --------------------------------------------------------------------------- vs solve_ivp
@@ -84,15 +114,16 @@ def test_event_matches_solve_ivp_two_modes(fe):
     error ~1e-9 relative per impact-free flight and the impacts are located to ~1e-12 by
     the event search, while the event solver is exact to round-off: 1e-6 is a safe bound
     (observed ~1e-10); a missed impact or a wrong law gives O(1) differences."""
-    m = BeamImpactModel.from_fe(fe, 2, R=0.72, gap_contact_m=0.0, base_amplitude_m=Y)
+    m = _beam(fe, 2, R=0.72, gap=0.0)
     s0 = np.zeros(5)
-    s0[0] = -0.5e-3 / m.contact_row[0]
-    W = 15.5 / m.f_ref_hz
-    a = BeamEventSolver(m.scene()).point(W, s0, 60, 8, 32)
-    b = BeamODESolver(m.scene(), rtol=1e-9, atol=1e-12).point(W, s0, 60, 8, 32)
+    s0[0] = -0.5e-3 / m.system.contacts[0][0]
+    W = 15.5 / m.system.reference_hz
+    a = BeamEventSolver(m).point(W, s0, 60, 8, 32)
+    b = BeamODESolver(m, rtol=1e-9, atol=1e-12).point(W, s0, 60, 8, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts == 8
-    Qa, Qb = m.Delta - a.q_min, m.Delta - b.q_min
+    Delta = outputs(m).Delta
+    Qa, Qb = Delta - a.q_min, Delta - b.q_min
     assert Qa == pytest.approx(Qb, rel=1e-6)
     np.testing.assert_allclose(a.impact_times, b.impact_times, rtol=1e-8)
     np.testing.assert_allclose(a.impact_velocities, b.impact_velocities, rtol=1e-6)
@@ -109,18 +140,19 @@ def test_static_mode_model_reproduces_sdof_event(R, gap):
     the stop and release at the sign change of the contact force (root-found here,
     closed form in the SDOF kernel)."""
     g = _geom()
-    sm = BeamImpactModel.static_mode(g, R=R, gap_contact_m=gap, base_amplitude_m=Y, damping_D_s=D)
+    sm = static_mode_beam(g, mass_stops(gap, Restitution(R)), base_amplitude_m=Y, damping_D_s=D)
     red = reduce_static_mode(g, damping_D_s=D, gap_contact_m=gap, gamma_tilde_m_per_V=Y)
     sd = sdof(beta=red.beta_S, B=red.gamma_per_V, Delta=red.Delta, R=R)
-    assert sm.Delta == pytest.approx(one_mode(sd).Delta, abs=1e-15)
-    assert sm.m_eff == pytest.approx(g.mass_kg, rel=1e-13)
+    o = outputs(sm)
+    assert o.Delta == pytest.approx(one_mode(sd).Delta, abs=1e-15)
+    assert o.m_eff == pytest.approx(g.mass_kg, rel=1e-13)
     for f in (14.0, 15.3, 16.1, 17.0):
-        W = f / sm.f_ref_hz
-        a = BeamEventSolver(sm.scene()).point(W, None, 300, 16, 64)
+        W = f / sm.system.reference_hz
+        a = BeamEventSolver(sm).point(W, None, 300, 16, 64)
         b = EventSolver(sd).point(W, None, 300, 16, 64)
         assert a.status == b.status
         assert a.n_impacts == b.n_impacts
-        Qa, Qb = summarize(a, sm.Delta)["amplitude"], summarize(b, one_mode(sd).Delta)["amplitude"]
+        Qa, Qb = summarize(a, o.Delta)["amplitude"], summarize(b, one_mode(sd).Delta)["amplitude"]
         assert Qa == pytest.approx(Qb, rel=1e-9)
         assert np.max(np.abs(a.samples - b.samples)) < 1e-9 * np.max(np.abs(b.samples))
         assert a.extra["stuck_fraction"] == pytest.approx(b.extra["stuck_fraction"], abs=1e-9)
@@ -143,12 +175,13 @@ def test_one_mode_beam_chatters_like_the_sdof(f_hz):
 
     case, _ = load_case(Path(__file__).resolve().parents[1] / "cases" / "rig-fe-tight.toml")
     spec = case.model_spec({"n_modes": "static"})
-    beam = spec.build()
+    beam = spec.scene()
     red = derive(spec)["reduction"]
     sd = sdof(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, Delta=red.Delta, R=spec.R)
-    assert abs(beam.f_ref_hz / red.f_n_hz - 1) > 0.04    # different time units
-    Wb, Ws = f_hz / beam.f_ref_hz, f_hz / red.f_n_hz
-    a = BeamEventSolver(beam.scene()).point(Wb, None, 0, 16, 64)
+    f_ref = beam.system.reference_hz
+    assert abs(f_ref / red.f_n_hz - 1) > 0.04    # different time units
+    Wb, Ws = f_hz / f_ref, f_hz / red.f_n_hz
+    a = BeamEventSolver(beam).point(Wb, None, 0, 16, 64)
     b = EventSolver(sd).point(Ws, None, 0, 16, 64)
     assert a.status == b.status == "chatter"
     assert a.n_impacts == b.n_impacts > 100
@@ -177,11 +210,12 @@ def test_chatter_policy_is_invariant_under_the_time_unit():
 
 # --------------------------------------------------------------------------- unilateral
 def _augmented_matrix(m, Om):
-    """Generator of the free modal flow of (eta, eta', sin, cos), for scipy's expm
-    (independent of the solver's closed form)."""
-    N = m.n_modes
-    k, c = m.k_nd, m.c_nd
-    GF = m.participation * Om**2 * m.base_amplitude_m
+    """Generator of the free modal flow of (eta, eta', sin, cos) of the scene ``m``, for scipy's
+    expm (independent of the solver's closed form)."""
+    sy = m.system
+    N = sy.omega.size
+    k, c = sy.omega ** 2, sy.damping
+    GF = sy.participation * Om**2 * sy.base_amplitude
     A = np.zeros((2 * N + 2, 2 * N + 2))
     A[:N, N:2 * N] = np.eye(N)
     A[N:2 * N, :N] = -np.diag(k)
@@ -206,16 +240,18 @@ def test_contact_never_beyond_stop():
         n = int(rng.choice([1, 2, 3]))
         R = float(rng.uniform(0.3, 0.9))
         Om = float(rng.uniform(1.6, 2.4))
-        m0 = BeamImpactModel.from_fe(fe, n, R=R, gap_contact_m=1.0, base_amplitude_m=Y)
-        H = m0.participation * (Om * m0.omega_ref) ** 2 * Y / (
-            m0.omega_rad_s**2 - (Om * m0.omega_ref) ** 2 + 1j * Om * m0.omega_ref * D * m0.omega_rad_s**2)
-        amp = abs(m0.contact_row @ H)
+        s0 = _beam(fe, n, R=R, gap=1.0).system
+        om_ref, om = 2 * math.pi * s0.reference_hz, _omega_rad_s(s0)
+        H = s0.participation * (Om * om_ref) ** 2 * Y / (
+            om**2 - (Om * om_ref) ** 2 + 1j * Om * om_ref * D * om**2)
+        amp = abs(s0.contacts[0] @ H)
         gap = amp * (1 - 10 ** rng.uniform(-7, -2)) if trial % 2 == 0 else amp * rng.uniform(0.0, 0.8)
-        m = BeamImpactModel.from_fe(fe, n, R=R, gap_contact_m=gap, base_amplitude_m=Y)
-        tr = BeamEventSolver(m.scene(), record_modal_states=True).point(Om, None, 150, 8, ns)
+        m = _beam(fe, n, R=R, gap=gap)
+        w = m.system.contacts[0]
+        tr = BeamEventSolver(m, record_modal_states=True).point(Om, None, 150, 8, ns)
         assert tr.status in ("ok", "chatter", "sticking")
         X = tr.extra["modal_states"]
-        U = X[:, :n] @ m.contact_row
+        U = X[:, :n] @ w
         tol = 1e-12 * (abs(gap) + np.max(np.abs(U)))
         assert np.all(U <= gap + tol)
         assert tr.extra["contact_gap_max"] * L <= tol
@@ -232,7 +268,7 @@ def test_contact_never_beyond_stop():
             z = np.concatenate([X[j], [math.sin(ph), math.cos(ph)]])
             for _ in range(n_sub):
                 z = E @ z
-                assert m.contact_row @ z[:n] <= gap + tol, (trial, j)
+                assert w @ z[:n] <= gap + tol, (trial, j)
             checked += 1
     assert checked > 1000
 
@@ -246,14 +282,15 @@ def test_grazing_impacts_are_not_missed(n):
     certified derivative bounds find it (dropping the forced part from the bounds misses
     these impacts)."""
     fe = BeamFE(_geom(), n_elements=12, damping_D_s=D)
-    m0 = BeamImpactModel.from_fe(fe, n, R=0.7, gap_contact_m=1.0, base_amplitude_m=Y)
+    s0 = _beam(fe, n, R=0.7, gap=1.0).system
+    om_ref, om = 2 * math.pi * s0.reference_hz, _omega_rad_s(s0)
     for eps in (1e-7, 1e-6):
         for Om in (1.7, 2.0, 2.3):
-            W = Om * m0.omega_ref
-            H = m0.participation * W**2 * Y / (m0.omega_rad_s**2 - W**2 + 1j * W * D * m0.omega_rad_s**2)
-            gap = abs(m0.contact_row @ H) * (1 - eps)
-            m = BeamImpactModel.from_fe(fe, n, R=0.7, gap_contact_m=gap, base_amplitude_m=Y)
-            tr = BeamEventSolver(m.scene()).point(Om, None, 400, 8, 64)
+            W = Om * om_ref
+            H = s0.participation * W**2 * Y / (om**2 - W**2 + 1j * W * D * om**2)
+            gap = abs(s0.contacts[0] @ H) * (1 - eps)
+            m = _beam(fe, n, R=0.7, gap=gap)
+            tr = BeamEventSolver(m).point(Om, None, 400, 8, 64)
             assert tr.status != "failed"
             assert tr.n_impacts > 0, (eps, Om)
             assert tr.extra["contact_gap_max"] * L <= 1e-12 * gap
@@ -265,20 +302,22 @@ def test_prestressed_stop_sticks_or_chatters(fe, f_hz, expected):
     """Pre-stressed stop (Delta_C = -0.2 mm): chatter ending in sticking at 15.5 Hz,
     permanent sticking at 8 Hz (the constrained beam is held, its contact force never
     changes sign); runs to completion, never beyond the stop."""
-    m = BeamImpactModel.from_fe(fe, 2, R=0.5, gap_contact_m=-0.2e-3, base_amplitude_m=Y)
-    tr = BeamEventSolver(m.scene()).point(f_hz / m.f_ref_hz, None, 150, 16, 32)
+    m = _beam(fe, 2, R=0.5, gap=-0.2e-3)
+    sy = m.system
+    tr = BeamEventSolver(m).point(f_hz / sy.reference_hz, None, 150, 16, 32)
     assert tr.status == expected
     assert tr.extra["stuck_fraction"] > 0
     assert np.all(np.isfinite(tr.samples))
     assert tr.extra["contact_gap_max"] <= 1e-15
-    N = m.n_modes
+    N = outputs(m).n_modes
     eta = tr.final_state[:N]
-    assert m.contact_row @ eta <= m.gap_contact_m + 1e-15
+    gap = m.stops[0].relation.offset
+    assert sy.contacts[0] @ eta <= gap + 1e-15
     if expected == "sticking":
         # held for the whole window: the contact stays exactly on the stop
         assert tr.extra["stuck_fraction"] == pytest.approx(1.0, abs=1e-9)
         assert tr.final_state[-1] == 1.0
-        assert m.contact_row @ eta == pytest.approx(m.gap_contact_m, rel=1e-12)
+        assert sy.contacts[0] @ eta == pytest.approx(gap, rel=1e-12)
 
 
 @pytest.mark.parametrize("gaps", [(-0.2e-3, None), (0.3e-3, -0.1e-3), (0.3e-3, 0.2e-3)])
@@ -291,23 +330,26 @@ def test_the_scenes_rest_state_is_the_static_equilibrium_held_on_a_prestressed_s
     from vibeam.models.scene import rest_state
 
     up, lo = gaps
-    m = BeamImpactModel.from_fe(fe, 3, R=0.5, gap_contact_m=up, gap_contact_lower_m=lo, base_amplitude_m=Y)
-    x = rest_state(m.scene())
-    N = m.n_modes
+    m = _beam(fe, 3, R=0.5, gap=up, gap_lower=lo)
+    x = rest_state(m)
+    N = outputs(m).n_modes
     assert x.shape == (2 * N + 1,) and not np.any(x[N:])
     if up > 0 and (lo is None or lo > 0):
         assert not np.any(x)
         return
     sign, D = (1.0, up) if up < 0 else (-1.0, lo)
-    w, k = m.contact_row, m.k_nd
+    w, k = m.system.contacts[0], m.system.omega ** 2
     S = np.zeros((N + 1, N + 1))
     S[:N, :N] = np.diag(k)
     S[:N, N] = S[N, :N] = sign * w
     ref = np.linalg.solve(S, np.concatenate([np.zeros(N), [D]]))[:N]
     np.testing.assert_allclose(x[:N], ref, rtol=1e-12, atol=1e-15 * abs(D))
     assert sign * (w @ x[:N]) == pytest.approx(D, rel=1e-13)
-    # the model's own start, the same algorithm: the same numbers bit for bit
-    np.testing.assert_array_equal(x, m.initial_state())
+    # the event solver's own start (from None), the same state: the same run bit for bit
+    ev = BeamEventSolver(m)
+    a, b = ev.point(1.0, None, 0, 1, 8), ev.point(1.0, x, 0, 1, 8)
+    np.testing.assert_array_equal(a.samples, b.samples)
+    np.testing.assert_array_equal(a.final_state, b.final_state)
     assert rest_state(sdof(beta=0.02, B=0.01, Delta=-0.2, R=0.8))[0] == -0.2
 
 
@@ -317,25 +359,26 @@ def test_held_beam_is_the_constrained_linear_response(fe):
     KKT systems [K - W^2 I + i W C, w; w^T, 0] (harmonic) and [K, w; w^T, 0] (static,
     w^T eta = Delta_C) in modal coordinates.  The contact force from the multiplier
     stays on the pressing side (lambda <= 0) over the period."""
-    m = BeamImpactModel.from_fe(fe, 3, R=0.5, gap_contact_m=-0.2e-3, base_amplitude_m=Y)
-    Om = 8.0 / m.f_ref_hz
-    tr = BeamEventSolver(m.scene()).point(Om, None, 400, 2, 32)
+    m = _beam(fe, 3, R=0.5, gap=-0.2e-3)
+    sy = m.system
+    Om = 8.0 / sy.reference_hz
+    tr = BeamEventSolver(m).point(Om, None, 400, 2, 32)
     assert tr.status == "sticking" and tr.extra["stuck_fraction"] == pytest.approx(1.0)
-    N = m.n_modes
-    w, k, c = m.contact_row, m.k_nd, m.c_nd
+    N = outputs(m).n_modes
+    w, k, c = sy.contacts[0], sy.omega ** 2, sy.damping
     Z = np.zeros((N + 1, N + 1), complex)
     Z[:N, :N] = np.diag(k - Om**2 + 1j * Om * c)
     Z[:N, N] = w
     Z[N, :N] = w
-    xh = np.linalg.solve(Z, np.concatenate([m.participation * Om**2 * Y, [0.0]]))
+    xh = np.linalg.solve(Z, np.concatenate([sy.participation * Om**2 * Y, [0.0]]))
     S = np.zeros((N + 1, N + 1))
     S[:N, :N] = np.diag(k)
     S[:N, N] = w
     S[N, :N] = w
-    x0 = np.linalg.solve(S, np.concatenate([np.zeros(N), [m.gap_contact_m]]))
+    x0 = np.linalg.solve(S, np.concatenate([np.zeros(N), [m.stops[0].relation.offset]]))
     ph = 2 * np.pi * np.arange(tr.samples.shape[0]) / tr.samples_per_period
     eta = x0[:N, None] + np.imag(xh[:N, None] * np.exp(1j * ph))
-    q = m.sensor_row @ eta / L
+    q = sy.sensor @ eta / L
     scale = np.max(np.abs(q))
     np.testing.assert_allclose(tr.samples[:, 0], q, rtol=0, atol=1e-9 * scale)
     # KKT multiplier = -(contact force pushing the beam away): the stop pushes (>= 0)
@@ -350,10 +393,10 @@ def test_sticking_and_release_match_solve_ivp(fe, gap):
     against solve_ivp integrating the same constrained system with a terminal event on
     the contact force (observed agreement ~1e-8; a wrong constrained basis, damping or
     force formula gives O(1e-2..1) differences)."""
-    m = BeamImpactModel.from_fe(fe, 2, R=0.0, gap_contact_m=gap, base_amplitude_m=Y)
-    W = 10.0 / m.f_ref_hz
-    a = BeamEventSolver(m.scene()).point(W, None, 40, 4, 32)
-    b = BeamODESolver(m.scene()).point(W, None, 40, 4, 32)
+    m = _beam(fe, 2, R=0.0, gap=gap)
+    W = 10.0 / m.system.reference_hz
+    a = BeamEventSolver(m).point(W, None, 40, 4, 32)
+    b = BeamODESolver(m).point(W, None, 40, 4, 32)
     assert a.status == b.status == "sticking"
     assert a.n_impacts == b.n_impacts == 4
     assert 0.05 < a.extra["stuck_fraction"] < 0.95
@@ -375,8 +418,8 @@ def test_many_mode_chatter_does_not_stall():
     from vibeam.models import make_solver
 
     case, _ = load_case(Path(__file__).parent.parent / "cases" / "rig-fe-tight.toml")
-    m = case.model_spec({"n_modes": "all"}).build()
-    W = 17.0 / m.natural_frequency_hz
+    m = case.model_spec({"n_modes": "all"}).scene()
+    W = 17.0 / m.system.reference_hz
     s = make_solver(m, "event", max_steps_per_period=3000)
     tr = s.point(W, None, 250, 1, 64)
     assert tr.status != "failed", tr.message

@@ -1,6 +1,6 @@
 """Hunt-Crossley stop on the modal beam (issue 13): free flight exact, contact integrated.
 
-Oracles: the solve_ivp reference (:class:`vibeam.models.beam_dynamics.BeamODESolver` on :mod:`vibeam.models.core.direct`,
+Oracles: the solve_ivp reference (:class:`vibeam.models.core.direct.BeamODESolver` on :mod:`vibeam.models.core.direct`,
 sharing no code with the kernel), the SDOF scene (an isolated contact of the free modes along
 ``w`` is that of one free mass on the law with stiffness ``k / m_eff``,
 :func:`vibeam.models.core.isolated.isolated_contact`; a one-mode beam is an SDOF oscillator
@@ -16,12 +16,13 @@ import pytest
 
 from vibeam.models import make_solver
 from vibeam.models.compliant import HuntCrossley
-from vibeam.models.beam_dynamics import BeamODESolver
+from vibeam.models.core.direct import BeamODESolver
 from vibeam.models import BeamEventSolver
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.scene import one_mode
+from vibeam.models.registry import law_name
+from vibeam.models.scene import one_mode, outputs
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop
 # kernels are compiled by these tests alone (~4 min of cold compile on 2 cores); .ci/run runs them
@@ -35,7 +36,7 @@ def _rig(n_modes, k=1e8, R=None):
     over = {"n_modes": n_modes, "contact": {"law": "hunt_crossley", "stiffness_n_m": k}}
     if R is not None:
         over["R"] = R
-    return case.model_spec(over).build()
+    return case.model_spec(over).scene()
 
 
 def test_two_mode_beam_hc_event_agrees_with_the_direct_reference_on_one_point():
@@ -48,7 +49,7 @@ def test_two_mode_beam_hc_event_agrees_with_the_direct_reference_on_one_point():
     (duration, peak force, penetration, work, entry velocity) to 1e-8 relative (measured
     1.5e-10), the slow test's tolerances."""
     m = _rig(2, 1e8)
-    assert m.contact_law == "hunt_crossley" and m.n_modes == 2
+    assert law_name(m) == "hunt_crossley" and outputs(m).n_modes == 2
     ev, di = make_solver(m, "event"), make_solver(m, "direct")
     assert isinstance(ev, BeamEventSolver) and isinstance(di, BeamODESolver)
     W = 15.4 / 7.6
@@ -69,7 +70,7 @@ def test_beam_hc_event_agrees_with_the_direct_reference(n_modes, k):
     contact records (duration, peak force, penetration, work, entry velocity) to 1e-8 relative
     (measured <= 6.8e-10).  Slow step: the kernel's first compilation takes ~20 s."""
     m = _rig(n_modes, k)
-    assert m.contact_law == "hunt_crossley"
+    assert law_name(m) == "hunt_crossley"
     assert isinstance(make_solver(m, "event"), BeamEventSolver)
     W = 15.4 / 7.6
     a = make_solver(m, "event").point(W, None, 4, 4, 32)
@@ -91,13 +92,14 @@ def test_isolated_beam_contact_has_the_sdof_restitution_for_the_same_chi(n_modes
     restitution is the Flores relation's value for chi alone (the same at every k and v: 0.7043
     for target 0.72)."""
     m = _rig(n_modes, k)
-    kk = k / m.omega_ref ** 2
-    assert m.contact.exponent == 1.5
-    Rb, dur_b = isolated_contact(replace(m.contact, stiffness=kk), v, m.contact_row)[:2]
-    Rs, dur_s = isolated_contact(replace(m.contact, stiffness=kk / m.m_eff), v)[:2]
+    law = m.stops[0].law
+    kk = k / (2 * math.pi * m.system.reference_hz) ** 2
+    assert law.exponent == 1.5
+    Rb, dur_b = isolated_contact(replace(law, stiffness=kk), v, m.system.contacts[0])[:2]
+    Rs, dur_s = isolated_contact(replace(law, stiffness=kk / outputs(m).m_eff), v)[:2]
     assert Rb == pytest.approx(Rs, abs=1e-10)
     assert dur_b == pytest.approx(dur_s, rel=1e-10)
-    R0 = isolated_contact(replace(m.contact, stiffness=1.0), 1.0)[0]
+    R0 = isolated_contact(replace(law, stiffness=1.0), 1.0)[0]
     assert Rb == pytest.approx(R0, abs=1e-10) and abs(Rb - 0.72) < 0.03
 
 
@@ -111,13 +113,14 @@ def test_one_mode_beam_is_the_sdof_hunt_crossley_scene():
     1e-10 of the orbit (measured 5e-14: both contact phases by DOPRI5 at rtol 1e-11, in
     different variables and error norms), same contact times (measured 1e-15 relative)."""
     m = _rig(1, 1e8)
-    k1, c1, w1, s1, G1 = m.k_nd[0], m.c_nd[0], m.contact_row[0], m.sensor_row[0], m.participation[0]
-    L, Y, D = m.length_m, m.base_amplitude_m, m.gap_contact_m
-    p, kc = 1.5, 1e8 / m.omega_ref ** 2
+    sy = m.system
+    k1, c1, w1, s1, G1 = sy.omega[0] ** 2, sy.damping[0], sy.contacts[0, 0], sy.sensor[0], sy.participation[0]
+    L, Y, D = sy.length_unit_m, sy.base_amplitude, m.stops[0].relation.offset
+    p, kc = 1.5, 1e8 / (2 * math.pi * sy.reference_hz) ** 2
     Lq = w1 * L / s1
     sq = math.sqrt(k1)
     sd = sdof(c1 / (2 * sq), w1 * G1 * Y / Lq, D / Lq,
-              law=HuntCrossley(w1 ** 2 * kc * Lq ** (p - 1) / k1, m.contact.R, p))
+              law=HuntCrossley(w1 ** 2 * kc * Lq ** (p - 1) / k1, m.stops[0].law.R, p))
     assert one_mode(sd).B > 0.0
     W = 15.4 / 7.6
     a = make_solver(m, "event").point(W, None, 20, 4, 32)

@@ -22,9 +22,10 @@ from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.core.integrator import C_DURATION, C_ENERGY, C_FORCE, C_PENETRATION
 from vibeam.models.core.isolated import isolated_contact
+from vibeam.models.registry import law_name
 from vibeam.models.sdof_ode import DirectSolver
 from vibeam.engine.records import summarize
-from vibeam.models.scene import one_mode
+from vibeam.models.scene import one_mode, outputs
 
 
 def _model(k, R=0.9, beta=0.015, B=0.5e-3, Delta=0.0, zeta=None):
@@ -469,7 +470,7 @@ def _rig(n_modes, k=None, R=None):
         over["contact"] = {"law": "linear", "stiffness_n_m": k}
     if R is not None:
         over["R"] = R
-    return case.model_spec(over).build()
+    return case.model_spec(over).scene()
 
 
 @pytest.mark.parametrize("n_modes,k", [(1, 1e5), (2, 1e5), (2, 1e7), (4, 1e6)])
@@ -478,12 +479,12 @@ def test_beam_event_agrees_with_the_direct_reference(n_modes, k):
     vs solve_ivp DOP853 at rtol 1e-11 from rest on the stop over 8 periods: samples to 1e-9 of
     the orbit (measured <= 1.5e-11), contact records (duration, peak force, penetration, work,
     entry velocity) to 1e-8 relative (measured <= 8.2e-12)."""
-    from vibeam.models.beam_dynamics import BeamODESolver
+    from vibeam.models.core.direct import BeamODESolver
 
     m = _rig(n_modes, k)
     W = 15.4 / 7.6
-    a = BeamEventSolver(m.scene()).point(W, None, 4, 4, 32)
-    b = BeamODESolver(m.scene()).point(W, None, 4, 4, 32)
+    a = BeamEventSolver(m).point(W, None, 4, 4, 32)
+    b = BeamODESolver(m).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 3
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-9 * np.max(np.abs(a.samples))
     n = min(a.contacts.shape[0], b.contacts.shape[0])
@@ -495,13 +496,18 @@ def test_beam_isolated_contact_restitution_and_case_keys():
     1 / |w|^2: c_c = 2 zeta sqrt(k_c m_eff); case keys: stiffness_n_m required, the ratio
     refused, hunt_crossley with two stops accepted by event and direct, continuation accepted for both laws."""
     m = _rig(2, 1e6)
-    # the beam model with a compliant law at its stop (BeamImpactModel.with_laws)
-    assert m.contact is m.upper_law and m.contact_law == "linear"
+    # the beam scene with a compliant law at its upper stop (mass_stops' law)
+    law, m_eff = m.stops[0].law, outputs(m).m_eff
+    assert law.kind == "compliant" and law_name(m) == "linear"
+    # the upper Kelvin-Voigt stop's dashpot c_c = 2 zeta_c sqrt(k_c m_eff) (N s/m), k_c in SI: the
+    # scene holds it over omega_ref^2
+    k_si = law.stiffness * (2 * math.pi * m.system.reference_hz) ** 2
+    c_c = 2.0 * law.damping_ratio * math.sqrt(k_si * m_eff)
     zeta = damping_ratio_for_restitution(0.72)
-    assert m.contact_damping_n_s_m == pytest.approx(2 * zeta * math.sqrt(1e6 * m.m_eff))
+    assert c_c == pytest.approx(2 * zeta * math.sqrt(1e6 * m_eff))
     # per unit effective mass: stiffness 1e6 / m_eff, the model's dashpot as damping ratio c_c / (2 sqrt(1e6 m_eff))
-    zeta_m = m.contact_damping_n_s_m / (2.0 * math.sqrt(1e6 * m.m_eff))
-    Rk = isolated_contact(LinearContact.from_damping_ratio(1e6 / m.m_eff, zeta_m), 1.0)[0]
+    zeta_m = c_c / (2.0 * math.sqrt(1e6 * m_eff))
+    Rk = isolated_contact(LinearContact.from_damping_ratio(1e6 / m_eff, zeta_m), 1.0)[0]
     assert Rk == pytest.approx(0.72, abs=1e-10)
     assert isinstance(make_solver(m, "event"), BeamEventSolver)
     text = open("cases/rig-fe-neutral.toml").read().replace("[model.discs]", "[model.contact]\nlaw = \"linear\"\n"
@@ -540,8 +546,9 @@ def test_beam_outputs_in_si_against_an_si_reference():
     k, zc = 1e5, 0.1
     case, _ = load_case("cases/rig-fe-neutral.toml")
     m = case.model_spec({"n_modes": 2, "contact": {"law": "linear", "stiffness_n_m": k,
-                                                   "damping_ratio": zc}}).build()
-    fr = m.f_ref_hz                        # the first mode, calibrated to 7.6 Hz: t = 2 pi f_ref t~
+                                                   "damping_ratio": zc}}).scene()
+    sy = m.system
+    fr = sy.reference_hz                        # the first mode, calibrated to 7.6 Hz: t = 2 pi f_ref t~
     assert fr == pytest.approx(7.6, rel=1e-9)
     W = 15.4 / 7.6
     f = W * fr
@@ -550,14 +557,15 @@ def test_beam_outputs_in_si_against_an_si_reference():
     assert d["period"][0] == 1 and d["impacts_per_period"][0] == 1
     z = make_solver(m, "event").point(W, None, 400, 1, 16).final_state
     assert z[4] == 0.0
-    G, om, cm, w, Y = m.participation, m.omega_rad_s, m.c_phys, m.contact_row, m.base_amplitude_m
+    G, om, cm, w, Y = (sy.participation, sy.omega / sy.time_unit_s, sy.damping / sy.time_unit_s, sy.contacts[0],
+                       sy.base_amplitude)
     Wt = 2 * math.pi * f
 
     def acc(t, eta, etad):
         return G * Y * Wt ** 2 * math.sin(Wt * t) - cm * etad - om ** 2 * eta
 
     c = 2 * zc * math.sqrt(k / float(w @ w))
-    con = _si_contacts(z[:2], z[2:4] * 2 * math.pi * fr, 1.0 / f, acc, [(w, m.gap_contact_m, k, c)])
+    con = _si_contacts(z[:2], z[2:4] * 2 * math.pi * fr, 1.0 / f, acc, [(w, m.stops[0].relation.offset, k, c)])
     assert len(con) == 1
     for key, want in _si_outputs(con, "").items():
         assert d[key][0] == pytest.approx(want, rel=1e-9), key
@@ -570,14 +578,14 @@ def test_beam_frc_converges_to_the_cor_frc_as_the_stiffness_grows():
     W = 16.0 / 7.6
     m0 = _rig(2)
     cor = make_solver(m0, "event").point(W, None, 300, 8, 64)
-    Q0 = summarize(cor, m0.Delta)["amplitude"]
+    Q0 = summarize(cor, outputs(m0).Delta)["amplitude"]
     s0 = cor.final_state.copy()
     s0[-1] = 0.0
     ks = np.array([1e6, 1e7, 1e8])
     errs = []
     for k in ks:
         m = _rig(2, k)
-        sm = summarize(make_solver(m, "event").point(W, s0, 300, 8, 64), m.Delta)
+        sm = summarize(make_solver(m, "event").point(W, s0, 300, 8, 64), outputs(m).Delta)
         assert sm["period"] == 1
         errs.append(abs(sm["amplitude"] - Q0) / Q0)
     slope = np.polyfit(np.log10(ks), np.log10(errs), 1)[0]
@@ -603,7 +611,7 @@ def test_fe_ladder_converges_with_a_compliant_stop():
         W = f / 7.6
         for nm in (1, 2, 4, 8, "all"):
             m = _rig(nm, 1e6)
-            sm = summarize(make_solver(m, "event").point(W, None, 300, 8, 64), m.Delta)
+            sm = summarize(make_solver(m, "event").point(W, None, 300, 8, 64), outputs(m).Delta)
             amps[f, nm] = sm["amplitude"]
         periods[f] = sm["period"]
         ref = amps[f, "all"]
@@ -616,9 +624,9 @@ def test_fe_ladder_converges_with_a_compliant_stop():
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     fine = case.model_spec({"n_modes": "all", "n_elements": 36,
-                            "contact": {"law": "linear", "stiffness_n_m": 1e6}}).build()
+                            "contact": {"law": "linear", "stiffness_n_m": 1e6}}).scene()
     W = 15.2 / 7.6
-    s_fine = summarize(make_solver(fine, "event").point(W, None, 300, 8, 64), fine.Delta)
+    s_fine = summarize(make_solver(fine, "event").point(W, None, 300, 8, 64), outputs(fine).Delta)
     assert s_fine["period"] == 1 and periods[15.2] == 1
     assert abs(amps[15.2, "all"] - s_fine["amplitude"]) <= 0.01 * s_fine["amplitude"]
 
@@ -658,22 +666,30 @@ def test_compliant_map_fixed_point_jacobian_and_multipliers(k, W):
 
 
 def test_a_beam_model_names_its_law_and_with_laws_copies_it():
-    """BeamImpactModel.with_laws (which replaced the CompliantBeamModel subclass, issue 58): a copy
-    of the model's own class with the laws at the attached mass replaced; the original keeps its
-    laws; ``contact`` is the upper compliant law, None for Newton's, and ``contact_law`` its name."""
-    from vibeam.models.beam_dynamics import BeamImpactModel
-    from vibeam.models.builders.matrices import build_matrices, structure_scene
+    """The beam builder's stops at the attached mass (``mass_stops``, which replaced
+    BeamImpactModel.with_laws, issue 58): a scene built with other laws at the mass is a beam scene
+    with those laws, the first scene keeps its laws; the scene's law name is the upper law's
+    (``"restitution"`` for Newton's), a compliant law held over ``omega_ref^2``."""
+    import dataclasses
+
+    from vibeam.models.builders.beam import mass_stops
+    from vibeam.models.builders.matrices import build_matrices, modal_scene, structure_scene
     from vibeam.models.contact import Relation, Restitution, Stop
 
-    beam = BeamImpactModel([10.0], [1.0], [1.0], [1.0], 0.8, 1e-3, 1e-4, 1.6, 1.0, 1.0,
-                           gap_contact_lower_m=2e-3, R_lower=0.5)
-    assert beam.contact is None and beam.contact_law == "restitution"
+    def beam_scene(stops):
+        return modal_scene([10.0], [0.0], [1.0], [1.0], [[1.0]], stops, 1e-4, 1.6, 1.0, 1.0, "beam")
+
+    beam = beam_scene(mass_stops(1e-3, Restitution(0.8), 2e-3, Restitution(0.5)))
+    assert beam.stops[0].law.kind == "impulsive" and law_name(beam) == "restitution"
     kv = LinearContact.from_restitution(1e4, 0.7)
-    m = beam.with_laws(kv)
-    assert type(m) is BeamImpactModel and m.contact is kv and m.contact_law == "linear"
-    assert [s.law for s in m.mass_stops()] == [kv, kv]                 # law_lower None: the upper law
-    assert [s.law for s in beam.mass_stops()] == [Restitution(0.8), Restitution(0.5)]
-    assert [s.law for s in beam.with_laws(kv, Restitution(0.3)).mass_stops()] == [kv, Restitution(0.3)]
+    m = beam_scene(mass_stops(1e-3, kv, 2e-3))
+    kv_sys = dataclasses.replace(kv, stiffness=kv.stiffness / (2 * math.pi * 1.6) ** 2)
+    assert m.builder == beam.builder == "beam" and m.stops[0].law == kv_sys and law_name(m) == "linear"
+    assert [s.law for s in mass_stops(1e-3, kv, 2e-3)] == [kv, kv]      # lower_law None: the upper law
+    assert mass_stops(1e-3, kv, 2e-3)[1].law is kv
+    assert [s.law for s in m.stops] == [kv_sys, kv_sys]
+    assert [s.law for s in beam.stops] == [Restitution(0.8), Restitution(0.5)]
+    assert [s.law for s in mass_stops(1e-3, kv, 2e-3, Restitution(0.3))] == [kv, Restitution(0.3)]
     # a structure is its builder's scene (issue 58: no model class): its name survives a law's change
     mm = build_matrices([[1.0]], [[100.0]], damping_ratios=0.01)
     sc = structure_scene(mm, (Stop(Relation(1.0, 1e-3), Restitution(0.8)),), 1e-4)

@@ -130,7 +130,7 @@ def _rig(n_modes, k=1e5, k_lower=None, gap_lower_mm=0.3):
     over = {"n_modes": n_modes, "contact": {"law": "linear", "stiffness_n_m": k}, "gap_lower_mm": gap_lower_mm}
     if k_lower is not None:
         over["contact_lower"] = {"law": "linear", "stiffness_n_m": k_lower}
-    return case.model_spec(over).build()
+    return case.model_spec(over).scene()
 
 
 @pytest.mark.parametrize("n_modes,k_lower", [(1, None), (2, 3e5)])
@@ -140,13 +140,13 @@ def test_beam_event_agrees_with_the_direct_reference_on_two_stops(n_modes, k_low
     phases) vs solve_ivp DOP853 at rtol 1e-11 over 8 periods from rest: same contact sequence
     on the same stops, samples to 1e-9 of the orbit (measured <= 9.3e-11), contact records to
     1e-8 relative (measured <= 2.4e-11)."""
-    from vibeam.models.beam_dynamics import BeamODESolver
+    from vibeam.models.core.direct import BeamODESolver
     from vibeam.models import BeamEventSolver
 
     m = _rig(n_modes, k_lower=k_lower)
     W = 15.4 / 7.6
-    a = BeamEventSolver(m.scene()).point(W, None, 4, 4, 32)
-    b = BeamODESolver(m.scene()).point(W, None, 4, 4, 32)
+    a = BeamEventSolver(m).point(W, None, 4, 4, 32)
+    b = BeamODESolver(m).point(W, None, 4, 4, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower >= 2
     np.testing.assert_array_equal(a.impact_stops, b.impact_stops)
     assert np.max(np.abs(a.samples - b.samples)) <= 1e-9 * np.max(np.abs(a.samples))
@@ -157,8 +157,8 @@ def test_beam_event_agrees_with_the_direct_reference_on_two_stops(n_modes, k_low
 def test_beam_far_lower_stop_gives_the_one_stop_results_identically():
     from vibeam.models import BeamEventSolver
 
-    a = BeamEventSolver(_rig(2, gap_lower_mm=None).scene()).point(15.4 / 7.6, None, 4, 4, 32)
-    b = BeamEventSolver(_rig(2, gap_lower_mm=100.0).scene()).point(15.4 / 7.6, None, 4, 4, 32)
+    a = BeamEventSolver(_rig(2, gap_lower_mm=None)).point(15.4 / 7.6, None, 4, 4, 32)
+    b = BeamEventSolver(_rig(2, gap_lower_mm=100.0)).point(15.4 / 7.6, None, 4, 4, 32)
     assert a.n_impacts >= 3 and b.n_impacts_lower == 0
     for x, y in ((a.samples, b.samples), (a.contacts, b.contacts), (a.impact_times, b.impact_times)):
         np.testing.assert_array_equal(x, y)

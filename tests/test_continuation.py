@@ -459,10 +459,10 @@ def test_the_compiled_corrector_serves_a_frequency_continuation(fidelity, monkey
         from vibeam.models import BeamEventSolver
 
         root = Path(__file__).resolve().parents[1]
-        m = load_case(root / "cases" / "rig-fe-neutral.toml")[0].model_spec({"n_modes": 2}).build()
-        W0, W1 = 14.0 / m.f_ref_hz, 14.5 / m.f_ref_hz
+        m = load_case(root / "cases" / "rig-fe-neutral.toml")[0].model_spec({"n_modes": 2}).scene()
+        W0, W1 = 14.0 / m.system.reference_hz, 14.5 / m.system.reference_hz
         prob = shooting_problem(m, "Omega")
-        x0 = BeamEventSolver(m.scene()).point(W0, None, 400, 1, 1).final_state[:-1]
+        x0 = BeamEventSolver(m).point(W0, None, 400, 1, 1).final_state[:-1]
     trace(prob, x0, W0, 1, W0, W1, +1, Settings())
     assert calls and not raised, raised[:1]
     assert any(served)

@@ -31,8 +31,8 @@ from vibeam.cli import main
 from vibeam.models import shooting_problem
 from vibeam.models import BeamEventSolver, make_solver
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.scene import one_mode
-from vibeam.models.system import modal_flow
+from vibeam.models.scene import one_mode, outputs
+from vibeam.models.system import forcing, modal_flow
 from vibeam.models.continuation import Settings, trace
 from vibeam.engine.records import summarize
 from vibeam.runner import run_case
@@ -49,7 +49,7 @@ def _case(name):
 
 @functools.lru_cache(maxsize=None)
 def rig(name, n_modes, **over):
-    return _case(name).model_spec({"n_modes": n_modes, **over}).build()
+    return _case(name).model_spec({"n_modes": n_modes, **over}).scene()
 
 
 def _ladder_text(keep):
@@ -105,12 +105,13 @@ def _one_dof(m, name):
     is ``eta' -> -R eta'``).  The beam's amplitude is taken at the sensor, ``q_S = s eta / L =
     r q`` with ``r = s phi(x_m) / w``.  For the static mode the parameters of `vibeam derive`
     (paper Eqs. 42-46) are used instead and checked against these (``r = 1`` there)."""
-    (k,), (c,) = m.k_nd, m.c_nd
-    (w,), (G,), (s,) = m.contact_row, m.participation, m.sensor_row
-    a = w / (m.phi_at_mass * m.length_m)
-    sd = sdof(beta=c / (2 * math.sqrt(k)), B=w * G * m.base_amplitude_m / (m.phi_at_mass * m.length_m),
-              Delta=m.Delta, R=m.R)
-    fn = m.f_ref_hz * math.sqrt(k)
+    sy, o = m.system, outputs(m)
+    (k,), (c,) = sy.omega ** 2, sy.damping
+    (w,), (G,), (s,) = sy.contacts[0], sy.participation, sy.sensor
+    a = w / (o.phi_contact * o.length_m)
+    sd = sdof(beta=c / (2 * math.sqrt(k)), B=w * G * sy.base_amplitude / (o.phi_contact * o.length_m),
+              Delta=o.Delta, R=m.stops[0].law.R)
+    fn = sy.reference_hz * math.sqrt(k)
     if name.startswith("static"):
         spec = _case("rig-fe-tight-continuation").model_spec({"n_modes": "static"})
         red = derive(spec)["reduction"]
@@ -120,8 +121,8 @@ def _one_dof(m, name):
             assert got[key] == pytest.approx(want[key], rel=1e-12)
         assert fn == pytest.approx(red.f_n_hz, rel=1e-12)
         sd, fn = ref, red.f_n_hz
-    r = s / (m.length_m * a)
-    to_sdof = lambda x: np.array([a * x[0], a * x[1] * m.f_ref_hz / fn])
+    r = s / (o.length_m * a)
+    to_sdof = lambda x: np.array([a * x[0], a * x[1] * sy.reference_hz / fn])
     return sd, fn, to_sdof, r
 
 
@@ -144,29 +145,30 @@ def test_one_mode_rung_equals_its_sdof_branch(ladder, name, n_modes):
     res, _, _ = ladder
     r = res[name]
     m = rig("rig-fe-tight-continuation", n_modes)
+    f_ref, Delta = m.system.reference_hz, outputs(m).Delta
     sd, fn, to_sdof, ratio = _one_dof(m, name)
     (b,) = r.branches
     d = b["data"]
-    assert b["status"] == "range_end" and r.attrs["natural_frequency_hz"] == m.f_ref_hz
+    assert b["status"] == "range_end" and r.attrs["natural_frequency_hz"] == f_ref
     prob = shooting_problem(sd, "Omega")
     lo, hi = 14 / fn, 21 / fn
     for k in range(len(d["parameter"])):
-        Ws = d["parameter"][k] * m.f_ref_hz / fn
+        Ws = d["parameter"][k] * f_ref / fn
         xs = to_sdof(d["state"][k])
         s = prob.shot(xs, Ws, 1)
         # the beam's fixed point is the SDOF's, to the residual the engine accepts (1e-11 of the
         # state scale, 1e-8 next to a grazing where the impact time is ill-conditioned)
         assert np.max(np.abs(s.x - xs)) < 1e-8 * np.max(np.abs(xs)), (k, d["parameter"][k])
-        assert d["amplitude"][k] == pytest.approx(m.Delta - ratio * s.q_min, rel=1e-10), (k, d["parameter"][k])
+        assert d["amplitude"][k] == pytest.approx(Delta - ratio * s.q_min, rel=1e-10), (k, d["parameter"][k])
         assert s.n_impacts == d["impacts"][k]
         # next to a grazing the saltation's a / U- term makes a multiplier large (|mu| ~ 1 / U-,
         # up to 120 here) and U- carries a relative round-off ~ 1 / U-: tolerance 1e-9 |mu|^2
         mu = s.multipliers()
         assert _spectrum_distance(d["multipliers"][k], mu) < 1e-9 * max(1.0, np.max(np.abs(mu))) ** 2
     # the SDOF branch itself, from the mapped start
-    x0 = to_sdof(d["state"][np.argmin(np.abs(d["parameter"] * m.f_ref_hz - 18.0))])
+    x0 = to_sdof(d["state"][np.argmin(np.abs(d["parameter"] * f_ref - 18.0))])
     (bs,) = trace(prob, x0, 18 / fn, 1, lo, hi, 0, Settings(switch=False))
-    beam = sorted((bf["type"], bf["parameter"] * m.f_ref_hz) for bf in r.bifurcations)
+    beam = sorted((bf["type"], bf["parameter"] * f_ref) for bf in r.bifurcations)
     sdof = sorted((bf.type, bf.parameter * fn) for bf in bs.bifurcations)
     assert [t for t, _ in beam] == [t for t, _ in sdof] == ["fold", "grazing", "period_doubling"]
     for (_, fb), (_, fs) in zip(beam, sdof):
@@ -185,15 +187,21 @@ def test_grazing_of_the_contact_free_orbit_is_the_closed_form(n_modes):
     the grazing; measured errors 1e-12 .. 9e-11): tolerance 1e-9.  The branch goes on through it,
     on the one-impact orbit born there (a corner: the branch keeps its direction)."""
     m = rig("rig-fe-loose", n_modes)
+    sy, o = m.system, outputs(m)
     prob = shooting_problem(m, "Omega")
 
     def contact_amplitude(W):
-        Wp = W * m.omega_ref
-        H = m.participation * Wp ** 2 * m.base_amplitude_m / (m.omega_rad_s ** 2 - Wp ** 2 + 1j * Wp * m.c_phys)
-        return abs(m.contact_row @ H)
+        Wp = W * (2 * math.pi * sy.reference_hz)
+        H = sy.participation * Wp ** 2 * sy.base_amplitude / ((sy.omega / sy.time_unit_s) ** 2 - Wp ** 2
+                                                              + 1j * Wp * (sy.damping / sy.time_unit_s))
+        return abs(sy.contacts[0] @ H)
 
-    lo, hi = 17 / m.f_ref_hz, 23 / m.f_ref_hz
-    Wg = brentq(lambda W: contact_amplitude(W) - m.gap_contact_m, lo, hi, xtol=1e-15)
+    def linear_sensor_amplitude_m(W):
+        H = sy.participation * forcing(sy, W) / (sy.omega ** 2 - W ** 2 + 1j * W * sy.damping)
+        return abs(sy.sensor @ H)
+
+    lo, hi = 17 / sy.reference_hz, 23 / sy.reference_hz
+    Wg = brentq(lambda W: contact_amplitude(W) - m.stops[0].relation.offset, lo, hi, xtol=1e-15)
     x0, why = prob.start("linear", hi)
     assert why == "" and prob.start("linear", Wg * 0.99)[0] is None
     (b,) = trace(prob, x0, hi, 1, lo, hi, -1, Settings(switch=False))
@@ -204,8 +212,8 @@ def test_grazing_of_the_contact_free_orbit_is_the_closed_form(n_modes):
     assert b.status == "range_end" and a["impacts"][0] == 0 and a["impacts"][-1] == 1
     # the amplitude of the contact-free part is the closed-form sensor amplitude (Q = Delta + C)
     free = a["impacts"] == 0
-    C = np.array([m.linear_sensor_amplitude_m(W) for W in a["parameter"][free]]) / m.length_m
-    np.testing.assert_allclose(a["amplitude"][free], m.Delta + C, rtol=1e-10)
+    C = np.array([linear_sensor_amplitude_m(W) for W in a["parameter"][free]]) / o.length_m
+    np.testing.assert_allclose(a["amplitude"][free], o.Delta + C, rtol=1e-10)
 
 
 # ------------------------------------------------------------------ case files and physical keys
@@ -226,8 +234,8 @@ def test_continuation_in_the_gap_through_a_case_file(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "gap_mm =" in out and "grazing" in out
     m = rig("rig-fe-loose", 2)
-    W = 18.0 / m.f_ref_hz
-    gap = shooting_problem(m, "stops[0].relation.offset", Omega=W).linear_amplitude(W) / m.phi_at_mass * 1e3
+    W = 18.0 / m.system.reference_hz
+    gap = shooting_problem(m, "stops[0].relation.offset", Omega=W).linear_amplitude(W) / outputs(m).phi_contact * 1e3
     with h5py.File(tmp_path / "out" / "results.h5") as f:
         g = f["branches/FE 2 modes/bifurcations"]
         types = list(g["type"].asstr()[()])
@@ -264,14 +272,14 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     from vibeam.analysis.branches import problem
 
     spec = _case("rig-fe-tight").model_spec({"n_modes": 2})
-    m = spec.build()
-    W = 18.0 / m.f_ref_hz
+    m = spec.scene()
+    W = 18.0 / m.system.reference_hz
     pv = problem(spec, "voltage", W)
     py = shooting_problem(m, "system.base_amplitude", Omega=W)
-    x = BeamEventSolver(m.scene()).point(W, None, 300, 1, 1).final_state[:-1]
-    sv, sy = pv.shot(x, 0.6, 1), py.shot(x, m.base_amplitude_m, 1)
+    x = BeamEventSolver(m).point(W, None, 300, 1, 1).final_state[:-1]
+    sv, sy = pv.shot(x, 0.6, 1), py.shot(x, m.system.base_amplitude, 1)
     g = spec.scene_parameter("voltage")[1]
-    assert g == pytest.approx(m.base_amplitude_m / 0.6, rel=1e-12)
+    assert g == pytest.approx(m.system.base_amplitude / 0.6, rel=1e-12)
     np.testing.assert_allclose(sv.x, sy.x, rtol=0, atol=1e-14 * np.max(np.abs(x)))
     np.testing.assert_allclose(sv.x_p, g * sy.x_p, rtol=1e-12)
 
@@ -282,8 +290,8 @@ def neutral_all():
     """All modes of the neutral rig, 14-17 Hz, from the event solver's orbit at 14 Hz."""
     m = rig("rig-fe-neutral", "all")
     prob = shooting_problem(m, "Omega")
-    lo, hi = 14 / m.f_ref_hz, 17 / m.f_ref_hz
-    x0 = BeamEventSolver(m.scene()).point(lo, None, 400, 1, 1).final_state[:-1]
+    lo, hi = 14 / m.system.reference_hz, 17 / m.system.reference_hz
+    x0 = BeamEventSolver(m).point(lo, None, 400, 1, 1).final_state[:-1]
     (b,) = trace(prob, x0, lo, 1, lo, hi, +1, Settings(switch=False))
     return m, prob, b
 
@@ -306,15 +314,15 @@ def test_stable_branch_points_equal_long_event_simulations(ladder, neutral_all):
         idx = np.flatnonzero(a["stable"] & (mu < 0.95))
         for k in idx[:: max(1, len(idx) // 4)]:
             W, x = a["parameter"][k], a["state"][k]
-            tr = BeamEventSolver(mm.scene()).point(W, np.r_[x * (1 + 1e-6), 0.0], 400, 2, 16)
-            assert np.max(np.abs(tr.final_state[:-1] - x)) < 1e-9 * np.max(np.abs(x)), (mm.n_modes, W)
+            tr = BeamEventSolver(mm).point(W, np.r_[x * (1 + 1e-6), 0.0], 400, 2, 16)
+            assert np.max(np.abs(tr.final_state[:-1] - x)) < 1e-9 * np.max(np.abs(x)), (outputs(mm).n_modes, W)
             assert tr.q_min == pytest.approx(a["q_min"][k], rel=1e-9)
             checked += 1
     assert checked >= 8
     mu = np.max(np.abs(d2["multipliers"]), axis=1)
     k = int(np.argmin(np.abs(mu - 4.0)))
     assert not d2["stable"][k] and 2 < mu[k] < 10
-    tr = BeamEventSolver(m2.scene()).point(d2["parameter"][k], np.r_[d2["state"][k], 0.0], 400, 2, 16)
+    tr = BeamEventSolver(m2).point(d2["parameter"][k], np.r_[d2["state"][k], 0.0], 400, 2, 16)
     assert np.max(np.abs(tr.final_state[:-1] - d2["state"][k])) > 1e-6 * np.max(np.abs(d2["state"][k]))
 
 
@@ -328,19 +336,20 @@ def test_fe2_fold_lies_between_the_jumps_of_fine_up_and_down_sweeps(ladder):
     res, _, _ = ladder
     r = res["FE 2 modes"]
     m = rig("rig-fe-tight-continuation", 2)
+    f_ref, o = m.system.reference_hz, outputs(m)
     folds = sorted(_bifs(r, "fold"), key=lambda bf: -bf["amplitude"])
-    f_fold = folds[0]["parameter"] * m.f_ref_hz
+    f_fold = folds[0]["parameter"] * f_ref
     assert 16.4 < f_fold < 16.6
     d = r.branches[0]["data"]
-    up_orbit = d["stable"] & (d["amplitude"] * m.length_m > 0.3e-3)
-    k0 = np.flatnonzero(up_orbit)[np.argmin(np.abs(d["parameter"][up_orbit] * m.f_ref_hz - 16.6))]
+    up_orbit = d["stable"] & (d["amplitude"] * o.length_m > 0.3e-3)
+    k0 = np.flatnonzero(up_orbit)[np.argmin(np.abs(d["parameter"][up_orbit] * f_ref - 16.6))]
     solver = make_solver(m, "event")
     state = np.r_[d["state"][k0], 0.0]
     on, off = [], []
-    for f in np.arange(d["parameter"][k0] * m.f_ref_hz, 16.38, -0.005):
-        tr = solver.point(f / m.f_ref_hz, state, 600, 16, 16)
+    for f in np.arange(d["parameter"][k0] * f_ref, 16.38, -0.005):
+        tr = solver.point(f / f_ref, state, 600, 16, 16)
         state = tr.final_state
-        Q = summarize(tr, m.Delta)["amplitude"] * m.length_m
+        Q = summarize(tr, o.Delta)["amplitude"] * o.length_m
         (on if Q > 0.3e-3 else off).append(f)
         if off:
             break
@@ -348,9 +357,9 @@ def test_fe2_fold_lies_between_the_jumps_of_fine_up_and_down_sweeps(ladder):
     state = None
     up = []
     for f in np.arange(16.3, 17.5, 0.02):
-        tr = solver.point(f / m.f_ref_hz, state, 400, 16, 16)
+        tr = solver.point(f / f_ref, state, 400, 16, 16)
         state = tr.final_state
-        up.append((f, summarize(tr, m.Delta)["amplitude"] * m.length_m))
+        up.append((f, summarize(tr, o.Delta)["amplitude"] * o.length_m))
     jump = next(f for f, Q in up if Q > 0.3e-3)
     assert all(Q < 0.3e-3 for f, Q in up if f < jump) and jump > f_fold + 0.02
 
@@ -403,14 +412,14 @@ def test_resect_moves_an_impact_across_the_section(n_modes):
       period (impact at 0+ included) is the original's next period."""
     m = rig("rig-fe-neutral", n_modes)
     prob = shooting_problem(m)
-    N = m.n_modes
-    w = m.contact_row
-    W = 16.5 / m.f_ref_hz
+    N = outputs(m).n_modes
+    w = m.system.contacts[0]
+    W = 16.5 / m.system.reference_hz
     T = 2 * math.pi / W
-    x = BeamEventSolver(m.scene()).point(W, None, 300, 1, 1).final_state[:-1]
-    eta = x[:N] + w * (m.gap_contact_m - w @ x[:N]) / (w @ w)          # on the stop
+    x = BeamEventSolver(m).point(W, None, 300, 1, 1).final_state[:-1]
+    eta = x[:N] + w * (m.stops[0].relation.offset - w @ x[:N]) / (w @ w)          # on the stop
     approach = x[N:] + w * (W * np.max(np.abs(x)) - w @ x[N:]) / (w @ w)
-    x0 = np.concatenate(modal_flow(m.scene().system, 1e-9 * T, 0.0, eta, approach, W))   # the free flow back
+    x0 = np.concatenate(modal_flow(m.system, 1e-9 * T, 0.0, eta, approach, W))   # the free flow back
     s0 = prob.shot(x0, W, 1)
     assert s0.n_impacts >= 1 and abs(s0.impact_times[0] - 1e-9 * T) < 1e-12 * T
     x1 = prob.resect(x0, W, 1)
@@ -425,7 +434,7 @@ def test_resect_moves_an_impact_across_the_section(n_modes):
         s = prob.shot(xa, Wq, 1, derivatives=False)
         return (s.impact_times[0] * Wq / (2 * math.pi) if s.n_impacts else 2.0) - (1 - 1e-9)
 
-    W2 = brentq(late, 15.0 / m.f_ref_hz, 16.0 / m.f_ref_hz, xtol=1e-15, rtol=1e-15)
+    W2 = brentq(late, 15.0 / m.system.reference_hz, 16.0 / m.system.reference_hz, xtol=1e-15, rtol=1e-15)
     if late(W2) > 0.5:        # brentq may end on the side without an impact: take the other bracket end
         W2 = np.nextafter(W2, 0.0)
     T2 = 2 * math.pi / W2

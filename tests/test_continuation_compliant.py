@@ -13,7 +13,7 @@ from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import trace
 from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.scene import one_mode
+from vibeam.models.scene import one_mode, outputs
 from vibeam.engine.records import summarize
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop
@@ -237,7 +237,7 @@ def _rig(n_modes, k=1e5, gap_mm=0.0):
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     return case.model_spec({"n_modes": n_modes, "gap_mm": gap_mm,
-                            "contact": {"law": "linear", "stiffness_n_m": k}}).build()
+                            "contact": {"law": "linear", "stiffness_n_m": k}}).scene()
 
 
 @pytest.mark.parametrize("n_modes", [1, 2, 4])
@@ -252,11 +252,11 @@ def test_beam_shot_jacobian_liouville_and_state(n_modes):
     from vibeam.models import BeamEventSolver
 
     m = _rig(n_modes)
-    W = 16.0 / m.f_ref_hz
-    x0 = BeamEventSolver(m.scene()).point(W, None, 200, 4, 16).final_state[:2 * n_modes] * 1.001
+    W = 16.0 / m.system.reference_hz
+    x0 = BeamEventSolver(m).point(W, None, 200, 4, 16).final_state[:2 * n_modes] * 1.001
     d = 2 * n_modes
     sc = float(np.max(np.abs(x0)))
-    for par, p in (("Omega", W), ("system.base_amplitude", m.base_amplitude_m)):
+    for par, p in (("Omega", W), ("system.base_amplitude", m.system.base_amplitude)):
         prob = shooting_problem(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
@@ -273,9 +273,11 @@ def test_beam_shot_jacobian_liouville_and_state(n_modes):
         assert np.max(np.abs(s.M - J[:, :d])) < 1e-7 * np.max(np.abs(s.M))
         assert np.max(np.abs(s.x_p - J[:, d])) < 1e-7 * np.max(np.abs(s.x_p))
         # trace of the free phase's state matrix -sum c_i; the contact's dashpot c_c / omega_ref along w
-        w = m.contact_row
-        cc = m.contact_damping_n_s_m / m.omega_ref
-        det = math.exp(-np.sum(m.c_nd) * 2 * math.pi / W - cc * float(w @ w) * s.extra["contact_time"])
+        w = m.system.contacts[0]
+        law, om_ref = m.stops[0].law, 2 * math.pi * m.system.reference_hz
+        # c_c = 2 zeta_c sqrt(k_c m_eff) (N s/m), k_c in SI (the scene holds it over omega_ref^2)
+        cc = 2.0 * law.damping_ratio * math.sqrt(law.stiffness * om_ref ** 2 * outputs(m).m_eff) / om_ref
+        det = math.exp(-np.sum(m.system.damping) * 2 * math.pi / W - cc * float(w @ w) * s.extra["contact_time"])
         assert np.linalg.det(s.M) == pytest.approx(det, rel=1e-9, abs=1e-300)
 
 
@@ -284,14 +286,17 @@ def _one_dof(m):
     map, paper Eqs. 1-2): ``q = w eta / (phi L)``, ``tau = sqrt(k) t``; the stop's stiffness
     ratio is ``w^2 k_c / k`` and its damping ratio is the beam's (``c_c = 2 zeta sqrt(k_c m_eff)``,
     ``m_eff = 1 / w^2``)."""
-    (k,), (c,) = m.k_nd, m.c_nd
-    (w,), (G,) = m.contact_row, m.participation
-    a = w / (m.phi_at_mass * m.length_m)
+    sy = m.system
+    (k,), (c,) = sy.omega ** 2, sy.damping
+    (w,), (G,) = sy.contacts[0], sy.participation
+    phiL = float(sy.contact_static[0]) * sy.length_unit_m
+    a = w / phiL
     sk = math.sqrt(k)
-    kc = m.contact.stiffness / m.omega_ref ** 2
-    sd = sdof(beta=c / (2 * sk), B=w * G * m.base_amplitude_m / (m.phi_at_mass * m.length_m),
-              Delta=a * m.gap_contact_m / w,
-              law=LinearContact.from_damping_ratio(w * w * kc / k, m.contact.damping_ratio))
+    law = m.stops[0].law
+    kc = law.stiffness      # the scene holds the SI stiffness over omega_ref^2
+    sd = sdof(beta=c / (2 * sk), B=w * G * sy.base_amplitude / phiL,
+              Delta=a * m.stops[0].relation.offset / w,
+              law=LinearContact.from_damping_ratio(w * w * kc / k, law.damping_ratio))
     return sd, sk, (lambda x: np.array([a * x[0], a * x[1] / sk]))
 
 
@@ -306,8 +311,8 @@ def test_one_mode_beam_branch_equals_its_sdof_branch():
 
     m = _rig(1, gap_mm=0.1)
     sd, sk, to_sdof = _one_dof(m)
-    lo, hi = 13.0 / m.f_ref_hz, 19.0 / m.f_ref_hz
-    x0 = BeamEventSolver(m.scene()).point(lo, None, 600, 4, 16).final_state[:2]
+    lo, hi = 13.0 / m.system.reference_hz, 19.0 / m.system.reference_hz
+    x0 = BeamEventSolver(m).point(lo, None, 600, 4, 16).final_state[:2]
     bb = trace(shooting_problem(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
     assert len(bb.points) > 10
     prob = shooting_problem(sd)
@@ -333,14 +338,14 @@ def test_beam_grazing_indicator_and_event_runs():
 
     m = _rig(2, gap_mm=0.1)
     prob = shooting_problem(m)
-    W = 19.0 / m.f_ref_hz
+    W = 19.0 / m.system.reference_hz
     x, why = prob.start("linear", W)
     s = prob.shot(x, W, 1)
     assert s.n_impacts == 0 and np.max(np.abs(s.x - x)) < 1e-12 * np.max(np.abs(x))
-    assert s.apex_gap == pytest.approx(prob.linear_amplitude(W) - m.gap_contact_m, abs=1e-12)
+    assert s.apex_gap == pytest.approx(prob.linear_amplitude(W) - m.stops[0].relation.offset, abs=1e-12)
     m = _rig(2)
-    lo, hi = 12.5 / m.f_ref_hz, 16.0 / m.f_ref_hz
-    x0 = BeamEventSolver(m.scene()).point(lo, None, 400, 4, 16).final_state[:4]
+    lo, hi = 12.5 / m.system.reference_hz, 16.0 / m.system.reference_hz
+    x0 = BeamEventSolver(m).point(lo, None, 400, 4, 16).final_state[:4]
     b = trace(shooting_problem(m), x0, lo, 1, lo, hi, +1)[0]
     assert b.status == "range_end"
     A = b.arrays()
@@ -348,8 +353,8 @@ def test_beam_grazing_indicator_and_event_runs():
     assert idx.size > 10
     for i in idx[[0, idx.size // 2, -1]]:
         pt = b.points[i]
-        tr = BeamEventSolver(m.scene()).point(pt.p, np.concatenate([pt.x * 1.01, [0.0]]), 800, 4, 64)
-        sm = summarize(tr, m.Delta)
+        tr = BeamEventSolver(m).point(pt.p, np.concatenate([pt.x * 1.01, [0.0]]), 800, 4, 64)
+        sm = summarize(tr, outputs(m).Delta)
         assert sm["period"] == 1
         assert sm["amplitude"] == pytest.approx(A["amplitude"][i], rel=1e-9)
 

@@ -3,6 +3,8 @@ problem of vibeam.models.core.shooting (the scene's SceneShooting with a lower s
 finite differences, Liouville's formula, the two-stop event kernel, the one-stop problem and
 the mirror symmetry of a symmetric scene."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -11,7 +13,7 @@ from vibeam.models.compliant import HuntCrossley, LinearContact
 from vibeam.models.continuation import Settings, start_point, trace
 from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.scene import one_mode
+from vibeam.models.scene import one_mode, outputs
 from vibeam.engine.records import summarize
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop
@@ -307,7 +309,7 @@ def _rig2(n_modes, gap_lower_mm=0.3, lower=None):
         over["gap_lower_mm"] = gap_lower_mm
     if lower is not None:
         over["contact_lower"] = lower
-    return case.model_spec(over).build()
+    return case.model_spec(over).scene()
 
 
 def _beam_jacobian(prob, x, W):
@@ -337,21 +339,24 @@ def test_beam_shot_jacobian_and_liouville(n_modes):
     from vibeam.models import BeamEventSolver
 
     m = _rig2(n_modes)
-    N = m.n_modes
+    N = outputs(m).n_modes
     W = 15.4 / 7.6
-    tr = BeamEventSolver(m.scene(), record_modal_states=True).point(W, None, 40, 1, 64)
+    tr = BeamEventSolver(m, record_modal_states=True).point(W, None, 40, 1, 64)
     prob = shooting_problem(m)
-    w = m.contact_row
-    lo = m.mass_stops()[1].law      # the lower stop's law in kernel units: k_l / omega_ref^2, c_l / omega_ref, its gap
-    kl = lo.stiffness / m.omega_ref ** 2
-    cl = 2.0 * lo.damping_ratio * np.sqrt(lo.stiffness * m.m_eff) / m.omega_ref
-    Dl = m.gap_contact_lower_m
+    w = m.system.contacts[0]
+    om_ref, m_eff = 2 * np.pi * m.system.reference_hz, outputs(m).m_eff
+    up, lo = m.stops[0].law, m.stops[1].law   # the stops' laws in kernel units (the scene's): k / omega_ref^2
+    # the lower stop in kernel units: k_l / omega_ref^2, c_l / omega_ref (c_l = 2 zeta_l sqrt(k_l m_eff), k_l
+    # in SI), its gap
+    kl = lo.stiffness
+    cl = 2.0 * lo.damping_ratio * np.sqrt(lo.stiffness * om_ref ** 2 * m_eff) / om_ref
+    Dl = m.stops[1].relation.offset
     ms = tr.extra["modal_states"]
     gl = -(ms[:, :N] @ w) - Dl
     inside = np.flatnonzero((gl > 0) & (kl * gl - cl * (ms[:, N:] @ w) > 0))
     assert inside.size
     # near the 18 Hz orbit (one contact on each stop), and inside the lower stop at 15.4 Hz
-    x18 = BeamEventSolver(m.scene()).point(18.0 / 7.6, None, 100, 1, 4).final_state[:2 * N] * (1 + 1e-3)
+    x18 = BeamEventSolver(m).point(18.0 / 7.6, None, 100, 1, 4).final_state[:2 * N] * (1 + 1e-3)
     for x, W in ((x18, 18.0 / 7.6), (ms[inside[inside.size // 2]], W)):
         s, J = _beam_jacobian(prob, x, W)
         assert s.status == "ok" and s.extra["contact_time_lower"] > 0 and s.extra["contact_time_upper"] > 0
@@ -359,9 +364,9 @@ def test_beam_shot_jacobian_and_liouville(n_modes):
         assert np.max(np.abs(A - J)) <= 1e-7 * np.max(np.abs(A))
         e = s.extra
         # trace of the free phase's state matrix -sum c_i; each stop's dashpot c / omega_ref along w
-        cc = m.contact_damping_n_s_m / m.omega_ref
-        cl = 2.0 * lo.damping_ratio * np.sqrt(lo.stiffness * m.m_eff) / m.omega_ref
-        want = np.exp(-np.sum(m.c_nd) * 2 * np.pi / W - float(w @ w) * (cc * e["contact_time_upper"]
+        cc = 2.0 * up.damping_ratio * np.sqrt(up.stiffness * om_ref ** 2 * m_eff) / om_ref
+        cl = 2.0 * lo.damping_ratio * np.sqrt(lo.stiffness * om_ref ** 2 * m_eff) / om_ref
+        want = np.exp(-np.sum(m.system.damping) * 2 * np.pi / W - float(w @ w) * (cc * e["contact_time_upper"]
                                                                       + cl * e["contact_time_lower"]))
         assert abs(np.linalg.det(s.M) / want - 1.0) < 1e-12
 
@@ -377,7 +382,7 @@ def test_beam_two_stop_branch_period_doubling_and_event_runs():
 
     m = _rig2(2)
     W = 18.0 / 7.6
-    tr = BeamEventSolver(m.scene()).point(W, None, 400, 4, 32)
+    tr = BeamEventSolver(m).point(W, None, 400, 4, 32)
     brs = trace(shooting_problem(m, "Omega"), tr.final_state[:4], W, 1, 17.0 / 7.6, 19.0 / 7.6, -1)
     assert [b.n for b in brs] == [1, 2]
     pd = [f for f in brs[0].bifurcations if f.type == "period_doubling"]
@@ -389,7 +394,7 @@ def test_beam_two_stop_branch_period_doubling_and_event_runs():
         assert idx
         for i in idx[:: max(1, len(idx) // 2)]:
             x = a["state"][i]
-            t = BeamEventSolver(m.scene()).point(a["parameter"][i], np.concatenate([x, [0.0]]), 400, 4, 32)
+            t = BeamEventSolver(m).point(a["parameter"][i], np.concatenate([x, [0.0]]), 400, 4, 32)
             assert np.max(np.abs(t.final_state[:4] - x)) < 1e-9 * np.max(np.abs(x))
             assert t.n_impacts_lower == 4 and t.n_impacts == 8
 
@@ -397,7 +402,7 @@ def test_beam_two_stop_branch_period_doubling_and_event_runs():
 def test_beam_own_lower_law_branch_equals_event_runs_and_map_jacobian():
     """Two modes, lower stop of its own law (``[model.contact_lower]`` 3e4 N/m, damping ratio
     0.15, i.e. R_l = 0.65, beside 1e5 N/m, R = 0.72), 18 -> 17 Hz: the two-stop beam kernel
-    (laws from ``model.stops()``) is the oracle of the beam's shooting problem.
+    (laws from the scene's stops) is the oracle of the beam's shooting problem.
 
     * Scenario: one period-1 branch, stable throughout (max|mu| 0.64..0.80), one contact on
       each stop per period.
@@ -408,8 +413,10 @@ def test_beam_own_lower_law_branch_equals_event_runs_and_map_jacobian():
       one-period map (step 1e-5 relative; measured <= 1.2e-9 of max|mu|; bound 1e-6).
     Both fail if the shooting problem's lower stop takes the upper law."""
     m = _rig2(2, lower={"law": "linear", "stiffness_n_m": 3e4, "damping_ratio": 0.15})
-    up, lo = (st.law for st in m.stops())
-    assert (lo.stiffness, lo.damping_ratio) == (3e4, 0.15) and up.stiffness == 1e5
+    up, lo = (st.law for st in m.stops)
+    # the scene holds each SI stiffness over omega_ref^2 (the same division: bit for bit)
+    om_ref = 2 * math.pi * m.system.reference_hz
+    assert (lo.stiffness, lo.damping_ratio) == (3e4 / om_ref ** 2, 0.15) and up.stiffness == 1e5 / om_ref ** 2
     solver = make_solver(m, "event")
     W = 18.0 / 7.6
     tr = solver.point(W, None, 400, 4, 32)
@@ -438,7 +445,7 @@ def test_beam_far_lower_stop_gives_the_one_stop_shot():
 
     one, far = _rig2(2, None), _rig2(2, 100.0)
     W = 15.4 / 7.6
-    x = BeamEventSolver(one.scene()).point(W, None, 40, 4, 32).final_state[:4]
+    x = BeamEventSolver(one).point(W, None, 40, 4, 32).final_state[:4]
     a, b = shooting_problem(one).shot(x, W, 1), shooting_problem(far).shot(x, W, 1)
     assert a.n_impacts >= 1 and list(b.extra["impact_stops"]) == [0] * a.n_impacts
     np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-15 * np.max(np.abs(a.x)))

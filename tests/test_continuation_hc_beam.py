@@ -2,7 +2,7 @@
 :class:`vibeam.models.core.scene_shooting.SceneShooting` of the beam.
 
 Oracles: central differences of the shot (its Jacobian), the solve_ivp reference
-(:class:`vibeam.models.beam_dynamics.BeamODESolver`, no shared code with the kernel or
+(:class:`vibeam.models.core.direct.BeamODESolver`, no shared code with the kernel or
 the variational integration), the SDOF Hunt-Crossley shooting problem on the mapped stop (another
 flow, another derivative assembly, other units) and long event runs.
 """
@@ -10,6 +10,7 @@ from __future__ import annotations
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models import shooting_problem
 from vibeam.models.builders.sdof import sdof
+from vibeam.models.scene import outputs
 
 import math
 
@@ -33,15 +34,15 @@ def _rig(n_modes, k=1e8, gap_mm=None):
     over = {"n_modes": n_modes, "contact": {"law": "hunt_crossley", "stiffness_n_m": k}}
     if gap_mm is not None:
         over["gap_mm"] = gap_mm
-    return case.model_spec(over).build()
+    return case.model_spec(over).scene()
 
 
 def _settled(m, W, periods=100):
     from vibeam.models import BeamEventSolver
 
-    tr = BeamEventSolver(m.scene()).point(W, None, periods, 4, 16)
+    tr = BeamEventSolver(m).point(W, None, periods, 4, 16)
     assert tr.status == "ok" and tr.final_state[-1] == 0.0
-    return tr.final_state[:2 * m.n_modes]
+    return tr.final_state[:2 * outputs(m).n_modes]
 
 
 def test_two_mode_shot_jacobian_in_omega_against_central_differences():
@@ -54,7 +55,7 @@ def test_two_mode_shot_jacobian_in_omega_against_central_differences():
     and 7.8e-10 (d x / d Omega) of the largest entry, so 1e-6 is asserted.  ~0.4 s once the
     kernels are compiled (their first compile ~20 s, once per machine: numba's cache)."""
     m = _rig(2)
-    W = 16.0 / m.f_ref_hz
+    W = 16.0 / m.system.reference_hz
     x0 = _settled(m, W) * 1.001
     d = 4
     sc = float(np.max(np.abs(x0)))
@@ -81,11 +82,11 @@ def test_shot_jacobian_against_central_differences(n_modes):
     integrators' ~1e-12, i.e. ~1e-6 relative noise in a difference quotient at worst; measured
     agreement <= 3e-9 of the largest entry, so 1e-6 is asserted."""
     m = _rig(n_modes)
-    W = 16.0 / m.f_ref_hz
+    W = 16.0 / m.system.reference_hz
     x0 = _settled(m, W) * 1.001
     d = 2 * n_modes
     sc = float(np.max(np.abs(x0)))
-    for par, p in (("Omega", W), ("system.base_amplitude", m.base_amplitude_m)):
+    for par, p in (("Omega", W), ("system.base_amplitude", m.system.base_amplitude)):
         prob = shooting_problem(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1, s.message
@@ -110,18 +111,18 @@ def test_shot_end_state_is_the_event_kernels(n_modes):
     which moves the steps; measured ~1e-12), the independent solve_ivp reference (method
     ``direct``, DOP853 rtol 1e-11) to 1e-8 (measured ~1e-10), and the derivatives' own DOP853
     trajectory ends within 1e-8 of it (measured ~1e-11)."""
-    from vibeam.models.beam_dynamics import BeamODESolver
+    from vibeam.models.core.direct import BeamODESolver
     from vibeam.models import BeamEventSolver
 
     m = _rig(n_modes)
-    W = 16.0 / m.f_ref_hz
+    W = 16.0 / m.system.reference_hz
     x0 = _settled(m, W) * 1.001
     sc = float(np.max(np.abs(x0)))
     s = shooting_problem(m).shot(x0, W, 2)
     assert s.status == "ok" and s.n_impacts == 2
     s0 = np.concatenate([x0, [0.0]])
-    ev = BeamEventSolver(m.scene()).point(W, s0, 0, 2, 16)
-    ref = BeamODESolver(m.scene()).point(W, s0, 0, 2, 16)
+    ev = BeamEventSolver(m).point(W, s0, 0, 2, 16)
+    ref = BeamODESolver(m).point(W, s0, 0, 2, 16)
     assert np.max(np.abs(ev.final_state[:-1] - s.x)) < 1e-10 * sc
     assert np.max(np.abs(ref.final_state[:-1] - s.x)) < 1e-8 * sc
     assert np.max(np.abs(s.extra["rebuilt_state"] - s.x)) < 1e-8 * sc
@@ -133,8 +134,8 @@ def test_refusals():
     parameter is refused when built.  (A linear-law model, refused while each law had its own
     shooting class, is now served by the one shooting problem: it builds with its law.)"""
     m = _rig(1)
-    W = 16.0 / m.f_ref_hz
-    x = np.array([2.0 * m.gap_contact_m / m.contact_row[0], 0.0])
+    W = 16.0 / m.system.reference_hz
+    x = np.array([2.0 * m.stops[0].relation.offset / m.system.contacts[0][0], 0.0])
     s = shooting_problem(m).shot(x, W, 1)
     assert s.status == "failed" and "inside the stop" in s.message
     with pytest.raises(ValueError, match="parameter"):
@@ -142,7 +143,7 @@ def test_refusals():
     from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
-    lin = case.model_spec({"n_modes": 1, "contact": {"law": "linear", "stiffness_n_m": 1e8}}).build()
+    lin = case.model_spec({"n_modes": 1, "contact": {"law": "linear", "stiffness_n_m": 1e8}}).scene()
     assert shooting_problem(lin).scene.stops[0].law.name == "linear"
 
 
@@ -166,7 +167,7 @@ def test_registry_dispatch_and_case_validation():
 
     case = parse_case(_case_text())
     assert [r.method for r in case.run] == ["continuation"]
-    m = case.model_spec().build()
+    m = case.model_spec().scene()
     assert isinstance(shooting_problem(m, "Omega"), SceneShooting)
 
 
@@ -178,15 +179,16 @@ def _one_dof(m):
     (``1e-2 Omega B`` both)."""
     from vibeam.models.compliant import HuntCrossley
 
-    (k,), (c,) = m.k_nd, m.c_nd
-    (w,), (G,) = m.contact_row, m.participation
-    s = m.phi_at_mass * m.length_m
+    sy = m.system
+    (k,), (c,) = sy.omega ** 2, sy.damping
+    (w,), (G,) = sy.contacts[0], sy.participation
+    s = float(sy.contact_static[0]) * sy.length_unit_m
     a = w / s
     sk = math.sqrt(k)
-    law = m.contact
-    kc = law.stiffness / m.omega_ref ** 2
+    law = m.stops[0].law
+    kc = law.stiffness      # the scene holds the SI stiffness over omega_ref^2
     p = float(law.exponent)
-    sd = sdof(c / (2 * sk), w * G * m.base_amplitude_m / s, m.gap_contact_m / s,
+    sd = sdof(c / (2 * sk), w * G * m.system.base_amplitude / s, m.stops[0].relation.offset / s,
               law=HuntCrossley(w * w * kc * s ** (p - 1.0) / k, law.R, p))
     return sd, sk, (lambda x: np.array([a * x[0], a * x[1] / sk]))
 
@@ -202,7 +204,7 @@ def test_one_mode_beam_branch_equals_its_sdof_branch():
 
     m = _rig(1)
     sd, sk, to_sdof = _one_dof(m)
-    lo, hi = 16.5 / m.f_ref_hz, 17.0 / m.f_ref_hz
+    lo, hi = 16.5 / m.system.reference_hz, 17.0 / m.system.reference_hz
     x0 = _settled(m, lo, 100)
     bb = trace(shooting_problem(m), x0, lo, 1, lo, hi, +1, Settings(switch=False))[0]
     assert len(bb.points) > 5
@@ -229,7 +231,7 @@ def test_stable_branch_points_are_long_event_runs():
     from vibeam.models.continuation import Settings, trace
 
     m = _rig(2)
-    lo, hi = 15.0 / m.f_ref_hz, 17.0 / m.f_ref_hz
+    lo, hi = 15.0 / m.system.reference_hz, 17.0 / m.system.reference_hz
     x0 = _settled(m, hi, 300)
     b = trace(shooting_problem(m), x0, hi, 1, lo, hi, -1, Settings(switch=False))[0]
     a = b.arrays()
@@ -238,7 +240,7 @@ def test_stable_branch_points_are_long_event_runs():
     worst = 0.0
     for i in idx[:: max(1, len(idx) // 4)]:
         x = np.asarray(a["state"][i], float)
-        t = BeamEventSolver(m.scene()).point(float(a["parameter"][i]), np.concatenate([x * 1.01, [0.0]]), 600, 1, 16)
+        t = BeamEventSolver(m).point(float(a["parameter"][i]), np.concatenate([x * 1.01, [0.0]]), 600, 1, 16)
         assert t.status == "ok" and t.n_impacts == int(a["impacts"][i])
         worst = max(worst, np.max(np.abs(t.final_state[:4] - x)) / np.max(np.abs(x)))
     print(f"stable HC beam points vs 600-period event runs: {worst:.2e}")
@@ -268,13 +270,13 @@ def test_grazing_indicator_of_the_contact_free_orbit():
     free flow), and the shot of that orbit returns it (no contact; 1e-12 of the state)."""
     m = _rig(2, gap_mm=0.1)
     prob = shooting_problem(m)
-    W = 19.0 / m.f_ref_hz
+    W = 19.0 / m.system.reference_hz
     x, why = prob.start("linear", W)
     assert x is not None, why
     s = prob.shot(x, W, 1)
     assert s.status == "ok" and s.n_impacts == 0 and np.max(np.abs(s.x - x)) < 1e-12 * np.max(np.abs(x))
     assert s.apex_gap < 0.0
-    assert s.apex_gap == pytest.approx(prob.linear_amplitude(W) - m.gap_contact_m, abs=1e-12)
+    assert s.apex_gap == pytest.approx(prob.linear_amplitude(W) - m.stops[0].relation.offset, abs=1e-12)
 
 
 @pytest.mark.slow
@@ -287,12 +289,12 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
     spec = case.model_spec({"n_modes": 2, "contact": {"law": "hunt_crossley", "stiffness_n_m": 1e8}})
-    m = spec.build()
-    W = 16.0 / m.f_ref_hz
+    m = spec.scene()
+    W = 16.0 / m.system.reference_hz
     x = _settled(m, W) * 1.001
     V = float(spec.voltage)
     sv = problem(spec, "voltage", W).shot(x, V, 1)
-    sy = shooting_problem(m, "system.base_amplitude", Omega=W).shot(x, m.base_amplitude_m, 1)
+    sy = shooting_problem(m, "system.base_amplitude", Omega=W).shot(x, m.system.base_amplitude, 1)
     g = spec.scene_parameter("voltage")[1]
     assert sv.status == sy.status == "ok" and sv.n_impacts == 1
     np.testing.assert_allclose(sv.x, sy.x, rtol=0, atol=1e-14 * np.max(np.abs(x)))
@@ -308,18 +310,18 @@ def test_jacobian_with_the_velocity_floor(monkeypatch):
     import vibeam.models.core.laws as laws
 
     m = _rig(2)
-    W = 16.0 / m.f_ref_hz
+    W = 16.0 / m.system.reference_hz
     x0 = _settled(m, W) * 1.001
     monkeypatch.setattr(laws, "V_FLOOR", 10.0)     # the floor of the compliant laws (read when a model's kernel data are built)
     d = 4
     h0 = 1e-6 * float(np.max(np.abs(x0)))
-    for par, p in (("Omega", W), ("system.base_amplitude", m.base_amplitude_m)):
+    for par, p in (("Omega", W), ("system.base_amplitude", m.system.base_amplitude)):
         prob = shooting_problem(m, par, Omega=W)
         s = prob.shot(x0, p, 1)
         assert s.status == "ok" and s.n_impacts == 1
-        Y = p if par == "system.base_amplitude" else m.base_amplitude_m
-        v_floor = 10.0 * W * Y * abs(float(m.contact_row @ m.participation))
-        assert s.impact_velocities[0] * m.length_m < v_floor
+        Y = p if par == "system.base_amplitude" else m.system.base_amplitude
+        v_floor = 10.0 * W * Y * abs(float(m.system.contacts[0] @ m.system.participation))
+        assert s.impact_velocities[0] * m.system.length_unit_m < v_floor
         J = np.empty((d, d + 1))
         for c in range(d + 1):
             if c < d:
@@ -354,8 +356,8 @@ def test_two_stop_shot_fixed_point_and_jacobian_against_central_differences(lowe
     low = {"law": "hunt_crossley", "stiffness_n_m": 3e8} if lower == "hunt_crossley" else \
         {"law": "linear", "stiffness_n_m": 3e5}
     m = case.model_spec({"n_modes": 2, "gap_lower_mm": 0.3, "contact": {"law": "hunt_crossley", "stiffness_n_m": 1e8},
-                         "contact_lower": low}).build()
-    W = 16.0 / m.f_ref_hz
+                         "contact_lower": low}).scene()
+    W = 16.0 / m.system.reference_hz
     tr = make_solver(m, "event").point(W, None, 300, 4, 16)
     assert tr.status == "ok" and tr.final_state[-1] == 0.0
     x = tr.final_state[:4]

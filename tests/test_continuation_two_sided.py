@@ -21,8 +21,9 @@ from scipy.optimize import brentq
 
 from vibeam.case.schema import parse_case
 from vibeam.models import EventSolver, linear_amplitude, shooting_problem
-from vibeam.models.beam_dynamics import BeamImpactModel
 from vibeam.models import BeamEventSolver
+from vibeam.models.builders.beam import mass_stops
+from vibeam.models.builders.matrices import modal_scene
 from vibeam.models.continuation import Settings, trace
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.builders.sdof import sdof
@@ -250,9 +251,10 @@ def _beam1(Delta, Dl, R=0.9, R_lower=None, B=0.5e-3, beta=0.015):
     """The SDOF oscillator as a one-mode beam: k = 1 (f = f_ref), c = 2 beta, w = Gamma = s = 1,
     phi(x_m) = L = 1 (so q = eta, B = Gamma Y, Delta = Delta_C, m_eff = 1)."""
     f = 10.0
-    return BeamImpactModel([2 * math.pi * f], [1.0], [1.0], [1.0], R, Delta, B, f, 1.0, 1.0,
-                           rayleigh_alpha_1_s=2 * beta * 2 * math.pi * f, gap_contact_lower_m=Dl,
-                           R_lower=R_lower)
+    om = np.array([2 * math.pi * f])
+    return modal_scene(om, 2 * beta * 2 * math.pi * f + 0.0 * om ** 2, [1.0], [1.0], np.atleast_2d([1.0]),
+                       mass_stops(Delta, Restitution(R), Dl, None if R_lower is None else Restitution(R_lower)),
+                       B, f, 1.0, 1.0, "beam")
 
 
 @pytest.mark.slow   # default step budget (30-50 s on a cold numba cache); CI runs it in the slow step
@@ -279,9 +281,10 @@ def test_one_mode_beam_equals_the_sdof_branch():
 
 def _beam2(Dl, R_lower, Y):
     f = 10.0
-    return BeamImpactModel([2 * math.pi * f, 2 * math.pi * 63], [1.0, 0.3], [1.0, -0.8], [1.0, 0.5], 0.8, 0.0,
-                           Y, f, 1.0, 1.0, damping_D_s=2e-5, rayleigh_alpha_1_s=1.0, gap_contact_lower_m=Dl,
-                           R_lower=R_lower)
+    om = np.array([2 * math.pi * f, 2 * math.pi * 63])
+    return modal_scene(om, 1.0 + 2e-5 * om ** 2, [1.0, 0.3], [1.0, 0.5], np.atleast_2d([1.0, -0.8]),
+                       mass_stops(0.0, Restitution(0.8), Dl, None if R_lower is None else Restitution(R_lower)),
+                       Y, f, 1.0, 1.0, "beam")
 
 
 @pytest.mark.slow   # default step budget (~33 s on a cold numba cache)
@@ -298,7 +301,7 @@ def test_two_mode_beam_derivatives_against_central_differences(Dl, R_lower, Y, W
     central difference measured 1.6e-8 at one such state and 1.5e-6 at another (its error h^2
     times the curvature: 1.6e-8 at h = 1e-7 there)."""
     m = _beam2(Dl, R_lower, Y)
-    x0 = np.asarray(BeamEventSolver(m.scene()).point(W, None, 400, 8, 16).final_state[:4])
+    x0 = np.asarray(BeamEventSolver(m).point(W, None, 400, 8, 16).final_state[:4])
 
     def central(f, h):
         """Central difference extrapolated to h -> 0 from h and h / 2 (Richardson)."""
@@ -411,14 +414,15 @@ switch = false
     case = parse_case(text, "fe-two-sided.toml")
     (r,) = run_case(case, text, tmp_path, jobs=1, quiet=True, plots=False, continuation_only=True)
     assert r.status == "ok" and r.branches
-    model = case.model_spec().build()
+    model = case.model_spec().scene()
+    sy = model.system
     checked = 0
     for b in r.branches:
         d = b["data"]
         assert "impacts_lower" in d
         for k in np.flatnonzero(d["stable"] & (d["impacts_lower"] > 0))[::10][:3]:
             W, x = d["parameter"][k], d["state"][k]
-            tr = BeamEventSolver(model.scene()).point(W, np.r_[x, 0.0], 400, 2, 16)
+            tr = BeamEventSolver(model).point(W, np.r_[x, 0.0], 400, 2, 16)
             assert np.max(np.abs(np.asarray(tr.final_state[:4]) - x)) < 1e-8 * np.max(np.abs(x))
             # independent of the case's gap conversion: the stops at 0.1 mm and 0.3 mm (at the
             # sensor) times phi(x_m) of the static mode written out (phi(x_S) = 1), the period
@@ -427,10 +431,9 @@ switch = false
             # the impacts; measured <= 1.2e-14; a gap off by a factor moves the orbit by O(1))
             xm, xs = 132.0 / 180.0, 100.0 / 180.0
             phim = (xm ** 3 / 3) / (xs * xs * (3 * xm - xs) / 6)
-            wref = 2 * math.pi * model.f_ref_hz
-            om = model.omega_rad_s / wref
-            c = (model.rayleigh_alpha_1_s + model.damping_D_s * model.omega_rad_s ** 2) / wref
-            y, hits = _own_two_stop_period(om, c, model.participation, model.contact_row, model.base_amplitude_m,
+            om = sy.omega               # omega_i / omega_ref
+            c = sy.damping              # (alpha + D omega_i^2) / omega_ref
+            y, hits = _own_two_stop_period(om, c, sy.participation, sy.contacts[0], sy.base_amplitude,
                                            W, x, 0.1e-3 * phim, 0.3e-3 * phim, 0.8)
             assert hits[0] >= 1 and hits[1] == d["impacts_lower"][k]
             assert np.max(np.abs(y - x)) < 1e-9 * np.max(np.abs(x)), (W, y - x)

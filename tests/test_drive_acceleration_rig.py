@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from vibeam.case.beamscene import excitation, scene_of
 from vibeam.case.schema import load_case, parse_case
 from vibeam.errors import CaseError
 from vibeam.models import make_solver
@@ -28,29 +29,35 @@ ACC = 'kind = "base_acceleration"\namplitude_m_s2 = 0.8214037257202843\n'
 SHAKER = 'kind = "base_displacement"\ngain = 5.16e-4\nvoltage = 0.6\n'    # cases/rig-fe-neutral.toml
 
 
-def _model(shaker=False, gap_mm=None, n_modes=2):
+def _spec(shaker=False, gap_mm=None, n_modes=2):
     text = CASE.read_text()
     assert ACC in text and "gap_mm = 0.0\n" in text
     if shaker:
         text = text.replace(ACC, SHAKER)
     if gap_mm is not None:
         text = text.replace("gap_mm = 0.0\n", f"gap_mm = {gap_mm!r}\n")
-    return parse_case(text).model_spec({"n_modes": n_modes}).build()
+    return parse_case(text).model_spec({"n_modes": n_modes})
+
+
+def _model(shaker=False, gap_mm=None, n_modes=2):
+    return _spec(shaker, gap_mm, n_modes).scene()
 
 
 def _point(model, f_hz, n_transient=60, n_record=4):
-    return make_solver(model, "event").point(f_hz / model.f_ref_hz, None, n_transient, n_record, 64)
+    return make_solver(model, "event").point(f_hz / model.system.reference_hz, None, n_transient, n_record, 64)
 
 
 def test_the_shipped_acceleration_is_the_shaker_drive_at_f0():
     """``a = (2 pi f0)^2 gamma~ V`` (the header's numbers; 1e-15 relative: the case holds ``a`` to
     16 digits), and the two models differ in their drive only (participation, modes)."""
-    acc, disp = _model(), _model(shaker=True)
-    Y = disp.base_amplitude_m
+    acc_spec, disp_spec = _spec(), _spec(shaker=True)
+    acc, disp = acc_spec.scene(), disp_spec.scene()
+    Y = disp.system.base_amplitude
     assert Y == pytest.approx(8.6603e-5, rel=1e-4)
-    assert acc.excitation.amplitude == pytest.approx((2 * math.pi * F0) ** 2 * Y, rel=1e-15)
-    assert acc.base_amplitude_m == 0.0 and disp.excitation is None
-    sa, sd = acc.scene().system, disp.scene().system
+    # the SI drive and shaker amplitude the builder is given (a scene holds the drive in system units)
+    assert excitation(acc_spec).amplitude == pytest.approx((2 * math.pi * F0) ** 2 * Y, rel=1e-15)
+    assert scene_of(acc_spec).base_amplitude_m == 0.0 and excitation(disp_spec) is None
+    sa, sd = acc.system, disp.system
     assert (sa.drive_power, sd.drive_power) == (0, 2)
     np.testing.assert_array_equal(sa.participation, sd.participation)
     np.testing.assert_array_equal(sa.omega, sd.omega)

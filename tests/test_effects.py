@@ -8,14 +8,14 @@ import pytest
 
 from vibeam.case.contact import model_with
 from vibeam.case.schema import CaseError, EffectsSpec, load_case
-from vibeam.case.beamscene import build_beam_model_with_effects as build_beam_model
 from vibeam.case.beamscene import contact_factor, eccentric_contact_row
 from vibeam.engine.effects import EffectSolver, identify_platform, platform_H, wrap_solver
 from vibeam.models import BeamEventSolver, EventSolver, make_solver
-from vibeam.models.beam_dynamics import BeamImpactModel, apply_impact
+from vibeam.models.builders.beam import mass_stops
+from vibeam.models.builders.matrices import modal_scene
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.contact import Restitution
-from vibeam.models.impact import restitution_coefficient
+from vibeam.models.impact import newton_restitution, restitution_coefficient, restitution_impulse
 from vibeam.engine.sweep import Sweep, run_sweep
 from vibeam.models.scene import Scene, outputs
 
@@ -33,12 +33,27 @@ def _sdof(over=None):
 def beam():
     case, _ = load_case(CASES / "rig-fe-neutral.toml")
     spec = case.model_spec({"n_modes": 2, "n_elements": 12})
-    return spec, spec.build()
+    return spec, spec.scene()
 
 
 def _model(spec):
-    """The spec's model: the SDOF's scene (issue 58: no class) or the beam's model."""
-    return spec.build() if hasattr(spec, "build") else spec.scene()
+    """The spec's model: its scene (issue 58: no class)."""
+    return spec.scene()
+
+
+def build_beam_model(spec, effects):
+    """The beam table's scene with the structural effects of ``effects`` (the coupled platform's
+    record dropped)."""
+    return spec.effect_scene(effects, spec.scene())[0]
+
+
+def apply_impact(etad, w, U_minus, R, m_eff):
+    """Newton impact on the contact ``U = w^T eta``: impulse ``P = restitution_impulse(U-, R,
+    m_eff)`` along ``w``, ``eta' += w P`` in place; returns ``U+ = -R U-`` (the body of the deleted
+    ``vibeam.models.beam_dynamics.apply_impact``)."""
+    P = restitution_impulse(U_minus, R, m_eff)
+    etad += w * P
+    return newton_restitution(U_minus, R)
 
 
 def _scene(model):
@@ -65,7 +80,7 @@ def test_plain_scene_is_the_plain_solver(beam):
     w = wrap_solver(s, s.scene, spec, EffectsSpec.model_validate({"platform": {}}), {})
     assert isinstance(w, EffectSolver) and type(w.inner) is BeamEventSolver
     assert w.inner is s
-    fresh = spec.build().scene().system
+    fresh = spec.scene().system
     for k in ("omega", "participation", "contacts", "sensor"):
         np.testing.assert_array_equal(getattr(w.inner.scene.system, k), getattr(fresh, k))
     assert len(w.inner.scene.stops[0].law.table_U) == 0
@@ -124,11 +139,11 @@ def test_platform_coupled_heavy_platform_is_the_filter(beam):
     spec, model = beam
     s = _wrap(spec, model, {"platform": {"level": "coupled", "mass_kg": 1e7}})
     sy = s.inner.scene.system
-    assert sy.omega.size == model.n_modes + 1
+    assert sy.omega.size == outputs(model).n_modes + 1
     fz = sy.omega / sy.time_unit_s / (2 * math.pi)
     assert fz[0] == pytest.approx(3.25, rel=1e-3)
-    np.testing.assert_allclose(fz[1:], model.omega_rad_s / (2 * math.pi), rtol=1e-4)
-    fn = model.natural_frequency_hz
+    np.testing.assert_allclose(fz[1:], model.system.omega / model.system.time_unit_s / (2 * math.pi), rtol=1e-4)
+    fn = model.system.reference_hz
     H = abs(platform_H(2 * fn, 3.25, 0.05)) / abs(platform_H(fn, 3.25, 0.05))
     assert s.run_attrs["gain_ratio_2fn_to_fn"] == pytest.approx(H, rel=1e-3)
     # the effective gain itself, not only its ratio (a scale error of the coupled model's gain --
@@ -159,30 +174,32 @@ def test_eccentric_contact_row_includes_rotation(beam):
     Lm, h = sc.geometry.mass_position_m, 1e-6
     slope = (fe.deflection(P, np.array([Lm + h]))[0] - fe.deflection(P, np.array([Lm - h]))[0]) / (2 * h)
     np.testing.assert_allclose(P[fe.mass_dof_slope, :], slope, rtol=1e-4)      # the rotation DOF is w'
-    w_e = model.contact_row + e * P[fe.mass_dof_slope, :]
+    w0 = model.system.contacts[0]
+    w_e = w0 + e * P[fe.mass_dof_slope, :]
     np.testing.assert_allclose(eccentric_contact_row(fe, P, e), w_e, rtol=1e-12)
-    np.testing.assert_allclose(m.contact_row, w_e, rtol=1e-12)
-    assert np.all(np.abs(e * slope) > 1e-3 * np.abs(model.contact_row))        # the term matters
-    assert abs(m.m_eff - model.m_eff) > 1e-3 * model.m_eff
+    np.testing.assert_allclose(m.system.contacts[0], w_e, rtol=1e-12)
+    assert np.all(np.abs(e * slope) > 1e-3 * np.abs(w0))        # the term matters
+    assert abs(outputs(m).m_eff - outputs(model).m_eff) > 1e-3 * outputs(model).m_eff
     # the gap is measured at the contact point
-    assert m.phi_at_mass == pytest.approx(contact_factor(spec, e))
-    assert m.Delta == pytest.approx(model.Delta, abs=1e-15)
+    assert float(m.system.contact_static[0]) == pytest.approx(contact_factor(spec, e))
+    assert outputs(m).Delta == pytest.approx(outputs(model).Delta, abs=1e-15)
 
 
 def test_eccentric_impact_energy_loss(beam):
     spec, model = beam
     m = build_beam_model(spec, EffectsSpec.model_validate({"eccentric_impact": {"offset_mm": 6.0}}))
     rng = np.random.default_rng(1)
-    w = m.contact_row
+    w = m.system.contacts[0]
+    m_eff = outputs(m).m_eff
     for R in (0.0, 0.5, 0.72, 1.0):
         etad = rng.normal(size=w.size)
         Um = float(w @ etad)
         if Um < 0:
             etad, Um = -etad, -Um
         before = 0.5 * float(etad @ etad)
-        Up = apply_impact(etad, w, Um, R, m.m_eff)
+        Up = apply_impact(etad, w, Um, R, m_eff)
         assert Up == pytest.approx(-R * Um) and float(w @ etad) == pytest.approx(-R * Um)
-        assert before - 0.5 * float(etad @ etad) == pytest.approx(0.5 * (1 - R * R) * m.m_eff * Um ** 2, rel=1e-12)
+        assert before - 0.5 * float(etad @ etad) == pytest.approx(0.5 * (1 - R * R) * m_eff * Um ** 2, rel=1e-12)
 
 
 # ----------------------------------------------------------------------------- gap drift
@@ -258,15 +275,20 @@ def test_restitution_law_each_impact_beam(beam):
     vt = [0.0, 30.0, 100.0]
     Rt = [0.85, 0.55, 0.8]
     m = build_beam_model(spec, EffectsSpec.model_validate({"restitution_law": {"velocity_mm_s": vt, "R": Rt}}))
+    sy = m.system
+    up = m.stops[0].law
+    tU, tR = np.asarray(up.table_U), np.asarray(up.table_R)
+    phi = float(sy.contact_static[0])
     # one static-mode shape, no damping, no forcing: the same exact sequence test in kernel units
-    one = BeamImpactModel(m.omega_rad_s[:1], [0.0], m.contact_row[:1], m.sensor_row[:1], 0.72, 0.0, 0.0,
-                          m.f_ref_hz, m.length_m, m.phi_at_mass, restitution_table=(m.R_table_U, m.R_table_R))
-    to_mm_s = m.omega_ref * 1e3 / m.phi_at_mass          # contact velocity (kernel) -> sensor mm/s
+    one = modal_scene(sy.omega[:1] / sy.time_unit_s, np.zeros(1), [0.0], sy.sensor[:1], sy.contacts[:1, :1],
+                      mass_stops(0.0, Restitution(0.72, up.table_U, up.table_R)), 0.0, sy.reference_hz,
+                      sy.length_unit_m, phi, "beam")
+    to_mm_s = 2 * math.pi * sy.reference_hz * 1e3 / phi          # contact velocity (kernel) -> sensor mm/s
     U0 = 140.0 / to_mm_s
-    eta_d = U0 / one.contact_row[0]
-    v = _sequence(BeamEventSolver, one.scene(), U0, np.array([0.0, eta_d, 0.0])) * m.length_m   # contact U-
+    eta_d = U0 / one.system.contacts[0, 0]
+    v = _sequence(BeamEventSolver, one, U0, np.array([0.0, eta_d, 0.0])) * sy.length_unit_m   # contact U-
     assert v.size >= 5
-    Rs = np.array([restitution_coefficient(x, 0.72, m.R_table_U, m.R_table_R) for x in v])
+    Rs = np.array([restitution_coefficient(x, 0.72, tU, tR) for x in v])
     np.testing.assert_allclose(Rs, np.interp(v * to_mm_s, vt, Rt), rtol=1e-12)
     np.testing.assert_allclose(v[1:], Rs[:-1] * v[:-1], rtol=1e-9)
 

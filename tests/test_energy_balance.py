@@ -8,7 +8,7 @@ with, for the SDOF ``q'' + 2 beta q' + q = Omega^2 B sin(Omega t)`` (paper Eqs. 
 ``E = q'^2 / 2 + q^2 / 2``, the work of the base excitation ``W_F = int Omega^2 B sin(Omega t)
 q' dt`` and the viscous dissipation ``D = int 2 beta q'^2 dt``; for the modal beam (mass-
 normalised modes, ``eta_i'' + c_i eta_i' + k_i eta_i = Gamma_i Omega^2 Y sin(Omega t)`` in the
-kernel units of :mod:`vibeam.models.beam_dynamics`) ``E = sum eta_i'^2 / 2 + k_i eta_i^2 / 2``,
+kernel units of :mod:`vibeam.models.builders.beam`) ``E = sum eta_i'^2 / 2 + k_i eta_i^2 / 2``,
 ``W_F = int Omega^2 Y sin(Omega t) Gamma . eta' dt`` and ``D = int sum c_i eta_i'^2 dt``,
 divided by ``m_eff L^2`` (the unit of the beam's contact rows).  A contact of a compliant law
 loses the work the body does on the stop, ``int f delta' dt`` (linear law: the dashpot's work
@@ -82,6 +82,7 @@ from vibeam.models.compliant import HuntCrossley, LinearContact, damping_ratio_f
 from vibeam.models import make_solver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.contact import Restitution
+from vibeam.models.scene import outputs
 from vibeam.engine.records import summarize
 
 N_FINE, N_COARSE = 8192, 2048     # samples per forcing period
@@ -168,10 +169,11 @@ def _beam(law, two, lower=None):
         over["contact"] = {"law": "hunt_crossley", "stiffness_n_m": BEAM_HC_K}
     if two and lower == "hunt_crossley":
         over["contact_lower"] = {"law": "hunt_crossley", "stiffness_n_m": BEAM_HC_K_LO}
-    m = case.model_spec(over).build()
-    assert m.R == BEAM_R and m.gap_contact_m == 0.0
-    wr = m.omega_ref
-    me = m.m_eff
+    m = case.model_spec(over).scene()
+    sy = m.system
+    assert m.stops[0].law.R == BEAM_R and m.stops[0].relation.offset == 0.0
+    wr = 2 * math.pi * sy.reference_hz
+    me = outputs(m).m_eff
     if law == "restitution":
         up, lo = ("newton", BEAM_R), ("newton", BEAM_R_LO)
         solver = make_solver(m, "event", record_modal_states=True)
@@ -184,17 +186,17 @@ def _beam(law, two, lower=None):
         solver = make_solver(m, "event", record_modal_states=True)
     if lower == "hunt_crossley":
         lo = _hc(BEAM_HC_K_LO / wr ** 2, BEAM_R)
-    stops = [(1.0, m.gap_contact_m, up)] + ([(-1.0, m.gap_contact_lower_m, lo)] if two else [])
+    stops = [(1.0, m.stops[0].relation.offset, up)] + ([(-1.0, m.stops[1].relation.offset, lo)] if two else [])
     # a Hunt-Crossley lower stop: at 16 Hz a period-2 orbit with two upper contacts and one lower
     f_hz = 16.0 if lower else 17.5 if (two and law == "restitution") else (17.0 if two else 15.0)
-    W = f_hz / m.f_ref_hz
+    W = f_hz / sy.reference_hz
     hc = law == "hunt_crossley" or lower == "hunt_crossley"
-    return System(k=m.k_nd, c=m.c_nd, G=m.participation, Y=m.base_amplitude_m, w=m.contact_row,
-                  scale=me * m.length_m ** 2, stops=stops, Omega=W, period=2 if lower else 1,
+    return System(k=sy.omega ** 2, c=sy.damping, G=sy.participation, Y=sy.base_amplitude, w=sy.contacts[0],
+                  scale=me * sy.length_unit_m ** 2, stops=stops, Omega=W, period=2 if lower else 1,
                   counts=(2, 1) if lower else (1, 1) if two else (1,),
                   solver=solver, states=lambda tr: tr.extra["modal_states"],
-                  v_floor=(hertz_floor(W, m.base_amplitude_m, float(m.contact_row @ m.participation),
-                                       1e-6 * m.length_m, V_FLOOR) / m.length_m if hc else 0.0))
+                  v_floor=(hertz_floor(W, sy.base_amplitude, float(sy.contacts[0] @ sy.participation),
+                                       1e-6 * sy.length_unit_m, V_FLOOR) / sy.length_unit_m if hc else 0.0))
 
 
 SCENES = {

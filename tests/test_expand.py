@@ -35,7 +35,7 @@ from vibeam.case.schema import BeamSceneSpec, CaseError, SDOFSceneSpec, _validat
 from vibeam.io.store import case_hash
 from vibeam.models.core.event import stop_codes
 from vibeam.models.core.stops import held_sets, kernel_stops, kernel_system
-from vibeam.models.scene import Scene, one_mode, outputs, rest_state
+from vibeam.models.scene import one_mode, outputs, rest_state
 
 CASES = sorted((Path(__file__).resolve().parent.parent / "cases").glob("*.toml"))
 
@@ -123,8 +123,8 @@ def _same_derived(rec: dict, v) -> bool:
 
 
 def _built(spec):
-    """The spec's model: a scene (the SDOF's, issue 58: no class) or a beam's model."""
-    return spec.build() if hasattr(spec, "build") else spec.scene()
+    """The spec's model: its scene (issue 58: the SDOF, the beam and the structures have no class)."""
+    return spec.scene()
 
 
 def _scene_fields(sc) -> dict:
@@ -138,8 +138,10 @@ def _scene_fields(sc) -> dict:
     if sc.builder == "sdof":
         return {**own, "class": "SDOF", "mass_kg": None if math.isnan(s.mass_unit_kg) else s.mass_unit_kg,
                 "R_table": repr(tuple(zip(law.table_U, law.table_R)) if law.kind == "impulsive" else ())}
-    # a structure's (the N-mode model's subclasses): no R table attribute, f_ref and the modes kept
-    classes = {"matrices": "MatrixImpactModel", "continuum": "ContinuumImpactModel", "mesh": "MeshImpactModel"}
+    # the beam's and a structure's (the N-mode model and its subclasses): no R table attribute, f_ref and
+    # the modes kept
+    classes = {"beam": "BeamImpactModel", "matrices": "MatrixImpactModel", "continuum": "ContinuumImpactModel",
+               "mesh": "MeshImpactModel"}
     return {**own, "class": classes[sc.builder], "R_table": "None", "f_ref_hz": out.natural_frequency_hz,
             "n_modes": out.n_modes}
 
@@ -149,10 +151,9 @@ def _lower_follows(sc) -> bool:
     return len(sc.stops) > 1 and sc.stops[1].law is sc.stops[0].law
 
 
-def _packed(model) -> dict:
-    """Everything the kernels and the drivers read of a model: its scene packed (system, stops,
-    held sets), the modal system's fields, the output codes, units and initial state."""
-    sc = model if isinstance(model, Scene) else model.scene()
+def _packed(sc) -> dict:
+    """Everything the kernels and the drivers read of a scene: packed (system, stops, held sets), the
+    modal system's fields, the output codes, units and initial state (:func:`_scene_fields`)."""
     system, stops = sc.system, sc.stops
     ks = kernel_stops(system, stops)
     held, mismatch = held_sets(system, ks)
@@ -164,27 +165,16 @@ def _packed(model) -> dict:
     # added after the recording (issue 58: each contact's static ratio to the sensor, read by the
     # reports, not the kernels): the model's own ratio at its first contact, bit for bit
     added = fields.pop("contact_static")
-    phi = (1.0 if model.builder == "sdof" else outputs(model).phi_contact) if isinstance(model, Scene) else \
-        model.phi_contact
+    phi = 1.0 if sc.builder == "sdof" else outputs(sc).phi_contact
     assert float(added[0]) == float(phi), (added, phi)
     # added after the recording too (issue 58: the builder's frequency carried exactly, read by the
     # grid and the reports): the model's own, bit for bit (NaN for a nondimensional one)
     ref = fields.pop("reference_hz")
-    fn = outputs(model).natural_frequency_hz if isinstance(model, Scene) else getattr(model, "natural_frequency_hz", None)
+    fn = outputs(sc).natural_frequency_hz
     assert (math.isnan(ref) and fn is None) or ref == fn, (ref, fn)
     out.update({f"ModalSystem.{k}": v for k, v in fields.items()})
     out["stops"] = repr(stops)
-    if isinstance(model, Scene):
-        return {**out, **_scene_fields(sc)}
-    out["class"] = type(model).__name__
-    out["initial_state"] = np.asarray(model.initial_state())
-    codes = getattr(model, "stop_codes", None)
-    out["stop_codes"] = None if codes is None or codes() is None else np.asarray(codes())
-    out["R_table"] = repr(getattr(model, "R_table", None))
-    for k in ("natural_frequency_hz", "f_ref_hz", "length_m", "mass_kg", "n_modes", "fidelity"):
-        if hasattr(model, k):
-            out[k] = getattr(model, k)
-    return out
+    return {**out, **_scene_fields(sc)}
 
 
 ORACLE = Path(__file__).resolve().parent / "references" / "expand_oracle.npz"
@@ -324,7 +314,7 @@ def test_the_lower_stop_comes_second_and_point_stops_keep_their_codes():
     stops = table["stop"]
     assert len(stops) == 2
     new = _canonical(table)
-    assert list(new.build().stop_codes()) == list(_oracle()[1][_recorded(table)["packed"]["stop_codes"]["v"]]) \
+    assert list(stop_codes(new.scene().stops)) == list(_oracle()[1][_recorded(table)["packed"]["stop_codes"]["v"]]) \
         == [0, 2]
     # a lower stop at the mass given last, a point stop first: reordered, codes 0, 1, 2
     lower = {"side": "lower", "gap_mm": 0.5, "R": 0.6}
@@ -334,7 +324,7 @@ def test_the_lower_stop_comes_second_and_point_stops_keep_their_codes():
     assert [s["side"] for s in canonical["stop"]] == ["upper", "lower", stops[1].get("side", "upper")]
     assert origins[("stop", 0)] == "stop[2]" and origins[("stop", 1)] == "stop[1]" and origins[("stop", 2)] == "stop[0]"
     new, rec = _canonical(shuffled), _recorded(shuffled)
-    assert list(new.build().stop_codes()) == list(_oracle()[1][rec["packed"]["stop_codes"]["v"]]) == [0, 1, 2]
+    assert list(stop_codes(new.scene().stops)) == list(_oracle()[1][rec["packed"]["stop_codes"]["v"]]) == [0, 1, 2]
     b = _packed(_built(new))
     assert all((_same_derived if k.startswith(DERIVED) else _same)(r, b[k]) for k, r in rec["packed"].items())
 

@@ -414,7 +414,7 @@ def test_a_model_that_cannot_be_built_is_one_case_error():
         with warnings.catch_warnings():
             warnings.simplefilter("error")            # a warning would be a second line on stderr
             with pytest.raises(CaseError) as e:
-                spec.build()
+                spec.scene()
         _one_line_error(str(e.value))
         assert "cannot be built" in str(e.value) and needle in str(e.value), str(e.value)
 

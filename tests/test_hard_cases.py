@@ -23,9 +23,13 @@ from scipy.optimize import brentq
 
 from vibeam.models import EventSolver, make_solver
 from vibeam.models.beam import BeamFE, BeamGeometry
-from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver
+from vibeam.models.core.direct import BeamODESolver
 from vibeam.models import BeamEventSolver
+from vibeam.models.builders.beam import fe_beam, mass_stops, static_mode_beam
+from vibeam.models.builders.matrices import modal_scene
 from vibeam.models.builders.sdof import sdof
+from vibeam.models.contact import Restitution
+from vibeam.models.scene import outputs
 from vibeam.reductions.static_mode import static_mode_shape
 
 TWO_PI = 2.0 * math.pi
@@ -56,11 +60,21 @@ def _fe(n_elements):
 
 
 def _one_mode_beam(beta, B, R, Delta):
-    """A one-mode BeamImpactModel that *is* the SDOF ``(beta, B, R, Delta)``: omega =
+    """A one-mode beam scene that *is* the SDOF ``(beta, B, R, Delta)``: omega =
     omega_ref (k = 1), Gamma = w = s = 1, L = 1, Y = B, c = D omega = 2 beta, so
     eta = q, U = q, Delta_C = Delta and the beam kernel's times are the SDOF's."""
-    return BeamImpactModel([TWO_PI], [1.0], [1.0], [1.0], R, Delta, B, 1.0, 1.0, 1.0,
-                           damping_D_s=2 * beta / TWO_PI)
+    om = np.array([TWO_PI])
+    return modal_scene(om, 0.0 + 2 * beta / TWO_PI * om ** 2, [1.0], [1.0], np.atleast_2d([1.0]),
+                       mass_stops(Delta, Restitution(R)), B, 1.0, 1.0, 1.0, "beam")
+
+
+def _from_fe(fe, n_modes, R, gap, Y, damping_D_s=None):
+    """The FE beam truncated to ``n_modes`` with Newton's stop ``R`` at ``gap`` (m) above the mass,
+    base amplitude ``Y``; ``damping_D_s`` given: the FE model rebuilt with that damping."""
+    if damping_D_s is not None:
+        fe = BeamFE(fe.geometry, n_elements=fe.n_elements, refine=fe.refine, damping_D_s=damping_D_s,
+                    rayleigh_alpha_1_s=fe.rayleigh_alpha_1_s)
+    return fe_beam(fe, n_modes, mass_stops(gap, Restitution(R)), base_amplitude_m=Y)
 
 
 def _sdof_solver(m, method, **kw):
@@ -188,9 +202,9 @@ def test_grazing_ode_methods_resolvable_decades(method):
 # contact velocity / L.
 def _beam_grazing_model(kind, gap):
     if kind == "static":
-        return BeamImpactModel.static_mode(_geom(), R=0.7, gap_contact_m=gap,
-                                           base_amplitude_m=Y_RIG, damping_D_s=D_RIG)
-    return BeamImpactModel.from_fe(_fe(12), kind, R=0.7, gap_contact_m=gap, base_amplitude_m=Y_RIG)
+        return static_mode_beam(_geom(), mass_stops(gap, Restitution(0.7)), base_amplitude_m=Y_RIG,
+                                damping_D_s=D_RIG)
+    return _from_fe(_fe(12), kind, 0.7, gap, Y_RIG)
 
 
 @pytest.mark.parametrize("kind", ["static", 3], ids=["static-mode", "fe-3-modes"])
@@ -200,11 +214,11 @@ def test_grazing_beam_every_decade_and_square_root_law(kind):
     (solve_ivp, rtol 1e-12, max_step T/1000) on the decades 1e-2 ... 1e-5 it can
     resolve (same step-end argument as the SDOF ODE methods)."""
     Om = 2.0
-    m0 = _beam_grazing_model(kind, 1.0)
-    F = Om**2 * m0.base_amplitude_m
-    H = m0.participation * F / (m0.k_nd - Om**2 + 1j * m0.c_nd * Om)
+    sy0 = _beam_grazing_model(kind, 1.0).system
+    F = Om**2 * sy0.base_amplitude
+    H = sy0.participation * F / (sy0.omega ** 2 - Om**2 + 1j * sy0.damping * Om)
     s0 = np.concatenate([H.imag, Om * H.real, [0.0]])
-    Z = complex(m0.contact_row @ H)
+    Z = complex(sy0.contacts[0] @ H)
     A = abs(Z)
     T = TWO_PI / Om
     eps_l, v_l, v_ex_l, v_ode = [], [], [], []
@@ -215,7 +229,7 @@ def test_grazing_beam_every_decade_and_square_root_law(kind):
         m = _beam_grazing_model(kind, gap)
         v_ex = Om * math.sqrt((A - gap) * (A + gap)) / L
         t_ex = ((math.asin(gap / A) - math.atan2(Z.imag, Z.real)) % TWO_PI) / Om
-        tr = BeamEventSolver(m.scene()).point(Om, s0, 0, 1, 64)
+        tr = BeamEventSolver(m).point(Om, s0, 0, 1, 64)
         assert tr.n_impacts == 1, (kind, eps)
         v = tr.impact_velocities[0]
         assert abs(v / v_ex - 1) < tol_ev(eps), (kind, eps, v / v_ex - 1)
@@ -223,7 +237,7 @@ def test_grazing_beam_every_decade_and_square_root_law(kind):
         assert tr.extra["contact_gap_max"] * L <= 1e-13 * gap   # round-off of w^T eta
         eps_l.append(eps), v_l.append(v), v_ex_l.append(v_ex)
         if e <= 5:
-            r = BeamODESolver(m.scene(), rtol=1e-12, atol=1e-15, max_step=T / 1000).point(Om, s0, 0, 1, 64)
+            r = BeamODESolver(m, rtol=1e-12, atol=1e-15, max_step=T / 1000).point(Om, s0, 0, 1, 64)
             assert r.status == "ok" and r.n_impacts == 1, (kind, eps)
             assert abs(r.impact_velocities[0] / v_ex - 1) < 1e-10 / eps
             v_ode.append(r.impact_velocities[0])
@@ -304,7 +318,7 @@ def test_zeno_accumulation_time_forced(fidelity, R, Delta, F, u0):
     if fidelity == "sdof":
         tr = EventSolver(sdof(beta, B, Delta, R)).point(Omega, s0, 0, n_rec, 64)
     else:
-        tr = BeamEventSolver(_one_mode_beam(beta, B, R, Delta).scene()).point(Omega, s0, 0, n_rec, 64)
+        tr = BeamEventSolver(_one_mode_beam(beta, B, R, Delta)).point(Omega, s0, 0, n_rec, 64)
     window = n_rec * TWO_PI / Omega
     t_stick = window * (1 - tr.extra["stuck_fraction"])
     print(f"Zeno {fidelity} R={R}: t_acc ref {t_acc:.15f}, solver {t_stick:.15f}, "
@@ -337,7 +351,7 @@ def test_plastic_impact_sticks_at_first_impact(fidelity):
     if fidelity == "sdof":
         tr = EventSolver(sdof(beta, B, Delta, 0.0)).point(Omega, s0, 0, 4, 256)
     else:
-        tr = BeamEventSolver(_one_mode_beam(beta, B, 0.0, Delta).scene()).point(Omega, s0, 0, 4, 256)
+        tr = BeamEventSolver(_one_mode_beam(beta, B, 0.0, Delta)).point(Omega, s0, 0, 4, 256)
     assert tr.status == "sticking", tr.message
     assert tr.n_impacts == 1
     assert tr.impact_times[0] == pytest.approx(tau, abs=1e-12)
@@ -427,19 +441,20 @@ def _kkt(m, Om):
     """Harmonic and static parts of the beam held on the stop (modal KKT systems,
     independent of the kernel's constrained basis): eta = x0 + Im(xh e^{i phi}); the
     multiplier row gives the pressing force push = x0[N] + Im(xh[N] e^{i phi}) (held
-    while push > 0), for base amplitude m.base_amplitude_m."""
-    N = m.n_modes
-    w, k, c = m.contact_row, m.k_nd, m.c_nd
+    while push > 0), for the scene's base amplitude m.system.base_amplitude."""
+    sy = m.system
+    N = outputs(m).n_modes
+    w, k, c = sy.contacts[0], sy.omega ** 2, sy.damping
     Z = np.zeros((N + 1, N + 1), complex)
     Z[:N, :N] = np.diag(k - Om**2 + 1j * Om * c)
     Z[:N, N] = w
     Z[N, :N] = w
-    xh = np.linalg.solve(Z, np.concatenate([m.participation * Om**2 * m.base_amplitude_m, [0.0]]))
+    xh = np.linalg.solve(Z, np.concatenate([sy.participation * Om**2 * sy.base_amplitude, [0.0]]))
     S = np.zeros((N + 1, N + 1))
     S[:N, :N] = np.diag(k)
     S[:N, N] = w
     S[N, :N] = w
-    x0 = np.linalg.solve(S, np.concatenate([np.zeros(N), [m.gap_contact_m]]))
+    x0 = np.linalg.solve(S, np.concatenate([np.zeros(N), [m.stops[0].relation.offset]]))
     return x0, xh
 
 
@@ -453,22 +468,21 @@ def test_prestressed_beam_release_threshold_three_modes():
     beam is released (stuck fraction < 1); up to the closed-form release phase the
     samples still follow the constrained response."""
     fe = _fe(24)
-    m1 = BeamImpactModel.from_fe(fe, 3, R=0.5, gap_contact_m=-0.2e-3, base_amplitude_m=1.0)
-    Om = 8.0 / m1.f_ref_hz
+    m1 = _from_fe(fe, 3, 0.5, -0.2e-3, 1.0)
+    Om = 8.0 / m1.system.reference_hz
     x0, xh1 = _kkt(m1, Om)
-    N = m1.n_modes
+    N = outputs(m1).n_modes
     Y_star = x0[N] / abs(xh1[N])
     assert x0[N] > 0
     spp, n_rec = 256, 3
     ph = TWO_PI * np.arange(n_rec * spp) / spp
     for ratio in (0.999, 1.001):
-        m = BeamImpactModel.from_fe(fe, 3, R=0.5, gap_contact_m=-0.2e-3,
-                                    base_amplitude_m=ratio * Y_star)
+        m = _from_fe(fe, 3, 0.5, -0.2e-3, ratio * Y_star)
         _, xh = _kkt(m, Om)
         s0 = np.concatenate([x0[:N] + xh[:N].imag, Om * xh[:N].real, [1.0]])
-        tr = BeamEventSolver(m.scene()).point(Om, s0, 0, n_rec, spp)
+        tr = BeamEventSolver(m).point(Om, s0, 0, n_rec, spp)
         eta = x0[:N, None] + np.imag(xh[:N, None] * np.exp(1j * ph))
-        q = m.sensor_row @ eta / L
+        q = m.system.sensor @ eta / L
         push = x0[N] + np.imag(xh[N] * np.exp(1j * ph))
         scale = np.max(np.abs(q))
         print(f"held beam Y/Y* = {ratio}: {tr.status}, stuck fraction {tr.extra['stuck_fraction']:.6f}")
@@ -611,8 +625,8 @@ def test_long_run_beam_no_drift():
     d_final = np.max(np.abs(final[1] - final[0]))
     print(f"one-mode beam: final states after 1e3 and 1e5 periods differ by {d_final:.1e}")
     assert d_final <= 1e-16
-    m = BeamImpactModel.from_fe(_fe(24), 4, R=0.72, gap_contact_m=0.0, base_amplitude_m=Y_RIG)
-    W = 15.5 / m.f_ref_hz
+    m = _from_fe(_fe(24), 4, 0.72, 0.0, Y_RIG)
+    W = 15.5 / m.system.reference_hz
     s = make_solver(m, "event")
     t0 = time.perf_counter()
     a = s.point(W, None, 10**3, 2, 64)
@@ -631,8 +645,8 @@ def test_long_run_beam_no_drift():
 
 # ============================================================================ many modes
 def _modal_energy(m, X):
-    N = m.n_modes
-    return 0.5 * np.sum(X[:, N:] ** 2, axis=1) + 0.5 * np.sum(m.k_nd * X[:, :N] ** 2, axis=1)
+    N = outputs(m).n_modes
+    return 0.5 * np.sum(X[:, N:] ** 2, axis=1) + 0.5 * np.sum(m.system.omega ** 2 * X[:, :N] ** 2, axis=1)
 
 
 @pytest.mark.slow
@@ -651,14 +665,14 @@ def test_many_modes_all_modes_fine_mesh_stable():
     fe = _fe(80)
     spp, n_rec, n_sub = 64, 12, 32
     for R in (1.0, 0.7):
-        m = BeamImpactModel.from_fe(fe, "all", R=R, gap_contact_m=0.5e-3, base_amplitude_m=0.0,
-                                    damping_D_s=0.0)
-        N = m.n_modes
+        m = _from_fe(fe, "all", R, 0.5e-3, 0.0, damping_D_s=0.0)
+        N = outputs(m).n_modes
+        w = m.system.contacts[0]
         s0 = np.zeros(2 * N + 1)
-        s0[N] = 2.0e-3 / m.contact_row[0]
+        s0[N] = 2.0e-3 / w[0]
         Om = 0.7   # only sets the sampling period (free run)
         t0 = time.perf_counter()
-        tr = BeamEventSolver(m.scene(), record_modal_states=True, max_steps_per_period=200000).point(
+        tr = BeamEventSolver(m, record_modal_states=True, max_steps_per_period=200000).point(
             Om, s0, 0, n_rec, spp)
         dt = time.perf_counter() - t0
         X = tr.extra["modal_states"]
@@ -672,29 +686,29 @@ def test_many_modes_all_modes_fine_mesh_stable():
         else:
             assert np.all(np.diff(E) <= 1e-14 * E[0])
             assert E[-1] < 0.9 * E[0]
-        U = X[:, :N] @ m.contact_row
-        gap = m.gap_contact_m
+        U = X[:, :N] @ w
+        gap = m.stops[0].relation.offset
         tol = 1e-12 * gap
         assert np.all(U <= gap + tol) and tr.extra["contact_gap_max"] * L <= tol
         h = TWO_PI / Om / spp
-        om = np.sqrt(m.k_nd)
+        om = np.sqrt(m.system.omega ** 2)
         ss = np.arange(1, n_sub + 1) * (h / n_sub)
         checked = 0
         for j in range(X.shape[0] - 1):
             if np.any((tr.impact_times >= j * h) & (tr.impact_times <= (j + 1) * h)):
                 continue
             eta, etad = X[j, :N], X[j, N:]
-            sub = (np.cos(np.outer(ss, om)) * eta + np.sin(np.outer(ss, om)) * (etad / om)) @ m.contact_row
+            sub = (np.cos(np.outer(ss, om)) * eta + np.sin(np.outer(ss, om)) * (etad / om)) @ w
             assert np.all(sub <= gap + tol), (R, j)
             checked += 1
         assert checked > 0.8 * (X.shape[0] - 1)
-    m = BeamImpactModel.from_fe(fe, "all", R=0.72, gap_contact_m=0.0, base_amplitude_m=Y_RIG)
-    W = 15.5 / m.f_ref_hz
+    m = _from_fe(fe, "all", 0.72, 0.0, Y_RIG)
+    W = 15.5 / m.system.reference_hz
     s = make_solver(m, "event")
     t0 = time.perf_counter()
     tr = s.point(W, None, 20, 4, 64)
     dt = time.perf_counter() - t0
-    print(f"all {m.n_modes} modes (80 elements), forced rig 15.5 Hz: {dt / 24:.3f} s per forcing "
+    print(f"all {outputs(m).n_modes} modes (80 elements), forced rig 15.5 Hz: {dt / 24:.3f} s per forcing "
           f"period, {tr.extra['steps_per_period']:.0f} steps/period, {tr.n_impacts} impacts, {tr.status}")
     assert tr.status == "ok" and tr.n_impacts > 0
     assert np.max(tr.samples[:, 0]) <= 1e-13 * np.max(np.abs(tr.samples[:, 0]))
@@ -749,19 +763,19 @@ def test_property_energy_never_increases_beam(n, beta, R, gap_rel, seed):
     round-off), and the contact never passes the stop (1e-12 of the gap; U is a sum
     of a few modal terms)."""
     fe = _fe(12)
-    m0 = BeamImpactModel.from_fe(fe, n, R=R, gap_contact_m=1.0, base_amplitude_m=0.0)
-    Dd = 2 * beta / m0.omega_rad_s[0]
+    sy0 = _from_fe(fe, n, R, 1.0, 0.0).system
+    Dd = 2 * beta / (sy0.omega / sy0.time_unit_s)[0]
     rng = np.random.default_rng(seed)
     etad = rng.normal(size=n) * 1e-3
-    amp = abs(m0.contact_row @ etad) + 1e-6   # contact amplitude ~ velocity (nondim time)
+    amp = abs(sy0.contacts[0] @ etad) + 1e-6   # contact amplitude ~ velocity (nondim time)
     gap = gap_rel * amp
-    m = BeamImpactModel.from_fe(fe, n, R=R, gap_contact_m=gap, base_amplitude_m=0.0, damping_D_s=Dd)
+    m = _from_fe(fe, n, R, gap, 0.0, damping_D_s=Dd)
     s0 = np.concatenate([np.zeros(n), etad, [0.0]])
-    tr = BeamEventSolver(m.scene(), record_modal_states=True).point(0.7, s0, 0, 3, 64)
+    tr = BeamEventSolver(m, record_modal_states=True).point(0.7, s0, 0, 3, 64)
     assert tr.status != "failed"
     E = _modal_energy(m, tr.extra["modal_states"])
     assert np.all(np.diff(E) <= 1e-13 * E[0])
-    U = tr.extra["modal_states"][:, :n] @ m.contact_row
+    U = tr.extra["modal_states"][:, :n] @ m.system.contacts[0]
     assert np.all(U <= gap * (1 + 1e-12))
     assert tr.extra["contact_gap_max"] * L <= 1e-12 * gap
 
@@ -776,15 +790,15 @@ def test_property_beam_never_beyond_stop(n, R, Om, gap_rel, near, graze):
     no exact extreme of the contact beyond the stop by more than round-off (1e-12 of the
     scale |gap| + linear amplitude)."""
     fe = _fe(12)
-    m0 = BeamImpactModel.from_fe(fe, n, R=R, gap_contact_m=1.0, base_amplitude_m=Y_RIG)
+    sy0 = _from_fe(fe, n, R, 1.0, Y_RIG).system
     F = Om**2 * Y_RIG
-    H = m0.participation * F / (m0.k_nd - Om**2 + 1j * m0.c_nd * Om)
-    A = abs(m0.contact_row @ H)
+    H = sy0.participation * F / (sy0.omega ** 2 - Om**2 + 1j * sy0.damping * Om)
+    A = abs(sy0.contacts[0] @ H)
     gap = A * (1 - 10.0**near) if graze else gap_rel * A
-    m = BeamImpactModel.from_fe(fe, n, R=R, gap_contact_m=gap, base_amplitude_m=Y_RIG)
-    tr = BeamEventSolver(m.scene(), record_modal_states=True).point(Om, None, 20, 3, 64)
+    m = _from_fe(fe, n, R, gap, Y_RIG)
+    tr = BeamEventSolver(m, record_modal_states=True).point(Om, None, 20, 3, 64)
     assert tr.status in ("ok", "chatter", "sticking")
-    U = tr.extra["modal_states"][:, :n] @ m.contact_row
+    U = tr.extra["modal_states"][:, :n] @ m.system.contacts[0]
     tol = 1e-12 * (abs(gap) + A)
     assert np.all(U <= gap + tol)
     assert tr.extra["contact_gap_max"] * L <= tol
@@ -836,13 +850,13 @@ def test_an_elastic_stop_a_hair_above_rest_is_held_not_a_failure(fidelity, gap_r
         A = 0.5e-3 * Om**2 / abs(1.0 - Om**2)
     else:
         fe = _fe(12)
-        m0 = BeamImpactModel.from_fe(fe, 1, R=1.0, gap_contact_m=1.0, base_amplitude_m=Y_RIG)
-        H = m0.participation * Om**2 * Y_RIG / (m0.k_nd - Om**2 + 1j * m0.c_nd * Om)
-        A = abs(m0.contact_row @ H)
+        sy0 = _from_fe(fe, 1, 1.0, 1.0, Y_RIG).system
+        H = sy0.participation * Om**2 * Y_RIG / (sy0.omega ** 2 - Om**2 + 1j * sy0.damping * Om)
+        A = abs(sy0.contacts[0] @ H)
 
         def run(gap):
-            m = BeamImpactModel.from_fe(fe, 1, R=1.0, gap_contact_m=gap, base_amplitude_m=Y_RIG)
-            return BeamEventSolver(m.scene()).point(Om, None, 20, 3, 64)
+            m = _from_fe(fe, 1, 1.0, gap, Y_RIG)
+            return BeamEventSolver(m).point(Om, None, 20, 3, 64)
     tr, ref = run(gap_rel * A), run(0.0)
     assert tr.status == "ok" and ref.status == "ok", (tr.status, tr.message)
     scale = np.max(np.abs(ref.samples[:, 0]))

@@ -23,13 +23,13 @@ from vibeam.case.schema import CaseError, load_case, parse_case
 from vibeam.engine.records import summarize
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models import make_solver, shooting_problem
-from vibeam.models.registry import mixed_stops
+from vibeam.models.registry import law_name, mixed_stops
 from vibeam.models.compliant import HuntCrossley, LankaraniNikravesh
 from vibeam.models.contact import DAMPING, EXPONENT, LAW, STIFFNESS, Relation, Restitution, Stop, pack
 from vibeam.models import BeamEventSolver
 from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.scene import one_mode
+from vibeam.models.scene import one_mode, outputs
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.core.laws import force
 from vibeam.models.sdof_ode import DirectSolver
@@ -192,7 +192,7 @@ def test_continued_orbit_is_the_settled_event_orbit():
 # ---------------------------------------------------------------------------- (e) the beam
 def _rig(over):
     case, _ = load_case("cases/rig-fe-neutral.toml")
-    return case.model_spec(over).build()
+    return case.model_spec(over).scene()
 
 
 def test_one_mode_beam_is_the_sdof_scene():
@@ -201,14 +201,15 @@ def test_one_mode_beam_is_the_sdof_scene():
     same samples (velocities times sqrt(k)) to 1e-10 of the orbit, same contact times to 1e-9
     relative, the Hunt-Crossley test's tolerances (two DOPRI5 at rtol 1e-11 in other units)."""
     m = _rig({"n_modes": 1, "contact": {"law": "lankarani_nikravesh", "stiffness_n_m": 1e8}})
-    assert m.contact_law == "lankarani_nikravesh" and m.contact.chi == pytest.approx(chi_ln(m.contact.R))
-    k1, c1, w1, s1, G1 = m.k_nd[0], m.c_nd[0], m.contact_row[0], m.sensor_row[0], m.participation[0]
-    L, Y, D = m.length_m, m.base_amplitude_m, m.gap_contact_m
-    p, kc = 1.5, 1e8 / m.omega_ref ** 2
+    law, sy = m.stops[0].law, m.system
+    assert law_name(m) == "lankarani_nikravesh" and law.chi == pytest.approx(chi_ln(law.R))
+    k1, c1, w1, s1, G1 = sy.omega[0] ** 2, sy.damping[0], sy.contacts[0, 0], sy.sensor[0], sy.participation[0]
+    L, Y, D = sy.length_unit_m, sy.base_amplitude, m.stops[0].relation.offset
+    p, kc = 1.5, 1e8 / (2 * math.pi * sy.reference_hz) ** 2
     Lq = w1 * L / s1
     sq = math.sqrt(k1)
     sd = sdof(beta=c1 / (2 * sq), B=w1 * G1 * Y / Lq, Delta=D / Lq,
-              law=LankaraniNikravesh(w1 ** 2 * kc * Lq ** (p - 1) / k1, m.contact.R, p))
+              law=LankaraniNikravesh(w1 ** 2 * kc * Lq ** (p - 1) / k1, law.R, p))
     W = 15.4 / 7.6
     ev = make_solver(m, "event")
     assert isinstance(ev, BeamEventSolver)
@@ -226,7 +227,7 @@ def test_two_mode_beam_event_agrees_with_direct():
     whole system: samples to 1e-8 of the orbit, contact records to 1e-8 relative (the
     Hunt-Crossley beam test's tolerances, tests/test_beam_hc.py)."""
     m = _rig({"n_modes": 2, "contact": {"law": "lankarani_nikravesh", "stiffness_n_m": 1e8}})
-    W = 15.4 / m.f_ref_hz
+    W = 15.4 / m.system.reference_hz
     a = make_solver(m, "event").point(W, None, 1, 2, 32)
     b = make_solver(m, "direct").point(W, None, 1, 2, 32)
     assert a.status == b.status == "ok" and a.n_impacts == b.n_impacts >= 1
@@ -263,11 +264,11 @@ def test_beam_two_stops_event_and_continuation():
     problem ``P^2`` to 1e-9 of the orbit (the Hunt-Crossley test's tolerance; measured 1.4e-11)."""
     m = _rig({"n_modes": 2, "gap_lower_mm": 0.3, "contact": {"law": "lankarani_nikravesh", "stiffness_n_m": 1e8},
               "contact_lower": {"law": "lankarani_nikravesh", "stiffness_n_m": 3e8}})
-    assert m.lower_law.name == "lankarani_nikravesh"
-    W = 17.0 / m.f_ref_hz
+    assert m.stops[1].law.name == "lankarani_nikravesh"
+    W = 17.0 / m.system.reference_hz
     tr = make_solver(m, "event").point(W, None, 1000, 4, 16)
     assert tr.status == "ok" and tr.final_state[-1] == 0.0 and tr.n_impacts_lower >= 1
-    assert summarize(tr, m.Delta)["period"] == 2
+    assert summarize(tr, outputs(m).Delta)["period"] == 2
     x = tr.final_state[:4]
     s = shooting_problem(m, "Omega", Omega=W).shot(x, W, 2)
     assert s.status == "ok" and s.n_impacts == 3 and list(s.extra["impact_stops"]).count(1) == 1, s.message

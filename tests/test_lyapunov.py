@@ -130,10 +130,12 @@ def test_the_beam_on_a_kelvin_voigt_stop_obeys_liouville():
     recounted here), to 1e-9 of ``|trace A_free|`` (measured 2.7e-14)."""
     from vibeam.case.schema import load_case
     from vibeam.models import make_solver, shooting_problem
+    from vibeam.models.scene import outputs
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
-    m = case.model_spec({"n_modes": 2, "contact": {"law": "linear", "stiffness_n_m": 1e5}}).build()
-    W = 15.4 / m.f_ref_hz
+    m = case.model_spec({"n_modes": 2, "contact": {"law": "linear", "stiffness_n_m": 1e5}}).scene()
+    sy = m.system
+    W = 15.4 / sy.reference_hz
     x = make_solver(m, "event").point(W, None, 200, 1, 16).final_state[:4]
     prob = shooting_problem(m, "Omega")
     K = 40
@@ -144,9 +146,11 @@ def test_the_beam_on_a_kelvin_voigt_stop_obeys_liouville():
         s = prob.shot(y, W, 1)
         Tc += s.extra["contact_time"]
         y = s.x
-    c = m.contact_damping_n_s_m / m.omega_ref
-    tr_free = -float(np.sum(m.c_nd))
-    expected = tr_free - c * float(m.contact_row @ m.contact_row) * Tc / sp.time
+    # the stop's dashpot c_c = 2 zeta_c sqrt(k_c m_eff) (k_c in SI: the scene holds it over omega_ref^2), per omega_ref
+    law, om_ref = m.stops[0].law, 2 * math.pi * sy.reference_hz
+    c = 2.0 * law.damping_ratio * math.sqrt(law.stiffness * om_ref ** 2 * outputs(m).m_eff) / om_ref
+    tr_free = -float(np.sum(sy.damping))
+    expected = tr_free - c * float(sy.contacts[0] @ sy.contacts[0]) * Tc / sp.time
     assert abs(sp.exponents.sum() - expected) < 1e-9 * abs(tr_free)
 
 

@@ -14,7 +14,7 @@ import pytest
 import vibeam
 from vibeam.models import make_solver
 from vibeam.models.mapping.modal import ModalMap
-from vibeam.models.scene import one_mode
+from vibeam.models.scene import one_mode, outputs
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_matrix import case_of  # noqa: E402
@@ -61,12 +61,12 @@ def test_the_residuals_jacobian_is_its_derivative():
     2-mode beam with a point stop (the 14 sections of its period-1 orbit at 17 Hz, perturbed so that
     no term vanishes): every column to 1e-6 of the Jacobian's largest entry (the differences'
     truncation and round-off at steps 1e-6 of each unknown's scale: 7e-12 measured)."""
-    model = vibeam.load_case(case_of("beam", "restitution", "point", ["mapping"])).model_spec().build()
-    W = 17.0 / model.f_ref_hz
+    model = vibeam.load_case(case_of("beam", "restitution", "point", ["mapping"])).model_spec().scene()
+    W = 17.0 / model.system.reference_hz
     s = make_solver(model, "mapping")
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok", out["message"]
-    N2 = 2 * model.n_modes
+    N2 = 2 * outputs(model).n_modes
     fs = out["final_state"].reshape(-1, N2 + 2)
     stops = tuple(int(k) for k in fs[:, -1])
     m = len(stops)
@@ -92,8 +92,8 @@ def test_a_beam_that_never_reaches_its_stop_is_a_failed_point_not_a_number():
     d = case_of("beam", "restitution", "one", ["mapping"])
     d = copy.deepcopy(d)
     d["model"]["gap_mm"] = 50.0
-    model = vibeam.load_case(d).model_spec().build()
-    out = make_solver(model, "mapping").point(17.0 / model.f_ref_hz, None, 0, 0)
+    model = vibeam.load_case(d).model_spec().scene()
+    out = make_solver(model, "mapping").point(17.0 / model.system.reference_hz, None, 0, 0)
     assert out["status"] == "failed" and "no impact" in out["message"], out["message"]
     assert np.isnan(out["amplitude"]) and np.isnan(out["impact_velocity"]) and not out["stable"]
     assert np.all(np.isnan(out["multipliers"]))
@@ -108,23 +108,22 @@ def test_liouville_through_kelvin_voigt_contact_phases(law, stops):
     mixed rows, 2e-10 on the point row (19 sections: the determinant of a product of 38 factors whose
     multipliers span 1 ... 1e-8 loses digits to round-off; the formula's terms are exact)."""
     from vibeam.models.core.stops import kernel_stops
-    from vibeam.models.system import from_beam
 
-    model = vibeam.load_case(case_of("beam", law, stops, ["mapping"])).model_spec().build()
-    W = 17.0 / model.f_ref_hz
+    model = vibeam.load_case(case_of("beam", law, stops, ["mapping"])).model_spec().scene()
+    W = 17.0 / model.system.reference_hz
     ev = make_solver(model, "event").point(W, None, 600, 4, 32)
     s0 = make_solver(model, "mapping", n=1).point(W, None, 0, 0)
     n = 1 if s0["status"] == "ok" else 2
     s = make_solver(model, "mapping", n=n)
     out = s.point(W, None, 0, 0)
     assert out["status"] == "ok", (out["message"], ev.status)
-    N2 = 2 * model.n_modes
+    N2 = 2 * outputs(model).n_modes
     fs = out["final_state"].reshape(-1, N2 + 2)
     st = tuple(int(k) for k in fs[:, -1])
     mp = ModalMap(s.system, s.stops, W, n)
     X = np.concatenate([fs[:, 0] / W, fs[:, 1:N2 + 1].ravel()])
     ks = kernel_stops(s.system, s.stops)
-    log_want = -np.sum(from_beam(model).damping) * n * mp.T
+    log_want = -np.sum(model.system.damping) * n * mp.T
     for j, k in enumerate(st):
         if mp.impulsive[k]:
             log_want += 2.0 * np.log(s.stops[k].law.R)

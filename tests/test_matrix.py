@@ -44,20 +44,20 @@ METHODS = ("event", "direct", "mapping", "averaging", "continuation")
 CELLS = list(itertools.product(FIDELITIES, LAWS, STOPS, METHODS))
 
 
-def built(fid: str, law: str, stops: str, methods):
-    """The row's model: the SDOF's scene (its builder's; issue 58: no class), the beam's model."""
+def built(fid: str, law: str, stops: str, methods) -> Scene:
+    """The row's scene (its builder's: the SDOF's, the beam's; issue 58: no class)."""
     spec = vibeam.load_case(case_of(fid, law, stops, methods)).model_spec()
-    return spec.scene() if fid == "sdof" else spec.build()
+    return spec.scene()
 
 
-def stops_of(model) -> tuple:
-    """The (relation, law) pairs of a scene or of a beam model."""
-    return tuple(model.stops) if isinstance(model, Scene) else tuple(model.stops())
+def stops_of(model: Scene) -> tuple:
+    """The (relation, law) pairs of a scene."""
+    return tuple(model.stops)
 
 
-def gap_of(model) -> float:
-    """The reference gap of the results (a scene's :func:`outputs`, a beam's ``Delta``)."""
-    return outputs(model).Delta if isinstance(model, Scene) else model.Delta
+def gap_of(model: Scene) -> float:
+    """The reference gap of the results (a scene's :func:`outputs`)."""
+    return outputs(model).Delta
 
 
 def _cells(spec: str) -> set:
@@ -289,7 +289,7 @@ def test_every_mapping_row_finds_the_event_orbit(row):
     # stops (at 15 Hz it is not periodic, below 14 Hz the lower stop is not hit); 'linear two' is not
     # periodic there and at 18 Hz its event record starts inside a lower contact (its last contact
     # is open at the record's end, so the event's mean over the others is not the orbit's): 15.5 Hz
-    W = 0.75 if fid == "sdof" else {("linear", "two"): 15.5}.get((law, stops), 17.0) / model.f_ref_hz
+    W = 0.75 if fid == "sdof" else {("linear", "two"): 15.5}.get((law, stops), 17.0) / model.system.reference_hz
     ev = summarize(make_solver(model, "event").point(W, None, 1500, 4, 32), gap_of(model))
     n = ev["period"]
     assert ev["status"] == "ok" and n in (1, 2), (row, ev["status"], n)
@@ -304,7 +304,9 @@ def test_every_mapping_row_finds_the_event_orbit(row):
     if "stop_impacts_per_period" in ev:   # stops away from the mass: per stop code (0 upper, 1 lower, 2 + i)
         np.testing.assert_array_equal(out["stop_impacts_per_period"], ev["stop_impacts_per_period"])
         np.testing.assert_allclose(out["stop_impact_velocity"], ev["stop_impact_velocity"], rtol=1e-8)
-        hit = out["stop_impacts_per_period"][model.stop_codes()]
+        from vibeam.models.core.event import stop_codes
+
+        hit = out["stop_impacts_per_period"][stop_codes(model.stops)]
         assert np.all(hit > 0), (row, hit)                                 # every stop of the row is hit
     else:
         assert (out["impacts_per_period_lower"] > 0) if two else True, row     # every stop of the row is hit
@@ -312,11 +314,9 @@ def test_every_mapping_row_finds_the_event_orbit(row):
         # Liouville: det M = prod R_k^2 exp(-n T sum c_i) (each Newton impact's saltation matrix has
         # det R^2); an oracle of the N-mode map's monodromy (measured <= 2.5e-13, the point row's 14
         # sections in 1 period; bound 1e-9 as the continuation rows')
-        from vibeam.models.system import from_beam
-
         R = np.array([st.law.R for st in stops_of(model)])
-        k = out["final_state"].reshape(-1, 2 * model.n_modes + 2)[:, -1].astype(int)
-        want = np.prod(R[k] ** 2) * np.exp(-np.sum(from_beam(model).damping) * 2.0 * np.pi * n / W)
+        k = out["final_state"].reshape(-1, 2 * outputs(model).n_modes + 2)[:, -1].astype(int)
+        want = np.prod(R[k] ** 2) * np.exp(-np.sum(model.system.damping) * 2.0 * np.pi * n / W)
         assert abs(out["det_true"] / want - 1.0) <= 1e-9, (row, out["det_true"], want)
     for k in keys:
         if np.isnan(ev[k]):
@@ -334,7 +334,7 @@ def _period_one_point(fid, model):
 
     ev = make_solver(model, "event")
     prob = shooting_problem(model, "Omega")
-    Ws = [0.75, 0.9, 1.2, 1.6, 2.0] if fid == "sdof" else [f / model.f_ref_hz for f in (15.0, 16.5, 18.0, 13.5)]
+    Ws = [0.75, 0.9, 1.2, 1.6, 2.0] if fid == "sdof" else [f / model.system.reference_hz for f in (15.0, 16.5, 18.0, 13.5)]
     found = None
     for W in Ws:
         tr = ev.point(W, None, 600, 4, 32)
@@ -376,9 +376,7 @@ def test_every_continuation_row_gives_periodic_orbits_of_the_event_integrator(ro
         # Liouville: det M = prod R_k^2 exp(-T sum c_i) (each Newton impact's saltation has det
         # R^2; the flow the trace of its state matrix); measured <= 5.8e-12 (the point row's 13
         # impacts), bound 1e-9
-        from vibeam.models.system import from_beam
-
-        damping = (model.system if fid == "sdof" else from_beam(model)).damping
+        damping = model.system.damping
         R = np.array([st.law.R for st in stops_of(model)])
         hit = np.asarray(pt.shot.extra.get("impact_stops", np.zeros(pt.shot.n_impacts, int)), int)
         want = np.prod(R[hit] ** 2) * np.exp(-np.sum(damping) * 2.0 * np.pi / W)
@@ -390,12 +388,15 @@ def _one_mode_beam_of(sd):
     Rayleigh ``alpha = 2 beta omega_ref`` (c = 2 beta), ``w = Gamma = s = 1`` and ``phi(x_m) = L =
     1`` (so ``q = eta``, ``B = Y``, ``Delta = Delta_C``, ``m_eff = 1``); each of its stops keeps its
     side, offset and law, a compliant law's stiffness in N/m^p (``k_c omega_ref^2``: the beam's time
-    unit is ``1 / omega_ref``, its modes mass-normalised in kg).  Another model class, another
-    system builder (``from_beam``) and unit conversion than the SDOF's."""
+    unit is ``1 / omega_ref``, its modes mass-normalised in kg).  Another builder (the beam's
+    packing, :func:`vibeam.models.builders.matrices.modal_scene`, with its stops at the mass,
+    :func:`vibeam.models.builders.beam.mass_stops`) and unit conversion than the SDOF's."""
     import dataclasses
     import math
 
-    from vibeam.models.beam_dynamics import BeamImpactModel
+    from vibeam.models.builders.beam import mass_stops
+    from vibeam.models.builders.matrices import modal_scene
+    from vibeam.models.contact import Restitution
 
     f = 10.0
     om = 2.0 * math.pi * f
@@ -407,15 +408,15 @@ def _one_mode_beam_of(sd):
     om1 = one_mode(sd)
     lo = rest[0] if rest else None
     newton_pair = lo is not None and up.law.kind == lo.law.kind == "impulsive"
-    base = BeamImpactModel([om], [1.0], [1.0], [1.0], up.law.R, up.relation.offset, om1.B, f, 1.0, 1.0,
-                           rayleigh_alpha_1_s=2.0 * om1.beta * om,
-                           gap_contact_lower_m=None if lo is None else lo.relation.offset,
-                           R_lower=lo.law.R if newton_pair else None)
     if up.law.kind == "compliant":
-        return base.with_laws(si(up.law), None if lo is None else si(lo.law))
-    if lo is not None and lo.law.kind == "compliant":
-        base.lower_law = si(lo.law)
-    return base
+        law, lower = si(up.law), None if lo is None else si(lo.law)
+    else:
+        law = Restitution(up.law.R)
+        lower = Restitution(lo.law.R) if newton_pair else (
+            si(lo.law) if lo is not None and lo.law.kind == "compliant" else None)
+    alpha = 2.0 * om1.beta * om
+    stops = mass_stops(up.relation.offset, law, None if lo is None else lo.relation.offset, lower)
+    return modal_scene([om], [alpha + 0.0 * om ** 2], [1.0], [1.0], [[1.0]], stops, om1.B, f, 1.0, 1.0, "beam")
 
 
 @pytest.mark.parametrize("row", sorted({c[:3] for c in WORKING if c[0] == "sdof" and c[3] == "event"}),
@@ -428,13 +429,12 @@ def test_every_sdof_row_is_its_one_mode_beam(row):
     event integrator, so this checks the beam's model, system builder and unit conversion against
     the SDOF's (issue 20: one-mode beam = SDOF to 1e-10)."""
     from vibeam.models import make_solver
-    from vibeam.models.system import from_beam
 
     fid, law, stops = row
     sd = built(fid, law, stops, ["event"])
     beam = _one_mode_beam_of(sd)
-    assert [(s.relation.sign, s.law.kind) for s in beam.stops()] == [(s.relation.sign, s.law.kind) for s in sd.stops]
-    a_sys, b_sys = sd.system, from_beam(beam)
+    assert [(s.relation.sign, s.law.kind) for s in beam.stops] == [(s.relation.sign, s.law.kind) for s in sd.stops]
+    a_sys, b_sys = sd.system, beam.system
     np.testing.assert_allclose(b_sys.damping, a_sys.damping, rtol=1e-14)
     for W in (0.75, 0.8):
         a = make_solver(sd, "event").point(W, None, 20, 4, 32)

@@ -14,11 +14,13 @@ import numpy as np
 import pytest
 
 from vibeam.models.beam import BeamFE, BeamGeometry
-from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver
+from vibeam.models.core.direct import BeamODESolver
 from vibeam.models import BeamEventSolver
 from vibeam.models import EventSolver
+from vibeam.models.builders.beam import fe_beam, mass_stops, static_mode_beam
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.contact import Restitution
+from vibeam.models.scene import outputs
 from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
@@ -51,13 +53,13 @@ def test_beam_newton_energy_is_the_modal_kinetic_energy_jump(fe, gap, gap_lower,
     (both trajectories agree to 1e-8 in the impact speeds, tests/test_two_sided.py; measured
     <= 6e-12); and summarize's ``energy_per_impact`` is their mean (two stops: the upper stop's
     rows, ``energy_per_impact_lower`` the lower stop's)."""
-    m = BeamImpactModel.from_fe(fe, 2, R=0.72, gap_contact_m=gap, base_amplitude_m=Y,
-                                gap_contact_lower_m=gap_lower, R_lower=R_lower)
+    m = fe_beam(fe, 2, mass_stops(gap, Restitution(0.72), gap_lower,
+                                  None if R_lower is None else Restitution(R_lower)), base_amplitude_m=Y)
     s0 = np.zeros(5)
-    s0[0] = -0.05e-3 / m.contact_row[0]
-    W = f_hz / m.f_ref_hz
-    a = BeamEventSolver(m.scene()).point(W, s0, 20, 8, 32)
-    b = BeamODESolver(m.scene(), solver="DOP853", rtol=1e-10, atol=1e-14).point(W, s0, 20, 8, 32)
+    s0[0] = -0.05e-3 / m.system.contacts[0][0]
+    W = f_hz / m.system.reference_hz
+    a = BeamEventSolver(m).point(W, s0, 20, 8, 32)
+    b = BeamODESolver(m, solver="DOP853", rtol=1e-10, atol=1e-14).point(W, s0, 20, 8, 32)
     assert a.n_impacts == b.n_impacts >= 8 and a.status == b.status == "ok"
     Rk = np.full(b.n_impacts, 0.72)
     if gap_lower is not None:
@@ -67,7 +69,7 @@ def test_beam_newton_energy_is_the_modal_kinetic_energy_jump(fe, gap, gap_lower,
     np.testing.assert_allclose(b.contacts[:, 3], _rows_formula(b.impact_velocities, Rk), rtol=1e-12)
     np.testing.assert_allclose(a.contacts[:, 3], b.contacts[:, 3], rtol=1e-7)
     np.testing.assert_allclose(a.contacts[:, 4], a.impact_velocities, rtol=0)
-    out = summarize(a, m.Delta)
+    out = summarize(a, outputs(m).Delta)
     if gap_lower is None:
         assert out["energy_per_impact"] == pytest.approx(np.mean(a.contacts[:, 3]), rel=1e-15)
     else:   # two stops: the unprefixed outputs are the upper stop's, *_lower the lower stop's
@@ -89,22 +91,23 @@ def test_one_mode_beam_energy_is_the_sdof_energy(R, R_lower, gap, gap_lower, f):
     sensor), the SDOF's per unit mass of q, so beam = phi_c^2 SDOF (the same joules:
     m_eff U_C^2 = (phi_c^2 m_eff) q'^2)."""
     g = _geom()
-    lower = {} if gap_lower is None else dict(gap_contact_lower_m=gap_lower, R_lower=R_lower)
-    sm = BeamImpactModel.static_mode(g, R=R, gap_contact_m=gap, base_amplitude_m=Y, damping_D_s=D_S, **lower)
+    sm = static_mode_beam(g, mass_stops(gap, Restitution(R), gap_lower, None if R_lower is None else Restitution(R_lower)),
+                          base_amplitude_m=Y, damping_D_s=D_S)
     red = reduce_static_mode(g, damping_D_s=D_S, gap_contact_m=gap, gamma_tilde_m_per_V=Y)
     sd = sdof(red.beta_S, red.gamma_per_V, red.Delta, R,
               Delta_lower=None if gap_lower is None else gap_lower / PHIM / L,
               lower_law=None if R_lower is None else Restitution(R_lower))
-    W = f / sm.f_ref_hz
-    a = BeamEventSolver(sm.scene()).point(W, None, 200, 8, 64)
+    W = f / sm.system.reference_hz
+    a = BeamEventSolver(sm).point(W, None, 200, 8, 64)
     b = EventSolver(sd).point(W, None, 200, 8, 64)
     assert a.n_impacts == b.n_impacts > 0
     if gap_lower is not None:
         assert a.n_impacts_lower > 0
-    pc2 = sm.phi_contact ** 2
-    np.testing.assert_allclose(a.impact_velocities, sm.phi_contact * b.impact_velocities, rtol=1e-9)
+    phi_c = float(sm.system.contact_static[0])
+    pc2 = phi_c ** 2
+    np.testing.assert_allclose(a.impact_velocities, phi_c * b.impact_velocities, rtol=1e-9)
     np.testing.assert_allclose(a.contacts[:, 3], pc2 * b.contacts[:, 3], rtol=1e-9)
-    assert summarize(a, sm.Delta)["energy_per_impact"] == pytest.approx(
+    assert summarize(a, outputs(sm).Delta)["energy_per_impact"] == pytest.approx(
         pc2 * summarize(b, red.Delta)["energy_per_impact"], rel=1e-9)
 
 
@@ -117,8 +120,8 @@ def test_physical_beam_scene_records_joules():
     from vibeam.engine.sweep import Sweep, run_sweep
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
-    m = case.model_spec({"n_modes": 2}).build()
-    W = 16.0 / m.f_ref_hz
+    m = case.model_spec({"n_modes": 2}).scene()
+    W = 16.0 / m.system.reference_hz
     res = run_sweep(make_solver(m, "event"), Sweep(Omega=np.array([W]), transient_periods=300,
                                                    record_periods=4), jobs=1)
     d = res.data
@@ -126,4 +129,5 @@ def test_physical_beam_scene_records_joules():
     tr = make_solver(m, "event").point(W, None, 300, 4, 64)
     U = tr.extra["impact_velocity_m_s"]
     # the sweep settles the same orbit (its own transient) to far better than 1e-8
-    assert d["energy_per_impact_j"][0] == pytest.approx(0.5 * (1 - m.R ** 2) * m.m_eff * U ** 2, rel=1e-8)
+    R, m_eff = m.stops[0].law.R, outputs(m).m_eff
+    assert d["energy_per_impact_j"][0] == pytest.approx(0.5 * (1 - R ** 2) * m_eff * U ** 2, rel=1e-8)

@@ -468,20 +468,20 @@ def test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration(n_mo
     nm = '"static"' if n_modes == "static" else n_modes
     gap_mm = 0.15
     spec = parse_case(POINT_RIG.format(n_modes=nm, x=x_mm, gap=gap_mm)).model_spec()
-    m = spec.build()
+    m = spec.scene()
     sc = scene_of(spec)
     g = sc.geometry
     L, xm, xs, x = g.length_m, g.mass_position_m, g.sensor_position_m, x_mm * 1e-3
     phi_x = _phi_static(x / L, xm / L, xs / L)
     gap = gap_mm * 1e-3 * phi_x
-    ps, _ = m.point_stops[0]
+    ps = [st for st in m.stops if st.relation.row > 0][0]
     assert ps.relation.offset == pytest.approx(gap, rel=1e-12)
-    f_hz, f_ref = 15.0, m.f_ref_hz
-    tr = BeamEventSolver(m.scene()).point(f_hz / f_ref, None, 0, 4, 32)
+    f_hz, f_ref = 15.0, m.system.reference_hz
+    tr = BeamEventSolver(m).point(f_hz / f_ref, None, 0, 4, 32)
     assert tr.status == "ok" and tr.impact_stops.size > 0 and tr.impact_stops[0] == 2  # the point stop first
     Wt = 2 * math.pi * f_hz
-    Y = m.base_amplitude_m
-    D = m.damping_D_s
+    Y = m.system.base_amplitude
+    D = sc.damping_D_s          # the case's Rayleigh D (the scene holds c_i = D omega_i^2 only)
     if n_modes == "static":
         phim = _phi_static(xm / L, xm / L, xs / L)
         wn2 = 3 * g.EI_n_m2 / (g.mass_kg * xm ** 3)
@@ -546,9 +546,9 @@ def test_the_beams_lower_gap_is_converted_to_the_contact_point(n_modes):
     for keys, up, low in (("R = 0.8\ngap_mm = 0.1\ngap_lower_mm = 0.3\n", 0.1e-3 * phim, 0.3e-3 * phim),
                           ("R = 0.8\ncontact_gap_mm = 0.2\ncontact_gap_lower_mm = 0.45\n", 0.2e-3, 0.45e-3)):
         text = base.replace("n_elements = 24\n", "n_elements = 24\n" + keys) + sweep
-        m = parse_case(text).model_spec().build()
-        assert m.gap_contact_m == pytest.approx(up, rel=1e-12)
-        assert m.gap_contact_lower_m == pytest.approx(low, rel=1e-12)
+        m = parse_case(text).model_spec().scene()
+        assert m.stops[0].relation.offset == pytest.approx(up, rel=1e-12)
+        assert m.stops[1].relation.offset == pytest.approx(low, rel=1e-12)
 
 
 # ------------------------------------------------------------------ 9. a start inside a compliant stop

@@ -359,7 +359,7 @@ def test_continuation_in_a_point_stops_position_on_the_beam_gives_orbits_of_the_
     assert len(x_mm) >= 5 and n >= 1
     Om = float(r.attrs["Omega"])
     for i in np.linspace(0, len(x_mm) - 1, 4).astype(int):
-        m = vibeam.load_case(dict(d, model=model_of(float(x_mm[i])))).model_spec().build()
+        m = vibeam.load_case(dict(d, model=model_of(float(x_mm[i])))).model_spec().scene()
         x = np.asarray(b["state"][i])
         one = make_solver(m, "event").point(Om, np.concatenate([x, [0.0]]), 0, n, 32)
         assert one.status == "ok", (x_mm[i], one.status)

@@ -12,7 +12,8 @@ import pytest
 from vibeam.case.beamscene import derive, scene_of
 from vibeam.case.schema import load_case
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.beam_dynamics import _trans, mode_table
+from vibeam.models.scene import outputs
+from vibeam.models.system import mode_table, transition_increment as _trans
 from vibeam.models import BeamEventSolver, make_solver
 from vibeam.case.beamscene import REBUILD_KEYS, conversions
 from vibeam.models import shooting_problem
@@ -28,9 +29,15 @@ def _case(name):
 
 
 @functools.lru_cache(maxsize=None)
+def rig_spec(name, n_modes, **over):
+    """The beam table of a shipped rig case with ``n_modes`` and model-key overrides."""
+    return _case(name).model_spec({"n_modes": n_modes, **over})
+
+
+@functools.lru_cache(maxsize=None)
 def rig(name, n_modes, **over):
-    """Model of a shipped rig case with ``n_modes`` and model-key overrides."""
-    return _case(name).model_spec({"n_modes": n_modes, **over}).build()
+    """Scene of a shipped rig case with ``n_modes`` and model-key overrides (its builder's)."""
+    return rig_spec(name, n_modes, **over).scene()
 
 
 def newton(prob, x, p, n=1, tol=1e-13, max_iter=40):
@@ -47,31 +54,40 @@ def newton(prob, x, p, n=1, tol=1e-13, max_iter=40):
 
 def transient(m, Omega, periods, state=None):
     """State after ``periods`` forcing periods of the event solver (from rest by default)."""
-    return BeamEventSolver(m.scene()).point(Omega, state, periods, 1, 4).final_state[:-1]
+    return BeamEventSolver(m).point(Omega, state, periods, 1, 4).final_state[:-1]
 
 
 def linear_orbit(m, Omega):
     """The periodic orbit without contact at phase 0: eta = b, eta' = Omega a."""
-    from vibeam.models.beam_dynamics import particular
-    a, b = particular(m.c_nd, m.k_nd, m.participation, Omega**2 * m.base_amplitude_m, Omega)
+    from vibeam.models.system import particular
+    sy = m.system
+    a, b = particular(sy.damping, sy.omega ** 2, sy.participation, Omega**2 * sy.base_amplitude, Omega)
     return np.concatenate([b, Omega * a]), a, b
 
 
-#: the beam model's numbers continued here (its attributes), each a path into its scene
+#: the beam's numbers continued here (the former model's attributes), each a path into its scene
 NATIVE_PARAMETERS = ("Omega", "base_amplitude_m", "gap_contact_m", "R", "damping_D_s", "rayleigh_alpha_1_s")
 
 
-def beam_problem(m, Omega, parameter="Omega", **settings):
+def beam_problem(m, Omega, parameter="Omega", spec=None, **settings):
     """The beam's shooting problem (the scene's, :func:`vibeam.models.shooting_problem`) in one of
-    the model's numbers (:data:`NATIVE_PARAMETERS`; another name is passed on as a path) at the
-    frequency ``Omega``, with the model and the name kept for :func:`fd_check`.  The damping moves
+    the beam's numbers (:data:`NATIVE_PARAMETERS`; another name is passed on as a path) at the
+    frequency ``Omega``, with the scene and the name kept for :func:`fd_check`.  The damping moves
     the modal ``c_i = (alpha + D omega_i^2) / omega_ref`` (paper Eq. 39): along ``omega_ref
-    (omega_i / omega_ref)^2`` in ``D``, along ``1 / omega_ref`` in ``alpha``."""
-    R = ("stops[0].law.R", "stops[1].law.R") if m.two_sided and m.lower_law is None else "stops[0].law.R"
+    (omega_i / omega_ref)^2`` in ``D``, along ``1 / omega_ref`` in ``alpha``, whose values are the
+    case's (``spec``: ``D`` of :func:`scene_of`, its ``rayleigh_alpha_1_s``; the scene holds only
+    the ``c_i``)."""
+    sy = m.system
+    mass = [st for st in m.stops if st.relation.row == 0]
+    R = ("stops[0].law.R", "stops[1].law.R") if len(mass) == 2 and mass[1].law is mass[0].law else "stops[0].law.R"
     path = {"base_amplitude_m": "system.base_amplitude", "gap_contact_m": "stops[0].relation.offset", "R": R,
             "damping_D_s": "system.damping", "rayleigh_alpha_1_s": "system.damping"}.get(parameter, parameter)
-    damping = {"damping_D_s": (m.damping_D_s, m.omega_ref * (m.omega_rad_s / m.omega_ref) ** 2),
-               "rayleigh_alpha_1_s": (m.rayleigh_alpha_1_s, np.full(m.n_modes, 1.0 / m.omega_ref))}.get(parameter)
+    damping = None
+    if spec is not None:
+        om_ref = 2 * math.pi * sy.reference_hz
+        alpha = 0.0 if spec.n_modes == "static" else float(spec.rayleigh_alpha_1_s)
+        damping = {"damping_D_s": (float(scene_of(spec).damping_D_s), om_ref * sy.omega ** 2),
+                   "rayleigh_alpha_1_s": (alpha, np.full(sy.omega.shape[0], 1.0 / om_ref))}.get(parameter)
     prob = shooting_problem(m, path, Omega=Omega, damping=damping, **settings)
     prob.model, prob.native = m, parameter
     return prob
@@ -104,10 +120,10 @@ def fd_check(prob, x0, n=1, rh=(1e-4, 1e-5, 1e-6), rp=(1e-3, 1e-4, 1e-5), dirs=N
     for r in rh if M else ():
         Mfd = np.column_stack([cd(lambda e: f(x0 + e * v, p), r * xs) for v in V.T])
         eM = min(eM, np.max(np.abs(s.M @ V - Mfd)) / max(np.max(np.abs(Mfd)), 1e-3))
-    m = prob.model
-    N = m.n_modes
-    fallback = {"gap_contact_m": float(np.abs(m.contact_row) @ np.abs(x0[:N])),
-                "rayleigh_alpha_1_s": float(m.c_phys[0])}
+    sy = prob.model.system
+    N = sy.omega.shape[0]
+    fallback = {"gap_contact_m": float(np.abs(sy.contacts[0]) @ np.abs(x0[:N])),
+                "rayleigh_alpha_1_s": float(sy.damping[0] / sy.time_unit_s)}
     ps = abs(p) if p != 0 else fallback.get(prob.native, 1.0)
     ep = np.inf
     for r in rp:
@@ -150,28 +166,28 @@ MODES = [1, 2, 4, "all"]
 
 
 def _scenario(kind, n_modes):
-    """(model, Omega, x0, n, expected events) of the FD scenarios."""
+    """(scene, Omega, x0, n, its case's beam table) of the FD scenarios."""
     if kind == "free":          # far stop: no event at all
         m = rig("rig-fe-neutral", n_modes, gap_mm=5.0)
-        W = 15.5 / m.f_ref_hz
-        x0 = linear_orbit(m, W)[0] * 1.3 + 1e-5 * np.tile(m.contact_row, 2)   # off the orbit
-        return m, W, x0, 2
+        W = 15.5 / m.system.reference_hz
+        x0 = linear_orbit(m, W)[0] * 1.3 + 1e-5 * np.tile(m.system.contacts[0], 2)   # off the orbit
+        return m, W, x0, 2, rig_spec("rig-fe-neutral", n_modes, gap_mm=5.0)
     if kind == "impact":        # the period-1 one-impact orbit of the neutral rig
         m = rig("rig-fe-neutral", n_modes)
-        W = 15.5 / m.f_ref_hz
-        return m, W, transient(m, W, 200), 1
+        W = 15.5 / m.system.reference_hz
+        return m, W, transient(m, W, 200), 1, rig_spec("rig-fe-neutral", n_modes)
     if kind == "multi":         # pre-stressed rig, several impacts per period
         # 3 periods from rest: the rig is chaotic at 15.5 Hz, and after 60 periods (the former
         # start) the state, hence chatter or sticking, depended on the last ulp of the modal basis
         # (BLAS core type); after 3 periods it is reproducible to ~1e-13 and the shot's event
         # sequence has wide margins (asserted by _assert_certain)
         m = rig("rig-fe-tight", n_modes)
-        W = 15.5 / m.f_ref_hz
-        return m, W, transient(m, W, 3), 2
+        W = 15.5 / m.system.reference_hz
+        return m, W, transient(m, W, 3), 2, rig_spec("rig-fe-tight", n_modes)
     if kind == "stick":         # R = 0: plastic impact, sticking, release (free section)
         m = rig("rig-fe-tight", n_modes, R=0.0)
-        W = 14.0 / m.f_ref_hz
-        return m, W, transient(m, W, 40), 1
+        W = 14.0 / m.system.reference_hz
+        return m, W, transient(m, W, 40), 1, rig_spec("rig-fe-tight", n_modes, R=0.0)
     raise ValueError(kind)
 
 
@@ -184,7 +200,7 @@ def _assert_certain(s, m):
     v = s.impact_velocities
     assert s.extra["n_chatter"] == 0 and s.stuck_time == 0
     assert v.size and v.min() >= 0.05 * v.max(), v
-    size = max(s.q_max - s.q_min, 1e-300) * m.length_m
+    size = max(s.q_max - s.q_min, 1e-300) * m.system.length_unit_m
     assert not np.isfinite(s.apex_gap) or s.apex_gap <= -1e-2 * size, (s.apex_gap, size)
 
 
@@ -198,7 +214,7 @@ def test_monodromy_and_parameter_derivatives_against_finite_differences(kind, n_
     """M and x_p for every native parameter against central differences of the shot
     (5-point stencil, best of three steps, see :func:`fd_check`; measured <= 3e-8).  A missing saltation term, a wrong event-time sensitivity or
     a wrong particular-solution derivative gives O(1e-3..1) errors."""
-    m, W, x0, n = _scenario(kind, n_modes)
+    m, W, x0, n, spec = _scenario(kind, n_modes)
     s0 = beam_problem(m, W).shot(x0, W, n)
     kinds = s0.extra["event_kinds"]
     if kind == "free":
@@ -211,9 +227,9 @@ def test_monodromy_and_parameter_derivatives_against_finite_differences(kind, n_
     else:
         assert list(kinds) == [1, 3, 4] and s0.stuck_time > 0
     for par in NATIVE_PARAMETERS:
-        if par == "R" and m.R == 0.0:
+        if par == "R" and m.stops[0].law.R == 0.0:
             continue   # R = 0 is a corner (R > 0 impacts chatter before sticking)
-        prob = beam_problem(m, W, par)
+        prob = beam_problem(m, W, par, spec)
         if kind == "free" and par in ("R", "gap_contact_m"):
             assert np.all(prob.shot(x0, prob.value, n).x_p == 0.0)   # no contact, no effect
             continue
@@ -229,15 +245,15 @@ def test_stuck_section_tangent_derivatives():
     the constraint; M against central differences along an orthonormal basis of the
     tangent space {w^T d eta = 0, w^T d eta' = 0}."""
     m = rig("rig-fe-tight", 4, R=0.0)
-    W = 12.0 / m.f_ref_hz
+    W = 12.0 / m.system.reference_hz
     x0 = transient(m, W, 40)
-    N = m.n_modes
+    N = outputs(m).n_modes
     A = np.zeros((2, 2 * N))
-    A[0, :N] = A[1, N:] = m.contact_row
+    A[0, :N] = A[1, N:] = m.system.contacts[0]
     _, _, Vt = np.linalg.svd(A)
     T = Vt[2:].T
     for par in ("Omega", "base_amplitude_m", "damping_D_s"):
-        prob = beam_problem(m, W, par)
+        prob = beam_problem(m, W, par, rig_spec("rig-fe-tight", 4, R=0.0))
         s, eM, ep = fd_check(prob, x0, 1, dirs=T, M=par == "Omega")
         assert s.extra["stuck_start"] and list(s.extra["event_kinds"][:3]) == [0, 4, 1]
         assert eM < 1e-7 and ep < 1e-7, (par, eM, ep)
@@ -254,7 +270,7 @@ def test_chatter_sticking_orbit_of_the_tight_rig(n_modes):
     grazing chatter impacts make P^n strongly curved, and P^n is only piecewise smooth where
     the chatter cut moves: measured agreement ~1e-7; tolerance 1e-6)."""
     m = rig("rig-fe-tight", n_modes)
-    W = 13.0 / m.f_ref_hz
+    W = 13.0 / m.system.reference_hz
     prob = beam_problem(m, W)
     x, s = newton(prob, transient(m, W, 3), W)
     assert s.extra["n_chatter"] == 1 and s.stuck_time > 0
@@ -262,7 +278,7 @@ def test_chatter_sticking_orbit_of_the_tight_rig(n_modes):
     ref = transient(m, W, 500)
     assert np.max(np.abs(ref - x)) < 1e-12 * np.max(np.abs(x))
     for par in ("Omega", "gap_contact_m", "R", "damping_D_s"):
-        _, eM, ep = fd_check(beam_problem(m, W, par), x, 1, M=par == "Omega")
+        _, eM, ep = fd_check(beam_problem(m, W, par, rig_spec("rig-fe-tight", n_modes)), x, 1, M=par == "Omega")
         assert eM < 1e-6 and ep < 1e-6, (par, eM, ep)
 
 
@@ -276,22 +292,22 @@ def test_liouville_determinant(n_modes):
     are underdamped: an overdamped mode's det (cosh^2 - sinh^2) cannot be formed from its
     entries in floating point, so 'all' is not tested here."""
     m = rig("rig-fe-neutral", n_modes, gap_mm=5.0)
-    W = 15.5 / m.f_ref_hz
+    W = 15.5 / m.system.reference_hz
     periods = (1, 3) if n_modes < 4 else (1,)   # exp(-sum c_i n T) underflows beyond
     for n in periods:
         s = beam_problem(m, W).shot(linear_orbit(m, W)[0] * 1.2, W, n)
         assert s.n_impacts == 0
         sign, ld = np.linalg.slogdet(s.M)
-        ref = -np.sum(m.c_nd) * n * 2 * np.pi / W
+        ref = -np.sum(m.system.damping) * n * 2 * np.pi / W
         assert sign > 0 and ld == pytest.approx(ref, rel=1e-9)
     m = rig("rig-fe-neutral", n_modes)
-    W = 15.5 / m.f_ref_hz
+    W = 15.5 / m.system.reference_hz
     x0 = transient(m, W, 30)
     for n in periods:
         s = beam_problem(m, W).shot(x0, W, n)
         assert s.n_impacts == n
         sign, ld = np.linalg.slogdet(s.M)
-        ref = -np.sum(m.c_nd) * n * 2 * np.pi / W + 2 * n * math.log(m.R)
+        ref = -np.sum(m.system.damping) * n * 2 * np.pi / W + 2 * n * math.log(m.stops[0].law.R)
         assert sign > 0 and ld == pytest.approx(ref, rel=1e-9)
 
 
@@ -304,23 +320,24 @@ def test_static_mode_beam_equals_sdof_fixed_point(case):
     (the two are the same ODE up to the time and length scalings, so only round-off
     separates them; the multipliers are invariant under the change of section)."""
     spec = _case(case).model_spec({"n_modes": "static"})
-    m = spec.build()
+    m = spec.scene()
     red = derive(spec)["reduction"]
     sd = sdof(red.beta_S, red.gamma_per_V * spec.voltage, red.Delta, spec.R)
-    assert m.Delta == pytest.approx(red.Delta, rel=1e-13, abs=1e-16)
+    Delta, f_ref = outputs(m).Delta, m.system.reference_hz
+    assert Delta == pytest.approx(red.Delta, rel=1e-13, abs=1e-16)
     for f in (14.5, 15.5, 16.5):
-        Ws, Wb = f / red.f_n_hz, f / m.f_ref_hz
+        Ws, Wb = f / red.f_n_hz, f / f_ref
         xs = newton_fixed_point(sd, Ws, event_guess(sd, Ws))
         an = fixed_point_analysis(sd, Ws, xs)
         q_min, _ = orbit_extremes(sd, Ws, xs)
         prob = beam_problem(m, Wb)
         x, s = newton(prob, transient(m, Wb, 20), Wb)
         assert s.n_impacts == 1
-        assert m.Delta - s.q_min == pytest.approx(red.Delta - q_min, rel=1e-10)
+        assert Delta - s.q_min == pytest.approx(red.Delta - q_min, rel=1e-10)
         mu_b, mu_s = s.multipliers(), an["multipliers"]
         assert np.max(np.abs(np.sort_complex(mu_b) - np.sort_complex(mu_s))) < 1e-10
         # impact velocity: U = phi(x_m) L q, beam time runs f_n / f_ref faster
-        assert s.impact_velocities[0] == pytest.approx(xs[1] * m.phi_at_mass * red.f_n_hz / m.f_ref_hz,
+        assert s.impact_velocities[0] == pytest.approx(xs[1] * float(m.system.contact_static[0]) * red.f_n_hz / f_ref,
                                                        rel=1e-10)
 
 
@@ -334,13 +351,14 @@ def test_stable_fixed_point_is_the_event_attractor(n_modes):
     solver's own one-period map (independent of the event log and of the assembly;
     the two dominant ones to 1e-7)."""
     m = rig("rig-fe-neutral", n_modes)
-    W = 15.5 / m.f_ref_hz
+    W = 15.5 / m.system.reference_hz
     prob = beam_problem(m, W)
     x, s = newton(prob, linear_orbit(m, W)[0], W)
     assert s.n_impacts == 1 and s.q_min < 0
-    tr = BeamEventSolver(m.scene()).point(W, None, 400, 4, 64)
+    tr = BeamEventSolver(m).point(W, None, 400, 4, 64)
     assert np.max(np.abs(tr.final_state[:-1] - x)) < 1e-10 * np.max(np.abs(x))
-    assert m.Delta - tr.q_min == pytest.approx(m.Delta - s.q_min, rel=1e-9)
+    Delta = outputs(m).Delta
+    assert Delta - tr.q_min == pytest.approx(Delta - s.q_min, rel=1e-9)
     assert tr.impact_velocities[-1] == pytest.approx(s.impact_velocities[0], rel=1e-9)
     sol = make_solver(m, "event")
     P = lambda y: sol.point(W, np.concatenate([y, [0.0]]), 0, 1, 1).final_state[:-1]
@@ -361,9 +379,9 @@ def test_apex_gap_of_the_linear_orbit(n_modes):
     1e-12 of the amplitude; its zero (Delta_C = the linear contact amplitude) is the
     grazing of the issue's test."""
     m0 = rig("rig-fe-neutral", n_modes)
-    W = 14.0 / m0.f_ref_hz
+    W = 14.0 / m0.system.reference_hz
     x0, a, b = linear_orbit(m0, W)
-    amp = abs(m0.contact_row @ (a + 1j * b))
+    amp = abs(m0.system.contacts[0] @ (a + 1j * b))
     np.testing.assert_allclose(beam_problem(m0, W, "gap_contact_m").start("linear", 1.5 * amp)[0], x0, rtol=1e-15)
     for frac in (1.5, 1.01):
         prob = beam_problem(m0, W, "gap_contact_m")
@@ -375,24 +393,25 @@ def test_apex_gap_of_the_linear_orbit(n_modes):
 
 # --------------------------------------------------------------------------- parameters
 def test_conversions_and_refused_keys():
-    """Physical keys map affinely onto native ones: checked against models rebuilt from
+    """Physical keys map affinely onto native ones: checked against scenes rebuilt from
     the case with the key changed (the scale is exact, so to 1e-12)."""
     case = _case("rig-fe-neutral")
     spec = case.model_spec({"n_modes": 2})
-    m = spec.build()
-    tab = conversions(m, gain_per_V=spec.gain, voltage=spec.voltage)
+    m = spec.scene()
+    tab = conversions(spec, m, gain_per_V=spec.gain, voltage=spec.voltage)
 
-    def value(model, key):
-        """The value at ``key``'s path in the model's scene (the shooting problem's)."""
-        path, _, damping = conversions(model, gain_per_V=spec.gain, voltage=spec.voltage)[key]
+    def value(sp, model, key):
+        """The value at ``key``'s path in the scene (the shooting problem's)."""
+        path, _, damping = conversions(sp, model, gain_per_V=spec.gain, voltage=spec.voltage)[key]
         return shooting_problem(model, path, Omega=1.0, damping=damping).value
 
     for key, dv in (("voltage", 0.1), ("gap_mm", 0.05), ("damping_ratio", 0.003),
                     ("gain", 1e-4), ("R", 0.1)):
-        m2 = case.model_spec({"n_modes": 2, key: getattr(spec, key) + dv}).build()
+        spec2 = case.model_spec({"n_modes": 2, key: getattr(spec, key) + dv})
+        m2 = spec2.scene()
         scale = tab[key][1]
-        assert value(m2, key) - value(m, key) == pytest.approx(scale * dv, rel=1e-12, abs=1e-18)
-    assert tab["frequency_hz"] == ("Omega", pytest.approx(1 / m.f_ref_hz), None)
+        assert value(spec2, m2, key) - value(spec, m, key) == pytest.approx(scale * dv, rel=1e-12, abs=1e-18)
+    assert tab["frequency_hz"] == ("Omega", pytest.approx(1 / m.system.reference_hz), None)
     for key in REBUILD_KEYS:
         with pytest.raises(ValueError, match=key):
             beam_problem(m, 2.0, key)
@@ -418,33 +437,40 @@ def test_velocity_dependent_restitution_and_modal_damping():
     per-mode damping (effects platform), whose constrained damping is not the projected
     one, so the fields before and after the plastic entry and the release differ by more
     than the contact force.  M and x_p against finite differences as above."""
-    import copy
+    import dataclasses
 
-    from vibeam.models.beam_dynamics import BeamImpactModel
+    from vibeam.models.builders.beam import mass_stops
+    from vibeam.models.builders.matrices import modal_scene
+    from vibeam.models.contact import Restitution
 
-    m = copy.copy(rig("rig-fe-neutral", 2))
-    m.R_table_U, m.R_table_R = np.array([0.0, 3e-3]), np.array([0.9, 0.5])
-    W = 15.5 / m.f_ref_hz
+    m0 = rig("rig-fe-neutral", 2)
+    up = m0.stops[0].law     # its R(U-) table on the upper law (and on a lower stop that shares it)
+    law = dataclasses.replace(up, table_U=(0.0, 3e-3), table_R=(0.9, 0.5))
+    m = m0._replace(stops=tuple(dataclasses.replace(st, law=law) if st.law is up else st for st in m0.stops))
+    W = 15.5 / m.system.reference_hz
     x0 = transient(m, W, 100)
-    assert 0 < beam_problem(m, W).shot(x0, W).impact_velocities[0] * m.length_m < 3e-3
+    assert 0 < beam_problem(m, W).shot(x0, W).impact_velocities[0] * m.system.length_unit_m < 3e-3
     for par in ("Omega", "gap_contact_m"):
         _, eM, ep = fd_check(beam_problem(m, W, par), x0, 1, M=par == "Omega")
         assert eM < 1e-7 and ep < 1e-7, (par, eM, ep)
     with pytest.raises(ValueError, match="tabulated"):
         beam_problem(m, W, "R")
     mm = rig("rig-fe-tight", 4, R=0.0)
-    c = mm.c_phys * np.linspace(1.0, 0.5, mm.n_modes) + 0.3
-    m = BeamImpactModel(mm.omega_rad_s, mm.participation, mm.contact_row, mm.sensor_row, 0.0,
-                        mm.gap_contact_m, mm.base_amplitude_m, mm.f_ref_hz, mm.length_m,
-                        mm.phi_at_mass, modal_damping_1_s=c)
-    W = 14.0 / m.f_ref_hz
+    sy = mm.system
+    c = sy.damping / sy.time_unit_s * np.linspace(1.0, 0.5, sy.omega.shape[0]) + 0.3
+    m = modal_scene(sy.omega / sy.time_unit_s, c, sy.participation, sy.sensor, np.atleast_2d(sy.contacts[0]),
+                    mass_stops(mm.stops[0].relation.offset, Restitution(0.0)), sy.base_amplitude, sy.reference_hz,
+                    sy.length_unit_m, float(sy.contact_static[0]), "beam")
+    W = 14.0 / m.system.reference_hz
     x0 = transient(m, W, 40)
     for par in ("Omega", "gap_contact_m"):
         s, eM, ep = fd_check(beam_problem(m, W, par), x0, 1, M=par == "Omega")
         assert list(s.extra["event_kinds"]) == [1, 3, 4]
         assert eM < 1e-7 and ep < 1e-7, (par, eM, ep)
-    # per-mode damping has no Rayleigh coefficient to continue: the case's keys leave it out
-    assert not {"damping_ratio", "rayleigh_alpha_1_s"} & set(conversions(m))
+    # per-mode damping has no Rayleigh coefficient to continue: the scene's problem in its damping
+    # needs the (value, slope) of a Rayleigh coefficient, which only a case's beam table gives
+    with pytest.raises(ValueError, match=r"'system.damping' needs damping"):
+        shooting_problem(m, "system.damping", Omega=W)
 
 
 def test_a_release_into_free_flight_does_not_touch_the_stop_again_at_zero_speed():
@@ -462,7 +488,7 @@ def test_a_release_into_free_flight_does_not_touch_the_stop_again_at_zero_speed(
     m = rig("rig-fe-tight", "all", R=0.0)
     releases = 0
     for f in (13.0, 14.0, 15.0, 16.0):
-        W = f / m.f_ref_hz
+        W = f / m.system.reference_hz
         s = beam_problem(m, W).shot(transient(m, W, 20), W, 8)
         assert s.status == "ok", (f, s.message)
         # no creeping release wait (below): ~300 steps a period natively; 2e4 and more per period
@@ -481,7 +507,7 @@ sys.path.insert(0, sys.argv[1])
 from test_periodic_beam import rig, transient
 from test_periodic_beam import beam_problem
 m = rig("rig-fe-tight", "all", R=0.0)
-W = 15.0 / m.f_ref_hz
+W = 15.0 / m.system.reference_hz
 s = beam_problem(m, W, max_steps_per_period=10**6).shot(transient(m, W, 20), W, 1)
 print(json.dumps([s.status, int(s.extra["n_steps"])]))
 """

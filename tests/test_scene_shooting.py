@@ -109,10 +109,10 @@ def test_the_beam_scenes_shot_equals_the_direct_integrator_and_central_differenc
     from vibeam.case.schema import load_case
 
     case, _ = load_case("cases/rig-fe-neutral.toml")
-    m = case.model_spec({"n_modes": 2}).build()
-    W = 15.2 / m.f_ref_hz
+    m = case.model_spec({"n_modes": 2}).scene()
+    W = 15.2 / m.system.reference_hz
     x = make_solver(m, "event").point(W, None, 300, 1, 8).final_state[:4]
-    prob = SceneShooting(m.scene())
+    prob = SceneShooting(m)
     s = prob.shot(x, W, 1)
     assert s.status == "ok" and s.n_impacts >= 1
     ref = make_solver(m, "direct").point(W, np.r_[x, 0.0], 0, 1, 8).final_state[:4]

@@ -313,10 +313,13 @@ def test_chunked_calls_equal_one_call_on_a_periodic_point(fidelity):
         solver = make_solver(sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.0), "event")
         W = 2.0
     else:
-        from vibeam.models.beam_dynamics import BeamImpactModel
+        from vibeam.models.builders.beam import mass_stops
+        from vibeam.models.builders.matrices import modal_scene
+        from vibeam.models.contact import Restitution
 
-        m = BeamImpactModel([2 * math.pi * 7.6, 2 * math.pi * 98.75], [0.4, 0.1], [1.5, -0.6],
-                            [1.0, 0.3], 0.72, 0.0, 3e-4, 7.6, 0.18, 1.0, 2 * 0.017 / (2 * math.pi * 7.6))
+        om = np.array([2 * math.pi * 7.6, 2 * math.pi * 98.75])
+        m = modal_scene(om, 0.0 + 2 * 0.017 / (2 * math.pi * 7.6) * om ** 2, [0.4, 0.1], [1.0, 0.3],
+                        np.atleast_2d([1.5, -0.6]), mass_stops(0.0, Restitution(0.72)), 3e-4, 7.6, 0.18, 1.0, "beam")
         solver = make_solver(m, "event")
         W = 15.0 / 7.6
     sw = Sweep(Omega=np.array([W]), transient_periods=1500, record_periods=8)

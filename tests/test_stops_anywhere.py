@@ -21,8 +21,9 @@ import pytest
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.engine.records import summarize
 from vibeam.models import shooting_problem
-from vibeam.models.beam_dynamics import BeamODESolver
+from vibeam.models.core.direct import BeamODESolver
 from vibeam.models import BeamEventSolver
+from vibeam.models.scene import outputs
 
 RIG = """name = "tip"
 [model]
@@ -67,7 +68,7 @@ R = 0.9
 
 
 def _model(stops=TIP, n_modes=2, keys=""):
-    return parse_case(RIG.format(n_modes=n_modes, stops=stops, keys=keys)).model_spec().build()
+    return parse_case(RIG.format(n_modes=n_modes, stops=stops, keys=keys)).model_spec().scene()
 
 
 def test_stop_tables_are_the_shorthand_keys():
@@ -88,9 +89,9 @@ gap_lower_mm = 0.4
 contact_lower = {R = 0.6}
 """
     a, b = _model(tables), _model("", keys=keys)
-    assert a.stops() == b.stops() and not a.point_stops
-    W = 15.5 / a.f_ref_hz
-    ta, tb = BeamEventSolver(a.scene()).point(W, None, 50, 4, 16), BeamEventSolver(b.scene()).point(W, None, 50, 4, 16)
+    assert a.stops == b.stops and not [st for st in a.stops if st.relation.row > 0]
+    W = 15.5 / a.system.reference_hz
+    ta, tb = BeamEventSolver(a).point(W, None, 50, 4, 16), BeamEventSolver(b).point(W, None, 50, 4, 16)
     assert np.array_equal(ta.samples, tb.samples) and ta.n_impacts == tb.n_impacts
     sd = """name = "s"
 [model]
@@ -118,11 +119,12 @@ def test_a_stop_below_the_tip_against_solve_ivp(f_hz):
     rtol 1e-9, events on both stops' gaps) gives the same orbit: the same impacts per period on
     each stop and the amplitude to 1e-8 (measured 6e-11 and 2e-10: the ODE tolerance)."""
     m = _model()
-    assert [s.name for s in m.stops()] == ["upper", "lower at 180 mm"] and m.contact_rows().shape == (2, 2)
-    W = f_hz / m.f_ref_hz
-    a = BeamEventSolver(m.scene()).point(W, None, 400, 16, 64)
-    b = BeamODESolver(m.scene()).point(W, None, 400, 16, 64)
-    sa, sb = summarize(a, m.Delta), summarize(b, m.Delta)
+    assert [s.name for s in m.stops] == ["upper", "lower at 180 mm"] and m.system.contacts.shape == (2, 2)
+    W = f_hz / m.system.reference_hz
+    a = BeamEventSolver(m).point(W, None, 400, 16, 64)
+    b = BeamODESolver(m).point(W, None, 400, 16, 64)
+    Delta = outputs(m).Delta
+    sa, sb = summarize(a, Delta), summarize(b, Delta)
     assert sa["period"] == sb["period"] == 1 and a.status == b.status == "ok"
     assert sa["stop_impacts_per_period"][0] == 1.0 and sa["stop_impacts_per_period"][2] >= 4.0
     np.testing.assert_array_equal(sa["stop_impacts_per_period"], sb["stop_impacts_per_period"])
@@ -137,14 +139,15 @@ def test_one_mode_a_tip_stop_is_a_stop_at_the_mass():
     periods."""
     tip = TIP.replace("gap_mm = 0.0", "contact_gap_mm = 0.0")
     m = _model(tip, n_modes=1)
-    ps, row = m.point_stops[0]
-    ratio = float(m.contact_row[0] / row[0])
+    ps = [st for st in m.stops if st.relation.row > 0][0]
+    row = m.system.contacts[ps.relation.row]
+    ratio = float(m.system.contacts[0][0] / row[0])
     at_mass = _model(tip.replace('position_mm = 180.0\ncontact_gap_mm = 1.2',
                                  f'contact_gap_mm = {1.2 * ratio!r}'), n_modes=1)
-    W = 16.5 / m.f_ref_hz       # a period-3 orbit (at 14.5-16 Hz the one-mode motion is chaotic)
-    a = BeamEventSolver(m.scene()).point(W, None, 300, 8, 32)
-    b = BeamEventSolver(at_mass.scene()).point(W, None, 300, 8, 32)
-    assert a.n_impacts == b.n_impacts > 8 and summarize(a, m.Delta)["period"] == 3
+    W = 16.5 / m.system.reference_hz       # a period-3 orbit (at 14.5-16 Hz the one-mode motion is chaotic)
+    a = BeamEventSolver(m).point(W, None, 300, 8, 32)
+    b = BeamEventSolver(at_mass).point(W, None, 300, 8, 32)
+    assert a.n_impacts == b.n_impacts > 8 and summarize(a, outputs(m).Delta)["period"] == 3
     assert np.max(np.abs(a.samples - b.samples)) < 1e-12 * np.max(np.abs(a.samples))   # measured 7e-14
 
 
@@ -156,16 +159,16 @@ def test_continued_tip_branch_against_event_runs_and_liouville():
     from vibeam.models.continuation import Settings, trace
 
     m = _model()
-    W0 = 15.5 / m.f_ref_hz
-    x0 = BeamEventSolver(m.scene()).point(W0, None, 400, 1, 1).final_state[:-1]
+    W0 = 15.5 / m.system.reference_hz
+    x0 = BeamEventSolver(m).point(W0, None, 400, 1, 1).final_state[:-1]
     prob = shooting_problem(m, "Omega")
-    br = trace(prob, x0, W0, 1, W0, 16.5 / m.f_ref_hz, +1, Settings(switch=False, max_points=40))[0]
+    br = trace(prob, x0, W0, 1, W0, 16.5 / m.system.reference_hz, +1, Settings(switch=False, max_points=40))[0]
     stable = [p for p in br.points if np.max(np.abs(p.mu)) < 1.0]
     assert len(stable) >= 10
-    c = m.c_nd
+    c = m.system.damping
     checked = 0
     for p in stable[::4]:
-        ev = BeamEventSolver(m.scene()).point(p.p, np.concatenate([p.x, [0.0]]), 300, 1, 1)
+        ev = BeamEventSolver(m).point(p.p, np.concatenate([p.x, [0.0]]), 300, 1, 1)
         scale = np.max(np.abs(p.x))
         assert np.max(np.abs(ev.final_state[:-1] - p.x)) < 1e-8 * scale
         s = prob.shot(p.x, p.p, 1)
@@ -191,7 +194,7 @@ def test_continued_tip_branch_against_event_runs_and_liouville():
 def test_bad_stop_tables_are_refused_in_one_line(stops, words):
     """Each mistake in a [[model.stop]] table is one line naming it (CaseError, no traceback)."""
     with pytest.raises(CaseError) as e:
-        parse_case(RIG.format(n_modes=2, stops=stops, keys=""), "tip.toml").model_spec().build()
+        parse_case(RIG.format(n_modes=2, stops=stops, keys=""), "tip.toml").model_spec().scene()
     msg = str(e.value)
     assert words in msg and "\n" not in msg, msg
 

@@ -10,14 +10,14 @@ from scipy.integrate import solve_ivp
 
 from vibeam.models import system as msys
 from vibeam.models.beam import BeamFE, BeamGeometry
-from vibeam.models.beam_dynamics import BeamImpactModel
 from vibeam.models import BeamEventSolver
-from vibeam.models.builders.matrices import build_matrices, structure_scene
+from vibeam.models.builders.beam import fe_beam, mass_stops, static_mode_beam
+from vibeam.models.builders.matrices import build_matrices, modal_scene, structure_scene
 from vibeam.models.builders.sdof import sdof, sdof_physical
 from vibeam.models.contact import Relation, Restitution, Stop
 from vibeam.models.sdof_flow import particular_coefficients, propagate
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
-from vibeam.models.system import ModalSystem, from_beam, from_matrices, modal_flow, modal_transition
+from vibeam.models.system import ModalSystem, from_matrices, modal_flow, modal_transition
 
 # the rig of tests/test_beam_dynamics.py: 7.6 Hz, beta = 0.017 on the first mode
 L, LS, LM = 0.180, 0.100, 0.132
@@ -59,11 +59,11 @@ def test_one_mode_beam_system_equals_the_sdof_system_flow():
     c = D omega_n^2 / omega_ref against 2 beta), which the flow carries over O(10) time units:
     1e-13 of the amplitude (measured ~1e-15)."""
     g = _geom()
-    sm = BeamImpactModel.static_mode(g, R=0.8, gap_contact_m=0.0, base_amplitude_m=Y, damping_D_s=D)
+    sm = static_mode_beam(g, mass_stops(0.0, Restitution(0.8)), base_amplitude_m=Y, damping_D_s=D)
     red = reduce_static_mode(g, damping_D_s=D, gap_contact_m=0.0, gamma_tilde_m_per_V=Y)
     sd = sdof(beta=red.beta_S, B=red.gamma_per_V, Delta=red.Delta, R=0.8, natural_frequency_hz=red.f_n_hz,
               length_m=L)
-    a, b = from_beam(sm), sd.system
+    a, b = sm.system, sd.system
     assert a.omega.shape == a.damping.shape == a.sensor.shape == (1,) and a.contacts.shape == (1, 1)
     assert a.omega[0] == pytest.approx(1.0, rel=1e-15) and b.omega[0] == 1.0
     assert a.damping[0] == pytest.approx(b.damping[0], rel=1e-14)
@@ -101,17 +101,17 @@ def test_sdof_system_flow_equals_the_sdof_closed_form():
 
 
 def test_flow_is_the_beam_event_kernel_flow():
-    """from_beam's units are the event kernel's: a 2-mode FE beam whose stop is out of reach, run
+    """The beam builder's units are the event kernel's: a 2-mode FE beam whose stop is out of reach, run
     by BeamEventSolver for one forcing period from a given modal state, samples q = s eta / L
     and q' at t = k T / 16; modal_flow from the same state gives them to 1e-12 of the amplitude
     (the kernel adds round-off over its grid steps; a wrong time unit, forcing or scale is O(1))."""
     fe = BeamFE(_geom(), n_elements=8, damping_D_s=D, rayleigh_alpha_1_s=0.3)
-    m = BeamImpactModel.from_fe(fe, 2, gap_contact_m=1.0, base_amplitude_m=Y)
-    s = from_beam(m)
-    W = 15.5 / m.f_ref_hz
-    eta0 = np.array([2e-4, -3e-6]) / np.abs(m.sensor_row)
-    etad0 = np.array([-1e-4, 5e-6]) / np.abs(m.sensor_row)
-    tr = BeamEventSolver(m.scene()).point(W, np.concatenate([eta0, etad0, [0.0]]), 0, 1, 16)
+    m = fe_beam(fe, 2, mass_stops(1.0, Restitution(0.72)), base_amplitude_m=Y)
+    s = m.system
+    W = 15.5 / s.reference_hz
+    eta0 = np.array([2e-4, -3e-6]) / np.abs(s.sensor)
+    etad0 = np.array([-1e-4, 5e-6]) / np.abs(s.sensor)
+    tr = BeamEventSolver(m).point(W, np.concatenate([eta0, etad0, [0.0]]), 0, 1, 16)
     assert tr.n_impacts == 0 and tr.status == "ok"
     T = 2 * math.pi / W
     got = []
@@ -195,7 +195,7 @@ def test_liouville_determinant_of_the_transition_matrix(s_time):
     assert logdet == pytest.approx(-np.sum(s.damping) * s_time, rel=1e-12)
     fe = BeamFE(_geom(), n_elements=8, damping_D_s=D)
     eps = np.finfo(float).eps
-    for s in (_three_modes(), from_beam(BeamImpactModel.from_fe(fe, 2, base_amplitude_m=Y))):
+    for s in (_three_modes(), fe_beam(fe, 2, mass_stops(0.0, Restitution(0.72)), base_amplitude_m=Y).system):
         P = modal_transition(s, 1.0, 1.0 + s_time)
         n = s.omega.size
         for i in range(n):
@@ -207,29 +207,39 @@ def test_liouville_determinant_of_the_transition_matrix(s_time):
 
 # --------------------------------------------------------------------------- constructors
 def test_from_beam_frequencies_and_rows_are_the_fe_models():
-    """from_beam of a 4-mode FE beam: omega / time_unit_s are the BeamFE's circular frequencies
-    (2 roundings: 1e-15) and the lowest eigenvalues of the full (K, M) by scipy's eigh (the direct
-    problem is accurate to eps lam_max / lam_1 ~ 1e-12 here: 1e-9); damping c_i = D omega_i^2 /
-    omega_ref, the FE participation and rows, and the force scale of the model (m_eff omega_ref^2
-    L) from the system's scales."""
+    """The beam builder's scene of a 4-mode FE beam (fe_beam): omega / time_unit_s are the BeamFE's
+    circular frequencies (2 roundings: 1e-15) and the lowest eigenvalues of the full (K, M) by
+    scipy's eigh (the direct problem is accurate to eps lam_max / lam_1 ~ 1e-12 here: 1e-9); damping
+    c_i = D omega_i^2 / omega_ref, the FE participation and the modal truncation's rows, and the
+    force scale (m_eff omega_ref^2 L, the scene's outputs and the closed form) from the system's
+    scales; the kernel's numbers are (omega_i / omega_ref)^2 and (alpha + D omega_i^2) / omega_ref
+    bit for bit."""
     import scipy.linalg
 
+    from vibeam.models.scene import outputs
+    from vibeam.reductions.modal import modal_reduction
+
     fe = BeamFE(_geom(), n_elements=10, damping_D_s=D)
-    m = BeamImpactModel.from_fe(fe, 4, base_amplitude_m=Y)
-    s = from_beam(m)
+    m = fe_beam(fe, 4, mass_stops(0.0, Restitution(0.72)), base_amplitude_m=Y)
+    s = m.system
+    red = modal_reduction(fe, 4)
     md = fe.modes(4)
     np.testing.assert_allclose(s.omega / s.time_unit_s, md.omega_rad_s, rtol=1e-15)
     lam = scipy.linalg.eigh(fe.K, fe.M, eigvals_only=True)[:4]
     np.testing.assert_allclose((s.omega / s.time_unit_s) ** 2, lam, rtol=1e-9)
     np.testing.assert_allclose(s.damping, D * md.omega_rad_s ** 2 * s.time_unit_s, rtol=1e-14)
     np.testing.assert_allclose(s.participation, md.participation, rtol=1e-15)
-    np.testing.assert_array_equal(s.contacts[0], m.contact_row)
-    np.testing.assert_array_equal(s.sensor, m.sensor_row)
+    np.testing.assert_array_equal(s.contacts[0], red.contact_row)
+    np.testing.assert_array_equal(s.sensor, red.sensor_row)
     assert s.omega.flags.c_contiguous and s.contacts.flags.c_contiguous
     m_eff = 1.0 / np.sum(s.contacts[0] ** 2)
     force = m_eff * s.mass_unit_kg * s.length_unit_m / s.time_unit_s ** 2
-    assert force == pytest.approx(m.force_scale_n, rel=1e-14)
-    assert np.array_equal(s.omega ** 2, m.k_nd) and np.array_equal(s.damping, m.c_nd)   # the kernel's numbers
+    assert force == pytest.approx(outputs(m).force_scale_n, rel=1e-14)
+    om_ref = 2 * math.pi * float(md.frequencies_hz[0])
+    assert force == pytest.approx(float(1.0 / np.sum(red.contact_row ** 2)) * om_ref ** 2 * L, rel=1e-14)
+    om = red.omega_rad_s       # the kernel's numbers
+    assert np.array_equal(s.omega ** 2, (om / om_ref) ** 2)
+    assert np.array_equal(s.damping, (fe.rayleigh_alpha_1_s + fe.damping_D_s * om ** 2) / om_ref)
 
 
 def _two_dof():
@@ -314,11 +324,16 @@ def test_modal_flow_refuses_undamped_resonance_and_bad_shapes():
 
 
 def test_a_numba_kernel_takes_the_system_and_the_aliases_are_the_moved_kernels():
-    """The system is plain data a numba kernel takes as one argument; the old private names of
-    the moved kernels are the very same objects (so every caller computes the same bits)."""
+    """The system is plain data a numba kernel takes as one argument; the names the kernels' callers
+    import are the very same objects (so every caller computes the same bits); the beam model's old
+    aliases of them are gone with it."""
     from numba import njit
 
-    from vibeam.models import beam, beam_dynamics
+    import importlib.util
+
+    from vibeam.models import beam
+    from vibeam.models.core import contact_phase, integrator, phases, scene_shooting, signals
+    from vibeam.models.mapping import phases as map_phases
 
     @njit
     def stiffness_sum(sy):
@@ -331,23 +346,30 @@ def test_a_numba_kernel_takes_the_system_and_the_aliases_are_the_moved_kernels()
     assert isinstance(s, ModalSystem) and isinstance(s, tuple)
     assert stiffness_sum(s) == pytest.approx(np.sum(s.omega ** 2 * s.contacts[0]) + 3 * s.base_amplitude,
                                              rel=1e-15)
-    assert beam_dynamics._trans is msys.transition_increment
-    assert beam_dynamics._advance is msys.advance_modes
+    assert integrator.transition_increment is contact_phase.transition_increment is msys.transition_increment
+    assert signals.transition_increment is msys.transition_increment
+    assert importlib.util.find_spec("vibeam.models.beam_dynamics") is None     # with its aliases
     assert beam._lowest_eigs is msys.lowest_modes
-    assert beam_dynamics.mode_table is msys.mode_table and beam_dynamics.particular is msys.particular
+    assert phases.mode_table is map_phases.mode_table is msys.mode_table
+    assert map_phases.particular is scene_shooting.particular is msys.particular
     np.testing.assert_allclose(msys.damping_ratios(s), [0.02, 1.0, 30.0 / 18.0], rtol=1e-15)
 
 
 def test_the_system_owns_its_arrays():
-    """from_beam copies: changing the model's arrays afterwards leaves the system as built."""
+    """The beam builders' packing (modal_scene) copies: changing the arrays it was given afterwards
+    leaves the system as built (the static-mode beam's numbers)."""
     g = _geom()
-    sm = BeamImpactModel.static_mode(g, base_amplitude_m=Y, damping_D_s=D)
-    s = from_beam(sm)
+    sm = static_mode_beam(g, mass_stops(0.0, Restitution(0.72)), base_amplitude_m=Y, damping_D_s=D)
+    a = sm.system
+    om = a.omega / a.time_unit_s
+    rows, gam = a.contacts.copy(), a.participation.copy()
+    s = modal_scene(om, D * om ** 2, gam, a.sensor, rows, sm.stops, Y, a.reference_hz, L, PHIM, "beam").system
     before = s.contacts.copy(), s.participation.copy()
-    sm.contact_row[:] = 7.0
-    sm.participation[:] = 7.0
+    rows[:] = 7.0
+    gam[:] = 7.0
     assert np.array_equal(s.contacts, before[0]) and np.array_equal(s.participation, before[1])
     assert all(a.flags.c_contiguous and a.dtype == np.float64 for a in s[:5])
+    assert all(x.flags.c_contiguous and x.dtype == np.float64 for x in sm.system[:5])
 
 
 def test_the_scenes_outputs_are_its_units_and_the_gap_seen_at_the_sensor():

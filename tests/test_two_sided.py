@@ -22,8 +22,9 @@ from vibeam.models.beam import BeamFE, BeamGeometry
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.contact import Restitution
 from vibeam.models.scene import one_mode
-from vibeam.models.beam_dynamics import BeamImpactModel, BeamODESolver
+from vibeam.models.core.direct import BeamODESolver
 from vibeam.models import BeamEventSolver
+from vibeam.models.builders.beam import fe_beam, mass_stops, static_mode_beam
 from vibeam.engine.records import summarize
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 
@@ -270,9 +271,8 @@ def test_symmetric_stops_give_a_symmetric_beam_orbit(fe):
     normals +-w): the sensor signal obeys U(t + T/2) = -U(t) to 1e-10 (1000 transient periods:
     the first mode decays as exp(-0.017 * 1000 * 2 pi / 2) < 1e-20; measured 5e-15)."""
     Y = 5.16e-4 * PHIM * L * 0.6
-    m = BeamImpactModel.from_fe(fe, 2, R=0.72, gap_contact_m=0.2e-3, base_amplitude_m=Y,
-                                gap_contact_lower_m=0.2e-3)
-    tr = BeamEventSolver(m.scene()).point(15.0 / m.f_ref_hz, None, 1000, 4, 64)
+    m = fe_beam(fe, 2, mass_stops(0.2e-3, Restitution(0.72), 0.2e-3), base_amplitude_m=Y)
+    tr = BeamEventSolver(m).point(15.0 / m.system.reference_hz, None, 1000, 4, 64)
     q = tr.samples[:, 0]
     assert tr.n_impacts_lower > 0 and tr.n_impacts == 2 * tr.n_impacts_lower
     assert np.max(np.abs(q[32:] + q[:-32])) < 1e-10 * np.max(np.abs(q))
@@ -311,12 +311,11 @@ def test_far_lower_stop_is_the_one_sided_beam_bit_for_bit(fe):
     chatters and sticks on its pre-stressed stop."""
     Y = 5.16e-4 * PHIM * L * 0.6
     for gap, f in ((0.0, 15.5), (-0.1e-3, 15.0)):
-        one = BeamImpactModel.from_fe(fe, 2, R=0.8, gap_contact_m=gap, base_amplitude_m=Y)
-        two = BeamImpactModel.from_fe(fe, 2, R=0.8, gap_contact_m=gap, base_amplitude_m=Y,
-                                      gap_contact_lower_m=1e3)
-        W = f / one.f_ref_hz
-        a = BeamEventSolver(one.scene()).point(W, None, 20, 8, 64)
-        b = BeamEventSolver(two.scene()).point(W, None, 20, 8, 64)
+        one = fe_beam(fe, 2, mass_stops(gap, Restitution(0.8)), base_amplitude_m=Y)
+        two = fe_beam(fe, 2, mass_stops(gap, Restitution(0.8), 1e3), base_amplitude_m=Y)
+        W = f / one.system.reference_hz
+        a = BeamEventSolver(one).point(W, None, 20, 8, 64)
+        b = BeamEventSolver(two).point(W, None, 20, 8, 64)
         _same(a, b)
         assert a.n_impacts > 0 and b.n_impacts_lower == 0
 
@@ -347,13 +346,12 @@ def test_static_mode_beam_with_a_lower_stop_is_the_sdof(R, gap, gap_lower, load)
     differently)."""
     g = _geom()
     Y = 5.16e-4 * PHIM * L * 0.6 * load
-    sm = BeamImpactModel.static_mode(g, R=R, gap_contact_m=gap, base_amplitude_m=Y, damping_D_s=D_S,
-                                     gap_contact_lower_m=gap_lower)
+    sm = static_mode_beam(g, mass_stops(gap, Restitution(R), gap_lower), base_amplitude_m=Y, damping_D_s=D_S)
     red = reduce_static_mode(g, damping_D_s=D_S, gap_contact_m=gap, gamma_tilde_m_per_V=Y)
     sd = sdof(beta=red.beta_S, B=red.gamma_per_V, Delta=red.Delta, R=R, Delta_lower=gap_lower / PHIM / L)
     for f in (3.0, 14.0, 15.3):
-        W = f / sm.f_ref_hz
-        a = BeamEventSolver(sm.scene()).point(W, None, 100, 16, 64)
+        W = f / sm.system.reference_hz
+        a = BeamEventSolver(sm).point(W, None, 100, 16, 64)
         b = EventSolver(sd).point(W, None, 100, 16, 64)
         assert a.status == b.status
         assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower
@@ -370,13 +368,12 @@ def test_beam_two_sided_matches_the_direct_solver(fe, gap, gap_lower, f_hz):
     impacts on each stop, impact times to 1e-9 and speeds to 1e-8 relative, samples to 1e-8
     (measured <= 7e-12, 4e-12 and 1.5e-10)."""
     Y = 5.16e-4 * PHIM * L * 0.6
-    m = BeamImpactModel.from_fe(fe, 2, R=0.72, gap_contact_m=gap, base_amplitude_m=Y,
-                                gap_contact_lower_m=gap_lower)
+    m = fe_beam(fe, 2, mass_stops(gap, Restitution(0.72), gap_lower), base_amplitude_m=Y)
     s0 = np.zeros(5)
-    s0[0] = -0.05e-3 / m.contact_row[0]
-    W = f_hz / m.f_ref_hz
-    a = BeamEventSolver(m.scene()).point(W, s0, 20, 8, 32)
-    b = BeamODESolver(m.scene(), solver="DOP853", rtol=1e-10, atol=1e-14).point(W, s0, 20, 8, 32)
+    s0[0] = -0.05e-3 / m.system.contacts[0][0]
+    W = f_hz / m.system.reference_hz
+    a = BeamEventSolver(m).point(W, s0, 20, 8, 32)
+    b = BeamODESolver(m, solver="DOP853", rtol=1e-10, atol=1e-14).point(W, s0, 20, 8, 32)
     assert a.status == b.status == "ok"
     assert a.n_impacts == b.n_impacts and a.n_impacts_lower == b.n_impacts_lower > 0
     np.testing.assert_array_equal(a.impact_stops, b.impact_stops)
@@ -481,8 +478,8 @@ def test_derive_carries_the_lower_stop_to_the_sdof_case():
     sd = parse_case(sdof_case_text(case, spec, d["reduction"], scene_of(spec))).model_spec().scene()
     assert one_mode(sd).Delta_lower == pytest.approx(0.3 / 180.0, rel=1e-12)
     assert sd.stops[1].law.R == 0.5
-    beam = spec.build()
-    assert beam.gap_contact_lower_m == pytest.approx(0.3e-3 * d["reduction"].phi_at_mass, rel=1e-12)
+    beam = spec.scene()
+    assert beam.stops[1].relation.offset == pytest.approx(0.3e-3 * d["reduction"].phi_at_mass, rel=1e-12)
 
 
 def test_shipped_two_sided_case_runs_and_plots_impacts_per_stop(tmp_path):

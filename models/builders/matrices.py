@@ -28,7 +28,7 @@ changed).
 Units
     The matrices in SI (kg, N s/m, N/m for translations; rotations in rad), the DOFs in metres:
     the modal coordinates are then sqrt(kg) m and the rows 1/sqrt(kg), giving metres (the FE
-    beam's convention, :func:`vibeam.models.system.from_beam`).  Time is the nondimensional
+    beam's convention, :func:`vibeam.models.builders.beam.fe_beam`).  Time is the nondimensional
     ``t = omega_ref t~``, ``omega_ref = 2 pi f_ref`` (default ``f_ref = f_1``); the reported
     displacement ``q = (row @ eta) / L`` with the normalising length ``L`` (``length_m``).
 
@@ -65,7 +65,7 @@ from ..contact import Stop
 from ..scene import Excitation, Scene, driven
 from ..system import ModalSystem, lowest_modes, modal_system
 
-__all__ = ["MatrixModel", "build_matrices", "structure_scene", "BUILDERS", "lowest_modes_of", "matrix_problem", "as_matrix", "DENSE_MAX",
+__all__ = ["MatrixModel", "build_matrices", "structure_scene", "modal_scene", "BUILDERS", "lowest_modes_of", "matrix_problem", "as_matrix", "DENSE_MAX",
            "CAUGHEY_RTOL", "SYMMETRY_RTOL", "REPEATED_RTOL"]
 
 TWO_PI = 2.0 * math.pi
@@ -635,7 +635,7 @@ def structure_scene(mm, stops, base_amplitude_m, builder="matrices", excitation=
 
     The system is the reduced one in its own units (time ``1 / omega_ref``, ``omega_ref = 2 pi
     f_ref``; modal coordinates in sqrt(kg) m, rows giving metres; ``B = base_amplitude_m``), its
-    frequencies and damping carried in that unit as the FE beam's (:func:`vibeam.models.system.from_beam`:
+    frequencies and damping carried in that unit as the FE beam's (:func:`modal_scene`:
     ``omega_i = 2 pi f_i / omega_ref``, ``c_i`` per second over ``omega_ref``); the first contact
     row's static ratio to the sensor is kept (paper Eq. 45's ``phi(x_m)``: the gap the results are
     reported from), the others' are NaN.
@@ -673,24 +673,84 @@ def structure_scene(mm, stops, base_amplitude_m, builder="matrices", excitation=
     if not (math.isfinite(phim) and phim != 0.0):
         raise ValueError("the sensor or the first stop's point does not move under the base load K^-1 M r: "
                          "no static ratio refers the gap to the sensor (paper Eq. 45)")
-    rows = np.array(s.contacts, dtype=float)
+    return modal_scene(TWO_PI * np.asarray(mm.frequencies_hz, dtype=float), np.asarray(s.damping, float) / s.time_unit_s,
+                       s.participation, s.sensor, s.contacts, stops, base_amplitude_m,
+                       1.0 / (TWO_PI * s.time_unit_s), s.length_unit_m, phim, builder, excitation, drive_row)
+
+
+def modal_scene(omega_rad_s, damping_1_s, participation, sensor_row, contact_rows, stops, base_amplitude_m,
+                f_ref_hz, length_m, phi_contact, builder, excitation=None, drive_row=None) -> Scene:
+    """A structure reduced to ``n`` mass-normalised modes, with its stops and its drive, as a scene
+    (issue 58): the one packing of every builder of an ``n``-mode structure (the FE beam,
+    :mod:`.beam`; matrices, a continuum, a mesh: :func:`structure_scene`).
+
+    The system is in its own units: time ``1 / omega_ref`` (``omega_ref = 2 pi f_ref``), so its
+    frequencies are ``omega_i / omega_ref`` and its damping ``c_i / omega_ref``; modal coordinates
+    in sqrt(kg) m, rows giving metres, ``B = base_amplitude_m``; ``length_unit_m =
+    coordinate_scale = L``, ``mass_unit_kg = 1``; the first contact row's static ratio to the sensor
+    is ``phi_contact`` (paper Eq. 45's ``phi(x_m)``), the others' NaN.
+
+    Parameters
+    ----------
+    omega_rad_s, damping_1_s, participation, sensor_row : array_like, shape (n,)
+        Natural frequencies ``omega_i`` (rad/s, > 0), modal damping ``c_i`` (1/s, >= 0; ``2 zeta_i
+        omega_i``), base participations ``Gamma_i = phi_i^T M r`` (sqrt(kg)) and the sensor's row
+        ``s^T phi_i`` (1/sqrt(kg)).
+    contact_rows : array_like, shape (n_c, n)
+        The rows ``W phi_i`` (1/sqrt(kg)) of the contact points: row 0 the first stop's.
+    stops : sequence of vibeam.models.contact.Stop
+        Each relation's offset in metres along its normal (negative: pre-stressed) on its contact
+        row, each law in SI (a compliant stiffness in N/m^p at its point): the scene holds it over
+        ``omega_ref^2``.  Two stops on row 0 are an upper and a lower one.
+    base_amplitude_m : float
+        ``B`` (m) of the base-displacement drive.
+    f_ref_hz, length_m, phi_contact : float
+        ``f_ref`` (Hz: ``Omega = f / f_ref``), the normalising length ``L`` (m: ``q = U(L_S) / L``)
+        and the static ratio of contact row 0 to the sensor.
+    builder : str
+        The scene's builder name (``"beam"``, ``"matrices"``, ...: its module's ``BUILDERS``).
+    excitation : vibeam.models.scene.Excitation or None
+        Another drive (SI): a base acceleration, or a force along ``drive_row``
+        (:func:`vibeam.models.scene.driven`); None: the base displacement.
+    drive_row : array_like, shape (n,), optional
+        The modal row of a force's point (1/sqrt(kg)).
+
+    Returns
+    -------
+    vibeam.models.scene.Scene
+
+    Raises
+    ------
+    ValueError
+        Modal arrays of different lengths or none; a frequency that is not positive or a damping
+        below 0; no mode moving contact row 0 or a stop's point; two stops at row 0 that overlap.
+    """
+    om = np.array(omega_rad_s, dtype=float)
+    c = np.array(damping_1_s, dtype=float)
+    n = om.size
+    rows = np.array(contact_rows, dtype=float)
+    if not (np.size(participation) == np.size(sensor_row) == c.size == rows.shape[-1] == n and n >= 1):
+        raise ValueError("modal arrays must have the same length >= 1")
+    if not np.all(om > 0):
+        raise ValueError("modal frequencies must be positive")
+    if not np.all(c >= 0):
+        raise ValueError("damping coefficients must be >= 0")
+    if not np.any(rows[0] != 0.0):
+        raise ValueError("no retained mode moves the contact point")
     for st in stops:
         if not np.any(rows[st.relation.row] != 0.0):
-            raise ValueError("no retained mode moves the contact point" if st.relation.row == 0 else
-                             f"the {st.name} stop: no retained mode moves its point")
+            raise ValueError(f"the {st.name} stop: no retained mode moves its point")
     mass = [st for st in stops if st.relation.row == 0]
     if len(mass) == 2 and not mass[0].relation.offset + mass[1].relation.offset > 0.0:
         raise ValueError("the stops overlap: gap_contact_m + gap_contact_lower_m must be > 0")
-    f_ref = float(1.0 / (TWO_PI * s.time_unit_s))
+    f_ref = float(f_ref_hz)
     om_ref = TWO_PI * f_ref
-    omega_rad_s = TWO_PI * np.asarray(mm.frequencies_hz, dtype=float)
     static = np.full(rows.shape[0], math.nan)
-    static[0] = phim
-    system = modal_system(omega_rad_s / om_ref, (np.asarray(s.damping, float) / s.time_unit_s) / om_ref,
-                          np.array(s.participation, dtype=float), np.array(s.sensor, dtype=float), rows,
-                          float(base_amplitude_m), time_unit_s=1.0 / om_ref, length_unit_m=float(s.length_unit_m),
-                          coordinate_scale=float(s.length_unit_m), mass_unit_kg=1.0, contact_static=static,
-                          reference_hz=f_ref)
+    static[0] = float(phi_contact)
+    system = modal_system(om / om_ref, c / om_ref, np.array(participation, dtype=float),
+                          np.array(sensor_row, dtype=float), rows, float(base_amplitude_m), time_unit_s=1.0 / om_ref,
+                          length_unit_m=float(length_m), coordinate_scale=float(length_m), mass_unit_kg=1.0,
+                          contact_static=static, reference_hz=f_ref)
     own = tuple(Stop(st.relation, dataclasses.replace(st.law, stiffness=st.law.stiffness / om_ref ** 2)
                      if getattr(st.law, "kind", "") == "compliant" else st.law, st.label) for st in stops)
     sc = Scene(system, own, builder)

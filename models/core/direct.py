@@ -65,13 +65,14 @@ import numpy as np
 
 from ..contact import LAW_HYSTERETIC_HERTZ, LAW_LINEAR
 from ..impact import newton_restitution
+from ..scene import Scene, rest_state
 from ..system import drive_displacement, drive_force
 from ..trajectory import Trajectory
-from .event import EventIntegrator
+from .event import EventIntegrator, stop_codes
 from . import laws
 from .stops import held_code
 
-__all__ = ["DirectIntegrator", "RTOL_IMPULSIVE", "ATOL_IMPULSIVE", "RTOL_COMPLIANT", "ATOL_COMPLIANT"]
+__all__ = ["DirectIntegrator", "BeamODESolver", "RTOL_IMPULSIVE", "ATOL_IMPULSIVE", "RTOL_COMPLIANT", "ATOL_COMPLIANT"]
 
 TWO_PI = 2.0 * math.pi
 #: default tolerances with impulsive (Newton) stops only, and with a compliant stop (the reference of
@@ -761,3 +762,80 @@ class _Run:
                           q_min=np.nan, q_max=np.nan, status="failed", message=msg,
                           final_state=np.asarray(self.s0, float).copy(),
                           extra={"mode_amplitudes": np.full(self.N, np.nan), "stuck_fraction": np.nan})
+
+
+# ============================================================================ method ``direct`` of an N-mode scene
+class BeamODESolver:
+    """Method ``direct`` of an N-mode scene (the beam's, a structure's), every contact law: the same
+    modal system and stops integrated by :func:`scipy.integrate.solve_ivp` (the reference solver),
+    through :class:`DirectIntegrator` (the stops in system units,
+    :func:`vibeam.models.builders.matrices.modal_scene`).
+
+    Newton stops: a terminal event at each contact (a gap ``n^T eta - Delta`` rising) and the same
+    impact law; held on stops, the constrained system ``eta = eta_c + Psi zeta`` with a terminal
+    event on each contact force ``lambda`` turning positive; an impact with ``U- < chatter_velocity``
+    times the first impact speed into a pressing contact acceleration ends a chatter (plastic
+    projection, then sticking): a crude chatter model, fine for a reference of impacting/sticking
+    orbits, not for resolving chatter.  Compliant stops (Kelvin-Voigt, hysteretic Hertz): the
+    contact forces in the equations while in contact, with terminal events at the entries and exits
+    of :mod:`vibeam.models.core.contact_phase` and the work done on each stop integrated with the
+    state; the contacts' rows are the event method's (:func:`vibeam.models.core.event.trajectory`).
+
+    The state is scaled by ``1 / (L sqrt(m_eff))`` so that it is of the order of ``U / L``.
+    ``q_min/q_max`` use the sensor-velocity zero crossings (events) and the samples.  Steps are
+    capped at ``T / 16`` (and at a twentieth of a compliant contact's time scale) so that sign
+    changes of the event functions are not stepped over (solve_ivp only checks signs at step ends:
+    detection is not guaranteed).
+
+    Parameters
+    ----------
+    scene : Scene
+        As :class:`~vibeam.models.core.event.BeamEventSolver`'s.
+    solver : str
+        ``solve_ivp`` method (DOP853 default).
+    rtol, atol : float or None
+        Tolerances (``atol`` in units of ``q``); None: 1e-9 and 1e-12 with Newton stops, 1e-11 and
+        1e-15 with a compliant stop (:data:`vibeam.models.core.direct.RTOL_IMPULSIVE` ...).
+    max_impacts_per_period : int
+        More impacts and contact entries per period on average: ``failed``.
+    chatter_velocity : float
+    max_step : float or None
+        Largest step (nondimensional time; default ``T / 16``).
+    """
+
+    name = "direct"
+    time_domain = True
+    chunk_periods = 200   # a restart of solve_ivp changes the result at the level of rtol
+
+    def __init__(self, scene: Scene, solver: str = "DOP853", rtol: float | None = None,
+                 atol: float | None = None, max_impacts_per_period: int = 200,
+                 chatter_velocity: float = 1e-6, max_step: float | None = None):
+        self.scene = scene
+        sy = scene.system
+        self.n_modes = int(sy.omega.shape[0])
+        self._scale = float(sy.coordinate_scale)
+        self._codes = stop_codes(scene.stops)
+        self._laws = [st.law for st in scene.stops]
+        self._rest = rest_state(scene)
+        m_eff = float(1.0 / np.sum(np.asarray(sy.contacts[0], float) ** 2))
+        self.max_step = max_step
+        self.solver = solver
+        self.max_impacts_per_period = int(max_impacts_per_period)
+        self.chatter_velocity = float(chatter_velocity)
+        self._direct = DirectIntegrator(EventIntegrator(scene), self._scale * math.sqrt(m_eff), solver, rtol, atol,
+                                        self.max_impacts_per_period, self.chatter_velocity, max_step)
+        self.rtol = self._direct.rtol
+        self.atol = self._direct.atol
+
+    def settings(self) -> dict:
+        return dict(solver=self.solver, rtol=self.rtol, atol=self.atol, n_modes=self.n_modes,
+                    chatter_velocity=self.chatter_velocity)
+
+    def point(self, Omega, state0, n_transient, n_record, samples_per_period=64) -> Trajectory:
+        """One forcing frequency by the one direct solver (:mod:`vibeam.models.core.direct`) on the
+        beam's modal system and stops; ``state0`` as :meth:`vibeam.models.core.event.BeamEventSolver.point` (its last entry
+        the held code of the Newton stops held and the compliant stops in contact)."""
+        s0 = self._rest.copy() if state0 is None else np.asarray(state0, dtype=float)
+        laws = self._laws
+        return self._direct.run(float(Omega), s0, n_transient, n_record, samples_per_period, self._scale,
+                                lambda k: laws[k], self._codes)

@@ -328,7 +328,7 @@ class ModalMappingSolver:
     ----------
     scene : vibeam.models.scene.Scene
         The modal system and its stops in the system's units (the beam's
-        :func:`vibeam.models.scene.beam_scene`; any number of modes).
+        :func:`vibeam.models.builders.beam.fe_beam`; any number of modes).
     n : int, optional
         Forcing periods of the orbit (1..4).
     form : str, optional

@@ -464,26 +464,33 @@ def _sdof_checks(name, sc, d):
     return [c_map, c_kn, c_lin, c_avg]
 
 
-def _beam_checks(name, spec, model, d, sweep, expensive=True):
+def _beam_checks(name, spec, sc, d, sweep, expensive=True):
+    """A beam case's event runs (``sc`` its scene): its no-impact points against the modal linear
+    steady state; the static mode against the SDOF of its derived parameters; an FE run's periodic
+    points against the direct solver."""
     from dataclasses import replace
 
     from vibeam.case.beamscene import derive
     from vibeam.models import make_solver
     from vibeam.models.builders.sdof import sdof as sdof_scene
+    from vibeam.models.registry import law_name
+    from vibeam.models.scene import outputs
     from vibeam.engine.sweep import run_sweep
 
+    o = outputs(sc)
+    mass = [st for st in sc.stops if st.relation.row == 0]       # the stops at the attached mass
     c_lin = Check(name, "no-impact points vs modal linear_sensor_amplitude_m", TOL_LINEAR)
     for i, W in enumerate(d["Omega"]):
         if int(d["period"][i]) == -1 and str(d["status"][i]) == "ok":
-            lin = float(np.abs(model.linear_sensor_amplitude_m(float(W)))) / model.length_m
-            c_lin.add(float(W), str(d["direction"][i]), float(d["amplitude"][i]), model.Delta + lin)
+            lin = _linear_sensor_q(sc, float(W))
+            c_lin.add(float(W), str(d["direction"][i]), float(d["amplitude"][i]), o.Delta + lin)
     out = [c_lin]
-    if spec.n_modes == "static" and getattr(model, "contact_law", "restitution") == "restitution":
+    if spec.n_modes == "static" and law_name(sc) == "restitution":
         red = derive(spec)["reduction"]
         lower = {}
-        if getattr(model, "two_sided", False):   # the lower stop at the sensor: Delta_C,lower / (phi L)
-            lower = dict(Delta_lower=model.gap_contact_lower_m / model.phi_at_mass / model.length_m,
-                         lower_law=model.lower_law)
+        if len(mass) == 2:   # the lower stop at the sensor: Delta_C,lower / (phi L)
+            lower = dict(Delta_lower=mass[1].relation.offset / o.phi_contact / o.length_m,
+                         lower_law=None if mass[1].law is mass[0].law else mass[1].law)
         sdof = sdof_scene(red.beta_S, red.gamma_per_V * spec.voltage, red.Delta, spec.R, **lower)
         f = np.asarray(d["frequency_hz"], float)
         up = np.unique(f)
@@ -492,7 +499,7 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
         # relative to max(|A|, |Delta|): a mass held on a pre-stressed stop has A = Delta - q_min = 0
         # up to the round-off of the modal coordinates (1e-19 here)
         c_st = Check(name, "static mode vs SDOF event solver of the derived parameters", TOL_STATIC,
-                     floor=abs(model.Delta))
+                     floor=abs(o.Delta))
         key = {(str(dr), round(float(w) * red.f_n_hz, 9)): j
                for j, (dr, w) in enumerate(zip(res.data["direction"], res.data["Omega"]))}
         for i, fi in enumerate(f):
@@ -508,19 +515,19 @@ def _beam_checks(name, spec, model, d, sweep, expensive=True):
         out.append(_static_statistics_check(name, d, res.data, key))
         # the same oracles as an SDOF run, on the derived SDOF (frequency and strobe velocity in
         # its time unit 1 / omega_n; q = U(L_S) / L is the same coordinate)
-        r = red.f_n_hz / model.f_ref_hz
+        r = red.f_n_hz / sc.system.reference_hz
         d2 = dict(d, Omega=np.asarray(d["Omega"], float) / r,
                   strobe=np.asarray(d["strobe"], float) * np.array([1.0, 1.0 / r]))
         if len(sdof.stops) > 1:
             out += _two_sided_checks(name, sdof, d2)
         else:
             out += [c for c in _sdof_checks(name, sdof, d2) if "averaging" not in c.oracle]
-    elif model.n_modes <= DIRECT_MAX_MODES and (expensive or getattr(model, "contact_law", "restitution")
-                                                 != "restitution" or getattr(model, "point_stops", ())):
+    elif o.n_modes <= DIRECT_MAX_MODES and (expensive or law_name(sc) != "restitution"
+                                             or any(st.relation.row > 0 for st in sc.stops)):
         # every compliant FE run, and every run with stops away from the mass, gets its direct
         # check, one point in the default test step (the restitution FE runs with their stops at
         # the mass have the static-mode, one-mode and shooting oracles of the tests)
-        out.append(_direct_check(name, model, d, sweep, DIRECT_POINTS if expensive else 1))
+        out.append(_direct_check(name, sc, d, sweep, DIRECT_POINTS if expensive else 1))
     return out
 
 
@@ -579,7 +586,7 @@ def _direct_check(name, model, d, sweep, n_points=DIRECT_POINTS):
     from vibeam.models.scene import outputs
     from vibeam.engine.records import summarize
 
-    Delta = model.Delta if hasattr(model, "Delta") else outputs(model).Delta     # a beam model, or a scene
+    Delta = outputs(model).Delta     # model: a scene
     c = Check(name, "FE periodic points vs direct solve_ivp DOP853 (rtol 1e-10)", TOL_DIRECT)
     cand = [i for i in range(len(d["Omega"])) if int(d["period"][i]) == 1 and str(d["status"][i]) == "ok"
             and float(d["impacts_per_period"][i]) == 1.0]
@@ -801,7 +808,7 @@ def _matrices_checks(name, spec, model, d, sweep, expensive=True):
 # checks only): (name, spec, datasets, sweep, expensive, is a map line) -> [Check]
 ORACLES = {
     "sdof": _sdof_oracles,
-    "beam": lambda name, spec, d, sweep, expensive, is_map: _beam_checks(name, spec, spec.build(), d, sweep,
+    "beam": lambda name, spec, d, sweep, expensive, is_map: _beam_checks(name, spec, spec.scene(), d, sweep,
                                                                          expensive),
     "matrices": lambda name, spec, d, sweep, expensive, is_map: _matrices_checks(name, spec, spec.scene(), d, sweep,
                                                                                  expensive),

@@ -105,13 +105,13 @@ def timed_sweep(model, method, Omega, n_transient, n_record, **settings):
 
 
 def build_scene(fname: str, over: dict | None):
-    """Case, spec, model, solver settings and sweep settings of a shipped case, built as
+    """Case, scene, solver settings and the scene's build time of a shipped case, built as
     ``vibeam run`` builds them (:func:`vibeam.cli.run_case`)."""
     case, _ = load_case(root() / "cases" / fname)
     run = next((r for r in case.run if r.method == "event"), case.run[0])
     spec = case.model_spec(over)
-    spec.build()                  # first build: imports (scikit-fem, ...) and caches
+    spec.scene()                  # first build: imports (scikit-fem, ...) and caches
     t0 = time.perf_counter()
-    model = spec.build()
+    scene = spec.scene()
     t_build = time.perf_counter() - t0
-    return case, model, case.run_settings(run), t_build
+    return case, scene, case.run_settings(run), t_build

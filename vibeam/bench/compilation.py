@@ -86,8 +86,9 @@ from vibeam.case.schema import load_case
 from vibeam.models import make_solver
 case, _ = load_case(Path(vibeam.__file__).resolve().parent.parent / "cases" / "rig-fe-neutral.toml")
 run = next(r for r in case.run if r.method == "event")
-model = case.model_spec({{"n_modes": {n}}}).build()
-W = float(case.sweep.grid(model.natural_frequency_hz)[0])
+from vibeam.models.scene import outputs
+model = case.model_spec({{"n_modes": {n}}}).scene()
+W = float(case.sweep.grid(outputs(model).natural_frequency_hz)[0])
 make_solver(model, "event", **case.run_settings(run)).point(W, None, 2, 2, case.sweep.samples_per_period)
 """
 

@@ -14,6 +14,7 @@ from vibeam.models import EventSolver, shooting_problem, make_solver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models import BeamEventSolver
 from vibeam.models.continuation import Settings, start_point, trace
+from vibeam.models.scene import outputs
 
 
 CONTINUATION_GOAL_S = 0.1   # issue 10: ~500-point SDOF branch with stability, after warm-up
@@ -188,10 +189,10 @@ def run_beam_continuation_bench(repeats: int = 3, sweep_points: int = 16, target
     out: dict = {}
     st = Settings()
     case, model, _, _ = build_scene("rig-fe-neutral.toml", {"n_modes": "all"})
-    f_ref = model.f_ref_hz
+    f_ref = model.system.reference_hz
     lo, hi = 14.0 / f_ref, 17.0 / f_ref
     t0 = time.perf_counter()
-    x0 = BeamEventSolver(model.scene()).point(lo, None, 400, 1, 1).final_state[:-1]
+    x0 = BeamEventSolver(model).point(lo, None, 400, 1, 1).final_state[:-1]
     t_start = time.perf_counter() - t0
     prob = shooting_problem(model, "Omega")
     t, c, times, shots, brs = _timed_trace(prob, x0, lo, lo, hi, +1, st, repeats)
@@ -206,7 +207,7 @@ def run_beam_continuation_bench(repeats: int = 3, sweep_points: int = 16, target
         k = int(np.argmin(np.abs(a["parameter"] - W)))
         pt, _ = start_point(prob, a["state"][k], W, 1, lo, hi)
         Q_ref[i] = pt.shot.amplitude
-    rows, equal = _sweep_at_equal_accuracy(make_solver(model, "event"), model.Delta, grid, Q_ref,
+    rows, equal = _sweep_at_equal_accuracy(make_solver(model, "event"), outputs(model).Delta, grid, Q_ref,
                                            (25, 50, 100, 200, 400, 800), target_error,
                                            lambda msg: log("  all-modes " + msg))
     per_point = t / n_pts
@@ -229,16 +230,16 @@ def run_beam_continuation_bench(repeats: int = 3, sweep_points: int = 16, target
     }
     # the pre-stressed stop: chatter orbits, ~40 ms per shot with M
     case, model, _, _ = build_scene("rig-fe-tight.toml", {"n_modes": "all"})
-    f_ref = model.f_ref_hz
+    f_ref = model.system.reference_hz
     lo, hi = 14.0 / f_ref, 17.0 / f_ref
-    x0 = BeamEventSolver(model.scene()).point(lo, None, 400, 1, 1).final_state[:-1]
+    x0 = BeamEventSolver(model).point(lo, None, 400, 1, 1).final_state[:-1]
     prob = shooting_problem(model, "Omega")
     trace(prob, x0, lo, 1, lo, hi, +1, Settings(switch=False, max_points=3))      # warm-up
     rows = {}
     for label, (x, p0, lo_, hi_, direction) in {
             "14-17 Hz from the event orbit at 14 Hz": (x0, lo, lo, hi, +1),
             "ladder 14-21 Hz from 18 Hz (cases/rig-fe-tight-continuation.toml)":
-                (BeamEventSolver(model.scene()).point(18.0 / f_ref, None, 400, 1, 1).final_state[:-1], 18.0 / f_ref,
+                (BeamEventSolver(model).point(18.0 / f_ref, None, 400, 1, 1).final_state[:-1], 18.0 / f_ref,
                  lo, 21.0 / f_ref, 0)}.items():
         t0, c0 = time.perf_counter(), time.process_time()
         (b, *_) = trace(prob, x, p0, 1, lo_, hi_, direction, Settings(switch=False))

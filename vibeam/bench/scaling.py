@@ -10,6 +10,7 @@ import numpy as np
 from vibeam.bench.common import build_scene, goal
 from vibeam.engine.sweep import Sweep, run_sweep
 from vibeam.models import make_solver
+from vibeam.models.scene import outputs
 
 
 def _loglog_fit(x, t) -> dict:
@@ -54,8 +55,7 @@ def _time_sweep(case, model, settings, points: int, n_periods: int, repeats: int
     a warm-up; the case's direction, continuation, samples per period and period rtol; every
     period integrated unless ``recurrence`` (the solver's exact recurrence)."""
     cs = case.sweep
-    fn = getattr(model, "natural_frequency_hz", None)
-    full = cs.grid(fn)
+    full = cs.grid(outputs(model).natural_frequency_hz)
     grid = np.linspace(full[0], full[-1], points)
     if record is None:
         record = _smooth(n_periods * record_fraction)
@@ -182,7 +182,7 @@ def run_scaling_bench(points: int = 11,
             skipped.append(m)
             continue
         case, model, settings, t_build = build_scene(fname, {"n_modes": m})
-        n = int(model.n_modes)
+        n = int(model.system.omega.shape[0])
         if n in n_list:   # e.g. "all" equal to the last integer rung
             continue
         t, inf = _time_sweep(case, model, settings, mode_points, mode_periods, repeats,

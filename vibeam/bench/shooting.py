@@ -8,7 +8,7 @@ import time
 import numpy as np
 
 from vibeam.bench.common import build_scene, goal
-from vibeam.models.beam_dynamics import particular
+from vibeam.models.system import particular
 from vibeam.models import BeamEventSolver, make_solver
 from vibeam.models import shooting_problem
 
@@ -65,8 +65,8 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
         row = {}
         for nm in modes:
             case, model, settings, _ = scene(fname, nm)
-            W = f_hz / model.f_ref_hz
-            x0 = BeamEventSolver(model.scene()).point(W, None, 300, 1, 1).final_state[:-1]
+            W = f_hz / model.system.reference_hz
+            x0 = BeamEventSolver(model).point(W, None, 300, 1, 1).final_state[:-1]
             prob = shooting_problem(model, Omega=W)
             s = prob.shot(x0, W, 1)
             prob.shot(x0, W, 1, derivatives=False)
@@ -79,8 +79,9 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
         out["shot"][label] = row
     for nm in modes:
         case, model, settings, _ = scene("rig-fe-neutral.toml", nm)
-        W = 15.5 / model.f_ref_hz
-        a, b = particular(model.c_nd, model.k_nd, model.participation, W**2 * model.base_amplitude_m, W)
+        W = 15.5 / model.system.reference_hz
+        sy = model.system
+        a, b = particular(sy.damping, sy.omega ** 2, sy.participation, W**2 * sy.base_amplitude, W)
         prob = shooting_problem(model, Omega=W)
         t0 = time.perf_counter()
         x, s, it = _newton(prob, np.concatenate([b, W * a]), W)
@@ -98,9 +99,9 @@ def run_shooting_bench(modes=(1, 2, 4, "all"), repeats: int = 5, frc_points: int
             "event_periods_to_1e-10": k, "event_s_to_1e-10": t_ev * k / K if k > 0 else None,
             "ratio_event_to_newton": (t_ev * k / K) / t_newton if k > 0 else None}
     case, model, settings, _ = scene("rig-fe-neutral.toml", "all")
-    grid = np.linspace(14.0, 17.0, frc_points) / model.f_ref_hz
+    grid = np.linspace(14.0, 17.0, frc_points) / model.system.reference_hz
     prob = shooting_problem(model, Omega=grid[0])
-    x = BeamEventSolver(model.scene()).point(grid[0], None, 300, 1, 1).final_state[:-1]
+    x = BeamEventSolver(model).point(grid[0], None, 300, 1, 1).final_state[:-1]
     its, ok, stable = [], 0, 0
     t0 = time.perf_counter()
     for W in grid:

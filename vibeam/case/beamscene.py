@@ -14,7 +14,7 @@ Conversions (paper Secs. 5-6):
 """
 from __future__ import annotations
 
-import copy
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -24,7 +24,8 @@ import scipy.linalg
 
 from vibeam.errors import CaseError
 from vibeam.models.beam import BeamFE, BeamGeometry, shared_calibration, shared_fe
-from vibeam.models.beam_dynamics import BeamImpactModel
+from vibeam.models.builders.beam import fe_beam, mass_stops, static_mode_beam
+from vibeam.models.builders.matrices import modal_scene
 from vibeam.models.contact import Relation, Restitution, Stop
 from vibeam.models.registry import fidelity, with_capability
 from vibeam.models.scene import Excitation
@@ -55,18 +56,20 @@ REBUILD_KEYS = ("length_mm", "sensor_position_mm", "mass_position_mm", "width_mm
                 "mass_kg", "rotary_inertia_kg_m2", "discs", "calibrate", "n_modes", "n_elements")
 
 
-def conversions(model, gain_per_V: float | None = None,
+def conversions(spec, scene, gain_per_V: float | None = None,
                 voltage: float | None = None) -> dict:
-    """Affine map of the physical case keys onto paths into the model's scene, the parameters of
-    its shooting problem (:class:`vibeam.models.core.scene_shooting.SceneShooting`).
+    """Affine map of the physical case keys onto paths into a beam scene, the parameters of its
+    shooting problem (:class:`vibeam.models.core.scene_shooting.SceneShooting`).
 
     ``value at the path = scale * key`` for every key in the table, so a derivative with respect
     to the key is ``scale`` times the path's (chain rule).
 
     Parameters
     ----------
-    model : BeamImpactModel
-        The model (built by :func:`vibeam.case.beamscene.build_beam_model` for a case).
+    spec : vibeam.case.schema.BeamSceneSpec
+        The case's beam table (its Rayleigh ``D`` and ``alpha``: :func:`scene_of`).
+    scene : vibeam.models.scene.Scene
+        Its scene (:func:`scene`).
     gain_per_V : float, optional
         The case's ``gain`` (the paper's normalised gamma, 1/V); needed for ``voltage``.
     voltage : float, optional
@@ -89,27 +92,29 @@ def conversions(model, gain_per_V: float | None = None,
           omega_ref``, the first FE mode of a built scene), ``2 / omega_ref``: the modal damping
           ``c_i = (alpha + D omega_i^2) / omega_ref`` moves along ``omega_ref (omega_i /
           omega_ref)^2``; ``rayleigh_alpha_1_s`` -> ``system.damping`` in alpha, 1, along
-          ``1 / omega_ref``;
-        * ``R`` -> ``stops[0].law.R`` (and the lower stop's R when its law follows the upper
+          ``1 / omega_ref`` (the static mode has no alpha: 0);
+        * ``R`` -> ``stops[0].law.R`` (and the lower stop's R when its law is the upper
           stop's), 1; ``R_lower`` -> ``stops[1].law.R``, 1.
     """
-    L = model.length_m
-    phim = model.phi_at_mass
-    two = model.two_sided
-    R = ("stops[0].law.R", "stops[1].law.R") if two and model.lower_law is None else "stops[0].law.R"
-    tab = {"Omega": ("Omega", 1.0, None), "frequency_hz": ("Omega", 1.0 / model.f_ref_hz, None),
+    sy = scene.system
+    L = float(sy.length_unit_m)
+    phim = float(sy.contact_static[0])
+    f_ref = float(sy.reference_hz)
+    om_ref = 2 * math.pi * f_ref
+    mass = [st for st in scene.stops if st.relation.row == 0]
+    two = len(mass) == 2
+    R = ("stops[0].law.R", "stops[1].law.R") if two and mass[1].law is mass[0].law else "stops[0].law.R"
+    tab = {"Omega": ("Omega", 1.0, None), "frequency_hz": ("Omega", 1.0 / f_ref, None),
            "gap_mm": ("stops[0].relation.offset", 1e-3 * phim, None),
            "contact_gap_mm": ("stops[0].relation.offset", 1e-3, None), "R": (R, 1.0, None)}
     if two:
         tab.update(gap_lower_mm=("stops[1].relation.offset", 1e-3 * phim, None),
                    contact_gap_lower_mm=("stops[1].relation.offset", 1e-3, None),
                    R_lower=("stops[1].law.R", 1.0, None))
-    if model.modal_damping_1_s is None:
-        # the Rayleigh damping of Eq. 39 (a model with per-mode damping has no such parameter)
-        tab["damping_ratio"] = ("system.damping", 2.0 / model.omega_ref,
-                                (float(model.damping_D_s), model.omega_ref * model.k_nd))
-        tab["rayleigh_alpha_1_s"] = ("system.damping", 1.0, (float(model.rayleigh_alpha_1_s),
-                                                             np.full(model.n_modes, 1.0 / model.omega_ref)))
+    # the Rayleigh damping of Eq. 39
+    alpha = 0.0 if spec.n_modes == "static" else float(spec.rayleigh_alpha_1_s)
+    tab["damping_ratio"] = ("system.damping", 2.0 / om_ref, (float(scene_of(spec).damping_D_s), om_ref * sy.omega ** 2))
+    tab["rayleigh_alpha_1_s"] = ("system.damping", 1.0, (alpha, np.full(sy.omega.shape[0], 1.0 / om_ref)))
     if gain_per_V is not None:
         tab["voltage"] = ("system.base_amplitude", float(gain_per_V) * phim * L, None)
     if voltage is not None:
@@ -166,32 +171,39 @@ def scene_of(spec) -> BeamScene:
                      Delta_C_lower_m=DCl)
 
 
-def build_beam_model(spec):
-    """The FE impact model of a beam case table (see :mod:`vibeam.models.beam_dynamics`)."""
+def scene(spec, law, lower_law=None):
+    """The scene of a beam case table: its FE modes (or the static mode, ``n_modes = "static"``), its
+    stops and its drive (:mod:`vibeam.models.builders.beam`).
+
+    Parameters
+    ----------
+    spec : vibeam.case.schema.BeamSceneSpec
+    law, lower_law : law
+        The SI laws of the stops at the attached mass (the lower one's None: the upper one's).
+
+    Returns
+    -------
+    vibeam.models.scene.Scene
+    """
     sc = scene_of(spec)
+    stops = mass_stops(sc.Delta_C_m, law, sc.Delta_C_lower_m, lower_law)
     if spec.n_modes == "static":
         # the paper's SDOF reduction as a one-shape model (Eqs. 42-47, beam mass excluded);
         # the reference frequency stays the FE f_1 so both fidelities share one grid
-        return BeamImpactModel.static_mode(sc.geometry, R=spec.R, gap_contact_m=sc.Delta_C_m,
-                                           base_amplitude_m=sc.base_amplitude_m,
-                                           damping_D_s=sc.damping_D_s, f_ref_hz=sc.f1_hz,
-                                           point_stops=point_stops(spec, sc), **lower_stop(spec, sc))
+        return static_mode_beam(sc.geometry, stops, point_stops(spec, sc), sc.base_amplitude_m, sc.damping_D_s,
+                                sc.f1_hz, excitation=excitation(spec))
     fe = shared_fe(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
                    rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
-    return BeamImpactModel.from_fe(fe, n_modes=spec.n_modes, R=spec.R, gap_contact_m=sc.Delta_C_m,
-                                   base_amplitude_m=sc.base_amplitude_m, f_ref_hz=sc.f1_hz,
-                                   point_stops=point_stops(spec, sc), **lower_stop(spec, sc))
+    return fe_beam(fe, spec.n_modes, stops, point_stops(spec, sc), sc.base_amplitude_m, sc.f1_hz,
+                   excitation=excitation(spec))
 
 
-def with_drive(spec, model):
-    """``model`` driven as ``spec`` says: unchanged for the shaker's base displacement ``gamma V``
-    (already its ``base_amplitude_m``); for ``[model.excitation] kind = "base_acceleration"`` (the
-    spec's ``drive``, ``(kind, a)`` in m/s^2) its :attr:`~vibeam.models.beam_dynamics.BeamImpactModel.excitation`
-    set, so its scene is driven by ``F = a`` at every frequency (:func:`vibeam.models.scene.driven`)."""
+def excitation(spec):
+    """The drive of a beam table other than the shaker's base displacement ``gamma V``:
+    ``[model.excitation] kind = "base_acceleration"`` (the spec's ``drive``, ``(kind, a)`` in
+    m/s^2) as an :class:`~vibeam.models.scene.Excitation`, else None."""
     drive = getattr(spec, "drive", None)
-    if drive is not None:
-        model.excitation = Excitation(*drive)
-    return model
+    return None if drive is None else Excitation(*drive)
 
 
 def point_stops(spec, sc) -> list:
@@ -211,19 +223,6 @@ def point_stops(spec, sc) -> list:
         out.append((x, Stop(Relation(1.0 if p.side == "upper" else -1.0, gap), Restitution(p.R),
                             f"{p.side} at {p.position_mm:g} mm")))
     return out
-
-
-def lower_stop(spec, sc, phi_c=None) -> dict:
-    """Keyword arguments of :class:`~vibeam.models.beam_dynamics.BeamImpactModel` for the scene's
-    second stop (``{}`` without one): its gap at the contact point (``gap_lower_mm`` at the
-    sensor times ``phi_c``, default ``phi(x_m)``) and R (``[model.contact_lower] R``)."""
-    if sc.Delta_C_lower_m is None:
-        return {}
-    DCl = sc.Delta_C_lower_m
-    if phi_c is not None and getattr(spec, "gap_lower_mm", None) is not None:
-        DCl = spec.gap_lower_mm * 1e-3 * phi_c
-    R_lower = spec.contact_lower.R if spec.contact_lower is not None else None
-    return dict(gap_contact_lower_m=DCl, R_lower=R_lower)
 
 
 def beam_spec(case, command: str = "derive"):
@@ -387,9 +386,24 @@ def eccentric_contact_row(fe, shapes, offset_m: float) -> np.ndarray:
     return fe.contact_row @ shapes + offset_m * shapes[fe.mass_dof_slope, :]
 
 
-def build_beam_model_with_effects(spec, effects):
-    """BeamImpactModel of a beam scene with its structural effects (eccentric contact,
-    coupled platform, R table), built from ``spec``."""
+def effects_scene(spec, effects, law, lower_law=None):
+    """``(scene, coupled)``: the scene of a beam table with its structural effects (eccentric
+    contact, coupled platform, R table), driven as the table says, and the coupled platform's
+    record (:class:`CoupledPlatform`) or None.
+
+    Parameters
+    ----------
+    spec : vibeam.case.schema.BeamSceneSpec
+    effects : vibeam.case.schema.EffectsSpec
+    law, lower_law : law
+        The SI laws of the stops at the attached mass, as :func:`scene`'s.
+
+    Raises
+    ------
+    vibeam.errors.CaseError
+        An eccentric contact or a coupled platform with stops away from the attached mass; a coupled
+        platform on the static mode, or without its mass.
+    """
     ecc = effects.eccentric_impact
     plat = effects.platform
     coupled = plat is not None and plat.level == "coupled"
@@ -401,49 +415,41 @@ def build_beam_model_with_effects(spec, effects):
     sc = scene_of(spec)
     phic = contact_factor(spec, e) if ecc is not None else sc.phi_at_mass
     DC = sc.Delta_C_m if spec.gap_mm is None else (spec.gap_mm * 1e-3) * phic
+    DCl = sc.Delta_C_lower_m
+    if DCl is not None and getattr(spec, "gap_lower_mm", None) is not None:
+        DCl = spec.gap_lower_mm * 1e-3 * phic
+    stops = mass_stops(DC, law, DCl, lower_law)
+    info = None
     if not (ecc or coupled):
-        m = spec.build()
-        if effects.restitution_law is None:
-            return m
-        m = copy.copy(m)
+        new = scene(spec, law, lower_law)
     elif spec.n_modes == "static":
         if coupled:
             raise _err("effects.platform: level = \"coupled\" needs FE modes (n_modes an integer or "
                        "\"all\"), not the static mode")
-        m0 = spec.build()
-        m = BeamImpactModel(m0.omega_rad_s, m0.participation, m0.contact_row * (phic / sc.phi_at_mass),
-                            m0.sensor_row, m0.R, DC, m0.base_amplitude_m, m0.f_ref_hz, m0.length_m, phic,
-                            m0.damping_D_s, m0.rayleigh_alpha_1_s, label="static mode, eccentric contact",
-                            **lower_stop(spec, sc, phic))
+        new = static_mode_beam(sc.geometry, stops, (), sc.base_amplitude_m, sc.damping_D_s, sc.f1_hz, phi_contact=phic,
+                               excitation=excitation(spec))
     else:
-        fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
-                    rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
-        red = modal_reduction(fe, spec.n_modes)
-        md = fe.modes(red.n_modes)
-        P = red.shapes
-        w = eccentric_contact_row(fe, P, e) if ecc is not None else red.contact_row
-        s = red.sensor_row
-        G = md.participation
-        om = red.omega_rad_s
-        c = fe.rayleigh_alpha_1_s + fe.damping_D_s * om ** 2
+        fe = shared_fe(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
+                       rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
         if not coupled:
-            m = BeamImpactModel(om, G, w, s, spec.R, DC, sc.base_amplitude_m, sc.f1_hz, fe.geometry.length_m,
-                                phic, fe.damping_D_s, fe.rayleigh_alpha_1_s,
-                                label=f"FE {red.n_modes} modes" + (", eccentric contact" if ecc else ""),
-                                **lower_stop(spec, sc, phic))
+            new = fe_beam(fe, spec.n_modes, stops, (), sc.base_amplitude_m, sc.f1_hz, contact_offset_m=e,
+                          phi_contact=phic, excitation=excitation(spec))
         else:
-            m = _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic)
+            new, info = _coupled_scene(plat, spec, sc, fe, e if ecc is not None else None, stops, phic)
     if effects.restitution_law is not None:
         t = effects.restitution_law
         # sensor velocity (mm/s) -> contact velocity in kernel units (m per nondimensional time)
-        m.R_table_U = np.asarray(t.velocity_mm_s, float) * 1e-3 * phic / m.omega_ref
-        m.R_table_R = np.asarray(t.R, float)
-    return m
+        om_ref = 2 * math.pi * new.system.reference_hz
+        up = new.stops[0].law
+        tab = dataclasses.replace(up, table_U=tuple(float(x) for x in np.asarray(t.velocity_mm_s, float) * 1e-3 * phic / om_ref),
+                                  table_R=tuple(float(x) for x in np.asarray(t.R, float)))
+        new = new._replace(stops=tuple(Stop(st.relation, tab, st.label) if st.law is up else st for st in new.stops))
+    return new, info
 
 
 class CoupledPlatform(NamedTuple):
     """What the coupled platform's gain (:meth:`vibeam.engine.effects.EffectSolver.effective_gain`)
-    reads of the beam + platform model (:func:`_coupled_model`): the platform's row of the coupled
+    reads of the beam + platform scene (:func:`effects_scene`): the platform's row of the coupled
     modes ``platform_row`` (shape ``(n,)``, ``z_p = platform_row @ xi``), their circular
     frequencies ``omega_rad_s`` (rad/s, shape ``(n,)``) and modal damping ``c_phys`` (1/s, shape
     ``(n,)``), and the shaker force ``platform_force_n`` (N) holding the reference amplitude."""
@@ -453,17 +459,18 @@ class CoupledPlatform(NamedTuple):
     c_phys: np.ndarray
     platform_force_n: float
 
-    @classmethod
-    def of(cls, m) -> "CoupledPlatform":
-        """The record of a model built by :func:`_coupled_model`."""
-        return cls(np.asarray(m.platform_row, float), np.asarray(m.omega_rad_s, float),
-                   np.asarray(m.c_phys, float), float(m.platform_force_n))
 
-
-def _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic):
-    """Beam + platform DOF as one modal model (module doc)."""
+def _coupled_scene(plat, spec, sc, fe, offset_m, stops, phic):
+    """Beam + platform DOF as one modal scene (module doc) and its :class:`CoupledPlatform`."""
     if plat.mass_kg is None:
         raise _err("effects.platform.mass_kg is required for level = \"coupled\" (the platform's mass, kg)")
+    red = modal_reduction(fe, spec.n_modes)
+    P = red.shapes
+    w = eccentric_contact_row(fe, P, offset_m) if offset_m is not None else red.contact_row
+    s = red.sensor_row
+    G = fe.modes(red.n_modes).participation
+    om = red.omega_rad_s
+    c = fe.rayleigh_alpha_1_s + fe.damping_D_s * om ** 2
     g = sc.geometry
     N = om.size
     m_tot = g.mass_kg + g.beam_mass_kg
@@ -483,10 +490,9 @@ def _coupled_model(plat, spec, sc, om, G, w, s, c, DC, phic):
     W = 2 * math.pi * f_ref
     Y = sc.base_amplitude_m
     F_s = Y * abs(kp - Mtot * W ** 2 + 1j * cp * W)
-    m = BeamImpactModel(np.sqrt(lam), V[N], np.concatenate([w, [0.0]]) @ V, np.concatenate([s, [0.0]]) @ V,
-                        spec.R, DC, 0.0, sc.f1_hz, g.length_m, phic,
-                        modal_damping_1_s=np.einsum("ij,i,ij->j", V, np.diag(Cc), V),
-                        label=f"FE {N} modes + platform DOF", **lower_stop(spec, sc, phic))
-    m.platform_force_n = F_s        # per-point base_amplitude_m = F_s / Omega~^2
-    m.platform_row = V[N].copy()    # z_p = platform_row @ xi
-    return m
+    om_c = np.sqrt(lam)
+    c_c = np.einsum("ij,i,ij->j", V, np.diag(Cc), V)
+    new = modal_scene(om_c, c_c, V[N], np.concatenate([s, [0.0]]) @ V, (np.concatenate([w, [0.0]]) @ V)[None, :],
+                      stops, 0.0, sc.f1_hz, g.length_m, phic, "beam", excitation(spec))
+    # per-point base amplitude F_s / Omega~^2; z_p = platform_row @ xi
+    return new, CoupledPlatform(V[N].copy(), om_c, c_c, float(F_s))

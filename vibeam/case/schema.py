@@ -207,9 +207,6 @@ class _StopsSpec(_Strict):
         """
         return build_or_refuse(self, self._scene)
 
-    def _scene(self):
-        return self._build().scene()
-
 
 class _SDOFSpec(_StopsSpec):
     """The SDOF's ``[model]`` spec (base of :class:`SDOFSceneSpec`, the canonical tables, which the
@@ -404,8 +401,8 @@ class _SDOFSpec(_StopsSpec):
 
 
 def build_or_refuse(spec, build):
-    """``build()``, the model of a ``[model]`` spec; a value the model's constructors cannot
-    use (they raise ValueError, or an arithmetic error such as an overflow) becomes a
+    """``build()``, the scene (or the reduced structure) of a ``[model]`` spec; a value its builder
+    cannot use (it raises ValueError, or an arithmetic error such as an overflow) becomes a
     :class:`CaseError` of one line naming the fidelity and the reason, so a case whose
     numbers pass the table's validators but make no model is refused like any bad input
     (``vibeam`` exit 2; a fit counts such a trial as a failed evaluation).  Warnings of a
@@ -566,43 +563,38 @@ class _BeamSpec(_StopsSpec):
             raise ValueError("cannot be continued in a beam driven by a base acceleration; allowed: Omega")
         if key == "Omega":
             return "Omega", 1.0, None
-        return conversions(self.build(), gain_per_V=self.gain, voltage=self.voltage)[key]
+        return conversions(self, self.scene(), gain_per_V=self.gain, voltage=self.voltage)[key]
 
     @property
     def two_sided(self) -> bool:
         """A second stop below (``gap_lower_mm`` or ``contact_gap_lower_mm``)."""
         return self.gap_lower_mm is not None or self.contact_gap_lower_mm is not None
 
-    def build(self):
-        """The :class:`vibeam.models.beam_dynamics.BeamImpactModel` of this scene.
-
-        Raises
-        ------
-        CaseError
-            If the model cannot be built from these values (:func:`build_or_refuse`: e.g. a
-            calibration to ``f2_hz / f1_hz`` that no rotary inertia reaches, an attached mass
-            at the clamp that no mode moves).
-        """
-        return build_or_refuse(self, self._build)
-
-    def _build(self):
+    def _scene(self):
         # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
-        from vibeam.case.beamscene import build_beam_model, with_drive
+        from vibeam.case.beamscene import scene
 
-        m = build_beam_model(self)
+        return scene(self, *self.laws())
+
+    def laws(self) -> tuple:
+        """``(upper, lower)``: the SI laws of the stops at the attached mass (a compliant stiffness
+        in N/m^p at the contact point, :func:`vibeam.case.contact.beam_law`), the lower one None when
+        it is the upper one's: Newton's with ``R`` or ``[model.contact]``'s compliant law; below it
+        ``[model.contact_lower]``'s (a compliant law, or Newton's with its ``R`` beside a compliant
+        upper stop, or its ``R`` alone)."""
+        # lazy: keeps the impact kernels (vibeam.models.impact) out of load_case
+        from vibeam.models.contact import Restitution
+
         law = beam_law(self.contact, self.R)
         lo = lower_law_spec(self)
         lower = beam_law(lo, target_R(lo, self.R))
-        if law is not None:   # a compliant stop (issue 13): the beam with its compliant laws
-            if self.mixed_stops:   # Newton's law below the compliant upper stop: its R, else [model] R
-                # lazy: keeps the impact kernels (vibeam.models.impact) out of load_case
-                from vibeam.models.contact import Restitution
-
-                lower = Restitution(self.R if self.contact_lower.R is None else self.contact_lower.R)
-            m = m.with_laws(law, lower)
-        elif lower is not None:   # a compliant lower stop below Newton's upper one
-            m.lower_law = lower
-        return with_drive(self, m)
+        if law is None:
+            if lower is None and self.contact_lower is not None and self.contact_lower.R is not None:
+                lower = Restitution(float(self.contact_lower.R))
+            return Restitution(float(self.R)), lower
+        if self.mixed_stops:   # Newton's law below the compliant upper stop: its R, else [model] R
+            lower = Restitution(self.R if self.contact_lower.R is None else self.contact_lower.R)
+        return law, lower
 
     @property
     def mixed_stops(self) -> bool:
@@ -668,7 +660,7 @@ class _BeamSpec(_StopsSpec):
 
     def effect_scene(self, effects, scene):
         """``(scene, coupled)``: ``scene`` with the structural effects of a run (eccentric contact,
-        coupled platform, R table: :func:`vibeam.case.beamscene.build_beam_model_with_effects`,
+        coupled platform, R table: :func:`vibeam.case.beamscene.effects_scene`,
         driven as the case says), and the coupled platform's record
         (:class:`vibeam.case.beamscene.CoupledPlatform`) or None; ``scene`` itself when no effect
         changes the structure."""
@@ -677,10 +669,9 @@ class _BeamSpec(_StopsSpec):
         if effects.eccentric_impact is None and not coupled and effects.restitution_law is None:
             return scene, None
         # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
-        from vibeam.case.beamscene import CoupledPlatform, build_beam_model_with_effects, with_drive
+        from vibeam.case.beamscene import effects_scene
 
-        m = with_drive(self, build_beam_model_with_effects(self, effects))   # a rebuilt structure keeps the drive
-        return m.scene(), (CoupledPlatform.of(m) if coupled else None)
+        return effects_scene(self, effects, *self.laws())
 
     def case_update(self, key: str, value: float) -> tuple[dict, list]:
         """``[model]`` keys that set a fitted value, and notes: f_n is ``calibrate.f1_hz`` of a
@@ -1609,7 +1600,7 @@ del _name
 #: fidelity's name in the fidelity registry (:mod:`vibeam.models.registry`; a shorthand ``[model]``
 #: is validated by the spec of the builder it expands into, :func:`_validate_model`).  A spec class
 #: validates the table (pydantic) and is the framework's one place for what is specific to its
-#: fidelity: ``build()`` (the model), ``physical``, ``dofs()`` (degrees of freedom, for the work
+#: fidelity: ``physical``, ``dofs()`` (degrees of freedom, for the work
 #: estimate), ``result_attrs()`` (derived values stored with a run), ``converged_reference(table)``
 #: (the model table a cost table measures errors against), ``scene()`` (the scene every method
 #: takes), ``effect_scene(effects, scene)`` (the scene with the structural effects of a run),

@@ -36,8 +36,8 @@ Effects (paper Secs. 5-7)
     with ``m_tot`` the beam's and the attached mass's total mass, ``k_p`` and
     ``c_p`` the suspension of the whole assembly at ``frequency_hz`` /
     ``damping_ratio``.  Its N + 1 mass-normalised modes feed the same closed-form
-    modal kernel (:class:`vibeam.models.beam_dynamics.BeamImpactModel` with
-    arbitrary modal data).  Approximation: damping stays modal -- the diagonal
+    modal kernel (a scene of arbitrary modal data,
+    :func:`vibeam.models.builders.matrices.modal_scene`).  Approximation: damping stays modal -- the diagonal
     of ``V^T C V`` is kept, its (small) off-diagonal coupling is dropped.  The
     shaker force ``F_s`` is calibrated so that the assembly taken as rigid would
     move ``gamma~ V`` at the reference frequency; ``effective_gain`` is the
