@@ -159,3 +159,77 @@ def test_beam_case_runs_the_fidelity_ladder_and_costs_it(tmp_path):
     assert set(errs) == {"static", "fe1", "fe2"}
     assert all(np.isfinite(e) and e > 0 for e in errs.values())
     assert res["claims"] == []
+
+
+def test_derive_of_a_two_sided_beam_swept_in_omega(tmp_path):
+    """`vibeam derive` of a beam with a lower stop and its sweep in Omega = f / f_1 (FE): the lower
+    stop's rows by the same static-mode conversion as the upper's (Eq. 45: Delta_C,lower = phi(x_m)
+    Delta_G,lower, Delta_lower = Delta_G,lower / L), and the written SDOF case sweeps the same
+    frequencies in Hz, f = Omega f_1, to its 6 significant digits (rel 1e-6), the lower gap at the
+    sensor to 1e-9."""
+    text = RIG.replace("gap_mm = 0.1\n", "gap_mm = 0.1\ngap_lower_mm = 0.25\n").replace(
+        "frequency_hz = [14.0, 17.0, 4]", "Omega = [1.7, 2.3, 4]")
+    spec = parse_case(text).model_spec()
+    d = derive(spec)
+    red, sc = d["reduction"], d["scene"]
+    rows = {r[0]: r[1] for r in d["rows"]}
+    L = 0.18
+    assert rows["Delta_C,lower"] == pytest.approx(red.phi_at_mass * 0.25, rel=1e-12)
+    assert rows["Delta_G,lower"] == pytest.approx(0.25, rel=1e-12)
+    assert rows["Delta_lower"] == pytest.approx(0.25e-3 / L, rel=1e-12)
+    path = tmp_path / "two.toml"
+    path.write_text(text)
+    out = tmp_path / "sdof.toml"
+    assert main(["derive", str(path), "--write", str(out)]) == 0
+    case = parse_case(out.read_text(), str(out))
+    lo, hi, n = case.sweep.frequency_hz
+    assert (lo, hi, int(n)) == (pytest.approx(1.7 * sc.f1_hz, rel=1e-6), pytest.approx(2.3 * sc.f1_hz, rel=1e-6), 4)
+    assert one_mode(case.model_spec().scene()).Delta_lower == pytest.approx(0.25e-3 / L, rel=1e-9)
+
+
+def test_each_continuation_key_is_its_paths_value_over_its_factor():
+    """conversions (issue 58): for every key of a two-sided beam that moves a stop or the drive, the
+    value at its path in the built scene is ``factor * key`` (the chain rule of the continuation
+    rests on it): gap_mm and gap_lower_mm times phi(x_m) 1e-3 (Eq. 45), voltage times gain phi(x_m)
+    L (Eq. 46 inverted), gain times voltage phi(x_m) L; to 1e-15 (one rounding apart)."""
+    spec = parse_case(RIG.replace("gap_mm = 0.1\n", "gap_mm = 0.1\ngap_lower_mm = 0.25\n")).model_spec()
+    sc = spec.scene()
+    at = {"stops[0].relation.offset": sc.stops[0].relation.offset,
+          "stops[1].relation.offset": sc.stops[1].relation.offset,
+          "system.base_amplitude": sc.system.base_amplitude}
+    for key, value in (("gap_mm", 0.1), ("gap_lower_mm", 0.25), ("voltage", 0.6), ("gain", 5.16e-4)):
+        path, factor, damping = spec.scene_parameter(key)
+        assert damping is None and factor * value == pytest.approx(at[path], rel=1e-15, abs=0), key
+
+
+def test_an_eccentric_contact_moves_the_stop_and_the_platform_modes_are_signed():
+    """effects_scene: an eccentric contact's stop is at ``gap_mm`` seen at the sensor times its own
+    static ratio phi_c = phi(x_m) (1 + 3 e / (2 L_m)) (the scene's contact_static[0] too); a
+    coupled platform's modes are signed so that the platform moves with each (platform_row >= 0,
+    the record's convention), and the scene's drive is the shaker's force (base amplitude 0)."""
+    from vibeam.case.beamscene import contact_factor
+    from vibeam.case.schema import EffectsSpec
+
+    spec = parse_case(RIG).model_spec()
+    e = 4e-3
+    new, coupled = spec.effect_scene(EffectsSpec.model_validate({"eccentric_impact": {"offset_mm": 4.0}}),
+                                     spec.scene())
+    phic = contact_factor(spec, e)
+    assert phic == pytest.approx(scene_of(spec).phi_at_mass * (1 + 1.5 * e / 0.132), rel=1e-15)
+    assert coupled is None and new.stops[0].relation.offset == pytest.approx(0.1e-3 * phic, rel=1e-15)
+    assert new.system.contact_static[0] == phic
+    new, coupled = spec.effect_scene(EffectsSpec.model_validate({"platform": {"level": "coupled", "mass_kg": 3.0}}),
+                                     spec.scene())
+    assert np.all(coupled.platform_row >= 0) and np.any(coupled.platform_row > 0)
+    assert new.system.base_amplitude == 0.0 and coupled.platform_force_n > 0
+
+
+def test_vibeam_modes_sensor_modal_masses_sum_to_the_flexibility_of_the_sensor():
+    """modes_report with every mode: sum_i 1 / m_i of the sensor's modal masses m_i = 1 / (s^T
+    phi_i)^2 is s^T M^-1 s (completeness of the mass-normalised modes), to 1e-9 (the eigenvectors'
+    orthonormality)."""
+    spec = parse_case(RIG).model_spec()
+    fe = modes_report(spec, 1)["fe"]
+    r = modes_report(spec, fe.ndof)
+    s = fe.sensor_row
+    assert np.sum(1.0 / r["sensor_modal_mass_kg"]) == pytest.approx(s @ np.linalg.solve(fe.M, s), rel=1e-9)
