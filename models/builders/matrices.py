@@ -652,11 +652,8 @@ def structure_scene(mm, stops, base_amplitude_m, builder="matrices", excitation=
         ``B`` (m) of the base-displacement drive, the DOFs' unit.
     builder : str
         The scene's builder name (``"matrices"``, ``"continuum"``, ``"mesh"``: :data:`BUILDERS`).
-    excitation : vibeam.models.scene.Excitation or None
-        Another drive (SI): a base acceleration, or a force along ``drive_row``
-        (:func:`vibeam.models.scene.driven`); None: the base displacement.
-    drive_row : array_like, shape (n,), optional
-        The modal row of a force's DOF (:meth:`MatrixModel.modal_row`).
+    excitation, drive_row
+        As :func:`modal_scene`'s (a force's row: :meth:`MatrixModel.modal_row`).
 
     Returns
     -------
@@ -666,7 +663,7 @@ def structure_scene(mm, stops, base_amplitude_m, builder="matrices", excitation=
     ------
     ValueError
         The sensor or the first stop's point not moved by the base load (no static ratio refers
-        the gap to the sensor); no kept mode moving a stop's point; two stops at row 0 that overlap.
+        the gap to the sensor); and :func:`modal_scene`'s refusals.
     """
     s = mm.system
     phim = float(mm.contact_static[0])
@@ -718,6 +715,7 @@ def modal_scene(omega_rad_s, damping_1_s, participation, sensor_row, contact_row
     Returns
     -------
     vibeam.models.scene.Scene
+        The system in its own units, the stops in them, ``builder``.
 
     Raises
     ------
