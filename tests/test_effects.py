@@ -8,10 +8,10 @@ import pytest
 
 from vibeam.case.contact import model_with
 from vibeam.case.schema import CaseError, EffectsSpec, load_case
-from vibeam.case.beamscene import contact_factor, eccentric_contact_row
+from vibeam.case.beamscene import contact_factor
 from vibeam.engine.effects import EffectSolver, identify_platform, platform_H, wrap_solver
 from vibeam.models import BeamEventSolver, EventSolver, make_solver
-from vibeam.models.builders.beam import mass_stops
+from vibeam.models.builders.beam import contact_row, mass_stops
 from vibeam.models.builders.matrices import modal_scene
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.contact import Restitution
@@ -176,7 +176,7 @@ def test_eccentric_contact_row_includes_rotation(beam):
     np.testing.assert_allclose(P[fe.mass_dof_slope, :], slope, rtol=1e-4)      # the rotation DOF is w'
     w0 = model.system.contacts[0]
     w_e = w0 + e * P[fe.mass_dof_slope, :]
-    np.testing.assert_allclose(eccentric_contact_row(fe, P, e), w_e, rtol=1e-12)
+    np.testing.assert_allclose(contact_row(fe, P, e), w_e, rtol=1e-12)
     np.testing.assert_allclose(m.system.contacts[0], w_e, rtol=1e-12)
     assert np.all(np.abs(e * slope) > 1e-3 * np.abs(w0))        # the term matters
     assert abs(outputs(m).m_eff - outputs(model).m_eff) > 1e-3 * outputs(model).m_eff

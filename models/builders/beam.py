@@ -36,7 +36,7 @@ from ..contact import Relation, Stop
 from ..scene import Scene
 from .matrices import modal_scene
 
-__all__ = ["fe_beam", "static_mode_beam", "mass_stops", "BUILDERS"]
+__all__ = ["fe_beam", "static_mode_beam", "mass_stops", "contact_row", "BUILDERS"]
 
 #: the builder name of the scenes made here (the registry's fidelity)
 BUILDERS = ("beam",)
@@ -67,6 +67,26 @@ def mass_stops(gap_m, law, gap_lower_m=None, lower_law=None) -> tuple:
     if gap_lower_m is not None:
         out += (Stop(Relation(-1.0, float(gap_lower_m)), law if lower_law is None else lower_law),)
     return out
+
+
+def contact_row(fe, shapes, offset_m: float = 0.0) -> np.ndarray:
+    """The modal row of the contact point ``e`` from the attached mass's centre along the beam,
+    ``w(L_m) + e w'(L_m)`` (the mass's rotation moves an eccentric contact).
+
+    Parameters
+    ----------
+    fe : vibeam.models.beam.BeamFE
+    shapes : ndarray, shape (ndof, N)
+        Mass-normalised mode shapes (1/sqrt(kg)).
+    offset_m : float
+        ``e`` (m); 0: the mass's centre.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ``W phi_i`` (1/sqrt(kg)), giving metres.
+    """
+    return fe.contact_row @ shapes + offset_m * shapes[fe.mass_dof_slope, :] if offset_m else fe.contact_row @ shapes
 
 
 def _point_stops(stops, point_stops):
@@ -124,8 +144,7 @@ def fe_beam(fe, n_modes=2, stops=(), point_stops=(), base_amplitude_m=0.0, f_ref
     if phi_contact is None:
         phi_contact = float(static_mode_shape(g.mass_position_m / L, g.mass_position_m / L, g.sensor_position_m / L))
     P = red.shapes
-    w = fe.contact_row @ P + contact_offset_m * P[fe.mass_dof_slope, :] if contact_offset_m else red.contact_row
-    rows = [w] + [fe.point_rows([x])[0] @ P for x, _ in point_stops]
+    rows = [contact_row(fe, P, contact_offset_m)] + [fe.point_rows([x])[0] @ P for x, _ in point_stops]
     c = fe.rayleigh_alpha_1_s + fe.damping_D_s * red.omega_rad_s ** 2
     return modal_scene(red.omega_rad_s, c, md.participation, red.sensor_row, np.vstack(rows),
                        _point_stops(stops, point_stops), base_amplitude_m,

@@ -24,7 +24,7 @@ import scipy.linalg
 
 from vibeam.errors import CaseError
 from vibeam.models.beam import BeamFE, BeamGeometry, shared_calibration, shared_fe
-from vibeam.models.builders.beam import fe_beam, mass_stops, static_mode_beam
+from vibeam.models.builders.beam import contact_row, fe_beam, mass_stops, static_mode_beam
 from vibeam.models.builders.matrices import modal_scene
 from vibeam.models.contact import Relation, Restitution, Stop
 from vibeam.models.registry import fidelity, with_capability
@@ -381,11 +381,6 @@ def contact_factor(spec, offset_m: float) -> float:
     return sc.phi_at_mass * (1.0 + 1.5 * offset_m / sc.geometry.mass_position_m)
 
 
-def eccentric_contact_row(fe, shapes, offset_m: float) -> np.ndarray:
-    """Modal contact row ``w(L_m) + e w'(L_m)`` of mass-normalised ``shapes`` (ndof, N)."""
-    return fe.contact_row @ shapes + offset_m * shapes[fe.mass_dof_slope, :]
-
-
 def effects_scene(spec, effects, law, lower_law=None):
     """``(scene, coupled)``: the scene of a beam table with its structural effects (eccentric
     contact, coupled platform, R table), driven as the table says, and the coupled platform's
@@ -435,7 +430,7 @@ def effects_scene(spec, effects, law, lower_law=None):
             new = fe_beam(fe, spec.n_modes, stops, (), sc.base_amplitude_m, sc.f1_hz, contact_offset_m=e,
                           phi_contact=phic, excitation=excitation(spec))
         else:
-            new, info = _coupled_scene(plat, spec, sc, fe, e if ecc is not None else None, stops, phic)
+            new, info = _coupled_scene(plat, spec, sc, fe, e, stops, phic)
     if effects.restitution_law is not None:
         t = effects.restitution_law
         # sensor velocity (mm/s) -> contact velocity in kernel units (m per nondimensional time)
@@ -466,7 +461,7 @@ def _coupled_scene(plat, spec, sc, fe, offset_m, stops, phic):
         raise _err("effects.platform.mass_kg is required for level = \"coupled\" (the platform's mass, kg)")
     red = modal_reduction(fe, spec.n_modes)
     P = red.shapes
-    w = eccentric_contact_row(fe, P, offset_m) if offset_m is not None else red.contact_row
+    w = contact_row(fe, P, offset_m)
     s = red.sensor_row
     G = fe.modes(red.n_modes).participation
     om = red.omega_rad_s
