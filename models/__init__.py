@@ -23,11 +23,11 @@ from .registry import (FIDELITIES, IMPULSIVE, fidelity, law_key, law_name, mass_
 
 # public names -> their module (imported on first access, PEP 562)
 _LAZY = {
-    "EventSolver": "core.event", "linear_amplitude": "sdof_flow",
-    "AveragingSolver": "sdof_averaging", "MappingSolver": "mapping",
+    "EventSolver": "core.event", "linear_amplitude": "core.oscillator",
+    "AveragingSolver": "paper.averaging", "MappingSolver": "mapping",
     "BeamEventSolver": "core.event",
     "BeamODESolver": "core.direct",
-    "DirectSolver": "sdof_ode", "IvanovSolver": "sdof_ode", "ZhuravlevSolver": "sdof_ode",
+    "DirectSolver": "paper.ode", "IvanovSolver": "paper.ode", "ZhuravlevSolver": "paper.ode",
     "SceneShooting": "core.scene_shooting", "Trajectory": "trajectory",
 }
 
@@ -39,7 +39,7 @@ def __getattr__(name):
         globals()["METHODS"] = table
         return table
     if name == "SHOOTING":
-        # shooting problems of the periodic-orbit continuation (contract: vibeam.models.periodic), by
+        # shooting problems of the periodic-orbit continuation (contract: vibeam.models.core.periodic), by
         # fidelity, from the registry; a plain dict (tests may patch it), built once
         table = {f.name: resolve(f.shooting) for f in FIDELITIES.values() if f.shooting}
         globals()["SHOOTING"] = table

@@ -2,8 +2,8 @@
 
 numba keys a cached kernel on its own source file only (a content hash of that
 file and the bytecode of the decorated function).  The kernels here inline
-functions of other modules of the package (``roots``, ``impact``,
-``sdof_flow``, ``core.signals``): after one of those changes, numba would go on
+functions of other modules of the package (``core.roots``, ``impact``,
+``core.oscillator``, ``core.signals``): after one of those changes, numba would go on
 loading the old machine code of every caller.  :func:`install` registers cache
 locators, tried before numba's own, that serve every file of this folder and
 whose source stamp is one hash of *all* ``*.py`` files of the folder

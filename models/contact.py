@@ -42,7 +42,7 @@ Kernel representation (numba: plain arrays, one row per stop; :func:`pack`)
     ``tab_U``, ``tab_R``  float64 (n_stops, n_nodes): the ``R(U-)`` table of each stop
                 (first ``NODES`` entries used; 0 nodes = constant R).
     The kernels apply Newton's law with :func:`vibeam.models.impact.restitution_coefficient`
-    and decide what follows with the one policy of :mod:`vibeam.models.contact_policy`.
+    and decide what follows with the one policy of :mod:`vibeam.models.core.contact_policy`.
 
 How a law plugs in
     A new law of an existing family is one class in :mod:`vibeam.models.compliant` (its

@@ -65,7 +65,7 @@ model, whose coordinate is the sensor's), ``stops()`` (its contact relations and
     ``K_N = 0`` at ``R = 0``); case validation refuses such a run with ``R = 0`` (also a
     ``[run.model]`` override or a ``[map]`` value of ``R``).
 ``shooting``
-    Its periodic-orbit shooting problem (contract: :mod:`vibeam.models.periodic`), the
+    Its periodic-orbit shooting problem (contract: :mod:`vibeam.models.core.periodic`), the
     class the continuation builds as ``cls(scene, path, Omega=Omega, damping=damping)`` (:func:`vibeam.models.shooting_problem`); None: cannot
     be continued.
 """
@@ -284,11 +284,11 @@ register(Fidelity(
     name="sdof",
     model="builders.sdof:sdof",
     solvers={"event": on_the_core("core.event:EventSolver", restitution_law=True),
-             "direct": on_the_core("sdof_ode:DirectSolver"),
+             "direct": on_the_core("paper.ode:DirectSolver"),
              # the textbook methods of one Newton stop (paper Sec. 3)
-             "zhuravlev": Method("sdof_ode:ZhuravlevSolver"),
-             "ivanov": Method("sdof_ode:IvanovSolver", positive_R=True),
-             "averaging": Method("sdof_averaging:AveragingSolver"),
+             "zhuravlev": Method("paper.ode:ZhuravlevSolver"),
+             "ivanov": Method("paper.ode:IvanovSolver", positive_R=True),
+             "averaging": Method("paper.averaging:AveragingSolver"),
              # the one pointwise mapping (paper Sec. 4.2): a passage through a stop of each law, on
              # one or two stops, mixed ones included
              "mapping": Method("mapping:MappingSolver", {f: "mapping:MappingSolver" for f in _MAPPED},

@@ -16,7 +16,7 @@ force) give ``f A sin(Omega t)`` instead: ``Gamma Omega^2 B`` is generalised to 
 
 * The paper's SDOF (Eqs. 43-47; the scene of :func:`vibeam.models.builders.sdof.sdof`) is the
   one-mode case ``omega = 1``, ``c = 2 beta``, ``Gamma = s = W = 1``: :func:`sdof_system`.
-* The FE cantilever (Eqs. 39-42; modes of :class:`vibeam.models.beam.BeamFE`) is the ``N``-mode
+* The FE cantilever (Eqs. 39-42; modes of :class:`vibeam.models.builders.beam_fe.BeamFE`) is the ``N``-mode
   case in its own kernel units: :func:`vibeam.models.builders.beam.fe_beam` (through
   :func:`vibeam.models.builders.matrices.modal_scene`).
 * A lumped ``n``-DOF model ``M x'' + C x' + K x = -M r b''`` reduces to it by the generalized

@@ -54,7 +54,7 @@ class Trajectory:
         moves the stop); the amplitude is measured from it.
     chatter_times : ndarray, shape (c,), optional
         Accumulation points of the chatter sequences of the record (times from
-        its start; event kernels, :mod:`vibeam.models.contact_policy`).
+        its start; event kernels, :mod:`vibeam.models.core.contact_policy`).
     impact_stops : ndarray of int, shape (k,), optional
         Two-sided scenes: the stop of each impact (0 the upper stop at ``q = Delta``, 1 the
         lower one at ``q = -Delta_lower``); ``impact_velocities`` are then the normal

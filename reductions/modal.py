@@ -1,7 +1,7 @@
 """Modal truncation of the finite-element beam.
 
 With ``u = Phi_N q`` (``Phi_N``: the ``N`` lowest mass-normalised modes of
-:meth:`vibeam.models.beam.BeamFE.modes`) the FE equations
+:meth:`vibeam.models.builders.beam_fe.BeamFE.modes`) the FE equations
 ``M u'' + C u' + K u = F b''`` (``F = -M r``, paper Eq. 39) become::
 
     q'' + Phi_N^T C Phi_N q' + diag(omega^2) q = (Phi_N^T F) b''
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vibeam.models.beam import BeamFE
+from vibeam.models.builders.beam_fe import BeamFE
 
 __all__ = ["ModalReduction", "modal_reduction", "contact_effective_mass_kg"]
 

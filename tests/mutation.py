@@ -132,7 +132,7 @@ MODULES = {
         "tests/test_uncertainty.py::test_sample_runs_inline_gives_every_run_its_rows_roles_and_attrs",
         "tests/test_uncertainty.py::test_sample_runs_of_a_physical_scene_are_on_its_frequency_axis",
     ],
-    "models/lyapunov.py": [
+    "models/orbits/lyapunov.py": [
         "tests/test_oracles.py::test_lyapunov_exponents_of_period_2_and_3_orbits_are_their_floquet_exponents",
         "tests/test_lyapunov.py",
         "tests/test_lyapunov_errors.py",
@@ -142,13 +142,13 @@ MODULES = {
         "tests/test_compliant.py",
         "tests/test_lankarani_nikravesh.py",
     ],
-    "models/continuation.py": [
+    "models/orbits/continuation.py": [
         "tests/test_oracles.py::test_the_continuation_step_is_capped_at_ds_max",
         "tests/test_oracles.py::test_the_multipliers_of_a_continued_branch_through_its_period_doubling_against_lapack",
         "tests/test_continuation_cli.py::test_map_curves_follow_the_closed_form_grazing_and_the_one_parameter_fold",
         "tests/test_continuation.py",
     ],
-    "models/continuation_kernels.py": [
+    "models/core/continuation_kernels.py": [
         "tests/test_oracles.py::test_floquet_multipliers_of_a_2x2_monodromy_against_lapack",
         "tests/test_continuation.py",
     ],
@@ -198,13 +198,13 @@ EQUIVALENT = {
      "self._undamped = np.asarray(s.damping, float) == 0.0"):
         "a modal system's damping coefficients are >= 0 (models.system.modal_system refuses others): "
         "c <= 0 is c == 0",
-    ("models/continuation.py", "core/NumberReplacer", "tr.run(br, 0, br.points[0], settings.ds)"):
+    ("models/orbits/continuation.py", "core/NumberReplacer", "tr.run(br, 0, br.points[0], settings.ds)"):
         "the branch has exactly one point when it is run (appended on the line before, to an empty "
         "branch): points[0] is points[-1]",
-    ("models/continuation_kernels.py", "core/ReplaceComparisonOperator_Gt_Is", "if ns != ns or a - 1.0 > ns:"):
+    ("models/core/continuation_kernels.py", "core/ReplaceComparisonOperator_Gt_Is", "if ns != ns or a - 1.0 > ns:"):
         "mu arrives sorted by decreasing modulus (_eig2, by_decreasing_modulus), so the first complex "
         "multiplier met has the largest modulus of the complex ones: the 'max' never changes after it",
-    ("models/continuation_kernels.py", "core/NumberReplacer", "SMALL_SPECTRUM = 8"):
+    ("models/core/continuation_kernels.py", "core/NumberReplacer", "SMALL_SPECTRUM = 8"):
         "the threshold only chooses which of two computations of the same multipliers runs (numba's "
         "eigvals on a complex copy, LAPACK zgeev, or NumPy's dgeev; both sorted by decreasing modulus): "
         "a speed choice, equal to round-off on either side",

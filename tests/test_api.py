@@ -620,9 +620,9 @@ def test_poincare_of_a_period_one_orbit_against_the_shooting_solution(tmp_path):
     periods the stroboscopic samples collapse to one point within 1e-8 (the period-1 orbit's
     multipliers, |mu| ~ 0.9 per period, leave ~1e-16 after 400 periods: 1e-8 is the bound
     asked), every impact lies at the phase of the shooting solution's impact (Newton on
-    P(x) - x, models.continuation.start_point) to 1e-8 rad and with its velocity to 1e-8."""
+    P(x) - x, models.orbits.continuation.start_point) to 1e-8 rad and with its velocity to 1e-8."""
     from vibeam.cli import main
-    from vibeam.models.continuation import start_point
+    from vibeam.models.orbits.continuation import start_point
 
     sec = vibeam.poincare(FIG7, Omega=2.0, periods=32)
     assert sec.strobe_q.shape == (32,) and sec.period == 1

@@ -271,7 +271,7 @@ def test_validating_a_case_loads_no_solver():
 
     code = ("import sys; from vibeam.case.schema import load_case; load_case(sys.argv[1]); "
             "bad = sorted(m for m in sys.modules if m.startswith(('scipy.integrate', 'scipy.linalg', "
-            "'scipy.optimize', 'skfem', 'vibeam.models.sdof', 'vibeam.models.beam'))); print(bad)")
+            "'scipy.optimize', 'skfem', 'vibeam.models.sdof', 'vibeam.models.builders.beam_fe'))); print(bad)")
     p = subprocess.run([sys.executable, "-c", code, str(ROOT / "cases" / "rig-fe-tight.toml")],
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
@@ -334,6 +334,46 @@ def test_every_module_imports_only_its_own_or_lower_layers():
     up = [f"{m} (layer {layer_of(m)}) imports {t} (layer {layer_of(t)})"
           for m, ts in sorted(edges.items()) for t in sorted(ts) if layer_of(t) > layer_of(m)]
     assert not up, up
+
+
+#: the rooms of ``vibeam.models``, lowest first (issue 58): what the model is (the scene, its
+#: system, stops and laws, excitation, the builders and the registry) at the bottom; the core
+#: (flows, the event integrator, direct, shooting) on it; the paper's SDOF methods and the maps
+#: above; the dynamics of the stroboscopic map (continuation, Lyapunov, attractors) on top.
+MODEL_ROOMS = (("scene", "system", "contact", "impact", "compliant", "trajectory", "registry", "builders",
+                "blas", "interrupts", "_cache", "_inline_copy", ""),
+               ("core",),
+               ("paper", "mapping"),
+               ("orbits",))
+#: upward imports that are known and said where they stand: the one-mode averaging start of the
+#: scene's shooting problem (``SceneShooting.start``, function-local, ``# lazy:``)
+ROOM_EXCEPTIONS = {("vibeam.models.core.scene_shooting", "vibeam.models.paper.averaging"),
+                   ("vibeam.models.core.scene_shooting", "vibeam.models.mapping")}
+
+
+def room_of(module: str) -> int:
+    """The index in :data:`MODEL_ROOMS` of ``module``'s room (a module of ``vibeam.models``)."""
+    head = module.removeprefix("vibeam.models").lstrip(".").split(".")[0]
+    rooms = [i for i, names in enumerate(MODEL_ROOMS) if head in names]
+    assert rooms, f"{module} is in no room of MODEL_ROOMS"
+    return rooms[0]
+
+
+def test_the_models_rooms_import_only_their_own_or_lower_rooms():
+    """Inside ``vibeam.models`` (function-local imports included) a room imports only its own or a
+    lower one but for :data:`ROOM_EXCEPTIONS`, and no flat file above the core is named after a
+    fidelity: the paper's SDOF methods are ``paper/``, the FE beam a builder's (``builders/beam_fe.py``)."""
+    edges, _ = project_graph()
+    models = {m: ts for m, ts in edges.items() if m.startswith("vibeam.models")}
+    assert len(models) > 40
+    up = sorted((m, t) for m, ts in models.items() for t in ts
+                if t.startswith("vibeam.models") and room_of(t) > room_of(m))
+    assert set(up) == ROOM_EXCEPTIONS, up
+    from vibeam.models.registry import FIDELITIES
+    flat = sorted(p.stem for p in (ROOT / "models").glob("*.py") if p.stem != "__init__")
+    named = [f for f in flat if any(k in f for k in ("sdof", "beam", *FIDELITIES))]
+    assert not named, named
+    assert {room_of(f"vibeam.models.{f}") for f in flat} == {0}, flat
 
 
 def test_the_framework_is_in_layer_subpackages():

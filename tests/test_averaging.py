@@ -8,7 +8,7 @@ from scipy.optimize import brentq
 from vibeam.models import make_solver
 from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.sdof_averaging import (Delta_max, P_of_Q, amplitudes, discriminant,
+from vibeam.models.paper.averaging import (Delta_max, P_of_Q, amplitudes, discriminant,
                                           phase, polynomial_coefficients, solve)
 
 BETA, B = 0.015, 0.5e-3

@@ -1,5 +1,5 @@
 """Basins of attraction and the census of attractors (vibeam.analysis.attractors on the recurrence
-machine of vibeam.models.attractors, issue 21), against closed forms, independent simulations,
+machine of vibeam.models.orbits.attractors, issue 21), against closed forms, independent simulations,
 Liouville's formula and the binomial law of sampled fractions.
 
 Tolerances are stated per test; the attractors' own numbers (the shooting-refined fixed point,
@@ -16,7 +16,7 @@ import pytest
 import vibeam
 from vibeam.api import load_case
 from vibeam.analysis.attractors import FAILED, UNSETTLED, read_basins, set_period
-from vibeam.models.attractors import Recurrences
+from vibeam.models.orbits.attractors import Recurrences
 from vibeam.models import EventSolver, make_solver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.scene import one_mode, outputs

@@ -70,7 +70,7 @@ def test_states_behind_a_stop_are_excluded_counted_and_not_simulated(tmp_path, m
     labelled behind-stop (-4), none of them is simulated, the fractions are those of the admissible
     states (they and the unsettled/failed shares add up to 1), and the count is stored and printed."""
     from vibeam.analysis import attractors
-    from vibeam.models.attractors import Recurrences
+    from vibeam.models.orbits.attractors import Recurrences
 
     calls = []
     real = Recurrences.label

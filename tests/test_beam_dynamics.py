@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vibeam.models import BeamEventSolver, EventSolver
-from vibeam.models.beam import BeamFE, BeamGeometry
+from vibeam.models.builders.beam_fe import BeamFE, BeamGeometry
 from vibeam.models.core.direct import BeamODESolver
 from vibeam.models.builders.beam import fe_beam, mass_stops, static_mode_beam
 from vibeam.models.builders.sdof import sdof
@@ -160,7 +160,7 @@ def test_static_mode_model_reproduces_sdof_event(R, gap):
 
 @pytest.mark.parametrize("f_hz", [15.0, 16.75])
 def test_one_mode_beam_chatters_like_the_sdof(f_hz):
-    """One chatter policy (vibeam.models.contact_policy) for both kernels: the tight rig's
+    """One chatter policy (vibeam.models.core.contact_policy) for both kernels: the tight rig's
     static-mode beam (pre-stressed stop, R = 0.8; kernel time unit 1 / (2 pi 7.6 Hz), not the
     SDOF's 1 / omega_n: the estimate must not depend on it) and the SDOF of its derived
     parameters resolve the same impacts and jump to the same accumulation points.  From rest,
@@ -194,7 +194,7 @@ def test_one_mode_beam_chatters_like_the_sdof(f_hz):
 def test_chatter_policy_is_invariant_under_the_time_unit():
     """The policy's decision and accumulation time scale with the time unit: D, 1/c_eff and
     1/sqrt(k_eff) are times, jerk/a a rate."""
-    from vibeam.models.contact_policy import chatter_jump
+    from vibeam.models.core.contact_policy import chatter_jump
 
     u, a, j, c, k, R, tol = 1e-8, 0.3, 0.02, 0.03, 1.0, 0.8, 1e-7   # err = 3e-8
     D = chatter_jump(u, a, j, c, k, R, tol, 1.0)

@@ -1,4 +1,4 @@
-"""Tests of the cubic-Hermite FE cantilever (vibeam.models.beam) against analytical
+"""Tests of the cubic-Hermite FE cantilever (vibeam.models.builders.beam_fe) against analytical
 Euler-Bernoulli solutions whose frequency equations are solved here, independently
 of the code under test."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from vibeam.models.beam import (BeamFE, BeamGeometry, calibrate, disc_stack, paper_rig,
+from vibeam.models.builders.beam_fe import (BeamFE, BeamGeometry, calibrate, disc_stack, paper_rig,
                                 shared_calibration, shared_fe, write_modes)
 
 

@@ -383,7 +383,7 @@ def test_bench_latency_runs_and_emits_its_json():
 TINY_COMPILE = """
 from concurrent.futures import ProcessPoolExecutor
 from vibeam.models.impact import restitution_impulse
-from vibeam.models.roots import rtsafe_update
+from vibeam.models.core.roots import rtsafe_update
 restitution_impulse(-1.0, 0.9, 1.0)
 with ProcessPoolExecutor(1) as ex:
     ex.submit(rtsafe_update, 1.0, 2.0, 0.5, 0.0, 1.0, 0.1, 0.2).result()

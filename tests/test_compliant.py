@@ -2,7 +2,7 @@
 
 Oracles: closed forms of the isolated contact (restitution, duration, energy), an
 independent quadrature of the damping work, the solve_ivp reference (method ``direct``,
-:class:`vibeam.models.sdof_ode.DirectSolver` on :mod:`vibeam.models.core.direct`, sharing no code with the kernel) and the CoR model
+:class:`vibeam.models.paper.ode.DirectSolver` on :mod:`vibeam.models.core.direct`, sharing no code with the kernel) and the CoR model
 as the stiffness grows.
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ from vibeam.models.builders.sdof import sdof
 from vibeam.models.core.integrator import C_DURATION, C_ENERGY, C_FORCE, C_PENETRATION
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.registry import law_name
-from vibeam.models.sdof_ode import DirectSolver
+from vibeam.models.paper.ode import DirectSolver
 from vibeam.engine.records import summarize
 from vibeam.models.scene import one_mode, outputs
 

@@ -19,7 +19,7 @@ from vibeam.models.registry import mixed_stops
 from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.scene import one_mode
-from vibeam.models.sdof_ode import DirectSolver
+from vibeam.models.paper.ode import DirectSolver
 from vibeam.engine.records import summarize
 
 # slow (the default test step's time): the compliant laws' shooting tangents and two-stop

@@ -20,7 +20,7 @@ from vibeam.models.builders.sdof import sdof
 from vibeam.models.contact import Restitution
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.scene import one_mode
-from vibeam.models.sdof_ode import DirectSolver
+from vibeam.models.paper.ode import DirectSolver
 from vibeam.engine.records import CONTACT_OUTPUTS, CONTACT_OUTPUTS_LOWER, summarize
 
 K_UP, K_LO = 1e4, 3e3

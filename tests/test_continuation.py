@@ -1,4 +1,4 @@
-"""Continuation of periodic orbits (the SDOF scene's shooting problem, models.core.scene_shooting; models.continuation): exact derivatives,
+"""Continuation of periodic orbits (the SDOF scene's shooting problem, models.core.scene_shooting; models.orbits.continuation): exact derivatives,
 branches through folds, bifurcations located against independent oracles."""
 import math
 
@@ -7,12 +7,12 @@ import pytest
 from scipy.optimize import brentq
 
 from vibeam.models import linear_amplitude, make_solver, shooting_problem
-from vibeam.models.continuation import (ContinuationError, Settings, start_point, trace)
+from vibeam.models.orbits.continuation import (ContinuationError, Settings, start_point, trace)
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof, sdof_physical
 from vibeam.models.scene import one_mode, with_gap
-from vibeam.models.sdof_averaging import solve as averaging
+from vibeam.models.paper.averaging import solve as averaging
 from vibeam.engine.records import summarize
 
 TWO_PI = 2 * math.pi
@@ -403,7 +403,7 @@ def test_bad_requests():
 def test_two_parameter_period_doubling_curve(fig13_branches):
     """The period doubling of Fig. 13 continued in (Omega, Delta): a point of the curve is the
     period doubling of a one-parameter continuation at that Delta (to 1e-8)."""
-    from vibeam.models.continuation import trace_curve
+    from vibeam.models.orbits.continuation import trace_curve
 
     def factory(free, fixed):
         if free == "p1":
@@ -480,7 +480,7 @@ class _AffineSectionMap:
         self.p_cross = p_cross
 
     def shot(self, x, p, n):
-        from vibeam.models.periodic import Shot
+        from vibeam.models.core.periodic import Shot
 
         c = np.array([1.0 + p, 0.0])
         status = "failed" if abs(p - self.p_cross) < 5e-7 else "ok"
@@ -498,7 +498,7 @@ def test_resect_steps_to_the_first_resolvable_parameter_beyond_the_crossing():
     where Newton converges, inside the range, in the direction of travel.  Here every step below
     1e-6 is unresolvable, so the new point must be the fixed point ``c(p)`` at exactly ``p_cross +
     1e-6`` (a larger step in the ladder, e.g. a mutated 1e-6, leaves the range and gives up)."""
-    from vibeam.models.continuation import Branch, _Engine, _Tracer
+    from vibeam.models.orbits.continuation import Branch, _Engine, _Tracer
 
     p_cross = 0.5
     prob = _AffineSectionMap(p_cross)

@@ -1,5 +1,5 @@
 """Continuation of the modal FE beam (``vibeam.models.SHOOTING["beam"]``, models/core/scene_shooting.py
-driven by models/continuation.py and vibeam/branches.py) against independent oracles:
+driven by models/orbits/continuation.py and vibeam/branches.py) against independent oracles:
 
 * the one-mode rungs of the shipped ladder (cases/rig-fe-tight-continuation.toml) against the
   SDOF continuation of their parameters (the static mode: `vibeam derive`, paper Eqs. 42-46;
@@ -33,7 +33,7 @@ from vibeam.models import BeamEventSolver, make_solver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.scene import one_mode, outputs
 from vibeam.models.system import forcing, modal_flow
-from vibeam.models.continuation import Settings, trace
+from vibeam.models.orbits.continuation import Settings, trace
 from vibeam.engine.records import summarize
 from vibeam.runner import run_case
 from vibeam.io.results import read_results
@@ -545,7 +545,7 @@ def test_the_compiled_spectrum_orders_multipliers_as_a_stable_argsort():
     numba's argsort (whose cold compile costs ~2.5 s): the reference is NumPy's stable argsort of
     ``-|mu|`` (NaN last), on exact ties (conjugate pairs, equal moduli) and NaNs, so the order
     is unique and any swap or lost entry fails."""
-    from vibeam.models.continuation_kernels import by_decreasing_modulus, floquet_spectrum_small
+    from vibeam.models.core.continuation_kernels import by_decreasing_modulus, floquet_spectrum_small
 
     rng = np.random.default_rng(7)
     for d in range(1, 9):

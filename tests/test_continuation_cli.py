@@ -7,7 +7,7 @@ import pytest
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.cli import main
 from vibeam.models import linear_amplitude, shooting_problem
-from vibeam.models.continuation import trace
+from vibeam.models.orbits.continuation import trace
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.builders.sdof import sdof_physical
 from vibeam.models.scene import one_mode

@@ -10,7 +10,7 @@ from vibeam.case.schema import CaseError, parse_case
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models import shooting_problem
 from vibeam.models.compliant import HuntCrossley, LinearContact
-from vibeam.models.continuation import trace
+from vibeam.models.orbits.continuation import trace
 from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.scene import one_mode, outputs
@@ -307,7 +307,7 @@ def test_one_mode_beam_branch_equals_its_sdof_branch():
     1e-9 of the state (measured 1e-11), with the same multipliers to 1e-9 (measured 1e-13) and
     contact count; the SDOF branch has the same fold to 1e-10 in frequency (measured 1e-15)."""
     from vibeam.models import BeamEventSolver
-    from vibeam.models.continuation import Settings
+    from vibeam.models.orbits.continuation import Settings
 
     m = _rig(1, gap_mm=0.1)
     sd, sk, to_sdof = _one_dof(m)
@@ -400,7 +400,7 @@ def test_hunt_crossley_branch_fold_grazing_and_event_runs():
     +1 to 1e-6) and the law-independent grazing of the contact-free orbit (1.870239215 to 1e-8);
     its stable points are the long event runs' attractors to 1e-9 (the two integrators' tolerances;
     measured ~1e-10)."""
-    from vibeam.models.continuation import Settings
+    from vibeam.models.orbits.continuation import Settings
 
     m = sdof(**FIG8, law=HuntCrossley(1e6, 0.9))
     x0, _ = _settled(m, 1.8, 1500)

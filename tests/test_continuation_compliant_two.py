@@ -10,7 +10,7 @@ import pytest
 
 from vibeam.models import shooting_problem, make_solver
 from vibeam.models.compliant import HuntCrossley, LinearContact
-from vibeam.models.continuation import Settings, start_point, trace
+from vibeam.models.orbits.continuation import Settings, start_point, trace
 from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.scene import one_mode, outputs

@@ -200,7 +200,7 @@ def test_one_mode_beam_branch_equals_its_sdof_branch():
     SDOF Hunt-Crossley problem (another kernel, another derivative assembly, other units) to 1e-8
     of the state (both are accurate to their integrators, ~1e-10; measured 2e-11), with the
     same multipliers to 1e-8 (measured 1e-11) and contact count."""
-    from vibeam.models.continuation import Settings, trace
+    from vibeam.models.orbits.continuation import Settings, trace
 
     m = _rig(1)
     sd, sk, to_sdof = _one_dof(m)
@@ -228,7 +228,7 @@ def test_stable_branch_points_are_long_event_runs():
     slowest multiplier decays to < 1e-9 over the run; measured 2.3e-11) with as many contacts
     per period."""
     from vibeam.models import BeamEventSolver
-    from vibeam.models.continuation import Settings, trace
+    from vibeam.models.orbits.continuation import Settings, trace
 
     m = _rig(2)
     lo, hi = 15.0 / m.system.reference_hz, 17.0 / m.system.reference_hz

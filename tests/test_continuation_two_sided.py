@@ -24,7 +24,7 @@ from vibeam.models import EventSolver, linear_amplitude, shooting_problem
 from vibeam.models import BeamEventSolver
 from vibeam.models.builders.beam import mass_stops
 from vibeam.models.builders.matrices import modal_scene
-from vibeam.models.continuation import Settings, trace
+from vibeam.models.orbits.continuation import Settings, trace
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.contact import Restitution

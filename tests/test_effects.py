@@ -161,7 +161,7 @@ def test_platform_coupled_heavy_platform_is_the_filter(beam):
 # ----------------------------------------------------------------------------- eccentric impact
 def test_eccentric_contact_row_includes_rotation(beam):
     from vibeam.case.beamscene import scene_of
-    from vibeam.models.beam import BeamFE
+    from vibeam.models.builders.beam_fe import BeamFE
     from vibeam.reductions.modal import modal_reduction
 
     spec, model = beam

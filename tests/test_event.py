@@ -243,7 +243,7 @@ def test_no_state_beyond_the_stop(beta, B, R, Delta, Omega):
 
 
 def test_a_chatter_hold_that_ends_with_the_force_pulling_away_releases_at_once():
-    """The release rule after a chatter hold (:mod:`vibeam.models.contact_policy`, step 3): the
+    """The release rule after a chatter hold (:mod:`vibeam.models.core.contact_policy`, step 3): the
     kernel jumps to a chatter sequence's accumulation point D = 2 u / (a (1 - R)) and holds the
     mass on the stop without a release check until then.  With a coarse step (2 per period) and
     a loose chatter tolerance (10) the hold is long (2.45 time units here), and the contact force
@@ -284,7 +284,7 @@ def test_a_chatter_hold_that_ends_with_the_force_pulling_away_releases_at_once()
         assert log[i + 1, 2] == pytest.approx(-a_end, rel=1e-9, abs=0)
 
 def test_held_at_the_exact_zero_of_a_rising_force_stays_held():
-    """The release rule (:func:`vibeam.models.contact_policy.release_now`) at a force exactly 0:
+    """The release rule (:func:`vibeam.models.core.contact_policy.release_now`) at a force exactly 0:
     held on the stop Delta = 0 at rest at t = 0, the force needed to hold the mass is
     F sin(Omega t) (F = Omega^2 B; q = q' = 0 leave only the forcing), exactly 0 and rising.
     The mass stays held and leaves when the force falls through zero at Omega t = pi (closed

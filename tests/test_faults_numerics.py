@@ -38,7 +38,7 @@ import vibeam
 from vibeam.case.schema import CaseError
 from vibeam.models import EventSolver, make_solver
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.sdof_flow import linear_amplitude
+from vibeam.models.core.oscillator import linear_amplitude
 from vibeam.engine.records import summarize
 from vibeam.engine.sweep import Sweep, run_sweep
 

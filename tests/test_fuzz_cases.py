@@ -717,7 +717,7 @@ def run_extreme(seed, data, keys, tmp: Path) -> str:
         assert set(st_) <= set(STATUSES), (where, name, set(st_))
         live = st_ != "failed"
         # a NaN amplitude with period -1 is averaging's "no impacting solution" (vibeam.models.
-        # sdof_averaging: the averaged equations have no real root), not a number
+        # paper.averaging: the averaged equations have no real root), not a number
         per = np.ravel(np.asarray(run["period"]))
         none = live & np.isnan(amp) & (per == -1)
         bad = sorted(set(st_[live & ~none & ~np.isfinite(amp)]))

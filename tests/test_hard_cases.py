@@ -22,7 +22,7 @@ from hypothesis import HealthCheck, assume, example, given, settings, strategies
 from scipy.optimize import brentq
 
 from vibeam.models import EventSolver, make_solver
-from vibeam.models.beam import BeamFE, BeamGeometry
+from vibeam.models.builders.beam_fe import BeamFE, BeamGeometry
 from vibeam.models.core.direct import BeamODESolver
 from vibeam.models import BeamEventSolver
 from vibeam.models.builders.beam import fe_beam, mass_stops, static_mode_beam
@@ -527,7 +527,7 @@ def test_long_run_sdof_event_no_drift(Om):
     s0 = None
     if Om == 2.2:
         F = Om**2 * FIG13_B
-        from vibeam.models.sdof_flow import particular_coefficients, propagate
+        from vibeam.models.core.oscillator import particular_coefficients, propagate
         a, b = particular_coefficients(FIG13_BETA, F, Om)
         x = fp["final_state"]
         s = ((TWO_PI - x[0]) % TWO_PI) / Om

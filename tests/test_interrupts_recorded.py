@@ -79,7 +79,8 @@ def unpickle(*a):
 # vibeam.errors.inside_internals)
 unpickle.__code__ = unpickle.__code__.replace(co_filename=ser.__file__)
 ser._numba_unpickle = unpickle
-from vibeam.models import continuation, EventSolver
+from vibeam.models import EventSolver
+from vibeam.models.orbits import continuation
 from vibeam.analysis import attractors
 inner_correct = continuation._Engine.correct
 def correct(self, *a, **k):

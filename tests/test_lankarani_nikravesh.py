@@ -32,7 +32,7 @@ from vibeam.models.builders.sdof import sdof
 from vibeam.models.scene import one_mode, outputs
 from vibeam.models.core.isolated import isolated_contact
 from vibeam.models.core.laws import force
-from vibeam.models.sdof_ode import DirectSolver
+from vibeam.models.paper.ode import DirectSolver
 
 FIG8 = dict(beta=0.015, B=0.5e-3, Delta=0.7e-3)      # paper Fig. 8 scene (as tests/test_continuation_compliant.py)
 
@@ -170,7 +170,7 @@ def test_continued_orbit_is_the_settled_event_orbit():
     rtol 1e-12 vs the kernel's DOPRI5 at 1e-11; measured 8.5e-12); the branch traced to 1.95
     ends on a stable orbit whose amplitude is the long event run's from 1 % off it to 1e-9
     (measured 1.4e-10), the Hunt-Crossley checks' tolerance."""
-    from vibeam.models.continuation import Settings, trace
+    from vibeam.models.orbits.continuation import Settings, trace
 
     sc = sdof(**FIG8, law=LankaraniNikravesh(1e6, 0.9))
     x0, sm = _settled(sc, 1.9)

@@ -1,4 +1,4 @@
-"""Lyapunov exponents of the stroboscopic map (vibeam.models.lyapunov, issue 21) on the one
+"""Lyapunov exponents of the stroboscopic map (vibeam.models.orbits.lyapunov, issue 21) on the one
 shooting-problem contract, against closed forms, Floquet multipliers, Liouville's formula and an
 independent two-trajectory estimate.
 
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from vibeam.models.lyapunov import lyapunov_spectrum
+from vibeam.models.orbits.lyapunov import lyapunov_spectrum
 from vibeam.models import EventSolver, shooting_problem
 from vibeam.models.builders.sdof import sdof
 
@@ -225,7 +225,7 @@ def test_a_sweep_stores_each_points_spectrum_in_the_results_file(tmp_path):
     assert float(lam.sel(Omega=2.30)[0]) < 0.0
     chaos = ds.sel(direction="up", Omega=2.38)
     assert float(chaos["lyapunov"][0]) > 2 * float(chaos["lyapunov_error"][0]) > 0.0
-    # the classes of the spectrum (vibeam.models.lyapunov.classify_spectrum): the period-4 point
+    # the classes of the spectrum (vibeam.models.orbits.lyapunov.classify_spectrum): the period-4 point
     # is periodic, the point at 2.38 chaotic (lambda_1 beyond 3 errors here: 0.0148 +- 0.0003)
     assert str(p4["lyapunov_class"].values) == "periodic"
     assert str(chaos["lyapunov_class"].values) == "chaotic"
@@ -236,7 +236,7 @@ def test_the_spectrum_classes_and_the_map_classes():
     below, non-periodic otherwise, empty when not computed; maps.classify turns the non-periodic
     points (and only them) into CHAOTIC and QUASI_PERIODIC."""
     from vibeam.analysis.maps import CHAOTIC, NON_PERIODIC, PERIOD_1, QUASI_PERIODIC, classify
-    from vibeam.models.lyapunov import classify_spectrum
+    from vibeam.models.orbits.lyapunov import classify_spectrum
 
     assert classify_spectrum([0.01, -0.2], [0.001, 0.001]) == "chaotic"
     assert classify_spectrum([0.002, -0.2], [0.001, 0.001]) == "quasi_periodic"
@@ -256,7 +256,7 @@ def test_lambda_1_tends_to_zero_at_the_period_doubling_located_by_continuation()
     continuation's Floquet multiplier within the bound ln cond(V) / t of the first test (plus
     1e-9), and goes to 0: |lambda_1| decreases (measured 0.053, 0.0038, 0.00012), and is below
     1e-3 at 1e-5 before the doubling."""
-    from vibeam.models.continuation import start_point, trace
+    from vibeam.models.orbits.continuation import start_point, trace
 
     fig13 = sdof(BETA, 0.5e-3, 0.5e-3, R)
     prob = shooting_problem(fig13, "Omega")

@@ -3,7 +3,7 @@
 ``lyapunov_error`` was half the difference of one record's two halves (one degree of freedom):
 on the two-sided Fig. 7 scene at Omega = 2.38 it quoted 0.0003 where 12 independent 2000-period
 records scatter with a standard deviation of 0.0017.  It is now the batch-means standard error
-(:func:`vibeam.models.lyapunov.batch_error`), checked here against that scatter; and a periodic
+(:func:`vibeam.models.orbits.lyapunov.batch_error`), checked here against that scatter; and a periodic
 point reports its orbit's Floquet exponents, checked against a monodromy built by finite
 differences of the event kernel's stroboscopic map (no shooting problem, no saltation matrix).
 """
@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from vibeam.models.lyapunov import lyapunov_spectrum
+from vibeam.models.orbits.lyapunov import lyapunov_spectrum
 from vibeam.models import EventSolver, make_solver, shooting_problem
 from vibeam.models.builders.sdof import sdof
 
@@ -26,7 +26,7 @@ def test_batch_error_of_independent_rates_is_their_standard_error():
     batch-means error is sd / sqrt(K) = 0.006 within its sampling spread (10 batches, 9 degrees
     of freedom: the error's own scatter is 24 % at one sigma), on average over 400 seeded series
     to 3 % (the mean of a chi distribution with 9 dof is 0.973 sigma: the bound 0.94-1.0)."""
-    from vibeam.models.lyapunov import batch_error
+    from vibeam.models.orbits.lyapunov import batch_error
 
     rng = np.random.default_rng(7)
     K = 2500
@@ -46,7 +46,7 @@ def test_the_error_of_a_chaotic_record_matches_the_scatter_of_independent_record
     starts where the last ended; with lambda_1 ~ 0.013 per unit time a record decorrelates by
     e^(0.013 x 5300) ~ e^70): the standard deviation of their lambda_1 (measured by the issue:
     0.0017; 0.0014 over 40 records here) against the mean of the errors each record quotes
-    (measured ratio 1.2 over 40 records: module docstring of vibeam.models.lyapunov).  The ratio
+    (measured ratio 1.2 over 40 records: module docstring of vibeam.models.orbits.lyapunov).  The ratio
     must lie in [0.5, 2]: the scatter of 12 values is known to +-21 % (one sigma), the mean
     error to a few per cent.  The halves' difference (6b53e11) quoted 0.00005-0.0028 on these
     records (mean ratio 0.76, 9 of 12 covered): right on average, useless one by one."""
@@ -119,12 +119,12 @@ def test_a_periodic_point_reports_the_floquet_exponents_of_its_orbit(tmp_path):
 
 
 def test_batch_error_with_few_shots_by_hand():
-    """models.lyapunov.batch_error below BATCHES batches (a mutant of the batch count, K // 2 ->
+    """models.orbits.lyapunov.batch_error below BATCHES batches (a mutant of the batch count, K // 2 ->
     K + 2, survived: every test had K >= 20): K = 7 shots of 2 exponents give min(10, 7 // 2) = 3
     batches of 2 shots (the first shot dropped), each batch's exponents sum(logs) / sum(times),
     the error their standard deviation (ddof 1) over sqrt(3), 2 degrees of freedom -- written out
     here; K = 3 has one batch: NaN and 0."""
-    from vibeam.models.lyapunov import batch_error
+    from vibeam.models.orbits.lyapunov import batch_error
 
     rng = np.random.default_rng(5)
     logs = rng.normal(size=(7, 2))

@@ -8,7 +8,7 @@ from vibeam.models import make_solver
 from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.scene import one_mode
-from vibeam.models.sdof_flow import propagate, particular_coefficients
+from vibeam.models.core.oscillator import propagate, particular_coefficients
 from vibeam.models.mapping import (fixed_point_analysis, impact_map, impact_map_jacobian, newton_fixed_point,
                                    next_impact)
 
@@ -188,7 +188,7 @@ def test_paper_formulas_at_fixed_points():
     assert an["tr_full"] == pytest.approx(-an["tr_simplified"], rel=1e-12)
     # Eq. 36 is the trace of Phi(T) premultiplied by a saltation matrix without the
     # R a- term: [[-R, 0], [a+ / v-, -R]]; the true one has (a+ + R a-) / v-
-    from vibeam.models.sdof_flow import flow_matrix
+    from vibeam.models.core.oscillator import flow_matrix
     a_plus = an["a_minus"] + 2 * om.beta * (1 + R) * x[1]
     S_paper = np.array([[-R, 0.0], [a_plus / x[1], -R]])
     assert an["tr_simplified"] == pytest.approx(np.trace(S_paper @ flow_matrix(T, om.beta)), rel=1e-10)

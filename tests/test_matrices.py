@@ -335,7 +335,7 @@ def _rig(n_modes):
     (the one vibeam.case.beamscene.scene reduces: shared_fe of the same arguments)."""
     from vibeam.case.beamscene import scene_of
     from vibeam.case.schema import load_case
-    from vibeam.models.beam import shared_fe
+    from vibeam.models.builders.beam_fe import shared_fe
 
     case, _ = load_case(ROOT / "cases" / "rig-fe-neutral.toml")
     spec = case.model_spec({"n_modes": n_modes})

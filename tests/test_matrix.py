@@ -330,7 +330,7 @@ def _period_one_point(fid, model):
     parameter Omega) from a 600-period event run, at the first of a few forcing frequencies where
     one is found (stable if possible), and the row's event solver."""
     from vibeam.models import make_solver, shooting_problem
-    from vibeam.models.continuation import start_point
+    from vibeam.models.orbits.continuation import start_point
 
     ev = make_solver(model, "event")
     prob = shooting_problem(model, "Omega")

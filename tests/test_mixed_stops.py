@@ -20,7 +20,7 @@ from vibeam.models import EventSolver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.contact import Restitution
 from vibeam.models.scene import one_mode
-from vibeam.models.sdof_ode import DirectSolver
+from vibeam.models.paper.ode import DirectSolver
 from vibeam.engine.records import summarize
 
 KV = LinearContact.from_restitution(1e4, 0.8)

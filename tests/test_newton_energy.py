@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from vibeam.models.beam import BeamFE, BeamGeometry
+from vibeam.models.builders.beam_fe import BeamFE, BeamGeometry
 from vibeam.models.core.direct import BeamODESolver
 from vibeam.models import BeamEventSolver
 from vibeam.models import EventSolver

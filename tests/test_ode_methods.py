@@ -17,7 +17,7 @@ import pytest
 
 from vibeam.models import EventSolver, make_solver
 from vibeam.models.builders.sdof import sdof
-from vibeam.models.sdof_ode import DirectSolver, IvanovSolver, ZhuravlevSolver
+from vibeam.models.paper.ode import DirectSolver, IvanovSolver, ZhuravlevSolver
 from vibeam.engine.records import summarize
 
 DELTA = 0.0

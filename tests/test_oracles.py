@@ -170,11 +170,11 @@ def _check_spectrum(mu, M):
     [[1e-3, 2.0], [-4.0, -1e-3]],        # complex pair of large modulus, trace 0
 ])
 def test_floquet_multipliers_of_a_2x2_monodromy_against_lapack(M):
-    """The continuation's 2 x 2 spectrum (closed form, vibeam.models.continuation_kernels._eig2
+    """The continuation's 2 x 2 spectrum (closed form, vibeam.models.core.continuation_kernels._eig2
     through floquet_spectrum_small) against numpy.linalg.eigvals (LAPACK dgeev): the same set,
     by decreasing modulus, for negative traces, complex pairs and real pairs of equal modulus;
     ``det(M + I)`` against numpy.linalg.det; ``max |mu| - 1`` over the complex ones written out."""
-    from vibeam.models.continuation_kernels import floquet_spectrum_small
+    from vibeam.models.core.continuation_kernels import floquet_spectrum_small
 
     M = np.array(M, float)
     mu, pd, ns = floquet_spectrum_small(M)
@@ -194,7 +194,7 @@ def test_the_multipliers_of_a_continued_branch_through_its_period_doubling_again
     point's monodromy by decreasing modulus.  The whole branch has a negative trace (measured
     -0.96 ... -2.9): complex pairs before the doubling, a real pair beyond (-1.26 and -0.59 at
     2.285, mu_1 < -1), so both halves of the closed form's negative-trace case are exercised."""
-    from vibeam.models.continuation import Settings, trace
+    from vibeam.models.orbits.continuation import Settings, trace
     from vibeam.models import EventSolver
 
     fig13 = sdof(0.015, 0.5e-3, 0.5e-3, 0.9)
@@ -226,7 +226,7 @@ def test_lyapunov_exponents_of_period_2_and_3_orbits_are_their_floquet_exponents
     closeness is no fragility); a shot of n periods counted as one period of time would scale
     the exponents by the periods per shot."""
     import vibeam
-    from vibeam.models.lyapunov import lyapunov_spectrum
+    from vibeam.models.orbits.lyapunov import lyapunov_spectrum
     from vibeam.models import EventSolver
 
     fig13 = sdof(0.015, 0.5e-3, 0.5e-3, 0.9)
@@ -462,7 +462,7 @@ def test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration(n_mo
     import scipy.linalg
 
     from vibeam.case.beamscene import scene_of
-    from vibeam.models.beam import BeamFE
+    from vibeam.models.builders.beam_fe import BeamFE
     from vibeam.models import BeamEventSolver
 
     nm = '"static"' if n_modes == "static" else n_modes
@@ -518,7 +518,7 @@ def test_the_continuation_step_is_capped_at_ds_max():
     measured 2e-5 of ds beyond it) is at most ds_max (+1e-4 relative), the cap is reached (5 or
     more steps within 1e-4 of it), and the branch needs at least its arclength over ds_max
     steps.  Without the cap the steps grow by 1.6 to 0.05 and beyond."""
-    from vibeam.models.continuation import Settings, trace
+    from vibeam.models.orbits.continuation import Settings, trace
     from vibeam.models import EventSolver
 
     fig13 = sdof(0.015, 0.5e-3, 0.5e-3, 0.9)

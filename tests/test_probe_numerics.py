@@ -222,7 +222,7 @@ def test_ctrl_c_inside_a_compiled_shot_is_not_a_failed_shot():
     """The continuation engine turned any exception of a shot into a failed shot, so the
     interrupt became a failed start; it is handed on."""
     from vibeam.models import shooting_problem
-    from vibeam.models.continuation import trace
+    from vibeam.models.orbits.continuation import trace
 
     prob = shooting_problem(sdof(beta=0.015, B=0.5e-3, R=0.8, Delta=0.7e-3), "Omega")
 

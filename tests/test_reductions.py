@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from vibeam.models.beam import BeamFE, BeamGeometry, paper_rig
+from vibeam.models.builders.beam_fe import BeamFE, BeamGeometry, paper_rig
 from vibeam.reductions.modal import contact_effective_mass_kg, modal_reduction
 from vibeam.reductions.static_mode import (check_static_mode, reduce_static_mode,
                                            static_mode_curvature, static_mode_fe,

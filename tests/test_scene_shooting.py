@@ -9,9 +9,9 @@ from vibeam.models import make_solver
 from vibeam.models.builders.matrices import build_matrices, structure_scene
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.contact import Relation, Restitution, Stop
-from vibeam.models.continuation import start_point
+from vibeam.models.orbits.continuation import start_point
 from vibeam.models.core.scene_shooting import SceneShooting
-from vibeam.models.sdof_flow import particular_coefficients
+from vibeam.models.core.oscillator import particular_coefficients
 
 
 def _multipliers(s):
@@ -78,7 +78,7 @@ def test_an_impacting_orbit_obeys_liouville_and_is_the_impact_maps_fixed_point()
     monodromy equals the central differences of the shots (steps 1e-6: truncation ~1e-12,
     round-off ~1e-10 amplified by |M| ~ 1: 1e-7; measured 1.7e-10)."""
     from vibeam.models.mapping import newton_fixed_point
-    from vibeam.models.sdof_flow import propagate
+    from vibeam.models.core.oscillator import propagate
 
     sc = sdof(beta=0.015, B=0.01, R=0.8, Delta=0.0)
     Om = 1.8
@@ -138,7 +138,7 @@ def test_a_tabulated_restitution_obeys_liouville_with_its_slope():
     scene's problem sum to ``-2 beta + sum ln(R (R + U R')) / t`` over the shots' impacts, with
     ``R`` and ``R'`` of the table written here (1e-10 of the sum; measured 2e-15).  The orbit's
     speed lies inside the table, so the slope term is exercised."""
-    from vibeam.models.lyapunov import lyapunov_spectrum
+    from vibeam.models.orbits.lyapunov import lyapunov_spectrum
 
     tU, tR = (0.0, 0.05, 0.15), (0.85, 0.55, 0.8)
     sc = sdof(beta=0.015, B=0.01, Delta=0.0, law=Restitution(0.8, tU, tR))

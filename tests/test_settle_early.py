@@ -175,7 +175,7 @@ def test_a_start_on_an_orbit_that_has_lost_its_stability_is_not_settled():
     from vibeam.engine.records import summarize
     from vibeam.engine.sweep import PointClock, Sweep, settle_early, simulate
     from vibeam.models import make_solver, shooting_problem
-    from vibeam.models.continuation import start_point
+    from vibeam.models.orbits.continuation import start_point
 
     sc = sdof(beta=0.015, B=0.5e-3, R=0.9, Delta=0.5e-3)
     Delta = one_mode(sc).Delta

@@ -156,7 +156,7 @@ def test_continued_tip_branch_against_event_runs_and_liouville():
     run is the continued orbit (state to 1e-8 of its scale: the corrector's residual over 1 - |mu|),
     and every shot with impacts on both stops and no sticking has det M = prod R_k^2 exp(-sum_i c_i
     T) (Liouville; each Newton impact's saltation has determinant R^2; measured 1e-13)."""
-    from vibeam.models.continuation import Settings, trace
+    from vibeam.models.orbits.continuation import Settings, trace
 
     m = _model()
     W0 = 15.5 / m.system.reference_hz

@@ -9,13 +9,13 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from vibeam.models import system as msys
-from vibeam.models.beam import BeamFE, BeamGeometry
+from vibeam.models.builders.beam_fe import BeamFE, BeamGeometry
 from vibeam.models import BeamEventSolver
 from vibeam.models.builders.beam import fe_beam, mass_stops, static_mode_beam
 from vibeam.models.builders.matrices import build_matrices, modal_scene, structure_scene
 from vibeam.models.builders.sdof import sdof, sdof_physical
 from vibeam.models.contact import Relation, Restitution, Stop
-from vibeam.models.sdof_flow import particular_coefficients, propagate
+from vibeam.models.core.oscillator import particular_coefficients, propagate
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 from vibeam.models.system import ModalSystem, from_matrices, modal_flow, modal_transition
 
@@ -87,7 +87,7 @@ def test_one_mode_beam_system_equals_the_sdof_system_flow():
 
 
 def test_sdof_system_flow_equals_the_sdof_closed_form():
-    """The SDOF scene's system flow against the SDOF's own closed form (vibeam.models.sdof_flow.propagate,
+    """The SDOF scene's system flow against the SDOF's own closed form (vibeam.models.core.oscillator.propagate,
     its own particular solution and transition): two implementations of Eq. 28, 1e-14 of the
     state (measured a few ulps)."""
     beta, B, Om = 0.05, 0.02, 0.8
@@ -331,7 +331,7 @@ def test_a_numba_kernel_takes_the_system_and_the_aliases_are_the_moved_kernels()
 
     import importlib.util
 
-    from vibeam.models import beam
+    from vibeam.models.builders import beam_fe as beam
     from vibeam.models.core import contact_phase, integrator, phases, scene_shooting, signals
     from vibeam.models.mapping import phases as map_phases
 

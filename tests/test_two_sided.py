@@ -18,7 +18,7 @@ import pytest
 
 from vibeam.case.schema import CaseError, parse_case
 from vibeam.models import EventSolver, make_solver
-from vibeam.models.beam import BeamFE, BeamGeometry
+from vibeam.models.builders.beam_fe import BeamFE, BeamGeometry
 from vibeam.models.builders.sdof import sdof
 from vibeam.models.contact import Restitution
 from vibeam.models.scene import one_mode

@@ -3,7 +3,7 @@
 Every framework module may import this one: it imports nothing of vibeam.  The classes are
 re-exported where they were defined first (``vibeam.case.schema.CaseError``,
 ``vibeam.case.schema.InputError``, ``vibeam.io.results.ForeignFileError``, ``vibeam.cli.Terminated``).
-:class:`vibeam.models.continuation.ContinuationError` stays with the models, which never import
+:class:`vibeam.models.orbits.continuation.ContinuationError` stays with the models, which never import
 the framework.
 
 The signal a command records (:class:`RecordingHandler`, :func:`recording_signals`) is here too:

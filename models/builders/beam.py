@@ -75,7 +75,7 @@ def contact_row(fe, shapes, offset_m: float = 0.0) -> np.ndarray:
 
     Parameters
     ----------
-    fe : vibeam.models.beam.BeamFE
+    fe : vibeam.models.builders.beam_fe.BeamFE
     shapes : ndarray, shape (ndof, N)
         Mass-normalised mode shapes (1/sqrt(kg)).
     offset_m : float
@@ -101,7 +101,7 @@ def fe_beam(fe, n_modes=2, stops=(), point_stops=(), base_amplitude_m=0.0, f_ref
 
     Parameters
     ----------
-    fe : vibeam.models.beam.BeamFE
+    fe : vibeam.models.builders.beam_fe.BeamFE
         The finite-element model (its Rayleigh damping ``C = alpha M + D K``: ``c_i = alpha + D
         omega_i^2``).
     n_modes : int or "all"
@@ -162,7 +162,7 @@ def static_mode_beam(geometry, stops=(), point_stops=(), base_amplitude_m=0.0, d
 
     Parameters
     ----------
-    geometry : vibeam.models.beam.BeamGeometry
+    geometry : vibeam.models.builders.beam_fe.BeamGeometry
     stops, point_stops, base_amplitude_m, excitation
         As :func:`fe_beam`'s (a point stop's row is ``phi(x) / sqrt(M_S)``).
     damping_D_s : float

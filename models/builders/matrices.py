@@ -22,7 +22,7 @@ The base enters through the inertia load per unit base acceleration ``M r`` (kg)
 influence vector of the base's translation (1 on every DOF that translates with it, 0 on a
 rotation: ``"all"`` when every DOF is a translation along the drive), or ``M r`` is given as is
 when the base couples through constrained DOFs (a consistent mass matrix of a clamped structure:
-``(M_full r_full)`` on the free DOFs, :attr:`vibeam.models.beam.BeamFE.base_load` with its sign
+``(M_full r_full)`` on the free DOFs, :attr:`vibeam.models.builders.beam_fe.BeamFE.base_load` with its sign
 changed).
 
 Units

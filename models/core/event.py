@@ -21,7 +21,7 @@ import numpy as np
 
 from ..contact import check_stops, restitution_coefficients
 from ..scene import Scene, one_mode, rest_state
-from ..sdof_flow import undamped_resonance
+from .oscillator import undamped_resonance
 from ..system import ModalSystem
 from .integrator import (ST_FAILED, STATUS_NAMES, Record, RunScalars, compliant_work, integrate_work, new_record, new_work,
                          substeps)

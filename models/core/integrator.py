@@ -22,7 +22,7 @@ held on a set of stops
 
 At a contact the stop's law acts (:func:`vibeam.models.impact.restitution_coefficient`: Newton,
 ``U+ = -R(U-) U-``) through the mass matrix along the stop's normal (or its projection on the
-held constraints), and the one chatter / sticking policy of :mod:`vibeam.models.contact_policy`
+held constraints), and the one chatter / sticking policy of :mod:`vibeam.models.core.contact_policy`
 decides what follows: rebound, sticking (the stop joins the held set), or a chatter sequence
 summed in closed form to its accumulation point.  The time grid is aligned with the forcing
 phase (``ns`` points per period, the recorded samples); steps inside a grid interval are at
@@ -78,7 +78,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..contact_policy import (BURST_DT, CHATTER, CHATTER_GUARD, REBOUND, STICK, burst_limit, impact_outcome,
+from .contact_policy import (BURST_DT, CHATTER, CHATTER_GUARD, REBOUND, STICK, burst_limit, impact_outcome,
                               release_now, zeno_burst)
 from ..contact import LAW_LINEAR
 from ..impact import newton_restitution
@@ -1449,7 +1449,7 @@ def _entry(sy, st, hs, cw, wk, eta, etad, fs, ist, rec, kk, max_impacts, recordi
 def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, Om, T, k_imp, max_impacts,
             chatter_tol, recording, cw):
     """The contact event on Newton stop ``k_imp`` (held set ``H`` kept): the stop's law, then the one
-    chatter / sticking policy (:mod:`vibeam.models.contact_policy`).  Returns True when the impacts
+    chatter / sticking policy (:mod:`vibeam.models.core.contact_policy`).  Returns True when the impacts
     exceed ``max_impacts`` (failed)."""
     n = eta.shape[0]
     ns = st.offset.shape[0]
@@ -1524,7 +1524,7 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
         rec.n_imp_stop[k_imp] += 1
     if n_imp_total > max_impacts:
         return True
-    # the shared policy (vibeam.models.contact_policy), R at the current impact velocity:
+    # the shared policy (vibeam.models.core.contact_policy), R at the current impact velocity:
     # the jerk beyond the one-DOF flow part -c_eff a + k_eff u is the forcing term plus the
     # modal remainder (zero for one mode); a chatter jumps only to an accumulation point
     # inside the current grid step; the Zeno guard is on
@@ -2396,7 +2396,7 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
     max_impacts, max_steps : int
         Guards: beyond them the call returns :data:`ST_FAILED`.
     chatter_tol : float
-        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.contact_policy`).
+        Accuracy of the chatter accumulation estimate (:mod:`vibeam.models.core.contact_policy`).
     rec : Record
         Outputs.
     work : tuple

@@ -75,7 +75,7 @@ def _parse(scene: Scene, parameter) -> tuple[str, tuple]:
 
 
 class SceneShooting(ModalShooting):
-    """``P^n`` of a scene in one of its parameters (contract: :mod:`vibeam.models.periodic`).
+    """``P^n`` of a scene in one of its parameters (contract: :mod:`vibeam.models.core.periodic`).
 
     Parameters
     ----------
@@ -317,7 +317,7 @@ class SceneShooting(ModalShooting):
             return np.concatenate([b, Om * a]), ""
         if n != 1:
             return None, "the averaging start gives period-1 orbits only (k = 1)"
-        from ..sdof_averaging import solve     # lazy: the averaging solution, a one-mode start only
+        from ..paper.averaging import solve     # lazy: the averaging solution, a one-mode start only
         from ..mapping import is_admissible, newton_fixed_point     # lazy: the SDOF map, a one-mode start only
         one = one_mode(sc, "the averaging start")
         R, Delta = float(one.stops[0].law.R), float(one.Delta)

@@ -1,7 +1,7 @@
 """The one shooting problem: ``P^n`` of a modal system with impulsive stops, and its derivatives.
 
 A period-``n`` orbit is a fixed point of the ``n``-th iterate of the stroboscopic map ``P``
-(section at forcing phase 0; contract: :mod:`vibeam.models.periodic`).  ``P^n(x0; p)`` is one run
+(section at forcing phase 0; contract: :mod:`vibeam.models.core.periodic`).  ``P^n(x0; p)`` is one run
 of the one event integrator (:func:`vibeam.models.core.integrator.integrate_work`) from ``x0`` with its
 event log; the tangent ``J = d x_n / d(x0, p)`` (``M`` and ``x_p`` for any number of parameters)
 is then assembled from the log by :func:`tangent` (numba), so that one shot is one compiled call
@@ -52,8 +52,8 @@ from numba import njit
 
 from ..compliant import R_MIN_LINEAR, damping_ratio_for_restitution
 from ..contact import LAW_LINEAR
-from ..continuation_kernels import SMALL_SPECTRUM, bordered_tangent, corrector_step, floquet_spectrum_small
-from ..periodic import Shot
+from .continuation_kernels import SMALL_SPECTRUM, bordered_tangent, corrector_step, floquet_spectrum_small
+from .periodic import Shot
 from ..system import (advance_count, advance_state, drive_displacement, drive_force, drive_slope,
                       drive_velocity_slope, transition_entries)
 from . import ahead
@@ -1283,7 +1283,7 @@ def _pack(out, held0, n_rel, n_inexact, finite, xe, rst, rec, J, rel, derivative
 
 @njit(cache=True, error_model="numpy")
 def _bordered_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
-    """:func:`vibeam.models.continuation_kernels.corrector_step`, with a singular bordered matrix
+    """:func:`vibeam.models.core.continuation_kernels.corrector_step`, with a singular bordered matrix
     (numba's solve raises) as a flag: ``(|r|, |du|, u + du, |u + du - u_pred|, singular)``."""
     try:
         nr, ndu, un, dist = corrector_step(M, xp, x_new, x, u, u_pred, t, sx, sp)
@@ -1295,12 +1295,12 @@ def _bordered_step(M, xp, x_new, x, u, u_pred, t, sx, sp):
 @njit(cache=True, error_model="numpy")
 def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_periods, sx, sp, newton, settings, rec, J,
                       rel, scale):
-    """The pseudo-arclength corrector of :mod:`vibeam.models.continuation` in the forcing
+    """The pseudo-arclength corrector of :mod:`vibeam.models.orbits.continuation` in the forcing
     frequency, its Newton iterations and their shots (:func:`shoot`) in one compiled call.
 
     Solves ``P^n(x) - x = 0`` and ``t . (u - u_pred) = 0`` for ``u = (x / sx, p / sp)`` with
     ``Omega = offset + factor p``, by the bordered Newton step of
-    :func:`vibeam.models.continuation_kernels.corrector_step`, stopping as the engine's own
+    :func:`vibeam.models.core.continuation_kernels.corrector_step`, stopping as the engine's own
     corrector does (``_Engine.correct``; the same iterates, to the last bit): converged when the
     residual ``|P^n(x) - x|_inf / sx <= tol`` (or ``<= 1e3 tol`` after a Newton step ``<= tol``),
     out of the neighbourhood ``radius`` of the predictor (``radius < 0``: none), singular, not
@@ -1339,11 +1339,11 @@ def correct_frequency(sy, st, hs, cp, dd, factor, offset, col, u_pred, t, n_peri
         The last shot, packed (:func:`shoot`).
     mu, pd, ns : ndarray of complex, float, float
         The converged point's Floquet spectrum
-        (:func:`vibeam.models.continuation_kernels.floquet_spectrum_small`; ``mu`` empty when not
+        (:func:`vibeam.models.core.continuation_kernels.floquet_spectrum_small`; ``mu`` empty when not
         computed: not converged, ``d > SMALL_SPECTRUM`` or a LAPACK failure).
     tan : ndarray, shape (d + 1,) or (0,)
         The converged point's unit tangent oriented along ``t``
-        (:func:`vibeam.models.continuation_kernels.bordered_tangent`; empty when not computed or
+        (:func:`vibeam.models.core.continuation_kernels.bordered_tangent`; empty when not computed or
         not finite).  The engine's own calls of the two functions on the point give the same bits.
     """
     tol, max_newton, radius = newton
@@ -1531,7 +1531,7 @@ class Setup(NamedTuple):
 
 
 class ModalShooting:
-    """``P^n`` of a modal system with impulsive stops (contract of :mod:`vibeam.models.periodic`).
+    """``P^n`` of a modal system with impulsive stops (contract of :mod:`vibeam.models.core.periodic`).
 
     The fidelities' problems subclass it and provide :meth:`setup` (the model, its directions
     and scales at a parameter value), ``parameter``, ``value`` and ``index`` (the continuation
@@ -1727,7 +1727,7 @@ class ModalShooting:
 
     def correct(self, u_pred, t, n: int, sx: float, sp: float, tol: float, max_newton: int, radius,
                 factor: float = 1.0, offset: float = 0.0):
-        """The pseudo-arclength corrector of :mod:`vibeam.models.continuation` in one compiled call
+        """The pseudo-arclength corrector of :mod:`vibeam.models.orbits.continuation` in one compiled call
         (:func:`correct_frequency`): ``F(x, p) = P^n(x) - x = 0`` and ``t . (u - u_pred) = 0`` in the
         scaled variables ``u = (x / sx, p / sp)``, ``Omega = offset + factor p``.
 
@@ -1793,7 +1793,7 @@ class ModalShooting:
         the shots (:mod:`vibeam.models.core.ahead`); the corrector's first call (:meth:`correct`)
         waits for it.
 
-        A continuation calls it once its start is found (:class:`vibeam.models.continuation`'s
+        A continuation calls it once its start is found (:class:`vibeam.models.orbits.continuation`'s
         engine); a caller that knows it will continue may call it before the start too
         (``before_start``): the child then compiles the tangent and the corrector's callees at once
         and the corrector only after the second call, when the integrator is compiled and cached (the child loads it

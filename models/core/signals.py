@@ -33,7 +33,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..roots import rtsafe_update, select
+from .roots import rtsafe_update, select
 from ..system import increment_of, transition_increment
 
 #: the bracketed problems of :func:`root` (int64, not literal ints: one compiled specialisation)

@@ -21,7 +21,7 @@ C Psi`` is diagonal; the off-diagonal remainder of other modal damping is droppe
 :func:`held_sets` as ``mismatch``).
 The constraint forces are ``lambda_H = -(W_H W_H^T)^-1 W_H a_free`` with the free acceleration
 ``a_free = Gamma F sin - C eta' - K eta``; the stops push (hold) while ``lambda_k <= 0`` and
-release stop ``k`` when ``lambda_k`` turns positive (:mod:`vibeam.models.contact_policy`).  An
+release stop ``k`` when ``lambda_k`` turns positive (:mod:`vibeam.models.core.contact_policy`).  An
 impact on a further stop ``j`` while held applies its impulse along ``Pi_H n_j`` (``Pi_H = Psi
 Psi^T``, the held constraints kept) with the effective mass ``1 / (n_j^T Pi_H n_j)``.
 
@@ -101,7 +101,7 @@ class KernelStops(NamedTuple):
     m_eff, c_eff, k_eff : ndarray, shape (n_s,)
         ``1 / |n|^2`` and the damping rate and stiffness of the contact coordinate
         (``m_eff n^T C n``, ``m_eff n^T K n``; the chatter estimate of
-        :mod:`vibeam.models.contact_policy`).
+        :mod:`vibeam.models.core.contact_policy`).
     kc, cc, pe : ndarray, shape (n_s,)
         A compliant law's stiffness (system units: ``eta'' = ... - n f``, ``f = kc g^pe ...``), its
         dashpot (Kelvin-Voigt, ``2 zeta_c sqrt(kc m_eff)``) or ``chi`` (hysteretic Hertz), and its

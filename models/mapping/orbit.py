@@ -40,7 +40,7 @@ from scipy.integrate import solve_ivp
 from ..core.laws import V_FLOOR
 from ..impact import saltation_matrix
 from ..scene import one_mode
-from ..sdof_flow import flow_matrix, particular_coefficients, propagate
+from ..core.oscillator import flow_matrix, particular_coefficients, propagate
 from .newton import damped_newton
 from .phases import CONTACT, EV_ARRIVAL, EV_EXIT, EV_FAIL, EV_GAPDOWN, EV_NONE, EV_RECONTACT, FREE, TWO_PI, Phase
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..impact import saltation_matrix
 from ..scene import one_mode
-from ..sdof_flow import flow_matrix
+from ..core.oscillator import flow_matrix
 from .orbit import DEFAULT_TOL, SectionMap
 from .phases import TWO_PI
 

@@ -14,8 +14,8 @@ import numpy as np
 
 from ..core.event import EventSolver
 from ..scene import one_mode
-from ..sdof_averaging import averaging_guess
-from ..sdof_flow import undamped_resonance
+from ..paper.averaging import averaging_guess
+from ..core.oscillator import undamped_resonance
 from .orbit import DEFAULT_TOL, SectionMap, check_stops, law_key, minimal_period
 from .paper import paper_verdicts
 from .phases import TWO_PI
@@ -69,7 +69,7 @@ def unresolved(om, Omega: float, Q: float, v: float, tol: float) -> str:
     orbit exists and Newton drifts to ``v ~ 1e13 ... 1e22``.  ``om``: the scene's
     :func:`vibeam.models.scene.one_mode`.
     """
-    from ..sdof_flow import linear_amplitude
+    from ..core.oscillator import linear_amplitude
 
     C = float(linear_amplitude(om.beta, om.B, Omega))
     size = np.nanmax([abs(Q), abs(v) / Omega])

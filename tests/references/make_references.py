@@ -416,7 +416,7 @@ def k_fold_fixed_point(sc, W, phi0, v0, k, n):
 
 def _sdof_checks(name, sc, d):
     from vibeam.models import linear_amplitude
-    from vibeam.models.sdof_averaging import solve as averaging
+    from vibeam.models.paper.averaging import solve as averaging
     from vibeam.models.mapping import is_admissible, newton_fixed_point, orbit_extremes
     from vibeam.models.scene import one_mode
 

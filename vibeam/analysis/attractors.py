@@ -2,12 +2,12 @@
 
 A grid of initial states at forcing phase 0 (or ``samples`` random ones, seeded) is labelled
 by the attractor of the stroboscopic map each state reaches, found by recurrences on a cell
-grid (:mod:`vibeam.models.attractors`; Datseris & Wagemakers, Chaos 32, 2022) with the case's
+grid (:mod:`vibeam.models.orbits.attractors`; Datseris & Wagemakers, Chaos 32, 2022) with the case's
 exact event solver as the map.  Every attractor found is then described once: simulated over
 ``record`` periods (:func:`vibeam.engine.records.summarize`: amplitude ``Q``, period-n, status),
 a periodic one refined to its fixed point by the shooting problem of the model (Newton on
-``P^n(x) - x``, :func:`vibeam.models.continuation.start_point`) with its Floquet multipliers,
-and its Lyapunov spectrum computed (:func:`vibeam.models.lyapunov.lyapunov_spectrum`: exact
+``P^n(x) - x``, :func:`vibeam.models.orbits.continuation.start_point`) with its Floquet multipliers,
+and its Lyapunov spectrum computed (:func:`vibeam.models.orbits.lyapunov.lyapunov_spectrum`: exact
 flows and saltation matrices, Müller 1995).  Types:
 
 ``period``          a period-n orbit (n in ``attractor_period``), no sticking phase;
@@ -50,11 +50,11 @@ from vibeam.errors import CaseError
 from vibeam.io.netcdf import json_default, parameter_units, var, write_group
 from vibeam.io.results import case_hash
 from vibeam.io.store import Store
-from vibeam.models.attractors import FAILED, UNSETTLED, Recurrences, set_distance
-from vibeam.models.continuation import start_point
-from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
+from vibeam.models.orbits.attractors import FAILED, UNSETTLED, Recurrences, set_distance
+from vibeam.models.orbits.continuation import start_point
+from vibeam.models.orbits.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
 from vibeam.models.scene import one_mode, outputs, rest_state
-from vibeam.models.sdof_flow import largest_gap, particular_coefficients
+from vibeam.models.core.oscillator import largest_gap, particular_coefficients
 from vibeam.plots.lazy import plt
 from vibeam.plots.sweep import save_figure
 from vibeam.plots.style import NODIM, PALETTE, context, legend_outside
@@ -239,7 +239,7 @@ class BasinsResult:
 # ---------------------------------------------------------------------------- the map
 def strobe(solver, Omega: float, d: int):
     """The stroboscopic map of ``solver`` at ``Omega`` as ``step(x, n)`` for
-    :meth:`vibeam.models.attractors.Recurrences.label`: the states (shape (n, d)) after ``1 ...
+    :meth:`vibeam.models.orbits.attractors.Recurrences.label`: the states (shape (n, d)) after ``1 ...
     n`` forcing periods from ``x``, or None when the solver reports ``failed``.
 
     When the solver's samples are the whole state but its flag (the SDOF's ``(q, q')``, ``d =
@@ -314,7 +314,7 @@ def state_size(solver) -> int:
 def first_period_gap(osc, Omega: float, q0, v0, samples: int = 256) -> np.ndarray:
     """The largest ``q - Delta`` over one forcing period of the SDOF's free flight (no stop) from
     each initial state ``(q0, v0)`` at forcing phase 0 (arrays of one shape, nondimensional;
-    paper Eq. 28, :func:`vibeam.models.sdof_flow.largest_gap` on ``samples`` times): positive
+    paper Eq. 28, :func:`vibeam.models.core.oscillator.largest_gap` on ``samples`` times): positive
     where the state meets the upper stop within a period, negative where it does not, zero on
     the states whose next period grazes it.  ``osc``: the oscillator
     (:func:`vibeam.models.scene.one_mode`)."""

@@ -5,8 +5,8 @@ A continuation run is one :class:`BranchTask`: it goes through :func:`vibeam.eng
 beside the sweep lines of the case, on the same executor (local pool or dask), and returns
 plain arrays (picklable).  In the worker it builds the fidelity's shooting problem from the
 registration :data:`vibeam.models.SHOOTING` (no per-fidelity code here), finds the starting
-orbits, runs :func:`vibeam.models.continuation.trace` and, for a ``[map]`` case, the
-two-parameter curves of :func:`vibeam.models.continuation.trace_curve`.
+orbits, runs :func:`vibeam.models.orbits.continuation.trace` and, for a ``[map]`` case, the
+two-parameter curves of :func:`vibeam.models.orbits.continuation.trace_curve`.
 
 Physical keys are continued through the scene's affine conversions (paper Eqs. 43-46; the
 model spec's ``scene_parameter``), so ``F_p`` follows by the chain rule.
@@ -34,7 +34,7 @@ from vibeam.io.netcdf import json_default, parameter_units, read_attrs, var, wri
 from vibeam.io.results import branch_name, read_branch_group
 from vibeam.errors import CaseError
 from vibeam.models import SHOOTING, make_solver, shooting_problem
-from vibeam.models.continuation import (FOLD, GRAZING, PERIOD_DOUBLING, ContinuationError, FiniteDifferenceParameter,
+from vibeam.models.orbits.continuation import (FOLD, GRAZING, PERIOD_DOUBLING, ContinuationError, FiniteDifferenceParameter,
                                         ScaledParameter, Settings, trace, trace_curves)
 from vibeam.models.interrupts import reraise_interrupt
 from vibeam.models.scene import outputs
@@ -265,7 +265,7 @@ def spec_at(task: BranchTask, spec, value: float):
 def task_problem(task: BranchTask, spec):
     """The shooting problem of a continuation run: :func:`problem` in a key the scene's problems
     carry, else (a path: ``task.table``) one problem per value, each at the run's frequency,
-    with ``d x / d p`` by central differences (:class:`vibeam.models.continuation.FiniteDifferenceParameter`)."""
+    with ``d x / d p`` by central differences (:class:`vibeam.models.orbits.continuation.FiniteDifferenceParameter`)."""
     if task.table is None:
         return problem(spec, task.parameter, task.at)
 
@@ -276,7 +276,7 @@ def task_problem(task: BranchTask, spec):
 
 def problem(spec, key: str, at: float | None):
     """The shooting problem of ``spec`` continued in ``key`` (physical keys through the scene's
-    affine conversion, :class:`vibeam.models.continuation.ScaledParameter`)."""
+    affine conversion, :class:`vibeam.models.orbits.continuation.ScaledParameter`)."""
     path, factor, damping = spec.scene_parameter(key) if hasattr(spec, "scene_parameter") else (key, 1.0, None)
     prob = shooting_problem(spec.scene(), path, Omega=at, damping=damping)
     if path == key and factor == 1.0:

@@ -52,7 +52,7 @@ def classify(period, status, lyapunov_class=None) -> np.ndarray:
     status : array_like of str, same shape
         ``ok``, ``chatter``, ``sticking`` or ``failed``.
     lyapunov_class : array_like of str, same shape, optional
-        The points' ``lyapunov_class`` (:func:`vibeam.models.lyapunov.classify_spectrum`): a
+        The points' ``lyapunov_class`` (:func:`vibeam.models.orbits.lyapunov.classify_spectrum`): a
         non-periodic point becomes :data:`CHAOTIC` or :data:`QUASI_PERIODIC` where its spectrum
         says so.
 

@@ -15,7 +15,7 @@ from vibeam.case.beamscene import beam_spec, derive as derive_scene, modes_repor
 from vibeam.errors import CaseError
 from vibeam.io.outdir import (OutputLock, check_folder, check_output_file, check_outputs, reading, replace_file,
                               write_text_file)
-from vibeam.models.beam import write_modes
+from vibeam.models.builders.beam_fe import write_modes
 
 
 @dataclass
@@ -95,7 +95,7 @@ class Modes:
     Attributes
     ----------
     case : Case
-    fe : vibeam.models.beam.BeamFE
+    fe : vibeam.models.builders.beam_fe.BeamFE
         The finite-element model (``fe.ndof`` degrees of freedom).
     modes, contact : modal data
         Free modes (``frequencies_hz`` (n,), ``shapes`` (ndof, n), ``participation`` (n,),

@@ -23,7 +23,7 @@ from vibeam.engine.sweep import simulate as simulate_point
 from vibeam.errors import InputError, quote_value
 from vibeam.models import make_solver
 from vibeam.models.core.scene_shooting import SceneShooting
-from vibeam.models.lyapunov import lyapunov_spectrum
+from vibeam.models.orbits.lyapunov import lyapunov_spectrum
 from vibeam.models.scene import outputs
 from vibeam.plots.lazy import plt
 from vibeam.plots.sweep import simulation_figure
@@ -277,14 +277,14 @@ class Lyapunov:
         nondimensional time: on a periodic orbit its Floquet exponents ``ln |mu_i| / (n T)``
         (``method = "floquet"``, error 0: exact to the shooting refinement, as a sweep's
         ``lyapunov``), else the QR estimate and its batch-means standard error
-        (``method = "qr"``, :class:`vibeam.models.lyapunov.LyapunovSpectrum`).
+        (``method = "qr"``, :class:`vibeam.models.orbits.lyapunov.LyapunovSpectrum`).
     exponents_per_s, error_per_s : ndarray, shape (d,) or None
         The same per second for a physical scene (1/s), else None.
     status, message : str
         ``"ok"``, or ``"failed"`` with the reason (a shot the shooting problem could not take).
     impacts_per_period : float
         Impacts (contacts) per forcing period on the attractor.
-    spectrum : vibeam.models.lyapunov.LyapunovSpectrum
+    spectrum : vibeam.models.orbits.lyapunov.LyapunovSpectrum
         The QR estimate (kept as the check on a periodic orbit: its bias there falls like
         ``1 / shots`` and its batch-means error does not see it).
     method : str
@@ -314,7 +314,7 @@ def lyapunov(case_or_model, Omega: float | None = None, shots: int = 2000, trans
     The state from ``state`` (default: rest) is simulated by :func:`simulate` for ``transient``
     periods (default: the case's ``transient_periods``), then ``shots`` shots of ``n`` periods of
     the scene's shooting problem (:class:`vibeam.models.core.scene_shooting.SceneShooting`) give the spectrum by
-    the QR method (:func:`vibeam.models.lyapunov.lyapunov_spectrum`: exact flows, saltation
+    the QR method (:func:`vibeam.models.orbits.lyapunov.lyapunov_spectrum`: exact flows, saltation
     matrices at impacts, Müller 1995; Benettin et al. 1980).  As in a sweep (``[sweep] lyapunov``),
     the state the shots end on is then simulated over the case's ``record_periods`` (16 for a
     model): where that record is periodic (period ``n``) and the shooting

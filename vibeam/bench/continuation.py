@@ -13,7 +13,7 @@ from vibeam.bench.common import build_scene
 from vibeam.models import EventSolver, shooting_problem, make_solver
 from vibeam.models.builders.sdof import sdof
 from vibeam.models import BeamEventSolver
-from vibeam.models.continuation import Settings, start_point, trace
+from vibeam.models.orbits.continuation import Settings, start_point, trace
 from vibeam.models.scene import outputs
 
 

@@ -23,7 +23,7 @@ import numpy as np
 import scipy.linalg
 
 from vibeam.errors import CaseError
-from vibeam.models.beam import BeamFE, BeamGeometry, shared_calibration, shared_fe
+from vibeam.models.builders.beam_fe import BeamFE, BeamGeometry, shared_calibration, shared_fe
 from vibeam.models.builders.beam import contact_row, fe_beam, mass_stops, static_mode_beam
 from vibeam.models.builders.matrices import modal_scene
 from vibeam.models.contact import Relation, Restitution, Stop
@@ -37,8 +37,8 @@ from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
 class BeamScene:
     """Everything derived from a beam case table (SI units)."""
 
-    geometry: object          # vibeam.models.beam.BeamGeometry (calibrated if asked)
-    calibration: object       # vibeam.models.beam.Calibration or None
+    geometry: object          # vibeam.models.builders.beam_fe.BeamGeometry (calibrated if asked)
+    calibration: object       # vibeam.models.builders.beam_fe.Calibration or None
     damping_D_s: float
     f1_hz: float              # first FE bending frequency of the (calibrated) model
     phi_at_mass: float

@@ -354,7 +354,7 @@ class _SDOFSpec(_StopsSpec):
         closed-form flow of ``event``, ``mapping`` and ``continuation`` divides by ``(1 -
         Omega^2)^2 + (2 beta Omega)^2 = 0`` there (undamped resonance grows as ``t cos t``: no
         periodic forced response), so such a run is refused in one line
-        (:func:`vibeam.models.sdof_flow.undamped_resonance` is the model's own guard)."""
+        (:func:`vibeam.models.core.oscillator.undamped_resonance` is the model's own guard)."""
         key = "damping_ratio" if self.physical else "beta"
         if method in self.RESONANCE_SAFE or getattr(self, key) != 0.0:
             return
@@ -1699,7 +1699,7 @@ class SweepSpec(_Strict):
     256; 0 or at most ``record_periods``: the record alone), the sample its regression
     statistics need (:func:`vibeam.engine.records.batch_means`).  ``lyapunov = true`` adds each
     time-domain point's Lyapunov spectrum over ``lyapunov_periods`` periods (default 1000)
-    from its final state (:mod:`vibeam.models.lyapunov`; variables ``lyapunov`` and
+    from its final state (:mod:`vibeam.models.orbits.lyapunov`; variables ``lyapunov`` and
     ``lyapunov_error`` on (direction, Omega, exponent)).
     """
 
@@ -1808,7 +1808,7 @@ class MappingRun(_RunBase):
 
 class ContinuationRun(_RunBase):
     """Method ``continuation``: pseudo-arclength continuation of periodic orbits with stability
-    and bifurcations (:mod:`vibeam.models.continuation`) over the ``[sweep]`` range.
+    and bifurcations (:mod:`vibeam.models.orbits.continuation`) over the ``[sweep]`` range.
 
     ``parameter``: ``Omega`` (the forcing frequency, default) or a numeric model key (``B``,
     ``Delta``, ``R``, ``beta``; physical scenes ``voltage``, ``gain``, ``gap_mm``,
@@ -2019,7 +2019,7 @@ class BasinsSpec(_Strict):
     physical scene ``U`` mm and ``U'`` mm/s; beam: the modal ``coordinates = [i, j]`` or
     ``"sensor"``, U and U' at the sensor in the static deflection shape), default a box
     around the stop; ``run``: the run whose model and solver are used (default the first
-    time-domain run).  Recurrence settings (:mod:`vibeam.models.attractors`): ``recurrences``
+    time-domain run).  Recurrence settings (:mod:`vibeam.models.orbits.attractors`): ``recurrences``
     consecutive revisits find an attractor, ``locate_periods`` samples describe it,
     ``max_periods`` bound a trajectory (else ``unsettled``), ``basin_hits`` decides by the basin
     cells of earlier states after ``hit_basin`` consecutive visits (default 50: with 10, 12 of
@@ -2710,7 +2710,7 @@ def continued_key(spec, table: dict, name: str) -> str:
     stop or the excitation (``stops[1].law.stiffness_n_m``, a force's ``excitation.amplitude_n``),
     the path itself: carried by the scene's problem when the spec's ``scene_parameter`` takes it
     (a matrix scene's ``stops[0].law.R``), else continued by central differences of the scene's
-    shots (:class:`vibeam.models.continuation.FiniteDifferenceParameter`).  A path
+    shots (:class:`vibeam.models.orbits.continuation.FiniteDifferenceParameter`).  A path
     into ``system`` that the shooting problem does not carry changes the structure's modes (their
     signs and order, not smooth in the parameter) and stays refused.
 

@@ -33,10 +33,10 @@ from vibeam.engine.records import (HARMONICS, PERIOD_MAX, SETTLED_MARGIN, STATUS
                                    summarize, transient_verdict, window_verdict)
 from vibeam.models.core.scene_shooting import SceneShooting
 from vibeam.models.blas import one_blas_thread
-from vibeam.models.continuation import start_point
+from vibeam.models.orbits.continuation import start_point
 from vibeam.models.interrupts import check as check_interrupt
 from vibeam.models.interrupts import reraise_interrupt
-from vibeam.models.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
+from vibeam.models.orbits.lyapunov import classify_spectrum, floquet_exponents, lyapunov_spectrum
 from vibeam.models.scene import outputs
 from vibeam.models.trajectory import concatenate
 
@@ -88,7 +88,7 @@ class Sweep:
     lyapunov_shots : int
         0: no Lyapunov exponents; else the spectrum of the stroboscopic map over this many
         forcing periods from the point's final state, by the model's shooting problem
-        (:func:`vibeam.models.lyapunov.lyapunov_spectrum`; time-domain methods): the point's
+        (:func:`vibeam.models.orbits.lyapunov.lyapunov_spectrum`; time-domain methods): the point's
         ``lyapunov`` and ``lyapunov_error`` (batch-means standard error; NaN, with the reason in
         ``lyapunov_message``, where the shooting problem cannot follow the orbit).  At a periodic
         point the exponents are its orbit's Floquet exponents (exact; ``lyapunov_method`` =
@@ -587,8 +587,8 @@ def _lyapunov(solver, Omega, traj, out: dict, shots: int) -> None:
 def orbit_exponents(prob, state, Omega: float, n: int, d: int):
     """The Floquet exponents of the period-``n`` orbit through ``state`` (its first ``d``
     coordinates at forcing phase 0), refined by Newton on the shooting problem ``prob`` (in ``Omega``)
-    (:func:`vibeam.models.continuation.start_point`), as
-    :func:`vibeam.models.lyapunov.floquet_exponents`; None where the orbit is not refined."""
+    (:func:`vibeam.models.orbits.continuation.start_point`), as
+    :func:`vibeam.models.orbits.lyapunov.floquet_exponents`; None where the orbit is not refined."""
     try:
         pt, _ = start_point(prob, np.asarray(state, float)[:d], float(Omega), int(n),
                             0.5 * Omega, 2.0 * Omega)

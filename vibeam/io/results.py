@@ -136,14 +136,14 @@ VARIABLES = {
     "disagree_simplified": ("1", "1 if Eqs. 35-37 and the Floquet multipliers disagree on stability"),
     "multipliers": ("1", "Floquet multipliers (monodromy with the saltation matrix)"),
     "lyapunov": ("1", "Lyapunov exponents of the stroboscopic map per unit nondimensional time, largest first "
-                      "(vibeam.models.lyapunov)"),
+                      "(vibeam.models.orbits.lyapunov)"),
     "lyapunov_error": ("1", "standard error of each Lyapunov exponent by batch means over the record (0: Floquet "
                             "exponents of a periodic orbit)"),
     "lyapunov_qr": ("1", "Lyapunov exponents by the QR method, kept as a check beside Floquet exponents"),
     "lyapunov_method": ("", "floquet (the periodic orbit's Floquet exponents) or qr (the QR method on the record)"),
     "lyapunov_message": ("", "why the Lyapunov exponents are NaN (empty when computed)"),
     "lyapunov_class": ("", "periodic, chaotic, quasi_periodic or non_periodic from the Lyapunov spectrum "
-                           "(vibeam.models.lyapunov.classify_spectrum; empty: not computed)"),
+                           "(vibeam.models.orbits.lyapunov.classify_spectrum; empty: not computed)"),
     "map_eigenvalues": ("1", "eigenvalues of the paper's impact-map Jacobian"),
     "det_full": ("1", "determinant of the Jacobian of Eqs. 29-32"),
     "tr_full": ("1", "trace of the Jacobian of Eqs. 29-32"),

@@ -1,4 +1,4 @@
-"""Small compiled helpers of the continuation engine (:mod:`vibeam.models.continuation`):
+"""Small compiled helpers of the continuation engine (:mod:`vibeam.models.orbits.continuation`):
 the bordered Newton step, the tangent and the spectrum of the monodromy, called once or a few
 times per continuation point (numba keeps their call cost at a microsecond or two, against
 ~5-10 microseconds for the same NumPy calls on 3x3 matrices)."""

@@ -43,13 +43,13 @@ from scipy.integrate import solve_ivp
 from numba import njit
 from scipy.optimize import brentq
 
-from .trajectory import Trajectory
+from ..trajectory import Trajectory
 
-from .impact import newton_restitution
-from .contact_policy import release_now
-from .core.direct import ATOL_COMPLIANT, RTOL_COMPLIANT, DirectIntegrator
-from .core.event import EventIntegrator
-from .scene import one_mode
+from ..impact import newton_restitution
+from ..core.contact_policy import release_now
+from ..core.direct import ATOL_COMPLIANT, RTOL_COMPLIANT, DirectIntegrator
+from ..core.event import EventIntegrator
+from ..scene import one_mode
 
 TWO_PI = 2.0 * math.pi
 EPS = 2.220446049250313e-16

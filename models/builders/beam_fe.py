@@ -54,7 +54,7 @@ import scipy.optimize
 from skfem import Basis, BilinearForm, ElementLineHermite, MeshLine
 from skfem.helpers import dd, ddot
 
-from .system import lowest_modes
+from ..system import lowest_modes
 
 #: the eigen-solver, now :func:`vibeam.models.system.lowest_modes` (one for every modal model)
 _lowest_eigs = lowest_modes

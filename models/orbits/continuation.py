@@ -1,5 +1,5 @@
 """Pseudo-arclength continuation of periodic orbits of impacting systems, with stability and
-bifurcations.  Numerics only: it drives any shooting problem of :mod:`vibeam.models.periodic`
+bifurcations.  Numerics only: it drives any shooting problem of :mod:`vibeam.models.core.periodic`
 and knows nothing about the fidelity.
 
 A period-n orbit is a zero of ``F(x, p) = P^n(x; p) - x`` with ``F_x = M - I`` (``M`` the
@@ -49,10 +49,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .blas import with_one_blas_thread
-from .interrupts import check as check_interrupt
-from .interrupts import reraise_interrupt
-from .continuation_kernels import SMALL_SPECTRUM, corrector_step, floquet_spectrum, floquet_spectrum_small, bordered_tangent
+from ..blas import with_one_blas_thread
+from ..interrupts import check as check_interrupt
+from ..interrupts import reraise_interrupt
+from ..core.continuation_kernels import SMALL_SPECTRUM, corrector_step, floquet_spectrum, floquet_spectrum_small, bordered_tangent
 
 FOLD = "fold"
 PERIOD_DOUBLING = "period_doubling"
@@ -284,7 +284,7 @@ class _Engine:
         try:
             s = self.prob.shot(x, p, n)
         except Exception as e:  # a problem must not raise; if it does, it is a failed shot
-            from .periodic import Shot
+            from ..core.periodic import Shot
 
             reraise_interrupt(e)       # Ctrl-C inside the compiled shot: an interrupt, not a failure
             nan = np.full(self.d, np.nan)
@@ -1197,7 +1197,7 @@ def trace(prob, x0, p0, n, lo, hi, direction: int = 1, settings: Settings = Sett
     Parameters
     ----------
     prob : shooting problem
-        Contract of :mod:`vibeam.models.periodic` (``dim``, ``parameter``, ``shot(x0, p, n)``).
+        Contract of :mod:`vibeam.models.core.periodic` (``dim``, ``parameter``, ``shot(x0, p, n)``).
     x0 : array_like, shape (d,)
         Guess of the state at the section (corrected at fixed ``p0`` first).
     p0 : float

@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from .scene import one_mode
+from ..scene import one_mode
 
 
 def _coefficients(Omega, beta, B, R, Delta, k):

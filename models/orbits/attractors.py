@@ -48,7 +48,7 @@ import numpy as np
 from numba import njit, types
 from numba.typed import Dict
 
-from .interrupts import check as check_interrupt
+from ..interrupts import check as check_interrupt
 
 #: labels of :meth:`Recurrences.label` that are not an attractor's index
 UNSETTLED = -2

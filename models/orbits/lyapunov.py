@@ -1,6 +1,6 @@
 """Lyapunov exponents of the stroboscopic map, on the one shooting-problem contract.
 
-A shooting problem (:mod:`vibeam.models.periodic`: ``shot(x0, p, n)`` returns ``P^n(x0)`` and
+A shooting problem (:mod:`vibeam.models.core.periodic`: ``shot(x0, p, n)`` returns ``P^n(x0)`` and
 its monodromy ``M = d P^n / d x0``) already composes, along the orbit it follows, the exact
 state-transition matrices of the flows with the saltation matrices of the impacts (Newton's law:
 Müller, *Calculation of Lyapunov exponents for dynamic systems with discontinuities*, Chaos,
@@ -99,7 +99,7 @@ def lyapunov_spectrum(problem, x0, p: float, shots: int, transient: int = 0, n: 
     Parameters
     ----------
     problem : shooting problem
-        Any object of the contract of :mod:`vibeam.models.periodic` (e.g.
+        Any object of the contract of :mod:`vibeam.models.core.periodic` (e.g.
         :func:`vibeam.models.shooting_problem` of a model).
     x0 : array_like, shape (d,)
         State at forcing phase 0 (the problem's state, nondimensional or kernel units).

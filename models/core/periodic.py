@@ -13,7 +13,7 @@ times), together with exact first derivatives:
     x_p = d x_n / d p         (at fixed x_0; exact, from the closed-form flow, the event-time
                                sensitivities and the derivative of the reset / release time)
 
-The continuation engine (:mod:`vibeam.models.continuation`) solves ``F(x_0, p) = P^n(x_0; p)
+The continuation engine (:mod:`vibeam.models.orbits.continuation`) solves ``F(x_0, p) = P^n(x_0; p)
 - x_0 = 0`` with ``F_x = M - I`` and ``F_p = x_p``; it knows nothing about the fidelity.
 Finite differences are used only as a test oracle.
 
