@@ -133,6 +133,11 @@ class _Phase:
             self.P = hs.Psi[H][:, :m]
             self.a = hs.eta_c[H] / r.sc
             self.gam, self.c, self.k, self.e = hs.gam[H, :m] * r.F / r.sc, hs.c[H, :m], hs.nu2[H, :m], hs.e[H, :m] / r.sc
+            # the held damping Psi^T C Psi whole: its off-diagonal part (non-proportional damping,
+            # HeldSets.Emis; zero for Rayleigh damping), which the event kernels' held flow drops
+            E = hs.Emis[H, :m, :m]
+            if np.any(E != 0.0):
+                self.c = np.diag(self.c) + E
             self.Nz = r.Nrm @ self.P
         else:
             m = r.N
@@ -186,7 +191,8 @@ class _Phase:
         x, v = z[:m], z[m:2 * m]
         out = np.zeros(self.L)
         out[:m] = v
-        out[m:2 * m] = self.gam * math.sin(r.Om * t) - self.c * v - self.k * (x - self.e)
+        cv = self.c @ v if self.c.ndim == 2 else self.c * v
+        out[m:2 * m] = self.gam * math.sin(r.Om * t) - cv - self.k * (x - self.e)
         for i, j in enumerate(self.cl):
             g, gd = self.gap(j, z)
             f = self.force(j, g, gd)
@@ -772,7 +778,8 @@ class BeamODESolver:
     :func:`vibeam.models.builders.matrices.modal_scene`).
 
     Newton stops: a terminal event at each contact (a gap ``n^T eta - Delta`` rising) and the same
-    impact law; held on stops, the constrained system ``eta = eta_c + Psi zeta`` with a terminal
+    impact law; held on stops, the constrained system ``eta = eta_c + Psi zeta`` (its whole damping
+    ``Psi^T C Psi``, non-diagonal for damping that is not proportional) with a terminal
     event on each contact force ``lambda`` turning positive; an impact with ``U- < chatter_velocity``
     times the first impact speed into a pressing contact acceleration ends a chatter (plastic
     projection, then sticking): a crude chatter model, fine for a reference of impacting/sticking

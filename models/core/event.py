@@ -379,6 +379,31 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
         incomplete=bool(incomplete))
 
 
+#: the dropped off-diagonal held damping (relative) from which a held point says so: beyond the
+#: round-off of a Rayleigh-damped mesh's eigenvectors (measured up to 5e-11: the shipped plate and
+#: continuum), far below the 2.5e-2 of the 3-DOF chain's 2 % modal damping
+HELD_DAMPING_NOTED = 1e-6
+
+
+def held_damping_dropped(core: EventIntegrator) -> float:
+    """The largest off-diagonal entry of a held set's damping ``Psi^T C Psi`` relative to its
+    diagonal that the held flow drops (:func:`vibeam.models.core.stops.held_sets`: the sets whose
+    ``Emis`` is stored, i.e. beyond round-off); 0.0 for Rayleigh damping and one-mode scenes."""
+    hs = core.held
+    stored = [m for m in range(hs.Emis.shape[0]) if np.any(hs.Emis[m] != 0.0)]
+    return float(max((core.damping_mismatch[m] for m in stored), default=0.0))
+
+
+def held_damping_note(dropped: float) -> str:
+    """The message of a point that was held on a stop of a scene whose held damping is not
+    diagonal (non-proportional damping, e.g. a damping ratio per mode): the event integrator's held
+    flow keeps the diagonal of ``Psi^T C Psi`` only (:mod:`vibeam.models.core.stops`), so the
+    motion while held is approximate; method ``direct`` integrates the held system whole."""
+    return (f"held on a stop whose held damping is not diagonal (non-proportional damping): the event "
+            f"integrator's held flow drops its off-diagonal part (up to {dropped:.2g} of the diagonal), so "
+            f"the motion while held is approximate; method 'direct' integrates it whole")
+
+
 _ENTRIES: dict = {}
 
 
@@ -744,6 +769,8 @@ class BeamEventSolver:
         # the one event integrator on the beam's modal system with its stops
         self._core = EventIntegrator(scene)
         self._h_cap = fundamental_step(self._core.system, self.steps_per_fundamental)
+        #: the largest off-diagonal part of a held set's damping the held flow drops (HeldSets.Emis)
+        self._held_mismatch = held_damping_dropped(self._core)
         # periods per call of the sweep engine (vibeam.engine.sweep.simulate): the cost per period grows
         # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
         # so a call lasts well under a second
@@ -797,4 +824,6 @@ class BeamEventSolver:
                            "impact_velocity_m_s": float(np.mean(iv_up) * L * self._omega_ref) if iv_up.size else np.nan})
         if self.record_modal_states:
             traj.extra["modal_states"] = run.record.msamp
+        if self._held_mismatch > HELD_DAMPING_NOTED and traj.extra["stuck_fraction"] > 0.0:
+            traj.message = "; ".join(m for m in (traj.message, held_damping_note(self._held_mismatch)) if m)
         return traj

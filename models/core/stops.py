@@ -17,8 +17,9 @@ nearest point of the constraint.  Each ``zeta_j`` is again a damped forced oscil
 (``Gamma`` the forcing vector, ``F = Omega^p A`` the drive's amplitude:
 :func:`vibeam.models.system.drive_force`) with ``e = -(Psi^T K eta_c) / nu^2`` and the constrained
 damping ``c = diag(Psi^T C Psi)`` (exact for Rayleigh damping ``C = alpha + D K``, where ``Psi^T
-C Psi`` is diagonal; the off-diagonal remainder of other modal damping is dropped, and returned by
-:func:`held_sets` as ``mismatch``).
+C Psi`` is diagonal; the off-diagonal remainder of other modal damping, ``Emis``, is dropped by
+the event integrator's held flow, whose held points say so (:func:`vibeam.models.core.event.
+held_damping_note`), kept by the direct solver, and returned by :func:`held_sets` as ``mismatch``).
 The constraint forces are ``lambda_H = -(W_H W_H^T)^-1 W_H a_free`` with the free acceleration
 ``a_free = Gamma F sin - C eta' - K eta``; the stops push (hold) while ``lambda_k <= 0`` and
 release stop ``k`` when ``lambda_k`` turns positive (:mod:`vibeam.models.core.contact_policy`).  An
