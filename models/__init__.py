@@ -1,4 +1,12 @@
-"""Fidelities of vibeam: the SDOF impact oscillator and the modal FE beam.
+"""The dynamics of vibeam, in rooms from the bottom up (``tests/test_architecture.py``):
+
+* the scene and what it holds: :mod:`.scene` (``Scene(system, stops, builder)``), :mod:`.system`
+  (the linear modal system), :mod:`.contact`, :mod:`.impact`, :mod:`.compliant` (relations and
+  laws), :mod:`.builders` (the SDOF, the FE beam, a user's matrices, a continuum or mesh), the
+  :mod:`.registry` of fidelities and :mod:`.trajectory` (what a time-domain method returns);
+* :mod:`.core`: flows, the one event integrator, the one direct solver, the one shooting problem;
+* :mod:`.paper` and :mod:`.mapping`: the paper's methods of the one-mode scene, the pointwise maps;
+* :mod:`.orbits`: continuation, Lyapunov exponents, attractors and basins of the stroboscopic map.
 
 What each fidelity is and can do is declared once, in :mod:`vibeam.models.registry`;
 :data:`METHODS` and :data:`SHOOTING` are views of it.  Solvers are built by

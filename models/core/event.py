@@ -132,6 +132,8 @@ class EventIntegrator:
         self.ksys = kernel_system(system)
         self.kstops = kernel_stops(system, self.stops)
         self.held, self.damping_mismatch = held_sets(system, self.kstops)
+        #: the largest off-diagonal part of a held set's damping the held flow drops (relative)
+        self.held_dropped = held_damping_dropped(self.held, self.damping_mismatch)
         #: the compliant stops' data, None without one (:func:`vibeam.models.core.phases.compliant_data`)
         self.compliant = compliant_data(system, self.kstops, self.held)
         #: bit mask of the stops with a compliant law
@@ -385,13 +387,13 @@ def trajectory(run: Run, Omega, samples_per_period, n_record, scale, impact_buff
 HELD_DAMPING_NOTED = 1e-6
 
 
-def held_damping_dropped(core: EventIntegrator) -> float:
+def held_damping_dropped(held, mismatch) -> float:
     """The largest off-diagonal entry of a held set's damping ``Psi^T C Psi`` relative to its
-    diagonal that the held flow drops (:func:`vibeam.models.core.stops.held_sets`: the sets whose
-    ``Emis`` is stored, i.e. beyond round-off); 0.0 for Rayleigh damping and one-mode scenes."""
-    hs = core.held
-    stored = [m for m in range(hs.Emis.shape[0]) if np.any(hs.Emis[m] != 0.0)]
-    return float(max((core.damping_mismatch[m] for m in stored), default=0.0))
+    diagonal that the held flow drops: the largest ``mismatch`` (shape (S,)) of the sets whose
+    ``Emis`` is stored, i.e. beyond round-off (:func:`vibeam.models.core.stops.held_sets`, which
+    returns both); 0.0 for Rayleigh damping and one-mode scenes."""
+    stored = [m for m in range(held.Emis.shape[0]) if np.any(held.Emis[m] != 0.0)]
+    return float(max((mismatch[m] for m in stored), default=0.0))
 
 
 def held_damping_note(dropped: float) -> str:
@@ -769,8 +771,6 @@ class BeamEventSolver:
         # the one event integrator on the beam's modal system with its stops
         self._core = EventIntegrator(scene)
         self._h_cap = fundamental_step(self._core.system, self.steps_per_fundamental)
-        #: the largest off-diagonal part of a held set's damping the held flow drops (HeldSets.Emis)
-        self._held_mismatch = held_damping_dropped(self._core)
         # periods per call of the sweep engine (vibeam.engine.sweep.simulate): the cost per period grows
         # with the modes (29 us for 2 modes, ~15 ms for the 46 of the rig mesh when it chatters),
         # so a call lasts well under a second
@@ -824,6 +824,6 @@ class BeamEventSolver:
                            "impact_velocity_m_s": float(np.mean(iv_up) * L * self._omega_ref) if iv_up.size else np.nan})
         if self.record_modal_states:
             traj.extra["modal_states"] = run.record.msamp
-        if self._held_mismatch > HELD_DAMPING_NOTED and traj.extra["stuck_fraction"] > 0.0:
-            traj.message = "; ".join(m for m in (traj.message, held_damping_note(self._held_mismatch)) if m)
+        if self._core.held_dropped > HELD_DAMPING_NOTED and traj.extra["stuck_fraction"] > 0.0:
+            traj.message = "; ".join(m for m in (traj.message, held_damping_note(self._core.held_dropped)) if m)
         return traj

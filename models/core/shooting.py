@@ -23,7 +23,9 @@ impact on stop ``k`` (Newton, ``U+ = -R(U-) U-``, impulse along ``d = Pi_H n_k``
 entry into sticking (plastic: the impact and the projection ``eta' -= m d U``)
     the same with the constrained field of ``H + k`` after: the jump per unit ``U`` is ``(-m d,
     m Pi' C d + (Psi' E' Psi'^T - Psi_H E_H Psi_H^T) eta' / U)``, ``E`` the part of ``Psi^T C Psi``
-    that the held flows' diagonal damping leaves out (zero for Rayleigh damping);
+    that the held flows' diagonal damping leaves out (zero for Rayleigh damping; the derivatives
+    are those of the held flow as it is: with damping that is not proportional a held orbit is the
+    event integrator's, approximate while held, :func:`vibeam.models.core.event.held_damping_note`);
 release of stop ``k`` (``lambda_k = g_k^T (K eta + C eta' - Gamma F sin) = 0``, ``g_k`` its row of
 ``(W W^T)^-1 W``)
     ``dt_r = -(lambda_x dx + lambda_p dp) / lambda_dot`` and ``S = I + (f+ - f-) lambda_x /
