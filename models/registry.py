@@ -270,6 +270,12 @@ class Fidelity:
 
 
 FIDELITIES: dict[str, Fidelity] = {}
+#: the starts of the shooting problem computed above the core, by name: ``"module:function"`` of
+#: ``f(prob, scene, system, Omega, p) -> (x0 or None, reason)`` (the scene, its modal system and
+#: Omega at the parameter's value ``p``), called by
+#: :meth:`vibeam.models.core.scene_shooting.SceneShooting.start` for a period-1 start; its own
+#: ``linear`` start is not listed
+STARTS = {"averaging": "mapping.start:shooting_start"}
 #: the families the SDOF's pointwise mapping passes a stop of (vibeam.models.mapping.orbit.PASSAGES)
 _MAPPED = ("kelvin_voigt", "hysteretic_hertz")
 

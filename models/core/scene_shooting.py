@@ -13,7 +13,8 @@ Lyapunov exponents, the basins' attractors and :func:`vibeam.api.lyapunov`.
 Starts (:meth:`SceneShooting.start`): ``linear``, the contact-free harmonic steady state of any
 scene (each stop's amplitude below its offset); ``averaging``, the paper's averaged period-1 orbit
 (Eqs. 18-23, refined on the impact map, Eqs. 33-34) of the one-mode oscillator only
-(:func:`~vibeam.models.scene.one_mode`).
+(:func:`~vibeam.models.scene.one_mode`), computed above the core by the function the registry names
+(:data:`vibeam.models.registry.STARTS`: :func:`vibeam.models.mapping.start.shooting_start`).
 
 References
 ----------
@@ -31,6 +32,7 @@ import numpy as np
 
 from ..contact import check_stops, restitution_problem
 from ..impact import restitution_at
+from ..registry import STARTS, resolve
 from ..scene import Scene, one_mode, outputs, with_amplitude
 from ..system import forcing, modal_flow, particular
 from .event import EventIntegrator
@@ -283,7 +285,9 @@ class SceneShooting(ModalShooting):
             below its offset; ``averaging`` (one-mode oscillator only): the upper averaging branch
             (paper Eqs. 18-23, ``k = 1``) refined, where it converges to an admissible orbit, by
             Newton on the impact map (Eqs. 33-34, :func:`vibeam.models.mapping.newton_fixed_point`),
-            turned into the post-impact state and carried by the free flow to the next phase 0.
+            turned into the post-impact state and carried by the free flow to the next phase 0
+            (:func:`vibeam.models.mapping.start.shooting_start`, named in
+            :data:`vibeam.models.registry.STARTS`).
         p : float
             Value of the parameter.
         n : int
@@ -316,30 +320,9 @@ class SceneShooting(ModalShooting):
                                   f"stop reaches its offset {st.relation.offset:.6g} at {self.parameter} = {p:.6g}")
             return np.concatenate([b, Om * a]), ""
         if n != 1:
-            return None, "the averaging start gives period-1 orbits only (k = 1)"
-        from ..paper.averaging import solve     # lazy: the averaging solution, a one-mode start only
-        from ..mapping import is_admissible, newton_fixed_point     # lazy: the SDOF map, a one-mode start only
-        one = one_mode(sc, "the averaging start")
-        R, Delta = float(one.stops[0].law.R), float(one.Delta)
-        r = solve(Om, one.beta, one.B, R, Delta, 1)
-        Q = float(r["amplitude"])
-        if not np.isfinite(Q):
-            return None, f"averaging has no real amplitude at {self.parameter} = {p:.6g}"
-        phi, v = float(r["impact_phase"]), Q
-        fp = newton_fixed_point(sc, Om, (phi, v), 1)
-        if fp is not None and is_admissible(sc, Om, fp, 1)[0]:
-            phi, v = float(fp[0]), float(fp[1])
-        t = ((TWO_PI - phi) % TWO_PI) / Om
-        q, w = modal_flow(s, phi / Om, phi / Om + t, np.array([Delta]), np.array([-R * v]), Om)
-        x0 = np.array([q[0], w[0]])
-        if len(sc.stops) > 1:
-            # the averaged orbit is a one-stop orbit: admissible only if it stays off the lower stop
-            sh = self.shot(x0, p, 1)
-            Dl = float(one.Delta_lower)
-            if sh.status != "ok" or np.any(sh.extra["impact_stops"] == 1) or sh.q_min <= -Dl:
-                return None, (f"the averaging orbit reaches the lower stop Delta_lower = {Dl:.6g} at "
-                              f"{self.parameter} = {p:.6g}")
-        return x0, ""
+            return None, f"the {kind} start gives period-1 orbits only (k = 1)"
+        # a start computed above the core (the paper's averaging), named in the registry
+        return resolve(STARTS[kind])(self, sc, s, Om, p)
 
     # ------------------------------------------------------------------ section crossing
     def resect(self, x0, p: float, n: int = 1):

@@ -6,7 +6,7 @@ next arrival the closed-form flow with certified event location; period-n orbits
 multiple-shooting residual (:mod:`.orbit`), solved (damped Newton, :mod:`.newton`, shared with the
 N-mode map of :mod:`.modal`) and analysed by :class:`MappingSolver` (:mod:`.solver`).  The paper's
 impact map of one Newton stop and its formulas are :mod:`.paper`; the phases and their certified
-step :mod:`.phases`.
+step :mod:`.phases`; the averaging start of the shooting problem :mod:`.start`.
 """
 from .paper import (fixed_point_analysis, impact_map, impact_map_jacobian, is_admissible, monodromy,
                     newton_fixed_point, next_impact, orbit_extremes, paper_det_trace, stable_from_det_trace)
