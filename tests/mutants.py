@@ -210,7 +210,7 @@ MUTANTS: list[Mutant] = [
            "float(static_mode_shape(x / L, g.mass_position_m / L, 1.0))",
            ("tests/test_oracles.py::test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration",)),
     Mutant("a beam's gap_lower_mm taken at the contact point (not times phi(x_m))",
-           "vibeam/case/beamscene.py", "DCl = spec.gap_lower_mm * 1e-3 * phim", "DCl = spec.gap_lower_mm * 1e-3",
+           "vibeam/case/beamscene.py", "DCl = lo.gap_mm * 1e-3 * phim", "DCl = lo.gap_mm * 1e-3",
            ("tests/test_oracles.py::test_the_beams_lower_gap_is_converted_to_the_contact_point",)),
     Mutant("the continuation's step grows past ds_max",
            "models/orbits/continuation.py", "ds = min(ds * S.grow, S.ds_max) if pt.its <= S.fast else ds",

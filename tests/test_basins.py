@@ -293,8 +293,8 @@ def test_the_one_mode_beam_has_the_basins_of_its_sdof():
     beam = spec.scene()
     red = derive(spec)["reduction"]
     f = 16.5 * red.f_n_hz / 7.6          # where this SDOF has two attractors (rig-tight's 16.5 Hz)
-    sd = {"name": "s", "model": {"fidelity": "sdof", "beta": red.beta_S, "B": red.gamma_per_V * spec.voltage,
-                                 "R": spec.R, "Delta": red.Delta},
+    sd = {"name": "s", "model": {"fidelity": "sdof", "beta": red.beta_S, "B": red.gamma_per_V * spec.excitation.voltage,
+                                 "R": spec.stop[0].R, "Delta": red.Delta},
           "sweep": {"Omega": [2.0, 2.4, 3]}, "run": [{"name": "exact", "method": "event"}]}
     a = vibeam.basins(sd, Omega=f / red.f_n_hz, grid=(30, 30), lyapunov_periods=0)
     k = beam.system.length_unit_m / beam.system.sensor[0]

@@ -177,7 +177,7 @@ def test_one_mode_beam_chatters_like_the_sdof(f_hz):
     spec = case.model_spec({"n_modes": "static"})
     beam = spec.scene()
     red = derive(spec)["reduction"]
-    sd = sdof(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, Delta=red.Delta, R=spec.R)
+    sd = sdof(beta=red.beta_S, B=red.gamma_per_V * spec.excitation.voltage, Delta=red.Delta, R=spec.stop[0].R)
     f_ref = beam.system.reference_hz
     assert abs(f_ref / red.f_n_hz - 1) > 0.04    # different time units
     Wb, Ws = f_hz / f_ref, f_hz / red.f_n_hz

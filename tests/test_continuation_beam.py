@@ -115,7 +115,7 @@ def _one_dof(m, name):
     if name.startswith("static"):
         spec = _case("rig-fe-tight-continuation").model_spec({"n_modes": "static"})
         red = derive(spec)["reduction"]
-        ref = sdof(beta=red.beta_S, B=red.gamma_per_V * spec.voltage, Delta=red.Delta, R=spec.R)
+        ref = sdof(beta=red.beta_S, B=red.gamma_per_V * spec.excitation.voltage, Delta=red.Delta, R=spec.stop[0].R)
         got, want = _parameters(sd), _parameters(ref)
         for key in ("beta", "B", "R", "Delta"):
             assert got[key] == pytest.approx(want[key], rel=1e-12)

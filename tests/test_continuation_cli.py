@@ -162,7 +162,7 @@ def test_voltage_continuation_is_the_chain_rule_of_B():
     spec = parse_case(RIG.replace("gap_mm = -0.1", "gap_mm = 0.05")).model_spec()
     Omega = 2.0
     prob_v = problem(spec, "voltage", Omega)
-    gamma = spec.gain
+    gamma = spec.excitation.gain
     sc = spec.scene()
     # the non-impacting orbit at low voltage grazes where C(Omega) B / B0 = Delta
     V0 = 0.2

@@ -292,7 +292,7 @@ def test_voltage_continuation_is_the_chain_rule_of_the_base_amplitude():
     m = spec.scene()
     W = 16.0 / m.system.reference_hz
     x = _settled(m, W) * 1.001
-    V = float(spec.voltage)
+    V = float(spec.excitation.voltage)
     sv = problem(spec, "voltage", W).shot(x, V, 1)
     sy = shooting_problem(m, "system.base_amplitude", Omega=W).shot(x, m.system.base_amplitude, 1)
     g = spec.scene_parameter("voltage")[1]

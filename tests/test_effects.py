@@ -150,9 +150,9 @@ def test_platform_coupled_heavy_platform_is_the_filter(beam):
     # the voltage, phi(x_m) or the length in its denominator -- cancels in the ratio): the case's
     # gamma at f_n and gamma |H(f)| / |H(f_n)| elsewhere, |H| written out by hand; the heavy
     # platform's error falls as 1 / mass (measured 2.9e-8 at 1e7 kg, 2.9e-10 at 1e9 kg): 1e-6
-    assert s.effective_gain(fn) == pytest.approx(spec.gain, rel=1e-6)
+    assert s.effective_gain(fn) == pytest.approx(spec.excitation.gain, rel=1e-6)
     for f in (10.0, 20.0):
-        want = spec.gain * _H_by_hand(f, 3.25, 0.05) / _H_by_hand(fn, 3.25, 0.05)
+        want = spec.excitation.gain * _H_by_hand(f, 3.25, 0.05) / _H_by_hand(fn, 3.25, 0.05)
         assert s.effective_gain(f) == pytest.approx(want, rel=1e-6), f
     res = _run(s, [15.0], transient_periods=30, record_periods=4)
     assert res.data["status"][0] != "failed" and np.isfinite(res.data["amplitude"][0])
@@ -168,7 +168,7 @@ def test_eccentric_contact_row_includes_rotation(beam):
     e = 4e-3
     m = build_beam_model(spec, EffectsSpec.model_validate({"eccentric_impact": {"offset_mm": 4.0}}))
     sc = scene_of(spec)
-    fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s)
+    fe = BeamFE(sc.geometry, n_elements=spec.system.n_elements, damping_D_s=sc.damping_D_s)
     P = modal_reduction(fe, 2).shapes
     # w'(L_m) of each mode by central differences of the FE deflection
     Lm, h = sc.geometry.mass_position_m, 1e-6
@@ -235,7 +235,7 @@ def test_gap_drift_sliding_is_chain_state():
 # ----------------------------------------------------------------------------- restitution law
 def test_constant_restitution_table_equals_constant_R(beam):
     for spec, model, kw in ((*_sdof(), {}), (*beam, dict(transient_periods=30, record_periods=4))):
-        R = spec.R
+        R = spec.stop[0].R
         res = _run(_wrap(spec, model, {"restitution_law": {"velocity_mm_s": [0.0, 40.0, 200.0],
                                                            "R": [R, R, R]}}), [14.8, 15.6], **kw)
         ref = _run(make_solver(model, "event"), [14.8, 15.6], **kw)
@@ -328,9 +328,9 @@ def test_the_shooting_problem_of_a_point_runs_the_points_scene():
     w = _wrap(spec, model, {"platform": {}})
     Om = 1.9
     g = w.effective_gain(Om * w.f_n_hz)
-    assert abs(g / spec.gain - 1.0) > 1e-3            # the point's amplitude is not the base's
+    assert abs(g / spec.excitation.gain - 1.0) > 1e-3            # the point's amplitude is not the base's
     B = shooting_at(w, Om).scene.system.base_amplitude
-    assert B == pytest.approx(model.system.base_amplitude * g / spec.gain, rel=1e-15)
+    assert B == pytest.approx(model.system.base_amplitude * g / spec.excitation.gain, rel=1e-15)
     assert shooting_at(make_solver(model, "event"), Om).scene.system.base_amplitude == model.system.base_amplitude
     sl = _wrap(spec, model, {"gap_drift": {"law": "sliding", "slide_mm_per_impulse": 5.0, "max_drift_mm": 0.05}})
     with pytest.raises(ValueError, match="sliding"):

@@ -239,7 +239,7 @@ def check(text: str, touched=None) -> str:
         if r.model:
             case.model_spec(r.model)
         case.effects_for(r)
-    fn = getattr(spec, "natural_frequency_hz", None)
+    fn = getattr(spec.system, "natural_frequency_hz", None)
     if case.sweep.frequency_hz is not None:
         fn = fn or 1.0
     Omega = case.sweep.grid(fn)

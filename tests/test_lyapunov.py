@@ -180,7 +180,7 @@ def test_the_api_settles_the_case_and_converts_to_seconds():
     rig = vibeam.lyapunov("cases/rig-neutral.toml", frequency_hz=15.0, shots=200, transient=200)
     case = vibeam.load_case("cases/rig-neutral.toml")
     assert rig.status == "ok"
-    fn = case.model_spec().natural_frequency_hz
+    fn = case.model_spec().system.natural_frequency_hz
     np.testing.assert_allclose(rig.exponents_per_s, rig.exponents * 2 * math.pi * fn,
                                rtol=1e-15)
     # the rig's per-second sum by Liouville with the case file's values written here (f_n = 7.6 Hz,

@@ -341,8 +341,8 @@ def _rig(n_modes):
     spec = case.model_spec({"n_modes": n_modes})
     model = spec.scene()
     sc = scene_of(spec)
-    fe = shared_fe(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
-                   rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
+    fe = shared_fe(sc.geometry, n_elements=spec.system.n_elements, damping_D_s=sc.damping_D_s,
+                   rayleigh_alpha_1_s=spec.system.rayleigh_alpha_1_s)
     return model, fe
 
 

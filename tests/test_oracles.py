@@ -490,7 +490,7 @@ def test_a_point_stop_gap_and_first_impact_against_an_own_modal_integration(n_mo
             return [y[1], -D * wn2 * y[1] - wn2 * y[0] + Y * Wt * Wt * math.sin(Wt * t) / (L * phim)]
         t1 = _first_crossing(rhs, 1, np.array([L * phi_x]), gap, 1.0, 1 / (64 * f_hz))
     else:
-        fe = BeamFE(g, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s)
+        fe = BeamFE(g, n_elements=spec.system.n_elements, damping_D_s=sc.damping_D_s)
         # the lowest modes as the largest of M v = mu K v (mu = 1 / omega^2): K v = omega^2 M v
         # directly loses ~eps omega_max^2 / omega_1^2 ~ 1e-8 of omega_1 on this mesh
         nd = fe.K.shape[0]

@@ -85,7 +85,7 @@ def beam_problem(m, Omega, parameter="Omega", spec=None, **settings):
     damping = None
     if spec is not None:
         om_ref = 2 * math.pi * sy.reference_hz
-        alpha = 0.0 if spec.n_modes == "static" else float(spec.rayleigh_alpha_1_s)
+        alpha = 0.0 if spec.system.n_modes == "static" else float(spec.system.rayleigh_alpha_1_s)
         damping = {"damping_D_s": (float(scene_of(spec).damping_D_s), om_ref * sy.omega ** 2),
                    "rayleigh_alpha_1_s": (alpha, np.full(sy.omega.shape[0], 1.0 / om_ref))}.get(parameter)
     prob = shooting_problem(m, path, Omega=Omega, damping=damping, **settings)
@@ -322,7 +322,7 @@ def test_static_mode_beam_equals_sdof_fixed_point(case):
     spec = _case(case).model_spec({"n_modes": "static"})
     m = spec.scene()
     red = derive(spec)["reduction"]
-    sd = sdof(red.beta_S, red.gamma_per_V * spec.voltage, red.Delta, spec.R)
+    sd = sdof(red.beta_S, red.gamma_per_V * spec.excitation.voltage, red.Delta, spec.stop[0].R)
     Delta, f_ref = outputs(m).Delta, m.system.reference_hz
     assert Delta == pytest.approx(red.Delta, rel=1e-13, abs=1e-16)
     for f in (14.5, 15.5, 16.5):
@@ -398,16 +398,16 @@ def test_conversions_and_refused_keys():
     case = _case("rig-fe-neutral")
     spec = case.model_spec({"n_modes": 2})
     m = spec.scene()
-    tab = conversions(spec, m, gain_per_V=spec.gain, voltage=spec.voltage)
+    tab = conversions(spec, m, gain_per_V=spec.excitation.gain, voltage=spec.excitation.voltage)
 
     def value(sp, model, key):
         """The value at ``key``'s path in the scene (the shooting problem's)."""
-        path, _, damping = conversions(sp, model, gain_per_V=spec.gain, voltage=spec.voltage)[key]
+        path, _, damping = conversions(sp, model, gain_per_V=spec.excitation.gain, voltage=spec.excitation.voltage)[key]
         return shooting_problem(model, path, Omega=1.0, damping=damping).value
 
     for key, dv in (("voltage", 0.1), ("gap_mm", 0.05), ("damping_ratio", 0.003),
                     ("gain", 1e-4), ("R", 0.1)):
-        spec2 = case.model_spec({"n_modes": 2, key: getattr(spec, key) + dv})
+        spec2 = case.model_spec({"n_modes": 2, key: spec.shorthand()[key] + dv})
         m2 = spec2.scene()
         scale = tab[key][1]
         assert value(spec2, m2, key) - value(spec, m, key) == pytest.approx(scale * dv, rel=1e-12, abs=1e-18)

@@ -485,13 +485,13 @@ def _beam_checks(name, spec, sc, d, sweep, expensive=True):
             lin = _linear_sensor_q(sc, float(W))
             c_lin.add(float(W), str(d["direction"][i]), float(d["amplitude"][i]), o.Delta + lin)
     out = [c_lin]
-    if spec.n_modes == "static" and law_name(sc) == "restitution":
+    if spec.system.n_modes == "static" and law_name(sc) == "restitution":
         red = derive(spec)["reduction"]
         lower = {}
         if len(mass) == 2:   # the lower stop at the sensor: Delta_C,lower / (phi L)
             lower = dict(Delta_lower=mass[1].relation.offset / o.phi_contact / o.length_m,
                          lower_law=None if mass[1].law is mass[0].law else mass[1].law)
-        sdof = sdof_scene(red.beta_S, red.gamma_per_V * spec.voltage, red.Delta, spec.R, **lower)
+        sdof = sdof_scene(red.beta_S, red.gamma_per_V * spec.excitation.voltage, red.Delta, spec.stop[0].R, **lower)
         f = np.asarray(d["frequency_hz"], float)
         up = np.unique(f)
         sw = replace(sweep, Omega=up / red.f_n_hz, assess=())
@@ -687,7 +687,7 @@ def _platform_checks(name, spec, plat, d):
     from vibeam.models.builders.sdof import sdof
     from vibeam.models.scene import one_mode
 
-    f_ref = plat.reference_frequency_hz or spec.natural_frequency_hz
+    f_ref = plat.reference_frequency_hz or spec.system.natural_frequency_hz
 
     def H(f):
         r = f / plat.frequency_hz
@@ -699,10 +699,10 @@ def _platform_checks(name, spec, plat, d):
     out = {}
     for i, W in enumerate(d["Omega"]):
         f = float(d["frequency_hz"][i])
-        g = spec.gain * H(f) / H(f_ref)
+        g = spec.excitation.gain * H(f) / H(f_ref)
         if "effective_gain" in d:
             c_gain.add(float(W), str(d["direction"][i]), float(d["effective_gain"][i]), g)
-        m = sdof(base.beta, g * spec.voltage, base.Delta, R)
+        m = sdof(base.beta, g * spec.excitation.voltage, base.Delta, R)
         one = {k: np.asarray(v)[i:i + 1] for k, v in d.items() if k != "attrs" and np.ndim(v) >= 1
                and len(v) == len(d["Omega"])}
         for c in _sdof_checks(name, m, one):

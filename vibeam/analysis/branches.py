@@ -240,7 +240,7 @@ def _carried(spec, key: str) -> bool:
 
 def _natural_frequency(spec):
     """``f_n`` of a physical scene (its builder's frequency, as the sweeps use it), None otherwise."""
-    fn = getattr(spec, "natural_frequency_hz", None)
+    fn = getattr(spec.system, "natural_frequency_hz", None)
     if fn is None and getattr(spec, "physical", False):
         fn = outputs(spec.scene()).natural_frequency_hz
     return fn
@@ -433,7 +433,7 @@ def _curves(task, spec, branches, settings) -> list:
         return problem(spec, k2, float(fixed))
 
     seeds = []
-    v0 = float(getattr(spec, k2))
+    v0 = float(spec.shorthand()[k2])         # the map's key by its flat name (the SDOF's or the beam's)
     for b in branches:
         for bf in b.bifurcations:
             if bf.type in (FOLD, PERIOD_DOUBLING, GRAZING):

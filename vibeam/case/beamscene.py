@@ -112,7 +112,7 @@ def conversions(spec, scene, gain_per_V: float | None = None,
                    contact_gap_lower_mm=("stops[1].relation.offset", 1e-3, None),
                    R_lower=("stops[1].law.R", 1.0, None))
     # the Rayleigh damping of Eq. 39
-    alpha = 0.0 if spec.n_modes == "static" else float(spec.rayleigh_alpha_1_s)
+    alpha = 0.0 if spec.system.n_modes == "static" else float(spec.system.rayleigh_alpha_1_s)
     tab["damping_ratio"] = ("system.damping", 2.0 / om_ref, (float(scene_of(spec).damping_D_s), om_ref * sy.omega ** 2))
     tab["rayleigh_alpha_1_s"] = ("system.damping", 1.0, (alpha, np.full(sy.omega.shape[0], 1.0 / om_ref)))
     if gain_per_V is not None:
@@ -124,50 +124,55 @@ def conversions(spec, scene, gain_per_V: float | None = None,
 
 def geometry_of(spec):
     """BeamGeometry of a :class:`vibeam.case.schema.BeamSceneSpec` before calibration."""
-    kw = dict(length_m=spec.length_mm * 1e-3, mass_position_m=spec.mass_position_mm * 1e-3,
-              sensor_position_m=spec.sensor_position_mm * 1e-3)
-    if spec.EI_n_m2 is not None:
-        kw.update(EI_n_m2=spec.EI_n_m2, rhoA_kg_m=spec.rhoA_kg_m)
+    sy = spec.system
+    kw = dict(length_m=sy.length_mm * 1e-3, mass_position_m=sy.mass_position_mm * 1e-3,
+              sensor_position_m=sy.sensor_position_mm * 1e-3)
+    if sy.EI_n_m2 is not None:
+        kw.update(EI_n_m2=sy.EI_n_m2, rhoA_kg_m=sy.rhoA_kg_m)
     else:
-        b, t = spec.width_mm * 1e-3, spec.thickness_mm * 1e-3
-        kw.update(EI_n_m2=spec.youngs_modulus_gpa * 1e9 * b * t**3 / 12.0,
-                  rhoA_kg_m=spec.density_kg_m3 * b * t)
-    if spec.discs is not None:
-        d = spec.discs
+        b, t = sy.width_mm * 1e-3, sy.thickness_mm * 1e-3
+        kw.update(EI_n_m2=sy.youngs_modulus_gpa * 1e9 * b * t**3 / 12.0,
+                  rhoA_kg_m=sy.density_kg_m3 * b * t)
+    if sy.discs is not None:
+        d = sy.discs
         return BeamGeometry.with_discs(d.count, d.thickness_mm * 1e-3, d.diameter_mm * 1e-3,
                                        d.density_kg_m3, mass_kg=d.mass_kg, **kw)
-    return BeamGeometry(mass_kg=spec.mass_kg, rotary_inertia_kg_m2=spec.rotary_inertia_kg_m2, **kw)
+    return BeamGeometry(mass_kg=sy.mass_kg, rotary_inertia_kg_m2=sy.rotary_inertia_kg_m2, **kw)
 
 
 def scene_of(spec) -> BeamScene:
     """Calibrate (if asked), damping, gap and gain of a beam case table."""
     g = geometry_of(spec)
+    sy = spec.system
     cal = None
-    if spec.calibrate is not None:
-        cal = shared_calibration(g, spec.calibrate.f1_hz, spec.calibrate.f2_hz, n_elements=spec.n_elements)
+    if sy.calibrate is not None:
+        cal = shared_calibration(g, sy.calibrate.f1_hz, sy.calibrate.f2_hz, n_elements=sy.n_elements)
         g = cal.geometry
-    f = shared_fe(g, n_elements=spec.n_elements).modes(1).frequencies_hz
+    f = shared_fe(g, n_elements=sy.n_elements).modes(1).frequencies_hz
     if f.size == 0 or not (np.isfinite(f[0]) and f[0] > 0.0):
         raise ValueError(f"the FE model has no positive finite first frequency (EI = {g.EI_n_m2:g} N m^2, rho A = "
                          f"{g.rhoA_kg_m:g} kg/m, m = {g.mass_kg:g} kg, L = {g.length_m:g} m)")
     f1 = float(f[0])
-    D = 2.0 * spec.damping_ratio / (2 * math.pi * f1)
+    D = 2.0 * sy.damping_ratio / (2 * math.pi * f1)
     L = g.length_m
     phim = float(static_mode_shape(g.mass_position_m / L, g.mass_position_m / L, g.sensor_position_m / L))
-    if spec.gap_mm is not None:
-        DG = spec.gap_mm * 1e-3
+    up = spec.stop[0]
+    if up.gap_mm is not None:
+        DG = up.gap_mm * 1e-3
         DC = DG * phim
     else:
-        DC = spec.contact_gap_mm * 1e-3
+        DC = up.contact_gap_mm * 1e-3
         DG = DC / phim
-    gt = spec.gain * phim * L
+    gain, voltage = spec.excitation.shaker()        # (0, 0) for a base acceleration: no gamma V
+    gt = gain * phim * L
     DCl = None
-    if getattr(spec, "gap_lower_mm", None) is not None:
-        DCl = spec.gap_lower_mm * 1e-3 * phim
-    elif getattr(spec, "contact_gap_lower_mm", None) is not None:
-        DCl = spec.contact_gap_lower_mm * 1e-3
+    lo = spec.stop[1] if spec.two_sided else None
+    if lo is not None and lo.gap_mm is not None:
+        DCl = lo.gap_mm * 1e-3 * phim
+    elif lo is not None:
+        DCl = lo.contact_gap_mm * 1e-3
     return BeamScene(geometry=g, calibration=cal, damping_D_s=D, f1_hz=f1, phi_at_mass=phim,
-                     Delta_G_m=DG, Delta_C_m=DC, gamma_tilde_m_per_V=gt, base_amplitude_m=gt * spec.voltage,
+                     Delta_G_m=DG, Delta_C_m=DC, gamma_tilde_m_per_V=gt, base_amplitude_m=gt * voltage,
                      Delta_C_lower_m=DCl)
 
 
@@ -186,15 +191,16 @@ def scene(spec, law, lower_law=None):
     vibeam.models.scene.Scene
     """
     sc = scene_of(spec)
+    sy = spec.system
     stops = mass_stops(sc.Delta_C_m, law, sc.Delta_C_lower_m, lower_law)
-    if spec.n_modes == "static":
+    if sy.n_modes == "static":
         # the paper's SDOF reduction as a one-shape model (Eqs. 42-47, beam mass excluded);
         # the reference frequency stays the FE f_1 so both fidelities share one grid
         return static_mode_beam(sc.geometry, stops, point_stops(spec, sc), sc.base_amplitude_m, sc.damping_D_s,
                                 sc.f1_hz, excitation=excitation(spec))
-    fe = shared_fe(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
-                   rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
-    return fe_beam(fe, spec.n_modes, stops, point_stops(spec, sc), sc.base_amplitude_m, sc.f1_hz,
+    fe = shared_fe(sc.geometry, n_elements=sy.n_elements, damping_D_s=sc.damping_D_s,
+                   rayleigh_alpha_1_s=sy.rayleigh_alpha_1_s)
+    return fe_beam(fe, sy.n_modes, stops, point_stops(spec, sc), sc.base_amplitude_m, sc.f1_hz,
                    excitation=excitation(spec))
 
 
@@ -289,7 +295,7 @@ def derive(spec) -> dict:
         ("beta_S", red.beta_S, "1", "D omega_n / 2 (Eq. 44)"),
         ("gamma~", sc.gamma_tilde_m_per_V, "m/V", "gamma phi(x_m) L (Eq. 46 inverted)"),
         ("gamma", red.gamma_per_V, "1/V", "gamma~ / (phi(x_m) L) (Eq. 46)"),
-        ("B", red.gamma_per_V * spec.voltage, "1", "gamma V (Eq. 43)"),
+        ("B", red.gamma_per_V * spec.excitation.shaker()[1], "1", "gamma V (Eq. 43)"),
         ("Delta_C", sc.Delta_C_m * 1e3, "mm", "gap at the stop"),
         ("Delta_G", red.Delta_G_m * 1e3, "mm", "Delta_C / phi(x_m), gap at the sensor"),
         ("Delta", red.Delta, "1", "Delta_G / L (Eq. 45)"),
@@ -325,11 +331,11 @@ description = "static-mode SDOF reduction of {case.name}"
 fidelity = "sdof"
 natural_frequency_hz = {red.f_n_hz:.10g}
 damping_ratio = {red.beta_S:.10g}
-R = {spec.R}
+R = {spec.stop[0].R}
 gap_mm = {red.Delta_G_m * 1e3:.10g}
 length_mm = {red.length_m * 1e3:.10g}
 gain = {red.gamma_per_V:.10g}
-voltage = {spec.voltage}
+voltage = {spec.excitation.shaker()[1]}
 {_lower_stop_text(spec, red, sc)}
 [sweep]
 {grid}
@@ -349,16 +355,17 @@ def _lower_stop_text(spec, red, sc) -> str:
     if sc.Delta_C_lower_m is None:
         return ""
     text = f"gap_lower_mm = {sc.Delta_C_lower_m / red.phi_at_mass * 1e3:.10g}\n"
-    if spec.contact_lower is not None and spec.contact_lower.R is not None:
-        text += f"\n[model.contact_lower]\nR = {spec.contact_lower.R}\n"
+    R = spec.stop[1].R           # the lower stop's own R (None: its law follows the upper stop's)
+    if R is not None:
+        text += f"\n[model.contact_lower]\nR = {R}\n"
     return text
 
 
 def modes_report(spec, n: int = 8) -> dict:
     """Modes, participation and effective masses for base excitation, and contact modes."""
     sc = scene_of(spec)
-    fe = BeamFE(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
-                rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
+    fe = BeamFE(sc.geometry, n_elements=spec.system.n_elements, damping_D_s=sc.damping_D_s,
+                rayleigh_alpha_1_s=spec.system.rayleigh_alpha_1_s)
     n = min(n, fe.ndof)
     md = fe.modes(n)
     cm = fe.contact_modes(min(n, fe.ndof - 1))
@@ -409,25 +416,26 @@ def effects_scene(spec, effects, law, lower_law=None):
                    f"implemented; allowed: these effects with the stops at the mass")
     sc = scene_of(spec)
     phic = contact_factor(spec, e) if ecc is not None else sc.phi_at_mass
-    DC = sc.Delta_C_m if spec.gap_mm is None else (spec.gap_mm * 1e-3) * phic
+    up, sy = spec.stop[0], spec.system
+    DC = sc.Delta_C_m if up.gap_mm is None else (up.gap_mm * 1e-3) * phic
     DCl = sc.Delta_C_lower_m
-    if DCl is not None and getattr(spec, "gap_lower_mm", None) is not None:
-        DCl = spec.gap_lower_mm * 1e-3 * phic
+    if DCl is not None and spec.stop[1].gap_mm is not None:
+        DCl = spec.stop[1].gap_mm * 1e-3 * phic
     stops = mass_stops(DC, law, DCl, lower_law)
     info = None
     if not (ecc or coupled):
         new = scene(spec, law, lower_law)
-    elif spec.n_modes == "static":
+    elif sy.n_modes == "static":
         if coupled:
             raise _err("effects.platform: level = \"coupled\" needs FE modes (n_modes an integer or "
                        "\"all\"), not the static mode")
         new = static_mode_beam(sc.geometry, stops, (), sc.base_amplitude_m, sc.damping_D_s, sc.f1_hz, phi_contact=phic,
                                excitation=excitation(spec))
     else:
-        fe = shared_fe(sc.geometry, n_elements=spec.n_elements, damping_D_s=sc.damping_D_s,
-                       rayleigh_alpha_1_s=spec.rayleigh_alpha_1_s)
+        fe = shared_fe(sc.geometry, n_elements=sy.n_elements, damping_D_s=sc.damping_D_s,
+                       rayleigh_alpha_1_s=sy.rayleigh_alpha_1_s)
         if not coupled:
-            new = fe_beam(fe, spec.n_modes, stops, (), sc.base_amplitude_m, sc.f1_hz, contact_offset_m=e,
+            new = fe_beam(fe, sy.n_modes, stops, (), sc.base_amplitude_m, sc.f1_hz, contact_offset_m=e,
                           phi_contact=phic, excitation=excitation(spec))
         else:
             new, info = _coupled_scene(plat, spec, sc, fe, e, stops, phic)
@@ -459,7 +467,7 @@ def _coupled_scene(plat, spec, sc, fe, offset_m, stops, phic):
     """Beam + platform DOF as one modal scene (module doc) and its :class:`CoupledPlatform`."""
     if plat.mass_kg is None:
         raise _err("effects.platform.mass_kg is required for level = \"coupled\" (the platform's mass, kg)")
-    red = modal_reduction(fe, spec.n_modes)
+    red = modal_reduction(fe, spec.system.n_modes)
     P = red.shapes
     w = contact_row(fe, P, offset_m)
     s = red.sensor_row

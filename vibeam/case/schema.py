@@ -123,48 +123,6 @@ def check_stiffness(law, key: str) -> None:
                         f"cannot be resolved in double precision; allowed: at most {MAX_CONTACT_STIFFNESS:g}")
 
 
-def _check_stops(spec, lower_keys: tuple, gap_key: str, mixed: bool = False) -> None:
-    """The contact tables and the second stop of a model spec (ValueError naming the keys);
-    ``mixed``: the fidelity takes a compliant stop beside a restitution one (either above)."""
-    lower = [k for k in lower_keys if getattr(spec, k) is not None]
-    if len(lower) > 1:
-        raise ValueError(f"give the lower stop once: one of {list(lower_keys)} (got {lower})")
-    if spec.contact is not None and spec.contact.R is not None:
-        raise ValueError("'contact.R': the R of the first stop is [model] R")
-    if spec.contact_lower is not None and not lower:
-        raise ValueError(f"[model.contact_lower] needs a lower stop: give one of {list(lower_keys)}")
-    compliant = [k for k in ("contact", "contact_lower")
-                 if getattr(spec, k) is not None and is_compliant(getattr(spec, k).law)]
-    if mixed and compliant == ["contact"] and spec.contact_lower is not None:
-        return   # a compliant upper stop beside a restitution lower one (Method.mixed of the registry)
-    if mixed and compliant == ["contact_lower"]:
-        return   # a restitution upper stop ([model] R) above a compliant lower one
-    if compliant and spec.contact_lower is not None and len(compliant) == 1:
-        raise ValueError(f"[model.{compliant[0]}] law = {getattr(spec, compliant[0]).law!r} beside a restitution stop "
-                         f"is not implemented: give both stops a compliant law (or omit [model.contact_lower]: "
-                         f"the upper stop's law), or both law = 'restitution'")
-
-
-def mixed_stops(spec) -> bool:
-    """A compliant ``[model.contact]`` beside a restitution ``[model.contact_lower]``, or a
-    restitution upper stop (no ``[model.contact]``) above a compliant ``[model.contact_lower]``."""
-    if spec.contact_lower is None:
-        return False
-    up = spec.contact is not None and is_compliant(spec.contact.law)
-    return up != is_compliant(spec.contact_lower.law)
-
-
-def lower_law_spec(spec):
-    """``[model.contact_lower]`` of a compliant two-sided scene with the upper table's
-    ``mass_kg`` when it gives none (the oscillator's effective mass is one); None without it."""
-    lo = spec.contact_lower
-    if lo is None or not is_compliant(lo.law):
-        return None
-    if lo.mass_kg is None and spec.contact is not None and spec.contact.mass_kg is not None:
-        lo = lo.model_copy(update={"mass_kg": spec.contact.mass_kg})
-    return lo
-
-
 class _StopsSpec(_Strict):
     """What the model tables of both fidelities share: the stops' case keys as continuation
     parameters."""
@@ -180,8 +138,9 @@ class _StopsSpec(_Strict):
         if self._shorthand is None:
             return self.model_dump(exclude_unset=exclude_unset)
         out = {"fidelity": self._shorthand}
+        values = self.shorthand()
         for k in SHORTHAND_KEYS[self._shorthand][1:]:      # after fidelity
-            v = getattr(self, k, None) if k != "stop" else None
+            v = values.get(k)                               # "stop": the point stops, below
             out[k] = v.model_dump() if isinstance(v, BaseModel) else v
         points = getattr(self, "point_stop_tables", None)
         out["stop"] = [st.model_dump() for st in points] or None if points is not None else None
@@ -191,7 +150,7 @@ class _StopsSpec(_Strict):
         """``(case key, value)`` of the paper's stop's contact stiffness when the case gives it in
         N/m^p (``model.contact.stiffness_n_m``); None otherwise (Newton's law, or a stiffness
         given nondimensional, whose key is ``model.contact.stiffness``)."""
-        t = self.contact
+        t = mass_law_tables(self)[0]
         if t is not None and t.stiffness is None and t.stiffness_n_m is not None:
             return "model.contact.stiffness_n_m", float(t.stiffness_n_m)
         return None
@@ -206,198 +165,6 @@ class _StopsSpec(_Strict):
             If the scene cannot be built from these values (:func:`build_or_refuse`).
         """
         return build_or_refuse(self, self._scene)
-
-
-class _SDOFSpec(_StopsSpec):
-    """The SDOF's ``[model]`` spec (base of :class:`SDOFSceneSpec`, the canonical tables, which the
-    shorthand expands into): the checks, the build and the fidelity's hooks, reading the table's
-    numbers by the shorthand's names (properties of the spec)."""
-
-    @model_validator(mode="after")
-    def _one_parameter_set(self):
-        nondim = {"beta": self.beta, "B": self.B, "Delta": self.Delta}
-        phys = {"natural_frequency_hz": self.natural_frequency_hz, "damping_ratio": self.damping_ratio,
-                "gap_mm": self.gap_mm, "length_mm": self.length_mm, "gain": self.gain,
-                "voltage": self.voltage}
-        given_n = [k for k, v in nondim.items() if v is not None]
-        given_p = [k for k, v in phys.items() if v is not None]
-        if self.Delta_lower is not None:
-            given_n.append("Delta_lower")
-        if self.gap_lower_mm is not None:
-            given_p.append("gap_lower_mm")
-        if given_n and given_p:
-            raise ValueError(f"give either the nondimensional keys {sorted(nondim)} or the physical keys "
-                             f"{sorted(phys)}, not both (got {given_n + given_p})")
-        if given_p:
-            missing = [k for k in phys if phys[k] is None]
-            if missing:
-                raise ValueError(f"physical SDOF scene is missing {missing}")
-        else:
-            missing = [k for k in nondim if nondim[k] is None]
-            if missing:
-                raise ValueError(f"nondimensional SDOF scene is missing {missing}")
-        _check_stops(self, ("Delta_lower", "gap_lower_mm"), "Delta", mixed=True)
-        upper = self.gap_mm if given_p else self.Delta
-        lower = self.gap_lower_mm if given_p else self.Delta_lower
-        if lower is not None and not upper + lower > 0.0:
-            k = ("gap_mm", "gap_lower_mm") if given_p else ("Delta", "Delta_lower")
-            raise ValueError(f"the stops overlap: {k[0]} + {k[1]} = {upper + lower:g} must be > 0 (both are "
-                             f"distances from the static equilibrium, the lower one downwards)")
-        return self
-
-    @property
-    def physical(self) -> bool:
-        return self.natural_frequency_hz is not None
-
-    @property
-    def two_sided(self) -> bool:
-        """A second stop below (``Delta_lower`` or ``gap_lower_mm``)."""
-        return self.Delta_lower is not None or self.gap_lower_mm is not None
-
-    def _R_lower(self):
-        upper_compliant = self.contact is not None and is_compliant(self.contact.law)
-        if self.contact_lower is None or (is_compliant(self.contact_lower.law) and not upper_compliant):
-            return None
-        if self.mixed_stops:   # Newton's law below a compliant upper stop: its R, else [model] R
-            return self.R if self.contact_lower.R is None else self.contact_lower.R
-        return self.contact_lower.R
-
-    @property
-    def mixed_stops(self) -> bool:
-        """A restitution stop beside a compliant one (:func:`mixed_stops`)."""
-        return mixed_stops(self)
-
-    # continuation parameters: key -> (path into the scene, factor d path / d key, damping)
-    def scene_parameter(self, key: str):
-        """``(path, factor, damping)`` of a continuation parameter: the path into the scene its
-        shooting problem continues (:class:`vibeam.models.core.scene_shooting.SceneShooting`), the
-        path's value being ``factor * value`` (paper Eqs. 43-46: ``B = gamma V``, ``Delta = gap /
-        L``, ``beta = damping ratio``, ``Omega = f / f_n``), and for the damping ratio its
-        direction ``(beta, [2])`` (``c = 2 beta``, Eq. 1).  ``R`` moves the lower stop's R too
-        when its law follows the upper stop's.  Raises ValueError naming the allowed keys."""
-        R = ("stops[0].law.R", "stops[1].law.R") if self.two_sided and self._R_lower() is None \
-            and lower_law_spec(self) is None else "stops[0].law.R"
-        beta = ("system.damping", 1.0, (float(self.damping_ratio if self.physical else self.beta), np.array([2.0])))
-        if self.physical:
-            table = {"Omega": ("Omega", 1.0, None), "voltage": ("system.base_amplitude", self.gain, None),
-                     "gain": ("system.base_amplitude", self.voltage, None),
-                     "gap_mm": ("stops[0].relation.offset", 1.0 / self.length_mm, None), "damping_ratio": beta,
-                     "R": (R, 1.0, None)}
-        else:
-            table = {"Omega": ("Omega", 1.0, None), "B": ("system.base_amplitude", 1.0, None),
-                     "Delta": ("stops[0].relation.offset", 1.0, None), "R": (R, 1.0, None), "beta": beta}
-        if self.two_sided:
-            # the lower stop's offset and R (its Newton R, or a compliant law's target R)
-            table["gap_lower_mm" if self.physical else "Delta_lower"] = (
-                "stops[1].relation.offset", 1.0 / self.length_mm if self.physical else 1.0, None)
-            table["R_lower"] = ("stops[1].law.R", 1.0, None)
-        if self.contact is not None and is_compliant(self.contact.law):
-            # a compliant stop: a case continues it in the forcing and the gaps only
-            table = {k: v for k, v in table.items() if v[0] in ("Omega", "system.base_amplitude")
-                     or str(v[0]).endswith(".relation.offset")}
-        if key not in table:
-            raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(table)}")
-        return table[key]
-
-    def _scene(self):
-        # straight from the table's values by the SDOF builder (a physical table by paper Eqs. 43-46)
-        from vibeam.models.builders.sdof import sdof, sdof_physical  # lazy: keeps scipy.linalg (0.2 s) out of load_case
-        from vibeam.models.contact import Restitution  # lazy: keeps the impact kernels out of load_case
-
-        L = self.length_mm * 1e-3 if self.physical else None
-        law = sdof_law(self.contact, self.R, self.physical, self.natural_frequency_hz, L)
-        lo = lower_law_spec(self)
-        lower = None if lo is None else sdof_law(lo, target_R(lo, self.R), self.physical, self.natural_frequency_hz, L)
-        if lower is None and self._R_lower() is not None:
-            lower = Restitution(self._R_lower())
-        lower_gap = self.gap_lower_mm if self.physical else (self.Delta_lower if self.two_sided else None)
-        if lower_gap is None and getattr(lower, "kind", "") != "compliant":
-            lower = None        # Newton's law of a lower stop that is not there
-        stop = dict(R=self.R) if law is None else dict(law=law)
-        mass = None if self.contact is None else self.contact.mass_kg
-        if self.physical:
-            return sdof_physical(self.natural_frequency_hz, self.damping_ratio, self.gap_mm, self.length_mm, self.gain,
-                                 self.voltage, gap_lower_mm=self.gap_lower_mm, lower_law=lower, mass_kg=mass, **stop)
-        return sdof(self.beta, self.B, self.Delta, Delta_lower=lower_gap, lower_law=lower, mass_kg=mass, **stop)
-
-    # ---- what is specific to this fidelity (see CANONICAL_SPECS)
-    def dofs(self) -> int:
-        """Degrees of freedom simulated (work estimate)."""
-        return 1
-
-    def check(self, prefix: str) -> None:
-        """Checks beyond the table's validators: the ``[model.contact]`` law can be built, and
-        the forcing amplitude (:data:`B_RANGE`), the gaps (:data:`GAP_MAX`) and the stop's stiffness
-        (:data:`MAX_CONTACT_STIFFNESS`) can be computed in double precision."""
-        if self.physical:
-            check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
-        else:
-            check_scale(self.B, f"'{prefix}.B'")
-        for k in ("Delta", "Delta_lower", "gap_mm", "gap_lower_mm"):
-            check_gap(getattr(self, k), f"'{prefix}.{k}'", self.length_mm if k.endswith("_mm") else None)
-        for key, table in (("contact", self.contact), ("contact_lower", lower_law_spec(self))):
-            try:
-                law = sdof_law(table, target_R(table, self.R), self.physical, self.natural_frequency_hz,
-                               self.length_mm * 1e-3 if self.physical else None)
-            except ValueError as e:
-                raise CaseError(f"'{prefix}.{key}': {e}") from None
-            if table is not None and law is not None:
-                given = "stiffness" if table.stiffness is not None else "stiffness_n_m"
-                check_stiffness(law, f"'{prefix}.{key}.{given}' = {getattr(table, given):g}")
-
-    #: methods that integrate the equations of motion (no closed-form forced response) or do not
-    #: use the flow at Omega = 1 (averaging, near Omega = 2k): undamped resonance is theirs
-    RESONANCE_SAFE: ClassVar[tuple] = ("direct", "zhuravlev", "ivanov", "averaging")
-
-    def check_sweep(self, sweep, method: str, where: str, i: int) -> None:
-        """No damping (``beta`` or ``damping_ratio`` 0) with Omega = 1 on the grid: the
-        closed-form flow of ``event``, ``mapping`` and ``continuation`` divides by ``(1 -
-        Omega^2)^2 + (2 beta Omega)^2 = 0`` there (undamped resonance grows as ``t cos t``: no
-        periodic forced response), so such a run is refused in one line
-        (:func:`vibeam.models.core.oscillator.undamped_resonance` is the model's own guard)."""
-        key = "damping_ratio" if self.physical else "beta"
-        if method in self.RESONANCE_SAFE or getattr(self, key) != 0.0:
-            return
-        Om = sweep.grid(self.natural_frequency_hz)
-        if np.any(1.0 - Om * Om == 0.0):
-            grid = "sweep.Omega" if sweep.Omega is not None else "sweep.frequency_hz"
-            what = f"'{where}.{key}' = 0" if where != "map.values" else f"'map.values': {key} = 0"
-            raise CaseError(f"{what} with Omega = 1 in '{grid}' (run[{i}], method {method!r}): undamped exact "
-                            f"resonance has no periodic forced response (it grows as t cos t), which the "
-                            f"closed-form methods cannot compute; allowed: {key} > 0, a grid without Omega = 1, "
-                            f"or method 'direct'")
-
-    def result_attrs(self) -> dict:
-        """Derived values stored with a run's results: none."""
-        return {}
-
-    def converged_reference(self, table: dict, overrides: dict):
-        """Model table of the converged reference of a cost table; None: the run's own
-        model (the SDOF reference differs only in its transient)."""
-        return None
-
-    def effect_scene(self, effects, scene):
-        """``(scene, None)``: ``scene`` with the structural effects of a run, a velocity-dependent
-        R (``restitution_law``: Newton's law of the upper stop, and of the lower one when its law
-        follows the upper's, with the ``R(q'-)`` table; sensor velocity in mm/s to ``q'``:
-        ``U(L_S)' = q' L omega_n``, paper Eq. 43); no coupled platform (the beam's)."""
-        if effects.restitution_law is None:
-            return scene, None
-        from vibeam.models.contact import Restitution  # lazy: keeps the impact kernels out of load_case
-        from vibeam.models.scene import outputs        # lazy: as above
-
-        t = effects.restitution_law
-        out = outputs(scene)
-        scale = 1e-3 / (out.length_m * 2 * math.pi * out.natural_frequency_hz)  # mm/s -> q'
-        up = scene.stops[0].law
-        law = Restitution(up.R, tuple(v * scale for v in t.velocity_mm_s), tuple(t.R))
-        stops = tuple(dataclasses.replace(s, law=law) if s.law is up else s for s in scene.stops)
-        return scene._replace(stops=stops), None
-
-    def case_update(self, key: str, value: float) -> tuple[dict, list]:
-        """``[model]`` keys that set a fitted value (``vibeam fit --linear``), and notes."""
-        return {key: float(value)}, []
-
 
 
 def build_or_refuse(spec, build):
@@ -440,247 +207,12 @@ class CalibrateSpec(_Strict):
 
 
 def _beam_length(v):
-    """A beam's ``length_mm`` within :attr:`_BeamSpec.LENGTH_RANGE_MM` (ValueError otherwise)."""
-    lo, hi = _BeamSpec.LENGTH_RANGE_MM
+    """A beam's ``length_mm`` within :attr:`BeamSceneSpec.LENGTH_RANGE_MM` (ValueError otherwise)."""
+    lo, hi = BeamSceneSpec.LENGTH_RANGE_MM
     if not lo <= v <= hi:
         raise ValueError(f"allowed: {lo:g} ... {hi:g} mm (the FE mesh locates nodes to 1e-8 m: a shorter "
                          f"beam's elements cannot be resolved)")
     return v
-
-
-class _BeamSpec(_StopsSpec):
-    """The beam's ``[model]`` spec (base of :class:`BeamSceneSpec`, the canonical tables, which the
-    shorthand expands into): the checks, the build and the fidelity's hooks, reading the table's
-    numbers by the shorthand's names (properties of the spec); the stops away from the attached
-    mass are :attr:`point_stop_tables`."""
-
-    #: allowed ``length_mm``: the FE mesh (scikit-fem) locates the clamp and the attached mass
-    #: by position to an absolute 1e-8 m, so its elements (down to L / 2000 with ``n_elements``
-    #: <= 2000) must be far longer: from 1 mm (elements of 5e-7 m; measured: every model builds
-    #: at 1 mm, none below 1e-4 mm, ``n_modes = "all"`` fails from 0.01 mm) to 100 m, beyond any
-    #: cantilever of this kind (calibrations to the rig's f2/f1 stop being reachable from ~20 m)
-    LENGTH_RANGE_MM: ClassVar[tuple] = (1.0, 1e5)
-    #: allowed bending stiffness EI (N m^2) and mass per length rho A (kg/m), given or derived from
-    #: the section: their ratio over h^4 (h: the element length, 5e-7 ... 5e4 m) is the FE model's
-    #: eigenvalue scale, which stays a normal double within this range (a subnormal EI, e.g.
-    #: width_mm = 5e-320, leaves the eigensolver without any mode)
-    SECTION_RANGE: ClassVar[tuple] = (1e-100, 1e100)
-
-    @model_validator(mode="after")
-    def _consistent(self):
-        sec = self.width_mm is not None or self.thickness_mm is not None
-        direct = self.EI_n_m2 is not None or self.rhoA_kg_m is not None
-        if sec == direct:
-            raise ValueError("give the section either as width_mm and thickness_mm or as EI_n_m2 and "
-                             "rhoA_kg_m")
-        if sec and (self.width_mm is None or self.thickness_mm is None):
-            raise ValueError("the section needs both width_mm and thickness_mm")
-        if direct and (self.EI_n_m2 is None or self.rhoA_kg_m is None):
-            raise ValueError("the section needs both EI_n_m2 and rhoA_kg_m")
-        if (self.mass_kg is None) == (self.discs is None):
-            raise ValueError("give the attached mass either as mass_kg or as a [model.discs] table")
-        if (self.gap_mm is None) == (self.contact_gap_mm is None):
-            raise ValueError("give exactly one of gap_mm (at the sensor) or contact_gap_mm (at the stop)")
-        _check_stops(self, ("gap_lower_mm", "contact_gap_lower_mm"), "gap_mm", mixed=True)
-        if self.two_sided:
-            pair = ("gap_mm", "gap_lower_mm") if self.gap_mm is not None else ("contact_gap_mm", "contact_gap_lower_mm")
-            if getattr(self, pair[1]) is None:
-                raise ValueError(f"give the lower stop's gap where the upper one's is given: {pair[1]} (with "
-                                 f"{pair[0]})")
-            tot = getattr(self, pair[0]) + getattr(self, pair[1])
-            if not tot > 0.0:
-                raise ValueError(f"the stops overlap: {pair[0]} + {pair[1]} = {tot:g} must be > 0 (both are "
-                                 f"distances from the static equilibrium, the lower one downwards)")
-        for k in ("sensor_position_mm", "mass_position_mm"):
-            if getattr(self, k) > self.length_mm:
-                raise ValueError(f"{k} = {getattr(self, k)} lies beyond length_mm = {self.length_mm}")
-        for i, p in enumerate(self.point_stop_tables):
-            if p.position_mm > self.length_mm:
-                raise ValueError(f"stop at position_mm = {p.position_mm:g} lies beyond length_mm = {self.length_mm}")
-            if (p.gap_mm is None) == (p.contact_gap_mm is None):
-                raise ValueError(f"stop at position_mm = {p.position_mm:g}: give exactly one of gap_mm (at the "
-                                 f"sensor) or contact_gap_mm (at the stop)")
-        lo, hi = self.SECTION_RANGE
-        if sec:     # the section's EI and rho A as vibeam.case.beamscene.geometry_of derives them
-            b, t = self.width_mm * 1e-3, self.thickness_mm * 1e-3
-            derived = {"EI_n_m2": (self.youngs_modulus_gpa * 1e9 * b * (t * t * t) / 12.0,   # inf, not OverflowError
-                                   "youngs_modulus_gpa, width_mm, thickness_mm"),
-                       "rhoA_kg_m": (self.density_kg_m3 * b * t, "density_kg_m3, width_mm, thickness_mm")}
-        else:
-            derived = {"EI_n_m2": (self.EI_n_m2, "EI_n_m2"), "rhoA_kg_m": (self.rhoA_kg_m, "rhoA_kg_m")}
-        for name, (v, keys) in derived.items():
-            if not lo <= v <= hi:
-                raise ValueError(f"{name} = {v:g} (from {keys}) is outside {lo:g} ... {hi:g}: the FE matrices "
-                                 f"(EI / h^3, rho A h) would leave double precision; allowed: a section within "
-                                 f"that range")
-        if self.calibrate and self.calibrate.f2_hz is not None and self.calibrate.f2_hz <= self.calibrate.f1_hz:
-            raise ValueError("calibrate.f2_hz must exceed calibrate.f1_hz")
-        return self
-
-    physical: ClassVar[bool] = True
-
-    # continuation parameters besides the frequency (Omega, with its range in Hz): keys that
-    # act on the modal model without changing its modes (vibeam.case.beamscene.conversions)
-    _CONTINUABLE: ClassVar[tuple] = ("voltage", "gain", "gap_mm", "contact_gap_mm", "damping_ratio", "R",
-                                     "rayleigh_alpha_1_s")
-
-    def scene_parameter(self, key: str):
-        """``(path, factor, damping)`` of a continuation parameter: the path into the scene its
-        shooting problem continues, the path's value being ``factor * value``, and a damping
-        path's direction (:func:`vibeam.case.beamscene.conversions`: the base amplitude ``gamma~
-        V`` with ``gamma~ = gain phi(x_m) L``, the stop's offset ``phi(x_m) gap_mm 1e-3`` (Eq.
-        45), ``D = 2 beta / omega_1`` (Eq. 39), ``R``).
-
-        Raises
-        ------
-        ValueError
-            Naming the key and what is allowed: a key that changes the FE model (its modes and
-            shapes, e.g. ``length_mm``, ``n_modes``), the gap key the scene does not use, or a
-            key that is not a model key.
-        """
-        # lazy: keeps the beam kernels (scipy.linalg: 0.3 s) out of load_case
-        from vibeam.case.beamscene import REBUILD_KEYS, conversions
-
-        gap_key = "gap_mm" if self.gap_mm is not None else "contact_gap_mm"
-        allowed = ("Omega",) + tuple(k for k in self._CONTINUABLE
-                                     if k == gap_key or k not in ("gap_mm", "contact_gap_mm"))
-        if self.two_sided:
-            # the lower stop's gap (the key the scene uses) and its R
-            allowed += ("gap_lower_mm" if self.gap_lower_mm is not None else "contact_gap_lower_mm", "R_lower")
-        if any(t is not None and is_compliant(t.law) for t in (self.contact, self.contact_lower)):
-            # a compliant stop: a case continues it in the forced response only (Omega,
-            # base_amplitude_m; the one shooting problem, vibeam.models.core.shooting)
-            allowed = ("Omega", "voltage", "gain")
-        if key in REBUILD_KEYS:
-            raise ValueError(f"changes the FE model (its modes and shapes): a beam scene cannot be continued "
-                             f"in it; allowed: {', '.join(allowed)}")
-        if key == "frequency_hz":
-            raise ValueError(f"is continued as 'Omega' (range and start_at in Hz); allowed: {', '.join(allowed)}")
-        if key not in allowed:
-            raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(allowed)}")
-        if getattr(self, "drive", None) is not None and key != "Omega":
-            # the shooting problem's drive is gamma V; an acceleration-driven beam: the frequency only
-            raise ValueError("cannot be continued in a beam driven by a base acceleration; allowed: Omega")
-        if key == "Omega":
-            return "Omega", 1.0, None
-        return conversions(self, self.scene(), gain_per_V=self.gain, voltage=self.voltage)[key]
-
-    @property
-    def two_sided(self) -> bool:
-        """A second stop below (``gap_lower_mm`` or ``contact_gap_lower_mm``)."""
-        return self.gap_lower_mm is not None or self.contact_gap_lower_mm is not None
-
-    def _scene(self):
-        # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
-        from vibeam.case.beamscene import scene
-
-        return scene(self, *self.laws())
-
-    def laws(self) -> tuple:
-        """``(upper, lower)``: the SI laws of the stops at the attached mass (a compliant stiffness
-        in N/m^p at the contact point, :func:`vibeam.case.contact.beam_law`), the lower one None when
-        it is the upper one's: Newton's with ``R`` or ``[model.contact]``'s compliant law; below it
-        ``[model.contact_lower]``'s (a compliant law, or Newton's with its ``R`` beside a compliant
-        upper stop, or its ``R`` alone)."""
-        # lazy: keeps the impact kernels (vibeam.models.impact) out of load_case
-        from vibeam.models.contact import Restitution
-
-        law = beam_law(self.contact, self.R)
-        lo = lower_law_spec(self)
-        lower = beam_law(lo, target_R(lo, self.R))
-        if law is None:
-            if lower is None and self.contact_lower is not None and self.contact_lower.R is not None:
-                lower = Restitution(float(self.contact_lower.R))
-            return Restitution(float(self.R)), lower
-        if self.mixed_stops:   # Newton's law below the compliant upper stop: its R, else [model] R
-            lower = Restitution(self.R if self.contact_lower.R is None else self.contact_lower.R)
-        return law, lower
-
-    @property
-    def mixed_stops(self) -> bool:
-        """A restitution stop beside a compliant one (:func:`mixed_stops`)."""
-        return mixed_stops(self)
-
-    # ---- what is specific to this fidelity (see CANONICAL_SPECS)
-    def dofs(self) -> int:
-        """Degrees of freedom simulated (work estimate): the retained modes (1 for the static
-        mode, the mesh's ``2 n_elements`` for ``"all"``)."""
-        n = self.n_modes
-        if n == "static":
-            return 1
-        return 2 * int(self.n_elements) if n == "all" else int(n)
-
-    def check(self, prefix: str) -> None:
-        """``n_modes``: at most the mesh's free DOFs (2 per element: deflection and slope of
-        each node but the clamped one)."""
-        n = self.n_modes
-        dofs = 2 * int(self.n_elements)
-
-        check_scale(self.gain * self.voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
-        if getattr(self, "drive", None) is not None:
-            check_scale(self.drive[1], f"'{prefix}.excitation.amplitude_m_s2'")
-        for k in ("gap_mm", "contact_gap_mm", "gap_lower_mm", "contact_gap_lower_mm"):
-            check_gap(getattr(self, k), f"'{prefix}.{k}'", self.length_mm)
-        for j, st in enumerate(self.point_stop_tables):
-            for k in ("gap_mm", "contact_gap_mm"):
-                check_gap(getattr(st, k, None), f"'{prefix}.stop[{j}].{k}'", self.length_mm)
-            check_gap(getattr(st, "Delta", None), f"'{prefix}.stop[{j}].Delta'")
-
-        for key, table in (("contact", self.contact), ("contact_lower", lower_law_spec(self))):
-            try:
-                beam_law(table, target_R(table, self.R))
-            except ValueError as e:
-                raise CaseError(f"'{prefix}.{key}': {e}") from None
-        if isinstance(n, int) and n > dofs:
-            raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
-                            f"('{prefix}.n_elements' = {self.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
-                            f"\"static\"")
-
-    def result_attrs(self) -> dict:
-        """Calibrated and derived values of the scene, stored with its results."""
-        from vibeam.case.beamscene import scene_of  # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
-
-        sc = scene_of(self)
-        g = sc.geometry
-        out = {"EI_n_m2": g.EI_n_m2, "rotary_inertia_kg_m2": g.rotary_inertia_kg_m2,
-               "rhoA_kg_m": g.rhoA_kg_m, "mass_kg": g.mass_kg, "f1_fe_hz": sc.f1_hz,
-               "damping_D_s": sc.damping_D_s, "Delta_C_m": sc.Delta_C_m, "Delta_G_m": sc.Delta_G_m,
-               "gamma_tilde_m_per_V": sc.gamma_tilde_m_per_V, "calibrated": sc.calibration is not None}
-        if sc.calibration is not None:
-            out["calibrated_frequencies_hz"] = np.asarray(sc.calibration.frequencies_hz)
-        return out
-
-    def converged_reference(self, table: dict, overrides: dict):
-        """Model table of the converged reference of a cost table: the finest FE model of the
-        scene, all modes on a mesh twice as fine, so every rung of the fidelity ladder (static
-        mode, 1, 2, 4 ... modes, coarser meshes) is measured against the same thing."""
-        fine = model_with(table, {k: v for k, v in overrides.items() if k not in ("n_modes", "n_elements")})
-        fine.update(n_modes="all", n_elements=2 * int(fine.get("n_elements", 36)))
-        return fine
-
-    def effect_scene(self, effects, scene):
-        """``(scene, coupled)``: ``scene`` with the structural effects of a run (eccentric contact,
-        coupled platform, R table: :func:`vibeam.case.beamscene.effects_scene`,
-        driven as the case says), and the coupled platform's record
-        (:class:`vibeam.case.beamscene.CoupledPlatform`) or None; ``scene`` itself when no effect
-        changes the structure."""
-        plat = effects.platform
-        coupled = plat is not None and plat.level == "coupled"
-        if effects.eccentric_impact is None and not coupled and effects.restitution_law is None:
-            return scene, None
-        # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
-        from vibeam.case.beamscene import effects_scene
-
-        return effects_scene(self, effects, *self.laws())
-
-    def case_update(self, key: str, value: float) -> tuple[dict, list]:
-        """``[model]`` keys that set a fitted value, and notes: f_n is ``calibrate.f1_hz`` of a
-        calibrated beam (an uncalibrated beam's f_n follows from EI: not written)."""
-        if key == "natural_frequency_hz":
-            if self.calibrate is not None:
-                return {"calibrate": dict(self.calibrate.model_dump(exclude_none=True), f1_hz=float(value))}, []
-            return {}, ["f_n not written: the beam has no [model.calibrate] (its f_n follows from EI)"]
-        return {key: float(value)}, []
 
 
 class SystemSpec(_Strict):
@@ -777,6 +309,17 @@ class ExcitationSpec(_Strict):
         """The base displacement amplitude ``Y`` (m); 0 for the other kinds."""
         return self.amplitude_mm * 1e-3 if self.kind == "base_displacement" else 0.0
 
+    def shaker(self, length_mm: float | None = None) -> tuple:
+        """``(gain, voltage)`` of the paper's shaker, whose base displacement is ``gamma V`` (paper
+        Eq. 43; the SDOF's ``B = gamma V`` in lengths L): the table's ``gain`` and ``voltage``; a
+        base displacement given as ``amplitude_mm``, with the normalising length ``length_mm`` (mm),
+        as ``(amplitude_mm / length_mm, 1)``; ``(0, 0)`` for a drive that is not a base displacement."""
+        if self.kind != "base_displacement":
+            return 0.0, 0.0
+        if self.amplitude_mm is not None and length_mm is not None:
+            return self.amplitude_mm / length_mm, 1.0
+        return self.gain, self.voltage
+
 
 class MatricesModelSpec(_StopsSpec):
     """``[model]`` of a structure given by its matrices (issue 58): the canonical tables
@@ -838,7 +381,6 @@ class MatricesModelSpec(_StopsSpec):
                                  f"are distances from the static equilibrium, the lower one downwards)")
         return self
 
-    # ---- the shorthand's names of the stops at the reference DOF, read by the case checks
     @property
     def two_sided(self) -> bool:
         """A lower stop at the reference stop's DOF (``stop[1]``)."""
@@ -855,25 +397,6 @@ class MatricesModelSpec(_StopsSpec):
         """The stops away from the reference stop's DOF (after ``stop[0]`` and a lower stop there),
         each with its own law."""
         return list(self.stop[1 + int(self.two_sided):])
-
-    @property
-    def R(self) -> float:
-        """The reference stop's R."""
-        return float(self.stop[0].R)
-
-    @property
-    def contact(self):
-        """The reference stop's law table (:class:`vibeam.case.contact.ContactSpec`), None for Newton's."""
-        st = self.stop[0]
-        return None if not is_compliant(st.law) else ContactSpec(**st.law_table())
-
-    @property
-    def contact_lower(self):
-        """The lower stop's law table with its own R, or None."""
-        if not self.two_sided:
-            return None
-        st = self.stop[1]
-        return ContactSpec(**st.law_table(), R=st.R)
 
     @property
     def mixed_stops(self) -> bool:
@@ -1297,6 +820,50 @@ def _law_of(st, with_R: bool):
     return ContactSpec(**{k: getattr(st, k) for k in keys}) if keys else None
 
 
+def mass_law_tables(spec) -> tuple:
+    """``(upper, lower)``: the law tables (:class:`vibeam.case.contact.ContactSpec`) of the stops at
+    the reference point of a canonical model spec (``stop[0]``, and ``stop[1]`` when the spec is
+    ``two_sided``): the upper one's law keys as given (None: Newton's law with its ``R``), the lower
+    one's with its ``R`` (None: it gives neither, and its law is the upper stop's)."""
+    st = spec.stop
+    return _law_of(st[0], with_R=False), (_law_of(st[1], with_R=True) if spec.two_sided else None)
+
+
+def _mixed(up, low) -> bool:
+    """A compliant upper law table beside a restitution lower one, or the reverse."""
+    if low is None:
+        return False
+    return (up is not None and is_compliant(up.law)) != is_compliant(low.law)
+
+
+def mixed_stops(spec) -> bool:
+    """A compliant upper stop beside a restitution lower one at the reference point, or a
+    restitution upper stop above a compliant lower one (:func:`mass_law_tables`)."""
+    return _mixed(*mass_law_tables(spec))
+
+
+def lower_law_spec(up, low):
+    """The lower stop's law table ``low`` of a compliant two-sided scene with the upper table's
+    ``mass_kg`` when it gives none (the oscillator's effective mass is one); None when the lower
+    stop's law is not compliant (:func:`mass_law_tables` gives ``up`` and ``low``)."""
+    if low is None or not is_compliant(low.law):
+        return None
+    if low.mass_kg is None and up is not None and up.mass_kg is not None:
+        low = low.model_copy(update={"mass_kg": up.mass_kg})
+    return low
+
+
+def _R_lower(up, low, R: float):
+    """The R of a Newton lower stop with its own law table (its ``R``; beside a compliant upper stop
+    its ``R``, else the upper stop's ``R``), None otherwise (no table: it follows the upper stop;
+    a compliant lower law)."""
+    if low is None or (is_compliant(low.law) and not (up is not None and is_compliant(up.law))):
+        return None
+    if _mixed(up, low):   # Newton's law below a compliant upper stop: its R, else the upper stop's
+        return R if low.R is None else low.R
+    return low.R
+
+
 class SceneStopSpec(StopSpec):
     """One ``[[model.stop]]`` of the SDOF or the beam (``builder = "sdof"`` / ``"beam"``): as
     :class:`vibeam.case.contact.StopSpec`; the lower stop at the attached mass (``stop[1]``) may give
@@ -1355,14 +922,14 @@ class SDOFSystemSpec(_Strict):
         return self
 
 
-class SDOFSceneSpec(_SDOFSpec):
+class SDOFSceneSpec(_StopsSpec):
     """``[model]`` of the SDOF in the canonical tables (``[model.system] builder = "sdof"``,
     :class:`SDOFSystemSpec`): ``[[model.stop]]`` (:class:`SceneStopSpec`: the upper stop, then
     optionally the lower one; ``Delta`` or, physical, ``gap_mm``) and ``[model.excitation]`` (a base
     displacement: ``amplitude`` = B nondimensional; physical ``gain`` and ``voltage``, B = gamma V,
     or ``amplitude_mm``, B = Y / L).  What the shorthand (``fidelity = "sdof"``, ``beta``, ``B``,
-    ``R``, ``Delta``, ...) expands into (:func:`vibeam.case.expand.expand`); the SDOF's checks and
-    build read the tables through the shorthand's names (the properties below)."""
+    ``R``, ``Delta``, ...) expands into (:func:`vibeam.case.expand.expand`); its checks, build and
+    hooks read the tables."""
 
     system: SDOFSystemSpec
     stop: Annotated[list[SceneStopSpec], Field(min_length=1, max_length=2)]
@@ -1372,82 +939,236 @@ class SDOFSceneSpec(_SDOFSpec):
 
     @model_validator(mode="after")
     def _one_parameter_set(self):
-        # the tables' own checks first (naming the canonical keys), then the SDOF's
+        # the tables' own checks first (naming the canonical keys), then the SDOF's (naming the
+        # shorthand's keys as well: the nondimensional and the physical sets of paper Eqs. 1-2, 43-46)
         for i, st in enumerate(self.stop):
             for key in ("position_mm", "contact_gap_mm"):
                 if getattr(st, key) is not None:
                     raise ValueError(f"stop[{i}]: {key} is a beam key (the SDOF has one coordinate, at the sensor); "
                                      f"allowed: side, Delta or gap_mm, R and the law's keys")
         _scene_stops(self, lambda st: True)
-        ex = self.excitation
-        allowed = ("gain", "amplitude_mm") if self.physical else ("amplitude",)
+        ex, sy, phys = self.excitation, self.system, self.physical
+        allowed = ("gain", "amplitude_mm") if phys else ("amplitude",)
         if ex.kind != "base_displacement" or all(getattr(ex, k) is None for k in allowed):
             raise ValueError(f"excitation: the SDOF is driven by a base displacement given as "
                              f"{' and voltage, or '.join(allowed)}"
-                             f"{'' if self.physical else ' (nondimensional B)'}")
-        return _SDOFSpec._one_parameter_set(self)
+                             f"{'' if phys else ' (nondimensional B)'}")
+        up, lo = self.stop[0], (self.stop[1] if self.two_sided else None)
+        gain, voltage = ex.shaker(sy.length_mm) if phys else (None, None)
+        nondim = {"beta": None if phys else sy.damping_ratio, "B": None if phys else ex.amplitude, "Delta": up.Delta}
+        physical = {"natural_frequency_hz": sy.natural_frequency_hz, "damping_ratio": sy.damping_ratio if phys else None,
+                    "gap_mm": up.gap_mm, "length_mm": sy.length_mm, "gain": gain, "voltage": voltage}
+        given_n = [k for k, v in nondim.items() if v is not None]
+        given_p = [k for k, v in physical.items() if v is not None]
+        if lo is not None and lo.Delta is not None:
+            given_n.append("Delta_lower")
+        if lo is not None and lo.gap_mm is not None:
+            given_p.append("gap_lower_mm")
+        if given_n and given_p:
+            raise ValueError(f"give either the nondimensional keys {sorted(nondim)} or the physical keys "
+                             f"{sorted(physical)}, not both (got {given_n + given_p})")
+        if given_p:
+            missing = [k for k in physical if physical[k] is None]
+            if missing:
+                raise ValueError(f"physical SDOF scene is missing {missing}")
+        else:
+            missing = [k for k in nondim if nondim[k] is None]
+            if missing:
+                raise ValueError(f"nondimensional SDOF scene is missing {missing}")
+        if lo is not None:
+            upper, lower = (up.gap_mm, lo.gap_mm) if given_p else (up.Delta, lo.Delta)
+            if not upper + lower > 0.0:
+                k = ("gap_mm", "gap_lower_mm") if given_p else ("Delta", "Delta_lower")
+                raise ValueError(f"the stops overlap: {k[0]} + {k[1]} = {upper + lower:g} must be > 0 (both are "
+                                 f"distances from the static equilibrium, the lower one downwards)")
+        return self
 
-    # the shorthand's names of the tables' numbers (read by the SDOF's checks, build and hooks)
     @property
-    def beta(self):
-        return None if self.physical else self.system.damping_ratio
+    def physical(self) -> bool:
+        """The rig's physical form (paper Eqs. 43-46: ``[model.system] natural_frequency_hz``)."""
+        return self.system.natural_frequency_hz is not None
 
     @property
-    def damping_ratio(self):
-        return self.system.damping_ratio if self.physical else None
+    def two_sided(self) -> bool:
+        """A second stop below (``stop[1]``)."""
+        return len(self.stop) > 1
 
     @property
-    def natural_frequency_hz(self):
-        return self.system.natural_frequency_hz
+    def mixed_stops(self) -> bool:
+        """A restitution stop beside a compliant one (:func:`mixed_stops`)."""
+        return mixed_stops(self)
 
-    @property
-    def length_mm(self):
-        return self.system.length_mm
+    def shorthand(self) -> dict:
+        """The shorthand's keys (:data:`vibeam.case.expand.SHORTHAND_KEYS`, ``fidelity`` and
+        ``stop`` apart) with the scene's values, None where the scene has none: what
+        :meth:`as_written` stores for a table written in the shorthand (the inverse of
+        :func:`vibeam.case.expand.expand`; a physical scene's ``gain`` and ``voltage`` as
+        :meth:`ExcitationSpec.shaker`)."""
+        sy, ex, phys = self.system, self.excitation, self.physical
+        up, lo = self.stop[0], (self.stop[1] if self.two_sided else None)
+        gain, voltage = ex.shaker(sy.length_mm)
+        contact, contact_lower = mass_law_tables(self)
+        return {"beta": None if phys else sy.damping_ratio, "B": None if phys else ex.amplitude, "R": up.R,
+                "Delta": up.Delta, "natural_frequency_hz": sy.natural_frequency_hz,
+                "damping_ratio": sy.damping_ratio if phys else None, "gap_mm": up.gap_mm, "length_mm": sy.length_mm,
+                "gain": gain, "voltage": voltage, "Delta_lower": None if lo is None else lo.Delta,
+                "gap_lower_mm": None if lo is None else lo.gap_mm, "contact": contact, "contact_lower": contact_lower}
 
-    @property
-    def B(self):
-        return None if self.physical else self.excitation.amplitude
+    def _units(self) -> tuple:
+        """``(natural_frequency_hz, L)`` of a physical scene (L in m, the normalising length, Eq. 43),
+        else ``(None, None)``."""
+        return (self.system.natural_frequency_hz, self.system.length_mm * 1e-3) if self.physical else (None, None)
 
-    @property
-    def gain(self):
-        ex = self.excitation
+    def _B(self) -> float:
+        """The nondimensional forcing amplitude ``B`` (``gamma V``, or ``Y / L``: paper Eq. 43)."""
         if not self.physical:
-            return None
-        return ex.gain if ex.amplitude_mm is None else ex.amplitude_mm / self.system.length_mm
+            return self.excitation.amplitude
+        gain, voltage = self.excitation.shaker(self.system.length_mm)
+        return gain * voltage
 
-    @property
-    def voltage(self):
-        if not self.physical:
-            return None
-        return self.excitation.voltage if self.excitation.amplitude_mm is None else 1.0
+    # continuation parameters: key -> (path into the scene, factor d path / d key, damping)
+    def scene_parameter(self, key: str):
+        """``(path, factor, damping)`` of a continuation parameter: the path into the scene its
+        shooting problem continues (:class:`vibeam.models.core.scene_shooting.SceneShooting`), the
+        path's value being ``factor * value`` (paper Eqs. 43-46: ``B = gamma V``, ``Delta = gap /
+        L``, ``beta = damping ratio``, ``Omega = f / f_n``), and for the damping ratio its
+        direction ``(beta, [2])`` (``c = 2 beta``, Eq. 1).  ``R`` moves the lower stop's R too
+        when its law follows the upper stop's.  Raises ValueError naming the allowed keys."""
+        up, low = mass_law_tables(self)
+        R = ("stops[0].law.R", "stops[1].law.R") if self.two_sided and _R_lower(up, low, self.stop[0].R) is None \
+            and lower_law_spec(up, low) is None else "stops[0].law.R"
+        beta = ("system.damping", 1.0, (float(self.system.damping_ratio), np.array([2.0])))
+        if self.physical:
+            gain, voltage = self.excitation.shaker(self.system.length_mm)
+            table = {"Omega": ("Omega", 1.0, None), "voltage": ("system.base_amplitude", gain, None),
+                     "gain": ("system.base_amplitude", voltage, None),
+                     "gap_mm": ("stops[0].relation.offset", 1.0 / self.system.length_mm, None), "damping_ratio": beta,
+                     "R": (R, 1.0, None)}
+        else:
+            table = {"Omega": ("Omega", 1.0, None), "B": ("system.base_amplitude", 1.0, None),
+                     "Delta": ("stops[0].relation.offset", 1.0, None), "R": (R, 1.0, None), "beta": beta}
+        if self.two_sided:
+            # the lower stop's offset and R (its Newton R, or a compliant law's target R)
+            table["gap_lower_mm" if self.physical else "Delta_lower"] = (
+                "stops[1].relation.offset", 1.0 / self.system.length_mm if self.physical else 1.0, None)
+            table["R_lower"] = ("stops[1].law.R", 1.0, None)
+        if up is not None and is_compliant(up.law):
+            # a compliant stop: a case continues it in the forcing and the gaps only
+            table = {k: v for k, v in table.items() if v[0] in ("Omega", "system.base_amplitude")
+                     or str(v[0]).endswith(".relation.offset")}
+        if key not in table:
+            raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(table)}")
+        return table[key]
 
-    @property
-    def R(self):
-        return self.stop[0].R
+    def _scene(self):
+        # straight from the tables by the SDOF builder (a physical scene by paper Eqs. 43-46)
+        from vibeam.models.builders.sdof import sdof, sdof_physical  # lazy: keeps scipy.linalg (0.2 s) out of load_case
+        from vibeam.models.contact import Restitution  # lazy: keeps the impact kernels out of load_case
 
-    @property
-    def Delta(self):
-        return self.stop[0].Delta
+        fn, L = self._units()
+        up_st = self.stop[0]
+        lo_st = self.stop[1] if self.two_sided else None
+        R = up_st.R
+        up, low = mass_law_tables(self)
+        law = sdof_law(up, R, self.physical, fn, L)
+        lo = lower_law_spec(up, low)
+        lower = None if lo is None else sdof_law(lo, target_R(lo, R), self.physical, fn, L)
+        R_lower = _R_lower(up, low, R)
+        if lower is None and R_lower is not None:
+            lower = Restitution(R_lower)
+        lower_gap = None if lo_st is None else (lo_st.gap_mm if self.physical else lo_st.Delta)
+        if lower_gap is None and getattr(lower, "kind", "") != "compliant":
+            lower = None        # Newton's law of a lower stop that is not there
+        stop = dict(R=R) if law is None else dict(law=law)
+        mass = None if up is None else up.mass_kg
+        if self.physical:
+            gain, voltage = self.excitation.shaker(self.system.length_mm)
+            return sdof_physical(fn, self.system.damping_ratio, up_st.gap_mm, self.system.length_mm, gain, voltage,
+                                 gap_lower_mm=lower_gap, lower_law=lower, mass_kg=mass, **stop)
+        return sdof(self.system.damping_ratio, self.excitation.amplitude, up_st.Delta, Delta_lower=lower_gap,
+                    lower_law=lower, mass_kg=mass, **stop)
 
-    @property
-    def gap_mm(self):
-        return self.stop[0].gap_mm
+    # ---- what is specific to this fidelity (see CANONICAL_SPECS)
+    def dofs(self) -> int:
+        """Degrees of freedom simulated (work estimate)."""
+        return 1
 
-    @property
-    def Delta_lower(self):
-        return self.stop[1].Delta if len(self.stop) > 1 else None
+    def check(self, prefix: str) -> None:
+        """Checks beyond the table's validators: the stops' laws can be built, and the forcing
+        amplitude (:data:`B_RANGE`), the gaps (:data:`GAP_MAX`) and the stop's stiffness
+        (:data:`MAX_CONTACT_STIFFNESS`) can be computed in double precision."""
+        if self.physical:
+            check_scale(self._B(), f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
+        else:
+            check_scale(self.excitation.amplitude, f"'{prefix}.B'")
+        length_mm = self.system.length_mm
+        for st, (delta, gap) in zip(self.stop, (("Delta", "gap_mm"), ("Delta_lower", "gap_lower_mm"))):
+            check_gap(st.Delta, f"'{prefix}.{delta}'")
+            check_gap(st.gap_mm, f"'{prefix}.{gap}'", length_mm)
+        fn, L = self._units()
+        up, low = mass_law_tables(self)
+        R = self.stop[0].R
+        for key, table in (("contact", up), ("contact_lower", lower_law_spec(up, low))):
+            try:
+                law = sdof_law(table, target_R(table, R), self.physical, fn, L)
+            except ValueError as e:
+                raise CaseError(f"'{prefix}.{key}': {e}") from None
+            if table is not None and law is not None:
+                given = "stiffness" if table.stiffness is not None else "stiffness_n_m"
+                check_stiffness(law, f"'{prefix}.{key}.{given}' = {getattr(table, given):g}")
 
-    @property
-    def gap_lower_mm(self):
-        return self.stop[1].gap_mm if len(self.stop) > 1 else None
+    #: methods that integrate the equations of motion (no closed-form forced response) or do not
+    #: use the flow at Omega = 1 (averaging, near Omega = 2k): undamped resonance is theirs
+    RESONANCE_SAFE: ClassVar[tuple] = ("direct", "zhuravlev", "ivanov", "averaging")
 
-    @property
-    def contact(self):
-        return _law_of(self.stop[0], with_R=False)
+    def check_sweep(self, sweep, method: str, where: str, i: int) -> None:
+        """No damping (``beta`` or ``damping_ratio`` 0) with Omega = 1 on the grid: the
+        closed-form flow of ``event``, ``mapping`` and ``continuation`` divides by ``(1 -
+        Omega^2)^2 + (2 beta Omega)^2 = 0`` there (undamped resonance grows as ``t cos t``: no
+        periodic forced response), so such a run is refused in one line
+        (:func:`vibeam.models.core.oscillator.undamped_resonance` is the model's own guard)."""
+        key = "damping_ratio" if self.physical else "beta"
+        if method in self.RESONANCE_SAFE or self.system.damping_ratio != 0.0:
+            return
+        Om = sweep.grid(self.system.natural_frequency_hz)
+        if np.any(1.0 - Om * Om == 0.0):
+            grid = "sweep.Omega" if sweep.Omega is not None else "sweep.frequency_hz"
+            what = f"'{where}.{key}' = 0" if where != "map.values" else f"'map.values': {key} = 0"
+            raise CaseError(f"{what} with Omega = 1 in '{grid}' (run[{i}], method {method!r}): undamped exact "
+                            f"resonance has no periodic forced response (it grows as t cos t), which the "
+                            f"closed-form methods cannot compute; allowed: {key} > 0, a grid without Omega = 1, "
+                            f"or method 'direct'")
 
-    @property
-    def contact_lower(self):
-        return _law_of(self.stop[1], with_R=True) if len(self.stop) > 1 else None
+    def result_attrs(self) -> dict:
+        """Derived values stored with a run's results: none."""
+        return {}
+
+    def converged_reference(self, table: dict, overrides: dict):
+        """Model table of the converged reference of a cost table; None: the run's own
+        model (the SDOF reference differs only in its transient)."""
+        return None
+
+    def effect_scene(self, effects, scene):
+        """``(scene, None)``: ``scene`` with the structural effects of a run, a velocity-dependent
+        R (``restitution_law``: Newton's law of the upper stop, and of the lower one when its law
+        follows the upper's, with the ``R(q'-)`` table; sensor velocity in mm/s to ``q'``:
+        ``U(L_S)' = q' L omega_n``, paper Eq. 43); no coupled platform (the beam's)."""
+        if effects.restitution_law is None:
+            return scene, None
+        from vibeam.models.contact import Restitution  # lazy: keeps the impact kernels out of load_case
+        from vibeam.models.scene import outputs        # lazy: as above
+
+        t = effects.restitution_law
+        out = outputs(scene)
+        scale = 1e-3 / (out.length_m * 2 * math.pi * out.natural_frequency_hz)  # mm/s -> q'
+        up = scene.stops[0].law
+        law = Restitution(up.R, tuple(v * scale for v in t.velocity_mm_s), tuple(t.R))
+        stops = tuple(dataclasses.replace(s, law=law) if s.law is up else s for s in scene.stops)
+        return scene._replace(stops=stops), None
+
+    def case_update(self, key: str, value: float) -> tuple[dict, list]:
+        """``[model]`` keys that set a fitted value (``vibeam fit --linear``), and notes."""
+        return {key: float(value)}, []
 
 
 class BeamSystemSpec(_Strict):
@@ -1486,27 +1207,35 @@ class BeamSystemSpec(_Strict):
         return _beam_length(v)
 
 
-#: the keys of ``[model.system] builder = "beam"`` the beam's spec reads by their own names
-_BEAM_SYSTEM_KEYS = tuple(k for k in BeamSystemSpec.model_fields if k != "builder")
-
-
-class BeamSceneSpec(_BeamSpec):
+class BeamSceneSpec(_StopsSpec):
     """``[model]`` of the FE beam in the canonical tables (``[model.system] builder = "beam"``,
     :class:`BeamSystemSpec`): ``[[model.stop]]`` (:class:`SceneStopSpec`: the upper stop at the
     attached mass, optionally the lower one there, then Newton stops at other points by
     ``position_mm``, output codes 0, 1, 2 + i as the shorthand's) and ``[model.excitation]`` (a base
     displacement by the shaker's ``gain`` and ``voltage``: ``gamma~ V``, ``gamma~ = gain phi(x_m)
-    L``, the paper's normalised gain in 1/V).  A stop's gap is ``gap_mm`` (the grazing gap seen at the
-    sensor, Delta_G, as for the SDOF rig scenes) or ``contact_gap_mm`` (Delta_C at the stop).  What the
-    shorthand (``fidelity = "beam"`` and its keys) expands into
-    (:func:`vibeam.case.expand.expand`); the beam's checks and build read the tables through the
-    shorthand's names (the properties below)."""
+    L``, the paper's normalised gain in 1/V; or a base acceleration).  A stop's gap is ``gap_mm`` (the
+    grazing gap seen at the sensor, Delta_G, as for the SDOF rig scenes) or ``contact_gap_mm``
+    (Delta_C at the stop).  What the shorthand (``fidelity = "beam"`` and its keys) expands into
+    (:func:`vibeam.case.expand.expand`); its checks, build and hooks read the tables."""
 
     system: BeamSystemSpec
     stop: Annotated[list[SceneStopSpec], Field(min_length=1)]
     excitation: ExcitationSpec
 
     fidelity: ClassVar[str] = "beam"
+    physical: ClassVar[bool] = True
+
+    #: allowed ``length_mm``: the FE mesh (scikit-fem) locates the clamp and the attached mass
+    #: by position to an absolute 1e-8 m, so its elements (down to L / 2000 with ``n_elements``
+    #: <= 2000) must be far longer: from 1 mm (elements of 5e-7 m; measured: every model builds
+    #: at 1 mm, none below 1e-4 mm, ``n_modes = "all"`` fails from 0.01 mm) to 100 m, beyond any
+    #: cantilever of this kind (calibrations to the rig's f2/f1 stop being reachable from ~20 m)
+    LENGTH_RANGE_MM: ClassVar[tuple] = (1.0, 1e5)
+    #: allowed bending stiffness EI (N m^2) and mass per length rho A (kg/m), given or derived from
+    #: the section: their ratio over h^4 (h: the element length, 5e-7 ... 5e4 m) is the FE model's
+    #: eigenvalue scale, which stays a normal double within this range (a subnormal EI, e.g.
+    #: width_mm = 5e-320, leaves the eigensolver without any mode)
+    SECTION_RANGE: ClassVar[tuple] = (1e-100, 1e100)
 
     def at_mass(self, st) -> bool:
         """Stop table ``st`` acts at the attached mass (no ``position_mm``, or the mass's)."""
@@ -1529,56 +1258,72 @@ class BeamSceneSpec(_BeamSpec):
             raise ValueError("excitation: the beam is driven by a base displacement given as gain and voltage (the "
                              "shaker's gamma V) or by a base acceleration (kind = \"base_acceleration\", "
                              "amplitude_m_s2)")
-        return _BeamSpec._consistent(self)
+        sy = self.system
+        sec = sy.width_mm is not None or sy.thickness_mm is not None
+        direct = sy.EI_n_m2 is not None or sy.rhoA_kg_m is not None
+        if sec == direct:
+            raise ValueError("give the section either as width_mm and thickness_mm or as EI_n_m2 and "
+                             "rhoA_kg_m")
+        if sec and (sy.width_mm is None or sy.thickness_mm is None):
+            raise ValueError("the section needs both width_mm and thickness_mm")
+        if direct and (sy.EI_n_m2 is None or sy.rhoA_kg_m is None):
+            raise ValueError("the section needs both EI_n_m2 and rhoA_kg_m")
+        if (sy.mass_kg is None) == (sy.discs is None):
+            raise ValueError("give the attached mass either as mass_kg or as a [model.discs] table")
+        up = self.stop[0]
+        if (up.gap_mm is None) == (up.contact_gap_mm is None):
+            raise ValueError("give exactly one of gap_mm (at the sensor) or contact_gap_mm (at the stop)")
+        if self.two_sided:
+            lo = self.stop[1]
+            pair = ("gap_mm", "gap_lower_mm") if up.gap_mm is not None else ("contact_gap_mm", "contact_gap_lower_mm")
+            given = getattr(lo, pair[0])
+            if given is None:
+                raise ValueError(f"give the lower stop's gap where the upper one's is given: {pair[1]} (with "
+                                 f"{pair[0]})")
+            tot = getattr(up, pair[0]) + given
+            if not tot > 0.0:
+                raise ValueError(f"the stops overlap: {pair[0]} + {pair[1]} = {tot:g} must be > 0 (both are "
+                                 f"distances from the static equilibrium, the lower one downwards)")
+        for k in ("sensor_position_mm", "mass_position_mm"):
+            if getattr(sy, k) > sy.length_mm:
+                raise ValueError(f"{k} = {getattr(sy, k)} lies beyond length_mm = {sy.length_mm}")
+        for i, p in enumerate(self.point_stop_tables):
+            if p.position_mm > sy.length_mm:
+                raise ValueError(f"stop at position_mm = {p.position_mm:g} lies beyond length_mm = {sy.length_mm}")
+            if (p.gap_mm is None) == (p.contact_gap_mm is None):
+                raise ValueError(f"stop at position_mm = {p.position_mm:g}: give exactly one of gap_mm (at the "
+                                 f"sensor) or contact_gap_mm (at the stop)")
+        lo, hi = self.SECTION_RANGE
+        if sec:     # the section's EI and rho A as vibeam.case.beamscene.geometry_of derives them
+            b, t = sy.width_mm * 1e-3, sy.thickness_mm * 1e-3
+            derived = {"EI_n_m2": (sy.youngs_modulus_gpa * 1e9 * b * (t * t * t) / 12.0,   # inf, not OverflowError
+                                   "youngs_modulus_gpa, width_mm, thickness_mm"),
+                       "rhoA_kg_m": (sy.density_kg_m3 * b * t, "density_kg_m3, width_mm, thickness_mm")}
+        else:
+            derived = {"EI_n_m2": (sy.EI_n_m2, "EI_n_m2"), "rhoA_kg_m": (sy.rhoA_kg_m, "rhoA_kg_m")}
+        for name, (v, keys) in derived.items():
+            if not lo <= v <= hi:
+                raise ValueError(f"{name} = {v:g} (from {keys}) is outside {lo:g} ... {hi:g}: the FE matrices "
+                                 f"(EI / h^3, rho A h) would leave double precision; allowed: a section within "
+                                 f"that range")
+        if sy.calibrate and sy.calibrate.f2_hz is not None and sy.calibrate.f2_hz <= sy.calibrate.f1_hz:
+            raise ValueError("calibrate.f2_hz must exceed calibrate.f1_hz")
+        return self
 
     @property
-    def _n_at_mass(self) -> int:
-        return 2 if len(self.stop) > 1 and self.stop[1].side == "lower" and self.at_mass(self.stop[1]) else 1
+    def two_sided(self) -> bool:
+        """A second stop below at the attached mass (``stop[1]``)."""
+        return len(self.stop) > 1 and self.stop[1].side == "lower" and self.at_mass(self.stop[1])
 
     @property
     def point_stop_tables(self) -> list:
         """The stops away from the attached mass (after ``stop[0]`` and the lower one there)."""
-        return list(self.stop[self._n_at_mass:])
-
-    # the shorthand's names of the tables' numbers (read by the beam's checks, build and hooks)
-    @property
-    def R(self):
-        return self.stop[0].R
+        return list(self.stop[1 + int(self.two_sided):])
 
     @property
-    def gap_mm(self):
-        return self.stop[0].gap_mm
-
-    @property
-    def contact_gap_mm(self):
-        return self.stop[0].contact_gap_mm
-
-    @property
-    def gap_lower_mm(self):
-        return self.stop[1].gap_mm if self._n_at_mass == 2 else None
-
-    @property
-    def contact_gap_lower_mm(self):
-        return self.stop[1].contact_gap_mm if self._n_at_mass == 2 else None
-
-    @property
-    def contact(self):
-        return _law_of(self.stop[0], with_R=False)
-
-    @property
-    def contact_lower(self):
-        return _law_of(self.stop[1], with_R=True) if self._n_at_mass == 2 else None
-
-    @property
-    def gain(self):
-        """The shaker's gain (1/V); 0 when the base is driven by an acceleration (no base displacement
-        ``gamma V``: the drive is :attr:`drive`)."""
-        return self.excitation.gain if self.drive is None else 0.0
-
-    @property
-    def voltage(self):
-        """The shaker's voltage (V); 0 when the base is driven by an acceleration."""
-        return self.excitation.voltage if self.drive is None else 0.0
+    def mixed_stops(self) -> bool:
+        """A restitution stop beside a compliant one (:func:`mixed_stops`)."""
+        return mixed_stops(self)
 
     @property
     def drive(self):
@@ -1587,14 +1332,186 @@ class BeamSceneSpec(_BeamSpec):
         ex = self.excitation
         return None if ex.kind == "base_displacement" else (ex.kind, float(ex.amplitude_m_s2))
 
+    def shorthand(self) -> dict:
+        """The shorthand's keys (:data:`vibeam.case.expand.SHORTHAND_KEYS`, ``fidelity`` and
+        ``stop`` apart) with the scene's values, None where the scene has none: what
+        :meth:`as_written` stores for a table written in the shorthand (the inverse of
+        :func:`vibeam.case.expand.expand`; ``gain`` and ``voltage`` 0 when the base is driven by an
+        acceleration: :meth:`ExcitationSpec.shaker`)."""
+        up, lo = self.stop[0], (self.stop[1] if self.two_sided else None)
+        gain, voltage = self.excitation.shaker()
+        contact, contact_lower = mass_law_tables(self)
+        out = {k: getattr(self.system, k) for k in type(self.system).model_fields if k != "builder"}
+        out.update(R=up.R, gap_mm=up.gap_mm, contact_gap_mm=up.contact_gap_mm,
+                   gap_lower_mm=None if lo is None else lo.gap_mm,
+                   contact_gap_lower_mm=None if lo is None else lo.contact_gap_mm, contact=contact,
+                   contact_lower=contact_lower, gain=gain, voltage=voltage)
+        return out
 
-def _system_key(name):
-    return property(lambda self: getattr(self.system, name), doc=f"``[model.system] {name}``.")
+    # continuation parameters besides the frequency (Omega, with its range in Hz): keys that
+    # act on the modal model without changing its modes (vibeam.case.beamscene.conversions)
+    _CONTINUABLE: ClassVar[tuple] = ("voltage", "gain", "gap_mm", "contact_gap_mm", "damping_ratio", "R",
+                                     "rayleigh_alpha_1_s")
 
+    def scene_parameter(self, key: str):
+        """``(path, factor, damping)`` of a continuation parameter: the path into the scene its
+        shooting problem continues, the path's value being ``factor * value``, and a damping
+        path's direction (:func:`vibeam.case.beamscene.conversions`: the base amplitude ``gamma~
+        V`` with ``gamma~ = gain phi(x_m) L``, the stop's offset ``phi(x_m) gap_mm 1e-3`` (Eq.
+        45), ``D = 2 beta / omega_1`` (Eq. 39), ``R``).
 
-for _name in _BEAM_SYSTEM_KEYS:
-    setattr(BeamSceneSpec, _name, _system_key(_name))
-del _name
+        Raises
+        ------
+        ValueError
+            Naming the key and what is allowed: a key that changes the FE model (its modes and
+            shapes, e.g. ``length_mm``, ``n_modes``), the gap key the scene does not use, or a
+            key that is not a model key.
+        """
+        # lazy: keeps the beam kernels (scipy.linalg: 0.3 s) out of load_case
+        from vibeam.case.beamscene import REBUILD_KEYS, conversions
+
+        up = self.stop[0]
+        gap_key = "gap_mm" if up.gap_mm is not None else "contact_gap_mm"
+        allowed = ("Omega",) + tuple(k for k in self._CONTINUABLE
+                                     if k == gap_key or k not in ("gap_mm", "contact_gap_mm"))
+        if self.two_sided:
+            # the lower stop's gap (the key the scene uses) and its R
+            allowed += ("gap_lower_mm" if self.stop[1].gap_mm is not None else "contact_gap_lower_mm", "R_lower")
+        if any(t is not None and is_compliant(t.law) for t in mass_law_tables(self)):
+            # a compliant stop: a case continues it in the forced response only (Omega,
+            # base_amplitude_m; the one shooting problem, vibeam.models.core.shooting)
+            allowed = ("Omega", "voltage", "gain")
+        if key in REBUILD_KEYS:
+            raise ValueError(f"changes the FE model (its modes and shapes): a beam scene cannot be continued "
+                             f"in it; allowed: {', '.join(allowed)}")
+        if key == "frequency_hz":
+            raise ValueError(f"is continued as 'Omega' (range and start_at in Hz); allowed: {', '.join(allowed)}")
+        if key not in allowed:
+            raise ValueError(f"cannot be continued in this scene; allowed: {', '.join(allowed)}")
+        if self.drive is not None and key != "Omega":
+            # the shooting problem's drive is gamma V; an acceleration-driven beam: the frequency only
+            raise ValueError("cannot be continued in a beam driven by a base acceleration; allowed: Omega")
+        if key == "Omega":
+            return "Omega", 1.0, None
+        gain, voltage = self.excitation.shaker()
+        return conversions(self, self.scene(), gain_per_V=gain, voltage=voltage)[key]
+
+    def _scene(self):
+        # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
+        from vibeam.case.beamscene import scene
+
+        return scene(self, *self.laws())
+
+    def laws(self) -> tuple:
+        """``(upper, lower)``: the SI laws of the stops at the attached mass (a compliant stiffness
+        in N/m^p at the contact point, :func:`vibeam.case.contact.beam_law`), the lower one None when
+        it is the upper one's: Newton's with ``R`` or the upper stop's compliant law; below it
+        its own (a compliant law, or Newton's with its ``R`` beside a compliant upper stop, or its
+        ``R`` alone)."""
+        # lazy: keeps the impact kernels (vibeam.models.impact) out of load_case
+        from vibeam.models.contact import Restitution
+
+        R = self.stop[0].R
+        up, low = mass_law_tables(self)
+        law = beam_law(up, R)
+        lo = lower_law_spec(up, low)
+        lower = beam_law(lo, target_R(lo, R))
+        if law is None:
+            if lower is None and low is not None and low.R is not None:
+                lower = Restitution(float(low.R))
+            return Restitution(float(R)), lower
+        if _mixed(up, low):   # Newton's law below the compliant upper stop: its R, else the upper one's
+            lower = Restitution(R if low.R is None else low.R)
+        return law, lower
+
+    # ---- what is specific to this fidelity (see CANONICAL_SPECS)
+    def dofs(self) -> int:
+        """Degrees of freedom simulated (work estimate): the retained modes (1 for the static
+        mode, the mesh's ``2 n_elements`` for ``"all"``)."""
+        n = self.system.n_modes
+        if n == "static":
+            return 1
+        return 2 * int(self.system.n_elements) if n == "all" else int(n)
+
+    def check(self, prefix: str) -> None:
+        """``n_modes``: at most the mesh's free DOFs (2 per element: deflection and slope of
+        each node but the clamped one); the drive's amplitude, the gaps and the laws computable."""
+        sy = self.system
+        n = sy.n_modes
+        dofs = 2 * int(sy.n_elements)
+
+        gain, voltage = self.excitation.shaker()
+        check_scale(gain * voltage, f"'{prefix}.gain' x '{prefix}.voltage' (B = gain x voltage)")
+        if self.drive is not None:
+            check_scale(self.drive[1], f"'{prefix}.excitation.amplitude_m_s2'")
+        names = (("gap_mm", "contact_gap_mm"), ("gap_lower_mm", "contact_gap_lower_mm"))
+        for st, keys in zip(self.stop[:1 + int(self.two_sided)], names):
+            for k, name in zip(("gap_mm", "contact_gap_mm"), keys):
+                check_gap(getattr(st, k), f"'{prefix}.{name}'", sy.length_mm)
+        for j, st in enumerate(self.point_stop_tables):
+            for k in ("gap_mm", "contact_gap_mm"):
+                check_gap(getattr(st, k, None), f"'{prefix}.stop[{j}].{k}'", sy.length_mm)
+            check_gap(getattr(st, "Delta", None), f"'{prefix}.stop[{j}].Delta'")
+
+        up, low = mass_law_tables(self)
+        R = self.stop[0].R
+        for key, table in (("contact", up), ("contact_lower", lower_law_spec(up, low))):
+            try:
+                beam_law(table, target_R(table, R))
+            except ValueError as e:
+                raise CaseError(f"'{prefix}.{key}': {e}") from None
+        if isinstance(n, int) and n > dofs:
+            raise CaseError(f"'{prefix}.n_modes' = {n}: more than the {dofs} degrees of freedom of the mesh "
+                            f"('{prefix}.n_elements' = {sy.n_elements}); allowed: 1 ... {dofs}, \"all\" or "
+                            f"\"static\"")
+
+    def result_attrs(self) -> dict:
+        """Calibrated and derived values of the scene, stored with its results."""
+        from vibeam.case.beamscene import scene_of  # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
+
+        sc = scene_of(self)
+        g = sc.geometry
+        out = {"EI_n_m2": g.EI_n_m2, "rotary_inertia_kg_m2": g.rotary_inertia_kg_m2,
+               "rhoA_kg_m": g.rhoA_kg_m, "mass_kg": g.mass_kg, "f1_fe_hz": sc.f1_hz,
+               "damping_D_s": sc.damping_D_s, "Delta_C_m": sc.Delta_C_m, "Delta_G_m": sc.Delta_G_m,
+               "gamma_tilde_m_per_V": sc.gamma_tilde_m_per_V, "calibrated": sc.calibration is not None}
+        if sc.calibration is not None:
+            out["calibrated_frequencies_hz"] = np.asarray(sc.calibration.frequencies_hz)
+        return out
+
+    def converged_reference(self, table: dict, overrides: dict):
+        """Model table of the converged reference of a cost table: the finest FE model of the
+        scene, all modes on a mesh twice as fine, so every rung of the fidelity ladder (static
+        mode, 1, 2, 4 ... modes, coarser meshes) is measured against the same thing."""
+        fine = model_with(table, {k: v for k, v in overrides.items() if k not in ("n_modes", "n_elements")})
+        fine.update(n_modes="all", n_elements=2 * int(fine.get("n_elements", 36)))
+        return fine
+
+    def effect_scene(self, effects, scene):
+        """``(scene, coupled)``: ``scene`` with the structural effects of a run (eccentric contact,
+        coupled platform, R table: :func:`vibeam.case.beamscene.effects_scene`,
+        driven as the case says), and the coupled platform's record
+        (:class:`vibeam.case.beamscene.CoupledPlatform`) or None; ``scene`` itself when no effect
+        changes the structure."""
+        plat = effects.platform
+        coupled = plat is not None and plat.level == "coupled"
+        if effects.eccentric_impact is None and not coupled and effects.restitution_law is None:
+            return scene, None
+        # lazy: keeps skfem and the beam kernels (0.4 s) out of load_case
+        from vibeam.case.beamscene import effects_scene
+
+        return effects_scene(self, effects, *self.laws())
+
+    def case_update(self, key: str, value: float) -> tuple[dict, list]:
+        """``[model]`` keys that set a fitted value, and notes: f_n is ``calibrate.f1_hz`` of a
+        calibrated beam (an uncalibrated beam's f_n follows from EI: not written)."""
+        if key == "natural_frequency_hz":
+            cal = self.system.calibrate
+            if cal is not None:
+                return {"calibrate": dict(cal.model_dump(exclude_none=True), f1_hz=float(value))}, []
+            return {}, ["f_n not written: the beam has no [model.calibrate] (its f_n follows from EI)"]
+        return {key: float(value)}, []
+
 
 #: the spec class of each ``[model.system] builder`` (the canonical tables, issue 58), by its
 #: fidelity's name in the fidelity registry (:mod:`vibeam.models.registry`; a shorthand ``[model]``
@@ -2256,8 +2173,9 @@ class Case(_Strict):
             flat |= {k for k, p in given if not is_path(k) and k not in flat and _is_number(self.model, p)}
             return sorted(flat) + paths
         # the shorthand: its flat keys whose number the scene has (given, or a default: youngs_modulus_gpa)
-        return sorted(k for k in aliases(self.model["fidelity"]) if isinstance(getattr(spec, k, None), float)
-                      and not isinstance(getattr(spec, k), bool)) + parameter_paths(self.model)
+        values = spec.shorthand()
+        return sorted(k for k in aliases(self.model["fidelity"]) if isinstance(values.get(k), float)
+                      and not isinstance(values[k], bool)) + parameter_paths(self.model)
 
 
 def _is_number(model: dict, path: str) -> bool:
@@ -2531,7 +2449,7 @@ def parse_case(text: str, source: str = "<case>", base=None) -> Case:
             _check_map(case)
         if case.uncertainty is not None:
             _check_uncertainty(case)
-        check_time_series(case, hz_per_omega=getattr(spec, "natural_frequency_hz", None))
+        check_time_series(case, hz_per_omega=getattr(spec.system, "natural_frequency_hz", None))
         if case.sweep.frequency_hz is not None and not getattr(spec, "physical", False):
             raise CaseError("'sweep.frequency_hz' needs a physical model (natural_frequency_hz, ...); "
                             "use 'sweep.Omega' for a nondimensional one")
@@ -2565,7 +2483,7 @@ def _check_method_values(spec, i: int, r, prefix: str) -> None:
     """Values of the model a run's method cannot take (fidelity registry: ``positive_R_methods``
     need R > 0)."""
     fid = fidelity(spec.fidelity)
-    R = getattr(spec, "R", None)
+    R = spec.stop[0].R
     if r.method in fid.positive_R_methods and R is not None and not R > 0.0:
         others = [m for m in fid.method_names if m not in fid.positive_R_methods]
         raise CaseError(f"'{prefix}.R' = {quote_value(R)}: method {r.method!r} (run[{i}]) needs R > 0 (its transformation "
@@ -2575,11 +2493,10 @@ def _check_method_values(spec, i: int, r, prefix: str) -> None:
 def _stop_laws(spec) -> tuple:
     """``(upper, lower)`` law names of the stops at the attached mass of a model spec (lower None
     without a second stop; a lower stop without its own table takes the upper stop's law)."""
-    contact = getattr(spec, "contact", None)
+    contact, lo = mass_law_tables(spec)
     up = "restitution" if contact is None else contact.law
-    if not getattr(spec, "two_sided", False):
+    if not spec.two_sided:
         return up, None
-    lo = getattr(spec, "contact_lower", None)
     return up, (up if lo is None else lo.law)
 
 
@@ -2659,6 +2576,7 @@ def _check_two_sided(case: Case, i: int, r) -> None:
     """A run of a two-sided scene (a lower stop) uses a method that simulates it (the fidelity's
     :func:`vibeam.models.registry.supported_methods` of its stops' laws) and no effect that assumes
     one stop."""
+    table = model_with(case.model, dict(r.model)) if r.model else case.model
     spec = case.model_spec(dict(r.model)) if r.model else case.model_spec()
     law, low = _stop_laws(spec)
     if low is None:
@@ -2669,12 +2587,12 @@ def _check_two_sided(case: Case, i: int, r) -> None:
         what += f" and contact_lower.law = \"{low}\""
     if r.method not in allowed:
         raise CaseError(f"'run[{i}].method' = {r.method!r} cannot simulate a second stop{what} (the scene has a "
-                        f"lower stop: {_lower_key(spec)}); allowed with two stops: {', '.join(allowed) or 'none'}")
+                        f"lower stop: {_lower_key(spec, table)}); allowed with two stops: {', '.join(allowed) or 'none'}")
     eff = case.effects_for(r)
     if eff.sensor is not None:
         raise CaseError(f"'effects.sensor' (run[{i}]): the sensor's R identification assumes one stop (paper "
-                        f"Sec. 5.1); the scene has a lower stop ({_lower_key(spec)})")
-    low = getattr(spec, "gap_lower_mm", None)
+                        f"Sec. 5.1); the scene has a lower stop ({_lower_key(spec, table)})")
+    low = spec.stop[1].gap_mm      # the lower stop's gap at the sensor (None: given at the stop)
     if eff.gap_drift is not None and eff.gap_drift.table is not None and low is not None:
         # the drift moves the upper stop (gap at the sensor); it must not pass the lower one
         for j, (f, g) in enumerate(eff.gap_drift.table):
@@ -2683,12 +2601,14 @@ def _check_two_sided(case: Case, i: int, r) -> None:
                                 f"overlap the lower one (gap_lower_mm = {low:g}); gap_mm + gap_lower_mm must be > 0")
 
 
-def _lower_key(spec) -> str:
-    """``key = value`` of a spec's lower stop (messages)."""
-    for k in ("Delta_lower", "gap_lower_mm", "contact_gap_lower_mm"):
-        v = getattr(spec, k, None)
+def _lower_key(spec, table: dict) -> str:
+    """``key = value`` of the gap of a two-sided spec's lower stop as the ``[model]`` table ``table``
+    writes it (``Delta_lower`` of the shorthand, ``stop[1].Delta`` of the tables: messages)."""
+    origins = expanded(table)[1]
+    for k in ("Delta", "gap_mm", "contact_gap_mm"):
+        v = getattr(spec.stop[1], k, None)
         if v is not None:
-            return f"{k} = {v:g}"
+            return f"{user_key(origins, ('stop', 1, k))} = {v:g}"
     return "a lower stop"
 
 
@@ -2751,7 +2671,7 @@ def _check_continuation(case: Case, i: int, r) -> None:
         raise CaseError(f"'run[{i}]' (continuation) cannot use [effects] ({', '.join(case.effects_for(r).active())}); "
                         f"continue the plain scene")
     hz = case.sweep.frequency_hz is not None
-    fn = getattr(spec, "natural_frequency_hz", None) if hz else 1.0    # a beam's: at planning (its modes)
+    fn = getattr(spec.system, "natural_frequency_hz", None) if hz else 1.0    # a beam's: at planning (its modes)
     if r.parameter == "Omega" and r.range is not None:
         check_frequency_range(r.range, f"run[{i}].range", hz, fn)
     if r.at is not None:

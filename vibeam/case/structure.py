@@ -106,7 +106,7 @@ def scene(spec):
         return beam_law(ContactSpec(**st.law_table()), st.R) if is_compliant(st.law) else Restitution(float(st.R))
 
     up = spec.stop[0]
-    compliant = beam_law(spec.contact, up.R)
+    compliant = law_of(up) if is_compliant(up.law) else None
     stops = [Stop(Relation(1.0, gap_m(up, 0)), Restitution(float(up.R)) if compliant is None else compliant)]
     if spec.two_sided:
         lo = spec.stop[1]

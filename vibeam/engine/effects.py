@@ -167,8 +167,10 @@ class EffectSolver:
         self.f_n_hz = float(f_n_hz)
         self.run_attrs = {"effects": ", ".join(self.active)}
         plat = effects.platform
-        L_mm = spec.length_mm
+        L_mm = spec.system.length_mm
         self._L_mm = L_mm
+        # the shaker's gain (1/V) and voltage (V): B = gamma V, paper Eq. 43
+        self._gain, self._voltage = spec.excitation.shaker(L_mm)
         # static-mode value at the contact point over the sensor's (1 for the SDOF model)
         out = outputs(self.scene)
         self._phic = out.phi_contact
@@ -195,7 +197,7 @@ class EffectSolver:
     def _setup_platform(self, plat, m):
         a = self.run_attrs
         a["platform_level"] = plat.level
-        gain = float(self.spec.gain)
+        gain = float(self._gain)
         if plat.level == "filter":
             fp, zp = plat.frequency_hz, plat.damping_ratio
             if plat.gains is not None:
@@ -230,8 +232,8 @@ class EffectSolver:
         row, om, c = self._coupled
         W = 2 * math.pi * np.asarray(f_hz, float)
         z = np.sum(row ** 2 / (om ** 2 - W ** 2 + 1j * W * c)) * self._coupled_fs
-        V = self.spec.voltage
-        return abs(z) / (V * self._phim() * self.spec.length_mm * 1e-3) if V > 0 else 0.0
+        V = self._voltage
+        return abs(z) / (V * self._phim() * self._L_mm * 1e-3) if V > 0 else 0.0
 
     def _phim(self):
         # lazy: keeps skfem and the FE beam (0.4 s) out of `vibeam run` of an SDOF case
@@ -251,8 +253,8 @@ class EffectSolver:
             return None
         if gd.table is not None:
             return float(np.interp(f_hz, self._gap_f, self._gap_v))
-        return self.spec.gap_mm + drift if self.spec.gap_mm is not None else (
-            getattr(self.spec, "contact_gap_mm") / self._phic + drift)
+        up = self.spec.stop[0]
+        return up.gap_mm + drift if up.gap_mm is not None else up.contact_gap_mm / self._phic + drift
 
     def point_scene(self, Omega, drift=0.0):
         """The scene of one point (and the extras it implies): the filtered platform scales the
@@ -268,7 +270,7 @@ class EffectSolver:
             g = float(self.effective_gain(f))
             extra["effective_gain"] = g
             if plat.level == "filter":
-                sc = with_amplitude(sc, sc.system.base_amplitude * (g / float(self.spec.gain)))
+                sc = with_amplitude(sc, sc.system.base_amplitude * (g / float(self._gain)))
             else:   # coupled (capability coupled_platform): the shaker force over Omega~^2
                 W = 2 * math.pi * f
                 s = sc.system

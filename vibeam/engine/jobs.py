@@ -284,7 +284,7 @@ def check_model_size(case, force: bool = False, source: str = "") -> None:
         # the culprit, which check_work names
         if values > MAX_POINT_VALUES and n_rec * sw.samples_per_period * 4.0 <= MAX_POINT_VALUES:
             key = f"run[{i}].model.n_modes" if "n_modes" in r.model else "model.n_modes"
-            val = r.model.get("n_modes", getattr(spec, "n_modes", dofs))
+            val = r.model.get("n_modes", getattr(spec.system, "n_modes", dofs))
             where = f"{source}: " if source else ""
             raise InputError(f"{where}'{key}' = {quote_value(val)}: {dofs} modes, one point would record "
                              f"{values:.3g} values (limit {MAX_POINT_VALUES:.0e}, {MAX_POINT_VALUES * 8 / 1e9:.1f} "

@@ -29,6 +29,7 @@ import tqdm
 
 from vibeam.io.objects import SweepResult  # noqa: F401 (re-exported)
 from vibeam.io.outputs import MM_KEYS, UNITS  # noqa: F401 (re-exported)
+from vibeam.case.schema import mass_law_tables
 from vibeam.engine.records import (HARMONICS, PERIOD_MAX, SETTLED_MARGIN, STATUSES, amplitude_spread, period_minima, spread_agrees,
                                    summarize, transient_verdict, window_verdict)
 from vibeam.models.core.scene_shooting import SceneShooting
@@ -724,8 +725,9 @@ def _kernel_key(line):
     work without a solver."""
     if hasattr(line, "warm_up"):          # a continuation run
         sp = getattr(line, "spec", None)
-        return ("task", getattr(sp, "fidelity", ""), str(getattr(sp, "contact", None)),
-                str(getattr(sp, "contact_lower", None)), getattr(line, "parameter", "") == "Omega")
+        laws = (None, None) if sp is None else mass_law_tables(sp)
+        return ("task", getattr(sp, "fidelity", ""), str(laws[0]), str(laws[1]),
+                getattr(line, "parameter", "") == "Omega")
     s = getattr(line, "solver", None)
     if s is None:
         return None

@@ -155,7 +155,7 @@ def start_and_owner(spec, table: dict, name: str) -> tuple[float, type, str]:
         # a flat key of the shorthand (vibeam.case.expand): its value as the scene reads it (given, or
         # the validated default), bounded by the canonical table it expands into (R -> stops[0].law.R)
         path = alias(spec.fidelity, name) or name
-        v = getattr(spec, name, None)
+        v = spec.shorthand().get(name)
     else:
         path = canonical(table, name) if nested else name
         v = get_value(table, path) if is_path(path) else None

@@ -876,9 +876,11 @@ def _model_values(case):
     if not getattr(spec, "physical", False):
         raise case_error(f"{case.name}: the linear steps need a physical scene (natural_frequency_hz or a beam, "
                      f"length_mm, gain, voltage), not the nondimensional keys")
-    return spec, float(spec.length_mm), float(spec.voltage), {
-        "natural_frequency_hz": float(outputs(spec.scene()).natural_frequency_hz), "damping_ratio": float(spec.damping_ratio),
-        "gain": float(spec.gain)}
+    L_mm = float(spec.system.length_mm)
+    gain, voltage = spec.excitation.shaker(L_mm)
+    return spec, L_mm, float(voltage), {
+        "natural_frequency_hz": float(outputs(spec.scene()).natural_frequency_hz),
+        "damping_ratio": float(spec.system.damping_ratio), "gain": float(gain)}
 
 
 def _case_updates(spec, values: dict) -> tuple[dict, list]:
