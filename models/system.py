@@ -20,7 +20,8 @@ force) give ``f A sin(Omega t)`` instead: ``Gamma Omega^2 B`` is generalised to 
   case in its own kernel units: :func:`vibeam.models.builders.beam.fe_beam` (through
   :func:`vibeam.models.builders.matrices.modal_scene`).
 * A lumped ``n``-DOF model ``M x'' + C x' + K x = -M r b''`` reduces to it by the generalized
-  eigenproblem ``K phi = omega^2 M phi`` when ``C`` is proportional: :func:`from_matrices`.
+  eigenproblem ``K phi = omega^2 M phi`` when ``C`` is classical (Caughey):
+  :func:`vibeam.models.builders.matrices.build_matrices`.
 
 Between contacts the motion is known in closed form (paper Eq. 28 for one mode; e.g.
 Meirovitch, *Fundamentals of Vibrations*, McGraw-Hill 2001, Ch. 4 and 7, for the modal
@@ -61,7 +62,7 @@ from numba import njit
 
 TWO_PI = 2.0 * math.pi
 
-__all__ = ["ModalSystem", "modal_system", "sdof_system", "from_matrices", "modal_flow", "forcing",
+__all__ = ["ModalSystem", "modal_system", "sdof_system", "modal_flow", "forcing",
            "DRIVE_POWERS", "drive_force", "drive_slope", "drive_displacement", "drive_velocity_slope",
            "modal_transition", "damping_ratios", "lowest_modes", "mode_table", "particular",
            "transition_increment", "increment_of", "transition_entries", "advance_modes", "advance_count",
@@ -79,7 +80,7 @@ class ModalSystem(NamedTuple):
     ``eta_i'' + damping_i eta_i' + omega_i^2 eta_i = participation_i Omega^p base_amplitude
     sin(Omega t)`` with ``p = drive_power``: the forcing vector ``f = participation`` times the
     forcing amplitude ``F(Omega) = Omega^p A`` (:func:`forcing`), ``A = base_amplitude``.  As built
-    (:func:`sdof_system`, :func:`from_matrices`, :func:`vibeam.models.builders.matrices.modal_scene`) the
+    (:func:`sdof_system`, :func:`vibeam.models.builders.matrices.modal_scene`) the
     drive is the paper's base displacement, ``f = Gamma``, ``A = B``, ``p = 2``; :func:`vibeam.models.scene.driven` sets a base
     acceleration (``f = Gamma``, ``p = 0``) or a point force (``f = W[j]``, ``p = 0``).  A
     ``typing.NamedTuple`` of float64 arrays and numbers, so numba kernels take it as an argument (no
@@ -277,110 +278,6 @@ def sdof_system(beta, B, natural_frequency_hz=None, length_m=None, mass_kg=None)
                          length_unit_m=math.nan if L is None else float(L), coordinate_scale=1.0,
                          mass_unit_kg=math.nan if mass is None else float(mass),
                          reference_hz=math.nan if f_n is None else float(f_n))
-
-
-def from_matrices(M, C, K, r=None, sensor=None, contacts=None, base_amplitude_m=0.0, n_modes=None,
-                  f_ref_hz=None, length_m=1.0, rtol=1e-9) -> ModalSystem:
-    """A lumped ``n``-DOF model ``M x'' + C x' + K x = -M r b''``, ``b = B sin(Omega~ t~)``, by
-    modal reduction (generalized eigenproblem ``K phi = omega^2 M phi``, ``Phi^T M Phi = I``).
-
-    With ``x = Phi eta``: ``eta'' + Phi^T C Phi eta' + diag(omega^2) eta = Phi^T M r Omega~^2 B
-    sin(Omega~ t~)``, then time is scaled by ``omega_ref = 2 pi f_ref``.  ``Phi^T C Phi`` must be
-    diagonal (proportional damping); modes of repeated frequencies are first rotated within their
-    eigenspace to diagonalise ``C`` there.
-
-    Parameters
-    ----------
-    M, C, K : array_like, shape (d, d)
-        Mass (kg), damping (N s/m) and stiffness (N/m) matrices (SI, or any consistent units);
-        ``M`` and ``K`` symmetric positive definite (no rigid-body mode).
-    r : array_like, shape (d,), optional
-        Influence vector of the base translation (default all ones: every DOF translates with it).
-    sensor : array_like, shape (d,), optional
-        Physical sensor row (default: DOF 0).
-    contacts : array_like, shape (n_c, d) or (d,), optional
-        Physical contact rows (default: the sensor row).
-    base_amplitude_m : float
-        ``B`` (m).
-    n_modes : int or None
-        Lowest modes kept (None: all ``d``).
-    f_ref_hz : float or None
-        Reference frequency of the time unit (default the lowest natural frequency ``f_1``).
-    length_m : float
-        Normalising length ``L`` (m) of the reported ``q = (row @ eta) / L``.
-    rtol : float
-        Largest off-diagonal entry of ``Phi^T C Phi`` accepted, relative to its largest diagonal
-        entry (round-off of a Rayleigh ``C`` is ~1e-15).
-
-    Returns
-    -------
-    ModalSystem
-        ``time_unit_s = 1 / (2 pi f_ref)``, ``length_unit_m = coordinate_scale = L``,
-        ``mass_unit_kg = 1``; modes ascending, each signed so that its largest component is
-        positive.
-
-    Raises
-    ------
-    ValueError
-        On shapes that do not match, ``M`` or ``K`` not symmetric positive definite, ``n_modes``
-        out of range, or a damping matrix that the undamped modes do not diagonalise (one line
-        naming what is allowed).
-    """
-    M = np.asarray(M, dtype=float)
-    C = np.asarray(C, dtype=float)
-    K = np.asarray(K, dtype=float)
-    d = M.shape[0] if M.ndim == 2 else -1
-    if d < 1 or any(A.shape != (d, d) for A in (M, C, K)):
-        raise ValueError(f"M, C and K must be square of one size, got {M.shape}, {C.shape}, {K.shape}")
-    for name, A in (("M", M), ("K", K)):
-        if not np.allclose(A, A.T, rtol=1e-12, atol=0.0):
-            raise ValueError(f"{name} must be symmetric")
-        try:
-            np.linalg.cholesky(A)
-        except np.linalg.LinAlgError:
-            raise ValueError(f"{name} must be positive definite (K: no rigid-body mode)") from None
-    r = np.ones(d) if r is None else _vec(r, d, "r")
-    s = np.eye(d)[0] if sensor is None else _vec(sensor, d, "sensor")
-    Wx = s[None, :] if contacts is None else np.atleast_2d(np.asarray(contacts, dtype=float))
-    if Wx.ndim != 2 or Wx.shape[1] != d:
-        raise ValueError(f"contacts must have shape (n_c, {d}), got {np.shape(contacts)}")
-    n = d if n_modes is None else int(n_modes)
-    if not 1 <= n <= d:
-        raise ValueError(f"n_modes must lie in [1, {d}], got {n_modes!r}")
-    lam, V = lowest_modes(K, M, None)
-    Cm = V.T @ C @ V
-    # a repeated frequency leaves the basis of its eigenspace free: rotate it to diagonalise C
-    i = 0
-    while i < d:
-        j = i + 1
-        while j < d and lam[j] - lam[i] <= 1e-10 * lam[j]:
-            j += 1
-        if j - i > 1:
-            _, Q = np.linalg.eigh(Cm[i:j, i:j])
-            V[:, i:j] = V[:, i:j] @ Q
-        i = j
-    Cm = V.T @ C @ V
-    diag = np.diag(Cm).copy()
-    off = np.max(np.abs(Cm - np.diag(diag))) if d > 1 else 0.0
-    if off > rtol * np.max(np.abs(diag), initial=0.0):
-        raise ValueError(f"C is not proportional (Phi^T C Phi has off-diagonal entries up to {off:.3g}, "
-                         f"diagonal up to {np.max(np.abs(diag)):.3g}); allowed: C = a M + b K or any C the "
-                         f"undamped modes diagonalise, C M^-1 K = K M^-1 C (Caughey)")
-    if np.any(diag < -rtol * np.max(np.abs(diag), initial=0.0)):
-        raise ValueError("C must be positive semi-definite (a negative modal damping coefficient); allowed: "
-                         "C = a M + b K with a, b >= 0 or any C >= 0 the undamped modes diagonalise")
-    V = V[:, :n]
-    lam = lam[:n]
-    diag = diag[:n]
-    big = np.argmax(np.abs(V), axis=0)
-    V = V * np.where(V[big, np.arange(n)] < 0.0, -1.0, 1.0)
-    om = np.sqrt(lam)
-    om_ref = om[0] if f_ref_hz is None else TWO_PI * float(f_ref_hz)
-    if not (om_ref > 0 and math.isfinite(om_ref)):
-        raise ValueError(f"f_ref_hz must be positive and finite, got {f_ref_hz!r}")
-    return modal_system(om / om_ref, np.maximum(diag, 0.0) / om_ref, V.T @ (M @ r), s @ V, Wx @ V,
-                         float(base_amplitude_m), time_unit_s=1.0 / om_ref, length_unit_m=float(length_m),
-                         coordinate_scale=float(length_m), mass_unit_kg=1.0)
 
 
 def lowest_modes(K, M, n=None, eigvals_only=False):

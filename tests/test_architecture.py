@@ -240,6 +240,25 @@ def test_the_shorthand_round_trip_is_gone():
     assert not found, found
 
 
+def test_the_canonical_specs_carry_no_shorthand_names():
+    """Issue 58 ("nothing downstream knows it"): a canonical spec is read by its tables
+    (``system``, ``stop[k]``, ``excitation``); none of the shorthand's keys
+    (:data:`vibeam.case.expand.SHORTHAND_KEYS`: ``R``, ``Delta_lower``, ``contact_lower``, ``gain``,
+    the beam's ``length_mm`` ...) is an attribute of its spec class, nor of the specs of the other
+    builders (``R``, ``contact``, ``contact_lower``).  A table written in the shorthand is stored as
+    written by the spec's ``shorthand()``, the inverse of the expansion."""
+    from vibeam.case import schema
+    from vibeam.case.expand import SHORTHAND_KEYS
+
+    short = {k for keys in SHORTHAND_KEYS.values() for k in keys if k not in ("fidelity", "stop")}
+    found = [f"{name}.{k}" for name, cls in schema.CANONICAL_SPECS.items() for k in sorted(short)
+             if hasattr(cls, k) or k in getattr(cls, "model_fields", {})]
+    assert not found, found
+    assert {"R", "gain", "contact_lower", "length_mm", "n_modes", "Delta_lower", "beta"} <= short   # the walk finds them
+    for fid in SHORTHAND_KEYS:
+        assert callable(schema.CANONICAL_SPECS[fid].shorthand)
+
+
 def test_one_class_named_scene():
     """Issue 58, done-when 4: one class named ``Scene`` (``vibeam.models.scene.Scene``, the model);
     the one-mode impact map's per-frequency object is :class:`vibeam.models.mapping.orbit.SectionMap`."""

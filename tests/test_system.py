@@ -17,7 +17,7 @@ from vibeam.models.builders.sdof import sdof, sdof_physical
 from vibeam.models.contact import Relation, Restitution, Stop
 from vibeam.models.core.oscillator import particular_coefficients, propagate
 from vibeam.reductions.static_mode import reduce_static_mode, static_mode_shape
-from vibeam.models.system import ModalSystem, from_matrices, modal_flow, modal_transition
+from vibeam.models.system import ModalSystem, modal_flow, modal_transition
 
 # the rig of tests/test_beam_dynamics.py: 7.6 Hz, beta = 0.017 on the first mode
 L, LS, LM = 0.180, 0.100, 0.132
@@ -250,11 +250,11 @@ def _two_dof():
 
 def test_lumped_two_dof_against_a_direct_solve_ivp():
     """A 2-DOF base-excited chain (SI) M x'' + C x' + K x = -M r b'', b = B sin(W t), Rayleigh C:
-    from_matrices with contact rows = the identity (so W eta = x) against DOP853 on the physical
+    build_matrices with contact rows = the identity (so W eta = x) against DOP853 on the physical
     equations at rtol 1e-12 over 0.8 s (~6 periods of the first mode): 1e-9 of the state."""
     M, C, K = _two_dof()
     B, W = 1e-3, 2 * math.pi * 5.0
-    s = from_matrices(M, C, K, contacts=np.eye(2), sensor=[0.0, 1.0], base_amplitude_m=B)
+    s = build_matrices(M, K, C=C, contacts=list(np.eye(2)), sensor=[0.0, 1.0], base_amplitude_m=B).system
     assert s.omega[0] == 1.0 and s.omega[1] > 1.0 and s.coordinate_scale == 1.0
     tu = s.time_unit_s
     x0, v0 = np.array([1e-3, -2e-3]), np.array([0.01, 0.02])
@@ -277,23 +277,23 @@ def test_lumped_two_dof_against_a_direct_solve_ivp():
     assert np.max(np.abs(v1 - ref[2:])) < 1e-9 * np.max(np.abs(ref[2:]))
 
 
-def test_from_matrices_refuses_non_proportional_damping_and_bad_matrices():
+def test_build_matrices_refuses_non_proportional_damping_and_bad_matrices():
     """A dashpot on one DOF only is not diagonalised by the undamped modes: one line naming what
     is allowed.  An indefinite K (a rigid-body mode) and mismatched shapes are refused too."""
     M, C, K = _two_dof()
-    with pytest.raises(ValueError, match=r"C is not proportional .*allowed: C = a M \+ b K"):
-        from_matrices(M, np.diag([0.0, 5.0]), K)
-    with pytest.raises(ValueError, match="K must be positive definite"):
-        from_matrices(M, C, np.array([[1.0, -1.0], [-1.0, 1.0]]))
-    with pytest.raises(ValueError, match="square of one size"):
-        from_matrices(M, C[:1], K)
+    with pytest.raises(ValueError, match=r"C is not diagonalised by the undamped modes.*allowed: classical damping"):
+        build_matrices(M, K, C=np.diag([0.0, 5.0]))
+    with pytest.raises(ValueError, match="K is not positive definite"):
+        build_matrices(M, np.array([[1.0, -1.0], [-1.0, 1.0]]), C=C)
+    with pytest.raises(ValueError, match="C is not a square matrix"):
+        build_matrices(M, K, C=C[:1])
     with pytest.raises(ValueError, match="n_modes"):
-        from_matrices(M, C, K, n_modes=3)
+        build_matrices(M, K, C=C, n_modes=3)
     with pytest.raises(ValueError, match="positive semi-definite"):
-        from_matrices(M, -C, K)
+        build_matrices(M, K, C=-C)
 
 
-def test_from_matrices_repeated_frequency_and_truncation():
+def test_build_matrices_repeated_frequency_and_truncation():
     """Two equal oscillators with different dashpots along directions rotated by 0.5 rad from the
     coordinates (K = 4 M, C = Q diag(0.1, 0.3) Q^T not diagonal): any basis of the double
     eigenspace is a set of modes, and the one the eigen-solver returns (the coordinates) does not
@@ -304,11 +304,11 @@ def test_from_matrices_repeated_frequency_and_truncation():
     c, s_ = math.cos(0.5), math.sin(0.5)
     Q = np.array([[c, -s_], [s_, c]])
     C = Q @ np.diag([0.1, 0.3]) @ Q.T
-    s = from_matrices(M, C, K, f_ref_hz=1.0 / (2 * math.pi))
+    s = build_matrices(M, K, C=C, f_ref_hz=1.0 / (2 * math.pi)).system
     np.testing.assert_allclose(np.sort(s.damping), [0.1, 0.3], rtol=1e-13)
     np.testing.assert_allclose(s.omega, [2.0, 2.0], rtol=1e-15)
     M2, C2, K2 = _two_dof()
-    assert from_matrices(M2, C2, K2, n_modes=1).omega.shape == (1,)
+    assert build_matrices(M2, K2, C=C2, n_modes=1).system.omega.shape == (1,)
 
 
 def test_modal_flow_refuses_undamped_resonance_and_bad_shapes():

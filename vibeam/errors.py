@@ -2,7 +2,7 @@
 
 Every framework module may import this one: it imports nothing of vibeam.  The classes are
 re-exported where they were defined first (``vibeam.case.schema.CaseError``,
-``vibeam.case.schema.InputError``, ``vibeam.io.results.ForeignFileError``, ``vibeam.cli.Terminated``).
+``vibeam.case.schema.InputError``, ``vibeam.cli.Terminated``).
 :class:`vibeam.models.orbits.continuation.ContinuationError` stays with the models, which never import
 the framework.
 
@@ -26,10 +26,6 @@ class InputError(CaseError):
     """Other input that cannot be used (a file or folder, a command-line value); the message
     names the file, option or key and what is allowed.  The command line reports it like a
     :class:`CaseError`: one line ``vibeam: error: ...`` and exit code 2."""
-
-
-class ForeignFileError(ValueError):
-    """A results file that belongs to another case (written by another process meanwhile)."""
 
 
 class Terminated(KeyboardInterrupt):

@@ -183,19 +183,9 @@ class BeamGeometry:
                 raise ValueError(f"{name} = {x} must lie in (0, L = {self.length_m}]")
 
     @property
-    def stop_position_m(self) -> float:
-        """Stop location (= ``L_m``, paper Sec. 6)."""
-        return self.mass_position_m
-
-    @property
     def beam_mass_kg(self) -> float:
         """``rho A L``."""
         return self.rhoA_kg_m * self.length_m
-
-    @property
-    def mass_ratio(self) -> float:
-        """``mu = m / (rho A L)`` (paper assumes ``m >> rho A L``)."""
-        return self.mass_kg / self.beam_mass_kg
 
     @classmethod
     def from_section(cls, length_m: float, width_m: float, thickness_m: float,
@@ -386,11 +376,6 @@ class BeamFE:
     def ndof(self) -> int:
         """Number of free DOFs."""
         return self.free.size
-
-    @property
-    def h_max_m(self) -> float:
-        """Largest element length (m)."""
-        return float(np.max(np.diff(np.sort(self.mesh.p[0]))))
 
     def point_rows(self, x_m) -> np.ndarray:
         """Rows evaluating ``w`` at points, via ``Basis.probes``.

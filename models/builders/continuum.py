@@ -116,7 +116,7 @@ from ..system import ModalSystem
 from .matrices import MatrixModel, build_matrices
 
 __all__ = ["Material", "STEEL", "RigGeometry", "ContinuumMesh", "rig_mesh", "read_mesh", "rigid_body_mass", "rigid_motion", "box_mesh", "write_mesh",
-           "assemble", "mesh_mass", "build_continuum", "build_rig", "effective_mass", "write_modes", "cache_dir", "ContinuumInfo"]
+           "assemble", "mesh_mass", "build_continuum", "build_rig", "write_modes", "cache_dir", "ContinuumInfo"]
 
 
 # ============================================================================ data
@@ -751,21 +751,6 @@ class ContinuumInfo:
                f"{t['assemble'] + t['reduce'] + t['modes']:.2f} s)")
         return (f"continuum model: {self.n_cells} cells, {self.n_nodes} nodes, {self.n_dofs} DOFs ({self.element}); "
                 f"{how}" + (f"; cache {self.cache_path}" if self.cache_path else ""))
-
-
-def effective_mass(M, w) -> float:
-    """``1 / (w M^-1 w^T)`` (kg): the mass an impulse along row ``w`` meets.
-
-    Parameters
-    ----------
-    M : scipy.sparse or ndarray, shape (d, d)
-    w : ndarray, shape (d,)
-    """
-    if scipy.sparse.issparse(M):
-        x = scipy.sparse.linalg.spsolve(scipy.sparse.csc_matrix(M), w)
-    else:
-        x = np.linalg.solve(M, w)
-    return 1.0 / float(w @ x)
 
 
 def rigid_motion(points, p0) -> np.ndarray:

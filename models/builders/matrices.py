@@ -81,7 +81,6 @@ CAUGHEY_RTOL = 1e-6
 #: significant digits is symmetric to 5e-10 (the mean of ``A`` and ``A^T`` is used)
 SYMMETRY_RTOL = 1e-8
 #: two squared frequencies are one repeated frequency when ``lam_j - lam_i <= REPEATED_RTOL lam_j``
-#: (:func:`vibeam.models.system.from_matrices`' tolerance)
 REPEATED_RTOL = 1e-10
 
 _EPS = np.finfo(float).eps

@@ -31,10 +31,8 @@ trajectories from one start (the method's and event's) do not separate, settled 
 where the motion is not periodic no sweep converges to a point value and the difference is
 one of two samples of the attractor; those points are counted apart.
 
-Continuation runs (``method = "continuation"``) are not sweeps: a handler registered in
-:data:`COST_METHODS` (``register_cost_method``) turns such a run into rows of its own, so
-it appears in the table and the diagram as a method (by default such runs are skipped with
-a note).
+Continuation runs (``method = "continuation"``) are not sweeps: they are skipped with a note
+(``vibeam bench --continuation`` times them).
 """
 from __future__ import annotations
 
@@ -107,21 +105,6 @@ class ModelSources:
     model_max: float = float("nan")     # beam: converged rung vs the finest FE model
     model_rms: float = float("nan")
     extra: dict = field(default_factory=dict)
-
-
-# method -> handler(case, run, context) -> list of CostRow; see register_cost_method
-COST_METHODS: dict = {}
-
-
-def register_cost_method(method: str, handler) -> None:
-    """Let runs of ``method`` appear in the work-precision table as a method of their own.
-
-    ``handler(case, run, ctx) -> list[CostRow]`` is called for each such run; ``ctx`` holds
-    ``reference(model_key)`` (the converged reference :class:`vibeam.engine.sweep.SweepResult` of a
-    run's model, with ``model_key = json.dumps(run.model, sort_keys=True)``), ``repeats``,
-    ``jobs`` and ``log``.  Continuation runs are the intended user: their branches evaluated
-    on the case's grid, timed, and compared with the converged reference."""
-    COST_METHODS[method] = handler
 
 
 def _sweep_for(case, run_model: dict):
@@ -241,7 +224,7 @@ def run_cost(case, ladder: bool = False, repeats: int = 3, log=print, jobs: int 
     plan = {}                    # model key -> (model, sweep, reference key)
     ref_models = {}
     for r in case.run:
-        if r.method in COST_METHODS or r.method == "continuation":
+        if r.method == "continuation":
             continue
         mkey = json.dumps(r.model, sort_keys=True)
         if mkey not in plan:
@@ -269,16 +252,11 @@ def run_cost(case, ladder: bool = False, repeats: int = 3, log=print, jobs: int 
         else:
             conv_of[mkey] = done[list(tasks)[k]]
             k += 1
-    ctx = {"reference": lambda key: done[ref_of[plan[key][2]]] if key in plan else None,
-           "repeats": repeats, "jobs": jobs, "log": log}
     event_same = {}
     for r in case.run:
-        if r.method in COST_METHODS:
-            rows += COST_METHODS[r.method](case, r, ctx)
-            continue
         if r.method == "continuation":
             log(f"run '{r.name}' (continuation) is not a sweep: no cost row (timed by `vibeam bench "
-                f"--continuation`; vibeam.analysis.cost.register_cost_method adds it as a method)")
+                f"--continuation`)")
             continue
         mkey = json.dumps(r.model, sort_keys=True)
         model, sw, rkey, first = plan[mkey]

@@ -390,7 +390,3 @@ def wrap_solver(solver, scene, spec, effects, run_settings: dict | None = None):
     inner = solver if new is scene else make_solver(new, solver.name, **settings)
     return EffectSolver(inner, spec, effects, settings, active, outputs(scene).natural_frequency_hz, coupled)
 
-
-def run_attrs(solver) -> dict:
-    """Run attributes naming the active effects and their parameters ({} for a plain solver)."""
-    return dict(getattr(solver, "run_attrs", {}) or {})

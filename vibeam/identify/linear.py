@@ -281,25 +281,6 @@ def remaining_step(J, r, w=None) -> np.ndarray:
 
 
 # ============================================================================ CSV input
-def read_csv_columns(path, kind: str = "data") -> tuple[list[str], list[list[str]]]:
-    """Header and rows of a CSV input file: :func:`vibeam.io.inputs.read_csv_table` (a regular
-    file of at most 10 MB, UTF-8, ``#`` comment lines and blank lines skipped, one value per
-    column in every row).
-
-    Raises
-    ------
-    vibeam.case.schema.CaseError
-        If the file cannot be read, has no header or a ragged row.
-    """
-    return read_csv_table(path, f"{kind} file")
-
-
-def column_floats(path, head, rows, name: str, positive: bool = False, kind: str = "data") -> np.ndarray:
-    """A numeric column by name; every value finite (and > 0 with ``positive``):
-    :func:`vibeam.io.inputs.column_floats`."""
-    return floats(path, head, rows, name, low=0.0 if positive else None, low_open=True, what=f"{kind} file")
-
-
 #: time steps and times of a free decay (s): a step below 1 ns (a sampling above 1 GHz) or a time beyond
 #: 1e6 s (11.6 days) is not a record of the rig, and their powers in the fits underflow or overflow
 DECAY_TIME_RANGE = (1e-9, 1e6)
@@ -324,12 +305,12 @@ def read_decay(path) -> tuple[np.ndarray, np.ndarray]:
         fewer than 20 samples, times or steps outside :data:`DECAY_TIME_RANGE`, or a displacement
         beyond :data:`DECAY_MAX_MM`; values are quoted as plain numbers.
     """
-    head, rows = read_csv_columns(path, "decay")
+    head, rows = read_csv_table(path, "decay file")
     if sorted(head) != ["U_mm", "t_s"]:
         raise case_error(f"{path}: header {head!r} not allowed; a free decay has the columns 't_s,U_mm' (time in s, "
                      f"displacement at the sensor in mm) and no others")
-    t = column_floats(path, head, rows, "t_s", kind="decay")
-    U = column_floats(path, head, rows, "U_mm", kind="decay")
+    t = floats(path, head, rows, "t_s", what="decay file")
+    U = floats(path, head, rows, "U_mm", what="decay file")
     if t.size < 20:
         raise case_error(f"{path}: {t.size} samples; a free decay needs at least 20")
     bad = np.flatnonzero(np.diff(t) <= 0)

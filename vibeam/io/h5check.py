@@ -22,7 +22,6 @@ file's successor from its bytes).  This module imports nothing of vibeam but its
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import h5py
 import numpy as np
@@ -198,8 +197,3 @@ def open_checked(path, what: str = "results file", option: str = ""):
         raise
     return f
 
-
-def check_file(path, what: str = "results file", option: str = "") -> Path:
-    """:func:`open_checked` and close: the file's structure is one vibeam may read."""
-    open_checked(path, what, option).close()
-    return Path(path)

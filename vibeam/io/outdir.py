@@ -55,7 +55,6 @@ TMP_PREFIX = ".vibeam-tmp-"
 """Start of the name of every temporary file :func:`replace_file` writes."""
 TMP_PATTERNS = (TMP_PREFIX + "*", ".results-*.h5.tmp")
 """Leftovers of killed writes removed by the lock's holder (the second: earlier versions)."""
-TMP_PATTERN = TMP_PATTERNS[1]
 
 _held_fds: set[int] = set()
 #: the locks this process holds: real path of the folder -> its OutputLock (nested uses share it)
@@ -257,7 +256,6 @@ class OutputLock:
         self.stale: dict | None = None
         self.removed_tmp: list[Path] = []
         self._outer: "OutputLock | None" = None       # the holder this nested use shares
-        self._nested = 0                               # nested uses of this holder still open
 
     # ------------------------------------------------------------------ acquire
     def _read(self, fd) -> dict:
@@ -331,7 +329,6 @@ class OutputLock:
         key = os.path.realpath(self.folder)
         outer = _held_locks.get(key)
         if outer is not None and outer.fd is not None:     # this process holds it already
-            outer._nested += 1
             self._outer = outer
             return self
         deadline = time.monotonic() + 2.0
@@ -395,7 +392,6 @@ class OutputLock:
     def release(self) -> None:
         """Remove the lock file and drop the lock (idempotent); a nested use only ends itself."""
         if self._outer is not None:
-            self._outer._nested -= 1
             self._outer = None
             return
         if self.fd is None:

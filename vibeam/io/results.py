@@ -85,12 +85,11 @@ import h5py
 import numpy as np
 
 from vibeam.io.h5check import open_checked
-from vibeam.io.netcdf import (PARAMETER_UNITS, Variable, dataset_values, is_dim_only, json_default,  # noqa: F401
-                     parameter_units, read_attrs, read_plain, set_attrs, var, write_group, DimIds)
+from vibeam.io.netcdf import (Variable, dataset_values, is_dim_only, json_default,  # noqa: F401
+                     parameter_units, read_attrs, read_plain, set_attrs, var, write_group)
 from vibeam.io.objects import MapResult, SweepResult
 from vibeam.io.outputs import UNITS
 from vibeam.io.store import LAYOUT_VERSION, PARTIAL_SUFFIX, Store, case_hash  # noqa: F401 (re-exported)
-from vibeam.errors import ForeignFileError  # noqa: F401 (re-exported)
 
 
 
@@ -898,23 +897,3 @@ def _decode_attrs(a: dict) -> dict:
             a[k] = v.item()
     return a
 
-
-def open_results(path):
-    """A results file as labelled data: one :class:`xarray.DataTree` of every group.
-
-    ``tree["runs/exact"]`` is a run on (direction, Omega), ``tree["maps/<run>"]`` a map,
-    ``tree["runs/exact"].to_dataset()`` an :class:`xarray.Dataset`.  A file of the first
-    layout (before ``vibeam_layout = 2``) has no dimensions: convert it by reading it
-    (:func:`load_results`) and writing it again (:func:`write_results`).
-
-    Raises
-    ------
-    ValueError
-        If the file is of the first layout.
-    """
-    import xarray as xr  # lazy: xarray (with pandas: 0.35 s) loads only when labelled data are asked for
-
-    if layout_of(path) < LAYOUT_VERSION:
-        raise ValueError(f"{path}: a results file of the first layout (no dimensions); rewrite it with "
-                         f"vibeam.io.results.load_results and write_results")
-    return xr.open_datatree(path, engine="h5netcdf")
