@@ -232,6 +232,28 @@ def test_gap_drift_sliding_is_chain_state():
     assert d["gap_mm"].max() == 0.05
 
 
+def test_a_sliding_gap_of_a_stop_given_at_the_contact_is_its_gap_seen_at_the_sensor():
+    """A sliding gap (``effects.gap_drift`` law "sliding") moves the paper's stop by a drift seen at
+    the sensor.  On a beam whose stop is given at the contact point (``contact_gap_mm``) each point's
+    stop is that of the same beam given at the sensor, ``gap_mm = contact_gap_mm / phi`` (paper Eq.
+    45), with the same drift: to round-off (1e-12), the only difference being the division by phi."""
+    case, _ = load_case(CASES / "rig-fe-neutral.toml")
+    over = {"n_modes": 2, "n_elements": 12, "gap_mm": 0.1}           # the neutral rig's gap is 0: a gap to scale
+    at_sensor = case.model_spec(over)
+    phi = outputs(at_sensor.scene()).phi_contact
+    gap = at_sensor.stop[0].gap_mm
+    at_contact = case.model_spec(dict(over, gap_mm=None, contact_gap_mm=gap * phi))
+    assert at_contact.stop[0].gap_mm is None and at_contact.stop[0].contact_gap_mm == gap * phi
+    eff = {"gap_drift": {"law": "sliding", "slide_mm_per_impulse": 5.0, "max_drift_mm": 0.05}}
+    a, b = _wrap(at_sensor, at_sensor.scene(), eff), _wrap(at_contact, at_contact.scene(), eff)
+    for drift in (0.0, 0.02):
+        (sa, ea), (sb, eb) = a.point_scene(1.0, drift), b.point_scene(1.0, drift)
+        assert eb["gap_mm"] == pytest.approx(gap + drift, rel=1e-12) and ea["gap_mm"] == gap + drift
+        assert sb.stops[0].relation.offset == pytest.approx(sa.stops[0].relation.offset, rel=1e-12)
+    assert b.point_scene(1.0, 0.0)[0].stops[0].relation.offset == pytest.approx(
+        at_contact.scene().stops[0].relation.offset, rel=1e-12)
+
+
 # ----------------------------------------------------------------------------- restitution law
 def test_constant_restitution_table_equals_constant_R(beam):
     for spec, model, kw in ((*_sdof(), {}), (*beam, dict(transient_periods=30, record_periods=4))):
