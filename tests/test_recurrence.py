@@ -20,6 +20,7 @@ from vibeam.models import make_solver
 from vibeam.models.builders.sdof import sdof, sdof_physical
 from vibeam.models.contact import Restitution
 from vibeam.models.core.event import EventIntegrator
+from vibeam.models.core.integrator import CYCLE_LOG, new_record
 from vibeam.models.scene import one_mode
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -139,14 +140,23 @@ def test_a_recurring_record_is_copied_to_its_end(buffer):
         np.testing.assert_array_equal(a.record.msamp, b.record.msamp)
 
 
-def test_a_record_that_holds_is_integrated_to_its_end():
-    """A recorded cycle that adds time held or chatter sequences is not copied (its sums would be
-    added in another order): the sticking scene's record is integrated, identical."""
+@pytest.mark.parametrize("rows, buffer", [(CYCLE_LOG, 4096), (CYCLE_LOG, 7), (3, 4096)])
+def test_a_record_that_holds_and_chatters_is_copied_with_its_sums_replayed(rows, buffer):
+    """A recorded cycle that adds time held and chatter sequences (the sticking scene: a chattering
+    orbit) is copied with the record's cycle log replayed: the time held summed and the
+    accumulation points rebuilt in the full run's order, identical to integrating every period
+    (also when the chatter buffer fills up mid-copy, ``buffer`` 7).  With a cycle log too short
+    for one cycle (3 rows) the record is integrated to its end, identical."""
     core, n, (Om, _) = _core("sticking")
-    a = _run(core, n, Om, 400, 200)
-    b = _run(core, n, Om, 400, 200, recurrence=False)
-    assert a.stuck_time > 0.0
-    assert 0 < a.periods_skipped <= 400          # the transient only
+    rec = new_record(n, 1, 200, 64, buffer)._replace(cycle=np.empty((rows, 4)))
+    a = _run(core, n, Om, 400, 200, record=rec, impact_buffer=buffer)
+    b = _run(core, n, Om, 400, 200, recurrence=False, impact_buffer=buffer)
+    assert a.stuck_time > 0.0 and a.n_chatter > 0
+    assert a.n_chatter > buffer or buffer > 7
+    if rows == CYCLE_LOG:
+        assert a.periods_skipped > 400 + 150     # the transient and most of the record
+    else:
+        assert 0 < a.periods_skipped <= 400      # the transient only
     _assert_identical(a, b)
 
 

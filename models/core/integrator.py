@@ -36,10 +36,13 @@ recurs after ``L`` periods, every later period repeats the last ``L`` exactly (t
 deterministic function of that state and the phase), so whole multiples of ``L`` are skipped up
 to the record and the step and impact counters advance by their counts over the cycle (the last
 impact's time by the skipped time, for the Zeno guard's window).  In the record (a snapshot taken
-in it) a cycle that adds no time held or in contact and no chatter sequence is copied to the
-record's end in whole cycles: samples, per-period minima, impacts (their times rebuilt as the
-kernel computes them, from their periods and times within them).  The outputs are those of the
-full run bit for bit; ``periods_skipped`` says how many periods were not integrated.  Not with
+in it) a cycle is copied to the record's end in whole cycles: samples, per-period minima, impacts
+(their times rebuilt as the kernel computes them, from their periods and times within them).  A
+cycle that holds or chatters (sticking, chatter sequences: a chattering orbit's record) adds to the
+record's sums; the record's cycle log (:class:`Record` ``cycle``: each held step's length, each
+chatter sequence's period, time and accumulation interval, in the order the kernel meets them) is
+replayed for every copied cycle, so the time held and the accumulation points are summed and
+rebuilt in the full run's order and arithmetic.  The outputs are those of the full run bit for bit; ``periods_skipped`` says how many periods were not integrated.  Not with
 compliant stops or the event and apex logs (whose rows would be missing).
 
 The record of a one-mode system with Newton stops steps on the transient's grid when the record's
@@ -102,6 +105,9 @@ EV_START, EV_IMPACT, EV_STICK, EV_STICK_IMPACT, EV_RELEASE, EV_ENTRY, EV_EXIT = 
 C_DURATION, C_FORCE, C_PENETRATION, C_ENERGY, C_VELOCITY = range(5)
 #: columns of an event-log row before the state
 LOG_HEAD = 4
+#: rows of the record's cycle log (:class:`Record` ``cycle``) and its kinds
+CYCLE_LOG = 4096
+CY_HELD, CY_GUARD, CY_CHATTER = 0.0, 1.0, 2.0
 
 
 class Record(NamedTuple):
@@ -142,6 +148,12 @@ class Record(NamedTuple):
         contacts): duration, peak force, largest penetration, work done on the stop, entry velocity
         (:data:`C_DURATION` ...; system units); NaN rows for Newton impacts and contacts still open
         at the end.
+    cycle : ndarray, shape (cap_y, 4)
+        The record's cycle log (module docstring; scratch, read by the exact recurrence only): rows
+        ``[kind, a, b, c]``, kind :data:`CY_HELD` (``a``: a held step's length, added to the time
+        held), :data:`CY_GUARD` or :data:`CY_CHATTER` (a chatter sequence: ``a`` its record period,
+        ``b`` its time within it, ``c`` its accumulation interval).  Past ``cap_y`` rows the log
+        stops and a cycle that holds or chatters is integrated.
     """
 
     samples: np.ndarray
@@ -159,6 +171,7 @@ class Record(NamedTuple):
     aplog: np.ndarray
     nlog: np.ndarray
     con: np.ndarray
+    cycle: np.ndarray
 
 
 class RunScalars(NamedTuple):
@@ -220,7 +233,8 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
                   np.empty(impact_buffer, np.int64), np.empty(impact_buffer), np.empty(impact_buffer, np.int64),
                   np.zeros(n_stops, np.int64), np.empty(impact_buffer),
                   np.zeros((int(log_events), LOG_HEAD + 2 * n)), np.zeros((int(log_apexes), 3)),
-                  np.zeros(2, np.int64), np.full((impact_buffer if compliant else 0, 5), np.nan))
+                  np.zeros(2, np.int64), np.full((impact_buffer if compliant else 0, 5), np.nan),
+                  np.empty((CYCLE_LOG, 4)))
 
 
 # ============================================================================ work arrays
@@ -252,16 +266,17 @@ def new_record(n, n_stops, n_record, ns_record, impact_buffer=4096, modal_states
 (_PHI, _TLOC, _REM, _HLAST, _HOLD, _GMAX, _STUCK, _TCON, _TLAST, _PT, _T0, _SASF, _SBSF, _PEXT, _PEXT1,
  _EXT, _EXT1, _WAIT, _NFS) = range(19)
 (_H, _C, _INSIDE, _RELAXED, _CMASK, _FRESH, _BSTALE, _ATGRID, _JSTUCK, _JREL, _QFRESH, _QLAST, _BURST,
- _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _RP, _NIS) = range(21)
+ _NSTEPS, _NIMPT, _NIMPR, _NCHAT, _EXITED, _RDEL, _RP, _NCYC, _NIS) = range(22)
 # ``lp`` (_NLP,)    the period loop's counters (period, the recurrence's snapshot periods, samples
-#                   taken, periods skipped, samples per recorded period), read and written at
+#                   taken, periods skipped, samples per recorded period, the cycle log's length
+#                   at each snapshot), read and written at
 #                   period starts.  The counters of a step (the grid's sub-step and its tables, the
 #                   dense record's next and last sample) are the loop's local variables, handed to
 #                   the phases and returned by them: kept in ``lp`` they were stored and reloaded
 #                   on every step (numba's arrays may alias: LLVM keeps no array element in a
 #                   register across a store to another array), +24 M instructions (+5 %) in the
 #                   event kernel's Fig. 7 sweep
-(_LPP, _LSNAP, _LSNAPB, _LKS, _LSKIP, _LNSREC, _NLP) = range(7)
+(_LPP, _LSNAP, _LSNAPB, _LKS, _LSKIP, _LNSREC, _LCYA, _LCYB, _NLP) = range(9)
 #: longest exact cycle of the period-start state that the recurrence finds (periods; skipped in a
 #: transient, copied in a record): the cadence of its first snapshot
 RECUR_MAX = 16
@@ -663,12 +678,49 @@ def _same(a, b):
     return a != a and b != b
 
 
+@njit(cache=True, _nrt=False, error_model="numpy", inline="always")
+def _cycle_log(cyc, ist, kind, a, b, c):
+    """A row of the record's cycle log (:class:`Record` ``cycle``), while it is on (``ist[_NCYC]
+    >= 0``); past its capacity it turns off for the rest of the call (-1)."""
+    k = ist[_NCYC]
+    if k < 0:
+        return
+    if k >= cyc.shape[0]:
+        ist[_NCYC] = -1
+        return
+    cyc[k, 0] = kind
+    cyc[k, 1] = a
+    cyc[k, 2] = b
+    cyc[k, 3] = c
+    ist[_NCYC] = k + 1
+
+
+@_kernel
+def _replay_cycle(cyc, p0, p1, m, L, T, fs, ist, chat_t):
+    """The sums of ``m`` more cycles of ``L`` periods whose rows of the cycle log are ``[p0,
+    p1)``: each held step's length added to the time held, each chatter sequence counted and its
+    accumulation point written, in the order and arithmetic of the full run (:func:`_impact`:
+    ``t = (rp * T + t_loc) + D``)."""
+    for c in range(1, m + 1):
+        for e in range(p0, p1):
+            kind = cyc[e, 0]
+            if kind == CY_HELD:
+                fs[_STUCK] += cyc[e, 1]
+                continue
+            n_chatter = ist[_NCHAT] + 1
+            ist[_NCHAT] = n_chatter
+            if n_chatter <= chat_t.shape[0]:
+                t_imp = (np.int64(cyc[e, 1]) + c * L) * T + cyc[e, 2]
+                chat_t[n_chatter - 1] = t_imp if kind == CY_GUARD else t_imp + cyc[e, 3]
+
+
 @_kernel
 def _recurs(sf, si, fo, io, eta, etad, wn, wk, hb, fs, ist):
     """Whether the loop's state equals the snapshot of :func:`_snapshot` at ``fo`` / ``io`` bit
     for bit, but for the quantities that only count, sum or stamp (steps, impacts, chatter
     sequences, the largest gap, the record's extremes, its last period's and times held and in
-    contact, the clock's period offsets and record period, the last impact's time)."""
+    contact, the clock's period offsets and record period, the last impact's time, the cycle
+    log's length)."""
     j = fo
     for i in range(eta.shape[0]):
         if not (_same(sf[j], eta[i]) and _same(sf[j + 1], etad[i])):
@@ -687,7 +739,7 @@ def _recurs(sf, si, fo, io, eta, etad, wn, wk, hb, fs, ist):
         if not _same(sf[j + i], fs[i]):
             return False
     for i in range(_NIS):
-        if i == _NSTEPS or i == _NIMPT or i == _NIMPR or i == _NCHAT or i == _RP:
+        if i == _NSTEPS or i == _NIMPT or i == _NIMPR or i == _NCHAT or i == _RP or i == _NCYC:
             continue
         if si[io + i] != ist[i]:
             return False
@@ -983,7 +1035,8 @@ def _inside_touch(cw, Nrm, D, off, eta, etad, g, v, inside, relaxed, exited, phi
 
 
 @_kernel
-def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog, nlog, Om, T, recording, cw):
+def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, aplog, nlog, cyc, Om, T, recording,
+               cw):
     """One step held on the set ``H`` (no compliant contact): the constrained system in closed form,
     the held stops' forces scanned for their release, the other stops' gaps for a contact.
     Returns the stop of a contact (-1: none, the step was taken or the held set changed)."""
@@ -1231,6 +1284,7 @@ def _held_step(hs, Nrm, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, evlog, a
             pext[1] = q1s
         if not in_hold:
             stuck_time += s_mv
+            _cycle_log(cyc, ist, CY_HELD, s_mv, 0.0, 0.0)
     if in_hold:
         hold -= s_mv
         if hold < 1e-15 * T:
@@ -1556,6 +1610,7 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
             ist[_NCHAT] = n_chatter
             if n_chatter <= chat_t.shape[0]:
                 chat_t[n_chatter - 1] = t_imp
+            _cycle_log(rec.cycle, ist, CY_GUARD, float(ist[_RP]), t_loc, 0.0)
     elif action == CHATTER:
         fs[_HOLD] = D if C == 0 else 0.0     # (beside a compliant contact: stick at once)
         if recording:
@@ -1563,6 +1618,7 @@ def _impact(st, dirn, meff, ceff, keff, valid, wn, wk, eta, etad, fs, ist, rec, 
             ist[_NCHAT] = n_chatter
             if n_chatter <= chat_t.shape[0]:
                 chat_t[n_chatter - 1] = t_imp + D
+            _cycle_log(rec.cycle, ist, CY_CHATTER, float(ist[_RP]), t_loc, D)
     if stick_now:
         if logging:
             _log_event(evlog, nlog, _K_STICK_IMPACT, fs[_PT] + t_loc, fs[_HOLD], k_imp, eta, etad)
@@ -1665,6 +1721,7 @@ def _recurrence(eta, etad, work, rec, lp, n_transient, n_total, T, max_steps, ma
     s_pp = -1
     fo = 0
     io = 0
+    p0 = -1         # the cycle log's length at the snapshot found
     for b in range(2):
         b_pp = snap_pp if b == 0 else snapb_pp
         if b_pp >= 0 and (b_pp >= n_transient or not in_rec) and \
@@ -1672,6 +1729,7 @@ def _recurrence(eta, etad, work, rec, lp, n_transient, n_total, T, max_steps, ma
             s_pp = b_pp
             fo = b * nsf
             io = b * nsi
+            p0 = lp[_LCYA] if b == 0 else lp[_LCYB]
             break
     if s_pp >= 0:
         L = pp - s_pp
@@ -1679,10 +1737,13 @@ def _recurrence(eta, etad, work, rec, lp, n_transient, n_total, T, max_steps, ma
         d_steps = ist[_NSTEPS] - snap_i[io + _NSTEPS]
         d_imp = ist[_NIMPT] - snap_i[io + _NIMPT]
         ok = m > 0 and ist[_NSTEPS] + m * d_steps <= max_steps and ist[_NIMPT] + m * d_imp <= max_impacts
+        p1 = ist[_NCYC]
+        logged = p0 >= 0 and p1 >= p0
         if in_rec:
-            # the record's sums must not grow over the cycle: no time held or in contact, no chatter
-            ok = ok and ist[_NCHAT] == snap_i[io + _NCHAT] and fs[_STUCK] == snap_f[fo + j_fs + _STUCK] \
-                and fs[_TCON] == snap_f[fo + j_fs + _TCON]
+            # the record's sums over the cycle: none (no time held or in contact, no chatter), or
+            # the cycle log's rows to replay (no compliant contact: the recurrence is off there)
+            ok = ok and fs[_TCON] == snap_f[fo + j_fs + _TCON] and (logged or (
+                ist[_NCHAT] == snap_i[io + _NCHAT] and fs[_STUCK] == snap_f[fo + j_fs + _STUCK]))
         if ok:
             if in_rec:
                 d_rec = ist[_NIMPR] - snap_i[io + _NIMPR]
@@ -1690,6 +1751,8 @@ def _recurrence(eta, etad, work, rec, lp, n_transient, n_total, T, max_steps, ma
                                snap_i[io + _NIS:io + nsi], T, fs[_PEXT])
                 ist[_NIMPR] += m * d_rec
                 k_sample += m * L * ns_record
+                if logged and p1 > p0:
+                    _replay_cycle(rec.cycle, p0, p1, m, L, T, fs, ist, rec.chat_t)
             ist[_NSTEPS] += m * d_steps
             ist[_NIMPT] += m * d_imp
             if fs[_TLAST] > -1e299:
@@ -1705,7 +1768,7 @@ def _recurrence(eta, etad, work, rec, lp, n_transient, n_total, T, max_steps, ma
             lp[_LSKIP] = skipped
             return True     # (the call may end here)
         if in_rec or m > 0:
-            snap_pp = -2    # a guard, or a record that holds or chatters: integrate on
+            snap_pp = -2    # a guard, or a record whose cycle log is full: integrate on
     else:
         # (not at the call's first period start: the loop's flags are those of a fresh start
         # there, e.g. the free arc's parts about to be recomputed, which a settled orbit's
@@ -1718,8 +1781,10 @@ def _recurrence(eta, etad, work, rec, lp, n_transient, n_total, T, max_steps, ma
                 _snapshot(snap_f, snap_i, b * nsf, b * nsi, eta, etad, wn, wk, hb, fs, ist, rec.n_imp_stop)
                 if b == 0:
                     snap_pp = pp
+                    lp[_LCYA] = ist[_NCYC]
                 else:
                     snapb_pp = pp
+                    lp[_LCYB] = ist[_NCYC]
     lp[_LPP] = pp
     lp[_LSNAP] = snap_pp
     lp[_LSNAPB] = snapb_pp
@@ -1757,7 +1822,7 @@ def _held_phase(hs, st, cw, work, rec, eta, etad, dense, Om, T, recording):
         cut = min(rem_full, (base + j_next) * h_rs - fs[_TLOC])
         fs[_REM] = cut
     k_imp = _held_step(hs, st.normal, wn, wk, hb, hab, hsig, hss, eta, etad, fs, ist, rec.evlog, rec.aplog, rec.nlog,
-                       Om, T, recording, cw)
+                       rec.cycle, Om, T, recording, cw)
     if cut != rem_full:
         rest = rem_full - (cut - fs[_REM])
         fs[_REM] = rest if rest >= 1e-15 * T else 0.0
@@ -2435,6 +2500,10 @@ def integrate_work(sy, st, hs, cw, Om, eta, etad, held0, n_transient, n_record, 
     lp[_LKS] = 0
     lp[_LSKIP] = 0
     lp[_LNSREC] = ns_record
+    lp[_LCYA] = -1
+    lp[_LCYB] = -1
+    # the record's cycle log: on with the recurrence (-1: off)
+    ist[_NCYC] = -1 if lp[_LSNAP] == -2 else 0
     # a step's counters are local variables, handed to the phases and returned (see ``lp``)
     # the record on the transient's grid, its samples inside a free step by dense output (module
     # docstring): r_d samples per grid step of the transient, h_rs apart
