@@ -195,9 +195,9 @@ def test_a_start_on_an_orbit_that_has_lost_its_stability_is_not_settled():
 
 
 def test_the_uncertainty_bench_scene_keeps_every_reproducible_classification(monkeypatch):
-    """``vibeam bench --uncertainty``'s scene (the SDOF tight rig, R and gap sampled, settle = true) over
-    4 samples against its fixed transient: the same rule as the tight rig's case (slow test above),
-    in the default step."""
+    """``vibeam bench --uncertainty``'s scene (the SDOF tight rig, R and gap sampled; the bench runs it
+    with the fixed transient) over 4 samples with settle = true against its fixed transient: the
+    same rule as the tight rig's case (slow test above), in the default step."""
     import vibeam.engine.sweep as sweep_module
     from vibeam.analysis.uncertainty import sample_runs
     from vibeam.bench.uncertainty import CASE
@@ -209,9 +209,10 @@ def test_the_uncertainty_bench_scene_keeps_every_reproducible_classification(mon
                 m.setattr(sweep_module, "SETTLED_MARGIN", 0.0)
             return sample_runs(parse_case(text), jobs=1)[0]
 
-    settle_text = CASE.format(samples=4)
-    assert "settle = true" in settle_text
-    fixed = go(settle_text.replace("settle = true\n", ""))
+    fixed_text = CASE.format(samples=4)
+    assert "settle" not in fixed_text and "[sweep]\n" in fixed_text
+    settle_text = fixed_text.replace("[sweep]\n", "[sweep]\nsettle = true\n")
+    fixed = go(fixed_text)
     settled, cut = go(settle_text), go(settle_text, never=True)
     pf, ps = fixed.period, settled.period
     repro = (pf != 0) & (pf == cut.period) & (fixed.status == cut.status)

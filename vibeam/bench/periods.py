@@ -62,7 +62,7 @@ def run_periods_bench(samples: int = 16, jobs: int | None = 1, log=None) -> dict
     name = f"uncertainty scene ({samples} samples)"
     scenes[name] = {}
     for settle in (False, True):
-        text = UNCERTAINTY_CASE.format(samples=samples).replace("settle = true\n", "")
+        text = UNCERTAINTY_CASE.format(samples=samples)        # (the fixed transient)
         if settle:
             text = text.replace("[sweep]\n", "[sweep]\nsettle = true\n")
         case = parse_case(text)

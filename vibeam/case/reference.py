@@ -413,7 +413,9 @@ MEANINGS: dict[str, dict[str, tuple[str, str]]] = {
                         "this (Nordmark & Piiroinen 2009)"),
         "max_impacts_per_period": ("", "impact guard: more impacts in one period end the point as failed"),
         "recurrence": ("", "true (default): a transient or record whose state recurs bit for bit is not integrated "
-                       "further (whole cycles skipped or copied), with the same outputs bit for bit; false "
+                       "further (whole cycles skipped or copied; a record's cycle that holds or chatters with its "
+                       "time held and chatter sequences summed again in the full run's order), with the same "
+                       "outputs bit for bit; false "
                        "integrates every period (Newton stops; a check or a timing)"),
     },
     "[[run]] method = \"direct\", \"zhuravlev\", \"ivanov\"": {
