@@ -42,7 +42,9 @@ cycle that holds or chatters (sticking, chatter sequences: a chattering orbit's 
 record's sums; the record's cycle log (:class:`Record` ``cycle``: each held step's length, each
 chatter sequence's period, time and accumulation interval, in the order the kernel meets them) is
 replayed for every copied cycle, so the time held and the accumulation points are summed and
-rebuilt in the full run's order and arithmetic.  The outputs are those of the full run bit for bit; ``periods_skipped`` says how many periods were not integrated.  Not with
+rebuilt in the full run's order and arithmetic (the last impact's time, read by the Zeno guard's
+window only, is advanced by the copied time, as in a transient's skip).  The outputs are those of
+the full run bit for bit; ``periods_skipped`` says how many periods were not integrated.  Not with
 compliant stops or the event and apex logs (whose rows would be missing).
 
 The record of a one-mode system with Newton stops steps on the transient's grid when the record's
