@@ -18,8 +18,8 @@ SAMPLES_GOAL_S = 60.0
 #: the SDOF tight rig (cases/rig-tight.toml) with Table 1's R and Fig. 21's gap sampled; up sweep with the
 #: fixed transient: the exact recurrence skips a transient and copies a record that recur bit for bit,
 #: chattering and sticking cycles included (issue 60), and on this scene that costs less than
-#: ``settle = true``'s probes (``vibeam bench --settling``: 16 samples, one job, 2026-11-29: 2.8 s fixed,
-#: 4.2 s settle; settle pays where a period costs more, the FE rig: 5.6 s -> 2.6 s)
+#: ``settle = true``'s probes (``vibeam bench --settling``: 16 samples, one job, 2026-11-29: 3.0 s fixed,
+#: 4.4 s settle; settle pays where a period costs more, the FE rig, quick: 4.7 s -> 2.2 s)
 CASE = """
 name = "bench-uncertainty"
 description = "rig-tight SDOF, R and gap sampled"
